@@ -1,0 +1,128 @@
+# Vantage — build, test and benchmark.
+#
+#   make run               build and run the main job (today: the culling demo
+#                          on the shared city scene, then a short benchmark)
+#   make test              unit + property tests (release, then ASan+UBSan),
+#                          the scalar-only build, and a bench smoke run
+#   make bench             the full culling benchmark (bench_cull)
+#   make deps              install the Debian packages the build needs
+#   CONFIG=release|debug|asan|scalar   out-of-tree in build/$(CONFIG)/
+#
+# CI=true adds -Werror.
+
+CONFIG ?= release
+BUILD  := build/$(CONFIG)
+CC     ?= cc
+SHELL  := /bin/bash
+
+# Debian packages and the pkg-config modules that prove them installed.
+DEB_PKGS := build-essential pkg-config libcmocka-dev
+PC_MODS  := cmocka
+
+WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
+ifeq ($(CI),true)
+WARN     += -Werror
+endif
+CPPFLAGS := -D_GNU_SOURCE -Iculling -MMD -MP
+CFLAGS   := -std=c11 $(WARN) -g -pthread
+LDLIBS   := -lm -pthread
+ISA_AVX2 := -mavx2 -mfma
+ISA_SSE41:= -msse4.1
+
+ifeq ($(CONFIG),release)
+CFLAGS   += -O2
+else ifeq ($(CONFIG),debug)
+CFLAGS   += -O0
+else ifeq ($(CONFIG),asan)
+CFLAGS   += -O1 -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=undefined
+LDFLAGS  += -fsanitize=address,undefined
+else ifeq ($(CONFIG),scalar)
+CFLAGS   += -O2
+CPPFLAGS += -DCULL_SCALAR_ONLY
+ISA_AVX2 :=
+ISA_SSE41:=
+else
+$(error CONFIG must be release, debug, asan or scalar)
+endif
+
+CULL_SRC := $(wildcard culling/*.c)
+CULL_OBJ := $(CULL_SRC:%.c=$(BUILD)/%.o)
+CULL_LIB := $(BUILD)/libvculling.a
+
+TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/scene_file.c
+TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
+TEST_BIN := $(BUILD)/vantage_tests
+
+BENCH_SRC:= tests/bench/bench_cull.c tests/cull_ref.c tests/scene_file.c
+BENCH_OBJ:= $(BENCH_SRC:%.c=$(BUILD)/%.o)
+BENCH_BIN:= $(BUILD)/bench_cull
+
+SCENE    ?= ../shared/scenes/city_scene.txt
+
+.PHONY: all run test bench deps check-deps clean test-one
+all: check-deps $(CULL_LIB) $(TEST_BIN) $(BENCH_BIN)
+
+# ---- dependencies -----------------------------------------------------------
+# check-deps runs before every build: it calls `make deps` only when a tool or
+# a pkg-config module is missing, so a provisioned machine never touches apt.
+check-deps:
+	@if ! command -v $(CC) >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1 || \
+	    ! pkg-config --exists $(PC_MODS); then $(MAKE) --no-print-directory deps; fi
+
+deps:
+	@echo "make deps: installing $(DEB_PKGS)"
+	@SUDO=; [ "$$(id -u)" = 0 ] || SUDO=sudo; \
+	export DEBIAN_FRONTEND=noninteractive; \
+	$$SUDO apt-get update -qq && \
+	$$SUDO apt-get install -y -qq --no-install-recommends $(DEB_PKGS) >/dev/null && \
+	pkg-config --exists $(PC_MODS) && echo "make deps: done"
+
+# ---- build --------------------------------------------------------------------
+$(BUILD)/%.o: %.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -c $< -o $@
+
+$(BUILD)/culling/cull_kernels_avx2.o:   CFLAGS += $(ISA_AVX2)
+$(BUILD)/culling/cull_kernels_sse41.o:  CFLAGS += $(ISA_SSE41)
+$(BUILD)/culling/cull_kernels_scalar.o: CFLAGS += -fno-tree-vectorize
+
+$(CULL_LIB): $(CULL_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(TEST_BIN): $(TEST_OBJ) $(CULL_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(CULL_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
+
+$(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
+
+$(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka) -Itests
+
+# ---- the two commands ---------------------------------------------------------
+run: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull
+	./build/release/bench_cull --demo --scene $(SCENE)
+	./build/release/bench_cull --quick
+
+# test-one: this CONFIG's test binary
+test-one: check-deps $(TEST_BIN)
+	$(TEST_BIN)
+
+test: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantage_tests build/release/bench_cull
+	@$(MAKE) --no-print-directory CONFIG=scalar build/scalar/vantage_tests
+	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
+	./build/release/bench_cull --smoke
+	VANTAGE_TEST_SCALE=0.25 ./build/scalar/vantage_tests
+	./build/release/vantage_tests
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  VANTAGE_TEST_SCALE=0.5 ./build/asan/vantage_tests
+
+bench: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull
+	./build/release/bench_cull --scene $(SCENE) $(BENCH_ARGS)
+
+clean:
+	rm -rf build
+
+-include $(CULL_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d)

@@ -1,0 +1,75 @@
+/*
+ * cull_isa.c — picks the kernel instance: CPUID (with the OS's XSAVE state
+ * for AVX), overridable by VANTAGE_ISA=scalar|sse41|avx2. Builds with
+ * CULL_SCALAR_ONLY (CONFIG=scalar) carry the scalar kernel alone.
+ */
+#include "cull_internal.h"
+
+#include <stdio.h>
+#include <string.h>
+#include <stdlib.h>
+#if defined(__x86_64__) || defined(__i386__)
+#include <cpuid.h>
+#define CULL_X86 1
+#endif
+
+static const char *const isa_names[CULL_ISA_COUNT] = {"scalar", "sse41", "avx2"};
+
+const char *cull_isa_name(uint32_t isa)
+{
+    return isa < CULL_ISA_COUNT ? isa_names[isa] : "unknown";
+}
+
+static uint32_t cpu_best(void)
+{
+#if defined(CULL_X86) && !defined(CULL_SCALAR_ONLY)
+    unsigned a, b, c, d;
+    if (!__get_cpuid(1, &a, &b, &c, &d)) return CULL_ISA_SCALAR;
+    bool sse41 = c & bit_SSE4_1;
+    bool fma = c & bit_FMA, osxsave = c & bit_OSXSAVE, avx = c & bit_AVX;
+    bool avx2 = false;
+    if (osxsave && avx && fma) {
+        unsigned lo, hi;
+        __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+        if ((lo & 6u) == 6u && __get_cpuid_count(7, 0, &a, &b, &c, &d))
+            avx2 = b & bit_AVX2;
+    }
+    return avx2 ? CULL_ISA_AVX2 : sse41 ? CULL_ISA_SSE41 : CULL_ISA_SCALAR;
+#else
+    return CULL_ISA_SCALAR;
+#endif
+}
+
+int cull_isa_supported(uint32_t isa)
+{
+    return isa <= cpu_best();
+}
+
+uint32_t cull_isa_default(void)
+{
+    uint32_t best = cpu_best();
+    const char *env = getenv("VANTAGE_ISA");
+    if (!env || !*env) return best;
+    for (uint32_t i = 0; i < CULL_ISA_COUNT; i++) {
+        if (strcmp(env, isa_names[i]) == 0) {
+            if (i <= best) return i;
+            fprintf(stderr, "vantage: VANTAGE_ISA=%s not supported here, using %s\n",
+                    env, isa_names[best]);
+            return best;
+        }
+    }
+    fprintf(stderr, "vantage: VANTAGE_ISA=%s unknown (scalar|sse41|avx2), using %s\n",
+            env, isa_names[best]);
+    return best;
+}
+
+cull_block_fn cull_isa_kernel(uint32_t isa)
+{
+    switch (isa) {
+#ifndef CULL_SCALAR_ONLY
+    case CULL_ISA_AVX2: return cull_block_avx2;
+    case CULL_ISA_SSE41: return cull_block_sse41;
+#endif
+    default: return cull_block_scalar;
+    }
+}

@@ -1,0 +1,12 @@
+/*
+ * cull_kernels_avx2.c — the block kernel, 8 lanes (AVX2 + FMA). Compiled
+ * with -mavx2 -mfma; called only after CPUID says both are there.
+ */
+#include "cull_internal.h"
+#include <math.h>
+#if defined(__AVX2__) && defined(__FMA__)
+#define CULL_SIMD_ISA 3
+#include "cull_simd.h"
+#define CULL_KERNEL_NAME cull_block_avx2
+#include "cull_kernel.inl"
+#endif

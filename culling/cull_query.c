@@ -1,0 +1,301 @@
+/*
+ * cull_query.c — the query pipeline driver.
+ *
+ *   1. cell stage (double): each cell's bounds against each view's planes.
+ *      A cell outside a view drops that view; a plane the cell is entirely
+ *      inside is dropped; a cell with no views left is skipped whole. What
+ *      survives is re-based to the cell origin and rounded to float
+ *      (cull_kview), so the kernels work on small, exact-enough numbers.
+ *   2. block stage (SIMD kernel): spheres -> AABB -> screen area -> results.
+ *      One thread: straight into the caller's buffer. Several: blocks are
+ *      handed out in chunks by an atomic counter; each thread writes to its
+ *      own scratch, then the chunks are copied to the caller's buffer in
+ *      chunk order, in parallel, so the order never depends on threads.
+ *
+ * Costs: stage 1 is ~60 flops per cell and view; stage 2 is in
+ * cull_kernel.inl. The context allocates only when the world has grown.
+ */
+#include "cull_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define CHUNK_BLOCKS 8u          /* 512 entities per chunk */
+#define PARALLEL_MIN_WORK 32768u /* entity x view tests below which one thread wins */
+#define MAX_THREADS 64u
+
+typedef struct cull_item {
+    const cull_block *block;
+    uint32_t n;       /* entities in the block */
+    uint32_t kv_off;  /* first cull_kview of its cell */
+    uint32_t nv;      /* views the cell kept */
+} cull_item;
+
+typedef struct cull_chunk {
+    uint32_t thread, off, count, dst;
+} cull_chunk;
+
+struct cull_ctx {
+    cull_pool *pool;
+    uint32_t isa;
+    cull_block_fn kernel;
+    cull_kview *kv;
+    size_t kv_cap;
+    cull_item *items;
+    size_t items_cap;
+    cull_chunk *chunks;
+    size_t chunks_cap;
+    cull_result *tres[MAX_THREADS];
+    size_t tres_cap[MAX_THREADS];
+};
+
+int cull_ctx_create(cull_pool *pool, cull_ctx **out)
+{
+    if (!out) return CULL_ERR_INVALID;
+    cull_ctx *c = calloc(1, sizeof *c);
+    if (!c) return CULL_ERR_NOMEM;
+    c->pool = pool;
+    c->isa = cull_isa_default();
+    c->kernel = cull_isa_kernel(c->isa);
+    *out = c;
+    return CULL_OK;
+}
+
+void cull_ctx_destroy(cull_ctx *c)
+{
+    if (!c) return;
+    free(c->kv);
+    free(c->items);
+    free(c->chunks);
+    for (uint32_t i = 0; i < MAX_THREADS; i++) free(c->tres[i]);
+    free(c);
+}
+
+int cull_ctx_set_isa(cull_ctx *c, uint32_t isa)
+{
+    if (!c || isa >= CULL_ISA_COUNT || !cull_isa_supported(isa)) return CULL_ERR_INVALID;
+    c->isa = isa;
+    c->kernel = cull_isa_kernel(isa);
+    return CULL_OK;
+}
+
+uint32_t cull_ctx_isa(const cull_ctx *c)
+{
+    return c ? c->isa : CULL_ISA_SCALAR;
+}
+
+static bool reserve(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap) return true;
+    size_t n = *cap ? *cap : 256;
+    while (n < need) n *= 2;
+    void *q = realloc(*p, n * elem);
+    if (!q) return false;
+    *p = q;
+    *cap = n;
+    return true;
+}
+
+/* Stage 1 for one cell: fills kv with the views that may see the cell and
+ * returns how many. */
+static uint32_t cell_views(const cull_cell *cell, const cull_query_desc *q, bool area,
+                           cull_kview *kv)
+{
+    uint32_t nv = 0;
+    for (uint32_t v = 0; v < q->view_count; v++) {
+        const cull_view *view = &q->views[v];
+        double t[3] = {cell->origin[0] - view->origin[0], cell->origin[1] - view->origin[1],
+                       cell->origin[2] - view->origin[2]};
+        cull_kview *k = &kv[nv];
+        uint32_t np = 0;
+        bool outside = false;
+        for (uint32_t i = 0; i < view->plane_count; i++) {
+            const double *pl = view->plane[i];
+            double dc = pl[0] * t[0] + pl[1] * t[1] + pl[2] * t[2] + pl[3];
+            double hi = dc, lo = dc;
+            for (int a = 0; a < 3; a++) {
+                double u = pl[a] * (double)cell->bmax[a], l = pl[a] * (double)cell->bmin[a];
+                hi += u > l ? u : l;
+                lo += u > l ? l : u;
+            }
+            if (hi < 0) {
+                outside = true;
+                break;
+            }
+            if (lo >= 0) continue; /* the whole cell is inside this plane */
+            k->px[np] = (float)pl[0];
+            k->py[np] = (float)pl[1];
+            k->pz[np] = (float)pl[2];
+            k->pd[np] = (float)dc;
+            np++;
+        }
+        if (outside) continue;
+        k->nplanes = np;
+        k->bit = 1u << v;
+        if (area) {
+            const double *m = view->clip;
+            static const int rows[3] = {0, 1, 3};
+            float *dst[3] = {k->cx, k->cy, k->cw};
+            for (int r = 0; r < 3; r++) {
+                int row = rows[r];
+                for (int c = 0; c < 3; c++) dst[r][c] = (float)m[c * 4 + row];
+                dst[r][3] = (float)(m[row] * t[0] + m[4 + row] * t[1] + m[8 + row] * t[2] +
+                                    m[12 + row]);
+            }
+            k->vp_w = (float)view->viewport_w;
+            k->vp_h = (float)view->viewport_h;
+            k->half_w = 0.5f * k->vp_w;
+            k->half_h = 0.5f * k->vp_h;
+        }
+        nv++;
+    }
+    return nv;
+}
+
+typedef struct job {
+    cull_ctx *c;
+    const cull_kparams *kp;
+    const cull_item *items;
+    uint32_t nitems, nchunks;
+    _Atomic uint32_t next;
+    cull_result *out;
+    cull_kcount cnt[MAX_THREADS];
+} job;
+
+static void job_cull(void *arg, uint32_t t)
+{
+    job *j = arg;
+    cull_ctx *c = j->c;
+    cull_result *dst = c->tres[t];
+    uint32_t off = 0;
+    cull_kcount cnt = {0};
+    for (;;) {
+        uint32_t ch = atomic_fetch_add_explicit(&j->next, 1, memory_order_relaxed);
+        if (ch >= j->nchunks) break;
+        uint32_t start = off;
+        uint32_t end = (ch + 1) * CHUNK_BLOCKS;
+        if (end > j->nitems) end = j->nitems;
+        for (uint32_t i = ch * CHUNK_BLOCKS; i < end; i++) {
+            const cull_item *it = &j->items[i];
+            off += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt);
+        }
+        c->chunks[ch] = (cull_chunk){.thread = t, .off = start, .count = off - start};
+    }
+    j->cnt[t] = cnt;
+}
+
+static void job_copy(void *arg, uint32_t t)
+{
+    job *j = arg;
+    cull_ctx *c = j->c;
+    for (uint32_t ch = 0; ch < j->nchunks; ch++) {
+        const cull_chunk *k = &c->chunks[ch];
+        if (k->thread == t && k->count)
+            memcpy(j->out + k->dst, c->tres[t] + k->off, k->count * sizeof *j->out);
+    }
+}
+
+int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
+               cull_result *out, size_t cap, size_t *count, cull_query_stats *stats)
+{
+    if (count) *count = 0;
+    if (stats) memset(stats, 0, sizeof *stats);
+    if (!w || !c || !q || !count || (!out && cap)) return CULL_ERR_INVALID;
+    if (!q->views || q->view_count == 0 || q->view_count > CULL_MAX_VIEWS) return CULL_ERR_VIEWS;
+    if (!(q->min_screen_area >= 0) || q->min_screen_area > 1e12f) return CULL_ERR_INVALID;
+    for (uint32_t v = 0; v < q->view_count; v++)
+        if (q->views[v].plane_count < 5 || q->views[v].plane_count > 6) return CULL_ERR_MATRIX;
+    if (cap < cull_query_bound(w)) return CULL_ERR_OUTPUT;
+
+    cull_kparams kp = {
+        .min_area = q->min_screen_area,
+        .aabb = !(q->flags & CULL_Q_NO_AABB),
+        .area = q->min_screen_area > 0 || (q->flags & CULL_Q_WANT_AREA),
+    };
+
+    /* stage 1: cells; sized for the worst case up front so it cannot fail
+       half-way */
+    size_t ncells = 0, nblocks = 0;
+    for (int g = 0; g < 2; g++) {
+        ncells += w->grid[g].ncells;
+        for (uint32_t i = 0; i < w->grid[g].ncells; i++) nblocks += w->grid[g].cells[i]->nblocks;
+    }
+    if (!reserve((void **)&c->kv, &c->kv_cap, ncells * q->view_count + 1, sizeof *c->kv) ||
+        !reserve((void **)&c->items, &c->items_cap, nblocks + 1, sizeof *c->items))
+        return CULL_ERR_NOMEM;
+    uint32_t nkv = 0, nitems = 0, cells_tested = 0, cells_culled = 0, tested = 0;
+    for (int g = 0; g < 2; g++) {
+        if ((q->flags & CULL_Q_STATIC_ONLY) && g == 1) continue;
+        if ((q->flags & CULL_Q_DYNAMIC_ONLY) && g == 0) continue;
+        const cull_grid *grid = &w->grid[g];
+        for (uint32_t i = 0; i < grid->ncells; i++) {
+            const cull_cell *cell = grid->cells[i];
+            cells_tested++;
+            uint32_t nv = cell_views(cell, q, kp.area, c->kv + nkv);
+            if (!nv) {
+                cells_culled++;
+                continue;
+            }
+            for (uint32_t b = 0; b < cell->nblocks; b++) {
+                uint32_t n = cell->count - b * CULL_BLOCK_CAP;
+                if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
+                c->items[nitems++] = (cull_item){cell->blocks[b], n, nkv, nv};
+                tested += n;
+            }
+            nkv += nv;
+        }
+    }
+
+    /* stage 2: blocks */
+    uint32_t threads = cull_pool_threads(c->pool);
+    if (q->threads && q->threads < threads) threads = q->threads;
+    if (threads > MAX_THREADS) threads = MAX_THREADS;
+    uint64_t work = 0;
+    for (uint32_t i = 0; i < nitems; i++) work += (uint64_t)c->items[i].n * c->items[i].nv;
+    if (work < PARALLEL_MIN_WORK) threads = 1;
+
+    cull_kcount total = {0};
+    size_t written = 0;
+    if (threads == 1) {
+        for (uint32_t i = 0; i < nitems; i++) {
+            const cull_item *it = &c->items[i];
+            written += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp,
+                                 out + written, &total);
+        }
+    } else {
+        uint32_t nchunks = (nitems + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
+        if (!reserve((void **)&c->chunks, &c->chunks_cap, nchunks + 1, sizeof *c->chunks))
+            return CULL_ERR_NOMEM;
+        for (uint32_t t = 0; t < threads; t++)
+            if (!reserve((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + 1,
+                         sizeof(cull_result)))
+                return CULL_ERR_NOMEM;
+        job j = {.c = c, .kp = &kp, .items = c->items, .nitems = nitems, .nchunks = nchunks,
+                 .out = out};
+        atomic_init(&j.next, 0);
+        cull_pool_run(c->pool, job_cull, &j, threads);
+        for (uint32_t ch = 0; ch < nchunks; ch++) {
+            c->chunks[ch].dst = (uint32_t)written;
+            written += c->chunks[ch].count;
+        }
+        cull_pool_run(c->pool, job_copy, &j, threads);
+        for (uint32_t t = 0; t < threads; t++) {
+            total.tested += j.cnt[t].tested;
+            total.after_spheres += j.cnt[t].after_spheres;
+            total.after_aabb += j.cnt[t].after_aabb;
+            total.after_area += j.cnt[t].after_area;
+        }
+    }
+    *count = written;
+    if (stats) {
+        stats->cells = cells_tested;
+        stats->cells_culled = cells_culled;
+        stats->entities_tested = total.tested;
+        stats->after_spheres = total.after_spheres;
+        stats->after_aabb = total.after_aabb;
+        stats->after_area = total.after_area;
+        stats->visible = (uint32_t)written;
+        stats->threads_used = threads;
+    }
+    return CULL_OK;
+}

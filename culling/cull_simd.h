@@ -1,0 +1,142 @@
+/*
+ * cull_simd.h — the few vector operations the culling kernels use, for one
+ * ISA chosen by CULL_SIMD_ISA before inclusion (1 scalar, 2 SSE4.1, 3 AVX2).
+ * Included only by cull_kernels_<isa>.c, each compiled with its own flags,
+ * so no AVX2 instruction can leak into code that runs before the CPUID check.
+ *
+ * Types: vf = W floats, vm = W lane masks (all-ones / zero), vu = W uint32
+ * view masks.
+ */
+#ifndef VANTAGE_CULL_SIMD_H
+#define VANTAGE_CULL_SIMD_H
+
+#include <stdint.h>
+
+#if CULL_SIMD_ISA == 3
+#include <immintrin.h>
+#define W 8
+typedef __m256 vf;
+typedef __m256 vm;
+typedef __m256i vu;
+static inline vf vf_load(const float *p) { return _mm256_load_ps(p); }
+static inline void vf_store(float *p, vf a) { _mm256_storeu_ps(p, a); }
+static inline vf vf_set(float a) { return _mm256_set1_ps(a); }
+static inline vf vf_add(vf a, vf b) { return _mm256_add_ps(a, b); }
+static inline vf vf_sub(vf a, vf b) { return _mm256_sub_ps(a, b); }
+static inline vf vf_mul(vf a, vf b) { return _mm256_mul_ps(a, b); }
+static inline vf vf_div(vf a, vf b) { return _mm256_div_ps(a, b); }
+static inline vf vf_fma(vf a, vf b, vf c) { return _mm256_fmadd_ps(a, b, c); }
+static inline vf vf_min(vf a, vf b) { return _mm256_min_ps(a, b); }
+static inline vf vf_max(vf a, vf b) { return _mm256_max_ps(a, b); }
+static inline vf vf_abs(vf a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
+static inline vm vf_ge(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
+static inline vm vf_lt(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
+static inline vf vf_select(vm m, vf a, vf b) { return _mm256_blendv_ps(b, a, m); }
+static inline vm vm_and(vm a, vm b) { return _mm256_and_ps(a, b); }
+static inline vm vm_or(vm a, vm b) { return _mm256_or_ps(a, b); }
+static inline vm vm_andnot(vm a, vm b) { return _mm256_andnot_ps(b, a); } /* a & ~b */
+static inline vm vm_ones(void) { return _mm256_castsi256_ps(_mm256_set1_epi32(-1)); }
+static inline uint32_t vm_bits(vm m) { return (uint32_t)_mm256_movemask_ps(m); }
+static inline vu vu_zero(void) { return _mm256_setzero_si256(); }
+static inline vu vu_or_bit(vu acc, vm m, uint32_t bit)
+{
+    return _mm256_or_si256(acc, _mm256_and_si256(_mm256_castps_si256(m),
+                                                 _mm256_set1_epi32((int)bit)));
+}
+static inline vu vu_clear_bit(vu acc, vm m, uint32_t bit)
+{
+    return _mm256_andnot_si256(_mm256_and_si256(_mm256_castps_si256(m),
+                                                _mm256_set1_epi32((int)bit)), acc);
+}
+static inline vm vu_has_bit(vu acc, uint32_t bit)
+{
+    __m256i z = _mm256_cmpeq_epi32(_mm256_and_si256(acc, _mm256_set1_epi32((int)bit)),
+                                   _mm256_setzero_si256());
+    return _mm256_castsi256_ps(_mm256_xor_si256(z, _mm256_set1_epi32(-1)));
+}
+static inline uint32_t vu_nonzero_bits(vu a)
+{
+    __m256i z = _mm256_cmpeq_epi32(a, _mm256_setzero_si256());
+    return ~(uint32_t)_mm256_movemask_ps(_mm256_castsi256_ps(z)) & 0xFFu;
+}
+static inline void vu_store(uint32_t *p, vu a) { _mm256_storeu_si256((__m256i *)p, a); }
+
+#elif CULL_SIMD_ISA == 2
+#include <smmintrin.h>
+#define W 4
+typedef __m128 vf;
+typedef __m128 vm;
+typedef __m128i vu;
+static inline vf vf_load(const float *p) { return _mm_load_ps(p); }
+static inline void vf_store(float *p, vf a) { _mm_storeu_ps(p, a); }
+static inline vf vf_set(float a) { return _mm_set1_ps(a); }
+static inline vf vf_add(vf a, vf b) { return _mm_add_ps(a, b); }
+static inline vf vf_sub(vf a, vf b) { return _mm_sub_ps(a, b); }
+static inline vf vf_mul(vf a, vf b) { return _mm_mul_ps(a, b); }
+static inline vf vf_div(vf a, vf b) { return _mm_div_ps(a, b); }
+static inline vf vf_fma(vf a, vf b, vf c) { return _mm_add_ps(_mm_mul_ps(a, b), c); }
+static inline vf vf_min(vf a, vf b) { return _mm_min_ps(a, b); }
+static inline vf vf_max(vf a, vf b) { return _mm_max_ps(a, b); }
+static inline vf vf_abs(vf a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
+static inline vm vf_ge(vf a, vf b) { return _mm_cmpge_ps(a, b); }
+static inline vm vf_lt(vf a, vf b) { return _mm_cmplt_ps(a, b); }
+static inline vf vf_select(vm m, vf a, vf b) { return _mm_blendv_ps(b, a, m); }
+static inline vm vm_and(vm a, vm b) { return _mm_and_ps(a, b); }
+static inline vm vm_or(vm a, vm b) { return _mm_or_ps(a, b); }
+static inline vm vm_andnot(vm a, vm b) { return _mm_andnot_ps(b, a); }
+static inline vm vm_ones(void) { return _mm_castsi128_ps(_mm_set1_epi32(-1)); }
+static inline uint32_t vm_bits(vm m) { return (uint32_t)_mm_movemask_ps(m); }
+static inline vu vu_zero(void) { return _mm_setzero_si128(); }
+static inline vu vu_or_bit(vu acc, vm m, uint32_t bit)
+{
+    return _mm_or_si128(acc, _mm_and_si128(_mm_castps_si128(m), _mm_set1_epi32((int)bit)));
+}
+static inline vu vu_clear_bit(vu acc, vm m, uint32_t bit)
+{
+    return _mm_andnot_si128(_mm_and_si128(_mm_castps_si128(m), _mm_set1_epi32((int)bit)), acc);
+}
+static inline vm vu_has_bit(vu acc, uint32_t bit)
+{
+    __m128i z = _mm_cmpeq_epi32(_mm_and_si128(acc, _mm_set1_epi32((int)bit)), _mm_setzero_si128());
+    return _mm_castsi128_ps(_mm_xor_si128(z, _mm_set1_epi32(-1)));
+}
+static inline uint32_t vu_nonzero_bits(vu a)
+{
+    __m128i z = _mm_cmpeq_epi32(a, _mm_setzero_si128());
+    return ~(uint32_t)_mm_movemask_ps(_mm_castsi128_ps(z)) & 0xFu;
+}
+static inline void vu_store(uint32_t *p, vu a) { _mm_storeu_si128((__m128i *)p, a); }
+
+#else /* scalar: one lane; the compiler is kept from vectorising it */
+#define W 1
+typedef float vf;
+typedef uint32_t vm;
+typedef uint32_t vu;
+static inline vf vf_load(const float *p) { return *p; }
+static inline void vf_store(float *p, vf a) { *p = a; }
+static inline vf vf_set(float a) { return a; }
+static inline vf vf_add(vf a, vf b) { return a + b; }
+static inline vf vf_sub(vf a, vf b) { return a - b; }
+static inline vf vf_mul(vf a, vf b) { return a * b; }
+static inline vf vf_div(vf a, vf b) { return a / b; }
+static inline vf vf_fma(vf a, vf b, vf c) { return a * b + c; }
+static inline vf vf_min(vf a, vf b) { return a < b ? a : b; }
+static inline vf vf_max(vf a, vf b) { return a > b ? a : b; }
+static inline vf vf_abs(vf a) { return a < 0 ? -a : a; }
+static inline vm vf_ge(vf a, vf b) { return a >= b ? ~0u : 0u; }
+static inline vm vf_lt(vf a, vf b) { return a < b ? ~0u : 0u; }
+static inline vf vf_select(vm m, vf a, vf b) { return m ? a : b; }
+static inline vm vm_and(vm a, vm b) { return a & b; }
+static inline vm vm_or(vm a, vm b) { return a | b; }
+static inline vm vm_andnot(vm a, vm b) { return a & ~b; }
+static inline vm vm_ones(void) { return ~0u; }
+static inline uint32_t vm_bits(vm m) { return m & 1u; }
+static inline vu vu_zero(void) { return 0; }
+static inline vu vu_or_bit(vu acc, vm m, uint32_t bit) { return acc | (m & bit); }
+static inline vu vu_clear_bit(vu acc, vm m, uint32_t bit) { return acc & ~(m & bit); }
+static inline vm vu_has_bit(vu acc, uint32_t bit) { return (acc & bit) ? ~0u : 0u; }
+static inline uint32_t vu_nonzero_bits(vu a) { return a != 0; }
+static inline void vu_store(uint32_t *p, vu a) { *p = a; }
+#endif
+
+#endif

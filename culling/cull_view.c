@@ -1,0 +1,186 @@
+/*
+ * cull_view.c — views: frustum planes from a view-projection matrix
+ * (Gribb & Hartmann), for perspective and orthographic cameras, OpenGL
+ * [-1,1] and [0,1] depth and reversed-Z, infinite far planes included; and
+ * the matrix helpers a client needs to build such a view camera-relative.
+ *
+ * All in double. A view is prepared once per query (a few hundred flops).
+ */
+#include "cull_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+static double det4(const double m[16])
+{
+    /* Laplace expansion over 2x2 minors (column-major, rows/cols alike) */
+    double s0 = m[0] * m[5] - m[4] * m[1], s1 = m[0] * m[9] - m[8] * m[1];
+    double s2 = m[0] * m[13] - m[12] * m[1], s3 = m[4] * m[9] - m[8] * m[5];
+    double s4 = m[4] * m[13] - m[12] * m[5], s5 = m[8] * m[13] - m[12] * m[9];
+    double c5 = m[10] * m[15] - m[14] * m[11], c4 = m[6] * m[15] - m[14] * m[7];
+    double c3 = m[6] * m[11] - m[10] * m[7], c2 = m[2] * m[15] - m[14] * m[3];
+    double c1 = m[2] * m[11] - m[10] * m[3], c0 = m[2] * m[7] - m[6] * m[3];
+    return s0 * c5 - s1 * c4 + s2 * c3 + s3 * c2 - s4 * c1 + s5 * c0;
+}
+
+int cull_view_init(cull_view *v, const cull_view_desc *d)
+{
+    if (!v || !d) return CULL_ERR_INVALID;
+    double scale = 0;
+    for (int i = 0; i < 16; i++) {
+        if (!isfinite(d->view_proj[i])) return CULL_ERR_MATRIX;
+        scale = fmax(scale, fabs(d->view_proj[i]));
+    }
+    for (int a = 0; a < 3; a++)
+        if (!isfinite(d->origin[a])) return CULL_ERR_NONFINITE;
+    if (d->depth_mode > CULL_DEPTH_REVERSED) return CULL_ERR_INVALID;
+    uint32_t vw = d->viewport_w, vh = d->viewport_h;
+    if (vw == 0 && vh == 0) {
+        vw = 1920;
+        vh = 1080;
+    }
+    if (vw == 0 || vh == 0 || vw > 65535 || vh > 65535) return CULL_ERR_VIEWPORT;
+    if (scale == 0) return CULL_ERR_MATRIX;
+    /* singularity test invariant to per-row scale (an orthographic camera
+       1e13 m wide has rows of 1e-13 and 1): det with each row normalised */
+    double ms[16];
+    for (int r = 0; r < 4; r++) {
+        double rs = 0;
+        for (int c = 0; c < 4; c++) rs = fmax(rs, fabs(d->view_proj[c * 4 + r]));
+        if (rs == 0) return CULL_ERR_MATRIX;
+        for (int c = 0; c < 4; c++) ms[c * 4 + r] = d->view_proj[c * 4 + r] / rs;
+    }
+    if (!(fabs(det4(ms)) > 1e-12)) return CULL_ERR_MATRIX;
+
+    const double *m = d->view_proj;
+    double row[4][4];
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++) row[r][c] = m[c * 4 + r];
+    double p[6][4];
+    double ps[6]; /* size of the normals that were added: cancellation test */
+    const int other[6] = {0, 0, 1, 1, 2, 2};
+    for (int c = 0; c < 4; c++) {
+        p[0][c] = row[3][c] + row[0][c]; /* left   */
+        p[1][c] = row[3][c] - row[0][c]; /* right  */
+        p[2][c] = row[3][c] + row[1][c]; /* bottom */
+        p[3][c] = row[3][c] - row[1][c]; /* top    */
+        p[4][c] = d->depth_mode == CULL_DEPTH_GL ? row[3][c] + row[2][c] : row[2][c];
+        p[5][c] = row[3][c] - row[2][c];
+    }
+    for (int i = 0; i < 6; i++) {
+        const double *a = row[3], *b = row[other[i]];
+        ps[i] = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) +
+                sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    }
+    memset(v, 0, sizeof *v);
+    uint32_t n = 0;
+    for (int i = 0; i < 6; i++) {
+        double len = sqrt(p[i][0] * p[i][0] + p[i][1] * p[i][1] + p[i][2] * p[i][2]);
+        if (len <= 1e-12 * ps[i]) {
+            /* a plane at infinity (infinite far, reversed-Z): always
+               satisfied if d > 0, an empty frustum otherwise */
+            if (p[i][3] > 0) continue;
+            return CULL_ERR_MATRIX;
+        }
+        for (int c = 0; c < 4; c++) v->plane[n][c] = p[i][c] / len;
+        n++;
+    }
+    if (n < 5) return CULL_ERR_MATRIX;
+    v->plane_count = n;
+    memcpy(v->clip, m, sizeof v->clip);
+    memcpy(v->origin, d->origin, sizeof v->origin);
+    v->depth_mode = d->depth_mode;
+    v->viewport_w = vw;
+    v->viewport_h = vh;
+    return CULL_OK;
+}
+
+void cull_mat_perspective(double m[16], double fovy, double aspect, double n,
+                          double f, uint32_t mode)
+{
+    memset(m, 0, 16 * sizeof *m);
+    double t = 1.0 / tan(0.5 * fovy);
+    m[0] = t / aspect;
+    m[5] = t;
+    m[11] = -1;
+    bool inf = isinf(f);
+    switch (mode) {
+    case CULL_DEPTH_ZERO_ONE:
+        m[10] = inf ? -1 : f / (n - f);
+        m[14] = inf ? -n : f * n / (n - f);
+        break;
+    case CULL_DEPTH_REVERSED:
+        m[10] = inf ? 0 : n / (f - n);
+        m[14] = inf ? n : f * n / (f - n);
+        break;
+    default:
+        m[10] = inf ? -1 : (f + n) / (n - f);
+        m[14] = inf ? -2 * n : 2 * f * n / (n - f);
+        break;
+    }
+}
+
+void cull_mat_ortho(double m[16], double l, double r, double b, double t,
+                    double n, double f, uint32_t mode)
+{
+    memset(m, 0, 16 * sizeof *m);
+    m[0] = 2 / (r - l);
+    m[5] = 2 / (t - b);
+    m[12] = -(r + l) / (r - l);
+    m[13] = -(t + b) / (t - b);
+    m[15] = 1;
+    switch (mode) {
+    case CULL_DEPTH_ZERO_ONE:
+        m[10] = -1 / (f - n);
+        m[14] = -n / (f - n);
+        break;
+    case CULL_DEPTH_REVERSED:
+        m[10] = 1 / (f - n);
+        m[14] = f / (f - n);
+        break;
+    default:
+        m[10] = -2 / (f - n);
+        m[14] = -(f + n) / (f - n);
+        break;
+    }
+}
+
+static void normalize3(double v[3])
+{
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (l > 0) {
+        v[0] /= l;
+        v[1] /= l;
+        v[2] /= l;
+    }
+}
+
+void cull_mat_look_dir(double m[16], const double dir[3], const double up[3])
+{
+    double f[3] = {dir[0], dir[1], dir[2]};
+    normalize3(f);
+    double s[3] = {f[1] * up[2] - f[2] * up[1], f[2] * up[0] - f[0] * up[2],
+                   f[0] * up[1] - f[1] * up[0]};
+    normalize3(s);
+    double u[3] = {s[1] * f[2] - s[2] * f[1], s[2] * f[0] - s[0] * f[2],
+                   s[0] * f[1] - s[1] * f[0]};
+    memset(m, 0, 16 * sizeof *m);
+    for (int i = 0; i < 3; i++) {
+        m[i * 4 + 0] = s[i];
+        m[i * 4 + 1] = u[i];
+        m[i * 4 + 2] = -f[i];
+    }
+    m[15] = 1;
+}
+
+void cull_mat_mul(double out[16], const double a[16], const double b[16])
+{
+    double t[16];
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 4; r++) {
+            double s = 0;
+            for (int k = 0; k < 4; k++) s += a[k * 4 + r] * b[c * 4 + k];
+            t[c * 4 + r] = s;
+        }
+    memcpy(out, t, sizeof t);
+}

@@ -1,0 +1,246 @@
+/*
+ * culling.h — Vantage's culling core: scene storage for culling and the
+ * multi-view visibility query ("Culling the Battlefield", DICE, GDC 2011).
+ *
+ * What it owns: a world of entities (bounding sphere + AABB + class, sub-level
+ * and flags) kept in two uniform grids (static and dynamic) of cells; each
+ * cell is a list of fixed-capacity SoA blocks. A query tests up to 32 views at
+ * once and returns one {handle, view mask, class, screen area} per entity
+ * visible in at least one view.
+ *
+ * Load it expects: 10^3..10^7 entities, queries of 1..32 views at 10^2..10^4
+ * per second, edits in batches between queries. A query on 15k entities and
+ * one view costs a few microseconds on one AVX2 core (BENCHMARKS.md).
+ *
+ * Threading: a world is not internally locked. Edits and queries must not
+ * overlap; any number of queries may run at once on one world, each with its
+ * own cull_ctx. A cull_pool may be shared by contexts only if their queries
+ * do not overlap in time (the pool runs one job at a time).
+ *
+ * Precision: positions are given in double and stored as floats relative to
+ * their cell's origin; every plane is re-based per cell in double. A camera
+ * 10^6 m from the origin is as exact as one at the origin. Stored bounds are
+ * rounded outward by (4*cell_size + r) * 2^-19 so float evaluation never
+ * culls a bound the exact (double) test keeps.
+ *
+ * No I/O, no sockets, no files. Errors are negative codes from CULL_ERRORS.
+ */
+#ifndef VANTAGE_CULLING_H
+#define VANTAGE_CULLING_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- error codes: one table, tests assert on the code ------------------- */
+#define CULL_ERRORS(X)                                                          \
+    X(CULL_OK,                0, "ok")                                          \
+    X(CULL_ERR_INVALID,      -1, "invalid argument")                            \
+    X(CULL_ERR_NONFINITE,    -2, "coordinate is NaN or infinite")               \
+    X(CULL_ERR_RADIUS,       -3, "radius is negative, NaN or infinite")         \
+    X(CULL_ERR_AABB,         -4, "AABB has min > max on some axis")             \
+    X(CULL_ERR_RANGE,        -5, "coordinate or size beyond the world's range") \
+    X(CULL_ERR_MATRIX,       -6, "degenerate or non-finite view-projection")    \
+    X(CULL_ERR_VIEWPORT,     -7, "viewport must be 1..65535 pixels per side")   \
+    X(CULL_ERR_VIEWS,        -8, "a query takes 1..32 views")                   \
+    X(CULL_ERR_HANDLE,       -9, "stale or never-issued entity handle")         \
+    X(CULL_ERR_CAPACITY,    -10, "entity capacity exhausted")                   \
+    X(CULL_ERR_NOMEM,       -11, "out of memory")                               \
+    X(CULL_ERR_OUTPUT,      -12, "output buffer smaller than cull_query_bound") \
+    X(CULL_ERR_THREADS,     -13, "cannot start worker threads")
+
+enum {
+#define CULL_X_ENUM(name, value, msg) name = value,
+    CULL_ERRORS(CULL_X_ENUM)
+#undef CULL_X_ENUM
+};
+
+/* Message for a code from CULL_ERRORS; "unknown error" otherwise. Static. */
+const char *cull_strerror(int code);
+
+/* ---- handles ------------------------------------------------------------ */
+/* 32 bits: low CULL_HANDLE_SLOT_BITS the slot, high bits a generation that is
+ * never 0, so 0 is never a valid handle. A removed entity's handle is stale
+ * forever after (until the 10-bit generation wraps for that slot: 1023
+ * reuses). Moving or removing other entities never changes a live handle. */
+typedef uint32_t cull_handle;
+#define CULL_HANDLE_SLOT_BITS 22u
+#define CULL_MAX_ENTITIES (1u << CULL_HANDLE_SLOT_BITS) /* 4,194,304 */
+
+/* ---- world -------------------------------------------------------------- */
+typedef struct cull_world cull_world;
+
+typedef struct cull_world_desc {
+    double   cell_size;    /* metres, edge of a grid cell; 0 = 64 */
+    uint32_t max_entities; /* 0 = CULL_MAX_ENTITIES; at most that */
+} cull_world_desc;
+
+/* Creates an empty world. Returns CULL_OK and *out, or a negative code.
+ * Destroy with cull_world_destroy (accepts NULL). */
+int  cull_world_create(const cull_world_desc *desc, cull_world **out);
+void cull_world_destroy(cull_world *w);
+
+/* Entity flags. */
+#define CULL_ENTITY_DYNAMIC 0x1u /* lives in the dynamic grid */
+
+/* An entity's bounds, in world metres (double). Zero means default:
+ * - radius == 0 and an AABB not all zero: the sphere is the AABB's
+ *   circumsphere (center is then ignored);
+ * - AABB all zero: the AABB is the sphere's bounding box.
+ * Coordinates must be finite and within ±1e12 m; radius within 0..1e9 m. */
+typedef struct cull_entity_desc {
+    double   center[3];
+    double   radius;
+    double   aabb_min[3];
+    double   aabb_max[3];
+    uint16_t class_id;
+    uint16_t sublevel;
+    uint32_t flags;     /* CULL_ENTITY_* */
+} cull_entity_desc;
+
+/* Adds an entity. O(1) amortised. On error nothing is stored. */
+int cull_entity_add(cull_world *w, const cull_entity_desc *d, cull_handle *out);
+/* Replaces an entity's bounds, class, sub-level and flags (moving it across
+ * cells or grids as needed). O(1). On error the entity is unchanged. */
+int cull_entity_update(cull_world *w, cull_handle h, const cull_entity_desc *d);
+/* Removes an entity (swap with the last of its cell). O(1). */
+int cull_entity_remove(cull_world *w, cull_handle h);
+/* Reads back an entity's stored bounds (the desc as normalised at add/update:
+ * derived sphere or AABB filled in). */
+int cull_entity_get(const cull_world *w, cull_handle h, cull_entity_desc *out);
+
+/* Tightens cell bounds that removals and moves left loose. O(entities in
+ * touched cells). Queries are correct without it, only slower. */
+void cull_world_commit(cull_world *w);
+
+typedef struct cull_world_info {
+    uint32_t entities, static_entities, dynamic_entities;
+    uint32_t cells, blocks;
+    size_t   bytes; /* heap held by storage */
+} cull_world_info;
+void cull_world_info_get(const cull_world *w, cull_world_info *out);
+
+/* ---- views -------------------------------------------------------------- */
+enum cull_depth_mode {
+    CULL_DEPTH_GL = 0,       /* clip z in [-w, w] (OpenGL) */
+    CULL_DEPTH_ZERO_ONE,     /* clip z in [0, w] (D3D, Vulkan, GL clip-control) */
+    CULL_DEPTH_REVERSED,     /* clip z in [0, w], near at 1 (reversed-Z) */
+};
+
+typedef struct cull_view_desc {
+    /* Column-major 4x4 (m[col*4 + row]), mapping (p - origin, 1) to clip
+     * space. Give origin = the camera position and a camera-relative
+     * view-projection for large worlds; origin 0 and a world matrix works too. */
+    double   view_proj[16];
+    double   origin[3];
+    uint32_t depth_mode;          /* enum cull_depth_mode */
+    uint32_t viewport_w, viewport_h; /* pixels; 0 = 1920 x 1080 */
+} cull_view_desc;
+
+/* A prepared view: normalised planes (an infinite far plane is dropped). */
+typedef struct cull_view {
+    double   plane[6][4];   /* n.x n.y n.z d, |n| = 1, inside: n.(p-origin)+d >= 0 */
+    uint32_t plane_count;   /* 5 or 6 */
+    double   clip[16];      /* the view-projection, as given */
+    double   origin[3];
+    uint32_t depth_mode;
+    uint32_t viewport_w, viewport_h;
+} cull_view;
+
+/* Prepares a view. CULL_ERR_MATRIX for non-finite, singular or empty
+ * frustums, CULL_ERR_VIEWPORT for a bad viewport. */
+int cull_view_init(cull_view *v, const cull_view_desc *d);
+
+/* Matrix helpers (column-major, double). far may be INFINITY. */
+void cull_mat_perspective(double m[16], double fovy_rad, double aspect,
+                          double znear, double zfar, uint32_t depth_mode);
+void cull_mat_ortho(double m[16], double l, double r, double b, double t,
+                    double znear, double zfar, uint32_t depth_mode);
+/* Camera-relative look-at: the eye is at the origin (pass the eye as
+ * cull_view_desc.origin). dir = target - eye. */
+void cull_mat_look_dir(double m[16], const double dir[3], const double up[3]);
+void cull_mat_mul(double out[16], const double a[16], const double b[16]);
+
+/* ---- query -------------------------------------------------------------- */
+#define CULL_MAX_VIEWS 32u
+
+/* Query flags. Zero = spheres, then AABBs, then the screen-area threshold if
+ * min_screen_area > 0, both grids. */
+#define CULL_Q_NO_AABB      0x1u /* stop after the sphere test */
+#define CULL_Q_WANT_AREA    0x2u /* fill screen_area even with no threshold */
+#define CULL_Q_STATIC_ONLY  0x4u
+#define CULL_Q_DYNAMIC_ONLY 0x8u
+
+typedef struct cull_query_desc {
+    const cull_view *views;     /* view_count prepared views */
+    uint32_t view_count;        /* 1..32; bit i of a mask = views[i] */
+    uint32_t flags;             /* CULL_Q_* */
+    float    min_screen_area;   /* pixels; an entity whose projected AABB
+                                   rectangle (clipped to the viewport) is
+                                   smaller in a view is culled from it; 0 = off */
+    uint32_t threads;           /* 0 = all of the context's pool */
+} cull_query_desc;
+
+/* The talk's EntityRenderCullInfo. 16 bytes. */
+typedef struct cull_result {
+    cull_handle handle;
+    uint32_t    view_mask;   /* bit i: visible in views[i] */
+    uint16_t    class_id;
+    uint16_t    sublevel;
+    float       screen_area; /* pixels, max over the views in view_mask; -1
+                                when not computed (no threshold, no WANT_AREA);
+                                the full viewport when the box crosses w = 0 */
+} cull_result;
+
+typedef struct cull_query_stats {
+    uint32_t cells, cells_culled;   /* cells tested / culled whole */
+    uint32_t entities_tested;       /* entities in surviving cells */
+    uint32_t after_spheres, after_aabb, after_area; /* entities with any bit */
+    uint32_t visible;               /* results written */
+    uint32_t threads_used;
+} cull_query_stats;
+
+/* Job pool: threads-1 persistent workers plus the caller. threads 0 = the
+ * number of online cores. Destroy accepts NULL. */
+typedef struct cull_pool cull_pool;
+int  cull_pool_create(uint32_t threads, cull_pool **out);
+void cull_pool_destroy(cull_pool *p);
+uint32_t cull_pool_threads(const cull_pool *p);
+
+/* Per-query scratch (grows with the world, then stops allocating). pool may
+ * be NULL (single-threaded). One context per concurrent query. */
+typedef struct cull_ctx cull_ctx;
+int  cull_ctx_create(cull_pool *pool, cull_ctx **out);
+void cull_ctx_destroy(cull_ctx *c);
+
+/* Upper bound on results: the number of entities. */
+size_t cull_query_bound(const cull_world *w);
+
+/* Runs a query. out has room for cap results (cap >= cull_query_bound).
+ * Results come in a deterministic order (grid, cell, block, lane) that does
+ * not depend on the thread count or ISA. stats may be NULL. */
+int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
+               cull_result *out, size_t cap, size_t *count,
+               cull_query_stats *stats);
+
+/* ---- ISA dispatch -------------------------------------------------------- */
+enum cull_isa { CULL_ISA_SCALAR = 0, CULL_ISA_SSE41, CULL_ISA_AVX2, CULL_ISA_COUNT };
+/* Whether this build and this CPU (CPUID) can run an ISA's kernels. */
+int         cull_isa_supported(uint32_t isa);
+/* The ISA a new context uses: the best supported, or VANTAGE_ISA=scalar|
+ * sse41|avx2 from the environment (an unsupported or unknown name falls back
+ * to the best, with a note on stderr). */
+uint32_t    cull_isa_default(void);
+const char *cull_isa_name(uint32_t isa);
+/* Per-context ISA (tests and benchmarks compare them in one process).
+ * CULL_ERR_INVALID if the ISA is not supported here. */
+int         cull_ctx_set_isa(cull_ctx *c, uint32_t isa);
+uint32_t    cull_ctx_isa(const cull_ctx *c);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* VANTAGE_CULLING_H */

@@ -1,0 +1,30 @@
+/*
+ * test_main.c — one cmocka run over every group, so `make test` ends with a
+ * single summary line.
+ */
+#include "test_util.h"
+
+#include <stdio.h>
+#include <string.h>
+
+int main(void)
+{
+    const struct { const struct CMUnitTest *t; size_t n; } groups[] = {
+        {world_tests, world_tests_count},
+        {view_tests, view_tests_count},
+        {query_tests, query_tests_count},
+    };
+    size_t total = 0;
+    for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;
+    struct CMUnitTest *all = calloc(total, sizeof *all);
+    if (!all) return 1;
+    size_t k = 0;
+    for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) {
+        memcpy(all + k, groups[g].t, groups[g].n * sizeof *all);
+        k += groups[g].n;
+    }
+    printf("vantage tests: seed 0x%llx, scale %g\n", (unsigned long long)test_seed(), test_scale());
+    int failed = _cmocka_run_group_tests("vantage", all, total, NULL, NULL);
+    free(all);
+    return failed ? 1 : 0;
+}

@@ -1,0 +1,53 @@
+/*
+ * test_util.h — what every test file shares: cmocka, a seeded RNG, the
+ * run-size scale (VANTAGE_TEST_SCALE) and the seed (VANTAGE_SEED).
+ */
+#ifndef VANTAGE_TEST_UTIL_H
+#define VANTAGE_TEST_UTIL_H
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdlib.h>
+
+typedef struct rng { uint64_t s; } rng;
+
+static inline uint64_t rng_u64(rng *r)
+{
+    uint64_t z = (r->s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+/* uniform in [0,1) */
+static inline double rng_f(rng *r) { return (double)(rng_u64(r) >> 11) * 0x1p-53; }
+static inline double rng_range(rng *r, double a, double b) { return a + (b - a) * rng_f(r); }
+/* log-uniform in [a,b], a > 0 */
+static inline double rng_log(rng *r, double a, double b) { return a * pow(b / a, rng_f(r)); }
+static inline uint32_t rng_below(rng *r, uint32_t n) { return (uint32_t)(rng_u64(r) % n); }
+
+static inline double test_scale(void)
+{
+    const char *s = getenv("VANTAGE_TEST_SCALE");
+    double v = s ? atof(s) : 1.0;
+    return v > 0 ? v : 1.0;
+}
+
+static inline uint64_t test_seed(void)
+{
+    const char *s = getenv("VANTAGE_SEED");
+    return s ? strtoull(s, NULL, 0) : 0x5EED2011ull;
+}
+
+#define TEST_GROUP(name) \
+    extern const struct CMUnitTest name[]; \
+    extern const size_t name##_count;
+
+TEST_GROUP(world_tests)
+TEST_GROUP(view_tests)
+TEST_GROUP(query_tests)
+
+#endif
