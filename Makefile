@@ -26,7 +26,7 @@ endif
 CPPFLAGS := -D_GNU_SOURCE -Iculling -MMD -MP
 CFLAGS   := -std=c11 $(WARN) -g -pthread
 LDLIBS   := -lm -pthread
-ISA_AVX2 := -mavx2 -mfma
+ISA_AVX2 := -mavx2 -mfma -mpopcnt
 ISA_SSE41:= -msse4.1
 
 ifeq ($(CONFIG),release)

@@ -49,6 +49,11 @@ typedef struct cull_cell {
 typedef struct cull_grid {
     cull_cell **cells;      /* dense, iteration order = query order */
     uint32_t    ncells, cap_cells;
+    /* cell bounds for the SIMD cell stage, parallel to cells: six arrays of
+       soa_cap doubles (world centre x y z, half extent x y z); soa_cap is a
+       multiple of 4 above ncells so kernels may read whole vectors */
+    double     *soa;
+    uint32_t    soa_cap;
     cull_cell **map;        /* open addressing, linear probing, pow2 */
     uint32_t    map_cap, map_used;
     uint32_t    entities;
@@ -77,6 +82,24 @@ struct cull_world {
     uint32_t   nblocks_total;
 };
 
+#define CULL_SOA(g, k) ((g)->soa + (size_t)(k) * (g)->soa_cap)
+
+/* Rewrites cell c's entry in its grid's bounds arrays. */
+void cull_cell_sync(cull_world *w, const cull_cell *c);
+
+/* A view plane for the cell stage: world-space offset d = d - n.origin. */
+typedef struct cull_cplane {
+    double n[3], an[3], d;
+} cull_cplane;
+
+/* Cell stage: code[c] for each of g's cells (see cull_cells.inl). code has
+   room for ncells rounded up to 4. */
+typedef void (*cull_cells_fn)(const cull_grid *g, const cull_cplane *pl, uint32_t np, uint8_t *code);
+void cull_cells_scalar(const cull_grid *, const cull_cplane *, uint32_t, uint8_t *);
+void cull_cells_sse41(const cull_grid *, const cull_cplane *, uint32_t, uint8_t *);
+void cull_cells_avx2(const cull_grid *, const cull_cplane *, uint32_t, uint8_t *);
+cull_cells_fn cull_isa_cells(uint32_t isa);
+
 /* ---- what a kernel sees: one (cell, view) pair, prepared in floats ------ */
 typedef struct cull_kview {
     float    px[6], py[6], pz[6], pd[6]; /* active planes, d re-based to the cell */
@@ -91,7 +114,8 @@ typedef struct cull_kview {
 typedef struct cull_kparams {
     float    min_area;      /* 0 = no threshold */
     bool     aabb;          /* run the AABB stage */
-    bool     area;          /* compute screen areas */
+    bool     area;          /* run the screen-area stage */
+    bool     exact_area;    /* report exact areas (else bounds may decide) */
 } cull_kparams;
 
 typedef struct cull_kcount {

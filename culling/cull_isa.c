@@ -73,3 +73,14 @@ cull_block_fn cull_isa_kernel(uint32_t isa)
     default: return cull_block_scalar;
     }
 }
+
+cull_cells_fn cull_isa_cells(uint32_t isa)
+{
+    switch (isa) {
+#ifndef CULL_SCALAR_ONLY
+    case CULL_ISA_AVX2: return cull_cells_avx2;
+    case CULL_ISA_SSE41: return cull_cells_sse41;
+#endif
+    default: return cull_cells_scalar;
+    }
+}

@@ -3,156 +3,369 @@
  * cull_kernels_{scalar,sse41,avx2}.c after cull_simd.h with CULL_KERNEL_NAME
  * set; each instance is compiled with its own ISA flags.
  *
- * Per group of W lanes, for each view that the cell stage kept:
- *   sphere:  s_i = n_i.c + d_i over the view's active planes; culled if
- *            min s < -r; fully inside if min s >= r (then the AABB cannot
- *            cull it and its test is skipped);
- *   AABB:    p-vertex distance over the same planes, only for lanes that
- *            straddle a plane;
- *   area:    the projected AABB's viewport-clipped bounding rectangle, only
- *            for lanes still visible in that view, and only when asked.
- * Cost per lane and view with 6 active planes: ~20 flops for the sphere,
- * +18 for the AABB where it runs, ~70 and one division for the area.
+ * Pass 1, per view the cell stage kept (view outer, W-lane groups inner):
+ *   sphere: s_i = n_i.c + d_i over the view's active planes (0..6, the
+ *           loop fully unrolled per count); culled if min s < -r; fully
+ *           inside if min s >= r, and then the AABB cannot cull it;
+ *   AABB:   p-vertex distance over the same planes, only for groups with
+ *           a lane that straddles a plane.
+ * Pass 2, per group: the screen-area stage for lanes still visible (only
+ *   when asked: the exact rectangle with CULL_Q_WANT_AREA, else a cheap
+ *   upper bound), then one result per lane with a non-zero view mask.
+ * Cost per 8 lanes and view with 6 active planes: 18 FMA + 6 min for the
+ * sphere, the same again for the AABB where it runs; ~70 flops and 8
+ * divisions per view for the area.
  */
 
-uint32_t CULL_KERNEL_NAME(const cull_block *b, uint32_t n, const cull_kview *kv,
-                          uint32_t nv, const cull_kparams *p, cull_result *out,
-                          cull_kcount *cnt)
+#define CULL_KV_MAX_GROUPS (CULL_BLOCK_CAP / W)
+
+static const float cull_lane_index[8] __attribute__((aligned(32))) = {0, 1, 2, 3, 4, 5, 6, 7};
+
+/* One view's sphere (and AABB) pass over the block, NP planes. Inlined
+ * with a constant NP so the plane loops unroll. */
+static inline __attribute__((always_inline)) void
+sphere_pass(const cull_block *restrict b, uint32_t ng, const cull_kview *restrict k, const uint32_t NP,
+            bool aabb, vu *restrict mask, vu *restrict msph)
 {
-    uint32_t written = 0;
+    vf px[6], py[6], pz[6], pd[6];
+    const float *bxp[6], *byp[6], *bzp[6];
+#pragma GCC unroll 6
+    for (uint32_t i = 0; i < NP; i++) {
+        px[i] = vf_set(k->px[i]);
+        py[i] = vf_set(k->py[i]);
+        pz[i] = vf_set(k->pz[i]);
+        pd[i] = vf_set(k->pd[i]);
+        /* p-vertex: the box corner furthest along the normal */
+        bxp[i] = k->px[i] >= 0.0f ? b->maxx : b->minx;
+        byp[i] = k->py[i] >= 0.0f ? b->maxy : b->miny;
+        bzp[i] = k->pz[i] >= 0.0f ? b->maxz : b->minz;
+    }
+    const uint32_t bit = k->bit;
     const vf zero = vf_set(0.0f);
-    const vf inf = vf_set(INFINITY);
-    for (uint32_t g = 0; g < n; g += W) {
-        uint32_t left = n - g;
-        uint32_t valid = (1u << (left >= W ? W : left)) - 1u;
-        vf x = vf_load(b->x + g), y = vf_load(b->y + g), z = vf_load(b->z + g);
-        vf r = vf_load(b->r + g);
-        vf nr = vf_sub(zero, r);
-        vu msph = vu_zero(), mask = vu_zero();
-        for (uint32_t v = 0; v < nv; v++) {
-            const cull_kview *k = &kv[v];
-            vm vis = vm_ones();
-            if (k->nplanes) {
-                vf smin = inf;
-                for (uint32_t i = 0; i < k->nplanes; i++) {
-                    vf s = vf_fma(vf_set(k->px[i]), x,
-                                  vf_fma(vf_set(k->py[i]), y,
-                                         vf_fma(vf_set(k->pz[i]), z, vf_set(k->pd[i]))));
-                    smin = vf_min(smin, s);
-                }
-                vis = vf_ge(smin, nr);
-                msph = vu_or_bit(msph, vis, k->bit);
-                if (p->aabb) {
-                    vm straddle = vm_andnot(vis, vf_ge(smin, r));
-                    if (vm_bits(straddle) & valid) {
-                        vf bx[2] = {vf_load(b->minx + g), vf_load(b->maxx + g)};
-                        vf by[2] = {vf_load(b->miny + g), vf_load(b->maxy + g)};
-                        vf bz[2] = {vf_load(b->minz + g), vf_load(b->maxz + g)};
-                        vf amin = inf;
-                        for (uint32_t i = 0; i < k->nplanes; i++) {
-                            vf a = vf_fma(vf_set(k->px[i]), bx[k->px[i] >= 0.0f],
-                                          vf_fma(vf_set(k->py[i]), by[k->py[i] >= 0.0f],
-                                                 vf_fma(vf_set(k->pz[i]), bz[k->pz[i] >= 0.0f],
-                                                        vf_set(k->pd[i]))));
-                            amin = vf_min(amin, a);
-                        }
-                        vis = vm_andnot(vis, vm_and(straddle, vf_lt(amin, zero)));
-                    }
-                }
-            } else {
-                msph = vu_or_bit(msph, vis, k->bit);
+    for (uint32_t g = 0; g < ng; g++) {
+        const uint32_t o = g * W;
+        vf x = vf_load(b->x + o), y = vf_load(b->y + o), z = vf_load(b->z + o), r = vf_load(b->r + o);
+        vf smin = vf_fma(px[0], x, vf_fma(py[0], y, vf_fma(pz[0], z, pd[0])));
+#pragma GCC unroll 6
+        for (uint32_t i = 1; i < NP; i++)
+            smin = vf_min(smin, vf_fma(px[i], x, vf_fma(py[i], y, vf_fma(pz[i], z, pd[i]))));
+        vm vis = vf_ge(vf_add(smin, r), zero);
+        msph[g] = vu_or_bit(msph[g], vis, bit);
+        if (aabb) {
+            vm straddle = vm_andnot(vis, vf_ge(smin, r));
+            if (vm_bits(straddle)) {
+                vf amin = vf_fma(px[0], vf_load(bxp[0] + o),
+                                 vf_fma(py[0], vf_load(byp[0] + o), vf_fma(pz[0], vf_load(bzp[0] + o), pd[0])));
+#pragma GCC unroll 6
+                for (uint32_t i = 1; i < NP; i++)
+                    amin = vf_min(amin, vf_fma(px[i], vf_load(bxp[i] + o),
+                                               vf_fma(py[i], vf_load(byp[i] + o),
+                                                      vf_fma(pz[i], vf_load(bzp[i] + o), pd[i]))));
+                vis = vm_andnot(vis, vm_and(straddle, vf_lt(amin, zero)));
             }
-            mask = vu_or_bit(mask, vis, k->bit);
         }
-        uint32_t live = vu_nonzero_bits(mask) & valid;
-        cnt->tested += (uint32_t)__builtin_popcount(valid);
-        cnt->after_spheres += (uint32_t)__builtin_popcount(vu_nonzero_bits(msph) & valid);
-        cnt->after_aabb += (uint32_t)__builtin_popcount(live);
-        vf area = vf_set(-1.0f);
-        if (p->area && live) {
-            vf bx[2] = {vf_load(b->minx + g), vf_load(b->maxx + g)};
-            vf by[2] = {vf_load(b->miny + g), vf_load(b->maxy + g)};
-            vf bz[2] = {vf_load(b->minz + g), vf_load(b->maxz + g)};
-            vf ax = vf_max(vf_abs(bx[0]), vf_abs(bx[1]));
-            vf ay = vf_max(vf_abs(by[0]), vf_abs(by[1]));
-            vf az = vf_max(vf_abs(bz[0]), vf_abs(bz[1]));
-            area = zero;
-            for (uint32_t v = 0; v < nv; v++) {
-                const cull_kview *k = &kv[v];
-                vm in = vu_has_bit(mask, k->bit);
-                if (!(vm_bits(in) & valid)) continue;
-                /* clip x, y, w of the 8 corners from per-axis products */
-                vf px[2][3], py[2][3], pw[2][3];
-                for (int s = 0; s < 2; s++) {
-                    px[s][0] = vf_mul(vf_set(k->cx[0]), bx[s]);
-                    px[s][1] = vf_mul(vf_set(k->cx[1]), by[s]);
-                    px[s][2] = vf_mul(vf_set(k->cx[2]), bz[s]);
-                    py[s][0] = vf_mul(vf_set(k->cy[0]), bx[s]);
-                    py[s][1] = vf_mul(vf_set(k->cy[1]), by[s]);
-                    py[s][2] = vf_mul(vf_set(k->cy[2]), bz[s]);
-                    pw[s][0] = vf_mul(vf_set(k->cw[0]), bx[s]);
-                    pw[s][1] = vf_mul(vf_set(k->cw[1]), by[s]);
-                    pw[s][2] = vf_mul(vf_set(k->cw[2]), bz[s]);
-                }
-                /* w below its rounding error counts as behind the eye */
-                vf wtol = vf_mul(vf_set(0x1p-20f),
-                                 vf_fma(vf_set(fabsf(k->cw[0])), ax,
-                                        vf_fma(vf_set(fabsf(k->cw[1])), ay,
-                                               vf_fma(vf_set(fabsf(k->cw[2])), az,
-                                                      vf_set(fabsf(k->cw[3]))))));
-                vf xmin = inf, ymin = inf, xmax = vf_sub(zero, inf), ymax = xmax;
-                vm behind = vf_lt(zero, zero);
-                for (int c = 0; c < 8; c++) {
-                    int i = c & 1, j = (c >> 1) & 1, l = c >> 2;
-                    vf X = vf_add(vf_add(px[i][0], px[j][1]), vf_add(px[l][2], vf_set(k->cx[3])));
-                    vf Y = vf_add(vf_add(py[i][0], py[j][1]), vf_add(py[l][2], vf_set(k->cy[3])));
-                    vf Wc = vf_add(vf_add(pw[i][0], pw[j][1]), vf_add(pw[l][2], vf_set(k->cw[3])));
-                    behind = vm_or(behind, vf_lt(Wc, wtol));
-                    vf rw = vf_div(vf_set(1.0f), Wc);
-                    vf nx = vf_mul(X, rw), ny = vf_mul(Y, rw);
-                    xmin = vf_min(xmin, nx);
-                    xmax = vf_max(xmax, nx);
-                    ymin = vf_min(ymin, ny);
-                    ymax = vf_max(ymax, ny);
-                }
-                /* NDC -> pixels, grown by 2^-16 of the viewport (above the
-                   float error of the projection) and clipped to it */
-                vf hw = vf_set(k->half_w), hh = vf_set(k->half_h);
-                vf vw = vf_set(k->vp_w), vh = vf_set(k->vp_h), one = vf_set(1.0f);
-                vf gx = vf_set(k->half_w * 0x1p-16f), gy = vf_set(k->half_h * 0x1p-16f);
-                vf x0 = vf_min(vf_max(vf_sub(vf_mul(vf_add(xmin, one), hw), gx), zero), vw);
-                vf x1 = vf_min(vf_max(vf_add(vf_mul(vf_add(xmax, one), hw), gx), zero), vw);
-                vf y0 = vf_min(vf_max(vf_sub(vf_mul(vf_add(ymin, one), hh), gy), zero), vh);
-                vf y1 = vf_min(vf_max(vf_add(vf_mul(vf_add(ymax, one), hh), gy), zero), vh);
-                vf a = vf_mul(vf_sub(x1, x0), vf_sub(y1, y0));
-                a = vf_select(behind, vf_mul(vw, vh), a);
-                if (p->min_area > 0) {
-                    vm small = vm_and(in, vf_lt(a, vf_set(p->min_area)));
-                    mask = vu_clear_bit(mask, small, k->bit);
-                    in = vm_andnot(in, small);
-                }
-                area = vf_select(in, vf_max(area, a), area);
+        mask[g] = vu_or_bit(mask[g], vis, bit);
+    }
+}
+
+/* Area of the viewport-clipped bounding rectangle of the projected box, for
+ * view k; behind is set for lanes with a corner at or behind the eye. */
+static inline vf box_area(const cull_kview *restrict k, const vf bx[2], const vf by[2], const vf bz[2])
+{
+    vf ax = vf_max(vf_abs(bx[0]), vf_abs(bx[1]));
+    vf ay = vf_max(vf_abs(by[0]), vf_abs(by[1]));
+    vf az = vf_max(vf_abs(bz[0]), vf_abs(bz[1]));
+    const vf zero = vf_set(0.0f), inf = vf_set(INFINITY);
+    /* clip x, y, w of the 8 corners from per-axis products */
+    vf px[2][3], py[2][3], pw[2][3];
+#pragma GCC unroll 2
+    for (int s = 0; s < 2; s++) {
+        px[s][0] = vf_mul(vf_set(k->cx[0]), bx[s]);
+        px[s][1] = vf_mul(vf_set(k->cx[1]), by[s]);
+        px[s][2] = vf_fma(vf_set(k->cx[2]), bz[s], vf_set(k->cx[3]));
+        py[s][0] = vf_mul(vf_set(k->cy[0]), bx[s]);
+        py[s][1] = vf_mul(vf_set(k->cy[1]), by[s]);
+        py[s][2] = vf_fma(vf_set(k->cy[2]), bz[s], vf_set(k->cy[3]));
+        pw[s][0] = vf_mul(vf_set(k->cw[0]), bx[s]);
+        pw[s][1] = vf_mul(vf_set(k->cw[1]), by[s]);
+        pw[s][2] = vf_fma(vf_set(k->cw[2]), bz[s], vf_set(k->cw[3]));
+    }
+    /* w below its rounding error counts as behind the eye */
+    vf wtol = vf_max(vf_set(1e-30f),
+                     vf_mul(vf_set(0x1p-20f),
+                            vf_fma(vf_set(fabsf(k->cw[0])), ax,
+                                   vf_fma(vf_set(fabsf(k->cw[1])), ay,
+                                          vf_fma(vf_set(fabsf(k->cw[2])), az, vf_set(fabsf(k->cw[3])))))));
+    vf xmin = inf, ymin = inf, xmax = vf_sub(zero, inf), ymax = xmax;
+    /* the nearest corner's w, from the per-axis minima */
+    vf wmin = vf_add(vf_add(vf_min(pw[0][0], pw[1][0]), vf_min(pw[0][1], pw[1][1])),
+                     vf_min(pw[0][2], pw[1][2]));
+    vm behind = vf_lt(wmin, wtol);
+#pragma GCC unroll 8
+    for (int c = 0; c < 8; c++) {
+        int i = c & 1, j = (c >> 1) & 1, l = c >> 2;
+        vf X = vf_add(vf_add(px[i][0], px[j][1]), px[l][2]);
+        vf Y = vf_add(vf_add(py[i][0], py[j][1]), py[l][2]);
+        vf Wc = vf_add(vf_add(pw[i][0], pw[j][1]), pw[l][2]);
+        vf rw = vf_rcp(Wc);
+        vf nx = vf_mul(X, rw), ny = vf_mul(Y, rw);
+        xmin = vf_min(xmin, nx);
+        xmax = vf_max(xmax, nx);
+        ymin = vf_min(ymin, ny);
+        ymax = vf_max(ymax, ny);
+    }
+    /* NDC -> pixels, grown by 2^-16 of the viewport (above the float error
+       of the projection) and clipped to it */
+    vf hw = vf_set(k->half_w), hh = vf_set(k->half_h);
+    vf vw = vf_set(k->vp_w), vh = vf_set(k->vp_h), one = vf_set(1.0f);
+    vf gx = vf_set(k->half_w * 0x1p-16f), gy = vf_set(k->half_h * 0x1p-16f);
+    vf x0 = vf_min(vf_max(vf_sub(vf_mul(vf_add(xmin, one), hw), gx), zero), vw);
+    vf x1 = vf_min(vf_max(vf_add(vf_mul(vf_add(xmax, one), hw), gx), zero), vw);
+    vf y0 = vf_min(vf_max(vf_sub(vf_mul(vf_add(ymin, one), hh), gy), zero), vh);
+    vf y1 = vf_min(vf_max(vf_add(vf_mul(vf_add(ymax, one), hh), gy), zero), vh);
+    vf a = vf_mul(vf_sub(x1, x0), vf_sub(y1, y0));
+    return vf_select(behind, vf_mul(vw, vh), a);
+}
+
+
+/* A cheap upper bound on box_area, for a threshold without exact areas:
+ * over the box, clip x and w lie in the centre/extent intervals Xc +- Ex and
+ * Wc +- Ew, so x = X/w lies between the four quotients of their ends (two
+ * reciprocals instead of eight). Never below the exact rectangle, so a
+ * threshold on it never culls what the exact test keeps; it keeps a few
+ * more (BENCHMARKS.md gives how many). Padded as the exact path. */
+static inline vf area_upper(const cull_kview *restrict k, const vf bx[2], const vf by[2], const vf bz[2])
+{
+    const vf zero = vf_set(0.0f), half = vf_set(0.5f), one = vf_set(1.0f);
+    vf cx = vf_mul(vf_add(bx[0], bx[1]), half), ex = vf_mul(vf_sub(bx[1], bx[0]), half);
+    vf cy = vf_mul(vf_add(by[0], by[1]), half), ey = vf_mul(vf_sub(by[1], by[0]), half);
+    vf cz = vf_mul(vf_add(bz[0], bz[1]), half), ez = vf_mul(vf_sub(bz[1], bz[0]), half);
+    vf X = vf_fma(vf_set(k->cx[0]), cx, vf_fma(vf_set(k->cx[1]), cy, vf_fma(vf_set(k->cx[2]), cz, vf_set(k->cx[3]))));
+    vf Y = vf_fma(vf_set(k->cy[0]), cx, vf_fma(vf_set(k->cy[1]), cy, vf_fma(vf_set(k->cy[2]), cz, vf_set(k->cy[3]))));
+    vf Wc = vf_fma(vf_set(k->cw[0]), cx, vf_fma(vf_set(k->cw[1]), cy, vf_fma(vf_set(k->cw[2]), cz, vf_set(k->cw[3]))));
+    vf Ex = vf_fma(vf_set(fabsf(k->cx[0])), ex, vf_fma(vf_set(fabsf(k->cx[1])), ey, vf_mul(vf_set(fabsf(k->cx[2])), ez)));
+    vf Ey = vf_fma(vf_set(fabsf(k->cy[0])), ex, vf_fma(vf_set(fabsf(k->cy[1])), ey, vf_mul(vf_set(fabsf(k->cy[2])), ez)));
+    vf Ew = vf_fma(vf_set(fabsf(k->cw[0])), ex, vf_fma(vf_set(fabsf(k->cw[1])), ey, vf_mul(vf_set(fabsf(k->cw[2])), ez)));
+    /* w within its rounding error of 0: no bound (the eye may be inside);
+       the margin also covers the rounding of Ex, Ey and the quotients */
+    vf wtol = vf_max(vf_set(1e-30f), vf_mul(vf_set(0x1p-20f), vf_add(vf_abs(Wc), Ew)));
+    vf wlo = vf_sub(Wc, Ew), whi = vf_add(Wc, Ew);
+    vm front = vf_ge(wlo, wtol);
+    vf rlo = vf_rcp(wlo), rhi = vf_rcp(whi);
+    vf xa = vf_sub(X, Ex), xb = vf_add(X, Ex), ya = vf_sub(Y, Ey), yb = vf_add(Y, Ey);
+    vf x0 = vf_min(vf_mul(xa, rlo), vf_mul(xa, rhi)), x1 = vf_max(vf_mul(xb, rlo), vf_mul(xb, rhi));
+    vf y0 = vf_min(vf_mul(ya, rlo), vf_mul(ya, rhi)), y1 = vf_max(vf_mul(yb, rlo), vf_mul(yb, rhi));
+    vf hw = vf_set(k->half_w), hh = vf_set(k->half_h), vw = vf_set(k->vp_w), vh = vf_set(k->vp_h);
+    vf gx = vf_set(k->half_w * 0x1p-16f), gy = vf_set(k->half_h * 0x1p-16f);
+    vf px0 = vf_min(vf_max(vf_sub(vf_mul(vf_add(x0, one), hw), gx), zero), vw);
+    vf px1 = vf_min(vf_max(vf_add(vf_mul(vf_add(x1, one), hw), gx), zero), vw);
+    vf py0 = vf_min(vf_max(vf_sub(vf_mul(vf_add(y0, one), hh), gy), zero), vh);
+    vf py1 = vf_min(vf_max(vf_add(vf_mul(vf_add(y1, one), hh), gy), zero), vh);
+    return vf_select(front, vf_mul(vf_sub(px1, px0), vf_sub(py1, py0)), vf_mul(vw, vh));
+}
+
+/* ---- writing results ------------------------------------------------------ */
+#if W == 8
+/* Left-pack for AVX2 (no compress instruction): byte k of entry m is the
+ * lane of the k-th set bit of m. */
+static const uint64_t cull_pack_lut[256] = {
+    0x0000000000000000ull, 0x0000000000000000ull, 0x0000000000000001ull, 0x0000000000000100ull,
+    0x0000000000000002ull, 0x0000000000000200ull, 0x0000000000000201ull, 0x0000000000020100ull,
+    0x0000000000000003ull, 0x0000000000000300ull, 0x0000000000000301ull, 0x0000000000030100ull,
+    0x0000000000000302ull, 0x0000000000030200ull, 0x0000000000030201ull, 0x0000000003020100ull,
+    0x0000000000000004ull, 0x0000000000000400ull, 0x0000000000000401ull, 0x0000000000040100ull,
+    0x0000000000000402ull, 0x0000000000040200ull, 0x0000000000040201ull, 0x0000000004020100ull,
+    0x0000000000000403ull, 0x0000000000040300ull, 0x0000000000040301ull, 0x0000000004030100ull,
+    0x0000000000040302ull, 0x0000000004030200ull, 0x0000000004030201ull, 0x0000000403020100ull,
+    0x0000000000000005ull, 0x0000000000000500ull, 0x0000000000000501ull, 0x0000000000050100ull,
+    0x0000000000000502ull, 0x0000000000050200ull, 0x0000000000050201ull, 0x0000000005020100ull,
+    0x0000000000000503ull, 0x0000000000050300ull, 0x0000000000050301ull, 0x0000000005030100ull,
+    0x0000000000050302ull, 0x0000000005030200ull, 0x0000000005030201ull, 0x0000000503020100ull,
+    0x0000000000000504ull, 0x0000000000050400ull, 0x0000000000050401ull, 0x0000000005040100ull,
+    0x0000000000050402ull, 0x0000000005040200ull, 0x0000000005040201ull, 0x0000000504020100ull,
+    0x0000000000050403ull, 0x0000000005040300ull, 0x0000000005040301ull, 0x0000000504030100ull,
+    0x0000000005040302ull, 0x0000000504030200ull, 0x0000000504030201ull, 0x0000050403020100ull,
+    0x0000000000000006ull, 0x0000000000000600ull, 0x0000000000000601ull, 0x0000000000060100ull,
+    0x0000000000000602ull, 0x0000000000060200ull, 0x0000000000060201ull, 0x0000000006020100ull,
+    0x0000000000000603ull, 0x0000000000060300ull, 0x0000000000060301ull, 0x0000000006030100ull,
+    0x0000000000060302ull, 0x0000000006030200ull, 0x0000000006030201ull, 0x0000000603020100ull,
+    0x0000000000000604ull, 0x0000000000060400ull, 0x0000000000060401ull, 0x0000000006040100ull,
+    0x0000000000060402ull, 0x0000000006040200ull, 0x0000000006040201ull, 0x0000000604020100ull,
+    0x0000000000060403ull, 0x0000000006040300ull, 0x0000000006040301ull, 0x0000000604030100ull,
+    0x0000000006040302ull, 0x0000000604030200ull, 0x0000000604030201ull, 0x0000060403020100ull,
+    0x0000000000000605ull, 0x0000000000060500ull, 0x0000000000060501ull, 0x0000000006050100ull,
+    0x0000000000060502ull, 0x0000000006050200ull, 0x0000000006050201ull, 0x0000000605020100ull,
+    0x0000000000060503ull, 0x0000000006050300ull, 0x0000000006050301ull, 0x0000000605030100ull,
+    0x0000000006050302ull, 0x0000000605030200ull, 0x0000000605030201ull, 0x0000060503020100ull,
+    0x0000000000060504ull, 0x0000000006050400ull, 0x0000000006050401ull, 0x0000000605040100ull,
+    0x0000000006050402ull, 0x0000000605040200ull, 0x0000000605040201ull, 0x0000060504020100ull,
+    0x0000000006050403ull, 0x0000000605040300ull, 0x0000000605040301ull, 0x0000060504030100ull,
+    0x0000000605040302ull, 0x0000060504030200ull, 0x0000060504030201ull, 0x0006050403020100ull,
+    0x0000000000000007ull, 0x0000000000000700ull, 0x0000000000000701ull, 0x0000000000070100ull,
+    0x0000000000000702ull, 0x0000000000070200ull, 0x0000000000070201ull, 0x0000000007020100ull,
+    0x0000000000000703ull, 0x0000000000070300ull, 0x0000000000070301ull, 0x0000000007030100ull,
+    0x0000000000070302ull, 0x0000000007030200ull, 0x0000000007030201ull, 0x0000000703020100ull,
+    0x0000000000000704ull, 0x0000000000070400ull, 0x0000000000070401ull, 0x0000000007040100ull,
+    0x0000000000070402ull, 0x0000000007040200ull, 0x0000000007040201ull, 0x0000000704020100ull,
+    0x0000000000070403ull, 0x0000000007040300ull, 0x0000000007040301ull, 0x0000000704030100ull,
+    0x0000000007040302ull, 0x0000000704030200ull, 0x0000000704030201ull, 0x0000070403020100ull,
+    0x0000000000000705ull, 0x0000000000070500ull, 0x0000000000070501ull, 0x0000000007050100ull,
+    0x0000000000070502ull, 0x0000000007050200ull, 0x0000000007050201ull, 0x0000000705020100ull,
+    0x0000000000070503ull, 0x0000000007050300ull, 0x0000000007050301ull, 0x0000000705030100ull,
+    0x0000000007050302ull, 0x0000000705030200ull, 0x0000000705030201ull, 0x0000070503020100ull,
+    0x0000000000070504ull, 0x0000000007050400ull, 0x0000000007050401ull, 0x0000000705040100ull,
+    0x0000000007050402ull, 0x0000000705040200ull, 0x0000000705040201ull, 0x0000070504020100ull,
+    0x0000000007050403ull, 0x0000000705040300ull, 0x0000000705040301ull, 0x0000070504030100ull,
+    0x0000000705040302ull, 0x0000070504030200ull, 0x0000070504030201ull, 0x0007050403020100ull,
+    0x0000000000000706ull, 0x0000000000070600ull, 0x0000000000070601ull, 0x0000000007060100ull,
+    0x0000000000070602ull, 0x0000000007060200ull, 0x0000000007060201ull, 0x0000000706020100ull,
+    0x0000000000070603ull, 0x0000000007060300ull, 0x0000000007060301ull, 0x0000000706030100ull,
+    0x0000000007060302ull, 0x0000000706030200ull, 0x0000000706030201ull, 0x0000070603020100ull,
+    0x0000000000070604ull, 0x0000000007060400ull, 0x0000000007060401ull, 0x0000000706040100ull,
+    0x0000000007060402ull, 0x0000000706040200ull, 0x0000000706040201ull, 0x0000070604020100ull,
+    0x0000000007060403ull, 0x0000000706040300ull, 0x0000000706040301ull, 0x0000070604030100ull,
+    0x0000000706040302ull, 0x0000070604030200ull, 0x0000070604030201ull, 0x0007060403020100ull,
+    0x0000000000070605ull, 0x0000000007060500ull, 0x0000000007060501ull, 0x0000000706050100ull,
+    0x0000000007060502ull, 0x0000000706050200ull, 0x0000000706050201ull, 0x0000070605020100ull,
+    0x0000000007060503ull, 0x0000000706050300ull, 0x0000000706050301ull, 0x0000070605030100ull,
+    0x0000000706050302ull, 0x0000070605030200ull, 0x0000070605030201ull, 0x0007060503020100ull,
+    0x0000000007060504ull, 0x0000000706050400ull, 0x0000000706050401ull, 0x0000070605040100ull,
+    0x0000000706050402ull, 0x0000070605040200ull, 0x0000070605040201ull, 0x0007060504020100ull,
+    0x0000000706050403ull, 0x0000070605040300ull, 0x0000070605040301ull, 0x0007060504030100ull,
+    0x0000070605040302ull, 0x0007060504030200ull, 0x0007060504030201ull, 0x0706050403020100ull,
+};
+
+/* Writes the live lanes of group o as results; stores all 8 slots (callers
+ * leave CULL_RESULT_PAD spare entries), returns how many are valid. */
+static inline uint32_t emit_group(cull_result *restrict out, const cull_block *restrict b, uint32_t o,
+                                  uint32_t live, vu mask, vf area)
+{
+    __m256i idx = _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)&cull_pack_lut[live]));
+    __m256i h = _mm256_load_si256((const __m256i *)(b->handle + o));
+    __m128i cl = _mm_load_si128((const __m128i *)(b->class_id + o));
+    __m128i sl = _mm_load_si128((const __m128i *)(b->sublevel + o));
+    __m256i cs = _mm256_set_m128i(_mm_unpackhi_epi16(cl, sl), _mm_unpacklo_epi16(cl, sl));
+    h = _mm256_permutevar8x32_epi32(h, idx);
+    __m256i m = _mm256_permutevar8x32_epi32(mask, idx);
+    cs = _mm256_permutevar8x32_epi32(cs, idx);
+    __m256i a = _mm256_permutevar8x32_epi32(_mm256_castps_si256(area), idx);
+    /* 4 x 8 transpose into eight {handle, mask, class|sublevel, area} */
+    __m256i t0 = _mm256_unpacklo_epi32(h, m), t1 = _mm256_unpackhi_epi32(h, m);
+    __m256i t2 = _mm256_unpacklo_epi32(cs, a), t3 = _mm256_unpackhi_epi32(cs, a);
+    __m256i r0 = _mm256_unpacklo_epi64(t0, t2), r1 = _mm256_unpackhi_epi64(t0, t2);
+    __m256i r2 = _mm256_unpacklo_epi64(t1, t3), r3 = _mm256_unpackhi_epi64(t1, t3);
+    __m256i *d = (__m256i *)out;
+    _mm256_storeu_si256(d + 0, _mm256_permute2x128_si256(r0, r1, 0x20));
+    _mm256_storeu_si256(d + 1, _mm256_permute2x128_si256(r2, r3, 0x20));
+    _mm256_storeu_si256(d + 2, _mm256_permute2x128_si256(r0, r1, 0x31));
+    _mm256_storeu_si256(d + 3, _mm256_permute2x128_si256(r2, r3, 0x31));
+    return (uint32_t)__builtin_popcount(live);
+}
+#else
+static inline uint32_t emit_group(cull_result *restrict out, const cull_block *restrict b, uint32_t o,
+                                  uint32_t live, vu mask, vf area)
+{
+    uint32_t mk[W], k = 0;
+    float ar[W];
+    vu_store(mk, mask);
+    vf_store(ar, area);
+    do {
+        uint32_t l = (uint32_t)__builtin_ctz(live);
+        live &= live - 1;
+        cull_result *res = &out[k++];
+        res->handle = b->handle[o + l];
+        res->view_mask = mk[l];
+        res->class_id = b->class_id[o + l];
+        res->sublevel = b->sublevel[o + l];
+        res->screen_area = ar[l];
+    } while (live);
+    return k;
+}
+#endif
+
+uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_kview *restrict kv, uint32_t nv,
+                          const cull_kparams *restrict p, cull_result *restrict out, cull_kcount *restrict cnt)
+{
+    const uint32_t ng = (n + W - 1) / W;
+    const bool aabb = p->aabb, want_area = p->area, exact_area = p->exact_area;
+    const float min_area = p->min_area;
+    vu mask[CULL_KV_MAX_GROUPS], msph[CULL_KV_MAX_GROUPS];
+    for (uint32_t g = 0; g < ng; g++) mask[g] = msph[g] = vu_zero();
+
+    for (uint32_t v = 0; v < nv; v++) {
+        const cull_kview *k = &kv[v];
+        switch (k->nplanes) {
+        case 0:
+            for (uint32_t g = 0; g < ng; g++) {
+                mask[g] = vu_or_bit(mask[g], vm_ones(), k->bit);
+                msph[g] = vu_or_bit(msph[g], vm_ones(), k->bit);
             }
-            live = vu_nonzero_bits(mask) & valid;
-        }
-        cnt->after_area += (uint32_t)__builtin_popcount(live);
-        if (!live) continue;
-        uint32_t mk[W];
-        float ar[W];
-        vu_store(mk, mask);
-        vf_store(ar, area);
-        while (live) {
-            uint32_t l = (uint32_t)__builtin_ctz(live);
-            live &= live - 1;
-            uint32_t e = g + l;
-            out[written++] = (cull_result){
-                .handle = b->handle[e],
-                .view_mask = mk[l],
-                .class_id = b->class_id[e],
-                .sublevel = b->sublevel[e],
-                .screen_area = ar[l],
-            };
+            break;
+        case 1: sphere_pass(b, ng, k, 1, aabb, mask, msph); break;
+        case 2: sphere_pass(b, ng, k, 2, aabb, mask, msph); break;
+        case 3: sphere_pass(b, ng, k, 3, aabb, mask, msph); break;
+        case 4: sphere_pass(b, ng, k, 4, aabb, mask, msph); break;
+        case 5: sphere_pass(b, ng, k, 5, aabb, mask, msph); break;
+        default: sphere_pass(b, ng, k, 6, aabb, mask, msph); break;
         }
     }
+
+    /* lanes past n hold stale data: mask them here, once */
+    for (uint32_t g = 0; g < ng; g++) {
+        const uint32_t left = n - g * W;
+        if (left < W) {
+            vm ok = vf_lt(vf_load(cull_lane_index), vf_set((float)left));
+            mask[g] = vu_clear_bit(mask[g], vm_andnot(vm_ones(), ok), ~0u);
+            msph[g] = vu_clear_bit(msph[g], vm_andnot(vm_ones(), ok), ~0u);
+        }
+    }
+    uint32_t c_sph = 0, c_aabb = 0;
+    for (uint32_t g = 0; g < ng; g++) {
+        c_sph += (uint32_t)__builtin_popcount(vu_nonzero_bits(msph[g]));
+        c_aabb += (uint32_t)__builtin_popcount(vu_nonzero_bits(mask[g]));
+    }
+
+    /* screen area, view outer so the view's constants stay in registers */
+    vf area[CULL_KV_MAX_GROUPS];
+    for (uint32_t g = 0; g < ng; g++) area[g] = vf_set(exact_area ? 0.0f : -1.0f);
+    if (want_area && c_aabb) {
+        const vf thr = vf_set(min_area);
+        for (uint32_t v = 0; v < nv; v++) {
+            const cull_kview *k = &kv[v];
+            for (uint32_t g = 0; g < ng; g++) {
+                vm in = vu_has_bit(mask[g], k->bit);
+                if (!vm_bits(in)) continue;
+                const uint32_t o = g * W;
+                vf bx[2] = {vf_load(b->minx + o), vf_load(b->maxx + o)};
+                vf by[2] = {vf_load(b->miny + o), vf_load(b->maxy + o)};
+                vf bz[2] = {vf_load(b->minz + o), vf_load(b->maxz + o)};
+                if (exact_area) {
+                    vf a = box_area(k, bx, by, bz);
+                    if (min_area > 0) {
+                        vm small = vm_and(in, vf_lt(a, thr));
+                        mask[g] = vu_clear_bit(mask[g], small, k->bit);
+                        in = vm_andnot(in, small);
+                    }
+                    area[g] = vf_select(in, vf_max(area[g], a), area[g]);
+                } else {
+                    /* threshold only: the cheap upper bound decides */
+                    vm small = vm_and(in, vf_lt(area_upper(k, bx, by, bz), thr));
+                    mask[g] = vu_clear_bit(mask[g], small, k->bit);
+                }
+            }
+        }
+    }
+
+    uint32_t written = 0, c_area = 0;
+    for (uint32_t g = 0; g < ng; g++) {
+        uint32_t live = vu_nonzero_bits(mask[g]);
+        if (!live) continue;
+        c_area += (uint32_t)__builtin_popcount(live);
+        written += emit_group(out + written, b, g * W, live, mask[g], area[g]);
+    }
+    cnt->tested += n;
+    cnt->after_spheres += c_sph;
+    cnt->after_aabb += c_aabb;
+    cnt->after_area += c_area;
     return written;
 }

@@ -9,4 +9,6 @@
 #include "cull_simd.h"
 #define CULL_KERNEL_NAME cull_block_avx2
 #include "cull_kernel.inl"
+#define CULL_CELLS_NAME cull_cells_avx2
+#include "cull_cells.inl"
 #endif

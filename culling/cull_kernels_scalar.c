@@ -9,3 +9,5 @@
 #include "cull_simd.h"
 #define CULL_KERNEL_NAME cull_block_scalar
 #include "cull_kernel.inl"
+#define CULL_CELLS_NAME cull_cells_scalar
+#include "cull_cells.inl"

@@ -9,4 +9,6 @@
 #include "cull_simd.h"
 #define CULL_KERNEL_NAME cull_block_sse41
 #include "cull_kernel.inl"
+#define CULL_CELLS_NAME cull_cells_sse41
+#include "cull_cells.inl"
 #endif

@@ -1,7 +1,8 @@
 /*
  * cull_query.c — the query pipeline driver.
  *
- *   1. cell stage (double): each cell's bounds against each view's planes.
+ *   1. cell stage (SIMD, double): each cell's bounds against each view's
+ *      planes (cull_cells.inl).
  *      A cell outside a view drops that view; a plane the cell is entirely
  *      inside is dropped; a cell with no views left is skipped whole. What
  *      survives is re-based to the cell origin and rounded to float
@@ -17,6 +18,7 @@
  */
 #include "cull_internal.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -39,6 +41,9 @@ struct cull_ctx {
     cull_pool *pool;
     uint32_t isa;
     cull_block_fn kernel;
+    cull_cells_fn cells;
+    uint8_t *codes;         /* cell stage output: [view][cell] */
+    size_t codes_cap;
     cull_kview *kv;
     size_t kv_cap;
     cull_item *items;
@@ -57,6 +62,7 @@ int cull_ctx_create(cull_pool *pool, cull_ctx **out)
     c->pool = pool;
     c->isa = cull_isa_default();
     c->kernel = cull_isa_kernel(c->isa);
+    c->cells = cull_isa_cells(c->isa);
     *out = c;
     return CULL_OK;
 }
@@ -65,6 +71,7 @@ void cull_ctx_destroy(cull_ctx *c)
 {
     if (!c) return;
     free(c->kv);
+    free(c->codes);
     free(c->items);
     free(c->chunks);
     for (uint32_t i = 0; i < MAX_THREADS; i++) free(c->tres[i]);
@@ -76,6 +83,7 @@ int cull_ctx_set_isa(cull_ctx *c, uint32_t isa)
     if (!c || isa >= CULL_ISA_COUNT || !cull_isa_supported(isa)) return CULL_ERR_INVALID;
     c->isa = isa;
     c->kernel = cull_isa_kernel(isa);
+    c->cells = cull_isa_cells(isa);
     return CULL_OK;
 }
 
@@ -96,40 +104,29 @@ static bool reserve(void **p, size_t *cap, size_t need, size_t elem)
     return true;
 }
 
-/* Stage 1 for one cell: fills kv with the views that may see the cell and
- * returns how many. */
-static uint32_t cell_views(const cull_cell *cell, const cull_query_desc *q, bool area,
-                           cull_kview *kv)
+/* The kviews of one cell: every view whose code says it may see the cell,
+ * with the planes the cell straddles re-based to the cell origin (double,
+ * then float). Returns how many. */
+static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, const uint8_t *codes,
+                            size_t stride, uint32_t ci, bool area, cull_kview *kv)
 {
     uint32_t nv = 0;
     for (uint32_t v = 0; v < q->view_count; v++) {
+        uint32_t code = codes[v * stride + ci];
+        if (code & 0x80u) continue;
         const cull_view *view = &q->views[v];
         double t[3] = {cell->origin[0] - view->origin[0], cell->origin[1] - view->origin[1],
                        cell->origin[2] - view->origin[2]};
-        cull_kview *k = &kv[nv];
+        cull_kview *k = &kv[nv++];
         uint32_t np = 0;
-        bool outside = false;
-        for (uint32_t i = 0; i < view->plane_count; i++) {
-            const double *pl = view->plane[i];
-            double dc = pl[0] * t[0] + pl[1] * t[1] + pl[2] * t[2] + pl[3];
-            double hi = dc, lo = dc;
-            for (int a = 0; a < 3; a++) {
-                double u = pl[a] * (double)cell->bmax[a], l = pl[a] * (double)cell->bmin[a];
-                hi += u > l ? u : l;
-                lo += u > l ? l : u;
-            }
-            if (hi < 0) {
-                outside = true;
-                break;
-            }
-            if (lo >= 0) continue; /* the whole cell is inside this plane */
+        for (; code; code &= code - 1) {
+            const double *pl = view->plane[__builtin_ctz(code)];
             k->px[np] = (float)pl[0];
             k->py[np] = (float)pl[1];
             k->pz[np] = (float)pl[2];
-            k->pd[np] = (float)dc;
+            k->pd[np] = (float)(pl[0] * t[0] + pl[1] * t[1] + pl[2] * t[2] + pl[3]);
             np++;
         }
-        if (outside) continue;
         k->nplanes = np;
         k->bit = 1u << v;
         if (area) {
@@ -139,15 +136,13 @@ static uint32_t cell_views(const cull_cell *cell, const cull_query_desc *q, bool
             for (int r = 0; r < 3; r++) {
                 int row = rows[r];
                 for (int c = 0; c < 3; c++) dst[r][c] = (float)m[c * 4 + row];
-                dst[r][3] = (float)(m[row] * t[0] + m[4 + row] * t[1] + m[8 + row] * t[2] +
-                                    m[12 + row]);
+                dst[r][3] = (float)(m[row] * t[0] + m[4 + row] * t[1] + m[8 + row] * t[2] + m[12 + row]);
             }
             k->vp_w = (float)view->viewport_w;
             k->vp_h = (float)view->viewport_h;
             k->half_w = 0.5f * k->vp_w;
             k->half_h = 0.5f * k->vp_h;
         }
-        nv++;
     }
     return nv;
 }
@@ -211,6 +206,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         .min_area = q->min_screen_area,
         .aabb = !(q->flags & CULL_Q_NO_AABB),
         .area = q->min_screen_area > 0 || (q->flags & CULL_Q_WANT_AREA),
+        .exact_area = (q->flags & CULL_Q_WANT_AREA) != 0,
     };
 
     /* stage 1: cells; sized for the worst case up front so it cannot fail
@@ -223,15 +219,36 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     if (!reserve((void **)&c->kv, &c->kv_cap, ncells * q->view_count + 1, sizeof *c->kv) ||
         !reserve((void **)&c->items, &c->items_cap, nblocks + 1, sizeof *c->items))
         return CULL_ERR_NOMEM;
+    /* world-space planes for the cell kernel */
+    cull_cplane cpl[CULL_MAX_VIEWS][6];
+    for (uint32_t v = 0; v < q->view_count; v++) {
+        const cull_view *view = &q->views[v];
+        for (uint32_t i = 0; i < view->plane_count; i++) {
+            const double *pl = view->plane[i];
+            for (int a = 0; a < 3; a++) {
+                cpl[v][i].n[a] = pl[a];
+                cpl[v][i].an[a] = fabs(pl[a]);
+            }
+            cpl[v][i].d = pl[3] - pl[0] * view->origin[0] - pl[1] * view->origin[1] - pl[2] * view->origin[2];
+        }
+    }
+    size_t max_cells = 0;
+    for (int g = 0; g < 2; g++)
+        if (w->grid[g].ncells > max_cells) max_cells = w->grid[g].ncells;
+    size_t stride = (max_cells + 4) & ~(size_t)3;
+    if (!reserve((void **)&c->codes, &c->codes_cap, stride * q->view_count, 1)) return CULL_ERR_NOMEM;
     uint32_t nkv = 0, nitems = 0, cells_tested = 0, cells_culled = 0, tested = 0;
     for (int g = 0; g < 2; g++) {
         if ((q->flags & CULL_Q_STATIC_ONLY) && g == 1) continue;
         if ((q->flags & CULL_Q_DYNAMIC_ONLY) && g == 0) continue;
         const cull_grid *grid = &w->grid[g];
+        if (!grid->ncells) continue;
+        for (uint32_t v = 0; v < q->view_count; v++)
+            c->cells(grid, cpl[v], q->views[v].plane_count, c->codes + v * stride);
         for (uint32_t i = 0; i < grid->ncells; i++) {
             const cull_cell *cell = grid->cells[i];
             cells_tested++;
-            uint32_t nv = cell_views(cell, q, kp.area, c->kv + nkv);
+            uint32_t nv = cell_kviews(cell, q, c->codes, stride, i, kp.area, c->kv + nkv);
             if (!nv) {
                 cells_culled++;
                 continue;
@@ -267,7 +284,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         if (!reserve((void **)&c->chunks, &c->chunks_cap, nchunks + 1, sizeof *c->chunks))
             return CULL_ERR_NOMEM;
         for (uint32_t t = 0; t < threads; t++)
-            if (!reserve((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + 1,
+            if (!reserve((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
                          sizeof(cull_result)))
                 return CULL_ERR_NOMEM;
         job j = {.c = c, .kp = &kp, .items = c->items, .nitems = nitems, .nchunks = nchunks,

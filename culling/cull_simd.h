@@ -25,6 +25,12 @@ static inline vf vf_add(vf a, vf b) { return _mm256_add_ps(a, b); }
 static inline vf vf_sub(vf a, vf b) { return _mm256_sub_ps(a, b); }
 static inline vf vf_mul(vf a, vf b) { return _mm256_mul_ps(a, b); }
 static inline vf vf_div(vf a, vf b) { return _mm256_div_ps(a, b); }
+/* 1/a to ~2^-22 relative: rcp (12 bits) and one Newton step */
+static inline vf vf_rcp(vf a)
+{
+    __m256 r = _mm256_rcp_ps(a);
+    return _mm256_mul_ps(r, _mm256_fnmadd_ps(a, r, _mm256_set1_ps(2.0f)));
+}
 static inline vf vf_fma(vf a, vf b, vf c) { return _mm256_fmadd_ps(a, b, c); }
 static inline vf vf_min(vf a, vf b) { return _mm256_min_ps(a, b); }
 static inline vf vf_max(vf a, vf b) { return _mm256_max_ps(a, b); }
@@ -61,6 +67,23 @@ static inline uint32_t vu_nonzero_bits(vu a)
 }
 static inline void vu_store(uint32_t *p, vu a) { _mm256_storeu_si256((__m256i *)p, a); }
 
+
+/* doubles, for the cell stage */
+#define WD 4
+typedef __m256d vd;
+static inline vd vd_load(const double *p) { return _mm256_loadu_pd(p); }
+static inline vd vd_set(double a) { return _mm256_set1_pd(a); }
+static inline vd vd_add(vd a, vd b) { return _mm256_add_pd(a, b); }
+static inline vd vd_sub(vd a, vd b) { return _mm256_sub_pd(a, b); }
+static inline vd vd_fma(vd a, vd b, vd c) { return _mm256_fmadd_pd(a, b, c); }
+static inline vd vd_lt(vd a, vd b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
+static inline vd vd_zero(void) { return _mm256_setzero_pd(); }
+/* acc |= (m ? bit : 0), per 64-bit lane */
+static inline vd vd_or_bit(vd acc, vd m, uint64_t bit)
+{
+    return _mm256_or_pd(acc, _mm256_and_pd(m, _mm256_castsi256_pd(_mm256_set1_epi64x((long long)bit))));
+}
+static inline void vd_store_bits(uint64_t *p, vd a) { _mm256_storeu_pd((double *)p, a); }
 #elif CULL_SIMD_ISA == 2
 #include <smmintrin.h>
 #define W 4
@@ -74,6 +97,11 @@ static inline vf vf_add(vf a, vf b) { return _mm_add_ps(a, b); }
 static inline vf vf_sub(vf a, vf b) { return _mm_sub_ps(a, b); }
 static inline vf vf_mul(vf a, vf b) { return _mm_mul_ps(a, b); }
 static inline vf vf_div(vf a, vf b) { return _mm_div_ps(a, b); }
+static inline vf vf_rcp(vf a)
+{
+    __m128 r = _mm_rcp_ps(a);
+    return _mm_mul_ps(r, _mm_sub_ps(_mm_set1_ps(2.0f), _mm_mul_ps(a, r)));
+}
 static inline vf vf_fma(vf a, vf b, vf c) { return _mm_add_ps(_mm_mul_ps(a, b), c); }
 static inline vf vf_min(vf a, vf b) { return _mm_min_ps(a, b); }
 static inline vf vf_max(vf a, vf b) { return _mm_max_ps(a, b); }
@@ -107,6 +135,22 @@ static inline uint32_t vu_nonzero_bits(vu a)
 }
 static inline void vu_store(uint32_t *p, vu a) { _mm_storeu_si128((__m128i *)p, a); }
 
+
+/* doubles, for the cell stage */
+#define WD 2
+typedef __m128d vd;
+static inline vd vd_load(const double *p) { return _mm_loadu_pd(p); }
+static inline vd vd_set(double a) { return _mm_set1_pd(a); }
+static inline vd vd_add(vd a, vd b) { return _mm_add_pd(a, b); }
+static inline vd vd_sub(vd a, vd b) { return _mm_sub_pd(a, b); }
+static inline vd vd_fma(vd a, vd b, vd c) { return _mm_add_pd(_mm_mul_pd(a, b), c); }
+static inline vd vd_lt(vd a, vd b) { return _mm_cmplt_pd(a, b); }
+static inline vd vd_zero(void) { return _mm_setzero_pd(); }
+static inline vd vd_or_bit(vd acc, vd m, uint64_t bit)
+{
+    return _mm_or_pd(acc, _mm_and_pd(m, _mm_castsi128_pd(_mm_set1_epi64x((long long)bit))));
+}
+static inline void vd_store_bits(uint64_t *p, vd a) { _mm_storeu_pd((double *)p, a); }
 #else /* scalar: one lane; the compiler is kept from vectorising it */
 #define W 1
 typedef float vf;
@@ -119,6 +163,7 @@ static inline vf vf_add(vf a, vf b) { return a + b; }
 static inline vf vf_sub(vf a, vf b) { return a - b; }
 static inline vf vf_mul(vf a, vf b) { return a * b; }
 static inline vf vf_div(vf a, vf b) { return a / b; }
+static inline vf vf_rcp(vf a) { return 1.0f / a; }
 static inline vf vf_fma(vf a, vf b, vf c) { return a * b + c; }
 static inline vf vf_min(vf a, vf b) { return a < b ? a : b; }
 static inline vf vf_max(vf a, vf b) { return a > b ? a : b; }
@@ -137,6 +182,25 @@ static inline vu vu_clear_bit(vu acc, vm m, uint32_t bit) { return acc & ~(m & b
 static inline vm vu_has_bit(vu acc, uint32_t bit) { return (acc & bit) ? ~0u : 0u; }
 static inline uint32_t vu_nonzero_bits(vu a) { return a != 0; }
 static inline void vu_store(uint32_t *p, vu a) { *p = a; }
+
+/* doubles, for the cell stage; masks are all-ones / zero bit patterns */
+#define WD 1
+typedef uint64_t vd_mask;
+typedef double vd;
+static inline vd vd_load(const double *p) { return *p; }
+static inline vd vd_set(double a) { return a; }
+static inline vd vd_add(vd a, vd b) { return a + b; }
+static inline vd vd_sub(vd a, vd b) { return a - b; }
+static inline vd vd_fma(vd a, vd b, vd c) { return a * b + c; }
+static inline uint64_t vd_lt(vd a, vd b) { return a < b ? ~0ull : 0ull; }
+static inline uint64_t vd_zero(void) { return 0; }
+static inline uint64_t vd_or_bit(uint64_t acc, uint64_t m, uint64_t bit) { return acc | (m & bit); }
+static inline void vd_store_bits(uint64_t *p, uint64_t a) { *p = a; }
+#define VD_BITS uint64_t
+#endif
+
+#ifndef VD_BITS
+#define VD_BITS vd /* a vd holding per-lane bit masks */
 #endif
 
 #endif

@@ -84,6 +84,7 @@ void cull_world_destroy(cull_world *w)
         for (uint32_t i = 0; i < w->grid[g].ncells; i++) cell_free(w->grid[g].cells[i]);
         free(w->grid[g].cells);
         free(w->grid[g].map);
+        free(w->grid[g].soa);
     }
     for (uint32_t i = 0; i < w->npool; i++) free(w->block_pool[i]);
     free(w->block_pool);
@@ -214,6 +215,36 @@ static void map_erase(cull_grid *g, const cull_cell *c)
     }
 }
 
+/* ---- cell bounds arrays ---------------------------------------------------- */
+
+static bool soa_reserve(cull_grid *g, uint32_t need)
+{
+    need = (need + 3u) & ~3u;
+    if (need <= g->soa_cap) return true;
+    uint32_t cap = g->soa_cap ? g->soa_cap : 64;
+    while (cap < need) cap *= 2;
+    double *n = calloc((size_t)cap * 6, sizeof *n);
+    if (!n) return false;
+    for (int k = 0; k < 6 && g->soa; k++)
+        memcpy(n + (size_t)k * cap, g->soa + (size_t)k * g->soa_cap, g->ncells * sizeof *n);
+    free(g->soa);
+    g->soa = n;
+    g->soa_cap = cap;
+    return true;
+}
+
+void cull_cell_sync(cull_world *w, const cull_cell *c)
+{
+    cull_grid *g = &w->grid[c->grid];
+    for (int a = 0; a < 3; a++) {
+        double lo = c->bmin[a], hi = c->bmax[a];
+        if (!(lo <= hi)) lo = hi = 0; /* empty: a point at the origin, never
+                                          queried (empty cells are freed) */
+        CULL_SOA(g, a)[c->index] = c->origin[a] + 0.5 * (lo + hi);
+        CULL_SOA(g, 3 + a)[c->index] = 0.5 * (hi - lo);
+    }
+}
+
 /* ---- cells and blocks -------------------------------------------------------- */
 
 /* CULL_ERR_RANGE when a key would not fit in int32. */
@@ -244,7 +275,8 @@ static int reserve_slot_in(cull_world *w, uint32_t gi, const int32_t k[3], cull_
     cull_cell *c = map_find(g, k);
     if (!c) {
         if (!map_reserve(g, g->map_used + 1)) return CULL_ERR_NOMEM;
-        if (!grow((void **)&g->cells, &g->cap_cells, g->ncells + 1, sizeof *g->cells))
+        if (!grow((void **)&g->cells, &g->cap_cells, g->ncells + 1, sizeof *g->cells) ||
+            !soa_reserve(g, g->ncells + 1))
             return CULL_ERR_NOMEM;
         c = calloc(1, sizeof *c);
         if (!c) return CULL_ERR_NOMEM;
@@ -286,7 +318,7 @@ fail:
 
 /* Writes entity d (normalised) into lane i of cell c, as floats relative to
  * the cell origin, rounded outward by the documented slack. */
-static void store_lane(const cull_world *w, cull_cell *c, uint32_t i,
+static void store_lane(cull_world *w, cull_cell *c, uint32_t i,
                        const cull_entity_desc *d, cull_handle h)
 {
     cull_block *b = c->blocks[i / CULL_BLOCK_CAP];
@@ -332,6 +364,7 @@ static void store_lane(const cull_world *w, cull_cell *c, uint32_t i,
         if (lo < c->bmin[a]) c->bmin[a] = lo;
         if (hi > c->bmax[a]) c->bmax[a] = hi;
     }
+    cull_cell_sync(w, c);
 }
 
 static void copy_lane(cull_cell *c, uint32_t dst, uint32_t src)
@@ -400,6 +433,7 @@ static void cell_take_out(cull_world *w, cull_cell *c, uint32_t i)
         cull_cell *moved = g->cells[--g->ncells];
         g->cells[c->index] = moved;
         moved->index = c->index;
+        cull_cell_sync(w, moved);
         cell_free(c);
     } else {
         mark_dirty(w, c);
@@ -542,6 +576,7 @@ void cull_world_commit(cull_world *w)
                 if (hi[a] > c->bmax[a]) c->bmax[a] = hi[a];
             }
         }
+        cull_cell_sync(w, c);
     }
     w->ndirty = 0;
 }
@@ -564,5 +599,5 @@ void cull_world_info_get(const cull_world *w, cull_world_info *o)
 
 size_t cull_query_bound(const cull_world *w)
 {
-    return w ? w->live : 0;
+    return (w ? w->live : 0) + CULL_RESULT_PAD;
 }

@@ -170,7 +170,11 @@ void cull_mat_mul(double out[16], const double a[16], const double b[16]);
 /* Query flags. Zero = spheres, then AABBs, then the screen-area threshold if
  * min_screen_area > 0, both grids. */
 #define CULL_Q_NO_AABB      0x1u /* stop after the sphere test */
-#define CULL_Q_WANT_AREA    0x2u /* fill screen_area even with no threshold */
+#define CULL_Q_WANT_AREA    0x2u /* report exact screen areas and test the
+                                    threshold on them (8 projections per entity
+                                    and view); without it the threshold is tested
+                                    on a cheap upper bound (2 projections): it
+                                    never culls more, it may keep a little more */
 #define CULL_Q_STATIC_ONLY  0x4u
 #define CULL_Q_DYNAMIC_ONLY 0x8u
 
@@ -190,9 +194,10 @@ typedef struct cull_result {
     uint32_t    view_mask;   /* bit i: visible in views[i] */
     uint16_t    class_id;
     uint16_t    sublevel;
-    float       screen_area; /* pixels, max over the views in view_mask; -1
-                                when not computed (no threshold, no WANT_AREA);
-                                the full viewport when the box crosses w = 0 */
+    float       screen_area; /* pixels, max over the views in view_mask, of
+                                the viewport-clipped rectangle of the projected
+                                AABB (the full viewport when the box reaches
+                                w <= 0); -1 unless CULL_Q_WANT_AREA */
 } cull_result;
 
 typedef struct cull_query_stats {
@@ -216,7 +221,9 @@ typedef struct cull_ctx cull_ctx;
 int  cull_ctx_create(cull_pool *pool, cull_ctx **out);
 void cull_ctx_destroy(cull_ctx *c);
 
-/* Upper bound on results: the number of entities. */
+/* Room a query's output needs: the number of entities plus
+ * CULL_RESULT_PAD (the SIMD writer stores whole 8-lane groups). */
+#define CULL_RESULT_PAD 8u
 size_t cull_query_bound(const cull_world *w);
 
 /* Runs a query. out has room for cap results (cap >= cull_query_bound).

@@ -188,7 +188,7 @@ static void check_results(const scene *s, const cull_result *res, size_t n, tall
         area[slot] = res[k].screen_area;
     }
     bool aabb = !(s->flags & CULL_Q_NO_AABB);
-    bool want_area = s->min_area > 0 || (s->flags & CULL_Q_WANT_AREA);
+    bool want_area = (s->flags & CULL_Q_WANT_AREA) != 0;
     for (uint32_t i = 0; i < s->n; i++) {
         const cull_entity_desc *e = &s->e[i];
         double eps = 0x1p-20 * (4 * s->cell + e->radius + reach(s, e));
@@ -262,7 +262,7 @@ static void test_random_vs_model(void **state)
         scene s;
         scene_make(&r, &s, 1500 + rng_below(&r, 3000), nv);
         cull_world *w = scene_world(&s);
-        size_t cap = s.n;
+        size_t cap = cull_query_bound(w);
         cull_result *res[2 * CULL_ISA_COUNT] = {0};
         size_t cnt[2 * CULL_ISA_COUNT] = {0};
         for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
@@ -353,13 +353,13 @@ static void test_far_camera_is_exact(void **state)
         assert_int_equal(cull_view_init(&v[0], &d), CULL_OK);
         for (int a = 0; a < 3; a++) d.origin[a] += shift[a];
         assert_int_equal(cull_view_init(&v[1], &d), CULL_OK);
-        cull_result a[3000], b[3000];
+        cull_result a[3000 + CULL_RESULT_PAD], b[3000 + CULL_RESULT_PAD];
         size_t na, nb;
         cull_query_desc q = {.view_count = 1, .flags = CULL_Q_WANT_AREA};
         q.views = &v[0];
-        assert_int_equal(cull_query(w[0], ctx, &q, a, 3000, &na, NULL), CULL_OK);
+        assert_int_equal(cull_query(w[0], ctx, &q, a, 3000 + CULL_RESULT_PAD, &na, NULL), CULL_OK);
         q.views = &v[1];
-        assert_int_equal(cull_query(w[1], ctx, &q, b, 3000, &nb, NULL), CULL_OK);
+        assert_int_equal(cull_query(w[1], ctx, &q, b, 3000 + CULL_RESULT_PAD, &nb, NULL), CULL_OK);
         assert_int_equal(na, nb);
         assert_memory_equal(a, b, na * sizeof *a);
         cull_world_destroy(w[0]);
@@ -382,29 +382,31 @@ static void test_bad_queries(void **state)
     cull_mat_perspective(d.view_proj, 1, 1, 0.1, 100, CULL_DEPTH_GL);
     d.origin[2] = 10;
     for (int i = 0; i < 33; i++) assert_int_equal(cull_view_init(&v[i], &d), CULL_OK);
-    cull_result res[2];
+    cull_result res[1 + CULL_RESULT_PAD];
+    const size_t cap = 1 + CULL_RESULT_PAD;
+    assert_int_equal(cull_query_bound(w), cap);
     size_t n = 99;
-    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 0}, res, 2, &n, NULL),
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 0}, res, cap, &n, NULL),
                      CULL_ERR_VIEWS);
     assert_int_equal(n, 0);
-    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 33}, res, 2, &n, NULL),
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 33}, res, cap, &n, NULL),
                      CULL_ERR_VIEWS);
-    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = NULL, .view_count = 1}, res, 2, &n, NULL),
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = NULL, .view_count = 1}, res, cap, &n, NULL),
                      CULL_ERR_VIEWS);
-    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 1}, res, 0, &n, NULL),
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 1}, res, cap - 1, &n, NULL),
                      CULL_ERR_OUTPUT);
     assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 1, .min_screen_area = NAN},
-                                res, 2, &n, NULL),
+                                res, cap, &n, NULL),
                      CULL_ERR_INVALID);
     assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 1, .min_screen_area = -1},
-                                res, 2, &n, NULL),
+                                res, cap, &n, NULL),
                      CULL_ERR_INVALID);
     cull_view junk = v[0];
     junk.plane_count = 0;
-    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &junk, .view_count = 1}, res, 2, &n, NULL),
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &junk, .view_count = 1}, res, cap, &n, NULL),
                      CULL_ERR_MATRIX);
     /* 32 views at once: every bit set */
-    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 32}, res, 2, &n, NULL),
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = v, .view_count = 32}, res, cap, &n, NULL),
                      CULL_OK);
     assert_int_equal(n, 1);
     assert_int_equal(res[0].view_mask, UINT32_MAX);
@@ -458,10 +460,11 @@ static void test_city_scene(void **state)
     }
     cull_ctx *c;
     assert_int_equal(cull_ctx_create(NULL, &c), CULL_OK);
-    cull_result *res = malloc(sf.nobjects * sizeof *res);
+    size_t cap = cull_query_bound(w);
+    cull_result *res = malloc(cap * sizeof *res);
     size_t n;
     cull_query_stats st;
-    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1}, res, sf.nobjects, &n, &st),
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1}, res, cap, &n, &st),
                      CULL_OK);
     printf("city scene: %zu objects, frustum keeps %zu (model %zu, spheres alone %u), %u of %u cells culled\n",
            sf.nobjects, n, model, st.after_spheres, st.cells_culled, st.cells);

@@ -314,9 +314,9 @@ static void test_far_cells(void **state)
         cull_mat_mul(vd.view_proj, proj, view);
         cull_view v;
         assert_int_equal(cull_view_init(&v, &vd), CULL_OK);
-        cull_result res[4];
+        cull_result res[4 + CULL_RESULT_PAD];
         size_t n;
-        assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1}, res, 4, &n, NULL),
+        assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1}, res, 12, &n, NULL),
                          CULL_OK);
         assert_int_equal(n, 1);
         assert_int_equal(res[0].handle, h[i]);
@@ -324,7 +324,7 @@ static void test_far_cells(void **state)
            ~0.1 rad * 10 m = 1 m wide; entity radius 0.25) */
         vd.origin[0] += 0.8;
         assert_int_equal(cull_view_init(&v, &vd), CULL_OK);
-        assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1}, res, 4, &n, NULL),
+        assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1}, res, 12, &n, NULL),
                          CULL_OK);
         assert_int_equal(n, 0);
     }
