@@ -113,10 +113,10 @@ test: check-deps
 	@$(MAKE) --no-print-directory CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
 	./build/release/bench_cull --smoke
-	VANTAGE_TEST_SCALE=0.25 ./build/scalar/vantage_tests
+	./build/scalar/vantage_tests
 	./build/release/vantage_tests
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-	  VANTAGE_TEST_SCALE=0.5 ./build/asan/vantage_tests
+	  ./build/asan/vantage_tests
 
 bench: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull

@@ -1,18 +1,17 @@
 /*
- * cull_cells.inl — the cell stage kernel, written once (see cull_kernel.inl
- * for how it is instantiated). For one view: every cell's bounds (world
- * centre in double, half extent) against the view's planes, WD cells per
- * step in double precision; code[c] gets bit 7 if the cell is outside some
- * plane, else bit i for each plane i the cell straddles (0 = fully inside).
+ * cull_cells.inl — the box stage kernel (regions, then cells), written once
+ * (see cull_kernel.inl for how it is instantiated). For one view: n boxes
+ * (world centre in double, half extent) against np planes, WD boxes per
+ * step in double precision; code[i] gets bit 7 if box i is outside some
+ * plane, else bit p for each plane p it straddles (0 = fully inside).
  * ~10 flops per cell and plane; world-space doubles keep 1e6 m exact to
  * ~1e-9 m, far below the storage slack.
  */
-void CULL_CELLS_NAME(const cull_grid *restrict g, const cull_cplane *restrict pl, uint32_t np,
+void CULL_CELLS_NAME(const cull_bounds_soa *restrict s, uint32_t n, const cull_cplane *restrict pl, uint32_t np,
                      uint8_t *restrict code)
 {
-    const uint32_t n = g->ncells;
-    const double *cx = CULL_SOA(g, 0), *cy = CULL_SOA(g, 1), *cz = CULL_SOA(g, 2);
-    const double *ex = CULL_SOA(g, 3), *ey = CULL_SOA(g, 4), *ez = CULL_SOA(g, 5);
+    const double *cx = CULL_SOA(s, 0), *cy = CULL_SOA(s, 1), *cz = CULL_SOA(s, 2);
+    const double *ex = CULL_SOA(s, 3), *ey = CULL_SOA(s, 4), *ez = CULL_SOA(s, 5);
     const vd zero = vd_set(0.0);
     for (uint32_t c = 0; c < n; c += WD) {
         vd x = vd_load(cx + c), y = vd_load(cy + c), z = vd_load(cz + c);

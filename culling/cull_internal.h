@@ -33,34 +33,63 @@ typedef struct cull_block {
     uint16_t sublevel[CULL_BLOCK_CAP];
 } cull_block;
 
+typedef struct cull_region cull_region;
+
 typedef struct cull_cell {
-    int32_t  key[3];
+    int32_t  key[3];        /* first: the hash maps read it there */
     uint32_t grid;          /* 0 static, 1 dynamic */
-    uint32_t index;         /* position in grid->cells */
+    cull_region *region;
+    uint32_t index;         /* position in region->cells */
     double   origin[3];     /* key * cell_size, metres */
     float    bmin[3], bmax[3]; /* local bounds of every sphere and AABB; may
                                   be loose after removals until commit */
     uint32_t count;         /* entities */
     uint32_t nblocks, cap_blocks;
     cull_block **blocks;
-    bool     dirty;         /* bounds loose, on the world's dirty list */
+    uint32_t dirty_pos;     /* index in the world's dirty list + 1; 0 = clean */
 } cull_cell;
 
-typedef struct cull_grid {
+/* Cell bounds for the SIMD cell stage: six arrays of cap doubles (world
+ * centre x y z, half extent x y z), cap a multiple of 4 above the count so
+ * kernels read whole vectors. */
+typedef struct cull_bounds_soa {
+    double  *v;
+    uint32_t cap;
+} cull_bounds_soa;
+#define CULL_SOA(s, k) ((s)->v + (size_t)(k) * (s)->cap)
+
+/* A region: CULL_REGION_CELLS^3 cells, tested as one box first, so a query
+ * touches only the cells of regions its views can see (a 16 km world of 64 m
+ * cells has 65k cells but ~250 regions). */
+#define CULL_REGION_SHIFT 3
+#define CULL_REGION_CELLS (1 << CULL_REGION_SHIFT)
+struct cull_region {
+    int32_t  key[3];        /* first: the hash maps read it there */
+    uint32_t grid;
+    uint32_t index;         /* position in grid->regions */
     cull_cell **cells;      /* dense, iteration order = query order */
-    uint32_t    ncells, cap_cells;
-    /* cell bounds for the SIMD cell stage, parallel to cells: six arrays of
-       soa_cap doubles (world centre x y z, half extent x y z); soa_cap is a
-       multiple of 4 above ncells so kernels may read whole vectors */
-    double     *soa;
-    uint32_t    soa_cap;
-    cull_cell **map;        /* open addressing, linear probing, pow2 */
-    uint32_t    map_cap, map_used;
-    uint32_t    entities;
+    uint32_t ncells, cap_cells;
+    cull_bounds_soa soa;    /* bounds of cells[] */
+    double   bmin[3], bmax[3]; /* world bounds of its cells; loose until commit */
+    bool     dirty;
+};
+
+/* Open addressing, linear probing, power-of-two capacity; entries are
+ * pointers to structs whose first member is int32_t key[3]. */
+typedef struct cull_map {
+    void   **slot;
+    uint32_t cap, used;
+} cull_map;
+
+typedef struct cull_grid {
+    cull_region **regions;  /* dense, iteration order = query order */
+    uint32_t    nregions, cap_regions;
+    cull_bounds_soa soa;    /* bounds of regions[] */
+    cull_map    region_map, cell_map;
+    uint32_t    ncells, entities;
 } cull_grid;
 
-/* Exact (double) bounds kept per slot so get() returns what was given and
- * moves re-derive nothing. */
+/* Exact (double) bounds kept per slot so get() returns what was given. */
 typedef struct cull_slot {
     uint32_t  gen;          /* 1..2^10-1; generation of the live or next handle */
     uint32_t  next_free;    /* free list link when cell == NULL */
@@ -75,29 +104,41 @@ struct cull_world {
     cull_grid  grid[2];
     cull_slot *slots;
     uint32_t   nslots, cap_slots, free_head, live;
-    cull_cell **dirty;
+    cull_cell **dirty;      /* cells whose bounds may be loose */
     uint32_t   ndirty, cap_dirty;
     cull_block **block_pool; /* freed blocks for reuse */
     uint32_t   npool, cap_pool;
     uint32_t   nblocks_total;
 };
 
-#define CULL_SOA(g, k) ((g)->soa + (size_t)(k) * (g)->soa_cap)
+/* ---- storage internals (cull_grid.c) ---------------------------------------- */
+/* Finds or makes cell key k of grid gi with room for one more entity.
+ * Allocates everything the edit needs up front; on error nothing changed. */
+int  cull_grid_reserve(cull_world *w, uint32_t gi, const int32_t k[3], cull_cell **out);
+/* Writes entity d into lane i of c (floats relative to the cell origin,
+ * rounded outward) and grows the cell's and region's bounds. */
+void cull_grid_store(cull_world *w, cull_cell *c, uint32_t i, const cull_entity_desc *d, cull_handle h);
+/* Removes lane i of c (swap with the cell's last); frees an emptied block,
+ * cell and region. Never fails, never allocates (see cull_grid_reserve_removal). */
+void cull_grid_take_out(cull_world *w, cull_cell *c, uint32_t i);
+void cull_grid_reserve_removal(cull_world *w);
+void cull_grid_mark_dirty(cull_world *w, cull_cell *c);
+void cull_grid_commit(cull_world *w);
+void cull_grid_free(cull_grid *g);
 
-/* Rewrites cell c's entry in its grid's bounds arrays. */
-void cull_cell_sync(cull_world *w, const cull_cell *c);
-
-/* A view plane for the cell stage: world-space offset d = d - n.origin. */
+/* A view plane for the box stage: world-space offset d = d - n.origin
+ * (double keeps 1e6 m exact to ~1e-10 m), |n| for the extent term. */
 typedef struct cull_cplane {
     double n[3], an[3], d;
 } cull_cplane;
 
-/* Cell stage: code[c] for each of g's cells (see cull_cells.inl). code has
-   room for ncells rounded up to 4. */
-typedef void (*cull_cells_fn)(const cull_grid *g, const cull_cplane *pl, uint32_t np, uint8_t *code);
-void cull_cells_scalar(const cull_grid *, const cull_cplane *, uint32_t, uint8_t *);
-void cull_cells_sse41(const cull_grid *, const cull_cplane *, uint32_t, uint8_t *);
-void cull_cells_avx2(const cull_grid *, const cull_cplane *, uint32_t, uint8_t *);
+/* Box stage (regions, then cells): code[i] for each of the n boxes in s
+   (see cull_cells.inl). code has room for n rounded up to 4. */
+typedef void (*cull_cells_fn)(const cull_bounds_soa *s, uint32_t n, const cull_cplane *pl, uint32_t np,
+                              uint8_t *code);
+void cull_cells_scalar(const cull_bounds_soa *, uint32_t, const cull_cplane *, uint32_t, uint8_t *);
+void cull_cells_sse41(const cull_bounds_soa *, uint32_t, const cull_cplane *, uint32_t, uint8_t *);
+void cull_cells_avx2(const cull_bounds_soa *, uint32_t, const cull_cplane *, uint32_t, uint8_t *);
 cull_cells_fn cull_isa_cells(uint32_t isa);
 
 /* ---- what a kernel sees: one (cell, view) pair, prepared in floats ------ */
@@ -143,6 +184,10 @@ typedef void (*cull_job_fn)(void *arg, uint32_t thread);
 /* Runs fn(arg, t) for t in 0..n-1 (t = 0 on the caller) and waits.
  * n is clamped to the pool's thread count; pool NULL runs fn(arg, 0). */
 void cull_pool_run(cull_pool *p, cull_job_fn fn, void *arg, uint32_t n);
+
+/* Grows *p (an array of *cap elements) to hold need; doubles the capacity.
+ * false (nothing changed) on failure or past 2^31 elements. */
+bool cull_grow(void **p, uint32_t *cap, size_t need, size_t elem);
 
 /* Outward rounding of a double to float. */
 float cull_round_down(double v);

@@ -1,8 +1,9 @@
 /*
  * cull_query.c — the query pipeline driver.
  *
- *   1. cell stage (SIMD, double): each cell's bounds against each view's
- *      planes (cull_cells.inl).
+ *   1. box stage (SIMD, double; cull_cells.inl): each region's bounds (8^3
+ *      cells) against each view's planes, then the cells of the regions a
+ *      view may see, against only the planes the region straddles.
  *      A cell outside a view drops that view; a plane the cell is entirely
  *      inside is dropped; a cell with no views left is skipped whole. What
  *      survives is re-based to the cell origin and rounded to float
@@ -43,15 +44,15 @@ struct cull_ctx {
     cull_block_fn kernel;
     cull_cells_fn cells;
     uint8_t *codes;         /* cell stage output: [view][cell] */
-    size_t codes_cap;
+    uint32_t codes_cap;
     cull_kview *kv;
-    size_t kv_cap;
+    uint32_t kv_cap;
     cull_item *items;
-    size_t items_cap;
+    uint32_t items_cap;
     cull_chunk *chunks;
-    size_t chunks_cap;
+    uint32_t chunks_cap;
     cull_result *tres[MAX_THREADS];
-    size_t tres_cap[MAX_THREADS];
+    uint32_t tres_cap[MAX_THREADS];
 };
 
 int cull_ctx_create(cull_pool *pool, cull_ctx **out)
@@ -92,35 +93,32 @@ uint32_t cull_ctx_isa(const cull_ctx *c)
     return c ? c->isa : CULL_ISA_SCALAR;
 }
 
-static bool reserve(void **p, size_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap) return true;
-    size_t n = *cap ? *cap : 256;
-    while (n < need) n *= 2;
-    void *q = realloc(*p, n * elem);
-    if (!q) return false;
-    *p = q;
-    *cap = n;
-    return true;
-}
+/* What the region stage leaves for one view: the planes the region
+ * straddles, compacted for the cell kernel, and where they came from. */
+typedef struct region_view {
+    uint32_t view;
+    uint32_t np;
+    cull_cplane pl[6];
+    uint8_t from[6];  /* pl[k] is the view's plane from[k] */
+} region_view;
 
-/* The kviews of one cell: every view whose code says it may see the cell,
- * with the planes the cell straddles re-based to the cell origin (double,
- * then float). Returns how many. */
-static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, const uint8_t *codes,
-                            size_t stride, uint32_t ci, bool area, cull_kview *kv)
+/* The kviews of one cell: every view whose cell code says it may see the
+ * cell, with the planes the cell straddles re-based to the cell origin
+ * (double, then float). Returns how many. */
+static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *rv, uint32_t nrv,
+                            const uint8_t *codes, size_t stride, bool area, cull_kview *kv)
 {
     uint32_t nv = 0;
-    for (uint32_t v = 0; v < q->view_count; v++) {
-        uint32_t code = codes[v * stride + ci];
+    for (uint32_t a = 0; a < nrv; a++) {
+        uint32_t code = codes[a * stride + cell->index];
         if (code & 0x80u) continue;
-        const cull_view *view = &q->views[v];
+        const cull_view *view = &q->views[rv[a].view];
         double t[3] = {cell->origin[0] - view->origin[0], cell->origin[1] - view->origin[1],
                        cell->origin[2] - view->origin[2]};
         cull_kview *k = &kv[nv++];
         uint32_t np = 0;
         for (; code; code &= code - 1) {
-            const double *pl = view->plane[__builtin_ctz(code)];
+            const double *pl = view->plane[rv[a].from[__builtin_ctz(code)]];
             k->px[np] = (float)pl[0];
             k->py[np] = (float)pl[1];
             k->pz[np] = (float)pl[2];
@@ -128,7 +126,7 @@ static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, con
             np++;
         }
         k->nplanes = np;
-        k->bit = 1u << v;
+        k->bit = 1u << rv[a].view;
         if (area) {
             const double *m = view->clip;
             static const int rows[3] = {0, 1, 3};
@@ -223,17 +221,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         .exact_area = (q->flags & CULL_Q_WANT_AREA) != 0,
     };
 
-    /* stage 1: cells; sized for the worst case up front so it cannot fail
-       half-way */
-    size_t ncells = 0, nblocks = 0;
-    for (int g = 0; g < 2; g++) {
-        ncells += w->grid[g].ncells;
-        for (uint32_t i = 0; i < w->grid[g].ncells; i++) nblocks += w->grid[g].cells[i]->nblocks;
-    }
-    if (!reserve((void **)&c->kv, &c->kv_cap, ncells * q->view_count + 1, sizeof *c->kv) ||
-        !reserve((void **)&c->items, &c->items_cap, nblocks + 1, sizeof *c->items))
-        return CULL_ERR_NOMEM;
-    /* world-space planes for the cell kernel */
+    /* world-space planes for the box kernel */
     cull_cplane cpl[CULL_MAX_VIEWS][6];
     for (uint32_t v = 0; v < q->view_count; v++) {
         const cull_view *view = &q->views[v];
@@ -246,34 +234,67 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             cpl[v][i].d = pl[3] - pl[0] * view->origin[0] - pl[1] * view->origin[1] - pl[2] * view->origin[2];
         }
     }
-    size_t max_cells = 0;
-    for (int g = 0; g < 2; g++)
-        if (w->grid[g].ncells > max_cells) max_cells = w->grid[g].ncells;
-    size_t stride = (max_cells + 4) & ~(size_t)3;
-    if (!reserve((void **)&c->codes, &c->codes_cap, stride * q->view_count, 1)) return CULL_ERR_NOMEM;
-    uint32_t nkv = 0, nitems = 0, cells_tested = 0, cells_culled = 0, tested = 0;
+
+    /* stage 1: regions, then the cells of the regions some view may see */
+    const size_t cstride = CULL_REGION_CELLS * CULL_REGION_CELLS * CULL_REGION_CELLS + 4;
+    region_view rv[CULL_MAX_VIEWS];
+    uint32_t nkv = 0, nitems = 0, tested = 0;
+    uint32_t regions = 0, regions_culled = 0, cells = 0, cells_culled = 0;
     for (int g = 0; g < 2; g++) {
         if ((q->flags & CULL_Q_STATIC_ONLY) && g == 1) continue;
         if ((q->flags & CULL_Q_DYNAMIC_ONLY) && g == 0) continue;
         const cull_grid *grid = &w->grid[g];
-        if (!grid->ncells) continue;
+        if (!grid->nregions) continue;
+        regions += grid->nregions;
+        cells += grid->ncells;
+        size_t rstride = (grid->nregions + 4u) & ~(size_t)3;
+        if (!cull_grow((void **)&c->codes, &c->codes_cap, (rstride + cstride) * q->view_count, 1))
+            return CULL_ERR_NOMEM;
+        uint8_t *rcodes = c->codes, *ccodes = c->codes + rstride * q->view_count;
         for (uint32_t v = 0; v < q->view_count; v++)
-            c->cells(grid, cpl[v], q->views[v].plane_count, c->codes + v * stride);
-        for (uint32_t i = 0; i < grid->ncells; i++) {
-            const cull_cell *cell = grid->cells[i];
-            cells_tested++;
-            uint32_t nv = cell_kviews(cell, q, c->codes, stride, i, kp.area, c->kv + nkv);
-            if (!nv) {
-                cells_culled++;
+            c->cells(&grid->soa, grid->nregions, cpl[v], q->views[v].plane_count, rcodes + v * rstride);
+        for (uint32_t ri = 0; ri < grid->nregions; ri++) {
+            const cull_region *region = grid->regions[ri];
+            uint32_t nrv = 0;
+            for (uint32_t v = 0; v < q->view_count; v++) {
+                uint32_t code = rcodes[v * rstride + ri];
+                if (code & 0x80u) continue;
+                region_view *r = &rv[nrv++];
+                r->view = v;
+                r->np = 0;
+                for (; code; code &= code - 1) {
+                    uint32_t i = (uint32_t)__builtin_ctz(code);
+                    r->from[r->np] = (uint8_t)i;
+                    r->pl[r->np++] = cpl[v][i];
+                }
+            }
+            if (!nrv) {
+                regions_culled++;
+                cells_culled += region->ncells;
                 continue;
             }
-            for (uint32_t b = 0; b < cell->nblocks; b++) {
-                uint32_t n = cell->count - b * CULL_BLOCK_CAP;
-                if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
-                c->items[nitems++] = (cull_item){cell->blocks[b], n, nkv, nv};
-                tested += n;
+            for (uint32_t a = 0; a < nrv; a++) {
+                if (rv[a].np) c->cells(&region->soa, region->ncells, rv[a].pl, rv[a].np, ccodes + a * cstride);
+                else memset(ccodes + a * cstride, 0, region->ncells); /* region inside every plane */
             }
-            nkv += nv;
+            for (uint32_t ci = 0; ci < region->ncells; ci++) {
+                const cull_cell *cell = region->cells[ci];
+                if (!cull_grow((void **)&c->kv, &c->kv_cap, (size_t)nkv + nrv, sizeof *c->kv) ||
+                    !cull_grow((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
+                    return CULL_ERR_NOMEM;
+                uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, c->kv + nkv);
+                if (!nv) {
+                    cells_culled++;
+                    continue;
+                }
+                for (uint32_t b = 0; b < cell->nblocks; b++) {
+                    uint32_t n = cell->count - b * CULL_BLOCK_CAP;
+                    if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
+                    c->items[nitems++] = (cull_item){cell->blocks[b], n, nkv, nv};
+                    tested += n;
+                }
+                nkv += nv;
+            }
         }
     }
 
@@ -283,7 +304,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     if (threads > MAX_THREADS) threads = MAX_THREADS;
     uint64_t work = 0;
     for (uint32_t i = 0; i < nitems; i++) work += (uint64_t)c->items[i].n * c->items[i].nv;
-    if (work < PARALLEL_MIN_WORK) threads = 1;
+    if (!q->threads && work < PARALLEL_MIN_WORK) threads = 1;
 
     cull_kcount total = {0};
     size_t written = 0;
@@ -296,10 +317,10 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         }
     } else {
         uint32_t nchunks = (nitems + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
-        if (!reserve((void **)&c->chunks, &c->chunks_cap, nchunks + 1, sizeof *c->chunks))
+        if (!cull_grow((void **)&c->chunks, &c->chunks_cap, nchunks + 1, sizeof *c->chunks))
             return CULL_ERR_NOMEM;
         for (uint32_t t = 0; t < threads; t++)
-            if (!reserve((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
+            if (!cull_grow((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
                          sizeof(cull_result)))
                 return CULL_ERR_NOMEM;
         job j = {.c = c, .kp = &kp, .items = c->items, .nitems = nitems, .nchunks = nchunks,
@@ -320,7 +341,9 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     }
     *count = written;
     if (stats) {
-        stats->cells = cells_tested;
+        stats->regions = regions;
+        stats->regions_culled = regions_culled;
+        stats->cells = cells;
         stats->cells_culled = cells_culled;
         stats->entities_tested = total.tested;
         stats->after_spheres = total.after_spheres;

@@ -118,7 +118,7 @@ void cull_world_commit(cull_world *w);
 
 typedef struct cull_world_info {
     uint32_t entities, static_entities, dynamic_entities;
-    uint32_t cells, blocks;
+    uint32_t regions, cells, blocks;
     size_t   bytes; /* heap held by storage */
 } cull_world_info;
 void cull_world_info_get(const cull_world *w, cull_world_info *out);
@@ -185,7 +185,10 @@ typedef struct cull_query_desc {
     float    min_screen_area;   /* pixels; an entity whose projected AABB
                                    rectangle (clipped to the viewport) is
                                    smaller in a view is culled from it; 0 = off */
-    uint32_t threads;           /* 0 = all of the context's pool */
+    uint32_t threads;           /* 0 = automatic: the whole pool when the work
+                                   (entities x views after the cell stage) pays
+                                   for a dispatch, else the caller alone;
+                                   N = up to N of the pool's threads, always */
 } cull_query_desc;
 
 /* The talk's EntityRenderCullInfo. 16 bytes. */
@@ -201,7 +204,9 @@ typedef struct cull_result {
 } cull_result;
 
 typedef struct cull_query_stats {
-    uint32_t cells, cells_culled;   /* cells tested / culled whole */
+    uint32_t regions, regions_culled; /* regions (8^3 cells) tested / culled whole */
+    uint32_t cells, cells_culled;   /* cells in the grids / culled whole (with
+                                       their region or alone) */
     uint32_t entities_tested;       /* entities in surviving cells */
     uint32_t after_spheres, after_aabb, after_area; /* entities with any bit */
     uint32_t visible;               /* results written */
