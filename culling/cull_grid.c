@@ -14,6 +14,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 /* ---- small helpers ---------------------------------------------------------- */
 
@@ -188,12 +189,48 @@ static void region_free(cull_region *r)
     free(r);
 }
 
+/* Blocks belong to the world's slabs; a cell only holds pointers. */
 static void cell_free(cull_cell *c)
 {
     if (!c) return;
-    for (uint32_t i = 0; i < c->nblocks; i++) free(c->blocks[i]);
     free(c->blocks);
     free(c);
+}
+
+#define SLAB_MIN_BLOCKS 64u
+#define SLAB_MAX_BYTES (2u << 20)
+
+static cull_block *block_carve(cull_world *w)
+{
+    if (w->npool) return w->block_pool[--w->npool];
+    if (!w->slab_left) {
+        if (!cull_grow((void **)&w->slabs, &w->cap_slabs, w->nslabs + 1, sizeof *w->slabs)) return NULL;
+        size_t blocks = (size_t)SLAB_MIN_BLOCKS << (w->nslabs < 6 ? w->nslabs : 6);
+        if (blocks * sizeof(cull_block) > SLAB_MAX_BYTES) blocks = SLAB_MAX_BYTES / sizeof(cull_block);
+        bool huge = blocks * sizeof(cull_block) * 2 > SLAB_MAX_BYTES;
+        size_t align = huge ? SLAB_MAX_BYTES : 64;
+        size_t bytes = (blocks * sizeof(cull_block) + align - 1) / align * align;
+        char *slab = aligned_alloc(align, bytes);
+        if (!slab) return NULL;
+#ifdef MADV_HUGEPAGE
+        if (huge) (void)madvise(slab, bytes, MADV_HUGEPAGE);
+#endif
+        w->slabs[w->nslabs++] = slab;
+        w->slab_next = slab;
+        w->slab_left = (uint32_t)blocks;
+        w->slab_bytes += bytes;
+    }
+    cull_block *b = (cull_block *)w->slab_next;
+    w->slab_next += sizeof(cull_block);
+    w->slab_left--;
+    return b;
+}
+
+/* A removed block goes to the pool; if the pool could not grow it stays
+   unused in its slab until the world is destroyed. */
+static void block_release(cull_world *w, cull_block *b)
+{
+    if (w->npool < w->cap_pool) w->block_pool[w->npool++] = b;
 }
 
 void cull_grid_free(cull_grid *g)
@@ -248,7 +285,7 @@ static void region_link(cull_grid *g, cull_region *r)
 static bool block_add(cull_world *w, cull_cell *c)
 {
     if (!cull_grow((void **)&c->blocks, &c->cap_blocks, c->nblocks + 1, sizeof *c->blocks)) return false;
-    cull_block *b = w->npool ? w->block_pool[--w->npool] : aligned_alloc(64, sizeof(cull_block));
+    cull_block *b = block_carve(w);
     if (!b) return false;
     memset(b, 0, sizeof *b);
     c->blocks[c->nblocks++] = b;
@@ -410,8 +447,7 @@ void cull_grid_take_out(cull_world *w, cull_cell *c, uint32_t i)
     if (c->count <= (c->nblocks - 1) * CULL_BLOCK_CAP) {
         cull_block *b = c->blocks[--c->nblocks];
         w->nblocks_total--;
-        if (w->npool < w->cap_pool) w->block_pool[w->npool++] = b;
-        else free(b);
+        block_release(w, b);
     }
     if (c->count) {
         cull_grid_mark_dirty(w, c);

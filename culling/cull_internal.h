@@ -14,6 +14,7 @@
 #include "culling.h"
 #include <stdatomic.h>
 #include <stdbool.h>
+#include <stddef.h>
 
 #define CULL_BLOCK_CAP 64u /* lanes per block: 8 AVX2 groups */
 #define CULL_GEN_BITS (32u - CULL_HANDLE_SLOT_BITS)
@@ -21,17 +22,19 @@
 #define CULL_MAX_COORD 1e12
 #define CULL_MAX_RADIUS 1e9
 
-/* One block: 64 entities, SoA, 64-byte aligned. The sphere arrays come
- * first so the sphere stage streams 1 KiB per block and never touches the
- * rest. 3,328 bytes. */
+/* One block: 64 entities, SoA, 64-byte aligned, 3,328 bytes. What the
+ * sphere stage and the result writer read (sphere, handle, class,
+ * sub-level) comes first and is contiguous (1.5 KiB), so a one-view query
+ * streams that prefix and never touches the AABBs unless it needs them. */
 typedef struct cull_block {
     float x[CULL_BLOCK_CAP], y[CULL_BLOCK_CAP], z[CULL_BLOCK_CAP], r[CULL_BLOCK_CAP];
-    float minx[CULL_BLOCK_CAP], miny[CULL_BLOCK_CAP], minz[CULL_BLOCK_CAP];
-    float maxx[CULL_BLOCK_CAP], maxy[CULL_BLOCK_CAP], maxz[CULL_BLOCK_CAP];
     uint32_t handle[CULL_BLOCK_CAP];
     uint16_t class_id[CULL_BLOCK_CAP];
     uint16_t sublevel[CULL_BLOCK_CAP];
+    float minx[CULL_BLOCK_CAP], miny[CULL_BLOCK_CAP], minz[CULL_BLOCK_CAP];
+    float maxx[CULL_BLOCK_CAP], maxy[CULL_BLOCK_CAP], maxz[CULL_BLOCK_CAP];
 } cull_block;
+#define CULL_BLOCK_HOT_BYTES offsetof(cull_block, minx)
 
 typedef struct cull_region cull_region;
 
@@ -108,6 +111,14 @@ struct cull_world {
     uint32_t   ndirty, cap_dirty;
     cull_block **block_pool; /* freed blocks for reuse */
     uint32_t   npool, cap_pool;
+    /* blocks are carved from slabs (64 blocks, doubling to ~2 MiB, the big
+       ones on transparent huge pages): neighbours in memory and few TLB
+       misses when a query streams 10^6 entities; freed with the world */
+    void     **slabs;
+    uint32_t   nslabs, cap_slabs;
+    char      *slab_next;     /* next block to carve from slabs[nslabs-1] */
+    uint32_t   slab_left;     /* blocks left there */
+    size_t     slab_bytes;
     uint32_t   nblocks_total;
 };
 

@@ -283,14 +283,93 @@ static inline uint32_t emit_group(cull_result *restrict out, const cull_block *r
 }
 #endif
 
+
+/* The common shape, one view and no screen area, fused: test, then write
+ * the group's survivors at once (no mask arrays, no second pass). */
+static inline __attribute__((always_inline)) uint32_t
+single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict k, const uint32_t NP, bool aabb,
+            cull_result *restrict out, uint32_t *c_sph, uint32_t *c_aabb)
+{
+    vf px[6], py[6], pz[6], pd[6];
+    const float *bxp[6], *byp[6], *bzp[6];
+#pragma GCC unroll 6
+    for (uint32_t i = 0; i < NP; i++) {
+        px[i] = vf_set(k->px[i]);
+        py[i] = vf_set(k->py[i]);
+        pz[i] = vf_set(k->pz[i]);
+        pd[i] = vf_set(k->pd[i]);
+        bxp[i] = k->px[i] >= 0.0f ? b->maxx : b->minx;
+        byp[i] = k->py[i] >= 0.0f ? b->maxy : b->miny;
+        bzp[i] = k->pz[i] >= 0.0f ? b->maxz : b->minz;
+    }
+    const vf zero = vf_set(0.0f), none = vf_set(-1.0f);
+    const vu bit = vu_or_bit(vu_zero(), vm_ones(), k->bit);
+    uint32_t written = 0, ns = 0, na = 0;
+    for (uint32_t o = 0; o < n; o += W) {
+        const uint32_t valid = n - o >= W ? (1u << W) - 1u : (1u << (n - o)) - 1u;
+        uint32_t live = valid;
+        if (NP) {
+            vf x = vf_load(b->x + o), y = vf_load(b->y + o), z = vf_load(b->z + o), r = vf_load(b->r + o);
+            vf smin = vf_fma(px[0], x, vf_fma(py[0], y, vf_fma(pz[0], z, pd[0])));
+#pragma GCC unroll 6
+            for (uint32_t i = 1; i < NP; i++)
+                smin = vf_min(smin, vf_fma(px[i], x, vf_fma(py[i], y, vf_fma(pz[i], z, pd[i]))));
+            vm vis = vf_ge(vf_add(smin, r), zero);
+            live &= vm_bits(vis);
+            ns += (uint32_t)__builtin_popcount(live);
+            if (aabb) {
+                vm straddle = vm_andnot(vis, vf_ge(smin, r));
+                if (vm_bits(straddle) & live) {
+                    vf amin = vf_fma(px[0], vf_load(bxp[0] + o),
+                                     vf_fma(py[0], vf_load(byp[0] + o), vf_fma(pz[0], vf_load(bzp[0] + o), pd[0])));
+#pragma GCC unroll 6
+                    for (uint32_t i = 1; i < NP; i++)
+                        amin = vf_min(amin, vf_fma(px[i], vf_load(bxp[i] + o),
+                                                   vf_fma(py[i], vf_load(byp[i] + o),
+                                                          vf_fma(pz[i], vf_load(bzp[i] + o), pd[i]))));
+                    live &= ~vm_bits(vm_and(straddle, vf_lt(amin, zero)));
+                }
+            }
+        } else {
+            ns += (uint32_t)__builtin_popcount(live);
+        }
+        if (!live) continue;
+        na += (uint32_t)__builtin_popcount(live);
+        written += emit_group(out + written, b, o, live, bit, none);
+    }
+    *c_sph += ns;
+    *c_aabb += na;
+    return written;
+}
+
 uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_kview *restrict kv, uint32_t nv,
                           const cull_kparams *restrict p, cull_result *restrict out, cull_kcount *restrict cnt)
 {
     const uint32_t ng = (n + W - 1) / W;
     const bool aabb = p->aabb, want_area = p->area, exact_area = p->exact_area;
     const float min_area = p->min_area;
+
+    if (nv == 1 && !want_area) {
+        uint32_t cs = 0, ca = 0, written;
+        switch (kv->nplanes) {
+        case 0: written = single_view(b, n, kv, 0, aabb, out, &cs, &ca); break;
+        case 1: written = single_view(b, n, kv, 1, aabb, out, &cs, &ca); break;
+        case 2: written = single_view(b, n, kv, 2, aabb, out, &cs, &ca); break;
+        case 3: written = single_view(b, n, kv, 3, aabb, out, &cs, &ca); break;
+        case 4: written = single_view(b, n, kv, 4, aabb, out, &cs, &ca); break;
+        case 5: written = single_view(b, n, kv, 5, aabb, out, &cs, &ca); break;
+        default: written = single_view(b, n, kv, 6, aabb, out, &cs, &ca); break;
+        }
+        cnt->tested += n;
+        cnt->after_spheres += cs;
+        cnt->after_aabb += ca;
+        cnt->after_area += ca;
+        return written;
+    }
+
     vu mask[CULL_KV_MAX_GROUPS], msph[CULL_KV_MAX_GROUPS];
-    for (uint32_t g = 0; g < ng; g++) mask[g] = msph[g] = vu_zero();
+#pragma GCC unroll 8
+    for (uint32_t g = 0; g < CULL_KV_MAX_GROUPS; g++) mask[g] = msph[g] = vu_zero();
 
     for (uint32_t v = 0; v < nv; v++) {
         const cull_kview *k = &kv[v];

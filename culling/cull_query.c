@@ -145,17 +145,17 @@ static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, con
     return nv;
 }
 
-/* Blocks live wherever the allocator put them, so the hardware prefetcher
- * cannot see the next one coming: fetch the sphere arrays (1 KiB) and the
- * handles of the block PREFETCH_AHEAD items ahead. Measured: 1M entities in
- * 4 cells, one thread, 2.3 ms -> see BENCHMARKS.md. */
-#define PREFETCH_AHEAD 3u
+/* Blocks of different cells are not neighbours in memory, so the hardware
+ * prefetcher cannot see the next one coming: fetch the hot prefix (sphere,
+ * handle, class, sub-level: 1.5 KiB) of the block PREFETCH_AHEAD items
+ * ahead, and its AABBs too when the query will read them. */
+#define PREFETCH_AHEAD 6u
 
-static inline void prefetch_block(const cull_block *b)
+static inline void prefetch_block(const cull_block *b, bool boxes)
 {
     const char *p = (const char *)b;
-    for (size_t off = 0; off < 4 * sizeof b->x; off += 64) __builtin_prefetch(p + off, 0, 3);
-    for (size_t off = 0; off < sizeof b->handle; off += 64) __builtin_prefetch((const char *)b->handle + off, 0, 3);
+    size_t end = boxes ? sizeof *b : CULL_BLOCK_HOT_BYTES;
+    for (size_t off = 0; off < end; off += 64) __builtin_prefetch(p + off, 0, 3);
 }
 
 typedef struct job {
@@ -183,7 +183,7 @@ static void job_cull(void *arg, uint32_t t)
         if (end > j->nitems) end = j->nitems;
         for (uint32_t i = ch * CHUNK_BLOCKS; i < end; i++) {
             const cull_item *it = &j->items[i];
-            if (i + PREFETCH_AHEAD < j->nitems) prefetch_block(j->items[i + PREFETCH_AHEAD].block);
+            if (i + PREFETCH_AHEAD < j->nitems) prefetch_block(j->items[i + PREFETCH_AHEAD].block, j->kp->area);
             off += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt);
         }
         c->chunks[ch] = (cull_chunk){.thread = t, .off = start, .count = off - start};
@@ -311,7 +311,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     if (threads == 1) {
         for (uint32_t i = 0; i < nitems; i++) {
             const cull_item *it = &c->items[i];
-            if (i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block);
+            if (i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block, kp.area);
             written += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp,
                                  out + written, &total);
         }

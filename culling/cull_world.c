@@ -61,7 +61,8 @@ void cull_world_destroy(cull_world *w)
 {
     if (!w) return;
     for (int g = 0; g < 2; g++) cull_grid_free(&w->grid[g]);
-    for (uint32_t i = 0; i < w->npool; i++) free(w->block_pool[i]);
+    for (uint32_t i = 0; i < w->nslabs; i++) free(w->slabs[i]);
+    free(w->slabs);
     free(w->block_pool);
     free(w->slots);
     free(w->dirty);
@@ -248,7 +249,7 @@ void cull_world_info_get(const cull_world *w, cull_world_info *o)
     o->regions = w->grid[0].nregions + w->grid[1].nregions;
     o->blocks = w->nblocks_total;
     o->bytes = sizeof *w + (size_t)w->cap_slots * sizeof(cull_slot) +
-               (size_t)(w->nblocks_total + w->npool) * sizeof(cull_block) +
+               w->slab_bytes +
                (size_t)o->cells * (sizeof(cull_cell) + 6 * sizeof(double) + 2 * sizeof(void *)) +
                (size_t)o->regions * (sizeof(cull_region) + 6 * sizeof(double) + 2 * sizeof(void *)) +
                (size_t)w->cap_dirty * sizeof(void *);
