@@ -90,8 +90,11 @@ $(CULL_LIB): $(CULL_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
+# the tests inject allocation failures through wrapped allocators (test_alloc.c)
+TEST_WRAP := -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=aligned_alloc
+
 $(TEST_BIN): $(TEST_OBJ) $(CULL_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(CULL_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(CULL_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
 
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)

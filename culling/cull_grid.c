@@ -395,8 +395,9 @@ static void copy_lane(cull_cell *c, uint32_t dst, uint32_t src)
 
 void cull_grid_reserve_removal(cull_world *w)
 {
-    /* failure only costs tightness (a block not pooled is freed, a cell not
-       listed dirty keeps loose bounds) */
+    /* failure only costs tightness: a block the pool cannot take stays
+       unused in its slab until the world is destroyed, a cell not listed
+       dirty keeps loose (still correct) bounds */
     (void)cull_grow((void **)&w->block_pool, &w->cap_pool, w->npool + 1, sizeof *w->block_pool);
     (void)cull_grow((void **)&w->dirty, &w->cap_dirty, w->ndirty + 1, sizeof *w->dirty);
 }

@@ -84,6 +84,7 @@ int cull_pool_create(uint32_t threads, cull_pool **out)
         p->threads = calloc(threads - 1, sizeof *p->threads);
         p->workers = calloc(threads - 1, sizeof *p->workers);
         if (!p->threads || !p->workers) {
+            p->nthreads = 1; /* no worker started: nothing to join */
             cull_pool_destroy(p);
             return CULL_ERR_NOMEM;
         }

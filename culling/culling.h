@@ -20,7 +20,8 @@
  * Precision: positions are given in double and stored as floats relative to
  * their cell's origin; every plane is re-based per cell in double. A camera
  * 10^6 m from the origin is as exact as one at the origin. Stored bounds are
- * rounded outward by (4*cell_size + r) * 2^-19 so float evaluation never
+ * rounded outward by (4*cell_size + r + reach) * 2^-19, reach being the
+ * AABB's largest distance from its cell's origin, so float evaluation never
  * culls a bound the exact (double) test keeps.
  *
  * No I/O, no sockets, no files. Errors are negative codes from CULL_ERRORS.

@@ -13,6 +13,7 @@ int main(void)
         {world_tests, world_tests_count},
         {view_tests, view_tests_count},
         {query_tests, query_tests_count},
+        {alloc_tests, alloc_tests_count},
     };
     size_t total = 0;
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;

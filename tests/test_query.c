@@ -5,12 +5,13 @@
  * 1e7 and infinity, GL / [0,1] / reversed-Z, perspective and orthographic,
  * entities placed on purpose within a hair of a plane.
  *
- * Stated epsilon: a "false cull" is an entity culled from a view while the
- * model keeps it with a margin above eps = 2^-20 * (4 * cell + r + reach),
- * where reach is the AABB's largest distance from the cell origin; there
- * must be none. Cases where the core keeps what the model culls by less
- * than 4 * the storage slack (the outward rounding) are counted and
- * reported; beyond that they fail too.
+ * False culls, strictly: an entity culled from a view while the model keeps
+ * it (frustum margin >= 0 and, with a threshold, area >= threshold); there
+ * must be none. The other way, the core may keep what the model culls, by
+ * the outward rounding of stored bounds: eps = 2^-20 * (4 * cell + r +
+ * reach), reach being the AABB's largest distance from the cell origin
+ * (the storage slack is 2 eps). Such cases within 8 eps are counted and
+ * reported; beyond 8 eps they fail.
  */
 #include "test_util.h"
 
@@ -101,6 +102,27 @@ static void random_bounds(rng *r, cull_entity_desc *e, const double c[3], double
     e->flags = rng_below(r, 2) ? CULL_ENTITY_DYNAMIC : 0;
 }
 
+/* An entity near one of the scene's views: at a random distance, or on
+ * purpose within a hair of touching one of its planes. */
+static void random_entity(rng *r, const scene *s, cull_entity_desc *e)
+{
+    const cull_view *v = &s->v[rng_below(r, s->nv)];
+    double rad = rng_below(r, 10) == 0 ? 0 : rng_log(r, 1e-4, 1e4);
+    double c[3];
+    double dist = rng_log(r, 1e-3, 3e5);
+    for (int a = 0; a < 3; a++) c[a] = v->origin[a] + rng_range(r, -1, 1) * dist;
+    if (rng_below(r, 2)) {
+        /* onto a plane, then a hair in or out of touching it */
+        const double *pl = v->plane[rng_below(r, v->plane_count)];
+        double sd = pl[0] * (c[0] - v->origin[0]) + pl[1] * (c[1] - v->origin[1]) +
+                    pl[2] * (c[2] - v->origin[2]) + pl[3];
+        double off = -rad + (rng_below(r, 2) ? 1 : -1) * fmax(rad, 1) * pow(10, -rng_range(r, 0, 9));
+        for (int a = 0; a < 3; a++) c[a] -= (sd - off) * pl[a];
+    }
+    for (int a = 0; a < 3; a++) c[a] = fmax(-1e6, fmin(1e6, c[a]));
+    random_bounds(r, e, c, rad);
+}
+
 static void scene_make(rng *r, scene *s, uint32_t n, uint32_t nv)
 {
     static const double cells[] = {1, 8, 64, 512};
@@ -116,23 +138,7 @@ static void scene_make(rng *r, scene *s, uint32_t n, uint32_t nv)
     }
     s->e = calloc(n, sizeof *s->e);
     s->h = calloc(n, sizeof *s->h);
-    for (uint32_t i = 0; i < n; i++) {
-        const cull_view *v = &s->v[rng_below(r, nv)];
-        double rad = rng_below(r, 10) == 0 ? 0 : rng_log(r, 1e-4, 1e4);
-        double c[3];
-        double dist = rng_log(r, 1e-3, 3e5);
-        for (int a = 0; a < 3; a++) c[a] = v->origin[a] + rng_range(r, -1, 1) * dist;
-        if (rng_below(r, 2)) {
-            /* onto a plane, then a hair in or out of touching it */
-            const double *pl = v->plane[rng_below(r, v->plane_count)];
-            double sd = pl[0] * (c[0] - v->origin[0]) + pl[1] * (c[1] - v->origin[1]) +
-                        pl[2] * (c[2] - v->origin[2]) + pl[3];
-            double off = -rad + (rng_below(r, 2) ? 1 : -1) * fmax(rad, 1) * pow(10, -rng_range(r, 0, 9));
-            for (int a = 0; a < 3; a++) c[a] -= (sd - off) * pl[a];
-        }
-        for (int a = 0; a < 3; a++) c[a] = fmax(-1e6, fmin(1e6, c[a]));
-        random_bounds(r, &s->e[i], c, rad);
-    }
+    for (uint32_t i = 0; i < n; i++) random_entity(r, s, &s->e[i]);
     s->min_area = rng_below(r, 2) ? 0 : (float)rng_log(r, 0.01, 1e4);
     s->flags = rng_below(r, 5) == 0 ? CULL_Q_NO_AABB : CULL_Q_WANT_AREA * rng_below(r, 2);
 }
@@ -144,15 +150,34 @@ static void scene_free(scene *s)
     free(s->model);
 }
 
-/* Builds the world and the model's verdicts. */
-static cull_world *scene_world(scene *s)
+/* Builds the world, then (in most scenes) edits it: a third of the
+ * entities move somewhere else, a tenth are removed and added again, and
+ * the bounds are tightened half of the time, so queries run on storage that
+ * edits have shuffled. Then the model's verdicts. */
+static cull_world *scene_world(rng *r, scene *s)
 {
     cull_world *w;
     assert_int_equal(cull_world_create(&(cull_world_desc){.cell_size = s->cell}, &w), CULL_OK);
-    for (uint32_t i = 0; i < s->n; i++) {
-        assert_int_equal(cull_entity_add(w, &s->e[i], &s->h[i]), CULL_OK);
-        assert_int_equal(cull_entity_get(w, s->h[i], &s->e[i]), CULL_OK);
+    for (uint32_t i = 0; i < s->n; i++) assert_int_equal(cull_entity_add(w, &s->e[i], &s->h[i]), CULL_OK);
+    if (rng_below(r, 4)) {
+        for (uint32_t i = 0; i < s->n; i++) {
+            uint32_t op = rng_below(r, 10);
+            if (op < 3) {
+                random_entity(r, s, &s->e[i]);
+                assert_int_equal(cull_entity_update(w, s->h[i], &s->e[i]), CULL_OK);
+            } else if (op == 3) {
+                /* the freed slot is reused at once, so slot i stays entity i */
+                assert_int_equal(cull_entity_remove(w, s->h[i]), CULL_OK);
+                random_entity(r, s, &s->e[i]);
+                cull_handle old = s->h[i];
+                assert_int_equal(cull_entity_add(w, &s->e[i], &s->h[i]), CULL_OK);
+                assert_int_not_equal(old, s->h[i]);
+                assert_int_equal(old & (CULL_MAX_ENTITIES - 1), s->h[i] & (CULL_MAX_ENTITIES - 1));
+            }
+        }
+        if (rng_below(r, 2)) cull_world_commit(w);
     }
+    for (uint32_t i = 0; i < s->n; i++) assert_int_equal(cull_entity_get(w, s->h[i], &s->e[i]), CULL_OK);
     s->model = calloc((size_t)s->n * s->nv, sizeof *s->model);
     for (uint32_t i = 0; i < s->n; i++)
         for (uint32_t v = 0; v < s->nv; v++) ref_test(&s->rv[v], &s->e[i], &s->model[(size_t)i * s->nv + v]);
@@ -201,13 +226,9 @@ static void check_results(const scene *s, const cull_result *res, size_t n, tall
             bool area_keep = s->min_area <= 0 || m->area >= s->min_area;
             t->cases++;
             if (!fast) {
-                if (margin > eps) {
-                    /* the frustum certainly keeps it: only the area may cull */
-                    if (s->min_area > 0 && m->area < s->min_area * (1 + 1e-3) + 1e-3) {
-                        if (m->area >= s->min_area) t->area_kept_within++;
-                        continue;
-                    }
-                    if (s->min_area > 0 && m->area >= s->min_area) t->area_false_culls++;
+                /* strict: whatever the exact test keeps must be kept */
+                if (frustum_keep && area_keep) {
+                    if (s->min_area > 0) t->area_false_culls++;
                     else t->false_culls++;
                     if (t->false_culls + t->area_false_culls < 5)
                         fprintf(stderr, "false cull: entity %u view %u margin %Lg eps %g area %Lg thr %g\n",
@@ -261,15 +282,17 @@ static void test_random_vs_model(void **state)
         uint32_t nv = rng_below(&r, 8) == 0 ? 32 : 1 + rng_below(&r, 8);
         scene s;
         scene_make(&r, &s, 1500 + rng_below(&r, 3000), nv);
-        cull_world *w = scene_world(&s);
+        cull_world *w = scene_world(&r, &s);
         size_t cap = cull_query_bound(w);
-        cull_result *res[2 * CULL_ISA_COUNT] = {0};
-        size_t cnt[2 * CULL_ISA_COUNT] = {0};
+        /* per ISA: threads 1, 2 and automatic */
+        cull_result *res[3 * CULL_ISA_COUNT] = {0};
+        size_t cnt[3 * CULL_ISA_COUNT] = {0};
         for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
             if (!cull_isa_supported(isa)) continue;
             assert_int_equal(cull_ctx_set_isa(ctx, isa), CULL_OK);
-            for (uint32_t th = 1; th <= 2; th++) {
-                size_t k = isa * 2 + th - 1;
+            for (uint32_t ti = 0; ti < 3; ti++) {
+                uint32_t th = ti == 2 ? 0 : ti + 1;
+                size_t k = isa * 3 + ti;
                 res[k] = malloc(cap * sizeof *res[k]);
                 cull_query_desc q = {.views = s.v, .view_count = nv, .flags = s.flags,
                                      .min_screen_area = s.min_area, .threads = th};
@@ -279,16 +302,16 @@ static void test_random_vs_model(void **state)
                 assert_true(st.after_area <= st.after_aabb && st.after_aabb <= st.after_spheres &&
                             st.after_spheres <= st.entities_tested && st.entities_tested <= s.n);
                 check_results(&s, res[k], cnt[k], &t);
-                if (th == 2) {
+                if (ti > 0) {
                     /* thread count never changes the answer or its order */
-                    assert_int_equal(cnt[k], cnt[k - 1]);
-                    assert_memory_equal(res[k], res[k - 1], cnt[k] * sizeof(cull_result));
+                    assert_int_equal(cnt[k], cnt[isa * 3]);
+                    assert_memory_equal(res[k], res[isa * 3], cnt[k] * sizeof(cull_result));
                 }
             }
         }
         /* across ISAs: the same order for what both return */
         for (uint32_t isa = 1; isa < CULL_ISA_COUNT; isa++) {
-            size_t a = 0, b = isa * 2;
+            size_t a = 0, b = isa * 3;
             if (!res[b]) continue;
             uint32_t *pos = calloc(s.n, sizeof *pos);
             for (size_t k = 0; k < cnt[a]; k++) pos[res[a][k].handle & (CULL_MAX_ENTITIES - 1)] = (uint32_t)k + 1;
@@ -301,17 +324,18 @@ static void test_random_vs_model(void **state)
             }
             free(pos);
         }
-        for (size_t k = 0; k < 2 * CULL_ISA_COUNT; k++) free(res[k]);
+        for (size_t k = 0; k < 3 * CULL_ISA_COUNT; k++) free(res[k]);
         per_run += (uint64_t)s.n * nv;
         scenes++;
         cull_world_destroy(w);
         scene_free(&s);
     }
     uint32_t runs = 0;
-    for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) runs += cull_isa_supported(isa) ? 2 : 0;
+    for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) runs += cull_isa_supported(isa) ? 3 : 0;
     printf("query vs model: %d scenes, %llu entity x view cases per ISA x threads run, %u runs "
-           "(%llu cases): false culls %llu, area false culls %llu; kept within 8 eps %llu, "
-           "beyond %llu; area within tolerance %llu, area below model %llu\n",
+           "(%llu cases): false culls %llu (with an area threshold %llu); kept though the model culls: "
+           "%llu within 8 eps, %llu beyond; kept below the area threshold %llu; reported area below "
+           "the model's %llu\n",
            scenes, (unsigned long long)per_run, runs, (unsigned long long)t.cases,
            (unsigned long long)t.false_culls, (unsigned long long)t.area_false_culls,
            (unsigned long long)t.kept_within_eps, (unsigned long long)t.kept_beyond_eps,
@@ -334,7 +358,8 @@ static void test_far_camera_is_exact(void **state)
     const double shift[3] = {1953.0 * 512, -1953.0 * 512, 976.0 * 512};
     cull_ctx *ctx;
     assert_int_equal(cull_ctx_create(NULL, &ctx), CULL_OK);
-    for (int it = 0; it < 20; it++) {
+    int nonempty = 0;
+    for (int it = 0; it < 400 && nonempty < 20; it++) {
         cull_world *w[2];
         for (int k = 0; k < 2; k++)
             assert_int_equal(cull_world_create(&(cull_world_desc){.cell_size = 64}, &w[k]), CULL_OK);
@@ -362,9 +387,11 @@ static void test_far_camera_is_exact(void **state)
         assert_int_equal(cull_query(w[1], ctx, &q, b, 3000 + CULL_RESULT_PAD, &nb, NULL), CULL_OK);
         assert_int_equal(na, nb);
         assert_memory_equal(a, b, na * sizeof *a);
+        nonempty += na > 0;
         cull_world_destroy(w[0]);
         cull_world_destroy(w[1]);
     }
+    assert_int_equal(nonempty, 20); /* 20 comparisons of non-empty answers */
     cull_ctx_destroy(ctx);
 }
 
@@ -427,6 +454,9 @@ static void test_city_scene(void **state)
     scene_file sf;
     char err[256];
     if (scene_file_load(path, &sf, err, sizeof err)) {
+        /* CI always has ../shared beside the clone: missing there is a failure */
+        const char *ci = getenv("CI");
+        if (ci && !strcmp(ci, "true")) fail_msg("city scene missing under CI: %s", err);
         printf("city scene skipped: %s\n", err);
         skip();
     }

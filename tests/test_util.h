@@ -49,5 +49,6 @@ static inline uint64_t test_seed(void)
 TEST_GROUP(world_tests)
 TEST_GROUP(view_tests)
 TEST_GROUP(query_tests)
+TEST_GROUP(alloc_tests)
 
 #endif
