@@ -161,6 +161,10 @@ typedef struct cull_kview {
     float    cx[4], cy[4], cw[4];
     float    half_w, half_h; /* viewport / 2, pixels */
     float    vp_w, vp_h;
+    /* the area bound works on min+max and max-min: rows x, y, w halved,
+       their absolute values, and pixel offsets half - 2^-16 half */
+    float    hx[3], hy[3], hw[3], ax[3], ay[3], aw[3];
+    float    off_w, off_h;
 } cull_kview;
 
 typedef struct cull_kparams {

@@ -136,31 +136,33 @@ static inline vf box_area(const cull_kview *restrict k, const vf bx[2], const vf
  * more (BENCHMARKS.md gives how many). Padded as the exact path. */
 static inline vf area_upper(const cull_kview *restrict k, const vf bx[2], const vf by[2], const vf bz[2])
 {
-    const vf zero = vf_set(0.0f), half = vf_set(0.5f), one = vf_set(1.0f);
-    vf cx = vf_mul(vf_add(bx[0], bx[1]), half), ex = vf_mul(vf_sub(bx[1], bx[0]), half);
-    vf cy = vf_mul(vf_add(by[0], by[1]), half), ey = vf_mul(vf_sub(by[1], by[0]), half);
-    vf cz = vf_mul(vf_add(bz[0], bz[1]), half), ez = vf_mul(vf_sub(bz[1], bz[0]), half);
-    vf X = vf_fma(vf_set(k->cx[0]), cx, vf_fma(vf_set(k->cx[1]), cy, vf_fma(vf_set(k->cx[2]), cz, vf_set(k->cx[3]))));
-    vf Y = vf_fma(vf_set(k->cy[0]), cx, vf_fma(vf_set(k->cy[1]), cy, vf_fma(vf_set(k->cy[2]), cz, vf_set(k->cy[3]))));
-    vf Wc = vf_fma(vf_set(k->cw[0]), cx, vf_fma(vf_set(k->cw[1]), cy, vf_fma(vf_set(k->cw[2]), cz, vf_set(k->cw[3]))));
-    vf Ex = vf_fma(vf_set(fabsf(k->cx[0])), ex, vf_fma(vf_set(fabsf(k->cx[1])), ey, vf_mul(vf_set(fabsf(k->cx[2])), ez)));
-    vf Ey = vf_fma(vf_set(fabsf(k->cy[0])), ex, vf_fma(vf_set(fabsf(k->cy[1])), ey, vf_mul(vf_set(fabsf(k->cy[2])), ez)));
-    vf Ew = vf_fma(vf_set(fabsf(k->cw[0])), ex, vf_fma(vf_set(fabsf(k->cw[1])), ey, vf_mul(vf_set(fabsf(k->cw[2])), ez)));
+    const vf zero = vf_set(0.0f);
+    /* s = min + max = 2 centre, d = max - min = 2 extent; rows are halved */
+    vf sx = vf_add(bx[0], bx[1]), dx = vf_sub(bx[1], bx[0]);
+    vf sy = vf_add(by[0], by[1]), dy = vf_sub(by[1], by[0]);
+    vf sz = vf_add(bz[0], bz[1]), dz = vf_sub(bz[1], bz[0]);
+    vf X = vf_fma(vf_set(k->hx[0]), sx, vf_fma(vf_set(k->hx[1]), sy, vf_fma(vf_set(k->hx[2]), sz, vf_set(k->cx[3]))));
+    vf Y = vf_fma(vf_set(k->hy[0]), sx, vf_fma(vf_set(k->hy[1]), sy, vf_fma(vf_set(k->hy[2]), sz, vf_set(k->cy[3]))));
+    vf Wc = vf_fma(vf_set(k->hw[0]), sx, vf_fma(vf_set(k->hw[1]), sy, vf_fma(vf_set(k->hw[2]), sz, vf_set(k->cw[3]))));
+    vf Ex = vf_fma(vf_set(k->ax[0]), dx, vf_fma(vf_set(k->ax[1]), dy, vf_mul(vf_set(k->ax[2]), dz)));
+    vf Ey = vf_fma(vf_set(k->ay[0]), dx, vf_fma(vf_set(k->ay[1]), dy, vf_mul(vf_set(k->ay[2]), dz)));
+    vf Ew = vf_fma(vf_set(k->aw[0]), dx, vf_fma(vf_set(k->aw[1]), dy, vf_mul(vf_set(k->aw[2]), dz)));
     /* w within its rounding error of 0: no bound (the eye may be inside);
        the margin also covers the rounding of Ex, Ey and the quotients */
-    vf wtol = vf_max(vf_set(1e-30f), vf_mul(vf_set(0x1p-20f), vf_add(vf_abs(Wc), Ew)));
     vf wlo = vf_sub(Wc, Ew), whi = vf_add(Wc, Ew);
+    vf wtol = vf_max(vf_set(1e-30f), vf_mul(vf_set(0x1p-20f), vf_add(vf_abs(Wc), Ew)));
     vm front = vf_ge(wlo, wtol);
     vf rlo = vf_rcp(wlo), rhi = vf_rcp(whi);
     vf xa = vf_sub(X, Ex), xb = vf_add(X, Ex), ya = vf_sub(Y, Ey), yb = vf_add(Y, Ey);
     vf x0 = vf_min(vf_mul(xa, rlo), vf_mul(xa, rhi)), x1 = vf_max(vf_mul(xb, rlo), vf_mul(xb, rhi));
     vf y0 = vf_min(vf_mul(ya, rlo), vf_mul(ya, rhi)), y1 = vf_max(vf_mul(yb, rlo), vf_mul(yb, rhi));
+    /* pixels: (ndc + 1) * half, grown by 2^-16 half, clipped to the viewport */
     vf hw = vf_set(k->half_w), hh = vf_set(k->half_h), vw = vf_set(k->vp_w), vh = vf_set(k->vp_h);
-    vf gx = vf_set(k->half_w * 0x1p-16f), gy = vf_set(k->half_h * 0x1p-16f);
-    vf px0 = vf_min(vf_max(vf_sub(vf_mul(vf_add(x0, one), hw), gx), zero), vw);
-    vf px1 = vf_min(vf_max(vf_add(vf_mul(vf_add(x1, one), hw), gx), zero), vw);
-    vf py0 = vf_min(vf_max(vf_sub(vf_mul(vf_add(y0, one), hh), gy), zero), vh);
-    vf py1 = vf_min(vf_max(vf_add(vf_mul(vf_add(y1, one), hh), gy), zero), vh);
+    vf gw = vf_set(k->half_w * 0x1p-16f), gh = vf_set(k->half_h * 0x1p-16f);
+    vf px0 = vf_min(vf_max(vf_fma(x0, hw, vf_set(k->off_w)), zero), vw);
+    vf px1 = vf_min(vf_max(vf_fma(x1, hw, vf_add(hw, gw)), zero), vw);
+    vf py0 = vf_min(vf_max(vf_fma(y0, hh, vf_set(k->off_h)), zero), vh);
+    vf py1 = vf_min(vf_max(vf_fma(y1, hh, vf_add(hh, gh)), zero), vh);
     return vf_select(front, vf_mul(vf_sub(px1, px0), vf_sub(py1, py0)), vf_mul(vw, vh));
 }
 
@@ -284,11 +286,13 @@ static inline uint32_t emit_group(cull_result *restrict out, const cull_block *r
 #endif
 
 
-/* The common shape, one view and no screen area, fused: test, then write
- * the group's survivors at once (no mask arrays, no second pass). */
+/* The common shape, one view, fused: test, screen area, then write the
+ * group's survivors at once (no mask arrays, no second pass). area: 0 none,
+ * 1 threshold on the upper bound, 2 exact. */
 static inline __attribute__((always_inline)) uint32_t
 single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict k, const uint32_t NP, bool aabb,
-            cull_result *restrict out, uint32_t *c_sph, uint32_t *c_aabb)
+            int area, float min_area, cull_result *restrict out, uint32_t *c_sph, uint32_t *c_aabb,
+            uint32_t *c_area)
 {
     vf px[6], py[6], pz[6], pd[6];
     const float *bxp[6], *byp[6], *bzp[6];
@@ -302,9 +306,9 @@ single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict
         byp[i] = k->py[i] >= 0.0f ? b->maxy : b->miny;
         bzp[i] = k->pz[i] >= 0.0f ? b->maxz : b->minz;
     }
-    const vf zero = vf_set(0.0f), none = vf_set(-1.0f);
+    const vf zero = vf_set(0.0f), none = vf_set(-1.0f), thr = vf_set(min_area);
     const vu bit = vu_or_bit(vu_zero(), vm_ones(), k->bit);
-    uint32_t written = 0, ns = 0, na = 0;
+    uint32_t written = 0, ns = 0, na = 0, nr = 0;
     for (uint32_t o = 0; o < n; o += W) {
         const uint32_t valid = n - o >= W ? (1u << W) - 1u : (1u << (n - o)) - 1u;
         uint32_t live = valid;
@@ -335,10 +339,22 @@ single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict
         }
         if (!live) continue;
         na += (uint32_t)__builtin_popcount(live);
-        written += emit_group(out + written, b, o, live, bit, none);
+        vf a = none;
+        if (area) {
+            vf bx[2] = {vf_load(b->minx + o), vf_load(b->maxx + o)};
+            vf by[2] = {vf_load(b->miny + o), vf_load(b->maxy + o)};
+            vf bz[2] = {vf_load(b->minz + o), vf_load(b->maxz + o)};
+            a = area == 2 ? box_area(k, bx, by, bz) : area_upper(k, bx, by, bz);
+            if (min_area > 0) live &= ~vm_bits(vf_lt(a, thr));
+            if (area == 1) a = none;
+            if (!live) continue;
+        }
+        nr += (uint32_t)__builtin_popcount(live);
+        written += emit_group(out + written, b, o, live, bit, a);
     }
     *c_sph += ns;
     *c_aabb += na;
+    *c_area += nr;
     return written;
 }
 
@@ -349,21 +365,24 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
     const bool aabb = p->aabb, want_area = p->area, exact_area = p->exact_area;
     const float min_area = p->min_area;
 
-    if (nv == 1 && !want_area) {
-        uint32_t cs = 0, ca = 0, written;
+    if (nv == 1) {
+        const int am = !want_area ? 0 : exact_area ? 2 : 1;
+        uint32_t cs = 0, ca = 0, cr = 0, written;
+#define CULL_ONE(NP) single_view(b, n, kv, NP, aabb, am, min_area, out, &cs, &ca, &cr)
         switch (kv->nplanes) {
-        case 0: written = single_view(b, n, kv, 0, aabb, out, &cs, &ca); break;
-        case 1: written = single_view(b, n, kv, 1, aabb, out, &cs, &ca); break;
-        case 2: written = single_view(b, n, kv, 2, aabb, out, &cs, &ca); break;
-        case 3: written = single_view(b, n, kv, 3, aabb, out, &cs, &ca); break;
-        case 4: written = single_view(b, n, kv, 4, aabb, out, &cs, &ca); break;
-        case 5: written = single_view(b, n, kv, 5, aabb, out, &cs, &ca); break;
-        default: written = single_view(b, n, kv, 6, aabb, out, &cs, &ca); break;
+        case 0: written = CULL_ONE(0); break;
+        case 1: written = CULL_ONE(1); break;
+        case 2: written = CULL_ONE(2); break;
+        case 3: written = CULL_ONE(3); break;
+        case 4: written = CULL_ONE(4); break;
+        case 5: written = CULL_ONE(5); break;
+        default: written = CULL_ONE(6); break;
         }
+#undef CULL_ONE
         cnt->tested += n;
         cnt->after_spheres += cs;
         cnt->after_aabb += ca;
-        cnt->after_area += ca;
+        cnt->after_area += cr;
         return written;
     }
 

@@ -140,6 +140,16 @@ static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, con
             k->vp_h = (float)view->viewport_h;
             k->half_w = 0.5f * k->vp_w;
             k->half_h = 0.5f * k->vp_h;
+            for (int c = 0; c < 3; c++) {
+                k->hx[c] = 0.5f * k->cx[c];
+                k->hy[c] = 0.5f * k->cy[c];
+                k->hw[c] = 0.5f * k->cw[c];
+                k->ax[c] = fabsf(k->hx[c]);
+                k->ay[c] = fabsf(k->hy[c]);
+                k->aw[c] = fabsf(k->hw[c]);
+            }
+            k->off_w = k->half_w - k->half_w * 0x1p-16f;
+            k->off_h = k->half_h - k->half_h * 0x1p-16f;
         }
     }
     return nv;
