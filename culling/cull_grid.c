@@ -356,8 +356,7 @@ void cull_grid_store(cull_world *w, cull_cell *c, uint32_t i, const cull_entity_
     b->maxy[l] = cull_round_up(lmax[1]);
     b->maxz[l] = cull_round_up(lmax[2]);
     b->handle[l] = h;
-    b->class_id[l] = d->class_id;
-    b->sublevel[l] = d->sublevel;
+    b->class_sub[l] = (uint32_t)d->class_id | (uint32_t)d->sublevel << 16;
     /* grow the cell bounds to hold both the sphere and the AABB; float sums
        may round inward by half an ulp, so pad one ulp */
     float lo[3] = {fminf(b->x[l] - b->r[l], b->minx[l]), fminf(b->y[l] - b->r[l], b->miny[l]),
@@ -389,8 +388,7 @@ static void copy_lane(cull_cell *c, uint32_t dst, uint32_t src)
     bd->maxy[ld] = bs->maxy[ls];
     bd->maxz[ld] = bs->maxz[ls];
     bd->handle[ld] = bs->handle[ls];
-    bd->class_id[ld] = bs->class_id[ls];
-    bd->sublevel[ld] = bs->sublevel[ls];
+    bd->class_sub[ld] = bs->class_sub[ls];
 }
 
 void cull_grid_reserve_removal(cull_world *w)

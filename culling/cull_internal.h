@@ -22,15 +22,15 @@
 #define CULL_MAX_COORD 1e12
 #define CULL_MAX_RADIUS 1e9
 
-/* One block: 64 entities, SoA, 64-byte aligned, 3,328 bytes. What the
+/* One block: 64 entities, SoA, 64-byte aligned, 3 KiB. What the
  * sphere stage and the result writer read (sphere, handle, class,
  * sub-level) comes first and is contiguous (1.5 KiB), so a one-view query
  * streams that prefix and never touches the AABBs unless it needs them. */
 typedef struct cull_block {
     float x[CULL_BLOCK_CAP], y[CULL_BLOCK_CAP], z[CULL_BLOCK_CAP], r[CULL_BLOCK_CAP];
     uint32_t handle[CULL_BLOCK_CAP];
-    uint16_t class_id[CULL_BLOCK_CAP];
-    uint16_t sublevel[CULL_BLOCK_CAP];
+    uint32_t class_sub[CULL_BLOCK_CAP]; /* class_id | sublevel << 16: the
+                                            result's layout, one load */
     float minx[CULL_BLOCK_CAP], miny[CULL_BLOCK_CAP], minz[CULL_BLOCK_CAP];
     float maxx[CULL_BLOCK_CAP], maxy[CULL_BLOCK_CAP], maxz[CULL_BLOCK_CAP];
 } cull_block;

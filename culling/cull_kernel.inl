@@ -244,9 +244,7 @@ static inline uint32_t emit_group(cull_result *restrict out, const cull_block *r
 {
     __m256i idx = _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)&cull_pack_lut[live]));
     __m256i h = _mm256_load_si256((const __m256i *)(b->handle + o));
-    __m128i cl = _mm_load_si128((const __m128i *)(b->class_id + o));
-    __m128i sl = _mm_load_si128((const __m128i *)(b->sublevel + o));
-    __m256i cs = _mm256_set_m128i(_mm_unpackhi_epi16(cl, sl), _mm_unpacklo_epi16(cl, sl));
+    __m256i cs = _mm256_load_si256((const __m256i *)(b->class_sub + o));
     h = _mm256_permutevar8x32_epi32(h, idx);
     __m256i m = _mm256_permutevar8x32_epi32(mask, idx);
     cs = _mm256_permutevar8x32_epi32(cs, idx);
@@ -277,8 +275,8 @@ static inline uint32_t emit_group(cull_result *restrict out, const cull_block *r
         cull_result *res = &out[k++];
         res->handle = b->handle[o + l];
         res->view_mask = mk[l];
-        res->class_id = b->class_id[o + l];
-        res->sublevel = b->sublevel[o + l];
+        res->class_id = (uint16_t)b->class_sub[o + l];
+        res->sublevel = (uint16_t)(b->class_sub[o + l] >> 16);
         res->screen_area = ar[l];
     } while (live);
     return k;
