@@ -170,6 +170,7 @@ static void flush_caches(void)
 typedef struct result {
     double median, min, visible;
     int iters;
+    uint32_t tested; /* entities that reached the block stage, last call */
 } result;
 
 static int iters_for(uint32_t n, uint32_t views)
@@ -186,8 +187,9 @@ static void report(const char *bench, const char *scene, uint32_t n, uint32_t vi
     if (g_json) {
         printf("{\"bench\":\"%s\",\"scene\":\"%s\",\"entities\":%u,\"views\":%u,\"threads\":%u,"
                "\"isa\":\"%s\",\"stage\":\"%s\",\"cache\":\"%s\",\"median_ns\":%.0f,\"min_ns\":%.0f,"
-               "\"visible\":%.0f,\"iterations\":%d}\n",
-               bench, scene, n, views, threads, isa, stage, cache, r->median, r->min, r->visible, r->iters);
+               "\"visible\":%.0f,\"tested\":%u,\"iterations\":%d}\n",
+               bench, scene, n, views, threads, isa, stage, cache, r->median, r->min, r->visible, r->tested,
+               r->iters);
     } else {
         printf("%-6s %-5s %8u %5u %7u %-7s %-7s %-5s %12.2f %12.2f %9.0f\n", bench, scene, n, views, threads,
                isa, stage, cache, r->median / 1e3, r->min / 1e3, r->visible);
@@ -218,7 +220,7 @@ static void run_naive(bscene *s, bool cold)
         vis += k;
     }
     qsort(t, it, sizeof *t, cmp_d);
-    result r = {t[it / 2], t[0], vis / it, it};
+    result r = {t[it / 2], t[0], vis / it, it, s->n};
     report("naive", "aos", s->n, 1, 1, "scalar", "sphere", cold ? "cold" : "warm", &r);
     free(t);
     free(out);
@@ -243,6 +245,7 @@ static void run_case(bscene *s, cull_pool *pool, bool flat, uint32_t views, uint
     int it = iters_for(s->n, views);
     if (cold && !g_smoke && it > 30) it = 30;
     double *t = malloc(it * sizeof *t), vis = 0;
+    cull_query_stats st = {0};
     /* one untimed call grows the context's scratch */
     cull_view (*path)[CULL_MAX_VIEWS] = flat ? s->path_flat : s->path;
     q.views = path[0];
@@ -251,12 +254,12 @@ static void run_case(bscene *s, cull_pool *pool, bool flat, uint32_t views, uint
         if (cold) flush_caches();
         q.views = path[i % PATH_LEN];
         double t0 = now_ns();
-        if (cull_query(w, ctx, &q, out, cap, &n, NULL)) abort();
+        if (cull_query(w, ctx, &q, out, cap, &n, i == it - 1 ? &st : NULL)) abort();
         t[i] = now_ns() - t0;
         vis += n;
     }
     qsort(t, it, sizeof *t, cmp_d);
-    result r = {t[it / 2], t[0], vis / it, it};
+    result r = {t[it / 2], t[0], vis / it, it, st.entities_tested};
     report("cull", flat ? "flat" : "grid", s->n, views, threads, cull_isa_name(isa), stage,
            cold ? "cold" : "warm", &r);
     free(t);

@@ -33,6 +33,7 @@ cols = [
     ("median µs", lambda r: us(r["median_ns"])),
     ("min µs", lambda r: us(r["min_ns"])),
     ("visible", lambda r: f"{r['visible']:.0f}"),
+    ("tested", lambda r: r.get("tested", "")),
 ]
 for n in sorted({r["entities"] for r in rows}):
     table(f"{n:,} entities: naive early-out baseline", lambda r, n=n: r["bench"] == "naive" and r["entities"] == n, cols)
