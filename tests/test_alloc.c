@@ -54,19 +54,6 @@ typedef struct ment {
     cull_entity_desc d;
 } ment;
 
-static void all_view(cull_view *v)
-{
-    cull_view_desc d = {.viewport_w = 64, .viewport_h = 64};
-    cull_mat_ortho(d.view_proj, -1e13, 1e13, -1e13, 1e13, -1e13, 1e13, CULL_DEPTH_GL);
-    assert_int_equal(cull_view_init(v, &d), CULL_OK);
-}
-
-static int cmp_h(const void *a, const void *b)
-{
-    cull_handle x = *(const cull_handle *)a, y = *(const cull_handle *)b;
-    return x < y ? -1 : x > y;
-}
-
 /* The world holds exactly the model's entities. */
 static void check_world(cull_world *w, cull_ctx *c, const ment *m, size_t n)
 {
@@ -78,24 +65,13 @@ static void check_world(cull_world *w, cull_ctx *c, const ment *m, size_t n)
         assert_int_equal(cull_entity_get(w, m[i].h, &d), CULL_OK);
         assert_memory_equal(&d, &m[i].d, sizeof d);
     }
-    cull_view v;
-    all_view(&v);
-    size_t cap = cull_query_bound(w), got;
-    cull_result *res = malloc(cap * sizeof *res);
-    cull_handle *a = malloc((n + 1) * sizeof *a), *b = malloc((n + 1) * sizeof *b);
-    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1}, res, cap, &got, NULL),
-                     CULL_OK);
-    assert_int_equal(got, n);
-    for (size_t i = 0; i < n; i++) {
-        a[i] = m[i].h;
-        b[i] = res[i].handle;
-    }
-    qsort(a, n, sizeof *a, cmp_h);
-    qsort(b, n, sizeof *b, cmp_h);
-    assert_memory_equal(a, b, n * sizeof *a);
+    cull_result *res;
+    size_t got = test_query_everything(w, c, &res);
+    cull_handle *want = malloc((n + 1) * sizeof *want);
+    for (size_t i = 0; i < n; i++) want[i] = m[i].h;
+    test_assert_same_handles(want, n, res, got);
+    free(want);
     free(res);
-    free(a);
-    free(b);
 }
 
 static void rand_desc(rng *r, cull_entity_desc *d)
@@ -163,7 +139,7 @@ static void test_edits_under_failing_allocations(void **state)
 
     /* queries: an error or the right answer, never a wrong one */
     cull_view v;
-    all_view(&v);
+    test_view_everything(&v);
     size_t cap = cull_query_bound(w), want, got;
     cull_result *ref = malloc(cap * sizeof *ref), *res = malloc(cap * sizeof *res);
     cull_pool *pool;

@@ -42,6 +42,15 @@ static inline uint64_t test_seed(void)
     return s ? strtoull(s, NULL, 0) : 0x5EED2011ull;
 }
 
+#include "culling.h"
+
+/* A view that sees everything within ±1e13 m. */
+void test_view_everything(cull_view *v);
+/* Queries w with that view (ctx may be NULL); *out is malloc'ed. */
+size_t test_query_everything(const cull_world *w, cull_ctx *ctx, cull_result **out);
+/* res[0..got) holds exactly the n handles of want, in any order. */
+void test_assert_same_handles(const cull_handle *want, size_t n, const cull_result *res, size_t got);
+
 #define TEST_GROUP(name) \
     extern const struct CMUnitTest name[]; \
     extern const size_t name##_count;

@@ -1,0 +1,50 @@
+/*
+ * test_util.c — helpers more than one test file needs.
+ */
+#include "test_util.h"
+
+#include <string.h>
+
+void test_view_everything(cull_view *v)
+{
+    cull_view_desc d = {.viewport_w = 100, .viewport_h = 100};
+    cull_mat_ortho(d.view_proj, -1e13, 1e13, -1e13, 1e13, -1e13, 1e13, CULL_DEPTH_GL);
+    assert_int_equal(cull_view_init(v, &d), CULL_OK);
+}
+
+size_t test_query_everything(const cull_world *w, cull_ctx *c, cull_result **out)
+{
+    cull_ctx *own = NULL;
+    if (!c) {
+        assert_int_equal(cull_ctx_create(NULL, &own), CULL_OK);
+        c = own;
+    }
+    cull_view v;
+    test_view_everything(&v);
+    size_t cap = cull_query_bound(w), n = 0;
+    *out = malloc(cap * sizeof **out);
+    assert_non_null(*out);
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1}, *out, cap, &n, NULL),
+                     CULL_OK);
+    cull_ctx_destroy(own);
+    return n;
+}
+
+static int cmp_handle(const void *a, const void *b)
+{
+    cull_handle x = *(const cull_handle *)a, y = *(const cull_handle *)b;
+    return x < y ? -1 : x > y;
+}
+
+void test_assert_same_handles(const cull_handle *want, size_t n, const cull_result *res, size_t got)
+{
+    assert_int_equal(got, n);
+    cull_handle *a = malloc((n + 1) * sizeof *a), *b = malloc((n + 1) * sizeof *b);
+    memcpy(a, want, n * sizeof *a);
+    for (size_t i = 0; i < n; i++) b[i] = res[i].handle;
+    qsort(a, n, sizeof *a, cmp_handle);
+    qsort(b, n, sizeof *b, cmp_handle);
+    assert_memory_equal(a, b, n * sizeof *a);
+    free(a);
+    free(b);
+}
