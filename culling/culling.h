@@ -3,10 +3,11 @@
  * multi-view visibility query ("Culling the Battlefield", DICE, GDC 2011).
  *
  * What it owns: a world of entities (bounding sphere + AABB + class, sub-level
- * and flags) kept in two uniform grids (static and dynamic) of cells; each
- * cell is a list of fixed-capacity SoA blocks. A query tests up to 32 views at
- * once and returns one {handle, view mask, class, screen area} per entity
- * visible in at least one view.
+ * and flags) kept in two uniform grids (static and dynamic) of cells, the
+ * cells grouped in regions of 8x8x8; each cell is a list of fixed-capacity
+ * SoA blocks. A query tests up to 32 views at once, skips whole regions and
+ * cells, and returns one {handle, view mask, class, sub-level, screen area}
+ * per entity visible in at least one view.
  *
  * Load it expects: 10^3..10^7 entities, queries of 1..32 views at 10^2..10^4
  * per second, edits in batches between queries. A query on 15k entities and
@@ -113,8 +114,9 @@ int cull_entity_remove(cull_world *w, cull_handle h);
  * derived sphere or AABB filled in). */
 int cull_entity_get(const cull_world *w, cull_handle h, cull_entity_desc *out);
 
-/* Tightens cell bounds that removals and moves left loose. O(entities in
- * touched cells). Queries are correct without it, only slower. */
+/* Tightens the cell and region bounds that removals and moves left loose.
+ * O(entities in touched cells + regions). Queries are correct without it,
+ * only slower; call it after a batch of edits. */
 void cull_world_commit(cull_world *w);
 
 typedef struct cull_world_info {
@@ -176,8 +178,8 @@ void cull_mat_mul(double out[16], const double a[16], const double b[16]);
                                     and view); without it the threshold is tested
                                     on a cheap upper bound (2 projections): it
                                     never culls more, it may keep a little more */
-#define CULL_Q_STATIC_ONLY  0x4u
-#define CULL_Q_DYNAMIC_ONLY 0x8u
+#define CULL_Q_STATIC_ONLY  0x4u /* only the static grid */
+#define CULL_Q_DYNAMIC_ONLY 0x8u /* only the dynamic grid */
 
 typedef struct cull_query_desc {
     const cull_view *views;     /* view_count prepared views */
@@ -232,9 +234,12 @@ void cull_ctx_destroy(cull_ctx *c);
 #define CULL_RESULT_PAD 8u
 size_t cull_query_bound(const cull_world *w);
 
-/* Runs a query. out has room for cap results (cap >= cull_query_bound).
- * Results come in a deterministic order (grid, cell, block, lane) that does
- * not depend on the thread count or ISA. stats may be NULL. */
+/* Runs a query: *count results in out[0..*count). out has room for cap
+ * results, cap >= cull_query_bound(w) (else CULL_ERR_OUTPUT, nothing done).
+ * Results come in a deterministic order (grid, region, cell, block, lane)
+ * that does not depend on the thread count or ISA. stats may be NULL.
+ * Allocates only when the world has outgrown the context's scratch
+ * (CULL_ERR_NOMEM then, nothing written). */
 int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                cull_result *out, size_t cap, size_t *count,
                cull_query_stats *stats);
