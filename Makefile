@@ -23,7 +23,7 @@ WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
 WARN     += -Werror
 endif
-CPPFLAGS := -D_GNU_SOURCE -Iculling -MMD -MP
+CPPFLAGS := -D_GNU_SOURCE -Iculling -Iprotocol -MMD -MP
 CFLAGS   := -std=c11 $(WARN) -g -pthread
 LDLIBS   := -lm -pthread
 ISA_AVX2 := -mavx2 -mfma -mpopcnt
@@ -48,6 +48,10 @@ endif
 CULL_SRC := $(wildcard culling/*.c)
 CULL_OBJ := $(CULL_SRC:%.c=$(BUILD)/%.o)
 CULL_LIB := $(BUILD)/libvculling.a
+
+PROTO_SRC:= $(wildcard protocol/*.c)
+PROTO_OBJ:= $(PROTO_SRC:%.c=$(BUILD)/%.o)
+PROTO_LIB:= $(BUILD)/libvproto.a
 
 TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/scene_file.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
@@ -93,8 +97,12 @@ $(CULL_LIB): $(CULL_OBJ)
 # the tests inject allocation failures through wrapped allocators (test_alloc.c)
 TEST_WRAP := -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=aligned_alloc
 
-$(TEST_BIN): $(TEST_OBJ) $(CULL_LIB)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(CULL_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
+$(PROTO_LIB): $(PROTO_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(TEST_BIN): $(TEST_OBJ) $(CULL_LIB) $(PROTO_LIB)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(CULL_LIB) $(PROTO_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
 
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
@@ -128,4 +136,4 @@ bench: check-deps
 clean:
 	rm -rf build
 
--include $(CULL_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d)
+-include $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d)

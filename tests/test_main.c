@@ -14,6 +14,7 @@ int main(void)
         {view_tests, view_tests_count},
         {query_tests, query_tests_count},
         {alloc_tests, alloc_tests_count},
+        {protocol_tests, protocol_tests_count},
     };
     size_t total = 0;
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;

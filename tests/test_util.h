@@ -59,5 +59,6 @@ TEST_GROUP(world_tests)
 TEST_GROUP(view_tests)
 TEST_GROUP(query_tests)
 TEST_GROUP(alloc_tests)
+TEST_GROUP(protocol_tests)
 
 #endif

@@ -1,0 +1,865 @@
+/*
+ * protocol.c — see protocol.h and PROTOCOL.md. Byte-level reads and writes
+ * are explicit little-endian shifts, so the code is right on any host.
+ * Decoders check sizes from the counts before touching records and never
+ * allocate; a payload is either accepted whole or rejected with a code.
+ */
+#include "protocol.h"
+
+#include <math.h>
+#include <string.h>
+
+const char *vp_strerror(int code)
+{
+    switch (code) {
+#define VP_X_STR(name, value, msg) case value: return msg;
+        VP_ERRORS(VP_X_STR)
+#undef VP_X_STR
+    }
+    return "unknown error";
+}
+
+static const struct { uint16_t type; const char *name; } type_names[] = {
+    {VP_HELLO, "hello"},
+    {VP_HELLO_OK, "hello_ok"},
+    {VP_ERROR, "error"},
+    {VP_PING, "ping"},
+    {VP_PONG, "pong"},
+    {VP_STATS, "stats"},
+    {VP_STATS_REPLY, "stats_reply"},
+    {VP_SUBSCRIBE, "subscribe"},
+    {VP_EVENT, "event"},
+    {VP_ACK, "ack"},
+    {VP_ENTITY_ADD, "entity_add"},
+    {VP_ENTITY_ADD_REPLY, "entity_add_reply"},
+    {VP_ENTITY_UPDATE, "entity_update"},
+    {VP_ENTITY_REMOVE, "entity_remove"},
+    {VP_ENTITY_LIST, "entity_list"},
+    {VP_ENTITY_LIST_REPLY, "entity_list_reply"},
+    {VP_MESH_PUT, "mesh_put"},
+    {VP_OCCLUDER_PUT, "occluder_put"},
+    {VP_OCCLUDER_REMOVE, "occluder_remove"},
+    {VP_LIGHT_PUT, "light_put"},
+    {VP_LIGHT_REMOVE, "light_remove"},
+    {VP_VIS_QUERY, "vis_query"},
+    {VP_VIS_RESULT, "vis_result"},
+};
+
+bool vp_type_known(uint16_t type)
+{
+    for (size_t i = 0; i < sizeof type_names / sizeof type_names[0]; i++)
+        if (type_names[i].type == type) return true;
+    return false;
+}
+
+const char *vp_type_name(uint16_t type)
+{
+    for (size_t i = 0; i < sizeof type_names / sizeof type_names[0]; i++)
+        if (type_names[i].type == type) return type_names[i].name;
+    return "unknown";
+}
+
+/* ---- little-endian primitives ------------------------------------------------ */
+
+static uint16_t rd16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
+static uint32_t rd32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+static uint64_t rd64(const uint8_t *p) { return (uint64_t)rd32(p) | (uint64_t)rd32(p + 4) << 32; }
+static float rdf32(const uint8_t *p)
+{
+    uint32_t u = rd32(p);
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+static double rdf64(const uint8_t *p)
+{
+    uint64_t u = rd64(p);
+    double d;
+    memcpy(&d, &u, sizeof d);
+    return d;
+}
+static void wr16(uint8_t *p, uint16_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+}
+static void wr32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> (8 * i));
+}
+static void wr64(uint8_t *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++) p[i] = (uint8_t)(v >> (8 * i));
+}
+
+/* ---- framing ---------------------------------------------------------------------- */
+
+int vp_frame_check(const uint8_t *buf, size_t n, uint32_t max_payload, vp_header *h, size_t *frame_size)
+{
+    if (n < VP_HEADER_SIZE) return VP_NEED_MORE;
+    h->len = rd32(buf);
+    h->type = rd16(buf + 4);
+    h->flags = rd16(buf + 6);
+    h->req = rd32(buf + 8);
+    if (h->len > max_payload) return VP_ERR_TOO_LARGE;
+    if (h->flags) return VP_ERR_INVALID;
+    *frame_size = VP_HEADER_SIZE + (size_t)h->len;
+    return n >= *frame_size ? VP_OK : VP_NEED_MORE;
+}
+
+/* ---- writer ------------------------------------------------------------------------- */
+
+void vp_writer_init(vp_writer *w, uint8_t *buf, size_t cap)
+{
+    *w = (vp_writer){.p = buf, .cap = cap};
+}
+
+static uint8_t *reserve(vp_writer *w, size_t n)
+{
+    if (w->overflow || w->cap - w->len < n) {
+        w->overflow = true;
+        return NULL;
+    }
+    uint8_t *p = w->p + w->len;
+    w->len += n;
+    return p;
+}
+
+void vp_put_u8(vp_writer *w, uint8_t v)
+{
+    uint8_t *p = reserve(w, 1);
+    if (p) *p = v;
+}
+void vp_put_u16(vp_writer *w, uint16_t v)
+{
+    uint8_t *p = reserve(w, 2);
+    if (p) wr16(p, v);
+}
+void vp_put_u32(vp_writer *w, uint32_t v)
+{
+    uint8_t *p = reserve(w, 4);
+    if (p) wr32(p, v);
+}
+void vp_put_u64(vp_writer *w, uint64_t v)
+{
+    uint8_t *p = reserve(w, 8);
+    if (p) wr64(p, v);
+}
+void vp_put_i32(vp_writer *w, int32_t v) { vp_put_u32(w, (uint32_t)v); }
+void vp_put_f32(vp_writer *w, float v)
+{
+    uint32_t u;
+    memcpy(&u, &v, sizeof u);
+    vp_put_u32(w, u);
+}
+void vp_put_f64(vp_writer *w, double v)
+{
+    uint64_t u;
+    memcpy(&u, &v, sizeof u);
+    vp_put_u64(w, u);
+}
+void vp_put_bytes(vp_writer *w, const void *src, size_t n)
+{
+    uint8_t *p = reserve(w, n);
+    if (p && n) memcpy(p, src, n);
+}
+
+void vp_frame_begin(vp_writer *w, uint16_t type, uint32_t req)
+{
+    w->frame_start = w->len;
+    vp_put_u32(w, 0);
+    vp_put_u16(w, type);
+    vp_put_u16(w, 0);
+    vp_put_u32(w, req);
+}
+
+bool vp_frame_end(vp_writer *w)
+{
+    if (w->overflow) return false;
+    size_t payload = w->len - w->frame_start - VP_HEADER_SIZE;
+    if (payload > UINT32_MAX) {
+        w->overflow = true;
+        return false;
+    }
+    wr32(w->p + w->frame_start, (uint32_t)payload);
+    return true;
+}
+
+/* ---- reader -------------------------------------------------------------------------- */
+
+void vp_reader_init(vp_reader *r, const uint8_t *p, size_t len)
+{
+    *r = (vp_reader){.p = p, .len = len};
+}
+
+static const uint8_t *take(vp_reader *r, size_t n)
+{
+    if (r->short_read || r->len - r->pos < n) {
+        r->short_read = true;
+        return NULL;
+    }
+    const uint8_t *p = r->p + r->pos;
+    r->pos += n;
+    return p;
+}
+
+uint8_t vp_get_u8(vp_reader *r)
+{
+    const uint8_t *p = take(r, 1);
+    return p ? *p : 0;
+}
+uint16_t vp_get_u16(vp_reader *r)
+{
+    const uint8_t *p = take(r, 2);
+    return p ? rd16(p) : 0;
+}
+uint32_t vp_get_u32(vp_reader *r)
+{
+    const uint8_t *p = take(r, 4);
+    return p ? rd32(p) : 0;
+}
+uint64_t vp_get_u64(vp_reader *r)
+{
+    const uint8_t *p = take(r, 8);
+    return p ? rd64(p) : 0;
+}
+int32_t vp_get_i32(vp_reader *r) { return (int32_t)vp_get_u32(r); }
+float vp_get_f32(vp_reader *r)
+{
+    const uint8_t *p = take(r, 4);
+    return p ? rdf32(p) : 0.0f;
+}
+double vp_get_f64(vp_reader *r)
+{
+    const uint8_t *p = take(r, 8);
+    return p ? rdf64(p) : 0.0;
+}
+const uint8_t *vp_get_bytes(vp_reader *r, size_t n) { return take(r, n); }
+size_t vp_remaining(const vp_reader *r) { return r->short_read ? 0 : r->len - r->pos; }
+
+int vp_reader_finish(const vp_reader *r)
+{
+    if (r->short_read) return VP_ERR_TRUNCATED;
+    return r->pos == r->len ? VP_OK : VP_ERR_TRAILING;
+}
+
+/* A counted array of n records of size rec: the count is checked against
+ * the limit and the bytes left before the records are taken. */
+static int take_array(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8_t **out)
+{
+    if (max && n > max) return VP_ERR_COUNT;
+    size_t left = vp_remaining(r);
+    if (r->short_read) return VP_ERR_TRUNCATED;
+    if ((uint64_t)n * rec > left) return VP_ERR_COUNT;
+    *out = take(r, (size_t)n * rec);
+    return VP_OK;
+}
+
+static bool finite_n(const double *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!isfinite(v[i])) return false;
+    return true;
+}
+
+static bool finite_nf(const float *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!isfinite(v[i])) return false;
+    return true;
+}
+
+/* ---- session messages ------------------------------------------------------------ */
+
+void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m)
+{
+    vp_frame_begin(w, VP_HELLO, req);
+    vp_put_u32(w, m->magic);
+    vp_put_u16(w, m->version);
+    vp_put_u8(w, m->role);
+    vp_put_u8(w, m->token_len);
+    vp_put_bytes(w, m->token, m->token_len);
+    vp_put_u8(w, m->name_len);
+    vp_put_bytes(w, m->name, m->name_len);
+    vp_frame_end(w);
+}
+
+int vp_dec_hello(const uint8_t *p, size_t len, vp_hello *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->magic = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    if (m->magic != VP_MAGIC) return VP_ERR_MAGIC;
+    m->version = vp_get_u16(&r);
+    m->role = vp_get_u8(&r);
+    m->token_len = vp_get_u8(&r);
+    m->token = vp_get_bytes(&r, m->token_len);
+    m->name_len = vp_get_u8(&r);
+    m->name = vp_get_bytes(&r, m->name_len);
+    int rc = vp_reader_finish(&r);
+    if (rc) return rc;
+    if (m->version != VP_VERSION) return VP_ERR_VERSION;
+    if (m->role > VP_ROLE_EDITOR) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m)
+{
+    vp_frame_begin(w, VP_HELLO_OK, req);
+    vp_put_u16(w, m->version);
+    vp_put_u8(w, m->role);
+    vp_put_u8(w, 0);
+    vp_put_u32(w, m->max_payload);
+    vp_put_u32(w, m->max_batch);
+    vp_put_u32(w, m->max_views);
+    vp_put_u64(w, m->epoch);
+    vp_put_u32(w, m->client_id);
+    vp_frame_end(w);
+}
+
+int vp_dec_hello_ok(const uint8_t *p, size_t len, vp_hello_ok *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->version = vp_get_u16(&r);
+    m->role = vp_get_u8(&r);
+    (void)vp_get_u8(&r);
+    m->max_payload = vp_get_u32(&r);
+    m->max_batch = vp_get_u32(&r);
+    m->max_views = vp_get_u32(&r);
+    m->epoch = vp_get_u64(&r);
+    m->client_id = vp_get_u32(&r);
+    return vp_reader_finish(&r);
+}
+
+void vp_enc_error(vp_writer *w, uint32_t req, int32_t code, uint32_t index, const char *msg)
+{
+    size_t n = msg ? strlen(msg) : 0;
+    if (n > VP_MAX_ERROR_MSG) n = VP_MAX_ERROR_MSG;
+    vp_frame_begin(w, VP_ERROR, req);
+    vp_put_i32(w, code);
+    vp_put_u32(w, index);
+    vp_put_u16(w, (uint16_t)n);
+    vp_put_bytes(w, msg, n);
+    vp_frame_end(w);
+}
+
+int vp_dec_error(const uint8_t *p, size_t len, vp_error *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->code = vp_get_i32(&r);
+    m->index = vp_get_u32(&r);
+    m->msg_len = vp_get_u16(&r);
+    if (m->msg_len > VP_MAX_ERROR_MSG) return VP_ERR_COUNT;
+    m->msg = vp_get_bytes(&r, m->msg_len);
+    return vp_reader_finish(&r);
+}
+
+void vp_enc_ping(vp_writer *w, uint16_t type, uint32_t req, const uint8_t *data, uint32_t n)
+{
+    vp_frame_begin(w, type, req);
+    vp_put_bytes(w, data, n);
+    vp_frame_end(w);
+}
+
+int vp_dec_ping(const uint8_t *p, size_t len, const uint8_t **data, uint32_t *n)
+{
+    if (len > VP_MAX_PING) return VP_ERR_COUNT;
+    *data = p;
+    *n = (uint32_t)len;
+    return VP_OK;
+}
+
+void vp_enc_empty(vp_writer *w, uint16_t type, uint32_t req)
+{
+    vp_frame_begin(w, type, req);
+    vp_frame_end(w);
+}
+
+int vp_dec_empty(const uint8_t *p, size_t len)
+{
+    (void)p;
+    return len ? VP_ERR_TRAILING : VP_OK;
+}
+
+void vp_enc_ack(vp_writer *w, uint32_t req, const vp_ack *m)
+{
+    vp_frame_begin(w, VP_ACK, req);
+    vp_put_u64(w, m->epoch);
+    vp_put_u32(w, m->count);
+    vp_frame_end(w);
+}
+
+int vp_dec_ack(const uint8_t *p, size_t len, vp_ack *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->epoch = vp_get_u64(&r);
+    m->count = vp_get_u32(&r);
+    return vp_reader_finish(&r);
+}
+
+void vp_enc_stats_reply(vp_writer *w, uint32_t req, const vp_stats_reply *m)
+{
+    vp_frame_begin(w, VP_STATS_REPLY, req);
+    vp_put_u64(w, m->epoch);
+    vp_put_u64(w, m->uptime_ms);
+    const uint32_t u[] = {m->entities, m->static_entities, m->dynamic_entities, m->regions, m->cells,
+                          m->connections, m->meshes, m->occluders, m->lights};
+    for (size_t i = 0; i < sizeof u / sizeof u[0]; i++) vp_put_u32(w, u[i]);
+    const uint64_t q[] = {m->queries, m->edits, m->bytes_in, m->bytes_out, m->errors};
+    for (size_t i = 0; i < sizeof q / sizeof q[0]; i++) vp_put_u64(w, q[i]);
+    vp_frame_end(w);
+}
+
+int vp_dec_stats_reply(const uint8_t *p, size_t len, vp_stats_reply *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->epoch = vp_get_u64(&r);
+    m->uptime_ms = vp_get_u64(&r);
+    uint32_t *u[] = {&m->entities, &m->static_entities, &m->dynamic_entities, &m->regions, &m->cells,
+                     &m->connections, &m->meshes, &m->occluders, &m->lights};
+    for (size_t i = 0; i < sizeof u / sizeof u[0]; i++) *u[i] = vp_get_u32(&r);
+    uint64_t *q[] = {&m->queries, &m->edits, &m->bytes_in, &m->bytes_out, &m->errors};
+    for (size_t i = 0; i < sizeof q / sizeof q[0]; i++) *q[i] = vp_get_u64(&r);
+    return vp_reader_finish(&r);
+}
+
+void vp_enc_subscribe(vp_writer *w, uint32_t req, uint32_t kinds)
+{
+    vp_frame_begin(w, VP_SUBSCRIBE, req);
+    vp_put_u32(w, kinds);
+    vp_frame_end(w);
+}
+
+int vp_dec_subscribe(const uint8_t *p, size_t len, uint32_t *kinds)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    *kinds = vp_get_u32(&r);
+    int rc = vp_reader_finish(&r);
+    if (rc) return rc;
+    return (*kinds & ~VP_EVENT_SCENE) ? VP_ERR_INVALID : VP_OK;
+}
+
+void vp_enc_event(vp_writer *w, const vp_event *m)
+{
+    vp_frame_begin(w, VP_EVENT, 0);
+    vp_put_u32(w, m->kind);
+    vp_put_u32(w, 0);
+    vp_put_u64(w, m->epoch);
+    vp_put_u32(w, m->added);
+    vp_put_u32(w, m->updated);
+    vp_put_u32(w, m->removed);
+    vp_frame_end(w);
+}
+
+int vp_dec_event(const uint8_t *p, size_t len, vp_event *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->kind = vp_get_u32(&r);
+    (void)vp_get_u32(&r);
+    m->epoch = vp_get_u64(&r);
+    m->added = vp_get_u32(&r);
+    m->updated = vp_get_u32(&r);
+    m->removed = vp_get_u32(&r);
+    return vp_reader_finish(&r);
+}
+
+/* ---- entities ------------------------------------------------------------------ */
+
+size_t vp_size_entities(uint32_t n)
+{
+    return VP_HEADER_SIZE + 4 + (size_t)n * VP_ENTITY_REC_SIZE;
+}
+
+size_t vp_size_ids(uint32_t n)
+{
+    return VP_HEADER_SIZE + 4 + (size_t)n * 8;
+}
+
+void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity *e, uint32_t n)
+{
+    vp_frame_begin(w, type, req);
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) {
+        vp_put_u64(w, e[i].id);
+        vp_put_u32(w, e[i].handle);
+        vp_put_u16(w, e[i].class_id);
+        vp_put_u16(w, e[i].sublevel);
+        vp_put_u32(w, e[i].flags);
+        vp_put_u32(w, 0);
+        for (int k = 0; k < 4; k++) vp_put_f64(w, e[i].sphere[k]);
+        for (int k = 0; k < 6; k++) vp_put_f64(w, e[i].aabb[k]);
+    }
+    vp_frame_end(w);
+}
+
+static void entity_read(const uint8_t *p, vp_entity *e)
+{
+    e->id = rd64(p);
+    e->handle = rd32(p + 8);
+    e->class_id = rd16(p + 12);
+    e->sublevel = rd16(p + 14);
+    e->flags = rd32(p + 16);
+    for (int k = 0; k < 4; k++) e->sphere[k] = rdf64(p + 24 + 8 * k);
+    for (int k = 0; k < 6; k++) e->aabb[k] = rdf64(p + 56 + 8 * k);
+}
+
+static int entity_check(const vp_entity *e)
+{
+    if (!finite_n(e->sphere, 4) || !finite_n(e->aabb, 6)) return VP_ERR_NONFINITE;
+    if (e->flags & ~VP_ENT_DYNAMIC) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+int vp_dec_entities(const uint8_t *p, size_t len, uint32_t max_batch, vp_entity_batch *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->count = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    int rc = take_array(&r, m->count, VP_ENTITY_REC_SIZE, max_batch, &m->recs);
+    if (rc) return rc;
+    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+    for (uint32_t i = 0; i < m->count; i++) {
+        vp_entity e;
+        entity_read(m->recs + (size_t)i * VP_ENTITY_REC_SIZE, &e);
+        if ((rc = entity_check(&e))) return rc;
+    }
+    return VP_OK;
+}
+
+int vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out)
+{
+    if (i >= b->count) return VP_ERR_COUNT;
+    entity_read(b->recs + (size_t)i * VP_ENTITY_REC_SIZE, out);
+    return entity_check(out);
+}
+
+void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, uint32_t n)
+{
+    vp_frame_begin(w, type, req);
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) vp_put_u64(w, ids[i]);
+    vp_frame_end(w);
+}
+
+int vp_dec_ids(const uint8_t *p, size_t len, uint32_t max_batch, vp_id_batch *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->count = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    int rc = take_array(&r, m->count, 8, max_batch, &m->ids);
+    if (rc) return rc;
+    rc = vp_reader_finish(&r);
+    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+}
+
+uint64_t vp_id_get(const vp_id_batch *b, uint32_t i)
+{
+    return i < b->count ? rd64(b->ids + (size_t)i * 8) : 0;
+}
+
+void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n)
+{
+    vp_frame_begin(w, VP_ENTITY_ADD_REPLY, req);
+    vp_put_u64(w, epoch);
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) vp_put_u32(w, handles[i]);
+    vp_frame_end(w);
+}
+
+int vp_dec_add_reply(const uint8_t *p, size_t len, vp_add_reply *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->epoch = vp_get_u64(&r);
+    m->count = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    int rc = take_array(&r, m->count, 4, 0, &m->handles);
+    if (rc) return rc;
+    rc = vp_reader_finish(&r);
+    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+}
+
+uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i)
+{
+    return i < b->count ? rd32(b->handles + (size_t)i * 4) : 0;
+}
+
+/* ---- visibility ---------------------------------------------------------------- */
+
+void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n)
+{
+    vp_frame_begin(w, VP_VIS_QUERY, req);
+    vp_put_u8(w, (uint8_t)n);
+    vp_put_u8(w, flags);
+    vp_put_u16(w, 0);
+    vp_put_f32(w, min_area);
+    for (uint32_t i = 0; i < n; i++) {
+        for (int k = 0; k < 3; k++) vp_put_f64(w, v[i].origin[k]);
+        for (int k = 0; k < 16; k++) vp_put_f64(w, v[i].view_proj[k]);
+        vp_put_u8(w, v[i].depth_mode);
+        vp_put_u8(w, 0);
+        vp_put_u16(w, v[i].viewport_w);
+        vp_put_u16(w, v[i].viewport_h);
+        vp_put_u16(w, 0);
+    }
+    vp_frame_end(w);
+}
+
+static void view_read(const uint8_t *p, vp_view *v)
+{
+    for (int k = 0; k < 3; k++) v->origin[k] = rdf64(p + 8 * k);
+    for (int k = 0; k < 16; k++) v->view_proj[k] = rdf64(p + 24 + 8 * k);
+    v->depth_mode = p[152];
+    v->viewport_w = rd16(p + 154);
+    v->viewport_h = rd16(p + 156);
+}
+
+static int view_check(const vp_view *v)
+{
+    if (!finite_n(v->origin, 3) || !finite_n(v->view_proj, 16)) return VP_ERR_NONFINITE;
+    if (v->depth_mode > 2) return VP_ERR_INVALID;
+    if ((v->viewport_w == 0) != (v->viewport_h == 0)) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+int vp_dec_vis_query(const uint8_t *p, size_t len, vp_vis_query *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->view_count = vp_get_u8(&r);
+    m->flags = vp_get_u8(&r);
+    uint16_t pad = vp_get_u16(&r);
+    m->min_area = vp_get_f32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    if (pad) return VP_ERR_INVALID;
+    if (m->view_count == 0 || m->view_count > VP_MAX_VIEWS) return VP_ERR_COUNT;
+    if (!isfinite(m->min_area)) return VP_ERR_NONFINITE;
+    if (m->min_area < 0) return VP_ERR_INVALID;
+    if (m->flags & ~0x3fu) return VP_ERR_INVALID;
+    if ((m->flags & VP_Q_STATIC_ONLY) && (m->flags & VP_Q_DYNAMIC_ONLY)) return VP_ERR_INVALID;
+    int rc = take_array(&r, m->view_count, VP_VIEW_SIZE, 0, &m->views);
+    if (rc) return rc;
+    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+    for (uint32_t i = 0; i < m->view_count; i++) {
+        vp_view v;
+        view_read(m->views + (size_t)i * VP_VIEW_SIZE, &v);
+        if ((rc = view_check(&v))) return rc;
+    }
+    return VP_OK;
+}
+
+int vp_view_get(const vp_vis_query *q, uint32_t i, vp_view *out)
+{
+    if (i >= q->view_count) return VP_ERR_COUNT;
+    view_read(q->views + (size_t)i * VP_VIEW_SIZE, out);
+    return view_check(out);
+}
+
+size_t vp_size_vis_result(uint32_t n)
+{
+    return VP_HEADER_SIZE + 20 + 4 * VP_STAGES + (size_t)n * VP_VIS_REC_SIZE;
+}
+
+void vp_enc_vis_result_begin(vp_writer *w, uint32_t req, const vp_vis_result *m)
+{
+    vp_frame_begin(w, VP_VIS_RESULT, req);
+    vp_put_u64(w, m->epoch);
+    vp_put_u32(w, m->tested);
+    vp_put_u32(w, m->visible);
+    for (uint32_t i = 0; i < VP_STAGES; i++) vp_put_u32(w, m->stage_ns[i]);
+    vp_put_u32(w, m->count);
+}
+
+void vp_put_vis_rec(vp_writer *w, const vp_vis_rec *r)
+{
+    uint8_t *p = reserve(w, VP_VIS_REC_SIZE);
+    if (!p) return;
+    wr64(p, r->id);
+    wr32(p + 8, r->handle);
+    wr32(p + 12, r->view_mask);
+    wr16(p + 16, r->class_id);
+    wr16(p + 18, r->sublevel);
+    uint32_t a;
+    memcpy(&a, &r->area, sizeof a);
+    wr32(p + 20, a);
+}
+
+int vp_dec_vis_result(const uint8_t *p, size_t len, vp_vis_result *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->epoch = vp_get_u64(&r);
+    m->tested = vp_get_u32(&r);
+    m->visible = vp_get_u32(&r);
+    for (uint32_t i = 0; i < VP_STAGES; i++) m->stage_ns[i] = vp_get_u32(&r);
+    m->count = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    int rc = take_array(&r, m->count, VP_VIS_REC_SIZE, 0, &m->recs);
+    if (rc) return rc;
+    rc = vp_reader_finish(&r);
+    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+}
+
+void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
+{
+    const uint8_t *p = r->recs + (size_t)i * VP_VIS_REC_SIZE;
+    out->id = rd64(p);
+    out->handle = rd32(p + 8);
+    out->view_mask = rd32(p + 12);
+    out->class_id = rd16(p + 16);
+    out->sublevel = rd16(p + 18);
+    out->area = rdf32(p + 20);
+}
+
+/* ---- meshes, occluders, lights ---------------------------------------------------- */
+
+void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
+                 const uint32_t *idx, uint32_t ni)
+{
+    vp_frame_begin(w, VP_MESH_PUT, req);
+    vp_put_u16(w, class_id);
+    vp_put_u16(w, 0);
+    vp_put_u32(w, nv);
+    vp_put_u32(w, ni);
+    for (uint32_t i = 0; i < 3 * nv; i++) vp_put_f32(w, pos[i]);
+    for (uint32_t i = 0; i < 3 * nv; i++) vp_put_f32(w, nrm[i]);
+    for (uint32_t i = 0; i < ni; i++) vp_put_u32(w, idx[i]);
+    vp_frame_end(w);
+}
+
+int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->class_id = vp_get_u16(&r);
+    uint16_t pad = vp_get_u16(&r);
+    m->vertex_count = vp_get_u32(&r);
+    m->index_count = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    if (pad) return VP_ERR_INVALID;
+    if (m->index_count % 3) return VP_ERR_COUNT;
+    int rc;
+    if ((rc = take_array(&r, m->vertex_count, 12, max_batch, &m->positions)) ||
+        (rc = take_array(&r, m->vertex_count, 12, max_batch, &m->normals)) ||
+        (rc = take_array(&r, m->index_count, 4, max_batch ? 3 * max_batch : 0, &m->indices)))
+        return rc;
+    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+    for (uint32_t i = 0; i < 3 * m->vertex_count; i++) {
+        float f[2] = {rdf32(m->positions + 4 * (size_t)i), rdf32(m->normals + 4 * (size_t)i)};
+        if (!finite_nf(f, 2)) return VP_ERR_NONFINITE;
+    }
+    for (uint32_t i = 0; i < m->index_count; i++)
+        if (rd32(m->indices + 4 * (size_t)i) >= m->vertex_count) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+void vp_enc_occluder(vp_writer *w, uint32_t req, uint64_t id, const double origin[3], const float *verts,
+                     uint32_t ntris)
+{
+    vp_frame_begin(w, VP_OCCLUDER_PUT, req);
+    vp_put_u64(w, id);
+    for (int k = 0; k < 3; k++) vp_put_f64(w, origin[k]);
+    vp_put_u32(w, ntris);
+    for (uint32_t i = 0; i < 9 * ntris; i++) vp_put_f32(w, verts[i]);
+    vp_frame_end(w);
+}
+
+int vp_dec_occluder(const uint8_t *p, size_t len, uint32_t max_batch, vp_occluder *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->id = vp_get_u64(&r);
+    for (int k = 0; k < 3; k++) m->origin[k] = vp_get_f64(&r);
+    m->tri_count = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    if (!finite_n(m->origin, 3)) return VP_ERR_NONFINITE;
+    int rc = take_array(&r, m->tri_count, 36, max_batch, &m->verts);
+    if (rc) return rc;
+    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+    for (uint32_t i = 0; i < 9 * m->tri_count; i++) {
+        float f = rdf32(m->verts + 4 * (size_t)i);
+        if (!isfinite(f)) return VP_ERR_NONFINITE;
+    }
+    return VP_OK;
+}
+
+void vp_enc_lights(vp_writer *w, uint32_t req, const vp_light *l, uint32_t n)
+{
+    vp_frame_begin(w, VP_LIGHT_PUT, req);
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) {
+        vp_put_u64(w, l[i].id);
+        vp_put_u8(w, l[i].kind);
+        vp_put_u8(w, 0);
+        vp_put_u16(w, 0);
+        vp_put_f32(w, l[i].intensity);
+        for (int k = 0; k < 3; k++) vp_put_f64(w, l[i].pos[k]);
+        for (int k = 0; k < 3; k++) vp_put_f32(w, l[i].dir[k]);
+        for (int k = 0; k < 3; k++) vp_put_f32(w, l[i].color[k]);
+        vp_put_f32(w, l[i].range);
+        vp_put_f32(w, l[i].inner_cos);
+        vp_put_f32(w, l[i].outer_cos);
+        vp_put_u32(w, 0);
+    }
+    vp_frame_end(w);
+}
+
+static void light_read(const uint8_t *p, vp_light *l)
+{
+    l->id = rd64(p);
+    l->kind = p[8];
+    l->intensity = rdf32(p + 12);
+    for (int k = 0; k < 3; k++) l->pos[k] = rdf64(p + 16 + 8 * k);
+    for (int k = 0; k < 3; k++) l->dir[k] = rdf32(p + 40 + 4 * k);
+    for (int k = 0; k < 3; k++) l->color[k] = rdf32(p + 52 + 4 * k);
+    l->range = rdf32(p + 64);
+    l->inner_cos = rdf32(p + 68);
+    l->outer_cos = rdf32(p + 72);
+}
+
+static int light_check(const vp_light *l)
+{
+    float f[] = {l->intensity, l->dir[0], l->dir[1], l->dir[2], l->color[0], l->color[1], l->color[2],
+                 l->range, l->inner_cos, l->outer_cos};
+    if (!finite_n(l->pos, 3) || !finite_nf(f, (int)(sizeof f / sizeof f[0]))) return VP_ERR_NONFINITE;
+    if (l->kind > VP_LIGHT_SPOT || !(l->range > 0) || l->intensity < 0) return VP_ERR_INVALID;
+    if (l->color[0] < 0 || l->color[1] < 0 || l->color[2] < 0) return VP_ERR_INVALID;
+    if (l->kind == VP_LIGHT_SPOT && !(l->outer_cos <= l->inner_cos && l->outer_cos >= -1 && l->inner_cos <= 1))
+        return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_t **recs, uint32_t *n)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    *n = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    int rc = take_array(&r, *n, VP_LIGHT_SIZE, max_batch, recs);
+    if (rc) return rc;
+    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+    for (uint32_t i = 0; i < *n; i++) {
+        vp_light l;
+        light_read(*recs + (size_t)i * VP_LIGHT_SIZE, &l);
+        if ((rc = light_check(&l))) return rc;
+    }
+    return VP_OK;
+}
+
+int vp_light_get(const uint8_t *recs, uint32_t i, vp_light *out)
+{
+    light_read(recs + (size_t)i * VP_LIGHT_SIZE, out);
+    return light_check(out);
+}

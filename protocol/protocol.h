@@ -1,0 +1,374 @@
+/*
+ * protocol.h — Vantage's wire format: framing, message layouts, limits and
+ * error codes, with encode/decode as pure functions over byte buffers.
+ * No I/O, no allocation: decoders validate a complete payload and hand back
+ * views into it; encoders write into caller buffers sized by *_size().
+ * protocol/PROTOCOL.md is the specification a third party writes a client
+ * from; this header follows it byte for byte.
+ *
+ * Everything is little-endian. A frame is a 12-byte header (payload length,
+ * type, flags, request id) followed by the payload. vp_frame_check() looks
+ * at any prefix of a stream and says "need more", "frame of N bytes" or why
+ * the stream can no longer be trusted, before anything is allocated.
+ */
+#ifndef VANTAGE_PROTOCOL_H
+#define VANTAGE_PROTOCOL_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define VP_MAGIC 0x47544E56u /* "VNTG" as little-endian bytes */
+#define VP_VERSION 1u
+#define VP_HEADER_SIZE 12u
+#define VP_MAX_VIEWS 32u
+#define VP_MAX_TOKEN 255u
+#define VP_MAX_NAME 255u
+#define VP_MAX_PING 1024u
+#define VP_MAX_ERROR_MSG 1024u
+
+/* ---- error codes: one table for the wire and the C API ------------------ */
+#define VP_ERRORS(X)                                                             \
+    X(VP_OK,               0, "ok")                                              \
+    X(VP_NEED_MORE,        1, "need more bytes")                                 \
+    X(VP_ERR_MAGIC,       -1, "bad magic: not a Vantage client")                 \
+    X(VP_ERR_VERSION,     -2, "unsupported protocol version")                    \
+    X(VP_ERR_TOO_LARGE,   -3, "frame larger than the negotiated limit")          \
+    X(VP_ERR_TRUNCATED,   -4, "payload shorter than its message needs")          \
+    X(VP_ERR_TRAILING,    -5, "payload longer than its message")                 \
+    X(VP_ERR_TYPE,        -6, "unknown message type")                            \
+    X(VP_ERR_COUNT,       -7, "count disagrees with the payload or a limit")     \
+    X(VP_ERR_NONFINITE,   -8, "NaN or infinity in a number that must be finite") \
+    X(VP_ERR_INVALID,     -9, "invalid field value")                             \
+    X(VP_ERR_STATE,      -10, "message not allowed in this state")               \
+    X(VP_ERR_AUTH,       -11, "role not allowed or bad token")                   \
+    X(VP_ERR_UNKNOWN_ID, -12, "no entity with that id")                          \
+    X(VP_ERR_STALE,      -13, "stale or never-issued handle")                    \
+    X(VP_ERR_DUPLICATE,  -14, "an entity with that id exists")                   \
+    X(VP_ERR_LIMIT,      -15, "server limit reached")                            \
+    X(VP_ERR_SCENE,      -16, "the scene rejected the edit")                     \
+    X(VP_ERR_MATRIX,     -17, "degenerate view-projection matrix")               \
+    X(VP_ERR_BUSY,       -18, "server busy, retry")                              \
+    X(VP_ERR_INTERNAL,   -19, "internal server error")
+
+enum {
+#define VP_X_ENUM(name, value, msg) name = value,
+    VP_ERRORS(VP_X_ENUM)
+#undef VP_X_ENUM
+};
+
+const char *vp_strerror(int code);
+
+/* ---- message types: ranges reserved per area ----------------------------- */
+enum vp_type {
+    /* 0x0001..0x00ff session */
+    VP_HELLO = 0x0001,
+    VP_HELLO_OK = 0x0002,
+    VP_ERROR = 0x0003,
+    VP_PING = 0x0004,
+    VP_PONG = 0x0005,
+    VP_STATS = 0x0006,
+    VP_STATS_REPLY = 0x0007,
+    VP_SUBSCRIBE = 0x0008,
+    VP_EVENT = 0x0009,
+    VP_ACK = 0x000a,
+    /* 0x0100..0x01ff scene edits */
+    VP_ENTITY_ADD = 0x0100,
+    VP_ENTITY_ADD_REPLY = 0x0101,
+    VP_ENTITY_UPDATE = 0x0102,
+    VP_ENTITY_REMOVE = 0x0103,
+    VP_ENTITY_LIST = 0x0104,
+    VP_ENTITY_LIST_REPLY = 0x0105,
+    VP_MESH_PUT = 0x0110,
+    VP_OCCLUDER_PUT = 0x0120,
+    VP_OCCLUDER_REMOVE = 0x0121,
+    VP_LIGHT_PUT = 0x0130,
+    VP_LIGHT_REMOVE = 0x0131,
+    /* 0x0200..0x02ff queries */
+    VP_VIS_QUERY = 0x0200,
+    VP_VIS_RESULT = 0x0201,
+    /* reserved: 0x0300 sub-levels, 0x0400 destruction, 0x0500 frames,
+       0x0600 input, 0x0700 persistence and administration */
+};
+
+/* Roles, lowest to highest. */
+enum vp_role { VP_ROLE_VIEWER = 0, VP_ROLE_COMMANDER = 1, VP_ROLE_EDITOR = 2 };
+
+/* ---- framing ---------------------------------------------------------------- */
+typedef struct vp_header {
+    uint32_t len;   /* payload bytes after the header */
+    uint16_t type;  /* enum vp_type */
+    uint16_t flags; /* reserved, 0 */
+    uint32_t req;   /* request id, echoed by the reply; 0 for pushed events */
+} vp_header;
+
+/* Looks at the first n bytes of a stream. VP_NEED_MORE if the header or the
+ * payload is incomplete (*frame_size is set once the header is there),
+ * VP_OK with *h and *frame_size (header + payload) when a whole frame is
+ * there, VP_ERR_TOO_LARGE when the length exceeds max_payload (decided from
+ * the header alone, before any payload is buffered), VP_ERR_INVALID for
+ * non-zero flags. */
+int vp_frame_check(const uint8_t *buf, size_t n, uint32_t max_payload, vp_header *h, size_t *frame_size);
+
+/* ---- writer: fixed buffer, overflow is sticky ------------------------------ */
+typedef struct vp_writer {
+    uint8_t *p;
+    size_t   cap, len;
+    size_t   frame_start;
+    bool     overflow;
+} vp_writer;
+
+void vp_writer_init(vp_writer *w, uint8_t *buf, size_t cap);
+/* Starts a frame (header with length patched by vp_frame_end). */
+void vp_frame_begin(vp_writer *w, uint16_t type, uint32_t req);
+/* Finishes the frame; returns false if the buffer overflowed. */
+bool vp_frame_end(vp_writer *w);
+void vp_put_u8(vp_writer *w, uint8_t v);
+void vp_put_u16(vp_writer *w, uint16_t v);
+void vp_put_u32(vp_writer *w, uint32_t v);
+void vp_put_u64(vp_writer *w, uint64_t v);
+void vp_put_i32(vp_writer *w, int32_t v);
+void vp_put_f32(vp_writer *w, float v);
+void vp_put_f64(vp_writer *w, double v);
+void vp_put_bytes(vp_writer *w, const void *p, size_t n);
+
+/* ---- reader over one payload ------------------------------------------------- */
+typedef struct vp_reader {
+    const uint8_t *p;
+    size_t len, pos;
+    bool   short_read;
+} vp_reader;
+
+void     vp_reader_init(vp_reader *r, const uint8_t *p, size_t len);
+uint8_t  vp_get_u8(vp_reader *r);
+uint16_t vp_get_u16(vp_reader *r);
+uint32_t vp_get_u32(vp_reader *r);
+uint64_t vp_get_u64(vp_reader *r);
+int32_t  vp_get_i32(vp_reader *r);
+float    vp_get_f32(vp_reader *r);
+double   vp_get_f64(vp_reader *r);
+const uint8_t *vp_get_bytes(vp_reader *r, size_t n);
+size_t   vp_remaining(const vp_reader *r);
+/* VP_ERR_TRUNCATED if a read ran short, VP_ERR_TRAILING if bytes are left. */
+int      vp_reader_finish(const vp_reader *r);
+
+/* ---- messages ------------------------------------------------------------------ */
+
+typedef struct vp_hello {
+    uint32_t magic;
+    uint16_t version;
+    uint8_t  role;       /* enum vp_role asked for */
+    uint8_t  token_len;
+    const uint8_t *token;
+    uint8_t  name_len;   /* client name, for logs */
+    const uint8_t *name;
+} vp_hello;
+
+typedef struct vp_hello_ok {
+    uint16_t version;
+    uint8_t  role;       /* granted */
+    uint32_t max_payload;
+    uint32_t max_batch;  /* records per edit message */
+    uint32_t max_views;
+    uint64_t epoch;
+    uint32_t client_id;
+} vp_hello_ok;
+
+typedef struct vp_error {
+    int32_t  code;
+    uint32_t index;      /* failing record of a batch, or UINT32_MAX */
+    uint16_t msg_len;
+    const uint8_t *msg;
+} vp_error;
+
+/* One entity record of an add or update batch. 104 bytes on the wire. */
+#define VP_ENTITY_REC_SIZE 104u
+#define VP_ENT_DYNAMIC 0x1u
+typedef struct vp_entity {
+    uint64_t id;         /* the editor's own id, unique per scene */
+    uint32_t handle;     /* add: ignored; update: 0 or the current handle */
+    uint16_t class_id;
+    uint16_t sublevel;
+    uint32_t flags;      /* VP_ENT_* */
+    double   sphere[4];  /* x y z r; r = 0: derived from the AABB */
+    double   aabb[6];    /* min xyz, max xyz; all 0: derived from the sphere */
+} vp_entity;
+
+/* Batches are views into the payload; read record i with the getters. */
+typedef struct vp_entity_batch {
+    uint32_t count;
+    const uint8_t *recs;
+} vp_entity_batch;
+
+typedef struct vp_id_batch {
+    uint32_t count;
+    const uint8_t *ids;  /* u64 each */
+} vp_id_batch;
+
+/* Reply to an add: the handles given, in record order. */
+typedef struct vp_add_reply {
+    uint64_t epoch;
+    uint32_t count;
+    const uint8_t *handles; /* u32 each */
+} vp_add_reply;
+
+typedef struct vp_ack {
+    uint64_t epoch;      /* scene epoch after the edit was applied */
+    uint32_t count;      /* records applied */
+} vp_ack;
+
+#define VP_VIEW_SIZE 160u
+typedef struct vp_view {
+    double   origin[3];
+    double   view_proj[16]; /* column-major, maps (p - origin, 1) to clip */
+    uint8_t  depth_mode;    /* 0 GL, 1 [0,1], 2 reversed-Z */
+    uint16_t viewport_w, viewport_h;
+} vp_view;
+
+#define VP_Q_NO_AABB      0x01u
+#define VP_Q_WANT_AREA    0x02u
+#define VP_Q_NO_OCCLUSION 0x04u
+#define VP_Q_STATIC_ONLY  0x08u
+#define VP_Q_DYNAMIC_ONLY 0x10u
+#define VP_Q_COUNT_ONLY   0x20u /* reply with counts, no records */
+typedef struct vp_vis_query {
+    uint8_t  view_count;    /* 1..32 */
+    uint8_t  flags;         /* VP_Q_* */
+    float    min_area;      /* pixels, >= 0 */
+    const uint8_t *views;   /* view_count * VP_VIEW_SIZE */
+} vp_vis_query;
+
+#define VP_VIS_REC_SIZE 24u
+#define VP_STAGES 6u        /* cells, spheres+AABB+area, write, total, ... */
+typedef struct vp_vis_rec {
+    uint64_t id;
+    uint32_t handle;
+    uint32_t view_mask;
+    uint16_t class_id;
+    uint16_t sublevel;
+    float    area;
+} vp_vis_rec;
+
+typedef struct vp_vis_result {
+    uint64_t epoch;
+    uint32_t tested, visible; /* entities that reached the block stage / records */
+    uint32_t stage_ns[VP_STAGES];
+    uint32_t count;           /* records in this frame (0 with COUNT_ONLY) */
+    const uint8_t *recs;
+} vp_vis_result;
+
+typedef struct vp_stats_reply {
+    uint64_t epoch, uptime_ms;
+    uint32_t entities, static_entities, dynamic_entities, regions, cells;
+    uint32_t connections, meshes, occluders, lights;
+    uint64_t queries, edits, bytes_in, bytes_out, errors;
+} vp_stats_reply;
+
+#define VP_EVENT_SCENE 0x1u
+typedef struct vp_event {
+    uint32_t kind;        /* VP_EVENT_* */
+    uint64_t epoch;
+    uint32_t added, updated, removed;
+} vp_event;
+
+typedef struct vp_mesh {
+    uint16_t class_id;
+    uint32_t vertex_count, index_count;
+    const uint8_t *positions; /* f32 x3 per vertex */
+    const uint8_t *normals;   /* f32 x3 per vertex */
+    const uint8_t *indices;   /* u32, triangles */
+} vp_mesh;
+
+typedef struct vp_occluder {
+    uint64_t id;
+    double   origin[3];       /* vertices are relative to it */
+    uint32_t tri_count;
+    const uint8_t *verts;     /* f32 x9 per triangle */
+} vp_occluder;
+
+#define VP_LIGHT_POINT 0u
+#define VP_LIGHT_SPOT 1u
+#define VP_LIGHT_SIZE 80u
+typedef struct vp_light {
+    uint64_t id;
+    uint8_t  kind;            /* VP_LIGHT_* */
+    double   pos[3];
+    float    dir[3];
+    float    color[3];        /* linear RGB, multiplied by intensity */
+    float    intensity;       /* candela */
+    float    range;           /* metres, > 0 */
+    float    inner_cos, outer_cos; /* spot cone */
+} vp_light;
+
+/* Encoders: append one whole frame to w. */
+void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);
+void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m);
+void vp_enc_error(vp_writer *w, uint32_t req, int32_t code, uint32_t index, const char *msg);
+void vp_enc_ping(vp_writer *w, uint16_t type, uint32_t req, const uint8_t *data, uint32_t n);
+void vp_enc_empty(vp_writer *w, uint16_t type, uint32_t req);
+void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity *e, uint32_t n);
+void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, uint32_t n);
+void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n);
+void vp_enc_ack(vp_writer *w, uint32_t req, const vp_ack *m);
+void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n);
+/* Result header; records follow with vp_put_vis_rec, count must match. */
+void vp_enc_vis_result_begin(vp_writer *w, uint32_t req, const vp_vis_result *m);
+void vp_put_vis_rec(vp_writer *w, const vp_vis_rec *r);
+void vp_enc_stats_reply(vp_writer *w, uint32_t req, const vp_stats_reply *m);
+void vp_enc_subscribe(vp_writer *w, uint32_t req, uint32_t kinds);
+void vp_enc_event(vp_writer *w, const vp_event *m);
+void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
+                 const uint32_t *idx, uint32_t ni);
+void vp_enc_occluder(vp_writer *w, uint32_t req, uint64_t id, const double origin[3], const float *verts,
+                     uint32_t ntris);
+void vp_enc_lights(vp_writer *w, uint32_t req, const vp_light *l, uint32_t n);
+
+/* Size of the frames above, for sizing buffers. */
+size_t vp_size_entities(uint32_t n);
+size_t vp_size_ids(uint32_t n);
+size_t vp_size_vis_result(uint32_t n);
+
+/* Decoders: payload p of len bytes (the frame minus its header). Return
+ * VP_OK or a negative code; on error *m is unspecified. Batch decoders
+ * check count * record size against the payload and against max_batch
+ * (0 = no limit) before anything else. Numbers that must be finite are
+ * checked (VP_ERR_NONFINITE). */
+int vp_dec_hello(const uint8_t *p, size_t len, vp_hello *m);
+int vp_dec_hello_ok(const uint8_t *p, size_t len, vp_hello_ok *m);
+int vp_dec_error(const uint8_t *p, size_t len, vp_error *m);
+int vp_dec_ping(const uint8_t *p, size_t len, const uint8_t **data, uint32_t *n);
+int vp_dec_empty(const uint8_t *p, size_t len);
+int vp_dec_entities(const uint8_t *p, size_t len, uint32_t max_batch, vp_entity_batch *m);
+int vp_dec_ids(const uint8_t *p, size_t len, uint32_t max_batch, vp_id_batch *m);
+int vp_dec_add_reply(const uint8_t *p, size_t len, vp_add_reply *m);
+int vp_dec_ack(const uint8_t *p, size_t len, vp_ack *m);
+int vp_dec_vis_query(const uint8_t *p, size_t len, vp_vis_query *m);
+int vp_dec_vis_result(const uint8_t *p, size_t len, vp_vis_result *m);
+int vp_dec_stats_reply(const uint8_t *p, size_t len, vp_stats_reply *m);
+int vp_dec_subscribe(const uint8_t *p, size_t len, uint32_t *kinds);
+int vp_dec_event(const uint8_t *p, size_t len, vp_event *m);
+int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m);
+int vp_dec_occluder(const uint8_t *p, size_t len, uint32_t max_batch, vp_occluder *m);
+int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_t **recs, uint32_t *n);
+
+/* Record getters for batches (validated by the decoder that made them;
+ * vp_entity_get re-checks finiteness so a record is never trusted blind). */
+int  vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out);
+uint64_t vp_id_get(const vp_id_batch *b, uint32_t i);
+uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i);
+int  vp_view_get(const vp_vis_query *q, uint32_t i, vp_view *out);
+void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out);
+int  vp_light_get(const uint8_t *recs, uint32_t i, vp_light *out);
+
+/* Whether a message type is known to this version. */
+bool vp_type_known(uint16_t type);
+const char *vp_type_name(uint16_t type);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

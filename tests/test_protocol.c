@@ -1,0 +1,492 @@
+/*
+ * test_protocol.c — the wire format: every message encodes and decodes to
+ * itself; a stream split at every byte frames the same; every prefix and
+ * every extension of a valid payload is rejected with a code; each bad
+ * field gets its own code; random bytes never get past a decoder unchecked.
+ */
+#include "test_util.h"
+
+#include "protocol.h"
+#include <string.h>
+
+static uint8_t g_buf[1 << 20];
+
+/* Encodes with enc into g_buf, checks the frame and returns its payload. */
+static const uint8_t *frame_payload(const vp_writer *w, size_t start, uint16_t type, size_t *len)
+{
+    vp_header h;
+    size_t fs;
+    assert_false(w->overflow);
+    assert_int_equal(vp_frame_check(w->p + start, w->len - start, 1u << 30, &h, &fs), VP_OK);
+    assert_int_equal(fs, w->len - start);
+    assert_int_equal(h.type, type);
+    *len = h.len;
+    return w->p + start + VP_HEADER_SIZE;
+}
+
+static vp_entity sample_entity(uint32_t i)
+{
+    vp_entity e;
+    memset(&e, 0, sizeof e);
+    e = (vp_entity){.id = 0x0123456789abcdefull + i, .handle = i * 7, .class_id = (uint16_t)(i * 3),
+                   .sublevel = (uint16_t)(i + 1), .flags = i & 1};
+    for (int k = 0; k < 4; k++) e.sphere[k] = (double)i * 1.5 + k - 1e6;
+    e.sphere[3] = 2.5;
+    for (int k = 0; k < 6; k++) e.aabb[k] = k < 3 ? -1.0 - k - i : 1.0 + k + i;
+    return e;
+}
+
+static void test_round_trips(void **state)
+{
+    (void)state;
+    vp_writer w;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    size_t len;
+    const uint8_t *p;
+
+    vp_hello hi = {.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_EDITOR, .token_len = 5,
+                   .token = (const uint8_t *)"s3cr3", .name_len = 3, .name = (const uint8_t *)"cli"};
+    size_t at = w.len;
+    vp_enc_hello(&w, 1, &hi);
+    p = frame_payload(&w, at, VP_HELLO, &len);
+    vp_hello hd;
+    assert_int_equal(vp_dec_hello(p, len, &hd), VP_OK);
+    assert_int_equal(hd.role, VP_ROLE_EDITOR);
+    assert_memory_equal(hd.token, "s3cr3", 5);
+    assert_memory_equal(hd.name, "cli", 3);
+
+    vp_hello_ok ok = {.version = 1, .role = 2, .max_payload = 1 << 24, .max_batch = 65536, .max_views = 32,
+                      .epoch = 0xfeedfacecafebeefull, .client_id = 42};
+    at = w.len;
+    vp_enc_hello_ok(&w, 1, &ok);
+    p = frame_payload(&w, at, VP_HELLO_OK, &len);
+    vp_hello_ok okd;
+    assert_int_equal(vp_dec_hello_ok(p, len, &okd), VP_OK);
+    assert_true(okd.version == ok.version && okd.role == ok.role && okd.max_payload == ok.max_payload &&
+                okd.max_batch == ok.max_batch && okd.max_views == ok.max_views && okd.epoch == ok.epoch &&
+                okd.client_id == ok.client_id);
+
+    at = w.len;
+    vp_enc_error(&w, 9, VP_ERR_STALE, 17, "entity 17: stale handle");
+    p = frame_payload(&w, at, VP_ERROR, &len);
+    vp_error er;
+    assert_int_equal(vp_dec_error(p, len, &er), VP_OK);
+    assert_int_equal(er.code, VP_ERR_STALE);
+    assert_int_equal(er.index, 17);
+    assert_int_equal(er.msg_len, strlen("entity 17: stale handle"));
+
+    vp_entity ents[50];
+    for (uint32_t i = 0; i < 50; i++) ents[i] = sample_entity(i);
+    at = w.len;
+    vp_enc_entities(&w, VP_ENTITY_ADD, 3, ents, 50);
+    assert_int_equal(w.len - at, vp_size_entities(50));
+    p = frame_payload(&w, at, VP_ENTITY_ADD, &len);
+    vp_entity_batch eb;
+    assert_int_equal(vp_dec_entities(p, len, 0, &eb), VP_OK);
+    assert_int_equal(eb.count, 50);
+    for (uint32_t i = 0; i < 50; i++) {
+        vp_entity e;
+        memset(&e, 0, sizeof e); /* padding too: compared as bytes */
+        assert_int_equal(vp_entity_get(&eb, i, &e), VP_OK);
+        assert_memory_equal(&e, &ents[i], sizeof e);
+    }
+    assert_int_equal(vp_dec_entities(p, len, 49, &eb), VP_ERR_COUNT); /* over max_batch */
+
+    uint64_t ids[4] = {1, UINT64_MAX, 0, 77};
+    at = w.len;
+    vp_enc_ids(&w, VP_ENTITY_REMOVE, 4, ids, 4);
+    p = frame_payload(&w, at, VP_ENTITY_REMOVE, &len);
+    vp_id_batch ib;
+    assert_int_equal(vp_dec_ids(p, len, 0, &ib), VP_OK);
+    for (uint32_t i = 0; i < 4; i++) assert_true(vp_id_get(&ib, i) == ids[i]);
+
+    uint32_t handles[3] = {5, 0x400001, 9};
+    at = w.len;
+    vp_enc_add_reply(&w, 3, 12345, handles, 3);
+    p = frame_payload(&w, at, VP_ENTITY_ADD_REPLY, &len);
+    vp_add_reply ar;
+    assert_int_equal(vp_dec_add_reply(p, len, &ar), VP_OK);
+    assert_int_equal(ar.epoch, 12345);
+    for (uint32_t i = 0; i < 3; i++) assert_int_equal(vp_handle_get(&ar, i), handles[i]);
+
+    vp_view views[32];
+    for (uint32_t i = 0; i < 32; i++) {
+        memset(&views[i], 0, sizeof views[i]);
+        for (int k = 0; k < 3; k++) views[i].origin[k] = i * 10.0 + k;
+        for (int k = 0; k < 16; k++) views[i].view_proj[k] = (k % 5 == 0) ? 1.0 + i : 0.01 * k;
+        views[i].depth_mode = (uint8_t)(i % 3);
+        views[i].viewport_w = (uint16_t)(100 + i);
+        views[i].viewport_h = (uint16_t)(50 + i);
+    }
+    at = w.len;
+    vp_enc_vis_query(&w, 4, VP_Q_WANT_AREA | VP_Q_NO_OCCLUSION, 2.5f, views, 32);
+    p = frame_payload(&w, at, VP_VIS_QUERY, &len);
+    vp_vis_query vq;
+    assert_int_equal(vp_dec_vis_query(p, len, &vq), VP_OK);
+    assert_int_equal(vq.view_count, 32);
+    assert_true(vq.min_area == 2.5f);
+    for (uint32_t i = 0; i < 32; i++) {
+        vp_view v;
+        memset(&v, 0, sizeof v);
+        assert_int_equal(vp_view_get(&vq, i, &v), VP_OK);
+        assert_memory_equal(&v, &views[i], sizeof v);
+    }
+
+    vp_vis_result vr = {.epoch = 7, .tested = 100, .visible = 3, .stage_ns = {1, 2, 3, 4, 5, 6}, .count = 3};
+    at = w.len;
+    vp_enc_vis_result_begin(&w, 4, &vr);
+    vp_vis_rec recs[3];
+    for (uint32_t i = 0; i < 3; i++) {
+        recs[i] = (vp_vis_rec){.id = i + 100, .handle = i, .view_mask = 1u << i, .class_id = 9, .sublevel = 2,
+                               .area = i * 0.5f};
+        vp_put_vis_rec(&w, &recs[i]);
+    }
+    vp_frame_end(&w);
+    assert_int_equal(w.len - at, vp_size_vis_result(3));
+    p = frame_payload(&w, at, VP_VIS_RESULT, &len);
+    vp_vis_result vd;
+    assert_int_equal(vp_dec_vis_result(p, len, &vd), VP_OK);
+    assert_int_equal(vd.count, 3);
+    assert_int_equal(vd.stage_ns[5], 6);
+    for (uint32_t i = 0; i < 3; i++) {
+        vp_vis_rec r;
+        vp_vis_rec_get(&vd, i, &r);
+        assert_memory_equal(&r, &recs[i], sizeof r);
+    }
+
+    vp_stats_reply st;
+    memset(&st, 0, sizeof st);
+    st = (vp_stats_reply){.epoch = 1, .uptime_ms = 2, .entities = 3, .static_entities = 4, .dynamic_entities = 5,
+                         .regions = 6, .cells = 7, .connections = 8, .meshes = 9, .occluders = 10, .lights = 11,
+                         .queries = 12, .edits = 13, .bytes_in = 14, .bytes_out = 15, .errors = 16};
+    at = w.len;
+    vp_enc_stats_reply(&w, 5, &st);
+    p = frame_payload(&w, at, VP_STATS_REPLY, &len);
+    vp_stats_reply sd;
+    memset(&sd, 0, sizeof sd);
+    assert_int_equal(vp_dec_stats_reply(p, len, &sd), VP_OK);
+    assert_memory_equal(&st, &sd, sizeof st);
+
+    vp_event ev;
+    memset(&ev, 0, sizeof ev);
+    ev = (vp_event){.kind = VP_EVENT_SCENE, .epoch = 99, .added = 1, .updated = 2, .removed = 3};
+    at = w.len;
+    vp_enc_event(&w, &ev);
+    p = frame_payload(&w, at, VP_EVENT, &len);
+    vp_event evd;
+    memset(&evd, 0, sizeof evd);
+    assert_int_equal(vp_dec_event(p, len, &evd), VP_OK);
+    assert_memory_equal(&ev, &evd, sizeof ev);
+
+    float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, nrm[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+    uint32_t idx[3] = {0, 1, 2};
+    at = w.len;
+    vp_enc_mesh(&w, 6, 12, pos, nrm, 3, idx, 3);
+    p = frame_payload(&w, at, VP_MESH_PUT, &len);
+    vp_mesh md;
+    assert_int_equal(vp_dec_mesh(p, len, 0, &md), VP_OK);
+    assert_int_equal(md.class_id, 12);
+    assert_int_equal(md.index_count, 3);
+
+    double org[3] = {1e6, 2, -3};
+    float tri[9] = {0, 0, 0, 10, 0, 0, 0, 10, 0};
+    at = w.len;
+    vp_enc_occluder(&w, 7, 555, org, tri, 1);
+    p = frame_payload(&w, at, VP_OCCLUDER_PUT, &len);
+    vp_occluder od;
+    assert_int_equal(vp_dec_occluder(p, len, 0, &od), VP_OK);
+    assert_true(od.id == 555 && od.tri_count == 1 && od.origin[0] == 1e6);
+
+    vp_light lt;
+    memset(&lt, 0, sizeof lt);
+    lt = (vp_light){.id = 8, .kind = VP_LIGHT_SPOT, .pos = {1, 2, 3}, .dir = {0, -1, 0}, .color = {1, 0.5f, 0.25f},
+                   .intensity = 800, .range = 30, .inner_cos = 0.9f, .outer_cos = 0.8f};
+    at = w.len;
+    vp_enc_lights(&w, 8, &lt, 1);
+    p = frame_payload(&w, at, VP_LIGHT_PUT, &len);
+    const uint8_t *lrecs;
+    uint32_t nl;
+    assert_int_equal(vp_dec_lights(p, len, 0, &lrecs, &nl), VP_OK);
+    vp_light ld;
+    memset(&ld, 0, sizeof ld);
+    assert_int_equal(vp_light_get(lrecs, 0, &ld), VP_OK);
+    assert_memory_equal(&ld, &lt, sizeof lt);
+
+    at = w.len;
+    vp_enc_ping(&w, VP_PING, 10, (const uint8_t *)"hello", 5);
+    p = frame_payload(&w, at, VP_PING, &len);
+    const uint8_t *pd;
+    uint32_t pn;
+    assert_int_equal(vp_dec_ping(p, len, &pd, &pn), VP_OK);
+    assert_int_equal(pn, 5);
+
+    /* the writer's overflow is sticky and reported */
+    uint8_t small[20];
+    vp_writer ws;
+    vp_writer_init(&ws, small, sizeof small);
+    vp_enc_entities(&ws, VP_ENTITY_ADD, 1, ents, 1);
+    assert_true(ws.overflow);
+    assert_false(vp_frame_end(&ws));
+}
+
+/* Frames split at every byte come out whole and identical. */
+static void test_stream_any_split(void **state)
+{
+    (void)state;
+    vp_writer w;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_entity ents[3] = {sample_entity(1), sample_entity(2), sample_entity(3)};
+    vp_enc_ping(&w, VP_PING, 1, (const uint8_t *)"x", 1);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 2, ents, 3);
+    vp_enc_empty(&w, VP_STATS, 3);
+    vp_enc_ids(&w, VP_ENTITY_REMOVE, 4, (const uint64_t[]){5, 6}, 2);
+    size_t total = w.len;
+    uint8_t acc[4096];
+    size_t have = 0, frames = 0;
+    uint32_t reqs = 0;
+    for (size_t i = 0; i < total; i++) {
+        acc[have++] = g_buf[i]; /* one byte arrives */
+        vp_header h;
+        size_t fs;
+        int rc = vp_frame_check(acc, have, 1 << 20, &h, &fs);
+        if (rc == VP_NEED_MORE) continue;
+        assert_int_equal(rc, VP_OK);
+        assert_int_equal(fs, have);
+        frames++;
+        reqs += h.req;
+        have = 0;
+    }
+    assert_int_equal(have, 0);
+    assert_int_equal(frames, 4);
+    assert_int_equal(reqs, 1 + 2 + 3 + 4);
+}
+
+static void test_bad_frames(void **state)
+{
+    (void)state;
+    uint8_t b[64] = {0};
+    vp_header h;
+    size_t fs;
+    /* length over the limit is known from the header alone */
+    b[0] = 0x01;
+    b[1] = 0x00;
+    b[2] = 0x10; /* 1 MiB + 1 */
+    b[3] = 0x00;
+    assert_int_equal(vp_frame_check(b, VP_HEADER_SIZE, 1 << 20, &h, &fs), VP_ERR_TOO_LARGE);
+    memset(b, 0, sizeof b);
+    b[6] = 1; /* flags */
+    assert_int_equal(vp_frame_check(b, VP_HEADER_SIZE, 1 << 20, &h, &fs), VP_ERR_INVALID);
+    assert_int_equal(vp_frame_check(b, 5, 1 << 20, &h, &fs), VP_NEED_MORE);
+
+    vp_writer w;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_hello hi = {.magic = VP_MAGIC ^ 1, .version = VP_VERSION};
+    vp_enc_hello(&w, 1, &hi);
+    vp_hello hd;
+    assert_int_equal(vp_dec_hello(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &hd), VP_ERR_MAGIC);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    hi.magic = VP_MAGIC;
+    hi.version = 99;
+    vp_enc_hello(&w, 1, &hi);
+    assert_int_equal(vp_dec_hello(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &hd), VP_ERR_VERSION);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    hi.version = VP_VERSION;
+    hi.role = 7;
+    vp_enc_hello(&w, 1, &hi);
+    assert_int_equal(vp_dec_hello(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &hd), VP_ERR_INVALID);
+}
+
+typedef int (*dec_fn)(const uint8_t *p, size_t len);
+
+static int d_entities(const uint8_t *p, size_t len) { vp_entity_batch b; return vp_dec_entities(p, len, 0, &b); }
+static int d_ids(const uint8_t *p, size_t len) { vp_id_batch b; return vp_dec_ids(p, len, 0, &b); }
+static int d_query(const uint8_t *p, size_t len) { vp_vis_query q; return vp_dec_vis_query(p, len, &q); }
+static int d_result(const uint8_t *p, size_t len) { vp_vis_result r; return vp_dec_vis_result(p, len, &r); }
+static int d_hello(const uint8_t *p, size_t len) { vp_hello h; return vp_dec_hello(p, len, &h); }
+static int d_mesh(const uint8_t *p, size_t len) { vp_mesh m; return vp_dec_mesh(p, len, 0, &m); }
+static int d_occ(const uint8_t *p, size_t len) { vp_occluder o; return vp_dec_occluder(p, len, 0, &o); }
+static int d_lights(const uint8_t *p, size_t len)
+{
+    const uint8_t *r;
+    uint32_t n;
+    return vp_dec_lights(p, len, 0, &r, &n);
+}
+static int d_stats(const uint8_t *p, size_t len) { vp_stats_reply s; return vp_dec_stats_reply(p, len, &s); }
+static int d_error(const uint8_t *p, size_t len) { vp_error e; return vp_dec_error(p, len, &e); }
+
+/* Every strict prefix and a one-byte extension of a valid payload fail. */
+static void check_prefixes(dec_fn dec, const uint8_t *p, size_t len)
+{
+    assert_int_equal(dec(p, len), VP_OK);
+    uint8_t *copy = malloc(len + 1);
+    memcpy(copy, p, len);
+    copy[len] = 0;
+    for (size_t n = 0; n < len; n++) assert_true(dec(copy, n) < 0);
+    assert_true(dec(copy, len + 1) < 0);
+    free(copy);
+}
+
+static void test_prefixes_and_extensions(void **state)
+{
+    (void)state;
+    vp_writer w;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_entity e[2] = {sample_entity(1), sample_entity(2)};
+    vp_enc_entities(&w, VP_ENTITY_ADD, 1, e, 2);
+    check_prefixes(d_entities, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_ids(&w, VP_ENTITY_REMOVE, 1, (const uint64_t[]){1, 2, 3}, 3);
+    check_prefixes(d_ids, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_view v = {.view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, .viewport_w = 4, .viewport_h = 4};
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_vis_query(&w, 1, 0, 0, &v, 1);
+    check_prefixes(d_query, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_vis_result vr = {.count = 1};
+    vp_enc_vis_result_begin(&w, 1, &vr);
+    vp_put_vis_rec(&w, &(vp_vis_rec){.id = 1});
+    vp_frame_end(&w);
+    check_prefixes(d_result, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .token_len = 2,
+                                    .token = (const uint8_t *)"ab"});
+    check_prefixes(d_hello, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    float pos[9] = {0}, nrm[9] = {0};
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_mesh(&w, 1, 1, pos, nrm, 3, (const uint32_t[]){0, 1, 2}, 3);
+    check_prefixes(d_mesh, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_occluder(&w, 1, 1, (const double[]){0, 0, 0}, pos, 1);
+    check_prefixes(d_occ, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_lights(&w, 1, &(vp_light){.range = 1, .intensity = 1}, 1);
+    check_prefixes(d_lights, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_stats_reply(&w, 1, &(vp_stats_reply){0});
+    check_prefixes(d_stats, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_error(&w, 1, -1, 0, "boom");
+    check_prefixes(d_error, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+}
+
+static void test_bad_fields(void **state)
+{
+    (void)state;
+    vp_writer w;
+    vp_entity e = sample_entity(1);
+    vp_entity_batch eb;
+    /* NaN / infinity in bounds */
+    e.sphere[1] = NAN;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 1, &e, 1);
+    assert_int_equal(vp_dec_entities(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &eb), VP_ERR_NONFINITE);
+    e = sample_entity(1);
+    e.aabb[4] = -INFINITY;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 1, &e, 1);
+    assert_int_equal(vp_dec_entities(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &eb), VP_ERR_NONFINITE);
+    e = sample_entity(1);
+    e.flags = 0x80;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 1, &e, 1);
+    assert_int_equal(vp_dec_entities(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &eb), VP_ERR_INVALID);
+    /* a count that claims more records than the payload holds */
+    e = sample_entity(1);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 1, &e, 1);
+    g_buf[VP_HEADER_SIZE] = 2;
+    assert_int_equal(vp_dec_entities(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &eb), VP_ERR_COUNT);
+    g_buf[VP_HEADER_SIZE + 3] = 0xff; /* 4 billion records */
+    assert_int_equal(vp_dec_entities(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &eb), VP_ERR_COUNT);
+
+    /* queries: view counts, areas, matrices, modes */
+    vp_view v = {.view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, .viewport_w = 4, .viewport_h = 4};
+    vp_vis_query q;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_vis_query(&w, 1, 0, -1.0f, &v, 1);
+    assert_int_equal(vp_dec_vis_query(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &q), VP_ERR_INVALID);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_vis_query(&w, 1, 0, NAN, &v, 1);
+    assert_int_equal(vp_dec_vis_query(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &q), VP_ERR_NONFINITE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_vis_query(&w, 1, 0, 0, &v, 0);
+    assert_int_equal(vp_dec_vis_query(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &q), VP_ERR_COUNT);
+    vp_view many[33];
+    for (int i = 0; i < 33; i++) many[i] = v;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_vis_query(&w, 1, 0, 0, many, 33);
+    assert_int_equal(vp_dec_vis_query(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &q), VP_ERR_COUNT);
+    vp_view bad = v;
+    bad.view_proj[5] = NAN;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_vis_query(&w, 1, 0, 0, &bad, 1);
+    assert_int_equal(vp_dec_vis_query(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &q), VP_ERR_NONFINITE);
+    bad = v;
+    bad.depth_mode = 3;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_vis_query(&w, 1, 0, 0, &bad, 1);
+    assert_int_equal(vp_dec_vis_query(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &q), VP_ERR_INVALID);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_vis_query(&w, 1, VP_Q_STATIC_ONLY | VP_Q_DYNAMIC_ONLY, 0, &v, 1);
+    assert_int_equal(vp_dec_vis_query(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &q), VP_ERR_INVALID);
+
+    /* meshes: index out of range, not triangles */
+    float pos[9] = {0}, nrm[9] = {0};
+    vp_mesh m;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_mesh(&w, 1, 1, pos, nrm, 3, (const uint32_t[]){0, 1, 3}, 3);
+    assert_int_equal(vp_dec_mesh(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &m), VP_ERR_INVALID);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_mesh(&w, 1, 1, pos, nrm, 3, (const uint32_t[]){0, 1}, 2);
+    assert_int_equal(vp_dec_mesh(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &m), VP_ERR_COUNT);
+
+    /* lights: negative range, spot cone inside out */
+    const uint8_t *recs;
+    uint32_t n;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_lights(&w, 1, &(vp_light){.range = -1}, 1);
+    assert_int_equal(vp_dec_lights(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &recs, &n), VP_ERR_INVALID);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_lights(&w, 1, &(vp_light){.kind = VP_LIGHT_SPOT, .range = 1, .inner_cos = 0.5f, .outer_cos = 0.9f}, 1);
+    assert_int_equal(vp_dec_lights(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &recs, &n), VP_ERR_INVALID);
+
+    assert_true(vp_type_known(VP_VIS_QUERY));
+    assert_false(vp_type_known(0x0300));
+    assert_string_equal(vp_strerror(VP_ERR_MAGIC), "bad magic: not a Vantage client");
+}
+
+/* Random bytes through every decoder: an error or OK, never a crash or an
+ * out-of-bounds read (ASan build). */
+static void test_random_bytes(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x6666};
+    static const dec_fn decs[] = {d_entities, d_ids, d_query, d_result, d_hello, d_mesh, d_occ, d_lights,
+                                  d_stats, d_error};
+    uint8_t *buf = malloc(4096);
+    int iters = (int)(20000 * test_scale());
+    for (int it = 0; it < iters; it++) {
+        size_t len = rng_below(&r, 600);
+        for (size_t i = 0; i < len; i++) buf[i] = (uint8_t)rng_u64(&r);
+        /* small counts now and then, so records get parsed too */
+        if (len >= 4 && rng_below(&r, 2)) buf[1] = buf[2] = buf[3] = 0;
+        uint8_t *p = malloc(len ? len : 1); /* exact size: ASan sees any overread */
+        memcpy(p, buf, len);
+        for (size_t d = 0; d < sizeof decs / sizeof decs[0]; d++) {
+            int rc = decs[d](p, len);
+            assert_true(rc == VP_OK || rc < 0);
+        }
+        free(p);
+    }
+    free(buf);
+}
+
+const struct CMUnitTest protocol_tests[] = {
+    cmocka_unit_test(test_round_trips),
+    cmocka_unit_test(test_stream_any_split),
+    cmocka_unit_test(test_bad_frames),
+    cmocka_unit_test(test_prefixes_and_extensions),
+    cmocka_unit_test(test_bad_fields),
+    cmocka_unit_test(test_random_bytes),
+};
+const size_t protocol_tests_count = sizeof protocol_tests / sizeof protocol_tests[0];
