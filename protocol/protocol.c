@@ -485,9 +485,8 @@ size_t vp_size_ids(uint32_t n)
     return VP_HEADER_SIZE + 4 + (size_t)n * 8;
 }
 
-void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity *e, uint32_t n)
+static void put_entities(vp_writer *w, const vp_entity *e, uint32_t n)
 {
-    vp_frame_begin(w, type, req);
     vp_put_u32(w, n);
     for (uint32_t i = 0; i < n; i++) {
         vp_put_u64(w, e[i].id);
@@ -499,6 +498,12 @@ void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity 
         for (int k = 0; k < 4; k++) vp_put_f64(w, e[i].sphere[k]);
         for (int k = 0; k < 6; k++) vp_put_f64(w, e[i].aabb[k]);
     }
+}
+
+void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity *e, uint32_t n)
+{
+    vp_frame_begin(w, type, req);
+    put_entities(w, e, n);
     vp_frame_end(w);
 }
 
@@ -520,10 +525,10 @@ static int entity_check(const vp_entity *e)
     return VP_OK;
 }
 
-int vp_dec_entities(const uint8_t *p, size_t len, uint32_t max_batch, vp_entity_batch *m)
+/* count + records to the end of the payload */
+static int get_entities(vp_reader *rd, uint32_t max_batch, vp_entity_batch *m)
 {
-    vp_reader r;
-    vp_reader_init(&r, p, len);
+    vp_reader r = *rd;
     m->count = vp_get_u32(&r);
     if (r.short_read) return VP_ERR_TRUNCATED;
     int rc = take_array(&r, m->count, VP_ENTITY_REC_SIZE, max_batch, &m->recs);
@@ -534,7 +539,54 @@ int vp_dec_entities(const uint8_t *p, size_t len, uint32_t max_batch, vp_entity_
         entity_read(m->recs + (size_t)i * VP_ENTITY_REC_SIZE, &e);
         if ((rc = entity_check(&e))) return rc;
     }
+    *rd = r;
     return VP_OK;
+}
+
+int vp_dec_entities(const uint8_t *p, size_t len, uint32_t max_batch, vp_entity_batch *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    return get_entities(&r, max_batch, m);
+}
+
+void vp_enc_list(vp_writer *w, uint32_t req, const vp_list *m)
+{
+    vp_frame_begin(w, VP_ENTITY_LIST, req);
+    vp_put_u64(w, m->cursor);
+    vp_put_u32(w, m->max);
+    vp_frame_end(w);
+}
+
+int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->cursor = vp_get_u64(&r);
+    m->max = vp_get_u32(&r);
+    int rc = vp_reader_finish(&r);
+    if (rc) return rc;
+    return (m->max == 0 || (max_batch && m->max > max_batch)) ? VP_ERR_COUNT : VP_OK;
+}
+
+void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_t epoch, const vp_entity *e,
+                       uint32_t n)
+{
+    vp_frame_begin(w, VP_ENTITY_LIST_REPLY, req);
+    vp_put_u64(w, next_cursor);
+    vp_put_u64(w, epoch);
+    put_entities(w, e, n);
+    vp_frame_end(w);
+}
+
+int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->next_cursor = vp_get_u64(&r);
+    m->epoch = vp_get_u64(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    return get_entities(&r, 0, &m->batch);
 }
 
 int vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out)

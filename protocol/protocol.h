@@ -304,6 +304,17 @@ typedef struct vp_light {
     float    inner_cos, outer_cos; /* spot cone */
 } vp_light;
 
+typedef struct vp_list {
+    uint64_t cursor;     /* 0 = from the start */
+    uint32_t max;        /* records wanted */
+} vp_list;
+
+typedef struct vp_list_reply {
+    uint64_t next_cursor; /* 0 = done */
+    uint64_t epoch;
+    vp_entity_batch batch;
+} vp_list_reply;
+
 /* Encoders: append one whole frame to w. */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);
 void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m);
@@ -326,6 +337,9 @@ void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos
 void vp_enc_occluder(vp_writer *w, uint32_t req, uint64_t id, const double origin[3], const float *verts,
                      uint32_t ntris);
 void vp_enc_lights(vp_writer *w, uint32_t req, const vp_light *l, uint32_t n);
+void vp_enc_list(vp_writer *w, uint32_t req, const vp_list *m);
+void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_t epoch, const vp_entity *e,
+                       uint32_t n);
 
 /* Size of the frames above, for sizing buffers. */
 size_t vp_size_entities(uint32_t n);
@@ -354,6 +368,8 @@ int vp_dec_event(const uint8_t *p, size_t len, vp_event *m);
 int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m);
 int vp_dec_occluder(const uint8_t *p, size_t len, uint32_t max_batch, vp_occluder *m);
 int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_t **recs, uint32_t *n);
+int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m);
+int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m);
 
 /* Record getters for batches (validated by the decoder that made them;
  * vp_entity_get re-checks finiteness so a record is never trusted blind). */

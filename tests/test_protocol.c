@@ -213,6 +213,26 @@ static void test_round_trips(void **state)
     assert_memory_equal(&ld, &lt, sizeof lt);
 
     at = w.len;
+    vp_enc_list(&w, 11, &(vp_list){.cursor = 1234, .max = 500});
+    p = frame_payload(&w, at, VP_ENTITY_LIST, &len);
+    vp_list ls;
+    assert_int_equal(vp_dec_list(p, len, 1000, &ls), VP_OK);
+    assert_true(ls.cursor == 1234 && ls.max == 500);
+    assert_int_equal(vp_dec_list(p, len, 100, &ls), VP_ERR_COUNT);
+    at = w.len;
+    vp_enc_list_reply(&w, 11, 99, 7, ents, 3);
+    p = frame_payload(&w, at, VP_ENTITY_LIST_REPLY, &len);
+    vp_list_reply lr;
+    assert_int_equal(vp_dec_list_reply(p, len, &lr), VP_OK);
+    assert_true(lr.next_cursor == 99 && lr.epoch == 7 && lr.batch.count == 3);
+    for (uint32_t i = 0; i < 3; i++) {
+        vp_entity e;
+        memset(&e, 0, sizeof e);
+        assert_int_equal(vp_entity_get(&lr.batch, i, &e), VP_OK);
+        assert_memory_equal(&e, &ents[i], sizeof e);
+    }
+
+    at = w.len;
     vp_enc_ping(&w, VP_PING, 10, (const uint8_t *)"hello", 5);
     p = frame_payload(&w, at, VP_PING, &len);
     const uint8_t *pd;
@@ -313,6 +333,7 @@ static int d_lights(const uint8_t *p, size_t len)
 }
 static int d_stats(const uint8_t *p, size_t len) { vp_stats_reply s; return vp_dec_stats_reply(p, len, &s); }
 static int d_error(const uint8_t *p, size_t len) { vp_error e; return vp_dec_error(p, len, &e); }
+static int d_list_reply(const uint8_t *p, size_t len) { vp_list_reply l; return vp_dec_list_reply(p, len, &l); }
 
 /* Every strict prefix and a one-byte extension of a valid payload fail. */
 static void check_prefixes(dec_fn dec, const uint8_t *p, size_t len)
@@ -367,6 +388,9 @@ static void test_prefixes_and_extensions(void **state)
     vp_writer_init(&w, g_buf, sizeof g_buf);
     vp_enc_error(&w, 1, -1, 0, "boom");
     check_prefixes(d_error, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_list_reply(&w, 1, 5, 6, e, 2);
+    check_prefixes(d_list_reply, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
 }
 
 static void test_bad_fields(void **state)
@@ -462,7 +486,7 @@ static void test_random_bytes(void **state)
     (void)state;
     rng r = {test_seed() ^ 0x6666};
     static const dec_fn decs[] = {d_entities, d_ids, d_query, d_result, d_hello, d_mesh, d_occ, d_lights,
-                                  d_stats, d_error};
+                                  d_stats, d_error, d_list_reply};
     uint8_t *buf = malloc(4096);
     int iters = (int)(20000 * test_scale());
     for (int it = 0; it < iters; it++) {
