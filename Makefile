@@ -23,7 +23,7 @@ WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
 WARN     += -Werror
 endif
-CPPFLAGS := -D_GNU_SOURCE -Iculling -Iprotocol -MMD -MP
+CPPFLAGS := -D_GNU_SOURCE -Iculling -Iprotocol -Idaemon -Iclient -MMD -MP
 CFLAGS   := -std=c11 $(WARN) -g -pthread
 LDLIBS   := -lm -pthread
 ISA_AVX2 := -mavx2 -mfma -mpopcnt
@@ -53,6 +53,10 @@ PROTO_SRC:= $(wildcard protocol/*.c)
 PROTO_OBJ:= $(PROTO_SRC:%.c=$(BUILD)/%.o)
 PROTO_LIB:= $(BUILD)/libvproto.a
 
+DAEMON_SRC:= $(wildcard daemon/*.c)
+DAEMON_OBJ:= $(DAEMON_SRC:%.c=$(BUILD)/%.o)
+DAEMON_BIN:= $(BUILD)/vantaged
+
 TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/scene_file.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN := $(BUILD)/vantage_tests
@@ -64,7 +68,7 @@ BENCH_BIN:= $(BUILD)/bench_cull
 SCENE    ?= ../shared/scenes/city_scene.txt
 
 .PHONY: all run test bench deps check-deps clean test-one
-all: check-deps $(CULL_LIB) $(TEST_BIN) $(BENCH_BIN)
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(TEST_BIN) $(BENCH_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -104,6 +108,9 @@ $(PROTO_LIB): $(PROTO_OBJ)
 $(TEST_BIN): $(TEST_OBJ) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(CULL_LIB) $(PROTO_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
 
+$(DAEMON_BIN): $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB) $(LDLIBS)
+
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
 
@@ -123,6 +130,7 @@ test: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantage_tests build/release/bench_cull
 	@$(MAKE) --no-print-directory CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
+	@$(MAKE) --no-print-directory CONFIG=asan fuzz-replay
 	./build/release/bench_cull --smoke
 	./build/scalar/vantage_tests
 	./build/release/vantage_tests
@@ -136,4 +144,6 @@ bench: check-deps
 clean:
 	rm -rf build
 
--include $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d)
+include tests/fuzz/fuzz.mk
+
+-include $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d)

@@ -126,6 +126,18 @@ static int cell_key(const cull_world *w, const double p[3], int32_t k[3])
     return CULL_OK;
 }
 
+int cull_entity_check(const cull_world *w, const cull_entity_desc *desc, cull_entity_desc *out)
+{
+    if (!w) return CULL_ERR_INVALID;
+    cull_entity_desc d;
+    int rc = normalise(desc, &d);
+    if (rc) return rc;
+    int32_t k[3];
+    if ((rc = cell_key(w, d.center, k))) return rc;
+    if (out) *out = d;
+    return CULL_OK;
+}
+
 static cull_slot *slot_of(const cull_world *w, cull_handle h)
 {
     uint32_t s = h & CULL_SLOT_MASK, gen = h >> CULL_HANDLE_SLOT_BITS;

@@ -103,6 +103,10 @@ typedef struct cull_entity_desc {
     uint32_t flags;     /* CULL_ENTITY_* */
 } cull_entity_desc;
 
+/* Checks a desc as add/update would (values, ranges, this world's cell
+ * keys) without storing anything; fills *out with the normalised desc if
+ * out is not NULL. Lets a caller validate a whole batch before applying. */
+int cull_entity_check(const cull_world *w, const cull_entity_desc *d, cull_entity_desc *out);
 /* Adds an entity. O(1) amortised. On error nothing is stored. */
 int cull_entity_add(cull_world *w, const cull_entity_desc *d, cull_handle *out);
 /* Replaces an entity's bounds, class, sub-level and flags (moving it across

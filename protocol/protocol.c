@@ -766,6 +766,10 @@ int vp_dec_vis_result(const uint8_t *p, size_t len, vp_vis_result *m)
 
 void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
 {
+    if (i >= r->count) {
+        memset(out, 0, sizeof *out);
+        return;
+    }
     const uint8_t *p = r->recs + (size_t)i * VP_VIS_REC_SIZE;
     out->id = rd64(p);
     out->handle = rd32(p + 8);
@@ -805,7 +809,9 @@ int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
     int rc;
     if ((rc = take_array(&r, m->vertex_count, 12, max_batch, &m->positions)) ||
         (rc = take_array(&r, m->vertex_count, 12, max_batch, &m->normals)) ||
-        (rc = take_array(&r, m->index_count, 4, max_batch ? 3 * max_batch : 0, &m->indices)))
+        (rc = take_array(&r, m->index_count, 4,
+                         max_batch ? (uint32_t)(max_batch > UINT32_MAX / 3 ? UINT32_MAX : 3 * max_batch) : 0,
+                         &m->indices)))
         return rc;
     if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
     for (uint32_t i = 0; i < 3 * m->vertex_count; i++) {
@@ -910,8 +916,9 @@ int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_
     return VP_OK;
 }
 
-int vp_light_get(const uint8_t *recs, uint32_t i, vp_light *out)
+int vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out)
 {
+    if (i >= n) return VP_ERR_COUNT;
     light_read(recs + (size_t)i * VP_LIGHT_SIZE, out);
     return light_check(out);
 }

@@ -372,13 +372,14 @@ int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m);
 int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m);
 
 /* Record getters for batches (validated by the decoder that made them;
- * vp_entity_get re-checks finiteness so a record is never trusted blind). */
+ * they re-check what they decode so a record is never trusted blind; an
+ * index past the count is VP_ERR_COUNT, or a zeroed record / 0). */
 int  vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out);
 uint64_t vp_id_get(const vp_id_batch *b, uint32_t i);
 uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i);
 int  vp_view_get(const vp_vis_query *q, uint32_t i, vp_view *out);
 void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out);
-int  vp_light_get(const uint8_t *recs, uint32_t i, vp_light *out);
+int  vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out);
 
 /* Whether a message type is known to this version. */
 bool vp_type_known(uint16_t type);

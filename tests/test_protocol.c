@@ -209,7 +209,7 @@ static void test_round_trips(void **state)
     assert_int_equal(vp_dec_lights(p, len, 0, &lrecs, &nl), VP_OK);
     vp_light ld;
     memset(&ld, 0, sizeof ld);
-    assert_int_equal(vp_light_get(lrecs, 0, &ld), VP_OK);
+    assert_int_equal(vp_light_get(lrecs, nl, 0, &ld), VP_OK);
     assert_memory_equal(&ld, &lt, sizeof lt);
 
     at = w.len;

@@ -1,0 +1,561 @@
+/*
+ * scene.c — see scene.h. Validation first (ids, handles, values through
+ * cull_entity_check), then application; the only failure left after
+ * validation is running out of memory, which is rolled back.
+ */
+#include "scene.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SLOT(h) ((h) & (CULL_MAX_ENTITIES - 1u))
+
+static int fail(scene_err *e, int code, uint32_t index, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+
+#include <stdarg.h>
+static int fail(scene_err *e, int code, uint32_t index, const char *fmt, ...)
+{
+    e->code = code;
+    e->index = index;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(e->msg, sizeof e->msg, fmt, ap);
+    va_end(ap);
+    return code;
+}
+
+int scene_init(scene *s, double cell_size, const scene_limits *lim)
+{
+    memset(s, 0, sizeof *s);
+    s->lim = *lim;
+    int rc = cull_world_create(&(cull_world_desc){.cell_size = cell_size, .max_entities = lim->max_entities},
+                               &s->world);
+    return rc ? rc : 0;
+}
+
+void scene_free(scene *s)
+{
+    cull_world_destroy(s->world);
+    idmap_free(&s->ids);
+    free(s->id_of_slot);
+    for (uint32_t i = 0; i < 65536; i++) {
+        free(s->meshes[i].pos);
+        free(s->meshes[i].nrm);
+        free(s->meshes[i].idx);
+    }
+    for (size_t i = 0; i < s->occluders.cap; i++) {
+        if (!s->occluders.used[i]) continue;
+        scene_occluder *o = (scene_occluder *)(uintptr_t)s->occluders.vals[i];
+        free(o->verts);
+        free(o);
+    }
+    for (size_t i = 0; i < s->lights.cap; i++)
+        if (s->lights.used[i]) free((void *)(uintptr_t)s->lights.vals[i]);
+    idmap_free(&s->occluders);
+    idmap_free(&s->lights);
+    memset(s, 0, sizeof *s);
+}
+
+uint64_t scene_id_of(const scene *s, cull_handle h)
+{
+    uint32_t slot = SLOT(h);
+    return slot < s->id_cap ? s->id_of_slot[slot] : 0;
+}
+
+static void to_desc(const vp_entity *e, cull_entity_desc *d)
+{
+    memset(d, 0, sizeof *d);
+    for (int a = 0; a < 3; a++) {
+        d->center[a] = e->sphere[a];
+        d->aabb_min[a] = e->aabb[a];
+        d->aabb_max[a] = e->aabb[3 + a];
+    }
+    d->radius = e->sphere[3];
+    d->class_id = e->class_id;
+    d->sublevel = e->sublevel;
+    d->flags = (e->flags & VP_ENT_DYNAMIC) ? CULL_ENTITY_DYNAMIC : 0;
+}
+
+void scene_entity_record(const scene *s, cull_handle h, vp_entity *out)
+{
+    cull_entity_desc d;
+    memset(out, 0, sizeof *out);
+    if (cull_entity_get(s->world, h, &d)) return;
+    out->id = scene_id_of(s, h);
+    out->handle = h;
+    out->class_id = d.class_id;
+    out->sublevel = d.sublevel;
+    out->flags = (d.flags & CULL_ENTITY_DYNAMIC) ? VP_ENT_DYNAMIC : 0;
+    for (int a = 0; a < 3; a++) {
+        out->sphere[a] = d.center[a];
+        out->aabb[a] = d.aabb_min[a];
+        out->aabb[3 + a] = d.aabb_max[a];
+    }
+    out->sphere[3] = d.radius;
+}
+
+static int cull_to_vp(int rc)
+{
+    switch (rc) {
+    case CULL_ERR_NONFINITE: return VP_ERR_NONFINITE;
+    case CULL_ERR_HANDLE: return VP_ERR_STALE;
+    case CULL_ERR_CAPACITY: return VP_ERR_LIMIT;
+    case CULL_ERR_NOMEM: return VP_ERR_LIMIT;
+    default: return VP_ERR_SCENE;
+    }
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Index of the first id that appears twice in ids[0..n) (in batch order
+ * of its second appearance), or UINT32_MAX. */
+static uint32_t first_duplicate(const uint64_t *ids, uint32_t n, bool *nomem)
+{
+    *nomem = false;
+    if (n < 2) return UINT32_MAX;
+    uint64_t *sorted = malloc((size_t)n * sizeof *sorted);
+    if (!sorted) {
+        *nomem = true;
+        return UINT32_MAX;
+    }
+    memcpy(sorted, ids, (size_t)n * sizeof *sorted);
+    qsort(sorted, n, sizeof *sorted, cmp_u64);
+    uint64_t dup = 0;
+    bool found = false;
+    for (uint32_t i = 1; i < n && !found; i++)
+        if (sorted[i] == sorted[i - 1]) dup = sorted[i], found = true;
+    free(sorted);
+    if (!found) return UINT32_MAX;
+    bool seen = false;
+    for (uint32_t i = 0; i < n; i++) {
+        if (ids[i] != dup) continue;
+        if (seen) return i;
+        seen = true;
+    }
+    return UINT32_MAX;
+}
+
+static bool grow_id_of_slot(scene *s, uint32_t need)
+{
+    if (need <= s->id_cap) return true;
+    uint32_t cap = s->id_cap ? s->id_cap : 1024;
+    while (cap < need) cap *= 2;
+    uint64_t *n = realloc(s->id_of_slot, (size_t)cap * sizeof *n);
+    if (!n) return false;
+    memset(n + s->id_cap, 0, (size_t)(cap - s->id_cap) * sizeof *n);
+    s->id_of_slot = n;
+    s->id_cap = cap;
+    return true;
+}
+
+int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
+{
+    uint32_t n = b->count;
+    cull_world_info info;
+    cull_world_info_get(s->world, &info);
+    if ((uint64_t)info.entities + n > s->lim.max_entities)
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "scene holds %u entities, limit %u", info.entities,
+                    s->lim.max_entities);
+    uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    cull_entity_desc *descs = malloc(((size_t)n + 1) * sizeof *descs);
+    if (!ids || !descs || !idmap_reserve(&s->ids, s->ids.count + n)) {
+        free(ids);
+        free(descs);
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+    }
+    int rc = VP_OK;
+    for (uint32_t i = 0; i < n; i++) {
+        vp_entity e;
+        if ((rc = vp_entity_get(b, i, &e))) {
+            fail(err, rc, i, "record %u: %s", i, vp_strerror(rc));
+            goto out;
+        }
+        ids[i] = e.id;
+        if (idmap_get(&s->ids, e.id, NULL)) {
+            rc = fail(err, VP_ERR_DUPLICATE, i, "record %u: id %llu already exists", i, (unsigned long long)e.id);
+            goto out;
+        }
+        cull_entity_desc d;
+        to_desc(&e, &d);
+        int crc = cull_entity_check(s->world, &d, &descs[i]);
+        if (crc) {
+            rc = fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
+                      i, (unsigned long long)e.id, cull_strerror(crc));
+            goto out;
+        }
+    }
+    bool nomem;
+    uint32_t dup = first_duplicate(ids, n, &nomem);
+    if (nomem) {
+        rc = fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids");
+        goto out;
+    }
+    if (dup != UINT32_MAX) {
+        rc = fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
+                  (unsigned long long)ids[dup]);
+        goto out;
+    }
+    /* apply */
+    for (uint32_t i = 0; i < n; i++) {
+        cull_handle h;
+        int crc = cull_entity_add(s->world, &descs[i], &h);
+        if (!crc && !grow_id_of_slot(s, SLOT(h) + 1)) {
+            cull_entity_remove(s->world, h);
+            crc = CULL_ERR_NOMEM;
+        }
+        if (crc) {
+            for (uint32_t k = 0; k < i; k++) { /* roll back */
+                cull_entity_remove(s->world, handles[k]);
+                idmap_del(&s->ids, ids[k]);
+                s->id_of_slot[SLOT(handles[k])] = 0;
+            }
+            rc = fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
+            goto out;
+        }
+        handles[i] = h;
+        idmap_put(&s->ids, ids[i], h);
+        s->id_of_slot[SLOT(h)] = ids[i];
+    }
+    s->epoch++;
+    s->edits += n;
+    s->ev_added += n;
+out:
+    free(ids);
+    free(descs);
+    return rc;
+}
+
+int scene_update(scene *s, const vp_entity_batch *b, scene_err *err)
+{
+    uint32_t n = b->count;
+    uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    cull_handle *hs = malloc(((size_t)n + 1) * sizeof *hs);
+    cull_entity_desc *descs = malloc(((size_t)n + 1) * sizeof *descs);
+    cull_entity_desc *old = malloc(((size_t)n + 1) * sizeof *old);
+    int rc = VP_OK;
+    if (!ids || !hs || !descs || !old) {
+        rc = fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        goto out;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        vp_entity e;
+        if ((rc = vp_entity_get(b, i, &e))) {
+            fail(err, rc, i, "record %u: %s", i, vp_strerror(rc));
+            goto out;
+        }
+        uint64_t h;
+        if (!idmap_get(&s->ids, e.id, &h)) {
+            rc = fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)e.id);
+            goto out;
+        }
+        if (e.handle && e.handle != (uint32_t)h) {
+            rc = fail(err, VP_ERR_STALE, i, "record %u: handle %u is not id %llu's (%u)", i, e.handle,
+                      (unsigned long long)e.id, (uint32_t)h);
+            goto out;
+        }
+        ids[i] = e.id;
+        hs[i] = (cull_handle)h;
+        cull_entity_desc d;
+        to_desc(&e, &d);
+        int crc = cull_entity_check(s->world, &d, &descs[i]);
+        if (crc) {
+            rc = fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
+                      i, (unsigned long long)e.id, cull_strerror(crc));
+            goto out;
+        }
+        cull_entity_get(s->world, hs[i], &old[i]);
+    }
+    bool nomem;
+    uint32_t dup = first_duplicate(ids, n, &nomem);
+    if (nomem || dup != UINT32_MAX) {
+        rc = nomem ? fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids")
+                   : fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
+                          (unsigned long long)ids[dup]);
+        goto out;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        int crc = cull_entity_update(s->world, hs[i], &descs[i]);
+        if (crc) {
+            for (uint32_t k = 0; k < i; k++) cull_entity_update(s->world, hs[k], &old[k]);
+            rc = fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
+            goto out;
+        }
+    }
+    s->epoch++;
+    s->edits += n;
+    s->ev_updated += n;
+out:
+    free(ids);
+    free(hs);
+    free(descs);
+    free(old);
+    return rc;
+}
+
+int scene_remove(scene *s, const vp_id_batch *b, scene_err *err)
+{
+    uint32_t n = b->count;
+    uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    if (!ids) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+    int rc = VP_OK;
+    for (uint32_t i = 0; i < n; i++) {
+        ids[i] = vp_id_get(b, i);
+        if (!idmap_get(&s->ids, ids[i], NULL)) {
+            rc = fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)ids[i]);
+            goto out;
+        }
+    }
+    bool nomem;
+    uint32_t dup = first_duplicate(ids, n, &nomem);
+    if (nomem || dup != UINT32_MAX) {
+        rc = nomem ? fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids")
+                   : fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
+                          (unsigned long long)ids[dup]);
+        goto out;
+    }
+    for (uint32_t i = 0; i < n; i++) { /* removal cannot fail once validated */
+        uint64_t h;
+        idmap_get(&s->ids, ids[i], &h);
+        cull_entity_remove(s->world, (cull_handle)h);
+        idmap_del(&s->ids, ids[i]);
+        s->id_of_slot[SLOT((cull_handle)h)] = 0;
+    }
+    s->epoch++;
+    s->edits += n;
+    s->ev_removed += n;
+out:
+    free(ids);
+    return rc;
+}
+
+int scene_mesh_put(scene *s, const vp_mesh *m, scene_err *err)
+{
+    if (m->vertex_count > s->lim.max_mesh_verts)
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "mesh of %u vertices, limit %u", m->vertex_count,
+                    s->lim.max_mesh_verts);
+    scene_mesh n = {.nv = m->vertex_count, .ni = m->index_count};
+    n.pos = malloc((size_t)n.nv * 12 + 1);
+    n.nrm = malloc((size_t)n.nv * 12 + 1);
+    n.idx = malloc((size_t)n.ni * 4 + 1);
+    if (!n.pos || !n.nrm || !n.idx) {
+        free(n.pos);
+        free(n.nrm);
+        free(n.idx);
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a mesh");
+    }
+    vp_reader r;
+    vp_reader_init(&r, m->positions, (size_t)n.nv * 12);
+    for (uint32_t i = 0; i < 3 * n.nv; i++) n.pos[i] = vp_get_f32(&r);
+    vp_reader_init(&r, m->normals, (size_t)n.nv * 12);
+    for (uint32_t i = 0; i < 3 * n.nv; i++) n.nrm[i] = vp_get_f32(&r);
+    vp_reader_init(&r, m->indices, (size_t)n.ni * 4);
+    for (uint32_t i = 0; i < n.ni; i++) n.idx[i] = vp_get_u32(&r);
+    scene_mesh *slot = &s->meshes[m->class_id];
+    if (!slot->pos) s->nmeshes++;
+    free(slot->pos);
+    free(slot->nrm);
+    free(slot->idx);
+    *slot = n;
+    s->epoch++;
+    return VP_OK;
+}
+
+int scene_occluder_put(scene *s, const vp_occluder *o, scene_err *err)
+{
+    if (o->tri_count > s->lim.max_occluder_tris)
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "occluder of %u triangles, limit %u", o->tri_count,
+                    s->lim.max_occluder_tris);
+    uint64_t prev;
+    bool exists = idmap_get(&s->occluders, o->id, &prev);
+    if (!exists && s->occluders.count >= s->lim.max_occluders)
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "%zu occluders, limit %u", s->occluders.count,
+                    s->lim.max_occluders);
+    scene_occluder *n = malloc(sizeof *n);
+    float *v = malloc((size_t)o->tri_count * 36 + 1);
+    if (!n || !v || !idmap_reserve(&s->occluders, s->occluders.count + 1)) {
+        free(n);
+        free(v);
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an occluder");
+    }
+    memcpy(n->origin, o->origin, sizeof n->origin);
+    n->ntris = o->tri_count;
+    vp_reader r;
+    vp_reader_init(&r, o->verts, (size_t)o->tri_count * 36);
+    for (uint32_t i = 0; i < 9 * o->tri_count; i++) v[i] = vp_get_f32(&r);
+    n->verts = v;
+    if (exists) {
+        scene_occluder *old = (scene_occluder *)(uintptr_t)prev;
+        free(old->verts);
+        free(old);
+    }
+    idmap_put(&s->occluders, o->id, (uint64_t)(uintptr_t)n);
+    s->epoch++;
+    return VP_OK;
+}
+
+int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *err)
+{
+    for (uint32_t i = 0; i < b->count; i++)
+        if (!idmap_get(which, vp_id_get(b, i), NULL))
+            return fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no such id %llu", i,
+                        (unsigned long long)vp_id_get(b, i));
+    bool nomem;
+    uint64_t *ids = malloc(((size_t)b->count + 1) * sizeof *ids);
+    if (!ids) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
+    for (uint32_t i = 0; i < b->count; i++) ids[i] = vp_id_get(b, i);
+    uint32_t dup = first_duplicate(ids, b->count, &nomem);
+    free(ids);
+    if (nomem) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
+    if (dup != UINT32_MAX) return fail(err, VP_ERR_DUPLICATE, dup, "record %u: id twice in the batch", dup);
+    for (uint32_t i = 0; i < b->count; i++) {
+        uint64_t v;
+        idmap_get(which, vp_id_get(b, i), &v);
+        if (which == &s->occluders) free(((scene_occluder *)(uintptr_t)v)->verts);
+        free((void *)(uintptr_t)v);
+        idmap_del(which, vp_id_get(b, i));
+    }
+    s->epoch++;
+    return VP_OK;
+}
+
+int scene_lights_put(scene *s, const uint8_t *recs, uint32_t n, scene_err *err)
+{
+    size_t fresh = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        vp_light l;
+        int rc = vp_light_get(recs, n, i, &l);
+        if (rc) return fail(err, rc, i, "light %u: %s", i, vp_strerror(rc));
+        fresh += !idmap_get(&s->lights, l.id, NULL);
+    }
+    if (s->lights.count + fresh > s->lim.max_lights)
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "%zu lights, limit %u", s->lights.count + fresh,
+                    s->lim.max_lights);
+    vp_light **mem = calloc((size_t)n + 1, sizeof *mem);
+    bool ok = mem && idmap_reserve(&s->lights, s->lights.count + n);
+    for (uint32_t i = 0; ok && i < n; i++) ok = (mem[i] = malloc(sizeof **mem)) != NULL;
+    if (!ok) {
+        for (uint32_t i = 0; mem && i < n; i++) free(mem[i]);
+        free(mem);
+        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for lights");
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        vp_light_get(recs, n, i, mem[i]);
+        uint64_t prev;
+        if (idmap_get(&s->lights, mem[i]->id, &prev)) free((void *)(uintptr_t)prev);
+        idmap_put(&s->lights, mem[i]->id, (uint64_t)(uintptr_t)mem[i]);
+    }
+    free(mem);
+    s->epoch++;
+    return VP_OK;
+}
+
+/* ---- the demo city ------------------------------------------------------------- */
+
+static uint64_t demo_rng = 0x5EED2011;
+static double drand(void)
+{
+    uint64_t z = (demo_rng += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
+}
+
+/* 12 triangles of an axis-aligned box, counter-clockwise from outside,
+ * relative to lo. */
+static void box_tris(const double lo[3], const double hi[3], float *t)
+{
+    float X = (float)(hi[0] - lo[0]), Y = (float)(hi[1] - lo[1]), Z = (float)(hi[2] - lo[2]);
+    const float c[8][3] = {{0, 0, 0}, {X, 0, 0}, {X, Y, 0}, {0, Y, 0}, {0, 0, Z}, {X, 0, Z}, {X, Y, Z}, {0, Y, Z}};
+    static const int f[12][3] = {{0, 3, 2}, {0, 2, 1}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                                 {3, 7, 6}, {3, 6, 2}, {0, 4, 7}, {0, 7, 3}, {1, 2, 6}, {1, 6, 5}};
+    for (int i = 0; i < 12; i++)
+        for (int v = 0; v < 3; v++)
+            for (int a = 0; a < 3; a++) t[i * 9 + v * 3 + a] = c[f[i][v]][a];
+}
+
+static int add_one(scene *s, uint64_t id, uint16_t cls, const double lo[3], const double hi[3], bool dynamic)
+{
+    uint8_t buf[VP_HEADER_SIZE + 4 + VP_ENTITY_REC_SIZE];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_entity e = {.id = id, .class_id = cls, .flags = dynamic ? VP_ENT_DYNAMIC : 0};
+    for (int a = 0; a < 3; a++) {
+        e.aabb[a] = lo[a];
+        e.aabb[3 + a] = hi[a];
+    }
+    vp_enc_entities(&w, VP_ENTITY_ADD, 0, &e, 1);
+    vp_entity_batch b;
+    if (vp_dec_entities(buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &b)) return -1;
+    uint32_t h;
+    scene_err err;
+    return scene_add(s, &b, &h, &err);
+}
+
+int scene_build_demo(scene *s, uint32_t props)
+{
+    demo_rng = 0x5EED2011;
+    /* classes: 1 buildings, 2 props (their meshes arrive with the renderer) */
+    uint64_t next_id = 1;
+    const int blocks = 12;           /* 12 x 12 city blocks */
+    const double block = 60, street = 16;
+    for (int bx = 0; bx < blocks; bx++) {
+        for (int bz = 0; bz < blocks; bz++) {
+            double x0 = (bx - blocks / 2) * (block + street), z0 = (bz - blocks / 2) * (block + street);
+            int nb = 1 + (int)(drand() * 3);
+            for (int k = 0; k < nb; k++) {
+                double w = 12 + drand() * 20, d = 12 + drand() * 20, h = 8 + drand() * drand() * 80;
+                double lo[3] = {x0 + drand() * (block - w), 0, z0 + drand() * (block - d)};
+                double hi[3] = {lo[0] + w, h, lo[2] + d};
+                if (add_one(s, next_id++, 1, lo, hi, false)) return -1;
+                float t[12 * 9];
+                box_tris(lo, hi, t);
+                uint8_t buf[VP_HEADER_SIZE + 36 + 12 * 36];
+                vp_writer wr;
+                vp_writer_init(&wr, buf, sizeof buf);
+                vp_enc_occluder(&wr, 0, next_id - 1, lo, t, 12);
+                vp_occluder o;
+                scene_err err;
+                if (vp_dec_occluder(buf + VP_HEADER_SIZE, wr.len - VP_HEADER_SIZE, 0, &o) ||
+                    scene_occluder_put(s, &o, &err))
+                    return -1;
+            }
+        }
+    }
+    double span = blocks / 2.0 * (block + street);
+    for (uint32_t i = 0; i < props; i++) {
+        double r = 0.3 + drand() * 1.5;
+        double c[3] = {(drand() * 2 - 1) * span, r, (drand() * 2 - 1) * span};
+        double lo[3] = {c[0] - r, 0, c[2] - r}, hi[3] = {c[0] + r, 2 * r, c[2] + r};
+        if (add_one(s, 1000000 + i, 2, lo, hi, i % 4 == 0)) return -1;
+    }
+    /* street lights */
+    enum { NL = 64 };
+    uint8_t lbuf[VP_HEADER_SIZE + 4 + NL * VP_LIGHT_SIZE];
+    vp_light lights[NL];
+    for (int i = 0; i < NL; i++) {
+        lights[i] = (vp_light){.id = 1 + (uint64_t)i, .kind = VP_LIGHT_POINT, .intensity = 400, .range = 25,
+                               .color = {1.0f, 0.85f, 0.6f}};
+        lights[i].pos[0] = (drand() * 2 - 1) * span;
+        lights[i].pos[1] = 6;
+        lights[i].pos[2] = (drand() * 2 - 1) * span;
+    }
+    vp_writer wl;
+    vp_writer_init(&wl, lbuf, sizeof lbuf);
+    vp_enc_lights(&wl, 0, lights, NL);
+    const uint8_t *recs;
+    uint32_t n;
+    scene_err err;
+    if (vp_dec_lights(lbuf + VP_HEADER_SIZE, wl.len - VP_HEADER_SIZE, 0, &recs, &n) ||
+        scene_lights_put(s, recs, n, &err))
+        return -1;
+    cull_world_commit(s->world);
+    s->ev_added = s->ev_updated = s->ev_removed = 0;
+    return 0;
+}

@@ -1,0 +1,39 @@
+/*
+ * server.h — vantaged's network side: listeners, connections, framing,
+ * dispatch of protocol messages to the scene and the culling core.
+ */
+#ifndef VANTAGE_SERVER_H
+#define VANTAGE_SERVER_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "scene.h"
+
+typedef struct server_config {
+    const char *bind;        /* TCP address; NULL or "" = no TCP */
+    int port;
+    const char *unix_path;   /* NULL or "" = no Unix socket */
+    uint32_t max_clients;
+    uint32_t max_payload;    /* largest frame payload accepted after HELLO */
+    uint32_t max_batch;      /* records per edit message */
+    uint32_t out_limit;      /* bytes a client may leave unread before it is dropped */
+    uint32_t threads;        /* culling pool size, 0 = cores */
+    double cell_size;
+    scene_limits limits;
+} server_config;
+
+#define VANTAGED_DEFAULT_PORT 7470
+#define VANTAGED_PREHELLO_MAX 4096u /* frame limit before the handshake */
+
+typedef struct server server;
+
+/* Binds the listeners and builds the scene. NULL (with a log line) on
+ * failure. The scene is moved into the server. */
+server *server_create(const server_config *cfg, scene *sc);
+/* Runs the event loop until server_stop (or SIGINT / SIGTERM). */
+void server_run(server *s);
+void server_stop(server *s);
+void server_destroy(server *s);
+
+#endif

@@ -1,0 +1,140 @@
+/*
+ * vantaged.c — the daemon's entry point: options, the scene, the server.
+ */
+#include "log.h"
+#include "server.h"
+#include "ae.h"
+
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: vantaged [options]\n"
+            "\n"
+            "Keeps a live 3D scene and answers visibility queries over the Vantage\n"
+            "protocol (protocol/PROTOCOL.md) on TCP and a Unix socket.\n"
+            "\n"
+            "  --bind ADDR          TCP address (default 127.0.0.1; \"\" for none)\n"
+            "  --port N             TCP port (default %d)\n"
+            "  --unix PATH          Unix socket (default /tmp/vantaged.sock; \"\" for none)\n"
+            "  --scene demo|empty   starting scene (default demo: a procedural city)\n"
+            "  --props N            props in the demo city (default 3000)\n"
+            "  --cell-size M        culling grid cell, metres (default 64)\n"
+            "  --max-clients N      connections (default 1024)\n"
+            "  --max-payload BYTES  largest request frame (default 16777216)\n"
+            "  --max-batch N        records per edit message (default 65536)\n"
+            "  --max-entities N     entities in the scene (default 4194304)\n"
+            "  --out-limit BYTES    unread reply bytes before a client is dropped (default 268435456)\n"
+            "  --threads N          culling threads (default: cores)\n"
+            "  --log-level L        error|warn|info|debug (default info)\n"
+            "  --help               this text\n",
+            VANTAGED_DEFAULT_PORT);
+}
+
+static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    char *end;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (!*s || *end || v < lo || v > hi) return false;
+    *out = (uint32_t)v;
+    return true;
+}
+
+int main(int argc, char **argv)
+{
+    server_config cfg = {
+        .bind = "127.0.0.1",
+        .port = VANTAGED_DEFAULT_PORT,
+        .unix_path = "/tmp/vantaged.sock",
+        .max_clients = 1024,
+        .max_payload = 16u << 20,
+        .max_batch = 65536,
+        .out_limit = 256u << 20,
+        .cell_size = 64,
+        .limits = {.max_entities = CULL_MAX_ENTITIES, .max_lights = 65536, .max_occluders = 1u << 20,
+                   .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 22},
+    };
+    const char *scene_kind = "demo";
+    uint32_t props = 3000, port = (uint32_t)cfg.port;
+    enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
+           O_OUT, O_THREADS, O_LOG, O_HELP };
+    static const struct option opts[] = {
+        {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
+        {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
+        {"props", required_argument, 0, O_PROPS}, {"cell-size", required_argument, 0, O_CELL},
+        {"max-clients", required_argument, 0, O_CLIENTS}, {"max-payload", required_argument, 0, O_PAYLOAD},
+        {"max-batch", required_argument, 0, O_BATCH}, {"max-entities", required_argument, 0, O_ENTITIES},
+        {"out-limit", required_argument, 0, O_OUT}, {"threads", required_argument, 0, O_THREADS},
+        {"log-level", required_argument, 0, O_LOG}, {"help", no_argument, 0, O_HELP}, {0, 0, 0, 0},
+    };
+    int o;
+    bool ok = true;
+    while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        switch (o) {
+        case O_BIND: cfg.bind = optarg; break;
+        case O_PORT: ok = parse_u32(optarg, 1, 65535, &port); break;
+        case O_UNIX: cfg.unix_path = optarg; break;
+        case O_SCENE: scene_kind = optarg; break;
+        case O_PROPS: ok = parse_u32(optarg, 0, 10000000, &props); break;
+        case O_CELL: cfg.cell_size = atof(optarg); ok = cfg.cell_size >= 0.01 && cfg.cell_size <= 1e5; break;
+        case O_CLIENTS: ok = parse_u32(optarg, 1, 1000000, &cfg.max_clients); break;
+        case O_PAYLOAD: ok = parse_u32(optarg, 1024, 1u << 30, &cfg.max_payload); break;
+        case O_BATCH: ok = parse_u32(optarg, 1, 1u << 24, &cfg.max_batch); break;
+        case O_ENTITIES: ok = parse_u32(optarg, 1, CULL_MAX_ENTITIES, &cfg.limits.max_entities); break;
+        case O_OUT: ok = parse_u32(optarg, 4096, UINT32_MAX, &cfg.out_limit); break;
+        case O_THREADS: ok = parse_u32(optarg, 0, 256, &cfg.threads); break;
+        case O_LOG: ok = (g_log_level = log_level_parse(optarg)) >= 0; break;
+        case O_HELP: usage(stdout); return 0;
+        default: usage(stderr); return 2;
+        }
+        if (!ok) {
+            fprintf(stderr, "vantaged: bad value for --%s: %s\n", opts[o - O_BIND].name, optarg);
+            return 2;
+        }
+    }
+    if (optind < argc) {
+        fprintf(stderr, "vantaged: unexpected argument: %s\n", argv[optind]);
+        usage(stderr);
+        return 2;
+    }
+    cfg.port = (int)port;
+    if ((!cfg.bind || !*cfg.bind) && (!cfg.unix_path || !*cfg.unix_path)) {
+        fprintf(stderr, "vantaged: nothing to listen on (--bind \"\" and --unix \"\")\n");
+        return 2;
+    }
+
+    scene *sc = calloc(1, sizeof *sc);
+    if (!sc || scene_init(sc, cfg.cell_size, &cfg.limits)) {
+        LOGE("cannot create the scene");
+        return 1;
+    }
+    if (!strcmp(scene_kind, "demo")) {
+        uint64_t t0 = ae_now_ms();
+        if (scene_build_demo(sc, props)) {
+            LOGE("cannot build the demo scene");
+            return 1;
+        }
+        cull_world_info info;
+        cull_world_info_get(sc->world, &info);
+        LOGI("demo city: %u entities, %zu occluders, %zu lights in %llu ms", info.entities, sc->occluders.count,
+             sc->lights.count, (unsigned long long)(ae_now_ms() - t0));
+    } else if (strcmp(scene_kind, "empty") != 0) {
+        fprintf(stderr, "vantaged: --scene %s: use demo or empty (load files with `vantage import`)\n", scene_kind);
+        return 2;
+    }
+    server *srv = server_create(&cfg, sc);
+    if (!srv) return 1;
+    if (cfg.bind && *cfg.bind) LOGI("listening on %s:%d", cfg.bind, cfg.port);
+    if (cfg.unix_path && *cfg.unix_path) LOGI("listening on %s", cfg.unix_path);
+    LOGI("try: vantage -p %d query --eye 0,2,-300 --at 0,2,0", cfg.port);
+    server_run(srv);
+    server_destroy(srv);
+    scene_free(sc);
+    free(sc);
+    LOGI("bye");
+    return 0;
+}

@@ -1,0 +1,624 @@
+/*
+ * fuzz_protocol.c — libFuzzer target for the wire-protocol decoders.
+ *
+ * The input is a byte stream as a server or client would read it:
+ *   1. vp_frame_check on the raw input under a few payload limits, with the
+ *      framing properties checked (sizes, need-more vs. error, limits);
+ *   2. the input is cut into frames; each complete frame's payload goes to
+ *      the decoder for its header type (an unknown type picks a decoder from
+ *      the type bits, so every decoder sees every shape of payload);
+ *      batch decoders run with no limit and with the request id as the limit;
+ *   3. every record of an accepted batch is read with its getter, and the
+ *      getters must accept what the decoder accepted;
+ *   4. accepted messages with a plain encoder are re-encoded and must decode
+ *      to the same values with a payload of the same length (round trip).
+ * A broken property calls abort(), so both the fuzzer and the replay driver
+ * (replay_main.c) report it like a sanitizer crash.
+ */
+#include "protocol.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+#define CHECK(cond)                                                                     \
+    do {                                                                                \
+        if (!(cond)) {                                                                  \
+            fprintf(stderr, "fuzz_protocol: property failed at %s:%d: %s\n", __FILE__,  \
+                    __LINE__, #cond);                                                   \
+            abort();                                                                    \
+        }                                                                               \
+    } while (0)
+
+/* Frames per input; keeps a pathological stream of empty frames bounded. */
+#define MAX_FRAMES 4096u
+
+/* ---- small helpers -------------------------------------------------------------- */
+
+static bool same_f64(double a, double b) { return memcmp(&a, &b, sizeof a) == 0; }
+static bool same_f32(float a, float b) { return memcmp(&a, &b, sizeof a) == 0; }
+
+/* Every code a decoder returns is one of the table's. */
+static void check_code(int rc)
+{
+    CHECK(rc <= VP_OK && rc >= VP_ERR_INTERNAL);
+    CHECK(strcmp(vp_strerror(rc), "unknown error") != 0);
+}
+
+/* Writer over a heap buffer of exactly cap bytes, so ASan sees overruns. */
+typedef struct enc_buf {
+    uint8_t  *mem;
+    vp_writer w;
+} enc_buf;
+
+static void enc_open(enc_buf *b, size_t cap)
+{
+    b->mem = malloc(cap ? cap : 1);
+    CHECK(b->mem != NULL);
+    vp_writer_init(&b->w, b->mem, cap);
+}
+
+/* Frames the encoded bytes and returns the payload; its type and length must
+ * match what was decoded. */
+static const uint8_t *enc_payload(enc_buf *b, uint16_t type, size_t want_len)
+{
+    vp_header h;
+    size_t fs = 0;
+    CHECK(!b->w.overflow);
+    CHECK(vp_frame_check(b->mem, b->w.len, UINT32_MAX, &h, &fs) == VP_OK);
+    CHECK(fs == b->w.len);
+    CHECK(h.type == type);
+    CHECK(h.len == want_len);
+    return b->mem + VP_HEADER_SIZE;
+}
+
+static void enc_close(enc_buf *b) { free(b->mem); }
+
+static bool same_entity(const vp_entity *a, const vp_entity *b)
+{
+    if (a->id != b->id || a->handle != b->handle || a->class_id != b->class_id || a->sublevel != b->sublevel ||
+        a->flags != b->flags)
+        return false;
+    for (int k = 0; k < 4; k++)
+        if (!same_f64(a->sphere[k], b->sphere[k])) return false;
+    for (int k = 0; k < 6; k++)
+        if (!same_f64(a->aabb[k], b->aabb[k])) return false;
+    return true;
+}
+
+static bool same_view(const vp_view *a, const vp_view *b)
+{
+    for (int k = 0; k < 3; k++)
+        if (!same_f64(a->origin[k], b->origin[k])) return false;
+    for (int k = 0; k < 16; k++)
+        if (!same_f64(a->view_proj[k], b->view_proj[k])) return false;
+    return a->depth_mode == b->depth_mode && a->viewport_w == b->viewport_w && a->viewport_h == b->viewport_h;
+}
+
+static bool same_light(const vp_light *a, const vp_light *b)
+{
+    if (a->id != b->id || a->kind != b->kind) return false;
+    for (int k = 0; k < 3; k++)
+        if (!same_f64(a->pos[k], b->pos[k]) || !same_f32(a->dir[k], b->dir[k]) ||
+            !same_f32(a->color[k], b->color[k]))
+            return false;
+    return same_f32(a->intensity, b->intensity) && same_f32(a->range, b->range) &&
+           same_f32(a->inner_cos, b->inner_cos) && same_f32(a->outer_cos, b->outer_cos);
+}
+
+/* Reads every record of an accepted entity batch; returns them (caller frees). */
+static vp_entity *read_entities(const vp_entity_batch *b)
+{
+    vp_entity *e = malloc(((size_t)b->count ? b->count : 1) * sizeof *e);
+    CHECK(e != NULL);
+    for (uint32_t i = 0; i < b->count; i++) CHECK(vp_entity_get(b, i, &e[i]) == VP_OK);
+    vp_entity past;
+    CHECK(vp_entity_get(b, b->count, &past) == VP_ERR_COUNT);
+    return e;
+}
+
+/* ---- one decoder per message kind --------------------------------------------------- */
+
+static void fuzz_hello(const uint8_t *p, size_t len)
+{
+    vp_hello m;
+    int rc = vp_dec_hello(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == 9u + m.token_len + m.name_len);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_hello(&b.w, 1, &m);
+    const uint8_t *q = enc_payload(&b, VP_HELLO, len);
+    vp_hello r;
+    CHECK(vp_dec_hello(q, len, &r) == VP_OK);
+    CHECK(r.magic == m.magic && r.version == m.version && r.role == m.role);
+    CHECK(r.token_len == m.token_len && r.name_len == m.name_len);
+    CHECK(memcmp(r.token, m.token, m.token_len) == 0 && memcmp(r.name, m.name, m.name_len) == 0);
+    enc_close(&b);
+}
+
+static void fuzz_hello_ok(const uint8_t *p, size_t len)
+{
+    vp_hello_ok m;
+    int rc = vp_dec_hello_ok(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_hello_ok(&b.w, 2, &m);
+    const uint8_t *q = enc_payload(&b, VP_HELLO_OK, len);
+    vp_hello_ok r;
+    CHECK(vp_dec_hello_ok(q, len, &r) == VP_OK);
+    CHECK(r.version == m.version && r.role == m.role && r.max_payload == m.max_payload &&
+          r.max_batch == m.max_batch && r.max_views == m.max_views && r.epoch == m.epoch &&
+          r.client_id == m.client_id);
+    enc_close(&b);
+}
+
+static void fuzz_error(const uint8_t *p, size_t len)
+{
+    vp_error m;
+    int rc = vp_dec_error(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.msg_len <= VP_MAX_ERROR_MSG && len == 10u + m.msg_len);
+    volatile uint8_t sink = 0;
+    for (uint16_t i = 0; i < m.msg_len; i++) sink ^= m.msg[i];
+    (void)sink;
+    (void)vp_strerror(m.code);
+}
+
+static void fuzz_ping(const uint8_t *p, size_t len)
+{
+    const uint8_t *d = NULL;
+    uint32_t n = 0;
+    int rc = vp_dec_ping(p, len, &d, &n);
+    check_code(rc);
+    if (rc) return;
+    CHECK(n == len && n <= VP_MAX_PING);
+    if (n) CHECK(d == p);
+}
+
+static void fuzz_empty(const uint8_t *p, size_t len)
+{
+    int rc = vp_dec_empty(p, len);
+    check_code(rc);
+    CHECK((rc == VP_OK) == (len == 0));
+}
+
+static void fuzz_stats_reply(const uint8_t *p, size_t len)
+{
+    vp_stats_reply m;
+    int rc = vp_dec_stats_reply(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_stats_reply(&b.w, 3, &m);
+    const uint8_t *q = enc_payload(&b, VP_STATS_REPLY, len);
+    vp_stats_reply r;
+    CHECK(vp_dec_stats_reply(q, len, &r) == VP_OK);
+    CHECK(r.epoch == m.epoch && r.uptime_ms == m.uptime_ms && r.entities == m.entities &&
+          r.static_entities == m.static_entities && r.dynamic_entities == m.dynamic_entities &&
+          r.regions == m.regions && r.cells == m.cells && r.connections == m.connections &&
+          r.meshes == m.meshes && r.occluders == m.occluders && r.lights == m.lights &&
+          r.queries == m.queries && r.edits == m.edits && r.bytes_in == m.bytes_in &&
+          r.bytes_out == m.bytes_out && r.errors == m.errors);
+    CHECK(memcmp(q, p, len) == 0); /* no pad bytes: the bytes themselves round-trip */
+    enc_close(&b);
+}
+
+static void fuzz_subscribe(const uint8_t *p, size_t len)
+{
+    uint32_t kinds;
+    int rc = vp_dec_subscribe(p, len, &kinds);
+    check_code(rc);
+    if (rc) return;
+    CHECK((kinds & ~VP_EVENT_SCENE) == 0);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_subscribe(&b.w, 4, kinds);
+    const uint8_t *q = enc_payload(&b, VP_SUBSCRIBE, len);
+    uint32_t r;
+    CHECK(vp_dec_subscribe(q, len, &r) == VP_OK && r == kinds);
+    enc_close(&b);
+}
+
+static void fuzz_event(const uint8_t *p, size_t len)
+{
+    vp_event m;
+    int rc = vp_dec_event(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_event(&b.w, &m);
+    const uint8_t *q = enc_payload(&b, VP_EVENT, len);
+    vp_event r;
+    CHECK(vp_dec_event(q, len, &r) == VP_OK);
+    CHECK(r.kind == m.kind && r.epoch == m.epoch && r.added == m.added && r.updated == m.updated &&
+          r.removed == m.removed);
+    enc_close(&b);
+}
+
+static void fuzz_ack(const uint8_t *p, size_t len)
+{
+    vp_ack m;
+    int rc = vp_dec_ack(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_ack(&b.w, 5, &m);
+    const uint8_t *q = enc_payload(&b, VP_ACK, len);
+    vp_ack r;
+    CHECK(vp_dec_ack(q, len, &r) == VP_OK && r.epoch == m.epoch && r.count == m.count);
+    CHECK(memcmp(q, p, len) == 0);
+    enc_close(&b);
+}
+
+static void fuzz_entities(const uint8_t *p, size_t len, uint16_t type, uint32_t limit)
+{
+    vp_entity_batch m;
+    int rc = vp_dec_entities(p, len, 0, &m);
+    check_code(rc);
+    vp_entity_batch lim;
+    int rcl = vp_dec_entities(p, len, limit, &lim);
+    check_code(rcl);
+    /* a limit can only turn an accept into COUNT, never the other way */
+    if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || lim.count <= limit));
+    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.count > limit);
+    if (rc) return;
+    CHECK(len == 4 + (size_t)m.count * VP_ENTITY_REC_SIZE);
+    vp_entity *e = read_entities(&m);
+    enc_buf b;
+    enc_open(&b, vp_size_entities(m.count));
+    vp_enc_entities(&b.w, type, 6, e, m.count);
+    const uint8_t *q = enc_payload(&b, type, len);
+    vp_entity_batch r;
+    CHECK(vp_dec_entities(q, len, 0, &r) == VP_OK && r.count == m.count);
+    for (uint32_t i = 0; i < r.count; i++) {
+        vp_entity x;
+        CHECK(vp_entity_get(&r, i, &x) == VP_OK);
+        CHECK(same_entity(&x, &e[i]));
+    }
+    enc_close(&b);
+    free(e);
+}
+
+static void fuzz_ids(const uint8_t *p, size_t len, uint16_t type, uint32_t limit)
+{
+    vp_id_batch m;
+    int rc = vp_dec_ids(p, len, 0, &m);
+    check_code(rc);
+    vp_id_batch lim;
+    int rcl = vp_dec_ids(p, len, limit, &lim);
+    check_code(rcl);
+    if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || lim.count <= limit));
+    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.count > limit);
+    if (rc) return;
+    CHECK(len == 4 + (size_t)m.count * 8);
+    uint64_t *ids = malloc(((size_t)m.count ? m.count : 1) * sizeof *ids);
+    CHECK(ids != NULL);
+    for (uint32_t i = 0; i < m.count; i++) ids[i] = vp_id_get(&m, i);
+    CHECK(vp_id_get(&m, m.count) == 0);
+    enc_buf b;
+    enc_open(&b, vp_size_ids(m.count));
+    vp_enc_ids(&b.w, type, 7, ids, m.count);
+    const uint8_t *q = enc_payload(&b, type, len);
+    CHECK(memcmp(q, p, len) == 0);
+    vp_id_batch r;
+    CHECK(vp_dec_ids(q, len, 0, &r) == VP_OK && r.count == m.count);
+    for (uint32_t i = 0; i < r.count; i++) CHECK(vp_id_get(&r, i) == ids[i]);
+    enc_close(&b);
+    free(ids);
+}
+
+static void fuzz_add_reply(const uint8_t *p, size_t len)
+{
+    vp_add_reply m;
+    int rc = vp_dec_add_reply(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == 12 + (size_t)m.count * 4);
+    uint32_t *h = malloc(((size_t)m.count ? m.count : 1) * sizeof *h);
+    CHECK(h != NULL);
+    for (uint32_t i = 0; i < m.count; i++) h[i] = vp_handle_get(&m, i);
+    CHECK(vp_handle_get(&m, m.count) == 0);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_add_reply(&b.w, 8, m.epoch, h, m.count);
+    const uint8_t *q = enc_payload(&b, VP_ENTITY_ADD_REPLY, len);
+    CHECK(memcmp(q, p, len) == 0);
+    enc_close(&b);
+    free(h);
+}
+
+static void fuzz_list(const uint8_t *p, size_t len, uint32_t limit)
+{
+    vp_list m;
+    int rc = vp_dec_list(p, len, 0, &m);
+    check_code(rc);
+    vp_list lim;
+    int rcl = vp_dec_list(p, len, limit, &lim);
+    check_code(rcl);
+    if (rcl == VP_OK) CHECK(rc == VP_OK && lim.max >= 1 && (limit == 0 || lim.max <= limit));
+    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.max > limit);
+    if (rc) return;
+    CHECK(m.max >= 1);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_list(&b.w, 9, &m);
+    const uint8_t *q = enc_payload(&b, VP_ENTITY_LIST, len);
+    CHECK(memcmp(q, p, len) == 0);
+    enc_close(&b);
+}
+
+static void fuzz_list_reply(const uint8_t *p, size_t len)
+{
+    vp_list_reply m;
+    int rc = vp_dec_list_reply(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == 20 + (size_t)m.batch.count * VP_ENTITY_REC_SIZE);
+    vp_entity *e = read_entities(&m.batch);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_list_reply(&b.w, 10, m.next_cursor, m.epoch, e, m.batch.count);
+    const uint8_t *q = enc_payload(&b, VP_ENTITY_LIST_REPLY, len);
+    vp_list_reply r;
+    CHECK(vp_dec_list_reply(q, len, &r) == VP_OK);
+    CHECK(r.next_cursor == m.next_cursor && r.epoch == m.epoch && r.batch.count == m.batch.count);
+    for (uint32_t i = 0; i < r.batch.count; i++) {
+        vp_entity x;
+        CHECK(vp_entity_get(&r.batch, i, &x) == VP_OK && same_entity(&x, &e[i]));
+    }
+    enc_close(&b);
+    free(e);
+}
+
+static void fuzz_mesh(const uint8_t *p, size_t len, uint32_t limit)
+{
+    vp_mesh m;
+    int rc = vp_dec_mesh(p, len, 0, &m);
+    check_code(rc);
+    vp_mesh lim;
+    int rcl = vp_dec_mesh(p, len, limit, &lim);
+    check_code(rcl);
+    if (rcl == VP_OK)
+        CHECK(rc == VP_OK && (limit == 0 || (lim.vertex_count <= limit && lim.index_count / 3 <= limit)));
+    /* within the limit (vertices <= max_batch, triangles <= max_batch) the
+     * limit must not matter */
+    if (rc == VP_OK && (limit == 0 || (m.vertex_count <= limit && m.index_count / 3 <= limit)))
+        CHECK(rcl == VP_OK);
+    if (rc) return;
+    CHECK(m.index_count % 3 == 0);
+    CHECK(len == 12 + (size_t)m.vertex_count * 24 + (size_t)m.index_count * 4);
+    vp_reader r;
+    vp_reader_init(&r, m.indices, (size_t)m.index_count * 4);
+    for (uint32_t i = 0; i < m.index_count; i++) CHECK(vp_get_u32(&r) < m.vertex_count);
+    CHECK(vp_reader_finish(&r) == VP_OK);
+    vp_reader_init(&r, m.positions, (size_t)m.vertex_count * 12);
+    for (uint32_t i = 0; i < 3 * m.vertex_count; i++) (void)vp_get_f32(&r);
+    CHECK(vp_reader_finish(&r) == VP_OK);
+    vp_reader_init(&r, m.normals, (size_t)m.vertex_count * 12);
+    for (uint32_t i = 0; i < 3 * m.vertex_count; i++) (void)vp_get_f32(&r);
+    CHECK(vp_reader_finish(&r) == VP_OK);
+}
+
+static void fuzz_occluder(const uint8_t *p, size_t len, uint32_t limit)
+{
+    vp_occluder m;
+    int rc = vp_dec_occluder(p, len, 0, &m);
+    check_code(rc);
+    vp_occluder lim;
+    int rcl = vp_dec_occluder(p, len, limit, &lim);
+    check_code(rcl);
+    if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || lim.tri_count <= limit));
+    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.tri_count > limit);
+    if (rc) return;
+    CHECK(len == 36 + (size_t)m.tri_count * 36);
+    vp_reader r;
+    vp_reader_init(&r, m.verts, (size_t)m.tri_count * 36);
+    for (uint32_t i = 0; i < 9 * m.tri_count; i++) (void)vp_get_f32(&r);
+    CHECK(vp_reader_finish(&r) == VP_OK);
+}
+
+static void fuzz_lights(const uint8_t *p, size_t len, uint32_t limit)
+{
+    const uint8_t *recs = NULL;
+    uint32_t n = 0;
+    int rc = vp_dec_lights(p, len, 0, &recs, &n);
+    check_code(rc);
+    const uint8_t *lrecs = NULL;
+    uint32_t ln = 0;
+    int rcl = vp_dec_lights(p, len, limit, &lrecs, &ln);
+    check_code(rcl);
+    if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || ln <= limit));
+    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && n > limit);
+    if (rc) return;
+    CHECK(len == 4 + (size_t)n * VP_LIGHT_SIZE);
+    vp_light *l = malloc(((size_t)n ? n : 1) * sizeof *l);
+    CHECK(l != NULL);
+    for (uint32_t i = 0; i < n; i++) CHECK(vp_light_get(recs, n, i, &l[i]) == VP_OK);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_lights(&b.w, 11, l, n);
+    const uint8_t *q = enc_payload(&b, VP_LIGHT_PUT, len);
+    const uint8_t *rrecs = NULL;
+    uint32_t rn = 0;
+    CHECK(vp_dec_lights(q, len, 0, &rrecs, &rn) == VP_OK && rn == n);
+    for (uint32_t i = 0; i < rn; i++) {
+        vp_light x;
+        CHECK(vp_light_get(rrecs, n, i, &x) == VP_OK && same_light(&x, &l[i]));
+    }
+    enc_close(&b);
+    free(l);
+}
+
+static void fuzz_vis_query(const uint8_t *p, size_t len)
+{
+    vp_vis_query m;
+    int rc = vp_dec_vis_query(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.view_count >= 1 && m.view_count <= VP_MAX_VIEWS);
+    CHECK(len == 8 + (size_t)m.view_count * VP_VIEW_SIZE);
+    vp_view v[VP_MAX_VIEWS];
+    for (uint32_t i = 0; i < m.view_count; i++) CHECK(vp_view_get(&m, i, &v[i]) == VP_OK);
+    vp_view past;
+    CHECK(vp_view_get(&m, m.view_count, &past) == VP_ERR_COUNT);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_vis_query(&b.w, 12, m.flags, m.min_area, v, m.view_count);
+    const uint8_t *q = enc_payload(&b, VP_VIS_QUERY, len);
+    vp_vis_query r;
+    CHECK(vp_dec_vis_query(q, len, &r) == VP_OK);
+    CHECK(r.view_count == m.view_count && r.flags == m.flags && same_f32(r.min_area, m.min_area));
+    for (uint32_t i = 0; i < r.view_count; i++) {
+        vp_view x;
+        CHECK(vp_view_get(&r, i, &x) == VP_OK && same_view(&x, &v[i]));
+    }
+    enc_close(&b);
+}
+
+static void fuzz_vis_result(const uint8_t *p, size_t len)
+{
+    vp_vis_result m;
+    int rc = vp_dec_vis_result(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == 20 + 4 * VP_STAGES + (size_t)m.count * VP_VIS_REC_SIZE);
+    CHECK(vp_size_vis_result(m.count) == VP_HEADER_SIZE + len);
+    enc_buf b;
+    enc_open(&b, vp_size_vis_result(m.count));
+    vp_enc_vis_result_begin(&b.w, 13, &m);
+    for (uint32_t i = 0; i < m.count; i++) {
+        vp_vis_rec rec;
+        vp_vis_rec_get(&m, i, &rec);
+        vp_put_vis_rec(&b.w, &rec);
+    }
+    CHECK(vp_frame_end(&b.w));
+    const uint8_t *q = enc_payload(&b, VP_VIS_RESULT, len);
+    CHECK(memcmp(q, p, len) == 0);
+    enc_close(&b);
+}
+
+/* ---- dispatch ------------------------------------------------------------------------ */
+
+typedef void (*plain_fn)(const uint8_t *, size_t);
+
+static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
+{
+    uint32_t limit = h->req; /* fuzzer-chosen max_batch for the batch decoders */
+    switch (h->type) {
+    case VP_HELLO: fuzz_hello(p, len); return;
+    case VP_HELLO_OK: fuzz_hello_ok(p, len); return;
+    case VP_ERROR: fuzz_error(p, len); return;
+    case VP_PING:
+    case VP_PONG: fuzz_ping(p, len); return;
+    case VP_STATS: fuzz_empty(p, len); return;
+    case VP_STATS_REPLY: fuzz_stats_reply(p, len); return;
+    case VP_SUBSCRIBE: fuzz_subscribe(p, len); return;
+    case VP_EVENT: fuzz_event(p, len); return;
+    case VP_ACK: fuzz_ack(p, len); return;
+    case VP_ENTITY_ADD:
+    case VP_ENTITY_UPDATE: fuzz_entities(p, len, h->type, limit); return;
+    case VP_ENTITY_ADD_REPLY: fuzz_add_reply(p, len); return;
+    case VP_ENTITY_REMOVE:
+    case VP_OCCLUDER_REMOVE:
+    case VP_LIGHT_REMOVE: fuzz_ids(p, len, h->type, limit); return;
+    case VP_ENTITY_LIST: fuzz_list(p, len, limit); return;
+    case VP_ENTITY_LIST_REPLY: fuzz_list_reply(p, len); return;
+    case VP_MESH_PUT: fuzz_mesh(p, len, limit); return;
+    case VP_OCCLUDER_PUT: fuzz_occluder(p, len, limit); return;
+    case VP_LIGHT_PUT: fuzz_lights(p, len, limit); return;
+    case VP_VIS_QUERY: fuzz_vis_query(p, len); return;
+    case VP_VIS_RESULT: fuzz_vis_result(p, len); return;
+    default: break;
+    }
+    /* Unknown to this version: a server would answer ERROR TYPE and skip
+     * it. Decoders are pure, so feed the payload to one picked by the type
+     * bits anyway; every decoder then sees every payload shape. */
+    CHECK(!vp_type_known(h->type));
+    CHECK(strcmp(vp_type_name(h->type), "unknown") == 0);
+    static const plain_fn plain[] = {fuzz_hello,   fuzz_hello_ok,    fuzz_error,     fuzz_ping,
+                                     fuzz_empty,   fuzz_stats_reply, fuzz_subscribe, fuzz_event,
+                                     fuzz_ack,     fuzz_add_reply,   fuzz_list_reply, fuzz_vis_query,
+                                     fuzz_vis_result};
+    const size_t np = sizeof plain / sizeof plain[0];
+    size_t pick = h->type % (np + 6);
+    if (pick < np) {
+        plain[pick](p, len);
+        return;
+    }
+    switch (pick - np) {
+    case 0: fuzz_entities(p, len, VP_ENTITY_ADD, limit); break;
+    case 1: fuzz_ids(p, len, VP_ENTITY_REMOVE, limit); break;
+    case 2: fuzz_list(p, len, limit); break;
+    case 3: fuzz_mesh(p, len, limit); break;
+    case 4: fuzz_occluder(p, len, limit); break;
+    default: fuzz_lights(p, len, limit); break;
+    }
+}
+
+/* Framing properties of vp_frame_check on a prefix of n bytes. */
+static void check_framing(const uint8_t *data, size_t n, uint32_t max_payload)
+{
+    vp_header h;
+    size_t fs = 0;
+    int rc = vp_frame_check(data, n, max_payload, &h, &fs);
+    check_code(rc == VP_NEED_MORE ? VP_OK : rc);
+    if (n < VP_HEADER_SIZE) {
+        CHECK(rc == VP_NEED_MORE);
+        return;
+    }
+    switch (rc) {
+    case VP_OK:
+        CHECK(h.len <= max_payload && h.flags == 0);
+        CHECK(fs == VP_HEADER_SIZE + (size_t)h.len && fs <= n);
+        break;
+    case VP_NEED_MORE:
+        CHECK(h.len <= max_payload && h.flags == 0);
+        CHECK(fs == VP_HEADER_SIZE + (size_t)h.len && fs > n);
+        break;
+    case VP_ERR_TOO_LARGE: CHECK(h.len > max_payload); break;
+    case VP_ERR_INVALID: CHECK(h.len <= max_payload && h.flags != 0); break;
+    default: CHECK(!"unexpected vp_frame_check result");
+    }
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    /* 1. framing on the raw input, under a few limits and at a few cuts */
+    static const uint32_t limits[] = {0, 64, 65536, UINT32_MAX};
+    for (size_t i = 0; i < sizeof limits / sizeof limits[0]; i++) {
+        check_framing(data, size, limits[i]);
+        check_framing(data, size < VP_HEADER_SIZE ? size : VP_HEADER_SIZE, limits[i]);
+        if (size) check_framing(data, size - 1, limits[i]);
+    }
+
+    /* 2. the input as a stream of frames; the first byte past the last
+     *    whole frame is where a real reader would wait for more */
+    size_t off = 0;
+    for (unsigned nframes = 0; nframes < MAX_FRAMES && off < size; nframes++) {
+        vp_header h;
+        size_t fs = 0;
+        int rc = vp_frame_check(data + off, size - off, UINT32_MAX, &h, &fs);
+        if (rc != VP_OK) break; /* need more, or the stream can't be trusted */
+        CHECK(fs >= VP_HEADER_SIZE && fs <= size - off);
+        /* copy the payload into its own allocation so ASan catches any
+         * decoder read past the payload, not just past the input */
+        size_t len = h.len;
+        uint8_t *payload = malloc(len ? len : 1);
+        CHECK(payload != NULL);
+        if (len) memcpy(payload, data + off + VP_HEADER_SIZE, len);
+        dispatch(&h, payload, len);
+        free(payload);
+        off += fs;
+    }
+    return 0;
+}

@@ -1,0 +1,330 @@
+/*
+ * gen_corpus.c — writes the seed corpus for fuzz_protocol with the
+ * protocol's own encoders: one valid frame per message type, a few
+ * multi-frame streams, and a few deliberately broken inputs (each breaks one
+ * rule, so the fuzzer starts next to every rejection path).
+ *
+ *   fuzz_gen_corpus DIR      (make fuzz-corpus: DIR = tests/fuzz/corpus/protocol)
+ *
+ * Output is deterministic; file names are seed-*.bin so they never collide
+ * with the hash-named files libFuzzer merges in.
+ */
+#include "protocol.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static uint8_t g_buf[1 << 16];
+static vp_writer g_w;
+static const char *g_dir;
+static unsigned g_files;
+
+static void reset(void) { vp_writer_init(&g_w, g_buf, sizeof g_buf); }
+
+static void save_bytes(const char *name, const uint8_t *p, size_t n)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/seed-%s.bin", g_dir, name);
+    FILE *f = fopen(path, "wb");
+    if (!f || (n && fwrite(p, 1, n, f) != n) || fclose(f) != 0) {
+        fprintf(stderr, "gen_corpus: cannot write %s\n", path);
+        exit(1);
+    }
+    g_files++;
+}
+
+/* Writes everything encoded since reset() and resets. */
+static void save(const char *name)
+{
+    if (g_w.overflow) {
+        fprintf(stderr, "gen_corpus: %s overflowed\n", name);
+        exit(1);
+    }
+    save_bytes(name, g_buf, g_w.len);
+    reset();
+}
+
+/* Payload byte off of the frame that starts at frame_start. */
+static uint8_t *payload_at(size_t frame_start, size_t off) { return g_buf + frame_start + VP_HEADER_SIZE + off; }
+
+static void patch32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> (8 * i));
+}
+
+/* ---- sample messages --------------------------------------------------------------- */
+
+static vp_entity entity(uint32_t i)
+{
+    vp_entity e;
+    memset(&e, 0, sizeof e);
+    e.id = 1000 + i;
+    e.handle = i ? (i << 22) | i : 0;
+    e.class_id = (uint16_t)(i % 4);
+    e.sublevel = (uint16_t)(i / 2);
+    e.flags = i & VP_ENT_DYNAMIC;
+    e.sphere[0] = 10.0 * i;
+    e.sphere[1] = -5.0;
+    e.sphere[2] = 2.5 * i;
+    e.sphere[3] = i % 2 ? 0.0 : 1.5; /* r = 0: derive from the AABB */
+    if (i % 3 != 1)
+        for (int k = 0; k < 3; k++) {
+            e.aabb[k] = e.sphere[k] - 1.0;
+            e.aabb[3 + k] = e.sphere[k] + 1.0;
+        }
+    return e;
+}
+
+static vp_view view(uint32_t i)
+{
+    vp_view v;
+    memset(&v, 0, sizeof v);
+    v.origin[0] = 100.0 * i;
+    v.origin[1] = 1.8;
+    v.origin[2] = -50.0;
+    /* a plain perspective matrix (column-major) */
+    double f = 1.0 / tan(0.5 * 1.0471975511965976), aspect = 16.0 / 9.0, n = 0.1, fa = 1000.0;
+    v.view_proj[0] = f / aspect;
+    v.view_proj[5] = f;
+    v.view_proj[10] = (fa + n) / (n - fa);
+    v.view_proj[11] = -1.0;
+    v.view_proj[14] = 2.0 * fa * n / (n - fa);
+    v.depth_mode = (uint8_t)(i % 3);
+    v.viewport_w = i % 2 ? 0 : 1920;
+    v.viewport_h = i % 2 ? 0 : 1080;
+    return v;
+}
+
+static vp_light light(uint32_t i)
+{
+    vp_light l;
+    memset(&l, 0, sizeof l);
+    l.id = 500 + i;
+    l.kind = (uint8_t)(i % 2 ? VP_LIGHT_SPOT : VP_LIGHT_POINT);
+    l.pos[0] = 3.0 * i;
+    l.pos[1] = 4.0;
+    l.pos[2] = -1.0;
+    l.dir[1] = -1.0f;
+    l.color[0] = 1.0f;
+    l.color[1] = 0.9f;
+    l.color[2] = 0.8f;
+    l.intensity = 800.0f;
+    l.range = 25.0f;
+    l.inner_cos = 0.95f;
+    l.outer_cos = 0.8f;
+    return l;
+}
+
+static const vp_hello hello_msg = {.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_EDITOR,
+                                   .token_len = 6, .token = (const uint8_t *)"tok3n!", .name_len = 7,
+                                   .name = (const uint8_t *)"fuzzcli"};
+
+static void enc_hello(uint32_t req) { vp_enc_hello(&g_w, req, &hello_msg); }
+
+static void enc_hello_ok(uint32_t req)
+{
+    vp_hello_ok m = {.version = VP_VERSION, .role = VP_ROLE_EDITOR, .max_payload = 1u << 24, .max_batch = 4096,
+                     .max_views = VP_MAX_VIEWS, .epoch = 7, .client_id = 3};
+    vp_enc_hello_ok(&g_w, req, &m);
+}
+
+static void enc_entities(uint16_t type, uint32_t req, uint32_t n)
+{
+    vp_entity e[8];
+    for (uint32_t i = 0; i < n; i++) e[i] = entity(i);
+    vp_enc_entities(&g_w, type, req, e, n);
+}
+
+static void enc_ids(uint16_t type, uint32_t req, uint32_t n)
+{
+    uint64_t ids[8];
+    for (uint32_t i = 0; i < n; i++) ids[i] = 1000 + 2 * i;
+    vp_enc_ids(&g_w, type, req, ids, n);
+}
+
+static void enc_vis_query(uint32_t req, uint8_t flags, uint32_t n)
+{
+    vp_view v[VP_MAX_VIEWS];
+    for (uint32_t i = 0; i < n; i++) v[i] = view(i);
+    vp_enc_vis_query(&g_w, req, flags, 0.5f, v, n);
+}
+
+static void enc_vis_result(uint32_t req, uint32_t n)
+{
+    vp_vis_result m;
+    memset(&m, 0, sizeof m);
+    m.epoch = 9;
+    m.tested = 40;
+    m.visible = n;
+    for (uint32_t i = 0; i < VP_STAGES; i++) m.stage_ns[i] = 1000 * (i + 1);
+    m.count = n;
+    vp_enc_vis_result_begin(&g_w, req, &m);
+    for (uint32_t i = 0; i < n; i++) {
+        vp_vis_rec r = {.id = 1000 + i, .handle = (1u << 22) | i, .view_mask = 1u | (i << 1),
+                        .class_id = (uint16_t)i, .sublevel = 0, .area = i ? 12.5f * (float)i : -1.0f};
+        vp_put_vis_rec(&g_w, &r);
+    }
+    vp_frame_end(&g_w);
+}
+
+static void enc_mesh(uint32_t req)
+{
+    /* a tetrahedron */
+    static const float pos[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    static const float nrm[] = {-0.577f, -0.577f, -0.577f, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    static const uint32_t idx[] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+    vp_enc_mesh(&g_w, req, 2, pos, nrm, 4, idx, 12);
+}
+
+static void enc_occluder(uint32_t req)
+{
+    static const double origin[3] = {10, 0, -4};
+    static const float verts[] = {0, 0, 0, 4, 0, 0, 4, 3, 0, 0, 0, 0, 4, 3, 0, 0, 3, 0};
+    vp_enc_occluder(&g_w, req, 77, origin, verts, 2);
+}
+
+static void enc_lights(uint32_t req, uint32_t n)
+{
+    vp_light l[4];
+    for (uint32_t i = 0; i < n; i++) l[i] = light(i);
+    vp_enc_lights(&g_w, req, l, n);
+}
+
+static void enc_stats_reply(uint32_t req)
+{
+    vp_stats_reply m = {.epoch = 12, .uptime_ms = 123456, .entities = 40, .static_entities = 30,
+                        .dynamic_entities = 10, .regions = 2, .cells = 64, .connections = 1, .meshes = 3,
+                        .occluders = 1, .lights = 2, .queries = 99, .edits = 50, .bytes_in = 4096,
+                        .bytes_out = 8192, .errors = 1};
+    vp_enc_stats_reply(&g_w, req, &m);
+}
+
+static void enc_list_reply(uint32_t req, uint32_t n)
+{
+    vp_entity e[4];
+    for (uint32_t i = 0; i < n; i++) e[i] = entity(i + 1);
+    vp_enc_list_reply(&g_w, req, n ? 1003 : 0, 8, e, n);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc != 2) {
+        fprintf(stderr, "usage: %s DIR\n", argv[0]);
+        return 2;
+    }
+    g_dir = argv[1];
+    reset();
+    static const uint8_t ping_data[] = "ping payload \x00\x01\x02\xff";
+    const vp_ack ack = {.epoch = 8, .count = 3};
+    const vp_event ev = {.kind = VP_EVENT_SCENE, .epoch = 8, .added = 3, .updated = 2, .removed = 1};
+    const vp_list list = {.cursor = 0, .max = 100};
+
+    /* ---- one valid frame per message type ---- */
+    enc_hello(1), save("hello");
+    enc_hello_ok(1), save("hello_ok");
+    vp_enc_error(&g_w, 4, VP_ERR_STALE, 2, "entity 2: stale handle"), save("error");
+    vp_enc_ping(&g_w, VP_PING, 5, ping_data, sizeof ping_data), save("ping");
+    vp_enc_ping(&g_w, VP_PONG, 5, ping_data, sizeof ping_data), save("pong");
+    vp_enc_empty(&g_w, VP_STATS, 6), save("stats");
+    enc_stats_reply(6), save("stats_reply");
+    vp_enc_subscribe(&g_w, 7, VP_EVENT_SCENE), save("subscribe");
+    vp_enc_event(&g_w, &ev), save("event");
+    vp_enc_ack(&g_w, 8, &ack), save("ack");
+    enc_entities(VP_ENTITY_ADD, 10, 3), save("entity_add");
+    {
+        const uint32_t handles[] = {(1u << 22) | 1, (1u << 22) | 2, (2u << 22) | 3};
+        vp_enc_add_reply(&g_w, 10, 8, handles, 3), save("entity_add_reply");
+    }
+    enc_entities(VP_ENTITY_UPDATE, 11, 2), save("entity_update");
+    enc_ids(VP_ENTITY_REMOVE, 12, 2), save("entity_remove");
+    vp_enc_list(&g_w, 13, &list), save("entity_list");
+    enc_list_reply(13, 2), save("entity_list_reply");
+    enc_mesh(14), save("mesh_put");
+    enc_occluder(15), save("occluder_put");
+    enc_ids(VP_OCCLUDER_REMOVE, 16, 1), save("occluder_remove");
+    enc_lights(17, 2), save("light_put");
+    enc_ids(VP_LIGHT_REMOVE, 18, 2), save("light_remove");
+    enc_vis_query(19, VP_Q_WANT_AREA, 2), save("vis_query");
+    enc_vis_result(19, 3), save("vis_result");
+
+    /* a few edge shapes of valid messages */
+    enc_vis_query(20, VP_Q_COUNT_ONLY | VP_Q_STATIC_ONLY, VP_MAX_VIEWS), save("vis_query_32_views");
+    enc_vis_result(20, 0), save("vis_result_count_only");
+    enc_list_reply(21, 0), save("entity_list_reply_last");
+    vp_enc_error(&g_w, 0, VP_ERR_TYPE, UINT32_MAX, ""), save("error_empty_msg");
+    vp_enc_ping(&g_w, VP_PING, 22, NULL, 0), save("ping_empty");
+
+    /* ---- multi-frame streams ---- */
+    enc_hello(1), enc_entities(VP_ENTITY_ADD, 2, 3), enc_entities(VP_ENTITY_UPDATE, 3, 1), enc_mesh(4),
+        enc_occluder(5), enc_lights(6, 2), enc_ids(VP_ENTITY_REMOVE, 7, 1), vp_enc_list(&g_w, 8, &list),
+        enc_vis_query(9, 0, 1), vp_enc_empty(&g_w, VP_STATS, 10), vp_enc_subscribe(&g_w, 11, VP_EVENT_SCENE),
+        vp_enc_ping(&g_w, VP_PING, 12, ping_data, 4), save("stream_editor_session");
+    enc_hello_ok(1), vp_enc_add_reply(&g_w, 2, 8, (const uint32_t[]){(1u << 22) | 1}, 1), vp_enc_ack(&g_w, 3, &ack),
+        enc_list_reply(8, 1), enc_vis_result(9, 2), enc_stats_reply(10), vp_enc_ack(&g_w, 11, &ack),
+        vp_enc_event(&g_w, &ev), vp_enc_error(&g_w, 12, VP_ERR_UNKNOWN_ID, 0, "no entity 1000"),
+        vp_enc_ping(&g_w, VP_PONG, 12, ping_data, 4), save("stream_server_replies");
+    for (uint32_t i = 0; i < 4; i++) enc_vis_query(100 + i, (uint8_t)(i & 3), 1 + i);
+    save("stream_pipelined_queries");
+    {
+        /* two whole frames, then a third cut short: a reader waits for more */
+        enc_hello(1), enc_entities(VP_ENTITY_ADD, 2, 1);
+        size_t cut = g_w.len;
+        enc_entities(VP_ENTITY_ADD, 3, 2);
+        save_bytes("stream_partial_frame", g_buf, cut + VP_HEADER_SIZE + 30);
+        reset();
+    }
+    {
+        /* an unknown type in the middle: skipped by its length */
+        enc_hello(1);
+        vp_frame_begin(&g_w, 0x0300, 2);
+        vp_put_u32(&g_w, 0xdeadbeef);
+        vp_put_u64(&g_w, 42);
+        vp_frame_end(&g_w);
+        vp_enc_ping(&g_w, VP_PING, 3, ping_data, 8);
+        save("stream_unknown_type");
+    }
+
+    /* ---- deliberately broken: each breaks one rule ---- */
+    size_t at;
+    at = g_w.len, enc_hello(1), patch32(payload_at(at, 0), 0x50545448u), save("bad_hello_magic"); /* "HTTP" */
+    at = g_w.len, enc_hello(1), *payload_at(at, 4) = 2, save("bad_hello_version");
+    at = g_w.len, enc_hello(1), *payload_at(at, 6) = 3, save("bad_hello_role");
+    at = g_w.len, enc_hello(1), g_buf[at + 6] = 1, save("bad_frame_flags");
+    at = g_w.len, vp_enc_empty(&g_w, VP_STATS, 1), patch32(g_buf + at, 0xfffffff0u), save("bad_frame_too_large");
+    save_bytes("bad_short_header", (const uint8_t *)"\x1c\x00\x00\x00\x02", 5);
+    at = g_w.len, enc_entities(VP_ENTITY_ADD, 1, 3), patch32(payload_at(at, 0), 4), save("bad_entity_count");
+    {
+        vp_entity e[2] = {entity(0), entity(1)};
+        e[1].sphere[2] = NAN;
+        vp_enc_entities(&g_w, VP_ENTITY_ADD, 1, e, 2), save("bad_entity_nan");
+        e[1] = entity(1);
+        e[0].flags = 0x80;
+        vp_enc_entities(&g_w, VP_ENTITY_UPDATE, 1, e, 2), save("bad_entity_flags");
+    }
+    at = g_w.len, enc_ids(VP_ENTITY_REMOVE, 1, 2), patch32(payload_at(at, 0), UINT32_MAX), save("bad_ids_count_huge");
+    vp_enc_ack(&g_w, 1, &ack), vp_put_u8(&g_w, 0), vp_frame_end(&g_w), save("bad_ack_trailing");
+    at = g_w.len, enc_vis_query(1, 0, 1), *payload_at(at, 2) = 1, save("bad_vis_query_pad");
+    at = g_w.len, enc_vis_query(1, 0, 1), *payload_at(at, 0) = 33, save("bad_vis_query_33_views");
+    enc_vis_query(1, VP_Q_STATIC_ONLY | VP_Q_DYNAMIC_ONLY, 1), save("bad_vis_query_flags");
+    at = g_w.len, enc_vis_query(1, 0, 1), *payload_at(at, 8 + 152) = 3, save("bad_vis_query_depth_mode");
+    at = g_w.len, enc_vis_result(1, 2), patch32(payload_at(at, 40), 0x0aaaaaabu), save("bad_vis_result_count");
+    at = g_w.len, enc_mesh(1), patch32(payload_at(at, 12 + 2 * 48 + 4), 4), save("bad_mesh_index");
+    at = g_w.len, enc_mesh(1), patch32(payload_at(at, 8), 11), save("bad_mesh_index_count");
+    {
+        vp_light l[2] = {light(0), light(1)};
+        l[1].outer_cos = 0.99f; /* outer above inner: empty cone */
+        vp_enc_lights(&g_w, 1, l, 2), save("bad_light_cone");
+        l[1] = light(1);
+        l[0].range = -1.0f;
+        vp_enc_lights(&g_w, 1, l, 2), save("bad_light_range");
+    }
+    at = g_w.len, vp_enc_error(&g_w, 1, VP_ERR_INTERNAL, 0, "x"), payload_at(at, 8)[1] = 0x10, save("bad_error_msg_len");
+    vp_enc_subscribe(&g_w, 1, 0x6), save("bad_subscribe_kinds");
+    vp_enc_list(&g_w, 1, &(vp_list){.cursor = 5, .max = 0}), save("bad_list_max_zero");
+    at = g_w.len, enc_occluder(1), patch32(payload_at(at, 32), 0x71c71c72u), save("bad_occluder_tri_count");
+
+    printf("gen_corpus: wrote %u files to %s\n", g_files, g_dir);
+    return 0;
+}
