@@ -16,8 +16,8 @@ CC     ?= cc
 SHELL  := /bin/bash
 
 # Debian packages and the pkg-config modules that prove them installed.
-DEB_PKGS := build-essential pkg-config libcmocka-dev
-PC_MODS  := cmocka
+DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev
+PC_MODS  := cmocka json-c
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -57,6 +57,11 @@ DAEMON_SRC:= $(wildcard daemon/*.c)
 DAEMON_OBJ:= $(DAEMON_SRC:%.c=$(BUILD)/%.o)
 DAEMON_BIN:= $(BUILD)/vantaged
 
+CLIENT_LIB:= $(BUILD)/libvantage.a
+CLIENT_OBJ:= $(BUILD)/client/libvantage.o
+CLI_OBJ  := $(BUILD)/client/vantage_cli.o
+CLI_BIN  := $(BUILD)/vantage
+
 TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/scene_file.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN := $(BUILD)/vantage_tests
@@ -68,7 +73,7 @@ BENCH_BIN:= $(BUILD)/bench_cull
 SCENE    ?= ../shared/scenes/city_scene.txt
 
 .PHONY: all run test bench deps check-deps clean test-one
-all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(TEST_BIN) $(BENCH_BIN)
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -111,6 +116,16 @@ $(TEST_BIN): $(TEST_OBJ) $(CULL_LIB) $(PROTO_LIB)
 $(DAEMON_BIN): $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB) $(LDLIBS)
 
+# libvantage carries the protocol and the matrix helpers it uses
+$(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(CLI_BIN): $(CLI_OBJ) $(CLIENT_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(LDLIBS)
+
+$(BUILD)/client/vantage_cli.o: CPPFLAGS += $$(pkg-config --cflags json-c)
+
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
 
@@ -146,4 +161,4 @@ clean:
 
 include tests/fuzz/fuzz.mk
 
--include $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d)
+-include $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d)

@@ -341,6 +341,40 @@ static void on_list(server *s, conn *c, const vp_header *h, const uint8_t *p)
     free(e);
 }
 
+static void on_get(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_id_batch b;
+    int rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    vp_entity *e = malloc(((size_t)b.count + 1) * sizeof *e);
+    if (!e) {
+        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        return;
+    }
+    for (uint32_t i = 0; i < b.count; i++) {
+        uint64_t hd;
+        if (!idmap_get(&s->sc->ids, vp_id_get(&b, i), &hd)) {
+            char msg[96];
+            snprintf(msg, sizeof msg, "record %u: no entity with id %llu", i, (unsigned long long)vp_id_get(&b, i));
+            send_error(s, c, h->req, VP_ERR_UNKNOWN_ID, i, msg);
+            free(e);
+            return;
+        }
+        scene_entity_record(s->sc, (cull_handle)hd, &e[i]);
+    }
+    vp_writer w;
+    if (out_reserve(c, VP_HEADER_SIZE + 20 + (size_t)b.count * VP_ENTITY_REC_SIZE, &w)) {
+        vp_enc_list_reply(&w, h->req, 0, s->sc->epoch, e, b.count);
+        out_commit(c, &w);
+    } else {
+        c->closing = true;
+    }
+    free(e);
+}
+
 static void after_edit(server *s, conn *c, uint32_t req, int rc, const scene_err *err, uint32_t count)
 {
     if (rc) send_error(s, c, req, rc, err->index, err->msg);
@@ -393,6 +427,9 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         return;
     case VP_ENTITY_LIST:
         on_list(s, c, h, p);
+        return;
+    case VP_ENTITY_GET:
+        on_get(s, c, h, p);
         return;
     case VP_ENTITY_ADD: {
         if (!editor(s, c, h->req)) return;

@@ -36,6 +36,7 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_ENTITY_REMOVE, "entity_remove"},
     {VP_ENTITY_LIST, "entity_list"},
     {VP_ENTITY_LIST_REPLY, "entity_list_reply"},
+    {VP_ENTITY_GET, "entity_get"},
     {VP_MESH_PUT, "mesh_put"},
     {VP_OCCLUDER_PUT, "occluder_put"},
     {VP_OCCLUDER_REMOVE, "occluder_remove"},

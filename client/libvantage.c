@@ -1,0 +1,454 @@
+/*
+ * libvantage.c — see vantage.h. Blocking sockets with poll() timeouts; one
+ * growing receive buffer; each call encodes into a growing send buffer.
+ */
+#include "vantage.h"
+
+#include "culling.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <math.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+struct vt_client {
+    int fd;
+    int timeout_ms;
+    uint32_t next_req;
+    vp_hello_ok server;
+    vt_error err;
+    uint8_t *in;            /* received bytes; [in_pos, in_len) unread */
+    size_t in_len, in_pos, in_cap;
+    size_t consumed;        /* the frame handed out last, released on next recv */
+    uint8_t *out;
+    size_t out_cap;
+};
+
+static int set_err(vt_client *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int set_err(vt_client *c, int code, const char *fmt, ...)
+{
+    c->err.code = code;
+    c->err.index = UINT32_MAX;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(c->err.msg, sizeof c->err.msg, fmt, ap);
+    va_end(ap);
+    return code;
+}
+
+const vt_error *vt_last_error(const vt_client *c) { return &c->err; }
+const vp_hello_ok *vt_server(const vt_client *c) { return &c->server; }
+int vt_fd(const vt_client *c) { return c->fd; }
+uint32_t vt_next_req(vt_client *c) { return ++c->next_req ? c->next_req : ++c->next_req; }
+
+int vt_send(vt_client *c, const uint8_t *data, size_t len)
+{
+    size_t off = 0;
+    while (off < len) {
+        ssize_t n = send(c->fd, data + off, len - off, MSG_NOSIGNAL);
+        if (n > 0) {
+            off += (size_t)n;
+            continue;
+        }
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            struct pollfd p = {.fd = c->fd, .events = POLLOUT};
+            int r = poll(&p, 1, c->timeout_ms);
+            if (r == 0) return set_err(c, VT_ERR_IO, "send: timed out");
+            if (r > 0 || errno == EINTR) continue;
+        }
+        return set_err(c, VT_ERR_IO, "send: %s", n < 0 ? strerror(errno) : "connection closed");
+    }
+    return VP_OK;
+}
+
+int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
+{
+    if (timeout_ms < 0) timeout_ms = c->timeout_ms;
+    c->in_pos += c->consumed;
+    c->consumed = 0;
+    for (;;) {
+        size_t fs;
+        int rc = vp_frame_check(c->in + c->in_pos, c->in_len - c->in_pos, VT_MAX_REPLY, h, &fs);
+        if (rc == VP_OK) {
+            *payload = c->in + c->in_pos + VP_HEADER_SIZE;
+            c->consumed = fs;
+            return VP_OK;
+        }
+        if (rc != VP_NEED_MORE) return set_err(c, VT_ERR_IO, "bad frame from the server: %s", vp_strerror(rc));
+        /* make room: compact, then grow */
+        if (c->in_pos) {
+            memmove(c->in, c->in + c->in_pos, c->in_len - c->in_pos);
+            c->in_len -= c->in_pos;
+            c->in_pos = 0;
+        }
+        if (c->in_cap - c->in_len < 65536) {
+            size_t cap = c->in_cap ? c->in_cap * 2 : 1u << 17;
+            uint8_t *n = realloc(c->in, cap);
+            if (!n) return set_err(c, VT_ERR_IO, "out of memory");
+            c->in = n;
+            c->in_cap = cap;
+        }
+        struct pollfd p = {.fd = c->fd, .events = POLLIN};
+        int r = poll(&p, 1, timeout_ms);
+        if (r == 0) return set_err(c, VT_ERR_IO, "timed out waiting for the server");
+        if (r < 0) {
+            if (errno == EINTR) continue;
+            return set_err(c, VT_ERR_IO, "poll: %s", strerror(errno));
+        }
+        ssize_t n = recv(c->fd, c->in + c->in_len, c->in_cap - c->in_len, 0);
+        if (n > 0) {
+            c->in_len += (size_t)n;
+            continue;
+        }
+        if (n < 0 && errno == EINTR) continue;
+        return set_err(c, VT_ERR_IO, "connection closed by the server%s%s", n < 0 ? ": " : "",
+                       n < 0 ? strerror(errno) : "");
+    }
+}
+
+/* A writer over the client's send buffer with room for need bytes. */
+static bool out_buf(vt_client *c, size_t need, vp_writer *w)
+{
+    if (c->out_cap < need) {
+        size_t cap = c->out_cap ? c->out_cap : 4096;
+        while (cap < need) cap *= 2;
+        uint8_t *n = realloc(c->out, cap);
+        if (!n) return false;
+        c->out = n;
+        c->out_cap = cap;
+    }
+    vp_writer_init(w, c->out, c->out_cap);
+    return true;
+}
+
+/* Sends what w holds and reads the reply to req: an ERROR becomes the
+ * return value; another type than want is a protocol error. EVENT frames
+ * arriving in between are skipped. */
+static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, const uint8_t **p, uint32_t *len)
+{
+    if (w->overflow) return set_err(c, VP_ERR_LIMIT, "request too large for the send buffer");
+    int rc = vt_send(c, w->p, w->len);
+    if (rc) return rc;
+    for (;;) {
+        vp_header h;
+        if ((rc = vt_recv(c, &h, p, -1))) return rc;
+        if (h.type == VP_EVENT) continue;
+        if (h.type == VP_ERROR) {
+            vp_error e;
+            if (vp_dec_error(*p, h.len, &e)) return set_err(c, VT_ERR_IO, "malformed ERROR from the server");
+            c->err.code = e.code;
+            c->err.index = e.index;
+            snprintf(c->err.msg, sizeof c->err.msg, "%.*s", (int)e.msg_len, (const char *)e.msg);
+            return e.code < 0 ? e.code : VP_ERR_INTERNAL;
+        }
+        if (h.req != req || h.type != want)
+            return set_err(c, VT_ERR_IO, "unexpected reply %s (req %u) to request %u", vp_type_name(h.type), h.req,
+                           req);
+        *len = h.len;
+        return VP_OK;
+    }
+}
+
+static int connect_fd(const vt_connect_opts *o, char *err, size_t errlen)
+{
+    int fd = -1;
+    if (o->unix_path && *o->unix_path) {
+        struct sockaddr_un sa = {.sun_family = AF_UNIX};
+        if (strlen(o->unix_path) >= sizeof sa.sun_path) {
+            snprintf(err, errlen, "socket path too long");
+            return -1;
+        }
+        strcpy(sa.sun_path, o->unix_path);
+        fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0 || connect(fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
+            snprintf(err, errlen, "%s: %s", o->unix_path, strerror(errno));
+            if (fd >= 0) close(fd);
+            return -1;
+        }
+        return fd;
+    }
+    char port[16];
+    snprintf(port, sizeof port, "%d", o->port ? o->port : VT_DEFAULT_PORT);
+    struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM}, *res = NULL;
+    const char *host = o->host && *o->host ? o->host : "127.0.0.1";
+    int g = getaddrinfo(host, port, &hints, &res);
+    if (g) {
+        snprintf(err, errlen, "%s: %s", host, gai_strerror(g));
+        return -1;
+    }
+    for (struct addrinfo *a = res; a; a = a->ai_next) {
+        fd = socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
+        if (fd < 0) continue;
+        if (connect(fd, a->ai_addr, a->ai_addrlen) == 0) break;
+        snprintf(err, errlen, "%s:%s: %s", host, port, strerror(errno));
+        close(fd);
+        fd = -1;
+    }
+    freeaddrinfo(res);
+    if (fd >= 0) {
+        int one = 1;
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    }
+    return fd;
+}
+
+int vt_connect(const vt_connect_opts *o, vt_client **out, char *err, size_t errlen)
+{
+    char tmp[256];
+    if (!err) {
+        err = tmp;
+        errlen = sizeof tmp;
+    }
+    *out = NULL;
+    vt_connect_opts d = o ? *o : (vt_connect_opts){0};
+    vt_client *c = calloc(1, sizeof *c);
+    if (!c) {
+        snprintf(err, errlen, "out of memory");
+        return VT_ERR_IO;
+    }
+    c->timeout_ms = d.timeout_ms == 0 ? 10000 : d.timeout_ms < 0 ? -1 : d.timeout_ms;
+    if ((c->fd = connect_fd(&d, err, errlen)) < 0) {
+        free(c);
+        return VT_ERR_IO;
+    }
+    const char *name = d.name ? d.name : "libvantage";
+    size_t tl = d.token ? strlen(d.token) : 0, nl = strlen(name);
+    vp_hello hi = {.magic = VP_MAGIC, .version = VP_VERSION, .role = (uint8_t)d.role,
+                   .token_len = (uint8_t)(tl > VP_MAX_TOKEN ? VP_MAX_TOKEN : tl), .token = (const uint8_t *)d.token,
+                   .name_len = (uint8_t)(nl > VP_MAX_NAME ? VP_MAX_NAME : nl), .name = (const uint8_t *)name};
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len;
+    uint32_t req = vt_next_req(c);
+    int rc = out_buf(c, 600, &w) ? VP_OK : VT_ERR_IO;
+    if (!rc) {
+        vp_enc_hello(&w, req, &hi);
+        rc = roundtrip(c, &w, req, VP_HELLO_OK, &p, &len);
+    }
+    if (!rc) rc = vp_dec_hello_ok(p, len, &c->server) ? set_err(c, VT_ERR_IO, "malformed HELLO_OK") : VP_OK;
+    if (rc) {
+        snprintf(err, errlen, "handshake: %s", c->err.msg);
+        vt_close(c);
+        return rc;
+    }
+    *out = c;
+    return VP_OK;
+}
+
+void vt_close(vt_client *c)
+{
+    if (!c) return;
+    if (c->fd >= 0) close(c->fd);
+    free(c->in);
+    free(c->out);
+    free(c);
+}
+
+int vt_ping(vt_client *c)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
+    vp_enc_ping(&w, VP_PING, req, (const uint8_t *)"vantage", 7);
+    int rc = roundtrip(c, &w, req, VP_PONG, &p, &len);
+    if (rc) return rc;
+    return len == 7 && !memcmp(p, "vantage", 7) ? VP_OK : set_err(c, VT_ERR_IO, "PONG did not echo the PING");
+}
+
+int vt_stats(vt_client *c, vp_stats_reply *out)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
+    vp_enc_empty(&w, VP_STATS, req);
+    int rc = roundtrip(c, &w, req, VP_STATS_REPLY, &p, &len);
+    if (rc) return rc;
+    return vp_dec_stats_reply(p, len, out) ? set_err(c, VT_ERR_IO, "malformed STATS_REPLY") : VP_OK;
+}
+
+int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint64_t *epoch)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, vp_size_entities(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    vp_enc_entities(&w, VP_ENTITY_ADD, req, e, n);
+    int rc = roundtrip(c, &w, req, VP_ENTITY_ADD_REPLY, &p, &len);
+    if (rc) return rc;
+    vp_add_reply r;
+    if (vp_dec_add_reply(p, len, &r) || r.count != n) return set_err(c, VT_ERR_IO, "malformed ENTITY_ADD_REPLY");
+    for (uint32_t i = 0; handles && i < n; i++) handles[i] = vp_handle_get(&r, i);
+    if (epoch) *epoch = r.epoch;
+    return VP_OK;
+}
+
+static int ack_call(vt_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
+{
+    const uint8_t *p;
+    uint32_t len;
+    int rc = roundtrip(c, w, req, VP_ACK, &p, &len);
+    if (rc) return rc;
+    vp_ack a;
+    if (vp_dec_ack(p, len, &a)) return set_err(c, VT_ERR_IO, "malformed ACK");
+    if (epoch) *epoch = a.epoch;
+    return VP_OK;
+}
+
+int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, vp_size_entities(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    vp_enc_entities(&w, VP_ENTITY_UPDATE, req, e, n);
+    return ack_call(c, &w, req, epoch);
+}
+
+int vt_remove(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, vp_size_ids(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    vp_enc_ids(&w, VP_ENTITY_REMOVE, req, ids, n);
+    return ack_call(c, &w, req, epoch);
+}
+
+static int list_call(vt_client *c, vp_writer *w, uint32_t req, vp_list_reply *out)
+{
+    const uint8_t *p;
+    uint32_t len;
+    int rc = roundtrip(c, w, req, VP_ENTITY_LIST_REPLY, &p, &len);
+    if (rc) return rc;
+    return vp_dec_list_reply(p, len, out) ? set_err(c, VT_ERR_IO, "malformed ENTITY_LIST_REPLY") : VP_OK;
+}
+
+int vt_get(vt_client *c, const uint64_t *ids, uint32_t n, vp_list_reply *out)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, vp_size_ids(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    vp_enc_ids(&w, VP_ENTITY_GET, req, ids, n);
+    return list_call(c, &w, req, out);
+}
+
+int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
+    vp_enc_list(&w, req, &(vp_list){.cursor = cursor, .max = max});
+    return list_call(c, &w, req, out);
+}
+
+int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area, vp_vis_result *out)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + 8 + (size_t)nviews * VP_VIEW_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_vis_query(&w, req, flags, min_area, views, nviews);
+    int rc = roundtrip(c, &w, req, VP_VIS_RESULT, &p, &len);
+    if (rc) return rc;
+    return vp_dec_vis_result(p, len, out) ? set_err(c, VT_ERR_IO, "malformed VIS_RESULT") : VP_OK;
+}
+
+int vt_subscribe(vt_client *c, uint32_t kinds)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
+    vp_enc_subscribe(&w, req, kinds);
+    return ack_call(c, &w, req, NULL);
+}
+
+int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms)
+{
+    for (;;) {
+        vp_header h;
+        const uint8_t *p;
+        int rc = vt_recv(c, &h, &p, timeout_ms);
+        if (rc) return rc;
+        if (h.type != VP_EVENT) continue; /* a stray reply: not ours to keep */
+        return vp_dec_event(p, h.len, out) ? set_err(c, VT_ERR_IO, "malformed EVENT") : VP_OK;
+    }
+}
+
+int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + 4 + (size_t)n * VP_LIGHT_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_lights(&w, req, l, n);
+    return ack_call(c, &w, req, NULL);
+}
+
+int vt_put_occluder(vt_client *c, uint64_t id, const double origin[3], const float *verts, uint32_t ntris)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + 36 + (size_t)ntris * 36, &w)) return VT_ERR_IO;
+    vp_enc_occluder(&w, req, id, origin, verts, ntris);
+    return ack_call(c, &w, req, NULL);
+}
+
+int vt_put_mesh(vt_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
+                const uint32_t *idx, uint32_t ni)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + 12 + (size_t)nv * 24 + (size_t)ni * 4, &w)) return VT_ERR_IO;
+    vp_enc_mesh(&w, req, class_id, pos, nrm, nv, idx, ni);
+    return ack_call(c, &w, req, NULL);
+}
+
+/* ---- views ------------------------------------------------------------------------ */
+
+static bool camera(vp_view *v, const double eye[3], const double at[3], const double up[3], const double proj[16],
+                   uint16_t w, uint16_t h)
+{
+    double dir[3] = {at[0] - eye[0], at[1] - eye[1], at[2] - eye[2]};
+    double u[3] = {up ? up[0] : 0, up ? up[1] : 1, up ? up[2] : 0};
+    double cr[3] = {dir[1] * u[2] - dir[2] * u[1], dir[2] * u[0] - dir[0] * u[2], dir[0] * u[1] - dir[1] * u[0]};
+    if (!(sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]) > 0) ||
+        !(sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]) > 1e-12))
+        return false;
+    double view[16];
+    cull_mat_look_dir(view, dir, u);
+    memset(v, 0, sizeof *v);
+    cull_mat_mul(v->view_proj, proj, view);
+    memcpy(v->origin, eye, sizeof v->origin);
+    v->depth_mode = CULL_DEPTH_GL;
+    v->viewport_w = w;
+    v->viewport_h = h;
+    return true;
+}
+
+bool vt_view_perspective(vp_view *v, const double eye[3], const double at[3], const double up[3], double fovy_deg,
+                         uint16_t w, uint16_t h, double znear, double zfar)
+{
+    if (!(fovy_deg > 0 && fovy_deg < 180) || !w || !h || !(znear > 0) || !(zfar > znear)) return false;
+    double proj[16];
+    cull_mat_perspective(proj, fovy_deg * M_PI / 180, (double)w / h, znear, zfar, CULL_DEPTH_GL);
+    return camera(v, eye, at, up, proj, w, h);
+}
+
+bool vt_view_ortho(vp_view *v, const double eye[3], const double at[3], const double up[3], double width,
+                   double height, uint16_t w, uint16_t h, double znear, double zfar)
+{
+    if (!(width > 0) || !(height > 0) || !w || !h || !(zfar > znear)) return false;
+    double proj[16];
+    cull_mat_ortho(proj, -width / 2, width / 2, -height / 2, height / 2, znear, zfar, CULL_DEPTH_GL);
+    return camera(v, eye, at, up, proj, w, h);
+}

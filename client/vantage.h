@@ -1,0 +1,94 @@
+/*
+ * vantage.h — libvantage, the C client of vantaged: connect and hand-
+ * shake over TCP or a Unix socket, then blocking calls for every request
+ * in protocol/PROTOCOL.md, or vt_send / vt_recv for pipelined batches.
+ *
+ * A vt_client is not thread-safe: one per thread. Replies point into the
+ * client's receive buffer and stay valid until the next call on it.
+ * Calls return VP_OK, a negative code from VP_ERRORS (the server's ERROR
+ * reply; vt_last_error has its message and record index), or VT_ERR_IO
+ * (connection lost, timeout; vt_last_error says which).
+ */
+#ifndef VANTAGE_CLIENT_H
+#define VANTAGE_CLIENT_H
+
+#include "protocol.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define VT_ERR_IO (-100)
+#define VT_DEFAULT_PORT 7470
+#define VT_MAX_REPLY (1u << 30) /* largest reply frame accepted */
+
+typedef struct vt_client vt_client;
+
+typedef struct vt_connect_opts {
+    const char *host;      /* NULL = 127.0.0.1 (ignored with unix_path) */
+    int port;              /* 0 = VT_DEFAULT_PORT */
+    const char *unix_path; /* Unix socket instead of TCP */
+    int role;              /* enum vp_role; 0 = viewer */
+    const char *token;     /* NULL = none */
+    const char *name;      /* for the server's logs; NULL = "libvantage" */
+    int timeout_ms;        /* per call; 0 = 10000, < 0 = none */
+} vt_connect_opts;
+
+typedef struct vt_error {
+    int code;
+    uint32_t index;        /* failing record of a batch, or UINT32_MAX */
+    char msg[1100];
+} vt_error;
+
+/* Connects and says hello. On failure *out is NULL and err (if given)
+ * holds a message. */
+int  vt_connect(const vt_connect_opts *o, vt_client **out, char *err, size_t errlen);
+void vt_close(vt_client *c);
+const vp_hello_ok *vt_server(const vt_client *c);
+const vt_error *vt_last_error(const vt_client *c);
+
+/* Pipelining: encode frames with the protocol encoders into a buffer, send
+ * it, then read the replies in order. vt_next_req hands out request ids. */
+uint32_t vt_next_req(vt_client *c);
+int vt_send(vt_client *c, const uint8_t *data, size_t len);
+/* Reads the next frame (a reply or a pushed EVENT). *payload is valid
+ * until the next call. timeout_ms < 0 = the client's default. */
+int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms);
+/* The fd, for poll() in an event loop of the caller's. */
+int vt_fd(const vt_client *c);
+
+/* Blocking calls. */
+int vt_ping(vt_client *c);
+int vt_stats(vt_client *c, vp_stats_reply *out);
+int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint64_t *epoch);
+int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch);
+int vt_remove(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch);
+/* Records of the given ids, in order (out->batch views the reply). */
+int vt_get(vt_client *c, const uint64_t *ids, uint32_t n, vp_list_reply *out);
+/* One page of the scene's entities; pass out->next_cursor back until 0. */
+int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out);
+int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
+             vp_vis_result *out);
+int vt_subscribe(vt_client *c, uint32_t kinds);
+/* Waits for a pushed EVENT; VT_ERR_IO on timeout. */
+int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms);
+int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n);
+int vt_put_occluder(vt_client *c, uint64_t id, const double origin[3], const float *verts, uint32_t ntris);
+int vt_put_mesh(vt_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
+                const uint32_t *idx, uint32_t ni);
+
+/* Views: gluLookAt + gluPerspective (fovy in degrees, aspect = w/h) or an
+ * orthographic box of width x height metres, camera-relative (origin = eye),
+ * OpenGL depth. false for a degenerate camera (eye == at, up parallel). */
+bool vt_view_perspective(vp_view *v, const double eye[3], const double at[3], const double up[3], double fovy_deg,
+                         uint16_t w, uint16_t h, double znear, double zfar);
+bool vt_view_ortho(vp_view *v, const double eye[3], const double at[3], const double up[3], double width,
+                   double height, uint16_t w, uint16_t h, double znear, double zfar);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
