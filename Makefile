@@ -1,7 +1,7 @@
 # Vantage — build, test and benchmark.
 #
-#   make run               build and run the main job (today: the culling demo
-#                          on the shared city scene, then a short benchmark)
+#   make run               build and start vantaged on the demo city
+#   make demo              the culling core on the shared city scene + a short benchmark
 #   make test              unit + property tests (release, then ASan+UBSan),
 #                          the scalar-only build, and a bench smoke run
 #   make bench             the full culling benchmark (bench_cull)
@@ -72,7 +72,7 @@ BENCH_BIN:= $(BUILD)/bench_cull
 
 SCENE    ?= ../shared/scenes/city_scene.txt
 
-.PHONY: all run test bench deps check-deps clean test-one
+.PHONY: all run demo test bench deps check-deps clean test-one
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN)
 
 # ---- dependencies -----------------------------------------------------------
@@ -110,8 +110,9 @@ $(PROTO_LIB): $(PROTO_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(TEST_BIN): $(TEST_OBJ) $(CULL_LIB) $(PROTO_LIB)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(CULL_LIB) $(PROTO_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
+# the end-to-end tests run this configuration's vantaged and vantage
+$(TEST_BIN): $(TEST_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
 
 $(DAEMON_BIN): $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB) $(LDLIBS)
@@ -133,13 +134,23 @@ $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka) -Itests
 
 # ---- the two commands ---------------------------------------------------------
 run: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	@echo "starting vantaged on the demo city (Ctrl-C stops it). In another terminal:"
+	@echo "  build/release/vantage ping"
+	@echo "  build/release/vantage stats"
+	@echo "  build/release/vantage query --eye 0,2,-300 --at 0,2,0"
+	@echo "  build/release/vantage -s /tmp/vantaged.sock watch"
+	./build/release/vantaged $(VANTAGED_ARGS)
+
+# the culling core on the shared city scene, then a short benchmark
+demo: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull
 	./build/release/bench_cull --demo --scene $(SCENE)
 	./build/release/bench_cull --quick
 
 # test-one: this CONFIG's test binary
 test-one: check-deps $(TEST_BIN)
-	$(TEST_BIN)
+	VANTAGE_BIN_DIR=$(BUILD) $(TEST_BIN)
 
 test: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantage_tests build/release/bench_cull
@@ -147,10 +158,10 @@ test: check-deps
 	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan fuzz-replay
 	./build/release/bench_cull --smoke
-	./build/scalar/vantage_tests
-	./build/release/vantage_tests
+	VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
+	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-	  ./build/asan/vantage_tests
+	  VANTAGE_BIN_DIR=build/asan ./build/asan/vantage_tests
 
 bench: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull

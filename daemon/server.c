@@ -22,6 +22,7 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <arpa/inet.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -698,6 +699,14 @@ server *server_create(const server_config *cfg, scene *sc)
     s->cfg = *cfg;
     s->sc = sc;
     s->tcp_fd = s->unix_fd = s->sig_fd = -1;
+    /* SIGINT and SIGTERM arrive through a signalfd on the loop: block them
+       before any thread starts, so no worker inherits them unblocked */
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set, NULL);
+    signal(SIGPIPE, SIG_IGN);
     s->conns_cap = (int)cfg->max_clients + 64;
     s->conns = calloc((size_t)s->conns_cap, sizeof *s->conns);
     s->loop = ae_create(s->conns_cap);
@@ -711,12 +720,6 @@ server *server_create(const server_config *cfg, scene *sc)
         if ((s->unix_fd = listen_unix(cfg->unix_path)) < 0) goto fail;
         if (s->unix_fd >= s->conns_cap || ae_add(s->loop, s->unix_fd, AE_READABLE, on_accept, s)) goto fail;
     }
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    sigprocmask(SIG_BLOCK, &set, NULL);
-    signal(SIGPIPE, SIG_IGN);
     s->sig_fd = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
     if (s->sig_fd < 0 || s->sig_fd >= s->conns_cap || ae_add(s->loop, s->sig_fd, AE_READABLE, on_signal, s)) goto fail;
     ae_set_before_sleep(s->loop, before_sleep, s);

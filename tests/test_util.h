@@ -60,5 +60,6 @@ TEST_GROUP(view_tests)
 TEST_GROUP(query_tests)
 TEST_GROUP(alloc_tests)
 TEST_GROUP(protocol_tests)
+TEST_GROUP(e2e_tests)
 
 #endif

@@ -1,0 +1,641 @@
+/*
+ * test_e2e.c — the real vantaged on a free port and a temporary Unix
+ * socket, driven by the real libvantage, raw sockets and the real CLI:
+ * edits then queries agree with the long double model; a batch is all or
+ * nothing; malformed frames get an error (and a closed connection where
+ * the stream cannot be trusted) while other clients keep being served; 32
+ * concurrent clients see their own acknowledged edits; a client that stops
+ * reading is dropped at its output limit; JSONL import/export round-trips.
+ *
+ * The binaries come from VANTAGE_BIN_DIR (the Makefile sets it to this
+ * configuration's build directory).
+ */
+#include "test_util.h"
+
+#include "cull_ref.h"
+#include "vantage.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+typedef struct daemon_proc {
+    pid_t pid;
+    int port;
+    char sock[108];
+    char bin[512];
+} daemon_proc;
+
+static const char *bin_dir(void)
+{
+    const char *d = getenv("VANTAGE_BIN_DIR");
+    return d ? d : "build/release";
+}
+
+static int free_port(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    socklen_t len = sizeof sa;
+    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&sa, &len), 0);
+    close(fd);
+    return ntohs(sa.sin_port);
+}
+
+static vt_client *connect_role(const daemon_proc *d, int role, bool use_unix)
+{
+    vt_client *c = NULL;
+    char err[256];
+    vt_connect_opts o = {.port = d->port, .role = role, .unix_path = use_unix ? d->sock : NULL,
+                         .timeout_ms = 20000};
+    int rc = vt_connect(&o, &c, err, sizeof err);
+    if (rc) fprintf(stderr, "connect: %s\n", err);
+    assert_int_equal(rc, VP_OK);
+    return c;
+}
+
+static void daemon_start(daemon_proc *d, const char *extra)
+{
+    memset(d, 0, sizeof d[0]);
+    d->port = free_port();
+    snprintf(d->sock, sizeof d->sock, "/tmp/vantage-test-%d-%d.sock", (int)getpid(), d->port);
+    snprintf(d->bin, sizeof d->bin, "%s/vantaged", bin_dir());
+    char port[16];
+    snprintf(port, sizeof port, "%d", d->port);
+    d->pid = fork();
+    assert_true(d->pid >= 0);
+    if (d->pid == 0) {
+        const char *argv[16] = {d->bin, "--scene", "empty", "--port", port, "--unix", d->sock, "--log-level",
+                                "warn", "--threads", "2"};
+        int n = 11;
+        if (extra) {
+            argv[n++] = "--out-limit";
+            argv[n++] = extra;
+        }
+        argv[n] = NULL;
+        execv(d->bin, (char *const *)argv);
+        _exit(127);
+    }
+    /* wait until it answers */
+    for (int i = 0; i < 500; i++) {
+        vt_client *c = NULL;
+        if (vt_connect(&(vt_connect_opts){.port = d->port, .timeout_ms = 2000}, &c, NULL, 0) == VP_OK) {
+            vt_close(c);
+            return;
+        }
+        usleep(10000);
+    }
+    fail_msg("vantaged (%s) did not start", d->bin);
+}
+
+static void daemon_stop(daemon_proc *d)
+{
+    kill(d->pid, SIGTERM);
+    int st;
+    waitpid(d->pid, &st, 0);
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0); /* clean shutdown on SIGTERM */
+    assert_true(access(d->sock, F_OK) != 0); /* and the socket is gone */
+}
+
+static vp_entity rand_entity(rng *r, uint64_t id, double span)
+{
+    vp_entity e = {.id = id, .class_id = (uint16_t)rng_below(r, 100), .sublevel = (uint16_t)rng_below(r, 4)};
+    for (int a = 0; a < 3; a++) e.sphere[a] = rng_range(r, -span, span);
+    e.sphere[3] = rng_log(r, 0.05, 30);
+    if (rng_below(r, 3) == 0) { /* an explicit box inside the sphere's */
+        for (int a = 0; a < 3; a++) {
+            e.aabb[a] = e.sphere[a] - e.sphere[3] * rng_f(r);
+            e.aabb[3 + a] = e.sphere[a] + e.sphere[3] * rng_f(r);
+        }
+    }
+    e.flags = rng_below(r, 2) ? VP_ENT_DYNAMIC : 0;
+    return e;
+}
+
+/* The scene as the daemon holds it, normalised like the culling core does. */
+typedef struct model {
+    cull_world *norm;
+    uint64_t *ids;
+    cull_entity_desc *d;
+    size_t n, cap;
+} model;
+
+static void model_set(model *m, const vp_entity *e)
+{
+    cull_entity_desc in = {.radius = e->sphere[3], .class_id = e->class_id, .sublevel = e->sublevel};
+    for (int a = 0; a < 3; a++) {
+        in.center[a] = e->sphere[a];
+        in.aabb_min[a] = e->aabb[a];
+        in.aabb_max[a] = e->aabb[3 + a];
+    }
+    size_t i = 0;
+    while (i < m->n && m->ids[i] != e->id) i++;
+    if (i == m->n) {
+        if (m->n == m->cap) {
+            m->cap = m->cap ? m->cap * 2 : 1024;
+            m->ids = realloc(m->ids, m->cap * sizeof *m->ids);
+            m->d = realloc(m->d, m->cap * sizeof *m->d);
+        }
+        m->n++;
+    }
+    m->ids[i] = e->id;
+    assert_int_equal(cull_entity_check(m->norm, &in, &m->d[i]), CULL_OK);
+}
+
+static void model_del(model *m, uint64_t id)
+{
+    for (size_t i = 0; i < m->n; i++)
+        if (m->ids[i] == id) {
+            m->ids[i] = m->ids[--m->n];
+            m->d[i] = m->d[m->n];
+            return;
+        }
+    fail_msg("model has no id %llu", (unsigned long long)id);
+}
+
+static void test_edits_then_queries_match_model(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *u = connect_role(&d, VP_ROLE_VIEWER, true); /* queries over the Unix socket */
+    rng r = {test_seed() ^ 0x7777};
+    model m = {0};
+    assert_int_equal(cull_world_create(NULL, &m.norm), CULL_OK);
+    uint64_t next = 1;
+    enum { B = 500 };
+    vp_entity batch[B];
+    for (int round = 0; round < 6; round++) {
+        for (int i = 0; i < B; i++) batch[i] = rand_entity(&r, next++, 400);
+        uint32_t handles[B];
+        assert_int_equal(vt_add(c, batch, B, handles, NULL), VP_OK);
+        for (int i = 0; i < B; i++) {
+            assert_int_not_equal(handles[i], 0);
+            model_set(&m, &batch[i]);
+        }
+        /* move some, remove some */
+        uint32_t nu = 0;
+        for (size_t i = 0; i < m.n && nu < 200; i += 7) {
+            vp_entity e = rand_entity(&r, m.ids[i], 400);
+            batch[nu++] = e;
+        }
+        assert_int_equal(vt_update(c, batch, nu, NULL), VP_OK);
+        for (uint32_t i = 0; i < nu; i++) model_set(&m, &batch[i]);
+        uint64_t rm[50];
+        for (int i = 0; i < 50; i++) rm[i] = m.ids[(size_t)i * 5 + 3];
+        assert_int_equal(vt_remove(c, rm, 50, NULL), VP_OK);
+        for (int i = 0; i < 50; i++) model_del(&m, rm[i]);
+    }
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(u, &st), VP_OK);
+    assert_int_equal(st.entities, m.n);
+
+    /* random views, 1..8 at a time, against the model */
+    uint64_t cases = 0, kept_near = 0;
+    for (int q = 0; q < 40; q++) {
+        uint32_t nv = 1 + rng_below(&r, 8);
+        vp_view views[8];
+        ref_view rv[8];
+        for (uint32_t v = 0; v < nv; v++) {
+            double eye[3] = {rng_range(&r, -300, 300), rng_range(&r, -20, 60), rng_range(&r, -300, 300)};
+            double at[3] = {rng_range(&r, -300, 300), 0, rng_range(&r, -300, 300)};
+            bool ok = rng_below(&r, 4)
+                          ? vt_view_perspective(&views[v], eye, at, NULL, rng_range(&r, 20, 100), 1280, 720, 0.1, 2000)
+                          : vt_view_ortho(&views[v], eye, at, NULL, 200, 120, 800, 480, -500, 500);
+            if (!ok) { /* degenerate pick: try another */
+                v--;
+                continue;
+            }
+            cull_view_desc cd = {.depth_mode = views[v].depth_mode, .viewport_w = views[v].viewport_w,
+                                 .viewport_h = views[v].viewport_h};
+            memcpy(cd.origin, views[v].origin, sizeof cd.origin);
+            memcpy(cd.view_proj, views[v].view_proj, sizeof cd.view_proj);
+            ref_view_make(&rv[v], &cd);
+        }
+        vp_vis_result res;
+        assert_int_equal(vt_query(u, views, nv, 0, 0, &res), VP_OK);
+        assert_int_equal(res.count, res.visible);
+        uint32_t *mask = calloc(m.n, sizeof *mask);
+        for (uint32_t i = 0; i < res.count; i++) {
+            vp_vis_rec x;
+            vp_vis_rec_get(&res, i, &x);
+            size_t k = 0;
+            while (k < m.n && m.ids[k] != x.id) k++;
+            assert_true(k < m.n); /* a live id */
+            assert_int_equal(mask[k], 0);
+            mask[k] = x.view_mask;
+            assert_int_equal(x.class_id, m.d[k].class_id);
+        }
+        for (size_t k = 0; k < m.n; k++) {
+            for (uint32_t v = 0; v < nv; v++) {
+                ref_verdict rr;
+                ref_test(&rv[v], &m.d[k], &rr);
+                long double margin = fminl(rr.sphere_margin, rr.aabb_margin);
+                bool got = (mask[k] >> v) & 1;
+                cases++;
+                if (margin >= 0) assert_true(got); /* never a false cull */
+                else if (got) {
+                    kept_near++;
+                    assert_true(margin > -1e-3); /* kept only within the rounding slack */
+                }
+            }
+        }
+        free(mask);
+    }
+    printf("e2e: %zu entities, %llu entity x view cases against the model, %llu kept within the slack\n", m.n,
+           (unsigned long long)cases, (unsigned long long)kept_near);
+    vt_close(c);
+    vt_close(u);
+    cull_world_destroy(m.norm);
+    free(m.ids);
+    free(m.d);
+    daemon_stop(&d);
+}
+
+static void test_batches_all_or_nothing(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    rng r = {test_seed() ^ 0x8888};
+    vp_entity b[10];
+    for (int i = 0; i < 10; i++) b[i] = rand_entity(&r, 100 + (uint64_t)i, 50);
+    b[5].aabb[0] = 10; /* min > max on x */
+    b[5].aabb[3] = -10;
+    assert_int_equal(vt_add(c, b, 10, NULL, NULL), VP_ERR_INVALID);
+    assert_int_equal(vt_last_error(c)->index, 5);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(st.entities, 0);
+    b[5] = rand_entity(&r, 105, 50);
+    b[7].id = b[2].id; /* the same id twice */
+    assert_int_equal(vt_add(c, b, 10, NULL, NULL), VP_ERR_DUPLICATE);
+    assert_int_equal(vt_last_error(c)->index, 7);
+    b[7].id = 107;
+    uint64_t e0, e1;
+    assert_int_equal(vt_add(c, b, 10, NULL, &e0), VP_OK);
+    /* update with one unknown id: nothing moves */
+    vp_entity u[3] = {b[0], b[1], b[2]};
+    u[0].sphere[0] += 5;
+    u[2].id = 9999;
+    assert_int_equal(vt_update(c, u, 3, NULL), VP_ERR_UNKNOWN_ID);
+    assert_int_equal(vt_last_error(c)->index, 2);
+    vp_list_reply lr;
+    assert_int_equal(vt_get(c, &b[0].id, 1, &lr), VP_OK);
+    vp_entity got;
+    vp_entity_get(&lr.batch, 0, &got);
+    assert_true(got.sphere[0] == b[0].sphere[0]);
+    /* a stale handle is refused */
+    u[2] = b[2];
+    u[1].handle = 12345;
+    assert_int_equal(vt_update(c, u, 3, NULL), VP_ERR_STALE);
+    /* remove with a duplicate: nothing removed */
+    uint64_t rm[3] = {100, 101, 100};
+    assert_int_equal(vt_remove(c, rm, 3, &e1), VP_ERR_DUPLICATE);
+    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(st.entities, 10);
+    assert_int_equal(st.epoch, e0); /* rejected batches change no epoch */
+    /* a viewer cannot edit */
+    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, true);
+    assert_int_equal(vt_remove(v, rm, 1, NULL), VP_ERR_AUTH);
+    vt_close(v);
+    vt_close(c);
+    daemon_stop(&d);
+}
+
+/* Raw bytes on a socket: returns the fd. */
+static int raw_connect(const daemon_proc *d)
+{
+    int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    strcpy(sa.sun_path, d->sock);
+    assert_int_equal(connect(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    struct timeval tv = {.tv_sec = 10};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    return fd;
+}
+
+/* Reads one frame; returns its type (and the error code if ERROR), -1 on EOF. */
+static int raw_read(int fd, int32_t *code)
+{
+    uint8_t buf[8192];
+    size_t have = 0;
+    for (;;) {
+        vp_header h;
+        size_t fs;
+        int rc = vp_frame_check(buf, have, sizeof buf - VP_HEADER_SIZE, &h, &fs);
+        if (rc == VP_OK) {
+            if (h.type == VP_ERROR && code) {
+                vp_error e;
+                assert_int_equal(vp_dec_error(buf + VP_HEADER_SIZE, h.len, &e), VP_OK);
+                *code = e.code;
+            }
+            return h.type;
+        }
+        assert_int_equal(rc, VP_NEED_MORE);
+        ssize_t n = read(fd, buf + have, sizeof buf - have);
+        if (n <= 0) return -1;
+        have += (size_t)n;
+    }
+}
+
+static void raw_hello(int fd)
+{
+    uint8_t buf[128];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_EDITOR});
+    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+    assert_int_equal(raw_read(fd, NULL), VP_HELLO_OK);
+}
+
+static void test_malformed_frames(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *other = connect_role(&d, VP_ROLE_VIEWER, false); /* must keep being served */
+    uint8_t buf[4096];
+    vp_writer w;
+    int32_t code;
+
+    /* wrong magic: ERROR MAGIC, then the connection is closed */
+    int fd = raw_connect(&d);
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_hello(&w, 1, &(vp_hello){.magic = 0x12345678, .version = VP_VERSION});
+    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+    code = 0;
+    assert_int_equal(raw_read(fd, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_MAGIC);
+    assert_int_equal(raw_read(fd, NULL), -1);
+    close(fd);
+    assert_int_equal(vt_ping(other), VP_OK);
+
+    /* wrong version */
+    fd = raw_connect(&d);
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = 7});
+    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+    assert_int_equal(raw_read(fd, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_VERSION);
+    assert_int_equal(raw_read(fd, NULL), -1);
+    close(fd);
+
+    /* not HELLO first */
+    fd = raw_connect(&d);
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_empty(&w, VP_STATS, 1);
+    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+    assert_int_equal(raw_read(fd, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_STATE);
+    assert_int_equal(raw_read(fd, NULL), -1);
+    close(fd);
+
+    /* a length beyond the limit: decided from the header, connection closed */
+    fd = raw_connect(&d);
+    raw_hello(fd);
+    uint8_t hdr[12] = {0xff, 0xff, 0xff, 0x7f, 0x04, 0x00, 0, 0, 9, 0, 0, 0};
+    assert_int_equal(write(fd, hdr, sizeof hdr), 12);
+    assert_int_equal(raw_read(fd, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_TOO_LARGE);
+    assert_int_equal(raw_read(fd, NULL), -1);
+    close(fd);
+
+    /* errors that keep the connection: unknown type, count mismatch,
+       truncated, NaN in a matrix; then a ping still works */
+    fd = raw_connect(&d);
+    raw_hello(fd);
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_empty(&w, 0x0333, 2); /* unknown type */
+    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+    assert_int_equal(raw_read(fd, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_TYPE);
+    vp_entity e = {.id = 1, .sphere = {0, 0, 0, 1}};
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 3, &e, 1);
+    buf[VP_HEADER_SIZE] = 2; /* count says 2, payload holds 1 */
+    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+    assert_int_equal(raw_read(fd, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_COUNT);
+    vp_view v = {.view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}};
+    v.view_proj[3] = NAN;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_vis_query(&w, 4, 0, 0, &v, 1);
+    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+    assert_int_equal(raw_read(fd, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_NONFINITE);
+    v.view_proj[3] = 0;
+    v.view_proj[0] = 0; /* singular */
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_vis_query(&w, 5, 0, 0, &v, 1);
+    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+    assert_int_equal(raw_read(fd, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_MATRIX);
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_ping(&w, VP_PING, 6, (const uint8_t *)"ok", 2);
+    /* and split it across two writes: the server resumes at any byte */
+    assert_int_equal(write(fd, buf, 5), 5);
+    usleep(20000);
+    assert_int_equal(write(fd, buf + 5, w.len - 5), (ssize_t)(w.len - 5));
+    assert_int_equal(raw_read(fd, NULL), VP_PONG);
+    close(fd);
+
+    /* random garbage after a hello: the daemon survives */
+    rng r = {test_seed() ^ 0x9999};
+    for (int i = 0; i < 50; i++) {
+        fd = raw_connect(&d);
+        raw_hello(fd);
+        size_t n = rng_below(&r, sizeof buf);
+        for (size_t k = 0; k < n; k++) buf[k] = (uint8_t)rng_u64(&r);
+        ssize_t ignored = write(fd, buf, n);
+        (void)ignored;
+        close(fd);
+    }
+    assert_int_equal(vt_ping(other), VP_OK);
+    vt_close(other);
+    daemon_stop(&d);
+}
+
+typedef struct worker_arg {
+    const daemon_proc *d;
+    int idx;
+    int failures;
+} worker_arg;
+
+/* Each client adds its own entities in front of its own camera, then
+ * checks that its queries see every one of them (its acknowledged edits
+ * are visible to its next query), moves them away and checks they are gone. */
+static void *worker(void *p)
+{
+    worker_arg *a = p;
+    vt_client *c = NULL;
+    vt_connect_opts o = {.port = a->d->port, .role = VP_ROLE_EDITOR, .timeout_ms = 30000,
+                         .unix_path = a->idx % 2 ? a->d->sock : NULL};
+    if (vt_connect(&o, &c, NULL, 0)) {
+        a->failures++;
+        return NULL;
+    }
+    double x0 = 1000.0 * (a->idx + 1);
+    for (int round = 0; round < 10; round++) {
+        vp_entity e[20];
+        for (int i = 0; i < 20; i++) {
+            e[i] = (vp_entity){.id = (uint64_t)a->idx * 1000000 + (uint64_t)round * 100 + (uint64_t)i,
+                               .sphere = {x0 + i, 0, 50, 0.5}};
+        }
+        if (vt_add(c, e, 20, NULL, NULL)) a->failures++;
+        vp_view v;
+        vt_view_perspective(&v, (double[]){x0 + 10, 0, 0}, (double[]){x0 + 10, 0, 50}, NULL, 90, 640, 480, 1, 200);
+        vp_vis_result res;
+        if (vt_query(c, &v, 1, 0, 0, &res)) {
+            a->failures++;
+            continue;
+        }
+        uint32_t mine = 0;
+        for (uint32_t i = 0; i < res.count; i++) {
+            vp_vis_rec x;
+            vp_vis_rec_get(&res, i, &x);
+            mine += x.id / 1000000 == (uint64_t)a->idx && (x.id % 1000000) / 100 == (uint64_t)round;
+        }
+        if (mine != 20) a->failures++;
+        for (int i = 0; i < 20; i++) e[i].sphere[2] = -500; /* behind the camera */
+        if (vt_update(c, e, 20, NULL)) a->failures++;
+        if (vt_query(c, &v, 1, 0, 0, &res)) a->failures++;
+        for (uint32_t i = 0; i < res.count; i++) {
+            vp_vis_rec x;
+            vp_vis_rec_get(&res, i, &x);
+            if (x.id / 1000000 == (uint64_t)a->idx && (x.id % 1000000) / 100 == (uint64_t)round) a->failures++;
+        }
+    }
+    vt_close(c);
+    return NULL;
+}
+
+static void test_concurrent_clients(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    enum { N = 32 };
+    pthread_t th[N];
+    worker_arg args[N];
+    for (int i = 0; i < N; i++) {
+        args[i] = (worker_arg){.d = &d, .idx = i};
+        assert_int_equal(pthread_create(&th[i], NULL, worker, &args[i]), 0);
+    }
+    int failures = 0;
+    for (int i = 0; i < N; i++) {
+        pthread_join(th[i], NULL);
+        failures += args[i].failures;
+    }
+    assert_int_equal(failures, 0);
+    vt_client *c = connect_role(&d, VP_ROLE_VIEWER, false);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(st.entities, N * 10 * 20);
+    vt_close(c);
+    daemon_stop(&d);
+}
+
+static void test_slow_reader_dropped(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, "65536");
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_entity e[1000];
+    for (int i = 0; i < 1000; i++) e[i] = (vp_entity){.id = (uint64_t)i + 1, .sphere = {i * 0.1, 0, 10, 0.5}};
+    assert_int_equal(vt_add(ed, e, 1000, NULL, NULL), VP_OK);
+    /* a client that sends queries (24 KB of results each) and never reads */
+    int fd = raw_connect(&d);
+    raw_hello(fd);
+    vp_view v;
+    assert_true(vt_view_perspective(&v, (double[]){50, 0, 0}, (double[]){50, 0, 10}, NULL, 120, 640, 480, 0.1, 100));
+    uint8_t buf[512];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_vis_query(&w, 1, 0, 0, &v, 1);
+    int sent = 0;
+    for (; sent < 20000; sent++) {
+        if (send(fd, buf, w.len, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) break;
+    }
+    /* the daemon drops it; meanwhile the editor is served */
+    assert_int_equal(vt_ping(ed), VP_OK);
+    vp_stats_reply st;
+    int tries = 0;
+    do {
+        usleep(20000);
+        assert_int_equal(vt_stats(ed, &st), VP_OK);
+    } while (st.connections > 1 && ++tries < 250);
+    assert_int_equal(st.connections, 1);
+    close(fd);
+    vt_close(ed);
+    daemon_stop(&d);
+}
+
+/* The CLI against a real daemon: add, query --json, export, import into a
+ * second daemon, export again: identical files. */
+static void test_cli_round_trip(void **state)
+{
+    (void)state;
+    daemon_proc d, d2;
+    daemon_start(&d, NULL);
+    char cmd[1024], out[4096];
+    const char *cli = bin_dir();
+    snprintf(cmd, sizeof cmd,
+             "%s/vantage -s %s add 7 0,0,20 1 --class 3 > /dev/null && "
+             "%s/vantage -p %d add 8 5,1,30 2 --dynamic --aabb 4,0,29,6,2,31 > /dev/null && "
+             "%s/vantage -p %d query --eye 0,0,0 --at 0,0,10 --json",
+             cli, d.sock, cli, d.port, cli, d.port);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, sizeof out - 1, p);
+    out[n] = 0;
+    assert_int_equal(pclose(p), 0);
+    assert_non_null(strstr(out, "{\"id\": 7, "));
+    assert_non_null(strstr(out, "{\"id\": 8, "));
+    assert_non_null(strstr(out, "\"visible\": 2"));
+    char f1[128], f2[128];
+    snprintf(f1, sizeof f1, "/tmp/vantage-test-%d-a.jsonl", (int)getpid());
+    snprintf(f2, sizeof f2, "/tmp/vantage-test-%d-b.jsonl", (int)getpid());
+    daemon_start(&d2, NULL);
+    snprintf(cmd, sizeof cmd,
+             "%s/vantage -p %d export %s > /dev/null && %s/vantage -p %d import %s > /dev/null && "
+             "%s/vantage -p %d export %s > /dev/null && cmp -s %s %s",
+             cli, d.port, f1, cli, d2.port, f1, cli, d2.port, f2, f1, f2);
+    assert_int_equal(system(cmd), 0);
+    /* a bad line is reported with its line number and nothing is applied */
+    FILE *f = fopen(f1, "a");
+    fprintf(f, "{\"id\": 99, \"sphere\": [1, 2]}\n");
+    fclose(f);
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d import %s 2>&1", cli, d2.port, f1);
+    p = popen(cmd, "r");
+    n = fread(out, 1, sizeof out - 1, p);
+    out[n] = 0;
+    assert_int_not_equal(pclose(p), 0);
+    assert_non_null(strstr(out, ":3: \"sphere\" must be"));
+    unlink(f1);
+    unlink(f2);
+    daemon_stop(&d2);
+    daemon_stop(&d);
+}
+
+const struct CMUnitTest e2e_tests[] = {
+    cmocka_unit_test(test_edits_then_queries_match_model),
+    cmocka_unit_test(test_batches_all_or_nothing),
+    cmocka_unit_test(test_malformed_frames),
+    cmocka_unit_test(test_concurrent_clients),
+    cmocka_unit_test(test_slow_reader_dropped),
+    cmocka_unit_test(test_cli_round_trip),
+};
+const size_t e2e_tests_count = sizeof e2e_tests / sizeof e2e_tests[0];
