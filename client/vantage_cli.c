@@ -13,6 +13,7 @@
 #include <getopt.h>
 #include <json-c/json.h>
 #include <math.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdbool.h>
@@ -46,6 +47,8 @@ static void usage(FILE *f)
             "  query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N]\n"
             "        [--far F] [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion] [--json]\n"
             "  watch [--count N]                print scene-changed events as they happen\n"
+            "  bench [--test query|edit|ping] [--clients N] [--requests N] [--pipeline P] [--views K]\n"
+            "        [--batch B] [--count-only] [--json]   load test: rate and latency percentiles\n"
             "\n"
             "connection: -h HOST (127.0.0.1), -p PORT (%d), -s SOCKET (Unix socket instead of TCP)\n"
             "JSON lines: {\"id\": 64-bit id, \"class\": n, \"sphere\": [x,y,z,r],\n"
@@ -581,6 +584,188 @@ static int cmd_watch(cli *k, int argc, char **argv)
     return 0;
 }
 
+
+/* ---- bench ------------------------------------------------------------------------ */
+
+typedef struct bench_arg {
+    cli *k;
+    int idx;
+    const char *test;
+    long requests;
+    int pipeline, views, batch;
+    uint8_t qflags;
+    double *lat;        /* seconds per request, requests of them */
+    long done;
+    int failed;
+    uint64_t records;
+} bench_arg;
+
+static int cmp_dbl(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static void bench_views(vp_view *v, int n, int idx, long i)
+{
+    for (int k = 0; k < n; k++) {
+        double a = 0.01 * (double)i + k * 0.7 + idx;
+        double eye[3] = {cos(a) * 200, 2, sin(a) * 200}, at[3] = {0, 2, 0};
+        vt_view_perspective(&v[k], eye, at, NULL, 60, 1280, 720, 0.1, 2000);
+    }
+}
+
+static void *bench_worker(void *p)
+{
+    bench_arg *a = p;
+    vt_connect_opts o = a->k->co;
+    o.role = VP_ROLE_EDITOR;
+    o.name = "vantage-bench";
+    vt_client *c = NULL;
+    if (vt_connect(&o, &c, NULL, 0)) {
+        a->failed = 1;
+        return NULL;
+    }
+    bool edit = !strcmp(a->test, "edit"), ping = !strcmp(a->test, "ping");
+    uint64_t base = 0x7B000000000ull + (uint64_t)a->idx * 100000000ull;
+    vp_entity *ents = NULL;
+    if (edit) { /* the entities this client moves */
+        ents = calloc((size_t)a->batch, sizeof *ents);
+        for (int i = 0; i < a->batch; i++)
+            ents[i] = (vp_entity){.id = base + (uint64_t)i, .sphere = {a->idx * 10.0, 0, i * 0.5, 0.25},
+                                  .flags = VP_ENT_DYNAMIC};
+        if (vt_add(c, ents, (uint32_t)a->batch, NULL, NULL)) {
+            a->failed = 1;
+            vt_close(c);
+            free(ents);
+            return NULL;
+        }
+    }
+    size_t frame = edit ? vp_size_entities((uint32_t)a->batch) : VP_HEADER_SIZE + 8 + (size_t)a->views * VP_VIEW_SIZE;
+    uint8_t *buf = malloc(frame * (size_t)a->pipeline + 64);
+    double *sent = malloc(sizeof(double) * (size_t)a->pipeline);
+    vp_view views[VP_MAX_VIEWS];
+    for (long i = 0; i < a->requests && !a->failed;) {
+        int n = a->pipeline;
+        if (n > a->requests - i) n = (int)(a->requests - i);
+        vp_writer w;
+        vp_writer_init(&w, buf, frame * (size_t)a->pipeline + 64);
+        for (int j = 0; j < n; j++) {
+            uint32_t req = vt_next_req(c);
+            if (edit) {
+                for (int e = 0; e < a->batch; e++) ents[e].sphere[1] = (double)((i + j) % 100) * 0.1;
+                vp_enc_entities(&w, VP_ENTITY_UPDATE, req, ents, (uint32_t)a->batch);
+            } else if (ping) {
+                vp_enc_ping(&w, VP_PING, req, (const uint8_t *)"b", 1);
+            } else {
+                bench_views(views, a->views, a->idx, i + j);
+                vp_enc_vis_query(&w, req, a->qflags, 0, views, (uint32_t)a->views);
+            }
+        }
+        double t0 = now_s();
+        for (int j = 0; j < n; j++) sent[j] = t0;
+        if (vt_send(c, buf, w.len)) {
+            a->failed = 1;
+            break;
+        }
+        for (int j = 0; j < n; j++) {
+            vp_header h;
+            const uint8_t *pl;
+            if (vt_recv(c, &h, &pl, -1) || h.type == VP_ERROR) {
+                a->failed = 1;
+                break;
+            }
+            if (h.type == VP_VIS_RESULT) {
+                vp_vis_result r;
+                if (!vp_dec_vis_result(pl, h.len, &r)) a->records += r.visible;
+            }
+            a->lat[a->done++] = now_s() - sent[j];
+        }
+        i += n;
+    }
+    free(buf);
+    free(sent);
+    free(ents);
+    vt_close(c);
+    return NULL;
+}
+
+static int cmd_bench(cli *k, int argc, char **argv)
+{
+    const char *use = "bench [--test query|edit|ping] [--clients N] [--requests N] [--pipeline P] [--views K] "
+                      "[--batch B] [--count-only] [--json]";
+    const char *test = "query";
+    long clients = 64, requests = 100000, pipeline = 1, views = 1, batch = 1000;
+    bool json = false;
+    uint8_t qflags = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--test") && i + 1 < argc) test = argv[++i];
+        else if (!strcmp(argv[i], "--clients") && i + 1 < argc) clients = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--requests") && i + 1 < argc) requests = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--pipeline") && i + 1 < argc) pipeline = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--views") && i + 1 < argc) views = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--batch") && i + 1 < argc) batch = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--count-only")) qflags |= VP_Q_COUNT_ONLY;
+        else if (!strcmp(argv[i], "--json")) json = true;
+        else return die_usage("%s", use);
+    }
+    if (strcmp(test, "query") && strcmp(test, "edit") && strcmp(test, "ping")) return die_usage("%s", use);
+    if (clients < 1 || clients > 1000 || requests < clients || pipeline < 1 || pipeline > 1000 || views < 1 ||
+        views > 32 || batch < 1 || batch > 65536)
+        return die_usage("bench: a value out of range");
+    pthread_t *th = calloc((size_t)clients, sizeof *th);
+    bench_arg *args = calloc((size_t)clients, sizeof *args);
+    long per = requests / clients;
+    double t0 = now_s();
+    for (long i = 0; i < clients; i++) {
+        args[i] = (bench_arg){.k = k, .idx = (int)i, .test = test, .requests = per, .pipeline = (int)pipeline,
+                              .views = (int)views, .batch = (int)batch, .qflags = qflags};
+        args[i].lat = malloc(sizeof(double) * (size_t)per);
+        pthread_create(&th[i], NULL, bench_worker, &args[i]);
+    }
+    long done = 0, failed = 0;
+    uint64_t records = 0;
+    for (long i = 0; i < clients; i++) {
+        pthread_join(th[i], NULL);
+        done += args[i].done;
+        failed += args[i].failed;
+        records += args[i].records;
+    }
+    double secs = now_s() - t0;
+    double *all = malloc(sizeof(double) * (size_t)(done ? done : 1));
+    long n = 0;
+    for (long i = 0; i < clients; i++) {
+        memcpy(all + n, args[i].lat, sizeof(double) * (size_t)args[i].done);
+        n += args[i].done;
+        free(args[i].lat);
+    }
+    qsort(all, (size_t)n, sizeof *all, cmp_dbl);
+#define PCT(q) (n ? all[(size_t)((double)(n - 1) * (q))] * 1e3 : 0.0)
+    double rate = done / secs;
+    if (json) {
+        printf("{\"test\": \"%s\", \"clients\": %ld, \"pipeline\": %ld, \"views\": %ld, \"batch\": %ld, "
+               "\"requests\": %ld, \"failed_clients\": %ld, \"seconds\": %.3f, \"per_second\": %.0f, "
+               "\"records_per_second\": %.0f, \"p50_ms\": %.4f, \"p90_ms\": %.4f, \"p99_ms\": %.4f, "
+               "\"p999_ms\": %.4f, \"max_ms\": %.4f}\n",
+               test, clients, pipeline, views, batch, done, failed, secs, rate,
+               !strcmp(test, "edit") ? rate * batch : records / secs, PCT(0.5), PCT(0.9), PCT(0.99), PCT(0.999),
+               PCT(1.0));
+    } else {
+        printf("%s: %ld requests, %ld clients, pipeline %ld: %.2f s, %.0f requests/s", test, done, clients,
+               pipeline, secs, rate);
+        if (!strcmp(test, "edit")) printf(", %.0f entity updates/s", rate * batch);
+        if (!strcmp(test, "query")) printf(", %.0f visible records/s", records / secs);
+        printf("\nlatency ms: p50 %.3f  p90 %.3f  p99 %.3f  p99.9 %.3f  max %.3f\n", PCT(0.5), PCT(0.9), PCT(0.99),
+               PCT(0.999), PCT(1.0));
+        if (failed) printf("%ld clients failed\n", failed);
+    }
+#undef PCT
+    free(all);
+    free(th);
+    free(args);
+    return failed ? 1 : 0;
+}
+
 int main(int argc, char **argv)
 {
     cli k = {0};
@@ -618,6 +803,7 @@ int main(int argc, char **argv)
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"watch", cmd_watch},
+        {"bench", cmd_bench},
     };
     int rc = -1;
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)
