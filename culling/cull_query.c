@@ -160,6 +160,7 @@ static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, con
  * handle, class, sub-level: 1.5 KiB) of the block PREFETCH_AHEAD items
  * ahead, and its AABBs too when the query will read them. */
 #define PREFETCH_AHEAD 6u
+#define PREFETCH_MIN_ITEMS 512u /* ~1.5 MiB of hot block data */
 
 static inline void prefetch_block(const cull_block *b, bool boxes)
 {
@@ -173,6 +174,7 @@ typedef struct job {
     const cull_kparams *kp;
     const cull_item *items;
     uint32_t nitems, nchunks;
+    bool prefetch;
     _Atomic uint32_t next;
     cull_result *out;
     cull_kcount cnt[MAX_THREADS];
@@ -193,7 +195,8 @@ static void job_cull(void *arg, uint32_t t)
         if (end > j->nitems) end = j->nitems;
         for (uint32_t i = ch * CHUNK_BLOCKS; i < end; i++) {
             const cull_item *it = &j->items[i];
-            if (i + PREFETCH_AHEAD < j->nitems) prefetch_block(j->items[i + PREFETCH_AHEAD].block, j->kp->area);
+            if (j->prefetch && i + PREFETCH_AHEAD < j->nitems)
+                prefetch_block(j->items[i + PREFETCH_AHEAD].block, j->kp->area);
             off += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt);
         }
         c->chunks[ch] = (cull_chunk){.thread = t, .off = start, .count = off - start};
@@ -316,12 +319,15 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     for (uint32_t i = 0; i < nitems; i++) work += (uint64_t)c->items[i].n * c->items[i].nv;
     if (!q->threads && work < PARALLEL_MIN_WORK) threads = 1;
 
+    /* a few hundred blocks stay in L2 from one query to the next: prefetching
+       them only costs instructions */
+    bool prefetch = nitems > PREFETCH_MIN_ITEMS;
     cull_kcount total = {0};
     size_t written = 0;
     if (threads == 1) {
         for (uint32_t i = 0; i < nitems; i++) {
             const cull_item *it = &c->items[i];
-            if (i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block, kp.area);
+            if (prefetch && i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block, kp.area);
             written += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp,
                                  out + written, &total);
         }
@@ -334,7 +340,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                          sizeof(cull_result)))
                 return CULL_ERR_NOMEM;
         job j = {.c = c, .kp = &kp, .items = c->items, .nitems = nitems, .nchunks = nchunks,
-                 .out = out};
+                 .out = out, .prefetch = prefetch};
         atomic_init(&j.next, 0);
         cull_pool_run(c->pool, job_cull, &j, threads);
         for (uint32_t ch = 0; ch < nchunks; ch++) {
