@@ -27,6 +27,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/eventfd.h>
 #include <sys/signalfd.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -38,6 +39,7 @@ typedef struct conn {
     uint32_t id;
     int role;
     bool hello, closing, subscribed;
+    bool busy;          /* a query is with a worker: later frames wait */
     uint8_t *in;
     size_t in_len, in_cap;
     uint8_t *out;
@@ -54,12 +56,31 @@ struct server {
     int conns_cap;
     uint32_t nconns, next_id;
     scene *sc;
-    cull_pool *pool;
-    cull_ctx *ctx;
-    cull_result *res;
-    size_t res_cap;
     uint64_t start_ms, queries, bytes_in, bytes_out, errors;
+    /* query workers: they read the scene under scene_lock (shared); the
+       loop thread takes it exclusively to apply edits */
+    pthread_rwlock_t scene_lock;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    struct job *jobs_head, *jobs_tail;      /* to the workers */
+    struct job *done_head, *done_tail;      /* back to the loop */
+    int done_fd;                            /* eventfd: results are waiting */
+    pthread_t *workers;
+    uint32_t nworkers;
+    bool stopping;
 };
+
+/* A query handed to a worker, and its reply coming back. */
+typedef struct job {
+    struct job *next;
+    int fd;
+    uint32_t conn_id;
+    vp_header h;
+    uint8_t *payload;   /* a copy of the request's payload */
+    uint8_t *reply;     /* the encoded reply frame (VIS_RESULT or ERROR) */
+    size_t reply_len;
+    bool ok;
+} job;
 
 static uint64_t now_ns(void)
 {
@@ -123,7 +144,7 @@ static void conn_free(server *s, conn *c)
     free(c);
 }
 
-static void conn_write(ae_loop *l, int fd, void *data, int mask);
+static void conn_event(ae_loop *l, int fd, void *data, int mask);
 
 /* Writes what the socket takes now. false if the connection died. */
 static bool conn_flush(server *s, conn *c)
@@ -148,15 +169,12 @@ static bool conn_flush(server *s, conn *c)
         LOGW("client %u: %zu bytes unread, over the output limit: disconnecting", c->id, c->out_len - c->out_pos);
         return false;
     }
-    if (!(ae_mask(s->loop, c->fd) & AE_WRITABLE)) ae_add(s->loop, c->fd, AE_WRITABLE, conn_write, s);
+    if (!(ae_mask(s->loop, c->fd) & AE_WRITABLE)) ae_add(s->loop, c->fd, AE_WRITABLE, conn_event, s);
     return true;
 }
 
-static void conn_write(ae_loop *l, int fd, void *data, int mask)
+static void conn_write(server *s, int fd)
 {
-    (void)l;
-    (void)mask;
-    server *s = data;
     conn *c = s->conns[fd];
     if (c && !conn_flush(s, c)) conn_free(s, c);
 }
@@ -229,16 +247,26 @@ static void on_stats(server *s, conn *c, uint32_t req)
     out_commit(c, &w);
 }
 
-static void on_query(server *s, conn *c, const vp_header *h, const uint8_t *p)
+/* Worker side: decodes, culls and encodes one query into a new frame. The
+ * caller holds scene_lock shared. */
+static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t *res_cap, job *j)
 {
     uint64_t t0 = now_ns();
+    const vp_header *h = &j->h;
+    char msg[96] = "";
+    int code = VP_OK;
+    uint32_t index = UINT32_MAX;
+    vp_writer w;
     vp_vis_query q;
-    int rc = vp_dec_vis_query(p, h->len, &q);
-    if (rc) {
-        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
-        return;
-    }
     cull_view views[VP_MAX_VIEWS];
+    size_t n = 0;
+    cull_query_stats st;
+    int rc = vp_dec_vis_query(j->payload, h->len, &q);
+    if (rc) {
+        code = rc;
+        snprintf(msg, sizeof msg, "%s", vp_strerror(rc));
+        goto error;
+    }
     for (uint32_t i = 0; i < q.view_count; i++) {
         vp_view v;
         vp_view_get(&q, i, &v);
@@ -247,67 +275,137 @@ static void on_query(server *s, conn *c, const vp_header *h, const uint8_t *p)
         memcpy(d.view_proj, v.view_proj, sizeof d.view_proj);
         int crc = cull_view_init(&views[i], &d);
         if (crc) {
-            char msg[96];
+            code = crc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
+            index = i;
             snprintf(msg, sizeof msg, "view %u: %s", i, cull_strerror(crc));
-            send_error(s, c, h->req, crc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX, i, msg);
-            return;
+            goto error;
         }
     }
-    size_t need = cull_query_bound(s->sc->world);
-    if (need > s->res_cap) {
-        cull_result *n = realloc(s->res, need * sizeof *n);
-        if (!n) {
-            send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory for results");
-            return;
+    size_t need = cull_query_bound(sc->world);
+    if (need > *res_cap) {
+        cull_result *r = realloc(*res, need * sizeof *r);
+        if (!r) {
+            code = VP_ERR_BUSY;
+            snprintf(msg, sizeof msg, "out of memory for results");
+            goto error;
         }
-        s->res = n;
-        s->res_cap = need;
+        *res = r;
+        *res_cap = need;
     }
     uint32_t flags = 0;
     if (q.flags & VP_Q_NO_AABB) flags |= CULL_Q_NO_AABB;
     if (q.flags & VP_Q_WANT_AREA) flags |= CULL_Q_WANT_AREA;
     if (q.flags & VP_Q_STATIC_ONLY) flags |= CULL_Q_STATIC_ONLY;
     if (q.flags & VP_Q_DYNAMIC_ONLY) flags |= CULL_Q_DYNAMIC_ONLY;
-    size_t n = 0;
-    cull_query_stats st;
     uint64_t t1 = now_ns();
-    rc = cull_query(s->sc->world, s->ctx,
+    rc = cull_query(sc->world, ctx,
                     &(cull_query_desc){.views = views, .view_count = q.view_count, .flags = flags,
                                        .min_screen_area = q.min_area},
-                    s->res, s->res_cap, &n, &st);
+                    *res, *res_cap, &n, &st);
     uint64_t t2 = now_ns();
     if (rc) {
-        send_error(s, c, h->req, VP_ERR_INTERNAL, UINT32_MAX, cull_strerror(rc));
-        return;
+        code = VP_ERR_INTERNAL;
+        snprintf(msg, sizeof msg, "%s", cull_strerror(rc));
+        goto error;
     }
     uint32_t count = (q.flags & VP_Q_COUNT_ONLY) ? 0 : (uint32_t)n;
-    vp_writer w;
-    if (!out_reserve(c, vp_size_vis_result(count), &w)) {
-        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory for the reply");
-        return;
+    j->reply_len = vp_size_vis_result(count);
+    j->reply = malloc(j->reply_len);
+    if (!j->reply) {
+        code = VP_ERR_BUSY;
+        snprintf(msg, sizeof msg, "out of memory for the reply");
+        goto error;
     }
-    vp_vis_result m = {.epoch = s->sc->epoch, .tested = st.entities_tested, .visible = (uint32_t)n, .count = count};
-    m.stage_ns[0] = 0; /* the pipeline is fused: cells and entities in one pass */
-    m.stage_ns[1] = (uint32_t)(t2 - t1);
+    vp_writer_init(&w, j->reply, j->reply_len);
+    vp_vis_result m = {.epoch = sc->epoch, .tested = st.entities_tested, .visible = (uint32_t)n, .count = count};
+    m.stage_ns[1] = (uint32_t)(t2 - t1); /* cells and entities: one fused pass */
     m.stage_ns[4] = (uint32_t)(t1 - t0); /* decode and view set-up */
     vp_enc_vis_result_begin(&w, h->req, &m);
     for (uint32_t i = 0; i < count; i++) {
-        const cull_result *r = &s->res[i];
-        vp_put_vis_rec(&w, &(vp_vis_rec){.id = scene_id_of(s->sc, r->handle), .handle = r->handle,
+        const cull_result *r = &(*res)[i];
+        vp_put_vis_rec(&w, &(vp_vis_rec){.id = scene_id_of(sc, r->handle), .handle = r->handle,
                                          .view_mask = r->view_mask, .class_id = r->class_id,
                                          .sublevel = r->sublevel, .area = r->screen_area});
     }
-    /* the timings are known only now: patch them into the header */
-    uint64_t t3 = now_ns();
     vp_frame_end(&w);
-    uint8_t *ns = w.p + VP_HEADER_SIZE + 16;
+    /* the writing and total times are known only now: patch them in */
+    uint64_t t3 = now_ns();
+    uint8_t *ns = j->reply + VP_HEADER_SIZE + 16;
     uint32_t write_ns = (uint32_t)(t3 - t2), total = (uint32_t)(t3 - t0);
     for (int k = 0; k < 4; k++) {
         ns[2 * 4 + k] = (uint8_t)(write_ns >> (8 * k));
         ns[3 * 4 + k] = (uint8_t)(total >> (8 * k));
     }
-    out_commit(c, &w);
-    s->queries++;
+    j->ok = true;
+    return;
+error:
+    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
+    j->reply = malloc(j->reply_len);
+    if (j->reply) {
+        vp_writer_init(&w, j->reply, j->reply_len);
+        vp_enc_error(&w, h->req, code, index, msg);
+    }
+}
+
+static void *worker_main(void *arg)
+{
+    server *s = arg;
+    cull_ctx *ctx = NULL;
+    cull_result *res = NULL;
+    size_t res_cap = 0;
+    if (cull_ctx_create(NULL, &ctx)) return NULL;
+    for (;;) {
+        pthread_mutex_lock(&s->mu);
+        while (!s->jobs_head && !s->stopping) pthread_cond_wait(&s->cv, &s->mu);
+        if (!s->jobs_head) {
+            pthread_mutex_unlock(&s->mu);
+            break;
+        }
+        job *j = s->jobs_head;
+        s->jobs_head = j->next;
+        if (!s->jobs_head) s->jobs_tail = NULL;
+        pthread_mutex_unlock(&s->mu);
+
+        pthread_rwlock_rdlock(&s->scene_lock);
+        run_query(s->sc, ctx, &res, &res_cap, j);
+        pthread_rwlock_unlock(&s->scene_lock);
+
+        j->next = NULL;
+        pthread_mutex_lock(&s->mu);
+        if (s->done_tail) s->done_tail->next = j;
+        else s->done_head = j;
+        s->done_tail = j;
+        pthread_mutex_unlock(&s->mu);
+        uint64_t one = 1;
+        ssize_t ignored = write(s->done_fd, &one, sizeof one);
+        (void)ignored;
+    }
+    free(res);
+    cull_ctx_destroy(ctx);
+    return NULL;
+}
+
+/* Loop side: hands the query to the workers; the connection reads no
+ * further frames until its reply is back, so replies keep request order. */
+static void on_query(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    job *j = calloc(1, sizeof *j);
+    uint8_t *copy = malloc(h->len ? h->len : 1);
+    if (!j || !copy) {
+        free(j);
+        free(copy);
+        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        return;
+    }
+    memcpy(copy, p, h->len);
+    *j = (job){.fd = c->fd, .conn_id = c->id, .h = *h, .payload = copy};
+    c->busy = true;
+    pthread_mutex_lock(&s->mu);
+    if (s->jobs_tail) s->jobs_tail->next = j;
+    else s->jobs_head = j;
+    s->jobs_tail = j;
+    pthread_cond_signal(&s->cv);
+    pthread_mutex_unlock(&s->mu);
 }
 
 static void on_list(server *s, conn *c, const vp_header *h, const uint8_t *p)
@@ -441,7 +539,9 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
             send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
             return;
         }
+        pthread_rwlock_wrlock(&s->scene_lock);
         rc = scene_add(s->sc, &b, handles, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
         if (rc) {
             send_error(s, c, h->req, rc, err.index, err.msg);
         } else {
@@ -460,7 +560,10 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_entity_batch b;
         if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
-        after_edit(s, c, h->req, scene_update(s->sc, &b, &err), &err, b.count);
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_update(s->sc, &b, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, b.count);
         return;
     }
     case VP_ENTITY_REMOVE:
@@ -469,8 +572,10 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_id_batch b;
         if ((rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b))) break;
+        pthread_rwlock_wrlock(&s->scene_lock);
         if (h->type == VP_ENTITY_REMOVE) rc = scene_remove(s->sc, &b, &err);
         else rc = scene_remove_ids(s->sc, h->type == VP_LIGHT_REMOVE ? &s->sc->lights : &s->sc->occluders, &b, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
         after_edit(s, c, h->req, rc, &err, b.count);
         return;
     }
@@ -478,14 +583,20 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_mesh m;
         if ((rc = vp_dec_mesh(p, h->len, 0, &m))) break;
-        after_edit(s, c, h->req, scene_mesh_put(s->sc, &m, &err), &err, 1);
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_mesh_put(s->sc, &m, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, 1);
         return;
     }
     case VP_OCCLUDER_PUT: {
         if (!editor(s, c, h->req)) return;
         vp_occluder o;
         if ((rc = vp_dec_occluder(p, h->len, 0, &o))) break;
-        after_edit(s, c, h->req, scene_occluder_put(s->sc, &o, &err), &err, 1);
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_occluder_put(s->sc, &o, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, 1);
         return;
     }
     case VP_LIGHT_PUT: {
@@ -493,7 +604,10 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         const uint8_t *recs;
         uint32_t n;
         if ((rc = vp_dec_lights(p, h->len, s->cfg.max_batch, &recs, &n))) break;
-        after_edit(s, c, h->req, scene_lights_put(s->sc, recs, n, &err), &err, n);
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_lights_put(s->sc, recs, n, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, n);
         return;
     }
     default: {
@@ -508,15 +622,97 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
 
 /* ---- reading -------------------------------------------------------------------- */
 
-static void conn_read(ae_loop *l, int fd, void *data, int mask)
+static void conn_read(server *s, int fd);
+static void conn_write(server *s, int fd);
+
+/* One proc per fd in ae: readiness goes to the reader or the writer. */
+static void conn_event(ae_loop *l, int fd, void *data, int mask)
+{
+    (void)l;
+    if (mask & AE_READABLE) conn_read(data, fd);
+    else if (mask & AE_WRITABLE) conn_write(data, fd);
+}
+
+/* Dispatches the whole frames buffered on c (until a query goes to a
+ * worker), then flushes. May free c. */
+static void conn_process(server *s, conn *c)
+{
+    size_t pos = 0;
+    while (!c->closing && !c->busy) {
+        vp_header h;
+        size_t fs;
+        uint32_t limit = c->hello ? s->cfg.max_payload : VANTAGED_PREHELLO_MAX;
+        int rc = vp_frame_check(c->in + pos, c->in_len - pos, limit, &h, &fs);
+        if (rc == VP_NEED_MORE) break;
+        if (rc != VP_OK) {
+            char msg[96];
+            snprintf(msg, sizeof msg, "%s (payload %u bytes, limit %u)", vp_strerror(rc), h.len, limit);
+            send_error(s, c, h.req, rc, UINT32_MAX, msg);
+            c->closing = true; /* the stream can no longer be trusted */
+            break;
+        }
+        dispatch(s, c, &h, c->in + pos + VP_HEADER_SIZE);
+        pos += fs;
+    }
+    memmove(c->in, c->in + pos, c->in_len - pos);
+    c->in_len -= pos;
+    if (c->closing && !c->busy) {
+        (void)conn_flush(s, c); /* best effort: let the client read why */
+        conn_free(s, c);
+        return;
+    }
+    if (!conn_flush(s, c)) conn_free(s, c);
+}
+
+/* Replies from the workers: append, then go on with the connection's input. */
+static void on_done(ae_loop *l, int fd, void *data, int mask)
 {
     (void)l;
     (void)mask;
     server *s = data;
+    uint64_t v;
+    ssize_t ignored = read(fd, &v, sizeof v);
+    (void)ignored;
+    pthread_mutex_lock(&s->mu);
+    job *j = s->done_head;
+    s->done_head = s->done_tail = NULL;
+    pthread_mutex_unlock(&s->mu);
+    while (j) {
+        job *next = j->next;
+        conn *c = s->conns[j->fd];
+        if (c && c->id == j->conn_id) { /* still the same client */
+            vp_writer w;
+            if (!j->reply || !out_reserve(c, j->reply_len, &w)) {
+                c->closing = true;
+            } else {
+                vp_put_bytes(&w, j->reply, j->reply_len);
+                out_commit(c, &w);
+                if (j->ok) s->queries++;
+                else s->errors++;
+            }
+            c->busy = false;
+            if (!(ae_mask(s->loop, c->fd) & AE_READABLE)) ae_add(s->loop, c->fd, AE_READABLE, conn_event, s);
+            conn_process(s, c);
+        }
+        free(j->payload);
+        free(j->reply);
+        free(j);
+        j = next;
+    }
+}
+
+static void conn_read(server *s, int fd)
+{
     conn *c = s->conns[fd];
     if (!c) return;
     uint32_t limit = c->hello ? s->cfg.max_payload : VANTAGED_PREHELLO_MAX;
     for (;;) {
+        if (c->busy && c->in_len >= (size_t)limit + VP_HEADER_SIZE) {
+            /* a query is out and a whole frame waits behind it: stop
+               reading this client until the reply is back */
+            ae_del(s->loop, fd, AE_READABLE);
+            return;
+        }
         if (c->in_cap - c->in_len < 65536) {
             size_t cap = c->in_cap ? c->in_cap * 2 : 65536;
             size_t most = (size_t)limit + VP_HEADER_SIZE + 65536;
@@ -542,31 +738,7 @@ static void conn_read(ae_loop *l, int fd, void *data, int mask)
         conn_free(s, c); /* closed by the peer, or an error */
         return;
     }
-    size_t pos = 0;
-    while (!c->closing) {
-        vp_header h;
-        size_t fs;
-        limit = c->hello ? s->cfg.max_payload : VANTAGED_PREHELLO_MAX;
-        int rc = vp_frame_check(c->in + pos, c->in_len - pos, limit, &h, &fs);
-        if (rc == VP_NEED_MORE) break;
-        if (rc != VP_OK) {
-            char msg[96];
-            snprintf(msg, sizeof msg, "%s (payload %u bytes, limit %u)", vp_strerror(rc), h.len, limit);
-            send_error(s, c, h.req, rc, UINT32_MAX, msg);
-            c->closing = true; /* the stream can no longer be trusted */
-            break;
-        }
-        dispatch(s, c, &h, c->in + pos + VP_HEADER_SIZE);
-        pos += fs;
-    }
-    memmove(c->in, c->in + pos, c->in_len - pos);
-    c->in_len -= pos;
-    if (c->closing) {
-        (void)conn_flush(s, c); /* best effort: let the client read why */
-        conn_free(s, c);
-        return;
-    }
-    if (!conn_flush(s, c)) conn_free(s, c);
+    conn_process(s, c);
 }
 
 static void on_accept(ae_loop *l, int lfd, void *data, int mask)
@@ -595,7 +767,7 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
         int one = 1;
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
         conn *c = calloc(1, sizeof *c);
-        if (!c || ae_add(l, fd, AE_READABLE, conn_read, s) < 0) {
+        if (!c || ae_add(l, fd, AE_READABLE, conn_event, s) < 0) {
             free(c);
             close(fd);
             continue;
@@ -617,7 +789,11 @@ static void before_sleep(ae_loop *l, void *data)
     server *s = data;
     scene *sc = s->sc;
     bool changed = sc->ev_added || sc->ev_updated || sc->ev_removed;
-    if (changed) cull_world_commit(sc->world);
+    if (changed) {
+        pthread_rwlock_wrlock(&s->scene_lock);
+        cull_world_commit(sc->world);
+        pthread_rwlock_unlock(&s->scene_lock);
+    }
     for (int fd = 0; fd < s->conns_cap; fd++) {
         conn *c = s->conns[fd];
         if (!c) continue;
@@ -698,7 +874,7 @@ server *server_create(const server_config *cfg, scene *sc)
     if (!s) return NULL;
     s->cfg = *cfg;
     s->sc = sc;
-    s->tcp_fd = s->unix_fd = s->sig_fd = -1;
+    s->tcp_fd = s->unix_fd = s->sig_fd = s->done_fd = -1;
     /* SIGINT and SIGTERM arrive through a signalfd on the loop: block them
        before any thread starts, so no worker inherits them unblocked */
     sigset_t set;
@@ -710,8 +886,28 @@ server *server_create(const server_config *cfg, scene *sc)
     s->conns_cap = (int)cfg->max_clients + 64;
     s->conns = calloc((size_t)s->conns_cap, sizeof *s->conns);
     s->loop = ae_create(s->conns_cap);
-    if (!s->conns || !s->loop || cull_pool_create(cfg->threads, &s->pool) || cull_ctx_create(s->pool, &s->ctx))
+    s->done_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (!s->conns || !s->loop || s->done_fd < 0 || s->done_fd >= s->conns_cap ||
+        ae_add(s->loop, s->done_fd, AE_READABLE, on_done, s))
         goto fail;
+    pthread_rwlockattr_t ra;
+    pthread_rwlockattr_init(&ra);
+    /* edits must not starve behind a steady stream of queries */
+    pthread_rwlockattr_setkind_np(&ra, PTHREAD_RWLOCK_PREFER_WRITER_NONRECURSIVE_NP);
+    pthread_rwlock_init(&s->scene_lock, &ra);
+    pthread_rwlockattr_destroy(&ra);
+    pthread_mutex_init(&s->mu, NULL);
+    pthread_cond_init(&s->cv, NULL);
+    s->nworkers = cfg->threads ? cfg->threads : (uint32_t)sysconf(_SC_NPROCESSORS_ONLN);
+    if (s->nworkers < 1) s->nworkers = 1;
+    s->workers = calloc(s->nworkers, sizeof *s->workers);
+    if (!s->workers) goto fail;
+    for (uint32_t i = 0; i < s->nworkers; i++) {
+        if (pthread_create(&s->workers[i], NULL, worker_main, s)) {
+            s->nworkers = i;
+            goto fail;
+        }
+    }
     if (cfg->bind && *cfg->bind) {
         if ((s->tcp_fd = listen_tcp(cfg->bind, cfg->port)) < 0) goto fail;
         if (s->tcp_fd >= s->conns_cap || ae_add(s->loop, s->tcp_fd, AE_READABLE, on_accept, s)) goto fail;
@@ -752,10 +948,27 @@ void server_destroy(server *s)
         unlink(s->cfg.unix_path);
     }
     if (s->sig_fd >= 0) close(s->sig_fd);
+    if (s->workers) {
+        pthread_mutex_lock(&s->mu);
+        s->stopping = true;
+        pthread_cond_broadcast(&s->cv);
+        pthread_mutex_unlock(&s->mu);
+        for (uint32_t i = 0; i < s->nworkers; i++) pthread_join(s->workers[i], NULL);
+        free(s->workers);
+        pthread_rwlock_destroy(&s->scene_lock);
+        pthread_mutex_destroy(&s->mu);
+        pthread_cond_destroy(&s->cv);
+    }
+    for (job *lists[2] = {s->jobs_head, s->done_head}, **l = lists; l < lists + 2; l++) {
+        for (job *j = *l, *n; j; j = n) {
+            n = j->next;
+            free(j->payload);
+            free(j->reply);
+            free(j);
+        }
+    }
+    if (s->done_fd >= 0) close(s->done_fd);
     ae_destroy(s->loop);
-    cull_ctx_destroy(s->ctx);
-    cull_pool_destroy(s->pool);
-    free(s->res);
     free(s->conns);
     free(s);
 }
