@@ -72,7 +72,7 @@ BENCH_BIN:= $(BUILD)/bench_cull
 
 SCENE    ?= ../shared/scenes/city_scene.txt
 
-.PHONY: all run demo test bench deps check-deps clean test-one
+.PHONY: all run demo test bench deps check-deps clean test-one install install-check
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN)
 
 # ---- dependencies -----------------------------------------------------------
@@ -157,6 +157,7 @@ test: check-deps
 	@$(MAKE) --no-print-directory CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan fuzz-replay
+	@$(MAKE) --no-print-directory CONFIG=release install-check
 	./build/release/bench_cull --smoke
 	VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
@@ -166,6 +167,23 @@ test: check-deps
 bench: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull
 	./build/release/bench_cull --scene $(SCENE) $(BENCH_ARGS)
+
+# ---- install: the binaries, libvantage, its headers and pkg-config file ----------
+PREFIX ?= /usr/local
+install: check-deps
+	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN) $(CLIENT_LIB)
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include/vantage
+	install -m 755 $(DAEMON_BIN) $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/
+	install -m 644 $(CLIENT_LIB) $(DESTDIR)$(PREFIX)/lib/
+	install -m 644 client/vantage.h protocol/protocol.h $(DESTDIR)$(PREFIX)/include/vantage/
+	sed 's|@PREFIX@|$(PREFIX)|' client/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
+
+# installs into build/<config>/stage and builds a program with pkg-config
+install-check:
+	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) install PREFIX=$(abspath $(BUILD))/stage > /dev/null
+	PKG_CONFIG_PATH=$(BUILD)/stage/lib/pkgconfig $(CC) -std=c11 -o $(BUILD)/install_check tests/install_check.c \
+	  $$(PKG_CONFIG_PATH=$(BUILD)/stage/lib/pkgconfig pkg-config --cflags --libs --static vantage)
+	$(BUILD)/install_check
 
 clean:
 	rm -rf build
