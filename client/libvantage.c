@@ -373,6 +373,34 @@ int vt_subscribe(vt_client *c, uint32_t kinds)
     return ack_call(c, &w, req, NULL);
 }
 
+int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t *ids)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + 4 + (size_t)n * 256, &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    vp_enc_names(&w, VP_SUBLEVEL_NAMES, req, names, NULL, n);
+    int rc = roundtrip(c, &w, req, VP_SUBLEVEL_IDS, &p, &len);
+    if (rc) return rc;
+    uint32_t got;
+    const uint8_t *raw;
+    if (vp_dec_sublevel_ids(p, len, &got, &raw) || got != n) return set_err(c, VT_ERR_IO, "malformed SUBLEVEL_IDS");
+    for (uint32_t i = 0; i < n; i++) ids[i] = vp_sublevel_id_get(raw, got, i);
+    return VP_OK;
+}
+
+int vt_sublevel_list(vt_client *c, vp_name_list *out)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
+    vp_enc_empty(&w, VP_SUBLEVEL_LIST, req);
+    int rc = roundtrip(c, &w, req, VP_SUBLEVEL_LIST_REPLY, &p, &len);
+    if (rc) return rc;
+    return vp_dec_names(p, len, true, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_LIST_REPLY") : VP_OK;
+}
+
 int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms)
 {
     for (;;) {

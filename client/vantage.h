@@ -73,6 +73,10 @@ int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out);
 int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
              vp_vis_result *out);
 int vt_subscribe(vt_client *c, uint32_t kinds);
+/* Ids of sub-level names (1..255 bytes each), defining new ones. */
+int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t *ids);
+/* Every named sub-level (walk out with vp_name_next; valid until the next call). */
+int vt_sublevel_list(vt_client *c, vp_name_list *out);
 /* Waits for a pushed EVENT; VT_ERR_IO on timeout. */
 int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms);
 int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n);

@@ -148,9 +148,10 @@ static bool json_num_array(json_object *a, double *out, size_t n)
 }
 
 /* One line of an import file to a record; a message in err on failure. */
-static bool entity_from_json(const char *line, vp_entity *e, char *err, size_t errlen)
+static bool entity_from_json(const char *line, vp_entity *e, char *sub, char *err, size_t errlen)
 {
     memset(e, 0, sizeof *e);
+    sub[0] = 0;
     json_tokener *tok = json_tokener_new();
     json_object *o = json_tokener_parse_ex(tok, line, (int)strlen(line));
     enum json_tokener_error je = json_tokener_get_error(tok);
@@ -180,12 +181,24 @@ static bool entity_from_json(const char *line, vp_entity *e, char *err, size_t e
         e->class_id = (uint16_t)cl;
     }
     if (json_object_object_get_ex(o, "sublevel", &v)) {
-        int64_t sl = json_object_get_int64(v);
-        if (!json_object_is_type(v, json_type_int) || sl < 0 || sl > 65535) {
-            snprintf(err, errlen, "\"sublevel\" must be 0..65535 (named sub-levels arrive with sub-level loading)");
-            goto out;
+        if (json_object_is_type(v, json_type_string)) {
+            const char *nm = json_object_get_string(v);
+            size_t l = strlen(nm);
+            bool clean = l >= 1 && l <= VP_MAX_NAME;
+            for (size_t i = 0; clean && i < l; i++) clean = (unsigned char)nm[i] >= 32 && nm[i] != 127;
+            if (!clean) {
+                snprintf(err, errlen, "\"sublevel\" names are 1..255 bytes without control characters");
+                goto out;
+            }
+            memcpy(sub, nm, l + 1); /* resolved to an id before sending */
+        } else {
+            int64_t sl = json_object_get_int64(v);
+            if (!json_object_is_type(v, json_type_int) || sl < 0 || sl > 65535) {
+                snprintf(err, errlen, "\"sublevel\" must be a name or 0..65535");
+                goto out;
+            }
+            e->sublevel = (uint16_t)sl;
         }
-        e->sublevel = (uint16_t)sl;
     }
     if (json_object_object_get_ex(o, "dynamic", &v)) {
         if (!json_object_is_type(v, json_type_boolean)) {
@@ -369,6 +382,30 @@ static int cmd_get(cli *k, int argc, char **argv)
     return rc;
 }
 
+/* Names of sub-levels in a batch to their ids (defined on first use). */
+static int resolve_sublevels(cli *k, vp_entity *batch, char (*subs)[VP_MAX_NAME + 1], uint32_t n)
+{
+    const char **names = malloc((size_t)n * sizeof *names);
+    uint16_t *ids = malloc((size_t)n * sizeof *ids);
+    uint32_t *which = malloc((size_t)n * sizeof *which);
+    uint32_t nn = 0;
+    int rc = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        if (!subs[i][0]) continue;
+        uint32_t j = 0;
+        while (j < nn && strcmp(names[j], subs[i])) j++;
+        if (j == nn) names[nn++] = subs[i];
+        which[i] = j;
+    }
+    if (nn && (rc = vt_sublevel_ids(k->c, names, nn, ids))) rc = server_fail(k, "import", rc);
+    for (uint32_t i = 0; !rc && i < n; i++)
+        if (subs[i][0]) batch[i].sublevel = ids[which[i]];
+    free(names);
+    free(ids);
+    free(which);
+    return rc;
+}
+
 static int cmd_import(cli *k, int argc, char **argv)
 {
     if (argc != 2) return die_usage("import FILE.jsonl");
@@ -386,6 +423,7 @@ static int cmd_import(cli *k, int argc, char **argv)
     if (cap > 8192) cap = 8192;
     vp_entity *batch = malloc((size_t)cap * sizeof *batch);
     uint32_t *handles = malloc((size_t)cap * sizeof *handles);
+    char (*subs)[VP_MAX_NAME + 1] = malloc((size_t)cap * sizeof *subs); /* sub-level name per record */
     char *line = NULL;
     size_t lcap = 0, lineno = 0, total = 0;
     uint32_t n = 0;
@@ -397,13 +435,14 @@ static int cmd_import(cli *k, int argc, char **argv)
         while (len > 0 && (line[len - 1] == '\n' || line[len - 1] == '\r')) line[--len] = 0;
         if (len == 0) continue;
         char err[160];
-        if (!entity_from_json(line, &batch[n], err, sizeof err)) {
+        if (!entity_from_json(line, &batch[n], subs[n], err, sizeof err)) {
             fprintf(stderr, "%s: %s:%zu: %s\n", g_prog, argv[1], lineno, err);
             rc = 2;
             break;
         }
         if (n == 0) first_line = lineno;
         if (++n == cap) {
+            if ((rc = resolve_sublevels(k, batch, subs, n))) break;
             if ((rc = vt_add(k->c, batch, n, handles, NULL))) {
                 fprintf(stderr, "%s: %s: the batch starting at line %zu was rejected whole\n", g_prog, argv[1],
                         first_line);
@@ -414,6 +453,7 @@ static int cmd_import(cli *k, int argc, char **argv)
             if (isatty(2)) fprintf(stderr, "\rimported %zu entities", total);
         }
     }
+    if (rc == 0 && n) rc = resolve_sublevels(k, batch, subs, n);
     if (rc == 0 && n) {
         if ((rc = vt_add(k->c, batch, n, handles, NULL))) {
             fprintf(stderr, "%s: %s: the batch starting at line %zu was rejected whole\n", g_prog, argv[1], first_line);
@@ -428,6 +468,7 @@ static int cmd_import(cli *k, int argc, char **argv)
     free(line);
     free(batch);
     free(handles);
+    free(subs);
     if (f != stdin) fclose(f);
     return rc;
 }
@@ -441,6 +482,25 @@ static int cmd_export(cli *k, int argc, char **argv)
     if (!f) {
         fprintf(stderr, "%s: %s: %s\n", g_prog, argv[1], strerror(errno));
         return 2;
+    }
+    /* sub-level ids that have names are written as their names */
+    static char *names[65536];
+    vp_name_list nl;
+    if ((rc = vt_sublevel_list(k->c, &nl))) {
+        if (f != stdout) fclose(f);
+        return server_fail(k, "export", rc);
+    }
+    size_t pos = 0;
+    vp_name nm;
+    while (vp_name_next(&nl, &pos, &nm)) {
+        char *q = malloc(2 * (size_t)nm.len + 1), *o = q; /* JSON-escaped */
+        for (uint8_t i = 0; i < nm.len; i++) {
+            if (nm.name[i] == '"' || nm.name[i] == '\\') *o++ = '\\';
+            *o++ = (char)nm.name[i];
+        }
+        *o = 0;
+        free(names[nm.id]);
+        names[nm.id] = q;
     }
     uint64_t cursor = 0, epoch0 = 0;
     size_t total = 0;
@@ -461,17 +521,25 @@ static int cmd_export(cli *k, int argc, char **argv)
         for (uint32_t i = 0; i < lr.batch.count; i++) {
             vp_entity e;
             vp_entity_get(&lr.batch, i, &e);
+            char sub[600];
+            if (names[e.sublevel]) snprintf(sub, sizeof sub, "\"%s\"", names[e.sublevel]);
+            else snprintf(sub, sizeof sub, "%u", e.sublevel);
             fprintf(f, "{\"id\": %llu, \"class\": %u, \"sphere\": [%.17g, %.17g, %.17g, %.17g], "
-                       "\"aabb\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g], \"sublevel\": %u, \"dynamic\": %s}\n",
+                       "\"aabb\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g], \"sublevel\": %s, \"dynamic\": %s}\n",
                     (unsigned long long)e.id, e.class_id, e.sphere[0], e.sphere[1], e.sphere[2], e.sphere[3],
-                    e.aabb[0], e.aabb[1], e.aabb[2], e.aabb[3], e.aabb[4], e.aabb[5], e.sublevel,
+                    e.aabb[0], e.aabb[1], e.aabb[2], e.aabb[3], e.aabb[4], e.aabb[5], sub,
                     (e.flags & VP_ENT_DYNAMIC) ? "true" : "false");
         }
         total += lr.batch.count;
         cursor = lr.next_cursor;
     } while (cursor);
-    if (f != stdout) fclose(f);
-    if (!rc) fprintf(f == stdout ? stderr : stdout, "exported %zu entities at epoch %llu\n", total,
+    bool to_stdout = f == stdout;
+    if (!to_stdout) fclose(f);
+    for (size_t i = 0; i < 65536; i++) {
+        free(names[i]);
+        names[i] = NULL;
+    }
+    if (!rc) fprintf(to_stdout ? stderr : stdout, "exported %zu entities at epoch %llu\n", total,
                      (unsigned long long)epoch0);
     return rc;
 }

@@ -56,6 +56,7 @@ void scene_free(scene *s)
         if (s->lights.used[i]) free((void *)(uintptr_t)s->lights.vals[i]);
     idmap_free(&s->occluders);
     idmap_free(&s->lights);
+    for (uint32_t i = 1; i <= s->nsublevels; i++) free(s->sublevel_name[i]);
     memset(s, 0, sizeof *s);
 }
 
@@ -453,6 +454,38 @@ int scene_lights_put(scene *s, const uint8_t *recs, uint32_t n, scene_err *err)
     }
     free(mem);
     s->epoch++;
+    return VP_OK;
+}
+
+static uint16_t sublevel_find(const scene *s, const uint8_t *name, uint8_t len)
+{
+    for (uint32_t i = 1; i <= s->nsublevels; i++)
+        if (strlen(s->sublevel_name[i]) == len && !memcmp(s->sublevel_name[i], name, len)) return (uint16_t)i;
+    return 0;
+}
+
+int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene_err *err)
+{
+    uint32_t first_new = s->nsublevels + 1, i = 0;
+    size_t pos = 0;
+    vp_name nm;
+    while (vp_name_next(names, &pos, &nm)) {
+        uint16_t id = sublevel_find(s, nm.name, nm.len);
+        if (!id) {
+            char *copy = NULL;
+            if (s->nsublevels >= SCENE_MAX_SUBLEVELS || !(copy = malloc((size_t)nm.len + 1))) {
+                for (uint32_t k = first_new; k <= s->nsublevels; k++) free(s->sublevel_name[k]);
+                s->nsublevels = first_new - 1; /* all or nothing */
+                return fail(err, VP_ERR_LIMIT, i, "name %u: %u sub-level names, limit %u", i, s->nsublevels,
+                            SCENE_MAX_SUBLEVELS);
+            }
+            memcpy(copy, nm.name, nm.len);
+            copy[nm.len] = 0;
+            s->sublevel_name[++s->nsublevels] = copy;
+            id = (uint16_t)s->nsublevels;
+        }
+        ids[i++] = id;
+    }
     return VP_OK;
 }
 

@@ -25,6 +25,8 @@ typedef struct scene_occluder {
     float *verts;
 } scene_occluder;
 
+#define SCENE_MAX_SUBLEVELS 4096u
+
 typedef struct scene_limits {
     uint32_t max_entities, max_lights, max_occluders, max_occluder_tris, max_mesh_verts;
 } scene_limits;
@@ -43,6 +45,8 @@ typedef struct scene {
     /* what changed since the last event, for subscribers */
     uint32_t ev_added, ev_updated, ev_removed;
     uint64_t edits;         /* entity records applied, ever */
+    char *sublevel_name[SCENE_MAX_SUBLEVELS + 1]; /* by id; [0] unused (default) */
+    uint32_t nsublevels;
 } scene;
 
 /* Result of a failed edit: code from VP_ERRORS, the failing record, why. */
@@ -64,6 +68,9 @@ int scene_mesh_put(scene *s, const vp_mesh *m, scene_err *err);
 int scene_occluder_put(scene *s, const vp_occluder *o, scene_err *err);
 int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *err);
 int scene_lights_put(scene *s, const uint8_t *recs, uint32_t n, scene_err *err);
+
+/* Ids of sub-level names, defining the new ones (all or nothing). */
+int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene_err *err);
 
 /* The editor id of a live handle (0 if unknown). */
 uint64_t scene_id_of(const scene *s, cull_handle h);

@@ -474,6 +474,54 @@ static void on_get(server *s, conn *c, const vp_header *h, const uint8_t *p)
     free(e);
 }
 
+static void on_sublevel_names(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_name_list nl;
+    int rc = vp_dec_names(p, h->len, false, &nl);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    uint16_t *ids = malloc(((size_t)nl.count + 1) * sizeof *ids);
+    scene_err err;
+    if (!ids) {
+        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        return;
+    }
+    pthread_rwlock_wrlock(&s->scene_lock);
+    rc = scene_sublevel_ids(s->sc, &nl, ids, &err);
+    pthread_rwlock_unlock(&s->scene_lock);
+    vp_writer w;
+    if (rc) send_error(s, c, h->req, rc, err.index, err.msg);
+    else if (out_reserve(c, VP_HEADER_SIZE + 4 + 2 * (size_t)nl.count, &w)) {
+        vp_enc_sublevel_ids(&w, h->req, ids, nl.count);
+        out_commit(c, &w);
+    } else {
+        c->closing = true;
+    }
+    free(ids);
+}
+
+static void on_sublevel_list(server *s, conn *c, uint32_t req)
+{
+    uint32_t n = s->sc->nsublevels;
+    const char **names = malloc(((size_t)n + 1) * sizeof *names);
+    uint16_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    vp_writer w;
+    if (names && ids && out_reserve(c, VP_HEADER_SIZE + 4 + (size_t)n * 258, &w)) {
+        for (uint32_t i = 0; i < n; i++) {
+            names[i] = s->sc->sublevel_name[i + 1];
+            ids[i] = (uint16_t)(i + 1);
+        }
+        vp_enc_names(&w, VP_SUBLEVEL_LIST_REPLY, req, names, ids, n);
+        out_commit(c, &w);
+    } else {
+        send_error(s, c, req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+    }
+    free(names);
+    free(ids);
+}
+
 static void after_edit(server *s, conn *c, uint32_t req, int rc, const scene_err *err, uint32_t count)
 {
     if (rc) send_error(s, c, req, rc, err->index, err->msg);
@@ -529,6 +577,14 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         return;
     case VP_ENTITY_GET:
         on_get(s, c, h, p);
+        return;
+    case VP_SUBLEVEL_NAMES:
+        if (!editor(s, c, h->req)) return;
+        on_sublevel_names(s, c, h, p);
+        return;
+    case VP_SUBLEVEL_LIST:
+        if ((rc = vp_dec_empty(p, h->len))) break;
+        on_sublevel_list(s, c, h->req);
         return;
     case VP_ENTITY_ADD: {
         if (!editor(s, c, h->req)) return;

@@ -42,6 +42,10 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_OCCLUDER_REMOVE, "occluder_remove"},
     {VP_LIGHT_PUT, "light_put"},
     {VP_LIGHT_REMOVE, "light_remove"},
+    {VP_SUBLEVEL_NAMES, "sublevel_names"},
+    {VP_SUBLEVEL_IDS, "sublevel_ids"},
+    {VP_SUBLEVEL_LIST, "sublevel_list"},
+    {VP_SUBLEVEL_LIST_REPLY, "sublevel_list_reply"},
     {VP_VIS_QUERY, "vis_query"},
     {VP_VIS_RESULT, "vis_result"},
 };
@@ -922,4 +926,84 @@ int vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out)
     if (i >= n) return VP_ERR_COUNT;
     light_read(recs + (size_t)i * VP_LIGHT_SIZE, out);
     return light_check(out);
+}
+
+/* ---- sub-level names ------------------------------------------------------------ */
+
+void vp_enc_names(vp_writer *w, uint16_t type, uint32_t req, const char *const *names, const uint16_t *ids,
+                  uint32_t n)
+{
+    vp_frame_begin(w, type, req);
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) {
+        size_t l = strlen(names[i]);
+        if (l > VP_MAX_NAME) l = VP_MAX_NAME;
+        if (ids) vp_put_u16(w, ids[i]);
+        vp_put_u8(w, (uint8_t)l);
+        vp_put_bytes(w, names[i], l);
+    }
+    vp_frame_end(w);
+}
+
+int vp_dec_names(const uint8_t *p, size_t len, bool with_ids, vp_name_list *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->count = vp_get_u32(&r);
+    m->with_ids = with_ids;
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    if (m->count > VP_MAX_SUBLEVELS) return VP_ERR_COUNT;
+    m->p = p + r.pos;
+    m->len = len - r.pos;
+    for (uint32_t i = 0; i < m->count; i++) {
+        if (with_ids) (void)vp_get_u16(&r);
+        uint8_t l = vp_get_u8(&r);
+        const uint8_t *name = vp_get_bytes(&r, l);
+        if (r.short_read) return VP_ERR_COUNT;
+        if (l == 0) return VP_ERR_INVALID;
+        for (uint8_t k = 0; k < l; k++)
+            if (name[k] < 32 || name[k] == 127) return VP_ERR_INVALID; /* no control bytes */
+    }
+    int rc = vp_reader_finish(&r);
+    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+}
+
+bool vp_name_next(const vp_name_list *l, size_t *pos, vp_name *out)
+{
+    if (*pos >= l->len) return false;
+    const uint8_t *p = l->p + *pos;
+    out->id = 0;
+    if (l->with_ids) {
+        out->id = rd16(p);
+        p += 2;
+    }
+    out->len = p[0];
+    out->name = p + 1;
+    *pos += (l->with_ids ? 2u : 0u) + 1u + out->len;
+    return true;
+}
+
+void vp_enc_sublevel_ids(vp_writer *w, uint32_t req, const uint16_t *ids, uint32_t n)
+{
+    vp_frame_begin(w, VP_SUBLEVEL_IDS, req);
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) vp_put_u16(w, ids[i]);
+    vp_frame_end(w);
+}
+
+int vp_dec_sublevel_ids(const uint8_t *p, size_t len, uint32_t *n, const uint8_t **ids)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    *n = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    int rc = take_array(&r, *n, 2, VP_MAX_SUBLEVELS, ids);
+    if (rc) return rc;
+    rc = vp_reader_finish(&r);
+    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+}
+
+uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i)
+{
+    return i < n ? rd16(ids + 2 * (size_t)i) : 0;
 }

@@ -92,8 +92,13 @@ enum vp_type {
     /* 0x0200..0x02ff queries */
     VP_VIS_QUERY = 0x0200,
     VP_VIS_RESULT = 0x0201,
-    /* reserved: 0x0300 sub-levels, 0x0400 destruction, 0x0500 frames,
-       0x0600 input, 0x0700 persistence and administration */
+    /* 0x0300..0x03ff sub-levels */
+    VP_SUBLEVEL_NAMES = 0x0300,
+    VP_SUBLEVEL_IDS = 0x0301,
+    VP_SUBLEVEL_LIST = 0x0302,
+    VP_SUBLEVEL_LIST_REPLY = 0x0303,
+    /* reserved: 0x0400 destruction, 0x0500 frames, 0x0600 input,
+       0x0700 persistence and administration */
 };
 
 /* Roles, lowest to highest. */
@@ -316,6 +321,25 @@ typedef struct vp_list_reply {
     vp_entity_batch batch;
 } vp_list_reply;
 
+/* Sub-level names: a list of (id, name). Names are 1..255 bytes of UTF-8;
+ * id 0 is the unnamed default sub-level. */
+#define VP_MAX_SUBLEVELS 65535u
+typedef struct vp_name_list {
+    uint32_t count;
+    const uint8_t *p;     /* the encoded entries, walked with vp_name_next */
+    size_t len;
+    bool with_ids;        /* SUBLEVEL_LIST_REPLY entries carry an id */
+} vp_name_list;
+
+typedef struct vp_name {
+    uint16_t id;          /* 0 in SUBLEVEL_NAMES */
+    uint8_t len;
+    const uint8_t *name;
+} vp_name;
+
+/* Walks a decoded list: *pos starts at 0; false at the end. */
+bool vp_name_next(const vp_name_list *l, size_t *pos, vp_name *out);
+
 /* Encoders: append one whole frame to w. */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);
 void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m);
@@ -339,6 +363,10 @@ void vp_enc_occluder(vp_writer *w, uint32_t req, uint64_t id, const double origi
                      uint32_t ntris);
 void vp_enc_lights(vp_writer *w, uint32_t req, const vp_light *l, uint32_t n);
 void vp_enc_list(vp_writer *w, uint32_t req, const vp_list *m);
+/* SUBLEVEL_NAMES (ids NULL) or SUBLEVEL_LIST_REPLY (ids given). */
+void vp_enc_names(vp_writer *w, uint16_t type, uint32_t req, const char *const *names, const uint16_t *ids,
+                  uint32_t n);
+void vp_enc_sublevel_ids(vp_writer *w, uint32_t req, const uint16_t *ids, uint32_t n);
 void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_t epoch, const vp_entity *e,
                        uint32_t n);
 
@@ -370,6 +398,9 @@ int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m);
 int vp_dec_occluder(const uint8_t *p, size_t len, uint32_t max_batch, vp_occluder *m);
 int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_t **recs, uint32_t *n);
 int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m);
+int vp_dec_names(const uint8_t *p, size_t len, bool with_ids, vp_name_list *m);
+int vp_dec_sublevel_ids(const uint8_t *p, size_t len, uint32_t *n, const uint8_t **ids);
+uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i);
 int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m);
 
 /* Record getters for batches (validated by the decoder that made them;

@@ -590,7 +590,8 @@ static void test_cli_round_trip(void **state)
     (void)state;
     daemon_proc d, d2;
     daemon_start(&d, NULL);
-    char cmd[1024], out[4096];
+    char cmd[1024], out[8192];
+    FILE *f;
     const char *cli = bin_dir();
     snprintf(cmd, sizeof cmd,
              "%s/vantage -s %s add 7 0,0,20 1 --class 3 > /dev/null && "
@@ -605,17 +606,33 @@ static void test_cli_round_trip(void **state)
     assert_non_null(strstr(out, "{\"id\": 7, "));
     assert_non_null(strstr(out, "{\"id\": 8, "));
     assert_non_null(strstr(out, "\"visible\": 2"));
-    char f1[128], f2[128];
+    char f1[128], f2[128], f0[128];
     snprintf(f1, sizeof f1, "/tmp/vantage-test-%d-a.jsonl", (int)getpid());
     snprintf(f2, sizeof f2, "/tmp/vantage-test-%d-b.jsonl", (int)getpid());
+    snprintf(f0, sizeof f0, "/tmp/vantage-test-%d-0.jsonl", (int)getpid());
+    /* named sub-levels, an AABB-only entity, an escaped name */
+    FILE *in = fopen(f0, "w");
+    fprintf(in, "{\"id\": 20, \"class\": 4, \"sphere\": [1, 2, 3, 4], \"sublevel\": \"north\"}\n"
+                "{\"id\": 21, \"aabb\": [0, 0, 0, 2, 2, 2], \"sublevel\": \"south \\\"B\\\"\", \"dynamic\": true}\n"
+                "{\"id\": 22, \"sphere\": [9, 9, 9, 1], \"sublevel\": \"north\"}\n");
+    fclose(in);
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d import %s > /dev/null", cli, d.port, f0);
+    assert_int_equal(system(cmd), 0);
     daemon_start(&d2, NULL);
     snprintf(cmd, sizeof cmd,
              "%s/vantage -p %d export %s > /dev/null && %s/vantage -p %d import %s > /dev/null && "
              "%s/vantage -p %d export %s > /dev/null && cmp -s %s %s",
              cli, d.port, f1, cli, d2.port, f1, cli, d2.port, f2, f1, f2);
     assert_int_equal(system(cmd), 0);
+    f = fopen(f2, "r");
+    n = fread(out, 1, sizeof out - 1, f);
+    out[n] = 0;
+    fclose(f);
+    assert_non_null(strstr(out, "\"id\": 20, \"class\": 4, \"sphere\": [1, 2, 3, 4]"));
+    assert_non_null(strstr(out, "\"sublevel\": \"north\""));
+    assert_non_null(strstr(out, "\"sublevel\": \"south \\\"B\\\"\""));
     /* a bad line is reported with its line number and nothing is applied */
-    FILE *f = fopen(f1, "a");
+    f = fopen(f1, "a");
     fprintf(f, "{\"id\": 99, \"sphere\": [1, 2]}\n");
     fclose(f);
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d import %s 2>&1", cli, d2.port, f1);
@@ -623,7 +640,8 @@ static void test_cli_round_trip(void **state)
     n = fread(out, 1, sizeof out - 1, p);
     out[n] = 0;
     assert_int_not_equal(pclose(p), 0);
-    assert_non_null(strstr(out, ":3: \"sphere\" must be"));
+    assert_non_null(strstr(out, ":6: \"sphere\" must be"));
+    unlink(f0);
     unlink(f1);
     unlink(f2);
     daemon_stop(&d2);

@@ -232,6 +232,37 @@ static void test_round_trips(void **state)
         assert_memory_equal(&e, &ents[i], sizeof e);
     }
 
+    const char *names[3] = {"north", "south \"B\"", "x"};
+    uint16_t sids[3] = {1, 2, 300};
+    at = w.len;
+    vp_enc_names(&w, VP_SUBLEVEL_LIST_REPLY, 12, names, sids, 3);
+    p = frame_payload(&w, at, VP_SUBLEVEL_LIST_REPLY, &len);
+    vp_name_list sl;
+    assert_int_equal(vp_dec_names(p, len, true, &sl), VP_OK);
+    assert_int_equal(sl.count, 3);
+    size_t npos = 0;
+    vp_name nm;
+    for (uint32_t i = 0; i < 3; i++) {
+        assert_true(vp_name_next(&sl, &npos, &nm));
+        assert_int_equal(nm.id, sids[i]);
+        assert_int_equal(nm.len, strlen(names[i]));
+        assert_memory_equal(nm.name, names[i], nm.len);
+    }
+    assert_false(vp_name_next(&sl, &npos, &nm));
+    assert_true(vp_dec_names(p, len, false, &sl) < 0); /* read without ids: misaligned */
+    at = w.len;
+    vp_enc_sublevel_ids(&w, 12, sids, 3);
+    p = frame_payload(&w, at, VP_SUBLEVEL_IDS, &len);
+    uint32_t nid;
+    const uint8_t *rid;
+    assert_int_equal(vp_dec_sublevel_ids(p, len, &nid, &rid), VP_OK);
+    assert_int_equal(vp_sublevel_id_get(rid, nid, 2), 300);
+    at = w.len;
+    const char *bad[1] = {"a\tb"};
+    vp_enc_names(&w, VP_SUBLEVEL_NAMES, 13, bad, NULL, 1);
+    p = frame_payload(&w, at, VP_SUBLEVEL_NAMES, &len);
+    assert_int_equal(vp_dec_names(p, len, false, &sl), VP_ERR_INVALID);
+
     at = w.len;
     vp_enc_ping(&w, VP_PING, 10, (const uint8_t *)"hello", 5);
     p = frame_payload(&w, at, VP_PING, &len);
@@ -334,6 +365,7 @@ static int d_lights(const uint8_t *p, size_t len)
 static int d_stats(const uint8_t *p, size_t len) { vp_stats_reply s; return vp_dec_stats_reply(p, len, &s); }
 static int d_error(const uint8_t *p, size_t len) { vp_error e; return vp_dec_error(p, len, &e); }
 static int d_list_reply(const uint8_t *p, size_t len) { vp_list_reply l; return vp_dec_list_reply(p, len, &l); }
+static int d_names(const uint8_t *p, size_t len) { vp_name_list l; return vp_dec_names(p, len, true, &l); }
 
 /* Every strict prefix and a one-byte extension of a valid payload fail. */
 static void check_prefixes(dec_fn dec, const uint8_t *p, size_t len)
@@ -391,6 +423,9 @@ static void test_prefixes_and_extensions(void **state)
     vp_writer_init(&w, g_buf, sizeof g_buf);
     vp_enc_list_reply(&w, 1, 5, 6, e, 2);
     check_prefixes(d_list_reply, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_names(&w, VP_SUBLEVEL_LIST_REPLY, 1, (const char *const[]){"ab", "cde"}, (const uint16_t[]){1, 2}, 2);
+    check_prefixes(d_names, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
 }
 
 static void test_bad_fields(void **state)
@@ -475,7 +510,7 @@ static void test_bad_fields(void **state)
     assert_int_equal(vp_dec_lights(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &recs, &n), VP_ERR_INVALID);
 
     assert_true(vp_type_known(VP_VIS_QUERY));
-    assert_false(vp_type_known(0x0300));
+    assert_false(vp_type_known(0x0400));
     assert_string_equal(vp_strerror(VP_ERR_MAGIC), "bad magic: not a Vantage client");
 }
 
@@ -486,7 +521,7 @@ static void test_random_bytes(void **state)
     (void)state;
     rng r = {test_seed() ^ 0x6666};
     static const dec_fn decs[] = {d_entities, d_ids, d_query, d_result, d_hello, d_mesh, d_occ, d_lights,
-                                  d_stats, d_error, d_list_reply};
+                                  d_stats, d_error, d_list_reply, d_names};
     uint8_t *buf = malloc(4096);
     int iters = (int)(20000 * test_scale());
     for (int it = 0; it < iters; it++) {
