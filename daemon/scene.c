@@ -156,6 +156,33 @@ static bool grow_id_of_slot(scene *s, uint32_t need)
     return true;
 }
 
+/* Record i of a batch as a normalised culling desc, or an error. */
+static int record_desc(const scene *s, const vp_entity_batch *b, uint32_t i, vp_entity *e, cull_entity_desc *out,
+                       scene_err *err)
+{
+    int rc = vp_entity_get(b, i, e);
+    if (rc) return fail(err, rc, i, "record %u: %s", i, vp_strerror(rc));
+    cull_entity_desc d;
+    to_desc(e, &d);
+    int crc = cull_entity_check(s->world, &d, out);
+    if (crc)
+        return fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
+                    i, (unsigned long long)e->id, cull_strerror(crc));
+    return VP_OK;
+}
+
+/* VP_OK when no id appears twice in ids[0..n), else the error. */
+static int check_unique(const uint64_t *ids, uint32_t n, scene_err *err)
+{
+    bool nomem;
+    uint32_t dup = first_duplicate(ids, n, &nomem);
+    if (nomem) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids");
+    if (dup != UINT32_MAX)
+        return fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
+                    (unsigned long long)ids[dup]);
+    return VP_OK;
+}
+
 int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
 {
     uint32_t n = b->count;
@@ -164,7 +191,7 @@ int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *
     if ((uint64_t)info.entities + n > s->lim.max_entities)
         return fail(err, VP_ERR_LIMIT, UINT32_MAX, "scene holds %u entities, limit %u", info.entities,
                     s->lim.max_entities);
-    uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
     cull_entity_desc *descs = malloc(((size_t)n + 1) * sizeof *descs);
     if (!ids || !descs || !idmap_reserve(&s->ids, s->ids.count + n)) {
         free(ids);
@@ -174,35 +201,14 @@ int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
         vp_entity e;
-        if ((rc = vp_entity_get(b, i, &e))) {
-            fail(err, rc, i, "record %u: %s", i, vp_strerror(rc));
-            goto out;
-        }
+        if ((rc = record_desc(s, b, i, &e, &descs[i], err))) goto out;
         ids[i] = e.id;
         if (idmap_get(&s->ids, e.id, NULL)) {
             rc = fail(err, VP_ERR_DUPLICATE, i, "record %u: id %llu already exists", i, (unsigned long long)e.id);
             goto out;
         }
-        cull_entity_desc d;
-        to_desc(&e, &d);
-        int crc = cull_entity_check(s->world, &d, &descs[i]);
-        if (crc) {
-            rc = fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
-                      i, (unsigned long long)e.id, cull_strerror(crc));
-            goto out;
-        }
     }
-    bool nomem;
-    uint32_t dup = first_duplicate(ids, n, &nomem);
-    if (nomem) {
-        rc = fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids");
-        goto out;
-    }
-    if (dup != UINT32_MAX) {
-        rc = fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
-                  (unsigned long long)ids[dup]);
-        goto out;
-    }
+    if ((rc = check_unique(ids, n, err))) goto out;
     /* apply */
     for (uint32_t i = 0; i < n; i++) {
         cull_handle h;
@@ -236,7 +242,7 @@ out:
 int scene_update(scene *s, const vp_entity_batch *b, scene_err *err)
 {
     uint32_t n = b->count;
-    uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
     cull_handle *hs = malloc(((size_t)n + 1) * sizeof *hs);
     cull_entity_desc *descs = malloc(((size_t)n + 1) * sizeof *descs);
     cull_entity_desc *old = malloc(((size_t)n + 1) * sizeof *old);
@@ -247,10 +253,7 @@ int scene_update(scene *s, const vp_entity_batch *b, scene_err *err)
     }
     for (uint32_t i = 0; i < n; i++) {
         vp_entity e;
-        if ((rc = vp_entity_get(b, i, &e))) {
-            fail(err, rc, i, "record %u: %s", i, vp_strerror(rc));
-            goto out;
-        }
+        if ((rc = record_desc(s, b, i, &e, &descs[i], err))) goto out;
         uint64_t h;
         if (!idmap_get(&s->ids, e.id, &h)) {
             rc = fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)e.id);
@@ -263,24 +266,9 @@ int scene_update(scene *s, const vp_entity_batch *b, scene_err *err)
         }
         ids[i] = e.id;
         hs[i] = (cull_handle)h;
-        cull_entity_desc d;
-        to_desc(&e, &d);
-        int crc = cull_entity_check(s->world, &d, &descs[i]);
-        if (crc) {
-            rc = fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
-                      i, (unsigned long long)e.id, cull_strerror(crc));
-            goto out;
-        }
         cull_entity_get(s->world, hs[i], &old[i]);
     }
-    bool nomem;
-    uint32_t dup = first_duplicate(ids, n, &nomem);
-    if (nomem || dup != UINT32_MAX) {
-        rc = nomem ? fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids")
-                   : fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
-                          (unsigned long long)ids[dup]);
-        goto out;
-    }
+    if ((rc = check_unique(ids, n, err))) goto out;
     for (uint32_t i = 0; i < n; i++) {
         int crc = cull_entity_update(s->world, hs[i], &descs[i]);
         if (crc) {
@@ -303,7 +291,7 @@ out:
 int scene_remove(scene *s, const vp_id_batch *b, scene_err *err)
 {
     uint32_t n = b->count;
-    uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
     if (!ids) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
@@ -313,14 +301,7 @@ int scene_remove(scene *s, const vp_id_batch *b, scene_err *err)
             goto out;
         }
     }
-    bool nomem;
-    uint32_t dup = first_duplicate(ids, n, &nomem);
-    if (nomem || dup != UINT32_MAX) {
-        rc = nomem ? fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids")
-                   : fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
-                          (unsigned long long)ids[dup]);
-        goto out;
-    }
+    if ((rc = check_unique(ids, n, err))) goto out;
     for (uint32_t i = 0; i < n; i++) { /* removal cannot fail once validated */
         uint64_t h;
         idmap_get(&s->ids, ids[i], &h);
@@ -407,14 +388,12 @@ int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *er
         if (!idmap_get(which, vp_id_get(b, i), NULL))
             return fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no such id %llu", i,
                         (unsigned long long)vp_id_get(b, i));
-    bool nomem;
     uint64_t *ids = malloc(((size_t)b->count + 1) * sizeof *ids);
     if (!ids) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
     for (uint32_t i = 0; i < b->count; i++) ids[i] = vp_id_get(b, i);
-    uint32_t dup = first_duplicate(ids, b->count, &nomem);
+    int rc = check_unique(ids, b->count, err);
     free(ids);
-    if (nomem) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
-    if (dup != UINT32_MAX) return fail(err, VP_ERR_DUPLICATE, dup, "record %u: id twice in the batch", dup);
+    if (rc) return rc;
     for (uint32_t i = 0; i < b->count; i++) {
         uint64_t v;
         idmap_get(which, vp_id_get(b, i), &v);

@@ -590,6 +590,10 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_entity_batch b;
         if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
+        if (!b.count) {
+            rc = VP_ERR_COUNT; /* an empty batch: the spec says 1..max_batch */
+            break;
+        }
         uint32_t *handles = malloc(((size_t)b.count + 1) * sizeof *handles);
         if (!handles) {
             send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
@@ -616,6 +620,10 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_entity_batch b;
         if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
+        if (!b.count) {
+            rc = VP_ERR_COUNT;
+            break;
+        }
         pthread_rwlock_wrlock(&s->scene_lock);
         rc = scene_update(s->sc, &b, &err);
         pthread_rwlock_unlock(&s->scene_lock);
@@ -628,6 +636,10 @@ static void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_id_batch b;
         if ((rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b))) break;
+        if (!b.count) {
+            rc = VP_ERR_COUNT;
+            break;
+        }
         pthread_rwlock_wrlock(&s->scene_lock);
         if (h->type == VP_ENTITY_REMOVE) rc = scene_remove(s->sc, &b, &err);
         else rc = scene_remove_ids(s->sc, h->type == VP_LIGHT_REMOVE ? &s->sc->lights : &s->sc->occluders, &b, &err);
