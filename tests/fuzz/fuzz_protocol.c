@@ -511,6 +511,44 @@ static void fuzz_vis_result(const uint8_t *p, size_t len)
 
 typedef void (*plain_fn)(const uint8_t *, size_t);
 
+/* Sub-level names: walk every entry; re-encode and compare. */
+static void fuzz_names(const uint8_t *p, size_t len, bool with_ids)
+{
+    vp_name_list l;
+    if (vp_dec_names(p, len, with_ids, &l) != VP_OK) return;
+    size_t pos = 0;
+    vp_name nm;
+    uint32_t n = 0;
+    char names[64][256];
+    const char *ptrs[64];
+    uint16_t ids[64];
+    while (vp_name_next(&l, &pos, &nm)) {
+        CHECK(nm.len >= 1 && nm.name + nm.len <= p + len);
+        if (n < 64) {
+            memcpy(names[n], nm.name, nm.len);
+            names[n][nm.len] = 0;
+            ptrs[n] = names[n];
+            ids[n] = nm.id;
+        }
+        n++;
+    }
+    CHECK(n == l.count);
+    if (n > 64) return;
+    uint8_t buf[VP_HEADER_SIZE + 4 + 64 * 258];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_names(&w, with_ids ? VP_SUBLEVEL_LIST_REPLY : VP_SUBLEVEL_NAMES, 0, ptrs, with_ids ? ids : NULL, n);
+    CHECK(!w.overflow && w.len - VP_HEADER_SIZE == len && !memcmp(buf + VP_HEADER_SIZE, p, len));
+}
+
+static void fuzz_sublevel_ids(const uint8_t *p, size_t len)
+{
+    uint32_t n;
+    const uint8_t *ids;
+    if (vp_dec_sublevel_ids(p, len, &n, &ids) != VP_OK) return;
+    for (uint32_t i = 0; i < n; i++) (void)vp_sublevel_id_get(ids, n, i);
+}
+
 static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
 {
     uint32_t limit = h->req; /* fuzzer-chosen max_batch for the batch decoders */
@@ -538,6 +576,11 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_LIGHT_PUT: fuzz_lights(p, len, limit); return;
     case VP_VIS_QUERY: fuzz_vis_query(p, len); return;
     case VP_VIS_RESULT: fuzz_vis_result(p, len); return;
+    case VP_ENTITY_GET: fuzz_ids(p, len, h->type, limit); return;
+    case VP_SUBLEVEL_NAMES:
+    case VP_SUBLEVEL_LIST_REPLY: fuzz_names(p, len, h->type == VP_SUBLEVEL_LIST_REPLY); return;
+    case VP_SUBLEVEL_IDS: fuzz_sublevel_ids(p, len); return;
+    case VP_SUBLEVEL_LIST: fuzz_empty(p, len); return;
     default: break;
     }
     /* Unknown to this version: a server would answer ERROR TYPE and skip
