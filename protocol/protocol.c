@@ -1,10 +1,12 @@
 /*
- * protocol.c — see protocol.h and PROTOCOL.md. Byte-level reads and writes
- * are explicit little-endian shifts, so the code is right on any host.
+ * protocol.c — see protocol.h and PROTOCOL.md: errors and type names,
+ * framing, the writer and reader, and the session messages. The scene
+ * and query messages are in vp_messages.c. Byte-level reads and writes are
+ * explicit little-endian shifts, so the code is right on any host.
  * Decoders check sizes from the counts before touching records and never
  * allocate; a payload is either accepted whole or rejected with a code.
  */
-#include "protocol.h"
+#include "vp_internal.h"
 
 #include <math.h>
 #include <string.h>
@@ -64,42 +66,6 @@ const char *vp_type_name(uint16_t type)
     return "unknown";
 }
 
-/* ---- little-endian primitives ------------------------------------------------ */
-
-static uint16_t rd16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
-static uint32_t rd32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-static uint64_t rd64(const uint8_t *p) { return (uint64_t)rd32(p) | (uint64_t)rd32(p + 4) << 32; }
-static float rdf32(const uint8_t *p)
-{
-    uint32_t u = rd32(p);
-    float f;
-    memcpy(&f, &u, sizeof f);
-    return f;
-}
-static double rdf64(const uint8_t *p)
-{
-    uint64_t u = rd64(p);
-    double d;
-    memcpy(&d, &u, sizeof d);
-    return d;
-}
-static void wr16(uint8_t *p, uint16_t v)
-{
-    p[0] = (uint8_t)v;
-    p[1] = (uint8_t)(v >> 8);
-}
-static void wr32(uint8_t *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> (8 * i));
-}
-static void wr64(uint8_t *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++) p[i] = (uint8_t)(v >> (8 * i));
-}
-
 /* ---- framing ---------------------------------------------------------------------- */
 
 int vp_frame_check(const uint8_t *buf, size_t n, uint32_t max_payload, vp_header *h, size_t *frame_size)
@@ -122,7 +88,7 @@ void vp_writer_init(vp_writer *w, uint8_t *buf, size_t cap)
     *w = (vp_writer){.p = buf, .cap = cap};
 }
 
-static uint8_t *reserve(vp_writer *w, size_t n)
+uint8_t *vp_reserve(vp_writer *w, size_t n)
 {
     if (w->overflow || w->cap - w->len < n) {
         w->overflow = true;
@@ -135,22 +101,22 @@ static uint8_t *reserve(vp_writer *w, size_t n)
 
 void vp_put_u8(vp_writer *w, uint8_t v)
 {
-    uint8_t *p = reserve(w, 1);
+    uint8_t *p = vp_reserve(w, 1);
     if (p) *p = v;
 }
 void vp_put_u16(vp_writer *w, uint16_t v)
 {
-    uint8_t *p = reserve(w, 2);
+    uint8_t *p = vp_reserve(w, 2);
     if (p) wr16(p, v);
 }
 void vp_put_u32(vp_writer *w, uint32_t v)
 {
-    uint8_t *p = reserve(w, 4);
+    uint8_t *p = vp_reserve(w, 4);
     if (p) wr32(p, v);
 }
 void vp_put_u64(vp_writer *w, uint64_t v)
 {
-    uint8_t *p = reserve(w, 8);
+    uint8_t *p = vp_reserve(w, 8);
     if (p) wr64(p, v);
 }
 void vp_put_i32(vp_writer *w, int32_t v) { vp_put_u32(w, (uint32_t)v); }
@@ -168,7 +134,7 @@ void vp_put_f64(vp_writer *w, double v)
 }
 void vp_put_bytes(vp_writer *w, const void *src, size_t n)
 {
-    uint8_t *p = reserve(w, n);
+    uint8_t *p = vp_reserve(w, n);
     if (p && n) memcpy(p, src, n);
 }
 
@@ -251,9 +217,7 @@ int vp_reader_finish(const vp_reader *r)
     return r->pos == r->len ? VP_OK : VP_ERR_TRAILING;
 }
 
-/* A counted array of n records of size rec: the count is checked against
- * the limit and the bytes left before the records are taken. */
-static int take_array(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8_t **out)
+int vp_take_array(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8_t **out)
 {
     if (max && n > max) return VP_ERR_COUNT;
     size_t left = vp_remaining(r);
@@ -263,14 +227,14 @@ static int take_array(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const 
     return VP_OK;
 }
 
-static bool finite_n(const double *v, int n)
+bool vp_finite_n(const double *v, int n)
 {
     for (int i = 0; i < n; i++)
         if (!isfinite(v[i])) return false;
     return true;
 }
 
-static bool finite_nf(const float *v, int n)
+bool vp_finite_nf(const float *v, int n)
 {
     for (int i = 0; i < n; i++)
         if (!isfinite(v[i])) return false;
@@ -478,532 +442,3 @@ int vp_dec_event(const uint8_t *p, size_t len, vp_event *m)
     return vp_reader_finish(&r);
 }
 
-/* ---- entities ------------------------------------------------------------------ */
-
-size_t vp_size_entities(uint32_t n)
-{
-    return VP_HEADER_SIZE + 4 + (size_t)n * VP_ENTITY_REC_SIZE;
-}
-
-size_t vp_size_ids(uint32_t n)
-{
-    return VP_HEADER_SIZE + 4 + (size_t)n * 8;
-}
-
-static void put_entities(vp_writer *w, const vp_entity *e, uint32_t n)
-{
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) {
-        vp_put_u64(w, e[i].id);
-        vp_put_u32(w, e[i].handle);
-        vp_put_u16(w, e[i].class_id);
-        vp_put_u16(w, e[i].sublevel);
-        vp_put_u32(w, e[i].flags);
-        vp_put_u32(w, 0);
-        for (int k = 0; k < 4; k++) vp_put_f64(w, e[i].sphere[k]);
-        for (int k = 0; k < 6; k++) vp_put_f64(w, e[i].aabb[k]);
-    }
-}
-
-void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity *e, uint32_t n)
-{
-    vp_frame_begin(w, type, req);
-    put_entities(w, e, n);
-    vp_frame_end(w);
-}
-
-static void entity_read(const uint8_t *p, vp_entity *e)
-{
-    e->id = rd64(p);
-    e->handle = rd32(p + 8);
-    e->class_id = rd16(p + 12);
-    e->sublevel = rd16(p + 14);
-    e->flags = rd32(p + 16);
-    for (int k = 0; k < 4; k++) e->sphere[k] = rdf64(p + 24 + 8 * k);
-    for (int k = 0; k < 6; k++) e->aabb[k] = rdf64(p + 56 + 8 * k);
-}
-
-static int entity_check(const vp_entity *e)
-{
-    if (!finite_n(e->sphere, 4) || !finite_n(e->aabb, 6)) return VP_ERR_NONFINITE;
-    if (e->flags & ~VP_ENT_DYNAMIC) return VP_ERR_INVALID;
-    return VP_OK;
-}
-
-/* count + records to the end of the payload */
-static int get_entities(vp_reader *rd, uint32_t max_batch, vp_entity_batch *m)
-{
-    vp_reader r = *rd;
-    m->count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    int rc = take_array(&r, m->count, VP_ENTITY_REC_SIZE, max_batch, &m->recs);
-    if (rc) return rc;
-    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-    for (uint32_t i = 0; i < m->count; i++) {
-        vp_entity e;
-        entity_read(m->recs + (size_t)i * VP_ENTITY_REC_SIZE, &e);
-        if ((rc = entity_check(&e))) return rc;
-    }
-    *rd = r;
-    return VP_OK;
-}
-
-int vp_dec_entities(const uint8_t *p, size_t len, uint32_t max_batch, vp_entity_batch *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    return get_entities(&r, max_batch, m);
-}
-
-void vp_enc_list(vp_writer *w, uint32_t req, const vp_list *m)
-{
-    vp_frame_begin(w, VP_ENTITY_LIST, req);
-    vp_put_u64(w, m->cursor);
-    vp_put_u32(w, m->max);
-    vp_frame_end(w);
-}
-
-int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->cursor = vp_get_u64(&r);
-    m->max = vp_get_u32(&r);
-    int rc = vp_reader_finish(&r);
-    if (rc) return rc;
-    return (m->max == 0 || (max_batch && m->max > max_batch)) ? VP_ERR_COUNT : VP_OK;
-}
-
-void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_t epoch, const vp_entity *e,
-                       uint32_t n)
-{
-    vp_frame_begin(w, VP_ENTITY_LIST_REPLY, req);
-    vp_put_u64(w, next_cursor);
-    vp_put_u64(w, epoch);
-    put_entities(w, e, n);
-    vp_frame_end(w);
-}
-
-int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->next_cursor = vp_get_u64(&r);
-    m->epoch = vp_get_u64(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    return get_entities(&r, 0, &m->batch);
-}
-
-int vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out)
-{
-    if (i >= b->count) return VP_ERR_COUNT;
-    entity_read(b->recs + (size_t)i * VP_ENTITY_REC_SIZE, out);
-    return entity_check(out);
-}
-
-void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, uint32_t n)
-{
-    vp_frame_begin(w, type, req);
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) vp_put_u64(w, ids[i]);
-    vp_frame_end(w);
-}
-
-int vp_dec_ids(const uint8_t *p, size_t len, uint32_t max_batch, vp_id_batch *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    int rc = take_array(&r, m->count, 8, max_batch, &m->ids);
-    if (rc) return rc;
-    rc = vp_reader_finish(&r);
-    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-}
-
-uint64_t vp_id_get(const vp_id_batch *b, uint32_t i)
-{
-    return i < b->count ? rd64(b->ids + (size_t)i * 8) : 0;
-}
-
-void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n)
-{
-    vp_frame_begin(w, VP_ENTITY_ADD_REPLY, req);
-    vp_put_u64(w, epoch);
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) vp_put_u32(w, handles[i]);
-    vp_frame_end(w);
-}
-
-int vp_dec_add_reply(const uint8_t *p, size_t len, vp_add_reply *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->epoch = vp_get_u64(&r);
-    m->count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    int rc = take_array(&r, m->count, 4, 0, &m->handles);
-    if (rc) return rc;
-    rc = vp_reader_finish(&r);
-    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-}
-
-uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i)
-{
-    return i < b->count ? rd32(b->handles + (size_t)i * 4) : 0;
-}
-
-/* ---- visibility ---------------------------------------------------------------- */
-
-void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n)
-{
-    vp_frame_begin(w, VP_VIS_QUERY, req);
-    vp_put_u8(w, (uint8_t)n);
-    vp_put_u8(w, flags);
-    vp_put_u16(w, 0);
-    vp_put_f32(w, min_area);
-    for (uint32_t i = 0; i < n; i++) {
-        for (int k = 0; k < 3; k++) vp_put_f64(w, v[i].origin[k]);
-        for (int k = 0; k < 16; k++) vp_put_f64(w, v[i].view_proj[k]);
-        vp_put_u8(w, v[i].depth_mode);
-        vp_put_u8(w, 0);
-        vp_put_u16(w, v[i].viewport_w);
-        vp_put_u16(w, v[i].viewport_h);
-        vp_put_u16(w, 0);
-    }
-    vp_frame_end(w);
-}
-
-static void view_read(const uint8_t *p, vp_view *v)
-{
-    for (int k = 0; k < 3; k++) v->origin[k] = rdf64(p + 8 * k);
-    for (int k = 0; k < 16; k++) v->view_proj[k] = rdf64(p + 24 + 8 * k);
-    v->depth_mode = p[152];
-    v->viewport_w = rd16(p + 154);
-    v->viewport_h = rd16(p + 156);
-}
-
-static int view_check(const vp_view *v)
-{
-    if (!finite_n(v->origin, 3) || !finite_n(v->view_proj, 16)) return VP_ERR_NONFINITE;
-    if (v->depth_mode > 2) return VP_ERR_INVALID;
-    if ((v->viewport_w == 0) != (v->viewport_h == 0)) return VP_ERR_INVALID;
-    return VP_OK;
-}
-
-int vp_dec_vis_query(const uint8_t *p, size_t len, vp_vis_query *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->view_count = vp_get_u8(&r);
-    m->flags = vp_get_u8(&r);
-    uint16_t pad = vp_get_u16(&r);
-    m->min_area = vp_get_f32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    if (pad) return VP_ERR_INVALID;
-    if (m->view_count == 0 || m->view_count > VP_MAX_VIEWS) return VP_ERR_COUNT;
-    if (!isfinite(m->min_area)) return VP_ERR_NONFINITE;
-    if (m->min_area < 0) return VP_ERR_INVALID;
-    if (m->flags & ~0x3fu) return VP_ERR_INVALID;
-    if ((m->flags & VP_Q_STATIC_ONLY) && (m->flags & VP_Q_DYNAMIC_ONLY)) return VP_ERR_INVALID;
-    int rc = take_array(&r, m->view_count, VP_VIEW_SIZE, 0, &m->views);
-    if (rc) return rc;
-    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-    for (uint32_t i = 0; i < m->view_count; i++) {
-        vp_view v;
-        view_read(m->views + (size_t)i * VP_VIEW_SIZE, &v);
-        if ((rc = view_check(&v))) return rc;
-    }
-    return VP_OK;
-}
-
-int vp_view_get(const vp_vis_query *q, uint32_t i, vp_view *out)
-{
-    if (i >= q->view_count) return VP_ERR_COUNT;
-    view_read(q->views + (size_t)i * VP_VIEW_SIZE, out);
-    return view_check(out);
-}
-
-size_t vp_size_vis_result(uint32_t n)
-{
-    return VP_HEADER_SIZE + 20 + 4 * VP_STAGES + (size_t)n * VP_VIS_REC_SIZE;
-}
-
-void vp_enc_vis_result_begin(vp_writer *w, uint32_t req, const vp_vis_result *m)
-{
-    vp_frame_begin(w, VP_VIS_RESULT, req);
-    vp_put_u64(w, m->epoch);
-    vp_put_u32(w, m->tested);
-    vp_put_u32(w, m->visible);
-    for (uint32_t i = 0; i < VP_STAGES; i++) vp_put_u32(w, m->stage_ns[i]);
-    vp_put_u32(w, m->count);
-}
-
-void vp_put_vis_rec(vp_writer *w, const vp_vis_rec *r)
-{
-    uint8_t *p = reserve(w, VP_VIS_REC_SIZE);
-    if (!p) return;
-    wr64(p, r->id);
-    wr32(p + 8, r->handle);
-    wr32(p + 12, r->view_mask);
-    wr16(p + 16, r->class_id);
-    wr16(p + 18, r->sublevel);
-    uint32_t a;
-    memcpy(&a, &r->area, sizeof a);
-    wr32(p + 20, a);
-}
-
-int vp_dec_vis_result(const uint8_t *p, size_t len, vp_vis_result *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->epoch = vp_get_u64(&r);
-    m->tested = vp_get_u32(&r);
-    m->visible = vp_get_u32(&r);
-    for (uint32_t i = 0; i < VP_STAGES; i++) m->stage_ns[i] = vp_get_u32(&r);
-    m->count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    int rc = take_array(&r, m->count, VP_VIS_REC_SIZE, 0, &m->recs);
-    if (rc) return rc;
-    rc = vp_reader_finish(&r);
-    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-}
-
-void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
-{
-    if (i >= r->count) {
-        memset(out, 0, sizeof *out);
-        return;
-    }
-    const uint8_t *p = r->recs + (size_t)i * VP_VIS_REC_SIZE;
-    out->id = rd64(p);
-    out->handle = rd32(p + 8);
-    out->view_mask = rd32(p + 12);
-    out->class_id = rd16(p + 16);
-    out->sublevel = rd16(p + 18);
-    out->area = rdf32(p + 20);
-}
-
-/* ---- meshes, occluders, lights ---------------------------------------------------- */
-
-void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
-                 const uint32_t *idx, uint32_t ni)
-{
-    vp_frame_begin(w, VP_MESH_PUT, req);
-    vp_put_u16(w, class_id);
-    vp_put_u16(w, 0);
-    vp_put_u32(w, nv);
-    vp_put_u32(w, ni);
-    for (uint32_t i = 0; i < 3 * nv; i++) vp_put_f32(w, pos[i]);
-    for (uint32_t i = 0; i < 3 * nv; i++) vp_put_f32(w, nrm[i]);
-    for (uint32_t i = 0; i < ni; i++) vp_put_u32(w, idx[i]);
-    vp_frame_end(w);
-}
-
-int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->class_id = vp_get_u16(&r);
-    uint16_t pad = vp_get_u16(&r);
-    m->vertex_count = vp_get_u32(&r);
-    m->index_count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    if (pad) return VP_ERR_INVALID;
-    if (m->index_count % 3) return VP_ERR_COUNT;
-    int rc;
-    if ((rc = take_array(&r, m->vertex_count, 12, max_batch, &m->positions)) ||
-        (rc = take_array(&r, m->vertex_count, 12, max_batch, &m->normals)) ||
-        (rc = take_array(&r, m->index_count, 4,
-                         max_batch ? (uint32_t)(max_batch > UINT32_MAX / 3 ? UINT32_MAX : 3 * max_batch) : 0,
-                         &m->indices)))
-        return rc;
-    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-    for (uint32_t i = 0; i < 3 * m->vertex_count; i++) {
-        float f[2] = {rdf32(m->positions + 4 * (size_t)i), rdf32(m->normals + 4 * (size_t)i)};
-        if (!finite_nf(f, 2)) return VP_ERR_NONFINITE;
-    }
-    for (uint32_t i = 0; i < m->index_count; i++)
-        if (rd32(m->indices + 4 * (size_t)i) >= m->vertex_count) return VP_ERR_INVALID;
-    return VP_OK;
-}
-
-void vp_enc_occluder(vp_writer *w, uint32_t req, uint64_t id, const double origin[3], const float *verts,
-                     uint32_t ntris)
-{
-    vp_frame_begin(w, VP_OCCLUDER_PUT, req);
-    vp_put_u64(w, id);
-    for (int k = 0; k < 3; k++) vp_put_f64(w, origin[k]);
-    vp_put_u32(w, ntris);
-    for (uint32_t i = 0; i < 9 * ntris; i++) vp_put_f32(w, verts[i]);
-    vp_frame_end(w);
-}
-
-int vp_dec_occluder(const uint8_t *p, size_t len, uint32_t max_batch, vp_occluder *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->id = vp_get_u64(&r);
-    for (int k = 0; k < 3; k++) m->origin[k] = vp_get_f64(&r);
-    m->tri_count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    if (!finite_n(m->origin, 3)) return VP_ERR_NONFINITE;
-    int rc = take_array(&r, m->tri_count, 36, max_batch, &m->verts);
-    if (rc) return rc;
-    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-    for (uint32_t i = 0; i < 9 * m->tri_count; i++) {
-        float f = rdf32(m->verts + 4 * (size_t)i);
-        if (!isfinite(f)) return VP_ERR_NONFINITE;
-    }
-    return VP_OK;
-}
-
-void vp_enc_lights(vp_writer *w, uint32_t req, const vp_light *l, uint32_t n)
-{
-    vp_frame_begin(w, VP_LIGHT_PUT, req);
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) {
-        vp_put_u64(w, l[i].id);
-        vp_put_u8(w, l[i].kind);
-        vp_put_u8(w, 0);
-        vp_put_u16(w, 0);
-        vp_put_f32(w, l[i].intensity);
-        for (int k = 0; k < 3; k++) vp_put_f64(w, l[i].pos[k]);
-        for (int k = 0; k < 3; k++) vp_put_f32(w, l[i].dir[k]);
-        for (int k = 0; k < 3; k++) vp_put_f32(w, l[i].color[k]);
-        vp_put_f32(w, l[i].range);
-        vp_put_f32(w, l[i].inner_cos);
-        vp_put_f32(w, l[i].outer_cos);
-        vp_put_u32(w, 0);
-    }
-    vp_frame_end(w);
-}
-
-static void light_read(const uint8_t *p, vp_light *l)
-{
-    l->id = rd64(p);
-    l->kind = p[8];
-    l->intensity = rdf32(p + 12);
-    for (int k = 0; k < 3; k++) l->pos[k] = rdf64(p + 16 + 8 * k);
-    for (int k = 0; k < 3; k++) l->dir[k] = rdf32(p + 40 + 4 * k);
-    for (int k = 0; k < 3; k++) l->color[k] = rdf32(p + 52 + 4 * k);
-    l->range = rdf32(p + 64);
-    l->inner_cos = rdf32(p + 68);
-    l->outer_cos = rdf32(p + 72);
-}
-
-static int light_check(const vp_light *l)
-{
-    float f[] = {l->intensity, l->dir[0], l->dir[1], l->dir[2], l->color[0], l->color[1], l->color[2],
-                 l->range, l->inner_cos, l->outer_cos};
-    if (!finite_n(l->pos, 3) || !finite_nf(f, (int)(sizeof f / sizeof f[0]))) return VP_ERR_NONFINITE;
-    if (l->kind > VP_LIGHT_SPOT || !(l->range > 0) || l->intensity < 0) return VP_ERR_INVALID;
-    if (l->color[0] < 0 || l->color[1] < 0 || l->color[2] < 0) return VP_ERR_INVALID;
-    if (l->kind == VP_LIGHT_SPOT && !(l->outer_cos <= l->inner_cos && l->outer_cos >= -1 && l->inner_cos <= 1))
-        return VP_ERR_INVALID;
-    return VP_OK;
-}
-
-int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_t **recs, uint32_t *n)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    *n = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    int rc = take_array(&r, *n, VP_LIGHT_SIZE, max_batch, recs);
-    if (rc) return rc;
-    if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-    for (uint32_t i = 0; i < *n; i++) {
-        vp_light l;
-        light_read(*recs + (size_t)i * VP_LIGHT_SIZE, &l);
-        if ((rc = light_check(&l))) return rc;
-    }
-    return VP_OK;
-}
-
-int vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out)
-{
-    if (i >= n) return VP_ERR_COUNT;
-    light_read(recs + (size_t)i * VP_LIGHT_SIZE, out);
-    return light_check(out);
-}
-
-/* ---- sub-level names ------------------------------------------------------------ */
-
-void vp_enc_names(vp_writer *w, uint16_t type, uint32_t req, const char *const *names, const uint16_t *ids,
-                  uint32_t n)
-{
-    vp_frame_begin(w, type, req);
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) {
-        size_t l = strlen(names[i]);
-        if (l > VP_MAX_NAME) l = VP_MAX_NAME;
-        if (ids) vp_put_u16(w, ids[i]);
-        vp_put_u8(w, (uint8_t)l);
-        vp_put_bytes(w, names[i], l);
-    }
-    vp_frame_end(w);
-}
-
-int vp_dec_names(const uint8_t *p, size_t len, bool with_ids, vp_name_list *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->count = vp_get_u32(&r);
-    m->with_ids = with_ids;
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    if (m->count > VP_MAX_SUBLEVELS) return VP_ERR_COUNT;
-    m->p = p + r.pos;
-    m->len = len - r.pos;
-    for (uint32_t i = 0; i < m->count; i++) {
-        if (with_ids) (void)vp_get_u16(&r);
-        uint8_t l = vp_get_u8(&r);
-        const uint8_t *name = vp_get_bytes(&r, l);
-        if (r.short_read) return VP_ERR_COUNT;
-        if (l == 0) return VP_ERR_INVALID;
-        for (uint8_t k = 0; k < l; k++)
-            if (name[k] < 32 || name[k] == 127) return VP_ERR_INVALID; /* no control bytes */
-    }
-    int rc = vp_reader_finish(&r);
-    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-}
-
-bool vp_name_next(const vp_name_list *l, size_t *pos, vp_name *out)
-{
-    if (*pos >= l->len) return false;
-    const uint8_t *p = l->p + *pos;
-    out->id = 0;
-    if (l->with_ids) {
-        out->id = rd16(p);
-        p += 2;
-    }
-    out->len = p[0];
-    out->name = p + 1;
-    *pos += (l->with_ids ? 2u : 0u) + 1u + out->len;
-    return true;
-}
-
-void vp_enc_sublevel_ids(vp_writer *w, uint32_t req, const uint16_t *ids, uint32_t n)
-{
-    vp_frame_begin(w, VP_SUBLEVEL_IDS, req);
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) vp_put_u16(w, ids[i]);
-    vp_frame_end(w);
-}
-
-int vp_dec_sublevel_ids(const uint8_t *p, size_t len, uint32_t *n, const uint8_t **ids)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    *n = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    int rc = take_array(&r, *n, 2, VP_MAX_SUBLEVELS, ids);
-    if (rc) return rc;
-    rc = vp_reader_finish(&r);
-    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-}
-
-uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i)
-{
-    return i < n ? rd16(ids + 2 * (size_t)i) : 0;
-}
