@@ -1,0 +1,521 @@
+/*
+ * handlers.c — vantaged's messages: each request decoded, checked against
+ * the client's role, applied to the scene (edits under the scene lock,
+ * exclusive) or handed to the query workers (shared), and answered.
+ */
+#include "server_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* ---- handlers ---------------------------------------------------------------- */
+
+static bool editor(server *s, conn *c, uint32_t req)
+{
+    if (c->role >= VP_ROLE_EDITOR) return true;
+    send_error(s, c, req, VP_ERR_AUTH, UINT32_MAX, "editing needs the editor role");
+    return false;
+}
+
+static void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count)
+{
+    vp_writer w;
+    if (!out_reserve(c, VP_HEADER_SIZE + 12, &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_enc_ack(&w, req, &(vp_ack){.epoch = epoch, .count = count});
+    out_commit(c, &w);
+}
+
+static void on_hello(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_hello m;
+    int rc = vp_dec_hello(p, h->len, &m);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        c->closing = true; /* not our protocol, or not this version */
+        return;
+    }
+    /* roles and tokens: the reliability issue adds token files; until then
+       every role is granted (the default bind is loopback) */
+    c->role = m.role;
+    c->hello = true;
+    size_t n = m.name_len < sizeof c->name - 1 ? m.name_len : sizeof c->name - 1;
+    for (size_t i = 0; i < n; i++) c->name[i] = (m.name[i] >= 32 && m.name[i] < 127) ? (char)m.name[i] : '?';
+    c->name[n] = 0;
+    vp_writer w;
+    if (!out_reserve(c, VP_HEADER_SIZE + 28, &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_enc_hello_ok(&w, h->req,
+                    &(vp_hello_ok){.version = VP_VERSION, .role = (uint8_t)c->role, .max_payload = s->cfg.max_payload,
+                                   .max_batch = s->cfg.max_batch, .max_views = VP_MAX_VIEWS,
+                                   .epoch = s->sc->epoch, .client_id = c->id});
+    out_commit(c, &w);
+    LOGD("client %u (%s) hello, role %d", c->id, c->name, c->role);
+}
+
+static void on_stats(server *s, conn *c, uint32_t req)
+{
+    cull_world_info info;
+    cull_world_info_get(s->sc->world, &info);
+    vp_stats_reply m = {.epoch = s->sc->epoch, .uptime_ms = ae_now_ms() - s->start_ms, .entities = info.entities,
+                        .static_entities = info.static_entities, .dynamic_entities = info.dynamic_entities,
+                        .regions = info.regions, .cells = info.cells, .connections = s->nconns,
+                        .meshes = s->sc->nmeshes, .occluders = (uint32_t)s->sc->occluders.count,
+                        .lights = (uint32_t)s->sc->lights.count, .queries = s->queries, .edits = s->sc->edits,
+                        .bytes_in = s->bytes_in, .bytes_out = s->bytes_out, .errors = s->errors};
+    vp_writer w;
+    if (!out_reserve(c, VP_HEADER_SIZE + 92, &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_enc_stats_reply(&w, req, &m);
+    out_commit(c, &w);
+}
+
+/* Worker side: decodes, culls and encodes one query into a new frame. The
+ * caller holds scene_lock shared. */
+static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t *res_cap, job *j)
+{
+    uint64_t t0 = now_ns();
+    const vp_header *h = &j->h;
+    char msg[96] = "";
+    int code = VP_OK;
+    uint32_t index = UINT32_MAX;
+    vp_writer w;
+    vp_vis_query q;
+    cull_view views[VP_MAX_VIEWS];
+    size_t n = 0;
+    cull_query_stats st;
+    int rc = vp_dec_vis_query(j->payload, h->len, &q);
+    if (rc) {
+        code = rc;
+        snprintf(msg, sizeof msg, "%s", vp_strerror(rc));
+        goto error;
+    }
+    for (uint32_t i = 0; i < q.view_count; i++) {
+        vp_view v;
+        vp_view_get(&q, i, &v);
+        cull_view_desc d = {.depth_mode = v.depth_mode, .viewport_w = v.viewport_w, .viewport_h = v.viewport_h};
+        memcpy(d.origin, v.origin, sizeof d.origin);
+        memcpy(d.view_proj, v.view_proj, sizeof d.view_proj);
+        int crc = cull_view_init(&views[i], &d);
+        if (crc) {
+            code = crc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
+            index = i;
+            snprintf(msg, sizeof msg, "view %u: %s", i, cull_strerror(crc));
+            goto error;
+        }
+    }
+    size_t need = cull_query_bound(sc->world);
+    if (need > *res_cap) {
+        cull_result *r = realloc(*res, need * sizeof *r);
+        if (!r) {
+            code = VP_ERR_BUSY;
+            snprintf(msg, sizeof msg, "out of memory for results");
+            goto error;
+        }
+        *res = r;
+        *res_cap = need;
+    }
+    uint32_t flags = 0;
+    if (q.flags & VP_Q_NO_AABB) flags |= CULL_Q_NO_AABB;
+    if (q.flags & VP_Q_WANT_AREA) flags |= CULL_Q_WANT_AREA;
+    if (q.flags & VP_Q_STATIC_ONLY) flags |= CULL_Q_STATIC_ONLY;
+    if (q.flags & VP_Q_DYNAMIC_ONLY) flags |= CULL_Q_DYNAMIC_ONLY;
+    uint64_t t1 = now_ns();
+    rc = cull_query(sc->world, ctx,
+                    &(cull_query_desc){.views = views, .view_count = q.view_count, .flags = flags,
+                                       .min_screen_area = q.min_area},
+                    *res, *res_cap, &n, &st);
+    uint64_t t2 = now_ns();
+    if (rc) {
+        code = VP_ERR_INTERNAL;
+        snprintf(msg, sizeof msg, "%s", cull_strerror(rc));
+        goto error;
+    }
+    uint32_t count = (q.flags & VP_Q_COUNT_ONLY) ? 0 : (uint32_t)n;
+    j->reply_len = vp_size_vis_result(count);
+    j->reply = malloc(j->reply_len);
+    if (!j->reply) {
+        code = VP_ERR_BUSY;
+        snprintf(msg, sizeof msg, "out of memory for the reply");
+        goto error;
+    }
+    vp_writer_init(&w, j->reply, j->reply_len);
+    vp_vis_result m = {.epoch = sc->epoch, .tested = st.entities_tested, .visible = (uint32_t)n, .count = count};
+    m.stage_ns[1] = (uint32_t)(t2 - t1); /* cells and entities: one fused pass */
+    m.stage_ns[4] = (uint32_t)(t1 - t0); /* decode and view set-up */
+    vp_enc_vis_result_begin(&w, h->req, &m);
+    for (uint32_t i = 0; i < count; i++) {
+        const cull_result *r = &(*res)[i];
+        vp_put_vis_rec(&w, &(vp_vis_rec){.id = scene_id_of(sc, r->handle), .handle = r->handle,
+                                         .view_mask = r->view_mask, .class_id = r->class_id,
+                                         .sublevel = r->sublevel, .area = r->screen_area});
+    }
+    vp_frame_end(&w);
+    /* the writing and total times are known only now: patch them in */
+    uint64_t t3 = now_ns();
+    uint8_t *ns = j->reply + VP_HEADER_SIZE + 16;
+    uint32_t write_ns = (uint32_t)(t3 - t2), total = (uint32_t)(t3 - t0);
+    for (int k = 0; k < 4; k++) {
+        ns[2 * 4 + k] = (uint8_t)(write_ns >> (8 * k));
+        ns[3 * 4 + k] = (uint8_t)(total >> (8 * k));
+    }
+    j->ok = true;
+    return;
+error:
+    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
+    j->reply = malloc(j->reply_len);
+    if (j->reply) {
+        vp_writer_init(&w, j->reply, j->reply_len);
+        vp_enc_error(&w, h->req, code, index, msg);
+    }
+}
+
+void *worker_main(void *arg)
+{
+    server *s = arg;
+    cull_ctx *ctx = NULL;
+    cull_result *res = NULL;
+    size_t res_cap = 0;
+    if (cull_ctx_create(NULL, &ctx)) return NULL;
+    for (;;) {
+        pthread_mutex_lock(&s->mu);
+        while (!s->jobs_head && !s->stopping) pthread_cond_wait(&s->cv, &s->mu);
+        if (!s->jobs_head) {
+            pthread_mutex_unlock(&s->mu);
+            break;
+        }
+        job *j = s->jobs_head;
+        s->jobs_head = j->next;
+        if (!s->jobs_head) s->jobs_tail = NULL;
+        pthread_mutex_unlock(&s->mu);
+
+        pthread_rwlock_rdlock(&s->scene_lock);
+        run_query(s->sc, ctx, &res, &res_cap, j);
+        pthread_rwlock_unlock(&s->scene_lock);
+
+        j->next = NULL;
+        pthread_mutex_lock(&s->mu);
+        if (s->done_tail) s->done_tail->next = j;
+        else s->done_head = j;
+        s->done_tail = j;
+        pthread_mutex_unlock(&s->mu);
+        uint64_t one = 1;
+        ssize_t ignored = write(s->done_fd, &one, sizeof one);
+        (void)ignored;
+    }
+    free(res);
+    cull_ctx_destroy(ctx);
+    return NULL;
+}
+
+/* Loop side: hands the query to the workers; the connection reads no
+ * further frames until its reply is back, so replies keep request order. */
+static void on_query(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    job *j = calloc(1, sizeof *j);
+    uint8_t *copy = malloc(h->len ? h->len : 1);
+    if (!j || !copy) {
+        free(j);
+        free(copy);
+        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        return;
+    }
+    memcpy(copy, p, h->len);
+    *j = (job){.fd = c->fd, .conn_id = c->id, .h = *h, .payload = copy};
+    c->busy = true;
+    pthread_mutex_lock(&s->mu);
+    if (s->jobs_tail) s->jobs_tail->next = j;
+    else s->jobs_head = j;
+    s->jobs_tail = j;
+    pthread_cond_signal(&s->cv);
+    pthread_mutex_unlock(&s->mu);
+}
+
+static void on_list(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_list m;
+    int rc = vp_dec_list(p, h->len, s->cfg.max_batch, &m);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    /* the cursor is a slot index in the id map + 1; stable while the scene
+       does not change between pages (the reply's epoch tells) */
+    const idmap *ids = &s->sc->ids;
+    vp_entity *e = malloc((size_t)m.max * sizeof *e);
+    if (!e) {
+        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        return;
+    }
+    size_t i = m.cursor ? (size_t)(m.cursor - 1) : 0;
+    uint32_t n = 0;
+    for (; i < ids->cap && n < m.max; i++)
+        if (ids->used[i]) scene_entity_record(s->sc, (cull_handle)ids->vals[i], &e[n++]);
+    while (i < ids->cap && !ids->used[i]) i++;
+    uint64_t next = i < ids->cap ? i + 1 : 0;
+    vp_writer w;
+    if (out_reserve(c, VP_HEADER_SIZE + 20 + (size_t)n * VP_ENTITY_REC_SIZE, &w)) {
+        vp_enc_list_reply(&w, h->req, next, s->sc->epoch, e, n);
+        out_commit(c, &w);
+    } else {
+        c->closing = true;
+    }
+    free(e);
+}
+
+static void on_get(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_id_batch b;
+    int rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    vp_entity *e = malloc(((size_t)b.count + 1) * sizeof *e);
+    if (!e) {
+        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        return;
+    }
+    for (uint32_t i = 0; i < b.count; i++) {
+        uint64_t hd;
+        if (!idmap_get(&s->sc->ids, vp_id_get(&b, i), &hd)) {
+            char msg[96];
+            snprintf(msg, sizeof msg, "record %u: no entity with id %llu", i, (unsigned long long)vp_id_get(&b, i));
+            send_error(s, c, h->req, VP_ERR_UNKNOWN_ID, i, msg);
+            free(e);
+            return;
+        }
+        scene_entity_record(s->sc, (cull_handle)hd, &e[i]);
+    }
+    vp_writer w;
+    if (out_reserve(c, VP_HEADER_SIZE + 20 + (size_t)b.count * VP_ENTITY_REC_SIZE, &w)) {
+        vp_enc_list_reply(&w, h->req, 0, s->sc->epoch, e, b.count);
+        out_commit(c, &w);
+    } else {
+        c->closing = true;
+    }
+    free(e);
+}
+
+static void on_sublevel_names(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_name_list nl;
+    int rc = vp_dec_names(p, h->len, false, &nl);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    uint16_t *ids = malloc(((size_t)nl.count + 1) * sizeof *ids);
+    scene_err err;
+    if (!ids) {
+        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        return;
+    }
+    pthread_rwlock_wrlock(&s->scene_lock);
+    rc = scene_sublevel_ids(s->sc, &nl, ids, &err);
+    pthread_rwlock_unlock(&s->scene_lock);
+    vp_writer w;
+    if (rc) send_error(s, c, h->req, rc, err.index, err.msg);
+    else if (out_reserve(c, VP_HEADER_SIZE + 4 + 2 * (size_t)nl.count, &w)) {
+        vp_enc_sublevel_ids(&w, h->req, ids, nl.count);
+        out_commit(c, &w);
+    } else {
+        c->closing = true;
+    }
+    free(ids);
+}
+
+static void on_sublevel_list(server *s, conn *c, uint32_t req)
+{
+    uint32_t n = s->sc->nsublevels;
+    const char **names = malloc(((size_t)n + 1) * sizeof *names);
+    uint16_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    vp_writer w;
+    if (names && ids && out_reserve(c, VP_HEADER_SIZE + 4 + (size_t)n * 258, &w)) {
+        for (uint32_t i = 0; i < n; i++) {
+            names[i] = s->sc->sublevel_name[i + 1];
+            ids[i] = (uint16_t)(i + 1);
+        }
+        vp_enc_names(&w, VP_SUBLEVEL_LIST_REPLY, req, names, ids, n);
+        out_commit(c, &w);
+    } else {
+        send_error(s, c, req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+    }
+    free(names);
+    free(ids);
+}
+
+static void after_edit(server *s, conn *c, uint32_t req, int rc, const scene_err *err, uint32_t count)
+{
+    if (rc) send_error(s, c, req, rc, err->index, err->msg);
+    else reply_ack(c, req, s->sc->epoch, count);
+}
+
+void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    if (!c->hello) {
+        if (h->type == VP_HELLO) {
+            on_hello(s, c, h, p);
+        } else {
+            send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, "the first message must be HELLO");
+            c->closing = true;
+        }
+        return;
+    }
+    scene_err err = {0};
+    int rc;
+    switch (h->type) {
+    case VP_HELLO:
+        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, "already said hello");
+        return;
+    case VP_PING: {
+        const uint8_t *data;
+        uint32_t n;
+        if ((rc = vp_dec_ping(p, h->len, &data, &n))) break;
+        vp_writer w;
+        if (!out_reserve(c, VP_HEADER_SIZE + n, &w)) {
+            c->closing = true;
+            return;
+        }
+        vp_enc_ping(&w, VP_PONG, h->req, data, n);
+        out_commit(c, &w);
+        return;
+    }
+    case VP_STATS:
+        if ((rc = vp_dec_empty(p, h->len))) break;
+        on_stats(s, c, h->req);
+        return;
+    case VP_SUBSCRIBE: {
+        uint32_t kinds;
+        if ((rc = vp_dec_subscribe(p, h->len, &kinds))) break;
+        c->subscribed = kinds != 0;
+        reply_ack(c, h->req, s->sc->epoch, 0);
+        return;
+    }
+    case VP_VIS_QUERY:
+        on_query(s, c, h, p);
+        return;
+    case VP_ENTITY_LIST:
+        on_list(s, c, h, p);
+        return;
+    case VP_ENTITY_GET:
+        on_get(s, c, h, p);
+        return;
+    case VP_SUBLEVEL_NAMES:
+        if (!editor(s, c, h->req)) return;
+        on_sublevel_names(s, c, h, p);
+        return;
+    case VP_SUBLEVEL_LIST:
+        if ((rc = vp_dec_empty(p, h->len))) break;
+        on_sublevel_list(s, c, h->req);
+        return;
+    case VP_ENTITY_ADD: {
+        if (!editor(s, c, h->req)) return;
+        vp_entity_batch b;
+        if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
+        if (!b.count) {
+            rc = VP_ERR_COUNT; /* an empty batch: the spec says 1..max_batch */
+            break;
+        }
+        uint32_t *handles = malloc(((size_t)b.count + 1) * sizeof *handles);
+        if (!handles) {
+            send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+            return;
+        }
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_add(s->sc, &b, handles, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        if (rc) {
+            send_error(s, c, h->req, rc, err.index, err.msg);
+        } else {
+            vp_writer w;
+            if (out_reserve(c, VP_HEADER_SIZE + 12 + 4 * (size_t)b.count, &w)) {
+                vp_enc_add_reply(&w, h->req, s->sc->epoch, handles, b.count);
+                out_commit(c, &w);
+            } else {
+                c->closing = true;
+            }
+        }
+        free(handles);
+        return;
+    }
+    case VP_ENTITY_UPDATE: {
+        if (!editor(s, c, h->req)) return;
+        vp_entity_batch b;
+        if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
+        if (!b.count) {
+            rc = VP_ERR_COUNT;
+            break;
+        }
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_update(s->sc, &b, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, b.count);
+        return;
+    }
+    case VP_ENTITY_REMOVE:
+    case VP_OCCLUDER_REMOVE:
+    case VP_LIGHT_REMOVE: {
+        if (!editor(s, c, h->req)) return;
+        vp_id_batch b;
+        if ((rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b))) break;
+        if (!b.count) {
+            rc = VP_ERR_COUNT;
+            break;
+        }
+        pthread_rwlock_wrlock(&s->scene_lock);
+        if (h->type == VP_ENTITY_REMOVE) rc = scene_remove(s->sc, &b, &err);
+        else rc = scene_remove_ids(s->sc, h->type == VP_LIGHT_REMOVE ? &s->sc->lights : &s->sc->occluders, &b, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, b.count);
+        return;
+    }
+    case VP_MESH_PUT: {
+        if (!editor(s, c, h->req)) return;
+        vp_mesh m;
+        if ((rc = vp_dec_mesh(p, h->len, 0, &m))) break;
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_mesh_put(s->sc, &m, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, 1);
+        return;
+    }
+    case VP_OCCLUDER_PUT: {
+        if (!editor(s, c, h->req)) return;
+        vp_occluder o;
+        if ((rc = vp_dec_occluder(p, h->len, 0, &o))) break;
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_occluder_put(s->sc, &o, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, 1);
+        return;
+    }
+    case VP_LIGHT_PUT: {
+        if (!editor(s, c, h->req)) return;
+        const uint8_t *recs;
+        uint32_t n;
+        if ((rc = vp_dec_lights(p, h->len, s->cfg.max_batch, &recs, &n))) break;
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_lights_put(s->sc, recs, n, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        after_edit(s, c, h->req, rc, &err, n);
+        return;
+    }
+    default: {
+        char msg[80];
+        snprintf(msg, sizeof msg, "type 0x%04x (%s) is not a request", h->type, vp_type_name(h->type));
+        send_error(s, c, h->req, VP_ERR_TYPE, UINT32_MAX, msg);
+        return;
+    }
+    }
+    send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+}
+
