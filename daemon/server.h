@@ -18,7 +18,7 @@ typedef struct server_config {
     uint32_t max_payload;    /* largest frame payload accepted after HELLO */
     uint32_t max_batch;      /* records per edit message */
     uint32_t out_limit;      /* bytes a client may leave unread before it is dropped */
-    uint32_t threads;        /* culling pool size, 0 = cores */
+    uint32_t threads;        /* query worker threads, 0 = cores */
     double cell_size;
     scene_limits limits;
 } server_config;

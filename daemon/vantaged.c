@@ -29,7 +29,7 @@ static void usage(FILE *f)
             "  --max-batch N        records per edit message (default 65536)\n"
             "  --max-entities N     entities in the scene (default 4194304)\n"
             "  --out-limit BYTES    unread reply bytes before a client is dropped (default 268435456)\n"
-            "  --threads N          culling threads (default: cores)\n"
+            "  --threads N          query worker threads (default: cores)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
             "  --help               this text\n",
             VANTAGED_DEFAULT_PORT);
