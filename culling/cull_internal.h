@@ -172,6 +172,7 @@ typedef struct cull_kparams {
     bool     aabb;          /* run the AABB stage */
     bool     area;          /* run the screen-area stage */
     bool     exact_area;    /* report exact areas (else bounds may decide) */
+    bool     count_only;    /* count the visible, write no results */
 } cull_kparams;
 
 typedef struct cull_kcount {

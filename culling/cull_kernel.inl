@@ -289,8 +289,8 @@ static inline uint32_t emit_group(cull_result *restrict out, const cull_block *r
  * 1 threshold on the upper bound, 2 exact. */
 static inline __attribute__((always_inline)) uint32_t
 single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict k, const uint32_t NP, bool aabb,
-            int area, float min_area, cull_result *restrict out, uint32_t *c_sph, uint32_t *c_aabb,
-            uint32_t *c_area)
+            int area, float min_area, bool count_only, cull_result *restrict out, uint32_t *c_sph,
+            uint32_t *c_aabb, uint32_t *c_area)
 {
     vf px[6], py[6], pz[6], pd[6];
     const float *bxp[6], *byp[6], *bzp[6];
@@ -348,7 +348,7 @@ single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict
             if (!live) continue;
         }
         nr += (uint32_t)__builtin_popcount(live);
-        written += emit_group(out + written, b, o, live, bit, a);
+        written += count_only ? (uint32_t)__builtin_popcount(live) : emit_group(out + written, b, o, live, bit, a);
     }
     *c_sph += ns;
     *c_aabb += na;
@@ -366,7 +366,7 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
     if (nv == 1) {
         const int am = !want_area ? 0 : exact_area ? 2 : 1;
         uint32_t cs = 0, ca = 0, cr = 0, written;
-#define CULL_ONE(NP) single_view(b, n, kv, NP, aabb, am, min_area, out, &cs, &ca, &cr)
+#define CULL_ONE(NP) single_view(b, n, kv, NP, aabb, am, min_area, p->count_only, out, &cs, &ca, &cr)
         switch (kv->nplanes) {
         case 0: written = CULL_ONE(0); break;
         case 1: written = CULL_ONE(1); break;
@@ -457,7 +457,8 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
         uint32_t live = vu_nonzero_bits(mask[g]);
         if (!live) continue;
         c_area += (uint32_t)__builtin_popcount(live);
-        written += emit_group(out + written, b, g * W, live, mask[g], area[g]);
+        written += p->count_only ? (uint32_t)__builtin_popcount(live)
+                                 : emit_group(out + written, b, g * W, live, mask[g], area[g]);
     }
     cnt->tested += n;
     cnt->after_spheres += c_sph;

@@ -221,17 +221,19 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     if (count) *count = 0;
     if (stats) memset(stats, 0, sizeof *stats);
     if (!w || !c || !q || !count || (!out && cap)) return CULL_ERR_INVALID;
+    bool count_only = (q->flags & CULL_Q_COUNT_ONLY) != 0;
     if (!q->views || q->view_count == 0 || q->view_count > CULL_MAX_VIEWS) return CULL_ERR_VIEWS;
     if (!(q->min_screen_area >= 0) || q->min_screen_area > 1e12f) return CULL_ERR_INVALID;
     for (uint32_t v = 0; v < q->view_count; v++)
         if (q->views[v].plane_count < 5 || q->views[v].plane_count > 6) return CULL_ERR_MATRIX;
-    if (cap < cull_query_bound(w)) return CULL_ERR_OUTPUT;
+    if (!count_only && cap < cull_query_bound(w)) return CULL_ERR_OUTPUT;
 
     cull_kparams kp = {
         .min_area = q->min_screen_area,
         .aabb = !(q->flags & CULL_Q_NO_AABB),
         .area = q->min_screen_area > 0 || (q->flags & CULL_Q_WANT_AREA),
         .exact_area = (q->flags & CULL_Q_WANT_AREA) != 0,
+        .count_only = (q->flags & CULL_Q_COUNT_ONLY) != 0,
     };
 
     /* world-space planes for the box kernel */
@@ -329,7 +331,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             const cull_item *it = &c->items[i];
             if (prefetch && i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block, kp.area);
             written += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp,
-                                 out + written, &total);
+                                 count_only ? NULL : out + written, &total);
         }
     } else {
         uint32_t nchunks = (nitems + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
@@ -347,7 +349,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             c->chunks[ch].dst = (uint32_t)written;
             written += c->chunks[ch].count;
         }
-        cull_pool_run(c->pool, job_copy, &j, threads);
+        if (!count_only) cull_pool_run(c->pool, job_copy, &j, threads);
         for (uint32_t t = 0; t < threads; t++) {
             total.tested += j.cnt[t].tested;
             total.after_spheres += j.cnt[t].after_spheres;

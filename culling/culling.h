@@ -184,6 +184,8 @@ void cull_mat_mul(double out[16], const double a[16], const double b[16]);
                                     never culls more, it may keep a little more */
 #define CULL_Q_STATIC_ONLY  0x4u /* only the static grid */
 #define CULL_Q_DYNAMIC_ONLY 0x8u /* only the dynamic grid */
+#define CULL_Q_COUNT_ONLY   0x10u /* *count = the visible entities; out is not
+                                     written (may be NULL with cap 0) */
 
 typedef struct cull_query_desc {
     const cull_view *views;     /* view_count prepared views */

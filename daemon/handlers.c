@@ -112,7 +112,8 @@ static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t 
             goto error;
         }
     }
-    size_t need = cull_query_bound(sc->world);
+    bool count_only = (q.flags & VP_Q_COUNT_ONLY) != 0;
+    size_t need = count_only ? 0 : cull_query_bound(sc->world);
     if (need > *res_cap) {
         cull_result *r = realloc(*res, need * sizeof *r);
         if (!r) {
@@ -128,18 +129,19 @@ static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t 
     if (q.flags & VP_Q_WANT_AREA) flags |= CULL_Q_WANT_AREA;
     if (q.flags & VP_Q_STATIC_ONLY) flags |= CULL_Q_STATIC_ONLY;
     if (q.flags & VP_Q_DYNAMIC_ONLY) flags |= CULL_Q_DYNAMIC_ONLY;
+    if (count_only) flags |= CULL_Q_COUNT_ONLY;
     uint64_t t1 = now_ns();
     rc = cull_query(sc->world, ctx,
                     &(cull_query_desc){.views = views, .view_count = q.view_count, .flags = flags,
                                        .min_screen_area = q.min_area},
-                    *res, *res_cap, &n, &st);
+                    count_only ? NULL : *res, count_only ? 0 : *res_cap, &n, &st);
     uint64_t t2 = now_ns();
     if (rc) {
         code = VP_ERR_INTERNAL;
         snprintf(msg, sizeof msg, "%s", cull_strerror(rc));
         goto error;
     }
-    uint32_t count = (q.flags & VP_Q_COUNT_ONLY) ? 0 : (uint32_t)n;
+    uint32_t count = count_only ? 0 : (uint32_t)n;
     j->reply_len = vp_size_vis_result(count);
     j->reply = malloc(j->reply_len);
     if (!j->reply) {

@@ -302,6 +302,11 @@ static void test_random_vs_model(void **state)
                 assert_true(st.after_area <= st.after_aabb && st.after_aabb <= st.after_spheres &&
                             st.after_spheres <= st.entities_tested && st.entities_tested <= s.n);
                 check_results(&s, res[k], cnt[k], &t);
+                /* counting alone gives the same number and writes nothing */
+                size_t counted = 0;
+                q.flags |= CULL_Q_COUNT_ONLY;
+                assert_int_equal(cull_query(w, ctx, &q, NULL, 0, &counted, NULL), CULL_OK);
+                assert_int_equal(counted, cnt[k]);
                 if (ti > 0) {
                     /* thread count never changes the answer or its order */
                     assert_int_equal(cnt[k], cnt[isa * 3]);
