@@ -62,7 +62,19 @@ static vt_client *connect_role(const daemon_proc *d, int role, bool use_unix)
     return c;
 }
 
-static void daemon_start(daemon_proc *d, const char *extra)
+static void daemon_start_args(daemon_proc *d, const char *const *extra);
+
+static void daemon_start(daemon_proc *d, const char *out_limit)
+{
+    const char *extra[3] = {NULL};
+    if (out_limit) {
+        extra[0] = "--out-limit";
+        extra[1] = out_limit;
+    }
+    daemon_start_args(d, extra);
+}
+
+static void daemon_start_args(daemon_proc *d, const char *const *extra)
 {
     memset(d, 0, sizeof d[0]);
     d->port = free_port();
@@ -73,13 +85,10 @@ static void daemon_start(daemon_proc *d, const char *extra)
     d->pid = fork();
     assert_true(d->pid >= 0);
     if (d->pid == 0) {
-        const char *argv[16] = {d->bin, "--scene", "empty", "--port", port, "--unix", d->sock, "--log-level",
+        const char *argv[32] = {d->bin, "--scene", "empty", "--port", port, "--unix", d->sock, "--log-level",
                                 "warn", "--threads", "2"};
         int n = 11;
-        if (extra) {
-            argv[n++] = "--out-limit";
-            argv[n++] = extra;
-        }
+        for (int i = 0; extra && extra[i] && n < 30; i++) argv[n++] = extra[i];
         argv[n] = NULL;
         execv(d->bin, (char *const *)argv);
         _exit(127);
@@ -648,7 +657,74 @@ static void test_cli_round_trip(void **state)
     daemon_stop(&d);
 }
 
+/* Subscribers get coalesced scene events that add up to the edits. */
+static void test_events(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *sub = connect_role(&d, VP_ROLE_VIEWER, true);
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    assert_int_equal(vt_subscribe(sub, VP_EVENT_SCENE), VP_OK);
+    vp_entity e[10];
+    for (int i = 0; i < 10; i++) e[i] = (vp_entity){.id = 500 + (uint64_t)i, .sphere = {i, 0, 0, 1}};
+    uint64_t epoch;
+    assert_int_equal(vt_add(ed, e, 10, NULL, &epoch), VP_OK);
+    for (int i = 0; i < 5; i++) e[i].sphere[1] = 3;
+    assert_int_equal(vt_update(ed, e, 5, &epoch), VP_OK);
+    uint64_t rm[2] = {508, 509};
+    assert_int_equal(vt_remove(ed, rm, 2, &epoch), VP_OK);
+    uint32_t added = 0, updated = 0, removed = 0;
+    uint64_t last = 0;
+    while (added + updated + removed < 17) {
+        vp_event ev;
+        assert_int_equal(vt_wait_event(sub, &ev, 5000), VP_OK);
+        assert_int_equal(ev.kind, VP_EVENT_SCENE);
+        assert_true(ev.epoch > last);
+        last = ev.epoch;
+        added += ev.added;
+        updated += ev.updated;
+        removed += ev.removed;
+    }
+    assert_int_equal(added, 10);
+    assert_int_equal(updated, 5);
+    assert_int_equal(removed, 2);
+    assert_true(last == epoch);
+    /* a rejected edit sends no event */
+    assert_int_equal(vt_remove(ed, rm, 1, NULL), VP_ERR_UNKNOWN_ID);
+    vp_event ev;
+    assert_int_equal(vt_wait_event(sub, &ev, 300), VT_ERR_IO); /* timed out: nothing came */
+    vt_close(sub);
+    vt_close(ed);
+    daemon_stop(&d);
+}
+
+/* Configured limits: connections, records per batch. */
+static void test_limits(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start_args(&d, (const char *const[]){"--max-clients", "3", "--max-batch", "100", NULL});
+    vt_client *c[3];
+    for (int i = 0; i < 3; i++) c[i] = connect_role(&d, VP_ROLE_EDITOR, i % 2);
+    vt_client *extra = NULL;
+    char err[256];
+    assert_int_not_equal(vt_connect(&(vt_connect_opts){.port = d.port, .timeout_ms = 2000}, &extra, err, sizeof err),
+                         VP_OK);
+    assert_null(extra);
+    assert_non_null(strstr(err, "too many connections"));
+    vp_entity e[101];
+    for (int i = 0; i < 101; i++) e[i] = (vp_entity){.id = (uint64_t)i + 1, .sphere = {i, 0, 0, 1}};
+    assert_int_equal(vt_add(c[0], e, 101, NULL, NULL), VP_ERR_COUNT);
+    assert_int_equal(vt_add(c[0], e, 100, NULL, NULL), VP_OK);
+    assert_int_equal(vt_add(c[1], e + 100, 1, NULL, NULL), VP_OK);
+    for (int i = 0; i < 3; i++) vt_close(c[i]);
+    daemon_stop(&d);
+}
+
 const struct CMUnitTest e2e_tests[] = {
+    cmocka_unit_test(test_events),
+    cmocka_unit_test(test_limits),
     cmocka_unit_test(test_edits_then_queries_match_model),
     cmocka_unit_test(test_batches_all_or_nothing),
     cmocka_unit_test(test_malformed_frames),
