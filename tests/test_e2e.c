@@ -21,6 +21,7 @@
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
@@ -85,6 +86,7 @@ static void daemon_start_args(daemon_proc *d, const char *const *extra)
     d->pid = fork();
     assert_true(d->pid >= 0);
     if (d->pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGTERM); /* a failed test never leaves a daemon behind */
         const char *argv[32] = {d->bin, "--scene", "empty", "--port", port, "--unix", d->sock, "--log-level",
                                 "warn", "--threads", "2"};
         int n = 11;
