@@ -101,6 +101,7 @@ int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
         }
         struct pollfd p = {.fd = c->fd, .events = POLLIN};
         int r = poll(&p, 1, timeout_ms);
+        if (r == 0 && timeout_ms == 0) return VP_NEED_MORE; /* a poll, not a wait */
         if (r == 0) return set_err(c, VT_ERR_IO, "timed out waiting for the server");
         if (r < 0) {
             if (errno == EINTR) continue;

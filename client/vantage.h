@@ -55,7 +55,8 @@ const vt_error *vt_last_error(const vt_client *c);
 uint32_t vt_next_req(vt_client *c);
 int vt_send(vt_client *c, const uint8_t *data, size_t len);
 /* Reads the next frame (a reply or a pushed EVENT). *payload is valid
- * until the next call. timeout_ms < 0 = the client's default. */
+ * until the next call. timeout_ms < 0 = the client's default; 0 = only
+ * what has arrived: VP_NEED_MORE if no whole frame is there yet. */
 int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms);
 /* The fd, for poll() in an event loop of the caller's. */
 int vt_fd(const vt_client *c);
