@@ -652,6 +652,17 @@ static void test_cli_round_trip(void **state)
     out[n] = 0;
     assert_int_not_equal(pclose(p), 0);
     assert_non_null(strstr(out, ":6: \"sphere\" must be"));
+    /* the load generator, briefly: every request answered */
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --test query --clients 6 --threads 2 --requests 60 --pipeline 3 --json",
+             cli, d.port);
+    p = popen(cmd, "r");
+    n = fread(out, 1, sizeof out - 1, p);
+    out[n] = 0;
+    assert_int_equal(pclose(p), 0);
+    assert_non_null(strstr(out, "\"requests\": 60, \"failed_threads\": 0"));
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --test edit --clients 2 --requests 10 --batch 50 > /dev/null",
+             cli, d.port);
+    assert_int_equal(system(cmd), 0);
     unlink(f0);
     unlink(f1);
     unlink(f2);
