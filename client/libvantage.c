@@ -268,14 +268,21 @@ int vt_ping(vt_client *c)
     return len == 7 && !memcmp(p, "vantage", 7) ? VP_OK : set_err(c, VT_ERR_IO, "PONG did not echo the PING");
 }
 
-int vt_stats(vt_client *c, vp_stats_reply *out)
+/* A request with an empty payload and its reply. */
+static int empty_call(vt_client *c, uint16_t type, uint16_t want, const uint8_t **p, uint32_t *len)
 {
     vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, 64, &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    vp_enc_empty(&w, type, req);
+    return roundtrip(c, &w, req, want, p, len);
+}
+
+int vt_stats(vt_client *c, vp_stats_reply *out)
+{
     const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
-    vp_enc_empty(&w, VP_STATS, req);
-    int rc = roundtrip(c, &w, req, VP_STATS_REPLY, &p, &len);
+    uint32_t len;
+    int rc = empty_call(c, VP_STATS, VP_STATS_REPLY, &p, &len);
     if (rc) return rc;
     return vp_dec_stats_reply(p, len, out) ? set_err(c, VT_ERR_IO, "malformed STATS_REPLY") : VP_OK;
 }
@@ -392,12 +399,9 @@ int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t
 
 int vt_sublevel_list(vt_client *c, vp_name_list *out)
 {
-    vp_writer w;
     const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
-    vp_enc_empty(&w, VP_SUBLEVEL_LIST, req);
-    int rc = roundtrip(c, &w, req, VP_SUBLEVEL_LIST_REPLY, &p, &len);
+    uint32_t len;
+    int rc = empty_call(c, VP_SUBLEVEL_LIST, VP_SUBLEVEL_LIST_REPLY, &p, &len);
     if (rc) return rc;
     return vp_dec_names(p, len, true, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_LIST_REPLY") : VP_OK;
 }
