@@ -59,7 +59,7 @@ DAEMON_BIN:= $(BUILD)/vantaged
 
 CLIENT_LIB:= $(BUILD)/libvantage.a
 CLIENT_OBJ:= $(BUILD)/client/libvantage.o
-CLI_OBJ  := $(BUILD)/client/vantage_cli.o
+CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o
 CLI_BIN  := $(BUILD)/vantage
 
 TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/scene_file.c
@@ -125,7 +125,7 @@ $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)
 $(CLI_BIN): $(CLI_OBJ) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(LDLIBS)
 
-$(BUILD)/client/vantage_cli.o: CPPFLAGS += $$(pkg-config --cflags json-c)
+$(BUILD)/client/cli_jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
 
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)

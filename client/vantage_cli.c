@@ -7,14 +7,11 @@
  * Exit status: 0 ok, 1 the server refused (its message on stderr), 2 bad
  * usage, 3 cannot connect or the connection failed.
  */
-#include "vantage.h"
+#include "cli.h"
 
 #include <errno.h>
 #include <getopt.h>
-#include <json-c/json.h>
 #include <math.h>
-#include <poll.h>
-#include <pthread.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdbool.h>
@@ -24,12 +21,7 @@
 #include <time.h>
 #include <unistd.h>
 
-typedef struct cli {
-    vt_connect_opts co;
-    vt_client *c;
-} cli;
-
-static const char *g_prog = "vantage";
+const char *g_prog = "vantage";
 
 static void usage(FILE *f)
 {
@@ -58,8 +50,8 @@ static void usage(FILE *f)
             VT_DEFAULT_PORT);
 }
 
-static int die_usage(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-static int die_usage(const char *fmt, ...)
+int die_usage(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+int die_usage(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -70,7 +62,7 @@ static int die_usage(const char *fmt, ...)
     return 2;
 }
 
-static int server_fail(cli *k, const char *what, int rc)
+int server_fail(cli *k, const char *what, int rc)
 {
     const vt_error *e = vt_last_error(k->c);
     if (rc == VT_ERR_IO) {
@@ -85,7 +77,7 @@ static int server_fail(cli *k, const char *what, int rc)
     return 1;
 }
 
-static int connect_cli(cli *k, int role)
+int connect_cli(cli *k, int role)
 {
     char err[256];
     k->co.role = role;
@@ -97,7 +89,7 @@ static int connect_cli(cli *k, int role)
     return 0;
 }
 
-static bool parse_vec(const char *s, double *v, int n)
+bool parse_vec(const char *s, double *v, int n)
 {
     char *end;
     for (int i = 0; i < n; i++) {
@@ -113,7 +105,7 @@ static bool parse_vec(const char *s, double *v, int n)
     return *s == 0;
 }
 
-static bool parse_u64(const char *s, uint64_t *v)
+bool parse_u64(const char *s, uint64_t *v)
 {
     char *end;
     errno = 0;
@@ -123,114 +115,9 @@ static bool parse_u64(const char *s, uint64_t *v)
     return true;
 }
 
-/* ---- JSON lines ---------------------------------------------------------------- */
-
-static void print_entity_json(FILE *f, const vp_entity *e)
-{
-    fprintf(f,
-            "{\"id\": %llu, \"handle\": %u, \"class\": %u, \"sphere\": [%.17g, %.17g, %.17g, %.17g], "
-            "\"aabb\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g], \"sublevel\": %u, \"dynamic\": %s}\n",
-            (unsigned long long)e->id, e->handle, e->class_id, e->sphere[0], e->sphere[1], e->sphere[2], e->sphere[3],
-            e->aabb[0], e->aabb[1], e->aabb[2], e->aabb[3], e->aabb[4], e->aabb[5], e->sublevel,
-            (e->flags & VP_ENT_DYNAMIC) ? "true" : "false");
-}
-
-static bool json_num_array(json_object *a, double *out, size_t n)
-{
-    if (!a || !json_object_is_type(a, json_type_array) || json_object_array_length(a) != n) return false;
-    for (size_t i = 0; i < n; i++) {
-        json_object *x = json_object_array_get_idx(a, i);
-        if (!x || !(json_object_is_type(x, json_type_double) || json_object_is_type(x, json_type_int)))
-            return false;
-        out[i] = json_object_get_double(x);
-        if (!isfinite(out[i])) return false;
-    }
-    return true;
-}
-
-/* One line of an import file to a record; a message in err on failure. */
-static bool entity_from_json(const char *line, vp_entity *e, char *sub, char *err, size_t errlen)
-{
-    memset(e, 0, sizeof *e);
-    sub[0] = 0;
-    json_tokener *tok = json_tokener_new();
-    json_object *o = json_tokener_parse_ex(tok, line, (int)strlen(line));
-    enum json_tokener_error je = json_tokener_get_error(tok);
-    json_tokener_free(tok);
-    if (!o || je != json_tokener_success) {
-        snprintf(err, errlen, "not JSON: %s", json_tokener_error_desc(je));
-        if (o) json_object_put(o);
-        return false;
-    }
-    bool ok = false;
-    json_object *v;
-    if (!json_object_is_type(o, json_type_object)) {
-        snprintf(err, errlen, "not a JSON object");
-        goto out;
-    }
-    if (!json_object_object_get_ex(o, "id", &v) || !json_object_is_type(v, json_type_int)) {
-        snprintf(err, errlen, "\"id\" must be an integer");
-        goto out;
-    }
-    e->id = json_object_get_uint64(v);
-    if (json_object_object_get_ex(o, "class", &v)) {
-        int64_t cl = json_object_get_int64(v);
-        if (!json_object_is_type(v, json_type_int) || cl < 0 || cl > 65535) {
-            snprintf(err, errlen, "\"class\" must be 0..65535");
-            goto out;
-        }
-        e->class_id = (uint16_t)cl;
-    }
-    if (json_object_object_get_ex(o, "sublevel", &v)) {
-        if (json_object_is_type(v, json_type_string)) {
-            const char *nm = json_object_get_string(v);
-            size_t l = strlen(nm);
-            bool clean = l >= 1 && l <= VP_MAX_NAME;
-            for (size_t i = 0; clean && i < l; i++) clean = (unsigned char)nm[i] >= 32 && nm[i] != 127;
-            if (!clean) {
-                snprintf(err, errlen, "\"sublevel\" names are 1..255 bytes without control characters");
-                goto out;
-            }
-            memcpy(sub, nm, l + 1); /* resolved to an id before sending */
-        } else {
-            int64_t sl = json_object_get_int64(v);
-            if (!json_object_is_type(v, json_type_int) || sl < 0 || sl > 65535) {
-                snprintf(err, errlen, "\"sublevel\" must be a name or 0..65535");
-                goto out;
-            }
-            e->sublevel = (uint16_t)sl;
-        }
-    }
-    if (json_object_object_get_ex(o, "dynamic", &v)) {
-        if (!json_object_is_type(v, json_type_boolean)) {
-            snprintf(err, errlen, "\"dynamic\" must be true or false");
-            goto out;
-        }
-        if (json_object_get_boolean(v)) e->flags |= VP_ENT_DYNAMIC;
-    }
-    bool has_sphere = json_object_object_get_ex(o, "sphere", &v);
-    if (has_sphere && !json_num_array(v, e->sphere, 4)) {
-        snprintf(err, errlen, "\"sphere\" must be [x, y, z, r] of finite numbers");
-        goto out;
-    }
-    bool has_aabb = json_object_object_get_ex(o, "aabb", &v);
-    if (has_aabb && !json_num_array(v, e->aabb, 6)) {
-        snprintf(err, errlen, "\"aabb\" must be [minx, miny, minz, maxx, maxy, maxz] of finite numbers");
-        goto out;
-    }
-    if (!has_sphere && !has_aabb) {
-        snprintf(err, errlen, "needs \"sphere\" or \"aabb\"");
-        goto out;
-    }
-    ok = true;
-out:
-    json_object_put(o);
-    return ok;
-}
-
 /* ---- commands ---------------------------------------------------------------- */
 
-static double now_s(void)
+double now_s(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -377,171 +264,9 @@ static int cmd_get(cli *k, int argc, char **argv)
     for (uint32_t i = 0; !rc && i < lr.batch.count; i++) {
         vp_entity e;
         vp_entity_get(&lr.batch, i, &e);
-        print_entity_json(stdout, &e);
+        cli_entity_json(stdout, &e, true, NULL);
     }
     free(ids);
-    return rc;
-}
-
-/* Names of sub-levels in a batch to their ids (defined on first use). */
-static int resolve_sublevels(cli *k, vp_entity *batch, char (*subs)[VP_MAX_NAME + 1], uint32_t n)
-{
-    const char **names = malloc((size_t)n * sizeof *names);
-    uint16_t *ids = malloc((size_t)n * sizeof *ids);
-    uint32_t *which = malloc((size_t)n * sizeof *which);
-    uint32_t nn = 0;
-    int rc = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        if (!subs[i][0]) continue;
-        uint32_t j = 0;
-        while (j < nn && strcmp(names[j], subs[i])) j++;
-        if (j == nn) names[nn++] = subs[i];
-        which[i] = j;
-    }
-    if (nn && (rc = vt_sublevel_ids(k->c, names, nn, ids))) rc = server_fail(k, "import", rc);
-    for (uint32_t i = 0; !rc && i < n; i++)
-        if (subs[i][0]) batch[i].sublevel = ids[which[i]];
-    free(names);
-    free(ids);
-    free(which);
-    return rc;
-}
-
-static int cmd_import(cli *k, int argc, char **argv)
-{
-    if (argc != 2) return die_usage("import FILE.jsonl");
-    FILE *f = strcmp(argv[1], "-") ? fopen(argv[1], "r") : stdin;
-    if (!f) {
-        fprintf(stderr, "%s: %s: %s\n", g_prog, argv[1], strerror(errno));
-        return 2;
-    }
-    int rc = connect_cli(k, VP_ROLE_EDITOR);
-    if (rc) {
-        if (f != stdin) fclose(f);
-        return rc;
-    }
-    uint32_t cap = vt_server(k->c)->max_batch;
-    if (cap > 8192) cap = 8192;
-    vp_entity *batch = malloc((size_t)cap * sizeof *batch);
-    uint32_t *handles = malloc((size_t)cap * sizeof *handles);
-    char (*subs)[VP_MAX_NAME + 1] = malloc((size_t)cap * sizeof *subs); /* sub-level name per record */
-    char *line = NULL;
-    size_t lcap = 0, lineno = 0, total = 0;
-    uint32_t n = 0;
-    size_t first_line = 1;
-    double t0 = now_s();
-    ssize_t len;
-    while (rc == 0 && (len = getline(&line, &lcap, f)) >= 0) {
-        lineno++;
-        while (len > 0 && (line[len - 1] == '\n' || line[len - 1] == '\r')) line[--len] = 0;
-        if (len == 0) continue;
-        char err[160];
-        if (!entity_from_json(line, &batch[n], subs[n], err, sizeof err)) {
-            fprintf(stderr, "%s: %s:%zu: %s\n", g_prog, argv[1], lineno, err);
-            rc = 2;
-            break;
-        }
-        if (n == 0) first_line = lineno;
-        if (++n == cap) {
-            if ((rc = resolve_sublevels(k, batch, subs, n))) break;
-            if ((rc = vt_add(k->c, batch, n, handles, NULL))) {
-                fprintf(stderr, "%s: %s: the batch starting at line %zu was rejected whole\n", g_prog, argv[1],
-                        first_line);
-                rc = server_fail(k, "import", rc);
-            }
-            total += n;
-            n = 0;
-            if (isatty(2)) fprintf(stderr, "\rimported %zu entities", total);
-        }
-    }
-    if (rc == 0 && n) rc = resolve_sublevels(k, batch, subs, n);
-    if (rc == 0 && n) {
-        if ((rc = vt_add(k->c, batch, n, handles, NULL))) {
-            fprintf(stderr, "%s: %s: the batch starting at line %zu was rejected whole\n", g_prog, argv[1], first_line);
-            rc = server_fail(k, "import", rc);
-        }
-        total += n;
-    }
-    if (rc == 0) {
-        if (isatty(2)) fprintf(stderr, "\r");
-        printf("imported %zu entities in %.2f s\n", total, now_s() - t0);
-    }
-    free(line);
-    free(batch);
-    free(handles);
-    free(subs);
-    if (f != stdin) fclose(f);
-    return rc;
-}
-
-static int cmd_export(cli *k, int argc, char **argv)
-{
-    if (argc != 2) return die_usage("export FILE.jsonl");
-    int rc = connect_cli(k, VP_ROLE_VIEWER);
-    if (rc) return rc;
-    FILE *f = strcmp(argv[1], "-") ? fopen(argv[1], "w") : stdout;
-    if (!f) {
-        fprintf(stderr, "%s: %s: %s\n", g_prog, argv[1], strerror(errno));
-        return 2;
-    }
-    /* sub-level ids that have names are written as their names */
-    static char *names[65536];
-    vp_name_list nl;
-    if ((rc = vt_sublevel_list(k->c, &nl))) {
-        if (f != stdout) fclose(f);
-        return server_fail(k, "export", rc);
-    }
-    size_t pos = 0;
-    vp_name nm;
-    while (vp_name_next(&nl, &pos, &nm)) {
-        char *q = malloc(2 * (size_t)nm.len + 1), *o = q; /* JSON-escaped */
-        for (uint8_t i = 0; i < nm.len; i++) {
-            if (nm.name[i] == '"' || nm.name[i] == '\\') *o++ = '\\';
-            *o++ = (char)nm.name[i];
-        }
-        *o = 0;
-        free(names[nm.id]);
-        names[nm.id] = q;
-    }
-    uint64_t cursor = 0, epoch0 = 0;
-    size_t total = 0;
-    uint32_t page = vt_server(k->c)->max_batch < 4096 ? vt_server(k->c)->max_batch : 4096;
-    do {
-        vp_list_reply lr;
-        if ((rc = vt_list(k->c, cursor, page, &lr))) {
-            rc = server_fail(k, "export", rc);
-            break;
-        }
-        if (total == 0) epoch0 = lr.epoch;
-        else if (lr.epoch != epoch0) {
-            fprintf(stderr, "%s: export: the scene changed during the export (epoch %llu -> %llu); retry\n",
-                    g_prog, (unsigned long long)epoch0, (unsigned long long)lr.epoch);
-            rc = 1;
-            break;
-        }
-        for (uint32_t i = 0; i < lr.batch.count; i++) {
-            vp_entity e;
-            vp_entity_get(&lr.batch, i, &e);
-            char sub[600];
-            if (names[e.sublevel]) snprintf(sub, sizeof sub, "\"%s\"", names[e.sublevel]);
-            else snprintf(sub, sizeof sub, "%u", e.sublevel);
-            fprintf(f, "{\"id\": %llu, \"class\": %u, \"sphere\": [%.17g, %.17g, %.17g, %.17g], "
-                       "\"aabb\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g], \"sublevel\": %s, \"dynamic\": %s}\n",
-                    (unsigned long long)e.id, e.class_id, e.sphere[0], e.sphere[1], e.sphere[2], e.sphere[3],
-                    e.aabb[0], e.aabb[1], e.aabb[2], e.aabb[3], e.aabb[4], e.aabb[5], sub,
-                    (e.flags & VP_ENT_DYNAMIC) ? "true" : "false");
-        }
-        total += lr.batch.count;
-        cursor = lr.next_cursor;
-    } while (cursor);
-    bool to_stdout = f == stdout;
-    if (!to_stdout) fclose(f);
-    for (size_t i = 0; i < 65536; i++) {
-        free(names[i]);
-        names[i] = NULL;
-    }
-    if (!rc) fprintf(to_stdout ? stderr : stdout, "exported %zu entities at epoch %llu\n", total,
-                     (unsigned long long)epoch0);
     return rc;
 }
 
@@ -653,229 +378,6 @@ static int cmd_watch(cli *k, int argc, char **argv)
     return 0;
 }
 
-
-/* ---- bench ------------------------------------------------------------------------ */
-
-typedef struct bench_conn {
-    vt_client *c;
-    int idx;            /* client number: ids and camera vary with it */
-    long sent, recvd, quota;
-    double *sent_at;    /* ring of pipeline send times */
-    vp_entity *ents;    /* edit test: the entities this client moves */
-} bench_conn;
-
-/* One load-generator thread: several connections driven from one poll()
- * loop, like redis-benchmark, so 64 connections do not need 64 threads
- * competing with the daemon for the cores. */
-typedef struct bench_arg {
-    cli *k;
-    const char *test;
-    int first, nconn;
-    long per_conn;
-    int pipeline, views, batch;
-    uint8_t qflags;
-    double *lat;        /* seconds per request */
-    long done;
-    int failed;
-    uint64_t records;
-} bench_arg;
-
-static int cmp_dbl(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static void bench_views(vp_view *v, int n, int idx, long i)
-{
-    for (int k = 0; k < n; k++) {
-        double a = 0.01 * (double)i + k * 0.7 + idx;
-        double eye[3] = {cos(a) * 200, 2, sin(a) * 200}, at[3] = {0, 2, 0};
-        vt_view_perspective(&v[k], eye, at, NULL, 60, 1280, 720, 0.1, 2000);
-    }
-}
-
-/* Encodes and sends request number bc->sent of this connection. */
-static int bench_send(bench_arg *a, bench_conn *bc, uint8_t *buf, size_t cap)
-{
-    vp_writer w;
-    vp_writer_init(&w, buf, cap);
-    uint32_t req = vt_next_req(bc->c);
-    if (!strcmp(a->test, "edit")) {
-        for (int e = 0; e < a->batch; e++) bc->ents[e].sphere[1] = (double)(bc->sent % 100) * 0.1;
-        vp_enc_entities(&w, VP_ENTITY_UPDATE, req, bc->ents, (uint32_t)a->batch);
-    } else if (!strcmp(a->test, "ping")) {
-        vp_enc_ping(&w, VP_PING, req, (const uint8_t *)"b", 1);
-    } else {
-        vp_view views[VP_MAX_VIEWS];
-        bench_views(views, a->views, bc->idx, bc->sent);
-        vp_enc_vis_query(&w, req, a->qflags, 0, views, (uint32_t)a->views);
-    }
-    bc->sent_at[bc->sent % a->pipeline] = now_s();
-    bc->sent++;
-    return vt_send(bc->c, buf, w.len);
-}
-
-static void *bench_worker(void *p)
-{
-    bench_arg *a = p;
-    bench_conn *cs = calloc((size_t)a->nconn, sizeof *cs);
-    struct pollfd *pf = calloc((size_t)a->nconn, sizeof *pf);
-    size_t cap = vp_size_entities((uint32_t)a->batch) + VP_HEADER_SIZE + 8 + (size_t)a->views * VP_VIEW_SIZE;
-    uint8_t *buf = malloc(cap);
-    bool edit = !strcmp(a->test, "edit");
-    for (int i = 0; i < a->nconn && !a->failed; i++) {
-        bench_conn *bc = &cs[i];
-        vt_connect_opts o = a->k->co;
-        o.role = VP_ROLE_EDITOR;
-        o.name = "vantage-bench";
-        bc->idx = a->first + i;
-        bc->quota = a->per_conn;
-        bc->sent_at = calloc((size_t)a->pipeline, sizeof *bc->sent_at);
-        if (vt_connect(&o, &bc->c, NULL, 0)) {
-            a->failed = 1;
-            break;
-        }
-        if (edit) {
-            uint64_t base = 0x7B000000000ull + (uint64_t)bc->idx * 100000000ull;
-            bc->ents = calloc((size_t)a->batch, sizeof *bc->ents);
-            for (int e = 0; e < a->batch; e++)
-                bc->ents[e] = (vp_entity){.id = base + (uint64_t)e, .sphere = {bc->idx * 10.0, 0, e * 0.5, 0.25},
-                                          .flags = VP_ENT_DYNAMIC};
-            if (vt_add(bc->c, bc->ents, (uint32_t)a->batch, NULL, NULL)) a->failed = 1;
-        }
-        pf[i] = (struct pollfd){.fd = vt_fd(bc->c), .events = POLLIN};
-    }
-    /* fill every connection's pipeline, then one new request per reply */
-    for (int i = 0; i < a->nconn && !a->failed; i++)
-        while (cs[i].sent < cs[i].quota && cs[i].sent < a->pipeline)
-            if (bench_send(a, &cs[i], buf, cap)) a->failed = 1;
-    long open = a->failed ? 0 : a->nconn;
-    while (open > 0 && !a->failed) {
-        int r = poll(pf, (nfds_t)a->nconn, 30000);
-        if (r <= 0) {
-            a->failed = 1;
-            break;
-        }
-        for (int i = 0; i < a->nconn && !a->failed; i++) {
-            if (!pf[i].revents) continue;
-            bench_conn *bc = &cs[i];
-            for (;;) {
-                vp_header h;
-                const uint8_t *pl;
-                int rc = vt_recv(bc->c, &h, &pl, 0);
-                if (rc == VP_NEED_MORE) break;
-                if (rc || h.type == VP_ERROR) {
-                    a->failed = 1;
-                    break;
-                }
-                if (h.type == VP_EVENT) continue;
-                if (h.type == VP_VIS_RESULT) {
-                    vp_vis_result res;
-                    if (!vp_dec_vis_result(pl, h.len, &res)) a->records += res.visible;
-                }
-                a->lat[a->done++] = now_s() - bc->sent_at[bc->recvd % a->pipeline];
-                bc->recvd++;
-                if (bc->sent < bc->quota && bench_send(a, bc, buf, cap)) a->failed = 1;
-                if (bc->recvd == bc->quota) {
-                    pf[i].fd = -1; /* done: poll ignores it */
-                    open--;
-                    break;
-                }
-            }
-        }
-    }
-    for (int i = 0; i < a->nconn; i++) {
-        vt_close(cs[i].c);
-        free(cs[i].sent_at);
-        free(cs[i].ents);
-    }
-    free(cs);
-    free(pf);
-    free(buf);
-    return NULL;
-}
-
-static int cmd_bench(cli *k, int argc, char **argv)
-{
-    const char *use = "bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P] "
-                      "[--views K] [--batch B] [--count-only] [--json]";
-    const char *test = "query";
-    long clients = 64, requests = 100000, pipeline = 1, views = 1, batch = 1000, threads = 2;
-    bool json = false;
-    uint8_t qflags = 0;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--test") && i + 1 < argc) test = argv[++i];
-        else if (!strcmp(argv[i], "--clients") && i + 1 < argc) clients = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--requests") && i + 1 < argc) requests = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--pipeline") && i + 1 < argc) pipeline = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--views") && i + 1 < argc) views = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--batch") && i + 1 < argc) batch = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--count-only")) qflags |= VP_Q_COUNT_ONLY;
-        else if (!strcmp(argv[i], "--json")) json = true;
-        else return die_usage("%s", use);
-    }
-    if (strcmp(test, "query") && strcmp(test, "edit") && strcmp(test, "ping")) return die_usage("%s", use);
-    if (clients < 1 || clients > 1000 || requests < clients || pipeline < 1 || pipeline > 1000 || views < 1 ||
-        views > 32 || batch < 1 || batch > 65536 || threads < 1 || threads > 64)
-        return die_usage("bench: a value out of range");
-    if (threads > clients) threads = clients;
-    pthread_t *th = calloc((size_t)threads, sizeof *th);
-    bench_arg *args = calloc((size_t)threads, sizeof *args);
-    long per = requests / clients;
-    double t0 = now_s();
-    for (long i = 0, first = 0; i < threads; i++) {
-        int nconn = (int)(clients / threads + (i < clients % threads));
-        args[i] = (bench_arg){.k = k, .first = (int)first, .nconn = nconn, .test = test, .per_conn = per,
-                              .pipeline = (int)pipeline, .views = (int)views, .batch = (int)batch,
-                              .qflags = qflags};
-        args[i].lat = malloc(sizeof(double) * (size_t)per * (size_t)nconn);
-        first += nconn;
-        pthread_create(&th[i], NULL, bench_worker, &args[i]);
-    }
-    long done = 0, failed = 0;
-    uint64_t records = 0;
-    for (long i = 0; i < threads; i++) {
-        pthread_join(th[i], NULL);
-        done += args[i].done;
-        failed += args[i].failed;
-        records += args[i].records;
-    }
-    double secs = now_s() - t0;
-    double *all = malloc(sizeof(double) * (size_t)(done ? done : 1));
-    long n = 0;
-    for (long i = 0; i < threads; i++) {
-        memcpy(all + n, args[i].lat, sizeof(double) * (size_t)args[i].done);
-        n += args[i].done;
-        free(args[i].lat);
-    }
-    qsort(all, (size_t)n, sizeof *all, cmp_dbl);
-#define PCT(q) (n ? all[(size_t)((double)(n - 1) * (q))] * 1e3 : 0.0)
-    double rate = done / secs;
-    if (json) {
-        printf("{\"test\": \"%s\", \"clients\": %ld, \"pipeline\": %ld, \"views\": %ld, \"batch\": %ld, "
-               "\"requests\": %ld, \"failed_threads\": %ld, \"seconds\": %.3f, \"per_second\": %.0f, "
-               "\"records_per_second\": %.0f, \"p50_ms\": %.4f, \"p90_ms\": %.4f, \"p99_ms\": %.4f, "
-               "\"p999_ms\": %.4f, \"max_ms\": %.4f}\n",
-               test, clients, pipeline, views, batch, done, failed, secs, rate,
-               !strcmp(test, "edit") ? rate * batch : records / secs, PCT(0.5), PCT(0.9), PCT(0.99), PCT(0.999),
-               PCT(1.0));
-    } else {
-        printf("%s: %ld requests, %ld clients, pipeline %ld: %.2f s, %.0f requests/s", test, done, clients,
-               pipeline, secs, rate);
-        if (!strcmp(test, "edit")) printf(", %.0f entity updates/s", rate * batch);
-        if (!strcmp(test, "query")) printf(", %.0f visible records/s", records / secs);
-        printf("\nlatency ms: p50 %.3f  p90 %.3f  p99 %.3f  p99.9 %.3f  max %.3f\n", PCT(0.5), PCT(0.9), PCT(0.99),
-               PCT(0.999), PCT(1.0));
-        if (failed) printf("%ld load threads failed\n", failed);
-    }
-#undef PCT
-    free(all);
-    free(th);
-    free(args);
-    return failed ? 1 : 0;
-}
 
 int main(int argc, char **argv)
 {

@@ -1,0 +1,42 @@
+/*
+ * cli.h — what the `vantage` command line tool's files share: the
+ * connection, error reporting, argument parsing, and the commands that live
+ * in their own files (JSON lines import/export, the load generator).
+ */
+#ifndef VANTAGE_CLI_H
+#define VANTAGE_CLI_H
+
+#include "vantage.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+typedef struct cli {
+    vt_connect_opts co;
+    vt_client *c;
+} cli;
+
+extern const char *g_prog;
+
+/* Prints "vantage: MESSAGE (vantage --help)" and returns 2. */
+int die_usage(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* Reports a failed call with the server's code, record and message;
+ * returns the exit status (1 refused, 3 connection). */
+int server_fail(cli *k, const char *what, int rc);
+/* Connects and says hello with role; 0 or exit status 3. */
+int connect_cli(cli *k, int role);
+bool parse_vec(const char *s, double *v, int n);
+bool parse_u64(const char *s, uint64_t *v);
+double now_s(void);
+
+/* cli_jsonl.c: one JSON line per entity. sublevel_name NULL writes the
+ * number; handle adds the daemon's handle. */
+void cli_entity_json(FILE *f, const vp_entity *e, bool handle, const char *sublevel_name);
+int cmd_import(cli *k, int argc, char **argv);
+int cmd_export(cli *k, int argc, char **argv);
+
+/* cli_bench.c */
+int cmd_bench(cli *k, int argc, char **argv);
+
+#endif

@@ -1,0 +1,238 @@
+/*
+ * cli_bench.c — `vantage bench`: a load generator in the manner of
+ * redis-benchmark. Each thread drives its connections from one poll()
+ * loop with up to --pipeline requests in flight per connection, and
+ * records every request's latency for the percentiles.
+ */
+#include "cli.h"
+
+#include <math.h>
+#include <poll.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- bench ------------------------------------------------------------------------ */
+
+typedef struct bench_conn {
+    vt_client *c;
+    int idx;            /* client number: ids and camera vary with it */
+    long sent, recvd, quota;
+    double *sent_at;    /* ring of pipeline send times */
+    vp_entity *ents;    /* edit test: the entities this client moves */
+} bench_conn;
+
+/* One load-generator thread: several connections driven from one poll()
+ * loop, like redis-benchmark, so 64 connections do not need 64 threads
+ * competing with the daemon for the cores. */
+typedef struct bench_arg {
+    cli *k;
+    const char *test;
+    int first, nconn;
+    long per_conn;
+    int pipeline, views, batch;
+    uint8_t qflags;
+    double *lat;        /* seconds per request */
+    long done;
+    int failed;
+    uint64_t records;
+} bench_arg;
+
+static int cmp_dbl(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static void bench_views(vp_view *v, int n, int idx, long i)
+{
+    for (int k = 0; k < n; k++) {
+        double a = 0.01 * (double)i + k * 0.7 + idx;
+        double eye[3] = {cos(a) * 200, 2, sin(a) * 200}, at[3] = {0, 2, 0};
+        vt_view_perspective(&v[k], eye, at, NULL, 60, 1280, 720, 0.1, 2000);
+    }
+}
+
+/* Encodes and sends request number bc->sent of this connection. */
+static int bench_send(bench_arg *a, bench_conn *bc, uint8_t *buf, size_t cap)
+{
+    vp_writer w;
+    vp_writer_init(&w, buf, cap);
+    uint32_t req = vt_next_req(bc->c);
+    if (!strcmp(a->test, "edit")) {
+        for (int e = 0; e < a->batch; e++) bc->ents[e].sphere[1] = (double)(bc->sent % 100) * 0.1;
+        vp_enc_entities(&w, VP_ENTITY_UPDATE, req, bc->ents, (uint32_t)a->batch);
+    } else if (!strcmp(a->test, "ping")) {
+        vp_enc_ping(&w, VP_PING, req, (const uint8_t *)"b", 1);
+    } else {
+        vp_view views[VP_MAX_VIEWS];
+        bench_views(views, a->views, bc->idx, bc->sent);
+        vp_enc_vis_query(&w, req, a->qflags, 0, views, (uint32_t)a->views);
+    }
+    bc->sent_at[bc->sent % a->pipeline] = now_s();
+    bc->sent++;
+    return vt_send(bc->c, buf, w.len);
+}
+
+static void *bench_worker(void *p)
+{
+    bench_arg *a = p;
+    bench_conn *cs = calloc((size_t)a->nconn, sizeof *cs);
+    struct pollfd *pf = calloc((size_t)a->nconn, sizeof *pf);
+    size_t cap = vp_size_entities((uint32_t)a->batch) + VP_HEADER_SIZE + 8 + (size_t)a->views * VP_VIEW_SIZE;
+    uint8_t *buf = malloc(cap);
+    bool edit = !strcmp(a->test, "edit");
+    for (int i = 0; i < a->nconn && !a->failed; i++) {
+        bench_conn *bc = &cs[i];
+        vt_connect_opts o = a->k->co;
+        o.role = VP_ROLE_EDITOR;
+        o.name = "vantage-bench";
+        bc->idx = a->first + i;
+        bc->quota = a->per_conn;
+        bc->sent_at = calloc((size_t)a->pipeline, sizeof *bc->sent_at);
+        if (vt_connect(&o, &bc->c, NULL, 0)) {
+            a->failed = 1;
+            break;
+        }
+        if (edit) {
+            uint64_t base = 0x7B000000000ull + (uint64_t)bc->idx * 100000000ull;
+            bc->ents = calloc((size_t)a->batch, sizeof *bc->ents);
+            for (int e = 0; e < a->batch; e++)
+                bc->ents[e] = (vp_entity){.id = base + (uint64_t)e, .sphere = {bc->idx * 10.0, 0, e * 0.5, 0.25},
+                                          .flags = VP_ENT_DYNAMIC};
+            if (vt_add(bc->c, bc->ents, (uint32_t)a->batch, NULL, NULL)) a->failed = 1;
+        }
+        pf[i] = (struct pollfd){.fd = vt_fd(bc->c), .events = POLLIN};
+    }
+    /* fill every connection's pipeline, then one new request per reply */
+    for (int i = 0; i < a->nconn && !a->failed; i++)
+        while (cs[i].sent < cs[i].quota && cs[i].sent < a->pipeline)
+            if (bench_send(a, &cs[i], buf, cap)) a->failed = 1;
+    long open = a->failed ? 0 : a->nconn;
+    while (open > 0 && !a->failed) {
+        int r = poll(pf, (nfds_t)a->nconn, 30000);
+        if (r <= 0) {
+            a->failed = 1;
+            break;
+        }
+        for (int i = 0; i < a->nconn && !a->failed; i++) {
+            if (!pf[i].revents) continue;
+            bench_conn *bc = &cs[i];
+            for (;;) {
+                vp_header h;
+                const uint8_t *pl;
+                int rc = vt_recv(bc->c, &h, &pl, 0);
+                if (rc == VP_NEED_MORE) break;
+                if (rc || h.type == VP_ERROR) {
+                    a->failed = 1;
+                    break;
+                }
+                if (h.type == VP_EVENT) continue;
+                if (h.type == VP_VIS_RESULT) {
+                    vp_vis_result res;
+                    if (!vp_dec_vis_result(pl, h.len, &res)) a->records += res.visible;
+                }
+                a->lat[a->done++] = now_s() - bc->sent_at[bc->recvd % a->pipeline];
+                bc->recvd++;
+                if (bc->sent < bc->quota && bench_send(a, bc, buf, cap)) a->failed = 1;
+                if (bc->recvd == bc->quota) {
+                    pf[i].fd = -1; /* done: poll ignores it */
+                    open--;
+                    break;
+                }
+            }
+        }
+    }
+    for (int i = 0; i < a->nconn; i++) {
+        vt_close(cs[i].c);
+        free(cs[i].sent_at);
+        free(cs[i].ents);
+    }
+    free(cs);
+    free(pf);
+    free(buf);
+    return NULL;
+}
+
+int cmd_bench(cli *k, int argc, char **argv)
+{
+    const char *use = "bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P] "
+                      "[--views K] [--batch B] [--count-only] [--json]";
+    const char *test = "query";
+    long clients = 64, requests = 100000, pipeline = 1, views = 1, batch = 1000, threads = 2;
+    bool json = false;
+    uint8_t qflags = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--test") && i + 1 < argc) test = argv[++i];
+        else if (!strcmp(argv[i], "--clients") && i + 1 < argc) clients = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--requests") && i + 1 < argc) requests = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--pipeline") && i + 1 < argc) pipeline = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--views") && i + 1 < argc) views = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--batch") && i + 1 < argc) batch = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--count-only")) qflags |= VP_Q_COUNT_ONLY;
+        else if (!strcmp(argv[i], "--json")) json = true;
+        else return die_usage("%s", use);
+    }
+    if (strcmp(test, "query") && strcmp(test, "edit") && strcmp(test, "ping")) return die_usage("%s", use);
+    if (clients < 1 || clients > 1000 || requests < clients || pipeline < 1 || pipeline > 1000 || views < 1 ||
+        views > 32 || batch < 1 || batch > 65536 || threads < 1 || threads > 64)
+        return die_usage("bench: a value out of range");
+    if (threads > clients) threads = clients;
+    pthread_t *th = calloc((size_t)threads, sizeof *th);
+    bench_arg *args = calloc((size_t)threads, sizeof *args);
+    long per = requests / clients;
+    double t0 = now_s();
+    for (long i = 0, first = 0; i < threads; i++) {
+        int nconn = (int)(clients / threads + (i < clients % threads));
+        args[i] = (bench_arg){.k = k, .first = (int)first, .nconn = nconn, .test = test, .per_conn = per,
+                              .pipeline = (int)pipeline, .views = (int)views, .batch = (int)batch,
+                              .qflags = qflags};
+        args[i].lat = malloc(sizeof(double) * (size_t)per * (size_t)nconn);
+        first += nconn;
+        pthread_create(&th[i], NULL, bench_worker, &args[i]);
+    }
+    long done = 0, failed = 0;
+    uint64_t records = 0;
+    for (long i = 0; i < threads; i++) {
+        pthread_join(th[i], NULL);
+        done += args[i].done;
+        failed += args[i].failed;
+        records += args[i].records;
+    }
+    double secs = now_s() - t0;
+    double *all = malloc(sizeof(double) * (size_t)(done ? done : 1));
+    long n = 0;
+    for (long i = 0; i < threads; i++) {
+        memcpy(all + n, args[i].lat, sizeof(double) * (size_t)args[i].done);
+        n += args[i].done;
+        free(args[i].lat);
+    }
+    qsort(all, (size_t)n, sizeof *all, cmp_dbl);
+#define PCT(q) (n ? all[(size_t)((double)(n - 1) * (q))] * 1e3 : 0.0)
+    double rate = done / secs;
+    if (json) {
+        printf("{\"test\": \"%s\", \"clients\": %ld, \"pipeline\": %ld, \"views\": %ld, \"batch\": %ld, "
+               "\"requests\": %ld, \"failed_threads\": %ld, \"seconds\": %.3f, \"per_second\": %.0f, "
+               "\"records_per_second\": %.0f, \"p50_ms\": %.4f, \"p90_ms\": %.4f, \"p99_ms\": %.4f, "
+               "\"p999_ms\": %.4f, \"max_ms\": %.4f}\n",
+               test, clients, pipeline, views, batch, done, failed, secs, rate,
+               !strcmp(test, "edit") ? rate * batch : records / secs, PCT(0.5), PCT(0.9), PCT(0.99), PCT(0.999),
+               PCT(1.0));
+    } else {
+        printf("%s: %ld requests, %ld clients, pipeline %ld: %.2f s, %.0f requests/s", test, done, clients,
+               pipeline, secs, rate);
+        if (!strcmp(test, "edit")) printf(", %.0f entity updates/s", rate * batch);
+        if (!strcmp(test, "query")) printf(", %.0f visible records/s", records / secs);
+        printf("\nlatency ms: p50 %.3f  p90 %.3f  p99 %.3f  p99.9 %.3f  max %.3f\n", PCT(0.5), PCT(0.9), PCT(0.99),
+               PCT(0.999), PCT(1.0));
+        if (failed) printf("%ld load threads failed\n", failed);
+    }
+#undef PCT
+    free(all);
+    free(th);
+    free(args);
+    return failed ? 1 : 0;
+}
+
