@@ -80,7 +80,9 @@ static void conn_free(server *s, conn *c)
     ae_del(s->loop, c->fd, AE_READABLE | AE_WRITABLE);
     close(c->fd);
     s->conns[c->fd] = NULL;
-    s->nconns--;
+    conn *last = s->live[--s->nconns];
+    s->live[c->live_pos] = last;
+    last->live_pos = c->live_pos;
     LOGD("client %u (%s) disconnected, %u connected", c->id, c->name, s->nconns);
     free(c->in);
     free(c->out);
@@ -278,7 +280,8 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
         c->id = ++s->next_id;
         strcpy(c->name, "?");
         s->conns[fd] = c;
-        s->nconns++;
+        c->live_pos = s->nconns;
+        s->live[s->nconns++] = c;
         LOGD("client %u connected (fd %d), %u connected", c->id, fd, s->nconns);
     }
 }
@@ -296,9 +299,9 @@ static void before_sleep(ae_loop *l, void *data)
         cull_world_commit(sc->world);
         pthread_rwlock_unlock(&s->scene_lock);
     }
-    for (int fd = 0; fd < s->conns_cap; fd++) {
-        conn *c = s->conns[fd];
-        if (!c) continue;
+    /* backwards: conn_free moves the last connection into the freed place */
+    for (uint32_t i = s->nconns; i-- > 0;) {
+        conn *c = s->live[i];
         if (changed && c->subscribed) {
             c->ev_added += sc->ev_added;
             c->ev_updated += sc->ev_updated;
@@ -387,9 +390,10 @@ server *server_create(const server_config *cfg, scene *sc)
     signal(SIGPIPE, SIG_IGN);
     s->conns_cap = (int)cfg->max_clients + 64;
     s->conns = calloc((size_t)s->conns_cap, sizeof *s->conns);
+    s->live = calloc((size_t)s->conns_cap, sizeof *s->live);
     s->loop = ae_create(s->conns_cap);
     s->done_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    if (!s->conns || !s->loop || s->done_fd < 0 || s->done_fd >= s->conns_cap ||
+    if (!s->conns || !s->live || !s->loop || s->done_fd < 0 || s->done_fd >= s->conns_cap ||
         ae_add(s->loop, s->done_fd, AE_READABLE, on_done, s))
         goto fail;
     pthread_rwlockattr_t ra;
@@ -442,8 +446,7 @@ void server_stop(server *s)
 void server_destroy(server *s)
 {
     if (!s) return;
-    for (int fd = 0; s->conns && fd < s->conns_cap; fd++)
-        if (s->conns[fd]) conn_free(s, s->conns[fd]);
+    while (s->nconns) conn_free(s, s->live[0]);
     if (s->tcp_fd >= 0) close(s->tcp_fd);
     if (s->unix_fd >= 0) {
         close(s->unix_fd);
@@ -472,5 +475,6 @@ void server_destroy(server *s)
     if (s->done_fd >= 0) close(s->done_fd);
     ae_destroy(s->loop);
     free(s->conns);
+    free(s->live);
     free(s);
 }

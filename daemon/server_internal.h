@@ -20,6 +20,7 @@ typedef struct conn {
     int role;
     bool hello, closing, subscribed;
     bool busy;          /* a query is with a worker: later frames wait */
+    uint32_t live_pos;  /* index in server.live */
     uint8_t *in;
     size_t in_len, in_cap;
     uint8_t *out;
@@ -34,6 +35,7 @@ struct server {
     int tcp_fd, unix_fd, sig_fd;
     conn **conns;           /* by fd */
     int conns_cap;
+    conn **live;            /* dense: the connections, for the tick's sweep */
     uint32_t nconns, next_id;
     scene *sc;
     uint64_t start_ms, queries, bytes_in, bytes_out, errors;
