@@ -62,7 +62,7 @@ CLIENT_OBJ:= $(BUILD)/client/libvantage.o
 CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o
 CLI_BIN  := $(BUILD)/vantage
 
-TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/scene_file.c
+TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN := $(BUILD)/vantage_tests
 
@@ -70,10 +70,14 @@ BENCH_SRC:= tests/bench/bench_cull.c tests/cull_ref.c tests/scene_file.c
 BENCH_OBJ:= $(BENCH_SRC:%.c=$(BUILD)/%.o)
 BENCH_BIN:= $(BUILD)/bench_cull
 
+OCCB_SRC := tests/bench/bench_occlusion.c tests/occ_ref.c tests/scene_file.c
+OCCB_OBJ := $(OCCB_SRC:%.c=$(BUILD)/%.o)
+OCCB_BIN := $(BUILD)/bench_occlusion
+
 SCENE    ?= ../shared/scenes/city_scene.txt
 
 .PHONY: all run demo test bench deps check-deps clean test-one install install-check
-all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN)
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -129,6 +133,9 @@ $(BUILD)/client/cli_jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
 
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
+
+$(OCCB_BIN): $(OCCB_OBJ) $(CULL_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(OCCB_OBJ) $(CULL_LIB) $(LDLIBS)
 
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka) -Itests
 

@@ -101,6 +101,41 @@ typedef struct cull_slot {
     cull_entity_desc desc;  /* normalised */
 } cull_slot;
 
+/* ---- occluders (cull_occluder.c) ------------------------------------------ */
+/* A drawn polygon: a triangle, or two coplanar triangles sharing an edge
+ * merged into a convex quad (v[0..3] counter-clockwise; the halves are
+ * (0,1,2) and (2,3,0)). Indices are local to the cluster. */
+typedef struct cull_occ_face {
+    uint16_t v[4];
+    uint32_t n;        /* 3 or 4 */
+} cull_occ_face;
+
+/* Up to CULL_OCC_CLUSTER_FACES faces of one occluder, near each other:
+ * the unit of frustum culling, front-to-back sorting and the hidden-
+ * occluder test. Vertices in world metres (double: a camera-relative
+ * transform per frame keeps 1e6 m exact). */
+#define CULL_OCC_CLUSTER_FACES 64u
+typedef struct cull_occ_cluster {
+    double   bmin[3], bmax[3];
+    const double *v;   /* 3 * nv */
+    const cull_occ_face *f;
+    uint32_t nv, nf;
+} cull_occ_cluster;
+
+typedef struct cull_occ_mesh {
+    cull_occ_cluster *cl;   /* one allocation: clusters, vertices, faces */
+    uint32_t ncl;
+    uint32_t triangles, dropped, faces;
+    double   bmin[3], bmax[3];
+    uint16_t sublevel;
+    uint32_t slot, dense;
+} cull_occ_mesh;
+
+typedef struct cull_occ_slot {
+    uint32_t gen, next_free;
+    cull_occ_mesh *m;       /* NULL when free */
+} cull_occ_slot;
+
 struct cull_world {
     double     cell_size, inv_cell_size;
     uint32_t   max_entities;
@@ -120,7 +155,15 @@ struct cull_world {
     uint32_t   slab_left;     /* blocks left there */
     size_t     slab_bytes;
     uint32_t   nblocks_total;
+    /* occluders: slots for handles, a dense list for rendering */
+    cull_occ_slot *oslots;
+    uint32_t   noslots, cap_oslots, ofree_head;
+    cull_occ_mesh **occ;
+    uint32_t   nocc, cap_occ;
+    uint32_t   nclusters;     /* over all occluders */
 };
+
+void cull_occluders_free(cull_world *w);
 
 /* ---- storage internals (cull_grid.c) ---------------------------------------- */
 /* Finds or makes cell key k of grid gi with room for one more entity.
@@ -165,6 +208,11 @@ typedef struct cull_kview {
        their absolute values, and pixel offsets half - 2^-16 half */
     float    hx[3], hy[3], hw[3], ax[3], ay[3], aw[3];
     float    off_w, off_h;
+    /* occlusion (NULL: none for this view): the buffer, the nearness
+       numerator row (re-based like cx), the buffer's half size */
+    const struct cull_occ_buffer *occ;
+    float    cd[4];
+    float    occ_sx, occ_sy, occ_w, occ_h;
 } cull_kview;
 
 typedef struct cull_kparams {
@@ -176,8 +224,12 @@ typedef struct cull_kparams {
 } cull_kparams;
 
 typedef struct cull_kcount {
-    uint32_t tested, after_spheres, after_aabb, after_area;
+    uint32_t tested, after_spheres, after_aabb, after_area, after_occ;
 } cull_kcount;
+
+/* The occlusion stage's per-entity test (cull_occ.c): some pixel of the
+ * rectangle [x0, x1] x [y0, y1] not nearer than z? */
+bool cull_occ_rect_visible(const struct cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z);
 
 /* Tests n (<= 64) entities of block b against nv views, writes one result
  * per entity with a non-zero mask to out, returns how many. */

@@ -4,6 +4,7 @@
  * CULL_SCALAR_ONLY (CONFIG=scalar) carry the scalar kernel alone.
  */
 #include "cull_internal.h"
+#include "cull_occ.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -20,7 +21,7 @@ const char *cull_isa_name(uint32_t isa)
     return isa < CULL_ISA_COUNT ? isa_names[isa] : "unknown";
 }
 
-static uint32_t cpu_best(void)
+static uint32_t cpu_probe(void)
 {
 #if defined(CULL_X86) && !defined(CULL_SCALAR_ONLY)
     unsigned a, b, c, d;
@@ -38,6 +39,18 @@ static uint32_t cpu_best(void)
 #else
     return CULL_ISA_SCALAR;
 #endif
+}
+
+/* CPUID once: the answer cannot change while the process runs */
+static uint32_t cpu_best(void)
+{
+    static _Atomic uint32_t best = UINT32_MAX;
+    uint32_t v = atomic_load_explicit(&best, memory_order_relaxed);
+    if (v == UINT32_MAX) {
+        v = cpu_probe();
+        atomic_store_explicit(&best, v, memory_order_relaxed);
+    }
+    return v;
 }
 
 int cull_isa_supported(uint32_t isa)
@@ -82,5 +95,16 @@ cull_cells_fn cull_isa_cells(uint32_t isa)
     case CULL_ISA_SSE41: return cull_cells_sse41;
 #endif
     default: return cull_cells_scalar;
+    }
+}
+
+cull_occ_fns cull_occ_fns_for(uint32_t isa)
+{
+    switch (isa) {
+#ifndef CULL_SCALAR_ONLY
+    case CULL_ISA_AVX2: return (cull_occ_fns){cull_occ_span_avx2, cull_occ_any_le_avx2, cull_occ_tiles_avx2, cull_occ_fill_avx2};
+    case CULL_ISA_SSE41: return (cull_occ_fns){cull_occ_span_sse41, cull_occ_any_le_sse41, cull_occ_tiles_sse41, cull_occ_fill_sse41};
+#endif
+    default: return (cull_occ_fns){cull_occ_span_scalar, cull_occ_any_le_scalar, cull_occ_tiles_scalar, cull_occ_fill_scalar};
     }
 }

@@ -166,6 +166,103 @@ static inline vf area_upper(const cull_kview *restrict k, const vf bx[2], const 
     return vf_select(front, vf_mul(vf_sub(px1, px0), vf_sub(py1, py0)), vf_mul(vw, vh));
 }
 
+
+/* The occlusion stage for the live lanes of one group: each box's pixel
+ * rectangle in the view's occlusion buffer (every pixel its projection
+ * touches) and its nearest nearness, then the buffer's hierarchy
+ * (cull_occ.c). The rectangle is grown and the nearness raised by bounds
+ * on their float error (2^-20 of the magnitudes that were summed, over
+ * the nearest w); a box reaching w <= 0 within that error is kept. A box
+ * whose rectangle misses the buffer entirely is not on screen: culled.
+ * Returns the lanes still visible. */
+static inline uint32_t occ_lanes(const cull_kview *restrict k, const vf bx[2], const vf by[2], const vf bz[2],
+                                 uint32_t live)
+{
+    vf ax = vf_max(vf_abs(bx[0]), vf_abs(bx[1]));
+    vf ay = vf_max(vf_abs(by[0]), vf_abs(by[1]));
+    vf az = vf_max(vf_abs(bz[0]), vf_abs(bz[1]));
+    vf px[2][3], py[2][3], pw[2][3];
+    vf dmax = vf_set(k->cd[3]), wmin = vf_set(0.0f), wmax = vf_set(0.0f);
+#pragma GCC unroll 2
+    for (int s = 0; s < 2; s++) {
+        px[s][0] = vf_mul(vf_set(k->cx[0]), bx[s]);
+        px[s][1] = vf_mul(vf_set(k->cx[1]), by[s]);
+        px[s][2] = vf_fma(vf_set(k->cx[2]), bz[s], vf_set(k->cx[3]));
+        py[s][0] = vf_mul(vf_set(k->cy[0]), bx[s]);
+        py[s][1] = vf_mul(vf_set(k->cy[1]), by[s]);
+        py[s][2] = vf_fma(vf_set(k->cy[2]), bz[s], vf_set(k->cy[3]));
+        pw[s][0] = vf_mul(vf_set(k->cw[0]), bx[s]);
+        pw[s][1] = vf_mul(vf_set(k->cw[1]), by[s]);
+        pw[s][2] = vf_fma(vf_set(k->cw[2]), bz[s], vf_set(k->cw[3]));
+    }
+    /* nearest nearness: max over corners of d / w, with d and w sums of
+       per-axis terms (one of them constant: 1/w in perspective, w = 1 in
+       orthographic views) */
+    const vf *bs[3] = {bx, by, bz};
+#pragma GCC unroll 3
+    for (int a = 0; a < 3; a++) {
+        vf d0 = vf_mul(vf_set(k->cd[a]), bs[a][0]), d1 = vf_mul(vf_set(k->cd[a]), bs[a][1]);
+        dmax = vf_add(dmax, vf_max(d0, d1));
+        wmin = vf_add(wmin, vf_min(pw[0][a], pw[1][a]));
+        wmax = vf_add(wmax, vf_max(pw[0][a], pw[1][a]));
+    }
+    vf sw = vf_fma(vf_set(fabsf(k->cw[0])), ax, vf_fma(vf_set(fabsf(k->cw[1])), ay,
+                   vf_fma(vf_set(fabsf(k->cw[2])), az, vf_set(fabsf(k->cw[3])))));
+    vf sx = vf_fma(vf_set(fabsf(k->cx[0])), ax, vf_fma(vf_set(fabsf(k->cx[1])), ay,
+                   vf_fma(vf_set(fabsf(k->cx[2])), az, vf_set(fabsf(k->cx[3])))));
+    vf sy = vf_fma(vf_set(fabsf(k->cy[0])), ax, vf_fma(vf_set(fabsf(k->cy[1])), ay,
+                   vf_fma(vf_set(fabsf(k->cy[2])), az, vf_set(fabsf(k->cy[3])))));
+    vf sd = vf_fma(vf_set(fabsf(k->cd[0])), ax, vf_fma(vf_set(fabsf(k->cd[1])), ay,
+                   vf_fma(vf_set(fabsf(k->cd[2])), az, vf_set(fabsf(k->cd[3])))));
+    const vf eps = vf_set(0x1p-20f), zero = vf_set(0.0f);
+    vf ew = vf_mul(eps, sw);
+    vf wlo = vf_sub(wmin, ew);
+    uint32_t front = vm_bits(vf_ge(wlo, vf_set(1e-30f))) & live;
+    if (!front) return live;
+    vf num = vf_fma(eps, sd, dmax);
+    vf den = vf_select(vf_ge(num, zero), wlo, vf_add(wmax, ew));
+    vf z = vf_div(num, den);
+    z = vf_fma(vf_abs(z), eps, z);
+    vf xmin = vf_set(INFINITY), ymin = xmin, xmax = vf_set(-INFINITY), ymax = xmax;
+#pragma GCC unroll 8
+    for (int c = 0; c < 8; c++) {
+        int i = c & 1, j = (c >> 1) & 1, l = c >> 2;
+        vf X = vf_add(vf_add(px[i][0], px[j][1]), px[l][2]);
+        vf Y = vf_add(vf_add(py[i][0], py[j][1]), py[l][2]);
+        vf Wc = vf_add(vf_add(pw[i][0], pw[j][1]), pw[l][2]);
+        vf rw = vf_rcp(Wc);
+        xmin = vf_min(xmin, vf_mul(X, rw));
+        xmax = vf_max(xmax, vf_mul(X, rw));
+        ymin = vf_min(ymin, vf_mul(Y, rw));
+        ymax = vf_max(ymax, vf_mul(Y, rw));
+    }
+    /* NDC error: (err X + |ndc| err W) / w, bounded generously */
+    vf e = vf_fma(vf_mul(vf_set(0x1p-18f), vf_add(vf_add(sx, sy), sw)), vf_rcp(wlo), eps);
+    vf one = vf_set(1.0f), hw = vf_set(k->occ_sx), hh = vf_set(k->occ_sy);
+    vf lo = vf_set(-1.0f), hix = vf_set(k->occ_w + 1.0f), hiy = vf_set(k->occ_h + 1.0f);
+    float fx0[W], fx1[W], fy0[W], fy1[W], fz[W];
+    vf_store(fx0, vf_min(vf_max(vf_mul(vf_sub(vf_add(xmin, one), e), hw), lo), hix));
+    vf_store(fx1, vf_min(vf_max(vf_mul(vf_add(vf_add(xmax, one), e), hw), lo), hix));
+    vf_store(fy0, vf_min(vf_max(vf_mul(vf_sub(vf_add(ymin, one), e), hh), lo), hiy));
+    vf_store(fy1, vf_min(vf_max(vf_mul(vf_add(vf_add(ymax, one), e), hh), lo), hiy));
+    vf_store(fz, z);
+    const int bw = (int)k->occ_w - 1, bh = (int)k->occ_h - 1;
+    for (uint32_t m = front; m; m &= m - 1) {
+        uint32_t l = (uint32_t)__builtin_ctz(m);
+        /* floor(x0) and ceil(x1) - 1 for values >= -1 */
+        int i0 = (int)(fx0[l] + 1.0f) - 1, j0 = (int)(fy0[l] + 1.0f) - 1;
+        int i1 = (int)fx1[l], j1 = (int)fy1[l];
+        i1 -= !((float)i1 < fx1[l]);
+        j1 -= !((float)j1 < fy1[l]);
+        i0 = i0 < 0 ? 0 : i0;
+        j0 = j0 < 0 ? 0 : j0;
+        i1 = i1 > bw ? bw : i1;
+        j1 = j1 > bh ? bh : j1;
+        if (i0 > i1 || j0 > j1 || !cull_occ_rect_visible(k->occ, i0, j0, i1, j1, fz[l])) live &= ~(1u << l);
+    }
+    return live;
+}
+
 /* ---- writing results ------------------------------------------------------ */
 #if W == 8
 /* Left-pack for AVX2 (no compress instruction): byte k of entry m is the
@@ -290,7 +387,7 @@ static inline uint32_t emit_group(cull_result *restrict out, const cull_block *r
 static inline __attribute__((always_inline)) uint32_t
 single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict k, const uint32_t NP, bool aabb,
             int area, float min_area, bool count_only, cull_result *restrict out, uint32_t *c_sph,
-            uint32_t *c_aabb, uint32_t *c_area)
+            uint32_t *c_aabb, uint32_t *c_area, uint32_t *c_occ)
 {
     vf px[6], py[6], pz[6], pd[6];
     const float *bxp[6], *byp[6], *bzp[6];
@@ -306,7 +403,7 @@ single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict
     }
     const vf zero = vf_set(0.0f), none = vf_set(-1.0f), thr = vf_set(min_area);
     const vu bit = vu_or_bit(vu_zero(), vm_ones(), k->bit);
-    uint32_t written = 0, ns = 0, na = 0, nr = 0;
+    uint32_t written = 0, ns = 0, na = 0, nr = 0, no = 0;
     for (uint32_t o = 0; o < n; o += W) {
         const uint32_t valid = n - o >= W ? (1u << W) - 1u : (1u << (n - o)) - 1u;
         uint32_t live = valid;
@@ -348,11 +445,20 @@ single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict
             if (!live) continue;
         }
         nr += (uint32_t)__builtin_popcount(live);
+        if (k->occ) {
+            vf bx[2] = {vf_load(b->minx + o), vf_load(b->maxx + o)};
+            vf by[2] = {vf_load(b->miny + o), vf_load(b->maxy + o)};
+            vf bz[2] = {vf_load(b->minz + o), vf_load(b->maxz + o)};
+            live = occ_lanes(k, bx, by, bz, live);
+            if (!live) continue;
+        }
+        no += (uint32_t)__builtin_popcount(live);
         written += count_only ? (uint32_t)__builtin_popcount(live) : emit_group(out + written, b, o, live, bit, a);
     }
     *c_sph += ns;
     *c_aabb += na;
     *c_area += nr;
+    *c_occ += no;
     return written;
 }
 
@@ -365,8 +471,8 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
 
     if (nv == 1) {
         const int am = !want_area ? 0 : exact_area ? 2 : 1;
-        uint32_t cs = 0, ca = 0, cr = 0, written;
-#define CULL_ONE(NP) single_view(b, n, kv, NP, aabb, am, min_area, p->count_only, out, &cs, &ca, &cr)
+        uint32_t cs = 0, ca = 0, cr = 0, co = 0, written;
+#define CULL_ONE(NP) single_view(b, n, kv, NP, aabb, am, min_area, p->count_only, out, &cs, &ca, &cr, &co)
         switch (kv->nplanes) {
         case 0: written = CULL_ONE(0); break;
         case 1: written = CULL_ONE(1); break;
@@ -381,6 +487,7 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
         cnt->after_spheres += cs;
         cnt->after_aabb += ca;
         cnt->after_area += cr;
+        cnt->after_occ += co;
         return written;
     }
 
@@ -452,11 +559,30 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
         }
     }
 
-    uint32_t written = 0, c_area = 0;
+    uint32_t c_area = 0;
+    for (uint32_t g = 0; g < ng; g++) c_area += (uint32_t)__builtin_popcount(vu_nonzero_bits(mask[g]));
+
+    /* occlusion, per view that has a buffer */
+    for (uint32_t v = 0; v < nv; v++) {
+        const cull_kview *k = &kv[v];
+        if (!k->occ) continue;
+        for (uint32_t g = 0; g < ng; g++) {
+            uint32_t in = vm_bits(vu_has_bit(mask[g], k->bit));
+            if (!in) continue;
+            const uint32_t o = g * W;
+            vf bx[2] = {vf_load(b->minx + o), vf_load(b->maxx + o)};
+            vf by[2] = {vf_load(b->miny + o), vf_load(b->maxy + o)};
+            vf bz[2] = {vf_load(b->minz + o), vf_load(b->maxz + o)};
+            uint32_t kept = occ_lanes(k, bx, by, bz, in);
+            if (kept != in) mask[g] = vu_clear_bit(mask[g], vm_from_bits(in & ~kept), k->bit);
+        }
+    }
+
+    uint32_t written = 0, c_occ = 0;
     for (uint32_t g = 0; g < ng; g++) {
         uint32_t live = vu_nonzero_bits(mask[g]);
         if (!live) continue;
-        c_area += (uint32_t)__builtin_popcount(live);
+        c_occ += (uint32_t)__builtin_popcount(live);
         written += p->count_only ? (uint32_t)__builtin_popcount(live)
                                  : emit_group(out + written, b, g * W, live, mask[g], area[g]);
     }
@@ -464,5 +590,6 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
     cnt->after_spheres += c_sph;
     cnt->after_aabb += c_aabb;
     cnt->after_area += c_area;
+    cnt->after_occ += c_occ;
     return written;
 }

@@ -3,6 +3,7 @@
  * with -mavx2 -mfma; called only after CPUID says both are there.
  */
 #include "cull_internal.h"
+#include "cull_occ.h"
 #include <math.h>
 #if defined(__AVX2__) && defined(__FMA__)
 #define CULL_SIMD_ISA 3
@@ -11,4 +12,6 @@
 #include "cull_kernel.inl"
 #define CULL_CELLS_NAME cull_cells_avx2
 #include "cull_cells.inl"
+#define CULL_OCC_SUFFIX avx2
+#include "cull_occ_kern.inl"
 #endif

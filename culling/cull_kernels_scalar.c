@@ -4,6 +4,7 @@
  * with. Compiled with auto-vectorisation off so "scalar" means scalar.
  */
 #include "cull_internal.h"
+#include "cull_occ.h"
 #include <math.h>
 #define CULL_SIMD_ISA 1
 #include "cull_simd.h"
@@ -11,3 +12,5 @@
 #include "cull_kernel.inl"
 #define CULL_CELLS_NAME cull_cells_scalar
 #include "cull_cells.inl"
+#define CULL_OCC_SUFFIX scalar
+#include "cull_occ_kern.inl"

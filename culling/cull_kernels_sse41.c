@@ -3,6 +3,7 @@
  * multiply and an add). Compiled with -msse4.1; called only after CPUID.
  */
 #include "cull_internal.h"
+#include "cull_occ.h"
 #include <math.h>
 #if defined(__SSE4_1__)
 #define CULL_SIMD_ISA 2
@@ -11,4 +12,6 @@
 #include "cull_kernel.inl"
 #define CULL_CELLS_NAME cull_cells_sse41
 #include "cull_cells.inl"
+#define CULL_OCC_SUFFIX sse41
+#include "cull_occ_kern.inl"
 #endif

@@ -18,6 +18,7 @@
  * cull_kernel.inl. The context allocates only when the world has grown.
  */
 #include "cull_internal.h"
+#include "cull_occ.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -53,6 +54,7 @@ struct cull_ctx {
     uint32_t chunks_cap;
     cull_result *tres[MAX_THREADS];
     uint32_t tres_cap[MAX_THREADS];
+    cull_occ_buffer *occ[CULL_MAX_VIEWS]; /* per view index, made on demand */
 };
 
 int cull_ctx_create(cull_pool *pool, cull_ctx **out)
@@ -76,6 +78,7 @@ void cull_ctx_destroy(cull_ctx *c)
     free(c->items);
     free(c->chunks);
     for (uint32_t i = 0; i < MAX_THREADS; i++) free(c->tres[i]);
+    for (uint32_t i = 0; i < CULL_MAX_VIEWS; i++) cull_occ_buffer_destroy(c->occ[i]);
     free(c);
 }
 
@@ -102,16 +105,39 @@ typedef struct region_view {
     uint8_t from[6];  /* pl[k] is the view's plane from[k] */
 } region_view;
 
+/* Whether a cell's bounds are entirely behind view v's occluders. */
+static bool cell_occluded(const cull_cell *cell, const cull_occ_buffer *ob)
+{
+    double mn[3], mx[3];
+    for (int a = 0; a < 3; a++) {
+        mn[a] = cell->origin[a] + cell->bmin[a];
+        mx[a] = cell->origin[a] + cell->bmax[a];
+    }
+    cull_occ_rect r;
+    switch (cull_occ_project_box(ob, mn, mx, &r)) {
+    case OCC_BOX_OFF: return true;
+    case OCC_BOX_NEAR: return false;
+    default: return !cull_occ_rect_visible(ob, r.x0, r.y0, r.x1, r.y1, r.z);
+    }
+}
+
 /* The kviews of one cell: every view whose cell code says it may see the
- * cell, with the planes the cell straddles re-based to the cell origin
- * (double, then float). Returns how many. */
+ * cell and whose occluders do not hide it whole, with the planes the cell
+ * straddles re-based to the cell origin (double, then float). Returns how
+ * many; *occluded counts the views dropped by occlusion. */
 static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *rv, uint32_t nrv,
-                            const uint8_t *codes, size_t stride, bool area, cull_kview *kv)
+                            const uint8_t *codes, size_t stride, bool area, const cull_occ_buffer *const *ob,
+                            cull_kview *kv, uint32_t *occluded)
 {
     uint32_t nv = 0;
     for (uint32_t a = 0; a < nrv; a++) {
         uint32_t code = codes[a * stride + cell->index];
         if (code & 0x80u) continue;
+        const cull_occ_buffer *occ = ob[rv[a].view];
+        if (occ && cell_occluded(cell, occ)) {
+            (*occluded)++;
+            continue;
+        }
         const cull_view *view = &q->views[rv[a].view];
         double t[3] = {cell->origin[0] - view->origin[0], cell->origin[1] - view->origin[1],
                        cell->origin[2] - view->origin[2]};
@@ -127,7 +153,16 @@ static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, con
         }
         k->nplanes = np;
         k->bit = 1u << rv[a].view;
-        if (area) {
+        k->occ = occ;
+        if (occ) {
+            for (int c = 0; c < 3; c++) k->cd[c] = (float)occ->rd[c];
+            k->cd[3] = (float)(occ->rd[0] * t[0] + occ->rd[1] * t[1] + occ->rd[2] * t[2] + occ->rd[3]);
+            k->occ_sx = (float)occ->sx;
+            k->occ_sy = (float)occ->sy;
+            k->occ_w = (float)occ->w;
+            k->occ_h = (float)occ->h;
+        }
+        if (area || occ) {
             const double *m = view->clip;
             static const int rows[3] = {0, 1, 3};
             float *dst[3] = {k->cx, k->cy, k->cw};
@@ -228,6 +263,40 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         if (q->views[v].plane_count < 5 || q->views[v].plane_count > 6) return CULL_ERR_MATRIX;
     if (!count_only && cap < cull_query_bound(w)) return CULL_ERR_OUTPUT;
 
+    /* the occlusion stage: a buffer per view, given or rendered here */
+    const cull_occ_buffer *ob[CULL_MAX_VIEWS] = {0};
+    uint32_t occ_views = 0, occ_drawn = 0;
+    uint64_t occ_ns = 0;
+    if (!(q->flags & CULL_Q_NO_OCCLUSION) && (q->occ_buffers || w->nocc)) {
+        uint32_t ow = q->occ_w ? q->occ_w : CULL_OCC_DEFAULT_W, oh = q->occ_h ? q->occ_h : CULL_OCC_DEFAULT_H;
+        for (uint32_t v = 0; v < q->view_count; v++) {
+            cull_occ_buffer *b;
+            if (q->occ_buffers) {
+                b = q->occ_buffers[v];
+                if (!b) continue;
+            } else {
+                b = c->occ[v];
+                if (!b || b->w != ow || b->h != oh) {
+                    cull_occ_buffer *nb;
+                    int rc = cull_occ_buffer_create(ow, oh, &nb);
+                    if (rc != CULL_OK) return rc;
+                    cull_occ_buffer_destroy(c->occ[v]);
+                    c->occ[v] = b = nb;
+                }
+                b->inner = !(q->flags & CULL_Q_OCC_CENTRE);
+                cull_occ_stats st;
+                int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, &st);
+                if (rc != CULL_OK) return rc;
+                occ_ns += st.raster_ns;
+                occ_drawn += st.clusters_drawn;
+            }
+            if (b->drawn && b->usable) {
+                ob[v] = b;
+                occ_views++;
+            }
+        }
+    }
+
     cull_kparams kp = {
         .min_area = q->min_screen_area,
         .aabb = !(q->flags & CULL_Q_NO_AABB),
@@ -254,7 +323,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     const size_t cstride = CULL_REGION_CELLS * CULL_REGION_CELLS * CULL_REGION_CELLS + 4;
     region_view rv[CULL_MAX_VIEWS];
     uint32_t nkv = 0, nitems = 0, tested = 0;
-    uint32_t regions = 0, regions_culled = 0, cells = 0, cells_culled = 0;
+    uint32_t regions = 0, regions_culled = 0, cells = 0, cells_culled = 0, cells_occluded = 0;
     for (int g = 0; g < 2; g++) {
         if ((q->flags & CULL_Q_STATIC_ONLY) && g == 1) continue;
         if ((q->flags & CULL_Q_DYNAMIC_ONLY) && g == 0) continue;
@@ -297,7 +366,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 if (!cull_grow((void **)&c->kv, &c->kv_cap, (size_t)nkv + nrv, sizeof *c->kv) ||
                     !cull_grow((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
                     return CULL_ERR_NOMEM;
-                uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, c->kv + nkv);
+                uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, c->kv + nkv,
+                                          &cells_occluded);
                 if (!nv) {
                     cells_culled++;
                     continue;
@@ -355,6 +425,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             total.after_spheres += j.cnt[t].after_spheres;
             total.after_aabb += j.cnt[t].after_aabb;
             total.after_area += j.cnt[t].after_area;
+            total.after_occ += j.cnt[t].after_occ;
         }
     }
     *count = written;
@@ -367,6 +438,11 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         stats->after_spheres = total.after_spheres;
         stats->after_aabb = total.after_aabb;
         stats->after_area = total.after_area;
+        stats->after_occlusion = total.after_occ;
+        stats->occ_views = occ_views;
+        stats->occ_clusters_drawn = occ_drawn;
+        stats->cells_occluded = cells_occluded;
+        stats->occ_raster_ns = occ_ns;
         stats->visible = (uint32_t)written;
         stats->threads_used = threads;
     }

@@ -19,6 +19,7 @@ typedef __m256 vf;
 typedef __m256 vm;
 typedef __m256i vu;
 static inline vf vf_load(const float *p) { return _mm256_load_ps(p); }
+static inline vf vf_loadu(const float *p) { return _mm256_loadu_ps(p); }
 static inline void vf_store(float *p, vf a) { _mm256_storeu_ps(p, a); }
 static inline vf vf_set(float a) { return _mm256_set1_ps(a); }
 static inline vf vf_add(vf a, vf b) { return _mm256_add_ps(a, b); }
@@ -37,12 +38,18 @@ static inline vf vf_max(vf a, vf b) { return _mm256_max_ps(a, b); }
 static inline vf vf_abs(vf a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
 static inline vm vf_ge(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
 static inline vm vf_lt(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
+static inline vm vf_le(vf a, vf b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
 static inline vf vf_select(vm m, vf a, vf b) { return _mm256_blendv_ps(b, a, m); }
 static inline vm vm_and(vm a, vm b) { return _mm256_and_ps(a, b); }
 static inline vm vm_or(vm a, vm b) { return _mm256_or_ps(a, b); }
 static inline vm vm_andnot(vm a, vm b) { return _mm256_andnot_ps(b, a); } /* a & ~b */
 static inline vm vm_ones(void) { return _mm256_castsi256_ps(_mm256_set1_epi32(-1)); }
 static inline uint32_t vm_bits(vm m) { return (uint32_t)_mm256_movemask_ps(m); }
+static inline vm vm_from_bits(uint32_t bits)
+{
+    const __m256i sel = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    return _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32((int)bits), sel), sel));
+}
 static inline vu vu_zero(void) { return _mm256_setzero_si256(); }
 static inline vu vu_or_bit(vu acc, vm m, uint32_t bit)
 {
@@ -91,6 +98,7 @@ typedef __m128 vf;
 typedef __m128 vm;
 typedef __m128i vu;
 static inline vf vf_load(const float *p) { return _mm_load_ps(p); }
+static inline vf vf_loadu(const float *p) { return _mm_loadu_ps(p); }
 static inline void vf_store(float *p, vf a) { _mm_storeu_ps(p, a); }
 static inline vf vf_set(float a) { return _mm_set1_ps(a); }
 static inline vf vf_add(vf a, vf b) { return _mm_add_ps(a, b); }
@@ -108,12 +116,18 @@ static inline vf vf_max(vf a, vf b) { return _mm_max_ps(a, b); }
 static inline vf vf_abs(vf a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
 static inline vm vf_ge(vf a, vf b) { return _mm_cmpge_ps(a, b); }
 static inline vm vf_lt(vf a, vf b) { return _mm_cmplt_ps(a, b); }
+static inline vm vf_le(vf a, vf b) { return _mm_cmple_ps(a, b); }
 static inline vf vf_select(vm m, vf a, vf b) { return _mm_blendv_ps(b, a, m); }
 static inline vm vm_and(vm a, vm b) { return _mm_and_ps(a, b); }
 static inline vm vm_or(vm a, vm b) { return _mm_or_ps(a, b); }
 static inline vm vm_andnot(vm a, vm b) { return _mm_andnot_ps(b, a); }
 static inline vm vm_ones(void) { return _mm_castsi128_ps(_mm_set1_epi32(-1)); }
 static inline uint32_t vm_bits(vm m) { return (uint32_t)_mm_movemask_ps(m); }
+static inline vm vm_from_bits(uint32_t bits)
+{
+    const __m128i sel = _mm_setr_epi32(1, 2, 4, 8);
+    return _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32((int)bits), sel), sel));
+}
 static inline vu vu_zero(void) { return _mm_setzero_si128(); }
 static inline vu vu_or_bit(vu acc, vm m, uint32_t bit)
 {
@@ -157,6 +171,7 @@ typedef float vf;
 typedef uint32_t vm;
 typedef uint32_t vu;
 static inline vf vf_load(const float *p) { return *p; }
+static inline vf vf_loadu(const float *p) { return *p; }
 static inline void vf_store(float *p, vf a) { *p = a; }
 static inline vf vf_set(float a) { return a; }
 static inline vf vf_add(vf a, vf b) { return a + b; }
@@ -170,12 +185,14 @@ static inline vf vf_max(vf a, vf b) { return a > b ? a : b; }
 static inline vf vf_abs(vf a) { return a < 0 ? -a : a; }
 static inline vm vf_ge(vf a, vf b) { return a >= b ? ~0u : 0u; }
 static inline vm vf_lt(vf a, vf b) { return a < b ? ~0u : 0u; }
+static inline vm vf_le(vf a, vf b) { return a <= b ? ~0u : 0u; }
 static inline vf vf_select(vm m, vf a, vf b) { return m ? a : b; }
 static inline vm vm_and(vm a, vm b) { return a & b; }
 static inline vm vm_or(vm a, vm b) { return a | b; }
 static inline vm vm_andnot(vm a, vm b) { return a & ~b; }
 static inline vm vm_ones(void) { return ~0u; }
 static inline uint32_t vm_bits(vm m) { return m & 1u; }
+static inline vm vm_from_bits(uint32_t bits) { return (bits & 1u) ? ~0u : 0u; }
 static inline vu vu_zero(void) { return 0; }
 static inline vu vu_or_bit(vu acc, vm m, uint32_t bit) { return acc | (m & bit); }
 static inline vu vu_clear_bit(vu acc, vm m, uint32_t bit) { return acc & ~(m & bit); }

@@ -53,6 +53,7 @@ int cull_world_create(const cull_world_desc *desc, cull_world **out)
     w->inv_cell_size = 1.0 / d.cell_size;
     w->max_entities = d.max_entities;
     w->free_head = UINT32_MAX;
+    w->ofree_head = UINT32_MAX;
     *out = w;
     return CULL_OK;
 }
@@ -61,6 +62,7 @@ void cull_world_destroy(cull_world *w)
 {
     if (!w) return;
     for (int g = 0; g < 2; g++) cull_grid_free(&w->grid[g]);
+    cull_occluders_free(w);
     for (uint32_t i = 0; i < w->nslabs; i++) free(w->slabs[i]);
     free(w->slabs);
     free(w->block_pool);

@@ -52,7 +52,9 @@ extern "C" {
     X(CULL_ERR_CAPACITY,    -10, "entity capacity exhausted")                   \
     X(CULL_ERR_NOMEM,       -11, "out of memory")                               \
     X(CULL_ERR_OUTPUT,      -12, "output buffer smaller than cull_query_bound") \
-    X(CULL_ERR_THREADS,     -13, "cannot start worker threads")
+    X(CULL_ERR_THREADS,     -13, "cannot start worker threads")             \
+    X(CULL_ERR_MESH,        -14, "occluder mesh: bad counts or index out of range") \
+    X(CULL_ERR_BUFFER,      -15, "occlusion buffer must be 8..8192 x 8..8192 pixels")
 
 enum {
 #define CULL_X_ENUM(name, value, msg) name = value,
@@ -130,6 +132,67 @@ typedef struct cull_world_info {
 } cull_world_info;
 void cull_world_info_get(const cull_world *w, cull_world_info *out);
 
+
+/* ---- occluders ------------------------------------------------------------ */
+/* Occluders are a separate set from the entities: closed low-poly meshes
+ * (artist-made, or a terrain height field) that hide entities behind them.
+ * They are rendered, conservatively, into a small depth buffer per view
+ * (cull_occ_*), and the query's last stage drops entities whose screen
+ * rectangle lies entirely behind it. Nothing is baked: add, update and
+ * remove at any time (destruction replaces an occluder's triangles). */
+typedef uint32_t cull_occluder; /* same handle scheme as entities; 0 = none */
+#define CULL_MAX_OCCLUDERS (1u << 20)
+#define CULL_OCC_MAX_VERTICES (1u << 20) /* per occluder */
+#define CULL_OCC_MAX_TRIANGLES (1u << 20) /* per occluder */
+
+/* A triangle list with a model-to-world transform. Front faces are
+ * counter-clockwise seen from outside; back faces are never drawn, so a
+ * camera inside a closed occluder sees through it (it hides nothing).
+ * Degenerate triangles (zero area, or NaN-free but collinear) are dropped
+ * and counted; a non-finite vertex or transform rejects the whole desc. */
+typedef struct cull_occluder_desc {
+    const float    *vertices;     /* xyz, 3 * vertex_count, model space */
+    uint32_t        vertex_count;
+    const uint32_t *indices;      /* 3 per triangle; NULL: vertices are a
+                                     triangle list (vertex_count % 3 == 0) */
+    uint32_t        index_count;
+    double          transform[16]; /* column-major affine model -> world;
+                                      all zero = identity */
+    uint16_t        sublevel;
+} cull_occluder_desc;
+
+/* A height field: heights[z * nx + x] at world (origin.x + x * spacing,
+ * origin.y + h, origin.z + z * spacing), nx, nz >= 2. Triangulated and
+ * split into chunks; the solid is below the surface (seen from below it
+ * hides nothing). */
+typedef struct cull_terrain_desc {
+    const float *heights;
+    uint32_t     nx, nz;
+    double       origin[3];
+    double       spacing;      /* metres between samples, > 0 */
+    uint16_t     sublevel;
+} cull_terrain_desc;
+
+typedef struct cull_occluder_info {
+    uint32_t triangles;        /* kept (after dropping degenerates) */
+    uint32_t dropped;          /* degenerate triangles dropped */
+    uint32_t faces;            /* drawn polygons (coplanar pairs merged) */
+    uint32_t clusters;         /* culled as units */
+    double   aabb_min[3], aabb_max[3];
+    uint16_t sublevel;
+} cull_occluder_info;
+
+/* Adds an occluder (O(triangles)). On error nothing is stored. */
+int cull_occluder_add(cull_world *w, const cull_occluder_desc *d, cull_occluder *out);
+int cull_terrain_add(cull_world *w, const cull_terrain_desc *d, cull_occluder *out);
+/* Replaces an occluder's geometry (mesh or terrain, either kind); the
+ * handle stays. On error the occluder is unchanged. */
+int cull_occluder_update(cull_world *w, cull_occluder h, const cull_occluder_desc *d);
+int cull_terrain_update(cull_world *w, cull_occluder h, const cull_terrain_desc *d);
+int cull_occluder_remove(cull_world *w, cull_occluder h);
+int cull_occluder_get_info(const cull_world *w, cull_occluder h, cull_occluder_info *out);
+uint32_t cull_occluder_count(const cull_world *w);
+
 /* ---- views -------------------------------------------------------------- */
 enum cull_depth_mode {
     CULL_DEPTH_GL = 0,       /* clip z in [-w, w] (OpenGL) */
@@ -186,6 +249,16 @@ void cull_mat_mul(double out[16], const double a[16], const double b[16]);
 #define CULL_Q_DYNAMIC_ONLY 0x8u /* only the dynamic grid */
 #define CULL_Q_COUNT_ONLY   0x10u /* *count = the visible entities; out is not
                                      written (may be NULL with cap 0) */
+#define CULL_Q_NO_OCCLUSION 0x20u /* skip the occlusion stage (it runs by
+                                     default for every view that has an
+                                     occluder in its frustum) */
+#define CULL_Q_OCC_CENTRE   0x40u /* occluders cover the pixels whose centre
+                                     they cover, instead of only the pixels
+                                     they cover entirely: culls more, exact
+                                     only at the buffer's own resolution
+                                     (see "occlusion buffers" below) */
+
+typedef struct cull_occ_buffer cull_occ_buffer;
 
 typedef struct cull_query_desc {
     const cull_view *views;     /* view_count prepared views */
@@ -198,6 +271,12 @@ typedef struct cull_query_desc {
                                    (entities x views after the cell stage) pays
                                    for a dispatch, else the caller alone;
                                    N = up to N of the pool's threads, always */
+    uint32_t occ_w, occ_h;      /* occlusion buffer, pixels; 0 = 256 x 114 */
+    cull_occ_buffer *const *occ_buffers; /* NULL: the context renders the
+                                   occluders for each view; else one buffer
+                                   per view already rendered for it with
+                                   cull_occ_render (NULL entries: no
+                                   occlusion for that view) */
 } cull_query_desc;
 
 /* The talk's EntityRenderCullInfo. 16 bytes. */
@@ -218,8 +297,13 @@ typedef struct cull_query_stats {
                                        their region or alone) */
     uint32_t entities_tested;       /* entities in surviving cells */
     uint32_t after_spheres, after_aabb, after_area; /* entities with any bit */
+    uint32_t after_occlusion;       /* entities with any bit after occlusion */
     uint32_t visible;               /* results written */
     uint32_t threads_used;
+    uint32_t occ_views;             /* views the occlusion stage ran for */
+    uint32_t occ_clusters_drawn;    /* occluder clusters rasterised, all views */
+    uint32_t cells_occluded;        /* (cell, view) pairs dropped whole by occlusion */
+    uint64_t occ_raster_ns;         /* wall time spent rendering occluders */
 } cull_query_stats;
 
 /* Job pool: threads-1 persistent workers plus the caller. threads 0 = the
@@ -249,6 +333,56 @@ size_t cull_query_bound(const cull_world *w);
 int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                cull_result *out, size_t cap, size_t *count,
                cull_query_stats *stats);
+
+
+/* ---- occlusion buffers ------------------------------------------------------ */
+/* A view's occluders rendered into a depth buffer ("Culling the Battlefield"
+ * slides 41-52; 256 x 114 by default). Stored per pixel: a nearness value
+ * (1/w for perspective views; for orthographic ones 1 - z_ndc, or z_ndc
+ * with reversed-Z: larger is nearer), never nearer than the occluder
+ * anywhere over the pixel. Coverage, by default: a pixel is marked only if
+ * an occluder polygon covers the whole pixel square (shrunk by a rounding
+ * margin), so an entity is culled only if it is hidden at every sample
+ * position of every resolution. CULL_OCC_COVER_CENTRE marks the pixels
+ * whose centre is covered instead (as a GPU z-buffer does): it culls more
+ * and is exact for a z-buffer of the buffer's own size, but an entity
+ * peeking through a gap narrower than a pixel may be culled. Plus min-
+ * tiles of 8x8 and 64x64 pixels, so a rectangle test is near O(1).
+ *
+ * Entities are tested by every pixel their projected AABB touches and the
+ * AABB's nearest point. tests/test_occlusion.c checks both modes against a
+ * double-precision ray caster: no entity the caster sees is culled. */
+enum cull_occ_cover { CULL_OCC_COVER_INNER = 0, CULL_OCC_COVER_CENTRE = 1 };
+#define CULL_OCC_DEFAULT_W 256u
+#define CULL_OCC_DEFAULT_H 114u
+
+int  cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **out);
+/* enum cull_occ_cover, for the next render (default INNER). */
+int  cull_occ_buffer_set_cover(cull_occ_buffer *b, uint32_t cover);
+void cull_occ_buffer_destroy(cull_occ_buffer *b);
+
+typedef struct cull_occ_stats {
+    uint32_t clusters_in_view;  /* occluder clusters inside the frustum */
+    uint32_t clusters_drawn;    /* rasterised: the rest covered no pixel
+                                   centre or were hidden by nearer ones */
+    uint32_t faces_drawn;       /* front-facing polygons set up */
+    uint32_t threads_used;
+    uint64_t raster_ns;
+} cull_occ_stats;
+
+/* Clears b and renders the world's occluders as seen by v (front to back,
+ * in horizontal bands on up to `threads` threads of the pool; 0 = the
+ * whole pool). pool may be NULL. */
+int cull_occ_render(const cull_world *w, const cull_view *v, cull_occ_buffer *b,
+                    cull_pool *pool, uint32_t threads, cull_occ_stats *st);
+/* 1 if an AABB (world metres) may be visible in the view b was rendered
+ * for, 0 if it is entirely behind the stored depth (double precision). */
+int cull_occ_test_aabb(const cull_occ_buffer *b, const double mn[3], const double mx[3]);
+/* Whether the last render drew anything (no occluder: tests always pass). */
+int cull_occ_buffer_empty(const cull_occ_buffer *b);
+/* The stored nearness (see above; -FLT_MAX where no occluder covers the
+ * pixel centre), row 0 at the bottom of the view, `stride` floats apart. */
+const float *cull_occ_depth(const cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride);
 
 /* ---- ISA dispatch -------------------------------------------------------- */
 enum cull_isa { CULL_ISA_SCALAR = 0, CULL_ISA_SSE41, CULL_ISA_AVX2, CULL_ISA_COUNT };

@@ -13,6 +13,7 @@ int main(void)
         {world_tests, world_tests_count},
         {view_tests, view_tests_count},
         {query_tests, query_tests_count},
+        {occlusion_tests, occlusion_tests_count},
         {alloc_tests, alloc_tests_count},
         {protocol_tests, protocol_tests_count},
         {e2e_tests, e2e_tests_count},
@@ -21,11 +22,13 @@ int main(void)
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;
     struct CMUnitTest *all = calloc(total, sizeof *all);
     if (!all) return 1;
+    /* VANTAGE_TEST_ONLY=substring runs the tests whose name contains it */
+    const char *only = getenv("VANTAGE_TEST_ONLY");
     size_t k = 0;
-    for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) {
-        memcpy(all + k, groups[g].t, groups[g].n * sizeof *all);
-        k += groups[g].n;
-    }
+    for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++)
+        for (size_t i = 0; i < groups[g].n; i++)
+            if (!only || strstr(groups[g].t[i].name, only)) all[k++] = groups[g].t[i];
+    total = k;
     printf("vantage tests: seed 0x%llx, scale %g\n", (unsigned long long)test_seed(), test_scale());
     int failed = _cmocka_run_group_tests("vantage", all, total, NULL, NULL);
     free(all);

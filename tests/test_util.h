@@ -61,5 +61,6 @@ TEST_GROUP(query_tests)
 TEST_GROUP(alloc_tests)
 TEST_GROUP(protocol_tests)
 TEST_GROUP(e2e_tests)
+TEST_GROUP(occlusion_tests)
 
 #endif

@@ -1,0 +1,585 @@
+/*
+ * cull_occ.c — software occlusion: the occluders of one view rendered into
+ * a small depth buffer, a min-depth hierarchy over it, and the rectangle
+ * test the query's last stage runs ("Culling the Battlefield", DICE 2011,
+ * slides 41-52).
+ *
+ * Depth. Each pixel stores a "nearness" that is affine in screen space:
+ * 1/w for perspective views, 1 - z_ndc (z_ndc with reversed-Z) for
+ * orthographic ones; larger is nearer, -FLT_MAX is "no occluder". A pixel's
+ * value is never nearer than the occluder anywhere over the pixel: the
+ * plane's value at the pixel's farthest corner, but not below the polygon's
+ * farthest vertex, minus the float rounding of the evaluation.
+ *
+ * Rasterisation is homogeneous (Olano & Greer 1997): a polygon's edges are
+ * the planes through the eye and each pair of clip-space vertices,
+ * n_k = v_k x v_(k+1) over (x, y, w), and a pixel centre s = (X, Y, 1) is
+ * inside when every n_k.s > 0. Vertices behind the eye need no special
+ * case; the near plane becomes one more linear function of s on the
+ * polygon's plane, and so does the nearness (sum_i d_i E_i(s) / det with
+ * E_i the adjugate rows). All set-up is in double; per row, each
+ * constraint gives a bound on x, so a row is one span; the span is filled
+ * by a vectorisable loop in float. Every constraint is shrunk by 2^-24 of
+ * its range over the screen, so the covered set is a subset of what an
+ * exact rasteriser covers: conservative in coverage and in depth.
+ *
+ * Order and threads. Occluders are split into clusters of <= 64 faces
+ * (cull_occluder.c). Per view: clusters outside the frustum are dropped,
+ * the rest sorted near to far by their nearest point; horizontal bands of
+ * whole 8-row tiles are rendered in parallel, each band walking the whole
+ * sorted list, skipping clusters whose rectangle misses the band or is
+ * already hidden in it (front-to-back pays here: most of a city is behind
+ * its first street). Bands need no merging and no locks; a cluster that
+ * spans two bands has its vertices transformed twice (cheap next to the
+ * pixels). Per-occluder buffers merged afterwards were the alternative:
+ * the merge alone costs a pass over every buffer, and it loses the hidden-
+ * occluder skip.
+ *
+ * Hierarchy: min over 8x8 tiles and over 64x64 tiles. A rectangle test
+ * walks the big tiles, then the small ones, and reads pixels only where a
+ * tile is not entirely nearer than the box: a hidden box costs a few loads.
+ */
+#include "cull_internal.h"
+#include "cull_occ.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define EMPTY (-FLT_MAX)
+#define PAD FLT_MAX
+#define MAX_BANDS 64u
+#define HIDDEN_TEST_MAX_PIXELS 16384u /* bigger rectangles are drawn untested */
+
+/* libm's fmin, fmax, floor and ceil are calls on baseline x86-64 (NaN
+ * and errno rules); these are inlined. Arguments here are never NaN. */
+static inline double dmin(double a, double b) { return a < b ? a : b; }
+static inline double dmax(double a, double b) { return a > b ? a : b; }
+static inline float fmin_(float a, float b) { return a < b ? a : b; }
+/* floor and ceil; x is clamped to +-2^40 first (pixel indices) */
+static inline double clamp40(double x)
+{
+    return x < -0x1p40 ? -0x1p40 : x > 0x1p40 ? 0x1p40 : x;
+}
+static inline double dfloor(double x)
+{
+    x = clamp40(x);
+    double i = (double)(int64_t)x;
+    return i > x ? i - 1 : i;
+}
+static inline double dceil(double x)
+{
+    x = clamp40(x);
+    double i = (double)(int64_t)x;
+    return i < x ? i + 1 : i;
+}
+
+static uint64_t now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+/* ---- buffers ------------------------------------------------------------------ */
+
+int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **out)
+{
+    if (!out) return CULL_ERR_INVALID;
+    *out = NULL;
+    if (width < 8 || height < 8 || width > 8192 || height > 8192) return CULL_ERR_BUFFER;
+    cull_occ_buffer *b = calloc(1, sizeof *b);
+    if (!b) return CULL_ERR_NOMEM;
+    b->w = width;
+    b->h = height;
+    b->stride = (width + 63) & ~63u;
+    b->hp = (height + 63) & ~63u;
+    b->tw = b->stride / 8;
+    b->th = b->hp / 8;
+    b->t2w = b->stride / 64;
+    b->t2h = b->hp / 64;
+    b->depth = aligned_alloc(64, (size_t)b->stride * b->hp * sizeof(float));
+    b->tile = malloc((size_t)b->tw * b->th * sizeof(float));
+    b->tile2 = malloc((size_t)b->t2w * b->t2h * sizeof(float));
+    if (!b->depth || !b->tile || !b->tile2) {
+        cull_occ_buffer_destroy(b);
+        return CULL_ERR_NOMEM;
+    }
+    /* padding never lowers a tile's minimum */
+    for (size_t i = 0; i < (size_t)b->stride * b->hp; i++) b->depth[i] = PAD;
+    for (uint32_t y = 0; y < b->h; y++)
+        for (uint32_t x = 0; x < b->w; x++) b->depth[(size_t)y * b->stride + x] = EMPTY;
+    for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = EMPTY;
+    for (size_t i = 0; i < (size_t)b->t2w * b->t2h; i++) b->tile2[i] = EMPTY;
+    b->inner = true;
+    b->isa = cull_isa_default();
+    b->fns = cull_occ_fns_for(b->isa);
+    *out = b;
+    return CULL_OK;
+}
+
+void cull_occ_buffer_destroy(cull_occ_buffer *b)
+{
+    if (!b) return;
+    free(b->depth);
+    free(b->tile);
+    free(b->tile2);
+    free(b->items);
+    free(b);
+}
+
+int cull_occ_buffer_set_cover(cull_occ_buffer *b, uint32_t cover)
+{
+    if (!b || cover > CULL_OCC_COVER_CENTRE) return CULL_ERR_INVALID;
+    b->inner = cover == CULL_OCC_COVER_INNER;
+    return CULL_OK;
+}
+
+int cull_occ_buffer_empty(const cull_occ_buffer *b)
+{
+    return !b || !b->drawn;
+}
+
+const float *cull_occ_depth(const cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride)
+{
+    if (!b) return NULL;
+    if (width) *width = b->w;
+    if (height) *height = b->h;
+    if (stride) *stride = b->stride;
+    return b->depth;
+}
+
+/* ---- the view as the rasteriser and the tests see it ------------------------- */
+
+/* Rows of the view-projection (camera-relative), the nearness numerator and
+ * the near plane, all as linear functions of (p - origin, 1). */
+void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v)
+{
+    const double *m = v->clip;
+    double row[4][4];
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++) row[r][c] = m[c * 4 + r];
+    memcpy(b->rx, row[0], sizeof b->rx);
+    memcpy(b->ry, row[1], sizeof b->ry);
+    memcpy(b->rw, row[3], sizeof b->rw);
+    memcpy(b->origin, v->origin, sizeof b->origin);
+    double wl = fabs(row[3][0]) + fabs(row[3][1]) + fabs(row[3][2]);
+    b->ortho = !(wl > 1e-12 * fabs(row[3][3]));
+    for (int c = 0; c < 4; c++) {
+        switch (v->depth_mode) {
+        case CULL_DEPTH_GL: b->rn[c] = row[3][c] + row[2][c]; break;
+        case CULL_DEPTH_ZERO_ONE: b->rn[c] = row[2][c]; break;
+        default: b->rn[c] = row[3][c] - row[2][c]; break;
+        }
+        if (!b->ortho) b->rd[c] = c == 3 ? 1.0 : 0.0;
+        else b->rd[c] = v->depth_mode == CULL_DEPTH_REVERSED ? row[2][c] : row[3][c] - row[2][c];
+    }
+    /* an orthographic view must have w > 0 */
+    b->usable = !b->ortho || row[3][3] > 0;
+    b->sx = 0.5 * b->w;
+    b->sy = 0.5 * b->h;
+}
+
+static inline double lin4(const double r[4], const double p[3])
+{
+    return r[0] * p[0] + r[1] * p[1] + r[2] * p[2] + r[3];
+}
+
+/* Pixel rectangle (every pixel the projection touches) and nearest nearness of
+ * a world AABB. Returns OCC_BOX_OFF (no pixel centre), OCC_BOX_NEAR (the box
+ * reaches the near plane: treat as visible) or OCC_BOX_OK. */
+int cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r)
+{
+    double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY, nmax = -INFINITY;
+    for (int c = 0; c < 8; c++) {
+        double p[3] = {((c & 1) ? mx[0] : mn[0]) - b->origin[0], ((c & 2) ? mx[1] : mn[1]) - b->origin[1],
+                       ((c & 4) ? mx[2] : mn[2]) - b->origin[2]};
+        double w = lin4(b->rw, p);
+        if (!(lin4(b->rn, p) > 0) || !(w > 0)) return OCC_BOX_NEAR;
+        double iw = 1.0 / w, x = lin4(b->rx, p) * iw, y = lin4(b->ry, p) * iw, n = lin4(b->rd, p) * iw;
+        xmin = dmin(xmin, x);
+        xmax = dmax(xmax, x);
+        ymin = dmin(ymin, y);
+        ymax = dmax(ymax, y);
+        nmax = dmax(nmax, n);
+    }
+    /* pixel i spans [i, i + 1) in pixel units, NDC (2i / W - 1 ...): every
+       pixel the projection touches, grown by 2^-20 of the buffer for the
+       rounding above. Not just the pixel centres inside it: an entity
+       smaller than a pixel must still be tested, not dropped. */
+    double i0 = dfloor((xmin + 1) * b->sx - 0x1p-20 * b->w), i1 = dceil((xmax + 1) * b->sx + 0x1p-20 * b->w) - 1;
+    double j0 = dfloor((ymin + 1) * b->sy - 0x1p-20 * b->h), j1 = dceil((ymax + 1) * b->sy + 0x1p-20 * b->h) - 1;
+    i0 = dmax(i0, 0);
+    j0 = dmax(j0, 0);
+    i1 = dmin(i1, b->w - 1.0);
+    j1 = dmin(j1, b->h - 1.0);
+    if (!(i0 <= i1 && j0 <= j1)) return OCC_BOX_OFF;
+    r->x0 = (int)i0;
+    r->x1 = (int)i1;
+    r->y0 = (int)j0;
+    r->y1 = (int)j1;
+    r->z = cull_round_up(nmax + 0x1p-20 * fabs(nmax));
+    return OCC_BOX_OK;
+}
+
+/* Some pixel of the rectangle not strictly nearer than z? */
+bool cull_occ_rect_visible(const cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z)
+{
+    for (int Y = y0 >> 6; Y <= y1 >> 6; Y++)
+        for (int X = x0 >> 6; X <= x1 >> 6; X++) {
+            if (b->tile2[Y * b->t2w + X] > z) continue;
+            int ty0 = (Y << 6 > y0 ? Y << 6 : y0) >> 3, ty1 = ((Y << 6) + 63 < y1 ? (Y << 6) + 63 : y1) >> 3;
+            int tx0 = (X << 6 > x0 ? X << 6 : x0) >> 3, tx1 = ((X << 6) + 63 < x1 ? (X << 6) + 63 : x1) >> 3;
+            for (int ty = ty0; ty <= ty1; ty++)
+                for (int tx = tx0; tx <= tx1; tx++) {
+                    if (b->tile[ty * b->tw + tx] > z) continue;
+                    int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
+                    int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
+                    for (int py = py0; py <= py1; py++) {
+                        const float *row = b->depth + (size_t)py * b->stride;
+                        for (int px = px0; px <= px1; px++)
+                            if (row[px] <= z) return true;
+                    }
+                }
+        }
+    return false;
+}
+
+int cull_occ_test_aabb(const cull_occ_buffer *b, const double mn[3], const double mx[3])
+{
+    if (!b || !mn || !mx) return 1;
+    if (!b->drawn || !b->usable) return 1;
+    cull_occ_rect r;
+    switch (cull_occ_project_box(b, mn, mx, &r)) {
+    case OCC_BOX_OFF: return 0;
+    case OCC_BOX_NEAR: return 1;
+    default: return cull_occ_rect_visible(b, r.x0, r.y0, r.x1, r.y1, r.z);
+    }
+}
+
+/* ---- rasterisation -------------------------------------------------------------- */
+
+/* One vertex in clip space, plus what the polygon set-up needs. */
+typedef struct cvert {
+    double x, y, w;   /* homogeneous screen coordinates */
+    double n;         /* near-plane function: >= 0 in front */
+    double d;         /* nearness numerator */
+} cvert;
+
+typedef struct lin3 {
+    double a, b, c;   /* a * i + b * j + c over pixel indices */
+} lin3;
+
+static inline void cross_xyw(double o[3], const cvert *p, const cvert *q)
+{
+    o[0] = p->y * q->w - p->w * q->y;
+    o[1] = p->w * q->x - p->x * q->w;
+    o[2] = p->x * q->y - p->y * q->x;
+}
+
+/* A linear function of s = (X, Y, 1) in NDC -> over pixel indices. */
+static inline lin3 to_pixels(const cull_occ_buffer *b, const double f[3])
+{
+    double ax = f[0] / b->sx, ay = f[1] / b->sy;
+    return (lin3){ax, ay, f[2] + f[0] * (0.5 / b->sx - 1.0) + f[1] * (0.5 / b->sy - 1.0)};
+}
+
+typedef struct band {
+    cull_occ_buffer *b;
+    int y0, y1;            /* rows [y0, y1) */
+    uint32_t faces, clusters;
+} band;
+
+/* Set-up of one half (a triangle) of a face: the adjugate rows scaled by
+ * 1/det give the near function and the nearness as planes. */
+static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *v1, const cvert *v2, lin3 *near,
+                        lin3 *nearness, double *det_out)
+{
+    double e0[3], e1[3], e2[3];
+    cross_xyw(e0, v1, v2);
+    cross_xyw(e1, v2, v0);
+    cross_xyw(e2, v0, v1);
+    double det = e0[0] * v0->x + e0[1] * v0->y + e0[2] * v0->w;
+    double s0 = fabs(v0->x) + fabs(v0->y) + fabs(v0->w), s1 = fabs(v1->x) + fabs(v1->y) + fabs(v1->w),
+           s2 = fabs(v2->x) + fabs(v2->y) + fabs(v2->w);
+    *det_out = det;
+    /* back-facing, or edge-on: its plane is ill-conditioned and it covers
+       (next to) nothing */
+    if (!(det > 1e-9 * s0 * s1 * s2)) return false;
+    double inv = 1.0 / det, fn[3], fd[3];
+    for (int k = 0; k < 3; k++) {
+        fn[k] = (v0->n * e0[k] + v1->n * e1[k] + v2->n * e2[k]) * inv;
+        fd[k] = (v0->d * e0[k] + v1->d * e1[k] + v2->d * e2[k]) * inv;
+    }
+    *near = to_pixels(b, fn);
+    *nearness = to_pixels(b, fd);
+    return true;
+}
+
+#define MAX_CONS 8
+
+static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
+{
+    cull_occ_buffer *b = bd->b;
+    const cvert *v[4];
+    for (uint32_t k = 0; k < f->n; k++) v[k] = &cv[f->v[k]];
+    uint32_t n = f->n;
+
+    bool all_front = true, any_front = false;
+    for (uint32_t k = 0; k < n; k++) {
+        if (v[k]->n > 0) any_front = true;
+        else all_front = false;
+    }
+    if (!any_front) return;
+
+    /* halves (0,1,2) and, for a quad, (2,3,0): both must face the eye */
+    lin3 nearA, nearB, zA, zB;
+    double detA, detB;
+    if (!half_planes(b, v[0], v[1], v[2], &nearA, &zA, &detA)) return;
+    if (n == 4) {
+        if (!half_planes(b, v[2], v[3], v[0], &nearB, &zB, &detB)) return;
+    } else {
+        nearB = nearA;
+        zB = zA;
+    }
+
+    /* constraints: the edges, then the near plane if the face crosses it */
+    lin3 con[MAX_CONS];
+    uint32_t nc = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        double e[3];
+        cross_xyw(e, v[k], v[(k + 1) % n]);
+        con[nc++] = to_pixels(b, e);
+    }
+    if (!all_front) {
+        con[nc++] = nearA;
+        if (n == 4) con[nc++] = nearB;
+    }
+    double marg[MAX_CONS];
+    for (uint32_t k = 0; k < nc; k++) {
+        marg[k] = 0x1p-24 * (fabs(con[k].a) * b->w + fabs(con[k].b) * b->h + fabs(con[k].c));
+        if (b->inner) marg[k] += 0.5 * (fabs(con[k].a) + fabs(con[k].b));
+    }
+
+    /* the part in front of the near plane: its projection bounds the rows,
+       its vertices bound the nearness from below */
+    double ymin = INFINITY, ymax = -INFINITY, xmin = INFINITY, xmax = -INFINITY, nmin = INFINITY;
+    for (uint32_t k = 0; k < n; k++) {
+        const cvert *p = v[k], *q = v[(k + 1) % n];
+        cvert o[2];
+        uint32_t no = 0;
+        if (p->n > 0) o[no++] = *p;
+        if ((p->n > 0) != (q->n > 0)) {
+            double t = p->n / (p->n - q->n);
+            o[no++] = (cvert){p->x + t * (q->x - p->x), p->y + t * (q->y - p->y), p->w + t * (q->w - p->w), 0,
+                              p->d + t * (q->d - p->d)};
+        }
+        for (uint32_t i = 0; i < no; i++) {
+            if (!(o[i].w > 0)) return; /* a projection whose near plane is not in front of the eye */
+            double iw = 1.0 / o[i].w, x = o[i].x * iw, y = o[i].y * iw;
+            xmin = dmin(xmin, x);
+            xmax = dmax(xmax, x);
+            ymin = dmin(ymin, y);
+            ymax = dmax(ymax, y);
+            nmin = dmin(nmin, o[i].d * iw);
+        }
+    }
+    double fi0 = dmax(dceil((xmin + 1) * b->sx - 0.5), 0), fi1 = dmin(dfloor((xmax + 1) * b->sx - 0.5), b->w - 1.0);
+    double fj0 = dmax(dceil((ymin + 1) * b->sy - 0.5), bd->y0), fj1 = dmin(dfloor((ymax + 1) * b->sy - 0.5), bd->y1 - 1.0);
+    if (!(fi0 <= fi1 && fj0 <= fj1)) return;
+    int i0 = (int)fi0, i1 = (int)fi1, j0 = (int)fj0, j1 = (int)fj1;
+    bd->faces++;
+
+    /* per constraint, the row's bound on x is linear in j: x > al + be j
+       (a > 0) or x < al + be j (a < 0); a == 0 decides whole rows */
+    double al[MAX_CONS], be[MAX_CONS];
+    uint32_t kind[MAX_CONS];
+    for (uint32_t k = 0; k < nc; k++) {
+        double a = con[k].a;
+        kind[k] = a > 0 ? 0 : a < 0 ? 1 : 2;
+        if (kind[k] < 2) {
+            al[k] = (marg[k] - con[k].c) / a;
+            be[k] = -con[k].b / a;
+        }
+    }
+    /* nearness at the pixel's farthest corner, never below the farthest
+       vertex; float rounding of the span loop (2^-21 relative) taken off
+       with room for the conversion to float */
+    double cornerA = 0.5 * (fabs(zA.a) + fabs(zA.b)), cornerB = 0.5 * (fabs(zB.a) + fabs(zB.b));
+    float zlo = cull_round_down(nmin - 0x1p-20 * fabs(nmin));
+    for (int j = j0; j <= j1; j++) {
+        double lo = i0, hi = i1;
+        for (uint32_t k = 0; k < nc; k++) {
+            if (kind[k] == 0) lo = dmax(lo, dfloor(al[k] + be[k] * j) + 1);
+            else if (kind[k] == 1) hi = dmin(hi, dceil(al[k] + be[k] * j) - 1);
+            else if (!(con[k].b * j + con[k].c > marg[k])) hi = -1;
+        }
+        if (lo > hi) continue;
+        int x0 = (int)lo, x1 = (int)hi;
+        double za = zA.b * j + zA.c - cornerA, zb = zB.b * j + zB.c - cornerB;
+        double ma = 0x1p-20 * (fabs(za) + fabs(zA.a) * (x1 + 1)), mb = 0x1p-20 * (fabs(zb) + fabs(zB.a) * (x1 + 1));
+        b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (float)(za - ma), (float)zA.a, (float)(zb - mb),
+                    (float)zB.a, zlo);
+    }
+}
+
+/* The rectangle of a cluster, in this band, already hidden? */
+static bool band_hidden(const band *bd, const cull_occ_rect *r)
+{
+    const cull_occ_buffer *b = bd->b;
+    int y0 = r->y0 > bd->y0 ? r->y0 : bd->y0, y1 = r->y1 < bd->y1 - 1 ? r->y1 : bd->y1 - 1;
+    if ((uint64_t)(r->x1 - r->x0 + 1) * (uint64_t)(y1 - y0 + 1) > HIDDEN_TEST_MAX_PIXELS) return false;
+    for (int y = y0; y <= y1; y++)
+        if (b->fns.any_le(b->depth + (size_t)y * b->stride, r->x0, r->x1, r->z)) return false;
+    return true;
+}
+
+static void raster_cluster(band *bd, const cull_occ_cluster *cl)
+{
+    const cull_occ_buffer *b = bd->b;
+    cvert cv[4 * CULL_OCC_CLUSTER_FACES];
+    for (uint32_t i = 0; i < cl->nv; i++) {
+        double p[3] = {cl->v[3 * i] - b->origin[0], cl->v[3 * i + 1] - b->origin[1], cl->v[3 * i + 2] - b->origin[2]};
+        cv[i] = (cvert){lin4(b->rx, p), lin4(b->ry, p), lin4(b->rw, p), lin4(b->rn, p), lin4(b->rd, p)};
+    }
+    for (uint32_t f = 0; f < cl->nf; f++) raster_face(bd, cv, &cl->f[f]);
+}
+
+typedef struct render_job {
+    cull_occ_buffer *b;
+    band bands[MAX_BANDS];
+    uint32_t nbands;
+} render_job;
+
+static void band_tiles(band *bd)
+{
+    cull_occ_buffer *b = bd->b;
+    for (int ty = bd->y0 >> 3; ty < (bd->y1 + 7) >> 3; ty++)
+        b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride, b->stride, b->tw, b->tile + (size_t)ty * b->tw);
+}
+
+static void job_band(void *arg, uint32_t t)
+{
+    render_job *j = arg;
+    for (uint32_t k = t; k < j->nbands; k += j->b->threads_used) {
+        band *bd = &j->bands[k];
+        cull_occ_buffer *b = bd->b;
+        for (int y = bd->y0; y < bd->y1 && y < (int)b->h; y++) b->fns.fill(b->depth + (size_t)y * b->stride, b->w, EMPTY);
+        for (uint32_t i = 0; i < b->nitems; i++) {
+            const cull_occ_item *it = &b->items[i];
+            if (it->near) {
+                raster_cluster(bd, it->cl);
+                bd->clusters++;
+                continue;
+            }
+            if (it->r.y1 < bd->y0 || it->r.y0 >= bd->y1) continue;
+            if (band_hidden(bd, &it->r)) continue;
+            raster_cluster(bd, it->cl);
+            bd->clusters++;
+        }
+        band_tiles(bd);
+    }
+}
+
+static int cmp_item(const void *x, const void *y)
+{
+    const cull_occ_item *a = x, *b = y;
+    if (a->key != b->key) return a->key > b->key ? -1 : 1;
+    return (a->order > b->order) - (a->order < b->order);
+}
+
+/* Frustum test of an AABB against the view's planes (world metres). */
+static bool box_in_frustum(const cull_view *v, const double mn[3], const double mx[3])
+{
+    for (uint32_t i = 0; i < v->plane_count; i++) {
+        const double *pl = v->plane[i];
+        double p[3];
+        for (int a = 0; a < 3; a++) p[a] = (pl[a] >= 0 ? mx[a] : mn[a]) - v->origin[a];
+        if (pl[0] * p[0] + pl[1] * p[1] + pl[2] * p[2] + pl[3] < 0) return false;
+    }
+    return true;
+}
+
+int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
+                        uint32_t threads, uint32_t isa, cull_occ_stats *st)
+{
+    if (st) memset(st, 0, sizeof *st);
+    if (!w || !v || !b) return CULL_ERR_INVALID;
+    if (v->plane_count < 5 || v->plane_count > 6) return CULL_ERR_MATRIX;
+    uint64_t t0 = now_ns();
+    b->fns = cull_occ_fns_for(isa);
+    cull_occ_setup_view(b, v);
+    b->drawn = false;
+
+    /* the clusters in view, nearest first */
+    if (!cull_grow((void **)&b->items, &b->items_cap, (size_t)w->nclusters + 1, sizeof *b->items))
+        return CULL_ERR_NOMEM;
+    uint32_t n = 0;
+    if (b->usable)
+        for (uint32_t m = 0; m < w->nocc; m++) {
+            const cull_occ_mesh *mesh = w->occ[m];
+            if (!box_in_frustum(v, mesh->bmin, mesh->bmax)) continue;
+            for (uint32_t c = 0; c < mesh->ncl; c++) {
+                const cull_occ_cluster *cl = &mesh->cl[c];
+                if (mesh->ncl > 1 && !box_in_frustum(v, cl->bmin, cl->bmax)) continue;
+                cull_occ_item *it = &b->items[n];
+                int k = cull_occ_project_box(b, cl->bmin, cl->bmax, &it->r);
+                if (k == OCC_BOX_OFF) continue;
+                it->cl = cl;
+                it->near = k == OCC_BOX_NEAR;
+                it->key = it->near ? INFINITY : it->r.z;
+                it->order = n++;
+            }
+        }
+    b->nitems = n;
+    if (st) st->clusters_in_view = n;
+    if (!n) {
+        if (st) st->raster_ns = now_ns() - t0;
+        return CULL_OK;
+    }
+    qsort(b->items, n, sizeof *b->items, cmp_item);
+
+    uint32_t nt = cull_pool_threads(pool);
+    if (threads && threads < nt) nt = threads;
+    uint32_t tile_rows = (b->h + 7) / 8;
+    uint32_t nb = nt > tile_rows ? tile_rows : nt;
+    if (nb > MAX_BANDS) nb = MAX_BANDS;
+    render_job j = {.b = b, .nbands = nb};
+    for (uint32_t k = 0; k < nb; k++) {
+        uint32_t r0 = tile_rows * k / nb, r1 = tile_rows * (k + 1) / nb;
+        j.bands[k] = (band){.b = b, .y0 = (int)(r0 * 8), .y1 = (int)(r1 * 8 < b->h ? r1 * 8 : b->h)};
+    }
+    b->threads_used = nb;
+    if (nb > 1) cull_pool_run(pool, job_band, &j, nb);
+    else job_band(&j, 0);
+    /* the big tiles from the small ones */
+    for (uint32_t Y = 0; Y < b->t2h; Y++)
+        for (uint32_t X = 0; X < b->t2w; X++) {
+            float m = PAD;
+            for (uint32_t ty = Y * 8; ty < Y * 8 + 8; ty++)
+                for (uint32_t tx = X * 8; tx < X * 8 + 8; tx++) m = fmin_(m, b->tile[ty * b->tw + tx]);
+            b->tile2[Y * b->t2w + X] = m;
+        }
+    uint32_t faces = 0, drawn = 0;
+    for (uint32_t k = 0; k < nb; k++) {
+        faces += j.bands[k].faces;
+        drawn += j.bands[k].clusters;
+    }
+    b->drawn = faces > 0;
+    if (st) {
+        st->clusters_drawn = drawn;
+        st->faces_drawn = faces;
+        st->threads_used = nb;
+        st->raster_ns = now_ns() - t0;
+    }
+    return CULL_OK;
+}
+
+int cull_occ_render(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
+                    uint32_t threads, cull_occ_stats *st)
+{
+    if (!b) return CULL_ERR_INVALID;
+    return cull_occ_render_isa(w, v, b, pool, threads, b->isa, st);
+}

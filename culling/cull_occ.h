@@ -1,0 +1,82 @@
+/*
+ * cull_occ.h — private layout of occlusion buffers, shared by cull_occ.c
+ * (render, hierarchy, double-precision tests), cull_query.c (the query's
+ * occlusion stage) and the per-ISA loops (cull_occ_kern.inl).
+ */
+#ifndef VANTAGE_CULL_OCC_H
+#define VANTAGE_CULL_OCC_H
+
+#include "cull_internal.h"
+#include <stdbool.h>
+
+/* The inner loops, one instance per ISA. */
+typedef struct cull_occ_fns {
+    /* row[x] = max(row[x], max(min(a0 + da x, b0 + db x), lo)) for x in [x0, x1] */
+    void (*span)(float *row, int x0, int x1, float a0, float da, float b0, float db, float lo);
+    /* any row[x] <= z for x in [x0, x1]? */
+    bool (*any_le)(const float *row, int x0, int x1, float z);
+    /* out[t] = min over the 8x8 tile t of the 8 rows from row0 */
+    void (*tiles)(const float *row0, size_t stride, uint32_t ntiles, float *out);
+    void (*fill)(float *row, uint32_t n, float v);
+} cull_occ_fns;
+
+cull_occ_fns cull_occ_fns_for(uint32_t isa);
+void cull_occ_span_scalar(float *, int, int, float, float, float, float, float);
+void cull_occ_span_sse41(float *, int, int, float, float, float, float, float);
+void cull_occ_span_avx2(float *, int, int, float, float, float, float, float);
+bool cull_occ_any_le_scalar(const float *, int, int, float);
+void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *);
+void cull_occ_fill_scalar(float *, uint32_t, float);
+bool cull_occ_any_le_sse41(const float *, int, int, float);
+void cull_occ_tiles_sse41(const float *, size_t, uint32_t, float *);
+void cull_occ_fill_sse41(float *, uint32_t, float);
+bool cull_occ_any_le_avx2(const float *, int, int, float);
+void cull_occ_tiles_avx2(const float *, size_t, uint32_t, float *);
+void cull_occ_fill_avx2(float *, uint32_t, float);
+
+/* Inclusive pixel rectangle and the nearest nearness of what it bounds. */
+typedef struct cull_occ_rect {
+    int x0, y0, x1, y1;
+    float z;
+} cull_occ_rect;
+
+enum { OCC_BOX_OFF = 0, OCC_BOX_OK = 1, OCC_BOX_NEAR = 2 };
+
+/* A cluster in view, for the sorted draw list. */
+typedef struct cull_occ_item {
+    const cull_occ_cluster *cl;
+    cull_occ_rect r;
+    float key;          /* nearness of its nearest point; +inf at the near plane */
+    bool near;          /* reaches the near plane: drawn in every band */
+    uint32_t order;
+} cull_occ_item;
+
+struct cull_occ_buffer {
+    uint32_t w, h;          /* pixels */
+    uint32_t stride, hp;    /* allocated row length and rows (multiples of 64) */
+    uint32_t tw, th, t2w, t2h; /* 8x8 and 64x64 tiles */
+    float   *depth;         /* stride * hp, row 0 = bottom */
+    float   *tile, *tile2;  /* minima */
+    bool     drawn;         /* the last render set some pixel */
+    bool     dirty;         /* pixels differ from the cleared state */
+    bool     usable;        /* the view admits the nearness mapping */
+    bool     ortho;
+    bool     inner;         /* coverage = pixel squares fully inside */
+    uint32_t threads_used;
+    uint32_t isa;           /* default for cull_occ_render */
+    cull_occ_fns fns;
+    /* the view: rows x, y, w of the view-projection, the nearness numerator
+       and the near plane, over (p - origin, 1) */
+    double   origin[3];
+    double   rx[4], ry[4], rw[4], rd[4], rn[4];
+    double   sx, sy;        /* w / 2, h / 2 */
+    cull_occ_item *items;
+    uint32_t nitems, items_cap;
+};
+
+void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v);
+int  cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r);
+int  cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
+                         uint32_t threads, uint32_t isa, cull_occ_stats *st);
+
+#endif

@@ -1,0 +1,69 @@
+/*
+ * cull_occ_kern.inl — the occlusion rasteriser's inner loops, written once
+ * over cull_simd.h and compiled per ISA (cull_kernels_<isa>.c).
+ * CULL_OCC_SUFFIX names the instance.
+ */
+#define CULL_OCC_CAT2(a, b) a##b
+#define CULL_OCC_CAT(a, b) CULL_OCC_CAT2(a, b)
+
+static const float cull_occ_iota[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+
+/* row[x] = max(row[x], max(min(a0 + da x, b0 + db x), lo)), x in [x0, x1] */
+void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, int x1, float a0, float da,
+                                                    float b0, float db, float lo)
+{
+    int x = x0;
+    const vf vda = vf_set(da), vdb = vf_set(db), vlo = vf_set(lo), step = vf_set((float)W);
+    vf fx = vf_add(vf_set((float)x0), vf_loadu(cull_occ_iota));
+    const vf va = vf_set(a0), vb = vf_set(b0);
+    for (; x + W - 1 <= x1; x += W) {
+        vf z = vf_max(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vlo);
+        vf_store(row + x, vf_max(vf_loadu(row + x), z));
+        fx = vf_add(fx, step);
+    }
+    for (; x <= x1; x++) {
+        float f = (float)x, a = a0 + da * f, b = b0 + db * f;
+        float z = a < b ? a : b;
+        z = z > lo ? z : lo;
+        row[x] = row[x] > z ? row[x] : z;
+    }
+}
+
+/* any row[x] <= z for x in [x0, x1]? */
+bool CULL_OCC_CAT(cull_occ_any_le_, CULL_OCC_SUFFIX)(const float *restrict row, int x0, int x1, float z)
+{
+    int x = x0;
+    const vf vz = vf_set(z);
+    for (; x + W - 1 <= x1; x += W)
+        if (vm_bits(vf_le(vf_loadu(row + x), vz))) return true;
+    for (; x <= x1; x++)
+        if (row[x] <= z) return true;
+    return false;
+}
+
+/* out[t] = min of the 8x8 tile t of the 8 rows from row0, t < ntiles */
+void CULL_OCC_CAT(cull_occ_tiles_, CULL_OCC_SUFFIX)(const float *restrict row0, size_t stride, uint32_t ntiles,
+                                                     float *restrict out)
+{
+    for (uint32_t t = 0; t < ntiles; t++) {
+        float lanes[8];
+        for (uint32_t c = 0; c < 8; c += W) {
+            const float *p = row0 + 8 * t + c;
+            vf m = vf_loadu(p);
+            for (int r = 1; r < 8; r++) m = vf_min(m, vf_loadu(p + r * stride));
+            vf_store(lanes + c, m);
+        }
+        float m = lanes[0];
+        for (int i = 1; i < 8; i++) m = lanes[i] < m ? lanes[i] : m;
+        out[t] = m;
+    }
+}
+
+/* row[x] = v for x in [0, n) */
+void CULL_OCC_CAT(cull_occ_fill_, CULL_OCC_SUFFIX)(float *restrict row, uint32_t n, float v)
+{
+    uint32_t x = 0;
+    const vf vv = vf_set(v);
+    for (; x + W <= n; x += W) vf_store(row + x, vv);
+    for (; x < n; x++) row[x] = v;
+}

@@ -1,0 +1,589 @@
+/*
+ * cull_occluder.c — the occluder set: meshes and height fields turned into
+ * what the occlusion rasteriser draws (cull_occ.c).
+ *
+ * Adding a mesh: transform every vertex to world space (double), weld equal
+ * vertices, drop degenerate triangles (counted), merge pairs of coplanar
+ * triangles that share an edge into convex quads (a box face is one quad:
+ * half the setup, and no diagonal seam where a pixel centre on the shared
+ * edge could fall between both halves), then split the faces into clusters
+ * of at most 64 by recursive median cuts of their centroids, each with its
+ * own vertex list and AABB. All of it lives in one allocation made before
+ * the world changes, so a failed add or update leaves the world as it was.
+ */
+#include "cull_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define OCC_GEN_MASK ((1u << CULL_GEN_BITS) - 1u)
+
+/* ---- building a mesh -------------------------------------------------------- */
+
+typedef struct build_face {
+    uint32_t v[4];
+    uint32_t n;
+    double   c[3];  /* centroid, for the cluster split */
+} build_face;
+
+typedef struct builder {
+    double     *v;      /* 3 * nv world positions, welded */
+    uint32_t    nv;
+    uint32_t   *tri;    /* 3 * ntri after dropping degenerates */
+    uint32_t    ntri, dropped;
+    build_face *f;
+    uint32_t    nf;
+} builder;
+
+static void builder_free(builder *b)
+{
+    free(b->v);
+    free(b->tri);
+    free(b->f);
+}
+
+static uint64_t hash64(uint64_t x)
+{
+    x ^= x >> 33;
+    x *= 0xff51afd7ed558ccdull;
+    x ^= x >> 33;
+    x *= 0xc4ceb9fe1a85ec53ull;
+    x ^= x >> 33;
+    return x;
+}
+
+static void cross3(double o[3], const double a[3], const double b[3])
+{
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void sub3(double o[3], const double a[3], const double b[3])
+{
+    o[0] = a[0] - b[0];
+    o[1] = a[1] - b[1];
+    o[2] = a[2] - b[2];
+}
+
+static double len3(const double a[3])
+{
+    return sqrt(dot3(a, a));
+}
+
+/* Welds bit-identical world positions: an artist's triangle list repeats
+ * each corner; sharing is what lets coplanar pairs be found. */
+static int weld(builder *b, const double *pos, uint32_t n, uint32_t *remap)
+{
+    uint32_t cap = 16;
+    while (cap < 2 * n) cap <<= 1;
+    uint32_t *tab = malloc(cap * sizeof *tab);
+    b->v = malloc((size_t)n * 3 * sizeof *b->v);
+    if (!tab || !b->v) {
+        free(tab);
+        return CULL_ERR_NOMEM;
+    }
+    memset(tab, 0xff, cap * sizeof *tab);
+    for (uint32_t i = 0; i < n; i++) {
+        const double *p = pos + 3 * (size_t)i;
+        uint64_t k[3];
+        memcpy(k, p, sizeof k);
+        uint32_t h = (uint32_t)hash64(k[0] ^ hash64(k[1] ^ hash64(k[2]))) & (cap - 1);
+        for (;;) {
+            uint32_t s = tab[h];
+            if (s == UINT32_MAX) {
+                tab[h] = b->nv;
+                memcpy(b->v + 3 * (size_t)b->nv, p, 3 * sizeof *p);
+                remap[i] = b->nv++;
+                break;
+            }
+            if (memcmp(b->v + 3 * (size_t)s, p, 3 * sizeof *p) == 0) {
+                remap[i] = s;
+                break;
+            }
+            h = (h + 1) & (cap - 1);
+        }
+    }
+    free(tab);
+    return CULL_OK;
+}
+
+static const double *vtx(const builder *b, uint32_t i)
+{
+    return b->v + 3 * (size_t)i;
+}
+
+static bool degenerate(const builder *b, uint32_t i0, uint32_t i1, uint32_t i2)
+{
+    if (i0 == i1 || i1 == i2 || i0 == i2) return true;
+    double e0[3], e1[3], e2[3], n[3];
+    sub3(e0, vtx(b, i1), vtx(b, i0));
+    sub3(e1, vtx(b, i2), vtx(b, i0));
+    sub3(e2, vtx(b, i2), vtx(b, i1));
+    cross3(n, e0, e1);
+    double l = fmax(dot3(e0, e0), fmax(dot3(e1, e1), dot3(e2, e2)));
+    /* area below 1e-12 of the longest edge squared: a sliver that covers
+       nothing and whose plane is noise */
+    return !(len3(n) > 1e-12 * l);
+}
+
+/* Triangle u = (b, a, d) (shares edge b->a with t = (a, b, c)) merges
+ * with t into the quad (a, d, b, c) if d lies in t's plane and the quad is
+ * strictly convex. */
+static bool mergeable(const builder *bl, const uint32_t t[3], uint32_t d)
+{
+    const double *a = vtx(bl, t[0]), *b = vtx(bl, t[1]), *c = vtx(bl, t[2]), *p = vtx(bl, d);
+    double e0[3], e1[3], n[3], ad[3];
+    sub3(e0, b, a);
+    sub3(e1, c, a);
+    cross3(n, e0, e1);
+    sub3(ad, p, a);
+    double ln = len3(n), scale = fmax(len3(e0), fmax(len3(e1), len3(ad)));
+    if (fabs(dot3(n, ad)) > 1e-9 * ln * scale) return false; /* not coplanar */
+    const double *q[4] = {a, p, b, c};
+    for (int i = 0; i < 4; i++) {
+        double u[3], v[3], x[3];
+        sub3(u, q[(i + 1) & 3], q[i]);
+        sub3(v, q[(i + 2) & 3], q[(i + 1) & 3]);
+        cross3(x, u, v);
+        if (!(dot3(x, n) > 1e-9 * ln * len3(u) * len3(v))) return false;
+    }
+    return true;
+}
+
+/* Pairs triangles across shared edges (a directed-edge hash), greedily. */
+static int make_faces(builder *b)
+{
+    b->f = malloc((size_t)(b->ntri ? b->ntri : 1) * sizeof *b->f);
+    if (!b->f) return CULL_ERR_NOMEM;
+    uint32_t cap = 16;
+    while (cap < 6 * b->ntri) cap <<= 1;
+    uint64_t *key = malloc(cap * sizeof *key);
+    uint32_t *val = malloc(cap * sizeof *val);
+    uint8_t *used = calloc(b->ntri ? b->ntri : 1, 1);
+    if (!key || !val || !used) {
+        free(key);
+        free(val);
+        free(used);
+        return CULL_ERR_NOMEM;
+    }
+    memset(val, 0xff, cap * sizeof *val);
+    for (uint32_t t = 0; t < b->ntri; t++)
+        for (int e = 0; e < 3; e++) {
+            uint64_t k = (uint64_t)b->tri[3 * t + e] << 32 | b->tri[3 * t + (e + 1) % 3];
+            uint32_t h = (uint32_t)hash64(k) & (cap - 1);
+            while (val[h] != UINT32_MAX) h = (h + 1) & (cap - 1);
+            key[h] = k;
+            val[h] = t * 3 + (uint32_t)e;
+        }
+    for (uint32_t t = 0; t < b->ntri; t++) {
+        if (used[t]) continue;
+        used[t] = 1;
+        build_face *f = &b->f[b->nf++];
+        const uint32_t *tv = b->tri + 3 * t;
+        f->n = 3;
+        memcpy(f->v, tv, 3 * sizeof *tv);
+        for (int e = 0; e < 3 && f->n == 3; e++) {
+            uint32_t a = tv[e], bb = tv[(e + 1) % 3], c = tv[(e + 2) % 3];
+            uint64_t k = (uint64_t)bb << 32 | a; /* the twin edge b->a */
+            for (uint32_t h = (uint32_t)hash64(k) & (cap - 1); val[h] != UINT32_MAX; h = (h + 1) & (cap - 1)) {
+                if (key[h] != k) continue;
+                uint32_t u = val[h] / 3, ue = val[h] % 3;
+                if (used[u]) continue;
+                uint32_t d = b->tri[3 * u + (ue + 2) % 3];
+                const uint32_t rot[3] = {a, bb, c};
+                if (d == c || !mergeable(b, rot, d)) continue;
+                used[u] = 1;
+                f->v[0] = a;
+                f->v[1] = d;
+                f->v[2] = bb;
+                f->v[3] = c;
+                f->n = 4;
+                break;
+            }
+        }
+        for (int a = 0; a < 3; a++) {
+            double s = 0;
+            for (uint32_t i = 0; i < f->n; i++) s += vtx(b, f->v[i])[a];
+            f->c[a] = s / f->n;
+        }
+    }
+    free(key);
+    free(val);
+    free(used);
+    return CULL_OK;
+}
+
+/* Median split of f[0..n) along the longest axis of the centroids until
+ * every cluster has at most CULL_OCC_CLUSTER_FACES faces. */
+static int cmp_centroid(const void *x, const void *y, void *axis)
+{
+    int ax = *(const int *)axis;
+    double a = ((const build_face *)x)->c[ax], b = ((const build_face *)y)->c[ax];
+    return (a > b) - (a < b);
+}
+
+static uint32_t count_clusters(uint32_t n)
+{
+    if (n <= CULL_OCC_CLUSTER_FACES) return 1;
+    return count_clusters(n / 2) + count_clusters(n - n / 2);
+}
+
+typedef struct emitter {
+    cull_occ_mesh *m;
+    double *vout;
+    cull_occ_face *fout;
+    uint32_t *local;    /* builder vertex -> cluster vertex, UINT32_MAX = none */
+    const builder *b;
+} emitter;
+
+static void emit_cluster(emitter *e, build_face *f, uint32_t n)
+{
+    if (n > CULL_OCC_CLUSTER_FACES) {
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (uint32_t i = 0; i < n; i++)
+            for (int a = 0; a < 3; a++) {
+                lo[a] = fmin(lo[a], f[i].c[a]);
+                hi[a] = fmax(hi[a], f[i].c[a]);
+            }
+        int ax = 0;
+        for (int a = 1; a < 3; a++)
+            if (hi[a] - lo[a] > hi[ax] - lo[ax]) ax = a;
+        qsort_r(f, n, sizeof *f, cmp_centroid, &ax);
+        emit_cluster(e, f, n / 2);
+        emit_cluster(e, f + n / 2, n - n / 2);
+        return;
+    }
+    cull_occ_cluster *cl = &e->m->cl[e->m->ncl++];
+    cl->v = e->vout;
+    cl->f = e->fout;
+    cl->nf = n;
+    cl->nv = 0;
+    for (int a = 0; a < 3; a++) {
+        cl->bmin[a] = INFINITY;
+        cl->bmax[a] = -INFINITY;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        cull_occ_face *o = &e->fout[i];
+        o->n = f[i].n;
+        for (uint32_t k = 0; k < 4; k++) {
+            if (k >= f[i].n) {
+                o->v[k] = o->v[k - 1];
+                continue;
+            }
+            uint32_t g = f[i].v[k];
+            if (e->local[g] == UINT32_MAX) {
+                e->local[g] = cl->nv;
+                const double *p = vtx(e->b, g);
+                memcpy(e->vout + 3 * (size_t)cl->nv, p, 3 * sizeof *p);
+                for (int a = 0; a < 3; a++) {
+                    cl->bmin[a] = fmin(cl->bmin[a], p[a]);
+                    cl->bmax[a] = fmax(cl->bmax[a], p[a]);
+                }
+                cl->nv++;
+            }
+            o->v[k] = (uint16_t)e->local[g];
+        }
+    }
+    /* reset the map for the next cluster */
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t k = 0; k < f[i].n; k++) e->local[f[i].v[k]] = UINT32_MAX;
+    e->vout += 3 * (size_t)cl->nv;
+    e->fout += n;
+}
+
+/* The whole pipeline from world-space triangles to a finished mesh. */
+static int build_mesh(const double *pos, uint32_t npos, const uint32_t *idx, uint32_t ntri_in, uint16_t sublevel,
+                      cull_occ_mesh **out)
+{
+    builder b = {0};
+    uint32_t *remap = malloc((size_t)(npos ? npos : 1) * sizeof *remap);
+    b.tri = malloc((size_t)(ntri_in ? ntri_in : 1) * 3 * sizeof *b.tri);
+    int rc = CULL_ERR_NOMEM;
+    if (!remap || !b.tri) goto done;
+    if ((rc = weld(&b, pos, npos, remap)) != CULL_OK) goto done;
+    for (uint32_t t = 0; t < ntri_in; t++) {
+        uint32_t i0 = remap[idx ? idx[3 * t] : 3 * t], i1 = remap[idx ? idx[3 * t + 1] : 3 * t + 1],
+                 i2 = remap[idx ? idx[3 * t + 2] : 3 * t + 2];
+        if (degenerate(&b, i0, i1, i2)) {
+            b.dropped++;
+            continue;
+        }
+        b.tri[3 * b.ntri] = i0;
+        b.tri[3 * b.ntri + 1] = i1;
+        b.tri[3 * b.ntri + 2] = i2;
+        b.ntri++;
+    }
+    if ((rc = make_faces(&b)) != CULL_OK) goto done;
+
+    /* one block: mesh, clusters, vertices (a vertex may repeat once per
+       cluster it appears in: at most 4 per face), faces */
+    uint32_t ncl = b.nf ? count_clusters(b.nf) : 0;
+    size_t vcap = (size_t)b.nf * 4 < b.nv * (size_t)ncl ? (size_t)b.nf * 4 : (size_t)b.nv * ncl;
+    size_t bytes = sizeof(cull_occ_mesh) + ncl * sizeof(cull_occ_cluster) + vcap * 3 * sizeof(double) +
+                   (size_t)b.nf * sizeof(cull_occ_face);
+    cull_occ_mesh *m = calloc(1, bytes);
+    uint32_t *local = malloc((size_t)(b.nv ? b.nv : 1) * sizeof *local);
+    if (!m || !local) {
+        free(m);
+        free(local);
+        rc = CULL_ERR_NOMEM;
+        goto done;
+    }
+    memset(local, 0xff, (size_t)(b.nv ? b.nv : 1) * sizeof *local);
+    m->cl = (cull_occ_cluster *)(m + 1);
+    emitter e = {.m = m, .vout = (double *)(m->cl + ncl), .local = local, .b = &b};
+    e.fout = (cull_occ_face *)(e.vout + vcap * 3);
+    if (b.nf) emit_cluster(&e, b.f, b.nf);
+    free(local);
+    m->triangles = b.ntri;
+    m->dropped = b.dropped;
+    m->faces = b.nf;
+    m->sublevel = sublevel;
+    for (int a = 0; a < 3; a++) {
+        m->bmin[a] = INFINITY;
+        m->bmax[a] = -INFINITY;
+    }
+    for (uint32_t c = 0; c < m->ncl; c++)
+        for (int a = 0; a < 3; a++) {
+            m->bmin[a] = fmin(m->bmin[a], m->cl[c].bmin[a]);
+            m->bmax[a] = fmax(m->bmax[a], m->cl[c].bmax[a]);
+        }
+    if (!m->ncl)
+        for (int a = 0; a < 3; a++) m->bmin[a] = m->bmax[a] = 0;
+    *out = m;
+    rc = CULL_OK;
+done:
+    free(remap);
+    builder_free(&b);
+    return rc;
+}
+
+/* ---- descs ------------------------------------------------------------------ */
+
+static int mesh_from_desc(const cull_occluder_desc *d, cull_occ_mesh **out)
+{
+    if (!d || !d->vertices || !d->vertex_count || d->vertex_count > CULL_OCC_MAX_VERTICES) return CULL_ERR_MESH;
+    uint32_t ntri;
+    if (d->indices) {
+        if (!d->index_count || d->index_count % 3 || d->index_count / 3 > CULL_OCC_MAX_TRIANGLES)
+            return CULL_ERR_MESH;
+        for (uint32_t i = 0; i < d->index_count; i++)
+            if (d->indices[i] >= d->vertex_count) return CULL_ERR_MESH;
+        ntri = d->index_count / 3;
+    } else {
+        if (d->vertex_count % 3) return CULL_ERR_MESH;
+        ntri = d->vertex_count / 3;
+    }
+    double m[16];
+    bool ident = true;
+    for (int i = 0; i < 16; i++) {
+        if (!isfinite(d->transform[i])) return CULL_ERR_NONFINITE;
+        if (d->transform[i] != 0) ident = false;
+    }
+    if (ident) {
+        memset(m, 0, sizeof m);
+        m[0] = m[5] = m[10] = m[15] = 1;
+    } else {
+        memcpy(m, d->transform, sizeof m);
+        if (m[3] != 0 || m[7] != 0 || m[11] != 0 || m[15] != 1) return CULL_ERR_MATRIX; /* affine only */
+    }
+    double *pos = malloc((size_t)d->vertex_count * 3 * sizeof *pos);
+    if (!pos) return CULL_ERR_NOMEM;
+    for (uint32_t i = 0; i < d->vertex_count; i++) {
+        const float *p = d->vertices + 3 * (size_t)i;
+        for (int a = 0; a < 3; a++) {
+            double v = m[a] * p[0] + m[4 + a] * p[1] + m[8 + a] * p[2] + m[12 + a];
+            if (!isfinite(p[a]) || !isfinite(v)) {
+                free(pos);
+                return CULL_ERR_NONFINITE;
+            }
+            if (fabs(v) > CULL_MAX_COORD) {
+                free(pos);
+                return CULL_ERR_RANGE;
+            }
+            pos[3 * (size_t)i + a] = v;
+        }
+    }
+    int rc = build_mesh(pos, d->vertex_count, d->indices, ntri, d->sublevel, out);
+    free(pos);
+    return rc;
+}
+
+static int mesh_from_terrain(const cull_terrain_desc *d, cull_occ_mesh **out)
+{
+    if (!d || !d->heights || d->nx < 2 || d->nz < 2) return CULL_ERR_MESH;
+    uint64_t nv = (uint64_t)d->nx * d->nz, ntri = 2ull * (d->nx - 1) * (d->nz - 1);
+    if (nv > CULL_OCC_MAX_VERTICES || ntri > CULL_OCC_MAX_TRIANGLES) return CULL_ERR_MESH;
+    for (int a = 0; a < 3; a++)
+        if (!isfinite(d->origin[a])) return CULL_ERR_NONFINITE;
+    if (!(d->spacing > 0) || !isfinite(d->spacing)) return CULL_ERR_INVALID;
+    double *pos = malloc(nv * 3 * sizeof *pos);
+    uint32_t *idx = malloc(ntri * 3 * sizeof *idx);
+    if (!pos || !idx) {
+        free(pos);
+        free(idx);
+        return CULL_ERR_NOMEM;
+    }
+    int rc = CULL_OK;
+    for (uint32_t z = 0; z < d->nz && rc == CULL_OK; z++)
+        for (uint32_t x = 0; x < d->nx; x++) {
+            float h = d->heights[(size_t)z * d->nx + x];
+            double *p = pos + 3 * ((size_t)z * d->nx + x);
+            p[0] = d->origin[0] + x * d->spacing;
+            p[1] = d->origin[1] + h;
+            p[2] = d->origin[2] + z * d->spacing;
+            if (!isfinite(h)) rc = CULL_ERR_NONFINITE;
+            else if (fabs(p[0]) > CULL_MAX_COORD || fabs(p[1]) > CULL_MAX_COORD || fabs(p[2]) > CULL_MAX_COORD)
+                rc = CULL_ERR_RANGE;
+        }
+    if (rc == CULL_OK) {
+        /* counter-clockwise seen from above (+y) */
+        uint32_t *t = idx;
+        for (uint32_t z = 0; z + 1 < d->nz; z++)
+            for (uint32_t x = 0; x + 1 < d->nx; x++) {
+                uint32_t i00 = z * d->nx + x, i10 = i00 + 1, i01 = i00 + d->nx, i11 = i01 + 1;
+                *t++ = i00; *t++ = i01; *t++ = i10;
+                *t++ = i10; *t++ = i01; *t++ = i11;
+            }
+        rc = build_mesh(pos, (uint32_t)nv, idx, (uint32_t)ntri, d->sublevel, out);
+    }
+    free(pos);
+    free(idx);
+    return rc;
+}
+
+/* ---- the set ------------------------------------------------------------------ */
+
+static cull_occ_mesh *lookup(const cull_world *w, cull_occluder h)
+{
+    uint32_t slot = h & CULL_SLOT_MASK, gen = h >> CULL_HANDLE_SLOT_BITS;
+    if (!w || !h || slot >= w->noslots) return NULL;
+    const cull_occ_slot *s = &w->oslots[slot];
+    return s->m && s->gen == gen ? s->m : NULL;
+}
+
+static int insert(cull_world *w, cull_occ_mesh *m, cull_occluder *out)
+{
+    if (w->nocc >= CULL_MAX_OCCLUDERS) return CULL_ERR_CAPACITY;
+    if (!cull_grow((void **)&w->occ, &w->cap_occ, (size_t)w->nocc + 1, sizeof *w->occ)) return CULL_ERR_NOMEM;
+    uint32_t slot;
+    if (w->ofree_head != UINT32_MAX && w->ofree_head < w->noslots) {
+        slot = w->ofree_head;
+        w->ofree_head = w->oslots[slot].next_free;
+    } else {
+        if (!cull_grow((void **)&w->oslots, &w->cap_oslots, (size_t)w->noslots + 1, sizeof *w->oslots))
+            return CULL_ERR_NOMEM;
+        slot = w->noslots++;
+        w->oslots[slot] = (cull_occ_slot){.gen = 1, .next_free = UINT32_MAX};
+    }
+    cull_occ_slot *s = &w->oslots[slot];
+    s->m = m;
+    m->slot = slot;
+    m->dense = w->nocc;
+    w->occ[w->nocc++] = m;
+    w->nclusters += m->ncl;
+    *out = slot | s->gen << CULL_HANDLE_SLOT_BITS;
+    return CULL_OK;
+}
+
+static int add_built(cull_world *w, int rc, cull_occ_mesh *m, cull_occluder *out)
+{
+    if (rc != CULL_OK) return rc;
+    if ((rc = insert(w, m, out)) != CULL_OK) free(m);
+    return rc;
+}
+
+int cull_occluder_add(cull_world *w, const cull_occluder_desc *d, cull_occluder *out)
+{
+    if (!w || !out) return CULL_ERR_INVALID;
+    *out = 0;
+    cull_occ_mesh *m = NULL;
+    int rc = mesh_from_desc(d, &m);
+    return add_built(w, rc, m, out);
+}
+
+int cull_terrain_add(cull_world *w, const cull_terrain_desc *d, cull_occluder *out)
+{
+    if (!w || !out) return CULL_ERR_INVALID;
+    *out = 0;
+    cull_occ_mesh *m = NULL;
+    int rc = mesh_from_terrain(d, &m);
+    return add_built(w, rc, m, out);
+}
+
+static int replace(cull_world *w, cull_occ_mesh *old, int rc, cull_occ_mesh *m)
+{
+    if (rc != CULL_OK) return rc;
+    m->slot = old->slot;
+    m->dense = old->dense;
+    w->occ[m->dense] = m;
+    w->oslots[m->slot].m = m;
+    w->nclusters = w->nclusters - old->ncl + m->ncl;
+    free(old);
+    return CULL_OK;
+}
+
+int cull_occluder_update(cull_world *w, cull_occluder h, const cull_occluder_desc *d)
+{
+    cull_occ_mesh *old = lookup(w, h), *m = NULL;
+    if (!old) return CULL_ERR_HANDLE;
+    int rc = mesh_from_desc(d, &m);
+    return replace(w, old, rc, m);
+}
+
+int cull_terrain_update(cull_world *w, cull_occluder h, const cull_terrain_desc *d)
+{
+    cull_occ_mesh *old = lookup(w, h), *m = NULL;
+    if (!old) return CULL_ERR_HANDLE;
+    int rc = mesh_from_terrain(d, &m);
+    return replace(w, old, rc, m);
+}
+
+int cull_occluder_remove(cull_world *w, cull_occluder h)
+{
+    cull_occ_mesh *m = lookup(w, h);
+    if (!m) return CULL_ERR_HANDLE;
+    cull_occ_slot *s = &w->oslots[m->slot];
+    s->m = NULL;
+    s->gen = (s->gen + 1) & OCC_GEN_MASK;
+    if (!s->gen) s->gen = 1;
+    s->next_free = w->ofree_head;
+    w->ofree_head = m->slot;
+    cull_occ_mesh *last = w->occ[--w->nocc];
+    w->occ[m->dense] = last;
+    last->dense = m->dense;
+    w->nclusters -= m->ncl;
+    free(m);
+    return CULL_OK;
+}
+
+int cull_occluder_get_info(const cull_world *w, cull_occluder h, cull_occluder_info *out)
+{
+    const cull_occ_mesh *m = lookup(w, h);
+    if (!m) return CULL_ERR_HANDLE;
+    if (!out) return CULL_ERR_INVALID;
+    *out = (cull_occluder_info){.triangles = m->triangles, .dropped = m->dropped, .faces = m->faces,
+                                .clusters = m->ncl, .sublevel = m->sublevel};
+    memcpy(out->aabb_min, m->bmin, sizeof m->bmin);
+    memcpy(out->aabb_max, m->bmax, sizeof m->bmax);
+    return CULL_OK;
+}
+
+uint32_t cull_occluder_count(const cull_world *w)
+{
+    return w ? w->nocc : 0;
+}
+
+void cull_occluders_free(cull_world *w)
+{
+    for (uint32_t i = 0; i < w->nocc; i++) free(w->occ[i]);
+    free(w->occ);
+    free(w->oslots);
+}

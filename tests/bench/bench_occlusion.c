@@ -1,0 +1,312 @@
+/*
+ * bench_occlusion.c — software occlusion on the shared city scene: run time
+ * against error (a benchmark: nothing here fails on time).
+ *
+ *   bench_occlusion [--scene F] [--frames N] [--reps N] [--json] [--quick]
+ *                   [--smoke] [--exr DIR]
+ *
+ * The world: the scene's 15,000 object AABBs as entities, its 1,000 boxes
+ * as 1,000 occluders. The camera walks 0.5 m per frame toward the target
+ * (16 frames): a frozen camera lets branch predictors learn the scene.
+ *
+ * Per buffer size (256x114, 512x256, 1280x720, 1920x1080), coverage rule
+ * (inner: pixels covered whole; centre: pixels whose centre is covered) and
+ * thread count (1, 2), per frame:
+ *   raster_ns  cull_occ_render: clear, cluster selection, sort, raster,
+ *              hierarchy (median over reps)
+ *   test_ns    query with that buffer minus the same query without
+ *              occlusion: the occlusion stage's share of the pipeline
+ *   query_ns   the whole query, rendering included (what a caller pays)
+ *   tested     frustum survivors; visible: kept after occlusion
+ *   false_visible   kept, but the exact 1920x1080 ray caster sees nothing
+ *   hidden_visible  culled, but the exact 1920x1080 caster sees it
+ *   false_occluded  culled, but an exact caster of the buffer's size sees it
+ * The reference is tests/occ_ref.c (double precision, per pixel centre).
+ * --exr DIR writes frame 0's buffers as one-channel EXRs (Z = the stored
+ * nearness, 0 where no occluder) for an EXR viewer.
+ */
+#include "culling.h"
+#include "occ_ref.h"
+#include "scene_file.h"
+#ifdef VANTAGE_HAVE_EXR
+#include "vt_exr.h"
+#endif
+
+#include <float.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define MAX_FRAMES 64
+
+static double now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e9 + ts.tv_nsec;
+}
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_d);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+typedef struct frame_ref {
+    uint8_t *r1080;   /* per object: visible to the exact 1920x1080 caster */
+} frame_ref;
+
+static const struct { uint32_t w, h; } sizes[] = {{256, 114}, {512, 256}, {1280, 720}, {1920, 1080}};
+#define NSIZES (sizeof sizes / sizeof sizes[0])
+
+int main(int argc, char **argv)
+{
+    const char *scene = "../shared/scenes/city_scene.txt", *exr_dir = NULL;
+    int frames = 16, reps = 31;
+    bool json = false, quick = false, smoke = false;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene = argv[++i];
+        else if (!strcmp(argv[i], "--frames") && i + 1 < argc) frames = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--reps") && i + 1 < argc) reps = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--exr") && i + 1 < argc) exr_dir = argv[++i];
+        else if (!strcmp(argv[i], "--json")) json = true;
+        else if (!strcmp(argv[i], "--quick")) quick = true;
+        else if (!strcmp(argv[i], "--smoke")) smoke = true;
+        else {
+            fprintf(stderr, "usage: bench_occlusion [--scene F] [--frames N] [--reps N] [--json] [--quick] "
+                            "[--smoke] [--exr DIR]\n");
+            return 2;
+        }
+    }
+    if (smoke) {
+        frames = 2;
+        reps = 3;
+    } else if (quick) {
+        reps = 11;
+    }
+    if (frames < 1 || frames > MAX_FRAMES || reps < 1) return 2;
+
+    scene_file sf;
+    char err[256];
+    if (scene_file_load(scene, &sf, err, sizeof err)) {
+        fprintf(stderr, "bench_occlusion: %s\n", err);
+        return 1;
+    }
+    cull_world *w;
+    if (cull_world_create(NULL, &w)) return 1;
+    for (size_t i = 0; i < sf.nobjects; i++) {
+        cull_entity_desc e = {0};
+        memcpy(e.aabb_min, sf.objects + i * 6, 3 * sizeof(double));
+        memcpy(e.aabb_max, sf.objects + i * 6 + 3, 3 * sizeof(double));
+        cull_handle h;
+        /* a fresh world hands out slots 0, 1, 2...: slot = object index */
+        if (cull_entity_add(w, &e, &h) || (h & (CULL_MAX_ENTITIES - 1)) != i) return 1;
+    }
+    size_t nboxes = sf.ntris / 12;
+    for (size_t k = 0; k < nboxes; k++) {
+        cull_occluder_desc d = {.vertices = sf.tris + k * 108, .vertex_count = 36};
+        cull_occluder h;
+        if (cull_occluder_add(w, &d, &h)) return 1;
+    }
+    double *tri = malloc(sf.ntris * 9 * sizeof *tri);
+    if (!tri) return 1;
+    for (size_t i = 0; i < sf.ntris * 9; i++) tri[i] = sf.tris[i];
+
+    cull_pool *pool;
+    if (cull_pool_create(2, &pool)) return 1;
+    cull_ctx *ctx;
+    if (cull_ctx_create(pool, &ctx)) return 1;
+    size_t cap = cull_query_bound(w);
+    cull_result *out = malloc(cap * sizeof *out);
+    uint8_t *kept = malloc(sf.nobjects), *surv = malloc(sf.nobjects);
+    if (!out || !kept || !surv) return 1;
+
+    /* the walk */
+    cull_view walk[MAX_FRAMES];
+    double dir[3];
+    for (int a = 0; a < 3; a++) dir[a] = sf.target[a] - sf.eye[a];
+    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    for (int f = 0; f < frames; f++) {
+        cull_view_desc d = {.viewport_w = 1920, .viewport_h = 1080, .depth_mode = CULL_DEPTH_GL};
+        double proj[16], view[16];
+        for (int a = 0; a < 3; a++) d.origin[a] = sf.eye[a] + dir[a] / len * 0.5 * f;
+        cull_mat_perspective(proj, sf.fovy_deg * M_PI / 180, sf.aspect, sf.znear, sf.zfar, CULL_DEPTH_GL);
+        cull_mat_look_dir(view, dir, sf.up);
+        cull_mat_mul(d.view_proj, proj, view);
+        if (cull_view_init(&walk[f], &d)) return 1;
+    }
+
+    /* frustum survivors and the 1080p reference, per frame */
+    frame_ref ref[MAX_FRAMES];
+    double t0 = now_ns();
+    for (int f = 0; f < frames; f++) {
+        size_t n;
+        cull_query_desc q = {.views = &walk[f], .view_count = 1, .flags = CULL_Q_NO_OCCLUSION};
+        if (cull_query(w, ctx, &q, out, cap, &n, NULL)) return 1;
+        ref[f].r1080 = calloc(sf.nobjects, 1);
+        occ_ref r;
+        if (!ref[f].r1080 || occ_ref_init(&r, &walk[f], 1920, 1080)) return 1;
+        occ_ref_add_triangles(&r, tri, sf.ntris);
+        for (size_t i = 0; i < n; i++) {
+            uint32_t o = out[i].handle & (CULL_MAX_ENTITIES - 1);
+            ref[f].r1080[o] = occ_ref_box_visible(&r, sf.objects + 6 * o, sf.objects + 6 * o + 3);
+        }
+        occ_ref_free(&r);
+    }
+    if (!json)
+        printf("city scene %s: %zu objects, %zu occluder boxes; %d frames walking 0.5 m; exact 1080p "
+               "references in %.1f s; kernels %s\n",
+               scene, sf.nobjects, nboxes, frames, (now_ns() - t0) / 1e9, cull_isa_name(cull_ctx_isa(ctx)));
+
+    if (!json) {
+        printf("\n%-10s %-6s %3s %10s %9s %10s %9s | %7s %8s %8s %8s %9s\n", "buffer", "cover", "thr",
+               "raster_us", "test_us", "rast+test", "query_us", "tested", "visible", "false_vis", "hidden_vis",
+               "false_occ");
+    }
+    size_t nsizes = smoke ? 1 : NSIZES;
+    for (size_t s = 0; s < nsizes; s++) {
+        uint32_t bw = sizes[s].w, bh = sizes[s].h;
+        /* the exact caster at this size, per frame (for false_occluded) */
+        uint8_t *rsame[MAX_FRAMES];
+        for (int f = 0; f < frames; f++) {
+            rsame[f] = calloc(sf.nobjects, 1);
+            if (!rsame[f]) return 1;
+            if (bw == 1920 && bh == 1080) {
+                memcpy(rsame[f], ref[f].r1080, sf.nobjects);
+                continue;
+            }
+            occ_ref r;
+            if (occ_ref_init(&r, &walk[f], bw, bh)) return 1;
+            occ_ref_add_triangles(&r, tri, sf.ntris);
+            for (size_t i = 0; i < sf.nobjects; i++)
+                rsame[f][i] = occ_ref_box_visible(&r, sf.objects + 6 * i, sf.objects + 6 * i + 3);
+            occ_ref_free(&r);
+        }
+        cull_occ_buffer *buf;
+        if (cull_occ_buffer_create(bw, bh, &buf)) return 1;
+        for (uint32_t cover = 0; cover < 2; cover++) {
+            cull_occ_buffer_set_cover(buf, cover);
+            for (uint32_t threads = 1; threads <= 2; threads++) {
+                double tr[MAX_FRAMES], tt[MAX_FRAMES], tq[MAX_FRAMES], tsum[MAX_FRAMES];
+                uint64_t s_tested = 0, s_vis = 0, s_fv = 0, s_hv = 0, s_fo = 0;
+                for (int f = 0; f < frames; f++) {
+                    double *a = malloc(sizeof(double) * 4 * (size_t)reps), *b = a + reps, *c = b + reps,
+                           *d = c + reps;
+                    if (!a) return 1;
+                    cull_occ_buffer *const bufs[1] = {buf};
+                    cull_query_desc qo = {.views = &walk[f], .view_count = 1, .threads = threads,
+                                          .occ_buffers = bufs};
+                    cull_query_desc qn = {.views = &walk[f], .view_count = 1, .threads = threads,
+                                          .flags = CULL_Q_NO_OCCLUSION};
+                    cull_query_desc qw = {.views = &walk[f], .view_count = 1, .threads = threads, .occ_w = bw,
+                                          .occ_h = bh, .flags = cover ? CULL_Q_OCC_CENTRE : 0};
+                    size_t n;
+                    for (int r = 0; r < reps; r++) {
+                        double x = now_ns();
+                        if (cull_occ_render(w, &walk[f], buf, pool, threads, NULL)) return 1;
+                        a[r] = now_ns() - x;
+                        x = now_ns();
+                        if (cull_query(w, ctx, &qo, out, cap, &n, NULL)) return 1;
+                        b[r] = now_ns() - x;
+                        x = now_ns();
+                        if (cull_query(w, ctx, &qn, out, cap, &n, NULL)) return 1;
+                        c[r] = now_ns() - x;
+                        x = now_ns();
+                        if (cull_query(w, ctx, &qw, out, cap, &n, NULL)) return 1;
+                        d[r] = now_ns() - x;
+                    }
+                    tr[f] = median(a, reps);
+                    tt[f] = median(b, reps) - median(c, reps);
+                    tq[f] = median(d, reps);
+                    tsum[f] = tr[f] + tt[f];
+                    free(a);
+                    /* accuracy, from the query on the rendered buffer */
+                    if (cull_occ_render(w, &walk[f], buf, pool, threads, NULL)) return 1;
+                    if (cull_query(w, ctx, &qo, out, cap, &n, NULL)) return 1;
+                    memset(kept, 0, sf.nobjects);
+                    for (size_t i = 0; i < n; i++) kept[out[i].handle & (CULL_MAX_ENTITIES - 1)] = 1;
+                    size_t ns;
+                    if (cull_query(w, ctx, &qn, out, cap, &ns, NULL)) return 1;
+                    memset(surv, 0, sf.nobjects);
+                    for (size_t i = 0; i < ns; i++) surv[out[i].handle & (CULL_MAX_ENTITIES - 1)] = 1;
+                    uint32_t fv = 0, hv = 0, fo = 0;
+                    for (size_t i = 0; i < sf.nobjects; i++) {
+                        if (!surv[i]) continue;
+                        if (kept[i] && !ref[f].r1080[i]) fv++;
+                        if (!kept[i] && ref[f].r1080[i]) hv++;
+                        if (!kept[i] && rsame[f][i]) fo++;
+                    }
+                    s_tested += ns;
+                    s_vis += n;
+                    s_fv += fv;
+                    s_hv += hv;
+                    s_fo += fo;
+                    if (json)
+                        printf("{\"scene\":\"city\",\"frame\":%d,\"buffer\":\"%ux%u\",\"cover\":\"%s\",\"threads\":%u,"
+                               "\"raster_ns\":%.0f,\"test_ns\":%.0f,\"query_ns\":%.0f,\"tested\":%zu,\"visible\":%zu,"
+                               "\"false_visible\":%u,\"hidden_visible_1080\":%u,\"false_occluded\":%u}\n",
+                               f, bw, bh, cover ? "centre" : "inner", threads, tr[f], tt[f], tq[f], ns, n, fv, hv,
+                               fo);
+                    if (exr_dir && f == 0 && threads == 1) {
+#ifdef VANTAGE_HAVE_EXR
+                        uint32_t W, H;
+                        size_t stride;
+                        cull_occ_render(w, &walk[f], buf, pool, 1, NULL);
+                        const float *dep = cull_occ_depth(buf, &W, &H, &stride);
+                        float *img = malloc(sizeof(float) * W * H);
+                        if (!img) return 1;
+                        for (uint32_t y = 0; y < H; y++)
+                            for (uint32_t x = 0; x < W; x++) {
+                                float z = dep[(size_t)(H - 1 - y) * stride + x];
+                                img[(size_t)y * W + x] = z == -FLT_MAX ? 0.0f : z;
+                            }
+                        char path[512];
+                        snprintf(path, sizeof path, "%s/occlusion_%ux%u_%s.exr", exr_dir, W, H,
+                                 cover ? "centre" : "inner");
+                        vt_exr_channel ch = {"Z", VT_EXR_FLOAT, img, 1, (ptrdiff_t)W};
+                        if (vt_exr_write(path, W, H, &ch, 1, VT_EXR_ZIP, err, sizeof err))
+                            fprintf(stderr, "bench_occlusion: %s: %s\n", path, err);
+                        else if (!json)
+                            printf("wrote %s\n", path);
+                        free(img);
+#else
+                        fprintf(stderr, "bench_occlusion: built without OpenEXR, --exr ignored\n");
+#endif
+                    }
+                }
+                if (!json)
+                    printf("%4ux%-5u %-6s %3u %10.1f %9.1f %10.1f %9.1f | %7.0f %8.1f %8.1f %8.2f %9.2f\n", bw,
+                           bh, cover ? "centre" : "inner", threads, median(tr, frames) / 1e3,
+                           median(tt, frames) / 1e3, median(tsum, frames) / 1e3, median(tq, frames) / 1e3,
+                           (double)s_tested / frames, (double)s_vis / frames, (double)s_fv / frames,
+                           (double)s_hv / frames, (double)s_fo / frames);
+                fflush(stdout);
+            }
+        }
+        cull_occ_buffer_destroy(buf);
+        for (int f = 0; f < frames; f++) free(rsame[f]);
+    }
+    if (!json)
+        printf("\ncounts are per frame, averaged over the walk; times are medians over frames of the "
+               "median over %d repetitions\n",
+               reps);
+    for (int f = 0; f < frames; f++) free(ref[f].r1080);
+    free(out);
+    free(kept);
+    free(surv);
+    free(tri);
+    cull_ctx_destroy(ctx);
+    cull_pool_destroy(pool);
+    cull_world_destroy(w);
+    scene_file_free(&sf);
+    return 0;
+}

@@ -1,0 +1,699 @@
+/*
+ * test_occlusion.c — software occlusion against an independent model: the
+ * double-precision ray caster of tests/occ_ref.c.
+ *
+ * The property: the occlusion stage never culls an entity the exact caster
+ * sees. With the default coverage (pixels covered whole) that must hold
+ * for a caster of any resolution (checked at 3x the buffer's size in each
+ * direction, nine samples per buffer pixel); with centre coverage, for a
+ * caster of the buffer's own size. Random scenes: boxes (axis-aligned and
+ * rotated), triangle soups with slivers and degenerate triangles, height
+ * fields, walls through the near plane; random cameras, some inside
+ * boxes, some 1e5 m from the origin, perspective (finite and infinite far,
+ * every depth mode) and orthographic; every ISA; 1 and 2 threads. And the
+ * stage must be worth having: over the run it culls most of what the
+ * caster hides.
+ */
+#include "test_util.h"
+
+#include "occ_ref.h"
+#include <float.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <string.h>
+
+/* ---- scenes ---------------------------------------------------------------------- */
+
+typedef struct oscene {
+    cull_world *w;
+    double *tri;           /* every occluder triangle, world space, for the caster */
+    size_t ntri, cap;
+    cull_entity_desc *e;
+    cull_handle *h;
+    uint32_t n;
+    double base[3];        /* where the scene is, far from the origin or not */
+    double boxes[64][6];   /* occluder boxes' world AABBs (cameras go inside some) */
+    uint32_t nboxes;
+} oscene;
+
+static void push_tri(oscene *s, const double *p)
+{
+    if (s->ntri == s->cap) {
+        s->cap = s->cap ? 2 * s->cap : 256;
+        s->tri = realloc(s->tri, s->cap * 9 * sizeof *s->tri);
+        assert_non_null(s->tri);
+    }
+    memcpy(s->tri + 9 * s->ntri++, p, 9 * sizeof *p);
+}
+
+/* The 12 triangles of the unit cube [-1,1]^3, counter-clockwise seen from
+ * outside, as 36 vertices. */
+static void unit_cube(float v[108])
+{
+    static const int face[6][4] = {
+        {0, 4, 6, 2}, /* -x */ {1, 3, 7, 5}, /* +x */ {0, 1, 5, 4}, /* -y */
+        {2, 6, 7, 3}, /* +y */ {0, 2, 3, 1}, /* -z */ {4, 5, 7, 6}, /* +z */
+    };
+    int k = 0;
+    for (int f = 0; f < 6; f++) {
+        const int tri[2][3] = {{face[f][0], face[f][1], face[f][2]}, {face[f][0], face[f][2], face[f][3]}};
+        for (int t = 0; t < 2; t++)
+            for (int i = 0; i < 3; i++) {
+                int c = tri[t][i];
+                v[k++] = (c & 1) ? 1.0f : -1.0f;
+                v[k++] = (c & 2) ? 1.0f : -1.0f;
+                v[k++] = (c & 4) ? 1.0f : -1.0f;
+            }
+    }
+}
+
+/* Applies the occluder transform the way the core documents it. */
+static void xform(const double m[16], const float *p, double *o)
+{
+    for (int a = 0; a < 3; a++) o[a] = m[a] * p[0] + m[4 + a] * p[1] + m[8 + a] * p[2] + m[12 + a];
+}
+
+static void random_rotation(rng *r, double m[16], const double scale[3], const double at[3])
+{
+    /* a random unit quaternion */
+    double q[4], l = 0;
+    for (int i = 0; i < 4; i++) {
+        q[i] = rng_range(r, -1, 1);
+        l += q[i] * q[i];
+    }
+    l = sqrt(l);
+    for (int i = 0; i < 4; i++) q[i] /= l;
+    double x = q[0], y = q[1], z = q[2], w = q[3];
+    double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    memset(m, 0, 16 * sizeof *m);
+    for (int c = 0; c < 3; c++)
+        for (int rr = 0; rr < 3; rr++) m[c * 4 + rr] = R[rr][c] * scale[c];
+    for (int a = 0; a < 3; a++) m[12 + a] = at[a];
+    m[15] = 1;
+}
+
+static void add_box(rng *r, oscene *s, bool rotated)
+{
+    float v[108];
+    unit_cube(v);
+    double half[3], at[3], m[16] = {0};
+    for (int a = 0; a < 3; a++) {
+        half[a] = rng_log(r, 0.3, 25);
+        at[a] = s->base[a] + rng_range(r, -60, 60);
+    }
+    if (rotated) {
+        random_rotation(r, m, half, at);
+    } else {
+        for (int a = 0; a < 3; a++) {
+            m[a * 5] = half[a];
+            m[12 + a] = at[a];
+        }
+        m[15] = 1;
+    }
+    cull_occluder_desc d = {.vertices = v, .vertex_count = 36};
+    memcpy(d.transform, m, sizeof m);
+    cull_occluder h;
+    assert_int_equal(cull_occluder_add(s->w, &d, &h), CULL_OK);
+    cull_occluder_info info;
+    assert_int_equal(cull_occluder_get_info(s->w, h, &info), CULL_OK);
+    assert_int_equal(info.triangles, 12);
+    assert_int_equal(info.dropped, 0);
+    if (!rotated) assert_int_equal(info.faces, 6); /* each side one quad */
+    for (int t = 0; t < 12; t++) {
+        double p[9];
+        for (int i = 0; i < 3; i++) xform(m, v + 9 * t + 3 * i, p + 3 * i);
+        push_tri(s, p);
+    }
+    if (s->nboxes < 64) {
+        double *b = s->boxes[s->nboxes++];
+        memcpy(b, info.aabb_min, 3 * sizeof *b);
+        memcpy(b + 3, info.aabb_max, 3 * sizeof *b);
+    }
+}
+
+/* Random triangles, some slivers, some collapsed to a segment or a point. */
+static void add_soup(rng *r, oscene *s)
+{
+    uint32_t n = 1 + rng_below(r, 6);
+    float v[6 * 9];
+    double c[3];
+    for (int a = 0; a < 3; a++) c[a] = rng_range(r, -60, 60);
+    uint32_t degenerate = 0;
+    for (uint32_t t = 0; t < n; t++) {
+        for (int i = 0; i < 9; i++) v[9 * t + i] = (float)(c[i % 3] + rng_range(r, -15, 15));
+        uint32_t kind = rng_below(r, 8);
+        if (kind == 0) { /* collapse to a point */
+            for (int i = 3; i < 9; i++) v[9 * t + i] = v[9 * t + i % 3];
+            degenerate++;
+        } else if (kind == 1) { /* exact copy of one edge: a segment */
+            for (int i = 0; i < 3; i++) v[9 * t + 6 + i] = v[9 * t + i];
+            degenerate++;
+        }
+    }
+    double m[16] = {0};
+    m[0] = m[5] = m[10] = m[15] = 1;
+    for (int a = 0; a < 3; a++) m[12 + a] = s->base[a];
+    cull_occluder_desc d = {.vertices = v, .vertex_count = 3 * n};
+    memcpy(d.transform, m, sizeof m);
+    cull_occluder h;
+    assert_int_equal(cull_occluder_add(s->w, &d, &h), CULL_OK);
+    cull_occluder_info info;
+    assert_int_equal(cull_occluder_get_info(s->w, h, &info), CULL_OK);
+    assert_true(info.dropped >= degenerate);
+    assert_int_equal(info.triangles + info.dropped, n);
+    for (uint32_t t = 0; t < n; t++) {
+        double p[9];
+        for (int i = 0; i < 3; i++) xform(m, v + 9 * t + 3 * i, p + 3 * i);
+        push_tri(s, p);
+    }
+}
+
+static void add_terrain(rng *r, oscene *s)
+{
+    uint32_t nx = 2 + rng_below(r, 12), nz = 2 + rng_below(r, 12);
+    float *h = malloc((size_t)nx * nz * sizeof *h);
+    assert_non_null(h);
+    for (uint32_t i = 0; i < nx * nz; i++) h[i] = (float)rng_range(r, -3, 8);
+    cull_terrain_desc d = {.heights = h, .nx = nx, .nz = nz, .spacing = rng_log(r, 1, 12)};
+    for (int a = 0; a < 3; a++) d.origin[a] = s->base[a] + rng_range(r, -80, 20);
+    cull_occluder oh;
+    assert_int_equal(cull_terrain_add(s->w, &d, &oh), CULL_OK);
+    for (uint32_t z = 0; z + 1 < nz; z++)
+        for (uint32_t x = 0; x + 1 < nx; x++) {
+            double q[4][3];
+            for (int k = 0; k < 4; k++) {
+                uint32_t xi = x + (k & 1), zi = z + (k >> 1);
+                q[k][0] = d.origin[0] + xi * d.spacing;
+                q[k][1] = d.origin[1] + h[zi * nx + xi];
+                q[k][2] = d.origin[2] + zi * d.spacing;
+            }
+            /* (x,z) (x,z+1) (x+1,z) and (x+1,z) (x,z+1) (x+1,z+1): up-facing */
+            double t0[9], t1[9];
+            memcpy(t0, q[0], 24);
+            memcpy(t0 + 3, q[2], 24);
+            memcpy(t0 + 6, q[1], 24);
+            memcpy(t1, q[1], 24);
+            memcpy(t1 + 3, q[2], 24);
+            memcpy(t1 + 6, q[3], 24);
+            push_tri(s, t0);
+            push_tri(s, t1);
+        }
+    free(h);
+}
+
+static void add_entities(rng *r, oscene *s, uint32_t n)
+{
+    s->n = n;
+    s->e = calloc(n, sizeof *s->e);
+    s->h = calloc(n, sizeof *s->h);
+    assert_non_null(s->e);
+    assert_non_null(s->h);
+    for (uint32_t i = 0; i < n; i++) {
+        cull_entity_desc *e = &s->e[i];
+        for (int a = 0; a < 3; a++) {
+            double c = s->base[a] + rng_range(r, -90, 90), hs = rng_log(r, 0.02, 6);
+            e->aabb_min[a] = c - hs;
+            e->aabb_max[a] = c + hs;
+        }
+        e->flags = rng_below(r, 4) == 0 ? CULL_ENTITY_DYNAMIC : 0;
+        assert_int_equal(cull_entity_add(s->w, e, &s->h[i]), CULL_OK);
+        assert_int_equal(cull_entity_get(s->w, s->h[i], e), CULL_OK);
+    }
+}
+
+static void build_scene(rng *r, oscene *s)
+{
+    memset(s, 0, sizeof *s);
+    if (rng_below(r, 3) == 0)
+        for (int a = 0; a < 3; a++) s->base[a] = rng_range(r, -2e5, 2e5);
+    assert_int_equal(cull_world_create(NULL, &s->w), CULL_OK);
+    uint32_t nb = 6 + rng_below(r, 30);
+    for (uint32_t i = 0; i < nb; i++) add_box(r, s, rng_below(r, 3) == 0);
+    for (uint32_t i = rng_below(r, 3); i > 0; i--) add_soup(r, s);
+    if (rng_below(r, 2)) add_terrain(r, s);
+    add_entities(r, s, 300 + rng_below(r, 500));
+}
+
+static void free_scene(oscene *s)
+{
+    cull_world_destroy(s->w);
+    free(s->tri);
+    free(s->e);
+    free(s->h);
+}
+
+static void random_view(rng *r, const oscene *s, cull_view *v, uint32_t bw, uint32_t bh)
+{
+    for (;;) {
+        cull_view_desc d = {.depth_mode = rng_below(r, 3), .viewport_w = bw, .viewport_h = bh};
+        if (s->nboxes && rng_below(r, 6) == 0) {
+            /* inside an occluder box */
+            const double *b = s->boxes[rng_below(r, s->nboxes)];
+            for (int a = 0; a < 3; a++) d.origin[a] = 0.5 * (b[a] + b[a + 3]);
+        } else {
+            for (int a = 0; a < 3; a++) d.origin[a] = s->base[a] + rng_range(r, -100, 100);
+        }
+        double dir[3], up[3] = {0, 1, 0}, proj[16], view[16];
+        /* mostly toward the middle of the scene, where the occluders are */
+        bool aim = rng_below(r, 4) != 0;
+        for (int a = 0; a < 3; a++)
+            dir[a] = aim ? s->base[a] + rng_range(r, -30, 30) - d.origin[a] : rng_range(r, -1, 1);
+        if (fabs(dir[0]) + fabs(dir[2]) < 1e-3) continue;
+        double aspect = (double)bw / bh;
+        if (rng_below(r, 5) == 0) {
+            double hw = rng_log(r, 5, 200);
+            cull_mat_ortho(proj, -hw, hw, -hw / aspect, hw / aspect, rng_range(r, -50, 1), rng_range(r, 60, 400),
+                           d.depth_mode);
+        } else {
+            double n = rng_log(r, 1e-3, 2);
+            double f = rng_below(r, 3) == 0 ? INFINITY : rng_log(r, 50, 1e4);
+            cull_mat_perspective(proj, rng_range(r, 0.3, 1.9), aspect, n, f, d.depth_mode);
+        }
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        if (cull_view_init(v, &d) == CULL_OK) return;
+    }
+}
+
+/* ---- the property ----------------------------------------------------------------- */
+
+typedef struct otally {
+    uint64_t queries, survivors, occ_culled, hidden_exact, hidden_culled, false_occluded;
+} otally;
+
+static uint32_t slot_of(cull_handle h)
+{
+    return h & (CULL_MAX_ENTITIES - 1);
+}
+
+/* One view: the frustum survivors, the query with occlusion, and the
+ * caster's verdict on every entity occlusion removed. */
+static void check_view(const oscene *s, cull_ctx *c, const cull_view *v, uint32_t bw, uint32_t bh, uint32_t cover,
+                       uint32_t threads, otally *t)
+{
+    size_t cap = cull_query_bound(s->w), n0, n1;
+    cull_result *r0 = malloc(cap * sizeof *r0), *r1 = malloc(cap * sizeof *r1);
+    assert_non_null(r0);
+    assert_non_null(r1);
+    cull_query_desc q = {.views = v, .view_count = 1, .threads = threads, .flags = CULL_Q_NO_OCCLUSION};
+    assert_int_equal(cull_query(s->w, c, &q, r0, cap, &n0, NULL), CULL_OK);
+    q.flags = cover == CULL_OCC_COVER_CENTRE ? CULL_Q_OCC_CENTRE : 0;
+    q.occ_w = bw;
+    q.occ_h = bh;
+    cull_query_stats st;
+    assert_int_equal(cull_query(s->w, c, &q, r1, cap, &n1, &st), CULL_OK);
+    assert_true(n1 <= n0);
+    assert_int_equal(st.visible, n1);
+
+    uint8_t *kept = calloc(s->n, 1);
+    assert_non_null(kept);
+    for (size_t i = 0; i < n1; i++) {
+        assert_true(slot_of(r1[i].handle) < s->n);
+        kept[slot_of(r1[i].handle)] = 1;
+    }
+    /* the caster: at the buffer's size for centre coverage, at 3x for
+       whole-pixel coverage (nine samples per buffer pixel) */
+    uint32_t k = cover == CULL_OCC_COVER_CENTRE ? 1 : 3;
+    occ_ref ref;
+    assert_int_equal(occ_ref_init(&ref, v, bw * k, bh * k), 0);
+    occ_ref_add_triangles(&ref, s->tri, s->ntri);
+    occ_ref exact;
+    bool have_exact = false;
+    for (size_t i = 0; i < n0; i++) {
+        uint32_t e = slot_of(r0[i].handle);
+        t->survivors++;
+        if (kept[e]) continue;
+        t->occ_culled++;
+        const cull_entity_desc *d = &s->e[e];
+        if (occ_ref_box_visible(&ref, d->aabb_min, d->aabb_max)) {
+            t->false_occluded++;
+            if (t->false_occluded < 6)
+                fprintf(stderr, "false occluded: entity %u box %g %g %g / %g %g %g cover %u buffer %ux%u mode %u\n",
+                        e, d->aabb_min[0], d->aabb_min[1], d->aabb_min[2], d->aabb_max[0], d->aabb_max[1],
+                        d->aabb_max[2], cover, bw, bh, v->depth_mode);
+        }
+    }
+    /* how much of what the occluders hide from a caster of the buffer's
+       size was culled (entities no pixel centre sees at all do not count) */
+    occ_ref bare;
+    assert_int_equal(occ_ref_init(&bare, v, bw, bh), 0);
+    if (k != 1) {
+        assert_int_equal(occ_ref_init(&exact, v, bw, bh), 0);
+        occ_ref_add_triangles(&exact, s->tri, s->ntri);
+        have_exact = true;
+    }
+    for (size_t i = 0; i < n0; i++) {
+        uint32_t e = slot_of(r0[i].handle);
+        const cull_entity_desc *d = &s->e[e];
+        if (occ_ref_box_visible(&bare, d->aabb_min, d->aabb_max) &&
+            !occ_ref_box_visible(have_exact ? &exact : &ref, d->aabb_min, d->aabb_max)) {
+            t->hidden_exact++;
+            if (!kept[e]) t->hidden_culled++;
+        }
+    }
+    occ_ref_free(&bare);
+    if (have_exact) occ_ref_free(&exact);
+    occ_ref_free(&ref);
+    t->queries++;
+    free(kept);
+    free(r0);
+    free(r1);
+}
+
+static void test_random_scenes_never_false_occluded(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x0CC1u};
+    cull_pool *pool;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    uint32_t scenes = (uint32_t)(60 * test_scale());
+    otally t[2] = {{0}};
+    for (uint32_t sc = 0; sc < scenes; sc++) {
+        oscene s;
+        build_scene(&r, &s);
+        for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+            if (!cull_isa_supported(isa)) continue;
+            cull_ctx *c;
+            assert_int_equal(cull_ctx_create(pool, &c), CULL_OK);
+            assert_int_equal(cull_ctx_set_isa(c, isa), CULL_OK);
+            for (int k = 0; k < 3; k++) {
+                uint32_t bw = 16 + rng_below(&r, 80), bh = 8 + rng_below(&r, 56);
+                cull_view v;
+                random_view(&r, &s, &v, bw, bh);
+                uint32_t cover = rng_below(&r, 2);
+                check_view(&s, c, &v, bw, bh, cover, 1 + rng_below(&r, 2), &t[cover]);
+            }
+            cull_ctx_destroy(c);
+        }
+        free_scene(&s);
+    }
+    for (int cover = 0; cover < 2; cover++)
+        fprintf(stderr, "occlusion (%s): %llu views, %llu frustum survivors, %llu culled by occlusion; of %llu "
+                        "the occluders hide from an exact caster of the buffer's size, %llu culled; %llu false "
+                        "occluded\n",
+                cover ? "centre" : "inner", (unsigned long long)t[cover].queries,
+                (unsigned long long)t[cover].survivors, (unsigned long long)t[cover].occ_culled,
+                (unsigned long long)t[cover].hidden_exact, (unsigned long long)t[cover].hidden_culled,
+                (unsigned long long)t[cover].false_occluded);
+    for (int cover = 0; cover < 2; cover++) {
+        assert_int_equal(t[cover].false_occluded, 0);
+        /* not vacuous: much of what is hidden gets culled (whole-pixel
+           coverage loses the edge pixels of each polygon, a lot in these
+           16..96-pixel buffers) */
+        assert_true(t[cover].hidden_culled * (cover ? 2 : 3) > t[cover].hidden_exact);
+    }
+    cull_pool_destroy(pool);
+}
+
+/* A camera inside a closed box sees only back faces: nothing is drawn,
+ * nothing is culled, even entities behind the box's far wall. */
+static void test_camera_inside_occluder(void **state)
+{
+    (void)state;
+    cull_world *w;
+    assert_int_equal(cull_world_create(NULL, &w), CULL_OK);
+    float v[108];
+    unit_cube(v);
+    double m[16] = {10, 0, 0, 0, 0, 10, 0, 0, 0, 0, 10, 0, 0, 0, 0, 1};
+    cull_occluder_desc d = {.vertices = v, .vertex_count = 36};
+    memcpy(d.transform, m, sizeof m);
+    cull_occluder oh;
+    assert_int_equal(cull_occluder_add(w, &d, &oh), CULL_OK);
+    cull_handle eh[3];
+    const double z[3] = {-5, -30, -100};
+    for (int i = 0; i < 3; i++) {
+        cull_entity_desc e = {.center = {0, 0, z[i]}, .radius = 1};
+        assert_int_equal(cull_entity_add(w, &e, &eh[i]), CULL_OK);
+    }
+    cull_view_desc vd = {.viewport_w = 256, .viewport_h = 114};
+    double proj[16], view[16], dir[3] = {0, 0, -1}, up[3] = {0, 1, 0};
+    cull_mat_perspective(proj, 1.0, 256.0 / 114, 0.1, 1000, CULL_DEPTH_GL);
+    cull_mat_look_dir(view, dir, up);
+    cull_mat_mul(vd.view_proj, proj, view);
+    cull_view cv;
+    assert_int_equal(cull_view_init(&cv, &vd), CULL_OK);
+    cull_occ_buffer *b;
+    assert_int_equal(cull_occ_buffer_create(256, 114, &b), CULL_OK);
+    cull_occ_stats st;
+    assert_int_equal(cull_occ_render(w, &cv, b, NULL, 1, &st), CULL_OK);
+    assert_true(cull_occ_buffer_empty(b));
+    assert_int_equal(st.faces_drawn, 0);
+    cull_ctx *c;
+    assert_int_equal(cull_ctx_create(NULL, &c), CULL_OK);
+    cull_result res[16];
+    size_t n;
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &cv, .view_count = 1}, res, 16, &n, NULL),
+                     CULL_OK);
+    assert_int_equal(n, 3);
+    /* from outside, in front of the box, the far entities are hidden */
+    vd.origin[2] = 20;
+    assert_int_equal(cull_view_init(&cv, &vd), CULL_OK);
+    assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &cv, .view_count = 1}, res, 16, &n, NULL),
+                     CULL_OK);
+    assert_int_equal(n, 0);
+    assert_int_equal(cull_occ_render(w, &cv, b, NULL, 1, &st), CULL_OK);
+    assert_false(cull_occ_buffer_empty(b));
+    for (int i = 0; i < 3; i++) {
+        cull_entity_desc e;
+        assert_int_equal(cull_entity_get(w, eh[i], &e), CULL_OK);
+        assert_int_equal(cull_occ_test_aabb(b, e.aabb_min, e.aabb_max), 0);
+    }
+    cull_occ_buffer_destroy(b);
+    cull_ctx_destroy(c);
+    cull_world_destroy(w);
+}
+
+/* A wall that passes through the near plane and behind the eye: the part
+ * in front is drawn, clipped exactly; what it hides is culled, nothing
+ * the caster sees is. */
+static void test_wall_through_near_plane(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xFA11u};
+    for (int rep = 0; rep < 20; rep++) {
+        oscene s;
+        memset(&s, 0, sizeof s);
+        assert_int_equal(cull_world_create(NULL, &s.w), CULL_OK);
+        /* a slanted quad from behind the eye (z = +5) to z = -20 */
+        double zb = rng_range(&r, 0.5, 8), zf = rng_range(&r, -40, -5), x = rng_range(&r, 5, 40);
+        float q[18] = {(float)-x, -20, (float)zb, (float)x, -20, (float)zf, (float)x, 20, (float)zf,
+                       (float)-x, -20, (float)zb, (float)x, 20, (float)zf, (float)-x, 20, (float)zb};
+        cull_occluder_desc d = {.vertices = q, .vertex_count = 6};
+        cull_occluder oh;
+        assert_int_equal(cull_occluder_add(s.w, &d, &oh), CULL_OK);
+        cull_occluder_info info;
+        assert_int_equal(cull_occluder_get_info(s.w, oh, &info), CULL_OK);
+        assert_int_equal(info.faces, 1);
+        for (int t = 0; t < 2; t++) {
+            double p[9];
+            for (int i = 0; i < 9; i++) p[i] = q[9 * t + i];
+            push_tri(&s, p);
+        }
+        add_entities(&r, &s, 400);
+        for (int k = 0; k < 4; k++) {
+            cull_view_desc vd = {.viewport_w = 64, .viewport_h = 40, .depth_mode = rng_below(&r, 3)};
+            double proj[16], view[16], dir[3] = {rng_range(&r, -0.3, 0.3), rng_range(&r, -0.3, 0.3), -1},
+                                      up[3] = {0, 1, 0};
+            cull_mat_perspective(proj, 1.2, 1.6, rng_log(&r, 0.01, 1), 500, vd.depth_mode);
+            cull_mat_look_dir(view, dir, up);
+            cull_mat_mul(vd.view_proj, proj, view);
+            cull_view v;
+            assert_int_equal(cull_view_init(&v, &vd), CULL_OK);
+            cull_ctx *c;
+            assert_int_equal(cull_ctx_create(NULL, &c), CULL_OK);
+            otally t = {0};
+            check_view(&s, c, &v, 64, 40, CULL_OCC_COVER_INNER, 1, &t);
+            check_view(&s, c, &v, 64, 40, CULL_OCC_COVER_CENTRE, 1, &t);
+            assert_int_equal(t.false_occluded, 0);
+            cull_ctx_destroy(c);
+        }
+        free_scene(&s);
+    }
+}
+
+/* Several views in one query give each view the answer it gets alone. */
+static void test_multi_view_matches_single(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x3u};
+    oscene s;
+    build_scene(&r, &s);
+    cull_ctx *c;
+    assert_int_equal(cull_ctx_create(NULL, &c), CULL_OK);
+    cull_view v[5];
+    for (int i = 0; i < 5; i++) random_view(&r, &s, &v[i], 200, 100);
+    size_t cap = cull_query_bound(s.w), n;
+    cull_result *all = malloc(cap * sizeof *all), *one = malloc(cap * sizeof *one);
+    assert_non_null(all);
+    assert_non_null(one);
+    cull_query_desc q = {.views = v, .view_count = 5, .occ_w = 200, .occ_h = 100};
+    cull_query_stats st;
+    assert_int_equal(cull_query(s.w, c, &q, all, cap, &n, &st), CULL_OK);
+    uint32_t *mask = calloc(s.n, sizeof *mask);
+    for (size_t i = 0; i < n; i++) mask[slot_of(all[i].handle)] = all[i].view_mask;
+    for (int i = 0; i < 5; i++) {
+        size_t m;
+        cull_query_desc q1 = {.views = &v[i], .view_count = 1, .occ_w = 200, .occ_h = 100};
+        assert_int_equal(cull_query(s.w, c, &q1, one, cap, &m, NULL), CULL_OK);
+        size_t in_all = 0;
+        for (uint32_t e = 0; e < s.n; e++) in_all += (mask[e] >> i) & 1;
+        assert_int_equal(in_all, m);
+        for (size_t k = 0; k < m; k++) assert_true((mask[slot_of(one[k].handle)] >> i) & 1);
+    }
+    free(mask);
+    free(all);
+    free(one);
+    cull_ctx_destroy(c);
+    free_scene(&s);
+}
+
+/* Bad occluders: clear errors, and nothing changes. */
+static void test_bad_occluders(void **state)
+{
+    (void)state;
+    cull_world *w;
+    assert_int_equal(cull_world_create(NULL, &w), CULL_OK);
+    float v[108];
+    unit_cube(v);
+    cull_occluder good;
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = v, .vertex_count = 36}, &good), CULL_OK);
+    cull_occluder_info before, after;
+    assert_int_equal(cull_occluder_get_info(w, good, &before), CULL_OK);
+
+    cull_occluder h = 123;
+    float bad[9] = {0, 0, 0, 1, 0, 0, 0, NAN, 0};
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = bad, .vertex_count = 3}, &h),
+                     CULL_ERR_NONFINITE);
+    assert_int_equal(h, 0);
+    bad[7] = INFINITY;
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = bad, .vertex_count = 3}, &h),
+                     CULL_ERR_NONFINITE);
+    bad[7] = 1;
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = bad, .vertex_count = 2}, &h),
+                     CULL_ERR_MESH);
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = NULL, .vertex_count = 3}, &h),
+                     CULL_ERR_MESH);
+    uint32_t idx[3] = {0, 1, 3};
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = bad, .vertex_count = 3, .indices = idx,
+                                                                .index_count = 3},
+                                       &h),
+                     CULL_ERR_MESH);
+    idx[2] = 2;
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = bad, .vertex_count = 3, .indices = idx,
+                                                                .index_count = 2},
+                                       &h),
+                     CULL_ERR_MESH);
+    cull_occluder_desc d = {.vertices = bad, .vertex_count = 3};
+    d.transform[3] = 1; /* projective: not an affine transform */
+    assert_int_equal(cull_occluder_add(w, &d, &h), CULL_ERR_MATRIX);
+    d.transform[3] = NAN;
+    assert_int_equal(cull_occluder_add(w, &d, &h), CULL_ERR_NONFINITE);
+    memset(d.transform, 0, sizeof d.transform);
+    d.transform[0] = d.transform[5] = d.transform[10] = d.transform[15] = 1;
+    d.transform[12] = 2e12;
+    assert_int_equal(cull_occluder_add(w, &d, &h), CULL_ERR_RANGE);
+    /* all degenerate: accepted, every triangle dropped and counted, draws nothing */
+    float line[9] = {0, 0, 0, 1, 1, 1, 2, 2, 2};
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = line, .vertex_count = 3}, &h), CULL_OK);
+    cull_occluder_info li;
+    assert_int_equal(cull_occluder_get_info(w, h, &li), CULL_OK);
+    assert_int_equal(li.triangles, 0);
+    assert_int_equal(li.dropped, 1);
+    assert_int_equal(li.clusters, 0);
+    assert_int_equal(cull_occluder_remove(w, h), CULL_OK);
+    assert_int_equal(cull_occluder_remove(w, h), CULL_ERR_HANDLE);
+    assert_int_equal(cull_occluder_get_info(w, h, &li), CULL_ERR_HANDLE);
+    assert_int_equal(cull_occluder_remove(w, 0), CULL_ERR_HANDLE);
+    /* a failed update leaves the occluder as it was */
+    assert_int_equal(cull_occluder_update(w, good, &(cull_occluder_desc){.vertices = bad, .vertex_count = 2}),
+                     CULL_ERR_MESH);
+    assert_int_equal(cull_occluder_get_info(w, good, &after), CULL_OK);
+    assert_memory_equal(&before, &after, sizeof before);
+    /* terrains */
+    float hts[4] = {0, 1, 2, NAN};
+    cull_terrain_desc td = {.heights = hts, .nx = 2, .nz = 2, .spacing = 1};
+    assert_int_equal(cull_terrain_add(w, &td, &h), CULL_ERR_NONFINITE);
+    hts[3] = 3;
+    td.nx = 1;
+    assert_int_equal(cull_terrain_add(w, &td, &h), CULL_ERR_MESH);
+    td.nx = 2;
+    td.spacing = 0;
+    assert_int_equal(cull_terrain_add(w, &td, &h), CULL_ERR_INVALID);
+    td.spacing = 2;
+    assert_int_equal(cull_terrain_add(w, &td, &h), CULL_OK);
+    assert_int_equal(cull_occluder_count(w), 2);
+    assert_int_equal(cull_terrain_update(w, good, &td), CULL_OK); /* a mesh becomes a terrain */
+    assert_int_equal(cull_occluder_get_info(w, good, &after), CULL_OK);
+    assert_int_equal(after.triangles, 2);
+    /* buffers */
+    cull_occ_buffer *b = (cull_occ_buffer *)1;
+    assert_int_equal(cull_occ_buffer_create(7, 100, &b), CULL_ERR_BUFFER);
+    assert_null(b);
+    assert_int_equal(cull_occ_buffer_create(100, 8193, &b), CULL_ERR_BUFFER);
+    assert_int_equal(cull_occ_buffer_create(8, 8, &b), CULL_OK);
+    assert_int_equal(cull_occ_buffer_set_cover(b, 7), CULL_ERR_INVALID);
+    cull_occ_buffer_destroy(b);
+    cull_world_destroy(w);
+}
+
+/* Edits show in the next query: remove the wall and the hidden come back;
+ * replace it (destruction) by one with a hole and what is behind the hole
+ * comes back too. */
+static void test_edits_change_occlusion(void **state)
+{
+    (void)state;
+    cull_world *w;
+    assert_int_equal(cull_world_create(NULL, &w), CULL_OK);
+    /* a wall at z = -10 facing +z, 40 x 40 m */
+    float wall[18] = {-20, -20, -10, 20, -20, -10, 20, 20, -10, -20, -20, -10, 20, 20, -10, -20, 20, -10};
+    cull_occluder oh;
+    assert_int_equal(cull_occluder_add(w, &(cull_occluder_desc){.vertices = wall, .vertex_count = 6}, &oh), CULL_OK);
+    cull_handle left, right;
+    assert_int_equal(cull_entity_add(w, &(cull_entity_desc){.center = {-8, 0, -30}, .radius = 1}, &left), CULL_OK);
+    assert_int_equal(cull_entity_add(w, &(cull_entity_desc){.center = {8, 0, -30}, .radius = 1}, &right), CULL_OK);
+    cull_view_desc vd = {.viewport_w = 256, .viewport_h = 114};
+    double proj[16], view[16], dir[3] = {0, 0, -1}, up[3] = {0, 1, 0};
+    cull_mat_perspective(proj, 1.0, 256.0 / 114, 0.1, 1000, CULL_DEPTH_REVERSED);
+    vd.depth_mode = CULL_DEPTH_REVERSED;
+    cull_mat_look_dir(view, dir, up);
+    cull_mat_mul(vd.view_proj, proj, view);
+    cull_view v;
+    assert_int_equal(cull_view_init(&v, &vd), CULL_OK);
+    cull_ctx *c;
+    assert_int_equal(cull_ctx_create(NULL, &c), CULL_OK);
+    cull_result res[16];
+    size_t n;
+    cull_query_desc q = {.views = &v, .view_count = 1};
+    assert_int_equal(cull_query(w, c, &q, res, 16, &n, NULL), CULL_OK);
+    assert_int_equal(n, 0);
+    /* the wall with a slot: quads left of x = 1.5 and right of x = 4.5 (the
+       right entity, seen from the eye, crosses z = -10 at x = 2.3 .. 3.1) */
+    float holed[36] = {-20,  -20, -10, 1.5f, -20, -10, 1.5f, 20, -10, -20,  -20, -10, 1.5f, 20, -10, -20,  20, -10,
+                       4.5f, -20, -10, 20,   -20, -10, 20,   20, -10, 4.5f, -20, -10, 20,   20, -10, 4.5f, 20, -10};
+    assert_int_equal(cull_occluder_update(w, oh, &(cull_occluder_desc){.vertices = holed, .vertex_count = 12}),
+                     CULL_OK);
+    assert_int_equal(cull_query(w, c, &q, res, 16, &n, NULL), CULL_OK);
+    assert_int_equal(n, 1);
+    assert_int_equal(res[0].handle, right);
+    assert_int_equal(cull_occluder_remove(w, oh), CULL_OK);
+    assert_int_equal(cull_query(w, c, &q, res, 16, &n, NULL), CULL_OK);
+    assert_int_equal(n, 2);
+    q.flags = CULL_Q_NO_OCCLUSION;
+    assert_int_equal(cull_query(w, c, &q, res, 16, &n, NULL), CULL_OK);
+    assert_int_equal(n, 2);
+    (void)left;
+    cull_ctx_destroy(c);
+    cull_world_destroy(w);
+}
+
+const struct CMUnitTest occlusion_tests[] = {
+    cmocka_unit_test(test_bad_occluders),
+    cmocka_unit_test(test_camera_inside_occluder),
+    cmocka_unit_test(test_edits_change_occlusion),
+    cmocka_unit_test(test_multi_view_matches_single),
+    cmocka_unit_test(test_wall_through_near_plane),
+    cmocka_unit_test(test_random_scenes_never_false_occluded),
+};
+const size_t occlusion_tests_count = sizeof occlusion_tests / sizeof occlusion_tests[0];
