@@ -110,7 +110,7 @@ static void map_erase(cull_map *m, const void *e)
 
 /* ---- bounds arrays --------------------------------------------------------------- */
 
-static bool soa_reserve(cull_bounds_soa *s, uint32_t count, uint32_t need)
+bool cull_soa_reserve(cull_bounds_soa *s, uint32_t count, uint32_t need)
 {
     need = (need + 4u) & ~3u; /* whole vectors past the last entry */
     if (need <= s->cap) return true;
@@ -126,7 +126,7 @@ static bool soa_reserve(cull_bounds_soa *s, uint32_t count, uint32_t need)
     return true;
 }
 
-static void soa_set(cull_bounds_soa *s, uint32_t i, const double lo[3], const double hi[3])
+void cull_soa_set(cull_bounds_soa *s, uint32_t i, const double lo[3], const double hi[3])
 {
     for (int a = 0; a < 3; a++) {
         bool empty = !(lo[a] <= hi[a]); /* never queried: empty boxes are freed */
@@ -135,7 +135,7 @@ static void soa_set(cull_bounds_soa *s, uint32_t i, const double lo[3], const do
     }
 }
 
-static void soa_copy(cull_bounds_soa *s, uint32_t dst, uint32_t src)
+void cull_soa_copy(cull_bounds_soa *s, uint32_t dst, uint32_t src)
 {
     for (int k = 0; k < 6; k++) CULL_SOA(s, k)[dst] = CULL_SOA(s, k)[src];
 }
@@ -155,13 +155,13 @@ static void cell_publish(cull_world *w, const cull_cell *c)
     cull_region *r = c->region;
     double lo[3], hi[3];
     cell_world_bounds(c, lo, hi);
-    soa_set(&r->soa, c->index, lo, hi);
+    cull_soa_set(&r->soa, c->index, lo, hi);
     bool grew = false;
     for (int a = 0; a < 3; a++) {
         if (lo[a] < r->bmin[a]) r->bmin[a] = lo[a], grew = true;
         if (hi[a] > r->bmax[a]) r->bmax[a] = hi[a], grew = true;
     }
-    if (grew) soa_set(&w->grid[r->grid].soa, r->index, r->bmin, r->bmax);
+    if (grew) cull_soa_set(&w->grid[r->grid].soa, r->index, r->bmin, r->bmax);
 }
 
 static void empty_bounds_f(float lo[3], float hi[3])
@@ -256,7 +256,7 @@ static int region_reserve(cull_grid *g, uint32_t gi, const int32_t ck[3], cull_r
     if (!r) {
         if (!map_reserve(&g->region_map, g->region_map.used + 1) ||
             !cull_grow((void **)&g->regions, &g->cap_regions, g->nregions + 1, sizeof *g->regions) ||
-            !soa_reserve(&g->soa, g->nregions, g->nregions + 1))
+            !cull_soa_reserve(&g->soa, g->nregions, g->nregions + 1))
             return CULL_ERR_NOMEM;
         r = calloc(1, sizeof *r);
         if (!r) return CULL_ERR_NOMEM;
@@ -265,7 +265,7 @@ static int region_reserve(cull_grid *g, uint32_t gi, const int32_t ck[3], cull_r
         empty_bounds_d(r->bmin, r->bmax);
     }
     if (!cull_grow((void **)&r->cells, &r->cap_cells, r->ncells + 1, sizeof *r->cells) ||
-        !soa_reserve(&r->soa, r->ncells, r->ncells + 1)) {
+        !cull_soa_reserve(&r->soa, r->ncells, r->ncells + 1)) {
         if (!r->ncells && !map_find(&g->region_map, rk)) region_free(r);
         return CULL_ERR_NOMEM;
     }
@@ -279,7 +279,7 @@ static void region_link(cull_grid *g, cull_region *r)
     r->index = g->nregions;
     g->regions[g->nregions++] = r;
     map_insert_nogrow(&g->region_map, r);
-    soa_set(&g->soa, r->index, r->bmin, r->bmax);
+    cull_soa_set(&g->soa, r->index, r->bmin, r->bmax);
 }
 
 static bool block_add(cull_world *w, cull_cell *c)
@@ -421,14 +421,14 @@ static void region_take_out(cull_world *w, cull_region *r, cull_cell *c)
     cull_grid *g = &w->grid[r->grid];
     cull_cell *moved = r->cells[--r->ncells];
     r->cells[c->index] = moved;
-    soa_copy(&r->soa, c->index, moved->index);
+    cull_soa_copy(&r->soa, c->index, moved->index);
     moved->index = c->index;
     r->dirty = true; /* its bounds may now be loose */
     if (r->ncells) return;
     map_erase(&g->region_map, r);
     cull_region *rm = g->regions[--g->nregions];
     g->regions[r->index] = rm;
-    soa_copy(&g->soa, r->index, rm->index);
+    cull_soa_copy(&g->soa, r->index, rm->index);
     rm->index = r->index;
     region_free(r);
 }
@@ -482,7 +482,7 @@ void cull_grid_commit(cull_world *w)
         }
         double lo[3], hi[3];
         cell_world_bounds(c, lo, hi);
-        soa_set(&c->region->soa, c->index, lo, hi);
+        cull_soa_set(&c->region->soa, c->index, lo, hi);
         c->region->dirty = true;
     }
     w->ndirty = 0;
@@ -502,7 +502,7 @@ void cull_grid_commit(cull_world *w)
                     r->bmax[a] = fmax(r->bmax[a], hi[a]);
                 }
             }
-            soa_set(&g->soa, r->index, r->bmin, r->bmax);
+            cull_soa_set(&g->soa, r->index, r->bmin, r->bmax);
         }
     }
 }

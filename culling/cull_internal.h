@@ -60,6 +60,10 @@ typedef struct cull_bounds_soa {
     uint32_t cap;
 } cull_bounds_soa;
 #define CULL_SOA(s, k) ((s)->v + (size_t)(k) * (s)->cap)
+/* Room for need boxes (count are kept); false on allocation failure. */
+bool cull_soa_reserve(cull_bounds_soa *s, uint32_t count, uint32_t need);
+void cull_soa_set(cull_bounds_soa *s, uint32_t i, const double lo[3], const double hi[3]);
+void cull_soa_copy(cull_bounds_soa *s, uint32_t dst, uint32_t src);
 
 /* A region: CULL_REGION_CELLS^3 cells, tested as one box first, so a query
  * touches only the cells of regions its views can see (a 16 km world of 64 m
@@ -120,6 +124,7 @@ typedef struct cull_occ_cluster {
     const double *v;   /* 3 * nv */
     const cull_occ_face *f;
     uint32_t nv, nf;
+    uint32_t widx;     /* position in the world's cluster arrays */
 } cull_occ_cluster;
 
 typedef struct cull_occ_mesh {
@@ -160,7 +165,11 @@ struct cull_world {
     uint32_t   noslots, cap_oslots, ofree_head;
     cull_occ_mesh **occ;
     uint32_t   nocc, cap_occ;
-    uint32_t   nclusters;     /* over all occluders */
+    /* every occluder's clusters, with their bounds in SoA for the SIMD box
+       test (the same kernel as the cell stage) */
+    cull_occ_cluster **ocl;
+    uint32_t   nclusters, cap_ocl;
+    cull_bounds_soa ocl_soa;
 };
 
 void cull_occluders_free(cull_world *w);

@@ -51,7 +51,6 @@
 #define EMPTY (-FLT_MAX)
 #define PAD FLT_MAX
 #define MAX_BANDS 64u
-#define HIDDEN_TEST_MAX_PIXELS 16384u /* bigger rectangles are drawn untested */
 
 /* libm's fmin, fmax, floor and ceil are calls on baseline x86-64 (NaN
  * and errno rules); these are inlined. Arguments here are never NaN. */
@@ -101,9 +100,13 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->t2w = b->stride / 64;
     b->t2h = b->hp / 64;
     b->depth = aligned_alloc(64, (size_t)b->stride * b->hp * sizeof(float));
-    b->tile = malloc((size_t)b->tw * b->th * sizeof(float));
+    b->tile = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float)); /* tw * 4 bytes = 64 k */
     b->tile2 = malloc((size_t)b->t2w * b->t2h * sizeof(float));
-    if (!b->depth || !b->tile || !b->tile2) {
+    /* a tile row of flags per 64 bytes: bands never share a cache line */
+    b->dirty_pitch = (b->tw + 63) & ~63u;
+    b->dirty_tiles = aligned_alloc(64, (size_t)b->dirty_pitch * b->th);
+    if (b->dirty_tiles) memset(b->dirty_tiles, 0, (size_t)b->dirty_pitch * b->th);
+    if (!b->depth || !b->tile || !b->tile2 || !b->dirty_tiles) {
         cull_occ_buffer_destroy(b);
         return CULL_ERR_NOMEM;
     }
@@ -126,7 +129,11 @@ void cull_occ_buffer_destroy(cull_occ_buffer *b)
     free(b->depth);
     free(b->tile);
     free(b->tile2);
+    free(b->dirty_tiles);
     free(b->items);
+    free(b->items2);
+    free(b->sortbuf);
+    free(b->codes);
     free(b);
 }
 
@@ -224,25 +231,68 @@ int cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const dou
     return OCC_BOX_OK;
 }
 
+/* A cheaper, looser cull_occ_project_box for clusters (the draw list):
+ * over the box, each clip row lies within centre +- extent, so x = X / W
+ * lies between the quotients of the interval ends (4 divisions, not 8
+ * corners). The rectangle can only be larger and the nearness nearer. */
+static int project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r)
+{
+    double c[3], e[3];
+    for (int a = 0; a < 3; a++) {
+        c[a] = 0.5 * (mn[a] + mx[a]) - b->origin[a];
+        e[a] = 0.5 * (mx[a] - mn[a]);
+    }
+    const double *rows[5] = {b->rx, b->ry, b->rw, b->rd, b->rn};
+    double v[5], ex[5];
+    for (int k = 0; k < 5; k++) {
+        const double *q = rows[k];
+        v[k] = q[0] * c[0] + q[1] * c[1] + q[2] * c[2] + q[3];
+        ex[k] = (fabs(q[0]) * e[0] + fabs(q[1]) * e[1] + fabs(q[2]) * e[2]) * (1 + 0x1p-40);
+    }
+    double wlo = v[2] - ex[2], whi = v[2] + ex[2];
+    if (!(v[4] - ex[4] > 0) || !(wlo > 0)) return OCC_BOX_NEAR;
+    double il = 1.0 / wlo, ih = 1.0 / whi;
+    double xa = v[0] - ex[0], xb = v[0] + ex[0], ya = v[1] - ex[1], yb = v[1] + ex[1];
+    double xmin = dmin(xa * il, xa * ih), xmax = dmax(xb * il, xb * ih);
+    double ymin = dmin(ya * il, ya * ih), ymax = dmax(yb * il, yb * ih);
+    double d = v[3] + ex[3], nmax = d >= 0 ? d * il : d * ih;
+    double i0 = dmax(dfloor((xmin + 1) * b->sx - 0x1p-20 * b->w), 0);
+    double i1 = dmin(dceil((xmax + 1) * b->sx + 0x1p-20 * b->w) - 1, b->w - 1.0);
+    double j0 = dmax(dfloor((ymin + 1) * b->sy - 0x1p-20 * b->h), 0);
+    double j1 = dmin(dceil((ymax + 1) * b->sy + 0x1p-20 * b->h) - 1, b->h - 1.0);
+    if (!(i0 <= i1 && j0 <= j1)) return OCC_BOX_OFF;
+    r->x0 = (int)i0;
+    r->x1 = (int)i1;
+    r->y0 = (int)j0;
+    r->y1 = (int)j1;
+    r->z = cull_round_up(nmax + 0x1p-20 * fabs(nmax));
+    return OCC_BOX_OK;
+}
+
 /* Some pixel of the rectangle not strictly nearer than z? */
+/* The 8x8 tiles over a rectangle, and the pixels of those not entirely
+ * nearer than z. */
+static bool tiles_visible(const cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z)
+{
+    for (int ty = y0 >> 3; ty <= y1 >> 3; ty++)
+        for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
+            if (b->tile[ty * b->tw + tx] > z) continue;
+            int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
+            int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
+            for (int py = py0; py <= py1; py++)
+                if (b->fns.any_le(b->depth + (size_t)py * b->stride, px0, px1, (int)b->stride, z)) return true;
+        }
+    return false;
+}
+
 bool cull_occ_rect_visible(const cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z)
 {
     for (int Y = y0 >> 6; Y <= y1 >> 6; Y++)
         for (int X = x0 >> 6; X <= x1 >> 6; X++) {
             if (b->tile2[Y * b->t2w + X] > z) continue;
-            int ty0 = (Y << 6 > y0 ? Y << 6 : y0) >> 3, ty1 = ((Y << 6) + 63 < y1 ? (Y << 6) + 63 : y1) >> 3;
-            int tx0 = (X << 6 > x0 ? X << 6 : x0) >> 3, tx1 = ((X << 6) + 63 < x1 ? (X << 6) + 63 : x1) >> 3;
-            for (int ty = ty0; ty <= ty1; ty++)
-                for (int tx = tx0; tx <= tx1; tx++) {
-                    if (b->tile[ty * b->tw + tx] > z) continue;
-                    int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
-                    int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
-                    for (int py = py0; py <= py1; py++) {
-                        const float *row = b->depth + (size_t)py * b->stride;
-                        for (int px = px0; px <= px1; px++)
-                            if (row[px] <= z) return true;
-                    }
-                }
+            int ry0 = Y << 6 > y0 ? Y << 6 : y0, ry1 = (Y << 6) + 63 < y1 ? (Y << 6) + 63 : y1;
+            int rx0 = X << 6 > x0 ? X << 6 : x0, rx1 = (X << 6) + 63 < x1 ? (X << 6) + 63 : x1;
+            if (tiles_visible(b, rx0, ry0, rx1, ry1, z)) return true;
         }
     return false;
 }
@@ -290,7 +340,7 @@ typedef struct band {
     cull_occ_buffer *b;
     int y0, y1;            /* rows [y0, y1) */
     uint32_t faces, clusters;
-} band;
+} __attribute__((aligned(64))) band; /* one cache line per band: no false sharing */
 
 /* Set-up of one half (a triangle) of a face: the adjugate rows scaled by
  * 1/det give the near function and the nearness as planes. */
@@ -334,33 +384,11 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
     }
     if (!any_front) return;
 
-    /* halves (0,1,2) and, for a quad, (2,3,0): both must face the eye */
-    lin3 nearA, nearB, zA, zB;
-    double detA, detB;
-    if (!half_planes(b, v[0], v[1], v[2], &nearA, &zA, &detA)) return;
-    if (n == 4) {
-        if (!half_planes(b, v[2], v[3], v[0], &nearB, &zB, &detB)) return;
-    } else {
-        nearB = nearA;
-        zB = zA;
-    }
-
-    /* constraints: the edges, then the near plane if the face crosses it */
-    lin3 con[MAX_CONS];
-    uint32_t nc = 0;
-    for (uint32_t k = 0; k < n; k++) {
+    /* back faces first: they are half of what arrives, and cheap to spot */
+    {
         double e[3];
-        cross_xyw(e, v[k], v[(k + 1) % n]);
-        con[nc++] = to_pixels(b, e);
-    }
-    if (!all_front) {
-        con[nc++] = nearA;
-        if (n == 4) con[nc++] = nearB;
-    }
-    double marg[MAX_CONS];
-    for (uint32_t k = 0; k < nc; k++) {
-        marg[k] = 0x1p-24 * (fabs(con[k].a) * b->w + fabs(con[k].b) * b->h + fabs(con[k].c));
-        if (b->inner) marg[k] += 0.5 * (fabs(con[k].a) + fabs(con[k].b));
+        cross_xyw(e, v[1], v[2]);
+        if (!(e[0] * v[0]->x + e[1] * v[0]->y + e[2] * v[0]->w > 0)) return;
     }
 
     /* the part in front of the near plane: its projection bounds the rows,
@@ -386,54 +414,141 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
             nmin = dmin(nmin, o[i].d * iw);
         }
     }
-    double fi0 = dmax(dceil((xmin + 1) * b->sx - 0.5), 0), fi1 = dmin(dfloor((xmax + 1) * b->sx - 0.5), b->w - 1.0);
-    double fj0 = dmax(dceil((ymin + 1) * b->sy - 0.5), bd->y0), fj1 = dmin(dfloor((ymax + 1) * b->sy - 0.5), bd->y1 - 1.0);
+    /* the pixels that may be marked: centres inside (centre coverage), or
+       squares inside (whole-pixel coverage), of the projected bounds */
+    double in0 = b->inner ? 0.0 : 0.5, in1 = b->inner ? 1.0 : 0.5;
+    double fi0 = dmax(dceil((xmin + 1) * b->sx - in0), 0), fi1 = dmin(dfloor((xmax + 1) * b->sx - in1), b->w - 1.0);
+    double fj0 = dmax(dceil((ymin + 1) * b->sy - in0), bd->y0), fj1 = dmin(dfloor((ymax + 1) * b->sy - in1), bd->y1 - 1.0);
     if (!(fi0 <= fi1 && fj0 <= fj1)) return;
     int i0 = (int)fi0, i1 = (int)fi1, j0 = (int)fj0, j1 = (int)fj1;
+
+
+    /* halves (0,1,2) and, for a quad, (2,3,0): both must face the eye */
+    lin3 nearA, nearB, zA, zB;
+    double detA, detB;
+    if (!half_planes(b, v[0], v[1], v[2], &nearA, &zA, &detA)) return;
     bd->faces++;
+    if (n == 4) {
+        if (!half_planes(b, v[2], v[3], v[0], &nearB, &zB, &detB)) return;
+    } else {
+        nearB = nearA;
+        zB = zA;
+    }
+
+    /* constraints: the edges, then the near plane if the face crosses it */
+    lin3 con[MAX_CONS];
+    uint32_t nc = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        double e[3];
+        cross_xyw(e, v[k], v[(k + 1) % n]);
+        con[nc++] = to_pixels(b, e);
+    }
+    if (!all_front) {
+        con[nc++] = nearA;
+        if (n == 4) con[nc++] = nearB;
+    }
+    double marg[MAX_CONS];
+    for (uint32_t k = 0; k < nc; k++) {
+        marg[k] = 0x1p-24 * (fabs(con[k].a) * b->w + fabs(con[k].b) * b->h + fabs(con[k].c));
+        if (b->inner) marg[k] += 0.5 * (fabs(con[k].a) + fabs(con[k].b));
+    }
 
     /* per constraint, the row's bound on x is linear in j: x > al + be j
-       (a > 0) or x < al + be j (a < 0); a == 0 decides whole rows */
-    double al[MAX_CONS], be[MAX_CONS];
-    uint32_t kind[MAX_CONS];
+       (a > 0: a left edge) or x < al + be j (a < 0: a right edge); with
+       a == 0 it bounds the rows instead */
+    double lal[MAX_CONS], lbe[MAX_CONS], ral[MAX_CONS], rbe[MAX_CONS];
+    uint32_t nl = 0, nr = 0;
+    fj0 = j0;
+    fj1 = j1;
     for (uint32_t k = 0; k < nc; k++) {
-        double a = con[k].a;
-        kind[k] = a > 0 ? 0 : a < 0 ? 1 : 2;
-        if (kind[k] < 2) {
-            al[k] = (marg[k] - con[k].c) / a;
-            be[k] = -con[k].b / a;
+        double a = con[k].a, bb = con[k].b, t = marg[k] - con[k].c;
+        if (a > 0) {
+            lal[nl] = t / a;
+            lbe[nl++] = -bb / a;
+        } else if (a < 0) {
+            ral[nr] = t / a;
+            rbe[nr++] = -bb / a;
+        } else if (bb > 0) {
+            fj0 = dmax(fj0, dfloor(t / bb) + 1); /* j > t / b */
+        } else if (bb < 0) {
+            fj1 = dmin(fj1, dceil(t / bb) - 1);
+        } else if (!(0 > t)) {
+            return; /* 0 > marg - c fails everywhere */
         }
     }
+    if (fj0 > fj1) return;
+    j0 = (int)fj0;
+    j1 = (int)fj1;
     /* nearness at the pixel's farthest corner, never below the farthest
        vertex; float rounding of the span loop (2^-21 relative) taken off
        with room for the conversion to float */
     double cornerA = 0.5 * (fabs(zA.a) + fabs(zA.b)), cornerB = 0.5 * (fabs(zB.a) + fabs(zB.b));
     float zlo = cull_round_down(nmin - 0x1p-20 * fabs(nmin));
     for (int j = j0; j <= j1; j++) {
-        double lo = i0, hi = i1;
-        for (uint32_t k = 0; k < nc; k++) {
-            if (kind[k] == 0) lo = dmax(lo, dfloor(al[k] + be[k] * j) + 1);
-            else if (kind[k] == 1) hi = dmin(hi, dceil(al[k] + be[k] * j) - 1);
-            else if (!(con[k].b * j + con[k].c > marg[k])) hi = -1;
-        }
+        double tl = -0x1p40, th = 0x1p40;
+        for (uint32_t k = 0; k < nl; k++) tl = dmax(tl, lal[k] + lbe[k] * j);
+        for (uint32_t k = 0; k < nr; k++) th = dmin(th, ral[k] + rbe[k] * j);
+        double lo = dmax(i0, dfloor(tl) + 1), hi = dmin(i1, dceil(th) - 1);
         if (lo > hi) continue;
         int x0 = (int)lo, x1 = (int)hi;
         double za = zA.b * j + zA.c - cornerA, zb = zB.b * j + zB.c - cornerB;
         double ma = 0x1p-20 * (fabs(za) + fabs(zA.a) * (x1 + 1)), mb = 0x1p-20 * (fabs(zb) + fabs(zB.a) * (x1 + 1));
-        b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (float)(za - ma), (float)zA.a, (float)(zb - mb),
+        memset(b->dirty_tiles + (size_t)(j >> 3) * b->dirty_pitch + (x0 >> 3), 1, (size_t)((x1 >> 3) - (x0 >> 3) + 1));
+        b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (int)b->stride, (float)(za - ma), (float)zA.a, (float)(zb - mb),
                     (float)zB.a, zlo);
     }
 }
 
-/* The rectangle of a cluster, in this band, already hidden? */
+/* A tile's minimum, recomputed first if spans wrote into it since. */
+static inline float band_tile(cull_occ_buffer *b, int tx, int ty)
+{
+    size_t i = (size_t)ty * b->tw + tx;
+    uint8_t *d = &b->dirty_tiles[(size_t)ty * b->dirty_pitch + tx];
+    if (*d) {
+        b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
+        *d = 0;
+    }
+    return b->tile[i];
+}
+
+/* The rectangle of a cluster, in this band, already hidden? Tiles are
+ * brought up to date on demand (band_tile), so a hidden cluster costs a
+ * few tile reads and a tile is recomputed only when read after a write. */
 static bool band_hidden(const band *bd, const cull_occ_rect *r)
 {
-    const cull_occ_buffer *b = bd->b;
-    int y0 = r->y0 > bd->y0 ? r->y0 : bd->y0, y1 = r->y1 < bd->y1 - 1 ? r->y1 : bd->y1 - 1;
-    if ((uint64_t)(r->x1 - r->x0 + 1) * (uint64_t)(y1 - y0 + 1) > HIDDEN_TEST_MAX_PIXELS) return false;
-    for (int y = y0; y <= y1; y++)
-        if (b->fns.any_le(b->depth + (size_t)y * b->stride, r->x0, r->x1, r->z)) return false;
+    cull_occ_buffer *b = bd->b;
+    int x0 = r->x0, x1 = r->x1, y0 = r->y0 > bd->y0 ? r->y0 : bd->y0, y1 = r->y1 < bd->y1 - 1 ? r->y1 : bd->y1 - 1;
+    float z = r->z;
+    for (int ty = y0 >> 3; ty <= y1 >> 3; ty++)
+        for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
+            if (band_tile(b, tx, ty) > z) continue;
+            int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
+            int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
+            for (int py = py0; py <= py1; py++)
+                if (b->fns.any_le(b->depth + (size_t)py * b->stride, px0, px1, (int)b->stride, z)) return false;
+        }
     return true;
+}
+
+/* The band's dirty tiles, recomputed at its end, a run at a time. */
+static void band_finish_tiles(band *bd)
+{
+    cull_occ_buffer *b = bd->b;
+    for (int ty = bd->y0 >> 3; ty < (bd->y1 + 7) >> 3; ty++) {
+        uint8_t *d = b->dirty_tiles + (size_t)ty * b->dirty_pitch;
+        for (uint32_t tx = 0; tx < b->tw;) {
+            if (!d[tx]) {
+                tx++;
+                continue;
+            }
+            uint32_t end = tx;
+            while (end < b->tw && d[end]) end++;
+            b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, end - tx,
+                         b->tile + (size_t)ty * b->tw + tx);
+            memset(d + tx, 0, end - tx);
+            tx = end;
+        }
+    }
 }
 
 static void raster_cluster(band *bd, const cull_occ_cluster *cl)
@@ -453,13 +568,6 @@ typedef struct render_job {
     uint32_t nbands;
 } render_job;
 
-static void band_tiles(band *bd)
-{
-    cull_occ_buffer *b = bd->b;
-    for (int ty = bd->y0 >> 3; ty < (bd->y1 + 7) >> 3; ty++)
-        b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride, b->stride, b->tw, b->tile + (size_t)ty * b->tw);
-}
-
 static void job_band(void *arg, uint32_t t)
 {
     render_job *j = arg;
@@ -467,6 +575,10 @@ static void job_band(void *arg, uint32_t t)
         band *bd = &j->bands[k];
         cull_occ_buffer *b = bd->b;
         for (int y = bd->y0; y < bd->y1 && y < (int)b->h; y++) b->fns.fill(b->depth + (size_t)y * b->stride, b->w, EMPTY);
+        for (int ty = bd->y0 >> 3; ty < (bd->y1 + 7) >> 3; ty++) {
+            b->fns.fill(b->tile + (size_t)ty * b->tw, b->tw, EMPTY);
+            memset(b->dirty_tiles + (size_t)ty * b->dirty_pitch, 0, b->tw);
+        }
         for (uint32_t i = 0; i < b->nitems; i++) {
             const cull_occ_item *it = &b->items[i];
             if (it->near) {
@@ -479,26 +591,48 @@ static void job_band(void *arg, uint32_t t)
             raster_cluster(bd, it->cl);
             bd->clusters++;
         }
-        band_tiles(bd);
+        band_finish_tiles(bd);
     }
 }
 
-static int cmp_item(const void *x, const void *y)
+/* Nearest first, ties in list order: a stable LSD radix sort on the top 16
+ * bits of the keys (sign, exponent, 7 bits of mantissa: nearness to within
+ * 1%, plenty for drawing order), turned so that unsigned order is
+ * descending float order. Two passes of 8 bits. */
+static bool sort_items(cull_occ_buffer *b)
 {
-    const cull_occ_item *a = x, *b = y;
-    if (a->key != b->key) return a->key > b->key ? -1 : 1;
-    return (a->order > b->order) - (a->order < b->order);
-}
-
-/* Frustum test of an AABB against the view's planes (world metres). */
-static bool box_in_frustum(const cull_view *v, const double mn[3], const double mx[3])
-{
-    for (uint32_t i = 0; i < v->plane_count; i++) {
-        const double *pl = v->plane[i];
-        double p[3];
-        for (int a = 0; a < 3; a++) p[a] = (pl[a] >= 0 ? mx[a] : mn[a]) - v->origin[a];
-        if (pl[0] * p[0] + pl[1] * p[1] + pl[2] * p[2] + pl[3] < 0) return false;
+    uint32_t n = b->nitems;
+    if (!cull_grow((void **)&b->sortbuf, &b->sortbuf_cap, 2 * (size_t)n, sizeof *b->sortbuf) ||
+        !cull_grow((void **)&b->items2, &b->items2_cap, n, sizeof *b->items2))
+        return false;
+    uint64_t *a = b->sortbuf, *t = a + n;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t u;
+        memcpy(&u, &b->items[i].key, sizeof u);
+        u = (u & 0x80000000u) ? ~u : u | 0x80000000u; /* ascending float order */
+        a[i] = (uint64_t)~u << 32 | i;                 /* descending */
     }
+    for (int pass = 0; pass < 2; pass++) {
+        uint32_t shift = 48 + 8 * (uint32_t)pass, count[256] = {0};
+        for (uint32_t i = 0; i < n; i++) count[(a[i] >> shift) & 255]++;
+        uint32_t sum = 0;
+        for (int k = 0; k < 256; k++) {
+            uint32_t c = count[k];
+            count[k] = sum;
+            sum += c;
+        }
+        for (uint32_t i = 0; i < n; i++) t[count[(a[i] >> shift) & 255]++] = a[i];
+        uint64_t *x = a;
+        a = t;
+        t = x;
+    }
+    for (uint32_t i = 0; i < n; i++) b->items2[i] = b->items[(uint32_t)a[i]];
+    cull_occ_item *x = b->items;
+    uint32_t xc = b->items_cap;
+    b->items = b->items2;
+    b->items_cap = b->items2_cap;
+    b->items2 = x;
+    b->items2_cap = xc;
     return true;
 }
 
@@ -513,33 +647,42 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
     cull_occ_setup_view(b, v);
     b->drawn = false;
 
-    /* the clusters in view, nearest first */
-    if (!cull_grow((void **)&b->items, &b->items_cap, (size_t)w->nclusters + 1, sizeof *b->items))
+    /* the clusters in view (the SIMD box kernel of the cell stage over the
+       world's cluster bounds), nearest first */
+    if (!cull_grow((void **)&b->items, &b->items_cap, (size_t)w->nclusters + 1, sizeof *b->items) ||
+        !cull_grow((void **)&b->codes, &b->codes_cap, (size_t)w->nclusters + 8, 1))
         return CULL_ERR_NOMEM;
     uint32_t n = 0;
-    if (b->usable)
-        for (uint32_t m = 0; m < w->nocc; m++) {
-            const cull_occ_mesh *mesh = w->occ[m];
-            if (!box_in_frustum(v, mesh->bmin, mesh->bmax)) continue;
-            for (uint32_t c = 0; c < mesh->ncl; c++) {
-                const cull_occ_cluster *cl = &mesh->cl[c];
-                if (mesh->ncl > 1 && !box_in_frustum(v, cl->bmin, cl->bmax)) continue;
-                cull_occ_item *it = &b->items[n];
-                int k = cull_occ_project_box(b, cl->bmin, cl->bmax, &it->r);
-                if (k == OCC_BOX_OFF) continue;
-                it->cl = cl;
-                it->near = k == OCC_BOX_NEAR;
-                it->key = it->near ? INFINITY : it->r.z;
-                it->order = n++;
+    if (b->usable && w->nclusters) {
+        cull_cplane cpl[6];
+        for (uint32_t i = 0; i < v->plane_count; i++) {
+            const double *pl = v->plane[i];
+            for (int a = 0; a < 3; a++) {
+                cpl[i].n[a] = pl[a];
+                cpl[i].an[a] = fabs(pl[a]);
             }
+            cpl[i].d = pl[3] - pl[0] * v->origin[0] - pl[1] * v->origin[1] - pl[2] * v->origin[2];
         }
+        cull_isa_cells(isa)(&w->ocl_soa, w->nclusters, cpl, v->plane_count, b->codes);
+        for (uint32_t i = 0; i < w->nclusters; i++) {
+            if (b->codes[i] & 0x80u) continue;
+            const cull_occ_cluster *cl = w->ocl[i];
+            cull_occ_item *it = &b->items[n];
+            int k = project_bound(b, cl->bmin, cl->bmax, &it->r);
+            if (k == OCC_BOX_OFF) continue;
+            it->cl = cl;
+            it->near = k == OCC_BOX_NEAR;
+            it->key = it->near ? INFINITY : it->r.z;
+            it->order = n++;
+        }
+    }
     b->nitems = n;
     if (st) st->clusters_in_view = n;
     if (!n) {
         if (st) st->raster_ns = now_ns() - t0;
         return CULL_OK;
     }
-    qsort(b->items, n, sizeof *b->items, cmp_item);
+    if (!sort_items(b)) return CULL_ERR_NOMEM;
 
     uint32_t nt = cull_pool_threads(pool);
     if (threads && threads < nt) nt = threads;

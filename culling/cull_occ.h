@@ -7,30 +7,32 @@
 #define VANTAGE_CULL_OCC_H
 
 #include "cull_internal.h"
+#include <float.h>
 #include <stdbool.h>
 
 /* The inner loops, one instance per ISA. */
 typedef struct cull_occ_fns {
-    /* row[x] = max(row[x], max(min(a0 + da x, b0 + db x), lo)) for x in [x0, x1] */
-    void (*span)(float *row, int x0, int x1, float a0, float da, float b0, float db, float lo);
+    /* row[x] = max(row[x], max(min(a0 + da x, b0 + db x), lo)) for x in
+       [x0, x1]; the row has `room` floats (>= 8) */
+    void (*span)(float *row, int x0, int x1, int room, float a0, float da, float b0, float db, float lo);
     /* any row[x] <= z for x in [x0, x1]? */
-    bool (*any_le)(const float *row, int x0, int x1, float z);
+    bool (*any_le)(const float *row, int x0, int x1, int room, float z);
     /* out[t] = min over the 8x8 tile t of the 8 rows from row0 */
     void (*tiles)(const float *row0, size_t stride, uint32_t ntiles, float *out);
     void (*fill)(float *row, uint32_t n, float v);
 } cull_occ_fns;
 
 cull_occ_fns cull_occ_fns_for(uint32_t isa);
-void cull_occ_span_scalar(float *, int, int, float, float, float, float, float);
-void cull_occ_span_sse41(float *, int, int, float, float, float, float, float);
-void cull_occ_span_avx2(float *, int, int, float, float, float, float, float);
-bool cull_occ_any_le_scalar(const float *, int, int, float);
+void cull_occ_span_scalar(float *, int, int, int, float, float, float, float, float);
+void cull_occ_span_sse41(float *, int, int, int, float, float, float, float, float);
+void cull_occ_span_avx2(float *, int, int, int, float, float, float, float, float);
+bool cull_occ_any_le_scalar(const float *, int, int, int, float);
 void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *);
 void cull_occ_fill_scalar(float *, uint32_t, float);
-bool cull_occ_any_le_sse41(const float *, int, int, float);
+bool cull_occ_any_le_sse41(const float *, int, int, int, float);
 void cull_occ_tiles_sse41(const float *, size_t, uint32_t, float *);
 void cull_occ_fill_sse41(float *, uint32_t, float);
-bool cull_occ_any_le_avx2(const float *, int, int, float);
+bool cull_occ_any_le_avx2(const float *, int, int, int, float);
 void cull_occ_tiles_avx2(const float *, size_t, uint32_t, float *);
 void cull_occ_fill_avx2(float *, uint32_t, float);
 
@@ -57,6 +59,8 @@ struct cull_occ_buffer {
     uint32_t tw, th, t2w, t2h; /* 8x8 and 64x64 tiles */
     float   *depth;         /* stride * hp, row 0 = bottom */
     float   *tile, *tile2;  /* minima */
+    uint8_t *dirty_tiles;   /* 8x8 tiles written since their minimum was taken */
+    uint32_t dirty_pitch;   /* bytes per tile row of dirty_tiles */
     bool     drawn;         /* the last render set some pixel */
     bool     dirty;         /* pixels differ from the cleared state */
     bool     usable;        /* the view admits the nearness mapping */
@@ -70,8 +74,12 @@ struct cull_occ_buffer {
     double   origin[3];
     double   rx[4], ry[4], rw[4], rd[4], rn[4];
     double   sx, sy;        /* w / 2, h / 2 */
-    cull_occ_item *items;
-    uint32_t nitems, items_cap;
+    cull_occ_item *items, *items2; /* the draw list, and room to sort it */
+    uint32_t nitems, items_cap, items2_cap;
+    uint64_t *sortbuf;
+    uint32_t sortbuf_cap;
+    uint8_t *codes;         /* box-stage output over the world's clusters */
+    uint32_t codes_cap;
 };
 
 void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v);

@@ -8,37 +8,44 @@
 
 static const float cull_occ_iota[8] = {0, 1, 2, 3, 4, 5, 6, 7};
 
-/* row[x] = max(row[x], max(min(a0 + da x, b0 + db x), lo)), x in [x0, x1] */
-void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, int x1, float a0, float da,
-                                                    float b0, float db, float lo)
+/* row[x] = max(row[x], max(min(a0 + da x, b0 + db x), lo)), x in [x0, x1].
+ * The last partial vector is masked (z = -FLT_MAX leaves a pixel as it
+ * is) instead of finished one lane at a time; it may read and rewrite,
+ * unchanged, pixels past x1 but never past `room` (the row's length in
+ * memory), so no other row is touched. */
+void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, int x1, int room, float a0,
+                                                    float da, float b0, float db, float lo)
 {
-    int x = x0;
     const vf vda = vf_set(da), vdb = vf_set(db), vlo = vf_set(lo), step = vf_set((float)W);
-    vf fx = vf_add(vf_set((float)x0), vf_loadu(cull_occ_iota));
-    const vf va = vf_set(a0), vb = vf_set(b0);
+    const vf va = vf_set(a0), vb = vf_set(b0), iota = vf_loadu(cull_occ_iota);
+    int x = x0;
+    vf fx = vf_add(vf_set((float)x0), iota);
     for (; x + W - 1 <= x1; x += W) {
         vf z = vf_max(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vlo);
         vf_store(row + x, vf_max(vf_loadu(row + x), z));
         fx = vf_add(fx, step);
     }
-    for (; x <= x1; x++) {
-        float f = (float)x, a = a0 + da * f, b = b0 + db * f;
-        float z = a < b ? a : b;
-        z = z > lo ? z : lo;
-        row[x] = row[x] > z ? row[x] : z;
-    }
+    if (x > x1) return;
+    if (x + W > room) x = room - W; /* stay in the row: lanes before x0 are masked too */
+    fx = vf_add(vf_set((float)x), iota);
+    vm in = vm_and(vf_ge(fx, vf_set((float)x0)), vf_le(fx, vf_set((float)x1)));
+    vf z = vf_max(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vlo);
+    z = vf_select(in, z, vf_set(-FLT_MAX));
+    vf_store(row + x, vf_max(vf_loadu(row + x), z));
 }
 
-/* any row[x] <= z for x in [x0, x1]? */
-bool CULL_OCC_CAT(cull_occ_any_le_, CULL_OCC_SUFFIX)(const float *restrict row, int x0, int x1, float z)
+/* any row[x] <= z for x in [x0, x1]? (reads up to `room` as above) */
+bool CULL_OCC_CAT(cull_occ_any_le_, CULL_OCC_SUFFIX)(const float *restrict row, int x0, int x1, int room, float z)
 {
     int x = x0;
     const vf vz = vf_set(z);
     for (; x + W - 1 <= x1; x += W)
         if (vm_bits(vf_le(vf_loadu(row + x), vz))) return true;
-    for (; x <= x1; x++)
-        if (row[x] <= z) return true;
-    return false;
+    if (x > x1) return false;
+    if (x + W > room) x = room - W;
+    vf fx = vf_add(vf_set((float)x), vf_loadu(cull_occ_iota));
+    vm in = vm_and(vf_ge(fx, vf_set((float)x0)), vf_le(fx, vf_set((float)x1)));
+    return vm_bits(vm_and(in, vf_le(vf_loadu(row + x), vz))) != 0;
 }
 
 /* out[t] = min of the 8x8 tile t of the 8 rows from row0, t < ntiles */
@@ -46,16 +53,11 @@ void CULL_OCC_CAT(cull_occ_tiles_, CULL_OCC_SUFFIX)(const float *restrict row0, 
                                                      float *restrict out)
 {
     for (uint32_t t = 0; t < ntiles; t++) {
-        float lanes[8];
-        for (uint32_t c = 0; c < 8; c += W) {
-            const float *p = row0 + 8 * t + c;
-            vf m = vf_loadu(p);
-            for (int r = 1; r < 8; r++) m = vf_min(m, vf_loadu(p + r * stride));
-            vf_store(lanes + c, m);
-        }
-        float m = lanes[0];
-        for (int i = 1; i < 8; i++) m = lanes[i] < m ? lanes[i] : m;
-        out[t] = m;
+        const float *p = row0 + 8 * t;
+        vf m = vf_loadu(p);
+        for (uint32_t c = 0; c < 8; c += W)
+            for (int r = 0; r < 8; r++) m = vf_min(m, vf_loadu(p + c + r * stride));
+        out[t] = vf_hmin(m);
     }
 }
 

@@ -469,9 +469,45 @@ static cull_occ_mesh *lookup(const cull_world *w, cull_occluder h)
     return s->m && s->gen == gen ? s->m : NULL;
 }
 
+/* Room in the world's cluster arrays for `more` clusters. */
+static int reserve_clusters(cull_world *w, uint32_t more)
+{
+    size_t need = (size_t)w->nclusters + more;
+    if (need > UINT32_MAX / 2) return CULL_ERR_CAPACITY;
+    if (!cull_grow((void **)&w->ocl, &w->cap_ocl, need + 1, sizeof *w->ocl) ||
+        !cull_soa_reserve(&w->ocl_soa, w->nclusters, (uint32_t)need + 1))
+        return CULL_ERR_NOMEM;
+    return CULL_OK;
+}
+
+static void link_clusters(cull_world *w, cull_occ_mesh *m)
+{
+    for (uint32_t c = 0; c < m->ncl; c++) {
+        cull_occ_cluster *cl = &m->cl[c];
+        cl->widx = w->nclusters++;
+        w->ocl[cl->widx] = cl;
+        cull_soa_set(&w->ocl_soa, cl->widx, cl->bmin, cl->bmax);
+    }
+}
+
+/* Swap-removes m's clusters from the world's arrays. */
+static void unlink_clusters(cull_world *w, cull_occ_mesh *m)
+{
+    for (uint32_t c = 0; c < m->ncl; c++) {
+        uint32_t i = m->cl[c].widx, last = --w->nclusters;
+        if (i != last) {
+            w->ocl[i] = w->ocl[last];
+            w->ocl[i]->widx = i;
+            cull_soa_copy(&w->ocl_soa, i, last);
+        }
+    }
+}
+
 static int insert(cull_world *w, cull_occ_mesh *m, cull_occluder *out)
 {
     if (w->nocc >= CULL_MAX_OCCLUDERS) return CULL_ERR_CAPACITY;
+    int rc = reserve_clusters(w, m->ncl);
+    if (rc != CULL_OK) return rc;
     if (!cull_grow((void **)&w->occ, &w->cap_occ, (size_t)w->nocc + 1, sizeof *w->occ)) return CULL_ERR_NOMEM;
     uint32_t slot;
     if (w->ofree_head != UINT32_MAX && w->ofree_head < w->noslots) {
@@ -488,7 +524,7 @@ static int insert(cull_world *w, cull_occ_mesh *m, cull_occluder *out)
     m->slot = slot;
     m->dense = w->nocc;
     w->occ[w->nocc++] = m;
-    w->nclusters += m->ncl;
+    link_clusters(w, m);
     *out = slot | s->gen << CULL_HANDLE_SLOT_BITS;
     return CULL_OK;
 }
@@ -521,11 +557,16 @@ int cull_terrain_add(cull_world *w, const cull_terrain_desc *d, cull_occluder *o
 static int replace(cull_world *w, cull_occ_mesh *old, int rc, cull_occ_mesh *m)
 {
     if (rc != CULL_OK) return rc;
+    if ((rc = reserve_clusters(w, m->ncl)) != CULL_OK) {
+        free(m);
+        return rc;
+    }
     m->slot = old->slot;
     m->dense = old->dense;
     w->occ[m->dense] = m;
     w->oslots[m->slot].m = m;
-    w->nclusters = w->nclusters - old->ncl + m->ncl;
+    unlink_clusters(w, old);
+    link_clusters(w, m);
     free(old);
     return CULL_OK;
 }
@@ -559,7 +600,7 @@ int cull_occluder_remove(cull_world *w, cull_occluder h)
     cull_occ_mesh *last = w->occ[--w->nocc];
     w->occ[m->dense] = last;
     last->dense = m->dense;
-    w->nclusters -= m->ncl;
+    unlink_clusters(w, m);
     free(m);
     return CULL_OK;
 }
@@ -586,4 +627,6 @@ void cull_occluders_free(cull_world *w)
     for (uint32_t i = 0; i < w->nocc; i++) free(w->occ[i]);
     free(w->occ);
     free(w->oslots);
+    free(w->ocl);
+    free(w->ocl_soa.v);
 }

@@ -20,6 +20,13 @@ typedef __m256 vm;
 typedef __m256i vu;
 static inline vf vf_load(const float *p) { return _mm256_load_ps(p); }
 static inline vf vf_loadu(const float *p) { return _mm256_loadu_ps(p); }
+static inline float vf_hmin(__m256 a)
+{
+    __m128 m = _mm_min_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1));
+    m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+    m = _mm_min_ss(m, _mm_shuffle_ps(m, m, 1));
+    return _mm_cvtss_f32(m);
+}
 static inline void vf_store(float *p, vf a) { _mm256_storeu_ps(p, a); }
 static inline vf vf_set(float a) { return _mm256_set1_ps(a); }
 static inline vf vf_add(vf a, vf b) { return _mm256_add_ps(a, b); }
@@ -99,6 +106,12 @@ typedef __m128 vm;
 typedef __m128i vu;
 static inline vf vf_load(const float *p) { return _mm_load_ps(p); }
 static inline vf vf_loadu(const float *p) { return _mm_loadu_ps(p); }
+static inline float vf_hmin(__m128 m)
+{
+    m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+    m = _mm_min_ss(m, _mm_shuffle_ps(m, m, 1));
+    return _mm_cvtss_f32(m);
+}
 static inline void vf_store(float *p, vf a) { _mm_storeu_ps(p, a); }
 static inline vf vf_set(float a) { return _mm_set1_ps(a); }
 static inline vf vf_add(vf a, vf b) { return _mm_add_ps(a, b); }
@@ -172,6 +185,7 @@ typedef uint32_t vm;
 typedef uint32_t vu;
 static inline vf vf_load(const float *p) { return *p; }
 static inline vf vf_loadu(const float *p) { return *p; }
+static inline float vf_hmin(vf a) { return a; }
 static inline void vf_store(float *p, vf a) { *p = a; }
 static inline vf vf_set(float a) { return a; }
 static inline vf vf_add(vf a, vf b) { return a + b; }
