@@ -324,13 +324,23 @@ int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
     return ack_call(c, &w, req, epoch);
 }
 
-int vt_remove(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+static int remove_ids(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t n, uint64_t *epoch)
 {
     vp_writer w;
     uint32_t req = vt_next_req(c);
     if (!out_buf(c, vp_size_ids(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
-    vp_enc_ids(&w, VP_ENTITY_REMOVE, req, ids, n);
+    vp_enc_ids(&w, type, req, ids, n);
     return ack_call(c, &w, req, epoch);
+}
+
+int vt_remove(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+{
+    return remove_ids(c, VP_ENTITY_REMOVE, ids, n, epoch);
+}
+
+int vt_remove_occluders(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+{
+    return remove_ids(c, VP_OCCLUDER_REMOVE, ids, n, epoch);
 }
 
 static int list_call(vt_client *c, vp_writer *w, uint32_t req, vp_list_reply *out)

@@ -81,7 +81,10 @@ int vt_sublevel_list(vt_client *c, vp_name_list *out);
 /* Waits for a pushed EVENT; VT_ERR_IO on timeout. */
 int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms);
 int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n);
+/* Adds or replaces occluder id: ntris counter-clockwise triangles (9 floats
+ * each) relative to origin. Queries cull what occluders hide (VP_Q_*). */
 int vt_put_occluder(vt_client *c, uint64_t id, const double origin[3], const float *verts, uint32_t ntris);
+int vt_remove_occluders(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch);
 int vt_put_mesh(vt_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
                 const uint32_t *idx, uint32_t ni);
 

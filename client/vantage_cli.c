@@ -38,7 +38,7 @@ static void usage(FILE *f)
             "  import FILE.jsonl                add entities, one JSON object per line\n"
             "  export FILE.jsonl                write every entity, same format (- = stdout)\n"
             "  query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N]\n"
-            "        [--far F] [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion] [--json]\n"
+            "        [--far F] [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]\n"
             "  watch [--count N]                print scene-changed events as they happen\n"
             "  bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P]\n"
             "        [--views K] [--batch B] [--count-only] [--json]   load test: rate and latency percentiles\n"
@@ -280,10 +280,10 @@ static int cmd_query(cli *k, int argc, char **argv)
     static const struct option opts[] = {
         {"eye", 1, 0, 'e'}, {"at", 1, 0, 'a'}, {"up", 1, 0, 'u'}, {"fov", 1, 0, 'f'}, {"ortho", 1, 0, 'o'},
         {"near", 1, 0, 'n'}, {"far", 1, 0, 'F'}, {"size", 1, 0, 's'}, {"min-area", 1, 0, 'm'},
-        {"exact-area", 0, 0, 'x'}, {"no-occlusion", 0, 0, 'N'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'},
-        {0, 0, 0, 0}};
+        {"exact-area", 0, 0, 'x'}, {"no-occlusion", 0, 0, 'N'}, {"occ-centre", 0, 0, 'C'}, {"json", 0, 0, 'j'},
+        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     const char *use = "query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N] [--far F] "
-                      "[--size WxH] [--min-area PX] [--exact-area] [--no-occlusion] [--json]";
+                      "[--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]";
     optind = 1;
     int o;
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
@@ -305,6 +305,7 @@ static int cmd_query(cli *k, int argc, char **argv)
         }
         case 'x': flags |= VP_Q_WANT_AREA; break;
         case 'N': flags |= VP_Q_NO_OCCLUSION; break;
+        case 'C': flags |= VP_Q_OCC_CENTRE; break;
         case 'j': json = true; break;
         case 'h': printf("usage: vantage %s\n", use); return 0;
         default: return die_usage("%s", use);
@@ -329,13 +330,15 @@ static int cmd_query(cli *k, int argc, char **argv)
             printf("{\"id\": %llu, \"handle\": %u, \"views\": %u, \"class\": %u, \"area\": %.6g}\n",
                    (unsigned long long)x.id, x.handle, x.view_mask, x.class_id, x.area);
         }
-        printf("{\"epoch\": %llu, \"tested\": %u, \"visible\": %u, \"stage_ns\": {\"cull\": %u, \"write\": %u, "
-               "\"total\": %u, \"setup\": %u}, \"round_trip_us\": %.1f}\n",
-               (unsigned long long)r.epoch, r.tested, r.visible, r.stage_ns[1], r.stage_ns[2], r.stage_ns[3],
-               r.stage_ns[4], rtt * 1e6);
+        printf("{\"epoch\": %llu, \"tested\": %u, \"visible\": %u, \"stage_ns\": {\"cull\": %u, "
+               "\"occlusion_raster\": %u, \"write\": %u, \"total\": %u, \"setup\": %u}, \"round_trip_us\": %.1f}\n",
+               (unsigned long long)r.epoch, r.tested, r.visible, r.stage_ns[1], r.stage_ns[5], r.stage_ns[2],
+               r.stage_ns[3], r.stage_ns[4], rtt * 1e6);
     } else {
-        printf("%u visible of %u tested at epoch %llu; cull %.1f us, server total %.1f us, round trip %.1f us\n",
-               r.visible, r.tested, (unsigned long long)r.epoch, r.stage_ns[1] / 1e3, r.stage_ns[3] / 1e3, rtt * 1e6);
+        printf("%u visible of %u tested at epoch %llu; cull %.1f us (occluder raster %.1f), server total %.1f us, "
+               "round trip %.1f us\n",
+               r.visible, r.tested, (unsigned long long)r.epoch, r.stage_ns[1] / 1e3, r.stage_ns[5] / 1e3,
+               r.stage_ns[3] / 1e3, rtt * 1e6);
         uint32_t show = r.count < 20 ? r.count : 20;
         for (uint32_t i = 0; i < show; i++) {
             vp_vis_rec x;

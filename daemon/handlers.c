@@ -129,6 +129,8 @@ static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t 
     if (q.flags & VP_Q_WANT_AREA) flags |= CULL_Q_WANT_AREA;
     if (q.flags & VP_Q_STATIC_ONLY) flags |= CULL_Q_STATIC_ONLY;
     if (q.flags & VP_Q_DYNAMIC_ONLY) flags |= CULL_Q_DYNAMIC_ONLY;
+    if (q.flags & VP_Q_NO_OCCLUSION) flags |= CULL_Q_NO_OCCLUSION;
+    if (q.flags & VP_Q_OCC_CENTRE) flags |= CULL_Q_OCC_CENTRE;
     if (count_only) flags |= CULL_Q_COUNT_ONLY;
     uint64_t t1 = now_ns();
     rc = cull_query(sc->world, ctx,
@@ -153,6 +155,7 @@ static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t 
     vp_vis_result m = {.epoch = sc->epoch, .tested = st.entities_tested, .visible = (uint32_t)n, .count = count};
     m.stage_ns[1] = (uint32_t)(t2 - t1); /* cells and entities: one fused pass */
     m.stage_ns[4] = (uint32_t)(t1 - t0); /* decode and view set-up */
+    m.stage_ns[5] = (uint32_t)st.occ_raster_ns; /* part of [1] */
     vp_enc_vis_result_begin(&w, h->req, &m);
     for (uint32_t i = 0; i < count; i++) {
         const cull_result *r = &(*res)[i];

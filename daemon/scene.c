@@ -368,12 +368,27 @@ int scene_occluder_put(scene *s, const vp_occluder *o, scene_err *err)
     }
     memcpy(n->origin, o->origin, sizeof n->origin);
     n->ntris = o->tri_count;
+    n->h = 0;
     vp_reader r;
     vp_reader_init(&r, o->verts, (size_t)o->tri_count * 36);
     for (uint32_t i = 0; i < 9 * o->tri_count; i++) v[i] = vp_get_f32(&r);
     n->verts = v;
-    if (exists) {
-        scene_occluder *old = (scene_occluder *)(uintptr_t)prev;
+    /* the culling world draws it: add, or replace the old one's geometry */
+    cull_occluder_desc d = {.vertices = v, .vertex_count = 3 * o->tri_count};
+    d.transform[0] = d.transform[5] = d.transform[10] = d.transform[15] = 1;
+    memcpy(d.transform + 12, o->origin, 3 * sizeof *o->origin);
+    scene_occluder *old = exists ? (scene_occluder *)(uintptr_t)prev : NULL;
+    int crc = !o->tri_count ? CULL_OK : old && old->h ? cull_occluder_update(s->world, old->h, &d)
+                                                      : cull_occluder_add(s->world, &d, &n->h);
+    if (crc == CULL_OK && !o->tri_count && old && old->h) crc = cull_occluder_remove(s->world, old->h);
+    if (crc != CULL_OK) {
+        free(n);
+        free(v);
+        return fail(err, crc == CULL_ERR_NOMEM ? VP_ERR_LIMIT : VP_ERR_SCENE, UINT32_MAX, "occluder %llu: %s",
+                    (unsigned long long)o->id, cull_strerror(crc));
+    }
+    if (old) {
+        if (o->tri_count) n->h = old->h;
         free(old->verts);
         free(old);
     }
@@ -397,7 +412,11 @@ int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *er
     for (uint32_t i = 0; i < b->count; i++) {
         uint64_t v;
         idmap_get(which, vp_id_get(b, i), &v);
-        if (which == &s->occluders) free(((scene_occluder *)(uintptr_t)v)->verts);
+        if (which == &s->occluders) {
+            scene_occluder *o = (scene_occluder *)(uintptr_t)v;
+            if (o->h) cull_occluder_remove(s->world, o->h);
+            free(o->verts);
+        }
         free((void *)(uintptr_t)v);
         idmap_del(which, vp_id_get(b, i));
     }

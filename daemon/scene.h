@@ -22,7 +22,8 @@ typedef struct scene_mesh {
 typedef struct scene_occluder {
     double origin[3];
     uint32_t ntris;
-    float *verts;
+    float *verts;           /* 9 per triangle, relative to origin */
+    cull_occluder h;        /* in the culling world, which draws it */
 } scene_occluder;
 
 #define SCENE_MAX_SUBLEVELS 4096u

@@ -241,6 +241,7 @@ typedef struct vp_view {
 #define VP_Q_STATIC_ONLY  0x08u
 #define VP_Q_DYNAMIC_ONLY 0x10u
 #define VP_Q_COUNT_ONLY   0x20u /* reply with counts, no records */
+#define VP_Q_OCC_CENTRE   0x40u /* occlusion by pixel centres (culls more; exact at 256x114 only) */
 typedef struct vp_vis_query {
     uint8_t  view_count;    /* 1..32 */
     uint8_t  flags;         /* VP_Q_* */

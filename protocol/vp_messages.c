@@ -233,7 +233,7 @@ int vp_dec_vis_query(const uint8_t *p, size_t len, vp_vis_query *m)
     if (m->view_count == 0 || m->view_count > VP_MAX_VIEWS) return VP_ERR_COUNT;
     if (!isfinite(m->min_area)) return VP_ERR_NONFINITE;
     if (m->min_area < 0) return VP_ERR_INVALID;
-    if (m->flags & ~0x3fu) return VP_ERR_INVALID;
+    if (m->flags & ~0x7fu) return VP_ERR_INVALID;
     if ((m->flags & VP_Q_STATIC_ONLY) && (m->flags & VP_Q_DYNAMIC_ONLY)) return VP_ERR_INVALID;
     int rc = vp_take_array(&r, m->view_count, VP_VIEW_SIZE, 0, &m->views);
     if (rc) return rc;

@@ -713,6 +713,59 @@ static void test_events(void **state)
 }
 
 /* Configured limits: connections, records per batch. */
+/* Occluders pushed over the protocol hide what is behind them in the next
+ * query; a query may ask for no occlusion; removing the occluder, or
+ * replacing it by one with a hole, brings entities back. */
+static void test_occlusion_over_the_wire(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    /* a wall 100 x 40 m at z = -20, facing the camera at the origin */
+    const float wall[18] = {-50, 0, 0, 50, 0, 0, 50, 40, 0, -50, 0, 0, 50, 40, 0, -50, 40, 0};
+    const double at_wall[3] = {0, 0, -20};
+    assert_int_equal(vt_put_occluder(c, 7, at_wall, wall, 2), VP_OK);
+    vp_entity e[2] = {{.id = 1, .sphere = {-5, 5, -60, 2}}, {.id = 2, .sphere = {0, 5, -10, 1}}};
+    assert_int_equal(vt_add(c, e, 2, NULL, NULL), VP_OK);
+    vp_view v;
+    const double eye[3] = {0, 5, 0}, at[3] = {0, 5, -100};
+    assert_true(vt_view_perspective(&v, eye, at, NULL, 60, 1280, 720, 0.1, 1000));
+    vp_vis_result res;
+    vp_vis_rec rec;
+    assert_int_equal(vt_query(c, &v, 1, 0, 0, &res), VP_OK);
+    assert_int_equal(res.count, 1); /* the one in front of the wall */
+    vp_vis_rec_get(&res, 0, &rec);
+    assert_int_equal(rec.id, 2);
+    assert_int_equal(vt_query(c, &v, 1, VP_Q_OCC_CENTRE, 0, &res), VP_OK);
+    assert_int_equal(res.count, 1);
+    assert_int_equal(vt_query(c, &v, 1, VP_Q_NO_OCCLUSION, 0, &res), VP_OK);
+    assert_int_equal(res.count, 2);
+    /* destruction: the wall again, with a gap from x = -10 to 0 */
+    const float holed[36] = {-50, 0, 0, -10, 0, 0, -10, 40, 0, -50, 0, 0, -10, 40, 0, -50, 40, 0,
+                             0,   0, 0, 50,  0, 0, 50,  40, 0, 0,   0, 0, 50,  40, 0, 0,   40, 0};
+    assert_int_equal(vt_put_occluder(c, 7, at_wall, holed, 4), VP_OK);
+    assert_int_equal(vt_query(c, &v, 1, 0, 0, &res), VP_OK);
+    assert_int_equal(res.count, 2);
+    assert_int_equal(vt_put_occluder(c, 7, at_wall, wall, 2), VP_OK);
+    assert_int_equal(vt_query(c, &v, 1, 0, 0, &res), VP_OK);
+    assert_int_equal(res.count, 1);
+    uint64_t id = 7;
+    assert_int_equal(vt_remove_occluders(c, &id, 1, NULL), VP_OK);
+    assert_int_equal(vt_query(c, &v, 1, 0, 0, &res), VP_OK);
+    assert_int_equal(res.count, 2);
+    assert_int_equal(vt_remove_occluders(c, &id, 1, NULL), VP_ERR_UNKNOWN_ID);
+    /* a bad occluder is refused with a reason, and nothing changes */
+    const float bad[9] = {0, 0, 0, 1, 0, 0, 0, 1e30f, 0};
+    const double far_away[3] = {1e13, 0, 0};
+    assert_int_equal(vt_put_occluder(c, 8, far_away, bad, 1), VP_ERR_SCENE);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(st.occluders, 0);
+    vt_close(c);
+    daemon_stop(&d);
+}
+
 static void test_limits(void **state)
 {
     (void)state;
@@ -738,6 +791,7 @@ static void test_limits(void **state)
 const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_events),
     cmocka_unit_test(test_limits),
+    cmocka_unit_test(test_occlusion_over_the_wire),
     cmocka_unit_test(test_edits_then_queries_match_model),
     cmocka_unit_test(test_batches_all_or_nothing),
     cmocka_unit_test(test_malformed_frames),
