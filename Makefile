@@ -4,7 +4,8 @@
 #   make demo              the culling core on the shared city scene + a short benchmark
 #   make test              unit + property tests (release, then ASan+UBSan),
 #                          the scalar-only build, and a bench smoke run
-#   make bench             the full culling benchmark (bench_cull)
+#   make bench             the full culling and occlusion benchmarks
+#                          (bench_cull, bench_occlusion)
 #   make deps              install the Debian packages the build needs
 #   CONFIG=release|debug|asan|scalar   out-of-tree in build/$(CONFIG)/
 #
@@ -16,8 +17,8 @@ CC     ?= cc
 SHELL  := /bin/bash
 
 # Debian packages and the pkg-config modules that prove them installed.
-DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev
-PC_MODS  := cmocka json-c
+DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr
+PC_MODS  := cmocka json-c OpenEXR
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -61,6 +62,12 @@ CLIENT_LIB:= $(BUILD)/libvantage.a
 CLIENT_OBJ:= $(BUILD)/client/libvantage.o
 CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o
 CLI_BIN  := $(BUILD)/vantage
+
+# render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
+# --libs OpenEXR` would also link the five C++ libraries
+RENDER_SRC:= $(wildcard render/*.c)
+RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
+EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 
 TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
@@ -115,8 +122,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 	ar rcs $@ $^
 
 # the end-to-end tests run this configuration's vantaged and vantage
-$(TEST_BIN): $(TEST_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(LDLIBS)
 
 $(DAEMON_BIN): $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB) $(LDLIBS)
@@ -134,10 +141,13 @@ $(BUILD)/client/cli_jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
 
-$(OCCB_BIN): $(OCCB_OBJ) $(CULL_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(OCCB_OBJ) $(CULL_LIB) $(LDLIBS)
+$(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(LDLIBS)
 
-$(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka) -Itests
+$(BUILD)/tests/bench/bench_occlusion.o: CPPFLAGS += -Itests -Irender -DVANTAGE_HAVE_EXR
+
+$(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka) -Itests -Irender
+$(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR)
 
 # ---- the two commands ---------------------------------------------------------
 run: check-deps
@@ -151,29 +161,33 @@ run: check-deps
 
 # the culling core on the shared city scene, then a short benchmark
 demo: check-deps
-	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull
+	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion
 	./build/release/bench_cull --demo --scene $(SCENE)
 	./build/release/bench_cull --quick
+	./build/release/bench_occlusion --scene $(SCENE) --quick --frames 4
 
 # test-one: this CONFIG's test binary
 test-one: check-deps $(TEST_BIN)
 	VANTAGE_BIN_DIR=$(BUILD) $(TEST_BIN)
 
 test: check-deps
-	@$(MAKE) --no-print-directory CONFIG=release build/release/vantage_tests build/release/bench_cull
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantage_tests build/release/bench_cull \
+	  build/release/bench_occlusion
 	@$(MAKE) --no-print-directory CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan fuzz-replay
 	@$(MAKE) --no-print-directory CONFIG=release install-check
 	./build/release/bench_cull --smoke
+	./build/release/bench_occlusion --smoke --scene $(SCENE)
 	VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  VANTAGE_BIN_DIR=build/asan ./build/asan/vantage_tests
 
 bench: check-deps
-	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull
+	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion
 	./build/release/bench_cull --scene $(SCENE) $(BENCH_ARGS)
+	./build/release/bench_occlusion --scene $(SCENE) $(BENCH_ARGS)
 
 # ---- install: the binaries, libvantage, its headers and pkg-config file ----------
 PREFIX ?= /usr/local
@@ -197,4 +211,4 @@ clean:
 
 include tests/fuzz/fuzz.mk
 
--include $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d)
+-include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d)

@@ -49,6 +49,7 @@
 #include <time.h>
 
 #define EMPTY (-FLT_MAX)
+enum { TILE_INVALID = 0, TILE_CLEAN = 1, TILE_DIRTY = 2 }; /* pixels stale / minimum current / written since */
 #define PAD FLT_MAX
 #define MAX_BANDS 64u
 
@@ -102,11 +103,11 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->depth = aligned_alloc(64, (size_t)b->stride * b->hp * sizeof(float));
     b->tile = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float)); /* tw * 4 bytes = 64 k */
     b->tile2 = malloc((size_t)b->t2w * b->t2h * sizeof(float));
-    /* a tile row of flags per 64 bytes: bands never share a cache line */
-    b->dirty_pitch = (b->tw + 63) & ~63u;
-    b->dirty_tiles = aligned_alloc(64, (size_t)b->dirty_pitch * b->th);
-    if (b->dirty_tiles) memset(b->dirty_tiles, 0, (size_t)b->dirty_pitch * b->th);
-    if (!b->depth || !b->tile || !b->tile2 || !b->dirty_tiles) {
+    b->tile_full = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
+    /* a tile row of states per 64 bytes: bands never share a cache line */
+    b->tpitch = (b->tw + 63) & ~63u;
+    b->tstate = aligned_alloc(64, (size_t)b->tpitch * b->th);
+    if (!b->depth || !b->tile || !b->tile2 || !b->tile_full || !b->tstate) {
         cull_occ_buffer_destroy(b);
         return CULL_ERR_NOMEM;
     }
@@ -114,7 +115,8 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     for (size_t i = 0; i < (size_t)b->stride * b->hp; i++) b->depth[i] = PAD;
     for (uint32_t y = 0; y < b->h; y++)
         for (uint32_t x = 0; x < b->w; x++) b->depth[(size_t)y * b->stride + x] = EMPTY;
-    for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = EMPTY;
+    for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = b->tile_full[i] = EMPTY;
+    memset(b->tstate, TILE_CLEAN, (size_t)b->tpitch * b->th);
     for (size_t i = 0; i < (size_t)b->t2w * b->t2h; i++) b->tile2[i] = EMPTY;
     b->inner = true;
     b->isa = cull_isa_default();
@@ -129,7 +131,8 @@ void cull_occ_buffer_destroy(cull_occ_buffer *b)
     free(b->depth);
     free(b->tile);
     free(b->tile2);
-    free(b->dirty_tiles);
+    free(b->tile_full);
+    free(b->tstate);
     free(b->items);
     free(b->items2);
     free(b->sortbuf);
@@ -149,9 +152,26 @@ int cull_occ_buffer_empty(const cull_occ_buffer *b)
     return !b || !b->drawn;
 }
 
-const float *cull_occ_depth(const cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride)
+const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride)
 {
     if (!b) return NULL;
+    /* fold the coarse per-tile values into the pixels (tests read either
+       way; the pixels alone are what a viewer shows) */
+    for (uint32_t ty = 0; ty < b->th; ty++)
+        for (uint32_t tx = 0; tx < b->tw; tx++) {
+            size_t i = (size_t)ty * b->tw + tx;
+            uint8_t *st = &b->tstate[(size_t)ty * b->tpitch + tx];
+            float full = b->tile_full[i];
+            if (*st != TILE_INVALID && full == EMPTY) continue;
+            uint32_t y1 = ty * 8 + 8 < b->h ? ty * 8 + 8 : b->h, x1 = tx * 8 + 8 < b->w ? tx * 8 + 8 : b->w;
+            for (uint32_t y = ty * 8; y < y1; y++)
+                for (uint32_t x = tx * 8; x < x1; x++) {
+                    float *p = &b->depth[(size_t)y * b->stride + x];
+                    *p = *st == TILE_INVALID || full > *p ? full : *p;
+                }
+            b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
+            *st = TILE_CLEAN;
+        }
     if (width) *width = b->w;
     if (height) *height = b->h;
     if (stride) *stride = b->stride;
@@ -276,7 +296,10 @@ static bool tiles_visible(const cull_occ_buffer *b, int x0, int y0, int x1, int 
 {
     for (int ty = y0 >> 3; ty <= y1 >> 3; ty++)
         for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
-            if (b->tile[ty * b->tw + tx] > z) continue;
+            size_t i = (size_t)ty * b->tw + tx;
+            if (b->tile_full[i] > z) continue;
+            if (b->tstate[(size_t)ty * b->tpitch + tx] == TILE_INVALID) return true; /* pixels all EMPTY */
+            if (b->tile[i] > z) continue;
             int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
             int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
             for (int py = py0; py <= py1; py++)
@@ -336,9 +359,13 @@ static inline lin3 to_pixels(const cull_occ_buffer *b, const double f[3])
     return (lin3){ax, ay, f[2] + f[0] * (0.5 / b->sx - 1.0) + f[1] * (0.5 / b->sy - 1.0)};
 }
 
+/* A thread's share of the buffer: the tile rows ty with ty % nb == k
+ * (interleaved, so the near, busy rows of a street view are shared out
+ * evenly), within pixel rows [y0, y1). */
 typedef struct band {
     cull_occ_buffer *b;
-    int y0, y1;            /* rows [y0, y1) */
+    int y0, y1;
+    int k, nb;
     uint32_t faces, clusters;
 } __attribute__((aligned(64))) band; /* one cache line per band: no false sharing */
 
@@ -369,6 +396,29 @@ static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *
 }
 
 #define MAX_CONS 8
+
+/* An invalid tile's pixels hold last frame's values: set the real ones
+ * (not the padding) to EMPTY before the first span writes into it. */
+static void clear_tile(cull_occ_buffer *b, int tx, int ty)
+{
+    int y1 = ty * 8 + 8 < (int)b->h ? ty * 8 + 8 : (int)b->h;
+    uint32_t n = tx * 8 + 8 <= (int)b->w ? 8u : b->w - (uint32_t)tx * 8;
+    for (int y = ty * 8; y < y1; y++) b->fns.fill(b->depth + (size_t)y * b->stride + (size_t)tx * 8, n, EMPTY);
+}
+
+/* A span of row j, [x0, x1] (may be empty), with its tiles made valid and
+ * marked dirty. */
+static inline void write_span(cull_occ_buffer *b, int j, int x0, int x1, float a0, float da, float b0, float db,
+                              float lo)
+{
+    if (x0 > x1) return;
+    uint8_t *st = b->tstate + (size_t)(j >> 3) * b->tpitch;
+    for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
+        if (st[tx] == TILE_INVALID) clear_tile(b, tx, j >> 3);
+        st[tx] = TILE_DIRTY;
+    }
+    b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (int)b->stride, a0, da, b0, db, lo);
+}
 
 static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
 {
@@ -483,32 +533,71 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
        vertex; float rounding of the span loop (2^-21 relative) taken off
        with room for the conversion to float */
     double cornerA = 0.5 * (fabs(zA.a) + fabs(zA.b)), cornerB = 0.5 * (fabs(zB.a) + fabs(zB.b));
-    float zlo = cull_round_down(nmin - 0x1p-20 * fabs(nmin));
-    for (int j = j0; j <= j1; j++) {
-        double tl = -0x1p40, th = 0x1p40;
-        for (uint32_t k = 0; k < nl; k++) tl = dmax(tl, lal[k] + lbe[k] * j);
-        for (uint32_t k = 0; k < nr; k++) th = dmin(th, ral[k] + rbe[k] * j);
-        double lo = dmax(i0, dfloor(tl) + 1), hi = dmin(i1, dceil(th) - 1);
-        if (lo > hi) continue;
-        int x0 = (int)lo, x1 = (int)hi;
-        double za = zA.b * j + zA.c - cornerA, zb = zB.b * j + zB.c - cornerB;
-        double ma = 0x1p-20 * (fabs(za) + fabs(zA.a) * (x1 + 1)), mb = 0x1p-20 * (fabs(zb) + fabs(zB.a) * (x1 + 1));
-        memset(b->dirty_tiles + (size_t)(j >> 3) * b->dirty_pitch + (x0 >> 3), 1, (size_t)((x1 >> 3) - (x0 >> 3) + 1));
-        b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (int)b->stride, (float)(za - ma), (float)zA.a, (float)(zb - mb),
-                    (float)zB.a, zlo);
+    double nlo = nmin - 0x1p-20 * fabs(nmin);
+    float zlo = cull_round_down(nlo);
+    /* a tile row (8 pixel rows) at a time: tiles that every row's span
+       covers whole get one coarse value (tile_full); only the rest of
+       each span is written pixel by pixel */
+    for (int ty = j0 >> 3; ty <= j1 >> 3; ty++) {
+        if (ty % bd->nb != bd->k) continue;
+        int r0 = j0 > ty * 8 ? j0 : ty * 8, r1 = j1 < ty * 8 + 7 ? j1 : ty * 8 + 7;
+        int lo[8], hi[8], L = INT32_MIN, H = INT32_MAX;
+        bool whole = r0 == ty * 8 && r1 == ty * 8 + 7;
+        for (int j = r0; j <= r1; j++) {
+            double tl = -0x1p40, th = 0x1p40;
+            for (uint32_t k = 0; k < nl; k++) tl = dmax(tl, lal[k] + lbe[k] * j);
+            for (uint32_t k = 0; k < nr; k++) th = dmin(th, ral[k] + rbe[k] * j);
+            int x0 = (int)dmax(i0, dfloor(tl) + 1), x1 = (int)dmin(i1, dceil(th) - 1);
+            lo[j - r0] = x0;
+            hi[j - r0] = x1;
+            if (x0 > x1) whole = false;
+            L = x0 > L ? x0 : L;
+            H = x1 < H ? x1 : H;
+        }
+        int ft0 = 1, ft1 = 0;
+        if (whole && L <= H) {
+            ft0 = (L + 7) >> 3;
+            ft1 = ((H + 1) >> 3) - 1;
+        }
+        for (int tx = ft0; tx <= ft1; tx++) {
+            /* the minimum over the tile's pixels of what they would store */
+            double ia = zA.a >= 0 ? tx * 8 : tx * 8 + 7, ja = zA.b >= 0 ? ty * 8 : ty * 8 + 7;
+            double ib = zB.a >= 0 ? tx * 8 : tx * 8 + 7, jb = zB.b >= 0 ? ty * 8 : ty * 8 + 7;
+            double va = zA.a * ia + zA.b * ja + zA.c - cornerA, vb = zB.a * ib + zB.b * jb + zB.c - cornerB;
+            double tv = dmax(dmin(va, vb), nlo);
+            tv -= 0x1p-20 * fabs(tv);
+            float *full = &b->tile_full[(size_t)ty * b->tw + tx];
+            float fv = (float)tv;
+            if (fv > *full) *full = fv;
+        }
+        for (int j = r0; j <= r1; j++) {
+            int x0 = lo[j - r0], x1 = hi[j - r0];
+            if (x0 > x1) continue;
+            double za = zA.b * j + zA.c - cornerA, zb = zB.b * j + zB.c - cornerB;
+            double ma = 0x1p-20 * (fabs(za) + fabs(zA.a) * (x1 + 1)), mb = 0x1p-20 * (fabs(zb) + fabs(zB.a) * (x1 + 1));
+            float a0 = (float)(za - ma), b0 = (float)(zb - mb);
+            if (ft0 <= ft1) {
+                write_span(b, j, x0, ft0 * 8 - 1, a0, (float)zA.a, b0, (float)zB.a, zlo);
+                write_span(b, j, ft1 * 8 + 8, x1, a0, (float)zA.a, b0, (float)zB.a, zlo);
+            } else {
+                write_span(b, j, x0, x1, a0, (float)zA.a, b0, (float)zB.a, zlo);
+            }
+        }
     }
 }
 
-/* A tile's minimum, recomputed first if spans wrote into it since. */
+/* A tile's effective minimum: the coarse value, or the minimum of its
+ * pixels (recomputed first if spans wrote into it since), whichever is
+ * nearer. An invalid tile's pixels are all EMPTY. */
 static inline float band_tile(cull_occ_buffer *b, int tx, int ty)
 {
     size_t i = (size_t)ty * b->tw + tx;
-    uint8_t *d = &b->dirty_tiles[(size_t)ty * b->dirty_pitch + tx];
-    if (*d) {
+    uint8_t *st = &b->tstate[(size_t)ty * b->tpitch + tx];
+    if (*st == TILE_DIRTY) {
         b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
-        *d = 0;
+        *st = TILE_CLEAN;
     }
-    return b->tile[i];
+    return *st == TILE_INVALID || b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
 }
 
 /* The rectangle of a cluster, in this band, already hidden? Tiles are
@@ -519,14 +608,18 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
     cull_occ_buffer *b = bd->b;
     int x0 = r->x0, x1 = r->x1, y0 = r->y0 > bd->y0 ? r->y0 : bd->y0, y1 = r->y1 < bd->y1 - 1 ? r->y1 : bd->y1 - 1;
     float z = r->z;
-    for (int ty = y0 >> 3; ty <= y1 >> 3; ty++)
+    for (int ty = y0 >> 3; ty <= y1 >> 3; ty++) {
+        if (ty % bd->nb != bd->k) continue;
         for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
             if (band_tile(b, tx, ty) > z) continue;
+            /* the coarse value is not nearer than z: the pixels decide */
+            if (b->tstate[(size_t)ty * b->tpitch + tx] == TILE_INVALID) return false;
             int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
             int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
             for (int py = py0; py <= py1; py++)
                 if (b->fns.any_le(b->depth + (size_t)py * b->stride, px0, px1, (int)b->stride, z)) return false;
         }
+    }
     return true;
 }
 
@@ -534,18 +627,18 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
 static void band_finish_tiles(band *bd)
 {
     cull_occ_buffer *b = bd->b;
-    for (int ty = bd->y0 >> 3; ty < (bd->y1 + 7) >> 3; ty++) {
-        uint8_t *d = b->dirty_tiles + (size_t)ty * b->dirty_pitch;
+    for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
+        uint8_t *d = b->tstate + (size_t)ty * b->tpitch;
         for (uint32_t tx = 0; tx < b->tw;) {
-            if (!d[tx]) {
+            if (d[tx] != TILE_DIRTY) {
                 tx++;
                 continue;
             }
             uint32_t end = tx;
-            while (end < b->tw && d[end]) end++;
+            while (end < b->tw && d[end] == TILE_DIRTY) end++;
             b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, end - tx,
                          b->tile + (size_t)ty * b->tw + tx);
-            memset(d + tx, 0, end - tx);
+            memset(d + tx, TILE_CLEAN, end - tx);
             tx = end;
         }
     }
@@ -574,10 +667,12 @@ static void job_band(void *arg, uint32_t t)
     for (uint32_t k = t; k < j->nbands; k += j->b->threads_used) {
         band *bd = &j->bands[k];
         cull_occ_buffer *b = bd->b;
-        for (int y = bd->y0; y < bd->y1 && y < (int)b->h; y++) b->fns.fill(b->depth + (size_t)y * b->stride, b->w, EMPTY);
-        for (int ty = bd->y0 >> 3; ty < (bd->y1 + 7) >> 3; ty++) {
-            b->fns.fill(b->tile + (size_t)ty * b->tw, b->tw, EMPTY);
-            memset(b->dirty_tiles + (size_t)ty * b->dirty_pitch, 0, b->tw);
+        /* no pixel is cleared here: a tile's pixels are cleared when a
+           span first writes into it (most tiles are never written, or
+           covered whole by a coarse value) */
+        for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
+            b->fns.fill(b->tile_full + (size_t)ty * b->tw, b->tw, EMPTY);
+            memset(b->tstate + (size_t)ty * b->tpitch, TILE_INVALID, b->tw);
         }
         for (uint32_t i = 0; i < b->nitems; i++) {
             const cull_occ_item *it = &b->items[i];
@@ -586,7 +681,9 @@ static void job_band(void *arg, uint32_t t)
                 bd->clusters++;
                 continue;
             }
-            if (it->r.y1 < bd->y0 || it->r.y0 >= bd->y1) continue;
+            /* a rectangle within fewer tile rows than bands may miss this one */
+            int t0 = it->r.y0 >> 3, first = t0 + ((bd->k - t0 % bd->nb) + bd->nb) % bd->nb;
+            if (first > it->r.y1 >> 3) continue;
             if (band_hidden(bd, &it->r)) continue;
             raster_cluster(bd, it->cl);
             bd->clusters++;
@@ -690,10 +787,7 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
     uint32_t nb = nt > tile_rows ? tile_rows : nt;
     if (nb > MAX_BANDS) nb = MAX_BANDS;
     render_job j = {.b = b, .nbands = nb};
-    for (uint32_t k = 0; k < nb; k++) {
-        uint32_t r0 = tile_rows * k / nb, r1 = tile_rows * (k + 1) / nb;
-        j.bands[k] = (band){.b = b, .y0 = (int)(r0 * 8), .y1 = (int)(r1 * 8 < b->h ? r1 * 8 : b->h)};
-    }
+    for (uint32_t k = 0; k < nb; k++) j.bands[k] = (band){.b = b, .y0 = 0, .y1 = (int)b->h, .k = (int)k, .nb = (int)nb};
     b->threads_used = nb;
     if (nb > 1) cull_pool_run(pool, job_band, &j, nb);
     else job_band(&j, 0);
@@ -702,7 +796,12 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
         for (uint32_t X = 0; X < b->t2w; X++) {
             float m = PAD;
             for (uint32_t ty = Y * 8; ty < Y * 8 + 8; ty++)
-                for (uint32_t tx = X * 8; tx < X * 8 + 8; tx++) m = fmin_(m, b->tile[ty * b->tw + tx]);
+                for (uint32_t tx = X * 8; tx < X * 8 + 8; tx++) {
+                    size_t i = (size_t)ty * b->tw + tx;
+                    float full = b->tile_full[i], px = b->tile[i];
+                    bool valid = b->tstate[(size_t)ty * b->tpitch + tx] != TILE_INVALID;
+                    m = fmin_(m, valid && px > full ? px : full);
+                }
             b->tile2[Y * b->t2w + X] = m;
         }
     uint32_t faces = 0, drawn = 0;

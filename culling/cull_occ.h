@@ -59,8 +59,9 @@ struct cull_occ_buffer {
     uint32_t tw, th, t2w, t2h; /* 8x8 and 64x64 tiles */
     float   *depth;         /* stride * hp, row 0 = bottom */
     float   *tile, *tile2;  /* minima */
-    uint8_t *dirty_tiles;   /* 8x8 tiles written since their minimum was taken */
-    uint32_t dirty_pitch;   /* bytes per tile row of dirty_tiles */
+    float   *tile_full;     /* per 8x8 tile, a value every pixel's stands at or above */
+    uint8_t *tstate;        /* per tile: pixels stale / minimum current / written since */
+    uint32_t tpitch;        /* bytes per tile row of tstate */
     bool     drawn;         /* the last render set some pixel */
     bool     dirty;         /* pixels differ from the cleared state */
     bool     usable;        /* the view admits the nearness mapping */

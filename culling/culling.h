@@ -380,9 +380,11 @@ int cull_occ_render(const cull_world *w, const cull_view *v, cull_occ_buffer *b,
 int cull_occ_test_aabb(const cull_occ_buffer *b, const double mn[3], const double mx[3]);
 /* Whether the last render drew anything (no occluder: tests always pass). */
 int cull_occ_buffer_empty(const cull_occ_buffer *b);
-/* The stored nearness (see above; -FLT_MAX where no occluder covers the
- * pixel centre), row 0 at the bottom of the view, `stride` floats apart. */
-const float *cull_occ_depth(const cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride);
+/* The stored nearness per pixel (see above; -FLT_MAX where no occluder
+ * covers the pixel), row 0 at the bottom of the view, `stride` floats
+ * apart. Folds the buffer's coarse per-tile values into its pixels first
+ * (a pass over the buffer): for inspection and dumps, not per query. */
+const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride);
 
 /* ---- ISA dispatch -------------------------------------------------------- */
 enum cull_isa { CULL_ISA_SCALAR = 0, CULL_ISA_SSE41, CULL_ISA_AVX2, CULL_ISA_COUNT };

@@ -62,5 +62,6 @@ TEST_GROUP(alloc_tests)
 TEST_GROUP(protocol_tests)
 TEST_GROUP(e2e_tests)
 TEST_GROUP(occlusion_tests)
+TEST_GROUP(exr_tests)
 
 #endif

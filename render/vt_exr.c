@@ -1,0 +1,661 @@
+/*
+ * vt_exr.c — the EXR writer, reader and size query of vt_exr.h on top of
+ * OpenEXRCore (OpenEXR 3.1's C API).
+ *
+ * What it owns: the file descriptors (the library is given read / write /
+ * size callbacks on our own fd instead of a path, so errno reaches the
+ * caller and the temporary-file-and-rename is ours), the chunk scratch
+ * buffer, and the translation of library results into errno values.
+ *
+ * Writing, per chunk of 1, 16 or 32 rows (set by the compression): the
+ * caller's samples are gathered into a planar float scratch, then an
+ * OpenEXRCore encode pipeline converts to half where asked (its own
+ * round-to-nearest-even conversion), packs, compresses and writes. The
+ * gather is one extra pass over the chunk, small next to compression, and
+ * it is what makes negative and huge strides safe: the library takes byte
+ * strides as int32 and, in 3.1, multiplies them as uint64.
+ *
+ * Error messages: OpenEXRCore reports through a callback that receives
+ * only the context. exr_get_user_data() cannot be used there: in write
+ * mode it takes the context's mutex, which the library already holds when
+ * it reports most header errors (a duplicate channel deadlocks). So the
+ * running call parks a pointer to its message buffer in a thread-local for
+ * its duration; the callback runs on the calling thread.
+ */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE /* pread, pwrite, getrandom, GNU strerror_r */
+#endif
+#include "vt_exr.h"
+
+#include <openexr.h>
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/random.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+/* ---- one call's error state ---------------------------------------------- */
+
+typedef struct exr_call {
+    const char *path;
+    char       *err;    /* caller's buffer, or NULL */
+    size_t      errlen;
+    bool        have;   /* a message is set: the first one is the cause */
+    exr_result_t code;  /* first code the library reported, 0 if none */
+} exr_call;
+
+/* The running call on this thread, for the library's error callback. */
+static _Thread_local exr_call *tl_call;
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 2, 3)))
+#endif
+static void call_msg(exr_call *c, const char *fmt, ...)
+{
+    if (!c || c->have || !c->err || c->errlen == 0) return;
+    c->have = true;
+    int n = snprintf(c->err, c->errlen, "%s: ", c->path ? c->path : "(null)");
+    if (n < 0 || (size_t)n >= c->errlen) return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(c->err + n, c->errlen - (size_t)n, fmt, ap);
+    va_end(ap);
+}
+
+static void on_exr_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    (void)ctxt;
+    if (!tl_call) return;
+    if (!tl_call->code) tl_call->code = code;
+    call_msg(tl_call, "%s", msg ? msg : exr_get_default_error_message(code));
+}
+
+/* Starts a call: clears err, installs the thread-local. Pair with call_end. */
+static exr_call *call_begin(exr_call *c, const char *path, char *err, size_t errlen, exr_call **saved)
+{
+    *c = (exr_call){.path = path, .err = err, .errlen = errlen};
+    if (err && errlen) err[0] = '\0';
+    *saved = tl_call;
+    tl_call = c;
+    return c;
+}
+
+static int call_end(exr_call *c, exr_call *saved, int rc)
+{
+    tl_call = saved;
+    if (rc == 0 && c->err && c->errlen) c->err[0] = '\0';
+    return rc;
+}
+
+static const char *errstr(int e, char *buf, size_t n)
+{
+    return strerror_r(e, buf, n); /* GNU: returns the message, maybe not buf */
+}
+
+/* ---- file I/O callbacks ---------------------------------------------------- */
+
+typedef struct exr_file {
+    int       fd;
+    int       err; /* first errno from a failed read/write/close, else 0 */
+    exr_call *call;
+} exr_file;
+
+static void file_failed(exr_file *f, int e, const char *what)
+{
+    char buf[128];
+    if (!f->err) f->err = e;
+    call_msg(f->call, "%s: %s", what, errstr(e, buf, sizeof buf));
+}
+
+static int64_t file_read(exr_const_context_t ctxt, void *ud, void *buf, uint64_t sz, uint64_t off,
+                         exr_stream_error_func_ptr_t error_cb)
+{
+    (void)ctxt;
+    (void)error_cb;
+    exr_file *f = ud;
+    uint64_t got = 0;
+    if (sz > INT64_MAX || off > INT64_MAX - sz) return -1;
+    while (got < sz) {
+        ssize_t n = pread(f->fd, (char *)buf + got, (size_t)(sz - got), (off_t)(off + got));
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) {
+            file_failed(f, errno, "read");
+            return -1;
+        }
+        if (n == 0) break; /* end of file: the library decides if short is bad */
+        got += (uint64_t)n;
+    }
+    return (int64_t)got;
+}
+
+static int64_t file_write(exr_const_context_t ctxt, void *ud, const void *buf, uint64_t sz,
+                          uint64_t off, exr_stream_error_func_ptr_t error_cb)
+{
+    (void)ctxt;
+    (void)error_cb;
+    exr_file *f = ud;
+    uint64_t put = 0;
+    if (sz > INT64_MAX || off > INT64_MAX - sz) return -1;
+    while (put < sz) {
+        ssize_t n = pwrite(f->fd, (const char *)buf + put, (size_t)(sz - put), (off_t)(off + put));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            file_failed(f, n < 0 ? errno : EIO, "write");
+            return -1;
+        }
+        put += (uint64_t)n;
+    }
+    return (int64_t)put;
+}
+
+static int64_t file_size(exr_const_context_t ctxt, void *ud)
+{
+    (void)ctxt;
+    struct stat st;
+    return fstat(((exr_file *)ud)->fd, &st) == 0 ? (int64_t)st.st_size : -1;
+}
+
+/* An OpenEXRCore result as a negative errno; an errno from our own I/O
+ * wins, being the cause. */
+static int exr_errno(exr_result_t rv, const exr_file *f)
+{
+    if (rv == EXR_ERR_SUCCESS) return 0;
+    if (f && f->err) return -f->err;
+    switch (rv) {
+    case EXR_ERR_OUT_OF_MEMORY: return -ENOMEM;
+    case EXR_ERR_MISSING_CONTEXT_ARG:
+    case EXR_ERR_INVALID_ARGUMENT:
+    case EXR_ERR_ARGUMENT_OUT_OF_RANGE:
+    case EXR_ERR_NAME_TOO_LONG: return -EINVAL;
+    case EXR_ERR_FILE_BAD_HEADER:
+    case EXR_ERR_READ_IO: /* no errno: a short read, the file is truncated */
+    case EXR_ERR_MISSING_REQ_ATTR:
+    case EXR_ERR_INVALID_ATTR:
+    case EXR_ERR_ATTR_TYPE_MISMATCH:
+    case EXR_ERR_ATTR_SIZE_MISMATCH:
+    case EXR_ERR_BAD_CHUNK_LEADER:
+    case EXR_ERR_CORRUPT_CHUNK:
+    case EXR_ERR_INVALID_SAMPLE_DATA: return -EBADMSG;
+    case EXR_ERR_SCAN_TILE_MIXEDAPI:
+    case EXR_ERR_TILE_SCAN_MIXEDAPI:
+    case EXR_ERR_FEATURE_NOT_IMPLEMENTED: return -ENOTSUP;
+    default: return -EIO;
+    }
+}
+
+/* Fails the call with an OpenEXRCore result, making sure err says something.
+ * The first code the library reported is the cause and wins over rv: 3.1
+ * returns e.g. "bad header" for a header it could not allocate. */
+static int exr_fail(exr_call *c, exr_result_t rv, const exr_file *f, const char *what)
+{
+    call_msg(c, "%s: %s", what, exr_get_default_error_message(rv));
+    return exr_errno(c->code ? c->code : rv, f);
+}
+
+/* ---- writing ------------------------------------------------------------- */
+
+static int cmp_channel_name(const void *a, const void *b)
+{
+    const vt_exr_channel *x = *(const vt_exr_channel *const *)a;
+    const vt_exr_channel *y = *(const vt_exr_channel *const *)b;
+    return strcmp(x->name, y->name);
+}
+
+static exr_compression_t exr_compression(vt_exr_compression c)
+{
+    switch (c) {
+    case VT_EXR_ZIP: return EXR_COMPRESSION_ZIP;
+    case VT_EXR_ZIPS: return EXR_COMPRESSION_ZIPS;
+    case VT_EXR_PIZ: return EXR_COMPRESSION_PIZ;
+    case VT_EXR_RLE: return EXR_COMPRESSION_RLE;
+    default: return EXR_COMPRESSION_NONE;
+    }
+}
+
+static int check_write_args(exr_call *c, uint32_t width, uint32_t height, const vt_exr_channel *ch,
+                            uint32_t nch, vt_exr_compression comp)
+{
+    if (width < 1 || width > VT_EXR_MAX_WIDTH || height < 1 || height > VT_EXR_MAX_HEIGHT) {
+        call_msg(c, "image size %ux%u outside 1x1..%dx%d", width, height, VT_EXR_MAX_WIDTH,
+                 VT_EXR_MAX_HEIGHT);
+        return -EINVAL;
+    }
+    if (!ch || nch < 1 || nch > VT_EXR_MAX_CHANNELS) {
+        call_msg(c, "need 1..%u channels, got %u", VT_EXR_MAX_CHANNELS, ch ? nch : 0);
+        return -EINVAL;
+    }
+    if ((unsigned)comp > VT_EXR_RLE) {
+        call_msg(c, "unknown compression %d", (int)comp);
+        return -EINVAL;
+    }
+    for (uint32_t i = 0; i < nch; i++) {
+        size_t len = ch[i].name ? strlen(ch[i].name) : 0;
+        if (len < 1 || len > 31) {
+            call_msg(c, "channel %u: name must be 1..31 bytes", i);
+            return -EINVAL;
+        }
+        if (!ch[i].data || (ch[i].type != VT_EXR_HALF && ch[i].type != VT_EXR_FLOAT)) {
+            call_msg(c, "channel '%s': no data or unknown type", ch[i].name);
+            return -EINVAL;
+        }
+    }
+    return 0;
+}
+
+/* Creates "path.<16 hex>.tmp" with O_EXCL; *tmp is malloc'ed. */
+static int open_temp(exr_call *c, const char *path, char **tmp, int *fd)
+{
+    size_t n = strlen(path) + 22;
+    char *name = malloc(n);
+    if (!name) {
+        call_msg(c, "out of memory");
+        return -ENOMEM;
+    }
+    for (unsigned attempt = 0; attempt < 16; attempt++) {
+        uint64_t salt;
+        if (getrandom(&salt, sizeof salt, GRND_NONBLOCK) != (ssize_t)sizeof salt) {
+            struct timespec ts;
+            clock_gettime(CLOCK_REALTIME, &ts);
+            salt = ((uint64_t)ts.tv_sec << 32) ^ (uint64_t)ts.tv_nsec ^ (uintptr_t)&salt ^
+                   ((uint64_t)getpid() << 20) ^ (uint64_t)attempt * 0x9E3779B97F4A7C15ull;
+        }
+        snprintf(name, n, "%s.%016llx.tmp", path, (unsigned long long)salt);
+        *fd = open(name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (*fd >= 0) {
+            *tmp = name;
+            return 0;
+        }
+        if (errno != EEXIST) break;
+    }
+    int e = errno;
+    char buf[128];
+    call_msg(c, "cannot create temporary file %s: %s", name, errstr(e, buf, sizeof buf));
+    free(name);
+    return -e;
+}
+
+/* Declares the part: windows, compression, channels in name order. */
+static int define_part(exr_call *c, exr_context_t ctx, const exr_file *f, uint32_t width,
+                       uint32_t height, const vt_exr_channel *const *sorted, uint32_t nch,
+                       vt_exr_compression comp)
+{
+    int part = 0;
+    exr_result_t rv = exr_add_part(ctx, NULL, EXR_STORAGE_SCANLINE, &part);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_initialize_required_attr_simple(ctx, part, (int32_t)width, (int32_t)height,
+                                                 exr_compression(comp));
+    for (uint32_t i = 0; i < nch && rv == EXR_ERR_SUCCESS; i++)
+        rv = exr_add_channel(ctx, part, sorted[i]->name,
+                             sorted[i]->type == VT_EXR_HALF ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
+                             EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv == EXR_ERR_SUCCESS) rv = exr_write_header(ctx);
+    return rv == EXR_ERR_SUCCESS ? 0 : exr_fail(c, rv, f, "header");
+}
+
+/* Copies rows [y0, y0 + rows) of one channel into dst, planar. */
+static void gather(float *dst, const vt_exr_channel *ch, uint32_t width, int32_t y0, int32_t rows)
+{
+    for (int32_t r = 0; r < rows; r++) {
+        const float *src = ch->data + (ptrdiff_t)(y0 + r) * ch->y_stride;
+        float *d = dst + (size_t)r * width;
+        if (ch->x_stride == 1) {
+            memcpy(d, src, (size_t)width * sizeof *d);
+        } else {
+            for (uint32_t x = 0; x < width; x++) d[x] = src[(ptrdiff_t)x * ch->x_stride];
+        }
+    }
+}
+
+/* The pipeline's channels come in the file's (sorted) order; src[i] is the
+ * caller's channel for pipeline channel i. */
+static int match_channels(exr_call *c, const exr_encode_pipeline_t *enc,
+                          const vt_exr_channel *const *sorted, uint32_t nch,
+                          const vt_exr_channel **src)
+{
+    if (enc->channel_count < 0 || (uint32_t)enc->channel_count != nch) {
+        call_msg(c, "library reports %d channels, expected %u", enc->channel_count, nch);
+        return -EIO;
+    }
+    for (uint32_t i = 0; i < nch; i++) {
+        src[i] = NULL;
+        for (uint32_t j = 0; j < nch && !src[i]; j++)
+            if (strcmp(enc->channels[i].channel_name, sorted[j]->name) == 0) src[i] = sorted[j];
+        if (!src[i]) {
+            call_msg(c, "library reports unknown channel '%s'", enc->channels[i].channel_name);
+            return -EIO;
+        }
+    }
+    return 0;
+}
+
+/* Encodes and writes every chunk. scratch holds lines x width floats per
+ * channel. */
+static int write_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, uint32_t width,
+                        uint32_t height, const vt_exr_channel *const *sorted, uint32_t nch,
+                        int32_t lines, float *scratch, const vt_exr_channel **src)
+{
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    exr_result_t rv = EXR_ERR_SUCCESS;
+    const char *what = "chunk";
+    int rc = 0;
+    bool started = false;
+    size_t plane = (size_t)lines * width;
+    for (int64_t y = 0; y < (int64_t)height && rv == EXR_ERR_SUCCESS && rc == 0; y += lines) {
+        exr_chunk_info_t ci;
+        what = "chunk";
+        rv = exr_write_scanline_chunk_info(ctx, 0, (int)y, &ci);
+        if (rv != EXR_ERR_SUCCESS) break;
+        rv = started ? exr_encoding_update(ctx, 0, &ci, &enc) : exr_encoding_initialize(ctx, 0, &ci, &enc);
+        if (rv != EXR_ERR_SUCCESS) break;
+        if (!started && (rc = match_channels(c, &enc, sorted, nch, src)) != 0) break;
+        if (ci.height < 1 || ci.height > lines || ci.start_y != y || ci.width != (int32_t)width) {
+            call_msg(c, "library chunk at row %lld is %dx%d at %d", (long long)y, ci.width, ci.height,
+                     ci.start_y);
+            rc = -EIO;
+            break;
+        }
+        for (uint32_t i = 0; i < nch; i++) {
+            exr_coding_channel_info_t *cc = &enc.channels[i];
+            gather(scratch + i * plane, src[i], width, ci.start_y, ci.height);
+            cc->encode_from_ptr = (const uint8_t *)(scratch + i * plane);
+            cc->user_pixel_stride = (int32_t)sizeof(float);
+            cc->user_line_stride = (int32_t)(width * sizeof(float));
+            cc->user_data_type = EXR_PIXEL_FLOAT;
+            cc->user_bytes_per_element = (int16_t)sizeof(float);
+        }
+        if (!started) {
+            started = true;
+            rv = exr_encoding_choose_default_routines(ctx, 0, &enc);
+            if (rv != EXR_ERR_SUCCESS) break;
+        }
+        what = "encoding";
+        rv = exr_encoding_run(ctx, 0, &enc);
+    }
+    exr_encoding_destroy(ctx, &enc);
+    if (rc == 0 && rv != EXR_ERR_SUCCESS) rc = exr_fail(c, rv, f, what);
+    return rc;
+}
+
+/* Writes the whole image through fd; the context is finished either way. */
+static int write_exr(exr_call *c, const char *path, exr_file *f, uint32_t width, uint32_t height,
+                     const vt_exr_channel *const *sorted, uint32_t nch, vt_exr_compression comp)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = on_exr_error;
+    init.user_data = f;
+    init.write_fn = file_write;
+    exr_context_t ctx = NULL;
+    float *scratch = NULL;
+    const vt_exr_channel **src = NULL;
+    exr_result_t rv = exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (rv != EXR_ERR_SUCCESS) return exr_fail(c, rv, f, "start");
+    int rc = define_part(c, ctx, f, width, height, sorted, nch, comp);
+    int32_t lines = 0;
+    if (rc == 0 && (rv = exr_get_scanlines_per_chunk(ctx, 0, &lines)) != EXR_ERR_SUCCESS)
+        rc = exr_fail(c, rv, f, "chunk rows");
+    if (rc == 0 && (lines < 1 || lines > 256)) {
+        call_msg(c, "library reports %d rows per chunk", lines);
+        rc = -EIO;
+    }
+    if (rc == 0) {
+        if (width > SIZE_MAX / sizeof(float) / (size_t)lines / nch) rc = -ENOMEM;
+        if (rc == 0) scratch = malloc((size_t)lines * width * nch * sizeof(float));
+        if (rc == 0) src = malloc(nch * sizeof *src);
+        if (!scratch || !src) rc = -ENOMEM;
+        if (rc) call_msg(c, "out of memory for %d rows x %u x %u channels", lines, width, nch);
+    }
+    if (rc == 0) rc = write_chunks(c, ctx, f, width, height, sorted, nch, lines, scratch, src);
+    /* finishing a complete write emits what is still buffered; a failed
+     * one just frees (our fd and temp file are ours to clean up) */
+    rv = exr_finish(&ctx);
+    if (rc == 0 && rv != EXR_ERR_SUCCESS) rc = exr_fail(c, rv, f, "finish");
+    if (rc == 0 && f->err) rc = -f->err;
+    /* nothing the library complained about is kept, even if it carried on */
+    if (rc == 0 && c->code) rc = exr_fail(c, c->code, f, "write");
+    free(src);
+    free(scratch);
+    return rc;
+}
+
+int vt_exr_write(const char *path, uint32_t width, uint32_t height, const vt_exr_channel *ch,
+                 uint32_t nch, vt_exr_compression comp, char *err, size_t errlen)
+{
+    exr_call call, *saved;
+    exr_call *c = call_begin(&call, path, err, errlen, &saved);
+    exr_file f = {.fd = -1, .call = c};
+    const vt_exr_channel **sorted = NULL;
+    char *tmp = NULL;
+    char buf[128];
+    int rc = 0;
+    if (!path || !path[0]) {
+        call_msg(c, "no path");
+        return call_end(c, saved, -EINVAL);
+    }
+    if ((rc = check_write_args(c, width, height, ch, nch, comp)) != 0) return call_end(c, saved, rc);
+    sorted = malloc(nch * sizeof *sorted);
+    if (!sorted) {
+        call_msg(c, "out of memory");
+        return call_end(c, saved, -ENOMEM);
+    }
+    for (uint32_t i = 0; i < nch; i++) sorted[i] = &ch[i];
+    qsort(sorted, nch, sizeof *sorted, cmp_channel_name);
+    for (uint32_t i = 1; i < nch && rc == 0; i++) {
+        if (strcmp(sorted[i - 1]->name, sorted[i]->name) == 0) {
+            call_msg(c, "channel '%s' given twice", sorted[i]->name);
+            rc = -EINVAL;
+        }
+    }
+    if (rc == 0) rc = open_temp(c, path, &tmp, &f.fd);
+    if (rc == 0) rc = write_exr(c, path, &f, width, height, sorted, nch, comp);
+    if (f.fd >= 0 && close(f.fd) != 0 && rc == 0) {
+        rc = -errno;
+        call_msg(c, "close: %s", errstr(-rc, buf, sizeof buf));
+    }
+    if (rc == 0 && rename(tmp, path) != 0) {
+        rc = -errno;
+        call_msg(c, "rename from %s: %s", tmp, errstr(-rc, buf, sizeof buf));
+    }
+    if (rc != 0 && tmp) unlink(tmp);
+    free(tmp);
+    free(sorted);
+    return call_end(c, saved, rc);
+}
+
+/* ---- reading ------------------------------------------------------------- */
+
+/* Finishes the context (if any) and closes the file. */
+static void read_close(exr_file *f, exr_context_t *ctx)
+{
+    if (*ctx) exr_finish(ctx);
+    if (f->fd >= 0) close(f->fd);
+    f->fd = -1;
+}
+
+/* Opens path and parses its header. On success *ctx must be finished and
+ * f->fd closed (read_close). */
+static int read_open(exr_call *c, const char *path, exr_file *f, exr_context_t *ctx)
+{
+    char buf[128];
+    *ctx = NULL;
+    if (!path || !path[0]) {
+        call_msg(c, "no path");
+        return -EINVAL;
+    }
+    f->fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (f->fd < 0) {
+        int e = errno;
+        call_msg(c, "open: %s", errstr(e, buf, sizeof buf));
+        return -e;
+    }
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = on_exr_error;
+    init.user_data = f;
+    init.read_fn = file_read;
+    init.size_fn = file_size;
+    exr_result_t rv = exr_start_read(ctx, path, &init);
+    if (rv != EXR_ERR_SUCCESS) *ctx = NULL; /* the library finished it */
+    /* 3.1 reports an allocation failure while parsing an attribute, then
+     * carries on without the attribute and returns success */
+    if (rv == EXR_ERR_SUCCESS && c->code == EXR_ERR_OUT_OF_MEMORY) rv = EXR_ERR_OUT_OF_MEMORY;
+    if (rv != EXR_ERR_SUCCESS) {
+        read_close(f, ctx);
+        return exr_fail(c, rv, f, "header");
+    }
+    return 0;
+}
+
+static int data_window(exr_call *c, exr_context_t ctx, const exr_file *f, exr_attr_box2i_t *dw,
+                       uint32_t *w, uint32_t *h)
+{
+    exr_result_t rv = exr_get_data_window(ctx, 0, dw);
+    if (rv != EXR_ERR_SUCCESS) return exr_fail(c, rv, f, "data window");
+    int64_t ww = (int64_t)dw->max.x - dw->min.x + 1, hh = (int64_t)dw->max.y - dw->min.y + 1;
+    if (ww < 1 || hh < 1 || ww > UINT32_MAX || hh > UINT32_MAX) {
+        call_msg(c, "bad data window (%d %d) - (%d %d)", dw->min.x, dw->min.y, dw->max.x, dw->max.y);
+        return -EBADMSG;
+    }
+    *w = (uint32_t)ww;
+    *h = (uint32_t)hh;
+    return 0;
+}
+
+/* Checks the part and finds channel `name` in it. */
+static int find_channel(exr_call *c, exr_context_t ctx, const exr_file *f, const char *name)
+{
+    exr_storage_t st;
+    const exr_attr_chlist_t *cl = NULL;
+    exr_result_t rv = exr_get_storage(ctx, 0, &st);
+    if (rv == EXR_ERR_SUCCESS && st != EXR_STORAGE_SCANLINE) {
+        call_msg(c, "only flat scanline images can be read (storage %d)", (int)st);
+        return -ENOTSUP;
+    }
+    if (rv == EXR_ERR_SUCCESS) rv = exr_get_channels(ctx, 0, &cl);
+    if (rv != EXR_ERR_SUCCESS) return exr_fail(c, rv, f, "channels");
+    for (int i = 0; i < cl->num_channels; i++) {
+        const exr_attr_chlist_entry_t *e = &cl->entries[i];
+        if (strcmp(e->name.str, name) != 0) continue;
+        if (e->x_sampling != 1 || e->y_sampling != 1) {
+            call_msg(c, "channel '%s' is subsampled", name);
+            return -ENOTSUP;
+        }
+        return 0;
+    }
+    call_msg(c, "no channel '%s'", name);
+    return -ENOENT;
+}
+
+/* Points the decoder at out for channel `name` and at junk for the others.
+ * OpenEXRCore documents a NULL destination as "skip this channel", but 3.1's
+ * generic unpacker (used whenever it converts half to float) writes through
+ * it anyway; so every channel gets a destination, the unwanted ones sharing
+ * one chunk of junk rows. */
+static void aim_decoder(exr_decode_pipeline_t *dec, const char *name, float *out, float *junk,
+                        uint32_t width)
+{
+    for (int i = 0; i < dec->channel_count; i++) {
+        exr_coding_channel_info_t *cc = &dec->channels[i];
+        cc->decode_to_ptr = (uint8_t *)(strcmp(cc->channel_name, name) == 0 ? out : junk);
+        cc->user_pixel_stride = (int32_t)sizeof(float);
+        cc->user_line_stride = (int32_t)(width * sizeof(float));
+        cc->user_data_type = EXR_PIXEL_FLOAT;
+        cc->user_bytes_per_element = (int16_t)sizeof(float);
+    }
+}
+
+static int read_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, const char *name,
+                       float *out, uint32_t width, const exr_attr_box2i_t *dw)
+{
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    float *junk = NULL;
+    int32_t lines = 0;
+    int rc = 0;
+    bool started = false;
+    exr_result_t rv = exr_get_scanlines_per_chunk(ctx, 0, &lines);
+    if (rv == EXR_ERR_SUCCESS && (lines < 1 || lines > 256)) rv = EXR_ERR_FILE_BAD_HEADER;
+    if (rv == EXR_ERR_SUCCESS &&
+        (width > SIZE_MAX / sizeof *junk / (size_t)lines ||
+         !(junk = malloc((size_t)lines * width * sizeof *junk)))) {
+        call_msg(c, "out of memory for %d rows x %u", lines, width);
+        rc = -ENOMEM;
+    }
+    for (int64_t y = dw->min.y; y <= dw->max.y && rv == EXR_ERR_SUCCESS && rc == 0; y += lines) {
+        exr_chunk_info_t ci;
+        rv = exr_read_scanline_chunk_info(ctx, 0, (int)y, &ci);
+        if (rv != EXR_ERR_SUCCESS) break;
+        /* the chunk must lie inside the window: out is exactly its size */
+        if (ci.start_y != y || ci.height < 1 || ci.height > lines ||
+            (int64_t)ci.start_y + ci.height - 1 > dw->max.y || ci.width != (int32_t)width) {
+            call_msg(c, "chunk at row %lld does not fit the data window", (long long)y);
+            rc = -EBADMSG;
+            break;
+        }
+        rv = started ? exr_decoding_update(ctx, 0, &ci, &dec) : exr_decoding_initialize(ctx, 0, &ci, &dec);
+        if (rv != EXR_ERR_SUCCESS) break;
+        aim_decoder(&dec, name, out + (size_t)(y - dw->min.y) * width, junk, width);
+        if (!started) {
+            started = true;
+            rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
+            if (rv != EXR_ERR_SUCCESS) break;
+        }
+        rv = exr_decoding_run(ctx, 0, &dec);
+    }
+    exr_decoding_destroy(ctx, &dec);
+    free(junk);
+    if (rc == 0 && rv != EXR_ERR_SUCCESS) rc = exr_fail(c, rv, f, "decoding");
+    return rc;
+}
+
+int vt_exr_read_channel(const char *path, const char *name, float *out, uint32_t width,
+                        uint32_t height, char *err, size_t errlen)
+{
+    exr_call call, *saved;
+    exr_call *c = call_begin(&call, path, err, errlen, &saved);
+    exr_file f = {.fd = -1, .call = c};
+    exr_context_t ctx = NULL;
+    exr_attr_box2i_t dw;
+    uint32_t w = 0, h = 0;
+    if (!name || !out || width < 1 || width > VT_EXR_MAX_WIDTH || height < 1) {
+        call_msg(c, "bad arguments (name, out or size %ux%u)", width, height);
+        return call_end(c, saved, -EINVAL);
+    }
+    int rc = read_open(c, path, &f, &ctx);
+    if (rc == 0) rc = find_channel(c, ctx, &f, name);
+    if (rc == 0) rc = data_window(c, ctx, &f, &dw, &w, &h);
+    if (rc == 0 && (w != width || h != height)) {
+        call_msg(c, "image is %ux%u, buffer %ux%u", w, h, width, height);
+        rc = -EINVAL;
+    }
+    if (rc == 0) rc = read_chunks(c, ctx, &f, name, out, width, &dw);
+    if (rc == 0 && c->code == EXR_ERR_OUT_OF_MEMORY) rc = exr_fail(c, c->code, &f, "decoding");
+    read_close(&f, &ctx);
+    return call_end(c, saved, rc);
+}
+
+int vt_exr_size(const char *path, uint32_t *width, uint32_t *height, char *err, size_t errlen)
+{
+    exr_call call, *saved;
+    exr_call *c = call_begin(&call, path, err, errlen, &saved);
+    exr_file f = {.fd = -1, .call = c};
+    exr_context_t ctx = NULL;
+    exr_attr_box2i_t dw;
+    uint32_t w = 0, h = 0;
+    if (!width || !height) {
+        call_msg(c, "no output for the size");
+        return call_end(c, saved, -EINVAL);
+    }
+    int rc = read_open(c, path, &f, &ctx);
+    if (rc == 0) rc = data_window(c, ctx, &f, &dw, &w, &h);
+    read_close(&f, &ctx);
+    if (rc == 0) {
+        *width = w;
+        *height = h;
+    }
+    return call_end(c, saved, rc);
+}
