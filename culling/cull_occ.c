@@ -94,7 +94,7 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     if (!b) return CULL_ERR_NOMEM;
     b->w = width;
     b->h = height;
-    b->stride = (width + 63) & ~63u;
+    b->stride = (width + 127) & ~127u; /* tile rows of floats: whole cache lines */
     b->hp = (height + 63) & ~63u;
     b->tw = b->stride / 8;
     b->th = b->hp / 8;
@@ -104,10 +104,16 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->tile = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float)); /* tw * 4 bytes = 64 k */
     b->tile2 = malloc((size_t)b->t2w * b->t2h * sizeof(float));
     b->tile_full = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
+    /* strips: 8 tiles of one tile row (64 x 8 pixels); rows padded to 64
+       bytes like the tile states */
+    b->spitch = (b->t2w + 15) & ~15u;
+    b->sdpitch = (b->t2w + 63) & ~63u;
+    b->strip = aligned_alloc(64, (size_t)b->spitch * b->th * sizeof(float));
+    b->sdirty = aligned_alloc(64, (size_t)b->sdpitch * b->th);
     /* a tile row of states per 64 bytes: bands never share a cache line */
     b->tpitch = (b->tw + 63) & ~63u;
     b->tstate = aligned_alloc(64, (size_t)b->tpitch * b->th);
-    if (!b->depth || !b->tile || !b->tile2 || !b->tile_full || !b->tstate) {
+    if (!b->depth || !b->tile || !b->tile2 || !b->tile_full || !b->tstate || !b->strip || !b->sdirty) {
         cull_occ_buffer_destroy(b);
         return CULL_ERR_NOMEM;
     }
@@ -117,6 +123,8 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
         for (uint32_t x = 0; x < b->w; x++) b->depth[(size_t)y * b->stride + x] = EMPTY;
     for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = b->tile_full[i] = EMPTY;
     memset(b->tstate, TILE_CLEAN, (size_t)b->tpitch * b->th);
+    for (size_t i = 0; i < (size_t)b->spitch * b->th; i++) b->strip[i] = EMPTY;
+    memset(b->sdirty, 0, (size_t)b->sdpitch * b->th);
     for (size_t i = 0; i < (size_t)b->t2w * b->t2h; i++) b->tile2[i] = EMPTY;
     b->inner = true;
     b->isa = cull_isa_default();
@@ -133,6 +141,8 @@ void cull_occ_buffer_destroy(cull_occ_buffer *b)
     free(b->tile2);
     free(b->tile_full);
     free(b->tstate);
+    free(b->strip);
+    free(b->sdirty);
     free(b->items);
     free(b->items2);
     free(b->sortbuf);
@@ -395,6 +405,47 @@ static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *
     return true;
 }
 
+/* A tile's effective minimum: the coarse value, or the minimum of its
+ * pixels (recomputed first if spans wrote into it since), whichever is
+ * nearer. An invalid tile's pixels are all EMPTY. */
+static inline float band_tile(cull_occ_buffer *b, int tx, int ty)
+{
+    size_t i = (size_t)ty * b->tw + tx;
+    uint8_t *st = &b->tstate[(size_t)ty * b->tpitch + tx];
+    if (*st == TILE_DIRTY) {
+        b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
+        *st = TILE_CLEAN;
+    }
+    return *st == TILE_INVALID || b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
+}
+
+/* A strip's minimum (8 tiles of one tile row), brought up to date first. */
+static inline float band_strip(cull_occ_buffer *b, int sx, int ty)
+{
+    float *v = &b->strip[(size_t)ty * b->spitch + sx];
+    uint8_t *d = &b->sdirty[(size_t)ty * b->sdpitch + sx];
+    if (*d) {
+        float m = PAD;
+        for (int tx = sx * 8; tx < sx * 8 + 8; tx++) m = fmin_(m, band_tile(b, tx, ty));
+        *v = m;
+        *d = 0;
+    }
+    return *v;
+}
+
+/* Tiles tx0..tx1 of tile row ty all nearer than z (strips first)? */
+static bool tile_row_hidden(cull_occ_buffer *b, int ty, int tx0, int tx1, float z)
+{
+    for (int tx = tx0; tx <= tx1; tx++) {
+        if (!(tx & 7) && (tx | 7) <= tx1 && band_strip(b, tx >> 3, ty) > z) {
+            tx |= 7;
+            continue;
+        }
+        if (!(band_tile(b, tx, ty) > z)) return false;
+    }
+    return true;
+}
+
 #define MAX_CONS 8
 
 /* An invalid tile's pixels hold last frame's values: set the real ones
@@ -417,6 +468,8 @@ static inline void write_span(cull_occ_buffer *b, int j, int x0, int x1, float a
         if (st[tx] == TILE_INVALID) clear_tile(b, tx, j >> 3);
         st[tx] = TILE_DIRTY;
     }
+    uint8_t *sd = b->sdirty + (size_t)(j >> 3) * b->sdpitch;
+    for (int sx = x0 >> 6; sx <= x1 >> 6; sx++) sd[sx] = 1;
     b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (int)b->stride, a0, da, b0, db, lo);
 }
 
@@ -443,7 +496,7 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
 
     /* the part in front of the near plane: its projection bounds the rows,
        its vertices bound the nearness from below */
-    double ymin = INFINITY, ymax = -INFINITY, xmin = INFINITY, xmax = -INFINITY, nmin = INFINITY;
+    double ymin = INFINITY, ymax = -INFINITY, xmin = INFINITY, xmax = -INFINITY, nmin = INFINITY, nmax = -INFINITY;
     for (uint32_t k = 0; k < n; k++) {
         const cvert *p = v[k], *q = v[(k + 1) % n];
         cvert o[2];
@@ -462,6 +515,7 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
             ymin = dmin(ymin, y);
             ymax = dmax(ymax, y);
             nmin = dmin(nmin, o[i].d * iw);
+            nmax = dmax(nmax, o[i].d * iw);
         }
     }
     /* the pixels that may be marked: centres inside (centre coverage), or
@@ -538,8 +592,14 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
     /* a tile row (8 pixel rows) at a time: tiles that every row's span
        covers whole get one coarse value (tile_full); only the rest of
        each span is written pixel by pixel */
+    /* where the buffer is already nearer than the face's nearest point over
+       a whole tile row of its bounds, the tile row is skipped: front-to-
+       back order pays again, inside a cluster and for the part of a face
+       that a nearer one hides */
+    float zhi = cull_round_up(nmax + 0x1p-20 * fabs(nmax));
     for (int ty = j0 >> 3; ty <= j1 >> 3; ty++) {
         if (ty % bd->nb != bd->k) continue;
+        if (tile_row_hidden(b, ty, i0 >> 3, i1 >> 3, zhi)) continue;
         int r0 = j0 > ty * 8 ? j0 : ty * 8, r1 = j1 < ty * 8 + 7 ? j1 : ty * 8 + 7;
         int lo[8], hi[8], L = INT32_MIN, H = INT32_MAX;
         bool whole = r0 == ty * 8 && r1 == ty * 8 + 7;
@@ -559,16 +619,18 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
             ft0 = (L + 7) >> 3;
             ft1 = ((H + 1) >> 3) - 1;
         }
-        for (int tx = ft0; tx <= ft1; tx++) {
-            /* the minimum over the tile's pixels of what they would store */
-            double ia = zA.a >= 0 ? tx * 8 : tx * 8 + 7, ja = zA.b >= 0 ? ty * 8 : ty * 8 + 7;
-            double ib = zB.a >= 0 ? tx * 8 : tx * 8 + 7, jb = zB.b >= 0 ? ty * 8 : ty * 8 + 7;
-            double va = zA.a * ia + zA.b * ja + zA.c - cornerA, vb = zB.a * ib + zB.b * jb + zB.c - cornerB;
-            double tv = dmax(dmin(va, vb), nlo);
-            tv -= 0x1p-20 * fabs(tv);
-            float *full = &b->tile_full[(size_t)ty * b->tw + tx];
-            float fv = (float)tv;
-            if (fv > *full) *full = fv;
+        if (ft0 <= ft1) {
+            /* the minimum over a tile's pixels of what they would store is
+               the plane at the tile's farthest pixel corner: linear in tx,
+               so the coarse values are one more span, over tile_full */
+            double ia = zA.a >= 0 ? 0 : 7, ja = zA.b >= 0 ? ty * 8 : ty * 8 + 7;
+            double ib = zB.a >= 0 ? 0 : 7, jb = zB.b >= 0 ? ty * 8 : ty * 8 + 7;
+            double ta = zA.a * ia + zA.b * ja + zA.c - cornerA, tb = zB.a * ib + zB.b * jb + zB.c - cornerB;
+            double da = 8 * zA.a, db = 8 * zB.a;
+            double ma = 0x1p-20 * (fabs(ta) + fabs(da) * (ft1 + 1)), mb = 0x1p-20 * (fabs(tb) + fabs(db) * (ft1 + 1));
+            b->fns.span(b->tile_full + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, (float)(ta - ma), (float)da,
+                        (float)(tb - mb), (float)db, zlo);
+            memset(b->sdirty + (size_t)ty * b->sdpitch + (ft0 >> 3), 1, (size_t)((ft1 >> 3) - (ft0 >> 3) + 1));
         }
         for (int j = r0; j <= r1; j++) {
             int x0 = lo[j - r0], x1 = hi[j - r0];
@@ -586,23 +648,9 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
     }
 }
 
-/* A tile's effective minimum: the coarse value, or the minimum of its
- * pixels (recomputed first if spans wrote into it since), whichever is
- * nearer. An invalid tile's pixels are all EMPTY. */
-static inline float band_tile(cull_occ_buffer *b, int tx, int ty)
-{
-    size_t i = (size_t)ty * b->tw + tx;
-    uint8_t *st = &b->tstate[(size_t)ty * b->tpitch + tx];
-    if (*st == TILE_DIRTY) {
-        b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
-        *st = TILE_CLEAN;
-    }
-    return *st == TILE_INVALID || b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
-}
-
-/* The rectangle of a cluster, in this band, already hidden? Tiles are
- * brought up to date on demand (band_tile), so a hidden cluster costs a
- * few tile reads and a tile is recomputed only when read after a write. */
+/* The rectangle of a cluster, in this band, already hidden? Strips and
+ * tiles are brought up to date on demand, so a hidden cluster costs a few
+ * strip reads and a tile is recomputed only when read after a write. */
 static bool band_hidden(const band *bd, const cull_occ_rect *r)
 {
     cull_occ_buffer *b = bd->b;
@@ -611,6 +659,10 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
     for (int ty = y0 >> 3; ty <= y1 >> 3; ty++) {
         if (ty % bd->nb != bd->k) continue;
         for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
+            if (!(tx & 7) && (tx | 7) <= x1 >> 3 && band_strip(b, tx >> 3, ty) > z) {
+                tx |= 7; /* the whole strip lies inside the rectangle and is nearer */
+                continue;
+            }
             if (band_tile(b, tx, ty) > z) continue;
             /* the coarse value is not nearer than z: the pixels decide */
             if (b->tstate[(size_t)ty * b->tpitch + tx] == TILE_INVALID) return false;
@@ -641,6 +693,7 @@ static void band_finish_tiles(band *bd)
             memset(d + tx, TILE_CLEAN, end - tx);
             tx = end;
         }
+        for (uint32_t sx = 0; sx < b->t2w; sx++) (void)band_strip(b, (int)sx, ty);
     }
 }
 
@@ -673,6 +726,8 @@ static void job_band(void *arg, uint32_t t)
         for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
             b->fns.fill(b->tile_full + (size_t)ty * b->tw, b->tw, EMPTY);
             memset(b->tstate + (size_t)ty * b->tpitch, TILE_INVALID, b->tw);
+            b->fns.fill(b->strip + (size_t)ty * b->spitch, b->t2w, EMPTY);
+            memset(b->sdirty + (size_t)ty * b->sdpitch, 0, b->t2w);
         }
         for (uint32_t i = 0; i < b->nitems; i++) {
             const cull_occ_item *it = &b->items[i];
@@ -795,13 +850,7 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
     for (uint32_t Y = 0; Y < b->t2h; Y++)
         for (uint32_t X = 0; X < b->t2w; X++) {
             float m = PAD;
-            for (uint32_t ty = Y * 8; ty < Y * 8 + 8; ty++)
-                for (uint32_t tx = X * 8; tx < X * 8 + 8; tx++) {
-                    size_t i = (size_t)ty * b->tw + tx;
-                    float full = b->tile_full[i], px = b->tile[i];
-                    bool valid = b->tstate[(size_t)ty * b->tpitch + tx] != TILE_INVALID;
-                    m = fmin_(m, valid && px > full ? px : full);
-                }
+            for (uint32_t ty = Y * 8; ty < Y * 8 + 8; ty++) m = fmin_(m, b->strip[(size_t)ty * b->spitch + X]);
             b->tile2[Y * b->t2w + X] = m;
         }
     uint32_t faces = 0, drawn = 0;

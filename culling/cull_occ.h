@@ -55,13 +55,16 @@ typedef struct cull_occ_item {
 
 struct cull_occ_buffer {
     uint32_t w, h;          /* pixels */
-    uint32_t stride, hp;    /* allocated row length and rows (multiples of 64) */
+    uint32_t stride, hp;    /* allocated row length (multiple of 128) and rows (of 64) */
     uint32_t tw, th, t2w, t2h; /* 8x8 and 64x64 tiles */
     float   *depth;         /* stride * hp, row 0 = bottom */
     float   *tile, *tile2;  /* minima */
     float   *tile_full;     /* per 8x8 tile, a value every pixel's stands at or above */
     uint8_t *tstate;        /* per tile: pixels stale / minimum current / written since */
     uint32_t tpitch;        /* bytes per tile row of tstate */
+    float   *strip;         /* per 8 tiles of a tile row: minimum of their effective minima */
+    uint8_t *sdirty;        /* strip written since its minimum was taken */
+    uint32_t spitch, sdpitch; /* strip row pitches, floats and bytes */
     bool     drawn;         /* the last render set some pixel */
     bool     dirty;         /* pixels differ from the cleared state */
     bool     usable;        /* the view admits the nearness mapping */
