@@ -458,8 +458,9 @@ static void clear_tile(cull_occ_buffer *b, int tx, int ty)
 }
 
 /* A span of row j, [x0, x1] (may be empty), with its tiles made valid and
- * marked dirty. */
-static inline void write_span(cull_occ_buffer *b, int j, int x0, int x1, float a0, float da, float b0, float db,
+ * marked dirty. (The flag loops cover one or two entries: kept as loops,
+ * not turned into memset calls.) */
+__attribute__((optimize("no-tree-loop-distribute-patterns"))) static inline void write_span(cull_occ_buffer *b, int j, int x0, int x1, float a0, float da, float b0, float db,
                               float lo)
 {
     if (x0 > x1) return;
@@ -587,6 +588,10 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
        vertex; float rounding of the span loop (2^-21 relative) taken off
        with room for the conversion to float */
     double cornerA = 0.5 * (fabs(zA.a) + fabs(zA.b)), cornerB = 0.5 * (fabs(zB.a) + fabs(zB.b));
+    /* one margin per face for every row: 2^-20 of the largest magnitude
+       the span loop can see */
+    double ma = 0x1p-20 * (fabs(zA.b) * (j1 + 1) + fabs(zA.c) + cornerA + fabs(zA.a) * (i1 + 1));
+    double mb = 0x1p-20 * (fabs(zB.b) * (j1 + 1) + fabs(zB.c) + cornerB + fabs(zB.a) * (i1 + 1));
     double nlo = nmin - 0x1p-20 * fabs(nmin);
     float zlo = cull_round_down(nlo);
     /* a tile row (8 pixel rows) at a time: tiles that every row's span
@@ -627,17 +632,15 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
             double ib = zB.a >= 0 ? 0 : 7, jb = zB.b >= 0 ? ty * 8 : ty * 8 + 7;
             double ta = zA.a * ia + zA.b * ja + zA.c - cornerA, tb = zB.a * ib + zB.b * jb + zB.c - cornerB;
             double da = 8 * zA.a, db = 8 * zB.a;
-            double ma = 0x1p-20 * (fabs(ta) + fabs(da) * (ft1 + 1)), mb = 0x1p-20 * (fabs(tb) + fabs(db) * (ft1 + 1));
-            b->fns.span(b->tile_full + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, (float)(ta - ma), (float)da,
-                        (float)(tb - mb), (float)db, zlo);
+            double tma = 0x1p-20 * (fabs(ta) + fabs(da) * (ft1 + 1)), tmb = 0x1p-20 * (fabs(tb) + fabs(db) * (ft1 + 1));
+            b->fns.span(b->tile_full + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, (float)(ta - tma), (float)da,
+                        (float)(tb - tmb), (float)db, zlo);
             memset(b->sdirty + (size_t)ty * b->sdpitch + (ft0 >> 3), 1, (size_t)((ft1 >> 3) - (ft0 >> 3) + 1));
         }
         for (int j = r0; j <= r1; j++) {
             int x0 = lo[j - r0], x1 = hi[j - r0];
             if (x0 > x1) continue;
-            double za = zA.b * j + zA.c - cornerA, zb = zB.b * j + zB.c - cornerB;
-            double ma = 0x1p-20 * (fabs(za) + fabs(zA.a) * (x1 + 1)), mb = 0x1p-20 * (fabs(zb) + fabs(zB.a) * (x1 + 1));
-            float a0 = (float)(za - ma), b0 = (float)(zb - mb);
+            float a0 = (float)(zA.b * j + zA.c - cornerA - ma), b0 = (float)(zB.b * j + zB.c - cornerB - mb);
             if (ft0 <= ft1) {
                 write_span(b, j, x0, ft0 * 8 - 1, a0, (float)zA.a, b0, (float)zB.a, zlo);
                 write_span(b, j, ft1 * 8 + 8, x1, a0, (float)zA.a, b0, (float)zB.a, zlo);
