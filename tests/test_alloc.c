@@ -178,7 +178,115 @@ static void test_edits_under_failing_allocations(void **state)
     cull_world_destroy(w);
 }
 
+/* Occluders: every add, update and query with occlusion retried with its
+ * k-th allocation failing; a failure is CULL_ERR_NOMEM and changes nothing
+ * (occluder count, each occluder's info, what a query culls). */
+static void test_occluders_under_failing_allocations(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x0CCu};
+    cull_world *w;
+    assert_int_equal(cull_world_create(NULL, &w), CULL_OK);
+    cull_ctx *c;
+    assert_int_equal(cull_ctx_create(NULL, &c), CULL_OK);
+    /* entities behind where the walls go */
+    for (int i = 0; i < 200; i++) {
+        cull_entity_desc d = {.center = {rng_range(&r, -40, 40), rng_range(&r, 0, 20), rng_range(&r, -80, -30)},
+                              .radius = rng_range(&r, 0.1, 2)};
+        cull_handle h;
+        assert_int_equal(cull_entity_add(w, &d, &h), CULL_OK);
+    }
+    cull_view_desc vd = {.viewport_w = 256, .viewport_h = 114};
+    double proj[16], view[16], dir[3] = {0, 0, -1}, up[3] = {0, 1, 0};
+    cull_mat_perspective(proj, 1.2, 256.0 / 114, 0.1, 500, CULL_DEPTH_GL);
+    cull_mat_look_dir(view, dir, up);
+    cull_mat_mul(vd.view_proj, proj, view);
+    vd.origin[1] = 5;
+    cull_view v;
+    assert_int_equal(cull_view_init(&v, &vd), CULL_OK);
+    cull_query_desc q = {.views = &v, .view_count = 1};
+    enum { N = 12 };
+    cull_occluder oh[N];
+    cull_occluder_info info[N];
+    uint32_t n = 0;
+    size_t expect = 0, got;
+    long failures = 0;
+    for (int op = 0; op < 3 * N; op++) {
+        uint32_t kind = n < N && (op % 3 != 2) ? (rng_below(&r, 2) ? 0 : 1) : 2;
+        float quad[18];
+        float hts[16];
+        double x0 = rng_range(&r, -40, 30), y1 = rng_range(&r, 5, 25), z = rng_range(&r, -25, -12);
+        const float q6[6][3] = {{(float)x0, 0, (float)z},       {(float)x0 + 12, 0, (float)z},
+                                {(float)x0 + 12, (float)y1, (float)z}, {(float)x0, 0, (float)z},
+                                {(float)x0 + 12, (float)y1, (float)z}, {(float)x0, (float)y1, (float)z}};
+        memcpy(quad, q6, sizeof quad);
+        for (int i = 0; i < 16; i++) hts[i] = (float)rng_range(&r, 0, 10);
+        cull_terrain_desc td = {.heights = hts, .nx = 4, .nz = 4, .spacing = 5, .origin = {x0, 0, z - 15}};
+        uint32_t i = n ? rng_below(&r, n) : 0;
+        for (long k = 0;; k++) {
+            int rc;
+            cull_occluder h = 0;
+            arm(k);
+            if (kind == 0) rc = cull_occluder_add(w, &(cull_occluder_desc){.vertices = quad, .vertex_count = 6}, &h);
+            else if (kind == 1) rc = cull_terrain_add(w, &td, &h);
+            else if (n) rc = cull_occluder_update(w, oh[i], &(cull_occluder_desc){.vertices = quad, .vertex_count = 6});
+            else rc = CULL_OK;
+            disarm();
+            if (rc == CULL_ERR_NOMEM) {
+                failures++;
+                assert_int_equal(h, 0);
+                assert_int_equal(cull_occluder_count(w), n);
+                for (uint32_t k2 = 0; k2 < n; k2++) {
+                    cull_occluder_info now;
+                    assert_int_equal(cull_occluder_get_info(w, oh[k2], &now), CULL_OK);
+                    assert_memory_equal(&now, &info[k2], sizeof now);
+                }
+                assert_int_equal(cull_query(w, c, &(cull_query_desc){.views = &v, .view_count = 1,
+                                                                     .flags = CULL_Q_COUNT_ONLY},
+                                            NULL, 0, &got, NULL),
+                                 CULL_OK);
+                if (op) assert_int_equal(got, expect);
+                continue;
+            }
+            assert_int_equal(rc, CULL_OK);
+            if (kind <= 1) {
+                oh[n] = h;
+                assert_int_equal(cull_occluder_get_info(w, h, &info[n]), CULL_OK);
+                n++;
+            } else if (n) {
+                assert_int_equal(cull_occluder_get_info(w, oh[i], &info[i]), CULL_OK);
+            }
+            break;
+        }
+        q.flags = CULL_Q_COUNT_ONLY;
+        assert_int_equal(cull_query(w, c, &q, NULL, 0, &expect, NULL), CULL_OK);
+    }
+    /* a query whose occlusion buffers cannot be made fails whole */
+    cull_ctx *c2;
+    assert_int_equal(cull_ctx_create(NULL, &c2), CULL_OK);
+    for (long k = 0;; k++) {
+        arm(k);
+        int rc = cull_query(w, c2, &(cull_query_desc){.views = &v, .view_count = 1, .flags = CULL_Q_COUNT_ONLY},
+                            NULL, 0, &got, NULL);
+        disarm();
+        if (rc == CULL_ERR_NOMEM) {
+            failures++;
+            continue;
+        }
+        assert_int_equal(rc, CULL_OK);
+        assert_int_equal(got, expect);
+        break;
+    }
+    fprintf(stderr, "allocation failures injected into occluder edits and queries: %ld, none changed anything\n",
+            failures);
+    assert_true(failures > 20);
+    cull_ctx_destroy(c2);
+    cull_ctx_destroy(c);
+    cull_world_destroy(w);
+}
+
 const struct CMUnitTest alloc_tests[] = {
+    cmocka_unit_test(test_occluders_under_failing_allocations),
     cmocka_unit_test(test_edits_under_failing_allocations),
 };
 const size_t alloc_tests_count = sizeof alloc_tests / sizeof alloc_tests[0];
