@@ -175,6 +175,38 @@ static inline vf area_upper(const cull_kview *restrict k, const vf bx[2], const 
  * the nearest w); a box reaching w <= 0 within that error is kept. A box
  * whose rectangle misses the buffer entirely is not on screen: culled.
  * Returns the lanes still visible. */
+/* The lanes of `lanes` whose NDC rectangle (grown by e) has a pixel of the
+ * occlusion buffer not nearer than z. A rectangle that misses the buffer
+ * is off screen: not visible. */
+static inline uint32_t occ_rect_lanes(const cull_kview *restrict k, vf xmin, vf xmax, vf ymin, vf ymax, vf e, vf z,
+                                      uint32_t lanes)
+{
+    vf one = vf_set(1.0f), hw = vf_set(k->occ_sx), hh = vf_set(k->occ_sy);
+    vf lo = vf_set(-1.0f), hix = vf_set(k->occ_w + 1.0f), hiy = vf_set(k->occ_h + 1.0f);
+    float fx0[W], fx1[W], fy0[W], fy1[W], fz[W];
+    vf_store(fx0, vf_min(vf_max(vf_mul(vf_sub(vf_add(xmin, one), e), hw), lo), hix));
+    vf_store(fx1, vf_min(vf_max(vf_mul(vf_add(vf_add(xmax, one), e), hw), lo), hix));
+    vf_store(fy0, vf_min(vf_max(vf_mul(vf_sub(vf_add(ymin, one), e), hh), lo), hiy));
+    vf_store(fy1, vf_min(vf_max(vf_mul(vf_add(vf_add(ymax, one), e), hh), lo), hiy));
+    vf_store(fz, z);
+    const int bw = (int)k->occ_w - 1, bh = (int)k->occ_h - 1;
+    uint32_t vis = 0;
+    for (uint32_t m = lanes; m; m &= m - 1) {
+        uint32_t l = (uint32_t)__builtin_ctz(m);
+        /* floor(x0) and ceil(x1) - 1 for values >= -1 */
+        int i0 = (int)(fx0[l] + 1.0f) - 1, j0 = (int)(fy0[l] + 1.0f) - 1;
+        int i1 = (int)fx1[l], j1 = (int)fy1[l];
+        i1 -= !((float)i1 < fx1[l]);
+        j1 -= !((float)j1 < fy1[l]);
+        i0 = i0 < 0 ? 0 : i0;
+        j0 = j0 < 0 ? 0 : j0;
+        i1 = i1 > bw ? bw : i1;
+        j1 = j1 > bh ? bh : j1;
+        if (i0 <= i1 && j0 <= j1 && cull_occ_rect_visible(k->occ, i0, j0, i1, j1, fz[l])) vis |= 1u << l;
+    }
+    return vis;
+}
+
 static inline uint32_t occ_lanes(const cull_kview *restrict k, const vf bx[2], const vf by[2], const vf bz[2],
                                  uint32_t live)
 {
@@ -223,44 +255,38 @@ static inline uint32_t occ_lanes(const cull_kview *restrict k, const vf bx[2], c
     vf den = vf_select(vf_ge(num, zero), wlo, vf_add(wmax, ew));
     vf z = vf_div(num, den);
     z = vf_fma(vf_abs(z), eps, z);
-    vf xmin = vf_set(INFINITY), ymin = xmin, xmax = vf_set(-INFINITY), ymax = xmax;
-#pragma GCC unroll 8
-    for (int c = 0; c < 8; c++) {
-        int i = c & 1, j = (c >> 1) & 1, l = c >> 2;
-        vf X = vf_add(vf_add(px[i][0], px[j][1]), px[l][2]);
-        vf Y = vf_add(vf_add(py[i][0], py[j][1]), py[l][2]);
-        vf Wc = vf_add(vf_add(pw[i][0], pw[j][1]), pw[l][2]);
-        vf rw = vf_rcp(Wc);
-        xmin = vf_min(xmin, vf_mul(X, rw));
-        xmax = vf_max(xmax, vf_mul(X, rw));
-        ymin = vf_min(ymin, vf_mul(Y, rw));
-        ymax = vf_max(ymax, vf_mul(Y, rw));
-    }
     /* NDC error: (err X + |ndc| err W) / w, bounded generously */
     vf e = vf_fma(vf_mul(vf_set(0x1p-18f), vf_add(vf_add(sx, sy), sw)), vf_rcp(wlo), eps);
-    vf one = vf_set(1.0f), hw = vf_set(k->occ_sx), hh = vf_set(k->occ_sy);
-    vf lo = vf_set(-1.0f), hix = vf_set(k->occ_w + 1.0f), hiy = vf_set(k->occ_h + 1.0f);
-    float fx0[W], fx1[W], fy0[W], fy1[W], fz[W];
-    vf_store(fx0, vf_min(vf_max(vf_mul(vf_sub(vf_add(xmin, one), e), hw), lo), hix));
-    vf_store(fx1, vf_min(vf_max(vf_mul(vf_add(vf_add(xmax, one), e), hw), lo), hix));
-    vf_store(fy0, vf_min(vf_max(vf_mul(vf_sub(vf_add(ymin, one), e), hh), lo), hiy));
-    vf_store(fy1, vf_min(vf_max(vf_mul(vf_add(vf_add(ymax, one), e), hh), lo), hiy));
-    vf_store(fz, z);
-    const int bw = (int)k->occ_w - 1, bh = (int)k->occ_h - 1;
-    for (uint32_t m = front; m; m &= m - 1) {
-        uint32_t l = (uint32_t)__builtin_ctz(m);
-        /* floor(x0) and ceil(x1) - 1 for values >= -1 */
-        int i0 = (int)(fx0[l] + 1.0f) - 1, j0 = (int)(fy0[l] + 1.0f) - 1;
-        int i1 = (int)fx1[l], j1 = (int)fy1[l];
-        i1 -= !((float)i1 < fx1[l]);
-        j1 -= !((float)j1 < fy1[l]);
-        i0 = i0 < 0 ? 0 : i0;
-        j0 = j0 < 0 ? 0 : j0;
-        i1 = i1 > bw ? bw : i1;
-        j1 = j1 > bh ? bh : j1;
-        if (i0 > i1 || j0 > j1 || !cull_occ_rect_visible(k->occ, i0, j0, i1, j1, fz[l])) live &= ~(1u << l);
+    /* first a cheap rectangle: over the box, clip x lies in [Xlo, Xhi] and
+       w in [wlo, whi], so x / w lies between the quotients of their ends
+       (2 reciprocals); what it hides is hidden */
+    vf rlo = vf_rcp(wlo), rhi = vf_rcp(vf_add(wmax, ew));
+    vf xlo = vf_add(vf_add(vf_min(px[0][0], px[1][0]), vf_min(px[0][1], px[1][1])), vf_min(px[0][2], px[1][2]));
+    vf xhi = vf_add(vf_add(vf_max(px[0][0], px[1][0]), vf_max(px[0][1], px[1][1])), vf_max(px[0][2], px[1][2]));
+    vf ylo = vf_add(vf_add(vf_min(py[0][0], py[1][0]), vf_min(py[0][1], py[1][1])), vf_min(py[0][2], py[1][2]));
+    vf yhi = vf_add(vf_add(vf_max(py[0][0], py[1][0]), vf_max(py[0][1], py[1][1])), vf_max(py[0][2], py[1][2]));
+    uint32_t vis = occ_rect_lanes(k, vf_min(vf_mul(xlo, rlo), vf_mul(xlo, rhi)), vf_max(vf_mul(xhi, rlo), vf_mul(xhi, rhi)),
+                                  vf_min(vf_mul(ylo, rlo), vf_mul(ylo, rhi)), vf_max(vf_mul(yhi, rlo), vf_mul(yhi, rhi)),
+                                  e, z, front);
+    if (vis) {
+        /* then, for what may be visible, the exact rectangle of the 8
+           projected corners (inside the cheap one) */
+        vf xmin = vf_set(INFINITY), ymin = xmin, xmax = vf_set(-INFINITY), ymax = xmax;
+#pragma GCC unroll 8
+        for (int c = 0; c < 8; c++) {
+            int i = c & 1, j = (c >> 1) & 1, l = c >> 2;
+            vf X = vf_add(vf_add(px[i][0], px[j][1]), px[l][2]);
+            vf Y = vf_add(vf_add(py[i][0], py[j][1]), py[l][2]);
+            vf Wc = vf_add(vf_add(pw[i][0], pw[j][1]), pw[l][2]);
+            vf rw = vf_rcp(Wc);
+            xmin = vf_min(xmin, vf_mul(X, rw));
+            xmax = vf_max(xmax, vf_mul(X, rw));
+            ymin = vf_min(ymin, vf_mul(Y, rw));
+            ymax = vf_max(ymax, vf_mul(Y, rw));
+        }
+        vis = occ_rect_lanes(k, xmin, xmax, ymin, ymax, e, z, vis);
     }
-    return live;
+    return (live & ~front) | vis;
 }
 
 /* ---- writing results ------------------------------------------------------ */

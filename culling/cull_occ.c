@@ -104,6 +104,7 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->tile = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float)); /* tw * 4 bytes = 64 k */
     b->tile2 = malloc((size_t)b->t2w * b->t2h * sizeof(float));
     b->tile_full = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
+    b->teff = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
     /* strips: 8 tiles of one tile row (64 x 8 pixels); rows padded to 64
        bytes like the tile states */
     b->spitch = (b->t2w + 15) & ~15u;
@@ -113,7 +114,7 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     /* a tile row of states per 64 bytes: bands never share a cache line */
     b->tpitch = (b->tw + 63) & ~63u;
     b->tstate = aligned_alloc(64, (size_t)b->tpitch * b->th);
-    if (!b->depth || !b->tile || !b->tile2 || !b->tile_full || !b->tstate || !b->strip || !b->sdirty) {
+    if (!b->depth || !b->tile || !b->tile2 || !b->tile_full || !b->teff || !b->tstate || !b->strip || !b->sdirty) {
         cull_occ_buffer_destroy(b);
         return CULL_ERR_NOMEM;
     }
@@ -121,7 +122,7 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     for (size_t i = 0; i < (size_t)b->stride * b->hp; i++) b->depth[i] = PAD;
     for (uint32_t y = 0; y < b->h; y++)
         for (uint32_t x = 0; x < b->w; x++) b->depth[(size_t)y * b->stride + x] = EMPTY;
-    for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = b->tile_full[i] = EMPTY;
+    for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = b->tile_full[i] = b->teff[i] = EMPTY;
     memset(b->tstate, TILE_CLEAN, (size_t)b->tpitch * b->th);
     for (size_t i = 0; i < (size_t)b->spitch * b->th; i++) b->strip[i] = EMPTY;
     memset(b->sdirty, 0, (size_t)b->sdpitch * b->th);
@@ -140,6 +141,7 @@ void cull_occ_buffer_destroy(cull_occ_buffer *b)
     free(b->tile);
     free(b->tile2);
     free(b->tile_full);
+    free(b->teff);
     free(b->tstate);
     free(b->strip);
     free(b->sdirty);
@@ -181,6 +183,7 @@ const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *heigh
                 }
             b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
             *st = TILE_CLEAN;
+            b->teff[i] = b->tile[i];
         }
     if (width) *width = b->w;
     if (height) *height = b->h;
@@ -261,11 +264,11 @@ int cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const dou
     return OCC_BOX_OK;
 }
 
-/* A cheaper, looser cull_occ_project_box for clusters (the draw list):
+/* A cheaper, looser cull_occ_project_box for clusters and cells:
  * over the box, each clip row lies within centre +- extent, so x = X / W
  * lies between the quotients of the interval ends (4 divisions, not 8
  * corners). The rectangle can only be larger and the nearness nearer. */
-static int project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r)
+int cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r)
 {
     double c[3], e[3];
     for (int a = 0; a < 3; a++) {
@@ -301,25 +304,30 @@ static int project_bound(const cull_occ_buffer *b, const double mn[3], const dou
 
 /* Some pixel of the rectangle not strictly nearer than z? */
 /* The 8x8 tiles over a rectangle, and the pixels of those not entirely
- * nearer than z. */
+ * nearer than z. Rows of a tile are at most 8 pixels: scanned inline. */
 static bool tiles_visible(const cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z)
 {
-    for (int ty = y0 >> 3; ty <= y1 >> 3; ty++)
+    for (int ty = y0 >> 3; ty <= y1 >> 3; ty++) {
         for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
-            size_t i = (size_t)ty * b->tw + tx;
-            if (b->tile_full[i] > z) continue;
+            if (b->teff[(size_t)ty * b->tw + tx] > z) continue;
             if (b->tstate[(size_t)ty * b->tpitch + tx] == TILE_INVALID) return true; /* pixels all EMPTY */
-            if (b->tile[i] > z) continue;
             int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
             int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
-            for (int py = py0; py <= py1; py++)
-                if (b->fns.any_le(b->depth + (size_t)py * b->stride, px0, px1, (int)b->stride, z)) return true;
+            for (int py = py0; py <= py1; py++) {
+                const float *row = b->depth + (size_t)py * b->stride;
+                int hit = 0;
+                for (int px = px0; px <= px1; px++) hit |= row[px] <= z;
+                if (hit) return true;
+            }
         }
+    }
     return false;
 }
 
 bool cull_occ_rect_visible(const cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z)
 {
+    /* small rectangles (most entities) go straight to the 8x8 tiles */
+    if (x1 - x0 < 32 && y1 - y0 < 32) return tiles_visible(b, x0, y0, x1, y1, z);
     for (int Y = y0 >> 6; Y <= y1 >> 6; Y++)
         for (int X = x0 >> 6; X <= x1 >> 6; X++) {
             if (b->tile2[Y * b->t2w + X] > z) continue;
@@ -697,6 +705,8 @@ static void band_finish_tiles(band *bd)
             tx = end;
         }
         for (uint32_t sx = 0; sx < b->t2w; sx++) (void)band_strip(b, (int)sx, ty);
+        /* what the tests read: one value per tile */
+        for (uint32_t tx = 0; tx < b->tw; tx++) b->teff[(size_t)ty * b->tw + tx] = band_tile(b, (int)tx, ty);
     }
 }
 
@@ -823,7 +833,7 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
             if (b->codes[i] & 0x80u) continue;
             const cull_occ_cluster *cl = w->ocl[i];
             cull_occ_item *it = &b->items[n];
-            int k = project_bound(b, cl->bmin, cl->bmax, &it->r);
+            int k = cull_occ_project_bound(b, cl->bmin, cl->bmax, &it->r);
             if (k == OCC_BOX_OFF) continue;
             it->cl = cl;
             it->near = k == OCC_BOX_NEAR;

@@ -60,6 +60,8 @@ struct cull_occ_buffer {
     float   *depth;         /* stride * hp, row 0 = bottom */
     float   *tile, *tile2;  /* minima */
     float   *tile_full;     /* per 8x8 tile, a value every pixel's stands at or above */
+    float   *teff;          /* per tile, after a render: the larger of tile_full and
+                               the pixels' minimum (what the tests read first) */
     uint8_t *tstate;        /* per tile: pixels stale / minimum current / written since */
     uint32_t tpitch;        /* bytes per tile row of tstate */
     float   *strip;         /* per 8 tiles of a tile row: minimum of their effective minima */
@@ -88,6 +90,8 @@ struct cull_occ_buffer {
 
 void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v);
 int  cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r);
+/* Looser and cheaper (4 divisions, not 8 corners): for clusters and cells. */
+int  cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r);
 int  cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
                          uint32_t threads, uint32_t isa, cull_occ_stats *st);
 
