@@ -413,9 +413,10 @@ static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *
     return true;
 }
 
-/* A tile's effective minimum: the coarse value, or the minimum of its
- * pixels (recomputed first if spans wrote into it since), whichever is
- * nearer. An invalid tile's pixels are all EMPTY. */
+/* A tile's effective minimum (teff): the coarse value, or the minimum of
+ * its pixels (recomputed first if spans wrote into it since), whichever is
+ * nearer. An invalid tile's pixels are all EMPTY, so its teff is its
+ * coarse value; coarse writes raise teff with the same span. */
 static inline float band_tile(cull_occ_buffer *b, int tx, int ty)
 {
     size_t i = (size_t)ty * b->tw + tx;
@@ -423,8 +424,9 @@ static inline float band_tile(cull_occ_buffer *b, int tx, int ty)
     if (*st == TILE_DIRTY) {
         b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
         *st = TILE_CLEAN;
+        b->teff[i] = b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
     }
-    return *st == TILE_INVALID || b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
+    return b->teff[i];
 }
 
 /* A strip's minimum (8 tiles of one tile row), brought up to date first. */
@@ -460,9 +462,14 @@ static bool tile_row_hidden(cull_occ_buffer *b, int ty, int tx0, int tx1, float 
  * (not the padding) to EMPTY before the first span writes into it. */
 static void clear_tile(cull_occ_buffer *b, int tx, int ty)
 {
+    static const float empty8[8] = {EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY};
     int y1 = ty * 8 + 8 < (int)b->h ? ty * 8 + 8 : (int)b->h;
     uint32_t n = tx * 8 + 8 <= (int)b->w ? 8u : b->w - (uint32_t)tx * 8;
-    for (int y = ty * 8; y < y1; y++) b->fns.fill(b->depth + (size_t)y * b->stride + (size_t)tx * 8, n, EMPTY);
+    float *p = b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8;
+    if (n == 8)
+        for (int y = ty * 8; y < y1; y++, p += b->stride) memcpy(p, empty8, sizeof empty8);
+    else
+        for (int y = ty * 8; y < y1; y++, p += b->stride) memcpy(p, empty8, n * sizeof *p);
 }
 
 /* A span of row j, [x0, x1] (may be empty), with its tiles made valid and
@@ -478,7 +485,9 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static inline void
         st[tx] = TILE_DIRTY;
     }
     uint8_t *sd = b->sdirty + (size_t)(j >> 3) * b->sdpitch;
-    for (int sx = x0 >> 6; sx <= x1 >> 6; sx++) sd[sx] = 1;
+    sd[x0 >> 6] = 1;
+    sd[x1 >> 6] = 1;
+    for (int sx = (x0 >> 6) + 1; sx < x1 >> 6; sx++) sd[sx] = 1;
     b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (int)b->stride, a0, da, b0, db, lo);
 }
 
@@ -643,6 +652,8 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
             double tma = 0x1p-20 * (fabs(ta) + fabs(da) * (ft1 + 1)), tmb = 0x1p-20 * (fabs(tb) + fabs(db) * (ft1 + 1));
             b->fns.span(b->tile_full + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, (float)(ta - tma), (float)da,
                         (float)(tb - tmb), (float)db, zlo);
+            b->fns.span(b->teff + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, (float)(ta - tma), (float)da,
+                        (float)(tb - tmb), (float)db, zlo);
             memset(b->sdirty + (size_t)ty * b->sdpitch + (ft0 >> 3), 1, (size_t)((ft1 >> 3) - (ft0 >> 3) + 1));
         }
         for (int j = r0; j <= r1; j++) {
@@ -702,11 +713,13 @@ static void band_finish_tiles(band *bd)
             b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, end - tx,
                          b->tile + (size_t)ty * b->tw + tx);
             memset(d + tx, TILE_CLEAN, end - tx);
+            for (uint32_t k = tx; k < end; k++) {
+                size_t i = (size_t)ty * b->tw + k;
+                b->teff[i] = b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
+            }
             tx = end;
         }
         for (uint32_t sx = 0; sx < b->t2w; sx++) (void)band_strip(b, (int)sx, ty);
-        /* what the tests read: one value per tile */
-        for (uint32_t tx = 0; tx < b->tw; tx++) b->teff[(size_t)ty * b->tw + tx] = band_tile(b, (int)tx, ty);
     }
 }
 
@@ -738,6 +751,7 @@ static void job_band(void *arg, uint32_t t)
            covered whole by a coarse value) */
         for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
             b->fns.fill(b->tile_full + (size_t)ty * b->tw, b->tw, EMPTY);
+            b->fns.fill(b->teff + (size_t)ty * b->tw, b->tw, EMPTY);
             memset(b->tstate + (size_t)ty * b->tpitch, TILE_INVALID, b->tw);
             b->fns.fill(b->strip + (size_t)ty * b->spitch, b->t2w, EMPTY);
             memset(b->sdirty + (size_t)ty * b->sdpitch, 0, b->t2w);
