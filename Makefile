@@ -144,7 +144,7 @@ $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(LDLIBS)
 
-$(BUILD)/tests/bench/bench_occlusion.o: CPPFLAGS += -Itests -Irender -DVANTAGE_HAVE_EXR
+$(BUILD)/tests/bench/bench_occlusion.o: CPPFLAGS += -DVANTAGE_HAVE_EXR
 
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka) -Itests -Irender
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR)

@@ -4,6 +4,7 @@
  * validation is running out of memory, which is rolled back.
  */
 #include "scene.h"
+#include "log.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -392,6 +393,10 @@ int scene_occluder_put(scene *s, const vp_occluder *o, scene_err *err)
         free(old->verts);
         free(old);
     }
+    cull_occluder_info info;
+    if (n->h && cull_occluder_get_info(s->world, n->h, &info) == CULL_OK && info.dropped)
+        LOGW("occluder %llu: %u of %u triangles degenerate (zero area), dropped", (unsigned long long)o->id,
+             info.dropped, o->tri_count);
     idmap_put(&s->occluders, o->id, (uint64_t)(uintptr_t)n);
     s->epoch++;
     return VP_OK;
