@@ -125,6 +125,8 @@ typedef struct cull_occ_cluster {
     const cull_occ_face *f;
     uint32_t nv, nf;
     uint32_t widx;     /* position in the world's cluster arrays */
+    uint32_t convex;   /* closed (every edge shared by two faces, opposite
+                          ways) and convex: drawn as one silhouette */
 } cull_occ_cluster;
 
 typedef struct cull_occ_mesh {

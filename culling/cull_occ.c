@@ -475,8 +475,8 @@ static void clear_tile(cull_occ_buffer *b, int tx, int ty)
 /* A span of row j, [x0, x1] (may be empty), with its tiles made valid and
  * marked dirty. (The flag loops cover one or two entries: kept as loops,
  * not turned into memset calls.) */
-__attribute__((optimize("no-tree-loop-distribute-patterns"))) static inline void write_span(cull_occ_buffer *b, int j, int x0, int x1, float a0, float da, float b0, float db,
-                              float lo)
+__attribute__((optimize("no-tree-loop-distribute-patterns"))) static inline void write_span(
+    cull_occ_buffer *b, int j, int x0, int x1, const float z0[3], const float dz[3], float lo)
 {
     if (x0 > x1) return;
     uint8_t *st = b->tstate + (size_t)(j >> 3) * b->tpitch;
@@ -488,102 +488,48 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static inline void
     sd[x0 >> 6] = 1;
     sd[x1 >> 6] = 1;
     for (int sx = (x0 >> 6) + 1; sx < x1 >> 6; sx++) sd[sx] = 1;
-    b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (int)b->stride, a0, da, b0, db, lo);
+    b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (int)b->stride, z0[0], dz[0], z0[1], dz[1], z0[2], dz[2],
+                lo);
 }
 
-static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
+/* What the row and tile loops rasterise: a convex region given by linear
+ * constraints over pixel indices (edges, the near plane), up to three
+ * nearness planes whose minimum is the surface, and the nearness range and
+ * NDC bounds of the region's vertices. */
+typedef struct rpoly {
+    lin3 con[MAX_CONS];
+    uint32_t nc;
+    lin3 z[3];
+    uint32_t nz;
+    double nmin, nmax;
+    double xmin, xmax, ymin, ymax;
+} rpoly;
+
+static void raster_poly(band *bd, rpoly *p)
 {
     cull_occ_buffer *b = bd->b;
-    const cvert *v[4];
-    for (uint32_t k = 0; k < f->n; k++) v[k] = &cv[f->v[k]];
-    uint32_t n = f->n;
-
-    bool all_front = true, any_front = false;
-    for (uint32_t k = 0; k < n; k++) {
-        if (v[k]->n > 0) any_front = true;
-        else all_front = false;
-    }
-    if (!any_front) return;
-
-    /* back faces first: they are half of what arrives, and cheap to spot */
-    {
-        double e[3];
-        cross_xyw(e, v[1], v[2]);
-        if (!(e[0] * v[0]->x + e[1] * v[0]->y + e[2] * v[0]->w > 0)) return;
-    }
-
-    /* the part in front of the near plane: its projection bounds the rows,
-       its vertices bound the nearness from below */
-    double ymin = INFINITY, ymax = -INFINITY, xmin = INFINITY, xmax = -INFINITY, nmin = INFINITY, nmax = -INFINITY;
-    for (uint32_t k = 0; k < n; k++) {
-        const cvert *p = v[k], *q = v[(k + 1) % n];
-        cvert o[2];
-        uint32_t no = 0;
-        if (p->n > 0) o[no++] = *p;
-        if ((p->n > 0) != (q->n > 0)) {
-            double t = p->n / (p->n - q->n);
-            o[no++] = (cvert){p->x + t * (q->x - p->x), p->y + t * (q->y - p->y), p->w + t * (q->w - p->w), 0,
-                              p->d + t * (q->d - p->d)};
-        }
-        for (uint32_t i = 0; i < no; i++) {
-            if (!(o[i].w > 0)) return; /* a projection whose near plane is not in front of the eye */
-            double iw = 1.0 / o[i].w, x = o[i].x * iw, y = o[i].y * iw;
-            xmin = dmin(xmin, x);
-            xmax = dmax(xmax, x);
-            ymin = dmin(ymin, y);
-            ymax = dmax(ymax, y);
-            nmin = dmin(nmin, o[i].d * iw);
-            nmax = dmax(nmax, o[i].d * iw);
-        }
-    }
     /* the pixels that may be marked: centres inside (centre coverage), or
        squares inside (whole-pixel coverage), of the projected bounds */
     double in0 = b->inner ? 0.0 : 0.5, in1 = b->inner ? 1.0 : 0.5;
-    double fi0 = dmax(dceil((xmin + 1) * b->sx - in0), 0), fi1 = dmin(dfloor((xmax + 1) * b->sx - in1), b->w - 1.0);
-    double fj0 = dmax(dceil((ymin + 1) * b->sy - in0), bd->y0), fj1 = dmin(dfloor((ymax + 1) * b->sy - in1), bd->y1 - 1.0);
+    double fi0 = dmax(dceil((p->xmin + 1) * b->sx - in0), 0), fi1 = dmin(dfloor((p->xmax + 1) * b->sx - in1), b->w - 1.0);
+    double fj0 = dmax(dceil((p->ymin + 1) * b->sy - in0), bd->y0);
+    double fj1 = dmin(dfloor((p->ymax + 1) * b->sy - in1), bd->y1 - 1.0);
     if (!(fi0 <= fi1 && fj0 <= fj1)) return;
-    int i0 = (int)fi0, i1 = (int)fi1, j0 = (int)fj0, j1 = (int)fj1;
-
-
-    /* halves (0,1,2) and, for a quad, (2,3,0): both must face the eye */
-    lin3 nearA, nearB, zA, zB;
-    double detA, detB;
-    if (!half_planes(b, v[0], v[1], v[2], &nearA, &zA, &detA)) return;
+    int i0 = (int)fi0, i1 = (int)fi1;
     bd->faces++;
-    if (n == 4) {
-        if (!half_planes(b, v[2], v[3], v[0], &nearB, &zB, &detB)) return;
-    } else {
-        nearB = nearA;
-        zB = zA;
-    }
-
-    /* constraints: the edges, then the near plane if the face crosses it */
-    lin3 con[MAX_CONS];
-    uint32_t nc = 0;
-    for (uint32_t k = 0; k < n; k++) {
-        double e[3];
-        cross_xyw(e, v[k], v[(k + 1) % n]);
-        con[nc++] = to_pixels(b, e);
-    }
-    if (!all_front) {
-        con[nc++] = nearA;
-        if (n == 4) con[nc++] = nearB;
-    }
-    double marg[MAX_CONS];
-    for (uint32_t k = 0; k < nc; k++) {
-        marg[k] = 0x1p-24 * (fabs(con[k].a) * b->w + fabs(con[k].b) * b->h + fabs(con[k].c));
-        if (b->inner) marg[k] += 0.5 * (fabs(con[k].a) + fabs(con[k].b));
-    }
 
     /* per constraint, the row's bound on x is linear in j: x > al + be j
        (a > 0: a left edge) or x < al + be j (a < 0: a right edge); with
-       a == 0 it bounds the rows instead */
+       a == 0 it bounds the rows instead. Each constraint is shrunk by 2^-24
+       of its range over the buffer, and for whole-pixel coverage by half
+       its gradient (the pixel's worst corner). */
     double lal[MAX_CONS], lbe[MAX_CONS], ral[MAX_CONS], rbe[MAX_CONS];
     uint32_t nl = 0, nr = 0;
-    fj0 = j0;
-    fj1 = j1;
-    for (uint32_t k = 0; k < nc; k++) {
-        double a = con[k].a, bb = con[k].b, t = marg[k] - con[k].c;
+    for (uint32_t k = 0; k < p->nc; k++) {
+        const lin3 *c = &p->con[k];
+        double marg = 0x1p-24 * (fabs(c->a) * b->w + fabs(c->b) * b->h + fabs(c->c));
+        if (b->inner) marg += 0.5 * (fabs(c->a) + fabs(c->b));
+        double a = c->a, bb = c->b, t = marg - c->c;
         if (a > 0) {
             lal[nl] = t / a;
             lbe[nl++] = -bb / a;
@@ -599,26 +545,29 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
         }
     }
     if (fj0 > fj1) return;
-    j0 = (int)fj0;
-    j1 = (int)fj1;
-    /* nearness at the pixel's farthest corner, never below the farthest
-       vertex; float rounding of the span loop (2^-21 relative) taken off
-       with room for the conversion to float */
-    double cornerA = 0.5 * (fabs(zA.a) + fabs(zA.b)), cornerB = 0.5 * (fabs(zB.a) + fabs(zB.b));
-    /* one margin per face for every row: 2^-20 of the largest magnitude
-       the span loop can see */
-    double ma = 0x1p-20 * (fabs(zA.b) * (j1 + 1) + fabs(zA.c) + cornerA + fabs(zA.a) * (i1 + 1));
-    double mb = 0x1p-20 * (fabs(zB.b) * (j1 + 1) + fabs(zB.c) + cornerB + fabs(zB.a) * (i1 + 1));
-    double nlo = nmin - 0x1p-20 * fabs(nmin);
+    int j0 = (int)fj0, j1 = (int)fj1;
+
+    /* nearness at the pixel's farthest corner (per plane: half its
+       gradients off), never below the farthest vertex; one margin per plane
+       for every row, 2^-20 of the largest magnitude the span loop sees */
+    while (p->nz < 3) p->z[p->nz++] = p->z[0];
+    double corner[3], m[3];
+    for (int k = 0; k < 3; k++) {
+        const lin3 *z = &p->z[k];
+        corner[k] = 0.5 * (fabs(z->a) + fabs(z->b));
+        m[k] = 0x1p-20 * (fabs(z->b) * (j1 + 1) + fabs(z->c) + corner[k] + fabs(z->a) * (i1 + 1));
+    }
+    double nlo = p->nmin - 0x1p-20 * fabs(p->nmin);
     float zlo = cull_round_down(nlo);
-    /* a tile row (8 pixel rows) at a time: tiles that every row's span
-       covers whole get one coarse value (tile_full); only the rest of
-       each span is written pixel by pixel */
-    /* where the buffer is already nearer than the face's nearest point over
+    float da[3] = {(float)p->z[0].a, (float)p->z[1].a, (float)p->z[2].a};
+    /* where the buffer is already nearer than the region's nearest point over
        a whole tile row of its bounds, the tile row is skipped: front-to-
        back order pays again, inside a cluster and for the part of a face
        that a nearer one hides */
-    float zhi = cull_round_up(nmax + 0x1p-20 * fabs(nmax));
+    float zhi = cull_round_up(p->nmax + 0x1p-20 * fabs(p->nmax));
+    /* a tile row (8 pixel rows) at a time: tiles that every row's span
+       covers whole get one coarse value (tile_full); only the rest of
+       each span is written pixel by pixel */
     for (int ty = j0 >> 3; ty <= j1 >> 3; ty++) {
         if (ty % bd->nb != bd->k) continue;
         if (tile_row_hidden(b, ty, i0 >> 3, i1 >> 3, zhi)) continue;
@@ -643,31 +592,211 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
         }
         if (ft0 <= ft1) {
             /* the minimum over a tile's pixels of what they would store is
-               the plane at the tile's farthest pixel corner: linear in tx,
+               each plane at the tile's farthest pixel corner: linear in tx,
                so the coarse values are one more span, over tile_full */
-            double ia = zA.a >= 0 ? 0 : 7, ja = zA.b >= 0 ? ty * 8 : ty * 8 + 7;
-            double ib = zB.a >= 0 ? 0 : 7, jb = zB.b >= 0 ? ty * 8 : ty * 8 + 7;
-            double ta = zA.a * ia + zA.b * ja + zA.c - cornerA, tb = zB.a * ib + zB.b * jb + zB.c - cornerB;
-            double da = 8 * zA.a, db = 8 * zB.a;
-            double tma = 0x1p-20 * (fabs(ta) + fabs(da) * (ft1 + 1)), tmb = 0x1p-20 * (fabs(tb) + fabs(db) * (ft1 + 1));
-            b->fns.span(b->tile_full + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, (float)(ta - tma), (float)da,
-                        (float)(tb - tmb), (float)db, zlo);
-            b->fns.span(b->teff + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, (float)(ta - tma), (float)da,
-                        (float)(tb - tmb), (float)db, zlo);
+            float t0[3], dt[3];
+            for (int k = 0; k < 3; k++) {
+                const lin3 *z = &p->z[k];
+                double ia = z->a >= 0 ? 0 : 7, ja = z->b >= 0 ? ty * 8 : ty * 8 + 7;
+                double t = z->a * ia + z->b * ja + z->c - corner[k], d = 8 * z->a;
+                t0[k] = (float)(t - 0x1p-20 * (fabs(t) + fabs(d) * (ft1 + 1)));
+                dt[k] = (float)d;
+            }
+            b->fns.span(b->tile_full + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, t0[0], dt[0], t0[1], dt[1], t0[2],
+                        dt[2], zlo);
+            b->fns.span(b->teff + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, t0[0], dt[0], t0[1], dt[1], t0[2], dt[2],
+                        zlo);
             memset(b->sdirty + (size_t)ty * b->sdpitch + (ft0 >> 3), 1, (size_t)((ft1 >> 3) - (ft0 >> 3) + 1));
         }
         for (int j = r0; j <= r1; j++) {
             int x0 = lo[j - r0], x1 = hi[j - r0];
             if (x0 > x1) continue;
-            float a0 = (float)(zA.b * j + zA.c - cornerA - ma), b0 = (float)(zB.b * j + zB.c - cornerB - mb);
+            float z0[3];
+            for (int k = 0; k < 3; k++) z0[k] = (float)(p->z[k].b * j + p->z[k].c - corner[k] - m[k]);
             if (ft0 <= ft1) {
-                write_span(b, j, x0, ft0 * 8 - 1, a0, (float)zA.a, b0, (float)zB.a, zlo);
-                write_span(b, j, ft1 * 8 + 8, x1, a0, (float)zA.a, b0, (float)zB.a, zlo);
+                write_span(b, j, x0, ft0 * 8 - 1, z0, da, zlo);
+                write_span(b, j, ft1 * 8 + 8, x1, z0, da, zlo);
             } else {
-                write_span(b, j, x0, x1, a0, (float)zA.a, b0, (float)zB.a, zlo);
+                write_span(b, j, x0, x1, z0, da, zlo);
             }
         }
     }
+}
+
+/* One face: its edges (and the near plane where it crosses it), its
+ * halves' nearness planes, the bounds of its part in front of the near
+ * plane. Back faces and edge-on faces are skipped. */
+static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
+{
+    cull_occ_buffer *b = bd->b;
+    const cvert *v[4];
+    for (uint32_t k = 0; k < f->n; k++) v[k] = &cv[f->v[k]];
+    uint32_t n = f->n;
+
+    bool all_front = true, any_front = false;
+    for (uint32_t k = 0; k < n; k++) {
+        if (v[k]->n > 0) any_front = true;
+        else all_front = false;
+    }
+    if (!any_front) return;
+
+    /* back faces first: they are half of what arrives, and cheap to spot */
+    {
+        double e[3];
+        cross_xyw(e, v[1], v[2]);
+        if (!(e[0] * v[0]->x + e[1] * v[0]->y + e[2] * v[0]->w > 0)) return;
+    }
+
+    /* the part in front of the near plane: its projection bounds the rows,
+       its vertices bound the nearness */
+    rpoly p = {.xmin = INFINITY, .xmax = -INFINITY, .ymin = INFINITY, .ymax = -INFINITY, .nmin = INFINITY,
+               .nmax = -INFINITY};
+    for (uint32_t k = 0; k < n; k++) {
+        const cvert *a = v[k], *q = v[(k + 1) % n];
+        cvert o[2];
+        uint32_t no = 0;
+        if (a->n > 0) o[no++] = *a;
+        if ((a->n > 0) != (q->n > 0)) {
+            double t = a->n / (a->n - q->n);
+            o[no++] = (cvert){a->x + t * (q->x - a->x), a->y + t * (q->y - a->y), a->w + t * (q->w - a->w), 0,
+                              a->d + t * (q->d - a->d)};
+        }
+        for (uint32_t i = 0; i < no; i++) {
+            if (!(o[i].w > 0)) return; /* a projection whose near plane is not in front of the eye */
+            double iw = 1.0 / o[i].w, x = o[i].x * iw, y = o[i].y * iw;
+            p.xmin = dmin(p.xmin, x);
+            p.xmax = dmax(p.xmax, x);
+            p.ymin = dmin(p.ymin, y);
+            p.ymax = dmax(p.ymax, y);
+            p.nmin = dmin(p.nmin, o[i].d * iw);
+            p.nmax = dmax(p.nmax, o[i].d * iw);
+        }
+    }
+
+    /* halves (0,1,2) and, for a quad, (2,3,0): both must face the eye */
+    lin3 nearA, nearB;
+    double det;
+    if (!half_planes(b, v[0], v[1], v[2], &nearA, &p.z[0], &det)) return;
+    p.nz = 1;
+    if (n == 4 && !half_planes(b, v[2], v[3], v[0], &nearB, &p.z[p.nz++], &det)) return;
+
+    /* constraints: the edges, then the near plane if the face crosses it */
+    for (uint32_t k = 0; k < n; k++) {
+        double e[3];
+        cross_xyw(e, v[k], v[(k + 1) % n]);
+        p.con[p.nc++] = to_pixels(b, e);
+    }
+    if (!all_front) {
+        p.con[p.nc++] = nearA;
+        if (n == 4) p.con[p.nc++] = nearB;
+    }
+    raster_poly(bd, &p);
+}
+
+/* 2D convex hull (Andrew's monotone chain) of points (x, y), counter-
+ * clockwise, collinear points dropped; writes indices, returns how many. */
+static uint32_t hull2(const double (*pt)[2], uint32_t n, uint32_t *idx, uint32_t *out)
+{
+    /* insertion sort by x, then y: n <= 4 * 64 and usually 8 */
+    for (uint32_t i = 0; i < n; i++) idx[i] = i;
+    for (uint32_t i = 1; i < n; i++) {
+        uint32_t t = idx[i], j = i;
+        while (j > 0 && (pt[idx[j - 1]][0] > pt[t][0] || (pt[idx[j - 1]][0] == pt[t][0] && pt[idx[j - 1]][1] > pt[t][1]))) {
+            idx[j] = idx[j - 1];
+            j--;
+        }
+        idx[j] = t;
+    }
+    uint32_t k = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        uint32_t start = k;
+        for (uint32_t ii = 0; ii < n; ii++) {
+            uint32_t i = pass ? idx[n - 1 - ii] : idx[ii];
+            while (k >= start + 2) {
+                const double *a = pt[out[k - 2]], *c = pt[out[k - 1]], *d = pt[i];
+                double cr = (c[0] - a[0]) * (d[1] - a[1]) - (c[1] - a[1]) * (d[0] - a[0]);
+                if (cr > 0) break;
+                k--;
+            }
+            out[k++] = i;
+        }
+        k--; /* the last point of each chain starts the other */
+    }
+    return k < 3 ? 0 : k;
+}
+
+/* A closed convex cluster entirely in front of the near plane, drawn as
+ * one polygon: its silhouette (the hull of its projected vertices), at the
+ * minimum of its front faces' planes (a ray enters a convex solid through
+ * the front face whose plane it crosses last). One polygon instead of two
+ * or three faces: no seam along the crease between them, and fewer rows.
+ * false if the cluster does not qualify (the caller draws its faces). */
+static bool same_plane(const lin3 *p, const lin3 *q)
+{
+    double tol = 0x1p-40 * (fabs(p->a) + fabs(p->b) + fabs(p->c) + fabs(q->a) + fabs(q->b) + fabs(q->c));
+    return fabs(p->a - q->a) * 8192 <= tol && fabs(p->b - q->b) * 8192 <= tol && fabs(p->c - q->c) <= tol;
+}
+
+static bool raster_convex(band *bd, const cvert *cv, const cull_occ_cluster *cl)
+{
+    cull_occ_buffer *b = bd->b;
+    if (!cl->convex) return false;
+    /* worth it when two or three faces show; one face is drawn as a face */
+    uint32_t front[3], nfront = 0;
+    for (uint32_t f = 0; f < cl->nf; f++) {
+        const cull_occ_face *fc = &cl->f[f];
+        const cvert *v0 = &cv[fc->v[0]], *v1 = &cv[fc->v[1]], *v2 = &cv[fc->v[2]];
+        double e[3];
+        cross_xyw(e, v1, v2);
+        if (!(e[0] * v0->x + e[1] * v0->y + e[2] * v0->w > 0)) continue; /* back or edge-on */
+        if (nfront == 3) return false;
+        front[nfront++] = f;
+    }
+    if (nfront < 2) return false;
+    rpoly p = {.xmin = INFINITY, .xmax = -INFINITY, .ymin = INFINITY, .ymax = -INFINITY, .nmin = INFINITY,
+               .nmax = -INFINITY};
+    double pt[4 * CULL_OCC_CLUSTER_FACES][2];
+    for (uint32_t i = 0; i < cl->nv; i++) {
+        const cvert *v = &cv[i];
+        if (!(v->n > 0) || !(v->w > 0)) return false; /* reaches the near plane: faces, clipped */
+        double iw = 1.0 / v->w;
+        pt[i][0] = v->x * iw;
+        pt[i][1] = v->y * iw;
+        p.xmin = dmin(p.xmin, pt[i][0]);
+        p.xmax = dmax(p.xmax, pt[i][0]);
+        p.ymin = dmin(p.ymin, pt[i][1]);
+        p.ymax = dmax(p.ymax, pt[i][1]);
+        p.nmin = dmin(p.nmin, v->d * iw);
+        p.nmax = dmax(p.nmax, v->d * iw);
+    }
+    for (uint32_t k = 0; k < nfront; k++) {
+        const cull_occ_face *fc = &cl->f[front[k]];
+        const cvert *v0 = &cv[fc->v[0]], *v2 = &cv[fc->v[2]];
+        lin3 nearA, za, zb;
+        double det;
+        if (!half_planes(b, v0, &cv[fc->v[1]], v2, &nearA, &za, &det)) return false; /* ill-conditioned */
+        p.z[p.nz++] = za;
+        /* a quad's other half: the same plane up to rounding, or one more */
+        if (fc->n == 4) {
+            if (!half_planes(b, v2, &cv[fc->v[3]], v0, &nearA, &zb, &det)) return false;
+            if (!same_plane(&za, &zb)) {
+                if (p.nz == 3) return false;
+                p.z[p.nz++] = zb;
+            }
+        }
+        if (p.nz > 3) return false;
+    }
+    uint32_t idx[4 * CULL_OCC_CLUSTER_FACES], hull[4 * CULL_OCC_CLUSTER_FACES + 1];
+    uint32_t nh = hull2((const double(*)[2])pt, cl->nv, idx, hull);
+    if (!nh) return true; /* degenerate silhouette: covers nothing */
+    if (nh > MAX_CONS) return false;
+    for (uint32_t k = 0; k < nh; k++) {
+        double e[3];
+        cross_xyw(e, &cv[hull[k]], &cv[hull[(k + 1) % nh]]);
+        p.con[p.nc++] = to_pixels(b, e);
+    }
+    raster_poly(bd, &p);
+    return true;
 }
 
 /* The rectangle of a cluster, in this band, already hidden? Strips and
@@ -731,6 +860,7 @@ static void raster_cluster(band *bd, const cull_occ_cluster *cl)
         double p[3] = {cl->v[3 * i] - b->origin[0], cl->v[3 * i + 1] - b->origin[1], cl->v[3 * i + 2] - b->origin[2]};
         cv[i] = (cvert){lin4(b->rx, p), lin4(b->ry, p), lin4(b->rw, p), lin4(b->rn, p), lin4(b->rd, p)};
     }
+    if (raster_convex(bd, cv, cl)) return;
     for (uint32_t f = 0; f < cl->nf; f++) raster_face(bd, cv, &cl->f[f]);
 }
 

@@ -12,9 +12,10 @@
 
 /* The inner loops, one instance per ISA. */
 typedef struct cull_occ_fns {
-    /* row[x] = max(row[x], max(min(a0 + da x, b0 + db x), lo)) for x in
-       [x0, x1]; the row has `room` floats (>= 8) */
-    void (*span)(float *row, int x0, int x1, int room, float a0, float da, float b0, float db, float lo);
+    /* row[x] = max(row[x], max(min(a0 + da x, b0 + db x, c0 + dc x), lo))
+       for x in [x0, x1]; the row has `room` floats (>= 8) */
+    void (*span)(float *row, int x0, int x1, int room, float a0, float da, float b0, float db, float c0, float dc,
+                 float lo);
     /* any row[x] <= z for x in [x0, x1]? */
     bool (*any_le)(const float *row, int x0, int x1, int room, float z);
     /* out[t] = min over the 8x8 tile t of the 8 rows from row0 */
@@ -23,9 +24,9 @@ typedef struct cull_occ_fns {
 } cull_occ_fns;
 
 cull_occ_fns cull_occ_fns_for(uint32_t isa);
-void cull_occ_span_scalar(float *, int, int, int, float, float, float, float, float);
-void cull_occ_span_sse41(float *, int, int, int, float, float, float, float, float);
-void cull_occ_span_avx2(float *, int, int, int, float, float, float, float, float);
+void cull_occ_span_scalar(float *, int, int, int, float, float, float, float, float, float, float);
+void cull_occ_span_sse41(float *, int, int, int, float, float, float, float, float, float, float);
+void cull_occ_span_avx2(float *, int, int, int, float, float, float, float, float, float, float);
 bool cull_occ_any_le_scalar(const float *, int, int, int, float);
 void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *);
 void cull_occ_fill_scalar(float *, uint32_t, float);

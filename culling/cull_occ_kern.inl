@@ -8,20 +8,20 @@
 
 static const float cull_occ_iota[8] = {0, 1, 2, 3, 4, 5, 6, 7};
 
-/* row[x] = max(row[x], max(min(a0 + da x, b0 + db x), lo)), x in [x0, x1].
+/* row[x] = max(row[x], max(min(a0 + da x, b0 + db x, c0 + dc x), lo)), x in [x0, x1].
  * The last partial vector is masked (z = -FLT_MAX leaves a pixel as it
  * is) instead of finished one lane at a time; it may read and rewrite,
  * unchanged, pixels past x1 but never past `room` (the row's length in
  * memory), so no other row is touched. */
 void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, int x1, int room, float a0,
-                                                    float da, float b0, float db, float lo)
+                                                    float da, float b0, float db, float c0, float dc, float lo)
 {
-    const vf vda = vf_set(da), vdb = vf_set(db), vlo = vf_set(lo), step = vf_set((float)W);
-    const vf va = vf_set(a0), vb = vf_set(b0), iota = vf_loadu(cull_occ_iota);
+    const vf vda = vf_set(da), vdb = vf_set(db), vdc = vf_set(dc), vlo = vf_set(lo), step = vf_set((float)W);
+    const vf va = vf_set(a0), vb = vf_set(b0), vc = vf_set(c0), iota = vf_loadu(cull_occ_iota);
     int x = x0;
     vf fx = vf_add(vf_set((float)x0), iota);
     for (; x + W - 1 <= x1; x += W) {
-        vf z = vf_max(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vlo);
+        vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
         vf_store(row + x, vf_max(vf_loadu(row + x), z));
         fx = vf_add(fx, step);
     }
@@ -29,7 +29,7 @@ void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, 
     if (x + W > room) x = room - W; /* stay in the row: lanes before x0 are masked too */
     fx = vf_add(vf_set((float)x), iota);
     vm in = vm_and(vf_ge(fx, vf_set((float)x0)), vf_le(fx, vf_set((float)x1)));
-    vf z = vf_max(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vlo);
+    vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
     z = vf_select(in, z, vf_set(-FLT_MAX));
     vf_store(row + x, vf_max(vf_loadu(row + x), z));
 }

@@ -243,6 +243,50 @@ typedef struct emitter {
     const builder *b;
 } emitter;
 
+static int cmp_u64(const void *x, const void *y)
+{
+    uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
+    return (a > b) - (a < b);
+}
+
+/* Closed: every edge is used twice, once each way. Convex: every vertex on
+ * or behind every face's plane. Then the cluster's front faces cover
+ * exactly its silhouette, nearest-first by the minimum of their planes. */
+static bool closed_convex(const cull_occ_cluster *cl)
+{
+    if (cl->nf < 4 || cl->nv < 4) return false;
+    uint64_t key[4 * CULL_OCC_CLUSTER_FACES];
+    uint32_t ne = 0;
+    for (uint32_t i = 0; i < cl->nf; i++)
+        for (uint32_t k = 0; k < cl->f[i].n; k++) {
+            uint32_t a = cl->f[i].v[k], b = cl->f[i].v[(k + 1) % cl->f[i].n];
+            /* undirected edge, then its direction in the low bit */
+            key[ne++] = (uint64_t)(a < b ? a : b) << 33 | (uint64_t)(a < b ? b : a) << 1 | (a < b);
+        }
+    qsort(key, ne, sizeof *key, cmp_u64);
+    if (ne % 2) return false;
+    for (uint32_t i = 0; i < ne; i += 2)
+        if ((key[i] >> 1) != (key[i + 1] >> 1) || (key[i] & 1) == (key[i + 1] & 1) ||
+            (i + 2 < ne && (key[i + 2] >> 1) == (key[i] >> 1)))
+            return false;
+    double ext = 0;
+    for (int a = 0; a < 3; a++) ext = fmax(ext, cl->bmax[a] - cl->bmin[a]);
+    for (uint32_t i = 0; i < cl->nf; i++) {
+        const double *p0 = cl->v + 3 * cl->f[i].v[0], *p1 = cl->v + 3 * cl->f[i].v[1], *p2 = cl->v + 3 * cl->f[i].v[2];
+        double e0[3], e1[3], n[3];
+        sub3(e0, p1, p0);
+        sub3(e1, p2, p0);
+        cross3(n, e0, e1);
+        double tol = 1e-9 * len3(n) * ext;
+        for (uint32_t k = 0; k < cl->nv; k++) {
+            double d[3];
+            sub3(d, cl->v + 3 * k, p0);
+            if (dot3(n, d) > tol) return false;
+        }
+    }
+    return true;
+}
+
 static void emit_cluster(emitter *e, build_face *f, uint32_t n)
 {
     if (n > CULL_OCC_CLUSTER_FACES) {
@@ -296,6 +340,7 @@ static void emit_cluster(emitter *e, build_face *f, uint32_t n)
         for (uint32_t k = 0; k < f[i].n; k++) e->local[f[i].v[k]] = UINT32_MAX;
     e->vout += 3 * (size_t)cl->nv;
     e->fout += n;
+    cl->convex = closed_convex(cl);
 }
 
 /* The whole pipeline from world-space triangles to a finished mesh. */
@@ -612,6 +657,7 @@ int cull_occluder_get_info(const cull_world *w, cull_occluder h, cull_occluder_i
     if (!out) return CULL_ERR_INVALID;
     *out = (cull_occluder_info){.triangles = m->triangles, .dropped = m->dropped, .faces = m->faces,
                                 .clusters = m->ncl, .sublevel = m->sublevel};
+    for (uint32_t c = 0; c < m->ncl; c++) out->convex_clusters += m->cl[c].convex;
     memcpy(out->aabb_min, m->bmin, sizeof m->bmin);
     memcpy(out->aabb_max, m->bmax, sizeof m->bmax);
     return CULL_OK;

@@ -178,6 +178,7 @@ typedef struct cull_occluder_info {
     uint32_t dropped;          /* degenerate triangles dropped */
     uint32_t faces;            /* drawn polygons (coplanar pairs merged) */
     uint32_t clusters;         /* culled as units */
+    uint32_t convex_clusters;  /* closed and convex: drawn as one silhouette */
     double   aabb_min[3], aabb_max[3];
     uint16_t sublevel;
 } cull_occluder_info;

@@ -120,7 +120,8 @@ static void add_box(rng *r, oscene *s, bool rotated)
     assert_int_equal(cull_occluder_get_info(s->w, h, &info), CULL_OK);
     assert_int_equal(info.triangles, 12);
     assert_int_equal(info.dropped, 0);
-    if (!rotated) assert_int_equal(info.faces, 6); /* each side one quad */
+    assert_int_equal(info.faces, 6); /* each side one quad, rotated or not */
+    assert_int_equal(info.convex_clusters, 1); /* drawn as one silhouette */
     for (int t = 0; t < 12; t++) {
         double p[9];
         for (int i = 0; i < 3; i++) xform(m, v + 9 * t + 3 * i, p + 3 * i);
@@ -486,6 +487,7 @@ static void test_wall_through_near_plane(void **state)
         cull_occluder_info info;
         assert_int_equal(cull_occluder_get_info(s.w, oh, &info), CULL_OK);
         assert_int_equal(info.faces, 1);
+        assert_int_equal(info.convex_clusters, 0); /* not closed */
         for (int t = 0; t < 2; t++) {
             double p[9];
             for (int i = 0; i < 9; i++) p[i] = q[9 * t + i];
