@@ -775,6 +775,7 @@ static bool raster_convex(band *bd, const cvert *cv, const cull_occ_cluster *cl)
         lin3 nearA, za, zb;
         double det;
         if (!half_planes(b, v0, &cv[fc->v[1]], v2, &nearA, &za, &det)) return false; /* ill-conditioned */
+        if (p.nz == 3) return false; /* more planes than the span loop takes: faces */
         p.z[p.nz++] = za;
         /* a quad's other half: the same plane up to rounding, or one more */
         if (fc->n == 4) {
@@ -784,7 +785,6 @@ static bool raster_convex(band *bd, const cvert *cv, const cull_occ_cluster *cl)
                 p.z[p.nz++] = zb;
             }
         }
-        if (p.nz > 3) return false;
     }
     uint32_t idx[4 * CULL_OCC_CLUSTER_FACES], hull[4 * CULL_OCC_CLUSTER_FACES + 1];
     uint32_t nh = hull2((const double(*)[2])pt, cl->nv, idx, hull);
