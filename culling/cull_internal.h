@@ -176,6 +176,20 @@ struct cull_world {
 
 void cull_occluders_free(cull_world *w);
 
+/* ---- a view's clip rows, for occlusion and light tiles (cull_view.c) ---- */
+/* Linear functions of (p - origin, 1): the clip rows; the near plane (>= 0
+ * in front); the nearness numerator d, with nearness = d / w: 1/w for
+ * perspective views, 1 - z_ndc (z_ndc with reversed-Z) for orthographic
+ * ones, so larger is nearer and it is affine in screen space. */
+typedef struct cull_view_rows {
+    double x[4], y[4], z[4], w[4];
+    double nearfn[4];
+    double d[4];
+    bool   ortho;
+    bool   usable;          /* false: an orthographic view with w <= 0 */
+} cull_view_rows;
+void cull_view_rows_get(const cull_view *v, cull_view_rows *r);
+
 /* ---- storage internals (cull_grid.c) ---------------------------------------- */
 /* Finds or makes cell key k of grid gi with room for one more entity.
  * Allocates everything the edit needs up front; on error nothing changed. */

@@ -197,27 +197,16 @@ const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *heigh
  * the near plane, all as linear functions of (p - origin, 1). */
 void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v)
 {
-    const double *m = v->clip;
-    double row[4][4];
-    for (int r = 0; r < 4; r++)
-        for (int c = 0; c < 4; c++) row[r][c] = m[c * 4 + r];
-    memcpy(b->rx, row[0], sizeof b->rx);
-    memcpy(b->ry, row[1], sizeof b->ry);
-    memcpy(b->rw, row[3], sizeof b->rw);
+    cull_view_rows r;
+    cull_view_rows_get(v, &r);
+    memcpy(b->rx, r.x, sizeof b->rx);
+    memcpy(b->ry, r.y, sizeof b->ry);
+    memcpy(b->rw, r.w, sizeof b->rw);
+    memcpy(b->rn, r.nearfn, sizeof b->rn);
+    memcpy(b->rd, r.d, sizeof b->rd);
     memcpy(b->origin, v->origin, sizeof b->origin);
-    double wl = fabs(row[3][0]) + fabs(row[3][1]) + fabs(row[3][2]);
-    b->ortho = !(wl > 1e-12 * fabs(row[3][3]));
-    for (int c = 0; c < 4; c++) {
-        switch (v->depth_mode) {
-        case CULL_DEPTH_GL: b->rn[c] = row[3][c] + row[2][c]; break;
-        case CULL_DEPTH_ZERO_ONE: b->rn[c] = row[2][c]; break;
-        default: b->rn[c] = row[3][c] - row[2][c]; break;
-        }
-        if (!b->ortho) b->rd[c] = c == 3 ? 1.0 : 0.0;
-        else b->rd[c] = v->depth_mode == CULL_DEPTH_REVERSED ? row[2][c] : row[3][c] - row[2][c];
-    }
-    /* an orthographic view must have w > 0 */
-    b->usable = !b->ortho || row[3][3] > 0;
+    b->ortho = r.ortho;
+    b->usable = r.usable;
     b->sx = 0.5 * b->w;
     b->sy = 0.5 * b->h;
 }

@@ -184,3 +184,22 @@ void cull_mat_mul(double out[16], const double a[16], const double b[16])
         }
     memcpy(out, t, sizeof t);
 }
+
+void cull_view_rows_get(const cull_view *v, cull_view_rows *r)
+{
+    double *rows[4] = {r->x, r->y, r->z, r->w};
+    for (int i = 0; i < 4; i++)
+        for (int c = 0; c < 4; c++) rows[i][c] = v->clip[c * 4 + i];
+    double wl = fabs(r->w[0]) + fabs(r->w[1]) + fabs(r->w[2]);
+    r->ortho = !(wl > 1e-12 * fabs(r->w[3]));
+    for (int c = 0; c < 4; c++) {
+        switch (v->depth_mode) {
+        case CULL_DEPTH_GL: r->nearfn[c] = r->w[c] + r->z[c]; break;
+        case CULL_DEPTH_ZERO_ONE: r->nearfn[c] = r->z[c]; break;
+        default: r->nearfn[c] = r->w[c] - r->z[c]; break;
+        }
+        if (!r->ortho) r->d[c] = c == 3 ? 1.0 : 0.0;
+        else r->d[c] = v->depth_mode == CULL_DEPTH_REVERSED ? r->z[c] : r->w[c] - r->z[c];
+    }
+    r->usable = !r->ortho || r->w[3] > 0;
+}

@@ -387,6 +387,54 @@ int cull_occ_buffer_empty(const cull_occ_buffer *b);
  * (a pass over the buffer): for inspection and dumps, not per query. */
 const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride);
 
+
+/* ---- lights: Forward+ tile binning ------------------------------------------- */
+/* "DirectX 11 Rendering in Battlefield 3" (GDC 2011): lights are culled per
+ * screen tile of 16x16 pixels against the tile's frustum, narrowed to the
+ * depth range of what the tile shows (from a depth pre-pass), and each tile
+ * gets a list of the lights that may touch it. Both renderers shade a pixel
+ * with its tile's list only. Conservative: a light that reaches a pixel's
+ * surface point is always in that pixel's tile list. */
+enum cull_light_type { CULL_LIGHT_POINT = 0, CULL_LIGHT_SPOT = 1 };
+
+typedef struct cull_light {
+    double   pos[3];        /* world metres */
+    double   radius;        /* range: no effect beyond; > 0 */
+    float    dir[3];        /* spot: unit axis */
+    float    cos_outer;     /* spot: cosine of the outer half-angle */
+    uint32_t type;          /* enum cull_light_type */
+} cull_light;
+
+#define CULL_LIGHT_TILE 16u
+
+/* Tile lists, CSR: tile t = ty * tiles_x + tx (ty from the bottom row of the
+ * view, like the occlusion buffer) has lights index[offset[t] ..
+ * offset[t + 1]), indices into the caller's light array, ascending. The
+ * arrays are owned by the struct and grown as needed: zero it first, reuse
+ * it, free with cull_light_tiles_free. */
+typedef struct cull_light_tiles {
+    uint32_t  tiles_x, tiles_y;
+    uint32_t *offset;       /* tiles_x * tiles_y + 1 */
+    uint32_t *index;
+    uint32_t  in_view;      /* lights that survived the view's frustum */
+    uint32_t  max_per_tile;
+    uint32_t  offset_cap, index_cap;
+    uint32_t *scratch;      /* internal */
+    uint32_t  scratch_cap;
+} cull_light_tiles;
+
+/* Bins n lights into the tiles of a width x height view. depth_range, if
+ * not NULL, holds per tile {nearest, farthest} nearness of what the tile
+ * shows (the occlusion buffer's convention: 1/w for perspective views,
+ * larger is nearer; nearest < farthest marks a tile that shows nothing,
+ * which gets no lights); NULL bins against the whole frustum depth.
+ * Returns CULL_OK, CULL_ERR_VIEWPORT, CULL_ERR_INVALID (a light with a bad
+ * position, radius or axis: nothing binned), or CULL_ERR_NOMEM. No lights:
+ * every list is empty and nothing is tested. */
+int  cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const cull_light *lights, uint32_t n,
+                     const float (*depth_range)[2], cull_light_tiles *out);
+void cull_light_tiles_free(cull_light_tiles *t);
+
 /* ---- ISA dispatch -------------------------------------------------------- */
 enum cull_isa { CULL_ISA_SCALAR = 0, CULL_ISA_SSE41, CULL_ISA_AVX2, CULL_ISA_COUNT };
 /* Whether this build and this CPU (CPUID) can run an ISA's kernels. */

@@ -14,6 +14,7 @@ int main(void)
         {view_tests, view_tests_count},
         {query_tests, query_tests_count},
         {occlusion_tests, occlusion_tests_count},
+        {light_tests, light_tests_count},
         {alloc_tests, alloc_tests_count},
         {protocol_tests, protocol_tests_count},
         {e2e_tests, e2e_tests_count},
