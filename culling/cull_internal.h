@@ -176,20 +176,6 @@ struct cull_world {
 
 void cull_occluders_free(cull_world *w);
 
-/* ---- a view's clip rows, for occlusion and light tiles (cull_view.c) ---- */
-/* Linear functions of (p - origin, 1): the clip rows; the near plane (>= 0
- * in front); the nearness numerator d, with nearness = d / w: 1/w for
- * perspective views, 1 - z_ndc (z_ndc with reversed-Z) for orthographic
- * ones, so larger is nearer and it is affine in screen space. */
-typedef struct cull_view_rows {
-    double x[4], y[4], z[4], w[4];
-    double nearfn[4];
-    double d[4];
-    bool   ortho;
-    bool   usable;          /* false: an orthographic view with w <= 0 */
-} cull_view_rows;
-void cull_view_rows_get(const cull_view *v, cull_view_rows *r);
-
 /* ---- storage internals (cull_grid.c) ---------------------------------------- */
 /* Finds or makes cell key k of grid gi with room for one more entity.
  * Allocates everything the edit needs up front; on error nothing changed. */
@@ -272,11 +258,7 @@ uint32_t cull_block_avx2(const cull_block *, uint32_t, const cull_kview *,
 
 cull_block_fn cull_isa_kernel(uint32_t isa);
 
-/* ---- job pool ------------------------------------------------------------ */
-typedef void (*cull_job_fn)(void *arg, uint32_t thread);
-/* Runs fn(arg, t) for t in 0..n-1 (t = 0 on the caller) and waits.
- * n is clamped to the pool's thread count; pool NULL runs fn(arg, 0). */
-void cull_pool_run(cull_pool *p, cull_job_fn fn, void *arg, uint32_t n);
+
 
 /* Grows *p (an array of *cap elements) to hold need; doubles the capacity.
  * false (nothing changed) on failure or past 2^31 elements. */

@@ -225,6 +225,21 @@ typedef struct cull_view {
  * frustums, CULL_ERR_VIEWPORT for a bad viewport. */
 int cull_view_init(cull_view *v, const cull_view_desc *d);
 
+/* A view's clip rows as linear functions of (p - origin, 1), for code that
+ * rasterises for it (occlusion, light tiles, renderers): the clip rows x, y,
+ * z, w; the near plane (>= 0 in front); and the nearness numerator d, with
+ * nearness = d / w: 1/w for perspective views, 1 - z_ndc (z_ndc with
+ * reversed-Z) for orthographic ones, so larger is nearer and it is affine
+ * in screen space. */
+typedef struct cull_view_rows {
+    double x[4], y[4], z[4], w[4];
+    double nearfn[4];
+    double d[4];
+    int    ortho;
+    int    usable;          /* 0: an orthographic view with w <= 0 */
+} cull_view_rows;
+void cull_view_rows_get(const cull_view *v, cull_view_rows *r);
+
 /* Matrix helpers (column-major, double). far may be INFINITY. */
 void cull_mat_perspective(double m[16], double fovy_rad, double aspect,
                           double znear, double zfar, uint32_t depth_mode);
@@ -313,6 +328,12 @@ typedef struct cull_pool cull_pool;
 int  cull_pool_create(uint32_t threads, cull_pool **out);
 void cull_pool_destroy(cull_pool *p);
 uint32_t cull_pool_threads(const cull_pool *p);
+/* Runs fn(arg, t) for t in 0..n-1 on the pool (t = 0 on the caller) and
+ * waits: the renderers share the culling pool this way. n is clamped to
+ * the pool's thread count; a NULL pool runs fn(arg, 0). One job at a time
+ * per pool. */
+typedef void (*cull_job_fn)(void *arg, uint32_t thread);
+void cull_pool_run(cull_pool *p, cull_job_fn fn, void *arg, uint32_t n);
 
 /* Per-query scratch (grows with the world, then stops allocating). pool may
  * be NULL (single-threaded). One context per concurrent query. */

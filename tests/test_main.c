@@ -15,6 +15,7 @@ int main(void)
         {query_tests, query_tests_count},
         {occlusion_tests, occlusion_tests_count},
         {light_tests, light_tests_count},
+        {render_tests, render_tests_count},
         {alloc_tests, alloc_tests_count},
         {protocol_tests, protocol_tests_count},
         {e2e_tests, e2e_tests_count},

@@ -63,6 +63,7 @@ TEST_GROUP(protocol_tests)
 TEST_GROUP(e2e_tests)
 TEST_GROUP(occlusion_tests)
 TEST_GROUP(light_tests)
+TEST_GROUP(render_tests)
 TEST_GROUP(exr_tests)
 
 #endif

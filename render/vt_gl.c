@@ -1,0 +1,1089 @@
+/*
+ * vt_gl.c — the headless OpenGL context, offscreen targets, readback and
+ * shader helpers of vt_gl.h, on EGL (libglvnd's libEGL, linked directly)
+ * and libepoxy (GL entry points, resolved on first call).
+ *
+ * What it owns: one EGLContext per vt_gl, a reference on its EGLDisplay
+ * in the process-wide display table below, and the GL objects of its
+ * targets. Opening walks the platforms of vt_gl.h in order; each attempt
+ * appends "platform: what happened" to a log that becomes the error
+ * message when nothing works and vt_gl_info.tried when something does.
+ *
+ * EGL entry points: eglGetPlatformDisplayEXT (EGL_EXT_platform_base) and
+ * the EGL_EXT_device_* queries are extensions, fetched with
+ * eglGetProcAddress on each open into a local table: nothing is cached in
+ * a global. The EGL 1.5 context attributes have the same values as
+ * EGL_KHR_create_context's (MAJOR_VERSION = 0x3098, MINOR_VERSION, the
+ * profile mask), so one attribute list serves both. Contexts are created
+ * with EGL_NO_CONFIG_KHR where the display has EGL_KHR_no_config_context
+ * (a surfaceless context needs no config), otherwise with any config that
+ * renders OpenGL. EGL_KHR_surfaceless_context is required: there is no
+ * pbuffer fallback.
+ *
+ * GL calls: libepoxy resolves each entry point on its first call through
+ * the current context (eglGetProcAddress; GL 1.x entry points from
+ * libOpenGL.so.0 or libGL.so.1). Under libglvnd these are dispatch stubs
+ * valid for every context, so the process-wide table is correct for any
+ * number of contexts and threads.
+ */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE
+#endif
+#include "vt_gl.h"
+
+#include <epoxy/gl.h>
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+
+#include <math.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+_Static_assert(sizeof(GLuint) == sizeof(unsigned), "GL names are passed as unsigned");
+
+/* Values the headers of older EGL may lack (all from the Khronos registry). */
+#ifndef EGL_PLATFORM_SURFACELESS_MESA
+#define EGL_PLATFORM_SURFACELESS_MESA 0x31DD
+#endif
+#ifndef EGL_DRM_RENDER_NODE_FILE_EXT
+#define EGL_DRM_RENDER_NODE_FILE_EXT 0x3377
+#endif
+#ifndef EGL_NO_CONFIG_KHR
+#define EGL_NO_CONFIG_KHR ((EGLConfig)0)
+#endif
+
+/* ---- messages -------------------------------------------------------------- */
+
+const char *vt_gl_strerror(int code)
+{
+    switch (code) {
+#define VT_GL_X_STR(name, value, msg) case value: return msg;
+        VT_GL_ERRORS(VT_GL_X_STR)
+#undef VT_GL_X_STR
+    }
+    return "unknown error";
+}
+
+const char *vt_gl_platform_name(vt_gl_platform p)
+{
+    switch (p) {
+    case VT_GL_AUTO:            return "auto";
+    case VT_GL_SURFACELESS:     return "surfaceless";
+    case VT_GL_DEVICE:          return "device";
+    case VT_GL_DEFAULT_DISPLAY: return "default";
+    }
+    return "?";
+}
+
+static const char *egl_error_name(EGLint e)
+{
+    switch (e) {
+    case EGL_SUCCESS:             return "EGL_SUCCESS";
+    case EGL_NOT_INITIALIZED:     return "EGL_NOT_INITIALIZED";
+    case EGL_BAD_ACCESS:          return "EGL_BAD_ACCESS";
+    case EGL_BAD_ALLOC:           return "EGL_BAD_ALLOC";
+    case EGL_BAD_ATTRIBUTE:       return "EGL_BAD_ATTRIBUTE";
+    case EGL_BAD_CONFIG:          return "EGL_BAD_CONFIG";
+    case EGL_BAD_CONTEXT:         return "EGL_BAD_CONTEXT";
+    case EGL_BAD_CURRENT_SURFACE: return "EGL_BAD_CURRENT_SURFACE";
+    case EGL_BAD_DISPLAY:         return "EGL_BAD_DISPLAY";
+    case EGL_BAD_MATCH:           return "EGL_BAD_MATCH";
+    case EGL_BAD_NATIVE_PIXMAP:   return "EGL_BAD_NATIVE_PIXMAP";
+    case EGL_BAD_NATIVE_WINDOW:   return "EGL_BAD_NATIVE_WINDOW";
+    case EGL_BAD_PARAMETER:       return "EGL_BAD_PARAMETER";
+    case EGL_BAD_SURFACE:         return "EGL_BAD_SURFACE";
+    case EGL_CONTEXT_LOST:        return "EGL_CONTEXT_LOST";
+    }
+    return "unknown EGL error";
+}
+
+static const char *gl_error_name(GLenum e)
+{
+    switch (e) {
+    case GL_NO_ERROR:                      return "GL_NO_ERROR";
+    case GL_INVALID_ENUM:                  return "GL_INVALID_ENUM";
+    case GL_INVALID_VALUE:                 return "GL_INVALID_VALUE";
+    case GL_INVALID_OPERATION:             return "GL_INVALID_OPERATION";
+    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
+    case GL_OUT_OF_MEMORY:                 return "GL_OUT_OF_MEMORY";
+    }
+    return "unknown GL error";
+}
+
+static const char *fbo_status_name(GLenum s)
+{
+    switch (s) {
+    case GL_FRAMEBUFFER_COMPLETE:                      return "complete";
+    case GL_FRAMEBUFFER_UNDEFINED:                     return "GL_FRAMEBUFFER_UNDEFINED";
+    case GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT:         return "GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT";
+    case GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT: return "GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT";
+    case GL_FRAMEBUFFER_INCOMPLETE_DRAW_BUFFER:        return "GL_FRAMEBUFFER_INCOMPLETE_DRAW_BUFFER";
+    case GL_FRAMEBUFFER_INCOMPLETE_READ_BUFFER:        return "GL_FRAMEBUFFER_INCOMPLETE_READ_BUFFER";
+    case GL_FRAMEBUFFER_UNSUPPORTED:                   return "GL_FRAMEBUFFER_UNSUPPORTED";
+    case GL_FRAMEBUFFER_INCOMPLETE_MULTISAMPLE:        return "GL_FRAMEBUFFER_INCOMPLETE_MULTISAMPLE";
+    }
+    return "unknown framebuffer status";
+}
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 4, 5)))
+#endif
+static int fail(int code, char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+static int ok(char *err, size_t errlen)
+{
+    if (err && errlen) err[0] = 0;
+    return VT_GL_OK;
+}
+
+/* Appends to a fixed buffer, "; " between entries, truncating quietly. */
+typedef struct open_log {
+    char   s[512];
+    size_t n;
+} open_log;
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 2, 3)))
+#endif
+static void log_add(open_log *l, const char *fmt, ...)
+{
+    if (l->n >= sizeof l->s - 1) return;
+    if (l->n) {
+        int k = snprintf(l->s + l->n, sizeof l->s - l->n, "; ");
+        if (k > 0) l->n += (size_t)k;
+        if (l->n >= sizeof l->s - 1) { l->n = sizeof l->s - 1; return; }
+    }
+    va_list ap;
+    va_start(ap, fmt);
+    int k = vsnprintf(l->s + l->n, sizeof l->s - l->n, fmt, ap);
+    va_end(ap);
+    if (k > 0) l->n += (size_t)k;
+    if (l->n > sizeof l->s - 1) l->n = sizeof l->s - 1;
+}
+
+/* Whole-word search in a space-separated extension list (NULL: none). */
+static bool has_word(const char *list, const char *word)
+{
+    if (!list) return false;
+    size_t n = strlen(word);
+    for (const char *p = list; (p = strstr(p, word)); p += n)
+        if ((p == list || p[-1] == ' ') && (p[n] == ' ' || p[n] == 0)) return true;
+    return false;
+}
+
+static void copy_str(char *dst, size_t cap, const char *src)
+{
+    snprintf(dst, cap, "%s", src ? src : "");
+}
+
+/* ---- the display table ------------------------------------------------------
+ * One entry per EGLDisplay some vt_gl holds: how many hold it, and whether
+ * this module initialised it (then the last close terminates it). A short
+ * list: a process has a few displays at most. The lock is held across
+ * eglInitialize and eglTerminate so that an open and a close of the same
+ * display cannot interleave. */
+
+typedef struct dpy_ref {
+    EGLDisplay      dpy;
+    int             refs;
+    bool            owned; /* eglInitialize'd here, not by someone before */
+    EGLint          major, minor;
+    struct dpy_ref *next;
+} dpy_ref;
+
+static pthread_mutex_t g_dpy_lock = PTHREAD_MUTEX_INITIALIZER;
+static dpy_ref        *g_dpys;
+
+/* Takes a reference, initialising the display on the first. On failure
+ * returns the EGL error (EGL_BAD_ALLOC for our own allocation) and holds
+ * no reference. */
+static EGLint dpy_acquire(EGLDisplay dpy, EGLint *major, EGLint *minor)
+{
+    EGLint rc = EGL_SUCCESS;
+    pthread_mutex_lock(&g_dpy_lock);
+    dpy_ref *r = g_dpys;
+    while (r && r->dpy != dpy) r = r->next;
+    if (!r) {
+        r = calloc(1, sizeof *r);
+        if (!r) { rc = EGL_BAD_ALLOC; goto out; }
+        /* an initialised display answers EGL_VERSION; then it is someone
+         * else's and is never terminated here */
+        bool already = eglQueryString(dpy, EGL_VERSION) != NULL;
+        if (!already) eglGetError(); /* drop the EGL_NOT_INITIALIZED just raised */
+        if (!eglInitialize(dpy, &r->major, &r->minor)) {
+            rc = eglGetError();
+            free(r);
+            goto out;
+        }
+        r->dpy = dpy;
+        r->owned = !already;
+        r->next = g_dpys;
+        g_dpys = r;
+    }
+    r->refs++;
+    *major = r->major;
+    *minor = r->minor;
+out:
+    pthread_mutex_unlock(&g_dpy_lock);
+    return rc;
+}
+
+static void dpy_release(EGLDisplay dpy)
+{
+    pthread_mutex_lock(&g_dpy_lock);
+    for (dpy_ref **pp = &g_dpys; *pp; pp = &(*pp)->next) {
+        dpy_ref *r = *pp;
+        if (r->dpy != dpy) continue;
+        if (--r->refs == 0) {
+            if (r->owned) eglTerminate(dpy);
+            *pp = r->next;
+            free(r);
+        }
+        break;
+    }
+    pthread_mutex_unlock(&g_dpy_lock);
+}
+
+/* ---- opening --------------------------------------------------------------- */
+
+struct vt_gl_target {
+    vt_gl              *g;
+    vt_gl_target       *prev, *next; /* g's live targets */
+    uint32_t            w, h;
+    vt_gl_color_format  format;
+    GLuint              fbo, color, depth;
+    GLuint              pbo;         /* 0 until a PBO readback */
+    size_t              pbo_bytes;   /* its size */
+};
+
+struct vt_gl {
+    EGLDisplay    dpy;
+    EGLContext    ctx;
+    vt_gl_info    info;
+    vt_gl_target *targets;
+};
+
+/* The EGL extension entry points one open uses; NULL where absent. */
+typedef struct egl_fns {
+    const char                         *client_ext; /* EGL_NO_DISPLAY's EGL_EXTENSIONS */
+    PFNEGLGETPLATFORMDISPLAYEXTPROC     get_platform_display;
+    PFNEGLQUERYDEVICESEXTPROC           query_devices;
+    PFNEGLQUERYDEVICESTRINGEXTPROC      query_device_string;
+    PFNEGLQUERYDISPLAYATTRIBEXTPROC     query_display_attrib;
+} egl_fns;
+
+static void egl_fns_load(egl_fns *f)
+{
+    memset(f, 0, sizeof *f);
+    /* NULL (EGL_BAD_DISPLAY) without EGL_EXT_client_extensions */
+    f->client_ext = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    if (!f->client_ext) eglGetError();
+    const char *ce = f->client_ext;
+    if (has_word(ce, "EGL_EXT_platform_base"))
+        f->get_platform_display =
+            (PFNEGLGETPLATFORMDISPLAYEXTPROC)eglGetProcAddress("eglGetPlatformDisplayEXT");
+    if (has_word(ce, "EGL_EXT_device_enumeration") || has_word(ce, "EGL_EXT_device_base"))
+        f->query_devices = (PFNEGLQUERYDEVICESEXTPROC)eglGetProcAddress("eglQueryDevicesEXT");
+    if (has_word(ce, "EGL_EXT_device_query") || has_word(ce, "EGL_EXT_device_base")) {
+        f->query_device_string =
+            (PFNEGLQUERYDEVICESTRINGEXTPROC)eglGetProcAddress("eglQueryDeviceStringEXT");
+        f->query_display_attrib =
+            (PFNEGLQUERYDISPLAYATTRIBEXTPROC)eglGetProcAddress("eglQueryDisplayAttribEXT");
+    }
+}
+
+/* The device's extensions, or NULL. */
+static const char *device_ext(const egl_fns *f, EGLDeviceEXT dev)
+{
+    if (!f->query_device_string || dev == EGL_NO_DEVICE_EXT) return NULL;
+    const char *s = f->query_device_string(dev, EGL_EXTENSIONS);
+    if (!s) eglGetError();
+    return s;
+}
+
+static bool device_is_software(const egl_fns *f, EGLDeviceEXT dev)
+{
+    return has_word(device_ext(f, dev), "EGL_MESA_device_software");
+}
+
+/* The device file of a DRM device ("" if EGL cannot say). */
+static void device_file(const egl_fns *f, EGLDeviceEXT dev, char *out, size_t cap)
+{
+    out[0] = 0;
+    const char *ext = device_ext(f, dev);
+    const char *s = NULL;
+    if (has_word(ext, "EGL_EXT_device_drm_render_node"))
+        s = f->query_device_string(dev, EGL_DRM_RENDER_NODE_FILE_EXT);
+    if (!s && has_word(ext, "EGL_EXT_device_drm"))
+        s = f->query_device_string(dev, EGL_DRM_DEVICE_FILE_EXT);
+    if (!s) eglGetError();
+    copy_str(out, cap, s);
+}
+
+/* The device behind an initialised display (EGL_EXT_device_query). */
+static EGLDeviceEXT display_device(const egl_fns *f, EGLDisplay dpy)
+{
+    EGLAttrib a = 0;
+    if (!f->query_display_attrib || !f->query_display_attrib(dpy, EGL_DEVICE_EXT, &a)) {
+        eglGetError();
+        return EGL_NO_DEVICE_EXT;
+    }
+    return (EGLDeviceEXT)a;
+}
+
+/* Renderer strings of software rasterizers, for displays whose device EGL
+ * cannot name (Mesa's: "llvmpipe (LLVM ...)", "softpipe"). */
+static bool renderer_is_software(const char *r)
+{
+    return !strncmp(r, "llvmpipe", 8) || !strncmp(r, "softpipe", 8) ||
+           strstr(r, "Software Rasterizer") != NULL;
+}
+
+static bool is_current(const vt_gl *g)
+{
+    return g && g->ctx != EGL_NO_CONTEXT && eglGetCurrentContext() == g->ctx;
+}
+
+/* Makes nothing current if c is current here, destroys c, drops dpy. */
+static void drop_context(EGLDisplay dpy, EGLContext c)
+{
+    if (c != EGL_NO_CONTEXT) {
+        if (eglGetCurrentContext() == c)
+            eglMakeCurrent(dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        eglDestroyContext(dpy, c);
+    }
+    dpy_release(dpy);
+}
+
+/* Reads the GL side of info from the context current on this thread.
+ * false (with why in `why`) if it is not a 3.3+ core desktop context. */
+static bool read_gl_info(vt_gl_info *in, char *why, size_t whylen)
+{
+    const char *s;
+    if (!epoxy_is_desktop_gl()) {
+        snprintf(why, whylen, "not desktop OpenGL");
+        return false;
+    }
+    int ver = epoxy_gl_version();
+    in->gl_major = ver / 10;
+    in->gl_minor = ver % 10;
+    copy_str(in->vendor, sizeof in->vendor, (s = (const char *)glGetString(GL_VENDOR)));
+    copy_str(in->renderer, sizeof in->renderer, (s = (const char *)glGetString(GL_RENDERER)));
+    copy_str(in->version, sizeof in->version, (s = (const char *)glGetString(GL_VERSION)));
+    if (ver < 33) {
+        snprintf(why, whylen, "GL %d.%d (%s), need 3.3", in->gl_major, in->gl_minor, in->version);
+        return false;
+    }
+    GLint mask = 0;
+    glGetIntegerv(GL_CONTEXT_PROFILE_MASK, &mask);
+    if (!(mask & GL_CONTEXT_CORE_PROFILE_BIT)) {
+        snprintf(why, whylen, "GL %d.%d is not a core profile", in->gl_major, in->gl_minor);
+        return false;
+    }
+    copy_str(in->glsl_version, sizeof in->glsl_version,
+             (const char *)glGetString(GL_SHADING_LANGUAGE_VERSION));
+    in->clip_control = ver >= 45 || epoxy_has_gl_extension("GL_ARB_clip_control");
+    GLint tex = 0, rb = 0, vp[2] = {0, 0};
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &tex);
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &rb);
+    glGetIntegerv(GL_MAX_VIEWPORT_DIMS, vp);
+    in->max_texture_size = tex;
+    int m = tex;
+    if (rb < m) m = rb;
+    if (vp[0] < m) m = vp[0];
+    if (vp[1] < m) m = vp[1];
+    in->max_target_size = m;
+    while (glGetError() != GL_NO_ERROR) {}
+    return true;
+}
+
+/* One attempt's outcome. */
+enum { TRY_OK, TRY_NO_DISPLAY, TRY_NO_CONTEXT, TRY_SKIPPED };
+
+/* Initialises dpy (a reference in the display table), creates a 3.3 core
+ * context and makes it current with no surface. On TRY_OK, *g holds the
+ * display reference and the context; otherwise nothing is held and the
+ * log says why. With skip_software (AUTO holding a software fallback), a
+ * display whose device is a software one is dropped before a context is
+ * made, and a context that turns out to be software afterwards. */
+static int try_display(const egl_fns *f, EGLDisplay dpy, const char *label, vt_gl_platform p,
+                       int dev_index, const vt_gl_opts *o, bool skip_software, vt_gl *g,
+                       open_log *log)
+{
+    if (dpy == EGL_NO_DISPLAY) {
+        log_add(log, "%s: no display (%s)", label, egl_error_name(eglGetError()));
+        return TRY_NO_DISPLAY;
+    }
+    EGLint major = 0, minor = 0;
+    EGLint e = dpy_acquire(dpy, &major, &minor);
+    if (e != EGL_SUCCESS) {
+        log_add(log, "%s: eglInitialize: %s", label, egl_error_name(e));
+        return TRY_NO_DISPLAY;
+    }
+    EGLDeviceEXT device = display_device(f, dpy);
+    bool soft_device = device_is_software(f, device);
+    if (skip_software && soft_device) {
+        log_add(log, "%s: skipped, software", label);
+        dpy_release(dpy);
+        return TRY_SKIPPED;
+    }
+    const char *dext = eglQueryString(dpy, EGL_EXTENSIONS);
+    const char *apis = eglQueryString(dpy, EGL_CLIENT_APIS);
+    bool egl15 = major > 1 || (major == 1 && minor >= 5);
+    if (!has_word(apis, "OpenGL")) {
+        log_add(log, "%s: no desktop OpenGL (EGL_CLIENT_APIS \"%s\")", label, apis ? apis : "");
+        dpy_release(dpy);
+        return TRY_NO_CONTEXT;
+    }
+    if (!egl15 && !has_word(dext, "EGL_KHR_create_context")) {
+        log_add(log, "%s: EGL %d.%d without EGL_KHR_create_context", label, major, minor);
+        dpy_release(dpy);
+        return TRY_NO_CONTEXT;
+    }
+    if (!has_word(dext, "EGL_KHR_surfaceless_context")) {
+        log_add(log, "%s: no EGL_KHR_surfaceless_context", label);
+        dpy_release(dpy);
+        return TRY_NO_CONTEXT;
+    }
+    if (!eglBindAPI(EGL_OPENGL_API)) {
+        log_add(log, "%s: eglBindAPI(EGL_OPENGL_API): %s", label, egl_error_name(eglGetError()));
+        dpy_release(dpy);
+        return TRY_NO_CONTEXT;
+    }
+    EGLConfig cfg = EGL_NO_CONFIG_KHR;
+    if (!has_word(dext, "EGL_KHR_no_config_context")) {
+        /* any config that renders OpenGL; SURFACE_TYPE 0 matches every one
+         * (its default, EGL_WINDOW_BIT, would miss surfaceless displays) */
+        const EGLint want[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0, EGL_NONE};
+        EGLint n = 0;
+        if (!eglChooseConfig(dpy, want, &cfg, 1, &n) || n < 1) {
+            log_add(log, "%s: no OpenGL config (%s)", label, egl_error_name(eglGetError()));
+            dpy_release(dpy);
+            return TRY_NO_CONTEXT;
+        }
+    }
+    /* EGL 1.5 names; the values are EGL_KHR_create_context's */
+    EGLint attr[16], k = 0;
+    attr[k++] = EGL_CONTEXT_MAJOR_VERSION;
+    attr[k++] = 3;
+    attr[k++] = EGL_CONTEXT_MINOR_VERSION;
+    attr[k++] = 3;
+    attr[k++] = EGL_CONTEXT_OPENGL_PROFILE_MASK;
+    attr[k++] = EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT;
+    if (o->debug) {
+        if (egl15) {
+            attr[k++] = EGL_CONTEXT_OPENGL_DEBUG;
+            attr[k++] = EGL_TRUE;
+        } else {
+            attr[k++] = EGL_CONTEXT_FLAGS_KHR;
+            attr[k++] = EGL_CONTEXT_OPENGL_DEBUG_BIT_KHR;
+        }
+    }
+    attr[k++] = EGL_NONE;
+    EGLContext ctx = eglCreateContext(dpy, cfg, EGL_NO_CONTEXT, attr);
+    if (ctx == EGL_NO_CONTEXT) {
+        log_add(log, "%s: eglCreateContext(3.3 core): %s", label, egl_error_name(eglGetError()));
+        dpy_release(dpy);
+        return TRY_NO_CONTEXT;
+    }
+    if (!eglMakeCurrent(dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx)) {
+        log_add(log, "%s: eglMakeCurrent(EGL_NO_SURFACE): %s", label,
+                egl_error_name(eglGetError()));
+        eglDestroyContext(dpy, ctx);
+        dpy_release(dpy);
+        return TRY_NO_CONTEXT;
+    }
+    vt_gl_info in = {0};
+    char why[160];
+    if (!read_gl_info(&in, why, sizeof why)) {
+        log_add(log, "%s: %s", label, why);
+        drop_context(dpy, ctx);
+        return TRY_NO_CONTEXT;
+    }
+    in.software = soft_device || renderer_is_software(in.renderer);
+    if (skip_software && in.software) {
+        log_add(log, "%s: skipped, software (%s)", label, in.renderer);
+        drop_context(dpy, ctx);
+        return TRY_SKIPPED;
+    }
+    in.egl_major = major;
+    in.egl_minor = minor;
+    copy_str(in.egl_vendor, sizeof in.egl_vendor, eglQueryString(dpy, EGL_VENDOR));
+    in.platform = p;
+    in.device_index = dev_index;
+    device_file(f, device, in.device_file, sizeof in.device_file);
+    g->dpy = dpy;
+    g->ctx = ctx;
+    g->info = in;
+    return TRY_OK;
+}
+
+/* The open in progress: the best context so far and what was tried. */
+typedef struct open_state {
+    const egl_fns    *f;
+    const vt_gl_opts *o;
+    bool              auto_mode;
+    vt_gl             best;     /* best.ctx set once something worked */
+    bool              have_display; /* some display initialised */
+    open_log          log;
+} open_state;
+
+/* Tries dpy; true when the search can stop (a hardware context, or any
+ * context when a platform was named). */
+static bool consider(open_state *s, EGLDisplay dpy, const char *label, vt_gl_platform p,
+                     int dev_index)
+{
+    bool have_soft = s->best.ctx != EGL_NO_CONTEXT;
+    vt_gl got = {0};
+    int r = try_display(s->f, dpy, label, p, dev_index, s->o, s->auto_mode && have_soft, &got,
+                        &s->log);
+    if (r != TRY_NO_DISPLAY) s->have_display = true;
+    if (r != TRY_OK) return false;
+    if (have_soft) { /* got is hardware: it replaces the software fallback */
+        drop_context(s->best.dpy, s->best.ctx);
+        eglMakeCurrent(got.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, got.ctx);
+    }
+    s->best = got;
+    if (s->auto_mode && got.info.software) {
+        log_add(&s->log, "%s: software (%s), kept as fallback", label, got.info.renderer);
+        return false;
+    }
+    log_add(&s->log, "%s: %s", label, got.info.renderer);
+    return true;
+}
+
+static bool try_surfaceless(open_state *s)
+{
+    if (!s->f->get_platform_display || !has_word(s->f->client_ext, "EGL_MESA_platform_surfaceless")) {
+        log_add(&s->log, "surfaceless: no EGL_MESA_platform_surfaceless");
+        return false;
+    }
+    EGLDisplay d = s->f->get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL);
+    return consider(s, d, "surfaceless", VT_GL_SURFACELESS, -1);
+}
+
+static bool try_devices(open_state *s)
+{
+    const egl_fns *f = s->f;
+    if (!f->get_platform_display || !f->query_devices ||
+        !has_word(f->client_ext, "EGL_EXT_platform_device")) {
+        log_add(&s->log, "device: no EGL_EXT_platform_device / EGL_EXT_device_enumeration");
+        return false;
+    }
+    EGLint n = 0;
+    if (!f->query_devices(0, NULL, &n)) {
+        log_add(&s->log, "device: eglQueryDevicesEXT: %s", egl_error_name(eglGetError()));
+        return false;
+    }
+    if (n <= 0) {
+        log_add(&s->log, "device: 0 devices");
+        return false;
+    }
+    EGLDeviceEXT *devs = calloc((size_t)n, sizeof *devs);
+    if (!devs) {
+        log_add(&s->log, "device: out of memory");
+        return false;
+    }
+    bool done = false;
+    if (!f->query_devices(n, devs, &n)) {
+        log_add(&s->log, "device: eglQueryDevicesEXT: %s", egl_error_name(eglGetError()));
+        n = 0;
+    }
+    int want = s->o->device - 1; /* -1: any */
+    if (want >= n) log_add(&s->log, "device %d: only %d devices", want, (int)n);
+    for (int i = 0; i < n && !done; i++) {
+        if (want >= 0 && i != want) continue;
+        char label[32];
+        snprintf(label, sizeof label, "device %d", i);
+        /* no context for a software device while AUTO holds one already */
+        if (s->auto_mode && s->best.ctx != EGL_NO_CONTEXT && device_is_software(f, devs[i])) {
+            log_add(&s->log, "%s: skipped, software", label);
+            continue;
+        }
+        EGLDisplay d = f->get_platform_display(EGL_PLATFORM_DEVICE_EXT, devs[i], NULL);
+        done = consider(s, d, label, VT_GL_DEVICE, i);
+    }
+    free(devs);
+    return done;
+}
+
+static bool try_default(open_state *s)
+{
+    return consider(s, eglGetDisplay(EGL_DEFAULT_DISPLAY), "default", VT_GL_DEFAULT_DISPLAY, -1);
+}
+
+int vt_gl_open(vt_gl **out, const vt_gl_opts *opts, char *err, size_t errlen)
+{
+    vt_gl_opts o = opts ? *opts : (vt_gl_opts){0};
+    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_open: out is NULL");
+    *out = NULL;
+    if ((unsigned)o.platform > VT_GL_DEFAULT_DISPLAY || o.device < 0)
+        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_open: bad platform or device");
+    vt_gl *g = calloc(1, sizeof *g);
+    if (!g) return fail(VT_GL_ERR_NOMEM, err, errlen, "vt_gl_open: out of memory");
+
+    /* what was current here before, to restore it if nothing works */
+    EGLenum prev_api = eglQueryAPI();
+    eglBindAPI(EGL_OPENGL_API);
+    EGLDisplay prev_dpy = eglGetCurrentDisplay();
+    EGLContext prev_ctx = eglGetCurrentContext();
+    EGLSurface prev_draw = eglGetCurrentSurface(EGL_DRAW);
+    EGLSurface prev_read = eglGetCurrentSurface(EGL_READ);
+
+    egl_fns f;
+    egl_fns_load(&f);
+    open_state s = {.f = &f, .o = &o, .auto_mode = o.platform == VT_GL_AUTO};
+    bool done = false;
+    if (o.platform == VT_GL_AUTO || o.platform == VT_GL_SURFACELESS) done = try_surfaceless(&s);
+    if (!done && (o.platform == VT_GL_AUTO || o.platform == VT_GL_DEVICE)) done = try_devices(&s);
+    if (!done && (o.platform == VT_GL_AUTO || o.platform == VT_GL_DEFAULT_DISPLAY)) try_default(&s);
+
+    if (s.best.ctx == EGL_NO_CONTEXT) {
+        /* every failed attempt released its context: nothing of ours is current */
+        if (prev_ctx != EGL_NO_CONTEXT) eglMakeCurrent(prev_dpy, prev_draw, prev_read, prev_ctx);
+        if (prev_api != EGL_NONE) eglBindAPI(prev_api);
+        eglGetError();
+        free(g);
+        if (!f.client_ext)
+            log_add(&s.log, "libEGL has no client extensions (no EGL vendor library installed?)");
+        if (!s.have_display)
+            return fail(VT_GL_ERR_NO_DISPLAY, err, errlen,
+                        "no EGL: libEGL could not initialise a display on any platform (%s)",
+                        s.log.s);
+        return fail(VT_GL_ERR_NO_CONTEXT, err, errlen,
+                    "no desktop OpenGL 3.3 core context on any EGL display (%s)", s.log.s);
+    }
+    /* a failed attempt after the fallback was made left nothing current */
+    if (!eglMakeCurrent(s.best.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, s.best.ctx)) {
+        EGLint e = eglGetError();
+        drop_context(s.best.dpy, s.best.ctx);
+        free(g);
+        return fail(VT_GL_ERR_NO_CONTEXT, err, errlen, "eglMakeCurrent: %s (%s)",
+                    egl_error_name(e), s.log.s);
+    }
+    *g = s.best;
+    copy_str(g->info.tried, sizeof g->info.tried, s.log.s);
+    *out = g;
+    return ok(err, errlen);
+}
+
+void vt_gl_close(vt_gl *g)
+{
+    if (!g) return;
+    /* the targets' GL objects die with the context (it shares with none) */
+    for (vt_gl_target *t = g->targets, *next; t; t = next) {
+        next = t->next;
+        free(t);
+    }
+    eglBindAPI(EGL_OPENGL_API);
+    drop_context(g->dpy, g->ctx);
+    free(g);
+}
+
+int vt_gl_make_current(vt_gl *g, char *err, size_t errlen)
+{
+    if (!g) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_make_current: NULL");
+    eglBindAPI(EGL_OPENGL_API);
+    if (eglGetCurrentContext() == g->ctx) return ok(err, errlen);
+    if (!eglMakeCurrent(g->dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, g->ctx)) {
+        EGLint e = eglGetError();
+        return fail(VT_GL_ERR_CURRENT, err, errlen, "eglMakeCurrent: %s%s", egl_error_name(e),
+                    e == EGL_BAD_ACCESS ? " (current on another thread)" : "");
+    }
+    return ok(err, errlen);
+}
+
+void vt_gl_release(vt_gl *g)
+{
+    if (!g) return;
+    eglBindAPI(EGL_OPENGL_API);
+    if (eglGetCurrentContext() == g->ctx)
+        eglMakeCurrent(g->dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+}
+
+const vt_gl_info *vt_gl_get_info(const vt_gl *g)
+{
+    return g ? &g->info : NULL;
+}
+
+/* VT_GL_OK, or VT_GL_ERR_CURRENT with a message naming the call. */
+static int need_current(const vt_gl *g, const char *what, char *err, size_t errlen)
+{
+    if (!g) return fail(VT_GL_ERR_INVALID, err, errlen, "%s: NULL", what);
+    eglBindAPI(EGL_OPENGL_API);
+    if (!is_current(g))
+        return fail(VT_GL_ERR_CURRENT, err, errlen,
+                    "%s: the context is not current on this thread (vt_gl_make_current)", what);
+    return VT_GL_OK;
+}
+
+/* Clears GL's error flags so the next check sees only our calls. */
+static void gl_drain(void)
+{
+    for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; i++) {}
+}
+
+int vt_gl_clip_control(vt_gl *g, bool zero_to_one, char *err, size_t errlen)
+{
+    int rc = need_current(g, "vt_gl_clip_control", err, errlen);
+    if (rc) return rc;
+    if (!g->info.clip_control)
+        return fail(VT_GL_ERR_UNSUPPORTED, err, errlen,
+                    "glClipControl needs GL 4.5 or GL_ARB_clip_control (have %s)", g->info.version);
+    glClipControl(GL_LOWER_LEFT, zero_to_one ? GL_ZERO_TO_ONE : GL_NEGATIVE_ONE_TO_ONE);
+    return ok(err, errlen);
+}
+
+/* ---- targets ----------------------------------------------------------------- */
+
+/* (Re)specifies both textures at w x h and checks the framebuffer. The
+ * caller has checked the size. Restores the bindings it changes. */
+static int target_alloc(vt_gl_target *t, uint32_t w, uint32_t h, char *err, size_t errlen)
+{
+    GLint old_tex = 0, old_draw = 0, old_read = 0;
+    glGetIntegerv(GL_TEXTURE_BINDING_2D, &old_tex);
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &old_draw);
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &old_read);
+    gl_drain();
+
+    GLenum cfmt = t->format == VT_GL_RGBA32F ? GL_RGBA32F : GL_RGBA16F;
+    const GLuint tex[2] = {t->color, t->depth};
+    for (int i = 0; i < 2; i++) {
+        glBindTexture(GL_TEXTURE_2D, tex[i]);
+        if (i == 0)
+            glTexImage2D(GL_TEXTURE_2D, 0, (GLint)cfmt, (GLsizei)w, (GLsizei)h, 0, GL_RGBA, GL_FLOAT,
+                         NULL);
+        else
+            glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT32F, (GLsizei)w, (GLsizei)h, 0,
+                         GL_DEPTH_COMPONENT, GL_FLOAT, NULL);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_BASE_LEVEL, 0);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, t->fbo);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, t->color, 0);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, t->depth, 0);
+    const GLenum buf = GL_COLOR_ATTACHMENT0;
+    glDrawBuffers(1, &buf);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    GLenum st = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    GLenum ge = glGetError();
+
+    glBindTexture(GL_TEXTURE_2D, (GLuint)old_tex);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, (GLuint)old_draw);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)old_read);
+    const char *fname = t->format == VT_GL_RGBA32F ? "RGBA32F" : "RGBA16F";
+    if (ge != GL_NO_ERROR)
+        return fail(VT_GL_ERR_GL, err, errlen, "target %ux%u %s: %s", w, h, fname,
+                    gl_error_name(ge));
+    if (st != GL_FRAMEBUFFER_COMPLETE)
+        return fail(VT_GL_ERR_FRAMEBUFFER, err, errlen, "target %ux%u %s: %s", w, h, fname,
+                    fbo_status_name(st));
+    t->w = w;
+    t->h = h;
+    return VT_GL_OK;
+}
+
+static int check_size(const vt_gl *g, uint32_t w, uint32_t h, char *err, size_t errlen)
+{
+    uint32_t m = (uint32_t)g->info.max_target_size;
+    if (w < 1 || h < 1 || w > m || h > m)
+        return fail(VT_GL_ERR_RANGE, err, errlen, "target %ux%u: each side must be 1..%u", w, h, m);
+    return VT_GL_OK;
+}
+
+static void target_delete_gl(vt_gl_target *t)
+{
+    glDeleteFramebuffers(1, &t->fbo);
+    glDeleteTextures(1, &t->color);
+    glDeleteTextures(1, &t->depth);
+    if (t->pbo) glDeleteBuffers(1, &t->pbo);
+}
+
+int vt_gl_target_create(vt_gl *g, uint32_t w, uint32_t h, const vt_gl_target_desc *desc,
+                        vt_gl_target **out, char *err, size_t errlen)
+{
+    vt_gl_target_desc d = desc ? *desc : (vt_gl_target_desc){0};
+    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_create: out is NULL");
+    *out = NULL;
+    int rc = need_current(g, "vt_gl_target_create", err, errlen);
+    if (rc) return rc;
+    if (d.color != VT_GL_RGBA16F && d.color != VT_GL_RGBA32F)
+        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_create: bad colour format");
+    if ((rc = check_size(g, w, h, err, errlen))) return rc;
+    vt_gl_target *t = calloc(1, sizeof *t);
+    if (!t) return fail(VT_GL_ERR_NOMEM, err, errlen, "vt_gl_target_create: out of memory");
+    t->g = g;
+    t->format = d.color;
+    glGenFramebuffers(1, &t->fbo);
+    glGenTextures(1, &t->color);
+    glGenTextures(1, &t->depth);
+    if ((rc = target_alloc(t, w, h, err, errlen))) {
+        target_delete_gl(t);
+        free(t);
+        return rc;
+    }
+    t->next = g->targets;
+    if (g->targets) g->targets->prev = t;
+    g->targets = t;
+    *out = t;
+    return ok(err, errlen);
+}
+
+int vt_gl_target_resize(vt_gl_target *t, uint32_t w, uint32_t h, char *err, size_t errlen)
+{
+    if (!t) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_resize: NULL");
+    int rc = need_current(t->g, "vt_gl_target_resize", err, errlen);
+    if (rc) return rc;
+    if ((rc = check_size(t->g, w, h, err, errlen))) return rc;
+    if (w == t->w && h == t->h) return ok(err, errlen);
+    if ((rc = target_alloc(t, w, h, err, errlen))) return rc;
+    return ok(err, errlen);
+}
+
+void vt_gl_target_destroy(vt_gl_target *t)
+{
+    if (!t) return;
+    vt_gl *g = t->g;
+    eglBindAPI(EGL_OPENGL_API);
+    if (is_current(g)) target_delete_gl(t);
+    if (t->prev) t->prev->next = t->next;
+    else g->targets = t->next;
+    if (t->next) t->next->prev = t->prev;
+    free(t);
+}
+
+int vt_gl_target_bind(vt_gl_target *t)
+{
+    if (!t) return VT_GL_ERR_INVALID;
+    int rc = need_current(t->g, "vt_gl_target_bind", NULL, 0);
+    if (rc) return rc;
+    glBindFramebuffer(GL_FRAMEBUFFER, t->fbo);
+    glViewport(0, 0, (GLsizei)t->w, (GLsizei)t->h);
+    return VT_GL_OK;
+}
+
+int vt_gl_target_clear(vt_gl_target *t, const float rgba[4], float depth)
+{
+    int rc = vt_gl_target_bind(t);
+    if (rc) return rc;
+    if (rgba) glClearBufferfv(GL_COLOR, 0, rgba);
+    if (!isnan(depth)) {
+        const GLfloat z = depth < 0 ? 0.0f : depth > 1 ? 1.0f : depth;
+        glClearBufferfv(GL_DEPTH, 0, &z);
+    }
+    return VT_GL_OK;
+}
+
+void vt_gl_target_size(const vt_gl_target *t, uint32_t *w, uint32_t *h)
+{
+    if (w) *w = t ? t->w : 0;
+    if (h) *h = t ? t->h : 0;
+}
+
+unsigned vt_gl_target_fbo(const vt_gl_target *t) { return t ? t->fbo : 0; }
+unsigned vt_gl_target_color_texture(const vt_gl_target *t) { return t ? t->color : 0; }
+unsigned vt_gl_target_depth_texture(const vt_gl_target *t) { return t ? t->depth : 0; }
+
+/* ---- readback ------------------------------------------------------------------ */
+
+size_t vt_gl_read_bound(uint32_t w, uint32_t h, bool color)
+{
+    size_t n = (size_t)w * h;
+    if (h && n / h != w) return 0;
+    if (color) {
+        if (n > SIZE_MAX / 16) return 0; /* 4 floats of 4 bytes must fit too */
+        n *= 4;
+    }
+    return n;
+}
+
+int vt_gl_readback(vt_gl_target *t, float *rgba, float *depth, const vt_gl_read_desc *desc,
+                   char *err, size_t errlen)
+{
+    vt_gl_read_desc d = desc ? *desc : (vt_gl_read_desc){0};
+    if (!t) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: NULL target");
+    if (!rgba && !depth)
+        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: no colour or depth buffer");
+    if ((unsigned)d.path > VT_GL_READ_PBO)
+        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: bad path");
+    int rc = need_current(t->g, "vt_gl_readback", err, errlen);
+    if (rc) return rc;
+    if (d.w == 0 && d.h == 0) {
+        d.x = d.y = 0;
+        d.w = t->w;
+        d.h = t->h;
+    }
+    if (d.w == 0 || d.h == 0 || d.x > t->w || d.w > t->w - d.x || d.y > t->h ||
+        d.h > t->h - d.y)
+        return fail(VT_GL_ERR_RANGE, err, errlen,
+                    "vt_gl_readback: region %ux%u at (%u,%u) outside the %ux%u target", d.w, d.h,
+                    d.x, d.y, t->w, t->h);
+    const size_t npx = (size_t)d.w * d.h; /* sides below 2^31 each: no overflow */
+    const size_t cbytes = rgba ? npx * 16 : 0, zbytes = depth ? npx * 4 : 0;
+    bool pbo = d.path == VT_GL_READ_PBO;
+
+    GLint old_read = 0, old_pack = 0;
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &old_read);
+    glGetIntegerv(GL_PIXEL_PACK_BUFFER_BINDING, &old_pack);
+    gl_drain();
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, t->fbo);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    glPixelStorei(GL_PACK_SKIP_ROWS, 0);
+    glPixelStorei(GL_PACK_SKIP_PIXELS, 0);
+    const GLint x = (GLint)d.x, y = (GLint)d.y;
+    const GLsizei w = (GLsizei)d.w, h = (GLsizei)d.h;
+    GLenum ge = GL_NO_ERROR;
+    if (!pbo) {
+        glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+        if (rgba) glReadPixels(x, y, w, h, GL_RGBA, GL_FLOAT, rgba);
+        if (depth) glReadPixels(x, y, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth);
+        ge = glGetError();
+    } else {
+        size_t need = cbytes + zbytes;
+        if (!t->pbo) glGenBuffers(1, &t->pbo);
+        glBindBuffer(GL_PIXEL_PACK_BUFFER, t->pbo);
+        if (t->pbo_bytes < need) {
+            glBufferData(GL_PIXEL_PACK_BUFFER, (GLsizeiptr)need, NULL, GL_STREAM_READ);
+            t->pbo_bytes = (ge = glGetError()) == GL_NO_ERROR ? need : 0;
+        }
+        if (ge == GL_NO_ERROR) {
+            /* both reads queued before the one wait in the map */
+            if (rgba) glReadPixels(x, y, w, h, GL_RGBA, GL_FLOAT, (void *)0);
+            if (depth)
+                glReadPixels(x, y, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, (void *)(uintptr_t)cbytes);
+            const unsigned char *p =
+                glMapBufferRange(GL_PIXEL_PACK_BUFFER, 0, (GLsizeiptr)need, GL_MAP_READ_BIT);
+            if (p) {
+                if (rgba) memcpy(rgba, p, cbytes);
+                if (depth) memcpy(depth, p + cbytes, zbytes);
+                glUnmapBuffer(GL_PIXEL_PACK_BUFFER);
+            }
+            ge = glGetError();
+            if (!p && ge == GL_NO_ERROR) ge = GL_OUT_OF_MEMORY;
+        }
+    }
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, (GLuint)old_pack);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)old_read);
+    if (ge != GL_NO_ERROR)
+        return fail(VT_GL_ERR_GL, err, errlen, "vt_gl_readback%s: %s", pbo ? " (PBO)" : "",
+                    gl_error_name(ge));
+    return ok(err, errlen);
+}
+
+/* ---- shaders ------------------------------------------------------------------- */
+
+static const char *stage_name(GLenum s)
+{
+    switch (s) {
+    case GL_VERTEX_SHADER:          return "vertex shader";
+    case GL_FRAGMENT_SHADER:        return "fragment shader";
+    case GL_GEOMETRY_SHADER:        return "geometry shader";
+    case GL_TESS_CONTROL_SHADER:    return "tessellation control shader";
+    case GL_TESS_EVALUATION_SHADER: return "tessellation evaluation shader";
+    case GL_COMPUTE_SHADER:         return "compute shader";
+    }
+    return "shader";
+}
+
+/* "what: " + the info log of a shader or program, into err. */
+static void put_log(char *err, size_t errlen, const char *what, GLuint obj, bool program)
+{
+    if (!err || !errlen) return;
+    int n = snprintf(err, errlen, "%s: ", what);
+    if (n < 0 || (size_t)n >= errlen) return;
+    GLsizei cap = (GLsizei)(errlen - (size_t)n > 0x7fffffff ? 0x7fffffff : errlen - (size_t)n);
+    GLsizei len = 0;
+    if (program) glGetProgramInfoLog(obj, cap, &len, err + n);
+    else glGetShaderInfoLog(obj, cap, &len, err + n);
+    if (len <= 0) snprintf(err + n, errlen - (size_t)n, "(no info log)");
+    else /* drop the trailing newline drivers add */
+        for (char *e = err + n + len - 1; e >= err + n && (*e == '\n' || *e == ' '); e--) *e = 0;
+}
+
+int vt_gl_shader_compile(vt_gl *g, unsigned stage, const char *src, unsigned *out, char *err,
+                         size_t errlen)
+{
+    if (!out || !src) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_shader_compile: NULL");
+    *out = 0;
+    int rc = need_current(g, "vt_gl_shader_compile", err, errlen);
+    if (rc) return rc;
+    gl_drain();
+    GLuint s = glCreateShader(stage);
+    if (!s) {
+        GLenum ge = glGetError();
+        return fail(ge == GL_INVALID_ENUM ? VT_GL_ERR_INVALID : VT_GL_ERR_GL, err, errlen,
+                    "glCreateShader(0x%x): %s", stage, gl_error_name(ge));
+    }
+    glShaderSource(s, 1, &src, NULL);
+    glCompileShader(s);
+    GLint okc = GL_FALSE;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &okc);
+    if (!okc) {
+        put_log(err, errlen, stage_name(stage), s, false);
+        glDeleteShader(s);
+        return VT_GL_ERR_COMPILE;
+    }
+    *out = s;
+    return ok(err, errlen);
+}
+
+int vt_gl_program_link(vt_gl *g, const unsigned *shaders, size_t n, unsigned *out, char *err,
+                       size_t errlen)
+{
+    if (!out || (!shaders && n)) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_program_link: NULL");
+    *out = 0;
+    int rc = need_current(g, "vt_gl_program_link", err, errlen);
+    if (rc) return rc;
+    gl_drain();
+    GLuint p = glCreateProgram();
+    if (!p) return fail(VT_GL_ERR_GL, err, errlen, "glCreateProgram: %s", gl_error_name(glGetError()));
+    for (size_t i = 0; i < n; i++) glAttachShader(p, shaders[i]);
+    GLenum ge = glGetError();
+    if (ge != GL_NO_ERROR) {
+        glDeleteProgram(p);
+        return fail(VT_GL_ERR_INVALID, err, errlen, "glAttachShader: %s (not a shader name?)",
+                    gl_error_name(ge));
+    }
+    glLinkProgram(p);
+    GLint okl = GL_FALSE;
+    glGetProgramiv(p, GL_LINK_STATUS, &okl);
+    for (size_t i = 0; i < n; i++) glDetachShader(p, shaders[i]);
+    if (!okl) {
+        put_log(err, errlen, "link", p, true);
+        glDeleteProgram(p);
+        return VT_GL_ERR_LINK;
+    }
+    *out = p;
+    return ok(err, errlen);
+}
+
+int vt_gl_program_build(vt_gl *g, const char *vs, const char *fs, unsigned *out, char *err,
+                        size_t errlen)
+{
+    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_program_build: NULL");
+    *out = 0;
+    unsigned sh[2] = {0, 0};
+    int rc = vt_gl_shader_compile(g, GL_VERTEX_SHADER, vs, &sh[0], err, errlen);
+    if (!rc) rc = vt_gl_shader_compile(g, GL_FRAGMENT_SHADER, fs, &sh[1], err, errlen);
+    if (!rc) rc = vt_gl_program_link(g, sh, 2, out, err, errlen);
+    if (sh[0]) glDeleteShader(sh[0]);
+    if (sh[1]) glDeleteShader(sh[1]);
+    return rc;
+}

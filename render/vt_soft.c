@@ -1,0 +1,606 @@
+/*
+ * vt_soft.c — the software renderer (see vt_soft.h). A visibility buffer:
+ *
+ *   1. set-up (one thread): each instance's vertices to clip space (double,
+ *      camera-relative), back faces culled, triangles clipped in clip space
+ *      against the near and far planes and a guard band (x, y within 4 w),
+ *      projected and snapped to 1/256 pixel; one raster record per clipped
+ *      triangle, one shading record per source triangle;
+ *   2. raster (threads over interleaved 16-row tile rows): integer edge
+ *      functions with the top-left rule at pixel centres, nearness (1/w
+ *      perspective, 1 - z_ndc orthographic: affine in screen space) as the
+ *      depth test, the winning shading record per pixel;
+ *   3. light tiles: per 16x16 tile the nearness range of what it shows,
+ *      then cull_lights_bin;
+ *   4. shading (threads over tile rows): per pixel, perspective-correct
+ *      barycentrics from the homogeneous edge functions of the source
+ *      triangle give the surface point and normal; Lambert + Blinn-Phong
+ *      over the tile's lights, plus a small ambient term.
+ *
+ * Shading once per pixel, whatever the overdraw, is the point of the
+ * visibility buffer.
+ */
+#include "vt_soft.h"
+
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define SUB 256.0          /* sub-pixel steps */
+#define GUARD 4.0          /* guard band: |x|, |y| <= GUARD w */
+#define TILE CULL_LIGHT_TILE
+#define EMPTY (-FLT_MAX)
+#define MAX_THREADS 64u
+#define AMBIENT 0.03f
+
+/* A clipped, projected triangle for the rasteriser. */
+typedef struct rtri {
+    int32_t x[3], y[3];     /* fixed point, 1/256 pixel, y up */
+    double  na, nb, nc;     /* nearness = na px + nb py + nc over pixel coordinates */
+    int32_t bx0, by0, bx1, by1; /* pixel bounds */
+    uint32_t shade;         /* shading record */
+} rtri;
+
+/* A source triangle, for shading. */
+typedef struct stri {
+    float e[3][3];          /* adjugate rows: barycentric i ~ e[i] . (X, Y, 1), NDC */
+    float p[3][3];          /* camera-relative positions */
+    float n[3][3];          /* unit normals */
+    float albedo[3];
+} stri;
+
+struct vt_soft {
+    cull_pool *pool;
+    uint32_t threads;
+    float *near;            /* nearness per pixel */
+    uint32_t *id;           /* shading record + 1 per pixel, 0 = nothing */
+    size_t px_cap;
+    rtri *rt;
+    size_t nrt, rt_cap;
+    stri *st;
+    size_t nst, st_cap;
+    float (*range)[2];
+    size_t range_cap;
+    cull_light_tiles tiles;
+    cull_light *cl;
+    size_t cl_cap;
+};
+
+static uint64_t now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static int fail(char *err, size_t errlen, int code, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+static bool grow(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap) return true;
+    size_t c = *cap ? *cap : 256;
+    while (c < need) c *= 2;
+    void *n = realloc(*p, c * elem);
+    if (!n) return false;
+    *p = n;
+    *cap = c;
+    return true;
+}
+
+int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
+{
+    if (!out) return -EINVAL;
+    vt_soft *r = calloc(1, sizeof *r);
+    if (!r) return -ENOMEM;
+    r->pool = pool;
+    uint32_t pt = cull_pool_threads(pool);
+    r->threads = threads && threads < pt ? threads : pt;
+    if (r->threads > MAX_THREADS) r->threads = MAX_THREADS;
+    *out = r;
+    return 0;
+}
+
+void vt_soft_destroy(vt_soft *r)
+{
+    if (!r) return;
+    free(r->near);
+    free(r->id);
+    free(r->rt);
+    free(r->st);
+    free(r->range);
+    free(r->cl);
+    cull_light_tiles_free(&r->tiles);
+    free(r);
+}
+
+int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen)
+{
+    if (!m || !m->pos || !m->idx || !m->nv || !m->ni || m->ni % 3)
+        return fail(err, errlen, -EINVAL, "mesh: needs vertices and a multiple of 3 indices");
+    for (uint32_t i = 0; i < m->ni; i++)
+        if (m->idx[i] >= m->nv)
+            return fail(err, errlen, -EINVAL, "mesh: index %u is %u, past %u vertices", i, m->idx[i], m->nv);
+    for (uint32_t i = 0; i < 3 * m->nv; i++)
+        if (!isfinite(m->pos[i]) || (m->nrm && !isfinite(m->nrm[i])))
+            return fail(err, errlen, -EINVAL, "mesh: vertex %u is not finite", i / 3);
+    return 0;
+}
+
+/* ---- set-up --------------------------------------------------------------------- */
+
+typedef struct cv {
+    double c[4];            /* clip x, y, z, w */
+    double d;               /* nearness numerator */
+} cv;
+
+typedef struct frame {
+    const cull_view *v;
+    cull_view_rows vr;
+    uint32_t w, h;
+    double far[4];          /* the far plane (>= 0 inside) */
+} frame;
+
+static double dot4(const double f[4], const double c[4])
+{
+    return f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[3] * c[3];
+}
+
+/* The clip planes a triangle is cut by, as functions of clip (x, y, z, w). */
+static void clip_planes(const frame *fr, double pl[6][4])
+{
+    /* near and far in clip space: the culling core's depth conventions */
+    switch (fr->v->depth_mode) {
+    case CULL_DEPTH_GL:
+        memcpy(pl[0], (double[4]){0, 0, 1, 1}, sizeof pl[0]);
+        memcpy(pl[1], (double[4]){0, 0, -1, 1}, sizeof pl[1]);
+        break;
+    case CULL_DEPTH_ZERO_ONE:
+        memcpy(pl[0], (double[4]){0, 0, 1, 0}, sizeof pl[0]);
+        memcpy(pl[1], (double[4]){0, 0, -1, 1}, sizeof pl[1]);
+        break;
+    default: /* reversed: near at z = w, far at z = 0 */
+        memcpy(pl[0], (double[4]){0, 0, -1, 1}, sizeof pl[0]);
+        memcpy(pl[1], (double[4]){0, 0, 1, 0}, sizeof pl[1]);
+        break;
+    }
+    memcpy(pl[2], (double[4]){1, 0, 0, GUARD}, sizeof pl[2]);
+    memcpy(pl[3], (double[4]){-1, 0, 0, GUARD}, sizeof pl[3]);
+    memcpy(pl[4], (double[4]){0, 1, 0, GUARD}, sizeof pl[4]);
+    memcpy(pl[5], (double[4]){0, -1, 0, GUARD}, sizeof pl[5]);
+}
+
+/* Sutherland-Hodgman against the six planes; returns the vertex count. */
+static int clip_poly(cv *in, int n, double pl[6][4])
+{
+    cv tmp[12];
+    cv *src = in, *dst = tmp;
+    for (int p = 0; p < 6 && n; p++) {
+        int m = 0;
+        for (int i = 0; i < n; i++) {
+            const cv *a = &src[i], *b = &src[(i + 1) % n];
+            double fa = dot4(pl[p], a->c), fb = dot4(pl[p], b->c);
+            if (fa >= 0) dst[m++] = *a;
+            if ((fa >= 0) != (fb >= 0)) {
+                double t = fa / (fa - fb);
+                cv *o = &dst[m++];
+                for (int k = 0; k < 4; k++) o->c[k] = a->c[k] + t * (b->c[k] - a->c[k]);
+                o->d = a->d + t * (b->d - a->d);
+            }
+        }
+        n = m;
+        cv *x = src;
+        src = dst;
+        dst = x;
+    }
+    if (src != in) memcpy(in, src, (size_t)n * sizeof *in);
+    return n;
+}
+
+static int setup(vt_soft *r, const frame *fr, const vt_mesh *meshes, const vt_instance *inst, uint32_t ninst,
+                 char *err, size_t errlen)
+{
+    r->nrt = r->nst = 0;
+    double pl[6][4];
+    clip_planes(fr, pl);
+    const cull_view_rows *vr = &fr->vr;
+    const double *o = fr->v->origin;
+    for (uint32_t ii = 0; ii < ninst; ii++) {
+        const vt_instance *in = &inst[ii];
+        const vt_mesh *m = &meshes[in->mesh];
+        /* the mesh's bounds onto the instance's box */
+        float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+        for (uint32_t k = 0; k < m->nv; k++)
+            for (int a = 0; a < 3; a++) {
+                lo[a] = fminf(lo[a], m->pos[3 * k + a]);
+                hi[a] = fmaxf(hi[a], m->pos[3 * k + a]);
+            }
+        double scale[3], shift[3];
+        for (int a = 0; a < 3; a++) {
+            double ext = (double)hi[a] - lo[a];
+            scale[a] = ext > 0 ? (in->bmax[a] - in->bmin[a]) / ext : 0;
+            shift[a] = ext > 0 ? in->bmin[a] - o[a] - lo[a] * scale[a] : 0.5 * (in->bmin[a] + in->bmax[a]) - o[a];
+        }
+        for (uint32_t t = 0; t < m->ni / 3; t++) {
+            cv v[12];
+            double p[3][3];
+            for (int k = 0; k < 3; k++) {
+                const float *mp = m->pos + 3 * m->idx[3 * t + k];
+                for (int a = 0; a < 3; a++) p[k][a] = mp[a] * scale[a] + shift[a];
+                double q[4] = {p[k][0], p[k][1], p[k][2], 1};
+                v[k].c[0] = dot4(vr->x, q);
+                v[k].c[1] = dot4(vr->y, q);
+                v[k].c[2] = dot4(vr->z, q);
+                v[k].c[3] = dot4(vr->w, q);
+                v[k].d = dot4(vr->d, q);
+            }
+            /* back faces: the sign of the homogeneous determinant */
+            double e0[3] = {v[1].c[1] * v[2].c[3] - v[1].c[3] * v[2].c[1], v[1].c[3] * v[2].c[0] - v[1].c[0] * v[2].c[3],
+                            v[1].c[0] * v[2].c[1] - v[1].c[1] * v[2].c[0]};
+            double det = e0[0] * v[0].c[0] + e0[1] * v[0].c[1] + e0[2] * v[0].c[3];
+            if (!(det > 0)) continue;
+            /* trivially outside one clip plane: nothing to clip */
+            bool out = false;
+            for (int pp = 0; pp < 6 && !out; pp++)
+                out = dot4(pl[pp], v[0].c) < 0 && dot4(pl[pp], v[1].c) < 0 && dot4(pl[pp], v[2].c) < 0;
+            if (out) continue;
+            cv src[3] = {v[0], v[1], v[2]};
+            int n = clip_poly(v, 3, pl);
+            if (n < 3) continue;
+            if (!grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
+                !grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
+                return fail(err, errlen, -ENOMEM, "out of memory for %zu triangles", r->nrt);
+            /* the shading record: adjugate rows of the source triangle,
+               scaled by 1/det (barycentrics then sum to 1 by themselves) */
+            stri *s = &r->st[r->nst];
+            const cv *a = &src[0], *b = &src[1], *c = &src[2];
+            double rows[3][3] = {
+                {b->c[1] * c->c[3] - b->c[3] * c->c[1], b->c[3] * c->c[0] - b->c[0] * c->c[3], b->c[0] * c->c[1] - b->c[1] * c->c[0]},
+                {c->c[1] * a->c[3] - c->c[3] * a->c[1], c->c[3] * a->c[0] - c->c[0] * a->c[3], c->c[0] * a->c[1] - c->c[1] * a->c[0]},
+                {a->c[1] * b->c[3] - a->c[3] * b->c[1], a->c[3] * b->c[0] - a->c[0] * b->c[3], a->c[0] * b->c[1] - a->c[1] * b->c[0]}};
+            for (int i = 0; i < 3; i++)
+                for (int k = 0; k < 3; k++) s->e[i][k] = (float)(rows[i][k] / det);
+            float fn[3];
+            {
+                double u[3], w2[3];
+                for (int k = 0; k < 3; k++) {
+                    u[k] = p[1][k] - p[0][k];
+                    w2[k] = p[2][k] - p[0][k];
+                }
+                double nn[3] = {u[1] * w2[2] - u[2] * w2[1], u[2] * w2[0] - u[0] * w2[2], u[0] * w2[1] - u[1] * w2[0]};
+                double l = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+                for (int k = 0; k < 3; k++) fn[k] = l > 0 ? (float)(nn[k] / l) : 0;
+            }
+            for (int k = 0; k < 3; k++) {
+                for (int q = 0; q < 3; q++) s->p[k][q] = (float)p[k][q];
+                if (m->nrm) {
+                    /* normals under a scale: by the inverse scale */
+                    const float *mn = m->nrm + 3 * m->idx[3 * t + k];
+                    double nn[3], l = 0;
+                    for (int q = 0; q < 3; q++) {
+                        nn[q] = scale[q] > 0 ? mn[q] / scale[q] : mn[q];
+                        l += nn[q] * nn[q];
+                    }
+                    l = sqrt(l);
+                    for (int q = 0; q < 3; q++) s->n[k][q] = l > 0 ? (float)(nn[q] / l) : fn[q];
+                } else {
+                    memcpy(s->n[k], fn, sizeof fn);
+                }
+            }
+            memcpy(s->albedo, in->albedo, sizeof s->albedo);
+            /* the clipped polygon, projected and snapped, as a fan */
+            double px[12], py[12], pn[12];
+            int32_t ix[12], iy[12];
+            for (int k = 0; k < n; k++) {
+                double iw = 1.0 / v[k].c[3];
+                px[k] = (v[k].c[0] * iw + 1) * 0.5 * fr->w;
+                py[k] = (v[k].c[1] * iw + 1) * 0.5 * fr->h;
+                pn[k] = v[k].d * iw;
+                ix[k] = (int32_t)lrint(px[k] * SUB);
+                iy[k] = (int32_t)lrint(py[k] * SUB);
+            }
+            for (int k = 1; k + 1 < n; k++) {
+                rtri *rt = &r->rt[r->nrt];
+                int id[3] = {0, k, k + 1};
+                int64_t area = 0;
+                for (int q = 0; q < 3; q++) {
+                    rt->x[q] = ix[id[q]];
+                    rt->y[q] = iy[id[q]];
+                }
+                area = (int64_t)(rt->x[1] - rt->x[0]) * (rt->y[2] - rt->y[0]) -
+                       (int64_t)(rt->y[1] - rt->y[0]) * (rt->x[2] - rt->x[0]);
+                if (area <= 0) continue; /* snapped to nothing, or turned over */
+                /* nearness plane through the three projected vertices */
+                double ux = px[id[1]] - px[id[0]], uy = py[id[1]] - py[id[0]], un = pn[id[1]] - pn[id[0]];
+                double vx = px[id[2]] - px[id[0]], vy = py[id[2]] - py[id[0]], vn = pn[id[2]] - pn[id[0]];
+                double den = ux * vy - uy * vx;
+                if (den == 0) continue;
+                rt->na = (un * vy - uy * vn) / den;
+                rt->nb = (ux * vn - un * vx) / den;
+                rt->nc = pn[id[0]] - rt->na * px[id[0]] - rt->nb * py[id[0]];
+                int32_t xmin = rt->x[0], xmax = rt->x[0], ymin = rt->y[0], ymax = rt->y[0];
+                for (int q = 1; q < 3; q++) {
+                    xmin = rt->x[q] < xmin ? rt->x[q] : xmin;
+                    xmax = rt->x[q] > xmax ? rt->x[q] : xmax;
+                    ymin = rt->y[q] < ymin ? rt->y[q] : ymin;
+                    ymax = rt->y[q] > ymax ? rt->y[q] : ymax;
+                }
+                /* pixels whose centre (i + 0.5) can be inside */
+                rt->bx0 = (int32_t)floor((xmin - SUB / 2) / SUB);
+                rt->bx1 = (int32_t)ceil((xmax - SUB / 2) / SUB);
+                rt->by0 = (int32_t)floor((ymin - SUB / 2) / SUB);
+                rt->by1 = (int32_t)ceil((ymax - SUB / 2) / SUB);
+                if (rt->bx0 < 0) rt->bx0 = 0;
+                if (rt->by0 < 0) rt->by0 = 0;
+                if (rt->bx1 > (int32_t)fr->w - 1) rt->bx1 = (int32_t)fr->w - 1;
+                if (rt->by1 > (int32_t)fr->h - 1) rt->by1 = (int32_t)fr->h - 1;
+                if (rt->bx0 > rt->bx1 || rt->by0 > rt->by1) continue;
+                rt->shade = (uint32_t)r->nst;
+                r->nrt++;
+            }
+            r->nst++;
+        }
+    }
+    return 0;
+}
+
+/* ---- raster ------------------------------------------------------------------------ */
+
+typedef struct job {
+    vt_soft *r;
+    const frame *fr;
+    const vt_light *lights;
+    float *rgba, *depth;
+    size_t stride;
+    uint32_t nthreads;
+} job;
+
+/* Top-left rule, y up, counter-clockwise: an edge going down (dy < 0) is a
+ * left edge, a horizontal one going left (dx < 0) a top edge; a pixel
+ * centre exactly on one of those is inside, on any other edge outside. */
+static inline int64_t edge_bias(int32_t x0, int32_t y0, int32_t x1, int32_t y1)
+{
+    int32_t dy = y1 - y0, dx = x1 - x0;
+    return (dy < 0 || (dy == 0 && dx < 0)) ? 0 : -1;
+}
+
+static void raster_rows(vt_soft *r, const frame *fr, int y0, int y1)
+{
+    for (size_t t = 0; t < r->nrt; t++) {
+        const rtri *rt = &r->rt[t];
+        int by0 = rt->by0 > y0 ? rt->by0 : y0, by1 = rt->by1 < y1 ? rt->by1 : y1;
+        if (by0 > by1) continue;
+        int64_t A[3], B[3], C[3];
+        for (int k = 0; k < 3; k++) {
+            int a = k, b = (k + 1) % 3;
+            /* E(p) = (x_b - x_a)(p_y - y_a) - (y_b - y_a)(p_x - x_a), > 0 inside */
+            A[k] = -(int64_t)(rt->y[b] - rt->y[a]);
+            B[k] = (int64_t)(rt->x[b] - rt->x[a]);
+            C[k] = -A[k] * rt->x[a] - B[k] * rt->y[a] + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
+        }
+        for (int j = by0; j <= by1; j++) {
+            int64_t py = (int64_t)j * 256 + 128, px = (int64_t)rt->bx0 * 256 + 128;
+            int64_t e0 = A[0] * px + B[0] * py + C[0], e1 = A[1] * px + B[1] * py + C[1], e2 = A[2] * px + B[2] * py + C[2];
+            int64_t s0 = A[0] * 256, s1 = A[1] * 256, s2 = A[2] * 256;
+            float *nrow = r->near + (size_t)j * fr->w;
+            uint32_t *irow = r->id + (size_t)j * fr->w;
+            double nz = rt->nb * (j + 0.5) + rt->nc;
+            for (int i = rt->bx0; i <= rt->bx1; i++, e0 += s0, e1 += s1, e2 += s2) {
+                if ((e0 | e1 | e2) < 0) continue;
+                float z = (float)(rt->na * (i + 0.5) + nz);
+                if (z > nrow[i]) {
+                    nrow[i] = z;
+                    irow[i] = rt->shade + 1;
+                }
+            }
+        }
+    }
+}
+
+static void job_raster(void *arg, uint32_t t)
+{
+    job *jb = arg;
+    const frame *fr = jb->fr;
+    uint32_t trows = (fr->h + TILE - 1) / TILE;
+    for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
+        int y0 = (int)(tr * TILE), y1 = (int)((tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h) - 1;
+        for (int y = y0; y <= y1; y++) {
+            float *nrow = jb->r->near + (size_t)y * fr->w;
+            for (uint32_t x = 0; x < fr->w; x++) nrow[x] = EMPTY;
+            memset(jb->r->id + (size_t)y * fr->w, 0, fr->w * sizeof(uint32_t));
+        }
+        raster_rows(jb->r, fr, y0, y1);
+    }
+}
+
+/* ---- shading ------------------------------------------------------------------------ */
+
+static void shade_pixel(const vt_soft *r, const frame *fr, const vt_light *lights, const cull_light_tiles *lt,
+                        uint32_t tile, double X, double Y, uint32_t idp1, float out[4])
+{
+    const stri *s = &r->st[idp1 - 1];
+    float b[3];
+    for (int i = 0; i < 3; i++) b[i] = s->e[i][0] * (float)X + s->e[i][1] * (float)Y + s->e[i][2];
+    float sum = b[0] + b[1] + b[2];
+    if (sum != 0)
+        for (int i = 0; i < 3; i++) b[i] /= sum;
+    float p[3], n[3], nl = 0;
+    for (int a = 0; a < 3; a++) {
+        p[a] = b[0] * s->p[0][a] + b[1] * s->p[1][a] + b[2] * s->p[2][a];
+        n[a] = b[0] * s->n[0][a] + b[1] * s->n[1][a] + b[2] * s->n[2][a];
+        nl += n[a] * n[a];
+    }
+    nl = nl > 0 ? 1.0f / sqrtf(nl) : 0;
+    for (int a = 0; a < 3; a++) n[a] *= nl;
+    /* view direction: towards the eye (the camera-relative origin) for
+       perspective views; constant for orthographic ones is close enough
+       to the same formula at a distance */
+    float vd[3] = {-p[0], -p[1], -p[2]}, vl = sqrtf(vd[0] * vd[0] + vd[1] * vd[1] + vd[2] * vd[2]);
+    if (vl > 0)
+        for (int a = 0; a < 3; a++) vd[a] /= vl;
+    float c[3];
+    for (int a = 0; a < 3; a++) c[a] = AMBIENT * s->albedo[a];
+    const double *o = fr->v->origin;
+    for (uint32_t k = lt->offset[tile]; k < lt->offset[tile + 1]; k++) {
+        const vt_light *L = &lights[lt->index[k]];
+        float l[3] = {(float)(L->l.pos[0] - o[0]) - p[0], (float)(L->l.pos[1] - o[1]) - p[1],
+                      (float)(L->l.pos[2] - o[2]) - p[2]};
+        float d2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2], range = (float)L->l.radius;
+        if (d2 >= range * range || d2 <= 0) continue;
+        float d = sqrtf(d2), il = 1.0f / d;
+        for (int a = 0; a < 3; a++) l[a] *= il;
+        float ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
+        if (ndl <= 0) continue;
+        /* inverse square with a window that reaches 0 at the range */
+        float q = d2 / (range * range), win = 1 - q * q;
+        float att = win * win / (d2 + 1e-2f);
+        if (L->l.type == CULL_LIGHT_SPOT) {
+            float cd = -(l[0] * L->l.dir[0] + l[1] * L->l.dir[1] + l[2] * L->l.dir[2]);
+            float lo = L->l.cos_outer, hi = L->cos_inner > lo ? L->cos_inner : lo + 1e-4f;
+            float t = (cd - lo) / (hi - lo);
+            t = t < 0 ? 0 : t > 1 ? 1 : t;
+            att *= t * t * (3 - 2 * t);
+        }
+        if (att <= 0) continue;
+        /* Blinn-Phong, exponent 32, energy-normalised; F0 = 0.04 */
+        float h[3] = {l[0] + vd[0], l[1] + vd[1], l[2] + vd[2]}, hl = sqrtf(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+        float ndh = hl > 0 ? (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / hl : 0;
+        ndh = ndh > 0 ? ndh : 0;
+        float ndh2 = ndh * ndh, ndh4 = ndh2 * ndh2, ndh8 = ndh4 * ndh4, ndh16 = ndh8 * ndh8;
+        float spec = 0.04f * (32 + 8) / (8 * 3.14159265f) * ndh16 * ndh16;
+        for (int a = 0; a < 3; a++) c[a] += L->color[a] * att * ndl * (s->albedo[a] / 3.14159265f + spec);
+    }
+    out[0] = c[0];
+    out[1] = c[1];
+    out[2] = c[2];
+    out[3] = 1;
+}
+
+static void job_shade(void *arg, uint32_t t)
+{
+    job *jb = arg;
+    const vt_soft *r = jb->r;
+    const frame *fr = jb->fr;
+    uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
+    bool ortho = fr->vr.ortho;
+    for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
+        uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
+        for (uint32_t y = tr * TILE; y < y1; y++) {
+            const uint32_t *irow = r->id + (size_t)y * fr->w;
+            const float *nrow = r->near + (size_t)y * fr->w;
+            float *crow = jb->rgba + (size_t)y * jb->stride * 4, *drow = jb->depth + (size_t)y * jb->stride;
+            double Y = (2.0 * y + 1) / fr->h - 1;
+            for (uint32_t x = 0; x < fr->w; x++) {
+                if (!irow[x]) {
+                    crow[4 * x] = crow[4 * x + 1] = crow[4 * x + 2] = crow[4 * x + 3] = 0;
+                    drow[x] = INFINITY;
+                    continue;
+                }
+                double X = (2.0 * x + 1) / fr->w - 1;
+                shade_pixel(r, fr, jb->lights, &r->tiles, tr * tx + x / TILE, X, Y, irow[x], crow + 4 * x);
+                /* perspective: depth w = 1 / nearness; orthographic: the
+                   nearness is 1 - z_ndc (z_ndc reversed): 0..1 near to far */
+                float nz = nrow[x];
+                drow[x] = !ortho ? 1.0f / nz
+                                 : fr->v->depth_mode == CULL_DEPTH_GL ? 1.0f - 0.5f * nz
+                                 : 1.0f - nz;
+            }
+        }
+    }
+}
+
+/* ---- the frame ------------------------------------------------------------------------ */
+
+int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
+                   uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                   float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
+{
+    if (st) memset(st, 0, sizeof *st);
+    if (!r || !v || !rgba || !depth || (ninst && (!inst || !meshes)) || (nl && !lights))
+        return fail(err, errlen, -EINVAL, "missing argument");
+    if (width < 1 || height < 1 || width > 16384 || height > 16384 || stride < width)
+        return fail(err, errlen, -EINVAL, "size %ux%u (stride %zu) outside 1..16384", width, height, stride);
+    for (uint32_t i = 0; i < ninst; i++) {
+        if (inst[i].mesh >= nmesh) return fail(err, errlen, -EINVAL, "instance %u: no mesh %u", i, inst[i].mesh);
+        for (int a = 0; a < 3; a++)
+            if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
+                return fail(err, errlen, -EINVAL, "instance %u: bad bounds", i);
+    }
+    frame fr = {.v = v, .w = width, .h = height};
+    cull_view_rows_get(v, &fr.vr);
+    if (!fr.vr.usable) return fail(err, errlen, -EINVAL, "orthographic view with w <= 0");
+    size_t npx = (size_t)width * height;
+    if (!grow((void **)&r->near, &r->px_cap, npx, sizeof *r->near)) return fail(err, errlen, -ENOMEM, "out of memory");
+    size_t idcap = r->px_cap;
+    uint32_t *nid = realloc(r->id, idcap * sizeof *nid);
+    if (!nid) return fail(err, errlen, -ENOMEM, "out of memory");
+    r->id = nid;
+
+    uint64_t t0 = now_ns();
+    int rc = setup(r, &fr, meshes, inst, ninst, err, errlen);
+    if (rc) return rc;
+    uint64_t t1 = now_ns();
+
+    uint32_t trows = (height + TILE - 1) / TILE;
+    uint32_t nt = r->threads < trows ? r->threads : trows;
+    if (!nt) nt = 1;
+    job jb = {.r = r, .fr = &fr, .lights = lights, .rgba = rgba, .depth = depth, .stride = stride, .nthreads = nt};
+    if (nt > 1) cull_pool_run(r->pool, job_raster, &jb, nt);
+    else job_raster(&jb, 0);
+    uint64_t t2 = now_ns();
+
+    /* light tiles from the nearness range of what each tile shows */
+    uint32_t tx = (width + TILE - 1) / TILE;
+    if (!grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
+        !grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl))
+        return fail(err, errlen, -ENOMEM, "out of memory");
+    for (size_t t = 0; t < (size_t)tx * trows; t++) {
+        r->range[t][0] = -FLT_MAX;
+        r->range[t][1] = FLT_MAX;
+    }
+    for (uint32_t y = 0; y < height; y++) {
+        const float *nrow = r->near + (size_t)y * width;
+        float(*rr)[2] = r->range + (size_t)(y / TILE) * tx;
+        for (uint32_t x = 0; x < width; x++) {
+            float z = nrow[x];
+            if (z == EMPTY) continue;
+            float(*q)[2] = &rr[x / TILE];
+            if (z > (*q)[0]) (*q)[0] = z;
+            if (z < (*q)[1]) (*q)[1] = z;
+        }
+    }
+    for (uint32_t i = 0; i < nl; i++) r->cl[i] = lights[i].l;
+    int lrc = cull_lights_bin(v, width, height, r->cl, nl, (const float(*)[2])r->range, &r->tiles);
+    if (lrc != CULL_OK) return fail(err, errlen, lrc == CULL_ERR_NOMEM ? -ENOMEM : -EINVAL, "lights: %s", cull_strerror(lrc));
+    uint64_t t3 = now_ns();
+
+    if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
+    else job_shade(&jb, 0);
+    uint64_t t4 = now_ns();
+    if (st) {
+        st->triangles = (uint32_t)r->nrt;
+        st->lights_in_view = r->tiles.in_view;
+        st->max_lights_per_tile = r->tiles.max_per_tile;
+        st->threads = nt;
+        st->setup_ns = t1 - t0;
+        st->raster_ns = t2 - t1;
+        st->bin_ns = t3 - t2;
+        st->shade_ns = t4 - t3;
+    }
+    return 0;
+}

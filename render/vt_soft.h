@@ -1,0 +1,77 @@
+/*
+ * vt_soft.h — the software renderer: what the culling core says is visible,
+ * rasterised with a top-left fill rule into an HDR colour buffer and a depth
+ * buffer, and shaded (Lambert + Blinn-Phong, point and spot lights) with
+ * the Forward+ tile light lists of culling/ (cull_lights_bin).
+ *
+ * Meshes are per class: positions, optional normals, counter-clockwise
+ * triangles. An instance stretches its mesh's bounding box onto a world
+ * AABB (entities carry bounds, not transforms), so a unit box or sphere
+ * fills the entity's box. Back faces are culled.
+ *
+ * Buffers are the caller's: rgba (4 floats per pixel, linear HDR, alpha 1
+ * where something was drawn, 0 elsewhere) and depth (1 float per pixel:
+ * the view-space depth w for perspective views, 0..1 from near to far for
+ * orthographic ones; +inf where nothing was drawn), rows bottom-up (row 0
+ * is the bottom of the view, as OpenGL reads back), `stride` pixels apart.
+ */
+#ifndef VANTAGE_VT_SOFT_H
+#define VANTAGE_VT_SOFT_H
+
+#include "culling.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vt_mesh {
+    const float    *pos;    /* 3 per vertex */
+    const float    *nrm;    /* 3 per vertex, unit; NULL: flat (face) normals */
+    const uint32_t *idx;    /* 3 per triangle */
+    uint32_t        nv, ni;
+} vt_mesh;
+
+typedef struct vt_instance {
+    uint32_t mesh;          /* index into the mesh array */
+    double   bmin[3], bmax[3]; /* world AABB the mesh's bounds are stretched onto */
+    float    albedo[3];     /* linear */
+} vt_instance;
+
+typedef struct vt_light {
+    cull_light l;           /* position, range, spot cone (outer) */
+    float      color[3];    /* linear RGB times intensity */
+    float      cos_inner;   /* spot: full intensity inside this cosine */
+} vt_light;
+
+typedef struct vt_soft_stats {
+    uint32_t triangles;     /* sent to the rasteriser, after back faces and clipping */
+    uint32_t lights_in_view;
+    uint32_t max_lights_per_tile;
+    uint32_t threads;
+    uint64_t setup_ns, raster_ns, bin_ns, shade_ns;
+} vt_soft_stats;
+
+typedef struct vt_soft vt_soft;
+
+/* pool may be NULL (one thread); threads 0 = the pool's. */
+int  vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out);
+void vt_soft_destroy(vt_soft *r);
+
+/* Checks a mesh: counts, indices in range, finite positions and normals.
+ * 0, or -EINVAL with a reason in err. */
+int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen);
+
+/* Renders ninst instances of nmesh meshes lit by nl lights for view v into
+ * width x height buffers. 0, or a negative errno with err filled: -EINVAL
+ * (bad size, a bad mesh index, a bad light), -ENOMEM. */
+int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
+                   uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                   float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,153 @@
+/*
+ * test_render.c — the software renderer against the ray caster of
+ * tests/occ_ref.c: the same triangles (instances of a unit box stretched
+ * onto random boxes, front faces only), random cameras. Per pixel centre:
+ * covered in both or in neither, and where both cover it, the same depth to
+ * 1e-5 relative. Snapping vertices to 1/256 pixel may flip a centre that
+ * lies within that of an edge (coverage, or which of two faces meeting at
+ * a crease wins): allowed on at most 0.1 % of the pixels.
+ */
+#include "test_util.h"
+
+#include "occ_ref.h"
+#include "vt_soft.h"
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+/* The unit cube [-1, 1]^3: 8 vertices, 12 counter-clockwise triangles. */
+static const float cube_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1,
+                                   -1, -1, 1,  1, -1, 1,  -1, 1, 1,  1, 1, 1};
+static const uint32_t cube_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,
+                                      2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
+
+static void test_soft_matches_ray_caster(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x5EF7u};
+    vt_soft *sr;
+    cull_pool *pool;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    assert_int_equal(vt_soft_create(pool, 0, &sr), 0);
+    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    char err[256];
+    assert_int_equal(vt_mesh_check(&cube, err, sizeof err), 0);
+    uint64_t pixels = 0, both = 0, mismatch = 0, depth_bad = 0;
+    uint32_t frames = (uint32_t)(24 * test_scale());
+    for (uint32_t f = 0; f < frames; f++) {
+        uint32_t w = 32 + rng_below(&r, 160), h = 24 + rng_below(&r, 120);
+        uint32_t n = 1 + rng_below(&r, 40);
+        vt_instance *in = calloc(n, sizeof *in);
+        double *tri = malloc((size_t)n * 12 * 9 * sizeof *tri);
+        assert_non_null(in);
+        assert_non_null(tri);
+        for (uint32_t i = 0; i < n; i++) {
+            for (int a = 0; a < 3; a++) {
+                double c = rng_range(&r, -20, 20), e = rng_log(&r, 0.3, 8);
+                in[i].bmin[a] = c - e;
+                in[i].bmax[a] = c + e;
+                in[i].albedo[a] = 0.5f;
+            }
+            for (int t = 0; t < 12; t++)
+                for (int k = 0; k < 3; k++)
+                    for (int a = 0; a < 3; a++) {
+                        float u = cube_pos[3 * cube_idx[3 * t + k] + a];
+                        tri[(size_t)(i * 12 + t) * 9 + 3 * k + a] =
+                            in[i].bmin[a] + (u + 1) * 0.5 * (in[i].bmax[a] - in[i].bmin[a]);
+                    }
+        }
+        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
+        for (int a = 0; a < 3; a++) d.origin[a] = rng_range(&r, -60, 60);
+        double proj[16], view[16], dir[3], up[3] = {0, 1, 0};
+        for (int a = 0; a < 3; a++) dir[a] = rng_range(&r, -10, 10) - d.origin[a];
+        if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
+        cull_mat_perspective(proj, rng_range(&r, 0.5, 1.6), (double)w / h, rng_log(&r, 0.05, 1), 1e5, d.depth_mode);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        cull_view v;
+        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        float *rgba = malloc((size_t)w * h * 4 * sizeof *rgba), *depth = malloc((size_t)w * h * sizeof *depth);
+        assert_non_null(rgba);
+        assert_non_null(depth);
+        vt_soft_stats st;
+        assert_int_equal(vt_soft_render(sr, &v, w, h, &cube, 1, in, n, NULL, 0, rgba, depth, w, &st, err, sizeof err), 0);
+        occ_ref ref;
+        assert_int_equal(occ_ref_init(&ref, &v, w, h), 0);
+        occ_ref_add_triangles(&ref, tri, (size_t)n * 12);
+        for (uint32_t j = 0; j < h; j++)
+            for (uint32_t i = 0; i < w; i++) {
+                size_t px = (size_t)j * w + i;
+                bool ours = depth[px] != INFINITY, theirs = ref.t[px] != INFINITY;
+                pixels++;
+                if (ours != theirs) {
+                    mismatch++;
+                    continue;
+                }
+                if (!ours) continue;
+                both++;
+                assert_true(rgba[4 * px + 3] == 1.0f);
+                const double *ray = ref.ray + 6 * px, *m = v.clip;
+                double p[3];
+                for (int a = 0; a < 3; a++) p[a] = ray[a] + ref.t[px] * ray[3 + a];
+                double wref = m[3] * p[0] + m[7] * p[1] + m[11] * p[2] + m[15];
+                if (!(fabs(depth[px] - wref) <= 1e-5 * wref)) {
+                    depth_bad++;
+                    if (depth_bad < 3) fprintf(stderr, "depth %u,%u: %g vs %g (an edge)\n", i, j, depth[px], wref);
+                }
+            }
+        occ_ref_free(&ref);
+        free(rgba);
+        free(depth);
+        free(in);
+        free(tri);
+    }
+    fprintf(stderr, "soft renderer vs ray caster: %llu pixels, %llu covered by both, %llu differ in coverage, %llu in "
+                    "depth\n",
+            (unsigned long long)pixels, (unsigned long long)both, (unsigned long long)mismatch,
+            (unsigned long long)depth_bad);
+    assert_true(both * 12 > pixels); /* not vacuous */
+    assert_true((mismatch + depth_bad) * 1000 <= pixels);
+    vt_soft_destroy(sr);
+    cull_pool_destroy(pool);
+}
+
+static void test_soft_bad_input(void **state)
+{
+    (void)state;
+    vt_soft *sr;
+    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    char err[256];
+    uint32_t bad_idx[3] = {0, 1, 9};
+    vt_mesh m = {.pos = cube_pos, .idx = bad_idx, .nv = 8, .ni = 3};
+    assert_int_equal(vt_mesh_check(&m, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "index"));
+    float nanpos[9] = {0, 0, 0, 1, 0, 0, 0, NAN, 0};
+    uint32_t idx3[3] = {0, 1, 2};
+    vt_mesh m2 = {.pos = nanpos, .idx = idx3, .nv = 3, .ni = 3};
+    assert_int_equal(vt_mesh_check(&m2, err, sizeof err), -EINVAL);
+    cull_view_desc d = {.viewport_w = 8, .viewport_h = 8};
+    double proj[16], view[16], dir[3] = {0, 0, -1}, up[3] = {0, 1, 0};
+    cull_mat_perspective(proj, 1, 1, 0.1, 100, CULL_DEPTH_GL);
+    cull_mat_look_dir(view, dir, up);
+    cull_mat_mul(d.view_proj, proj, view);
+    cull_view v;
+    assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+    float rgba[8 * 8 * 4], depth[64];
+    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    vt_instance in = {.mesh = 3};
+    assert_int_equal(vt_soft_render(sr, &v, 8, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
+                     -EINVAL);
+    in.mesh = 0;
+    assert_int_equal(vt_soft_render(sr, &v, 0, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
+                     -EINVAL);
+    in.bmin[0] = NAN;
+    assert_int_equal(vt_soft_render(sr, &v, 8, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
+                     -EINVAL);
+    vt_soft_destroy(sr);
+}
+
+const struct CMUnitTest render_tests[] = {
+    cmocka_unit_test(test_soft_bad_input),
+    cmocka_unit_test(test_soft_matches_ray_caster),
+};
+const size_t render_tests_count = sizeof render_tests / sizeof render_tests[0];
