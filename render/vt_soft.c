@@ -56,6 +56,13 @@ typedef struct stri {
     float albedo[3];
 } stri;
 
+typedef struct slight {
+    float p[3];             /* camera-relative */
+    float range2, color[3];
+    float dir[3], cos_outer, cos_inner;
+    uint32_t spot;
+} slight;
+
 struct vt_soft {
     cull_pool *pool;
     uint32_t threads;
@@ -71,6 +78,10 @@ struct vt_soft {
     cull_light_tiles tiles;
     cull_light *cl;
     size_t cl_cap;
+    slight *sl;             /* the lights as shading reads them */
+    size_t sl_cap;
+    struct xv *vx;          /* one instance's transformed vertices */
+    size_t vx_cap;
 };
 
 static uint64_t now_ns(void)
@@ -125,6 +136,8 @@ void vt_soft_destroy(vt_soft *r)
     free(r->st);
     free(r->range);
     free(r->cl);
+    free(r->sl);
+    free(r->vx);
     cull_light_tiles_free(&r->tiles);
     free(r);
 }
@@ -148,6 +161,11 @@ typedef struct cv {
     double c[4];            /* clip x, y, z, w */
     double d;               /* nearness numerator */
 } cv;
+
+typedef struct xv {
+    double p[3];            /* camera-relative */
+    cv v;
+} xv;
 
 typedef struct frame {
     const cull_view *v;
@@ -236,18 +254,26 @@ static int setup(vt_soft *r, const frame *fr, const vt_mesh *meshes, const vt_in
             scale[a] = ext > 0 ? (in->bmax[a] - in->bmin[a]) / ext : 0;
             shift[a] = ext > 0 ? in->bmin[a] - o[a] - lo[a] * scale[a] : 0.5 * (in->bmin[a] + in->bmax[a]) - o[a];
         }
+        /* every vertex once: camera-relative position and clip coordinates */
+        if (!grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
+            return fail(err, errlen, -ENOMEM, "out of memory for %u vertices", m->nv);
+        for (uint32_t k = 0; k < m->nv; k++) {
+            xv *x = &r->vx[k];
+            for (int a = 0; a < 3; a++) x->p[a] = m->pos[3 * k + a] * scale[a] + shift[a];
+            double q[4] = {x->p[0], x->p[1], x->p[2], 1};
+            x->v.c[0] = dot4(vr->x, q);
+            x->v.c[1] = dot4(vr->y, q);
+            x->v.c[2] = dot4(vr->z, q);
+            x->v.c[3] = dot4(vr->w, q);
+            x->v.d = dot4(vr->d, q);
+        }
         for (uint32_t t = 0; t < m->ni / 3; t++) {
             cv v[12];
             double p[3][3];
             for (int k = 0; k < 3; k++) {
-                const float *mp = m->pos + 3 * m->idx[3 * t + k];
-                for (int a = 0; a < 3; a++) p[k][a] = mp[a] * scale[a] + shift[a];
-                double q[4] = {p[k][0], p[k][1], p[k][2], 1};
-                v[k].c[0] = dot4(vr->x, q);
-                v[k].c[1] = dot4(vr->y, q);
-                v[k].c[2] = dot4(vr->z, q);
-                v[k].c[3] = dot4(vr->w, q);
-                v[k].d = dot4(vr->d, q);
+                const xv *x = &r->vx[m->idx[3 * t + k]];
+                memcpy(p[k], x->p, sizeof p[k]);
+                v[k] = x->v;
             }
             /* back faces: the sign of the homogeneous determinant */
             double e0[3] = {v[1].c[1] * v[2].c[3] - v[1].c[3] * v[2].c[1], v[1].c[3] * v[2].c[0] - v[1].c[0] * v[2].c[3],
@@ -430,7 +456,7 @@ static void job_raster(void *arg, uint32_t t)
 
 /* ---- shading ------------------------------------------------------------------------ */
 
-static void shade_pixel(const vt_soft *r, const frame *fr, const vt_light *lights, const cull_light_tiles *lt,
+static void shade_pixel(const vt_soft *r, const cull_light_tiles *lt,
                         uint32_t tile, double X, double Y, uint32_t idp1, float out[4])
 {
     const stri *s = &r->st[idp1 - 1];
@@ -455,24 +481,21 @@ static void shade_pixel(const vt_soft *r, const frame *fr, const vt_light *light
         for (int a = 0; a < 3; a++) vd[a] /= vl;
     float c[3];
     for (int a = 0; a < 3; a++) c[a] = AMBIENT * s->albedo[a];
-    const double *o = fr->v->origin;
     for (uint32_t k = lt->offset[tile]; k < lt->offset[tile + 1]; k++) {
-        const vt_light *L = &lights[lt->index[k]];
-        float l[3] = {(float)(L->l.pos[0] - o[0]) - p[0], (float)(L->l.pos[1] - o[1]) - p[1],
-                      (float)(L->l.pos[2] - o[2]) - p[2]};
-        float d2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2], range = (float)L->l.radius;
-        if (d2 >= range * range || d2 <= 0) continue;
+        const slight *L = &r->sl[lt->index[k]];
+        float l[3] = {L->p[0] - p[0], L->p[1] - p[1], L->p[2] - p[2]};
+        float d2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
+        if (d2 >= L->range2 || d2 <= 0) continue;
         float d = sqrtf(d2), il = 1.0f / d;
         for (int a = 0; a < 3; a++) l[a] *= il;
         float ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
         if (ndl <= 0) continue;
         /* inverse square with a window that reaches 0 at the range */
-        float q = d2 / (range * range), win = 1 - q * q;
+        float q = d2 / L->range2, win = 1 - q * q;
         float att = win * win / (d2 + 1e-2f);
-        if (L->l.type == CULL_LIGHT_SPOT) {
-            float cd = -(l[0] * L->l.dir[0] + l[1] * L->l.dir[1] + l[2] * L->l.dir[2]);
-            float lo = L->l.cos_outer, hi = L->cos_inner > lo ? L->cos_inner : lo + 1e-4f;
-            float t = (cd - lo) / (hi - lo);
+        if (L->spot) {
+            float cd = -(l[0] * L->dir[0] + l[1] * L->dir[1] + l[2] * L->dir[2]);
+            float t = (cd - L->cos_outer) / (L->cos_inner - L->cos_outer);
             t = t < 0 ? 0 : t > 1 ? 1 : t;
             att *= t * t * (3 - 2 * t);
         }
@@ -512,7 +535,7 @@ static void job_shade(void *arg, uint32_t t)
                     continue;
                 }
                 double X = (2.0 * x + 1) / fr->w - 1;
-                shade_pixel(r, fr, jb->lights, &r->tiles, tr * tx + x / TILE, X, Y, irow[x], crow + 4 * x);
+                shade_pixel(r, &r->tiles, tr * tx + x / TILE, X, Y, irow[x], crow + 4 * x);
                 /* perspective: depth w = 1 / nearness; orthographic: the
                    nearness is 1 - z_ndc (z_ndc reversed): 0..1 near to far */
                 float nz = nrow[x];
@@ -584,7 +607,21 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
             if (z < (*q)[1]) (*q)[1] = z;
         }
     }
-    for (uint32_t i = 0; i < nl; i++) r->cl[i] = lights[i].l;
+    if (!grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl)) return fail(err, errlen, -ENOMEM, "out of memory");
+    for (uint32_t i = 0; i < nl; i++) {
+        const vt_light *L = &lights[i];
+        slight *q = &r->sl[i];
+        r->cl[i] = L->l;
+        for (int a = 0; a < 3; a++) {
+            q->p[a] = (float)(L->l.pos[a] - v->origin[a]);
+            q->color[a] = L->color[a];
+            q->dir[a] = L->l.dir[a];
+        }
+        q->range2 = (float)(L->l.radius * L->l.radius);
+        q->spot = L->l.type == CULL_LIGHT_SPOT;
+        q->cos_outer = L->l.cos_outer;
+        q->cos_inner = L->cos_inner > L->l.cos_outer ? L->cos_inner : L->l.cos_outer + 1e-4f;
+    }
     int lrc = cull_lights_bin(v, width, height, r->cl, nl, (const float(*)[2])r->range, &r->tiles);
     if (lrc != CULL_OK) return fail(err, errlen, lrc == CULL_ERR_NOMEM ? -ENOMEM : -EINVAL, "lights: %s", cull_strerror(lrc));
     uint64_t t3 = now_ns();
