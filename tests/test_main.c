@@ -20,6 +20,7 @@ int main(void)
         {protocol_tests, protocol_tests_count},
         {e2e_tests, e2e_tests_count},
         {exr_tests, exr_tests_count},
+        {image_tests, image_tests_count},
     };
     size_t total = 0;
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;

@@ -64,6 +64,7 @@ TEST_GROUP(e2e_tests)
 TEST_GROUP(occlusion_tests)
 TEST_GROUP(light_tests)
 TEST_GROUP(render_tests)
+TEST_GROUP(image_tests)
 TEST_GROUP(exr_tests)
 
 #endif
