@@ -4,8 +4,8 @@
 #   make demo              the culling core on the shared city scene + a short benchmark
 #   make test              unit + property tests (release, then ASan+UBSan),
 #                          the scalar-only build, and a bench smoke run
-#   make bench             the full culling and occlusion benchmarks
-#                          (bench_cull, bench_occlusion)
+#   make bench             the full culling, occlusion and render benchmarks
+#                          (bench_cull, bench_occlusion, bench_render)
 #   make deps              install the Debian packages the build needs
 #   CONFIG=release|debug|asan|scalar   out-of-tree in build/$(CONFIG)/
 #
@@ -87,10 +87,14 @@ OCCB_SRC := tests/bench/bench_occlusion.c tests/occ_ref.c tests/scene_file.c
 OCCB_OBJ := $(OCCB_SRC:%.c=$(BUILD)/%.o)
 OCCB_BIN := $(BUILD)/bench_occlusion
 
+RENDB_SRC:= tests/bench/bench_render.c
+RENDB_OBJ:= $(RENDB_SRC:%.c=$(BUILD)/%.o)
+RENDB_BIN:= $(BUILD)/bench_render
+
 SCENE    ?= ../shared/scenes/city_scene.txt
 
 .PHONY: all run demo test bench deps check-deps clean test-one install install-check
-all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN)
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -152,6 +156,9 @@ $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 
 $(BUILD)/tests/bench/bench_occlusion.o: CPPFLAGS += -DVANTAGE_HAVE_EXR
 
+$(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(LDLIBS)
+
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka) -Itests -Irender
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg)
 
@@ -178,22 +185,25 @@ test-one: check-deps $(TEST_BIN)
 
 test: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantage_tests build/release/bench_cull \
-	  build/release/bench_occlusion
+	  build/release/bench_occlusion build/release/bench_render
 	@$(MAKE) --no-print-directory CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan fuzz-replay
 	@$(MAKE) --no-print-directory CONFIG=release install-check
 	./build/release/bench_cull --smoke
 	./build/release/bench_occlusion --smoke --scene $(SCENE)
+	./build/release/bench_render --smoke
 	VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  VANTAGE_BIN_DIR=build/asan ./build/asan/vantage_tests
 
 bench: check-deps
-	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion
+	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion \
+	  build/release/bench_render
 	./build/release/bench_cull --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_occlusion --scene $(SCENE) $(BENCH_ARGS)
+	./build/release/bench_render $(BENCH_ARGS)
 
 # ---- install: the binaries, libvantage, its headers and pkg-config file ----------
 PREFIX ?= /usr/local
@@ -217,4 +227,4 @@ clean:
 
 include tests/fuzz/fuzz.mk
 
--include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d)
+-include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d)

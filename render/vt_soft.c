@@ -596,7 +596,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
         r->range[t][0] = -FLT_MAX;
         r->range[t][1] = FLT_MAX;
     }
-    for (uint32_t y = 0; y < height; y++) {
+    for (uint32_t y = 0; y < height && nl; y++) { /* no lights: no ranges, no binning */
         const float *nrow = r->near + (size_t)y * width;
         float(*rr)[2] = r->range + (size_t)(y / TILE) * tx;
         for (uint32_t x = 0; x < width; x++) {

@@ -1,0 +1,256 @@
+/*
+ * bench_render.c — frames per second of the render path (a benchmark: it
+ * fails on nothing).
+ *
+ *   bench_render [--json] [--quick] [--smoke] [--size WxH] [--reps N]
+ *
+ * The scene: N boxes (1k, 15k, 100k) of 0.5..4 m scattered over a 200 x
+ * 380 m field in front of the camera, 0, 16 or 256 point lights of 30 m
+ * range among them, a camera 60 degrees wide at 1280x720. The software
+ * path runs the whole frame: the culling query (frustum; no occluders here,
+ * so no occlusion stage) picks the visible boxes, then vt_soft renders
+ * them; 1 and 2 threads. Then the encoders on the last frame: EXR (half
+ * RGBA + float Z; ZIP and none), PNG (levels 1 and 6), JPEG (q 85), each
+ * after tone mapping where the format is 8-bit.
+ *
+ * --json: one object per line, {path, renderer, width, height, boxes,
+ * lights, threads, median_ms, ...}, and {encode, width, height, median_ms,
+ * bytes} for the encoders.
+ */
+#include "culling.h"
+#include "vt_exr.h"
+#include "vt_image.h"
+#include "vt_soft.h"
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+static const float cube_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1,
+                                   -1, -1, 1,  1, -1, 1,  -1, 1, 1,  1, 1, 1};
+static const uint32_t cube_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,
+                                      2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static uint64_t rng_state = 0x5EED2011;
+static double frand(void)
+{
+    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
+}
+
+typedef struct scene {
+    cull_world *w;
+    vt_instance *all;       /* by entity slot */
+    uint32_t n;
+} scene;
+
+static int make_scene(scene *s, uint32_t n)
+{
+    memset(s, 0, sizeof *s);
+    if (cull_world_create(NULL, &s->w)) return -1;
+    s->all = calloc(n, sizeof *s->all);
+    if (!s->all) return -1;
+    s->n = n;
+    for (uint32_t i = 0; i < n; i++) {
+        vt_instance *in = &s->all[i];
+        double c[3] = {frand() * 200 - 100, 0, 20 + frand() * 380}, e[3];
+        for (int a = 0; a < 3; a++) e[a] = 0.25 + frand() * 1.75;
+        c[1] = e[1] + frand() * 6;
+        cull_entity_desc d = {0};
+        for (int a = 0; a < 3; a++) {
+            in->bmin[a] = d.aabb_min[a] = c[a] - e[a];
+            in->bmax[a] = d.aabb_max[a] = c[a] + e[a];
+            in->albedo[a] = (float)(0.3 + 0.5 * frand());
+        }
+        cull_handle h;
+        if (cull_entity_add(s->w, &d, &h) || (h & (CULL_MAX_ENTITIES - 1)) != i) return -1;
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    bool json = false, quick = false, smoke = false;
+    uint32_t W = 1280, H = 720;
+    int reps = 15;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--json")) json = true;
+        else if (!strcmp(argv[i], "--quick")) quick = true;
+        else if (!strcmp(argv[i], "--smoke")) smoke = true;
+        else if (!strcmp(argv[i], "--size") && i + 1 < argc && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2) i++;
+        else if (!strcmp(argv[i], "--reps") && i + 1 < argc) reps = atoi(argv[++i]);
+        else {
+            fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--size WxH] [--reps N]\n");
+            return 2;
+        }
+    }
+    if (smoke) {
+        W = 320;
+        H = 180;
+        reps = 2;
+    } else if (quick) {
+        reps = 5;
+    }
+    if (W < 16 || H < 16 || W > 8192 || H > 8192 || reps < 1) return 2;
+    static const uint32_t counts[] = {1000, 15000, 100000};
+    static const uint32_t nlights[] = {0, 16, 256};
+    size_t ncounts = smoke ? 1 : quick ? 2 : 3;
+
+    cull_pool *pool;
+    if (cull_pool_create(2, &pool)) return 1;
+    cull_ctx *ctx;
+    if (cull_ctx_create(pool, &ctx)) return 1;
+    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    float *rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = malloc((size_t)W * H * sizeof *depth);
+    if (!rgba || !depth) return 1;
+    char err[256];
+
+    cull_view v;
+    {
+        cull_view_desc d = {.origin = {0, 8, 0}, .viewport_w = W, .viewport_h = H};
+        double proj[16], view[16], dir[3] = {0, -0.08, 1}, up[3] = {0, 1, 0};
+        cull_mat_perspective(proj, 60 * M_PI / 180, (double)W / H, 0.1, 2000, CULL_DEPTH_GL);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        if (cull_view_init(&v, &d)) return 1;
+    }
+    if (!json) printf("%-6s %8s %7s %7s %10s %8s %9s  (median of %d frames)\n", "path", "boxes", "lights", "threads",
+                      "median_ms", "fps", "triangles", reps);
+
+    for (size_t ci = 0; ci < ncounts; ci++) {
+        scene s;
+        if (make_scene(&s, counts[ci])) return 1;
+        size_t cap = cull_query_bound(s.w);
+        cull_result *res = malloc(cap * sizeof *res);
+        vt_instance *vis = malloc(cap * sizeof *vis);
+        if (!res || !vis) return 1;
+        for (size_t li = 0; li < (smoke ? 2 : 3); li++) {
+            uint32_t nl = nlights[li];
+            vt_light *L = calloc(nl + 1, sizeof *L);
+            if (!L) return 1;
+            for (uint32_t k = 0; k < nl; k++) {
+                L[k].l.pos[0] = frand() * 200 - 100;
+                L[k].l.pos[1] = 1 + frand() * 8;
+                L[k].l.pos[2] = 20 + frand() * 380;
+                L[k].l.radius = 30;
+                L[k].color[0] = 400;
+                L[k].color[1] = (float)(300 + 100 * frand());
+                L[k].color[2] = (float)(200 + 200 * frand());
+            }
+            for (uint32_t threads = 1; threads <= 2; threads++) {
+                vt_soft *sr;
+                if (vt_soft_create(pool, threads, &sr)) return 1;
+                double *t = malloc((size_t)reps * sizeof *t);
+                vt_soft_stats st = {0};
+                for (int r = 0; r < reps; r++) {
+                    double t0 = now_ms();
+                    size_t n;
+                    cull_query_desc q = {.views = &v, .view_count = 1, .threads = threads};
+                    if (cull_query(s.w, ctx, &q, res, cap, &n, NULL)) return 1;
+                    for (size_t k = 0; k < n; k++) vis[k] = s.all[res[k].handle & (CULL_MAX_ENTITIES - 1)];
+                    if (vt_soft_render(sr, &v, W, H, &cube, 1, vis, (uint32_t)n, L, nl, rgba, depth, W, &st, err,
+                                       sizeof err)) {
+                        fprintf(stderr, "bench_render: %s\n", err);
+                        return 1;
+                    }
+                    t[r] = now_ms() - t0;
+                }
+                qsort(t, (size_t)reps, sizeof *t, cmp_d);
+                double med = t[reps / 2];
+                if (json)
+                    printf("{\"path\":\"soft\",\"renderer\":\"vantage soft\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
+                           "\"lights\":%u,\"threads\":%u,\"median_ms\":%.3f,\"triangles\":%u,\"setup_ms\":%.3f,"
+                           "\"raster_ms\":%.3f,\"bin_ms\":%.3f,\"shade_ms\":%.3f}\n",
+                           W, H, counts[ci], nl, threads, med, st.triangles, st.setup_ns / 1e6, st.raster_ns / 1e6,
+                           st.bin_ns / 1e6, st.shade_ns / 1e6);
+                else
+                    printf("%-6s %8u %7u %7u %10.2f %8.1f %9u  (setup %.2f raster %.2f bin %.2f shade %.2f ms)\n",
+                           "soft", counts[ci], nl, threads, med, 1000 / med, st.triangles, st.setup_ns / 1e6,
+                           st.raster_ns / 1e6, st.bin_ns / 1e6, st.shade_ns / 1e6);
+                fflush(stdout);
+                free(t);
+                vt_soft_destroy(sr);
+            }
+            free(L);
+        }
+        free(res);
+        free(vis);
+        free(s.all);
+        cull_world_destroy(s.w);
+    }
+
+    /* the encoders, on the last frame */
+    char dir[] = "/tmp/vantage-bench-XXXXXX";
+    if (!mkdtemp(dir)) return 1;
+    char path[256];
+    uint8_t *rgb8 = malloc(vt_image_rgba8_size(W, H));
+    if (!rgb8) return 1;
+    const float *top = rgba + (size_t)(H - 1) * W * 4;
+    ptrdiff_t ys = -(ptrdiff_t)W * 4;
+    vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}, .a = {top + 3, 4, ys}};
+    vt_tonemap_desc td = {.exposure_ev = -2, .op = VT_TONEMAP_ACES};
+    static const char *names[] = {"tonemap", "exr-zip", "exr-none", "png-1", "png-6", "jpeg-85"};
+    for (int e = 0; e < 6; e++) {
+        double *t = malloc((size_t)reps * sizeof *t);
+        long bytes = 0;
+        for (int r = 0; r < reps; r++) {
+            snprintf(path, sizeof path, "%s/frame", dir);
+            double t0 = now_ms();
+            int rc = 0;
+            if (e == 0) {
+                rc = vt_image_tonemap(W, H, &src, &td, rgb8, 4 * (size_t)W);
+            } else if (e <= 2) {
+                vt_exr_channel ch[5] = {{"R", VT_EXR_HALF, top, 4, ys},     {"G", VT_EXR_HALF, top + 1, 4, ys},
+                                        {"B", VT_EXR_HALF, top + 2, 4, ys}, {"A", VT_EXR_HALF, top + 3, 4, ys},
+                                        {"Z", VT_EXR_FLOAT, depth + (size_t)(H - 1) * W, 1, -(ptrdiff_t)W}};
+                rc = vt_exr_write(path, W, H, ch, 5, e == 1 ? VT_EXR_ZIP : VT_EXR_NONE, err, sizeof err);
+            } else if (e <= 4) {
+                rc = vt_png_write(path, W, H, rgb8, 4 * (size_t)W, false, e == 3 ? 1 : 6, err, sizeof err);
+            } else {
+                rc = vt_jpeg_write(path, W, H, rgb8, 4 * (size_t)W, 4, 85, err, sizeof err);
+            }
+            t[r] = now_ms() - t0;
+            if (rc) {
+                fprintf(stderr, "bench_render: %s: %s\n", names[e], err);
+                return 1;
+            }
+            struct stat sb;
+            if (e && stat(path, &sb) == 0) bytes = (long)sb.st_size;
+        }
+        qsort(t, (size_t)reps, sizeof *t, cmp_d);
+        if (json)
+            printf("{\"encode\":\"%s\",\"width\":%u,\"height\":%u,\"median_ms\":%.3f,\"bytes\":%ld}\n", names[e], W, H,
+                   t[reps / 2], bytes);
+        else
+            printf("encode %-9s %8.2f ms %9ld bytes\n", names[e], t[reps / 2], bytes);
+        free(t);
+    }
+    unlink(path);
+    rmdir(dir);
+    free(rgb8);
+    free(rgba);
+    free(depth);
+    cull_ctx_destroy(ctx);
+    cull_pool_destroy(pool);
+    return 0;
+}
