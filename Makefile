@@ -18,8 +18,8 @@ SHELL  := /bin/bash
 
 # Debian packages and the pkg-config modules that prove them installed.
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
-            libpng-dev libjpeg62-turbo-dev
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg
+            libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -67,15 +67,19 @@ CLI_BIN  := $(BUILD)/vantage
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
-RENDER_SRC:= render/vt_exr.c render/vt_soft.c render/vt_image.c
+RENDER_SRC:= render/vt_exr.c render/vt_soft.c render/vt_image.c render/vt_gl.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_image.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
 # (libjpeg.so.62); every binary that links RENDER_OBJ needs both
 IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
+# headless OpenGL (vt_gl.c): libglvnd's libEGL and libepoxy; at run time
+# Mesa's EGL vendor library and drivers (libegl-mesa0, libgl1-mesa-dri:
+# llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
+# RENDER_OBJ needs these; the GL tests skip when no context can be made
+GL_LIBS  := $$(pkg-config --libs egl epoxy)
 
-TEST_SRC := $(filter-out tests/test_gl.c,$(wildcard tests/test_*.c)) tests/cull_ref.c \
-            tests/occ_ref.c tests/scene_file.c
+TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN := $(BUILD)/vantage_tests
 
@@ -133,7 +137,7 @@ $(PROTO_LIB): $(PROTO_OBJ)
 
 # the end-to-end tests run this configuration's vantaged and vantage
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
 $(DAEMON_BIN): $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB) $(LDLIBS)
@@ -152,15 +156,15 @@ $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
 
 $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
 $(BUILD)/tests/bench/bench_occlusion.o: CPPFLAGS += -DVANTAGE_HAVE_EXR
 
 $(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
-$(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka) -Itests -Irender
-$(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg)
+$(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests -Irender
+$(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)
 
 # ---- the two commands ---------------------------------------------------------
 run: check-deps

@@ -21,10 +21,12 @@
  * pbuffer fallback.
  *
  * GL calls: libepoxy resolves each entry point on its first call through
- * the current context (eglGetProcAddress; GL 1.x entry points from
- * libOpenGL.so.0 or libGL.so.1). Under libglvnd these are dispatch stubs
- * valid for every context, so the process-wide table is correct for any
- * number of contexts and threads.
+ * the current context (eglGetProcAddress; GL 1.x entry points by dlsym
+ * from libGL.so.1, which libepoxy 1.5.10 loads and which brings libGLX and
+ * libX11 in, unused). Under libglvnd these are dispatch stubs valid for
+ * every context, so the process-wide table is correct for any number of
+ * contexts and threads (two threads resolving one entry point at once
+ * both store the same pointer).
  */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
@@ -660,7 +662,9 @@ int vt_gl_open(vt_gl **out, const vt_gl_opts *opts, char *err, size_t errlen)
             log_add(&s.log, "libEGL has no client extensions (no EGL vendor library installed?)");
         if (!s.have_display)
             return fail(VT_GL_ERR_NO_DISPLAY, err, errlen,
-                        "no EGL: libEGL could not initialise a display on any platform (%s)",
+                        "no EGL: libEGL could not initialise a display on any platform (%s); "
+                        "is an EGL driver installed (Debian: libegl-mesa0 and libgl1-mesa-dri, "
+                        "or NVIDIA's)?",
                         s.log.s);
         return fail(VT_GL_ERR_NO_CONTEXT, err, errlen,
                     "no desktop OpenGL 3.3 core context on any EGL display (%s)", s.log.s);

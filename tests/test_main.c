@@ -21,6 +21,7 @@ int main(void)
         {e2e_tests, e2e_tests_count},
         {exr_tests, exr_tests_count},
         {image_tests, image_tests_count},
+        {gl_tests, gl_tests_count},
     };
     size_t total = 0;
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;

@@ -66,5 +66,6 @@ TEST_GROUP(light_tests)
 TEST_GROUP(render_tests)
 TEST_GROUP(image_tests)
 TEST_GROUP(exr_tests)
+TEST_GROUP(gl_tests)
 
 #endif
