@@ -25,7 +25,7 @@ WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
 WARN     += -Werror
 endif
-CPPFLAGS := -D_GNU_SOURCE -Iculling -Iprotocol -Idaemon -Iclient -MMD -MP
+CPPFLAGS := -D_GNU_SOURCE -Iculling -Iprotocol -Idaemon -Iclient -Irender -MMD -MP
 CFLAGS   := -std=c11 $(WARN) -g -pthread
 LDLIBS   := -lm -pthread
 ISA_AVX2 := -mavx2 -mfma -mpopcnt
@@ -61,7 +61,8 @@ DAEMON_BIN:= $(BUILD)/vantaged
 
 CLIENT_LIB:= $(BUILD)/libvantage.a
 CLIENT_OBJ:= $(BUILD)/client/libvantage.o
-CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o
+CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o \
+            $(BUILD)/client/cli_render.o
 CLI_BIN  := $(BUILD)/vantage
 
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
@@ -139,16 +140,20 @@ $(PROTO_LIB): $(PROTO_OBJ)
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
-$(DAEMON_BIN): $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(CULL_LIB) $(PROTO_LIB) $(LDLIBS)
+# the daemon renders with the software path and encodes JPEG (no GL, no EXR)
+DAEMON_RENDER := $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o
+$(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(LDLIBS)
 
 # libvantage carries the protocol and the matrix helpers it uses
 $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(CLI_BIN): $(CLI_OBJ) $(CLIENT_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(LDLIBS)
+# the CLI writes EXR and PNG from raw frames
+CLI_RENDER := $(BUILD)/render/vt_exr.o $(BUILD)/render/vt_image.o
+$(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(LDLIBS)
 
 $(BUILD)/client/cli_jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
 

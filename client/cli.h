@@ -37,6 +37,7 @@ int cmd_import(cli *k, int argc, char **argv);
 int cmd_export(cli *k, int argc, char **argv);
 
 /* cli_bench.c */
+int cmd_render(cli *k, int argc, char **argv);
 int cmd_bench(cli *k, int argc, char **argv);
 
 #endif

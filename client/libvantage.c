@@ -382,6 +382,18 @@ int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags,
     return vp_dec_vis_result(p, len, out) ? set_err(c, VT_ERR_IO, "malformed VIS_RESULT") : VP_OK;
 }
 
+int vt_render(vt_client *c, const vp_render *m, vp_frame *out)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + VP_RENDER_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_render(&w, req, m);
+    int rc = roundtrip(c, &w, req, VP_FRAME, &p, &len);
+    if (rc) return rc;
+    return vp_dec_frame(p, len, out) ? set_err(c, VT_ERR_IO, "malformed FRAME") : VP_OK;
+}
+
 int vt_subscribe(vt_client *c, uint32_t kinds)
 {
     vp_writer w;

@@ -73,6 +73,8 @@ int vt_get(vt_client *c, const uint64_t *ids, uint32_t n, vp_list_reply *out);
 int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out);
 int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
              vp_vis_result *out);
+/* One frame (RENDER -> FRAME); out->data is valid until the next call. */
+int vt_render(vt_client *c, const vp_render *m, vp_frame *out);
 int vt_subscribe(vt_client *c, uint32_t kinds);
 /* Ids of sub-level names (1..255 bytes each), defining new ones. */
 int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t *ids);

@@ -39,6 +39,8 @@ static void usage(FILE *f)
             "  export FILE.jsonl                write every entity, same format (- = stdout)\n"
             "  query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N]\n"
             "        [--far F] [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]\n"
+            "  render --eye X,Y,Z --at X,Y,Z [--fov DEG] [--size WxH] [--exposure EV] [--quality Q]\n"
+            "        [--no-occlusion] -o FILE.exr|png|jpg   one frame from the daemon\n"
             "  watch [--count N]                print scene-changed events as they happen\n"
             "  bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P]\n"
             "        [--views K] [--batch B] [--count-only] [--json]   load test: rate and latency percentiles\n"
@@ -418,7 +420,7 @@ int main(int argc, char **argv)
     }
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
-        {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"watch", cmd_watch},
+        {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"watch", cmd_watch},
         {"bench", cmd_bench},
     };
     int rc = -1;

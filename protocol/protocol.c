@@ -50,6 +50,8 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_SUBLEVEL_LIST_REPLY, "sublevel_list_reply"},
     {VP_VIS_QUERY, "vis_query"},
     {VP_VIS_RESULT, "vis_result"},
+    {VP_RENDER, "render"},
+    {VP_FRAME, "frame"},
 };
 
 bool vp_type_known(uint16_t type)

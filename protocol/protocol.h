@@ -92,6 +92,8 @@ enum vp_type {
     /* 0x0200..0x02ff queries */
     VP_VIS_QUERY = 0x0200,
     VP_VIS_RESULT = 0x0201,
+    VP_RENDER = 0x0500,
+    VP_FRAME = 0x0501,
     /* 0x0300..0x03ff sub-levels */
     VP_SUBLEVEL_NAMES = 0x0300,
     VP_SUBLEVEL_IDS = 0x0301,
@@ -352,6 +354,39 @@ void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, 
 void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n);
 void vp_enc_ack(vp_writer *w, uint32_t req, const vp_ack *m);
 void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n);
+
+/* RENDER: one frame of one view (its viewport is the frame's size; 0 x 0 =
+ * 1920 x 1080), answered with FRAME. Formats: RAW = float32 linear RGBA
+ * (alpha = coverage) then float32 depth (view depth w; +inf where nothing),
+ * rows bottom-up; JPEG = tone mapped (ACES, exposure_ev), quality 1..100. */
+#define VP_FRAME_RAW 0u
+#define VP_FRAME_JPEG 1u
+#define VP_RENDER_NO_OCCLUSION 0x01u
+#define VP_RENDER_SIZE (VP_VIEW_SIZE + 8u)
+#define VP_FRAME_MAX_PIXELS (4096u * 4096u)
+typedef struct vp_render {
+    vp_view  view;
+    uint8_t  format;        /* VP_FRAME_* */
+    uint8_t  quality;       /* JPEG 1..100; RAW 0 */
+    uint8_t  flags;         /* VP_RENDER_* */
+    float    exposure_ev;   /* JPEG: -64..64 */
+} vp_render;
+void vp_enc_render(vp_writer *w, uint32_t req, const vp_render *m);
+int  vp_dec_render(const uint8_t *p, size_t len, vp_render *m);
+
+#define VP_FRAME_HEADER 32u
+typedef struct vp_frame {
+    uint64_t epoch;
+    uint16_t width, height;
+    uint8_t  format;
+    uint32_t visible;       /* entities drawn */
+    uint32_t render_ns, encode_ns;
+    uint32_t data_len;
+    const uint8_t *data;
+} vp_frame;
+size_t vp_size_frame(uint32_t data_len);
+void vp_enc_frame(vp_writer *w, uint32_t req, const vp_frame *m);
+int  vp_dec_frame(const uint8_t *p, size_t len, vp_frame *m);
 /* Result header; records follow with vp_put_vis_rec, count must match. */
 void vp_enc_vis_result_begin(vp_writer *w, uint32_t req, const vp_vis_result *m);
 void vp_put_vis_rec(vp_writer *w, const vp_vis_rec *r);

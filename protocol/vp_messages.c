@@ -184,6 +184,17 @@ uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i)
 
 /* ---- visibility ---------------------------------------------------------------- */
 
+static void view_write(vp_writer *w, const vp_view *v)
+{
+    for (int k = 0; k < 3; k++) vp_put_f64(w, v->origin[k]);
+    for (int k = 0; k < 16; k++) vp_put_f64(w, v->view_proj[k]);
+    vp_put_u8(w, v->depth_mode);
+    vp_put_u8(w, 0);
+    vp_put_u16(w, v->viewport_w);
+    vp_put_u16(w, v->viewport_h);
+    vp_put_u16(w, 0);
+}
+
 void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n)
 {
     vp_frame_begin(w, VP_VIS_QUERY, req);
@@ -191,15 +202,7 @@ void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area,
     vp_put_u8(w, flags);
     vp_put_u16(w, 0);
     vp_put_f32(w, min_area);
-    for (uint32_t i = 0; i < n; i++) {
-        for (int k = 0; k < 3; k++) vp_put_f64(w, v[i].origin[k]);
-        for (int k = 0; k < 16; k++) vp_put_f64(w, v[i].view_proj[k]);
-        vp_put_u8(w, v[i].depth_mode);
-        vp_put_u8(w, 0);
-        vp_put_u16(w, v[i].viewport_w);
-        vp_put_u16(w, v[i].viewport_h);
-        vp_put_u16(w, 0);
-    }
+    for (uint32_t i = 0; i < n; i++) view_write(w, &v[i]);
     vp_frame_end(w);
 }
 
@@ -535,4 +538,83 @@ int vp_dec_sublevel_ids(const uint8_t *p, size_t len, uint32_t *n, const uint8_t
 uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i)
 {
     return i < n ? rd16(ids + 2 * (size_t)i) : 0;
+}
+
+/* ---- RENDER / FRAME ------------------------------------------------------------- */
+
+void vp_enc_render(vp_writer *w, uint32_t req, const vp_render *m)
+{
+    vp_frame_begin(w, VP_RENDER, req);
+    view_write(w, &m->view);
+    vp_put_u8(w, m->format);
+    vp_put_u8(w, m->quality);
+    vp_put_u8(w, m->flags);
+    vp_put_u8(w, 0);
+    vp_put_f32(w, m->exposure_ev);
+    vp_frame_end(w);
+}
+
+int vp_dec_render(const uint8_t *p, size_t len, vp_render *m)
+{
+    if (len < VP_RENDER_SIZE) return VP_ERR_TRUNCATED;
+    if (len > VP_RENDER_SIZE) return VP_ERR_TRAILING;
+    view_read(p, &m->view);
+    if (p[153] || rd16(p + 158)) return VP_ERR_INVALID;
+    int rc = view_check(&m->view);
+    if (rc) return rc;
+    const uint8_t *q = p + VP_VIEW_SIZE;
+    m->format = q[0];
+    m->quality = q[1];
+    m->flags = q[2];
+    m->exposure_ev = rdf32(q + 4);
+    if (q[3]) return VP_ERR_INVALID;
+    if (m->format > VP_FRAME_JPEG || (m->flags & ~VP_RENDER_NO_OCCLUSION)) return VP_ERR_INVALID;
+    if (m->format == VP_FRAME_JPEG && (m->quality < 1 || m->quality > 100)) return VP_ERR_INVALID;
+    if (m->format == VP_FRAME_RAW && m->quality) return VP_ERR_INVALID;
+    if (!isfinite(m->exposure_ev)) return VP_ERR_NONFINITE;
+    if (fabsf(m->exposure_ev) > 64) return VP_ERR_INVALID;
+    uint32_t w = m->view.viewport_w ? m->view.viewport_w : 1920, h = m->view.viewport_h ? m->view.viewport_h : 1080;
+    if ((uint64_t)w * h > VP_FRAME_MAX_PIXELS) return VP_ERR_LIMIT;
+    return VP_OK;
+}
+
+size_t vp_size_frame(uint32_t data_len)
+{
+    return VP_HEADER_SIZE + VP_FRAME_HEADER + (size_t)data_len;
+}
+
+void vp_enc_frame(vp_writer *w, uint32_t req, const vp_frame *m)
+{
+    vp_frame_begin(w, VP_FRAME, req);
+    vp_put_u64(w, m->epoch);
+    vp_put_u16(w, m->width);
+    vp_put_u16(w, m->height);
+    vp_put_u8(w, m->format);
+    vp_put_u8(w, 0);
+    vp_put_u16(w, 0);
+    vp_put_u32(w, m->visible);
+    vp_put_u32(w, m->render_ns);
+    vp_put_u32(w, m->encode_ns);
+    vp_put_u32(w, m->data_len);
+    vp_put_bytes(w, m->data, m->data_len);
+    vp_frame_end(w);
+}
+
+int vp_dec_frame(const uint8_t *p, size_t len, vp_frame *m)
+{
+    if (len < VP_FRAME_HEADER) return VP_ERR_TRUNCATED;
+    m->epoch = rd64(p);
+    m->width = rd16(p + 8);
+    m->height = rd16(p + 10);
+    m->format = p[12];
+    m->visible = rd32(p + 16);
+    m->render_ns = rd32(p + 20);
+    m->encode_ns = rd32(p + 24);
+    m->data_len = rd32(p + 28);
+    m->data = p + VP_FRAME_HEADER;
+    if (p[13] || rd16(p + 14) || m->format > VP_FRAME_JPEG || !m->width || !m->height) return VP_ERR_INVALID;
+    if (len - VP_FRAME_HEADER < m->data_len) return VP_ERR_TRUNCATED;
+    if (len - VP_FRAME_HEADER > m->data_len) return VP_ERR_TRAILING;
+    if (m->format == VP_FRAME_RAW && (uint64_t)m->data_len != (uint64_t)m->width * m->height * 20) return VP_ERR_COUNT;
+    return VP_OK;
 }

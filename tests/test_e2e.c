@@ -11,6 +11,8 @@
  * configuration's build directory).
  */
 #include "test_util.h"
+#include "vt_exr.h"
+#include "vt_image.h"
 
 #include "cull_ref.h"
 #include "vantage.h"
@@ -766,6 +768,76 @@ static void test_occlusion_over_the_wire(void **state)
     daemon_stop(&d);
 }
 
+/* RENDER: a frame of a lit box, raw and JPEG; `vantage render` writes an
+ * EXR that OpenEXR reads back with R G B A Z (and depth where the box is);
+ * bad requests get clear errors and the daemon keeps serving. */
+static void test_render_frames(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_entity e = {.id = 1, .aabb = {-2, -2, -12, 2, 2, -8}};
+    assert_int_equal(vt_add(c, &e, 1, NULL, NULL), VP_OK);
+    vp_light l = {.id = 1, .kind = VP_LIGHT_POINT, .pos = {3, 3, -2}, .color = {1, 1, 1}, .intensity = 50,
+                  .range = 30};
+    assert_int_equal(vt_put_lights(c, &l, 1), VP_OK);
+    vp_render m = {.format = VP_FRAME_RAW};
+    const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
+    assert_true(vt_view_perspective(&m.view, eye, at, NULL, 60, 160, 90, 0.1, 100));
+    vp_frame f;
+    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    assert_int_equal(f.width, 160);
+    assert_int_equal(f.height, 90);
+    assert_int_equal(f.visible, 1);
+    const float *px = (const float *)f.data, *z = px + 160 * 90 * 4;
+    /* the centre pixel sees the box's front face at w = 8, lit */
+    size_t mid = 45 * 160 + 80;
+    assert_true(px[4 * mid + 3] == 1.0f);
+    assert_true(fabsf(z[mid] - 8.0f) < 1e-3f);
+    assert_true(px[4 * mid] > 0.0f);
+    assert_true(isinf(z[0]) && px[3] == 0.0f); /* a corner sees nothing */
+    m.format = VP_FRAME_JPEG;
+    m.quality = 90;
+    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    uint8_t *rgb;
+    uint32_t jw, jh;
+    char err[256];
+    assert_int_equal(vt_jpeg_decode(f.data, f.data_len, &rgb, &jw, &jh, err, sizeof err), 0);
+    assert_int_equal(jw, 160);
+    assert_int_equal(jh, 90);
+    free(rgb);
+    /* bad requests */
+    m.quality = 0;
+    assert_int_equal(vt_render(c, &m, &f), VP_ERR_INVALID);
+    m.quality = 90;
+    m.view.viewport_w = 4096;
+    m.view.viewport_h = 4097;
+    assert_int_equal(vt_render(c, &m, &f), VP_ERR_LIMIT);
+    assert_int_equal(vt_ping(c), VP_OK);
+    /* the CLI writes an EXR that OpenEXR opens, with its channels */
+    char path[128], cmd[1024];
+    snprintf(path, sizeof path, "/tmp/vantage-test-%d.exr", (int)getpid());
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d render --eye 0,0,0 --at 0,0,-10 --size 160x90 -o %s > /dev/null",
+             bin_dir(), d.port, path);
+    assert_int_equal(system(cmd), 0);
+    uint32_t ew, eh;
+    assert_int_equal(vt_exr_size(path, &ew, &eh, err, sizeof err), 0);
+    assert_int_equal(ew, 160);
+    assert_int_equal(eh, 90);
+    float *zz = malloc(160 * 90 * sizeof *zz), *a = malloc(160 * 90 * sizeof *a);
+    assert_int_equal(vt_exr_read_channel(path, "Z", zz, 160, 90, err, sizeof err), 0);
+    assert_int_equal(vt_exr_read_channel(path, "A", a, 160, 90, err, sizeof err), 0);
+    /* EXR rows are top first: the centre is the same pixel */
+    assert_true(fabsf(zz[45 * 160 + 80] - 8.0f) < 1e-3f);
+    assert_true(a[45 * 160 + 80] == 1.0f);
+    free(zz);
+    free(a);
+    unlink(path);
+    vt_close(c);
+    daemon_stop(&d);
+}
+
 static void test_limits(void **state)
 {
     (void)state;
@@ -792,6 +864,7 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_events),
     cmocka_unit_test(test_limits),
     cmocka_unit_test(test_occlusion_over_the_wire),
+    cmocka_unit_test(test_render_frames),
     cmocka_unit_test(test_edits_then_queries_match_model),
     cmocka_unit_test(test_batches_all_or_nothing),
     cmocka_unit_test(test_malformed_frames),

@@ -353,6 +353,8 @@ static int d_entities(const uint8_t *p, size_t len) { vp_entity_batch b; return 
 static int d_ids(const uint8_t *p, size_t len) { vp_id_batch b; return vp_dec_ids(p, len, 0, &b); }
 static int d_query(const uint8_t *p, size_t len) { vp_vis_query q; return vp_dec_vis_query(p, len, &q); }
 static int d_result(const uint8_t *p, size_t len) { vp_vis_result r; return vp_dec_vis_result(p, len, &r); }
+static int d_render(const uint8_t *p, size_t len) { vp_render r; return vp_dec_render(p, len, &r); }
+static int d_frame(const uint8_t *p, size_t len) { vp_frame f; return vp_dec_frame(p, len, &f); }
 static int d_hello(const uint8_t *p, size_t len) { vp_hello h; return vp_dec_hello(p, len, &h); }
 static int d_mesh(const uint8_t *p, size_t len) { vp_mesh m; return vp_dec_mesh(p, len, 0, &m); }
 static int d_occ(const uint8_t *p, size_t len) { vp_occluder o; return vp_dec_occluder(p, len, 0, &o); }
@@ -426,6 +428,76 @@ static void test_prefixes_and_extensions(void **state)
     vp_writer_init(&w, g_buf, sizeof g_buf);
     vp_enc_names(&w, VP_SUBLEVEL_LIST_REPLY, 1, (const char *const[]){"ab", "cde"}, (const uint16_t[]){1, 2}, 2);
     check_prefixes(d_names, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_render(&w, 1, &(vp_render){.view = v, .format = VP_FRAME_JPEG, .quality = 80});
+    check_prefixes(d_render, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    float raw[5] = {1, 0.5f, 0.25f, 1, 3};
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_frame(&w, 1, &(vp_frame){.width = 1, .height = 1, .data_len = sizeof raw, .data = (const uint8_t *)raw});
+    check_prefixes(d_frame, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+}
+
+/* RENDER and FRAME: round trip and each bad field */
+static void test_render_messages(void **state)
+{
+    (void)state;
+    vp_writer w;
+    vp_view v = {.origin = {1, 2, 3}, .view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1},
+                 .depth_mode = 2, .viewport_w = 640, .viewport_h = 360};
+    vp_render m = {.view = v, .format = VP_FRAME_JPEG, .quality = 90, .flags = VP_RENDER_NO_OCCLUSION,
+                   .exposure_ev = -1.5f}, r;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_render(&w, 7, &m);
+    assert_int_equal(w.len, VP_HEADER_SIZE + VP_RENDER_SIZE);
+    assert_int_equal(vp_dec_render(g_buf + VP_HEADER_SIZE, VP_RENDER_SIZE, &r), VP_OK);
+    assert_memory_equal(r.view.origin, v.origin, sizeof v.origin);
+    assert_memory_equal(r.view.view_proj, v.view_proj, sizeof v.view_proj);
+    assert_int_equal(r.view.depth_mode, 2);
+    assert_int_equal(r.view.viewport_w, 640);
+    assert_int_equal(r.view.viewport_h, 360);
+    assert_int_equal(r.format, VP_FRAME_JPEG);
+    assert_int_equal(r.quality, 90);
+    assert_int_equal(r.flags, VP_RENDER_NO_OCCLUSION);
+    assert_true(r.exposure_ev == -1.5f);
+    const struct { vp_render m; int code; } bad[] = {
+        {{.view = v, .format = 2}, VP_ERR_INVALID},
+        {{.view = v, .format = VP_FRAME_JPEG, .quality = 0}, VP_ERR_INVALID},
+        {{.view = v, .format = VP_FRAME_JPEG, .quality = 101}, VP_ERR_INVALID},
+        {{.view = v, .format = VP_FRAME_RAW, .quality = 5}, VP_ERR_INVALID},
+        {{.view = v, .format = VP_FRAME_RAW, .flags = 2}, VP_ERR_INVALID},
+        {{.view = v, .format = VP_FRAME_RAW, .exposure_ev = NAN}, VP_ERR_NONFINITE},
+        {{.view = v, .format = VP_FRAME_RAW, .exposure_ev = 65}, VP_ERR_INVALID},
+        {{.view = {.view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, .viewport_w = 4097, .viewport_h = 4096},
+          .format = VP_FRAME_RAW},
+         VP_ERR_LIMIT},
+        {{.view = {.view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, .viewport_w = 4},
+          .format = VP_FRAME_RAW},
+         VP_ERR_INVALID},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        vp_writer_init(&w, g_buf, sizeof g_buf);
+        vp_enc_render(&w, 1, &bad[i].m);
+        assert_int_equal(vp_dec_render(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &r), bad[i].code);
+    }
+    /* FRAME: raw data must be 20 bytes a pixel */
+    float raw[10] = {0};
+    vp_frame f = {.epoch = 3, .width = 2, .height = 1, .format = VP_FRAME_RAW, .visible = 4, .data_len = 40,
+                  .data = (const uint8_t *)raw}, g;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_frame(&w, 1, &f);
+    assert_int_equal(w.len, vp_size_frame(40));
+    assert_int_equal(vp_dec_frame(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &g), VP_OK);
+    assert_int_equal(g.epoch, 3);
+    assert_int_equal(g.visible, 4);
+    assert_int_equal(g.data_len, 40);
+    f.data_len = 36;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_frame(&w, 1, &f);
+    assert_int_equal(vp_dec_frame(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &g), VP_ERR_COUNT);
+    f.format = 9;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_frame(&w, 1, &f);
+    assert_int_equal(vp_dec_frame(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &g), VP_ERR_INVALID);
 }
 
 static void test_bad_fields(void **state)
@@ -545,6 +617,7 @@ const struct CMUnitTest protocol_tests[] = {
     cmocka_unit_test(test_stream_any_split),
     cmocka_unit_test(test_bad_frames),
     cmocka_unit_test(test_prefixes_and_extensions),
+    cmocka_unit_test(test_render_messages),
     cmocka_unit_test(test_bad_fields),
     cmocka_unit_test(test_random_bytes),
 };

@@ -485,6 +485,39 @@ static void fuzz_vis_query(const uint8_t *p, size_t len)
     enc_close(&b);
 }
 
+static void fuzz_render(const uint8_t *p, size_t len)
+{
+    vp_render m;
+    int rc = vp_dec_render(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == VP_RENDER_SIZE && m.format <= VP_FRAME_JPEG);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_render(&b.w, 14, &m);
+    const uint8_t *q = enc_payload(&b, VP_RENDER, len);
+    vp_render r;
+    CHECK(vp_dec_render(q, len, &r) == VP_OK);
+    CHECK(same_view(&r.view, &m.view) && r.format == m.format && r.quality == m.quality && r.flags == m.flags &&
+          same_f32(r.exposure_ev, m.exposure_ev));
+    enc_close(&b);
+}
+
+static void fuzz_frame(const uint8_t *p, size_t len)
+{
+    vp_frame m;
+    int rc = vp_dec_frame(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(vp_size_frame(m.data_len) == VP_HEADER_SIZE + len);
+    enc_buf b;
+    enc_open(&b, vp_size_frame(m.data_len));
+    vp_enc_frame(&b.w, 15, &m);
+    const uint8_t *q = enc_payload(&b, VP_FRAME, len);
+    CHECK(memcmp(q, p, len) == 0);
+    enc_close(&b);
+}
+
 static void fuzz_vis_result(const uint8_t *p, size_t len)
 {
     vp_vis_result m;
@@ -576,6 +609,8 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_LIGHT_PUT: fuzz_lights(p, len, limit); return;
     case VP_VIS_QUERY: fuzz_vis_query(p, len); return;
     case VP_VIS_RESULT: fuzz_vis_result(p, len); return;
+    case VP_RENDER: fuzz_render(p, len); return;
+    case VP_FRAME: fuzz_frame(p, len); return;
     case VP_ENTITY_GET: fuzz_ids(p, len, h->type, limit); return;
     case VP_SUBLEVEL_NAMES:
     case VP_SUBLEVEL_LIST_REPLY: fuzz_names(p, len, h->type == VP_SUBLEVEL_LIST_REPLY); return;

@@ -251,6 +251,22 @@ int main(int argc, char **argv)
 
     /* a few edge shapes of valid messages */
     enc_vis_query(20, VP_Q_COUNT_ONLY | VP_Q_STATIC_ONLY, VP_MAX_VIEWS), save("vis_query_32_views");
+    {
+        vp_render rm = {.view = view(0), .format = VP_FRAME_JPEG, .quality = 85, .exposure_ev = -1};
+        vp_enc_render(&g_w, 21, &rm), save("render_jpeg");
+        rm.format = VP_FRAME_RAW;
+        rm.quality = 0;
+        rm.flags = VP_RENDER_NO_OCCLUSION;
+        vp_enc_render(&g_w, 22, &rm), save("render_raw");
+        static const uint8_t jpeg_bytes[] = {0xff, 0xd8, 0xff, 0xe0, 0, 16, 'J', 'F', 'I', 'F', 0, 1, 1, 0};
+        vp_frame fm = {.epoch = 5, .width = 2, .height = 1, .format = VP_FRAME_JPEG, .visible = 3,
+                       .render_ns = 1000, .encode_ns = 200, .data_len = sizeof jpeg_bytes, .data = jpeg_bytes};
+        vp_enc_frame(&g_w, 21, &fm), save("frame_jpeg");
+        float raw[10] = {0.5f, 0.25f, 0.125f, 1, 0, 0, 0, 0, 8.0f, INFINITY};
+        fm = (vp_frame){.epoch = 6, .width = 2, .height = 1, .format = VP_FRAME_RAW, .data_len = sizeof raw,
+                        .data = (const uint8_t *)raw};
+        vp_enc_frame(&g_w, 22, &fm), save("frame_raw");
+    }
     enc_vis_result(20, 0), save("vis_result_count_only");
     enc_list_reply(21, 0), save("entity_list_reply_last");
     vp_enc_error(&g_w, 0, VP_ERR_TYPE, UINT32_MAX, ""), save("error_empty_msg");
