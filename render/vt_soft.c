@@ -405,52 +405,60 @@ static inline int64_t edge_bias(int32_t x0, int32_t y0, int32_t x1, int32_t y1)
     return (dy < 0 || (dy == 0 && dx < 0)) ? 0 : -1;
 }
 
-static void raster_rows(vt_soft *r, const frame *fr, int y0, int y1)
+/* Rows [y0, y1] of one triangle. */
+static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int y1)
 {
-    for (size_t t = 0; t < r->nrt; t++) {
-        const rtri *rt = &r->rt[t];
-        int by0 = rt->by0 > y0 ? rt->by0 : y0, by1 = rt->by1 < y1 ? rt->by1 : y1;
-        if (by0 > by1) continue;
-        int64_t A[3], B[3], C[3];
-        for (int k = 0; k < 3; k++) {
-            int a = k, b = (k + 1) % 3;
-            /* E(p) = (x_b - x_a)(p_y - y_a) - (y_b - y_a)(p_x - x_a), > 0 inside */
-            A[k] = -(int64_t)(rt->y[b] - rt->y[a]);
-            B[k] = (int64_t)(rt->x[b] - rt->x[a]);
-            C[k] = -A[k] * rt->x[a] - B[k] * rt->y[a] + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
-        }
-        for (int j = by0; j <= by1; j++) {
-            int64_t py = (int64_t)j * 256 + 128, px = (int64_t)rt->bx0 * 256 + 128;
-            int64_t e0 = A[0] * px + B[0] * py + C[0], e1 = A[1] * px + B[1] * py + C[1], e2 = A[2] * px + B[2] * py + C[2];
-            int64_t s0 = A[0] * 256, s1 = A[1] * 256, s2 = A[2] * 256;
-            float *nrow = r->near + (size_t)j * fr->w;
-            uint32_t *irow = r->id + (size_t)j * fr->w;
-            double nz = rt->nb * (j + 0.5) + rt->nc;
-            for (int i = rt->bx0; i <= rt->bx1; i++, e0 += s0, e1 += s1, e2 += s2) {
-                if ((e0 | e1 | e2) < 0) continue;
-                float z = (float)(rt->na * (i + 0.5) + nz);
-                if (z > nrow[i]) {
-                    nrow[i] = z;
-                    irow[i] = rt->shade + 1;
-                }
+    int by0 = rt->by0 > y0 ? rt->by0 : y0, by1 = rt->by1 < y1 ? rt->by1 : y1;
+    if (by0 > by1) return;
+    int64_t A[3], B[3], C[3];
+    for (int k = 0; k < 3; k++) {
+        int a = k, b = (k + 1) % 3;
+        /* E(p) = (x_b - x_a)(p_y - y_a) - (y_b - y_a)(p_x - x_a), > 0 inside */
+        A[k] = -(int64_t)(rt->y[b] - rt->y[a]);
+        B[k] = (int64_t)(rt->x[b] - rt->x[a]);
+        C[k] = -A[k] * rt->x[a] - B[k] * rt->y[a] + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
+    }
+    for (int j = by0; j <= by1; j++) {
+        int64_t py = (int64_t)j * 256 + 128, px = (int64_t)rt->bx0 * 256 + 128;
+        int64_t e0 = A[0] * px + B[0] * py + C[0], e1 = A[1] * px + B[1] * py + C[1], e2 = A[2] * px + B[2] * py + C[2];
+        int64_t s0 = A[0] * 256, s1 = A[1] * 256, s2 = A[2] * 256;
+        float *nrow = r->near + (size_t)j * fr->w;
+        uint32_t *irow = r->id + (size_t)j * fr->w;
+        double nz = rt->nb * (j + 0.5) + rt->nc;
+        for (int i = rt->bx0; i <= rt->bx1; i++, e0 += s0, e1 += s1, e2 += s2) {
+            if ((e0 | e1 | e2) < 0) continue;
+            float z = (float)(rt->na * (i + 0.5) + nz);
+            if (z > nrow[i]) {
+                nrow[i] = z;
+                irow[i] = rt->shade + 1;
             }
         }
     }
 }
 
+/* Thread t owns the 16-row tile rows tr with tr % nthreads == t: it clears
+ * them, then walks the triangles once, in order (so ties resolve the same
+ * way whatever the thread count), drawing the parts in its rows. */
 static void job_raster(void *arg, uint32_t t)
 {
     job *jb = arg;
     const frame *fr = jb->fr;
-    uint32_t trows = (fr->h + TILE - 1) / TILE;
-    for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
-        int y0 = (int)(tr * TILE), y1 = (int)((tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h) - 1;
-        for (int y = y0; y <= y1; y++) {
-            float *nrow = jb->r->near + (size_t)y * fr->w;
+    vt_soft *r = jb->r;
+    uint32_t trows = (fr->h + TILE - 1) / TILE, nt = jb->nthreads;
+    for (uint32_t tr = t; tr < trows; tr += nt) {
+        uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
+        for (uint32_t y = tr * TILE; y < y1; y++) {
+            float *nrow = r->near + (size_t)y * fr->w;
             for (uint32_t x = 0; x < fr->w; x++) nrow[x] = EMPTY;
-            memset(jb->r->id + (size_t)y * fr->w, 0, fr->w * sizeof(uint32_t));
+            memset(r->id + (size_t)y * fr->w, 0, fr->w * sizeof(uint32_t));
         }
-        raster_rows(jb->r, fr, y0, y1);
+    }
+    for (size_t k = 0; k < r->nrt; k++) {
+        const rtri *rt = &r->rt[k];
+        uint32_t t0 = (uint32_t)rt->by0 / TILE, t1 = (uint32_t)rt->by1 / TILE;
+        /* the first tile row of this thread at or after t0 */
+        uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
+        for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
     }
 }
 
