@@ -26,6 +26,7 @@
 #define _GNU_SOURCE /* pread, pwrite, getrandom, GNU strerror_r */
 #endif
 #include "vt_exr.h"
+#include "vt_file.h"
 
 #include <openexr.h>
 
@@ -249,36 +250,13 @@ static int check_write_args(exr_call *c, uint32_t width, uint32_t height, const 
     return 0;
 }
 
-/* Creates "path.<16 hex>.tmp" with O_EXCL; *tmp is malloc'ed. */
+/* A temporary file beside path (vt_file.c), its error in the call's message. */
 static int open_temp(exr_call *c, const char *path, char **tmp, int *fd)
 {
-    size_t n = strlen(path) + 22;
-    char *name = malloc(n);
-    if (!name) {
-        call_msg(c, "out of memory");
-        return -ENOMEM;
-    }
-    for (unsigned attempt = 0; attempt < 16; attempt++) {
-        uint64_t salt;
-        if (getrandom(&salt, sizeof salt, GRND_NONBLOCK) != (ssize_t)sizeof salt) {
-            struct timespec ts;
-            clock_gettime(CLOCK_REALTIME, &ts);
-            salt = ((uint64_t)ts.tv_sec << 32) ^ (uint64_t)ts.tv_nsec ^ (uintptr_t)&salt ^
-                   ((uint64_t)getpid() << 20) ^ (uint64_t)attempt * 0x9E3779B97F4A7C15ull;
-        }
-        snprintf(name, n, "%s.%016llx.tmp", path, (unsigned long long)salt);
-        *fd = open(name, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (*fd >= 0) {
-            *tmp = name;
-            return 0;
-        }
-        if (errno != EEXIST) break;
-    }
-    int e = errno;
-    char buf[128];
-    call_msg(c, "cannot create temporary file %s: %s", name, errstr(e, buf, sizeof buf));
-    free(name);
-    return -e;
+    char msg[512];
+    int rc = vt_temp_open(path, tmp, fd, msg, sizeof msg);
+    if (rc) call_msg(c, "%s", msg);
+    return rc;
 }
 
 /* Declares the part: windows, compression, channels in name order. */
