@@ -171,7 +171,6 @@ typedef struct frame {
     const cull_view *v;
     cull_view_rows vr;
     uint32_t w, h;
-    double far[4];          /* the far plane (>= 0 inside) */
 } frame;
 
 static double dot4(const double f[4], const double c[4])
@@ -390,7 +389,6 @@ static int setup(vt_soft *r, const frame *fr, const vt_mesh *meshes, const vt_in
 typedef struct job {
     vt_soft *r;
     const frame *fr;
-    const vt_light *lights;
     float *rgba, *depth;
     size_t stride;
     uint32_t nthreads;
@@ -590,7 +588,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     uint32_t trows = (height + TILE - 1) / TILE;
     uint32_t nt = r->threads < trows ? r->threads : trows;
     if (!nt) nt = 1;
-    job jb = {.r = r, .fr = &fr, .lights = lights, .rgba = rgba, .depth = depth, .stride = stride, .nthreads = nt};
+    job jb = {.r = r, .fr = &fr, .rgba = rgba, .depth = depth, .stride = stride, .nthreads = nt};
     if (nt > 1) cull_pool_run(r->pool, job_raster, &jb, nt);
     else job_raster(&jb, 0);
     uint64_t t2 = now_ns();
