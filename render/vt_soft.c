@@ -37,7 +37,8 @@
 #define GUARD 4.0          /* guard band: |x|, |y| <= GUARD w */
 #define TILE CULL_LIGHT_TILE
 #define EMPTY (-FLT_MAX)
-#define MAX_THREADS 64u
+#define MAX_THREADS 32u
+#define ID_BITS 27u         /* a pixel's triangle: set-up thread << 27 | its record */
 #define AMBIENT 0.03f
 
 /* A clipped, projected triangle for the rasteriser. */
@@ -56,6 +57,28 @@ typedef struct stri {
     float albedo[3];
 } stri;
 
+typedef struct cv {
+    double c[4];            /* clip x, y, z, w */
+    double d;               /* nearness numerator */
+} cv;
+
+typedef struct xv {
+    double p[3];            /* camera-relative */
+    cv v;
+} xv;
+
+/* What one set-up thread produces, for its range of instances, in order. */
+typedef struct tbuf {
+    rtri *rt;
+    size_t nrt, rt_cap;
+    stri *st;
+    size_t nst, st_cap;
+    xv *vx;                 /* one instance's transformed vertices */
+    size_t vx_cap;
+    int rc;
+    char err[128];
+} tbuf;
+
 typedef struct slight {
     float p[3];             /* camera-relative */
     float range2, color[3];
@@ -69,10 +92,7 @@ struct vt_soft {
     float *near;            /* nearness per pixel */
     uint32_t *id;           /* shading record + 1 per pixel, 0 = nothing */
     size_t px_cap;
-    rtri *rt;
-    size_t nrt, rt_cap;
-    stri *st;
-    size_t nst, st_cap;
+    struct tbuf *tb;        /* per set-up thread: its triangles */
     float (*range)[2];
     size_t range_cap;
     cull_light_tiles tiles;
@@ -80,8 +100,6 @@ struct vt_soft {
     size_t cl_cap;
     slight *sl;             /* the lights as shading reads them */
     size_t sl_cap;
-    struct xv *vx;          /* one instance's transformed vertices */
-    size_t vx_cap;
 };
 
 static uint64_t now_ns(void)
@@ -132,12 +150,15 @@ void vt_soft_destroy(vt_soft *r)
     if (!r) return;
     free(r->near);
     free(r->id);
-    free(r->rt);
-    free(r->st);
+    for (uint32_t t = 0; r->tb && t < MAX_THREADS; t++) {
+        free(r->tb[t].rt);
+        free(r->tb[t].st);
+        free(r->tb[t].vx);
+    }
+    free(r->tb);
     free(r->range);
     free(r->cl);
     free(r->sl);
-    free(r->vx);
     cull_light_tiles_free(&r->tiles);
     free(r);
 }
@@ -157,15 +178,6 @@ int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen)
 
 /* ---- set-up --------------------------------------------------------------------- */
 
-typedef struct cv {
-    double c[4];            /* clip x, y, z, w */
-    double d;               /* nearness numerator */
-} cv;
-
-typedef struct xv {
-    double p[3];            /* camera-relative */
-    cv v;
-} xv;
 
 typedef struct frame {
     const cull_view *v;
@@ -229,15 +241,15 @@ static int clip_poly(cv *in, int n, double pl[6][4])
     return n;
 }
 
-static int setup(vt_soft *r, const frame *fr, const vt_mesh *meshes, const vt_instance *inst, uint32_t ninst,
-                 char *err, size_t errlen)
+static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const vt_instance *inst,
+                 uint32_t i0, uint32_t i1, char *err, size_t errlen)
 {
     r->nrt = r->nst = 0;
     double pl[6][4];
     clip_planes(fr, pl);
     const cull_view_rows *vr = &fr->vr;
     const double *o = fr->v->origin;
-    for (uint32_t ii = 0; ii < ninst; ii++) {
+    for (uint32_t ii = i0; ii < i1; ii++) {
         const vt_instance *in = &inst[ii];
         const vt_mesh *m = &meshes[in->mesh];
         /* the mesh's bounds onto the instance's box */
@@ -287,6 +299,7 @@ static int setup(vt_soft *r, const frame *fr, const vt_mesh *meshes, const vt_in
             cv src[3] = {v[0], v[1], v[2]};
             int n = clip_poly(v, 3, pl);
             if (n < 3) continue;
+            if (r->nst + 1 >= (1u << ID_BITS)) return fail(err, errlen, -E2BIG, "more than 2^27 triangles a thread");
             if (!grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
                 !grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
                 return fail(err, errlen, -ENOMEM, "out of memory for %zu triangles", r->nrt);
@@ -375,7 +388,7 @@ static int setup(vt_soft *r, const frame *fr, const vt_mesh *meshes, const vt_in
                 if (rt->bx1 > (int32_t)fr->w - 1) rt->bx1 = (int32_t)fr->w - 1;
                 if (rt->by1 > (int32_t)fr->h - 1) rt->by1 = (int32_t)fr->h - 1;
                 if (rt->bx0 > rt->bx1 || rt->by0 > rt->by1) continue;
-                rt->shade = (uint32_t)r->nst;
+                rt->shade = tid << ID_BITS | (uint32_t)r->nst;
                 r->nrt++;
             }
             r->nst++;
@@ -389,6 +402,9 @@ static int setup(vt_soft *r, const frame *fr, const vt_mesh *meshes, const vt_in
 typedef struct job {
     vt_soft *r;
     const frame *fr;
+    const vt_mesh *meshes;
+    const vt_instance *inst;
+    uint32_t ninst;
     float *rgba, *depth;
     size_t stride;
     uint32_t nthreads;
@@ -434,6 +450,17 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
     }
 }
 
+/* Set-up, thread t: a contiguous share of the instances, so the triangles
+ * of threads 0, 1, ... in turn are in instance order. */
+static void job_setup(void *arg, uint32_t t)
+{
+    job *jb = arg;
+    tbuf *b = &jb->r->tb[t];
+    uint32_t i0 = (uint32_t)((uint64_t)jb->ninst * t / jb->nthreads);
+    uint32_t i1 = (uint32_t)((uint64_t)jb->ninst * (t + 1) / jb->nthreads);
+    b->rc = setup(b, t, jb->fr, jb->meshes, jb->inst, i0, i1, b->err, sizeof b->err);
+}
+
 /* Thread t owns the 16-row tile rows tr with tr % nthreads == t: it clears
  * them, then walks the triangles once, in order (so ties resolve the same
  * way whatever the thread count), drawing the parts in its rows. */
@@ -451,13 +478,14 @@ static void job_raster(void *arg, uint32_t t)
             memset(r->id + (size_t)y * fr->w, 0, fr->w * sizeof(uint32_t));
         }
     }
-    for (size_t k = 0; k < r->nrt; k++) {
-        const rtri *rt = &r->rt[k];
-        uint32_t t0 = (uint32_t)rt->by0 / TILE, t1 = (uint32_t)rt->by1 / TILE;
-        /* the first tile row of this thread at or after t0 */
-        uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
-        for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
-    }
+    for (uint32_t b = 0; b < jb->nthreads; b++)
+        for (size_t k = 0; k < r->tb[b].nrt; k++) {
+            const rtri *rt = &r->tb[b].rt[k];
+            uint32_t t0 = (uint32_t)rt->by0 / TILE, t1 = (uint32_t)rt->by1 / TILE;
+            /* the first tile row of this thread at or after t0 */
+            uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
+            for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
+        }
 }
 
 /* ---- shading ------------------------------------------------------------------------ */
@@ -465,7 +493,8 @@ static void job_raster(void *arg, uint32_t t)
 static void shade_pixel(const vt_soft *r, const cull_light_tiles *lt,
                         uint32_t tile, double X, double Y, uint32_t idp1, float out[4])
 {
-    const stri *s = &r->st[idp1 - 1];
+    uint32_t id = idp1 - 1;
+    const stri *s = &r->tb[id >> ID_BITS].st[id & ((1u << ID_BITS) - 1)];
     float b[3];
     for (int i = 0; i < 3; i++) b[i] = s->e[i][0] * (float)X + s->e[i][1] * (float)Y + s->e[i][2];
     float sum = b[0] + b[1] + b[2];
@@ -580,15 +609,21 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     if (!nid) return fail(err, errlen, -ENOMEM, "out of memory");
     r->id = nid;
 
-    uint64_t t0 = now_ns();
-    int rc = setup(r, &fr, meshes, inst, ninst, err, errlen);
-    if (rc) return rc;
-    uint64_t t1 = now_ns();
-
+    if (!r->tb && !(r->tb = calloc(MAX_THREADS, sizeof *r->tb))) return fail(err, errlen, -ENOMEM, "out of memory");
     uint32_t trows = (height + TILE - 1) / TILE;
     uint32_t nt = r->threads < trows ? r->threads : trows;
     if (!nt) nt = 1;
-    job jb = {.r = r, .fr = &fr, .rgba = rgba, .depth = depth, .stride = stride, .nthreads = nt};
+    job jb = {.r = r, .fr = &fr, .meshes = meshes, .inst = inst, .ninst = ninst, .rgba = rgba, .depth = depth,
+              .stride = stride, .nthreads = nt};
+    uint64_t t0 = now_ns();
+    if (nt > 1) cull_pool_run(r->pool, job_setup, &jb, nt);
+    else job_setup(&jb, 0);
+    size_t ntri = 0;
+    for (uint32_t t = 0; t < nt; t++) {
+        if (r->tb[t].rc) return fail(err, errlen, r->tb[t].rc, "%s", r->tb[t].err);
+        ntri += r->tb[t].nrt;
+    }
+    uint64_t t1 = now_ns();
     if (nt > 1) cull_pool_run(r->pool, job_raster, &jb, nt);
     else job_raster(&jb, 0);
     uint64_t t2 = now_ns();
@@ -636,7 +671,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     else job_shade(&jb, 0);
     uint64_t t4 = now_ns();
     if (st) {
-        st->triangles = (uint32_t)r->nrt;
+        st->triangles = (uint32_t)ntri;
         st->lights_in_view = r->tiles.in_view;
         st->max_lights_per_tile = r->tiles.max_per_tile;
         st->threads = nt;
