@@ -68,7 +68,7 @@ CLI_BIN  := $(BUILD)/vantage
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
-RENDER_SRC:= render/vt_exr.c render/vt_soft.c render/vt_image.c render/vt_gl.c render/vt_file.c
+RENDER_SRC:= render/vt_exr.c render/vt_soft.c render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_image.c): libpng 1.6 and the libjpeg API of libjpeg-turbo

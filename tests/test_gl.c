@@ -36,8 +36,6 @@
 
 #include <epoxy/gl.h>
 
-#include <dlfcn.h>
-#include <link.h>
 #include <pthread.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -53,38 +51,6 @@ static bool gl_required(void)
     return s && s[0] && strcmp(s, "0") != 0;
 }
 
-#ifdef __SANITIZE_ADDRESS__
-/* Mesa's driver (swrast_dri.so and the other *_dri.so, libgallium-*.so
- * from Mesa 24.2) allocates state once per load that only its own static
- * data points to (in 22.3, most likely util_cpu_detect's CPU topology
- * arrays, under a pthread_once). eglTerminate unloads the driver, LSan no
- * longer sees those pointers and reports a few hundred bytes per
- * open/close cycle from "<unknown module>", which no suppression can name.
- * Under ASan the tests therefore pin the loaded driver (RTLD_NODELETE):
- * eglTerminate still runs, the memory stays reachable, and any leak of
- * ours still shows. */
-static int pin_one(struct dl_phdr_info *info, size_t size, void *data)
-{
-    (void)size;
-    (void)data;
-    const char *name = info->dlpi_name, *base = strrchr(name, '/');
-    base = base ? base + 1 : name;
-    size_t n = strlen(base);
-    bool dri = n > 7 && !strcmp(base + n - 7, "_dri.so");
-    if (dri || !strncmp(base, "libgallium", 10)) {
-        void *h = dlopen(name, RTLD_LAZY | RTLD_NOLOAD | RTLD_NODELETE);
-        if (h) dlclose(h); /* the flag stays */
-    }
-    return 0;
-}
-
-static void pin_gl_drivers(void)
-{
-    dl_iterate_phdr(pin_one, NULL);
-}
-#else
-static void pin_gl_drivers(void) {}
-#endif
 
 /* Opens with opts (NULL: auto) or skips the test when this machine has no
  * usable OpenGL at all. */
@@ -102,7 +68,7 @@ static vt_gl *open_or_skip(const vt_gl_opts *o)
     assert_int_equal(rc, 0);
     assert_string_equal(err, "");
     assert_non_null(g);
-    pin_gl_drivers();
+    test_pin_gl_drivers();
     return g;
 }
 
@@ -276,7 +242,7 @@ static void test_gl_each_platform(void **state)
         char err[1024];
         int rc = vt_gl_open(&g, &(vt_gl_opts){.platform = ps[i]}, err, sizeof err);
         if (rc == 0) {
-            pin_gl_drivers();
+            test_pin_gl_drivers();
             const vt_gl_info *in = vt_gl_get_info(g);
             print_message("%s: %s (%s)\n", vt_gl_platform_name(ps[i]), in->renderer, in->tried);
             assert_int_equal(in->platform, ps[i]);

@@ -10,6 +10,7 @@
 #include "test_util.h"
 
 #include "occ_ref.h"
+#include "vt_glr.h"
 #include "vt_soft.h"
 #include <errno.h>
 #include <stdio.h>
@@ -146,7 +147,121 @@ static void test_soft_bad_input(void **state)
     vt_soft_destroy(sr);
 }
 
+/* The software and GL paths on the same scenes (llvmpipe here): coverage
+ * the same on >= 99.9 % of pixels, depth within 1e-4 relative, colour
+ * within 1 % + 1e-3 where both cover a pixel away from an edge. Skipped
+ * where no GL context can be made. */
+static void test_soft_and_gl_agree(void **state)
+{
+    (void)state;
+    char err[512];
+    vt_gl *g;
+    if (vt_gl_open(&g, NULL, err, sizeof err) != 0) {
+        fprintf(stderr, "no GL here, cross-check skipped: %s\n", err);
+        skip();
+    }
+    test_pin_gl_drivers();
+    vt_glr *gr;
+    assert_int_equal(vt_glr_create(g, &gr, err, sizeof err), 0);
+    vt_soft *sr;
+    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    rng r = {test_seed() ^ 0x61u};
+    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    uint64_t pixels = 0, cov_diff = 0, both = 0, depth_bad = 0, color_bad = 0, compared = 0;
+    double worst = 0;
+    for (int f = 0; f < 8; f++) {
+        uint32_t w = 64 + rng_below(&r, 200), h = 48 + rng_below(&r, 120), n = 5 + rng_below(&r, 40);
+        uint32_t nl = rng_below(&r, 4) ? 4 + rng_below(&r, 60) : 0;
+        vt_instance *in = calloc(n, sizeof *in);
+        vt_light *L = calloc(nl + 1, sizeof *L);
+        for (uint32_t i = 0; i < n; i++)
+            for (int a = 0; a < 3; a++) {
+                double c = rng_range(&r, -20, 20), e = rng_log(&r, 0.3, 8);
+                in[i].bmin[a] = c - e;
+                in[i].bmax[a] = c + e;
+                in[i].albedo[a] = (float)rng_range(&r, 0.2, 0.9);
+            }
+        for (uint32_t i = 0; i < nl; i++) {
+            for (int a = 0; a < 3; a++) L[i].l.pos[a] = rng_range(&r, -25, 25);
+            L[i].l.radius = rng_range(&r, 5, 30);
+            for (int a = 0; a < 3; a++) L[i].color[a] = (float)rng_range(&r, 10, 200);
+            if (rng_below(&r, 3) == 0) {
+                L[i].l.type = CULL_LIGHT_SPOT;
+                L[i].l.dir[1] = -1;
+                L[i].l.cos_outer = 0.5f;
+                L[i].cos_inner = 0.8f;
+            }
+        }
+        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
+        for (int a = 0; a < 3; a++) d.origin[a] = rng_range(&r, -60, 60);
+        double proj[16], view[16], dir[3], up[3] = {0, 1, 0};
+        for (int a = 0; a < 3; a++) dir[a] = rng_range(&r, -10, 10) - d.origin[a];
+        if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
+        cull_mat_perspective(proj, rng_range(&r, 0.5, 1.4), (double)w / h, rng_log(&r, 0.1, 1), 1e4, d.depth_mode);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        cull_view v;
+        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        size_t np = (size_t)w * h;
+        float *c1 = malloc(np * 16), *d1 = malloc(np * 4), *c2 = malloc(np * 16), *d2 = malloc(np * 4);
+        assert_int_equal(vt_soft_render(sr, &v, w, h, &cube, 1, in, n, L, nl, c1, d1, w, NULL, err, sizeof err), 0);
+        int grc = vt_glr_render(gr, &v, w, h, &cube, 1, in, n, L, nl, c2, d2, w, NULL, err, sizeof err);
+        if (grc) fprintf(stderr, "gl render: %s\n", err);
+        assert_int_equal(grc, 0);
+        for (uint32_t y = 0; y < h; y++)
+            for (uint32_t x = 0; x < w; x++) {
+                size_t p = (size_t)y * w + x;
+                pixels++;
+                bool a = c1[4 * p + 3] > 0, b = c2[4 * p + 3] > 0;
+                if (a != b) {
+                    cov_diff++;
+                    continue;
+                }
+                if (!a) continue;
+                both++;
+                if (!(fabsf(d1[p] - d2[p]) <= 1e-4f * d1[p])) depth_bad++;
+                /* colour only away from edges (the neighbours show the same
+                   surface in both) */
+                bool interior = x > 0 && y > 0 && x + 1 < w && y + 1 < h;
+                for (int dy = -1; dy <= 1 && interior; dy++)
+                    for (int dx = -1; dx <= 1 && interior; dx++) {
+                        size_t q = p + (size_t)((ptrdiff_t)dy * w + dx);
+                        interior = c1[4 * q + 3] > 0 && c2[4 * q + 3] > 0 && fabsf(d1[q] - d2[q]) <= 1e-4f * d1[q];
+                    }
+                if (!interior) continue;
+                compared++;
+                for (int k = 0; k < 3; k++) {
+                    double e = fabs(c1[4 * p + k] - c2[4 * p + k]) / (1e-3 + fabs(c1[4 * p + k]));
+                    if (e > worst) worst = e;
+                    if (fabsf(c1[4 * p + k] - c2[4 * p + k]) > 0.01f * fabsf(c1[4 * p + k]) + 1e-3f) {
+                        color_bad++;
+                        break;
+                    }
+                }
+            }
+        free(c1);
+        free(d1);
+        free(c2);
+        free(d2);
+        free(in);
+        free(L);
+    }
+    fprintf(stderr, "soft vs GL (%s): %llu pixels, %llu differ in coverage, %llu covered by both (%llu off in "
+                    "depth), %llu compared in colour, %llu off (worst relative %.2g)\n",
+            vt_gl_get_info(g)->renderer, (unsigned long long)pixels, (unsigned long long)cov_diff,
+            (unsigned long long)both, (unsigned long long)depth_bad, (unsigned long long)compared,
+            (unsigned long long)color_bad, worst);
+    assert_true(both > 1000);
+    assert_true(cov_diff * 1000 <= pixels);
+    assert_true(depth_bad * 1000 <= both);
+    assert_true(color_bad * 1000 <= compared);
+    vt_glr_destroy(gr);
+    vt_soft_destroy(sr);
+    vt_gl_close(g);
+}
+
 const struct CMUnitTest render_tests[] = {
+    cmocka_unit_test(test_soft_and_gl_agree),
     cmocka_unit_test(test_soft_bad_input),
     cmocka_unit_test(test_soft_matches_ray_caster),
 };
