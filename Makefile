@@ -141,9 +141,10 @@ $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path and encodes JPEG (no GL, no EXR)
-DAEMON_RENDER := $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o
+DAEMON_RENDER := $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
+                 $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
 # libvantage carries the protocol and the matrix helpers it uses
 $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)

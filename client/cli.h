@@ -36,8 +36,11 @@ void cli_entity_json(FILE *f, const vp_entity *e, bool handle, const char *suble
 int cmd_import(cli *k, int argc, char **argv);
 int cmd_export(cli *k, int argc, char **argv);
 
-/* cli_bench.c */
+/* cli_render.c */
 int cmd_render(cli *k, int argc, char **argv);
+int cmd_watch_frames(cli *k, int argc, char **argv);
+
+/* cli_bench.c */
 int cmd_bench(cli *k, int argc, char **argv);
 
 #endif

@@ -1,8 +1,10 @@
 /*
- * cli_render.c — `vantage render`: one frame from the daemon, written as
- * OpenEXR (half RGBA + float Z, from the raw frame), PNG (tone mapped here
- * from the raw frame) or JPEG (encoded by the daemon), chosen by the output
- * file's extension.
+ * cli_render.c — pictures from the daemon. `vantage render` asks for one
+ * frame and writes it as OpenEXR (half RGBA + float Z, from the raw frame),
+ * PNG (tone mapped here from the raw frame) or JPEG (encoded by the
+ * daemon), chosen by the output file's extension. `vantage watch --frames
+ * DIR` subscribes to a stream and writes each frame pushed into DIR,
+ * optionally orbiting the camera (the view re-aimed in place).
  */
 #include "cli.h"
 #include "vt_exr.h"
@@ -10,11 +12,16 @@
 
 #include <errno.h>
 #include <getopt.h>
+#include <math.h>
+#include <signal.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/stat.h>
+
+typedef enum { OUT_EXR, OUT_PNG, OUT_JPG } out_kind;
 
 static bool ends_with(const char *s, const char *suffix)
 {
@@ -22,94 +29,252 @@ static bool ends_with(const char *s, const char *suffix)
     return n >= m && !strcasecmp(s + n - m, suffix);
 }
 
+static bool kind_of(const char *name, out_kind *k)
+{
+    if (ends_with(name, "exr")) *k = OUT_EXR;
+    else if (ends_with(name, "png")) *k = OUT_PNG;
+    else if (ends_with(name, "jpg") || ends_with(name, "jpeg")) *k = OUT_JPG;
+    else return false;
+    return true;
+}
+
+/* What `render` and `watch --frames` share: the camera and the frame. */
+typedef struct frame_opts {
+    double eye[3], at[3], up[3], fov, znear, zfar, ev;
+    bool have_eye, have_at;
+    unsigned w, h, quality;
+    uint8_t flags, renderer;
+} frame_opts;
+
+#define FRAME_LONGOPTS                                                                                              \
+    {"eye", 1, 0, 'e'}, {"at", 1, 0, 'a'}, {"up", 1, 0, 'u'}, {"fov", 1, 0, 'f'}, {"near", 1, 0, 'n'},          \
+        {"far", 1, 0, 'F'}, {"size", 1, 0, 's'}, {"exposure", 1, 0, 'x'}, {"quality", 1, 0, 'q'},               \
+        {"no-occlusion", 0, 0, 'N'}, {"renderer", 1, 0, 'R'}
+#define FRAME_USAGE                                                                                                 \
+    "--eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH] [--exposure EV] "          \
+    "[--quality Q] [--no-occlusion] [--renderer soft|gl]"
+
+static void frame_opts_init(frame_opts *f)
+{
+    *f = (frame_opts){.up = {0, 1, 0}, .fov = 60, .znear = 0.1, .zfar = 10000, .w = 1280, .h = 720, .quality = 85};
+}
+
+/* One camera/frame option: 1 taken, 0 not one of ours, -1 a bad value. */
+static int frame_opt(frame_opts *f, int o, const char *arg)
+{
+    double q;
+    bool ok = true;
+    switch (o) {
+    case 'e': ok = f->have_eye = parse_vec(arg, f->eye, 3); break;
+    case 'a': ok = f->have_at = parse_vec(arg, f->at, 3); break;
+    case 'u': ok = parse_vec(arg, f->up, 3); break;
+    case 'f': ok = parse_vec(arg, &f->fov, 1) && f->fov > 0 && f->fov < 180; break;
+    case 'n': ok = parse_vec(arg, &f->znear, 1); break;
+    case 'F': ok = parse_vec(arg, &f->zfar, 1); break;
+    case 's': ok = sscanf(arg, "%ux%u", &f->w, &f->h) == 2 && f->w && f->h && f->w <= 4096 && f->h <= 4096; break;
+    case 'x': ok = parse_vec(arg, &f->ev, 1) && f->ev >= -64 && f->ev <= 64; break;
+    case 'q': ok = parse_vec(arg, &q, 1) && q >= 1 && q <= 100 && (f->quality = (unsigned)q); break;
+    case 'N': f->flags |= VP_RENDER_NO_OCCLUSION; break;
+    case 'R':
+        f->renderer = !strcmp(arg, "gl") ? VP_RENDERER_GL : !strcmp(arg, "soft") ? VP_RENDERER_SOFT : 255;
+        ok = f->renderer != 255;
+        break;
+    default: return 0;
+    }
+    return ok ? 1 : -1;
+}
+
+/* The RENDER fields for the options, the camera at eye. */
+static bool frame_request(const frame_opts *f, const double eye[3], out_kind k, vp_render *m)
+{
+    *m = (vp_render){.format = k == OUT_JPG ? VP_FRAME_JPEG : VP_FRAME_RAW,
+                     .quality = k == OUT_JPG ? (uint8_t)f->quality : 0, .flags = f->flags, .renderer = f->renderer,
+                     .exposure_ev = (float)f->ev};
+    return vt_view_perspective(&m->view, eye, f->at, f->up, f->fov, (uint16_t)f->w, (uint16_t)f->h, f->znear,
+                               f->zfar);
+}
+
+/* Writes frame fr to path as kind k. 0, or 1 with a message printed. */
+static int write_frame(const char *path, out_kind k, const vp_frame *fr, double ev)
+{
+    char err[256];
+    int wrc = 0;
+    if (k == OUT_JPG) {
+        if (fr->format != VP_FRAME_JPEG) {
+            fprintf(stderr, "%s: %s: the daemon sent a raw frame for a JPEG\n", g_prog, path);
+            return 1;
+        }
+        FILE *fp = fopen(path, "wb");
+        bool ok = fp && fwrite(fr->data, 1, fr->data_len, fp) == fr->data_len;
+        if (fp && fclose(fp)) ok = false;
+        if (!ok) {
+            fprintf(stderr, "%s: %s: %s\n", g_prog, path, strerror(errno));
+            return 1;
+        }
+        return 0;
+    }
+    /* the raw frame: RGBA floats then depth, rows bottom-up; copied out of
+       the reply (the wire is little-endian, and so is this host) */
+    size_t np = (size_t)fr->width * fr->height;
+    if (fr->format != VP_FRAME_RAW || fr->data_len != np * 20) {
+        fprintf(stderr, "%s: %s: the daemon's frame is not %ux%u raw pixels\n", g_prog, path, fr->width, fr->height);
+        return 1;
+    }
+    float *px = malloc(np * 20);
+    if (!px) {
+        fprintf(stderr, "%s: out of memory\n", g_prog);
+        return 1;
+    }
+    memcpy(px, fr->data, np * 20);
+    const float *top = px + (np - fr->width) * 4, *ztop = px + np * 4 + (np - fr->width);
+    ptrdiff_t ys = -(ptrdiff_t)fr->width * 4;
+    if (k == OUT_EXR) {
+        vt_exr_channel ch[5] = {{"R", VT_EXR_HALF, top, 4, ys},     {"G", VT_EXR_HALF, top + 1, 4, ys},
+                                {"B", VT_EXR_HALF, top + 2, 4, ys}, {"A", VT_EXR_HALF, top + 3, 4, ys},
+                                {"Z", VT_EXR_FLOAT, ztop, 1, -(ptrdiff_t)fr->width}};
+        wrc = vt_exr_write(path, fr->width, fr->height, ch, 5, VT_EXR_ZIP, err, sizeof err);
+    } else {
+        uint8_t *rgb8 = malloc(vt_image_rgba8_size(fr->width, fr->height));
+        vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}};
+        vt_tonemap_desc td = {.exposure_ev = (float)ev, .op = VT_TONEMAP_ACES};
+        wrc = !rgb8 ? -ENOMEM : vt_image_tonemap(fr->width, fr->height, &src, &td, rgb8, 4 * (size_t)fr->width);
+        if (!wrc) wrc = vt_png_write(path, fr->width, fr->height, rgb8, 4 * (size_t)fr->width, false, 6, err, sizeof err);
+        else snprintf(err, sizeof err, "tone mapping failed");
+        free(rgb8);
+    }
+    free(px);
+    if (wrc) {
+        fprintf(stderr, "%s: %s\n", g_prog, err);
+        return 1;
+    }
+    return 0;
+}
+
 int cmd_render(cli *k, int argc, char **argv)
 {
-    double eye[3], at[3], up[3] = {0, 1, 0}, fov = 60, znear = 0.1, zfar = 10000, ev = 0;
-    bool have_eye = false, have_at = false;
-    unsigned w = 1280, h = 720, quality = 85;
-    uint8_t flags = 0;
+    frame_opts f;
+    frame_opts_init(&f);
     const char *out = NULL;
-    static const struct option opts[] = {
-        {"eye", 1, 0, 'e'}, {"at", 1, 0, 'a'}, {"up", 1, 0, 'u'}, {"fov", 1, 0, 'f'}, {"near", 1, 0, 'n'},
-        {"far", 1, 0, 'F'}, {"size", 1, 0, 's'}, {"exposure", 1, 0, 'x'}, {"quality", 1, 0, 'q'},
-        {"no-occlusion", 0, 0, 'N'}, {"output", 1, 0, 'o'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
-    const char *use = "render --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH] "
-                      "[--exposure EV] [--quality Q] [--no-occlusion] -o FILE.exr|png|jpg";
+    static const struct option opts[] = {FRAME_LONGOPTS, {"output", 1, 0, 'o'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    const char *use = "render " FRAME_USAGE " -o FILE.exr|png|jpg";
     optind = 1;
     int o;
     while ((o = getopt_long(argc, argv, "o:", opts, NULL)) != -1) {
-        bool ok = true;
-        double q;
-        switch (o) {
-        case 'e': ok = have_eye = parse_vec(optarg, eye, 3); break;
-        case 'a': ok = have_at = parse_vec(optarg, at, 3); break;
-        case 'u': ok = parse_vec(optarg, up, 3); break;
-        case 'f': ok = parse_vec(optarg, &fov, 1) && fov > 0 && fov < 180; break;
-        case 'n': ok = parse_vec(optarg, &znear, 1); break;
-        case 'F': ok = parse_vec(optarg, &zfar, 1); break;
-        case 's': ok = sscanf(optarg, "%ux%u", &w, &h) == 2 && w && h && w <= 4096 && h <= 4096; break;
-        case 'x': ok = parse_vec(optarg, &ev, 1) && ev >= -64 && ev <= 64; break;
-        case 'q': ok = parse_vec(optarg, &q, 1) && q >= 1 && q <= 100 && (quality = (unsigned)q); break;
-        case 'N': flags |= VP_RENDER_NO_OCCLUSION; break;
-        case 'o': out = optarg; break;
-        case 'h': printf("usage: vantage %s\n", use); return 0;
-        default: return die_usage("%s", use);
-        }
-        if (!ok) return die_usage("render: bad value %s", optarg);
+        int r = frame_opt(&f, o, optarg);
+        if (r < 0) return die_usage("render: bad value %s", optarg);
+        if (r) continue;
+        if (o == 'o') out = optarg;
+        else if (o == 'h') {
+            printf("usage: vantage %s\n", use);
+            return 0;
+        } else return die_usage("%s", use);
     }
-    if (!have_eye || !have_at || !out || optind != argc) return die_usage("%s", use);
-    bool exr = ends_with(out, ".exr"), png = ends_with(out, ".png");
-    bool jpg = ends_with(out, ".jpg") || ends_with(out, ".jpeg");
-    if (!exr && !png && !jpg) return die_usage("render: the output must end in .exr, .png or .jpg");
-    vp_render m = {.format = jpg ? VP_FRAME_JPEG : VP_FRAME_RAW, .quality = jpg ? (uint8_t)quality : 0,
-                   .flags = flags, .exposure_ev = (float)ev};
-    if (!vt_view_perspective(&m.view, eye, at, up, fov, (uint16_t)w, (uint16_t)h, znear, zfar))
+    if (!f.have_eye || !f.have_at || !out || optind != argc) return die_usage("%s", use);
+    out_kind kind;
+    if (!kind_of(out, &kind) || (kind == OUT_EXR && !ends_with(out, ".exr")))
+        return die_usage("render: the output must end in .exr, .png or .jpg");
+    vp_render m;
+    if (!frame_request(&f, f.eye, kind, &m))
         return die_usage("render: degenerate camera (eye == at, up parallel to the view, or near/far)");
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
-    vp_frame f;
-    if ((rc = vt_render(k->c, &m, &f))) return server_fail(k, "render", rc);
-    char err[256];
-    int wrc = 0;
-    if (jpg) {
-        FILE *fp = fopen(out, "wb");
-        if (!fp || fwrite(f.data, 1, f.data_len, fp) != f.data_len || fclose(fp)) {
-            fprintf(stderr, "vantage: %s: %s\n", out, strerror(errno));
-            return 1;
+    vp_frame fr;
+    if ((rc = vt_render(k->c, &m, &fr))) return server_fail(k, "render", rc);
+    if (write_frame(out, kind, &fr, f.ev)) return 1;
+    printf("%s: %ux%u, %u entities drawn at epoch %llu; render %.2f ms, encode %.2f ms (server)\n", out, fr.width,
+           fr.height, fr.visible, (unsigned long long)fr.epoch, fr.render_ns / 1e6, fr.encode_ns / 1e6);
+    return 0;
+}
+
+static volatile sig_atomic_t g_stop_frames;
+static void on_sigint(int sig)
+{
+    (void)sig;
+    g_stop_frames = 1;
+}
+
+/* eye turned by angle (radians) about the vertical through at */
+static void orbit(const frame_opts *f, double angle, double eye[3])
+{
+    double dx = f->eye[0] - f->at[0], dz = f->eye[2] - f->at[2], c = cos(angle), s = sin(angle);
+    eye[0] = f->at[0] + c * dx - s * dz;
+    eye[1] = f->eye[1];
+    eye[2] = f->at[2] + s * dx + c * dz;
+}
+
+int cmd_watch_frames(cli *k, int argc, char **argv)
+{
+    frame_opts f;
+    frame_opts_init(&f);
+    const char *dir = NULL, *format = "jpg";
+    uint64_t count = 0, fps = 30;
+    double orbit_dps = 0, seconds = 0;
+    static const struct option opts[] = {FRAME_LONGOPTS,       {"frames", 1, 0, 'D'}, {"format", 1, 0, 'T'},
+                                         {"fps", 1, 0, 'r'},   {"count", 1, 0, 'c'},  {"orbit", 1, 0, 'O'},
+                                         {"seconds", 1, 0, 'S'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    const char *use = "watch --frames DIR " FRAME_USAGE
+                      " [--format jpg|png|exr] [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]";
+    optind = 1;
+    int o;
+    while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        int r = frame_opt(&f, o, optarg);
+        if (r < 0) return die_usage("watch: bad value %s", optarg);
+        if (r) continue;
+        bool ok = true;
+        switch (o) {
+        case 'D': dir = optarg; break;
+        case 'T': format = optarg; break;
+        case 'r': ok = parse_u64(optarg, &fps) && fps >= 1 && fps <= VP_FRAME_SUB_MAX_FPS; break;
+        case 'c': ok = parse_u64(optarg, &count); break;
+        case 'O': ok = parse_vec(optarg, &orbit_dps, 1); break;
+        case 'S': ok = parse_vec(optarg, &seconds, 1) && seconds >= 0; break;
+        case 'h': printf("usage: vantage %s\n", use); return 0;
+        default: return die_usage("%s", use);
         }
-    } else {
-        /* the raw frame: RGBA floats then depth, rows bottom-up; copied out
-           of the reply (the wire is little-endian, and so is this host) */
-        size_t np = (size_t)f.width * f.height;
-        float *px = malloc(np * 20);
-        if (!px) {
-            fprintf(stderr, "vantage: out of memory\n");
-            return 1;
-        }
-        memcpy(px, f.data, np * 20);
-        const float *top = px + (np - f.width) * 4, *ztop = px + np * 4 + (np - f.width);
-        ptrdiff_t ys = -(ptrdiff_t)f.width * 4;
-        if (exr) {
-            vt_exr_channel ch[5] = {{"R", VT_EXR_HALF, top, 4, ys},     {"G", VT_EXR_HALF, top + 1, 4, ys},
-                                    {"B", VT_EXR_HALF, top + 2, 4, ys}, {"A", VT_EXR_HALF, top + 3, 4, ys},
-                                    {"Z", VT_EXR_FLOAT, ztop, 1, -(ptrdiff_t)f.width}};
-            wrc = vt_exr_write(out, f.width, f.height, ch, 5, VT_EXR_ZIP, err, sizeof err);
-        } else {
-            uint8_t *rgb8 = malloc(vt_image_rgba8_size(f.width, f.height));
-            vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}};
-            vt_tonemap_desc td = {.exposure_ev = (float)ev, .op = VT_TONEMAP_ACES};
-            wrc = !rgb8 ? -ENOMEM : vt_image_tonemap(f.width, f.height, &src, &td, rgb8, 4 * (size_t)f.width);
-            if (!wrc) wrc = vt_png_write(out, f.width, f.height, rgb8, 4 * (size_t)f.width, false, 6, err, sizeof err);
-            else snprintf(err, sizeof err, "tone mapping failed");
-            free(rgb8);
-        }
-        free(px);
-        if (wrc) {
-            fprintf(stderr, "vantage: %s\n", err);
-            return 1;
+        if (!ok) return die_usage("watch: bad value %s", optarg);
+    }
+    out_kind kind;
+    if (!dir || !f.have_eye || !f.have_at || optind != argc) return die_usage("%s", use);
+    if (!kind_of(format, &kind) || strlen(format) > 4) return die_usage("watch: --format jpg, png or exr");
+    vp_frame_sub sub = {.max_fps = (uint16_t)fps};
+    if (!frame_request(&f, f.eye, kind, &sub.r))
+        return die_usage("watch: degenerate camera (eye == at, up parallel to the view, or near/far)");
+    if (mkdir(dir, 0777) && errno != EEXIST) {
+        fprintf(stderr, "%s: %s: %s\n", g_prog, dir, strerror(errno));
+        return 1;
+    }
+    int rc = connect_cli(k, VP_ROLE_VIEWER);
+    if (rc) return rc;
+    if ((rc = vt_frame_subscribe(k->c, &sub))) return server_fail(k, "watch", rc);
+    signal(SIGINT, on_sigint);
+    fprintf(stderr, "writing frames to %s/ (Ctrl-C to stop)\n", dir);
+    const char *ext = kind == OUT_EXR ? "exr" : kind == OUT_PNG ? "png" : "jpg";
+    double t0 = now_s();
+    uint64_t n = 0;
+    while (!g_stop_frames && (!count || n < count) && (seconds <= 0 || now_s() - t0 < seconds)) {
+        vp_frame fr;
+        rc = vt_wait_frame(k->c, &fr, 250);
+        if (rc == VT_ERR_IO && strstr(vt_last_error(k->c)->msg, "timed out")) continue;
+        if (rc) return server_fail(k, "watch", rc);
+        char path[4096];
+        snprintf(path, sizeof path, "%s/frame-%06llu.%s", dir, (unsigned long long)n, ext);
+        if (write_frame(path, kind, &fr, f.ev)) return 1;
+        n++;
+        double t = now_s() - t0;
+        printf("{\"frame\": %llu, \"file\": \"%s\", \"epoch\": %llu, \"t\": %.4f, \"fps\": %.2f, \"visible\": %u, "
+               "\"render_ms\": %.3f, \"encode_ms\": %.3f, \"bytes\": %u}\n",
+               (unsigned long long)n - 1, path, (unsigned long long)fr.epoch, t, t > 0 ? n / t : 0.0, fr.visible,
+               fr.render_ns / 1e6, fr.encode_ns / 1e6, fr.data_len);
+        fflush(stdout);
+        if (orbit_dps != 0) {
+            /* the view re-aimed in place after each frame: same stream, the
+               camera turned to where it is now */
+            double eye[3];
+            orbit(&f, (now_s() - t0) * orbit_dps * M_PI / 180, eye);
+            if (!frame_request(&f, eye, kind, &sub.r)) return die_usage("watch: degenerate orbit camera");
+            if ((rc = vt_frame_subscribe(k->c, &sub))) return server_fail(k, "watch", rc);
         }
     }
-    printf("%s: %ux%u, %u entities drawn at epoch %llu; render %.2f ms, encode %.2f ms (server)\n", out, f.width,
-           f.height, f.visible, (unsigned long long)f.epoch, f.render_ns / 1e6, f.encode_ns / 1e6);
+    vt_frame_unsubscribe(k->c);
     return 0;
 }

@@ -32,6 +32,10 @@ struct vt_client {
     size_t consumed;        /* the frame handed out last, released on next recv */
     uint8_t *out;
     size_t out_cap;
+    uint32_t stream_req;    /* the frame stream's req, 0 = none */
+    vp_error stream_err;    /* an ERROR that ended the stream during another call */
+    char stream_msg[VP_MAX_ERROR_MSG + 1];
+    bool stream_failed;
 };
 
 static int set_err(vt_client *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
@@ -136,6 +140,20 @@ static bool out_buf(vt_client *c, size_t need, vp_writer *w)
 /* Sends what w holds and reads the reply to req: an ERROR becomes the
  * return value; another type than want is a protocol error. EVENT frames
  * arriving in between are skipped. */
+static void stream_error(vt_client *c, const uint8_t *p, uint32_t len)
+{
+    vp_error e;
+    c->stream_failed = true;
+    c->stream_req = 0;
+    if (vp_dec_error(p, len, &e)) {
+        c->stream_err = (vp_error){.code = VT_ERR_IO};
+        snprintf(c->stream_msg, sizeof c->stream_msg, "malformed ERROR from the server");
+        return;
+    }
+    c->stream_err = e;
+    snprintf(c->stream_msg, sizeof c->stream_msg, "%.*s", (int)e.msg_len, (const char *)e.msg);
+}
+
 static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, const uint8_t **p, uint32_t *len)
 {
     if (w->overflow) return set_err(c, VP_ERR_LIMIT, "request too large for the send buffer");
@@ -145,6 +163,12 @@ static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, co
         vp_header h;
         if ((rc = vt_recv(c, &h, p, -1))) return rc;
         if (h.type == VP_EVENT) continue;
+        if (c->stream_req && h.req == c->stream_req && h.req != req) {
+            /* the frame stream's: a frame is dropped (the next one is
+               newer); an error ends the stream and waits for vt_wait_frame */
+            if (h.type == VP_ERROR) stream_error(c, *p, h.len);
+            continue;
+        }
         if (h.type == VP_ERROR) {
             vp_error e;
             if (vp_dec_error(*p, h.len, &e)) return set_err(c, VT_ERR_IO, "malformed ERROR from the server");
@@ -392,6 +416,56 @@ int vt_render(vt_client *c, const vp_render *m, vp_frame *out)
     int rc = roundtrip(c, &w, req, VP_FRAME, &p, &len);
     if (rc) return rc;
     return vp_dec_frame(p, len, out) ? set_err(c, VT_ERR_IO, "malformed FRAME") : VP_OK;
+}
+
+int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + VP_FRAME_SUB_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_frame_sub(&w, req, m);
+    int rc = ack_call(c, &w, req, NULL);
+    if (rc) return rc;
+    /* frames of the old view already on their way (old req) are still
+       handed out by vt_wait_frame: they are the latest there is */
+    c->stream_req = req;
+    c->stream_failed = false;
+    return VP_OK;
+}
+
+int vt_frame_unsubscribe(vt_client *c)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
+    vp_enc_empty(&w, VP_FRAME_UNSUBSCRIBE, req);
+    int rc = ack_call(c, &w, req, NULL);
+    c->stream_req = 0;
+    return rc;
+}
+
+int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms)
+{
+    for (;;) {
+        if (c->stream_failed) {
+            c->stream_failed = false;
+            c->err.code = c->stream_err.code;
+            c->err.index = c->stream_err.index;
+            snprintf(c->err.msg, sizeof c->err.msg, "%s", c->stream_msg);
+            return c->stream_err.code < 0 ? c->stream_err.code : VP_ERR_INTERNAL;
+        }
+        if (!c->stream_req) return set_err(c, VP_ERR_STATE, "no frame stream (vt_frame_subscribe first)");
+        vp_header h;
+        const uint8_t *p;
+        int rc = vt_recv(c, &h, &p, timeout_ms);
+        if (rc) return rc;
+        if (h.type == VP_ERROR && h.req == c->stream_req) {
+            stream_error(c, p, h.len);
+            continue;
+        }
+        if (h.type != VP_FRAME) continue; /* events, or a stray reply: not ours to keep */
+        return vp_dec_frame(p, h.len, out) ? set_err(c, VT_ERR_IO, "malformed FRAME") : VP_OK;
+    }
 }
 
 int vt_subscribe(vt_client *c, uint32_t kinds)

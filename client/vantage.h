@@ -76,6 +76,16 @@ int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags,
 /* One frame (RENDER -> FRAME); out->data is valid until the next call. */
 int vt_render(vt_client *c, const vp_render *m, vp_frame *out);
 int vt_subscribe(vt_client *c, uint32_t kinds);
+/* A frame stream (FRAME_SUBSCRIBE): frames come as the scene or the view
+ * changes, latest-frame-wins, at most m->max_fps a second. Called again it
+ * re-aims the stream in place. Frames that arrive during other calls are
+ * dropped (the next is newer); an error that ends the stream is returned
+ * by the next vt_wait_frame. */
+int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m);
+int vt_frame_unsubscribe(vt_client *c);
+/* The next frame of the stream; out->data is valid until the next call.
+ * VT_ERR_IO on timeout (timeout_ms < 0: wait for ever). */
+int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms);
 /* Ids of sub-level names (1..255 bytes each), defining new ones. */
 int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t *ids);
 /* Every named sub-level (walk out with vp_name_next; valid until the next call). */

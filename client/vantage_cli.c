@@ -40,8 +40,11 @@ static void usage(FILE *f)
             "  query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N]\n"
             "        [--far F] [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]\n"
             "  render --eye X,Y,Z --at X,Y,Z [--fov DEG] [--size WxH] [--exposure EV] [--quality Q]\n"
-            "        [--no-occlusion] -o FILE.exr|png|jpg   one frame from the daemon\n"
+            "        [--no-occlusion] [--renderer soft|gl] -o FILE.exr|png|jpg   one frame from the daemon\n"
             "  watch [--count N]                print scene-changed events as they happen\n"
+            "  watch --frames DIR --eye X,Y,Z --at X,Y,Z [render's camera options] [--format jpg|png|exr]\n"
+            "        [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]   write the frames pushed as the\n"
+            "        scene changes (latest-frame-wins), one JSON line each\n"
             "  bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P]\n"
             "        [--views K] [--batch B] [--count-only] [--json]   load test: rate and latency percentiles\n"
             "\n"
@@ -363,8 +366,10 @@ static void on_sigint(int sig)
 static int cmd_watch(cli *k, int argc, char **argv)
 {
     long count = -1;
+    for (int i = 1; i < argc; i++)
+        if (!strncmp(argv[i], "--frames", 8)) return cmd_watch_frames(k, argc, argv);
     if (argc == 3 && !strcmp(argv[1], "--count")) count = strtol(argv[2], NULL, 10);
-    else if (argc != 1) return die_usage("watch [--count N]");
+    else if (argc != 1) return die_usage("watch [--count N] | watch --frames DIR ... (watch --frames x --help)");
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
     if ((rc = vt_subscribe(k->c, VP_EVENT_SCENE))) return server_fail(k, "watch", rc);

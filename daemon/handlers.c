@@ -4,7 +4,6 @@
  * exclusive) or handed to the query workers (shared), and answered.
  */
 #include "server_internal.h"
-#include "vt_image.h"
 #include "vt_soft.h"
 
 #include <errno.h>
@@ -188,199 +187,11 @@ error:
 }
 
 
-/* ---- RENDER --------------------------------------------------------------------- */
-
-/* The unit cube, for classes without a mesh of their own. */
-static const float box_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1, -1, -1, 1, 1, -1, 1, -1, 1, 1, 1, 1, 1};
-static const uint32_t box_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,
-                                     2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
-
-/* A class's colour: a hash to a pleasant, not too dark, linear albedo. */
-static void class_albedo(uint16_t cls, float out[3])
-{
-    uint32_t hsh = (uint32_t)cls * 2654435761u;
-    for (int a = 0; a < 3; a++) out[a] = 0.25f + 0.55f * (float)((hsh >> (8 * a)) & 255) / 255.0f;
-}
-
-/* Worker side: culls (with occlusion unless asked not to), renders with the
- * software path and encodes one frame. The caller holds scene_lock shared. */
-static void run_render(const scene *sc, cull_ctx *ctx, vt_soft **soft, cull_result **res, size_t *res_cap, job *j)
-{
-    uint64_t t0 = now_ns();
-    const vp_header *h = &j->h;
-    char msg[200] = "";
-    int code = VP_OK;
-    vp_render m;
-    vt_instance *inst = NULL;
-    vt_mesh *meshes = NULL;
-    vt_light *lights = NULL;
-    float *rgba = NULL, *depth = NULL;
-    uint8_t *jpeg = NULL, *rgb8 = NULL;
-    size_t jpeg_len = 0;
-    int rc = vp_dec_render(j->payload, h->len, &m);
-    if (rc) {
-        code = rc;
-        snprintf(msg, sizeof msg, "%s", vp_strerror(rc));
-        goto error;
-    }
-    cull_view v;
-    cull_view_desc d = {.depth_mode = m.view.depth_mode, .viewport_w = m.view.viewport_w,
-                        .viewport_h = m.view.viewport_h};
-    memcpy(d.origin, m.view.origin, sizeof d.origin);
-    memcpy(d.view_proj, m.view.view_proj, sizeof d.view_proj);
-    if ((rc = cull_view_init(&v, &d))) {
-        code = rc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
-        snprintf(msg, sizeof msg, "view: %s", cull_strerror(rc));
-        goto error;
-    }
-    uint32_t W = v.viewport_w, H = v.viewport_h;
-    if (!*soft && vt_soft_create(NULL, 1, soft)) {
-        code = VP_ERR_BUSY;
-        snprintf(msg, sizeof msg, "out of memory for a renderer");
-        goto error;
-    }
-    size_t need = cull_query_bound(sc->world), n = 0;
-    if (need > *res_cap) {
-        cull_result *r = realloc(*res, need * sizeof *r);
-        if (!r) goto nomem;
-        *res = r;
-        *res_cap = need;
-    }
-    cull_query_desc q = {.views = &v, .view_count = 1,
-                         .flags = (m.flags & VP_RENDER_NO_OCCLUSION) ? CULL_Q_NO_OCCLUSION : 0};
-    if ((rc = cull_query(sc->world, ctx, &q, *res, *res_cap, &n, NULL))) {
-        code = VP_ERR_INTERNAL;
-        snprintf(msg, sizeof msg, "%s", cull_strerror(rc));
-        goto error;
-    }
-    /* instances: each visible entity's box with its class's mesh (the unit
-       box when the class has none); meshes numbered as they are met */
-    inst = malloc((n + 1) * sizeof *inst);
-    meshes = malloc((n + 1) * sizeof *meshes);
-    uint32_t *mesh_of = calloc(65536, sizeof *mesh_of); /* class -> mesh index + 1 */
-    uint32_t nmesh = 1;
-    if (!inst || !meshes || !mesh_of) {
-        free(mesh_of);
-        goto nomem;
-    }
-    meshes[0] = (vt_mesh){.pos = box_pos, .idx = box_idx, .nv = 8, .ni = 36};
-    for (size_t i = 0; i < n; i++) {
-        cull_entity_desc e;
-        cull_entity_get(sc->world, (*res)[i].handle, &e);
-        uint16_t cls = (*res)[i].class_id;
-        const scene_mesh *sm = &sc->meshes[cls];
-        uint32_t mi = 0;
-        if (sm->pos && sm->ni) {
-            if (!mesh_of[cls]) {
-                meshes[nmesh] = (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv, .ni = sm->ni};
-                mesh_of[cls] = ++nmesh;
-            }
-            mi = mesh_of[cls] - 1;
-        }
-        inst[i] = (vt_instance){.mesh = mi};
-        memcpy(inst[i].bmin, e.aabb_min, sizeof e.aabb_min);
-        memcpy(inst[i].bmax, e.aabb_max, sizeof e.aabb_max);
-        class_albedo(cls, inst[i].albedo);
-    }
-    free(mesh_of);
-    lights = malloc((sc->lights.count + 1) * sizeof *lights);
-    if (!lights) goto nomem;
-    uint32_t nl = 0;
-    for (size_t i = 0; i < sc->lights.cap; i++) {
-        if (!sc->lights.used[i]) continue;
-        const vp_light *l = (const vp_light *)(uintptr_t)sc->lights.vals[i];
-        vt_light *o = &lights[nl++];
-        memset(o, 0, sizeof *o);
-        memcpy(o->l.pos, l->pos, sizeof l->pos);
-        o->l.radius = l->range;
-        o->l.type = l->kind == VP_LIGHT_SPOT ? CULL_LIGHT_SPOT : CULL_LIGHT_POINT;
-        memcpy(o->l.dir, l->dir, sizeof l->dir);
-        o->l.cos_outer = l->outer_cos;
-        o->cos_inner = l->inner_cos;
-        for (int a = 0; a < 3; a++) o->color[a] = l->color[a] * l->intensity;
-    }
-    rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
-    depth = malloc((size_t)W * H * sizeof *depth);
-    if (!rgba || !depth) goto nomem;
-    char err[120];
-    if ((rc = vt_soft_render(*soft, &v, W, H, meshes, nmesh, inst, (uint32_t)n, lights, nl, rgba, depth, W, NULL, err,
-                             sizeof err))) {
-        code = rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
-        snprintf(msg, sizeof msg, "render: %s", err);
-        goto error;
-    }
-    uint64_t t1 = now_ns();
-    vp_frame f = {.epoch = sc->epoch, .width = (uint16_t)W, .height = (uint16_t)H, .format = m.format,
-                  .visible = (uint32_t)n, .render_ns = (uint32_t)(t1 - t0)};
-    uint8_t *raw = NULL;
-    if (m.format == VP_FRAME_JPEG) {
-        /* tone mapped, top row first as JPEG wants */
-        rgb8 = malloc(vt_image_rgba8_size(W, H));
-        if (!rgb8) goto nomem;
-        const float *top = rgba + (size_t)(H - 1) * W * 4;
-        ptrdiff_t ys = -(ptrdiff_t)W * 4;
-        vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}};
-        vt_tonemap_desc td = {.exposure_ev = m.exposure_ev, .op = VT_TONEMAP_ACES};
-        if (vt_image_tonemap(W, H, &src, &td, rgb8, 4 * (size_t)W) ||
-            vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m.quality, &jpeg, &jpeg_len, err, sizeof err)) {
-            code = VP_ERR_INTERNAL;
-            snprintf(msg, sizeof msg, "jpeg: %s", err);
-            goto error;
-        }
-        f.data = jpeg;
-        f.data_len = (uint32_t)jpeg_len;
-    } else {
-        /* RGBA then depth, as floats, little-endian on the wire */
-        size_t bytes = (size_t)W * H * 20;
-        raw = malloc(bytes);
-        if (!raw) goto nomem;
-        memcpy(raw, rgba, (size_t)W * H * 16);
-        memcpy(raw + (size_t)W * H * 16, depth, (size_t)W * H * 4);
-        f.data = raw;
-        f.data_len = (uint32_t)bytes;
-    }
-    f.encode_ns = (uint32_t)(now_ns() - t1);
-    j->reply_len = vp_size_frame(f.data_len);
-    j->reply = malloc(j->reply_len);
-    if (!j->reply) {
-        free(raw);
-        goto nomem;
-    }
-    vp_writer fw;
-    vp_writer_init(&fw, j->reply, j->reply_len);
-    vp_enc_frame(&fw, h->req, &f);
-    free(raw);
-    j->ok = true;
-    goto done;
-nomem:
-    code = VP_ERR_BUSY;
-    snprintf(msg, sizeof msg, "out of memory for a %s frame", "render");
-error:
-    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
-    j->reply = malloc(j->reply_len);
-    if (j->reply) {
-        vp_writer w;
-        vp_writer_init(&w, j->reply, j->reply_len);
-        vp_enc_error(&w, h->req, code, UINT32_MAX, msg);
-    }
-done:
-    free(inst);
-    free(meshes);
-    free(lights);
-    free(rgba);
-    free(depth);
-    free(rgb8);
-    free(jpeg);
-}
-
 void *worker_main(void *arg)
 {
     server *s = arg;
-    cull_ctx *ctx = NULL;
-    cull_result *res = NULL;
-    size_t res_cap = 0;
-    vt_soft *soft = NULL;
-    if (cull_ctx_create(NULL, &ctx)) return NULL;
+    worker wk = {0};
+    if (cull_ctx_create(NULL, &wk.ctx)) return NULL;
     for (;;) {
         pthread_mutex_lock(&s->mu);
         while (!s->jobs_head && !s->stopping) pthread_cond_wait(&s->cv, &s->mu);
@@ -394,8 +205,8 @@ void *worker_main(void *arg)
         pthread_mutex_unlock(&s->mu);
 
         pthread_rwlock_rdlock(&s->scene_lock);
-        if (j->h.type == VP_RENDER) run_render(s->sc, ctx, &soft, &res, &res_cap, j);
-        else run_query(s->sc, ctx, &res, &res_cap, j);
+        if (j->h.type == VP_RENDER) run_render(s, &wk, j);
+        else run_query(s->sc, wk.ctx, &wk.res, &wk.res_cap, j);
         pthread_rwlock_unlock(&s->scene_lock);
 
         j->next = NULL;
@@ -408,10 +219,21 @@ void *worker_main(void *arg)
         ssize_t ignored = write(s->done_fd, &one, sizeof one);
         (void)ignored;
     }
-    free(res);
-    vt_soft_destroy(soft);
-    cull_ctx_destroy(ctx);
+    free(wk.res);
+    vt_soft_destroy(wk.soft);
+    cull_pool_destroy(wk.pool);
+    cull_ctx_destroy(wk.ctx);
     return NULL;
+}
+
+void job_submit(server *s, job *j)
+{
+    pthread_mutex_lock(&s->mu);
+    if (s->jobs_tail) s->jobs_tail->next = j;
+    else s->jobs_head = j;
+    s->jobs_tail = j;
+    pthread_cond_signal(&s->cv);
+    pthread_mutex_unlock(&s->mu);
 }
 
 /* Loop side: hands the query to the workers; the connection reads no
@@ -429,12 +251,7 @@ static void on_query(server *s, conn *c, const vp_header *h, const uint8_t *p)
     memcpy(copy, p, h->len);
     *j = (job){.fd = c->fd, .conn_id = c->id, .h = *h, .payload = copy};
     c->busy = true;
-    pthread_mutex_lock(&s->mu);
-    if (s->jobs_tail) s->jobs_tail->next = j;
-    else s->jobs_head = j;
-    s->jobs_tail = j;
-    pthread_cond_signal(&s->cv);
-    pthread_mutex_unlock(&s->mu);
+    job_submit(s, j);
 }
 
 static void on_list(server *s, conn *c, const vp_header *h, const uint8_t *p)
@@ -601,6 +418,12 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
     case VP_VIS_QUERY:
     case VP_RENDER:
         on_query(s, c, h, p);
+        return;
+    case VP_FRAME_SUBSCRIBE:
+        on_frame_subscribe(s, c, h, p);
+        return;
+    case VP_FRAME_UNSUBSCRIBE:
+        on_frame_unsubscribe(s, c, h, p);
         return;
     case VP_ENTITY_LIST:
         on_list(s, c, h, p);

@@ -77,6 +77,7 @@ void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, cons
 
 static void conn_free(server *s, conn *c)
 {
+    frames_conn_gone(s, c);
     ae_del(s->loop, c->fd, AE_READABLE | AE_WRITABLE);
     close(c->fd);
     s->conns[c->fd] = NULL;
@@ -184,7 +185,9 @@ static void on_done(ae_loop *l, int fd, void *data, int mask)
     while (j) {
         job *next = j->next;
         conn *c = s->conns[j->fd];
-        if (c && c->id == j->conn_id) { /* still the same client */
+        if (c && c->id == j->conn_id && j->stream) {
+            frames_done(s, c, j); /* the connection's own requests go on regardless */
+        } else if (c && c->id == j->conn_id) { /* still the same client */
             vp_writer w;
             if (!j->reply || !out_reserve(c, j->reply_len, &w)) {
                 c->closing = true;
@@ -320,6 +323,7 @@ static void before_sleep(ae_loop *l, void *data)
         if (c->out_len > c->out_pos && !conn_flush(s, c)) conn_free(s, c);
     }
     sc->ev_added = sc->ev_updated = sc->ev_removed = 0;
+    frames_schedule(s);
 }
 
 static void on_signal(ae_loop *l, int fd, void *data, int mask)
@@ -404,6 +408,10 @@ server *server_create(const server_config *cfg, scene *sc)
     pthread_rwlockattr_destroy(&ra);
     pthread_mutex_init(&s->mu, NULL);
     pthread_cond_init(&s->cv, NULL);
+    if (frames_init(s)) {
+        errno = ENODEV;
+        goto fail;
+    }
     s->nworkers = cfg->threads ? cfg->threads : (uint32_t)sysconf(_SC_NPROCESSORS_ONLN);
     if (s->nworkers < 1) s->nworkers = 1;
     s->workers = calloc(s->nworkers, sizeof *s->workers);
@@ -464,6 +472,7 @@ void server_destroy(server *s)
         pthread_mutex_destroy(&s->mu);
         pthread_cond_destroy(&s->cv);
     }
+    frames_fini(s); /* after the workers: none is drawing */
     for (job *lists[2] = {s->jobs_head, s->done_head}, **l = lists; l < lists + 2; l++) {
         for (job *j = *l, *n; j; j = n) {
             n = j->next;

@@ -19,6 +19,7 @@ typedef struct server_config {
     uint32_t max_batch;      /* records per edit message */
     uint32_t out_limit;      /* bytes a client may leave unread before it is dropped */
     uint32_t threads;        /* query worker threads, 0 = cores */
+    int renderer;            /* VP_RENDERER_SOFT or VP_RENDERER_GL: when a request names none */
     double cell_size;
     scene_limits limits;
 } server_config;

@@ -14,6 +14,19 @@
 #include <stdint.h>
 #include <time.h>
 
+/* A connection's frame stream (FRAME_SUBSCRIBE); see frames.c. */
+typedef struct frame_sub {
+    bool active;
+    bool inflight;          /* a frame is with a worker */
+    bool dirty;             /* the view changed: draw even at the same epoch */
+    uint32_t req;           /* the subscription's req: every FRAME carries it */
+    uint32_t gen;           /* bumped when re-aimed or ended: stale frames drop */
+    vp_frame_sub m;
+    uint64_t shown_epoch;   /* the scene epoch of the last frame sent */
+    uint64_t next_ms;       /* the rate cap: no frame starts before */
+    uint64_t frames;
+} frame_sub;
+
 typedef struct conn {
     int fd;
     uint32_t id;
@@ -26,6 +39,7 @@ typedef struct conn {
     uint8_t *out;
     size_t out_len, out_pos, out_cap;
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */
+    frame_sub fsub;
     char name[64];
 } conn;
 
@@ -50,6 +64,14 @@ struct server {
     pthread_t *workers;
     uint32_t nworkers;
     bool stopping;
+    /* pictures (frames.c): the shared OpenGL renderer, taken in turn */
+    pthread_mutex_t gl_mu;
+    struct vt_gl *gl;
+    struct vt_glr *glr;
+    bool gl_failed;
+    char gl_err[400];
+    uint32_t nsubs;         /* connections with a frame stream */
+    uint64_t frames_out;
 };
 
 /* A query handed to a worker, and its reply coming back. */
@@ -62,7 +84,21 @@ typedef struct job {
     uint8_t *reply;     /* the encoded reply frame (VIS_RESULT or ERROR) */
     size_t reply_len;
     bool ok;
+    /* a frame of a stream (no payload; the request is stream_req) */
+    bool stream;
+    uint32_t gen;
+    vp_render stream_req;
+    uint64_t epoch;     /* the scene epoch it was drawn from */
 } job;
+
+/* A worker's own scratch, kept between jobs. */
+typedef struct worker {
+    cull_ctx *ctx;
+    cull_result *res;
+    size_t res_cap;
+    struct vt_soft *soft;
+    cull_pool *pool;        /* the software renderer's threads (all cores) */
+} worker;
 
 static inline uint64_t now_ns(void)
 {
@@ -82,5 +118,21 @@ void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, cons
 void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p);
 /* A query worker thread: jobs in, replies out through s->done_fd. */
 void *worker_main(void *arg);
+/* Queues j for the workers. */
+void job_submit(server *s, job *j);
+
+/* ---- frames.c ---- */
+int  frames_init(server *s);  /* --render gl: the context now, or fail */
+void frames_fini(server *s);
+const char *renderer_name(int r);
+/* Worker side: RENDER (payload) or a stream's frame, into j->reply. */
+void run_render(server *s, worker *wk, job *j);
+void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p);
+void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t *p);
+/* Loop side: starts the frames that are due; sets the loop's timer for the
+ * next one a rate cap holds back. */
+void frames_schedule(server *s);
+void frames_done(server *s, conn *c, job *j);
+void frames_conn_gone(server *s, conn *c);
 
 #endif

@@ -52,6 +52,8 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_VIS_RESULT, "vis_result"},
     {VP_RENDER, "render"},
     {VP_FRAME, "frame"},
+    {VP_FRAME_SUBSCRIBE, "frame_subscribe"},
+    {VP_FRAME_UNSUBSCRIBE, "frame_unsubscribe"},
 };
 
 bool vp_type_known(uint16_t type)

@@ -53,7 +53,8 @@ extern "C" {
     X(VP_ERR_SCENE,      -16, "the scene rejected the edit")                     \
     X(VP_ERR_MATRIX,     -17, "degenerate view-projection matrix")               \
     X(VP_ERR_BUSY,       -18, "server busy, retry")                              \
-    X(VP_ERR_INTERNAL,   -19, "internal server error")
+    X(VP_ERR_INTERNAL,   -19, "internal server error")                          \
+    X(VP_ERR_UNSUPPORTED, -20, "not available on this server")
 
 enum {
 #define VP_X_ENUM(name, value, msg) name = value,
@@ -94,6 +95,8 @@ enum vp_type {
     VP_VIS_RESULT = 0x0201,
     VP_RENDER = 0x0500,
     VP_FRAME = 0x0501,
+    VP_FRAME_SUBSCRIBE = 0x0502,
+    VP_FRAME_UNSUBSCRIBE = 0x0503,
     /* 0x0300..0x03ff sub-levels */
     VP_SUBLEVEL_NAMES = 0x0300,
     VP_SUBLEVEL_IDS = 0x0301,
@@ -364,15 +367,35 @@ void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area,
 #define VP_RENDER_NO_OCCLUSION 0x01u
 #define VP_RENDER_SIZE (VP_VIEW_SIZE + 8u)
 #define VP_FRAME_MAX_PIXELS (4096u * 4096u)
+/* which renderer draws it: the daemon's default (--render), or one named */
+#define VP_RENDERER_DEFAULT 0u
+#define VP_RENDERER_SOFT 1u
+#define VP_RENDERER_GL 2u
 typedef struct vp_render {
     vp_view  view;
     uint8_t  format;        /* VP_FRAME_* */
     uint8_t  quality;       /* JPEG 1..100; RAW 0 */
     uint8_t  flags;         /* VP_RENDER_* */
+    uint8_t  renderer;      /* VP_RENDERER_* */
     float    exposure_ev;   /* JPEG: -64..64 */
 } vp_render;
 void vp_enc_render(vp_writer *w, uint32_t req, const vp_render *m);
 int  vp_dec_render(const uint8_t *p, size_t len, vp_render *m);
+
+/* FRAME_SUBSCRIBE: a RENDER that stays. Answered with ACK; then FRAMEs
+ * (with this request's req) are pushed whenever the scene or the view has
+ * changed, at most max_fps a second, latest-frame-wins: a frame is rendered
+ * only once the previous one has left the daemon, from the scene as it is
+ * then. Sent again on the same connection it changes the stream in place
+ * (view, size, format, rate); FRAME_UNSUBSCRIBE (empty) ends it. */
+#define VP_FRAME_SUB_SIZE (VP_RENDER_SIZE + 4u)
+#define VP_FRAME_SUB_MAX_FPS 240u
+typedef struct vp_frame_sub {
+    vp_render r;
+    uint16_t  max_fps;      /* 1..VP_FRAME_SUB_MAX_FPS */
+} vp_frame_sub;
+void vp_enc_frame_sub(vp_writer *w, uint32_t req, const vp_frame_sub *m);
+int  vp_dec_frame_sub(const uint8_t *p, size_t len, vp_frame_sub *m);
 
 #define VP_FRAME_HEADER 32u
 typedef struct vp_frame {

@@ -542,22 +542,26 @@ uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i)
 
 /* ---- RENDER / FRAME ------------------------------------------------------------- */
 
-void vp_enc_render(vp_writer *w, uint32_t req, const vp_render *m)
+static void render_write(vp_writer *w, const vp_render *m)
 {
-    vp_frame_begin(w, VP_RENDER, req);
     view_write(w, &m->view);
     vp_put_u8(w, m->format);
     vp_put_u8(w, m->quality);
     vp_put_u8(w, m->flags);
-    vp_put_u8(w, 0);
+    vp_put_u8(w, m->renderer);
     vp_put_f32(w, m->exposure_ev);
+}
+
+void vp_enc_render(vp_writer *w, uint32_t req, const vp_render *m)
+{
+    vp_frame_begin(w, VP_RENDER, req);
+    render_write(w, m);
     vp_frame_end(w);
 }
 
-int vp_dec_render(const uint8_t *p, size_t len, vp_render *m)
+/* The RENDER fields at p (VP_RENDER_SIZE bytes, already length-checked). */
+static int render_read(const uint8_t *p, vp_render *m)
 {
-    if (len < VP_RENDER_SIZE) return VP_ERR_TRUNCATED;
-    if (len > VP_RENDER_SIZE) return VP_ERR_TRAILING;
     view_read(p, &m->view);
     if (p[153] || rd16(p + 158)) return VP_ERR_INVALID;
     int rc = view_check(&m->view);
@@ -566,8 +570,9 @@ int vp_dec_render(const uint8_t *p, size_t len, vp_render *m)
     m->format = q[0];
     m->quality = q[1];
     m->flags = q[2];
+    m->renderer = q[3];
     m->exposure_ev = rdf32(q + 4);
-    if (q[3]) return VP_ERR_INVALID;
+    if (m->renderer > VP_RENDERER_GL) return VP_ERR_INVALID;
     if (m->format > VP_FRAME_JPEG || (m->flags & ~VP_RENDER_NO_OCCLUSION)) return VP_ERR_INVALID;
     if (m->format == VP_FRAME_JPEG && (m->quality < 1 || m->quality > 100)) return VP_ERR_INVALID;
     if (m->format == VP_FRAME_RAW && m->quality) return VP_ERR_INVALID;
@@ -575,6 +580,34 @@ int vp_dec_render(const uint8_t *p, size_t len, vp_render *m)
     if (fabsf(m->exposure_ev) > 64) return VP_ERR_INVALID;
     uint32_t w = m->view.viewport_w ? m->view.viewport_w : 1920, h = m->view.viewport_h ? m->view.viewport_h : 1080;
     if ((uint64_t)w * h > VP_FRAME_MAX_PIXELS) return VP_ERR_LIMIT;
+    return VP_OK;
+}
+
+int vp_dec_render(const uint8_t *p, size_t len, vp_render *m)
+{
+    if (len < VP_RENDER_SIZE) return VP_ERR_TRUNCATED;
+    if (len > VP_RENDER_SIZE) return VP_ERR_TRAILING;
+    return render_read(p, m);
+}
+
+void vp_enc_frame_sub(vp_writer *w, uint32_t req, const vp_frame_sub *m)
+{
+    vp_frame_begin(w, VP_FRAME_SUBSCRIBE, req);
+    render_write(w, &m->r);
+    vp_put_u16(w, m->max_fps);
+    vp_put_u16(w, 0);
+    vp_frame_end(w);
+}
+
+int vp_dec_frame_sub(const uint8_t *p, size_t len, vp_frame_sub *m)
+{
+    if (len < VP_FRAME_SUB_SIZE) return VP_ERR_TRUNCATED;
+    if (len > VP_FRAME_SUB_SIZE) return VP_ERR_TRAILING;
+    int rc = render_read(p, &m->r);
+    if (rc) return rc;
+    m->max_fps = rd16(p + VP_RENDER_SIZE);
+    if (rd16(p + VP_RENDER_SIZE + 2)) return VP_ERR_INVALID;
+    if (m->max_fps < 1 || m->max_fps > VP_FRAME_SUB_MAX_FPS) return VP_ERR_INVALID;
     return VP_OK;
 }
 

@@ -838,6 +838,226 @@ static void test_render_frames(void **state)
     daemon_stop(&d);
 }
 
+/* Reads one whole frame of any size from fd (SO_RCVTIMEO set): its type,
+ * and for FRAME its epoch. -1 on timeout or EOF. */
+static int raw_read_big(int fd, uint64_t *epoch)
+{
+    uint8_t hdr[VP_HEADER_SIZE];
+    size_t have = 0;
+    while (have < sizeof hdr) {
+        ssize_t n = read(fd, hdr + have, sizeof hdr - have);
+        if (n <= 0) return -1;
+        have += (size_t)n;
+    }
+    vp_header h;
+    size_t fs = 0;
+    int rc = vp_frame_check(hdr, sizeof hdr, UINT32_MAX, &h, &fs);
+    assert_true(rc == VP_OK || rc == VP_NEED_MORE);
+    uint8_t *buf = malloc(fs);
+    assert_non_null(buf);
+    memcpy(buf, hdr, sizeof hdr);
+    while (have < fs) {
+        ssize_t n = read(fd, buf + have, fs - have);
+        if (n <= 0) {
+            free(buf);
+            return -1;
+        }
+        have += (size_t)n;
+    }
+    assert_int_equal(vp_frame_check(buf, fs, UINT32_MAX, &h, &fs), VP_OK);
+    if (h.type == VP_FRAME) {
+        vp_frame f;
+        assert_int_equal(vp_dec_frame(buf + VP_HEADER_SIZE, h.len, &f), VP_OK);
+        *epoch = f.epoch;
+    }
+    free(buf);
+    return h.type;
+}
+
+/* Reads the stream until a frame shows at least epoch `want`; epochs never
+ * go back. The number of frames read. */
+static int frames_until(vt_client *v, uint64_t want, uint64_t *last, uint16_t width)
+{
+    int n = 0;
+    for (;;) {
+        vp_frame f;
+        int rc = vt_wait_frame(v, &f, 10000);
+        if (rc) fail_msg("no frame showing epoch %llu: %s", (unsigned long long)want, vt_last_error(v)->msg);
+        n++;
+        assert_true(f.epoch >= *last);
+        *last = f.epoch;
+        if (f.epoch >= want && (!width || f.width == width)) return n;
+    }
+}
+
+/* FRAME_SUBSCRIBE end to end: a first frame at once; none while the scene
+ * stands still; every edit shown by a later frame, epochs never going
+ * back; the view re-aimed in place; nothing after unsubscribing. And
+ * latest-frame-wins: a viewer that stops reading while 60 edits land
+ * finds, when it reads again, a few frames at most (no queue), the last
+ * showing the final scene, while another viewer saw every edit. */
+static void test_frame_stream(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_entity e[200];
+    rng r = {test_seed() ^ 0xF5};
+    for (int i = 0; i < 200; i++) {
+        double x = rng_range(&r, -20, 20), y = rng_range(&r, -10, 10), z = rng_range(&r, -60, -10);
+        e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 1, y - 1, z - 1, x + 1, y + 1, z + 1}};
+    }
+    assert_int_equal(vt_add(ed, e, 200, NULL, NULL), VP_OK);
+    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, true);
+    vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = 80}, .max_fps = VP_FRAME_SUB_MAX_FPS};
+    const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
+    assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 70, 320, 180, 0.1, 200));
+    assert_int_equal(vt_frame_subscribe(v, &sub), VP_OK);
+    vp_frame f;
+    assert_int_equal(vt_wait_frame(v, &f, 10000), VP_OK);
+    assert_int_equal(f.width, 320);
+    assert_int_equal(f.height, 180);
+    assert_int_equal(f.format, VP_FRAME_JPEG);
+    assert_true(f.visible > 100 && f.visible <= 200); /* most are in view */
+    uint8_t *rgb;
+    uint32_t jw, jh;
+    char err[256];
+    assert_int_equal(vt_jpeg_decode(f.data, f.data_len, &rgb, &jw, &jh, err, sizeof err), 0);
+    assert_true(jw == 320 && jh == 180);
+    free(rgb);
+    uint64_t last = f.epoch;
+    /* nothing changes: nothing comes */
+    assert_int_equal(vt_wait_frame(v, &f, 300), VT_ERR_IO);
+    assert_non_null(strstr(vt_last_error(v)->msg, "timed out"));
+    /* a second viewer that subscribes for big raw frames and stops reading */
+    int stalled = raw_connect(&d);
+    raw_hello(stalled);
+    {
+        uint8_t buf[512];
+        vp_writer w;
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_frame_sub big = {.r = {.format = VP_FRAME_RAW, .view = sub.r.view}, .max_fps = VP_FRAME_SUB_MAX_FPS};
+        big.r.view.viewport_w = 640;
+        big.r.view.viewport_h = 360; /* 4.6 MB a frame */
+        vp_enc_frame_sub(&w, 77, &big);
+        assert_int_equal(write(stalled, buf, w.len), (ssize_t)w.len);
+    }
+    /* 60 edits; each is seen by a frame of the reading viewer */
+    int frames = 0;
+    uint64_t epoch = 0;
+    for (int i = 0; i < 60; i++) {
+        e[i].aabb[0] += 0.5, e[i].aabb[3] += 0.5;
+        assert_int_equal(vt_update(ed, &e[i], 1, &epoch), VP_OK);
+        frames += frames_until(v, epoch, &last, 0);
+    }
+    assert_true(frames >= 1 && frames <= 120);
+    /* the stalled viewer reads now: its ACK, then a few frames at most */
+    struct timeval tv = {.tv_usec = 700000};
+    setsockopt(stalled, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    uint64_t se = 0, s_last = 0;
+    int s_frames = 0, type;
+    while ((type = raw_read_big(stalled, &se)) >= 0) {
+        if (type != VP_FRAME) {
+            assert_int_equal(type, VP_ACK);
+            continue;
+        }
+        assert_true(se >= s_last);
+        s_last = se;
+        s_frames++;
+    }
+    print_message("stalled viewer: %d frames waiting after 60 edits, the last at epoch %llu (scene at %llu); "
+                  "the reading viewer got %d\n",
+                  s_frames, (unsigned long long)s_last, (unsigned long long)epoch, frames);
+    assert_true(s_frames >= 1 && s_frames <= 6);
+    assert_int_equal(s_last, epoch); /* it shows the scene as it is now */
+    close(stalled);
+    /* re-aimed in place: a frame of the new view, with no scene change */
+    assert_true(vt_view_perspective(&sub.r.view, (double[]){5, 0, 0}, at, NULL, 70, 160, 90, 0.1, 200));
+    assert_int_equal(vt_frame_subscribe(v, &sub), VP_OK);
+    frames_until(v, epoch, &last, 160);
+    /* unsubscribed: an edit brings nothing */
+    assert_int_equal(vt_frame_unsubscribe(v), VP_OK);
+    e[0].aabb[1] += 1;
+    assert_int_equal(vt_update(ed, &e[0], 1, NULL), VP_OK);
+    vp_header h;
+    const uint8_t *p;
+    int rc;
+    while ((rc = vt_recv(v, &h, &p, 300)) == VP_OK) assert_int_equal(h.type, VP_FRAME); /* already on its way */
+    assert_int_equal(rc, VT_ERR_IO);
+    assert_int_equal(vt_wait_frame(v, &f, 10), VP_ERR_STATE);
+    /* bad subscriptions: refused, the connection fine */
+    sub.max_fps = 0;
+    assert_int_equal(vt_frame_subscribe(v, &sub), VP_ERR_INVALID);
+    sub.max_fps = 30;
+    sub.r.quality = 0;
+    assert_int_equal(vt_frame_subscribe(v, &sub), VP_ERR_INVALID);
+    assert_int_equal(vt_ping(v), VP_OK);
+    vt_close(v);
+    vt_close(ed);
+    daemon_stop(&d);
+}
+
+/* A frame from the GL renderer through the daemon: where this machine has
+ * OpenGL it draws what the software renderer draws (coverage on >= 99.9 %
+ * of the pixels); where it has none, a clear UNSUPPORTED error. And a
+ * daemon told --render gl where EGL finds no driver does not start. */
+static void test_render_gl_over_the_wire(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_entity e[50];
+    rng r = {test_seed() ^ 0x61};
+    for (int i = 0; i < 50; i++) {
+        double x = rng_range(&r, -15, 15), y = rng_range(&r, -8, 8), z = rng_range(&r, -50, -8);
+        e[i] = (vp_entity){.id = (uint64_t)i + 1, .class_id = (uint16_t)(i % 5), .aabb = {x - 1, y - 1, z - 2, x + 1, y + 2, z + 1}};
+    }
+    assert_int_equal(vt_add(c, e, 50, NULL, NULL), VP_OK);
+    vp_light l = {.id = 1, .kind = VP_LIGHT_POINT, .pos = {0, 5, -10}, .color = {1, 0.9f, 0.8f}, .intensity = 200,
+                  .range = 60};
+    assert_int_equal(vt_put_lights(c, &l, 1), VP_OK);
+    vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
+    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 70, 256, 144, 0.1, 200));
+    vp_frame f;
+    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    size_t np = 256 * 144;
+    float *soft = malloc(np * 20);
+    assert_non_null(soft);
+    memcpy(soft, f.data, np * 20);
+    m.renderer = VP_RENDERER_GL;
+    int rc = vt_render(c, &m, &f);
+    if (rc == VP_OK) {
+        const float *gl = (const float *)f.data;
+        size_t differ = 0, covered = 0;
+        for (size_t i = 0; i < np; i++) {
+            differ += (soft[4 * i + 3] > 0) != (gl[4 * i + 3] > 0);
+            covered += gl[4 * i + 3] > 0;
+        }
+        print_message("GL frame over the wire: %zu of %zu pixels covered, %zu differ from the software path\n",
+                      covered, np, differ);
+        assert_true(covered > np / 20);
+        assert_true(differ * 1000 <= np);
+    } else {
+        assert_int_equal(rc, VP_ERR_UNSUPPORTED);
+        assert_non_null(strstr(vt_last_error(c)->msg, "OpenGL"));
+        print_message("no OpenGL here: %s\n", vt_last_error(c)->msg);
+    }
+    assert_int_equal(vt_ping(c), VP_OK);
+    free(soft);
+    vt_close(c);
+    daemon_stop(&d);
+
+    /* --render gl with no EGL driver to be found: a clear refusal to start */
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd,
+             "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json %s/vantaged --render gl --scene empty --port %d "
+             "--unix '' 2>&1 | grep -q 'no OpenGL'",
+             bin_dir(), free_port());
+    assert_int_equal(system(cmd), 0);
+}
+
 static void test_limits(void **state)
 {
     (void)state;
@@ -865,6 +1085,8 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_limits),
     cmocka_unit_test(test_occlusion_over_the_wire),
     cmocka_unit_test(test_render_frames),
+    cmocka_unit_test(test_frame_stream),
+    cmocka_unit_test(test_render_gl_over_the_wire),
     cmocka_unit_test(test_edits_then_queries_match_model),
     cmocka_unit_test(test_batches_all_or_nothing),
     cmocka_unit_test(test_malformed_frames),

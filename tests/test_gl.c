@@ -68,7 +68,6 @@ static vt_gl *open_or_skip(const vt_gl_opts *o)
     assert_int_equal(rc, 0);
     assert_string_equal(err, "");
     assert_non_null(g);
-    test_pin_gl_drivers();
     return g;
 }
 
@@ -242,7 +241,6 @@ static void test_gl_each_platform(void **state)
         char err[1024];
         int rc = vt_gl_open(&g, &(vt_gl_opts){.platform = ps[i]}, err, sizeof err);
         if (rc == 0) {
-            test_pin_gl_drivers();
             const vt_gl_info *in = vt_gl_get_info(g);
             print_message("%s: %s (%s)\n", vt_gl_platform_name(ps[i]), in->renderer, in->tried);
             assert_int_equal(in->platform, ps[i]);

@@ -583,6 +583,50 @@ static void test_image_tonemap_exact(void **state)
     free(px);
 }
 
+/* ACES at 0 EV through the image path (a threshold table) equals the curve
+ * then the sRGB table, code for code, for floats spread over every
+ * exponent from 2^-14 to 32 (each threshold's neighbours included). */
+static void test_image_tonemap_aces_table(void **state)
+{
+    (void)state;
+    const uint32_t lo = 0x38800000u, hi = 0x42000000u, step = 61, w = 4096;
+    uint32_t n = ((hi - lo) / step + 1) / w * w;
+    float *px = malloc((size_t)n * sizeof *px);
+    uint8_t *out = malloc((size_t)n * 4);
+    assert_true(px && out);
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t bits = lo + i * step;
+        memcpy(&px[i], &bits, sizeof bits);
+    }
+    vt_image_src src = {.r = {px, 1, w}};
+    tonemap_ok(w, n / w, &src, &(vt_tonemap_desc){.op = VT_TONEMAP_ACES}, out, (size_t)w * 4);
+    uint32_t bad = 0;
+    for (uint32_t i = 0; i < n; i++)
+        bad += out[i * 4] != vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, px[i]));
+    /* and around each code's first float, found by bisection here */
+    for (unsigned k = 1; k < 256; k++) {
+        uint32_t a = lo, b = hi;
+        while (a < b) {
+            uint32_t m = a + (b - a) / 2;
+            float x;
+            memcpy(&x, &m, sizeof x);
+            if (vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, x)) >= k) b = m;
+            else a = m + 1;
+        }
+        float t[3];
+        uint32_t tb[3] = {a - 1, a, a + 1};
+        memcpy(t, tb, sizeof t);
+        uint8_t o3[12];
+        vt_image_src s3 = {.r = {t, 1, 0}};
+        tonemap_ok(3, 1, &s3, &(vt_tonemap_desc){.op = VT_TONEMAP_ACES}, o3, 12);
+        for (int j = 0; j < 3; j++) bad += o3[j * 4] != vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, t[j]));
+        bad += o3[0] != k - 1 || o3[4] != k;
+    }
+    assert_int_equal(bad, 0);
+    free(px);
+    free(out);
+}
+
 /* Planar bottom-up source, grey, repeated rows, exposure, ACES and
  * premultiplied alpha give what the per-pixel formula says. */
 static void test_image_tonemap_layouts(void **state)
@@ -1235,6 +1279,7 @@ const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_image_srgb_thresholds),
     cmocka_unit_test(test_image_tonemap_curve),
     cmocka_unit_test(test_image_tonemap_exact),
+    cmocka_unit_test(test_image_tonemap_aces_table),
     cmocka_unit_test(test_image_tonemap_layouts),
     cmocka_unit_test(test_image_tonemap_bad_args),
     cmocka_unit_test(test_image_png_roundtrip),

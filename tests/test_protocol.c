@@ -445,7 +445,7 @@ static void test_render_messages(void **state)
     vp_view v = {.origin = {1, 2, 3}, .view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1},
                  .depth_mode = 2, .viewport_w = 640, .viewport_h = 360};
     vp_render m = {.view = v, .format = VP_FRAME_JPEG, .quality = 90, .flags = VP_RENDER_NO_OCCLUSION,
-                   .exposure_ev = -1.5f}, r;
+                   .renderer = VP_RENDERER_GL, .exposure_ev = -1.5f}, r;
     vp_writer_init(&w, g_buf, sizeof g_buf);
     vp_enc_render(&w, 7, &m);
     assert_int_equal(w.len, VP_HEADER_SIZE + VP_RENDER_SIZE);
@@ -458,6 +458,7 @@ static void test_render_messages(void **state)
     assert_int_equal(r.format, VP_FRAME_JPEG);
     assert_int_equal(r.quality, 90);
     assert_int_equal(r.flags, VP_RENDER_NO_OCCLUSION);
+    assert_int_equal(r.renderer, VP_RENDERER_GL);
     assert_true(r.exposure_ev == -1.5f);
     const struct { vp_render m; int code; } bad[] = {
         {{.view = v, .format = 2}, VP_ERR_INVALID},
@@ -465,6 +466,7 @@ static void test_render_messages(void **state)
         {{.view = v, .format = VP_FRAME_JPEG, .quality = 101}, VP_ERR_INVALID},
         {{.view = v, .format = VP_FRAME_RAW, .quality = 5}, VP_ERR_INVALID},
         {{.view = v, .format = VP_FRAME_RAW, .flags = 2}, VP_ERR_INVALID},
+        {{.view = v, .format = VP_FRAME_RAW, .renderer = 3}, VP_ERR_INVALID},
         {{.view = v, .format = VP_FRAME_RAW, .exposure_ev = NAN}, VP_ERR_NONFINITE},
         {{.view = v, .format = VP_FRAME_RAW, .exposure_ev = 65}, VP_ERR_INVALID},
         {{.view = {.view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, .viewport_w = 4097, .viewport_h = 4096},
@@ -478,6 +480,37 @@ static void test_render_messages(void **state)
         vp_writer_init(&w, g_buf, sizeof g_buf);
         vp_enc_render(&w, 1, &bad[i].m);
         assert_int_equal(vp_dec_render(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &r), bad[i].code);
+        /* a subscription checks the same fields */
+        vp_frame_sub fs = {.r = bad[i].m, .max_fps = 30}, gs;
+        vp_writer_init(&w, g_buf, sizeof g_buf);
+        vp_enc_frame_sub(&w, 1, &fs);
+        assert_int_equal(vp_dec_frame_sub(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &gs), bad[i].code);
+    }
+    /* FRAME_SUBSCRIBE: round trip, the rate's range, the pad, the length */
+    {
+        vp_frame_sub fs = {.r = m, .max_fps = 60}, gs;
+        vp_writer_init(&w, g_buf, sizeof g_buf);
+        vp_enc_frame_sub(&w, 9, &fs);
+        assert_int_equal(w.len, VP_HEADER_SIZE + VP_FRAME_SUB_SIZE);
+        assert_int_equal(vp_dec_frame_sub(g_buf + VP_HEADER_SIZE, VP_FRAME_SUB_SIZE, &gs), VP_OK);
+        assert_memory_equal(gs.r.view.view_proj, v.view_proj, sizeof v.view_proj);
+        assert_int_equal(gs.r.format, VP_FRAME_JPEG);
+        assert_int_equal(gs.r.renderer, VP_RENDERER_GL);
+        assert_int_equal(gs.max_fps, 60);
+        assert_int_equal(vp_dec_frame_sub(g_buf + VP_HEADER_SIZE, VP_FRAME_SUB_SIZE - 1, &gs), VP_ERR_TRUNCATED);
+        assert_int_equal(vp_dec_frame_sub(g_buf + VP_HEADER_SIZE, VP_FRAME_SUB_SIZE + 1, &gs), VP_ERR_TRAILING);
+        const uint16_t rates[] = {0, VP_FRAME_SUB_MAX_FPS + 1, 65535};
+        for (size_t i = 0; i < 3; i++) {
+            fs.max_fps = rates[i];
+            vp_writer_init(&w, g_buf, sizeof g_buf);
+            vp_enc_frame_sub(&w, 9, &fs);
+            assert_int_equal(vp_dec_frame_sub(g_buf + VP_HEADER_SIZE, VP_FRAME_SUB_SIZE, &gs), VP_ERR_INVALID);
+        }
+        fs.max_fps = 1;
+        vp_writer_init(&w, g_buf, sizeof g_buf);
+        vp_enc_frame_sub(&w, 9, &fs);
+        g_buf[VP_HEADER_SIZE + VP_FRAME_SUB_SIZE - 1] = 1; /* the pad */
+        assert_int_equal(vp_dec_frame_sub(g_buf + VP_HEADER_SIZE, VP_FRAME_SUB_SIZE, &gs), VP_ERR_INVALID);
     }
     /* FRAME: raw data must be 20 bytes a pixel */
     float raw[10] = {0};

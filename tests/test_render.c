@@ -160,7 +160,6 @@ static void test_soft_and_gl_agree(void **state)
         fprintf(stderr, "no GL here, cross-check skipped: %s\n", err);
         skip();
     }
-    test_pin_gl_drivers();
     vt_glr *gr;
     assert_int_equal(vt_glr_create(g, &gr, err, sizeof err), 0);
     vt_soft *sr;

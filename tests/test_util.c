@@ -5,11 +5,6 @@
 
 #include <string.h>
 
-#ifdef __SANITIZE_ADDRESS__
-#include <dlfcn.h>
-#include <link.h>
-#include <stdbool.h>
-#endif
 
 void test_view_everything(cull_view *v)
 {
@@ -54,36 +49,3 @@ void test_assert_same_handles(const cull_handle *want, size_t n, const cull_resu
     free(a);
     free(b);
 }
-
-#ifdef __SANITIZE_ADDRESS__
-/* Mesa's driver (swrast_dri.so and the other *_dri.so, libgallium-*.so
- * from Mesa 24.2) allocates state once per load that only its own static
- * data points to (in 22.3, most likely util_cpu_detect's CPU topology
- * arrays, under a pthread_once). eglTerminate unloads the driver, LSan no
- * longer sees those pointers and reports a few hundred bytes per
- * open/close cycle from "<unknown module>", which no suppression can name.
- * Under ASan the tests therefore pin the loaded driver (RTLD_NODELETE):
- * eglTerminate still runs, the memory stays reachable, and any leak of
- * ours still shows. */
-static int pin_one(struct dl_phdr_info *info, size_t size, void *data)
-{
-    (void)size;
-    (void)data;
-    const char *name = info->dlpi_name, *base = strrchr(name, '/');
-    base = base ? base + 1 : name;
-    size_t n = strlen(base);
-    bool dri = n > 7 && !strcmp(base + n - 7, "_dri.so");
-    if (dri || !strncmp(base, "libgallium", 10)) {
-        void *h = dlopen(name, RTLD_LAZY | RTLD_NOLOAD | RTLD_NODELETE);
-        if (h) dlclose(h); /* the flag stays */
-    }
-    return 0;
-}
-
-void test_pin_gl_drivers(void)
-{
-    dl_iterate_phdr(pin_one, NULL);
-}
-#else
-void test_pin_gl_drivers(void) {}
-#endif

@@ -49,11 +49,6 @@ void test_view_everything(cull_view *v);
 /* Queries w with that view (ctx may be NULL); *out is malloc'ed. */
 size_t test_query_everything(const cull_world *w, cull_ctx *ctx, cull_result **out);
 /* res[0..got) holds exactly the n handles of want, in any order. */
-/* Under ASan: keeps the loaded Mesa driver mapped so LSan still sees the
- * memory it allocates once per load (see test_util.c); call after a
- * successful vt_gl_open. A no-op otherwise. */
-void test_pin_gl_drivers(void);
-
 void test_assert_same_handles(const cull_handle *want, size_t n, const cull_result *res, size_t got);
 
 #define TEST_GROUP(name) \

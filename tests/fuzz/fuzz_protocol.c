@@ -499,7 +499,26 @@ static void fuzz_render(const uint8_t *p, size_t len)
     vp_render r;
     CHECK(vp_dec_render(q, len, &r) == VP_OK);
     CHECK(same_view(&r.view, &m.view) && r.format == m.format && r.quality == m.quality && r.flags == m.flags &&
-          same_f32(r.exposure_ev, m.exposure_ev));
+          r.renderer == m.renderer && same_f32(r.exposure_ev, m.exposure_ev));
+    enc_close(&b);
+}
+
+static void fuzz_frame_sub(const uint8_t *p, size_t len)
+{
+    vp_frame_sub m;
+    int rc = vp_dec_frame_sub(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == VP_FRAME_SUB_SIZE && m.max_fps >= 1 && m.max_fps <= VP_FRAME_SUB_MAX_FPS);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_frame_sub(&b.w, 16, &m);
+    const uint8_t *q = enc_payload(&b, VP_FRAME_SUBSCRIBE, len);
+    CHECK(memcmp(q, p, len) == 0); /* the encoding is canonical */
+    vp_frame_sub r;
+    CHECK(vp_dec_frame_sub(q, len, &r) == VP_OK);
+    CHECK(same_view(&r.r.view, &m.r.view) && r.r.format == m.r.format && r.r.renderer == m.r.renderer &&
+          r.max_fps == m.max_fps);
     enc_close(&b);
 }
 
@@ -591,7 +610,8 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_ERROR: fuzz_error(p, len); return;
     case VP_PING:
     case VP_PONG: fuzz_ping(p, len); return;
-    case VP_STATS: fuzz_empty(p, len); return;
+    case VP_STATS:
+    case VP_FRAME_UNSUBSCRIBE: fuzz_empty(p, len); return;
     case VP_STATS_REPLY: fuzz_stats_reply(p, len); return;
     case VP_SUBSCRIBE: fuzz_subscribe(p, len); return;
     case VP_EVENT: fuzz_event(p, len); return;
@@ -611,6 +631,7 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_VIS_RESULT: fuzz_vis_result(p, len); return;
     case VP_RENDER: fuzz_render(p, len); return;
     case VP_FRAME: fuzz_frame(p, len); return;
+    case VP_FRAME_SUBSCRIBE: fuzz_frame_sub(p, len); return;
     case VP_ENTITY_GET: fuzz_ids(p, len, h->type, limit); return;
     case VP_SUBLEVEL_NAMES:
     case VP_SUBLEVEL_LIST_REPLY: fuzz_names(p, len, h->type == VP_SUBLEVEL_LIST_REPLY); return;

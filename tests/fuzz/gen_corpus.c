@@ -258,6 +258,9 @@ int main(int argc, char **argv)
         rm.quality = 0;
         rm.flags = VP_RENDER_NO_OCCLUSION;
         vp_enc_render(&g_w, 22, &rm), save("render_raw");
+        rm.renderer = VP_RENDERER_GL;
+        vp_enc_frame_sub(&g_w, 23, &(vp_frame_sub){.r = rm, .max_fps = 30}), save("frame_subscribe");
+        vp_enc_empty(&g_w, VP_FRAME_UNSUBSCRIBE, 24), save("frame_unsubscribe");
         static const uint8_t jpeg_bytes[] = {0xff, 0xd8, 0xff, 0xe0, 0, 16, 'J', 'F', 'I', 'F', 0, 1, 1, 0};
         vp_frame fm = {.epoch = 5, .width = 2, .height = 1, .format = VP_FRAME_JPEG, .visible = 3,
                        .render_ns = 1000, .encode_ns = 200, .data_len = sizeof jpeg_bytes, .data = jpeg_bytes};

@@ -1,0 +1,407 @@
+/*
+ * frames.c — vantaged's pictures: RENDER (one frame) and FRAME_SUBSCRIBE
+ * (a stream of them), drawn on the query workers by the software renderer
+ * (one per worker) or by the daemon's one OpenGL context (shared, taken in
+ * turn under gl_mu; opened at start with --render gl, else on the first
+ * request that names it).
+ *
+ * Streams are latest-frame-wins without a queue: a subscriber's next frame
+ * is rendered only when its previous one has left the daemon's buffer,
+ * the scene or its view has changed since, and its rate cap allows; the
+ * frame then shows the scene as it is at that moment. A slow viewer thus
+ * gets fewer frames and costs no render time while it is stalled; the
+ * others do not wait for it.
+ */
+#include "server_internal.h"
+#include "vt_glr.h"
+#include "vt_image.h"
+#include "vt_soft.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* The unit cube, for classes without a mesh of their own. */
+static const float box_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1, -1, -1, 1, 1, -1, 1, -1, 1, 1, 1, 1, 1};
+static const uint32_t box_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,
+                                     2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
+
+/* A class's colour: a hash to a pleasant, not too dark, linear albedo. */
+static void class_albedo(uint16_t cls, float out[3])
+{
+    uint32_t hsh = (uint32_t)cls * 2654435761u;
+    for (int a = 0; a < 3; a++) out[a] = 0.25f + 0.55f * (float)((hsh >> (8 * a)) & 255) / 255.0f;
+}
+
+const char *renderer_name(int r)
+{
+    return r == VP_RENDERER_GL ? "gl" : "soft";
+}
+
+/* ---- the shared OpenGL renderer ------------------------------------------------- */
+
+/* Opens the context and the renderer on this thread and leaves them current
+ * nowhere. Caller holds gl_mu. */
+static int gl_open_locked(server *s)
+{
+    if (s->glr) return 0;
+    if (s->gl_failed) return -1;
+    char err[300];
+    if (vt_gl_open(&s->gl, NULL, err, sizeof err) || vt_glr_create(s->gl, &s->glr, err, sizeof err)) {
+        vt_gl_close(s->gl);
+        s->gl = NULL;
+        s->gl_failed = true;
+        snprintf(s->gl_err, sizeof s->gl_err, "no OpenGL renderer here: %s", err);
+        if (s->cfg.renderer != VP_RENDERER_GL) LOGW("%s", s->gl_err); /* else frames_init says it */
+        return -1;
+    }
+    LOGI("OpenGL renderer: %s (%s)", vt_gl_get_info(s->gl)->renderer, vt_gl_get_info(s->gl)->version);
+    vt_gl_release(s->gl);
+    return 0;
+}
+
+int frames_init(server *s)
+{
+    pthread_mutex_init(&s->gl_mu, NULL);
+    if (s->cfg.renderer != VP_RENDERER_GL) return 0;
+    pthread_mutex_lock(&s->gl_mu);
+    int rc = gl_open_locked(s);
+    pthread_mutex_unlock(&s->gl_mu);
+    if (rc) LOGE("--render gl: %s", s->gl_err);
+    else LOGI("frames are drawn with OpenGL unless a request names the software renderer");
+    return rc;
+}
+
+void frames_fini(server *s)
+{
+    if (s->gl) {
+        char err[64];
+        if (!vt_gl_make_current(s->gl, err, sizeof err)) vt_glr_destroy(s->glr);
+        vt_gl_close(s->gl);
+    }
+    s->gl = NULL;
+    s->glr = NULL;
+    pthread_mutex_destroy(&s->gl_mu);
+}
+
+/* ---- one frame, on a worker -------------------------------------------------------- */
+
+/* Fills j->reply with FRAME or ERROR for the render request m. The caller
+ * holds scene_lock shared. */
+static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
+{
+    const scene *sc = s->sc;
+    uint64_t t0 = now_ns();
+    char msg[300] = "";
+    int code = VP_OK;
+    vt_instance *inst = NULL;
+    vt_mesh *meshes = NULL;
+    vt_light *lights = NULL;
+    float *rgba = NULL, *depth = NULL;
+    uint8_t *jpeg = NULL, *rgb8 = NULL, *raw = NULL;
+    size_t jpeg_len = 0;
+    int renderer = m->renderer ? m->renderer : s->cfg.renderer;
+    j->epoch = sc->epoch;
+    cull_view v;
+    cull_view_desc d = {.depth_mode = m->view.depth_mode, .viewport_w = m->view.viewport_w,
+                        .viewport_h = m->view.viewport_h};
+    memcpy(d.origin, m->view.origin, sizeof d.origin);
+    memcpy(d.view_proj, m->view.view_proj, sizeof d.view_proj);
+    int rc = cull_view_init(&v, &d);
+    if (rc) {
+        code = rc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
+        snprintf(msg, sizeof msg, "view: %s", cull_strerror(rc));
+        goto error;
+    }
+    uint32_t W = v.viewport_w, H = v.viewport_h;
+    if (renderer == VP_RENDERER_SOFT && !wk->soft) {
+        /* each worker's renderer uses every core: one frame's latency is
+           what a viewer feels; two at once share the cores */
+        long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
+        if (ncpu > 1 && cull_pool_create((uint32_t)(ncpu < 64 ? ncpu : 64), &wk->pool)) wk->pool = NULL;
+        if (vt_soft_create(wk->pool, 0, &wk->soft)) goto nomem;
+    }
+    size_t need = cull_query_bound(sc->world), n = 0;
+    if (need > wk->res_cap) {
+        cull_result *r = realloc(wk->res, need * sizeof *r);
+        if (!r) goto nomem;
+        wk->res = r;
+        wk->res_cap = need;
+    }
+    cull_query_desc q = {.views = &v, .view_count = 1,
+                         .flags = (m->flags & VP_RENDER_NO_OCCLUSION) ? CULL_Q_NO_OCCLUSION : 0};
+    if ((rc = cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL))) {
+        code = VP_ERR_INTERNAL;
+        snprintf(msg, sizeof msg, "%s", cull_strerror(rc));
+        goto error;
+    }
+    /* instances: each visible entity's box with its class's mesh (the unit
+       box when the class has none); meshes numbered as they are met */
+    inst = malloc((n + 1) * sizeof *inst);
+    meshes = malloc((n + 1) * sizeof *meshes);
+    uint32_t *mesh_of = calloc(65536, sizeof *mesh_of); /* class -> mesh index + 1 */
+    uint32_t nmesh = 1;
+    if (!inst || !meshes || !mesh_of) {
+        free(mesh_of);
+        goto nomem;
+    }
+    meshes[0] = (vt_mesh){.pos = box_pos, .idx = box_idx, .nv = 8, .ni = 36};
+    for (size_t i = 0; i < n; i++) {
+        cull_entity_desc e;
+        cull_entity_get(sc->world, wk->res[i].handle, &e);
+        uint16_t cls = wk->res[i].class_id;
+        const scene_mesh *sm = &sc->meshes[cls];
+        uint32_t mi = 0;
+        if (sm->pos && sm->ni) {
+            if (!mesh_of[cls]) {
+                meshes[nmesh] = (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv, .ni = sm->ni};
+                mesh_of[cls] = ++nmesh;
+            }
+            mi = mesh_of[cls] - 1;
+        }
+        inst[i] = (vt_instance){.mesh = mi};
+        memcpy(inst[i].bmin, e.aabb_min, sizeof e.aabb_min);
+        memcpy(inst[i].bmax, e.aabb_max, sizeof e.aabb_max);
+        class_albedo(cls, inst[i].albedo);
+    }
+    free(mesh_of);
+    lights = malloc((sc->lights.count + 1) * sizeof *lights);
+    if (!lights) goto nomem;
+    uint32_t nl = 0;
+    for (size_t i = 0; i < sc->lights.cap; i++) {
+        if (!sc->lights.used[i]) continue;
+        const vp_light *l = (const vp_light *)(uintptr_t)sc->lights.vals[i];
+        vt_light *o = &lights[nl++];
+        memset(o, 0, sizeof *o);
+        memcpy(o->l.pos, l->pos, sizeof l->pos);
+        o->l.radius = l->range;
+        o->l.type = l->kind == VP_LIGHT_SPOT ? CULL_LIGHT_SPOT : CULL_LIGHT_POINT;
+        memcpy(o->l.dir, l->dir, sizeof l->dir);
+        o->l.cos_outer = l->outer_cos;
+        o->cos_inner = l->inner_cos;
+        for (int a = 0; a < 3; a++) o->color[a] = l->color[a] * l->intensity;
+    }
+    rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
+    depth = malloc((size_t)W * H * sizeof *depth);
+    if (!rgba || !depth) goto nomem;
+    char err[256];
+    if (renderer == VP_RENDERER_GL) {
+        pthread_mutex_lock(&s->gl_mu);
+        if (gl_open_locked(s)) {
+            code = VP_ERR_UNSUPPORTED;
+            snprintf(msg, sizeof msg, "%.250s", s->gl_err);
+        } else if ((rc = vt_gl_make_current(s->gl, err, sizeof err)) ||
+                   (rc = vt_glr_render(s->glr, &v, W, H, meshes, nmesh, inst, (uint32_t)n, lights, nl, rgba, depth,
+                                       W, NULL, err, sizeof err))) {
+            code = rc == -ENOMEM || rc == VT_GL_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INTERNAL;
+            snprintf(msg, sizeof msg, "render (gl): %s", err);
+        }
+        vt_gl_release(s->gl);
+        pthread_mutex_unlock(&s->gl_mu);
+        if (code) goto error;
+    } else if ((rc = vt_soft_render(wk->soft, &v, W, H, meshes, nmesh, inst, (uint32_t)n, lights, nl, rgba, depth, W,
+                                    NULL, err, sizeof err))) {
+        code = rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
+        snprintf(msg, sizeof msg, "render: %s", err);
+        goto error;
+    }
+    uint64_t t1 = now_ns();
+    vp_frame f = {.epoch = sc->epoch, .width = (uint16_t)W, .height = (uint16_t)H, .format = m->format,
+                  .visible = (uint32_t)n, .render_ns = (uint32_t)(t1 - t0)};
+    if (m->format == VP_FRAME_JPEG) {
+        /* tone mapped, top row first as JPEG wants */
+        rgb8 = malloc(vt_image_rgba8_size(W, H));
+        if (!rgb8) goto nomem;
+        const float *top = rgba + (size_t)(H - 1) * W * 4;
+        ptrdiff_t ys = -(ptrdiff_t)W * 4;
+        vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}};
+        vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES};
+        if (vt_image_tonemap(W, H, &src, &td, rgb8, 4 * (size_t)W) ||
+            vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err)) {
+            code = VP_ERR_INTERNAL;
+            snprintf(msg, sizeof msg, "jpeg: %s", err);
+            goto error;
+        }
+        f.data = jpeg;
+        f.data_len = (uint32_t)jpeg_len;
+    } else {
+        /* RGBA then depth, as floats, little-endian on the wire */
+        size_t bytes = (size_t)W * H * 20;
+        raw = malloc(bytes);
+        if (!raw) goto nomem;
+        memcpy(raw, rgba, (size_t)W * H * 16);
+        memcpy(raw + (size_t)W * H * 16, depth, (size_t)W * H * 4);
+        f.data = raw;
+        f.data_len = (uint32_t)bytes;
+    }
+    f.encode_ns = (uint32_t)(now_ns() - t1);
+    j->reply_len = vp_size_frame(f.data_len);
+    j->reply = malloc(j->reply_len);
+    if (!j->reply) goto nomem;
+    vp_writer fw;
+    vp_writer_init(&fw, j->reply, j->reply_len);
+    vp_enc_frame(&fw, j->h.req, &f);
+    j->ok = true;
+    goto done;
+nomem:
+    code = VP_ERR_BUSY;
+    snprintf(msg, sizeof msg, "out of memory for a frame");
+error:
+    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
+    j->reply = malloc(j->reply_len);
+    if (j->reply) {
+        vp_writer w;
+        vp_writer_init(&w, j->reply, j->reply_len);
+        vp_enc_error(&w, j->h.req, code, UINT32_MAX, msg);
+    }
+done:
+    free(inst);
+    free(meshes);
+    free(lights);
+    free(rgba);
+    free(depth);
+    free(rgb8);
+    free(jpeg);
+    free(raw);
+}
+
+void run_render(server *s, worker *wk, job *j)
+{
+    if (j->stream) {
+        render_frame(s, wk, j, &j->stream_req);
+        return;
+    }
+    vp_render m;
+    int rc = vp_dec_render(j->payload, j->h.len, &m);
+    if (!rc) {
+        render_frame(s, wk, j, &m);
+        return;
+    }
+    const char *msg = vp_strerror(rc);
+    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
+    j->reply = malloc(j->reply_len);
+    if (j->reply) {
+        vp_writer w;
+        vp_writer_init(&w, j->reply, j->reply_len);
+        vp_enc_error(&w, j->h.req, rc, UINT32_MAX, msg);
+    }
+}
+
+/* ---- subscriptions, on the loop ------------------------------------------------- */
+
+void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_frame_sub m;
+    int rc = vp_dec_frame_sub(p, h->len, &m);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    frame_sub *f = &c->fsub;
+    if (!f->active) s->nsubs++;
+    f->active = true;
+    f->req = h->req;
+    f->m = m;
+    f->gen++;        /* a frame still being drawn for the old view is dropped */
+    f->dirty = true; /* the first frame (or the new view) at once */
+    f->next_ms = 0;
+    vp_writer w;
+    if (!out_reserve(c, VP_HEADER_SIZE + 12, &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_enc_ack(&w, h->req, &(vp_ack){.epoch = s->sc->epoch});
+    out_commit(c, &w);
+    LOGD("client %u: frames %ux%u %s, %s, at most %u/s", c->id, m.r.view.viewport_w, m.r.view.viewport_h,
+         m.r.format == VP_FRAME_JPEG ? "jpeg" : "raw", renderer_name(m.r.renderer ? m.r.renderer : s->cfg.renderer),
+         m.max_fps);
+}
+
+static void sub_end(server *s, conn *c)
+{
+    if (c->fsub.active) s->nsubs--;
+    c->fsub.active = false;
+    c->fsub.gen++;
+}
+
+void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    int rc = vp_dec_empty(p, h->len);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    sub_end(s, c);
+    vp_writer w;
+    if (!out_reserve(c, VP_HEADER_SIZE + 12, &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_enc_ack(&w, h->req, &(vp_ack){.epoch = s->sc->epoch});
+    out_commit(c, &w);
+}
+
+void frames_conn_gone(server *s, conn *c)
+{
+    sub_end(s, c);
+}
+
+static void timer_noop(ae_loop *l, void *data)
+{
+    (void)l;
+    (void)data;
+}
+
+void frames_schedule(server *s)
+{
+    if (!s->nsubs) {
+        ae_set_timer(s->loop, 0, timer_noop, NULL);
+        return;
+    }
+    uint64_t now = ae_now_ms(), wake = UINT64_MAX;
+    for (uint32_t i = 0; i < s->nconns; i++) {
+        conn *c = s->live[i];
+        frame_sub *f = &c->fsub;
+        if (!f->active || f->inflight || c->closing) continue;
+        if (!f->dirty && f->shown_epoch == s->sc->epoch) continue; /* nothing new to show */
+        if (c->out_len > c->out_pos) continue; /* the last frame is still leaving: it wins */
+        if (now < f->next_ms) {
+            if (f->next_ms < wake) wake = f->next_ms;
+            continue;
+        }
+        job *j = calloc(1, sizeof *j);
+        if (!j) return; /* try again on the next pass */
+        *j = (job){.fd = c->fd, .conn_id = c->id, .h = {.type = VP_RENDER, .req = f->req}, .stream = true,
+                   .gen = f->gen, .stream_req = f->m.r};
+        f->inflight = true;
+        f->dirty = false;
+        f->next_ms = now + (1000u + f->m.max_fps - 1) / f->m.max_fps;
+        job_submit(s, j);
+    }
+    ae_set_timer(s->loop, wake == UINT64_MAX ? 0 : (int)(wake - now), timer_noop, NULL);
+}
+
+/* A stream's frame is back: sent if the subscription still wants it. */
+void frames_done(server *s, conn *c, job *j)
+{
+    frame_sub *f = &c->fsub;
+    f->inflight = false;
+    if (!f->active || f->gen != j->gen) return; /* unsubscribed or re-aimed meanwhile */
+    vp_writer w;
+    if (!j->reply || !out_reserve(c, j->reply_len, &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_put_bytes(&w, j->reply, j->reply_len);
+    out_commit(c, &w);
+    if (j->ok) {
+        f->shown_epoch = j->epoch;
+        f->frames++;
+        s->frames_out++;
+    } else {
+        sub_end(s, c); /* the ERROR (with the subscription's req) ends it */
+        s->errors++;
+    }
+}
