@@ -4,7 +4,8 @@
  * PNG (tone mapped here from the raw frame) or JPEG (encoded by the
  * daemon), chosen by the output file's extension. `vantage watch --frames
  * DIR` subscribes to a stream and writes each frame pushed into DIR,
- * optionally orbiting the camera (the view re-aimed in place).
+ * optionally orbiting the camera (the view re-aimed in place). `vantage
+ * lights` shows a view's Forward+ tile light lists as a heat map (or JSON).
  */
 #include "cli.h"
 #include "vt_exr.h"
@@ -276,5 +277,81 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
         }
     }
     vt_frame_unsubscribe(k->c);
+    return 0;
+}
+
+/* A tile's light count as one character: ' ' none, 1-9, a-z for 10-35,
+ * A-Z for 36-61, '#' beyond. */
+static char count_char(uint32_t n)
+{
+    if (!n) return '.';
+    if (n < 10) return (char)('0' + n);
+    if (n < 36) return (char)('a' + n - 10);
+    if (n < 62) return (char)('A' + n - 36);
+    return '#';
+}
+
+int cmd_lights(cli *k, int argc, char **argv)
+{
+    frame_opts f;
+    frame_opts_init(&f);
+    bool json = false, no_depth = false;
+    static const struct option opts[] = {FRAME_LONGOPTS, {"json", 0, 0, 'j'}, {"no-depth", 0, 0, 'Z'},
+                                         {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    const char *use = "lights --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH] "
+                      "[--no-depth] [--json]";
+    optind = 1;
+    int o;
+    while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        int r = frame_opt(&f, o, optarg);
+        if (r < 0) return die_usage("lights: bad value %s", optarg);
+        if (r) continue;
+        if (o == 'j') json = true;
+        else if (o == 'Z') no_depth = true;
+        else if (o == 'h') {
+            printf("usage: vantage %s\n", use);
+            return 0;
+        } else return die_usage("%s", use);
+    }
+    if (!f.have_eye || !f.have_at || optind != argc) return die_usage("%s", use);
+    vp_light_query m = {.flags = no_depth ? VP_LQ_NO_DEPTH : 0};
+    if (!vt_view_perspective(&m.view, f.eye, f.at, f.up, f.fov, (uint16_t)f.w, (uint16_t)f.h, f.znear, f.zfar))
+        return die_usage("lights: degenerate camera (eye == at, up parallel to the view, or near/far)");
+    int rc = connect_cli(k, VP_ROLE_VIEWER);
+    if (rc) return rc;
+    vp_light_tiles t;
+    if ((rc = vt_light_query(k->c, &m, &t))) return server_fail(k, "lights", rc);
+    uint32_t tiles = (uint32_t)t.tiles_x * t.tiles_y, lit = 0;
+    for (uint32_t i = 0; i < tiles; i++) lit += vp_light_tiles_offset(&t, i + 1) > vp_light_tiles_offset(&t, i);
+    if (json) {
+        printf("{\"epoch\": %llu, \"tiles_x\": %u, \"tiles_y\": %u, \"tile\": %u, \"depth\": %s, \"in_view\": %u, "
+               "\"max_per_tile\": %u, \"count\": %u, \"ms\": %.3f, \"tiles\": [",
+               (unsigned long long)t.epoch, t.tiles_x, t.tiles_y, t.tile, no_depth ? "false" : "true", t.in_view,
+               t.max_per_tile, t.count, t.ns / 1e6);
+        for (uint32_t i = 0; i < tiles; i++) {
+            printf("%s[", i ? ", " : "");
+            for (uint32_t q = vp_light_tiles_offset(&t, i); q < vp_light_tiles_offset(&t, i + 1); q++)
+                printf("%s%llu", q > vp_light_tiles_offset(&t, i) ? ", " : "",
+                       (unsigned long long)vp_light_tiles_id(&t, q));
+            printf("]");
+        }
+        printf("]}\n");
+        return 0;
+    }
+    printf("%u lights in view; %u x %u tiles of %u px, %u lit; at most %u per tile, %.2f per lit tile; %u entries; "
+           "%.2f ms (%s)\n",
+           t.in_view, t.tiles_x, t.tiles_y, t.tile, lit, t.max_per_tile, lit ? (double)t.count / lit : 0.0, t.count,
+           t.ns / 1e6, no_depth ? "frustum depth" : "depth pre-pass");
+    /* the heat map, top row first; wide views are sampled to 120 columns */
+    uint32_t step = (t.tiles_x + 119) / 120;
+    for (uint32_t y = t.tiles_y; y-- > 0;) {
+        if (step > 1 && y % step) continue;
+        for (uint32_t x = 0; x < t.tiles_x; x += step) {
+            uint32_t i = y * t.tiles_x + x;
+            putchar(count_char(vp_light_tiles_offset(&t, i + 1) - vp_light_tiles_offset(&t, i)));
+        }
+        putchar('\n');
+    }
+    printf("(lights per tile: . none, 1-9, a-z 10-35, A-Z 36-61, # more)\n");
     return 0;
 }

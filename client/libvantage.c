@@ -418,6 +418,18 @@ int vt_render(vt_client *c, const vp_render *m, vp_frame *out)
     return vp_dec_frame(p, len, out) ? set_err(c, VT_ERR_IO, "malformed FRAME") : VP_OK;
 }
 
+int vt_light_query(vt_client *c, const vp_light_query *m, vp_light_tiles *out)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + VP_LIGHT_QUERY_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_light_query(&w, req, m);
+    int rc = roundtrip(c, &w, req, VP_LIGHT_TILES, &p, &len);
+    if (rc) return rc;
+    return vp_dec_light_tiles(p, len, out) ? set_err(c, VT_ERR_IO, "malformed LIGHT_TILES") : VP_OK;
+}
+
 int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
 {
     vp_writer w;

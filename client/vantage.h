@@ -76,6 +76,9 @@ int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags,
 /* One frame (RENDER -> FRAME); out->data is valid until the next call. */
 int vt_render(vt_client *c, const vp_render *m, vp_frame *out);
 int vt_subscribe(vt_client *c, uint32_t kinds);
+/* The Forward+ tile light lists of a view (LIGHT_QUERY); out views the
+ * reply (vp_light_tiles_offset / _id), valid until the next call. */
+int vt_light_query(vt_client *c, const vp_light_query *m, vp_light_tiles *out);
 /* A frame stream (FRAME_SUBSCRIBE): frames come as the scene or the view
  * changes, latest-frame-wins, at most m->max_fps a second. Called again it
  * re-aims the stream in place. Frames that arrive during other calls are

@@ -41,6 +41,8 @@ static void usage(FILE *f)
             "        [--far F] [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]\n"
             "  render --eye X,Y,Z --at X,Y,Z [--fov DEG] [--size WxH] [--exposure EV] [--quality Q]\n"
             "        [--no-occlusion] [--renderer soft|gl] -o FILE.exr|png|jpg   one frame from the daemon\n"
+            "  lights --eye X,Y,Z --at X,Y,Z [--fov DEG] [--size WxH] [--no-depth] [--json]\n"
+            "        the view's Forward+ tile light lists (a heat map, or JSON)\n"
             "  watch [--count N]                print scene-changed events as they happen\n"
             "  watch --frames DIR --eye X,Y,Z --at X,Y,Z [render's camera options] [--format jpg|png|exr]\n"
             "        [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]   write the frames pushed as the\n"
@@ -425,7 +427,7 @@ int main(int argc, char **argv)
     }
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
-        {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"watch", cmd_watch},
+        {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
         {"bench", cmd_bench},
     };
     int rc = -1;

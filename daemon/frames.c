@@ -88,41 +88,43 @@ void frames_fini(server *s)
 
 /* ---- one frame, on a worker -------------------------------------------------------- */
 
-/* Fills j->reply with FRAME or ERROR for the render request m. The caller
- * holds scene_lock shared. */
-static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
+/* What a frame draws: the visible entities as instances of their class
+ * meshes (the unit box for a class without one), and the scene's lights. */
+typedef struct frame_in {
+    vt_instance *inst;
+    vt_mesh *meshes;
+    uint32_t ninst, nmesh;
+    vt_light *lights;
+    uint64_t *light_ids;
+    uint32_t nl;
+} frame_in;
+
+static void frame_in_free(frame_in *fi)
 {
-    const scene *sc = s->sc;
-    uint64_t t0 = now_ns();
-    char msg[300] = "";
-    int code = VP_OK;
-    vt_instance *inst = NULL;
-    vt_mesh *meshes = NULL;
-    vt_light *lights = NULL;
-    float *rgba = NULL, *depth = NULL;
-    uint8_t *jpeg = NULL, *rgb8 = NULL, *raw = NULL;
-    size_t jpeg_len = 0;
-    int renderer = m->renderer ? m->renderer : s->cfg.renderer;
-    j->epoch = sc->epoch;
-    cull_view v;
-    cull_view_desc d = {.depth_mode = m->view.depth_mode, .viewport_w = m->view.viewport_w,
-                        .viewport_h = m->view.viewport_h};
-    memcpy(d.origin, m->view.origin, sizeof d.origin);
-    memcpy(d.view_proj, m->view.view_proj, sizeof d.view_proj);
-    int rc = cull_view_init(&v, &d);
-    if (rc) {
-        code = rc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
-        snprintf(msg, sizeof msg, "view: %s", cull_strerror(rc));
-        goto error;
-    }
-    uint32_t W = v.viewport_w, H = v.viewport_h;
-    if (renderer == VP_RENDERER_SOFT && !wk->soft) {
-        /* each worker's renderer uses every core: one frame's latency is
-           what a viewer feels; two at once share the cores */
-        long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
-        if (ncpu > 1 && cull_pool_create((uint32_t)(ncpu < 64 ? ncpu : 64), &wk->pool)) wk->pool = NULL;
-        if (vt_soft_create(wk->pool, 0, &wk->soft)) goto nomem;
-    }
+    free(fi->inst);
+    free(fi->meshes);
+    free(fi->lights);
+    free(fi->light_ids);
+}
+
+/* The view from the wire, or an error code with msg. */
+static int view_from(const vp_view *pv, cull_view *v, char *msg, size_t msglen)
+{
+    cull_view_desc d = {.depth_mode = pv->depth_mode, .viewport_w = pv->viewport_w, .viewport_h = pv->viewport_h};
+    memcpy(d.origin, pv->origin, sizeof d.origin);
+    memcpy(d.view_proj, pv->view_proj, sizeof d.view_proj);
+    int rc = cull_view_init(v, &d);
+    if (!rc) return VP_OK;
+    snprintf(msg, msglen, "view: %s", cull_strerror(rc));
+    return rc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
+}
+
+/* Culls (with occlusion unless no_occlusion) and collects the frame's
+ * instances and lights. VP_OK, or an error code with msg. */
+static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlusion, frame_in *fi, char *msg,
+                  size_t msglen)
+{
+    memset(fi, 0, sizeof *fi);
     size_t need = cull_query_bound(sc->world), n = 0;
     if (need > wk->res_cap) {
         cull_result *r = realloc(wk->res, need * sizeof *r);
@@ -130,24 +132,22 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         wk->res = r;
         wk->res_cap = need;
     }
-    cull_query_desc q = {.views = &v, .view_count = 1,
-                         .flags = (m->flags & VP_RENDER_NO_OCCLUSION) ? CULL_Q_NO_OCCLUSION : 0};
-    if ((rc = cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL))) {
-        code = VP_ERR_INTERNAL;
-        snprintf(msg, sizeof msg, "%s", cull_strerror(rc));
-        goto error;
+    cull_query_desc q = {.views = v, .view_count = 1, .flags = no_occlusion ? CULL_Q_NO_OCCLUSION : 0};
+    int rc = cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL);
+    if (rc) {
+        snprintf(msg, msglen, "%s", cull_strerror(rc));
+        return VP_ERR_INTERNAL;
     }
-    /* instances: each visible entity's box with its class's mesh (the unit
-       box when the class has none); meshes numbered as they are met */
-    inst = malloc((n + 1) * sizeof *inst);
-    meshes = malloc((n + 1) * sizeof *meshes);
+    /* meshes numbered as they are met */
+    fi->inst = malloc((n + 1) * sizeof *fi->inst);
+    fi->meshes = malloc((n + 1) * sizeof *fi->meshes);
     uint32_t *mesh_of = calloc(65536, sizeof *mesh_of); /* class -> mesh index + 1 */
-    uint32_t nmesh = 1;
-    if (!inst || !meshes || !mesh_of) {
+    if (!fi->inst || !fi->meshes || !mesh_of) {
         free(mesh_of);
         goto nomem;
     }
-    meshes[0] = (vt_mesh){.pos = box_pos, .idx = box_idx, .nv = 8, .ni = 36};
+    fi->meshes[0] = (vt_mesh){.pos = box_pos, .idx = box_idx, .nv = 8, .ni = 36};
+    fi->nmesh = 1;
     for (size_t i = 0; i < n; i++) {
         cull_entity_desc e;
         cull_entity_get(sc->world, wk->res[i].handle, &e);
@@ -156,24 +156,27 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         uint32_t mi = 0;
         if (sm->pos && sm->ni) {
             if (!mesh_of[cls]) {
-                meshes[nmesh] = (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv, .ni = sm->ni};
-                mesh_of[cls] = ++nmesh;
+                fi->meshes[fi->nmesh] =
+                    (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv, .ni = sm->ni};
+                mesh_of[cls] = ++fi->nmesh;
             }
             mi = mesh_of[cls] - 1;
         }
-        inst[i] = (vt_instance){.mesh = mi};
-        memcpy(inst[i].bmin, e.aabb_min, sizeof e.aabb_min);
-        memcpy(inst[i].bmax, e.aabb_max, sizeof e.aabb_max);
-        class_albedo(cls, inst[i].albedo);
+        fi->inst[i] = (vt_instance){.mesh = mi};
+        memcpy(fi->inst[i].bmin, e.aabb_min, sizeof e.aabb_min);
+        memcpy(fi->inst[i].bmax, e.aabb_max, sizeof e.aabb_max);
+        class_albedo(cls, fi->inst[i].albedo);
     }
     free(mesh_of);
-    lights = malloc((sc->lights.count + 1) * sizeof *lights);
-    if (!lights) goto nomem;
-    uint32_t nl = 0;
+    fi->ninst = (uint32_t)n;
+    fi->lights = malloc((sc->lights.count + 1) * sizeof *fi->lights);
+    fi->light_ids = malloc((sc->lights.count + 1) * sizeof *fi->light_ids);
+    if (!fi->lights || !fi->light_ids) goto nomem;
     for (size_t i = 0; i < sc->lights.cap; i++) {
         if (!sc->lights.used[i]) continue;
         const vp_light *l = (const vp_light *)(uintptr_t)sc->lights.vals[i];
-        vt_light *o = &lights[nl++];
+        fi->light_ids[fi->nl] = l->id;
+        vt_light *o = &fi->lights[fi->nl++];
         memset(o, 0, sizeof *o);
         memcpy(o->l.pos, l->pos, sizeof l->pos);
         o->l.radius = l->range;
@@ -183,33 +186,85 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         o->cos_inner = l->inner_cos;
         for (int a = 0; a < 3; a++) o->color[a] = l->color[a] * l->intensity;
     }
+    return VP_OK;
+nomem:
+    frame_in_free(fi);
+    memset(fi, 0, sizeof *fi);
+    snprintf(msg, msglen, "out of memory for a frame");
+    return VP_ERR_BUSY;
+}
+
+/* The worker's software renderer, on first use: it uses every core (one
+ * frame's latency is what a viewer feels; two frames at once share them). */
+static vt_soft *worker_soft(worker *wk)
+{
+    if (!wk->soft) {
+        long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
+        if (ncpu > 1 && cull_pool_create((uint32_t)(ncpu < 64 ? ncpu : 64), &wk->pool)) wk->pool = NULL;
+        if (vt_soft_create(wk->pool, 0, &wk->soft)) wk->soft = NULL;
+    }
+    return wk->soft;
+}
+
+/* An ERROR into j->reply. */
+static void job_error(job *j, int code, const char *msg)
+{
+    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
+    j->reply = malloc(j->reply_len);
+    if (j->reply) {
+        vp_writer w;
+        vp_writer_init(&w, j->reply, j->reply_len);
+        vp_enc_error(&w, j->h.req, code, UINT32_MAX, msg);
+    }
+}
+
+/* Fills j->reply with FRAME or ERROR for the render request m. The caller
+ * holds scene_lock shared. */
+static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
+{
+    const scene *sc = s->sc;
+    uint64_t t0 = now_ns();
+    char msg[300] = "";
+    int code;
+    frame_in fi = {0};
+    float *rgba = NULL, *depth = NULL;
+    uint8_t *jpeg = NULL, *rgb8 = NULL, *raw = NULL;
+    size_t jpeg_len = 0;
+    int renderer = m->renderer ? m->renderer : s->cfg.renderer;
+    j->epoch = sc->epoch;
+    cull_view v;
+    if ((code = view_from(&m->view, &v, msg, sizeof msg))) goto error;
+    uint32_t W = v.viewport_w, H = v.viewport_h;
+    if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) goto nomem;
+    if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto error;
     rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
     depth = malloc((size_t)W * H * sizeof *depth);
     if (!rgba || !depth) goto nomem;
     char err[256];
+    int rc;
     if (renderer == VP_RENDERER_GL) {
         pthread_mutex_lock(&s->gl_mu);
         if (gl_open_locked(s)) {
             code = VP_ERR_UNSUPPORTED;
             snprintf(msg, sizeof msg, "%.250s", s->gl_err);
         } else if ((rc = vt_gl_make_current(s->gl, err, sizeof err)) ||
-                   (rc = vt_glr_render(s->glr, &v, W, H, meshes, nmesh, inst, (uint32_t)n, lights, nl, rgba, depth,
-                                       W, NULL, err, sizeof err))) {
+                   (rc = vt_glr_render(s->glr, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
+                                       rgba, depth, W, NULL, err, sizeof err))) {
             code = rc == -ENOMEM || rc == VT_GL_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INTERNAL;
             snprintf(msg, sizeof msg, "render (gl): %s", err);
         }
         vt_gl_release(s->gl);
         pthread_mutex_unlock(&s->gl_mu);
         if (code) goto error;
-    } else if ((rc = vt_soft_render(wk->soft, &v, W, H, meshes, nmesh, inst, (uint32_t)n, lights, nl, rgba, depth, W,
-                                    NULL, err, sizeof err))) {
+    } else if ((rc = vt_soft_render(wk->soft, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
+                                    rgba, depth, W, NULL, err, sizeof err))) {
         code = rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
         snprintf(msg, sizeof msg, "render: %s", err);
         goto error;
     }
     uint64_t t1 = now_ns();
     vp_frame f = {.epoch = sc->epoch, .width = (uint16_t)W, .height = (uint16_t)H, .format = m->format,
-                  .visible = (uint32_t)n, .render_ns = (uint32_t)(t1 - t0)};
+                  .visible = fi.ninst, .render_ns = (uint32_t)(t1 - t0)};
     if (m->format == VP_FRAME_JPEG) {
         /* tone mapped, top row first as JPEG wants */
         rgb8 = malloc(vt_image_rgba8_size(W, H));
@@ -249,17 +304,9 @@ nomem:
     code = VP_ERR_BUSY;
     snprintf(msg, sizeof msg, "out of memory for a frame");
 error:
-    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
-    j->reply = malloc(j->reply_len);
-    if (j->reply) {
-        vp_writer w;
-        vp_writer_init(&w, j->reply, j->reply_len);
-        vp_enc_error(&w, j->h.req, code, UINT32_MAX, msg);
-    }
+    job_error(j, code, msg);
 done:
-    free(inst);
-    free(meshes);
-    free(lights);
+    frame_in_free(&fi);
     free(rgba);
     free(depth);
     free(rgb8);
@@ -279,14 +326,83 @@ void run_render(server *s, worker *wk, job *j)
         render_frame(s, wk, j, &m);
         return;
     }
-    const char *msg = vp_strerror(rc);
-    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
-    j->reply = malloc(j->reply_len);
-    if (j->reply) {
-        vp_writer w;
-        vp_writer_init(&w, j->reply, j->reply_len);
-        vp_enc_error(&w, j->h.req, rc, UINT32_MAX, msg);
+    job_error(j, rc, vp_strerror(rc));
+}
+
+/* LIGHT_QUERY: the tile lists of the software renderer's frame (depth
+ * ranges from what is visible), or of the frustum alone. */
+void run_light_query(server *s, worker *wk, job *j)
+{
+    const scene *sc = s->sc;
+    uint64_t t0 = now_ns();
+    char msg[300] = "";
+    int code;
+    vp_light_query m;
+    frame_in fi = {0};
+    float *rgba = NULL, *depth = NULL;
+    cull_light_tiles own = {0};
+    const cull_light_tiles *lt = &own;
+    cull_light *cl = NULL;
+    if ((code = vp_dec_light_query(j->payload, j->h.len, &m))) {
+        snprintf(msg, sizeof msg, "%s", vp_strerror(code));
+        goto error;
     }
+    cull_view v;
+    if ((code = view_from(&m.view, &v, msg, sizeof msg))) goto error;
+    uint32_t W = v.viewport_w, H = v.viewport_h;
+    if (!(m.flags & VP_LQ_NO_DEPTH) && !worker_soft(wk)) goto nomem;
+    if ((code = gather(sc, wk, &v, false, &fi, msg, sizeof msg))) goto error;
+    int rc;
+    if (m.flags & VP_LQ_NO_DEPTH) {
+        cl = malloc(((size_t)fi.nl + 1) * sizeof *cl);
+        if (!cl) goto nomem;
+        for (uint32_t i = 0; i < fi.nl; i++) cl[i] = fi.lights[i].l;
+        if ((rc = cull_lights_bin(&v, W, H, cl, fi.nl, NULL, &own))) {
+            code = rc == CULL_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INTERNAL;
+            snprintf(msg, sizeof msg, "lights: %s", cull_strerror(rc));
+            goto error;
+        }
+    } else {
+        rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
+        depth = malloc((size_t)W * H * sizeof *depth);
+        if (!rgba || !depth) goto nomem;
+        char err[256];
+        if ((rc = vt_soft_render(wk->soft, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl, rgba,
+                                 depth, W, NULL, err, sizeof err))) {
+            code = rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
+            snprintf(msg, sizeof msg, "render: %s", err);
+            goto error;
+        }
+        lt = vt_soft_light_tiles(wk->soft);
+    }
+    uint32_t tiles = lt->tiles_x * lt->tiles_y, count = lt->offset ? lt->offset[tiles] : 0;
+    j->reply_len = vp_size_light_tiles(tiles, count);
+    j->reply = malloc(j->reply_len);
+    if (!j->reply) goto nomem;
+    vp_writer w;
+    vp_writer_init(&w, j->reply, j->reply_len);
+    vp_enc_light_tiles_begin(&w, j->h.req,
+                             &(vp_light_tiles){.epoch = sc->epoch, .tiles_x = (uint16_t)lt->tiles_x,
+                                               .tiles_y = (uint16_t)lt->tiles_y, .tile = CULL_LIGHT_TILE,
+                                               .flags = m.flags, .in_view = lt->in_view,
+                                               .max_per_tile = lt->max_per_tile, .count = count,
+                                               .ns = (uint32_t)(now_ns() - t0)});
+    for (uint32_t t = 0; t <= tiles; t++) vp_put_u32(&w, lt->offset ? lt->offset[t] : 0);
+    for (uint32_t k = 0; k < count; k++) vp_put_u64(&w, fi.light_ids[lt->index[k]]);
+    vp_frame_end(&w);
+    j->ok = true;
+    goto done;
+nomem:
+    code = VP_ERR_BUSY;
+    snprintf(msg, sizeof msg, "out of memory for light tiles");
+error:
+    job_error(j, code, msg);
+done:
+    frame_in_free(&fi);
+    free(rgba);
+    free(depth);
+    free(cl);
+    cull_light_tiles_free(&own);
 }
 
 /* ---- subscriptions, on the loop ------------------------------------------------- */

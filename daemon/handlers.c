@@ -206,6 +206,7 @@ void *worker_main(void *arg)
 
         pthread_rwlock_rdlock(&s->scene_lock);
         if (j->h.type == VP_RENDER) run_render(s, &wk, j);
+        else if (j->h.type == VP_LIGHT_QUERY) run_light_query(s, &wk, j);
         else run_query(s->sc, wk.ctx, &wk.res, &wk.res_cap, j);
         pthread_rwlock_unlock(&s->scene_lock);
 
@@ -416,6 +417,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         return;
     }
     case VP_VIS_QUERY:
+    case VP_LIGHT_QUERY:
     case VP_RENDER:
         on_query(s, c, h, p);
         return;

@@ -127,6 +127,7 @@ void frames_fini(server *s);
 const char *renderer_name(int r);
 /* Worker side: RENDER (payload) or a stream's frame, into j->reply. */
 void run_render(server *s, worker *wk, job *j);
+void run_light_query(server *s, worker *wk, job *j);
 void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p);
 void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t *p);
 /* Loop side: starts the frames that are due; sets the loop's timer for the

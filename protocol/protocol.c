@@ -53,6 +53,8 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_RENDER, "render"},
     {VP_FRAME, "frame"},
     {VP_FRAME_SUBSCRIBE, "frame_subscribe"},
+    {VP_LIGHT_QUERY, "light_query"},
+    {VP_LIGHT_TILES, "light_tiles"},
     {VP_FRAME_UNSUBSCRIBE, "frame_unsubscribe"},
 };
 

@@ -93,6 +93,8 @@ enum vp_type {
     /* 0x0200..0x02ff queries */
     VP_VIS_QUERY = 0x0200,
     VP_VIS_RESULT = 0x0201,
+    VP_LIGHT_QUERY = 0x0202,
+    VP_LIGHT_TILES = 0x0203,
     VP_RENDER = 0x0500,
     VP_FRAME = 0x0501,
     VP_FRAME_SUBSCRIBE = 0x0502,
@@ -381,6 +383,43 @@ typedef struct vp_render {
 } vp_render;
 void vp_enc_render(vp_writer *w, uint32_t req, const vp_render *m);
 int  vp_dec_render(const uint8_t *p, size_t len, vp_render *m);
+
+/* LIGHT_QUERY: the Forward+ tile light lists of one view (16 x 16-pixel
+ * tiles, rows from the bottom), as the renderers use them: binned against
+ * each tile's depth range from a depth pre-pass of what is visible, or
+ * with VP_LQ_NO_DEPTH against the whole frustum depth (no rendering).
+ * Answered with LIGHT_TILES. */
+#define VP_LQ_NO_DEPTH 0x01u
+#define VP_LIGHT_QUERY_SIZE (VP_VIEW_SIZE + 4u)
+typedef struct vp_light_query {
+    vp_view view;
+    uint8_t flags;          /* VP_LQ_* */
+} vp_light_query;
+void vp_enc_light_query(vp_writer *w, uint32_t req, const vp_light_query *m);
+int  vp_dec_light_query(const uint8_t *p, size_t len, vp_light_query *m);
+
+/* LIGHT_TILES: CSR lists, tile t = ty * tiles_x + tx has the lights
+ * ids[offset[t] .. offset[t + 1]) (scene light ids, ascending by the
+ * daemon's light order). */
+#define VP_LIGHT_TILES_HEADER 32u
+typedef struct vp_light_tiles {
+    uint64_t epoch;
+    uint16_t tiles_x, tiles_y;
+    uint16_t tile;          /* pixels per tile side: 16 */
+    uint8_t  flags;         /* as asked */
+    uint32_t in_view;       /* lights that survived the frustum */
+    uint32_t max_per_tile;
+    uint32_t count;         /* ids in all */
+    uint32_t ns;            /* time taken */
+    const uint8_t *offsets; /* (tiles + 1) u32 */
+    const uint8_t *ids;     /* count u64 */
+} vp_light_tiles;
+size_t vp_size_light_tiles(uint32_t tiles, uint32_t count);
+/* Header; then tiles + 1 offsets (vp_put_u32) and count ids (vp_put_u64). */
+void vp_enc_light_tiles_begin(vp_writer *w, uint32_t req, const vp_light_tiles *m);
+int  vp_dec_light_tiles(const uint8_t *p, size_t len, vp_light_tiles *m);
+uint32_t vp_light_tiles_offset(const vp_light_tiles *m, uint32_t t);
+uint64_t vp_light_tiles_id(const vp_light_tiles *m, uint32_t k);
 
 /* FRAME_SUBSCRIBE: a RENDER that stays. Answered with ACK; then FRAMEs
  * (with this request's req) are pushed whenever the scene or the view has

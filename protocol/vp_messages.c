@@ -590,6 +590,92 @@ int vp_dec_render(const uint8_t *p, size_t len, vp_render *m)
     return render_read(p, m);
 }
 
+void vp_enc_light_query(vp_writer *w, uint32_t req, const vp_light_query *m)
+{
+    vp_frame_begin(w, VP_LIGHT_QUERY, req);
+    view_write(w, &m->view);
+    vp_put_u8(w, m->flags);
+    vp_put_u8(w, 0);
+    vp_put_u16(w, 0);
+    vp_frame_end(w);
+}
+
+int vp_dec_light_query(const uint8_t *p, size_t len, vp_light_query *m)
+{
+    if (len < VP_LIGHT_QUERY_SIZE) return VP_ERR_TRUNCATED;
+    if (len > VP_LIGHT_QUERY_SIZE) return VP_ERR_TRAILING;
+    view_read(p, &m->view);
+    if (p[153] || rd16(p + 158)) return VP_ERR_INVALID;
+    int rc = view_check(&m->view);
+    if (rc) return rc;
+    const uint8_t *q = p + VP_VIEW_SIZE;
+    m->flags = q[0];
+    if ((m->flags & ~VP_LQ_NO_DEPTH) || q[1] || rd16(q + 2)) return VP_ERR_INVALID;
+    uint32_t w = m->view.viewport_w ? m->view.viewport_w : 1920, h = m->view.viewport_h ? m->view.viewport_h : 1080;
+    if ((uint64_t)w * h > VP_FRAME_MAX_PIXELS) return VP_ERR_LIMIT;
+    return VP_OK;
+}
+
+size_t vp_size_light_tiles(uint32_t tiles, uint32_t count)
+{
+    return VP_HEADER_SIZE + VP_LIGHT_TILES_HEADER + 4 * ((size_t)tiles + 1) + 8 * (size_t)count;
+}
+
+void vp_enc_light_tiles_begin(vp_writer *w, uint32_t req, const vp_light_tiles *m)
+{
+    vp_frame_begin(w, VP_LIGHT_TILES, req);
+    vp_put_u64(w, m->epoch);
+    vp_put_u16(w, m->tiles_x);
+    vp_put_u16(w, m->tiles_y);
+    vp_put_u16(w, m->tile);
+    vp_put_u8(w, m->flags);
+    vp_put_u8(w, 0);
+    vp_put_u32(w, m->in_view);
+    vp_put_u32(w, m->max_per_tile);
+    vp_put_u32(w, m->count);
+    vp_put_u32(w, m->ns);
+}
+
+int vp_dec_light_tiles(const uint8_t *p, size_t len, vp_light_tiles *m)
+{
+    if (len < VP_LIGHT_TILES_HEADER) return VP_ERR_TRUNCATED;
+    m->epoch = rd64(p);
+    m->tiles_x = rd16(p + 8);
+    m->tiles_y = rd16(p + 10);
+    m->tile = rd16(p + 12);
+    m->flags = p[14];
+    m->in_view = rd32(p + 16);
+    m->max_per_tile = rd32(p + 20);
+    m->count = rd32(p + 24);
+    m->ns = rd32(p + 28);
+    if (p[15]) return VP_ERR_INVALID;
+    uint64_t tiles = (uint64_t)m->tiles_x * m->tiles_y;
+    uint64_t need = VP_LIGHT_TILES_HEADER + 4 * (tiles + 1) + 8 * (uint64_t)m->count;
+    if (len < need) return VP_ERR_TRUNCATED;
+    if (len > need) return VP_ERR_TRAILING;
+    m->offsets = p + VP_LIGHT_TILES_HEADER;
+    m->ids = m->offsets + 4 * (tiles + 1);
+    /* the lists must be well formed: offsets from 0, never falling, to count */
+    uint32_t prev = 0;
+    for (uint64_t t = 0; t <= tiles; t++) {
+        uint32_t o = rd32(m->offsets + 4 * t);
+        if ((t == 0 && o != 0) || o < prev || o > m->count) return VP_ERR_INVALID;
+        prev = o;
+    }
+    if (prev != m->count) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+uint32_t vp_light_tiles_offset(const vp_light_tiles *m, uint32_t t)
+{
+    return t <= (uint32_t)m->tiles_x * m->tiles_y ? rd32(m->offsets + 4 * (size_t)t) : m->count;
+}
+
+uint64_t vp_light_tiles_id(const vp_light_tiles *m, uint32_t k)
+{
+    return k < m->count ? rd64(m->ids + 8 * (size_t)k) : 0;
+}
+
 void vp_enc_frame_sub(vp_writer *w, uint32_t req, const vp_frame_sub *m)
 {
     vp_frame_begin(w, VP_FRAME_SUBSCRIBE, req);

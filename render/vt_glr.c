@@ -59,6 +59,7 @@ static const char *vs_src =
     "layout(location = 4) in vec3 a_albedo;\n"
     "uniform mat4 u_vp;\n"
     "uniform vec4 u_d;\n" /* nearness numerator row */
+    "invariant gl_Position;\n" /* pass 2 tests against pass 1's depth */
     "out vec3 v_p;\n"
     "out vec3 v_n;\n"
     "flat out vec3 v_albedo;\n"
@@ -305,13 +306,13 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     glDisable(GL_BLEND);
     const float clear[4] = {0, 0, 0, EMPTY};
 
-    /* pass 1: nearness */
+    /* pass 1, only where there are lights to bin: nearness (and depth) */
     vt_gl_target_clear(r->target, clear, reversed ? 0.0f : 1.0f);
-    glUniform1i(glGetUniformLocation(r->prog, "u_pass"), 0);
-    if ((rc = draw_all(meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
     uint32_t tx = (width + TILE - 1) / TILE, ty = (height + TILE - 1) / TILE;
     float(*range)[2] = NULL;
     if (nl) {
+        glUniform1i(glGetUniformLocation(r->prog, "u_pass"), 0);
+        if ((rc = draw_all(meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
         if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
         range = malloc((size_t)tx * ty * sizeof *range);
         if (!range) return fail(err, errlen, -ENOMEM, "out of memory");
@@ -376,8 +377,16 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     glUniform1i(glGetUniformLocation(r->prog, "u_index"), 2);
     glUniform1i(glGetUniformLocation(r->prog, "u_tiles_x"), (int)tx);
     glUniform1i(glGetUniformLocation(r->prog, "u_pass"), 1);
-    vt_gl_target_clear(r->target, clear, reversed ? 0.0f : 1.0f);
-    if ((rc = draw_all(meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
+    if (nl) {
+        /* the depth of pass 1 stays: each pixel is shaded once, by the
+           surface pass 1 found there (the same positions: invariant) */
+        vt_gl_target_clear(r->target, clear, NAN); /* colour only */
+        glDepthFunc(reversed ? GL_GEQUAL : GL_LEQUAL);
+        glDepthMask(GL_FALSE);
+    }
+    rc = draw_all(meshes, nmesh, inst, ninst, v->origin, err, errlen);
+    glDepthMask(GL_TRUE);
+    if (rc) return rc;
     if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
     /* alpha: nearness -> coverage, and depth as vt_soft gives it */
     for (uint32_t y = 0; y < height; y++)

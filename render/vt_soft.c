@@ -582,6 +582,11 @@ static void job_shade(void *arg, uint32_t t)
     }
 }
 
+const cull_light_tiles *vt_soft_light_tiles(const vt_soft *r)
+{
+    return &r->tiles;
+}
+
 /* ---- the frame ------------------------------------------------------------------------ */
 
 int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,

@@ -58,6 +58,9 @@ typedef struct vt_soft vt_soft;
 
 /* pool may be NULL (one thread); threads 0 = the pool's. */
 int  vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out);
+/* The Forward+ tile lists the last vt_soft_render shaded with (indices into
+ * its light array); valid until the next render or destroy. */
+const cull_light_tiles *vt_soft_light_tiles(const vt_soft *r);
 void vt_soft_destroy(vt_soft *r);
 
 /* Checks a mesh: counts, indices in range, finite positions and normals.

@@ -1058,6 +1058,112 @@ static void test_render_gl_over_the_wire(void **state)
     assert_int_equal(system(cmd), 0);
 }
 
+/* LIGHT_QUERY end to end against the frame it describes: every point
+ * light that reaches a surface point seen in the raw frame is in that
+ * pixel's tile list (positions rebuilt from the frame's depth and the
+ * camera); the depth pre-pass lists are a subset of the frustum-only
+ * ones; bad queries are refused. */
+static void test_light_query(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    rng r = {test_seed() ^ 0x116};
+    vp_entity e[120];
+    for (int i = 0; i < 120; i++) {
+        double x = rng_range(&r, -25, 25), y = rng_range(&r, -6, 6), z = rng_range(&r, -70, -8);
+        e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 1.5, y - 1, z - 1.5, x + 1.5, y + 1, z + 1.5}};
+    }
+    assert_int_equal(vt_add(c, e, 120, NULL, NULL), VP_OK);
+    vp_light L[48];
+    for (int i = 0; i < 48; i++)
+        L[i] = (vp_light){.id = 1000 + (uint64_t)i * 7, .kind = VP_LIGHT_POINT,
+                          .pos = {rng_range(&r, -30, 30), rng_range(&r, -8, 8), rng_range(&r, -80, -5)},
+                          .color = {1, 1, 1}, .intensity = 10, .range = (float)rng_range(&r, 2, 12)};
+    assert_int_equal(vt_put_lights(c, L, 48), VP_OK);
+    const uint32_t W = 320, H = 180;
+    const double eye[3] = {0, 2, 0}, at[3] = {0, 0, -30}, up[3] = {0, 1, 0}, fov = 70;
+    vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
+    assert_true(vt_view_perspective(&m.view, eye, at, up, fov, W, H, 0.1, 300));
+    vp_frame f;
+    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    float *depth = malloc((size_t)W * H * sizeof *depth);
+    assert_non_null(depth);
+    memcpy(depth, f.data + (size_t)W * H * 16, (size_t)W * H * sizeof *depth);
+    vp_light_query q = {.view = m.view};
+    vp_light_tiles t;
+    assert_int_equal(vt_light_query(c, &q, &t), VP_OK);
+    assert_int_equal(t.tile, 16);
+    assert_int_equal(t.tiles_x, (W + 15) / 16);
+    assert_int_equal(t.tiles_y, (H + 15) / 16);
+    assert_true(t.in_view > 0 && t.in_view <= 48);
+    /* copy the lists out: the next call reuses the reply buffer */
+    uint32_t tiles = (uint32_t)t.tiles_x * t.tiles_y, tx = t.tiles_x;
+    uint32_t *off = malloc((tiles + 1) * sizeof *off);
+    uint64_t *ids = malloc(((size_t)t.count + 1) * sizeof *ids);
+    assert_true(off && ids);
+    for (uint32_t i = 0; i <= tiles; i++) off[i] = vp_light_tiles_offset(&t, i);
+    for (uint32_t k = 0; k < t.count; k++) ids[k] = vp_light_tiles_id(&t, k);
+    /* the camera basis, as vt_view_perspective builds it */
+    double fw[3], s[3], u[3], n = 0;
+    for (int a = 0; a < 3; a++) fw[a] = at[a] - eye[a], n += fw[a] * fw[a];
+    for (int a = 0; a < 3; a++) fw[a] /= sqrt(n);
+    s[0] = fw[1] * up[2] - fw[2] * up[1], s[1] = fw[2] * up[0] - fw[0] * up[2], s[2] = fw[0] * up[1] - fw[1] * up[0];
+    n = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    for (int a = 0; a < 3; a++) s[a] /= n;
+    u[0] = s[1] * fw[2] - s[2] * fw[1], u[1] = s[2] * fw[0] - s[0] * fw[2], u[2] = s[0] * fw[1] - s[1] * fw[0];
+    double ty = tan(fov * M_PI / 360), tx_ = ty * W / H;
+    uint64_t touched = 0, missing = 0, covered = 0;
+    for (uint32_t y = 0; y < H; y++)
+        for (uint32_t x = 0; x < W; x++) {
+            float w = depth[(size_t)y * W + x];
+            if (!isfinite(w)) continue;
+            covered++;
+            double X = (2.0 * x + 1) / W - 1, Y = (2.0 * y + 1) / H - 1, p[3];
+            for (int a = 0; a < 3; a++) p[a] = eye[a] + w * (X * tx_ * s[a] + Y * ty * u[a] + fw[a]);
+            uint32_t tile = (y / 16) * tx + x / 16;
+            for (int i = 0; i < 48; i++) {
+                double d2 = 0;
+                for (int a = 0; a < 3; a++) d2 += (p[a] - L[i].pos[a]) * (p[a] - L[i].pos[a]);
+                if (d2 >= (double)L[i].range * L[i].range * 0.998) continue; /* a hair inside the range */
+                touched++;
+                bool found = false;
+                for (uint32_t k = off[tile]; k < off[tile + 1] && !found; k++) found = ids[k] == L[i].id;
+                missing += !found;
+            }
+        }
+    print_message("light tiles: %u lights in view, %u entries, %llu (pixel, light) contacts over %llu covered "
+                  "pixels, %llu missing\n",
+                  t.in_view, t.count, (unsigned long long)touched, (unsigned long long)covered,
+                  (unsigned long long)missing);
+    assert_true(covered > W * H / 10 && touched > 100);
+    assert_int_equal(missing, 0);
+    /* the frustum-only lists hold every depth-tested one */
+    q.flags = VP_LQ_NO_DEPTH;
+    assert_int_equal(vt_light_query(c, &q, &t), VP_OK);
+    assert_true(t.count >= off[tiles]);
+    for (uint32_t i = 0; i < tiles; i++)
+        for (uint32_t k = off[i]; k < off[i + 1]; k++) {
+            bool found = false;
+            for (uint32_t j = vp_light_tiles_offset(&t, i); j < vp_light_tiles_offset(&t, i + 1) && !found; j++)
+                found = vp_light_tiles_id(&t, j) == ids[k];
+            assert_true(found);
+        }
+    /* bad queries: refused, the connection fine */
+    q.flags = 0x80;
+    assert_int_equal(vt_light_query(c, &q, &t), VP_ERR_INVALID);
+    q.flags = 0;
+    q.view.view_proj[0] = NAN;
+    assert_int_equal(vt_light_query(c, &q, &t), VP_ERR_NONFINITE);
+    assert_int_equal(vt_ping(c), VP_OK);
+    free(off);
+    free(ids);
+    free(depth);
+    vt_close(c);
+    daemon_stop(&d);
+}
+
 static void test_limits(void **state)
 {
     (void)state;
@@ -1086,6 +1192,7 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_occlusion_over_the_wire),
     cmocka_unit_test(test_render_frames),
     cmocka_unit_test(test_frame_stream),
+    cmocka_unit_test(test_light_query),
     cmocka_unit_test(test_render_gl_over_the_wire),
     cmocka_unit_test(test_edits_then_queries_match_model),
     cmocka_unit_test(test_batches_all_or_nothing),

@@ -437,6 +437,69 @@ static void test_prefixes_and_extensions(void **state)
     check_prefixes(d_frame, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
 }
 
+/* LIGHT_QUERY and LIGHT_TILES: round trip, bad fields, malformed lists */
+static void test_light_messages(void **state)
+{
+    (void)state;
+    vp_writer w;
+    vp_view v = {.origin = {1, 2, 3}, .view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1},
+                 .viewport_w = 64, .viewport_h = 32};
+    vp_light_query q = {.view = v, .flags = VP_LQ_NO_DEPTH}, g;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_light_query(&w, 3, &q);
+    assert_int_equal(w.len, VP_HEADER_SIZE + VP_LIGHT_QUERY_SIZE);
+    assert_int_equal(vp_dec_light_query(g_buf + VP_HEADER_SIZE, VP_LIGHT_QUERY_SIZE, &g), VP_OK);
+    assert_int_equal(g.flags, VP_LQ_NO_DEPTH);
+    assert_memory_equal(g.view.view_proj, v.view_proj, sizeof v.view_proj);
+    assert_int_equal(vp_dec_light_query(g_buf + VP_HEADER_SIZE, VP_LIGHT_QUERY_SIZE - 1, &g), VP_ERR_TRUNCATED);
+    assert_int_equal(vp_dec_light_query(g_buf + VP_HEADER_SIZE, VP_LIGHT_QUERY_SIZE + 1, &g), VP_ERR_TRAILING);
+    g_buf[VP_HEADER_SIZE + VP_VIEW_SIZE + 2] = 1; /* pad */
+    assert_int_equal(vp_dec_light_query(g_buf + VP_HEADER_SIZE, VP_LIGHT_QUERY_SIZE, &g), VP_ERR_INVALID);
+    q.flags = 2;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_light_query(&w, 3, &q);
+    assert_int_equal(vp_dec_light_query(g_buf + VP_HEADER_SIZE, VP_LIGHT_QUERY_SIZE, &g), VP_ERR_INVALID);
+    q.flags = 0;
+    q.view.viewport_w = 8192;
+    q.view.viewport_h = 4096;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_light_query(&w, 3, &q);
+    assert_int_equal(vp_dec_light_query(g_buf + VP_HEADER_SIZE, VP_LIGHT_QUERY_SIZE, &g), VP_ERR_LIMIT);
+
+    /* 2 x 1 tiles: tile 0 has lights 7 and 9, tile 1 has 9 */
+    const uint32_t off[3] = {0, 2, 3};
+    const uint64_t ids[3] = {7, 9, 9};
+    vp_light_tiles m = {.epoch = 5, .tiles_x = 2, .tiles_y = 1, .tile = 16, .in_view = 2, .max_per_tile = 2,
+                        .count = 3, .ns = 1234}, t;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_light_tiles_begin(&w, 3, &m);
+    for (int i = 0; i < 3; i++) vp_put_u32(&w, off[i]);
+    for (int i = 0; i < 3; i++) vp_put_u64(&w, ids[i]);
+    vp_frame_end(&w);
+    assert_int_equal(w.len, vp_size_light_tiles(2, 3));
+    size_t len = w.len - VP_HEADER_SIZE;
+    uint8_t *p = g_buf + VP_HEADER_SIZE;
+    assert_int_equal(vp_dec_light_tiles(p, len, &t), VP_OK);
+    assert_int_equal(t.epoch, 5);
+    assert_int_equal(t.count, 3);
+    assert_int_equal(t.ns, 1234);
+    for (uint32_t i = 0; i < 3; i++) {
+        assert_int_equal(vp_light_tiles_offset(&t, i), off[i]);
+        assert_int_equal(vp_light_tiles_id(&t, i), ids[i]);
+    }
+    assert_int_equal(vp_dec_light_tiles(p, len - 1, &t), VP_ERR_TRUNCATED);
+    assert_int_equal(vp_dec_light_tiles(p, len + 1, &t), VP_ERR_TRAILING);
+    /* offsets that fall, start above 0 or end short of the count */
+    const uint32_t bad[3][3] = {{0, 3, 2}, {1, 2, 3}, {0, 1, 2}};
+    for (int b = 0; b < 3; b++) {
+        for (int i = 0; i < 3; i++) {
+            uint8_t *o = p + VP_LIGHT_TILES_HEADER + 4 * i;
+            o[0] = (uint8_t)bad[b][i], o[1] = o[2] = o[3] = 0;
+        }
+        assert_int_equal(vp_dec_light_tiles(p, len, &t), VP_ERR_INVALID);
+    }
+}
+
 /* RENDER and FRAME: round trip and each bad field */
 static void test_render_messages(void **state)
 {
@@ -651,6 +714,7 @@ const struct CMUnitTest protocol_tests[] = {
     cmocka_unit_test(test_bad_frames),
     cmocka_unit_test(test_prefixes_and_extensions),
     cmocka_unit_test(test_render_messages),
+    cmocka_unit_test(test_light_messages),
     cmocka_unit_test(test_bad_fields),
     cmocka_unit_test(test_random_bytes),
 };

@@ -2,14 +2,18 @@
  * bench_render.c — frames per second of the render path (a benchmark: it
  * fails on nothing).
  *
- *   bench_render [--json] [--quick] [--smoke] [--size WxH] [--reps N]
+ *   bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N]
  *
  * The scene: N boxes (1k, 15k, 100k) of 0.5..4 m scattered over a 200 x
  * 380 m field in front of the camera, 0, 16 or 256 point lights of 30 m
  * range among them, a camera 60 degrees wide at 1280x720. The software
  * path runs the whole frame: the culling query (frustum; no occluders here,
  * so no occlusion stage) picks the visible boxes, then vt_soft renders
- * them; 1 and 2 threads. Then the encoders on the last frame: EXR (half
+ * them; 1 and 2 threads. The GL path (vt_glr through headless EGL:
+ * llvmpipe here, LP_NUM_THREADS=2 unless set) draws the same visible set
+ * in the same run: the culling query, then two passes (nearness, then
+ * shading with the CPU-binned tile lists) and the readback of colour and
+ * depth. --no-gl skips it. Then the encoders on the last frame: EXR (half
  * RGBA + float Z; ZIP and none), PNG (levels 1 and 6), JPEG (q 85), each
  * after tone mapping where the format is 8-bit.
  *
@@ -19,6 +23,7 @@
  */
 #include "culling.h"
 #include "vt_exr.h"
+#include "vt_glr.h"
 #include "vt_image.h"
 #include "vt_soft.h"
 
@@ -90,17 +95,18 @@ static int make_scene(scene *s, uint32_t n)
 
 int main(int argc, char **argv)
 {
-    bool json = false, quick = false, smoke = false;
+    bool json = false, quick = false, smoke = false, gl = true;
     uint32_t W = 1280, H = 720;
     int reps = 15;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json")) json = true;
         else if (!strcmp(argv[i], "--quick")) quick = true;
         else if (!strcmp(argv[i], "--smoke")) smoke = true;
+        else if (!strcmp(argv[i], "--no-gl")) gl = false;
         else if (!strcmp(argv[i], "--size") && i + 1 < argc && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2) i++;
         else if (!strcmp(argv[i], "--reps") && i + 1 < argc) reps = atoi(argv[++i]);
         else {
-            fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--size WxH] [--reps N]\n");
+            fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N]\n");
             return 2;
         }
     }
@@ -123,7 +129,24 @@ int main(int argc, char **argv)
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
     float *rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = malloc((size_t)W * H * sizeof *depth);
     if (!rgba || !depth) return 1;
-    char err[256];
+    char err[1024];
+
+    /* the GL path, where there is one (a benchmark skips, never fails) */
+    vt_gl *g = NULL;
+    vt_glr *gr = NULL;
+    const char *gl_name = "";
+    unsigned lp_threads = 0;
+    if (gl) {
+        setenv("LP_NUM_THREADS", "2", 0);
+        lp_threads = (unsigned)atoi(getenv("LP_NUM_THREADS"));
+        if (vt_gl_open(&g, NULL, err, sizeof err) || vt_glr_create(g, &gr, err, sizeof err)) {
+            fprintf(stderr, "bench_render: no GL path here (%s)\n", err);
+            vt_gl_close(g);
+            g = NULL;
+        } else {
+            gl_name = vt_gl_get_info(g)->renderer;
+        }
+    }
 
     cull_view v;
     {
@@ -191,6 +214,35 @@ int main(int argc, char **argv)
                 free(t);
                 vt_soft_destroy(sr);
             }
+            if (g) {
+                double *t = malloc((size_t)(reps + 1) * sizeof *t);
+                uint32_t drawn = 0;
+                for (int r = 0; r <= reps; r++) { /* one warm-up: shader compiles, buffers grow */
+                    double t0 = now_ms();
+                    size_t n;
+                    cull_query_desc q = {.views = &v, .view_count = 1, .threads = 2};
+                    if (cull_query(s.w, ctx, &q, res, cap, &n, NULL)) return 1;
+                    for (size_t k = 0; k < n; k++) vis[k] = s.all[res[k].handle & (CULL_MAX_ENTITIES - 1)];
+                    if (vt_glr_render(gr, &v, W, H, &cube, 1, vis, (uint32_t)n, L, nl, rgba, depth, W, NULL, err,
+                                      sizeof err)) {
+                        fprintf(stderr, "bench_render: gl: %s\n", err);
+                        return 1;
+                    }
+                    t[r] = now_ms() - t0;
+                    drawn = (uint32_t)n;
+                }
+                qsort(t + 1, (size_t)reps, sizeof *t, cmp_d);
+                double med = t[1 + reps / 2];
+                if (json)
+                    printf("{\"path\":\"gl\",\"renderer\":\"%s\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
+                           "\"lights\":%u,\"threads\":%u,\"median_ms\":%.3f,\"triangles_submitted\":%u}\n",
+                           gl_name, W, H, counts[ci], nl, lp_threads, med, drawn * 12);
+                else
+                    printf("%-6s %8u %7u %7u %10.2f %8.1f %9u  (submitted; %s)\n", "gl", counts[ci], nl, lp_threads, med,
+                           1000 / med, drawn * 12, gl_name);
+                fflush(stdout);
+                free(t);
+            }
             free(L);
         }
         free(res);
@@ -250,6 +302,8 @@ int main(int argc, char **argv)
     free(rgb8);
     free(rgba);
     free(depth);
+    vt_glr_destroy(gr);
+    vt_gl_close(g);
     cull_ctx_destroy(ctx);
     cull_pool_destroy(pool);
     return 0;

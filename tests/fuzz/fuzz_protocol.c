@@ -503,6 +503,48 @@ static void fuzz_render(const uint8_t *p, size_t len)
     enc_close(&b);
 }
 
+static void fuzz_light_query(const uint8_t *p, size_t len)
+{
+    vp_light_query m;
+    int rc = vp_dec_light_query(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == VP_LIGHT_QUERY_SIZE && !(m.flags & ~VP_LQ_NO_DEPTH));
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_light_query(&b.w, 17, &m);
+    const uint8_t *q = enc_payload(&b, VP_LIGHT_QUERY, len);
+    CHECK(memcmp(q, p, len) == 0); /* the encoding is canonical */
+    enc_close(&b);
+}
+
+static void fuzz_light_tiles(const uint8_t *p, size_t len)
+{
+    vp_light_tiles m;
+    int rc = vp_dec_light_tiles(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    uint32_t tiles = (uint32_t)m.tiles_x * m.tiles_y;
+    CHECK(vp_size_light_tiles(tiles, m.count) == VP_HEADER_SIZE + len);
+    /* the lists are well formed: walking them stays inside the ids */
+    uint32_t prev = 0;
+    for (uint32_t t = 0; t <= tiles; t++) {
+        uint32_t o = vp_light_tiles_offset(&m, t);
+        CHECK(o >= prev && o <= m.count);
+        prev = o;
+    }
+    CHECK(prev == m.count);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_light_tiles_begin(&b.w, 18, &m);
+    for (uint32_t t = 0; t <= tiles; t++) vp_put_u32(&b.w, vp_light_tiles_offset(&m, t));
+    for (uint32_t k = 0; k < m.count; k++) vp_put_u64(&b.w, vp_light_tiles_id(&m, k));
+    vp_frame_end(&b.w);
+    const uint8_t *q = enc_payload(&b, VP_LIGHT_TILES, len);
+    CHECK(memcmp(q, p, len) == 0);
+    enc_close(&b);
+}
+
 static void fuzz_frame_sub(const uint8_t *p, size_t len)
 {
     vp_frame_sub m;
@@ -632,6 +674,8 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_RENDER: fuzz_render(p, len); return;
     case VP_FRAME: fuzz_frame(p, len); return;
     case VP_FRAME_SUBSCRIBE: fuzz_frame_sub(p, len); return;
+    case VP_LIGHT_QUERY: fuzz_light_query(p, len); return;
+    case VP_LIGHT_TILES: fuzz_light_tiles(p, len); return;
     case VP_ENTITY_GET: fuzz_ids(p, len, h->type, limit); return;
     case VP_SUBLEVEL_NAMES:
     case VP_SUBLEVEL_LIST_REPLY: fuzz_names(p, len, h->type == VP_SUBLEVEL_LIST_REPLY); return;

@@ -261,6 +261,14 @@ int main(int argc, char **argv)
         rm.renderer = VP_RENDERER_GL;
         vp_enc_frame_sub(&g_w, 23, &(vp_frame_sub){.r = rm, .max_fps = 30}), save("frame_subscribe");
         vp_enc_empty(&g_w, VP_FRAME_UNSUBSCRIBE, 24), save("frame_unsubscribe");
+        vp_enc_light_query(&g_w, 25, &(vp_light_query){.view = view(0)}), save("light_query");
+        vp_enc_light_query(&g_w, 26, &(vp_light_query){.view = view(0), .flags = VP_LQ_NO_DEPTH}),
+            save("light_query_no_depth");
+        vp_enc_light_tiles_begin(&g_w, 25, &(vp_light_tiles){.epoch = 9, .tiles_x = 2, .tiles_y = 1, .tile = 16,
+                                                             .in_view = 2, .max_per_tile = 2, .count = 3});
+        vp_put_u32(&g_w, 0), vp_put_u32(&g_w, 2), vp_put_u32(&g_w, 3);
+        vp_put_u64(&g_w, 7), vp_put_u64(&g_w, 9), vp_put_u64(&g_w, 9);
+        vp_frame_end(&g_w), save("light_tiles");
         static const uint8_t jpeg_bytes[] = {0xff, 0xd8, 0xff, 0xe0, 0, 16, 'J', 'F', 'I', 'F', 0, 1, 1, 0};
         vp_frame fm = {.epoch = 5, .width = 2, .height = 1, .format = VP_FRAME_JPEG, .visible = 3,
                        .render_ns = 1000, .encode_ns = 200, .data_len = sizeof jpeg_bytes, .data = jpeg_bytes};
