@@ -62,7 +62,7 @@ DAEMON_BIN:= $(BUILD)/vantaged
 CLIENT_LIB:= $(BUILD)/libvantage.a
 CLIENT_OBJ:= $(BUILD)/client/libvantage.o
 CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o \
-            $(BUILD)/client/cli_render.o
+            $(BUILD)/client/cli_render.o $(BUILD)/client/cli_frames.o
 CLI_BIN  := $(BUILD)/vantage
 
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config

@@ -41,6 +41,9 @@ int cmd_render(cli *k, int argc, char **argv);
 int cmd_watch_frames(cli *k, int argc, char **argv);
 int cmd_lights(cli *k, int argc, char **argv);
 
+/* cli_frames.c: `bench --test frames` */
+int bench_frames(cli *k, int argc, char **argv);
+
 /* cli_bench.c */
 int cmd_bench(cli *k, int argc, char **argv);
 

@@ -157,7 +157,9 @@ static void *bench_worker(void *p)
 
 int cmd_bench(cli *k, int argc, char **argv)
 {
-    const char *use = "bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P] "
+    for (int i = 1; i + 1 < argc; i++)
+        if (!strcmp(argv[i], "--test") && !strcmp(argv[i + 1], "frames")) return bench_frames(k, argc, argv);
+    const char *use = "bench [--test query|edit|ping|frames] [--clients N] [--threads T] [--requests N] [--pipeline P] "
                       "[--views K] [--batch B] [--count-only] [--json]";
     const char *test = "query";
     long clients = 64, requests = 100000, pipeline = 1, views = 1, batch = 1000, threads = 2;

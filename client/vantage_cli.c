@@ -49,6 +49,8 @@ static void usage(FILE *f)
             "        scene changes (latest-frame-wins), one JSON line each\n"
             "  bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P]\n"
             "        [--views K] [--batch B] [--count-only] [--json]   load test: rate and latency percentiles\n"
+            "  bench --test frames [--viewers N] [--stalled S] [--seconds T] [--size WxH] [--fps F]\n"
+            "        [--edits-per-s R] [--renderer soft|gl] [--json]   frame streams while the scene is edited\n"
             "\n"
             "connection: -h HOST (127.0.0.1), -p PORT (%d), -s SOCKET (Unix socket instead of TCP)\n"
             "JSON lines: {\"id\": 64-bit id, \"class\": n, \"sphere\": [x,y,z,r],\n"

@@ -6,11 +6,14 @@
  * request that names it).
  *
  * Streams are latest-frame-wins without a queue: a subscriber's next frame
- * is rendered only when its previous one has left the daemon's buffer,
- * the scene or its view has changed since, and its rate cap allows; the
- * frame then shows the scene as it is at that moment. A slow viewer thus
- * gets fewer frames and costs no render time while it is stalled; the
- * others do not wait for it.
+ * is rendered only when its previous one has left the daemon's buffer and
+ * the kernel's (SIOCOUTQ: on TCP, what the peer has not acknowledged; on a
+ * Unix socket, what it has not read), the scene or its view has changed
+ * since, and its rate cap allows; the frame then shows the scene as it is
+ * at that moment. A slow viewer thus gets fewer frames and costs no render
+ * time while it is stalled; the others do not wait for it. (A stalled TCP
+ * peer's own receive buffer still holds the few frames sent before it
+ * filled; nothing here can reach into it.)
  */
 #include "server_internal.h"
 #include "vt_glr.h"
@@ -18,7 +21,9 @@
 #include "vt_soft.h"
 
 #include <errno.h>
+#include <linux/sockios.h>
 #include <stdio.h>
+#include <sys/ioctl.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -483,6 +488,14 @@ void frames_schedule(server *s)
         if (!f->active || f->inflight || c->closing) continue;
         if (!f->dirty && f->shown_epoch == s->sc->epoch) continue; /* nothing new to show */
         if (c->out_len > c->out_pos) continue; /* the last frame is still leaving: it wins */
+        int outq = 0;
+        uint32_t slack = f->last_bytes / 4 > 4096 ? f->last_bytes / 4 : 4096;
+        if (ioctl(c->fd, SIOCOUTQ, &outq) == 0 && (uint32_t)outq > slack) {
+            /* still in the kernel, unacknowledged or unread: look again soon
+               (no event says when it drains) */
+            if (now + 2 < wake) wake = now + 2;
+            continue;
+        }
         if (now < f->next_ms) {
             if (f->next_ms < wake) wake = f->next_ms;
             continue;
@@ -513,6 +526,7 @@ void frames_done(server *s, conn *c, job *j)
     vp_put_bytes(&w, j->reply, j->reply_len);
     out_commit(c, &w);
     if (j->ok) {
+        f->last_bytes = (uint32_t)j->reply_len;
         f->shown_epoch = j->epoch;
         f->frames++;
         s->frames_out++;

@@ -84,7 +84,8 @@ static void conn_free(server *s, conn *c)
     conn *last = s->live[--s->nconns];
     s->live[c->live_pos] = last;
     last->live_pos = c->live_pos;
-    LOGD("client %u (%s) disconnected, %u connected", c->id, c->name, s->nconns);
+    LOGD("client %u (%s) disconnected, %u connected; %llu frames streamed", c->id, c->name, s->nconns,
+         (unsigned long long)c->fsub.frames);
     free(c->in);
     free(c->out);
     free(c);

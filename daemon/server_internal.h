@@ -25,6 +25,7 @@ typedef struct frame_sub {
     uint64_t shown_epoch;   /* the scene epoch of the last frame sent */
     uint64_t next_ms;       /* the rate cap: no frame starts before */
     uint64_t frames;
+    uint32_t last_bytes;    /* the size of the last frame sent */
 } frame_sub;
 
 typedef struct conn {

@@ -1,0 +1,224 @@
+/*
+ * cli_frames.c — `vantage bench --test frames`: the frame stream under
+ * load. N viewers subscribe to the same view (each its own connection and
+ * thread, counting the frames that reach it), S more subscribe and never
+ * read (stalled viewers), and an editor moves an entity of its own at a
+ * fixed rate so the scene keeps changing. Reports each viewer's frames per
+ * second and the spread of frame intervals: latest-frame-wins means the
+ * stalled ones must not lower the others' rate.
+ */
+#include "cli.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+typedef struct viewer {
+    pthread_t th;
+    vt_connect_opts co;
+    vp_frame_sub sub;
+    double seconds;
+    bool stalled;
+    atomic_bool *stop;
+    /* results */
+    int rc;
+    char err[256];
+    uint64_t frames, bytes;
+    double first, last;     /* arrival times of the first and last frame */
+    double *gaps;           /* intervals between frames, ms */
+    size_t ngaps, gaps_cap;
+    double render_ms, encode_ms; /* sums, as the daemon reports them */
+} viewer;
+
+static void *viewer_main(void *p)
+{
+    viewer *v = p;
+    vt_client *c;
+    if ((v->rc = vt_connect(&v->co, &c, v->err, sizeof v->err))) return NULL;
+    if ((v->rc = vt_frame_subscribe(c, &v->sub))) {
+        snprintf(v->err, sizeof v->err, "%.200s", vt_last_error(c)->msg);
+        vt_close(c);
+        return NULL;
+    }
+    if (v->stalled) {
+        /* subscribed, and never reads: the daemon must not queue for it */
+        while (!atomic_load(v->stop)) usleep(10000);
+        vt_close(c);
+        return NULL;
+    }
+    double prev = 0;
+    while (!atomic_load(v->stop)) {
+        vp_frame f;
+        int rc = vt_wait_frame(c, &f, 100);
+        if (rc == VT_ERR_IO && strstr(vt_last_error(c)->msg, "timed out")) continue;
+        if (rc) {
+            v->rc = rc;
+            snprintf(v->err, sizeof v->err, "%.200s", vt_last_error(c)->msg);
+            break;
+        }
+        double t = now_s();
+        if (!v->frames) v->first = t;
+        else {
+            if (v->ngaps == v->gaps_cap) {
+                size_t cap = v->gaps_cap ? 2 * v->gaps_cap : 1024;
+                double *g = realloc(v->gaps, cap * sizeof *g);
+                if (!g) break;
+                v->gaps = g;
+                v->gaps_cap = cap;
+            }
+            v->gaps[v->ngaps++] = (t - prev) * 1e3;
+        }
+        prev = v->last = t;
+        v->frames++;
+        v->bytes += f.data_len;
+        v->render_ms += f.render_ns / 1e6;
+        v->encode_ms += f.encode_ns / 1e6;
+    }
+    vt_close(c);
+    return NULL;
+}
+
+static int cmp_dbl(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+int bench_frames(cli *k, int argc, char **argv)
+{
+    const char *use = "bench --test frames [--viewers N] [--stalled S] [--seconds T] [--size WxH] [--fps F] "
+                      "[--edits-per-s R] [--quality Q] [--renderer soft|gl] [--eye X,Y,Z] [--at X,Y,Z] [--json]";
+    long viewers = 1, stalled = 0, fps = 240, edit_rate = 100, quality = 80;
+    double seconds = 5, eye[3] = {150, 200, 150}, at[3] = {0, 0, 0};
+    unsigned w = 1280, h = 720;
+    uint8_t renderer = 0;
+    bool json = false;
+    for (int i = 1; i < argc; i++) {
+        bool ok = true;
+        const char *a = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "--test")) i++;
+        else if (!strcmp(a, "--json")) json = true;
+        else if (!val) ok = false;
+        else if (!strcmp(a, "--viewers")) viewers = strtol(val, NULL, 10), i++;
+        else if (!strcmp(a, "--stalled")) stalled = strtol(val, NULL, 10), i++;
+        else if (!strcmp(a, "--seconds")) ok = parse_vec(val, &seconds, 1), i++;
+        else if (!strcmp(a, "--size")) ok = sscanf(val, "%ux%u", &w, &h) == 2, i++;
+        else if (!strcmp(a, "--fps")) fps = strtol(val, NULL, 10), i++;
+        else if (!strcmp(a, "--edits-per-s")) edit_rate = strtol(val, NULL, 10), i++;
+        else if (!strcmp(a, "--quality")) quality = strtol(val, NULL, 10), i++;
+        else if (!strcmp(a, "--eye")) ok = parse_vec(val, eye, 3), i++;
+        else if (!strcmp(a, "--at")) ok = parse_vec(val, at, 3), i++;
+        else if (!strcmp(a, "--renderer")) {
+            renderer = !strcmp(val, "gl") ? VP_RENDERER_GL : !strcmp(val, "soft") ? VP_RENDERER_SOFT : 255;
+            ok = renderer != 255;
+            i++;
+        } else ok = false;
+        if (!ok) return die_usage("%s", use);
+    }
+    if (viewers < 1 || viewers > 256 || stalled < 0 || stalled > 256 || seconds <= 0 || seconds > 3600 || w < 1 ||
+        h < 1 || w > 4096 || h > 4096 || fps < 1 || fps > (long)VP_FRAME_SUB_MAX_FPS || edit_rate < 0 ||
+        edit_rate > 100000 || quality < 1 || quality > 100)
+        return die_usage("%s", use);
+    vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = (uint8_t)quality, .renderer = renderer},
+                        .max_fps = (uint16_t)fps};
+    if (!vt_view_perspective(&sub.r.view, eye, at, NULL, 60, (uint16_t)w, (uint16_t)h, 0.1, 10000))
+        return die_usage("bench: degenerate camera");
+    int rc = connect_cli(k, VP_ROLE_EDITOR);
+    if (rc) return rc;
+    /* the editor's own entity, in front of the camera */
+    uint64_t id = 0xBE7C000000000000ull | (uint64_t)getpid();
+    double dir[3], len = 0;
+    for (int a = 0; a < 3; a++) dir[a] = at[a] - eye[a], len += dir[a] * dir[a];
+    len = sqrt(len);
+    vp_entity e = {.id = id, .class_id = 7};
+    for (int a = 0; a < 3; a++) {
+        double c = eye[a] + dir[a] / len * fmin(50, len / 2);
+        e.aabb[a] = c - 2, e.aabb[3 + a] = c + 2;
+    }
+    if ((rc = vt_add(k->c, &e, 1, NULL, NULL))) return server_fail(k, "bench: add", rc);
+
+    size_t n = (size_t)(viewers + stalled);
+    viewer *vs = calloc(n, sizeof *vs);
+    atomic_bool stop = false;
+    if (!vs) return 1;
+    for (size_t i = 0; i < n; i++) {
+        vs[i] = (viewer){.co = k->co, .sub = sub, .seconds = seconds, .stalled = i >= (size_t)viewers, .stop = &stop};
+        vs[i].co.role = VP_ROLE_VIEWER;
+        vs[i].co.name = "vantage-bench-frames";
+        if (pthread_create(&vs[i].th, NULL, viewer_main, &vs[i])) {
+            fprintf(stderr, "%s: cannot start a thread\n", g_prog);
+            return 1;
+        }
+    }
+    /* the edits: the entity moves back and forth at edit_rate a second */
+    double t0 = now_s(), next = t0;
+    uint64_t edits = 0;
+    while (now_s() - t0 < seconds) {
+        if (edit_rate == 0) {
+            usleep(10000);
+            continue;
+        }
+        double dx = 3 * sin(edits * 0.05);
+        vp_entity m = e;
+        m.aabb[0] += dx, m.aabb[3] += dx;
+        if ((rc = vt_update(k->c, &m, 1, NULL))) return server_fail(k, "bench: update", rc);
+        edits++;
+        next += 1.0 / edit_rate;
+        double sl = next - now_s();
+        if (sl > 0) usleep((useconds_t)(sl * 1e6));
+    }
+    double elapsed = now_s() - t0;
+    atomic_store(&stop, true);
+    for (size_t i = 0; i < n; i++) pthread_join(vs[i].th, NULL);
+    vt_remove(k->c, &id, 1, NULL);
+
+    /* per viewer: frames/s over the run; pooled intervals */
+    double *rates = calloc((size_t)viewers, sizeof *rates), *gaps = NULL;
+    size_t ngaps = 0, total_frames = 0;
+    double render = 0, encode = 0;
+    int failed = 0;
+    for (long i = 0; i < viewers; i++) {
+        viewer *v = &vs[i];
+        if (v->rc) {
+            fprintf(stderr, "%s: viewer %ld: error %d: %s\n", g_prog, i, v->rc, v->err);
+            failed++;
+        }
+        rates[i] = v->frames / elapsed;
+        total_frames += v->frames;
+        render += v->render_ms;
+        encode += v->encode_ms;
+        double *g = realloc(gaps, (ngaps + v->ngaps + 1) * sizeof *g);
+        if (g) {
+            gaps = g;
+            memcpy(gaps + ngaps, v->gaps, v->ngaps * sizeof *gaps);
+            ngaps += v->ngaps;
+        }
+    }
+    for (size_t i = (size_t)viewers; i < n; i++)
+        if (vs[i].rc) fprintf(stderr, "%s: stalled viewer: error %d: %s\n", g_prog, vs[i].rc, vs[i].err), failed++;
+    qsort(rates, (size_t)viewers, sizeof *rates, cmp_dbl);
+    if (gaps) qsort(gaps, ngaps, sizeof *gaps, cmp_dbl);
+#define GAP(q) (ngaps ? gaps[(size_t)((q) * (ngaps - 1))] : 0.0)
+    double mean_render = total_frames ? render / total_frames : 0, mean_encode = total_frames ? encode / total_frames : 0;
+    if (json)
+        printf("{\"test\":\"frames\",\"width\":%u,\"height\":%u,\"viewers\":%ld,\"stalled\":%ld,\"max_fps\":%ld,"
+               "\"edits_per_s\":%.1f,\"seconds\":%.2f,\"fps_min\":%.2f,\"fps_median\":%.2f,\"fps_max\":%.2f,"
+               "\"gap_p50_ms\":%.2f,\"gap_p99_ms\":%.2f,\"gap_max_ms\":%.2f,\"render_ms\":%.2f,\"encode_ms\":%.2f}\n",
+               w, h, viewers, stalled, fps, edits / elapsed, elapsed, rates[0], rates[viewers / 2],
+               rates[viewers - 1], GAP(0.5), GAP(0.99), GAP(1.0), mean_render, mean_encode);
+    else
+        printf("frames %ux%u JPEG q%ld: %ld viewers (+%ld stalled), %.0f edits/s for %.1f s: frames/s per viewer "
+               "min %.1f, median %.1f, max %.1f; interval p50 %.1f ms, p99 %.1f ms, max %.1f ms; server render %.2f "
+               "ms, encode %.2f ms a frame\n",
+               w, h, quality, viewers, stalled, edits / elapsed, elapsed, rates[0], rates[viewers / 2],
+               rates[viewers - 1], GAP(0.5), GAP(0.99), GAP(1.0), mean_render, mean_encode);
+    for (size_t i = 0; i < n; i++) free(vs[i].gaps);
+    free(vs);
+    free(rates);
+    free(gaps);
+    return failed ? 1 : 0;
+}
