@@ -304,9 +304,10 @@ static inline uint8_t alpha8(float a)
  * found once by binary search over float bit patterns (so it agrees with
  * the two-step path for every float x, not within a code). Finding k:
  * buckets of 2^-8 octave over [2^-12, 16) hold the code of their lowest
- * float; a bucket may span a threshold or two, hence the loop. About 4x
- * faster than the division per channel (the frame stream's tone mapping
- * at 1280x720 went from ~14 ms to ~3.5 ms). */
+ * float; a bucket may span a threshold or two, hence the loop. It replaces
+ * a double division per channel: a 1280x720 frame of random HDR values
+ * (1e-3..10) went from 17.7 to 8.3 ms (medians of 21, one run),
+ * bench_render's coherent frame from 7.6 to 5.4 ms. */
 #define ACES_LO_BITS 0x39800000u /* 2^-12 */
 #define ACES_HI_BITS 0x41800000u /* 16 */
 #define ACES_NBUCKETS ((ACES_HI_BITS - ACES_LO_BITS) >> 15)
