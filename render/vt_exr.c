@@ -60,13 +60,10 @@ __attribute__((format(printf, 2, 3)))
 #endif
 static void call_msg(exr_call *c, const char *fmt, ...)
 {
-    if (!c || c->have || !c->err || c->errlen == 0) return;
-    c->have = true;
-    int n = snprintf(c->err, c->errlen, "%s: ", c->path ? c->path : "(null)");
-    if (n < 0 || (size_t)n >= c->errlen) return;
+    if (!c) return;
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(c->err + n, c->errlen - (size_t)n, fmt, ap);
+    vt_file_msgv(c->err, c->errlen, &c->have, c->path ? c->path : "(null)", fmt, ap);
     va_end(ap);
 }
 

@@ -43,3 +43,12 @@ int vt_temp_open(const char *path, char **tmp, int *fd, char *msg, size_t msglen
     free(name);
     return -e;
 }
+
+void vt_file_msgv(char *err, size_t errlen, bool *have, const char *where, const char *fmt, va_list ap)
+{
+    if (*have || !err || errlen == 0) return;
+    *have = true;
+    int n = snprintf(err, errlen, "%s: ", where);
+    if (n < 0 || (size_t)n >= errlen) return;
+    vsnprintf(err + n, errlen - (size_t)n, fmt, ap);
+}

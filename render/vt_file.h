@@ -6,10 +6,17 @@
 #ifndef VANTAGE_VT_FILE_H
 #define VANTAGE_VT_FILE_H
 
+#include <stdarg.h>
+#include <stdbool.h>
 #include <stddef.h>
 
 /* Creates "path.<16 hex>.tmp" (O_EXCL, 0666 less umask): *tmp is malloc'ed,
  * *fd open for writing. 0, or a negative errno with a message in msg. */
 int vt_temp_open(const char *path, char **tmp, int *fd, char *msg, size_t msglen);
+
+/* The writers' error message: "WHERE: message" into err, the first call
+ * only (*have records it: the first failure is the cause, later ones are
+ * consequences). Nothing when err is NULL or errlen 0. */
+void vt_file_msgv(char *err, size_t errlen, bool *have, const char *where, const char *fmt, va_list ap);
 
 #endif

@@ -97,54 +97,6 @@ static bool same_float(float a, float b)
     return memcmp(&a, &b, sizeof a) == 0;
 }
 
-/* ---- temporary directories ------------------------------------------------ */
-
-typedef struct tdir {
-    char dir[256];
-    char path[320];
-} tdir;
-
-static void tdir_make(tdir *t)
-{
-    const char *base = getenv("TMPDIR");
-    snprintf(t->dir, sizeof t->dir, "%s/vt_exr_test.XXXXXX", base && base[0] ? base : "/tmp");
-    assert_non_null(mkdtemp(t->dir));
-}
-
-/* t->path = dir/name */
-static const char *tdir_file(tdir *t, const char *name)
-{
-    snprintf(t->path, sizeof t->path, "%s/%s", t->dir, name);
-    return t->path;
-}
-
-/* Number of entries in the directory other than . and .. */
-static int tdir_count(const tdir *t)
-{
-    DIR *d = opendir(t->dir);
-    assert_non_null(d);
-    int n = 0;
-    for (struct dirent *e; (e = readdir(d));)
-        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) n++;
-    closedir(d);
-    return n;
-}
-
-/* Removes the files in the directory, then the directory. */
-static void tdir_remove(tdir *t)
-{
-    DIR *d = opendir(t->dir);
-    assert_non_null(d);
-    for (struct dirent *e; (e = readdir(d));) {
-        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
-        char p[600];
-        snprintf(p, sizeof p, "%s/%s", t->dir, e->d_name);
-        unlink(p);
-    }
-    closedir(d);
-    assert_int_equal(rmdir(t->dir), 0);
-}
-
 static float *read_all(const char *path, const char *name, uint32_t w, uint32_t h)
 {
     char err[512];
@@ -239,7 +191,7 @@ static void test_exr_float_exact(void **state)
 {
     (void)state;
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     rng r = {test_seed() ^ 0xE1};
     uint32_t w = 97, h = 61;
     float *src = malloc((size_t)w * h * sizeof *src);
@@ -285,7 +237,7 @@ static void test_exr_half_rounding(void **state)
     }
     assert_int_equal(k, n);
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     vt_exr_channel ch = planar("Y", VT_EXR_HALF, src, w);
     write_ok(tdir_file(&t, "y.exr"), w, h, &ch, 1, VT_EXR_PIZ);
     float *out = read_all(t.path, "Y", w, h);
@@ -310,7 +262,7 @@ static void test_exr_half_representable_exact(void **state)
     assert_non_null(src);
     for (uint32_t i = 0; i < w * h; i++) src[i] = ref_half_to_float((uint16_t)i);
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     vt_exr_channel ch = planar("H", VT_EXR_HALF, src, w);
     write_ok(tdir_file(&t, "h.exr"), w, h, &ch, 1, VT_EXR_NONE);
     float *out = read_all(t.path, "H", w, h);
@@ -332,7 +284,7 @@ static void test_exr_half_precision(void **state)
     for (size_t i = 0; i < (size_t)w * h; i++)
         src[i] = (float)(rng_log(&r, 1e-9, 6.5e4) * (rng_below(&r, 2) ? 1 : -1));
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     vt_exr_channel ch = planar("L", VT_EXR_HALF, src, w);
     write_ok(tdir_file(&t, "l.exr"), w, h, &ch, 1, VT_EXR_ZIPS);
     float *out = read_all(t.path, "L", w, h);
@@ -362,7 +314,7 @@ static void test_exr_negative_stride(void **state)
          .y_stride = -(ptrdiff_t)w},
     };
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     write_ok(tdir_file(&t, "up.exr"), w, h, ch, 2, VT_EXR_ZIP);
     float *g = read_all(t.path, "G", w, h), *hh = read_all(t.path, "H", w, h);
     for (uint32_t y = 0; y < h; y++)
@@ -393,7 +345,7 @@ static void test_exr_interleaved_rgba(void **state)
         ch[c] = (vt_exr_channel){.name = names[c], .type = types[c], .data = px + c, .x_stride = 4,
                                  .y_stride = 4 * (ptrdiff_t)w};
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     write_ok(tdir_file(&t, "rgba.exr"), w, h, ch, 4, VT_EXR_PIZ);
     for (int c = 0; c < 4; c++) {
         float *out = read_all(t.path, names[c], w, h);
@@ -443,7 +395,7 @@ static void test_exr_every_compression(void **state)
         }
         for (size_t k = 0; k < sizeof comps / sizeof comps[0]; k++) {
             tdir t;
-            tdir_make(&t);
+            tdir_make(&t, "vt_exr_test");
             write_ok(tdir_file(&t, "c.exr"), w, h, ch, 7, comps[k].c);
             assert_int_equal(tdir_count(&t), 1);
             for (uint32_t c = 0; c < 7; c++) {
@@ -483,7 +435,7 @@ static void test_exr_large(void **state)
         uint32_t w = dims[d][0], h = dims[d][1];
         vt_exr_channel ch = {.name = "Y", .type = VT_EXR_HALF, .data = row, .x_stride = 1, .y_stride = 0};
         tdir t;
-        tdir_make(&t);
+        tdir_make(&t, "vt_exr_test");
         write_ok(tdir_file(&t, "big.exr"), w, h, &ch, 1, VT_EXR_ZIP);
         uint32_t rw, rh;
         assert_int_equal(vt_exr_size(t.path, &rw, &rh, NULL, 0), 0);
@@ -513,7 +465,7 @@ static void test_exr_bad_args(void **state)
     nodata.data = NULL;
     badtype.type = (vt_exr_type)7;
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     const char *p = tdir_file(&t, "bad.exr");
     struct { const char *path; uint32_t w, h; const vt_exr_channel *ch; uint32_t n; int comp; } cases[] = {
         {NULL, 2, 2, &ok, 1, 0},      {"", 2, 2, &ok, 1, 0},        {p, 0, 2, &ok, 1, 0},
@@ -555,7 +507,7 @@ static void test_exr_bad_path(void **state)
     vt_exr_channel ch = planar("R", VT_EXR_FLOAT, &v, 1);
     char err[512];
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     snprintf(t.path, sizeof t.path, "%s/missing/x.exr", t.dir);
     assert_int_equal(vt_exr_write(t.path, 1, 1, &ch, 1, VT_EXR_ZIP, err, sizeof err), -ENOENT);
     assert_non_null(strstr(err, t.path));
@@ -583,7 +535,7 @@ static void test_exr_failed_write_keeps_old(void **state)
     for (size_t i = 0; i < (size_t)w * h; i++) a[i] = (float)i;
     vt_exr_channel ch = planar("Z", VT_EXR_FLOAT, a, w);
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     write_ok(tdir_file(&t, "old.exr"), 4, 4, &ch, 1, VT_EXR_NONE);
     fflush(NULL);
     pid_t pid = fork();
@@ -622,7 +574,7 @@ static void test_exr_reader_errors(void **state)
     char err[512];
     uint32_t rw, rh;
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     assert_int_equal(vt_exr_read_channel(tdir_file(&t, "none.exr"), "Z", out, w, h, err, sizeof err), -ENOENT);
     assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), -ENOENT);
     FILE *f = fopen(tdir_file(&t, "text.exr"), "w");
@@ -689,7 +641,7 @@ static void test_exr_threads(void **state)
     (void)state;
     enum { N = 4 };
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_exr_test");
     pthread_t th[N];
     exr_thread args[N];
     for (int i = 0; i < N; i++) {

@@ -92,51 +92,6 @@ static void ref_thresholds(float t[256])
     }
 }
 
-/* ---- temporary directories --------------------------------------------- */
-
-typedef struct tdir {
-    char dir[256];
-    char path[320];
-} tdir;
-
-static void tdir_make(tdir *t)
-{
-    const char *base = getenv("TMPDIR");
-    snprintf(t->dir, sizeof t->dir, "%s/vt_image_test.XXXXXX", base && base[0] ? base : "/tmp");
-    assert_non_null(mkdtemp(t->dir));
-}
-
-static const char *tdir_file(tdir *t, const char *name)
-{
-    snprintf(t->path, sizeof t->path, "%s/%s", t->dir, name);
-    return t->path;
-}
-
-static int tdir_count(const tdir *t)
-{
-    DIR *d = opendir(t->dir);
-    assert_non_null(d);
-    int n = 0;
-    for (struct dirent *e; (e = readdir(d));)
-        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) n++;
-    closedir(d);
-    return n;
-}
-
-static void tdir_remove(tdir *t)
-{
-    DIR *d = opendir(t->dir);
-    assert_non_null(d);
-    for (struct dirent *e; (e = readdir(d));) {
-        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
-        char p[600];
-        snprintf(p, sizeof p, "%s/%s", t->dir, e->d_name);
-        if (unlink(p) != 0) rmdir(p);
-    }
-    closedir(d);
-    assert_int_equal(rmdir(t->dir), 0);
-}
-
 static uint8_t *read_file(const char *path, size_t *len)
 {
     FILE *f = fopen(path, "rb");
@@ -743,7 +698,7 @@ static void test_image_png_roundtrip(void **state)
     const uint32_t sizes[][2] = {{1, 1}, {2, 3}, {37, 23}, {255, 1}, {1, 300}, {129, 65}};
     const int levels[] = {-1, 0, 1, 6, 9};
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
         uint32_t w = sizes[s][0], h = sizes[s][1];
         size_t stride = (size_t)w * 4 + (s % 2 ? 5 : 0); /* padded rows too */
@@ -786,7 +741,7 @@ static void test_image_png_from_hdr(void **state)
     tonemap_ok(w, h, &su, &d, b, (size_t)w * 4);
     assert_memory_equal(a, b, (size_t)w * h * 4);
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     png_write_ok(tdir_file(&t, "hdr.png"), w, h, b, (size_t)w * 4, false, 9);
     png_check(t.path, w, h, a, (size_t)w * 4, false);
     check_python_png(&t, t.path, w, h, a, (size_t)w * 4, false);
@@ -806,7 +761,7 @@ static void test_image_png_reader_formats(void **state)
     (void)state;
     static bytes o;
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     uint8_t *got;
     uint32_t w, h;
     bool alpha;
@@ -876,7 +831,7 @@ static void test_image_jpeg_roundtrip(void **state)
     (void)state;
     const uint32_t sizes[][2] = {{1, 1}, {8, 8}, {161, 97}, {320, 240}, {17, 300}};
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     char err[512];
     for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
         uint32_t w = sizes[s][0], h = sizes[s][1];
@@ -999,7 +954,7 @@ static void test_image_large(void **state)
         row[x * 4 + 3] = (uint8_t)(x * 3);
     }
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     char err[512];
     const uint32_t dims[][2] = {{big, 3}, {2, big}};
     for (int d = 0; d < 2; d++) {
@@ -1033,7 +988,7 @@ static void test_image_bad_args(void **state)
     (void)state;
     uint8_t px[64] = {0};
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     const char *p = tdir_file(&t, "bad.img");
     const uint32_t M = VT_IMAGE_MAX_DIM;
     struct { const char *path; uint32_t w, h; const uint8_t *px; size_t stride; int level; } pc[] = {
@@ -1104,7 +1059,7 @@ static void test_image_bad_path(void **state)
     uint8_t px[16] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
     char err[512];
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     for (int fmt = 0; fmt < 2; fmt++) {
 #define WRITE(path) (fmt ? vt_jpeg_write((path), 2, 2, px, 8, 4, 85, err, sizeof err) \
                          : vt_png_write((path), 2, 2, px, 8, true, 6, err, sizeof err))
@@ -1149,7 +1104,7 @@ static void test_image_failed_write_keeps_old(void **state)
     rng r = {test_seed() ^ 0xF5};
     uint8_t *noise = random_rgba(&r, h, (size_t)w * 4);
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     for (int fmt = 0; fmt < 2; fmt++) {
         const char *p = tdir_file(&t, fmt ? "old.jpg" : "old.png");
         char err[512];
@@ -1253,7 +1208,7 @@ static void test_image_threads(void **state)
     (void)state;
     enum { N = 4 };
     tdir t;
-    tdir_make(&t);
+    tdir_make(&t, "vt_image_test");
     pthread_t th[N];
     img_thread args[N];
     for (int i = 0; i < N; i++) {

@@ -3,7 +3,10 @@
  */
 #include "test_util.h"
 
+#include <dirent.h>
+#include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 
 void test_view_everything(cull_view *v)
@@ -48,4 +51,42 @@ void test_assert_same_handles(const cull_handle *want, size_t n, const cull_resu
     assert_memory_equal(a, b, n * sizeof *a);
     free(a);
     free(b);
+}
+
+void tdir_make(tdir *t, const char *prefix)
+{
+    const char *base = getenv("TMPDIR");
+    snprintf(t->dir, sizeof t->dir, "%s/%s.XXXXXX", base && base[0] ? base : "/tmp", prefix);
+    assert_non_null(mkdtemp(t->dir));
+}
+
+const char *tdir_file(tdir *t, const char *name)
+{
+    snprintf(t->path, sizeof t->path, "%s/%s", t->dir, name);
+    return t->path;
+}
+
+int tdir_count(const tdir *t)
+{
+    DIR *d = opendir(t->dir);
+    assert_non_null(d);
+    int n = 0;
+    for (struct dirent *e; (e = readdir(d));)
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) n++;
+    closedir(d);
+    return n;
+}
+
+void tdir_remove(tdir *t)
+{
+    DIR *d = opendir(t->dir);
+    assert_non_null(d);
+    for (struct dirent *e; (e = readdir(d));) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        char p[600];
+        snprintf(p, sizeof p, "%s/%s", t->dir, e->d_name);
+        if (unlink(p) != 0) rmdir(p);
+    }
+    closedir(d);
+    assert_int_equal(rmdir(t->dir), 0);
 }

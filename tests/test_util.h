@@ -49,6 +49,18 @@ void test_view_everything(cull_view *v);
 /* Queries w with that view (ctx may be NULL); *out is malloc'ed. */
 size_t test_query_everything(const cull_world *w, cull_ctx *ctx, cull_result **out);
 /* res[0..got) holds exactly the n handles of want, in any order. */
+/* A temporary directory for file tests: made under $TMPDIR (or /tmp) with
+ * the given name prefix; tdir_file names a file in it; tdir_count counts
+ * its entries; tdir_remove deletes its files, then it. */
+typedef struct tdir {
+    char dir[256];
+    char path[320];
+} tdir;
+void tdir_make(tdir *t, const char *prefix);
+const char *tdir_file(tdir *t, const char *name);
+int tdir_count(const tdir *t);
+void tdir_remove(tdir *t);
+
 void test_assert_same_handles(const cull_handle *want, size_t n, const cull_result *res, size_t got);
 
 #define TEST_GROUP(name) \
