@@ -427,7 +427,7 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
     f->m = m;
     f->gen++;        /* a frame still being drawn for the old view is dropped */
     f->dirty = true; /* the first frame (or the new view) at once */
-    f->next_ms = 0;
+    f->next_ns = 0;
     vp_writer w;
     if (!out_reserve(c, VP_HEADER_SIZE + 12, &w)) {
         c->closing = true;
@@ -481,7 +481,7 @@ void frames_schedule(server *s)
         ae_set_timer(s->loop, 0, timer_noop, NULL);
         return;
     }
-    uint64_t now = ae_now_ms(), wake = UINT64_MAX;
+    uint64_t now = now_ns(), wake = UINT64_MAX; /* ns */
     for (uint32_t i = 0; i < s->nconns; i++) {
         conn *c = s->live[i];
         frame_sub *f = &c->fsub;
@@ -493,11 +493,11 @@ void frames_schedule(server *s)
         if (ioctl(c->fd, SIOCOUTQ, &outq) == 0 && (uint32_t)outq > slack) {
             /* still in the kernel, unacknowledged or unread: look again soon
                (no event says when it drains) */
-            if (now + 2 < wake) wake = now + 2;
+            if (now + 2000000 < wake) wake = now + 2000000;
             continue;
         }
-        if (now < f->next_ms) {
-            if (f->next_ms < wake) wake = f->next_ms;
+        if (now < f->next_ns) {
+            if (f->next_ns < wake) wake = f->next_ns;
             continue;
         }
         job *j = calloc(1, sizeof *j);
@@ -506,10 +506,14 @@ void frames_schedule(server *s)
                    .gen = f->gen, .stream_req = f->m.r};
         f->inflight = true;
         f->dirty = false;
-        f->next_ms = now + (1000u + f->m.max_fps - 1) / f->m.max_fps;
+        /* the cap: frame starts 1/max_fps apart (a late start does not
+           bank time for a burst) */
+        uint64_t period = 1000000000ull / f->m.max_fps;
+        f->next_ns = (f->next_ns && now - f->next_ns < period ? f->next_ns : now) + period;
         job_submit(s, j);
     }
-    ae_set_timer(s->loop, wake == UINT64_MAX ? 0 : (int)(wake - now), timer_noop, NULL);
+    /* the loop's timer is in whole ms: round up, never 0 (a busy loop) */
+    ae_set_timer(s->loop, wake == UINT64_MAX ? 0 : (int)((wake - now + 999999) / 1000000), timer_noop, NULL);
 }
 
 /* A stream's frame is back: sent if the subscription still wants it. */

@@ -23,7 +23,7 @@ typedef struct frame_sub {
     uint32_t gen;           /* bumped when re-aimed or ended: stale frames drop */
     vp_frame_sub m;
     uint64_t shown_epoch;   /* the scene epoch of the last frame sent */
-    uint64_t next_ms;       /* the rate cap: no frame starts before */
+    uint64_t next_ns;       /* the rate cap: no frame starts before (now_ns) */
     uint64_t frames;
     uint32_t last_bytes;    /* the size of the last frame sent */
 } frame_sub;
