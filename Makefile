@@ -68,7 +68,7 @@ CLI_BIN  := $(BUILD)/vantage
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
-RENDER_SRC:= render/vt_exr.c render/vt_soft.c render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c
+RENDER_SRC:= render/vt_exr.c render/vt_frame.c render/vt_soft.c render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_image.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
@@ -141,7 +141,7 @@ $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path and encodes JPEG (no GL, no EXR)
-DAEMON_RENDER := $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
+DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
                  $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)

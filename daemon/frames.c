@@ -28,11 +28,6 @@
 #include <string.h>
 #include <unistd.h>
 
-/* The unit cube, for classes without a mesh of their own. */
-static const float box_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1, -1, -1, 1, 1, -1, 1, -1, 1, 1, 1, 1, 1};
-static const uint32_t box_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,
-                                     2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
-
 /* A class's colour: a hash to a pleasant, not too dark, linear albedo. */
 static void class_albedo(uint16_t cls, float out[3])
 {
@@ -151,7 +146,7 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
         free(mesh_of);
         goto nomem;
     }
-    fi->meshes[0] = (vt_mesh){.pos = box_pos, .idx = box_idx, .nv = 8, .ni = 36};
+    fi->meshes[0] = vt_mesh_box;
     fi->nmesh = 1;
     for (size_t i = 0; i < n; i++) {
         cull_entity_desc e;

@@ -23,7 +23,7 @@
  * its duration; the callback runs on the calling thread.
  */
 #ifndef _GNU_SOURCE
-#define _GNU_SOURCE /* pread, pwrite, getrandom, GNU strerror_r */
+#define _GNU_SOURCE /* pread, pwrite, GNU strerror_r */
 #endif
 #include "vt_exr.h"
 #include "vt_file.h"
@@ -37,9 +37,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/random.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 /* ---- one call's error state ---------------------------------------------- */
@@ -407,7 +405,6 @@ int vt_exr_write(const char *path, uint32_t width, uint32_t height, const vt_exr
     exr_file f = {.fd = -1, .call = c};
     const vt_exr_channel **sorted = NULL;
     char *tmp = NULL;
-    char buf[128];
     int rc = 0;
     if (!path || !path[0]) {
         call_msg(c, "no path");
@@ -429,16 +426,10 @@ int vt_exr_write(const char *path, uint32_t width, uint32_t height, const vt_exr
     }
     if (rc == 0) rc = open_temp(c, path, &tmp, &f.fd);
     if (rc == 0) rc = write_exr(c, path, &f, width, height, sorted, nch, comp);
-    if (f.fd >= 0 && close(f.fd) != 0 && rc == 0) {
-        rc = -errno;
-        call_msg(c, "close: %s", errstr(-rc, buf, sizeof buf));
-    }
-    if (rc == 0 && rename(tmp, path) != 0) {
-        rc = -errno;
-        call_msg(c, "rename from %s: %s", tmp, errstr(-rc, buf, sizeof buf));
-    }
-    if (rc != 0 && tmp) unlink(tmp);
-    free(tmp);
+    char msg[600];
+    int frc = vt_temp_finish(path, tmp, f.fd, rc, msg, sizeof msg);
+    if (frc != rc) call_msg(c, "%s", msg);
+    rc = frc;
     free(sorted);
     return call_end(c, saved, rc);
 }

@@ -52,3 +52,19 @@ void vt_file_msgv(char *err, size_t errlen, bool *have, const char *where, const
     if (n < 0 || (size_t)n >= errlen) return;
     vsnprintf(err + n, errlen - (size_t)n, fmt, ap);
 }
+
+int vt_temp_finish(const char *path, char *tmp, int fd, int rc, char *msg, size_t msglen)
+{
+    char buf[128];
+    if (fd >= 0 && close(fd) != 0 && rc == 0) {
+        rc = -errno;
+        snprintf(msg, msglen, "close: %s", strerror_r(-rc, buf, sizeof buf));
+    }
+    if (rc == 0 && rename(tmp, path) != 0) {
+        rc = -errno;
+        snprintf(msg, msglen, "rename from %s: %s", tmp, strerror_r(-rc, buf, sizeof buf));
+    }
+    if (rc != 0 && tmp) unlink(tmp);
+    free(tmp);
+    return rc;
+}

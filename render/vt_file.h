@@ -14,6 +14,12 @@
  * *fd open for writing. 0, or a negative errno with a message in msg. */
 int vt_temp_open(const char *path, char **tmp, int *fd, char *msg, size_t msglen);
 
+/* Finishes what vt_temp_open began, given the writer's result rc: closes
+ * fd (when >= 0), renames tmp over path when all went well, removes tmp
+ * otherwise, frees tmp. Returns rc, or a new negative errno (close or
+ * rename failed) with a message in msg. */
+int vt_temp_finish(const char *path, char *tmp, int fd, int rc, char *msg, size_t msglen);
+
 /* The writers' error message: "WHERE: message" into err, the first call
  * only (*have records it: the first failure is the cause, later ones are
  * consequences). Nothing when err is NULL or errlen 0. */

@@ -13,6 +13,7 @@
  * and is turned into coverage and depth on the CPU, as vt_soft does.
  */
 #include "vt_glr.h"
+#include "vt_frame.h"
 
 #include <epoxy/gl.h>
 #include <errno.h>
@@ -23,31 +24,48 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define TILE CULL_LIGHT_TILE
-#define EMPTY (-FLT_MAX)
+#define TILE VT_TILE
+#define EMPTY VT_EMPTY
+#define fail vt_fail
+
+/* One mesh's share of the frame's two vertex buffers. */
+typedef struct mesh_draw {
+    uint32_t vfirst, nvx;   /* expanded vertices */
+    uint32_t ifirst, ninst; /* instances */
+    float b[6];             /* the mesh's bounds */
+} mesh_draw;
 
 struct vt_glr {
     vt_gl *g;
     unsigned prog, vao;
+    int loc_vp, loc_d, loc_pass, loc_tiles_x;
     unsigned tex[3], buf[3]; /* buffer textures: lights, tile offsets, tile indices */
+    unsigned vbuf, ibuf;     /* this frame's vertices and instances, all meshes */
     vt_gl_target *target;
-    uint32_t tw, th;
+    /* per frame, grown as needed */
     float *pix;              /* readback */
     size_t pix_cap;
+    float *vx, *iv, *ld;     /* vertices, instances, lights as uploaded */
+    size_t vx_cap, iv_cap, ld_cap;
+    mesh_draw *md;
+    size_t md_cap;
+    float (*range)[2];
+    size_t range_cap;
     cull_light_tiles tiles;
     cull_light *cl;
     size_t cl_cap;
 };
 
-static int fail(char *err, size_t errlen, int code, const char *fmt, ...)
+static bool grow(void **p, size_t *cap, size_t need, size_t elem)
 {
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return code;
+    if (need <= *cap) return true;
+    size_t c = *cap ? *cap : 256;
+    while (c < need) c *= 2;
+    void *n = realloc(*p, c * elem);
+    if (!n) return false;
+    *p = n;
+    *cap = c;
+    return true;
 }
 
 static const char *vs_src =
@@ -137,6 +155,16 @@ int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
     glGenVertexArrays(1, &r->vao);
     glGenTextures(3, r->tex);
     glGenBuffers(3, r->buf);
+    glGenBuffers(1, &r->vbuf);
+    glGenBuffers(1, &r->ibuf);
+    r->loc_vp = glGetUniformLocation(r->prog, "u_vp");
+    r->loc_d = glGetUniformLocation(r->prog, "u_d");
+    r->loc_pass = glGetUniformLocation(r->prog, "u_pass");
+    r->loc_tiles_x = glGetUniformLocation(r->prog, "u_tiles_x");
+    glUseProgram(r->prog); /* the samplers' units never change */
+    glUniform1i(glGetUniformLocation(r->prog, "u_lights"), 0);
+    glUniform1i(glGetUniformLocation(r->prog, "u_offset"), 1);
+    glUniform1i(glGetUniformLocation(r->prog, "u_index"), 2);
     *out = r;
     return 0;
 }
@@ -147,10 +175,17 @@ void vt_glr_destroy(vt_glr *r)
     vt_gl_target_destroy(r->target);
     glDeleteTextures(3, r->tex);
     glDeleteBuffers(3, r->buf);
+    glDeleteBuffers(1, &r->vbuf);
+    glDeleteBuffers(1, &r->ibuf);
     glDeleteVertexArrays(1, &r->vao);
     glDeleteProgram(r->prog);
     cull_light_tiles_free(&r->tiles);
     free(r->pix);
+    free(r->vx);
+    free(r->iv);
+    free(r->ld);
+    free(r->md);
+    free(r->range);
     free(r->cl);
     free(r);
 }
@@ -164,50 +199,36 @@ static void tbo(unsigned tex, unsigned buf, GLenum format, const void *data, siz
     glTexBuffer(GL_TEXTURE_BUFFER, format, buf);
 }
 
-/* Draws every instance, mesh by mesh. */
-static int draw_all(const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
-                    const double origin[3], char *err, size_t errlen)
+/* Uploads the frame's geometry once for both passes: every mesh's
+ * vertices (positions and normals per index, so a mesh without normals
+ * gets its faces', the ones vt_soft shades with) into one buffer, and the
+ * instances, grouped by mesh (scale, camera-relative shift, albedo; the
+ * transform in double, as vt_soft computes it), into another. */
+static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
+                  const double origin[3], char *err, size_t errlen)
 {
-    unsigned vb[2];
-    glGenBuffers(2, vb);
-    float *iv = malloc(((size_t)ninst + 1) * 9 * sizeof *iv);
-    if (!iv) {
-        glDeleteBuffers(2, vb);
+    size_t nvx = 0;
+    if (!grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
+        !grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * 9, sizeof *r->iv))
         return fail(err, errlen, -ENOMEM, "out of memory");
+    memset(r->md, 0, (size_t)nmesh * sizeof *r->md);
+    for (uint32_t i = 0; i < ninst; i++) r->md[inst[i].mesh].ninst++;
+    for (uint32_t mi = 0, first = 0; mi < nmesh; mi++) {
+        mesh_draw *d = &r->md[mi];
+        d->ifirst = first;
+        first += d->ninst;
+        d->vfirst = (uint32_t)nvx;
+        d->nvx = d->ninst ? meshes[mi].ni : 0;
+        if (d->ninst) vt_mesh_bounds(&meshes[mi], d->b);
+        nvx += d->nvx;
+        d->ninst = 0; /* counted again as the instances are placed */
     }
-    int rc = 0;
-    for (uint32_t mi = 0; mi < nmesh && !rc; mi++) {
+    if (!grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx))
+        return fail(err, errlen, -ENOMEM, "out of memory");
+    for (uint32_t mi = 0; mi < nmesh; mi++) {
         const vt_mesh *m = &meshes[mi];
-        /* the mesh's bounds, and its instances' scale and shift (double) */
-        float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
-        for (uint32_t k = 0; k < m->nv; k++)
-            for (int a = 0; a < 3; a++) {
-                lo[a] = fminf(lo[a], m->pos[3 * k + a]);
-                hi[a] = fmaxf(hi[a], m->pos[3 * k + a]);
-            }
-        uint32_t n = 0;
-        for (uint32_t i = 0; i < ninst; i++) {
-            if (inst[i].mesh != mi) continue;
-            float *q = iv + 9 * (size_t)n++;
-            for (int a = 0; a < 3; a++) {
-                double ext = (double)hi[a] - lo[a];
-                double scale = ext > 0 ? (inst[i].bmax[a] - inst[i].bmin[a]) / ext : 0;
-                double shift = ext > 0 ? inst[i].bmin[a] - origin[a] - lo[a] * scale
-                                       : 0.5 * (inst[i].bmin[a] + inst[i].bmax[a]) - origin[a];
-                q[a] = (float)scale;
-                q[3 + a] = (float)shift;
-                q[6 + a] = inst[i].albedo[a];
-            }
-        }
-        if (!n) continue;
-        /* vertices: positions and normals per index, so a mesh without
-           normals gets its faces' (what vt_soft shades with) */
-        size_t nvx = m->ni;
-        float *vx = malloc(nvx * 6 * sizeof *vx);
-        if (!vx) {
-            rc = fail(err, errlen, -ENOMEM, "out of memory");
-            break;
-        }
+        if (!r->md[mi].nvx) continue;
+        float *vx = r->vx + 6 * (size_t)r->md[mi].vfirst;
         for (uint32_t t = 0; t < m->ni / 3; t++) {
             const float *p0 = m->pos + 3 * m->idx[3 * t], *p1 = m->pos + 3 * m->idx[3 * t + 1],
                         *p2 = m->pos + 3 * m->idx[3 * t + 2];
@@ -230,29 +251,48 @@ static int draw_all(const vt_mesh *meshes, uint32_t nmesh, const vt_instance *in
                 else memcpy(o + 3, fn, sizeof fn);
             }
         }
-        glBindBuffer(GL_ARRAY_BUFFER, vb[0]);
-        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nvx * 6 * sizeof *vx), vx, GL_STREAM_DRAW);
-        free(vx);
-        glEnableVertexAttribArray(0);
-        glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 24, (void *)0);
-        glVertexAttribDivisor(0, 0);
-        glEnableVertexAttribArray(1);
-        glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 24, (void *)12);
-        glVertexAttribDivisor(1, 0);
-        glBindBuffer(GL_ARRAY_BUFFER, vb[1]);
-        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((size_t)n * 9 * sizeof *iv), iv, GL_STREAM_DRAW);
-        for (int a = 0; a < 3; a++) {
-            glEnableVertexAttribArray(2 + (unsigned)a);
-            glVertexAttribPointer(2 + (unsigned)a, 3, GL_FLOAT, GL_FALSE, 36, (void *)(uintptr_t)(12 * a));
-            glVertexAttribDivisor(2 + (unsigned)a, 1);
-        }
-        glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)nvx, (GLsizei)n);
     }
-    free(iv);
-    glDeleteBuffers(2, vb);
+    for (uint32_t i = 0; i < ninst; i++) {
+        mesh_draw *d = &r->md[inst[i].mesh];
+        double scale[3], shift[3];
+        vt_instance_xform(&inst[i], d->b, origin, scale, shift);
+        float *q = r->iv + 9 * ((size_t)d->ifirst + d->ninst++);
+        for (int a = 0; a < 3; a++) {
+            q[a] = (float)scale[a];
+            q[3 + a] = (float)shift[a];
+            q[6 + a] = inst[i].albedo[a];
+        }
+    }
+    glBindBuffer(GL_ARRAY_BUFFER, r->vbuf);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((nvx ? nvx : 1) * 6 * sizeof *r->vx), r->vx, GL_STREAM_DRAW);
+    glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(((size_t)ninst + 1) * 9 * sizeof *r->iv), r->iv, GL_STREAM_DRAW);
     GLenum e = glGetError();
-    if (!rc && e != GL_NO_ERROR) rc = fail(err, errlen, VT_GL_ERR_GL, "draw: GL error 0x%x", e);
-    return rc;
+    return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "upload: GL error 0x%x", e);
+}
+
+/* Draws what upload put in the buffers: one instanced draw per mesh. */
+static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
+{
+    for (uint32_t mi = 0; mi < nmesh; mi++) {
+        const mesh_draw *d = &r->md[mi];
+        if (!d->ninst) continue;
+        glBindBuffer(GL_ARRAY_BUFFER, r->vbuf);
+        for (unsigned a = 0; a < 2; a++) {
+            glEnableVertexAttribArray(a);
+            glVertexAttribPointer(a, 3, GL_FLOAT, GL_FALSE, 24, (void *)(uintptr_t)(24 * (size_t)d->vfirst + 12 * a));
+            glVertexAttribDivisor(a, 0);
+        }
+        glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
+        for (unsigned a = 0; a < 3; a++) {
+            glEnableVertexAttribArray(2 + a);
+            glVertexAttribPointer(2 + a, 3, GL_FLOAT, GL_FALSE, 36, (void *)(uintptr_t)(36 * (size_t)d->ifirst + 12 * a));
+            glVertexAttribDivisor(2 + a, 1);
+        }
+        glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)d->nvx, (GLsizei)d->ninst);
+    }
+    GLenum e = glGetError();
+    return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "draw: GL error 0x%x", e);
 }
 
 int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
@@ -260,43 +300,40 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
                   float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
     if (st) memset(st, 0, sizeof *st);
-    if (!r || !v || !rgba || !depth || (ninst && (!inst || !meshes)) || (nl && !lights))
-        return fail(err, errlen, -EINVAL, "missing argument");
-    if (width < 1 || height < 1 || width > 16384 || height > 16384 || stride < width)
-        return fail(err, errlen, -EINVAL, "size %ux%u (stride %zu) outside 1..16384", width, height, stride);
-    for (uint32_t i = 0; i < ninst; i++)
-        if (inst[i].mesh >= nmesh) return fail(err, errlen, -EINVAL, "instance %u: no mesh %u", i, inst[i].mesh);
-    int rc = vt_gl_make_current(r->g, err, errlen);
-    if (rc) return rc;
+    if (!r) return fail(err, errlen, -EINVAL, "missing argument");
     cull_view_rows vr;
-    cull_view_rows_get(v, &vr);
+    int rc = vt_frame_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &vr, err,
+                            errlen);
+    if (rc) return rc;
+    if ((rc = vt_gl_make_current(r->g, err, errlen))) return rc;
     bool reversed = v->depth_mode == CULL_DEPTH_REVERSED;
     if (v->depth_mode != CULL_DEPTH_GL) {
         if ((rc = vt_gl_clip_control(r->g, true, err, errlen))) return rc;
     } else if (vt_gl_get_info(r->g)->clip_control) {
         vt_gl_clip_control(r->g, false, NULL, 0);
     }
-    if (!r->target || r->tw != width || r->th != height) {
-        vt_gl_target_destroy(r->target);
-        r->target = NULL;
+    if (!r->target) {
         vt_gl_target_desc td = {.color = VT_GL_RGBA32F};
         if ((rc = vt_gl_target_create(r->g, width, height, &td, &r->target, err, errlen))) return rc;
-        r->tw = width;
-        r->th = height;
+    } else if ((rc = vt_gl_target_resize(r->target, width, height, err, errlen))) {
+        vt_gl_target_destroy(r->target); /* after a failed resize it must go */
+        r->target = NULL;
+        return rc;
     }
     size_t npx = (size_t)width * height;
-    if (npx * 4 > r->pix_cap) {
-        float *p = realloc(r->pix, npx * 4 * sizeof *p);
-        if (!p) return fail(err, errlen, -ENOMEM, "out of memory");
-        r->pix = p;
-        r->pix_cap = npx * 4;
-    }
+    uint32_t tx = (width + TILE - 1) / TILE, ty = (height + TILE - 1) / TILE;
+    if (!grow((void **)&r->pix, &r->pix_cap, npx * 4, sizeof *r->pix) ||
+        !grow((void **)&r->range, &r->range_cap, (size_t)tx * ty, sizeof *r->range) ||
+        !grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
+        !grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
+        return fail(err, errlen, -ENOMEM, "out of memory");
+    if ((rc = upload(r, meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
     float vp[16], d4[4];
     for (int i = 0; i < 16; i++) vp[i] = (float)v->clip[i];
     for (int i = 0; i < 4; i++) d4[i] = (float)vr.d[i];
     glUseProgram(r->prog);
-    glUniformMatrix4fv(glGetUniformLocation(r->prog, "u_vp"), 1, GL_FALSE, vp);
-    glUniform4fv(glGetUniformLocation(r->prog, "u_d"), 1, d4);
+    glUniformMatrix4fv(r->loc_vp, 1, GL_FALSE, vp);
+    glUniform4fv(r->loc_d, 1, d4);
     glBindVertexArray(r->vao);
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
@@ -308,41 +345,13 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
 
     /* pass 1, only where there are lights to bin: nearness (and depth) */
     vt_gl_target_clear(r->target, clear, reversed ? 0.0f : 1.0f);
-    uint32_t tx = (width + TILE - 1) / TILE, ty = (height + TILE - 1) / TILE;
-    float(*range)[2] = NULL;
     if (nl) {
-        glUniform1i(glGetUniformLocation(r->prog, "u_pass"), 0);
-        if ((rc = draw_all(meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
+        glUniform1i(r->loc_pass, 0);
+        if ((rc = draw(r, nmesh, err, errlen))) return rc;
         if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
-        range = malloc((size_t)tx * ty * sizeof *range);
-        if (!range) return fail(err, errlen, -ENOMEM, "out of memory");
-        for (size_t t = 0; t < (size_t)tx * ty; t++) {
-            range[t][0] = -FLT_MAX;
-            range[t][1] = FLT_MAX;
-        }
-        for (uint32_t y = 0; y < height; y++)
-            for (uint32_t x = 0; x < width; x++) {
-                float z = r->pix[4 * ((size_t)y * width + x) + 3];
-                if (z == EMPTY) continue;
-                float(*q)[2] = &range[(y / TILE) * tx + x / TILE];
-                if (z > (*q)[0]) (*q)[0] = z;
-                if (z < (*q)[1]) (*q)[1] = z;
-            }
+        vt_tile_ranges(r->pix + 3, 4, 4 * (size_t)width, width, height, r->range);
     }
-    if ((size_t)nl + 1 > r->cl_cap) {
-        cull_light *p = realloc(r->cl, ((size_t)nl + 1) * sizeof *p);
-        if (!p) {
-            free(range);
-            return fail(err, errlen, -ENOMEM, "out of memory");
-        }
-        r->cl = p;
-        r->cl_cap = (size_t)nl + 1;
-    }
-    float *ld = malloc(((size_t)nl + 1) * 16 * sizeof *ld);
-    if (!ld) {
-        free(range);
-        return fail(err, errlen, -ENOMEM, "out of memory");
-    }
+    float *ld = r->ld;
     for (uint32_t i = 0; i < nl; i++) {
         const vt_light *L = &lights[i];
         float *q = ld + 16 * (size_t)i;
@@ -355,15 +364,12 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
         q[3] = (float)(L->l.radius * L->l.radius);
         q[7] = L->l.type == CULL_LIGHT_SPOT ? 1.0f : 0.0f;
         q[11] = L->l.cos_outer;
-        q[12] = L->cos_inner > L->l.cos_outer ? L->cos_inner : L->l.cos_outer + 1e-4f;
+        q[12] = vt_light_cos_inner(L);
         q[13] = q[14] = q[15] = 0;
     }
-    int lrc = cull_lights_bin(v, width, height, r->cl, nl, (const float(*)[2])range, &r->tiles);
-    free(range);
-    if (lrc != CULL_OK) {
-        free(ld);
-        return fail(err, errlen, -EINVAL, "lights: %s", cull_strerror(lrc));
-    }
+    int lrc = cull_lights_bin(v, width, height, r->cl, nl, nl ? (const float(*)[2])r->range : NULL, &r->tiles);
+    if (lrc != CULL_OK)
+        return fail(err, errlen, lrc == CULL_ERR_NOMEM ? -ENOMEM : -EINVAL, "lights: %s", cull_strerror(lrc));
     /* pass 2: shading with the tile lists */
     glActiveTexture(GL_TEXTURE0);
     tbo(r->tex[0], r->buf[0], GL_RGBA32F, ld, (size_t)nl * 16 * sizeof *ld);
@@ -371,12 +377,8 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     tbo(r->tex[1], r->buf[1], GL_R32UI, r->tiles.offset, ((size_t)tx * ty + 1) * sizeof(uint32_t));
     glActiveTexture(GL_TEXTURE2);
     tbo(r->tex[2], r->buf[2], GL_R32UI, r->tiles.index, (size_t)r->tiles.offset[tx * ty] * sizeof(uint32_t));
-    free(ld);
-    glUniform1i(glGetUniformLocation(r->prog, "u_lights"), 0);
-    glUniform1i(glGetUniformLocation(r->prog, "u_offset"), 1);
-    glUniform1i(glGetUniformLocation(r->prog, "u_index"), 2);
-    glUniform1i(glGetUniformLocation(r->prog, "u_tiles_x"), (int)tx);
-    glUniform1i(glGetUniformLocation(r->prog, "u_pass"), 1);
+    glUniform1i(r->loc_tiles_x, (int)tx);
+    glUniform1i(r->loc_pass, 1);
     if (nl) {
         /* the depth of pass 1 stays: each pixel is shaded once, by the
            surface pass 1 found there (the same positions: invariant) */
@@ -384,7 +386,7 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
         glDepthFunc(reversed ? GL_GEQUAL : GL_LEQUAL);
         glDepthMask(GL_FALSE);
     }
-    rc = draw_all(meshes, nmesh, inst, ninst, v->origin, err, errlen);
+    rc = draw(r, nmesh, err, errlen);
     glDepthMask(GL_TRUE);
     if (rc) return rc;
     if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
@@ -403,7 +405,7 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
             c[1] = p[1];
             c[2] = p[2];
             c[3] = 1;
-            *dz = !vr.ortho ? 1.0f / nz : v->depth_mode == CULL_DEPTH_GL ? 1.0f - 0.5f * nz : 1.0f - nz;
+            *dz = vt_depth_of(v, &vr, nz);
         }
     if (st) {
         st->lights_in_view = r->tiles.in_view;

@@ -39,7 +39,7 @@
  * images, but that depends on content, so the default stays.
  */
 #ifndef _GNU_SOURCE
-#define _GNU_SOURCE /* getrandom, GNU strerror_r */
+#define _GNU_SOURCE /* GNU strerror_r */
 #endif
 #include "vt_image.h"
 #include "vt_file.h"
@@ -54,9 +54,7 @@
 #include <stdio.h> /* before jpeglib.h, which uses FILE */
 #include <stdlib.h>
 #include <string.h>
-#include <sys/random.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <jerror.h>
@@ -487,7 +485,6 @@ static int write_file(img_call *c, const char *path, int (*enc)(void *job, sink 
 {
     sink s = {.fd = -1, .call = c};
     char *tmp = NULL;
-    char buf[128];
     int rc = open_temp(c, path, &tmp, &s.fd);
     if (rc == 0 && !(s.buf = malloc(SINK_CHUNK))) {
         call_msg(c, "out of memory");
@@ -496,16 +493,10 @@ static int write_file(img_call *c, const char *path, int (*enc)(void *job, sink 
     s.cap = SINK_CHUNK;
     if (rc == 0) rc = enc(job, &s);
     if (rc == 0 && !sink_flush(&s)) rc = -s.err;
-    if (s.fd >= 0 && close(s.fd) != 0 && rc == 0) {
-        rc = -errno;
-        call_msg(c, "close: %s", errstr(-rc, buf, sizeof buf));
-    }
-    if (rc == 0 && rename(tmp, path) != 0) {
-        rc = -errno;
-        call_msg(c, "rename from %s: %s", tmp, errstr(-rc, buf, sizeof buf));
-    }
-    if (rc != 0 && tmp) unlink(tmp);
-    free(tmp);
+    char msg[600];
+    int frc = vt_temp_finish(path, tmp, s.fd, rc, msg, sizeof msg);
+    if (frc != rc) call_msg(c, "%s", msg);
+    rc = frc;
     free(s.buf);
     return rc;
 }

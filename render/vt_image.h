@@ -28,9 +28,10 @@
  * that name survives) and the temporary is removed. Not fsync'ed. A
  * symlink at `path` is replaced, not written through.
  *
- * Threading: no shared mutable state, not even thread-locals (both
- * libraries hand each call's own state to their error callbacks). Any
- * number of calls may run at once on different paths.
+ * Threading: no shared mutable state but the ACES tone-mapping tables,
+ * built once on first use (pthread_once) and read-only after; no
+ * thread-locals (both libraries hand each call's own state to their error
+ * callbacks). Any number of calls may run at once on different paths.
  *
  * Errors: 0 or a negative errno value — -EINVAL bad arguments (including a
  * size outside 1..VT_IMAGE_MAX_DIM), -ENOMEM, -ENOENT / -EACCES / -ENOSPC

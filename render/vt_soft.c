@@ -20,13 +20,11 @@
  * Shading once per pixel, whatever the overdraw, is the point of the
  * visibility buffer.
  */
-#include "vt_soft.h"
+#include "vt_frame.h"
 
 #include <errno.h>
 #include <float.h>
 #include <math.h>
-#include <stdarg.h>
-#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -35,8 +33,8 @@
 
 #define SUB 256.0          /* sub-pixel steps */
 #define GUARD 4.0          /* guard band: |x|, |y| <= GUARD w */
-#define TILE CULL_LIGHT_TILE
-#define EMPTY (-FLT_MAX)
+#define TILE VT_TILE
+#define EMPTY VT_EMPTY
 #define MAX_THREADS 32u
 #define ID_BITS 27u         /* a pixel's triangle: set-up thread << 27 | its record */
 #define AMBIENT 0.03f
@@ -90,8 +88,11 @@ struct vt_soft {
     cull_pool *pool;
     uint32_t threads;
     float *near;            /* nearness per pixel */
+    size_t near_cap;
     uint32_t *id;           /* shading record + 1 per pixel, 0 = nothing */
-    size_t px_cap;
+    size_t id_cap;
+    float (*mb)[6];         /* each mesh's bounds, this frame */
+    size_t mb_cap;
     struct tbuf *tb;        /* per set-up thread: its triangles */
     float (*range)[2];
     size_t range_cap;
@@ -109,16 +110,7 @@ static uint64_t now_ns(void)
     return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
 }
 
-static int fail(char *err, size_t errlen, int code, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
+#define fail vt_fail
 
 static bool grow(void **p, size_t *cap, size_t need, size_t elem)
 {
@@ -150,6 +142,7 @@ void vt_soft_destroy(vt_soft *r)
     if (!r) return;
     free(r->near);
     free(r->id);
+    free(r->mb);
     for (uint32_t t = 0; r->tb && t < MAX_THREADS; t++) {
         free(r->tb[t].rt);
         free(r->tb[t].st);
@@ -161,19 +154,6 @@ void vt_soft_destroy(vt_soft *r)
     free(r->sl);
     cull_light_tiles_free(&r->tiles);
     free(r);
-}
-
-int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen)
-{
-    if (!m || !m->pos || !m->idx || !m->nv || !m->ni || m->ni % 3)
-        return fail(err, errlen, -EINVAL, "mesh: needs vertices and a multiple of 3 indices");
-    for (uint32_t i = 0; i < m->ni; i++)
-        if (m->idx[i] >= m->nv)
-            return fail(err, errlen, -EINVAL, "mesh: index %u is %u, past %u vertices", i, m->idx[i], m->nv);
-    for (uint32_t i = 0; i < 3 * m->nv; i++)
-        if (!isfinite(m->pos[i]) || (m->nrm && !isfinite(m->nrm[i])))
-            return fail(err, errlen, -EINVAL, "mesh: vertex %u is not finite", i / 3);
-    return 0;
 }
 
 /* ---- set-up --------------------------------------------------------------------- */
@@ -241,8 +221,8 @@ static int clip_poly(cv *in, int n, double pl[6][4])
     return n;
 }
 
-static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const vt_instance *inst,
-                 uint32_t i0, uint32_t i1, char *err, size_t errlen)
+static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const float (*mb)[6],
+                 const vt_instance *inst, uint32_t i0, uint32_t i1, char *err, size_t errlen)
 {
     r->nrt = r->nst = 0;
     double pl[6][4];
@@ -253,18 +233,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         const vt_instance *in = &inst[ii];
         const vt_mesh *m = &meshes[in->mesh];
         /* the mesh's bounds onto the instance's box */
-        float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
-        for (uint32_t k = 0; k < m->nv; k++)
-            for (int a = 0; a < 3; a++) {
-                lo[a] = fminf(lo[a], m->pos[3 * k + a]);
-                hi[a] = fmaxf(hi[a], m->pos[3 * k + a]);
-            }
         double scale[3], shift[3];
-        for (int a = 0; a < 3; a++) {
-            double ext = (double)hi[a] - lo[a];
-            scale[a] = ext > 0 ? (in->bmax[a] - in->bmin[a]) / ext : 0;
-            shift[a] = ext > 0 ? in->bmin[a] - o[a] - lo[a] * scale[a] : 0.5 * (in->bmin[a] + in->bmax[a]) - o[a];
-        }
+        vt_instance_xform(in, mb[in->mesh], o, scale, shift);
         /* every vertex once: camera-relative position and clip coordinates */
         if (!grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
             return fail(err, errlen, -ENOMEM, "out of memory for %u vertices", m->nv);
@@ -355,12 +325,11 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             for (int k = 1; k + 1 < n; k++) {
                 rtri *rt = &r->rt[r->nrt];
                 int id[3] = {0, k, k + 1};
-                int64_t area = 0;
                 for (int q = 0; q < 3; q++) {
                     rt->x[q] = ix[id[q]];
                     rt->y[q] = iy[id[q]];
                 }
-                area = (int64_t)(rt->x[1] - rt->x[0]) * (rt->y[2] - rt->y[0]) -
+                int64_t area = (int64_t)(rt->x[1] - rt->x[0]) * (rt->y[2] - rt->y[0]) -
                        (int64_t)(rt->y[1] - rt->y[0]) * (rt->x[2] - rt->x[0]);
                 if (area <= 0) continue; /* snapped to nothing, or turned over */
                 /* nearness plane through the three projected vertices */
@@ -403,6 +372,7 @@ typedef struct job {
     vt_soft *r;
     const frame *fr;
     const vt_mesh *meshes;
+    const float (*mb)[6];   /* each mesh's bounds */
     const vt_instance *inst;
     uint32_t ninst;
     float *rgba, *depth;
@@ -458,7 +428,7 @@ static void job_setup(void *arg, uint32_t t)
     tbuf *b = &jb->r->tb[t];
     uint32_t i0 = (uint32_t)((uint64_t)jb->ninst * t / jb->nthreads);
     uint32_t i1 = (uint32_t)((uint64_t)jb->ninst * (t + 1) / jb->nthreads);
-    b->rc = setup(b, t, jb->fr, jb->meshes, jb->inst, i0, i1, b->err, sizeof b->err);
+    b->rc = setup(b, t, jb->fr, jb->meshes, jb->mb, jb->inst, i0, i1, b->err, sizeof b->err);
 }
 
 /* Thread t owns the 16-row tile rows tr with tr % nthreads == t: it clears
@@ -555,7 +525,6 @@ static void job_shade(void *arg, uint32_t t)
     const vt_soft *r = jb->r;
     const frame *fr = jb->fr;
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
-    bool ortho = fr->vr.ortho;
     for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
         for (uint32_t y = tr * TILE; y < y1; y++) {
@@ -571,12 +540,7 @@ static void job_shade(void *arg, uint32_t t)
                 }
                 double X = (2.0 * x + 1) / fr->w - 1;
                 shade_pixel(r, &r->tiles, tr * tx + x / TILE, X, Y, irow[x], crow + 4 * x);
-                /* perspective: depth w = 1 / nearness; orthographic: the
-                   nearness is 1 - z_ndc (z_ndc reversed): 0..1 near to far */
-                float nz = nrow[x];
-                drow[x] = !ortho ? 1.0f / nz
-                                 : fr->v->depth_mode == CULL_DEPTH_GL ? 1.0f - 0.5f * nz
-                                 : 1.0f - nz;
+                drow[x] = vt_depth_of(fr->v, &fr->vr, nrow[x]);
             }
         }
     }
@@ -594,31 +558,23 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
                    float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
     if (st) memset(st, 0, sizeof *st);
-    if (!r || !v || !rgba || !depth || (ninst && (!inst || !meshes)) || (nl && !lights))
-        return fail(err, errlen, -EINVAL, "missing argument");
-    if (width < 1 || height < 1 || width > 16384 || height > 16384 || stride < width)
-        return fail(err, errlen, -EINVAL, "size %ux%u (stride %zu) outside 1..16384", width, height, stride);
-    for (uint32_t i = 0; i < ninst; i++) {
-        if (inst[i].mesh >= nmesh) return fail(err, errlen, -EINVAL, "instance %u: no mesh %u", i, inst[i].mesh);
-        for (int a = 0; a < 3; a++)
-            if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
-                return fail(err, errlen, -EINVAL, "instance %u: bad bounds", i);
-    }
+    if (!r) return fail(err, errlen, -EINVAL, "missing argument");
     frame fr = {.v = v, .w = width, .h = height};
-    cull_view_rows_get(v, &fr.vr);
-    if (!fr.vr.usable) return fail(err, errlen, -EINVAL, "orthographic view with w <= 0");
+    int rc = vt_frame_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &fr.vr,
+                            err, errlen);
+    if (rc) return rc;
     size_t npx = (size_t)width * height;
-    if (!grow((void **)&r->near, &r->px_cap, npx, sizeof *r->near)) return fail(err, errlen, -ENOMEM, "out of memory");
-    size_t idcap = r->px_cap;
-    uint32_t *nid = realloc(r->id, idcap * sizeof *nid);
-    if (!nid) return fail(err, errlen, -ENOMEM, "out of memory");
-    r->id = nid;
+    if (!grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
+        !grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
+        !grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
+        return fail(err, errlen, -ENOMEM, "out of memory");
+    for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
 
     if (!r->tb && !(r->tb = calloc(MAX_THREADS, sizeof *r->tb))) return fail(err, errlen, -ENOMEM, "out of memory");
     uint32_t trows = (height + TILE - 1) / TILE;
     uint32_t nt = r->threads < trows ? r->threads : trows;
     if (!nt) nt = 1;
-    job jb = {.r = r, .fr = &fr, .meshes = meshes, .inst = inst, .ninst = ninst, .rgba = rgba, .depth = depth,
+    job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst, .rgba = rgba, .depth = depth,
               .stride = stride, .nthreads = nt};
     uint64_t t0 = now_ns();
     if (nt > 1) cull_pool_run(r->pool, job_setup, &jb, nt);
@@ -638,21 +594,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     if (!grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
         !grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl))
         return fail(err, errlen, -ENOMEM, "out of memory");
-    for (size_t t = 0; t < (size_t)tx * trows; t++) {
-        r->range[t][0] = -FLT_MAX;
-        r->range[t][1] = FLT_MAX;
-    }
-    for (uint32_t y = 0; y < height && nl; y++) { /* no lights: no ranges, no binning */
-        const float *nrow = r->near + (size_t)y * width;
-        float(*rr)[2] = r->range + (size_t)(y / TILE) * tx;
-        for (uint32_t x = 0; x < width; x++) {
-            float z = nrow[x];
-            if (z == EMPTY) continue;
-            float(*q)[2] = &rr[x / TILE];
-            if (z > (*q)[0]) (*q)[0] = z;
-            if (z < (*q)[1]) (*q)[1] = z;
-        }
-    }
+    if (nl) vt_tile_ranges(r->near, 1, width, width, height, r->range); /* no lights: no ranges, no binning */
     if (!grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl)) return fail(err, errlen, -ENOMEM, "out of memory");
     for (uint32_t i = 0; i < nl; i++) {
         const vt_light *L = &lights[i];
@@ -666,9 +608,9 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
         q->range2 = (float)(L->l.radius * L->l.radius);
         q->spot = L->l.type == CULL_LIGHT_SPOT;
         q->cos_outer = L->l.cos_outer;
-        q->cos_inner = L->cos_inner > L->l.cos_outer ? L->cos_inner : L->l.cos_outer + 1e-4f;
+        q->cos_inner = vt_light_cos_inner(L);
     }
-    int lrc = cull_lights_bin(v, width, height, r->cl, nl, (const float(*)[2])r->range, &r->tiles);
+    int lrc = cull_lights_bin(v, width, height, r->cl, nl, nl ? (const float(*)[2])r->range : NULL, &r->tiles);
     if (lrc != CULL_OK) return fail(err, errlen, lrc == CULL_ERR_NOMEM ? -ENOMEM : -EINVAL, "lights: %s", cull_strerror(lrc));
     uint64_t t3 = now_ns();
 

@@ -64,12 +64,17 @@ const cull_light_tiles *vt_soft_light_tiles(const vt_soft *r);
 void vt_soft_destroy(vt_soft *r);
 
 /* Checks a mesh: counts, indices in range, finite positions and normals.
- * 0, or -EINVAL with a reason in err. */
+ * 0, or -EINVAL with a reason in err. Both renderers check every mesh
+ * they are given this way. */
 int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen);
+
+/* The unit box (-1..1 on each axis, 12 counter-clockwise triangles, flat
+ * normals): what an entity without a mesh of its own is drawn as. */
+extern const vt_mesh vt_mesh_box;
 
 /* Renders ninst instances of nmesh meshes lit by nl lights for view v into
  * width x height buffers. 0, or a negative errno with err filled: -EINVAL
- * (bad size, a bad mesh index, a bad light), -ENOMEM. */
+ * (bad size, a bad mesh, a bad mesh index or bounds, a bad light), -ENOMEM. */
 int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
                    uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                    float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen);

@@ -144,6 +144,42 @@ static void test_soft_bad_input(void **state)
     in.bmin[0] = NAN;
     assert_int_equal(vt_soft_render(sr, &v, 8, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
                      -EINVAL);
+    /* both renderers refuse every bad input the same way, with a reason,
+       and leave the caller's buffers as they were */
+    vt_gl *g = NULL;
+    vt_glr *gr = NULL;
+    char gerr[512];
+    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_glr_create(g, &gr, gerr, sizeof gerr), 0);
+    vt_instance good = {.mesh = 0, .bmin = {-1, -1, -5}, .bmax = {1, 1, -3}}, bad_bounds = good;
+    bad_bounds.bmin[2] = -2; /* min above max */
+    vt_light nan_light = {.l = {.pos = {0, 0, NAN}, .radius = 5}};
+    const struct {
+        const vt_mesh *m;
+        const vt_instance *in;
+        const vt_light *l;
+        uint32_t nl;
+        const char *why;
+    } cases[] = {
+        {&m, &good, NULL, 0, "index"},          /* a mesh index past its vertices */
+        {&m2, &good, NULL, 0, "not finite"},    /* a NaN vertex */
+        {&cube, &bad_bounds, NULL, 0, "bounds"},
+        {&cube, &good, &nan_light, 1, "light"},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        for (int path = 0; path < (gr ? 2 : 1); path++) {
+            for (size_t i = 0; i < 64; i++) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = depth[i] = 7;
+            err[0] = 0;
+            int rc = path ? vt_glr_render(gr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
+                                          depth, 8, NULL, err, sizeof err)
+                          : vt_soft_render(sr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
+                                           depth, 8, NULL, err, sizeof err);
+            assert_int_equal(rc, -EINVAL);
+            if (!strstr(err, cases[c].why)) fail_msg("case %zu, %s: \"%s\"", c, path ? "gl" : "soft", err);
+            for (size_t i = 0; i < 64; i++) assert_true(rgba[4 * i] == 7 && depth[i] == 7);
+        }
+    }
+    vt_glr_destroy(gr);
+    vt_gl_close(g);
     vt_soft_destroy(sr);
 }
 

@@ -36,11 +36,6 @@
 #include <time.h>
 #include <unistd.h>
 
-static const float cube_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1,
-                                   -1, -1, 1,  1, -1, 1,  -1, 1, 1,  1, 1, 1};
-static const uint32_t cube_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,
-                                      2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
-
 static double now_ms(void)
 {
     struct timespec ts;
@@ -126,7 +121,7 @@ int main(int argc, char **argv)
     if (cull_pool_create(2, &pool)) return 1;
     cull_ctx *ctx;
     if (cull_ctx_create(pool, &ctx)) return 1;
-    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    const vt_mesh cube = vt_mesh_box;
     float *rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = malloc((size_t)W * H * sizeof *depth);
     if (!rgba || !depth) return 1;
     char err[1024];

@@ -1,0 +1,102 @@
+/*
+ * vt_frame.c — see vt_frame.h.
+ */
+#include "vt_frame.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+
+/* The unit box, for instances of classes without a mesh of their own. */
+static const float box_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1, -1, -1, 1, 1, -1, 1, -1, 1, 1, 1, 1, 1};
+static const uint32_t box_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,
+                                     2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
+const vt_mesh vt_mesh_box = {.pos = box_pos, .idx = box_idx, .nv = 8, .ni = 36};
+
+int vt_fail(char *err, size_t errlen, int code, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen)
+{
+    if (!m || !m->pos || !m->idx || !m->nv || !m->ni || m->ni % 3)
+        return vt_fail(err, errlen, -EINVAL, "mesh: needs vertices and a multiple of 3 indices");
+    for (uint32_t i = 0; i < m->ni; i++)
+        if (m->idx[i] >= m->nv)
+            return vt_fail(err, errlen, -EINVAL, "mesh: index %u is %u, past %u vertices", i, m->idx[i], m->nv);
+    for (uint32_t i = 0; i < 3 * m->nv; i++)
+        if (!isfinite(m->pos[i]) || (m->nrm && !isfinite(m->nrm[i])))
+            return vt_fail(err, errlen, -EINVAL, "mesh: vertex %u is not finite", i / 3);
+    return 0;
+}
+
+int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
+                   uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                   const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen)
+{
+    if (!v || !rgba || !depth || (ninst && (!inst || !meshes)) || (nl && !lights))
+        return vt_fail(err, errlen, -EINVAL, "missing argument");
+    if (width < 1 || height < 1 || width > 16384 || height > 16384 || stride < width)
+        return vt_fail(err, errlen, -EINVAL, "size %ux%u (stride %zu) outside 1..16384", width, height, stride);
+    for (uint32_t i = 0; i < nmesh; i++) {
+        char why[160];
+        if (vt_mesh_check(&meshes[i], why, sizeof why)) return vt_fail(err, errlen, -EINVAL, "%u: %s", i, why);
+    }
+    for (uint32_t i = 0; i < ninst; i++) {
+        if (inst[i].mesh >= nmesh) return vt_fail(err, errlen, -EINVAL, "instance %u: no mesh %u", i, inst[i].mesh);
+        for (int a = 0; a < 3; a++)
+            if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
+                return vt_fail(err, errlen, -EINVAL, "instance %u: bad bounds", i);
+    }
+    cull_view_rows_get(v, vr);
+    if (!vr->usable) return vt_fail(err, errlen, -EINVAL, "orthographic view with w <= 0");
+    return 0;
+}
+
+void vt_mesh_bounds(const vt_mesh *m, float b[6])
+{
+    for (int a = 0; a < 3; a++) b[a] = FLT_MAX, b[3 + a] = -FLT_MAX;
+    for (uint32_t k = 0; k < m->nv; k++)
+        for (int a = 0; a < 3; a++) {
+            b[a] = fminf(b[a], m->pos[3 * k + a]);
+            b[3 + a] = fmaxf(b[3 + a], m->pos[3 * k + a]);
+        }
+}
+
+void vt_instance_xform(const vt_instance *in, const float b[6], const double origin[3], double scale[3],
+                       double shift[3])
+{
+    for (int a = 0; a < 3; a++) {
+        double ext = (double)b[3 + a] - b[a];
+        scale[a] = ext > 0 ? (in->bmax[a] - in->bmin[a]) / ext : 0;
+        shift[a] = ext > 0 ? in->bmin[a] - origin[a] - b[a] * scale[a] : 0.5 * (in->bmin[a] + in->bmax[a]) - origin[a];
+    }
+}
+
+void vt_tile_ranges(const float *near, size_t xs, size_t ys, uint32_t width, uint32_t height, float (*range)[2])
+{
+    uint32_t tx = (width + VT_TILE - 1) / VT_TILE, ty = (height + VT_TILE - 1) / VT_TILE;
+    for (size_t t = 0; t < (size_t)tx * ty; t++) {
+        range[t][0] = -FLT_MAX;
+        range[t][1] = FLT_MAX;
+    }
+    for (uint32_t y = 0; y < height; y++) {
+        const float *row = near + (size_t)y * ys;
+        float(*rr)[2] = range + (size_t)(y / VT_TILE) * tx;
+        for (uint32_t x = 0; x < width; x++) {
+            float z = row[(size_t)x * xs];
+            if (z == VT_EMPTY) continue;
+            float(*q)[2] = &rr[x / VT_TILE];
+            if (z > (*q)[0]) (*q)[0] = z;
+            if (z < (*q)[1]) (*q)[1] = z;
+        }
+    }
+}

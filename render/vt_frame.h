@@ -1,0 +1,56 @@
+/*
+ * vt_frame.h — what the two renderers (vt_soft.c, vt_glr.c) share, so they
+ * draw the same picture from the same rules: the checks of a frame's
+ * inputs, a mesh's bounds stretched onto an instance's box, the per-tile
+ * nearness ranges that feed the light binning, the depth the outputs
+ * carry, and a spot light's inner cone. Internal to render/.
+ */
+#ifndef VANTAGE_VT_FRAME_H
+#define VANTAGE_VT_FRAME_H
+
+#include "vt_soft.h"
+
+#include <float.h>
+#include <stddef.h>
+
+#define VT_TILE CULL_LIGHT_TILE
+#define VT_EMPTY (-FLT_MAX) /* the nearness of a pixel nothing covers */
+
+/* Formats err (when there is one) and returns code. */
+int vt_fail(char *err, size_t errlen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+
+/* Checks everything a render call is given (buffers, size, meshes,
+ * instances) and fills *vr for v. 0, or -EINVAL with err filled. Lights
+ * are checked by the binning (cull_lights_bin). */
+int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
+                   uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                   const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen);
+
+/* A mesh's bounds: lo[0..2], hi[3..5]. */
+void vt_mesh_bounds(const vt_mesh *m, float b[6]);
+
+/* The mesh with bounds b stretched onto the instance's box, camera-relative
+ * (origin subtracted), in double: p' = p * scale + shift. A flat axis of
+ * the mesh maps to the box's centre. */
+void vt_instance_xform(const vt_instance *in, const float b[6], const double origin[3], double scale[3],
+                       double shift[3]);
+
+/* Per 16x16 tile {nearest, farthest} nearness of what the tile shows, from
+ * a width x height nearness image (pixel (x, y) at near[y * ys + x * xs],
+ * VT_EMPTY where nothing is): the depth_range of cull_lights_bin. */
+void vt_tile_ranges(const float *near, size_t xs, size_t ys, uint32_t width, uint32_t height, float (*range)[2]);
+
+/* The output depth of a pixel of nearness nz (see vt_soft.h). */
+static inline float vt_depth_of(const cull_view *v, const cull_view_rows *vr, float nz)
+{
+    return !vr->ortho ? 1.0f / nz : v->depth_mode == CULL_DEPTH_GL ? 1.0f - 0.5f * nz : 1.0f - nz;
+}
+
+/* A spot light's full-intensity cosine, kept above the outer one so the
+ * smoothstep between them never divides by zero. */
+static inline float vt_light_cos_inner(const vt_light *L)
+{
+    return L->cos_inner > L->l.cos_outer ? L->cos_inner : L->l.cos_outer + 1e-4f;
+}
+
+#endif
