@@ -107,17 +107,7 @@ static void frame_in_free(frame_in *fi)
     free(fi->light_ids);
 }
 
-/* The view from the wire, or an error code with msg. */
-static int view_from(const vp_view *pv, cull_view *v, char *msg, size_t msglen)
-{
-    cull_view_desc d = {.depth_mode = pv->depth_mode, .viewport_w = pv->viewport_w, .viewport_h = pv->viewport_h};
-    memcpy(d.origin, pv->origin, sizeof d.origin);
-    memcpy(d.view_proj, pv->view_proj, sizeof d.view_proj);
-    int rc = cull_view_init(v, &d);
-    if (!rc) return VP_OK;
-    snprintf(msg, msglen, "view: %s", cull_strerror(rc));
-    return rc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
-}
+static int gather_lights(const scene *sc, frame_in *fi);
 
 /* Culls (with occlusion unless no_occlusion) and collects the frame's
  * instances and lights. VP_OK, or an error code with msg. */
@@ -125,27 +115,21 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
                   size_t msglen)
 {
     memset(fi, 0, sizeof *fi);
-    size_t need = cull_query_bound(sc->world), n = 0;
-    if (need > wk->res_cap) {
-        cull_result *r = realloc(wk->res, need * sizeof *r);
-        if (!r) goto nomem;
-        wk->res = r;
-        wk->res_cap = need;
-    }
+    size_t n = 0;
+    if (!worker_res_reserve(wk, cull_query_bound(sc->world))) goto nomem;
+    if (!wk->mesh_of && !(wk->mesh_of = calloc(65536, sizeof *wk->mesh_of))) goto nomem;
     cull_query_desc q = {.views = v, .view_count = 1, .flags = no_occlusion ? CULL_Q_NO_OCCLUSION : 0};
     int rc = cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL);
     if (rc) {
         snprintf(msg, msglen, "%s", cull_strerror(rc));
         return VP_ERR_INTERNAL;
     }
-    /* meshes numbered as they are met */
+    /* meshes numbered as they are met: the worker's class -> mesh index + 1
+       table, emptied again below */
+    uint32_t *mesh_of = wk->mesh_of;
     fi->inst = malloc((n + 1) * sizeof *fi->inst);
     fi->meshes = malloc((n + 1) * sizeof *fi->meshes);
-    uint32_t *mesh_of = calloc(65536, sizeof *mesh_of); /* class -> mesh index + 1 */
-    if (!fi->inst || !fi->meshes || !mesh_of) {
-        free(mesh_of);
-        goto nomem;
-    }
+    if (!fi->inst || !fi->meshes) goto nomem;
     fi->meshes[0] = vt_mesh_box;
     fi->nmesh = 1;
     for (size_t i = 0; i < n; i++) {
@@ -167,11 +151,23 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
         memcpy(fi->inst[i].bmax, e.aabb_max, sizeof e.aabb_max);
         class_albedo(cls, fi->inst[i].albedo);
     }
-    free(mesh_of);
+    for (size_t i = 0; i < n; i++) mesh_of[wk->res[i].class_id] = 0;
     fi->ninst = (uint32_t)n;
+    if (gather_lights(sc, fi)) goto nomem;
+    return VP_OK;
+nomem:
+    frame_in_free(fi);
+    memset(fi, 0, sizeof *fi);
+    snprintf(msg, msglen, "out of memory for a frame");
+    return VP_ERR_BUSY;
+}
+
+/* The scene's lights, as the renderers take them, and their ids. */
+static int gather_lights(const scene *sc, frame_in *fi)
+{
     fi->lights = malloc((sc->lights.count + 1) * sizeof *fi->lights);
     fi->light_ids = malloc((sc->lights.count + 1) * sizeof *fi->light_ids);
-    if (!fi->lights || !fi->light_ids) goto nomem;
+    if (!fi->lights || !fi->light_ids) return -1;
     for (size_t i = 0; i < sc->lights.cap; i++) {
         if (!sc->lights.used[i]) continue;
         const vp_light *l = (const vp_light *)(uintptr_t)sc->lights.vals[i];
@@ -186,12 +182,7 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
         o->cos_inner = l->inner_cos;
         for (int a = 0; a < 3; a++) o->color[a] = l->color[a] * l->intensity;
     }
-    return VP_OK;
-nomem:
-    frame_in_free(fi);
-    memset(fi, 0, sizeof *fi);
-    snprintf(msg, msglen, "out of memory for a frame");
-    return VP_ERR_BUSY;
+    return 0;
 }
 
 /* The worker's software renderer, on first use: it uses every core (one
@@ -206,18 +197,6 @@ static vt_soft *worker_soft(worker *wk)
     return wk->soft;
 }
 
-/* An ERROR into j->reply. */
-static void job_error(job *j, int code, const char *msg)
-{
-    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
-    j->reply = malloc(j->reply_len);
-    if (j->reply) {
-        vp_writer w;
-        vp_writer_init(&w, j->reply, j->reply_len);
-        vp_enc_error(&w, j->h.req, code, UINT32_MAX, msg);
-    }
-}
-
 /* Fills j->reply with FRAME or ERROR for the render request m. The caller
  * holds scene_lock shared. */
 static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
@@ -228,18 +207,33 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     int code;
     frame_in fi = {0};
     float *rgba = NULL, *depth = NULL;
-    uint8_t *jpeg = NULL, *rgb8 = NULL, *raw = NULL;
+    uint8_t *jpeg = NULL, *rgb8 = NULL, *raw = NULL; /* raw: the reply, drawn into in place */
     size_t jpeg_len = 0;
     int renderer = m->renderer ? m->renderer : s->cfg.renderer;
     j->epoch = sc->epoch;
     cull_view v;
-    if ((code = view_from(&m->view, &v, msg, sizeof msg))) goto error;
+    if ((code = view_from(&m->view, UINT32_MAX, &v, msg, sizeof msg))) goto error;
     uint32_t W = v.viewport_w, H = v.viewport_h;
+    size_t np = (size_t)W * H;
+    if (m->format == VP_FRAME_RAW && vp_size_frame((uint32_t)(np * 20)) > s->cfg.out_limit) {
+        /* the reply alone would get the client dropped */
+        code = VP_ERR_LIMIT;
+        snprintf(msg, sizeof msg, "a raw %ux%u frame is %zu bytes, over this daemon's output limit of %u (--out-limit)",
+                 W, H, vp_size_frame((uint32_t)(np * 20)), s->cfg.out_limit);
+        goto error;
+    }
     if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) goto nomem;
     if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto error;
-    rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
-    depth = malloc((size_t)W * H * sizeof *depth);
-    if (!rgba || !depth) goto nomem;
+    if (m->format == VP_FRAME_RAW) {
+        /* drawn straight into the reply: RGBA then depth after the header */
+        if (!(raw = malloc(vp_size_frame((uint32_t)(np * 20))))) goto nomem;
+        rgba = (float *)(void *)(raw + VP_HEADER_SIZE + VP_FRAME_HEADER);
+        depth = rgba + np * 4;
+    } else {
+        rgba = malloc(np * 4 * sizeof *rgba);
+        depth = malloc(np * sizeof *depth);
+        if (!rgba || !depth) goto nomem;
+    }
     char err[256];
     int rc;
     if (renderer == VP_RENDERER_GL) {
@@ -282,19 +276,17 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         f.data = jpeg;
         f.data_len = (uint32_t)jpeg_len;
     } else {
-        /* RGBA then depth, as floats, little-endian on the wire */
-        size_t bytes = (size_t)W * H * 20;
-        raw = malloc(bytes);
-        if (!raw) goto nomem;
-        memcpy(raw, rgba, (size_t)W * H * 16);
-        memcpy(raw + (size_t)W * H * 16, depth, (size_t)W * H * 4);
-        f.data = raw;
-        f.data_len = (uint32_t)bytes;
+        f.data = NULL; /* RGBA then depth, as floats (little-endian), already in place */
+        f.data_len = (uint32_t)(np * 20);
     }
     f.encode_ns = (uint32_t)(now_ns() - t1);
     j->reply_len = vp_size_frame(f.data_len);
-    j->reply = malloc(j->reply_len);
-    if (!j->reply) goto nomem;
+    if (raw) {
+        j->reply = raw;
+        raw = NULL;
+    } else if (!(j->reply = malloc(j->reply_len))) {
+        goto nomem;
+    }
     vp_writer fw;
     vp_writer_init(&fw, j->reply, j->reply_len);
     vp_enc_frame(&fw, j->h.req, &f);
@@ -304,11 +296,13 @@ nomem:
     code = VP_ERR_BUSY;
     snprintf(msg, sizeof msg, "out of memory for a frame");
 error:
-    job_error(j, code, msg);
+    job_error(j, code, UINT32_MAX, msg);
 done:
     frame_in_free(&fi);
-    free(rgba);
-    free(depth);
+    if (m->format != VP_FRAME_RAW) {
+        free(rgba);
+        free(depth);
+    }
     free(rgb8);
     free(jpeg);
     free(raw);
@@ -326,7 +320,7 @@ void run_render(server *s, worker *wk, job *j)
         render_frame(s, wk, j, &m);
         return;
     }
-    job_error(j, rc, vp_strerror(rc));
+    job_error(j, rc, UINT32_MAX, vp_strerror(rc));
 }
 
 /* LIGHT_QUERY: the tile lists of the software renderer's frame (depth
@@ -348,12 +342,12 @@ void run_light_query(server *s, worker *wk, job *j)
         goto error;
     }
     cull_view v;
-    if ((code = view_from(&m.view, &v, msg, sizeof msg))) goto error;
+    if ((code = view_from(&m.view, UINT32_MAX, &v, msg, sizeof msg))) goto error;
     uint32_t W = v.viewport_w, H = v.viewport_h;
-    if (!(m.flags & VP_LQ_NO_DEPTH) && !worker_soft(wk)) goto nomem;
-    if ((code = gather(sc, wk, &v, false, &fi, msg, sizeof msg))) goto error;
     int rc;
     if (m.flags & VP_LQ_NO_DEPTH) {
+        /* the frustum alone: the lights, nothing culled or drawn */
+        if (gather_lights(sc, &fi)) goto nomem;
         cl = malloc(((size_t)fi.nl + 1) * sizeof *cl);
         if (!cl) goto nomem;
         for (uint32_t i = 0; i < fi.nl; i++) cl[i] = fi.lights[i].l;
@@ -363,6 +357,8 @@ void run_light_query(server *s, worker *wk, job *j)
             goto error;
         }
     } else {
+        if (!worker_soft(wk)) goto nomem;
+        if ((code = gather(sc, wk, &v, false, &fi, msg, sizeof msg))) goto error;
         rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
         depth = malloc((size_t)W * H * sizeof *depth);
         if (!rgba || !depth) goto nomem;
@@ -396,7 +392,7 @@ nomem:
     code = VP_ERR_BUSY;
     snprintf(msg, sizeof msg, "out of memory for light tiles");
 error:
-    job_error(j, code, msg);
+    job_error(j, code, UINT32_MAX, msg);
 done:
     frame_in_free(&fi);
     free(rgba);
@@ -423,13 +419,7 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
     f->gen++;        /* a frame still being drawn for the old view is dropped */
     f->dirty = true; /* the first frame (or the new view) at once */
     f->next_ns = 0;
-    vp_writer w;
-    if (!out_reserve(c, VP_HEADER_SIZE + 12, &w)) {
-        c->closing = true;
-        return;
-    }
-    vp_enc_ack(&w, h->req, &(vp_ack){.epoch = s->sc->epoch});
-    out_commit(c, &w);
+    reply_ack(c, h->req, s->sc->epoch, 0);
     LOGD("client %u: frames %ux%u %s, %s, at most %u/s", c->id, m.r.view.viewport_w, m.r.view.viewport_h,
          m.r.format == VP_FRAME_JPEG ? "jpeg" : "raw", renderer_name(m.r.renderer ? m.r.renderer : s->cfg.renderer),
          m.max_fps);
@@ -450,13 +440,7 @@ void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t 
         return;
     }
     sub_end(s, c);
-    vp_writer w;
-    if (!out_reserve(c, VP_HEADER_SIZE + 12, &w)) {
-        c->closing = true;
-        return;
-    }
-    vp_enc_ack(&w, h->req, &(vp_ack){.epoch = s->sc->epoch});
-    out_commit(c, &w);
+    reply_ack(c, h->req, s->sc->epoch, 0);
 }
 
 void frames_conn_gone(server *s, conn *c)
@@ -528,7 +512,6 @@ void frames_done(server *s, conn *c, job *j)
         f->last_bytes = (uint32_t)j->reply_len;
         f->shown_epoch = j->epoch;
         f->frames++;
-        s->frames_out++;
     } else {
         sub_end(s, c); /* the ERROR (with the subscription's req) ends it */
         s->errors++;

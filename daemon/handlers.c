@@ -22,7 +22,7 @@ static bool editor(server *s, conn *c, uint32_t req)
     return false;
 }
 
-static void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count)
+void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count)
 {
     vp_writer w;
     if (!out_reserve(c, VP_HEADER_SIZE + 12, &w)) {
@@ -81,9 +81,44 @@ static void on_stats(server *s, conn *c, uint32_t req)
     out_commit(c, &w);
 }
 
-/* Worker side: decodes, culls and encodes one query into a new frame. The
- * caller holds scene_lock shared. */
-static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t *res_cap, job *j)
+/* ---- the workers' side ---------------------------------------------------------- */
+
+void job_error(job *j, int code, uint32_t index, const char *msg)
+{
+    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
+    j->reply = malloc(j->reply_len);
+    if (j->reply) {
+        vp_writer w;
+        vp_writer_init(&w, j->reply, j->reply_len);
+        vp_enc_error(&w, j->h.req, code, index, msg);
+    }
+}
+
+int view_from(const vp_view *pv, uint32_t index, cull_view *v, char *msg, size_t msglen)
+{
+    cull_view_desc d = {.depth_mode = pv->depth_mode, .viewport_w = pv->viewport_w, .viewport_h = pv->viewport_h};
+    memcpy(d.origin, pv->origin, sizeof d.origin);
+    memcpy(d.view_proj, pv->view_proj, sizeof d.view_proj);
+    int rc = cull_view_init(v, &d);
+    if (!rc) return VP_OK;
+    if (index == UINT32_MAX) snprintf(msg, msglen, "view: %s", cull_strerror(rc));
+    else snprintf(msg, msglen, "view %u: %s", index, cull_strerror(rc));
+    return rc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
+}
+
+bool worker_res_reserve(worker *wk, size_t need)
+{
+    if (need <= wk->res_cap) return true;
+    cull_result *r = realloc(wk->res, need * sizeof *r);
+    if (!r) return false;
+    wk->res = r;
+    wk->res_cap = need;
+    return true;
+}
+
+/* Decodes, culls and encodes one query into a new frame. The caller holds
+ * scene_lock shared. */
+static void run_query(const scene *sc, worker *wk, job *j)
 {
     uint64_t t0 = now_ns();
     const vp_header *h = &j->h;
@@ -104,28 +139,16 @@ static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t 
     for (uint32_t i = 0; i < q.view_count; i++) {
         vp_view v;
         vp_view_get(&q, i, &v);
-        cull_view_desc d = {.depth_mode = v.depth_mode, .viewport_w = v.viewport_w, .viewport_h = v.viewport_h};
-        memcpy(d.origin, v.origin, sizeof d.origin);
-        memcpy(d.view_proj, v.view_proj, sizeof d.view_proj);
-        int crc = cull_view_init(&views[i], &d);
-        if (crc) {
-            code = crc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
+        if ((code = view_from(&v, i, &views[i], msg, sizeof msg))) {
             index = i;
-            snprintf(msg, sizeof msg, "view %u: %s", i, cull_strerror(crc));
             goto error;
         }
     }
     bool count_only = (q.flags & VP_Q_COUNT_ONLY) != 0;
-    size_t need = count_only ? 0 : cull_query_bound(sc->world);
-    if (need > *res_cap) {
-        cull_result *r = realloc(*res, need * sizeof *r);
-        if (!r) {
-            code = VP_ERR_BUSY;
-            snprintf(msg, sizeof msg, "out of memory for results");
-            goto error;
-        }
-        *res = r;
-        *res_cap = need;
+    if (!count_only && !worker_res_reserve(wk, cull_query_bound(sc->world))) {
+        code = VP_ERR_BUSY;
+        snprintf(msg, sizeof msg, "out of memory for results");
+        goto error;
     }
     uint32_t flags = 0;
     if (q.flags & VP_Q_NO_AABB) flags |= CULL_Q_NO_AABB;
@@ -136,10 +159,10 @@ static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t 
     if (q.flags & VP_Q_OCC_CENTRE) flags |= CULL_Q_OCC_CENTRE;
     if (count_only) flags |= CULL_Q_COUNT_ONLY;
     uint64_t t1 = now_ns();
-    rc = cull_query(sc->world, ctx,
+    rc = cull_query(sc->world, wk->ctx,
                     &(cull_query_desc){.views = views, .view_count = q.view_count, .flags = flags,
                                        .min_screen_area = q.min_area},
-                    count_only ? NULL : *res, count_only ? 0 : *res_cap, &n, &st);
+                    count_only ? NULL : wk->res, count_only ? 0 : wk->res_cap, &n, &st);
     uint64_t t2 = now_ns();
     if (rc) {
         code = VP_ERR_INTERNAL;
@@ -161,7 +184,7 @@ static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t 
     m.stage_ns[5] = (uint32_t)st.occ_raster_ns; /* part of [1] */
     vp_enc_vis_result_begin(&w, h->req, &m);
     for (uint32_t i = 0; i < count; i++) {
-        const cull_result *r = &(*res)[i];
+        const cull_result *r = &wk->res[i];
         vp_put_vis_rec(&w, &(vp_vis_rec){.id = scene_id_of(sc, r->handle), .handle = r->handle,
                                          .view_mask = r->view_mask, .class_id = r->class_id,
                                          .sublevel = r->sublevel, .area = r->screen_area});
@@ -178,12 +201,7 @@ static void run_query(const scene *sc, cull_ctx *ctx, cull_result **res, size_t 
     j->ok = true;
     return;
 error:
-    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
-    j->reply = malloc(j->reply_len);
-    if (j->reply) {
-        vp_writer_init(&w, j->reply, j->reply_len);
-        vp_enc_error(&w, h->req, code, index, msg);
-    }
+    job_error(j, code, index, msg);
 }
 
 
@@ -207,7 +225,7 @@ void *worker_main(void *arg)
         pthread_rwlock_rdlock(&s->scene_lock);
         if (j->h.type == VP_RENDER) run_render(s, &wk, j);
         else if (j->h.type == VP_LIGHT_QUERY) run_light_query(s, &wk, j);
-        else run_query(s->sc, wk.ctx, &wk.res, &wk.res_cap, j);
+        else run_query(s->sc, &wk, j);
         pthread_rwlock_unlock(&s->scene_lock);
 
         j->next = NULL;
@@ -221,6 +239,7 @@ void *worker_main(void *arg)
         (void)ignored;
     }
     free(wk.res);
+    free(wk.mesh_of);
     vt_soft_destroy(wk.soft);
     cull_pool_destroy(wk.pool);
     cull_ctx_destroy(wk.ctx);
@@ -287,10 +306,18 @@ static void on_list(server *s, conn *c, const vp_header *h, const uint8_t *p)
     free(e);
 }
 
+/* Edit and lookup batches hold 1..max_batch records (the decoder checks
+ * the top). */
+static int batch_count(uint32_t n)
+{
+    return n ? VP_OK : VP_ERR_COUNT;
+}
+
 static void on_get(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
     vp_id_batch b;
     int rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b);
+    if (!rc) rc = batch_count(b.count);
     if (rc) {
         send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
         return;
@@ -445,10 +472,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_entity_batch b;
         if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
-        if (!b.count) {
-            rc = VP_ERR_COUNT; /* an empty batch: the spec says 1..max_batch */
-            break;
-        }
+        if ((rc = batch_count(b.count))) break;
         uint32_t *handles = malloc(((size_t)b.count + 1) * sizeof *handles);
         if (!handles) {
             send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
@@ -475,10 +499,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_entity_batch b;
         if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
-        if (!b.count) {
-            rc = VP_ERR_COUNT;
-            break;
-        }
+        if ((rc = batch_count(b.count))) break;
         pthread_rwlock_wrlock(&s->scene_lock);
         rc = scene_update(s->sc, &b, &err);
         pthread_rwlock_unlock(&s->scene_lock);
@@ -491,10 +512,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if (!editor(s, c, h->req)) return;
         vp_id_batch b;
         if ((rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b))) break;
-        if (!b.count) {
-            rc = VP_ERR_COUNT;
-            break;
-        }
+        if ((rc = batch_count(b.count))) break;
         pthread_rwlock_wrlock(&s->scene_lock);
         if (h->type == VP_ENTITY_REMOVE) rc = scene_remove(s->sc, &b, &err);
         else rc = scene_remove_ids(s->sc, h->type == VP_LIGHT_REMOVE ? &s->sc->lights : &s->sc->occluders, &b, &err);

@@ -194,7 +194,7 @@ int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *
                     s->lim.max_entities);
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
     cull_entity_desc *descs = malloc(((size_t)n + 1) * sizeof *descs);
-    if (!ids || !descs || !idmap_reserve(&s->ids, s->ids.count + n)) {
+    if (!ids || !descs) {
         free(ids);
         free(descs);
         return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
@@ -210,6 +210,12 @@ int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *
         }
     }
     if ((rc = check_unique(ids, n, err))) goto out;
+    /* room in the id map only for a batch that is going in: a rejected one
+       must not rehash it (ENTITY_LIST cursors are slots) */
+    if (!idmap_reserve(&s->ids, s->ids.count + n)) {
+        rc = fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        goto out;
+    }
     /* apply */
     for (uint32_t i = 0; i < n; i++) {
         cull_handle h;

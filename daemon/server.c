@@ -145,6 +145,15 @@ static void conn_process(server *s, conn *c)
 {
     size_t pos = 0;
     while (!c->closing && !c->busy) {
+        if (c->out_len - c->out_pos > s->cfg.out_limit) {
+            /* replies pile up faster than the client reads (a pipeline of
+               big ENTITY_LISTs, say): the same limit as conn_flush's,
+               checked before answering more */
+            LOGW("client %u: %zu bytes of replies unread, over the output limit: disconnecting", c->id,
+                 c->out_len - c->out_pos);
+            conn_free(s, c);
+            return;
+        }
         vp_header h;
         size_t fs;
         uint32_t limit = c->hello ? s->cfg.max_payload : VANTAGED_PREHELLO_MAX;
@@ -297,8 +306,11 @@ static void before_sleep(ae_loop *l, void *data)
     (void)l;
     server *s = data;
     scene *sc = s->sc;
-    bool changed = sc->ev_added || sc->ev_updated || sc->ev_removed;
-    if (changed) {
+    /* any edit moves the epoch (meshes, occluders and lights too); entity
+       edits also leave counts and bounds to tighten */
+    bool changed = sc->epoch != s->ev_epoch;
+    s->ev_epoch = sc->epoch;
+    if (sc->ev_added || sc->ev_updated || sc->ev_removed) {
         pthread_rwlock_wrlock(&s->scene_lock);
         cull_world_commit(sc->world);
         pthread_rwlock_unlock(&s->scene_lock);
@@ -307,18 +319,20 @@ static void before_sleep(ae_loop *l, void *data)
     for (uint32_t i = s->nconns; i-- > 0;) {
         conn *c = s->live[i];
         if (changed && c->subscribed) {
+            c->ev_pending = true;
             c->ev_added += sc->ev_added;
             c->ev_updated += sc->ev_updated;
             c->ev_removed += sc->ev_removed;
         }
         /* events coalesce while a subscriber is behind */
-        if ((c->ev_added || c->ev_updated || c->ev_removed) && c->out_len - c->out_pos < 65536) {
+        if (c->ev_pending && c->out_len - c->out_pos < 65536) {
             vp_writer w;
             if (out_reserve(c, VP_HEADER_SIZE + 28, &w)) {
                 vp_enc_event(&w, &(vp_event){.kind = VP_EVENT_SCENE, .epoch = sc->epoch, .added = c->ev_added,
                                              .updated = c->ev_updated, .removed = c->ev_removed});
                 out_commit(c, &w);
                 c->ev_added = c->ev_updated = c->ev_removed = 0;
+                c->ev_pending = false;
             }
         }
         if (c->out_len > c->out_pos && !conn_flush(s, c)) conn_free(s, c);
@@ -384,6 +398,7 @@ server *server_create(const server_config *cfg, scene *sc)
     if (!s) return NULL;
     s->cfg = *cfg;
     s->sc = sc;
+    s->ev_epoch = sc->epoch;
     s->tcp_fd = s->unix_fd = s->sig_fd = s->done_fd = -1;
     /* SIGINT and SIGTERM arrive through a signalfd on the loop: block them
        before any thread starts, so no worker inherits them unblocked */

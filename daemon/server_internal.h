@@ -39,6 +39,7 @@ typedef struct conn {
     size_t in_len, in_cap;
     uint8_t *out;
     size_t out_len, out_pos, out_cap;
+    bool ev_pending;    /* the scene changed since the last EVENT sent */
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */
     frame_sub fsub;
     char name[64];
@@ -72,7 +73,7 @@ struct server {
     bool gl_failed;
     char gl_err[400];
     uint32_t nsubs;         /* connections with a frame stream */
-    uint64_t frames_out;
+    uint64_t ev_epoch;      /* the epoch the last tick's events reported */
 };
 
 /* A query handed to a worker, and its reply coming back. */
@@ -99,6 +100,7 @@ typedef struct worker {
     size_t res_cap;
     struct vt_soft *soft;
     cull_pool *pool;        /* the software renderer's threads (all cores) */
+    uint32_t *mesh_of;      /* class -> frame mesh + 1, all 0 between frames */
 } worker;
 
 static inline uint64_t now_ns(void)
@@ -113,6 +115,8 @@ static inline uint64_t now_ns(void)
 bool out_reserve(conn *c, size_t need, vp_writer *w);
 void out_commit(conn *c, const vp_writer *w);
 void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, const char *msg);
+/* ACK (handlers.c). */
+void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count);
 
 /* ---- handlers.c ---- */
 /* Handles one complete frame from c (may set c->closing or c->busy). */
@@ -121,6 +125,12 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p);
 void *worker_main(void *arg);
 /* Queues j for the workers. */
 void job_submit(server *s, job *j);
+/* Worker side: an ERROR into j->reply; the view from the wire (VP_OK, or
+ * an error code with msg naming view `index` unless UINT32_MAX); room for
+ * `need` culling results. */
+void job_error(job *j, int code, uint32_t index, const char *msg);
+int  view_from(const vp_view *pv, uint32_t index, cull_view *v, char *msg, size_t msglen);
+bool worker_res_reserve(worker *wk, size_t need);
 
 /* ---- frames.c ---- */
 int  frames_init(server *s);  /* --render gl: the context now, or fail */

@@ -447,6 +447,8 @@ typedef struct vp_frame {
     const uint8_t *data;
 } vp_frame;
 size_t vp_size_frame(uint32_t data_len);
+/* data NULL: the data_len bytes are already in the buffer right after the
+ * header (a frame drawn in place); only the header is written. */
 void vp_enc_frame(vp_writer *w, uint32_t req, const vp_frame *m);
 int  vp_dec_frame(const uint8_t *p, size_t len, vp_frame *m);
 /* Result header; records follow with vp_put_vis_rec, count must match. */

@@ -215,6 +215,26 @@ static void view_read(const uint8_t *p, vp_view *v)
     v->viewport_h = rd16(p + 156);
 }
 
+static int view_check(const vp_view *v);
+
+/* A view from the wire: read, pads zero, fields checked. */
+static int view_take(const uint8_t *p, vp_view *v)
+{
+    view_read(p, v);
+    if (p[153] || rd16(p + 158)) return VP_ERR_INVALID;
+    return view_check(v);
+}
+
+/* A picture's view (RENDER, LIGHT_QUERY): 0 x 0 is 1920 x 1080, and at most
+ * VP_FRAME_MAX_PIXELS. */
+static int picture_view_take(const uint8_t *p, vp_view *v)
+{
+    int rc = view_take(p, v);
+    if (rc) return rc;
+    uint32_t w = v->viewport_w ? v->viewport_w : 1920, h = v->viewport_h ? v->viewport_h : 1080;
+    return (uint64_t)w * h > VP_FRAME_MAX_PIXELS ? VP_ERR_LIMIT : VP_OK;
+}
+
 static int view_check(const vp_view *v)
 {
     if (!vp_finite_n(v->origin, 3) || !vp_finite_n(v->view_proj, 16)) return VP_ERR_NONFINITE;
@@ -243,8 +263,7 @@ int vp_dec_vis_query(const uint8_t *p, size_t len, vp_vis_query *m)
     if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
     for (uint32_t i = 0; i < m->view_count; i++) {
         vp_view v;
-        view_read(m->views + (size_t)i * VP_VIEW_SIZE, &v);
-        if ((rc = view_check(&v))) return rc;
+        if ((rc = view_take(m->views + (size_t)i * VP_VIEW_SIZE, &v))) return rc;
     }
     return VP_OK;
 }
@@ -252,8 +271,7 @@ int vp_dec_vis_query(const uint8_t *p, size_t len, vp_vis_query *m)
 int vp_view_get(const vp_vis_query *q, uint32_t i, vp_view *out)
 {
     if (i >= q->view_count) return VP_ERR_COUNT;
-    view_read(q->views + (size_t)i * VP_VIEW_SIZE, out);
-    return view_check(out);
+    return view_take(q->views + (size_t)i * VP_VIEW_SIZE, out);
 }
 
 size_t vp_size_vis_result(uint32_t n)
@@ -562,10 +580,6 @@ void vp_enc_render(vp_writer *w, uint32_t req, const vp_render *m)
 /* The RENDER fields at p (VP_RENDER_SIZE bytes, already length-checked). */
 static int render_read(const uint8_t *p, vp_render *m)
 {
-    view_read(p, &m->view);
-    if (p[153] || rd16(p + 158)) return VP_ERR_INVALID;
-    int rc = view_check(&m->view);
-    if (rc) return rc;
     const uint8_t *q = p + VP_VIEW_SIZE;
     m->format = q[0];
     m->quality = q[1];
@@ -578,9 +592,7 @@ static int render_read(const uint8_t *p, vp_render *m)
     if (m->format == VP_FRAME_RAW && m->quality) return VP_ERR_INVALID;
     if (!isfinite(m->exposure_ev)) return VP_ERR_NONFINITE;
     if (fabsf(m->exposure_ev) > 64) return VP_ERR_INVALID;
-    uint32_t w = m->view.viewport_w ? m->view.viewport_w : 1920, h = m->view.viewport_h ? m->view.viewport_h : 1080;
-    if ((uint64_t)w * h > VP_FRAME_MAX_PIXELS) return VP_ERR_LIMIT;
-    return VP_OK;
+    return picture_view_take(p, &m->view);
 }
 
 int vp_dec_render(const uint8_t *p, size_t len, vp_render *m)
@@ -604,16 +616,10 @@ int vp_dec_light_query(const uint8_t *p, size_t len, vp_light_query *m)
 {
     if (len < VP_LIGHT_QUERY_SIZE) return VP_ERR_TRUNCATED;
     if (len > VP_LIGHT_QUERY_SIZE) return VP_ERR_TRAILING;
-    view_read(p, &m->view);
-    if (p[153] || rd16(p + 158)) return VP_ERR_INVALID;
-    int rc = view_check(&m->view);
-    if (rc) return rc;
     const uint8_t *q = p + VP_VIEW_SIZE;
     m->flags = q[0];
     if ((m->flags & ~VP_LQ_NO_DEPTH) || q[1] || rd16(q + 2)) return VP_ERR_INVALID;
-    uint32_t w = m->view.viewport_w ? m->view.viewport_w : 1920, h = m->view.viewport_h ? m->view.viewport_h : 1080;
-    if ((uint64_t)w * h > VP_FRAME_MAX_PIXELS) return VP_ERR_LIMIT;
-    return VP_OK;
+    return picture_view_take(p, &m->view);
 }
 
 size_t vp_size_light_tiles(uint32_t tiles, uint32_t count)
@@ -715,7 +721,9 @@ void vp_enc_frame(vp_writer *w, uint32_t req, const vp_frame *m)
     vp_put_u32(w, m->render_ns);
     vp_put_u32(w, m->encode_ns);
     vp_put_u32(w, m->data_len);
-    vp_put_bytes(w, m->data, m->data_len);
+    if (m->data) vp_put_bytes(w, m->data, m->data_len);
+    else if (w->cap - w->len >= m->data_len) w->len += m->data_len; /* written in place */
+    else w->overflow = true;
     vp_frame_end(w);
 }
 

@@ -592,6 +592,22 @@ static void test_slow_reader_dropped(void **state)
     } while (st.connections > 1 && ++tries < 250);
     assert_int_equal(st.connections, 1);
     close(fd);
+    /* the same with ENTITY_LIST, answered on the loop thread itself: a
+       pipeline of them is cut off at the output limit, not answered whole */
+    fd = raw_connect(&d);
+    raw_hello(fd);
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_list(&w, 2, &(vp_list){.max = 1000});
+    for (sent = 0; sent < 20000; sent++)
+        if (send(fd, buf, w.len, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) break;
+    assert_int_equal(vt_ping(ed), VP_OK);
+    tries = 0;
+    do {
+        usleep(20000);
+        assert_int_equal(vt_stats(ed, &st), VP_OK);
+    } while (st.connections > 1 && ++tries < 250);
+    assert_int_equal(st.connections, 1);
+    close(fd);
     vt_close(ed);
     daemon_stop(&d);
 }
@@ -709,6 +725,13 @@ static void test_events(void **state)
     assert_int_equal(vt_remove(ed, rm, 1, NULL), VP_ERR_UNKNOWN_ID);
     vp_event ev;
     assert_int_equal(vt_wait_event(sub, &ev, 300), VT_ERR_IO); /* timed out: nothing came */
+    /* a light edit changes the scene too: an event with its epoch, no
+       entity counts */
+    vp_light l = {.id = 9, .kind = VP_LIGHT_POINT, .pos = {0, 5, 0}, .color = {1, 1, 1}, .intensity = 1, .range = 10};
+    assert_int_equal(vt_put_lights(ed, &l, 1), VP_OK);
+    assert_int_equal(vt_wait_event(sub, &ev, 5000), VP_OK);
+    assert_true(ev.epoch > last);
+    assert_int_equal(ev.added + ev.updated + ev.removed, 0);
     vt_close(sub);
     vt_close(ed);
     daemon_stop(&d);
@@ -814,6 +837,14 @@ static void test_render_frames(void **state)
     m.view.viewport_w = 4096;
     m.view.viewport_h = 4097;
     assert_int_equal(vt_render(c, &m, &f), VP_ERR_LIMIT);
+    /* a RAW frame bigger than the daemon's output limit: refused up front,
+       not drawn and then dropped with the client */
+    vp_render big = m;
+    big.format = VP_FRAME_RAW;
+    big.quality = 0;
+    big.view.viewport_w = big.view.viewport_h = 4096; /* 335 MB > 256 MiB */
+    assert_int_equal(vt_render(c, &big, &f), VP_ERR_LIMIT);
+    assert_non_null(strstr(vt_last_error(c)->msg, "out-limit"));
     assert_int_equal(vt_ping(c), VP_OK);
     /* the CLI writes an EXR that OpenEXR opens, with its channels */
     char path[128], cmd[1024];
