@@ -10,6 +10,7 @@
 
 #include <stdbool.h>
 #include <stdint.h>
+#include <signal.h>
 #include <stdio.h>
 
 typedef struct cli {
@@ -27,8 +28,17 @@ int server_fail(cli *k, const char *what, int rc);
 /* Connects and says hello with role; 0 or exit status 3. */
 int connect_cli(cli *k, int role);
 bool parse_vec(const char *s, double *v, int n);
+/* Decimal, or hex with 0x; the whole string. */
 bool parse_u64(const char *s, uint64_t *v);
+/* "WxH", each 1..max, the whole string. */
+bool parse_size(const char *s, unsigned max, unsigned *w, unsigned *h);
+/* "soft" or "gl" as VP_RENDERER_*. */
+bool parse_renderer(const char *s, uint8_t *r);
 double now_s(void);
+int cmp_dbl(const void *a, const void *b); /* qsort, ascending */
+/* Ctrl-C sets g_stop (for the commands that run until it). */
+extern volatile sig_atomic_t g_stop;
+void catch_sigint(void);
 
 /* cli_jsonl.c: one JSON line per entity. sublevel_name NULL writes the
  * number; handle adds the daemon's handle. */

@@ -26,9 +26,11 @@ typedef struct bench_conn {
 /* One load-generator thread: several connections driven from one poll()
  * loop, like redis-benchmark, so 64 connections do not need 64 threads
  * competing with the daemon for the cores. */
+enum bench_test { T_QUERY, T_EDIT, T_PING };
+
 typedef struct bench_arg {
     cli *k;
-    const char *test;
+    enum bench_test test;
     int first, nconn;
     long per_conn;
     int pipeline, views, batch;
@@ -36,14 +38,11 @@ typedef struct bench_arg {
     double *lat;        /* seconds per request */
     long done;
     int failed;
+    char why[300];      /* the first failure */
+    bool noconn;        /* it was the connection */
     uint64_t records;
 } bench_arg;
 
-static int cmp_dbl(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 
 static void bench_views(vp_view *v, int n, int idx, long i)
 {
@@ -60,10 +59,10 @@ static int bench_send(bench_arg *a, bench_conn *bc, uint8_t *buf, size_t cap)
     vp_writer w;
     vp_writer_init(&w, buf, cap);
     uint32_t req = vt_next_req(bc->c);
-    if (!strcmp(a->test, "edit")) {
+    if (a->test == T_EDIT) {
         for (int e = 0; e < a->batch; e++) bc->ents[e].sphere[1] = (double)(bc->sent % 100) * 0.1;
         vp_enc_entities(&w, VP_ENTITY_UPDATE, req, bc->ents, (uint32_t)a->batch);
-    } else if (!strcmp(a->test, "ping")) {
+    } else if (a->test == T_PING) {
         vp_enc_ping(&w, VP_PING, req, (const uint8_t *)"b", 1);
     } else {
         vp_view views[VP_MAX_VIEWS];
@@ -82,7 +81,7 @@ static void *bench_worker(void *p)
     struct pollfd *pf = calloc((size_t)a->nconn, sizeof *pf);
     size_t cap = vp_size_entities((uint32_t)a->batch) + VP_HEADER_SIZE + 8 + (size_t)a->views * VP_VIEW_SIZE;
     uint8_t *buf = malloc(cap);
-    bool edit = !strcmp(a->test, "edit");
+    bool edit = a->test == T_EDIT;
     for (int i = 0; i < a->nconn && !a->failed; i++) {
         bench_conn *bc = &cs[i];
         vt_connect_opts o = a->k->co;
@@ -91,8 +90,11 @@ static void *bench_worker(void *p)
         bc->idx = a->first + i;
         bc->quota = a->per_conn;
         bc->sent_at = calloc((size_t)a->pipeline, sizeof *bc->sent_at);
-        if (vt_connect(&o, &bc->c, NULL, 0)) {
+        char err[256];
+        if (vt_connect(&o, &bc->c, err, sizeof err)) {
+            snprintf(a->why, sizeof a->why, "cannot connect: %s", err);
             a->failed = 1;
+            a->noconn = true;
             break;
         }
         if (edit) {
@@ -162,33 +164,40 @@ int cmd_bench(cli *k, int argc, char **argv)
     const char *use = "bench [--test query|edit|ping|frames] [--clients N] [--threads T] [--requests N] [--pipeline P] "
                       "[--views K] [--batch B] [--count-only] [--json]";
     const char *test = "query";
-    long clients = 64, requests = 100000, pipeline = 1, views = 1, batch = 1000, threads = 2;
+    uint64_t clients = 64, requests = 100000, pipeline = 1, views = 1, batch = 1000, threads = 2;
     bool json = false;
     uint8_t qflags = 0;
+    const struct { const char *name; uint64_t *v; } nums[] = {
+        {"--clients", &clients}, {"--requests", &requests}, {"--threads", &threads},
+        {"--pipeline", &pipeline}, {"--views", &views}, {"--batch", &batch}};
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--test") && i + 1 < argc) test = argv[++i];
-        else if (!strcmp(argv[i], "--clients") && i + 1 < argc) clients = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--requests") && i + 1 < argc) requests = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--pipeline") && i + 1 < argc) pipeline = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--views") && i + 1 < argc) views = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--batch") && i + 1 < argc) batch = strtol(argv[++i], NULL, 10);
-        else if (!strcmp(argv[i], "--count-only")) qflags |= VP_Q_COUNT_ONLY;
-        else if (!strcmp(argv[i], "--json")) json = true;
-        else return die_usage("%s", use);
+        bool ok = false;
+        if (!strcmp(argv[i], "--test") && i + 1 < argc) test = argv[++i], ok = true;
+        else if (!strcmp(argv[i], "--count-only")) qflags |= VP_Q_COUNT_ONLY, ok = true;
+        else if (!strcmp(argv[i], "--json")) json = ok = true;
+        for (size_t n = 0; !ok && n < sizeof nums / sizeof nums[0]; n++)
+            if (!strcmp(argv[i], nums[n].name) && i + 1 < argc) {
+                if (!parse_u64(argv[++i], nums[n].v)) return die_usage("bench: bad value %s", argv[i]);
+                ok = true;
+            }
+        if (!ok) return die_usage("%s", use);
     }
-    if (strcmp(test, "query") && strcmp(test, "edit") && strcmp(test, "ping")) return die_usage("%s", use);
+    enum bench_test kind;
+    if (!strcmp(test, "query")) kind = T_QUERY;
+    else if (!strcmp(test, "edit")) kind = T_EDIT;
+    else if (!strcmp(test, "ping")) kind = T_PING;
+    else return die_usage("%s", use);
     if (clients < 1 || clients > 1000 || requests < clients || pipeline < 1 || pipeline > 1000 || views < 1 ||
         views > 32 || batch < 1 || batch > 65536 || threads < 1 || threads > 64)
         return die_usage("bench: a value out of range");
     if (threads > clients) threads = clients;
     pthread_t *th = calloc((size_t)threads, sizeof *th);
     bench_arg *args = calloc((size_t)threads, sizeof *args);
-    long per = requests / clients;
+    long per = (long)(requests / clients);
     double t0 = now_s();
-    for (long i = 0, first = 0; i < threads; i++) {
+    for (uint64_t i = 0, first = 0; i < threads; i++) {
         int nconn = (int)(clients / threads + (i < clients % threads));
-        args[i] = (bench_arg){.k = k, .first = (int)first, .nconn = nconn, .test = test, .per_conn = per,
+        args[i] = (bench_arg){.k = k, .first = (int)first, .nconn = nconn, .test = kind, .per_conn = per,
                               .pipeline = (int)pipeline, .views = (int)views, .batch = (int)batch,
                               .qflags = qflags};
         args[i].lat = malloc(sizeof(double) * (size_t)per * (size_t)nconn);
@@ -196,9 +205,12 @@ int cmd_bench(cli *k, int argc, char **argv)
         pthread_create(&th[i], NULL, bench_worker, &args[i]);
     }
     long done = 0, failed = 0;
+    bool noconn = false;
     uint64_t records = 0;
-    for (long i = 0; i < threads; i++) {
+    for (uint64_t i = 0; i < threads; i++) {
         pthread_join(th[i], NULL);
+        if (args[i].failed && args[i].why[0] && !failed) fprintf(stderr, "%s: bench: %s\n", g_prog, args[i].why);
+        noconn |= args[i].noconn;
         done += args[i].done;
         failed += args[i].failed;
         records += args[i].records;
@@ -206,7 +218,7 @@ int cmd_bench(cli *k, int argc, char **argv)
     double secs = now_s() - t0;
     double *all = malloc(sizeof(double) * (size_t)(done ? done : 1));
     long n = 0;
-    for (long i = 0; i < threads; i++) {
+    for (uint64_t i = 0; i < threads; i++) {
         memcpy(all + n, args[i].lat, sizeof(double) * (size_t)args[i].done);
         n += args[i].done;
         free(args[i].lat);
@@ -235,6 +247,6 @@ int cmd_bench(cli *k, int argc, char **argv)
     free(all);
     free(th);
     free(args);
-    return failed ? 1 : 0;
+    return noconn ? 3 : failed ? 1 : 0; /* 3: cannot connect, as every command */
 }
 

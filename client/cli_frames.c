@@ -9,6 +9,7 @@
  */
 #include "cli.h"
 
+#include <inttypes.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
@@ -21,7 +22,6 @@ typedef struct viewer {
     pthread_t th;
     vt_connect_opts co;
     vp_frame_sub sub;
-    double seconds;
     bool stalled;
     atomic_bool *stop;
     /* results */
@@ -54,7 +54,7 @@ static void *viewer_main(void *p)
     while (!atomic_load(v->stop)) {
         vp_frame f;
         int rc = vt_wait_frame(c, &f, 100);
-        if (rc == VT_ERR_IO && strstr(vt_last_error(c)->msg, "timed out")) continue;
+        if (rc == VT_ERR_IO && vt_last_error(c)->timed_out) continue;
         if (rc) {
             v->rc = rc;
             snprintf(v->err, sizeof v->err, "%.200s", vt_last_error(c)->msg);
@@ -82,17 +82,11 @@ static void *viewer_main(void *p)
     return NULL;
 }
 
-static int cmp_dbl(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 int bench_frames(cli *k, int argc, char **argv)
 {
     const char *use = "bench --test frames [--viewers N] [--stalled S] [--seconds T] [--size WxH] [--fps F] "
                       "[--edits-per-s R] [--quality Q] [--renderer soft|gl] [--eye X,Y,Z] [--at X,Y,Z] [--json]";
-    long viewers = 1, stalled = 0, fps = 240, edit_rate = 100, quality = 80;
+    uint64_t viewers = 1, stalled = 0, fps = 240, edit_rate = 100, quality = 80;
     double seconds = 5, eye[3] = {150, 200, 150}, at[3] = {0, 0, 0};
     unsigned w = 1280, h = 720;
     uint8_t renderer = 0;
@@ -103,25 +97,21 @@ int bench_frames(cli *k, int argc, char **argv)
         if (!strcmp(a, "--test")) i++;
         else if (!strcmp(a, "--json")) json = true;
         else if (!val) ok = false;
-        else if (!strcmp(a, "--viewers")) viewers = strtol(val, NULL, 10), i++;
-        else if (!strcmp(a, "--stalled")) stalled = strtol(val, NULL, 10), i++;
+        else if (!strcmp(a, "--viewers")) ok = parse_u64(val, &viewers), i++;
+        else if (!strcmp(a, "--stalled")) ok = parse_u64(val, &stalled), i++;
         else if (!strcmp(a, "--seconds")) ok = parse_vec(val, &seconds, 1), i++;
-        else if (!strcmp(a, "--size")) ok = sscanf(val, "%ux%u", &w, &h) == 2, i++;
-        else if (!strcmp(a, "--fps")) fps = strtol(val, NULL, 10), i++;
-        else if (!strcmp(a, "--edits-per-s")) edit_rate = strtol(val, NULL, 10), i++;
-        else if (!strcmp(a, "--quality")) quality = strtol(val, NULL, 10), i++;
+        else if (!strcmp(a, "--size")) ok = parse_size(val, 4096, &w, &h), i++;
+        else if (!strcmp(a, "--fps")) ok = parse_u64(val, &fps), i++;
+        else if (!strcmp(a, "--edits-per-s")) ok = parse_u64(val, &edit_rate), i++;
+        else if (!strcmp(a, "--quality")) ok = parse_u64(val, &quality), i++;
         else if (!strcmp(a, "--eye")) ok = parse_vec(val, eye, 3), i++;
         else if (!strcmp(a, "--at")) ok = parse_vec(val, at, 3), i++;
-        else if (!strcmp(a, "--renderer")) {
-            renderer = !strcmp(val, "gl") ? VP_RENDERER_GL : !strcmp(val, "soft") ? VP_RENDERER_SOFT : 255;
-            ok = renderer != 255;
-            i++;
-        } else ok = false;
+        else if (!strcmp(a, "--renderer")) ok = parse_renderer(val, &renderer), i++;
+        else ok = false;
         if (!ok) return die_usage("%s", use);
     }
-    if (viewers < 1 || viewers > 256 || stalled < 0 || stalled > 256 || seconds <= 0 || seconds > 3600 || w < 1 ||
-        h < 1 || w > 4096 || h > 4096 || fps < 1 || fps > (long)VP_FRAME_SUB_MAX_FPS || edit_rate < 0 ||
-        edit_rate > 100000 || quality < 1 || quality > 100)
+    if (viewers < 1 || viewers > 256 || stalled > 256 || seconds <= 0 || seconds > 3600 || fps < 1 ||
+        fps > VP_FRAME_SUB_MAX_FPS || edit_rate > 100000 || quality < 1 || quality > 100)
         return die_usage("%s", use);
     vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = (uint8_t)quality, .renderer = renderer},
                         .max_fps = (uint16_t)fps};
@@ -146,7 +136,7 @@ int bench_frames(cli *k, int argc, char **argv)
     atomic_bool stop = false;
     if (!vs) return 1;
     for (size_t i = 0; i < n; i++) {
-        vs[i] = (viewer){.co = k->co, .sub = sub, .seconds = seconds, .stalled = i >= (size_t)viewers, .stop = &stop};
+        vs[i] = (viewer){.co = k->co, .sub = sub, .stalled = i >= (size_t)viewers, .stop = &stop};
         vs[i].co.role = VP_ROLE_VIEWER;
         vs[i].co.name = "vantage-bench-frames";
         if (pthread_create(&vs[i].th, NULL, viewer_main, &vs[i])) {
@@ -181,10 +171,10 @@ int bench_frames(cli *k, int argc, char **argv)
     size_t ngaps = 0, total_frames = 0;
     double render = 0, encode = 0;
     int failed = 0;
-    for (long i = 0; i < viewers; i++) {
+    for (uint64_t i = 0; i < viewers; i++) {
         viewer *v = &vs[i];
         if (v->rc) {
-            fprintf(stderr, "%s: viewer %ld: error %d: %s\n", g_prog, i, v->rc, v->err);
+            fprintf(stderr, "%s: viewer %" PRIu64 ": error %d: %s\n", g_prog, i, v->rc, v->err);
             failed++;
         }
         rates[i] = v->frames / elapsed;
@@ -205,13 +195,13 @@ int bench_frames(cli *k, int argc, char **argv)
 #define GAP(q) (ngaps ? gaps[(size_t)((q) * (ngaps - 1))] : 0.0)
     double mean_render = total_frames ? render / total_frames : 0, mean_encode = total_frames ? encode / total_frames : 0;
     if (json)
-        printf("{\"test\":\"frames\",\"width\":%u,\"height\":%u,\"viewers\":%ld,\"stalled\":%ld,\"max_fps\":%ld,"
+        printf("{\"test\":\"frames\",\"width\":%u,\"height\":%u,\"viewers\":%" PRIu64 ",\"stalled\":%" PRIu64 ",\"max_fps\":%" PRIu64 ","
                "\"edits_per_s\":%.1f,\"seconds\":%.2f,\"fps_min\":%.2f,\"fps_median\":%.2f,\"fps_max\":%.2f,"
                "\"gap_p50_ms\":%.2f,\"gap_p99_ms\":%.2f,\"gap_max_ms\":%.2f,\"render_ms\":%.2f,\"encode_ms\":%.2f}\n",
                w, h, viewers, stalled, fps, edits / elapsed, elapsed, rates[0], rates[viewers / 2],
                rates[viewers - 1], GAP(0.5), GAP(0.99), GAP(1.0), mean_render, mean_encode);
     else
-        printf("frames %ux%u JPEG q%ld: %ld viewers (+%ld stalled), %.0f edits/s for %.1f s: frames/s per viewer "
+        printf("frames %ux%u JPEG q%" PRIu64 ": %" PRIu64 " viewers (+%" PRIu64 " stalled), %.0f edits/s for %.1f s: frames/s per viewer "
                "min %.1f, median %.1f, max %.1f; interval p50 %.1f ms, p99 %.1f ms, max %.1f ms; server render %.2f "
                "ms, encode %.2f ms a frame\n",
                w, h, quality, viewers, stalled, edits / elapsed, elapsed, rates[0], rates[viewers / 2],

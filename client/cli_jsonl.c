@@ -268,7 +268,12 @@ int cmd_export(cli *k, int argc, char **argv)
         cursor = lr.next_cursor;
     } while (cursor);
     bool to_stdout = f == stdout;
-    if (!to_stdout) fclose(f);
+    /* a full disk shows only at the flush: the export is not done unless
+       every byte got out */
+    if ((to_stdout ? fflush(f) : fclose(f)) != 0 || (to_stdout && ferror(f))) {
+        fprintf(stderr, "%s: export: %s\n", g_prog, strerror(errno));
+        if (!rc) rc = 1;
+    }
     for (size_t i = 0; i < 65536; i++) {
         free(names[i]);
         names[i] = NULL;

@@ -30,13 +30,22 @@ static bool ends_with(const char *s, const char *suffix)
     return n >= m && !strcasecmp(s + n - m, suffix);
 }
 
+/* The format a file name's extension names. */
 static bool kind_of(const char *name, out_kind *k)
 {
-    if (ends_with(name, "exr")) *k = OUT_EXR;
-    else if (ends_with(name, "png")) *k = OUT_PNG;
-    else if (ends_with(name, "jpg") || ends_with(name, "jpeg")) *k = OUT_JPG;
+    if (ends_with(name, ".exr")) *k = OUT_EXR;
+    else if (ends_with(name, ".png")) *k = OUT_PNG;
+    else if (ends_with(name, ".jpg") || ends_with(name, ".jpeg")) *k = OUT_JPG;
     else return false;
     return true;
+}
+
+/* The format --format names: exr, png, jpg or jpeg. */
+static bool kind_named(const char *name, out_kind *k)
+{
+    char dotted[8];
+    return strlen(name) <= 4 && strchr(name, '.') == NULL && snprintf(dotted, sizeof dotted, ".%s", name) > 0 &&
+           kind_of(dotted, k);
 }
 
 /* What `render` and `watch --frames` share: the camera and the frame. */
@@ -72,14 +81,11 @@ static int frame_opt(frame_opts *f, int o, const char *arg)
     case 'f': ok = parse_vec(arg, &f->fov, 1) && f->fov > 0 && f->fov < 180; break;
     case 'n': ok = parse_vec(arg, &f->znear, 1); break;
     case 'F': ok = parse_vec(arg, &f->zfar, 1); break;
-    case 's': ok = sscanf(arg, "%ux%u", &f->w, &f->h) == 2 && f->w && f->h && f->w <= 4096 && f->h <= 4096; break;
+    case 's': ok = parse_size(arg, 4096, &f->w, &f->h); break;
     case 'x': ok = parse_vec(arg, &f->ev, 1) && f->ev >= -64 && f->ev <= 64; break;
     case 'q': ok = parse_vec(arg, &q, 1) && q >= 1 && q <= 100 && (f->quality = (unsigned)q); break;
     case 'N': f->flags |= VP_RENDER_NO_OCCLUSION; break;
-    case 'R':
-        f->renderer = !strcmp(arg, "gl") ? VP_RENDERER_GL : !strcmp(arg, "soft") ? VP_RENDERER_SOFT : 255;
-        ok = f->renderer != 255;
-        break;
+    case 'R': ok = parse_renderer(arg, &f->renderer); break;
     default: return 0;
     }
     return ok ? 1 : -1;
@@ -172,7 +178,7 @@ int cmd_render(cli *k, int argc, char **argv)
     }
     if (!f.have_eye || !f.have_at || !out || optind != argc) return die_usage("%s", use);
     out_kind kind;
-    if (!kind_of(out, &kind) || (kind == OUT_EXR && !ends_with(out, ".exr")))
+    if (!kind_of(out, &kind))
         return die_usage("render: the output must end in .exr, .png or .jpg");
     vp_render m;
     if (!frame_request(&f, f.eye, kind, &m))
@@ -185,13 +191,6 @@ int cmd_render(cli *k, int argc, char **argv)
     printf("%s: %ux%u, %u entities drawn at epoch %llu; render %.2f ms, encode %.2f ms (server)\n", out, fr.width,
            fr.height, fr.visible, (unsigned long long)fr.epoch, fr.render_ns / 1e6, fr.encode_ns / 1e6);
     return 0;
-}
-
-static volatile sig_atomic_t g_stop_frames;
-static void on_sigint(int sig)
-{
-    (void)sig;
-    g_stop_frames = 1;
 }
 
 /* eye turned by angle (radians) about the vertical through at */
@@ -236,7 +235,7 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
     }
     out_kind kind;
     if (!dir || !f.have_eye || !f.have_at || optind != argc) return die_usage("%s", use);
-    if (!kind_of(format, &kind) || strlen(format) > 4) return die_usage("watch: --format jpg, png or exr");
+    if (!kind_named(format, &kind)) return die_usage("watch: --format jpg, png or exr");
     vp_frame_sub sub = {.max_fps = (uint16_t)fps};
     if (!frame_request(&f, f.eye, kind, &sub.r))
         return die_usage("watch: degenerate camera (eye == at, up parallel to the view, or near/far)");
@@ -247,15 +246,15 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
     if ((rc = vt_frame_subscribe(k->c, &sub))) return server_fail(k, "watch", rc);
-    signal(SIGINT, on_sigint);
+    catch_sigint();
     fprintf(stderr, "writing frames to %s/ (Ctrl-C to stop)\n", dir);
     const char *ext = kind == OUT_EXR ? "exr" : kind == OUT_PNG ? "png" : "jpg";
     double t0 = now_s();
     uint64_t n = 0;
-    while (!g_stop_frames && (!count || n < count) && (seconds <= 0 || now_s() - t0 < seconds)) {
+    while (!g_stop && (!count || n < count) && (seconds <= 0 || now_s() - t0 < seconds)) {
         vp_frame fr;
         rc = vt_wait_frame(k->c, &fr, 250);
-        if (rc == VT_ERR_IO && strstr(vt_last_error(k->c)->msg, "timed out")) continue;
+        if (rc == VT_ERR_IO && vt_last_error(k->c)->timed_out) continue;
         if (rc) return server_fail(k, "watch", rc);
         char path[4096];
         snprintf(path, sizeof path, "%s/frame-%06llu.%s", dir, (unsigned long long)n, ext);
@@ -296,7 +295,10 @@ int cmd_lights(cli *k, int argc, char **argv)
     frame_opts f;
     frame_opts_init(&f);
     bool json = false, no_depth = false;
-    static const struct option opts[] = {FRAME_LONGOPTS, {"json", 0, 0, 'j'}, {"no-depth", 0, 0, 'Z'},
+    /* the camera's options only: nothing here is drawn or encoded */
+    static const struct option opts[] = {{"eye", 1, 0, 'e'},  {"at", 1, 0, 'a'},       {"up", 1, 0, 'u'},
+                                         {"fov", 1, 0, 'f'},  {"near", 1, 0, 'n'},     {"far", 1, 0, 'F'},
+                                         {"size", 1, 0, 's'}, {"json", 0, 0, 'j'},     {"no-depth", 0, 0, 'Z'},
                                          {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     const char *use = "lights --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH] "
                       "[--no-depth] [--json]";

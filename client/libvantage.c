@@ -33,9 +33,7 @@ struct vt_client {
     uint8_t *out;
     size_t out_cap;
     uint32_t stream_req;    /* the frame stream's req, 0 = none */
-    vp_error stream_err;    /* an ERROR that ended the stream during another call */
-    char stream_msg[VP_MAX_ERROR_MSG + 1];
-    bool stream_failed;
+    vt_error stream_err;    /* code != 0: an ERROR ended the stream during another call */
 };
 
 static int set_err(vt_client *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
@@ -43,11 +41,19 @@ static int set_err(vt_client *c, int code, const char *fmt, ...)
 {
     c->err.code = code;
     c->err.index = UINT32_MAX;
+    c->err.timed_out = false;
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(c->err.msg, sizeof c->err.msg, fmt, ap);
     va_end(ap);
     return code;
+}
+
+static int timed_out(vt_client *c, const char *what)
+{
+    set_err(c, VT_ERR_IO, "%s", what);
+    c->err.timed_out = true;
+    return VT_ERR_IO;
 }
 
 const vt_error *vt_last_error(const vt_client *c) { return &c->err; }
@@ -65,12 +71,7 @@ int vt_send(vt_client *c, const uint8_t *data, size_t len)
             continue;
         }
         if (n < 0 && errno == EINTR) continue;
-        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-            struct pollfd p = {.fd = c->fd, .events = POLLOUT};
-            int r = poll(&p, 1, c->timeout_ms);
-            if (r == 0) return set_err(c, VT_ERR_IO, "send: timed out");
-            if (r > 0 || errno == EINTR) continue;
-        }
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return timed_out(c, "send: timed out"); /* SO_SNDTIMEO */
         return set_err(c, VT_ERR_IO, "send: %s", n < 0 ? strerror(errno) : "connection closed");
     }
     return VP_OK;
@@ -106,7 +107,7 @@ int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
         struct pollfd p = {.fd = c->fd, .events = POLLIN};
         int r = poll(&p, 1, timeout_ms);
         if (r == 0 && timeout_ms == 0) return VP_NEED_MORE; /* a poll, not a wait */
-        if (r == 0) return set_err(c, VT_ERR_IO, "timed out waiting for the server");
+        if (r == 0) return timed_out(c, "timed out waiting for the server");
         if (r < 0) {
             if (errno == EINTR) continue;
             return set_err(c, VT_ERR_IO, "poll: %s", strerror(errno));
@@ -129,7 +130,10 @@ static bool out_buf(vt_client *c, size_t need, vp_writer *w)
         size_t cap = c->out_cap ? c->out_cap : 4096;
         while (cap < need) cap *= 2;
         uint8_t *n = realloc(c->out, cap);
-        if (!n) return false;
+        if (!n) {
+            set_err(c, VT_ERR_IO, "out of memory for a request of %zu bytes", need);
+            return false;
+        }
         c->out = n;
         c->out_cap = cap;
     }
@@ -137,23 +141,23 @@ static bool out_buf(vt_client *c, size_t need, vp_writer *w)
     return true;
 }
 
-/* Sends what w holds and reads the reply to req: an ERROR becomes the
- * return value; another type than want is a protocol error. EVENT frames
- * arriving in between are skipped. */
-static void stream_error(vt_client *c, const uint8_t *p, uint32_t len)
+/* The server's ERROR frame as a vt_error; returns its (negative) code. */
+static int error_from(vt_error *out, const uint8_t *p, uint32_t len)
 {
     vp_error e;
-    c->stream_failed = true;
-    c->stream_req = 0;
     if (vp_dec_error(p, len, &e)) {
-        c->stream_err = (vp_error){.code = VT_ERR_IO};
-        snprintf(c->stream_msg, sizeof c->stream_msg, "malformed ERROR from the server");
-        return;
+        *out = (vt_error){.code = VT_ERR_IO, .index = UINT32_MAX};
+        snprintf(out->msg, sizeof out->msg, "malformed ERROR from the server");
+    } else {
+        *out = (vt_error){.code = e.code < 0 ? e.code : VP_ERR_INTERNAL, .index = e.index};
+        snprintf(out->msg, sizeof out->msg, "%.*s", (int)e.msg_len, (const char *)e.msg);
     }
-    c->stream_err = e;
-    snprintf(c->stream_msg, sizeof c->stream_msg, "%.*s", (int)e.msg_len, (const char *)e.msg);
+    return out->code;
 }
 
+/* Sends what w holds and reads the reply to req: an ERROR becomes the
+ * return value; another type than want is a protocol error. EVENT frames
+ * and the frame stream's frames arriving in between are skipped. */
 static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, const uint8_t **p, uint32_t *len)
 {
     if (w->overflow) return set_err(c, VP_ERR_LIMIT, "request too large for the send buffer");
@@ -166,17 +170,13 @@ static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, co
         if (c->stream_req && h.req == c->stream_req && h.req != req) {
             /* the frame stream's: a frame is dropped (the next one is
                newer); an error ends the stream and waits for vt_wait_frame */
-            if (h.type == VP_ERROR) stream_error(c, *p, h.len);
+            if (h.type == VP_ERROR) {
+                error_from(&c->stream_err, *p, h.len);
+                c->stream_req = 0;
+            }
             continue;
         }
-        if (h.type == VP_ERROR) {
-            vp_error e;
-            if (vp_dec_error(*p, h.len, &e)) return set_err(c, VT_ERR_IO, "malformed ERROR from the server");
-            c->err.code = e.code;
-            c->err.index = e.index;
-            snprintf(c->err.msg, sizeof c->err.msg, "%.*s", (int)e.msg_len, (const char *)e.msg);
-            return e.code < 0 ? e.code : VP_ERR_INTERNAL;
-        }
+        if (h.type == VP_ERROR) return error_from(&c->err, *p, h.len);
         if (h.req != req || h.type != want)
             return set_err(c, VT_ERR_IO, "unexpected reply %s (req %u) to request %u", vp_type_name(h.type), h.req,
                            req);
@@ -246,6 +246,12 @@ int vt_connect(const vt_connect_opts *o, vt_client **out, char *err, size_t errl
     if ((c->fd = connect_fd(&d, err, errlen)) < 0) {
         free(c);
         return VT_ERR_IO;
+    }
+    if (c->timeout_ms > 0) {
+        /* the per-call timeout holds for sending too: a server that stops
+           reading makes send() give up with EAGAIN */
+        struct timeval tv = {.tv_sec = c->timeout_ms / 1000, .tv_usec = (c->timeout_ms % 1000) * 1000};
+        setsockopt(c->fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
     }
     const char *name = d.name ? d.name : "libvantage";
     size_t tl = d.token ? strlen(d.token) : 0, nl = strlen(name);
@@ -441,7 +447,7 @@ int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
     /* frames of the old view already on their way (old req) are still
        handed out by vt_wait_frame: they are the latest there is */
     c->stream_req = req;
-    c->stream_failed = false;
+    c->stream_err.code = 0;
     return VP_OK;
 }
 
@@ -459,12 +465,10 @@ int vt_frame_unsubscribe(vt_client *c)
 int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms)
 {
     for (;;) {
-        if (c->stream_failed) {
-            c->stream_failed = false;
-            c->err.code = c->stream_err.code;
-            c->err.index = c->stream_err.index;
-            snprintf(c->err.msg, sizeof c->err.msg, "%s", c->stream_msg);
-            return c->stream_err.code < 0 ? c->stream_err.code : VP_ERR_INTERNAL;
+        if (c->stream_err.code) {
+            c->err = c->stream_err;
+            c->stream_err.code = 0;
+            return c->err.code;
         }
         if (!c->stream_req) return set_err(c, VP_ERR_STATE, "no frame stream (vt_frame_subscribe first)");
         vp_header h;
@@ -472,7 +476,8 @@ int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms)
         int rc = vt_recv(c, &h, &p, timeout_ms);
         if (rc) return rc;
         if (h.type == VP_ERROR && h.req == c->stream_req) {
-            stream_error(c, p, h.len);
+            error_from(&c->stream_err, p, h.len);
+            c->stream_req = 0;
             continue;
         }
         if (h.type != VP_FRAME) continue; /* events, or a stray reply: not ours to keep */

@@ -14,6 +14,7 @@
 
 #include "protocol.h"
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -40,6 +41,7 @@ typedef struct vt_connect_opts {
 typedef struct vt_error {
     int code;
     uint32_t index;        /* failing record of a batch, or UINT32_MAX */
+    bool timed_out;        /* VT_ERR_IO because the call's timeout passed */
     char msg[1100];
 } vt_error;
 
@@ -87,13 +89,14 @@ int vt_light_query(vt_client *c, const vp_light_query *m, vp_light_tiles *out);
 int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m);
 int vt_frame_unsubscribe(vt_client *c);
 /* The next frame of the stream; out->data is valid until the next call.
- * VT_ERR_IO on timeout (timeout_ms < 0: wait for ever). */
+ * VT_ERR_IO with vt_last_error()->timed_out on timeout (timeout_ms < 0:
+ * the client's timeout). */
 int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms);
 /* Ids of sub-level names (1..255 bytes each), defining new ones. */
 int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t *ids);
 /* Every named sub-level (walk out with vp_name_next; valid until the next call). */
 int vt_sublevel_list(vt_client *c, vp_name_list *out);
-/* Waits for a pushed EVENT; VT_ERR_IO on timeout. */
+/* Waits for a pushed EVENT; VT_ERR_IO with timed_out set on timeout. */
 int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms);
 int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n);
 /* Adds or replaces occluder id: ntris counter-clockwise triangles (9 floats

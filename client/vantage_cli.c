@@ -59,7 +59,6 @@ static void usage(FILE *f)
             VT_DEFAULT_PORT);
 }
 
-int die_usage(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 int die_usage(const char *fmt, ...)
 {
     va_list ap;
@@ -118,10 +117,51 @@ bool parse_u64(const char *s, uint64_t *v)
 {
     char *end;
     errno = 0;
-    unsigned long long x = strtoull(s, &end, 0);
-    if (!*s || *end || errno || *s == '-') return false;
+    bool hex = s[0] == '0' && (s[1] == 'x' || s[1] == 'X');
+    unsigned long long x = strtoull(s, &end, hex ? 16 : 10); /* never octal: 010 is ten */
+    if (!*s || *end || errno || *s == '-' || *s == '+' || *s == ' ' || (hex && !s[2])) return false;
     *v = x;
     return true;
+}
+
+bool parse_size(const char *s, unsigned max, unsigned *w, unsigned *h)
+{
+    const char *x = strchr(s, 'x');
+    if (!x || x - s > 10) return false;
+    char a[12];
+    memcpy(a, s, (size_t)(x - s));
+    a[x - s] = 0;
+    uint64_t W, H;
+    if (!parse_u64(a, &W) || !parse_u64(x + 1, &H) || !W || !H || W > max || H > max) return false;
+    *w = (unsigned)W;
+    *h = (unsigned)H;
+    return true;
+}
+
+bool parse_renderer(const char *s, uint8_t *r)
+{
+    if (!strcmp(s, "gl")) *r = VP_RENDERER_GL;
+    else if (!strcmp(s, "soft")) *r = VP_RENDERER_SOFT;
+    else return false;
+    return true;
+}
+
+int cmp_dbl(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+volatile sig_atomic_t g_stop;
+static void on_sigint(int sig)
+{
+    (void)sig;
+    g_stop = 1;
+}
+
+void catch_sigint(void)
+{
+    signal(SIGINT, on_sigint);
 }
 
 /* ---- commands ---------------------------------------------------------------- */
@@ -135,13 +175,15 @@ double now_s(void)
 
 static int cmd_ping(cli *k, int argc, char **argv)
 {
-    long n = 1;
-    if (argc >= 3 && !strcmp(argv[1], "-c")) n = strtol(argv[2], NULL, 10);
-    else if (argc > 1) return die_usage("ping [-c N]");
-    if (n < 1) return die_usage("ping: -c needs a positive count");
+    uint64_t n = 1;
+    if (argc == 3 && !strcmp(argv[1], "-c")) {
+        if (!parse_u64(argv[2], &n) || !n) return die_usage("ping: -c needs a positive count");
+    } else if (argc > 1) {
+        return die_usage("ping [-c N]");
+    }
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
-    for (long i = 0; i < n; i++) {
+    for (uint64_t i = 0; i < n; i++) {
         double t0 = now_s();
         if ((rc = vt_ping(k->c))) return server_fail(k, "ping", rc);
         if (n == 1) printf("PONG\n");
@@ -282,7 +324,7 @@ static int cmd_get(cli *k, int argc, char **argv)
 static int cmd_query(cli *k, int argc, char **argv)
 {
     double eye[3], at[3], up[3] = {0, 1, 0}, fov = 60, ortho[2] = {0, 0}, znear = 0.1, zfar = 10000;
-    bool have_eye = false, have_at = false, json = false;
+    bool have_eye = false, have_at = false, have_fov = false, json = false;
     unsigned w = 1920, h = 1080;
     float min_area = 0;
     uint8_t flags = 0;
@@ -301,11 +343,11 @@ static int cmd_query(cli *k, int argc, char **argv)
         case 'e': ok = have_eye = parse_vec(optarg, eye, 3); break;
         case 'a': ok = have_at = parse_vec(optarg, at, 3); break;
         case 'u': ok = parse_vec(optarg, up, 3); break;
-        case 'f': ok = parse_vec(optarg, &fov, 1) && fov > 0 && fov < 180; break;
+        case 'f': ok = have_fov = parse_vec(optarg, &fov, 1) && fov > 0 && fov < 180; break;
         case 'o': ok = parse_vec(optarg, ortho, 2) && ortho[0] > 0 && ortho[1] > 0; break;
         case 'n': ok = parse_vec(optarg, &znear, 1); break;
         case 'F': ok = parse_vec(optarg, &zfar, 1); break;
-        case 's': ok = sscanf(optarg, "%ux%u", &w, &h) == 2 && w && h && w <= 65535 && h <= 65535; break;
+        case 's': ok = parse_size(optarg, 65535, &w, &h); break;
         case 'm': {
             double m;
             ok = parse_vec(optarg, &m, 1) && m >= 0;
@@ -322,6 +364,9 @@ static int cmd_query(cli *k, int argc, char **argv)
         if (!ok) return die_usage("query: bad value %s", optarg);
     }
     if (!have_eye || !have_at || optind != argc) return die_usage("%s", use);
+    if ((flags & VP_Q_NO_OCCLUSION) && (flags & VP_Q_OCC_CENTRE))
+        return die_usage("query: --no-occlusion and --occ-centre exclude each other");
+    if (have_fov && ortho[0] > 0) return die_usage("query: --fov and --ortho exclude each other");
     vp_view v;
     bool ok = ortho[0] > 0 ? vt_view_ortho(&v, eye, at, up, ortho[0], ortho[1], (uint16_t)w, (uint16_t)h, znear, zfar)
                            : vt_view_perspective(&v, eye, at, up, fov, (uint16_t)w, (uint16_t)h, znear, zfar);
@@ -360,29 +405,25 @@ static int cmd_query(cli *k, int argc, char **argv)
     return 0;
 }
 
-static volatile sig_atomic_t g_stop;
-static void on_sigint(int sig)
-{
-    (void)sig;
-    g_stop = 1;
-}
-
 static int cmd_watch(cli *k, int argc, char **argv)
 {
-    long count = -1;
+    uint64_t count = UINT64_MAX;
     for (int i = 1; i < argc; i++)
         if (!strncmp(argv[i], "--frames", 8)) return cmd_watch_frames(k, argc, argv);
-    if (argc == 3 && !strcmp(argv[1], "--count")) count = strtol(argv[2], NULL, 10);
-    else if (argc != 1) return die_usage("watch [--count N] | watch --frames DIR ... (watch --frames x --help)");
+    if (argc == 3 && !strcmp(argv[1], "--count")) {
+        if (!parse_u64(argv[2], &count) || !count) return die_usage("watch: --count needs a positive count");
+    } else if (argc != 1) {
+        return die_usage("watch [--count N] | watch --frames DIR ... (watch --frames x --help)");
+    }
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
     if ((rc = vt_subscribe(k->c, VP_EVENT_SCENE))) return server_fail(k, "watch", rc);
-    signal(SIGINT, on_sigint);
+    catch_sigint();
     fprintf(stderr, "watching scene changes (Ctrl-C to stop)\n");
-    for (long n = 0; !g_stop && (count < 0 || n < count);) {
+    for (uint64_t n = 0; !g_stop && n < count;) {
         vp_event ev;
         rc = vt_wait_event(k->c, &ev, 500);
-        if (rc == VT_ERR_IO && strstr(vt_last_error(k->c)->msg, "timed out")) continue;
+        if (rc == VT_ERR_IO && vt_last_error(k->c)->timed_out) continue;
         if (rc) return server_fail(k, "watch", rc);
         printf("{\"epoch\": %llu, \"added\": %u, \"updated\": %u, \"removed\": %u}\n", (unsigned long long)ev.epoch,
                ev.added, ev.updated, ev.removed);
@@ -423,7 +464,10 @@ int main(int argc, char **argv)
     }
     char **av = argv + optind;
     int ac = argc - optind;
-    if (ac == 2 && !strcmp(av[1], "--help") && strcmp(av[0], "query")) {
+    static const char *const own_help[] = {"query", "render", "lights"};
+    bool own = false;
+    for (size_t i = 0; i < sizeof own_help / sizeof own_help[0]; i++) own |= !strcmp(av[0], own_help[i]);
+    if (ac == 2 && !strcmp(av[1], "--help") && !own) {
         usage(stdout);
         return 0;
     }
