@@ -124,7 +124,10 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
         for (uint32_t x = 0; x < b->w; x++) b->depth[(size_t)y * b->stride + x] = EMPTY;
     for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = b->tile_full[i] = b->teff[i] = EMPTY;
     memset(b->tstate, TILE_CLEAN, (size_t)b->tpitch * b->th);
-    for (size_t i = 0; i < (size_t)b->spitch * b->th; i++) b->strip[i] = EMPTY;
+    /* strips of padding tile rows (above the buffer) are never drawn or
+       cleared: padding, so the big tiles' minima see only real rows */
+    for (size_t i = 0; i < (size_t)b->spitch * b->th; i++)
+        b->strip[i] = i / b->spitch < (b->h + 7) / 8 ? EMPTY : PAD;
     memset(b->sdirty, 0, (size_t)b->sdpitch * b->th);
     for (size_t i = 0; i < (size_t)b->t2w * b->t2h; i++) b->tile2[i] = EMPTY;
     b->inner = true;
@@ -871,6 +874,9 @@ static void job_band(void *arg, uint32_t t)
         for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
             b->fns.fill(b->tile_full + (size_t)ty * b->tw, b->tw, EMPTY);
             b->fns.fill(b->teff + (size_t)ty * b->tw, b->tw, EMPTY);
+            /* tiles past the right edge hold padding: they never lower a
+               strip's or a big tile's minimum */
+            for (uint32_t tx = (b->w + 7) >> 3; tx < b->tw; tx++) b->teff[(size_t)ty * b->tw + tx] = PAD;
             memset(b->tstate + (size_t)ty * b->tpitch, TILE_INVALID, b->tw);
             b->fns.fill(b->strip + (size_t)ty * b->spitch, b->t2w, EMPTY);
             memset(b->sdirty + (size_t)ty * b->sdpitch, 0, b->t2w);
