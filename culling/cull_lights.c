@@ -133,7 +133,9 @@ int cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const c
 
     /* side planes: column i spans NDC x in [X_i, X_i+1] (the last tile may
        reach past the viewport: its plane is the viewport's edge) */
-    plane *col = malloc((2 * (size_t)tx + 2 * (size_t)ty) * sizeof *col), *row = col + 2 * (size_t)tx;
+    size_t ndepth = depth_range ? 2 * ntiles : 0;
+    plane *col = malloc((2 * (size_t)tx + 2 * (size_t)ty + ndepth) * sizeof *col), *row = col + 2 * (size_t)tx;
+    plane *dpl = row + 2 * (size_t)ty; /* per tile: far and near depth planes */
     if (!col) return CULL_ERR_NOMEM;
     for (uint32_t i = 0; i < tx; i++) {
         double x0 = -1 + 2.0 * i * CULL_LIGHT_TILE / width, x1 = fmin(1, -1 + 2.0 * (i + 1) * CULL_LIGHT_TILE / width);
@@ -150,6 +152,19 @@ int cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const c
         row[2 * j] = mk_plane(f);
         lin(f, -1, vr.y, y1, vr.w);
         row[2 * j + 1] = mk_plane(f);
+    }
+
+    /* depth planes, once per tile that shows something: nearness in
+       [nf, nn], widened by its float rounding: d - nf w >= 0 and
+       nn w - d >= 0 */
+    for (size_t t = 0; t < ndepth / 2; t++) {
+        float nn = depth_range[t][0], nf = depth_range[t][1];
+        if (!(nn >= nf)) continue; /* the tile shows nothing: never read */
+        double lo = nf - 0x1p-20 * fabs(nf), hi = nn + 0x1p-20 * fabs(nn), f[4];
+        lin(f, 1, vr.d, -lo, vr.w);
+        dpl[2 * t] = mk_plane(f);
+        lin(f, -1, vr.d, hi, vr.w);
+        dpl[2 * t + 1] = mk_plane(f);
     }
 
     /* (tile, light) pairs, light by light */
@@ -174,17 +189,8 @@ int cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const c
                 if (!touches(&col[2 * i], c, r) || !touches(&col[2 * i + 1], c, r)) continue;
                 uint32_t t = j * tx + i;
                 if (depth_range) {
-                    float nn = depth_range[t][0], nf = depth_range[t][1];
-                    if (!(nn >= nf)) continue; /* the tile shows nothing */
-                    /* nearness in [nf, nn], widened by its float rounding:
-                       d - nf w >= 0 and nn w - d >= 0 */
-                    double lo = nf - 0x1p-20 * fabs(nf), hi = nn + 0x1p-20 * fabs(nn), f[4];
-                    lin(f, 1, vr.d, -lo, vr.w);
-                    plane pf = mk_plane(f);
-                    if (!touches(&pf, c, r)) continue;
-                    lin(f, -1, vr.d, hi, vr.w);
-                    plane pn = mk_plane(f);
-                    if (!touches(&pn, c, r)) continue;
+                    if (!(depth_range[t][0] >= depth_range[t][1])) continue; /* the tile shows nothing */
+                    if (!touches(&dpl[2 * t], c, r) || !touches(&dpl[2 * t + 1], c, r)) continue;
                 }
                 if (!cull_grow((void **)&out->scratch, &out->scratch_cap, 2 * (npairs + 1), sizeof *out->scratch)) {
                     rc = CULL_ERR_NOMEM;
