@@ -208,7 +208,6 @@ void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v)
     memcpy(b->rn, r.nearfn, sizeof b->rn);
     memcpy(b->rd, r.d, sizeof b->rd);
     memcpy(b->origin, v->origin, sizeof b->origin);
-    b->ortho = r.ortho;
     b->usable = r.usable;
     b->sx = 0.5 * b->w;
     b->sy = 0.5 * b->h;
@@ -977,7 +976,7 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
             it->cl = cl;
             it->near = k == OCC_BOX_NEAR;
             it->key = it->near ? INFINITY : it->r.z;
-            it->order = n++;
+            n++;
         }
     }
     b->nitems = n;

@@ -51,7 +51,6 @@ typedef struct cull_occ_item {
     cull_occ_rect r;
     float key;          /* nearness of its nearest point; +inf at the near plane */
     bool near;          /* reaches the near plane: drawn in every band */
-    uint32_t order;
 } cull_occ_item;
 
 struct cull_occ_buffer {
@@ -69,9 +68,7 @@ struct cull_occ_buffer {
     uint8_t *sdirty;        /* strip written since its minimum was taken */
     uint32_t spitch, sdpitch; /* strip row pitches, floats and bytes */
     bool     drawn;         /* the last render set some pixel */
-    bool     dirty;         /* pixels differ from the cleared state */
     bool     usable;        /* the view admits the nearness mapping */
-    bool     ortho;
     bool     inner;         /* coverage = pixel squares fully inside */
     uint32_t threads_used;
     uint32_t isa;           /* default for cull_occ_render */

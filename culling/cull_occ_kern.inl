@@ -6,7 +6,7 @@
 #define CULL_OCC_CAT2(a, b) a##b
 #define CULL_OCC_CAT(a, b) CULL_OCC_CAT2(a, b)
 
-static const float cull_occ_iota[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+/* lane k holds k: cull_lane_index, from cull_kernel.inl (included first) */
 
 /* row[x] = max(row[x], max(min(a0 + da x, b0 + db x, c0 + dc x), lo)), x in [x0, x1].
  * The last partial vector is masked (z = -FLT_MAX leaves a pixel as it
@@ -17,7 +17,7 @@ void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, 
                                                     float da, float b0, float db, float c0, float dc, float lo)
 {
     const vf vda = vf_set(da), vdb = vf_set(db), vdc = vf_set(dc), vlo = vf_set(lo), step = vf_set((float)W);
-    const vf va = vf_set(a0), vb = vf_set(b0), vc = vf_set(c0), iota = vf_loadu(cull_occ_iota);
+    const vf va = vf_set(a0), vb = vf_set(b0), vc = vf_set(c0), iota = vf_load(cull_lane_index);
     int x = x0;
     vf fx = vf_add(vf_set((float)x0), iota);
     for (; x + W - 1 <= x1; x += W) {
@@ -43,7 +43,7 @@ bool CULL_OCC_CAT(cull_occ_any_le_, CULL_OCC_SUFFIX)(const float *restrict row, 
         if (vm_bits(vf_le(vf_loadu(row + x), vz))) return true;
     if (x > x1) return false;
     if (x + W > room) x = room - W;
-    vf fx = vf_add(vf_set((float)x), vf_loadu(cull_occ_iota));
+    vf fx = vf_add(vf_set((float)x), vf_load(cull_lane_index));
     vm in = vm_and(vf_ge(fx, vf_set((float)x0)), vf_le(fx, vf_set((float)x1)));
     return vm_bits(vm_and(in, vf_le(vf_loadu(row + x), vz))) != 0;
 }

@@ -302,7 +302,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         .aabb = !(q->flags & CULL_Q_NO_AABB),
         .area = q->min_screen_area > 0 || (q->flags & CULL_Q_WANT_AREA),
         .exact_area = (q->flags & CULL_Q_WANT_AREA) != 0,
-        .count_only = (q->flags & CULL_Q_COUNT_ONLY) != 0,
+        .count_only = count_only,
     };
 
     /* world-space planes for the box kernel */
