@@ -140,7 +140,7 @@ $(PROTO_LIB): $(PROTO_OBJ)
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
-# the daemon renders with the software path and encodes JPEG (no GL, no EXR)
+# the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
                  $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
@@ -164,12 +164,10 @@ $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
-$(BUILD)/tests/bench/bench_occlusion.o: CPPFLAGS += -DVANTAGE_HAVE_EXR
-
 $(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
-$(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests -Irender
+$(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)
 
 # ---- the two commands ---------------------------------------------------------

@@ -17,6 +17,7 @@
  * Times are per query: median and minimum over the iterations.
  */
 #include "culling.h"
+#include "bench_util.h"
 #include "scene_file.h"
 
 #include <math.h>
@@ -34,27 +35,8 @@
 static bool g_json, g_smoke;
 static const char *g_filter;
 
-static double now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e9 + ts.tv_nsec;
-}
 
-static int cmp_d(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 
-static uint64_t rng_state = 0x5EED2011;
-static double frand(void)
-{
-    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
-}
 
 /* ---- the scene: N entities in a slab, cameras on a path ------------------ */
 typedef struct bscene {
@@ -92,10 +74,10 @@ static void scene_build(bscene *s, uint32_t n)
         abort();
     for (uint32_t i = 0; i < n; i++) {
         cull_entity_desc e = {0};
-        e.center[0] = (frand() * 2 - 1) * s->half;
-        e.center[1] = frand() * 60;
-        e.center[2] = (frand() * 2 - 1) * s->half;
-        e.radius = 0.25 + 4 * frand() * frand();
+        e.center[0] = (bench_frand() * 2 - 1) * s->half;
+        e.center[1] = bench_frand() * 60;
+        e.center[2] = (bench_frand() * 2 - 1) * s->half;
+        e.radius = 0.25 + 4 * bench_frand() * bench_frand();
         e.class_id = (uint16_t)(i % 64);
         cull_handle h;
         if (cull_entity_add(s->grid, &e, &h)) abort();
@@ -214,12 +196,12 @@ static void run_naive(bscene *s, bool cold)
     for (int i = 0; i < it; i++) {
         if (cold) flush_caches();
         const plane *fr = (const plane *)s->planes[i % PATH_LEN];
-        double t0 = now_ns();
+        double t0 = bench_now_ns();
         size_t k = naive_cull(s->aos, s->n, fr, out);
-        t[i] = now_ns() - t0;
+        t[i] = bench_now_ns() - t0;
         vis += k;
     }
-    qsort(t, it, sizeof *t, cmp_d);
+    qsort(t, it, sizeof *t, bench_cmp_d);
     result r = {t[it / 2], t[0], vis / it, it, s->n};
     report("naive", "aos", s->n, 1, 1, "scalar", "sphere", cold ? "cold" : "warm", &r);
     free(t);
@@ -253,12 +235,12 @@ static void run_case(bscene *s, cull_pool *pool, bool flat, uint32_t views, uint
     for (int i = 0; i < it; i++) {
         if (cold) flush_caches();
         q.views = path[i % PATH_LEN];
-        double t0 = now_ns();
+        double t0 = bench_now_ns();
         if (cull_query(w, ctx, &q, out, cap, &n, i == it - 1 ? &st : NULL)) abort();
-        t[i] = now_ns() - t0;
+        t[i] = bench_now_ns() - t0;
         vis += n;
     }
-    qsort(t, it, sizeof *t, cmp_d);
+    qsort(t, it, sizeof *t, bench_cmp_d);
     result r = {t[it / 2], t[0], vis / it, it, st.entities_tested};
     report("cull", flat ? "flat" : "grid", s->n, views, threads, cull_isa_name(isa), stage,
            cold ? "cold" : "warm", &r);
@@ -357,12 +339,12 @@ static int demo(const char *path, cull_pool *pool)
         for (int rep = 0; rep < 3200; rep++) {
             cull_query_desc q = {.views = &walk[rep % 16], .view_count = 1, .min_screen_area = rows[k].area,
                                  .flags = rows[k].flags};
-            double t0 = now_ns();
+            double t0 = bench_now_ns();
             if (cull_query(w, ctx, &q, out, cap, &n, NULL)) return 1;
-            t[rep] = now_ns() - t0;
+            t[rep] = bench_now_ns() - t0;
             if (rep == 0) first = n;
         }
-        qsort(t, 3200, sizeof *t, cmp_d);
+        qsort(t, 3200, sizeof *t, bench_cmp_d);
         printf("  %-26s %8zu %10.1f\n", rows[k].name, first, t[1600] / 1e3);
     }
     cull_query_stats st;

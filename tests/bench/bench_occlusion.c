@@ -26,11 +26,10 @@
  * nearness, 0 where no occluder) for an EXR viewer.
  */
 #include "culling.h"
+#include "bench_util.h"
 #include "occ_ref.h"
 #include "scene_file.h"
-#ifdef VANTAGE_HAVE_EXR
 #include "vt_exr.h"
-#endif
 
 #include <float.h>
 #include <math.h>
@@ -42,22 +41,11 @@
 
 #define MAX_FRAMES 64
 
-static double now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e9 + ts.tv_nsec;
-}
 
-static int cmp_d(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 
 static double median(double *v, int n)
 {
-    qsort(v, (size_t)n, sizeof *v, cmp_d);
+    qsort(v, (size_t)n, sizeof *v, bench_cmp_d);
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
@@ -147,7 +135,7 @@ int main(int argc, char **argv)
 
     /* frustum survivors and the 1080p reference, per frame */
     frame_ref ref[MAX_FRAMES];
-    double t0 = now_ns();
+    double t0 = bench_now_ns();
     for (int f = 0; f < frames; f++) {
         size_t n;
         cull_query_desc q = {.views = &walk[f], .view_count = 1, .flags = CULL_Q_NO_OCCLUSION};
@@ -165,13 +153,13 @@ int main(int argc, char **argv)
     if (!json)
         printf("city scene %s: %zu objects, %zu occluder boxes; %d frames walking 0.5 m; exact 1080p "
                "references in %.1f s; kernels %s\n",
-               scene, sf.nobjects, nboxes, frames, (now_ns() - t0) / 1e9, cull_isa_name(cull_ctx_isa(ctx)));
+               scene, sf.nobjects, nboxes, frames, (bench_now_ns() - t0) / 1e9, cull_isa_name(cull_ctx_isa(ctx)));
 
     /* warm up: caches, page faults of the contexts' buffers, clocks */
     {
-        double t_end = now_ns() + 3e8;
+        double t_end = bench_now_ns() + 3e8;
         size_t n;
-        for (int f = 0; now_ns() < t_end; f = (f + 1) % frames) {
+        for (int f = 0; bench_now_ns() < t_end; f = (f + 1) % frames) {
             cull_query_desc q = {.views = &walk[f], .view_count = 1};
             if (cull_query(w, ctx, &q, out, cap, &n, NULL)) return 1;
         }
@@ -220,18 +208,18 @@ int main(int argc, char **argv)
                                           .occ_h = bh, .flags = cover ? CULL_Q_OCC_CENTRE : 0};
                     size_t n;
                     for (int r = 0; r < reps; r++) {
-                        double x = now_ns();
+                        double x = bench_now_ns();
                         if (cull_occ_render(w, &walk[f], buf, pool, threads, NULL)) return 1;
-                        a[r] = now_ns() - x;
-                        x = now_ns();
+                        a[r] = bench_now_ns() - x;
+                        x = bench_now_ns();
                         if (cull_query(w, ctx, &qo, out, cap, &n, NULL)) return 1;
-                        b[r] = now_ns() - x;
-                        x = now_ns();
+                        b[r] = bench_now_ns() - x;
+                        x = bench_now_ns();
                         if (cull_query(w, ctx, &qn, out, cap, &n, NULL)) return 1;
-                        c[r] = now_ns() - x;
-                        x = now_ns();
+                        c[r] = bench_now_ns() - x;
+                        x = bench_now_ns();
                         if (cull_query(w, ctx, &qw, out, cap, &n, NULL)) return 1;
-                        d[r] = now_ns() - x;
+                        d[r] = bench_now_ns() - x;
                     }
                     tr[f] = median(a, reps);
                     tt[f] = median(b, reps) - median(c, reps);
@@ -266,7 +254,6 @@ int main(int argc, char **argv)
                                f, bw, bh, cover ? "centre" : "inner", threads, tr[f], tt[f], tq[f], ns, n, fv, hv,
                                fo);
                     if (exr_dir && f == 0 && threads == 1) {
-#ifdef VANTAGE_HAVE_EXR
                         uint32_t W, H;
                         size_t stride;
                         cull_occ_render(w, &walk[f], buf, pool, 1, NULL);
@@ -287,9 +274,6 @@ int main(int argc, char **argv)
                         else if (!json)
                             printf("wrote %s\n", path);
                         free(img);
-#else
-                        fprintf(stderr, "bench_occlusion: built without OpenEXR, --exr ignored\n");
-#endif
                     }
                 }
                 if (!json)

@@ -22,6 +22,7 @@
  * bytes} for the encoders.
  */
 #include "culling.h"
+#include "bench_util.h"
 #include "vt_exr.h"
 #include "vt_glr.h"
 #include "vt_image.h"
@@ -36,27 +37,8 @@
 #include <time.h>
 #include <unistd.h>
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
 
-static int cmp_d(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 
-static uint64_t rng_state = 0x5EED2011;
-static double frand(void)
-{
-    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
-}
 
 typedef struct scene {
     cull_world *w;
@@ -73,14 +55,14 @@ static int make_scene(scene *s, uint32_t n)
     s->n = n;
     for (uint32_t i = 0; i < n; i++) {
         vt_instance *in = &s->all[i];
-        double c[3] = {frand() * 200 - 100, 0, 20 + frand() * 380}, e[3];
-        for (int a = 0; a < 3; a++) e[a] = 0.25 + frand() * 1.75;
-        c[1] = e[1] + frand() * 6;
+        double c[3] = {bench_frand() * 200 - 100, 0, 20 + bench_frand() * 380}, e[3];
+        for (int a = 0; a < 3; a++) e[a] = 0.25 + bench_frand() * 1.75;
+        c[1] = e[1] + bench_frand() * 6;
         cull_entity_desc d = {0};
         for (int a = 0; a < 3; a++) {
             in->bmin[a] = d.aabb_min[a] = c[a] - e[a];
             in->bmax[a] = d.aabb_max[a] = c[a] + e[a];
-            in->albedo[a] = (float)(0.3 + 0.5 * frand());
+            in->albedo[a] = (float)(0.3 + 0.5 * bench_frand());
         }
         cull_handle h;
         if (cull_entity_add(s->w, &d, &h) || (h & (CULL_MAX_ENTITIES - 1)) != i) return -1;
@@ -167,13 +149,13 @@ int main(int argc, char **argv)
             vt_light *L = calloc(nl + 1, sizeof *L);
             if (!L) return 1;
             for (uint32_t k = 0; k < nl; k++) {
-                L[k].l.pos[0] = frand() * 200 - 100;
-                L[k].l.pos[1] = 1 + frand() * 8;
-                L[k].l.pos[2] = 20 + frand() * 380;
+                L[k].l.pos[0] = bench_frand() * 200 - 100;
+                L[k].l.pos[1] = 1 + bench_frand() * 8;
+                L[k].l.pos[2] = 20 + bench_frand() * 380;
                 L[k].l.radius = 30;
                 L[k].color[0] = 400;
-                L[k].color[1] = (float)(300 + 100 * frand());
-                L[k].color[2] = (float)(200 + 200 * frand());
+                L[k].color[1] = (float)(300 + 100 * bench_frand());
+                L[k].color[2] = (float)(200 + 200 * bench_frand());
             }
             for (uint32_t threads = 1; threads <= 2; threads++) {
                 vt_soft *sr;
@@ -181,7 +163,7 @@ int main(int argc, char **argv)
                 double *t = malloc((size_t)reps * sizeof *t);
                 vt_soft_stats st = {0};
                 for (int r = 0; r < reps; r++) {
-                    double t0 = now_ms();
+                    double t0 = (bench_now_ns() / 1e6);
                     size_t n;
                     cull_query_desc q = {.views = &v, .view_count = 1, .threads = threads};
                     if (cull_query(s.w, ctx, &q, res, cap, &n, NULL)) return 1;
@@ -191,9 +173,9 @@ int main(int argc, char **argv)
                         fprintf(stderr, "bench_render: %s\n", err);
                         return 1;
                     }
-                    t[r] = now_ms() - t0;
+                    t[r] = (bench_now_ns() / 1e6) - t0;
                 }
-                qsort(t, (size_t)reps, sizeof *t, cmp_d);
+                qsort(t, (size_t)reps, sizeof *t, bench_cmp_d);
                 double med = t[reps / 2];
                 if (json)
                     printf("{\"path\":\"soft\",\"renderer\":\"vantage soft\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
@@ -213,7 +195,7 @@ int main(int argc, char **argv)
                 double *t = malloc((size_t)(reps + 1) * sizeof *t);
                 uint32_t drawn = 0;
                 for (int r = 0; r <= reps; r++) { /* one warm-up: shader compiles, buffers grow */
-                    double t0 = now_ms();
+                    double t0 = (bench_now_ns() / 1e6);
                     size_t n;
                     cull_query_desc q = {.views = &v, .view_count = 1, .threads = 2};
                     if (cull_query(s.w, ctx, &q, res, cap, &n, NULL)) return 1;
@@ -223,10 +205,10 @@ int main(int argc, char **argv)
                         fprintf(stderr, "bench_render: gl: %s\n", err);
                         return 1;
                     }
-                    t[r] = now_ms() - t0;
+                    t[r] = (bench_now_ns() / 1e6) - t0;
                     drawn = (uint32_t)n;
                 }
-                qsort(t + 1, (size_t)reps, sizeof *t, cmp_d);
+                qsort(t + 1, (size_t)reps, sizeof *t, bench_cmp_d);
                 double med = t[1 + reps / 2];
                 if (json)
                     printf("{\"path\":\"gl\",\"renderer\":\"%s\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
@@ -262,7 +244,7 @@ int main(int argc, char **argv)
         long bytes = 0;
         for (int r = 0; r < reps; r++) {
             snprintf(path, sizeof path, "%s/frame", dir);
-            double t0 = now_ms();
+            double t0 = (bench_now_ns() / 1e6);
             int rc = 0;
             if (e == 0) {
                 rc = vt_image_tonemap(W, H, &src, &td, rgb8, 4 * (size_t)W);
@@ -276,7 +258,7 @@ int main(int argc, char **argv)
             } else {
                 rc = vt_jpeg_write(path, W, H, rgb8, 4 * (size_t)W, 4, 85, err, sizeof err);
             }
-            t[r] = now_ms() - t0;
+            t[r] = (bench_now_ns() / 1e6) - t0;
             if (rc) {
                 fprintf(stderr, "bench_render: %s: %s\n", names[e], err);
                 return 1;
@@ -284,7 +266,7 @@ int main(int argc, char **argv)
             struct stat sb;
             if (e && stat(path, &sb) == 0) bytes = (long)sb.st_size;
         }
-        qsort(t, (size_t)reps, sizeof *t, cmp_d);
+        qsort(t, (size_t)reps, sizeof *t, bench_cmp_d);
         if (json)
             printf("{\"encode\":\"%s\",\"width\":%u,\"height\":%u,\"median_ms\":%.3f,\"bytes\":%ld}\n", names[e], W, H,
                    t[reps / 2], bytes);
