@@ -619,7 +619,7 @@ static void test_cli_round_trip(void **state)
     (void)state;
     daemon_proc d, d2;
     daemon_start(&d, NULL);
-    char cmd[1024], out[8192];
+    char cmd[4096], out[8192];
     FILE *f;
     const char *cli = bin_dir();
     snprintf(cmd, sizeof cmd,
@@ -635,10 +635,12 @@ static void test_cli_round_trip(void **state)
     assert_non_null(strstr(out, "{\"id\": 7, "));
     assert_non_null(strstr(out, "{\"id\": 8, "));
     assert_non_null(strstr(out, "\"visible\": 2"));
-    char f1[128], f2[128], f0[128];
-    snprintf(f1, sizeof f1, "/tmp/vantage-test-%d-a.jsonl", (int)getpid());
-    snprintf(f2, sizeof f2, "/tmp/vantage-test-%d-b.jsonl", (int)getpid());
-    snprintf(f0, sizeof f0, "/tmp/vantage-test-%d-0.jsonl", (int)getpid());
+    char f1[400], f2[400], f0[400];
+    tdir td;
+    tdir_make(&td, "vantage_e2e_cli");
+    snprintf(f1, sizeof f1, "%s", tdir_file(&td, "a.jsonl"));
+    snprintf(f2, sizeof f2, "%s", tdir_file(&td, "b.jsonl"));
+    snprintf(f0, sizeof f0, "%s", tdir_file(&td, "0.jsonl"));
     /* named sub-levels, an AABB-only entity, an escaped name */
     FILE *in = fopen(f0, "w");
     fprintf(in, "{\"id\": 20, \"class\": 4, \"sphere\": [1, 2, 3, 4], \"sublevel\": \"north\"}\n"
@@ -681,9 +683,7 @@ static void test_cli_round_trip(void **state)
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --test edit --clients 2 --requests 10 --batch 50 > /dev/null",
              cli, d.port);
     assert_int_equal(system(cmd), 0);
-    unlink(f0);
-    unlink(f1);
-    unlink(f2);
+    tdir_remove(&td);
     daemon_stop(&d2);
     daemon_stop(&d);
 }
@@ -847,8 +847,10 @@ static void test_render_frames(void **state)
     assert_non_null(strstr(vt_last_error(c)->msg, "out-limit"));
     assert_int_equal(vt_ping(c), VP_OK);
     /* the CLI writes an EXR that OpenEXR opens, with its channels */
-    char path[128], cmd[1024];
-    snprintf(path, sizeof path, "/tmp/vantage-test-%d.exr", (int)getpid());
+    char path[400], cmd[1024];
+    tdir td;
+    tdir_make(&td, "vantage_e2e_render");
+    snprintf(path, sizeof path, "%s", tdir_file(&td, "frame.exr"));
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d render --eye 0,0,0 --at 0,0,-10 --size 160x90 -o %s > /dev/null",
              bin_dir(), d.port, path);
     assert_int_equal(system(cmd), 0);
@@ -864,7 +866,7 @@ static void test_render_frames(void **state)
     assert_true(a[45 * 160 + 80] == 1.0f);
     free(zz);
     free(a);
-    unlink(path);
+    tdir_remove(&td);
     vt_close(c);
     daemon_stop(&d);
 }
