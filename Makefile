@@ -68,7 +68,8 @@ CLI_BIN  := $(BUILD)/vantage
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
-RENDER_SRC:= render/vt_exr.c render/vt_frame.c render/vt_soft.c render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c
+RENDER_SRC:= render/vt_exr.c render/vt_frame.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
+            render/vt_shade_avx2.c             render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_image.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
@@ -124,6 +125,10 @@ $(BUILD)/%.o: %.c
 $(BUILD)/culling/cull_kernels_avx2.o:   CFLAGS += $(ISA_AVX2)
 $(BUILD)/culling/cull_kernels_sse41.o:  CFLAGS += $(ISA_SSE41)
 $(BUILD)/culling/cull_kernels_scalar.o: CFLAGS += -fno-tree-vectorize
+# the shading kernel, per instruction set as the culling kernels
+$(BUILD)/render/vt_shade_avx2.o:  CFLAGS += $(ISA_AVX2)
+$(BUILD)/render/vt_shade_sse41.o: CFLAGS += $(ISA_SSE41)
+$(BUILD)/render/vt_shade_base.o:  CFLAGS += -fno-tree-vectorize -fno-math-errno
 
 $(CULL_LIB): $(CULL_OBJ)
 	@rm -f $@
@@ -142,7 +147,8 @@ $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
 
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
-                 $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o
+                 $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o $(BUILD)/render/vt_shade_base.o \
+                 $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 

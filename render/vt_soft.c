@@ -21,6 +21,7 @@
  * visibility buffer.
  */
 #include "vt_frame.h"
+#include "vt_shade.h"
 
 #include <errno.h>
 #include <float.h>
@@ -36,8 +37,7 @@
 #define TILE VT_TILE
 #define EMPTY VT_EMPTY
 #define MAX_THREADS 32u
-#define ID_BITS 27u         /* a pixel's triangle: set-up thread << 27 | its record */
-#define AMBIENT 0.03f
+#define ID_BITS VT_ID_BITS
 
 /* A clipped, projected triangle for the rasteriser. */
 typedef struct rtri {
@@ -47,13 +47,7 @@ typedef struct rtri {
     uint32_t shade;         /* shading record */
 } rtri;
 
-/* A source triangle, for shading. */
-typedef struct stri {
-    float e[3][3];          /* adjugate rows: barycentric i ~ e[i] . (X, Y, 1), NDC */
-    float p[3][3];          /* camera-relative positions */
-    float n[3][3];          /* unit normals */
-    float albedo[3];
-} stri;
+typedef vt_stri stri;
 
 typedef struct cv {
     double c[4];            /* clip x, y, z, w */
@@ -63,6 +57,7 @@ typedef struct cv {
 typedef struct xv {
     double p[3];            /* camera-relative */
     cv v;
+    unsigned out;           /* bit p: outside clip plane p */
 } xv;
 
 /* What one set-up thread produces, for its range of instances, in order. */
@@ -77,12 +72,7 @@ typedef struct tbuf {
     char err[128];
 } tbuf;
 
-typedef struct slight {
-    float p[3];             /* camera-relative */
-    float range2, color[3];
-    float dir[3], cos_outer, cos_inner;
-    uint32_t spot;
-} slight;
+typedef vt_slight slight;
 
 struct vt_soft {
     cull_pool *pool;
@@ -101,6 +91,7 @@ struct vt_soft {
     size_t cl_cap;
     slight *sl;             /* the lights as shading reads them */
     size_t sl_cap;
+    vt_shade_fn shade;      /* the kernel for this CPU */
 };
 
 static uint64_t now_ns(void)
@@ -130,6 +121,7 @@ int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
     vt_soft *r = calloc(1, sizeof *r);
     if (!r) return -ENOMEM;
     r->pool = pool;
+    r->shade = vt_shade_pick();
     uint32_t pt = cull_pool_threads(pool);
     r->threads = threads && threads < pt ? threads : pt;
     if (r->threads > MAX_THREADS) r->threads = MAX_THREADS;
@@ -247,27 +239,30 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             x->v.c[2] = dot4(vr->z, q);
             x->v.c[3] = dot4(vr->w, q);
             x->v.d = dot4(vr->d, q);
+            x->out = 0;
+            for (int pp = 0; pp < 6; pp++) x->out |= (unsigned)(dot4(pl[pp], x->v.c) < 0) << pp;
         }
         for (uint32_t t = 0; t < m->ni / 3; t++) {
             cv v[12];
             double p[3][3];
+            unsigned out_and = ~0u, out_or = 0;
             for (int k = 0; k < 3; k++) {
                 const xv *x = &r->vx[m->idx[3 * t + k]];
                 memcpy(p[k], x->p, sizeof p[k]);
                 v[k] = x->v;
+                out_and &= x->out;
+                out_or |= x->out;
             }
             /* back faces: the sign of the homogeneous determinant */
             double e0[3] = {v[1].c[1] * v[2].c[3] - v[1].c[3] * v[2].c[1], v[1].c[3] * v[2].c[0] - v[1].c[0] * v[2].c[3],
                             v[1].c[0] * v[2].c[1] - v[1].c[1] * v[2].c[0]};
             double det = e0[0] * v[0].c[0] + e0[1] * v[0].c[1] + e0[2] * v[0].c[3];
             if (!(det > 0)) continue;
-            /* trivially outside one clip plane: nothing to clip */
-            bool out = false;
-            for (int pp = 0; pp < 6 && !out; pp++)
-                out = dot4(pl[pp], v[0].c) < 0 && dot4(pl[pp], v[1].c) < 0 && dot4(pl[pp], v[2].c) < 0;
-            if (out) continue;
+            /* all outside one clip plane: nothing to draw; all inside
+               every plane: nothing to clip */
+            if (out_and) continue;
             cv src[3] = {v[0], v[1], v[2]};
-            int n = clip_poly(v, 3, pl);
+            int n = out_or ? clip_poly(v, 3, pl) : 3;
             if (n < 3) continue;
             if (r->nst + 1 >= (1u << ID_BITS)) return fail(err, errlen, -E2BIG, "more than 2^27 triangles a thread");
             if (!grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
@@ -378,6 +373,7 @@ typedef struct job {
     float *rgba, *depth;
     size_t stride;
     uint32_t nthreads;
+    bool ranges;            /* the tile nearness ranges are wanted (there are lights) */
 } job;
 
 /* Top-left rule, y up, counter-clockwise: an edge going down (dy < 0) is a
@@ -402,19 +398,40 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
         B[k] = (int64_t)(rt->x[b] - rt->x[a]);
         C[k] = -A[k] * rt->x[a] - B[k] * rt->y[a] + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
     }
+    int32_t nx = rt->bx1 - rt->bx0 + 1;
     for (int j = by0; j <= by1; j++) {
+        /* the covered run of this row, solved exactly from the three edge
+           functions (linear in the column, integer): column bx0 + d is
+           inside iff e_k + d s_k >= 0 for every edge k */
         int64_t py = (int64_t)j * 256 + 128, px = (int64_t)rt->bx0 * 256 + 128;
-        int64_t e0 = A[0] * px + B[0] * py + C[0], e1 = A[1] * px + B[1] * py + C[1], e2 = A[2] * px + B[2] * py + C[2];
-        int64_t s0 = A[0] * 256, s1 = A[1] * 256, s2 = A[2] * 256;
+        int32_t lo = 0, hi = nx - 1;
+        for (int k = 0; k < 3 && lo <= hi; k++) {
+            int64_t e = A[k] * px + B[k] * py + C[k], sk = A[k] * 256;
+            if (sk > 0) {
+                if (e < 0) {
+                    int64_t d = (-e + sk - 1) / sk;
+                    if (d > lo) lo = d > nx ? nx : (int32_t)d;
+                }
+            } else if (sk < 0) {
+                if (e < 0) hi = -1;
+                else {
+                    int64_t d = e / -sk;
+                    if (d < hi) hi = (int32_t)d;
+                }
+            } else if (e < 0) {
+                hi = -1;
+            }
+        }
+        if (lo > hi) continue;
         float *nrow = r->near + (size_t)j * fr->w;
         uint32_t *irow = r->id + (size_t)j * fr->w;
         double nz = rt->nb * (j + 0.5) + rt->nc;
-        for (int i = rt->bx0; i <= rt->bx1; i++, e0 += s0, e1 += s1, e2 += s2) {
-            if ((e0 | e1 | e2) < 0) continue;
+        uint32_t id = rt->shade + 1;
+        for (int i = rt->bx0 + lo, i1 = rt->bx0 + hi; i <= i1; i++) {
             float z = (float)(rt->na * (i + 0.5) + nz);
             if (z > nrow[i]) {
                 nrow[i] = z;
-                irow[i] = rt->shade + 1;
+                irow[i] = id;
             }
         }
     }
@@ -456,91 +473,46 @@ static void job_raster(void *arg, uint32_t t)
             uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
             for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
         }
+    /* the light tiles' nearness ranges of this thread's rows, while they
+       are in its cache */
+    if (!jb->ranges) return;
+    uint32_t tx = (fr->w + TILE - 1) / TILE;
+    for (uint32_t tr = t; tr < trows; tr += nt) {
+        uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
+        vt_tile_ranges(r->near + (size_t)tr * TILE * fr->w, 1, fr->w, fr->w, y1 - tr * TILE, r->range + (size_t)tr * tx);
+    }
 }
 
 /* ---- shading ------------------------------------------------------------------------ */
 
-static void shade_pixel(const vt_soft *r, const cull_light_tiles *lt,
-                        uint32_t tile, double X, double Y, uint32_t idp1, float out[4])
-{
-    uint32_t id = idp1 - 1;
-    const stri *s = &r->tb[id >> ID_BITS].st[id & ((1u << ID_BITS) - 1)];
-    float b[3];
-    for (int i = 0; i < 3; i++) b[i] = s->e[i][0] * (float)X + s->e[i][1] * (float)Y + s->e[i][2];
-    float sum = b[0] + b[1] + b[2];
-    if (sum != 0)
-        for (int i = 0; i < 3; i++) b[i] /= sum;
-    float p[3], n[3], nl = 0;
-    for (int a = 0; a < 3; a++) {
-        p[a] = b[0] * s->p[0][a] + b[1] * s->p[1][a] + b[2] * s->p[2][a];
-        n[a] = b[0] * s->n[0][a] + b[1] * s->n[1][a] + b[2] * s->n[2][a];
-        nl += n[a] * n[a];
-    }
-    nl = nl > 0 ? 1.0f / sqrtf(nl) : 0;
-    for (int a = 0; a < 3; a++) n[a] *= nl;
-    /* view direction: towards the eye (the camera-relative origin) for
-       perspective views; constant for orthographic ones is close enough
-       to the same formula at a distance */
-    float vd[3] = {-p[0], -p[1], -p[2]}, vl = sqrtf(vd[0] * vd[0] + vd[1] * vd[1] + vd[2] * vd[2]);
-    if (vl > 0)
-        for (int a = 0; a < 3; a++) vd[a] /= vl;
-    float c[3];
-    for (int a = 0; a < 3; a++) c[a] = AMBIENT * s->albedo[a];
-    for (uint32_t k = lt->offset[tile]; k < lt->offset[tile + 1]; k++) {
-        const slight *L = &r->sl[lt->index[k]];
-        float l[3] = {L->p[0] - p[0], L->p[1] - p[1], L->p[2] - p[2]};
-        float d2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
-        if (d2 >= L->range2 || d2 <= 0) continue;
-        float d = sqrtf(d2), il = 1.0f / d;
-        for (int a = 0; a < 3; a++) l[a] *= il;
-        float ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
-        if (ndl <= 0) continue;
-        /* inverse square with a window that reaches 0 at the range */
-        float q = d2 / L->range2, win = 1 - q * q;
-        float att = win * win / (d2 + 1e-2f);
-        if (L->spot) {
-            float cd = -(l[0] * L->dir[0] + l[1] * L->dir[1] + l[2] * L->dir[2]);
-            float t = (cd - L->cos_outer) / (L->cos_inner - L->cos_outer);
-            t = t < 0 ? 0 : t > 1 ? 1 : t;
-            att *= t * t * (3 - 2 * t);
-        }
-        if (att <= 0) continue;
-        /* Blinn-Phong, exponent 32, energy-normalised; F0 = 0.04 */
-        float h[3] = {l[0] + vd[0], l[1] + vd[1], l[2] + vd[2]}, hl = sqrtf(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-        float ndh = hl > 0 ? (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / hl : 0;
-        ndh = ndh > 0 ? ndh : 0;
-        float ndh2 = ndh * ndh, ndh4 = ndh2 * ndh2, ndh8 = ndh4 * ndh4, ndh16 = ndh8 * ndh8;
-        float spec = 0.04f * (32 + 8) / (8 * 3.14159265f) * ndh16 * ndh16;
-        for (int a = 0; a < 3; a++) c[a] += L->color[a] * att * ndl * (s->albedo[a] / 3.14159265f + spec);
-    }
-    out[0] = c[0];
-    out[1] = c[1];
-    out[2] = c[2];
-    out[3] = 1;
-}
-
+/* Thread t shades the tile rows it rasterised, one span (a row of one
+ * tile: one light list) at a time. */
 static void job_shade(void *arg, uint32_t t)
 {
     job *jb = arg;
     const vt_soft *r = jb->r;
     const frame *fr = jb->fr;
+    const cull_light_tiles *lt = &r->tiles;
+    const stri *st[MAX_THREADS];
+    for (uint32_t b = 0; b < jb->nthreads; b++) st[b] = r->tb[b].st;
+    vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .ortho = fr->vr.ortho,
+                  .ok = fr->v->depth_mode == CULL_DEPTH_GL ? 0.5f : 1.0f};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
         for (uint32_t y = tr * TILE; y < y1; y++) {
-            const uint32_t *irow = r->id + (size_t)y * fr->w;
-            const float *nrow = r->near + (size_t)y * fr->w;
-            float *crow = jb->rgba + (size_t)y * jb->stride * 4, *drow = jb->depth + (size_t)y * jb->stride;
-            double Y = (2.0 * y + 1) / fr->h - 1;
-            for (uint32_t x = 0; x < fr->w; x++) {
-                if (!irow[x]) {
-                    crow[4 * x] = crow[4 * x + 1] = crow[4 * x + 2] = crow[4 * x + 3] = 0;
-                    drow[x] = INFINITY;
-                    continue;
-                }
-                double X = (2.0 * x + 1) / fr->w - 1;
-                shade_pixel(r, &r->tiles, tr * tx + x / TILE, X, Y, irow[x], crow + 4 * x);
-                drow[x] = vt_depth_of(fr->v, &fr->vr, nrow[x]);
+            sp.Y = (float)((2.0 * y + 1) / fr->h - 1);
+            for (uint32_t c = 0; c < tx; c++) {
+                uint32_t tile = tr * tx + c;
+                sp.li = lt->index ? lt->index + lt->offset[tile] : NULL;
+                sp.nli = lt->offset[tile + 1] - lt->offset[tile];
+                sp.x0 = c * TILE;
+                sp.n = fr->w - sp.x0 < TILE ? fr->w - sp.x0 : TILE;
+                sp.id = r->id + (size_t)y * fr->w + sp.x0;
+                sp.near = r->near + (size_t)y * fr->w + sp.x0;
+                sp.rgba = jb->rgba + ((size_t)y * jb->stride + sp.x0) * 4;
+                sp.depth = jb->depth + (size_t)y * jb->stride + sp.x0;
+                r->shade(&sp);
             }
         }
     }
@@ -574,8 +546,14 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     uint32_t trows = (height + TILE - 1) / TILE;
     uint32_t nt = r->threads < trows ? r->threads : trows;
     if (!nt) nt = 1;
+    uint32_t tx = (width + TILE - 1) / TILE;
+    if (!grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
+        !grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
+        !grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
+        return fail(err, errlen, -ENOMEM, "out of memory");
+    /* no lights: no ranges, no binning */
     job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst, .rgba = rgba, .depth = depth,
-              .stride = stride, .nthreads = nt};
+              .stride = stride, .nthreads = nt, .ranges = nl > 0};
     uint64_t t0 = now_ns();
     if (nt > 1) cull_pool_run(r->pool, job_setup, &jb, nt);
     else job_setup(&jb, 0);
@@ -589,13 +567,8 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     else job_raster(&jb, 0);
     uint64_t t2 = now_ns();
 
-    /* light tiles from the nearness range of what each tile shows */
-    uint32_t tx = (width + TILE - 1) / TILE;
-    if (!grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
-        !grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl))
-        return fail(err, errlen, -ENOMEM, "out of memory");
-    if (nl) vt_tile_ranges(r->near, 1, width, width, height, r->range); /* no lights: no ranges, no binning */
-    if (!grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl)) return fail(err, errlen, -ENOMEM, "out of memory");
+    /* light tiles from the nearness range of what each tile shows (the
+       ranges came with the raster) */
     for (uint32_t i = 0; i < nl; i++) {
         const vt_light *L = &lights[i];
         slight *q = &r->sl[i];

@@ -187,6 +187,120 @@ static void test_soft_bad_input(void **state)
  * the same on >= 99.9 % of pixels, depth within 1e-4 relative, colour
  * within 1 % + 1e-3 where both cover a pixel away from an edge. Skipped
  * where no GL context can be made. */
+/* A random frame of lit boxes: sizes, boxes, point and spot lights (none
+ * in a quarter of the frames), a perspective camera in any depth mode. */
+typedef struct lit_frame {
+    uint32_t w, h, n, nl;
+    vt_instance *in;
+    vt_light *L;
+    cull_view v;
+} lit_frame;
+
+static void lit_frame_make(rng *rp, lit_frame *lf)
+{
+    rng r = *rp;
+    uint32_t w = 64 + rng_below(&r, 200), h = 48 + rng_below(&r, 120), n = 5 + rng_below(&r, 40);
+    uint32_t nl = rng_below(&r, 4) ? 4 + rng_below(&r, 60) : 0;
+    vt_instance *in = calloc(n, sizeof *in);
+    vt_light *L = calloc(nl + 1, sizeof *L);
+    assert_non_null(in);
+    assert_non_null(L);
+    for (uint32_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            double c = rng_range(&r, -20, 20), e = rng_log(&r, 0.3, 8);
+            in[i].bmin[a] = c - e;
+            in[i].bmax[a] = c + e;
+            in[i].albedo[a] = (float)rng_range(&r, 0.2, 0.9);
+        }
+    for (uint32_t i = 0; i < nl; i++) {
+        for (int a = 0; a < 3; a++) L[i].l.pos[a] = rng_range(&r, -25, 25);
+        L[i].l.radius = rng_range(&r, 5, 30);
+        for (int a = 0; a < 3; a++) L[i].color[a] = (float)rng_range(&r, 10, 200);
+        if (rng_below(&r, 3) == 0) {
+            L[i].l.type = CULL_LIGHT_SPOT;
+            L[i].l.dir[1] = -1;
+            L[i].l.cos_outer = 0.5f;
+            L[i].cos_inner = 0.8f;
+        }
+    }
+    cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
+    for (int a = 0; a < 3; a++) d.origin[a] = rng_range(&r, -60, 60);
+    double proj[16], view[16], dir[3], up[3] = {0, 1, 0};
+    for (int a = 0; a < 3; a++) dir[a] = rng_range(&r, -10, 10) - d.origin[a];
+    if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
+    cull_mat_perspective(proj, rng_range(&r, 0.5, 1.4), (double)w / h, rng_log(&r, 0.1, 1), 1e4, d.depth_mode);
+    cull_mat_look_dir(view, dir, up);
+    cull_mat_mul(d.view_proj, proj, view);
+    assert_int_equal(cull_view_init(&lf->v, &d), CULL_OK);
+    *rp = r;
+    lf->w = w;
+    lf->h = h;
+    lf->n = n;
+    lf->nl = nl;
+    lf->in = in;
+    lf->L = L;
+}
+
+static void lit_frame_free(lit_frame *lf)
+{
+    free(lf->in);
+    free(lf->L);
+}
+
+/* The shading kernel's instances (scalar, SSE4.1, AVX2: VANTAGE_ISA at
+ * creation) draw the same frame: the same coverage and depth bit for bit
+ * (the raster is shared), colours within a few ulps (only fused
+ * multiply-adds round differently). */
+static void test_soft_isas_agree(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x15Au};
+    const char *isas[] = {"scalar", "sse41", "avx2"};
+    const char *old = getenv("VANTAGE_ISA");
+    char *saved = old ? strdup(old) : NULL;
+    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    char err[256];
+    uint32_t tried = 0;
+    double worst = 0;
+    for (int f = 0; f < 6; f++) {
+        lit_frame lf;
+        lit_frame_make(&r, &lf);
+        size_t np = (size_t)lf.w * lf.h;
+        float *c0 = malloc(np * 16), *d0 = malloc(np * 4), *c1 = malloc(np * 16), *d1 = malloc(np * 4);
+        assert_true(c0 && d0 && c1 && d1);
+        for (int k = 0; k < 3; k++) {
+            if (!cull_isa_supported((uint32_t)k)) continue;
+            setenv("VANTAGE_ISA", isas[k], 1);
+            vt_soft *sr;
+            assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+            assert_int_equal(vt_soft_render(sr, &lf.v, lf.w, lf.h, &cube, 1, lf.in, lf.n, lf.L, lf.nl, k ? c1 : c0,
+                                            k ? d1 : d0, lf.w, NULL, err, sizeof err),
+                             0);
+            vt_soft_destroy(sr);
+            tried++;
+            if (!k) continue;
+            for (size_t p = 0; p < np; p++) {
+                assert_memory_equal(&d0[p], &d1[p], sizeof d0[p]);
+                assert_true(c0[4 * p + 3] == c1[4 * p + 3]);
+                for (int a = 0; a < 3; a++) {
+                    double e = fabs(c0[4 * p + a] - c1[4 * p + a]) / (1e-6 + fabs(c0[4 * p + a]));
+                    if (e > worst) worst = e;
+                    assert_true(e <= 1e-4);
+                }
+            }
+        }
+        free(c0);
+        free(d0);
+        free(c1);
+        free(d1);
+        lit_frame_free(&lf);
+    }
+    if (saved) setenv("VANTAGE_ISA", saved, 1);
+    else unsetenv("VANTAGE_ISA");
+    free(saved);
+    fprintf(stderr, "shading kernels: %u renders, worst relative colour difference to scalar %.2g\n", tried, worst);
+}
+
 static void test_soft_and_gl_agree(void **state)
 {
     (void)state;
@@ -205,38 +319,12 @@ static void test_soft_and_gl_agree(void **state)
     uint64_t pixels = 0, cov_diff = 0, both = 0, depth_bad = 0, color_bad = 0, compared = 0;
     double worst = 0;
     for (int f = 0; f < 8; f++) {
-        uint32_t w = 64 + rng_below(&r, 200), h = 48 + rng_below(&r, 120), n = 5 + rng_below(&r, 40);
-        uint32_t nl = rng_below(&r, 4) ? 4 + rng_below(&r, 60) : 0;
-        vt_instance *in = calloc(n, sizeof *in);
-        vt_light *L = calloc(nl + 1, sizeof *L);
-        for (uint32_t i = 0; i < n; i++)
-            for (int a = 0; a < 3; a++) {
-                double c = rng_range(&r, -20, 20), e = rng_log(&r, 0.3, 8);
-                in[i].bmin[a] = c - e;
-                in[i].bmax[a] = c + e;
-                in[i].albedo[a] = (float)rng_range(&r, 0.2, 0.9);
-            }
-        for (uint32_t i = 0; i < nl; i++) {
-            for (int a = 0; a < 3; a++) L[i].l.pos[a] = rng_range(&r, -25, 25);
-            L[i].l.radius = rng_range(&r, 5, 30);
-            for (int a = 0; a < 3; a++) L[i].color[a] = (float)rng_range(&r, 10, 200);
-            if (rng_below(&r, 3) == 0) {
-                L[i].l.type = CULL_LIGHT_SPOT;
-                L[i].l.dir[1] = -1;
-                L[i].l.cos_outer = 0.5f;
-                L[i].cos_inner = 0.8f;
-            }
-        }
-        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
-        for (int a = 0; a < 3; a++) d.origin[a] = rng_range(&r, -60, 60);
-        double proj[16], view[16], dir[3], up[3] = {0, 1, 0};
-        for (int a = 0; a < 3; a++) dir[a] = rng_range(&r, -10, 10) - d.origin[a];
-        if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
-        cull_mat_perspective(proj, rng_range(&r, 0.5, 1.4), (double)w / h, rng_log(&r, 0.1, 1), 1e4, d.depth_mode);
-        cull_mat_look_dir(view, dir, up);
-        cull_mat_mul(d.view_proj, proj, view);
-        cull_view v;
-        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        lit_frame lf;
+        lit_frame_make(&r, &lf);
+        uint32_t w = lf.w, h = lf.h, n = lf.n, nl = lf.nl;
+        vt_instance *in = lf.in;
+        vt_light *L = lf.L;
+        cull_view v = lf.v;
         size_t np = (size_t)w * h;
         float *c1 = malloc(np * 16), *d1 = malloc(np * 4), *c2 = malloc(np * 16), *d2 = malloc(np * 4);
         assert_int_equal(vt_soft_render(sr, &v, w, h, &cube, 1, in, n, L, nl, c1, d1, w, NULL, err, sizeof err), 0);
@@ -278,8 +366,7 @@ static void test_soft_and_gl_agree(void **state)
         free(d1);
         free(c2);
         free(d2);
-        free(in);
-        free(L);
+        lit_frame_free(&lf);
     }
     fprintf(stderr, "soft vs GL (%s): %llu pixels, %llu differ in coverage, %llu covered by both (%llu off in "
                     "depth), %llu compared in colour, %llu off (worst relative %.2g)\n",
@@ -299,5 +386,6 @@ const struct CMUnitTest render_tests[] = {
     cmocka_unit_test(test_soft_and_gl_agree),
     cmocka_unit_test(test_soft_bad_input),
     cmocka_unit_test(test_soft_matches_ray_caster),
+    cmocka_unit_test(test_soft_isas_agree),
 };
 const size_t render_tests_count = sizeof render_tests / sizeof render_tests[0];

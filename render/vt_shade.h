@@ -1,0 +1,64 @@
+/*
+ * vt_shade.h — the software renderer's shading kernel (internal to
+ * render/): one span of up to VT_SPAN pixels of one row inside one 16x16
+ * light tile, so every pixel of the span loops over the same light list.
+ * The per-pixel surface (position, normal, albedo) is gathered from each
+ * pixel's shading record, then the lights run outermost and the pixels
+ * innermost in lanes of the culling core's vector layer (cull_simd.h): 8
+ * with AVX2 + FMA (vt_shade_avx2.c), 4 with SSE4.1 (vt_shade_sse41.c), 1
+ * (vt_shade_base.c). One source (vt_shade.inl), one formula; the AVX2
+ * instance rounds its fused multiply-adds once, so the instances agree
+ * to a few ulps, not bit for bit.
+ */
+#ifndef VANTAGE_VT_SHADE_H
+#define VANTAGE_VT_SHADE_H
+
+#include <stdint.h>
+
+#define VT_SPAN 16u          /* = VT_TILE: one tile's width */
+#define VT_ID_BITS 27u       /* a pixel's record: set-up thread << 27 | its index */
+#define VT_ID_MASK ((1u << VT_ID_BITS) - 1)
+#define VT_AMBIENT 0.03f
+
+/* A source triangle, for shading. */
+typedef struct vt_stri {
+    float e[3][3];          /* adjugate rows: barycentric i ~ e[i] . (X, Y, 1), NDC */
+    float p[3][3];          /* camera-relative positions */
+    float n[3][3];          /* unit normals */
+    float albedo[3];
+} vt_stri;
+
+/* A light as shading reads it. */
+typedef struct vt_slight {
+    float p[3];             /* camera-relative */
+    float range2, color[3];
+    float dir[3], cos_outer, cos_inner;
+    uint32_t spot;
+} vt_slight;
+
+typedef struct vt_span {
+    const vt_stri *const *st;   /* shading records, per set-up thread */
+    const vt_slight *sl;        /* all lights */
+    const uint32_t *li;         /* this tile's lights: indices into sl */
+    uint32_t nli;
+    const uint32_t *id;         /* per pixel: record + 1, 0 = nothing drawn */
+    const float *near;          /* per pixel: nearness */
+    uint32_t x0, n;             /* first pixel's column, pixels (<= VT_SPAN) */
+    double inv_w;               /* 2 / width: NDC x of column x is (x + 0.5) inv_w - 1 */
+    float Y;                    /* the row's NDC y */
+    int ortho;                  /* depth out: 1 / nearness, or 1 - ok * nearness */
+    float ok;
+    float *rgba, *depth;        /* the span's first pixel in the outputs */
+} vt_span;
+
+typedef void (*vt_shade_fn)(const vt_span *s);
+
+void vt_shade_scalar(const vt_span *s);
+void vt_shade_sse41(const vt_span *s);
+void vt_shade_avx2(const vt_span *s);
+
+/* The instance for this CPU and VANTAGE_ISA, as the culling kernels pick
+ * theirs (cull_isa_default). */
+vt_shade_fn vt_shade_pick(void);
+
+#endif

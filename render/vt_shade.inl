@@ -1,0 +1,151 @@
+/*
+ * vt_shade.inl — the shading kernel (see vt_shade.h), included once per
+ * instruction set after cull_simd.h (W lanes) with VT_SHADE_NAME defined.
+ * Lambert + energy-normalised Blinn-Phong (exponent 32, F0 0.04),
+ * inverse-square falloff windowed to zero at the light's range, smoothstep
+ * spot cones, a small ambient term.
+ */
+#include <math.h>
+#include <string.h>
+
+#define S VT_SPAN
+#define A _Alignas(32)
+
+/* The surface the span's pixels show (structure of arrays). */
+typedef struct surf {
+    A float px[S]; A float py[S]; A float pz[S];   /* camera-relative position */
+    A float nx[S]; A float ny[S]; A float nz[S];   /* unit normal */
+    A float vx[S]; A float vy[S]; A float vz[S];   /* unit direction to the eye */
+    A float ar[S]; A float ag[S]; A float ab[S];   /* albedo / pi */
+    A float cr[S]; A float cg[S]; A float cb[S];   /* radiance so far */
+} surf;
+
+static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
+{
+    return vf_fma(ax, bx, vf_fma(ay, by, vf_mul(az, bz)));
+}
+
+/* One light over the span; spot is a constant at each call site, so each
+ * of the two copies is a straight loop. */
+static inline __attribute__((always_inline)) void light(surf *restrict s, const vt_slight *restrict L, int spot)
+{
+    const vf lpx = vf_set(L->p[0]), lpy = vf_set(L->p[1]), lpz = vf_set(L->p[2]), r2 = vf_set(L->range2);
+    const vf ir2 = vf_set(1.0f / L->range2);
+    const vf dx = vf_set(L->dir[0]), dy = vf_set(L->dir[1]), dz = vf_set(L->dir[2]);
+    const vf co = vf_set(L->cos_outer), cspan = vf_set(1.0f / (L->cos_inner - L->cos_outer));
+    const vf lr = vf_set(L->color[0]), lg = vf_set(L->color[1]), lb = vf_set(L->color[2]);
+    const vf ks = vf_set(0.04f * (32 + 8) / (8 * 3.14159265f));
+    const vf zero = vf_set(0), one = vf_set(1), eps = vf_set(1e-2f), two = vf_set(2), three = vf_set(3);
+    for (unsigned i = 0; i < S; i += W) {
+        vf nx = vf_load(s->nx + i), ny = vf_load(s->ny + i), nz = vf_load(s->nz + i);
+        vf lx = vf_sub(lpx, vf_load(s->px + i)), ly = vf_sub(lpy, vf_load(s->py + i)), lz = vf_sub(lpz, vf_load(s->pz + i));
+        vf d2 = dot3(lx, ly, lz, lx, ly, lz);
+        vm in = vm_and(vf_lt(d2, r2), vf_lt(zero, d2));
+        if (!vm_bits(in)) continue;     /* out of range for all W pixels */
+        vf d2s = vf_select(in, d2, one);
+        vf il = vf_div(one, vf_sqrt(d2s));
+        lx = vf_mul(lx, il);
+        ly = vf_mul(ly, il);
+        lz = vf_mul(lz, il);
+        vf ndl = dot3(nx, ny, nz, lx, ly, lz);
+        vf q = vf_mul(d2s, ir2), win = vf_sub(one, vf_mul(q, q));
+        vf att = vf_div(vf_mul(win, win), vf_add(d2s, eps));
+        if (spot) {
+            vf cd = dot3(lx, ly, lz, dx, dy, dz);      /* -cos to the axis */
+            vf t = vf_mul(vf_sub(vf_sub(zero, cd), co), cspan);
+            t = vf_min(vf_max(t, zero), one);
+            att = vf_mul(att, vf_mul(vf_mul(t, t), vf_sub(three, vf_mul(two, t))));
+        }
+        vm lit = vm_and(in, vm_and(vf_lt(zero, ndl), vf_lt(zero, att)));
+        if (!vm_bits(lit)) continue;
+        vf hx = vf_add(lx, vf_load(s->vx + i)), hy = vf_add(ly, vf_load(s->vy + i)), hz = vf_add(lz, vf_load(s->vz + i));
+        vf hl2 = dot3(hx, hy, hz, hx, hy, hz);
+        vf ih = vf_select(vf_lt(zero, hl2), vf_div(one, vf_sqrt(hl2)), zero);
+        vf ndh = vf_max(vf_mul(dot3(nx, ny, nz, hx, hy, hz), ih), zero);
+        vf n2 = vf_mul(ndh, ndh), n4 = vf_mul(n2, n2), n8 = vf_mul(n4, n4), n16 = vf_mul(n8, n8);
+        vf spec = vf_mul(ks, vf_mul(n16, n16));
+        vf f = vf_select(lit, vf_mul(att, ndl), zero);
+        vf_store(s->cr + i, vf_fma(vf_mul(lr, f), vf_add(vf_load(s->ar + i), spec), vf_load(s->cr + i)));
+        vf_store(s->cg + i, vf_fma(vf_mul(lg, f), vf_add(vf_load(s->ag + i), spec), vf_load(s->cg + i)));
+        vf_store(s->cb + i, vf_fma(vf_mul(lb, f), vf_add(vf_load(s->ab + i), spec), vf_load(s->cb + i)));
+    }
+}
+
+void VT_SHADE_NAME(const vt_span *sp)
+{
+    surf s;
+    A float cov[S];
+    /* gather: each pixel's record, perspective-correct barycentrics from
+       the homogeneous edge functions, the interpolated surface */
+    for (unsigned i = 0; i < S; i++) {
+        uint32_t id = i < sp->n ? sp->id[i] : 0;
+        if (!id) {
+            s.px[i] = s.py[i] = s.pz[i] = 0;
+            s.nx[i] = s.ny[i] = s.nz[i] = 0;
+            s.ar[i] = s.ag[i] = s.ab[i] = 0;
+            cov[i] = 0;
+            continue;
+        }
+        id--;
+        const vt_stri *t = &sp->st[id >> VT_ID_BITS][id & VT_ID_MASK];
+        float X = (float)((sp->x0 + i + 0.5) * sp->inv_w - 1), Y = sp->Y;
+        float b0 = t->e[0][0] * X + t->e[0][1] * Y + t->e[0][2];
+        float b1 = t->e[1][0] * X + t->e[1][1] * Y + t->e[1][2];
+        float b2 = t->e[2][0] * X + t->e[2][1] * Y + t->e[2][2];
+        float sum = b0 + b1 + b2, is = sum != 0 ? 1.0f / sum : 1.0f;
+        b0 *= is;
+        b1 *= is;
+        b2 *= is;
+        s.px[i] = b0 * t->p[0][0] + b1 * t->p[1][0] + b2 * t->p[2][0];
+        s.py[i] = b0 * t->p[0][1] + b1 * t->p[1][1] + b2 * t->p[2][1];
+        s.pz[i] = b0 * t->p[0][2] + b1 * t->p[1][2] + b2 * t->p[2][2];
+        s.nx[i] = b0 * t->n[0][0] + b1 * t->n[1][0] + b2 * t->n[2][0];
+        s.ny[i] = b0 * t->n[0][1] + b1 * t->n[1][1] + b2 * t->n[2][1];
+        s.nz[i] = b0 * t->n[0][2] + b1 * t->n[1][2] + b2 * t->n[2][2];
+        s.ar[i] = t->albedo[0];
+        s.ag[i] = t->albedo[1];
+        s.ab[i] = t->albedo[2];
+        cov[i] = 1;
+    }
+    const vf zero = vf_set(0), one = vf_set(1), amb = vf_set(VT_AMBIENT), inv_pi = vf_set(1.0f / 3.14159265f);
+    for (unsigned i = 0; i < S; i += W) {
+        vf nx = vf_load(s.nx + i), ny = vf_load(s.ny + i), nz = vf_load(s.nz + i);
+        vf l2 = dot3(nx, ny, nz, nx, ny, nz);
+        vf in = vf_select(vf_lt(zero, l2), vf_div(one, vf_sqrt(l2)), zero);
+        vf_store(s.nx + i, vf_mul(nx, in));
+        vf_store(s.ny + i, vf_mul(ny, in));
+        vf_store(s.nz + i, vf_mul(nz, in));
+        /* towards the eye (the camera-relative origin); for orthographic
+           views the same formula is close enough at a distance */
+        vf px = vf_load(s.px + i), py = vf_load(s.py + i), pz = vf_load(s.pz + i);
+        vf v2 = dot3(px, py, pz, px, py, pz);
+        vf iv = vf_select(vf_lt(zero, v2), vf_div(vf_set(-1), vf_sqrt(v2)), zero);
+        vf_store(s.vx + i, vf_mul(px, iv));
+        vf_store(s.vy + i, vf_mul(py, iv));
+        vf_store(s.vz + i, vf_mul(pz, iv));
+        vf ar = vf_load(s.ar + i), ag = vf_load(s.ag + i), ab = vf_load(s.ab + i);
+        vf_store(s.cr + i, vf_mul(amb, ar));
+        vf_store(s.cg + i, vf_mul(amb, ag));
+        vf_store(s.cb + i, vf_mul(amb, ab));
+        vf_store(s.ar + i, vf_mul(ar, inv_pi));
+        vf_store(s.ag + i, vf_mul(ag, inv_pi));
+        vf_store(s.ab + i, vf_mul(ab, inv_pi));
+    }
+    for (uint32_t k = 0; k < sp->nli; k++) {
+        const vt_slight *L = &sp->sl[sp->li[k]];
+        if (L->spot) light(&s, L, 1);
+        else light(&s, L, 0);
+    }
+    for (unsigned i = 0; i < sp->n; i++) {
+        float *o = sp->rgba + 4 * i;
+        o[0] = s.cr[i];
+        o[1] = s.cg[i];
+        o[2] = s.cb[i];
+        o[3] = cov[i];
+        float z = sp->near[i];
+        sp->depth[i] = cov[i] == 0 ? INFINITY : !sp->ortho ? 1.0f / z : 1.0f - sp->ok * z;
+    }
+}
+
+#undef S
+#undef A

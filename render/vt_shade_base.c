@@ -1,0 +1,22 @@
+/*
+ * vt_shade_base.c — the shading kernel one lane at a time (any CPU, and
+ * the CONFIG=scalar build), and the choice of instance.
+ */
+#include "vt_shade.h"
+#include "culling.h"
+
+#define CULL_SIMD_ISA 1
+#include "cull_simd.h"
+#define VT_SHADE_NAME vt_shade_scalar
+#include "vt_shade.inl"
+
+vt_shade_fn vt_shade_pick(void)
+{
+    switch (cull_isa_default()) {
+#ifndef CULL_SCALAR_ONLY
+    case CULL_ISA_AVX2: return vt_shade_avx2;
+    case CULL_ISA_SSE41: return vt_shade_sse41;
+#endif
+    default: return vt_shade_scalar;
+    }
+}
