@@ -13,6 +13,7 @@
 #ifndef VANTAGE_VT_SHADE_H
 #define VANTAGE_VT_SHADE_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #define VT_SPAN 16u          /* = VT_TILE: one tile's width */
@@ -52,13 +53,23 @@ typedef struct vt_span {
 } vt_span;
 
 typedef void (*vt_shade_fn)(const vt_span *s);
+/* vt_tile_ranges for one row of tiles of a packed nearness image. */
+typedef void (*vt_ranges_fn)(const float *near, size_t ys, uint32_t width, uint32_t rows, float (*range)[2]);
+
+typedef struct vt_kern {
+    vt_shade_fn shade;
+    vt_ranges_fn ranges;
+} vt_kern;
 
 void vt_shade_scalar(const vt_span *s);
 void vt_shade_sse41(const vt_span *s);
 void vt_shade_avx2(const vt_span *s);
+void vt_ranges_scalar(const float *, size_t, uint32_t, uint32_t, float (*)[2]);
+void vt_ranges_sse41(const float *, size_t, uint32_t, uint32_t, float (*)[2]);
+void vt_ranges_avx2(const float *, size_t, uint32_t, uint32_t, float (*)[2]);
 
-/* The instance for this CPU and VANTAGE_ISA, as the culling kernels pick
+/* The instances for this CPU and VANTAGE_ISA, as the culling kernels pick
  * theirs (cull_isa_default). */
-vt_shade_fn vt_shade_pick(void);
+vt_kern vt_kern_pick(void);
 
 #endif

@@ -5,6 +5,7 @@
  * inverse-square falloff windowed to zero at the light's range, smoothstep
  * spot cones, a small ambient term.
  */
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -19,6 +20,32 @@ typedef struct surf {
     A float ar[S]; A float ag[S]; A float ab[S];   /* albedo / pi */
     A float cr[S]; A float cg[S]; A float cb[S];   /* radiance so far */
 } surf;
+
+/* Four channels of W pixels, interleaved, to dst (4 W floats). */
+static inline void store_rgba(float *dst, vf r, vf g, vf b, vf a)
+{
+#if CULL_SIMD_ISA == 3
+    __m256 rg0 = _mm256_unpacklo_ps(r, g), rg1 = _mm256_unpackhi_ps(r, g); /* r0 g0 r1 g1 | r4 g4 r5 g5 */
+    __m256 ba0 = _mm256_unpacklo_ps(b, a), ba1 = _mm256_unpackhi_ps(b, a);
+    __m256 p04 = _mm256_shuffle_ps(rg0, ba0, 0x44), p15 = _mm256_shuffle_ps(rg0, ba0, 0xEE);
+    __m256 p26 = _mm256_shuffle_ps(rg1, ba1, 0x44), p37 = _mm256_shuffle_ps(rg1, ba1, 0xEE);
+    _mm256_storeu_ps(dst, _mm256_permute2f128_ps(p04, p15, 0x20));
+    _mm256_storeu_ps(dst + 8, _mm256_permute2f128_ps(p26, p37, 0x20));
+    _mm256_storeu_ps(dst + 16, _mm256_permute2f128_ps(p04, p15, 0x31));
+    _mm256_storeu_ps(dst + 24, _mm256_permute2f128_ps(p26, p37, 0x31));
+#elif CULL_SIMD_ISA == 2
+    _MM_TRANSPOSE4_PS(r, g, b, a);
+    _mm_storeu_ps(dst, r);
+    _mm_storeu_ps(dst + 4, g);
+    _mm_storeu_ps(dst + 8, b);
+    _mm_storeu_ps(dst + 12, a);
+#else
+    dst[0] = r;
+    dst[1] = g;
+    dst[2] = b;
+    dst[3] = a;
+#endif
+}
 
 static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
 {
@@ -75,6 +102,14 @@ void VT_SHADE_NAME(const vt_span *sp)
 {
     surf s;
     A float cov[S];
+    /* nothing drawn in the whole span (sky, off the geometry): no surface */
+    uint32_t any = 0;
+    for (unsigned i = 0; i < sp->n; i++) any |= sp->id[i];
+    if (!any) {
+        memset(sp->rgba, 0, (size_t)sp->n * 4 * sizeof(float));
+        for (unsigned i = 0; i < sp->n; i++) sp->depth[i] = INFINITY;
+        return;
+    }
     /* gather: each pixel's record, perspective-correct barycentrics from
        the homogeneous edge functions, the interpolated surface */
     for (unsigned i = 0; i < S; i++) {
@@ -136,6 +171,16 @@ void VT_SHADE_NAME(const vt_span *sp)
         if (L->spot) light(&s, L, 1);
         else light(&s, L, 0);
     }
+    if (sp->n == S) {
+        const vf inf = vf_set(INFINITY), ok = vf_set(sp->ok);
+        for (unsigned i = 0; i < S; i += W) {
+            vf c = vf_load(cov + i), z = vf_loadu(sp->near + i);
+            vf d = sp->ortho ? vf_sub(one, vf_mul(ok, z)) : vf_div(one, z);
+            vf_store(sp->depth + i, vf_select(vf_lt(zero, c), d, inf));
+            store_rgba(sp->rgba + 4 * i, vf_load(s.cr + i), vf_load(s.cg + i), vf_load(s.cb + i), c);
+        }
+        return;
+    }
     for (unsigned i = 0; i < sp->n; i++) {
         float *o = sp->rgba + 4 * i;
         o[0] = s.cr[i];
@@ -144,6 +189,38 @@ void VT_SHADE_NAME(const vt_span *sp)
         o[3] = cov[i];
         float z = sp->near[i];
         sp->depth[i] = cov[i] == 0 ? INFINITY : !sp->ortho ? 1.0f / z : 1.0f - sp->ok * z;
+    }
+}
+
+/* The light tiles' nearness ranges of one row of tiles (rows <= 16 rows
+ * of near, ys apart): per tile {nearest, farthest} of what it shows, as
+ * vt_tile_ranges (-FLT_MAX, FLT_MAX where it shows nothing). */
+void VT_RANGES_NAME(const float *near, size_t ys, uint32_t width, uint32_t rows, float (*range)[2])
+{
+    const vf empty = vf_set(-FLT_MAX), huge = vf_set(FLT_MAX), zero = vf_set(0);
+    uint32_t x = 0;
+    for (; x + S <= width; x += S) {
+        vf hi = empty, lo = huge;
+        for (uint32_t y = 0; y < rows; y++)
+            for (unsigned i = 0; i < S; i += W) {
+                vf z = vf_loadu(near + y * ys + x + i);
+                hi = vf_max(hi, z);
+                lo = vf_min(lo, vf_select(vf_le(z, empty), huge, z));
+            }
+        range[x / S][0] = -vf_hmin(vf_sub(zero, hi));
+        range[x / S][1] = vf_hmin(lo);
+    }
+    if (x < width) {
+        float hi = -FLT_MAX, lo = FLT_MAX;
+        for (uint32_t y = 0; y < rows; y++)
+            for (uint32_t i = x; i < width; i++) {
+                float z = near[y * ys + i];
+                if (z == -FLT_MAX) continue;
+                hi = z > hi ? z : hi;
+                lo = z < lo ? z : lo;
+            }
+        range[x / S][0] = hi;
+        range[x / S][1] = lo;
     }
 }
 

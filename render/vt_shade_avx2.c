@@ -1,6 +1,6 @@
 /*
  * vt_shade_avx2.c — the shading kernel, 8 lanes. Compiled with -mavx2
- * -mfma; called only after CPUID says both are there (vt_shade_pick).
+ * -mfma; called only after CPUID says both are there (vt_kern_pick).
  */
 #include "vt_shade.h"
 
@@ -8,5 +8,6 @@
 #define CULL_SIMD_ISA 3
 #include "cull_simd.h"
 #define VT_SHADE_NAME vt_shade_avx2
+#define VT_RANGES_NAME vt_ranges_avx2
 #include "vt_shade.inl"
 #endif

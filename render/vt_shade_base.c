@@ -8,15 +8,16 @@
 #define CULL_SIMD_ISA 1
 #include "cull_simd.h"
 #define VT_SHADE_NAME vt_shade_scalar
+#define VT_RANGES_NAME vt_ranges_scalar
 #include "vt_shade.inl"
 
-vt_shade_fn vt_shade_pick(void)
+vt_kern vt_kern_pick(void)
 {
     switch (cull_isa_default()) {
 #ifndef CULL_SCALAR_ONLY
-    case CULL_ISA_AVX2: return vt_shade_avx2;
-    case CULL_ISA_SSE41: return vt_shade_sse41;
+    case CULL_ISA_AVX2: return (vt_kern){vt_shade_avx2, vt_ranges_avx2};
+    case CULL_ISA_SSE41: return (vt_kern){vt_shade_sse41, vt_ranges_sse41};
 #endif
-    default: return vt_shade_scalar;
+    default: return (vt_kern){vt_shade_scalar, vt_ranges_scalar};
     }
 }

@@ -91,7 +91,7 @@ struct vt_soft {
     size_t cl_cap;
     slight *sl;             /* the lights as shading reads them */
     size_t sl_cap;
-    vt_shade_fn shade;      /* the kernel for this CPU */
+    vt_kern k;              /* the kernels for this CPU */
 };
 
 static uint64_t now_ns(void)
@@ -121,7 +121,7 @@ int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
     vt_soft *r = calloc(1, sizeof *r);
     if (!r) return -ENOMEM;
     r->pool = pool;
-    r->shade = vt_shade_pick();
+    r->k = vt_kern_pick();
     uint32_t pt = cull_pool_threads(pool);
     r->threads = threads && threads < pt ? threads : pt;
     if (r->threads > MAX_THREADS) r->threads = MAX_THREADS;
@@ -479,7 +479,7 @@ static void job_raster(void *arg, uint32_t t)
     uint32_t tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += nt) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
-        vt_tile_ranges(r->near + (size_t)tr * TILE * fr->w, 1, fr->w, fr->w, y1 - tr * TILE, r->range + (size_t)tr * tx);
+        r->k.ranges(r->near + (size_t)tr * TILE * fr->w, fr->w, fr->w, y1 - tr * TILE, r->range + (size_t)tr * tx);
     }
 }
 
@@ -512,7 +512,7 @@ static void job_shade(void *arg, uint32_t t)
                 sp.near = r->near + (size_t)y * fr->w + sp.x0;
                 sp.rgba = jb->rgba + ((size_t)y * jb->stride + sp.x0) * 4;
                 sp.depth = jb->depth + (size_t)y * jb->stride + sp.x0;
-                r->shade(&sp);
+                r->k.shade(&sp);
             }
         }
     }

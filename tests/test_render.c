@@ -12,6 +12,8 @@
 #include "occ_ref.h"
 #include "vt_glr.h"
 #include "vt_soft.h"
+#include "vt_frame.h"
+#include "vt_shade.h"
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
@@ -187,6 +189,44 @@ static void test_soft_bad_input(void **state)
  * the same on >= 99.9 % of pixels, depth within 1e-4 relative, colour
  * within 1 % + 1e-3 where both cover a pixel away from an edge. Skipped
  * where no GL context can be made. */
+/* Each instance of the per-tile-row range kernel against vt_tile_ranges
+ * (the plain loop the GL path uses): random nearness with empty pixels,
+ * widths and heights not multiples of 16. */
+static void test_tile_ranges_kernels(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x7A9u};
+    vt_ranges_fn fns[3] = {vt_ranges_scalar,
+#ifndef CULL_SCALAR_ONLY
+                           vt_ranges_sse41, vt_ranges_avx2
+#else
+                           NULL, NULL
+#endif
+    };
+    for (int f = 0; f < 40; f++) {
+        uint32_t w = 1 + rng_below(&r, 100), h = 1 + rng_below(&r, 40), tx = (w + 15) / 16, ty = (h + 15) / 16;
+        float *near = malloc((size_t)w * h * sizeof *near);
+        float(*want)[2] = malloc((size_t)tx * ty * sizeof *want), (*got)[2] = malloc((size_t)tx * ty * sizeof *got);
+        assert_true(near && want && got);
+        uint32_t empty_pct = rng_below(&r, 101);
+        for (size_t p = 0; p < (size_t)w * h; p++)
+            near[p] = rng_below(&r, 100) < empty_pct ? VT_EMPTY : (float)rng_log(&r, 1e-4, 10);
+        vt_tile_ranges(near, 1, w, w, h, want);
+        for (int k = 0; k < 3; k++) {
+            if (!fns[k] || !cull_isa_supported((uint32_t)k)) continue;
+            memset(got, 0x55, (size_t)tx * ty * sizeof *got);
+            for (uint32_t t = 0; t < ty; t++) {
+                uint32_t rows = h - 16 * t < 16 ? h - 16 * t : 16;
+                fns[k](near + (size_t)16 * t * w, w, w, rows, got + (size_t)t * tx);
+            }
+            assert_memory_equal(got, want, (size_t)tx * ty * sizeof *got);
+        }
+        free(near);
+        free(want);
+        free(got);
+    }
+}
+
 /* A random frame of lit boxes: sizes, boxes, point and spot lights (none
  * in a quarter of the frames), a perspective camera in any depth mode. */
 typedef struct lit_frame {
@@ -387,5 +427,6 @@ const struct CMUnitTest render_tests[] = {
     cmocka_unit_test(test_soft_bad_input),
     cmocka_unit_test(test_soft_matches_ray_caster),
     cmocka_unit_test(test_soft_isas_agree),
+    cmocka_unit_test(test_tile_ranges_kernels),
 };
 const size_t render_tests_count = sizeof render_tests / sizeof render_tests[0];
