@@ -357,6 +357,7 @@ void cull_grid_store(cull_world *w, cull_cell *c, uint32_t i, const cull_entity_
     b->maxz[l] = cull_round_up(lmax[2]);
     b->handle[l] = h;
     b->class_sub[l] = (uint32_t)d->class_id | (uint32_t)d->sublevel << 16;
+    c->subs |= 1ull << (d->sublevel & 63);
     /* grow the cell bounds to hold both the sphere and the AABB; float sums
        may round inward by half an ulp, so pad one ulp */
     float lo[3] = {fminf(b->x[l] - b->r[l], b->minx[l]), fminf(b->y[l] - b->r[l], b->miny[l]),
@@ -466,9 +467,11 @@ void cull_grid_commit(cull_world *w)
         cull_cell *c = w->dirty[d];
         c->dirty_pos = 0;
         empty_bounds_f(c->bmin, c->bmax);
+        c->subs = 0;
         for (uint32_t i = 0; i < c->count; i++) {
             const cull_block *b = c->blocks[i / CULL_BLOCK_CAP];
             uint32_t l = i % CULL_BLOCK_CAP;
+            c->subs |= 1ull << ((b->class_sub[l] >> 16) & 63);
             float lo[3] = {fminf(b->x[l] - b->r[l], b->minx[l]), fminf(b->y[l] - b->r[l], b->miny[l]),
                            fminf(b->z[l] - b->r[l], b->minz[l])};
             float hi[3] = {fmaxf(b->x[l] + b->r[l], b->maxx[l]), fmaxf(b->y[l] + b->r[l], b->maxy[l]),

@@ -50,6 +50,8 @@ typedef struct cull_cell {
     uint32_t nblocks, cap_blocks;
     cull_block **blocks;
     uint32_t dirty_pos;     /* index in the world's dirty list + 1; 0 = clean */
+    uint64_t subs;          /* bit s % 64 for every sub-level s it holds (may
+                               keep bits of removed entities until commit) */
 } cull_cell;
 
 /* Cell bounds for the SIMD cell stage: six arrays of cap doubles (world
@@ -125,6 +127,7 @@ typedef struct cull_occ_cluster {
     const cull_occ_face *f;
     uint32_t nv, nf;
     uint32_t widx;     /* position in the world's cluster arrays */
+    uint16_t sublevel; /* its occluder's */
     uint32_t convex;   /* closed (every edge shared by two faces, opposite
                           ways) and convex: drawn as one silhouette */
 } cull_occ_cluster;

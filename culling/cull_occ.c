@@ -940,7 +940,7 @@ static bool sort_items(cull_occ_buffer *b)
 }
 
 int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
-                        uint32_t threads, uint32_t isa, cull_occ_stats *st)
+                        uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st)
 {
     if (st) memset(st, 0, sizeof *st);
     if (!w || !v || !b) return CULL_ERR_INVALID;
@@ -970,6 +970,7 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
         for (uint32_t i = 0; i < w->nclusters; i++) {
             if (b->codes[i] & 0x80u) continue;
             const cull_occ_cluster *cl = w->ocl[i];
+            if (!cull_sublevel_in(sublevels, cl->sublevel)) continue;
             cull_occ_item *it = &b->items[n];
             int k = cull_occ_project_bound(b, cl->bmin, cl->bmax, &it->r);
             if (k == OCC_BOX_OFF) continue;
@@ -1023,5 +1024,12 @@ int cull_occ_render(const cull_world *w, const cull_view *v, cull_occ_buffer *b,
                     uint32_t threads, cull_occ_stats *st)
 {
     if (!b) return CULL_ERR_INVALID;
-    return cull_occ_render_isa(w, v, b, pool, threads, b->isa, st);
+    return cull_occ_render_isa(w, v, b, pool, threads, b->isa, NULL, st);
+}
+
+int cull_occ_render_sub(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
+                        uint32_t threads, const uint64_t *sublevels, cull_occ_stats *st)
+{
+    if (!b) return CULL_ERR_INVALID;
+    return cull_occ_render_isa(w, v, b, pool, threads, b->isa, sublevels, st);
 }

@@ -91,6 +91,6 @@ int  cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const do
 /* Looser and cheaper (4 divisions, not 8 corners): for clusters and cells. */
 int  cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r);
 int  cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
-                         uint32_t threads, uint32_t isa, cull_occ_stats *st);
+                         uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st);
 
 #endif

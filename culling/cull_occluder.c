@@ -391,6 +391,7 @@ static int build_mesh(const double *pos, uint32_t npos, const uint32_t *idx, uin
     m->dropped = b.dropped;
     m->faces = b.nf;
     m->sublevel = sublevel;
+    for (uint32_t c = 0; c < m->ncl; c++) m->cl[c].sublevel = sublevel;
     for (int a = 0; a < 3; a++) {
         m->bmin[a] = INFINITY;
         m->bmax[a] = -INFINITY;

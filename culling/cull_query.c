@@ -204,15 +204,27 @@ static inline void prefetch_block(const cull_block *b, bool boxes)
     for (size_t off = 0; off < end; off += 64) __builtin_prefetch(p + off, 0, 3);
 }
 
+/* Keeps the results of out[0..n) whose sub-level the query sees, in order;
+ * returns how many. */
+static uint32_t keep_sublevels(cull_result *out, uint32_t n, const uint64_t *set)
+{
+    uint32_t k = 0;
+    for (uint32_t i = 0; i < n; i++)
+        if (cull_sublevel_in(set, out[i].sublevel)) out[k++] = out[i];
+    return k;
+}
+
 typedef struct job {
     cull_ctx *c;
     const cull_kparams *kp;
+    const uint64_t *subs;   /* the query's sub-levels, or NULL */
     const cull_item *items;
     uint32_t nitems, nchunks;
     bool prefetch;
     _Atomic uint32_t next;
     cull_result *out;
     cull_kcount cnt[MAX_THREADS];
+    uint32_t filtered[MAX_THREADS];
 } job;
 
 static void job_cull(void *arg, uint32_t t)
@@ -232,7 +244,13 @@ static void job_cull(void *arg, uint32_t t)
             const cull_item *it = &j->items[i];
             if (j->prefetch && i + PREFETCH_AHEAD < j->nitems)
                 prefetch_block(j->items[i + PREFETCH_AHEAD].block, j->kp->area);
-            off += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt);
+            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt);
+            if (j->subs) {
+                uint32_t kept = keep_sublevels(dst + off, k, j->subs);
+                j->filtered[t] += k - kept;
+                k = kept;
+            }
+            off += k;
         }
         c->chunks[ch] = (cull_chunk){.thread = t, .off = start, .count = off - start};
     }
@@ -257,6 +275,12 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     if (stats) memset(stats, 0, sizeof *stats);
     if (!w || !c || !q || !count || (!out && cap)) return CULL_ERR_INVALID;
     bool count_only = (q->flags & CULL_Q_COUNT_ONLY) != 0;
+    /* the sub-level filter reads each result's sub-level: with it, results
+       are written even when only counted (to the context's scratch) */
+    const uint64_t *subs = q->sublevels;
+    uint64_t subs_fold = 0;
+    if (subs)
+        for (uint32_t i = 0; i < CULL_SUBLEVEL_WORDS; i++) subs_fold |= subs[i];
     if (!q->views || q->view_count == 0 || q->view_count > CULL_MAX_VIEWS) return CULL_ERR_VIEWS;
     if (!(q->min_screen_area >= 0) || q->min_screen_area > 1e12f) return CULL_ERR_INVALID;
     for (uint32_t v = 0; v < q->view_count; v++)
@@ -285,7 +309,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 }
                 b->inner = !(q->flags & CULL_Q_OCC_CENTRE);
                 cull_occ_stats st;
-                int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, &st);
+                int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, q->sublevels, &st);
                 if (rc != CULL_OK) return rc;
                 occ_ns += st.raster_ns;
                 occ_drawn += st.clusters_drawn;
@@ -302,7 +326,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         .aabb = !(q->flags & CULL_Q_NO_AABB),
         .area = q->min_screen_area > 0 || (q->flags & CULL_Q_WANT_AREA),
         .exact_area = (q->flags & CULL_Q_WANT_AREA) != 0,
-        .count_only = count_only,
+        .count_only = count_only && !subs,
     };
 
     /* world-space planes for the box kernel */
@@ -323,7 +347,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     const size_t cstride = CULL_REGION_CELLS * CULL_REGION_CELLS * CULL_REGION_CELLS + 4;
     region_view rv[CULL_MAX_VIEWS];
     uint32_t nkv = 0, nitems = 0, tested = 0;
-    uint32_t regions = 0, regions_culled = 0, cells = 0, cells_culled = 0, cells_occluded = 0;
+    uint32_t regions = 0, regions_culled = 0, cells = 0, cells_culled = 0, cells_occluded = 0, cells_filtered = 0;
     for (int g = 0; g < 2; g++) {
         if ((q->flags & CULL_Q_STATIC_ONLY) && g == 1) continue;
         if ((q->flags & CULL_Q_DYNAMIC_ONLY) && g == 0) continue;
@@ -363,6 +387,10 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             }
             for (uint32_t ci = 0; ci < region->ncells; ci++) {
                 const cull_cell *cell = region->cells[ci];
+                if (subs && !(cell->subs & subs_fold)) {
+                    cells_filtered++;
+                    continue;
+                }
                 if (!cull_grow((void **)&c->kv, &c->kv_cap, (size_t)nkv + nrv, sizeof *c->kv) ||
                     !cull_grow((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
                     return CULL_ERR_NOMEM;
@@ -396,12 +424,23 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     bool prefetch = nitems > PREFETCH_MIN_ITEMS;
     cull_kcount total = {0};
     size_t written = 0;
+    uint32_t filtered = 0;
     if (threads == 1) {
+        /* counting through the filter: one block's results at a time */
+        if (count_only && subs &&
+            !cull_grow((void **)&c->tres[0], &c->tres_cap[0], CULL_BLOCK_CAP + CULL_RESULT_PAD, sizeof(cull_result)))
+            return CULL_ERR_NOMEM;
         for (uint32_t i = 0; i < nitems; i++) {
             const cull_item *it = &c->items[i];
             if (prefetch && i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block, kp.area);
-            written += c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp,
-                                 count_only ? NULL : out + written, &total);
+            cull_result *dst = !count_only ? out + written : subs ? c->tres[0] : NULL;
+            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp, dst, &total);
+            if (subs) {
+                uint32_t kept = keep_sublevels(dst, k, subs);
+                filtered += k - kept;
+                k = kept;
+            }
+            written += k;
         }
     } else {
         uint32_t nchunks = (nitems + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
@@ -411,7 +450,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             if (!cull_grow((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
                          sizeof(cull_result)))
                 return CULL_ERR_NOMEM;
-        job j = {.c = c, .kp = &kp, .items = c->items, .nitems = nitems, .nchunks = nchunks,
+        job j = {.c = c, .kp = &kp, .subs = subs, .items = c->items, .nitems = nitems, .nchunks = nchunks,
                  .out = out, .prefetch = prefetch};
         atomic_init(&j.next, 0);
         cull_pool_run(c->pool, job_cull, &j, threads);
@@ -426,6 +465,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             total.after_aabb += j.cnt[t].after_aabb;
             total.after_area += j.cnt[t].after_area;
             total.after_occ += j.cnt[t].after_occ;
+            filtered += j.filtered[t];
         }
     }
     *count = written;
@@ -445,6 +485,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         stats->occ_raster_ns = occ_ns;
         stats->visible = (uint32_t)written;
         stats->threads_used = threads;
+        stats->cells_filtered = cells_filtered;
+        stats->filtered = filtered;
     }
     return CULL_OK;
 }

@@ -268,6 +268,15 @@ void cull_mat_mul(double out[16], const double a[16], const double b[16]);
 #define CULL_Q_NO_OCCLUSION 0x20u /* skip the occlusion stage (it runs by
                                      default for every view that has an
                                      occluder in its frustum) */
+/* Sub-levels: a query may see only some of them (CULL_SUBLEVEL_WORDS words,
+ * bit s % 64 of word s / 64 set = sub-level s is seen). */
+#define CULL_SUBLEVELS 65536u
+#define CULL_SUBLEVEL_WORDS (CULL_SUBLEVELS / 64u)
+static inline int cull_sublevel_in(const uint64_t *set, uint32_t s)
+{
+    return !set || (int)((set[(s & 0xFFFFu) >> 6] >> (s & 63)) & 1u);
+}
+
 #define CULL_Q_OCC_CENTRE   0x40u /* occluders cover the pixels whose centre
                                      they cover, instead of only the pixels
                                      they cover entirely: culls more, exact
@@ -293,6 +302,11 @@ typedef struct cull_query_desc {
                                    per view already rendered for it with
                                    cull_occ_render (NULL entries: no
                                    occlusion for that view) */
+    const uint64_t *sublevels;  /* NULL: every sub-level; else the set seen
+                                   (CULL_SUBLEVEL_WORDS words): entities of
+                                   the others are not reported and their
+                                   occluders hide nothing. Cells holding
+                                   none of the set are skipped whole */
 } cull_query_desc;
 
 /* The talk's EntityRenderCullInfo. 16 bytes. */
@@ -320,6 +334,8 @@ typedef struct cull_query_stats {
     uint32_t occ_clusters_drawn;    /* occluder clusters rasterised, all views */
     uint32_t cells_occluded;        /* (cell, view) pairs dropped whole by occlusion */
     uint64_t occ_raster_ns;         /* wall time spent rendering occluders */
+    uint32_t cells_filtered;        /* cells skipped: none of the query's sub-levels */
+    uint32_t filtered;              /* entities visible but of another sub-level */
 } cull_query_stats;
 
 /* Job pool: threads-1 persistent workers plus the caller. threads 0 = the
@@ -397,6 +413,10 @@ typedef struct cull_occ_stats {
  * whole pool). pool may be NULL. */
 int cull_occ_render(const cull_world *w, const cull_view *v, cull_occ_buffer *b,
                     cull_pool *pool, uint32_t threads, cull_occ_stats *st);
+/* The same with only the occluders of the sub-levels in `sublevels`
+ * (CULL_SUBLEVEL_WORDS words; NULL = all). */
+int cull_occ_render_sub(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
+                        uint32_t threads, const uint64_t *sublevels, cull_occ_stats *st);
 /* 1 if an AABB (world metres) may be visible in the view b was rendered
  * for, 0 if it is entirely behind the stored depth (double precision). */
 int cull_occ_test_aabb(const cull_occ_buffer *b, const double mn[3], const double mx[3]);

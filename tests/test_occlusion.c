@@ -690,6 +690,111 @@ static void test_edits_change_occlusion(void **state)
     cull_world_destroy(w);
 }
 
+/* Sub-levels: a query that sees only the set S of sub-levels equals a
+ * query of a world holding only S's occluders (and every entity), its
+ * results then kept to S by hand. Sub-level ids past 63 alias the cells'
+ * 64-bit summaries on purpose. Counting, 1 and 2 threads, every ISA. */
+static void test_sublevel_filter(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x5B1u};
+    static const uint16_t subs[] = {0, 1, 2, 65, 130, 4000};
+    const uint32_t nsubs = sizeof subs / sizeof subs[0];
+    cull_pool *pool;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    cull_ctx *c;
+    assert_int_equal(cull_ctx_create(pool, &c), CULL_OK);
+    uint64_t filtered_total = 0, kept_total = 0;
+    for (int round = 0; round < 12; round++) {
+        uint64_t set[CULL_SUBLEVEL_WORDS] = {0};
+        bool in[6];
+        for (uint32_t k = 0; k < nsubs; k++) {
+            in[k] = rng_below(&r, 2);
+            if (in[k]) set[subs[k] / 64] |= 1ull << (subs[k] % 64);
+        }
+        cull_world *all, *only;
+        assert_int_equal(cull_world_create(NULL, &all), CULL_OK);
+        assert_int_equal(cull_world_create(NULL, &only), CULL_OK);
+        float v[108];
+        unit_cube(v);
+        for (int b = 0; b < 30; b++) {
+            uint32_t k = rng_below(&r, nsubs);
+            cull_occluder_desc d = {.vertices = v, .vertex_count = 36, .sublevel = subs[k]};
+            for (int a = 0; a < 3; a++) {
+                d.transform[a * 5] = rng_log(&r, 0.5, 20);
+                d.transform[12 + a] = rng_range(&r, -60, 60);
+            }
+            d.transform[15] = 1;
+            cull_occluder h;
+            assert_int_equal(cull_occluder_add(all, &d, &h), CULL_OK);
+            if (in[k]) assert_int_equal(cull_occluder_add(only, &d, &h), CULL_OK);
+        }
+        uint32_t n = 500 + rng_below(&r, 1500);
+        cull_handle *hs = malloc(n * sizeof *hs);
+        assert_non_null(hs);
+        for (uint32_t i = 0; i < n; i++) {
+            cull_entity_desc e = {.sublevel = subs[rng_below(&r, nsubs)]};
+            for (int a = 0; a < 3; a++) {
+                double m = rng_range(&r, -90, 90), hs = rng_log(&r, 0.05, 5);
+                e.aabb_min[a] = m - hs;
+                e.aabb_max[a] = m + hs;
+            }
+            e.flags = rng_below(&r, 4) == 0 ? CULL_ENTITY_DYNAMIC : 0;
+            cull_handle h1, h2;
+            assert_int_equal(cull_entity_add(all, &e, &h1), CULL_OK);
+            assert_int_equal(cull_entity_add(only, &e, &h2), CULL_OK);
+            assert_int_equal(h1, h2);
+            hs[i] = h1;
+        }
+        /* removals leave the cells' summaries loose until commit */
+        for (uint32_t i = 0; i < n; i += 1 + rng_below(&r, 8)) {
+            assert_int_equal(cull_entity_remove(all, hs[i]), CULL_OK);
+            assert_int_equal(cull_entity_remove(only, hs[i]), CULL_OK);
+        }
+        free(hs);
+        if (round % 2) cull_world_commit(all);
+        size_t cap = cull_query_bound(all), na, nb, nc;
+        cull_result *ra = malloc(cap * sizeof *ra), *rb = malloc(cap * sizeof *rb);
+        assert_true(ra && rb);
+        for (int vi = 0; vi < 4; vi++) {
+            oscene tmp = {.w = all};
+            cull_view view;
+            random_view(&r, &tmp, &view, 256, 114);
+            uint32_t isa = rng_below(&r, CULL_ISA_COUNT);
+            if (!cull_isa_supported(isa)) isa = CULL_ISA_SCALAR;
+            assert_int_equal(cull_ctx_set_isa(c, isa), CULL_OK);
+            uint32_t threads = 1 + rng_below(&r, 2);
+            cull_query_desc q = {.views = &view, .view_count = 1, .threads = threads, .sublevels = set};
+            cull_query_stats st;
+            assert_int_equal(cull_query(all, c, &q, ra, cap, &na, &st), CULL_OK);
+            cull_query_desc qb = {.views = &view, .view_count = 1, .threads = threads};
+            assert_int_equal(cull_query(only, c, &qb, rb, cap, &nb, NULL), CULL_OK);
+            size_t k = 0;
+            for (size_t i = 0; i < nb; i++)
+                if (cull_sublevel_in(set, rb[i].sublevel)) rb[k++] = rb[i];
+            assert_int_equal(na, k);
+            for (size_t i = 0; i < na; i++) {
+                assert_int_equal(ra[i].handle, rb[i].handle);
+                assert_int_equal(ra[i].view_mask, rb[i].view_mask);
+            }
+            q.flags = CULL_Q_COUNT_ONLY;
+            assert_int_equal(cull_query(all, c, &q, NULL, 0, &nc, NULL), CULL_OK);
+            assert_int_equal(nc, na);
+            filtered_total += st.filtered;
+            kept_total += na;
+        }
+        free(ra);
+        free(rb);
+        cull_world_destroy(all);
+        cull_world_destroy(only);
+    }
+    fprintf(stderr, "sub-level filter: %llu kept, %llu filtered out\n", (unsigned long long)kept_total,
+            (unsigned long long)filtered_total);
+    assert_true(kept_total > 0 && filtered_total > 0);
+    cull_ctx_destroy(c);
+    cull_pool_destroy(pool);
+}
+
 const struct CMUnitTest occlusion_tests[] = {
     cmocka_unit_test(test_bad_occluders),
     cmocka_unit_test(test_camera_inside_occluder),
@@ -697,5 +802,6 @@ const struct CMUnitTest occlusion_tests[] = {
     cmocka_unit_test(test_multi_view_matches_single),
     cmocka_unit_test(test_wall_through_near_plane),
     cmocka_unit_test(test_random_scenes_never_false_occluded),
+    cmocka_unit_test(test_sublevel_filter),
 };
 const size_t occlusion_tests_count = sizeof occlusion_tests / sizeof occlusion_tests[0];
