@@ -730,8 +730,8 @@ static void test_sublevel_filter(void **state)
             if (in[k]) assert_int_equal(cull_occluder_add(only, &d, &h), CULL_OK);
         }
         uint32_t n = 500 + rng_below(&r, 1500);
-        cull_handle *hs = malloc(n * sizeof *hs);
-        assert_non_null(hs);
+        cull_handle *hl = malloc(n * sizeof *hl);
+        assert_non_null(hl);
         for (uint32_t i = 0; i < n; i++) {
             cull_entity_desc e = {.sublevel = subs[rng_below(&r, nsubs)]};
             for (int a = 0; a < 3; a++) {
@@ -744,14 +744,14 @@ static void test_sublevel_filter(void **state)
             assert_int_equal(cull_entity_add(all, &e, &h1), CULL_OK);
             assert_int_equal(cull_entity_add(only, &e, &h2), CULL_OK);
             assert_int_equal(h1, h2);
-            hs[i] = h1;
+            hl[i] = h1;
         }
         /* removals leave the cells' summaries loose until commit */
         for (uint32_t i = 0; i < n; i += 1 + rng_below(&r, 8)) {
-            assert_int_equal(cull_entity_remove(all, hs[i]), CULL_OK);
-            assert_int_equal(cull_entity_remove(only, hs[i]), CULL_OK);
+            assert_int_equal(cull_entity_remove(all, hl[i]), CULL_OK);
+            assert_int_equal(cull_entity_remove(only, hl[i]), CULL_OK);
         }
-        free(hs);
+        free(hl);
         if (round % 2) cull_world_commit(all);
         size_t cap = cull_query_bound(all), na, nb, nc;
         cull_result *ra = malloc(cap * sizeof *ra), *rb = malloc(cap * sizeof *rb);
