@@ -333,16 +333,22 @@ int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint
     return VP_OK;
 }
 
-static int ack_call(vt_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
+static int ack_full(vt_client *c, vp_writer *w, uint32_t req, vp_ack *out)
 {
     const uint8_t *p;
     uint32_t len;
     int rc = roundtrip(c, w, req, VP_ACK, &p, &len);
     if (rc) return rc;
-    vp_ack a;
-    if (vp_dec_ack(p, len, &a)) return set_err(c, VT_ERR_IO, "malformed ACK");
-    if (epoch) *epoch = a.epoch;
+    if (vp_dec_ack(p, len, out)) return set_err(c, VT_ERR_IO, "malformed ACK");
     return VP_OK;
+}
+
+static int ack_call(vt_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
+{
+    vp_ack a;
+    int rc = ack_full(c, w, req, &a);
+    if (!rc && epoch) *epoch = a.epoch;
+    return rc;
 }
 
 int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
@@ -402,11 +408,17 @@ int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out)
 
 int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area, vp_vis_result *out)
 {
+    return vt_query_sub(c, views, nviews, flags, min_area, NULL, 0, out);
+}
+
+int vt_query_sub(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
+                 const uint16_t *subs, uint32_t nsub, vp_vis_result *out)
+{
     vp_writer w;
     const uint8_t *p;
     uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 8 + (size_t)nviews * VP_VIEW_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_vis_query(&w, req, flags, min_area, views, nviews);
+    if (!out_buf(c, VP_HEADER_SIZE + 10 + (size_t)nviews * VP_VIEW_SIZE + 2 * (size_t)nsub, &w)) return VT_ERR_IO;
+    vp_enc_vis_query_sub(&w, req, flags & (uint8_t)~VP_Q_SUBLEVELS, min_area, views, nviews, subs, nsub);
     int rc = roundtrip(c, &w, req, VP_VIS_RESULT, &p, &len);
     if (rc) return rc;
     return vp_dec_vis_result(p, len, out) ? set_err(c, VT_ERR_IO, "malformed VIS_RESULT") : VP_OK;
@@ -597,4 +609,65 @@ bool vt_view_ortho(vp_view *v, const double eye[3], const double at[3], const do
     double proj[16];
     cull_mat_ortho(proj, -width / 2, width / 2, -height / 2, height / 2, znear, zfar, CULL_DEPTH_GL);
     return camera(v, eye, at, up, proj, w, h);
+}
+
+/* ---- sub-level loads -------------------------------------------------------------- */
+
+int vt_sublevel_begin(vt_client *c, const char *name, uint16_t classes, vp_sublevel_begun *out)
+{
+    size_t l = strlen(name);
+    if (l == 0 || l > VP_MAX_NAME) return set_err(c, VP_ERR_INVALID, "sub-level names are 1..255 bytes");
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + 3 + l, &w)) return VT_ERR_IO;
+    vp_enc_sublevel_begin(&w, req, &(vp_sublevel_begin){.classes = classes, .name_len = (uint8_t)l,
+                                                        .name = (const uint8_t *)name});
+    int rc = roundtrip(c, &w, req, VP_SUBLEVEL_BEGUN, &p, &len);
+    if (rc) return rc;
+    return vp_dec_sublevel_begun(p, len, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_BEGUN") : VP_OK;
+}
+
+static int sublevel_end(vt_client *c, uint16_t type, vp_ack *out)
+{
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_empty(&w, type, req);
+    vp_ack a;
+    return ack_full(c, &w, req, out ? out : &a);
+}
+
+int vt_sublevel_commit(vt_client *c, vp_ack *out)
+{
+    return sublevel_end(c, VP_SUBLEVEL_COMMIT, out);
+}
+
+int vt_sublevel_abort(vt_client *c, vp_ack *out)
+{
+    return sublevel_end(c, VP_SUBLEVEL_ABORT, out);
+}
+
+int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out)
+{
+    size_t l = strlen(name);
+    if (l == 0 || l > VP_MAX_NAME) return set_err(c, VP_ERR_INVALID, "sub-level names are 1..255 bytes");
+    vp_writer w;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + 1 + l, &w)) return VT_ERR_IO;
+    vp_enc_sublevel_name(&w, VP_SUBLEVEL_UNLOAD, req, name);
+    vp_ack a;
+    return ack_full(c, &w, req, out ? out : &a);
+}
+
+int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_empty(&w, VP_SUBLEVEL_INFO, req);
+    int rc = roundtrip(c, &w, req, VP_SUBLEVEL_INFO_REPLY, &p, &len);
+    if (rc) return rc;
+    return vp_dec_sublevel_infos(p, len, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_INFO_REPLY") : VP_OK;
 }

@@ -75,6 +75,9 @@ int vt_get(vt_client *c, const uint64_t *ids, uint32_t n, vp_list_reply *out);
 int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out);
 int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
              vp_vis_result *out);
+/* The same, seeing only the sub-levels subs[0..nsub) (1..4096 ids). */
+int vt_query_sub(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
+                 const uint16_t *subs, uint32_t nsub, vp_vis_result *out);
 /* One frame (RENDER -> FRAME); out->data is valid until the next call. */
 int vt_render(vt_client *c, const vp_render *m, vp_frame *out);
 int vt_subscribe(vt_client *c, uint32_t kinds);
@@ -96,6 +99,18 @@ int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms);
 int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t *ids);
 /* Every named sub-level (walk out with vp_name_next; valid until the next call). */
 int vt_sublevel_list(vt_client *c, vp_name_list *out);
+/* Sub-level loads (see PROTOCOL.md): begin, then add entities (sub-level 0
+ * or out->id), meshes (classes out->class_base ..), occluders and lights
+ * on this connection; commit shows all of it at one epoch (out->epoch,
+ * out->count = entities), abort or closing throws it away. Unload hides a
+ * loaded sub-level at one epoch and frees it. */
+int vt_sublevel_begin(vt_client *c, const char *name, uint16_t classes, vp_sublevel_begun *out);
+int vt_sublevel_commit(vt_client *c, vp_ack *out);
+int vt_sublevel_abort(vt_client *c, vp_ack *out);
+int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out);
+/* Every named sub-level with its state and counts (walk with
+ * vp_sublevel_info_next; valid until the next call). */
+int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out);
 /* Waits for a pushed EVENT; VT_ERR_IO with timed_out set on timeout. */
 int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms);
 int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n);

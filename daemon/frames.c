@@ -107,7 +107,7 @@ static void frame_in_free(frame_in *fi)
     free(fi->light_ids);
 }
 
-static int gather_lights(const scene *sc, frame_in *fi);
+static int gather_lights(const scene *sc, const uint64_t *subs, frame_in *fi);
 
 /* Culls (with occlusion unless no_occlusion) and collects the frame's
  * instances and lights. VP_OK, or an error code with msg. */
@@ -118,7 +118,9 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
     size_t n = 0;
     if (!worker_res_reserve(wk, cull_query_bound(sc->world))) goto nomem;
     if (!wk->mesh_of && !(wk->mesh_of = calloc(65536, sizeof *wk->mesh_of))) goto nomem;
-    cull_query_desc q = {.views = v, .view_count = 1, .flags = no_occlusion ? CULL_Q_NO_OCCLUSION : 0};
+    const uint64_t *subs = scene_visible(sc, NULL, wk->vis);
+    cull_query_desc q = {.views = v, .view_count = 1, .flags = no_occlusion ? CULL_Q_NO_OCCLUSION : 0,
+                         .sublevels = subs};
     int rc = cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL);
     if (rc) {
         snprintf(msg, msglen, "%s", cull_strerror(rc));
@@ -153,7 +155,7 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
     }
     for (size_t i = 0; i < n; i++) mesh_of[wk->res[i].class_id] = 0;
     fi->ninst = (uint32_t)n;
-    if (gather_lights(sc, fi)) goto nomem;
+    if (gather_lights(sc, subs, fi)) goto nomem;
     return VP_OK;
 nomem:
     frame_in_free(fi);
@@ -162,15 +164,18 @@ nomem:
     return VP_ERR_BUSY;
 }
 
-/* The scene's lights, as the renderers take them, and their ids. */
-static int gather_lights(const scene *sc, frame_in *fi)
+/* The lights of the sub-levels subs (NULL: all), as the renderers take
+ * them, and their ids. */
+static int gather_lights(const scene *sc, const uint64_t *subs, frame_in *fi)
 {
     fi->lights = malloc((sc->lights.count + 1) * sizeof *fi->lights);
     fi->light_ids = malloc((sc->lights.count + 1) * sizeof *fi->light_ids);
     if (!fi->lights || !fi->light_ids) return -1;
     for (size_t i = 0; i < sc->lights.cap; i++) {
         if (!sc->lights.used[i]) continue;
-        const vp_light *l = (const vp_light *)(uintptr_t)sc->lights.vals[i];
+        const scene_light *sl = (const scene_light *)(uintptr_t)sc->lights.vals[i];
+        if (!cull_sublevel_in(subs, sl->sublevel)) continue;
+        const vp_light *l = &sl->l;
         fi->light_ids[fi->nl] = l->id;
         vt_light *o = &fi->lights[fi->nl++];
         memset(o, 0, sizeof *o);
@@ -347,7 +352,7 @@ void run_light_query(server *s, worker *wk, job *j)
     int rc;
     if (m.flags & VP_LQ_NO_DEPTH) {
         /* the frustum alone: the lights, nothing culled or drawn */
-        if (gather_lights(sc, &fi)) goto nomem;
+        if (gather_lights(sc, scene_visible(sc, NULL, wk->vis), &fi)) goto nomem;
         cl = malloc(((size_t)fi.nl + 1) * sizeof *cl);
         if (!cl) goto nomem;
         for (uint32_t i = 0; i < fi.nl; i++) cl[i] = fi.lights[i].l;

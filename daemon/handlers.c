@@ -150,6 +150,17 @@ static void run_query(const scene *sc, worker *wk, job *j)
         snprintf(msg, sizeof msg, "out of memory for results");
         goto error;
     }
+    /* the sub-levels it sees: the visible ones, within its own list */
+    const uint64_t *only = NULL;
+    if (q.nsub) {
+        memset(wk->only, 0, sizeof wk->only);
+        for (uint32_t i = 0; i < q.nsub; i++) {
+            uint16_t id = vp_query_sublevel_get(&q, i);
+            wk->only[id >> 6] |= 1ull << (id & 63);
+        }
+        only = wk->only;
+    }
+    const uint64_t *subs = scene_visible(sc, only, wk->vis);
     uint32_t flags = 0;
     if (q.flags & VP_Q_NO_AABB) flags |= CULL_Q_NO_AABB;
     if (q.flags & VP_Q_WANT_AREA) flags |= CULL_Q_WANT_AREA;
@@ -161,7 +172,7 @@ static void run_query(const scene *sc, worker *wk, job *j)
     uint64_t t1 = now_ns();
     rc = cull_query(sc->world, wk->ctx,
                     &(cull_query_desc){.views = views, .view_count = q.view_count, .flags = flags,
-                                       .min_screen_area = q.min_area},
+                                       .min_screen_area = q.min_area, .sublevels = subs},
                     count_only ? NULL : wk->res, count_only ? 0 : wk->res_cap, &n, &st);
     uint64_t t2 = now_ns();
     if (rc) {
@@ -384,7 +395,7 @@ static void on_sublevel_list(server *s, conn *c, uint32_t req)
     vp_writer w;
     if (names && ids && out_reserve(c, VP_HEADER_SIZE + 4 + (size_t)n * 258, &w)) {
         for (uint32_t i = 0; i < n; i++) {
-            names[i] = s->sc->sublevel_name[i + 1];
+            names[i] = s->sc->sl[i + 1].name;
             ids[i] = (uint16_t)(i + 1);
         }
         vp_enc_names(&w, VP_SUBLEVEL_LIST_REPLY, req, names, ids, n);
@@ -394,6 +405,150 @@ static void on_sublevel_list(server *s, conn *c, uint32_t req)
     }
     free(names);
     free(ids);
+}
+
+/* ---- sub-level loads ---------------------------------------------------------------- */
+
+static void on_sublevel_begin(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_sublevel_begin m;
+    int rc = vp_dec_sublevel_begin(p, h->len, &m);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    if (c->load) {
+        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, "this connection is already loading a sub-level");
+        return;
+    }
+    vp_sublevel_begun out;
+    scene_err err;
+    pthread_rwlock_wrlock(&s->scene_lock);
+    rc = scene_sublevel_begin(s->sc, &m, c->id, &out, &err);
+    pthread_rwlock_unlock(&s->scene_lock);
+    if (rc) {
+        send_error(s, c, h->req, rc, err.index, err.msg);
+        return;
+    }
+    c->load = out.id;
+    vp_writer w;
+    if (!out_reserve(c, VP_HEADER_SIZE + 16, &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_enc_sublevel_begun(&w, h->req, &out);
+    out_commit(c, &w);
+    LOGI("client %u (%s) loading sub-level %s (id %u, classes %u..%u)", c->id, c->name, s->sc->sl[out.id].name,
+         out.id, out.class_base, out.class_base + m.classes - (m.classes ? 1 : 0));
+}
+
+/* Hides sub-level id and starts freeing it; the loop keeps freeing its
+ * entities, a slice a turn, until none is left. */
+static int drop_sublevel(server *s, uint16_t id, uint32_t *n, scene_err *err)
+{
+    pthread_rwlock_wrlock(&s->scene_lock);
+    int rc = scene_sublevel_drop(s->sc, id, n, err);
+    pthread_rwlock_unlock(&s->scene_lock);
+    return rc;
+}
+
+void sublevel_conn_gone(server *s, conn *c)
+{
+    if (!c->load) return;
+    uint32_t n;
+    scene_err err;
+    if (drop_sublevel(s, c->load, &n, &err)) LOGW("client %u: its load could not be dropped: %s", c->id, err.msg);
+    else LOGI("client %u gone while loading sub-level %s: %u entities thrown away", c->id, s->sc->sl[c->load].name, n);
+    c->load = 0;
+}
+
+static void on_sublevel_end(server *s, conn *c, const vp_header *h)
+{
+    if (!c->load) {
+        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, "no load open on this connection");
+        return;
+    }
+    uint16_t id = c->load;
+    uint32_t n = 0;
+    scene_err err;
+    int rc;
+    if (h->type == VP_SUBLEVEL_COMMIT) {
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_sublevel_commit(s->sc, id, &n, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+    } else {
+        rc = drop_sublevel(s, id, &n, &err);
+    }
+    if (rc) {
+        send_error(s, c, h->req, rc, err.index, err.msg);
+        return;
+    }
+    c->load = 0;
+    LOGI("client %u: sub-level %s %s, %u entities, epoch %llu", c->id, s->sc->sl[id].name,
+         h->type == VP_SUBLEVEL_COMMIT ? "loaded" : "load aborted", n, (unsigned long long)s->sc->epoch);
+    reply_ack(c, h->req, s->sc->epoch, n);
+}
+
+static void on_sublevel_unload(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    vp_name nm;
+    int rc = vp_dec_sublevel_name(p, h->len, &nm);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    uint16_t id = scene_sublevel_find(s->sc, nm.name, nm.len);
+    char msg[320];
+    if (!id) {
+        snprintf(msg, sizeof msg, "no sub-level named %.*s", (int)nm.len, (const char *)nm.name);
+        send_error(s, c, h->req, VP_ERR_UNKNOWN_ID, UINT32_MAX, msg);
+        return;
+    }
+    const scene_sublevel *l = &s->sc->sl[id];
+    if (l->state == VP_SL_LOADING) {
+        snprintf(msg, sizeof msg, "sub-level %s is being loaded by client %u", l->name, l->owner);
+        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, msg);
+        return;
+    }
+    uint32_t occ, lights;
+    scene_sublevel_counts(s->sc, id, &occ, &lights);
+    if (!l->state && !s->sc->sl_entities[id] && !occ && !lights) {
+        snprintf(msg, sizeof msg, "sub-level %s is not loaded", l->name);
+        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, msg);
+        return;
+    }
+    uint32_t n;
+    scene_err err;
+    if ((rc = drop_sublevel(s, id, &n, &err))) {
+        send_error(s, c, h->req, rc, err.index, err.msg);
+        return;
+    }
+    LOGI("client %u: sub-level %s unloaded at epoch %llu, %u entities to free", c->id, l->name,
+         (unsigned long long)s->sc->epoch, n);
+    reply_ack(c, h->req, s->sc->epoch, n);
+}
+
+static void on_sublevel_info(server *s, conn *c, uint32_t req)
+{
+    const scene *sc = s->sc;
+    vp_writer w;
+    if (!out_reserve(c, VP_HEADER_SIZE + 12 + (size_t)sc->nsublevels * (VP_SUBLEVEL_INFO_SIZE + VP_MAX_NAME), &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_enc_sublevel_infos_begin(&w, req, sc->epoch, sc->nsublevels);
+    for (uint32_t id = 1; id <= sc->nsublevels; id++) {
+        const scene_sublevel *l = &sc->sl[id];
+        vp_sublevel_info in = {.id = (uint16_t)id, .entities = sc->sl_entities[id], .class_base = l->class_base,
+                               .classes = l->classes, .name_len = (uint8_t)strlen(l->name),
+                               .name = (const uint8_t *)l->name};
+        scene_sublevel_counts(sc, (uint16_t)id, &in.occluders, &in.lights);
+        in.state = l->state ? l->state
+                            : (in.entities || in.occluders || in.lights) ? VP_SL_LOADED : VP_SL_EMPTY;
+        vp_put_sublevel_info(&w, &in);
+    }
+    vp_frame_end(&w);
+    out_commit(c, &w);
 }
 
 static void after_edit(server *s, conn *c, uint32_t req, int rc, const scene_err *err, uint32_t count)
@@ -468,6 +623,24 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if ((rc = vp_dec_empty(p, h->len))) break;
         on_sublevel_list(s, c, h->req);
         return;
+    case VP_SUBLEVEL_INFO:
+        if ((rc = vp_dec_empty(p, h->len))) break;
+        on_sublevel_info(s, c, h->req);
+        return;
+    case VP_SUBLEVEL_BEGIN:
+        if (!editor(s, c, h->req)) return;
+        on_sublevel_begin(s, c, h, p);
+        return;
+    case VP_SUBLEVEL_COMMIT:
+    case VP_SUBLEVEL_ABORT:
+        if (!editor(s, c, h->req)) return;
+        if ((rc = vp_dec_empty(p, h->len))) break;
+        on_sublevel_end(s, c, h);
+        return;
+    case VP_SUBLEVEL_UNLOAD:
+        if (!editor(s, c, h->req)) return;
+        on_sublevel_unload(s, c, h, p);
+        return;
     case VP_ENTITY_ADD: {
         if (!editor(s, c, h->req)) return;
         vp_entity_batch b;
@@ -479,7 +652,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
             return;
         }
         pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_add(s->sc, &b, handles, &err);
+        rc = scene_add(s->sc, c->load, &b, handles, &err);
         pthread_rwlock_unlock(&s->scene_lock);
         if (rc) {
             send_error(s, c, h->req, rc, err.index, err.msg);
@@ -501,7 +674,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
         if ((rc = batch_count(b.count))) break;
         pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_update(s->sc, &b, &err);
+        rc = scene_update(s->sc, c->load, &b, &err);
         pthread_rwlock_unlock(&s->scene_lock);
         after_edit(s, c, h->req, rc, &err, b.count);
         return;
@@ -525,7 +698,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         vp_mesh m;
         if ((rc = vp_dec_mesh(p, h->len, 0, &m))) break;
         pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_mesh_put(s->sc, &m, &err);
+        rc = scene_mesh_put(s->sc, c->load, &m, &err);
         pthread_rwlock_unlock(&s->scene_lock);
         after_edit(s, c, h->req, rc, &err, 1);
         return;
@@ -535,7 +708,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         vp_occluder o;
         if ((rc = vp_dec_occluder(p, h->len, 0, &o))) break;
         pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_occluder_put(s->sc, &o, &err);
+        rc = scene_occluder_put(s->sc, c->load, &o, &err);
         pthread_rwlock_unlock(&s->scene_lock);
         after_edit(s, c, h->req, rc, &err, 1);
         return;
@@ -546,7 +719,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         uint32_t n;
         if ((rc = vp_dec_lights(p, h->len, s->cfg.max_batch, &recs, &n))) break;
         pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_lights_put(s->sc, recs, n, &err);
+        rc = scene_lights_put(s->sc, c->load, recs, n, &err);
         pthread_rwlock_unlock(&s->scene_lock);
         after_edit(s, c, h->req, rc, &err, n);
         return;

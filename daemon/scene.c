@@ -13,11 +13,8 @@
 
 #define SLOT(h) ((h) & (CULL_MAX_ENTITIES - 1u))
 
-static int fail(scene_err *e, int code, uint32_t index, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
-
 #include <stdarg.h>
-static int fail(scene_err *e, int code, uint32_t index, const char *fmt, ...)
+int scene_fail(scene_err *e, int code, uint32_t index, const char *fmt, ...)
 {
     e->code = code;
     e->index = index;
@@ -32,6 +29,13 @@ int scene_init(scene *s, double cell_size, const scene_limits *lim)
 {
     memset(s, 0, sizeof *s);
     s->lim = *lim;
+    s->sl_entities = calloc(CULL_SUBLEVELS, sizeof *s->sl_entities);
+    s->class_owner = calloc(65536, sizeof *s->class_owner);
+    if (!s->sl_entities || !s->class_owner) {
+        free(s->sl_entities);
+        free(s->class_owner);
+        return CULL_ERR_NOMEM;
+    }
     int rc = cull_world_create(&(cull_world_desc){.cell_size = cell_size, .max_entities = lim->max_entities},
                                &s->world);
     return rc ? rc : 0;
@@ -57,7 +61,12 @@ void scene_free(scene *s)
         if (s->lights.used[i]) free((void *)(uintptr_t)s->lights.vals[i]);
     idmap_free(&s->occluders);
     idmap_free(&s->lights);
-    for (uint32_t i = 1; i <= s->nsublevels; i++) free(s->sublevel_name[i]);
+    for (uint32_t i = 1; i <= s->nsublevels; i++) {
+        free(s->sl[i].name);
+        free(s->sl[i].doomed);
+    }
+    free(s->sl_entities);
+    free(s->class_owner);
     memset(s, 0, sizeof *s);
 }
 
@@ -162,12 +171,12 @@ static int record_desc(const scene *s, const vp_entity_batch *b, uint32_t i, vp_
                        scene_err *err)
 {
     int rc = vp_entity_get(b, i, e);
-    if (rc) return fail(err, rc, i, "record %u: %s", i, vp_strerror(rc));
+    if (rc) return scene_fail(err, rc, i, "record %u: %s", i, vp_strerror(rc));
     cull_entity_desc d;
     to_desc(e, &d);
     int crc = cull_entity_check(s->world, &d, out);
     if (crc)
-        return fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
+        return scene_fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
                     i, (unsigned long long)e->id, cull_strerror(crc));
     return VP_OK;
 }
@@ -177,35 +186,36 @@ static int check_unique(const uint64_t *ids, uint32_t n, scene_err *err)
 {
     bool nomem;
     uint32_t dup = first_duplicate(ids, n, &nomem);
-    if (nomem) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids");
+    if (nomem) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids");
     if (dup != UINT32_MAX)
-        return fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
+        return scene_fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
                     (unsigned long long)ids[dup]);
     return VP_OK;
 }
 
-int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
+int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
 {
     uint32_t n = b->count;
     cull_world_info info;
     cull_world_info_get(s->world, &info);
     if ((uint64_t)info.entities + n > s->lim.max_entities)
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "scene holds %u entities, limit %u", info.entities,
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "scene holds %u entities, limit %u", info.entities,
                     s->lim.max_entities);
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
     cull_entity_desc *descs = malloc(((size_t)n + 1) * sizeof *descs);
     if (!ids || !descs) {
         free(ids);
         free(descs);
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
     }
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
         vp_entity e;
         if ((rc = record_desc(s, b, i, &e, &descs[i], err))) goto out;
+        if ((rc = scene_sublevel_target(s, load, &descs[i].sublevel, i, err))) goto out;
         ids[i] = e.id;
         if (idmap_get(&s->ids, e.id, NULL)) {
-            rc = fail(err, VP_ERR_DUPLICATE, i, "record %u: id %llu already exists", i, (unsigned long long)e.id);
+            rc = scene_fail(err, VP_ERR_DUPLICATE, i, "record %u: id %llu already exists", i, (unsigned long long)e.id);
             goto out;
         }
     }
@@ -213,7 +223,7 @@ int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *
     /* room in the id map only for a batch that is going in: a rejected one
        must not rehash it (ENTITY_LIST cursors are slots) */
     if (!idmap_reserve(&s->ids, s->ids.count + n)) {
-        rc = fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
     /* apply */
@@ -229,13 +239,15 @@ int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *
                 cull_entity_remove(s->world, handles[k]);
                 idmap_del(&s->ids, ids[k]);
                 s->id_of_slot[SLOT(handles[k])] = 0;
+                s->sl_entities[descs[k].sublevel]--;
             }
-            rc = fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
+            rc = scene_fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
             goto out;
         }
         handles[i] = h;
         idmap_put(&s->ids, ids[i], h);
         s->id_of_slot[SLOT(h)] = ids[i];
+        s->sl_entities[descs[i].sublevel]++;
     }
     s->epoch++;
     s->edits += n;
@@ -246,7 +258,7 @@ out:
     return rc;
 }
 
-int scene_update(scene *s, const vp_entity_batch *b, scene_err *err)
+int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *err)
 {
     uint32_t n = b->count;
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
@@ -255,19 +267,20 @@ int scene_update(scene *s, const vp_entity_batch *b, scene_err *err)
     cull_entity_desc *old = malloc(((size_t)n + 1) * sizeof *old);
     int rc = VP_OK;
     if (!ids || !hs || !descs || !old) {
-        rc = fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
     for (uint32_t i = 0; i < n; i++) {
         vp_entity e;
         if ((rc = record_desc(s, b, i, &e, &descs[i], err))) goto out;
+        if ((rc = scene_sublevel_target(s, load, &descs[i].sublevel, i, err))) goto out;
         uint64_t h;
         if (!idmap_get(&s->ids, e.id, &h)) {
-            rc = fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)e.id);
+            rc = scene_fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)e.id);
             goto out;
         }
         if (e.handle && e.handle != (uint32_t)h) {
-            rc = fail(err, VP_ERR_STALE, i, "record %u: handle %u is not id %llu's (%u)", i, e.handle,
+            rc = scene_fail(err, VP_ERR_STALE, i, "record %u: handle %u is not id %llu's (%u)", i, e.handle,
                       (unsigned long long)e.id, (uint32_t)h);
             goto out;
         }
@@ -280,9 +293,13 @@ int scene_update(scene *s, const vp_entity_batch *b, scene_err *err)
         int crc = cull_entity_update(s->world, hs[i], &descs[i]);
         if (crc) {
             for (uint32_t k = 0; k < i; k++) cull_entity_update(s->world, hs[k], &old[k]);
-            rc = fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
+            rc = scene_fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
             goto out;
         }
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        s->sl_entities[old[i].sublevel]--;
+        s->sl_entities[descs[i].sublevel]++;
     }
     s->epoch++;
     s->edits += n;
@@ -299,12 +316,12 @@ int scene_remove(scene *s, const vp_id_batch *b, scene_err *err)
 {
     uint32_t n = b->count;
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
-    if (!ids) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
         ids[i] = vp_id_get(b, i);
         if (!idmap_get(&s->ids, ids[i], NULL)) {
-            rc = fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)ids[i]);
+            rc = scene_fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)ids[i]);
             goto out;
         }
     }
@@ -312,6 +329,8 @@ int scene_remove(scene *s, const vp_id_batch *b, scene_err *err)
     for (uint32_t i = 0; i < n; i++) { /* removal cannot fail once validated */
         uint64_t h;
         idmap_get(&s->ids, ids[i], &h);
+        cull_entity_desc d;
+        if (cull_entity_get(s->world, (cull_handle)h, &d) == CULL_OK) s->sl_entities[d.sublevel]--;
         cull_entity_remove(s->world, (cull_handle)h);
         idmap_del(&s->ids, ids[i]);
         s->id_of_slot[SLOT((cull_handle)h)] = 0;
@@ -324,10 +343,14 @@ out:
     return rc;
 }
 
-int scene_mesh_put(scene *s, const vp_mesh *m, scene_err *err)
+int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err)
 {
+    uint16_t owner = s->class_owner[m->class_id];
+    if (owner && owner != load)
+        return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "class %u is reserved for sub-level %s", m->class_id,
+                          s->sl[owner].name ? s->sl[owner].name : "?");
     if (m->vertex_count > s->lim.max_mesh_verts)
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "mesh of %u vertices, limit %u", m->vertex_count,
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "mesh of %u vertices, limit %u", m->vertex_count,
                     s->lim.max_mesh_verts);
     scene_mesh n = {.nv = m->vertex_count, .ni = m->index_count};
     n.pos = malloc((size_t)n.nv * 12 + 1);
@@ -337,7 +360,7 @@ int scene_mesh_put(scene *s, const vp_mesh *m, scene_err *err)
         free(n.pos);
         free(n.nrm);
         free(n.idx);
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a mesh");
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a mesh");
     }
     vp_reader r;
     vp_reader_init(&r, m->positions, (size_t)n.nv * 12);
@@ -356,32 +379,39 @@ int scene_mesh_put(scene *s, const vp_mesh *m, scene_err *err)
     return VP_OK;
 }
 
-int scene_occluder_put(scene *s, const vp_occluder *o, scene_err *err)
+int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err *err)
 {
+    uint16_t sub = 0;
+    int src = scene_sublevel_target(s, load, &sub, UINT32_MAX, err);
+    if (src) return src;
     if (o->tri_count > s->lim.max_occluder_tris)
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "occluder of %u triangles, limit %u", o->tri_count,
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "occluder of %u triangles, limit %u", o->tri_count,
                     s->lim.max_occluder_tris);
     uint64_t prev;
     bool exists = idmap_get(&s->occluders, o->id, &prev);
+    if (exists && ((const scene_occluder *)(uintptr_t)prev)->sublevel != sub)
+        return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "occluder %llu belongs to another sub-level",
+                          (unsigned long long)o->id);
     if (!exists && s->occluders.count >= s->lim.max_occluders)
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "%zu occluders, limit %u", s->occluders.count,
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "%zu occluders, limit %u", s->occluders.count,
                     s->lim.max_occluders);
     scene_occluder *n = malloc(sizeof *n);
     float *v = malloc((size_t)o->tri_count * 36 + 1);
     if (!n || !v || !idmap_reserve(&s->occluders, s->occluders.count + 1)) {
         free(n);
         free(v);
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an occluder");
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an occluder");
     }
     memcpy(n->origin, o->origin, sizeof n->origin);
     n->ntris = o->tri_count;
     n->h = 0;
+    n->sublevel = sub;
     vp_reader r;
     vp_reader_init(&r, o->verts, (size_t)o->tri_count * 36);
     for (uint32_t i = 0; i < 9 * o->tri_count; i++) v[i] = vp_get_f32(&r);
     n->verts = v;
     /* the culling world draws it: add, or replace the old one's geometry */
-    cull_occluder_desc d = {.vertices = v, .vertex_count = 3 * o->tri_count};
+    cull_occluder_desc d = {.vertices = v, .vertex_count = 3 * o->tri_count, .sublevel = sub};
     d.transform[0] = d.transform[5] = d.transform[10] = d.transform[15] = 1;
     memcpy(d.transform + 12, o->origin, 3 * sizeof *o->origin);
     scene_occluder *old = exists ? (scene_occluder *)(uintptr_t)prev : NULL;
@@ -391,7 +421,7 @@ int scene_occluder_put(scene *s, const vp_occluder *o, scene_err *err)
     if (crc != CULL_OK) {
         free(n);
         free(v);
-        return fail(err, crc == CULL_ERR_NOMEM ? VP_ERR_LIMIT : VP_ERR_SCENE, UINT32_MAX, "occluder %llu: %s",
+        return scene_fail(err, crc == CULL_ERR_NOMEM ? VP_ERR_LIMIT : VP_ERR_SCENE, UINT32_MAX, "occluder %llu: %s",
                     (unsigned long long)o->id, cull_strerror(crc));
     }
     if (old) {
@@ -412,10 +442,10 @@ int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *er
 {
     for (uint32_t i = 0; i < b->count; i++)
         if (!idmap_get(which, vp_id_get(b, i), NULL))
-            return fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no such id %llu", i,
+            return scene_fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no such id %llu", i,
                         (unsigned long long)vp_id_get(b, i));
     uint64_t *ids = malloc(((size_t)b->count + 1) * sizeof *ids);
-    if (!ids) return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
+    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
     for (uint32_t i = 0; i < b->count; i++) ids[i] = vp_id_get(b, i);
     int rc = check_unique(ids, b->count, err);
     free(ids);
@@ -435,66 +465,42 @@ int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *er
     return VP_OK;
 }
 
-int scene_lights_put(scene *s, const uint8_t *recs, uint32_t n, scene_err *err)
+int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, scene_err *err)
 {
     size_t fresh = 0;
+    uint16_t sub = 0;
+    int src = scene_sublevel_target(s, load, &sub, UINT32_MAX, err);
+    if (src) return src;
     for (uint32_t i = 0; i < n; i++) {
         vp_light l;
         int rc = vp_light_get(recs, n, i, &l);
-        if (rc) return fail(err, rc, i, "light %u: %s", i, vp_strerror(rc));
-        fresh += !idmap_get(&s->lights, l.id, NULL);
+        if (rc) return scene_fail(err, rc, i, "light %u: %s", i, vp_strerror(rc));
+        uint64_t prev;
+        if (!idmap_get(&s->lights, l.id, &prev)) fresh++;
+        else if (((const scene_light *)(uintptr_t)prev)->sublevel != sub)
+            return scene_fail(err, VP_ERR_STATE, i, "light %u: id %llu belongs to another sub-level", i,
+                              (unsigned long long)l.id);
     }
     if (s->lights.count + fresh > s->lim.max_lights)
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "%zu lights, limit %u", s->lights.count + fresh,
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "%zu lights, limit %u", s->lights.count + fresh,
                     s->lim.max_lights);
-    vp_light **mem = calloc((size_t)n + 1, sizeof *mem);
+    scene_light **mem = calloc((size_t)n + 1, sizeof *mem);
     bool ok = mem && idmap_reserve(&s->lights, s->lights.count + n);
     for (uint32_t i = 0; ok && i < n; i++) ok = (mem[i] = malloc(sizeof **mem)) != NULL;
     if (!ok) {
         for (uint32_t i = 0; mem && i < n; i++) free(mem[i]);
         free(mem);
-        return fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for lights");
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for lights");
     }
     for (uint32_t i = 0; i < n; i++) {
-        vp_light_get(recs, n, i, mem[i]);
+        vp_light_get(recs, n, i, &mem[i]->l);
+        mem[i]->sublevel = sub;
         uint64_t prev;
-        if (idmap_get(&s->lights, mem[i]->id, &prev)) free((void *)(uintptr_t)prev);
-        idmap_put(&s->lights, mem[i]->id, (uint64_t)(uintptr_t)mem[i]);
+        if (idmap_get(&s->lights, mem[i]->l.id, &prev)) free((void *)(uintptr_t)prev);
+        idmap_put(&s->lights, mem[i]->l.id, (uint64_t)(uintptr_t)mem[i]);
     }
     free(mem);
     s->epoch++;
-    return VP_OK;
-}
-
-static uint16_t sublevel_find(const scene *s, const uint8_t *name, uint8_t len)
-{
-    for (uint32_t i = 1; i <= s->nsublevels; i++)
-        if (strlen(s->sublevel_name[i]) == len && !memcmp(s->sublevel_name[i], name, len)) return (uint16_t)i;
-    return 0;
-}
-
-int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene_err *err)
-{
-    uint32_t first_new = s->nsublevels + 1, i = 0;
-    size_t pos = 0;
-    vp_name nm;
-    while (vp_name_next(names, &pos, &nm)) {
-        uint16_t id = sublevel_find(s, nm.name, nm.len);
-        if (!id) {
-            char *copy = NULL;
-            if (s->nsublevels >= SCENE_MAX_SUBLEVELS || !(copy = malloc((size_t)nm.len + 1))) {
-                for (uint32_t k = first_new; k <= s->nsublevels; k++) free(s->sublevel_name[k]);
-                s->nsublevels = first_new - 1; /* all or nothing */
-                return fail(err, VP_ERR_LIMIT, i, "name %u: %u sub-level names, limit %u", i, s->nsublevels,
-                            SCENE_MAX_SUBLEVELS);
-            }
-            memcpy(copy, nm.name, nm.len);
-            copy[nm.len] = 0;
-            s->sublevel_name[++s->nsublevels] = copy;
-            id = (uint16_t)s->nsublevels;
-        }
-        ids[i++] = id;
-    }
     return VP_OK;
 }
 
@@ -537,7 +543,7 @@ static int add_one(scene *s, uint64_t id, uint16_t cls, const double lo[3], cons
     if (vp_dec_entities(buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &b)) return -1;
     uint32_t h;
     scene_err err;
-    return scene_add(s, &b, &h, &err);
+    return scene_add(s, 0, &b, &h, &err);
 }
 
 int scene_build_demo(scene *s, uint32_t props)
@@ -565,7 +571,7 @@ int scene_build_demo(scene *s, uint32_t props)
                 vp_occluder o;
                 scene_err err;
                 if (vp_dec_occluder(buf + VP_HEADER_SIZE, wr.len - VP_HEADER_SIZE, 0, &o) ||
-                    scene_occluder_put(s, &o, &err))
+                    scene_occluder_put(s, 0, &o, &err))
                     return -1;
             }
         }
@@ -595,7 +601,7 @@ int scene_build_demo(scene *s, uint32_t props)
     uint32_t n;
     scene_err err;
     if (vp_dec_lights(lbuf + VP_HEADER_SIZE, wl.len - VP_HEADER_SIZE, 0, &recs, &n) ||
-        scene_lights_put(s, recs, n, &err))
+        scene_lights_put(s, 0, recs, n, &err))
         return -1;
     cull_world_commit(s->world);
     s->ev_added = s->ev_updated = s->ev_removed = 0;

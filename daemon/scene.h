@@ -24,9 +24,27 @@ typedef struct scene_occluder {
     uint32_t ntris;
     float *verts;           /* 9 per triangle, relative to origin */
     cull_occluder h;        /* in the culling world, which draws it */
+    uint16_t sublevel;
 } scene_occluder;
 
+/* A light as stored (the lights map's values point to these). */
+typedef struct scene_light {
+    vp_light l;
+    uint16_t sublevel;
+} scene_light;
+
 #define SCENE_MAX_SUBLEVELS 4096u
+
+/* A named sub-level. Its state on the wire (VP_SL_*) is LOADING or
+ * UNLOADING while one of those runs, else LOADED or EMPTY by its content. */
+typedef struct scene_sublevel {
+    char *name;             /* NULL: not named */
+    uint8_t state;          /* VP_SL_LOADING, VP_SL_UNLOADING, or 0 */
+    uint32_t owner;         /* LOADING: the loading connection's id */
+    uint16_t class_base, classes; /* mesh classes reserved for it */
+    uint64_t *doomed;       /* UNLOADING: ids of the entities left to free */
+    uint32_t ndoomed, doomed_pos;
+} scene_sublevel;
 
 typedef struct scene_limits {
     uint32_t max_entities, max_lights, max_occluders, max_occluder_tris, max_mesh_verts;
@@ -46,8 +64,13 @@ typedef struct scene {
     /* what changed since the last event, for subscribers */
     uint32_t ev_added, ev_updated, ev_removed;
     uint64_t edits;         /* entity records applied, ever */
-    char *sublevel_name[SCENE_MAX_SUBLEVELS + 1]; /* by id; [0] unused (default) */
+    scene_sublevel sl[SCENE_MAX_SUBLEVELS + 1]; /* by id; [0] the unnamed default */
     uint32_t nsublevels;
+    uint32_t *sl_entities;  /* entities per sub-level id (65536) */
+    uint16_t *class_owner;  /* per class: the sub-level it is reserved for, 0 = none */
+    uint64_t hidden[CULL_SUBLEVEL_WORDS]; /* sub-levels no query sees (loading, unloading) */
+    uint32_t nhidden;
+    uint32_t unloading;     /* sub-levels with entities left to free */
 } scene;
 
 /* Result of a failed edit: code from VP_ERRORS, the failing record, why. */
@@ -59,19 +82,49 @@ typedef struct scene_err {
 
 int  scene_init(scene *s, double cell_size, const scene_limits *lim);
 void scene_free(scene *s);
+/* Fills e and returns code (scene.c and sublevel.c). */
+int scene_fail(scene_err *e, int code, uint32_t index, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 
-/* Entity batches (records from the protocol). handles gets one per record. */
-int scene_add(scene *s, const vp_entity_batch *b, uint32_t *handles, scene_err *err);
-int scene_update(scene *s, const vp_entity_batch *b, scene_err *err);
+/* Edits. `load` is the sub-level the editing connection is loading (0 =
+ * none): what it adds goes into that sub-level, invisible until commit.
+ * Entity batches (records from the protocol): handles gets one per record;
+ * a record with sub-level 0 from a loading connection joins its load. */
+int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err);
+int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *err);
 int scene_remove(scene *s, const vp_id_batch *b, scene_err *err);
 
-int scene_mesh_put(scene *s, const vp_mesh *m, scene_err *err);
-int scene_occluder_put(scene *s, const vp_occluder *o, scene_err *err);
+int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err);
+int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err *err);
 int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *err);
-int scene_lights_put(scene *s, const uint8_t *recs, uint32_t n, scene_err *err);
+int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, scene_err *err);
 
+/* ---- sub-levels (sublevel.c) ---- */
 /* Ids of sub-level names, defining the new ones (all or nothing). */
 int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene_err *err);
+/* The id of a named sub-level, 0 if none. */
+uint16_t scene_sublevel_find(const scene *s, const uint8_t *name, uint8_t len);
+/* Opens a load for connection `owner`: the sub-level (named, defined if
+ * new) must be empty and idle; m->classes classes are reserved for it. */
+int scene_sublevel_begin(scene *s, const vp_sublevel_begin *m, uint32_t owner, vp_sublevel_begun *out,
+                         scene_err *err);
+/* Makes a load visible (one epoch); *entities = its entities. */
+int scene_sublevel_commit(scene *s, uint16_t id, uint32_t *entities, scene_err *err);
+/* Hides a sub-level (unload, abort, a loading connection gone) and starts
+ * freeing it: its occluders, lights and meshes now, its entities in
+ * slices (scene_sublevel_work). *entities = how many go. */
+int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *err);
+/* Frees up to budget entities of unloading sub-levels; true if more is left. */
+bool scene_sublevel_work(scene *s, uint32_t budget);
+/* What a query sees: every visible sub-level, within `only` if given
+ * (CULL_SUBLEVEL_WORDS words). NULL when that is every sub-level; else buf. */
+const uint64_t *scene_visible(const scene *s, const uint64_t *only, uint64_t *buf);
+/* Where an edit of connection `load` (0 = not loading) may put something
+ * of sub-level *sub: a loading connection's sub-level 0 becomes its load,
+ * and nobody else may write into a sub-level being loaded or unloaded.
+ * VP_OK (with *sub settled) or an error naming record `index`. */
+int scene_sublevel_target(const scene *s, uint16_t load, uint16_t *sub, uint32_t index, scene_err *err);
+/* A sub-level's occluders and lights (a scan). */
+void scene_sublevel_counts(const scene *s, uint16_t id, uint32_t *occluders, uint32_t *lights);
 
 /* The editor id of a live handle (0 if unknown). */
 uint64_t scene_id_of(const scene *s, cull_handle h);

@@ -78,6 +78,7 @@ void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, cons
 static void conn_free(server *s, conn *c)
 {
     frames_conn_gone(s, c);
+    sublevel_conn_gone(s, c);
     ae_del(s->loop, c->fd, AE_READABLE | AE_WRITABLE);
     close(c->fd);
     s->conns[c->fd] = NULL;
@@ -301,6 +302,8 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
 
 /* ---- the tick -------------------------------------------------------------------- */
 
+#define SUBLEVEL_SLICE 8192u /* entities an unload frees per loop turn */
+
 static void before_sleep(ae_loop *l, void *data)
 {
     (void)l;
@@ -310,7 +313,19 @@ static void before_sleep(ae_loop *l, void *data)
        edits also leave counts and bounds to tighten */
     bool changed = sc->epoch != s->ev_epoch;
     s->ev_epoch = sc->epoch;
-    if (sc->ev_added || sc->ev_updated || sc->ev_removed) {
+    /* unloads free their entities a slice a turn (the lock is held for
+       about a millisecond), and wake the loop again while any is left */
+    if (sc->unloading) {
+        pthread_rwlock_wrlock(&s->scene_lock);
+        bool more = scene_sublevel_work(sc, SUBLEVEL_SLICE);
+        cull_world_commit(sc->world);
+        pthread_rwlock_unlock(&s->scene_lock);
+        if (more) {
+            uint64_t one = 1;
+            ssize_t ignored = write(s->done_fd, &one, sizeof one);
+            (void)ignored;
+        }
+    } else if (sc->ev_added || sc->ev_updated || sc->ev_removed) {
         pthread_rwlock_wrlock(&s->scene_lock);
         cull_world_commit(sc->world);
         pthread_rwlock_unlock(&s->scene_lock);

@@ -39,6 +39,7 @@ typedef struct conn {
     size_t in_len, in_cap;
     uint8_t *out;
     size_t out_len, out_pos, out_cap;
+    uint16_t load;      /* the sub-level this connection is loading, 0 = none */
     bool ev_pending;    /* the scene changed since the last EVENT sent */
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */
     frame_sub fsub;
@@ -101,6 +102,8 @@ typedef struct worker {
     struct vt_soft *soft;
     cull_pool *pool;        /* the software renderer's threads (all cores) */
     uint32_t *mesh_of;      /* class -> frame mesh + 1, all 0 between frames */
+    uint64_t vis[CULL_SUBLEVEL_WORDS]; /* the sub-levels a query sees */
+    uint64_t only[CULL_SUBLEVEL_WORDS]; /* a query's own sub-level list */
 } worker;
 
 static inline uint64_t now_ns(void)
@@ -119,6 +122,8 @@ void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, cons
 void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count);
 
 /* ---- handlers.c ---- */
+/* A connection that was loading a sub-level is gone: its load is dropped. */
+void sublevel_conn_gone(server *s, conn *c);
 /* Handles one complete frame from c (may set c->closing or c->busy). */
 void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p);
 /* A query worker thread: jobs in, replies out through s->done_fd. */

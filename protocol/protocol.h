@@ -104,6 +104,13 @@ enum vp_type {
     VP_SUBLEVEL_IDS = 0x0301,
     VP_SUBLEVEL_LIST = 0x0302,
     VP_SUBLEVEL_LIST_REPLY = 0x0303,
+    VP_SUBLEVEL_BEGIN = 0x0304,
+    VP_SUBLEVEL_BEGUN = 0x0305,
+    VP_SUBLEVEL_COMMIT = 0x0306,
+    VP_SUBLEVEL_ABORT = 0x0307,
+    VP_SUBLEVEL_UNLOAD = 0x0308,
+    VP_SUBLEVEL_INFO = 0x0309,
+    VP_SUBLEVEL_INFO_REPLY = 0x030a,
     /* reserved: 0x0400 destruction, 0x0500 frames, 0x0600 input,
        0x0700 persistence and administration */
 };
@@ -249,12 +256,16 @@ typedef struct vp_view {
 #define VP_Q_DYNAMIC_ONLY 0x10u
 #define VP_Q_COUNT_ONLY   0x20u /* reply with counts, no records */
 #define VP_Q_OCC_CENTRE   0x40u /* occlusion by pixel centres (culls more; exact at 256x114 only) */
+#define VP_Q_SUBLEVELS    0x80u /* only the sub-levels listed after the views are seen */
 typedef struct vp_vis_query {
     uint8_t  view_count;    /* 1..32 */
     uint8_t  flags;         /* VP_Q_* */
     float    min_area;      /* pixels, >= 0 */
     const uint8_t *views;   /* view_count * VP_VIEW_SIZE */
+    uint16_t nsub;          /* VP_Q_SUBLEVELS: 1..VP_MAX_QUERY_SUBLEVELS ids */
+    const uint8_t *subs;    /* u16 each */
 } vp_vis_query;
+#define VP_MAX_QUERY_SUBLEVELS 4096u
 
 #define VP_VIS_REC_SIZE 24u
 #define VP_STAGES 6u        /* cells, spheres+AABB+area, write, total, ... */
@@ -348,6 +359,59 @@ typedef struct vp_name {
 /* Walks a decoded list: *pos starts at 0; false at the end. */
 bool vp_name_next(const vp_name_list *l, size_t *pos, vp_name *out);
 
+/* Sub-level loads. SUBLEVEL_BEGIN opens a load of the named sub-level on
+ * this connection (an editor's): what the connection then adds (entities,
+ * occluders, lights, meshes of the reserved classes) belongs to the sub-level
+ * and stays invisible to every query and frame until SUBLEVEL_COMMIT makes
+ * all of it visible at one epoch. SUBLEVEL_ABORT, or the connection closing,
+ * throws the load away. SUBLEVEL_UNLOAD hides a loaded sub-level at one
+ * epoch and frees it. */
+typedef struct vp_sublevel_begin {
+    uint16_t classes;       /* mesh classes to reserve for the load (0..4096) */
+    uint8_t  name_len;      /* 1..255 */
+    const uint8_t *name;
+} vp_sublevel_begin;
+
+typedef struct vp_sublevel_begun {
+    uint16_t id;            /* the sub-level's id (entities carry it) */
+    uint16_t class_base;    /* the reserved classes: class_base .. + classes - 1 */
+    uint64_t epoch;
+} vp_sublevel_begun;
+
+#define VP_SL_EMPTY 0u      /* named, nothing in it */
+#define VP_SL_LOADED 1u     /* visible */
+#define VP_SL_LOADING 2u    /* a connection is loading it: invisible */
+#define VP_SL_UNLOADING 3u  /* hidden, being freed */
+#define VP_SUBLEVEL_INFO_SIZE 20u /* + the name */
+typedef struct vp_sublevel_info {
+    uint16_t id;
+    uint8_t  state;         /* VP_SL_* */
+    uint32_t entities, occluders, lights;
+    uint16_t class_base, classes;
+    uint8_t  name_len;
+    const uint8_t *name;
+} vp_sublevel_info;
+
+typedef struct vp_sublevel_infos {
+    uint64_t epoch;
+    uint32_t count;
+    const uint8_t *p;       /* the entries, walked with vp_sublevel_info_next */
+    size_t len;
+} vp_sublevel_infos;
+
+void vp_enc_sublevel_begin(vp_writer *w, uint32_t req, const vp_sublevel_begin *m);
+int  vp_dec_sublevel_begin(const uint8_t *p, size_t len, vp_sublevel_begin *m);
+void vp_enc_sublevel_begun(vp_writer *w, uint32_t req, const vp_sublevel_begun *m);
+int  vp_dec_sublevel_begun(const uint8_t *p, size_t len, vp_sublevel_begun *m);
+/* SUBLEVEL_UNLOAD: a name (u8 length, bytes). */
+void vp_enc_sublevel_name(vp_writer *w, uint16_t type, uint32_t req, const char *name);
+int  vp_dec_sublevel_name(const uint8_t *p, size_t len, vp_name *m);
+/* SUBLEVEL_INFO_REPLY: header, then n vp_put_sublevel_info. */
+void vp_enc_sublevel_infos_begin(vp_writer *w, uint32_t req, uint64_t epoch, uint32_t n);
+void vp_put_sublevel_info(vp_writer *w, const vp_sublevel_info *m);
+int  vp_dec_sublevel_infos(const uint8_t *p, size_t len, vp_sublevel_infos *m);
+bool vp_sublevel_info_next(const vp_sublevel_infos *l, size_t *pos, vp_sublevel_info *out);
+
 /* Encoders: append one whole frame to w. */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);
 void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m);
@@ -359,6 +423,9 @@ void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, 
 void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n);
 void vp_enc_ack(vp_writer *w, uint32_t req, const vp_ack *m);
 void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n);
+/* The same seeing only sub-levels subs[0..nsub) (VP_Q_SUBLEVELS is set). */
+void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n,
+                          const uint16_t *subs, uint32_t nsub);
 
 /* RENDER: one frame of one view (its viewport is the frame's size; 0 x 0 =
  * 1920 x 1080), answered with FRAME. Formats: RAW = float32 linear RGBA
@@ -510,6 +577,7 @@ int  vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out);
 uint64_t vp_id_get(const vp_id_batch *b, uint32_t i);
 uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i);
 int  vp_view_get(const vp_vis_query *q, uint32_t i, vp_view *out);
+uint16_t vp_query_sublevel_get(const vp_vis_query *q, uint32_t i);
 void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out);
 int  vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out);
 

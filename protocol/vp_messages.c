@@ -195,15 +195,26 @@ static void view_write(vp_writer *w, const vp_view *v)
     vp_put_u16(w, 0);
 }
 
-void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n)
+void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n,
+                          const uint16_t *subs, uint32_t nsub)
 {
+    if (subs) flags |= VP_Q_SUBLEVELS;
     vp_frame_begin(w, VP_VIS_QUERY, req);
     vp_put_u8(w, (uint8_t)n);
     vp_put_u8(w, flags);
     vp_put_u16(w, 0);
     vp_put_f32(w, min_area);
     for (uint32_t i = 0; i < n; i++) view_write(w, &v[i]);
+    if (flags & VP_Q_SUBLEVELS) {
+        vp_put_u16(w, (uint16_t)nsub);
+        for (uint32_t i = 0; i < nsub; i++) vp_put_u16(w, subs[i]);
+    }
     vp_frame_end(w);
+}
+
+void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n)
+{
+    vp_enc_vis_query_sub(w, req, flags & (uint8_t)~VP_Q_SUBLEVELS, min_area, v, n, NULL, 0);
 }
 
 static void view_read(const uint8_t *p, vp_view *v)
@@ -256,16 +267,28 @@ int vp_dec_vis_query(const uint8_t *p, size_t len, vp_vis_query *m)
     if (m->view_count == 0 || m->view_count > VP_MAX_VIEWS) return VP_ERR_COUNT;
     if (!isfinite(m->min_area)) return VP_ERR_NONFINITE;
     if (m->min_area < 0) return VP_ERR_INVALID;
-    if (m->flags & ~0x7fu) return VP_ERR_INVALID;
     if ((m->flags & VP_Q_STATIC_ONLY) && (m->flags & VP_Q_DYNAMIC_ONLY)) return VP_ERR_INVALID;
     int rc = vp_take_array(&r, m->view_count, VP_VIEW_SIZE, 0, &m->views);
     if (rc) return rc;
+    m->nsub = 0;
+    m->subs = NULL;
+    if (m->flags & VP_Q_SUBLEVELS) {
+        m->nsub = vp_get_u16(&r);
+        if (r.short_read) return VP_ERR_TRUNCATED;
+        if (m->nsub == 0) return VP_ERR_COUNT;
+        if ((rc = vp_take_array(&r, m->nsub, 2, VP_MAX_QUERY_SUBLEVELS, &m->subs))) return rc;
+    }
     if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
     for (uint32_t i = 0; i < m->view_count; i++) {
         vp_view v;
         if ((rc = view_take(m->views + (size_t)i * VP_VIEW_SIZE, &v))) return rc;
     }
     return VP_OK;
+}
+
+uint16_t vp_query_sublevel_get(const vp_vis_query *q, uint32_t i)
+{
+    return i < q->nsub ? rd16(q->subs + 2 * (size_t)i) : 0;
 }
 
 int vp_view_get(const vp_vis_query *q, uint32_t i, vp_view *out)
@@ -556,6 +579,144 @@ int vp_dec_sublevel_ids(const uint8_t *p, size_t len, uint32_t *n, const uint8_t
 uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i)
 {
     return i < n ? rd16(ids + 2 * (size_t)i) : 0;
+}
+
+/* ---- sub-level loads ----------------------------------------------------------- */
+
+/* A name on the wire: 1..255 bytes, no control bytes. */
+static int name_take(vp_reader *r, uint8_t *len, const uint8_t **name)
+{
+    *len = vp_get_u8(r);
+    *name = vp_get_bytes(r, *len);
+    if (r->short_read) return VP_ERR_TRUNCATED;
+    if (*len == 0) return VP_ERR_INVALID;
+    for (uint8_t k = 0; k < *len; k++)
+        if ((*name)[k] < 32 || (*name)[k] == 127) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+static void name_put(vp_writer *w, const uint8_t *name, size_t l)
+{
+    if (l > VP_MAX_NAME) l = VP_MAX_NAME;
+    vp_put_u8(w, (uint8_t)l);
+    vp_put_bytes(w, name, l);
+}
+
+void vp_enc_sublevel_begin(vp_writer *w, uint32_t req, const vp_sublevel_begin *m)
+{
+    vp_frame_begin(w, VP_SUBLEVEL_BEGIN, req);
+    vp_put_u16(w, m->classes);
+    name_put(w, m->name, m->name_len);
+    vp_frame_end(w);
+}
+
+int vp_dec_sublevel_begin(const uint8_t *p, size_t len, vp_sublevel_begin *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->classes = vp_get_u16(&r);
+    int rc = name_take(&r, &m->name_len, &m->name);
+    if (rc) return rc;
+    if (m->classes > 4096) return VP_ERR_LIMIT;
+    return vp_reader_finish(&r);
+}
+
+void vp_enc_sublevel_begun(vp_writer *w, uint32_t req, const vp_sublevel_begun *m)
+{
+    vp_frame_begin(w, VP_SUBLEVEL_BEGUN, req);
+    vp_put_u16(w, m->id);
+    vp_put_u16(w, m->class_base);
+    vp_put_u32(w, 0);
+    vp_put_u64(w, m->epoch);
+    vp_frame_end(w);
+}
+
+int vp_dec_sublevel_begun(const uint8_t *p, size_t len, vp_sublevel_begun *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->id = vp_get_u16(&r);
+    m->class_base = vp_get_u16(&r);
+    uint32_t pad = vp_get_u32(&r);
+    m->epoch = vp_get_u64(&r);
+    int rc = vp_reader_finish(&r);
+    if (rc) return rc;
+    return pad ? VP_ERR_INVALID : VP_OK;
+}
+
+void vp_enc_sublevel_name(vp_writer *w, uint16_t type, uint32_t req, const char *name)
+{
+    vp_frame_begin(w, type, req);
+    name_put(w, (const uint8_t *)name, strlen(name));
+    vp_frame_end(w);
+}
+
+int vp_dec_sublevel_name(const uint8_t *p, size_t len, vp_name *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->id = 0;
+    int rc = name_take(&r, &m->len, &m->name);
+    return rc ? rc : vp_reader_finish(&r);
+}
+
+void vp_enc_sublevel_infos_begin(vp_writer *w, uint32_t req, uint64_t epoch, uint32_t n)
+{
+    vp_frame_begin(w, VP_SUBLEVEL_INFO_REPLY, req);
+    vp_put_u64(w, epoch);
+    vp_put_u32(w, n);
+}
+
+void vp_put_sublevel_info(vp_writer *w, const vp_sublevel_info *m)
+{
+    vp_put_u16(w, m->id);
+    vp_put_u8(w, m->state);
+    vp_put_u32(w, m->entities);
+    vp_put_u32(w, m->occluders);
+    vp_put_u32(w, m->lights);
+    vp_put_u16(w, m->class_base);
+    vp_put_u16(w, m->classes);
+    name_put(w, m->name, m->name_len);
+}
+
+int vp_dec_sublevel_infos(const uint8_t *p, size_t len, vp_sublevel_infos *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->epoch = vp_get_u64(&r);
+    m->count = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    if (m->count > VP_MAX_SUBLEVELS) return VP_ERR_COUNT;
+    m->p = p + r.pos;
+    m->len = len - r.pos;
+    for (uint32_t i = 0; i < m->count; i++) {
+        const uint8_t *e = vp_get_bytes(&r, VP_SUBLEVEL_INFO_SIZE - 1); /* all but the name */
+        uint8_t l;
+        const uint8_t *name;
+        if (r.short_read) return VP_ERR_COUNT;
+        if (e[2] > VP_SL_UNLOADING) return VP_ERR_INVALID;
+        int rc = name_take(&r, &l, &name);
+        if (rc) return rc == VP_ERR_TRUNCATED ? VP_ERR_COUNT : rc;
+    }
+    int rc = vp_reader_finish(&r);
+    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+}
+
+bool vp_sublevel_info_next(const vp_sublevel_infos *l, size_t *pos, vp_sublevel_info *out)
+{
+    if (*pos >= l->len) return false;
+    const uint8_t *p = l->p + *pos;
+    out->id = rd16(p);
+    out->state = p[2];
+    out->entities = rd32(p + 3);
+    out->occluders = rd32(p + 7);
+    out->lights = rd32(p + 11);
+    out->class_base = rd16(p + 15);
+    out->classes = rd16(p + 17);
+    out->name_len = p[19];
+    out->name = p + 20;
+    *pos += VP_SUBLEVEL_INFO_SIZE + out->name_len;
+    return true;
 }
 
 /* ---- RENDER / FRAME ------------------------------------------------------------- */

@@ -1,0 +1,264 @@
+/*
+ * sublevel.c — named sub-levels: loads that appear at one epoch, unloads
+ * that vanish at one epoch and are freed in slices (see scene.h).
+ *
+ * A load is a connection's: BEGIN marks the sub-level hidden (no query,
+ * frame or light list sees it), the connection's edits fill it, COMMIT
+ * clears the mark. Unload (or abort) sets the mark again at once, frees
+ * its occluders, lights and reserved meshes, and leaves its entities to
+ * scene_sublevel_work, a few thousand per loop turn, so the scene lock is
+ * never held long. Everything here runs on the loop thread under the
+ * scene lock (exclusive).
+ */
+#include "scene.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static void hide(scene *s, uint16_t id, bool on)
+{
+    uint64_t bit = 1ull << (id & 63), *w = &s->hidden[id >> 6];
+    if (on && !(*w & bit)) {
+        *w |= bit;
+        s->nhidden++;
+    } else if (!on && (*w & bit)) {
+        *w &= ~bit;
+        s->nhidden--;
+    }
+}
+
+static const char *sl_name(const scene *s, uint16_t id)
+{
+    return id <= s->nsublevels && s->sl[id].name ? s->sl[id].name : "(unnamed)";
+}
+
+uint16_t scene_sublevel_find(const scene *s, const uint8_t *name, uint8_t len)
+{
+    for (uint32_t i = 1; i <= s->nsublevels; i++)
+        if (strlen(s->sl[i].name) == len && !memcmp(s->sl[i].name, name, len)) return (uint16_t)i;
+    return 0;
+}
+
+/* Defines a name; 0 when the table is full or memory is out. */
+static uint16_t define(scene *s, const uint8_t *name, uint8_t len)
+{
+    if (s->nsublevels >= SCENE_MAX_SUBLEVELS) return 0;
+    char *copy = malloc((size_t)len + 1);
+    if (!copy) return 0;
+    memcpy(copy, name, len);
+    copy[len] = 0;
+    uint16_t id = (uint16_t)++s->nsublevels;
+    memset(&s->sl[id], 0, sizeof s->sl[id]);
+    s->sl[id].name = copy;
+    return id;
+}
+
+int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene_err *err)
+{
+    uint32_t first_new = s->nsublevels + 1, i = 0;
+    size_t pos = 0;
+    vp_name nm;
+    while (vp_name_next(names, &pos, &nm)) {
+        uint16_t id = scene_sublevel_find(s, nm.name, nm.len);
+        if (!id && !(id = define(s, nm.name, nm.len))) {
+            for (uint32_t k = first_new; k <= s->nsublevels; k++) free(s->sl[k].name);
+            s->nsublevels = first_new - 1; /* all or nothing */
+            return scene_fail(err, VP_ERR_LIMIT, i, "name %u: %u sub-level names, limit %u", i, s->nsublevels,
+                              SCENE_MAX_SUBLEVELS);
+        }
+        ids[i++] = id;
+    }
+    return VP_OK;
+}
+
+int scene_sublevel_target(const scene *s, uint16_t load, uint16_t *sub, uint32_t index, scene_err *err)
+{
+    if (load) {
+        if (*sub == 0) *sub = load;
+        if (*sub != load)
+            return scene_fail(err, VP_ERR_INVALID, index, "record %u: sub-level %u, but this connection is loading %s",
+                              index, *sub, sl_name(s, load));
+        return VP_OK;
+    }
+    if (*sub == 0 || *sub > s->nsublevels) return VP_OK;
+    const scene_sublevel *l = &s->sl[*sub];
+    if (l->state == VP_SL_LOADING)
+        return scene_fail(err, VP_ERR_STATE, index, "record %u: sub-level %s is being loaded by client %u", index,
+                          l->name, l->owner);
+    if (l->state == VP_SL_UNLOADING)
+        return scene_fail(err, VP_ERR_BUSY, index, "record %u: sub-level %s is being unloaded, retry", index,
+                          l->name);
+    return VP_OK;
+}
+
+void scene_sublevel_counts(const scene *s, uint16_t id, uint32_t *occluders, uint32_t *lights)
+{
+    *occluders = *lights = 0;
+    for (size_t i = 0; i < s->occluders.cap; i++)
+        if (s->occluders.used[i]) *occluders += ((const scene_occluder *)(uintptr_t)s->occluders.vals[i])->sublevel == id;
+    for (size_t i = 0; i < s->lights.cap; i++)
+        if (s->lights.used[i]) *lights += ((const scene_light *)(uintptr_t)s->lights.vals[i])->sublevel == id;
+}
+
+/* A free run of n classes (no mesh, not reserved) in 1..65535; 0 if none. */
+static uint32_t find_classes(const scene *s, uint32_t n)
+{
+    uint32_t run = 0;
+    for (uint32_t c = 1; c < 65536; c++) {
+        run = (!s->meshes[c].pos && !s->class_owner[c]) ? run + 1 : 0;
+        if (run == n) return c - n + 1;
+    }
+    return 0;
+}
+
+int scene_sublevel_begin(scene *s, const vp_sublevel_begin *m, uint32_t owner, vp_sublevel_begun *out,
+                         scene_err *err)
+{
+    uint16_t id = scene_sublevel_find(s, m->name, m->name_len);
+    bool fresh = !id;
+    if (fresh && !(id = define(s, m->name, m->name_len)))
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "%u sub-level names, limit %u", s->nsublevels,
+                          SCENE_MAX_SUBLEVELS);
+    scene_sublevel *l = &s->sl[id];
+    int rc = VP_OK;
+    uint32_t occ, lights;
+    scene_sublevel_counts(s, id, &occ, &lights);
+    if (l->state == VP_SL_LOADING)
+        rc = scene_fail(err, VP_ERR_STATE, UINT32_MAX, "sub-level %s is being loaded by client %u", l->name, l->owner);
+    else if (l->state == VP_SL_UNLOADING)
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "sub-level %s is still being unloaded, retry", l->name);
+    else if (s->sl_entities[id] || occ || lights)
+        rc = scene_fail(err, VP_ERR_DUPLICATE, UINT32_MAX,
+                        "sub-level %s is loaded (%u entities, %u occluders, %u lights): unload it first", l->name,
+                        s->sl_entities[id], occ, lights);
+    uint32_t base = 0;
+    if (!rc && m->classes && !(base = find_classes(s, m->classes)))
+        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "no run of %u free mesh classes", m->classes);
+    if (rc) {
+        if (fresh) {
+            free(l->name);
+            l->name = NULL;
+            s->nsublevels--;
+        }
+        return rc;
+    }
+    for (uint32_t c = base; c < base + m->classes; c++) s->class_owner[c] = id;
+    l->state = VP_SL_LOADING;
+    l->owner = owner;
+    l->class_base = (uint16_t)base;
+    l->classes = m->classes;
+    hide(s, id, true);
+    *out = (vp_sublevel_begun){.id = id, .class_base = (uint16_t)base, .epoch = s->epoch};
+    return VP_OK;
+}
+
+int scene_sublevel_commit(scene *s, uint16_t id, uint32_t *entities, scene_err *err)
+{
+    if (!id || id > s->nsublevels || s->sl[id].state != VP_SL_LOADING)
+        return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "no load open on this connection");
+    s->sl[id].state = 0;
+    hide(s, id, false);
+    *entities = s->sl_entities[id];
+    s->epoch++;
+    s->ev_added += *entities;
+    return VP_OK;
+}
+
+int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *err)
+{
+    if (!id || id > s->nsublevels)
+        return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level %u", id);
+    scene_sublevel *l = &s->sl[id];
+    if (l->state == VP_SL_UNLOADING)
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "sub-level %s is already being unloaded", l->name);
+    /* the entities to free later: found now, in one pass over the ids */
+    uint32_t n = s->sl_entities[id];
+    uint64_t *doomed = malloc(((size_t)n + 1) * sizeof *doomed);
+    if (!doomed) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an unload of %u entities", n);
+    uint32_t k = 0;
+    for (size_t i = 0; i < s->ids.cap && k < n; i++) {
+        if (!s->ids.used[i]) continue;
+        cull_entity_desc d;
+        if (cull_entity_get(s->world, (cull_handle)s->ids.vals[i], &d) == CULL_OK && d.sublevel == id)
+            doomed[k++] = s->ids.keys[i];
+    }
+    bool visible = l->state != VP_SL_LOADING;
+    hide(s, id, true);
+    /* occluders, lights and the reserved meshes go now */
+    for (size_t i = 0; i < s->occluders.cap; i++) {
+        if (!s->occluders.used[i]) continue;
+        scene_occluder *o = (scene_occluder *)(uintptr_t)s->occluders.vals[i];
+        if (o->sublevel != id) continue;
+        if (o->h) cull_occluder_remove(s->world, o->h);
+        idmap_del(&s->occluders, s->occluders.keys[i]);
+        free(o->verts);
+        free(o);
+        i--; /* backward-shift deletion may have moved another entry here */
+    }
+    for (size_t i = 0; i < s->lights.cap; i++) {
+        if (!s->lights.used[i]) continue;
+        scene_light *sl = (scene_light *)(uintptr_t)s->lights.vals[i];
+        if (sl->sublevel != id) continue;
+        idmap_del(&s->lights, s->lights.keys[i]);
+        free(sl);
+        i--;
+    }
+    for (uint32_t c = l->class_base; c < (uint32_t)l->class_base + l->classes; c++) {
+        scene_mesh *m = &s->meshes[c];
+        if (m->pos) s->nmeshes--;
+        free(m->pos);
+        free(m->nrm);
+        free(m->idx);
+        memset(m, 0, sizeof *m);
+        s->class_owner[c] = 0;
+    }
+    l->class_base = l->classes = 0;
+    free(l->doomed);
+    l->doomed = doomed;
+    l->ndoomed = k;
+    l->doomed_pos = 0;
+    l->state = VP_SL_UNLOADING;
+    s->unloading++;
+    *entities = k;
+    if (visible) {
+        s->epoch++;
+        s->ev_removed += k;
+    }
+    return VP_OK;
+}
+
+bool scene_sublevel_work(scene *s, uint32_t budget)
+{
+    for (uint32_t id = 1; id <= s->nsublevels && s->unloading; id++) {
+        scene_sublevel *l = &s->sl[id];
+        if (l->state != VP_SL_UNLOADING) continue;
+        while (l->doomed_pos < l->ndoomed && budget) {
+            uint64_t eid = l->doomed[l->doomed_pos++], h;
+            cull_entity_desc d;
+            /* removed, or moved away, since the unload began: not ours */
+            if (!idmap_get(&s->ids, eid, &h) || cull_entity_get(s->world, (cull_handle)h, &d) != CULL_OK ||
+                d.sublevel != id)
+                continue;
+            cull_entity_remove(s->world, (cull_handle)h);
+            idmap_del(&s->ids, eid);
+            s->id_of_slot[h & (CULL_MAX_ENTITIES - 1u)] = 0;
+            s->sl_entities[id]--;
+            budget--;
+        }
+        if (l->doomed_pos < l->ndoomed) return true;
+        free(l->doomed);
+        l->doomed = NULL;
+        l->ndoomed = l->doomed_pos = 0;
+        l->state = 0;
+        hide(s, id, false);
+        s->unloading--;
+    }
+    return s->unloading > 0;
+}
+
+const uint64_t *scene_visible(const scene *s, const uint64_t *only, uint64_t *buf)
+{
+    if (!s->nhidden && !only) return NULL;
+    for (uint32_t i = 0; i < CULL_SUBLEVEL_WORDS; i++) buf[i] = ~s->hidden[i] & (only ? only[i] : ~0ull);
+    return buf;
+}
