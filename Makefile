@@ -18,8 +18,8 @@ SHELL  := /bin/bash
 
 # Debian packages and the pkg-config modules that prove them installed.
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
-            libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy
+            libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -62,7 +62,8 @@ DAEMON_BIN:= $(BUILD)/vantaged
 CLIENT_LIB:= $(BUILD)/libvantage.a
 CLIENT_OBJ:= $(BUILD)/client/libvantage.o
 CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o \
-            $(BUILD)/client/cli_render.o $(BUILD)/client/cli_frames.o
+            $(BUILD)/client/cli_render.o $(BUILD)/client/cli_frames.o $(BUILD)/client/cli_sublevel.o \
+            $(BUILD)/client/import.o
 CLI_BIN  := $(BUILD)/vantage
 
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
@@ -80,6 +81,8 @@ IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
 # llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
 # RENDER_OBJ needs these; the GL tests skip when no context can be made
 GL_LIBS  := $$(pkg-config --libs egl epoxy)
+# level import (client/import.c, the CLI and the tests): assimp's C API
+ASSIMP_LIBS := $$(pkg-config --libs assimp)
 
 TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
@@ -142,8 +145,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 	ar rcs $@ $^
 
 # the end-to-end tests run this configuration's vantaged and vantage
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
@@ -160,7 +163,7 @@ $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)
 # the CLI writes EXR and PNG from raw frames
 CLI_RENDER := $(BUILD)/render/vt_exr.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o
 $(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(ASSIMP_LIBS) $(LDLIBS)
 
 $(BUILD)/client/cli_jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
 

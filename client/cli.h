@@ -54,6 +54,9 @@ int cmd_lights(cli *k, int argc, char **argv);
 /* cli_frames.c: `bench --test frames` */
 int bench_frames(cli *k, int argc, char **argv);
 
+/* cli_sublevel.c: sublevel load | unload | list */
+int cmd_sublevel(cli *k, int argc, char **argv);
+
 /* cli_bench.c */
 int cmd_bench(cli *k, int argc, char **argv);
 

@@ -43,6 +43,10 @@ static void usage(FILE *f)
             "        [--no-occlusion] [--renderer soft|gl] -o FILE.exr|png|jpg   one frame from the daemon\n"
             "  lights --eye X,Y,Z --at X,Y,Z [--fov DEG] [--size WxH] [--no-depth] [--json]\n"
             "        the view's Forward+ tile light lists (a heat map, or JSON)\n"
+            "  sublevel load NAME FILE [--dry-run] [--json]   import a glTF (.gltf/.glb) or OBJ level and load\n"
+            "        it as one sub-level: nothing of it is seen before all of it is (README: Authoring levels)\n"
+            "  sublevel unload NAME             hide a sub-level at one epoch and free it\n"
+            "  sublevel list [--json]           sub-levels with their state and counts\n"
             "  watch [--count N]                print scene-changed events as they happen\n"
             "  watch --frames DIR --eye X,Y,Z --at X,Y,Z [render's camera options] [--format jpg|png|exr]\n"
             "        [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]   write the frames pushed as the\n"
@@ -474,7 +478,7 @@ int main(int argc, char **argv)
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
-        {"bench", cmd_bench},
+        {"bench", cmd_bench}, {"sublevel", cmd_sublevel},
     };
     int rc = -1;
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)

@@ -31,9 +31,11 @@ int scene_init(scene *s, double cell_size, const scene_limits *lim)
     s->lim = *lim;
     s->sl_entities = calloc(CULL_SUBLEVELS, sizeof *s->sl_entities);
     s->class_owner = calloc(65536, sizeof *s->class_owner);
-    if (!s->sl_entities || !s->class_owner) {
+    s->class_entities = calloc(65536, sizeof *s->class_entities);
+    if (!s->sl_entities || !s->class_owner || !s->class_entities) {
         free(s->sl_entities);
         free(s->class_owner);
+        free(s->class_entities);
         return CULL_ERR_NOMEM;
     }
     int rc = cull_world_create(&(cull_world_desc){.cell_size = cell_size, .max_entities = lim->max_entities},
@@ -67,6 +69,7 @@ void scene_free(scene *s)
     }
     free(s->sl_entities);
     free(s->class_owner);
+    free(s->class_entities);
     memset(s, 0, sizeof *s);
 }
 
@@ -240,6 +243,7 @@ int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handl
                 idmap_del(&s->ids, ids[k]);
                 s->id_of_slot[SLOT(handles[k])] = 0;
                 s->sl_entities[descs[k].sublevel]--;
+                s->class_entities[descs[k].class_id]--;
             }
             rc = scene_fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
             goto out;
@@ -248,6 +252,7 @@ int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handl
         idmap_put(&s->ids, ids[i], h);
         s->id_of_slot[SLOT(h)] = ids[i];
         s->sl_entities[descs[i].sublevel]++;
+        s->class_entities[descs[i].class_id]++;
     }
     s->epoch++;
     s->edits += n;
@@ -300,6 +305,8 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
     for (uint32_t i = 0; i < n; i++) {
         s->sl_entities[old[i].sublevel]--;
         s->sl_entities[descs[i].sublevel]++;
+        s->class_entities[old[i].class_id]--;
+        s->class_entities[descs[i].class_id]++;
     }
     s->epoch++;
     s->edits += n;
@@ -330,7 +337,10 @@ int scene_remove(scene *s, const vp_id_batch *b, scene_err *err)
         uint64_t h;
         idmap_get(&s->ids, ids[i], &h);
         cull_entity_desc d;
-        if (cull_entity_get(s->world, (cull_handle)h, &d) == CULL_OK) s->sl_entities[d.sublevel]--;
+        if (cull_entity_get(s->world, (cull_handle)h, &d) == CULL_OK) {
+            s->sl_entities[d.sublevel]--;
+            s->class_entities[d.class_id]--;
+        }
         cull_entity_remove(s->world, (cull_handle)h);
         idmap_del(&s->ids, ids[i]);
         s->id_of_slot[SLOT((cull_handle)h)] = 0;

@@ -68,6 +68,7 @@ typedef struct scene {
     uint32_t nsublevels;
     uint32_t *sl_entities;  /* entities per sub-level id (65536) */
     uint16_t *class_owner;  /* per class: the sub-level it is reserved for, 0 = none */
+    uint32_t *class_entities; /* per class: entities of it */
     uint64_t hidden[CULL_SUBLEVEL_WORDS]; /* sub-levels no query sees (loading, unloading) */
     uint32_t nhidden;
     uint32_t unloading;     /* sub-levels with entities left to free */

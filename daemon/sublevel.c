@@ -100,12 +100,13 @@ void scene_sublevel_counts(const scene *s, uint16_t id, uint32_t *occluders, uin
         if (s->lights.used[i]) *lights += ((const scene_light *)(uintptr_t)s->lights.vals[i])->sublevel == id;
 }
 
-/* A free run of n classes (no mesh, not reserved) in 1..65535; 0 if none. */
+/* A free run of n classes (no mesh, no entity, not reserved) in
+ * 1..65535; 0 if none. */
 static uint32_t find_classes(const scene *s, uint32_t n)
 {
     uint32_t run = 0;
     for (uint32_t c = 1; c < 65536; c++) {
-        run = (!s->meshes[c].pos && !s->class_owner[c]) ? run + 1 : 0;
+        run = (!s->meshes[c].pos && !s->class_owner[c] && !s->class_entities[c]) ? run + 1 : 0;
         if (run == n) return c - n + 1;
     }
     return 0;
@@ -243,6 +244,7 @@ bool scene_sublevel_work(scene *s, uint32_t budget)
             idmap_del(&s->ids, eid);
             s->id_of_slot[h & (CULL_MAX_ENTITIES - 1u)] = 0;
             s->sl_entities[id]--;
+            s->class_entities[d.class_id]--;
             budget--;
         }
         if (l->doomed_pos < l->ndoomed) return true;

@@ -1,0 +1,528 @@
+/*
+ * import.c — level files through assimp (see import.h).
+ *
+ * assimp reads the file (triangulated, primitives sorted by type, missing
+ * normals generated, identical vertices joined, the data structure
+ * validated); this file walks the node tree with world matrices in double,
+ * applies the conventions and checks every number.
+ */
+#include "import.h"
+
+#include <assimp/cimport.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#define MAX_COORD 1e12 /* the culling core's range */
+#define CLASS_SLOTS (2 * LVL_MAX_CLASSES)
+
+/* A class: the meshes of a node in one orientation and scale. */
+typedef struct ckey {
+    uint32_t nmesh;
+    const unsigned *meshes; /* the node's, owned by assimp's scene */
+    float m[9];             /* the linear part, row-major */
+} ckey;
+
+typedef struct importer {
+    const struct aiScene *sc;
+    vt_level *lv;
+    ckey keys[LVL_MAX_CLASSES];
+    int32_t slot[CLASS_SLOTS]; /* class index + 1 */
+    uint32_t ent_cap, occ_cap;
+    char *err;
+    size_t errlen;
+} importer;
+
+static int fail(importer *im, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static int fail(importer *im, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(im->err, im->errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+typedef struct mat {
+    double m[4][4]; /* row-major, column vectors: p' = m p */
+} mat;
+
+static mat mat_from(const struct aiMatrix4x4 *a)
+{
+    mat r = {{{a->a1, a->a2, a->a3, a->a4}, {a->b1, a->b2, a->b3, a->b4},
+              {a->c1, a->c2, a->c3, a->c4}, {a->d1, a->d2, a->d3, a->d4}}};
+    return r;
+}
+
+static mat mat_mul(const mat *a, const mat *b)
+{
+    mat r;
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double s = 0;
+            for (int k = 0; k < 4; k++) s += a->m[i][k] * b->m[k][j];
+            r.m[i][j] = s;
+        }
+    return r;
+}
+
+static void xform(const mat *m, const double p[3], double o[3])
+{
+    for (int i = 0; i < 3; i++) o[i] = m->m[i][0] * p[0] + m->m[i][1] * p[1] + m->m[i][2] * p[2] + m->m[i][3];
+}
+
+static double det3(const mat *a)
+{
+    const double(*m)[4] = a->m;
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+static void copy_name(char *dst, const struct aiString *s)
+{
+    size_t n = s->length < LVL_NAME - 1 ? s->length : LVL_NAME - 1;
+    memcpy(dst, s->data, n);
+    dst[n] = 0;
+    for (size_t i = 0; i < n; i++)
+        if ((unsigned char)dst[i] < 32) dst[i] = '?';
+}
+
+static bool meta_true(const struct aiNode *n, const char *key)
+{
+    const struct aiMetadata *md = n->mMetaData;
+    for (unsigned i = 0; md && i < md->mNumProperties; i++) {
+        if (strcmp(md->mKeys[i].data, key)) continue;
+        const struct aiMetadataEntry *e = &md->mValues[i];
+        if (e->mType == AI_BOOL) return *(const bool *)e->mData;
+        if (e->mType == AI_INT32) return *(const int32_t *)e->mData != 0;
+    }
+    return false;
+}
+
+static bool meta_float(const struct aiNode *n, const char *key, double *out)
+{
+    const struct aiMetadata *md = n->mMetaData;
+    for (unsigned i = 0; md && i < md->mNumProperties; i++) {
+        if (strcmp(md->mKeys[i].data, key)) continue;
+        const struct aiMetadataEntry *e = &md->mValues[i];
+        if (e->mType == AI_FLOAT) *out = *(const float *)e->mData;
+        else if (e->mType == AI_DOUBLE) *out = *(const double *)e->mData;
+        else return false;
+        return true;
+    }
+    return false;
+}
+
+static bool grow(void **p, uint32_t *cap, uint32_t need, size_t elem)
+{
+    if (need <= *cap) return true;
+    uint32_t c = *cap ? *cap : 64;
+    while (c < need) c *= 2;
+    void *n = realloc(*p, (size_t)c * elem);
+    if (!n) return false;
+    *p = n;
+    *cap = c;
+    return true;
+}
+
+/* The node's triangle meshes, checked: 0, or -1 with the error. */
+static int node_meshes(importer *im, const struct aiNode *n, const char *name, uint32_t *ntri)
+{
+    *ntri = 0;
+    for (unsigned k = 0; k < n->mNumMeshes; k++) {
+        const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[k]];
+        if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) {
+            im->lv->skipped_prims += m->mNumFaces;
+            continue;
+        }
+        for (unsigned v = 0; v < m->mNumVertices; v++)
+            if (!isfinite(m->mVertices[v].x) || !isfinite(m->mVertices[v].y) || !isfinite(m->mVertices[v].z))
+                return fail(im, "node '%s': mesh '%s' has a non-finite vertex (%u)", name, m->mName.data, v);
+        *ntri += m->mNumFaces;
+    }
+    if (!*ntri) return fail(im, "node '%s': its meshes have no triangles (points or lines only)", name);
+    return 0;
+}
+
+/* Appends the node's triangles in world space to occluder o. */
+static int occ_append(importer *im, lvl_occluder *o, const struct aiNode *n, const mat *w)
+{
+    for (unsigned k = 0; k < n->mNumMeshes; k++) {
+        const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[k]];
+        if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
+        if (!grow((void **)&o->tri, &o->cap, o->ntri + m->mNumFaces, 9 * sizeof(float)))
+            return fail(im, "out of memory for occluder '%s'", o->name);
+        for (unsigned f = 0; f < m->mNumFaces; f++) {
+            const struct aiFace *face = &m->mFaces[f];
+            if (face->mNumIndices != 3) continue;
+            float *t = o->tri + 9 * (size_t)o->ntri++;
+            for (int v = 0; v < 3; v++) {
+                const struct aiVector3D *p = &m->mVertices[face->mIndices[v]];
+                double q[3] = {p->x, p->y, p->z}, r[3];
+                xform(w, q, r);
+                for (int a = 0; a < 3; a++) t[3 * v + a] = (float)(r[a] - o->origin[a]);
+            }
+        }
+    }
+    return 0;
+}
+
+static int new_occluder(importer *im, const char *name, const mat *w, int32_t entity, lvl_occluder **out)
+{
+    vt_level *lv = im->lv;
+    if (!grow((void **)&lv->occ, &im->occ_cap, lv->nocc + 1, sizeof *lv->occ))
+        return fail(im, "out of memory for occluders");
+    lvl_occluder *o = &lv->occ[lv->nocc++];
+    memset(o, 0, sizeof *o);
+    snprintf(o->name, sizeof o->name, "%s", name);
+    for (int a = 0; a < 3; a++) o->origin[a] = w->m[a][3];
+    o->entity = entity;
+    *out = o;
+    return 0;
+}
+
+static uint32_t hash_key(const ckey *k)
+{
+    uint32_t h = 2166136261u;
+    for (uint32_t i = 0; i < k->nmesh; i++) h = (h ^ k->meshes[i]) * 16777619u;
+    for (int i = 0; i < 9; i++) {
+        uint32_t b;
+        memcpy(&b, &k->m[i], 4);
+        h = (h ^ b) * 16777619u;
+    }
+    return h;
+}
+
+static bool key_eq(const ckey *a, const ckey *b)
+{
+    return a->nmesh == b->nmesh && !memcmp(a->meshes, b->meshes, a->nmesh * sizeof *a->meshes) &&
+           !memcmp(a->m, b->m, sizeof a->m);
+}
+
+/* The class of a node's meshes under world matrix w: found, or made (the
+ * meshes transformed by w's linear part, normals by its inverse transpose). */
+static int class_of(importer *im, const struct aiNode *n, const mat *w, const char *name, uint32_t *cls)
+{
+    ckey k = {.nmesh = n->mNumMeshes, .meshes = n->mMeshes};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) k.m[3 * i + j] = (float)w->m[i][j];
+    uint32_t h = hash_key(&k) % CLASS_SLOTS;
+    for (;; h = (h + 1) % CLASS_SLOTS) {
+        int32_t s = im->slot[h];
+        if (!s) break;
+        if (key_eq(&im->keys[s - 1], &k)) {
+            *cls = (uint32_t)s - 1;
+            return 0;
+        }
+    }
+    vt_level *lv = im->lv;
+    if (lv->nmesh >= LVL_MAX_CLASSES)
+        return fail(im, "node '%s': more than %u distinct (mesh, rotation, scale) classes", name, LVL_MAX_CLASSES);
+    uint32_t nv = 0, ni = 0;
+    for (unsigned q = 0; q < n->mNumMeshes; q++) {
+        const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[q]];
+        if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
+        nv += m->mNumVertices;
+        ni += 3 * m->mNumFaces;
+    }
+    lvl_mesh *out = &lv->mesh[lv->nmesh];
+    memset(out, 0, sizeof *out);
+    out->pos = malloc((size_t)nv * 3 * sizeof(float) + 1);
+    out->nrm = malloc((size_t)nv * 3 * sizeof(float) + 1);
+    out->idx = malloc((size_t)ni * sizeof(uint32_t) + 1);
+    if (!out->pos || !out->nrm || !out->idx) {
+        free(out->pos);
+        free(out->nrm);
+        free(out->idx);
+        return fail(im, "out of memory for the mesh of node '%s'", name);
+    }
+    /* normals: the inverse transpose of the linear part (cofactors; the
+       determinant's sign is kept, its size normalised away) */
+    const double(*a)[4] = w->m;
+    double cof[3][3] = {{a[1][1] * a[2][2] - a[1][2] * a[2][1], a[1][2] * a[2][0] - a[1][0] * a[2][2],
+                         a[1][0] * a[2][1] - a[1][1] * a[2][0]},
+                        {a[0][2] * a[2][1] - a[0][1] * a[2][2], a[0][0] * a[2][2] - a[0][2] * a[2][0],
+                         a[0][1] * a[2][0] - a[0][0] * a[2][1]},
+                        {a[0][1] * a[1][2] - a[0][2] * a[1][1], a[0][2] * a[1][0] - a[0][0] * a[1][2],
+                         a[0][0] * a[1][1] - a[0][1] * a[1][0]}};
+    double sgn = det3(w) < 0 ? -1 : 1;
+    for (unsigned q = 0; q < n->mNumMeshes; q++) {
+        const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[q]];
+        if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
+        uint32_t base = out->nv;
+        for (unsigned v = 0; v < m->mNumVertices; v++) {
+            const struct aiVector3D *p = &m->mVertices[v];
+            for (int i = 0; i < 3; i++)
+                out->pos[3 * (out->nv + v) + i] = (float)(a[i][0] * p->x + a[i][1] * p->y + a[i][2] * p->z);
+            double nn[3] = {0, 0, 0}, l = 0;
+            if (m->mNormals) {
+                const struct aiVector3D *o = &m->mNormals[v];
+                for (int i = 0; i < 3; i++) {
+                    nn[i] = sgn * (cof[0][i] * o->x + cof[1][i] * o->y + cof[2][i] * o->z);
+                    l += nn[i] * nn[i];
+                }
+            }
+            l = sqrt(l);
+            for (int i = 0; i < 3; i++)
+                out->nrm[3 * (out->nv + v) + i] = l > 0 && isfinite(l) ? (float)(nn[i] / l) : (i == 1 ? 1.0f : 0.0f);
+        }
+        out->nv += m->mNumVertices;
+        for (unsigned f = 0; f < m->mNumFaces; f++) {
+            const struct aiFace *face = &m->mFaces[f];
+            if (face->mNumIndices != 3) continue;
+            /* a mirroring transform turns the winding over */
+            int order[3] = {0, sgn < 0 ? 2 : 1, sgn < 0 ? 1 : 2};
+            for (int v = 0; v < 3; v++) out->idx[out->ni++] = base + face->mIndices[order[v]];
+        }
+    }
+    im->keys[lv->nmesh] = k;
+    im->slot[h] = (int32_t)++lv->nmesh;
+    *cls = lv->nmesh - 1;
+    return 0;
+}
+
+static int node_entity(importer *im, const struct aiNode *n, const mat *w, const char *name)
+{
+    vt_level *lv = im->lv;
+    uint32_t cls = 0;
+    if (class_of(im, n, w, name, &cls)) return -1;
+    if (!grow((void **)&lv->ent, &im->ent_cap, lv->nent + 1, sizeof *lv->ent))
+        return fail(im, "out of memory for entities");
+    lvl_entity *e = &lv->ent[lv->nent];
+    memset(e, 0, sizeof *e);
+    e->cls = cls;
+    e->dynamic = meta_true(n, "vantage_dynamic");
+    e->occluder = -1;
+    snprintf(e->name, sizeof e->name, "%s", name);
+    const lvl_mesh *m = &lv->mesh[cls];
+    for (int a = 0; a < 3; a++) {
+        e->lo[a] = INFINITY;
+        e->hi[a] = -INFINITY;
+    }
+    for (uint32_t v = 0; v < m->nv; v++)
+        for (int a = 0; a < 3; a++) {
+            double x = (double)m->pos[3 * v + a] + w->m[a][3];
+            e->lo[a] = fmin(e->lo[a], x);
+            e->hi[a] = fmax(e->hi[a], x);
+        }
+    for (int a = 0; a < 3; a++)
+        if (!(fabs(e->lo[a]) <= MAX_COORD && fabs(e->hi[a]) <= MAX_COORD))
+            return fail(im, "node '%s': bounds beyond +-1e12 m (or not finite)", name);
+    lv->nent++;
+    if (meta_true(n, "vantage_occluder")) {
+        lvl_occluder *o;
+        if (new_occluder(im, name, w, (int32_t)lv->nent - 1, &o) || occ_append(im, o, n, w)) return -1;
+        lv->ent[lv->nent - 1].occluder = (int32_t)lv->nocc - 1;
+    }
+    return 0;
+}
+
+static int walk(importer *im, const struct aiNode *n, const mat *parent, unsigned depth)
+{
+    if (depth > 256) return fail(im, "node tree deeper than 256");
+    mat local = mat_from(&n->mTransformation), w = mat_mul(parent, &local);
+    char name[LVL_NAME];
+    copy_name(name, &n->mName);
+    if (n->mNumMeshes) {
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 4; j++)
+                if (!isfinite(w.m[i][j])) return fail(im, "node '%s': its transform is not finite", name);
+        double d = det3(&w);
+        if (!(fabs(d) > 1e-18)) return fail(im, "node '%s': its transform has zero scale (determinant %g)", name, d);
+        uint32_t ntri;
+        if (node_meshes(im, n, name, &ntri)) return -1;
+        if (!strncasecmp(name, "OCC_", 4)) {
+            lvl_occluder *o;
+            if (new_occluder(im, name, &w, -1, &o) || occ_append(im, o, n, &w)) return -1;
+        } else if (node_entity(im, n, &w, name)) {
+            return -1;
+        }
+    }
+    for (unsigned c = 0; c < n->mNumChildren; c++)
+        if (walk(im, n->mChildren[c], &w, depth + 1)) return -1;
+    return 0;
+}
+
+/* The world matrix of the node named `name`, if there is one. */
+static bool find_node(const struct aiNode *n, const mat *parent, const struct aiString *name, mat *out,
+                      const struct aiNode **node, unsigned depth)
+{
+    mat local = mat_from(&n->mTransformation), w = mat_mul(parent, &local);
+    if (n->mName.length == name->length && !memcmp(n->mName.data, name->data, name->length)) {
+        *out = w;
+        *node = n;
+        return true;
+    }
+    for (unsigned c = 0; c < n->mNumChildren && depth < 256; c++)
+        if (find_node(n->mChildren[c], &w, name, out, node, depth + 1)) return true;
+    return false;
+}
+
+static int lights(importer *im, const mat *id)
+{
+    vt_level *lv = im->lv;
+    lv->light = calloc((size_t)im->sc->mNumLights + 1, sizeof *lv->light);
+    if (!lv->light) return fail(im, "out of memory for lights");
+    for (unsigned i = 0; i < im->sc->mNumLights; i++) {
+        const struct aiLight *L = im->sc->mLights[i];
+        char name[LVL_NAME];
+        copy_name(name, &L->mName);
+        if (L->mType != aiLightSource_POINT && L->mType != aiLightSource_SPOT) {
+            lv->skipped_lights++;
+            continue;
+        }
+        mat w = *id;
+        const struct aiNode *node = NULL;
+        find_node(im->sc->mRootNode, id, &L->mName, &w, &node, 0);
+        vp_light *o = &lv->light[lv->nlight];
+        memset(o, 0, sizeof *o);
+        o->kind = L->mType == aiLightSource_SPOT ? VP_LIGHT_SPOT : VP_LIGHT_POINT;
+        double p[3] = {L->mPosition.x, L->mPosition.y, L->mPosition.z}, d[3] = {L->mDirection.x, L->mDirection.y,
+                                                                               L->mDirection.z};
+        xform(&w, p, o->pos);
+        double dw[3], l = 0;
+        for (int a = 0; a < 3; a++) {
+            dw[a] = w.m[a][0] * d[0] + w.m[a][1] * d[1] + w.m[a][2] * d[2];
+            l += dw[a] * dw[a];
+        }
+        l = sqrt(l);
+        for (int a = 0; a < 3; a++) o->dir[a] = l > 0 ? (float)(dw[a] / l) : (a == 1 ? -1.0f : 0.0f);
+        /* assimp gives colour x intensity */
+        double c[3] = {L->mColorDiffuse.r, L->mColorDiffuse.g, L->mColorDiffuse.b};
+        double mx = fmax(c[0], fmax(c[1], c[2]));
+        if (!(mx > 0) || !isfinite(mx)) {
+            lv->skipped_lights++;
+            continue;
+        }
+        for (int a = 0; a < 3; a++) o->color[a] = (float)(c[a] / mx);
+        o->intensity = (float)mx;
+        double range;
+        if (!node || !meta_float(node, "PBR_LightRange", &range) || !(range > 0))
+            range = sqrt(mx / 0.05); /* where it falls to 1/20 candela */
+        o->range = (float)fmin(fmax(range, 0.01), 1e6);
+        if (o->kind == VP_LIGHT_SPOT) {
+            double inner = fmin(fmax(L->mAngleInnerCone, 0), M_PI / 2), outer = fmin(fmax(L->mAngleOuterCone, 0), M_PI / 2);
+            if (inner > outer) inner = outer;
+            o->inner_cos = (float)cos(inner);
+            o->outer_cos = (float)cos(outer);
+        }
+        for (int a = 0; a < 3; a++)
+            if (!(fabs(o->pos[a]) <= MAX_COORD)) return fail(im, "light '%s': position beyond +-1e12 m", name);
+        lv->nlight++;
+    }
+    return 0;
+}
+
+/* OCC_<name> to the entity <name>; two occluders of one entity merge. */
+static int attach(importer *im)
+{
+    vt_level *lv = im->lv;
+    for (uint32_t i = 0; i < lv->nocc; i++) {
+        lvl_occluder *o = &lv->occ[i];
+        if (o->entity >= 0 || strncasecmp(o->name, "OCC_", 4)) continue;
+        for (uint32_t e = 0; e < lv->nent; e++) {
+            if (strcmp(lv->ent[e].name, o->name + 4)) continue;
+            o->entity = (int32_t)e;
+            int32_t prev = lv->ent[e].occluder;
+            if (prev < 0) {
+                lv->ent[e].occluder = (int32_t)i;
+                break;
+            }
+            /* merge into the one it has: re-based to its origin */
+            lvl_occluder *p = &lv->occ[prev];
+            if (!grow((void **)&p->tri, &p->cap, p->ntri + o->ntri, 9 * sizeof(float)))
+                return fail(im, "out of memory for occluder '%s'", p->name);
+            for (uint32_t t = 0; t < 9 * o->ntri; t++)
+                p->tri[9 * (size_t)p->ntri + t] = (float)(o->tri[t] + o->origin[t % 3] - p->origin[t % 3]);
+            p->ntri += o->ntri;
+            o->ntri = 0; /* dropped below */
+            break;
+        }
+    }
+    /* drop merged (empty) occluders, fixing the entities' indices */
+    uint32_t k = 0;
+    for (uint32_t i = 0; i < lv->nocc; i++) {
+        if (!lv->occ[i].ntri) {
+            free(lv->occ[i].tri);
+            continue;
+        }
+        if (lv->occ[i].entity >= 0) lv->ent[lv->occ[i].entity].occluder = (int32_t)k;
+        lv->occ[k++] = lv->occ[i];
+    }
+    lv->nocc = k;
+    return 0;
+}
+
+int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
+{
+    memset(out, 0, sizeof *out);
+    const char *dot = strrchr(path, '.');
+    if (!dot || (strcasecmp(dot, ".gltf") && strcasecmp(dot, ".glb") && strcasecmp(dot, ".obj"))) {
+        snprintf(err, errlen, "%s: unsupported format (Vantage imports glTF 2.0 .gltf/.glb and OBJ .obj)", path);
+        return -1;
+    }
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        snprintf(err, errlen, "%s: %s", path, strerror(errno));
+        return -1;
+    }
+    fclose(f);
+    const struct aiScene *sc =
+        aiImportFile(path, aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_GenNormals |
+                               aiProcess_JoinIdenticalVertices | aiProcess_ValidateDataStructure);
+    if (!sc) {
+        snprintf(err, errlen, "%s: cannot import: %s", path, aiGetErrorString());
+        return -1;
+    }
+    importer *im = calloc(1, sizeof *im);
+    int rc = -1;
+    if (!im) {
+        snprintf(err, errlen, "out of memory");
+        goto done;
+    }
+    *im = (importer){.sc = sc, .lv = out, .err = err, .errlen = errlen};
+    if (!sc->mRootNode || (sc->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
+        fail(im, "%s: the file holds no complete scene", path);
+        goto done;
+    }
+    out->mesh = calloc(LVL_MAX_CLASSES, sizeof *out->mesh);
+    if (!out->mesh) {
+        fail(im, "out of memory");
+        goto done;
+    }
+    mat id = {{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}};
+    if (walk(im, sc->mRootNode, &id, 0) || lights(im, &id) || attach(im)) goto done;
+    if (!out->nent && !out->nocc && !out->nlight) {
+        fail(im, "%s: no meshes or lights in the file", path);
+        goto done;
+    }
+    rc = 0;
+done:
+    free(im);
+    aiReleaseImport(sc);
+    if (rc) vt_level_free(out);
+    return rc;
+}
+
+void vt_level_free(vt_level *lv)
+{
+    for (uint32_t i = 0; lv->mesh && i < lv->nmesh; i++) {
+        free(lv->mesh[i].pos);
+        free(lv->mesh[i].nrm);
+        free(lv->mesh[i].idx);
+    }
+    for (uint32_t i = 0; i < lv->nocc; i++) free(lv->occ[i].tri);
+    free(lv->mesh);
+    free(lv->ent);
+    free(lv->occ);
+    free(lv->light);
+    memset(lv, 0, sizeof *lv);
+}
