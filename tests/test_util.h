@@ -79,5 +79,6 @@ TEST_GROUP(render_tests)
 TEST_GROUP(image_tests)
 TEST_GROUP(exr_tests)
 TEST_GROUP(gl_tests)
+TEST_GROUP(sublevel_tests)
 
 #endif

@@ -1,0 +1,97 @@
+/*
+ * test_daemon.c — see test_daemon.h.
+ */
+#include "test_util.h"
+#include "test_daemon.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/prctl.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+const char *bin_dir(void)
+{
+    const char *d = getenv("VANTAGE_BIN_DIR");
+    return d ? d : "build/release";
+}
+
+int free_port(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    socklen_t len = sizeof sa;
+    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&sa, &len), 0);
+    close(fd);
+    return ntohs(sa.sin_port);
+}
+
+vt_client *connect_role(const daemon_proc *d, int role, bool use_unix)
+{
+    vt_client *c = NULL;
+    char err[256];
+    vt_connect_opts o = {.port = d->port, .role = role, .unix_path = use_unix ? d->sock : NULL,
+                         .timeout_ms = 20000};
+    int rc = vt_connect(&o, &c, err, sizeof err);
+    if (rc) fprintf(stderr, "connect: %s\n", err);
+    assert_int_equal(rc, VP_OK);
+    return c;
+}
+
+void daemon_start(daemon_proc *d, const char *out_limit)
+{
+    const char *extra[3] = {NULL};
+    if (out_limit) {
+        extra[0] = "--out-limit";
+        extra[1] = out_limit;
+    }
+    daemon_start_args(d, extra);
+}
+
+void daemon_start_args(daemon_proc *d, const char *const *extra)
+{
+    memset(d, 0, sizeof d[0]);
+    d->port = free_port();
+    snprintf(d->sock, sizeof d->sock, "/tmp/vantage-test-%d-%d.sock", (int)getpid(), d->port);
+    snprintf(d->bin, sizeof d->bin, "%s/vantaged", bin_dir());
+    char port[16];
+    snprintf(port, sizeof port, "%d", d->port);
+    d->pid = fork();
+    assert_true(d->pid >= 0);
+    if (d->pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGTERM); /* a failed test never leaves a daemon behind */
+        const char *argv[32] = {d->bin, "--scene", "empty", "--port", port, "--unix", d->sock, "--log-level",
+                                "warn", "--threads", "2"};
+        int n = 11;
+        for (int i = 0; extra && extra[i] && n < 30; i++) argv[n++] = extra[i];
+        argv[n] = NULL;
+        execv(d->bin, (char *const *)argv);
+        _exit(127);
+    }
+    /* wait until it answers */
+    for (int i = 0; i < 500; i++) {
+        vt_client *c = NULL;
+        if (vt_connect(&(vt_connect_opts){.port = d->port, .timeout_ms = 2000}, &c, NULL, 0) == VP_OK) {
+            vt_close(c);
+            return;
+        }
+        usleep(10000);
+    }
+    fail_msg("vantaged (%s) did not start", d->bin);
+}
+
+void daemon_stop(daemon_proc *d)
+{
+    kill(d->pid, SIGTERM);
+    int st;
+    waitpid(d->pid, &st, 0);
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0); /* clean shutdown on SIGTERM */
+    assert_true(access(d->sock, F_OK) != 0); /* and the socket is gone */
+}
+

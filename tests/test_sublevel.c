@@ -1,0 +1,448 @@
+/*
+ * test_sublevel.c — level import and sub-level loads.
+ *
+ * Import: the glTF and OBJ levels of tests/data (authored by
+ * make_levels.py, where the expected numbers come from) give the expected
+ * entities, classes, bounds, occluders and lights; bad files fail naming
+ * the node. Loads, end to end against the real daemon: a query running
+ * all through a load and an unload sees all of the sub-level or none of it
+ * (and which, by the epoch it reports); a load whose connection dies is
+ * never seen and is freed; the rules (one load per connection, no writes
+ * into someone else's load, unload of what is loaded) hold; queries can
+ * name their sub-levels; the CLI loads, lists and unloads a glTF level.
+ */
+#include "test_util.h"
+
+#include "import.h"
+#include "test_daemon.h"
+#include "vantage.h"
+
+#include <pthread.h>
+#include <sys/wait.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+static const char *data_file(const char *name)
+{
+    static char path[512];
+    const char *d = getenv("VANTAGE_DATA_DIR");
+    snprintf(path, sizeof path, "%s/%s", d ? d : "tests/data", name);
+    return path;
+}
+
+static const lvl_entity *entity_named(const vt_level *lv, const char *name)
+{
+    for (uint32_t i = 0; i < lv->nent; i++)
+        if (!strcmp(lv->ent[i].name, name)) return &lv->ent[i];
+    fail_msg("no entity %s", name);
+    return NULL;
+}
+
+static void assert_box(const lvl_entity *e, double x0, double y0, double z0, double x1, double y1, double z1)
+{
+    const double want[6] = {x0, y0, z0, x1, y1, z1}, got[6] = {e->lo[0], e->lo[1], e->lo[2], e->hi[0], e->hi[1], e->hi[2]};
+    for (int a = 0; a < 6; a++)
+        if (!(fabs(got[a] - want[a]) <= 1e-5 * (1 + fabs(want[a]))))
+            fail_msg("%s: bound %d is %.9g, want %.9g", e->name, a, got[a], want[a]);
+}
+
+static void test_import_gltf(void **state)
+{
+    (void)state;
+    vt_level lv;
+    char err[512];
+    int rc = vt_level_import(data_file("level_small.gltf"), &lv, err, sizeof err);
+    if (rc) fail_msg("%s", err);
+    /* crate_a..d, cart, tower, wall, lamp_post; OCC_* are not entities */
+    assert_int_equal(lv.nent, 8);
+    /* crate_a = crate_b (identity), crate_c = crate_d (45 degrees, scale 2,1,1),
+       cart, tower, wall, lamp_post: 6 classes */
+    assert_int_equal(lv.nmesh, 6);
+    assert_int_equal(entity_named(&lv, "crate_a")->cls, entity_named(&lv, "crate_b")->cls);
+    assert_int_equal(entity_named(&lv, "crate_c")->cls, entity_named(&lv, "crate_d")->cls);
+    assert_int_not_equal(entity_named(&lv, "crate_a")->cls, entity_named(&lv, "crate_c")->cls);
+    assert_box(entity_named(&lv, "crate_a"), -1, 0, -1, 1, 2, 1);
+    assert_box(entity_named(&lv, "crate_b"), 9, 0, -1, 11, 2, 1);
+    double r = 3 / sqrt(2.0); /* half extents (2, 1) turned 45 degrees */
+    assert_box(entity_named(&lv, "crate_c"), -r, 0, 10 - r, r, 2, 10 + r);
+    assert_box(entity_named(&lv, "cart"), -11, 0, -2, -9, 1, 2);
+    /* a child of a group turned 90 degrees: transforms compose */
+    assert_box(entity_named(&lv, "lamp_post"), 19.8, 0, 19.8, 20.2, 4, 20.2);
+    assert_true(entity_named(&lv, "cart")->dynamic);
+    assert_false(entity_named(&lv, "crate_a")->dynamic);
+    /* occluders: the tower's own, OCC_wall on the wall, OCC_hill on nothing */
+    assert_int_equal(lv.nocc, 3);
+    const lvl_entity *tower = entity_named(&lv, "tower"), *wall = entity_named(&lv, "wall");
+    assert_true(tower->occluder >= 0 && wall->occluder >= 0);
+    assert_int_equal(lv.occ[tower->occluder].ntri, 12);
+    assert_int_equal(lv.occ[wall->occluder].ntri, 2);
+    assert_string_equal(lv.occ[wall->occluder].name, "OCC_wall");
+    uint32_t free_occ = 0;
+    for (uint32_t i = 0; i < lv.nocc; i++) free_occ += lv.occ[i].entity < 0;
+    assert_int_equal(free_occ, 1);
+    /* the wall occluder in world space: x within +-9.5, at z = 20 */
+    const lvl_occluder *wo = &lv.occ[wall->occluder];
+    for (uint32_t v = 0; v < 3 * wo->ntri; v++) {
+        double x = wo->tri[3 * v] + wo->origin[0], z = wo->tri[3 * v + 2] + wo->origin[2];
+        assert_true(fabs(fabs(x) - 9.5) < 1e-5);
+        assert_true(fabs(z - 20) < 1e-5);
+    }
+    /* lights: bulb (point, range 25) and spot (down); the sun is skipped */
+    assert_int_equal(lv.nlight, 2);
+    assert_int_equal(lv.skipped_lights, 1);
+    for (uint32_t i = 0; i < lv.nlight; i++) {
+        const vp_light *l = &lv.light[i];
+        if (l->kind == VP_LIGHT_POINT) {
+            assert_true(fabs(l->pos[0] - 5) < 1e-6 && fabs(l->pos[1] - 4) < 1e-6 && fabs(l->pos[2] - 5) < 1e-6);
+            assert_true(fabs(l->range - 25) < 1e-4);
+            assert_true(fabs(l->intensity - 200) < 1e-3);
+            assert_true(fabs(l->color[1] - 0.8f) < 1e-5);
+        } else {
+            assert_int_equal(l->kind, VP_LIGHT_SPOT);
+            assert_true(fabs(l->pos[1] - 12) < 1e-6);
+            assert_true(fabs(l->dir[1] + 1) < 1e-6);
+            assert_true(fabs(l->outer_cos - cos(0.6)) < 1e-6 && fabs(l->inner_cos - cos(0.3)) < 1e-6);
+            assert_true(fabs(l->range - 40) < 1e-4);
+        }
+    }
+    /* every class mesh: indices in range, unit normals */
+    for (uint32_t m = 0; m < lv.nmesh; m++) {
+        const lvl_mesh *me = &lv.mesh[m];
+        assert_true(me->ni > 0 && me->ni % 3 == 0);
+        for (uint32_t i = 0; i < me->ni; i++) assert_true(me->idx[i] < me->nv);
+        for (uint32_t v = 0; v < me->nv; v++) {
+            const float *n = me->nrm + 3 * v;
+            assert_true(fabs(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1) < 1e-4);
+        }
+    }
+    vt_level_free(&lv);
+}
+
+static void test_import_obj_and_bad_files(void **state)
+{
+    (void)state;
+    vt_level lv;
+    char err[512];
+    int rc = vt_level_import(data_file("level_small.obj"), &lv, err, sizeof err);
+    if (rc) fail_msg("%s", err);
+    assert_int_equal(lv.nent, 2);
+    assert_int_equal(lv.nocc, 1);
+    assert_int_equal(lv.occ[0].entity >= 0, 1);
+    assert_string_equal(lv.ent[lv.occ[0].entity].name, "shed");
+    assert_box(entity_named(&lv, "shed"), -1, 0, -1, 1, 2, 1);
+    vt_level_free(&lv);
+    static const struct { const char *file, *says; } bad[] = {
+        {"bad_huge.gltf", "node 'vast': bounds beyond"},
+        {"bad_zero.gltf", "node 'flat': its transform has zero scale"},
+        {"bad_points.gltf", "node 'dots': its meshes have no triangles"},
+        {"bad_nan.obj", "node 'broken': mesh 'broken' has a non-finite vertex"},
+        {"make_levels.py", "unsupported format"},
+        {"missing.glb", "No such file or directory"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        err[0] = 0;
+        assert_int_equal(vt_level_import(data_file(bad[i].file), &lv, err, sizeof err), -1);
+        if (!strstr(err, bad[i].says)) fail_msg("%s: \"%s\" does not say \"%s\"", bad[i].file, err, bad[i].says);
+        assert_int_equal(lv.nent, 0); /* nothing half-read is handed back */
+    }
+    /* a corrupt glTF: valid JSON cut short */
+    tdir td;
+    tdir_make(&td, "vantage_import");
+    const char *cut = tdir_file(&td, "cut.gltf");
+    FILE *in = fopen(data_file("level_small.gltf"), "rb"), *out = fopen(cut, "wb");
+    char buf[2000];
+    size_t n = fread(buf, 1, sizeof buf, in);
+    fwrite(buf, 1, n, out);
+    fclose(in);
+    fclose(out);
+    assert_int_equal(vt_level_import(cut, &lv, err, sizeof err), -1);
+    assert_non_null(strstr(err, "cannot import"));
+    tdir_remove(&td);
+}
+
+/* ---- loads, end to end ----------------------------------------------------------------- */
+
+static vp_view everything(void)
+{
+    vp_view v;
+    double eye[3] = {0, 1e5, 0}, at[3] = {0, 0, 0}, up[3] = {0, 0, 1};
+    assert_true(vt_view_ortho(&v, eye, at, up, 1e6, 1e6, 256, 256, 1, 1e6));
+    return v;
+}
+
+static void add_boxes(vt_client *c, uint64_t first, uint32_t n, uint16_t sub, uint32_t batch)
+{
+    vp_entity *e = calloc(batch, sizeof *e);
+    assert_non_null(e);
+    for (uint32_t i = 0; i < n; i += batch) {
+        uint32_t k = n - i < batch ? n - i : batch;
+        for (uint32_t j = 0; j < k; j++) {
+            uint64_t id = first + i + j;
+            e[j] = (vp_entity){.id = id, .sublevel = sub};
+            double x = (double)(id % 1000) * 3, z = (double)((id / 1000) % 1000) * 3;
+            double b[6] = {x, 0, z, x + 1, 1, z + 1};
+            memcpy(e[j].aabb, b, sizeof b);
+        }
+        int rc = vt_add(c, e, k, NULL, NULL);
+        if (rc) fail_msg("add: %d %s", rc, vt_last_error(c)->msg);
+    }
+    free(e);
+}
+
+typedef struct watcher {
+    const daemon_proc *d;
+    volatile int stop;
+    uint32_t base, full;      /* the two counts a query may see */
+    volatile uint64_t flip;   /* epoch from which `full` is right (0 = unknown yet) */
+    volatile uint64_t back;   /* epoch from which `base` is right again */
+    uint32_t queries, bad, saw_full, saw_base;
+    char why[200];
+} watcher;
+
+static void *watch(void *p)
+{
+    watcher *w = p;
+    vt_client *c = connect_role(w->d, VP_ROLE_VIEWER, true);
+    vp_view v = everything();
+    while (!w->stop) {
+        vp_vis_result r;
+        int rc = vt_query(c, &v, 1, VP_Q_NO_OCCLUSION | VP_Q_COUNT_ONLY, 0, &r);
+        if (rc) {
+            snprintf(w->why, sizeof w->why, "query failed: %d", rc);
+            w->bad++;
+            break;
+        }
+        w->queries++;
+        uint64_t flip = w->flip, back = w->back;
+        bool ok = r.visible == w->base || r.visible == w->full;
+        /* which one, by the epoch the reply reflects */
+        if (ok && flip && r.epoch >= flip && (!back || r.epoch < back)) ok = r.visible == w->full;
+        if (ok && back && r.epoch >= back) ok = r.visible == w->base;
+        if (!ok && !w->bad)
+            snprintf(w->why, sizeof w->why, "%u visible at epoch %llu (base %u, full %u, flip %llu, back %llu)",
+                     r.visible, (unsigned long long)r.epoch, w->base, w->full, (unsigned long long)flip,
+                     (unsigned long long)back);
+        w->bad += !ok;
+        w->saw_full += r.visible == w->full;
+        w->saw_base += r.visible == w->base;
+    }
+    vt_close(c);
+    return NULL;
+}
+
+static void test_sublevel_load_is_atomic(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    const uint32_t base = 3000, k = (uint32_t)(30000 * test_scale());
+    add_boxes(ed, 1, base, 0, 1000);
+    watcher w = {.d = &d, .base = base, .full = base + k};
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, watch, &w), 0);
+    usleep(20000);
+    vt_client *ld = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_sublevel_begun b;
+    assert_int_equal(vt_sublevel_begin(ld, "alpha", 1, &b), VP_OK);
+    assert_true(b.id > 0);
+    static const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    static const uint32_t idx[3] = {0, 1, 2};
+    static const float nrm[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+    assert_int_equal(vt_put_mesh(ld, b.class_base, tri, nrm, 3, idx, 3), VP_OK);
+    uint32_t q0 = w.queries;
+    add_boxes(ld, 1000000, k, 0, 1000); /* sub-level 0 from a loading connection: the load's */
+    vp_light l = {.id = 5, .kind = VP_LIGHT_POINT, .pos = {1, 2, 3}, .color = {1, 1, 1}, .intensity = 10, .range = 5};
+    assert_int_equal(vt_put_lights(ld, &l, 1), VP_OK);
+    double origin[3] = {0, 0, 0};
+    assert_int_equal(vt_put_occluder(ld, 1000000, origin, tri, 1), VP_OK);
+    uint32_t during = w.queries - q0;
+    vp_ack a;
+    assert_int_equal(vt_sublevel_commit(ld, &a), VP_OK);
+    assert_int_equal(a.count, k);
+    w.flip = a.epoch;
+    usleep(50000);
+    /* listed, with what it holds */
+    vp_sublevel_infos in;
+    assert_int_equal(vt_sublevel_info(ed, &in), VP_OK);
+    size_t pos = 0;
+    vp_sublevel_info si;
+    assert_true(vp_sublevel_info_next(&in, &pos, &si));
+    assert_int_equal(si.id, b.id);
+    assert_int_equal(si.state, VP_SL_LOADED);
+    assert_int_equal(si.entities, k);
+    assert_int_equal(si.occluders, 1);
+    assert_int_equal(si.lights, 1);
+    assert_int_equal(si.classes, 1);
+    /* unload: gone at one epoch, freed in slices behind it */
+    assert_int_equal(vt_sublevel_unload(ed, "alpha", &a), VP_OK);
+    assert_int_equal(a.count, k);
+    w.back = a.epoch;
+    usleep(50000);
+    w.stop = 1;
+    pthread_join(th, NULL);
+    fprintf(stderr, "load of %u entities: %u queries in all, %u during the load; %u saw it all, %u saw none\n", k,
+            w.queries, during, w.saw_full, w.saw_base);
+    if (w.bad) fail_msg("%u bad queries: %s", w.bad, w.why);
+    assert_true(during > 0 && w.saw_full > 0);
+    for (int i = 0; i < 200; i++) {
+        assert_int_equal(vt_sublevel_info(ed, &in), VP_OK);
+        pos = 0;
+        assert_true(vp_sublevel_info_next(&in, &pos, &si));
+        if (si.state == VP_SL_EMPTY) break;
+        usleep(10000);
+    }
+    assert_int_equal(si.state, VP_SL_EMPTY);
+    assert_int_equal(si.entities, 0);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(ed, &st), VP_OK);
+    assert_int_equal(st.entities, base);
+    assert_int_equal(st.occluders, 0);
+    assert_int_equal(st.lights, 0);
+    assert_int_equal(st.meshes, 0);
+    vt_close(ld);
+    vt_close(ed);
+    daemon_stop(&d);
+}
+
+static void test_sublevel_rules(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *a = connect_role(&d, VP_ROLE_EDITOR, false), *b = connect_role(&d, VP_ROLE_EDITOR, true);
+    vt_client *viewer = connect_role(&d, VP_ROLE_VIEWER, false);
+    vp_sublevel_begun ba, bb;
+    vp_ack ack;
+    /* viewers do not load; commit with nothing open */
+    assert_int_equal(vt_sublevel_begin(viewer, "x", 0, &ba), VP_ERR_AUTH);
+    assert_int_equal(vt_sublevel_commit(a, &ack), VP_ERR_STATE);
+    assert_int_equal(vt_sublevel_begin(a, "north", 2, &ba), VP_OK);
+    /* one load a connection; another connection cannot take the same one */
+    assert_int_equal(vt_sublevel_begin(a, "south", 0, &bb), VP_ERR_STATE);
+    assert_int_equal(vt_sublevel_begin(b, "north", 0, &bb), VP_ERR_STATE);
+    /* nobody writes into a load but its connection */
+    vp_entity e = {.id = 1, .sublevel = ba.id, .aabb = {0, 0, 0, 1, 1, 1}};
+    assert_int_equal(vt_add(b, &e, 1, NULL, NULL), VP_ERR_STATE);
+    static const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, nrm[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+    static const uint32_t idx[3] = {0, 1, 2};
+    assert_int_equal(vt_put_mesh(b, ba.class_base + 1, tri, nrm, 3, idx, 3), VP_ERR_STATE);
+    /* and the loading connection writes only into its load */
+    e.sublevel = ba.id + 7;
+    assert_int_equal(vt_add(a, &e, 1, NULL, NULL), VP_ERR_INVALID);
+    e.sublevel = ba.id;
+    assert_int_equal(vt_add(a, &e, 1, NULL, NULL), VP_OK);
+    /* unloading what is being loaded, or what does not exist */
+    assert_int_equal(vt_sublevel_unload(b, "north", &ack), VP_ERR_STATE);
+    assert_int_equal(vt_sublevel_unload(b, "nowhere", &ack), VP_ERR_UNKNOWN_ID);
+    /* an id taken in the load is taken for everyone */
+    e.sublevel = 0;
+    assert_int_equal(vt_add(b, &e, 1, NULL, NULL), VP_ERR_DUPLICATE);
+    vp_view v = everything();
+    vp_vis_result r;
+    assert_int_equal(vt_query(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &r), VP_OK);
+    assert_int_equal(r.visible, 0);
+    assert_int_equal(vt_sublevel_commit(a, &ack), VP_OK);
+    assert_int_equal(ack.count, 1);
+    /* loading a loaded sub-level again: unload first */
+    assert_int_equal(vt_sublevel_begin(b, "north", 0, &bb), VP_ERR_DUPLICATE);
+    /* queries may name their sub-levels */
+    e = (vp_entity){.id = 2, .aabb = {5, 0, 0, 6, 1, 1}};
+    assert_int_equal(vt_add(b, &e, 1, NULL, NULL), VP_OK);
+    uint16_t only = ba.id, none = 999, dflt = 0;
+    assert_int_equal(vt_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &only, 1, &r), VP_OK);
+    assert_int_equal(r.visible, 1);
+    vp_vis_rec rec;
+    vp_vis_rec_get(&r, 0, &rec);
+    assert_int_equal(rec.id, 1);
+    assert_int_equal(rec.sublevel, ba.id);
+    assert_int_equal(vt_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &dflt, 1, &r), VP_OK);
+    assert_int_equal(r.visible, 1);
+    vp_vis_rec_get(&r, 0, &rec);
+    assert_int_equal(rec.id, 2);
+    assert_int_equal(vt_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &none, 1, &r), VP_OK);
+    assert_int_equal(r.visible, 0);
+    assert_int_equal(vt_query(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &r), VP_OK);
+    assert_int_equal(r.visible, 2);
+    /* a load whose connection dies is never seen, and is freed */
+    assert_int_equal(vt_sublevel_begin(b, "east", 0, &bb), VP_OK);
+    add_boxes(b, 5000, 2000, 0, 500);
+    vt_close(b);
+    b = connect_role(&d, VP_ROLE_EDITOR, true);
+    vp_sublevel_infos in;
+    vp_sublevel_info si = {0};
+    for (int i = 0; i < 200; i++) {
+        assert_int_equal(vt_query(viewer, &v, 1, VP_Q_NO_OCCLUSION | VP_Q_COUNT_ONLY, 0, &r), VP_OK);
+        assert_int_equal(r.visible, 2);
+        assert_int_equal(vt_sublevel_info(b, &in), VP_OK);
+        size_t pos = 0;
+        while (vp_sublevel_info_next(&in, &pos, &si) && si.id != bb.id) {}
+        if (si.id == bb.id && si.state == VP_SL_EMPTY) break;
+        usleep(10000);
+    }
+    assert_int_equal(si.id, bb.id);
+    assert_int_equal(si.state, VP_SL_EMPTY);
+    /* and its name can be loaded again */
+    assert_int_equal(vt_sublevel_begin(b, "east", 0, &bb), VP_OK);
+    assert_int_equal(vt_sublevel_abort(b, &ack), VP_OK);
+    vt_close(a);
+    vt_close(b);
+    vt_close(viewer);
+    daemon_stop(&d);
+}
+
+static int run(const char *cmd, char *out, size_t cap)
+{
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, cap - 1, p);
+    out[n] = 0;
+    return pclose(p);
+}
+
+static void test_sublevel_cli(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    char cmd[2048], out[8192];
+    const char *cli = bin_dir();
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel load town %s --json 2>&1", cli, d.port,
+             data_file("level_small.gltf"));
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "\"sublevel\": \"town\""));
+    assert_non_null(strstr(out, "\"entities\": 8"));
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel list --json", cli, d.port);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "\"name\": \"town\", \"state\": \"loaded\", \"entities\": 8, \"occluders\": 3, "
+                                "\"lights\": 2, \"classes\": 6"));
+    /* a bad file: an error naming the node, and the scene as it was */
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel load dunes %s 2>&1", cli, d.port, data_file("bad_zero.gltf"));
+    assert_int_equal(WEXITSTATUS(run(cmd, out, sizeof out)), 1);
+    assert_non_null(strstr(out, "node 'flat'"));
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel load town %s 2>&1", cli, d.port, data_file("level_small.obj"));
+    assert_int_equal(WEXITSTATUS(run(cmd, out, sizeof out)), 1);
+    assert_non_null(strstr(out, "unload it first"));
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d stats --json", cli, d.port);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "\"entities\": 8"));
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel unload town && %s/vantage -p %d sublevel load shed %s 2>&1", cli,
+             d.port, cli, d.port, data_file("level_small.obj"));
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "sub-level town unloaded"));
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel list", cli, d.port);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "shed"));
+    assert_non_null(strstr(out, "loaded"));
+    daemon_stop(&d);
+}
+
+const struct CMUnitTest sublevel_tests[] = {
+    cmocka_unit_test(test_import_gltf),
+    cmocka_unit_test(test_import_obj_and_bad_files),
+    cmocka_unit_test(test_sublevel_load_is_atomic),
+    cmocka_unit_test(test_sublevel_rules),
+    cmocka_unit_test(test_sublevel_cli),
+};
+const size_t sublevel_tests_count = sizeof sublevel_tests / sizeof sublevel_tests[0];
