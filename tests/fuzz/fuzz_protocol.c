@@ -466,17 +466,23 @@ static void fuzz_vis_query(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(m.view_count >= 1 && m.view_count <= VP_MAX_VIEWS);
-    CHECK(len == 8 + (size_t)m.view_count * VP_VIEW_SIZE);
+    CHECK(((m.flags & VP_Q_SUBLEVELS) != 0) == (m.nsub != 0));
+    CHECK(m.nsub <= VP_MAX_QUERY_SUBLEVELS);
+    CHECK(len == 8 + (size_t)m.view_count * VP_VIEW_SIZE + (m.nsub ? 2 + 2 * (size_t)m.nsub : 0));
     vp_view v[VP_MAX_VIEWS];
     for (uint32_t i = 0; i < m.view_count; i++) CHECK(vp_view_get(&m, i, &v[i]) == VP_OK);
     vp_view past;
     CHECK(vp_view_get(&m, m.view_count, &past) == VP_ERR_COUNT);
+    static uint16_t subs[VP_MAX_QUERY_SUBLEVELS];
+    for (uint32_t i = 0; i < m.nsub; i++) subs[i] = vp_query_sublevel_get(&m, i);
+    CHECK(vp_query_sublevel_get(&m, m.nsub) == 0);
     enc_buf b;
     enc_open(&b, VP_HEADER_SIZE + len);
-    vp_enc_vis_query(&b.w, 12, m.flags, m.min_area, v, m.view_count);
+    vp_enc_vis_query_sub(&b.w, 12, m.flags, m.min_area, v, m.view_count, m.nsub ? subs : NULL, m.nsub);
     const uint8_t *q = enc_payload(&b, VP_VIS_QUERY, len);
     vp_vis_query r;
     CHECK(vp_dec_vis_query(q, len, &r) == VP_OK);
+    CHECK(r.nsub == m.nsub && (!m.nsub || !memcmp(r.subs, m.subs, 2 * (size_t)m.nsub)));
     CHECK(r.view_count == m.view_count && r.flags == m.flags && same_f32(r.min_area, m.min_area));
     for (uint32_t i = 0; i < r.view_count; i++) {
         vp_view x;
@@ -643,6 +649,77 @@ static void fuzz_sublevel_ids(const uint8_t *p, size_t len)
     for (uint32_t i = 0; i < n; i++) (void)vp_sublevel_id_get(ids, n, i);
 }
 
+/* ---- sub-level loads ---- */
+
+static void fuzz_sublevel_begin(const uint8_t *p, size_t len)
+{
+    vp_sublevel_begin m;
+    int rc = vp_dec_sublevel_begin(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.name_len >= 1 && m.classes <= 4096 && len == 3u + m.name_len);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_sublevel_begin(&b.w, 3, &m);
+    CHECK(!memcmp(enc_payload(&b, VP_SUBLEVEL_BEGIN, len), p, len));
+    enc_close(&b);
+}
+
+static void fuzz_sublevel_begun(const uint8_t *p, size_t len)
+{
+    vp_sublevel_begun m;
+    int rc = vp_dec_sublevel_begun(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == 16);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_sublevel_begun(&b.w, 3, &m);
+    CHECK(!memcmp(enc_payload(&b, VP_SUBLEVEL_BEGUN, len), p, len));
+    enc_close(&b);
+}
+
+static void fuzz_sublevel_name(const uint8_t *p, size_t len)
+{
+    vp_name m;
+    int rc = vp_dec_sublevel_name(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.len >= 1 && len == 1u + m.len);
+    char name[256];
+    memcpy(name, m.name, m.len);
+    name[m.len] = 0;
+    if (strlen(name) != m.len) return; /* a NUL inside: C strings cannot carry it (the decoder refuses < 32) */
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_sublevel_name(&b.w, VP_SUBLEVEL_UNLOAD, 3, name);
+    CHECK(!memcmp(enc_payload(&b, VP_SUBLEVEL_UNLOAD, len), p, len));
+    enc_close(&b);
+}
+
+static void fuzz_sublevel_infos(const uint8_t *p, size_t len)
+{
+    vp_sublevel_infos m;
+    int rc = vp_dec_sublevel_infos(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_sublevel_infos_begin(&b.w, 3, m.epoch, m.count);
+    size_t pos = 0;
+    uint32_t n = 0;
+    vp_sublevel_info in;
+    while (vp_sublevel_info_next(&m, &pos, &in)) {
+        CHECK(in.state <= VP_SL_UNLOADING && in.name_len >= 1 && in.name + in.name_len <= p + len);
+        vp_put_sublevel_info(&b.w, &in);
+        n++;
+    }
+    CHECK(n == m.count && pos == m.len);
+    vp_frame_end(&b.w);
+    CHECK(!memcmp(enc_payload(&b, VP_SUBLEVEL_INFO_REPLY, len), p, len));
+    enc_close(&b);
+}
+
 static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
 {
     uint32_t limit = h->req; /* fuzzer-chosen max_batch for the batch decoders */
@@ -680,7 +757,14 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_SUBLEVEL_NAMES:
     case VP_SUBLEVEL_LIST_REPLY: fuzz_names(p, len, h->type == VP_SUBLEVEL_LIST_REPLY); return;
     case VP_SUBLEVEL_IDS: fuzz_sublevel_ids(p, len); return;
-    case VP_SUBLEVEL_LIST: fuzz_empty(p, len); return;
+    case VP_SUBLEVEL_LIST:
+    case VP_SUBLEVEL_COMMIT:
+    case VP_SUBLEVEL_ABORT:
+    case VP_SUBLEVEL_INFO: fuzz_empty(p, len); return;
+    case VP_SUBLEVEL_BEGIN: fuzz_sublevel_begin(p, len); return;
+    case VP_SUBLEVEL_BEGUN: fuzz_sublevel_begun(p, len); return;
+    case VP_SUBLEVEL_UNLOAD: fuzz_sublevel_name(p, len); return;
+    case VP_SUBLEVEL_INFO_REPLY: fuzz_sublevel_infos(p, len); return;
     default: break;
     }
     /* Unknown to this version: a server would answer ERROR TYPE and skip

@@ -332,6 +332,30 @@ int main(int argc, char **argv)
     }
     at = g_w.len, enc_ids(VP_ENTITY_REMOVE, 1, 2), patch32(payload_at(at, 0), UINT32_MAX), save("bad_ids_count_huge");
     vp_enc_ack(&g_w, 1, &ack), vp_put_u8(&g_w, 0), vp_frame_end(&g_w), save("bad_ack_trailing");
+    {
+        vp_view v[2] = {view(0), view(1)};
+        static const uint16_t subs[3] = {0, 7, 4095};
+        vp_enc_vis_query_sub(&g_w, 30, 0, 0, v, 2, subs, 3), save("vis_query_sublevels");
+        vp_enc_vis_query_sub(&g_w, 30, 0, 0, v, 1, subs, 0), save("bad_vis_query_no_sublevels");
+        vp_enc_sublevel_begin(&g_w, 31, &(vp_sublevel_begin){.classes = 12, .name_len = 4,
+                                                             .name = (const uint8_t *)"town"}),
+            save("sublevel_begin");
+        vp_enc_sublevel_begin(&g_w, 31, &(vp_sublevel_begin){.classes = 5000, .name_len = 1, .name = (const uint8_t *)"x"}),
+            save("bad_sublevel_begin_classes");
+        vp_enc_sublevel_begun(&g_w, 31, &(vp_sublevel_begun){.id = 3, .class_base = 100, .epoch = 77}),
+            save("sublevel_begun");
+        vp_enc_empty(&g_w, VP_SUBLEVEL_COMMIT, 32), save("sublevel_commit");
+        vp_enc_empty(&g_w, VP_SUBLEVEL_ABORT, 32), save("sublevel_abort");
+        vp_enc_empty(&g_w, VP_SUBLEVEL_INFO, 32), save("sublevel_info");
+        vp_enc_sublevel_name(&g_w, VP_SUBLEVEL_UNLOAD, 33, "town"), save("sublevel_unload");
+        vp_enc_sublevel_infos_begin(&g_w, 34, 99, 2);
+        vp_put_sublevel_info(&g_w, &(vp_sublevel_info){.id = 1, .state = VP_SL_LOADED, .entities = 8, .occluders = 3,
+                                                      .lights = 2, .class_base = 3, .classes = 6, .name_len = 4,
+                                                      .name = (const uint8_t *)"town"});
+        vp_put_sublevel_info(&g_w, &(vp_sublevel_info){.id = 2, .state = VP_SL_LOADING, .name_len = 5,
+                                                      .name = (const uint8_t *)"north"});
+        vp_frame_end(&g_w), save("sublevel_info_reply");
+    }
     at = g_w.len, enc_vis_query(1, 0, 1), *payload_at(at, 2) = 1, save("bad_vis_query_pad");
     at = g_w.len, enc_vis_query(1, 0, 1), *payload_at(at, 0) = 33, save("bad_vis_query_33_views");
     enc_vis_query(1, VP_Q_STATIC_ONLY | VP_Q_DYNAMIC_ONLY, 1), save("bad_vis_query_flags");
