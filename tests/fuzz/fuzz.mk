@@ -80,8 +80,8 @@ fuzz-merge: $(FUZZ_BIN)
 	$(FUZZ_BIN) -merge=1 -use_counters=0 -max_len=$(FUZZ_MAX_LEN) $(FUZZ_CORPUS) $(FUZZ_WORK)
 	@n=$$(ls $(FUZZ_CORPUS) | wc -l); kb=$$(( $$(cat $(FUZZ_CORPUS)/* | wc -c) / 1024 )); \
 	  echo "make fuzz-merge: $(FUZZ_CORPUS) has $$n files, $$kb KiB"; \
-	  if [ $$n -gt 200 ] || [ $$kb -gt 1024 ]; then \
-	    echo "make fuzz-merge: over the 200 files / 1 MiB budget; prune before committing"; fi
+	  if [ $$n -gt 300 ] || [ $$kb -gt 1024 ]; then \
+	    echo "make fuzz-merge: over the 300 files / 1 MiB budget; prune before committing"; fi
 
 .PHONY: fuzz fuzz-replay fuzz-corpus fuzz-merge
 
