@@ -100,10 +100,13 @@ RENDB_SRC:= tests/bench/bench_render.c
 RENDB_OBJ:= $(RENDB_SRC:%.c=$(BUILD)/%.o)
 RENDB_BIN:= $(BUILD)/bench_render
 
+SUBB_OBJ := $(BUILD)/tests/bench/bench_sublevel.o
+SUBB_BIN := $(BUILD)/bench_sublevel
+
 SCENE    ?= ../shared/scenes/city_scene.txt
 
 .PHONY: all run demo test bench deps check-deps clean test-one install install-check
-all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN)
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -176,6 +179,9 @@ $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 $(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
+$(SUBB_BIN): $(SUBB_OBJ) $(CLIENT_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(SUBB_OBJ) $(CLIENT_LIB) $(LDLIBS)
+
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)
 
@@ -244,4 +250,4 @@ clean:
 
 include tests/fuzz/fuzz.mk
 
--include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d)
+-include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d)

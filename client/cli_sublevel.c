@@ -19,7 +19,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#define LOAD_BATCH 4096u /* entities a message: each holds the daemon's scene lock well under a millisecond */
+#define LOAD_BATCH 512u /* entities a message: each holds the daemon's scene lock about half a millisecond */
 
 static uint64_t level_id(uint16_t sub, uint32_t i)
 {

@@ -66,6 +66,7 @@ void scene_free(scene *s)
     for (uint32_t i = 1; i <= s->nsublevels; i++) {
         free(s->sl[i].name);
         free(s->sl[i].doomed);
+        free(s->sl[i].members);
     }
     free(s->sl_entities);
     free(s->class_owner);
@@ -225,7 +226,7 @@ int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handl
     if ((rc = check_unique(ids, n, err))) goto out;
     /* room in the id map only for a batch that is going in: a rejected one
        must not rehash it (ENTITY_LIST cursors are slots) */
-    if (!idmap_reserve(&s->ids, s->ids.count + n)) {
+    if (!scene_members_reserve(s, descs, n) || !idmap_reserve(&s->ids, s->ids.count + n)) {
         rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
@@ -253,6 +254,7 @@ int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handl
         s->id_of_slot[SLOT(h)] = ids[i];
         s->sl_entities[descs[i].sublevel]++;
         s->class_entities[descs[i].class_id]++;
+        scene_members_add(s, descs[i].sublevel, ids[i]);
     }
     s->epoch++;
     s->edits += n;
@@ -294,6 +296,10 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
         cull_entity_get(s->world, hs[i], &old[i]);
     }
     if ((rc = check_unique(ids, n, err))) goto out;
+    if (!scene_members_reserve(s, descs, n)) {
+        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        goto out;
+    }
     for (uint32_t i = 0; i < n; i++) {
         int crc = cull_entity_update(s->world, hs[i], &descs[i]);
         if (crc) {
@@ -307,6 +313,7 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
         s->sl_entities[descs[i].sublevel]++;
         s->class_entities[old[i].class_id]--;
         s->class_entities[descs[i].class_id]++;
+        if (old[i].sublevel != descs[i].sublevel) scene_members_add(s, descs[i].sublevel, ids[i]);
     }
     s->epoch++;
     s->edits += n;

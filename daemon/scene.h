@@ -44,6 +44,9 @@ typedef struct scene_sublevel {
     uint16_t class_base, classes; /* mesh classes reserved for it */
     uint64_t *doomed;       /* UNLOADING: ids of the entities left to free */
     uint32_t ndoomed, doomed_pos;
+    uint64_t *members;      /* ids of the entities put into it (some may have
+                               left since: checked when used) */
+    uint32_t nmembers, members_cap;
 } scene_sublevel;
 
 typedef struct scene_limits {
@@ -110,9 +113,13 @@ int scene_sublevel_begin(scene *s, const vp_sublevel_begin *m, uint32_t owner, v
                          scene_err *err);
 /* Makes a load visible (one epoch); *entities = its entities. */
 int scene_sublevel_commit(scene *s, uint16_t id, uint32_t *entities, scene_err *err);
+/* Room to record n more members of each named sub-level in subs[0..n)
+ * (false: out of memory, nothing changed); then record them. */
+bool scene_members_reserve(scene *s, const cull_entity_desc *descs, uint32_t n);
+void scene_members_add(scene *s, uint16_t sub, uint64_t id);
 /* Hides a sub-level (unload, abort, a loading connection gone) and starts
- * freeing it: its occluders, lights and meshes now, its entities in
- * slices (scene_sublevel_work). *entities = how many go. */
+ * freeing it: its occluders, lights and meshes now, its entities in slices
+ * by scene_sublevel_work. */
 int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *err);
 /* Frees up to budget entities of unloading sub-levels; true if more is left. */
 bool scene_sublevel_work(scene *s, uint32_t budget);

@@ -302,7 +302,7 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
 
 /* ---- the tick -------------------------------------------------------------------- */
 
-#define SUBLEVEL_SLICE 8192u /* entities an unload frees per loop turn */
+#define SUBLEVEL_SLICE 2048u /* entities an unload frees per loop turn: ~0.7 ms */
 
 static void before_sleep(ae_loop *l, void *data)
 {
@@ -314,11 +314,13 @@ static void before_sleep(ae_loop *l, void *data)
     bool changed = sc->epoch != s->ev_epoch;
     s->ev_epoch = sc->epoch;
     /* unloads free their entities a slice a turn (the lock is held for
-       about a millisecond), and wake the loop again while any is left */
+       under a millisecond), and wake the loop again while any is left; the
+       bounds they loosen are tightened once, at the end (queries are right
+       with loose bounds, and every slice would tighten the same cells) */
     if (sc->unloading) {
         pthread_rwlock_wrlock(&s->scene_lock);
         bool more = scene_sublevel_work(sc, SUBLEVEL_SLICE);
-        cull_world_commit(sc->world);
+        if (!more) cull_world_commit(sc->world);
         pthread_rwlock_unlock(&s->scene_lock);
         if (more) {
             uint64_t one = 1;

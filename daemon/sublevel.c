@@ -27,6 +27,13 @@ static void hide(scene *s, uint16_t id, bool on)
     }
 }
 
+/* Whether entity `eid` is still in sub-level id (its handle in *h). */
+static bool member_live(const scene *s, uint16_t id, uint64_t eid, uint64_t *h)
+{
+    cull_entity_desc d;
+    return idmap_get(&s->ids, eid, h) && cull_entity_get(s->world, (cull_handle)*h, &d) == CULL_OK && d.sublevel == id;
+}
+
 static const char *sl_name(const scene *s, uint16_t id)
 {
     return id <= s->nsublevels && s->sl[id].name ? s->sl[id].name : "(unnamed)";
@@ -50,7 +57,28 @@ static uint16_t define(scene *s, const uint8_t *name, uint8_t len)
     uint16_t id = (uint16_t)++s->nsublevels;
     memset(&s->sl[id], 0, sizeof s->sl[id]);
     s->sl[id].name = copy;
+    /* entities may carry the id from before it had a name: list them (the
+       one pass over every entity a sub-level ever needs, and only then) */
+    if (s->sl_entities[id]) {
+        scene_sublevel *l = &s->sl[id];
+        l->members = malloc((size_t)s->sl_entities[id] * sizeof *l->members);
+        for (size_t i = 0; l->members && i < s->ids.cap; i++) {
+            uint64_t h;
+            if (s->ids.used[i] && member_live(s, id, s->ids.keys[i], &h)) l->members[l->nmembers++] = s->ids.keys[i];
+        }
+        l->members_cap = l->members ? s->sl_entities[id] : 0;
+    }
     return id;
+}
+
+/* Takes back the newest names, down to id `keep`. */
+static void undefine_to(scene *s, uint32_t keep)
+{
+    for (; s->nsublevels > keep; s->nsublevels--) {
+        free(s->sl[s->nsublevels].name);
+        free(s->sl[s->nsublevels].members);
+        memset(&s->sl[s->nsublevels], 0, sizeof s->sl[0]);
+    }
 }
 
 int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene_err *err)
@@ -61,8 +89,7 @@ int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene
     while (vp_name_next(names, &pos, &nm)) {
         uint16_t id = scene_sublevel_find(s, nm.name, nm.len);
         if (!id && !(id = define(s, nm.name, nm.len))) {
-            for (uint32_t k = first_new; k <= s->nsublevels; k++) free(s->sl[k].name);
-            s->nsublevels = first_new - 1; /* all or nothing */
+            undefine_to(s, first_new - 1); /* all or nothing */
             return scene_fail(err, VP_ERR_LIMIT, i, "name %u: %u sub-level names, limit %u", i, s->nsublevels,
                               SCENE_MAX_SUBLEVELS);
         }
@@ -136,11 +163,7 @@ int scene_sublevel_begin(scene *s, const vp_sublevel_begin *m, uint32_t owner, v
     if (!rc && m->classes && !(base = find_classes(s, m->classes)))
         rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "no run of %u free mesh classes", m->classes);
     if (rc) {
-        if (fresh) {
-            free(l->name);
-            l->name = NULL;
-            s->nsublevels--;
-        }
+        if (fresh) undefine_to(s, id - 1u);
         return rc;
     }
     for (uint32_t c = base; c < base + m->classes; c++) s->class_owner[c] = id;
@@ -165,24 +188,56 @@ int scene_sublevel_commit(scene *s, uint16_t id, uint32_t *entities, scene_err *
     return VP_OK;
 }
 
+/* The members that are still members, in order. */
+static void members_compact(scene *s, scene_sublevel *l, uint16_t id)
+{
+    uint32_t k = 0;
+    uint64_t h;
+    for (uint32_t i = 0; i < l->nmembers; i++)
+        if (member_live(s, id, l->members[i], &h)) l->members[k++] = l->members[i];
+    l->nmembers = k;
+}
+
+bool scene_members_reserve(scene *s, const cull_entity_desc *descs, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        uint16_t id = descs[i].sublevel;
+        if (!id || id > s->nsublevels) continue;
+        scene_sublevel *l = &s->sl[id];
+        if ((size_t)l->nmembers + n <= l->members_cap) continue;
+        /* entities leave without telling the list: drop those first when
+           it has grown well past the sub-level */
+        if (l->nmembers > 2 * s->sl_entities[id] + 1024) members_compact(s, l, id);
+        size_t cap = l->members_cap ? l->members_cap : 1024;
+        while (cap < (size_t)l->nmembers + n) cap *= 2;
+        if (cap > UINT32_MAX) return false;
+        uint64_t *m = realloc(l->members, cap * sizeof *m);
+        if (!m) return false;
+        l->members = m;
+        l->members_cap = (uint32_t)cap;
+    }
+    return true;
+}
+
+void scene_members_add(scene *s, uint16_t sub, uint64_t id)
+{
+    if (!sub || sub > s->nsublevels) return;
+    scene_sublevel *l = &s->sl[sub];
+    if (l->nmembers < l->members_cap) l->members[l->nmembers++] = id;
+}
+
 int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *err)
 {
-    if (!id || id > s->nsublevels)
-        return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level %u", id);
+    if (!id || id > s->nsublevels) return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level %u", id);
     scene_sublevel *l = &s->sl[id];
     if (l->state == VP_SL_UNLOADING)
         return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "sub-level %s is already being unloaded", l->name);
-    /* the entities to free later: found now, in one pass over the ids */
-    uint32_t n = s->sl_entities[id];
-    uint64_t *doomed = malloc(((size_t)n + 1) * sizeof *doomed);
-    if (!doomed) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an unload of %u entities", n);
-    uint32_t k = 0;
-    for (size_t i = 0; i < s->ids.cap && k < n; i++) {
-        if (!s->ids.used[i]) continue;
-        cull_entity_desc d;
-        if (cull_entity_get(s->world, (cull_handle)s->ids.vals[i], &d) == CULL_OK && d.sublevel == id)
-            doomed[k++] = s->ids.keys[i];
-    }
+    /* its members go, in slices (those that left since are skipped then) */
+    uint64_t *doomed = l->members;
+    uint32_t k = l->nmembers;
+    l->members = NULL;
+    l->nmembers = l->members_cap = 0;
+    *entities = s->sl_entities[id];
     bool visible = l->state != VP_SL_LOADING;
     hide(s, id, true);
     /* occluders, lights and the reserved meshes go now */
@@ -220,10 +275,9 @@ int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *er
     l->doomed_pos = 0;
     l->state = VP_SL_UNLOADING;
     s->unloading++;
-    *entities = k;
     if (visible) {
         s->epoch++;
-        s->ev_removed += k;
+        s->ev_removed += *entities;
     }
     return VP_OK;
 }
@@ -236,10 +290,9 @@ bool scene_sublevel_work(scene *s, uint32_t budget)
         while (l->doomed_pos < l->ndoomed && budget) {
             uint64_t eid = l->doomed[l->doomed_pos++], h;
             cull_entity_desc d;
-            /* removed, or moved away, since the unload began: not ours */
-            if (!idmap_get(&s->ids, eid, &h) || cull_entity_get(s->world, (cull_handle)h, &d) != CULL_OK ||
-                d.sublevel != id)
-                continue;
+            /* removed, or moved away, since it joined: not ours */
+            if (!member_live(s, (uint16_t)id, eid, &h)) continue;
+            cull_entity_get(s->world, (cull_handle)h, &d);
             cull_entity_remove(s->world, (cull_handle)h);
             idmap_del(&s->ids, eid);
             s->id_of_slot[h & (CULL_MAX_ENTITIES - 1u)] = 0;
