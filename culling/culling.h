@@ -429,6 +429,54 @@ int cull_occ_buffer_empty(const cull_occ_buffer *b);
 const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride);
 
 
+/* ---- destruction: distance volumes ------------------------------------------ */
+/* "Destruction Masking in Frostbite 2" (SIGGRAPH 2010): a destroyed area is
+ * a set of spheres placed on an entity; the signed distance to their union,
+ * min_i(|p - c_i| - r_i) (negative inside), is sampled on a small grid over
+ * the entity's box (typically 8 x 8 x 8) and read back with trilinear
+ * filtering. Samples sit on the box's corners and n - 1 steps between, so
+ * the grid covers the box exactly.
+ *
+ * Accuracy: at a sample the stored value is the exact distance rounded to
+ * float. Between samples the trilinear value differs from the exact
+ * distance by at most the voxel diagonal (the distance is 1-Lipschitz and
+ * the filter averages samples no farther than that): cull_dvol_bound. A
+ * consumer that must never miss destroyed space (an occluder's hole)
+ * widens by that bound. */
+#define CULL_DVOL_MAX_RES 64u
+#define CULL_DVOL_MAX_SPHERES 4096u
+
+typedef struct cull_dvol {
+    double   origin[3];      /* the box's min corner: sample (0,0,0) */
+    double   step[3];        /* metres between samples per axis (> 0) */
+    uint32_t n[3];           /* samples per axis, 2..CULL_DVOL_MAX_RES */
+    float   *d;              /* n[0] n[1] n[2] distances, x fastest */
+    float   *px, *py, *pz;   /* each sample's offset from origin (floats) */
+    double  (*sph)[4];       /* the spheres: centre xyz, radius (world) */
+    uint32_t nsph, cap;
+    uint64_t version;        /* +1 per change of the field */
+} cull_dvol;
+
+/* A field over the box [bmin, bmax] with res samples per axis (a flat axis
+ * gets 2 samples a millimetre apart), no spheres (every distance +inf).
+ * CULL_ERR_AABB / CULL_ERR_NONFINITE / CULL_ERR_INVALID (res) /
+ * CULL_ERR_NOMEM. Free with cull_dvol_free. */
+int  cull_dvol_init(cull_dvol *v, const double bmin[3], const double bmax[3], uint32_t res);
+void cull_dvol_free(cull_dvol *v);
+/* Adds a sphere and folds it into the field (one pass over the samples).
+ * CULL_ERR_NONFINITE, CULL_ERR_RADIUS (r <= 0), CULL_ERR_CAPACITY. */
+int  cull_dvol_add_sphere(cull_dvol *v, const double c[3], double r);
+/* Recomputes every sample from the sphere set (what a field built from a
+ * saved set does). */
+void cull_dvol_rebuild(cull_dvol *v);
+/* Trilinear distance at p (world); p outside the box is clamped to it. */
+float cull_dvol_sample(const cull_dvol *v, const double p[3]);
+/* The largest |trilinear - exact| can be: the voxel diagonal. */
+double cull_dvol_bound(const cull_dvol *v);
+/* The exact signed distance to the sphere set at p (double; +inf with no
+ * spheres): the reference the field approximates. */
+double cull_dvol_exact(const cull_dvol *v, const double p[3]);
+
 /* ---- lights: Forward+ tile binning ------------------------------------------- */
 /* "DirectX 11 Rendering in Battlefield 3" (GDC 2011): lights are culled per
  * screen tile of 16x16 pixels against the tile's frustum, narrowed to the

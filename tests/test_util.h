@@ -80,5 +80,6 @@ TEST_GROUP(image_tests)
 TEST_GROUP(exr_tests)
 TEST_GROUP(gl_tests)
 TEST_GROUP(sublevel_tests)
+TEST_GROUP(destruct_tests)
 
 #endif
