@@ -477,6 +477,19 @@ double cull_dvol_bound(const cull_dvol *v);
  * spheres): the reference the field approximates. */
 double cull_dvol_exact(const cull_dvol *v, const double p[3]);
 
+/* The holes destruction cuts in an occluder: of the triangles tri[0..ntri)
+ * (9 floats each, relative to origin) the parts farther than r + margin
+ * from every sphere of v. A triangle clear of every widened sphere is kept
+ * whole, one inside one of them dropped, one straddling a surface split in
+ * four down to edges of min_edge metres, the last straddling pieces
+ * dropped: an occluder only ever loses area, at most pieces of about
+ * min_edge around each hole. margin: cull_dvol_bound(v) plus whatever the
+ * renderers add, so the occluder's hole contains the drawn one. *out (and
+ * *parent: each piece's source triangle, if parent is not NULL) are
+ * malloc'ed; CULL_ERR_CAPACITY past max_out pieces (nothing returned). */
+int cull_occ_cut(const float *tri, uint32_t ntri, const double origin[3], const cull_dvol *v, double margin,
+                 double min_edge, uint32_t max_out, float **out, uint32_t **parent, uint32_t *nout);
+
 /* ---- lights: Forward+ tile binning ------------------------------------------- */
 /* "DirectX 11 Rendering in Battlefield 3" (GDC 2011): lights are culled per
  * screen tile of 16x16 pixels against the tile's frustum, narrowed to the

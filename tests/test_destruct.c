@@ -9,6 +9,7 @@
  */
 #include "test_util.h"
 
+#include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -102,8 +103,132 @@ static void test_dvol_bad_input(void **state)
     cull_dvol_free(&v);
 }
 
+/* Barycentric coordinates of p in triangle t (9 floats), in its plane. */
+static void bary(const float *t, const double p[3], double out[3])
+{
+    double e0[3], e1[3], d[3];
+    for (int k = 0; k < 3; k++) {
+        e0[k] = t[3 + k] - t[k];
+        e1[k] = t[6 + k] - t[k];
+        d[k] = p[k] - t[k];
+    }
+    double a = e0[0] * e0[0] + e0[1] * e0[1] + e0[2] * e0[2], b = e0[0] * e1[0] + e0[1] * e1[1] + e0[2] * e1[2];
+    double c = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2];
+    double x = d[0] * e0[0] + d[1] * e0[1] + d[2] * e0[2], y = d[0] * e1[0] + d[1] * e1[1] + d[2] * e1[2];
+    double den = a * c - b * b;
+    double v = (c * x - b * y) / den, w = (a * y - b * x) / den;
+    out[0] = 1 - v - w;
+    out[1] = v;
+    out[2] = w;
+}
+
+static void point_in(rng *r, const float *t, double p[3])
+{
+    double u = rng_f(r), v = rng_f(r);
+    if (u + v > 1) u = 1 - u, v = 1 - v;
+    for (int k = 0; k < 3; k++) p[k] = t[k] + u * (t[3 + k] - t[k]) + v * (t[6 + k] - t[k]);
+}
+
+/* The distance from p to the widened sphere set: min (|p - c| - r - margin). */
+static double clearance(const cull_dvol *v, const double origin[3], const double p[3], double margin)
+{
+    double best = INFINITY;
+    for (uint32_t k = 0; k < v->nsph; k++) {
+        double d[3] = {p[0] + origin[0] - v->sph[k][0], p[1] + origin[1] - v->sph[k][1], p[2] + origin[2] - v->sph[k][2]};
+        best = fmin(best, sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - v->sph[k][3] - margin);
+    }
+    return best;
+}
+
+/* Occluder holes against point sampling: no point of what is kept lies in
+ * the widened spheres (an occluder never hides what a hole shows), and
+ * every point clear of them by more than the smallest piece is kept. */
+static void test_occ_cut_matches_point_sampling(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xC07u};
+    uint64_t kept_pts = 0, clear_pts = 0, pieces = 0, dropped_whole = 0;
+    for (int f = 0; f < 60; f++) {
+        double origin[3] = {rng_range(&r, -1e4, 1e4), rng_range(&r, -10, 10), rng_range(&r, -1e4, 1e4)};
+        uint32_t ntri = 2 + rng_below(&r, 30);
+        float *tri = malloc(ntri * 9 * sizeof *tri);
+        /* a wall of two triangles, then a soup */
+        const float wall[18] = {-10, 0, 0, 10, 0, 0, 10, 8, 0, -10, 0, 0, 10, 8, 0, -10, 8, 0};
+        memcpy(tri, wall, sizeof wall);
+        for (uint32_t i = 18; i < 9 * ntri; i++) tri[i] = (float)rng_range(&r, -12, 12);
+        double lo[3] = {origin[0] - 12, origin[1] - 12, origin[2] - 12}, hi[3] = {origin[0] + 12, origin[1] + 12, origin[2] + 12};
+        cull_dvol v;
+        assert_int_equal(cull_dvol_init(&v, lo, hi, 8), CULL_OK);
+        uint32_t ns = 1 + rng_below(&r, 6);
+        for (uint32_t k = 0; k < ns; k++) {
+            double c[3] = {origin[0] + rng_range(&r, -10, 10), origin[1] + rng_range(&r, -2, 10), origin[2] + rng_range(&r, -3, 3)};
+            assert_int_equal(cull_dvol_add_sphere(&v, c, rng_log(&r, 0.3, 6)), CULL_OK);
+        }
+        double margin = rng_below(&r, 2) ? cull_dvol_bound(&v) : rng_range(&r, 0, 1);
+        double min_edge = rng_log(&r, 0.1, 2);
+        float *out;
+        uint32_t *parent, n;
+        assert_int_equal(cull_occ_cut(tri, ntri, origin, &v, margin, min_edge, 1u << 22, &out, &parent, &n), CULL_OK);
+        pieces += n;
+        /* kept: clear of every widened sphere (float rounding of the pieces aside) */
+        for (uint32_t i = 0; i < n; i++)
+            for (int s = 0; s < 8; s++) {
+                double p[3];
+                point_in(&r, out + 9 * (size_t)i, p);
+                double cl = clearance(&v, origin, p, margin);
+                if (!(cl >= -1e-4)) fail_msg("a kept point is %.6g m inside the hole", -cl);
+                kept_pts++;
+            }
+        /* clear of them by more than the smallest piece: kept */
+        for (uint32_t t = 0; t < ntri; t++) {
+            bool any = false;
+            for (uint32_t i = 0; i < n && !any; i++) any = parent[i] == t;
+            dropped_whole += !any;
+            for (int s = 0; s < 40; s++) {
+                double p[3];
+                point_in(&r, tri + 9 * (size_t)t, p);
+                if (clearance(&v, origin, p, margin) <= min_edge + 1e-6) continue;
+                clear_pts++;
+                bool in = false;
+                for (uint32_t i = 0; i < n && !in; i++) {
+                    if (parent[i] != t) continue;
+                    double b[3];
+                    bary(out + 9 * (size_t)i, p, b);
+                    in = b[0] >= -1e-4 && b[1] >= -1e-4 && b[2] >= -1e-4;
+                }
+                if (!in) fail_msg("triangle %u: a point %.3g m clear of the holes is not kept", t,
+                                  clearance(&v, origin, p, margin));
+            }
+        }
+        free(out);
+        free(parent);
+        free(tri);
+        cull_dvol_free(&v);
+    }
+    fprintf(stderr, "occluder cuts: %llu pieces, %llu kept points checked outside the holes, %llu clear points "
+                    "checked kept, %llu triangles dropped whole\n",
+            (unsigned long long)pieces, (unsigned long long)kept_pts, (unsigned long long)clear_pts,
+            (unsigned long long)dropped_whole);
+    assert_true(clear_pts > 1000 && kept_pts > 1000);
+    /* bad arguments, and the piece limit */
+    cull_dvol v;
+    double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, c[3] = {0.5, 0.5, 0};
+    const float t1[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    float *out;
+    uint32_t n;
+    assert_int_equal(cull_dvol_init(&v, lo, hi, 4), CULL_OK);
+    assert_int_equal(cull_dvol_add_sphere(&v, c, 0.2), CULL_OK);
+    assert_int_equal(cull_occ_cut(t1, 1, lo, &v, -1, 0.1, 100, &out, NULL, &n), CULL_ERR_INVALID);
+    assert_int_equal(cull_occ_cut(t1, 1, lo, &v, 0, 0, 100, &out, NULL, &n), CULL_ERR_INVALID);
+    assert_int_equal(cull_occ_cut(t1, 1, lo, &v, 0, 0.001, 10, &out, NULL, &n), CULL_ERR_CAPACITY);
+    assert_null(out);
+    assert_int_equal(n, 0);
+    cull_dvol_free(&v);
+}
+
 const struct CMUnitTest destruct_tests[] = {
     cmocka_unit_test(test_dvol_matches_brute_force),
     cmocka_unit_test(test_dvol_bad_input),
+    cmocka_unit_test(test_occ_cut_matches_point_sampling),
 };
 const size_t destruct_tests_count = sizeof destruct_tests / sizeof destruct_tests[0];
