@@ -671,3 +671,15 @@ int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out)
     if (rc) return rc;
     return vp_dec_sublevel_infos(p, len, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_INFO_REPLY") : VP_OK;
 }
+
+int vt_destroy(vt_client *c, const vp_destroy *m, vp_destroyed *out)
+{
+    vp_writer w;
+    const uint8_t *p;
+    uint32_t len, req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + VP_DESTROY_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_destroy(&w, req, m);
+    int rc = roundtrip(c, &w, req, VP_DESTROYED, &p, &len);
+    if (rc) return rc;
+    return vp_dec_destroyed(p, len, out) ? set_err(c, VT_ERR_IO, "malformed DESTROYED") : VP_OK;
+}

@@ -111,6 +111,9 @@ int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out);
 /* Every named sub-level with its state and counts (walk with
  * vp_sublevel_info_next; valid until the next call). */
 int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out);
+/* A destruction event (DESTROY): a sphere on entity m->id; out says the
+ * epoch it shows at, the entity's spheres, its occluder's triangles left. */
+int vt_destroy(vt_client *c, const vp_destroy *m, vp_destroyed *out);
 /* Waits for a pushed EVENT; VT_ERR_IO with timed_out set on timeout. */
 int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms);
 int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n);

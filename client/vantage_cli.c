@@ -47,6 +47,8 @@ static void usage(FILE *f)
             "        it as one sub-level: nothing of it is seen before all of it is (README: Authoring levels)\n"
             "  sublevel unload NAME             hide a sub-level at one epoch and free it\n"
             "  sublevel list [--json]           sub-levels with their state and counts\n"
+            "  destroy ID X,Y,Z RADIUS [--debris N] [--handle H] [--json]   a destruction sphere on an entity:\n"
+            "        its occluder is cut open for the next query\n"
             "  watch [--count N]                print scene-changed events as they happen\n"
             "  watch --frames DIR --eye X,Y,Z --at X,Y,Z [render's camera options] [--format jpg|png|exr]\n"
             "        [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]   write the frames pushed as the\n"
@@ -409,6 +411,41 @@ static int cmd_query(cli *k, int argc, char **argv)
     return 0;
 }
 
+static int cmd_destroy(cli *k, int argc, char **argv)
+{
+    const char *use = "destroy ID X,Y,Z RADIUS [--debris N] [--handle H] [--json]";
+    vp_destroy m = {0};
+    bool json = false;
+    if (argc < 4 || !parse_u64(argv[1], &m.id) || !parse_vec(argv[2], m.center, 3) || !parse_vec(argv[3], &m.radius, 1) ||
+        !(m.radius > 0))
+        return die_usage("%s", use);
+    for (int i = 4; i < argc; i++) {
+        uint64_t v;
+        if (!strcmp(argv[i], "--debris") && i + 1 < argc && parse_u64(argv[i + 1], &v) && v <= VP_MAX_DEBRIS)
+            m.debris = (uint8_t)v, i++;
+        else if (!strcmp(argv[i], "--handle") && i + 1 < argc && parse_u64(argv[i + 1], &v) && v <= UINT32_MAX)
+            m.handle = (uint32_t)v, i++;
+        else if (!strcmp(argv[i], "--json"))
+            json = true;
+        else
+            return die_usage("%s", use);
+    }
+    int rc = connect_cli(k, VP_ROLE_EDITOR);
+    if (rc) return rc;
+    vp_destroyed out;
+    if ((rc = vt_destroy(k->c, &m, &out))) return server_fail(k, "destroy", rc);
+    if (json)
+        printf("{\"id\": %llu, \"epoch\": %llu, \"spheres\": %u, \"occluder_triangles\": %u, \"debris\": %u, "
+               "\"cut_us\": %u}\n",
+               (unsigned long long)m.id, (unsigned long long)out.epoch, out.spheres, out.occluder_tris, out.debris,
+               out.cut_us);
+    else
+        printf("entity %llu: %u destruction sphere%s, its occluder %u triangles, %u debris; epoch %llu (%u us)\n",
+               (unsigned long long)m.id, out.spheres, out.spheres == 1 ? "" : "s", out.occluder_tris, out.debris,
+               (unsigned long long)out.epoch, out.cut_us);
+    return 0;
+}
+
 static int cmd_watch(cli *k, int argc, char **argv)
 {
     uint64_t count = UINT64_MAX;
@@ -478,7 +515,7 @@ int main(int argc, char **argv)
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
-        {"bench", cmd_bench}, {"sublevel", cmd_sublevel},
+        {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy},
     };
     int rc = -1;
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)

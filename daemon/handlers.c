@@ -693,6 +693,27 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         after_edit(s, c, h->req, rc, &err, b.count);
         return;
     }
+    case VP_DESTROY: {
+        if (!editor(s, c, h->req)) return;
+        vp_destroy m;
+        if ((rc = vp_dec_destroy(p, h->len, &m))) break;
+        vp_destroyed out;
+        pthread_rwlock_wrlock(&s->scene_lock);
+        rc = scene_destroy(s->sc, &m, s->cfg.destruct_res ? s->cfg.destruct_res : 8, &out, &err);
+        pthread_rwlock_unlock(&s->scene_lock);
+        if (rc) {
+            send_error(s, c, h->req, rc, err.index, err.msg);
+            return;
+        }
+        vp_writer w;
+        if (!out_reserve(c, VP_HEADER_SIZE + 24, &w)) {
+            c->closing = true;
+            return;
+        }
+        vp_enc_destroyed(&w, h->req, &out);
+        out_commit(c, &w);
+        return;
+    }
     case VP_MESH_PUT: {
         if (!editor(s, c, h->req)) return;
         vp_mesh m;

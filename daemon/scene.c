@@ -63,6 +63,7 @@ void scene_free(scene *s)
         if (s->lights.used[i]) free((void *)(uintptr_t)s->lights.vals[i]);
     idmap_free(&s->occluders);
     idmap_free(&s->lights);
+    scene_destruct_free_all(s);
     for (uint32_t i = 1; i <= s->nsublevels; i++) {
         free(s->sl[i].name);
         free(s->sl[i].doomed);
@@ -314,6 +315,7 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
         s->class_entities[old[i].class_id]--;
         s->class_entities[descs[i].class_id]++;
         if (old[i].sublevel != descs[i].sublevel) scene_members_add(s, descs[i].sublevel, ids[i]);
+        scene_destruct_moved(s, ids[i], &old[i], &descs[i]);
     }
     s->epoch++;
     s->edits += n;
@@ -351,6 +353,7 @@ int scene_remove(scene *s, const vp_id_batch *b, scene_err *err)
         cull_entity_remove(s->world, (cull_handle)h);
         idmap_del(&s->ids, ids[i]);
         s->id_of_slot[SLOT((cull_handle)h)] = 0;
+        scene_destruct_forget(s, ids[i]);
     }
     s->epoch++;
     s->edits += n;
@@ -431,10 +434,21 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
     cull_occluder_desc d = {.vertices = v, .vertex_count = 3 * o->tri_count, .sublevel = sub};
     d.transform[0] = d.transform[5] = d.transform[10] = d.transform[15] = 1;
     memcpy(d.transform + 12, o->origin, 3 * sizeof *o->origin);
+    /* an entity of this id destroyed before: the new triangles get its holes */
+    const scene_destruct *sd = scene_destruct_of(s, o->id);
+    float *pieces = NULL;
+    uint32_t kept;
+    if (sd && scene_occluder_cut(s, n, &sd->v, &d, &pieces, &kept) != CULL_OK) {
+        free(n);
+        free(v);
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory cutting occluder %llu", (unsigned long long)o->id);
+    }
     scene_occluder *old = exists ? (scene_occluder *)(uintptr_t)prev : NULL;
-    int crc = !o->tri_count ? CULL_OK : old && old->h ? cull_occluder_update(s->world, old->h, &d)
-                                                      : cull_occluder_add(s->world, &d, &n->h);
-    if (crc == CULL_OK && !o->tri_count && old && old->h) crc = cull_occluder_remove(s->world, old->h);
+    uint32_t draw = d.vertex_count / 3; /* none: nothing to draw (empty, or cut away) */
+    int crc = !draw ? CULL_OK : old && old->h ? cull_occluder_update(s->world, old->h, &d)
+                                              : cull_occluder_add(s->world, &d, &n->h);
+    if (crc == CULL_OK && !draw && old && old->h) crc = cull_occluder_remove(s->world, old->h);
+    free(pieces);
     if (crc != CULL_OK) {
         free(n);
         free(v);
@@ -442,7 +456,7 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
                     (unsigned long long)o->id, cull_strerror(crc));
     }
     if (old) {
-        if (o->tri_count) n->h = old->h;
+        if (draw && old->h) n->h = old->h; /* updated in place */
         free(old->verts);
         free(old);
     }

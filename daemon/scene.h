@@ -27,6 +27,11 @@ typedef struct scene_occluder {
     uint16_t sublevel;
 } scene_occluder;
 
+/* An entity's destruction: its distance volume (the sphere set in it). */
+typedef struct scene_destruct {
+    cull_dvol v;
+} scene_destruct;
+
 /* A light as stored (the lights map's values point to these). */
 typedef struct scene_light {
     vp_light l;
@@ -75,6 +80,8 @@ typedef struct scene {
     uint64_t hidden[CULL_SUBLEVEL_WORDS]; /* sub-levels no query sees (loading, unloading) */
     uint32_t nhidden;
     uint32_t unloading;     /* sub-levels with entities left to free */
+    idmap destruct;         /* entity id -> scene_destruct * */
+    uint64_t debris_next;   /* debris entities spawned, ever */
 } scene;
 
 /* Result of a failed edit: code from VP_ERRORS, the failing record, why. */
@@ -131,6 +138,24 @@ const uint64_t *scene_visible(const scene *s, const uint64_t *only, uint64_t *bu
  * and nobody else may write into a sub-level being loaded or unloaded.
  * VP_OK (with *sub settled) or an error naming record `index`. */
 int scene_sublevel_target(const scene *s, uint16_t load, uint16_t *sub, uint32_t index, scene_err *err);
+/* ---- destruction (destruct.c) ---- */
+/* A destruction event: the sphere joins entity m->id's set (its volume made
+ * on the first, res^3 over its box), its occluder (same id) is cut open,
+ * debris spawned; one epoch. All or nothing. */
+int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out, scene_err *err);
+/* The entity's destruction, or NULL. */
+const scene_destruct *scene_destruct_of(const scene *s, uint64_t id);
+/* An entity's box changed: its destruction follows it. */
+void scene_destruct_moved(scene *s, uint64_t id, const cull_entity_desc *from, const cull_entity_desc *to);
+/* An entity is gone: so is its destruction. */
+void scene_destruct_forget(scene *s, uint64_t id);
+void scene_destruct_free_all(scene *s);
+/* d (an occluder desc of o's triangles as sent) with the holes of v cut
+ * in: *pieces (malloc'ed, may be NULL) holds the triangles d now points to;
+ * *kept their count. */
+int scene_occluder_cut(scene *s, scene_occluder *o, const cull_dvol *v, cull_occluder_desc *d, float **pieces,
+                       uint32_t *kept);
+
 /* A sub-level's occluders and lights (a scan). */
 void scene_sublevel_counts(const scene *s, uint16_t id, uint32_t *occluders, uint32_t *lights);
 

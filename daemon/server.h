@@ -21,6 +21,7 @@ typedef struct server_config {
     uint32_t threads;        /* query worker threads, 0 = cores */
     int renderer;            /* VP_RENDERER_SOFT or VP_RENDERER_GL: when a request names none */
     double cell_size;
+    uint32_t destruct_res;   /* samples per axis of a destruction volume */
     scene_limits limits;
 } server_config;
 

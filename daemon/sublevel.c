@@ -295,6 +295,7 @@ bool scene_sublevel_work(scene *s, uint32_t budget)
             cull_entity_get(s->world, (cull_handle)h, &d);
             cull_entity_remove(s->world, (cull_handle)h);
             idmap_del(&s->ids, eid);
+            scene_destruct_forget(s, eid);
             s->id_of_slot[h & (CULL_MAX_ENTITIES - 1u)] = 0;
             s->sl_entities[id]--;
             s->class_entities[d.class_id]--;

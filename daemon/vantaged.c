@@ -30,6 +30,7 @@ static void usage(FILE *f)
             "  --max-entities N     entities in the scene (default 4194304)\n"
             "  --out-limit BYTES    unread reply bytes before a client is dropped (default 268435456)\n"
             "  --threads N          query worker threads (default: cores)\n"
+            "  --destruct-res N     destruction distance volumes: N^3 samples over an entity's box (default 8)\n"
             "  --render soft|gl     renderer for frames that name none (default soft; gl: headless\n"
             "                       OpenGL through EGL, and the daemon will not start without it)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
@@ -58,13 +59,14 @@ int main(int argc, char **argv)
         .out_limit = 256u << 20,
         .cell_size = 64,
         .renderer = VP_RENDERER_SOFT,
+        .destruct_res = 8,
         .limits = {.max_entities = CULL_MAX_ENTITIES, .max_lights = 65536, .max_occluders = 1u << 20,
                    .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 22},
     };
     const char *scene_kind = "demo";
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
-           O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP };
+           O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -73,7 +75,8 @@ int main(int argc, char **argv)
         {"max-batch", required_argument, 0, O_BATCH}, {"max-entities", required_argument, 0, O_ENTITIES},
         {"out-limit", required_argument, 0, O_OUT}, {"threads", required_argument, 0, O_THREADS},
         {"render", required_argument, 0, O_RENDER},
-        {"log-level", required_argument, 0, O_LOG}, {"help", no_argument, 0, O_HELP}, {0, 0, 0, 0},
+        {"log-level", required_argument, 0, O_LOG}, {"help", no_argument, 0, O_HELP},
+        {"destruct-res", required_argument, 0, O_DRES}, {0, 0, 0, 0},
     };
     int o;
     bool ok = true;
@@ -91,6 +94,7 @@ int main(int argc, char **argv)
         case O_ENTITIES: ok = parse_u32(optarg, 1, CULL_MAX_ENTITIES, &cfg.limits.max_entities); break;
         case O_OUT: ok = parse_u32(optarg, 4096, UINT32_MAX, &cfg.out_limit); break;
         case O_THREADS: ok = parse_u32(optarg, 0, 256, &cfg.threads); break;
+        case O_DRES: ok = parse_u32(optarg, 2, CULL_DVOL_MAX_RES, &cfg.destruct_res); break;
         case O_RENDER:
             cfg.renderer = !strcmp(optarg, "gl") ? VP_RENDERER_GL : VP_RENDERER_SOFT;
             ok = !strcmp(optarg, "gl") || !strcmp(optarg, "soft");

@@ -55,6 +55,8 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_SUBLEVEL_UNLOAD, "sublevel_unload"},
     {VP_SUBLEVEL_INFO, "sublevel_info"},
     {VP_SUBLEVEL_INFO_REPLY, "sublevel_info_reply"},
+    {VP_DESTROY, "destroy"},
+    {VP_DESTROYED, "destroyed"},
     {VP_VIS_QUERY, "vis_query"},
     {VP_VIS_RESULT, "vis_result"},
     {VP_RENDER, "render"},

@@ -111,7 +111,10 @@ enum vp_type {
     VP_SUBLEVEL_UNLOAD = 0x0308,
     VP_SUBLEVEL_INFO = 0x0309,
     VP_SUBLEVEL_INFO_REPLY = 0x030a,
-    /* reserved: 0x0400 destruction, 0x0500 frames, 0x0600 input,
+    /* 0x0400..0x04ff destruction */
+    VP_DESTROY = 0x0400,
+    VP_DESTROYED = 0x0401,
+    /* reserved: 0x0600 input,
        0x0700 persistence and administration */
 };
 
@@ -411,6 +414,34 @@ void vp_enc_sublevel_infos_begin(vp_writer *w, uint32_t req, uint64_t epoch, uin
 void vp_put_sublevel_info(vp_writer *w, const vp_sublevel_info *m);
 int  vp_dec_sublevel_infos(const uint8_t *p, size_t len, vp_sublevel_infos *m);
 bool vp_sublevel_info_next(const vp_sublevel_infos *l, size_t *pos, vp_sublevel_info *out);
+
+/* DESTROY: a sphere of destruction on an entity ("Destruction Masking in
+ * Frostbite 2"): added to the entity's sphere set, its distance volume
+ * updated, its occluder (the occluder with the entity's id) cut open, so
+ * the next query sees through the hole and the next frame shows it.
+ * Answered with DESTROYED. */
+#define VP_DESTROY_SIZE 48u
+#define VP_MAX_DEBRIS 64u
+typedef struct vp_destroy {
+    uint64_t id;              /* the entity */
+    uint32_t handle;          /* 0, or its current handle (else STALE) */
+    uint8_t  debris;          /* dynamic debris entities to spawn around the hole, 0..64 */
+    double   center[3];       /* world metres */
+    double   radius;          /* metres, > 0 */
+} vp_destroy;
+
+typedef struct vp_destroyed {
+    uint64_t epoch;           /* the scene epoch the destruction is visible at */
+    uint32_t spheres;         /* in the entity's set now */
+    uint32_t occluder_tris;   /* its occluder's triangles after the cut (0: none left or no occluder) */
+    uint32_t debris;          /* debris entities spawned (ids: see PROTOCOL.md) */
+    uint32_t cut_us;          /* time to update the volume and cut the occluder */
+} vp_destroyed;
+
+void vp_enc_destroy(vp_writer *w, uint32_t req, const vp_destroy *m);
+int  vp_dec_destroy(const uint8_t *p, size_t len, vp_destroy *m);
+void vp_enc_destroyed(vp_writer *w, uint32_t req, const vp_destroyed *m);
+int  vp_dec_destroyed(const uint8_t *p, size_t len, vp_destroyed *m);
 
 /* Encoders: append one whole frame to w. */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);

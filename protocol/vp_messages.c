@@ -906,3 +906,60 @@ int vp_dec_frame(const uint8_t *p, size_t len, vp_frame *m)
     if (m->format == VP_FRAME_RAW && (uint64_t)m->data_len != (uint64_t)m->width * m->height * 20) return VP_ERR_COUNT;
     return VP_OK;
 }
+
+/* ---- destruction --------------------------------------------------------------- */
+
+void vp_enc_destroy(vp_writer *w, uint32_t req, const vp_destroy *m)
+{
+    vp_frame_begin(w, VP_DESTROY, req);
+    vp_put_u64(w, m->id);
+    vp_put_u32(w, m->handle);
+    vp_put_u8(w, m->debris);
+    vp_put_u8(w, 0);
+    vp_put_u16(w, 0);
+    for (int k = 0; k < 3; k++) vp_put_f64(w, m->center[k]);
+    vp_put_f64(w, m->radius);
+    vp_frame_end(w);
+}
+
+int vp_dec_destroy(const uint8_t *p, size_t len, vp_destroy *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->id = vp_get_u64(&r);
+    m->handle = vp_get_u32(&r);
+    m->debris = vp_get_u8(&r);
+    uint8_t pad8 = vp_get_u8(&r);
+    uint16_t pad16 = vp_get_u16(&r);
+    for (int k = 0; k < 3; k++) m->center[k] = vp_get_f64(&r);
+    m->radius = vp_get_f64(&r);
+    int rc = vp_reader_finish(&r);
+    if (rc) return rc;
+    if (pad8 || pad16) return VP_ERR_INVALID;
+    if (!vp_finite_n(m->center, 3) || !isfinite(m->radius)) return VP_ERR_NONFINITE;
+    if (!(m->radius > 0) || m->debris > VP_MAX_DEBRIS) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+void vp_enc_destroyed(vp_writer *w, uint32_t req, const vp_destroyed *m)
+{
+    vp_frame_begin(w, VP_DESTROYED, req);
+    vp_put_u64(w, m->epoch);
+    vp_put_u32(w, m->spheres);
+    vp_put_u32(w, m->occluder_tris);
+    vp_put_u32(w, m->debris);
+    vp_put_u32(w, m->cut_us);
+    vp_frame_end(w);
+}
+
+int vp_dec_destroyed(const uint8_t *p, size_t len, vp_destroyed *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->epoch = vp_get_u64(&r);
+    m->spheres = vp_get_u32(&r);
+    m->occluder_tris = vp_get_u32(&r);
+    m->debris = vp_get_u32(&r);
+    m->cut_us = vp_get_u32(&r);
+    return vp_reader_finish(&r);
+}

@@ -9,6 +9,9 @@
  */
 #include "test_util.h"
 
+#include "test_daemon.h"
+#include "vantage.h"
+
 #include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
@@ -226,9 +229,106 @@ static void test_occ_cut_matches_point_sampling(void **state)
     cull_dvol_free(&v);
 }
 
+/* ---- end to end: a destruction event opens the occluder for the next query -- */
+
+/* The 12 counter-clockwise triangles of box [lo, hi], relative to lo. */
+static void box_tris(const double lo[3], const double hi[3], float t[108])
+{
+    float X = (float)(hi[0] - lo[0]), Y = (float)(hi[1] - lo[1]), Z = (float)(hi[2] - lo[2]);
+    const float c[8][3] = {{0, 0, 0}, {X, 0, 0}, {X, Y, 0}, {0, Y, 0}, {0, 0, Z}, {X, 0, Z}, {X, Y, Z}, {0, Y, Z}};
+    static const int f[12][3] = {{0, 3, 2}, {0, 2, 1}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                                 {3, 7, 6}, {3, 6, 2}, {0, 4, 7}, {0, 7, 3}, {1, 2, 6}, {1, 6, 5}};
+    for (int i = 0; i < 12; i++)
+        for (int v = 0; v < 3; v++)
+            for (int a = 0; a < 3; a++) t[i * 9 + v * 3 + a] = c[f[i][v]][a];
+}
+
+/* Whether entity id is in a query of the street view (occlusion on). */
+static bool sees(vt_client *c, uint64_t id, uint64_t *epoch)
+{
+    vp_view v;
+    double eye[3] = {0, 2, -30}, at[3] = {0, 2, 0}, up[3] = {0, 1, 0};
+    assert_true(vt_view_perspective(&v, eye, at, up, 60, 640, 360, 0.5, 500));
+    vp_vis_result r;
+    assert_int_equal(vt_query(c, &v, 1, 0, 0, &r), VP_OK);
+    if (epoch) *epoch = r.epoch;
+    for (uint32_t i = 0; i < r.count; i++) {
+        vp_vis_rec rec;
+        vp_vis_rec_get(&r, i, &rec);
+        if (rec.id == id) return true;
+    }
+    return false;
+}
+
+static void test_destroy_opens_occluder(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false), *viewer = connect_role(&d, VP_ROLE_VIEWER, true);
+    /* a wall (entity 10 and its occluder 10) and a crate behind it */
+    double lo[3] = {-10, 0, -0.5}, hi[3] = {10, 8, 0.5};
+    vp_entity e[2] = {{.id = 10, .aabb = {-10, 0, -0.5, 10, 8, 0.5}}, {.id = 20, .aabb = {-0.25, 1.75, 10, 0.25, 2.25, 10.5}}};
+    uint32_t hs[2];
+    assert_int_equal(vt_add(ed, e, 2, hs, NULL), VP_OK);
+    float tri[108];
+    box_tris(lo, hi, tri);
+    assert_int_equal(vt_put_occluder(ed, 10, lo, tri, 12), VP_OK);
+    assert_false(sees(viewer, 20, NULL));
+    assert_true(sees(viewer, 10, NULL));
+    /* bad events change nothing */
+    vp_destroyed out;
+    vp_stats_reply st0, st1;
+    assert_int_equal(vt_stats(ed, &st0), VP_OK);
+    vp_destroy m = {.id = 99, .center = {0, 2, 0}, .radius = 2};
+    assert_int_equal(vt_destroy(ed, &m, &out), VP_ERR_UNKNOWN_ID);
+    m = (vp_destroy){.id = 10, .handle = hs[0] + 1, .center = {0, 2, 0}, .radius = 2};
+    assert_int_equal(vt_destroy(ed, &m, &out), VP_ERR_STALE);
+    m = (vp_destroy){.id = 10, .center = {0, 2, 0}, .radius = 0};
+    assert_int_equal(vt_destroy(ed, &m, &out), VP_ERR_INVALID);
+    m = (vp_destroy){.id = 10, .center = {NAN, 2, 0}, .radius = 1};
+    assert_int_equal(vt_destroy(ed, &m, &out), VP_ERR_NONFINITE);
+    m = (vp_destroy){.id = 10, .center = {0, 2, 0}, .radius = 2};
+    assert_int_equal(vt_destroy(viewer, &m, &out), VP_ERR_AUTH);
+    assert_int_equal(vt_stats(ed, &st1), VP_OK);
+    assert_int_equal(st1.epoch, st0.epoch);
+    assert_false(sees(viewer, 20, NULL));
+    /* the hole: the crate shows in the very next query */
+    m = (vp_destroy){.id = 10, .handle = hs[0], .center = {0, 2, 0}, .radius = 1.5};
+    assert_int_equal(vt_destroy(ed, &m, &out), VP_OK);
+    assert_int_equal(out.spheres, 1);
+    assert_true(out.occluder_tris > 12); /* cut, not dropped */
+    uint64_t ep;
+    assert_true(sees(viewer, 20, &ep));
+    assert_true(ep >= out.epoch);
+    assert_true(sees(viewer, 10, NULL)); /* the wall is still there */
+    /* a second sphere elsewhere; the hole stays */
+    m = (vp_destroy){.id = 10, .center = {-9, 7, 0}, .radius = 1, .debris = 5};
+    assert_int_equal(vt_destroy(ed, &m, &out), VP_OK);
+    assert_int_equal(out.spheres, 2);
+    assert_int_equal(out.debris, 5);
+    assert_true(sees(viewer, 20, NULL));
+    assert_int_equal(vt_stats(ed, &st1), VP_OK);
+    assert_int_equal(st1.entities, 2 + 5);
+    assert_int_equal(st1.dynamic_entities, 5);
+    /* the editor sends the wall's occluder again: it gets the holes too */
+    assert_int_equal(vt_put_occluder(ed, 10, lo, tri, 12), VP_OK);
+    assert_true(sees(viewer, 20, NULL));
+    /* the wall entity goes: so does its destruction, and a new occluder of
+       that id is whole */
+    uint64_t gone = 10;
+    assert_int_equal(vt_remove(ed, &gone, 1, NULL), VP_OK);
+    assert_int_equal(vt_put_occluder(ed, 10, lo, tri, 12), VP_OK);
+    assert_false(sees(viewer, 20, NULL));
+    vt_close(ed);
+    vt_close(viewer);
+    daemon_stop(&d);
+}
+
 const struct CMUnitTest destruct_tests[] = {
     cmocka_unit_test(test_dvol_matches_brute_force),
     cmocka_unit_test(test_dvol_bad_input),
     cmocka_unit_test(test_occ_cut_matches_point_sampling),
+    cmocka_unit_test(test_destroy_opens_occluder),
 };
 const size_t destruct_tests_count = sizeof destruct_tests / sizeof destruct_tests[0];

@@ -720,6 +720,33 @@ static void fuzz_sublevel_infos(const uint8_t *p, size_t len)
     enc_close(&b);
 }
 
+static void fuzz_destroy(const uint8_t *p, size_t len)
+{
+    vp_destroy m;
+    int rc = vp_dec_destroy(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == VP_DESTROY_SIZE && m.radius > 0 && m.debris <= VP_MAX_DEBRIS);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_destroy(&b.w, 3, &m);
+    CHECK(!memcmp(enc_payload(&b, VP_DESTROY, len), p, len));
+    enc_close(&b);
+}
+
+static void fuzz_destroyed(const uint8_t *p, size_t len)
+{
+    vp_destroyed m;
+    int rc = vp_dec_destroyed(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_destroyed(&b.w, 3, &m);
+    CHECK(!memcmp(enc_payload(&b, VP_DESTROYED, len), p, len));
+    enc_close(&b);
+}
+
 static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
 {
     uint32_t limit = h->req; /* fuzzer-chosen max_batch for the batch decoders */
@@ -765,6 +792,8 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_SUBLEVEL_BEGUN: fuzz_sublevel_begun(p, len); return;
     case VP_SUBLEVEL_UNLOAD: fuzz_sublevel_name(p, len); return;
     case VP_SUBLEVEL_INFO_REPLY: fuzz_sublevel_infos(p, len); return;
+    case VP_DESTROY: fuzz_destroy(p, len); return;
+    case VP_DESTROYED: fuzz_destroyed(p, len); return;
     default: break;
     }
     /* Unknown to this version: a server would answer ERROR TYPE and skip

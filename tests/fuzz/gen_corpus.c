@@ -355,6 +355,11 @@ int main(int argc, char **argv)
         vp_put_sublevel_info(&g_w, &(vp_sublevel_info){.id = 2, .state = VP_SL_LOADING, .name_len = 5,
                                                       .name = (const uint8_t *)"north"});
         vp_frame_end(&g_w), save("sublevel_info_reply");
+        vp_enc_destroy(&g_w, 35, &(vp_destroy){.id = 10, .handle = 4194305, .debris = 4, .center = {1, 2, 3}, .radius = 1.5}),
+            save("destroy");
+        vp_enc_destroy(&g_w, 35, &(vp_destroy){.id = 10, .center = {1, 2, 3}, .radius = -1}), save("bad_destroy_radius");
+        vp_enc_destroyed(&g_w, 35, &(vp_destroyed){.epoch = 12, .spheres = 1, .occluder_tris = 40, .debris = 4, .cut_us = 80}),
+            save("destroyed");
     }
     at = g_w.len, enc_vis_query(1, 0, 1), *payload_at(at, 2) = 1, save("bad_vis_query_pad");
     at = g_w.len, enc_vis_query(1, 0, 1), *payload_at(at, 0) = 33, save("bad_vis_query_33_views");

@@ -1,0 +1,259 @@
+/*
+ * destruct.c — destruction events (see scene.h, scene_destroy).
+ *
+ * An entity hit by DESTROY gets a distance volume (culling/cull_dvol: the
+ * signed distance to its sphere set on an n^3 grid over its box), kept
+ * until the entity goes. If an occluder has the entity's id (the demo
+ * city's buildings, an imported entity's OCC_ node), its triangles as sent
+ * are cut again with the whole sphere set (cull_occ_cut, widened by the
+ * volume's bound so the occluder's hole holds every point the renderers may
+ * draw as destroyed) and the culling world's copy replaced: the next query
+ * sees through the hole. The cut is a cache of (triangles as sent, sphere
+ * set): an OCCLUDER_PUT of that id is cut the same way before it is drawn.
+ */
+#include "scene.h"
+#include "log.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define CUT_MIN_EDGE 0.25      /* metres: the smallest piece around a hole's rim */
+#define CUT_MAX_PIECES 65536u  /* past this an occluder is dropped whole (safe: it hides less) */
+#define DEBRIS_ID_BASE (1ull << 62)
+
+static uint64_t mono_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+const scene_destruct *scene_destruct_of(const scene *s, uint64_t id)
+{
+    uint64_t v;
+    return s->destruct.count && idmap_get(&s->destruct, id, &v) ? (const scene_destruct *)(uintptr_t)v : NULL;
+}
+
+void scene_destruct_forget(scene *s, uint64_t id)
+{
+    uint64_t v;
+    if (!s->destruct.count || !idmap_get(&s->destruct, id, &v)) return;
+    scene_destruct *d = (scene_destruct *)(uintptr_t)v;
+    cull_dvol_free(&d->v);
+    free(d);
+    idmap_del(&s->destruct, id);
+}
+
+void scene_destruct_moved(scene *s, uint64_t id, const cull_entity_desc *from, const cull_entity_desc *to)
+{
+    uint64_t v;
+    if (!s->destruct.count || !idmap_get(&s->destruct, id, &v)) return;
+    if (!memcmp(from->aabb_min, to->aabb_min, sizeof to->aabb_min) &&
+        !memcmp(from->aabb_max, to->aabb_max, sizeof to->aabb_max))
+        return;
+    /* the damage moves with the entity: its spheres by the box's corner,
+       the volume over the new box */
+    scene_destruct *d = (scene_destruct *)(uintptr_t)v;
+    cull_dvol nv;
+    uint32_t res = d->v.n[0] > d->v.n[1] ? d->v.n[0] : d->v.n[1];
+    res = res > d->v.n[2] ? res : d->v.n[2];
+    if (cull_dvol_init(&nv, to->aabb_min, to->aabb_max, res) != CULL_OK) {
+        LOGW("entity %llu moved: its destruction could not follow (out of memory), dropped", (unsigned long long)id);
+        scene_destruct_forget(s, id);
+        return;
+    }
+    for (uint32_t k = 0; k < d->v.nsph; k++) {
+        double c[3];
+        for (int a = 0; a < 3; a++) c[a] = d->v.sph[k][a] + (to->aabb_min[a] - from->aabb_min[a]);
+        cull_dvol_add_sphere(&nv, c, d->v.sph[k][3]);
+    }
+    cull_dvol_free(&d->v);
+    d->v = nv;
+}
+
+void scene_destruct_free_all(scene *s)
+{
+    for (size_t i = 0; i < s->destruct.cap; i++) {
+        if (!s->destruct.used[i]) continue;
+        scene_destruct *d = (scene_destruct *)(uintptr_t)s->destruct.vals[i];
+        cull_dvol_free(&d->v);
+        free(d);
+    }
+    idmap_free(&s->destruct);
+}
+
+int scene_occluder_cut(scene *s, scene_occluder *o, const cull_dvol *v, cull_occluder_desc *d, float **pieces,
+                       uint32_t *kept)
+{
+    (void)s;
+    *pieces = NULL;
+    *kept = o->ntris;
+    if (!v || !v->nsph) return CULL_OK;
+    uint32_t n;
+    int rc = cull_occ_cut(o->verts, o->ntris, o->origin, v, cull_dvol_bound(v), CUT_MIN_EDGE, CUT_MAX_PIECES, pieces,
+                          NULL, &n);
+    if (rc == CULL_ERR_CAPACITY) {
+        LOGW("occluder cut: more than %u pieces, the occluder is dropped whole", CUT_MAX_PIECES);
+        n = 0;
+        rc = CULL_OK;
+    }
+    if (rc) return rc;
+    d->vertices = *pieces;
+    d->vertex_count = 3 * n;
+    *kept = n;
+    return CULL_OK;
+}
+
+/* The culling world's copy of occluder o: its triangles as sent, cut by v. */
+static int occluder_recut(scene *s, scene_occluder *o, const cull_dvol *v, uint32_t *kept)
+{
+    cull_occluder_desc d = {.vertices = o->verts, .vertex_count = 3 * o->ntris, .sublevel = o->sublevel};
+    d.transform[0] = d.transform[5] = d.transform[10] = d.transform[15] = 1;
+    memcpy(d.transform + 12, o->origin, sizeof o->origin);
+    float *pieces;
+    int rc = scene_occluder_cut(s, o, v, &d, &pieces, kept);
+    if (rc) return rc;
+    if (!d.vertex_count) {
+        if (o->h) rc = cull_occluder_remove(s->world, o->h);
+        if (!rc) o->h = 0;
+    } else if (o->h) {
+        rc = cull_occluder_update(s->world, o->h, &d);
+    } else {
+        rc = cull_occluder_add(s->world, &d, &o->h);
+    }
+    free(pieces);
+    return rc;
+}
+
+/* A small splitmix stream for debris, from the entity and its sphere count. */
+static double drand_from(uint64_t *st)
+{
+    uint64_t z = (*st += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
+}
+
+static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t nsph, scene_err *err)
+{
+    uint32_t n = m->debris;
+    size_t len = VP_HEADER_SIZE + 4 + (size_t)n * VP_ENTITY_REC_SIZE;
+    uint8_t *buf = malloc(len);
+    vp_entity *e = calloc(n, sizeof *e);
+    uint32_t *h = malloc(n * sizeof *h);
+    int rc = VP_OK;
+    if (!buf || !e || !h) {
+        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for debris");
+        goto out;
+    }
+    uint64_t st = m->id * 31 + nsph;
+    for (uint32_t i = 0; i < n; i++) {
+        double half = 0.1 + 0.3 * drand_from(&st), dir[3], l = 0;
+        for (int a = 0; a < 3; a++) {
+            dir[a] = drand_from(&st) * 2 - 1;
+            l += dir[a] * dir[a];
+        }
+        l = l > 1e-12 ? sqrt(l) : 1;
+        double dist = m->radius * (1 + 0.5 * drand_from(&st));
+        e[i] = (vp_entity){.id = DEBRIS_ID_BASE + s->debris_next + i, .sublevel = sub, .flags = VP_ENT_DYNAMIC};
+        for (int a = 0; a < 3; a++) {
+            double c = m->center[a] + dir[a] / l * dist;
+            e[i].aabb[a] = c - half;
+            e[i].aabb[3 + a] = c + half;
+        }
+    }
+    vp_writer w;
+    vp_writer_init(&w, buf, len);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 0, e, n);
+    vp_entity_batch b;
+    if (vp_dec_entities(buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &b)) {
+        rc = scene_fail(err, VP_ERR_INTERNAL, UINT32_MAX, "debris records");
+        goto out;
+    }
+    if ((rc = scene_add(s, 0, &b, h, err)) == VP_OK) s->debris_next += n;
+out:
+    free(buf);
+    free(e);
+    free(h);
+    return rc;
+}
+
+int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out, scene_err *err)
+{
+    uint64_t t0 = mono_ns(), hv;
+    memset(out, 0, sizeof *out);
+    if (!idmap_get(&s->ids, m->id, &hv))
+        return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no entity with id %llu", (unsigned long long)m->id);
+    cull_handle h = (cull_handle)hv;
+    if (m->handle && m->handle != h)
+        return scene_fail(err, VP_ERR_STALE, UINT32_MAX, "handle %u is not entity %llu's (%u)", m->handle,
+                          (unsigned long long)m->id, h);
+    cull_entity_desc e;
+    cull_entity_get(s->world, h, &e);
+    uint16_t sub = e.sublevel;
+    int rc = scene_sublevel_target(s, 0, &sub, UINT32_MAX, err);
+    if (rc) return rc;
+    if (m->debris && s->ids.count + m->debris > s->lim.max_entities)
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "no room for %u debris entities", m->debris);
+    /* the volume: made over the entity's box on its first destruction */
+    uint64_t dv;
+    scene_destruct *d = NULL;
+    bool fresh = !idmap_get(&s->destruct, m->id, &dv);
+    if (fresh) {
+        if (!idmap_reserve(&s->destruct, s->destruct.count + 1) || !(d = calloc(1, sizeof *d)))
+            return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a distance volume");
+        int crc = cull_dvol_init(&d->v, e.aabb_min, e.aabb_max, res);
+        if (crc) {
+            free(d);
+            return scene_fail(err, crc == CULL_ERR_NOMEM ? VP_ERR_LIMIT : VP_ERR_SCENE, UINT32_MAX,
+                              "distance volume: %s", cull_strerror(crc));
+        }
+    } else {
+        d = (scene_destruct *)(uintptr_t)dv;
+    }
+    int crc = cull_dvol_add_sphere(&d->v, m->center, m->radius);
+    if (crc) {
+        if (fresh) {
+            cull_dvol_free(&d->v);
+            free(d);
+        }
+        return scene_fail(err, crc == CULL_ERR_CAPACITY ? VP_ERR_LIMIT : VP_ERR_INVALID, UINT32_MAX,
+                          "destruction sphere: %s", cull_strerror(crc));
+    }
+    /* debris now, so a failure can still take the sphere back */
+    if (m->debris && (rc = spawn_debris(s, m, sub, d->v.nsph, err)) != VP_OK) {
+        if (fresh) {
+            cull_dvol_free(&d->v);
+            free(d);
+        } else {
+            d->v.nsph--;
+            cull_dvol_rebuild(&d->v);
+        }
+        return rc;
+    }
+    if (fresh) idmap_put(&s->destruct, m->id, (uint64_t)(uintptr_t)d);
+    /* its occluder, cut again from the triangles as sent */
+    uint64_t ov;
+    if (idmap_get(&s->occluders, m->id, &ov)) {
+        scene_occluder *o = (scene_occluder *)(uintptr_t)ov;
+        uint32_t kept;
+        crc = occluder_recut(s, o, &d->v, &kept);
+        if (crc) {
+            /* out of memory in the culling world: the occluder goes whole
+               (hiding less is always safe) */
+            LOGW("occluder %llu: cut failed (%s), removed", (unsigned long long)m->id, cull_strerror(crc));
+            if (o->h) cull_occluder_remove(s->world, o->h);
+            o->h = 0;
+            kept = 0;
+        }
+        out->occluder_tris = kept;
+    }
+    out->spheres = d->v.nsph;
+    out->debris = m->debris;
+    out->cut_us = (uint32_t)((mono_ns() - t0) / 1000);
+    if (!m->debris) s->epoch++; /* (debris came with an epoch of their own) */
+    out->epoch = s->epoch;
+    return VP_OK;
+}
