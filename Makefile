@@ -187,8 +187,8 @@ $(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 $(SUBB_BIN): $(SUBB_OBJ) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(SUBB_OBJ) $(CLIENT_LIB) $(LDLIBS)
 
-$(DESB_BIN): $(DESB_OBJ) $(CULL_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DESB_OBJ) $(CULL_LIB) $(LDLIBS)
+$(DESB_BIN): $(DESB_OBJ) $(CLIENT_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(DESB_OBJ) $(CLIENT_LIB) $(LDLIBS)
 
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)

@@ -19,7 +19,7 @@
 #include <string.h>
 #include <time.h>
 
-#define CUT_MIN_EDGE 0.25      /* metres: the smallest piece around a hole's rim */
+#define CUT_MIN_EDGE 0.25      /* metres: the smallest pieces around a hole's rim are at least this */
 #define CUT_MAX_PIECES 65536u  /* past this an occluder is dropped whole (safe: it hides less) */
 #define DEBRIS_ID_BASE (1ull << 62)
 
@@ -91,9 +91,13 @@ int scene_occluder_cut(scene *s, scene_occluder *o, const cull_dvol *v, cull_occ
     *pieces = NULL;
     *kept = o->ntris;
     if (!v || !v->nsph) return CULL_OK;
+    /* pieces around a rim about a tenth of the smallest widened radius (at
+       least CUT_MIN_EDGE): some 60 a hole, whatever its size */
+    double margin = cull_dvol_bound(v), rmin = INFINITY;
+    for (uint32_t k = 0; k < v->nsph; k++) rmin = fmin(rmin, v->sph[k][3] + margin);
+    double edge = fmax(CUT_MIN_EDGE, 0.1 * rmin);
     uint32_t n;
-    int rc = cull_occ_cut(o->verts, o->ntris, o->origin, v, cull_dvol_bound(v), CUT_MIN_EDGE, CUT_MAX_PIECES, pieces,
-                          NULL, &n);
+    int rc = cull_occ_cut(o->verts, o->ntris, o->origin, v, margin, edge, CUT_MAX_PIECES, pieces, NULL, &n);
     if (rc == CULL_ERR_CAPACITY) {
         LOGW("occluder cut: more than %u pieces, the occluder is dropped whole", CUT_MAX_PIECES);
         n = 0;
