@@ -678,7 +678,23 @@ static void test_bad_fields(void **state)
     assert_int_equal(vp_dec_lights(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &recs, &n), VP_ERR_INVALID);
 
     assert_true(vp_type_known(VP_VIS_QUERY));
-    assert_false(vp_type_known(0x0400));
+    assert_false(vp_type_known(0x0600)); /* input: reserved, not yet a message */
+    assert_true(vp_type_known(VP_DESTROY));
+    /* DESTROY: radius > 0, finite, debris <= 64, pads 0 */
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_destroy(&w, 1, &(vp_destroy){.id = 1, .center = {0, 0, 0}, .radius = 1, .debris = 65});
+    vp_destroy dm;
+    assert_int_equal(vp_dec_destroy(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &dm), VP_ERR_INVALID);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_destroy(&w, 1, &(vp_destroy){.id = 1, .center = {0, INFINITY, 0}, .radius = 1});
+    assert_int_equal(vp_dec_destroy(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &dm), VP_ERR_NONFINITE);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_destroy(&w, 1, &(vp_destroy){.id = 7, .handle = 9, .center = {1, 2, 3}, .radius = 0.5, .debris = 3});
+    g_buf[VP_HEADER_SIZE + 13] = 1; /* a pad byte */
+    assert_int_equal(vp_dec_destroy(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &dm), VP_ERR_INVALID);
+    g_buf[VP_HEADER_SIZE + 13] = 0;
+    assert_int_equal(vp_dec_destroy(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &dm), VP_OK);
+    assert_true(dm.id == 7 && dm.handle == 9 && dm.debris == 3 && dm.center[2] == 3 && dm.radius == 0.5);
     assert_string_equal(vp_strerror(VP_ERR_MAGIC), "bad magic: not a Vantage client");
 }
 
