@@ -54,8 +54,20 @@ void scene_destruct_moved(scene *s, uint64_t id, const cull_entity_desc *from, c
         !memcmp(from->aabb_max, to->aabb_max, sizeof to->aabb_max))
         return;
     /* the damage moves with the entity: its spheres by the box's corner,
-       the volume over the new box */
+       and the volume with them (only a resized box samples it again) */
     scene_destruct *d = (scene_destruct *)(uintptr_t)v;
+    bool same_size = true;
+    for (int a = 0; a < 3; a++)
+        same_size &= to->aabb_max[a] - to->aabb_min[a] == from->aabb_max[a] - from->aabb_min[a];
+    if (same_size) {
+        for (int a = 0; a < 3; a++) {
+            double t = to->aabb_min[a] - from->aabb_min[a];
+            d->v.origin[a] += t;
+            for (uint32_t k = 0; k < d->v.nsph; k++) d->v.sph[k][a] += t;
+        }
+        d->v.version++;
+        return;
+    }
     cull_dvol nv;
     uint32_t res = d->v.n[0] > d->v.n[1] ? d->v.n[0] : d->v.n[1];
     res = res > d->v.n[2] ? res : d->v.n[2];
@@ -84,12 +96,11 @@ void scene_destruct_free_all(scene *s)
     idmap_free(&s->destruct);
 }
 
-int scene_occluder_cut(scene *s, scene_occluder *o, const cull_dvol *v, cull_occluder_desc *d, float **pieces,
-                       uint32_t *kept)
+/* d (o's triangles as sent) with the holes of v cut in: *pieces
+ * (malloc'ed, or NULL when nothing is cut) holds what d then points to. */
+static int occluder_cut(const scene_occluder *o, const cull_dvol *v, cull_occluder_desc *d, float **pieces)
 {
-    (void)s;
     *pieces = NULL;
-    *kept = o->ntris;
     if (!v || !v->nsph) return CULL_OK;
     /* pieces around a rim about a tenth of the smallest widened radius (at
        least CUT_MIN_EDGE): some 60 a hole, whatever its size */
@@ -106,18 +117,17 @@ int scene_occluder_cut(scene *s, scene_occluder *o, const cull_dvol *v, cull_occ
     if (rc) return rc;
     d->vertices = *pieces;
     d->vertex_count = 3 * n;
-    *kept = n;
     return CULL_OK;
 }
 
-/* The culling world's copy of occluder o: its triangles as sent, cut by v. */
-static int occluder_recut(scene *s, scene_occluder *o, const cull_dvol *v, uint32_t *kept)
+int scene_occluder_draw(scene *s, scene_occluder *o, uint32_t *kept)
 {
+    const scene_destruct *sd = scene_destruct_of(s, o->id);
     cull_occluder_desc d = {.vertices = o->verts, .vertex_count = 3 * o->ntris, .sublevel = o->sublevel};
     d.transform[0] = d.transform[5] = d.transform[10] = d.transform[15] = 1;
     memcpy(d.transform + 12, o->origin, sizeof o->origin);
     float *pieces;
-    int rc = scene_occluder_cut(s, o, v, &d, &pieces, kept);
+    int rc = occluder_cut(o, sd ? &sd->v : NULL, &d, &pieces);
     if (rc) return rc;
     if (!d.vertex_count) {
         if (o->h) rc = cull_occluder_remove(s->world, o->h);
@@ -128,6 +138,7 @@ static int occluder_recut(scene *s, scene_occluder *o, const cull_dvol *v, uint3
         rc = cull_occluder_add(s->world, &d, &o->h);
     }
     free(pieces);
+    if (kept) *kept = d.vertex_count / 3;
     return rc;
 }
 
@@ -152,7 +163,7 @@ static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t ns
         rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for debris");
         goto out;
     }
-    uint64_t st = m->id * 31 + nsph;
+    uint64_t st = m->id * 31 + nsph, next = s->debris_next;
     for (uint32_t i = 0; i < n; i++) {
         double half = 0.1 + 0.3 * drand_from(&st), dir[3], l = 0;
         for (int a = 0; a < 3; a++) {
@@ -161,7 +172,8 @@ static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t ns
         }
         l = l > 1e-12 ? sqrt(l) : 1;
         double dist = m->radius * (1 + 0.5 * drand_from(&st));
-        e[i] = (vp_entity){.id = DEBRIS_ID_BASE + s->debris_next + i, .sublevel = sub, .flags = VP_ENT_DYNAMIC};
+        while (idmap_get(&s->ids, DEBRIS_ID_BASE + next, NULL)) next++; /* an editor's id there: skip it */
+        e[i] = (vp_entity){.id = DEBRIS_ID_BASE + next++, .sublevel = sub, .flags = VP_ENT_DYNAMIC};
         for (int a = 0; a < 3; a++) {
             double c = m->center[a] + dir[a] / l * dist;
             e[i].aabb[a] = c - half;
@@ -176,7 +188,7 @@ static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t ns
         rc = scene_fail(err, VP_ERR_INTERNAL, UINT32_MAX, "debris records");
         goto out;
     }
-    if ((rc = scene_add(s, 0, &b, h, err)) == VP_OK) s->debris_next += n;
+    if ((rc = scene_add(s, 0, &b, h, err)) == VP_OK) s->debris_next = next;
 out:
     free(buf);
     free(e);
@@ -243,7 +255,7 @@ int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out
     if (idmap_get(&s->occluders, m->id, &ov)) {
         scene_occluder *o = (scene_occluder *)(uintptr_t)ov;
         uint32_t kept;
-        crc = occluder_recut(s, o, &d->v, &kept);
+        crc = scene_occluder_draw(s, o, &kept);
         if (crc) {
             /* out of memory in the culling world: the occluder goes whole
                (hiding less is always safe) */

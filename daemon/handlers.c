@@ -510,9 +510,7 @@ static void on_sublevel_unload(server *s, conn *c, const vp_header *h, const uin
         send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, msg);
         return;
     }
-    uint32_t occ, lights;
-    scene_sublevel_counts(s->sc, id, &occ, &lights);
-    if (!l->state && !s->sc->sl_entities[id] && !occ && !lights) {
+    if (scene_sublevel_state(s->sc, id) == VP_SL_EMPTY) {
         snprintf(msg, sizeof msg, "sub-level %s is not loaded", l->name);
         send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, msg);
         return;
@@ -539,12 +537,10 @@ static void on_sublevel_info(server *s, conn *c, uint32_t req)
     vp_enc_sublevel_infos_begin(&w, req, sc->epoch, sc->nsublevels);
     for (uint32_t id = 1; id <= sc->nsublevels; id++) {
         const scene_sublevel *l = &sc->sl[id];
-        vp_sublevel_info in = {.id = (uint16_t)id, .entities = sc->sl_entities[id], .class_base = l->class_base,
-                               .classes = l->classes, .name_len = (uint8_t)strlen(l->name),
-                               .name = (const uint8_t *)l->name};
-        scene_sublevel_counts(sc, (uint16_t)id, &in.occluders, &in.lights);
-        in.state = l->state ? l->state
-                            : (in.entities || in.occluders || in.lights) ? VP_SL_LOADED : VP_SL_EMPTY;
+        vp_sublevel_info in = {.id = (uint16_t)id, .state = scene_sublevel_state(sc, (uint16_t)id),
+                               .entities = sc->sl_entities[id], .occluders = l->occluders, .lights = l->lights,
+                               .class_base = l->class_base, .classes = l->classes,
+                               .name_len = (uint8_t)strlen(l->name), .name = (const uint8_t *)l->name};
         vp_put_sublevel_info(&w, &in);
     }
     vp_frame_end(&w);
@@ -687,8 +683,10 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if ((rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b))) break;
         if ((rc = batch_count(b.count))) break;
         pthread_rwlock_wrlock(&s->scene_lock);
-        if (h->type == VP_ENTITY_REMOVE) rc = scene_remove(s->sc, &b, &err);
-        else rc = scene_remove_ids(s->sc, h->type == VP_LIGHT_REMOVE ? &s->sc->lights : &s->sc->occluders, &b, &err);
+        if (h->type == VP_ENTITY_REMOVE) rc = scene_remove(s->sc, c->load, &b, &err);
+        else
+            rc = scene_remove_ids(s->sc, c->load, h->type == VP_LIGHT_REMOVE ? &s->sc->lights : &s->sc->occluders, &b,
+                                  &err);
         pthread_rwlock_unlock(&s->scene_lock);
         after_edit(s, c, h->req, rc, &err, b.count);
         return;
@@ -739,6 +737,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         const uint8_t *recs;
         uint32_t n;
         if ((rc = vp_dec_lights(p, h->len, s->cfg.max_batch, &recs, &n))) break;
+        if ((rc = batch_count(n))) break;
         pthread_rwlock_wrlock(&s->scene_lock);
         rc = scene_lights_put(s->sc, c->load, recs, n, &err);
         pthread_rwlock_unlock(&s->scene_lock);

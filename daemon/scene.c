@@ -198,6 +198,27 @@ static int check_unique(const uint64_t *ids, uint32_t n, scene_err *err)
     return VP_OK;
 }
 
+void scene_entity_gone(scene *s, uint64_t id, cull_handle h, const cull_entity_desc *d)
+{
+    cull_entity_remove(s->world, h);
+    idmap_del(&s->ids, id);
+    s->id_of_slot[SLOT(h)] = 0;
+    s->sl_entities[d->sublevel]--;
+    s->class_entities[d->class_id]--;
+    scene_destruct_forget(s, id);
+}
+
+/* The end of an applied edit of n records, `seen` of them in visible
+ * sub-levels: only what queries can see moves the epoch and the events
+ * (a load's hidden batches do not; its commit does, once). */
+static void edit_done(scene *s, uint32_t n, uint32_t seen, uint32_t *ev)
+{
+    s->edits += n;
+    if (!seen) return;
+    s->epoch++;
+    *ev += seen;
+}
+
 int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
 {
     uint32_t n = b->count;
@@ -240,13 +261,7 @@ int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handl
             crc = CULL_ERR_NOMEM;
         }
         if (crc) {
-            for (uint32_t k = 0; k < i; k++) { /* roll back */
-                cull_entity_remove(s->world, handles[k]);
-                idmap_del(&s->ids, ids[k]);
-                s->id_of_slot[SLOT(handles[k])] = 0;
-                s->sl_entities[descs[k].sublevel]--;
-                s->class_entities[descs[k].class_id]--;
-            }
+            for (uint32_t k = 0; k < i; k++) scene_entity_gone(s, ids[k], handles[k], &descs[k]); /* roll back */
             rc = scene_fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
             goto out;
         }
@@ -257,9 +272,9 @@ int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handl
         s->class_entities[descs[i].class_id]++;
         scene_members_add(s, descs[i].sublevel, ids[i]);
     }
-    s->epoch++;
-    s->edits += n;
-    s->ev_added += n;
+    uint32_t seen = 0;
+    for (uint32_t i = 0; i < n; i++) seen += !scene_sublevel_hidden(s, descs[i].sublevel);
+    edit_done(s, n, seen, &s->ev_added);
 out:
     free(ids);
     free(descs);
@@ -281,7 +296,6 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
     for (uint32_t i = 0; i < n; i++) {
         vp_entity e;
         if ((rc = record_desc(s, b, i, &e, &descs[i], err))) goto out;
-        if ((rc = scene_sublevel_target(s, load, &descs[i].sublevel, i, err))) goto out;
         uint64_t h;
         if (!idmap_get(&s->ids, e.id, &h)) {
             rc = scene_fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)e.id);
@@ -295,6 +309,17 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
         ids[i] = e.id;
         hs[i] = (cull_handle)h;
         cull_entity_get(s->world, hs[i], &old[i]);
+        /* what it leaves and where it goes must be writable; and nothing
+           moves into or out of a sub-level no query sees (it would appear
+           or vanish on its own, before the commit or after the unload) */
+        uint16_t from = old[i].sublevel, to = descs[i].sublevel;
+        if ((rc = scene_sublevel_writable(s, load, from, i, err)) || (rc = scene_sublevel_writable(s, load, to, i, err)))
+            goto out;
+        if (from != to && (scene_sublevel_hidden(s, from) || scene_sublevel_hidden(s, to))) {
+            rc = scene_fail(err, VP_ERR_STATE, i, "record %u: entity %llu cannot move between sub-levels %u and %u while "
+                            "one is being loaded or unloaded", i, (unsigned long long)e.id, from, to);
+            goto out;
+        }
     }
     if ((rc = check_unique(ids, n, err))) goto out;
     if (!scene_members_reserve(s, descs, n)) {
@@ -317,9 +342,9 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
         if (old[i].sublevel != descs[i].sublevel) scene_members_add(s, descs[i].sublevel, ids[i]);
         scene_destruct_moved(s, ids[i], &old[i], &descs[i]);
     }
-    s->epoch++;
-    s->edits += n;
-    s->ev_updated += n;
+    uint32_t seen = 0;
+    for (uint32_t i = 0; i < n; i++) seen += !scene_sublevel_hidden(s, descs[i].sublevel);
+    edit_done(s, n, seen, &s->ev_updated);
 out:
     free(ids);
     free(hs);
@@ -328,36 +353,33 @@ out:
     return rc;
 }
 
-int scene_remove(scene *s, const vp_id_batch *b, scene_err *err)
+int scene_remove(scene *s, uint16_t load, const vp_id_batch *b, scene_err *err)
 {
-    uint32_t n = b->count;
+    uint32_t n = b->count, seen = 0;
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
     if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
         ids[i] = vp_id_get(b, i);
-        if (!idmap_get(&s->ids, ids[i], NULL)) {
+        uint64_t h;
+        cull_entity_desc d;
+        if (!idmap_get(&s->ids, ids[i], &h)) {
             rc = scene_fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no entity with id %llu", i, (unsigned long long)ids[i]);
             goto out;
         }
+        cull_entity_get(s->world, (cull_handle)h, &d);
+        if ((rc = scene_sublevel_writable(s, load, d.sublevel, i, err))) goto out;
+        seen += !scene_sublevel_hidden(s, d.sublevel);
     }
     if ((rc = check_unique(ids, n, err))) goto out;
     for (uint32_t i = 0; i < n; i++) { /* removal cannot fail once validated */
         uint64_t h;
-        idmap_get(&s->ids, ids[i], &h);
         cull_entity_desc d;
-        if (cull_entity_get(s->world, (cull_handle)h, &d) == CULL_OK) {
-            s->sl_entities[d.sublevel]--;
-            s->class_entities[d.class_id]--;
-        }
-        cull_entity_remove(s->world, (cull_handle)h);
-        idmap_del(&s->ids, ids[i]);
-        s->id_of_slot[SLOT((cull_handle)h)] = 0;
-        scene_destruct_forget(s, ids[i]);
+        idmap_get(&s->ids, ids[i], &h);
+        cull_entity_get(s->world, (cull_handle)h, &d);
+        scene_entity_gone(s, ids[i], (cull_handle)h, &d);
     }
-    s->epoch++;
-    s->edits += n;
-    s->ev_removed += n;
+    edit_done(s, n, seen, &s->ev_removed);
 out:
     free(ids);
     return rc;
@@ -395,7 +417,7 @@ int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err)
     free(slot->nrm);
     free(slot->idx);
     *slot = n;
-    s->epoch++;
+    if (!owner || !scene_sublevel_hidden(s, owner)) s->epoch++; /* a hidden load's mesh shows at its commit */
     return VP_OK;
 }
 
@@ -424,39 +446,24 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
     }
     memcpy(n->origin, o->origin, sizeof n->origin);
     n->ntris = o->tri_count;
-    n->h = 0;
     n->sublevel = sub;
     vp_reader r;
     vp_reader_init(&r, o->verts, (size_t)o->tri_count * 36);
     for (uint32_t i = 0; i < 9 * o->tri_count; i++) v[i] = vp_get_f32(&r);
     n->verts = v;
-    /* the culling world draws it: add, or replace the old one's geometry */
-    cull_occluder_desc d = {.vertices = v, .vertex_count = 3 * o->tri_count, .sublevel = sub};
-    d.transform[0] = d.transform[5] = d.transform[10] = d.transform[15] = 1;
-    memcpy(d.transform + 12, o->origin, 3 * sizeof *o->origin);
-    /* an entity of this id destroyed before: the new triangles get its holes */
-    const scene_destruct *sd = scene_destruct_of(s, o->id);
-    float *pieces = NULL;
-    uint32_t kept;
-    if (sd && scene_occluder_cut(s, n, &sd->v, &d, &pieces, &kept) != CULL_OK) {
-        free(n);
-        free(v);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory cutting occluder %llu", (unsigned long long)o->id);
-    }
+    n->id = o->id;
+    /* the culling world draws it: added, or the old one's geometry replaced
+       in place (failure-atomic: on error the old one stands) */
     scene_occluder *old = exists ? (scene_occluder *)(uintptr_t)prev : NULL;
-    uint32_t draw = d.vertex_count / 3; /* none: nothing to draw (empty, or cut away) */
-    int crc = !draw ? CULL_OK : old && old->h ? cull_occluder_update(s->world, old->h, &d)
-                                              : cull_occluder_add(s->world, &d, &n->h);
-    if (crc == CULL_OK && !draw && old && old->h) crc = cull_occluder_remove(s->world, old->h);
-    free(pieces);
+    n->h = old ? old->h : 0;
+    int crc = scene_occluder_draw(s, n, NULL);
     if (crc != CULL_OK) {
         free(n);
         free(v);
         return scene_fail(err, crc == CULL_ERR_NOMEM ? VP_ERR_LIMIT : VP_ERR_SCENE, UINT32_MAX, "occluder %llu: %s",
-                    (unsigned long long)o->id, cull_strerror(crc));
+                          (unsigned long long)o->id, cull_strerror(crc));
     }
     if (old) {
-        if (draw && old->h) n->h = old->h; /* updated in place */
         free(old->verts);
         free(old);
     }
@@ -465,16 +472,31 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
         LOGW("occluder %llu: %u of %u triangles degenerate (zero area), dropped", (unsigned long long)o->id,
              info.dropped, o->tri_count);
     idmap_put(&s->occluders, o->id, (uint64_t)(uintptr_t)n);
-    s->epoch++;
+    if (!exists) s->sl[sub].occluders++;
+    if (!scene_sublevel_hidden(s, sub)) s->epoch++;
     return VP_OK;
 }
 
-int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *err)
+/* The sub-level of an occluder or light (values of either map). */
+static uint16_t item_sublevel(const scene *s, const idmap *which, uint64_t v)
 {
-    for (uint32_t i = 0; i < b->count; i++)
-        if (!idmap_get(which, vp_id_get(b, i), NULL))
+    return which == &s->occluders ? ((const scene_occluder *)(uintptr_t)v)->sublevel
+                                  : ((const scene_light *)(uintptr_t)v)->sublevel;
+}
+
+int scene_remove_ids(scene *s, uint16_t load, idmap *which, const vp_id_batch *b, scene_err *err)
+{
+    bool seen = false;
+    for (uint32_t i = 0; i < b->count; i++) {
+        uint64_t v;
+        if (!idmap_get(which, vp_id_get(b, i), &v))
             return scene_fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no such id %llu", i,
                         (unsigned long long)vp_id_get(b, i));
+        uint16_t sub = item_sublevel(s, which, v);
+        int rc = scene_sublevel_writable(s, load, sub, i, err);
+        if (rc) return rc;
+        seen |= !scene_sublevel_hidden(s, sub);
+    }
     uint64_t *ids = malloc(((size_t)b->count + 1) * sizeof *ids);
     if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
     for (uint32_t i = 0; i < b->count; i++) ids[i] = vp_id_get(b, i);
@@ -484,15 +506,19 @@ int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *er
     for (uint32_t i = 0; i < b->count; i++) {
         uint64_t v;
         idmap_get(which, vp_id_get(b, i), &v);
+        scene_sublevel *l = &s->sl[item_sublevel(s, which, v)];
         if (which == &s->occluders) {
             scene_occluder *o = (scene_occluder *)(uintptr_t)v;
             if (o->h) cull_occluder_remove(s->world, o->h);
             free(o->verts);
+            l->occluders--;
+        } else {
+            l->lights--;
         }
         free((void *)(uintptr_t)v);
         idmap_del(which, vp_id_get(b, i));
     }
-    s->epoch++;
+    if (seen) s->epoch++;
     return VP_OK;
 }
 
@@ -502,16 +528,27 @@ int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, s
     uint16_t sub = 0;
     int src = scene_sublevel_target(s, load, &sub, UINT32_MAX, err);
     if (src) return src;
+    uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
+    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for lights");
     for (uint32_t i = 0; i < n; i++) {
         vp_light l;
         int rc = vp_light_get(recs, n, i, &l);
-        if (rc) return scene_fail(err, rc, i, "light %u: %s", i, vp_strerror(rc));
+        if (rc) {
+            free(ids);
+            return scene_fail(err, rc, i, "light %u: %s", i, vp_strerror(rc));
+        }
         uint64_t prev;
+        ids[i] = l.id;
         if (!idmap_get(&s->lights, l.id, &prev)) fresh++;
-        else if (((const scene_light *)(uintptr_t)prev)->sublevel != sub)
+        else if (((const scene_light *)(uintptr_t)prev)->sublevel != sub) {
+            free(ids);
             return scene_fail(err, VP_ERR_STATE, i, "light %u: id %llu belongs to another sub-level", i,
                               (unsigned long long)l.id);
+        }
     }
+    int urc = check_unique(ids, n, err);
+    free(ids);
+    if (urc) return urc;
     if (s->lights.count + fresh > s->lim.max_lights)
         return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "%zu lights, limit %u", s->lights.count + fresh,
                     s->lim.max_lights);
@@ -528,10 +565,11 @@ int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, s
         mem[i]->sublevel = sub;
         uint64_t prev;
         if (idmap_get(&s->lights, mem[i]->l.id, &prev)) free((void *)(uintptr_t)prev);
+        else s->sl[sub].lights++;
         idmap_put(&s->lights, mem[i]->l.id, (uint64_t)(uintptr_t)mem[i]);
     }
     free(mem);
-    s->epoch++;
+    if (!scene_sublevel_hidden(s, sub)) s->epoch++;
     return VP_OK;
 }
 

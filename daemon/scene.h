@@ -20,6 +20,7 @@ typedef struct scene_mesh {
 } scene_mesh;
 
 typedef struct scene_occluder {
+    uint64_t id;
     double origin[3];
     uint32_t ntris;
     float *verts;           /* 9 per triangle, relative to origin */
@@ -52,6 +53,7 @@ typedef struct scene_sublevel {
     uint64_t *members;      /* ids of the entities put into it (some may have
                                left since: checked when used) */
     uint32_t nmembers, members_cap;
+    uint32_t occluders, lights; /* it holds */
 } scene_sublevel;
 
 typedef struct scene_limits {
@@ -102,11 +104,11 @@ int scene_fail(scene_err *e, int code, uint32_t index, const char *fmt, ...) __a
  * a record with sub-level 0 from a loading connection joins its load. */
 int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err);
 int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *err);
-int scene_remove(scene *s, const vp_id_batch *b, scene_err *err);
+int scene_remove(scene *s, uint16_t load, const vp_id_batch *b, scene_err *err);
 
 int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err);
 int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err *err);
-int scene_remove_ids(scene *s, idmap *which, const vp_id_batch *b, scene_err *err);
+int scene_remove_ids(scene *s, uint16_t load, idmap *which, const vp_id_batch *b, scene_err *err);
 int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, scene_err *err);
 
 /* ---- sub-levels (sublevel.c) ---- */
@@ -133,11 +135,23 @@ bool scene_sublevel_work(scene *s, uint32_t budget);
 /* What a query sees: every visible sub-level, within `only` if given
  * (CULL_SUBLEVEL_WORDS words). NULL when that is every sub-level; else buf. */
 const uint64_t *scene_visible(const scene *s, const uint64_t *only, uint64_t *buf);
-/* Where an edit of connection `load` (0 = not loading) may put something
- * of sub-level *sub: a loading connection's sub-level 0 becomes its load,
- * and nobody else may write into a sub-level being loaded or unloaded.
- * VP_OK (with *sub settled) or an error naming record `index`. */
+/* Whether connection `load` (0 = not loading) may change what sub-level
+ * sub holds (add to it, take from it): not one another connection is
+ * loading (STATE), nor one being unloaded (BUSY). VP_OK or an error naming
+ * record `index` (UINT32_MAX: none). */
+int scene_sublevel_writable(const scene *s, uint16_t load, uint16_t sub, uint32_t index, scene_err *err);
+/* Where an add of connection `load` puts something of sub-level *sub: a
+ * loading connection's sub-level 0 becomes its load and it may add into
+ * its load only; others as scene_sublevel_writable. */
 int scene_sublevel_target(const scene *s, uint16_t load, uint16_t *sub, uint32_t index, scene_err *err);
+/* Whether no query sees sub-level id now (being loaded or unloaded). */
+static inline bool scene_sublevel_hidden(const scene *s, uint16_t id)
+{
+    return (s->hidden[id >> 6] >> (id & 63)) & 1u;
+}
+/* VP_SL_*: LOADING or UNLOADING while one runs, else LOADED or EMPTY by
+ * what it holds. */
+uint8_t scene_sublevel_state(const scene *s, uint16_t id);
 /* ---- destruction (destruct.c) ---- */
 /* A destruction event: the sphere joins entity m->id's set (its volume made
  * on the first, res^3 over its box), its occluder (same id) is cut open,
@@ -150,15 +164,15 @@ void scene_destruct_moved(scene *s, uint64_t id, const cull_entity_desc *from, c
 /* An entity is gone: so is its destruction. */
 void scene_destruct_forget(scene *s, uint64_t id);
 void scene_destruct_free_all(scene *s);
-/* d (an occluder desc of o's triangles as sent) with the holes of v cut
- * in: *pieces (malloc'ed, may be NULL) holds the triangles d now points to;
- * *kept their count. */
-int scene_occluder_cut(scene *s, scene_occluder *o, const cull_dvol *v, cull_occluder_desc *d, float **pieces,
-                       uint32_t *kept);
+/* Draws occluder o in the culling world as it should be: its triangles as
+ * sent, with the holes of its entity's destruction (same id) cut in; added,
+ * updated in place (o->h) or removed when nothing is left. *kept (if not
+ * NULL): the triangles drawn. On error the world's copy is unchanged. */
+int scene_occluder_draw(scene *s, scene_occluder *o, uint32_t *kept);
 
-/* A sub-level's occluders and lights (a scan). */
-void scene_sublevel_counts(const scene *s, uint16_t id, uint32_t *occluders, uint32_t *lights);
 
+/* Takes entity id (handle h, desc d) out of the scene and its counters. */
+void scene_entity_gone(scene *s, uint64_t id, cull_handle h, const cull_entity_desc *d);
 /* The editor id of a live handle (0 if unknown). */
 uint64_t scene_id_of(const scene *s, cull_handle h);
 /* An entity as a protocol record. */

@@ -12,6 +12,7 @@
  */
 #include "scene.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -50,24 +51,28 @@ uint16_t scene_sublevel_find(const scene *s, const uint8_t *name, uint8_t len)
 static uint16_t define(scene *s, const uint8_t *name, uint8_t len)
 {
     if (s->nsublevels >= SCENE_MAX_SUBLEVELS) return 0;
-    char *copy = malloc((size_t)len + 1);
-    if (!copy) return 0;
-    memcpy(copy, name, len);
-    copy[len] = 0;
-    uint16_t id = (uint16_t)++s->nsublevels;
-    memset(&s->sl[id], 0, sizeof s->sl[id]);
-    s->sl[id].name = copy;
+    uint16_t id = (uint16_t)(s->nsublevels + 1);
+    scene_sublevel *l = &s->sl[id];
+    memset(l, 0, sizeof *l);
     /* entities may carry the id from before it had a name: list them (the
        one pass over every entity a sub-level ever needs, and only then) */
-    if (s->sl_entities[id]) {
-        scene_sublevel *l = &s->sl[id];
-        l->members = malloc((size_t)s->sl_entities[id] * sizeof *l->members);
-        for (size_t i = 0; l->members && i < s->ids.cap; i++) {
-            uint64_t h;
-            if (s->ids.used[i] && member_live(s, id, s->ids.keys[i], &h)) l->members[l->nmembers++] = s->ids.keys[i];
-        }
-        l->members_cap = l->members ? s->sl_entities[id] : 0;
+    uint32_t n = s->sl_entities[id];
+    l->name = malloc((size_t)len + 1);
+    l->members = n ? malloc((size_t)n * sizeof *l->members) : NULL;
+    if (!l->name || (n && !l->members)) {
+        free(l->name);
+        free(l->members);
+        memset(l, 0, sizeof *l);
+        return 0;
     }
+    memcpy(l->name, name, len);
+    l->name[len] = 0;
+    for (size_t i = 0; n && i < s->ids.cap; i++) {
+        uint64_t h;
+        if (s->ids.used[i] && member_live(s, id, s->ids.keys[i], &h)) l->members[l->nmembers++] = s->ids.keys[i];
+    }
+    l->members_cap = n;
+    s->nsublevels = id;
     return id;
 }
 
@@ -98,33 +103,44 @@ int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene
     return VP_OK;
 }
 
-int scene_sublevel_target(const scene *s, uint16_t load, uint16_t *sub, uint32_t index, scene_err *err)
+/* "record N: " for an error about record index, "" for none. */
+static const char *at_record(uint32_t index, char buf[32])
 {
-    if (load) {
-        if (*sub == 0) *sub = load;
-        if (*sub != load)
-            return scene_fail(err, VP_ERR_INVALID, index, "record %u: sub-level %u, but this connection is loading %s",
-                              index, *sub, sl_name(s, load));
-        return VP_OK;
-    }
-    if (*sub == 0 || *sub > s->nsublevels) return VP_OK;
-    const scene_sublevel *l = &s->sl[*sub];
+    if (index == UINT32_MAX) buf[0] = 0;
+    else snprintf(buf, 32, "record %u: ", index);
+    return buf;
+}
+
+int scene_sublevel_writable(const scene *s, uint16_t load, uint16_t sub, uint32_t index, scene_err *err)
+{
+    if (!sub || sub > s->nsublevels || sub == load) return VP_OK;
+    const scene_sublevel *l = &s->sl[sub];
+    char at[32];
     if (l->state == VP_SL_LOADING)
-        return scene_fail(err, VP_ERR_STATE, index, "record %u: sub-level %s is being loaded by client %u", index,
+        return scene_fail(err, VP_ERR_STATE, index, "%ssub-level %s is being loaded by client %u", at_record(index, at),
                           l->name, l->owner);
     if (l->state == VP_SL_UNLOADING)
-        return scene_fail(err, VP_ERR_BUSY, index, "record %u: sub-level %s is being unloaded, retry", index,
+        return scene_fail(err, VP_ERR_BUSY, index, "%ssub-level %s is being unloaded, retry", at_record(index, at),
                           l->name);
     return VP_OK;
 }
 
-void scene_sublevel_counts(const scene *s, uint16_t id, uint32_t *occluders, uint32_t *lights)
+int scene_sublevel_target(const scene *s, uint16_t load, uint16_t *sub, uint32_t index, scene_err *err)
 {
-    *occluders = *lights = 0;
-    for (size_t i = 0; i < s->occluders.cap; i++)
-        if (s->occluders.used[i]) *occluders += ((const scene_occluder *)(uintptr_t)s->occluders.vals[i])->sublevel == id;
-    for (size_t i = 0; i < s->lights.cap; i++)
-        if (s->lights.used[i]) *lights += ((const scene_light *)(uintptr_t)s->lights.vals[i])->sublevel == id;
+    if (load && *sub == 0) *sub = load;
+    if (load && *sub != load) {
+        char at[32];
+        return scene_fail(err, VP_ERR_INVALID, index, "%ssub-level %u, but this connection is loading %s",
+                          at_record(index, at), *sub, sl_name(s, load));
+    }
+    return scene_sublevel_writable(s, load, *sub, index, err);
+}
+
+uint8_t scene_sublevel_state(const scene *s, uint16_t id)
+{
+    const scene_sublevel *l = &s->sl[id];
+    if (l->state) return l->state;
+    return s->sl_entities[id] || l->occluders || l->lights ? VP_SL_LOADED : VP_SL_EMPTY;
 }
 
 /* A free run of n classes (no mesh, no entity, not reserved) in
@@ -148,17 +164,11 @@ int scene_sublevel_begin(scene *s, const vp_sublevel_begin *m, uint32_t owner, v
         return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "%u sub-level names, limit %u", s->nsublevels,
                           SCENE_MAX_SUBLEVELS);
     scene_sublevel *l = &s->sl[id];
-    int rc = VP_OK;
-    uint32_t occ, lights;
-    scene_sublevel_counts(s, id, &occ, &lights);
-    if (l->state == VP_SL_LOADING)
-        rc = scene_fail(err, VP_ERR_STATE, UINT32_MAX, "sub-level %s is being loaded by client %u", l->name, l->owner);
-    else if (l->state == VP_SL_UNLOADING)
-        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "sub-level %s is still being unloaded, retry", l->name);
-    else if (s->sl_entities[id] || occ || lights)
+    int rc = scene_sublevel_writable(s, 0, id, UINT32_MAX, err);
+    if (!rc && scene_sublevel_state(s, id) == VP_SL_LOADED)
         rc = scene_fail(err, VP_ERR_DUPLICATE, UINT32_MAX,
                         "sub-level %s is loaded (%u entities, %u occluders, %u lights): unload it first", l->name,
-                        s->sl_entities[id], occ, lights);
+                        s->sl_entities[id], l->occluders, l->lights);
     uint32_t base = 0;
     if (!rc && m->classes && !(base = find_classes(s, m->classes)))
         rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "no run of %u free mesh classes", m->classes);
@@ -238,27 +248,41 @@ int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *er
     l->members = NULL;
     l->nmembers = l->members_cap = 0;
     *entities = s->sl_entities[id];
-    bool visible = l->state != VP_SL_LOADING;
+    bool visible = !scene_sublevel_hidden(s, id);
+    /* occluders and lights go now: their ids found first, then deleted (the
+       maps move entries as they delete) */
+    uint32_t nocc = l->occluders, nl = l->lights, ng = 0;
+    uint64_t *gone = malloc(((size_t)nocc + nl + 1) * sizeof *gone);
+    if (!gone) {
+        l->members = doomed;
+        l->nmembers = l->members_cap = k;
+        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an unload");
+    }
     hide(s, id, true);
-    /* occluders, lights and the reserved meshes go now */
-    for (size_t i = 0; i < s->occluders.cap; i++) {
-        if (!s->occluders.used[i]) continue;
-        scene_occluder *o = (scene_occluder *)(uintptr_t)s->occluders.vals[i];
-        if (o->sublevel != id) continue;
+    for (size_t i = 0; i < s->occluders.cap && nocc; i++)
+        if (s->occluders.used[i] && ((const scene_occluder *)(uintptr_t)s->occluders.vals[i])->sublevel == id)
+            gone[ng++] = s->occluders.keys[i];
+    for (uint32_t g = 0; g < ng; g++) {
+        uint64_t v;
+        idmap_get(&s->occluders, gone[g], &v);
+        scene_occluder *o = (scene_occluder *)(uintptr_t)v;
         if (o->h) cull_occluder_remove(s->world, o->h);
-        idmap_del(&s->occluders, s->occluders.keys[i]);
+        idmap_del(&s->occluders, gone[g]);
         free(o->verts);
         free(o);
-        i--; /* backward-shift deletion may have moved another entry here */
     }
-    for (size_t i = 0; i < s->lights.cap; i++) {
-        if (!s->lights.used[i]) continue;
-        scene_light *sl = (scene_light *)(uintptr_t)s->lights.vals[i];
-        if (sl->sublevel != id) continue;
-        idmap_del(&s->lights, s->lights.keys[i]);
-        free(sl);
-        i--;
+    ng = 0;
+    for (size_t i = 0; i < s->lights.cap && nl; i++)
+        if (s->lights.used[i] && ((const scene_light *)(uintptr_t)s->lights.vals[i])->sublevel == id)
+            gone[ng++] = s->lights.keys[i];
+    for (uint32_t g = 0; g < ng; g++) {
+        uint64_t v;
+        idmap_get(&s->lights, gone[g], &v);
+        free((void *)(uintptr_t)v);
+        idmap_del(&s->lights, gone[g]);
     }
+    free(gone);
+    l->occluders = l->lights = 0;
     for (uint32_t c = l->class_base; c < (uint32_t)l->class_base + l->classes; c++) {
         scene_mesh *m = &s->meshes[c];
         if (m->pos) s->nmeshes--;
@@ -291,14 +315,10 @@ bool scene_sublevel_work(scene *s, uint32_t budget)
             uint64_t eid = l->doomed[l->doomed_pos++], h;
             cull_entity_desc d;
             /* removed, or moved away, since it joined: not ours */
-            if (!member_live(s, (uint16_t)id, eid, &h)) continue;
-            cull_entity_get(s->world, (cull_handle)h, &d);
-            cull_entity_remove(s->world, (cull_handle)h);
-            idmap_del(&s->ids, eid);
-            scene_destruct_forget(s, eid);
-            s->id_of_slot[h & (CULL_MAX_ENTITIES - 1u)] = 0;
-            s->sl_entities[id]--;
-            s->class_entities[d.class_id]--;
+            if (!idmap_get(&s->ids, eid, &h) || cull_entity_get(s->world, (cull_handle)h, &d) != CULL_OK ||
+                d.sublevel != id)
+                continue;
+            scene_entity_gone(s, eid, (cull_handle)h, &d);
             budget--;
         }
         if (l->doomed_pos < l->ndoomed) return true;

@@ -311,6 +311,13 @@ static void test_destroy_opens_occluder(void **state)
     assert_int_equal(vt_stats(ed, &st1), VP_OK);
     assert_int_equal(st1.entities, 2 + 5);
     assert_int_equal(st1.dynamic_entities, 5);
+    /* an editor's entity where the next debris id would be: skipped, not refused */
+    vp_entity squat = {.id = (1ull << 62) + 5, .aabb = {100, 0, 0, 101, 1, 1}};
+    assert_int_equal(vt_add(ed, &squat, 1, NULL, NULL), VP_OK);
+    m = (vp_destroy){.id = 10, .center = {9, 7, 0}, .radius = 1, .debris = 2};
+    assert_int_equal(vt_destroy(ed, &m, &out), VP_OK);
+    assert_int_equal(out.debris, 2);
+    assert_int_equal(vt_remove(ed, &squat.id, 1, NULL), VP_OK);
     /* the editor sends the wall's occluder again: it gets the holes too */
     assert_int_equal(vt_put_occluder(ed, 10, lo, tri, 12), VP_OK);
     assert_true(sees(viewer, 20, NULL));

@@ -313,6 +313,10 @@ static void test_sublevel_rules(void **state)
     daemon_start(&d, NULL);
     vt_client *a = connect_role(&d, VP_ROLE_EDITOR, false), *b = connect_role(&d, VP_ROLE_EDITOR, true);
     vt_client *viewer = connect_role(&d, VP_ROLE_VIEWER, false);
+    vt_client *events = connect_role(&d, VP_ROLE_VIEWER, false);
+    assert_int_equal(vt_subscribe(events, VP_EVENT_SCENE), VP_OK);
+    vp_entity visible = {.id = 50, .aabb = {20, 0, 0, 21, 1, 1}};
+    assert_int_equal(vt_add(b, &visible, 1, NULL, NULL), VP_OK);
     vp_sublevel_begun ba, bb;
     vp_ack ack;
     /* viewers do not load; commit with nothing open */
@@ -332,7 +336,29 @@ static void test_sublevel_rules(void **state)
     e.sublevel = ba.id + 7;
     assert_int_equal(vt_add(a, &e, 1, NULL, NULL), VP_ERR_INVALID);
     e.sublevel = ba.id;
-    assert_int_equal(vt_add(a, &e, 1, NULL, NULL), VP_OK);
+    uint64_t ep0, ep1;
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(a, &st), VP_OK);
+    ep0 = st.epoch;
+    assert_int_equal(vt_add(a, &e, 1, NULL, &ep1), VP_OK);
+    assert_int_equal(ep1, ep0); /* nothing anyone sees changed */
+    /* nobody moves an entity out of the load, or removes it, but its connection */
+    e.sublevel = 0;
+    assert_int_equal(vt_update(b, &e, 1, NULL), VP_ERR_STATE);
+    assert_int_equal(vt_remove(b, &e.id, 1, NULL), VP_ERR_STATE);
+    /* nor does the load pull a visible entity in, or push one of its own out */
+    visible.sublevel = ba.id;
+    assert_int_equal(vt_update(a, &visible, 1, NULL), VP_ERR_STATE);
+    assert_int_equal(vt_update(a, &e, 1, NULL), VP_ERR_STATE);
+    e.sublevel = ba.id;
+    /* an empty or repeating light batch is refused */
+    vp_light two[2] = {{.id = 3, .kind = VP_LIGHT_POINT, .color = {1, 1, 1}, .intensity = 1, .range = 2},
+                       {.id = 3, .kind = VP_LIGHT_POINT, .color = {1, 1, 1}, .intensity = 1, .range = 2}};
+    assert_int_equal(vt_put_lights(b, two, 0), VP_ERR_COUNT);
+    assert_int_equal(vt_put_lights(b, two, 2), VP_ERR_DUPLICATE);
+    assert_int_equal(vt_stats(a, &st), VP_OK);
+    assert_int_equal(st.epoch, ep0);
+    assert_int_equal(st.lights, 0);
     /* unloading what is being loaded, or what does not exist */
     assert_int_equal(vt_sublevel_unload(b, "north", &ack), VP_ERR_STATE);
     assert_int_equal(vt_sublevel_unload(b, "nowhere", &ack), VP_ERR_UNKNOWN_ID);
@@ -342,9 +368,21 @@ static void test_sublevel_rules(void **state)
     vp_view v = everything();
     vp_vis_result r;
     assert_int_equal(vt_query(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &r), VP_OK);
-    assert_int_equal(r.visible, 0);
+    assert_int_equal(r.visible, 1); /* entity 50 only */
     assert_int_equal(vt_sublevel_commit(a, &ack), VP_OK);
     assert_int_equal(ack.count, 1);
+    /* the subscriber heard of entity 50 and of the load's one entity, once each */
+    uint32_t added = 0;
+    for (;;) {
+        vp_event ev;
+        int erc = vt_wait_event(events, &ev, 300);
+        if (erc) break;
+        added += ev.added;
+        if (ev.epoch >= ack.epoch) break;
+    }
+    assert_int_equal(added, 2);
+    uint64_t fifty = 50;
+    assert_int_equal(vt_remove(b, &fifty, 1, NULL), VP_OK);
     /* loading a loaded sub-level again: unload first */
     assert_int_equal(vt_sublevel_begin(b, "north", 0, &bb), VP_ERR_DUPLICATE);
     /* queries may name their sub-levels */
@@ -389,6 +427,7 @@ static void test_sublevel_rules(void **state)
     vt_close(a);
     vt_close(b);
     vt_close(viewer);
+    vt_close(events);
     daemon_stop(&d);
 }
 
