@@ -17,18 +17,10 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define CUT_MIN_EDGE 0.25      /* metres: the smallest pieces around a hole's rim are at least this */
 #define CUT_MAX_PIECES 65536u  /* past this an occluder is dropped whole (safe: it hides less) */
 #define DEBRIS_ID_BASE (1ull << 62)
-
-static uint64_t mono_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
 
 const scene_destruct *scene_destruct_of(const scene *s, uint64_t id)
 {
@@ -198,7 +190,7 @@ out:
 
 int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out, scene_err *err)
 {
-    uint64_t t0 = mono_ns(), hv;
+    uint64_t hv;
     memset(out, 0, sizeof *out);
     if (!idmap_get(&s->ids, m->id, &hv))
         return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no entity with id %llu", (unsigned long long)m->id);
@@ -268,7 +260,6 @@ int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out
     }
     out->spheres = d->v.nsph;
     out->debris = m->debris;
-    out->cut_us = (uint32_t)((mono_ns() - t0) / 1000);
     if (!m->debris) s->epoch++; /* (debris came with an epoch of their own) */
     out->epoch = s->epoch;
     return VP_OK;

@@ -696,9 +696,11 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         vp_destroy m;
         if ((rc = vp_dec_destroy(p, h->len, &m))) break;
         vp_destroyed out;
+        uint64_t t0 = now_ns();
         pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_destroy(s->sc, &m, s->cfg.destruct_res ? s->cfg.destruct_res : 8, &out, &err);
+        rc = scene_destroy(s->sc, &m, s->cfg.destruct_res, &out, &err);
         pthread_rwlock_unlock(&s->scene_lock);
+        out.cut_us = (uint32_t)((now_ns() - t0) / 1000);
         if (rc) {
             send_error(s, c, h->req, rc, err.index, err.msg);
             return;

@@ -435,7 +435,7 @@ typedef struct vp_destroyed {
     uint32_t spheres;         /* in the entity's set now */
     uint32_t occluder_tris;   /* its occluder's triangles after the cut (0: none left or no occluder) */
     uint32_t debris;          /* debris entities spawned (ids: see PROTOCOL.md) */
-    uint32_t cut_us;          /* time to update the volume and cut the occluder */
+    uint32_t cut_us;          /* server time for the event, waiting for the scene lock included */
 } vp_destroyed;
 
 void vp_enc_destroy(vp_writer *w, uint32_t req, const vp_destroy *m);
