@@ -161,6 +161,12 @@ static int error_from(vt_error *out, const uint8_t *p, uint32_t len)
 static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, const uint8_t **p, uint32_t *len)
 {
     if (w->overflow) return set_err(c, VP_ERR_LIMIT, "request too large for the send buffer");
+    /* a frame past the server's limit would only get the connection closed:
+       refuse it here, with the sizes, and keep the connection */
+    if (c->server.max_payload && w->len - VP_HEADER_SIZE > c->server.max_payload)
+        return set_err(c, VP_ERR_TOO_LARGE, "a %s request of %zu bytes, the server takes at most %u",
+                       vp_type_name((uint16_t)(w->p[4] | w->p[5] << 8)), w->len - VP_HEADER_SIZE,
+                       c->server.max_payload);
     int rc = vt_send(c, w->p, w->len);
     if (rc) return rc;
     for (;;) {
@@ -299,13 +305,25 @@ int vt_ping(vt_client *c)
 }
 
 /* A request with an empty payload and its reply. */
+/* A request with an empty payload: its reply of type want. */
 static int empty_call(vt_client *c, uint16_t type, uint16_t want, const uint8_t **p, uint32_t *len)
 {
     vp_writer w;
     uint32_t req = vt_next_req(c);
-    if (!out_buf(c, 64, &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
     vp_enc_empty(&w, type, req);
     return roundtrip(c, &w, req, want, p, len);
+}
+
+/* A request with an empty payload answered with ACK (out may be NULL). */
+static int empty_ack(vt_client *c, uint16_t type, vp_ack *out)
+{
+    const uint8_t *p;
+    uint32_t len;
+    vp_ack a;
+    int rc = empty_call(c, type, VP_ACK, &p, &len);
+    if (rc) return rc;
+    return vp_dec_ack(p, len, out ? out : &a) ? set_err(c, VT_ERR_IO, "malformed ACK") : VP_OK;
 }
 
 int vt_stats(vt_client *c, vp_stats_reply *out)
@@ -322,7 +340,7 @@ int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint
     vp_writer w;
     const uint8_t *p;
     uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, vp_size_entities(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    if (!out_buf(c, vp_size_entities(n), &w)) return VT_ERR_IO; /* out_buf said why */
     vp_enc_entities(&w, VP_ENTITY_ADD, req, e, n);
     int rc = roundtrip(c, &w, req, VP_ENTITY_ADD_REPLY, &p, &len);
     if (rc) return rc;
@@ -333,13 +351,15 @@ int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint
     return VP_OK;
 }
 
+/* out may be NULL. */
 static int ack_full(vt_client *c, vp_writer *w, uint32_t req, vp_ack *out)
 {
     const uint8_t *p;
     uint32_t len;
+    vp_ack a;
     int rc = roundtrip(c, w, req, VP_ACK, &p, &len);
     if (rc) return rc;
-    if (vp_dec_ack(p, len, out)) return set_err(c, VT_ERR_IO, "malformed ACK");
+    if (vp_dec_ack(p, len, out ? out : &a)) return set_err(c, VT_ERR_IO, "malformed ACK");
     return VP_OK;
 }
 
@@ -355,7 +375,7 @@ int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
 {
     vp_writer w;
     uint32_t req = vt_next_req(c);
-    if (!out_buf(c, vp_size_entities(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    if (!out_buf(c, vp_size_entities(n), &w)) return VT_ERR_IO; /* out_buf said why */
     vp_enc_entities(&w, VP_ENTITY_UPDATE, req, e, n);
     return ack_call(c, &w, req, epoch);
 }
@@ -364,7 +384,7 @@ static int remove_ids(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t
 {
     vp_writer w;
     uint32_t req = vt_next_req(c);
-    if (!out_buf(c, vp_size_ids(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    if (!out_buf(c, vp_size_ids(n), &w)) return VT_ERR_IO; /* out_buf said why */
     vp_enc_ids(&w, type, req, ids, n);
     return ack_call(c, &w, req, epoch);
 }
@@ -392,7 +412,7 @@ int vt_get(vt_client *c, const uint64_t *ids, uint32_t n, vp_list_reply *out)
 {
     vp_writer w;
     uint32_t req = vt_next_req(c);
-    if (!out_buf(c, vp_size_ids(n), &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    if (!out_buf(c, vp_size_ids(n), &w)) return VT_ERR_IO; /* out_buf said why */
     vp_enc_ids(&w, VP_ENTITY_GET, req, ids, n);
     return list_call(c, &w, req, out);
 }
@@ -465,11 +485,7 @@ int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
 
 int vt_frame_unsubscribe(vt_client *c)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
-    vp_enc_empty(&w, VP_FRAME_UNSUBSCRIBE, req);
-    int rc = ack_call(c, &w, req, NULL);
+    int rc = empty_ack(c, VP_FRAME_UNSUBSCRIBE, NULL);
     c->stream_req = 0;
     return rc;
 }
@@ -511,7 +527,7 @@ int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t
     vp_writer w;
     const uint8_t *p;
     uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 4 + (size_t)n * 256, &w)) return set_err(c, VT_ERR_IO, "out of memory");
+    if (!out_buf(c, VP_HEADER_SIZE + 4 + (size_t)n * 256, &w)) return VT_ERR_IO; /* out_buf said why */
     vp_enc_names(&w, VP_SUBLEVEL_NAMES, req, names, NULL, n);
     int rc = roundtrip(c, &w, req, VP_SUBLEVEL_IDS, &p, &len);
     if (rc) return rc;
@@ -628,24 +644,14 @@ int vt_sublevel_begin(vt_client *c, const char *name, uint16_t classes, vp_suble
     return vp_dec_sublevel_begun(p, len, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_BEGUN") : VP_OK;
 }
 
-static int sublevel_end(vt_client *c, uint16_t type, vp_ack *out)
-{
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_empty(&w, type, req);
-    vp_ack a;
-    return ack_full(c, &w, req, out ? out : &a);
-}
-
 int vt_sublevel_commit(vt_client *c, vp_ack *out)
 {
-    return sublevel_end(c, VP_SUBLEVEL_COMMIT, out);
+    return empty_ack(c, VP_SUBLEVEL_COMMIT, out);
 }
 
 int vt_sublevel_abort(vt_client *c, vp_ack *out)
 {
-    return sublevel_end(c, VP_SUBLEVEL_ABORT, out);
+    return empty_ack(c, VP_SUBLEVEL_ABORT, out);
 }
 
 int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out)
@@ -656,18 +662,14 @@ int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out)
     uint32_t req = vt_next_req(c);
     if (!out_buf(c, VP_HEADER_SIZE + 1 + l, &w)) return VT_ERR_IO;
     vp_enc_sublevel_name(&w, VP_SUBLEVEL_UNLOAD, req, name);
-    vp_ack a;
-    return ack_full(c, &w, req, out ? out : &a);
+    return ack_full(c, &w, req, out);
 }
 
 int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out)
 {
-    vp_writer w;
     const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_empty(&w, VP_SUBLEVEL_INFO, req);
-    int rc = roundtrip(c, &w, req, VP_SUBLEVEL_INFO_REPLY, &p, &len);
+    uint32_t len;
+    int rc = empty_call(c, VP_SUBLEVEL_INFO, VP_SUBLEVEL_INFO_REPLY, &p, &len);
     if (rc) return rc;
     return vp_dec_sublevel_infos(p, len, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_INFO_REPLY") : VP_OK;
 }

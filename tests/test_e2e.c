@@ -1112,7 +1112,8 @@ static void test_limits(void **state)
 {
     (void)state;
     daemon_proc d;
-    daemon_start_args(&d, (const char *const[]){"--max-clients", "3", "--max-batch", "100", NULL});
+    daemon_start_args(&d, (const char *const[]){"--max-clients", "3", "--max-batch", "100", "--max-payload", "16384",
+                                                NULL});
     vt_client *c[3];
     for (int i = 0; i < 3; i++) c[i] = connect_role(&d, VP_ROLE_EDITOR, i % 2);
     vt_client *extra = NULL;
@@ -1124,6 +1125,12 @@ static void test_limits(void **state)
     vp_entity e[101];
     for (int i = 0; i < 101; i++) e[i] = (vp_entity){.id = (uint64_t)i + 1, .sphere = {i, 0, 0, 1}};
     assert_int_equal(vt_add(c[0], e, 101, NULL, NULL), VP_ERR_COUNT);
+    /* 200 records are 20 KiB, past --max-payload: refused by the client
+       library with the sizes, before sending, and the connection goes on */
+    static vp_entity big[200];
+    for (int i = 0; i < 200; i++) big[i] = (vp_entity){.id = 1000 + (uint64_t)i, .sphere = {i, 0, 0, 1}};
+    assert_int_equal(vt_add(c[0], big, 200, NULL, NULL), VP_ERR_TOO_LARGE);
+    assert_non_null(strstr(vt_last_error(c[0])->msg, "the server takes at most 16384"));
     assert_int_equal(vt_add(c[0], e, 100, NULL, NULL), VP_OK);
     assert_int_equal(vt_add(c[1], e + 100, 1, NULL, NULL), VP_OK);
     for (int i = 0; i < 3; i++) vt_close(c[i]);
