@@ -234,12 +234,8 @@ int cmd_export(cli *k, int argc, char **argv)
     size_t pos = 0;
     vp_name nm;
     while (vp_name_next(&nl, &pos, &nm)) {
-        char *q = malloc(2 * (size_t)nm.len + 1), *o = q; /* JSON-escaped */
-        for (uint8_t i = 0; i < nm.len; i++) {
-            if (nm.name[i] == '"' || nm.name[i] == '\\') *o++ = '\\';
-            *o++ = (char)nm.name[i];
-        }
-        *o = 0;
+        char *q = malloc(6 * (size_t)nm.len + 1); /* JSON-escaped */
+        if (q) cli_json_escape(q, (const char *)nm.name, nm.len);
         free(names[nm.id]);
         names[nm.id] = q;
     }

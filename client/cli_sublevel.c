@@ -13,7 +13,6 @@
 #include "cli.h"
 #include "import.h"
 
-#include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,18 +33,23 @@ static void progress(bool tty, const char *name, uint32_t done, uint32_t total, 
     fflush(stderr);
 }
 
-static int push(cli *k, const char *name, const vt_level *lv, const vp_sublevel_begun *b, bool tty, double *t_ent)
+#define PUSH_NOMEM 1 /* push: out of memory here, not the server's refusal */
+
+/* The level, as the load's messages; VP_OK, a code from the server or the
+ * connection, or PUSH_NOMEM. Batches stay within the server's max_batch. */
+static int push(cli *k, const char *name, vt_level *lv, const vp_sublevel_begun *b, bool tty, double *t_ent)
 {
     int rc;
+    uint32_t max = vt_server(k->c)->max_batch, step = max < LOAD_BATCH ? max : LOAD_BATCH;
     for (uint32_t i = 0; i < lv->nmesh; i++) {
         const lvl_mesh *m = &lv->mesh[i];
         if ((rc = vt_put_mesh(k->c, (uint16_t)(b->class_base + i), m->pos, m->nrm, m->nv, m->idx, m->ni))) return rc;
     }
-    vp_entity *batch = calloc(LOAD_BATCH, sizeof *batch);
-    if (!batch) return VT_ERR_IO;
+    vp_entity *batch = calloc(step, sizeof *batch);
+    if (!batch) return PUSH_NOMEM;
     double t0 = now_s();
-    for (uint32_t i = 0; i < lv->nent; i += LOAD_BATCH) {
-        uint32_t n = lv->nent - i < LOAD_BATCH ? lv->nent - i : LOAD_BATCH;
+    for (uint32_t i = 0; i < lv->nent; i += step) {
+        uint32_t n = lv->nent - i < step ? lv->nent - i : step;
         for (uint32_t j = 0; j < n; j++) {
             const lvl_entity *e = &lv->ent[i + j];
             vp_entity *o = &batch[j];
@@ -73,17 +77,9 @@ static int push(cli *k, const char *name, const vt_level *lv, const vp_sublevel_
         uint64_t id = o->entity >= 0 ? level_id(b->id, (uint32_t)o->entity) : level_id(b->id, 1u << 31 | i);
         if ((rc = vt_put_occluder(k->c, id, o->origin, o->tri, o->ntri))) return rc;
     }
-    if (lv->nlight) {
-        vp_light *l = malloc(lv->nlight * sizeof *l);
-        if (!l) return VT_ERR_IO;
-        for (uint32_t i = 0; i < lv->nlight; i++) {
-            l[i] = lv->light[i];
-            l[i].id = level_id(b->id, i);
-        }
-        rc = vt_put_lights(k->c, l, lv->nlight);
-        free(l);
-        if (rc) return rc;
-    }
+    for (uint32_t i = 0; i < lv->nlight; i++) lv->light[i].id = level_id(b->id, i);
+    for (uint32_t i = 0; i < lv->nlight; i += step)
+        if ((rc = vt_put_lights(k->c, lv->light + i, lv->nlight - i < step ? lv->nlight - i : step))) return rc;
     return VP_OK;
 }
 
@@ -117,8 +113,10 @@ static int sub_load(cli *k, int argc, char **argv)
     uint32_t tris = 0;
     for (uint32_t i = 0; i < lv.nocc; i++) tris += lv.occ[i].ntri;
     if (!json)
-        fprintf(stderr, "%s: %u entities, %u classes, %u occluders (%u triangles), %u lights (%u skipped) in %.0f ms\n",
-                path, lv.nent, lv.nmesh, lv.nocc, tris, lv.nlight, lv.skipped_lights, t_import * 1e3);
+        fprintf(stderr,
+                "%s: %u entities, %u classes, %u occluders (%u triangles), %u lights (%u skipped), %u point and line "
+                "primitives skipped, in %.0f ms\n",
+                path, lv.nent, lv.nmesh, lv.nocc, tris, lv.nlight, lv.skipped_lights, lv.skipped_prims, t_import * 1e3);
     int rc = 0;
     if (dry) goto out;
     if ((rc = connect_cli(k, VP_ROLE_EDITOR))) goto out;
@@ -130,7 +128,12 @@ static int sub_load(cli *k, int argc, char **argv)
     double t1 = now_s(), t_ent = 0;
     bool tty = !json && isatty(2);
     if ((rc = push(k, name, &lv, &b, tty, &t_ent))) {
-        rc = server_fail(k, "sublevel load", rc);
+        if (rc == PUSH_NOMEM) {
+            fprintf(stderr, "%s: sublevel load: out of memory\n", g_prog);
+            rc = 1;
+        } else {
+            rc = server_fail(k, "sublevel load", rc);
+        }
         if (rc != 3) vt_sublevel_abort(k->c, NULL); /* a lost connection aborts by itself */
         goto out;
     }
@@ -140,11 +143,14 @@ static int sub_load(cli *k, int argc, char **argv)
         goto out;
     }
     double t_push = now_s() - t1;
-    if (json)
-        printf("{\"sublevel\": \"%s\", \"id\": %u, \"epoch\": %llu, \"entities\": %u, \"classes\": %u, \"occluders\": %u, "
+    if (json) {
+        printf("{\"sublevel\": ");
+        cli_json_str(stdout, name, strlen(name));
+        printf(", \"id\": %u, \"epoch\": %llu, \"entities\": %u, \"classes\": %u, \"occluders\": %u, "
                "\"lights\": %u, \"import_ms\": %.1f, \"load_ms\": %.1f, \"entities_per_s\": %.0f}\n",
-               name, b.id, (unsigned long long)a.epoch, a.count, lv.nmesh, lv.nocc, lv.nlight, t_import * 1e3,
-               t_push * 1e3, t_ent > 0 ? lv.nent / t_ent : 0.0);
+               b.id, (unsigned long long)a.epoch, a.count, lv.nmesh, lv.nocc, lv.nlight, t_import * 1e3, t_push * 1e3,
+               t_ent > 0 ? lv.nent / t_ent : 0.0);
+    }
     else
         printf("sub-level %s (id %u) loaded at epoch %llu: %u entities, %u occluders, %u lights in %.0f ms\n", name,
                b.id, (unsigned long long)a.epoch, a.count, lv.nocc, lv.nlight, t_push * 1e3);
@@ -178,13 +184,9 @@ static int sub_list(cli *k, int argc, char **argv)
     vp_sublevel_info s;
     while (vp_sublevel_info_next(&in, &pos, &s)) {
         if (json) {
-            printf("{\"id\": %u, \"name\": \"", s.id);
-            for (uint8_t i = 0; i < s.name_len; i++) {
-                unsigned char ch = s.name[i];
-                if (ch == '"' || ch == '\\') printf("\\%c", ch);
-                else putchar(ch);
-            }
-            printf("\", \"state\": \"%s\", \"entities\": %u, \"occluders\": %u, \"lights\": %u, \"classes\": %u, "
+            printf("{\"id\": %u, \"name\": ", s.id);
+            cli_json_str(stdout, (const char *)s.name, s.name_len);
+            printf(", \"state\": \"%s\", \"entities\": %u, \"occluders\": %u, \"lights\": %u, \"classes\": %u, "
                    "\"epoch\": %llu}\n",
                    states[s.state], s.entities, s.occluders, s.lights, s.classes, (unsigned long long)in.epoch);
         } else {

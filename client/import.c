@@ -24,6 +24,10 @@
 #define MAX_COORD 1e12 /* the culling core's range */
 #define CLASS_SLOTS (2 * LVL_MAX_CLASSES)
 
+typedef struct mat {
+    double m[4][4]; /* row-major, column vectors: p' = m p */
+} mat;
+
 /* A class: the meshes of a node in one orientation and scale. */
 typedef struct ckey {
     uint32_t nmesh;
@@ -31,12 +35,25 @@ typedef struct ckey {
     float m[9];             /* the linear part, row-major */
 } ckey;
 
+/* Names to indices: open addressing over (bytes, length) keys that live
+ * in assimp's scene (node and light names, matched whole). */
+typedef struct name_map {
+    const struct aiString **key;
+    uint32_t *val;
+    uint32_t cap;           /* a power of two, or 0 */
+} name_map;
+
 typedef struct importer {
     const struct aiScene *sc;
     vt_level *lv;
     ckey keys[LVL_MAX_CLASSES];
     int32_t slot[CLASS_SLOTS]; /* class index + 1 */
+    float cbox[LVL_MAX_CLASSES][6]; /* each class mesh's bounds: lo xyz, hi xyz */
     uint32_t ent_cap, occ_cap;
+    const struct aiString **ent_name, **occ_name; /* full names, for OCC_ matching */
+    name_map lights;        /* light name -> light index */
+    mat *light_w;           /* per light: its node's world matrix, */
+    const struct aiNode **light_node; /* and its node (NULL: none met) */
     char *err;
     size_t errlen;
 } importer;
@@ -51,9 +68,6 @@ static int fail(importer *im, const char *fmt, ...)
     return -1;
 }
 
-typedef struct mat {
-    double m[4][4]; /* row-major, column vectors: p' = m p */
-} mat;
 
 static mat mat_from(const struct aiMatrix4x4 *a)
 {
@@ -121,6 +135,58 @@ static bool meta_float(const struct aiNode *n, const char *key, double *out)
     return false;
 }
 
+static uint32_t name_hash(const struct aiString *k)
+{
+    uint32_t h = 2166136261u;
+    for (uint32_t i = 0; i < k->length; i++) h = (h ^ (uint8_t)k->data[i]) * 16777619u;
+    return h;
+}
+
+static bool name_eq(const struct aiString *a, const struct aiString *b)
+{
+    return a->length == b->length && !memcmp(a->data, b->data, a->length);
+}
+
+/* Room for n names; false when out of memory. */
+static bool name_map_init(name_map *m, uint32_t n)
+{
+    m->cap = 16;
+    while (m->cap < 2 * n) m->cap *= 2;
+    m->key = calloc(m->cap, sizeof *m->key);
+    m->val = calloc(m->cap, sizeof *m->val);
+    return m->key && m->val;
+}
+
+static void name_map_free(name_map *m)
+{
+    free(m->key);
+    free(m->val);
+}
+
+/* Adds k -> v unless k is there (the first one keeps it). */
+static void name_map_put(name_map *m, const struct aiString *k, uint32_t v)
+{
+    for (uint32_t i = name_hash(k) & (m->cap - 1);; i = (i + 1) & (m->cap - 1)) {
+        if (!m->key[i]) {
+            m->key[i] = k;
+            m->val[i] = v;
+            return;
+        }
+        if (name_eq(m->key[i], k)) return;
+    }
+}
+
+static bool name_map_get(const name_map *m, const struct aiString *k, uint32_t *v)
+{
+    if (!m->cap) return false;
+    for (uint32_t i = name_hash(k) & (m->cap - 1); m->key[i]; i = (i + 1) & (m->cap - 1))
+        if (name_eq(m->key[i], k)) {
+            *v = m->val[i];
+            return true;
+        }
+    return false;
+}
+
 static bool grow(void **p, uint32_t *cap, uint32_t need, size_t elem)
 {
     if (need <= *cap) return true;
@@ -133,26 +199,27 @@ static bool grow(void **p, uint32_t *cap, uint32_t need, size_t elem)
     return true;
 }
 
-/* The node's triangle meshes, checked: 0, or -1 with the error. */
-static int node_meshes(importer *im, const struct aiNode *n, const char *name, uint32_t *ntri)
+/* The node has triangles (its point and line primitives are counted and
+ * dropped): 0, or -1 with the error. */
+static int node_meshes(importer *im, const struct aiNode *n, const char *name)
 {
-    *ntri = 0;
+    bool any = false;
     for (unsigned k = 0; k < n->mNumMeshes; k++) {
         const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[k]];
-        if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) {
-            im->lv->skipped_prims += m->mNumFaces;
-            continue;
-        }
-        for (unsigned v = 0; v < m->mNumVertices; v++)
-            if (!isfinite(m->mVertices[v].x) || !isfinite(m->mVertices[v].y) || !isfinite(m->mVertices[v].z))
-                return fail(im, "node '%s': mesh '%s' has a non-finite vertex (%u)", name, m->mName.data, v);
-        *ntri += m->mNumFaces;
+        if (m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) any |= m->mNumFaces > 0;
+        else im->lv->skipped_prims += m->mNumFaces;
     }
-    if (!*ntri) return fail(im, "node '%s': its meshes have no triangles (points or lines only)", name);
-    return 0;
+    return any ? 0 : fail(im, "node '%s': its meshes have no triangles (points or lines only)", name);
 }
 
-/* Appends the node's triangles in world space to occluder o. */
+static int bad_vertex(importer *im, const char *name, const struct aiMesh *m, unsigned v, double x)
+{
+    return isfinite(x) ? fail(im, "node '%s': bounds beyond +-1e12 m (mesh '%s', vertex %u)", name, m->mName.data, v)
+                       : fail(im, "node '%s': mesh '%s' has a non-finite vertex (%u)", name, m->mName.data, v);
+}
+
+/* Appends the node's triangles in world space to occluder o, each vertex
+ * checked (finite, within range). */
 static int occ_append(importer *im, lvl_occluder *o, const struct aiNode *n, const mat *w)
 {
     for (unsigned k = 0; k < n->mNumMeshes; k++) {
@@ -168,18 +235,25 @@ static int occ_append(importer *im, lvl_occluder *o, const struct aiNode *n, con
                 const struct aiVector3D *p = &m->mVertices[face->mIndices[v]];
                 double q[3] = {p->x, p->y, p->z}, r[3];
                 xform(w, q, r);
-                for (int a = 0; a < 3; a++) t[3 * v + a] = (float)(r[a] - o->origin[a]);
+                for (int a = 0; a < 3; a++) {
+                    if (!(fabs(r[a]) <= MAX_COORD)) return bad_vertex(im, o->name, m, face->mIndices[v], r[a]);
+                    t[3 * v + a] = (float)(r[a] - o->origin[a]);
+                }
             }
         }
     }
     return 0;
 }
 
-static int new_occluder(importer *im, const char *name, const mat *w, int32_t entity, lvl_occluder **out)
+static int new_occluder(importer *im, const struct aiString *full, const char *name, const mat *w, int32_t entity,
+                        lvl_occluder **out)
 {
     vt_level *lv = im->lv;
-    if (!grow((void **)&lv->occ, &im->occ_cap, lv->nocc + 1, sizeof *lv->occ))
+    uint32_t cap = im->occ_cap;
+    if (!grow((void **)&lv->occ, &im->occ_cap, lv->nocc + 1, sizeof *lv->occ) ||
+        !grow((void **)&im->occ_name, &cap, lv->nocc + 1, sizeof *im->occ_name))
         return fail(im, "out of memory for occluders");
+    im->occ_name[lv->nocc] = full;
     lvl_occluder *o = &lv->occ[lv->nocc++];
     memset(o, 0, sizeof *o);
     snprintf(o->name, sizeof o->name, "%s", name);
@@ -260,8 +334,16 @@ static int class_of(importer *im, const struct aiNode *n, const mat *w, const ch
         uint32_t base = out->nv;
         for (unsigned v = 0; v < m->mNumVertices; v++) {
             const struct aiVector3D *p = &m->mVertices[v];
-            for (int i = 0; i < 3; i++)
-                out->pos[3 * (out->nv + v) + i] = (float)(a[i][0] * p->x + a[i][1] * p->y + a[i][2] * p->z);
+            for (int i = 0; i < 3; i++) {
+                double x = a[i][0] * p->x + a[i][1] * p->y + a[i][2] * p->z;
+                if (!(fabs(x) <= MAX_COORD)) {
+                    free(out->pos);
+                    free(out->nrm);
+                    free(out->idx);
+                    return bad_vertex(im, name, m, v, x);
+                }
+                out->pos[3 * (out->nv + v) + i] = (float)x;
+            }
             double nn[3] = {0, 0, 0}, l = 0;
             if (m->mNormals) {
                 const struct aiVector3D *o = &m->mNormals[v];
@@ -283,6 +365,13 @@ static int class_of(importer *im, const struct aiNode *n, const mat *w, const ch
             for (int v = 0; v < 3; v++) out->idx[out->ni++] = base + face->mIndices[order[v]];
         }
     }
+    float *box = im->cbox[lv->nmesh];
+    for (int i = 0; i < 3; i++) box[i] = INFINITY, box[3 + i] = -INFINITY;
+    for (uint32_t v = 0; v < out->nv; v++)
+        for (int i = 0; i < 3; i++) {
+            box[i] = fminf(box[i], out->pos[3 * v + i]);
+            box[3 + i] = fmaxf(box[3 + i], out->pos[3 * v + i]);
+        }
     im->keys[lv->nmesh] = k;
     im->slot[h] = (int32_t)++lv->nmesh;
     *cls = lv->nmesh - 1;
@@ -292,34 +381,30 @@ static int class_of(importer *im, const struct aiNode *n, const mat *w, const ch
 static int node_entity(importer *im, const struct aiNode *n, const mat *w, const char *name)
 {
     vt_level *lv = im->lv;
-    uint32_t cls = 0;
+    uint32_t cls = 0, cap = im->ent_cap;
     if (class_of(im, n, w, name, &cls)) return -1;
-    if (!grow((void **)&lv->ent, &im->ent_cap, lv->nent + 1, sizeof *lv->ent))
+    if (!grow((void **)&lv->ent, &im->ent_cap, lv->nent + 1, sizeof *lv->ent) ||
+        !grow((void **)&im->ent_name, &cap, lv->nent + 1, sizeof *im->ent_name))
         return fail(im, "out of memory for entities");
+    im->ent_name[lv->nent] = &n->mName;
     lvl_entity *e = &lv->ent[lv->nent];
     memset(e, 0, sizeof *e);
     e->cls = cls;
     e->dynamic = meta_true(n, "vantage_dynamic");
     e->occluder = -1;
     snprintf(e->name, sizeof e->name, "%s", name);
-    const lvl_mesh *m = &lv->mesh[cls];
+    /* the class's box, placed: instances never walk their vertices */
     for (int a = 0; a < 3; a++) {
-        e->lo[a] = INFINITY;
-        e->hi[a] = -INFINITY;
+        e->lo[a] = (double)im->cbox[cls][a] + w->m[a][3];
+        e->hi[a] = (double)im->cbox[cls][3 + a] + w->m[a][3];
     }
-    for (uint32_t v = 0; v < m->nv; v++)
-        for (int a = 0; a < 3; a++) {
-            double x = (double)m->pos[3 * v + a] + w->m[a][3];
-            e->lo[a] = fmin(e->lo[a], x);
-            e->hi[a] = fmax(e->hi[a], x);
-        }
     for (int a = 0; a < 3; a++)
         if (!(fabs(e->lo[a]) <= MAX_COORD && fabs(e->hi[a]) <= MAX_COORD))
             return fail(im, "node '%s': bounds beyond +-1e12 m (or not finite)", name);
     lv->nent++;
     if (meta_true(n, "vantage_occluder")) {
         lvl_occluder *o;
-        if (new_occluder(im, name, w, (int32_t)lv->nent - 1, &o) || occ_append(im, o, n, w)) return -1;
+        if (new_occluder(im, &n->mName, name, w, (int32_t)lv->nent - 1, &o) || occ_append(im, o, n, w)) return -1;
         lv->ent[lv->nent - 1].occluder = (int32_t)lv->nocc - 1;
     }
     return 0;
@@ -337,33 +422,35 @@ static int walk(importer *im, const struct aiNode *n, const mat *parent, unsigne
                 if (!isfinite(w.m[i][j])) return fail(im, "node '%s': its transform is not finite", name);
         double d = det3(&w);
         if (!(fabs(d) > 1e-18)) return fail(im, "node '%s': its transform has zero scale (determinant %g)", name, d);
-        uint32_t ntri;
-        if (node_meshes(im, n, name, &ntri)) return -1;
+        if (node_meshes(im, n, name)) return -1;
         if (!strncasecmp(name, "OCC_", 4)) {
             lvl_occluder *o;
-            if (new_occluder(im, name, &w, -1, &o) || occ_append(im, o, n, &w)) return -1;
+            if (new_occluder(im, &n->mName, name, &w, -1, &o) || occ_append(im, o, n, &w)) return -1;
         } else if (node_entity(im, n, &w, name)) {
             return -1;
         }
+    }
+    uint32_t li;
+    if (name_map_get(&im->lights, &n->mName, &li) && !im->light_node[li]) {
+        im->light_w[li] = w;
+        im->light_node[li] = n;
     }
     for (unsigned c = 0; c < n->mNumChildren; c++)
         if (walk(im, n->mChildren[c], &w, depth + 1)) return -1;
     return 0;
 }
 
-/* The world matrix of the node named `name`, if there is one. */
-static bool find_node(const struct aiNode *n, const mat *parent, const struct aiString *name, mat *out,
-                      const struct aiNode **node, unsigned depth)
+/* Before the walk: the light names it looks for (each light sits at the
+ * node of its name, whose world matrix the walk records). */
+static int lights_prepare(importer *im)
 {
-    mat local = mat_from(&n->mTransformation), w = mat_mul(parent, &local);
-    if (n->mName.length == name->length && !memcmp(n->mName.data, name->data, name->length)) {
-        *out = w;
-        *node = n;
-        return true;
-    }
-    for (unsigned c = 0; c < n->mNumChildren && depth < 256; c++)
-        if (find_node(n->mChildren[c], &w, name, out, node, depth + 1)) return true;
-    return false;
+    uint32_t n = im->sc->mNumLights;
+    im->light_w = calloc((size_t)n + 1, sizeof *im->light_w);
+    im->light_node = calloc((size_t)n + 1, sizeof *im->light_node);
+    if (!im->light_w || !im->light_node || (n && !name_map_init(&im->lights, n)))
+        return fail(im, "out of memory for lights");
+    for (uint32_t i = 0; i < n; i++) name_map_put(&im->lights, &im->sc->mLights[i]->mName, i);
+    return 0;
 }
 
 static int lights(importer *im, const mat *id)
@@ -379,9 +466,11 @@ static int lights(importer *im, const mat *id)
             lv->skipped_lights++;
             continue;
         }
-        mat w = *id;
-        const struct aiNode *node = NULL;
-        find_node(im->sc->mRootNode, id, &L->mName, &w, &node, 0);
+        /* the first light of a name owns the node's matrix (names repeat rarely) */
+        uint32_t li = i;
+        name_map_get(&im->lights, &L->mName, &li);
+        const struct aiNode *node = im->light_node[li];
+        mat w = node ? im->light_w[li] : *id;
         vp_light *o = &lv->light[lv->nlight];
         memset(o, 0, sizeof *o);
         o->kind = L->mType == aiLightSource_SPOT ? VP_LIGHT_SPOT : VP_LIGHT_POINT;
@@ -421,32 +510,42 @@ static int lights(importer *im, const mat *id)
     return 0;
 }
 
-/* OCC_<name> to the entity <name>; two occluders of one entity merge. */
+/* OCC_<name> to the entity <name> (whole names, through a hash); two
+ * occluders of one entity merge. */
 static int attach(importer *im)
 {
     vt_level *lv = im->lv;
+    name_map ents = {0};
+    if (lv->nocc && !name_map_init(&ents, lv->nent)) return fail(im, "out of memory matching occluders");
+    for (uint32_t e = 0; e < lv->nent && lv->nocc; e++) name_map_put(&ents, im->ent_name[e], e);
     for (uint32_t i = 0; i < lv->nocc; i++) {
         lvl_occluder *o = &lv->occ[i];
-        if (o->entity >= 0 || strncasecmp(o->name, "OCC_", 4)) continue;
-        for (uint32_t e = 0; e < lv->nent; e++) {
-            if (strcmp(lv->ent[e].name, o->name + 4)) continue;
-            o->entity = (int32_t)e;
-            int32_t prev = lv->ent[e].occluder;
-            if (prev < 0) {
-                lv->ent[e].occluder = (int32_t)i;
-                break;
-            }
-            /* merge into the one it has: re-based to its origin */
-            lvl_occluder *p = &lv->occ[prev];
-            if (!grow((void **)&p->tri, &p->cap, p->ntri + o->ntri, 9 * sizeof(float)))
-                return fail(im, "out of memory for occluder '%s'", p->name);
-            for (uint32_t t = 0; t < 9 * o->ntri; t++)
-                p->tri[9 * (size_t)p->ntri + t] = (float)(o->tri[t] + o->origin[t % 3] - p->origin[t % 3]);
-            p->ntri += o->ntri;
-            o->ntri = 0; /* dropped below */
-            break;
+        const struct aiString *full = im->occ_name[i];
+        if (o->entity >= 0 || full->length < 4 || strncasecmp(full->data, "OCC_", 4)) continue;
+        struct aiString rest;
+        rest.length = full->length - 4;
+        memcpy(rest.data, full->data + 4, rest.length);
+        rest.data[rest.length] = 0;
+        uint32_t e;
+        if (!name_map_get(&ents, &rest, &e)) continue;
+        o->entity = (int32_t)e;
+        int32_t prev = lv->ent[e].occluder;
+        if (prev < 0) {
+            lv->ent[e].occluder = (int32_t)i;
+            continue;
         }
+        /* merge into the one it has: re-based to its origin */
+        lvl_occluder *p = &lv->occ[prev];
+        if (!grow((void **)&p->tri, &p->cap, p->ntri + o->ntri, 9 * sizeof(float))) {
+            name_map_free(&ents);
+            return fail(im, "out of memory for occluder '%s'", p->name);
+        }
+        for (uint32_t t = 0; t < 9 * o->ntri; t++)
+            p->tri[9 * (size_t)p->ntri + t] = (float)(o->tri[t] + o->origin[t % 3] - p->origin[t % 3]);
+        p->ntri += o->ntri;
+        o->ntri = 0; /* dropped below */
     }
+    name_map_free(&ents);
     /* drop merged (empty) occluders, fixing the entities' indices */
     uint32_t k = 0;
     for (uint32_t i = 0; i < lv->nocc; i++) {
@@ -499,13 +598,20 @@ int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
         goto done;
     }
     mat id = {{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}};
-    if (walk(im, sc->mRootNode, &id, 0) || lights(im, &id) || attach(im)) goto done;
+    if (lights_prepare(im) || walk(im, sc->mRootNode, &id, 0) || lights(im, &id) || attach(im)) goto done;
     if (!out->nent && !out->nocc && !out->nlight) {
         fail(im, "%s: no meshes or lights in the file", path);
         goto done;
     }
     rc = 0;
 done:
+    if (im) {
+        free(im->ent_name);
+        free(im->occ_name);
+        free(im->light_w);
+        free(im->light_node);
+        name_map_free(&im->lights);
+    }
     free(im);
     aiReleaseImport(sc);
     if (rc) vt_level_free(out);

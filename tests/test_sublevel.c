@@ -132,11 +132,21 @@ static void test_import_obj_and_bad_files(void **state)
     assert_string_equal(lv.ent[lv.occ[0].entity].name, "shed");
     assert_box(entity_named(&lv, "shed"), -1, 0, -1, 1, 2, 1);
     vt_level_free(&lv);
+    /* names are matched whole, however long: the occluder goes to the one
+       entity whose name is its name after OCC_ (not to the near namesake) */
+    rc = vt_level_import(data_file("level_names.gltf"), &lv, err, sizeof err);
+    if (rc) fail_msg("%s", err);
+    assert_int_equal(lv.nent, 2);
+    assert_int_equal(lv.nocc, 1);
+    assert_true(lv.occ[0].entity >= 0);
+    assert_true(lv.ent[lv.occ[0].entity].lo[0] < 0); /* the first, at x = 0, not the one at x = 20 */
+    vt_level_free(&lv);
     static const struct { const char *file, *says; } bad[] = {
         {"bad_huge.gltf", "node 'vast': bounds beyond"},
         {"bad_zero.gltf", "node 'flat': its transform has zero scale"},
         {"bad_points.gltf", "node 'dots': its meshes have no triangles"},
         {"bad_nan.obj", "node 'broken': mesh 'broken' has a non-finite vertex"},
+        {"bad_occ_far.gltf", "bounds beyond +-1e12 m"},
         {"make_levels.py", "unsupported format"},
         {"missing.glb", "No such file or directory"},
     };

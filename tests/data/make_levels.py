@@ -117,11 +117,23 @@ def bad(path, kind):
     d.node(name="ok", mesh=box, translation=[0, 1, 0])
     if kind == "huge":
         d.node(name="vast", mesh=box, scale=[1e30, 1, 1])
+    elif kind == "occ_far":
+        d.node(name="OCC_far", mesh=box, translation=[1e15, 0, 0])
     elif kind == "zero":
         d.node(name="flat", mesh=box, scale=[1, 0, 1])
     elif kind == "points":
         pts = d.mesh("dots", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 0, 1)] * 3, [0, 1, 2], mode=0)
         d.node(name="dots", mesh=pts)
+    d.write(path)
+
+def long_names(path):
+    # names past 64 bytes still pair an entity with its OCC_ node
+    d = Doc()
+    box = d.mesh("box", *box_mesh())
+    name = "a_building_with_a_long_descriptive_name_from_the_artists_outliner_" * 2
+    d.node(name=name, mesh=box, translation=[0, 5, 0], scale=[5, 5, 5])
+    d.node(name=name[:-1] + "X", mesh=box, translation=[20, 5, 0], scale=[5, 5, 5])
+    d.node(name="OCC_" + name, mesh=box, translation=[0, 5, 0], scale=[4.5, 4.5, 4.5])
     d.write(path)
 
 def big(n, path):
@@ -139,5 +151,6 @@ if __name__ == "__main__":
     else:
         out = sys.argv[1] if len(sys.argv) > 1 else "tests/data"
         small(out + "/level_small.gltf")
-        for k in ("huge", "zero", "points"):
+        long_names(out + "/level_names.gltf")
+        for k in ("huge", "zero", "points", "occ_far"):
             bad(out + "/bad_%s.gltf" % k, k)
