@@ -131,23 +131,29 @@ int bench_frames(cli *k, int argc, char **argv)
     }
     if ((rc = vt_add(k->c, &e, 1, NULL, NULL))) return server_fail(k, "bench: add", rc);
 
-    size_t n = (size_t)(viewers + stalled);
+    size_t n = (size_t)(viewers + stalled), started = 0;
     viewer *vs = calloc(n, sizeof *vs);
     atomic_bool stop = false;
-    if (!vs) return 1;
-    for (size_t i = 0; i < n; i++) {
+    int fail = 0;
+    if (!vs) {
+        fprintf(stderr, "%s: out of memory\n", g_prog);
+        fail = 1;
+    }
+    for (; !fail && started < n; started++) {
+        size_t i = started;
         vs[i] = (viewer){.co = k->co, .sub = sub, .stalled = i >= (size_t)viewers, .stop = &stop};
         vs[i].co.role = VP_ROLE_VIEWER;
         vs[i].co.name = "vantage-bench-frames";
         if (pthread_create(&vs[i].th, NULL, viewer_main, &vs[i])) {
             fprintf(stderr, "%s: cannot start a thread\n", g_prog);
-            return 1;
+            fail = 1;
+            break;
         }
     }
     /* the edits: the entity moves back and forth at edit_rate a second */
     double t0 = now_s(), next = t0;
     uint64_t edits = 0;
-    while (now_s() - t0 < seconds) {
+    while (!fail && now_s() - t0 < seconds) {
         if (edit_rate == 0) {
             usleep(10000);
             continue;
@@ -155,19 +161,29 @@ int bench_frames(cli *k, int argc, char **argv)
         double dx = 3 * sin(edits * 0.05);
         vp_entity m = e;
         m.aabb[0] += dx, m.aabb[3] += dx;
-        if ((rc = vt_update(k->c, &m, 1, NULL))) return server_fail(k, "bench: update", rc);
+        if ((rc = vt_update(k->c, &m, 1, NULL))) {
+            fail = server_fail(k, "bench: update", rc);
+            break;
+        }
         edits++;
         next += 1.0 / edit_rate;
         double sl = next - now_s();
         if (sl > 0) usleep((useconds_t)(sl * 1e6));
     }
     double elapsed = now_s() - t0;
+    /* one way out: the viewers stopped and joined, the entity taken away */
     atomic_store(&stop, true);
-    for (size_t i = 0; i < n; i++) pthread_join(vs[i].th, NULL);
+    for (size_t i = 0; i < started; i++) pthread_join(vs[i].th, NULL);
     vt_remove(k->c, &id, 1, NULL);
+    double *rates = fail ? NULL : calloc((size_t)viewers, sizeof *rates), *gaps = NULL;
+    if (!fail && !rates) fail = (fprintf(stderr, "%s: out of memory\n", g_prog), 1);
+    if (fail) {
+        for (size_t i = 0; vs && i < started; i++) free(vs[i].gaps);
+        free(vs);
+        return fail;
+    }
 
     /* per viewer: frames/s over the run; pooled intervals */
-    double *rates = calloc((size_t)viewers, sizeof *rates), *gaps = NULL;
     size_t ngaps = 0, total_frames = 0;
     double render = 0, encode = 0;
     int failed = 0;

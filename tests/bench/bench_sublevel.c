@@ -114,6 +114,7 @@ int main(int argc, char **argv)
             return 2;
         }
     }
+    if (reps > 32) reps = 32; /* the per-rep arrays below */
     if (!port || !level || reps < 1) {
         fprintf(stderr, "usage: bench_sublevel --port P --pid PID --level FILE [--reps N] [--json]\n");
         return 2;
@@ -138,7 +139,7 @@ int main(int argc, char **argv)
     int nw = 0;
     long rss0 = pid ? rss_kib(pid) : -1, rss_loaded = -1, rss_after = -1;
     double load_ms[64], import_ms[64], unload_ms[64], free_ms[64];
-    for (int r = 0; r < reps && r < 32; r++) {
+    for (int r = 0; r < reps; r++) {
         char cmd[8400], out[1024];
         snprintf(cmd, sizeof cmd, "%s -p %d sublevel load bench %s --json", cli, port, level);
         FILE *p = popen(cmd, "r");
@@ -166,9 +167,17 @@ int main(int argc, char **argv)
         for (;;) {
             vp_sublevel_infos in;
             vp_sublevel_info si = {0};
-            if (vt_sublevel_info(ed, &in)) return 1;
+            bool found = false;
+            if (vt_sublevel_info(ed, &in)) {
+                fprintf(stderr, "bench_sublevel: sublevel info: %s\n", vt_last_error(ed)->msg);
+                return 1;
+            }
             size_t pos = 0;
-            while (vp_sublevel_info_next(&in, &pos, &si) && (si.name_len != 5 || memcmp(si.name, "bench", 5))) {}
+            while (!found && vp_sublevel_info_next(&in, &pos, &si)) found = si.name_len == 5 && !memcmp(si.name, "bench", 5);
+            if (!found) {
+                fprintf(stderr, "bench_sublevel: the sub-level \"bench\" is gone from the list\n");
+                return 1;
+            }
             if (si.state == VP_SL_EMPTY) break;
             usleep(1000);
         }
