@@ -59,6 +59,11 @@ static bool valid_light(const cull_light *l)
     return isfinite(n) && fabs(n - 1) < 1e-3 && l->cos_outer >= -1 && l->cos_outer <= 1;
 }
 
+int cull_light_check(const cull_light *l)
+{
+    return valid_light(l) ? CULL_OK : CULL_ERR_INVALID;
+}
+
 void cull_light_tiles_free(cull_light_tiles *t)
 {
     if (!t) return;

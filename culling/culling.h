@@ -535,6 +535,8 @@ typedef struct cull_light_tiles {
  * every list is empty and nothing is tested. */
 int  cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const cull_light *lights, uint32_t n,
                      const float (*depth_range)[2], cull_light_tiles *out);
+/* CULL_OK, or CULL_ERR_INVALID for a light cull_lights_bin would refuse. */
+int  cull_light_check(const cull_light *l);
 void cull_light_tiles_free(cull_light_tiles *t);
 
 /* ---- ISA dispatch -------------------------------------------------------- */

@@ -56,9 +56,32 @@ int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t s
             if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
                 return vt_fail(err, errlen, -EINVAL, "instance %u: bad bounds", i);
     }
+    for (uint32_t i = 0; i < nl; i++) {
+        const vt_light *L = &lights[i];
+        if (cull_light_check(&L->l) != CULL_OK)
+            return vt_fail(err, errlen, -EINVAL, "light %u: bad position, range or spot axis", i);
+        if (!isfinite(L->color[0]) || !isfinite(L->color[1]) || !isfinite(L->color[2]) || !isfinite(L->cos_inner))
+            return vt_fail(err, errlen, -EINVAL, "light %u: colour or cone not finite", i);
+    }
     cull_view_rows_get(v, vr);
     if (!vr->usable) return vt_fail(err, errlen, -EINVAL, "orthographic view with w <= 0");
     return 0;
+}
+
+void vt_light_prepare(const vt_light *L, const double origin[3], vt_slight *q, cull_light *cl)
+{
+    *cl = L->l;
+    for (int a = 0; a < 3; a++) {
+        q->p[a] = (float)(L->l.pos[a] - origin[a]);
+        q->color[a] = L->color[a];
+        q->dir[a] = L->l.dir[a];
+    }
+    q->range2 = (float)(L->l.radius * L->l.radius);
+    q->inv_range2 = 1.0f / q->range2;
+    q->spot = L->l.type == CULL_LIGHT_SPOT;
+    q->cos_outer = L->l.cos_outer;
+    q->cos_inner = L->cos_inner > L->l.cos_outer ? L->cos_inner : L->l.cos_outer + 1e-4f;
+    q->inv_cone = 1.0f / (q->cos_inner - q->cos_outer);
 }
 
 void vt_mesh_bounds(const vt_mesh *m, float b[6])

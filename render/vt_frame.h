@@ -8,6 +8,7 @@
 #ifndef VANTAGE_VT_FRAME_H
 #define VANTAGE_VT_FRAME_H
 
+#include "vt_shade.h"
 #include "vt_soft.h"
 
 #include <float.h>
@@ -20,8 +21,8 @@
 int vt_fail(char *err, size_t errlen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 
 /* Checks everything a render call is given (buffers, size, meshes,
- * instances) and fills *vr for v. 0, or -EINVAL with err filled. Lights
- * are checked by the binning (cull_lights_bin). */
+ * instances, lights: before any work) and fills *vr for v. 0, or -EINVAL
+ * with err filled. */
 int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
                    uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                    const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen);
@@ -46,11 +47,10 @@ static inline float vt_depth_of(const cull_view *v, const cull_view_rows *vr, fl
     return !vr->ortho ? 1.0f / nz : v->depth_mode == CULL_DEPTH_GL ? 1.0f - 0.5f * nz : 1.0f - nz;
 }
 
-/* A spot light's full-intensity cosine, kept above the outer one so the
- * smoothstep between them never divides by zero. */
-static inline float vt_light_cos_inner(const vt_light *L)
-{
-    return L->cos_inner > L->l.cos_outer ? L->cos_inner : L->l.cos_outer + 1e-4f;
-}
+/* A light as both renderers shade it (camera-relative, the spot's inner
+ * cosine kept above the outer one so the smoothstep between them never
+ * divides by zero) and as the binning takes it. Checked beforehand by
+ * vt_frame_check. */
+void vt_light_prepare(const vt_light *L, const double origin[3], vt_slight *q, cull_light *cl);
 
 #endif

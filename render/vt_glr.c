@@ -353,18 +353,18 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     }
     float *ld = r->ld;
     for (uint32_t i = 0; i < nl; i++) {
-        const vt_light *L = &lights[i];
-        float *q = ld + 16 * (size_t)i;
-        r->cl[i] = L->l;
+        vt_slight sl;
+        vt_light_prepare(&lights[i], v->origin, &sl, &r->cl[i]);
+        float *q = ld + 16 * (size_t)i; /* the shader's four vec4 */
         for (int a = 0; a < 3; a++) {
-            q[a] = (float)(L->l.pos[a] - v->origin[a]);
-            q[4 + a] = L->color[a];
-            q[8 + a] = L->l.dir[a];
+            q[a] = sl.p[a];
+            q[4 + a] = sl.color[a];
+            q[8 + a] = sl.dir[a];
         }
-        q[3] = (float)(L->l.radius * L->l.radius);
-        q[7] = L->l.type == CULL_LIGHT_SPOT ? 1.0f : 0.0f;
-        q[11] = L->l.cos_outer;
-        q[12] = vt_light_cos_inner(L);
+        q[3] = sl.range2;
+        q[7] = sl.spot ? 1.0f : 0.0f;
+        q[11] = sl.cos_outer;
+        q[12] = sl.cos_inner;
         q[13] = q[14] = q[15] = 0;
     }
     int lrc = cull_lights_bin(v, width, height, r->cl, nl, nl ? (const float(*)[2])r->range : NULL, &r->tiles);

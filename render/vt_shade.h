@@ -35,6 +35,7 @@ typedef struct vt_slight {
     float range2, color[3];
     float dir[3], cos_outer, cos_inner;
     uint32_t spot;
+    float inv_range2, inv_cone; /* 1 / range2, 1 / (cos_inner - cos_outer): once a frame */
 } vt_slight;
 
 typedef struct vt_span {

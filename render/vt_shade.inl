@@ -57,9 +57,9 @@ static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
 static inline __attribute__((always_inline)) void light(surf *restrict s, const vt_slight *restrict L, int spot)
 {
     const vf lpx = vf_set(L->p[0]), lpy = vf_set(L->p[1]), lpz = vf_set(L->p[2]), r2 = vf_set(L->range2);
-    const vf ir2 = vf_set(1.0f / L->range2);
+    const vf ir2 = vf_set(L->inv_range2);
     const vf dx = vf_set(L->dir[0]), dy = vf_set(L->dir[1]), dz = vf_set(L->dir[2]);
-    const vf co = vf_set(L->cos_outer), cspan = vf_set(1.0f / (L->cos_inner - L->cos_outer));
+    const vf co = vf_set(L->cos_outer), cspan = vf_set(L->inv_cone);
     const vf lr = vf_set(L->color[0]), lg = vf_set(L->color[1]), lb = vf_set(L->color[2]);
     const vf ks = vf_set(0.04f * (32 + 8) / (8 * 3.14159265f));
     const vf zero = vf_set(0), one = vf_set(1), eps = vf_set(1e-2f), two = vf_set(2), three = vf_set(3);

@@ -569,20 +569,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
 
     /* light tiles from the nearness range of what each tile shows (the
        ranges came with the raster) */
-    for (uint32_t i = 0; i < nl; i++) {
-        const vt_light *L = &lights[i];
-        slight *q = &r->sl[i];
-        r->cl[i] = L->l;
-        for (int a = 0; a < 3; a++) {
-            q->p[a] = (float)(L->l.pos[a] - v->origin[a]);
-            q->color[a] = L->color[a];
-            q->dir[a] = L->l.dir[a];
-        }
-        q->range2 = (float)(L->l.radius * L->l.radius);
-        q->spot = L->l.type == CULL_LIGHT_SPOT;
-        q->cos_outer = L->l.cos_outer;
-        q->cos_inner = vt_light_cos_inner(L);
-    }
+    for (uint32_t i = 0; i < nl; i++) vt_light_prepare(&lights[i], v->origin, &r->sl[i], &r->cl[i]);
     int lrc = cull_lights_bin(v, width, height, r->cl, nl, nl ? (const float(*)[2])r->range : NULL, &r->tiles);
     if (lrc != CULL_OK) return fail(err, errlen, lrc == CULL_ERR_NOMEM ? -ENOMEM : -EINVAL, "lights: %s", cull_strerror(lrc));
     uint64_t t3 = now_ns();

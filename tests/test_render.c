@@ -155,6 +155,7 @@ static void test_soft_bad_input(void **state)
     vt_instance good = {.mesh = 0, .bmin = {-1, -1, -5}, .bmax = {1, 1, -3}}, bad_bounds = good;
     bad_bounds.bmin[2] = -2; /* min above max */
     vt_light nan_light = {.l = {.pos = {0, 0, NAN}, .radius = 5}};
+    vt_light hot_light = {.l = {.pos = {0, 0, -4}, .radius = 5}, .color = {INFINITY, 1, 1}};
     const struct {
         const vt_mesh *m;
         const vt_instance *in;
@@ -166,6 +167,7 @@ static void test_soft_bad_input(void **state)
         {&m2, &good, NULL, 0, "not finite"},    /* a NaN vertex */
         {&cube, &bad_bounds, NULL, 0, "bounds"},
         {&cube, &good, &nan_light, 1, "light"},
+        {&cube, &good, &hot_light, 1, "light 0: colour"}, /* an infinite colour: NaN pixels once shaded */
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         for (int path = 0; path < (gr ? 2 : 1); path++) {
