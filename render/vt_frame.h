@@ -15,7 +15,6 @@
 #include <stddef.h>
 
 #define VT_TILE CULL_LIGHT_TILE
-#define VT_EMPTY (-FLT_MAX) /* the nearness of a pixel nothing covers */
 
 /* Formats err (when there is one) and returns code. */
 int vt_fail(char *err, size_t errlen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
@@ -41,10 +40,10 @@ void vt_instance_xform(const vt_instance *in, const float b[6], const double ori
  * VT_EMPTY where nothing is): the depth_range of cull_lights_bin. */
 void vt_tile_ranges(const float *near, size_t xs, size_t ys, uint32_t width, uint32_t height, float (*range)[2]);
 
-/* The output depth of a pixel of nearness nz (see vt_soft.h). */
-static inline float vt_depth_of(const cull_view *v, const cull_view_rows *vr, float nz)
+/* The output depth rule of view v (vt_depth_apply). */
+static inline vt_depth_rule vt_depth_rule_of(const cull_view *v, const cull_view_rows *vr)
 {
-    return !vr->ortho ? 1.0f / nz : v->depth_mode == CULL_DEPTH_GL ? 1.0f - 0.5f * nz : 1.0f - nz;
+    return (vt_depth_rule){.ortho = vr->ortho, .k = v->depth_mode == CULL_DEPTH_GL ? 0.5f : 1.0f};
 }
 
 /* A light as both renderers shade it (camera-relative, the spot's inner

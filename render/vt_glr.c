@@ -391,6 +391,7 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     if (rc) return rc;
     if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
     /* alpha: nearness -> coverage, and depth as vt_soft gives it */
+    const vt_depth_rule rule = vt_depth_rule_of(v, &vr);
     for (uint32_t y = 0; y < height; y++)
         for (uint32_t x = 0; x < width; x++) {
             const float *p = r->pix + 4 * ((size_t)y * width + x);
@@ -405,7 +406,7 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
             c[1] = p[1];
             c[2] = p[2];
             c[3] = 1;
-            *dz = vt_depth_of(v, &vr, nz);
+            *dz = vt_depth_apply(rule, nz);
         }
     if (st) {
         st->lights_in_view = r->tiles.in_view;

@@ -13,6 +13,7 @@
 #ifndef VANTAGE_VT_SHADE_H
 #define VANTAGE_VT_SHADE_H
 
+#include <float.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -20,6 +21,20 @@
 #define VT_ID_BITS 27u       /* a pixel's record: set-up thread << 27 | its index */
 #define VT_ID_MASK ((1u << VT_ID_BITS) - 1)
 #define VT_AMBIENT 0.03f
+#define VT_EMPTY (-FLT_MAX) /* the nearness of a pixel nothing covers */
+
+/* The output depth of a pixel of nearness z (see vt_soft.h): 1 / z for
+ * perspective views, 1 - k z for orthographic ones (k 0.5 with GL depth,
+ * else 1). vt_depth_rule_of (vt_frame.h) makes it for a view. */
+typedef struct vt_depth_rule {
+    int ortho;
+    float k;
+} vt_depth_rule;
+
+static inline float vt_depth_apply(vt_depth_rule r, float z)
+{
+    return !r.ortho ? 1.0f / z : 1.0f - r.k * z;
+}
 
 /* A source triangle, for shading. */
 typedef struct vt_stri {
@@ -48,8 +63,7 @@ typedef struct vt_span {
     uint32_t x0, n;             /* first pixel's column, pixels (<= VT_SPAN) */
     double inv_w;               /* 2 / width: NDC x of column x is (x + 0.5) inv_w - 1 */
     float Y;                    /* the row's NDC y */
-    int ortho;                  /* depth out: 1 / nearness, or 1 - ok * nearness */
-    float ok;
+    vt_depth_rule rule;         /* nearness to output depth */
     float *rgba, *depth;        /* the span's first pixel in the outputs */
 } vt_span;
 

@@ -172,10 +172,11 @@ void VT_SHADE_NAME(const vt_span *sp)
         else light(&s, L, 0);
     }
     if (sp->n == S) {
-        const vf inf = vf_set(INFINITY), ok = vf_set(sp->ok);
+        /* vt_depth_apply, W lanes at a time */
+        const vf inf = vf_set(INFINITY), k = vf_set(sp->rule.k);
         for (unsigned i = 0; i < S; i += W) {
             vf c = vf_load(cov + i), z = vf_loadu(sp->near + i);
-            vf d = sp->ortho ? vf_sub(one, vf_mul(ok, z)) : vf_div(one, z);
+            vf d = sp->rule.ortho ? vf_sub(one, vf_mul(k, z)) : vf_div(one, z);
             vf_store(sp->depth + i, vf_select(vf_lt(zero, c), d, inf));
             store_rgba(sp->rgba + 4 * i, vf_load(s.cr + i), vf_load(s.cg + i), vf_load(s.cb + i), c);
         }
@@ -188,7 +189,7 @@ void VT_SHADE_NAME(const vt_span *sp)
         o[2] = s.cb[i];
         o[3] = cov[i];
         float z = sp->near[i];
-        sp->depth[i] = cov[i] == 0 ? INFINITY : !sp->ortho ? 1.0f / z : 1.0f - sp->ok * z;
+        sp->depth[i] = cov[i] == 0 ? INFINITY : vt_depth_apply(sp->rule, z);
     }
 }
 
@@ -197,7 +198,7 @@ void VT_SHADE_NAME(const vt_span *sp)
  * vt_tile_ranges (-FLT_MAX, FLT_MAX where it shows nothing). */
 void VT_RANGES_NAME(const float *near, size_t ys, uint32_t width, uint32_t rows, float (*range)[2])
 {
-    const vf empty = vf_set(-FLT_MAX), huge = vf_set(FLT_MAX), zero = vf_set(0);
+    const vf empty = vf_set(VT_EMPTY), huge = vf_set(FLT_MAX), zero = vf_set(0);
     uint32_t x = 0;
     for (; x + S <= width; x += S) {
         vf hi = empty, lo = huge;
@@ -215,7 +216,7 @@ void VT_RANGES_NAME(const float *near, size_t ys, uint32_t width, uint32_t rows,
         for (uint32_t y = 0; y < rows; y++)
             for (uint32_t i = x; i < width; i++) {
                 float z = near[y * ys + i];
-                if (z == -FLT_MAX) continue;
+                if (z == VT_EMPTY) continue;
                 hi = z > hi ? z : hi;
                 lo = z < lo ? z : lo;
             }

@@ -36,6 +36,7 @@
 #define GUARD 4.0          /* guard band: |x|, |y| <= GUARD w */
 #define TILE VT_TILE
 #define EMPTY VT_EMPTY
+_Static_assert(VT_SPAN == TILE, "a shading span is one light tile's row");
 #define MAX_THREADS 32u
 #define ID_BITS VT_ID_BITS
 
@@ -495,8 +496,7 @@ static void job_shade(void *arg, uint32_t t)
     const cull_light_tiles *lt = &r->tiles;
     const stri *st[MAX_THREADS];
     for (uint32_t b = 0; b < jb->nthreads; b++) st[b] = r->tb[b].st;
-    vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .ortho = fr->vr.ortho,
-                  .ok = fr->v->depth_mode == CULL_DEPTH_GL ? 0.5f : 1.0f};
+    vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .rule = vt_depth_rule_of(fr->v, &fr->vr)};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
