@@ -90,10 +90,6 @@ static int call_end(exr_call *c, exr_call *saved, int rc)
     return rc;
 }
 
-static const char *errstr(int e, char *buf, size_t n)
-{
-    return strerror_r(e, buf, n); /* GNU: returns the message, maybe not buf */
-}
 
 /* ---- file I/O callbacks ---------------------------------------------------- */
 
@@ -107,7 +103,7 @@ static void file_failed(exr_file *f, int e, const char *what)
 {
     char buf[128];
     if (!f->err) f->err = e;
-    call_msg(f->call, "%s: %s", what, errstr(e, buf, sizeof buf));
+    call_msg(f->call, "%s: %s", what, vt_strerror(e, buf, sizeof buf));
 }
 
 static int64_t file_read(exr_const_context_t ctxt, void *ud, void *buf, uint64_t sz, uint64_t off,
@@ -457,7 +453,7 @@ static int read_open(exr_call *c, const char *path, exr_file *f, exr_context_t *
     f->fd = open(path, O_RDONLY | O_CLOEXEC);
     if (f->fd < 0) {
         int e = errno;
-        call_msg(c, "open: %s", errstr(e, buf, sizeof buf));
+        call_msg(c, "open: %s", vt_strerror(e, buf, sizeof buf));
         return -e;
     }
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;

@@ -68,3 +68,8 @@ int vt_temp_finish(const char *path, char *tmp, int fd, int rc, char *msg, size_
     free(tmp);
     return rc;
 }
+
+const char *vt_strerror(int e, char *buf, size_t n)
+{
+    return strerror_r(e, buf, n); /* GNU: returns the message, maybe not buf */
+}

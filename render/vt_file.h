@@ -20,6 +20,9 @@ int vt_temp_open(const char *path, char **tmp, int *fd, char *msg, size_t msglen
  * rename failed) with a message in msg. */
 int vt_temp_finish(const char *path, char *tmp, int fd, int rc, char *msg, size_t msglen);
 
+/* strerror_r's message for errno e (GNU: maybe not in buf). */
+const char *vt_strerror(int e, char *buf, size_t n);
+
 /* The writers' error message: "WHERE: message" into err, the first call
  * only (*have records it: the first failure is the cause, later ones are
  * consequences). Nothing when err is NULL or errlen 0. */

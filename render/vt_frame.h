@@ -12,9 +12,14 @@
 #include "vt_soft.h"
 
 #include <float.h>
+#include <stdbool.h>
 #include <stddef.h>
 
 #define VT_TILE CULL_LIGHT_TILE
+
+/* Grows *p (an array of *cap elements) to hold need, doubling from 256;
+ * false (nothing changed) when out of memory. */
+bool vt_grow(void **p, size_t *cap, size_t need, size_t elem);
 
 /* Formats err (when there is one) and returns code. */
 int vt_fail(char *err, size_t errlen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));

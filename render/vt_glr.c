@@ -56,18 +56,6 @@ struct vt_glr {
     size_t cl_cap;
 };
 
-static bool grow(void **p, size_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap) return true;
-    size_t c = *cap ? *cap : 256;
-    while (c < need) c *= 2;
-    void *n = realloc(*p, c * elem);
-    if (!n) return false;
-    *p = n;
-    *cap = c;
-    return true;
-}
-
 static const char *vs_src =
     "#version 330 core\n"
     "layout(location = 0) in vec3 a_pos;\n"
@@ -208,8 +196,8 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
                   const double origin[3], char *err, size_t errlen)
 {
     size_t nvx = 0;
-    if (!grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
-        !grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * 9, sizeof *r->iv))
+    if (!vt_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
+        !vt_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * 9, sizeof *r->iv))
         return fail(err, errlen, -ENOMEM, "out of memory");
     memset(r->md, 0, (size_t)nmesh * sizeof *r->md);
     for (uint32_t i = 0; i < ninst; i++) r->md[inst[i].mesh].ninst++;
@@ -223,7 +211,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
         nvx += d->nvx;
         d->ninst = 0; /* counted again as the instances are placed */
     }
-    if (!grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx))
+    if (!vt_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx))
         return fail(err, errlen, -ENOMEM, "out of memory");
     for (uint32_t mi = 0; mi < nmesh; mi++) {
         const vt_mesh *m = &meshes[mi];
@@ -322,10 +310,10 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     }
     size_t npx = (size_t)width * height;
     uint32_t tx = (width + TILE - 1) / TILE, ty = (height + TILE - 1) / TILE;
-    if (!grow((void **)&r->pix, &r->pix_cap, npx * 4, sizeof *r->pix) ||
-        !grow((void **)&r->range, &r->range_cap, (size_t)tx * ty, sizeof *r->range) ||
-        !grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
-        !grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
+    if (!vt_grow((void **)&r->pix, &r->pix_cap, npx * 4, sizeof *r->pix) ||
+        !vt_grow((void **)&r->range, &r->range_cap, (size_t)tx * ty, sizeof *r->range) ||
+        !vt_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
+        !vt_grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
         return fail(err, errlen, -ENOMEM, "out of memory");
     if ((rc = upload(r, meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
     float vp[16], d4[4];

@@ -94,10 +94,6 @@ static int call_end(img_call *c, int rc)
     return rc;
 }
 
-static const char *errstr(int e, char *buf, size_t n)
-{
-    return strerror_r(e, buf, n); /* GNU: returns the message, maybe not buf */
-}
 
 /* ---- sRGB8 ----------------------------------------------------------------- */
 
@@ -420,7 +416,7 @@ static bool sink_fail(sink *s, int e, const char *what)
 {
     char buf[128];
     if (!s->err) s->err = e;
-    call_msg(s->call, "%s: %s", what, errstr(e, buf, sizeof buf));
+    call_msg(s->call, "%s: %s", what, vt_strerror(e, buf, sizeof buf));
     return false;
 }
 
@@ -600,7 +596,7 @@ static void png_on_read(png_structp png, png_bytep data, size_t n)
         if (got < 0 && errno == EINTR) continue;
         if (got < 0) {
             j->io_err = errno;
-            call_msg(j->c, "read: %s", errstr(errno, buf, sizeof buf));
+            call_msg(j->c, "read: %s", vt_strerror(errno, buf, sizeof buf));
             png_error(png, "read failed");
         }
         if (got == 0) png_error(png, "unexpected end of file");
@@ -724,7 +720,7 @@ int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *he
     png_job j = {.c = &c, .fd = open(path, O_RDONLY | O_CLOEXEC)};
     if (j.fd < 0) {
         rc = -errno;
-        call_msg(&c, "open: %s", errstr(-rc, buf, sizeof buf));
+        call_msg(&c, "open: %s", vt_strerror(-rc, buf, sizeof buf));
         return call_end(&c, rc);
     }
     j.png = png_create_read_struct_2(PNG_LIBPNG_VER_STRING, &j, png_on_error, png_on_warning, &j,
@@ -1090,7 +1086,7 @@ int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *he
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0) {
         rc = -errno;
-        call_msg(&c, "open: %s", errstr(-rc, buf, sizeof buf));
+        call_msg(&c, "open: %s", vt_strerror(-rc, buf, sizeof buf));
         return call_end(&c, rc);
     }
     struct stat st;
@@ -1098,7 +1094,7 @@ int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *he
     size_t len = 0;
     if (fstat(fd, &st) != 0) {
         rc = -errno;
-        call_msg(&c, "stat: %s", errstr(-rc, buf, sizeof buf));
+        call_msg(&c, "stat: %s", vt_strerror(-rc, buf, sizeof buf));
     } else if (!S_ISREG(st.st_mode) || st.st_size < 0 || (uint64_t)st.st_size > JPG_MAX_FILE) {
         call_msg(&c, "not a regular file of at most %zu bytes", JPG_MAX_FILE);
         rc = S_ISREG(st.st_mode) ? -EFBIG : -EINVAL;
@@ -1111,7 +1107,7 @@ int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *he
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) {
             rc = -errno;
-            call_msg(&c, "read: %s", errstr(-rc, buf, sizeof buf));
+            call_msg(&c, "read: %s", vt_strerror(-rc, buf, sizeof buf));
         }
         if (n <= 0) break;
         len += (size_t)n;

@@ -104,18 +104,6 @@ static uint64_t now_ns(void)
 
 #define fail vt_fail
 
-static bool grow(void **p, size_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap) return true;
-    size_t c = *cap ? *cap : 256;
-    while (c < need) c *= 2;
-    void *n = realloc(*p, c * elem);
-    if (!n) return false;
-    *p = n;
-    *cap = c;
-    return true;
-}
-
 int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
 {
     if (!out) return -EINVAL;
@@ -229,7 +217,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         double scale[3], shift[3];
         vt_instance_xform(in, mb[in->mesh], o, scale, shift);
         /* every vertex once: camera-relative position and clip coordinates */
-        if (!grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
+        if (!vt_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
             return fail(err, errlen, -ENOMEM, "out of memory for %u vertices", m->nv);
         for (uint32_t k = 0; k < m->nv; k++) {
             xv *x = &r->vx[k];
@@ -266,8 +254,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             int n = out_or ? clip_poly(v, 3, pl) : 3;
             if (n < 3) continue;
             if (r->nst + 1 >= (1u << ID_BITS)) return fail(err, errlen, -E2BIG, "more than 2^27 triangles a thread");
-            if (!grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
-                !grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
+            if (!vt_grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
+                !vt_grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
                 return fail(err, errlen, -ENOMEM, "out of memory for %zu triangles", r->nrt);
             /* the shading record: adjugate rows of the source triangle,
                scaled by 1/det (barycentrics then sum to 1 by themselves) */
@@ -536,9 +524,9 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
                             err, errlen);
     if (rc) return rc;
     size_t npx = (size_t)width * height;
-    if (!grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
-        !grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
-        !grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
+    if (!vt_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
+        !vt_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
+        !vt_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
         return fail(err, errlen, -ENOMEM, "out of memory");
     for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
 
@@ -547,9 +535,9 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     uint32_t nt = r->threads < trows ? r->threads : trows;
     if (!nt) nt = 1;
     uint32_t tx = (width + TILE - 1) / TILE;
-    if (!grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
-        !grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
-        !grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
+    if (!vt_grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
+        !vt_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
+        !vt_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
         return fail(err, errlen, -ENOMEM, "out of memory");
     /* no lights: no ranges, no binning */
     job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst, .rgba = rgba, .depth = depth,
