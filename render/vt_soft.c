@@ -59,6 +59,8 @@ typedef struct xv {
     double p[3];            /* camera-relative */
     cv v;
     unsigned out;           /* bit p: outside clip plane p */
+    float n[3];             /* its normal under the instance's scale (unit) */
+    bool has_n;             /* false: no normal, or it collapsed: the face's */
 } xv;
 
 /* What one set-up thread produces, for its range of instances, in order. */
@@ -214,8 +216,9 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         const vt_instance *in = &inst[ii];
         const vt_mesh *m = &meshes[in->mesh];
         /* the mesh's bounds onto the instance's box */
-        double scale[3], shift[3];
+        double scale[3], shift[3], inv_scale[3];
         vt_instance_xform(in, mb[in->mesh], o, scale, shift);
+        for (int a = 0; a < 3; a++) inv_scale[a] = scale[a] > 0 ? 1 / scale[a] : 1;
         /* every vertex once: camera-relative position and clip coordinates */
         if (!vt_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
             return fail(err, errlen, -ENOMEM, "out of memory for %u vertices", m->nv);
@@ -230,22 +233,37 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             x->v.d = dot4(vr->d, q);
             x->out = 0;
             for (int pp = 0; pp < 6; pp++) x->out |= (unsigned)(dot4(pl[pp], x->v.c) < 0) << pp;
+            /* normals under a scale: by the inverse scale */
+            x->has_n = false;
+            if (m->nrm) {
+                double nn[3], l = 0;
+                for (int a = 0; a < 3; a++) {
+                    nn[a] = m->nrm[3 * k + a] * inv_scale[a];
+                    l += nn[a] * nn[a];
+                }
+                l = sqrt(l);
+                x->has_n = l > 0;
+                for (int a = 0; a < 3; a++) x->n[a] = x->has_n ? (float)(nn[a] / l) : 0;
+            }
         }
         for (uint32_t t = 0; t < m->ni / 3; t++) {
             cv v[12];
             double p[3][3];
+            const xv *xs[3];
             unsigned out_and = ~0u, out_or = 0;
             for (int k = 0; k < 3; k++) {
-                const xv *x = &r->vx[m->idx[3 * t + k]];
+                const xv *x = xs[k] = &r->vx[m->idx[3 * t + k]];
                 memcpy(p[k], x->p, sizeof p[k]);
                 v[k] = x->v;
                 out_and &= x->out;
                 out_or |= x->out;
             }
-            /* back faces: the sign of the homogeneous determinant */
-            double e0[3] = {v[1].c[1] * v[2].c[3] - v[1].c[3] * v[2].c[1], v[1].c[3] * v[2].c[0] - v[1].c[0] * v[2].c[3],
-                            v[1].c[0] * v[2].c[1] - v[1].c[1] * v[2].c[0]};
-            double det = e0[0] * v[0].c[0] + e0[1] * v[0].c[1] + e0[2] * v[0].c[3];
+            /* back faces: the sign of the homogeneous determinant (its first
+               adjugate row is the shading record's too) */
+            double rows[3][3] = {{v[1].c[1] * v[2].c[3] - v[1].c[3] * v[2].c[1],
+                                  v[1].c[3] * v[2].c[0] - v[1].c[0] * v[2].c[3],
+                                  v[1].c[0] * v[2].c[1] - v[1].c[1] * v[2].c[0]}};
+            double det = rows[0][0] * v[0].c[0] + rows[0][1] * v[0].c[1] + rows[0][2] * v[0].c[3];
             if (!(det > 0)) continue;
             /* all outside one clip plane: nothing to draw; all inside
                every plane: nothing to clip */
@@ -258,17 +276,21 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 !vt_grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
                 return fail(err, errlen, -ENOMEM, "out of memory for %zu triangles", r->nrt);
             /* the shading record: adjugate rows of the source triangle,
-               scaled by 1/det (barycentrics then sum to 1 by themselves) */
+               scaled by 1/det (homogeneous barycentrics: the kernel divides
+               by their sum) */
             stri *s = &r->st[r->nst];
             const cv *a = &src[0], *b = &src[1], *c = &src[2];
-            double rows[3][3] = {
-                {b->c[1] * c->c[3] - b->c[3] * c->c[1], b->c[3] * c->c[0] - b->c[0] * c->c[3], b->c[0] * c->c[1] - b->c[1] * c->c[0]},
-                {c->c[1] * a->c[3] - c->c[3] * a->c[1], c->c[3] * a->c[0] - c->c[0] * a->c[3], c->c[0] * a->c[1] - c->c[1] * a->c[0]},
-                {a->c[1] * b->c[3] - a->c[3] * b->c[1], a->c[3] * b->c[0] - a->c[0] * b->c[3], a->c[0] * b->c[1] - a->c[1] * b->c[0]}};
+            double r1[3] = {c->c[1] * a->c[3] - c->c[3] * a->c[1], c->c[3] * a->c[0] - c->c[0] * a->c[3],
+                            c->c[0] * a->c[1] - c->c[1] * a->c[0]},
+                   r2[3] = {a->c[1] * b->c[3] - a->c[3] * b->c[1], a->c[3] * b->c[0] - a->c[0] * b->c[3],
+                            a->c[0] * b->c[1] - a->c[1] * b->c[0]};
+            memcpy(rows[1], r1, sizeof r1);
+            memcpy(rows[2], r2, sizeof r2);
             for (int i = 0; i < 3; i++)
                 for (int k = 0; k < 3; k++) s->e[i][k] = (float)(rows[i][k] / det);
-            float fn[3];
-            {
+            /* the face normal, only where a corner has none of its own */
+            float fn[3] = {0, 0, 0};
+            if (!xs[0]->has_n || !xs[1]->has_n || !xs[2]->has_n) {
                 double u[3], w2[3];
                 for (int k = 0; k < 3; k++) {
                     u[k] = p[1][k] - p[0][k];
@@ -280,19 +302,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             }
             for (int k = 0; k < 3; k++) {
                 for (int q = 0; q < 3; q++) s->p[k][q] = (float)p[k][q];
-                if (m->nrm) {
-                    /* normals under a scale: by the inverse scale */
-                    const float *mn = m->nrm + 3 * m->idx[3 * t + k];
-                    double nn[3], l = 0;
-                    for (int q = 0; q < 3; q++) {
-                        nn[q] = scale[q] > 0 ? mn[q] / scale[q] : mn[q];
-                        l += nn[q] * nn[q];
-                    }
-                    l = sqrt(l);
-                    for (int q = 0; q < 3; q++) s->n[k][q] = l > 0 ? (float)(nn[q] / l) : fn[q];
-                } else {
-                    memcpy(s->n[k], fn, sizeof fn);
-                }
+                memcpy(s->n[k], xs[k]->has_n ? xs[k]->n : fn, sizeof fn);
             }
             memcpy(s->albedo, in->albedo, sizeof s->albedo);
             /* the clipped polygon, projected and snapped, as a fan */
