@@ -1,9 +1,10 @@
 /*
  * vt_glr.c — the OpenGL renderer (see vt_glr.h).
  *
- * Per frame: one vertex buffer per mesh (positions and normals; a mesh
- * without normals is expanded to flat-shaded triangles, as the software
- * path shades it), one instance buffer per mesh (the mesh's bounds onto
+ * Per frame: one vertex buffer for every mesh (positions and normals, with
+ * an index buffer; a mesh without normals is expanded to flat-shaded
+ * triangles, as the software path shades it), one instance buffer (the
+ * mesh's bounds onto
  * the instance's box as a scale and a camera-relative shift, computed in
  * double as vt_soft does, and the albedo), a float view-projection.
  * Pass 1 draws nearness (d / w, interpolated without perspective: it is
@@ -28,9 +29,10 @@
 #define EMPTY VT_EMPTY
 #define fail vt_fail
 
-/* One mesh's share of the frame's two vertex buffers. */
+/* One mesh's share of the frame's buffers. */
 typedef struct mesh_draw {
-    uint32_t vfirst, nvx;   /* expanded vertices */
+    uint32_t vfirst, nvx;   /* its vertices (expanded per index without normals) */
+    uint32_t efirst, nel;   /* its indices (0: drawn from the expanded vertices) */
     uint32_t ifirst, ninst; /* instances */
     float b[6];             /* the mesh's bounds */
 } mesh_draw;
@@ -40,13 +42,15 @@ struct vt_glr {
     unsigned prog, vao;
     int loc_vp, loc_d, loc_pass, loc_tiles_x;
     unsigned tex[3], buf[3]; /* buffer textures: lights, tile offsets, tile indices */
-    unsigned vbuf, ibuf;     /* this frame's vertices and instances, all meshes */
+    unsigned vbuf, ibuf, ebuf; /* this frame's vertices, instances and indices, all meshes */
     vt_gl_target *target;
     /* per frame, grown as needed */
     float *pix;              /* readback */
     size_t pix_cap;
     float *vx, *iv, *ld;     /* vertices, instances, lights as uploaded */
     size_t vx_cap, iv_cap, ld_cap;
+    uint32_t *el;            /* indices as uploaded */
+    size_t el_cap;
     mesh_draw *md;
     size_t md_cap;
     float (*range)[2];
@@ -145,6 +149,7 @@ int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
     glGenBuffers(3, r->buf);
     glGenBuffers(1, &r->vbuf);
     glGenBuffers(1, &r->ibuf);
+    glGenBuffers(1, &r->ebuf);
     r->loc_vp = glGetUniformLocation(r->prog, "u_vp");
     r->loc_d = glGetUniformLocation(r->prog, "u_d");
     r->loc_pass = glGetUniformLocation(r->prog, "u_pass");
@@ -165,11 +170,13 @@ void vt_glr_destroy(vt_glr *r)
     glDeleteBuffers(3, r->buf);
     glDeleteBuffers(1, &r->vbuf);
     glDeleteBuffers(1, &r->ibuf);
+    glDeleteBuffers(1, &r->ebuf);
     glDeleteVertexArrays(1, &r->vao);
     glDeleteProgram(r->prog);
     cull_light_tiles_free(&r->tiles);
     free(r->pix);
     free(r->vx);
+    free(r->el);
     free(r->iv);
     free(r->ld);
     free(r->md);
@@ -187,15 +194,16 @@ static void tbo(unsigned tex, unsigned buf, GLenum format, const void *data, siz
     glTexBuffer(GL_TEXTURE_BUFFER, format, buf);
 }
 
-/* Uploads the frame's geometry once for both passes: every mesh's
- * vertices (positions and normals per index, so a mesh without normals
- * gets its faces', the ones vt_soft shades with) into one buffer, and the
- * instances, grouped by mesh (scale, camera-relative shift, albedo; the
- * transform in double, as vt_soft computes it), into another. */
+/* Uploads the frame's geometry once for both passes: every drawn mesh's
+ * vertices (positions and normals) into one buffer and its indices into
+ * another (a mesh without normals instead gets one vertex per index with
+ * its face's normal, the one vt_soft shades with), and the instances,
+ * grouped by mesh (scale, camera-relative shift, albedo; the transform in
+ * double, as vt_soft computes it), into a third. */
 static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
                   const double origin[3], char *err, size_t errlen)
 {
-    size_t nvx = 0;
+    size_t nvx = 0, nel = 0;
     if (!vt_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
         !vt_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * 9, sizeof *r->iv))
         return fail(err, errlen, -ENOMEM, "out of memory");
@@ -206,17 +214,30 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
         d->ifirst = first;
         first += d->ninst;
         d->vfirst = (uint32_t)nvx;
-        d->nvx = d->ninst ? meshes[mi].ni : 0;
+        d->efirst = (uint32_t)nel;
+        bool indexed = meshes[mi].nrm != NULL;
+        d->nvx = !d->ninst ? 0 : indexed ? meshes[mi].nv : meshes[mi].ni;
+        d->nel = d->ninst && indexed ? meshes[mi].ni : 0;
         if (d->ninst) vt_mesh_bounds(&meshes[mi], d->b);
         nvx += d->nvx;
+        nel += d->nel;
         d->ninst = 0; /* counted again as the instances are placed */
     }
-    if (!vt_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx))
+    if (!vt_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx) ||
+        !vt_grow((void **)&r->el, &r->el_cap, nel + 1, sizeof *r->el))
         return fail(err, errlen, -ENOMEM, "out of memory");
     for (uint32_t mi = 0; mi < nmesh; mi++) {
         const vt_mesh *m = &meshes[mi];
         if (!r->md[mi].nvx) continue;
         float *vx = r->vx + 6 * (size_t)r->md[mi].vfirst;
+        if (r->md[mi].nel) { /* as given: each vertex once, the indices beside */
+            for (uint32_t k = 0; k < m->nv; k++) {
+                memcpy(vx + 6 * (size_t)k, m->pos + 3 * (size_t)k, 3 * sizeof *vx);
+                memcpy(vx + 6 * (size_t)k + 3, m->nrm + 3 * (size_t)k, 3 * sizeof *vx);
+            }
+            memcpy(r->el + r->md[mi].efirst, m->idx, (size_t)m->ni * sizeof *r->el);
+            continue;
+        }
         for (uint32_t t = 0; t < m->ni / 3; t++) {
             const float *p0 = m->pos + 3 * m->idx[3 * t], *p1 = m->pos + 3 * m->idx[3 * t + 1],
                         *p2 = m->pos + 3 * m->idx[3 * t + 2];
@@ -255,6 +276,9 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
     glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((nvx ? nvx : 1) * 6 * sizeof *r->vx), r->vx, GL_STREAM_DRAW);
     glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
     glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(((size_t)ninst + 1) * 9 * sizeof *r->iv), r->iv, GL_STREAM_DRAW);
+    glBindVertexArray(r->vao); /* the element buffer binding is the vertex array's */
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ebuf);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((nel + 1) * sizeof *r->el), r->el, GL_STREAM_DRAW);
     GLenum e = glGetError();
     return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "upload: GL error 0x%x", e);
 }
@@ -277,7 +301,11 @@ static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
             glVertexAttribPointer(2 + a, 3, GL_FLOAT, GL_FALSE, 36, (void *)(uintptr_t)(36 * (size_t)d->ifirst + 12 * a));
             glVertexAttribDivisor(2 + a, 1);
         }
-        glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)d->nvx, (GLsizei)d->ninst);
+        if (d->nel)
+            glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)d->nel, GL_UNSIGNED_INT,
+                                    (void *)(uintptr_t)(4 * (size_t)d->efirst), (GLsizei)d->ninst);
+        else
+            glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)d->nvx, (GLsizei)d->ninst);
     }
     GLenum e = glGetError();
     return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "draw: GL error 0x%x", e);
