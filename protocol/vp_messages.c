@@ -503,17 +503,34 @@ int vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out)
 
 /* ---- sub-level names ------------------------------------------------------------ */
 
+/* A name on the wire: 1..255 bytes, no control bytes. */
+static int name_take(vp_reader *r, uint8_t *len, const uint8_t **name)
+{
+    *len = vp_get_u8(r);
+    *name = vp_get_bytes(r, *len);
+    if (r->short_read) return VP_ERR_TRUNCATED;
+    if (*len == 0) return VP_ERR_INVALID;
+    for (uint8_t k = 0; k < *len; k++)
+        if ((*name)[k] < 32 || (*name)[k] == 127) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+static void name_put(vp_writer *w, const uint8_t *name, size_t l)
+{
+    if (l > VP_MAX_NAME) l = VP_MAX_NAME;
+    vp_put_u8(w, (uint8_t)l);
+    vp_put_bytes(w, name, l);
+}
+
+
 void vp_enc_names(vp_writer *w, uint16_t type, uint32_t req, const char *const *names, const uint16_t *ids,
                   uint32_t n)
 {
     vp_frame_begin(w, type, req);
     vp_put_u32(w, n);
     for (uint32_t i = 0; i < n; i++) {
-        size_t l = strlen(names[i]);
-        if (l > VP_MAX_NAME) l = VP_MAX_NAME;
         if (ids) vp_put_u16(w, ids[i]);
-        vp_put_u8(w, (uint8_t)l);
-        vp_put_bytes(w, names[i], l);
+        name_put(w, (const uint8_t *)names[i], strlen(names[i]));
     }
     vp_frame_end(w);
 }
@@ -530,12 +547,10 @@ int vp_dec_names(const uint8_t *p, size_t len, bool with_ids, vp_name_list *m)
     m->len = len - r.pos;
     for (uint32_t i = 0; i < m->count; i++) {
         if (with_ids) (void)vp_get_u16(&r);
-        uint8_t l = vp_get_u8(&r);
-        const uint8_t *name = vp_get_bytes(&r, l);
-        if (r.short_read) return VP_ERR_COUNT;
-        if (l == 0) return VP_ERR_INVALID;
-        for (uint8_t k = 0; k < l; k++)
-            if (name[k] < 32 || name[k] == 127) return VP_ERR_INVALID; /* no control bytes */
+        uint8_t l;
+        const uint8_t *name;
+        int rc = name_take(&r, &l, &name);
+        if (rc) return rc == VP_ERR_TRUNCATED ? VP_ERR_COUNT : rc;
     }
     int rc = vp_reader_finish(&r);
     return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
@@ -582,25 +597,6 @@ uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i)
 }
 
 /* ---- sub-level loads ----------------------------------------------------------- */
-
-/* A name on the wire: 1..255 bytes, no control bytes. */
-static int name_take(vp_reader *r, uint8_t *len, const uint8_t **name)
-{
-    *len = vp_get_u8(r);
-    *name = vp_get_bytes(r, *len);
-    if (r->short_read) return VP_ERR_TRUNCATED;
-    if (*len == 0) return VP_ERR_INVALID;
-    for (uint8_t k = 0; k < *len; k++)
-        if ((*name)[k] < 32 || (*name)[k] == 127) return VP_ERR_INVALID;
-    return VP_OK;
-}
-
-static void name_put(vp_writer *w, const uint8_t *name, size_t l)
-{
-    if (l > VP_MAX_NAME) l = VP_MAX_NAME;
-    vp_put_u8(w, (uint8_t)l);
-    vp_put_bytes(w, name, l);
-}
 
 void vp_enc_sublevel_begin(vp_writer *w, uint32_t req, const vp_sublevel_begin *m)
 {
