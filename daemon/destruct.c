@@ -134,15 +134,6 @@ int scene_occluder_draw(scene *s, scene_occluder *o, uint32_t *kept)
     return rc;
 }
 
-/* A small splitmix stream for debris, from the entity and its sphere count. */
-static double drand_from(uint64_t *st)
-{
-    uint64_t z = (*st += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
-}
-
 static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t nsph, scene_err *err)
 {
     uint32_t n = m->debris;
@@ -157,13 +148,13 @@ static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t ns
     }
     uint64_t st = m->id * 31 + nsph, next = s->debris_next;
     for (uint32_t i = 0; i < n; i++) {
-        double half = 0.1 + 0.3 * drand_from(&st), dir[3], l = 0;
+        double half = 0.1 + 0.3 * scene_rand(&st), dir[3], l = 0;
         for (int a = 0; a < 3; a++) {
-            dir[a] = drand_from(&st) * 2 - 1;
+            dir[a] = scene_rand(&st) * 2 - 1;
             l += dir[a] * dir[a];
         }
         l = l > 1e-12 ? sqrt(l) : 1;
-        double dist = m->radius * (1 + 0.5 * drand_from(&st));
+        double dist = m->radius * (1 + 0.5 * scene_rand(&st));
         while (idmap_get(&s->ids, DEBRIS_ID_BASE + next, NULL)) next++; /* an editor's id there: skip it */
         e[i] = (vp_entity){.id = DEBRIS_ID_BASE + next++, .sublevel = sub, .flags = VP_ENT_DYNAMIC};
         for (int a = 0; a < 3; a++) {

@@ -578,10 +578,7 @@ int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, s
 static uint64_t demo_rng = 0x5EED2011;
 static double drand(void)
 {
-    uint64_t z = (demo_rng += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
+    return scene_rand(&demo_rng);
 }
 
 /* 12 triangles of an axis-aligned box, counter-clockwise from outside,

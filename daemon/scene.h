@@ -171,6 +171,15 @@ void scene_destruct_free_all(scene *s);
 int scene_occluder_draw(scene *s, scene_occluder *o, uint32_t *kept);
 
 
+/* Uniform in [0, 1) from a splitmix64 stream (the demo city, debris). */
+static inline double scene_rand(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
+}
+
 /* Takes entity id (handle h, desc d) out of the scene and its counters. */
 void scene_entity_gone(scene *s, uint64_t id, cull_handle h, const cull_entity_desc *d);
 /* The editor id of a live handle (0 if unknown). */
