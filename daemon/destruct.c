@@ -5,14 +5,16 @@
  * signed distance to its sphere set on an n^3 grid over its box), kept
  * until the entity goes. If an occluder has the entity's id (the demo
  * city's buildings, an imported entity's OCC_ node), its triangles as sent
- * are cut again with the whole sphere set (cull_occ_cut, widened by the
- * volume's bound so the occluder's hole holds every point the renderers may
- * draw as destroyed) and the culling world's copy replaced: the next query
+ * are cut again with the whole sphere set (cull_occ_cut, widened by
+ * vt_mask_margin: the volume's bound plus the renderers' detail amplitude,
+ * so the occluder's hole holds every point the renderers may draw as
+ * destroyed) and the culling world's copy replaced: the next query
  * sees through the hole. The cut is a cache of (triangles as sent, sphere
  * set): an OCCLUDER_PUT of that id is cut the same way before it is drawn.
  */
 #include "scene.h"
 #include "log.h"
+#include "vt_mask.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -96,7 +98,7 @@ static int occluder_cut(const scene_occluder *o, const cull_dvol *v, cull_occlud
     if (!v || !v->nsph) return CULL_OK;
     /* pieces around a rim about a tenth of the smallest widened radius (at
        least CUT_MIN_EDGE): some 60 a hole, whatever its size */
-    double margin = cull_dvol_bound(v), rmin = INFINITY;
+    double margin = vt_mask_margin(v), rmin = INFINITY;
     for (uint32_t k = 0; k < v->nsph; k++) rmin = fmin(rmin, v->sph[k][3] + margin);
     double edge = fmax(CUT_MIN_EDGE, 0.1 * rmin);
     uint32_t n;

@@ -152,6 +152,12 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
         memcpy(fi->inst[i].bmin, e.aabb_min, sizeof e.aabb_min);
         memcpy(fi->inst[i].bmax, e.aabb_max, sizeof e.aabb_max);
         class_albedo(cls, fi->inst[i].albedo);
+        /* damaged: drawn with its destruction mask (the volume is read
+           under the shared scene lock the frame is rendered in) */
+        if (sc->destruct.count) {
+            const scene_destruct *sd = scene_destruct_of(sc, scene_id_of(sc, wk->res[i].handle));
+            fi->inst[i].dvol = sd ? &sd->v : NULL;
+        }
     }
     for (size_t i = 0; i < n; i++) mesh_of[wk->res[i].class_id] = 0;
     fi->ninst = (uint32_t)n;

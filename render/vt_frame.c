@@ -68,6 +68,10 @@ int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t s
         for (int a = 0; a < 3; a++)
             if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
                 return vt_fail(err, errlen, -EINVAL, "instance %u: bad bounds", i);
+        const cull_dvol *dv = inst[i].dvol;
+        if (dv && dv->nsph && (!dv->d || dv->n[0] < 2 || dv->n[1] < 2 || dv->n[2] < 2 || !(dv->step[0] > 0) ||
+                               !(dv->step[1] > 0) || !(dv->step[2] > 0)))
+            return vt_fail(err, errlen, -EINVAL, "instance %u: bad destruction volume", i);
     }
     for (uint32_t i = 0; i < nl; i++) {
         const vt_light *L = &lights[i];
@@ -135,4 +139,41 @@ void vt_tile_ranges(const float *near, size_t xs, size_t ys, uint32_t width, uin
             if (z < (*q)[1]) (*q)[1] = z;
         }
     }
+}
+
+/* ---- destruction masks (vt_mask.h) ---- */
+
+/* The volume's largest step: the scale of its detail. */
+static double mask_scale(const cull_dvol *v)
+{
+    double s = v->step[0];
+    s = v->step[1] > s ? v->step[1] : s;
+    return v->step[2] > s ? v->step[2] : s;
+}
+
+double vt_mask_amp(const cull_dvol *v)
+{
+    return 0.25 * mask_scale(v);
+}
+
+double vt_mask_margin(const cull_dvol *v)
+{
+    return cull_dvol_bound(v) + vt_mask_amp(v);
+}
+
+void vt_mask_make(const cull_dvol *v, const double origin[3], vt_mask *m)
+{
+    double s = mask_scale(v), cell = 0.5 * s, band = 0.25 * s;
+    for (int a = 0; a < 3; a++) {
+        m->o[a] = (float)(v->origin[a] - origin[a]);
+        m->is[a] = (float)(1.0 / v->step[a]);
+        m->hi[a] = (float)(v->n[a] - 1);
+        m->cs[a] = (float)(v->step[a] / cell);
+    }
+    m->amp = (float)vt_mask_amp(v);
+    m->ib = (float)(1.0 / band);
+    m->reach = (float)(vt_mask_amp(v) + band);
+    m->n0 = v->n[0];
+    m->n01 = v->n[0] * v->n[1];
+    m->d = v->d;
 }

@@ -8,6 +8,7 @@
 #ifndef VANTAGE_VT_FRAME_H
 #define VANTAGE_VT_FRAME_H
 
+#include "vt_mask.h"
 #include "vt_shade.h"
 #include "vt_soft.h"
 

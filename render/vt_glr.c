@@ -28,12 +28,16 @@
 #define TILE VT_TILE
 #define EMPTY VT_EMPTY
 #define fail vt_fail
+#define IV 10                /* floats an instance: scale, shift, albedo, mask */
+#define MASK_TEXELS 5        /* RGBA texels a mask header */
 
 /* One mesh's share of the frame's buffers. */
 typedef struct mesh_draw {
     uint32_t vfirst, nvx;   /* its vertices (expanded per index without normals) */
     uint32_t efirst, nel;   /* its indices (0: drawn from the expanded vertices) */
-    uint32_t ifirst, ninst; /* instances */
+    uint32_t ifirst, ninst; /* instances: the intact ones first */
+    uint32_t nmasked;       /* the last nmasked are damaged: drawn two-sided */
+    uint32_t pi, pm;        /* placing: intact and damaged instances so far */
     float b[6];             /* the mesh's bounds */
 } mesh_draw;
 
@@ -41,7 +45,8 @@ struct vt_glr {
     vt_gl *g;
     unsigned prog, vao;
     int loc_vp, loc_d, loc_pass, loc_tiles_x;
-    unsigned tex[3], buf[3]; /* buffer textures: lights, tile offsets, tile indices */
+    unsigned tex[5], buf[5]; /* buffer textures: lights, tile offsets, tile indices,
+                                mask headers, mask fields */
     unsigned vbuf, ibuf, ebuf; /* this frame's vertices, instances and indices, all meshes */
     vt_gl_target *target;
     /* per frame, grown as needed */
@@ -49,6 +54,8 @@ struct vt_glr {
     size_t pix_cap;
     float *vx, *iv, *ld;     /* vertices, instances, lights as uploaded */
     size_t vx_cap, iv_cap, ld_cap;
+    float *mh, *mf;          /* mask headers (MASK_TEXELS texels each), fields */
+    size_t mh_cap, mf_cap;
     uint32_t *el;            /* indices as uploaded */
     size_t el_cap;
     mesh_draw *md;
@@ -67,13 +74,15 @@ static const char *vs_src =
     "layout(location = 2) in vec3 a_scale;\n"
     "layout(location = 3) in vec3 a_shift;\n"
     "layout(location = 4) in vec3 a_albedo;\n"
+    "layout(location = 5) in float a_mask;\n"
     "uniform mat4 u_vp;\n"
     "uniform vec4 u_d;\n" /* nearness numerator row */
     "invariant gl_Position;\n" /* pass 2 tests against pass 1's depth */
     "out vec3 v_p;\n"
     "out vec3 v_n;\n"
     "flat out vec3 v_albedo;\n"
-    "noperspective out float v_near;\n"
+    "flat out int v_mask;\n"
+    "out float v_dp;\n"
     "void main() {\n"
     "  vec3 p = a_pos * a_scale + a_shift;\n"
     "  vec3 s = vec3(a_scale.x > 0.0 ? a_scale.x : 1.0, a_scale.y > 0.0 ? a_scale.y : 1.0,\n"
@@ -81,28 +90,89 @@ static const char *vs_src =
     "  v_p = p;\n"
     "  v_n = a_nrm / s;\n"
     "  v_albedo = a_albedo;\n"
+    "  v_mask = int(a_mask);\n"
     "  vec4 c = u_vp * vec4(p, 1.0);\n"
-    "  v_near = dot(u_d, vec4(p, 1.0)) / c.w;\n"
+    "  v_dp = dot(u_d, vec4(p, 1.0));\n"
     "  gl_Position = c;\n"
     "}\n";
 
+#define STR_(x) #x
+#define STR(x) STR_(x)
 static const char *fs_src =
     "#version 330 core\n"
+    "#define VT_MASK_INTERIOR " STR(VT_MASK_INTERIOR) "\n"
+    "#define VT_MASK_CHAR " STR(VT_MASK_CHAR) "\n"
     "in vec3 v_p;\n"
     "in vec3 v_n;\n"
     "flat in vec3 v_albedo;\n"
-    "noperspective in float v_near;\n"
+    "flat in int v_mask;\n"
+    "in float v_dp;\n"
     "uniform int u_pass;\n"
     "uniform int u_tiles_x;\n"
     "uniform samplerBuffer u_lights;\n"   /* 4 texels a light */
     "uniform usamplerBuffer u_offset;\n"
     "uniform usamplerBuffer u_index;\n"
+    "uniform samplerBuffer u_mhead;\n"  /* MASK_TEXELS texels a mask */
+    "uniform samplerBuffer u_mfield;\n"
     "out vec4 o_color;\n"
+    /* the destruction mask of vt_mask.h, operation for operation */
+    "float lattice(ivec3 c) {\n"
+    "  uvec3 u = uvec3(c);\n"
+    "  uint h = u.x * 0x8da6b343u ^ u.y * 0xd8163841u ^ u.z * 0xcb1ab31fu;\n"
+    "  h ^= h >> 16u; h *= 0x7feb352du; h ^= h >> 15u; h *= 0x846ca68bu; h ^= h >> 16u;\n"
+    "  return float(h >> 8u) * (1.0 / 8388607.5) - 1.0;\n"
+    "}\n"
+    "float vnoise(vec3 p) {\n"
+    "  vec3 f = floor(p);\n"
+    "  ivec3 i = ivec3(f);\n"
+    "  vec3 t = p - f;\n"
+    "  t = t * t * (3.0 - 2.0 * t);\n"
+    "  float c00 = lattice(i) + t.x * (lattice(i + ivec3(1, 0, 0)) - lattice(i));\n"
+    "  float c10 = lattice(i + ivec3(0, 1, 0)) + t.x * (lattice(i + ivec3(1, 1, 0)) - lattice(i + ivec3(0, 1, 0)));\n"
+    "  float c01 = lattice(i + ivec3(0, 0, 1)) + t.x * (lattice(i + ivec3(1, 0, 1)) - lattice(i + ivec3(0, 0, 1)));\n"
+    "  float c11 = lattice(i + ivec3(0, 1, 1)) + t.x * (lattice(i + ivec3(1, 1, 1)) - lattice(i + ivec3(0, 1, 1)));\n"
+    "  float c0 = c00 + t.y * (c10 - c00), c1 = c01 + t.y * (c11 - c01);\n"
+    "  return c0 + t.z * (c1 - c0);\n"
+    "}\n"
+    "float field(int k) { return texelFetch(u_mfield, k).r; }\n"
+    "float mask_eval(int m, vec3 p, out float ib) {\n"
+    "  vec4 h0 = texelFetch(u_mhead, 5 * m), h1 = texelFetch(u_mhead, 5 * m + 1);\n"
+    "  vec4 h2 = texelFetch(u_mhead, 5 * m + 2), h3 = texelFetch(u_mhead, 5 * m + 3);\n"
+    "  uvec4 q = floatBitsToUint(texelFetch(u_mhead, 5 * m + 4));\n"
+    "  ib = h1.w;\n"
+    "  vec3 u = clamp((p - h0.xyz) * h1.xyz, vec3(0.0), h2.xyz);\n"
+    "  vec3 fl = min(floor(u), h2.xyz - 1.0);\n"
+    "  vec3 t = u - fl;\n"
+    "  int sy = int(q.y), sz = int(q.z);\n"
+    "  int b = int(q.x) + int(fl.x) + int(fl.y) * sy + int(fl.z) * sz;\n"
+    "  float c00 = field(b) + t.x * (field(b + 1) - field(b));\n"
+    "  float c10 = field(b + sy) + t.x * (field(b + sy + 1) - field(b + sy));\n"
+    "  float c01 = field(b + sz) + t.x * (field(b + sz + 1) - field(b + sz));\n"
+    "  float c11 = field(b + sz + sy) + t.x * (field(b + sz + sy + 1) - field(b + sz + sy));\n"
+    "  float c0 = c00 + t.y * (c10 - c00), c1 = c01 + t.y * (c11 - c01);\n"
+    "  float f = c0 + t.z * (c1 - c0);\n"
+    "  if (f < -h0.w || f >= h2.w) return f;\n"
+    "  vec3 c = u * h3.xyz;\n"
+    "  return f + h0.w * (0.6 * vnoise(c) + 0.4 * vnoise(2.0 * c + 17.0));\n"
+    "}\n"
     "void main() {\n"
+    "  float v_near = v_dp * gl_FragCoord.w;\n"
+    "  vec3 albedo = v_albedo, nv = v_n;\n"
+    "  if (v_mask >= 0) {\n"
+    "    float ib, e = mask_eval(v_mask, v_p, ib);\n"
+    "    if (e < 0.0) discard;\n"
+    "    if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, v_near); return; }\n"
+    "    float k = e * ib;\n"
+    "    if (!gl_FrontFacing) { nv = -nv; albedo *= VT_MASK_INTERIOR; }\n"
+    "    if (k < 1.0) {\n"
+    "      k = max(k, 0.0);\n"
+    "      albedo *= VT_MASK_CHAR + (1.0 - VT_MASK_CHAR) * (k * k * (3.0 - 2.0 * k));\n"
+    "    }\n"
+    "  }\n"
     "  if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, v_near); return; }\n"
-    "  vec3 n = normalize(v_n);\n"
+    "  vec3 n = normalize(nv);\n"
     "  vec3 vd = normalize(-v_p);\n"
-    "  vec3 c = 0.03 * v_albedo;\n"
+    "  vec3 c = 0.03 * albedo;\n"
     "  ivec2 tp = ivec2(gl_FragCoord.xy) / 16;\n"
     "  int t = tp.y * u_tiles_x + tp.x;\n"
     "  int k0 = int(texelFetch(u_offset, t).r), k1 = int(texelFetch(u_offset, t + 1).r);\n"
@@ -128,7 +198,7 @@ static const char *fs_src =
     "    float hl = length(h);\n"
     "    float ndh = hl > 0.0 ? max(dot(n, h) / hl, 0.0) : 0.0;\n"
     "    float spec = 0.04 * 40.0 / (8.0 * 3.14159265) * pow(ndh, 32.0);\n"
-    "    c += q1.xyz * att * ndl * (v_albedo / 3.14159265 + spec);\n"
+    "    c += q1.xyz * att * ndl * (albedo / 3.14159265 + spec);\n"
     "  }\n"
     "  o_color = vec4(c, v_near);\n"
     "}\n";
@@ -145,8 +215,8 @@ int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
         return rc;
     }
     glGenVertexArrays(1, &r->vao);
-    glGenTextures(3, r->tex);
-    glGenBuffers(3, r->buf);
+    glGenTextures(5, r->tex);
+    glGenBuffers(5, r->buf);
     glGenBuffers(1, &r->vbuf);
     glGenBuffers(1, &r->ibuf);
     glGenBuffers(1, &r->ebuf);
@@ -158,6 +228,8 @@ int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
     glUniform1i(glGetUniformLocation(r->prog, "u_lights"), 0);
     glUniform1i(glGetUniformLocation(r->prog, "u_offset"), 1);
     glUniform1i(glGetUniformLocation(r->prog, "u_index"), 2);
+    glUniform1i(glGetUniformLocation(r->prog, "u_mhead"), 3);
+    glUniform1i(glGetUniformLocation(r->prog, "u_mfield"), 4);
     *out = r;
     return 0;
 }
@@ -166,8 +238,8 @@ void vt_glr_destroy(vt_glr *r)
 {
     if (!r) return;
     vt_gl_target_destroy(r->target);
-    glDeleteTextures(3, r->tex);
-    glDeleteBuffers(3, r->buf);
+    glDeleteTextures(5, r->tex);
+    glDeleteBuffers(5, r->buf);
     glDeleteBuffers(1, &r->vbuf);
     glDeleteBuffers(1, &r->ibuf);
     glDeleteBuffers(1, &r->ebuf);
@@ -179,6 +251,8 @@ void vt_glr_destroy(vt_glr *r)
     free(r->el);
     free(r->iv);
     free(r->ld);
+    free(r->mh);
+    free(r->mf);
     free(r->md);
     free(r->range);
     free(r->cl);
@@ -198,17 +272,32 @@ static void tbo(unsigned tex, unsigned buf, GLenum format, const void *data, siz
  * vertices (positions and normals) into one buffer and its indices into
  * another (a mesh without normals instead gets one vertex per index with
  * its face's normal, the one vt_soft shades with), and the instances,
- * grouped by mesh (scale, camera-relative shift, albedo; the transform in
- * double, as vt_soft computes it), into a third. */
+ * grouped by mesh, intact ones first (scale, camera-relative shift,
+ * albedo, mask index or -1; the transform in double, as vt_soft computes
+ * it), into a third; the damaged instances' masks (vt_mask.h) into two
+ * buffer textures. */
 static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
                   const double origin[3], char *err, size_t errlen)
 {
     size_t nvx = 0, nel = 0;
     if (!vt_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
-        !vt_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * 9, sizeof *r->iv))
+        !vt_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * IV, sizeof *r->iv))
         return fail(err, errlen, -ENOMEM, "out of memory");
     memset(r->md, 0, (size_t)nmesh * sizeof *r->md);
-    for (uint32_t i = 0; i < ninst; i++) r->md[inst[i].mesh].ninst++;
+    size_t nmask = 0, nfield = 0;
+    for (uint32_t i = 0; i < ninst; i++) {
+        r->md[inst[i].mesh].ninst++;
+        const cull_dvol *dv = inst[i].dvol;
+        if (!dv || !dv->nsph) continue;
+        r->md[inst[i].mesh].nmasked++;
+        nmask++;
+        nfield += (size_t)dv->n[0] * dv->n[1] * dv->n[2];
+    }
+    if (nmask > (1u << 24) || nfield > UINT32_MAX)
+        return fail(err, errlen, -E2BIG, "%zu damaged instances (%zu field samples): too many", nmask, nfield);
+    if (!vt_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
+        !vt_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
+        return fail(err, errlen, -ENOMEM, "out of memory");
     for (uint32_t mi = 0, first = 0; mi < nmesh; mi++) {
         mesh_draw *d = &r->md[mi];
         d->ifirst = first;
@@ -221,7 +310,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
         if (d->ninst) vt_mesh_bounds(&meshes[mi], d->b);
         nvx += d->nvx;
         nel += d->nel;
-        d->ninst = 0; /* counted again as the instances are placed */
+        d->pi = d->pm = 0;
     }
     if (!vt_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx) ||
         !vt_grow((void **)&r->el, &r->el_cap, nel + 1, sizeof *r->el))
@@ -261,21 +350,42 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
             }
         }
     }
+    nmask = nfield = 0;
     for (uint32_t i = 0; i < ninst; i++) {
         mesh_draw *d = &r->md[inst[i].mesh];
         double scale[3], shift[3];
         vt_instance_xform(&inst[i], d->b, origin, scale, shift);
-        float *q = r->iv + 9 * ((size_t)d->ifirst + d->ninst++);
+        const cull_dvol *dv = inst[i].dvol;
+        bool damaged = dv && dv->nsph;
+        size_t at = damaged ? d->ifirst + (d->ninst - d->nmasked) + d->pm++ : d->ifirst + d->pi++;
+        float *q = r->iv + IV * at;
         for (int a = 0; a < 3; a++) {
             q[a] = (float)scale[a];
             q[3 + a] = (float)shift[a];
             q[6 + a] = inst[i].albedo[a];
         }
+        q[9] = damaged ? (float)nmask : -1.0f;
+        if (!damaged) continue;
+        vt_mask m;
+        vt_mask_make(dv, origin, &m);
+        size_t ns = (size_t)dv->n[0] * dv->n[1] * dv->n[2];
+        uint32_t bits[3] = {(uint32_t)nfield, m.n0, m.n01};
+        float *h = r->mh + 4 * MASK_TEXELS * nmask++;
+        memcpy(h, (float[20]){m.o[0], m.o[1], m.o[2], m.amp, m.is[0], m.is[1], m.is[2], m.ib, m.hi[0], m.hi[1],
+                              m.hi[2], m.reach, m.cs[0], m.cs[1], m.cs[2], 0, 0, 0, 0, 0},
+               20 * sizeof *h);
+        memcpy(h + 16, bits, sizeof bits);
+        memcpy(r->mf + nfield, dv->d, ns * sizeof *r->mf);
+        nfield += ns;
     }
     glBindBuffer(GL_ARRAY_BUFFER, r->vbuf);
     glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((nvx ? nvx : 1) * 6 * sizeof *r->vx), r->vx, GL_STREAM_DRAW);
     glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
-    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(((size_t)ninst + 1) * 9 * sizeof *r->iv), r->iv, GL_STREAM_DRAW);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(((size_t)ninst + 1) * IV * sizeof *r->iv), r->iv, GL_STREAM_DRAW);
+    glActiveTexture(GL_TEXTURE3);
+    tbo(r->tex[3], r->buf[3], GL_RGBA32F, r->mh, nmask * 4 * MASK_TEXELS * sizeof *r->mh);
+    glActiveTexture(GL_TEXTURE4);
+    tbo(r->tex[4], r->buf[4], GL_R32F, r->mf, nfield * sizeof *r->mf);
     glBindVertexArray(r->vao); /* the element buffer binding is the vertex array's */
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ebuf);
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((nel + 1) * sizeof *r->el), r->el, GL_STREAM_DRAW);
@@ -283,7 +393,9 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
     return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "upload: GL error 0x%x", e);
 }
 
-/* Draws what upload put in the buffers: one instanced draw per mesh. */
+/* Draws what upload put in the buffers: per mesh, one instanced draw of
+ * its intact instances (back faces culled) and one of its damaged ones
+ * (two-sided: their insides show through their holes). */
 static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
 {
     for (uint32_t mi = 0; mi < nmesh; mi++) {
@@ -295,17 +407,24 @@ static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
             glVertexAttribPointer(a, 3, GL_FLOAT, GL_FALSE, 24, (void *)(uintptr_t)(24 * (size_t)d->vfirst + 12 * a));
             glVertexAttribDivisor(a, 0);
         }
-        glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
-        for (unsigned a = 0; a < 3; a++) {
-            glEnableVertexAttribArray(2 + a);
-            glVertexAttribPointer(2 + a, 3, GL_FLOAT, GL_FALSE, 36, (void *)(uintptr_t)(36 * (size_t)d->ifirst + 12 * a));
-            glVertexAttribDivisor(2 + a, 1);
+        uint32_t part[2][2] = {{d->ifirst, d->ninst - d->nmasked}, {d->ifirst + d->ninst - d->nmasked, d->nmasked}};
+        for (int p = 0; p < 2; p++) {
+            if (!part[p][1]) continue;
+            if (p) glDisable(GL_CULL_FACE);
+            glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
+            for (unsigned a = 0; a < 4; a++) {
+                glEnableVertexAttribArray(2 + a);
+                glVertexAttribPointer(2 + a, a < 3 ? 3 : 1, GL_FLOAT, GL_FALSE, 4 * IV,
+                                      (void *)(uintptr_t)(4 * IV * (size_t)part[p][0] + 12 * a));
+                glVertexAttribDivisor(2 + a, 1);
+            }
+            if (d->nel)
+                glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)d->nel, GL_UNSIGNED_INT,
+                                        (void *)(uintptr_t)(4 * (size_t)d->efirst), (GLsizei)part[p][1]);
+            else
+                glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)d->nvx, (GLsizei)part[p][1]);
+            if (p) glEnable(GL_CULL_FACE);
         }
-        if (d->nel)
-            glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)d->nel, GL_UNSIGNED_INT,
-                                    (void *)(uintptr_t)(4 * (size_t)d->efirst), (GLsizei)d->ninst);
-        else
-            glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)d->nvx, (GLsizei)d->ninst);
     }
     GLenum e = glGetError();
     return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "draw: GL error 0x%x", e);

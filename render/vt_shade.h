@@ -42,7 +42,27 @@ typedef struct vt_stri {
     float p[3][3];          /* camera-relative positions */
     float n[3][3];          /* unit normals */
     float albedo[3];
+    const struct vt_mask *mask; /* its instance's destruction mask, or NULL */
 } vt_stri;
+
+/* Perspective-correct barycentrics of t at NDC (X, Y): what the shading
+ * gather and the masked raster both interpolate with. */
+static inline void vt_stri_bary(const vt_stri *t, float X, float Y, float b[3])
+{
+    float b0 = t->e[0][0] * X + t->e[0][1] * Y + t->e[0][2];
+    float b1 = t->e[1][0] * X + t->e[1][1] * Y + t->e[1][2];
+    float b2 = t->e[2][0] * X + t->e[2][1] * Y + t->e[2][2];
+    float sum = b0 + b1 + b2, is = sum != 0 ? 1.0f / sum : 1.0f;
+    b[0] = b0 * is;
+    b[1] = b1 * is;
+    b[2] = b2 * is;
+}
+
+/* The NDC x of column x (inv_w = 2 / width). */
+static inline float vt_ndc_x(uint32_t x, double inv_w)
+{
+    return (float)((x + 0.5) * inv_w - 1);
+}
 
 /* A light as shading reads it. */
 typedef struct vt_slight {

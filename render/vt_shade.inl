@@ -5,6 +5,8 @@
  * inverse-square falloff windowed to zero at the light's range, smoothstep
  * spot cones, a small ambient term.
  */
+#include "vt_mask.h"
+
 #include <float.h>
 #include <math.h>
 #include <string.h>
@@ -123,23 +125,21 @@ void VT_SHADE_NAME(const vt_span *sp)
         }
         id--;
         const vt_stri *t = &sp->st[id >> VT_ID_BITS][id & VT_ID_MASK];
-        float X = (float)((sp->x0 + i + 0.5) * sp->inv_w - 1), Y = sp->Y;
-        float b0 = t->e[0][0] * X + t->e[0][1] * Y + t->e[0][2];
-        float b1 = t->e[1][0] * X + t->e[1][1] * Y + t->e[1][2];
-        float b2 = t->e[2][0] * X + t->e[2][1] * Y + t->e[2][2];
-        float sum = b0 + b1 + b2, is = sum != 0 ? 1.0f / sum : 1.0f;
-        b0 *= is;
-        b1 *= is;
-        b2 *= is;
+        float b[3];
+        vt_stri_bary(t, vt_ndc_x(sp->x0 + i, sp->inv_w), sp->Y, b);
+        float b0 = b[0], b1 = b[1], b2 = b[2];
         s.px[i] = b0 * t->p[0][0] + b1 * t->p[1][0] + b2 * t->p[2][0];
         s.py[i] = b0 * t->p[0][1] + b1 * t->p[1][1] + b2 * t->p[2][1];
         s.pz[i] = b0 * t->p[0][2] + b1 * t->p[1][2] + b2 * t->p[2][2];
         s.nx[i] = b0 * t->n[0][0] + b1 * t->n[1][0] + b2 * t->n[2][0];
         s.ny[i] = b0 * t->n[0][1] + b1 * t->n[1][1] + b2 * t->n[2][1];
         s.nz[i] = b0 * t->n[0][2] + b1 * t->n[1][2] + b2 * t->n[2][2];
-        s.ar[i] = t->albedo[0];
-        s.ag[i] = t->albedo[1];
-        s.ab[i] = t->albedo[2];
+        /* a damaged instance: charred towards a hole's rim (the raster
+           kept only pixels whose mask is >= 0) */
+        float k = t->mask ? vt_mask_rim(t->mask, vt_mask_eval(t->mask, s.px[i], s.py[i], s.pz[i])) : 1.0f;
+        s.ar[i] = t->albedo[0] * k;
+        s.ag[i] = t->albedo[1] * k;
+        s.ab[i] = t->albedo[2] * k;
         cov[i] = 1;
     }
     const vf zero = vf_set(0), one = vf_set(1), amb = vf_set(VT_AMBIENT), inv_pi = vf_set(1.0f / 3.14159265f);

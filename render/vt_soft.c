@@ -46,6 +46,7 @@ typedef struct rtri {
     double  na, nb, nc;     /* nearness = na px + nb py + nc over pixel coordinates */
     int32_t bx0, by0, bx1, by1; /* pixel bounds */
     uint32_t shade;         /* shading record */
+    uint32_t masked;        /* its instance is damaged: each pixel tests the mask */
 } rtri;
 
 typedef vt_stri stri;
@@ -94,6 +95,10 @@ struct vt_soft {
     size_t cl_cap;
     slight *sl;             /* the lights as shading reads them */
     size_t sl_cap;
+    vt_mask *mk;            /* this frame's damaged instances' masks */
+    size_t mk_cap;
+    uint32_t *mk_of;        /* per instance: mask + 1 */
+    size_t mk_of_cap;
     vt_kern k;              /* the kernels for this CPU */
 };
 
@@ -135,6 +140,8 @@ void vt_soft_destroy(vt_soft *r)
     free(r->range);
     free(r->cl);
     free(r->sl);
+    free(r->mk);
+    free(r->mk_of);
     cull_light_tiles_free(&r->tiles);
     free(r);
 }
@@ -146,6 +153,8 @@ typedef struct frame {
     const cull_view *v;
     cull_view_rows vr;
     uint32_t w, h;
+    const vt_mask *mk;      /* the damaged instances' masks */
+    const uint32_t *mk_of;  /* per instance: its mask + 1, 0 intact; NULL: none damaged */
 } frame;
 
 static double dot4(const double f[4], const double c[4])
@@ -204,6 +213,15 @@ static int clip_poly(cv *in, int n, double pl[6][4])
     return n;
 }
 
+/* The first adjugate row of the clip-space vertices (a, b): the barycentric
+ * of the third vertex, up to the determinant. */
+static void adj_row(const cv *a, const cv *b, double r[3])
+{
+    r[0] = a->c[1] * b->c[3] - a->c[3] * b->c[1];
+    r[1] = a->c[3] * b->c[0] - a->c[0] * b->c[3];
+    r[2] = a->c[0] * b->c[1] - a->c[1] * b->c[0];
+}
+
 static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const float (*mb)[6],
                  const vt_instance *inst, uint32_t i0, uint32_t i1, char *err, size_t errlen)
 {
@@ -215,6 +233,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
     for (uint32_t ii = i0; ii < i1; ii++) {
         const vt_instance *in = &inst[ii];
         const vt_mesh *m = &meshes[in->mesh];
+        const vt_mask *mk = fr->mk_of && fr->mk_of[ii] ? &fr->mk[fr->mk_of[ii] - 1] : NULL;
         /* the mesh's bounds onto the instance's box */
         double scale[3], shift[3], inv_scale[3];
         vt_instance_xform(in, mb[in->mesh], o, scale, shift);
@@ -260,11 +279,28 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             }
             /* back faces: the sign of the homogeneous determinant (its first
                adjugate row is the shading record's too) */
-            double rows[3][3] = {{v[1].c[1] * v[2].c[3] - v[1].c[3] * v[2].c[1],
-                                  v[1].c[3] * v[2].c[0] - v[1].c[0] * v[2].c[3],
-                                  v[1].c[0] * v[2].c[1] - v[1].c[1] * v[2].c[0]}};
+            double rows[3][3];
+            adj_row(&v[1], &v[2], rows[0]);
             double det = rows[0][0] * v[0].c[0] + rows[0][1] * v[0].c[1] + rows[0][2] * v[0].c[3];
-            if (!(det > 0)) continue;
+            bool back = false;
+            if (!(det > 0)) {
+                /* a damaged instance is two-sided: its inside shows
+                   through its holes, drawn as the face turned over */
+                if (!mk || !(det < 0)) continue;
+                cv tv = v[1];
+                v[1] = v[2];
+                v[2] = tv;
+                const xv *tx = xs[1];
+                xs[1] = xs[2];
+                xs[2] = tx;
+                double tp[3];
+                memcpy(tp, p[1], sizeof tp);
+                memcpy(p[1], p[2], sizeof tp);
+                memcpy(p[2], tp, sizeof tp);
+                adj_row(&v[1], &v[2], rows[0]);
+                det = -det;
+                back = true;
+            }
             /* all outside one clip plane: nothing to draw; all inside
                every plane: nothing to clip */
             if (out_and) continue;
@@ -279,16 +315,12 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                scaled by 1/det (homogeneous barycentrics: the kernel divides
                by their sum) */
             stri *s = &r->st[r->nst];
-            const cv *a = &src[0], *b = &src[1], *c = &src[2];
-            double r1[3] = {c->c[1] * a->c[3] - c->c[3] * a->c[1], c->c[3] * a->c[0] - c->c[0] * a->c[3],
-                            c->c[0] * a->c[1] - c->c[1] * a->c[0]},
-                   r2[3] = {a->c[1] * b->c[3] - a->c[3] * b->c[1], a->c[3] * b->c[0] - a->c[0] * b->c[3],
-                            a->c[0] * b->c[1] - a->c[1] * b->c[0]};
-            memcpy(rows[1], r1, sizeof r1);
-            memcpy(rows[2], r2, sizeof r2);
+            adj_row(&src[2], &src[0], rows[1]);
+            adj_row(&src[0], &src[1], rows[2]);
             for (int i = 0; i < 3; i++)
                 for (int k = 0; k < 3; k++) s->e[i][k] = (float)(rows[i][k] / det);
-            /* the face normal, only where a corner has none of its own */
+            /* the face normal, only where a corner has none of its own
+               (turned over with the face: inwards for a back face) */
             float fn[3] = {0, 0, 0};
             if (!xs[0]->has_n || !xs[1]->has_n || !xs[2]->has_n) {
                 double u[3], w2[3];
@@ -301,10 +333,13 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 for (int k = 0; k < 3; k++) fn[k] = l > 0 ? (float)(nn[k] / l) : 0;
             }
             for (int k = 0; k < 3; k++) {
-                for (int q = 0; q < 3; q++) s->p[k][q] = (float)p[k][q];
-                memcpy(s->n[k], xs[k]->has_n ? xs[k]->n : fn, sizeof fn);
+                for (int q = 0; q < 3; q++) {
+                    s->p[k][q] = (float)p[k][q];
+                    s->n[k][q] = !xs[k]->has_n ? fn[q] : back ? -xs[k]->n[q] : xs[k]->n[q];
+                }
             }
-            memcpy(s->albedo, in->albedo, sizeof s->albedo);
+            for (int q = 0; q < 3; q++) s->albedo[q] = back ? in->albedo[q] * VT_MASK_INTERIOR : in->albedo[q];
+            s->mask = mk;
             /* the clipped polygon, projected and snapped, as a fan */
             double px[12], py[12], pn[12];
             int32_t ix[12], iy[12];
@@ -352,6 +387,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 if (rt->by1 > (int32_t)fr->h - 1) rt->by1 = (int32_t)fr->h - 1;
                 if (rt->bx0 > rt->bx1 || rt->by0 > rt->by1) continue;
                 rt->shade = tid << ID_BITS | (uint32_t)r->nst;
+                rt->masked = mk != NULL;
                 r->nrt++;
             }
             r->nst++;
@@ -382,6 +418,36 @@ static inline int64_t edge_bias(int32_t x0, int32_t y0, int32_t x1, int32_t y1)
 {
     int32_t dy = y1 - y0, dx = x1 - x0;
     return (dy < 0 || (dy == 0 && dx < 0)) ? 0 : -1;
+}
+
+/* The NDC y of row y (the shading spans' too). */
+static inline float ndc_y(const frame *fr, uint32_t y)
+{
+    return (float)((2.0 * y + 1) / fr->h - 1);
+}
+
+/* Columns [i0, i1] of row j of a damaged instance's triangle: a pixel
+ * nearer than what is there is kept only where the mask is >= 0 at its
+ * surface point (interpolated as the shading gather does). */
+static void raster_masked(vt_soft *r, const frame *fr, const rtri *rt, int j, int i0, int i1, float *nrow,
+                          uint32_t *irow, double nz)
+{
+    uint32_t id = rt->shade + 1;
+    const vt_stri *t = &r->tb[rt->shade >> ID_BITS].st[rt->shade & VT_ID_MASK];
+    float Y = ndc_y(fr, (uint32_t)j);
+    double inv_w = 2.0 / fr->w;
+    for (int i = i0; i <= i1; i++) {
+        float z = (float)(rt->na * (i + 0.5) + nz);
+        if (!(z > nrow[i])) continue;
+        float b[3];
+        vt_stri_bary(t, vt_ndc_x((uint32_t)i, inv_w), Y, b);
+        float px = b[0] * t->p[0][0] + b[1] * t->p[1][0] + b[2] * t->p[2][0];
+        float py = b[0] * t->p[0][1] + b[1] * t->p[1][1] + b[2] * t->p[2][1];
+        float pz = b[0] * t->p[0][2] + b[1] * t->p[1][2] + b[2] * t->p[2][2];
+        if (vt_mask_eval(t->mask, px, py, pz) < 0) continue;
+        nrow[i] = z;
+        irow[i] = id;
+    }
 }
 
 /* Rows [y0, y1] of one triangle. */
@@ -425,6 +491,10 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
         float *nrow = r->near + (size_t)j * fr->w;
         uint32_t *irow = r->id + (size_t)j * fr->w;
         double nz = rt->nb * (j + 0.5) + rt->nc;
+        if (rt->masked) {
+            raster_masked(r, fr, rt, j, rt->bx0 + lo, rt->bx0 + hi, nrow, irow, nz);
+            continue;
+        }
         uint32_t id = rt->shade + 1;
         for (int i = rt->bx0 + lo, i1 = rt->bx0 + hi; i <= i1; i++) {
             float z = (float)(rt->na * (i + 0.5) + nz);
@@ -499,7 +569,7 @@ static void job_shade(void *arg, uint32_t t)
     for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
         for (uint32_t y = tr * TILE; y < y1; y++) {
-            sp.Y = (float)((2.0 * y + 1) / fr->h - 1);
+            sp.Y = ndc_y(fr, y);
             for (uint32_t c = 0; c < tx; c++) {
                 uint32_t tile = tr * tx + c;
                 sp.li = lt->index ? lt->index + lt->offset[tile] : NULL;
@@ -539,6 +609,23 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
         !vt_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
         return fail(err, errlen, -ENOMEM, "out of memory");
     for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
+    /* the damaged instances' masks (most frames have none: no table) */
+    uint32_t nmk = 0;
+    for (uint32_t i = 0; i < ninst; i++) nmk += inst[i].dvol && inst[i].dvol->nsph;
+    if (nmk) {
+        if (!vt_grow((void **)&r->mk, &r->mk_cap, nmk, sizeof *r->mk) ||
+            !vt_grow((void **)&r->mk_of, &r->mk_of_cap, ninst, sizeof *r->mk_of))
+            return fail(err, errlen, -ENOMEM, "out of memory");
+        nmk = 0;
+        for (uint32_t i = 0; i < ninst; i++) {
+            r->mk_of[i] = 0;
+            if (!inst[i].dvol || !inst[i].dvol->nsph) continue;
+            vt_mask_make(inst[i].dvol, v->origin, &r->mk[nmk]);
+            r->mk_of[i] = ++nmk;
+        }
+        fr.mk = r->mk;
+        fr.mk_of = r->mk_of;
+    }
 
     if (!r->tb && !(r->tb = calloc(MAX_THREADS, sizeof *r->tb))) return fail(err, errlen, -ENOMEM, "out of memory");
     uint32_t trows = (height + TILE - 1) / TILE;

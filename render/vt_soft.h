@@ -38,6 +38,9 @@ typedef struct vt_instance {
     uint32_t mesh;          /* index into the mesh array */
     double   bmin[3], bmax[3]; /* world AABB the mesh's bounds are stretched onto */
     float    albedo[3];     /* linear */
+    const cull_dvol *dvol;  /* its destruction (NULL, or no spheres: intact);
+                               drawn masked and two-sided (vt_mask.h). Read
+                               during the call only. */
 } vt_instance;
 
 typedef struct vt_light {

@@ -260,6 +260,26 @@ static bool sees(vt_client *c, uint64_t id, uint64_t *epoch)
     return false;
 }
 
+/* The depth at the centre of a raw frame of the street view, drawn by
+ * renderer (VP_RENDERER_*); NAN when the daemon has no such renderer. The
+ * frame's epoch in *epoch. */
+static float frame_centre_depth(vt_client *c, uint8_t renderer, uint64_t *epoch)
+{
+    vp_render m = {.format = VP_FRAME_RAW, .renderer = renderer};
+    double eye[3] = {0, 2, -30}, at[3] = {0, 2, 0}, up[3] = {0, 1, 0};
+    const uint32_t W = 161, H = 91;
+    assert_true(vt_view_perspective(&m.view, eye, at, up, 60, W, H, 0.5, 500));
+    vp_frame f;
+    int rc = vt_render(c, &m, &f);
+    if (rc == VP_ERR_UNSUPPORTED) return NAN;
+    assert_int_equal(rc, VP_OK);
+    assert_int_equal(f.data_len, W * H * 20);
+    float z;
+    memcpy(&z, f.data + (size_t)W * H * 16 + ((size_t)(H / 2) * W + W / 2) * 4, sizeof z);
+    if (epoch) *epoch = f.epoch;
+    return z;
+}
+
 static void test_destroy_opens_occluder(void **state)
 {
     (void)state;
@@ -276,6 +296,13 @@ static void test_destroy_opens_occluder(void **state)
     assert_int_equal(vt_put_occluder(ed, 10, lo, tri, 12), VP_OK);
     assert_false(sees(viewer, 20, NULL));
     assert_true(sees(viewer, 10, NULL));
+    /* the frame shows the wall's face, 29.5 m out, at its centre */
+    const uint8_t rends[2] = {VP_RENDERER_SOFT, VP_RENDERER_GL};
+    for (int k = 0; k < 2; k++) {
+        float z = frame_centre_depth(viewer, rends[k], NULL);
+        if (isnan(z)) continue;
+        assert_true(fabsf(z - 29.5f) < 1e-3f);
+    }
     /* bad events change nothing */
     vp_destroyed out;
     vp_stats_reply st0, st1;
@@ -293,8 +320,10 @@ static void test_destroy_opens_occluder(void **state)
     assert_int_equal(vt_stats(ed, &st1), VP_OK);
     assert_int_equal(st1.epoch, st0.epoch);
     assert_false(sees(viewer, 20, NULL));
-    /* the hole: the crate shows in the very next query */
-    m = (vp_destroy){.id = 10, .handle = hs[0], .center = {0, 2, 0}, .radius = 1.5};
+    /* the hole: the crate shows in the very next query (2.5 m: the wall's
+       8^3 volume has 2.9 m voxels along it; a sphere much smaller than a
+       voxel is cut from the occluder but hardly shows in the field) */
+    m = (vp_destroy){.id = 10, .handle = hs[0], .center = {0, 2, 0}, .radius = 2.5};
     assert_int_equal(vt_destroy(ed, &m, &out), VP_OK);
     assert_int_equal(out.spheres, 1);
     assert_true(out.occluder_tris > 12); /* cut, not dropped */
@@ -302,6 +331,20 @@ static void test_destroy_opens_occluder(void **state)
     assert_true(sees(viewer, 20, &ep));
     assert_true(ep >= out.epoch);
     assert_true(sees(viewer, 10, NULL)); /* the wall is still there */
+    /* and the next frame, in either renderer, looks through the hole (the
+       sphere goes through the wall's thickness: what shows is the crate
+       40 m out, or nothing) */
+    for (int k = 0; k < 2; k++) {
+        uint64_t fe = 0;
+        float z = frame_centre_depth(viewer, rends[k], &fe);
+        if (isnan(z)) {
+            fprintf(stderr, "destroy e2e: this daemon has no GL renderer; the soft frame alone was checked\n");
+            continue;
+        }
+        fprintf(stderr, "destroy e2e: renderer %u, centre depth %g after the hole\n", rends[k], z);
+        assert_true(fe >= out.epoch);
+        assert_true(z > 35);
+    }
     /* a second sphere elsewhere; the hole stays */
     m = (vp_destroy){.id = 10, .center = {-9, 7, 0}, .radius = 1, .debris = 5};
     assert_int_equal(vt_destroy(ed, &m, &out), VP_OK);

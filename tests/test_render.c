@@ -230,11 +230,14 @@ static void test_tile_ranges_kernels(void **state)
 }
 
 /* A random frame of lit boxes: sizes, boxes, point and spot lights (none
- * in a quarter of the frames), a perspective camera in any depth mode. */
+ * in a quarter of the frames), a perspective camera in any depth mode; in
+ * half the frames a third of the boxes damaged (1..4 holes on their
+ * surface: drawn masked and two-sided). */
 typedef struct lit_frame {
     uint32_t w, h, n, nl;
     vt_instance *in;
     vt_light *L;
+    cull_dvol *dv;          /* one per instance, used where in[i].dvol is set */
     cull_view v;
 } lit_frame;
 
@@ -245,15 +248,32 @@ static void lit_frame_make(rng *rp, lit_frame *lf)
     uint32_t nl = rng_below(&r, 4) ? 4 + rng_below(&r, 60) : 0;
     vt_instance *in = calloc(n, sizeof *in);
     vt_light *L = calloc(nl + 1, sizeof *L);
+    cull_dvol *dv = calloc(n, sizeof *dv);
     assert_non_null(in);
     assert_non_null(L);
-    for (uint32_t i = 0; i < n; i++)
+    assert_non_null(dv);
+    bool damage = rng_below(&r, 2);
+    for (uint32_t i = 0; i < n; i++) {
+        double emax = 0;
         for (int a = 0; a < 3; a++) {
             double c = rng_range(&r, -20, 20), e = rng_log(&r, 0.3, 8);
             in[i].bmin[a] = c - e;
             in[i].bmax[a] = c + e;
             in[i].albedo[a] = (float)rng_range(&r, 0.2, 0.9);
+            emax = e > emax ? e : emax;
         }
+        if (!damage || rng_below(&r, 3)) continue;
+        assert_int_equal(cull_dvol_init(&dv[i], in[i].bmin, in[i].bmax, 3 + rng_below(&r, 10)), CULL_OK);
+        for (uint32_t k = 1 + rng_below(&r, 4); k--;) {
+            /* a point on the box's surface */
+            double c[3];
+            int face = (int)rng_below(&r, 6);
+            for (int a = 0; a < 3; a++)
+                c[a] = a == face / 2 ? (face % 2 ? in[i].bmax[a] : in[i].bmin[a]) : rng_range(&r, in[i].bmin[a], in[i].bmax[a]);
+            assert_int_equal(cull_dvol_add_sphere(&dv[i], c, emax * rng_range(&r, 0.2, 0.8)), CULL_OK);
+        }
+        in[i].dvol = &dv[i];
+    }
     for (uint32_t i = 0; i < nl; i++) {
         for (int a = 0; a < 3; a++) L[i].l.pos[a] = rng_range(&r, -25, 25);
         L[i].l.radius = rng_range(&r, 5, 30);
@@ -281,10 +301,13 @@ static void lit_frame_make(rng *rp, lit_frame *lf)
     lf->nl = nl;
     lf->in = in;
     lf->L = L;
+    lf->dv = dv;
 }
 
 static void lit_frame_free(lit_frame *lf)
 {
+    for (uint32_t i = 0; i < lf->n; i++) cull_dvol_free(&lf->dv[i]);
+    free(lf->dv);
     free(lf->in);
     free(lf->L);
 }
@@ -362,11 +385,12 @@ static void test_soft_and_gl_agree(void **state)
     for (int i = 0; i < 24; i++) corner_nrm[i] = cube_pos[i] / sqrtf(3.0f);
     vt_mesh smooth = cube;
     smooth.nrm = corner_nrm;
-    uint64_t pixels = 0, cov_diff = 0, both = 0, depth_bad = 0, color_bad = 0, compared = 0;
+    uint64_t pixels = 0, cov_diff = 0, both = 0, depth_bad = 0, color_bad = 0, compared = 0, damaged = 0;
     double worst = 0;
     for (int f = 0; f < 8; f++) {
         lit_frame lf;
         lit_frame_make(&r, &lf);
+        for (uint32_t i = 0; i < lf.n; i++) damaged += lf.in[i].dvol != NULL;
         uint32_t w = lf.w, h = lf.h, n = lf.n, nl = lf.nl;
         vt_instance *in = lf.in;
         vt_light *L = lf.L;
@@ -416,12 +440,13 @@ static void test_soft_and_gl_agree(void **state)
         free(d2);
         lit_frame_free(&lf);
     }
-    fprintf(stderr, "soft vs GL (%s): %llu pixels, %llu differ in coverage, %llu covered by both (%llu off in "
-                    "depth), %llu compared in colour, %llu off (worst relative %.2g)\n",
-            vt_gl_get_info(g)->renderer, (unsigned long long)pixels, (unsigned long long)cov_diff,
+    fprintf(stderr, "soft vs GL (%s): %llu damaged boxes, %llu pixels, %llu differ in coverage, %llu covered by both "
+                    "(%llu off in depth), %llu compared in colour, %llu off (worst relative %.2g)\n",
+            vt_gl_get_info(g)->renderer, (unsigned long long)damaged, (unsigned long long)pixels, (unsigned long long)cov_diff,
             (unsigned long long)both, (unsigned long long)depth_bad, (unsigned long long)compared,
             (unsigned long long)color_bad, worst);
     assert_true(both > 1000);
+    assert_true(damaged > 5);
     assert_true(cov_diff * 1000 <= pixels);
     assert_true(depth_bad * 1000 <= both);
     assert_true(color_bad * 1000 <= compared);
