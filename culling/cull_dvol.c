@@ -133,7 +133,11 @@ float cull_dvol_sample(const cull_dvol *v, const double p[3])
 
 double cull_dvol_bound(const cull_dvol *v)
 {
-    return sqrt(v->step[0] * v->step[0] + v->step[1] * v->step[1] + v->step[2] * v->step[2]);
+    double diag = sqrt(v->step[0] * v->step[0] + v->step[1] * v->step[1] + v->step[2] * v->step[2]);
+    /* float samples: positions relative to the corner, values near zero
+       where it matters, each rounded to 2^-24 of the box's size */
+    double box = diag * (v->n[0] + v->n[1] + v->n[2]);
+    return 0.5 * diag + 0x1p-21 * box;
 }
 
 double cull_dvol_exact(const cull_dvol *v, const double p[3])

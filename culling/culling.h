@@ -439,10 +439,13 @@ const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *heigh
  *
  * Accuracy: at a sample the stored value is the exact distance rounded to
  * float. Between samples the trilinear value differs from the exact
- * distance by at most the voxel diagonal (the distance is 1-Lipschitz and
- * the filter averages samples no farther than that): cull_dvol_bound. A
- * consumer that must never miss destroyed space (an occluder's hole)
- * widens by that bound. */
+ * distance by at most half the voxel diagonal: the distance is
+ * 1-Lipschitz, so the error is at most the filter's weighted mean
+ * distance to the cell's corners, sum_i w_i |x_i - p|, which is at most
+ * sqrt(sum_i w_i |x_i - p|^2) = sqrt(sum_a t_a (1 - t_a) step_a^2) <=
+ * |step| / 2. cull_dvol_bound is that plus float rounding. A consumer
+ * that must never miss destroyed space (an occluder's hole) widens by
+ * it. */
 #define CULL_DVOL_MAX_RES 64u
 #define CULL_DVOL_MAX_SPHERES 4096u
 
@@ -471,7 +474,8 @@ int  cull_dvol_add_sphere(cull_dvol *v, const double c[3], double r);
 void cull_dvol_rebuild(cull_dvol *v);
 /* Trilinear distance at p (world); p outside the box is clamped to it. */
 float cull_dvol_sample(const cull_dvol *v, const double p[3]);
-/* The largest |trilinear - exact| can be: the voxel diagonal. */
+/* The largest |trilinear - exact| can be: half the voxel diagonal (and a
+ * hair for float rounding). */
 double cull_dvol_bound(const cull_dvol *v);
 /* The exact signed distance to the sphere set at p (double; +inf with no
  * spheres): the reference the field approximates. */

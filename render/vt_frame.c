@@ -8,6 +8,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* The unit box, for instances of classes without a mesh of their own. */
 static const float box_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1, -1, -1, 1, 1, -1, 1, -1, 1, 1, 1, 1, 1};
@@ -176,4 +177,35 @@ void vt_mask_make(const cull_dvol *v, const double origin[3], vt_mask *m)
     m->n0 = v->n[0];
     m->n01 = v->n[0] * v->n[1];
     m->d = v->d;
+    m->sph = (const double(*)[4])v->sph;
+    m->nsph = v->nsph;
+    memcpy(m->cam, origin, sizeof m->cam);
+    /* the field is within the bound of the exact distance: a point this
+       much farther than every sphere has mask >= band (a centimetre of
+       slack for float positions) */
+    m->clear = cull_dvol_bound(v) + vt_mask_amp(v) + band + 0.01 * s + 1e-3;
+}
+
+bool vt_mask_clear(const vt_mask *m, const float (*p)[3])
+{
+    if (m->nsph > VT_MASK_CLEAR_MAX) return false; /* not worth it: every pixel tests */
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = hi[a] = p[0][a];
+        for (int k = 1; k < 3; k++) {
+            lo[a] = p[k][a] < lo[a] ? p[k][a] : lo[a];
+            hi[a] = p[k][a] > hi[a] ? p[k][a] : hi[a];
+        }
+    }
+    for (uint32_t k = 0; k < m->nsph; k++) {
+        /* the sphere's centre to the triangle's box (camera-relative) */
+        double d2 = 0;
+        for (int a = 0; a < 3; a++) {
+            double c = m->sph[k][a] - m->cam[a], e = c < lo[a] ? lo[a] - c : c > hi[a] ? c - hi[a] : 0;
+            d2 += e * e;
+        }
+        double need = m->sph[k][3] + m->clear;
+        if (!(d2 >= need * need)) return false;
+    }
+    return true;
 }

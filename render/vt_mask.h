@@ -31,6 +31,7 @@
 #include "culling.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #define VT_MASK_INTERIOR 0.35f  /* albedo factor of a damaged instance's inside */
@@ -46,7 +47,16 @@ typedef struct vt_mask {
     float reach;            /* amp + band: past it the detail cannot matter */
     uint32_t n0, n01;       /* samples per row, per slice */
     const float *d;         /* the field, x fastest */
+    /* for vt_mask_clear: the spheres (world), the camera, the distance
+       from every sphere past which nothing is masked */
+    const double (*sph)[4];
+    uint32_t nsph;
+    double cam[3], clear;
 } vt_mask;
+
+/* Past this many spheres vt_mask_clear does not try (every pixel of a
+ * damaged instance tests the mask). */
+#define VT_MASK_CLEAR_MAX 64u
 
 /* m for v seen from a camera at origin. v must have spheres. */
 void vt_mask_make(const cull_dvol *v, const double origin[3], vt_mask *m);
@@ -57,6 +67,14 @@ double vt_mask_margin(const cull_dvol *v);
 
 /* The detail amplitude of v (metres). */
 double vt_mask_amp(const cull_dvol *v);
+
+/* Whether the triangle p[0..2] (camera-relative) is clear of every hole:
+ * its bounding box is farther than r + clear from every sphere, so the
+ * exact distance there is, the field is within the bound of it, and the
+ * mask is >= band all over it: nothing to discard, no rim. The talk's
+ * split of a mesh into masked and unmasked parts; conservative (a clear
+ * triangle may be called masked, never the reverse), O(spheres). */
+bool vt_mask_clear(const vt_mask *m, const float (*p)[3]);
 
 /* A lattice point's value in -1..1 (an integer hash: exact in GLSL too). */
 static inline float vt_mask_lattice(int32_t i, int32_t j, int32_t k)

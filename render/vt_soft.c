@@ -265,7 +265,12 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 for (int a = 0; a < 3; a++) x->n[a] = x->has_n ? (float)(nn[a] / l) : 0;
             }
         }
-        for (uint32_t t = 0; t < m->ni / 3; t++) {
+        /* a damaged instance: its front faces first, then its back faces,
+           so most of the inside fails the depth test before any mask is
+           evaluated (pass 1 takes only back faces) */
+        const uint32_t ntri = m->ni / 3;
+        for (uint32_t step = 0; step < (mk ? 2 * ntri : ntri); step++) {
+            const uint32_t pass = step >= ntri, t = pass ? step - ntri : step;
             cv v[12];
             double p[3][3];
             const xv *xs[3];
@@ -286,7 +291,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             if (!(det > 0)) {
                 /* a damaged instance is two-sided: its inside shows
                    through its holes, drawn as the face turned over */
-                if (!mk || !(det < 0)) continue;
+                if (!mk || !(det < 0) || pass == 0) continue;
                 cv tv = v[1];
                 v[1] = v[2];
                 v[2] = tv;
@@ -300,6 +305,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 adj_row(&v[1], &v[2], rows[0]);
                 det = -det;
                 back = true;
+            } else if (pass == 1) {
+                continue;
             }
             /* all outside one clip plane: nothing to draw; all inside
                every plane: nothing to clip */
@@ -339,7 +346,9 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 }
             }
             for (int q = 0; q < 3; q++) s->albedo[q] = back ? in->albedo[q] * VT_MASK_INTERIOR : in->albedo[q];
-            s->mask = mk;
+            /* a triangle the holes do not come near is drawn plain (the
+               mask is >= its band all over it: nothing discarded, no rim) */
+            s->mask = mk && !vt_mask_clear(mk, (const float(*)[3])s->p) ? mk : NULL;
             /* the clipped polygon, projected and snapped, as a fan */
             double px[12], py[12], pn[12];
             int32_t ix[12], iy[12];
@@ -387,7 +396,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 if (rt->by1 > (int32_t)fr->h - 1) rt->by1 = (int32_t)fr->h - 1;
                 if (rt->bx0 > rt->bx1 || rt->by0 > rt->by1) continue;
                 rt->shade = tid << ID_BITS | (uint32_t)r->nst;
-                rt->masked = mk != NULL;
+                rt->masked = s->mask != NULL;
                 r->nrt++;
             }
             r->nst++;

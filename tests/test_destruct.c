@@ -3,7 +3,7 @@
  * exact signed distance to the sphere set (cull_dvol_exact, a plain loop
  * in double). At the samples the field holds that distance to float
  * rounding; between them, trilinear filtering stays within the stated
- * bound (the voxel diagonal) of it; a field built sphere by sphere equals
+ * bound (half the voxel diagonal) of it; a field built sphere by sphere equals
  * one rebuilt from the set, bit for bit. Boxes near and 1e5 m from the
  * origin, flat boxes, 1..64 spheres, resolutions 2..16.
  */
@@ -64,7 +64,7 @@ static void test_dvol_matches_brute_force(void **state)
                     if (!(err <= tol)) fail_msg("sample %zu: %.9g vs exact %.9g (tolerance %.3g)", i, v.d[i], e, tol);
                     worst_grid = fmax(worst_grid, err / tol);
                 }
-        /* between the samples: within the voxel diagonal */
+        /* between the samples: within half the voxel diagonal */
         double bound = cull_dvol_bound(&v);
         for (int k = 0; k < 200; k++) {
             double p[3];
@@ -79,7 +79,7 @@ static void test_dvol_matches_brute_force(void **state)
         cull_dvol_free(&w);
     }
     fprintf(stderr, "distance volumes: samples within %.2f of their tolerance; %llu points between samples, worst "
-                    "error %.2f of the bound (the voxel diagonal)\n",
+                    "error %.2f of the bound (half the voxel diagonal)\n",
             worst_grid, (unsigned long long)points, worst_ratio);
 }
 

@@ -288,7 +288,69 @@ static void test_mask_inside_shows(void **state)
     rends_close(rs, nr);
 }
 
+/* vt_mask_clear is conservative: wherever it calls a triangle clear, the
+ * mask at points all over it (corners, edges, inside) is at least the
+ * band (no rim, nothing discarded). Random volumes, spheres and triangles
+ * near them; counts how many it calls clear (not vacuous). */
+static void test_mask_clear_is_conservative(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xC1EAu};
+    uint64_t tris = 0, clear = 0, points = 0;
+    for (int f = 0; f < 300; f++) {
+        double lo[3], hi[3], cam[3];
+        for (int a = 0; a < 3; a++) {
+            double c = rng_range(&r, -100, 100), e = rng_log(&r, 0.5, 20);
+            lo[a] = c - e;
+            hi[a] = c + e;
+            cam[a] = c + rng_range(&r, -200, 200);
+        }
+        cull_dvol dv;
+        assert_int_equal(cull_dvol_init(&dv, lo, hi, 3 + rng_below(&r, 14)), CULL_OK);
+        for (uint32_t k = 1 + rng_below(&r, 8); k--;) {
+            double c[3];
+            for (int a = 0; a < 3; a++) c[a] = rng_range(&r, lo[a], hi[a]);
+            assert_int_equal(cull_dvol_add_sphere(&dv, c, rng_log(&r, 0.2, 10)), CULL_OK);
+        }
+        vt_mask m;
+        vt_mask_make(&dv, cam, &m);
+        double band = 1.0 / m.ib;
+        for (int t = 0; t < 50; t++) {
+            float p[3][3];
+            double c0[3];
+            for (int a = 0; a < 3; a++) c0[a] = rng_range(&r, lo[a], hi[a]);
+            for (int k = 0; k < 3; k++)
+                for (int a = 0; a < 3; a++) {
+                    double q = c0[a] + rng_range(&r, -5, 5);
+                    q = fmin(fmax(q, lo[a]), hi[a]);
+                    p[k][a] = (float)(q - cam[a]);
+                }
+            tris++;
+            if (!vt_mask_clear(&m, (const float(*)[3])p)) continue;
+            clear++;
+            for (int s = 0; s < 40; s++) {
+                double u = rng_f(&r), v = rng_f(&r);
+                if (u + v > 1) u = 1 - u, v = 1 - v;
+                if (s < 3) u = s == 1, v = s == 2;
+                double wp[3];
+                for (int a = 0; a < 3; a++)
+                    wp[a] = cam[a] + p[0][a] + u * (p[1][a] - p[0][a]) + v * (p[2][a] - p[0][a]);
+                double e = ref_mask_at(&dv, wp);
+                points++;
+                if (!(e >= band)) fail_msg("a clear triangle has mask %g < band %g at a point", e, band);
+                float ef = vt_mask_eval(&m, (float)(wp[0] - cam[0]), (float)(wp[1] - cam[1]), (float)(wp[2] - cam[2]));
+                assert_true(vt_mask_rim(&m, ef) == 1.0f);
+            }
+        }
+        cull_dvol_free(&dv);
+    }
+    fprintf(stderr, "mask split: %llu of %llu triangles near holes called clear; %llu points on them checked\n",
+            (unsigned long long)clear, (unsigned long long)tris, (unsigned long long)points);
+    assert_true(clear * 20 > tris && clear < tris);
+}
+
 const struct CMUnitTest mask_tests[] = {
+    cmocka_unit_test(test_mask_clear_is_conservative),
     cmocka_unit_test(test_mask_inside_shows),
     cmocka_unit_test(test_mask_matches_reference),
 };

@@ -15,10 +15,13 @@
  * shading with the CPU-binned tile lists) and the readback of colour and
  * depth. --no-gl skips it. Then the encoders on the last frame: EXR (half
  * RGBA + float Z; ZIP and none), PNG (levels 1 and 6), JPEG (q 85), each
- * after tone mapping where the format is 8-bit.
+ * after tone mapping where the format is 8-bit. For 1k and 15k boxes, the
+ * cost of destruction masks: the same frame (16 lights, 2 threads) with no
+ * box, every tenth box and every box damaged (an 8^3 volume, 3 holes on
+ * its surface: drawn masked and two-sided).
  *
  * --json: one object per line, {path, renderer, width, height, boxes,
- * lights, threads, median_ms, ...}, and {encode, width, height, median_ms,
+ * lights, threads, damaged, median_ms, ...}, and {encode, width, height, median_ms,
  * bytes} for the encoders.
  */
 #include "culling.h"
@@ -43,6 +46,7 @@
 typedef struct scene {
     cull_world *w;
     vt_instance *all;       /* by entity slot */
+    cull_dvol *dv;          /* by entity slot: a damaged box's volume (built on first use) */
     uint32_t n;
 } scene;
 
@@ -68,6 +72,163 @@ static int make_scene(scene *s, uint32_t n)
         if (cull_entity_add(s->w, &d, &h) || (h & (CULL_MAX_ENTITIES - 1)) != i) return -1;
     }
     return 0;
+}
+
+/* Damages every k-th box (k 0: none): an 8^3 volume with 3 holes on its
+ * surface, each 0.3..0.6 of its largest half-extent. */
+static int damage(scene *s, uint32_t k)
+{
+    if (!s->dv) {
+        if (!(s->dv = calloc(s->n, sizeof *s->dv))) return -1;
+        for (uint32_t i = 0; i < s->n; i++) {
+            vt_instance *in = &s->all[i];
+            if (cull_dvol_init(&s->dv[i], in->bmin, in->bmax, 8)) return -1;
+            double emax = 0;
+            for (int a = 0; a < 3; a++) emax = fmax(emax, 0.5 * (in->bmax[a] - in->bmin[a]));
+            for (int h = 0; h < 3; h++) {
+                double c[3];
+                int face = (int)(bench_frand() * 6) % 6;
+                for (int a = 0; a < 3; a++)
+                    c[a] = a == face / 2 ? (face % 2 ? in->bmax[a] : in->bmin[a])
+                                         : in->bmin[a] + bench_frand() * (in->bmax[a] - in->bmin[a]);
+                if (cull_dvol_add_sphere(&s->dv[i], c, emax * (0.3 + 0.3 * bench_frand()))) return -1;
+            }
+        }
+    }
+    for (uint32_t i = 0; i < s->n; i++) s->all[i].dvol = k && i % k == 0 ? &s->dv[i] : NULL;
+    return 0;
+}
+
+static void free_scene(scene *s)
+{
+    for (uint32_t i = 0; s->dv && i < s->n; i++) cull_dvol_free(&s->dv[i]);
+    free(s->dv);
+    free(s->all);
+    cull_world_destroy(s->w);
+}
+
+/* What every measurement shares. */
+typedef struct run {
+    cull_pool *pool;
+    cull_ctx *ctx;
+    cull_view v;
+    uint32_t W, H;
+    int reps;
+    bool json;
+    float *rgba, *depth;
+    cull_result *res;
+    vt_instance *vis;
+    size_t cap;
+    vt_gl *g;
+    vt_glr *gr;
+    const char *gl_name;
+    unsigned lp_threads;
+} run;
+
+/* The visible boxes of s (the culling query), as instances. */
+static int visible(run *rn, const scene *s, uint32_t threads, size_t *n)
+{
+    cull_query_desc q = {.views = &rn->v, .view_count = 1, .threads = threads};
+    if (cull_query(s->w, rn->ctx, &q, rn->res, rn->cap, n, NULL)) return -1;
+    for (size_t k = 0; k < *n; k++) rn->vis[k] = s->all[rn->res[k].handle & (CULL_MAX_ENTITIES - 1)];
+    return 0;
+}
+
+/* " damaged N %" for the table (damaged < 0: nothing). Not reentrant. */
+static const char *damage_label(double damaged)
+{
+    static char b[32];
+    if (damaged < 0) return "";
+    snprintf(b, sizeof b, " damaged %.0f %%", 100 * damaged);
+    return b;
+}
+
+/* The software path: median frame time (query + render), one line out.
+ * damaged: the share of boxes damaged, for the label (-1: no label). */
+static int time_soft(run *rn, const scene *s, const vt_light *L, uint32_t nl, uint32_t threads, double damaged)
+{
+    vt_soft *sr;
+    if (vt_soft_create(rn->pool, threads, &sr)) return -1;
+    double *t = malloc((size_t)rn->reps * sizeof *t);
+    if (!t) return -1;
+    vt_soft_stats st = {0};
+    char err[512];
+    for (int r = 0; r < rn->reps; r++) {
+        double t0 = (bench_now_ns() / 1e6);
+        size_t n;
+        if (visible(rn, s, threads, &n)) return -1;
+        if (vt_soft_render(sr, &rn->v, rn->W, rn->H, &vt_mesh_box, 1, rn->vis, (uint32_t)n, L, nl, rn->rgba, rn->depth,
+                           rn->W, &st, err, sizeof err)) {
+            fprintf(stderr, "bench_render: %s\n", err);
+            return -1;
+        }
+        t[r] = (bench_now_ns() / 1e6) - t0;
+    }
+    qsort(t, (size_t)rn->reps, sizeof *t, bench_cmp_d);
+    double med = t[rn->reps / 2];
+    if (rn->json)
+        printf("{\"path\":\"soft\",\"renderer\":\"vantage soft\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
+               "\"lights\":%u,\"threads\":%u,\"damaged\":%.3f,\"median_ms\":%.3f,\"triangles\":%u,\"setup_ms\":%.3f,"
+               "\"raster_ms\":%.3f,\"bin_ms\":%.3f,\"shade_ms\":%.3f}\n",
+               rn->W, rn->H, s->n, nl, threads, damaged < 0 ? 0 : damaged, med, st.triangles, st.setup_ns / 1e6,
+               st.raster_ns / 1e6, st.bin_ns / 1e6, st.shade_ns / 1e6);
+    else
+        printf("%-6s %8u %7u %7u %10.2f %8.1f %9u  (setup %.2f raster %.2f bin %.2f shade %.2f ms)%s\n", "soft",
+               s->n, nl, threads, med, 1000 / med, st.triangles, st.setup_ns / 1e6, st.raster_ns / 1e6,
+               st.bin_ns / 1e6, st.shade_ns / 1e6, damage_label(damaged));
+    fflush(stdout);
+    free(t);
+    vt_soft_destroy(sr);
+    return 0;
+}
+
+/* The GL path, the same way (one warm-up frame first: shader compiles,
+ * buffers grow). */
+static int time_gl(run *rn, const scene *s, const vt_light *L, uint32_t nl, double damaged)
+{
+    double *t = malloc((size_t)(rn->reps + 1) * sizeof *t);
+    if (!t) return -1;
+    uint32_t drawn = 0;
+    char err[512];
+    for (int r = 0; r <= rn->reps; r++) {
+        double t0 = (bench_now_ns() / 1e6);
+        size_t n;
+        if (visible(rn, s, 2, &n)) return -1;
+        if (vt_glr_render(rn->gr, &rn->v, rn->W, rn->H, &vt_mesh_box, 1, rn->vis, (uint32_t)n, L, nl, rn->rgba,
+                          rn->depth, rn->W, NULL, err, sizeof err)) {
+            fprintf(stderr, "bench_render: gl: %s\n", err);
+            return -1;
+        }
+        t[r] = (bench_now_ns() / 1e6) - t0;
+        drawn = (uint32_t)n;
+    }
+    qsort(t + 1, (size_t)rn->reps, sizeof *t, bench_cmp_d);
+    double med = t[1 + rn->reps / 2];
+    if (rn->json)
+        printf("{\"path\":\"gl\",\"renderer\":\"%s\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
+               "\"lights\":%u,\"threads\":%u,\"damaged\":%.3f,\"median_ms\":%.3f,\"triangles_submitted\":%u}\n",
+               rn->gl_name, rn->W, rn->H, s->n, nl, rn->lp_threads, damaged < 0 ? 0 : damaged, med, drawn * 12);
+    else
+        printf("%-6s %8u %7u %7u %10.2f %8.1f %9u  (submitted; %s)%s\n", "gl", s->n, nl, rn->lp_threads, med,
+               1000 / med, drawn * 12, rn->gl_name, damage_label(damaged));
+    fflush(stdout);
+    free(t);
+    return 0;
+}
+
+static vt_light *make_lights(uint32_t nl)
+{
+    vt_light *L = calloc(nl + 1, sizeof *L);
+    for (uint32_t k = 0; L && k < nl; k++) {
+        L[k].l.pos[0] = bench_frand() * 200 - 100;
+        L[k].l.pos[1] = 1 + bench_frand() * 8;
+        L[k].l.pos[2] = 20 + bench_frand() * 380;
+        L[k].l.radius = 30;
+        L[k].color[0] = 400;
+        L[k].color[1] = (float)(300 + 100 * bench_frand());
+        L[k].color[2] = (float)(200 + 200 * bench_frand());
+    }
+    return L;
 }
 
 int main(int argc, char **argv)
@@ -98,134 +259,68 @@ int main(int argc, char **argv)
     static const uint32_t counts[] = {1000, 15000, 100000};
     static const uint32_t nlights[] = {0, 16, 256};
     size_t ncounts = smoke ? 1 : quick ? 2 : 3;
-
-    cull_pool *pool;
-    if (cull_pool_create(2, &pool)) return 1;
-    cull_ctx *ctx;
-    if (cull_ctx_create(pool, &ctx)) return 1;
-    const vt_mesh cube = vt_mesh_box;
-    float *rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = malloc((size_t)W * H * sizeof *depth);
+    run rn = {.W = W, .H = H, .reps = reps, .json = json, .gl_name = ""};
+    if (cull_pool_create(2, &rn.pool)) return 1;
+    if (cull_ctx_create(rn.pool, &rn.ctx)) return 1;
+    float *rgba = rn.rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = rn.depth = malloc((size_t)W * H * sizeof *depth);
     if (!rgba || !depth) return 1;
     char err[1024];
-
     /* the GL path, where there is one (a benchmark skips, never fails) */
-    vt_gl *g = NULL;
-    vt_glr *gr = NULL;
-    const char *gl_name = "";
-    unsigned lp_threads = 0;
     if (gl) {
         setenv("LP_NUM_THREADS", "2", 0);
-        lp_threads = (unsigned)atoi(getenv("LP_NUM_THREADS"));
-        if (vt_gl_open(&g, NULL, err, sizeof err) || vt_glr_create(g, &gr, err, sizeof err)) {
+        rn.lp_threads = (unsigned)atoi(getenv("LP_NUM_THREADS"));
+        if (vt_gl_open(&rn.g, NULL, err, sizeof err) || vt_glr_create(rn.g, &rn.gr, err, sizeof err)) {
             fprintf(stderr, "bench_render: no GL path here (%s)\n", err);
-            vt_gl_close(g);
-            g = NULL;
+            vt_gl_close(rn.g);
+            rn.g = NULL;
         } else {
-            gl_name = vt_gl_get_info(g)->renderer;
+            rn.gl_name = vt_gl_get_info(rn.g)->renderer;
         }
     }
-
-    cull_view v;
     {
         cull_view_desc d = {.origin = {0, 8, 0}, .viewport_w = W, .viewport_h = H};
         double proj[16], view[16], dir[3] = {0, -0.08, 1}, up[3] = {0, 1, 0};
         cull_mat_perspective(proj, 60 * M_PI / 180, (double)W / H, 0.1, 2000, CULL_DEPTH_GL);
         cull_mat_look_dir(view, dir, up);
         cull_mat_mul(d.view_proj, proj, view);
-        if (cull_view_init(&v, &d)) return 1;
+        if (cull_view_init(&rn.v, &d)) return 1;
     }
     if (!json) printf("%-6s %8s %7s %7s %10s %8s %9s  (median of %d frames)\n", "path", "boxes", "lights", "threads",
                       "median_ms", "fps", "triangles", reps);
-
     for (size_t ci = 0; ci < ncounts; ci++) {
         scene s;
         if (make_scene(&s, counts[ci])) return 1;
-        size_t cap = cull_query_bound(s.w);
-        cull_result *res = malloc(cap * sizeof *res);
-        vt_instance *vis = malloc(cap * sizeof *vis);
-        if (!res || !vis) return 1;
+        rn.cap = cull_query_bound(s.w);
+        rn.res = malloc(rn.cap * sizeof *rn.res);
+        rn.vis = malloc(rn.cap * sizeof *rn.vis);
+        if (!rn.res || !rn.vis) return 1;
         for (size_t li = 0; li < (smoke ? 2 : 3); li++) {
             uint32_t nl = nlights[li];
-            vt_light *L = calloc(nl + 1, sizeof *L);
+            vt_light *L = make_lights(nl);
             if (!L) return 1;
-            for (uint32_t k = 0; k < nl; k++) {
-                L[k].l.pos[0] = bench_frand() * 200 - 100;
-                L[k].l.pos[1] = 1 + bench_frand() * 8;
-                L[k].l.pos[2] = 20 + bench_frand() * 380;
-                L[k].l.radius = 30;
-                L[k].color[0] = 400;
-                L[k].color[1] = (float)(300 + 100 * bench_frand());
-                L[k].color[2] = (float)(200 + 200 * bench_frand());
-            }
-            for (uint32_t threads = 1; threads <= 2; threads++) {
-                vt_soft *sr;
-                if (vt_soft_create(pool, threads, &sr)) return 1;
-                double *t = malloc((size_t)reps * sizeof *t);
-                vt_soft_stats st = {0};
-                for (int r = 0; r < reps; r++) {
-                    double t0 = (bench_now_ns() / 1e6);
-                    size_t n;
-                    cull_query_desc q = {.views = &v, .view_count = 1, .threads = threads};
-                    if (cull_query(s.w, ctx, &q, res, cap, &n, NULL)) return 1;
-                    for (size_t k = 0; k < n; k++) vis[k] = s.all[res[k].handle & (CULL_MAX_ENTITIES - 1)];
-                    if (vt_soft_render(sr, &v, W, H, &cube, 1, vis, (uint32_t)n, L, nl, rgba, depth, W, &st, err,
-                                       sizeof err)) {
-                        fprintf(stderr, "bench_render: %s\n", err);
-                        return 1;
-                    }
-                    t[r] = (bench_now_ns() / 1e6) - t0;
-                }
-                qsort(t, (size_t)reps, sizeof *t, bench_cmp_d);
-                double med = t[reps / 2];
-                if (json)
-                    printf("{\"path\":\"soft\",\"renderer\":\"vantage soft\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
-                           "\"lights\":%u,\"threads\":%u,\"median_ms\":%.3f,\"triangles\":%u,\"setup_ms\":%.3f,"
-                           "\"raster_ms\":%.3f,\"bin_ms\":%.3f,\"shade_ms\":%.3f}\n",
-                           W, H, counts[ci], nl, threads, med, st.triangles, st.setup_ns / 1e6, st.raster_ns / 1e6,
-                           st.bin_ns / 1e6, st.shade_ns / 1e6);
-                else
-                    printf("%-6s %8u %7u %7u %10.2f %8.1f %9u  (setup %.2f raster %.2f bin %.2f shade %.2f ms)\n",
-                           "soft", counts[ci], nl, threads, med, 1000 / med, st.triangles, st.setup_ns / 1e6,
-                           st.raster_ns / 1e6, st.bin_ns / 1e6, st.shade_ns / 1e6);
-                fflush(stdout);
-                free(t);
-                vt_soft_destroy(sr);
-            }
-            if (g) {
-                double *t = malloc((size_t)(reps + 1) * sizeof *t);
-                uint32_t drawn = 0;
-                for (int r = 0; r <= reps; r++) { /* one warm-up: shader compiles, buffers grow */
-                    double t0 = (bench_now_ns() / 1e6);
-                    size_t n;
-                    cull_query_desc q = {.views = &v, .view_count = 1, .threads = 2};
-                    if (cull_query(s.w, ctx, &q, res, cap, &n, NULL)) return 1;
-                    for (size_t k = 0; k < n; k++) vis[k] = s.all[res[k].handle & (CULL_MAX_ENTITIES - 1)];
-                    if (vt_glr_render(gr, &v, W, H, &cube, 1, vis, (uint32_t)n, L, nl, rgba, depth, W, NULL, err,
-                                      sizeof err)) {
-                        fprintf(stderr, "bench_render: gl: %s\n", err);
-                        return 1;
-                    }
-                    t[r] = (bench_now_ns() / 1e6) - t0;
-                    drawn = (uint32_t)n;
-                }
-                qsort(t + 1, (size_t)reps, sizeof *t, bench_cmp_d);
-                double med = t[1 + reps / 2];
-                if (json)
-                    printf("{\"path\":\"gl\",\"renderer\":\"%s\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
-                           "\"lights\":%u,\"threads\":%u,\"median_ms\":%.3f,\"triangles_submitted\":%u}\n",
-                           gl_name, W, H, counts[ci], nl, lp_threads, med, drawn * 12);
-                else
-                    printf("%-6s %8u %7u %7u %10.2f %8.1f %9u  (submitted; %s)\n", "gl", counts[ci], nl, lp_threads, med,
-                           1000 / med, drawn * 12, gl_name);
-                fflush(stdout);
-                free(t);
+            for (uint32_t threads = 1; threads <= 2; threads++)
+                if (time_soft(&rn, &s, L, nl, threads, -1)) return 1;
+            if (rn.g && time_gl(&rn, &s, L, nl, -1)) return 1;
+            free(L);
+        }
+        /* destruction masks: the same boxes, 16 lights, none / every
+           tenth / every box damaged (2 threads) */
+        if (ci < 2) {
+            vt_light *L = make_lights(16);
+            if (!L) return 1;
+            if (!json) printf("destruction masks, %u boxes, 16 lights:\n", counts[ci]);
+            static const uint32_t every[3] = {0, 10, 1};
+            for (int k = 0; k < (smoke ? 2 : 3); k++) {
+                if (damage(&s, every[k])) return 1;
+                double frac = every[k] ? 1.0 / every[k] : 0;
+                if (time_soft(&rn, &s, L, 16, 2, frac)) return 1;
+                if (rn.g && time_gl(&rn, &s, L, 16, frac)) return 1;
             }
             free(L);
         }
-        free(res);
-        free(vis);
-        free(s.all);
-        cull_world_destroy(s.w);
+        free(rn.res);
+        free(rn.vis);
+        free_scene(&s);
     }
 
     /* the encoders, on the last frame */
@@ -279,9 +374,9 @@ int main(int argc, char **argv)
     free(rgb8);
     free(rgba);
     free(depth);
-    vt_glr_destroy(gr);
-    vt_gl_close(g);
-    cull_ctx_destroy(ctx);
-    cull_pool_destroy(pool);
+    vt_glr_destroy(rn.gr);
+    vt_gl_close(rn.g);
+    cull_ctx_destroy(rn.ctx);
+    cull_pool_destroy(rn.pool);
     return 0;
 }
