@@ -6,9 +6,13 @@
  * triangles, as the software path shades it), one instance buffer (the
  * mesh's bounds onto
  * the instance's box as a scale and a camera-relative shift, computed in
- * double as vt_soft does, and the albedo), a float view-projection.
- * Pass 1 draws nearness (d / w, interpolated without perspective: it is
- * affine in screen space) into alpha; the per-tile nearness ranges give
+ * double as vt_soft does, the albedo and a damaged instance's mask index),
+ * the masks in two buffer textures, a float view-projection. A mesh's
+ * damaged instances get their own draw, two-sided, the fragment shader
+ * discarding where vt_mask.h's mask is negative. Pass 1 draws nearness
+ * (d . p, interpolated perspective-correct, times gl_FragCoord.w = 1 / w:
+ * a noperspective d / w gave NaN on llvmpipe for near, large triangles)
+ * into alpha; the per-tile nearness ranges give
  * cull_lights_bin its depth planes; the lights and lists go to buffer
  * textures; pass 2 shades. Colour alpha carries nearness on the way out
  * and is turned into coverage and depth on the CPU, as vt_soft does.

@@ -2,20 +2,24 @@
  * vt_soft.c — the software renderer (see vt_soft.h). A visibility buffer:
  *
  *   1. set-up (one thread): each instance's vertices to clip space (double,
- *      camera-relative), back faces culled, triangles clipped in clip space
+ *      camera-relative), back faces culled (a damaged instance's kept,
+ *      turned over, after its front faces; its triangles clear of every
+ *      hole marked plain: vt_mask_clear), triangles clipped in clip space
  *      against the near and far planes and a guard band (x, y within 4 w),
  *      projected and snapped to 1/256 pixel; one raster record per clipped
  *      triangle, one shading record per source triangle;
  *   2. raster (threads over interleaved 16-row tile rows): integer edge
  *      functions with the top-left rule at pixel centres, nearness (1/w
  *      perspective, 1 - z_ndc orthographic: affine in screen space) as the
- *      depth test, the winning shading record per pixel;
+ *      depth test, the winning shading record per pixel (a masked
+ *      triangle's pixel only where the destruction mask is >= 0);
  *   3. light tiles: per 16x16 tile the nearness range of what it shows,
  *      then cull_lights_bin;
  *   4. shading (threads over tile rows): per pixel, perspective-correct
  *      barycentrics from the homogeneous edge functions of the source
- *      triangle give the surface point and normal; Lambert + Blinn-Phong
- *      over the tile's lights, plus a small ambient term.
+ *      triangle give the surface point and normal (and a masked one's
+ *      rim char); Lambert + Blinn-Phong over the tile's lights, plus a
+ *      small ambient term.
  *
  * Shading once per pixel, whatever the overdraw, is the point of the
  * visibility buffer.

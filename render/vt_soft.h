@@ -7,7 +7,9 @@
  * Meshes are per class: positions, optional normals, counter-clockwise
  * triangles. An instance stretches its mesh's bounding box onto a world
  * AABB (entities carry bounds, not transforms), so a unit box or sphere
- * fills the entity's box. Back faces are culled.
+ * fills the entity's box. Back faces are culled, except on damaged
+ * instances (vt_instance.dvol, vt_mask.h): those are drawn where their
+ * destruction mask is >= 0, two-sided, their inside darkened.
  *
  * Buffers are the caller's: rgba (4 floats per pixel, linear HDR, alpha 1
  * where something was drawn, 0 elsewhere) and depth (1 float per pixel:
