@@ -134,10 +134,17 @@ float cull_dvol_sample(const cull_dvol *v, const double p[3])
 double cull_dvol_bound(const cull_dvol *v)
 {
     double diag = sqrt(v->step[0] * v->step[0] + v->step[1] * v->step[1] + v->step[2] * v->step[2]);
-    /* float samples: positions relative to the corner, values near zero
-       where it matters, each rounded to 2^-24 of the box's size */
-    double box = diag * (v->n[0] + v->n[1] + v->n[2]);
-    return 0.5 * diag + 0x1p-21 * box;
+    /* float samples: |p - c| - r in floats relative to the corner, so a
+       few roundings of the largest of the box's size and r + |c - corner|
+       (a sphere of 1e4 m whose surface crosses the box rounds to ~1e-3) */
+    double big = diag * (v->n[0] + v->n[1] + v->n[2]);
+    for (uint32_t k = 0; k < v->nsph; k++) {
+        const double *s = v->sph[k];
+        double dx = s[0] - v->origin[0], dy = s[1] - v->origin[1], dz = s[2] - v->origin[2];
+        double far = s[3] + sqrt(dx * dx + dy * dy + dz * dz);
+        big = far > big ? far : big;
+    }
+    return 0.5 * diag + 0x1p-20 * big;
 }
 
 double cull_dvol_exact(const cull_dvol *v, const double p[3])

@@ -437,8 +437,9 @@ const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *heigh
  * filtering. Samples sit on the box's corners and n - 1 steps between, so
  * the grid covers the box exactly.
  *
- * Accuracy: at a sample the stored value is the exact distance rounded to
- * float. Between samples the trilinear value differs from the exact
+ * Accuracy: at a sample the stored value is the exact distance computed in
+ * floats (a few roundings of the box's size or of r + the centre's
+ * distance, whichever is larger). Between samples the trilinear value differs from the exact
  * distance by at most half the voxel diagonal: the distance is
  * 1-Lipschitz, so the error is at most the filter's weighted mean
  * distance to the cell's corners, sum_i w_i |x_i - p|, which is at most
@@ -474,8 +475,8 @@ int  cull_dvol_add_sphere(cull_dvol *v, const double c[3], double r);
 void cull_dvol_rebuild(cull_dvol *v);
 /* Trilinear distance at p (world); p outside the box is clamped to it. */
 float cull_dvol_sample(const cull_dvol *v, const double p[3]);
-/* The largest |trilinear - exact| can be: half the voxel diagonal (and a
- * hair for float rounding). */
+/* The largest |trilinear - exact| can be: half the voxel diagonal, plus
+ * the samples' float rounding (grows with the spheres' radii). O(spheres). */
 double cull_dvol_bound(const cull_dvol *v);
 /* The exact signed distance to the sphere set at p (double; +inf with no
  * spheres): the reference the field approximates. */

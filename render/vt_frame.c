@@ -70,9 +70,11 @@ int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t s
             if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
                 return vt_fail(err, errlen, -EINVAL, "instance %u: bad bounds", i);
         const cull_dvol *dv = inst[i].dvol;
-        if (dv && dv->nsph && (!dv->d || dv->n[0] < 2 || dv->n[1] < 2 || dv->n[2] < 2 || !(dv->step[0] > 0) ||
-                               !(dv->step[1] > 0) || !(dv->step[2] > 0)))
-            return vt_fail(err, errlen, -EINVAL, "instance %u: bad destruction volume", i);
+        bool dv_ok = !dv || !dv->nsph || (dv->d && dv->sph);
+        for (int a = 0; dv_ok && dv && dv->nsph && a < 3; a++)
+            dv_ok = dv->n[a] >= 2 && dv->n[a] <= CULL_DVOL_MAX_RES && dv->step[a] > 0 && isfinite(dv->step[a]) &&
+                    isfinite(dv->origin[a]);
+        if (!dv_ok) return vt_fail(err, errlen, -EINVAL, "instance %u: bad destruction volume", i);
     }
     for (uint32_t i = 0; i < nl; i++) {
         const vt_light *L = &lights[i];
@@ -181,8 +183,9 @@ void vt_mask_make(const cull_dvol *v, const double origin[3], vt_mask *m)
     m->nsph = v->nsph;
     memcpy(m->cam, origin, sizeof m->cam);
     /* the field is within the bound of the exact distance: a point this
-       much farther than every sphere has mask >= band (a centimetre of
-       slack for float positions) */
+       much farther than every sphere has mask >= band (a millimetre and a
+       hundredth of a step of slack; vt_mask_clear adds the rounding of
+       positions far from the camera) */
     m->clear = cull_dvol_bound(v) + vt_mask_amp(v) + band + 0.01 * s + 1e-3;
 }
 
@@ -204,7 +207,9 @@ bool vt_mask_clear(const vt_mask *m, const float (*p)[3])
             double c = m->sph[k][a] - m->cam[a], e = c < lo[a] ? lo[a] - c : c > hi[a] ? c - hi[a] : 0;
             d2 += e * e;
         }
-        double need = m->sph[k][3] + m->clear;
+        /* and the float rounding of camera-relative positions */
+        double cx = m->sph[k][0] - m->cam[0], cy = m->sph[k][1] - m->cam[1], cz = m->sph[k][2] - m->cam[2];
+        double need = m->sph[k][3] + m->clear + 1e-6 * (sqrt(cx * cx + cy * cy + cz * cz) + m->sph[k][3]);
         if (!(d2 >= need * need)) return false;
     }
     return true;

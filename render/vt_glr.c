@@ -49,6 +49,7 @@ struct vt_glr {
     vt_gl *g;
     unsigned prog, vao;
     int loc_vp, loc_d, loc_pass, loc_tiles_x;
+    int max_texels;          /* GL_MAX_TEXTURE_BUFFER_SIZE */
     unsigned tex[5], buf[5]; /* buffer textures: lights, tile offsets, tile indices,
                                 mask headers, mask fields */
     unsigned vbuf, ibuf, ebuf; /* this frame's vertices, instances and indices, all meshes */
@@ -58,7 +59,8 @@ struct vt_glr {
     size_t pix_cap;
     float *vx, *iv, *ld;     /* vertices, instances, lights as uploaded */
     size_t vx_cap, iv_cap, ld_cap;
-    float *mh, *mf;          /* mask headers (MASK_TEXELS texels each), fields */
+    float *mh, *mf;          /* mask headers (MASK_TEXELS RGBA32UI texels each: float bits, then
+                                integers), fields */
     size_t mh_cap, mf_cap;
     uint32_t *el;            /* indices as uploaded */
     size_t el_cap;
@@ -82,7 +84,7 @@ static const char *vs_src =
     "uniform mat4 u_vp;\n"
     "uniform vec4 u_d;\n" /* nearness numerator row */
     "invariant gl_Position;\n" /* pass 2 tests against pass 1's depth */
-    "out vec3 v_p;\n"
+    "invariant out vec3 v_p;\n"
     "out vec3 v_n;\n"
     "flat out vec3 v_albedo;\n"
     "flat out int v_mask;\n"
@@ -106,7 +108,7 @@ static const char *fs_src =
     "#version 330 core\n"
     "#define VT_MASK_INTERIOR " STR(VT_MASK_INTERIOR) "\n"
     "#define VT_MASK_CHAR " STR(VT_MASK_CHAR) "\n"
-    "in vec3 v_p;\n"
+    "invariant in vec3 v_p;\n"
     "in vec3 v_n;\n"
     "flat in vec3 v_albedo;\n"
     "flat in int v_mask;\n"
@@ -116,7 +118,7 @@ static const char *fs_src =
     "uniform samplerBuffer u_lights;\n"   /* 4 texels a light */
     "uniform usamplerBuffer u_offset;\n"
     "uniform usamplerBuffer u_index;\n"
-    "uniform samplerBuffer u_mhead;\n"  /* MASK_TEXELS texels a mask */
+    "uniform usamplerBuffer u_mhead;\n"  /* MASK_TEXELS texels a mask: float bits, then integers */
     "uniform samplerBuffer u_mfield;\n"
     "out vec4 o_color;\n"
     /* the destruction mask of vt_mask.h, operation for operation */
@@ -140,9 +142,9 @@ static const char *fs_src =
     "}\n"
     "float field(int k) { return texelFetch(u_mfield, k).r; }\n"
     "float mask_eval(int m, vec3 p, out float ib) {\n"
-    "  vec4 h0 = texelFetch(u_mhead, 5 * m), h1 = texelFetch(u_mhead, 5 * m + 1);\n"
-    "  vec4 h2 = texelFetch(u_mhead, 5 * m + 2), h3 = texelFetch(u_mhead, 5 * m + 3);\n"
-    "  uvec4 q = floatBitsToUint(texelFetch(u_mhead, 5 * m + 4));\n"
+    "  vec4 h0 = uintBitsToFloat(texelFetch(u_mhead, 5 * m)), h1 = uintBitsToFloat(texelFetch(u_mhead, 5 * m + 1));\n"
+    "  vec4 h2 = uintBitsToFloat(texelFetch(u_mhead, 5 * m + 2)), h3 = uintBitsToFloat(texelFetch(u_mhead, 5 * m + 3));\n"
+    "  uvec4 q = texelFetch(u_mhead, 5 * m + 4);\n"
     "  ib = h1.w;\n"
     "  vec3 u = clamp((p - h0.xyz) * h1.xyz, vec3(0.0), h2.xyz);\n"
     "  vec3 fl = min(floor(u), h2.xyz - 1.0);\n"
@@ -224,6 +226,8 @@ int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
     glGenBuffers(1, &r->vbuf);
     glGenBuffers(1, &r->ibuf);
     glGenBuffers(1, &r->ebuf);
+    glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &r->max_texels);
+    if (r->max_texels <= 0) r->max_texels = 65536; /* the GL 3.3 minimum */
     r->loc_vp = glGetUniformLocation(r->prog, "u_vp");
     r->loc_d = glGetUniformLocation(r->prog, "u_d");
     r->loc_pass = glGetUniformLocation(r->prog, "u_pass");
@@ -297,8 +301,10 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
         nmask++;
         nfield += (size_t)dv->n[0] * dv->n[1] * dv->n[2];
     }
-    if (nmask > (1u << 24) || nfield > UINT32_MAX)
-        return fail(err, errlen, -E2BIG, "%zu damaged instances (%zu field samples): too many", nmask, nfield);
+    if (nmask > (1u << 24) || nfield > (size_t)r->max_texels || nmask * MASK_TEXELS > (size_t)r->max_texels)
+        return fail(err, errlen, -E2BIG,
+                    "%zu damaged instances (%zu field samples) are past this GL's texture buffer limit (%d texels)",
+                    nmask, nfield, r->max_texels);
     if (!vt_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
         !vt_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
         return fail(err, errlen, -ENOMEM, "out of memory");
@@ -387,7 +393,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
     glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
     glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(((size_t)ninst + 1) * IV * sizeof *r->iv), r->iv, GL_STREAM_DRAW);
     glActiveTexture(GL_TEXTURE3);
-    tbo(r->tex[3], r->buf[3], GL_RGBA32F, r->mh, nmask * 4 * MASK_TEXELS * sizeof *r->mh);
+    tbo(r->tex[3], r->buf[3], GL_RGBA32UI, r->mh, nmask * 4 * MASK_TEXELS * sizeof *r->mh);
     glActiveTexture(GL_TEXTURE4);
     tbo(r->tex[4], r->buf[4], GL_R32F, r->mf, nfield * sizeof *r->mf);
     glBindVertexArray(r->vao); /* the element buffer binding is the vertex array's */

@@ -122,7 +122,7 @@ static inline float vt_mask_eval(const vt_mask *m, float px, float py, float pz)
     float t[3];
     uint32_t base = 0;
     for (int a = 0; a < 3; a++) {
-        float c = u[a] < 0.0f ? 0.0f : u[a] > m->hi[a] ? m->hi[a] : u[a];
+        float c = !(u[a] >= 0.0f) ? 0.0f : u[a] > m->hi[a] ? m->hi[a] : u[a]; /* NaN: 0 */
         u[a] = c;
         float f = floorf(c);
         if (f > m->hi[a] - 1.0f) f = m->hi[a] - 1.0f;
