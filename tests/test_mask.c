@@ -147,12 +147,6 @@ static void look_at(cull_view *v, const double eye[3], const double at[3], doubl
     assert_int_equal(cull_view_init(v, &d), CULL_OK);
 }
 
-/* The unit cube [-1, 1]^3, flat normals. */
-static const float cube_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1,
-                                   -1, -1, 1,  1, -1, 1,  -1, 1, 1,  1, 1, 1};
-static const uint32_t cube_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,
-                                      2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
-
 /* A slab 10 x 10 x 0.4 m (anywhere up to 1e4 m out) with 1..6 holes on its
  * front face (+z), random volume resolutions, cameras in front of it in
  * every depth mode; each renderer, damaged and intact. */
@@ -162,7 +156,7 @@ static void test_mask_matches_reference(void **state)
     rng r = {test_seed() ^ 0x3A5Cu};
     rend rs[2];
     uint32_t nr = rends_open(rs);
-    const vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    const vt_mesh cube = vt_mesh_box; /* the unit cube, flat normals */
     const uint32_t W = 160, H = 120;
     float *cd = malloc(W * H * 16), *dd = malloc(W * H * 4), *ci = malloc(W * H * 16), *di = malloc(W * H * 4);
     assert_true(cd && dd && ci && di);
@@ -259,7 +253,7 @@ static void test_mask_inside_shows(void **state)
     (void)state;
     rend rs[2];
     uint32_t nr = rends_open(rs);
-    const vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    const vt_mesh cube = vt_mesh_box; /* the unit cube, flat normals */
     const uint32_t W = 101, H = 101;
     float *c = malloc(W * H * 16), *d = malloc(W * H * 4);
     assert_true(c && d);
