@@ -153,8 +153,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 	ar rcs $@ $^
 
 # the end-to-end tests run this configuration's vantaged and vantage
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \

@@ -58,7 +58,8 @@ static void usage(FILE *f)
             "  bench --test frames [--viewers N] [--stalled S] [--seconds T] [--size WxH] [--fps F]\n"
             "        [--edits-per-s R] [--renderer soft|gl] [--json]   frame streams while the scene is edited\n"
             "\n"
-            "connection: -h HOST (127.0.0.1), -p PORT (%d), -s SOCKET (Unix socket instead of TCP)\n"
+            "connection: -h HOST (127.0.0.1), -p PORT (%d), -s SOCKET (Unix socket instead of TCP),\n"
+            "            --token T (or VANTAGE_TOKEN) where the daemon has --tokens\n"
             "JSON lines: {\"id\": 64-bit id, \"class\": n, \"sphere\": [x,y,z,r],\n"
             "             \"aabb\": [minx,miny,minz,maxx,maxy,maxz], \"sublevel\": n, \"dynamic\": false}\n"
             "COMMAND --help prints that command's usage.\n",
@@ -529,6 +530,7 @@ int main(int argc, char **argv)
         }
     }
     k.co.port = (int)port;
+    if (!k.co.token) k.co.token = getenv("VANTAGE_TOKEN"); /* kept out of the process list */
     if (optind >= argc) {
         usage(stderr);
         return 2;

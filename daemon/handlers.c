@@ -42,8 +42,18 @@ static void on_hello(server *s, conn *c, const vp_header *h, const uint8_t *p)
         c->closing = true; /* not our protocol, or not this version */
         return;
     }
-    /* roles and tokens: the reliability issue adds token files; until then
-       every role is granted (the default bind is loopback) */
+    /* roles and tokens (auth.h): with a token file, a role needs a token
+       of it or a higher one; without one every role is granted (the
+       daemon then listens on loopback only, unless --insecure) */
+    if (s->cfg.tokens && !auth_grants(s->cfg.tokens, m.role, m.token, m.token_len)) {
+        static const char *const names[] = {"viewer", "commander", "editor"};
+        LOGW("client %u: refused the %s role (%s token)", c->id, names[m.role], m.token_len ? "wrong" : "no");
+        send_error(s, c, h->req, VP_ERR_AUTH, UINT32_MAX,
+                   m.token_len ? "that token does not grant this role"
+                               : "this daemon needs a token for this role (vantage --token, or VANTAGE_TOKEN)");
+        c->closing = true;
+        return;
+    }
     c->role = m.role;
     c->hello = true;
     size_t n = m.name_len < sizeof c->name - 1 ? m.name_len : sizeof c->name - 1;

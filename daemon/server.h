@@ -8,6 +8,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "auth.h"
 #include "scene.h"
 
 typedef struct server_config {
@@ -22,6 +23,7 @@ typedef struct server_config {
     int renderer;            /* VP_RENDERER_SOFT or VP_RENDERER_GL: when a request names none */
     double cell_size;
     uint32_t destruct_res;   /* samples per axis of a destruction volume */
+    const auth_tokens *tokens; /* NULL: every role granted (loopback, or --insecure) */
     scene_limits limits;
 } server_config;
 

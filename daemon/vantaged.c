@@ -1,6 +1,7 @@
 /*
  * vantaged.c — the daemon's entry point: options, the scene, the server.
  */
+#include "auth.h"
 #include "log.h"
 #include "server.h"
 #include "ae.h"
@@ -33,6 +34,11 @@ static void usage(FILE *f)
             "  --destruct-res N     destruction distance volumes: N^3 samples over an entity's box (default 8)\n"
             "  --render soft|gl     renderer for frames that name none (default soft; gl: headless\n"
             "                       OpenGL through EGL, and the daemon will not start without it)\n"
+            "  --tokens FILE        roles need tokens: lines \"viewer|commander|editor TOKEN\" in a\n"
+            "                       file only its owner can read (chmod 600); without it every\n"
+            "                       client may edit, and only loopback is served\n"
+            "  --insecure           serve a non-loopback --bind without --tokens (anyone who can\n"
+            "                       connect may edit)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
             "  --help               this text\n",
             VANTAGED_DEFAULT_PORT);
@@ -66,7 +72,7 @@ int main(int argc, char **argv)
     const char *scene_kind = "demo";
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
-           O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES };
+           O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -76,10 +82,12 @@ int main(int argc, char **argv)
         {"out-limit", required_argument, 0, O_OUT}, {"threads", required_argument, 0, O_THREADS},
         {"render", required_argument, 0, O_RENDER},
         {"log-level", required_argument, 0, O_LOG}, {"help", no_argument, 0, O_HELP},
-        {"destruct-res", required_argument, 0, O_DRES}, {0, 0, 0, 0},
+        {"destruct-res", required_argument, 0, O_DRES}, {"tokens", required_argument, 0, O_TOKENS},
+        {"insecure", no_argument, 0, O_INSECURE}, {0, 0, 0, 0},
     };
     int o;
-    bool ok = true;
+    bool ok = true, insecure = false;
+    const char *tokens_path = NULL;
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (o) {
         case O_BIND: cfg.bind = optarg; break;
@@ -100,6 +108,8 @@ int main(int argc, char **argv)
             ok = !strcmp(optarg, "gl") || !strcmp(optarg, "soft");
             break;
         case O_LOG: ok = (g_log_level = log_level_parse(optarg)) >= 0; break;
+        case O_TOKENS: tokens_path = optarg; break;
+        case O_INSECURE: insecure = true; break;
         case O_HELP: usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
@@ -118,6 +128,23 @@ int main(int argc, char **argv)
         fprintf(stderr, "vantaged: nothing to listen on (--bind \"\" and --unix \"\")\n");
         return 2;
     }
+
+    static auth_tokens tokens;
+    if (tokens_path) {
+        char err[400];
+        if (auth_load(tokens_path, &tokens, err, sizeof err)) {
+            fprintf(stderr, "vantaged: --tokens %s\n", err);
+            return 2;
+        }
+        cfg.tokens = &tokens;
+    } else if (!auth_loopback(cfg.bind) && !insecure) {
+        fprintf(stderr,
+                "vantaged: --bind %s reaches other machines and there is no --tokens file: anyone who can "
+                "connect could edit the scene. Give --tokens FILE, or --insecure if that is what you want.\n",
+                cfg.bind);
+        return 2;
+    }
+    if (!cfg.tokens && !auth_loopback(cfg.bind)) LOGW("--insecure: %s served without tokens", cfg.bind);
 
     scene *sc = calloc(1, sizeof *sc);
     if (!sc || scene_init(sc, cfg.cell_size, &cfg.limits)) {

@@ -73,10 +73,12 @@ void daemon_start_args(daemon_proc *d, const char *const *extra)
         execv(d->bin, (char *const *)argv);
         _exit(127);
     }
-    /* wait until it answers */
+    /* wait until it answers (a refusal of the token-less viewer is an
+       answer: a daemon with --tokens) */
     for (int i = 0; i < 500; i++) {
         vt_client *c = NULL;
-        if (vt_connect(&(vt_connect_opts){.port = d->port, .timeout_ms = 2000}, &c, NULL, 0) == VP_OK) {
+        int rc = vt_connect(&(vt_connect_opts){.port = d->port, .timeout_ms = 2000}, &c, NULL, 0);
+        if (rc == VP_OK || rc == VP_ERR_AUTH) {
             vt_close(c);
             return;
         }

@@ -25,6 +25,7 @@ int main(void)
         {sublevel_tests, sublevel_tests_count},
         {destruct_tests, destruct_tests_count},
         {mask_tests, mask_tests_count},
+        {auth_tests, auth_tests_count},
     };
     size_t total = 0;
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;
