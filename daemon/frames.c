@@ -459,18 +459,9 @@ void frames_conn_gone(server *s, conn *c)
     sub_end(s, c);
 }
 
-static void timer_noop(ae_loop *l, void *data)
+int frames_schedule(server *s)
 {
-    (void)l;
-    (void)data;
-}
-
-void frames_schedule(server *s)
-{
-    if (!s->nsubs) {
-        ae_set_timer(s->loop, 0, timer_noop, NULL);
-        return;
-    }
+    if (!s->nsubs) return -1;
     uint64_t now = now_ns(), wake = UINT64_MAX; /* ns */
     for (uint32_t i = 0; i < s->nconns; i++) {
         conn *c = s->live[i];
@@ -491,7 +482,7 @@ void frames_schedule(server *s)
             continue;
         }
         job *j = calloc(1, sizeof *j);
-        if (!j) return; /* try again on the next pass */
+        if (!j) return 1; /* try again on the next pass */
         *j = (job){.fd = c->fd, .conn_id = c->id, .h = {.type = VP_RENDER, .req = f->req}, .stream = true,
                    .gen = f->gen, .stream_req = f->m.r};
         f->inflight = true;
@@ -503,7 +494,9 @@ void frames_schedule(server *s)
         job_submit(s, j);
     }
     /* the loop's timer is in whole ms: round up, never 0 (a busy loop) */
-    ae_set_timer(s->loop, wake == UINT64_MAX ? 0 : (int)((wake - now + 999999) / 1000000), timer_noop, NULL);
+    if (wake == UINT64_MAX) return -1;
+    uint64_t ms = (wake - now + 999999) / 1000000;
+    return ms < 1 ? 1 : ms > INT32_MAX ? INT32_MAX : (int)ms;
 }
 
 /* A stream's frame is back: sent if the subscription still wants it. */

@@ -172,6 +172,10 @@ static void conn_process(server *s, conn *c)
     }
     memmove(c->in, c->in + pos, c->in_len - pos);
     c->in_len -= pos;
+    /* a frame begun and not finished: its clock (the timer drops clients
+       that trickle one in too slowly) */
+    if (!c->in_len) c->since_ms = 0;
+    else if (pos || !c->since_ms) c->since_ms = ae_now_ms();
     if (c->closing && !c->busy) {
         (void)conn_flush(s, c); /* best effort: let the client read why */
         conn_free(s, c);
@@ -292,6 +296,7 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
         }
         c->fd = fd;
         c->id = ++s->next_id;
+        c->born_ms = ae_now_ms();
         strcpy(c->name, "?");
         s->conns[fd] = c;
         c->live_pos = s->nconns;
@@ -300,15 +305,52 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
     }
 }
 
+/* ---- slow clients --------------------------------------------------------------- */
+
+/* A client that has not finished HELLO within hello_timeout_ms of its
+ * accept, or has left a frame half-sent for frame_timeout_ms (slow-loris),
+ * is dropped with a message. A client whose frames wait behind its own
+ * query is not judged. Run at most every SWEEP_MS, from the tick. */
+#define SWEEP_MS 250u
+
+static void sweep_slow(server *s, uint64_t now)
+{
+    for (uint32_t i = s->nconns; i-- > 0;) {
+        conn *c = s->live[i];
+        if (c->busy || c->closing) continue;
+        const char *why = NULL;
+        if (!c->hello && now - c->born_ms > s->cfg.hello_timeout_ms) why = "no HELLO in time";
+        else if (c->since_ms && now - c->since_ms > s->cfg.frame_timeout_ms) why = "a frame sent too slowly";
+        if (!why) continue;
+        LOGW("client %u: %s (%u ms): disconnecting", c->id, why,
+             !c->hello ? s->cfg.hello_timeout_ms : s->cfg.frame_timeout_ms);
+        send_error(s, c, 0, VP_ERR_TIMEOUT, UINT32_MAX, why);
+        (void)conn_flush(s, c);
+        conn_free(s, c);
+    }
+}
+
 /* ---- the tick -------------------------------------------------------------------- */
 
 #define SUBLEVEL_SLICE 2048u /* entities an unload frees per loop turn: ~0.7 ms */
+
+static void timer_noop(ae_loop *l, void *data)
+{
+    (void)l;
+    (void)data;
+}
 
 static void before_sleep(ae_loop *l, void *data)
 {
     (void)l;
     server *s = data;
     scene *sc = s->sc;
+    uint64_t now_ms = ae_now_ms();
+    if (now_ms >= s->sweep_ms) {
+        sweep_slow(s, now_ms);
+        s->sweep_ms = now_ms + SWEEP_MS;
+    }
+    bool clocks = false; /* some client is on a HELLO or frame clock */
     /* any edit moves the epoch (meshes, occluders and lights too); entity
        edits also leave counts and bounds to tighten */
     bool changed = sc->epoch != s->ev_epoch;
@@ -335,6 +377,7 @@ static void before_sleep(ae_loop *l, void *data)
     /* backwards: conn_free moves the last connection into the freed place */
     for (uint32_t i = s->nconns; i-- > 0;) {
         conn *c = s->live[i];
+        clocks |= !c->hello || c->since_ms;
         if (changed && c->subscribed) {
             c->ev_pending = true;
             c->ev_added += sc->ev_added;
@@ -355,7 +398,15 @@ static void before_sleep(ae_loop *l, void *data)
         if (c->out_len > c->out_pos && !conn_flush(s, c)) conn_free(s, c);
     }
     sc->ev_added = sc->ev_updated = sc->ev_removed = 0;
-    frames_schedule(s);
+    /* one timer wakes the loop: for the next rate-capped frame, or for the
+       next sweep while a client is on a clock (an idle loop sleeps) */
+    int ms = frames_schedule(s);
+    if (clocks) {
+        uint64_t t = ae_now_ms();
+        int sw = s->sweep_ms > t ? (int)(s->sweep_ms - t) : 1;
+        ms = ms < 0 || sw < ms ? sw : ms;
+    }
+    ae_set_timer(s->loop, ms < 0 ? 0 : ms, timer_noop, NULL);
 }
 
 static void on_signal(ae_loop *l, int fd, void *data, int mask)

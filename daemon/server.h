@@ -24,6 +24,8 @@ typedef struct server_config {
     double cell_size;
     uint32_t destruct_res;   /* samples per axis of a destruction volume */
     const auth_tokens *tokens; /* NULL: every role granted (loopback, or --insecure) */
+    uint32_t hello_timeout_ms; /* HELLO must complete within this after the accept */
+    uint32_t frame_timeout_ms; /* a frame begun must complete within this (slow-loris) */
     scene_limits limits;
 } server_config;
 

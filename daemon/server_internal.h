@@ -37,6 +37,8 @@ typedef struct conn {
     uint32_t live_pos;  /* index in server.live */
     uint8_t *in;
     size_t in_len, in_cap;
+    uint64_t since_ms;  /* when the partial frame in `in` began (0: none) */
+    uint64_t born_ms;   /* accepted at */
     uint8_t *out;
     size_t out_len, out_pos, out_cap;
     uint16_t load;      /* the sub-level this connection is loading, 0 = none */
@@ -56,6 +58,7 @@ struct server {
     uint32_t nconns, next_id;
     scene *sc;
     uint64_t start_ms, queries, bytes_in, bytes_out, errors;
+    uint64_t sweep_ms;      /* when the slow-client sweep is next due */
     /* query workers: they read the scene under scene_lock (shared); the
        loop thread takes it exclusively to apply edits */
     pthread_rwlock_t scene_lock;
@@ -146,9 +149,9 @@ void run_render(server *s, worker *wk, job *j);
 void run_light_query(server *s, worker *wk, job *j);
 void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p);
 void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t *p);
-/* Loop side: starts the frames that are due; sets the loop's timer for the
- * next one a rate cap holds back. */
-void frames_schedule(server *s);
+/* Loop side: starts the frames that are due; returns in how many ms the
+ * next one a rate cap holds back is due (-1: none). */
+int frames_schedule(server *s);
 void frames_done(server *s, conn *c, job *j);
 void frames_conn_gone(server *s, conn *c);
 

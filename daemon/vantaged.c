@@ -39,6 +39,8 @@ static void usage(FILE *f)
             "                       client may edit, and only loopback is served\n"
             "  --insecure           serve a non-loopback --bind without --tokens (anyone who can\n"
             "                       connect may edit)\n"
+            "  --hello-timeout MS   a client must finish HELLO this soon after connecting (10000)\n"
+            "  --frame-timeout MS   a frame begun must arrive whole this soon (30000; slow-loris)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
             "  --help               this text\n",
             VANTAGED_DEFAULT_PORT);
@@ -66,13 +68,15 @@ int main(int argc, char **argv)
         .cell_size = 64,
         .renderer = VP_RENDERER_SOFT,
         .destruct_res = 8,
+        .hello_timeout_ms = 10000,
+        .frame_timeout_ms = 30000,
         .limits = {.max_entities = CULL_MAX_ENTITIES, .max_lights = 65536, .max_occluders = 1u << 20,
                    .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 22},
     };
     const char *scene_kind = "demo";
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
-           O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE };
+           O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -83,7 +87,8 @@ int main(int argc, char **argv)
         {"render", required_argument, 0, O_RENDER},
         {"log-level", required_argument, 0, O_LOG}, {"help", no_argument, 0, O_HELP},
         {"destruct-res", required_argument, 0, O_DRES}, {"tokens", required_argument, 0, O_TOKENS},
-        {"insecure", no_argument, 0, O_INSECURE}, {0, 0, 0, 0},
+        {"insecure", no_argument, 0, O_INSECURE}, {"hello-timeout", required_argument, 0, O_HELLO_TO},
+        {"frame-timeout", required_argument, 0, O_FRAME_TO}, {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
@@ -110,6 +115,8 @@ int main(int argc, char **argv)
         case O_LOG: ok = (g_log_level = log_level_parse(optarg)) >= 0; break;
         case O_TOKENS: tokens_path = optarg; break;
         case O_INSECURE: insecure = true; break;
+        case O_HELLO_TO: ok = parse_u32(optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
+        case O_FRAME_TO: ok = parse_u32(optarg, 100, 3600000, &cfg.frame_timeout_ms); break;
         case O_HELP: usage(stdout); return 0;
         default: usage(stderr); return 2;
         }

@@ -28,6 +28,7 @@
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 static vp_entity rand_entity(rng *r, uint64_t id, double span)
@@ -282,6 +283,55 @@ static void raw_hello(int fd)
     vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_EDITOR});
     assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
     assert_int_equal(raw_read(fd, NULL), VP_HELLO_OK);
+}
+
+static uint64_t now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000 + (uint64_t)ts.tv_nsec / 1000000;
+}
+
+/* Slow-loris: a client that never says HELLO, and one that leaves a frame
+ * half-sent, are dropped with ERROR TIMEOUT once their time is up; an idle
+ * client (nothing half-sent) stays, and another keeps being served. */
+static void test_slow_clients_time_out(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    const char *extra[] = {"--hello-timeout", "600", "--frame-timeout", "1200", NULL};
+    daemon_start_args(&d, extra);
+    vt_client *idle = connect_role(&d, VP_ROLE_VIEWER, false);
+    int mute = raw_connect(&d);  /* connects, says nothing */
+    int trickle = raw_connect(&d);
+    raw_hello(trickle);
+    /* a PING header announcing 64 bytes, then 10 of them */
+    uint8_t buf[VP_HEADER_SIZE + 64] = {0}, data[64] = {0};
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_ping(&w, VP_PING, 7, data, sizeof data);
+    assert_int_equal(write(trickle, buf, VP_HEADER_SIZE + 10), (ssize_t)(VP_HEADER_SIZE + 10));
+    uint64_t t0 = now_ms();
+    int32_t code = 0;
+    assert_int_equal(raw_read(mute, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_TIMEOUT);
+    assert_int_equal(raw_read(mute, NULL), -1); /* and closed */
+    uint64_t t_mute = now_ms() - t0;
+    code = 0;
+    assert_int_equal(raw_read(trickle, &code), VP_ERROR);
+    assert_int_equal(code, VP_ERR_TIMEOUT);
+    assert_int_equal(raw_read(trickle, NULL), -1);
+    uint64_t t_trickle = now_ms() - t0;
+    fprintf(stderr, "slow clients: the mute one dropped after %llu ms (hello timeout 600), the trickling one after "
+                    "%llu ms (frame timeout 1200)\n",
+            (unsigned long long)t_mute, (unsigned long long)t_trickle);
+    assert_true(t_trickle >= 1000 && t_trickle < 5000);
+    /* the idle client was never half-way through a frame: still served */
+    assert_int_equal(vt_ping(idle), VP_OK);
+    vt_close(idle);
+    close(mute);
+    close(trickle);
+    daemon_stop(&d);
 }
 
 static void test_malformed_frames(void **state)
@@ -1148,6 +1198,7 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_edits_then_queries_match_model),
     cmocka_unit_test(test_batches_all_or_nothing),
     cmocka_unit_test(test_malformed_frames),
+    cmocka_unit_test(test_slow_clients_time_out),
     cmocka_unit_test(test_concurrent_clients),
     cmocka_unit_test(test_slow_reader_dropped),
     cmocka_unit_test(test_cli_round_trip),
