@@ -309,25 +309,24 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
 
 /* A client that has not finished HELLO within hello_timeout_ms of its
  * accept, or has left a frame half-sent for frame_timeout_ms (slow-loris),
- * is dropped with a message. A client whose frames wait behind its own
- * query is not judged. Run at most every SWEEP_MS, from the tick. */
+ * is dropped with a message: true when c was freed. A client whose frames
+ * wait behind its own query is not judged. The tick asks at most every
+ * SWEEP_MS. */
 #define SWEEP_MS 250u
 
-static void sweep_slow(server *s, uint64_t now)
+static bool drop_if_slow(server *s, conn *c, uint64_t now)
 {
-    for (uint32_t i = s->nconns; i-- > 0;) {
-        conn *c = s->live[i];
-        if (c->busy || c->closing) continue;
-        const char *why = NULL;
-        if (!c->hello && now - c->born_ms > s->cfg.hello_timeout_ms) why = "no HELLO in time";
-        else if (c->since_ms && now - c->since_ms > s->cfg.frame_timeout_ms) why = "a frame sent too slowly";
-        if (!why) continue;
-        LOGW("client %u: %s (%u ms): disconnecting", c->id, why,
-             !c->hello ? s->cfg.hello_timeout_ms : s->cfg.frame_timeout_ms);
-        send_error(s, c, 0, VP_ERR_TIMEOUT, UINT32_MAX, why);
-        (void)conn_flush(s, c);
-        conn_free(s, c);
-    }
+    if (c->busy || c->closing) return false;
+    const char *why = NULL;
+    if (!c->hello && now - c->born_ms > s->cfg.hello_timeout_ms) why = "no HELLO in time";
+    else if (c->since_ms && now - c->since_ms > s->cfg.frame_timeout_ms) why = "a frame sent too slowly";
+    if (!why) return false;
+    LOGW("client %u: %s (%u ms): disconnecting", c->id, why,
+         !c->hello ? s->cfg.hello_timeout_ms : s->cfg.frame_timeout_ms);
+    send_error(s, c, 0, VP_ERR_TIMEOUT, UINT32_MAX, why);
+    (void)conn_flush(s, c);
+    conn_free(s, c);
+    return true;
 }
 
 /* ---- the tick -------------------------------------------------------------------- */
@@ -346,10 +345,8 @@ static void before_sleep(ae_loop *l, void *data)
     server *s = data;
     scene *sc = s->sc;
     uint64_t now_ms = ae_now_ms();
-    if (now_ms >= s->sweep_ms) {
-        sweep_slow(s, now_ms);
-        s->sweep_ms = now_ms + SWEEP_MS;
-    }
+    bool sweep = now_ms >= s->sweep_ms; /* slow clients are looked for this turn */
+    if (sweep) s->sweep_ms = now_ms + SWEEP_MS;
     bool clocks = false; /* some client is on a HELLO or frame clock */
     /* any edit moves the epoch (meshes, occluders and lights too); entity
        edits also leave counts and bounds to tighten */
@@ -377,6 +374,7 @@ static void before_sleep(ae_loop *l, void *data)
     /* backwards: conn_free moves the last connection into the freed place */
     for (uint32_t i = s->nconns; i-- > 0;) {
         conn *c = s->live[i];
+        if (sweep && drop_if_slow(s, c, now_ms)) continue;
         clocks |= !c->hello || c->since_ms;
         if (changed && c->subscribed) {
             c->ev_pending = true;

@@ -52,6 +52,18 @@ int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen)
     return 0;
 }
 
+/* A destruction volume as the renderers read it: fields and spheres
+ * there, 2..CULL_DVOL_MAX_RES samples an axis, finite steps and corner. */
+static bool dvol_ok(const cull_dvol *dv)
+{
+    if (!dv->d || !dv->sph) return false;
+    for (int a = 0; a < 3; a++)
+        if (dv->n[a] < 2 || dv->n[a] > CULL_DVOL_MAX_RES || !(dv->step[a] > 0) || !isfinite(dv->step[a]) ||
+            !isfinite(dv->origin[a]))
+            return false;
+    return true;
+}
+
 int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
                    uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                    const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen)
@@ -69,12 +81,8 @@ int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t s
         for (int a = 0; a < 3; a++)
             if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
                 return vt_fail(err, errlen, -EINVAL, "instance %u: bad bounds", i);
-        const cull_dvol *dv = inst[i].dvol;
-        bool dv_ok = !dv || !dv->nsph || (dv->d && dv->sph);
-        for (int a = 0; dv_ok && dv && dv->nsph && a < 3; a++)
-            dv_ok = dv->n[a] >= 2 && dv->n[a] <= CULL_DVOL_MAX_RES && dv->step[a] > 0 && isfinite(dv->step[a]) &&
-                    isfinite(dv->origin[a]);
-        if (!dv_ok) return vt_fail(err, errlen, -EINVAL, "instance %u: bad destruction volume", i);
+        if (vt_dvol_live(inst[i].dvol) && !dvol_ok(inst[i].dvol))
+            return vt_fail(err, errlen, -EINVAL, "instance %u: bad destruction volume", i);
     }
     for (uint32_t i = 0; i < nl; i++) {
         const vt_light *L = &lights[i];
@@ -201,15 +209,15 @@ bool vt_mask_clear(const vt_mask *m, const float (*p)[3])
         }
     }
     for (uint32_t k = 0; k < m->nsph; k++) {
-        /* the sphere's centre to the triangle's box (camera-relative) */
-        double d2 = 0;
+        /* the sphere's centre (camera-relative) to the triangle's box */
+        double d2 = 0, c2 = 0;
         for (int a = 0; a < 3; a++) {
             double c = m->sph[k][a] - m->cam[a], e = c < lo[a] ? lo[a] - c : c > hi[a] ? c - hi[a] : 0;
             d2 += e * e;
+            c2 += c * c;
         }
-        /* and the float rounding of camera-relative positions */
-        double cx = m->sph[k][0] - m->cam[0], cy = m->sph[k][1] - m->cam[1], cz = m->sph[k][2] - m->cam[2];
-        double need = m->sph[k][3] + m->clear + 1e-6 * (sqrt(cx * cx + cy * cy + cz * cz) + m->sph[k][3]);
+        /* plus the float rounding of positions that far from the camera */
+        double need = m->sph[k][3] + m->clear + 1e-6 * (sqrt(c2) + m->sph[k][3]);
         if (!(d2 >= need * need)) return false;
     }
     return true;

@@ -296,7 +296,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
     for (uint32_t i = 0; i < ninst; i++) {
         r->md[inst[i].mesh].ninst++;
         const cull_dvol *dv = inst[i].dvol;
-        if (!dv || !dv->nsph) continue;
+        if (!vt_dvol_live(dv)) continue;
         r->md[inst[i].mesh].nmasked++;
         nmask++;
         nfield += (size_t)dv->n[0] * dv->n[1] * dv->n[2];
@@ -366,7 +366,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
         double scale[3], shift[3];
         vt_instance_xform(&inst[i], d->b, origin, scale, shift);
         const cull_dvol *dv = inst[i].dvol;
-        bool damaged = dv && dv->nsph;
+        bool damaged = vt_dvol_live(dv);
         size_t at = damaged ? d->ifirst + (d->ninst - d->nmasked) + d->pm++ : d->ifirst + d->pi++;
         float *q = r->iv + IV * at;
         for (int a = 0; a < 3; a++) {

@@ -58,6 +58,13 @@ typedef struct vt_mask {
  * damaged instance tests the mask). */
 #define VT_MASK_CLEAR_MAX 64u
 
+/* Whether v damages its instance (a volume with at least one sphere):
+ * the one test of whether an instance is drawn masked. */
+static inline bool vt_dvol_live(const cull_dvol *v)
+{
+    return v && v->nsph;
+}
+
 /* m for v seen from a camera at origin. v must have spheres. */
 void vt_mask_make(const cull_dvol *v, const double origin[3], vt_mask *m);
 

@@ -624,7 +624,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
     /* the damaged instances' masks (most frames have none: no table) */
     uint32_t nmk = 0;
-    for (uint32_t i = 0; i < ninst; i++) nmk += inst[i].dvol && inst[i].dvol->nsph;
+    for (uint32_t i = 0; i < ninst; i++) nmk += vt_dvol_live(inst[i].dvol);
     if (nmk) {
         if (!vt_grow((void **)&r->mk, &r->mk_cap, nmk, sizeof *r->mk) ||
             !vt_grow((void **)&r->mk_of, &r->mk_of_cap, ninst, sizeof *r->mk_of))
@@ -632,7 +632,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
         nmk = 0;
         for (uint32_t i = 0; i < ninst; i++) {
             r->mk_of[i] = 0;
-            if (!inst[i].dvol || !inst[i].dvol->nsph) continue;
+            if (!vt_dvol_live(inst[i].dvol)) continue;
             vt_mask_make(inst[i].dvol, v->origin, &r->mk[nmk]);
             r->mk_of[i] = ++nmk;
         }

@@ -783,7 +783,6 @@ static void test_events(void **state)
     daemon_stop(&d);
 }
 
-/* Configured limits: connections, records per batch. */
 /* Occluders pushed over the protocol hide what is behind them in the next
  * query; a query may ask for no occlusion; removing the occluder, or
  * replacing it by one with a hole, brings entities back. */
@@ -1243,6 +1242,7 @@ static void test_light_query(void **state)
     daemon_stop(&d);
 }
 
+/* Configured limits: connections, records per batch. */
 static void test_limits(void **state)
 {
     (void)state;

@@ -17,6 +17,7 @@
 #include "vt_shade.h"
 #include "vt_soft.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -247,7 +248,8 @@ static void test_mask_matches_reference(void **state)
 
 /* A 4 m box with a hole in its front face: through it, the back wall's
  * inside (its back face, turned over: depth of the back wall, the albedo
- * times VT_MASK_INTERIOR); beside it, the front face as before. */
+ * times VT_MASK_INTERIOR); beside it, the front face as before. A broken
+ * volume is refused with -EINVAL before anything is drawn. */
 static void test_mask_inside_shows(void **state)
 {
     (void)state;
@@ -276,6 +278,26 @@ static void test_mask_inside_shows(void **state)
             assert_true(fabs(c[4 * side + a] - VT_AMBIENT * in.albedo[a]) < 1e-6);
         }
     }
+    /* a broken volume (one sample on an axis; no field) is refused before
+       anything is drawn: the buffers keep what they held */
+    cull_dvol bad = dv;
+    bad.n[0] = 1;
+    cull_dvol nofield = dv;
+    nofield.d = NULL;
+    const cull_dvol *broken[2] = {&bad, &nofield};
+    for (uint32_t ri = 0; ri < nr; ri++)
+        for (int k = 0; k < 2; k++) {
+            for (size_t q = 0; q < (size_t)W * H; q++) d[q] = -7.0f;
+            in.dvol = broken[k];
+            char err[256] = "";
+            int rc = rs[ri].soft ? vt_soft_render(rs[ri].soft, &v, W, H, &cube, 1, &in, 1, NULL, 0, c, d, W, NULL, err,
+                                                  sizeof err)
+                                 : vt_glr_render(rs[ri].gl, &v, W, H, &cube, 1, &in, 1, NULL, 0, c, d, W, NULL, err,
+                                                 sizeof err);
+            assert_int_equal(rc, -EINVAL);
+            assert_non_null(strstr(err, "bad destruction volume"));
+            for (size_t q = 0; q < (size_t)W * H; q++) assert_true(d[q] == -7.0f);
+        }
     cull_dvol_free(&dv);
     free(c);
     free(d);
