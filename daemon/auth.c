@@ -78,6 +78,7 @@ int auth_parse(const char *text, size_t len, auth_tokens *t, char *err, size_t e
 int auth_load(const char *path, auth_tokens *t, char *err, size_t errlen)
 {
     int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+    if (fd < 0 && errno == ELOOP) return fail(err, errlen, "%s: a symbolic link (name the file itself)", path);
     if (fd < 0) return fail(err, errlen, "%s: %s", path, strerror(errno));
     struct stat st;
     char *buf = NULL;

@@ -140,6 +140,17 @@ static void test_auth_end_to_end(void **state)
     assert_int_equal(run_daemon(args, out, sizeof out), 2);
     assert_non_null(strstr(out, "chmod 600"));
     unlink(loose);
+    /* a symbolic link to a good file: no start (the mode checked would be
+       the target's, the name the link's) */
+    const char *target = token_file("editor " EDIT_TOK "\n", 0600);
+    char link[80];
+    snprintf(link, sizeof link, "%s.link", target);
+    assert_int_equal(symlink(target, link), 0);
+    snprintf(args, sizeof args, "--port %d --tokens %s", free_port(), link);
+    assert_int_equal(run_daemon(args, out, sizeof out), 2);
+    assert_non_null(strstr(out, "symbolic link"));
+    unlink(link);
+    unlink(target);
     /* a non-loopback bind without tokens: no start */
     snprintf(args, sizeof args, "--bind 0.0.0.0 --port %d", free_port());
     assert_int_equal(run_daemon(args, out, sizeof out), 2);
