@@ -18,8 +18,9 @@ SHELL  := /bin/bash
 
 # Debian packages and the pkg-config modules that prove them installed.
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
-            libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp
+            libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
+            zlib1g-dev
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -83,6 +84,8 @@ IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
 GL_LIBS  := $$(pkg-config --libs egl epoxy)
 # level import (client/import.c, the CLI and the tests): assimp's C API
 ASSIMP_LIBS := $$(pkg-config --libs assimp)
+# the daemon's journal and snapshots (daemon/journal.c, snapshot.c): zlib's CRC-32
+ZLIB_LIBS := $$(pkg-config --libs zlib)
 
 TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
@@ -161,7 +164,7 @@ DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/r
                  $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
 # libvantage carries the protocol and the matrix helpers it uses
 $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)

@@ -151,6 +151,31 @@ static cull_slot *slot_of(const cull_world *w, cull_handle h)
 
 /* ---- public edits ------------------------------------------------------------ */
 
+/* A slot on no free list, kept for cull_entity_add_at (restored worlds). */
+#define SLOT_RESERVED (UINT32_MAX - 1)
+
+/* Puts normalised d into slot s (taken off the free list or reserved by the
+ * caller once this succeeds: *take says to do it). */
+static int place(cull_world *w, const cull_entity_desc *d, uint32_t s, cull_handle *out)
+{
+    uint32_t gi = (d->flags & CULL_ENTITY_DYNAMIC) ? 1 : 0;
+    int32_t k[3];
+    int rc = cell_key(w, d->center, k);
+    if (rc) return rc;
+    cull_cell *c;
+    if ((rc = cull_grid_reserve(w, gi, k, &c))) return rc;
+    cull_slot *sl = &w->slots[s];
+    cull_handle h = (sl->gen << CULL_HANDLE_SLOT_BITS) | s;
+    sl->cell = c;
+    sl->lane = c->count++;
+    sl->desc = *d;
+    w->grid[gi].entities++;
+    w->live++;
+    cull_grid_store(w, c, sl->lane, d, h);
+    *out = h;
+    return CULL_OK;
+}
+
 int cull_entity_add(cull_world *w, const cull_entity_desc *desc, cull_handle *out)
 {
     if (!w || !out) return CULL_ERR_INVALID;
@@ -159,32 +184,82 @@ int cull_entity_add(cull_world *w, const cull_entity_desc *desc, cull_handle *ou
     if (rc) return rc;
     if (w->live >= w->max_entities) return CULL_ERR_CAPACITY;
     uint32_t s = w->free_head;
-    if (s == UINT32_MAX) {
+    bool fresh = s == UINT32_MAX;
+    if (fresh) {
         if (w->nslots >= w->max_entities) return CULL_ERR_CAPACITY;
         if (!cull_grow((void **)&w->slots, &w->cap_slots, w->nslots + 1, sizeof *w->slots))
             return CULL_ERR_NOMEM;
-    }
-    uint32_t gi = (d.flags & CULL_ENTITY_DYNAMIC) ? 1 : 0;
-    int32_t k[3];
-    if ((rc = cell_key(w, d.center, k))) return rc;
-    cull_cell *c;
-    rc = cull_grid_reserve(w, gi, k, &c);
-    if (rc) return rc;
-    if (s == UINT32_MAX) {
-        s = w->nslots++;
+        s = w->nslots;
         w->slots[s] = (cull_slot){.gen = 1};
-    } else {
-        w->free_head = w->slots[s].next_free;
     }
-    cull_slot *sl = &w->slots[s];
-    cull_handle h = (sl->gen << CULL_HANDLE_SLOT_BITS) | s;
-    sl->cell = c;
-    sl->lane = c->count++;
-    sl->desc = d;
-    w->grid[gi].entities++;
-    w->live++;
-    cull_grid_store(w, c, sl->lane, &d, h);
-    *out = h;
+    uint32_t next = w->slots[s].next_free;
+    if ((rc = place(w, &d, s, out))) return rc;
+    if (fresh) w->nslots++;
+    else w->free_head = next;
+    return CULL_OK;
+}
+
+int cull_entity_add_at(cull_world *w, const cull_entity_desc *desc, cull_handle h)
+{
+    if (!w) return CULL_ERR_INVALID;
+    uint32_t s = h & CULL_SLOT_MASK;
+    if (s >= w->nslots || w->slots[s].cell || w->slots[s].next_free != SLOT_RESERVED ||
+        w->slots[s].gen != h >> CULL_HANDLE_SLOT_BITS)
+        return CULL_ERR_HANDLE;
+    cull_entity_desc d;
+    int rc = normalise(desc, &d);
+    if (rc) return rc;
+    if (w->live >= w->max_entities) return CULL_ERR_CAPACITY;
+    cull_handle got;
+    if ((rc = place(w, &d, s, &got))) return rc;
+    w->slots[s].next_free = UINT32_MAX;
+    return CULL_OK;
+}
+
+uint32_t cull_world_slots(const cull_world *w)
+{
+    return w->nslots;
+}
+
+uint32_t cull_world_slot_gen(const cull_world *w, uint32_t s, bool *live)
+{
+    if (s >= w->nslots) {
+        *live = false;
+        return 0;
+    }
+    *live = w->slots[s].cell != NULL;
+    return w->slots[s].gen;
+}
+
+uint32_t cull_world_free_list(const cull_world *w, uint32_t *out, uint32_t max)
+{
+    uint32_t n = 0;
+    for (uint32_t s = w->free_head; s < w->nslots && n < max; s = w->slots[s].next_free) out[n++] = s;
+    return n;
+}
+
+int cull_world_slots_restore(cull_world *w, uint32_t n, const uint16_t *gens, const uint32_t *free_list,
+                             uint32_t nfree)
+{
+    if (!w || w->nslots || n > w->max_entities || nfree > n) return CULL_ERR_INVALID;
+    for (uint32_t s = 0; s < n; s++)
+        if (gens[s] == 0 || gens[s] >= (1u << CULL_GEN_BITS)) return CULL_ERR_INVALID;
+    if (n && !cull_grow((void **)&w->slots, &w->cap_slots, n, sizeof *w->slots)) return CULL_ERR_NOMEM;
+    for (uint32_t s = 0; s < n; s++) w->slots[s] = (cull_slot){.gen = gens[s], .next_free = SLOT_RESERVED};
+    /* the free list, in the order it hands slots out; a slot twice or out
+       of range is a bad image */
+    uint32_t head = UINT32_MAX;
+    for (uint32_t i = nfree; i-- > 0;) {
+        uint32_t s = free_list[i];
+        if (s >= n || w->slots[s].next_free != SLOT_RESERVED) {
+            memset(w->slots, 0, (size_t)n * sizeof *w->slots);
+            return CULL_ERR_INVALID;
+        }
+        w->slots[s].next_free = head;
+        head = s;
+    }
+    w->nslots = n;
+    w->free_head = head;
     return CULL_OK;
 }
 

@@ -30,6 +30,7 @@
 #ifndef VANTAGE_CULLING_H
 #define VANTAGE_CULLING_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -119,6 +120,22 @@ int cull_entity_remove(cull_world *w, cull_handle h);
 /* Reads back an entity's stored bounds (the desc as normalised at add/update:
  * derived sphere or AABB filled in). */
 int cull_entity_get(const cull_world *w, cull_handle h, cull_entity_desc *out);
+
+/* ---- persistence: the handle allocator saved and restored exactly ------ */
+/* Slots ever used (live or free); slot s's generation (of its live handle,
+ * or of the next one it hands out) and whether it is live; the free list
+ * in the order it will be reused (up to max; returns how many). */
+uint32_t cull_world_slots(const cull_world *w);
+uint32_t cull_world_slot_gen(const cull_world *w, uint32_t s, bool *live);
+uint32_t cull_world_free_list(const cull_world *w, uint32_t *out, uint32_t max);
+/* On a world that never held an entity: n slots with generations gens[],
+ * free_list[0..nfree) its free list in that order; every other slot is
+ * reserved for cull_entity_add_at. CULL_ERR_INVALID for a bad image. */
+int cull_world_slots_restore(cull_world *w, uint32_t n, const uint16_t *gens, const uint32_t *free_list,
+                             uint32_t nfree);
+/* Adds an entity as handle h, whose slot is reserved with h's generation
+ * (else CULL_ERR_HANDLE). */
+int cull_entity_add_at(cull_world *w, const cull_entity_desc *d, cull_handle h);
 
 /* Tightens the cell and region bounds that removals and moves left loose.
  * O(entities in touched cells + regions). Queries are correct without it,

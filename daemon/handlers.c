@@ -369,34 +369,6 @@ static void on_get(server *s, conn *c, const vp_header *h, const uint8_t *p)
     free(e);
 }
 
-static void on_sublevel_names(server *s, conn *c, const vp_header *h, const uint8_t *p)
-{
-    vp_name_list nl;
-    int rc = vp_dec_names(p, h->len, false, &nl);
-    if (rc) {
-        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
-        return;
-    }
-    uint16_t *ids = malloc(((size_t)nl.count + 1) * sizeof *ids);
-    scene_err err;
-    if (!ids) {
-        send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
-        return;
-    }
-    pthread_rwlock_wrlock(&s->scene_lock);
-    rc = scene_sublevel_ids(s->sc, &nl, ids, &err);
-    pthread_rwlock_unlock(&s->scene_lock);
-    vp_writer w;
-    if (rc) send_error(s, c, h->req, rc, err.index, err.msg);
-    else if (out_reserve(c, VP_HEADER_SIZE + 4 + 2 * (size_t)nl.count, &w)) {
-        vp_enc_sublevel_ids(&w, h->req, ids, nl.count);
-        out_commit(c, &w);
-    } else {
-        c->closing = true;
-    }
-    free(ids);
-}
-
 static void on_sublevel_list(server *s, conn *c, uint32_t req)
 {
     uint32_t n = s->sc->nsublevels;
@@ -417,123 +389,152 @@ static void on_sublevel_list(server *s, conn *c, uint32_t req)
     free(ids);
 }
 
-/* ---- sub-level loads ---------------------------------------------------------------- */
+/* ---- edits ----------------------------------------------------------------------------- */
 
-static void on_sublevel_begin(server *s, conn *c, const vp_header *h, const uint8_t *p)
+/* A change the daemon makes itself (a loading connection gone) goes
+ * through the journal too; one that cannot be journaled is still made, and
+ * the journal stops taking edits (replay would miss it). */
+static int internal_edit(server *s, uint16_t type, uint16_t load, uint32_t aux, edit_result *r, scene_err *err)
 {
-    vp_sublevel_begin m;
-    int rc = vp_dec_sublevel_begin(p, h->len, &m);
-    if (rc) {
-        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
-        return;
+    edit e;
+    edit_decode(type, NULL, 0, 0, &e);
+    e.load = load;
+    e.aux = aux;
+    if (s->journal) {
+        int jrc = journal_append(s->journal, type, load, aux, NULL, 0);
+        if (jrc && !journal_broken(s->journal)) journal_break(s->journal, "a change could not be journaled");
     }
-    if (c->load) {
-        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, "this connection is already loading a sub-level");
-        return;
-    }
-    vp_sublevel_begun out;
-    scene_err err;
     pthread_rwlock_wrlock(&s->scene_lock);
-    rc = scene_sublevel_begin(s->sc, &m, c->id, &out, &err);
+    int rc = edit_apply(s->sc, &e, r, err);
     pthread_rwlock_unlock(&s->scene_lock);
-    if (rc) {
-        send_error(s, c, h->req, rc, err.index, err.msg);
-        return;
-    }
-    c->load = out.id;
-    vp_writer w;
-    if (!out_reserve(c, VP_HEADER_SIZE + 16, &w)) {
-        c->closing = true;
-        return;
-    }
-    vp_enc_sublevel_begun(&w, h->req, &out);
-    out_commit(c, &w);
-    LOGI("client %u (%s) loading sub-level %s (id %u, classes %u..%u)", c->id, c->name, s->sc->sl[out.id].name,
-         out.id, out.class_base, out.class_base + m.classes - (m.classes ? 1 : 0));
-}
-
-/* Hides sub-level id and starts freeing it; the loop keeps freeing its
- * entities, a slice a turn, until none is left. */
-static int drop_sublevel(server *s, uint16_t id, uint32_t *n, scene_err *err)
-{
-    pthread_rwlock_wrlock(&s->scene_lock);
-    int rc = scene_sublevel_drop(s->sc, id, n, err);
-    pthread_rwlock_unlock(&s->scene_lock);
+    if (rc && s->journal && !journal_broken(s->journal)) journal_cancel(s->journal);
     return rc;
 }
 
 void sublevel_conn_gone(server *s, conn *c)
 {
     if (!c->load) return;
-    uint32_t n;
+    edit_result r;
     scene_err err;
-    if (drop_sublevel(s, c->load, &n, &err)) LOGW("client %u: its load could not be dropped: %s", c->id, err.msg);
-    else LOGI("client %u gone while loading sub-level %s: %u entities thrown away", c->id, s->sc->sl[c->load].name, n);
+    if (internal_edit(s, VP_SUBLEVEL_ABORT, c->load, 0, &r, &err))
+        LOGW("client %u: its load could not be dropped: %s", c->id, err.msg);
+    else
+        LOGI("client %u gone while loading sub-level %s: %u entities thrown away", c->id, s->sc->sl[c->load].name,
+             r.n);
+    edit_result_free(&r);
     c->load = 0;
 }
 
-static void on_sublevel_end(server *s, conn *c, const vp_header *h)
+bool server_unload_slice(server *s, uint32_t budget)
 {
-    if (!c->load) {
-        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, "no load open on this connection");
-        return;
-    }
-    uint16_t id = c->load;
-    uint32_t n = 0;
+    edit_result r;
     scene_err err;
-    int rc;
-    if (h->type == VP_SUBLEVEL_COMMIT) {
-        pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_sublevel_commit(s->sc, id, &n, &err);
-        pthread_rwlock_unlock(&s->scene_lock);
-    } else {
-        rc = drop_sublevel(s, id, &n, &err);
-    }
-    if (rc) {
-        send_error(s, c, h->req, rc, err.index, err.msg);
-        return;
-    }
-    c->load = 0;
-    LOGI("client %u: sub-level %s %s, %u entities, epoch %llu", c->id, s->sc->sl[id].name,
-         h->type == VP_SUBLEVEL_COMMIT ? "loaded" : "load aborted", n, (unsigned long long)s->sc->epoch);
-    reply_ack(c, h->req, s->sc->epoch, n);
+    /* a slice not journaled is not done (replay must free what this did) */
+    if (s->journal && (journal_broken(s->journal) ||
+                       journal_append(s->journal, EDIT_WORK, 0, budget, NULL, 0)))
+        return false;
+    pthread_rwlock_wrlock(&s->scene_lock);
+    int rc = edit_apply(s->sc, &(edit){.type = EDIT_WORK, .aux = budget}, &r, &err);
+    bool more = s->sc->unloading > 0;
+    if (!more) cull_world_commit(s->sc->world);
+    pthread_rwlock_unlock(&s->scene_lock);
+    (void)rc;
+    return more;
 }
 
-static void on_sublevel_unload(server *s, conn *c, const vp_header *h, const uint8_t *p)
+/* The reply to an applied edit. */
+static void edit_reply(server *s, conn *c, const vp_header *h, const edit *e, const edit_result *r)
 {
-    vp_name nm;
-    int rc = vp_dec_sublevel_name(p, h->len, &nm);
+    vp_writer w;
+    switch (h->type) {
+    case VP_ENTITY_ADD:
+        if (!out_reserve(c, VP_HEADER_SIZE + 12 + 4 * (size_t)e->count, &w)) break;
+        vp_enc_add_reply(&w, h->req, s->sc->epoch, r->handles, e->count);
+        out_commit(c, &w);
+        return;
+    case VP_SUBLEVEL_NAMES:
+        if (!out_reserve(c, VP_HEADER_SIZE + 4 + 2 * (size_t)e->count, &w)) break;
+        vp_enc_sublevel_ids(&w, h->req, r->ids, e->count);
+        out_commit(c, &w);
+        return;
+    case VP_SUBLEVEL_BEGIN:
+        c->load = r->begun.id;
+        LOGI("client %u (%s) loading sub-level %s (id %u, classes %u..%u)", c->id, c->name,
+             s->sc->sl[r->begun.id].name, r->begun.id, r->begun.class_base,
+             r->begun.class_base + e->u.begin.classes - (e->u.begin.classes ? 1 : 0));
+        if (!out_reserve(c, VP_HEADER_SIZE + 16, &w)) break;
+        vp_enc_sublevel_begun(&w, h->req, &r->begun);
+        out_commit(c, &w);
+        return;
+    case VP_DESTROY:
+        if (!out_reserve(c, VP_HEADER_SIZE + 24, &w)) break;
+        vp_enc_destroyed(&w, h->req, &r->destroyed);
+        out_commit(c, &w);
+        return;
+    case VP_SUBLEVEL_COMMIT:
+    case VP_SUBLEVEL_ABORT:
+        LOGI("client %u: sub-level %s %s, %u entities, epoch %llu", c->id, s->sc->sl[c->load].name,
+             h->type == VP_SUBLEVEL_COMMIT ? "loaded" : "load aborted", r->n, (unsigned long long)s->sc->epoch);
+        c->load = 0;
+        reply_ack(c, h->req, s->sc->epoch, r->n);
+        return;
+    case VP_SUBLEVEL_UNLOAD:
+        LOGI("client %u: sub-level %.*s unloaded at epoch %llu, %u entities to free", c->id, (int)e->u.name.len,
+             (const char *)e->u.name.name, (unsigned long long)s->sc->epoch, r->n);
+        reply_ack(c, h->req, s->sc->epoch, r->n);
+        return;
+    default:
+        reply_ack(c, h->req, s->sc->epoch, r->n);
+        return;
+    }
+    c->closing = true; /* no memory for the reply */
+}
+
+/* An edit: decoded, journaled (written before it is applied: a write that
+ * fails refuses it with nothing changed), applied, answered. Under the
+ * always policy the answer waits in the connection's buffer (c->held) for
+ * the turn's sync. */
+static void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    if (!editor(s, c, h->req)) return;
+    edit e;
+    int rc = edit_decode(h->type, p, h->len, s->cfg.max_batch, &e);
     if (rc) {
         send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
         return;
     }
-    uint16_t id = scene_sublevel_find(s->sc, nm.name, nm.len);
-    char msg[320];
-    if (!id) {
-        snprintf(msg, sizeof msg, "no sub-level named %.*s", (int)nm.len, (const char *)nm.name);
-        send_error(s, c, h->req, VP_ERR_UNKNOWN_ID, UINT32_MAX, msg);
-        return;
+    e.load = c->load;
+    e.aux = h->type == VP_DESTROY ? s->cfg.destruct_res : h->type == VP_SUBLEVEL_BEGIN ? c->id : 0;
+    journal *j = s->journal;
+    if (j) {
+        const char *broken = journal_broken(j);
+        int jrc = broken ? 0 : journal_append(j, h->type, e.load, e.aux, p, h->len);
+        if (broken || jrc) {
+            char msg[400];
+            if (broken) snprintf(msg, sizeof msg, "the daemon is read-only: %s", broken);
+            else
+                snprintf(msg, sizeof msg, "the edit could not be journaled (%s): refused, nothing changed",
+                         strerror(-jrc));
+            LOGW("client %u: %s", c->id, msg);
+            send_error(s, c, h->req, VP_ERR_IO, UINT32_MAX, msg);
+            return;
+        }
     }
-    const scene_sublevel *l = &s->sc->sl[id];
-    if (l->state == VP_SL_LOADING) {
-        snprintf(msg, sizeof msg, "sub-level %s is being loaded by client %u", l->name, l->owner);
-        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, msg);
-        return;
-    }
-    if (scene_sublevel_state(s->sc, id) == VP_SL_EMPTY) {
-        snprintf(msg, sizeof msg, "sub-level %s is not loaded", l->name);
-        send_error(s, c, h->req, VP_ERR_STATE, UINT32_MAX, msg);
-        return;
-    }
-    uint32_t n;
-    scene_err err;
-    if ((rc = drop_sublevel(s, id, &n, &err))) {
+    edit_result r;
+    scene_err err = {0};
+    uint64_t t0 = now_ns();
+    pthread_rwlock_wrlock(&s->scene_lock);
+    rc = edit_apply(s->sc, &e, &r, &err);
+    pthread_rwlock_unlock(&s->scene_lock);
+    if (rc) {
+        if (j) journal_cancel(j);
         send_error(s, c, h->req, rc, err.index, err.msg);
         return;
     }
-    LOGI("client %u: sub-level %s unloaded at epoch %llu, %u entities to free", c->id, l->name,
-         (unsigned long long)s->sc->epoch, n);
-    reply_ack(c, h->req, s->sc->epoch, n);
+    if (h->type == VP_DESTROY) r.destroyed.cut_us = (uint32_t)((now_ns() - t0) / 1000);
+    edit_reply(s, c, h, &e, &r);
+    edit_result_free(&r);
+    if (j && journal_policy(j) == JOURNAL_ALWAYS) c->held = true;
 }
 
 static void on_sublevel_info(server *s, conn *c, uint32_t req)
@@ -557,12 +558,6 @@ static void on_sublevel_info(server *s, conn *c, uint32_t req)
     out_commit(c, &w);
 }
 
-static void after_edit(server *s, conn *c, uint32_t req, int rc, const scene_err *err, uint32_t count)
-{
-    if (rc) send_error(s, c, req, rc, err->index, err->msg);
-    else reply_ack(c, req, s->sc->epoch, count);
-}
-
 void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
     if (!c->hello) {
@@ -574,7 +569,6 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         }
         return;
     }
-    scene_err err = {0};
     int rc;
     switch (h->type) {
     case VP_HELLO:
@@ -621,10 +615,6 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
     case VP_ENTITY_GET:
         on_get(s, c, h, p);
         return;
-    case VP_SUBLEVEL_NAMES:
-        if (!editor(s, c, h->req)) return;
-        on_sublevel_names(s, c, h, p);
-        return;
     case VP_SUBLEVEL_LIST:
         if ((rc = vp_dec_empty(p, h->len))) break;
         on_sublevel_list(s, c, h->req);
@@ -633,130 +623,11 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         if ((rc = vp_dec_empty(p, h->len))) break;
         on_sublevel_info(s, c, h->req);
         return;
-    case VP_SUBLEVEL_BEGIN:
-        if (!editor(s, c, h->req)) return;
-        on_sublevel_begin(s, c, h, p);
-        return;
-    case VP_SUBLEVEL_COMMIT:
-    case VP_SUBLEVEL_ABORT:
-        if (!editor(s, c, h->req)) return;
-        if ((rc = vp_dec_empty(p, h->len))) break;
-        on_sublevel_end(s, c, h);
-        return;
-    case VP_SUBLEVEL_UNLOAD:
-        if (!editor(s, c, h->req)) return;
-        on_sublevel_unload(s, c, h, p);
-        return;
-    case VP_ENTITY_ADD: {
-        if (!editor(s, c, h->req)) return;
-        vp_entity_batch b;
-        if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
-        if ((rc = batch_count(b.count))) break;
-        uint32_t *handles = malloc(((size_t)b.count + 1) * sizeof *handles);
-        if (!handles) {
-            send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");
-            return;
-        }
-        pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_add(s->sc, c->load, &b, handles, &err);
-        pthread_rwlock_unlock(&s->scene_lock);
-        if (rc) {
-            send_error(s, c, h->req, rc, err.index, err.msg);
-        } else {
-            vp_writer w;
-            if (out_reserve(c, VP_HEADER_SIZE + 12 + 4 * (size_t)b.count, &w)) {
-                vp_enc_add_reply(&w, h->req, s->sc->epoch, handles, b.count);
-                out_commit(c, &w);
-            } else {
-                c->closing = true;
-            }
-        }
-        free(handles);
-        return;
-    }
-    case VP_ENTITY_UPDATE: {
-        if (!editor(s, c, h->req)) return;
-        vp_entity_batch b;
-        if ((rc = vp_dec_entities(p, h->len, s->cfg.max_batch, &b))) break;
-        if ((rc = batch_count(b.count))) break;
-        pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_update(s->sc, c->load, &b, &err);
-        pthread_rwlock_unlock(&s->scene_lock);
-        after_edit(s, c, h->req, rc, &err, b.count);
-        return;
-    }
-    case VP_ENTITY_REMOVE:
-    case VP_OCCLUDER_REMOVE:
-    case VP_LIGHT_REMOVE: {
-        if (!editor(s, c, h->req)) return;
-        vp_id_batch b;
-        if ((rc = vp_dec_ids(p, h->len, s->cfg.max_batch, &b))) break;
-        if ((rc = batch_count(b.count))) break;
-        pthread_rwlock_wrlock(&s->scene_lock);
-        if (h->type == VP_ENTITY_REMOVE) rc = scene_remove(s->sc, c->load, &b, &err);
-        else
-            rc = scene_remove_ids(s->sc, c->load, h->type == VP_LIGHT_REMOVE ? &s->sc->lights : &s->sc->occluders, &b,
-                                  &err);
-        pthread_rwlock_unlock(&s->scene_lock);
-        after_edit(s, c, h->req, rc, &err, b.count);
-        return;
-    }
-    case VP_DESTROY: {
-        if (!editor(s, c, h->req)) return;
-        vp_destroy m;
-        if ((rc = vp_dec_destroy(p, h->len, &m))) break;
-        vp_destroyed out;
-        uint64_t t0 = now_ns();
-        pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_destroy(s->sc, &m, s->cfg.destruct_res, &out, &err);
-        pthread_rwlock_unlock(&s->scene_lock);
-        out.cut_us = (uint32_t)((now_ns() - t0) / 1000);
-        if (rc) {
-            send_error(s, c, h->req, rc, err.index, err.msg);
-            return;
-        }
-        vp_writer w;
-        if (!out_reserve(c, VP_HEADER_SIZE + 24, &w)) {
-            c->closing = true;
-            return;
-        }
-        vp_enc_destroyed(&w, h->req, &out);
-        out_commit(c, &w);
-        return;
-    }
-    case VP_MESH_PUT: {
-        if (!editor(s, c, h->req)) return;
-        vp_mesh m;
-        if ((rc = vp_dec_mesh(p, h->len, 0, &m))) break;
-        pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_mesh_put(s->sc, c->load, &m, &err);
-        pthread_rwlock_unlock(&s->scene_lock);
-        after_edit(s, c, h->req, rc, &err, 1);
-        return;
-    }
-    case VP_OCCLUDER_PUT: {
-        if (!editor(s, c, h->req)) return;
-        vp_occluder o;
-        if ((rc = vp_dec_occluder(p, h->len, 0, &o))) break;
-        pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_occluder_put(s->sc, c->load, &o, &err);
-        pthread_rwlock_unlock(&s->scene_lock);
-        after_edit(s, c, h->req, rc, &err, 1);
-        return;
-    }
-    case VP_LIGHT_PUT: {
-        if (!editor(s, c, h->req)) return;
-        const uint8_t *recs;
-        uint32_t n;
-        if ((rc = vp_dec_lights(p, h->len, s->cfg.max_batch, &recs, &n))) break;
-        if ((rc = batch_count(n))) break;
-        pthread_rwlock_wrlock(&s->scene_lock);
-        rc = scene_lights_put(s->sc, c->load, recs, n, &err);
-        pthread_rwlock_unlock(&s->scene_lock);
-        after_edit(s, c, h->req, rc, &err, n);
-        return;
-    }
     default: {
+        if (edit_is(h->type)) {
+            on_edit(s, c, h, p);
+            return;
+        }
         char msg[80];
         snprintf(msg, sizeof msg, "type 0x%04x (%s) is not a request", h->type, vp_type_name(h->type));
         send_error(s, c, h->req, VP_ERR_TYPE, UINT32_MAX, msg);

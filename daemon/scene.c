@@ -219,7 +219,9 @@ static void edit_done(scene *s, uint32_t n, uint32_t seen, uint32_t *ev)
     *ev += seen;
 }
 
-int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
+/* scene_add, or with `at` the restore of a snapshot: handles[] are given
+ * (slots the world has reserved) instead of handed out. */
+static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, bool at, scene_err *err)
 {
     uint32_t n = b->count;
     cull_world_info info;
@@ -254,8 +256,8 @@ int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handl
     }
     /* apply */
     for (uint32_t i = 0; i < n; i++) {
-        cull_handle h;
-        int crc = cull_entity_add(s->world, &descs[i], &h);
+        cull_handle h = at ? handles[i] : 0;
+        int crc = at ? cull_entity_add_at(s->world, &descs[i], h) : cull_entity_add(s->world, &descs[i], &h);
         if (!crc && !grow_id_of_slot(s, SLOT(h) + 1)) {
             cull_entity_remove(s->world, h);
             crc = CULL_ERR_NOMEM;
@@ -279,6 +281,16 @@ out:
     free(ids);
     free(descs);
     return rc;
+}
+
+int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
+{
+    return add_batch(s, load, b, handles, false, err);
+}
+
+int scene_add_at(scene *s, const vp_entity_batch *b, const uint32_t *handles, scene_err *err)
+{
+    return add_batch(s, 0, b, (uint32_t *)handles, true, err);
 }
 
 int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *err)

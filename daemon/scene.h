@@ -103,6 +103,9 @@ int scene_fail(scene_err *e, int code, uint32_t index, const char *fmt, ...) __a
  * Entity batches (records from the protocol): handles gets one per record;
  * a record with sub-level 0 from a loading connection joins its load. */
 int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err);
+/* A snapshot's entities back at their handles (slots the world reserved:
+ * cull_world_slots_restore); otherwise as scene_add. */
+int scene_add_at(scene *s, const vp_entity_batch *b, const uint32_t *handles, scene_err *err);
 int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *err);
 int scene_remove(scene *s, uint16_t load, const vp_id_batch *b, scene_err *err);
 

@@ -97,6 +97,7 @@ static void conn_event(ae_loop *l, int fd, void *data, int mask);
 /* Writes what the socket takes now. false if the connection died. */
 static bool conn_flush(server *s, conn *c)
 {
+    if (c->held) return true; /* an edit's answer waits for the journal's sync */
     while (c->out_pos < c->out_len) {
         ssize_t n = write(c->fd, c->out + c->out_pos, c->out_len - c->out_pos);
         if (n > 0) {
@@ -357,11 +358,7 @@ static void before_sleep(ae_loop *l, void *data)
        bounds they loosen are tightened once, at the end (queries are right
        with loose bounds, and every slice would tighten the same cells) */
     if (sc->unloading) {
-        pthread_rwlock_wrlock(&s->scene_lock);
-        bool more = scene_sublevel_work(sc, SUBLEVEL_SLICE);
-        if (!more) cull_world_commit(sc->world);
-        pthread_rwlock_unlock(&s->scene_lock);
-        if (more) {
+        if (server_unload_slice(s, SUBLEVEL_SLICE)) {
             uint64_t one = 1;
             ssize_t ignored = write(s->done_fd, &one, sizeof one);
             (void)ignored;
@@ -371,9 +368,31 @@ static void before_sleep(ae_loop *l, void *data)
         cull_world_commit(sc->world);
         pthread_rwlock_unlock(&s->scene_lock);
     }
+    /* the journal: this turn's records synced before any of their answers
+       leave (always: group commit), a snapshot started or finished */
+    bool sync_failed = false;
+    if (s->journal) {
+        journal *j = s->journal;
+        journal_poll(j);
+        if (journal_policy(j) == JOURNAL_ALWAYS && journal_dirty(j)) sync_failed = journal_sync(j) != 0;
+        if (journal_wants_snapshot(j)) {
+            int rc = journal_snapshot(j, sc);
+            if (rc) LOGW("snapshot not started: %s", strerror(-rc));
+        }
+    }
     /* backwards: conn_free moves the last connection into the freed place */
     for (uint32_t i = s->nconns; i-- > 0;) {
         conn *c = s->live[i];
+        if (c->held) {
+            c->held = false;
+            if (sync_failed) {
+                /* its answers claim a durability the disk did not give:
+                   they are not sent; the client sees the connection drop */
+                LOGW("client %u: dropped, its edits' sync failed", c->id);
+                conn_free(s, c);
+                continue;
+            }
+        }
         if (sweep && drop_if_slow(s, c, now_ms)) continue;
         clocks |= !c->hello || c->since_ms;
         if (changed && c->subscribed) {
@@ -464,6 +483,7 @@ server *server_create(const server_config *cfg, scene *sc)
     if (!s) return NULL;
     s->cfg = *cfg;
     s->sc = sc;
+    s->journal = cfg->journal;
     s->ev_epoch = sc->epoch;
     s->tcp_fd = s->unix_fd = s->sig_fd = s->done_fd = -1;
     /* SIGINT and SIGTERM arrive through a signalfd on the loop: block them
@@ -555,6 +575,7 @@ void server_destroy(server *s)
         pthread_cond_destroy(&s->cv);
     }
     frames_fini(s); /* after the workers: none is drawing */
+    journal_close(s->journal); /* after the connections: their loads' drops are journaled */
     for (job *lists[2] = {s->jobs_head, s->done_head}, **l = lists; l < lists + 2; l++) {
         for (job *j = *l, *n; j; j = n) {
             n = j->next;

@@ -9,6 +9,7 @@
 #include <stdint.h>
 
 #include "auth.h"
+#include "journal.h"
 #include "scene.h"
 
 typedef struct server_config {
@@ -27,6 +28,7 @@ typedef struct server_config {
     uint32_t hello_timeout_ms; /* HELLO must complete within this after the accept */
     uint32_t frame_timeout_ms; /* a frame begun must complete within this (slow-loris) */
     scene_limits limits;
+    journal *journal;        /* --data-dir: opened (and the scene restored) by the caller; the server closes it */
 } server_config;
 
 #define VANTAGED_DEFAULT_PORT 7470

@@ -6,6 +6,8 @@
 #define VANTAGE_SERVER_INTERNAL_H
 
 #include "ae.h"
+#include "edit.h"
+#include "journal.h"
 #include "log.h"
 #include "server.h"
 
@@ -42,6 +44,7 @@ typedef struct conn {
     uint8_t *out;
     size_t out_len, out_pos, out_cap;
     uint16_t load;      /* the sub-level this connection is loading, 0 = none */
+    bool held;          /* an edit's answer waits for the journal's sync (always) */
     bool ev_pending;    /* the scene changed since the last EVENT sent */
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */
     frame_sub fsub;
@@ -78,6 +81,7 @@ struct server {
     char gl_err[400];
     uint32_t nsubs;         /* connections with a frame stream */
     uint64_t ev_epoch;      /* the epoch the last tick's events reported */
+    journal *journal;       /* --data-dir: the edit journal; NULL = none */
 };
 
 /* A query handed to a worker, and its reply coming back. */
@@ -125,6 +129,8 @@ void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, cons
 void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count);
 
 /* ---- handlers.c ---- */
+/* One slice of the unloads' freeing, journaled; true while more is left. */
+bool server_unload_slice(server *s, uint32_t budget);
 /* A connection that was loading a sub-level is gone: its load is dropped. */
 void sublevel_conn_gone(server *s, conn *c);
 /* Handles one complete frame from c (may set c->closing or c->busy). */

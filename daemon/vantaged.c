@@ -7,6 +7,7 @@
 #include "ae.h"
 
 #include <getopt.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -41,6 +42,11 @@ static void usage(FILE *f)
             "                       connect may edit)\n"
             "  --hello-timeout MS   a client must finish HELLO this soon after connecting (10000)\n"
             "  --frame-timeout MS   a frame begun must arrive whole this soon (30000; slow-loris)\n"
+            "  --data-dir DIR       keep the scene in DIR (journal + snapshots) and restore it on start\n"
+            "  --durability P       always: an edit is on disk before its answer (group commit);\n"
+            "                       everysec (default): synced once a second; off: the OS decides\n"
+            "  --compact-mb N       write a snapshot when the journal passes N MB and twice the\n"
+            "                       last snapshot (default 64)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
             "  --help               this text\n",
             VANTAGED_DEFAULT_PORT);
@@ -76,7 +82,8 @@ int main(int argc, char **argv)
     const char *scene_kind = "demo";
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
-           O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO };
+           O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
+           O_DATA, O_DURABILITY, O_COMPACT };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -88,11 +95,15 @@ int main(int argc, char **argv)
         {"log-level", required_argument, 0, O_LOG}, {"help", no_argument, 0, O_HELP},
         {"destruct-res", required_argument, 0, O_DRES}, {"tokens", required_argument, 0, O_TOKENS},
         {"insecure", no_argument, 0, O_INSECURE}, {"hello-timeout", required_argument, 0, O_HELLO_TO},
-        {"frame-timeout", required_argument, 0, O_FRAME_TO}, {0, 0, 0, 0},
+        {"frame-timeout", required_argument, 0, O_FRAME_TO}, {"data-dir", required_argument, 0, O_DATA},
+        {"durability", required_argument, 0, O_DURABILITY}, {"compact-mb", required_argument, 0, O_COMPACT},
+        {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
-    const char *tokens_path = NULL;
+    const char *tokens_path = NULL, *data_dir = NULL;
+    int durability = JOURNAL_EVERYSEC;
+    uint32_t compact_mb = 64;
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (o) {
         case O_BIND: cfg.bind = optarg; break;
@@ -114,6 +125,12 @@ int main(int argc, char **argv)
             break;
         case O_LOG: ok = (g_log_level = log_level_parse(optarg)) >= 0; break;
         case O_TOKENS: tokens_path = optarg; break;
+        case O_DATA: data_dir = optarg; ok = *optarg != 0; break;
+        case O_DURABILITY:
+            durability = !strcmp(optarg, "always") ? JOURNAL_ALWAYS : !strcmp(optarg, "off") ? JOURNAL_OFF : JOURNAL_EVERYSEC;
+            ok = !strcmp(optarg, "always") || !strcmp(optarg, "everysec") || !strcmp(optarg, "off");
+            break;
+        case O_COMPACT: ok = parse_u32(optarg, 1, 1u << 20, &compact_mb); break;
         case O_INSECURE: insecure = true; break;
         case O_HELLO_TO: ok = parse_u32(optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
         case O_FRAME_TO: ok = parse_u32(optarg, 100, 3600000, &cfg.frame_timeout_ms); break;
@@ -136,6 +153,9 @@ int main(int argc, char **argv)
         return 2;
     }
 
+    /* a file-size limit (ulimit -f) is a write error for the journal, not
+       a signal that kills the daemon */
+    signal(SIGXFSZ, SIG_IGN);
     static auth_tokens tokens;
     if (tokens_path) {
         char err[400];
@@ -158,19 +178,51 @@ int main(int argc, char **argv)
         LOGE("cannot create the scene");
         return 1;
     }
-    if (!strcmp(scene_kind, "demo")) {
+    if (strcmp(scene_kind, "demo") && strcmp(scene_kind, "empty")) {
+        fprintf(stderr, "vantaged: --scene %s: use demo or empty (load files with `vantage import`)\n", scene_kind);
+        return 2;
+    }
+    bool build_demo = !strcmp(scene_kind, "demo");
+    if (data_dir) {
+        static const char *const pol[] = {"off", "everysec", "always"};
+        journal_report rep;
+        char err[800];
+        if (journal_open(data_dir, durability, sc, &cfg.journal, &rep, err, sizeof err)) {
+            LOGE("--data-dir %s: %s", data_dir, err);
+            return 1;
+        }
+        journal_set_limit(cfg.journal, (uint64_t)compact_mb << 20);
+        if (rep.cut_bytes) LOGW("journal: a damaged end was cut, not replayed: %s", rep.cut);
+        if (rep.fresh) {
+            LOGI("%s: new data directory, durability %s", data_dir, pol[durability]);
+        } else {
+            cull_world_info info;
+            cull_world_info_get(sc->world, &info);
+            LOGI("%s: scene restored in %llu ms (snapshot %06llu, %.1f MB; %llu journal records, %.1f MB; "
+                 "%u loads left open dropped): %u entities, %zu occluders, %zu lights, epoch %llu; durability %s",
+                 data_dir, (unsigned long long)rep.ms, (unsigned long long)rep.snapshot_gen,
+                 rep.snapshot_bytes / 1e6, (unsigned long long)rep.records, rep.bytes / 1e6, rep.loads_dropped,
+                 info.entities, sc->occluders.count, sc->lights.count, (unsigned long long)sc->epoch,
+                 pol[durability]);
+            if (build_demo) LOGI("--scene demo not built: the data directory has a scene");
+            build_demo = false;
+        }
+    }
+    if (build_demo) {
+        /* through the journal like any edit, so a restart rebuilds it */
         uint64_t t0 = ae_now_ms();
-        if (scene_build_demo(sc, props)) {
+        edit_result r;
+        scene_err err;
+        if ((cfg.journal && journal_append(cfg.journal, EDIT_DEMO, 0, props, NULL, 0)) ||
+            edit_apply(sc, &(edit){.type = EDIT_DEMO, .aux = props}, &r, &err)) {
             LOGE("cannot build the demo scene");
             return 1;
         }
+        edit_result_free(&r);
         cull_world_info info;
         cull_world_info_get(sc->world, &info);
         LOGI("demo city: %u entities, %zu occluders, %zu lights in %llu ms", info.entities, sc->occluders.count,
              sc->lights.count, (unsigned long long)(ae_now_ms() - t0));
-    } else if (strcmp(scene_kind, "empty") != 0) {
-        fprintf(stderr, "vantaged: --scene %s: use demo or empty (load files with `vantage import`)\n", scene_kind);
-        return 2;
     }
     server *srv = server_create(&cfg, sc);
     if (!srv) return 1;

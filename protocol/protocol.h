@@ -55,7 +55,8 @@ extern "C" {
     X(VP_ERR_BUSY,       -18, "server busy, retry")                              \
     X(VP_ERR_INTERNAL,   -19, "internal server error")                          \
     X(VP_ERR_UNSUPPORTED, -20, "not available on this server")                   \
-    X(VP_ERR_TIMEOUT,    -21, "too slow: HELLO or a frame did not arrive in time")
+    X(VP_ERR_TIMEOUT,    -21, "too slow: HELLO or a frame did not arrive in time") \
+    X(VP_ERR_IO,         -22, "the server could not make the edit durable")
 
 enum {
 #define VP_X_ENUM(name, value, msg) name = value,

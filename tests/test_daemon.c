@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <string.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -53,6 +54,8 @@ void daemon_start(daemon_proc *d, const char *out_limit)
     daemon_start_args(d, extra);
 }
 
+long daemon_fsize_limit;
+
 void daemon_start_args(daemon_proc *d, const char *const *extra)
 {
     memset(d, 0, sizeof d[0]);
@@ -65,6 +68,10 @@ void daemon_start_args(daemon_proc *d, const char *const *extra)
     assert_true(d->pid >= 0);
     if (d->pid == 0) {
         prctl(PR_SET_PDEATHSIG, SIGTERM); /* a failed test never leaves a daemon behind */
+        if (daemon_fsize_limit) {
+            struct rlimit rl = {(rlim_t)daemon_fsize_limit, (rlim_t)daemon_fsize_limit};
+            setrlimit(RLIMIT_FSIZE, &rl);
+        }
         const char *argv[32] = {d->bin, "--scene", "empty", "--port", port, "--unix", d->sock, "--log-level",
                                 "warn", "--threads", "2"};
         int n = 11;
@@ -92,7 +99,7 @@ void daemon_stop(daemon_proc *d)
     kill(d->pid, SIGTERM);
     int st;
     waitpid(d->pid, &st, 0);
-    assert_true(WIFEXITED(st));
+    if (!WIFEXITED(st)) fail_msg("vantaged %d: %s %d", (int)d->pid, WIFSIGNALED(st) ? "killed by signal" : "status", WIFSIGNALED(st) ? WTERMSIG(st) : st);
     assert_int_equal(WEXITSTATUS(st), 0); /* clean shutdown on SIGTERM */
     assert_true(access(d->sock, F_OK) != 0); /* and the socket is gone */
 }

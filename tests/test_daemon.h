@@ -27,6 +27,9 @@ vt_client *connect_role(const daemon_proc *d, int role, bool use_unix);
 void daemon_start(daemon_proc *d, const char *out_limit);
 /* The same with extra arguments (NULL-terminated). */
 void daemon_start_args(daemon_proc *d, const char *const *extra);
+/* When not 0, the next daemon_start* runs vantaged with RLIMIT_FSIZE at
+ * this many bytes (its writes past it fail with EFBIG: a full disk). */
+extern long daemon_fsize_limit;
 /* SIGTERM; asserts a clean exit and the socket removed. */
 void daemon_stop(daemon_proc *d);
 

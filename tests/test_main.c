@@ -26,6 +26,7 @@ int main(void)
         {destruct_tests, destruct_tests_count},
         {mask_tests, mask_tests_count},
         {auth_tests, auth_tests_count},
+        {persist_tests, persist_tests_count},
     };
     size_t total = 0;
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;

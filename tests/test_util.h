@@ -70,6 +70,7 @@ void test_assert_same_handles(const cull_handle *want, size_t n, const cull_resu
 TEST_GROUP(world_tests)
 TEST_GROUP(mask_tests)
 TEST_GROUP(auth_tests)
+TEST_GROUP(persist_tests)
 TEST_GROUP(view_tests)
 TEST_GROUP(query_tests)
 TEST_GROUP(alloc_tests)

@@ -1,0 +1,172 @@
+/*
+ * edit.c — scene edits decoded and applied (see edit.h): the one place
+ * both a live request and a journal record become a scene change.
+ */
+#include "edit.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+bool edit_is(uint16_t type)
+{
+    switch (type) {
+    case VP_ENTITY_ADD:
+    case VP_ENTITY_UPDATE:
+    case VP_ENTITY_REMOVE:
+    case VP_MESH_PUT:
+    case VP_OCCLUDER_PUT:
+    case VP_OCCLUDER_REMOVE:
+    case VP_LIGHT_PUT:
+    case VP_LIGHT_REMOVE:
+    case VP_SUBLEVEL_NAMES:
+    case VP_SUBLEVEL_BEGIN:
+    case VP_SUBLEVEL_COMMIT:
+    case VP_SUBLEVEL_ABORT:
+    case VP_SUBLEVEL_UNLOAD:
+    case VP_DESTROY:
+        return true;
+    default:
+        return false;
+    }
+}
+
+int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batch, edit *e)
+{
+    memset(e, 0, sizeof *e);
+    e->type = type;
+    e->count = 1;
+    int rc;
+    switch (type) {
+    case VP_ENTITY_ADD:
+    case VP_ENTITY_UPDATE:
+        rc = vp_dec_entities(p, len, max_batch, &e->u.ents);
+        e->count = e->u.ents.count;
+        break;
+    case VP_ENTITY_REMOVE:
+    case VP_OCCLUDER_REMOVE:
+    case VP_LIGHT_REMOVE:
+        rc = vp_dec_ids(p, len, max_batch, &e->u.ids);
+        e->count = e->u.ids.count;
+        break;
+    case VP_MESH_PUT:
+        return vp_dec_mesh(p, len, 0, &e->u.mesh);
+    case VP_OCCLUDER_PUT:
+        return vp_dec_occluder(p, len, 0, &e->u.occ);
+    case VP_LIGHT_PUT:
+        rc = vp_dec_lights(p, len, max_batch, &e->u.lights.recs, &e->u.lights.n);
+        e->count = e->u.lights.n;
+        break;
+    case VP_SUBLEVEL_NAMES:
+        rc = vp_dec_names(p, len, false, &e->u.names);
+        e->count = e->u.names.count;
+        return rc;
+    case VP_SUBLEVEL_BEGIN:
+        return vp_dec_sublevel_begin(p, len, &e->u.begin);
+    case VP_SUBLEVEL_COMMIT:
+    case VP_SUBLEVEL_ABORT:
+        return vp_dec_empty(p, len);
+    case VP_SUBLEVEL_UNLOAD:
+        return vp_dec_sublevel_name(p, len, &e->u.name);
+    case VP_DESTROY:
+        return vp_dec_destroy(p, len, &e->u.destroy);
+    case EDIT_DEMO:
+    case EDIT_WORK:
+        return len ? VP_ERR_TRAILING : VP_OK;
+    default:
+        return VP_ERR_TYPE;
+    }
+    /* batches hold 1..max_batch records (the decoders check the top) */
+    return rc ? rc : e->count ? VP_OK : VP_ERR_COUNT;
+}
+
+/* SUBLEVEL_UNLOAD of a named sub-level: it must exist, be loaded, and not
+ * be in some connection's load. */
+static int unload(scene *sc, const vp_name *nm, uint32_t *n, scene_err *err)
+{
+    uint16_t id = scene_sublevel_find(sc, nm->name, nm->len);
+    if (!id) return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level named %.*s", (int)nm->len, (const char *)nm->name);
+    const scene_sublevel *l = &sc->sl[id];
+    if (l->state == VP_SL_LOADING)
+        return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "sub-level %s is being loaded by client %u", l->name, l->owner);
+    if (scene_sublevel_state(sc, id) == VP_SL_EMPTY)
+        return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "sub-level %s is not loaded", l->name);
+    return scene_sublevel_drop(sc, id, n, err);
+}
+
+int edit_apply(scene *sc, const edit *e, edit_result *r, scene_err *err)
+{
+    memset(r, 0, sizeof *r);
+    r->n = e->count;
+    int rc;
+    switch (e->type) {
+    case VP_ENTITY_ADD:
+        if (!(r->handles = malloc((size_t)e->count * sizeof *r->handles)))
+            return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        rc = scene_add(sc, e->load, &e->u.ents, r->handles, err);
+        break;
+    case VP_ENTITY_UPDATE:
+        rc = scene_update(sc, e->load, &e->u.ents, err);
+        break;
+    case VP_ENTITY_REMOVE:
+        rc = scene_remove(sc, e->load, &e->u.ids, err);
+        break;
+    case VP_OCCLUDER_REMOVE:
+    case VP_LIGHT_REMOVE:
+        rc = scene_remove_ids(sc, e->load, e->type == VP_LIGHT_REMOVE ? &sc->lights : &sc->occluders, &e->u.ids, err);
+        break;
+    case VP_MESH_PUT:
+        rc = scene_mesh_put(sc, e->load, &e->u.mesh, err);
+        break;
+    case VP_OCCLUDER_PUT:
+        rc = scene_occluder_put(sc, e->load, &e->u.occ, err);
+        break;
+    case VP_LIGHT_PUT:
+        rc = scene_lights_put(sc, e->load, e->u.lights.recs, e->u.lights.n, err);
+        break;
+    case VP_SUBLEVEL_NAMES:
+        if (!(r->ids = malloc(((size_t)e->count + 1) * sizeof *r->ids)))
+            return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        rc = scene_sublevel_ids(sc, &e->u.names, r->ids, err);
+        break;
+    case VP_SUBLEVEL_BEGIN:
+        if (e->load)
+            return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "this connection is already loading a sub-level");
+        rc = scene_sublevel_begin(sc, &e->u.begin, e->aux, &r->begun, err);
+        break;
+    case VP_SUBLEVEL_COMMIT:
+    case VP_SUBLEVEL_ABORT:
+        if (!e->load) return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "no load open on this connection");
+        r->n = 0;
+        rc = e->type == VP_SUBLEVEL_COMMIT ? scene_sublevel_commit(sc, e->load, &r->n, err)
+                                           : scene_sublevel_drop(sc, e->load, &r->n, err);
+        break;
+    case VP_SUBLEVEL_UNLOAD:
+        r->n = 0;
+        rc = unload(sc, &e->u.name, &r->n, err);
+        break;
+    case VP_DESTROY:
+        rc = scene_destroy(sc, &e->u.destroy, e->aux, &r->destroyed, err);
+        break;
+    case EDIT_DEMO:
+        rc = scene_build_demo(sc, e->aux) ? scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "cannot build the demo city")
+                                          : VP_OK;
+        break;
+    case EDIT_WORK:
+        (void)scene_sublevel_work(sc, e->aux);
+        rc = VP_OK;
+        break;
+    default:
+        return scene_fail(err, VP_ERR_TYPE, UINT32_MAX, "type 0x%04x is not an edit", e->type);
+    }
+    if (rc) edit_result_free(r);
+    return rc;
+}
+
+void edit_result_free(edit_result *r)
+{
+    free(r->handles);
+    free(r->ids);
+    r->handles = NULL;
+    r->ids = NULL;
+}

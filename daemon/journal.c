@@ -1,0 +1,767 @@
+/*
+ * journal.c — the edit journal: records, the sync policies, recovery and
+ * its tail check, compaction (see journal.h).
+ *
+ * A journal file: a 32-byte header (magic "VNTJRNL1", u64 generation, u64
+ * sequence number of its first record, u32 reserved, u32 CRC-32 of the 28
+ * bytes before), then records:
+ *
+ *   u32 len      payload bytes
+ *   u32 crc      CRC-32 (zlib) of the 16 bytes from seq on, then the payload
+ *   u64 seq      one more than the record before it
+ *   u16 type     the request type (VP_*) or EDIT_*
+ *   u16 load     the editing connection's open load
+ *   u32 aux      edit.h
+ *   len bytes    the request's payload as it came off the socket
+ *
+ * all little-endian. A record is written with one writev; a short write is
+ * cut back, so the file never ends inside a record the daemon knows of.
+ */
+#include "journal.h"
+#include "log.h"
+#include "snapshot.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <sys/uio.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#define HDR_SIZE 32u
+#define REC_HDR 24u
+#define REC_MAX (1u << 30)              /* no payload is this big: a bad length */
+#define DEFAULT_LIMIT (64ull << 20)     /* a snapshot once the journal passes this... */
+
+static const char MAGIC[8] = {'V', 'N', 'T', 'J', 'R', 'N', 'L', '1'};
+
+struct journal {
+    char *dir;
+    int policy;
+    int fd, lock_fd;
+    uint64_t gen;           /* of the journal being written */
+    uint64_t seq;           /* the next record's */
+    uint64_t size;          /* bytes in the file */
+    uint64_t last_start;    /* where the last append began (journal_cancel) */
+    uint64_t base_bytes;    /* the last snapshot's size: compaction waits for 2x it */
+    uint64_t limit;
+    bool dirty;
+    char broken[300];
+    /* everysec: a thread syncs the current file once a second */
+    pthread_t syncer;
+    bool syncer_on, stop;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    atomic_int sync_err;    /* errno of a failed background sync, 0 = none */
+    /* a snapshot being written by a child */
+    pid_t child;
+    uint64_t child_gen;
+};
+
+/* ---- little-endian helpers ------------------------------------------------------- */
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> (8 * i));
+}
+static void put64(uint8_t *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++) p[i] = (uint8_t)(v >> (8 * i));
+}
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+static uint64_t get64(const uint8_t *p)
+{
+    return (uint64_t)get32(p) | (uint64_t)get32(p + 4) << 32;
+}
+static uint16_t get16(const uint8_t *p)
+{
+    return (uint16_t)(p[0] | p[1] << 8);
+}
+
+static uint32_t crc(const uint8_t *a, size_t na, const uint8_t *b, size_t nb)
+{
+    uLong c = crc32(0L, Z_NULL, 0);
+    c = crc32(c, a, (uInt)na);
+    while (nb) { /* zlib takes uInt lengths */
+        uInt n = nb > (1u << 30) ? (1u << 30) : (uInt)nb;
+        c = crc32(c, b, n);
+        b += n;
+        nb -= n;
+    }
+    return (uint32_t)c;
+}
+
+static uint64_t mono_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+}
+
+static char *path_of(const journal *j, const char *kind, uint64_t gen)
+{
+    char *p = NULL;
+    if (asprintf(&p, "%s/%s.%06" PRIu64, j->dir, kind, gen) < 0) return NULL;
+    return p;
+}
+
+/* Makes a new file's name (or a rename) durable. */
+static int sync_dir(const char *dir)
+{
+    int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0) return -errno;
+    int rc = fsync(fd) ? -errno : 0;
+    close(fd);
+    return rc;
+}
+
+/* ---- the everysec syncer ------------------------------------------------------------ */
+
+static void *syncer_main(void *arg)
+{
+    journal *j = arg;
+    pthread_mutex_lock(&j->mu);
+    while (!j->stop) {
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_sec += 1;
+        pthread_cond_timedwait(&j->cv, &j->mu, &until);
+        if (j->stop) break;
+        /* a duplicate of the descriptor: the loop may move on to a new
+           file meanwhile and close the old one */
+        int fd = dup(j->fd);
+        pthread_mutex_unlock(&j->mu);
+        if (fd >= 0) {
+            if (fdatasync(fd) && !atomic_load(&j->sync_err)) atomic_store(&j->sync_err, errno ? errno : EIO);
+            close(fd);
+        }
+        pthread_mutex_lock(&j->mu);
+    }
+    pthread_mutex_unlock(&j->mu);
+    return NULL;
+}
+
+/* ---- writing -------------------------------------------------------------------------- */
+
+/* Creates journal.<gen> (first record seq) with its header, synced, and makes
+ * it the one written. */
+static int start_file(journal *j, uint64_t gen, uint64_t seq)
+{
+    char *p = path_of(j, "journal", gen);
+    if (!p) return -ENOMEM;
+    int fd = open(p, O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0600);
+    int rc = fd < 0 ? -errno : 0;
+    if (!rc) {
+        uint8_t h[HDR_SIZE] = {0};
+        memcpy(h, MAGIC, 8);
+        put64(h + 8, gen);
+        put64(h + 16, seq);
+        put32(h + 28, crc(h, 28, NULL, 0));
+        if (write(fd, h, HDR_SIZE) != (ssize_t)HDR_SIZE || fdatasync(fd)) rc = errno ? -errno : -EIO;
+    }
+    if (!rc) rc = sync_dir(j->dir);
+    if (rc) {
+        if (fd >= 0) close(fd);
+        unlink(p);
+        free(p);
+        return rc;
+    }
+    free(p);
+    pthread_mutex_lock(&j->mu);
+    int old = j->fd;
+    j->fd = fd;
+    pthread_mutex_unlock(&j->mu);
+    if (old >= 0) close(old);
+    j->gen = gen;
+    j->seq = seq;
+    j->size = j->last_start = HDR_SIZE;
+    j->dirty = false;
+    return 0;
+}
+
+int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux, const uint8_t *p, uint32_t len)
+{
+    if (j->broken[0]) return -EROFS;
+    int e = atomic_load(&j->sync_err);
+    if (e) {
+        char why[200];
+        snprintf(why, sizeof why, "the journal could not be synced: %s", strerror(e));
+        journal_break(j, why);
+        return -e;
+    }
+    uint8_t h[REC_HDR];
+    put32(h, len);
+    put64(h + 8, j->seq);
+    h[16] = (uint8_t)type;
+    h[17] = (uint8_t)(type >> 8);
+    h[18] = (uint8_t)load;
+    h[19] = (uint8_t)(load >> 8);
+    put32(h + 20, aux);
+    put32(h + 4, crc(h + 8, 16, p, len));
+    struct iovec iov[2] = {{h, REC_HDR}, {(void *)p, len}};
+    size_t want = REC_HDR + (size_t)len, done = 0;
+    int rc = 0;
+    while (done < want) {
+        /* the rare short write: go on from where it stopped */
+        struct iovec v[2];
+        int n = 0;
+        size_t skip = done;
+        for (int i = 0; i < 2; i++) {
+            if (skip >= iov[i].iov_len) {
+                skip -= iov[i].iov_len;
+                continue;
+            }
+            v[n].iov_base = (uint8_t *)iov[i].iov_base + skip;
+            v[n++].iov_len = iov[i].iov_len - skip;
+            skip = 0;
+        }
+        ssize_t w = writev(j->fd, v, n);
+        if (w > 0) {
+            done += (size_t)w;
+        } else if (w < 0 && errno == EINTR) {
+            continue;
+        } else {
+            rc = w < 0 ? -errno : -ENOSPC;
+            break;
+        }
+    }
+    if (rc) {
+        /* nothing of it may stay: a later record would follow garbage */
+        if (done && ftruncate(j->fd, (off_t)j->size)) {
+            char why[200];
+            snprintf(why, sizeof why, "a failed write could not be cut back: %s", strerror(errno));
+            journal_break(j, why);
+        }
+        return rc;
+    }
+    j->last_start = j->size;
+    j->size += want;
+    j->seq++;
+    j->dirty = true;
+    return 0;
+}
+
+void journal_cancel(journal *j)
+{
+    if (ftruncate(j->fd, (off_t)j->last_start)) {
+        char why[200];
+        snprintf(why, sizeof why, "a refused edit could not be cut back off the journal: %s", strerror(errno));
+        journal_break(j, why);
+        return;
+    }
+    j->size = j->last_start;
+    j->seq--;
+}
+
+bool journal_dirty(const journal *j)
+{
+    return j->dirty;
+}
+
+int journal_sync(journal *j)
+{
+    if (!j->dirty) return 0;
+    if (fdatasync(j->fd)) {
+        int e = errno;
+        char why[200];
+        snprintf(why, sizeof why, "the journal could not be synced: %s", strerror(e));
+        journal_break(j, why);
+        return -e;
+    }
+    j->dirty = false;
+    return 0;
+}
+
+const char *journal_broken(const journal *j)
+{
+    return j->broken[0] ? j->broken : NULL;
+}
+
+void journal_break(journal *j, const char *why)
+{
+    if (j->broken[0]) return;
+    snprintf(j->broken, sizeof j->broken, "%s", why);
+    LOGE("%s: edits are refused from now on (reads go on); restart the daemon to recover from %s", why, j->dir);
+}
+
+int journal_policy(const journal *j)
+{
+    return j->policy;
+}
+
+void journal_set_limit(journal *j, uint64_t bytes)
+{
+    j->limit = bytes;
+}
+
+/* ---- compaction ------------------------------------------------------------------------ */
+
+bool journal_wants_snapshot(const journal *j)
+{
+    uint64_t need = j->limit > 2 * j->base_bytes ? j->limit : 2 * j->base_bytes;
+    return !j->child && !j->broken[0] && j->size > need;
+}
+
+int journal_snapshot(journal *j, const scene *sc)
+{
+    if (j->child) return -EBUSY;
+    /* what the child writes is the scene as of now, which is the journal
+       up to here: later records go to the next generation's file */
+    if (fdatasync(j->fd)) return -errno;
+    j->dirty = false;
+    uint64_t gen = j->gen + 1;
+    int rc = start_file(j, gen, j->seq);
+    if (rc) return rc;
+    char *tmp = path_of(j, "snapshot.tmp", gen);
+    if (!tmp) return -ENOMEM;
+    pid_t pid = fork();
+    if (pid < 0) {
+        rc = -errno;
+        free(tmp);
+        return rc;
+    }
+    if (pid == 0) {
+        /* the child: a copy-on-write image of the scene, one thread */
+        int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+        int ok = fd >= 0 && snapshot_write(fd, sc, gen, j->seq) == 0 && fdatasync(fd) == 0;
+        _exit(ok ? 0 : 1);
+    }
+    free(tmp);
+    j->child = pid;
+    j->child_gen = gen;
+    LOGI("snapshot %06" PRIu64 " started (child %d); journal %06" PRIu64 " from here", gen, (int)pid, gen);
+    return 0;
+}
+
+/* Removes the files of generations before gen. */
+static void drop_before(journal *j, uint64_t gen)
+{
+    DIR *d = opendir(j->dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        uint64_t g;
+        char kind[16];
+        int end = 0;
+        if (sscanf(e->d_name, "%15[a-z].%" SCNu64 "%n", kind, &g, &end) != 2 || e->d_name[end]) continue;
+        if ((strcmp(kind, "journal") && strcmp(kind, "snapshot")) || g >= gen) continue;
+        char *p = NULL;
+        if (asprintf(&p, "%s/%s", j->dir, e->d_name) >= 0) {
+            unlink(p);
+            free(p);
+        }
+    }
+    closedir(d);
+}
+
+/* The child is done (status from waitpid; r its return): the snapshot is
+ * put in place and what it makes redundant removed, or it is dropped. */
+static void child_done(journal *j, pid_t r, int status)
+{
+    uint64_t gen = j->child_gen;
+    j->child = 0;
+    char *tmp = path_of(j, "snapshot.tmp", gen), *dst = path_of(j, "snapshot", gen);
+    bool ok = r > 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0 && tmp && dst;
+    struct stat st;
+    if (ok && (rename(tmp, dst) || sync_dir(j->dir) || stat(dst, &st))) ok = false;
+    if (ok) {
+        j->base_bytes = (uint64_t)st.st_size;
+        drop_before(j, gen);
+        LOGI("snapshot %06" PRIu64 " written: %.1f MB; older journals removed", gen, (double)st.st_size / 1e6);
+    } else {
+        /* the journals stay (recovery replays across generations) */
+        if (tmp) unlink(tmp);
+        LOGW("snapshot %06" PRIu64 " failed; the journals are kept and it is tried again later", gen);
+        j->base_bytes = j->size; /* not again at once */
+    }
+    free(tmp);
+    free(dst);
+}
+
+void journal_poll(journal *j)
+{
+    if (!j->child) return;
+    int status = 0;
+    pid_t r = waitpid(j->child, &status, WNOHANG);
+    if (r != 0) child_done(j, r, status);
+}
+
+/* ---- recovery -------------------------------------------------------------------------- */
+
+typedef struct gens {
+    uint64_t *v;
+    size_t n, cap;
+} gens;
+
+static int cmp_gen(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The generations of `kind` files in dir, ascending. */
+static int list_gens(const char *dir, const char *kind, gens *out)
+{
+    DIR *d = opendir(dir);
+    if (!d) return -errno;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        uint64_t g;
+        char k[16];
+        int end = 0;
+        if (sscanf(e->d_name, "%15[a-z].%" SCNu64 "%n", k, &g, &end) != 2 || e->d_name[end] || strcmp(k, kind))
+            continue;
+        if (out->n == out->cap) {
+            size_t cap = out->cap ? out->cap * 2 : 8;
+            uint64_t *v = realloc(out->v, cap * sizeof *v);
+            if (!v) {
+                closedir(d);
+                return -ENOMEM;
+            }
+            out->v = v;
+            out->cap = cap;
+        }
+        out->v[out->n++] = g;
+    }
+    closedir(d);
+    if (out->n) qsort(out->v, out->n, sizeof *out->v, cmp_gen);
+    return 0;
+}
+
+/* A file read whole (mapped). */
+typedef struct mapped {
+    const uint8_t *p;
+    size_t n;
+} mapped;
+
+static int map_file(const char *path, mapped *m)
+{
+    m->p = NULL;
+    m->n = 0;
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return -errno;
+    struct stat st;
+    int rc = fstat(fd, &st) ? -errno : 0;
+    if (!rc && st.st_size > 0) {
+        void *p = mmap(NULL, (size_t)st.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
+        if (p == MAP_FAILED) rc = -errno;
+        else {
+            m->p = p;
+            m->n = (size_t)st.st_size;
+            madvise(p, m->n, MADV_SEQUENTIAL);
+        }
+    }
+    close(fd);
+    return rc;
+}
+
+static void unmap_file(mapped *m)
+{
+    if (m->p) munmap((void *)m->p, m->n);
+    m->p = NULL;
+}
+
+/* Keeps bytes [off, n) of path in path.cut-<off> and cuts the file there. */
+static int cut_tail(const char *path, const mapped *m, size_t off, char *kept, size_t keptlen)
+{
+    char *cp = NULL;
+    if (asprintf(&cp, "%s.cut-%zu", path, off) < 0) return -ENOMEM;
+    int fd = open(cp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    int rc = fd < 0 ? -errno : 0;
+    if (!rc && write(fd, m->p + off, m->n - off) != (ssize_t)(m->n - off)) rc = errno ? -errno : -EIO;
+    if (fd >= 0 && (fsync(fd) || close(fd)) && !rc) rc = -errno;
+    snprintf(kept, keptlen, "%s", cp);
+    free(cp);
+    if (rc) return rc;
+    int wfd = open(path, O_WRONLY | O_CLOEXEC);
+    if (wfd < 0) return -errno;
+    rc = ftruncate(wfd, (off_t)off) || fdatasync(wfd) ? -errno : 0;
+    close(wfd);
+    return rc;
+}
+
+/* Replays journal.<gen> into sc. Its first record must be seq *seq; *seq
+ * ends one past its last. A bad record in the last file is cut (rep);
+ * elsewhere, or a record the scene refuses, is an error. */
+static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t *seq, journal_report *rep,
+                       char *err, size_t errlen)
+{
+    char *path = path_of(j, "journal", gen);
+    if (!path) return -1;
+    mapped m;
+    int rc = map_file(path, &m);
+    if (rc) {
+        snprintf(err, errlen, "%s: %s", path, strerror(-rc));
+        free(path);
+        return -1;
+    }
+    const char *why = NULL;
+    size_t off = 0;
+    if (m.n < HDR_SIZE) why = "shorter than its header";
+    else if (memcmp(m.p, MAGIC, 8)) why = "not a Vantage journal (bad magic)";
+    else if (get32(m.p + 28) != crc(m.p, 28, NULL, 0)) why = "header CRC mismatch";
+    else if (get64(m.p + 8) != gen) why = "header names another generation";
+    else if (get64(m.p + 16) != *seq) why = "its first record does not follow the one before";
+    if (why) {
+        /* a header is written and synced before any record: a bad one
+           means the file is not ours or the disk lied */
+        snprintf(err, errlen, "%s: %s", path, why);
+        unmap_file(&m);
+        free(path);
+        return -1;
+    }
+    off = HDR_SIZE;
+    int ret = 0;
+    while (off < m.n) {
+        const uint8_t *r = m.p + off;
+        size_t left = m.n - off;
+        uint32_t len = left >= REC_HDR ? get32(r) : 0;
+        if (left < REC_HDR) why = "a torn record header";
+        else if (len > REC_MAX) why = "a record length no record has";
+        else if (left - REC_HDR < len) why = "a torn record (shorter than its length)";
+        else if (get32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) why = "a record CRC mismatch";
+        else if (get64(r + 8) != *seq) why = "a record out of sequence";
+        if (why) break;
+        edit e;
+        edit_result res;
+        scene_err se = {0};
+        uint16_t type = get16(r + 16);
+        rc = edit_decode(type, r + REC_HDR, len, 0, &e);
+        if (!rc) {
+            e.load = get16(r + 18);
+            e.aux = get32(r + 20);
+            rc = edit_apply(sc, &e, &res, &se);
+            if (!rc) edit_result_free(&res);
+        } else {
+            snprintf(se.msg, sizeof se.msg, "%s", vp_strerror(rc));
+        }
+        if (rc) {
+            /* the CRC held: the daemon wrote this and applied it once.
+               Refused now means other limits (--max-entities...) or a bug */
+            snprintf(err, errlen,
+                     "%s: record %" PRIu64 " at offset %zu (%s) cannot be applied again: %s (was the journal "
+                     "written with larger limits?)",
+                     path, *seq, off, vp_type_name(type), se.msg);
+            ret = -1;
+            break;
+        }
+        (*seq)++;
+        rep->records++;
+        rep->bytes += REC_HDR + len;
+        off += REC_HDR + len;
+    }
+    if (!ret && why) {
+        if (!last) {
+            snprintf(err, errlen,
+                     "%s: %s at offset %zu, and a later journal follows it: the damage is not a torn end; move "
+                     "the files aside to start anyway",
+                     path, why, off);
+            ret = -1;
+        } else {
+            char kept[300];
+            rc = cut_tail(path, &m, off, kept, sizeof kept);
+            if (rc) {
+                snprintf(err, errlen, "%s: %s at offset %zu, and it cannot be cut: %s", path, why, off,
+                         strerror(-rc));
+                ret = -1;
+            } else {
+                rep->cut_bytes = m.n - off;
+                snprintf(rep->cut, sizeof rep->cut, "%s: %s at offset %zu: %zu bytes cut after record %" PRIu64
+                         " (kept in %s)", path, why, off, m.n - off, *seq - 1, kept);
+            }
+        }
+    }
+    if (!ret && last) j->size = off;
+    unmap_file(&m);
+    free(path);
+    return ret;
+}
+
+int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_report *rep, char *err,
+                 size_t errlen)
+{
+    memset(rep, 0, sizeof *rep);
+    uint64_t t0 = mono_ms();
+    journal *j = calloc(1, sizeof *j);
+    if (!j || !(j->dir = strdup(dir))) {
+        free(j);
+        snprintf(err, errlen, "out of memory");
+        return -1;
+    }
+    j->policy = policy;
+    j->fd = j->lock_fd = -1;
+    j->limit = DEFAULT_LIMIT;
+    pthread_mutex_init(&j->mu, NULL);
+    pthread_cond_init(&j->cv, NULL);
+    gens snaps = {0}, jrns = {0};
+    int rc = 0;
+    char *lock = NULL;
+    if (mkdir(dir, 0700) && errno != EEXIST) {
+        snprintf(err, errlen, "%s: %s", dir, strerror(errno));
+        goto fail;
+    }
+    /* one daemon per directory */
+    if (asprintf(&lock, "%s/LOCK", dir) < 0 ||
+        (j->lock_fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC, 0600)) < 0) {
+        snprintf(err, errlen, "%s/LOCK: %s", dir, strerror(errno));
+        goto fail;
+    }
+    if (flock(j->lock_fd, LOCK_EX | LOCK_NB)) {
+        snprintf(err, errlen, "%s is in use by another vantaged (%s)", dir,
+                 errno == EWOULDBLOCK ? "its LOCK is held" : strerror(errno));
+        goto fail;
+    }
+    if ((rc = list_gens(dir, "snapshot", &snaps)) || (rc = list_gens(dir, "journal", &jrns))) {
+        snprintf(err, errlen, "%s: %s", dir, strerror(-rc));
+        goto fail;
+    }
+    uint64_t gen = 1, seq = 1;
+    if (snaps.n) {
+        /* the newest snapshot (a complete one: they are renamed into place) */
+        gen = snaps.v[snaps.n - 1];
+        char *p = path_of(j, "snapshot", gen);
+        mapped m;
+        rc = p ? map_file(p, &m) : -ENOMEM;
+        if (!rc) {
+            rc = snapshot_load(m.p, m.n, sc, gen, &seq, err, errlen);
+            rep->snapshot_bytes = m.n;
+            unmap_file(&m);
+        } else {
+            snprintf(err, errlen, "%s: %s", p ? p : dir, strerror(-rc));
+        }
+        if (rc) {
+            if (p && !strstr(err, p)) {
+                char tmp[400];
+                snprintf(tmp, sizeof tmp, "%s: %s", p, err);
+                snprintf(err, errlen, "%s", tmp);
+            }
+            free(p);
+            goto fail;
+        }
+        free(p);
+        rep->snapshot_gen = gen;
+        j->base_bytes = rep->snapshot_bytes;
+    }
+    /* the journals from the snapshot's generation on, in order, no gaps */
+    size_t first = 0;
+    while (first < jrns.n && jrns.v[first] < gen) first++;
+    rep->fresh = !snaps.n && first == jrns.n;
+    for (size_t i = first; i < jrns.n; i++) {
+        if (jrns.v[i] != gen + (i - first)) {
+            snprintf(err, errlen, "%s: journal.%06" PRIu64 " is missing (the next is %06" PRIu64 ")", dir,
+                     gen + (i - first), jrns.v[i]);
+            goto fail;
+        }
+        if (replay_file(j, jrns.v[i], i + 1 == jrns.n, sc, &seq, rep, err, errlen)) goto fail;
+    }
+    if (first < jrns.n) {
+        /* go on writing the last file */
+        uint64_t last = jrns.v[jrns.n - 1];
+        char *p = path_of(j, "journal", last);
+        j->fd = p ? open(p, O_WRONLY | O_APPEND | O_CLOEXEC) : -1;
+        if (j->fd < 0) {
+            snprintf(err, errlen, "%s: %s", p ? p : dir, strerror(errno));
+            free(p);
+            goto fail;
+        }
+        free(p);
+        j->gen = last;
+        j->seq = seq;
+        j->last_start = j->size;
+    } else if ((rc = start_file(j, gen, seq))) {
+        snprintf(err, errlen, "%s/journal.%06" PRIu64 ": %s", dir, gen, strerror(-rc));
+        goto fail;
+    }
+    /* loads open at the crash: their connections are gone, so they go as
+       a dropped connection's would (journaled like any change) */
+    for (uint32_t id = 1; id <= sc->nsublevels; id++) {
+        if (sc->sl[id].state != VP_SL_LOADING) continue;
+        edit e = {.type = VP_SUBLEVEL_ABORT, .load = (uint16_t)id};
+        edit_result res;
+        scene_err se;
+        if ((rc = journal_append(j, VP_SUBLEVEL_ABORT, (uint16_t)id, 0, NULL, 0)) ||
+            (rc = edit_apply(sc, &e, &res, &se))) {
+            snprintf(err, errlen, "cannot drop sub-level %s, left loading: %s", sc->sl[id].name,
+                     rc < 0 ? strerror(-rc) : se.msg);
+            goto fail;
+        }
+        edit_result_free(&res);
+        rep->loads_dropped++;
+    }
+    /* leftovers of a snapshot that did not finish */
+    for (uint64_t g = gen; g <= j->gen + 1; g++) {
+        char *p = path_of(j, "snapshot.tmp", g);
+        if (p) unlink(p);
+        free(p);
+    }
+    if (policy == JOURNAL_EVERYSEC) {
+        /* signals are the loop's (it reads SIGTERM from a signalfd): the
+           thread, started before the loop blocks them, starts with all
+           blocked */
+        sigset_t all, old;
+        sigfillset(&all);
+        pthread_sigmask(SIG_BLOCK, &all, &old);
+        int trc = pthread_create(&j->syncer, NULL, syncer_main, j);
+        pthread_sigmask(SIG_SETMASK, &old, NULL);
+        if (trc) {
+            snprintf(err, errlen, "cannot start the journal's sync thread");
+            goto fail;
+        }
+        j->syncer_on = true;
+    }
+    free(lock);
+    free(snaps.v);
+    free(jrns.v);
+    rep->ms = mono_ms() - t0;
+    *out = j;
+    return 0;
+fail:
+    free(lock);
+    free(snaps.v);
+    free(jrns.v);
+    journal_close(j);
+    return -1;
+}
+
+void journal_close(journal *j)
+{
+    if (!j) return;
+    if (j->syncer_on) {
+        pthread_mutex_lock(&j->mu);
+        j->stop = true;
+        pthread_cond_signal(&j->cv);
+        pthread_mutex_unlock(&j->mu);
+        pthread_join(j->syncer, NULL);
+    }
+    if (j->child) {
+        /* a snapshot in flight is let finish: the next start is shorter */
+        int status = 0;
+        pid_t r;
+        while ((r = waitpid(j->child, &status, 0)) < 0 && errno == EINTR) {}
+        child_done(j, r, status);
+    }
+    if (j->fd >= 0) {
+        if (j->policy != JOURNAL_OFF && fdatasync(j->fd)) LOGW("journal: final sync failed: %s", strerror(errno));
+        close(j->fd);
+    }
+    if (j->lock_fd >= 0) close(j->lock_fd);
+    pthread_mutex_destroy(&j->mu);
+    pthread_cond_destroy(&j->cv);
+    free(j->dir);
+    free(j);
+}

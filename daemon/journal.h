@@ -1,0 +1,80 @@
+/*
+ * journal.h — vantaged's persistence (--data-dir): an append-only journal
+ * of the edits the daemon applied, in the manner of Redis's AOF, plus
+ * snapshots that let it start over short (journal.c, snapshot.c).
+ *
+ * Every edit is written (write(2), whole or not at all) before it is
+ * applied; if the write fails the edit is refused and the scene is
+ * untouched, and an edit the scene rejects is cut back off the file. When
+ * the record reaches the disk depends on the policy:
+ *   always    the loop syncs (fdatasync) once per turn, before any reply of
+ *             that turn leaves: group commit, an ACK means on disk;
+ *   everysec  a thread syncs once a second: a crash of the machine loses
+ *             at most about a second of edits, a crash of the daemon none;
+ *   off       the kernel writes back when it likes (a daemon crash loses
+ *             nothing, a machine crash what the page cache held).
+ *
+ * Files in the directory: journal.<gen> (records since snapshot.<gen>),
+ * snapshot.<gen> (the scene as of the start of journal.<gen>), LOCK. On
+ * open the newest complete snapshot is loaded and every journal from its
+ * generation on is replayed through edit_apply; a record that is torn or
+ * fails its CRC at the end of the last journal is cut off (the bytes are
+ * kept in journal.<gen>.cut-<offset>) and reported; damage anywhere else
+ * stops the daemon with the file and offset named.
+ */
+#ifndef VANTAGE_JOURNAL_H
+#define VANTAGE_JOURNAL_H
+
+#include "edit.h"
+#include "scene.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+
+enum { JOURNAL_OFF, JOURNAL_EVERYSEC, JOURNAL_ALWAYS };
+
+typedef struct journal journal;
+
+typedef struct journal_report {
+    uint64_t ms;            /* recovery, wall time */
+    uint64_t snapshot_gen;  /* 0: none loaded */
+    uint64_t snapshot_bytes;
+    uint64_t records;       /* journal records replayed */
+    uint64_t bytes;         /* journal bytes replayed */
+    uint64_t cut_bytes;     /* cut off a damaged tail (0: none) */
+    char cut[700];          /* what was cut, where, why, and where it is kept */
+    uint32_t loads_dropped; /* sub-level loads left open by the crash, dropped */
+    bool fresh;             /* the directory held no scene */
+} journal_report;
+
+/* Opens (creating) dir with the policy, takes its lock, and restores sc
+ * (empty on entry) from it. 0, or -1 with err naming the file and why. */
+int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_report *rep, char *err,
+                 size_t errlen);
+void journal_close(journal *j);
+
+/* Appends an edit; 0, or -errno (nothing of it is left in the file). */
+int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux, const uint8_t *p, uint32_t len);
+/* Takes the last append back (the scene rejected the edit). */
+void journal_cancel(journal *j);
+/* Records written since the last sync (the always policy syncs them). */
+bool journal_dirty(const journal *j);
+/* Syncs now: 0, or -errno (the journal is then read-only). */
+int journal_sync(journal *j);
+/* Non-NULL while the journal takes no more edits: why. */
+const char *journal_broken(const journal *j);
+/* Marks it read-only (a change could not be journaled and was applied). */
+void journal_break(journal *j, const char *why);
+int journal_policy(const journal *j);
+/* Compaction: true when the journal has grown past its limit and no
+ * snapshot is being written (the loop then calls journal_snapshot). */
+bool journal_wants_snapshot(const journal *j);
+/* Starts a snapshot of sc (a forked child writes it; the journal moves on
+ * to a new generation now). 0, or -errno. */
+int journal_snapshot(journal *j, const scene *sc);
+/* The loop polls the child: finishes a snapshot that completed. */
+void journal_poll(journal *j);
+/* Snapshot threshold in bytes of journal (tests lower it). */
+void journal_set_limit(journal *j, uint64_t bytes);
+
+#endif

@@ -1,0 +1,568 @@
+/*
+ * snapshot.c — the scene written whole and read back exactly (snapshot.h).
+ *
+ * The body, in order (integers and floats little-endian, as the host):
+ *   u64 epoch, edits, debris_next; u32 sub-levels
+ *   per sub-level 1..n: u8 name length, name, u8 state, u32 owner,
+ *     u16 class base, u16 classes, u32 members capacity, u32 members, u64
+ *     ids; u32 doomed, u32 doomed done, u64 ids
+ *   u64 hidden[CULL_SUBLEVEL_WORDS], u32 hidden count, u32 unloading
+ *   u16 class owner[65536]
+ *   u32 meshes; per: u16 class, u32 vertices, u32 indices, f32 pos, u8 has
+ *     normals, f32 normals, u32 indices
+ *   u32 slots, u16 generation each, u32 free, u32 free list
+ *   u32 entities; per chunk of up to 4096: an ENTITY_ADD payload, u32 handles
+ *   u32 destruction volumes; per: u64 entity id, f64 origin[3], step[3],
+ *     u32 n[3], u64 version, u32 spheres, f64 x4 each, f32 d, px, py, pz
+ *   u32 occluders; per: u64 id, u16 sub-level, f64 origin[3], u32
+ *     triangles, f32 x9 each
+ *   u32 lights; per: u16 sub-level, an 80-byte LIGHT_PUT record
+ * The child of a fork writes it (journal.c), so everything here reads the
+ * scene without locks and allocates only its own buffer.
+ */
+#include "snapshot.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <zlib.h>
+
+_Static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "snapshots are written in the host's order: little-endian");
+
+#define HDR 40u
+#define CHUNK 4096u
+static const char MAGIC[8] = {'V', 'N', 'T', 'S', 'N', 'A', 'P', '1'};
+
+/* ---- writing: a buffered stream with a running CRC ---------------------------------------- */
+
+typedef struct out {
+    int fd;
+    uint8_t *buf;
+    size_t len, cap;
+    uint64_t total;
+    uLong crc;
+    int err;
+} out;
+
+static void flush(out *o)
+{
+    size_t done = 0;
+    while (!o->err && done < o->len) {
+        ssize_t w = write(o->fd, o->buf + done, o->len - done);
+        if (w > 0) done += (size_t)w;
+        else if (w < 0 && errno == EINTR) continue;
+        else o->err = w < 0 ? errno : ENOSPC;
+    }
+    o->len = 0;
+}
+
+static void put(out *o, const void *p, size_t n)
+{
+    const uint8_t *b = p;
+    o->crc = crc32(o->crc, b, (uInt)n); /* n < 4 GiB: every piece is */
+    o->total += n;
+    while (n) {
+        if (o->len == o->cap) flush(o);
+        size_t k = n < o->cap - o->len ? n : o->cap - o->len;
+        memcpy(o->buf + o->len, b, k);
+        o->len += k;
+        b += k;
+        n -= k;
+    }
+}
+
+#define PUT(o, v) put((o), &(v), sizeof(v))
+static void put8(out *o, uint8_t v) { PUT(o, v); }
+static void put16(out *o, uint16_t v) { PUT(o, v); }
+static void put32(out *o, uint32_t v) { PUT(o, v); }
+static void put64(out *o, uint64_t v) { PUT(o, v); }
+
+static void write_sublevels(out *o, const scene *s)
+{
+    put32(o, s->nsublevels);
+    for (uint32_t id = 1; id <= s->nsublevels; id++) {
+        const scene_sublevel *l = &s->sl[id];
+        size_t nl = strlen(l->name);
+        put8(o, (uint8_t)nl);
+        put(o, l->name, nl);
+        put8(o, l->state);
+        put32(o, l->owner);
+        put16(o, l->class_base);
+        put16(o, l->classes);
+        put32(o, l->members_cap);
+        put32(o, l->nmembers);
+        put(o, l->members, (size_t)l->nmembers * 8);
+        put32(o, l->ndoomed);
+        put32(o, l->doomed_pos);
+        put(o, l->doomed, (size_t)l->ndoomed * 8);
+    }
+    put(o, s->hidden, sizeof s->hidden);
+    put32(o, s->nhidden);
+    put32(o, s->unloading);
+    put(o, s->class_owner, 65536 * sizeof *s->class_owner);
+}
+
+static void write_meshes(out *o, const scene *s)
+{
+    uint32_t n = 0;
+    for (uint32_t c = 0; c < 65536; c++) n += s->meshes[c].pos != NULL;
+    put32(o, n);
+    for (uint32_t c = 0; c < 65536; c++) {
+        const scene_mesh *m = &s->meshes[c];
+        if (!m->pos) continue;
+        put16(o, (uint16_t)c);
+        put32(o, m->nv);
+        put32(o, m->ni);
+        put(o, m->pos, (size_t)m->nv * 12);
+        put8(o, m->nrm != NULL);
+        if (m->nrm) put(o, m->nrm, (size_t)m->nv * 12);
+        put(o, m->idx, (size_t)m->ni * 4);
+    }
+}
+
+static int write_entities(out *o, const scene *s)
+{
+    uint32_t nslots = cull_world_slots(s->world);
+    uint16_t *gens = malloc(((size_t)nslots + 1) * sizeof *gens);
+    uint32_t *fl = malloc(((size_t)nslots + 1) * sizeof *fl);
+    vp_entity *recs = malloc(CHUNK * sizeof *recs);
+    uint32_t *hs = malloc(CHUNK * sizeof *hs);
+    size_t bufsz = VP_HEADER_SIZE + 4 + (size_t)CHUNK * VP_ENTITY_REC_SIZE;
+    uint8_t *buf = malloc(bufsz);
+    if (!gens || !fl || !recs || !hs || !buf) {
+        free(gens);
+        free(fl);
+        free(recs);
+        free(hs);
+        free(buf);
+        return -ENOMEM;
+    }
+    uint32_t live = 0;
+    for (uint32_t i = 0; i < nslots; i++) {
+        bool on;
+        gens[i] = (uint16_t)cull_world_slot_gen(s->world, i, &on);
+        live += on;
+    }
+    uint32_t nfree = cull_world_free_list(s->world, fl, nslots);
+    put32(o, nslots);
+    put(o, gens, (size_t)nslots * 2);
+    put32(o, nfree);
+    put(o, fl, (size_t)nfree * 4);
+    put32(o, live);
+    uint32_t k = 0;
+    for (uint32_t i = 0; i <= nslots; i++) {
+        bool on = false;
+        uint32_t g = i < nslots ? cull_world_slot_gen(s->world, i, &on) : 0;
+        if (on) {
+            cull_handle h = (g << CULL_HANDLE_SLOT_BITS) | i;
+            scene_entity_record(s, h, &recs[k]);
+            hs[k++] = h;
+        }
+        if (k == CHUNK || (i == nslots && k)) {
+            vp_writer w;
+            vp_writer_init(&w, buf, bufsz);
+            vp_enc_entities(&w, VP_ENTITY_ADD, 0, recs, k);
+            put32(o, (uint32_t)(w.len - VP_HEADER_SIZE));
+            put(o, buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+            put(o, hs, (size_t)k * 4);
+            k = 0;
+        }
+    }
+    free(gens);
+    free(fl);
+    free(recs);
+    free(hs);
+    free(buf);
+    return 0;
+}
+
+static void write_items(out *o, const scene *s)
+{
+    put32(o, (uint32_t)s->destruct.count);
+    for (size_t i = 0; i < s->destruct.cap; i++) {
+        if (!s->destruct.used[i]) continue;
+        const cull_dvol *v = &((const scene_destruct *)(uintptr_t)s->destruct.vals[i])->v;
+        size_t total = (size_t)v->n[0] * v->n[1] * v->n[2];
+        put64(o, s->destruct.keys[i]);
+        put(o, v->origin, sizeof v->origin);
+        put(o, v->step, sizeof v->step);
+        put(o, v->n, sizeof v->n);
+        put64(o, v->version);
+        put32(o, v->nsph);
+        put(o, v->sph, (size_t)v->nsph * sizeof *v->sph);
+        put(o, v->d, total * 4);
+        put(o, v->px, total * 4);
+        put(o, v->py, total * 4);
+        put(o, v->pz, total * 4);
+    }
+    put32(o, (uint32_t)s->occluders.count);
+    for (size_t i = 0; i < s->occluders.cap; i++) {
+        if (!s->occluders.used[i]) continue;
+        const scene_occluder *oc = (const scene_occluder *)(uintptr_t)s->occluders.vals[i];
+        put64(o, oc->id);
+        put16(o, oc->sublevel);
+        put(o, oc->origin, sizeof oc->origin);
+        put32(o, oc->ntris);
+        put(o, oc->verts, (size_t)oc->ntris * 36);
+    }
+    put32(o, (uint32_t)s->lights.count);
+    for (size_t i = 0; i < s->lights.cap; i++) {
+        if (!s->lights.used[i]) continue;
+        const scene_light *l = (const scene_light *)(uintptr_t)s->lights.vals[i];
+        uint8_t buf[VP_HEADER_SIZE + 4 + VP_LIGHT_SIZE];
+        vp_writer w;
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_enc_lights(&w, 0, &l->l, 1);
+        put16(o, l->sublevel);
+        put(o, buf + VP_HEADER_SIZE + 4, VP_LIGHT_SIZE);
+    }
+}
+
+int snapshot_write(int fd, const scene *s, uint64_t gen, uint64_t seq)
+{
+    out o = {.fd = fd, .cap = 1u << 20, .crc = crc32(0L, Z_NULL, 0)};
+    if (!(o.buf = malloc(o.cap))) return -ENOMEM;
+    if (lseek(fd, HDR, SEEK_SET) != (off_t)HDR) {
+        free(o.buf);
+        return -errno;
+    }
+    put64(&o, s->epoch);
+    put64(&o, s->edits);
+    put64(&o, s->debris_next);
+    write_sublevels(&o, s);
+    write_meshes(&o, s);
+    int rc = write_entities(&o, s);
+    write_items(&o, s);
+    flush(&o);
+    free(o.buf);
+    if (rc) return rc;
+    if (o.err) return -o.err;
+    uint8_t h[HDR];
+    uint32_t body_crc = (uint32_t)o.crc;
+    memcpy(h, MAGIC, 8);
+    memcpy(h + 8, &gen, 8);
+    memcpy(h + 16, &seq, 8);
+    memcpy(h + 24, &o.total, 8);
+    memcpy(h + 32, &body_crc, 4);
+    uint32_t hc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), h, 36);
+    memcpy(h + 36, &hc, 4);
+    if (pwrite(fd, h, HDR, 0) != (ssize_t)HDR) return errno ? -errno : -EIO;
+    return 0;
+}
+
+/* ---- reading: a bounds-checked cursor ------------------------------------------------------- */
+
+typedef struct in {
+    const uint8_t *p;
+    size_t n, at;
+    bool bad;
+} in;
+
+static const void *take(in *r, size_t n)
+{
+    if (r->bad || n > r->n - r->at) {
+        r->bad = true;
+        return NULL;
+    }
+    const void *p = r->p + r->at;
+    r->at += n;
+    return p;
+}
+
+static void get(in *r, void *dst, size_t n)
+{
+    const void *p = take(r, n);
+    if (p) memcpy(dst, p, n);
+    else memset(dst, 0, n);
+}
+
+static uint8_t get8(in *r) { uint8_t v; get(r, &v, 1); return v; }
+static uint16_t get16(in *r) { uint16_t v; get(r, &v, 2); return v; }
+static uint32_t get32(in *r) { uint32_t v; get(r, &v, 4); return v; }
+static uint64_t get64(in *r) { uint64_t v; get(r, &v, 8); return v; }
+
+/* A fresh array of n elements of size sz copied from the stream (NULL when
+ * n is 0 or the stream is short / memory out: *bad set for the latter). */
+static void *take_array(in *r, size_t n, size_t sz, bool *nomem)
+{
+    if (!n) return NULL;
+    if (n > (r->n - r->at) / sz) {
+        r->bad = true;
+        return NULL;
+    }
+    void *m = malloc(n * sz);
+    if (!m) {
+        *nomem = true;
+        return NULL;
+    }
+    get(r, m, n * sz);
+    return m;
+}
+
+static int fail(char *err, size_t errlen, const char *what)
+{
+    snprintf(err, errlen, "%s", what);
+    return -1;
+}
+
+typedef struct sl_saved {
+    uint8_t state;
+    uint32_t owner, members_cap, nmembers, ndoomed, doomed_pos;
+    uint16_t class_base, classes;
+    uint64_t *members, *doomed;
+} sl_saved;
+
+static int load_body(in *r, scene *s, char *err, size_t errlen)
+{
+    bool nomem = false;
+    uint64_t epoch = get64(r), edits = get64(r), debris = get64(r);
+    uint32_t nsl = get32(r);
+    if (nsl > SCENE_MAX_SUBLEVELS) return fail(err, errlen, "more sub-levels than a scene holds");
+    sl_saved *sv = calloc((size_t)nsl + 1, sizeof *sv);
+    if (!sv) return fail(err, errlen, "out of memory");
+    int ret = -1;
+    const char *why = "truncated or corrupt";
+    for (uint32_t id = 1; id <= nsl && !r->bad; id++) {
+        uint8_t nl = get8(r);
+        const char *name = take(r, nl);
+        if (!name) break;
+        s->sl[id].name = strndup(name, nl);
+        s->nsublevels = id;
+        sl_saved *v = &sv[id];
+        v->state = get8(r);
+        v->owner = get32(r);
+        v->class_base = get16(r);
+        v->classes = get16(r);
+        v->members_cap = get32(r);
+        v->nmembers = get32(r);
+        v->members = take_array(r, v->nmembers, 8, &nomem);
+        v->ndoomed = get32(r);
+        v->doomed_pos = get32(r);
+        v->doomed = take_array(r, v->ndoomed, 8, &nomem);
+        if (!s->sl[id].name || nomem) goto out_nomem;
+        if (v->nmembers > v->members_cap || v->doomed_pos > v->ndoomed ||
+            (v->state && v->state != VP_SL_LOADING && v->state != VP_SL_UNLOADING)) {
+            why = "a sub-level record is inconsistent";
+            r->bad = true;
+        }
+    }
+    uint64_t hidden[CULL_SUBLEVEL_WORDS];
+    get(r, hidden, sizeof hidden);
+    uint32_t nhidden = get32(r), unloading = get32(r);
+    get(r, s->class_owner, 65536 * sizeof *s->class_owner);
+    if (r->bad) goto out;
+    /* meshes */
+    uint32_t nm = get32(r);
+    for (uint32_t i = 0; i < nm && !r->bad; i++) {
+        uint16_t c = get16(r);
+        scene_mesh *m = &s->meshes[c];
+        if (m->pos) {
+            why = "a mesh class twice";
+            r->bad = true;
+            break;
+        }
+        m->nv = get32(r);
+        m->ni = get32(r);
+        m->pos = take_array(r, m->nv, 12, &nomem);
+        if (get8(r)) m->nrm = take_array(r, m->nv, 12, &nomem);
+        m->idx = take_array(r, m->ni, 4, &nomem);
+        if (nomem) goto out_nomem;
+        if (!m->pos || !m->idx) r->bad = true;
+        else s->nmeshes++;
+    }
+    if (r->bad) goto out;
+    /* the handle allocator, then the entities at their handles */
+    uint32_t nslots = get32(r);
+    if (nslots > CULL_MAX_ENTITIES) {
+        r->bad = true;
+        goto out;
+    }
+    uint16_t *gens = take_array(r, nslots, 2, &nomem);
+    uint32_t nfree = get32(r);
+    uint32_t *fl = take_array(r, nfree, 4, &nomem);
+    int crc = r->bad || nomem ? CULL_ERR_INVALID : cull_world_slots_restore(s->world, nslots, gens, fl, nfree);
+    free(gens);
+    free(fl);
+    if (nomem) goto out_nomem;
+    if (crc) {
+        why = crc == CULL_ERR_NOMEM ? "out of memory" : "the handle table is inconsistent";
+        r->bad = true;
+        goto out;
+    }
+    uint32_t live = get32(r);
+    for (uint32_t done = 0; done < live && !r->bad;) {
+        uint32_t len = get32(r);
+        const uint8_t *payload = take(r, len);
+        vp_entity_batch b;
+        if (!payload || vp_dec_entities(payload, len, 0, &b) || b.count > live - done) {
+            r->bad = true;
+            break;
+        }
+        const uint8_t *hs = take(r, (size_t)b.count * 4);
+        uint32_t *h = hs ? malloc((size_t)b.count * 4) : NULL;
+        if (!hs) break;
+        if (!h) goto out_nomem;
+        memcpy(h, hs, (size_t)b.count * 4);
+        scene_err se;
+        int rc = scene_add_at(s, &b, h, &se);
+        free(h);
+        if (rc) {
+            snprintf(err, errlen, "an entity cannot be restored: %s", se.msg);
+            goto out_free;
+        }
+        done += b.count;
+    }
+    if (r->bad) goto out;
+    /* destruction volumes before the occluders (they are drawn cut) */
+    uint32_t nd = get32(r);
+    for (uint32_t i = 0; i < nd && !r->bad; i++) {
+        uint64_t eid = get64(r);
+        scene_destruct *d = calloc(1, sizeof *d);
+        if (!d || !idmap_reserve(&s->destruct, s->destruct.count + 1)) {
+            free(d);
+            goto out_nomem;
+        }
+        cull_dvol *v = &d->v;
+        get(r, v->origin, sizeof v->origin);
+        get(r, v->step, sizeof v->step);
+        get(r, v->n, sizeof v->n);
+        v->version = get64(r);
+        v->nsph = get32(r);
+        size_t total = (size_t)v->n[0] * v->n[1] * v->n[2];
+        if (v->n[0] < 2 || v->n[1] < 2 || v->n[2] < 2 || v->n[0] > CULL_DVOL_MAX_RES || v->n[1] > CULL_DVOL_MAX_RES ||
+            v->n[2] > CULL_DVOL_MAX_RES) {
+            free(d);
+            r->bad = true;
+            break;
+        }
+        v->sph = take_array(r, v->nsph, sizeof *v->sph, &nomem);
+        v->cap = v->nsph;
+        v->d = take_array(r, total, 4, &nomem);
+        v->px = take_array(r, total, 4, &nomem);
+        v->py = take_array(r, total, 4, &nomem);
+        v->pz = take_array(r, total, 4, &nomem);
+        idmap_put(&s->destruct, eid, (uint64_t)(uintptr_t)d); /* freed with the scene from here on */
+        if (nomem) goto out_nomem;
+    }
+    if (r->bad) goto out;
+    uint32_t no = get32(r);
+    for (uint32_t i = 0; i < no && !r->bad; i++) {
+        scene_occluder *oc = calloc(1, sizeof *oc);
+        if (!oc || !idmap_reserve(&s->occluders, s->occluders.count + 1)) {
+            free(oc);
+            goto out_nomem;
+        }
+        oc->id = get64(r);
+        oc->sublevel = get16(r);
+        get(r, oc->origin, sizeof oc->origin);
+        oc->ntris = get32(r);
+        oc->verts = take_array(r, (size_t)oc->ntris * 9, 4, &nomem);
+        if (r->bad || nomem || oc->sublevel > s->nsublevels || idmap_get(&s->occluders, oc->id, NULL)) {
+            free(oc->verts);
+            free(oc);
+            if (nomem) goto out_nomem;
+            r->bad = true;
+            break;
+        }
+        idmap_put(&s->occluders, oc->id, (uint64_t)(uintptr_t)oc);
+        s->sl[oc->sublevel].occluders++;
+        if ((crc = scene_occluder_draw(s, oc, NULL)) != CULL_OK) {
+            snprintf(err, errlen, "occluder %llu cannot be drawn: %s", (unsigned long long)oc->id,
+                     cull_strerror(crc));
+            goto out_free;
+        }
+    }
+    uint32_t nli = get32(r);
+    for (uint32_t i = 0; i < nli && !r->bad; i++) {
+        uint16_t sub = get16(r);
+        const uint8_t *rec = take(r, VP_LIGHT_SIZE);
+        scene_light *l = malloc(sizeof *l);
+        if (!l || !idmap_reserve(&s->lights, s->lights.count + 1)) {
+            free(l);
+            goto out_nomem;
+        }
+        if (!rec || sub > s->nsublevels || vp_light_get(rec, 1, 0, &l->l) || idmap_get(&s->lights, l->l.id, NULL)) {
+            free(l);
+            r->bad = true;
+            break;
+        }
+        l->sublevel = sub;
+        idmap_put(&s->lights, l->l.id, (uint64_t)(uintptr_t)l);
+        s->sl[sub].lights++;
+    }
+    if (r->bad) goto out;
+    if (r->at != r->n) {
+        why = "bytes after its end";
+        goto out;
+    }
+    /* the sub-levels' own state, now that their content is back */
+    for (uint32_t id = 1; id <= nsl; id++) {
+        scene_sublevel *l = &s->sl[id];
+        sl_saved *v = &sv[id];
+        uint64_t *m = v->members_cap ? realloc(v->members, (size_t)v->members_cap * 8) : NULL;
+        if (v->members_cap && !m) goto out_nomem;
+        free(l->members);
+        l->members = m;
+        v->members = NULL;
+        l->members_cap = v->members_cap;
+        l->nmembers = v->nmembers;
+        l->doomed = v->doomed;
+        v->doomed = NULL;
+        l->ndoomed = v->ndoomed;
+        l->doomed_pos = v->doomed_pos;
+        l->state = v->state;
+        l->owner = v->owner;
+        l->class_base = v->class_base;
+        l->classes = v->classes;
+    }
+    memcpy(s->hidden, hidden, sizeof hidden);
+    s->nhidden = nhidden;
+    s->unloading = unloading;
+    s->epoch = epoch;
+    s->edits = edits;
+    s->debris_next = debris;
+    s->ev_added = s->ev_updated = s->ev_removed = 0;
+    cull_world_commit(s->world);
+    ret = 0;
+    goto out_free;
+out_nomem:
+    why = "out of memory";
+    r->bad = true;
+out:
+    snprintf(err, errlen, "%s (at byte %zu of its body)", why, r->at);
+out_free:
+    for (uint32_t id = 0; id <= nsl; id++) {
+        free(sv[id].members);
+        free(sv[id].doomed);
+    }
+    free(sv);
+    return ret;
+}
+
+int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *seq, char *err, size_t errlen)
+{
+    if (n < HDR) return fail(err, errlen, "shorter than its header");
+    if (memcmp(p, MAGIC, 8)) return fail(err, errlen, "not a Vantage snapshot (bad magic)");
+    uint32_t hc;
+    memcpy(&hc, p + 36, 4);
+    if (hc != (uint32_t)crc32(crc32(0L, Z_NULL, 0), p, 36)) return fail(err, errlen, "header CRC mismatch");
+    uint64_t g, body;
+    uint32_t bc;
+    memcpy(&g, p + 8, 8);
+    memcpy(seq, p + 16, 8);
+    memcpy(&body, p + 24, 8);
+    memcpy(&bc, p + 32, 4);
+    if (g != gen) return fail(err, errlen, "its header names another generation");
+    if (body != n - HDR) return fail(err, errlen, "truncated (its length disagrees with its header)");
+    uLong c = crc32(0L, Z_NULL, 0);
+    for (size_t off = 0; off < body;) {
+        uInt k = body - off > (1u << 30) ? (1u << 30) : (uInt)(body - off);
+        c = crc32(c, p + HDR + off, k);
+        off += k;
+    }
+    if ((uint32_t)c != bc) return fail(err, errlen, "body CRC mismatch: the file is damaged");
+    in r = {.p = p + HDR, .n = (size_t)body};
+    return load_body(&r, s, err, errlen);
+}

@@ -1,0 +1,592 @@
+/*
+ * test_persist.c — vantaged --data-dir end to end: the scene restored
+ * exactly after kill -9 (compared with a daemon that never crashed and got
+ * the same edits), acknowledged edits surviving 20 kill -9 cycles under a
+ * stream of pipelined edits (policy always), a damaged journal tail cut and
+ * reported, and a write error (RLIMIT_FSIZE: the kernel refuses the write)
+ * refusing edits while queries go on.
+ */
+#include "test_daemon.h"
+#include "test_util.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+/* ---- helpers ----------------------------------------------------------------------- */
+
+static void start_dd(daemon_proc *d, const char *dir, const char *policy, const char *compact_mb)
+{
+    const char *extra[] = {"--data-dir", dir, "--durability", policy, "--compact-mb", compact_mb, NULL};
+    daemon_start_args(d, extra);
+}
+
+static void kill9(daemon_proc *d)
+{
+    kill(d->pid, SIGKILL);
+    int st;
+    waitpid(d->pid, &st, 0);
+    assert_true(WIFSIGNALED(st));
+    unlink(d->sock);
+}
+
+static vp_entity ent(uint64_t id, double x, double z, double r, uint16_t sub, uint16_t cls)
+{
+    return (vp_entity){.id = id, .class_id = cls, .sublevel = sub, .sphere = {x, r, z, r}};
+}
+
+/* What a client can see of a scene. */
+typedef struct dump {
+    vp_entity *e;
+    uint32_t n;
+    uint64_t epoch;
+    char sl[4096];      /* sub-level infos, as text */
+    uint64_t vis[3][4]; /* per view: records, sum of ids, xor of handles, sum of masks */
+} dump;
+
+static int cmp_ent(const void *a, const void *b)
+{
+    const vp_entity *x = a, *y = b;
+    return (x->id > y->id) - (x->id < y->id);
+}
+
+static void take_dump(vt_client *c, dump *out)
+{
+    memset(out, 0, sizeof *out);
+    uint32_t cap = 1024;
+    out->e = malloc(cap * sizeof *out->e);
+    uint64_t cur = 0;
+    do {
+        vp_list_reply lr;
+        assert_int_equal(vt_list(c, cur, 4096, &lr), VP_OK);
+        for (uint32_t i = 0; i < lr.batch.count; i++) {
+            if (out->n == cap) out->e = realloc(out->e, (cap *= 2) * sizeof *out->e);
+            vp_entity_get(&lr.batch, i, &out->e[out->n++]);
+        }
+        cur = lr.next_cursor;
+    } while (cur);
+    qsort(out->e, out->n, sizeof *out->e, cmp_ent);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(c, &st), VP_OK);
+    out->epoch = st.epoch;
+    vp_sublevel_infos li;
+    assert_int_equal(vt_sublevel_info(c, &li), VP_OK);
+    size_t pos = 0, k = 0;
+    vp_sublevel_info in;
+    while (vp_sublevel_info_next(&li, &pos, &in) && k < sizeof out->sl - 128)
+        k += (size_t)snprintf(out->sl + k, sizeof out->sl - k, "%u %.*s st%u e%u o%u l%u c%u+%u; ", in.id,
+                              (int)in.name_len, (const char *)in.name, in.state, in.entities, in.occluders,
+                              in.lights, in.class_base, in.classes);
+    const double eyes[3][3] = {{0, 5, -120}, {80, 40, 80}, {-30, 2, 10}};
+    for (int v = 0; v < 3; v++) {
+        vp_view view;
+        assert_true(vt_view_perspective(&view, eyes[v], (double[]){0, 0, 0}, NULL, 70, 256, 114, 0.1, 1000));
+        vp_vis_result res;
+        assert_int_equal(vt_query(c, &view, 1, 0, 0, &res), VP_OK);
+        out->vis[v][0] = res.count;
+        for (uint32_t i = 0; i < res.count; i++) {
+            vp_vis_rec x;
+            vp_vis_rec_get(&res, i, &x);
+            out->vis[v][1] += x.id;
+            out->vis[v][2] ^= x.handle;
+            out->vis[v][3] += x.view_mask;
+        }
+    }
+}
+
+static bool ent_eq(const vp_entity *a, const vp_entity *b)
+{
+    return a->id == b->id && a->handle == b->handle && a->class_id == b->class_id && a->sublevel == b->sublevel &&
+           a->flags == b->flags && !memcmp(a->sphere, b->sphere, sizeof a->sphere) &&
+           !memcmp(a->aabb, b->aabb, sizeof a->aabb);
+}
+
+/* A record as sent (no AABB: the daemon derives it) against as stored. */
+static bool sent_eq(const vp_entity *stored, const vp_entity *sent)
+{
+    return stored->id == sent->id && stored->class_id == sent->class_id && stored->sublevel == sent->sublevel &&
+           stored->flags == sent->flags && !memcmp(stored->sphere, sent->sphere, sizeof sent->sphere);
+}
+
+static void assert_same(const dump *a, const dump *b)
+{
+    assert_int_equal(a->n, b->n);
+    for (uint32_t i = 0; i < a->n; i++)
+        if (!ent_eq(&a->e[i], &b->e[i]))
+            fail_msg("entity %u differs: id %llu handle %u vs id %llu handle %u", i, (unsigned long long)a->e[i].id,
+                     a->e[i].handle, (unsigned long long)b->e[i].id, b->e[i].handle);
+    assert_int_equal(a->epoch, b->epoch);
+    assert_string_equal(a->sl, b->sl);
+    assert_memory_equal(a->vis, b->vis, sizeof a->vis);
+}
+
+/* Removes a data directory (its files, then it). */
+static void rm_data(const char *dir)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    char p[600];
+    while (d && (e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+        unlink(p);
+    }
+    if (d) closedir(d);
+    rmdir(dir);
+}
+
+static bool has_file(const char *dir, const char *prefix)
+{
+    DIR *d = opendir(dir);
+    bool found = false;
+    struct dirent *e;
+    while (d && (e = readdir(d)))
+        if (!strncmp(e->d_name, prefix, strlen(prefix))) found = true;
+    if (d) closedir(d);
+    return found;
+}
+
+/* ---- the same edits to two daemons ------------------------------------------------------ */
+
+static void add_many(vt_client *c, uint64_t first, uint32_t n, uint16_t sub, uint32_t *handles)
+{
+    vp_entity *e = malloc(n * sizeof *e);
+    for (uint32_t i = 0; i < n; i++)
+        e[i] = ent(first + i, (double)(i % 200) * 3 - 300, (double)(i / 200) * 3 - 150, 0.5 + (i % 7) * 0.1, sub,
+                   (uint16_t)(1 + i % 3));
+    assert_int_equal(vt_add(c, e, n, handles, NULL), VP_OK);
+    free(e);
+}
+
+/* Part one of the script: entities (some removed, so the free list has
+ * holes), meshes, occluders, lights, a committed sub-level, a destruction. */
+static void script_a(vt_client *c, uint32_t *handles)
+{
+    add_many(c, 1, 12000, 0, handles);
+    uint64_t gone[500];
+    for (int i = 0; i < 500; i++) gone[i] = 1 + (uint64_t)i * 23;
+    assert_int_equal(vt_remove(c, gone, 500, NULL), VP_OK);
+    vp_entity up[50];
+    for (int i = 0; i < 50; i++) up[i] = ent(2 + (uint64_t)i * 23, i, 40, 2.5, 0, 2);
+    assert_int_equal(vt_update(c, up, 50, NULL), VP_OK);
+    float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, nrm[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+    uint32_t idx[3] = {0, 1, 2};
+    assert_int_equal(vt_put_mesh(c, 1, pos, nrm, 3, idx, 3), VP_OK);
+    /* a wall, its occluder, and a destruction in it */
+    vp_entity wall = {.id = 900000, .aabb = {-20, 0, -1, 20, 10, 1}};
+    assert_int_equal(vt_add(c, &wall, 1, NULL, NULL), VP_OK);
+    float quad[18] = {0, 0, 0, 40, 0, 0, 40, 10, 0, 0, 0, 0, 40, 10, 0, 0, 10, 0};
+    assert_int_equal(vt_put_occluder(c, 900000, (double[]){-20, 0, 0}, quad, 2), VP_OK);
+    vp_light l[3];
+    for (int i = 0; i < 3; i++)
+        l[i] = (vp_light){.id = 70 + (uint64_t)i, .kind = VP_LIGHT_POINT, .pos = {i * 10.0, 5, 0}, .color = {1, 1, 1},
+                          .intensity = 100, .range = 20};
+    assert_int_equal(vt_put_lights(c, l, 3), VP_OK);
+    vp_sublevel_begun b;
+    assert_int_equal(vt_sublevel_begin(c, "town", 2, &b), VP_OK);
+    add_many(c, 500000, 3000, 0, NULL);
+    assert_int_equal(vt_put_mesh(c, b.class_base, pos, nrm, 3, idx, 3), VP_OK);
+    vp_ack ack;
+    assert_int_equal(vt_sublevel_commit(c, &ack), VP_OK);
+    vp_destroyed dd;
+    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 900000, .debris = 6, .center = {0, 5, 0}, .radius = 3}, &dd),
+                     VP_OK);
+}
+
+/* Part two, after a snapshot: more of everything, a second sub-level
+ * loaded, and one unload left running. */
+static void script_b(vt_client *c)
+{
+    add_many(c, 20000, 4000, 0, NULL);
+    uint64_t gone[300];
+    for (int i = 0; i < 300; i++) gone[i] = 20000 + (uint64_t)i * 7;
+    assert_int_equal(vt_remove(c, gone, 300, NULL), VP_OK);
+    vp_destroyed dd;
+    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 900000, .debris = 2, .center = {8, 3, 0}, .radius = 2}, &dd),
+                     VP_OK);
+    vp_sublevel_begun b;
+    assert_int_equal(vt_sublevel_begin(c, "harbour", 1, &b), VP_OK);
+    add_many(c, 600000, 5000, 0, NULL);
+    vp_ack ack;
+    assert_int_equal(vt_sublevel_commit(c, &ack), VP_OK);
+    assert_int_equal(vt_sublevel_unload(c, "town", &ack), VP_OK);
+}
+
+/* Waits until no sub-level is unloading. */
+static void settle(vt_client *c)
+{
+    for (int i = 0; i < 500; i++) {
+        vp_sublevel_infos li;
+        assert_int_equal(vt_sublevel_info(c, &li), VP_OK);
+        size_t pos = 0;
+        vp_sublevel_info in;
+        bool busy = false;
+        while (vp_sublevel_info_next(&li, &pos, &in)) busy |= in.state == VP_SL_UNLOADING;
+        if (!busy) return;
+        usleep(10000);
+    }
+    fail_msg("an unload did not finish");
+}
+
+static void test_persist_restore_exact(void **state)
+{
+    (void)state;
+    tdir td;
+    tdir_make(&td, "persist");
+    char dir[320];
+    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    daemon_proc a, ref;
+    start_dd(&a, dir, "always", "1"); /* a snapshot once the journal passes 1 MB */
+    daemon_start(&ref, NULL);
+    vt_client *ca = connect_role(&a, VP_ROLE_EDITOR, true), *cr = connect_role(&ref, VP_ROLE_EDITOR, true);
+    uint32_t *ha = malloc(12000 * sizeof *ha), *hr = malloc(12000 * sizeof *hr);
+    script_a(ca, ha);
+    script_a(cr, hr);
+    assert_memory_equal(ha, hr, 12000 * sizeof *ha);
+    /* the journal passed 1 MB: a snapshot is written by a child */
+    for (int i = 0; i < 300 && !has_file(dir, "snapshot.000002"); i++) usleep(10000);
+    assert_true(has_file(dir, "snapshot.000002"));
+    script_b(ca);
+    script_b(cr);
+    /* a load left open by a client that is then killed with the daemon */
+    vt_client *la = connect_role(&a, VP_ROLE_EDITOR, true), *lr = connect_role(&ref, VP_ROLE_EDITOR, true);
+    vp_sublevel_begun b;
+    assert_int_equal(vt_sublevel_begin(la, "limbo", 0, &b), VP_OK);
+    assert_int_equal(vt_sublevel_begin(lr, "limbo", 0, &b), VP_OK);
+    add_many(la, 800000, 100, 0, NULL);
+    add_many(lr, 800000, 100, 0, NULL);
+    kill9(&a);
+    vt_close(ca);
+    vt_close(la);
+    vt_close(lr); /* the reference drops its load as the restart does */
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    start_dd(&a, dir, "always", "1");
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    ca = connect_role(&a, VP_ROLE_EDITOR, true);
+    settle(ca);
+    settle(cr);
+    dump da, dr;
+    take_dump(ca, &da);
+    take_dump(cr, &dr);
+    printf("persist: %u entities restored exactly after kill -9 (snapshot + journal), daemon up in %.0f ms\n", da.n,
+           (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) / 1e6);
+    assert_same(&da, &dr);
+    /* the next handles handed out are the same too */
+    add_many(ca, 700000, 1000, 0, ha);
+    add_many(cr, 700000, 1000, 0, hr);
+    assert_memory_equal(ha, hr, 1000 * sizeof *ha);
+    free(da.e);
+    free(dr.e);
+    /* and a clean stop + start restores the same again */
+    take_dump(ca, &dr);
+    vt_close(ca);
+    daemon_stop(&a);
+    start_dd(&a, dir, "everysec", "1");
+    ca = connect_role(&a, VP_ROLE_EDITOR, true);
+    take_dump(ca, &da);
+    assert_same(&da, &dr);
+    free(da.e);
+    free(dr.e);
+    free(ha);
+    free(hr);
+    vt_close(ca);
+    vt_close(cr);
+    daemon_stop(&a);
+    daemon_stop(&ref);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
+/* ---- kill -9 under a stream of edits ------------------------------------------------------- */
+
+typedef struct sent_rec {
+    vp_entity e;
+    bool acked;
+} sent_rec;
+
+/* Pipelines single-record ENTITY_ADDs (window 128) for ms milliseconds or
+ * until the connection dies; returns the records sent (acked marked). */
+static uint32_t stream_adds(vt_client *c, uint64_t first, sent_rec *out, uint32_t max, int ms, double *rate)
+{
+    struct timespec t0, t;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    uint32_t sent = 0, acked = 0;
+    uint8_t buf[VP_HEADER_SIZE + 4 + VP_ENTITY_REC_SIZE];
+    bool dead = false;
+    for (;;) {
+        clock_gettime(CLOCK_MONOTONIC, &t);
+        double el = (t.tv_sec - t0.tv_sec) * 1e3 + (t.tv_nsec - t0.tv_nsec) / 1e6;
+        bool more = el < ms && sent < max && !dead;
+        if (!more && acked == sent) break;
+        while (more && sent - acked < 128 && sent < max) {
+            out[sent].e = ent(first + sent, (double)(sent % 300), (double)(sent / 300), 0.75, 0, 1);
+            out[sent].acked = false;
+            vp_writer w;
+            vp_writer_init(&w, buf, sizeof buf);
+            vp_enc_entities(&w, VP_ENTITY_ADD, sent + 1, &out[sent].e, 1);
+            if (vt_send(c, buf, w.len)) {
+                dead = true;
+                break;
+            }
+            sent++;
+        }
+        if (dead) break;
+        vp_header h;
+        const uint8_t *p;
+        int rc = vt_recv(c, &h, &p, 2000);
+        if (rc) break; /* the daemon is gone: what was not acked is unknown */
+        assert_int_equal(h.type, VP_ENTITY_ADD_REPLY);
+        assert_true(h.req >= 1 && h.req <= sent);
+        out[h.req - 1].acked = true;
+        acked++;
+        if (el > ms) {
+            /* past the time: keep reading acks until the kill */
+        }
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    double el = (t.tv_sec - t0.tv_sec) + (t.tv_nsec - t0.tv_nsec) / 1e9;
+    *rate = acked / el;
+    return sent;
+}
+
+typedef struct killer {
+    pid_t pid;
+    int after_ms;
+} killer;
+
+static void *killer_main(void *arg)
+{
+    killer *k = arg;
+    usleep((useconds_t)k->after_ms * 1000);
+    kill(k->pid, SIGKILL);
+    return NULL;
+}
+
+static void test_persist_kill9_keeps_acked(void **state)
+{
+    (void)state;
+    tdir td;
+    tdir_make(&td, "persist-kill");
+    char dir[320];
+    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    const uint32_t max = 200000;
+    sent_rec *recs = malloc(max * sizeof *recs);
+    uint64_t seed = 0x5eed2011;
+    uint32_t total_acked = 0, total_unacked_present = 0, total_unacked = 0;
+    double rates[20];
+    int cycles = 20;
+    vp_entity *kept = NULL; /* every acked record of the earlier cycles */
+    uint32_t nkept = 0;
+    for (int cyc = 0; cyc < cycles; cyc++) {
+        daemon_proc d;
+        start_dd(&d, dir, "always", "4");
+        vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+        /* what earlier cycles acknowledged is all there, exactly */
+        for (uint32_t i = 0; i < nkept; i += 4096) {
+            uint32_t n = nkept - i < 4096 ? nkept - i : 4096;
+            uint64_t *ids = malloc(n * sizeof *ids);
+            for (uint32_t k = 0; k < n; k++) ids[k] = kept[i + k].id;
+            vp_list_reply lr;
+            int rc = vt_get(c, ids, n, &lr);
+            if (rc) fail_msg("cycle %d: an acknowledged entity is missing (%s)", cyc, vp_strerror(rc));
+            for (uint32_t k = 0; k < n; k++) {
+                vp_entity e;
+                vp_entity_get(&lr.batch, k, &e);
+                if (!sent_eq(&e, &kept[i + k])) fail_msg("cycle %d: entity %llu differs", cyc, (unsigned long long)e.id);
+            }
+            free(ids);
+        }
+        seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+        killer k = {.pid = d.pid, .after_ms = 60 + (int)((seed >> 33) % 140)};
+        pthread_t th;
+        pthread_create(&th, NULL, killer_main, &k);
+        uint32_t sent = stream_adds(c, 1 + (uint64_t)cyc * 1000000, recs, max, 10000, &rates[cyc]);
+        pthread_join(th, NULL);
+        int st;
+        waitpid(d.pid, &st, 0);
+        assert_true(WIFSIGNALED(st));
+        unlink(d.sock);
+        vt_close(c);
+        /* restart: acked ones present, unacked ones whole or absent */
+        daemon_proc d2;
+        start_dd(&d2, dir, "always", "4");
+        c = connect_role(&d2, VP_ROLE_EDITOR, true);
+        kept = realloc(kept, (nkept + sent + 1) * sizeof *kept);
+        for (uint32_t i = 0; i < sent; i++) {
+            vp_list_reply lr;
+            int rc = vt_get(c, &recs[i].e.id, 1, &lr);
+            if (recs[i].acked) {
+                if (rc) fail_msg("cycle %d: acknowledged entity %llu lost", cyc, (unsigned long long)recs[i].e.id);
+                total_acked++;
+            } else {
+                total_unacked++;
+                if (rc) {
+                    assert_int_equal(rc, VP_ERR_UNKNOWN_ID);
+                    continue;
+                }
+                total_unacked_present++;
+            }
+            vp_entity e;
+            vp_entity_get(&lr.batch, 0, &e);
+            if (!sent_eq(&e, &recs[i].e)) fail_msg("cycle %d: entity %llu half-applied", cyc, (unsigned long long)e.id);
+            kept[nkept++] = recs[i].e;
+        }
+        vt_close(c);
+        daemon_stop(&d2);
+    }
+    double r[20];
+    memcpy(r, rates, sizeof r);
+    for (int i = 0; i < cycles; i++)
+        for (int j = i + 1; j < cycles; j++)
+            if (r[j] < r[i]) {
+                double t = r[i];
+                r[i] = r[j];
+                r[j] = t;
+            }
+    printf("kill -9: %d cycles, %u acked edits all kept, %u unacked (%u of them present whole), "
+           "acked rate median %.0f edits/s (policy always)\n",
+           cycles, total_acked, total_unacked, total_unacked_present, r[cycles / 2]);
+    free(recs);
+    free(kept);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
+/* ---- a damaged tail -------------------------------------------------------------------------- */
+
+static void test_persist_torn_tail_cut(void **state)
+{
+    (void)state;
+    tdir td;
+    tdir_make(&td, "persist-tail");
+    char dir[320], jr[400];
+    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    daemon_proc d;
+    start_dd(&d, dir, "always", "64");
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+    add_many(c, 1, 100, 0, NULL);
+    add_many(c, 1000, 50, 0, NULL);
+    dump before;
+    take_dump(c, &before);
+    vt_close(c);
+    daemon_stop(&d);
+    snprintf(jr, sizeof jr, "%s/journal.000001", dir);
+    struct stat st;
+    assert_int_equal(stat(jr, &st), 0);
+    /* 1: a torn last record (the last 30 bytes of a 3rd add lost) */
+    int fd = open(jr, O_WRONLY | O_APPEND);
+    uint8_t junk[5000];
+    memset(junk, 0, sizeof junk);
+    junk[0] = 0xFF; /* a record length, then zeros: CRC mismatch */
+    junk[1] = 0x10;
+    assert_int_equal(write(fd, junk, 4000), 4000);
+    close(fd);
+    start_dd(&d, dir, "always", "64");
+    c = connect_role(&d, VP_ROLE_EDITOR, true);
+    dump after;
+    take_dump(c, &after);
+    assert_same(&before, &after);
+    free(after.e);
+    assert_true(has_file(dir, "journal.000001.cut-"));
+    /* the cut file has exactly the bytes cut; the journal is back to size */
+    struct stat st2;
+    assert_int_equal(stat(jr, &st2), 0);
+    assert_int_equal(st2.st_size, st.st_size);
+    /* 2: edits go on after the cut; then one bit flipped inside the last
+       record: its CRC fails and it is cut, nothing before it */
+    add_many(c, 5000, 10, 0, NULL);
+    vt_close(c);
+    daemon_stop(&d);
+    assert_int_equal(stat(jr, &st2), 0);
+    fd = open(jr, O_RDWR);
+    uint8_t b;
+    assert_int_equal(pread(fd, &b, 1, st.st_size + 40), 1);
+    b ^= 0x20;
+    assert_int_equal(pwrite(fd, &b, 1, st.st_size + 40), 1);
+    close(fd);
+    start_dd(&d, dir, "always", "64");
+    c = connect_role(&d, VP_ROLE_EDITOR, true);
+    take_dump(c, &after);
+    assert_int_equal(after.n, before.n); /* the last add, damaged, is gone; nothing else */
+    free(after.e);
+    free(before.e);
+    vt_close(c);
+    daemon_stop(&d);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
+/* ---- a write error ------------------------------------------------------------------------------ */
+
+static void test_persist_write_error(void **state)
+{
+    (void)state;
+    tdir td;
+    tdir_make(&td, "persist-full");
+    char dir[320];
+    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    daemon_proc d;
+    /* the kernel refuses writes past 200 kB in this daemon (RLIMIT_FSIZE,
+       EFBIG): a disk that fills up while journaling */
+    daemon_fsize_limit = 200000;
+    start_dd(&d, dir, "always", "64");
+    daemon_fsize_limit = 0;
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true), *q = connect_role(&d, VP_ROLE_VIEWER, true);
+    uint32_t ok = 0, refused = 0;
+    int code = 0;
+    for (uint64_t i = 0; i < 400; i++) {
+        vp_entity e[10];
+        for (int k = 0; k < 10; k++) e[k] = ent(1 + i * 10 + (uint64_t)k, (double)k, (double)i, 0.5, 0, 1);
+        int rc = vt_add(c, e, 10, NULL, NULL);
+        if (rc == VP_OK) {
+            assert_int_equal(refused, 0); /* once full, full */
+            ok++;
+        } else {
+            code = rc;
+            refused++;
+        }
+    }
+    assert_int_equal(code, VP_ERR_IO);
+    assert_true(ok > 50 && refused > 50);
+    /* nothing refused went in; reads go on */
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(q, &st), VP_OK);
+    assert_int_equal(st.entities, ok * 10);
+    dump live;
+    take_dump(q, &live);
+    printf("write error: %u batches stored, then %u refused with IO; %u entities served\n", ok, refused, live.n);
+    vt_close(c);
+    vt_close(q);
+    daemon_stop(&d);
+    /* a restart with room: exactly the acknowledged batches */
+    start_dd(&d, dir, "always", "64");
+    c = connect_role(&d, VP_ROLE_EDITOR, true);
+    dump back;
+    take_dump(c, &back);
+    assert_same(&live, &back);
+    free(live.e);
+    free(back.e);
+    vt_close(c);
+    daemon_stop(&d);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
+const struct CMUnitTest persist_tests[] = {
+    cmocka_unit_test(test_persist_restore_exact),
+    cmocka_unit_test(test_persist_kill9_keeps_acked),
+    cmocka_unit_test(test_persist_torn_tail_cut),
+    cmocka_unit_test(test_persist_write_error),
+};
+const size_t persist_tests_count = sizeof persist_tests / sizeof persist_tests[0];
