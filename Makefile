@@ -111,7 +111,7 @@ DESB_BIN := $(BUILD)/bench_destruct
 
 SCENE    ?= ../shared/scenes/city_scene.txt
 
-.PHONY: all run demo test bench deps check-deps clean test-one install install-check
+.PHONY: all run demo test bench bench-persist deps check-deps clean test-one install install-check
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN)
 
 # ---- dependencies -----------------------------------------------------------
@@ -238,6 +238,11 @@ bench: check-deps
 	./build/release/bench_cull --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_occlusion --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_render $(BENCH_ARGS)
+
+# recovery time and edit throughput per durability policy (a few minutes)
+bench-persist: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	tests/bench/bench_persist.sh build/release
 
 # ---- install: the binaries, libvantage, its headers and pkg-config file ----------
 PREFIX ?= /usr/local
