@@ -469,14 +469,24 @@ int frames_schedule(server *s)
         if (!f->active || f->inflight || c->closing) continue;
         if (!f->dirty && f->shown_epoch == s->sc->epoch) continue; /* nothing new to show */
         if (c->out_len > c->out_pos) continue; /* the last frame is still leaving: it wins */
+        if (now < f->drain_next_ns) { /* backing off (below) */
+            if (f->drain_next_ns < wake) wake = f->drain_next_ns;
+            continue;
+        }
         int outq = 0;
         uint32_t slack = f->last_bytes / 4 > 4096 ? f->last_bytes / 4 : 4096;
         if (ioctl(c->fd, SIOCOUTQ, &outq) == 0 && (uint32_t)outq > slack) {
-            /* still in the kernel, unacknowledged or unread: look again soon
-               (no event says when it drains) */
-            if (now + 2000000 < wake) wake = now + 2000000;
+            /* still in the kernel, unacknowledged or unread: look again
+               (no event says when it drains) after 2 ms, doubling up to
+               100 ms while it does not, so a viewer that stopped reading
+               does not keep an idle loop awake */
+            f->drain_wait_ns = f->drain_wait_ns ? f->drain_wait_ns * 2 : 2000000;
+            if (f->drain_wait_ns > 100000000) f->drain_wait_ns = 100000000;
+            f->drain_next_ns = now + f->drain_wait_ns;
+            if (f->drain_next_ns < wake) wake = f->drain_next_ns;
             continue;
         }
+        f->drain_wait_ns = 0;
         if (now < f->next_ns) {
             if (f->next_ns < wake) wake = f->next_ns;
             continue;

@@ -28,6 +28,7 @@ typedef struct frame_sub {
     uint64_t next_ns;       /* the rate cap: no frame starts before (now_ns) */
     uint64_t frames;
     uint32_t last_bytes;    /* the size of the last frame sent */
+    uint64_t drain_wait_ns, drain_next_ns; /* the last frame still in the kernel: when to look again */
 } frame_sub;
 
 typedef struct conn {
