@@ -6,6 +6,7 @@
 #ifndef VANTAGE_CLI_H
 #define VANTAGE_CLI_H
 
+#include "jsonl.h" /* cli_json_escape, the JSON line of an entity */
 #include "vantage.h"
 
 #include <stdbool.h>
@@ -35,9 +36,6 @@ bool parse_size(const char *s, unsigned max, unsigned *w, unsigned *h);
 /* "soft" or "gl" as VP_RENDERER_*. */
 bool parse_renderer(const char *s, uint8_t *r);
 double now_s(void);
-/* JSON string contents of src[0..n): quotes, backslashes and control bytes
- * escaped into dst (room for 6 n + 1); returns the length written. */
-size_t cli_json_escape(char *dst, const char *src, size_t n);
 /* src[0..n) as a quoted JSON string. */
 void cli_json_str(FILE *f, const char *src, size_t n);
 int cmp_dbl(const void *a, const void *b); /* qsort, ascending */

@@ -1,14 +1,13 @@
 /*
  * cli_jsonl.c — `vantage import` and `vantage export`: entities as JSON
- * lines (json-c parses them), with named sub-levels resolved through the
- * daemon. A bad line stops the import with its line number; a batch the
- * daemon rejects is rejected whole.
+ * lines (jsonl.c parses and writes one, through json-c), with named
+ * sub-levels resolved through the daemon. A bad line stops the import with
+ * its line number; a batch the daemon rejects is rejected whole.
  */
 #include "cli.h"
+#include "jsonl.h"
 
 #include <errno.h>
-#include <json-c/json.h>
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,109 +17,16 @@
 
 void cli_entity_json(FILE *f, const vp_entity *e, bool handle, const char *sublevel_name)
 {
-    char hd[32] = "", sub[600];
-    if (handle) snprintf(hd, sizeof hd, "\"handle\": %u, ", e->handle);
-    if (sublevel_name) snprintf(sub, sizeof sub, "\"%s\"", sublevel_name);
-    else snprintf(sub, sizeof sub, "%u", e->sublevel);
-    fprintf(f,
-            "{\"id\": %llu, %s\"class\": %u, \"sphere\": [%.17g, %.17g, %.17g, %.17g], "
-            "\"aabb\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g], \"sublevel\": %s, \"dynamic\": %s}\n",
-            (unsigned long long)e->id, hd, e->class_id, e->sphere[0], e->sphere[1], e->sphere[2], e->sphere[3],
-            e->aabb[0], e->aabb[1], e->aabb[2], e->aabb[3], e->aabb[4], e->aabb[5], sub,
-            (e->flags & VP_ENT_DYNAMIC) ? "true" : "false");
-}
-
-static bool json_num_array(json_object *a, double *out, size_t n)
-{
-    if (!a || !json_object_is_type(a, json_type_array) || json_object_array_length(a) != n) return false;
-    for (size_t i = 0; i < n; i++) {
-        json_object *x = json_object_array_get_idx(a, i);
-        if (!x || !(json_object_is_type(x, json_type_double) || json_object_is_type(x, json_type_int)))
-            return false;
-        out[i] = json_object_get_double(x);
-        if (!isfinite(out[i])) return false;
+    char line[JSONL_LINE_MAX];
+    int n = jsonl_entity_format(line, sizeof line, e, handle, sublevel_name);
+    if (n < 0) return;
+    if ((size_t)n < sizeof line) {
+        fwrite(line, 1, (size_t)n, f);
+        return;
     }
-    return true;
-}
-
-/* One line of an import file to a record; a message in err on failure. */
-static bool entity_from_json(const char *line, vp_entity *e, char *sub, char *err, size_t errlen)
-{
-    memset(e, 0, sizeof *e);
-    sub[0] = 0;
-    json_tokener *tok = json_tokener_new();
-    json_object *o = json_tokener_parse_ex(tok, line, (int)strlen(line));
-    enum json_tokener_error je = json_tokener_get_error(tok);
-    json_tokener_free(tok);
-    if (!o || je != json_tokener_success) {
-        snprintf(err, errlen, "not JSON: %s", json_tokener_error_desc(je));
-        if (o) json_object_put(o);
-        return false;
-    }
-    bool ok = false;
-    json_object *v;
-    if (!json_object_is_type(o, json_type_object)) {
-        snprintf(err, errlen, "not a JSON object");
-        goto out;
-    }
-    if (!json_object_object_get_ex(o, "id", &v) || !json_object_is_type(v, json_type_int)) {
-        snprintf(err, errlen, "\"id\" must be an integer");
-        goto out;
-    }
-    e->id = json_object_get_uint64(v);
-    if (json_object_object_get_ex(o, "class", &v)) {
-        int64_t cl = json_object_get_int64(v);
-        if (!json_object_is_type(v, json_type_int) || cl < 0 || cl > 65535) {
-            snprintf(err, errlen, "\"class\" must be 0..65535");
-            goto out;
-        }
-        e->class_id = (uint16_t)cl;
-    }
-    if (json_object_object_get_ex(o, "sublevel", &v)) {
-        if (json_object_is_type(v, json_type_string)) {
-            const char *nm = json_object_get_string(v);
-            size_t l = strlen(nm);
-            bool clean = l >= 1 && l <= VP_MAX_NAME;
-            for (size_t i = 0; clean && i < l; i++) clean = (unsigned char)nm[i] >= 32 && nm[i] != 127;
-            if (!clean) {
-                snprintf(err, errlen, "\"sublevel\" names are 1..255 bytes without control characters");
-                goto out;
-            }
-            memcpy(sub, nm, l + 1); /* resolved to an id before sending */
-        } else {
-            int64_t sl = json_object_get_int64(v);
-            if (!json_object_is_type(v, json_type_int) || sl < 0 || sl > 65535) {
-                snprintf(err, errlen, "\"sublevel\" must be a name or 0..65535");
-                goto out;
-            }
-            e->sublevel = (uint16_t)sl;
-        }
-    }
-    if (json_object_object_get_ex(o, "dynamic", &v)) {
-        if (!json_object_is_type(v, json_type_boolean)) {
-            snprintf(err, errlen, "\"dynamic\" must be true or false");
-            goto out;
-        }
-        if (json_object_get_boolean(v)) e->flags |= VP_ENT_DYNAMIC;
-    }
-    bool has_sphere = json_object_object_get_ex(o, "sphere", &v);
-    if (has_sphere && !json_num_array(v, e->sphere, 4)) {
-        snprintf(err, errlen, "\"sphere\" must be [x, y, z, r] of finite numbers");
-        goto out;
-    }
-    bool has_aabb = json_object_object_get_ex(o, "aabb", &v);
-    if (has_aabb && !json_num_array(v, e->aabb, 6)) {
-        snprintf(err, errlen, "\"aabb\" must be [minx, miny, minz, maxx, maxy, maxz] of finite numbers");
-        goto out;
-    }
-    if (!has_sphere && !has_aabb) {
-        snprintf(err, errlen, "needs \"sphere\" or \"aabb\"");
-        goto out;
-    }
-    ok = true;
-out:
-    json_object_put(o);
-    return ok;
+    char *big = malloc((size_t)n + 1); /* not for names the protocol allows */
+    if (big && jsonl_entity_format(big, (size_t)n + 1, e, handle, sublevel_name) == n) fwrite(big, 1, (size_t)n, f);
+    free(big);
 }
 
 /* Names of sub-levels in a batch to their ids (defined on first use). */
@@ -176,7 +82,7 @@ int cmd_import(cli *k, int argc, char **argv)
         while (len > 0 && (line[len - 1] == '\n' || line[len - 1] == '\r')) line[--len] = 0;
         if (len == 0) continue;
         char err[160];
-        if (!entity_from_json(line, &batch[n], subs[n], err, sizeof err)) {
+        if (!jsonl_entity_parse(line, (size_t)len, &batch[n], subs[n], err, sizeof err)) {
             fprintf(stderr, "%s: %s:%zu: %s\n", g_prog, argv[1], lineno, err);
             rc = 2;
             break;

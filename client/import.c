@@ -8,6 +8,7 @@
  */
 #include "import.h"
 
+#include <assimp/cfileio.h>
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -477,9 +478,17 @@ static int lights(importer *im, const mat *id)
         double p[3] = {L->mPosition.x, L->mPosition.y, L->mPosition.z}, d[3] = {L->mDirection.x, L->mDirection.y,
                                                                                L->mDirection.z};
         xform(&w, p, o->pos);
-        double dw[3], l = 0;
+        /* normalised through its largest component: under parents scaled
+           by 1e-180 or 1e180 the squares would underflow to 0 (straight
+           down instead of its direction) or overflow (a zero vector) */
+        double dw[3], big = 0, l = 0;
         for (int a = 0; a < 3; a++) {
             dw[a] = w.m[a][0] * d[0] + w.m[a][1] * d[1] + w.m[a][2] * d[2];
+            big = fmax(big, fabs(dw[a]));
+        }
+        if (!(big > 0 && isfinite(big))) big = 0;
+        for (int a = 0; a < 3 && big > 0; a++) {
+            dw[a] /= big;
             l += dw[a] * dw[a];
         }
         l = sqrt(l);
@@ -560,27 +569,15 @@ static int attach(importer *im)
     return 0;
 }
 
-int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
+/* What assimp does before this file sees the scene (see the top). */
+#define IMPORT_FLAGS                                                                                                 \
+    (aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_GenNormals | aiProcess_JoinIdenticalVertices |       \
+     aiProcess_ValidateDataStructure)
+
+/* The level in assimp's scene sc, which it releases; what names the file in
+ * messages. */
+static int level_from_scene(const struct aiScene *sc, const char *what, vt_level *out, char *err, size_t errlen)
 {
-    memset(out, 0, sizeof *out);
-    const char *dot = strrchr(path, '.');
-    if (!dot || (strcasecmp(dot, ".gltf") && strcasecmp(dot, ".glb") && strcasecmp(dot, ".obj"))) {
-        snprintf(err, errlen, "%s: unsupported format (Vantage imports glTF 2.0 .gltf/.glb and OBJ .obj)", path);
-        return -1;
-    }
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        snprintf(err, errlen, "%s: %s", path, strerror(errno));
-        return -1;
-    }
-    fclose(f);
-    const struct aiScene *sc =
-        aiImportFile(path, aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_GenNormals |
-                               aiProcess_JoinIdenticalVertices | aiProcess_ValidateDataStructure);
-    if (!sc) {
-        snprintf(err, errlen, "%s: cannot import: %s", path, aiGetErrorString());
-        return -1;
-    }
     importer *im = calloc(1, sizeof *im);
     int rc = -1;
     if (!im) {
@@ -589,7 +586,7 @@ int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
     }
     *im = (importer){.sc = sc, .lv = out, .err = err, .errlen = errlen};
     if (!sc->mRootNode || (sc->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
-        fail(im, "%s: the file holds no complete scene", path);
+        fail(im, "%s: the file holds no complete scene", what);
         goto done;
     }
     out->mesh = calloc(LVL_MAX_CLASSES, sizeof *out->mesh);
@@ -600,7 +597,7 @@ int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
     mat id = {{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}};
     if (lights_prepare(im) || walk(im, sc->mRootNode, &id, 0) || lights(im, &id) || attach(im)) goto done;
     if (!out->nent && !out->nocc && !out->nlight) {
-        fail(im, "%s: no meshes or lights in the file", path);
+        fail(im, "%s: no meshes or lights in the file", what);
         goto done;
     }
     rc = 0;
@@ -616,6 +613,138 @@ done:
     aiReleaseImport(sc);
     if (rc) vt_level_free(out);
     return rc;
+}
+
+static bool known_format(const char *ext)
+{
+    return !strcasecmp(ext, "gltf") || !strcasecmp(ext, "glb") || !strcasecmp(ext, "obj");
+}
+
+int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
+{
+    memset(out, 0, sizeof *out);
+    const char *dot = strrchr(path, '.');
+    if (!dot || !known_format(dot + 1)) {
+        snprintf(err, errlen, "%s: unsupported format (Vantage imports glTF 2.0 .gltf/.glb and OBJ .obj)", path);
+        return -1;
+    }
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        snprintf(err, errlen, "%s: %s", path, strerror(errno));
+        return -1;
+    }
+    fclose(f);
+    const struct aiScene *sc = aiImportFile(path, IMPORT_FLAGS);
+    if (!sc) {
+        snprintf(err, errlen, "%s: cannot import: %s", path, aiGetErrorString());
+        return -1;
+    }
+    return level_from_scene(sc, path, out, err, errlen);
+}
+
+/* ---- from memory: one file that assimp reads through these callbacks ---------------- */
+
+/* The buffer, and one open file's position in it. */
+typedef struct mem_file {
+    const char *name;
+    const uint8_t *buf;
+    size_t len, pos;
+} mem_file;
+
+typedef struct mem_open_file {
+    struct aiFile f;
+    mem_file m;
+} mem_open_file;
+
+/* As assimp's own MemoryIOStream: whole items only, their count back. */
+static size_t mem_read(struct aiFile *f, char *dst, size_t size, size_t count)
+{
+    mem_file *m = &((mem_open_file *)(void *)f->UserData)->m;
+    if (!size) return 0;
+    size_t n = (m->len - m->pos) / size;
+    if (n > count) n = count;
+    if (n) memcpy(dst, m->buf + m->pos, n * size);
+    m->pos += n * size;
+    return n;
+}
+
+static size_t mem_write(struct aiFile *f, const char *src, size_t size, size_t count)
+{
+    (void)f, (void)src, (void)size, (void)count;
+    return 0;
+}
+
+static size_t mem_tell(struct aiFile *f)
+{
+    return ((mem_open_file *)(void *)f->UserData)->m.pos;
+}
+
+static size_t mem_size(struct aiFile *f)
+{
+    return ((mem_open_file *)(void *)f->UserData)->m.len;
+}
+
+/* As MemoryIOStream again: aiOrigin_END counts back from the end. */
+static enum aiReturn mem_seek(struct aiFile *f, size_t off, enum aiOrigin origin)
+{
+    mem_file *m = &((mem_open_file *)(void *)f->UserData)->m;
+    if (origin == aiOrigin_SET) {
+        if (off > m->len) return aiReturn_FAILURE;
+        m->pos = off;
+    } else if (origin == aiOrigin_END) {
+        if (off > m->len) return aiReturn_FAILURE;
+        m->pos = m->len - off;
+    } else {
+        if (off > m->len - m->pos) return aiReturn_FAILURE;
+        m->pos += off;
+    }
+    return aiReturn_SUCCESS;
+}
+
+static void mem_flush(struct aiFile *f)
+{
+    (void)f;
+}
+
+/* Only the one name opens, for reading: a glTF file's external buffers and
+ * images and an OBJ's .mtl are not found. */
+static struct aiFile *mem_open(struct aiFileIO *io, const char *name, const char *mode)
+{
+    const mem_file *m = (const mem_file *)(void *)io->UserData;
+    if (strcmp(name, m->name) || mode[0] != 'r') return NULL;
+    mem_open_file *o = calloc(1, sizeof *o);
+    if (!o) return NULL;
+    o->m = *m;
+    o->f = (struct aiFile){.ReadProc = mem_read, .WriteProc = mem_write, .TellProc = mem_tell,
+                           .FileSizeProc = mem_size, .SeekProc = mem_seek, .FlushProc = mem_flush,
+                           .UserData = (aiUserData)(void *)o};
+    return &o->f;
+}
+
+static void mem_close(struct aiFileIO *io, struct aiFile *f)
+{
+    (void)io;
+    free(f->UserData);
+}
+
+int vt_level_import_mem(const void *buf, size_t len, const char *hint, vt_level *out, char *err, size_t errlen)
+{
+    memset(out, 0, sizeof *out);
+    char name[32];
+    if (strlen(hint) > 8 || !known_format(hint)) {
+        snprintf(err, errlen, "memory.%.8s: unsupported format (Vantage imports glTF 2.0 .gltf/.glb and OBJ .obj)",
+                 hint);
+        return -1;
+    }
+    snprintf(name, sizeof name, "memory.%s", hint);
+    mem_file m = {.name = name, .buf = buf, .len = len};
+    struct aiFileIO io = {.OpenProc = mem_open, .CloseProc = mem_close, .UserData = (aiUserData)(void *)&m};
+    const struct aiScene *sc = aiImportFileEx(name, IMPORT_FLAGS, &io);
+    if (!sc) {
+        snprintf(err, errlen, "%s: cannot import: %s", name, aiGetErrorString());
+        return -1;
+    }
+    return level_from_scene(sc, name, out, err, errlen);
 }
 
 void vt_level_free(vt_level *lv)

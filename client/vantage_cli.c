@@ -173,24 +173,6 @@ void catch_sigint(void)
 
 /* ---- commands ---------------------------------------------------------------- */
 
-size_t cli_json_escape(char *dst, const char *src, size_t n)
-{
-    char *o = dst;
-    for (size_t i = 0; i < n; i++) {
-        unsigned char ch = (unsigned char)src[i];
-        if (ch == '"' || ch == '\\') {
-            *o++ = '\\';
-            *o++ = (char)ch;
-        } else if (ch < 32 || ch == 127) {
-            o += sprintf(o, "\\u%04x", ch);
-        } else {
-            *o++ = (char)ch;
-        }
-    }
-    *o = 0;
-    return (size_t)(o - dst);
-}
-
 void cli_json_str(FILE *f, const char *src, size_t n)
 {
     char *buf = malloc(6 * n + 1);

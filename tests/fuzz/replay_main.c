@@ -3,14 +3,14 @@
  * libFuzzer, so any compiler and build config (ASan+UBSan in `make test`)
  * can replay the corpus and the saved crashes.
  *
- *   fuzz_protocol_replay [--no-fork] PATH...
+ *   fuzz_<name>_replay [--no-fork] PATH...
  *
  * A PATH is a file or a directory (its regular files, not recursive, in
  * name order). Each input runs in a forked child, so one crash (sanitizer
  * abort, a failed property, a signal) is counted and named and the rest
  * still run; --no-fork runs them in-process (for a debugger). Prints
- * "fuzz replay: N inputs, F failures" and exits 1 if F > 0 or a path could
- * not be read.
+ * "fuzz replay fuzz_<name>: N inputs, F failures" (the program's name
+ * without _replay) and exits 1 if F > 0 or a path could not be read.
  */
 #include <dirent.h>
 #include <stdint.h>
@@ -157,6 +157,9 @@ int main(int argc, char **argv)
             run_one(argv[i]);
         }
     }
-    printf("fuzz replay: %u inputs, %u failures\n", g_inputs, g_failures);
+    const char *name = strrchr(argv[0], '/') ? strrchr(argv[0], '/') + 1 : argv[0];
+    size_t nl = strlen(name);
+    if (nl > 7 && !strcmp(name + nl - 7, "_replay")) nl -= 7;
+    printf("fuzz replay %.*s: %u inputs, %u failures\n", (int)nl, name, g_inputs, g_failures);
     return (g_failures || g_errors) ? 1 : 0;
 }
