@@ -396,18 +396,14 @@ static void on_sublevel_list(server *s, conn *c, uint32_t req)
  * the journal stops taking edits (replay would miss it). */
 static int internal_edit(server *s, uint16_t type, uint16_t load, uint32_t aux, edit_result *r, scene_err *err)
 {
-    edit e;
-    edit_decode(type, NULL, 0, 0, &e);
-    e.load = load;
-    e.aux = aux;
-    if (s->journal) {
-        int jrc = journal_append(s->journal, type, load, aux, NULL, 0);
-        if (jrc && !journal_broken(s->journal)) journal_break(s->journal, "a change could not be journaled");
-    }
+    edit e = {.type = type, .load = load, .aux = aux};
     pthread_rwlock_wrlock(&s->scene_lock);
-    int rc = edit_apply(s->sc, &e, r, err);
+    int rc = journal_apply(s->journal, s->sc, &e, NULL, 0, r, err);
+    if (rc == VP_ERR_IO && s->journal) {
+        journal_break(s->journal, "a change could not be journaled");
+        rc = edit_apply(s->sc, &e, r, err);
+    }
     pthread_rwlock_unlock(&s->scene_lock);
-    if (rc && s->journal && !journal_broken(s->journal)) journal_cancel(s->journal);
     return rc;
 }
 
@@ -429,17 +425,13 @@ bool server_unload_slice(server *s, uint32_t budget)
 {
     edit_result r;
     scene_err err;
-    /* a slice not journaled is not done (replay must free what this did) */
-    if (s->journal && (journal_broken(s->journal) ||
-                       journal_append(s->journal, EDIT_WORK, 0, budget, NULL, 0)))
-        return false;
     pthread_rwlock_wrlock(&s->scene_lock);
-    int rc = edit_apply(s->sc, &(edit){.type = EDIT_WORK, .aux = budget}, &r, &err);
+    /* a slice not journaled is not done (replay must free what this did) */
+    bool done = journal_apply(s->journal, s->sc, &(edit){.type = EDIT_WORK, .aux = budget}, NULL, 0, &r, &err) == VP_OK;
     bool more = s->sc->unloading > 0;
-    if (!more) cull_world_commit(s->sc->world);
+    if (done && !more) cull_world_commit(s->sc->world);
     pthread_rwlock_unlock(&s->scene_lock);
-    (void)rc;
-    return more;
+    return done && more; /* a read-only journal stalls the unload: no busy wake-ups */
 }
 
 /* The reply to an applied edit. */
@@ -505,36 +497,21 @@ static void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
     }
     e.load = c->load;
     e.aux = h->type == VP_DESTROY ? s->cfg.destruct_res : h->type == VP_SUBLEVEL_BEGIN ? c->id : 0;
-    journal *j = s->journal;
-    if (j) {
-        const char *broken = journal_broken(j);
-        int jrc = broken ? 0 : journal_append(j, h->type, e.load, e.aux, p, h->len);
-        if (broken || jrc) {
-            char msg[400];
-            if (broken) snprintf(msg, sizeof msg, "the daemon is read-only: %s", broken);
-            else
-                snprintf(msg, sizeof msg, "the edit could not be journaled (%s): refused, nothing changed",
-                         strerror(-jrc));
-            LOGW("client %u: %s", c->id, msg);
-            send_error(s, c, h->req, VP_ERR_IO, UINT32_MAX, msg);
-            return;
-        }
-    }
     edit_result r;
     scene_err err = {0};
     uint64_t t0 = now_ns();
     pthread_rwlock_wrlock(&s->scene_lock);
-    rc = edit_apply(s->sc, &e, &r, &err);
+    rc = journal_apply(s->journal, s->sc, &e, p, h->len, &r, &err);
     pthread_rwlock_unlock(&s->scene_lock);
     if (rc) {
-        if (j) journal_cancel(j);
+        if (rc == VP_ERR_IO) LOGW("client %u: %s", c->id, err.msg);
         send_error(s, c, h->req, rc, err.index, err.msg);
         return;
     }
     if (h->type == VP_DESTROY) r.destroyed.cut_us = (uint32_t)((now_ns() - t0) / 1000);
     edit_reply(s, c, h, &e, &r);
     edit_result_free(&r);
-    if (j && journal_policy(j) == JOURNAL_ALWAYS) c->held = true;
+    if (s->journal && journal_policy(s->journal) == JOURNAL_ALWAYS) c->held = true;
 }
 
 static void on_sublevel_info(server *s, conn *c, uint32_t req)

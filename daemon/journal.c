@@ -194,7 +194,8 @@ static int start_file(journal *j, uint64_t gen, uint64_t seq)
     return 0;
 }
 
-int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux, const uint8_t *p, uint32_t len)
+/* Appends an edit; 0, or -errno (nothing of it is left in the file). */
+static int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux, const uint8_t *p, uint32_t len)
 {
     if (j->broken[0]) return -EROFS;
     int e = atomic_load(&j->sync_err);
@@ -256,7 +257,8 @@ int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux, const
     return 0;
 }
 
-void journal_cancel(journal *j)
+/* Takes the last append back (the scene rejected the edit). */
+static void journal_cancel(journal *j)
 {
     if (ftruncate(j->fd, (off_t)j->last_start)) {
         char why[200];
@@ -266,6 +268,22 @@ void journal_cancel(journal *j)
     }
     j->size = j->last_start;
     j->seq--;
+}
+
+int journal_apply(journal *j, scene *sc, const edit *e, const uint8_t *p, uint32_t len, edit_result *r,
+                  scene_err *err)
+{
+    if (j) {
+        if (j->broken[0])
+            return scene_fail(err, VP_ERR_IO, UINT32_MAX, "the daemon is read-only: %.120s", j->broken);
+        int jrc = journal_append(j, e->type, e->load, e->aux, p, len);
+        if (jrc)
+            return scene_fail(err, VP_ERR_IO, UINT32_MAX,
+                              "the edit could not be journaled (%s): refused, nothing changed", strerror(-jrc));
+    }
+    int rc = edit_apply(sc, e, r, err);
+    if (rc && j) journal_cancel(j);
+    return rc;
 }
 
 bool journal_dirty(const journal *j)
@@ -348,6 +366,13 @@ int journal_snapshot(journal *j, const scene *sc)
     return 0;
 }
 
+/* Whether name is "<kind>.<generation>" (and nothing more): the kind, g. */
+static bool gen_name(const char *name, char kind[16], uint64_t *g)
+{
+    int end = 0;
+    return sscanf(name, "%15[a-z].%" SCNu64 "%n", kind, g, &end) == 2 && !name[end];
+}
+
 /* Removes the files of generations before gen. */
 static void drop_before(journal *j, uint64_t gen)
 {
@@ -357,9 +382,8 @@ static void drop_before(journal *j, uint64_t gen)
     while ((e = readdir(d))) {
         uint64_t g;
         char kind[16];
-        int end = 0;
-        if (sscanf(e->d_name, "%15[a-z].%" SCNu64 "%n", kind, &g, &end) != 2 || e->d_name[end]) continue;
-        if ((strcmp(kind, "journal") && strcmp(kind, "snapshot")) || g >= gen) continue;
+        if (!gen_name(e->d_name, kind, &g) || (strcmp(kind, "journal") && strcmp(kind, "snapshot")) || g >= gen)
+            continue;
         char *p = NULL;
         if (asprintf(&p, "%s/%s", j->dir, e->d_name) >= 0) {
             unlink(p);
@@ -423,9 +447,7 @@ static int list_gens(const char *dir, const char *kind, gens *out)
     while ((e = readdir(d))) {
         uint64_t g;
         char k[16];
-        int end = 0;
-        if (sscanf(e->d_name, "%15[a-z].%" SCNu64 "%n", k, &g, &end) != 2 || e->d_name[end] || strcmp(k, kind))
-            continue;
+        if (!gen_name(e->d_name, k, &g) || strcmp(k, kind)) continue;
         if (out->n == out->cap) {
             size_t cap = out->cap ? out->cap * 2 : 8;
             uint64_t *v = realloc(out->v, cap * sizeof *v);
@@ -694,10 +716,8 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
         edit e = {.type = VP_SUBLEVEL_ABORT, .load = (uint16_t)id};
         edit_result res;
         scene_err se;
-        if ((rc = journal_append(j, VP_SUBLEVEL_ABORT, (uint16_t)id, 0, NULL, 0)) ||
-            (rc = edit_apply(sc, &e, &res, &se))) {
-            snprintf(err, errlen, "cannot drop sub-level %s, left loading: %s", sc->sl[id].name,
-                     rc < 0 ? strerror(-rc) : se.msg);
+        if (journal_apply(j, sc, &e, NULL, 0, &res, &se)) {
+            snprintf(err, errlen, "cannot drop sub-level %s, left loading: %s", sc->sl[id].name, se.msg);
             goto fail;
         }
         edit_result_free(&res);

@@ -53,10 +53,13 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
                  size_t errlen);
 void journal_close(journal *j);
 
-/* Appends an edit; 0, or -errno (nothing of it is left in the file). */
-int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux, const uint8_t *p, uint32_t len);
-/* Takes the last append back (the scene rejected the edit). */
-void journal_cancel(journal *j);
+/* Applies e to sc, journaled first when j is not NULL (p, len: the
+ * request's payload). A journal that cannot take it refuses it (VP_ERR_IO,
+ * err says why) and nothing changes; an edit the scene refuses is cut back
+ * off the journal. The one way an edit reaches the scene (handlers.c,
+ * vantaged.c, recovery's own drops). */
+int journal_apply(journal *j, scene *sc, const edit *e, const uint8_t *p, uint32_t len, edit_result *r,
+                  scene_err *err);
 /* Records written since the last sync (the always policy syncs them). */
 bool journal_dirty(const journal *j);
 /* Syncs now: 0, or -errno (the journal is then read-only). */

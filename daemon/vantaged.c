@@ -213,9 +213,8 @@ int main(int argc, char **argv)
         uint64_t t0 = ae_now_ms();
         edit_result r;
         scene_err err;
-        if ((cfg.journal && journal_append(cfg.journal, EDIT_DEMO, 0, props, NULL, 0)) ||
-            edit_apply(sc, &(edit){.type = EDIT_DEMO, .aux = props}, &r, &err)) {
-            LOGE("cannot build the demo scene");
+        if (journal_apply(cfg.journal, sc, &(edit){.type = EDIT_DEMO, .aux = props}, NULL, 0, &r, &err)) {
+            LOGE("cannot build the demo scene: %s", err.msg);
             return 1;
         }
         edit_result_free(&r);

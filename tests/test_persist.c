@@ -12,7 +12,6 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
-#include <poll.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
@@ -350,9 +349,6 @@ static uint32_t stream_adds(vt_client *c, uint64_t first, sent_rec *out, uint32_
         assert_true(h.req >= 1 && h.req <= sent);
         out[h.req - 1].acked = true;
         acked++;
-        if (el > ms) {
-            /* past the time: keep reading acks until the kill */
-        }
     }
     clock_gettime(CLOCK_MONOTONIC, &t);
     double el = (t.tv_sec - t0.tv_sec) + (t.tv_nsec - t0.tv_nsec) / 1e9;
