@@ -12,15 +12,19 @@
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <assimp/version.h>
 
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #define MAX_COORD 1e12 /* the culling core's range */
 #define CLASS_SLOTS (2 * LVL_MAX_CLASSES)
@@ -620,7 +624,8 @@ static bool known_format(const char *ext)
     return !strcasecmp(ext, "gltf") || !strcasecmp(ext, "glb") || !strcasecmp(ext, "obj");
 }
 
-int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
+/* vt_level_import's work, in this process (the child's). */
+static int level_import_here(const char *path, vt_level *out, char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
     const char *dot = strrchr(path, '.');
@@ -745,6 +750,241 @@ int vt_level_import_mem(const void *buf, size_t len, const char *hint, vt_level 
         return -1;
     }
     return level_from_scene(sc, name, out, err, errlen);
+}
+
+/* ---- in a child process ------------------------------------------------------------- */
+/*
+ * assimp is a large C++ parser of untrusted files, and Debian 12's 5.2.4
+ * crashes on some malformed glTF (tests/fuzz/known). vt_level_import runs it
+ * in a forked child that sends the finished level back over a pipe: a crash
+ * or an abort there is an error message here, and nothing was loaded. The
+ * bytes cross between two copies of this program, so they are in host
+ * layout; they are still checked as they are read.
+ */
+
+#define PACK_MAGIC 0x564c564cu /* "LVLV" */
+
+typedef struct pack {
+    uint8_t *p;
+    size_t n, cap;
+    bool oom;
+} pack;
+
+static void put(pack *b, const void *src, size_t n)
+{
+    if (b->oom || !n) return;
+    if (n > b->cap - b->n) {
+        size_t cap = b->cap ? b->cap : 1 << 16;
+        while (n > cap - b->n) cap *= 2;
+        uint8_t *p = realloc(b->p, cap);
+        if (!p) {
+            b->oom = true;
+            return;
+        }
+        b->p = p;
+        b->cap = cap;
+    }
+    memcpy(b->p + b->n, src, n);
+    b->n += n;
+}
+
+static void level_pack(pack *b, const vt_level *lv)
+{
+    uint32_t head[7] = {PACK_MAGIC, lv->nmesh, lv->nent, lv->nocc, lv->nlight, lv->skipped_lights, lv->skipped_prims};
+    put(b, head, sizeof head);
+    for (uint32_t i = 0; i < lv->nmesh; i++) {
+        const lvl_mesh *m = &lv->mesh[i];
+        put(b, &m->nv, sizeof m->nv);
+        put(b, &m->ni, sizeof m->ni);
+        put(b, m->pos, (size_t)m->nv * 3 * sizeof(float));
+        put(b, m->nrm, (size_t)m->nv * 3 * sizeof(float));
+        put(b, m->idx, (size_t)m->ni * sizeof(uint32_t));
+    }
+    put(b, lv->ent, (size_t)lv->nent * sizeof *lv->ent);
+    for (uint32_t i = 0; i < lv->nocc; i++) {
+        lvl_occluder o = lv->occ[i];
+        put(b, &o, sizeof o);
+        put(b, o.tri, (size_t)o.ntri * 9 * sizeof(float));
+    }
+    put(b, lv->light, (size_t)lv->nlight * sizeof *lv->light);
+}
+
+/* The reading side: take n bytes, or fail. */
+typedef struct unpack {
+    const uint8_t *p;
+    size_t n;
+} unpack;
+
+static bool take(unpack *u, void *dst, size_t n)
+{
+    if (n > u->n) return false;
+    if (n) memcpy(dst, u->p, n);
+    u->p += n;
+    u->n -= n;
+    return true;
+}
+
+/* A copy of n items of size bytes each, or NULL (check n first: size * n
+ * within what is left). The +1 keeps malloc(0) from meaning failure. */
+static void *take_array(unpack *u, size_t n, size_t size)
+{
+    if (n > u->n / size) return NULL;
+    void *p = malloc(n * size + 1);
+    if (p && !take(u, p, n * size)) {
+        free(p);
+        return NULL;
+    }
+    return p;
+}
+
+static bool level_unpack(unpack *u, vt_level *lv)
+{
+    uint32_t head[7];
+    if (!take(u, head, sizeof head) || head[0] != PACK_MAGIC || head[1] > LVL_MAX_CLASSES) return false;
+    lv->mesh = calloc(head[1] + 1, sizeof *lv->mesh);
+    if (!lv->mesh) return false;
+    for (uint32_t i = 0; i < head[1]; i++) {
+        lvl_mesh *m = &lv->mesh[i];
+        if (!take(u, &m->nv, sizeof m->nv) || !take(u, &m->ni, sizeof m->ni)) return false;
+        lv->nmesh = i + 1; /* what vt_level_free walks */
+        uint32_t nv = m->nv, ni = m->ni;
+        m->nv = m->ni = 0;
+        if (!(m->pos = take_array(u, (size_t)nv * 3, sizeof(float))) ||
+            !(m->nrm = take_array(u, (size_t)nv * 3, sizeof(float))) || !(m->idx = take_array(u, ni, sizeof(uint32_t))))
+            return false;
+        m->nv = nv;
+        m->ni = ni;
+        for (uint32_t k = 0; k < ni; k++)
+            if (m->idx[k] >= nv) return false;
+    }
+    if (!(lv->ent = take_array(u, head[2], sizeof *lv->ent))) return false;
+    lv->nent = head[2];
+    if (!(lv->occ = calloc(head[3] + 1, sizeof *lv->occ))) return false;
+    for (uint32_t i = 0; i < head[3]; i++) {
+        lvl_occluder *o = &lv->occ[i];
+        if (!take(u, o, sizeof *o)) return false;
+        o->tri = NULL;
+        lv->nocc = i + 1;
+        uint32_t ntri = o->ntri;
+        o->ntri = o->cap = 0;
+        if (!(o->tri = take_array(u, (size_t)ntri * 9, sizeof(float)))) return false;
+        o->ntri = o->cap = ntri;
+        o->name[LVL_NAME - 1] = 0;
+        if (o->entity < -1 || o->entity >= (int64_t)head[2]) return false;
+    }
+    for (uint32_t i = 0; i < lv->nent; i++) {
+        lvl_entity *e = &lv->ent[i];
+        e->name[LVL_NAME - 1] = 0;
+        if (e->cls >= lv->nmesh || e->occluder < -1 || e->occluder >= (int64_t)lv->nocc) return false;
+    }
+    if (!(lv->light = take_array(u, head[4], sizeof *lv->light))) return false;
+    lv->nlight = head[4];
+    lv->skipped_lights = head[5];
+    lv->skipped_prims = head[6];
+    return u->n == 0;
+}
+
+static bool write_all(int fd, const void *p, size_t n)
+{
+    const uint8_t *s = p;
+    while (n) {
+        ssize_t w = write(fd, s, n);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) return false;
+        s += w;
+        n -= (size_t)w;
+    }
+    return true;
+}
+
+/* The child: import, send 'L' and the level or 'E' and the message, exit. */
+static _Noreturn void import_child(int fd, const char *path)
+{
+    vt_level lv;
+    char err[512];
+    pack b = {0};
+    uint8_t tag = 'L';
+    if (level_import_here(path, &lv, err, sizeof err)) {
+        tag = 'E';
+        put(&b, err, strlen(err));
+    } else {
+        level_pack(&b, &lv);
+        if (b.oom) {
+            tag = 'E';
+            b.n = 0;
+            b.oom = false;
+            put(&b, "out of memory", 13);
+        }
+    }
+    bool ok = !b.oom && write_all(fd, &tag, 1) && write_all(fd, b.p, b.n);
+    _exit(ok ? 0 : 1);
+}
+
+int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
+{
+    memset(out, 0, sizeof *out);
+    int fds[2];
+    if (pipe(fds)) {
+        snprintf(err, errlen, "%s: cannot start the importer: %s", path, strerror(errno));
+        return -1;
+    }
+    fflush(NULL); /* nothing buffered is written twice */
+    pid_t pid = fork();
+    if (pid < 0) {
+        snprintf(err, errlen, "%s: cannot start the importer: %s", path, strerror(errno));
+        close(fds[0]);
+        close(fds[1]);
+        return -1;
+    }
+    if (pid == 0) {
+        /* a crash ends the child, whatever handlers the caller set (a
+         * test framework's would carry on running the caller's code here) */
+        static const int fatal[] = {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGSYS, SIGPIPE};
+        for (size_t i = 0; i < sizeof fatal / sizeof fatal[0]; i++) signal(fatal[i], SIG_DFL);
+        close(fds[0]);
+        import_child(fds[1], path);
+    }
+    close(fds[1]);
+    pack in = {0};
+    uint8_t chunk[1 << 16];
+    int read_errno = 0;
+    for (;;) {
+        ssize_t r = read(fds[0], chunk, sizeof chunk);
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0) read_errno = errno;
+        if (r <= 0) break;
+        put(&in, chunk, (size_t)r);
+    }
+    close(fds[0]);
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+    }
+    int rc = -1;
+    if (WIFSIGNALED(st)) {
+        snprintf(err, errlen,
+                 "%s: assimp crashed reading the file (%s); it is malformed or meets a bug in assimp %u.%u; "
+                 "nothing was loaded",
+                 path, strsignal(WTERMSIG(st)), aiGetVersionMajor(), aiGetVersionMinor());
+    } else if (in.oom || read_errno) {
+        snprintf(err, errlen, "%s: cannot take the level from the importer: %s", path,
+                 in.oom ? "out of memory" : strerror(read_errno));
+    } else if (!WIFEXITED(st) || WEXITSTATUS(st) || in.n < 1) {
+        snprintf(err, errlen, "%s: the importer stopped (exit status %d) before it finished; nothing was loaded",
+                 path, WIFEXITED(st) ? WEXITSTATUS(st) : -1);
+    } else if (in.p[0] == 'E') {
+        size_t n = in.n - 1 < errlen ? in.n - 1 : errlen - 1;
+        memcpy(err, in.p + 1, n);
+        err[n] = 0;
+    } else {
+        unpack u = {in.p + 1, in.n - 1};
+        if (in.p[0] == 'L' && level_unpack(&u, out)) rc = 0;
+        else {
+            vt_level_free(out);
+            snprintf(err, errlen, "%s: the importer sent a damaged level; nothing was loaded", path);
+        }
+    }
+    free(in.p);
+    return rc;
 }
 
 void vt_level_free(vt_level *lv)
