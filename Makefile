@@ -19,8 +19,8 @@ SHELL  := /bin/bash
 # Debian packages and the pkg-config modules that prove them installed.
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
-            zlib1g-dev
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib
+            zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -62,9 +62,17 @@ DAEMON_BIN:= $(BUILD)/vantaged
 
 CLIENT_LIB:= $(BUILD)/libvantage.a
 CLIENT_OBJ:= $(BUILD)/client/libvantage.o
+# game pads (issue 8): pure parsers and the hid-recorder format (pad.h), the
+# devices through hidapi (hidraw flavour) and libusb (pad_io.h), the
+# commander's input mapping; linked into the CLI and the tests
+PAD_OBJ  := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o \
+            $(BUILD)/client/pad_io.o $(BUILD)/client/pad_io_real.o $(BUILD)/client/pad_map.o
+PAD_LIBS := $$(pkg-config --libs hidapi-hidraw libusb-1.0)
+SDL_LIBS := $$(pkg-config --libs sdl2)
 CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o \
             $(BUILD)/client/cli_render.o $(BUILD)/client/cli_frames.o $(BUILD)/client/cli_sublevel.o \
-            $(BUILD)/client/import.o $(BUILD)/client/jsonl.o
+            $(BUILD)/client/import.o $(BUILD)/client/jsonl.o $(BUILD)/client/cli_pad.o $(BUILD)/client/commander.o \
+            $(BUILD)/client/commander_sdl.o $(PAD_OBJ)
 CLI_BIN  := $(BUILD)/vantage
 
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
@@ -156,8 +164,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 	ar rcs $@ $^
 
 # the end-to-end tests run this configuration's vantaged and vantage
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(PAD_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(PAD_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
@@ -174,9 +182,11 @@ $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)
 # the CLI writes EXR and PNG from raw frames
 CLI_RENDER := $(BUILD)/render/vt_exr.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o
 $(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(ASSIMP_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(SDL_LIBS) $(LDLIBS)
 
 $(BUILD)/client/jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
+$(BUILD)/client/pad_io_real.o $(BUILD)/client/cli_pad.o: CPPFLAGS += $$(pkg-config --cflags hidapi-hidraw libusb-1.0)
+$(BUILD)/client/commander_sdl.o: CPPFLAGS += $$(pkg-config --cflags sdl2)
 
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)

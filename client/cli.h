@@ -63,4 +63,10 @@ int cmd_sublevel(cli *k, int argc, char **argv);
 /* cli_bench.c */
 int cmd_bench(cli *k, int argc, char **argv);
 
+/* cli_pad.c: pad list | pad dump (game controllers, pad_io.h) */
+int cmd_pad(cli *k, int argc, char **argv);
+
+/* commander.c: the tablet-commander thin client */
+int cmd_commander(cli *k, int argc, char **argv);
+
 #endif

@@ -57,6 +57,11 @@ static void usage(FILE *f)
             "        [--views K] [--batch B] [--count-only] [--json]   load test: rate and latency percentiles\n"
             "  bench --test frames [--viewers N] [--stalled S] [--seconds T] [--size WxH] [--fps F]\n"
             "        [--edits-per-s R] [--renderer soft|gl] [--json]   frame streams while the scene is edited\n"
+            "  pad list [--json]                game controllers found (hidraw and USB), not opened\n"
+            "  pad dump [--replay FILE [--speed X]] [--record FILE] [--count N] [--seconds S]\n"
+            "        one JSON line of normalized state per report (a live pad, or a hid-recorder file)\n"
+            "  commander [--replay FILE] [--headless DIR] [--stats] [...]   the tablet-commander thin client:\n"
+            "        a pad (or keyboard and mouse) drives its own view of the daemon's scene (commander --help)\n"
             "\n"
             "connection: -h HOST (127.0.0.1), -p PORT (%d), -s SOCKET (Unix socket instead of TCP),\n"
             "            --token T (or VANTAGE_TOKEN) where the daemon has --tokens\n"
@@ -519,7 +524,7 @@ int main(int argc, char **argv)
     }
     char **av = argv + optind;
     int ac = argc - optind;
-    static const char *const own_help[] = {"query", "render", "lights"};
+    static const char *const own_help[] = {"query", "render", "lights", "pad", "commander"};
     bool own = false;
     for (size_t i = 0; i < sizeof own_help / sizeof own_help[0]; i++) own |= !strcmp(av[0], own_help[i]);
     if (ac == 2 && !strcmp(av[1], "--help") && !own) {
@@ -529,7 +534,8 @@ int main(int argc, char **argv)
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
-        {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy},
+        {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy}, {"pad", cmd_pad},
+        {"commander", cmd_commander},
     };
     int rc = -1;
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)

@@ -27,6 +27,9 @@ int main(void)
         {mask_tests, mask_tests_count},
         {auth_tests, auth_tests_count},
         {persist_tests, persist_tests_count},
+        {pad_tests, pad_tests_count},
+        {pad_io_tests, pad_io_tests_count},
+        {commander_tests, commander_tests_count},
     };
     size_t total = 0;
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;

@@ -1,0 +1,1 @@
+/* client/commander_sdl.c — being written (issue 8) */

@@ -1,0 +1,1 @@
+/* client/pad.c — being written (issue 8) */

@@ -1,0 +1,1 @@
+/* client/pad_io.c — being written (issue 8) */

@@ -1,0 +1,1 @@
+/* client/pad_io_real.c — being written (issue 8) */

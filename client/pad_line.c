@@ -1,0 +1,1 @@
+/* client/pad_line.c — being written (issue 8) */

@@ -1,0 +1,1 @@
+/* client/pad_map.c — being written (issue 8) */

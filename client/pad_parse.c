@@ -1,0 +1,1 @@
+/* client/pad_parse.c — being written (issue 8) */
