@@ -172,8 +172,9 @@ static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, co
     for (;;) {
         vp_header h;
         if ((rc = vt_recv(c, &h, p, -1))) return rc;
-        if (h.type == VP_EVENT) continue;
-        if (c->stream_req && h.req == c->stream_req && h.req != req) {
+        if (h.type == VP_EVENT || h.type == VP_MARKED) continue; /* pushed: vt_recv's callers see them */
+        /* a frame kept across a re-aim carries the req it started under */
+        if (c->stream_req && h.req != req && (h.req == c->stream_req || h.type == VP_FRAME)) {
             /* the frame stream's: a frame is dropped (the next one is
                newer); an error ends the stream and waits for vt_wait_frame */
             if (h.type == VP_ERROR) {
@@ -672,6 +673,18 @@ int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out)
     int rc = empty_call(c, VP_SUBLEVEL_INFO, VP_SUBLEVEL_INFO_REPLY, &p, &len);
     if (rc) return rc;
     return vp_dec_sublevel_infos(p, len, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_INFO_REPLY") : VP_OK;
+}
+
+int vt_mark(vt_client *c, const vp_mark *m, uint32_t *sent)
+{
+    vp_writer w;
+    vp_ack a;
+    uint32_t req = vt_next_req(c);
+    if (!out_buf(c, VP_HEADER_SIZE + VP_MARK_SIZE, &w)) return VT_ERR_IO;
+    vp_enc_mark(&w, req, m);
+    int rc = ack_full(c, &w, req, &a);
+    if (!rc && sent) *sent = a.count;
+    return rc;
 }
 
 int vt_destroy(vt_client *c, const vp_destroy *m, vp_destroyed *out)

@@ -114,6 +114,9 @@ int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out);
 /* A destruction event (DESTROY): a sphere on entity m->id; out says the
  * epoch it shows at, the entity's spheres, its occluder's triangles left. */
 int vt_destroy(vt_client *c, const vp_destroy *m, vp_destroyed *out);
+/* MARK (commander role): pushed as MARKED to the connections subscribed to
+ * VP_EVENT_MARKS; *sent (may be NULL) = how many. */
+int vt_mark(vt_client *c, const vp_mark *m, uint32_t *sent);
 /* Waits for a pushed EVENT; VT_ERR_IO with timed_out set on timeout. */
 int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms);
 int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n);

@@ -269,7 +269,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     }
     uint64_t t1 = now_ns();
     vp_frame f = {.epoch = sc->epoch, .width = (uint16_t)W, .height = (uint16_t)H, .format = m->format,
-                  .visible = fi.ninst, .render_ns = (uint32_t)(t1 - t0)};
+                  .view_seq = j->stream ? j->view_seq : 0, .visible = fi.ninst, .render_ns = (uint32_t)(t1 - t0)};
     if (m->format == VP_FRAME_JPEG) {
         /* tone mapped, top row first as JPEG wants */
         rgb8 = malloc(vt_image_rgba8_size(W, H));
@@ -423,12 +423,20 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
         return;
     }
     frame_sub *f = &c->fsub;
+    /* a new view of the same stream (a camera that moves: size, format,
+       quality and renderer unchanged) keeps the frame being drawn, which
+       carries its own view_seq, and the new view's frame starts as soon
+       as it is out; anything else drops it. Dropping on every move would
+       starve a camera that moves faster than frames are drawn. */
+    bool same = f->active && f->m.r.format == m.r.format && f->m.r.quality == m.r.quality &&
+                f->m.r.renderer == m.r.renderer && f->m.r.view.viewport_w == m.r.view.viewport_w &&
+                f->m.r.view.viewport_h == m.r.view.viewport_h;
     if (!f->active) s->nsubs++;
     f->active = true;
     f->req = h->req;
     f->m = m;
-    f->gen++;        /* a frame still being drawn for the old view is dropped */
-    f->dirty = true; /* the first frame (or the new view) at once */
+    if (!same) f->gen++; /* a frame still being drawn for the old stream is dropped */
+    f->dirty = true;     /* the first frame (or the new view) at once */
     f->next_ns = 0;
     reply_ack(c, h->req, s->sc->epoch, 0);
     LOGD("client %u: frames %ux%u %s, %s, at most %u/s", c->id, m.r.view.viewport_w, m.r.view.viewport_h,
@@ -494,7 +502,7 @@ int frames_schedule(server *s)
         job *j = calloc(1, sizeof *j);
         if (!j) return 1; /* try again on the next pass */
         *j = (job){.fd = c->fd, .conn_id = c->id, .h = {.type = VP_RENDER, .req = f->req}, .stream = true,
-                   .gen = f->gen, .stream_req = f->m.r};
+                   .gen = f->gen, .view_seq = f->m.view_seq, .stream_req = f->m.r};
         f->inflight = true;
         f->dirty = false;
         /* the cap: frame starts 1/max_fps apart (a late start does not

@@ -22,6 +22,42 @@ static bool editor(server *s, conn *c, uint32_t req)
     return false;
 }
 
+/* Commands (DESTROY, MARK): a commander's, and an editor's. */
+static bool commander(server *s, conn *c, uint32_t req)
+{
+    if (c->role >= VP_ROLE_COMMANDER) return true;
+    send_error(s, c, req, VP_ERR_AUTH, UINT32_MAX, "commands need the commander role");
+    return false;
+}
+
+/* MARK: pushed as MARKED to every connection subscribed to marks. Each
+ * copy goes through that connection's output limit: a subscriber that does
+ * not read is dropped by it, as for any reply. */
+static void on_mark(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    if (!commander(s, c, h->req)) return;
+    vp_marked m = {.client_id = c->id};
+    int rc = vp_dec_mark(p, h->len, &m.m);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    uint32_t sent = 0;
+    for (uint32_t i = 0; i < s->nconns; i++) {
+        conn *o = s->live[i];
+        vp_writer w;
+        if (!(o->sub_kinds & VP_EVENT_MARKS) || o->closing) continue;
+        if (!out_reserve(o, VP_HEADER_SIZE + VP_MARKED_SIZE, &w)) {
+            o->closing = true;
+            continue;
+        }
+        vp_enc_marked(&w, &m);
+        out_commit(o, &w);
+        sent++;
+    }
+    reply_ack(c, h->req, s->sc->epoch, sent);
+}
+
 void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count)
 {
     vp_writer w;
@@ -488,7 +524,9 @@ static void edit_reply(server *s, conn *c, const vp_header *h, const edit *e, co
  * the turn's sync. */
 static void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
-    if (!editor(s, c, h->req)) return;
+    /* a destruction event is a command (the commander's "destroy at the
+       reticle"); every other edit needs an editor */
+    if (!(h->type == VP_DESTROY ? commander(s, c, h->req) : editor(s, c, h->req))) return;
     edit e;
     int rc = edit_decode(h->type, p, h->len, s->cfg.max_batch, &e);
     if (rc) {
@@ -571,7 +609,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
     case VP_SUBSCRIBE: {
         uint32_t kinds;
         if ((rc = vp_dec_subscribe(p, h->len, &kinds))) break;
-        c->subscribed = kinds != 0;
+        c->sub_kinds = kinds;
         reply_ack(c, h->req, s->sc->epoch, 0);
         return;
     }
@@ -585,6 +623,9 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         return;
     case VP_FRAME_UNSUBSCRIBE:
         on_frame_unsubscribe(s, c, h, p);
+        return;
+    case VP_MARK:
+        on_mark(s, c, h, p);
         return;
     case VP_ENTITY_LIST:
         on_list(s, c, h, p);

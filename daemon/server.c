@@ -395,7 +395,7 @@ static void before_sleep(ae_loop *l, void *data)
         }
         if (sweep && drop_if_slow(s, c, now_ms)) continue;
         clocks |= !c->hello || c->since_ms;
-        if (changed && c->subscribed) {
+        if (changed && (c->sub_kinds & VP_EVENT_SCENE)) {
             c->ev_pending = true;
             c->ev_added += sc->ev_added;
             c->ev_updated += sc->ev_updated;

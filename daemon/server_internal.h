@@ -35,7 +35,8 @@ typedef struct conn {
     int fd;
     uint32_t id;
     int role;
-    bool hello, closing, subscribed;
+    bool hello, closing;
+    uint32_t sub_kinds; /* SUBSCRIBE: VP_EVENT_* pushed to it */
     bool busy;          /* a query is with a worker: later frames wait */
     uint32_t live_pos;  /* index in server.live */
     uint8_t *in;
@@ -98,6 +99,7 @@ typedef struct job {
     /* a frame of a stream (no payload; the request is stream_req) */
     bool stream;
     uint32_t gen;
+    uint16_t view_seq;      /* the subscription's, when the frame was started */
     vp_render stream_req;
     uint64_t epoch;     /* the scene epoch it was drawn from */
 } job;

@@ -57,6 +57,8 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_SUBLEVEL_INFO_REPLY, "sublevel_info_reply"},
     {VP_DESTROY, "destroy"},
     {VP_DESTROYED, "destroyed"},
+    {VP_MARK, "mark"},
+    {VP_MARKED, "marked"},
     {VP_VIS_QUERY, "vis_query"},
     {VP_VIS_RESULT, "vis_result"},
     {VP_RENDER, "render"},
@@ -429,7 +431,7 @@ int vp_dec_subscribe(const uint8_t *p, size_t len, uint32_t *kinds)
     *kinds = vp_get_u32(&r);
     int rc = vp_reader_finish(&r);
     if (rc) return rc;
-    return (*kinds & ~VP_EVENT_SCENE) ? VP_ERR_INVALID : VP_OK;
+    return (*kinds & ~(VP_EVENT_SCENE | VP_EVENT_MARKS)) ? VP_ERR_INVALID : VP_OK;
 }
 
 void vp_enc_event(vp_writer *w, const vp_event *m)

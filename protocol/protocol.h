@@ -116,6 +116,9 @@ enum vp_type {
     /* 0x0400..0x04ff destruction */
     VP_DESTROY = 0x0400,
     VP_DESTROYED = 0x0401,
+
+    VP_MARK = 0x0600,
+    VP_MARKED = 0x0601,
     /* reserved: 0x0600 input,
        0x0700 persistence and administration */
 };
@@ -299,6 +302,7 @@ typedef struct vp_stats_reply {
 } vp_stats_reply;
 
 #define VP_EVENT_SCENE 0x1u
+#define VP_EVENT_MARKS 0x2u   /* SUBSCRIBE: MARKED pushes */
 typedef struct vp_event {
     uint32_t kind;        /* VP_EVENT_* */
     uint64_t epoch;
@@ -445,6 +449,29 @@ int  vp_dec_destroy(const uint8_t *p, size_t len, vp_destroy *m);
 void vp_enc_destroyed(vp_writer *w, uint32_t req, const vp_destroyed *m);
 int  vp_dec_destroyed(const uint8_t *p, size_t len, vp_destroyed *m);
 
+/* MARK (commander role): a commander marks a place ("ping a location"),
+ * optionally an entity; the daemon pushes it as MARKED to every connection
+ * that subscribed to marks, the sender's included, and answers ACK (count
+ * = connections it went to). Marks are not scene state: not journaled. */
+#define VP_MARK_SIZE 40u
+#define VP_MARKED_SIZE 48u
+typedef struct vp_mark {
+    double   pos[3];          /* world metres, finite, within +-1e12 */
+    uint64_t entity;          /* the entity marked, 0 = a place */
+    uint8_t  kind;            /* the application's: the commander sends 0 = ping, 1 = select */
+    uint32_t ttl_ms;          /* how long viewers show it, 1..600000 */
+} vp_mark;
+
+typedef struct vp_marked {
+    uint32_t client_id;       /* the sender (HELLO_OK's client_id) */
+    vp_mark  m;
+} vp_marked;
+
+void vp_enc_mark(vp_writer *w, uint32_t req, const vp_mark *m);
+int  vp_dec_mark(const uint8_t *p, size_t len, vp_mark *m);
+void vp_enc_marked(vp_writer *w, const vp_marked *m);
+int  vp_dec_marked(const uint8_t *p, size_t len, vp_marked *m);
+
 /* Encoders: append one whole frame to w. */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);
 void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m);
@@ -532,6 +559,7 @@ uint64_t vp_light_tiles_id(const vp_light_tiles *m, uint32_t k);
 typedef struct vp_frame_sub {
     vp_render r;
     uint16_t  max_fps;      /* 1..VP_FRAME_SUB_MAX_FPS */
+    uint16_t  view_seq;     /* the client's number for this view, echoed by the FRAMEs drawn from it */
 } vp_frame_sub;
 void vp_enc_frame_sub(vp_writer *w, uint32_t req, const vp_frame_sub *m);
 int  vp_dec_frame_sub(const uint8_t *p, size_t len, vp_frame_sub *m);
@@ -541,6 +569,7 @@ typedef struct vp_frame {
     uint64_t epoch;
     uint16_t width, height;
     uint8_t  format;
+    uint16_t view_seq;      /* the subscription's view_seq it was drawn for (RENDER: 0) */
     uint32_t visible;       /* entities drawn */
     uint32_t render_ns, encode_ns;
     uint32_t data_len;

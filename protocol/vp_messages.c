@@ -844,7 +844,7 @@ void vp_enc_frame_sub(vp_writer *w, uint32_t req, const vp_frame_sub *m)
     vp_frame_begin(w, VP_FRAME_SUBSCRIBE, req);
     render_write(w, &m->r);
     vp_put_u16(w, m->max_fps);
-    vp_put_u16(w, 0);
+    vp_put_u16(w, m->view_seq);
     vp_frame_end(w);
 }
 
@@ -855,7 +855,7 @@ int vp_dec_frame_sub(const uint8_t *p, size_t len, vp_frame_sub *m)
     int rc = render_read(p, &m->r);
     if (rc) return rc;
     m->max_fps = rd16(p + VP_RENDER_SIZE);
-    if (rd16(p + VP_RENDER_SIZE + 2)) return VP_ERR_INVALID;
+    m->view_seq = rd16(p + VP_RENDER_SIZE + 2);
     if (m->max_fps < 1 || m->max_fps > VP_FRAME_SUB_MAX_FPS) return VP_ERR_INVALID;
     return VP_OK;
 }
@@ -873,7 +873,7 @@ void vp_enc_frame(vp_writer *w, uint32_t req, const vp_frame *m)
     vp_put_u16(w, m->height);
     vp_put_u8(w, m->format);
     vp_put_u8(w, 0);
-    vp_put_u16(w, 0);
+    vp_put_u16(w, m->view_seq);
     vp_put_u32(w, m->visible);
     vp_put_u32(w, m->render_ns);
     vp_put_u32(w, m->encode_ns);
@@ -891,16 +891,81 @@ int vp_dec_frame(const uint8_t *p, size_t len, vp_frame *m)
     m->width = rd16(p + 8);
     m->height = rd16(p + 10);
     m->format = p[12];
+    m->view_seq = rd16(p + 14);
     m->visible = rd32(p + 16);
     m->render_ns = rd32(p + 20);
     m->encode_ns = rd32(p + 24);
     m->data_len = rd32(p + 28);
     m->data = p + VP_FRAME_HEADER;
-    if (p[13] || rd16(p + 14) || m->format > VP_FRAME_JPEG || !m->width || !m->height) return VP_ERR_INVALID;
+    if (p[13] || m->format > VP_FRAME_JPEG || !m->width || !m->height) return VP_ERR_INVALID;
     if (len - VP_FRAME_HEADER < m->data_len) return VP_ERR_TRUNCATED;
     if (len - VP_FRAME_HEADER > m->data_len) return VP_ERR_TRAILING;
     if (m->format == VP_FRAME_RAW && (uint64_t)m->data_len != (uint64_t)m->width * m->height * 20) return VP_ERR_COUNT;
     return VP_OK;
+}
+
+/* ---- marks -------------------------------------------------------------------------- */
+
+static void mark_write(vp_writer *w, const vp_mark *m)
+{
+    for (int k = 0; k < 3; k++) vp_put_f64(w, m->pos[k]);
+    vp_put_u64(w, m->entity);
+    vp_put_u8(w, m->kind);
+    vp_put_u8(w, 0);
+    vp_put_u16(w, 0);
+    vp_put_u32(w, m->ttl_ms);
+}
+
+static int mark_read(vp_reader *r, vp_mark *m)
+{
+    for (int k = 0; k < 3; k++) m->pos[k] = vp_get_f64(r);
+    m->entity = vp_get_u64(r);
+    m->kind = vp_get_u8(r);
+    uint8_t pad8 = vp_get_u8(r);
+    uint16_t pad16 = vp_get_u16(r);
+    m->ttl_ms = vp_get_u32(r);
+    int rc = vp_reader_finish(r);
+    if (rc) return rc;
+    if (pad8 || pad16) return VP_ERR_INVALID;
+    if (!vp_finite_n(m->pos, 3)) return VP_ERR_NONFINITE;
+    for (int k = 0; k < 3; k++)
+        if (fabs(m->pos[k]) > 1e12) return VP_ERR_INVALID;
+    if (m->ttl_ms < 1 || m->ttl_ms > 600000) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+void vp_enc_mark(vp_writer *w, uint32_t req, const vp_mark *m)
+{
+    vp_frame_begin(w, VP_MARK, req);
+    mark_write(w, m);
+    vp_frame_end(w);
+}
+
+int vp_dec_mark(const uint8_t *p, size_t len, vp_mark *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    return mark_read(&r, m);
+}
+
+void vp_enc_marked(vp_writer *w, const vp_marked *m)
+{
+    vp_frame_begin(w, VP_MARKED, 0);
+    vp_put_u32(w, m->client_id);
+    vp_put_u32(w, 0);
+    mark_write(w, &m->m);
+    vp_frame_end(w);
+}
+
+int vp_dec_marked(const uint8_t *p, size_t len, vp_marked *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->client_id = vp_get_u32(&r);
+    uint32_t pad = vp_get_u32(&r);
+    int rc = mark_read(&r, &m->m);
+    if (rc) return rc;
+    return pad ? VP_ERR_INVALID : VP_OK;
 }
 
 /* ---- destruction --------------------------------------------------------------- */

@@ -747,6 +747,33 @@ static void fuzz_destroyed(const uint8_t *p, size_t len)
     enc_close(&b);
 }
 
+static void fuzz_mark(const uint8_t *p, size_t len)
+{
+    vp_mark m;
+    int rc = vp_dec_mark(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.ttl_ms >= 1 && m.ttl_ms <= 600000);
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_mark(&b.w, 3, &m);
+    CHECK(!memcmp(enc_payload(&b, VP_MARK, len), p, len));
+    enc_close(&b);
+}
+
+static void fuzz_marked(const uint8_t *p, size_t len)
+{
+    vp_marked m;
+    int rc = vp_dec_marked(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_marked(&b.w, &m);
+    CHECK(!memcmp(enc_payload(&b, VP_MARKED, len), p, len));
+    enc_close(&b);
+}
+
 static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
 {
     uint32_t limit = h->req; /* fuzzer-chosen max_batch for the batch decoders */
@@ -794,6 +821,8 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_SUBLEVEL_INFO_REPLY: fuzz_sublevel_infos(p, len); return;
     case VP_DESTROY: fuzz_destroy(p, len); return;
     case VP_DESTROYED: fuzz_destroyed(p, len); return;
+    case VP_MARK: fuzz_mark(p, len); return;
+    case VP_MARKED: fuzz_marked(p, len); return;
     default: break;
     }
     /* Unknown to this version: a server would answer ERROR TYPE and skip
