@@ -4,8 +4,8 @@
 #   make demo              the culling core on the shared city scene + a short benchmark
 #   make test              unit + property tests (release, then ASan+UBSan),
 #                          the scalar-only build, and a bench smoke run
-#   make bench             the full culling, occlusion and render benchmarks
-#                          (bench_cull, bench_occlusion, bench_render)
+#   make bench             the full culling, occlusion, render and pad-parser benchmarks
+#                          (bench_cull, bench_occlusion, bench_render, bench_pad)
 #   make deps              install the Debian packages the build needs
 #   CONFIG=release|debug|asan|scalar   out-of-tree in build/$(CONFIG)/
 #
@@ -19,8 +19,8 @@ SHELL  := /bin/bash
 # Debian packages and the pkg-config modules that prove them installed.
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
-            zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2
+            zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -68,7 +68,7 @@ CLIENT_OBJ:= $(BUILD)/client/libvantage.o
 PAD_OBJ  := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o \
             $(BUILD)/client/pad_io.o $(BUILD)/client/pad_io_real.o $(BUILD)/client/pad_map.o
 PAD_LIBS := $$(pkg-config --libs hidapi-hidraw libusb-1.0)
-SDL_LIBS := $$(pkg-config --libs sdl2)
+SDL_LIBS := $$(pkg-config --libs sdl2 SDL2_ttf)
 CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o \
             $(BUILD)/client/cli_render.o $(BUILD)/client/cli_frames.o $(BUILD)/client/cli_sublevel.o \
             $(BUILD)/client/import.o $(BUILD)/client/jsonl.o $(BUILD)/client/cli_pad.o $(BUILD)/client/commander.o \
@@ -111,6 +111,11 @@ RENDB_SRC:= tests/bench/bench_render.c
 RENDB_OBJ:= $(RENDB_SRC:%.c=$(BUILD)/%.o)
 RENDB_BIN:= $(BUILD)/bench_render
 
+# the pad parsers alone (pure C: the parsers and their tables, no hidapi/libusb)
+PADB_OBJ := $(BUILD)/tests/bench/bench_pad.o
+PADB_BIN := $(BUILD)/bench_pad
+PADB_PAD := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o
+
 SUBB_OBJ := $(BUILD)/tests/bench/bench_sublevel.o
 SUBB_BIN := $(BUILD)/bench_sublevel
 
@@ -119,15 +124,16 @@ DESB_BIN := $(BUILD)/bench_destruct
 
 SCENE    ?= ../shared/scenes/city_scene.txt
 
-.PHONY: all run demo test bench bench-persist deps check-deps clean test-one install install-check
-all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN)
+.PHONY: all run demo test bench bench-persist bench-commander deps check-deps clean test-one install install-check
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
 # a pkg-config module is missing, so a provisioned machine never touches apt.
 check-deps:
 	@if ! command -v $(CC) >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1 || \
-	    ! pkg-config --exists $(PC_MODS); then $(MAKE) --no-print-directory deps; fi
+	    ! pkg-config --exists $(PC_MODS) || ! command -v Xvfb >/dev/null 2>&1 || \
+	    [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf ]; then $(MAKE) --no-print-directory deps; fi
 
 deps:
 	@echo "make deps: installing $(DEB_PKGS)"
@@ -186,7 +192,7 @@ $(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
 
 $(BUILD)/client/jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
 $(BUILD)/client/pad_io_real.o $(BUILD)/client/cli_pad.o: CPPFLAGS += $$(pkg-config --cflags hidapi-hidraw libusb-1.0)
-$(BUILD)/client/commander_sdl.o: CPPFLAGS += $$(pkg-config --cflags sdl2)
+$(BUILD)/client/commander_sdl.o: CPPFLAGS += $$(pkg-config --cflags sdl2 SDL2_ttf) -Irender
 
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
@@ -196,6 +202,9 @@ $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 
 $(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
+
+$(PADB_BIN): $(PADB_OBJ) $(PADB_PAD)
+	$(CC) $(LDFLAGS) -o $@ $(PADB_OBJ) $(PADB_PAD) $(LDLIBS)
 
 $(SUBB_BIN): $(SUBB_OBJ) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(SUBB_OBJ) $(CLIENT_LIB) $(LDLIBS)
@@ -244,15 +253,21 @@ test: check-deps
 
 bench: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion \
-	  build/release/bench_render
+	  build/release/bench_render build/release/bench_pad
 	./build/release/bench_cull --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_occlusion --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_render $(BENCH_ARGS)
+	./build/release/bench_pad $(BENCH_ARGS)
 
 # recovery time and edit throughput per durability policy (a few minutes)
 bench-persist: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
 	tests/bench/bench_persist.sh build/release
+
+# input-to-photon latency of the commander client per tick rate (about a minute)
+bench-commander: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	tests/bench/bench_commander.sh build/release $(or $(BENCH_SECONDS),15)
 
 # ---- install: the binaries, libvantage, its headers and pkg-config file ----------
 PREFIX ?= /usr/local
@@ -276,4 +291,4 @@ clean:
 
 include tests/fuzz/fuzz.mk
 
--include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d)
+-include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(PADB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d)

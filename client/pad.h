@@ -67,8 +67,14 @@ typedef struct pad_state {
     pad_touch touch[PAD_MAX_TOUCH];
     int8_t battery;          /* 0..100 percent, -1 unknown */
     bool connected;          /* false: a wireless adaptor with no pad behind it */
-    uint32_t counter;        /* the pad's own report counter where it has one, else 0 */
+    uint32_t counter;        /* the pad's own report counter where it has one, else 0:
+                                that of the last report that changed the state (it is
+                                not input: a report that moves only the counter is
+                                PAD_OK_NONE) */
 } pad_state;
+
+/* The state before any report: all zero, battery -1 (unknown), connected. */
+void pad_state_init(pad_state *s);
 
 /* ---- the devices ------------------------------------------------------------------- */
 
@@ -116,7 +122,8 @@ typedef struct pad_parser {
 
 /* pad_parse's results: > 0 the state changed (out updated, whole);
  * 0 a valid report that carries no new input (another report id, a GIP
- * status, an unchanged state); < 0 refused, out untouched. */
+ * status, an unchanged state): out untouched, p->out may hold a reply;
+ * < 0 refused, out untouched, nothing to send. */
 enum pad_parse_result {
     PAD_OK_STATE = 1,
     PAD_OK_NONE = 0,
@@ -138,7 +145,10 @@ void pad_parser_start(pad_parser *p);
  * values). Pure: no I/O, no allocation, any bytes. */
 int pad_parse(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out);
 
-/* The protocols' parsers, as pad_parse calls them. */
+/* The protocols' parsers, as pad_parse calls them (pad_parse adds the
+ * counts). What each accepts, and the scales, are in pad_parse.c's header:
+ * sticks are normalized without the pad's factory calibration (nominal
+ * centre and range, clamped), motion with the nominal sensor scales. */
 int pad_parse_ds4(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out);
 int pad_parse_dualsense(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out);
 int pad_parse_switch_pro(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out);
@@ -186,13 +196,20 @@ typedef struct pad_line {
     uint8_t data[PAD_REPORT_MAX];
 } pad_line;
 
-/* One line (without its newline, any bytes, line[0..n)). 0 and *out
- * filled, or -1 and err says what is wrong (the caller adds the line
- * number). A length that disagrees with the bytes, a bad hex byte, a
- * negative or non-finite time, an unknown line tag are errors. */
+/* One line (any bytes, line[0..n); trailing '\r's and '\n's are
+ * dropped). 0 and *out filled, or -1 and err says which field is
+ * wrong (the caller adds the line number). A length that disagrees with
+ * the bytes, a bad hex byte, a negative or non-finite time, an unknown
+ * line tag are errors. E: times are kept to the microsecond (what
+ * hid-recorder writes), below 10^9 s; a report has 1..PAD_REPORT_MAX
+ * bytes. */
 int pad_line_parse(const char *line, size_t n, pad_line *out, char *err, size_t errlen);
-/* The E: line for a report, with a newline; returns its length (snprintf's
- * rule). */
+/* The E: line for a report, with a newline, as hid-recorder writes it
+ * ("E: 000001.250000 3 01 80 7f"); t is rounded to the microsecond (a
+ * negative or NaN t is written as 0, one of 10^9 s or more as
+ * 999999999.999999). Returns its length (snprintf's rule: >= buflen means
+ * cut short; buf may be NULL when buflen is 0). pad_line_parse reads a
+ * line of 1..PAD_REPORT_MAX bytes back to the same t, len and bytes. */
 int pad_line_format_event(double t, const uint8_t *data, size_t len, char *buf, size_t buflen);
 
 #endif

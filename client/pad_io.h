@@ -64,6 +64,19 @@ int  pad_hub_fd(const pad_hub *h);
  * merged (the newest state wins, t_report is the newest report's). */
 int  pad_hub_next(pad_hub *h, pad_event *ev);
 
+/* A pad's counts so far, for `pad dump --stats`. */
+typedef struct pad_counts {
+    uint64_t reports;        /* reports read (replay: delivered) */
+    uint64_t ignored;        /* valid but changed nothing (PAD_OK_NONE) */
+    uint64_t errors;         /* refused by the parser, or failed reads */
+    uint64_t states;         /* STATE events made, before merging */
+    uint64_t merged;         /* of those, merged into an unread one (the caller was slower than the pad) */
+} pad_counts;
+/* 0 and *out filled, or -1 when the hub has no such pad (never had, or
+ * unplugged and gone: its REMOVED message carries its last counts). Any
+ * thread; takes the hub's lock for a moment. */
+int  pad_hub_counts(pad_hub *h, uint32_t pad, pad_counts *out);
+
 /* `vantage pad list`: the pads present now, without opening them. */
 typedef struct pad_found {
     const pad_device_info *info;
@@ -71,16 +84,80 @@ typedef struct pad_found {
     char product[128];       /* the device's own product string where it has one */
 } pad_found;
 /* Up to max pads into out; returns how many were found (may exceed max),
- * or -1 and err. */
+ * or -1 and err (neither library would start). When only one of them
+ * would, the count stands and err says which is missing ("" otherwise). */
 int  pad_enumerate(const pad_ops *ops, pad_found *out, size_t max, char *err, size_t errlen);
 
 /* ---- the library calls, for fakes ------------------------------------------------------ */
 
 /*
- * (Written with the hub: the hidapi and libusb functions the hub calls,
- * as function pointers with the libraries' own signatures, plus `ctx` for
- * a fake's state. pad_ops_real() returns the table of the real ones.)
+ * The hidapi and libusb functions the hub and pad_enumerate call, each a
+ * pointer with the library's own signature, so a test can put a fake
+ * device behind every one of them (the fake completes the libraries'
+ * opaque structs, struct hid_device_ and struct libusb_device, with its
+ * own). The libraries' headers come in here, by their Debian paths, because
+ * the hotplug callback's type names libusb's anonymous event enum; a file
+ * that includes pad_io.h needs no extra -I for them. Costs nothing at run
+ * time beyond an indirect call per library call (a few per report).
+ *
+ * The hub calls every pointer listed (none may be NULL); ctx is the fake's
+ * own state, never touched by the hub (the real table leaves it NULL).
+ * Threads: a pad's reader thread reads, writes (acks) and, when the pad
+ * is unplugged, closes it (hid_read_timeout, hid_write, hid_error(dev),
+ * hid_close; libusb_interrupt_transfer, libusb_strerror,
+ * libusb_release_interface, libusb_close); everything else runs in the
+ * hub's thread or in pad_hub_open / pad_hub_close / pad_enumerate. The
+ * hotplug callback may run in any thread that handles libusb events (the
+ * hub only queues from it). A fake must be as thread-safe as the
+ * libraries are.
  */
+#include <hidapi/hidapi.h>
+#include <libusb-1.0/libusb.h>
+
+struct pad_ops {
+    void *ctx;
+
+    /* hidapi (hidraw): PlayStation and Switch pads */
+    int (*hid_init)(void);
+    int (*hid_exit)(void);
+    struct hid_device_info *(*hid_enumerate)(unsigned short vendor_id, unsigned short product_id);
+    void (*hid_free_enumeration)(struct hid_device_info *devs);
+    hid_device *(*hid_open_path)(const char *path);
+    int (*hid_read_timeout)(hid_device *dev, unsigned char *data, size_t length, int milliseconds);
+    int (*hid_write)(hid_device *dev, const unsigned char *data, size_t length);
+    void (*hid_close)(hid_device *dev);
+    const wchar_t *(*hid_error)(hid_device *dev); /* NULL: the last open's error */
+
+    /* libusb: the Xbox pads' vendor-class interfaces */
+    int (*libusb_init)(libusb_context **ctx);
+    void (*libusb_exit)(libusb_context *ctx);
+    int (*libusb_has_capability)(uint32_t capability);
+    const char *(*libusb_strerror)(int errcode);
+    ssize_t (*libusb_get_device_list)(libusb_context *ctx, libusb_device ***list);
+    void (*libusb_free_device_list)(libusb_device **list, int unref_devices);
+    libusb_device *(*libusb_ref_device)(libusb_device *dev);
+    void (*libusb_unref_device)(libusb_device *dev);
+    int (*libusb_get_device_descriptor)(libusb_device *dev, struct libusb_device_descriptor *desc);
+    int (*libusb_get_active_config_descriptor)(libusb_device *dev, struct libusb_config_descriptor **config);
+    void (*libusb_free_config_descriptor)(struct libusb_config_descriptor *config);
+    uint8_t (*libusb_get_bus_number)(libusb_device *dev);
+    uint8_t (*libusb_get_device_address)(libusb_device *dev);
+    int (*libusb_get_port_numbers)(libusb_device *dev, uint8_t *port_numbers, int port_numbers_len);
+    int (*libusb_open)(libusb_device *dev, libusb_device_handle **dev_handle);
+    void (*libusb_close)(libusb_device_handle *dev_handle);
+    int (*libusb_set_auto_detach_kernel_driver)(libusb_device_handle *dev_handle, int enable);
+    int (*libusb_claim_interface)(libusb_device_handle *dev_handle, int interface_number);
+    int (*libusb_release_interface)(libusb_device_handle *dev_handle, int interface_number);
+    int (*libusb_interrupt_transfer)(libusb_device_handle *dev_handle, unsigned char endpoint, unsigned char *data,
+                                     int length, int *actual_length, unsigned int timeout);
+    int (*libusb_hotplug_register_callback)(libusb_context *ctx, int events, int flags, int vendor_id,
+                                            int product_id, int dev_class, libusb_hotplug_callback_fn cb_fn,
+                                            void *user_data, libusb_hotplug_callback_handle *callback_handle);
+    void (*libusb_hotplug_deregister_callback)(libusb_context *ctx, libusb_hotplug_callback_handle callback_handle);
+    int (*libusb_handle_events_timeout_completed)(libusb_context *ctx, struct timeval *tv, int *completed);
+};
+
+/* The table of the real libraries (static, never NULL). */
 const pad_ops *pad_ops_real(void);
 
 #endif

@@ -6,6 +6,8 @@
 #   protocol   the wire-protocol decoders (protocol/)
 #   jsonl      the JSON lines parser of `vantage import` (client/jsonl.c, json-c)
 #   gltf       the level import of `vantage sublevel load` (client/import.c, assimp)
+#   pad        the game-pad report parsers (client/pad.c, pad_parse.c)
+#   replay     hid-recorder's text format and the replay path (client/pad_line.c)
 #
 #   make fuzz-replay     replay every target's corpus + saved crashes through
 #                        the plain driver built with $(CC) in this CONFIG
@@ -24,7 +26,7 @@ FUZZ_SAVED_GOAL := $(.DEFAULT_GOAL)
 
 FUZZ_DIR        := tests/fuzz
 FUZZ_OUT        := build/fuzz
-FUZZ_ALL        := protocol jsonl gltf
+FUZZ_ALL        := protocol jsonl gltf pad replay
 FUZZ_TARGETS    ?= $(FUZZ_ALL)
 FUZZ_CRASH_DIR  ?= $(FUZZ_DIR)/crashes
 FUZZ_SECONDS    ?= 60
@@ -71,6 +73,21 @@ FUZZ_gltf_ARGS        := -timeout=10
 FUZZ_gltf_RUN_ARGS    := -fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1
 FUZZ_gltf_CRASH_DIR   := $(FUZZ_OUT)/crashes/gltf
 FUZZ_gltf_BUDGET      := 100 512
+
+# the pad parsers: pure C, no library; one input is a protocol byte and a
+# sequence of length-prefixed reports (fuzz_pad.c)
+FUZZ_pad_OBJ          := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o
+FUZZ_pad_SRC          := client/pad.c client/pad_parse.c client/pad_line.c
+FUZZ_pad_MAX_LEN      := 1024
+FUZZ_pad_BUDGET       := 100 256
+
+# hid-recorder files, their E: reports fed to the parser their I: line names
+FUZZ_replay_OBJ       := $(FUZZ_pad_OBJ)
+FUZZ_replay_SRC       := $(FUZZ_pad_SRC)
+FUZZ_replay_MAX_LEN   := 4096
+# each way a line is refused is its own edge: a merge from the seeds keeps
+# ~130 small files (28 KiB)
+FUZZ_replay_BUDGET    := 150 256
 
 # ---- replay driver and corpus generator: $(CC), this CONFIG -------------------
 FUZZ_REPLAY_MAIN := $(BUILD)/fuzz/replay_main.o
