@@ -114,7 +114,7 @@ RENDB_BIN:= $(BUILD)/bench_render
 # the pad parsers alone (pure C: the parsers and their tables, no hidapi/libusb)
 PADB_OBJ := $(BUILD)/tests/bench/bench_pad.o
 PADB_BIN := $(BUILD)/bench_pad
-PADB_PAD := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o
+PADB_PAD := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o $(PROTO_OBJ)
 
 SUBB_OBJ := $(BUILD)/tests/bench/bench_sublevel.o
 SUBB_BIN := $(BUILD)/bench_sublevel

@@ -9,6 +9,8 @@
 #include "vp_internal.h"
 
 #include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <string.h>
 
 const char *vp_strerror(int code)
@@ -19,6 +21,17 @@ const char *vp_strerror(int code)
 #undef VP_X_STR
     }
     return "unknown error";
+}
+
+int vp_errf(char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return -1;
 }
 
 static const struct { uint16_t type; const char *name; } type_names[] = {

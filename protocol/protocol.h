@@ -65,6 +65,10 @@ enum {
 };
 
 const char *vp_strerror(int code);
+/* The modules' message helper: formats into err[0..errlen) (err may be
+ * NULL or errlen 0: nothing written) and returns -1, so a failing path is
+ * `return vp_errf(err, errlen, "...", ...);`. */
+int vp_errf(char *err, size_t errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 
 /* ---- message types: ranges reserved per area ----------------------------- */
 enum vp_type {

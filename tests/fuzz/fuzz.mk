@@ -76,8 +76,8 @@ FUZZ_gltf_BUDGET      := 100 512
 
 # the pad parsers: pure C, no library; one input is a protocol byte and a
 # sequence of length-prefixed reports (fuzz_pad.c)
-FUZZ_pad_OBJ          := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o
-FUZZ_pad_SRC          := client/pad.c client/pad_parse.c client/pad_line.c
+FUZZ_pad_OBJ          := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o $(PROTO_OBJ)
+FUZZ_pad_SRC          := client/pad.c client/pad_parse.c client/pad_line.c $(PROTO_SRC)
 FUZZ_pad_MAX_LEN      := 1024
 FUZZ_pad_BUDGET       := 100 256
 
