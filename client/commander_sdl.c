@@ -49,7 +49,8 @@ cmd_display *cmd_display_open(uint32_t w, uint32_t h, const char *title, char *e
         return NULL;
     }
     d->win = SDL_CreateWindow(title, SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED, (int)w, (int)h, 0);
-    if (d->win) d->ren = SDL_CreateRenderer(d->win, -1, SDL_RENDERER_PRESENTVSYNC * 0);
+    /* no vsync: waiting for the display's refresh would add up to a refresh to every frame's latency */
+    if (d->win) d->ren = SDL_CreateRenderer(d->win, -1, 0);
     if (!d->ren) {
         snprintf(err, errlen, "no window: %s", SDL_GetError());
         cmd_display_close(d);
