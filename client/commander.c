@@ -96,6 +96,7 @@ typedef struct commander {
     uint64_t fps_n;
     double fps;
     cmd_lat lat, lat_tick, lat_daemon, lat_show, rtt;
+    cmd_lat fr_render, fr_encode; /* the daemon's own times per frame received */
     double ov_p50, ov_p95, ov_rtt, ov_next; /* the overlay's percentiles, refreshed 4 times a second */
     /* commands */
     enum pick_state pick;
@@ -382,6 +383,8 @@ static void on_frame(commander *m, const uint8_t *p, uint32_t len)
     }
     memcpy(m->jpeg, f.data, f.data_len); /* latest wins: only the newest of a drain is shown */
     m->jpeg_len = f.data_len;
+    cmd_lat_add(&m->fr_render, f.render_ns / 1e6);
+    cmd_lat_add(&m->fr_encode, f.encode_ns / 1e6);
     m->fr = f;
     m->fr.data = m->jpeg;
     m->fr_recv = now_s();
@@ -743,13 +746,15 @@ static int parse_args(commander *m, int argc, char **argv)
 static void print_stats(commander *m)
 {
     double secs = now_s() - m->t_start;
-    const cmd_lat *L[] = {&m->lat, &m->lat_tick, &m->lat_daemon, &m->lat_show, &m->rtt};
-    const char *names[] = {"input_to_photon", "tick_wait", "daemon_and_network", "decode_and_show", "rtt"};
+    const cmd_lat *L[] = {&m->lat, &m->lat_tick, &m->lat_daemon, &m->lat_show, &m->rtt, &m->fr_render, &m->fr_encode};
+    const char *names[] = {"input_to_photon", "tick_wait",    "daemon_and_network", "decode_and_show",
+                           "rtt",             "frame_render", "frame_encode"};
+    enum { NL = sizeof L / sizeof L[0] };
     if (m->json) {
         printf("{\"seconds\":%.3f,\"frames\":%llu,\"fps\":%.2f,\"frame_errors\":%llu,\"samples\":%llu", secs,
                (unsigned long long)m->frames, m->frames / (secs > 0 ? secs : 1), (unsigned long long)m->frame_errors,
                (unsigned long long)m->lat.total);
-        for (int i = 0; i < 5; i++)
+        for (int i = 0; i < NL; i++)
             printf(",\"%s_ms\":{\"p50\":%.3f,\"p95\":%.3f,\"p99\":%.3f,\"max\":%.3f}", names[i],
                    L[i]->n ? cmd_lat_pct(L[i], 50) : 0.0, L[i]->n ? cmd_lat_pct(L[i], 95) : 0.0,
                    L[i]->n ? cmd_lat_pct(L[i], 99) : 0.0, L[i]->n ? cmd_lat_pct(L[i], 100) : 0.0);
@@ -759,7 +764,7 @@ static void print_stats(commander *m)
     printf("frames %llu in %.1f s (%.1f/s), %llu bad; %llu latency samples\n", (unsigned long long)m->frames, secs,
            m->frames / (secs > 0 ? secs : 1), (unsigned long long)m->frame_errors, (unsigned long long)m->lat.total);
     printf("%-20s %8s %8s %8s %8s\n", "ms", "p50", "p95", "p99", "max");
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < NL; i++)
         printf("%-20s %8.2f %8.2f %8.2f %8.2f\n", names[i], cmd_lat_pct(L[i], 50), cmd_lat_pct(L[i], 95),
                cmd_lat_pct(L[i], 99), cmd_lat_pct(L[i], 100));
 }
