@@ -69,10 +69,13 @@ PAD_OBJ  := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pa
             $(BUILD)/client/pad_io.o $(BUILD)/client/pad_io_real.o $(BUILD)/client/pad_map.o
 PAD_LIBS := $$(pkg-config --libs hidapi-hidraw libusb-1.0)
 SDL_LIBS := $$(pkg-config --libs sdl2 SDL2_ttf)
+# load-test scenarios (issue 9): the format and the histogram, pure (the
+# tests link them); the runner is cli_scenario.c
+SCN_OBJ  := $(BUILD)/client/scenario.o $(BUILD)/client/hdr.o
 CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o \
             $(BUILD)/client/cli_render.o $(BUILD)/client/cli_frames.o $(BUILD)/client/cli_sublevel.o \
             $(BUILD)/client/import.o $(BUILD)/client/jsonl.o $(BUILD)/client/cli_pad.o $(BUILD)/client/commander.o \
-            $(BUILD)/client/commander_sdl.o $(PAD_OBJ)
+            $(BUILD)/client/commander_sdl.o $(BUILD)/client/cli_scenario.o $(SCN_OBJ) $(PAD_OBJ)
 CLI_BIN  := $(BUILD)/vantage
 
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
@@ -148,6 +151,10 @@ $(BUILD)/%.o: %.c
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -c $< -o $@
 
+# `bench --scenario NAME` finds the shipped scenarios here when run from the
+# source tree (installed: PREFIX/share/vantage/scenarios, next to bin/)
+$(BUILD)/client/cli_scenario.o: CPPFLAGS += -DVANTAGE_SCENARIO_DIR='"$(CURDIR)/client/scenarios"'
+
 $(BUILD)/culling/cull_kernels_avx2.o:   CFLAGS += $(ISA_AVX2)
 $(BUILD)/culling/cull_kernels_sse41.o:  CFLAGS += $(ISA_SSE41)
 $(BUILD)/culling/cull_kernels_scalar.o: CFLAGS += -fno-tree-vectorize
@@ -170,8 +177,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 	ar rcs $@ $^
 
 # the end-to-end tests run this configuration's vantaged and vantage
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(PAD_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(PAD_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
@@ -277,6 +284,8 @@ install: check-deps
 	install -m 755 $(DAEMON_BIN) $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/
 	install -m 644 $(CLIENT_LIB) $(DESTDIR)$(PREFIX)/lib/
 	install -m 644 client/vantage.h protocol/protocol.h $(DESTDIR)$(PREFIX)/include/vantage/
+	install -d $(DESTDIR)$(PREFIX)/share/vantage/scenarios
+	install -m 644 client/scenarios/*.scn $(DESTDIR)$(PREFIX)/share/vantage/scenarios/
 	sed 's|@PREFIX@|$(PREFIX)|' client/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
 
 # installs into build/<config>/stage and builds a program with pkg-config

@@ -63,6 +63,9 @@ int cmd_sublevel(cli *k, int argc, char **argv);
 /* cli_bench.c */
 int cmd_bench(cli *k, int argc, char **argv);
 
+/* cli_scenario.c: `bench --scenario FILE` (scenario.h) */
+int bench_scenario(cli *k, int argc, char **argv);
+
 /* cli_pad.c: pad list | pad dump (game controllers, pad_io.h) */
 int cmd_pad(cli *k, int argc, char **argv);
 

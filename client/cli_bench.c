@@ -161,6 +161,8 @@ int cmd_bench(cli *k, int argc, char **argv)
 {
     for (int i = 1; i + 1 < argc; i++)
         if (!strcmp(argv[i], "--test") && !strcmp(argv[i + 1], "frames")) return bench_frames(k, argc, argv);
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--scenario")) return bench_scenario(k, argc, argv);
     const char *use = "bench [--test query|edit|ping|frames] [--clients N] [--threads T] [--requests N] [--pipeline P] "
                       "[--views K] [--batch B] [--count-only] [--json]";
     const char *test = "query";

@@ -343,15 +343,6 @@ static const char *capture(void)
     return path;
 }
 
-static int run_cmd(const char *cmd, char *out, size_t cap)
-{
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    return pclose(p);
-}
-
 /* The camera state of frames.jsonl's line for the frame nearest t. */
 typedef struct fr_line {
     double t, target[3], yaw, pitch, half_h;
@@ -391,7 +382,7 @@ static void test_commander_replay_headless(void **state)
     char cmd[2048], out[8192];
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d commander --replay %s --headless %s --seconds 7 --json 2>&1",
              bin_dir(), d.port, capture(), dir);
-    int st = run_cmd(cmd, out, sizeof out);
+    int st = test_run_cmd(cmd, out, sizeof out);
     if (st) fail_msg("%s: exit %d: %s", cmd, st, out);
     /* the stats: frames shown, latency samples taken */
     const char *js = strstr(out, "{\"seconds\"");
@@ -449,7 +440,7 @@ static void test_commander_replay_headless(void **state)
     fclose(f);
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d commander --replay %s --headless %s --seconds 1 2>&1", bin_dir(),
              d.port, bad, dir);
-    st = run_cmd(cmd, out, sizeof out);
+    st = test_run_cmd(cmd, out, sizeof out);
     assert_int_not_equal(st, 0);
     if (!strstr(out, "bad.hidrec:2:")) fail_msg("\"%s\" does not name the line", out);
     daemon_stop(&d);
@@ -536,7 +527,7 @@ static void test_commander_window_xvfb(void **state)
              "DISPLAY=%s SDL_VIDEODRIVER=x11 ASAN_OPTIONS=\"$ASAN_OPTIONS:detect_leaks=0\" "
              "%s/vantage -p %d commander --replay %s --seconds 7 --screenshot %s 2>&1",
              dname, bin_dir(), d.port, capture(), png);
-    int st = run_cmd(cmd, out, sizeof out);
+    int st = test_run_cmd(cmd, out, sizeof out);
     kill(x, SIGTERM);
     waitpid(x, NULL, 0);
     if (st) fail_msg("%s: exit %d: %s", cmd, st, out);

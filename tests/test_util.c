@@ -90,3 +90,12 @@ void tdir_remove(tdir *t)
     closedir(d);
     assert_int_equal(rmdir(t->dir), 0);
 }
+
+int test_run_cmd(const char *cmd, char *out, size_t cap)
+{
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, cap - 1, p);
+    out[n] = 0;
+    return pclose(p);
+}

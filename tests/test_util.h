@@ -61,6 +61,10 @@ const char *tdir_file(tdir *t, const char *name);
 int tdir_count(const tdir *t);
 void tdir_remove(tdir *t);
 
+/* Runs cmd with popen; its stdout (up to cap - 1 bytes, NUL-ended) in
+ * out; pclose's status. */
+int test_run_cmd(const char *cmd, char *out, size_t cap);
+
 void test_assert_same_handles(const cull_handle *want, size_t n, const cull_result *res, size_t got);
 
 #define TEST_GROUP(name) \
@@ -74,6 +78,7 @@ TEST_GROUP(persist_tests)
 TEST_GROUP(pad_tests)
 TEST_GROUP(pad_io_tests)
 TEST_GROUP(commander_tests)
+TEST_GROUP(bench_tests)
 TEST_GROUP(view_tests)
 TEST_GROUP(query_tests)
 TEST_GROUP(alloc_tests)
