@@ -928,6 +928,11 @@ int bench_scenario(cli *k, int argc, char **argv)
     if (seconds > 0) s->duration = seconds, s->requests = 0;
     if (requests) s->requests = requests;
     if (s->requests && s->warmup > 0) s->warmup = 0; /* a count is all measured */
+    if (s->warmup >= s->duration) { /* --seconds shorter than the file's warm-up */
+        fprintf(stderr, "%s: bench: the warm-up (%g s) is not shorter than the run: measuring all of it\n", g_prog,
+                s->warmup);
+        s->warmup = 0;
+    }
     r->k = k;
     r->s = s;
     pthread_mutex_init(&r->mu, NULL);
