@@ -748,6 +748,23 @@ static double ms(uint64_t ns)
     return ns / 1e6;
 }
 
+/* One row's figures, as every output prints them. */
+typedef struct row_stat {
+    unsigned long long count, errors, unsent, pending;
+    double per_s, mean_ms, pct_ms[5]; /* p50, p90, p99, p99.9, max */
+} row_stat;
+
+static row_stat stat_of(const report *rp, int i)
+{
+    const hdr *h = &rp->all.h[i];
+    row_stat st = {.count = h->count, .errors = rp->all.errors[i], .unsent = rp->all.unsent[i],
+                   .pending = rp->all.pending[i], .per_s = rp->secs > 0 ? h->count / rp->secs : 0,
+                   .mean_ms = hdr_mean(h) / 1e6};
+    const double q[5] = {50, 90, 99, 99.9, 100};
+    for (int k = 0; k < 5; k++) st.pct_ms[k] = ms(hdr_percentile(h, q[k]));
+    return st;
+}
+
 static void print_table(FILE *o, const run *r, const report *rp)
 {
     const scenario *s = r->s;
@@ -759,13 +776,12 @@ static void print_table(FILE *o, const run *r, const report *rp)
     fprintf(o, "%-32s %9s %10s %7s %7s %7s %9s %9s %9s %9s %9s\n", "ms", "count", "per_s", "errors", "unsent",
             "pending", "p50", "p90", "p99", "p99.9", "max");
     for (int i = 0; i < rp->all.n; i++) {
-        const hdr *h = &rp->all.h[i];
         if (!row_used(rp, i)) continue;
-        fprintf(o, "%-32s %9llu %10.1f %7llu %7llu %7llu %9.3f %9.3f %9.3f %9.3f %9.3f\n", rp->name[i],
-                (unsigned long long)h->count, rp->secs > 0 ? h->count / rp->secs : 0,
-                (unsigned long long)rp->all.errors[i], (unsigned long long)rp->all.unsent[i],
-                (unsigned long long)rp->all.pending[i], ms(hdr_percentile(h, 50)),
-                ms(hdr_percentile(h, 90)), ms(hdr_percentile(h, 99)), ms(hdr_percentile(h, 99.9)), ms(h->max));
+        row_stat st = stat_of(rp, i);
+        fprintf(o, "%-32s %9llu %10.1f %7llu %7llu %7llu", rp->name[i], st.count, st.per_s, st.errors, st.unsent,
+                st.pending);
+        for (int k = 0; k < 5; k++) fprintf(o, " %9.3f", st.pct_ms[k]);
+        fprintf(o, "\n");
     }
     bool head = false;
     for (int i = 0; i < rp->all.n; i++) {
@@ -794,17 +810,16 @@ static void print_json(FILE *o, const run *r, const report *rp)
     fprintf(o, ", \"ops\": {");
     bool first = true;
     for (int i = 0; i < rp->all.n; i++) {
-        const hdr *h = &rp->all.h[i];
         if (!row_used(rp, i)) continue;
+        row_stat st = stat_of(rp, i);
         fprintf(o, "%s", first ? "" : ", ");
         cli_json_str(o, rp->name[i], strlen(rp->name[i]));
         fprintf(o, ": {\"count\": %llu, \"per_second\": %.2f, \"errors\": %llu, \"unsent\": %llu, \"pending\": %llu, "
-                   "\"mean_ms\": %.4f, \"p50_ms\": %.4f, \"p90_ms\": %.4f, \"p99_ms\": %.4f, \"p999_ms\": %.4f, "
-                   "\"max_ms\": %.4f, \"p99_ms_by_tenth\": [",
-                (unsigned long long)h->count, rp->secs > 0 ? h->count / rp->secs : 0,
-                (unsigned long long)rp->all.errors[i], (unsigned long long)rp->all.unsent[i],
-                (unsigned long long)rp->all.pending[i], hdr_mean(h) / 1e6, ms(hdr_percentile(h, 50)),
-                ms(hdr_percentile(h, 90)), ms(hdr_percentile(h, 99)), ms(hdr_percentile(h, 99.9)), ms(h->max));
+                   "\"mean_ms\": %.4f",
+                st.count, st.per_s, st.errors, st.unsent, st.pending, st.mean_ms);
+        static const char *key[5] = {"p50_ms", "p90_ms", "p99_ms", "p999_ms", "max_ms"};
+        for (int k = 0; k < 5; k++) fprintf(o, ", \"%s\": %.4f", key[k], st.pct_ms[k]);
+        fprintf(o, ", \"p99_ms_by_tenth\": [");
         for (int w = 0; w < WINDOWS; w++)
             fprintf(o, "%s%.4f", w ? ", " : "", ms(hdr_percentile(&rp->all.win[i * WINDOWS + w], 99)));
         fprintf(o, "]}");
@@ -821,13 +836,12 @@ static void print_csv(FILE *o, const report *rp)
 {
     fprintf(o, "op,count,per_second,errors,unsent,pending,mean_ms,p50_ms,p90_ms,p99_ms,p999_ms,max_ms\n");
     for (int i = 0; i < rp->all.n; i++) {
-        const hdr *h = &rp->all.h[i];
         if (!row_used(rp, i)) continue;
-        fprintf(o, "%s,%llu,%.2f,%llu,%llu,%llu,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n", rp->name[i],
-                (unsigned long long)h->count, rp->secs > 0 ? h->count / rp->secs : 0,
-                (unsigned long long)rp->all.errors[i], (unsigned long long)rp->all.unsent[i],
-                (unsigned long long)rp->all.pending[i], hdr_mean(h) / 1e6, ms(hdr_percentile(h, 50)),
-                ms(hdr_percentile(h, 90)), ms(hdr_percentile(h, 99)), ms(hdr_percentile(h, 99.9)), ms(h->max));
+        row_stat st = stat_of(rp, i);
+        fprintf(o, "%s,%llu,%.2f,%llu,%llu,%llu,%.4f", rp->name[i], st.count, st.per_s, st.errors, st.unsent,
+                st.pending, st.mean_ms);
+        for (int k = 0; k < 5; k++) fprintf(o, ",%.4f", st.pct_ms[k]);
+        fprintf(o, "\n");
     }
 }
 
