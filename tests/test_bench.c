@@ -285,6 +285,18 @@ static void write_text(const char *path, const char *text)
     assert_int_equal(fclose(f), 0);
 }
 
+/* Writes the scenario text into td and the command that runs it against
+ * d, its report also to outpath (--json or --csv: outopt). */
+static void bench_cmd(tdir *td, const daemon_proc *d, const char *text, const char *outopt, char *outpath,
+                      char *cmd, size_t cap)
+{
+    char scn[600];
+    snprintf(scn, sizeof scn, "%s", tdir_file(td, "bench.scn"));
+    write_text(scn, text);
+    snprintf(outpath, 600, "%s", tdir_file(td, "report.out"));
+    snprintf(cmd, cap, "%s/vantage -p %d bench --scenario %s %s %s 2>&1", bin_dir(), d->port, scn, outopt, outpath);
+}
+
 static void test_bench_open_loop_keeps_rate(void **state)
 {
     (void)state;
@@ -292,14 +304,13 @@ static void test_bench_open_loop_keeps_rate(void **state)
     daemon_start(&d, NULL);
     tdir td;
     tdir_make(&td, "vt-bench");
-    char scn[600], csv[600], cmd[2048], out[8192];
-    snprintf(scn, sizeof scn, "%s", tdir_file(&td, "rate.scn"));
-    snprintf(csv, sizeof csv, "%s", tdir_file(&td, "out.csv"));
+    char csv[600], cmd[2048], out[8192];
     /* 4 clients x 250/s for 3 s after a 0.5 s warm-up; a closed-loop group beside them */
-    write_text(scn, "name rate\nduration 3.5\nwarmup 0.5\n"
-                    "group fixed\n role query\n clients 4\n op ping\n rate 250\n"
-                    "group busy\n role query\n clients 2\n op query views 2 count-only\n pipeline 2\n");
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --scenario %s --csv %s 2>&1", bin_dir(), d.port, scn, csv);
+    bench_cmd(&td, &d,
+              "name rate\nduration 3.5\nwarmup 0.5\n"
+              "group fixed\n role query\n clients 4\n op ping\n rate 250\n"
+              "group busy\n role query\n clients 2\n op query views 2 count-only\n pipeline 2\n",
+              "--csv", csv, cmd, sizeof cmd);
     int st = test_run_cmd(cmd, out, sizeof out);
     if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("bench: status %d: %s", st, out);
     assert_non_null(strstr(out, "fixed.ping"));
@@ -331,13 +342,12 @@ static void test_bench_daemon_goes_away(void **state)
     daemon_start(&d, NULL);
     tdir td;
     tdir_make(&td, "vt-bench");
-    char scn[600], js[600], cmd[2048], out[8192];
-    snprintf(scn, sizeof scn, "%s", tdir_file(&td, "gone.scn"));
-    snprintf(js, sizeof js, "%s", tdir_file(&td, "out.json"));
-    write_text(scn, "name gone\nduration 30\nsetup entities 100\nprobe edit-to-query every 0.1\n"
-                    "group q\n role query\n clients 2\n op ping\n rate 100\n"
-                    "group v\n role viewer\n clients 1\n op frames size 64x64 fps 30\n");
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --scenario %s --json %s 2>&1", bin_dir(), d.port, scn, js);
+    char js[600], cmd[2048], out[8192];
+    bench_cmd(&td, &d,
+              "name gone\nduration 30\nsetup entities 100\nprobe edit-to-query every 0.1\n"
+              "group q\n role query\n clients 2\n op ping\n rate 100\n"
+              "group v\n role viewer\n clients 1\n op frames size 64x64 fps 30\n",
+              "--json", js, cmd, sizeof cmd);
     double t0 = mono();
     FILE *p = popen(cmd, "r");
     assert_non_null(p);
