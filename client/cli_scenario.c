@@ -784,7 +784,7 @@ static void print_table(FILE *o, const run *r, const report *rp)
         fprintf(o, "\n");
     }
     bool head = false;
-    for (int i = 0; i < rp->all.n; i++) {
+    for (int i = 0; i < rp->all.n && !s->requests; i++) { /* a count has no tenths known in advance */
         if (rp->all.h[i].count < 100) continue;
         if (!head) fprintf(o, "drift, p99 ms per tenth of the run:\n");
         head = true;
@@ -820,7 +820,7 @@ static void print_json(FILE *o, const run *r, const report *rp)
         static const char *key[5] = {"p50_ms", "p90_ms", "p99_ms", "p999_ms", "max_ms"};
         for (int k = 0; k < 5; k++) fprintf(o, ", \"%s\": %.4f", key[k], st.pct_ms[k]);
         fprintf(o, ", \"p99_ms_by_tenth\": [");
-        for (int w = 0; w < WINDOWS; w++)
+        for (int w = 0; w < WINDOWS && !s->requests; w++)
             fprintf(o, "%s%.4f", w ? ", " : "", ms(hdr_percentile(&rp->all.win[i * WINDOWS + w], 99)));
         fprintf(o, "]}");
         first = false;
@@ -941,6 +941,16 @@ int bench_scenario(cli *k, int argc, char **argv)
     }
     if (seconds > 0) s->duration = seconds, s->requests = 0;
     if (requests) s->requests = requests;
+    if (s->requests) {
+        bool any = false;
+        for (int g = 0; g < s->ng; g++) any |= s->g[g].op <= SCN_PING;
+        if (!any) {
+            fprintf(stderr, "%s: bench: %s: a request count counts query, edit and ping operations; this scenario "
+                            "has none (give it a duration)\n", g_prog, file);
+            rc = 2;
+            goto out;
+        }
+    }
     if (s->requests && s->warmup > 0) s->warmup = 0; /* a count is all measured */
     if (s->warmup >= s->duration) { /* --seconds shorter than the file's warm-up */
         fprintf(stderr, "%s: bench: the warm-up (%g s) is not shorter than the run: measuring all of it\n", g_prog,
