@@ -721,6 +721,7 @@ typedef struct report {
     char name[R_MAX][48];
     double secs;
     double rss0, rss1, rssmax;
+    double rss_win[WINDOWS]; /* the largest sample in each tenth (0: none) */
     int nrss;
     bool partial;
 } report;
@@ -792,9 +793,15 @@ static void print_table(FILE *o, const run *r, const report *rp)
         for (int w = 0; w < WINDOWS; w++) fprintf(o, " %7.2f", ms(hdr_percentile(&rp->all.win[i * WINDOWS + w], 99)));
         fprintf(o, "\n");
     }
-    if (rp->nrss)
+    if (rp->nrss) {
         fprintf(o, "daemon memory (RSS, sampled every second): start %.1f MiB, end %.1f MiB, max %.1f MiB\n", rp->rss0,
                 rp->rss1, rp->rssmax);
+        if (!s->requests) {
+            fprintf(o, "  %-30s", "max MiB per tenth");
+            for (int w = 0; w < WINDOWS; w++) fprintf(o, " %7.1f", rp->rss_win[w]);
+            fprintf(o, "\n");
+        }
+    }
 }
 
 static void print_json(FILE *o, const run *r, const report *rp)
@@ -827,8 +834,12 @@ static void print_json(FILE *o, const run *r, const report *rp)
     }
     fprintf(o, "}");
     if (rp->nrss)
-        fprintf(o, ", \"daemon_rss_mib\": {\"start\": %.2f, \"end\": %.2f, \"max\": %.2f}", rp->rss0, rp->rss1,
-                rp->rssmax);
+    {
+        fprintf(o, ", \"daemon_rss_mib\": {\"start\": %.2f, \"end\": %.2f, \"max\": %.2f, \"max_by_tenth\": [",
+                rp->rss0, rp->rss1, rp->rssmax);
+        for (int w = 0; w < WINDOWS && !s->requests; w++) fprintf(o, "%s%.2f", w ? ", " : "", rp->rss_win[w]);
+        fprintf(o, "]}");
+    }
     fprintf(o, "}\n");
 }
 
@@ -1090,6 +1101,8 @@ int bench_scenario(cli *k, int argc, char **argv)
                     rp->rss1 = mb;
                     if (mb > rp->rssmax) rp->rssmax = mb;
                     rp->nrss++;
+                    int w = (int)((now - r->t_meas) / (r->t_end - r->t_meas) * WINDOWS);
+                    if (w >= 0 && w < WINDOWS && mb > rp->rss_win[w]) rp->rss_win[w] = mb;
                 }
             }
             if (progress) {
