@@ -336,6 +336,19 @@ int vt_stats(vt_client *c, vp_stats_reply *out)
     return vp_dec_stats_reply(p, len, out) ? set_err(c, VT_ERR_IO, "malformed STATS_REPLY") : VP_OK;
 }
 
+int vt_metrics(vt_client *c, const char **text, size_t *text_len)
+{
+    const uint8_t *p;
+    uint32_t len;
+    vp_metrics_reply m;
+    int rc = empty_call(c, VP_METRICS, VP_METRICS_REPLY, &p, &len);
+    if (rc) return rc;
+    if (vp_dec_metrics_reply(p, len, &m)) return set_err(c, VT_ERR_IO, "malformed METRICS_REPLY");
+    *text = (const char *)m.text;
+    *text_len = m.text_len;
+    return VP_OK;
+}
+
 int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint64_t *epoch)
 {
     vp_writer w;

@@ -66,6 +66,11 @@ int vt_fd(const vt_client *c);
 /* Blocking calls. */
 int vt_ping(vt_client *c);
 int vt_stats(vt_client *c, vp_stats_reply *out);
+/* The daemon's metrics (METRICS): *text (text_len bytes, not terminated,
+ * no NUL inside) is the Prometheus text exposition format 0.0.4, what
+ * `vantaged --metrics` serves; valid until the next call. A daemon older
+ * than the message answers VP_ERR_TYPE. */
+int vt_metrics(vt_client *c, const char **text, size_t *text_len);
 int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint64_t *epoch);
 int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch);
 int vt_remove(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch);

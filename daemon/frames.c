@@ -322,6 +322,9 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         f.data_len = (uint32_t)(np * 20);
     }
     f.encode_ns = (uint32_t)(now_ns() - t1);
+    j->has_frame = true; /* metrics, recorded on the loop */
+    j->render_ns = f.render_ns;
+    j->encode_ns = f.encode_ns;
     j->reply_len = vp_size_frame(f.data_len);
     if (raw) {
         j->reply = raw;
@@ -464,6 +467,7 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
                 f->m.r.view.viewport_h == m.r.view.viewport_h;
     if (!f->active) s->nsubs++;
     f->active = true;
+    f->aims++;
     f->req = h->req;
     f->m = m;
     if (!same) f->gen++; /* a frame still being drawn for the old stream is dropped */
@@ -480,6 +484,7 @@ static void sub_end(server *s, conn *c)
     if (c->fsub.active) s->nsubs--;
     c->fsub.active = false;
     c->fsub.gen++;
+    c->fsub.held_ns = 0;
 }
 
 void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t *p)
@@ -498,6 +503,21 @@ void frames_conn_gone(server *s, conn *c)
     sub_end(s, c);
 }
 
+/* A due frame held back because the viewer has not taken its last one
+ * (latest-frame-wins). When a newer scene or view replaces it, at least a
+ * frame period (1/max_fps) after it was first held, the held frame counts
+ * as dropped (metrics): the frames a viewer that kept up would have had. */
+static void frame_held(server *s, frame_sub *f, uint64_t now)
+{
+    uint64_t epoch = s->sc->epoch, period = 1000000000ull / f->m.max_fps;
+    if (f->held_ns && (epoch == f->held_epoch && f->aims == f->held_aims)) return;
+    if (f->held_ns && now - f->held_ns < period) return;
+    if (f->held_ns) s->m.frames_dropped++;
+    f->held_ns = now;
+    f->held_epoch = epoch;
+    f->held_aims = f->aims;
+}
+
 int frames_schedule(server *s)
 {
     if (!s->nsubs) return -1;
@@ -507,8 +527,12 @@ int frames_schedule(server *s)
         frame_sub *f = &c->fsub;
         if (!f->active || f->inflight || c->closing) continue;
         if (!f->dirty && f->shown_epoch == s->sc->epoch) continue; /* nothing new to show */
-        if (c->out_len > c->out_pos) continue; /* the last frame is still leaving: it wins */
+        if (c->out_len > c->out_pos) { /* the last frame is still leaving: it wins */
+            frame_held(s, f, now);
+            continue;
+        }
         if (now < f->drain_next_ns) { /* backing off (below) */
+            frame_held(s, f, now);
             if (f->drain_next_ns < wake) wake = f->drain_next_ns;
             continue;
         }
@@ -523,6 +547,7 @@ int frames_schedule(server *s)
             if (f->drain_wait_ns > 100000000) f->drain_wait_ns = 100000000;
             f->drain_next_ns = now + f->drain_wait_ns;
             if (f->drain_next_ns < wake) wake = f->drain_next_ns;
+            frame_held(s, f, now);
             continue;
         }
         f->drain_wait_ns = 0;
@@ -536,6 +561,7 @@ int frames_schedule(server *s)
                    .gen = f->gen, .view_seq = f->m.view_seq, .stream_req = f->m.r};
         f->inflight = true;
         f->dirty = false;
+        f->held_ns = 0;
         /* the cap: frame starts 1/max_fps apart (a late start does not
            bank time for a burst) */
         uint64_t period = 1000000000ull / f->m.max_fps;
@@ -553,7 +579,10 @@ void frames_done(server *s, conn *c, job *j)
 {
     frame_sub *f = &c->fsub;
     f->inflight = false;
-    if (!f->active || f->gen != j->gen) return; /* unsubscribed or re-aimed meanwhile */
+    if (!f->active || f->gen != j->gen) { /* unsubscribed or re-aimed meanwhile */
+        if (j->ok) s->m.frames_discarded++;
+        return;
+    }
     vp_writer w;
     if (!j->reply || !out_reserve(c, j->reply_len, &w)) {
         c->closing = true;
@@ -565,8 +594,10 @@ void frames_done(server *s, conn *c, job *j)
         f->last_bytes = (uint32_t)j->reply_len;
         f->shown_epoch = j->epoch;
         f->frames++;
+        s->m.frames_sent++;
     } else {
         sub_end(s, c); /* the ERROR (with the subscription's req) ends it */
         s->errors++;
+        metrics_error(&s->m, MT_VP_FRAME_SUBSCRIBE, j->code);
     }
 }

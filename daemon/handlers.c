@@ -83,6 +83,7 @@ static void on_hello(server *s, conn *c, const vp_header *h, const uint8_t *p)
        daemon then listens on loopback only, unless --insecure) */
     if (s->cfg.tokens && !auth_grants(s->cfg.tokens, m.role, m.token, m.token_len)) {
         static const char *const names[] = {"viewer", "commander", "editor"};
+        s->m.auth_failures++;
         LOGW("client %u: refused the %s role (%s token)", c->id, names[m.role], m.token_len ? "wrong" : "no");
         send_error(s, c, h->req, VP_ERR_AUTH, UINT32_MAX,
                    m.token_len ? "that token does not grant this role"
@@ -131,6 +132,7 @@ static void on_stats(server *s, conn *c, uint32_t req)
 
 void job_error(job *j, int code, uint32_t index, const char *msg)
 {
+    j->code = code;
     j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
     j->reply = malloc(j->reply_len);
     if (j->reply) {
@@ -255,6 +257,15 @@ static void run_query(const scene *sc, worker *wk, job *j)
         ns[2 * 4 + k] = (uint8_t)(write_ns >> (8 * k));
         ns[3 * 4 + k] = (uint8_t)(total >> (8 * k));
     }
+    /* metrics: recorded on the loop when the reply is queued */
+    uint32_t cull_ns = (uint32_t)(t2 - t1), raster_ns = (uint32_t)st.occ_raster_ns;
+    j->has_query = true;
+    j->mq = (metrics_query){
+        .stage_ns = {(uint32_t)(t1 - t0), cull_ns > raster_ns ? cull_ns - raster_ns : 0, raster_ns, write_ns},
+        .total_ns = total,
+        .entities = {st.entities_tested, st.after_spheres, st.after_aabb, st.after_area, st.after_occlusion,
+                     (uint32_t)n},
+        .cells = {st.cells, st.cells_culled, st.cells_filtered, st.cells_occluded}};
     j->ok = true;
     return;
 error:
@@ -305,6 +316,7 @@ void *worker_main(void *arg)
 
 void job_submit(server *s, job *j)
 {
+    s->m.jobs_submitted++; /* on the loop: every job is submitted from it */
     pthread_mutex_lock(&s->mu);
     if (s->jobs_tail) s->jobs_tail->next = j;
     else s->jobs_head = j;
@@ -326,7 +338,7 @@ static void on_query(server *s, conn *c, const vp_header *h, const uint8_t *p)
         return;
     }
     memcpy(copy, p, h->len);
-    *j = (job){.fd = c->fd, .conn_id = c->id, .h = *h, .payload = copy};
+    *j = (job){.fd = c->fd, .conn_id = c->id, .h = *h, .payload = copy, .t0 = s->m.cur_t0};
     c->busy = true;
     job_submit(s, j);
 }
@@ -552,6 +564,24 @@ static void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
     if (s->journal && journal_policy(s->journal) == JOURNAL_ALWAYS) c->held = true;
 }
 
+/* METRICS: the exposition, as the HTTP endpoint serves it. */
+static void on_metrics(server *s, conn *c, uint32_t req)
+{
+    vp_writer w;
+    if (!metrics_expose(s, &s->mtext) || s->mtext.len > UINT32_MAX) {
+        send_error(s, c, req, VP_ERR_BUSY, UINT32_MAX, "out of memory for the metrics");
+        return;
+    }
+    if (!out_reserve(c, vp_size_metrics_reply((uint32_t)s->mtext.len), &w)) {
+        c->closing = true;
+        return;
+    }
+    vp_enc_metrics_reply(&w, req,
+                         &(vp_metrics_reply){.format = VP_METRICS_PROMETHEUS, .text_len = (uint32_t)s->mtext.len,
+                                             .text = (const uint8_t *)s->mtext.p});
+    out_commit(c, &w);
+}
+
 static void on_sublevel_info(server *s, conn *c, uint32_t req)
 {
     const scene *sc = s->sc;
@@ -605,6 +635,10 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
     case VP_STATS:
         if ((rc = vp_dec_empty(p, h->len))) break;
         on_stats(s, c, h->req);
+        return;
+    case VP_METRICS:
+        if ((rc = vp_dec_empty(p, h->len))) break;
+        on_metrics(s, c, h->req);
         return;
     case VP_SUBSCRIBE: {
         uint32_t kinds;

@@ -66,6 +66,7 @@ void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, cons
 {
     vp_writer w;
     s->errors++;
+    metrics_error(&s->m, s->m.cur, code);
     if (!out_reserve(c, VP_HEADER_SIZE + 10 + VP_MAX_ERROR_MSG, &w)) {
         c->closing = true;
         return;
@@ -75,8 +76,10 @@ void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, cons
     LOGD("client %u: error %d (%s): %s", c->id, code, vp_strerror(code), msg ? msg : "");
 }
 
-static void conn_free(server *s, conn *c)
+/* Ends c; why: MD_* (metrics: disconnects by reason). */
+static void conn_free(server *s, conn *c, int why)
 {
+    s->m.disconnects[why]++;
     frames_conn_gone(s, c);
     sublevel_conn_gone(s, c);
     ae_del(s->loop, c->fd, AE_READABLE | AE_WRITABLE);
@@ -94,10 +97,11 @@ static void conn_free(server *s, conn *c)
 
 static void conn_event(ae_loop *l, int fd, void *data, int mask);
 
-/* Writes what the socket takes now. false if the connection died. */
-static bool conn_flush(server *s, conn *c)
+/* Writes what the socket takes now. MD_NONE, or why the connection is
+ * over (the caller frees it). */
+static int conn_flush(server *s, conn *c)
 {
-    if (c->held) return true; /* an edit's answer waits for the journal's sync */
+    if (c->held) return MD_NONE; /* an edit's answer waits for the journal's sync */
     while (c->out_pos < c->out_len) {
         ssize_t n = write(c->fd, c->out + c->out_pos, c->out_len - c->out_pos);
         if (n > 0) {
@@ -107,25 +111,26 @@ static bool conn_flush(server *s, conn *c)
         }
         if (n < 0 && errno == EINTR) continue;
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-        return false;
+        return MD_PEER;
     }
     if (c->out_pos == c->out_len) {
         c->out_pos = c->out_len = 0;
         if (ae_mask(s->loop, c->fd) & AE_WRITABLE) ae_del(s->loop, c->fd, AE_WRITABLE);
-        return !c->closing;
+        return c->closing ? MD_ERROR : MD_NONE;
     }
     if (c->out_len - c->out_pos > s->cfg.out_limit) {
         LOGW("client %u: %zu bytes unread, over the output limit: disconnecting", c->id, c->out_len - c->out_pos);
-        return false;
+        return MD_OUTPUT_LIMIT;
     }
     if (!(ae_mask(s->loop, c->fd) & AE_WRITABLE)) ae_add(s->loop, c->fd, AE_WRITABLE, conn_event, s);
-    return true;
+    return MD_NONE;
 }
 
 static void conn_write(server *s, int fd)
 {
     conn *c = s->conns[fd];
-    if (c && !conn_flush(s, c)) conn_free(s, c);
+    int why;
+    if (c && (why = conn_flush(s, c))) conn_free(s, c, why);
 }
 
 /* ---- reading -------------------------------------------------------------------- */
@@ -153,7 +158,7 @@ static void conn_process(server *s, conn *c)
                checked before answering more */
             LOGW("client %u: %zu bytes of replies unread, over the output limit: disconnecting", c->id,
                  c->out_len - c->out_pos);
-            conn_free(s, c);
+            conn_free(s, c, MD_OUTPUT_LIMIT);
             return;
         }
         vp_header h;
@@ -168,7 +173,16 @@ static void conn_process(server *s, conn *c)
             c->closing = true; /* the stream can no longer be trusted */
             break;
         }
+        /* metrics: the request is taken now; its reply is queued when
+           dispatch returns, or by on_done when it went to a worker */
+        uint64_t t0 = now_ns();
+        int mt = metrics_type(h.type);
+        s->m.requests[mt]++;
+        s->m.cur = mt;
+        s->m.cur_t0 = t0;
         dispatch(s, c, &h, c->in + pos + VP_HEADER_SIZE);
+        s->m.cur = MT_NONE;
+        if (!c->busy) mhist_add(&s->m.latency[mt], now_ns() - t0);
         pos += fs;
     }
     memmove(c->in, c->in + pos, c->in_len - pos);
@@ -178,11 +192,12 @@ static void conn_process(server *s, conn *c)
     if (!c->in_len) c->since_ms = 0;
     else if (pos || !c->since_ms) c->since_ms = ae_now_ms();
     if (c->closing && !c->busy) {
-        (void)conn_flush(s, c); /* best effort: let the client read why */
-        conn_free(s, c);
+        int why = conn_flush(s, c); /* best effort: let the client read why */
+        conn_free(s, c, why == MD_PEER || why == MD_OUTPUT_LIMIT ? why : MD_ERROR);
         return;
     }
-    if (!conn_flush(s, c)) conn_free(s, c);
+    int why = conn_flush(s, c);
+    if (why) conn_free(s, c, why);
 }
 
 /* Replies from the workers: append, then go on with the connection's input. */
@@ -201,6 +216,13 @@ static void on_done(ae_loop *l, int fd, void *data, int mask)
     while (j) {
         job *next = j->next;
         conn *c = s->conns[j->fd];
+        /* what the worker measured counts whether or not its client is still there */
+        s->m.jobs_done++;
+        if (j->has_query) metrics_query_add(&s->m, &j->mq);
+        if (j->has_frame) {
+            mhist_add(&s->m.frame_render, j->render_ns);
+            mhist_add(&s->m.frame_encode, j->encode_ns);
+        }
         if (c && c->id == j->conn_id && j->stream) {
             frames_done(s, c, j); /* the connection's own requests go on regardless */
         } else if (c && c->id == j->conn_id) { /* still the same client */
@@ -210,12 +232,20 @@ static void on_done(ae_loop *l, int fd, void *data, int mask)
             } else {
                 vp_put_bytes(&w, j->reply, j->reply_len);
                 out_commit(c, &w);
-                if (j->ok) s->queries++;
-                else s->errors++;
+                int mt = metrics_type(j->h.type);
+                if (j->ok) {
+                    s->queries++;
+                } else {
+                    s->errors++;
+                    metrics_error(&s->m, mt, j->code);
+                }
+                mhist_add(&s->m.latency[mt], now_ns() - j->t0);
             }
             c->busy = false;
             if (!(ae_mask(s->loop, c->fd) & AE_READABLE)) ae_add(s->loop, c->fd, AE_READABLE, conn_event, s);
             conn_process(s, c);
+        } else if (j->stream && j->ok) {
+            s->m.frames_discarded++; /* drawn for a connection now gone */
         }
         free(j->payload);
         free(j->reply);
@@ -243,7 +273,7 @@ static void conn_read(server *s, int fd)
             if (cap <= c->in_cap) break; /* full: parse what is there first */
             uint8_t *n = realloc(c->in, cap);
             if (!n) {
-                conn_free(s, c);
+                conn_free(s, c, MD_ERROR);
                 return;
             }
             c->in = n;
@@ -258,7 +288,7 @@ static void conn_read(server *s, int fd)
         }
         if (n < 0 && errno == EINTR) continue;
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-        conn_free(s, c); /* closed by the peer, or an error */
+        conn_free(s, c, MD_PEER); /* closed by the peer, or an error */
         return;
     }
     conn_process(s, c);
@@ -284,6 +314,7 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
             ssize_t ignored = write(fd, buf, w.len);
             (void)ignored;
             close(fd);
+            s->m.rejected++;
             LOGW("connection refused: %u connected, limit %u", s->nconns, s->cfg.max_clients);
             continue;
         }
@@ -295,6 +326,7 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
             close(fd);
             continue;
         }
+        s->m.accepted++;
         c->fd = fd;
         c->id = ++s->next_id;
         c->born_ms = ae_now_ms();
@@ -326,7 +358,7 @@ static bool drop_if_slow(server *s, conn *c, uint64_t now)
          !c->hello ? s->cfg.hello_timeout_ms : s->cfg.frame_timeout_ms);
     send_error(s, c, 0, VP_ERR_TIMEOUT, UINT32_MAX, why);
     (void)conn_flush(s, c);
-    conn_free(s, c);
+    conn_free(s, c, !c->hello ? MD_HELLO_TIMEOUT : MD_FRAME_TIMEOUT);
     return true;
 }
 
@@ -389,7 +421,7 @@ static void before_sleep(ae_loop *l, void *data)
                 /* its answers claim a durability the disk did not give:
                    they are not sent; the client sees the connection drop */
                 LOGW("client %u: dropped, its edits' sync failed", c->id);
-                conn_free(s, c);
+                conn_free(s, c, MD_SYNC_FAILED);
                 continue;
             }
         }
@@ -412,8 +444,12 @@ static void before_sleep(ae_loop *l, void *data)
                 c->ev_pending = false;
             }
         }
-        if (c->out_len > c->out_pos && !conn_flush(s, c)) conn_free(s, c);
+        int why;
+        if (c->out_len > c->out_pos && (why = conn_flush(s, c))) conn_free(s, c, why);
     }
+    /* the metrics endpoint's connections have a deadline too */
+    if (sweep) metrics_http_sweep(s, now_ms);
+    clocks |= metrics_http_busy(s);
     sc->ev_added = sc->ev_updated = sc->ev_removed = 0;
     /* one timer wakes the loop: for the next rate-capped frame, or for the
        next sweep while a client is on a clock (an idle loop sleeps) */
@@ -439,7 +475,7 @@ static void on_signal(ae_loop *l, int fd, void *data, int mask)
 
 /* ---- listeners ------------------------------------------------------------------- */
 
-static int listen_tcp(const char *addr, int port)
+int listen_tcp(const char *addr, int port)
 {
     struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
     if (inet_pton(AF_INET, addr, &sa.sin_addr) != 1) {
@@ -534,8 +570,13 @@ server *server_create(const server_config *cfg, scene *sc)
     }
     s->sig_fd = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
     if (s->sig_fd < 0 || s->sig_fd >= s->conns_cap || ae_add(s->loop, s->sig_fd, AE_READABLE, on_signal, s)) goto fail;
+    if (cfg->metrics_port && metrics_http_open(s)) goto fail;
+    s->m.cur = MT_NONE;
     ae_set_before_sleep(s->loop, before_sleep, s);
     s->start_ms = ae_now_ms();
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    s->start_unix_ns = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
     return s;
 fail:
     LOGE("cannot start the server: %s", strerror(errno));
@@ -556,7 +597,8 @@ void server_stop(server *s)
 void server_destroy(server *s)
 {
     if (!s) return;
-    while (s->nconns) conn_free(s, s->live[0]);
+    while (s->nconns) conn_free(s, s->live[0], MD_SHUTDOWN);
+    metrics_http_close(s);
     if (s->tcp_fd >= 0) close(s->tcp_fd);
     if (s->unix_fd >= 0) {
         close(s->unix_fd);
@@ -586,6 +628,7 @@ void server_destroy(server *s)
     }
     if (s->done_fd >= 0) close(s->done_fd);
     ae_destroy(s->loop);
+    mbuf_free(&s->mtext);
     free(s->conns);
     free(s->live);
     free(s);

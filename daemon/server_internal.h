@@ -9,6 +9,7 @@
 #include "edit.h"
 #include "journal.h"
 #include "log.h"
+#include "metrics.h"
 #include "server.h"
 
 #include <pthread.h>
@@ -29,6 +30,11 @@ typedef struct frame_sub {
     uint64_t frames;
     uint32_t last_bytes;    /* the size of the last frame sent */
     uint64_t drain_wait_ns, drain_next_ns; /* the last frame still in the kernel: when to look again */
+    uint32_t aims;          /* re-aims (FRAME_SUBSCRIBE on an open stream), ever */
+    /* a due frame held back because the viewer has not taken the last one
+       (metrics: frames dropped): since when, and what it would show */
+    uint64_t held_ns, held_epoch;
+    uint32_t held_aims;
 } frame_sub;
 
 typedef struct conn {
@@ -84,6 +90,11 @@ struct server {
     uint32_t nsubs;         /* connections with a frame stream */
     uint64_t ev_epoch;      /* the epoch the last tick's events reported */
     journal *journal;       /* --data-dir: the edit journal; NULL = none */
+    /* metrics (metrics.h): written on the loop thread only */
+    metrics m;
+    mbuf mtext;             /* the exposition, rebuilt at each scrape */
+    uint64_t start_unix_ns; /* CLOCK_REALTIME when it started serving */
+    struct mhttp *http;     /* --metrics: the HTTP endpoint; NULL = none */
 };
 
 /* A query handed to a worker, and its reply coming back. */
@@ -102,6 +113,14 @@ typedef struct job {
     uint16_t view_seq;      /* the subscription's, when the frame was started */
     vp_render stream_req;
     uint64_t epoch;     /* the scene epoch it was drawn from */
+    /* metrics: when the request was taken (loop clock, ns), the error code
+       of a failed job, what the worker measured */
+    uint64_t t0;
+    int code;
+    bool has_query;
+    metrics_query mq;
+    bool has_frame;
+    uint32_t render_ns, encode_ns;
 } job;
 
 /* A worker's own scratch, kept between jobs. */
@@ -124,6 +143,8 @@ static inline uint64_t now_ns(void)
 }
 
 /* ---- server.c: output to a connection ---- */
+/* A TCP listener on an IPv4 address (logged on failure: -1). */
+int listen_tcp(const char *addr, int port);
 /* A writer over c's output buffer with room for need bytes (false: out of memory). */
 bool out_reserve(conn *c, size_t need, vp_writer *w);
 void out_commit(conn *c, const vp_writer *w);

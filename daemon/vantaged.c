@@ -6,6 +6,7 @@
 #include "server.h"
 #include "ae.h"
 
+#include <arpa/inet.h>
 #include <getopt.h>
 #include <signal.h>
 #include <stdio.h>
@@ -38,9 +39,14 @@ static void usage(FILE *f)
             "  --tokens FILE        roles need tokens: lines \"viewer|commander|editor TOKEN\" in a\n"
             "                       file only its owner can read (chmod 600); without it every\n"
             "                       client may edit, and only loopback is served\n"
-            "  --insecure           serve a non-loopback --bind without --tokens (anyone who can\n"
-            "                       connect may edit)\n"
-            "  --hello-timeout MS   a client must finish HELLO this soon after connecting (10000)\n"
+            "  --insecure           serve a non-loopback --bind (or --metrics) without --tokens\n"
+            "                       (anyone who can connect may edit, or read the metrics)\n"
+            "  --metrics [ADDR:]PORT\n"
+            "                       serve Prometheus metrics over HTTP at /metrics (off by default;\n"
+            "                       ADDR 127.0.0.1 unless given; with --tokens a request needs\n"
+            "                       \"Authorization: Bearer TOKEN\" of a viewer, as HELLO does)\n"
+            "  --hello-timeout MS   a client must finish HELLO this soon after connecting (10000);\n"
+            "                       a metrics scraper its request head\n"
             "  --frame-timeout MS   a frame begun must arrive whole this soon (30000; slow-loris)\n"
             "  --data-dir DIR       keep the scene in DIR (journal + snapshots) and restore it on start\n"
             "  --durability P       always: an edit is on disk before its answer (group commit);\n"
@@ -58,6 +64,26 @@ static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
     unsigned long long v = strtoull(s, &end, 10);
     if (!*s || *end || v < lo || v > hi) return false;
     *out = (uint32_t)v;
+    return true;
+}
+
+/* --metrics [ADDR:]PORT: ADDR an IPv4 address or localhost (default
+ * 127.0.0.1), PORT 1..65535. */
+static bool parse_metrics(const char *arg, char *addr, size_t addrlen, int *port)
+{
+    const char *colon = strrchr(arg, ':');
+    const char *p = colon ? colon + 1 : arg;
+    size_t n = colon ? (size_t)(colon - arg) : 0;
+    uint32_t v;
+    if (!parse_u32(p, 1, 65535, &v) || n >= addrlen || (colon && !n)) return false;
+    if (colon) {
+        memcpy(addr, arg, n);
+        addr[n] = 0;
+    }
+    if (!colon || !strcmp(addr, "localhost")) snprintf(addr, addrlen, "127.0.0.1");
+    struct in_addr a;
+    if (inet_pton(AF_INET, addr, &a) != 1) return false;
+    *port = (int)v;
     return true;
 }
 
@@ -83,7 +109,7 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT };
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -97,12 +123,14 @@ int main(int argc, char **argv)
         {"insecure", no_argument, 0, O_INSECURE}, {"hello-timeout", required_argument, 0, O_HELLO_TO},
         {"frame-timeout", required_argument, 0, O_FRAME_TO}, {"data-dir", required_argument, 0, O_DATA},
         {"durability", required_argument, 0, O_DURABILITY}, {"compact-mb", required_argument, 0, O_COMPACT},
+        {"metrics", required_argument, 0, O_METRICS},
         {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
     const char *tokens_path = NULL, *data_dir = NULL;
     int durability = JOURNAL_EVERYSEC;
+    static char metrics_addr[64];
     uint32_t compact_mb = 64;
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (o) {
@@ -131,6 +159,7 @@ int main(int argc, char **argv)
             ok = !strcmp(optarg, "always") || !strcmp(optarg, "everysec") || !strcmp(optarg, "off");
             break;
         case O_COMPACT: ok = parse_u32(optarg, 1, 1u << 20, &compact_mb); break;
+        case O_METRICS: ok = parse_metrics(optarg, metrics_addr, sizeof metrics_addr, &cfg.metrics_port); break;
         case O_INSECURE: insecure = true; break;
         case O_HELLO_TO: ok = parse_u32(optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
         case O_FRAME_TO: ok = parse_u32(optarg, 100, 3600000, &cfg.frame_timeout_ms); break;
@@ -172,6 +201,21 @@ int main(int argc, char **argv)
         return 2;
     }
     if (!cfg.tokens && !auth_loopback(cfg.bind)) LOGW("--insecure: %s served without tokens", cfg.bind);
+    if (cfg.metrics_port) {
+        /* the metrics follow the protocol's rule: whoever may view may read
+           them, so without tokens only this machine, unless --insecure */
+        cfg.metrics_bind = metrics_addr;
+        if (!cfg.tokens && !auth_loopback(metrics_addr) && !insecure) {
+            fprintf(stderr,
+                    "vantaged: --metrics %s:%d reaches other machines and there is no --tokens file: anyone who "
+                    "can connect could read the metrics. Give --tokens FILE (scrapers then send \"Authorization: "
+                    "Bearer TOKEN\"), or --insecure if that is what you want.\n",
+                    metrics_addr, cfg.metrics_port);
+            return 2;
+        }
+        if (!cfg.tokens && !auth_loopback(metrics_addr))
+            LOGW("--insecure: metrics on %s served without tokens", metrics_addr);
+    }
 
     scene *sc = calloc(1, sizeof *sc);
     if (!sc || scene_init(sc, cfg.cell_size, &cfg.limits)) {

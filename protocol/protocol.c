@@ -80,6 +80,8 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_LIGHT_QUERY, "light_query"},
     {VP_LIGHT_TILES, "light_tiles"},
     {VP_FRAME_UNSUBSCRIBE, "frame_unsubscribe"},
+    {VP_METRICS, "metrics"},
+    {VP_METRICS_REPLY, "metrics_reply"},
 };
 
 bool vp_type_known(uint16_t type)
@@ -428,6 +430,40 @@ int vp_dec_stats_reply(const uint8_t *p, size_t len, vp_stats_reply *m)
     uint64_t *q[] = {&m->queries, &m->edits, &m->bytes_in, &m->bytes_out, &m->errors};
     for (size_t i = 0; i < sizeof q / sizeof q[0]; i++) *q[i] = vp_get_u64(&r);
     return vp_reader_finish(&r);
+}
+
+size_t vp_size_metrics_reply(uint32_t text_len)
+{
+    return VP_HEADER_SIZE + VP_METRICS_REPLY_HEADER + (size_t)text_len;
+}
+
+void vp_enc_metrics_reply(vp_writer *w, uint32_t req, const vp_metrics_reply *m)
+{
+    vp_frame_begin(w, VP_METRICS_REPLY, req);
+    vp_put_u8(w, m->format);
+    vp_put_u8(w, 0);
+    vp_put_u16(w, 0);
+    vp_put_u32(w, m->text_len);
+    vp_put_bytes(w, m->text, m->text_len);
+    vp_frame_end(w);
+}
+
+int vp_dec_metrics_reply(const uint8_t *p, size_t len, vp_metrics_reply *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->format = vp_get_u8(&r);
+    uint8_t pad8 = vp_get_u8(&r);
+    uint16_t pad16 = vp_get_u16(&r);
+    m->text_len = vp_get_u32(&r);
+    if (r.short_read) return VP_ERR_TRUNCATED;
+    if (m->text_len > vp_remaining(&r)) return VP_ERR_TRUNCATED;
+    m->text = vp_get_bytes(&r, m->text_len);
+    int rc = vp_reader_finish(&r);
+    if (rc) return rc;
+    if (pad8 || pad16 || m->format != VP_METRICS_PROMETHEUS) return VP_ERR_INVALID;
+    if (m->text_len && memchr(m->text, 0, m->text_len)) return VP_ERR_INVALID;
+    return VP_OK;
 }
 
 void vp_enc_subscribe(vp_writer *w, uint32_t req, uint32_t kinds)

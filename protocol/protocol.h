@@ -123,8 +123,9 @@ enum vp_type {
 
     VP_MARK = 0x0600,
     VP_MARKED = 0x0601,
-    /* reserved: 0x0600 input,
-       0x0700 persistence and administration */
+    /* 0x0700..0x07ff administration (and persistence, later) */
+    VP_METRICS = 0x0700,
+    VP_METRICS_REPLY = 0x0701,
 };
 
 /* Roles, lowest to highest. */
@@ -475,6 +476,21 @@ void vp_enc_mark(vp_writer *w, uint32_t req, const vp_mark *m);
 int  vp_dec_mark(const uint8_t *p, size_t len, vp_mark *m);
 void vp_enc_marked(vp_writer *w, const vp_marked *m);
 int  vp_dec_marked(const uint8_t *p, size_t len, vp_marked *m);
+
+/* METRICS (empty payload, any role) asks for the daemon's metrics;
+ * METRICS_REPLY carries them as text in the Prometheus exposition format
+ * 0.0.4, the same text `vantaged --metrics` serves over HTTP. The text is
+ * UTF-8 without NUL bytes; text points into the payload (no terminator). */
+#define VP_METRICS_PROMETHEUS 0u  /* format: Prometheus text 0.0.4 */
+#define VP_METRICS_REPLY_HEADER 8u
+typedef struct vp_metrics_reply {
+    uint8_t  format;          /* VP_METRICS_*; others INVALID */
+    uint32_t text_len;
+    const uint8_t *text;
+} vp_metrics_reply;
+size_t vp_size_metrics_reply(uint32_t text_len);
+void vp_enc_metrics_reply(vp_writer *w, uint32_t req, const vp_metrics_reply *m);
+int  vp_dec_metrics_reply(const uint8_t *p, size_t len, vp_metrics_reply *m);
 
 /* Encoders: append one whole frame to w. */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);

@@ -217,7 +217,7 @@ static void fuzz_subscribe(const uint8_t *p, size_t len)
     int rc = vp_dec_subscribe(p, len, &kinds);
     check_code(rc);
     if (rc) return;
-    CHECK((kinds & ~VP_EVENT_SCENE) == 0);
+    CHECK((kinds & ~(VP_EVENT_SCENE | VP_EVENT_MARKS)) == 0); /* MARKS since MARK/MARKED */
     enc_buf b;
     enc_open(&b, VP_HEADER_SIZE + len);
     vp_enc_subscribe(&b.w, 4, kinds);
@@ -774,6 +774,24 @@ static void fuzz_marked(const uint8_t *p, size_t len)
     enc_close(&b);
 }
 
+/* METRICS_REPLY: the text is the rest of the payload, NUL-free; re-encoded
+ * byte for byte. */
+static void fuzz_metrics_reply(const uint8_t *p, size_t len)
+{
+    vp_metrics_reply m;
+    int rc = vp_dec_metrics_reply(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.format == VP_METRICS_PROMETHEUS && len == VP_METRICS_REPLY_HEADER + (size_t)m.text_len);
+    CHECK(vp_size_metrics_reply(m.text_len) == VP_HEADER_SIZE + len);
+    CHECK(m.text_len == 0 || (m.text == p + VP_METRICS_REPLY_HEADER && !memchr(m.text, 0, m.text_len)));
+    enc_buf b;
+    enc_open(&b, VP_HEADER_SIZE + len);
+    vp_enc_metrics_reply(&b.w, 3, &m);
+    CHECK(!memcmp(enc_payload(&b, VP_METRICS_REPLY, len), p, len));
+    enc_close(&b);
+}
+
 static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
 {
     uint32_t limit = h->req; /* fuzzer-chosen max_batch for the batch decoders */
@@ -823,6 +841,8 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_DESTROYED: fuzz_destroyed(p, len); return;
     case VP_MARK: fuzz_mark(p, len); return;
     case VP_MARKED: fuzz_marked(p, len); return;
+    case VP_METRICS: fuzz_empty(p, len); return;
+    case VP_METRICS_REPLY: fuzz_metrics_reply(p, len); return;
     default: break;
     }
     /* Unknown to this version: a server would answer ERROR TYPE and skip

@@ -278,6 +278,19 @@ int main(int argc, char **argv)
                         .data = (const uint8_t *)raw};
         vp_enc_frame(&g_w, 22, &fm), save("frame_raw");
     }
+    vp_enc_empty(&g_w, VP_METRICS, 27), save("metrics");
+    {
+        static const char text[] = "# HELP vantage_uptime_seconds Time since the daemon started serving.\n"
+                                   "# TYPE vantage_uptime_seconds gauge\nvantage_uptime_seconds 1.5\n";
+        vp_metrics_reply mr = {.format = VP_METRICS_PROMETHEUS, .text_len = sizeof text - 1,
+                               .text = (const uint8_t *)text};
+        vp_enc_metrics_reply(&g_w, 27, &mr), save("metrics_reply");
+        size_t at = g_w.len;
+        at = g_w.len, vp_enc_metrics_reply(&g_w, 28, &mr), *payload_at(at, 0) = 1, save("bad_metrics_reply_format");
+        at = g_w.len, vp_enc_metrics_reply(&g_w, 28, &mr), *payload_at(at, 20) = 0, save("bad_metrics_reply_nul");
+        at = g_w.len, vp_enc_metrics_reply(&g_w, 28, &mr), patch32(payload_at(at, 4), 200),
+            save("bad_metrics_reply_len");
+    }
     enc_vis_result(20, 0), save("vis_result_count_only");
     enc_list_reply(21, 0), save("entity_list_reply_last");
     vp_enc_error(&g_w, 0, VP_ERR_TYPE, UINT32_MAX, ""), save("error_empty_msg");

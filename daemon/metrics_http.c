@@ -1,0 +1,419 @@
+/*
+ * metrics_http.c — `vantaged --metrics [ADDR:]PORT`: the metrics (see
+ * metrics.h) over HTTP/1.x for Prometheus, served from the daemon's own
+ * loop by a small responder written for this one job.
+ *
+ *   GET /metrics (or HEAD)  200, text/plain; version=0.0.4
+ *   another path            404
+ *   another method          405 (Allow: GET, HEAD)
+ *   a head over 8 KiB       431; a malformed one 400; HTTP/2.0 and the like 505
+ *   no `Authorization: Bearer TOKEN` where one is needed  401
+ *
+ * Who may read: whoever the daemon lets view. Without --tokens everyone
+ * (vantaged.c then allows only a loopback address, unless --insecure, as
+ * for --bind); with --tokens a token that grants the viewer role, unless
+ * the token file has no viewer line (public viewing).
+ *
+ * Every answer says `Connection: close`: one request a connection, then the
+ * daemon shuts its side and reads until the client closes (so the answer
+ * is not lost to a reset if the client sent more than its head). At most
+ * METRICS_HTTP_MAX_CONNS connections at once (more get 503 at once); the
+ * whole head must arrive within --hello-timeout of the accept (slow-loris:
+ * 408, closed), and a connection is gone at most 2 s after its answer was
+ * written. The exposition is built on the loop (tens of microseconds);
+ * protocol clients wait for nothing else: a metrics client's bytes are read
+ * and written without blocking, like theirs.
+ */
+#include "server_internal.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#define LINGER_MS 2000u
+
+typedef struct hconn {
+    server *s;
+    int fd;
+    uint64_t deadline_ms;
+    bool answered;       /* an answer is queued or sent: input is drained and dropped */
+    bool peer_done;      /* the client has shut its side: free once the answer is out */
+    char *out;
+    size_t out_len, out_pos;
+    size_t in_len;
+    char in[METRICS_HTTP_HEAD_MAX];
+} hconn;
+
+struct mhttp {
+    int lfd;
+    hconn *c[METRICS_HTTP_MAX_CONNS];
+    uint32_t n;
+};
+
+static const struct { int code; const char *reason; } statuses[MH_COUNT] = {
+    [MH_200] = {200, "OK"},
+    [MH_400] = {400, "Bad Request"},
+    [MH_401] = {401, "Unauthorized"},
+    [MH_404] = {404, "Not Found"},
+    [MH_405] = {405, "Method Not Allowed"},
+    [MH_408] = {408, "Request Timeout"},
+    [MH_431] = {431, "Request Header Fields Too Large"},
+    [MH_500] = {500, "Internal Server Error"},
+    [MH_503] = {503, "Service Unavailable"},
+    [MH_505] = {505, "HTTP Version Not Supported"},
+};
+
+static void hconn_free(hconn *h)
+{
+    struct mhttp *m = h->s->http;
+    ae_del(h->s->loop, h->fd, AE_READABLE | AE_WRITABLE);
+    close(h->fd);
+    for (uint32_t i = 0; i < m->n; i++)
+        if (m->c[i] == h) {
+            m->c[i] = m->c[--m->n];
+            break;
+        }
+    free(h->out);
+    free(h);
+}
+
+/* The status line and headers (and body unless head_only) into a new
+ * buffer; false: out of memory. */
+static bool build(hconn *h, int slot, const char *extra, const char *body, size_t body_len, bool head_only)
+{
+    char hd[512];
+    const char *type = slot == MH_200 ? "text/plain; version=0.0.4; charset=utf-8" : "text/plain; charset=utf-8";
+    int n = snprintf(hd, sizeof hd,
+                     "HTTP/1.1 %d %s\r\nContent-Type: %s\r\nContent-Length: %zu\r\nCache-Control: no-store\r\n"
+                     "Connection: close\r\n%s\r\n",
+                     statuses[slot].code, statuses[slot].reason, type, body_len, extra ? extra : "");
+    if (n < 0 || (size_t)n >= sizeof hd) return false;
+    size_t len = (size_t)n + (head_only ? 0 : body_len);
+    h->out = malloc(len ? len : 1);
+    if (!h->out) return false;
+    memcpy(h->out, hd, (size_t)n);
+    if (!head_only && body_len) memcpy(h->out + n, body, body_len);
+    h->out_len = len;
+    h->out_pos = 0;
+    return true;
+}
+
+static void on_conn(ae_loop *l, int fd, void *data, int mask);
+
+/* An answer in one write, best effort, for a connection about to be closed
+ * (503 at the accept, 408 at the deadline): no buffer, no waiting. */
+static void say_now(int fd, int slot, const char *extra, const char *msg)
+{
+    char buf[512];
+    int n = snprintf(buf, sizeof buf,
+                     "HTTP/1.1 %d %s\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: %zu\r\n"
+                     "Connection: close\r\n%s\r\n%s",
+                     statuses[slot].code, statuses[slot].reason, strlen(msg), extra ? extra : "", msg);
+    if (n > 0 && (size_t)n < sizeof buf) {
+        ssize_t ignored = write(fd, buf, (size_t)n);
+        (void)ignored;
+    }
+}
+
+/* Writes what the socket takes; when all is out, shuts the sending side and
+ * waits (reading) for the client to close. false: h was freed. */
+static bool flush(hconn *h)
+{
+    while (h->out_pos < h->out_len) {
+        ssize_t n = write(h->fd, h->out + h->out_pos, h->out_len - h->out_pos);
+        if (n > 0) {
+            h->out_pos += (size_t)n;
+            continue;
+        }
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            if (!(ae_mask(h->s->loop, h->fd) & AE_WRITABLE)) ae_add(h->s->loop, h->fd, AE_WRITABLE, on_conn, h);
+            return true;
+        }
+        hconn_free(h);
+        return false;
+    }
+    if (ae_mask(h->s->loop, h->fd) & AE_WRITABLE) ae_del(h->s->loop, h->fd, AE_WRITABLE);
+    if (h->peer_done) {
+        hconn_free(h);
+        return false;
+    }
+    shutdown(h->fd, SHUT_WR);
+    uint64_t linger = ae_now_ms() + LINGER_MS;
+    if (linger < h->deadline_ms) h->deadline_ms = linger;
+    return true;
+}
+
+/* Queues an answer with a one-line text body (errors) and sends it. */
+static bool answer_text(hconn *h, int slot, const char *extra, const char *msg, bool head_only)
+{
+    h->answered = true;
+    h->s->m.http[slot]++;
+    if (!build(h, slot, extra, msg, strlen(msg), head_only)) {
+        hconn_free(h);
+        return false;
+    }
+    return flush(h);
+}
+
+/* ---- parsing ------------------------------------------------------------------------- */
+
+static bool tchar(unsigned char c)
+{
+    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+           (c && strchr("!#$%&'*+-.^_`|~", c));
+}
+
+/* One line of the head: [p, p + n) without its LF (a CR before it already
+ * taken off). */
+typedef struct line {
+    const char *p;
+    size_t n;
+} line;
+
+/* The next line from *pos; false at the end of the buffer (no LF). A CR
+ * that does not end the line makes *bad_cr true. */
+static bool next_line(const char *buf, size_t len, size_t *pos, line *out, bool *bad_cr)
+{
+    const char *lf = memchr(buf + *pos, '\n', len - *pos);
+    if (!lf) return false;
+    out->p = buf + *pos;
+    out->n = (size_t)(lf - out->p);
+    if (out->n && out->p[out->n - 1] == '\r') out->n--;
+    if (memchr(out->p, '\r', out->n)) *bad_cr = true;
+    *pos = (size_t)(lf - buf) + 1;
+    return true;
+}
+
+/* Where the head ends (just past its empty line), after any empty lines
+ * before the request line; 0 if it has not ended yet. */
+static size_t head_end(const char *buf, size_t len, size_t *start)
+{
+    size_t pos = 0;
+    while (pos < len && (buf[pos] == '\r' || buf[pos] == '\n')) pos++;
+    *start = pos;
+    line l;
+    bool cr = false;
+    while (next_line(buf, len, &pos, &l, &cr))
+        if (l.n == 0) return pos;
+    return 0;
+}
+
+static bool lower_eq(const line *l, size_t off, size_t n, const char *s)
+{
+    return n == strlen(s) && !strncasecmp(l->p + off, s, n);
+}
+
+/* Parses and answers a whole head in h->in[start, end). */
+static bool respond(hconn *h, size_t start, size_t end)
+{
+    server *s = h->s;
+    size_t pos = start;
+    line rl, l;
+    bool cr = false;
+    next_line(h->in, end, &pos, &rl, &cr);
+    /* request line: METHOD SP TARGET SP HTTP/x.y */
+    const char *sp1 = memchr(rl.p, ' ', rl.n);
+    const char *sp2 = sp1 ? memchr(sp1 + 1, ' ', (size_t)(rl.p + rl.n - sp1 - 1)) : NULL;
+    if (!sp1 || !sp2 || sp1 == rl.p || sp2 == sp1 + 1 || memchr(sp2 + 1, ' ', (size_t)(rl.p + rl.n - sp2 - 1)) || cr)
+        return answer_text(h, MH_400, NULL, "malformed request line\n", false);
+    size_t mlen = (size_t)(sp1 - rl.p), tlen = (size_t)(sp2 - sp1 - 1), vlen = (size_t)(rl.p + rl.n - sp2 - 1);
+    const char *target = sp1 + 1, *version = sp2 + 1;
+    for (size_t i = 0; i < mlen; i++)
+        if (!tchar((unsigned char)rl.p[i])) return answer_text(h, MH_400, NULL, "malformed method\n", false);
+    for (size_t i = 0; i < tlen; i++)
+        if ((unsigned char)target[i] <= 32 || (unsigned char)target[i] >= 127)
+            return answer_text(h, MH_400, NULL, "malformed request target\n", false);
+    bool http11;
+    if (vlen == 8 && !memcmp(version, "HTTP/1.1", 8)) {
+        http11 = true;
+    } else if (vlen == 8 && !memcmp(version, "HTTP/1.0", 8)) {
+        http11 = false;
+    } else if (vlen == 8 && !memcmp(version, "HTTP/", 5) && version[5] >= '0' && version[5] <= '9' &&
+               version[6] == '.' && version[7] >= '0' && version[7] <= '9') {
+        return answer_text(h, MH_505, NULL, "only HTTP/1.0 and HTTP/1.1 are spoken here\n", false);
+    } else {
+        return answer_text(h, MH_400, NULL, "malformed HTTP version\n", false);
+    }
+    bool head_only = mlen == 4 && !memcmp(rl.p, "HEAD", 4);
+    /* headers: NAME ":" OWS VALUE OWS; no folding, no control bytes */
+    bool host = false;
+    const char *tok = NULL;
+    size_t tok_len = 0;
+    while (next_line(h->in, end, &pos, &l, &cr) && l.n) {
+        const char *colon = memchr(l.p, ':', l.n);
+        if (cr || !colon || colon == l.p) return answer_text(h, MH_400, NULL, "malformed header line\n", head_only);
+        size_t nlen = (size_t)(colon - l.p);
+        for (size_t i = 0; i < nlen; i++)
+            if (!tchar((unsigned char)l.p[i]))
+                return answer_text(h, MH_400, NULL, "malformed header name\n", head_only);
+        size_t v = nlen + 1, ve = l.n;
+        for (size_t i = v; i < ve; i++) {
+            unsigned char c = (unsigned char)l.p[i];
+            if ((c < 32 && c != '\t') || c == 127)
+                return answer_text(h, MH_400, NULL, "control byte in a header value\n", head_only);
+        }
+        while (v < ve && (l.p[v] == ' ' || l.p[v] == '\t')) v++;
+        while (ve > v && (l.p[ve - 1] == ' ' || l.p[ve - 1] == '\t')) ve--;
+        if (lower_eq(&l, 0, nlen, "host")) {
+            host = true;
+        } else if (lower_eq(&l, 0, nlen, "authorization") && !tok) {
+            /* "Bearer" 1*SP token */
+            size_t t = v;
+            while (t < ve && l.p[t] != ' ') t++;
+            if (lower_eq(&l, v, t - v, "bearer")) {
+                while (t < ve && l.p[t] == ' ') t++;
+                tok = l.p + t;
+                tok_len = ve - t;
+            }
+        }
+    }
+    if (http11 && !host) return answer_text(h, MH_400, NULL, "HTTP/1.1 needs a Host header\n", head_only);
+    if (s->cfg.tokens && !auth_grants(s->cfg.tokens, VP_ROLE_VIEWER, (const uint8_t *)tok, tok ? tok_len : 0))
+        return answer_text(h, MH_401, "WWW-Authenticate: Bearer realm=\"vantaged\"\r\n",
+                           "this daemon needs a token that grants the viewer role: Authorization: Bearer TOKEN\n",
+                           head_only);
+    const char *q = memchr(target, '?', tlen);
+    size_t plen = q ? (size_t)(q - target) : tlen;
+    if (plen != 8 || memcmp(target, "/metrics", 8))
+        return answer_text(h, MH_404, NULL, "not found: the metrics are at /metrics\n", head_only);
+    if (!head_only && !(mlen == 3 && !memcmp(rl.p, "GET", 3)))
+        return answer_text(h, MH_405, "Allow: GET, HEAD\r\n", "only GET and HEAD are allowed\n", false);
+    if (!metrics_expose(s, &s->mtext)) return answer_text(h, MH_500, NULL, "out of memory\n", head_only);
+    h->answered = true;
+    s->m.http[MH_200]++;
+    if (!build(h, MH_200, NULL, s->mtext.p, s->mtext.len, head_only)) {
+        hconn_free(h);
+        return false;
+    }
+    return flush(h);
+}
+
+/* ---- events ---------------------------------------------------------------------------- */
+
+static void on_read(hconn *h)
+{
+    if (h->answered) {
+        /* after the answer: drop what comes until the client closes */
+        char junk[4096];
+        ssize_t n = read(h->fd, junk, sizeof junk);
+        if (n == 0 && h->out_pos < h->out_len) {
+            /* a client that shut its side after the request (nc -N): the
+               answer still goes out, then the connection is freed */
+            h->peer_done = true;
+            ae_del(h->s->loop, h->fd, AE_READABLE);
+        } else if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+            hconn_free(h);
+        }
+        return;
+    }
+    ssize_t n = read(h->fd, h->in + h->in_len, sizeof h->in - h->in_len);
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) return;
+    if (n <= 0) { /* gone before its request was whole: nothing to answer */
+        hconn_free(h);
+        return;
+    }
+    h->in_len += (size_t)n;
+    size_t start, end = head_end(h->in, h->in_len, &start);
+    if (end) {
+        respond(h, start, end);
+        return;
+    }
+    if (h->in_len == sizeof h->in)
+        answer_text(h, MH_431, NULL, "request head over 8 KiB\n", false);
+}
+
+static void on_conn(ae_loop *l, int fd, void *data, int mask)
+{
+    (void)l;
+    (void)fd;
+    hconn *h = data;
+    if (mask & AE_READABLE) on_read(h);
+    else if (mask & AE_WRITABLE) flush(h);
+}
+
+static void on_accept(ae_loop *l, int lfd, void *data, int mask)
+{
+    (void)mask;
+    server *s = data;
+    struct mhttp *m = s->http;
+    for (;;) {
+        int fd = accept4(lfd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd < 0) {
+            if (errno == EINTR) continue;
+            if (errno != EAGAIN && errno != EWOULDBLOCK) LOGW("metrics: accept: %s", strerror(errno));
+            return;
+        }
+        hconn *h = NULL;
+        if (m->n < METRICS_HTTP_MAX_CONNS && fd < s->conns_cap) h = calloc(1, sizeof *h);
+        if (!h || ae_add(l, fd, AE_READABLE, on_conn, h) < 0) {
+            /* too many at once (or no memory): say so, best effort; what
+               the client already sent is read first (closing with unread
+               input would reset the connection, the answer lost) */
+            char junk[4096];
+            for (int k = 0; k < 4 && read(fd, junk, sizeof junk) > 0; k++) {
+            }
+            say_now(fd, MH_503, "Retry-After: 1\r\n", "too many metrics connections now\n");
+            close(fd);
+            free(h);
+            s->m.http[MH_503]++;
+            continue;
+        }
+        *h = (hconn){.s = s, .fd = fd, .deadline_ms = ae_now_ms() + s->cfg.hello_timeout_ms};
+        m->c[m->n++] = h;
+    }
+}
+
+bool metrics_http_busy(const server *s)
+{
+    return s->http && s->http->n > 0;
+}
+
+uint32_t metrics_http_conns(const server *s)
+{
+    return s->http ? s->http->n : 0;
+}
+
+void metrics_http_sweep(server *s, uint64_t now_ms)
+{
+    struct mhttp *m = s->http;
+    if (!m) return;
+    for (uint32_t i = m->n; i-- > 0;) {
+        hconn *h = m->c[i];
+        if (now_ms < h->deadline_ms) continue;
+        if (!h->answered) {
+            /* slow-loris: tell it, without waiting for it to read */
+            say_now(h->fd, MH_408, NULL, "request head not sent in time\n");
+            s->m.http[MH_408]++;
+        }
+        hconn_free(h);
+    }
+}
+
+int metrics_http_open(server *s)
+{
+    s->http = calloc(1, sizeof *s->http);
+    if (!s->http) return -1;
+    s->http->lfd = listen_tcp(s->cfg.metrics_bind, s->cfg.metrics_port);
+    if (s->http->lfd < 0) return -1;
+    if (s->http->lfd >= s->conns_cap || ae_add(s->loop, s->http->lfd, AE_READABLE, on_accept, s) < 0) return -1;
+    LOGI("metrics on http://%s:%d/metrics", s->cfg.metrics_bind, s->cfg.metrics_port);
+    return 0;
+}
+
+void metrics_http_close(server *s)
+{
+    struct mhttp *m = s->http;
+    if (!m) return;
+    while (m->n) hconn_free(m->c[0]);
+    if (m->lfd >= 0) {
+        ae_del(s->loop, m->lfd, AE_READABLE);
+        close(m->lfd);
+    }
+    free(m);
+    s->http = NULL;
+}

@@ -1,0 +1,1229 @@
+/*
+ * test_metrics.c — the daemon's metrics (issue 9): `vantaged --metrics`
+ * over HTTP and the METRICS message, against the real daemon.
+ *
+ * The model is this file's own strict reader of the Prometheus text
+ * format 0.0.4 (written from the format's description, sharing nothing
+ * with daemon/metrics.c): every line parses, `# TYPE` comes before its
+ * family's samples and once, a family's samples are contiguous, no series
+ * twice, label values escaped, counters end in _total and are >= 0,
+ * histograms have increasing `le`, cumulative non-decreasing buckets, a
+ * +Inf bucket equal to _count, and _sum. Then the figures are checked
+ * against what the test did: N requests counted exactly (and their latency
+ * samples), bytes in and out equal to the bytes the test's socket sent and
+ * read, query entity counts equal to the sums of the replies' own counts,
+ * errors by type and code, clients by role following connects and
+ * disconnects, frames dropped for a viewer that stopped reading; HTTP bad
+ * input (404, 405, 400, 431, 505, 503 past the connection limit, 401
+ * without a token, a slow-loris request closed at its deadline while a
+ * protocol client keeps being served); the METRICS message gives the same
+ * families as HTTP.
+ */
+#include "test_util.h"
+#include "test_daemon.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+/* ---- the model: a strict reader of the text exposition format ------------------------ */
+
+typedef struct xsample {
+    char name[128];
+    char labels[512]; /* canonical: "k=v" pairs sorted by key, joined by \x01, values unescaped */
+    double v;
+    int fam;
+} xsample;
+
+typedef struct xfam {
+    char name[128];
+    char type[16];
+    bool help, typed, closed;
+    int samples;
+} xfam;
+
+typedef struct expo {
+    xsample *s;
+    size_t n, cap;
+    xfam f[128];
+    int nf;
+    char err[512]; /* why the text was refused */
+} expo;
+
+static void expo_free(expo *e)
+{
+    free(e->s);
+    memset(e, 0, sizeof *e);
+}
+
+static bool name_start(char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_' || c == ':'; }
+static bool name_char(char c) { return name_start(c) || (c >= '0' && c <= '9'); }
+
+/* Refuses the text: the reason in e->err; false. */
+static bool xerr(expo *e, int ln, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static bool xerr(expo *e, int ln, const char *fmt, ...)
+{
+    int o = snprintf(e->err, sizeof e->err, "line %d: ", ln);
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(e->err + o, sizeof e->err - (size_t)o, fmt, ap);
+    va_end(ap);
+    return false;
+}
+#define XFAIL(ln, ...) return xerr(e, ln, __VA_ARGS__)
+
+/* A metric name at p[*i..]; its length (0 if none). */
+static size_t read_name(const char *p, size_t n, size_t i)
+{
+    size_t k = i;
+    if (k < n && name_start(p[k]))
+        while (++k < n && name_char(p[k])) {
+        }
+    return k - i;
+}
+
+static int fam_find(expo *e, const char *name)
+{
+    for (int i = 0; i < e->nf; i++)
+        if (!strcmp(e->f[i].name, name)) return i;
+    return -1;
+}
+
+static int fam_get(expo *e, const char *name, int ln)
+{
+    int i = fam_find(e, name);
+    if (i >= 0) return i;
+    if (e->nf == 128) return xerr(e, ln, "too many families"), -1;
+    xfam *f = &e->f[e->nf];
+    memset(f, 0, sizeof *f);
+    snprintf(f->name, sizeof f->name, "%s", name);
+    return e->nf++;
+}
+
+/* A float as the format writes it (Go's ParseFloat: also NaN, +Inf, -Inf). */
+static bool read_float(const char *s, double *v)
+{
+    if (!strcmp(s, "+Inf") || !strcmp(s, "Inf")) return *v = INFINITY, true;
+    if (!strcmp(s, "-Inf")) return *v = -INFINITY, true;
+    if (!strcmp(s, "NaN")) return *v = NAN, true;
+    if (!*s) return false;
+    for (const char *c = s; *c; c++)
+        if (!strchr("0123456789+-.eE", *c)) return false;
+    char *end;
+    errno = 0;
+    *v = strtod(s, &end);
+    return !*end && !errno;
+}
+
+typedef struct kv {
+    char k[64], v[256];
+} kv;
+
+static int kv_cmp(const void *a, const void *b)
+{
+    return strcmp(((const kv *)a)->k, ((const kv *)b)->k);
+}
+
+static void canon(kv *l, int nl, char *out, size_t outlen, const char *skip)
+{
+    qsort(l, (size_t)nl, sizeof *l, kv_cmp);
+    size_t o = 0;
+    out[0] = 0;
+    for (int i = 0; i < nl; i++) {
+        if (skip && !strcmp(l[i].k, skip)) continue;
+        o += (size_t)snprintf(out + o, outlen - o, "%s%s=%s", o ? "\x01" : "", l[i].k, l[i].v);
+        assert_true(o < outlen);
+    }
+}
+
+static bool parse_sample(expo *e, const char *p, size_t n, int ln)
+{
+    size_t nl = read_name(p, n, 0);
+    if (!nl) XFAIL(ln, "no metric name");
+    xsample s = {0};
+    if (nl >= sizeof s.name) XFAIL(ln, "name too long");
+    memcpy(s.name, p, nl);
+    size_t i = nl;
+    kv l[8];
+    int nlab = 0;
+    if (i < n && p[i] == '{') {
+        i++;
+        while (i < n && p[i] != '}') {
+            size_t kl = 0;
+            if (i < n && ((p[i] >= 'a' && p[i] <= 'z') || (p[i] >= 'A' && p[i] <= 'Z') || p[i] == '_'))
+                while (i + ++kl < n && (name_char(p[i + kl]) && p[i + kl] != ':')) {
+                }
+            if (!kl || kl >= sizeof l[0].k) XFAIL(ln, "bad label name");
+            if (nlab == 8) XFAIL(ln, "too many labels");
+            kv *L = &l[nlab++];
+            memcpy(L->k, p + i, kl);
+            L->k[kl] = 0;
+            if (!strncmp(L->k, "__", 2)) XFAIL(ln, "reserved label name %s", L->k);
+            for (int j = 0; j < nlab - 1; j++)
+                if (!strcmp(l[j].k, L->k)) XFAIL(ln, "label %s twice", L->k);
+            i += kl;
+            if (i + 1 >= n || p[i] != '=' || p[i + 1] != '"') XFAIL(ln, "label %s: no =\"", L->k);
+            i += 2;
+            size_t o = 0;
+            for (;; i++) {
+                if (i >= n) XFAIL(ln, "unterminated label value");
+                char c = p[i];
+                if (c == '"') break;
+                if (c == '\\') {
+                    if (i + 1 >= n) XFAIL(ln, "escape at the end");
+                    c = p[++i];
+                    if (c == 'n') c = '\n';
+                    else if (c != '\\' && c != '"') XFAIL(ln, "bad escape \\%c", c);
+                }
+                if (o + 1 >= sizeof L->v) XFAIL(ln, "label value too long");
+                L->v[o++] = c;
+            }
+            L->v[o] = 0;
+            i++; /* the quote */
+            if (i < n && p[i] == ',') i++;
+            else if (i < n && p[i] != '}') XFAIL(ln, "expected , or }");
+        }
+        if (i >= n) XFAIL(ln, "unterminated label set");
+        i++;
+    }
+    if (i >= n || p[i] != ' ') XFAIL(ln, "no space before the value");
+    i++;
+    char v[64];
+    size_t vl = n - i;
+    if (!vl || vl >= sizeof v || memchr(p + i, ' ', vl)) XFAIL(ln, "bad value (or a timestamp: the daemon writes none)");
+    memcpy(v, p + i, vl);
+    v[vl] = 0;
+    if (!read_float(v, &s.v)) XFAIL(ln, "value %s is no float", v);
+    canon(l, nlab, s.labels, sizeof s.labels, NULL);
+
+    /* its family: the name itself, or a histogram's _bucket/_sum/_count */
+    int fi = fam_find(e, s.name);
+    if (fi < 0 || !e->f[fi].typed) {
+        static const char *const suf[] = {"_bucket", "_sum", "_count"};
+        for (int k = 0; k < 3; k++) {
+            size_t sl = strlen(suf[k]);
+            if (nl > sl && !strcmp(s.name + nl - sl, suf[k])) {
+                char base[128];
+                memcpy(base, s.name, nl - sl);
+                base[nl - sl] = 0;
+                int b = fam_find(e, base);
+                if (b >= 0 && !strcmp(e->f[b].type, "histogram")) fi = b;
+            }
+        }
+    }
+    if (fi < 0 || !e->f[fi].typed) XFAIL(ln, "sample %s before its # TYPE", s.name);
+    xfam *f = &e->f[fi];
+    if (!strcmp(f->type, "histogram") && !strcmp(f->name, s.name)) XFAIL(ln, "histogram sample without a suffix");
+    if (f->closed) XFAIL(ln, "family %s not contiguous", f->name);
+    for (int k = 0; k < e->nf; k++)
+        if (k != fi && e->f[k].samples) e->f[k].closed = true;
+    f->samples++;
+    s.fam = fi;
+    if (!strcmp(f->type, "counter") && !(s.v >= 0)) XFAIL(ln, "counter %s below 0", s.name);
+    bool is_bucket = !strcmp(f->type, "histogram") && strstr(s.name, "_bucket") == s.name + strlen(f->name);
+    bool has_le = false;
+    for (int k = 0; k < nlab; k++) has_le |= !strcmp(l[k].k, "le");
+    if (is_bucket != has_le) XFAIL(ln, "le on %s", s.name);
+    for (size_t k = 0; k < e->n; k++)
+        if (!strcmp(e->s[k].name, s.name) && !strcmp(e->s[k].labels, s.labels)) XFAIL(ln, "series twice");
+    if (e->n == e->cap) {
+        e->cap = e->cap ? 2 * e->cap : 256;
+        e->s = realloc(e->s, e->cap * sizeof *e->s);
+        assert_non_null(e->s);
+    }
+    e->s[e->n++] = s;
+    return true;
+}
+
+/* Checks every histogram series: buckets as the format wants them. */
+static bool check_histograms(expo *e)
+{
+    for (int fi = 0; fi < e->nf; fi++) {
+        const xfam *f = &e->f[fi];
+        if (strcmp(f->type, "histogram")) continue;
+        char bn[160], sn[160], cn[160];
+        snprintf(bn, sizeof bn, "%s_bucket", f->name);
+        snprintf(sn, sizeof sn, "%s_sum", f->name);
+        snprintf(cn, sizeof cn, "%s_count", f->name);
+        for (size_t i = 0; i < e->n; i++) {
+            if (strcmp(e->s[i].name, cn)) continue;
+            /* the series: its labels; its buckets in order of appearance */
+            const char *series = e->s[i].labels;
+            double last_le = -INFINITY, last = 0, inf = -1, sum = NAN;
+            int nb = 0;
+            for (size_t k = 0; k < e->n; k++) {
+                const xsample *b = &e->s[k];
+                if (!strcmp(b->name, sn) && !strcmp(b->labels, series)) sum = b->v;
+                if (strcmp(b->name, bn)) continue;
+                /* the bucket's labels without le must be the series' */
+                kv l[8];
+                int nl = 0;
+                char tmp[512];
+                snprintf(tmp, sizeof tmp, "%s", b->labels);
+                double le = NAN;
+                for (char *tok = strtok(tmp, "\x01"); tok; tok = strtok(NULL, "\x01")) {
+                    char *eq = strchr(tok, '=');
+                    assert_non_null(eq);
+                    *eq = 0;
+                    if (!strcmp(tok, "le")) {
+                        if (!read_float(eq + 1, &le)) return xerr(e, 0, "%s: le %s", bn, eq + 1);
+                        continue;
+                    }
+                    snprintf(l[nl].k, sizeof l[nl].k, "%s", tok);
+                    snprintf(l[nl].v, sizeof l[nl].v, "%s", eq + 1);
+                    nl++;
+                }
+                char c[512];
+                canon(l, nl, c, sizeof c, NULL);
+                if (strcmp(c, series)) continue;
+                if (!(le > last_le)) return xerr(e, 0, "%s{%s}: le not increasing", bn, series);
+                if (b->v < last || b->v != floor(b->v)) return xerr(e, 0, "%s{%s}: buckets not cumulative", bn, series);
+                last_le = le;
+                last = b->v;
+                if (isinf(le)) inf = b->v;
+                nb++;
+            }
+            if (!isinf(last_le) || inf < 0) return xerr(e, 0, "%s{%s}: no +Inf bucket last", bn, series);
+            if (inf != e->s[i].v) return xerr(e, 0, "%s{%s}: +Inf %g != _count %g", bn, series, inf, e->s[i].v);
+            if (isnan(sum) || sum < 0) return xerr(e, 0, "%s{%s}: no _sum", sn, series);
+            if (nb < 2) return xerr(e, 0, "%s{%s}: %d buckets", bn, series, nb);
+        }
+    }
+    return true;
+}
+
+/* Reads text strictly: false (and e->err) on any deviation. */
+static bool expo_read(const char *t, size_t len, expo *e)
+{
+    memset(e, 0, sizeof *e);
+    if (!len || t[len - 1] != '\n') return xerr(e, 0, "empty, or not ended with a line feed");
+    int ln = 0;
+    for (size_t pos = 0; pos < len;) {
+        const char *p = t + pos, *nlp = memchr(p, '\n', len - pos);
+        size_t n = (size_t)(nlp - p);
+        pos += n + 1;
+        ln++;
+        if (memchr(p, '\r', n) || memchr(p, 0, n)) XFAIL(ln, "CR or NUL in a line");
+        if (!n) XFAIL(ln, "empty line");
+        if (p[0] != '#') {
+            if (!parse_sample(e, p, n, ln)) return false;
+            continue;
+        }
+        bool help = n > 7 && !strncmp(p, "# HELP ", 7), type = n > 7 && !strncmp(p, "# TYPE ", 7);
+        if (!help && !type) XFAIL(ln, "a comment that is neither HELP nor TYPE");
+        size_t nl = read_name(p, n, 7);
+        if (!nl || 7 + nl >= n || p[7 + nl] != ' ') XFAIL(ln, "HELP/TYPE without a name and text");
+        char name[128];
+        if (nl >= sizeof name) XFAIL(ln, "name too long");
+        memcpy(name, p + 7, nl);
+        name[nl] = 0;
+        int fi = fam_get(e, name, ln);
+        if (fi < 0) return false;
+        xfam *f = &e->f[fi];
+        const char *rest = p + 7 + nl + 1;
+        size_t rl = n - 7 - nl - 1;
+        if (f->samples) XFAIL(ln, "%s of %s after its samples", help ? "HELP" : "TYPE", name);
+        if (help) {
+            if (f->help) XFAIL(ln, "HELP %s twice", name);
+            f->help = true;
+            for (size_t i = 0; i < rl; i++)
+                if (rest[i] == '\\' && (i + 1 >= rl || (rest[i + 1] != '\\' && rest[i + 1] != 'n')))
+                    XFAIL(ln, "bad escape in HELP");
+                else if (rest[i] == '\\')
+                    i++;
+        } else {
+            if (f->typed) XFAIL(ln, "TYPE %s twice", name);
+            if (rl >= sizeof f->type) XFAIL(ln, "bad type");
+            memcpy(f->type, rest, rl);
+            f->type[rl] = 0;
+            if (strcmp(f->type, "counter") && strcmp(f->type, "gauge") && strcmp(f->type, "histogram") &&
+                strcmp(f->type, "summary") && strcmp(f->type, "untyped"))
+                XFAIL(ln, "unknown type %s", f->type);
+            f->typed = true;
+            /* this daemon's conventions (Prometheus's naming guide) */
+            size_t L = strlen(name);
+            if (strncmp(name, "vantage_", 8)) XFAIL(ln, "%s: not vantage_", name);
+            if (!strcmp(f->type, "counter") && (L < 6 || strcmp(name + L - 6, "_total")))
+                XFAIL(ln, "counter %s does not end in _total", name);
+            if (!strcmp(f->type, "histogram") && (L < 8 || strcmp(name + L - 8, "_seconds")))
+                XFAIL(ln, "histogram %s is not in seconds", name);
+        }
+    }
+    for (int i = 0; i < e->nf; i++)
+        if (!e->f[i].help || !e->f[i].typed) return xerr(e, 0, "family %s without HELP or TYPE", e->f[i].name);
+    return check_histograms(e);
+}
+
+/* The same, failing the test on any deviation. */
+static void expo_parse(const char *t, size_t len, expo *e)
+{
+    if (!expo_read(t, len, e)) fail_msg("exposition refused: %s", e->err);
+}
+
+/* A sample's value: NAN when there is none. Labels k1=v1 (and k2=v2). */
+static double xv(const expo *e, const char *name, const char *k1, const char *v1, const char *k2, const char *v2)
+{
+    kv l[2];
+    int nl = 0;
+    if (k1) snprintf(l[nl].k, sizeof l[nl].k, "%s", k1), snprintf(l[nl].v, sizeof l[nl].v, "%s", v1), nl++;
+    if (k2) snprintf(l[nl].k, sizeof l[nl].k, "%s", k2), snprintf(l[nl].v, sizeof l[nl].v, "%s", v2), nl++;
+    char c[512];
+    canon(l, nl, c, sizeof c, NULL);
+    for (size_t i = 0; i < e->n; i++)
+        if (!strcmp(e->s[i].name, name) && !strcmp(e->s[i].labels, c)) return e->s[i].v;
+    return NAN;
+}
+
+/* The same, 0 when the series is not there (error pairs appear when seen). */
+static double xv0(const expo *e, const char *name, const char *k1, const char *v1, const char *k2, const char *v2)
+{
+    double v = xv(e, name, k1, v1, k2, v2);
+    return isnan(v) ? 0 : v;
+}
+
+/* A value that must be there. */
+static double xget(const expo *e, const char *name, const char *k1, const char *v1)
+{
+    double v = xv(e, name, k1, v1, NULL, NULL);
+    if (isnan(v)) fail_msg("no sample %s{%s=\"%s\"}", name, k1 ? k1 : "", v1 ? v1 : "");
+    return v;
+}
+
+/* ---- HTTP by hand ---------------------------------------------------------------------- */
+
+#define HTTP_MAX_CONNS 16 /* daemon/metrics.h: METRICS_HTTP_MAX_CONNS */
+
+static int tcp_connect(int port)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port),
+                             .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    assert_int_equal(connect(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    struct timeval tv = {.tv_sec = 10};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    return fd;
+}
+
+typedef struct hresp {
+    int status;
+    char head[2048];
+    char *body;
+    size_t body_len;
+} hresp;
+
+/* Reads an HTTP answer to EOF from fd and closes it. */
+static void http_read(int fd, hresp *r)
+{
+    size_t cap = 1 << 16, len = 0;
+    char *buf = malloc(cap);
+    assert_non_null(buf);
+    for (;;) {
+        if (cap - len < 4096) buf = realloc(buf, cap *= 2);
+        assert_non_null(buf);
+        ssize_t n = read(fd, buf + len, cap - len);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) fail_msg("http read: %s", strerror(errno));
+        if (n == 0) break;
+        len += (size_t)n;
+    }
+    close(fd);
+    memset(r, 0, sizeof *r);
+    char *end = NULL;
+    for (size_t i = 0; i + 3 < len && !end; i++)
+        if (!memcmp(buf + i, "\r\n\r\n", 4)) end = buf + i;
+    if (!end) fail_msg("no HTTP head in %zu bytes", len);
+    size_t hl = (size_t)(end - buf);
+    assert_true(hl < sizeof r->head);
+    memcpy(r->head, buf, hl);
+    r->head[hl] = 0;
+    assert_int_equal(sscanf(r->head, "HTTP/1.1 %d", &r->status), 1);
+    r->body_len = len - hl - 4;
+    r->body = malloc(r->body_len + 1);
+    memcpy(r->body, end + 4, r->body_len);
+    r->body[r->body_len] = 0;
+    free(buf);
+    /* the head says the body's length, and the connection's end */
+    assert_non_null(strstr(r->head, "\r\nContent-Length: "));
+    assert_non_null(strstr(r->head, "\r\nConnection: close"));
+}
+
+static void http_send(int port, const char *req, size_t n, hresp *r)
+{
+    int fd = tcp_connect(port);
+    assert_int_equal(write(fd, req, n), (ssize_t)n);
+    http_read(fd, r);
+}
+
+static void http_free(hresp *r)
+{
+    free(r->body);
+    r->body = NULL;
+}
+
+static size_t content_length(const hresp *r)
+{
+    const char *cl = strstr(r->head, "\r\nContent-Length: ");
+    return cl ? (size_t)strtoul(cl + 18, NULL, 10) : (size_t)-1;
+}
+
+/* GET /metrics: 200, the right type, a body as long as said; parsed. */
+static void scrape(int port, expo *e)
+{
+    char req[128];
+    int n = snprintf(req, sizeof req, "GET /metrics HTTP/1.1\r\nHost: 127.0.0.1:%d\r\n\r\n", port);
+    hresp r;
+    http_send(port, req, (size_t)n, &r);
+    if (r.status != 200) fail_msg("GET /metrics: %d %s", r.status, r.body);
+    assert_non_null(strstr(r.head, "\r\nContent-Type: text/plain; version=0.0.4"));
+    assert_int_equal(content_length(&r), r.body_len);
+    expo_parse(r.body, r.body_len, e);
+    http_free(&r);
+}
+
+/* Scrapes until name{k=v} == want (gauges follow events the loop may take
+ * a turn to see), at most 3 s; returns the scrapes it took. */
+static int wait_value(int port, const char *name, const char *k, const char *v, double want)
+{
+    double got = NAN;
+    for (int i = 0; i < 300; i++) {
+        expo e;
+        scrape(port, &e);
+        got = xv(&e, name, k, v, NULL, NULL);
+        expo_free(&e);
+        if (got == want) return i + 1;
+        usleep(10000);
+    }
+    fail_msg("%s{%s=\"%s\"} is %g, want %g", name, k ? k : "", v ? v : "", got, want);
+    return 0;
+}
+
+static void daemon_with_metrics(daemon_proc *d, int *mport, const char *const *more)
+{
+    static char arg[32];
+    *mport = free_port();
+    snprintf(arg, sizeof arg, "%d", *mport);
+    const char *extra[16] = {"--metrics", arg};
+    int n = 2;
+    for (int i = 0; more && more[i] && n < 15; i++) extra[n++] = more[i];
+    extra[n] = NULL;
+    daemon_start_args(d, extra);
+}
+
+/* ---- raw protocol bytes, counted ------------------------------------------------------- */
+
+typedef struct rawc {
+    int fd;
+    uint64_t sent, got;
+    uint8_t buf[1 << 16];
+    size_t have;
+} rawc;
+
+static void raw_open(rawc *r, const daemon_proc *d)
+{
+    memset(r, 0, sizeof *r);
+    r->fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    snprintf(sa.sun_path, sizeof sa.sun_path, "%s", d->sock);
+    assert_int_equal(connect(r->fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    struct timeval tv = {.tv_sec = 10};
+    setsockopt(r->fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+}
+
+static void raw_write(rawc *r, const uint8_t *p, size_t n)
+{
+    assert_int_equal(write(r->fd, p, n), (ssize_t)n);
+    r->sent += n;
+}
+
+/* The next frame's type (its payload read and dropped); -1 at EOF. */
+static int raw_frame(rawc *r, vp_header *h)
+{
+    for (;;) {
+        size_t fs = 0;
+        int rc = vp_frame_check(r->buf, r->have, UINT32_MAX, h, &fs);
+        if (rc == VP_OK) {
+            memmove(r->buf, r->buf + fs, r->have - fs);
+            r->have -= fs;
+            return h->type;
+        }
+        assert_int_equal(rc, VP_NEED_MORE);
+        if (r->have >= VP_HEADER_SIZE && fs > sizeof r->buf) {
+            /* bigger than the buffer (a raw frame): read it through */
+            size_t left = fs - r->have;
+            while (left) {
+                ssize_t n = read(r->fd, r->buf, left < sizeof r->buf ? left : sizeof r->buf);
+                if (n <= 0) return -1;
+                left -= (size_t)n;
+                r->got += (uint64_t)n;
+            }
+            r->have = 0;
+            return h->type;
+        }
+        ssize_t n = read(r->fd, r->buf + r->have, sizeof r->buf - r->have);
+        if (n <= 0) return -1;
+        r->have += (size_t)n;
+        r->got += (uint64_t)n;
+    }
+}
+
+/* ---- the tests ------------------------------------------------------------------------- */
+
+/* The model itself: a text written by hand per the format passes; each
+ * way of breaking it is refused (so a pass below means something). */
+static void test_metrics_model(void **state)
+{
+    (void)state;
+    static const char good[] =
+        "# HELP vantage_x_total A counter with \\\\ and \\n in its help.\n"
+        "# TYPE vantage_x_total counter\n"
+        "vantage_x_total{type=\"a\\\"b\\\\c\\nd\",code=\"X\"} 3\n"
+        "vantage_x_total{code=\"Y\",type=\"e\"} 0\n"
+        "# TYPE vantage_g gauge\n"
+        "# HELP vantage_g A gauge.\n"
+        "vantage_g -1.5e-3\n"
+        "# HELP vantage_h_seconds A histogram.\n"
+        "# TYPE vantage_h_seconds histogram\n"
+        "vantage_h_seconds_bucket{le=\"1e-06\"} 1\n"
+        "vantage_h_seconds_bucket{le=\"0.5\"} 1\n"
+        "vantage_h_seconds_bucket{le=\"+Inf\"} 4\n"
+        "vantage_h_seconds_sum 7.25\n"
+        "vantage_h_seconds_count 4\n";
+    expo e;
+    assert_true(expo_read(good, sizeof good - 1, &e));
+    assert_true(xv(&e, "vantage_x_total", "type", "a\"b\\c\nd", "code", "X") == 3);
+    assert_true(xv(&e, "vantage_g", NULL, NULL, NULL, NULL) == -1.5e-3);
+    assert_int_equal(e.nf, 3);
+    expo_free(&e);
+    /* each replaces one line (or adds one) of the good text */
+    static const struct {
+        const char *from, *to;
+    } bad[] = {
+        {"vantage_g -1.5e-3\n", "vantage_g -1.5e-3 1700000000\n"},          /* a timestamp */
+        {"vantage_g -1.5e-3\n", "vantage_g  1\n"},                          /* two spaces */
+        {"vantage_g -1.5e-3\n", "vantage_g one\n"},                         /* no number */
+        {"vantage_g -1.5e-3\n", "vantage_g{} \n"},                          /* no value */
+        {"vantage_g -1.5e-3\n", "vantage_g{a=\"b} 1\n"},                    /* unterminated */
+        {"vantage_g -1.5e-3\n", "vantage_g{a=\"\\t\"} 1\n"},                /* bad escape */
+        {"vantage_g -1.5e-3\n", "vantage_g{a=\"1\",a=\"2\"} 1\n"},          /* a label twice */
+        {"vantage_g -1.5e-3\n", "vantage_g{__a=\"1\"} 1\n"},                /* reserved */
+        {"vantage_g -1.5e-3\n", "vantage_g{1a=\"1\"} 1\n"},                 /* label name */
+        {"vantage_g -1.5e-3\n", "vantage_g -1.5e-3\r\n"},                   /* CR */
+        {"vantage_g -1.5e-3\n", "vantage_g 1\n\n"},                         /* empty line */
+        {"vantage_g -1.5e-3\n", "vantage_g 1\nvantage_g 2\n"},              /* series twice */
+        {"vantage_g -1.5e-3\n", "vantage_g 1\nvantage_y 2\n"},              /* no TYPE */
+        {"vantage_g -1.5e-3\n", "vantage_g 1\n# a comment\n"},              /* other comment */
+        {"vantage_g -1.5e-3\n", "vantage_g 1\n# TYPE vantage_g gauge\n"},   /* TYPE after samples */
+        {"vantage_x_total{code=\"Y\",type=\"e\"} 0\n", "vantage_x_total{code=\"Y\",type=\"e\"} -1\n"}, /* counter < 0 */
+        {"vantage_x_total{code=\"Y\",type=\"e\"} 0\n", ""},                 /* fine: the control */
+        {"# TYPE vantage_x_total counter\n", "# TYPE vantage_x_total counte\n"},
+        {"# TYPE vantage_x_total counter\n", "# TYPE vantage_x counter\n"}, /* counter name */
+        {"# HELP vantage_g A gauge.\n", "# HELP vantage_g A \\gauge.\n"},   /* HELP escape */
+        {"# HELP vantage_g A gauge.\n", ""},                                /* no HELP */
+        {"vantage_h_seconds_bucket{le=\"0.5\"} 1\n", "vantage_h_seconds_bucket{le=\"0.5\"} 0\n"}, /* not cumulative */
+        {"vantage_h_seconds_bucket{le=\"0.5\"} 1\n", "vantage_h_seconds_bucket{le=\"1e-07\"} 1\n"}, /* le order */
+        {"vantage_h_seconds_bucket{le=\"+Inf\"} 4\n", "vantage_h_seconds_bucket{le=\"+Inf\"} 5\n"}, /* != count */
+        {"vantage_h_seconds_bucket{le=\"+Inf\"} 4\n", ""},                  /* no +Inf */
+        {"vantage_h_seconds_sum 7.25\n", ""},                               /* no _sum */
+        {"vantage_h_seconds_sum 7.25\n", "vantage_h_seconds_sum 7.25\nvantage_h_seconds 1\n"},
+        {"vantage_h_seconds_count 4\n", "vantage_h_seconds_count 4\nvantage_x_total{type=\"z\"} 1\n"}, /* not contiguous */
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char t[2048];
+        const char *at = strstr(good, bad[i].from);
+        assert_non_null(at);
+        size_t pre = (size_t)(at - good);
+        snprintf(t, sizeof t, "%.*s%s%s", (int)pre, good, bad[i].to, at + strlen(bad[i].from));
+        bool ok = expo_read(t, strlen(t), &e);
+        bool control = i == 16;
+        if (ok != control) fail_msg("model case %zu: %s (%s)", i, ok ? "accepted" : "refused", e.err);
+        expo_free(&e);
+    }
+    assert_false(expo_read("vantage_g 1", 11, &e)); /* no final line feed */
+    expo_free(&e);
+}
+
+/* METRICS_REPLY on the wire: round trip, every prefix and one-byte
+ * extension refused, each bad field with its code. */
+static void test_metrics_message_codec(void **state)
+{
+    (void)state;
+    static const char text[] = "# HELP vantage_g A gauge.\n# TYPE vantage_g gauge\nvantage_g 1\n";
+    uint8_t buf[256];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_metrics_reply(&w, 42, &(vp_metrics_reply){.format = VP_METRICS_PROMETHEUS, .text_len = sizeof text - 1,
+                                                     .text = (const uint8_t *)text});
+    assert_false(w.overflow);
+    assert_int_equal(w.len, vp_size_metrics_reply(sizeof text - 1));
+    vp_header h;
+    size_t fs;
+    assert_int_equal(vp_frame_check(buf, w.len, 1u << 20, &h, &fs), VP_OK);
+    assert_int_equal(h.type, VP_METRICS_REPLY);
+    assert_int_equal(h.req, 42);
+    assert_string_equal(vp_type_name(VP_METRICS), "metrics");
+    assert_true(vp_type_known(VP_METRICS_REPLY));
+    uint8_t *p = buf + VP_HEADER_SIZE;
+    size_t len = h.len;
+    vp_metrics_reply m;
+    assert_int_equal(vp_dec_metrics_reply(p, len, &m), VP_OK);
+    assert_int_equal(m.text_len, sizeof text - 1);
+    assert_memory_equal(m.text, text, m.text_len);
+    for (size_t n = 0; n < len; n++) assert_int_equal(vp_dec_metrics_reply(p, n, &m), VP_ERR_TRUNCATED);
+    buf[w.len] = 'x';
+    assert_int_equal(vp_dec_metrics_reply(p, len + 1, &m), VP_ERR_TRAILING);
+    static const struct {
+        size_t off;
+        uint8_t v;
+        int code;
+    } bad[] = {{0, 1, VP_ERR_INVALID}, {1, 1, VP_ERR_INVALID}, {3, 1, VP_ERR_INVALID}, {8 + 5, 0, VP_ERR_INVALID},
+               {4, 0xff, VP_ERR_TRUNCATED}, {4, 0, VP_ERR_TRAILING}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        uint8_t c[256];
+        memcpy(c, p, len);
+        c[bad[i].off] = bad[i].v;
+        assert_int_equal(vp_dec_metrics_reply(c, len, &m), bad[i].code);
+    }
+    /* an empty text is a reply too */
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_metrics_reply(&w, 1, &(vp_metrics_reply){.format = VP_METRICS_PROMETHEUS});
+    assert_int_equal(vp_dec_metrics_reply(buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &m), VP_OK);
+    assert_int_equal(m.text_len, 0);
+}
+
+/* Counts against what the test did: requests and latency samples per type,
+ * bytes in and out to the byte, queries' entities, errors by code. */
+static void test_metrics_counts(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
+    expo a, b;
+    scrape(mport, &a);
+
+    /* a raw client: HELLO then 25 PINGs of 0..24 bytes, every byte counted */
+    enum { NPING = 25 };
+    rawc r;
+    raw_open(&r, &d);
+    uint8_t buf[4096];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_VIEWER});
+    raw_write(&r, buf, w.len);
+    vp_header h;
+    assert_int_equal(raw_frame(&r, &h), VP_HELLO_OK);
+    for (int i = 0; i < NPING; i++) {
+        uint8_t data[32] = {0};
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_enc_ping(&w, VP_PING, 10 + (uint32_t)i, data, (uint32_t)i);
+        raw_write(&r, buf, w.len);
+    }
+    for (int i = 0; i < NPING; i++) assert_int_equal(raw_frame(&r, &h), VP_PONG);
+    scrape(mport, &b);
+    assert_true(xget(&b, "vantage_requests_total", "type", "ping") - xget(&a, "vantage_requests_total", "type", "ping") ==
+                NPING);
+    assert_true(xget(&b, "vantage_requests_total", "type", "hello") -
+                    xget(&a, "vantage_requests_total", "type", "hello") ==
+                1);
+    assert_true(xget(&b, "vantage_request_duration_seconds_count", "type", "ping") -
+                    xv0(&a, "vantage_request_duration_seconds_count", "type", "ping", NULL, NULL) ==
+                NPING);
+    /* the scrapes are HTTP, not protocol bytes: the deltas are the raw client's */
+    double in = xget(&b, "vantage_received_bytes_total", NULL, NULL) - xget(&a, "vantage_received_bytes_total", NULL, NULL);
+    double out = xget(&b, "vantage_sent_bytes_total", NULL, NULL) - xget(&a, "vantage_sent_bytes_total", NULL, NULL);
+    fprintf(stderr, "metrics: raw client sent %llu bytes, read %llu; the daemon counted %.0f in, %.0f out\n",
+            (unsigned long long)r.sent, (unsigned long long)r.got, in, out);
+    assert_true(in == (double)r.sent);
+    assert_true(out == (double)r.got);
+    expo_free(&a);
+    expo_free(&b);
+
+    /* queries: counted, their stages timed, their entities summed */
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, true);
+    vp_entity e[300];
+    rng rg = {test_seed() ^ 0x3E7};
+    for (int i = 0; i < 300; i++) {
+        double x = rng_range(&rg, -100, 100), y = rng_range(&rg, -10, 10), z = rng_range(&rg, -200, 200);
+        e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 1, y - 1, z - 1, x + 1, y + 1, z + 1}};
+    }
+    assert_int_equal(vt_add(ed, e, 300, NULL, NULL), VP_OK);
+    scrape(mport, &a);
+    enum { NQ = 12 };
+    double tested = 0, visible = 0;
+    for (int i = 0; i < NQ; i++) {
+        vp_view view;
+        const double eye[3] = {0, 0, 0}, at[3] = {cos(i * 0.5), 0, sin(i * 0.5)};
+        assert_true(vt_view_perspective(&view, eye, at, NULL, 60, 640, 360, 0.1, 500));
+        vp_vis_result res;
+        assert_int_equal(vt_query(v, &view, 1, i % 2 ? VP_Q_COUNT_ONLY : 0, 0, &res), VP_OK);
+        tested += res.tested;
+        visible += res.visible;
+    }
+    /* errors by type and code: a singular matrix, an oversized PING, an unknown type */
+    vp_view bad = {.viewport_w = 64, .viewport_h = 64};
+    vp_vis_result res;
+    assert_int_equal(vt_query(v, &bad, 1, 0, 0, &res), VP_ERR_MATRIX);
+    {
+        static uint8_t big[VP_HEADER_SIZE + 2000], data[2000];
+        vp_writer_init(&w, big, sizeof big);
+        vp_enc_ping(&w, VP_PING, vt_next_req(v), data, sizeof data);
+        assert_int_equal(vt_send(v, big, w.len), VP_OK);
+        const uint8_t *p;
+        assert_int_equal(vt_recv(v, &h, &p, -1), VP_OK);
+        assert_int_equal(h.type, VP_ERROR);
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_frame_begin(&w, 0x0777, vt_next_req(v));
+        vp_frame_end(&w);
+        assert_int_equal(vt_send(v, buf, w.len), VP_OK);
+        assert_int_equal(vt_recv(v, &h, &p, -1), VP_OK);
+        assert_int_equal(h.type, VP_ERROR);
+    }
+    scrape(mport, &b);
+    assert_true(xget(&b, "vantage_requests_total", "type", "vis_query") -
+                    xget(&a, "vantage_requests_total", "type", "vis_query") ==
+                NQ + 1);
+    assert_true(xget(&b, "vantage_request_duration_seconds_count", "type", "vis_query") -
+                    xv0(&a, "vantage_request_duration_seconds_count", "type", "vis_query", NULL, NULL) ==
+                NQ + 1);
+    /* the worker's own times: the NQ that were culled, not the refused one */
+    assert_true(xget(&b, "vantage_query_seconds_count", NULL, NULL) - xget(&a, "vantage_query_seconds_count", NULL, NULL) ==
+                NQ);
+    static const char *const stages[] = {"decode", "cull", "occlusion_raster", "write"};
+    for (int i = 0; i < 4; i++)
+        assert_true(xget(&b, "vantage_query_stage_seconds_count", "stage", stages[i]) -
+                        xget(&a, "vantage_query_stage_seconds_count", "stage", stages[i]) ==
+                    NQ);
+    static const char *const ent[] = {"tested", "sphere", "aabb", "area", "occlusion", "visible"};
+    double prev = INFINITY;
+    for (int i = 0; i < 6; i++) {
+        double dlt = xget(&b, "vantage_query_entities_total", "stage", ent[i]) -
+                     xget(&a, "vantage_query_entities_total", "stage", ent[i]);
+        assert_true(dlt <= prev); /* each stage keeps at most what came in */
+        prev = dlt;
+        if (i == 0) assert_true(dlt == tested);
+        if (i == 5) assert_true(dlt == visible);
+    }
+    assert_true(visible > 0);
+    assert_true(xv0(&b, "vantage_request_errors_total", "type", "vis_query", "code", "MATRIX") -
+                    xv0(&a, "vantage_request_errors_total", "type", "vis_query", "code", "MATRIX") ==
+                1);
+    assert_true(xv0(&b, "vantage_request_errors_total", "type", "ping", "code", "COUNT") == 1);
+    assert_true(xv0(&b, "vantage_request_errors_total", "type", "other", "code", "TYPE") == 1);
+    assert_true(xget(&b, "vantage_requests_total", "type", "other") == 1);
+    assert_true(xget(&b, "vantage_worker_jobs", NULL, NULL) == 0);
+    assert_true(xget(&b, "vantage_scene_entities", "kind", "static") == 300);
+    expo_free(&a);
+    expo_free(&b);
+
+    /* the METRICS message: the same families as HTTP, and it is counted */
+    const char *text;
+    size_t tlen;
+    assert_int_equal(vt_metrics(v, &text, &tlen), VP_OK);
+    expo pm, ph;
+    expo_parse(text, tlen, &pm);
+    scrape(mport, &ph);
+    assert_int_equal(pm.nf, ph.nf);
+    for (int i = 0; i < pm.nf; i++) {
+        int j = fam_find(&ph, pm.f[i].name);
+        assert_true(j >= 0);
+        assert_string_equal(pm.f[i].type, ph.f[j].type);
+    }
+    assert_true(xget(&ph, "vantage_requests_total", "type", "metrics") == 1);
+    expo_free(&pm);
+    expo_free(&ph);
+    close(r.fd);
+    vt_close(ed);
+    vt_close(v);
+    daemon_stop(&d);
+}
+
+/* Clients by role follow connects and disconnects; a connection that has
+ * not said HELLO is in the handshake. */
+static void test_metrics_clients(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
+    wait_value(mport, "vantage_clients", "role", "viewer", 0); /* daemon_start's own probe is gone */
+    expo a;
+    scrape(mport, &a);
+    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    vt_client *c = connect_role(&d, VP_ROLE_COMMANDER, true);
+    vt_client *e1 = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *e2 = connect_role(&d, VP_ROLE_EDITOR, true);
+    rawc mute;
+    raw_open(&mute, &d); /* says nothing */
+    wait_value(mport, "vantage_clients", "role", "handshake", 1);
+    expo b;
+    scrape(mport, &b);
+    assert_true(xget(&b, "vantage_clients", "role", "viewer") == 1);
+    assert_true(xget(&b, "vantage_clients", "role", "commander") == 1);
+    assert_true(xget(&b, "vantage_clients", "role", "editor") == 2);
+    assert_true(xget(&b, "vantage_connections_accepted_total", NULL, NULL) -
+                    xget(&a, "vantage_connections_accepted_total", NULL, NULL) ==
+                5);
+    vt_close(c);
+    wait_value(mport, "vantage_clients", "role", "commander", 0);
+    vt_close(e1);
+    wait_value(mport, "vantage_clients", "role", "editor", 1);
+    close(mute.fd);
+    wait_value(mport, "vantage_clients", "role", "handshake", 0);
+    expo z;
+    scrape(mport, &z);
+    assert_true(xget(&z, "vantage_disconnects_total", "reason", "peer") -
+                    xget(&b, "vantage_disconnects_total", "reason", "peer") ==
+                3);
+    assert_true(xget(&z, "vantage_clients", "role", "viewer") == 1);
+    vt_close(v);
+    vt_close(e2);
+    wait_value(mport, "vantage_clients", "role", "editor", 0);
+    expo_free(&a);
+    expo_free(&b);
+    expo_free(&z);
+    daemon_stop(&d);
+}
+
+/* A viewer that stops reading its raw frames while the scene changes:
+ * frames are dropped (latest-frame-wins), and every frame counted as sent
+ * is one it gets when it reads again. */
+static void test_metrics_dropped_frames(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_entity e[50];
+    for (int i = 0; i < 50; i++) {
+        double x = -25 + i, z = -30;
+        e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 0.4, -1, z - 0.4, x + 0.4, 1, z + 0.4}};
+    }
+    assert_int_equal(vt_add(ed, e, 50, NULL, NULL), VP_OK);
+    rawc r;
+    raw_open(&r, &d);
+    uint8_t buf[512];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_VIEWER});
+    vp_frame_sub sub = {.r = {.format = VP_FRAME_RAW}, .max_fps = VP_FRAME_SUB_MAX_FPS};
+    const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
+    assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 70, 480, 270, 0.1, 200)); /* 2.6 MB a frame */
+    vp_enc_frame_sub(&w, 9, &sub);
+    raw_write(&r, buf, w.len);
+    vp_header h;
+    assert_int_equal(raw_frame(&r, &h), VP_HELLO_OK);
+    assert_int_equal(raw_frame(&r, &h), VP_ACK);
+    /* it reads nothing more while the scene changes 10 times, 25 ms apart,
+       once its first frame has been drawn and queued */
+    wait_value(mport, "vantage_frames_sent_total", NULL, NULL, 1);
+    for (int i = 0; i < 10; i++) {
+        e[i].aabb[1] += 0.5, e[i].aabb[4] += 0.5;
+        assert_int_equal(vt_update(ed, &e[i], 1, NULL), VP_OK);
+        usleep(25000);
+    }
+    expo a;
+    scrape(mport, &a);
+    double dropped = xget(&a, "vantage_frames_dropped_total", NULL, NULL);
+    fprintf(stderr, "metrics: stalled viewer: %.0f frames sent, %.0f dropped during 10 edits\n",
+            xget(&a, "vantage_frames_sent_total", NULL, NULL), dropped);
+    assert_true(dropped >= 5 && dropped <= 10);
+    assert_true(xget(&a, "vantage_frame_streams", NULL, NULL) == 1);
+    assert_true(xget(&a, "vantage_output_buffered_bytes", NULL, NULL) > 0);
+    /* now it reads: every frame sent arrives, then quiet */
+    int frames = 0;
+    for (;;) {
+        struct pollfd p = {.fd = r.fd, .events = POLLIN};
+        if (!r.have && poll(&p, 1, 600) == 0) break;
+        int t = raw_frame(&r, &h);
+        assert_int_equal(t, VP_FRAME);
+        frames++;
+    }
+    expo b;
+    scrape(mport, &b);
+    fprintf(stderr, "metrics: the viewer read %d frames; sent %.0f, dropped %.0f, discarded %.0f\n", frames,
+            xget(&b, "vantage_frames_sent_total", NULL, NULL), xget(&b, "vantage_frames_dropped_total", NULL, NULL),
+            xget(&b, "vantage_frames_discarded_total", NULL, NULL));
+    assert_true(xget(&b, "vantage_frames_sent_total", NULL, NULL) == frames);
+    assert_true(frames >= 2);
+    assert_true(xget(&b, "vantage_frame_render_seconds_count", NULL, NULL) >= frames);
+    assert_true(xget(&b, "vantage_request_duration_seconds_count", "type", "frame_subscribe") == 1);
+    expo_free(&a);
+    expo_free(&b);
+    close(r.fd);
+    vt_close(ed);
+    daemon_stop(&d);
+}
+
+/* The endpoint's answers to bad requests; the connection limit; a slow-
+ * loris request closed at its deadline while protocol clients are served. */
+static void test_metrics_http_bad_input(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    int mport;
+    const char *more[] = {"--hello-timeout", "500", NULL};
+    daemon_with_metrics(&d, &mport, more);
+    static const struct {
+        const char *req;
+        int status;
+    } cases[] = {
+        {"GET /nope HTTP/1.1\r\nHost: x\r\n\r\n", 404},
+        {"GET / HTTP/1.0\r\n\r\n", 404},
+        {"POST /metrics HTTP/1.1\r\nHost: x\r\nContent-Length: 3\r\n\r\nabc", 405},
+        {"DELETE /metrics HTTP/1.1\r\nHost: x\r\n\r\n", 405},
+        {"GET /metrics HTTP/1.1\r\n\r\n", 400},              /* HTTP/1.1 without Host */
+        {"GET /metrics HTTP/2.0\r\nHost: x\r\n\r\n", 505},
+        {"GET /metrics\r\n\r\n", 400},                       /* HTTP/0.9 */
+        {"GET  /metrics HTTP/1.1\r\nHost: x\r\n\r\n", 400},  /* two spaces */
+        {"GET /metrics HTTP/1.1\r\nHost : x\r\n\r\n", 400},  /* space before the colon */
+        {"GET /metrics HTTP/1.1\r\nHost: x\r\n folded\r\n\r\n", 400},
+        {"GET /metrics HTTP/1.1\r\nHost: x\rY: z\r\n\r\n", 400}, /* a bare CR */
+        {"\x16\x03\x01\x02\x05\x01\x07\x01\xfc\x03\x03\r\n\r\n", 400}, /* TLS, say */
+        {"GET /metrics?name=x HTTP/1.1\r\nHost: x\r\n\r\n", 200},
+        {"\r\nGET /metrics HTTP/1.0\n\n", 200},              /* a blank line first; bare LFs */
+    };
+    int want[600] = {0};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        hresp r;
+        http_send(mport, cases[i].req, strlen(cases[i].req), &r);
+        if (r.status != cases[i].status) fail_msg("case %zu: %d, want %d (%s)", i, r.status, cases[i].status, r.body);
+        assert_int_equal(content_length(&r), r.body_len);
+        if (r.status == 405) assert_non_null(strstr(r.head, "\r\nAllow: GET, HEAD"));
+        want[r.status]++;
+        http_free(&r);
+    }
+    /* a NUL inside the request line */
+    {
+        static const char nul[] = "GET /met\0rics HTTP/1.1\r\nHost: x\r\n\r\n";
+        hresp r;
+        http_send(mport, nul, sizeof nul - 1, &r);
+        assert_int_equal(r.status, 400);
+        want[400]++;
+        http_free(&r);
+    }
+    /* a client that shuts its sending side after the request still gets
+       the whole answer */
+    {
+        int fd = tcp_connect(mport);
+        const char *req = "GET /metrics HTTP/1.0\r\n\r\n";
+        assert_int_equal(write(fd, req, strlen(req)), (ssize_t)strlen(req));
+        assert_int_equal(shutdown(fd, SHUT_WR), 0);
+        hresp r;
+        http_read(fd, &r);
+        assert_int_equal(r.status, 200);
+        assert_int_equal(content_length(&r), r.body_len);
+        want[200]++;
+        http_free(&r);
+    }
+    /* HEAD: the head of a 200 with its length, no body */
+    {
+        hresp r;
+        const char *req = "HEAD /metrics HTTP/1.1\r\nHost: x\r\n\r\n";
+        http_send(mport, req, strlen(req), &r);
+        assert_int_equal(r.status, 200);
+        assert_int_equal(r.body_len, 0);
+        assert_true(content_length(&r) > 1000);
+        want[200]++;
+        http_free(&r);
+    }
+    /* a head over 8 KiB: 431 (the rest of it read and dropped, so the
+       answer arrives whole) */
+    {
+        size_t n = 20000;
+        char *big = malloc(n + 64);
+        int k = snprintf(big, n, "GET /metrics HTTP/1.1\r\nHost: x\r\nX-Pad: ");
+        memset(big + k, 'a', n - (size_t)k - 4);
+        memcpy(big + n - 4, "\r\n\r\n", 4);
+        hresp r;
+        http_send(mport, big, n, &r);
+        assert_int_equal(r.status, 431);
+        want[431]++;
+        http_free(&r);
+        free(big);
+    }
+    /* the connection limit: 16 answered and kept open (the daemon waits
+       up to 2 s for the client's close), the 17th gets 503 at once; first
+       the daemon must have seen the earlier ones close */
+    want[200] += wait_value(mport, "vantage_metrics_http_connections", NULL, NULL, 1);
+    {
+        int fds[HTTP_MAX_CONNS];
+        for (int i = 0; i < HTTP_MAX_CONNS; i++) {
+            fds[i] = tcp_connect(mport);
+            const char *req = "GET /metrics HTTP/1.0\r\n\r\n";
+            assert_int_equal(write(fds[i], req, strlen(req)), (ssize_t)strlen(req));
+        }
+        for (int i = 0; i < HTTP_MAX_CONNS; i++) { /* answered, and the daemon's side shut */
+            char junk[65536];
+            ssize_t n;
+            while ((n = read(fds[i], junk, sizeof junk)) > 0) {
+            }
+            assert_int_equal(n, 0);
+            want[200]++;
+        }
+        int extra = tcp_connect(mport);
+        hresp r;
+        http_read(extra, &r);
+        assert_int_equal(r.status, 503);
+        want[503]++;
+        http_free(&r);
+        for (int i = 0; i < HTTP_MAX_CONNS; i++) close(fds[i]);
+    }
+    /* slow-loris: half a request line, then nothing; protocol clients are
+       served meanwhile; it gets 408 and is closed at its deadline (500 ms
+       after the accept, swept every 250 ms) */
+    {
+        vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+        int slow = tcp_connect(mport);
+        assert_int_equal(write(slow, "GET /metr", 9), 9);
+        struct timespec t0, t1;
+        clock_gettime(CLOCK_MONOTONIC, &t0);
+        double worst = 0;
+        bool closed = false;
+        while (!closed) {
+            struct timespec a, b;
+            clock_gettime(CLOCK_MONOTONIC, &a);
+            assert_int_equal(vt_ping(v), VP_OK);
+            clock_gettime(CLOCK_MONOTONIC, &b);
+            double ms = (b.tv_sec - a.tv_sec) * 1e3 + (b.tv_nsec - a.tv_nsec) / 1e6;
+            if (ms > worst) worst = ms;
+            struct pollfd p = {.fd = slow, .events = POLLIN};
+            closed = poll(&p, 1, 10) == 1;
+            double since = (b.tv_sec - t0.tv_sec) * 1e3 + (b.tv_nsec - t0.tv_nsec) / 1e6;
+            if (since > 5000) fail_msg("the slow request was not closed in 5 s");
+        }
+        hresp r;
+        http_read(slow, &r);
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        double ms = (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) / 1e6;
+        fprintf(stderr, "metrics: slow-loris request closed after %.0f ms (deadline 500); pings meanwhile at most %.1f ms\n",
+                ms, worst);
+        assert_int_equal(r.status, 408);
+        want[408]++;
+        assert_true(ms >= 400 && ms < 2500);
+        assert_true(worst < 250);
+        http_free(&r);
+        vt_close(v);
+    }
+    /* every answer counted by its code (this scrape's own 200 not yet) */
+    expo e;
+    scrape(mport, &e);
+    static const int codes[] = {200, 400, 401, 404, 405, 408, 431, 500, 503, 505};
+    for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++) {
+        char c[8];
+        snprintf(c, sizeof c, "%d", codes[i]);
+        double got = xget(&e, "vantage_metrics_http_responses_total", "code", c);
+        if (got != want[codes[i]]) fail_msg("responses{code=%s}: %g, want %d", c, got, want[codes[i]]);
+    }
+    /* none of it touched the protocol's counters */
+    assert_true(xget(&e, "vantage_requests_total", "type", "other") == 0);
+    expo_free(&e);
+    daemon_stop(&d);
+}
+
+#define VIEW_TOK "metrics-viewer-token-0123456789"
+#define EDIT_TOK "metrics-editor-token-0123456789"
+
+static int run_daemon(const char *args, char *out, size_t outlen)
+{
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "timeout 20 %s/vantaged --scene empty --unix '' --log-level warn %s 2>&1", bin_dir(),
+             args);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, outlen - 1, p);
+    out[n] = 0;
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* Who may read: the protocol's rule. A non-loopback address without tokens
+ * does not start; with tokens a scraper needs a viewer's token. */
+static void test_metrics_access(void **state)
+{
+    (void)state;
+    char out[2048], args[256];
+    snprintf(args, sizeof args, "--port %d --metrics 0.0.0.0:%d", free_port(), free_port());
+    assert_int_equal(run_daemon(args, out, sizeof out), 2);
+    assert_non_null(strstr(out, "--insecure"));
+    static const char *const bad[] = {"--metrics 0", "--metrics 70000", "--metrics :9100", "--metrics x.y.z:9100",
+                                      "--metrics 127.0.0.1:"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        snprintf(args, sizeof args, "--port %d %s", free_port(), bad[i]);
+        assert_int_equal(run_daemon(args, out, sizeof out), 2);
+        assert_non_null(strstr(out, "bad value for --metrics"));
+    }
+    char path[64];
+    snprintf(path, sizeof path, "/tmp/vantage-mtokens-%d-XXXXXX", (int)getpid());
+    int fd = mkstemp(path);
+    const char *text = "viewer " VIEW_TOK "\neditor " EDIT_TOK "\n";
+    assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    close(fd);
+    assert_int_equal(chmod(path, 0600), 0);
+    daemon_proc d;
+    int mport;
+    const char *more[] = {"--tokens", path, NULL};
+    daemon_with_metrics(&d, &mport, more);
+    static const struct {
+        const char *auth;
+        int status;
+    } cases[] = {
+        {"", 401},
+        {"Authorization: Bearer not-a-token-of-this-daemon\r\n", 401},
+        {"Authorization: Basic " VIEW_TOK "\r\n", 401},
+        {"Authorization: Bearer " VIEW_TOK "\r\n", 200},
+        {"authorization: bearer   " EDIT_TOK "  \r\n", 200},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char req[256];
+        int n = snprintf(req, sizeof req, "GET /metrics HTTP/1.1\r\nHost: x\r\n%s\r\n", cases[i].auth);
+        hresp r;
+        http_send(mport, req, (size_t)n, &r);
+        if (r.status != cases[i].status) fail_msg("auth case %zu: %d, want %d", i, r.status, cases[i].status);
+        if (r.status == 401) {
+            assert_non_null(strstr(r.head, "\r\nWWW-Authenticate: Bearer"));
+            assert_null(strstr(r.body, "vantage_")); /* nothing of the metrics */
+        } else {
+            expo e;
+            expo_parse(r.body, r.body_len, &e);
+            assert_true(xget(&e, "vantage_auth_failures_total", NULL, NULL) >= 1); /* daemon_start's probe */
+            expo_free(&e);
+        }
+        http_free(&r);
+    }
+    /* over the protocol, a viewer's token is enough */
+    vt_client *c = NULL;
+    char err[256];
+    assert_int_equal(vt_connect(&(vt_connect_opts){.port = d.port, .token = VIEW_TOK}, &c, err, sizeof err), VP_OK);
+    const char *t;
+    size_t tl;
+    assert_int_equal(vt_metrics(c, &t, &tl), VP_OK);
+    expo e;
+    expo_parse(t, tl, &e);
+    assert_true(xget(&e, "vantage_clients", "role", "viewer") == 1);
+    expo_free(&e);
+    vt_close(c);
+    daemon_stop(&d);
+    unlink(path);
+}
+
+const struct CMUnitTest metrics_tests[] = {
+    cmocka_unit_test(test_metrics_model),
+    cmocka_unit_test(test_metrics_message_codec),
+    cmocka_unit_test(test_metrics_counts),
+    cmocka_unit_test(test_metrics_clients),
+    cmocka_unit_test(test_metrics_dropped_frames),
+    cmocka_unit_test(test_metrics_http_bad_input),
+    cmocka_unit_test(test_metrics_access),
+};
+const size_t metrics_tests_count = sizeof metrics_tests / sizeof metrics_tests[0];
