@@ -305,6 +305,11 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     uint64_t t1 = now_ns();
     vp_frame f = {.epoch = sc->epoch, .width = (uint16_t)W, .height = (uint16_t)H, .format = m->format,
                   .view_seq = j->stream ? j->view_seq : 0, .visible = fi.ninst, .render_ns = (uint32_t)(t1 - t0)};
+    /* from here on only this frame's own pixels are read: an edit need not
+       wait for the tone map and the JPEG (the worker loop knows not to
+       unlock again) */
+    pthread_rwlock_unlock(&s->scene_lock);
+    wk->scene_released = true;
     if (m->format == VP_FRAME_JPEG) {
         rgb8 = malloc(vt_image_rgba8_size(W, H));
         if (!rgb8) goto nomem;

@@ -273,6 +273,9 @@ error:
 }
 
 
+/* Queries a worker takes in a row, at most, while frames wait. */
+#define FAST_RUN 8u
+
 void *worker_main(void *arg)
 {
     server *s = arg;
@@ -280,21 +283,35 @@ void *worker_main(void *arg)
     if (cull_ctx_create(NULL, &wk.ctx)) return NULL;
     for (;;) {
         pthread_mutex_lock(&s->mu);
-        while (!s->jobs_head && !s->stopping) pthread_cond_wait(&s->cv, &s->mu);
-        if (!s->jobs_head) {
+        while (!s->jobs_head && !s->fast_head && !s->stopping) pthread_cond_wait(&s->cv, &s->mu);
+        if (!s->jobs_head && !s->fast_head) {
             pthread_mutex_unlock(&s->mu);
             break;
         }
-        job *j = s->jobs_head;
-        s->jobs_head = j->next;
-        if (!s->jobs_head) s->jobs_tail = NULL;
+        /* queries (tens of microseconds to a few ms) before frames (several
+           ms each, and 64 viewers queue 64 of them): a query no longer waits
+           behind every frame due. A frame still goes after FAST_RUN queries
+           in a row, so a query storm slows streams but cannot stop them. */
+        job *j;
+        if (s->fast_head && (!s->jobs_head || wk.fast_run < FAST_RUN)) {
+            j = s->fast_head;
+            s->fast_head = j->next;
+            if (!s->fast_head) s->fast_tail = NULL;
+            wk.fast_run = s->jobs_head ? wk.fast_run + 1 : 0;
+        } else {
+            j = s->jobs_head;
+            s->jobs_head = j->next;
+            if (!s->jobs_head) s->jobs_tail = NULL;
+            wk.fast_run = 0;
+        }
         pthread_mutex_unlock(&s->mu);
 
         pthread_rwlock_rdlock(&s->scene_lock);
         if (j->h.type == VP_RENDER) run_render(s, &wk, j);
         else if (j->h.type == VP_LIGHT_QUERY) run_light_query(s, &wk, j);
         else run_query(s->sc, &wk, j);
-        pthread_rwlock_unlock(&s->scene_lock);
+        if (!wk.scene_released) pthread_rwlock_unlock(&s->scene_lock);
+        wk.scene_released = false;
 
         j->next = NULL;
         pthread_mutex_lock(&s->mu);
@@ -318,9 +335,11 @@ void job_submit(server *s, job *j)
 {
     s->m.jobs_submitted++; /* on the loop: every job is submitted from it */
     pthread_mutex_lock(&s->mu);
-    if (s->jobs_tail) s->jobs_tail->next = j;
-    else s->jobs_head = j;
-    s->jobs_tail = j;
+    job **head = &s->jobs_head, **tail = &s->jobs_tail;
+    if (j->h.type != VP_RENDER) head = &s->fast_head, tail = &s->fast_tail; /* frames (streams too) are RENDERs */
+    if (*tail) (*tail)->next = j;
+    else *head = j;
+    *tail = j;
     pthread_cond_signal(&s->cv);
     pthread_mutex_unlock(&s->mu);
 }

@@ -618,7 +618,7 @@ void server_destroy(server *s)
     }
     frames_fini(s); /* after the workers: none is drawing */
     journal_close(s->journal); /* after the connections: their loads' drops are journaled */
-    for (job *lists[2] = {s->jobs_head, s->done_head}, **l = lists; l < lists + 2; l++) {
+    for (job *lists[3] = {s->jobs_head, s->fast_head, s->done_head}, **l = lists; l < lists + 3; l++) {
         for (job *j = *l, *n; j; j = n) {
             n = j->next;
             free(j->payload);

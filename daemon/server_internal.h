@@ -75,7 +75,8 @@ struct server {
     pthread_rwlock_t scene_lock;
     pthread_mutex_t mu;
     pthread_cond_t cv;
-    struct job *jobs_head, *jobs_tail;      /* to the workers */
+    struct job *jobs_head, *jobs_tail;      /* to the workers: frames */
+    struct job *fast_head, *fast_tail;      /* to the workers first: queries and light lists */
     struct job *done_head, *done_tail;      /* back to the loop */
     int done_fd;                            /* eventfd: results are waiting */
     pthread_t *workers;
@@ -133,6 +134,8 @@ typedef struct worker {
     uint32_t *mesh_of;      /* class -> frame mesh + 1, all 0 between frames */
     uint64_t vis[CULL_SUBLEVEL_WORDS]; /* the sub-levels a query sees */
     uint64_t only[CULL_SUBLEVEL_WORDS]; /* a query's own sub-level list */
+    bool scene_released;    /* the job let go of scene_lock early (a frame, before its encode) */
+    uint32_t fast_run;      /* queries taken in a row while frames waited */
 } worker;
 
 static inline uint64_t now_ns(void)
