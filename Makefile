@@ -6,6 +6,8 @@
 #                          the scalar-only build, and a bench smoke run
 #   make bench             the full culling, occlusion, render and pad-parser benchmarks
 #                          (bench_cull, bench_occlusion, bench_render, bench_pad)
+#   make report            run time against error of the culling configurations and a
+#                          numerical stress table: docs/report/ (tables, CSV, SVG plot)
 #   make deps              install the Debian packages the build needs
 #   CONFIG=release|debug|asan|scalar   out-of-tree in build/$(CONFIG)/
 #
@@ -19,7 +21,8 @@ SHELL  := /bin/bash
 # Debian packages and the pkg-config modules that prove them installed.
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
-            zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb
+            zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
+            gnuplot-nox
 PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
@@ -127,7 +130,8 @@ DESB_BIN := $(BUILD)/bench_destruct
 
 SCENE    ?= ../shared/scenes/city_scene.txt
 
-.PHONY: all run demo test bench bench-persist bench-commander deps check-deps clean test-one install install-check
+.PHONY: all run demo test bench bench-persist bench-commander deps check-deps clean test-one install install-check \
+        report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN)
 
 # ---- dependencies -----------------------------------------------------------
@@ -250,6 +254,7 @@ test: check-deps
 	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory CONFIG=asan fuzz-replay
 	@$(MAKE) --no-print-directory CONFIG=release install-check
+	@$(MAKE) --no-print-directory report-smoke
 	./build/release/bench_cull --smoke
 	./build/release/bench_occlusion --smoke --scene $(SCENE)
 	./build/release/bench_render --smoke
@@ -299,5 +304,6 @@ clean:
 	rm -rf build
 
 include tests/fuzz/fuzz.mk
+include tests/bench/report.mk
 
 -include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(PADB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d)

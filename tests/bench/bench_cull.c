@@ -18,6 +18,7 @@
  */
 #include "culling.h"
 #include "bench_util.h"
+#include "bench_scene.h"
 #include "scene_file.h"
 
 #include <math.h>
@@ -293,13 +294,7 @@ static int demo(const char *path, cull_pool *pool)
     cull_world *w;
     double cs = getenv("VANTAGE_CELL") ? atof(getenv("VANTAGE_CELL")) : 0;
     if (cull_world_create(&(cull_world_desc){.cell_size = cs}, &w)) return 1;
-    for (size_t i = 0; i < sf.nobjects; i++) {
-        cull_entity_desc e = {0};
-        memcpy(e.aabb_min, sf.objects + i * 6, 3 * sizeof(double));
-        memcpy(e.aabb_max, sf.objects + i * 6 + 3, 3 * sizeof(double));
-        cull_handle h;
-        if (cull_entity_add(w, &e, &h)) return 1;
-    }
+    if (bench_add_objects(w, &sf, NULL, NULL)) return 1;
     cull_world_info info;
     cull_world_info_get(w, &info);
     printf("city scene %s: %zu objects in %u cells, %u blocks, %.1f MiB\n", path, sf.nobjects, info.cells,
@@ -311,17 +306,7 @@ static int demo(const char *path, cull_pool *pool)
     cull_result *out = malloc(cap * sizeof *out);
     /* the camera walks 0.5 m per frame toward the target, 16 frames */
     cull_view walk[16];
-    for (int rep = 0; rep < 16; rep++) {
-        cull_view_desc d = {.viewport_w = 1920, .viewport_h = 1080};
-        double proj[16], view[16], dir[3];
-        for (int a = 0; a < 3; a++) dir[a] = sf.target[a] - sf.eye[a];
-        double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-        for (int a = 0; a < 3; a++) d.origin[a] = sf.eye[a] + dir[a] / len * 0.5 * rep;
-        cull_mat_perspective(proj, sf.fovy_deg * M_PI / 180, sf.aspect, sf.znear, sf.zfar, CULL_DEPTH_GL);
-        cull_mat_look_dir(view, dir, sf.up);
-        cull_mat_mul(d.view_proj, proj, view);
-        if (cull_view_init(&walk[rep], &d)) return 1;
-    }
+    if (bench_walk(&sf, NULL, 16, walk)) return 1;
     static const struct { const char *name; float area; uint32_t flags; } rows[] = {
         {"spheres only", 0, CULL_Q_NO_AABB},
         {"spheres + AABB", 0, 0},

@@ -27,6 +27,7 @@
  */
 #include "culling.h"
 #include "bench_util.h"
+#include "bench_scene.h"
 #include "occ_ref.h"
 #include "scene_file.h"
 #include "vt_exr.h"
@@ -42,12 +43,6 @@
 #define MAX_FRAMES 64
 
 
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, bench_cmp_d);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 typedef struct frame_ref {
     uint8_t *r1080;   /* per object: visible to the exact 1920x1080 caster */
@@ -91,23 +86,11 @@ int main(int argc, char **argv)
     }
     cull_world *w;
     if (cull_world_create(NULL, &w)) return 1;
-    for (size_t i = 0; i < sf.nobjects; i++) {
-        cull_entity_desc e = {0};
-        memcpy(e.aabb_min, sf.objects + i * 6, 3 * sizeof(double));
-        memcpy(e.aabb_max, sf.objects + i * 6 + 3, 3 * sizeof(double));
-        cull_handle h;
-        /* a fresh world hands out slots 0, 1, 2...: slot = object index */
-        if (cull_entity_add(w, &e, &h) || (h & (CULL_MAX_ENTITIES - 1)) != i) return 1;
-    }
+    /* a fresh world hands out slots 0, 1, 2...: slot = object index */
+    if (bench_add_objects(w, &sf, NULL, NULL) || bench_add_boxes(w, &sf, NULL)) return 1;
     size_t nboxes = sf.ntris / 12;
-    for (size_t k = 0; k < nboxes; k++) {
-        cull_occluder_desc d = {.vertices = sf.tris + k * 108, .vertex_count = 36};
-        cull_occluder h;
-        if (cull_occluder_add(w, &d, &h)) return 1;
-    }
-    double *tri = malloc(sf.ntris * 9 * sizeof *tri);
+    double *tri = bench_tris_world(&sf, NULL);
     if (!tri) return 1;
-    for (size_t i = 0; i < sf.ntris * 9; i++) tri[i] = sf.tris[i];
 
     cull_pool *pool;
     if (cull_pool_create(2, &pool)) return 1;
@@ -120,18 +103,7 @@ int main(int argc, char **argv)
 
     /* the walk */
     cull_view walk[MAX_FRAMES];
-    double dir[3];
-    for (int a = 0; a < 3; a++) dir[a] = sf.target[a] - sf.eye[a];
-    double len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-    for (int f = 0; f < frames; f++) {
-        cull_view_desc d = {.viewport_w = 1920, .viewport_h = 1080, .depth_mode = CULL_DEPTH_GL};
-        double proj[16], view[16];
-        for (int a = 0; a < 3; a++) d.origin[a] = sf.eye[a] + dir[a] / len * 0.5 * f;
-        cull_mat_perspective(proj, sf.fovy_deg * M_PI / 180, sf.aspect, sf.znear, sf.zfar, CULL_DEPTH_GL);
-        cull_mat_look_dir(view, dir, sf.up);
-        cull_mat_mul(d.view_proj, proj, view);
-        if (cull_view_init(&walk[f], &d)) return 1;
-    }
+    if (bench_walk(&sf, NULL, frames, walk)) return 1;
 
     /* frustum survivors and the 1080p reference, per frame */
     frame_ref ref[MAX_FRAMES];
@@ -141,14 +113,10 @@ int main(int argc, char **argv)
         cull_query_desc q = {.views = &walk[f], .view_count = 1, .flags = CULL_Q_NO_OCCLUSION};
         if (cull_query(w, ctx, &q, out, cap, &n, NULL)) return 1;
         ref[f].r1080 = calloc(sf.nobjects, 1);
-        occ_ref r;
-        if (!ref[f].r1080 || occ_ref_init(&r, &walk[f], 1920, 1080)) return 1;
-        occ_ref_add_triangles(&r, tri, sf.ntris);
-        for (size_t i = 0; i < n; i++) {
-            uint32_t o = out[i].handle & (CULL_MAX_ENTITIES - 1);
-            ref[f].r1080[o] = occ_ref_box_visible(&r, sf.objects + 6 * o, sf.objects + 6 * o + 3);
-        }
-        occ_ref_free(&r);
+        if (!ref[f].r1080) return 1;
+        memset(surv, 0, sf.nobjects);
+        for (size_t i = 0; i < n; i++) surv[out[i].handle & (CULL_MAX_ENTITIES - 1)] = 1;
+        if (bench_caster(&walk[f], 1920, 1080, tri, sf.ntris, &sf, NULL, surv, ref[f].r1080)) return 1;
     }
     if (!json)
         printf("city scene %s: %zu objects, %zu occluder boxes; %d frames walking 0.5 m; exact 1080p "
@@ -181,12 +149,7 @@ int main(int argc, char **argv)
                 memcpy(rsame[f], ref[f].r1080, sf.nobjects);
                 continue;
             }
-            occ_ref r;
-            if (occ_ref_init(&r, &walk[f], bw, bh)) return 1;
-            occ_ref_add_triangles(&r, tri, sf.ntris);
-            for (size_t i = 0; i < sf.nobjects; i++)
-                rsame[f][i] = occ_ref_box_visible(&r, sf.objects + 6 * i, sf.objects + 6 * i + 3);
-            occ_ref_free(&r);
+            if (bench_caster(&walk[f], bw, bh, tri, sf.ntris, &sf, NULL, NULL, rsame[f])) return 1;
         }
         cull_occ_buffer *buf;
         if (cull_occ_buffer_create(bw, bh, &buf)) return 1;
@@ -221,9 +184,9 @@ int main(int argc, char **argv)
                         if (cull_query(w, ctx, &qw, out, cap, &n, NULL)) return 1;
                         d[r] = bench_now_ns() - x;
                     }
-                    tr[f] = median(a, reps);
-                    tt[f] = median(b, reps) - median(c, reps);
-                    tq[f] = median(d, reps);
+                    tr[f] = bench_median(a, reps);
+                    tt[f] = bench_median(b, reps) - bench_median(c, reps);
+                    tq[f] = bench_median(d, reps);
                     tsum[f] = tr[f] + tt[f];
                     free(a);
                     /* accuracy, from the query on the rendered buffer */
@@ -278,8 +241,8 @@ int main(int argc, char **argv)
                 }
                 if (!json)
                     printf("%4ux%-5u %-6s %3u %10.1f %9.1f %10.1f %9.1f | %7.0f %8.1f %8.1f %8.2f %9.2f\n", bw,
-                           bh, cover ? "centre" : "inner", threads, median(tr, frames) / 1e3,
-                           median(tt, frames) / 1e3, median(tsum, frames) / 1e3, median(tq, frames) / 1e3,
+                           bh, cover ? "centre" : "inner", threads, bench_median(tr, frames) / 1e3,
+                           bench_median(tt, frames) / 1e3, bench_median(tsum, frames) / 1e3, bench_median(tq, frames) / 1e3,
                            (double)s_tested / frames, (double)s_vis / frames, (double)s_fv / frames,
                            (double)s_hv / frames, (double)s_fo / frames);
                 fflush(stdout);
