@@ -104,21 +104,6 @@ static const char *token_file(const char *text, mode_t mode)
     return path;
 }
 
-/* Runs vantaged with args (after the binary) to its exit; its status, and
- * what it printed in out. */
-static int run_daemon(const char *args, char *out, size_t outlen)
-{
-    char cmd[1024];
-    snprintf(cmd, sizeof cmd, "timeout 20 %s/vantaged --scene empty --unix '' --log-level warn %s 2>&1", bin_dir(),
-             args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, outlen - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 static int try_connect(const daemon_proc *d, int role, const char *token, vt_client **out)
 {
     char err[256] = "";
@@ -137,7 +122,7 @@ static void test_auth_end_to_end(void **state)
     const char *loose = token_file("editor " EDIT_TOK "\n", 0644);
     char args[512];
     snprintf(args, sizeof args, "--port %d --tokens %s", free_port(), loose);
-    assert_int_equal(run_daemon(args, out, sizeof out), 2);
+    assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 2);
     assert_non_null(strstr(out, "chmod 600"));
     unlink(loose);
     /* a symbolic link to a good file: no start (the mode checked would be
@@ -147,13 +132,13 @@ static void test_auth_end_to_end(void **state)
     snprintf(link, sizeof link, "%s.link", target);
     assert_int_equal(symlink(target, link), 0);
     snprintf(args, sizeof args, "--port %d --tokens %s", free_port(), link);
-    assert_int_equal(run_daemon(args, out, sizeof out), 2);
+    assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 2);
     assert_non_null(strstr(out, "symbolic link"));
     unlink(link);
     unlink(target);
     /* a non-loopback bind without tokens: no start */
     snprintf(args, sizeof args, "--bind 0.0.0.0 --port %d", free_port());
-    assert_int_equal(run_daemon(args, out, sizeof out), 2);
+    assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 2);
     assert_non_null(strstr(out, "--insecure"));
 
     /* the real thing: viewer and editor tokens */

@@ -104,3 +104,11 @@ void daemon_stop(daemon_proc *d)
     assert_true(access(d->sock, F_OK) != 0); /* and the socket is gone */
 }
 
+int daemon_run_to_exit(const char *args, char *out, size_t outlen)
+{
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "timeout 20 %s/vantaged --scene empty --unix '' --log-level warn %s 2>&1", bin_dir(),
+             args);
+    int st = test_run_cmd(cmd, out, outlen);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}

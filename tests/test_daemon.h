@@ -30,6 +30,9 @@ void daemon_start_args(daemon_proc *d, const char *const *extra);
 /* When not 0, the next daemon_start* runs vantaged with RLIMIT_FSIZE at
  * this many bytes (its writes past it fail with EFBIG: a full disk). */
 extern long daemon_fsize_limit;
+/* Runs vantaged with args (after the binary; empty scene, no Unix socket)
+ * to its exit (20 s at most): its exit status, what it printed in out. */
+int daemon_run_to_exit(const char *args, char *out, size_t outlen);
 /* SIGTERM; asserts a clean exit and the socket removed. */
 void daemon_stop(daemon_proc *d);
 

@@ -1134,19 +1134,6 @@ static void test_metrics_http_bad_input(void **state)
 #define VIEW_TOK "metrics-viewer-token-0123456789"
 #define EDIT_TOK "metrics-editor-token-0123456789"
 
-static int run_daemon(const char *args, char *out, size_t outlen)
-{
-    char cmd[1024];
-    snprintf(cmd, sizeof cmd, "timeout 20 %s/vantaged --scene empty --unix '' --log-level warn %s 2>&1", bin_dir(),
-             args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, outlen - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 /* Who may read: the protocol's rule. A non-loopback address without tokens
  * does not start; with tokens a scraper needs a viewer's token. */
 static void test_metrics_access(void **state)
@@ -1154,13 +1141,13 @@ static void test_metrics_access(void **state)
     (void)state;
     char out[2048], args[256];
     snprintf(args, sizeof args, "--port %d --metrics 0.0.0.0:%d", free_port(), free_port());
-    assert_int_equal(run_daemon(args, out, sizeof out), 2);
+    assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 2);
     assert_non_null(strstr(out, "--insecure"));
     static const char *const bad[] = {"--metrics 0", "--metrics 70000", "--metrics :9100", "--metrics x.y.z:9100",
                                       "--metrics 127.0.0.1:"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         snprintf(args, sizeof args, "--port %d %s", free_port(), bad[i]);
-        assert_int_equal(run_daemon(args, out, sizeof out), 2);
+        assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 2);
         assert_non_null(strstr(out, "bad value for --metrics"));
     }
     char path[64];
