@@ -666,7 +666,7 @@ static int parse_args(commander *m, int argc, char **argv)
         char *end;
 #define NEED()                                                                     \
     do {                                                                           \
-        if (!v) return die_usage("commander: %s needs a value (commander --help)", a); \
+        if (!v) return die_usage("commander: %s needs a value", a); \
         i++;                                                                       \
     } while (0)
         if (!strcmp(a, "--help")) {
@@ -734,7 +734,7 @@ static int parse_args(commander *m, int argc, char **argv)
         } else if (!strcmp(a, "--perspective")) {
             persp = true;
         } else {
-            return die_usage("commander: unknown option %s (commander --help)", a);
+            return die_usage("commander: unknown option %s", a);
         }
 #undef NEED
     }
