@@ -78,7 +78,8 @@ SCN_OBJ  := $(BUILD)/client/scenario.o $(BUILD)/client/hdr.o
 CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o \
             $(BUILD)/client/cli_render.o $(BUILD)/client/cli_frames.o $(BUILD)/client/cli_sublevel.o \
             $(BUILD)/client/import.o $(BUILD)/client/jsonl.o $(BUILD)/client/cli_pad.o $(BUILD)/client/commander.o \
-            $(BUILD)/client/commander_sdl.o $(BUILD)/client/cli_scenario.o $(SCN_OBJ) $(PAD_OBJ)
+            $(BUILD)/client/commander_sdl.o $(BUILD)/client/cli_scenario.o $(BUILD)/client/scenario_events.o \
+            $(BUILD)/client/scenario_report.o $(SCN_OBJ) $(PAD_OBJ)
 CLI_BIN  := $(BUILD)/vantage
 
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config

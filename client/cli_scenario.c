@@ -10,10 +10,10 @@
  * (sub-level loads and unloads, destruction); the main thread prints the
  * progress line, samples the daemon's memory, and stops everything at the
  * end, or when the daemon goes away (the report is then marked partial).
+ * This file: the command and the load threads; the probe and events
+ * threads are in scenario_events.c, the report in scenario_report.c.
  */
-#include "cli.h"
-#include "hdr.h"
-#include "scenario.h"
+#include "scenario_run.h"
 
 #include <errno.h>
 #include <math.h>
@@ -32,25 +32,7 @@
 #define VANTAGE_SCENARIO_DIR "client/scenarios"
 #endif
 
-/* What the tables have a row for: the probes and events, then two per
- * group: its requests' latency (query, edit, ping) or its frames'
- * interval, and for commanders input -> frame. */
-enum row { R_EDIT_QUERY, R_EDIT_FRAME, R_SL_LOAD, R_SL_UNLOAD, R_DESTROY, R_FIXED };
-#define R_MAIN(g) (R_FIXED + 2 * (g))
-#define R_INPUT(g) (R_FIXED + 2 * (g) + 1)
-#define R_MAX (R_FIXED + 2 * SCN_MAX_GROUPS)
-#define WINDOWS 10 /* for the drift: each row also per tenth of the measured time */
-#define RING 4096  /* requests in flight per connection (open loop: beyond it, counted as not sent) */
-
-/* Histograms of one thread (merged at the end); n rows. */
-typedef struct rows {
-    int n;
-    hdr *h;   /* [n] */
-    hdr *win; /* [n][WINDOWS] */
-    uint64_t errors[R_MAX], unsent[R_MAX], pending[R_MAX]; /* pending: no reply by the end */
-} rows;
-
-typedef struct run run;
+#define RING 4096 /* requests in flight per connection (open loop: beyond it, counted as not sent) */
 
 typedef struct lconn {
     vt_client *c;
@@ -80,22 +62,7 @@ typedef struct lthread {
     pthread_t th;
 } lthread;
 
-struct run {
-    cli *k;
-    const scenario *s;
-    double t0, t_meas, t_end; /* start, start of measuring (after warm-up), planned end */
-    atomic_int stop;          /* 1: end; set by the main thread or on a failure */
-    atomic_int gone;          /* the daemon went away */
-    char why[400];            /* the first failure */
-    pthread_mutex_t mu;
-    atomic_uint_fast64_t issued;            /* request ops begun (for `requests`) */
-    atomic_uint_fast64_t done[SCN_MAX_GROUPS], errs[SCN_MAX_GROUPS], frames[SCN_MAX_GROUPS];
-    rows *ev_rows, *probe_rows;
-    uint64_t ent_base;        /* ids of the setup entities */
-};
-
-static void fail_run(run *r, bool gone, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void fail_run(run *r, bool gone, const char *fmt, ...)
+void fail_run(run *r, bool gone, const char *fmt, ...)
 {
     pthread_mutex_lock(&r->mu);
     if (!r->why[0]) {
@@ -109,12 +76,12 @@ static void fail_run(run *r, bool gone, const char *fmt, ...)
     atomic_store(&r->stop, 1);
 }
 
-static bool stopping(run *r)
+bool stopping(run *r)
 {
     return atomic_load_explicit(&r->stop, memory_order_relaxed);
 }
 
-static int rows_init(rows *w, int n)
+int rows_init(rows *w, int n)
 {
     memset(w, 0, sizeof *w);
     w->n = n;
@@ -126,13 +93,13 @@ static int rows_init(rows *w, int n)
     return 0;
 }
 
-static void rows_free(rows *w)
+void rows_free(rows *w)
 {
     free(w->h);
     free(w->win);
 }
 
-static void rows_merge(rows *into, const rows *from)
+void rows_merge(rows *into, const rows *from)
 {
     for (int j = 0; j < into->n; j++) {
         hdr_merge(&into->h[j], &from->h[j]);
@@ -143,8 +110,7 @@ static void rows_merge(rows *into, const rows *from)
     for (int j = 0; j < into->n * WINDOWS; j++) hdr_merge(&into->win[j], &from->win[j]);
 }
 
-/* A latency (seconds) of row for an operation that began at t_begin. */
-static void note(run *r, rows *w, int row, double t_begin, double secs)
+void note(run *r, rows *w, int row, double t_begin, double secs)
 {
     if (t_begin < r->t_meas) return;
     uint64_t ns = secs > 0 ? (uint64_t)(secs * 1e9) : 0;
@@ -167,18 +133,6 @@ static int proto_role(enum scn_role r)
     return r == SCN_ROLE_EDITOR ? VP_ROLE_EDITOR : r == SCN_ROLE_COMMANDER ? VP_ROLE_COMMANDER : VP_ROLE_VIEWER;
 }
 
-/* splitmix64: entity placement and destruction targets */
-static uint64_t mix(uint64_t *x)
-{
-    uint64_t z = (*x += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-static double unit(uint64_t *x)
-{
-    return (double)(mix(x) >> 11) * 0x1p-53;
-}
 
 /* ---- the view of a client ---------------------------------------------------------- */
 
@@ -483,389 +437,6 @@ static void *load_thread(void *arg)
             if (t->cs[i].req_of[k] && t->cs[i].t_int[k] >= r->t_meas) t->rw->pending[R_MAIN(t->cs[i].gi)]++;
     free(pf);
     return NULL;
-}
-
-/* ---- setup, events and probes (blocking calls on connections of their own) ---------- */
-
-#define SETUP_BASE 0x7C0000000000ull
-#define LOAD_BASE 0x7D0000000000ull
-#define PROBE_ID 0x7E0000000001ull
-
-static int add_many(vt_client *c, uint64_t base, uint32_t n, double spread, double height, uint16_t sublevel,
-                    uint64_t seed)
-{
-    uint32_t max = vt_server(c)->max_batch, step = max < 4096 ? max : 4096;
-    vp_entity *b = calloc(step, sizeof *b);
-    if (!b) return VT_ERR_IO;
-    uint64_t x = seed;
-    int rc = 0;
-    for (uint32_t i = 0; i < n && rc == 0; i += step) {
-        uint32_t k = n - i < step ? n - i : step;
-        for (uint32_t j = 0; j < k; j++) {
-            double px = (unit(&x) - 0.5) * spread, pz = (unit(&x) - 0.5) * spread, h = 1 + unit(&x) * height;
-            double hw = 1 + unit(&x) * 4;
-            b[j] = (vp_entity){.id = base + i + j, .sublevel = sublevel, .flags = VP_ENT_DYNAMIC,
-                               .aabb = {px - hw, 0, pz - hw, px + hw, h, pz + hw}};
-        }
-        rc = vt_add(c, b, k, NULL, NULL);
-    }
-    free(b);
-    return rc;
-}
-
-static int remove_range(vt_client *c, uint64_t base, uint32_t n)
-{
-    uint32_t max = vt_server(c)->max_batch, step = max < 4096 ? max : 4096;
-    uint64_t *ids = malloc(sizeof *ids * step);
-    if (!ids) return VT_ERR_IO;
-    int rc = 0;
-    for (uint32_t i = 0; i < n && rc == 0; i += step) {
-        uint32_t k = n - i < step ? n - i : step;
-        for (uint32_t j = 0; j < k; j++) ids[j] = base + i + j;
-        rc = vt_remove(c, ids, k, NULL);
-        if (rc == VP_ERR_UNKNOWN_ID) /* a batch with one missing is refused whole: one by one */
-            for (uint32_t j = 0; j < k && rc != VT_ERR_IO; j++) rc = vt_remove(c, ids + j, 1, NULL);
-        if (rc == VP_ERR_UNKNOWN_ID) rc = 0;
-    }
-    free(ids);
-    return rc;
-}
-
-static void sleep_until(run *r, double t)
-{
-    while (!stopping(r)) {
-        double d = t - now_s();
-        if (d <= 0) return;
-        if (d > 0.05) d = 0.05;
-        struct timespec ts = {0, (long)(d * 1e9)};
-        nanosleep(&ts, NULL);
-    }
-}
-
-typedef struct events_arg {
-    run *r;
-    vt_client *c;
-    bool loaded[SCN_MAX_EVENTS];
-} events_arg;
-
-static void *events_thread(void *arg)
-{
-    events_arg *ea = arg;
-    run *r = ea->r;
-    const scenario *s = r->s;
-    int order[SCN_MAX_EVENTS];
-    for (int i = 0; i < s->nev; i++) order[i] = i;
-    for (int i = 1; i < s->nev; i++) /* by time, stable */
-        for (int j = i; j > 0 && s->ev[order[j]].at < s->ev[order[j - 1]].at; j--) {
-            int tmp = order[j];
-            order[j] = order[j - 1];
-            order[j - 1] = tmp;
-        }
-    uint64_t x = s->seed ^ 0xE7E47ull;
-    for (int oi = 0; oi < s->nev && !stopping(r); oi++) {
-        const scn_event *e = &s->ev[order[oi]];
-        sleep_until(r, r->t0 + e->at);
-        if (stopping(r)) break;
-        int rc = 0;
-        double t1 = now_s();
-        if (e->kind == SCN_EV_LOAD) {
-            vp_sublevel_begun b;
-            vp_ack a;
-            rc = vt_sublevel_begin(ea->c, e->name, 0, &b);
-            if (!rc) rc = add_many(ea->c, LOAD_BASE + ((uint64_t)b.id << 24), e->n, e->spread, 20, b.id, x + (uint64_t)oi);
-            if (!rc) rc = vt_sublevel_commit(ea->c, &a);
-            else (void)vt_sublevel_abort(ea->c, &a);
-            if (!rc) ea->loaded[order[oi]] = true;
-            if (rc) r->ev_rows->errors[R_SL_LOAD]++;
-            else note(r, r->ev_rows, R_SL_LOAD, t1, now_s() - t1);
-        } else if (e->kind == SCN_EV_UNLOAD) {
-            vp_ack a;
-            rc = vt_sublevel_unload(ea->c, e->name, &a);
-            if (rc) r->ev_rows->errors[R_SL_UNLOAD]++;
-            else note(r, r->ev_rows, R_SL_UNLOAD, t1, now_s() - t1);
-            for (int j = 0; !rc && j < s->nev; j++)
-                if (s->ev[j].kind == SCN_EV_LOAD && !strcmp(s->ev[j].name, e->name)) ea->loaded[j] = false;
-        } else {
-            double period = e->rate > 0 ? 1.0 / e->rate : 0;
-            for (uint32_t i = 0; i < e->n && !stopping(r); i++) {
-                if (period > 0) sleep_until(r, t1 + i * period);
-                uint64_t id = r->ent_base + mix(&x) % s->setup_n;
-                vp_list_reply got;
-                vp_destroy d = {.id = id, .radius = e->radius, .debris = e->debris};
-                double ts = now_s();
-                rc = vt_get(ea->c, &id, 1, &got);
-                vp_entity ent;
-                if (rc == 0 && got.batch.count == 1 && vp_entity_get(&got.batch, 0, &ent) == 0) {
-                    for (int a = 0; a < 3; a++) d.center[a] = ent.sphere[a] + (unit(&x) - 0.5) * ent.sphere[3];
-                    ts = now_s();
-                    vp_destroyed out;
-                    rc = vt_destroy(ea->c, &d, &out);
-                }
-                if (rc) r->ev_rows->errors[R_DESTROY]++;
-                else note(r, r->ev_rows, R_DESTROY, ts, now_s() - ts);
-                if (rc == VT_ERR_IO) break;
-                rc = 0;
-            }
-        }
-        if (rc == VT_ERR_IO) {
-            fail_run(r, true, "events: %s", vt_last_error(ea->c)->msg);
-            break;
-        }
-    }
-    return NULL;
-}
-
-typedef struct probe_arg {
-    run *r;
-    vt_client *ed, *q, *fr; /* editor, query, frames (each NULL when its probe is off) */
-} probe_arg;
-
-/* The probe's own corner: 5 km below the scene, looking down. */
-static void probe_view(vp_view *v, uint16_t w, uint16_t h)
-{
-    const double eye[3] = {0, -5000, 0}, at[3] = {0, -5100, 0}, up[3] = {0, 0, 1};
-    vt_view_perspective(v, eye, at, up, 40, w, h, 1, 500);
-}
-
-static int probe_move(probe_arg *pa, bool in, uint64_t *epoch)
-{
-    vp_entity e = {.id = PROBE_ID, .flags = VP_ENT_DYNAMIC, .sphere = {in ? 0 : 30000, -5200, 0, 5}};
-    return vt_update(pa->ed, &e, 1, epoch);
-}
-
-static void *probe_thread(void *arg)
-{
-    probe_arg *pa = arg;
-    run *r = pa->r;
-    const scenario *s = r->s;
-    vp_view v;
-    probe_view(&v, 64, 64);
-    double next_q = r->t0 + (s->probe_query > 0 ? s->probe_query : 1e30);
-    double next_f = r->t0 + (s->probe_frame > 0 ? s->probe_frame * 0.5 : 1e30);
-    bool in = false;
-    while (!stopping(r)) {
-        bool frame = next_f < next_q;
-        sleep_until(r, frame ? next_f : next_q);
-        if (stopping(r)) break;
-        in = !in;
-        uint64_t epoch = 0;
-        double t1 = now_s();
-        int rc = probe_move(pa, in, &epoch);
-        if (rc == 0 && !frame) {
-            /* queried right after the ack: it must be in (PROTOCOL: acknowledged edits are in) */
-            bool seen = false;
-            for (int tries = 0; rc == 0 && !seen && tries < 1000; tries++) {
-                vp_vis_result res;
-                rc = vt_query(pa->q, &v, 1, VP_Q_COUNT_ONLY, 0, &res);
-                seen = rc == 0 && res.epoch >= epoch && (res.visible == 1) == in;
-            }
-            if (rc == 0 && !seen) rc = -1;
-            if (rc) r->probe_rows->errors[R_EDIT_QUERY]++;
-            else note(r, r->probe_rows, R_EDIT_QUERY, t1, now_s() - t1);
-            next_q += s->probe_query;
-        } else if (rc == 0) {
-            for (;;) {
-                vp_frame f;
-                double left = t1 + 5 - now_s();
-                if (left <= 0) {
-                    rc = -1; /* not seen in 5 s: an error, not the end */
-                    break;
-                }
-                rc = vt_wait_frame(pa->fr, &f, (int)(left * 1e3) + 1);
-                if (rc == VT_ERR_IO && vt_last_error(pa->fr)->timed_out) rc = -1;
-                if (rc || (f.epoch >= epoch && (f.visible == 1) == in)) break;
-            }
-            if (rc) r->probe_rows->errors[R_EDIT_FRAME]++;
-            else note(r, r->probe_rows, R_EDIT_FRAME, t1, now_s() - t1);
-            next_f += s->probe_frame;
-        }
-        if (rc == VT_ERR_IO) {
-            fail_run(r, true, "probe: %s", vt_last_error(frame ? pa->fr : pa->q)->msg);
-            break;
-        }
-        double now = now_s();
-        if (next_q < now) next_q = now; /* late: no catching up in a burst */
-        if (next_f < now) next_f = now;
-    }
-    return NULL;
-}
-
-/* ---- the daemon's memory ------------------------------------------------------------ */
-
-/* The daemon's pid from a Unix socket's peer credentials (0 over TCP). */
-static int daemon_pid(vt_client *c)
-{
-    struct ucred cr;
-    socklen_t n = sizeof cr;
-    if (getsockopt(vt_fd(c), SOL_SOCKET, SO_PEERCRED, &cr, &n) == 0 && cr.pid > 0) return cr.pid;
-    return 0;
-}
-
-static double rss_mib(int pid)
-{
-    char path[64], line[256];
-    snprintf(path, sizeof path, "/proc/%d/status", pid);
-    FILE *f = fopen(path, "r");
-    if (!f) return -1;
-    double kib = -1;
-    while (fgets(line, sizeof line, f))
-        if (sscanf(line, "VmRSS: %lf", &kib) == 1) break;
-    fclose(f);
-    return kib < 0 ? -1 : kib / 1024;
-}
-
-/* ---- the report -------------------------------------------------------------------- */
-
-typedef struct report {
-    rows all;
-    char name[R_MAX][48];
-    double secs;
-    double rss0, rss1, rssmax;
-    double rss_win[WINDOWS]; /* the largest sample in each tenth (0: none) */
-    int nrss;
-    bool partial;
-} report;
-
-static void row_names(const scenario *s, report *rp)
-{
-    static const char *fixed[R_FIXED] = {"edit_to_query", "edit_to_frame", "sublevel_load", "sublevel_unload",
-                                         "destroy"};
-    for (int i = 0; i < R_FIXED; i++) snprintf(rp->name[i], sizeof rp->name[i], "%s", fixed[i]);
-    for (int g = 0; g < s->ng; g++) {
-        enum scn_op op = s->g[g].op;
-        snprintf(rp->name[R_MAIN(g)], sizeof rp->name[0], "%s.%s", s->g[g].name,
-                 op >= SCN_FRAMES ? "frame_interval" : scn_op_name(op));
-        snprintf(rp->name[R_INPUT(g)], sizeof rp->name[0], "%s.input_to_frame", s->g[g].name);
-    }
-}
-
-static bool row_used(const report *rp, int i)
-{
-    return rp->all.h[i].count || rp->all.errors[i] || rp->all.unsent[i] || rp->all.pending[i];
-}
-
-static double ms(uint64_t ns)
-{
-    return ns / 1e6;
-}
-
-/* One row's figures, as every output prints them. */
-typedef struct row_stat {
-    unsigned long long count, errors, unsent, pending;
-    double per_s, mean_ms, pct_ms[5]; /* p50, p90, p99, p99.9, max */
-} row_stat;
-
-static row_stat stat_of(const report *rp, int i)
-{
-    const hdr *h = &rp->all.h[i];
-    row_stat st = {.count = h->count, .errors = rp->all.errors[i], .unsent = rp->all.unsent[i],
-                   .pending = rp->all.pending[i], .per_s = rp->secs > 0 ? h->count / rp->secs : 0,
-                   .mean_ms = hdr_mean(h) / 1e6};
-    const double q[5] = {50, 90, 99, 99.9, 100};
-    for (int k = 0; k < 5; k++) st.pct_ms[k] = ms(hdr_percentile(h, q[k]));
-    return st;
-}
-
-static void print_table(FILE *o, const run *r, const report *rp)
-{
-    const scenario *s = r->s;
-    uint32_t clients = 0;
-    for (int i = 0; i < s->ng; i++) clients += s->g[i].clients;
-    fprintf(o, "scenario %s: %u clients in %d groups, %.1f s measured%s%s\n", s->name, clients, s->ng, rp->secs,
-            s->warmup > 0 ? " (after the warm-up)" : "", rp->partial ? "  ** PARTIAL **" : "");
-    if (rp->partial) fprintf(o, "partial: %s\n", r->why);
-    fprintf(o, "%-32s %9s %10s %7s %7s %7s %9s %9s %9s %9s %9s\n", "ms", "count", "per_s", "errors", "unsent",
-            "pending", "p50", "p90", "p99", "p99.9", "max");
-    for (int i = 0; i < rp->all.n; i++) {
-        if (!row_used(rp, i)) continue;
-        row_stat st = stat_of(rp, i);
-        fprintf(o, "%-32s %9llu %10.1f %7llu %7llu %7llu", rp->name[i], st.count, st.per_s, st.errors, st.unsent,
-                st.pending);
-        for (int k = 0; k < 5; k++) fprintf(o, " %9.3f", st.pct_ms[k]);
-        fprintf(o, "\n");
-    }
-    bool head = false;
-    for (int i = 0; i < rp->all.n && !s->requests; i++) { /* a count has no tenths known in advance */
-        if (rp->all.h[i].count < 100) continue;
-        if (!head) fprintf(o, "drift, p99 ms per tenth of the run:\n");
-        head = true;
-        fprintf(o, "  %-30s", rp->name[i]);
-        for (int w = 0; w < WINDOWS; w++) fprintf(o, " %7.2f", ms(hdr_percentile(&rp->all.win[i * WINDOWS + w], 99)));
-        fprintf(o, "\n");
-    }
-    if (rp->nrss) {
-        fprintf(o, "daemon memory (RSS, sampled every second): start %.1f MiB, end %.1f MiB, max %.1f MiB\n", rp->rss0,
-                rp->rss1, rp->rssmax);
-        if (!s->requests) {
-            fprintf(o, "  %-30s", "max MiB per tenth");
-            for (int w = 0; w < WINDOWS; w++) fprintf(o, " %7.1f", rp->rss_win[w]);
-            fprintf(o, "\n");
-        }
-    }
-}
-
-static void print_json(FILE *o, const run *r, const report *rp)
-{
-    const scenario *s = r->s;
-    fprintf(o, "{\"scenario\": ");
-    cli_json_str(o, s->name, strlen(s->name));
-    fprintf(o, ", \"seconds\": %.3f, \"partial\": %s", rp->secs, rp->partial ? "true" : "false");
-    if (rp->partial) {
-        fprintf(o, ", \"why\": ");
-        cli_json_str(o, r->why, strlen(r->why));
-    }
-    fprintf(o, ", \"ops\": {");
-    bool first = true;
-    for (int i = 0; i < rp->all.n; i++) {
-        if (!row_used(rp, i)) continue;
-        row_stat st = stat_of(rp, i);
-        fprintf(o, "%s", first ? "" : ", ");
-        cli_json_str(o, rp->name[i], strlen(rp->name[i]));
-        fprintf(o, ": {\"count\": %llu, \"per_second\": %.2f, \"errors\": %llu, \"unsent\": %llu, \"pending\": %llu, "
-                   "\"mean_ms\": %.4f",
-                st.count, st.per_s, st.errors, st.unsent, st.pending, st.mean_ms);
-        static const char *key[5] = {"p50_ms", "p90_ms", "p99_ms", "p999_ms", "max_ms"};
-        for (int k = 0; k < 5; k++) fprintf(o, ", \"%s\": %.4f", key[k], st.pct_ms[k]);
-        fprintf(o, ", \"p99_ms_by_tenth\": [");
-        for (int w = 0; w < WINDOWS && !s->requests; w++)
-            fprintf(o, "%s%.4f", w ? ", " : "", ms(hdr_percentile(&rp->all.win[i * WINDOWS + w], 99)));
-        fprintf(o, "]}");
-        first = false;
-    }
-    fprintf(o, "}");
-    if (rp->nrss)
-    {
-        fprintf(o, ", \"daemon_rss_mib\": {\"start\": %.2f, \"end\": %.2f, \"max\": %.2f, \"max_by_tenth\": [",
-                rp->rss0, rp->rss1, rp->rssmax);
-        for (int w = 0; w < WINDOWS && !s->requests; w++) fprintf(o, "%s%.2f", w ? ", " : "", rp->rss_win[w]);
-        fprintf(o, "]}");
-    }
-    fprintf(o, "}\n");
-}
-
-static void print_csv(FILE *o, const report *rp)
-{
-    fprintf(o, "op,count,per_second,errors,unsent,pending,mean_ms,p50_ms,p90_ms,p99_ms,p999_ms,max_ms\n");
-    for (int i = 0; i < rp->all.n; i++) {
-        if (!row_used(rp, i)) continue;
-        row_stat st = stat_of(rp, i);
-        fprintf(o, "%s,%llu,%.2f,%llu,%llu,%llu,%.4f", rp->name[i], st.count, st.per_s, st.errors, st.unsent,
-                st.pending, st.mean_ms);
-        for (int k = 0; k < 5; k++) fprintf(o, ",%.4f", st.pct_ms[k]);
-        fprintf(o, "\n");
-    }
-}
-
-static int write_out(const char *path, const run *r, const report *rp, bool json)
-{
-    FILE *f = !strcmp(path, "-") ? stdout : fopen(path, "w");
-    if (!f) return fprintf(stderr, "%s: bench: %s: %s\n", g_prog, path, strerror(errno)), -1;
-    if (json) print_json(f, r, rp);
-    else print_csv(f, rp);
-    bool bad = ferror(f);
-    if (f != stdout) bad |= fclose(f) != 0;
-    if (bad) return fprintf(stderr, "%s: bench: %s: write error\n", g_prog, path), -1;
-    return 0;
 }
 
 /* ---- the command ------------------------------------------------------------------- */
