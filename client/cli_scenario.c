@@ -352,7 +352,7 @@ static int lconn_open(run *r, lconn *lc)
         uint64_t x = base;
         for (uint32_t e = 0; e < g->batch; e++)
             lc->ents[e] = (vp_entity){.id = base + e, .flags = VP_ENT_DYNAMIC,
-                                      .sphere = {(unit(&x) - 0.5) * 400, 1, (unit(&x) - 0.5) * 400, 0.5}};
+                                      .sphere = {(splitmix_unit(&x) - 0.5) * 400, 1, (splitmix_unit(&x) - 0.5) * 400, 0.5}};
         uint32_t max = vt_server(lc->c)->max_batch;
         for (uint32_t i = 0; i < g->batch; i += max) {
             uint32_t n = g->batch - i < max ? g->batch - i : max;

@@ -21,8 +21,8 @@ int add_many(vt_client *c, uint64_t base, uint32_t n, double spread, double heig
     for (uint32_t i = 0; i < n && rc == 0; i += step) {
         uint32_t k = n - i < step ? n - i : step;
         for (uint32_t j = 0; j < k; j++) {
-            double px = (unit(&x) - 0.5) * spread, pz = (unit(&x) - 0.5) * spread, h = 1 + unit(&x) * height;
-            double hw = 1 + unit(&x) * 4;
+            double px = (splitmix_unit(&x) - 0.5) * spread, pz = (splitmix_unit(&x) - 0.5) * spread, h = 1 + splitmix_unit(&x) * height;
+            double hw = 1 + splitmix_unit(&x) * 4;
             b[j] = (vp_entity){.id = base + i + j, .sublevel = sublevel, .flags = VP_ENT_DYNAMIC,
                                .aabb = {px - hw, 0, pz - hw, px + hw, h, pz + hw}};
         }
@@ -102,14 +102,14 @@ void *events_thread(void *arg)
             double period = e->rate > 0 ? 1.0 / e->rate : 0;
             for (uint32_t i = 0; i < e->n && !stopping(r); i++) {
                 if (period > 0) sleep_until(r, t1 + i * period);
-                uint64_t id = r->ent_base + mix(&x) % s->setup_n;
+                uint64_t id = r->ent_base + splitmix64(&x) % s->setup_n;
                 vp_list_reply got;
                 vp_destroy d = {.id = id, .radius = e->radius, .debris = e->debris};
                 double ts = now_s();
                 rc = vt_get(ea->c, &id, 1, &got);
                 vp_entity ent;
                 if (rc == 0 && got.batch.count == 1 && vp_entity_get(&got.batch, 0, &ent) == 0) {
-                    for (int a = 0; a < 3; a++) d.center[a] = ent.sphere[a] + (unit(&x) - 0.5) * ent.sphere[3];
+                    for (int a = 0; a < 3; a++) d.center[a] = ent.sphere[a] + (splitmix_unit(&x) - 0.5) * ent.sphere[3];
                     ts = now_s();
                     vp_destroyed out;
                     rc = vt_destroy(ea->c, &d, &out);

@@ -11,6 +11,7 @@
 #include "cli.h"
 #include "hdr.h"
 #include "scenario.h"
+#include "splitmix.h" /* entity placement, destruction targets */
 
 #include <pthread.h>
 #include <stdatomic.h>
@@ -74,18 +75,6 @@ typedef struct probe_arg {
 #define LOAD_BASE 0x7D0000000000ull
 #define PROBE_ID 0x7E0000000001ull
 
-/* splitmix64: entity placement and destruction targets */
-static inline uint64_t mix(uint64_t *x)
-{
-    uint64_t z = (*x += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-static inline double unit(uint64_t *x)
-{
-    return (double)(mix(x) >> 11) * 0x1p-53;
-}
 
 /* cli_scenario.c */
 void fail_run(run *r, bool gone, const char *fmt, ...) __attribute__((format(printf, 3, 4)));

@@ -12,6 +12,7 @@
 #include "culling.h"
 #include "idmap.h"
 #include "protocol.h"
+#include "splitmix.h"
 
 typedef struct scene_mesh {
     uint32_t nv, ni;
@@ -177,10 +178,7 @@ int scene_occluder_draw(scene *s, scene_occluder *o, uint32_t *kept);
 /* Uniform in [0, 1) from a splitmix64 stream (the demo city, debris). */
 static inline double scene_rand(uint64_t *state)
 {
-    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
+    return splitmix_unit(state);
 }
 
 /* Takes entity id (handle h, desc d) out of the scene and its counters. */

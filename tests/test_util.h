@@ -12,18 +12,13 @@
 #include <cmocka.h>
 #include <math.h>
 #include <stdlib.h>
+#include "splitmix.h"
 
 typedef struct rng { uint64_t s; } rng;
 
-static inline uint64_t rng_u64(rng *r)
-{
-    uint64_t z = (r->s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
+static inline uint64_t rng_u64(rng *r) { return splitmix64(&r->s); }
 /* uniform in [0,1) */
-static inline double rng_f(rng *r) { return (double)(rng_u64(r) >> 11) * 0x1p-53; }
+static inline double rng_f(rng *r) { return splitmix_unit(&r->s); }
 static inline double rng_range(rng *r, double a, double b) { return a + (b - a) * rng_f(r); }
 /* log-uniform in [a,b], a > 0 */
 static inline double rng_log(rng *r, double a, double b) { return a * pow(b / a, rng_f(r)); }

@@ -9,6 +9,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <time.h>
+#include "splitmix.h"
 
 static inline double bench_now_ns(void)
 {
@@ -34,10 +35,7 @@ static inline double bench_median(double *v, int n)
 /* Uniform in [0, 1) from the stream *state (seed it with any value). */
 static inline double bench_rand01(uint64_t *state)
 {
-    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return (double)((z ^ (z >> 31)) >> 11) * 0x1p-53;
+    return splitmix_unit(state);
 }
 
 /* Uniform in [0, 1), the same sequence every run. */
