@@ -39,7 +39,7 @@ typedef struct lconn {
     const scn_group *g;
     int gi, idx;
     scn_sched sched;
-    uint64_t sent, done;
+    uint64_t sent;
     uint32_t inflight;
     double t_int[RING];     /* the request's intended (open) or actual (closed) send time, by req % RING */
     uint32_t req_of[RING];
@@ -324,7 +324,6 @@ static int drain(run *r, lthread *t, lconn *lc)
         if (lc->req_of[slot] != h.req || !lc->inflight) continue; /* not ours */
         lc->req_of[slot] = 0;
         lc->inflight--;
-        lc->done++;
         int row = R_MAIN(lc->gi);
         if (h.type == VP_ERROR) {
             if (lc->t_int[slot] >= r->t_meas) t->rw->errors[row]++;
@@ -552,7 +551,6 @@ int bench_scenario(cli *k, int argc, char **argv)
     row_names(s, rp);
     r->ev_rows = &rw[threads];
     r->probe_rows = &rw[threads + 1];
-    r->ent_base = SETUP_BASE;
 
     /* setup: the entities edits and destruction work on; the probe entity */
     vt_connect_opts so = conn_opts(r, VP_ROLE_EDITOR, "vantage-bench-setup");

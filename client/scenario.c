@@ -272,7 +272,6 @@ int scn_parse(const char *name, const char *text, size_t n, scenario *out, char 
     int rc = 0;
     s->duration = 10;
     snprintf(s->name, sizeof s->name, "scenario");
-    bool have_duration = false;
     scn_group *g = NULL;
     const char *nul = memchr(buf, 0, n);
     if (nul) {
@@ -340,7 +339,6 @@ int scn_parse(const char *name, const char *text, size_t n, scenario *out, char 
         } else if (!g && !strcmp(k, "duration")) {
             rc = nw != 2 ? fail(&p, "duration", "expected: duration SECONDS")
                          : num(&p, "duration", v, 0.1, 7 * 86400.0, &s->duration);
-            have_duration = true;
         } else if (!g && !strcmp(k, "requests")) {
             double d = 0;
             rc = nw != 2 ? fail(&p, "requests", "expected: requests N") : num(&p, "requests", v, 1, 1e12, &d);
@@ -396,7 +394,7 @@ int scn_parse(const char *name, const char *text, size_t n, scenario *out, char 
     for (int i = 0; rc == 0 && i < s->nev; i++) {
         scn_event *e = &s->ev[i];
         p.line = e->line;
-        if (have_duration && !s->requests && e->at >= s->duration)
+        if (!s->requests && e->at >= s->duration) /* the file's duration, or the default 10 s */
             rc = fail(&p, "at", "%g s is at or after the end of the run (duration %g s)", e->at, s->duration);
         if (rc == 0 && e->kind == SCN_EV_DESTROY && !s->setup_n)
             rc = fail(&p, "destroy", "destruction needs entities: add 'setup entities N'");

@@ -102,7 +102,7 @@ void *events_thread(void *arg)
             double period = e->rate > 0 ? 1.0 / e->rate : 0;
             for (uint32_t i = 0; i < e->n && !stopping(r); i++) {
                 if (period > 0) sleep_until(r, t1 + i * period);
-                uint64_t id = r->ent_base + splitmix64(&x) % s->setup_n;
+                uint64_t id = SETUP_BASE + splitmix64(&x) % s->setup_n;
                 vp_list_reply got;
                 vp_destroy d = {.id = id, .radius = e->radius, .debris = e->debris};
                 double ts = now_s();

@@ -47,7 +47,6 @@ struct run {
     atomic_uint_fast64_t issued;            /* request ops begun (for `requests`) */
     atomic_uint_fast64_t done[SCN_MAX_GROUPS], errs[SCN_MAX_GROUPS], frames[SCN_MAX_GROUPS];
     rows *ev_rows, *probe_rows;
-    uint64_t ent_base;        /* ids of the setup entities */
 };
 
 typedef struct report {

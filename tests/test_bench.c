@@ -193,6 +193,7 @@ static void test_bench_scenario_errors(void **state)
         {"colour blue\n", "t:1: field 'colour': unknown"},
         {"", "field 'group': no groups"},
         {"duration 5\nat 7 sublevel load x\ngroup a\n clients 1\n op ping\n", "t:2: field 'at': 7 s is at or after"},
+        {"at 12 sublevel load x\ngroup a\n clients 1\n op ping\n", "t:1: field 'at': 12 s is at or after the end of the run (duration 10 s)"},
         {"at 1 destroy 5\ngroup a\n clients 1\n op ping\n", "t:1: field 'destroy': destruction needs entities"},
         {"at 1 sublevel unload x\ngroup a\n clients 1\n op ping\n", "t:1: field 'sublevel name': 'x' is unloaded before"},
         {"group a\n clients 1\n op ping\ngroup a\n", "t:4: field 'group': 'a' is named twice"},
