@@ -252,8 +252,13 @@ static void test_persist_restore_exact(void **state)
     script_a(ca, ha);
     script_a(cr, hr);
     assert_memory_equal(ha, hr, 12000 * sizeof *ha);
-    /* the journal passed 1 MB: a snapshot is written by a child */
-    for (int i = 0; i < 300 && !has_file(dir, "snapshot.000002"); i++) usleep(10000);
+    /* the journal passed 1 MB: a snapshot is written by a child. It is
+       fsync'ed: on this shared disk, after the kill -9 tests' synced
+       writes, that once took over 3 s (a fresh-clone make test), so the
+       wait is a liveness bound, not a speed claim */
+    int waited = 0;
+    for (; waited < 2000 && !has_file(dir, "snapshot.000002"); waited++) usleep(10000);
+    if (waited > 300) print_message("persist: the snapshot took %.1f s to appear\n", waited / 100.0);
     assert_true(has_file(dir, "snapshot.000002"));
     script_b(ca);
     script_b(cr);
