@@ -23,7 +23,10 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <fcntl.h>
+#include <poll.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #define MAX_COORD 1e12 /* the culling core's range */
@@ -924,7 +927,10 @@ int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
     int fds[2];
-    if (pipe(fds)) {
+    /* close-on-exec: a process the child starts (a sanitizer's symbolizer
+       when assimp crashes under ASan) must not keep the pipe open, or the
+       end of the level never arrives here */
+    if (pipe2(fds, O_CLOEXEC)) {
         snprintf(err, errlen, "%s: cannot start the importer: %s", path, strerror(errno));
         return -1;
     }
@@ -948,7 +954,25 @@ int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
     pack in = {0};
     uint8_t chunk[1 << 16];
     int read_errno = 0;
+    /* a file that sends assimp into an endless loop is an error, not a
+       hang: VANTAGE_IMPORT_TIMEOUT seconds (default 300) */
+    const char *ts = getenv("VANTAGE_IMPORT_TIMEOUT");
+    double limit = ts && atof(ts) > 0 ? atof(ts) : 300.0;
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    bool timed_out = false;
     for (;;) {
+        struct timespec now;
+        clock_gettime(CLOCK_MONOTONIC, &now);
+        double left = limit - ((double)(now.tv_sec - t0.tv_sec) + (now.tv_nsec - t0.tv_nsec) * 1e-9);
+        struct pollfd pf = {.fd = fds[0], .events = POLLIN};
+        int pr = left > 0 ? poll(&pf, 1, (int)(left * 1000) + 1) : 0;
+        if (pr < 0 && errno == EINTR) continue;
+        if (pr == 0) {
+            timed_out = true;
+            kill(pid, SIGKILL);
+            break;
+        }
         ssize_t r = read(fds[0], chunk, sizeof chunk);
         if (r < 0 && errno == EINTR) continue;
         if (r < 0) read_errno = errno;
@@ -960,7 +984,10 @@ int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
     while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
     }
     int rc = -1;
-    if (WIFSIGNALED(st)) {
+    if (timed_out) {
+        snprintf(err, errlen, "%s: assimp did not finish reading the file in %g s (VANTAGE_IMPORT_TIMEOUT); "
+                 "stopped, nothing was loaded", path, limit);
+    } else if (WIFSIGNALED(st)) {
         snprintf(err, errlen,
                  "%s: assimp crashed reading the file (%s); it is malformed or meets a bug in assimp %u.%u; "
                  "nothing was loaded",
