@@ -347,6 +347,11 @@ int journal_snapshot(journal *j, const scene *sc)
     if (rc) return rc;
     char *tmp = path_of(j, "snapshot.tmp", gen);
     if (!tmp) return -ENOMEM;
+    /* a test's knob (as Redis has rdb-key-save-delay): the child waits this
+       long first, so a test can see a snapshot that ends while the loop is
+       idle put in place all the same */
+    const char *delay = getenv("VANTAGED_SNAPSHOT_DELAY_MS");
+    unsigned delay_ms = delay ? (unsigned)strtoul(delay, NULL, 10) : 0;
     pid_t pid = fork();
     if (pid < 0) {
         rc = -errno;
@@ -355,6 +360,7 @@ int journal_snapshot(journal *j, const scene *sc)
     }
     if (pid == 0) {
         /* the child: a copy-on-write image of the scene, one thread */
+        if (delay_ms) usleep(delay_ms * 1000u);
         int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
         int ok = fd >= 0 && snapshot_write(fd, sc, gen, j->seq) == 0 && fdatasync(fd) == 0;
         _exit(ok ? 0 : 1);

@@ -467,7 +467,8 @@ static void on_signal(ae_loop *l, int fd, void *data, int mask)
     (void)mask;
     (void)data;
     struct signalfd_siginfo si;
-    if (read(fd, &si, sizeof si) == (ssize_t)sizeof si) {
+    while (read(fd, &si, sizeof si) == (ssize_t)sizeof si) {
+        if (si.ssi_signo == SIGCHLD) continue; /* the wake-up is all: before_sleep reaps */
         LOGI("signal %u: shutting down", si.ssi_signo);
         ae_stop(l);
     }
@@ -523,11 +524,16 @@ server *server_create(const server_config *cfg, scene *sc)
     s->ev_epoch = sc->epoch;
     s->tcp_fd = s->unix_fd = s->sig_fd = s->done_fd = -1;
     /* SIGINT and SIGTERM arrive through a signalfd on the loop: block them
-       before any thread starts, so no worker inherits them unblocked */
+       before any thread starts, so no worker inherits them unblocked.
+       SIGCHLD too: a snapshot child that ends while the loop sleeps wakes
+       it, and before_sleep reaps the child and puts its file in place (an
+       idle loop sleeps with no timer: without it the snapshot would wait
+       for the next client's bytes) */
     sigset_t set;
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGCHLD);
     pthread_sigmask(SIG_BLOCK, &set, NULL);
     signal(SIGPIPE, SIG_IGN);
     s->conns_cap = (int)cfg->max_clients + 64;

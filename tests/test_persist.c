@@ -252,10 +252,10 @@ static void test_persist_restore_exact(void **state)
     script_a(ca, ha);
     script_a(cr, hr);
     assert_memory_equal(ha, hr, 12000 * sizeof *ha);
-    /* the journal passed 1 MB: a snapshot is written by a child. It is
-       fsync'ed: on this shared disk, after the kill -9 tests' synced
-       writes, that once took over 3 s (a fresh-clone make test), so the
-       wait is a liveness bound, not a speed claim */
+    /* the journal passed 1 MB: a snapshot is written by a child, fsync'ed
+       (slow on this shared disk at times), and put in place when the child
+       ends, even if this client sends nothing more (see
+       test_persist_snapshot_while_idle): the wait is a liveness bound */
     int waited = 0;
     for (; waited < 2000 && !has_file(dir, "snapshot.000002"); waited++) usleep(10000);
     if (waited > 300) print_message("persist: the snapshot took %.1f s to appear\n", waited / 100.0);
@@ -584,8 +584,39 @@ static void test_persist_write_error(void **state)
     tdir_remove(&td);
 }
 
+/* A snapshot child that ends while the daemon is idle (no client sends a
+ * byte after the edit that started it) is put in place all the same: the
+ * child's exit wakes the loop. The child is held back 300 ms, so the loop
+ * is surely asleep when it ends (a CI run once waited 20 s for it). */
+static void test_persist_snapshot_while_idle(void **state)
+{
+    (void)state;
+    tdir td;
+    tdir_make(&td, "persist-idle");
+    char dir[320];
+    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    setenv("VANTAGED_SNAPSHOT_DELAY_MS", "300", 1);
+    daemon_proc a;
+    start_dd(&a, dir, "always", "1");
+    unsetenv("VANTAGED_SNAPSHOT_DELAY_MS");
+    vt_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
+    add_many(c, 1, 20000, 0, NULL); /* past 1 MB of journal in one edit */
+    int waited = 0;
+    for (; waited < 1000 && !has_file(dir, "snapshot.000002"); waited++) usleep(10000);
+    printf("persist: a snapshot finished while the daemon was idle, in place after %d ms (child held 300 ms)\n",
+           waited * 10);
+    assert_true(has_file(dir, "snapshot.000002"));
+    assert_false(has_file(dir, "journal.000001")); /* what it made redundant is gone */
+    assert_true(has_file(dir, "journal.000002"));
+    vt_close(c);
+    daemon_stop(&a);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
 const struct CMUnitTest persist_tests[] = {
     cmocka_unit_test(test_persist_restore_exact),
+    cmocka_unit_test(test_persist_snapshot_while_idle),
     cmocka_unit_test(test_persist_kill9_keeps_acked),
     cmocka_unit_test(test_persist_torn_tail_cut),
     cmocka_unit_test(test_persist_write_error),
