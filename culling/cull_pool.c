@@ -1,8 +1,18 @@
 /*
  * cull_pool.c — a persistent job pool: threads-1 workers that wait on a
- * generation counter, plus the caller as thread 0. A job is "run fn(arg, t)
- * on every thread and wait"; work inside a job is split by the job itself
- * (an atomic counter over blocks). No thread is created per query.
+ * generation counter, plus the caller. A job is "run fn(arg, t) for every
+ * t in 0..n-1 and wait". The n slots are claimed, not assigned: the caller
+ * and every worker that wakes take the next unclaimed slot until none is
+ * left. So a worker the scheduler has not run yet (a loaded machine: the
+ * daemon's loop, other workers, other processes) delays nothing: the caller
+ * runs that slot itself, and the worker, when it does wake, finds the job
+ * taken and sleeps again. The caller waits only for slots being run.
+ *
+ * The claim word packs the job's sequence number, n and the next slot, so
+ * a worker still looking at an old job cannot take a slot of the next one
+ * with the old job's n: a claim is one compare-and-swap on all three. A
+ * job cannot end, so fn and arg cannot change, while a slot of it is
+ * claimed and not done.
  *
  * Waking: workers spin briefly (a query arrives right after another under
  * load), then sleep on a condition variable, so an idle daemon costs no CPU.
@@ -24,7 +34,6 @@
 
 typedef struct worker {
     struct cull_pool *pool;
-    uint32_t tid;
 } worker;
 
 struct cull_pool {
@@ -33,13 +42,29 @@ struct cull_pool {
     worker *workers;
     pthread_mutex_t mu;
     pthread_cond_t cv;
-    _Atomic uint32_t gen;
-    _Atomic uint32_t pending;
+    _Atomic uint32_t gen;   /* moves once per job: wakes the workers */
+    _Atomic uint64_t claim; /* job sequence << 32 | n << 16 | next slot */
+    _Atomic uint32_t done;  /* slots of the current job finished */
     _Atomic int stop;
     cull_job_fn fn;
     void *arg;
-    uint32_t n;
 };
+
+/* Takes slots of the current job and runs them until none is left. */
+static void run_slots(struct cull_pool *p)
+{
+    uint64_t c = atomic_load_explicit(&p->claim, memory_order_acquire);
+    for (;;) {
+        uint32_t next = (uint32_t)(c & 0xffff), n = (uint32_t)((c >> 16) & 0xffff);
+        if (next >= n) return;
+        if (!atomic_compare_exchange_weak_explicit(&p->claim, &c, c + 1, memory_order_acq_rel,
+                                                   memory_order_acquire))
+            continue; /* c now holds the current word */
+        p->fn(p->arg, next);
+        atomic_fetch_add_explicit(&p->done, 1, memory_order_release);
+        c = atomic_load_explicit(&p->claim, memory_order_acquire);
+    }
+}
 
 static void *worker_main(void *p_)
 {
@@ -61,8 +86,7 @@ static void *worker_main(void *p_)
         }
         if (atomic_load(&p->stop)) return NULL;
         seen = g;
-        if (wk->tid < p->n) p->fn(p->arg, wk->tid);
-        atomic_fetch_sub_explicit(&p->pending, 1, memory_order_acq_rel);
+        run_slots(p);
     }
 }
 
@@ -89,7 +113,7 @@ int cull_pool_create(uint32_t threads, cull_pool **out)
             return CULL_ERR_NOMEM;
         }
         for (uint32_t i = 0; i + 1 < threads; i++) {
-            p->workers[i] = (worker){p, i + 1};
+            p->workers[i] = (worker){p};
             if (pthread_create(&p->threads[i], NULL, worker_main, &p->workers[i])) {
                 p->nthreads = i + 1; /* join what started */
                 cull_pool_destroy(p);
@@ -129,14 +153,18 @@ void cull_pool_run(cull_pool *p, cull_job_fn fn, void *arg, uint32_t n)
         return;
     }
     if (n > p->nthreads) n = p->nthreads;
+    /* the last job is over (its slots all done): nobody reads fn, arg or
+       done until the new claim word is seen */
     p->fn = fn;
     p->arg = arg;
-    p->n = n;
-    atomic_store_explicit(&p->pending, p->nthreads - 1, memory_order_relaxed);
+    atomic_store_explicit(&p->done, 0, memory_order_relaxed);
+    uint64_t seq = (atomic_load_explicit(&p->claim, memory_order_relaxed) >> 32) + 1;
+    atomic_store_explicit(&p->claim, (seq & 0xffffffffu) << 32 | (uint64_t)n << 16, memory_order_release);
     pthread_mutex_lock(&p->mu);
     atomic_fetch_add_explicit(&p->gen, 1, memory_order_release);
     pthread_cond_broadcast(&p->cv);
     pthread_mutex_unlock(&p->mu);
-    fn(arg, 0);
-    while (atomic_load_explicit(&p->pending, memory_order_acquire) != 0) cpu_relax();
+    run_slots(p);
+    /* every slot is claimed: what is left are slots other threads are running */
+    while (atomic_load_explicit(&p->done, memory_order_acquire) != n) cpu_relax();
 }

@@ -361,8 +361,11 @@ typedef struct cull_pool cull_pool;
 int  cull_pool_create(uint32_t threads, cull_pool **out);
 void cull_pool_destroy(cull_pool *p);
 uint32_t cull_pool_threads(const cull_pool *p);
-/* Runs fn(arg, t) for t in 0..n-1 on the pool (t = 0 on the caller) and
- * waits: the renderers share the culling pool this way. n is clamped to
+/* Runs fn(arg, t) once for each t in 0..n-1 on the pool and waits: the
+ * renderers share the culling pool this way. Which thread runs which t is
+ * not fixed (the caller runs any slot no worker has taken yet, so a worker
+ * the scheduler is late to run delays nothing); the t are run concurrently
+ * or one after another, so fn must not wait for another t. n is clamped to
  * the pool's thread count; a NULL pool runs fn(arg, 0). One job at a time
  * per pool. */
 typedef void (*cull_job_fn)(void *arg, uint32_t thread);
