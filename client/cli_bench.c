@@ -164,7 +164,7 @@ int cmd_bench(cli *k, int argc, char **argv)
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--scenario")) return bench_scenario(k, argc, argv);
     const char *use = "bench [--test query|edit|ping|frames] [--clients N] [--threads T] [--requests N] [--pipeline P] "
-                      "[--views K] [--batch B] [--count-only] [--json]";
+                      "[--views K] [--batch B] [--count-only] [--no-occlusion] [--json]";
     const char *test = "query";
     uint64_t clients = 64, requests = 100000, pipeline = 1, views = 1, batch = 1000, threads = 2;
     bool json = false;
@@ -176,6 +176,7 @@ int cmd_bench(cli *k, int argc, char **argv)
         bool ok = false;
         if (!strcmp(argv[i], "--test") && i + 1 < argc) test = argv[++i], ok = true;
         else if (!strcmp(argv[i], "--count-only")) qflags |= VP_Q_COUNT_ONLY, ok = true;
+        else if (!strcmp(argv[i], "--no-occlusion")) qflags |= VP_Q_NO_OCCLUSION, ok = true;
         else if (!strcmp(argv[i], "--json")) json = ok = true;
         for (size_t n = 0; !ok && n < sizeof nums / sizeof nums[0]; n++)
             if (!strcmp(argv[i], nums[n].name) && i + 1 < argc) {
