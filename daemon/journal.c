@@ -33,6 +33,7 @@
 #include <string.h>
 #include <sys/file.h>
 #include <sys/mman.h>
+#include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/uio.h>
 #include <sys/wait.h>
@@ -352,6 +353,7 @@ int journal_snapshot(journal *j, const scene *sc)
        idle put in place all the same */
     const char *delay = getenv("VANTAGED_SNAPSHOT_DELAY_MS");
     unsigned delay_ms = delay ? (unsigned)strtoul(delay, NULL, 10) : 0;
+    pid_t parent = getpid();
     pid_t pid = fork();
     if (pid < 0) {
         rc = -errno;
@@ -359,7 +361,17 @@ int journal_snapshot(journal *j, const scene *sc)
         return rc;
     }
     if (pid == 0) {
-        /* the child: a copy-on-write image of the scene, one thread */
+        /* the child: a copy-on-write image of the scene, one thread. It
+           dies with the daemon (only the daemon puts a snapshot in place,
+           and a restarted one must not meet an orphan still writing), and
+           holds none of its descriptors: the listening sockets (a restart
+           could not bind its port) and the clients' sockets (a client the
+           daemon drops, or a daemon killed, would not be seen to hang up
+           until the child ended) */
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        if (getppid() != parent) _exit(1);
+        if (close_range(3, ~0u, 0))
+            for (long fd = 3, most = sysconf(_SC_OPEN_MAX); fd < most; fd++) close((int)fd);
         if (delay_ms) usleep(delay_ms * 1000u);
         int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
         int ok = fd >= 0 && snapshot_write(fd, sc, gen, j->seq) == 0 && fdatasync(fd) == 0;

@@ -12,11 +12,14 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <netinet/in.h>
+#include <poll.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -614,9 +617,53 @@ static void test_persist_snapshot_while_idle(void **state)
     tdir_remove(&td);
 }
 
+/* A daemon killed while its snapshot child writes: the child dies with it
+ * and holds none of its descriptors, so the port is free at once (a
+ * restart binds it) and the restart restores the scene. The child is held
+ * back 5 s: an orphan would keep the listening socket that long. */
+static void test_persist_snapshot_child_dies_with_daemon(void **state)
+{
+    (void)state;
+    tdir td;
+    tdir_make(&td, "persist-orphan");
+    char dir[320];
+    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    setenv("VANTAGED_SNAPSHOT_DELAY_MS", "5000", 1);
+    daemon_proc a;
+    start_dd(&a, dir, "always", "1");
+    unsetenv("VANTAGED_SNAPSHOT_DELAY_MS");
+    vt_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
+    add_many(c, 1, 20000, 0, NULL); /* past 1 MB: the child starts, and waits */
+    assert_int_equal(vt_ping(c), VP_OK);
+    kill9(&a);
+    /* the client sees the daemon go: its socket is not held open */
+    struct pollfd pfd = {.fd = vt_fd(c), .events = POLLIN};
+    assert_int_equal(poll(&pfd, 1, 2000), 1);
+    vt_close(c);
+    /* and the port can be bound again (the orphan would hold it 5 s) */
+    int fd = socket(AF_INET, SOCK_STREAM, 0), one = 1, bound = -1, tries = 0;
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)a.port),
+                             .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    for (; tries < 100 && (bound = bind(fd, (struct sockaddr *)&sa, sizeof sa)) != 0; tries++) usleep(10000);
+    close(fd);
+    printf("persist: daemon killed mid-snapshot: its port free again after %d ms\n", tries * 10);
+    assert_int_equal(bound, 0);
+    start_dd(&a, dir, "always", "1");
+    c = connect_role(&a, VP_ROLE_EDITOR, true);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(st.entities, 20000);
+    vt_close(c);
+    daemon_stop(&a);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
 const struct CMUnitTest persist_tests[] = {
     cmocka_unit_test(test_persist_restore_exact),
     cmocka_unit_test(test_persist_snapshot_while_idle),
+    cmocka_unit_test(test_persist_snapshot_child_dies_with_daemon),
     cmocka_unit_test(test_persist_kill9_keeps_acked),
     cmocka_unit_test(test_persist_torn_tail_cut),
     cmocka_unit_test(test_persist_write_error),
