@@ -308,11 +308,12 @@ bool metrics_expose(server *s, mbuf *b)
     }
 
     /* ---- clients ---- */
-    uint64_t roles[4] = {0}, buffered = 0;
+    uint64_t roles[4] = {0}, buffered = 0, held = 0;
     for (uint32_t i = 0; i < s->nconns; i++) {
         const conn *c = s->live[i];
         roles[!c->hello ? 0 : c->role >= VP_ROLE_VIEWER && c->role <= VP_ROLE_EDITOR ? 1 + c->role : 1]++;
         buffered += c->out_len - c->out_pos;
+        held += c->in_cap + c->out_cap;
     }
     family(b, "vantage_clients", "gauge",
            "Protocol connections now, by role (role=\"handshake\": connected, HELLO not yet accepted).");
@@ -347,6 +348,10 @@ bool metrics_expose(server *s, mbuf *b)
     family(b, "vantage_output_buffered_bytes", "gauge",
            "Reply and frame bytes queued in the daemon for protocol clients, not yet taken by the kernel.");
     sample(b, "vantage_output_buffered_bytes", NULL, NULL, buffered);
+    family(b, "vantage_client_buffer_bytes", "gauge",
+           "Memory held by protocol clients' input and output buffers (what they hold, used or not: a "
+           "buffer a burst grew shrinks back to 64 KiB within half a second of going unused).");
+    sample(b, "vantage_client_buffer_bytes", NULL, NULL, held);
 
     /* ---- frames ---- */
     family(b, "vantage_frame_streams", "gauge", "Connections with a frame stream (FRAME_SUBSCRIBE).");

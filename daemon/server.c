@@ -60,6 +60,47 @@ bool out_reserve(conn *c, size_t need, vp_writer *w)
 void out_commit(conn *c, const vp_writer *w)
 {
     if (!w->overflow) c->out_len += w->len;
+    if (c->out_len > c->out_peak) c->out_peak = c->out_len;
+}
+
+/* Buffers a burst grew are given back once they go unused (as Redis's
+ * clientsCron resizes client buffers): at a sweep, a buffer over its
+ * resting size that is empty and held at most a quarter of itself since
+ * the last sweep shrinks to twice that peak (output) or to its resting
+ * size (input). A client that just asked for 100 MB of entities keeps the
+ * buffer while it keeps asking; one that went quiet costs 64 KiB again.
+ * The loop keeps sweeping while a buffer is over its resting size, even
+ * when idle, so a burst's memory is given back within ~0.5 s. */
+#define IN_REST 65536u   /* conn_read's first buffer */
+#define OUT_REST 65536u
+
+static size_t pow2_at_least(size_t n)
+{
+    size_t p = 4096;
+    while (p < n) p *= 2;
+    return p;
+}
+
+static void conn_trim(conn *c)
+{
+    if (c->out_pos == c->out_len && c->out_cap > OUT_REST && c->out_peak <= c->out_cap / 4) {
+        if (!c->out_peak) {
+            free(c->out);
+            c->out = NULL;
+            c->out_cap = 0;
+        } else {
+            size_t cap = pow2_at_least(2 * c->out_peak);
+            uint8_t *n = realloc(c->out, cap);
+            if (n) c->out = n, c->out_cap = cap;
+        }
+        c->out_pos = c->out_len = 0;
+    }
+    if (!c->in_len && c->in_cap > IN_REST && c->in_peak <= c->in_cap / 4) {
+        uint8_t *n = realloc(c->in, IN_REST);
+        if (n) c->in = n, c->in_cap = IN_REST;
+    }
+    c->out_peak = c->out_len - c->out_pos;
+    c->in_peak = c->in_len;
 }
 
 void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, const char *msg)
@@ -282,6 +323,7 @@ static void conn_read(server *s, int fd)
         ssize_t n = read(fd, c->in + c->in_len, c->in_cap - c->in_len);
         if (n > 0) {
             c->in_len += (size_t)n;
+            if (c->in_len > c->in_peak) c->in_peak = c->in_len;
             s->bytes_in += (uint64_t)n;
             if ((size_t)n < c->in_cap - c->in_len) break;
             continue;
@@ -427,6 +469,8 @@ static void before_sleep(ae_loop *l, void *data)
         }
         if (sweep && drop_if_slow(s, c, now_ms)) continue;
         clocks |= !c->hello || c->since_ms;
+        if (sweep) conn_trim(c);
+        clocks |= c->in_cap > IN_REST || c->out_cap > OUT_REST; /* the sweeps that trim it */
         if (changed && (c->sub_kinds & VP_EVENT_SCENE)) {
             c->ev_pending = true;
             c->ev_added += sc->ev_added;

@@ -894,6 +894,51 @@ static void test_metrics_clients(void **state)
     daemon_stop(&d);
 }
 
+/* Client buffers a burst grew are given back once unused, even by an idle
+ * daemon: an editor sends 60,000 entities in one message (~3 MB in, 240 kB
+ * of handles out), then nothing; the buffers gauge falls back to what two
+ * resting connections hold, and the connection still works. */
+static void test_metrics_buffers_shrink(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *idle = connect_role(&d, VP_ROLE_VIEWER, false);
+    enum { N = 60000 };
+    vp_entity *e = calloc(N, sizeof *e);
+    uint32_t *h = calloc(N, sizeof *h);
+    for (uint32_t i = 0; i < N; i++)
+        e[i] = (vp_entity){.id = i + 1, .sphere = {(double)(i % 300), 1, (double)(i / 300), 1}};
+    assert_int_equal(vt_add(ed, e, N, h, NULL), VP_OK);
+    expo a;
+    scrape(mport, &a);
+    double burst = xget(&a, "vantage_client_buffer_bytes", NULL, NULL);
+    /* quiet: the loop sleeps but for the sweeps the big buffers ask for */
+    usleep(1000000);
+    expo b;
+    scrape(mport, &b);
+    double rest = xget(&b, "vantage_client_buffer_bytes", NULL, NULL);
+    fprintf(stderr, "metrics: client buffers %.0f kB after a 60,000-entity add, %.0f kB after 1 s idle\n",
+            burst / 1024, rest / 1024);
+    assert_true(burst > 3e6);
+    assert_true(rest <= 2 * (64 + 64) * 1024);
+    /* and it still takes a burst */
+    for (uint32_t i = 0; i < N; i++) e[i].id += N;
+    assert_int_equal(vt_add(ed, e, N, h, NULL), VP_OK);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(idle, &st), VP_OK);
+    assert_int_equal(st.entities, 2 * N);
+    free(e);
+    free(h);
+    expo_free(&a);
+    expo_free(&b);
+    vt_close(ed);
+    vt_close(idle);
+    daemon_stop(&d);
+}
+
 /* A viewer that stops reading its raw frames while the scene changes:
  * frames are dropped (latest-frame-wins), and every frame counted as sent
  * is one it gets when it reads again. */
@@ -1205,6 +1250,7 @@ static void test_metrics_access(void **state)
 }
 
 const struct CMUnitTest metrics_tests[] = {
+    cmocka_unit_test(test_metrics_buffers_shrink),
     cmocka_unit_test(test_metrics_model),
     cmocka_unit_test(test_metrics_message_codec),
     cmocka_unit_test(test_metrics_counts),
