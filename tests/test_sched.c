@@ -4,9 +4,9 @@
  * frame due. Six viewers keep one worker drawing 640x360 frames of the demo
  * city (an editor keeps the scene changing); a client asks 40 queries.
  * With one FIFO (before the fix) a query waited behind up to six frames;
- * the test compares the queries' median latency to the frames' median
- * render + encode time measured in the same run, so it does not depend on
- * how fast this machine is.
+ * the test holds the queries' median latency under 3 frames' median
+ * render + encode time, both measured in the same run, so it does not
+ * depend on how fast this machine is.
  */
 #include "test_daemon.h"
 #include "test_util.h"
@@ -125,9 +125,11 @@ static void test_queries_before_frames(void **state)
            "(%.2f frames), p90 %.2f ms\n",
            nf, fm, qm, qm / fm, lat[QUERIES * 9 / 10]);
     /* a query waits for the one frame being drawn (about half of one on
-       average) plus its own time; behind a FIFO it waited for ~3 of the 6 */
+       average) plus its own time: 0.1-0.9 frames seen, the high end on a
+       loaded machine; behind a FIFO it waited for most of the 6 (5.6-5.8
+       seen) */
     assert_true(nf >= 4 * VIEWERS);
-    assert_true(qm < 2.0 * fm);
+    assert_true(qm < 3.0 * fm);
     pthread_mutex_destroy(&r->mu);
     free(r);
     daemon_stop(&d);
