@@ -352,7 +352,8 @@ int journal_snapshot(journal *j, const scene *sc)
        long first, so a test can see a snapshot that ends while the loop is
        idle put in place all the same */
     const char *delay = getenv("VANTAGED_SNAPSHOT_DELAY_MS");
-    unsigned delay_ms = delay ? (unsigned)strtoul(delay, NULL, 10) : 0;
+    unsigned long delay_ms = delay ? strtoul(delay, NULL, 10) : 0;
+    if (delay_ms > 60000) delay_ms = 60000;
     pid_t parent = getpid();
     pid_t pid = fork();
     if (pid < 0) {
@@ -372,7 +373,7 @@ int journal_snapshot(journal *j, const scene *sc)
         if (getppid() != parent) _exit(1);
         if (close_range(3, ~0u, 0))
             for (long fd = 3, most = sysconf(_SC_OPEN_MAX); fd < most; fd++) close((int)fd);
-        if (delay_ms) usleep(delay_ms * 1000u);
+        if (delay_ms) usleep((useconds_t)(delay_ms * 1000));
         int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
         int ok = fd >= 0 && snapshot_write(fd, sc, gen, j->seq) == 0 && fdatasync(fd) == 0;
         _exit(ok ? 0 : 1);

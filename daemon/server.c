@@ -34,6 +34,14 @@
 
 /* ---- output ------------------------------------------------------------------ */
 
+/* The buffer sizes: powers of two from 4 KiB. */
+static size_t pow2_at_least(size_t n)
+{
+    size_t p = 4096;
+    while (p < n) p *= 2;
+    return p;
+}
+
 /* A writer over the connection's output buffer with room for need bytes. */
 bool out_reserve(conn *c, size_t need, vp_writer *w)
 {
@@ -45,8 +53,7 @@ bool out_reserve(conn *c, size_t need, vp_writer *w)
             c->out_pos = 0;
         }
         if (c->out_cap - c->out_len < need) {
-            size_t cap = c->out_cap ? c->out_cap : 4096;
-            while (cap - c->out_len < need) cap *= 2;
+            size_t cap = pow2_at_least(c->out_len + need);
             uint8_t *n = realloc(c->out, cap);
             if (!n) return false;
             c->out = n;
@@ -73,13 +80,6 @@ void out_commit(conn *c, const vp_writer *w)
  * when idle, so a burst's memory is given back within ~0.5 s. */
 #define IN_REST 65536u   /* conn_read's first buffer */
 #define OUT_REST 65536u
-
-static size_t pow2_at_least(size_t n)
-{
-    size_t p = 4096;
-    while (p < n) p *= 2;
-    return p;
-}
 
 static void conn_trim(conn *c)
 {

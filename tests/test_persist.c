@@ -33,6 +33,23 @@ static void start_dd(daemon_proc *d, const char *dir, const char *policy, const 
     daemon_start_args(d, extra);
 }
 
+/* start_dd with the snapshot child held back delay_ms first (a snapshot
+ * that ends while the daemon is idle, or outlives it) */
+static void start_dd_slow_snapshot(daemon_proc *d, const char *dir, const char *delay_ms)
+{
+    setenv("VANTAGED_SNAPSHOT_DELAY_MS", delay_ms, 1);
+    start_dd(d, dir, "always", "1");
+    unsetenv("VANTAGED_SNAPSHOT_DELAY_MS");
+}
+
+/* A temporary directory named prefix.*, and dir = its "data" (the
+ * daemon's --data-dir, made by the daemon). */
+static void data_dir_make(tdir *td, const char *prefix, char dir[320])
+{
+    tdir_make(td, prefix);
+    snprintf(dir, 320, "%s", tdir_file(td, "data"));
+}
+
 static void kill9(daemon_proc *d)
 {
     kill(d->pid, SIGKILL);
@@ -244,9 +261,8 @@ static void test_persist_restore_exact(void **state)
 {
     (void)state;
     tdir td;
-    tdir_make(&td, "persist");
     char dir[320];
-    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    data_dir_make(&td, "persist", dir);
     daemon_proc a, ref;
     start_dd(&a, dir, "always", "1"); /* a snapshot once the journal passes 1 MB */
     daemon_start(&ref, NULL);
@@ -381,9 +397,8 @@ static void test_persist_kill9_keeps_acked(void **state)
 {
     (void)state;
     tdir td;
-    tdir_make(&td, "persist-kill");
     char dir[320];
-    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    data_dir_make(&td, "persist-kill", dir);
     const uint32_t max = 200000;
     sent_rec *recs = malloc(max * sizeof *recs);
     uint64_t seed = 0x5eed2011;
@@ -473,9 +488,8 @@ static void test_persist_torn_tail_cut(void **state)
 {
     (void)state;
     tdir td;
-    tdir_make(&td, "persist-tail");
     char dir[320], jr[400];
-    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    data_dir_make(&td, "persist-tail", dir);
     daemon_proc d;
     start_dd(&d, dir, "always", "64");
     vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
@@ -537,9 +551,8 @@ static void test_persist_write_error(void **state)
 {
     (void)state;
     tdir td;
-    tdir_make(&td, "persist-full");
     char dir[320];
-    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    data_dir_make(&td, "persist-full", dir);
     daemon_proc d;
     /* the kernel refuses writes past 200 kB in this daemon (RLIMIT_FSIZE,
        EFBIG): a disk that fills up while journaling */
@@ -595,13 +608,10 @@ static void test_persist_snapshot_while_idle(void **state)
 {
     (void)state;
     tdir td;
-    tdir_make(&td, "persist-idle");
     char dir[320];
-    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
-    setenv("VANTAGED_SNAPSHOT_DELAY_MS", "300", 1);
+    data_dir_make(&td, "persist-idle", dir);
     daemon_proc a;
-    start_dd(&a, dir, "always", "1");
-    unsetenv("VANTAGED_SNAPSHOT_DELAY_MS");
+    start_dd_slow_snapshot(&a, dir, "300");
     vt_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
     add_many(c, 1, 20000, 0, NULL); /* past 1 MB of journal in one edit */
     int waited = 0;
@@ -625,13 +635,10 @@ static void test_persist_snapshot_child_dies_with_daemon(void **state)
 {
     (void)state;
     tdir td;
-    tdir_make(&td, "persist-orphan");
     char dir[320];
-    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
-    setenv("VANTAGED_SNAPSHOT_DELAY_MS", "5000", 1);
+    data_dir_make(&td, "persist-orphan", dir);
     daemon_proc a;
-    start_dd(&a, dir, "always", "1");
-    unsetenv("VANTAGED_SNAPSHOT_DELAY_MS");
+    start_dd_slow_snapshot(&a, dir, "5000");
     vt_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
     add_many(c, 1, 20000, 0, NULL); /* past 1 MB: the child starts, and waits */
     assert_int_equal(vt_ping(c), VP_OK);

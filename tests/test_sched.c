@@ -120,7 +120,7 @@ static void test_queries_before_frames(void **state)
     atomic_store(&r->stop, 1);
     for (int i = 0; i <= VIEWERS; i++) pthread_join(th[i], NULL);
     int nf = r->nframes;
-    double fm = median(r->frame_ms, nf), qm = median(lat, QUERIES);
+    double fm = median(r->frame_ms, nf), qm = median(lat, QUERIES); /* both now sorted */
     printf("sched: %d frames while querying (median %.2f ms to render + encode), query median %.2f ms "
            "(%.2f frames), p90 %.2f ms\n",
            nf, fm, qm, qm / fm, lat[QUERIES * 9 / 10]);
