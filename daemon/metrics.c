@@ -332,10 +332,12 @@ bool metrics_expose(server *s, mbuf *b)
            "Protocol connections ended, by why: peer (closed by the client, or a socket error), error (closed "
            "by the daemon after an error that ends a connection: a bad HELLO, a refused role, a frame over the "
            "limit), hello_timeout, frame_timeout (slow-loris), output_limit (replies left unread past "
-           "--out-limit), sync_failed (--durability always: the journal's sync failed).");
+           "--out-limit), sync_failed (--durability always: the journal's sync failed), output_limit_total (the largest "
+           "backlog while all clients' output buffers held more than --out-limit-total).");
     {
-        static const char *const dn[MD_COUNT] = {NULL,        "peer",         "error",       "hello_timeout",
-                                                 "frame_timeout", "output_limit", "sync_failed", NULL};
+        static const char *const dn[MD_COUNT] = {NULL,          "peer",         "error",       "hello_timeout",
+                                                 "frame_timeout", "output_limit", "sync_failed", "output_limit_total",
+                                                 NULL};
         for (int i = 0; i < MD_COUNT; i++)
             if (dn[i]) sample(b, "vantage_disconnects_total", "reason", dn[i], m->disconnects[i]);
     }
@@ -352,6 +354,12 @@ bool metrics_expose(server *s, mbuf *b)
            "Memory held by protocol clients' input and output buffers (what they hold, used or not: a "
            "buffer a burst grew shrinks back to 64 KiB within half a second of going unused).");
     sample(b, "vantage_client_buffer_bytes", NULL, NULL, held);
+    family(b, "vantage_client_output_buffer_bytes", "gauge",
+           "Memory held by protocol clients' output buffers together: what --out-limit-total bounds.");
+    sample(b, "vantage_client_output_buffer_bytes", NULL, NULL, s->out_held);
+    family(b, "vantage_client_output_buffer_limit_bytes", "gauge",
+           "--out-limit-total: past it the client with the largest backlog is dropped (0: no limit).");
+    sample(b, "vantage_client_output_buffer_limit_bytes", NULL, NULL, s->cfg.out_limit_total);
 
     /* ---- frames ---- */
     family(b, "vantage_frame_streams", "gauge", "Connections with a frame stream (FRAME_SUBSCRIBE).");

@@ -20,6 +20,8 @@ typedef struct server_config {
     uint32_t max_payload;    /* largest frame payload accepted after HELLO */
     uint32_t max_batch;      /* records per edit message */
     uint32_t out_limit;      /* bytes a client may leave unread before it is dropped */
+    uint64_t out_limit_total; /* bytes all clients' output buffers may hold together; past it the
+                                client with the largest backlog is dropped first (0: no limit) */
     uint32_t threads;        /* query worker threads, 0 = cores */
     int renderer;            /* VP_RENDERER_SOFT or VP_RENDERER_GL: when a request names none */
     double cell_size;

@@ -38,6 +38,7 @@ typedef struct frame_sub {
 } frame_sub;
 
 typedef struct conn {
+    struct server *srv; /* the server it belongs to (output accounting) */
     int fd;
     uint32_t id;
     int role;
@@ -68,6 +69,8 @@ struct server {
     int conns_cap;
     conn **live;            /* dense: the connections, for the tick's sweep */
     uint32_t nconns, next_id;
+    size_t out_held;        /* the connections' output buffers together (sum of out_cap),
+                               held under cfg.out_limit_total */
     scene *sc;
     uint64_t start_ms, queries, bytes_in, bytes_out, errors;
     uint64_t sweep_ms;      /* when the slow-client sweep is next due */

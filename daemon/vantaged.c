@@ -7,11 +7,13 @@
 #include "ae.h"
 
 #include <arpa/inet.h>
+#include <errno.h>
 #include <getopt.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static void usage(FILE *f)
 {
@@ -32,6 +34,10 @@ static void usage(FILE *f)
             "  --max-batch N        records per edit message (default 65536)\n"
             "  --max-entities N     entities in the scene (default 4194304)\n"
             "  --out-limit BYTES    unread reply bytes before a client is dropped (default 268435456)\n"
+            "  --out-limit-total BYTES\n"
+            "                       output buffer bytes of all clients together; past it the client\n"
+            "                       with the largest backlog is dropped first (default: an eighth of\n"
+            "                       physical memory, at least 64 MiB; 0 for no limit)\n"
             "  --threads N          query worker threads (default: cores)\n"
             "  --destruct-res N     destruction distance volumes: N^3 samples over an entity's box (default 8)\n"
             "  --render soft|gl     renderer for frames that name none (default soft; gl: headless\n"
@@ -58,13 +64,32 @@ static void usage(FILE *f)
             VANTAGED_DEFAULT_PORT);
 }
 
-static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+static bool parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out)
 {
     char *end;
+    errno = 0;
     unsigned long long v = strtoull(s, &end, 10);
-    if (!*s || *end || v < lo || v > hi) return false;
+    if (!*s || *s == '-' || *end || errno || v < lo || v > hi) return false;
+    *out = v;
+    return true;
+}
+
+static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    uint64_t v;
+    if (!parse_u64(s, lo, hi, &v)) return false;
     *out = (uint32_t)v;
     return true;
+}
+
+/* --out-limit-total's default: an eighth of physical memory (3 GiB on a
+ * 24 GiB machine), at least 64 MiB: room for the scene, the journal's
+ * snapshot fork and the workers' frames beside the clients' backlogs. */
+static uint64_t default_out_limit_total(void)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    uint64_t phys = pages > 0 && page > 0 ? (uint64_t)pages * (uint64_t)page : 0;
+    return phys / 8 > (64u << 20) ? phys / 8 : 64u << 20;
 }
 
 /* --metrics [ADDR:]PORT: ADDR an IPv4 address or localhost (default
@@ -97,6 +122,7 @@ int main(int argc, char **argv)
         .max_payload = 16u << 20,
         .max_batch = 65536,
         .out_limit = 256u << 20,
+        .out_limit_total = default_out_limit_total(),
         .cell_size = 64,
         .renderer = VP_RENDERER_SOFT,
         .destruct_res = 8,
@@ -109,7 +135,7 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS };
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -123,7 +149,7 @@ int main(int argc, char **argv)
         {"insecure", no_argument, 0, O_INSECURE}, {"hello-timeout", required_argument, 0, O_HELLO_TO},
         {"frame-timeout", required_argument, 0, O_FRAME_TO}, {"data-dir", required_argument, 0, O_DATA},
         {"durability", required_argument, 0, O_DURABILITY}, {"compact-mb", required_argument, 0, O_COMPACT},
-        {"metrics", required_argument, 0, O_METRICS},
+        {"metrics", required_argument, 0, O_METRICS}, {"out-limit-total", required_argument, 0, O_OUT_TOTAL},
         {0, 0, 0, 0},
     };
     int o;
@@ -145,6 +171,10 @@ int main(int argc, char **argv)
         case O_BATCH: ok = parse_u32(optarg, 1, 1u << 24, &cfg.max_batch); break;
         case O_ENTITIES: ok = parse_u32(optarg, 1, CULL_MAX_ENTITIES, &cfg.limits.max_entities); break;
         case O_OUT: ok = parse_u32(optarg, 4096, UINT32_MAX, &cfg.out_limit); break;
+        case O_OUT_TOTAL:
+            ok = parse_u64(optarg, 0, UINT64_MAX, &cfg.out_limit_total) &&
+                 (!cfg.out_limit_total || cfg.out_limit_total >= 65536);
+            break;
         case O_THREADS: ok = parse_u32(optarg, 0, 256, &cfg.threads); break;
         case O_DRES: ok = parse_u32(optarg, 2, CULL_DVOL_MAX_RES, &cfg.destruct_res); break;
         case O_RENDER:

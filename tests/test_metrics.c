@@ -939,6 +939,127 @@ static void test_metrics_buffers_shrink(void **state)
     daemon_stop(&d);
 }
 
+/* The daemon's peak resident memory (VmHWM), bytes. */
+static double daemon_peak_rss(const daemon_proc *d)
+{
+    char path[64], line[256];
+    snprintf(path, sizeof path, "/proc/%d/status", (int)d->pid);
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    double kb = -1;
+    while (fgets(line, sizeof line, f))
+        if (sscanf(line, "VmHWM: %lf kB", &kb) == 1) break;
+    fclose(f);
+    assert_true(kb > 0);
+    return kb * 1024;
+}
+
+/* --out-limit-total: four viewers pipeline raw 800x400 RENDERs (6.4 MB
+ * each, 51 MB a viewer: each alone under --out-limit) and read nothing.
+ * Together they would pile up 205 MB; with a 64 MiB cap the largest
+ * backlogs are dropped until the buffers fit, every viewer left gets all
+ * its frames, a viewer with one frame waiting (the smallest backlog) is
+ * never the one dropped, a client that reads is served throughout, and
+ * the daemon's peak memory grows by about the cap, not by what was asked. */
+static void test_metrics_output_limit_total(void **state)
+{
+    (void)state;
+    enum { NV = 4, K = 8, W = 800, H = 400 };
+    const double cap = 64.0 * 1024 * 1024, frame = (double)W * H * 20;
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, (const char *const[]){"--out-limit-total", "67108864", NULL});
+    vt_client *ok = connect_role(&d, VP_ROLE_VIEWER, false);
+    vp_render m = {.format = VP_FRAME_RAW};
+    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
+    /* the baseline: after frames of this size (the renderers' own buffers) */
+    vp_frame f;
+    for (int i = 0; i < 4; i++) assert_int_equal(vt_render(ok, &m, &f), VP_OK);
+    double base = daemon_peak_rss(&d);
+    static rawc r[NV + 1]; /* r[NV]: a viewer with one frame waiting, the smallest backlog */
+    uint8_t buf[1024];
+    vp_writer w;
+    for (int i = 0; i <= NV; i++) {
+        raw_open(&r[i], &d);
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_VIEWER});
+        raw_write(&r[i], buf, w.len);
+        vp_header h;
+        assert_int_equal(raw_frame(&r[i], &h), VP_HELLO_OK);
+    }
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_render(&w, 100, &m);
+    raw_write(&r[NV], buf, w.len);
+    for (int i = 0;; i++) { /* drawn and queued (the kernel takes a few hundred kB of it) */
+        expo e;
+        scrape(mport, &e);
+        double q = xget(&e, "vantage_output_buffered_bytes", NULL, NULL);
+        expo_free(&e);
+        if (q > frame / 2) break;
+        assert_true(i < 2000);
+        usleep(10000);
+    }
+    for (int k = 0; k < K; k++)
+        for (int i = 0; i < NV; i++) {
+            vp_writer_init(&w, buf, sizeof buf);
+            vp_enc_render(&w, (uint32_t)(100 + k), &m);
+            raw_write(&r[i], buf, w.len);
+        }
+    /* the reading client is answered while the others pile up */
+    for (int i = 0; i < 20; i++) assert_int_equal(vt_ping(ok), VP_OK);
+    /* at least one viewer is dropped for the total (the buffers could not
+       otherwise hold 205 MB under 64 MiB) */
+    double dropped = 0;
+    for (int i = 0; i < 2000 && dropped < 1; i++) {
+        expo e;
+        scrape(mport, &e);
+        dropped = xget(&e, "vantage_disconnects_total", "reason", "output_limit_total");
+        expo_free(&e);
+        if (dropped < 1) usleep(10000);
+    }
+    assert_true(dropped >= 1);
+    /* every viewer reads now: a survivor gets its K frames in order, a
+       dropped one a prefix of them and then the hang-up */
+    int survivors = 0, got_total = 0;
+    for (int i = NV; i >= 0; i--) {
+        int got = 0, t;
+        vp_header h;
+        while ((t = raw_frame(&r[i], &h)) >= 0) {
+            assert_int_equal(t, VP_FRAME);
+            assert_int_equal(h.req, (uint32_t)(100 + got));
+            got++;
+        }
+        if (i == NV) { /* never the largest backlog: kept, with its frame */
+            assert_int_equal(got, 1);
+            continue;
+        }
+        survivors += got == K;
+        got_total += got;
+        close(r[i].fd);
+    }
+    expo e;
+    scrape(mport, &e);
+    double drops = xget(&e, "vantage_disconnects_total", "reason", "output_limit_total");
+    double held = xget(&e, "vantage_client_output_buffer_bytes", NULL, NULL);
+    assert_true(xget(&e, "vantage_client_output_buffer_limit_bytes", NULL, NULL) == cap);
+    expo_free(&e);
+    double peak = daemon_peak_rss(&d) - base;
+    print_message("out-limit-total 64 MiB: %d of %d viewers dropped, %d survived with all %d frames (%d frames "
+                  "delivered); daemon peak memory +%.0f MB for %.0f MB asked\n",
+                  (int)drops, NV, survivors, K, got_total, peak / 1e6, NV * K * frame / 1e6);
+    assert_int_equal((int)drops + survivors, NV);
+    assert_true(held <= cap);
+#ifndef __SANITIZE_ADDRESS__ /* ASan's quarantine keeps freed buffers resident */
+    /* the cap, plus replies in flight (two workers' frames and one over
+       the cap before the drop) and the allocator's slack; without the cap
+       it is +230 MB */
+    assert_true(peak < cap + 8 * frame);
+#endif
+    assert_int_equal(vt_ping(ok), VP_OK);
+    vt_close(ok);
+    daemon_stop(&d);
+}
+
 /* A viewer that stops reading its raw frames while the scene changes:
  * frames are dropped (latest-frame-wins), and every frame counted as sent
  * is one it gets when it reads again. */
@@ -1251,6 +1372,7 @@ static void test_metrics_access(void **state)
 
 const struct CMUnitTest metrics_tests[] = {
     cmocka_unit_test(test_metrics_buffers_shrink),
+    cmocka_unit_test(test_metrics_output_limit_total),
     cmocka_unit_test(test_metrics_model),
     cmocka_unit_test(test_metrics_message_codec),
     cmocka_unit_test(test_metrics_counts),
