@@ -1,7 +1,7 @@
 # Vantage — build, test and benchmark.
 #
 #   make run               build and start vantaged on the demo city
-#   make demo              the culling core on the shared city scene + a short benchmark
+#   make demo              the culling core on the city scene (tests/data/scenes) + a short benchmark
 #   make test              unit + property tests (release, then ASan+UBSan),
 #                          the scalar-only build, and a bench smoke run
 #   make bench             the full culling, occlusion, render and pad-parser benchmarks
@@ -129,7 +129,7 @@ SUBB_BIN := $(BUILD)/bench_sublevel
 DESB_OBJ := $(BUILD)/tests/bench/bench_destruct.o
 DESB_BIN := $(BUILD)/bench_destruct
 
-SCENE    ?= ../shared/scenes/city_scene.txt
+SCENE    ?= tests/data/scenes/city_scene.txt
 
 .PHONY: all run demo test bench bench-persist bench-commander deps check-deps clean test-one install install-check \
         report report-smoke
@@ -237,7 +237,7 @@ run: check-deps
 	@echo "  build/release/vantage -s /tmp/vantaged.sock watch"
 	./build/release/vantaged $(VANTAGED_ARGS)
 
-# the culling core on the shared city scene, then a short benchmark
+# the culling core on the city scene (tests/data/scenes), then a short benchmark
 demo: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion
 	./build/release/bench_cull --demo --scene $(SCENE)

@@ -4,7 +4,7 @@
  * normalized pad state, and hid-recorder's text format for recording and
  * replaying reports. No I/O here (pad_io.h finds and reads devices).
  *
- * Facts: ../shared/INPUT.md (report layouts from SDL's HIDAPI drivers, the
+ * Facts: docs/INPUT.md (report layouts from SDL's HIDAPI drivers, the
  * kernel's hid-sony / hid-playstation / hid-nintendo / xpad, MS-GIPUSB).
  *
  * Load: a pad sends 250..1000 reports/s; a parser costs well under 1 us a

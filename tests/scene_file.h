@@ -1,5 +1,5 @@
 /*
- * scene_file.h — reader for the shared test scenes (the .txt files in ../shared/scenes,
+ * scene_file.h — reader for the test scenes (tests/data/scenes/*.txt, the
  * format in each file's header): a camera, occluder triangles, object AABBs.
  * Used by tests and benchmarks; the daemon's own formats live in daemon/.
  */

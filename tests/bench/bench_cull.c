@@ -365,7 +365,7 @@ int main(int argc, char **argv)
     cull_pool *pool;
     if (cull_pool_create(2, &pool)) return 1;
     if (do_demo) {
-        int rc = demo(scene ? scene : "../shared/scenes/city_scene.txt", pool);
+        int rc = demo(scene ? scene : "tests/data/scenes/city_scene.txt", pool);
         cull_pool_destroy(pool);
         return rc;
     }

@@ -53,7 +53,7 @@ static const struct { uint32_t w, h; } sizes[] = {{256, 114}, {512, 256}, {1280,
 
 int main(int argc, char **argv)
 {
-    const char *scene = "../shared/scenes/city_scene.txt", *exr_dir = NULL;
+    const char *scene = "tests/data/scenes/city_scene.txt", *exr_dir = NULL;
     int frames = 16, reps = 31;
     bool json = false, quick = false, smoke = false;
     for (int i = 1; i < argc; i++) {

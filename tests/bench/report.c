@@ -962,7 +962,7 @@ static void write_gp(FILE *f, const point *city, const point *rnd_pts, int ntown
 
 int main(int argc, char **argv)
 {
-    opts o = {.scene = "../shared/scenes/city_scene.txt", .out = "docs/report", .city_frames = 16,
+    opts o = {.scene = "tests/data/scenes/city_scene.txt", .out = "docs/report", .city_frames = 16,
               .rand_frames = 8, .seeds = NTOWNS, .reps = 300, .rounds = 5, .truth_w = 1920, .truth_h = 1080,
               .probe_n = 40000, .probe_views = 8, .stress_frames = 3};
     for (int i = 1; i < argc; i++) {

@@ -3,7 +3,7 @@
 for the commander's tests and demos (tests/test_commander.c, README).
 
 The reports have the real byte layout of a DualShock 4 v2 over USB
-(report 0x01, 64 bytes: ../shared/INPUT.md, SDL's SDL_hidapi_ps4.c) at the
+(report 0x01, 64 bytes: docs/INPUT.md, from SDL's SDL_hidapi_ps4.c) at the
 pad's 250 reports a second, with its counter and 16/3 us timestamp
 running; what a person does with the pad is a script of (seconds, what is
 held). A real capture (`vantage pad dump --record FILE`, or hid-recorder)
