@@ -28,7 +28,9 @@
 #include <string.h>
 #include <sys/eventfd.h>
 #include <sys/signalfd.h>
+#include <sys/file.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <time.h>
 #include <unistd.h>
@@ -578,7 +580,10 @@ int listen_tcp(const char *addr, int port)
         return -1;
     }
     int fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    if (fd < 0) return -1;
+    if (fd < 0) {
+        LOGE("tcp %s:%d: socket: %s", addr, port, strerror(errno));
+        return -1;
+    }
     int one = 1;
     setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
     if (bind(fd, (struct sockaddr *)&sa, sizeof sa) < 0 || listen(fd, 512) < 0) {
@@ -589,23 +594,67 @@ int listen_tcp(const char *addr, int port)
     return fd;
 }
 
-static int listen_unix(const char *path)
+/* The Unix socket, taken only from no one: PATH.lock (flock, held for the
+ * daemon's life, with its pid in it) says whether another vantaged serves
+ * PATH. Without it a second daemon would unlink the live socket, bind its
+ * own, and remove it on exit: the first would lose its Unix clients
+ * silently (TCP refuses the same clash with EADDRINUSE). Under the lock a
+ * socket file left at PATH is stale (its daemon died) and is replaced; a
+ * file that is not a socket is never removed. -1 (with a log line) on
+ * failure; *lock_fd is the held lock. */
+static int listen_unix(const char *path, int *lock_fd)
 {
     struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    char lock[sizeof sa.sun_path + 8];
     if (strlen(path) >= sizeof sa.sun_path) {
-        LOGE("unix socket path too long: %s", path);
+        LOGE("--unix %s: the path is too long (at most %zu bytes)", path, sizeof sa.sun_path - 1);
         return -1;
+    }
+    snprintf(lock, sizeof lock, "%s.lock", path);
+    int lfd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+    if (lfd < 0) {
+        LOGE("--unix %s: cannot open its lock file %s: %s", path, lock, strerror(errno));
+        return -1;
+    }
+    if (flock(lfd, LOCK_EX | LOCK_NB) < 0) {
+        char pid[32] = "";
+        ssize_t n = pread(lfd, pid, sizeof pid - 1, 0);
+        pid[n > 0 ? n : 0] = 0;
+        pid[strcspn(pid, "\n")] = 0;
+        LOGE("--unix %s: another vantaged%s%s%s serves it (it holds %s): stop it or give another --unix", path,
+             *pid ? " (pid " : "", pid, *pid ? ")" : "", lock);
+        close(lfd);
+        return -1;
+    }
+    char pid[32];
+    int pn = snprintf(pid, sizeof pid, "%d\n", (int)getpid());
+    if (ftruncate(lfd, 0) == 0) { /* the pid is for the message only */
+        ssize_t ignored = pwrite(lfd, pid, (size_t)pn, 0);
+        (void)ignored;
+    }
+    struct stat st;
+    if (lstat(path, &st) == 0 && !S_ISSOCK(st.st_mode)) {
+        LOGE("--unix %s: a file that is not a socket is there: not removing it", path);
+        goto fail;
     }
     strcpy(sa.sun_path, path);
     int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    if (fd < 0) return -1;
-    unlink(path); /* a stale socket from a previous run */
-    if (bind(fd, (struct sockaddr *)&sa, sizeof sa) < 0 || listen(fd, 512) < 0) {
-        LOGE("unix %s: %s", path, strerror(errno));
-        close(fd);
-        return -1;
+    if (fd < 0) {
+        LOGE("--unix %s: socket: %s", path, strerror(errno));
+        goto fail;
     }
+    unlink(path); /* a stale socket: its daemon died (it would hold the lock) */
+    if (bind(fd, (struct sockaddr *)&sa, sizeof sa) < 0 || listen(fd, 512) < 0) {
+        LOGE("--unix %s: %s", path, strerror(errno));
+        close(fd);
+        goto fail;
+    }
+    *lock_fd = lfd;
     return fd;
+fail:
+    unlink(lock);
+    close(lfd);
+    return -1;
 }
 
 server *server_create(const server_config *cfg, scene *sc)
@@ -616,7 +665,7 @@ server *server_create(const server_config *cfg, scene *sc)
     s->sc = sc;
     s->journal = cfg->journal;
     s->ev_epoch = sc->epoch;
-    s->tcp_fd = s->unix_fd = s->sig_fd = s->done_fd = -1;
+    s->tcp_fd = s->unix_fd = s->unix_lock_fd = s->sig_fd = s->done_fd = -1;
     /* SIGINT and SIGTERM arrive through a signalfd on the loop: block them
        before any thread starts, so no worker inherits them unblocked.
        SIGCHLD too: a snapshot child that ends while the loop sleeps wakes
@@ -661,11 +710,11 @@ server *server_create(const server_config *cfg, scene *sc)
         }
     }
     if (cfg->bind && *cfg->bind) {
-        if ((s->tcp_fd = listen_tcp(cfg->bind, cfg->port)) < 0) goto fail;
+        if ((s->tcp_fd = listen_tcp(cfg->bind, cfg->port)) < 0) goto said;
         if (s->tcp_fd >= s->conns_cap || ae_add(s->loop, s->tcp_fd, AE_READABLE, on_accept, s)) goto fail;
     }
     if (cfg->unix_path && *cfg->unix_path) {
-        if ((s->unix_fd = listen_unix(cfg->unix_path)) < 0) goto fail;
+        if ((s->unix_fd = listen_unix(cfg->unix_path, &s->unix_lock_fd)) < 0) goto said;
         if (s->unix_fd >= s->conns_cap || ae_add(s->loop, s->unix_fd, AE_READABLE, on_accept, s)) goto fail;
     }
     s->sig_fd = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
@@ -680,6 +729,7 @@ server *server_create(const server_config *cfg, scene *sc)
     return s;
 fail:
     LOGE("cannot start the server: %s", strerror(errno));
+said: /* the listener said why */
     server_destroy(s);
     return NULL;
 }
@@ -703,6 +753,12 @@ void server_destroy(server *s)
     if (s->unix_fd >= 0) {
         close(s->unix_fd);
         unlink(s->cfg.unix_path);
+    }
+    if (s->unix_lock_fd >= 0) { /* removed while still held: no one is told "taken" by a file going away */
+        char lock[128];
+        snprintf(lock, sizeof lock, "%s.lock", s->cfg.unix_path);
+        unlink(lock);
+        close(s->unix_lock_fd);
     }
     if (s->sig_fd >= 0) close(s->sig_fd);
     if (s->workers) {

@@ -65,6 +65,7 @@ struct server {
     server_config cfg;
     ae_loop *loop;
     int tcp_fd, unix_fd, sig_fd;
+    int unix_lock_fd;       /* --unix PATH.lock, flock'ed while the daemon serves PATH */
     conn **conns;           /* by fd */
     int conns_cap;
     conn **live;            /* dense: the connections, for the tick's sweep */

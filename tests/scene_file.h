@@ -1,5 +1,5 @@
 /*
- * scene_file.h — reader for the test scenes (tests/data/scenes/*.txt, the
+ * scene_file.h — reader for the test scenes (the .txt files in tests/data/scenes, the
  * format in each file's header): a camera, occluder triangles, object AABBs.
  * Used by tests and benchmarks; the daemon's own formats live in daemon/.
  */

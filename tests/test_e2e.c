@@ -30,6 +30,7 @@
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -241,6 +242,64 @@ static void test_batches_all_or_nothing(void **state)
     vt_close(v);
     vt_close(c);
     daemon_stop(&d);
+}
+
+/* --unix PATH held by a live daemon: a second vantaged on the same path
+ * refuses to start, naming the path (before, it took the socket over and
+ * removed it on exit); the first keeps serving on it. A socket file left by
+ * a daemon that died is replaced; a file that is not a socket is never
+ * removed. */
+static void test_unix_socket_clash(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    char args[600], out[4096];
+    snprintf(args, sizeof args, "--port %d --unix %s", free_port(), d.sock);
+    assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "another vantaged"));
+    assert_non_null(strstr(out, d.sock));
+    vt_client *c = connect_role(&d, VP_ROLE_VIEWER, true); /* still the first daemon's */
+    assert_int_equal(vt_ping(c), VP_OK);
+    vt_close(c);
+    daemon_stop(&d);
+
+    tdir td;
+    tdir_make(&td, "vantage_unix_clash");
+    /* a regular file where the socket would go: refused, kept */
+    char file[400];
+    snprintf(file, sizeof file, "%s", tdir_file(&td, "not-a-socket"));
+    FILE *f = fopen(file, "w");
+    assert_non_null(f);
+    fputs("keep me\n", f);
+    fclose(f);
+    snprintf(args, sizeof args, "--port %d --unix %s", free_port(), file);
+    assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "not a socket"));
+    struct stat st;
+    assert_int_equal(stat(file, &st), 0);
+    assert_int_equal(st.st_size, 8);
+    /* a stale socket (bound, never served, its owner gone): replaced */
+    char stale[400];
+    snprintf(stale, sizeof stale, "%s", tdir_file(&td, "stale.sock"));
+    int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    assert_true(strlen(stale) < sizeof sa.sun_path);
+    memcpy(sa.sun_path, stale, strlen(stale) + 1);
+    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    close(fd);
+    daemon_proc d2;
+    daemon_start_args(&d2, (const char *const[]){"--unix", stale, NULL});
+    vt_client *c2 = NULL;
+    assert_int_equal(vt_connect(&(vt_connect_opts){.unix_path = stale, .timeout_ms = 5000}, &c2, NULL, 0), VP_OK);
+    assert_int_equal(vt_ping(c2), VP_OK);
+    vt_close(c2);
+    daemon_stop(&d2);
+    assert_true(access(stale, F_OK) != 0); /* removed on exit, and its lock */
+    char lock[420];
+    snprintf(lock, sizeof lock, "%s.lock", stale);
+    assert_true(access(lock, F_OK) != 0);
+    tdir_remove(&td);
 }
 
 /* Raw bytes on a socket: returns the fd. */
@@ -1617,6 +1676,7 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_batches_all_or_nothing),
     cmocka_unit_test(test_malformed_frames),
     cmocka_unit_test(test_slow_clients_time_out),
+    cmocka_unit_test(test_unix_socket_clash),
     cmocka_unit_test(test_connection_churn),
     cmocka_unit_test(test_concurrent_clients),
     cmocka_unit_test(test_slow_reader_dropped),
