@@ -1,6 +1,7 @@
 # Vantage — build, test and benchmark.
 #
 #   make run               build and start vantaged on the demo city
+#                          (daemon flags: make run VANTAGED_ARGS="--port 7471 --data-dir /tmp/scene")
 #   make demo              the culling core on the city scene (tests/data/scenes) + a short benchmark
 #   make test              unit + property tests (release, then ASan+UBSan),
 #                          the scalar-only build, and a bench smoke run
@@ -230,11 +231,16 @@ $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg e
 # ---- the two commands ---------------------------------------------------------
 run: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
-	@echo "starting vantaged on the demo city (Ctrl-C stops it). In another terminal:"
-	@echo "  build/release/vantage ping"
-	@echo "  build/release/vantage stats"
-	@echo "  build/release/vantage query --eye 0,2,-300 --at 0,2,0"
-	@echo "  build/release/vantage -s /tmp/vantaged.sock watch"
+	@port=7470; sock=/tmp/vantaged.sock; bind=127.0.0.1; set -- $(VANTAGED_ARGS); \
+	while [ $$# -gt 0 ]; do case "$$1" in \
+	  --port) port=$$2; shift ;; --port=*) port=$${1#--port=} ;; \
+	  --bind) bind=$$2; shift ;; --bind=*) bind=$${1#--bind=} ;; \
+	  --unix) sock=$$2; shift ;; --unix=*) sock=$${1#--unix=} ;; esac; shift; done; \
+	c=build/release/vantage; [ "$$bind" = 127.0.0.1 ] || c="$$c -h $$bind"; [ "$$port" = 7470 ] || c="$$c -p $$port"; \
+	[ -n "$$bind" ] || c="build/release/vantage -s $$sock"; \
+	echo "starting vantaged $(VANTAGED_ARGS) (Ctrl-C stops it; daemon flags: make run VANTAGED_ARGS=\"...\"). In another terminal:"; \
+	echo "  $$c ping"; echo "  $$c stats"; echo "  $$c query --eye 0,2,-300 --at 0,2,0"; \
+	if [ -n "$$sock" ]; then echo "  build/release/vantage -s $$sock watch"; else echo "  $$c watch"; fi
 	./build/release/vantaged $(VANTAGED_ARGS)
 
 # the culling core on the city scene (tests/data/scenes), then a short benchmark
