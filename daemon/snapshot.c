@@ -61,6 +61,11 @@ static void flush(out *o)
 static void put(out *o, const void *p, size_t n)
 {
     const uint8_t *b = p;
+    /* an empty piece may come with a NULL pointer (a sub-level with no
+       members yet), and zlib's crc32(c, NULL, 0) does not return c: it
+       returns 0, the initial value, which silently restarted the running
+       CRC and made every snapshot holding such a piece unreadable */
+    if (!n) return;
     o->crc = crc32(o->crc, b, (uInt)n); /* n < 4 GiB: every piece is */
     o->total += n;
     while (n) {
