@@ -536,9 +536,47 @@ static int cut_tail(const char *path, const mapped *m, size_t off, char *kept, s
     return rc;
 }
 
+/* Whether an intact record with a sequence number of at least seq starts
+ * anywhere in p[from, n): a length that fits, the sequence number, the
+ * CRC. Every byte offset is tried, so a damaged length field (which puts
+ * the next record somewhere the walk does not look) hides nothing. Cost:
+ * one compare per byte, a CRC only where an 8-byte sequence number in
+ * range sits, so about the file's size in memory reads. */
+static bool intact_after(const uint8_t *p, size_t n, size_t from, uint64_t seq, size_t *at, uint64_t *got)
+{
+    for (size_t q = from; q + REC_HDR <= n; q++) {
+        const uint8_t *r = p + q;
+        uint64_t s = get64(r + 8);
+        uint32_t len = get32(r);
+        /* a record's seq is at most one per REC_HDR bytes past seq */
+        if (s < seq || s - seq > (n - from) / REC_HDR + 1 || len > REC_MAX || len > n - q - REC_HDR) continue;
+        if (get32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) continue;
+        *at = q;
+        *got = s;
+        return true;
+    }
+    return false;
+}
+
 /* Replays journal.<gen> into sc. Its first record must be seq *seq; *seq
- * ends one past its last. A bad record in the last file is cut (rep);
- * elsewhere, or a record the scene refuses, is an error. */
+ * ends one past its last. A record the scene refuses is an error, and so
+ * is any damage, except a torn end of the last file, which is cut (rep).
+ *
+ * What a torn end can look like: the writer appends each record with one
+ * writev at the end of the file and never rewrites a byte, so a crash (of
+ * the daemon: the page cache keeps every completed write; of the machine:
+ * the unsynced end may come back short, zero-filled or with old garbage)
+ * leaves intact records, then at most one stretch of bytes that are not a
+ * record, reaching to the end of the file. A damaged record that is
+ * followed by an intact record (any offset, any later sequence number)
+ * is therefore not a torn end: it is damage inside the journal (a flipped
+ * bit, a bad sector, a length field hit so that the walk would step over
+ * good records), and cutting there would silently drop acknowledged
+ * edits. Recovery refuses instead, naming the file and the offset; the
+ * operator decides. The one case this refuses that a crash could make: a
+ * machine crash under everysec or off whose page writeback reached the
+ * disk out of order (a hole, then later records); those records were
+ * never synced, and refusing still loses nothing silently. */
 static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t *seq, journal_report *rep,
                        char *err, size_t errlen)
 {
@@ -561,7 +599,7 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
     if (why) {
         /* a header is written and synced before any record: a bad one
            means the file is not ours or the disk lied */
-        snprintf(err, errlen, "%s: %s", path, why);
+        snprintf(err, errlen, "%s: %s (its header, offset 0)", path, why);
         unmap_file(&m);
         free(path);
         return -1;
@@ -606,7 +644,16 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
         rep->bytes += REC_HDR + len;
         off += REC_HDR + len;
     }
-    if (!ret && why) {
+    size_t later_at = 0;
+    uint64_t later_seq = 0;
+    if (!ret && why && intact_after(m.p, m.n, off + 1, *seq, &later_at, &later_seq)) {
+        snprintf(err, errlen,
+                 "%s: %s at offset %zu (record %" PRIu64 "), and an intact record (%" PRIu64 ") follows at offset "
+                 "%zu: the damage is inside the journal, not a torn end, and cutting it would drop acknowledged "
+                 "edits; move the files aside to start anyway",
+                 path, why, off, *seq, later_seq, later_at);
+        ret = -1;
+    } else if (!ret && why) {
         if (!last) {
             snprintf(err, errlen,
                      "%s: %s at offset %zu, and a later journal follows it: the damage is not a torn end; move "

@@ -17,10 +17,12 @@
  * Files in the directory: journal.<gen> (records since snapshot.<gen>),
  * snapshot.<gen> (the scene as of the start of journal.<gen>), LOCK. On
  * open the newest complete snapshot is loaded and every journal from its
- * generation on is replayed through edit_apply; a record that is torn or
- * fails its CRC at the end of the last journal is cut off (the bytes are
- * kept in journal.<gen>.cut-<offset>) and reported; damage anywhere else
- * stops the daemon with the file and offset named.
+ * generation on is replayed through edit_apply. A torn end of the last
+ * journal (a record that is incomplete or fails its CRC, with no intact
+ * record anywhere after it) is cut off (the bytes are kept in
+ * journal.<gen>.cut-<offset>) and reported; any other damage (a damaged
+ * record with an intact one after it, a bad header, a damaged snapshot)
+ * stops the daemon with the file and offset named (journal.c, replay_file).
  */
 #ifndef VANTAGE_JOURNAL_H
 #define VANTAGE_JOURNAL_H
