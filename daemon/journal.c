@@ -55,6 +55,7 @@ struct journal {
     uint64_t gen;           /* of the journal being written */
     uint64_t seq;           /* the next record's */
     uint64_t size;          /* bytes in the file */
+    uint64_t synced;        /* of them known on disk (the last sync that succeeded) */
     uint64_t last_start;    /* where the last append began (journal_cancel) */
     uint64_t base_bytes;    /* the last snapshot's size: compaction waits for 2x it */
     uint64_t limit;
@@ -65,7 +66,7 @@ struct journal {
     bool syncer_on, stop;
     pthread_mutex_t mu;
     pthread_cond_t cv;
-    atomic_int sync_err;    /* errno of a failed background sync, 0 = none */
+    atomic_int sync_err;    /* errno of a failed sync (the loop's, the thread's), 0 = none */
     /* a snapshot being written by a child */
     pid_t child;
     uint64_t child_gen;
@@ -131,6 +132,27 @@ static int sync_dir(const char *dir)
     return rc;
 }
 
+/* ---- syncing ------------------------------------------------------------------------ */
+
+/* fdatasync of the journal. A test's knob (as VANTAGED_SNAPSHOT_DELAY_MS):
+ * VANTAGED_FAIL_SYNC=N makes the Nth sync of the journal (the loop's, the
+ * thread's, a snapshot's) fail with EIO, as a disk that loses a write
+ * would; there is no other way to make fdatasync fail without root. */
+static int jsync(int fd)
+{
+    static atomic_long calls;
+    static long fail_at = -1;
+    if (fail_at < 0) {
+        const char *v = getenv("VANTAGED_FAIL_SYNC");
+        fail_at = v ? strtol(v, NULL, 10) : 0;
+    }
+    if (fail_at > 0 && atomic_fetch_add(&calls, 1) + 1 == fail_at) {
+        errno = EIO;
+        return -1;
+    }
+    return fdatasync(fd);
+}
+
 /* ---- the everysec syncer ------------------------------------------------------------ */
 
 static void *syncer_main(void *arg)
@@ -147,10 +169,19 @@ static void *syncer_main(void *arg)
            file meanwhile and close the old one */
         int fd = dup(j->fd);
         pthread_mutex_unlock(&j->mu);
-        if (fd >= 0) {
-            if (fdatasync(fd) && !atomic_load(&j->sync_err)) atomic_store(&j->sync_err, errno ? errno : EIO);
-            close(fd);
+        if (fd >= 0 && jsync(fd)) {
+            /* what the kernel failed to write it may have dropped (and
+               marked clean): retrying could "succeed" over lost pages, and
+               the edits are acknowledged and served. Like PostgreSQL's
+               PANIC, stop now; the restart replays what the disk holds
+               (a torn end cut, a hole refused with its offset) */
+            int e = errno ? errno : EIO;
+            LOGE("journal: the background sync failed (%s): the journal on disk is in an unknown state; exiting. "
+                 "Restart to recover what %s holds",
+                 strerror(e), j->dir);
+            _exit(1);
         }
+        if (fd >= 0) close(fd);
         pthread_mutex_lock(&j->mu);
     }
     pthread_mutex_unlock(&j->mu);
@@ -190,7 +221,7 @@ static int start_file(journal *j, uint64_t gen, uint64_t seq)
     if (old >= 0) close(old);
     j->gen = gen;
     j->seq = seq;
-    j->size = j->last_start = HDR_SIZE;
+    j->size = j->last_start = j->synced = HDR_SIZE;
     j->dirty = false;
     return 0;
 }
@@ -199,13 +230,6 @@ static int start_file(journal *j, uint64_t gen, uint64_t seq)
 static int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux, const uint8_t *p, uint32_t len)
 {
     if (j->broken[0]) return -EROFS;
-    int e = atomic_load(&j->sync_err);
-    if (e) {
-        char why[200];
-        snprintf(why, sizeof why, "the journal could not be synced: %s", strerror(e));
-        journal_break(j, why);
-        return -e;
-    }
     uint8_t h[REC_HDR];
     put32(h, len);
     put64(h + 8, j->seq);
@@ -295,15 +319,29 @@ bool journal_dirty(const journal *j)
 int journal_sync(journal *j)
 {
     if (!j->dirty) return 0;
-    if (fdatasync(j->fd)) {
-        int e = errno;
-        char why[200];
-        snprintf(why, sizeof why, "the journal could not be synced: %s", strerror(e));
-        journal_break(j, why);
+    if (jsync(j->fd)) {
+        int e = errno ? errno : EIO;
+        /* the records since the last good sync were answered to no one
+           and seen by no one (the loop holds every reply while the
+           journal is dirty): they are taken back off the file, best
+           effort, so that the restart does not find them either */
+        bool cut = !ftruncate(j->fd, (off_t)j->synced) && !fdatasync(j->fd);
+        if (cut) j->size = j->last_start = j->synced;
+        char why[240];
+        snprintf(why, sizeof why, "the journal could not be synced (%s); its unsynced records %s", strerror(e),
+                 cut ? "were cut back off it" : "may or may not be on disk");
+        snprintf(j->broken, sizeof j->broken, "%s", why); /* the loop exits on it: no "reads go on" log */
+        atomic_store(&j->sync_err, e);
         return -e;
     }
     j->dirty = false;
+    j->synced = j->size;
     return 0;
+}
+
+int journal_sync_error(const journal *j)
+{
+    return atomic_load(&((journal *)(uintptr_t)j)->sync_err);
 }
 
 const char *journal_broken(const journal *j)
@@ -341,8 +379,16 @@ int journal_snapshot(journal *j, const scene *sc)
     if (j->child) return -EBUSY;
     /* what the child writes is the scene as of now, which is the journal
        up to here: later records go to the next generation's file */
-    if (fdatasync(j->fd)) return -errno;
+    if (jsync(j->fd)) {
+        int e = errno ? errno : EIO;
+        char why[200];
+        snprintf(why, sizeof why, "the journal could not be synced before a snapshot: %s", strerror(e));
+        journal_break(j, why);
+        atomic_store(&j->sync_err, e);
+        return -e;
+    }
     j->dirty = false;
+    j->synced = j->size;
     uint64_t gen = j->gen + 1;
     int rc = start_file(j, gen, j->seq);
     if (rc) return rc;
@@ -674,7 +720,7 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
             }
         }
     }
-    if (!ret && last) j->size = off;
+    if (!ret && last) j->size = j->synced = off;
     unmap_file(&m);
     free(path);
     return ret;

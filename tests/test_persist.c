@@ -692,6 +692,90 @@ static void test_persist_write_error(void **state)
     tdir_remove(&td);
 }
 
+/* ---- a failed sync ------------------------------------------------------------------------------ */
+
+typedef struct watcher {
+    vt_client *c;
+    volatile bool stop;
+    uint32_t most, replies; /* entities, the most any reply showed; replies */
+} watcher;
+
+static void *watcher_main(void *arg)
+{
+    watcher *w = arg;
+    vp_stats_reply st;
+    while (!w->stop && vt_stats(w->c, &st) == VP_OK) {
+        if (st.entities > w->most) w->most = st.entities;
+        w->replies++;
+    }
+    return NULL;
+}
+
+/* Issue 18, item 8, last bullet: a failed fdatasync (policy always; the
+ * 3rd sync fails with EIO through the VANTAGED_FAIL_SYNC knob) left the
+ * edit unacknowledged, but visible to readers and there after a restart,
+ * and the daemon serving on. Now (PostgreSQL's rule: a failed fsync is not
+ * retried, the pages may be gone): no reader ever sees the edit (replies
+ * wait for the turn's sync), its record is cut back off the journal, and
+ * the daemon exits with status 1; the restart has exactly the synced
+ * edits. */
+static void test_persist_sync_failure_stops(void **state)
+{
+    (void)state;
+    tdir td;
+    char dir[320];
+    data_dir_make(&td, "persist-sync", dir);
+    daemon_proc d;
+    setenv("VANTAGED_FAIL_SYNC", "3", 1);
+    start_dd(&d, dir, "always", "64");
+    unsetenv("VANTAGED_FAIL_SYNC");
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+    watcher w = {.c = connect_role(&d, VP_ROLE_VIEWER, true)};
+    vp_entity e[10];
+    for (uint64_t b = 0; b < 2; b++) {
+        for (int k = 0; k < 10; k++) e[k] = ent(1 + b * 10 + (uint64_t)k, (double)k, (double)b, 0.5, 0, 1);
+        assert_int_equal(vt_add(c, e, 10, NULL, NULL), VP_OK);
+    }
+    pthread_t th;
+    pthread_create(&th, NULL, watcher_main, &w);
+    usleep(20000);
+    for (int k = 0; k < 10; k++) e[k] = ent(21 + (uint64_t)k, (double)k, 2, 0.5, 0, 1);
+    int rc = vt_add(c, e, 10, NULL, NULL); /* its sync fails */
+    int st = 0, waited = 0;
+    pid_t r = 0;
+    for (; waited < 500 && (r = waitpid(d.pid, &st, WNOHANG)) == 0; waited++) usleep(10000);
+    w.stop = true;
+    pthread_join(th, NULL);
+    printf("persist: a failed sync: the edit answered %s; %u viewer replies, the most entities any showed %u; "
+           "daemon %s %d\n", vp_strerror(rc), w.replies, w.most, r > 0 && WIFEXITED(st) ? "exited" : "still up or killed",
+           r > 0 && WIFEXITED(st) ? WEXITSTATUS(st) : -1);
+    if (r == 0) { /* the old daemon served on: stop it for the next test */
+        kill(d.pid, SIGKILL);
+        waitpid(d.pid, &st, 0);
+    }
+    unlink(d.sock);
+    assert_int_not_equal(rc, VP_OK);
+    assert_true(w.replies > 0);
+    assert_int_equal(w.most, 20); /* no reader saw the unsynced edit */
+    assert_true(r > 0 && WIFEXITED(st) && WEXITSTATUS(st) == 1);
+    vt_close(c);
+    vt_close(w.c);
+    /* the restart: the two synced batches, not the third */
+    start_dd(&d, dir, "always", "64");
+    c = connect_role(&d, VP_ROLE_EDITOR, true);
+    vp_stats_reply sr;
+    assert_int_equal(vt_stats(c, &sr), VP_OK);
+    assert_int_equal(sr.entities, 20);
+    vp_list_reply lr;
+    assert_int_equal(vt_get(c, (uint64_t[]){21}, 1, &lr), VP_ERR_UNKNOWN_ID);
+    /* and it takes edits again */
+    assert_int_equal(vt_add(c, e, 10, NULL, NULL), VP_OK);
+    vt_close(c);
+    daemon_stop(&d);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
 /* A snapshot child that ends while the daemon is idle (no client sends a
  * byte after the edit that started it) is put in place all the same: the
  * child's exit wakes the loop. The child is held back 300 ms, so the loop
@@ -768,5 +852,6 @@ const struct CMUnitTest persist_tests[] = {
     cmocka_unit_test(test_persist_torn_tail_cut),
     cmocka_unit_test(test_persist_mid_journal_flip_refused),
     cmocka_unit_test(test_persist_write_error),
+    cmocka_unit_test(test_persist_sync_failure_stops),
 };
 const size_t persist_tests_count = sizeof persist_tests / sizeof persist_tests[0];
