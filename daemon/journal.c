@@ -139,15 +139,12 @@ static int sync_dir(const char *dir)
  * VANTAGED_FAIL_SYNC=N makes the Nth sync of the journal (the loop's, the
  * thread's, a snapshot's) fail with EIO, as a disk that loses a write
  * would; there is no other way to make fdatasync fail without root. */
+static atomic_long sync_calls, sync_fail_at; /* set by journal_open, before the syncer thread starts */
+
 static int jsync(int fd)
 {
-    static atomic_long calls;
-    static long fail_at = -1;
-    if (fail_at < 0) {
-        const char *v = getenv("VANTAGED_FAIL_SYNC");
-        fail_at = v ? strtol(v, NULL, 10) : 0;
-    }
-    if (fail_at > 0 && atomic_fetch_add(&calls, 1) + 1 == fail_at) {
+    long at = atomic_load(&sync_fail_at);
+    if (at > 0 && atomic_fetch_add(&sync_calls, 1) + 1 == at) {
         errno = EIO;
         return -1;
     }
@@ -745,6 +742,9 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
     /* a test's knob (as VANTAGED_SNAPSHOT_DELAY_MS): a snapshot as soon as
        the journal holds a record and none is being written, so a test can
        restore a snapshot taken at every point of a session */
+    const char *fail = getenv("VANTAGED_FAIL_SYNC");
+    atomic_store(&sync_fail_at, fail ? strtol(fail, NULL, 10) : 0);
+    atomic_store(&sync_calls, 0);
     const char *each = getenv("VANTAGED_SNAPSHOT_EACH_TURN");
     j->each_turn = each && *each && strcmp(each, "0");
     pthread_mutex_init(&j->mu, NULL);
