@@ -382,7 +382,7 @@ int journal_snapshot(journal *j, const scene *sc)
         int e = errno ? errno : EIO;
         char why[200];
         snprintf(why, sizeof why, "the journal could not be synced before a snapshot: %s", strerror(e));
-        journal_break(j, why);
+        snprintf(j->broken, sizeof j->broken, "%s", why); /* the loop exits on it (journal_sync_error) */
         atomic_store(&j->sync_err, e);
         return -e;
     }
@@ -739,9 +739,10 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
     j->policy = policy;
     j->fd = j->lock_fd = -1;
     j->limit = DEFAULT_LIMIT;
-    /* a test's knob (as VANTAGED_SNAPSHOT_DELAY_MS): a snapshot as soon as
-       the journal holds a record and none is being written, so a test can
-       restore a snapshot taken at every point of a session */
+    /* tests' knobs (as VANTAGED_SNAPSHOT_DELAY_MS): the Nth sync fails
+       (jsync); a snapshot as soon as the journal holds a record and none is
+       being written, so a test can restore a snapshot taken at every point
+       of a session */
     const char *fail = getenv("VANTAGED_FAIL_SYNC");
     atomic_store(&sync_fail_at, fail ? strtol(fail, NULL, 10) : 0);
     atomic_store(&sync_calls, 0);
