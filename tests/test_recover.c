@@ -29,6 +29,7 @@
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #if defined(__SANITIZE_ADDRESS__)
 #define UNDER_ASAN 1
@@ -370,6 +371,114 @@ static void test_recover_snapshot_sublevel_name(void **state)
     g_log_level = lvl;
 }
 
+/* ---- format 1 snapshots -------------------------------------------------------------------------- */
+
+/* Rewrites a format 2 snapshot as format 1 wrote it (the hidden bitmap and
+ * the class owners whole), from the layout in snapshot.c's header. */
+static blob snapshot_v1(const blob *v2)
+{
+    const uint8_t *p = v2->p + 40;
+    size_t at = 24;
+    uint32_t nsl;
+    memcpy(&nsl, p + at, 4);
+    at += 4;
+    for (uint32_t i = 0; i < nsl; i++) {
+        uint32_t n;
+        at += 1 + p[at];      /* name */
+        at += 1 + 4 + 2 + 2 + 4; /* state, owner, class base, classes, capacity */
+        memcpy(&n, p + at, 4);
+        at += 4 + (size_t)n * 8; /* members */
+        memcpy(&n, p + at, 4);
+        at += 8 + (size_t)n * 8; /* doomed, doomed done, ids */
+    }
+    size_t sl_end = at; /* format 1 and 2 differ from here to the meshes */
+    uint64_t hidden[CULL_SUBLEVEL_WORDS] = {0};
+    uint16_t *owner = calloc(65536, 2);
+    uint32_t n, nhidden, unloading;
+    memcpy(&n, p + at, 4);
+    at += 4;
+    for (uint32_t i = 0; i < n; i++, at += 12) {
+        uint32_t w;
+        memcpy(&w, p + at, 4);
+        memcpy(&hidden[w], p + at + 4, 8);
+    }
+    memcpy(&nhidden, p + at, 4);
+    memcpy(&unloading, p + at + 4, 4);
+    memcpy(&n, p + at + 8, 4);
+    at += 12;
+    for (uint32_t i = 0; i < n; i++, at += 4) {
+        uint16_t c;
+        memcpy(&c, p + at, 2);
+        memcpy(&owner[c], p + at + 2, 2);
+    }
+    size_t rest = v2->n - 40 - at;
+    size_t body = sl_end + sizeof hidden + 8 + 65536 * 2 + rest;
+    blob b = {malloc(40 + body), 40 + body};
+    uint8_t *q = b.p + 40;
+    memcpy(q, p, sl_end);
+    memcpy(q + sl_end, hidden, sizeof hidden);
+    memcpy(q + sl_end + sizeof hidden, &nhidden, 4);
+    memcpy(q + sl_end + sizeof hidden + 4, &unloading, 4);
+    memcpy(q + sl_end + sizeof hidden + 8, owner, 65536 * 2);
+    memcpy(q + sl_end + sizeof hidden + 8 + 65536 * 2, p + at, rest);
+    free(owner);
+    memcpy(b.p, v2->p, 40);
+    memcpy(b.p, "VNTSNAP1", 8);
+    uint64_t bl = body;
+    memcpy(b.p + 24, &bl, 8);
+    uint32_t bc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), q, (uInt)body);
+    memcpy(b.p + 32, &bc, 4);
+    uint32_t hc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), b.p, 36);
+    memcpy(b.p + 36, &hc, 4);
+    return b;
+}
+
+/* A format 1 snapshot (what the daemon wrote before format 2) is still
+ * read, into the same scene: the session's snapshot, with sub-levels,
+ * classes reserved, hidden (loading) and unloading sub-levels, rewritten
+ * as format 1 wrote it. */
+static void test_recover_snapshot_format1(void **state)
+{
+    (void)state;
+    int lvl = g_log_level;
+    g_log_level = LOG_ERROR;
+    char dir[256];
+    scratch_make(dir, "recover-v1");
+    sess *s = malloc(sizeof *s);
+    sess_open(s, dir);
+    script_a(s);
+    script_b(s); /* an unload half done, a load open: both in the bitmap */
+    assert_true(s->sc.nhidden > 0 && s->sc.unloading > 0);
+    blob want = scene_bytes(&s->sc);
+    int fd = memfd_create("v2", MFD_CLOEXEC);
+    assert_int_equal(snapshot_write(fd, &s->sc, 5, 77), 0);
+    sess_close(s);
+    free(s);
+    off_t end = lseek(fd, 0, SEEK_END);
+    blob v2 = {malloc((size_t)end), (size_t)end};
+    assert_int_equal(pread(fd, v2.p, v2.n, 0), end);
+    close(fd);
+    blob v1 = snapshot_v1(&v2);
+    assert_true(v1.n > v2.n + 130000);
+    scene *sc = malloc(sizeof *sc);
+    assert_int_equal(scene_init(sc, 64, &LIMITS), 0);
+    uint64_t seq = 0;
+    char err[400];
+    if (snapshot_load(v1.p, v1.n, sc, 5, &seq, err, sizeof err)) fail_msg("format 1: %s", err);
+    assert_int_equal(seq, 77);
+    blob got = scene_bytes(sc);
+    assert_int_equal(got.n, want.n);
+    assert_memory_equal(got.p, want.p, want.n);
+    scene_free(sc);
+    free(sc);
+    free(got.p);
+    free(want.p);
+    free(v1.p);
+    free(v2.p);
+    dir_remove(dir);
+    g_log_level = lvl;
+}
+
 /* ---- every bit, every truncation -------------------------------------------------------------- */
 
 typedef struct damage_run {
@@ -586,6 +695,7 @@ static void test_recover_every_bit(void **state)
 
 const struct CMUnitTest recover_tests[] = {
     cmocka_unit_test(test_recover_snapshot_sublevel_name),
+    cmocka_unit_test(test_recover_snapshot_format1),
     cmocka_unit_test(test_recover_every_bit),
 };
 const size_t recover_tests_count = sizeof recover_tests / sizeof recover_tests[0];
