@@ -55,9 +55,11 @@ struct journal {
     uint64_t gen;           /* of the journal being written */
     uint64_t seq;           /* the next record's */
     uint64_t size;          /* bytes in the file */
+    uint64_t synced;        /* of them known on disk (the last sync that succeeded) */
     uint64_t last_start;    /* where the last append began (journal_cancel) */
     uint64_t base_bytes;    /* the last snapshot's size: compaction waits for 2x it */
     uint64_t limit;
+    bool each_turn;         /* VANTAGED_SNAPSHOT_EACH_TURN: a snapshot after every turn with records */
     bool dirty;
     char broken[300];
     /* everysec: a thread syncs the current file once a second */
@@ -65,7 +67,7 @@ struct journal {
     bool syncer_on, stop;
     pthread_mutex_t mu;
     pthread_cond_t cv;
-    atomic_int sync_err;    /* errno of a failed background sync, 0 = none */
+    atomic_int sync_err;    /* errno of a failed sync (the loop's, the thread's), 0 = none */
     /* a snapshot being written by a child */
     pid_t child;
     uint64_t child_gen;
@@ -131,6 +133,24 @@ static int sync_dir(const char *dir)
     return rc;
 }
 
+/* ---- syncing ------------------------------------------------------------------------ */
+
+/* fdatasync of the journal. A test's knob (as VANTAGED_SNAPSHOT_DELAY_MS):
+ * VANTAGED_FAIL_SYNC=N makes the Nth sync of the journal (the loop's, the
+ * thread's, a snapshot's) fail with EIO, as a disk that loses a write
+ * would; there is no other way to make fdatasync fail without root. */
+static atomic_long sync_calls, sync_fail_at; /* set by journal_open, before the syncer thread starts */
+
+static int jsync(int fd)
+{
+    long at = atomic_load(&sync_fail_at);
+    if (at > 0 && atomic_fetch_add(&sync_calls, 1) + 1 == at) {
+        errno = EIO;
+        return -1;
+    }
+    return fdatasync(fd);
+}
+
 /* ---- the everysec syncer ------------------------------------------------------------ */
 
 static void *syncer_main(void *arg)
@@ -147,10 +167,19 @@ static void *syncer_main(void *arg)
            file meanwhile and close the old one */
         int fd = dup(j->fd);
         pthread_mutex_unlock(&j->mu);
-        if (fd >= 0) {
-            if (fdatasync(fd) && !atomic_load(&j->sync_err)) atomic_store(&j->sync_err, errno ? errno : EIO);
-            close(fd);
+        if (fd >= 0 && jsync(fd)) {
+            /* what the kernel failed to write it may have dropped (and
+               marked clean): retrying could "succeed" over lost pages, and
+               the edits are acknowledged and served. Like PostgreSQL's
+               PANIC, stop now; the restart replays what the disk holds
+               (a torn end cut, a hole refused with its offset) */
+            int e = errno ? errno : EIO;
+            LOGE("journal: the background sync failed (%s): the journal on disk is in an unknown state; exiting. "
+                 "Restart to recover what %s holds",
+                 strerror(e), j->dir);
+            _exit(1);
         }
+        if (fd >= 0) close(fd);
         pthread_mutex_lock(&j->mu);
     }
     pthread_mutex_unlock(&j->mu);
@@ -190,7 +219,7 @@ static int start_file(journal *j, uint64_t gen, uint64_t seq)
     if (old >= 0) close(old);
     j->gen = gen;
     j->seq = seq;
-    j->size = j->last_start = HDR_SIZE;
+    j->size = j->last_start = j->synced = HDR_SIZE;
     j->dirty = false;
     return 0;
 }
@@ -199,13 +228,6 @@ static int start_file(journal *j, uint64_t gen, uint64_t seq)
 static int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux, const uint8_t *p, uint32_t len)
 {
     if (j->broken[0]) return -EROFS;
-    int e = atomic_load(&j->sync_err);
-    if (e) {
-        char why[200];
-        snprintf(why, sizeof why, "the journal could not be synced: %s", strerror(e));
-        journal_break(j, why);
-        return -e;
-    }
     uint8_t h[REC_HDR];
     put32(h, len);
     put64(h + 8, j->seq);
@@ -295,15 +317,29 @@ bool journal_dirty(const journal *j)
 int journal_sync(journal *j)
 {
     if (!j->dirty) return 0;
-    if (fdatasync(j->fd)) {
-        int e = errno;
-        char why[200];
-        snprintf(why, sizeof why, "the journal could not be synced: %s", strerror(e));
-        journal_break(j, why);
+    if (jsync(j->fd)) {
+        int e = errno ? errno : EIO;
+        /* the records since the last good sync were answered to no one
+           and seen by no one (the loop holds every reply while the
+           journal is dirty): they are taken back off the file, best
+           effort, so that the restart does not find them either */
+        bool cut = !ftruncate(j->fd, (off_t)j->synced) && !fdatasync(j->fd);
+        if (cut) j->size = j->last_start = j->synced;
+        char why[240];
+        snprintf(why, sizeof why, "the journal could not be synced (%s); its unsynced records %s", strerror(e),
+                 cut ? "were cut back off it" : "may or may not be on disk");
+        snprintf(j->broken, sizeof j->broken, "%s", why); /* the loop exits on it: no "reads go on" log */
+        atomic_store(&j->sync_err, e);
         return -e;
     }
     j->dirty = false;
+    j->synced = j->size;
     return 0;
+}
+
+int journal_sync_error(const journal *j)
+{
+    return atomic_load(&((journal *)(uintptr_t)j)->sync_err);
 }
 
 const char *journal_broken(const journal *j)
@@ -333,6 +369,7 @@ void journal_set_limit(journal *j, uint64_t bytes)
 bool journal_wants_snapshot(const journal *j)
 {
     uint64_t need = j->limit > 2 * j->base_bytes ? j->limit : 2 * j->base_bytes;
+    if (j->each_turn) need = HDR_SIZE;
     return !j->child && !j->broken[0] && j->size > need;
 }
 
@@ -341,8 +378,16 @@ int journal_snapshot(journal *j, const scene *sc)
     if (j->child) return -EBUSY;
     /* what the child writes is the scene as of now, which is the journal
        up to here: later records go to the next generation's file */
-    if (fdatasync(j->fd)) return -errno;
+    if (jsync(j->fd)) {
+        int e = errno ? errno : EIO;
+        char why[200];
+        snprintf(why, sizeof why, "the journal could not be synced before a snapshot: %s", strerror(e));
+        snprintf(j->broken, sizeof j->broken, "%s", why); /* the loop exits on it (journal_sync_error) */
+        atomic_store(&j->sync_err, e);
+        return -e;
+    }
     j->dirty = false;
+    j->synced = j->size;
     uint64_t gen = j->gen + 1;
     int rc = start_file(j, gen, j->seq);
     if (rc) return rc;
@@ -536,9 +581,47 @@ static int cut_tail(const char *path, const mapped *m, size_t off, char *kept, s
     return rc;
 }
 
+/* Whether an intact record with a sequence number of at least seq starts
+ * anywhere in p[from, n): a length that fits, the sequence number, the
+ * CRC. Every byte offset is tried, so a damaged length field (which puts
+ * the next record somewhere the walk does not look) hides nothing. Cost:
+ * one compare per byte, a CRC only where an 8-byte sequence number in
+ * range sits, so about the file's size in memory reads. */
+static bool intact_after(const uint8_t *p, size_t n, size_t from, uint64_t seq, size_t *at, uint64_t *got)
+{
+    for (size_t q = from; q + REC_HDR <= n; q++) {
+        const uint8_t *r = p + q;
+        uint64_t s = get64(r + 8);
+        uint32_t len = get32(r);
+        /* a record's seq is at most one per REC_HDR bytes past seq */
+        if (s < seq || s - seq > (n - from) / REC_HDR + 1 || len > REC_MAX || len > n - q - REC_HDR) continue;
+        if (get32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) continue;
+        *at = q;
+        *got = s;
+        return true;
+    }
+    return false;
+}
+
 /* Replays journal.<gen> into sc. Its first record must be seq *seq; *seq
- * ends one past its last. A bad record in the last file is cut (rep);
- * elsewhere, or a record the scene refuses, is an error. */
+ * ends one past its last. A record the scene refuses is an error, and so
+ * is any damage, except a torn end of the last file, which is cut (rep).
+ *
+ * What a torn end can look like: the writer appends each record with one
+ * writev at the end of the file and never rewrites a byte, so a crash (of
+ * the daemon: the page cache keeps every completed write; of the machine:
+ * the unsynced end may come back short, zero-filled or with old garbage)
+ * leaves intact records, then at most one stretch of bytes that are not a
+ * record, reaching to the end of the file. A damaged record that is
+ * followed by an intact record (any offset, any later sequence number)
+ * is therefore not a torn end: it is damage inside the journal (a flipped
+ * bit, a bad sector, a length field hit so that the walk would step over
+ * good records), and cutting there would silently drop acknowledged
+ * edits. Recovery refuses instead, naming the file and the offset; the
+ * operator decides. The one case this refuses that a crash could make: a
+ * machine crash under everysec or off whose page writeback reached the
+ * disk out of order (a hole, then later records); those records were
+ * never synced, and refusing still loses nothing silently. */
 static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t *seq, journal_report *rep,
                        char *err, size_t errlen)
 {
@@ -561,7 +644,7 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
     if (why) {
         /* a header is written and synced before any record: a bad one
            means the file is not ours or the disk lied */
-        snprintf(err, errlen, "%s: %s", path, why);
+        snprintf(err, errlen, "%s: %s (its header, offset 0)", path, why);
         unmap_file(&m);
         free(path);
         return -1;
@@ -606,7 +689,16 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
         rep->bytes += REC_HDR + len;
         off += REC_HDR + len;
     }
-    if (!ret && why) {
+    size_t later_at = 0;
+    uint64_t later_seq = 0;
+    if (!ret && why && intact_after(m.p, m.n, off + 1, *seq, &later_at, &later_seq)) {
+        snprintf(err, errlen,
+                 "%s: %s at offset %zu (record %" PRIu64 "), and an intact record (%" PRIu64 ") follows at offset "
+                 "%zu: the damage is inside the journal, not a torn end, and cutting it would drop acknowledged "
+                 "edits; move the files aside to start anyway",
+                 path, why, off, *seq, later_seq, later_at);
+        ret = -1;
+    } else if (!ret && why) {
         if (!last) {
             snprintf(err, errlen,
                      "%s: %s at offset %zu, and a later journal follows it: the damage is not a torn end; move "
@@ -627,7 +719,7 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
             }
         }
     }
-    if (!ret && last) j->size = off;
+    if (!ret && last) j->size = j->synced = off;
     unmap_file(&m);
     free(path);
     return ret;
@@ -647,6 +739,15 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
     j->policy = policy;
     j->fd = j->lock_fd = -1;
     j->limit = DEFAULT_LIMIT;
+    /* tests' knobs (as VANTAGED_SNAPSHOT_DELAY_MS): the Nth sync fails
+       (jsync); a snapshot as soon as the journal holds a record and none is
+       being written, so a test can restore a snapshot taken at every point
+       of a session */
+    const char *fail = getenv("VANTAGED_FAIL_SYNC");
+    atomic_store(&sync_fail_at, fail ? strtol(fail, NULL, 10) : 0);
+    atomic_store(&sync_calls, 0);
+    const char *each = getenv("VANTAGED_SNAPSHOT_EACH_TURN");
+    j->each_turn = each && *each && strcmp(each, "0");
     pthread_mutex_init(&j->mu, NULL);
     pthread_cond_init(&j->cv, NULL);
     gens snaps = {0}, jrns = {0};

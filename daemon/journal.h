@@ -8,7 +8,9 @@
  * untouched, and an edit the scene rejects is cut back off the file. When
  * the record reaches the disk depends on the policy:
  *   always    the loop syncs (fdatasync) once per turn, before any reply of
- *             that turn leaves: group commit, an ACK means on disk;
+ *             that turn leaves (every reply, not only the edits' answers:
+ *             no one sees an edit before it is on disk): group commit, an
+ *             ACK means on disk;
  *   everysec  a thread syncs once a second: a crash of the machine loses
  *             at most about a second of edits, a crash of the daemon none;
  *   off       the kernel writes back when it likes (a daemon crash loses
@@ -17,10 +19,12 @@
  * Files in the directory: journal.<gen> (records since snapshot.<gen>),
  * snapshot.<gen> (the scene as of the start of journal.<gen>), LOCK. On
  * open the newest complete snapshot is loaded and every journal from its
- * generation on is replayed through edit_apply; a record that is torn or
- * fails its CRC at the end of the last journal is cut off (the bytes are
- * kept in journal.<gen>.cut-<offset>) and reported; damage anywhere else
- * stops the daemon with the file and offset named.
+ * generation on is replayed through edit_apply. A torn end of the last
+ * journal (a record that is incomplete or fails its CRC, with no intact
+ * record anywhere after it) is cut off (the bytes are kept in
+ * journal.<gen>.cut-<offset>) and reported; any other damage (a damaged
+ * record with an intact one after it, a bad header, a damaged snapshot)
+ * stops the daemon with the file and offset named (journal.c, replay_file).
  */
 #ifndef VANTAGE_JOURNAL_H
 #define VANTAGE_JOURNAL_H
@@ -62,8 +66,14 @@ int journal_apply(journal *j, scene *sc, const edit *e, const uint8_t *p, uint32
                   scene_err *err);
 /* Records written since the last sync (the always policy syncs them). */
 bool journal_dirty(const journal *j);
-/* Syncs now: 0, or -errno (the journal is then read-only). */
+/* Syncs now: 0, or -errno. A failed sync is final: the journal turns
+ * read-only, the records since the last good sync are cut back off the
+ * file (best effort), and journal_sync_error says why; the daemon must
+ * then stop rather than serve a scene the disk may not hold (server.c).
+ * The everysec thread's failed sync ends the process itself. */
 int journal_sync(journal *j);
+/* errno of a failed sync of the journal (the loop's, a snapshot's), 0 = none. */
+int journal_sync_error(const journal *j);
 /* Non-NULL while the journal takes no more edits: why. */
 const char *journal_broken(const journal *j);
 /* Marks it read-only (a change could not be journaled and was applied). */

@@ -49,6 +49,7 @@ void scene_free(scene *s)
     idmap_free(&s->ids);
     free(s->id_of_slot);
     for (uint32_t i = 0; i < 65536; i++) {
+        if (!s->meshes[i].pos && !s->meshes[i].nrm && !s->meshes[i].idx) continue; /* 196k free(NULL): 0.6 ms */
         free(s->meshes[i].pos);
         free(s->meshes[i].nrm);
         free(s->meshes[i].idx);

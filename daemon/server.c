@@ -191,6 +191,9 @@ static void conn_event(ae_loop *l, int fd, void *data, int mask);
 static int conn_flush(server *s, conn *c)
 {
     if (c->held) return MD_NONE; /* an edit's answer waits for the journal's sync */
+    /* always: no reply leaves while the journal holds unsynced records (a
+       query's answer may show them): before_sleep syncs, then flushes */
+    if (s->journal && journal_policy(s->journal) == JOURNAL_ALWAYS && journal_dirty(s->journal)) return MD_NONE;
     while (c->out_pos < c->out_len) {
         ssize_t n = write(c->fd, c->out + c->out_pos, c->out_len - c->out_pos);
         if (n > 0) {
@@ -494,14 +497,24 @@ static void before_sleep(ae_loop *l, void *data)
     }
     /* the journal: this turn's records synced before any of their answers
        leave (always: group commit), a snapshot started or finished */
-    bool sync_failed = false;
     if (s->journal) {
         journal *j = s->journal;
         journal_poll(j);
-        if (journal_policy(j) == JOURNAL_ALWAYS && journal_dirty(j)) sync_failed = journal_sync(j) != 0;
+        if (journal_policy(j) == JOURNAL_ALWAYS && journal_dirty(j)) (void)journal_sync(j);
         if (journal_wants_snapshot(j)) {
             int rc = journal_snapshot(j, sc);
             if (rc) LOGW("snapshot not started: %s", strerror(-rc));
+        }
+        if (journal_sync_error(j)) {
+            /* a failed fdatasync is final (the kernel may have dropped the
+               pages it could not write: PostgreSQL's fsync lesson): the
+               scene in memory may hold what the disk does not. Nothing of
+               the unsynced edits has left (every reply is held while the
+               journal is dirty, and their records were cut back), so stop
+               here, before anyone sees them: the restart serves what the
+               disk holds */
+            LOGE("%s: exiting (a restart recovers the scene from the disk)", journal_broken(j));
+            _exit(1);
         }
     }
     /* what stream frames and worker replies added since */
@@ -509,16 +522,7 @@ static void before_sleep(ae_loop *l, void *data)
     /* backwards: conn_free moves the last connection into the freed place */
     for (uint32_t i = s->nconns; i-- > 0;) {
         conn *c = s->live[i];
-        if (c->held) {
-            c->held = false;
-            if (sync_failed) {
-                /* its answers claim a durability the disk did not give:
-                   they are not sent; the client sees the connection drop */
-                LOGW("client %u: dropped, its edits' sync failed", c->id);
-                conn_free(s, c, MD_SYNC_FAILED);
-                continue;
-            }
-        }
+        c->held = false;
         if (sweep && drop_if_slow(s, c, now_ms)) continue;
         clocks |= !c->hello || c->since_ms;
         if (sweep) conn_trim(c);

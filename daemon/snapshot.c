@@ -6,8 +6,11 @@
  *   per sub-level 1..n: u8 name length, name, u8 state, u32 owner,
  *     u16 class base, u16 classes, u32 members capacity, u32 members, u64
  *     ids; u32 doomed, u32 doomed done, u64 ids
- *   u64 hidden[CULL_SUBLEVEL_WORDS], u32 hidden count, u32 unloading
- *   u16 class owner[65536]
+ *   u32 hidden words, per: u32 word index, u64 bits (the non-zero words of
+ *     hidden[CULL_SUBLEVEL_WORDS]); u32 hidden count, u32 unloading
+ *   u32 reserved classes, per: u16 class, u16 owner (the non-zero ones)
+ *   (version 1, "VNTSNAP1", still read: u64 hidden[CULL_SUBLEVEL_WORDS],
+ *   u32 hidden count, u32 unloading, u16 class owner[65536], whole)
  *   u32 meshes; per: u16 class, u32 vertices, u32 indices, f32 pos, u8 has
  *     normals, f32 normals, u32 indices
  *   u32 slots, u16 generation each, u32 free, u32 free list
@@ -33,7 +36,8 @@ _Static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "snapshots are written
 
 #define HDR 40u
 #define CHUNK 4096u
-static const char MAGIC[8] = {'V', 'N', 'T', 'S', 'N', 'A', 'P', '1'};
+static const char MAGIC[8] = {'V', 'N', 'T', 'S', 'N', 'A', 'P', '2'};
+static const char MAGIC_V1[8] = {'V', 'N', 'T', 'S', 'N', 'A', 'P', '1'}; /* dense arrays; read, not written */
 
 /* ---- writing: a buffered stream with a running CRC ---------------------------------------- */
 
@@ -61,6 +65,11 @@ static void flush(out *o)
 static void put(out *o, const void *p, size_t n)
 {
     const uint8_t *b = p;
+    /* an empty piece may come with a NULL pointer (a sub-level with no
+       members yet), and zlib's crc32(c, NULL, 0) does not return c: it
+       returns 0, the initial value, which silently restarted the running
+       CRC and made every snapshot holding such a piece unreadable */
+    if (!n) return;
     o->crc = crc32(o->crc, b, (uInt)n); /* n < 4 GiB: every piece is */
     o->total += n;
     while (n) {
@@ -98,10 +107,27 @@ static void write_sublevels(out *o, const scene *s)
         put32(o, l->doomed_pos);
         put(o, l->doomed, (size_t)l->ndoomed * 8);
     }
-    put(o, s->hidden, sizeof s->hidden);
+    /* the hidden bitmap and the class owners, sparse (version 2): a
+       small scene's snapshot is a few kB, not the 136 kB of the two
+       arrays whole (version 1, still read) */
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < CULL_SUBLEVEL_WORDS; i++) n += s->hidden[i] != 0;
+    put32(o, n);
+    for (uint32_t i = 0; i < CULL_SUBLEVEL_WORDS; i++)
+        if (s->hidden[i]) {
+            put32(o, i);
+            put64(o, s->hidden[i]);
+        }
     put32(o, s->nhidden);
     put32(o, s->unloading);
-    put(o, s->class_owner, 65536 * sizeof *s->class_owner);
+    n = 0;
+    for (uint32_t c = 0; c < 65536; c++) n += s->class_owner[c] != 0;
+    put32(o, n);
+    for (uint32_t c = 0; c < 65536; c++)
+        if (s->class_owner[c]) {
+            put16(o, (uint16_t)c);
+            put16(o, s->class_owner[c]);
+        }
 }
 
 static void write_meshes(out *o, const scene *s)
@@ -258,6 +284,7 @@ typedef struct in {
     const uint8_t *p;
     size_t n, at;
     bool bad;
+    bool v1; /* the hidden bitmap and class owners whole */
 } in;
 
 static const void *take(in *r, size_t n)
@@ -348,10 +375,38 @@ static int load_body(in *r, scene *s, char *err, size_t errlen)
             r->bad = true;
         }
     }
-    uint64_t hidden[CULL_SUBLEVEL_WORDS];
-    get(r, hidden, sizeof hidden);
-    uint32_t nhidden = get32(r), unloading = get32(r);
-    get(r, s->class_owner, 65536 * sizeof *s->class_owner);
+    uint64_t hidden[CULL_SUBLEVEL_WORDS] = {0};
+    uint32_t nhidden, unloading;
+    if (r->v1) {
+        get(r, hidden, sizeof hidden);
+        nhidden = get32(r);
+        unloading = get32(r);
+        get(r, s->class_owner, 65536 * sizeof *s->class_owner);
+    } else {
+        uint32_t n = get32(r);
+        for (uint32_t i = 0; i < n && !r->bad; i++) {
+            uint32_t w = get32(r);
+            uint64_t bits = get64(r);
+            if (w >= CULL_SUBLEVEL_WORDS || hidden[w] || !bits) {
+                why = "the hidden sub-levels are inconsistent";
+                r->bad = true;
+            } else {
+                hidden[w] = bits;
+            }
+        }
+        nhidden = get32(r);
+        unloading = get32(r);
+        n = get32(r);
+        for (uint32_t i = 0; i < n && !r->bad; i++) {
+            uint16_t c = get16(r), owner = get16(r);
+            if (s->class_owner[c] || !owner) {
+                why = "the class reservations are inconsistent";
+                r->bad = true;
+            } else {
+                s->class_owner[c] = owner;
+            }
+        }
+    }
     if (r->bad) goto out;
     /* meshes */
     uint32_t nm = get32(r);
@@ -531,7 +586,7 @@ out_nomem:
     why = "out of memory";
     r->bad = true;
 out:
-    snprintf(err, errlen, "%s (at byte %zu of its body)", why, r->at);
+    snprintf(err, errlen, "%s (at offset %zu)", why, r->at + HDR);
 out_free:
     for (uint32_t id = 0; id <= nsl; id++) {
         free(sv[id].members);
@@ -543,26 +598,39 @@ out_free:
 
 int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *seq, char *err, size_t errlen)
 {
-    if (n < HDR) return fail(err, errlen, "shorter than its header");
-    if (memcmp(p, MAGIC, 8)) return fail(err, errlen, "not a Vantage snapshot (bad magic)");
+    char why[160];
+    if (n < HDR) {
+        snprintf(why, sizeof why, "shorter than its header (%zu bytes, offset 0)", n);
+        return fail(err, errlen, why);
+    }
+    bool v1 = !memcmp(p, MAGIC_V1, 8);
+    if (!v1 && memcmp(p, MAGIC, 8)) return fail(err, errlen, "not a Vantage snapshot (bad magic at offset 0)");
     uint32_t hc;
     memcpy(&hc, p + 36, 4);
-    if (hc != (uint32_t)crc32(crc32(0L, Z_NULL, 0), p, 36)) return fail(err, errlen, "header CRC mismatch");
+    if (hc != (uint32_t)crc32(crc32(0L, Z_NULL, 0), p, 36)) return fail(err, errlen, "header CRC mismatch: the header (offset 0, 40 bytes) is damaged");
     uint64_t g, body;
     uint32_t bc;
     memcpy(&g, p + 8, 8);
     memcpy(seq, p + 16, 8);
     memcpy(&body, p + 24, 8);
     memcpy(&bc, p + 32, 4);
-    if (g != gen) return fail(err, errlen, "its header names another generation");
-    if (body != n - HDR) return fail(err, errlen, "truncated (its length disagrees with its header)");
+    if (g != gen) return fail(err, errlen, "its header names another generation (offset 8)");
+    if (body != n - HDR) {
+        snprintf(why, sizeof why, "truncated or extended: %zu bytes, its header says %llu (offset %zu)", n,
+                 (unsigned long long)body + HDR, body < n - HDR ? (size_t)body + HDR : n);
+        return fail(err, errlen, why);
+    }
     uLong c = crc32(0L, Z_NULL, 0);
     for (size_t off = 0; off < body;) {
         uInt k = body - off > (1u << 30) ? (1u << 30) : (uInt)(body - off);
         c = crc32(c, p + HDR + off, k);
         off += k;
     }
-    if ((uint32_t)c != bc) return fail(err, errlen, "body CRC mismatch: the file is damaged");
-    in r = {.p = p + HDR, .n = (size_t)body};
+    if ((uint32_t)c != bc) {
+        snprintf(why, sizeof why, "body CRC mismatch: the body (offset %u, %llu bytes) is damaged", HDR,
+                 (unsigned long long)body);
+        return fail(err, errlen, why);
+    }
+    in r = {.p = p + HDR, .n = (size_t)body, .v1 = v1};
     return load_body(&r, s, err, errlen);
 }

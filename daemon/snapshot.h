@@ -8,7 +8,7 @@
  * lists in order (an unload frees in that order), unloads in progress, mesh
  * class reservations, destruction volumes sample for sample, the epoch.
  *
- * A file: a 40-byte header (magic "VNTSNAP1", u64 generation, u64 sequence
+ * A file: a 40-byte header (magic "VNTSNAP2", u64 generation, u64 sequence
  * number of the first journal record after it, u64 body length, u32 CRC-32
  * of the body, u32 CRC-32 of the 36 header bytes before), then the body.
  */

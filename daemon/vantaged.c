@@ -263,6 +263,8 @@ int main(int argc, char **argv)
         char err[800];
         if (journal_open(data_dir, durability, sc, &cfg.journal, &rep, err, sizeof err)) {
             LOGE("--data-dir %s: %s", data_dir, err);
+            scene_free(sc); /* what recovery restored before it stopped */
+            free(sc);
             return 1;
         }
         journal_set_limit(cfg.journal, (uint64_t)compact_mb << 20);
