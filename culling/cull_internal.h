@@ -136,6 +136,7 @@ typedef struct cull_occ_mesh {
     cull_occ_cluster *cl;   /* one allocation: clusters, vertices, faces */
     uint32_t ncl;
     uint32_t triangles, dropped, faces;
+    uint64_t build_steps;   /* work the build did (cull_occluder_info) */
     double   bmin[3], bmax[3];
     uint16_t sublevel;
     uint32_t slot, dense;

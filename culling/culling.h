@@ -196,6 +196,11 @@ typedef struct cull_occluder_info {
     uint32_t faces;            /* drawn polygons (coplanar pairs merged) */
     uint32_t clusters;         /* culled as units */
     uint32_t convex_clusters;  /* closed and convex: drawn as one silhouette */
+    uint64_t build_steps;      /* work the last add/update did: hash probes,
+                                  edge candidates examined, sort compares
+                                  (n log2 n per split), plus one per input
+                                  vertex and triangle. Tests assert the
+                                  build's cost bound on it */
     double   aabb_min[3], aabb_max[3];
     uint16_t sublevel;
 } cull_occluder_info;

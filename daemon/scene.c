@@ -438,9 +438,16 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
     uint16_t sub = 0;
     int src = scene_sublevel_target(s, load, &sub, UINT32_MAX, err);
     if (src) return src;
-    if (o->tri_count > s->lim.max_occluder_tris)
+    /* the cost bound of one OCCLUDER_PUT: the build is O(n log n) in its
+       triangles (cull_occluder.c), n at most the limit, and at most what
+       the culling core takes as a triangle list (CULL_OCC_MAX_VERTICES / 3
+       = 349,525 triangles: about 1.1 s of random soup on one core of the
+       2-core test machine, 0.04 s of identical triangles) */
+    uint32_t max_tris = s->lim.max_occluder_tris < CULL_OCC_MAX_VERTICES / 3 ? s->lim.max_occluder_tris
+                                                                              : CULL_OCC_MAX_VERTICES / 3;
+    if (o->tri_count > max_tris)
         return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "occluder of %u triangles, limit %u", o->tri_count,
-                    s->lim.max_occluder_tris);
+                          max_tris);
     uint64_t prev;
     bool exists = idmap_get(&s->occluders, o->id, &prev);
     if (exists && ((const scene_occluder *)(uintptr_t)prev)->sublevel != sub)
@@ -481,7 +488,7 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
     }
     cull_occluder_info info;
     if (n->h && cull_occluder_get_info(s->world, n->h, &info) == CULL_OK && info.dropped)
-        LOGW("occluder %llu: %u of %u triangles degenerate (zero area), dropped", (unsigned long long)o->id,
+        LOGW("occluder %llu: %u of %u triangles degenerate (zero area) or repeated, dropped", (unsigned long long)o->id,
              info.dropped, o->tri_count);
     idmap_put(&s->occluders, o->id, (uint64_t)(uintptr_t)n);
     if (!exists) s->sl[sub].occluders++;
