@@ -19,8 +19,6 @@
 #define CULL_BLOCK_CAP 64u /* lanes per block: 8 AVX2 groups */
 #define CULL_GEN_BITS (32u - CULL_HANDLE_SLOT_BITS)
 #define CULL_SLOT_MASK (CULL_MAX_ENTITIES - 1u)
-#define CULL_MAX_COORD 1e12
-#define CULL_MAX_RADIUS 1e9
 
 /* One block: 64 entities, SoA, 64-byte aligned, 3 KiB. What the
  * sphere stage and the result writer read (sphere, handle, class,

@@ -96,6 +96,8 @@ void cull_world_destroy(cull_world *w);
  *   circumsphere (center is then ignored);
  * - AABB all zero: the AABB is the sphere's bounding box.
  * Coordinates must be finite and within ±1e12 m; radius within 0..1e9 m. */
+#define CULL_MAX_COORD 1e12  /* metres: every position in the world */
+#define CULL_MAX_RADIUS 1e9  /* metres: bounding and destruction spheres */
 typedef struct cull_entity_desc {
     double   center[3];
     double   radius;
@@ -244,7 +246,9 @@ typedef struct cull_view {
 } cull_view;
 
 /* Prepares a view. CULL_ERR_MATRIX for non-finite, singular or empty
- * frustums, CULL_ERR_VIEWPORT for a bad viewport. */
+ * frustums (an orthographic view with w <= 0 included), CULL_ERR_VIEWPORT
+ * for a bad viewport. The one validation of a view: what it accepts, light
+ * binning and both renderers draw. */
 int cull_view_init(cull_view *v, const cull_view_desc *d);
 
 /* A view's clip rows as linear functions of (p - origin, 1), for code that
@@ -565,7 +569,23 @@ typedef struct cull_light_tiles {
  * every list is empty and nothing is tested. */
 int  cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const cull_light *lights, uint32_t n,
                      const float (*depth_range)[2], cull_light_tiles *out);
-/* CULL_OK, or CULL_ERR_INVALID for a light cull_lights_bin would refuse. */
+/* What a light may be: the one validation shared by the daemon's edit
+ * path (LIGHT_PUT), light binning and both renderers, so nothing is
+ * accepted that a renderer later refuses. The bounds keep every derived
+ * float finite (cull_lights.c says why each):
+ *   pos      finite, |pos[a]| <= CULL_MAX_COORD (1e12 m)
+ *   radius   (the range) finite, CULL_LIGHT_MIN_RANGE..CULL_LIGHT_MAX_RANGE
+ *   radiance (colour x intensity per channel, if not NULL) finite,
+ *            0..CULL_LIGHT_MAX_RADIANCE
+ *   spot     dir of unit length within 1e-3, cos_outer in -1..1
+ * Returns CULL_OK, or CULL_ERR_NONFINITE / CULL_ERR_RANGE (position,
+ * radiance) / CULL_ERR_RADIUS (range) / CULL_ERR_INVALID (type, spot),
+ * with the field, its value and the bound written to why (may be NULL). */
+#define CULL_LIGHT_MIN_RANGE 1e-3
+#define CULL_LIGHT_MAX_RANGE 1e9
+#define CULL_LIGHT_MAX_RADIANCE 1e12
+int  cull_light_validate(const cull_light *l, const double radiance[3], char *why, size_t whylen);
+/* cull_light_validate without radiance or message. */
 int  cull_light_check(const cull_light *l);
 void cull_light_tiles_free(cull_light_tiles *t);
 

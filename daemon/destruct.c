@@ -181,6 +181,34 @@ out:
     return rc;
 }
 
+/* Why cull_dvol_add_sphere refused m's sphere, naming the field, its
+ * value and the bound it broke (its checks, in its order). */
+static int sphere_refused(scene_err *err, int crc, const vp_destroy *m)
+{
+    static const char axis[3] = {'x', 'y', 'z'};
+    int code = crc == CULL_ERR_CAPACITY ? VP_ERR_LIMIT : crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID;
+    switch (crc) {
+    case CULL_ERR_RADIUS:
+        if (!isfinite(m->radius)) break;
+        if (!(m->radius > 0))
+            return scene_fail(err, code, UINT32_MAX, "destruction sphere: radius %g m is not > 0", m->radius);
+        return scene_fail(err, code, UINT32_MAX, "destruction sphere: radius %g m is larger than the limit %g m",
+                          m->radius, (double)CULL_MAX_RADIUS);
+    case CULL_ERR_RANGE:
+        for (int a = 0; a < 3; a++)
+            if (fabs(m->center[a]) > CULL_MAX_COORD)
+                return scene_fail(err, code, UINT32_MAX,
+                                  "destruction sphere: centre %c is %g m, beyond the world's +-%g m", axis[a],
+                                  m->center[a], (double)CULL_MAX_COORD);
+        break;
+    case CULL_ERR_CAPACITY:
+        return scene_fail(err, code, UINT32_MAX, "destruction sphere: the entity already has %u spheres, the limit",
+                          CULL_DVOL_MAX_SPHERES);
+    default: break;
+    }
+    return scene_fail(err, code, UINT32_MAX, "destruction sphere: %s", cull_strerror(crc));
+}
+
 int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out, scene_err *err)
 {
     uint64_t hv;
@@ -220,8 +248,7 @@ int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out
             cull_dvol_free(&d->v);
             free(d);
         }
-        return scene_fail(err, crc == CULL_ERR_CAPACITY ? VP_ERR_LIMIT : VP_ERR_INVALID, UINT32_MAX,
-                          "destruction sphere: %s", cull_strerror(crc));
+        return sphere_refused(err, crc, m);
     }
     /* debris now, so a failure can still take the sphere back */
     if (m->debris && (rc = spawn_debris(s, m, sub, d->v.nsph, err)) != VP_OK) {
