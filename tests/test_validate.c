@@ -18,11 +18,13 @@
 #include "vantage.h"
 #include "vt_soft.h"
 
+#include <dirent.h>
 #include <float.h>
 #include <iconv.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 /* The whole ERROR message is valid UTF-8 without control bytes. */
 static void assert_clean_msg(const char *msg)
@@ -541,6 +543,127 @@ static void test_destroy_messages(void **state)
     daemon_stop(&d);
 }
 
+
+/* ---- journals written before the checks still replay ------------------------------ */
+
+static uint32_t rd32le(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* Bitwise CRC-32 (zlib's polynomial), the journal's record checksum. */
+static uint32_t crc32_of(uint32_t c, const uint8_t *p, size_t n)
+{
+    c = ~c;
+    for (size_t i = 0; i < n; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++) c = c & 1 ? (c >> 1) ^ 0xEDB88320u : c >> 1;
+    }
+    return ~c;
+}
+
+/* A daemon before these checks acknowledged a light of range 3e38 and a
+ * sub-level name that is not UTF-8, and journaled them: such a journal is
+ * made here by patching a good one (same lengths, CRCs redone). The daemon
+ * must still start from it (replay applies what was acknowledged), keep
+ * the light (a later LIGHT_REMOVE may name it) but never draw it, and
+ * keep serving frames and light lists. */
+static void test_old_journal_replays(void **state)
+{
+    (void)state;
+    tdir td;
+    tdir_make(&td, "validate-journal");
+    char dir[320];
+    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    const char *extra[] = {"--data-dir", dir, "--durability", "always", NULL};
+    daemon_proc d;
+    daemon_start_args(&d, extra);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    const char *names[1] = {"zz-name"};
+    uint16_t ids[1];
+    assert_int_equal(vt_sublevel_ids(c, names, 1, ids), VP_OK);
+    assert_int_equal(vt_add(c, &(vp_entity){.id = 1, .aabb = {-3, -1, -25, 3, 1, -20}}, 1, NULL, NULL), VP_OK);
+    vp_light L[2] = {good_light(1), good_light(9)};
+    assert_int_equal(vt_put_lights(c, L, 2), VP_OK);
+    vt_close(c);
+    daemon_stop(&d);
+
+    /* patch the journal: light 9's range, the name's first two bytes */
+    char path[400];
+    snprintf(path, sizeof path, "%s/journal.000001", dir);
+    FILE *f = fopen(path, "r+b");
+    assert_non_null(f);
+    uint8_t buf[1 << 16];
+    size_t n = fread(buf, 1, sizeof buf, f);
+    assert_true(n > 32 && n < sizeof buf);
+    int patched = 0;
+    for (size_t off = 32; off + 24 <= n;) {
+        uint32_t len = rd32le(buf + off);
+        uint16_t type = (uint16_t)(buf[off + 16] | buf[off + 17] << 8);
+        uint8_t *pl = buf + off + 24;
+        if (type == VP_LIGHT_PUT) {
+            uint32_t cnt = rd32le(pl);
+            for (uint32_t i = 0; i < cnt; i++) {
+                uint8_t *rec = pl + 4 + (size_t)i * VP_LIGHT_SIZE;
+                if (rd32le(rec) != 9) continue;
+                float big = 3e38f;
+                memcpy(rec + 64, &big, 4); /* little-endian host */
+                patched++;
+            }
+        } else if (type == VP_SUBLEVEL_NAMES) {
+            assert_int_equal(pl[4], 7);
+            pl[5] = 0xC0, pl[6] = 0xAF;
+            patched++;
+        }
+        uint32_t crc = crc32_of(crc32_of(0, buf + off + 8, 16), pl, len);
+        for (int k = 0; k < 4; k++) buf[off + 4 + k] = (uint8_t)(crc >> (8 * k));
+        off += 24 + len;
+    }
+    assert_int_equal(patched, 2);
+    assert_int_equal(fseek(f, 0, SEEK_SET), 0);
+    assert_int_equal(fwrite(buf, 1, n, f), n);
+    fclose(f);
+
+    daemon_start_args(&d, extra);
+    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(v, &st), VP_OK);
+    assert_int_equal(st.lights, 2);
+    vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
+    assert_true(vt_view_perspective(&m.view, (double[3]){0, 2, 0}, (double[3]){0, 0, -30}, (double[3]){0, 1, 0}, 70,
+                                    64, 48, 0.1, 300));
+    vp_frame fr;
+    assert_int_equal(vt_render(v, &m, &fr), VP_OK);
+    vp_light_tiles t;
+    assert_int_equal(vt_light_query(v, &(vp_light_query){.view = m.view}, &t), VP_OK);
+    assert_int_equal(t.in_view, 1);
+    for (uint32_t k = 0; k < t.count; k++) assert_int_equal(vp_light_tiles_id(&t, k), 1);
+    vt_close(v);
+    /* the light can still be removed by id */
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    uint8_t msg[64];
+    vp_writer w;
+    vp_writer_init(&w, msg, sizeof msg);
+    vp_enc_ids(&w, VP_LIGHT_REMOVE, vt_next_req(ed), (const uint64_t[1]){9}, 1);
+    assert_int_equal(vt_send(ed, msg, w.len), VP_OK);
+    vp_header h;
+    const uint8_t *pl;
+    assert_int_equal(vt_recv(ed, &h, &pl, 10000), VP_OK);
+    assert_int_equal(h.type, VP_ACK);
+    vt_close(ed);
+    daemon_stop(&d);
+    DIR *dd = opendir(dir);
+    assert_non_null(dd);
+    for (struct dirent *de; (de = readdir(dd));) {
+        char p[700];
+        snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+        if (de->d_name[0] != '.') unlink(p);
+    }
+    closedir(dd);
+    rmdir(dir);
+    tdir_remove(&td);
+}
+
 const struct CMUnitTest validate_tests[] = {
     cmocka_unit_test(test_utf8_validator),
     cmocka_unit_test(test_accepted_lights_render),
@@ -549,5 +672,6 @@ const struct CMUnitTest validate_tests[] = {
     cmocka_unit_test(test_sublevel_names_utf8),
     cmocka_unit_test(test_frame_subscribe_checks_view),
     cmocka_unit_test(test_destroy_messages),
+    cmocka_unit_test(test_old_journal_replays),
 };
 const size_t validate_tests_count = sizeof validate_tests / sizeof validate_tests[0];
