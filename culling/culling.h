@@ -520,7 +520,12 @@ double cull_dvol_exact(const cull_dvol *v, const double p[3]);
  * min_edge around each hole. margin: cull_dvol_bound(v) plus whatever the
  * renderers add, so the occluder's hole contains the drawn one. *out (and
  * *parent: each piece's source triangle, if parent is not NULL) are
- * malloc'ed; CULL_ERR_CAPACITY past max_out pieces (nothing returned). */
+ * malloc'ed; CULL_ERR_CAPACITY past max_out pieces, or past
+ * max_out * CULL_CUT_WORK_PER_PIECE (piece, sphere) tests (nothing
+ * returned): the cost is at most that many tests, ~20 ns each, whatever
+ * the triangles and spheres (4096 spheres on 349,525 triangles took 26 s
+ * before the bound). */
+#define CULL_CUT_WORK_PER_PIECE 512u
 int cull_occ_cut(const float *tri, uint32_t ntri, const double origin[3], const cull_dvol *v, double margin,
                  double min_edge, uint32_t max_out, float **out, uint32_t **parent, uint32_t *nout);
 

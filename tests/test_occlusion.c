@@ -890,7 +890,48 @@ static void test_occluder_build_bound(void **state)
     }
 }
 
+/* Cutting destruction holes into an occluder (every DESTROY, and every
+ * OCCLUDER_PUT of a damaged entity's id) tests each piece against each
+ * sphere: 4096 spheres on 349,525 triangles took 26 s. The cut gives up
+ * (CULL_ERR_CAPACITY: the daemon drops the occluder whole, which only
+ * hides less) past max_out * CULL_CUT_WORK_PER_PIECE tests. Here spheres
+ * far from every triangle, so nothing is cut and the whole cost is the
+ * tests: 20,000 x 4096 is past 65,536 x 512, 2,000 x 4096 is within. */
+static void test_occluder_cut_bound(void **state)
+{
+    (void)state;
+    const uint32_t big = 20000, small = 2000, nsph = 4096, max_out = 65536;
+    float *tri = malloc((size_t)big * 9 * sizeof *tri);
+    assert_non_null(tri);
+    for (uint32_t t = 0; t < big; t++) {
+        float x = (float)(t % 200), y = (float)(t / 200), *p = tri + 9 * (size_t)t;
+        const float v[9] = {x, y, 0, x + 1, y, 0, x, y + 1, 0};
+        memcpy(p, v, sizeof v);
+    }
+    cull_dvol dv;
+    const double lo[3] = {0, 0, -1}, hi[3] = {200, 100, 1}, origin[3] = {0, 0, 0};
+    assert_int_equal(cull_dvol_init(&dv, lo, hi, 8), CULL_OK);
+    for (uint32_t k = 0; k < nsph; k++) {
+        const double c[3] = {1000.0 + k % 64, 1000.0 + k / 64, 0};
+        assert_int_equal(cull_dvol_add_sphere(&dv, c, 0.5), CULL_OK);
+    }
+    assert_true((uint64_t)big * nsph > (uint64_t)max_out * CULL_CUT_WORK_PER_PIECE);
+    assert_true((uint64_t)small * nsph <= (uint64_t)max_out * CULL_CUT_WORK_PER_PIECE);
+    float *out = NULL;
+    uint32_t n = 0;
+    assert_int_equal(cull_occ_cut(tri, big, origin, &dv, 0.01, 0.25, max_out, &out, NULL, &n), CULL_ERR_CAPACITY);
+    assert_null(out);
+    assert_int_equal(n, 0);
+    assert_int_equal(cull_occ_cut(tri, small, origin, &dv, 0.01, 0.25, max_out, &out, NULL, &n), CULL_OK);
+    assert_int_equal(n, small); /* nothing near a sphere: every triangle kept whole */
+    assert_memory_equal(out, tri, (size_t)small * 9 * sizeof *tri);
+    free(out);
+    cull_dvol_free(&dv);
+    free(tri);
+}
+
 const struct CMUnitTest occlusion_tests[] = {
+    cmocka_unit_test(test_occluder_cut_bound),
     cmocka_unit_test(test_occluder_build_bound),
     cmocka_unit_test(test_bad_occluders),
     cmocka_unit_test(test_camera_inside_occluder),
