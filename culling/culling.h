@@ -167,8 +167,11 @@ typedef uint32_t cull_occluder; /* same handle scheme as entities; 0 = none */
 /* A triangle list with a model-to-world transform. Front faces are
  * counter-clockwise seen from outside; back faces are never drawn, so a
  * camera inside a closed occluder sees through it (it hides nothing).
- * Degenerate triangles (zero area, or NaN-free but collinear) are dropped
- * and counted; a non-finite vertex or transform rejects the whole desc. */
+ * Degenerate triangles (zero area, or NaN-free but collinear) and repeated
+ * ones (the same corners in the same order, after merging equal
+ * positions) are dropped and counted; a non-finite vertex or transform
+ * rejects the whole desc. Building costs O(n log n) in the triangles,
+ * whatever they are (cull_occluder.c). */
 typedef struct cull_occluder_desc {
     const float    *vertices;     /* xyz, 3 * vertex_count, model space */
     uint32_t        vertex_count;
@@ -194,7 +197,7 @@ typedef struct cull_terrain_desc {
 
 typedef struct cull_occluder_info {
     uint32_t triangles;        /* kept (after dropping degenerates) */
-    uint32_t dropped;          /* degenerate triangles dropped */
+    uint32_t dropped;          /* degenerate or repeated triangles dropped */
     uint32_t faces;            /* drawn polygons (coplanar pairs merged) */
     uint32_t clusters;         /* culled as units */
     uint32_t convex_clusters;  /* closed and convex: drawn as one silhouette */
