@@ -120,6 +120,13 @@ static void light_cases(light_case *t, size_t *n)
     SPOT("spot direction 3e38", (l.dir[1] = 3e38f, l.dir[2] = -3e38f), 0, "");
     SPOT("spot direction denormal", (l.dir[2] = -1e-45f), 0, "");
     SPOT("spot cone of a denormal width", (l.inner_cos = 0.8f, l.outer_cos = nextafterf(0.8f, 0)), 0, "");
+    SPOT("outer cosine -1", (l.outer_cos = -1, l.inner_cos = 0), 0, "");
+    SPOT("outer cosine just under -1", (l.outer_cos = nextafterf(-1, -2), l.inner_cos = 0), VP_ERR_INVALID,
+         "spot cone");
+    SPOT("inner cosine 1", l.inner_cos = 1, 0, "");
+    SPOT("inner cosine just over 1", l.inner_cos = nextafterf(1, 2), VP_ERR_INVALID, "spot cone");
+    ROW("point light with no direction", (l.dir[0] = l.dir[1] = l.dir[2] = 0), 0, "");
+    ROW("intensity 0", l.intensity = 0, 0, "");
 #undef ROW
 #undef SPOT
     *n = k;
