@@ -671,6 +671,39 @@ static void test_old_journal_replays(void **state)
     tdir_remove(&td);
 }
 
+/* ---- OCCLUDER_PUT's bound over the wire ----------------------------------------- */
+
+/* The daemon's triangle limit is the culling core's (349,525: 2^20
+ * vertices as a triangle list), refused as LIMIT naming it (it was SCENE,
+ * "bad counts"); the worst mesh for the old build (64k identical
+ * triangles: 9.9 s to 30 s of a frozen loop) is acknowledged, kept as one
+ * triangle, and the daemon keeps answering. */
+static void test_occluder_put_bound(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    const uint32_t over = 349526, same = 65536;
+    float *v = calloc((size_t)over * 9, sizeof *v);
+    assert_non_null(v);
+    for (uint32_t t = 0; t < over; t++) {
+        v[9 * (size_t)t + 3] = 10; /* (0,0,0) (10,0,0) (0,10,0), all alike */
+        v[9 * (size_t)t + 7] = 10;
+    }
+    const double origin[3] = {0, 0, -50};
+    assert_error(c, vt_put_occluder(c, 7, origin, v, over), VP_ERR_LIMIT, UINT32_MAX,
+                 "occluder of 349526 triangles, limit 349525");
+    assert_int_equal(vt_put_occluder(c, 7, origin, v, same), VP_OK);
+    assert_int_equal(vt_ping(c), VP_OK);
+    vp_stats_reply st;
+    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(st.occluders, 1);
+    free(v);
+    vt_close(c);
+    daemon_stop(&d);
+}
+
 const struct CMUnitTest validate_tests[] = {
     cmocka_unit_test(test_utf8_validator),
     cmocka_unit_test(test_accepted_lights_render),
@@ -680,5 +713,6 @@ const struct CMUnitTest validate_tests[] = {
     cmocka_unit_test(test_frame_subscribe_checks_view),
     cmocka_unit_test(test_destroy_messages),
     cmocka_unit_test(test_old_journal_replays),
+    cmocka_unit_test(test_occluder_put_bound),
 };
 const size_t validate_tests_count = sizeof validate_tests / sizeof validate_tests[0];
