@@ -85,9 +85,10 @@ typedef struct scene {
     uint32_t unloading;     /* sub-levels with entities left to free */
     idmap destruct;         /* entity id -> scene_destruct * */
     uint64_t debris_next;   /* debris entities spawned, ever */
-    bool replaying;         /* a journal is being replayed: a light record
-                               acknowledged before lights were validated is
-                               kept, not refused (and never drawn) */
+    bool replaying;         /* a journal is being replayed: what an older
+                               daemon acknowledged before it checked it is
+                               kept, not refused: a light (never drawn), a
+                               sub-level name that is not UTF-8 */
 } scene;
 
 /* Result of a failed edit: code from VP_ERRORS, the failing record, why. */
