@@ -26,6 +26,7 @@ typedef struct cutter {
     uint32_t n, cap, max_out;
     uint32_t *parent;
     int rc;
+    uint64_t work, budget; /* (piece, sphere) tests made / allowed */
 } cutter;
 
 static double dot3(const double a[3], const double b[3])
@@ -107,6 +108,12 @@ static void emit(cutter *c, const double t[3][3], uint32_t parent)
 
 static void cut(cutter *c, const double t[3][3], uint32_t parent, int depth)
 {
+    if (c->rc) return;
+    c->work += c->nsph;
+    if (c->work > c->budget) { /* the caller's cost bound: give up */
+        c->rc = CULL_ERR_CAPACITY;
+        return;
+    }
     bool straddles = false;
     for (uint32_t k = 0; k < c->nsph; k++) {
         const double *s = c->sph[k];
@@ -156,7 +163,7 @@ int cull_occ_cut(const float *tri, uint32_t ntri, const double origin[3], const 
         sph[k][3] = v->sph[k][3] + margin;
     }
     cutter c = {.sph = (const double(*)[4])sph, .nsph = v->nsph, .min_edge2 = min_edge * min_edge,
-                .max_out = max_out};
+                .max_out = max_out, .budget = (uint64_t)max_out * CULL_CUT_WORK_PER_PIECE};
     for (uint32_t i = 0; i < ntri && !c.rc; i++) {
         double t[3][3];
         for (int p = 0; p < 3; p++)

@@ -19,8 +19,6 @@
 #define CULL_BLOCK_CAP 64u /* lanes per block: 8 AVX2 groups */
 #define CULL_GEN_BITS (32u - CULL_HANDLE_SLOT_BITS)
 #define CULL_SLOT_MASK (CULL_MAX_ENTITIES - 1u)
-#define CULL_MAX_COORD 1e12
-#define CULL_MAX_RADIUS 1e9
 
 /* One block: 64 entities, SoA, 64-byte aligned, 3 KiB. What the
  * sphere stage and the result writer read (sphere, handle, class,
@@ -136,6 +134,7 @@ typedef struct cull_occ_mesh {
     cull_occ_cluster *cl;   /* one allocation: clusters, vertices, faces */
     uint32_t ncl;
     uint32_t triangles, dropped, faces;
+    uint64_t build_steps;   /* work the build did (cull_occluder_info) */
     double   bmin[3], bmax[3];
     uint16_t sublevel;
     uint32_t slot, dense;

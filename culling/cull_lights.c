@@ -20,6 +20,8 @@
 #include "cull_internal.h"
 
 #include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -43,25 +45,72 @@ static void lin(double out[4], double a, const double f[4], double b, const doub
 }
 
 /* The sphere (camera-relative centre c, radius r) is not entirely outside. */
+/* Formats why (may be NULL) and returns code. */
+static int cull_whyf(char *why, size_t whylen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+static int cull_whyf(char *why, size_t whylen, int code, const char *fmt, ...)
+{
+    if (why && whylen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(why, whylen, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
 static inline bool touches(const plane *p, const double c[3], double r)
 {
     return p->n[0] * c[0] + p->n[1] * c[1] + p->n[2] * c[2] + p->d >= -r;
 }
 
-static bool valid_light(const cull_light *l)
+/* The one definition of a light a renderer can draw. The bounds keep
+ * every derived value finite in float: |pos| <= 1e12 (the world's
+ * coordinates); range in [1e-3, 1e9] m, so range^2 (1e18) and 1/range^2
+ * (1e6) are normal floats; each channel of colour x intensity <= 1e12, so
+ * even 65,536 lights summed at full strength (6.6e16) stay far below
+ * FLT_MAX (3.4e38) and squares of a channel (1e24) do too; a spot axis of
+ * unit length within 1e-3 (the daemon normalises a client's axis in double
+ * first) and a cone cosine in [-1, 1]. */
+int cull_light_validate(const cull_light *l, const double radiance[3], char *why, size_t whylen)
 {
-    for (int a = 0; a < 3; a++)
-        if (!isfinite(l->pos[a]) || fabs(l->pos[a]) > CULL_MAX_COORD) return false;
-    if (!(l->radius > 0) || !(l->radius <= CULL_MAX_RADIUS)) return false;
-    if (l->type == CULL_LIGHT_POINT) return true;
-    if (l->type != CULL_LIGHT_SPOT) return false;
+    static const char axis[3] = {'x', 'y', 'z'}, chan[3] = {'r', 'g', 'b'};
+    if (!l) return cull_whyf(why, whylen, CULL_ERR_INVALID, "no light");
+    for (int a = 0; a < 3; a++) {
+        if (!isfinite(l->pos[a]))
+            return cull_whyf(why, whylen, CULL_ERR_NONFINITE, "position %c is %g: NaN or infinite", axis[a],
+                             l->pos[a]);
+        if (fabs(l->pos[a]) > CULL_MAX_COORD)
+            return cull_whyf(why, whylen, CULL_ERR_RANGE, "position %c is %g m, beyond the world's +-%g m", axis[a],
+                             l->pos[a], CULL_MAX_COORD);
+    }
+    if (!isfinite(l->radius))
+        return cull_whyf(why, whylen, CULL_ERR_NONFINITE, "range is %g: NaN or infinite", l->radius);
+    if (!(l->radius >= CULL_LIGHT_MIN_RANGE) || !(l->radius <= CULL_LIGHT_MAX_RANGE))
+        return cull_whyf(why, whylen, CULL_ERR_RADIUS, "range is %g m, outside %g..%g m", l->radius,
+                         CULL_LIGHT_MIN_RANGE, CULL_LIGHT_MAX_RANGE);
+    for (int k = 0; radiance && k < 3; k++) {
+        if (!isfinite(radiance[k]))
+            return cull_whyf(why, whylen, CULL_ERR_NONFINITE, "colour %c x intensity is %g: NaN or infinite",
+                             chan[k], radiance[k]);
+        if (!(radiance[k] >= 0) || radiance[k] > CULL_LIGHT_MAX_RADIANCE)
+            return cull_whyf(why, whylen, CULL_ERR_RANGE, "colour %c x intensity is %g, outside 0..%g", chan[k],
+                             radiance[k], CULL_LIGHT_MAX_RADIANCE);
+    }
+    if (l->type == CULL_LIGHT_POINT) return CULL_OK;
+    if (l->type != CULL_LIGHT_SPOT)
+        return cull_whyf(why, whylen, CULL_ERR_INVALID, "type %u is neither point (0) nor spot (1)", l->type);
     double n = (double)l->dir[0] * l->dir[0] + (double)l->dir[1] * l->dir[1] + (double)l->dir[2] * l->dir[2];
-    return isfinite(n) && fabs(n - 1) < 1e-3 && l->cos_outer >= -1 && l->cos_outer <= 1;
+    if (!isfinite(n) || !(fabs(n - 1) < 1e-3))
+        return cull_whyf(why, whylen, CULL_ERR_INVALID, "spot direction (%g, %g, %g) is not of unit length",
+                         (double)l->dir[0], (double)l->dir[1], (double)l->dir[2]);
+    if (!(l->cos_outer >= -1 && l->cos_outer <= 1))
+        return cull_whyf(why, whylen, CULL_ERR_INVALID, "spot outer cosine %g is outside -1..1", (double)l->cos_outer);
+    return CULL_OK;
 }
 
 int cull_light_check(const cull_light *l)
 {
-    return valid_light(l) ? CULL_OK : CULL_ERR_INVALID;
+    return cull_light_validate(l, NULL, NULL, 0);
 }
 
 void cull_light_tiles_free(cull_light_tiles *t)
@@ -120,7 +169,7 @@ int cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const c
     if (!v || !out || (n && !lights)) return CULL_ERR_INVALID;
     if (width == 0 || height == 0 || width > 65535 || height > 65535) return CULL_ERR_VIEWPORT;
     for (uint32_t i = 0; i < n; i++)
-        if (!valid_light(&lights[i])) return CULL_ERR_INVALID;
+        if (cull_light_check(&lights[i]) != CULL_OK) return CULL_ERR_INVALID;
     uint32_t tx = (width + CULL_LIGHT_TILE - 1) / CULL_LIGHT_TILE, ty = (height + CULL_LIGHT_TILE - 1) / CULL_LIGHT_TILE;
     size_t ntiles = (size_t)tx * ty;
     if (!cull_grow((void **)&out->offset, &out->offset_cap, ntiles + 1, sizeof *out->offset)) return CULL_ERR_NOMEM;

@@ -23,6 +23,9 @@ static double det4(const double m[16])
     return s0 * c5 - s1 * c4 + s2 * c3 + s3 * c2 - s4 * c1 + s5 * c0;
 }
 
+/* The one validation of a view: the daemon runs it on every request that
+ * carries one (VIS_QUERY, RENDER, LIGHT_QUERY, FRAME_SUBSCRIBE, before any
+ * ACK), and the renderers and light binning take only views it made. */
 int cull_view_init(cull_view *v, const cull_view_desc *d)
 {
     if (!v || !d) return CULL_ERR_INVALID;
@@ -92,6 +95,12 @@ int cull_view_init(cull_view *v, const cull_view_desc *d)
     v->depth_mode = d->depth_mode;
     v->viewport_w = vw;
     v->viewport_h = vh;
+    /* an orthographic view with w <= 0 everywhere shows nothing and no
+       renderer or light binning can use it: refused here, where every
+       request's view is checked, not later by a renderer */
+    cull_view_rows r;
+    cull_view_rows_get(v, &r);
+    if (!r.usable) return CULL_ERR_MATRIX;
     return CULL_OK;
 }
 

@@ -21,7 +21,9 @@
 #include <string.h>
 
 #define CUT_MIN_EDGE 0.25      /* metres: the smallest pieces around a hole's rim are at least this */
-#define CUT_MAX_PIECES 65536u  /* past this an occluder is dropped whole (safe: it hides less) */
+#define CUT_MAX_PIECES 65536u  /* past this an occluder is dropped whole (safe: it hides less); it
+                                  also bounds a cut's work (cull_occ_cut): 65536 * 512 piece-sphere
+                                  tests, about 0.6 s, for any DESTROY or OCCLUDER_PUT */
 #define DEBRIS_ID_BASE (1ull << 62)
 
 const scene_destruct *scene_destruct_of(const scene *s, uint64_t id)
@@ -104,7 +106,9 @@ static int occluder_cut(const scene_occluder *o, const cull_dvol *v, cull_occlud
     uint32_t n;
     int rc = cull_occ_cut(o->verts, o->ntris, o->origin, v, margin, edge, CUT_MAX_PIECES, pieces, NULL, &n);
     if (rc == CULL_ERR_CAPACITY) {
-        LOGW("occluder cut: more than %u pieces, the occluder is dropped whole", CUT_MAX_PIECES);
+        LOGW("occluder cut: more than %u pieces or %llu piece-sphere tests (%u triangles, %u spheres), the "
+             "occluder is dropped whole",
+             CUT_MAX_PIECES, (unsigned long long)CUT_MAX_PIECES * CULL_CUT_WORK_PER_PIECE, o->ntris, v->nsph);
         n = 0;
         rc = CULL_OK;
     }
@@ -181,6 +185,34 @@ out:
     return rc;
 }
 
+/* Why cull_dvol_add_sphere refused m's sphere, naming the field, its
+ * value and the bound it broke (its checks, in its order). */
+static int sphere_refused(scene_err *err, int crc, const vp_destroy *m)
+{
+    static const char axis[3] = {'x', 'y', 'z'};
+    int code = crc == CULL_ERR_CAPACITY ? VP_ERR_LIMIT : crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID;
+    switch (crc) {
+    case CULL_ERR_RADIUS:
+        if (!isfinite(m->radius)) break;
+        if (!(m->radius > 0))
+            return scene_fail(err, code, UINT32_MAX, "destruction sphere: radius %g m is not > 0", m->radius);
+        return scene_fail(err, code, UINT32_MAX, "destruction sphere: radius %g m is larger than the limit %g m",
+                          m->radius, (double)CULL_MAX_RADIUS);
+    case CULL_ERR_RANGE:
+        for (int a = 0; a < 3; a++)
+            if (fabs(m->center[a]) > CULL_MAX_COORD)
+                return scene_fail(err, code, UINT32_MAX,
+                                  "destruction sphere: centre %c is %g m, beyond the world's +-%g m", axis[a],
+                                  m->center[a], (double)CULL_MAX_COORD);
+        break;
+    case CULL_ERR_CAPACITY:
+        return scene_fail(err, code, UINT32_MAX, "destruction sphere: the entity already has %u spheres, the limit",
+                          CULL_DVOL_MAX_SPHERES);
+    default: break;
+    }
+    return scene_fail(err, code, UINT32_MAX, "destruction sphere: %s", cull_strerror(crc));
+}
+
 int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out, scene_err *err)
 {
     uint64_t hv;
@@ -220,8 +252,7 @@ int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out
             cull_dvol_free(&d->v);
             free(d);
         }
-        return scene_fail(err, crc == CULL_ERR_CAPACITY ? VP_ERR_LIMIT : VP_ERR_INVALID, UINT32_MAX,
-                          "destruction sphere: %s", cull_strerror(crc));
+        return sphere_refused(err, crc, m);
     }
     /* debris now, so a failure can still take the sphere back */
     if (m->debris && (rc = spawn_debris(s, m, sub, d->v.nsph, err)) != VP_OK) {

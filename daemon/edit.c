@@ -4,6 +4,7 @@
  */
 #include "edit.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -80,12 +81,58 @@ int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batc
     return rc ? rc : e->count ? VP_OK : VP_ERR_COUNT;
 }
 
+void edit_explain(const edit *e, int rc, scene_err *err)
+{
+    char why[120];
+    err->code = rc;
+    err->index = UINT32_MAX;
+    snprintf(err->msg, sizeof err->msg, "%s", vp_strerror(rc));
+    if (rc != VP_ERR_NONFINITE && rc != VP_ERR_INVALID) return;
+    if (e->type == VP_DESTROY) { /* the decoder's checks, in its order */
+        const vp_destroy *d = &e->u.destroy;
+        static const char axis[3] = {'x', 'y', 'z'};
+        for (int a = 0; a < 3; a++)
+            if (!isfinite(d->center[a])) {
+                scene_fail(err, rc, UINT32_MAX, "centre %c is %g: NaN or infinite", axis[a], d->center[a]);
+                return;
+            }
+        if (!isfinite(d->radius)) scene_fail(err, rc, UINT32_MAX, "radius is %g: NaN or infinite", d->radius);
+        else if (!(d->radius > 0)) scene_fail(err, rc, UINT32_MAX, "radius %g m is not > 0", d->radius);
+        else if (d->debris > VP_MAX_DEBRIS)
+            scene_fail(err, rc, UINT32_MAX, "debris %u is more than %u", d->debris, VP_MAX_DEBRIS);
+        else scene_fail(err, rc, UINT32_MAX, "pad bytes 13..15 must be zero");
+        return;
+    }
+    /* a batch whose structure held but a record did not: the first such
+       record, by the decoder's own per-record check */
+    for (uint32_t i = 0;; i++) {
+        int r;
+        if (e->type == VP_ENTITY_ADD || e->type == VP_ENTITY_UPDATE) {
+            if (i >= e->u.ents.count || !e->u.ents.recs) return;
+            r = vp_entity_rec_check(&e->u.ents, i, why, sizeof why);
+        } else if (e->type == VP_LIGHT_PUT) {
+            if (i >= e->u.lights.n || !e->u.lights.recs) return;
+            r = vp_light_rec_check(e->u.lights.recs, e->u.lights.n, i, why, sizeof why);
+        } else {
+            return;
+        }
+        if (r) {
+            scene_fail(err, r, i, "record %u: %s", i, why);
+            return;
+        }
+    }
+}
+
 /* SUBLEVEL_UNLOAD of a named sub-level: it must exist, be loaded, and not
  * be in some connection's load. */
 static int unload(scene *sc, const vp_name *nm, uint32_t *n, scene_err *err)
 {
     uint16_t id = scene_sublevel_find(sc, nm->name, nm->len);
-    if (!id) return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level named %.*s", (int)nm->len, (const char *)nm->name);
+    if (!id) {
+        char esc[4 * 255 + 1];
+        vp_escape(esc, sizeof esc, nm->name, nm->len);
+        return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level named \"%.100s\"", esc);
+    }
     const scene_sublevel *l = &sc->sl[id];
     if (l->state == VP_SL_LOADING)
         return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "sub-level %s is being loaded by client %u", l->name, l->owner);

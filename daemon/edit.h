@@ -52,6 +52,11 @@ bool edit_is(uint16_t type);
  * p); max_batch bounds batches (0 = the protocol's own limit). VP_OK, or a
  * code from the decoders (the message is vp_strerror's). */
 int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batch, edit *e);
+/* The ERROR for a decode that failed with rc: for a batch whose records
+ * the decoder refused (NaN, undefined flags or kinds), the first such
+ * record's index and a message naming its field and the cause; else
+ * UINT32_MAX and the code's message. e is what edit_decode left. */
+void edit_explain(const edit *e, int rc, scene_err *err);
 /* Applies e to sc (the caller holds the scene exclusively). VP_OK and *r
  * (free with edit_result_free), or a code with err filled and nothing
  * changed. */

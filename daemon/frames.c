@@ -182,16 +182,17 @@ static int gather_lights(const scene *sc, const uint64_t *subs, frame_in *fi)
         const scene_light *sl = (const scene_light *)(uintptr_t)sc->lights.vals[i];
         if (!cull_sublevel_in(subs, sl->sublevel)) continue;
         const vp_light *l = &sl->l;
+        /* LIGHT_PUT refused what the renderers refuse; a light replayed
+           from an older journal (or snapshot) may still fail: skipped, so
+           one bad light never breaks every frame */
+        if (!scene_light_drawable(l)) continue;
         fi->light_ids[fi->nl] = l->id;
         vt_light *o = &fi->lights[fi->nl++];
         memset(o, 0, sizeof *o);
-        memcpy(o->l.pos, l->pos, sizeof l->pos);
-        o->l.radius = l->range;
-        o->l.type = l->kind == VP_LIGHT_SPOT ? CULL_LIGHT_SPOT : CULL_LIGHT_POINT;
-        memcpy(o->l.dir, l->dir, sizeof l->dir);
-        o->l.cos_outer = l->outer_cos;
+        double rad[3];
+        scene_light_cull(l, &o->l, rad);
         o->cos_inner = l->inner_cos;
-        for (int a = 0; a < 3; a++) o->color[a] = l->color[a] * l->intensity;
+        for (int a = 0; a < 3; a++) o->color[a] = (float)rad[a];
     }
     return 0;
 }
@@ -243,6 +244,25 @@ static int tonemap_frame(worker *wk, uint32_t w, uint32_t h, const float *rgba, 
     return 0;
 }
 
+/* What RENDER and FRAME_SUBSCRIBE refuse before drawing anything: the
+ * view (view_from: cull_view_init, the validation every request carrying
+ * a view and both renderers share) and a RAW frame larger than the output
+ * limit. FRAME_SUBSCRIBE runs it before its ACK, so a stream that is
+ * acknowledged never ends for its view. VP_OK and *v, or a code and msg. */
+static int render_check(const server *s, const vp_render *m, cull_view *v, char *msg, size_t msglen)
+{
+    int code = view_from(&m->view, UINT32_MAX, v, msg, msglen);
+    if (code) return code;
+    size_t np = (size_t)v->viewport_w * v->viewport_h;
+    if (m->format == VP_FRAME_RAW && vp_size_frame((uint32_t)(np * 20)) > s->cfg.out_limit) {
+        /* the reply alone would get the client dropped */
+        snprintf(msg, msglen, "a raw %ux%u frame is %zu bytes, over this daemon's output limit of %u (--out-limit)",
+                 v->viewport_w, v->viewport_h, vp_size_frame((uint32_t)(np * 20)), s->cfg.out_limit);
+        return VP_ERR_LIMIT;
+    }
+    return VP_OK;
+}
+
 /* Fills j->reply with FRAME or ERROR for the render request m. The caller
  * holds scene_lock shared. */
 static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
@@ -258,16 +278,9 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     int renderer = m->renderer ? m->renderer : s->cfg.renderer;
     j->epoch = sc->epoch;
     cull_view v;
-    if ((code = view_from(&m->view, UINT32_MAX, &v, msg, sizeof msg))) goto error;
+    if ((code = render_check(s, m, &v, msg, sizeof msg))) goto error;
     uint32_t W = v.viewport_w, H = v.viewport_h;
     size_t np = (size_t)W * H;
-    if (m->format == VP_FRAME_RAW && vp_size_frame((uint32_t)(np * 20)) > s->cfg.out_limit) {
-        /* the reply alone would get the client dropped */
-        code = VP_ERR_LIMIT;
-        snprintf(msg, sizeof msg, "a raw %ux%u frame is %zu bytes, over this daemon's output limit of %u (--out-limit)",
-                 W, H, vp_size_frame((uint32_t)(np * 20)), s->cfg.out_limit);
-        goto error;
-    }
     if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) goto nomem;
     if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto error;
     if (m->format == VP_FRAME_RAW) {
@@ -459,6 +472,14 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
     int rc = vp_dec_frame_sub(p, h->len, &m);
     if (rc) {
         send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        return;
+    }
+    /* refused up front, as RENDER refuses it; a stream already running
+       keeps its last good view */
+    cull_view v;
+    char msg[300];
+    if ((rc = render_check(s, &m.r, &v, msg, sizeof msg))) {
+        send_error(s, c, h->req, rc, UINT32_MAX, msg);
         return;
     }
     frame_sub *f = &c->fsub;

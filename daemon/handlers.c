@@ -133,12 +133,13 @@ static void on_stats(server *s, conn *c, uint32_t req)
 void job_error(job *j, int code, uint32_t index, const char *msg)
 {
     j->code = code;
-    j->reply_len = VP_HEADER_SIZE + 10 + strlen(msg);
+    j->reply_len = VP_HEADER_SIZE + 10 + VP_MAX_ERROR_MSG; /* the escaped message may be longer */
     j->reply = malloc(j->reply_len);
     if (j->reply) {
         vp_writer w;
         vp_writer_init(&w, j->reply, j->reply_len);
         vp_enc_error(&w, j->h.req, code, index, msg);
+        j->reply_len = w.len;
     }
 }
 
@@ -561,7 +562,9 @@ static void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
     edit e;
     int rc = edit_decode(h->type, p, h->len, s->cfg.max_batch, &e);
     if (rc) {
-        send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
+        scene_err de;
+        edit_explain(&e, rc, &de);
+        send_error(s, c, h->req, rc, de.index, de.msg);
         return;
     }
     e.load = c->load;

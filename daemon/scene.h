@@ -85,6 +85,10 @@ typedef struct scene {
     uint32_t unloading;     /* sub-levels with entities left to free */
     idmap destruct;         /* entity id -> scene_destruct * */
     uint64_t debris_next;   /* debris entities spawned, ever */
+    bool replaying;         /* a journal is being replayed: what an older
+                               daemon acknowledged before it checked it is
+                               kept, not refused: a light (never drawn), a
+                               sub-level name that is not UTF-8 */
 } scene;
 
 /* Result of a failed edit: code from VP_ERRORS, the failing record, why. */
@@ -114,6 +118,17 @@ int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err);
 int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err *err);
 int scene_remove_ids(scene *s, uint16_t load, idmap *which, const vp_id_batch *b, scene_err *err);
 int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, scene_err *err);
+/* A light record as the renderers take it: the culling light and colour x
+ * intensity per channel (double, so an overflow is seen, not rounded). */
+void scene_light_cull(const vp_light *l, cull_light *cl, double radiance[3]);
+/* LIGHT_PUT's validation, the one the renderers make: a spot axis
+ * normalised in double (in place; zero refused), then cull_light_validate.
+ * VP_OK, or VP_ERR_NONFINITE / VP_ERR_INVALID with the field, value and
+ * bound in why (may be NULL). */
+int scene_light_check(vp_light *l, char *why, size_t whylen);
+/* Whether a stored light passes cull_light_validate (one replayed from a
+ * journal written before lights were checked may not: it is not drawn). */
+bool scene_light_drawable(const vp_light *l);
 
 /* ---- sub-levels (sublevel.c) ---- */
 /* Ids of sub-level names, defining the new ones (all or nothing). */

@@ -86,11 +86,32 @@ static void undefine_to(scene *s, uint32_t keep)
     }
 }
 
+/* A name the spec allows: UTF-8 (the decoder already refused control
+ * bytes). Checked here, not in the decoder, so a journal written before
+ * the check still replays (s->replaying); the name is quoted escaped. */
+static int name_ok(const scene *s, const uint8_t *name, uint8_t len, uint32_t index, scene_err *err)
+{
+    const char *why;
+    size_t at = vp_utf8_check(name, len, &why);
+    if (at == len || s->replaying) return VP_OK;
+    char esc[4 * 255 + 1];
+    vp_escape(esc, sizeof esc, name, len);
+    if (index == UINT32_MAX)
+        return scene_fail(err, VP_ERR_INVALID, index, "name \"%.80s\" is not UTF-8: %s at byte %zu", esc, why, at);
+    return scene_fail(err, VP_ERR_INVALID, index, "name %u \"%.80s\" is not UTF-8: %s at byte %zu", index, esc, why,
+                      at);
+}
+
 int scene_sublevel_ids(scene *s, const vp_name_list *names, uint16_t *ids, scene_err *err)
 {
     uint32_t first_new = s->nsublevels + 1, i = 0;
     size_t pos = 0;
     vp_name nm;
+    for (uint32_t k = 0; vp_name_next(names, &pos, &nm); k++) {
+        int rc = name_ok(s, nm.name, nm.len, k, err);
+        if (rc) return rc;
+    }
+    pos = 0;
     while (vp_name_next(names, &pos, &nm)) {
         uint16_t id = scene_sublevel_find(s, nm.name, nm.len);
         if (!id && !(id = define(s, nm.name, nm.len))) {
@@ -158,6 +179,8 @@ static uint32_t find_classes(const scene *s, uint32_t n)
 int scene_sublevel_begin(scene *s, const vp_sublevel_begin *m, uint32_t owner, vp_sublevel_begun *out,
                          scene_err *err)
 {
+    int nrc = name_ok(s, m->name, m->name_len, UINT32_MAX, err);
+    if (nrc) return nrc;
     uint16_t id = scene_sublevel_find(s, m->name, m->name_len);
     bool fresh = !id;
     if (fresh && !(id = define(s, m->name, m->name_len)))

@@ -261,7 +261,10 @@ int main(int argc, char **argv)
         static const char *const pol[] = {"off", "everysec", "always"};
         journal_report rep;
         char err[800];
-        if (journal_open(data_dir, durability, sc, &cfg.journal, &rep, err, sizeof err)) {
+        sc->replaying = true; /* records acknowledged by older daemons replay as they were */
+        int jrc = journal_open(data_dir, durability, sc, &cfg.journal, &rep, err, sizeof err);
+        sc->replaying = false;
+        if (jrc) {
             LOGE("--data-dir %s: %s", data_dir, err);
             scene_free(sc); /* what recovery restored before it stopped */
             free(sc);

@@ -337,15 +337,104 @@ int vp_dec_hello_ok(const uint8_t *p, size_t len, vp_hello_ok *m)
     return vp_reader_finish(&r);
 }
 
+/* ---- UTF-8 --------------------------------------------------------------------- */
+
+size_t vp_utf8_check(const uint8_t *p, size_t n, const char **why)
+{
+    size_t i = 0;
+    while (i < n) {
+        uint8_t b = p[i];
+        if (b < 0x80) {
+            i++;
+            continue;
+        }
+        uint32_t len, cp, min;
+        if (b < 0xC0) {
+            if (why) *why = "a continuation byte without a lead byte";
+            return i;
+        } else if (b < 0xE0) {
+            len = 2, cp = b & 0x1Fu, min = 0x80;
+        } else if (b < 0xF0) {
+            len = 3, cp = b & 0x0Fu, min = 0x800;
+        } else if (b < 0xF8) {
+            len = 4, cp = b & 0x07u, min = 0x10000;
+        } else {
+            if (why) *why = "a byte that never occurs in UTF-8 (0xF8..0xFF)";
+            return i;
+        }
+        for (uint32_t k = 1; k < len; k++) {
+            if (i + k >= n || (p[i + k] & 0xC0u) != 0x80) {
+                if (why) *why = "a sequence cut short";
+                return i;
+            }
+            cp = cp << 6 | (p[i + k] & 0x3Fu);
+        }
+        if (cp < min) {
+            if (why) *why = "an overlong encoding";
+            return i;
+        }
+        if (cp >= 0xD800 && cp <= 0xDFFF) {
+            if (why) *why = "a UTF-16 surrogate (U+D800..U+DFFF)";
+            return i;
+        }
+        if (cp > 0x10FFFF) {
+            if (why) *why = "a code point beyond U+10FFFF";
+            return i;
+        }
+        i += len;
+    }
+    return n;
+}
+
+static size_t escape(char *out, size_t cap, const uint8_t *p, size_t n, bool backslash)
+{
+    static const char hex[] = "0123456789abcdef";
+    size_t o = 0;
+    if (!cap) return 0;
+    for (size_t i = 0; i < n;) {
+        size_t good = p[i] >= 0x80 ? vp_utf8_check(p + i, n - i > 4 ? 4 : n - i, NULL) : 0;
+        size_t seq = 1;
+        if (p[i] >= 0x80) {
+            /* the valid sequence that starts here, if any: its length */
+            seq = p[i] < 0xE0 ? 2 : p[i] < 0xF0 ? 3 : 4;
+            if (good < seq) seq = 0;
+        }
+        if (seq && (p[i] >= 0x80 || (p[i] >= 32 && p[i] != 127 && (p[i] != '\\' || !backslash)))) {
+            if (o + seq >= cap) break;
+            memcpy(out + o, p + i, seq);
+            o += seq;
+            i += seq;
+        } else {
+            if (o + 4 >= cap) break;
+            out[o++] = '\\';
+            out[o++] = 'x';
+            out[o++] = hex[p[i] >> 4];
+            out[o++] = hex[p[i] & 15];
+            i++;
+        }
+    }
+    out[o] = 0;
+    return o;
+}
+
+size_t vp_escape(char *out, size_t cap, const uint8_t *p, size_t n)
+{
+    return escape(out, cap, p, n, true);
+}
+
 void vp_enc_error(vp_writer *w, uint32_t req, int32_t code, uint32_t index, const char *msg)
 {
-    size_t n = msg ? strlen(msg) : 0;
-    if (n > VP_MAX_ERROR_MSG) n = VP_MAX_ERROR_MSG;
+    /* escaped: whatever client bytes a message quotes, ERROR carries valid
+       UTF-8 without control characters, at most VP_MAX_ERROR_MSG bytes
+       (backslashes kept: a message quotes client bytes through vp_escape,
+       whose \\xNN must arrive as written) */
+    char esc[VP_MAX_ERROR_MSG + 1];
+    size_t n = msg ? escape(esc, sizeof esc, (const uint8_t *)msg, strlen(msg), false) : 0;
     vp_frame_begin(w, VP_ERROR, req);
     vp_put_i32(w, code);
     vp_put_u32(w, index);
     vp_put_u16(w, (uint16_t)n);
-    vp_put_bytes(w, msg, n);
+    vp_put_bytes(w, esc, n);
     vp_frame_end(w);
 }
 

@@ -69,6 +69,15 @@ const char *vp_strerror(int code);
  * NULL or errlen 0: nothing written) and returns -1, so a failing path is
  * `return vp_errf(err, errlen, "...", ...);`. */
 int vp_errf(char *err, size_t errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+/* Strict UTF-8 (RFC 3629): no overlong forms, no surrogates, nothing past
+ * U+10FFFF, no sequence cut short. Returns n if p[0..n) is valid, else the
+ * offset of the first bad sequence with the reason in *why (may be NULL). */
+size_t vp_utf8_check(const uint8_t *p, size_t n, const char **why);
+/* p[0..n) made safe to quote in a message: valid UTF-8 sequences and
+ * printable ASCII kept, every other byte (control bytes, 127, '\\', bytes
+ * of no valid sequence) written as \\xNN. At most cap - 1 bytes and a NUL;
+ * never cuts a sequence or an escape. Returns the length. */
+size_t vp_escape(char *out, size_t cap, const uint8_t *p, size_t n);
 
 /* ---- message types: ranges reserved per area ----------------------------- */
 enum vp_type {
@@ -662,6 +671,13 @@ int  vp_view_get(const vp_vis_query *q, uint32_t i, vp_view *out);
 uint16_t vp_query_sublevel_get(const vp_vis_query *q, uint32_t i);
 void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out);
 int  vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out);
+/* The per-record checks the batch decoders make (finite numbers, defined
+ * flags and kinds, cone order), for record i alone: VP_OK, or the code the
+ * decoder returned for it with the field and the cause written to why
+ * (why may be NULL). A daemon answers a batch the decoder refused with the
+ * first record these refuse, so its ERROR names the record. */
+int  vp_entity_rec_check(const vp_entity_batch *b, uint32_t i, char *why, size_t whylen);
+int  vp_light_rec_check(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen);
 
 /* Whether a message type is known to this version. */
 bool vp_type_known(uint16_t type);

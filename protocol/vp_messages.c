@@ -52,11 +52,32 @@ static void entity_read(const uint8_t *p, vp_entity *e)
     for (int k = 0; k < 6; k++) e->aabb[k] = rdf64(p + 56 + 8 * k);
 }
 
-static int entity_check(const vp_entity *e)
+/* A record's own checks (what no scene state decides), with the field and
+ * the cause in why (may be NULL). The range checks are the scene's. */
+static int entity_check(const vp_entity *e, char *why, size_t whylen)
 {
-    if (!vp_finite_n(e->sphere, 4) || !vp_finite_n(e->aabb, 6)) return VP_ERR_NONFINITE;
-    if (e->flags & ~VP_ENT_DYNAMIC) return VP_ERR_INVALID;
+    static const char *const sname[4] = {"sphere x", "sphere y", "sphere z", "sphere radius"};
+    static const char *const bname[6] = {"aabb min x", "aabb min y", "aabb min z",
+                                         "aabb max x", "aabb max y", "aabb max z"};
+    for (int k = 0; k < 4; k++)
+        if (!isfinite(e->sphere[k]))
+            return vp_errf(why, whylen, "%s is %g: NaN or infinite", sname[k], e->sphere[k]), VP_ERR_NONFINITE;
+    for (int k = 0; k < 6; k++)
+        if (!isfinite(e->aabb[k]))
+            return vp_errf(why, whylen, "%s is %g: NaN or infinite", bname[k], e->aabb[k]), VP_ERR_NONFINITE;
+    if (e->flags & ~VP_ENT_DYNAMIC)
+        return vp_errf(why, whylen, "flags 0x%08x has undefined bits 0x%08x (only 0x1, dynamic, is defined)",
+                       e->flags, e->flags & ~VP_ENT_DYNAMIC),
+               VP_ERR_INVALID;
     return VP_OK;
+}
+
+int vp_entity_rec_check(const vp_entity_batch *b, uint32_t i, char *why, size_t whylen)
+{
+    if (i >= b->count) return VP_ERR_COUNT;
+    vp_entity e;
+    entity_read(b->recs + (size_t)i * VP_ENTITY_REC_SIZE, &e);
+    return entity_check(&e, why, whylen);
 }
 
 /* count + records to the end of the payload */
@@ -71,7 +92,7 @@ static int get_entities(vp_reader *rd, uint32_t max_batch, vp_entity_batch *m)
     for (uint32_t i = 0; i < m->count; i++) {
         vp_entity e;
         entity_read(m->recs + (size_t)i * VP_ENTITY_REC_SIZE, &e);
-        if ((rc = entity_check(&e))) return rc;
+        if ((rc = entity_check(&e, NULL, 0))) return rc;
     }
     *rd = r;
     return VP_OK;
@@ -127,7 +148,7 @@ int vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out)
 {
     if (i >= b->count) return VP_ERR_COUNT;
     entity_read(b->recs + (size_t)i * VP_ENTITY_REC_SIZE, out);
-    return entity_check(out);
+    return entity_check(out, NULL, 0);
 }
 
 void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, uint32_t n)
@@ -465,16 +486,44 @@ static void light_read(const uint8_t *p, vp_light *l)
     l->outer_cos = rdf32(p + 72);
 }
 
-static int light_check(const vp_light *l)
+/* A light record's own checks, the field and cause in why (may be NULL).
+ * What a renderer can draw (position, range, colour and direction bounds)
+ * is the culling module's cull_light_validate, which the daemon runs too. */
+static int light_check(const vp_light *l, char *why, size_t whylen)
 {
-    float f[] = {l->intensity, l->dir[0], l->dir[1], l->dir[2], l->color[0], l->color[1], l->color[2],
-                 l->range, l->inner_cos, l->outer_cos};
-    if (!vp_finite_n(l->pos, 3) || !vp_finite_nf(f, (int)(sizeof f / sizeof f[0]))) return VP_ERR_NONFINITE;
-    if (l->kind > VP_LIGHT_SPOT || !(l->range > 0) || l->intensity < 0) return VP_ERR_INVALID;
-    if (l->color[0] < 0 || l->color[1] < 0 || l->color[2] < 0) return VP_ERR_INVALID;
+    static const char *const pname[3] = {"position x", "position y", "position z"};
+    const struct { const char *name; float v; } f[] = {
+        {"intensity", l->intensity}, {"direction x", l->dir[0]}, {"direction y", l->dir[1]},
+        {"direction z", l->dir[2]},  {"colour r", l->color[0]},  {"colour g", l->color[1]},
+        {"colour b", l->color[2]},   {"range", l->range},        {"inner cosine", l->inner_cos},
+        {"outer cosine", l->outer_cos}};
+    for (int k = 0; k < 3; k++)
+        if (!isfinite(l->pos[k]))
+            return vp_errf(why, whylen, "%s is %g: NaN or infinite", pname[k], l->pos[k]), VP_ERR_NONFINITE;
+    for (size_t k = 0; k < sizeof f / sizeof f[0]; k++)
+        if (!isfinite(f[k].v))
+            return vp_errf(why, whylen, "%s is %g: NaN or infinite", f[k].name, (double)f[k].v), VP_ERR_NONFINITE;
+    if (l->kind > VP_LIGHT_SPOT)
+        return vp_errf(why, whylen, "kind %u is neither 0 (point) nor 1 (spot)", l->kind), VP_ERR_INVALID;
+    if (!(l->range > 0)) return vp_errf(why, whylen, "range %g is not > 0", (double)l->range), VP_ERR_INVALID;
+    if (l->intensity < 0)
+        return vp_errf(why, whylen, "intensity %g is negative", (double)l->intensity), VP_ERR_INVALID;
+    for (int k = 0; k < 3; k++)
+        if (l->color[k] < 0)
+            return vp_errf(why, whylen, "%s %g is negative", f[4 + k].name, (double)l->color[k]), VP_ERR_INVALID;
     if (l->kind == VP_LIGHT_SPOT && !(l->outer_cos <= l->inner_cos && l->outer_cos >= -1 && l->inner_cos <= 1))
-        return VP_ERR_INVALID;
+        return vp_errf(why, whylen, "spot cone: need -1 <= outer cosine (%g) <= inner cosine (%g) <= 1",
+                       (double)l->outer_cos, (double)l->inner_cos),
+               VP_ERR_INVALID;
     return VP_OK;
+}
+
+int vp_light_rec_check(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen)
+{
+    if (i >= n) return VP_ERR_COUNT;
+    vp_light l;
+    light_read(recs + (size_t)i * VP_LIGHT_SIZE, &l);
+    return light_check(&l, why, whylen);
 }
 
 int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_t **recs, uint32_t *n)
@@ -489,7 +538,7 @@ int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_
     for (uint32_t i = 0; i < *n; i++) {
         vp_light l;
         light_read(*recs + (size_t)i * VP_LIGHT_SIZE, &l);
-        if ((rc = light_check(&l))) return rc;
+        if ((rc = light_check(&l, NULL, 0))) return rc;
     }
     return VP_OK;
 }
@@ -498,7 +547,7 @@ int vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out)
 {
     if (i >= n) return VP_ERR_COUNT;
     light_read(recs + (size_t)i * VP_LIGHT_SIZE, out);
-    return light_check(out);
+    return light_check(out, NULL, 0);
 }
 
 /* ---- sub-level names ------------------------------------------------------------ */

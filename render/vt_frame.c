@@ -85,11 +85,14 @@ int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t s
             return vt_fail(err, errlen, -EINVAL, "instance %u: bad destruction volume", i);
     }
     for (uint32_t i = 0; i < nl; i++) {
+        /* the daemon's LIGHT_PUT runs the same validation: a light it
+           acknowledged is never refused here */
         const vt_light *L = &lights[i];
-        if (cull_light_check(&L->l) != CULL_OK)
-            return vt_fail(err, errlen, -EINVAL, "light %u: bad position, range or spot axis", i);
-        if (!isfinite(L->color[0]) || !isfinite(L->color[1]) || !isfinite(L->color[2]) || !isfinite(L->cos_inner))
-            return vt_fail(err, errlen, -EINVAL, "light %u: colour or cone not finite", i);
+        const double rad[3] = {L->color[0], L->color[1], L->color[2]};
+        char why[120];
+        if (cull_light_validate(&L->l, rad, why, sizeof why) != CULL_OK)
+            return vt_fail(err, errlen, -EINVAL, "light %u: %s", i, why);
+        if (!isfinite(L->cos_inner)) return vt_fail(err, errlen, -EINVAL, "light %u: inner cosine not finite", i);
     }
     cull_view_rows_get(v, vr);
     if (!vr->usable) return vt_fail(err, errlen, -EINVAL, "orthographic view with w <= 0");
@@ -108,7 +111,9 @@ void vt_light_prepare(const vt_light *L, const double origin[3], vt_slight *q, c
     q->inv_range2 = 1.0f / q->range2;
     q->spot = L->l.type == CULL_LIGHT_SPOT;
     q->cos_outer = L->l.cos_outer;
-    q->cos_inner = L->cos_inner > L->l.cos_outer ? L->cos_inner : L->l.cos_outer + 1e-4f;
+    /* a cone edge under 1e-4 wide is a hard edge: 1 / (inner - outer) of
+       a denormal difference would be infinite, and 0 x inf NaN */
+    q->cos_inner = L->cos_inner > L->l.cos_outer + 1e-4f ? L->cos_inner : L->l.cos_outer + 1e-4f;
     q->inv_cone = 1.0f / (q->cos_inner - q->cos_outer);
 }
 

@@ -90,5 +90,6 @@ TEST_GROUP(exr_tests)
 TEST_GROUP(gl_tests)
 TEST_GROUP(sublevel_tests)
 TEST_GROUP(destruct_tests)
+TEST_GROUP(validate_tests)
 
 #endif
