@@ -254,10 +254,19 @@ static int render_check(const server *s, const vp_render *m, cull_view *v, char 
     int code = view_from(&m->view, UINT32_MAX, v, msg, msglen);
     if (code) return code;
     size_t np = (size_t)v->viewport_w * v->viewport_h;
-    if (m->format == VP_FRAME_RAW && vp_size_frame((uint32_t)(np * 20)) > s->cfg.out_limit) {
+    size_t bytes = vp_size_frame((uint32_t)(np * 20));
+    if (m->format == VP_FRAME_RAW && bytes > s->cfg.out_limit) {
         /* the reply alone would get the client dropped */
         snprintf(msg, msglen, "a raw %ux%u frame is %zu bytes, over this daemon's output limit of %u (--out-limit)",
-                 v->viewport_w, v->viewport_h, vp_size_frame((uint32_t)(np * 20)), s->cfg.out_limit);
+                 v->viewport_w, v->viewport_h, bytes, s->cfg.out_limit);
+        return VP_ERR_LIMIT;
+    }
+    if (m->format == VP_FRAME_RAW && s->cfg.out_limit_total && bytes > s->cfg.out_limit_total / 2) {
+        /* its buffer (a power of two) alone would pass the daemon-wide limit */
+        snprintf(msg, msglen,
+                 "a raw %ux%u frame is %zu bytes, over half this daemon's output limit for all clients, %llu "
+                 "(--out-limit-total)",
+                 v->viewport_w, v->viewport_h, bytes, (unsigned long long)s->cfg.out_limit_total);
         return VP_ERR_LIMIT;
     }
     return VP_OK;

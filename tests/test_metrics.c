@@ -976,6 +976,11 @@ static void test_metrics_output_limit_total(void **state)
     vp_frame f;
     for (int i = 0; i < 4; i++) assert_int_equal(vt_render(ok, &m, &f), VP_OK);
     double base = daemon_peak_rss(&d);
+    /* a raw frame whose buffer alone would pass the cap is refused up front */
+    vp_render big = m;
+    big.view.viewport_w = big.view.viewport_h = 1400; /* 39 MB: over half of 64 MiB */
+    assert_int_equal(vt_render(ok, &big, &f), VP_ERR_LIMIT);
+    assert_non_null(strstr(vt_last_error(ok)->msg, "--out-limit-total"));
     static rawc r[NV + 1]; /* r[NV]: a viewer with one frame waiting, the smallest backlog */
     uint8_t buf[1024];
     vp_writer w;
