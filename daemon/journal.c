@@ -878,9 +878,10 @@ fail:
     return -1;
 }
 
-void journal_close(journal *j)
+int journal_close(journal *j)
 {
-    if (!j) return;
+    if (!j) return 0;
+    int rc = 0;
     if (j->syncer_on) {
         pthread_mutex_lock(&j->mu);
         j->stop = true;
@@ -896,7 +897,16 @@ void journal_close(journal *j)
         child_done(j, r, status);
     }
     if (j->fd >= 0) {
-        if (j->policy != JOURNAL_OFF && fdatasync(j->fd)) LOGW("journal: final sync failed: %s", strerror(errno));
+        if (j->policy != JOURNAL_OFF && jsync(j->fd)) {
+            /* what the last turns acknowledged may not be on disk: the exit
+               status says so (a supervisor must not take it as clean) */
+            rc = -errno;
+            LOGE("journal: the final sync failed: %s; %s", strerror(-rc),
+                 j->policy == JOURNAL_EVERYSEC ? "edits acknowledged in the last second may be lost if the machine "
+                                                 "goes down now"
+                                               : "every acknowledged edit had been synced, but the last writes (a "
+                                                 "dropped load, say) may not be on disk");
+        }
         close(j->fd);
     }
     if (j->lock_fd >= 0) close(j->lock_fd);
@@ -904,4 +914,5 @@ void journal_close(journal *j)
     pthread_cond_destroy(&j->cv);
     free(j->dir);
     free(j);
+    return rc;
 }

@@ -55,7 +55,9 @@ typedef struct journal_report {
  * (empty on entry) from it. 0, or -1 with err naming the file and why. */
 int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_report *rep, char *err,
                  size_t errlen);
-void journal_close(journal *j);
+/* Waits for a snapshot in flight, syncs and closes (NULL: nothing). 0, or
+ * -errno when the final sync failed. */
+int journal_close(journal *j);
 
 /* Applies e to sc, journaled first when j is not NULL (p, len: the
  * request's payload). A journal that cannot take it refuses it (VP_ERR_IO,

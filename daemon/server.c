@@ -748,9 +748,9 @@ void server_stop(server *s)
     ae_stop(s->loop);
 }
 
-void server_destroy(server *s)
+int server_destroy(server *s)
 {
-    if (!s) return;
+    if (!s) return 0;
     while (s->nconns) conn_free(s, s->live[0], MD_SHUTDOWN);
     metrics_http_close(s);
     if (s->tcp_fd >= 0) close(s->tcp_fd);
@@ -777,7 +777,7 @@ void server_destroy(server *s)
         pthread_cond_destroy(&s->cv);
     }
     frames_fini(s); /* after the workers: none is drawing */
-    journal_close(s->journal); /* after the connections: their loads' drops are journaled */
+    int rc = journal_close(s->journal); /* after the connections: their loads' drops are journaled */
     for (job *lists[3] = {s->jobs_head, s->fast_head, s->done_head}, **l = lists; l < lists + 3; l++) {
         for (job *j = *l, *n; j; j = n) {
             n = j->next;
@@ -792,4 +792,5 @@ void server_destroy(server *s)
     free(s->conns);
     free(s->live);
     free(s);
+    return rc;
 }

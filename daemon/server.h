@@ -46,6 +46,8 @@ server *server_create(const server_config *cfg, scene *sc);
 /* Runs the event loop until server_stop (or SIGINT / SIGTERM). */
 void server_run(server *s);
 void server_stop(server *s);
-void server_destroy(server *s);
+/* Ends the connections, stops the workers, closes the journal. 0, or
+ * -errno when the journal's final sync failed (its last edits may be lost). */
+int server_destroy(server *s);
 
 #endif

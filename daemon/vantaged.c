@@ -308,9 +308,9 @@ int main(int argc, char **argv)
     if (cfg.unix_path && *cfg.unix_path) LOGI("listening on %s", cfg.unix_path);
     LOGI("try: vantage -p %d query --eye 0,2,-300 --at 0,2,0", cfg.port);
     server_run(srv);
-    server_destroy(srv);
+    int rc = server_destroy(srv);
     scene_free(sc);
     free(sc);
     LOGI("bye");
-    return 0;
+    return rc ? 1 : 0;
 }

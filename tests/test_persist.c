@@ -1068,6 +1068,42 @@ static void test_persist_sync_failure_stops(void **state)
     tdir_remove(&td);
 }
 
+/* A clean shutdown whose final sync fails exits 1, saying so: a
+ * supervisor must not take it for a clean stop (everysec's last second may
+ * not be on disk). It exited 0 with a warning. */
+static void test_persist_final_sync_failure_exit_status(void **state)
+{
+    (void)state;
+    tdir td;
+    char dir[320];
+    data_dir_make(&td, "persist-final-sync", dir);
+    daemon_proc d;
+    setenv("VANTAGED_FAIL_SYNC", "3", 1); /* the two edits' syncs pass, the final one fails */
+    start_dd(&d, dir, "always", "64");
+    unsetenv("VANTAGED_FAIL_SYNC");
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+    vp_entity e[2] = {ent(1, 0, 0, 0.5, 0, 1), ent(2, 1, 0, 0.5, 0, 1)};
+    assert_int_equal(vt_add(c, &e[0], 1, NULL, NULL), VP_OK);
+    assert_int_equal(vt_add(c, &e[1], 1, NULL, NULL), VP_OK);
+    vt_close(c);
+    kill(d.pid, SIGTERM);
+    int st = 0;
+    waitpid(d.pid, &st, 0);
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 1);
+    unlink(d.sock);
+    /* both edits were synced when acknowledged: a restart has them */
+    start_dd(&d, dir, "always", "64");
+    c = connect_role(&d, VP_ROLE_EDITOR, true);
+    vp_stats_reply sr;
+    assert_int_equal(vt_stats(c, &sr), VP_OK);
+    assert_int_equal(sr.entities, 2);
+    vt_close(c);
+    daemon_stop(&d);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
 /* A snapshot child that ends while the daemon is idle (no client sends a
  * byte after the edit that started it) is put in place all the same: the
  * child's exit wakes the loop. The child is held back 300 ms, so the loop
@@ -1149,5 +1185,6 @@ const struct CMUnitTest persist_tests[] = {
     cmocka_unit_test(test_persist_mid_journal_flip_refused),
     cmocka_unit_test(test_persist_write_error),
     cmocka_unit_test(test_persist_sync_failure_stops),
+    cmocka_unit_test(test_persist_final_sync_failure_exit_status),
 };
 const size_t persist_tests_count = sizeof persist_tests / sizeof persist_tests[0];
