@@ -32,7 +32,8 @@ typedef struct bench_arg {
     cli *k;
     enum bench_test test;
     int first, nconn;
-    long per_conn;
+    long per_conn;      /* requests per connection; the first `extra` connections overall send one more */
+    int extra;
     int pipeline, views, batch;
     uint8_t qflags;
     double *lat;        /* seconds per request */
@@ -88,7 +89,7 @@ static void *bench_worker(void *p)
         o.role = VP_ROLE_EDITOR;
         o.name = "vantage-bench";
         bc->idx = a->first + i;
-        bc->quota = a->per_conn;
+        bc->quota = a->per_conn + (bc->idx < a->extra); /* N requests exactly, the remainder spread */
         bc->sent_at = calloc((size_t)a->pipeline, sizeof *bc->sent_at);
         char err[256];
         if (vt_connect(&o, &bc->c, err, sizeof err)) {
@@ -197,13 +198,14 @@ int cmd_bench(cli *k, int argc, char **argv)
     pthread_t *th = calloc((size_t)threads, sizeof *th);
     bench_arg *args = calloc((size_t)threads, sizeof *args);
     long per = (long)(requests / clients);
+    int extra = (int)(requests % clients);
     double t0 = now_s();
     for (uint64_t i = 0, first = 0; i < threads; i++) {
         int nconn = (int)(clients / threads + (i < clients % threads));
-        args[i] = (bench_arg){.k = k, .first = (int)first, .nconn = nconn, .test = kind, .per_conn = per,
+        args[i] = (bench_arg){.k = k, .first = (int)first, .nconn = nconn, .test = kind, .per_conn = per, .extra = extra,
                               .pipeline = (int)pipeline, .views = (int)views, .batch = (int)batch,
                               .qflags = qflags};
-        args[i].lat = malloc(sizeof(double) * (size_t)per * (size_t)nconn);
+        args[i].lat = malloc(sizeof(double) * (size_t)(per + 1) * (size_t)nconn);
         first += nconn;
         pthread_create(&th[i], NULL, bench_worker, &args[i]);
     }

@@ -85,7 +85,7 @@ int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batc
 static int unload(scene *sc, const vp_name *nm, uint32_t *n, scene_err *err)
 {
     uint16_t id = scene_sublevel_find(sc, nm->name, nm->len);
-    if (!id) return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level named %.*s", (int)nm->len, (const char *)nm->name);
+    if (!id) return scene_fail(err, VP_ERR_NOT_FOUND, UINT32_MAX, "no sub-level named %.*s", (int)nm->len, (const char *)nm->name);
     const scene_sublevel *l = &sc->sl[id];
     if (l->state == VP_SL_LOADING)
         return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "sub-level %s is being loaded by client %u", l->name, l->owner);
