@@ -181,19 +181,28 @@ int cmd_bench(cli *k, int argc, char **argv)
         else if (!strcmp(argv[i], "--json")) json = ok = true;
         for (size_t n = 0; !ok && n < sizeof nums / sizeof nums[0]; n++)
             if (!strcmp(argv[i], nums[n].name) && i + 1 < argc) {
-                if (!parse_u64(argv[++i], nums[n].v)) return die_usage("bench: bad value %s", argv[i]);
+                if (!parse_u64(argv[++i], nums[n].v))
+                    return die_bad_value("bench", nums[n].name, argv[i], "a count");
                 ok = true;
             }
-        if (!ok) return die_usage("%s", use);
+        if (!ok) return die_usage("bench: unexpected %s; %s", argv[i], use);
     }
     enum bench_test kind;
     if (!strcmp(test, "query")) kind = T_QUERY;
     else if (!strcmp(test, "edit")) kind = T_EDIT;
     else if (!strcmp(test, "ping")) kind = T_PING;
-    else return die_usage("%s", use);
-    if (clients < 1 || clients > 1000 || requests < clients || pipeline < 1 || pipeline > 1000 || views < 1 ||
-        views > 32 || batch < 1 || batch > 65536 || threads < 1 || threads > 64)
-        return die_usage("bench: a value out of range");
+    else return die_bad_value("bench", "--test", test, "query, edit, ping or frames");
+    /* each bound named with the option it bounds */
+    const struct { const char *name; uint64_t v, lo, hi; } range[] = {
+        {"--clients", clients, 1, 1000}, {"--pipeline", pipeline, 1, 1000}, {"--views", views, 1, 32},
+        {"--batch", batch, 1, 65536},    {"--threads", threads, 1, 64}};
+    for (size_t r = 0; r < sizeof range / sizeof range[0]; r++)
+        if (range[r].v < range[r].lo || range[r].v > range[r].hi)
+            return die_usage("bench: %s %llu: expected %llu..%llu", range[r].name, (unsigned long long)range[r].v,
+                             (unsigned long long)range[r].lo, (unsigned long long)range[r].hi);
+    if (requests < clients)
+        return die_usage("bench: --requests %llu is fewer than --clients %llu (each client sends at least one)",
+                         (unsigned long long)requests, (unsigned long long)clients);
     if (threads > clients) threads = clients;
     pthread_t *th = calloc((size_t)threads, sizeof *th);
     bench_arg *args = calloc((size_t)threads, sizeof *args);

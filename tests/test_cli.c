@@ -327,6 +327,11 @@ static void test_cli_errors_name_the_option(void **state)
         {"destroy 5 0,0,0 -2", {"radius -2", "more than 0"}},
         {"destroy 5 0,0 1", {"centre 0,0", "X,Y,Z"}},
         {"destroy 5 0,0,0 1 --debris 999", {"--debris 999", "0..64"}},
+        {"bench --test ping --requests 10 --clients 64", {"--requests 10 is fewer than --clients 64"}},
+        {"bench --clients 0", {"--clients 0", "1..1000"}},
+        {"bench --test fast", {"--test fast", "query, edit, ping or frames"}},
+        {"bench --test frames --fps 0", {"--fps", "1..240"}},
+        {"bench --test frames --viewers x", {"--viewers x"}},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char cmd[800], out[4096];
