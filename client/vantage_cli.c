@@ -6,6 +6,10 @@
  *
  * Exit status: 0 ok, 1 the server refused (its message on stderr), 2 bad
  * usage, 3 cannot connect or the connection failed.
+ *
+ * Every command's forms and help live in one table here (forms[]):
+ * `vantage --help`, `vantage COMMAND --help` and README.md's CLI block
+ * (held to it by tests/test_cli.c) all come from or match it.
  */
 #include "cli.h"
 
