@@ -248,7 +248,7 @@ static int command_help(int argc, char **argv)
     return 0;
 }
 
-const char *g_cmd; /* the command being run, for die_usage's hint */
+static const char *g_cmd; /* the command being run, for die_usage's hint */
 
 int die_usage(const char *fmt, ...)
 {
