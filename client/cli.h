@@ -21,8 +21,19 @@ typedef struct cli {
 
 extern const char *g_prog;
 
-/* Prints "vantage: MESSAGE (vantage --help)" and returns 2. */
+/* Prints "vantage: MESSAGE (vantage COMMAND --help)" and returns 2. */
 int die_usage(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* An option's value refused: "CMD: OPT VALUE: expected WHAT"; returns 2. */
+int die_bad_value(const char *cmd, const char *opt, const char *value, const char *expected);
+/* An option the command needs and did not get: "CMD: OPT is missing (WHY)"; returns 2. */
+int die_missing(const char *cmd, const char *opt, const char *why);
+/* One option's name and what it accepts, by its getopt code. */
+typedef struct cli_opt_doc {
+    int code;
+    const char *name, *expected;
+} cli_opt_doc;
+/* The refusal of code's value from docs[0..n) (the code itself if not there). */
+int die_bad_opt(const char *cmd, const cli_opt_doc *docs, size_t n, int code, const char *value);
 /* Reports a failed call with the server's code, record and message;
  * returns the exit status (1 refused, 3 connection). */
 int server_fail(cli *k, const char *what, int rc);

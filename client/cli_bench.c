@@ -32,7 +32,8 @@ typedef struct bench_arg {
     cli *k;
     enum bench_test test;
     int first, nconn;
-    long per_conn;
+    long per_conn;      /* requests per connection; the first `extra` connections overall send one more */
+    int extra;
     int pipeline, views, batch;
     uint8_t qflags;
     double *lat;        /* seconds per request */
@@ -88,7 +89,7 @@ static void *bench_worker(void *p)
         o.role = VP_ROLE_EDITOR;
         o.name = "vantage-bench";
         bc->idx = a->first + i;
-        bc->quota = a->per_conn;
+        bc->quota = a->per_conn + (bc->idx < a->extra); /* N requests exactly, the remainder spread */
         bc->sent_at = calloc((size_t)a->pipeline, sizeof *bc->sent_at);
         char err[256];
         if (vt_connect(&o, &bc->c, err, sizeof err)) {
@@ -180,30 +181,40 @@ int cmd_bench(cli *k, int argc, char **argv)
         else if (!strcmp(argv[i], "--json")) json = ok = true;
         for (size_t n = 0; !ok && n < sizeof nums / sizeof nums[0]; n++)
             if (!strcmp(argv[i], nums[n].name) && i + 1 < argc) {
-                if (!parse_u64(argv[++i], nums[n].v)) return die_usage("bench: bad value %s", argv[i]);
+                if (!parse_u64(argv[++i], nums[n].v))
+                    return die_bad_value("bench", nums[n].name, argv[i], "a count");
                 ok = true;
             }
-        if (!ok) return die_usage("%s", use);
+        if (!ok) return die_usage("bench: unexpected %s; %s", argv[i], use);
     }
     enum bench_test kind;
     if (!strcmp(test, "query")) kind = T_QUERY;
     else if (!strcmp(test, "edit")) kind = T_EDIT;
     else if (!strcmp(test, "ping")) kind = T_PING;
-    else return die_usage("%s", use);
-    if (clients < 1 || clients > 1000 || requests < clients || pipeline < 1 || pipeline > 1000 || views < 1 ||
-        views > 32 || batch < 1 || batch > 65536 || threads < 1 || threads > 64)
-        return die_usage("bench: a value out of range");
+    else return die_bad_value("bench", "--test", test, "query, edit, ping or frames");
+    /* each bound named with the option it bounds */
+    const struct { const char *name; uint64_t v, lo, hi; } range[] = {
+        {"--clients", clients, 1, 1000}, {"--pipeline", pipeline, 1, 1000}, {"--views", views, 1, 32},
+        {"--batch", batch, 1, 65536},    {"--threads", threads, 1, 64}};
+    for (size_t r = 0; r < sizeof range / sizeof range[0]; r++)
+        if (range[r].v < range[r].lo || range[r].v > range[r].hi)
+            return die_usage("bench: %s %llu: expected %llu..%llu", range[r].name, (unsigned long long)range[r].v,
+                             (unsigned long long)range[r].lo, (unsigned long long)range[r].hi);
+    if (requests < clients)
+        return die_usage("bench: --requests %llu is fewer than --clients %llu (each client sends at least one)",
+                         (unsigned long long)requests, (unsigned long long)clients);
     if (threads > clients) threads = clients;
     pthread_t *th = calloc((size_t)threads, sizeof *th);
     bench_arg *args = calloc((size_t)threads, sizeof *args);
     long per = (long)(requests / clients);
+    int extra = (int)(requests % clients);
     double t0 = now_s();
     for (uint64_t i = 0, first = 0; i < threads; i++) {
         int nconn = (int)(clients / threads + (i < clients % threads));
-        args[i] = (bench_arg){.k = k, .first = (int)first, .nconn = nconn, .test = kind, .per_conn = per,
+        args[i] = (bench_arg){.k = k, .first = (int)first, .nconn = nconn, .test = kind, .per_conn = per, .extra = extra,
                               .pipeline = (int)pipeline, .views = (int)views, .batch = (int)batch,
                               .qflags = qflags};
-        args[i].lat = malloc(sizeof(double) * (size_t)per * (size_t)nconn);
+        args[i].lat = malloc(sizeof(double) * (size_t)(per + 1) * (size_t)nconn);
         first += nconn;
         pthread_create(&th[i], NULL, bench_worker, &args[i]);
     }

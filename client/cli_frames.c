@@ -96,7 +96,7 @@ int bench_frames(cli *k, int argc, char **argv)
         const char *a = argv[i], *val = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--test")) i++;
         else if (!strcmp(a, "--json")) json = true;
-        else if (!val) ok = false;
+        else if (!val) return die_usage("bench --test frames: unexpected %s (last, with no value); %s", a, use);
         else if (!strcmp(a, "--viewers")) ok = parse_u64(val, &viewers), i++;
         else if (!strcmp(a, "--stalled")) ok = parse_u64(val, &stalled), i++;
         else if (!strcmp(a, "--seconds")) ok = parse_vec(val, &seconds, 1), i++;
@@ -107,12 +107,15 @@ int bench_frames(cli *k, int argc, char **argv)
         else if (!strcmp(a, "--eye")) ok = parse_vec(val, eye, 3), i++;
         else if (!strcmp(a, "--at")) ok = parse_vec(val, at, 3), i++;
         else if (!strcmp(a, "--renderer")) ok = parse_renderer(val, &renderer), i++;
-        else ok = false;
-        if (!ok) return die_usage("%s", use);
+        else return die_usage("bench --test frames: unexpected %s; %s", a, use);
+        if (!ok) return die_usage("bench --test frames: %s %s: not a valid value", a, val);
     }
-    if (viewers < 1 || viewers > 256 || stalled > 256 || seconds <= 0 || seconds > 3600 || fps < 1 ||
-        fps > VP_FRAME_SUB_MAX_FPS || edit_rate > 100000 || quality < 1 || quality > 100)
-        return die_usage("%s", use);
+    if (viewers < 1 || viewers > 256) return die_usage("bench --test frames: --viewers is 1..256");
+    if (stalled > 256) return die_usage("bench --test frames: --stalled is 0..256");
+    if (seconds <= 0 || seconds > 3600) return die_usage("bench --test frames: --seconds is more than 0, at most 3600");
+    if (fps < 1 || fps > VP_FRAME_SUB_MAX_FPS) return die_usage("bench --test frames: --fps is 1..%u", VP_FRAME_SUB_MAX_FPS);
+    if (edit_rate > 100000) return die_usage("bench --test frames: --edits-per-s is 0..100000");
+    if (quality < 1 || quality > 100) return die_usage("bench --test frames: --quality is 1..100");
     vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = (uint8_t)quality, .renderer = renderer},
                         .max_fps = (uint16_t)fps};
     if (!vt_view_perspective(&sub.r.view, eye, at, NULL, 60, (uint16_t)w, (uint16_t)h, 0.1, 10000))

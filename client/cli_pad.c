@@ -22,28 +22,7 @@
 
 #define PAD_LIST_MAX 64 /* pads shown by pad list: more than anyone plugs in */
 
-static const char *const pad_usage =
-    "usage: vantage pad list [--json]\n"
-    "       vantage pad dump [--replay FILE [--speed X] [--loop]] [--record FILE] [--count N] [--seconds S] [--stats]\n"
-    "\n"
-    "  list       the game controllers present (hidraw and USB), without opening them:\n"
-    "             vid:pid, name, protocol, where; --json: one object a line\n"
-    "  dump       one JSON line of normalized state per change on stdout ({\"pad\": id, \"t\": seconds, ...});\n"
-    "             pads added, removed and errors on stderr; Ctrl-C stops\n"
-    "    --replay FILE   a hid-recorder file (hid-tools' hid-recorder, or --record's) instead of pads;\n"
-    "                    t is the report's time in the file\n"
-    "    --speed X       the file's timing scaled (1: as recorded, 2: twice as fast); a negative X:\n"
-    "                    as fast as the lines are written, every state change kept\n"
-    "    --loop          start the file again at its end\n"
-    "    --record FILE   also write every report of the live pads to FILE (hid-recorder's format,\n"
-    "                    flushed per line): a capture that --replay and the tests read back\n"
-    "    --count N       stop after N state lines\n"
-    "    --seconds S     stop after S seconds\n"
-    "    --stats         on stderr at the end: per pad, reports read, ignored, refused, state changes\n"
-    "\n"
-    "Supported pads: DualShock 4, DualSense (Edge), Switch Pro (hidraw); Xbox 360 and Xbox One / Series\n"
-    "wired (libusb). Exit status: 0 ok, 1 failure, 2 bad usage.\n";
-
+/* the usage and --help: vantage_cli.c, forms[] */
 static const char *const no_access_hint =
     "no controllers found\n"
     "a pad that is plugged in but not listed is usually one you may not open: PlayStation and Switch\n"
@@ -56,7 +35,6 @@ static int pad_list(int argc, char **argv)
     bool json = false;
     for (int i = 2; i < argc; i++) {
         if (!strcmp(argv[i], "--json")) json = true;
-        else if (!strcmp(argv[i], "--help")) return fputs(pad_usage, stdout), 0;
         else return die_usage("pad list [--json]");
     }
     pad_found *found = calloc(PAD_LIST_MAX, sizeof *found);
@@ -149,7 +127,6 @@ static int pad_dump(int argc, char **argv)
     bool stats = false, have_speed = false;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "--help")) return fputs(pad_usage, stdout), 0;
         if (!strcmp(a, "--stats")) {
             stats = true;
             continue;
@@ -258,11 +235,8 @@ static int pad_dump(int argc, char **argv)
 int cmd_pad(cli *k, int argc, char **argv)
 {
     (void)k; /* no daemon: pads are local */
-    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "help")) {
-        fputs(pad_usage, argc < 2 ? stderr : stdout);
-        return argc < 2 ? 2 : 0;
-    }
+    if (argc < 2) return die_usage("pad list | pad dump: which one?");
     if (!strcmp(argv[1], "list")) return pad_list(argc, argv);
     if (!strcmp(argv[1], "dump")) return pad_dump(argc, argv);
-    return die_usage("pad list | pad dump (vantage pad --help)");
+    return die_usage("pad %s: not list or dump", argv[1]);
 }

@@ -21,6 +21,7 @@
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
+#include <time.h>
 
 typedef enum { OUT_EXR, OUT_PNG, OUT_JPG } out_kind;
 
@@ -63,6 +64,27 @@ typedef struct frame_opts {
 #define FRAME_USAGE                                                                                                 \
     "--eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH] [--exposure EV] "          \
     "[--quality Q] [--no-occlusion] [--renderer soft|gl]"
+
+/* What each camera/frame option accepts, for the refusal of a bad value
+ * (the bounds frame_opt checks). */
+static const cli_opt_doc frame_docs[] = {
+    {'e', "--eye", "X,Y,Z (three finite numbers)"}, {'a', "--at", "X,Y,Z (three finite numbers)"},
+    {'u', "--up", "X,Y,Z (three finite numbers)"},  {'f', "--fov", "degrees, more than 0 and less than 180"},
+    {'n', "--near", "a finite number"},             {'F', "--far", "a finite number"},
+    {'s', "--size", "WxH, each 1..4096"},           {'x', "--exposure", "EV, -64..64"},
+    {'q', "--quality", "1..100"},                   {'R', "--renderer", "soft or gl"},
+    /* watch --frames */
+    {'r', "--fps", "frames a second, 1..240"},      {'c', "--count", "a count of frames"},
+    {'O', "--orbit", "degrees a second (a finite number)"}, {'S', "--seconds", "seconds, >= 0"},
+};
+#define FRAME_DOCS frame_docs, sizeof frame_docs / sizeof frame_docs[0]
+
+/* The camera's required options, named when missing. */
+static int frame_missing(const char *cmd, const frame_opts *f)
+{
+    if (!f->have_eye) return die_missing(cmd, "--eye X,Y,Z", "where the camera is");
+    return die_missing(cmd, "--at X,Y,Z", "the point the camera looks at");
+}
 
 static void frame_opts_init(frame_opts *f)
 {
@@ -162,24 +184,23 @@ int cmd_render(cli *k, int argc, char **argv)
     frame_opts f;
     frame_opts_init(&f);
     const char *out = NULL;
-    static const struct option opts[] = {FRAME_LONGOPTS, {"output", 1, 0, 'o'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    static const struct option opts[] = {FRAME_LONGOPTS, {"output", 1, 0, 'o'}, {0, 0, 0, 0}};
     const char *use = "render " FRAME_USAGE " -o FILE.exr|png|jpg";
     optind = 1;
     int o;
     while ((o = getopt_long(argc, argv, "o:", opts, NULL)) != -1) {
         int r = frame_opt(&f, o, optarg);
-        if (r < 0) return die_usage("render: bad value %s", optarg);
+        if (r < 0) return die_bad_opt("render", FRAME_DOCS, o, optarg);
         if (r) continue;
         if (o == 'o') out = optarg;
-        else if (o == 'h') {
-            printf("usage: vantage %s\n", use);
-            return 0;
-        } else return die_usage("%s", use);
+        else return die_usage("%s", use);
     }
-    if (!f.have_eye || !f.have_at || !out || optind != argc) return die_usage("%s", use);
+    if (optind != argc) return die_usage("render: unexpected argument %s", argv[optind]);
+    if (!f.have_eye || !f.have_at) return frame_missing("render", &f);
+    if (!out) return die_missing("render", "-o FILE.exr|png|jpg", "the file to write the frame to");
     out_kind kind;
     if (!kind_of(out, &kind))
-        return die_usage("render: the output must end in .exr, .png or .jpg");
+        return die_bad_value("render", "-o", out, "a file name ending in .exr, .png, .jpg or .jpeg");
     vp_render m;
     if (!frame_request(&f, f.eye, kind, &m))
         return die_usage("render: degenerate camera (eye == at, up parallel to the view, or near/far)");
@@ -211,14 +232,14 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
     double orbit_dps = 0, seconds = 0;
     static const struct option opts[] = {FRAME_LONGOPTS,       {"frames", 1, 0, 'D'}, {"format", 1, 0, 'T'},
                                          {"fps", 1, 0, 'r'},   {"count", 1, 0, 'c'},  {"orbit", 1, 0, 'O'},
-                                         {"seconds", 1, 0, 'S'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+                                         {"seconds", 1, 0, 'S'}, {0, 0, 0, 0}};
     const char *use = "watch --frames DIR " FRAME_USAGE
                       " [--format jpg|png|exr] [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]";
     optind = 1;
     int o;
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         int r = frame_opt(&f, o, optarg);
-        if (r < 0) return die_usage("watch: bad value %s", optarg);
+        if (r < 0) return die_bad_opt("watch", FRAME_DOCS, o, optarg);
         if (r) continue;
         bool ok = true;
         switch (o) {
@@ -228,14 +249,15 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
         case 'c': ok = parse_u64(optarg, &count); break;
         case 'O': ok = parse_vec(optarg, &orbit_dps, 1); break;
         case 'S': ok = parse_vec(optarg, &seconds, 1) && seconds >= 0; break;
-        case 'h': printf("usage: vantage %s\n", use); return 0;
         default: return die_usage("%s", use);
         }
-        if (!ok) return die_usage("watch: bad value %s", optarg);
+        if (!ok) return die_bad_opt("watch", FRAME_DOCS, o, optarg);
     }
     out_kind kind;
-    if (!dir || !f.have_eye || !f.have_at || optind != argc) return die_usage("%s", use);
-    if (!kind_named(format, &kind)) return die_usage("watch: --format jpg, png or exr");
+    if (optind != argc) return die_usage("watch: unexpected argument %s", argv[optind]);
+    if (!dir) return die_missing("watch", "--frames DIR", "the folder to write the frames to");
+    if (!f.have_eye || !f.have_at) return frame_missing("watch", &f);
+    if (!kind_named(format, &kind)) return die_bad_value("watch", "--format", format, "jpg, png or exr");
     vp_frame_sub sub = {.max_fps = (uint16_t)fps};
     if (!frame_request(&f, f.eye, kind, &sub.r))
         return die_usage("watch: degenerate camera (eye == at, up parallel to the view, or near/far)");
@@ -249,7 +271,7 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
     catch_sigint();
     fprintf(stderr, "writing frames to %s/ (Ctrl-C to stop)\n", dir);
     const char *ext = kind == OUT_EXR ? "exr" : kind == OUT_PNG ? "png" : "jpg";
-    double t0 = now_s();
+    double t0 = now_s(), period = 1.0 / (double)fps, next_aim = t0 + period;
     uint64_t n = 0;
     while (!g_stop && (!count || n < count) && (seconds <= 0 || now_s() - t0 < seconds)) {
         vp_frame fr;
@@ -268,7 +290,18 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
         fflush(stdout);
         if (orbit_dps != 0) {
             /* the view re-aimed in place after each frame: same stream, the
-               camera turned to where it is now */
+               camera turned to where it is now. The daemon draws a re-aimed
+               view at once (a moving camera must not wait for its cap), so
+               --fps is kept here: one re-aim a period, as the daemon paces
+               frame starts (a late one does not bank time for a burst). */
+            for (double now = now_s(); !g_stop && now < next_aim; now = now_s()) {
+                if (seconds > 0 && now - t0 >= seconds) break;
+                double sl = fmin(next_aim - now, 0.05);
+                nanosleep(&(struct timespec){0, (long)(sl * 1e9)}, NULL);
+            }
+            if (g_stop || (seconds > 0 && now_s() - t0 >= seconds)) break;
+            double now = now_s();
+            next_aim = (now - next_aim < period ? next_aim : now) + period;
             double eye[3];
             orbit(&f, (now_s() - t0) * orbit_dps * M_PI / 180, eye);
             if (!frame_request(&f, eye, kind, &sub.r)) return die_usage("watch: degenerate orbit camera");
@@ -299,23 +332,21 @@ int cmd_lights(cli *k, int argc, char **argv)
     static const struct option opts[] = {{"eye", 1, 0, 'e'},  {"at", 1, 0, 'a'},       {"up", 1, 0, 'u'},
                                          {"fov", 1, 0, 'f'},  {"near", 1, 0, 'n'},     {"far", 1, 0, 'F'},
                                          {"size", 1, 0, 's'}, {"json", 0, 0, 'j'},     {"no-depth", 0, 0, 'Z'},
-                                         {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+                                         {0, 0, 0, 0}};
     const char *use = "lights --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH] "
                       "[--no-depth] [--json]";
     optind = 1;
     int o;
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         int r = frame_opt(&f, o, optarg);
-        if (r < 0) return die_usage("lights: bad value %s", optarg);
+        if (r < 0) return die_bad_opt("lights", FRAME_DOCS, o, optarg);
         if (r) continue;
         if (o == 'j') json = true;
         else if (o == 'Z') no_depth = true;
-        else if (o == 'h') {
-            printf("usage: vantage %s\n", use);
-            return 0;
-        } else return die_usage("%s", use);
+        else return die_usage("%s", use);
     }
-    if (!f.have_eye || !f.have_at || optind != argc) return die_usage("%s", use);
+    if (optind != argc) return die_usage("lights: unexpected argument %s", argv[optind]);
+    if (!f.have_eye || !f.have_at) return frame_missing("lights", &f);
     vp_light_query m = {.flags = no_depth ? VP_LQ_NO_DEPTH : 0};
     if (!vt_view_perspective(&m.view, f.eye, f.at, f.up, f.fov, (uint16_t)f.w, (uint16_t)f.h, f.znear, f.zfar))
         return die_usage("lights: degenerate camera (eye == at, up parallel to the view, or near/far)");

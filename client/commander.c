@@ -21,6 +21,10 @@
  * FRAME whose view_seq is that view or later, received (daemon: queue,
  * cull, render, encode, network) -> decoded and presented (show). The
  * overlay and --stats print p50/p95 of the whole and of the parts.
+ *
+ * Frame rate: frames shown (presented, or written headless) divided by
+ * the seconds since the start, the same figure in the overlay and in
+ * --stats; the overlay adds the frames shown in the last second.
  */
 #include "cli.h"
 #include "commander.h"
@@ -92,9 +96,7 @@ typedef struct commander {
     double fr_recv;
     bool fr_new;
     uint64_t frames, frame_errors;
-    double fps_t0;
-    uint64_t fps_n;
-    double fps;
+    double shown_at[256];    /* the last frames' show times, a ring (> the 240 fps cap) */
     cmd_lat lat, lat_tick, lat_daemon, lat_show, rtt;
     cmd_lat fr_render, fr_encode; /* the daemon's own times per frame received */
     double ov_p50, ov_p95, ov_rtt, ov_next; /* the overlay's percentiles, refreshed 4 times a second */
@@ -414,6 +416,28 @@ static void account(commander *m, uint16_t seq, double t_recv, double t_shown)
     m->shown_seq = seq;
 }
 
+/* Frames shown a second since the start: the overlay's and --stats' figure. */
+static double run_fps(const commander *m, double now)
+{
+    return now > m->t_start ? m->frames / (now - m->t_start) : 0;
+}
+
+/* Frames shown in the last second before now. */
+static unsigned last_second(const commander *m, double now)
+{
+    unsigned n = 0, ring = sizeof m->shown_at / sizeof m->shown_at[0];
+    for (uint64_t i = 0; i < m->frames && i < ring; i++) n += m->shown_at[(m->frames - 1 - i) % ring] > now - 1;
+    return n;
+}
+
+/* A latency figure for the overlay: "-" without samples. */
+static const char *ms_or_dash(double v, char *buf, size_t n)
+{
+    if (isnan(v)) snprintf(buf, n, "-");
+    else snprintf(buf, n, "%.1f ms", v);
+    return buf;
+}
+
 static void fill_overlay(commander *m, cmd_overlay *ov)
 {
     memset(ov, 0, sizeof *ov);
@@ -424,8 +448,10 @@ static void fill_overlay(commander *m, cmd_overlay *ov)
         m->ov_rtt = cmd_lat_pct(&m->rtt, 50);
         m->ov_next = now + 0.25;
     }
-    snprintf(ov->text[0], sizeof ov->text[0], "%.1f fps   input->photon p50 %.1f ms  p95 %.1f ms   rtt %.1f ms",
-             m->fps, m->ov_p50, m->ov_p95, m->ov_rtt);
+    char a[24], b[24], c[24];
+    snprintf(ov->text[0], sizeof ov->text[0], "%.1f fps (last s %u)   input->photon p50 %s  p95 %s   rtt %s",
+             run_fps(m, now), last_second(m, now), ms_or_dash(m->ov_p50, a, sizeof a),
+             ms_or_dash(m->ov_p95, b, sizeof b), ms_or_dash(m->ov_rtt, c, sizeof c));
     snprintf(ov->text[1], sizeof ov->text[1], "%s  %.0f m  yaw %.0f  tilt %.0f  group %d  %s%s",
              m->cam.perspective ? "perspective" : "top-down", 2 * m->cam.half_h, m->cam.yaw * 180 / M_PI,
              m->cam.pitch * 180 / M_PI, m->group + 1, m->pad_id ? m->pad_name : "keyboard/mouse",
@@ -496,13 +522,8 @@ static void show_frame(commander *m)
                     m->fr.view_seq, m->fr.visible, m->fr.render_ns / 1e6, m->fr.encode_ns / 1e6, m->jpeg_len,
                     m->cam.target[0], m->cam.target[1], m->cam.target[2], m->cam.yaw, m->cam.pitch, m->cam.half_h);
     }
+    m->shown_at[m->frames % (sizeof m->shown_at / sizeof m->shown_at[0])] = t_shown;
     m->frames++;
-    m->fps_n++;
-    if (t_shown - m->fps_t0 >= 1) {
-        m->fps = m->fps_n / (t_shown - m->fps_t0);
-        m->fps_t0 = t_shown;
-        m->fps_n = 0;
-    }
     account(m, m->fr.view_seq, m->fr_recv, t_shown);
 }
 
@@ -627,27 +648,6 @@ static void tick(commander *m, const cmd_keys *keys)
     m->pending_input = 0;
 }
 
-static const char *const usage_text =
-    "commander [--replay FILE [--speed X] [--loop]] [--record FILE] [--headless DIR] [--size WxH]\n"
-    "        [--quality Q] [--fps N] [--renderer soft|gl] [--config FILE] [--seconds S] [--frames N]\n"
-    "        [--screenshot FILE.png] [--stats] [--json] [--destroy-radius M] [--exposure EV] [--perspective]\n"
-    "\n"
-    "  The tablet-commander thin client: a view of the daemon's scene from above, driven by a game\n"
-    "  pad (hidraw and USB pads are found and hot-plugged; `vantage pad list`), or by a recorded\n"
-    "  capture (--replay, hid-recorder format), or by keyboard and mouse in the window:\n"
-    "    left stick / WASD pan, right stick / Q E rotate, R F tilt, triggers / Z X / wheel zoom,\n"
-    "    south (A, Cross) / Space select, west / P ping, east / C cancel, north / Delete destroy,\n"
-    "    shoulders / [ ] groups, back / Tab perspective, R3 / Home reset, Escape quits.\n"
-    "  --headless DIR      no window: frames go to DIR/frame-NNNNNN.jpg, one JSON line each in\n"
-    "                      DIR/frames.jsonl\n"
-    "  --config FILE       dead zone, curve, speeds, tick rate and bindings (README: Commander)\n"
-    "  --stats             print frame rate and input-to-photon latency (p50/p95/p99) at exit;\n"
-    "                      --json as one JSON object\n"
-    "  --screenshot FILE   the window with its overlay as a PNG, at exit\n"
-    "  --seconds S, --frames N   stop after S seconds or N frames shown (else Escape / Ctrl-C)\n"
-    "  --size WxH (1280x720), --quality Q (80), --fps N (the daemon's cap, 240), --speed X (replay\n"
-    "  time scale, 1), --destroy-radius M (3), --exposure EV (1.5), --perspective (start tilted)\n";
-
 static int parse_args(commander *m, int argc, char **argv)
 {
     m->w = 1280;
@@ -669,10 +669,7 @@ static int parse_args(commander *m, int argc, char **argv)
         if (!v) return die_usage("commander: %s needs a value", a); \
         i++;                                                                       \
     } while (0)
-        if (!strcmp(a, "--help")) {
-            printf("usage: vantage %s", usage_text);
-            return 0;
-        } else if (!strcmp(a, "--replay")) {
+        if (!strcmp(a, "--replay")) {
             NEED();
             m->hub_opts.replay = v;
         } else if (!strcmp(a, "--record")) {
@@ -750,23 +747,37 @@ static void print_stats(commander *m)
     const char *names[] = {"input_to_photon", "tick_wait",    "daemon_and_network", "decode_and_show",
                            "rtt",             "frame_render", "frame_encode"};
     enum { NL = sizeof L / sizeof L[0] };
+    static const double q[4] = {50, 95, 99, 100};
+    /* a figure with no sample is null (JSON) or '-' (text), never nan or 0 */
     if (m->json) {
         printf("{\"seconds\":%.3f,\"frames\":%llu,\"fps\":%.2f,\"frame_errors\":%llu,\"samples\":%llu", secs,
-               (unsigned long long)m->frames, m->frames / (secs > 0 ? secs : 1), (unsigned long long)m->frame_errors,
+               (unsigned long long)m->frames, run_fps(m, m->t_start + secs), (unsigned long long)m->frame_errors,
                (unsigned long long)m->lat.total);
-        for (int i = 0; i < NL; i++)
-            printf(",\"%s_ms\":{\"p50\":%.3f,\"p95\":%.3f,\"p99\":%.3f,\"max\":%.3f}", names[i],
-                   L[i]->n ? cmd_lat_pct(L[i], 50) : 0.0, L[i]->n ? cmd_lat_pct(L[i], 95) : 0.0,
-                   L[i]->n ? cmd_lat_pct(L[i], 99) : 0.0, L[i]->n ? cmd_lat_pct(L[i], 100) : 0.0);
+        static const char *const key[4] = {"p50", "p95", "p99", "max"};
+        for (int i = 0; i < NL; i++) {
+            printf(",\"%s_ms\":{", names[i]);
+            for (int k = 0; k < 4; k++) {
+                printf("%s\"%s\":", k ? "," : "", key[k]);
+                if (L[i]->n) printf("%.3f", cmd_lat_pct(L[i], q[k]));
+                else printf("null");
+            }
+            printf("}");
+        }
         printf("}\n");
         return;
     }
-    printf("frames %llu in %.1f s (%.1f/s), %llu bad; %llu latency samples\n", (unsigned long long)m->frames, secs,
-           m->frames / (secs > 0 ? secs : 1), (unsigned long long)m->frame_errors, (unsigned long long)m->lat.total);
+    printf("frames %llu shown in %.1f s (%.1f/s, the overlay's fps), %llu bad; %llu latency samples\n",
+           (unsigned long long)m->frames, secs, run_fps(m, m->t_start + secs), (unsigned long long)m->frame_errors,
+           (unsigned long long)m->lat.total);
     printf("%-20s %8s %8s %8s %8s\n", "ms", "p50", "p95", "p99", "max");
-    for (int i = 0; i < NL; i++)
-        printf("%-20s %8.2f %8.2f %8.2f %8.2f\n", names[i], cmd_lat_pct(L[i], 50), cmd_lat_pct(L[i], 95),
-               cmd_lat_pct(L[i], 99), cmd_lat_pct(L[i], 100));
+    for (int i = 0; i < NL; i++) {
+        printf("%-20s", names[i]);
+        for (int k = 0; k < 4; k++) {
+            if (L[i]->n) printf(" %8.2f", cmd_lat_pct(L[i], q[k]));
+            else printf(" %8s", "-");
+        }
+        printf("\n");
+    }
 }
 
 int cmd_commander(cli *k, int argc, char **argv)
@@ -810,7 +821,7 @@ int cmd_commander(cli *k, int argc, char **argv)
         m->hub = NULL;
     }
     catch_sigint();
-    m->t_start = m->fps_t0 = now_s();
+    m->t_start = now_s();
     m->next_tick = m->t_start;
     m->next_connect = m->t_start;
     rc = 0;

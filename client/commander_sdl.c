@@ -39,7 +39,23 @@ struct cmd_display {
 cmd_display *cmd_display_open(uint32_t w, uint32_t h, const char *title, char *err, size_t errlen)
 {
     if (SDL_Init(SDL_INIT_VIDEO)) {
-        snprintf(err, errlen, "no window: %s (use --headless DIR without a display)", SDL_GetError());
+        snprintf(err, errlen, "cannot open a window: SDL has no video driver: %s (without a display, --headless DIR "
+                 "writes the frames to a folder)", SDL_GetError());
+        return NULL;
+    }
+    /* With no X11 or Wayland display SDL falls back to its offscreen (or
+       dummy) driver: the window opens, draws, and nobody sees it. Refuse
+       that unless asked for by name (SDL_VIDEODRIVER=offscreen). */
+    const char *drv = SDL_GetCurrentVideoDriver(), *asked = SDL_getenv("SDL_VIDEODRIVER");
+    if (drv && (!strcmp(drv, "offscreen") || !strcmp(drv, "dummy")) && !(asked && strstr(asked, drv))) {
+        const char *disp = SDL_getenv("DISPLAY"), *wl = SDL_getenv("WAYLAND_DISPLAY");
+        snprintf(err, errlen,
+                 "cannot open a window: no display (DISPLAY %s%s%s, WAYLAND_DISPLAY %s%s%s; SDL found only its %s "
+                 "driver, which shows nothing). Use --headless DIR to write the frames to a folder, or run under a "
+                 "display (Xvfb :9 & DISPLAY=:9 ...)",
+                 disp && *disp ? "is " : "unset", disp && *disp ? disp : "", disp && *disp ? " and unusable" : "",
+                 wl && *wl ? "is " : "unset", wl && *wl ? wl : "", wl && *wl ? " and unusable" : "", drv);
+        SDL_Quit();
         return NULL;
     }
     cmd_display *d = calloc(1, sizeof *d);
@@ -52,7 +68,8 @@ cmd_display *cmd_display_open(uint32_t w, uint32_t h, const char *title, char *e
     /* no vsync: waiting for the display's refresh would add up to a refresh to every frame's latency */
     if (d->win) d->ren = SDL_CreateRenderer(d->win, -1, 0);
     if (!d->ren) {
-        snprintf(err, errlen, "no window: %s", SDL_GetError());
+        snprintf(err, errlen, "cannot open a window: %s (without a display, --headless DIR writes the frames to a "
+                 "folder)", SDL_GetError());
         cmd_display_close(d);
         return NULL;
     }

@@ -99,7 +99,11 @@ void print_table(FILE *o, const run *r, const report *rp)
         if (!head) fprintf(o, "drift, p99 ms per tenth of the run:\n");
         head = true;
         fprintf(o, "  %-30s", rp->name[i]);
-        for (int w = 0; w < WINDOWS; w++) fprintf(o, " %7.2f", ms(hdr_percentile(&rp->all.win[i * WINDOWS + w], 99)));
+        for (int w = 0; w < WINDOWS; w++) { /* '-': nothing measured in that tenth */
+            const hdr *h = &rp->all.win[i * WINDOWS + w];
+            if (h->count) fprintf(o, " %7.2f", ms(hdr_percentile(h, 99)));
+            else fprintf(o, " %7s", "-");
+        }
         fprintf(o, "\n");
     }
     if (rp->nrss) {
@@ -107,7 +111,12 @@ void print_table(FILE *o, const run *r, const report *rp)
                 rp->rss1, rp->rssmax);
         if (!s->requests) {
             fprintf(o, "  %-30s", "max MiB per tenth");
-            for (int w = 0; w < WINDOWS; w++) fprintf(o, " %7.1f", rp->rss_win[w]);
+            /* '-': no sample fell in that tenth (one a second: a run
+               under ten seconds has tenths without one) */
+            for (int w = 0; w < WINDOWS; w++) {
+                if (rp->rss_win[w] > 0) fprintf(o, " %7.1f", rp->rss_win[w]);
+                else fprintf(o, " %7s", "-");
+            }
             fprintf(o, "\n");
         }
     }
@@ -136,8 +145,11 @@ static void print_json(FILE *o, const run *r, const report *rp)
         static const char *key[5] = {"p50_ms", "p90_ms", "p99_ms", "p999_ms", "max_ms"};
         for (int k = 0; k < 5; k++) fprintf(o, ", \"%s\": %.4f", key[k], st.pct_ms[k]);
         fprintf(o, ", \"p99_ms_by_tenth\": [");
-        for (int w = 0; w < WINDOWS && !s->requests; w++)
-            fprintf(o, "%s%.4f", w ? ", " : "", ms(hdr_percentile(&rp->all.win[i * WINDOWS + w], 99)));
+        for (int w = 0; w < WINDOWS && !s->requests; w++) { /* null: nothing measured in that tenth */
+            const hdr *h = &rp->all.win[i * WINDOWS + w];
+            if (h->count) fprintf(o, "%s%.4f", w ? ", " : "", ms(hdr_percentile(h, 99)));
+            else fprintf(o, "%snull", w ? ", " : "");
+        }
         fprintf(o, "]}");
         first = false;
     }
@@ -146,7 +158,10 @@ static void print_json(FILE *o, const run *r, const report *rp)
     {
         fprintf(o, ", \"daemon_rss_mib\": {\"start\": %.2f, \"end\": %.2f, \"max\": %.2f, \"max_by_tenth\": [",
                 rp->rss0, rp->rss1, rp->rssmax);
-        for (int w = 0; w < WINDOWS && !s->requests; w++) fprintf(o, "%s%.2f", w ? ", " : "", rp->rss_win[w]);
+        for (int w = 0; w < WINDOWS && !s->requests; w++) { /* null: no sample in that tenth */
+            if (rp->rss_win[w] > 0) fprintf(o, "%s%.2f", w ? ", " : "", rp->rss_win[w]);
+            else fprintf(o, "%snull", w ? ", " : "");
+        }
         fprintf(o, "]}");
     }
     fprintf(o, "}\n");

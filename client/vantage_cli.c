@@ -6,6 +6,10 @@
  *
  * Exit status: 0 ok, 1 the server refused (its message on stderr), 2 bad
  * usage, 3 cannot connect or the connection failed.
+ *
+ * Every command's forms and help live in one table here (forms[]):
+ * `vantage --help`, `vantage COMMAND --help` and README.md's CLI block
+ * (held to it by tests/test_cli.c) all come from or match it.
  */
 #include "cli.h"
 
@@ -23,55 +27,228 @@
 
 const char *g_prog = "vantage";
 
+/* ---- the commands' help --------------------------------------------------------------
+ * Every form of every command, described once: `vantage --help` lists the
+ * synopses (and the brief), `vantage COMMAND [...] --help` prints the
+ * forms of COMMAND that its arguments name (`bench --scenario --help`:
+ * the scenario form) with their details, and README.md's CLI block repeats
+ * the synopses (tests/test_cli.c holds the two lists to each other).
+ * A synopsis starts with the command and the words that pick its form;
+ * lines after the first are indented 8 spaces. */
+typedef struct cli_form {
+    const char *cmd;      /* the command word */
+    const char *synopsis; /* "cmd [form words] options" */
+    const char *brief;    /* one line for vantage --help */
+    const char *about;    /* the details for COMMAND --help; lines indented 2 */
+} cli_form;
+
+static const cli_form forms[] = {
+    {"ping", "ping [-c N]", "round trip to the daemon (N times, prints latency)",
+     "  Sends PING and waits for PONG; with -c N, N times, each round trip printed in microseconds.\n"},
+    {"stats", "stats [--json | --metrics]",
+     "scene and server counters, clients by role, latency per request type, frames dropped",
+     "  The daemon's figures (entities, cells, epoch, queries, clients), and from its metrics: clients\n"
+     "  by role, frame streams, p50/p99 per request type and per query stage (estimated from the\n"
+     "  histogram buckets). --json: one JSON object; --metrics: the Prometheus text as the daemon\n"
+     "  sends it.\n"},
+    {"add", "add ID X,Y,Z R [--class N] [--sublevel N] [--dynamic] [--aabb X0,Y0,Z0,X1,Y1,Z1]",
+     "add an entity: a sphere (centre, radius), and a box (derived unless --aabb)",
+     "  ID is a 64-bit id (decimal or 0x hex); --class and --sublevel are 0..65535; --dynamic marks\n"
+     "  an entity that moves often. Needs the editor role.\n"},
+    {"move", "move ID X,Y,Z [--radius R]", "move an entity (its AABB moves with it)",
+     "  The entity's sphere is centred on X,Y,Z and its box moves with it; --radius R (>= 0) gives it\n"
+     "  a new radius and a box derived from the sphere.\n"},
+    {"remove", "remove ID [ID...]", "remove entities",
+     "  All or nothing: an id that does not exist refuses the whole batch, naming it.\n"},
+    {"get", "get ID [ID...]", "print entities as JSON lines", "  One JSON line per entity, with its handle.\n"},
+    {"import", "import FILE.jsonl", "add entities, one JSON object per line (- = stdin)",
+     "  {\"id\": 64-bit id, \"class\": n, \"sphere\": [x,y,z,r], \"aabb\": [minx,miny,minz,maxx,maxy,maxz],\n"
+     "   \"sublevel\": \"name\" or n, \"dynamic\": false}; sphere or aabb may be left out. A bad line stops\n"
+     "  the import with its line number (exit 2); a batch the daemon refuses is refused whole.\n"},
+    {"export", "export FILE.jsonl", "write every entity, same format (- = stdout)",
+     "  Sub-levels with names are written by name. Fails if the scene changes during the export.\n"},
+    {"query",
+     "query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N] [--far F]\n"
+     "        [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]",
+     "the entities a view sees: counts, timings, the first 20 (--json: all)",
+     "  --fov DEG 0..180 exclusive (60) or --ortho W,H (metres); --size WxH 1..65535 each (1920x1080);\n"
+     "  --min-area PX culls what covers fewer pixels; --exact-area reports each entity's screen area\n"
+     "  (the area column appears only then); --no-occlusion keeps what occluders hide; --occ-centre\n"
+     "  culls by pixel-centre coverage.\n"},
+    {"render",
+     "render --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH]\n"
+     "        [--exposure EV] [--quality Q] [--no-occlusion] [--renderer soft|gl] -o FILE.exr|png|jpg",
+     "one frame from the daemon, written by the file's extension",
+     "  -o FILE (required): .exr (half RGBA + float Z), .png (tone mapped here, ACES after --exposure),\n"
+     "  .jpg (encoded by the daemon at --quality 1..100, 85). --size WxH 1..4096 each (1280x720);\n"
+     "  --fov 0..180 exclusive (60); --exposure -64..64 EV (0); --renderer soft or gl.\n"},
+    {"lights",
+     "lights --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH]\n"
+     "        [--no-depth] [--json]",
+     "the view's Forward+ tile light lists (a heat map, or JSON)",
+     "  Lights per 16x16-pixel tile, binned against each tile's depth range (--no-depth: the whole\n"
+     "  frustum); --json: every tile's light ids.\n"},
+    {"sublevel", "sublevel load NAME FILE.gltf|glb|obj [--dry-run] [--json]",
+     "import a glTF or OBJ level and load it as one sub-level",
+     "  Nothing of it is seen before all of it is, at one epoch (README: Authoring levels); --dry-run\n"
+     "  only imports and prints what the file holds.\n"},
+    {"sublevel", "sublevel unload NAME", "hide a sub-level at one epoch and free it",
+     "  A name that names no sub-level is refused with NOT_FOUND; one not loaded with STATE.\n"},
+    {"sublevel", "sublevel list [--json]", "sub-levels with their state and counts", ""},
+    {"destroy", "destroy ID X,Y,Z RADIUS [--debris N] [--handle H] [--json]",
+     "a destruction sphere on an entity: its occluder is cut open for the next query",
+     "  RADIUS in metres, > 0; --debris N (0..64) small dynamic entities around the hole; --handle H:\n"
+     "  refused if the entity's handle is not H. Needs the editor role.\n"},
+    {"watch", "watch [--count N]", "print scene-changed events as they happen",
+     "  One JSON line per coalesced scene change (epoch, added, updated, removed); Ctrl-C stops.\n"},
+    {"watch",
+     "watch --frames DIR --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F]\n"
+     "        [--size WxH] [--exposure EV] [--quality Q] [--no-occlusion] [--renderer soft|gl]\n"
+     "        [--format jpg|png|exr] [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]",
+     "write the frames pushed as the scene changes (latest-frame-wins), one JSON line each",
+     "  DIR/frame-NNNNNN.jpg (or .png, .exr); at most --fps N frames a second (1..240, 30).\n"
+     "  --orbit D turns the camera D degrees a second around --at, re-aimed after each frame,\n"
+     "  at most --fps times a second. The camera options are render's.\n"},
+    {"bench",
+     "bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P]\n"
+     "        [--views K] [--batch B] [--count-only] [--no-occlusion] [--json]",
+     "load test: rate and latency percentiles",
+     "  Exactly --requests N requests (100000), spread over --clients N connections (64, 1..1000;\n"
+     "  at most N) driven by --threads T (2); --pipeline P in flight per connection (1); --views K\n"
+     "  per query (1..32); --batch B entities per edit (1000).\n"},
+    {"bench",
+     "bench --test frames [--viewers N] [--stalled S] [--seconds T] [--size WxH] [--fps F]\n"
+     "        [--edits-per-s R] [--quality Q] [--renderer soft|gl] [--eye X,Y,Z] [--at X,Y,Z] [--json]",
+     "frame streams while the scene is edited",
+     "  N viewers (1) subscribe to one view and count their frames, S more never read (stalled), and\n"
+     "  an editor moves an entity R times a second (100) for T seconds (5): frames/s per viewer and\n"
+     "  the spread of frame intervals.\n"},
+    {"bench",
+     "bench --scenario FILE|NAME [--seconds S] [--requests N] [--threads T] [--json FILE|-]\n"
+     "        [--csv FILE|-] [--progress|--no-progress] [--daemon-pid PID]",
+     "the load generator: a scripted mix of clients (README: Load testing)",
+     "  A scenario file, or one shipped (editor-live-link, many-viewers, query-storm,\n"
+     "  destruction-barrage). --seconds or --requests override the file's length; the report gives\n"
+     "  per group count, rate, errors and p50..max, the p99 of each tenth of the run, and the\n"
+     "  daemon's memory (its pid from the Unix socket, or --daemon-pid); '-' marks a tenth with no\n"
+     "  sample. Exit 2 for a bad file, 3 if the daemon goes away (a PARTIAL report).\n"},
+    {"pad", "pad list [--json]", "game controllers found (hidraw and USB), not opened",
+     "  vid:pid, name, protocol and where, for each pad present; --json: one object a line.\n"},
+    {"pad", "pad dump [--replay FILE [--speed X] [--loop]] [--record FILE] [--count N] [--seconds S] [--stats]",
+     "one JSON line of normalized state per report (a live pad, or a hid-recorder file)",
+     "  Pads added, removed and errors on stderr; Ctrl-C stops.\n"
+     "    --replay FILE   a hid-recorder file (hid-tools' hid-recorder, or --record's) instead of pads\n"
+     "    --speed X       the file's timing scaled (2: twice as fast); negative: as fast as possible\n"
+     "    --loop          start the file again at its end\n"
+     "    --record FILE   also write every report of the live pads to FILE (hid-recorder's format)\n"
+     "    --count N, --seconds S   stop after N state lines or S seconds\n"
+     "    --stats         per pad on stderr at the end: reports read, ignored, refused, changes\n"
+     "  Supported: DualShock 4, DualSense (Edge), Switch Pro (hidraw); Xbox 360 and Xbox One /\n"
+     "  Series wired (libusb).\n"},
+    {"commander",
+     "commander [--replay FILE [--speed X] [--loop]] [--record FILE] [--headless DIR] [--size WxH]\n"
+     "        [--quality Q] [--fps N] [--renderer soft|gl] [--config FILE] [--seconds S] [--frames N]\n"
+     "        [--screenshot FILE.png] [--stats] [--json] [--destroy-radius M] [--exposure EV] [--perspective]",
+     "the tablet-commander thin client: a pad (or keyboard and mouse) drives its own view",
+     "  A view of the daemon's scene from above, driven by a game pad (hidraw and USB pads are found\n"
+     "  and hot-plugged; `vantage pad list`), a recorded capture (--replay, hid-recorder format), or\n"
+     "  keyboard and mouse in the window:\n"
+     "    left stick / WASD pan, right stick / Q E rotate, R F tilt, triggers / Z X / wheel zoom,\n"
+     "    south (A, Cross) / Space select, west / P ping, east / C cancel, north / Delete destroy,\n"
+     "    shoulders / [ ] groups, back / Tab perspective, R3 / Home reset, Escape quits.\n"
+     "  It needs a display for its window (X11 or Wayland; exit 1 saying why when there is none):\n"
+     "  --headless DIR      no window: frames go to DIR/frame-NNNNNN.jpg, one JSON line each in\n"
+     "                      DIR/frames.jsonl\n"
+     "  --config FILE       dead zone, curve, speeds, tick rate and bindings (README: Commander)\n"
+     "  --stats             at exit: frames shown and their rate over the run, input-to-photon\n"
+     "                      latency p50/p95/p99/max and its parts ('-': no sample); --json as JSON\n"
+     "                      (null: no sample). The overlay's fps is the same count, frames shown,\n"
+     "                      over the last second\n"
+     "  --screenshot FILE   the window with its overlay as a PNG, at exit\n"
+     "  --seconds S, --frames N   stop after S seconds or N frames shown (else Escape / Ctrl-C)\n"
+     "  --size WxH (1280x720), --quality Q (80), --fps N (the daemon's cap, 1..240), --speed X (replay\n"
+     "  time scale, 1), --destroy-radius M (3), --exposure EV (1.5), --perspective (start tilted)\n"},
+};
+
 static void usage(FILE *f)
 {
+    fprintf(f, "usage: vantage [-h HOST] [-p PORT] [-s SOCKET] [--token T] [--timeout MS] COMMAND [ARGS]\n"
+               "\n"
+               "commands:\n");
+    for (size_t i = 0; i < sizeof forms / sizeof forms[0]; i++)
+        fprintf(f, "  %s\n      %s\n", forms[i].synopsis, forms[i].brief);
     fprintf(f,
-            "usage: vantage [-h HOST] [-p PORT] [-s SOCKET] [--token T] [--timeout MS] COMMAND [ARGS]\n"
-            "\n"
-            "commands:\n"
-            "  ping [-c N]                      round trip to the daemon (N times, prints latency)\n"
-            "  stats [--json | --metrics]       scene and server counters, clients by role, latency per\n"
-            "        request type, frames dropped; --metrics: the Prometheus text as the daemon sends it\n"
-            "  add ID X,Y,Z R [--class N] [--sublevel N] [--dynamic] [--aabb X0,Y0,Z0,X1,Y1,Z1]\n"
-            "  move ID X,Y,Z [--radius R]       move an entity (its AABB moves with it)\n"
-            "  remove ID [ID...]                remove entities\n"
-            "  get ID [ID...]                   print entities as JSON lines\n"
-            "  import FILE.jsonl                add entities, one JSON object per line\n"
-            "  export FILE.jsonl                write every entity, same format (- = stdout)\n"
-            "  query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N]\n"
-            "        [--far F] [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]\n"
-            "  render --eye X,Y,Z --at X,Y,Z [--fov DEG] [--size WxH] [--exposure EV] [--quality Q]\n"
-            "        [--no-occlusion] [--renderer soft|gl] -o FILE.exr|png|jpg   one frame from the daemon\n"
-            "  lights --eye X,Y,Z --at X,Y,Z [--fov DEG] [--size WxH] [--no-depth] [--json]\n"
-            "        the view's Forward+ tile light lists (a heat map, or JSON)\n"
-            "  sublevel load NAME FILE [--dry-run] [--json]   import a glTF (.gltf/.glb) or OBJ level and load\n"
-            "        it as one sub-level: nothing of it is seen before all of it is (README: Authoring levels)\n"
-            "  sublevel unload NAME             hide a sub-level at one epoch and free it\n"
-            "  sublevel list [--json]           sub-levels with their state and counts\n"
-            "  destroy ID X,Y,Z RADIUS [--debris N] [--handle H] [--json]   a destruction sphere on an entity:\n"
-            "        its occluder is cut open for the next query\n"
-            "  watch [--count N]                print scene-changed events as they happen\n"
-            "  watch --frames DIR --eye X,Y,Z --at X,Y,Z [render's camera options] [--format jpg|png|exr]\n"
-            "        [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]   write the frames pushed as the\n"
-            "        scene changes (latest-frame-wins), one JSON line each\n"
-            "  bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P]\n"
-            "        [--views K] [--batch B] [--count-only] [--no-occlusion] [--json]   load test: rate and latency\n"
-            "        percentiles\n"
-            "  bench --test frames [--viewers N] [--stalled S] [--seconds T] [--size WxH] [--fps F]\n"
-            "        [--edits-per-s R] [--renderer soft|gl] [--json]   frame streams while the scene is edited\n"
-            "  pad list [--json]                game controllers found (hidraw and USB), not opened\n"
-            "  pad dump [--replay FILE [--speed X]] [--record FILE] [--count N] [--seconds S]\n"
-            "        one JSON line of normalized state per report (a live pad, or a hid-recorder file)\n"
-            "  commander [--replay FILE] [--headless DIR] [--stats] [...]   the tablet-commander thin client:\n"
-            "        a pad (or keyboard and mouse) drives its own view of the daemon's scene (commander --help)\n"
             "\n"
             "connection: -h HOST (127.0.0.1), -p PORT (%d), -s SOCKET (Unix socket instead of TCP),\n"
             "            --token T (or VANTAGE_TOKEN) where the daemon has --tokens\n"
-            "JSON lines: {\"id\": 64-bit id, \"class\": n, \"sphere\": [x,y,z,r],\n"
-            "             \"aabb\": [minx,miny,minz,maxx,maxy,maxz], \"sublevel\": n, \"dynamic\": false}\n"
-            "COMMAND --help prints that command's usage.\n",
+            "exit status: 0 ok, 1 refused (the server's code and message on stderr), 2 bad usage, 3 cannot\n"
+            "             connect. COMMAND --help prints that command's usage.\n",
             VT_DEFAULT_PORT);
 }
+
+/* The words after the command that pick a form ("--test frames",
+ * "load"): the synopsis's tokens up to the first that is not a literal
+ * (a lowercase word or an --option). n words at most; returns the count. */
+static int form_words(const cli_form *fm, const char *w[], size_t len[], int n)
+{
+    const char *p = fm->synopsis + strlen(fm->cmd);
+    int k = 0;
+    while (k < n) {
+        while (*p == ' ') p++;
+        size_t l = strcspn(p, " \n");
+        if (!l || !(p[0] == '-' || (p[0] >= 'a' && p[0] <= 'z'))) break;
+        bool lit = true;
+        for (size_t i = 0; i < l; i++) lit &= (p[i] >= 'a' && p[i] <= 'z') || p[i] == '-';
+        if (!lit) break;
+        w[k] = p;
+        len[k++] = l;
+        p += l;
+    }
+    return k;
+}
+
+static bool has_arg(int argc, char **argv, const char *w, size_t len)
+{
+    for (int i = 1; i < argc; i++)
+        if (strlen(argv[i]) == len && !memcmp(argv[i], w, len)) return true;
+    return false;
+}
+
+/* `vantage COMMAND ... --help`: the forms of the command whose words the
+ * arguments hold (the most specific), or all of its forms. */
+static int command_help(int argc, char **argv)
+{
+    enum { NF = sizeof forms / sizeof forms[0] };
+    int score[NF], best = 0;
+    for (size_t i = 0; i < NF; i++) {
+        score[i] = -1;
+        if (strcmp(forms[i].cmd, argv[0])) continue;
+        const char *w[4];
+        size_t len[4];
+        int n = form_words(&forms[i], w, len, 4), hit = 0;
+        while (hit < n && has_arg(argc, argv, w[hit], len[hit])) hit++;
+        score[i] = hit == n ? n : 0;
+        if (score[i] > best) best = score[i];
+    }
+    bool first = true;
+    for (size_t i = 0; i < NF; i++) {
+        if (score[i] < 0 || (best > 0 && score[i] != best)) continue;
+        printf("%s", first ? "" : "\n");
+        /* the synopsis, its continuation lines under the command */
+        const char *s = forms[i].synopsis;
+        printf("%s vantage ", first ? "usage:" : "   or:");
+        for (; *s; s++) {
+            putchar(*s);
+            if (*s == '\n') printf("       ");
+        }
+        printf("\n\n  %s\n%s", forms[i].brief, forms[i].about);
+        first = false;
+    }
+    printf("\n(connection options go before COMMAND: vantage --help)\n");
+    return 0;
+}
+
+static const char *g_cmd; /* the command being run, for die_usage's hint */
 
 int die_usage(const char *fmt, ...)
 {
@@ -80,8 +257,25 @@ int die_usage(const char *fmt, ...)
     fprintf(stderr, "%s: ", g_prog);
     vfprintf(stderr, fmt, ap);
     va_end(ap);
-    fprintf(stderr, " (vantage --help)\n");
+    fprintf(stderr, " (vantage %s%s--help)\n", g_cmd ? g_cmd : "", g_cmd ? " " : "");
     return 2;
+}
+
+int die_bad_value(const char *cmd, const char *opt, const char *value, const char *expected)
+{
+    return die_usage("%s: %s %s: expected %s", cmd, opt, value, expected);
+}
+
+int die_missing(const char *cmd, const char *opt, const char *why)
+{
+    return die_usage("%s: %s is missing (%s)", cmd, opt, why);
+}
+
+int die_bad_opt(const char *cmd, const cli_opt_doc *docs, size_t n, int code, const char *value)
+{
+    for (size_t i = 0; i < n; i++)
+        if (docs[i].code == code) return die_bad_value(cmd, docs[i].name, value, docs[i].expected);
+    return die_usage("%s: bad value %s", cmd, value);
 }
 
 int server_fail(cli *k, const char *what, int rc)
@@ -91,7 +285,12 @@ int server_fail(cli *k, const char *what, int rc)
         fprintf(stderr, "%s: %s: %s\n", g_prog, what, e->msg);
         return 3;
     }
-    if (e->index != UINT32_MAX)
+    /* the daemon's messages for a batch begin "record N": the index is
+       added here only when the message does not name it already */
+    char pre[24];
+    int pl = snprintf(pre, sizeof pre, "record %u", e->index);
+    bool named = !strncmp(e->msg, pre, (size_t)pl) && (e->msg[pl] == ':' || e->msg[pl] == ' ');
+    if (e->index != UINT32_MAX && !named)
         fprintf(stderr, "%s: %s: error %d (%s), record %u: %s\n", g_prog, what, rc, vp_strerror(rc), e->index,
                 e->msg);
     else
@@ -581,7 +780,7 @@ static int cmd_query(cli *k, int argc, char **argv)
         {"eye", 1, 0, 'e'}, {"at", 1, 0, 'a'}, {"up", 1, 0, 'u'}, {"fov", 1, 0, 'f'}, {"ortho", 1, 0, 'o'},
         {"near", 1, 0, 'n'}, {"far", 1, 0, 'F'}, {"size", 1, 0, 's'}, {"min-area", 1, 0, 'm'},
         {"exact-area", 0, 0, 'x'}, {"no-occlusion", 0, 0, 'N'}, {"occ-centre", 0, 0, 'C'}, {"json", 0, 0, 'j'},
-        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {0, 0, 0, 0}};
     const char *use = "query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N] [--far F] "
                       "[--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]";
     optind = 1;
@@ -607,12 +806,21 @@ static int cmd_query(cli *k, int argc, char **argv)
         case 'N': flags |= VP_Q_NO_OCCLUSION; break;
         case 'C': flags |= VP_Q_OCC_CENTRE; break;
         case 'j': json = true; break;
-        case 'h': printf("usage: vantage %s\n", use); return 0;
         default: return die_usage("%s", use);
         }
-        if (!ok) return die_usage("query: bad value %s", optarg);
+        if (!ok) {
+            static const cli_opt_doc docs[] = {
+                {'e', "--eye", "X,Y,Z (three finite numbers)"}, {'a', "--at", "X,Y,Z (three finite numbers)"},
+                {'u', "--up", "X,Y,Z (three finite numbers)"},  {'f', "--fov", "degrees, more than 0 and less than 180"},
+                {'o', "--ortho", "W,H in metres, both > 0"},    {'n', "--near", "a finite number"},
+                {'F', "--far", "a finite number"},              {'s', "--size", "WxH, each 1..65535"},
+                {'m', "--min-area", "pixels, >= 0"}};
+            return die_bad_opt("query", docs, sizeof docs / sizeof docs[0], o, optarg);
+        }
     }
-    if (!have_eye || !have_at || optind != argc) return die_usage("%s", use);
+    if (optind != argc) return die_usage("query: unexpected argument %s", argv[optind]);
+    if (!have_eye) return die_missing("query", "--eye X,Y,Z", "where the camera is");
+    if (!have_at) return die_missing("query", "--at X,Y,Z", "the point the camera looks at");
     if ((flags & VP_Q_NO_OCCLUSION) && (flags & VP_Q_OCC_CENTRE))
         return die_usage("query: --no-occlusion and --occ-centre exclude each other");
     if (have_fov && ortho[0] > 0) return die_usage("query: --fov and --ortho exclude each other");
@@ -630,8 +838,11 @@ static int cmd_query(cli *k, int argc, char **argv)
         for (uint32_t i = 0; i < r.count; i++) {
             vp_vis_rec x;
             vp_vis_rec_get(&r, i, &x);
-            printf("{\"id\": %llu, \"handle\": %u, \"views\": %u, \"class\": %u, \"area\": %.6g}\n",
-                   (unsigned long long)x.id, x.handle, x.view_mask, x.class_id, x.area);
+            /* the area only where it was measured (--exact-area): the daemon sends -1 otherwise */
+            printf("{\"id\": %llu, \"handle\": %u, \"views\": %u, \"class\": %u", (unsigned long long)x.id,
+                   x.handle, x.view_mask, x.class_id);
+            if (flags & VP_Q_WANT_AREA) printf(", \"area\": %.6g", x.area);
+            printf("}\n");
         }
         printf("{\"epoch\": %llu, \"tested\": %u, \"visible\": %u, \"stage_ns\": {\"cull\": %u, "
                "\"occlusion_raster\": %u, \"write\": %u, \"total\": %u, \"setup\": %u}, \"round_trip_us\": %.1f}\n",
@@ -646,8 +857,9 @@ static int cmd_query(cli *k, int argc, char **argv)
         for (uint32_t i = 0; i < show; i++) {
             vp_vis_rec x;
             vp_vis_rec_get(&r, i, &x);
-            printf("  id %-10llu handle %-8u class %-5u area %.1f\n", (unsigned long long)x.id, x.handle, x.class_id,
-                   x.area);
+            printf("  id %-10llu handle %-8u class %-5u", (unsigned long long)x.id, x.handle, x.class_id);
+            if (flags & VP_Q_WANT_AREA) printf(" area %.1f", x.area);
+            printf("\n");
         }
         if (r.count > show) printf("  ... %u more (--json for all)\n", r.count - show);
     }
@@ -659,9 +871,12 @@ static int cmd_destroy(cli *k, int argc, char **argv)
     const char *use = "destroy ID X,Y,Z RADIUS [--debris N] [--handle H] [--json]";
     vp_destroy m = {0};
     bool json = false;
-    if (argc < 4 || !parse_u64(argv[1], &m.id) || !parse_vec(argv[2], m.center, 3) || !parse_vec(argv[3], &m.radius, 1) ||
-        !(m.radius > 0))
-        return die_usage("%s", use);
+    if (argc < 4) return die_usage("%s", use);
+    if (!parse_u64(argv[1], &m.id)) return die_usage("destroy: bad id %s: expected a 64-bit id (decimal or 0x hex)", argv[1]);
+    if (!parse_vec(argv[2], m.center, 3))
+        return die_usage("destroy: bad centre %s: expected X,Y,Z (three finite numbers)", argv[2]);
+    if (!parse_vec(argv[3], &m.radius, 1) || !(m.radius > 0))
+        return die_usage("destroy: bad radius %s: expected metres, more than 0", argv[3]);
     for (int i = 4; i < argc; i++) {
         uint64_t v;
         if (!strcmp(argv[i], "--debris") && i + 1 < argc && parse_u64(argv[i + 1], &v) && v <= VP_MAX_DEBRIS)
@@ -670,8 +885,12 @@ static int cmd_destroy(cli *k, int argc, char **argv)
             m.handle = (uint32_t)v, i++;
         else if (!strcmp(argv[i], "--json"))
             json = true;
+        else if (!strcmp(argv[i], "--debris"))
+            return die_bad_value("destroy", "--debris", i + 1 < argc ? argv[i + 1] : "(none)", "0..64 entities");
+        else if (!strcmp(argv[i], "--handle"))
+            return die_bad_value("destroy", "--handle", i + 1 < argc ? argv[i + 1] : "(none)", "a handle, 0..4294967295");
         else
-            return die_usage("%s", use);
+            return die_usage("destroy: unexpected %s; %s", argv[i], use);
     }
     int rc = connect_cli(k, VP_ROLE_EDITOR);
     if (rc) return rc;
@@ -749,13 +968,13 @@ int main(int argc, char **argv)
     }
     char **av = argv + optind;
     int ac = argc - optind;
-    static const char *const own_help[] = {"query", "render", "lights", "pad", "commander"};
-    bool own = false;
-    for (size_t i = 0; i < sizeof own_help / sizeof own_help[0]; i++) own |= !strcmp(av[0], own_help[i]);
-    if (ac == 2 && !strcmp(av[1], "--help") && !own) {
-        usage(stdout);
-        return 0;
-    }
+    /* COMMAND --help anywhere in its arguments: its own usage, not this one */
+    for (int i = 1; i < ac; i++)
+        if (!strcmp(av[i], "--help")) {
+            for (size_t f = 0; f < sizeof forms / sizeof forms[0]; f++)
+                if (!strcmp(forms[f].cmd, av[0])) return command_help(ac, av);
+            break;
+        }
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
@@ -764,7 +983,10 @@ int main(int argc, char **argv)
     };
     int rc = -1;
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)
-        if (!strcmp(av[0], cmds[i].name)) rc = cmds[i].fn(&k, ac, av);
+        if (!strcmp(av[0], cmds[i].name)) {
+            g_cmd = cmds[i].name;
+            rc = cmds[i].fn(&k, ac, av);
+        }
     if (rc < 0) rc = die_usage("unknown command %s", av[0]);
     vt_close(k.c);
     return rc;

@@ -131,7 +131,7 @@ static int unload(scene *sc, const vp_name *nm, uint32_t *n, scene_err *err)
     if (!id) {
         char esc[4 * 255 + 1];
         vp_escape(esc, sizeof esc, nm->name, nm->len);
-        return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level named \"%.100s\"", esc);
+        return scene_fail(err, VP_ERR_NOT_FOUND, UINT32_MAX, "no sub-level named \"%.100s\"", esc);
     }
     const scene_sublevel *l = &sc->sl[id];
     if (l->state == VP_SL_LOADING)

@@ -73,8 +73,8 @@ enum { MD_NONE, MD_PEER, MD_ERROR, MD_HELLO_TIMEOUT, MD_FRAME_TIMEOUT, MD_OUTPUT
 /* The metrics endpoint's answers. */
 enum { MH_200, MH_400, MH_401, MH_404, MH_405, MH_408, MH_431, MH_500, MH_503, MH_505, MH_COUNT };
 
-/* One error code a slot: -1 .. -22 (VP_ERRORS), then the rest. */
-#define METRICS_ERR_SLOTS 23u
+/* One error code a slot: -1 .. -23 (VP_ERRORS), then the rest. */
+#define METRICS_ERR_SLOTS 24u
 
 /* What a query's worker measured, carried back in its job. */
 typedef struct metrics_query {

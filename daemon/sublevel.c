@@ -261,7 +261,7 @@ void scene_members_add(scene *s, uint16_t sub, uint64_t id)
 
 int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *err)
 {
-    if (!id || id > s->nsublevels) return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "no sub-level %u", id);
+    if (!id || id > s->nsublevels) return scene_fail(err, VP_ERR_NOT_FOUND, UINT32_MAX, "no sub-level %u", id);
     scene_sublevel *l = &s->sl[id];
     if (l->state == VP_SL_UNLOADING)
         return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "sub-level %s is already being unloaded", l->name);

@@ -56,7 +56,8 @@ extern "C" {
     X(VP_ERR_INTERNAL,   -19, "internal server error")                          \
     X(VP_ERR_UNSUPPORTED, -20, "not available on this server")                   \
     X(VP_ERR_TIMEOUT,    -21, "too slow: HELLO or a frame did not arrive in time") \
-    X(VP_ERR_IO,         -22, "the server could not make the edit durable")
+    X(VP_ERR_IO,         -22, "the server could not make the edit durable")   \
+    X(VP_ERR_NOT_FOUND,  -23, "nothing of that name")
 
 enum {
 #define VP_X_ENUM(name, value, msg) name = value,

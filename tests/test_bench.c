@@ -413,6 +413,57 @@ static void test_bench_cli_errors(void **state)
     daemon_stop(&d);
 }
 
+/* The daemon's memory per tenth of a short run: sampled once a second, so
+ * most tenths of a 2 s run have no sample; they print '-' (null in JSON),
+ * not 0.0 as if the daemon had given its memory back. */
+static void test_bench_memory_tenths_unsampled(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    tdir td;
+    tdir_make(&td, "vt-bench");
+    char js[600], cmd[2048], out[8192];
+    bench_cmd(&td, &d, "name mem\nduration 2\ngroup q\n role query\n clients 1\n op ping\n rate 50\n", "--json", js,
+              cmd, sizeof cmd);
+    /* over the Unix socket: the daemon's pid from its peer credentials */
+    char port[32];
+    snprintf(port, sizeof port, "-p %d ", d.port);
+    char *at = strstr(cmd, port), sock[200];
+    assert_non_null(at);
+    snprintf(sock, sizeof sock, "-s %s ", d.sock);
+    char full[2300];
+    snprintf(full, sizeof full, "%.*s%s%s", (int)(at - cmd), cmd, sock, at + strlen(port));
+    int st = test_run_cmd(full, out, sizeof out);
+    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("bench: status %d: %s", st, out);
+    const char *row = strstr(out, "max MiB per tenth");
+    if (!row) fail_msg("no memory row: %s", out);
+    int dashes = 0, samples = 0;
+    const char *p = row + strlen("max MiB per tenth");
+    for (int w = 0; w < 10; w++) {
+        char tok[32];
+        int n = 0;
+        if (sscanf(p, " %31s%n", tok, &n) != 1) fail_msg("the row has %d tenths: %s", w, row);
+        p += n;
+        if (!strcmp(tok, "-")) dashes++;
+        else if (atof(tok) > 0) samples++;
+        else fail_msg("tenth %d: '%s' (no sample must print '-'): %s", w, tok, row);
+    }
+    assert_true(dashes >= 5 && samples >= 1); /* one sample a second over 2 s */
+    FILE *f = fopen(js, "r");
+    assert_non_null(f);
+    char j[8192];
+    size_t n = fread(j, 1, sizeof j - 1, f);
+    j[n] = 0;
+    fclose(f);
+    const char *m = strstr(j, "\"max_by_tenth\": [");
+    assert_non_null(m);
+    assert_non_null(strstr(m, "null"));
+    assert_null(strstr(m, " 0.00"));
+    tdir_remove(&td);
+    daemon_stop(&d);
+}
+
 const struct CMUnitTest bench_tests[] = {
     cmocka_unit_test(test_bench_hdr_distributions),
     cmocka_unit_test(test_bench_hdr_buckets),
@@ -422,5 +473,6 @@ const struct CMUnitTest bench_tests[] = {
     cmocka_unit_test(test_bench_open_loop_keeps_rate),
     cmocka_unit_test(test_bench_daemon_goes_away),
     cmocka_unit_test(test_bench_cli_errors),
+    cmocka_unit_test(test_bench_memory_tenths_unsampled),
 };
 const size_t bench_tests_count = sizeof bench_tests / sizeof bench_tests[0];

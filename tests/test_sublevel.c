@@ -469,7 +469,7 @@ static void test_sublevel_rules(void **state)
     assert_int_equal(st.lights, 0);
     /* unloading what is being loaded, or what does not exist */
     assert_int_equal(vt_sublevel_unload(b, "north", &ack), VP_ERR_STATE);
-    assert_int_equal(vt_sublevel_unload(b, "nowhere", &ack), VP_ERR_UNKNOWN_ID);
+    assert_int_equal(vt_sublevel_unload(b, "nowhere", &ack), VP_ERR_NOT_FOUND);
     /* an id taken in the load is taken for everyone */
     e.sublevel = 0;
     assert_int_equal(vt_add(b, &e, 1, NULL, NULL), VP_ERR_DUPLICATE);

@@ -444,7 +444,7 @@ static void test_sublevel_names_utf8(void **state)
         assert_error(c, vt_sublevel_begin(c, t[k].bad, 0, &b), VP_ERR_INVALID, UINT32_MAX, t[k].want_esc);
         /* an unknown name is quoted escaped too */
         vp_ack a;
-        assert_error(c, vt_sublevel_unload(c, t[k].bad, &a), VP_ERR_UNKNOWN_ID, UINT32_MAX, t[k].want_esc);
+        assert_error(c, vt_sublevel_unload(c, t[k].bad, &a), VP_ERR_NOT_FOUND, UINT32_MAX, t[k].want_esc);
     }
     /* nothing was defined; a valid UTF-8 name still is */
     vp_name_list l;
