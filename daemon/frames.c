@@ -500,14 +500,19 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
     bool same = f->active && f->m.r.format == m.r.format && f->m.r.quality == m.r.quality &&
                 f->m.r.renderer == m.r.renderer && f->m.r.view.viewport_w == m.r.view.viewport_w &&
                 f->m.r.view.viewport_h == m.r.view.viewport_h;
+    /* the rate cap holds across re-aims: the next frame starts 1/max_fps
+       (the new rate) after the last one started, however often the view
+       moves (a client re-aiming every few ms had every aim drawn at once,
+       so max_fps bound only cameras that held still) */
+    if (f->active && f->next_ns) f->next_ns = f->next_ns - 1000000000ull / f->m.max_fps + 1000000000ull / m.max_fps;
+    else f->next_ns = 0; /* a new stream: its first frame at once */
     if (!f->active) s->nsubs++;
     f->active = true;
     f->aims++;
     f->req = h->req;
     f->m = m;
     if (!same) f->gen++; /* a frame still being drawn for the old stream is dropped */
-    f->dirty = true;     /* the first frame (or the new view) at once */
-    f->next_ns = 0;
+    f->dirty = true;     /* the new view's frame as soon as the cap allows */
     reply_ack(c, h->req, s->sc->epoch, 0);
     LOGD("client %u: frames %ux%u %s, %s, at most %u/s", c->id, m.r.view.viewport_w, m.r.view.viewport_h,
          m.r.format == VP_FRAME_JPEG ? "jpeg" : "raw", renderer_name(m.r.renderer ? m.r.renderer : s->cfg.renderer),

@@ -355,6 +355,50 @@ static uint64_t now_ms(void)
     return (uint64_t)ts.tv_sec * 1000 + (uint64_t)ts.tv_nsec / 1000000;
 }
 
+/* A stream's max_fps holds while its client re-aims it every 5 ms: a
+ * re-aim reset the cap, so a moving camera got every aim drawn at once
+ * (about 200 frames a second here instead of 5). */
+static void test_frame_rate_cap_on_reaim(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    int fd = raw_connect(&d);
+    raw_hello(fd);
+    struct timeval tv = {.tv_usec = 1000};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = 50}, .max_fps = 5};
+    static uint8_t in[1 << 20];
+    size_t have = 0;
+    int frames = 0;
+    uint64_t t0 = now_ms();
+    for (int aim = 0; now_ms() - t0 < 1000; aim++) {
+        double eye[3] = {0.01 * aim, 0, 0}, at[3] = {0, 0, -10};
+        assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 60, 64, 36, 0.1, 100));
+        sub.view_seq = (uint16_t)aim;
+        uint8_t buf[512];
+        vp_writer w;
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_enc_frame_sub(&w, 9, &sub);
+        assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+        usleep(5000);
+        ssize_t n;
+        while ((n = read(fd, in + have, sizeof in - have)) > 0) have += (size_t)n;
+        for (;;) { /* whole frames: FRAME counted, ACKs skipped */
+            vp_header h;
+            size_t fs = 0;
+            if (vp_frame_check(in, have, sizeof in, &h, &fs) != VP_OK) break;
+            frames += h.type == VP_FRAME;
+            memmove(in, in + fs, have - fs);
+            have -= fs;
+        }
+    }
+    print_message("re-aimed every 5 ms for 1 s at max_fps 5: %d frames\n", frames);
+    assert_true(frames >= 1 && frames <= 7);
+    close(fd);
+    daemon_stop(&d);
+}
+
 /* Slow-loris: a client that never says HELLO, and one that leaves a frame
  * half-sent, are dropped with ERROR TIMEOUT once their time is up; an idle
  * client (nothing half-sent) stays, and another keeps being served. */
@@ -1677,6 +1721,7 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_malformed_frames),
     cmocka_unit_test(test_slow_clients_time_out),
     cmocka_unit_test(test_unix_socket_clash),
+    cmocka_unit_test(test_frame_rate_cap_on_reaim),
     cmocka_unit_test(test_connection_churn),
     cmocka_unit_test(test_concurrent_clients),
     cmocka_unit_test(test_slow_reader_dropped),
