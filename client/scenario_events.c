@@ -6,6 +6,7 @@
  */
 #include "scenario_run.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -109,7 +110,16 @@ void *events_thread(void *arg)
                 rc = vt_get(ea->c, &id, 1, &got);
                 vp_entity ent;
                 if (rc == 0 && got.batch.count == 1 && vp_entity_get(&got.batch, 0, &ent) == 0) {
-                    for (int a = 0; a < 3; a++) d.center[a] = ent.sphere[a] + (splitmix_unit(&x) - 0.5) * ent.sphere[3];
+                    double diag2 = 0;
+                    for (int a = 0; a < 3; a++) {
+                        d.center[a] = ent.aabb[a] + splitmix_unit(&x) * (ent.aabb[3 + a] - ent.aabb[a]);
+                        diag2 += (ent.aabb[3 + a] - ent.aabb[a]) * (ent.aabb[3 + a] - ent.aabb[a]);
+                    }
+                    /* a point of the entity's box; the daemon refuses a
+                       sphere that misses the entity or is larger than its
+                       diagonal (it would cover it all): a small entity
+                       gets one that size */
+                    if (diag2 > 0 && d.radius * d.radius > diag2) d.radius = sqrt(diag2);
                     ts = now_s();
                     vp_destroyed out;
                     rc = vt_destroy(ea->c, &d, &out);

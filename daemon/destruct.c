@@ -213,6 +213,38 @@ static int sphere_refused(scene_err *err, int crc, const vp_destroy *m)
     return scene_fail(err, code, UINT32_MAX, "destruction sphere: %s", cull_strerror(crc));
 }
 
+/* A sphere must touch the entity it destroys (its centre at most radius
+ * from the entity's box) and be at most the box's diagonal in radius: one
+ * that size centred anywhere on the box covers all of it, so a larger one
+ * cuts nothing more and only throws its debris farther (a radius of 1e9
+ * erased a building and left its debris in mid-air; a sphere 1 km away
+ * was taken silently). Values the sphere's own checks refuse (non-finite,
+ * out of the world, radius <= 0 or past CULL_MAX_RADIUS) are left to them,
+ * so each message names its own cause. */
+static int sphere_fits_entity(const cull_entity_desc *e, const vp_destroy *m, scene_err *err)
+{
+    double r = m->radius, d2 = 0, diag2 = 0;
+    if (!(r > 0 && r <= CULL_MAX_RADIUS)) return VP_OK;
+    for (int a = 0; a < 3; a++) {
+        if (!(fabs(m->center[a]) <= CULL_MAX_COORD)) return VP_OK;
+        double lo = e->aabb_min[a], hi = e->aabb_max[a], c = m->center[a];
+        double out = c < lo ? lo - c : c > hi ? c - hi : 0;
+        d2 += out * out;
+        diag2 += (hi - lo) * (hi - lo);
+    }
+    if (d2 > r * r)
+        return scene_fail(err, VP_ERR_INVALID, UINT32_MAX,
+                          "destruction sphere (radius %g m) does not touch entity %llu: its centre is %g m from the "
+                          "entity's bounds",
+                          r, (unsigned long long)m->id, sqrt(d2));
+    if (r * r > diag2)
+        return scene_fail(err, VP_ERR_INVALID, UINT32_MAX,
+                          "destruction sphere: radius %g m is larger than entity %llu's diagonal, %g m (a sphere that "
+                          "size already covers all of it)",
+                          r, (unsigned long long)m->id, sqrt(diag2));
+    return VP_OK;
+}
+
 int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out, scene_err *err)
 {
     uint64_t hv;
@@ -225,9 +257,11 @@ int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out
                           (unsigned long long)m->id, h);
     cull_entity_desc e;
     cull_entity_get(s->world, h, &e);
-    uint16_t sub = e.sublevel;
-    int rc = scene_sublevel_target(s, 0, &sub, UINT32_MAX, err);
+    /* records acknowledged by older daemons, which took any sphere, replay */
+    int rc = s->replaying ? VP_OK : sphere_fits_entity(&e, m, err);
     if (rc) return rc;
+    uint16_t sub = e.sublevel;
+    if ((rc = scene_sublevel_target(s, 0, &sub, UINT32_MAX, err))) return rc;
     if (m->debris && s->ids.count + m->debris > s->lim.max_entities)
         return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "no room for %u debris entities", m->debris);
     /* the volume: made over the entity's box on its first destruction */

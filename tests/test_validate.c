@@ -535,6 +535,11 @@ static void test_destroy_messages(void **state)
         {"radius inf", 0, INFINITY, VP_ERR_NONFINITE, "radius is inf"},
         {"centre NaN", NAN, 1, VP_ERR_NONFINITE, "centre x is nan"},
         {"centre 2e12", 2e12, 1, VP_ERR_INVALID, "centre x is 2e+12 m, beyond the world's +-1e+12 m"},
+        /* relative to the entity (a 2 m cube: diagonal 3.4641 m) */
+        {"radius past the diagonal", 0, 3.4642, VP_ERR_INVALID, "larger than entity 5's diagonal, 3.4641 m"},
+        {"radius 1e9", 0, 1e9, VP_ERR_INVALID, "larger than entity 5's diagonal"},
+        {"1 km away", 1000, 5, VP_ERR_INVALID, "does not touch entity 5: its centre is 999 m from"},
+        {"just out of reach", 3.5, 2.4999, VP_ERR_INVALID, "does not touch entity 5"},
     };
     for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
         print_message("DESTROY: %s\n", t[k].name);
@@ -545,7 +550,9 @@ static void test_destroy_messages(void **state)
         assert_null(strstr(vt_last_error(c)->msg, "negative, NaN or infinite"));
     }
     vp_destroyed out;
-    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .radius = 1e9}, &out), VP_OK); /* the limit itself */
+    /* the limits themselves: the diagonal; a sphere that just touches from outside */
+    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .radius = sqrt(12.0)}, &out), VP_OK);
+    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .center = {3.5, 0, 0}, .radius = 2.5}, &out), VP_OK);
     vt_close(c);
     daemon_stop(&d);
 }
