@@ -30,7 +30,9 @@ WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
 WARN     += -Werror
 endif
-CPPFLAGS := -D_GNU_SOURCE -Iculling -Iprotocol -Idaemon -Iclient -Irender -MMD -MP
+# client/ has one folder per part (lib, cli, pad, commander, loadgen, import; client/README.md)
+CLIENT_DIRS := lib cli pad commander loadgen import
+CPPFLAGS := -D_GNU_SOURCE -Iculling -Iprotocol -Idaemon $(CLIENT_DIRS:%=-Iclient/%) -Irender -MMD -MP
 CFLAGS   := -std=c11 $(WARN) -g -pthread
 LDLIBS   := -lm -pthread
 ISA_AVX2 := -mavx2 -mfma -mpopcnt
@@ -65,22 +67,23 @@ DAEMON_OBJ:= $(DAEMON_SRC:%.c=$(BUILD)/%.o)
 DAEMON_BIN:= $(BUILD)/vantaged
 
 CLIENT_LIB:= $(BUILD)/libvantage.a
-CLIENT_OBJ:= $(BUILD)/client/libvantage.o
+CLIENT_OBJ:= $(BUILD)/client/lib/libvantage.o
 # game pads (issue 8): pure parsers and the hid-recorder format (pad.h), the
 # devices through hidapi (hidraw flavour) and libusb (pad_io.h), the
 # commander's input mapping; linked into the CLI and the tests
-PAD_OBJ  := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o \
-            $(BUILD)/client/pad_io.o $(BUILD)/client/pad_io_real.o $(BUILD)/client/pad_map.o
+PAD_OBJ  := $(BUILD)/client/pad/pad.o $(BUILD)/client/pad/pad_parse.o $(BUILD)/client/pad/pad_line.o \
+            $(BUILD)/client/pad/pad_io.o $(BUILD)/client/pad/pad_io_real.o $(BUILD)/client/commander/pad_map.o
 PAD_LIBS := $$(pkg-config --libs hidapi-hidraw libusb-1.0)
 SDL_LIBS := $$(pkg-config --libs sdl2 SDL2_ttf)
 # load-test scenarios (issue 9): the format and the histogram, pure (the
 # tests link them); the runner is cli_scenario.c
-SCN_OBJ  := $(BUILD)/client/scenario.o $(BUILD)/client/hdr.o
-CLI_OBJ  := $(BUILD)/client/vantage_cli.o $(BUILD)/client/cli_jsonl.o $(BUILD)/client/cli_bench.o \
-            $(BUILD)/client/cli_render.o $(BUILD)/client/cli_frames.o $(BUILD)/client/cli_sublevel.o \
-            $(BUILD)/client/import.o $(BUILD)/client/jsonl.o $(BUILD)/client/cli_pad.o $(BUILD)/client/commander.o \
-            $(BUILD)/client/commander_sdl.o $(BUILD)/client/cli_scenario.o $(BUILD)/client/scenario_events.o \
-            $(BUILD)/client/scenario_report.o $(SCN_OBJ) $(PAD_OBJ)
+SCN_OBJ  := $(BUILD)/client/loadgen/scenario.o $(BUILD)/client/loadgen/hdr.o
+CLI_OBJ  := $(BUILD)/client/cli/vantage_cli.o $(BUILD)/client/cli/cli_jsonl.o $(BUILD)/client/cli/cli_bench.o \
+            $(BUILD)/client/cli/cli_render.o $(BUILD)/client/cli/cli_frames.o $(BUILD)/client/cli/cli_sublevel.o \
+            $(BUILD)/client/import/import.o $(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_pad.o \
+            $(BUILD)/client/commander/commander.o $(BUILD)/client/commander/commander_sdl.o \
+            $(BUILD)/client/loadgen/cli_scenario.o $(BUILD)/client/loadgen/scenario_events.o \
+            $(BUILD)/client/loadgen/scenario_report.o $(SCN_OBJ) $(PAD_OBJ)
 CLI_BIN  := $(BUILD)/vantage
 
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
@@ -98,7 +101,7 @@ IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
 # llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
 # RENDER_OBJ needs these; the GL tests skip when no context can be made
 GL_LIBS  := $$(pkg-config --libs egl epoxy)
-# level import (client/import.c, the CLI and the tests): assimp's C API
+# level import (client/import/import.c, the CLI and the tests): assimp's C API
 ASSIMP_LIBS := $$(pkg-config --libs assimp)
 # the daemon's journal and snapshots (daemon/journal.c, snapshot.c): zlib's CRC-32
 ZLIB_LIBS := $$(pkg-config --libs zlib)
@@ -122,7 +125,7 @@ RENDB_BIN:= $(BUILD)/bench_render
 # the pad parsers alone (pure C: the parsers and their tables, no hidapi/libusb)
 PADB_OBJ := $(BUILD)/tests/bench/bench_pad.o
 PADB_BIN := $(BUILD)/bench_pad
-PADB_PAD := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o $(PROTO_OBJ)
+PADB_PAD := $(BUILD)/client/pad/pad.o $(BUILD)/client/pad/pad_parse.o $(BUILD)/client/pad/pad_line.o $(PROTO_OBJ)
 
 SUBB_OBJ := $(BUILD)/tests/bench/bench_sublevel.o
 SUBB_BIN := $(BUILD)/bench_sublevel
@@ -159,7 +162,7 @@ $(BUILD)/%.o: %.c
 
 # `bench --scenario NAME` finds the shipped scenarios here when run from the
 # source tree (installed: PREFIX/share/vantage/scenarios, next to bin/)
-$(BUILD)/client/cli_scenario.o: CPPFLAGS += -DVANTAGE_SCENARIO_DIR='"$(CURDIR)/client/scenarios"'
+$(BUILD)/client/loadgen/cli_scenario.o: CPPFLAGS += -DVANTAGE_SCENARIO_DIR='"$(CURDIR)/client/loadgen/scenarios"'
 
 $(BUILD)/culling/cull_kernels_avx2.o:   CFLAGS += $(ISA_AVX2)
 $(BUILD)/culling/cull_kernels_sse41.o:  CFLAGS += $(ISA_SSE41)
@@ -185,8 +188,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o)
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import.o $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import/import.o $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import/import.o $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
@@ -205,9 +208,9 @@ CLI_RENDER := $(BUILD)/render/vt_exr.o $(BUILD)/render/vt_image.o $(BUILD)/rende
 $(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(SDL_LIBS) $(LDLIBS)
 
-$(BUILD)/client/jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
-$(BUILD)/client/pad_io_real.o $(BUILD)/client/cli_pad.o: CPPFLAGS += $$(pkg-config --cflags hidapi-hidraw libusb-1.0)
-$(BUILD)/client/commander_sdl.o: CPPFLAGS += $$(pkg-config --cflags sdl2 SDL2_ttf) -Irender
+$(BUILD)/client/import/jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
+$(BUILD)/client/pad/pad_io_real.o $(BUILD)/client/cli/cli_pad.o: CPPFLAGS += $$(pkg-config --cflags hidapi-hidraw libusb-1.0)
+$(BUILD)/client/commander/commander_sdl.o: CPPFLAGS += $$(pkg-config --cflags sdl2 SDL2_ttf) -Irender
 
 $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(BENCH_OBJ) $(CULL_LIB) $(LDLIBS)
@@ -297,10 +300,10 @@ install: check-deps
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include/vantage
 	install -m 755 $(DAEMON_BIN) $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/
 	install -m 644 $(CLIENT_LIB) $(DESTDIR)$(PREFIX)/lib/
-	install -m 644 client/vantage.h protocol/protocol.h $(DESTDIR)$(PREFIX)/include/vantage/
+	install -m 644 client/lib/vantage.h protocol/protocol.h $(DESTDIR)$(PREFIX)/include/vantage/
 	install -d $(DESTDIR)$(PREFIX)/share/vantage/scenarios
-	install -m 644 client/scenarios/*.scn $(DESTDIR)$(PREFIX)/share/vantage/scenarios/
-	sed 's|@PREFIX@|$(PREFIX)|' client/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
+	install -m 644 client/loadgen/scenarios/*.scn $(DESTDIR)$(PREFIX)/share/vantage/scenarios/
+	sed 's|@PREFIX@|$(PREFIX)|' client/lib/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
 
 # installs into build/<config>/stage and builds a program with pkg-config
 install-check:

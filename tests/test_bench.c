@@ -133,7 +133,7 @@ static void test_bench_hdr_buckets(void **state)
 static const char *scn_dir(void)
 {
     const char *d = getenv("VANTAGE_SCENARIOS");
-    return d ? d : "client/scenarios";
+    return d ? d : "client/loadgen/scenarios";
 }
 
 static void test_bench_scenarios_shipped(void **state)

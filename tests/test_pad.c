@@ -1,5 +1,5 @@
 /*
- * test_pad.c — the pad parsers and hid-recorder lines (client/pad.h).
+ * test_pad.c — the pad parsers and hid-recorder lines (client/pad/pad.h).
  *
  * Reports are built byte by byte from the layouts of INPUT.md (the
  * builders below name each byte), and for every device in the table the

@@ -1,5 +1,5 @@
 /*
- * test_pad_io.c — the pad hub (client/pad_io.c) behind a fake hidapi and
+ * test_pad_io.c — the pad hub (client/pad/pad_io.c) behind a fake hidapi and
  * libusb (a pad_ops table whose devices live in this file), the replay and
  * record backends, and `vantage pad` end to end.
  *

@@ -4,10 +4,10 @@
 #
 # Targets (FUZZ_ALL), each fuzz_<name>.c with corpus/<name>/ and crashes/<name>/:
 #   protocol   the wire-protocol decoders (protocol/)
-#   jsonl      the JSON lines parser of `vantage import` (client/jsonl.c, json-c)
-#   gltf       the level import of `vantage sublevel load` (client/import.c, assimp)
-#   pad        the game-pad report parsers (client/pad.c, pad_parse.c)
-#   replay     hid-recorder's text format and the replay path (client/pad_line.c)
+#   jsonl      the JSON lines parser of `vantage import` (client/import/jsonl.c, json-c)
+#   gltf       the level import of `vantage sublevel load` (client/import/import.c, assimp)
+#   pad        the game-pad report parsers (client/pad/pad.c, pad_parse.c)
+#   replay     hid-recorder's text format and the replay path (client/pad/pad_line.c)
 #
 #   make fuzz-replay     replay every target's corpus + saved crashes through
 #                        the plain driver built with $(CC) in this CONFIG
@@ -52,15 +52,15 @@ FUZZ_protocol_SRC     := $(PROTO_SRC)
 FUZZ_protocol_MAX_LEN := 8192
 FUZZ_protocol_BUDGET  := 300 1024
 
-FUZZ_jsonl_OBJ        := $(BUILD)/client/jsonl.o $(PROTO_OBJ)
-FUZZ_jsonl_SRC        := client/jsonl.c $(PROTO_SRC)
+FUZZ_jsonl_OBJ        := $(BUILD)/client/import/jsonl.o $(PROTO_OBJ)
+FUZZ_jsonl_SRC        := client/import/jsonl.c $(PROTO_SRC)
 FUZZ_jsonl_CFLAGS     := $$(pkg-config --cflags json-c)
 FUZZ_jsonl_LIBS       := $$(pkg-config --libs json-c)
 FUZZ_jsonl_MAX_LEN    := 2048
 FUZZ_jsonl_BUDGET     := 100 256
 
-FUZZ_gltf_OBJ         := $(BUILD)/client/import.o $(PROTO_OBJ)
-FUZZ_gltf_SRC         := client/import.c $(PROTO_SRC)
+FUZZ_gltf_OBJ         := $(BUILD)/client/import/import.o $(PROTO_OBJ)
+FUZZ_gltf_SRC         := client/import/import.c $(PROTO_SRC)
 FUZZ_gltf_CFLAGS      := $$(pkg-config --cflags assimp)
 FUZZ_gltf_LIBS        := $$(pkg-config --libs assimp)
 FUZZ_gltf_MAX_LEN     := 16384
@@ -76,8 +76,8 @@ FUZZ_gltf_BUDGET      := 100 512
 
 # the pad parsers: pure C, no library; one input is a protocol byte and a
 # sequence of length-prefixed reports (fuzz_pad.c)
-FUZZ_pad_OBJ          := $(BUILD)/client/pad.o $(BUILD)/client/pad_parse.o $(BUILD)/client/pad_line.o $(PROTO_OBJ)
-FUZZ_pad_SRC          := client/pad.c client/pad_parse.c client/pad_line.c $(PROTO_SRC)
+FUZZ_pad_OBJ          := $(BUILD)/client/pad/pad.o $(BUILD)/client/pad/pad_parse.o $(BUILD)/client/pad/pad_line.o $(PROTO_OBJ)
+FUZZ_pad_SRC          := client/pad/pad.c client/pad/pad_parse.c client/pad/pad_line.c $(PROTO_SRC)
 FUZZ_pad_MAX_LEN      := 1024
 FUZZ_pad_BUDGET       := 100 256
 
@@ -107,14 +107,14 @@ fuzz-corpus: $(FUZZ_GEN_BIN)
 
 # ---- libFuzzer: clang, its own build dir ------------------------------------------
 FUZZ_CFLAGS     := -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
-                   -std=c11 $(WARN) -D_GNU_SOURCE -Iprotocol -Iclient
+                   -std=c11 $(WARN) -D_GNU_SOURCE -Iprotocol $(CLIENT_DIRS:%=-Iclient/%)
 
 # $(1): a target's name. Its replay driver and its libFuzzer binary.
 define FUZZ_RULES
 $(BUILD)/fuzz_$(1)_replay: $(BUILD)/fuzz/fuzz_$(1).o $(FUZZ_REPLAY_MAIN) $(FUZZ_$(1)_OBJ)
 	$$(CC) $$(CFLAGS) $$(LDFLAGS) -o $$@ $$^ $$(FUZZ_$(1)_LIBS) $$(LDLIBS)
 
-$(FUZZ_OUT)/fuzz_$(1): $(FUZZ_DIR)/fuzz_$(1).c $(FUZZ_$(1)_SRC) $(wildcard protocol/*.h client/*.h)
+$(FUZZ_OUT)/fuzz_$(1): $(FUZZ_DIR)/fuzz_$(1).c $(FUZZ_$(1)_SRC) $(wildcard protocol/*.h client/*/*.h)
 	@mkdir -p $$(@D)
 	@command -v $$(FUZZ_CLANG) >/dev/null 2>&1 || \
 	  { echo "make fuzz: $$(FUZZ_CLANG) not found; install: $$(FUZZ_DEB_PKGS)"; exit 1; }

@@ -1,5 +1,5 @@
 /*
- * fuzz_gltf.c — libFuzzer target for the level import (client/import.c):
+ * fuzz_gltf.c — libFuzzer target for the level import (client/import/import.c):
  * the input is a level file in memory, read by assimp and converted by
  * vt_level_import_mem exactly as `vantage sublevel load` converts a file
  * (glTF binary when it starts with the "glTF" magic, else glTF JSON).

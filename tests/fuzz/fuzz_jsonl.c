@@ -1,6 +1,6 @@
 /*
  * fuzz_jsonl.c — libFuzzer target for the JSON lines parser behind
- * `vantage import` (jsonl_entity_parse, client/jsonl.c).
+ * `vantage import` (jsonl_entity_parse, client/import/jsonl.c).
  *
  * The input is an import file. It is cut into lines as cmd_import cuts it
  * (at '\n', trailing '\r's dropped, empty lines skipped) and each line goes

@@ -1,6 +1,6 @@
 /*
  * fuzz_pad.c — libFuzzer target for the game-pad report parsers
- * (pad_parse, client/pad_parse.c): what a pad, a broken cable or a
+ * (pad_parse, client/pad/pad_parse.c): what a pad, a broken cable or a
  * malicious USB device can hand the reader threads.
  *
  * The input: byte 0 picks the protocol (1 + byte % 5: ds4, dualsense,

@@ -1,6 +1,6 @@
 /*
  * fuzz_replay.c — libFuzzer target for hid-recorder's text format
- * (pad_line_parse and pad_line_format_event, client/pad_line.c): the files
+ * (pad_line_parse and pad_line_format_event, client/pad/pad_line.c): the files
  * `vantage pad replay` and `commander --pad-replay` read, which users send
  * in as bug reports.
  *

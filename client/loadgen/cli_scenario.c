@@ -29,7 +29,7 @@
 #include <unistd.h>
 
 #ifndef VANTAGE_SCENARIO_DIR
-#define VANTAGE_SCENARIO_DIR "client/scenarios"
+#define VANTAGE_SCENARIO_DIR "client/loadgen/scenarios"
 #endif
 
 #define RING 4096 /* requests in flight per connection (open loop: beyond it, counted as not sent) */
