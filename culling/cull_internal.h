@@ -128,6 +128,7 @@ typedef struct cull_occ_cluster {
     uint16_t sublevel; /* its occluder's */
     uint32_t convex;   /* closed (every edge shared by two faces, opposite
                           ways) and convex: drawn as one silhouette */
+    uint32_t two_sided; /* CULL_OCC_TWO_SIDED: back faces are drawn too */
 } cull_occ_cluster;
 
 typedef struct cull_occ_mesh {

@@ -617,7 +617,7 @@ static void raster_poly(band *bd, rpoly *p)
 /* One face: its edges (and the near plane where it crosses it), its
  * halves' nearness planes, the bounds of its part in front of the near
  * plane. Back faces and edge-on faces are skipped. */
-static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
+static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f, bool two_sided)
 {
     cull_occ_buffer *b = bd->b;
     const cvert *v[4];
@@ -631,11 +631,19 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f)
     }
     if (!any_front) return;
 
-    /* back faces first: they are half of what arrives, and cheap to spot */
+    /* back faces first: they are half of what arrives, and cheap to spot.
+       An open occluder's back face is drawn as a front face, its corners
+       taken the other way round (edge-on and NaN faces never are) */
     {
         double e[3];
         cross_xyw(e, v[1], v[2]);
-        if (!(e[0] * v[0]->x + e[1] * v[0]->y + e[2] * v[0]->w > 0)) return;
+        double side = e[0] * v[0]->x + e[1] * v[0]->y + e[2] * v[0]->w;
+        if (!(side > 0)) {
+            if (!(side < 0) || !two_sided) return;
+            const cvert *t = v[1];
+            v[1] = v[n - 1];
+            v[n - 1] = t;
+        }
     }
 
     /* the part in front of the near plane: its projection bounds the rows,
@@ -852,7 +860,7 @@ static void raster_cluster(band *bd, const cull_occ_cluster *cl)
         cv[i] = (cvert){lin4(b->rx, p), lin4(b->ry, p), lin4(b->rw, p), lin4(b->rn, p), lin4(b->rd, p)};
     }
     if (raster_convex(bd, cv, cl)) return;
-    for (uint32_t f = 0; f < cl->nf; f++) raster_face(bd, cv, &cl->f[f]);
+    for (uint32_t f = 0; f < cl->nf; f++) raster_face(bd, cv, &cl->f[f], cl->two_sided);
 }
 
 typedef struct render_job {

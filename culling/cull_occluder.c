@@ -451,7 +451,7 @@ static void emit_cluster(emitter *e, build_face *f, uint32_t n)
 
 /* The whole pipeline from world-space triangles to a finished mesh. */
 static int build_mesh(const double *pos, uint32_t npos, const uint32_t *idx, uint32_t ntri_in, uint16_t sublevel,
-                      cull_occ_mesh **out)
+                      bool two_sided, cull_occ_mesh **out)
 {
     builder b = {.seed = build_seed()};
     uint32_t *remap = malloc((size_t)(npos ? npos : 1) * sizeof *remap);
@@ -499,7 +499,10 @@ static int build_mesh(const double *pos, uint32_t npos, const uint32_t *idx, uin
     m->faces = b.nf;
     m->build_steps = b.steps + e.steps + ntri_in + npos;
     m->sublevel = sublevel;
-    for (uint32_t c = 0; c < m->ncl; c++) m->cl[c].sublevel = sublevel;
+    for (uint32_t c = 0; c < m->ncl; c++) {
+        m->cl[c].sublevel = sublevel;
+        m->cl[c].two_sided = two_sided;
+    }
     for (int a = 0; a < 3; a++) {
         m->bmin[a] = INFINITY;
         m->bmax[a] = -INFINITY;
@@ -565,7 +568,7 @@ static int mesh_from_desc(const cull_occluder_desc *d, cull_occ_mesh **out)
             pos[3 * (size_t)i + a] = v;
         }
     }
-    int rc = build_mesh(pos, d->vertex_count, d->indices, ntri, d->sublevel, out);
+    int rc = build_mesh(pos, d->vertex_count, d->indices, ntri, d->sublevel, (d->flags & CULL_OCC_TWO_SIDED) != 0, out);
     free(pos);
     return rc;
 }
@@ -606,7 +609,7 @@ static int mesh_from_terrain(const cull_terrain_desc *d, cull_occ_mesh **out)
                 *t++ = i00; *t++ = i01; *t++ = i10;
                 *t++ = i10; *t++ = i01; *t++ = i11;
             }
-        rc = build_mesh(pos, (uint32_t)nv, idx, (uint32_t)ntri, d->sublevel, out);
+        rc = build_mesh(pos, (uint32_t)nv, idx, (uint32_t)ntri, d->sublevel, false, out);
     }
     free(pos);
     free(idx);

@@ -181,7 +181,16 @@ typedef struct cull_occluder_desc {
     double          transform[16]; /* column-major affine model -> world;
                                       all zero = identity */
     uint16_t        sublevel;
+    uint32_t        flags;        /* CULL_OCC_* */
 } cull_occluder_desc;
+
+/* cull_occluder_desc.flags. By default an occluder hides from the side its
+ * counter-clockwise faces look to (the solid is behind them; a closed
+ * mesh's front faces cover all of it). TWO_SIDED: its faces hide from both
+ * sides: a shell that destruction cut open, whose far walls, seen through
+ * the hole from inside, still hide what stands behind them (as the
+ * renderers draw the inside). Costs the back faces' set-up. */
+#define CULL_OCC_TWO_SIDED 1u
 
 /* A height field: heights[z * nx + x] at world (origin.x + x * spacing,
  * origin.y + h, origin.z + z * spacing), nx, nz >= 2. Triangulated and

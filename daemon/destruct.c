@@ -121,7 +121,11 @@ static int occluder_cut(const scene_occluder *o, const cull_dvol *v, cull_occlud
 int scene_occluder_draw(scene *s, scene_occluder *o, uint32_t *kept)
 {
     const scene_destruct *sd = scene_destruct_of(s, o->id);
-    cull_occluder_desc d = {.vertices = o->verts, .vertex_count = 3 * o->ntris, .sublevel = o->sublevel};
+    /* cut open: the far walls' insides, seen through a hole, hide what is
+       behind them (a 5 m hole in demo building 103 showed 44 entities
+       behind its intact back wall) */
+    cull_occluder_desc d = {.vertices = o->verts, .vertex_count = 3 * o->ntris, .sublevel = o->sublevel,
+                            .flags = sd ? CULL_OCC_TWO_SIDED : 0};
     d.transform[0] = d.transform[5] = d.transform[10] = d.transform[15] = 1;
     memcpy(d.transform + 12, o->origin, sizeof o->origin);
     float *pieces;
