@@ -556,7 +556,10 @@ static void raster_poly(band *bd, rpoly *p)
         double marg = 0x1p-24 * (fabs(c->a) * b->w + fabs(c->b) * b->h + fabs(c->c));
         if (b->inner) marg += 0.5 * (fabs(c->a) + fabs(c->b));
         double a = c->a, bb = c->b, t = marg - c->c;
-        if (!(isfin(a) && isfin(bb) && isfin(t))) return; /* overflowed (or NaN): drawn nowhere */
+        /* one test for the three: a NaN or infinite term makes the sum
+           NaN or infinite (a sum of finite terms that overflows is
+           refused too: drawing less is safe) */
+        if (!isfin(a + bb + t)) return; /* overflowed (or NaN): drawn nowhere */
         if (a != 0) {
             double al = t / a, be = -bb / a;
             if (!(fabs(al) <= 0x1p900 && fabs(be) <= 0x1p900)) {
