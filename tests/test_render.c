@@ -215,6 +215,37 @@ static void test_renderers_adversarial_views(void **state)
     char gerr[512];
     if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_glr_create(g, &gr, gerr, sizeof gerr), 0);
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    /* first the issue's view itself, over many boxes: the eye at y = 0,
+       looking along +z, 1e30 in element 5, 48 boxes straddling y = 0.
+       Their side faces cross clip y from -1e31 to +1e31; about 5 % of those
+       edges come out of the bottom guard plane's clip at y ~ -2^50 (t's
+       rounding times 1e31), and a polygon with two such vertices gave the
+       old snap two wild int32s whose difference overflows */
+    for (uint32_t f = 0; f < (uint32_t)(60 * test_scale()); f++) {
+        enum { NB = 48, W = 64, H = 48 };
+        vt_instance in[NB];
+        memset(in, 0, sizeof in);
+        for (uint32_t i = 0; i < NB; i++) {
+            double c[3] = {rng_range(&r, -30, 30), 0, rng_range(&r, 8, 80)};
+            for (int a = 0; a < 3; a++) {
+                in[i].bmin[a] = a == 1 ? -rng_range(&r, 0.1, 20) : c[a] - rng_range(&r, 0.3, 4);
+                in[i].bmax[a] = a == 1 ? rng_range(&r, 0.1, 20) : c[a] + rng_range(&r, 0.3, 4);
+                in[i].albedo[a] = 0.5f;
+            }
+        }
+        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = W, .viewport_h = H};
+        double proj[16], view[16], dir[3] = {0, 0, 1}, up[3] = {0, 1, 0};
+        cull_mat_perspective(proj, 1.2, (double)W / H, 0.1, 1e4, d.depth_mode);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        d.view_proj[5] = 1e30;
+        cull_view v;
+        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        static float rgba[W * H * 4], depth[W * H];
+        char err[256];
+        assert_int_equal(vt_soft_render(sr, &v, W, H, &cube, 1, in, NB, NULL, 0, rgba, depth, W, NULL, err, sizeof err), 0);
+        for (size_t i = 0; i < (size_t)W * H; i++) assert_false(isnan(depth[i]));
+    }
     uint32_t frames = (uint32_t)(300 * test_scale()), rendered = 0, refused = 0, tried = 0;
     for (uint32_t f = 0; f < frames; f++) {
         uint32_t w = 4 + rng_below(&r, 60), h = 4 + rng_below(&r, 60), n = 1 + rng_below(&r, 6);
