@@ -117,18 +117,20 @@ static inline void fz_view_desc(fz *f, cull_view_desc *d, uint32_t vw, uint32_t 
     }
 }
 
-/* A light: position, range (tiny to huge), point or spot with an axis and a
- * cone from the bytes (zero and denormal axes included). */
+/* A light: position, range (tiny to huge; positive unless a bit says
+ * otherwise), point or spot with an axis (unit unless a bit says
+ * otherwise: zero and denormal axes then) and a cone from the bytes. */
 static inline void fz_light(fz *f, cull_light *l)
 {
     memset(l, 0, sizeof *l);
-    for (int a = 0; a < 3; a++) l->pos[a] = fz_num(f, 100);
-    l->radius = fz_num(f, 50);
     uint8_t k = fz_u8(f);
+    for (int a = 0; a < 3; a++) l->pos[a] = fz_num(f, 100);
+    double r = fz_num(f, 50);
+    l->radius = (k & 4) ? r : fabs(r);
     if (k & 1) {
         l->type = CULL_LIGHT_SPOT;
         for (int a = 0; a < 3; a++) l->dir[a] = (float)fz_num(f, 1);
-        if (k & 2) { /* a unit axis, as the validators want */
+        if (!(k & 2)) { /* a unit axis, as the validators want */
             double n = sqrt((double)l->dir[0] * l->dir[0] + (double)l->dir[1] * l->dir[1] + (double)l->dir[2] * l->dir[2]);
             if (n > 0 && n < INFINITY)
                 for (int a = 0; a < 3; a++) l->dir[a] = (float)(l->dir[a] / n);
