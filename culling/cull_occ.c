@@ -54,24 +54,33 @@ enum { TILE_INVALID = 0, TILE_CLEAN = 1, TILE_DIRTY = 2 }; /* pixels stale / min
 #define MAX_BANDS 64u
 
 /* libm's fmin, fmax, floor and ceil are calls on baseline x86-64 (NaN
- * and errno rules); these are inlined. Arguments here are never NaN. */
+ * and errno rules); these are inlined. They do not order NaN (dmin(x, NaN)
+ * is NaN, dmin(NaN, x) is x): every caller keeps NaN out first (the
+ * isfin() checks below), because a NaN bound dropped silently would mark
+ * pixels the occluder does not cover, a wrong cull. */
 static inline double dmin(double a, double b) { return a < b ? a : b; }
 static inline double dmax(double a, double b) { return a > b ? a : b; }
 static inline float fmin_(float a, float b) { return a < b ? a : b; }
-/* floor and ceil; x is clamped to +-2^40 first (pixel indices) */
-static inline double clamp40(double x)
+/* neither infinite nor NaN (no libm call, no errno) */
+static inline bool isfin(double x) { return x - x == 0; }
+/* floor and ceil of pixel indices: x is clamped to +-2^30 first, so the
+ * result and the result +- 1 fit an int (buffers are <= 8192 pixels) and
+ * every (int) cast of them is defined; NaN (never passed) gives -2^30,
+ * not undefined behaviour */
+#define PIX_LIM 0x1p30
+static inline double clamp_pix(double x)
 {
-    return x < -0x1p40 ? -0x1p40 : x > 0x1p40 ? 0x1p40 : x;
+    return x >= -PIX_LIM ? (x <= PIX_LIM ? x : PIX_LIM) : -PIX_LIM;
 }
 static inline double dfloor(double x)
 {
-    x = clamp40(x);
+    x = clamp_pix(x);
     double i = (double)(int64_t)x;
     return i > x ? i - 1 : i;
 }
 static inline double dceil(double x)
 {
-    x = clamp40(x);
+    x = clamp_pix(x);
     double i = (double)(int64_t)x;
     return i < x ? i + 1 : i;
 }
@@ -230,6 +239,9 @@ int cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const dou
         double w = lin4(b->rw, p);
         if (!(lin4(b->rn, p) > 0) || !(w > 0)) return OCC_BOX_NEAR;
         double iw = 1.0 / w, x = lin4(b->rx, p) * iw, y = lin4(b->ry, p) * iw, n = lin4(b->rd, p) * iw;
+        /* an overflow (0 * inf, inf - inf) says nothing about where the
+           box is or how near: it may be visible */
+        if (x != x || y != y || !isfin(n)) return OCC_BOX_NEAR;
         xmin = dmin(xmin, x);
         xmax = dmax(xmax, x);
         ymin = dmin(ymin, y);
@@ -280,6 +292,9 @@ int cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const d
     double xmin = dmin(xa * il, xa * ih), xmax = dmax(xb * il, xb * ih);
     double ymin = dmin(ya * il, ya * ih), ymax = dmax(yb * il, yb * ih);
     double d = v[3] + ex[3], nmax = d >= 0 ? d * il : d * ih;
+    /* NaN from an overflow: nothing known, so drawn in every band (raster
+       skips what it cannot set up) and tested as visible */
+    if (xmin != xmin || xmax != xmax || ymin != ymin || ymax != ymax || !isfin(nmax)) return OCC_BOX_NEAR;
     double i0 = dmax(dfloor((xmin + 1) * b->sx - 0x1p-20 * b->w), 0);
     double i1 = dmin(dceil((xmax + 1) * b->sx + 0x1p-20 * b->w) - 1, b->w - 1.0);
     double j0 = dmax(dfloor((ymin + 1) * b->sy - 0x1p-20 * b->h), 0);
@@ -496,11 +511,24 @@ typedef struct rpoly {
     double xmin, xmax, ymin, ymax;
 } rpoly;
 
+/* Nearness planes are evaluated in float over the buffer: beyond this
+ * magnitude (at any pixel) a plane, or the polygon's nearness range, is
+ * not drawn with (a view that gives 2^100 has overflowed somewhere). */
+#define Z_LIM 0x1p100
+
 static void raster_poly(band *bd, rpoly *p)
 {
     cull_occ_buffer *b = bd->b;
+    /* Robust to any input (defence in depth: a view the decoder accepts can
+       still overflow double in the set-up, 1e30 terms times 1e12 metres):
+       a polygon whose bounds, nearness range or constraints are not finite
+       is not drawn. Drawing less only culls less; a NaN bound taken as
+       "no bound" would draw where the occluder is not (a wrong cull). */
+    if (!(isfin(p->nmin) && isfin(p->nmax) && fabs(p->nmin) <= Z_LIM && fabs(p->nmax) <= Z_LIM)) return;
+    if (p->xmin != p->xmin || p->xmax != p->xmax || p->ymin != p->ymin || p->ymax != p->ymax) return;
     /* the pixels that may be marked: centres inside (centre coverage), or
-       squares inside (whole-pixel coverage), of the projected bounds */
+       squares inside (whole-pixel coverage), of the projected bounds;
+       dceil/dfloor clamp to +-2^30, so every int below is in range */
     double in0 = b->inner ? 0.0 : 0.5, in1 = b->inner ? 1.0 : 0.5;
     double fi0 = dmax(dceil((p->xmin + 1) * b->sx - in0), 0), fi1 = dmin(dfloor((p->xmax + 1) * b->sx - in1), b->w - 1.0);
     double fj0 = dmax(dceil((p->ymin + 1) * b->sy - in0), bd->y0);
@@ -513,20 +541,38 @@ static void raster_poly(band *bd, rpoly *p)
        (a > 0: a left edge) or x < al + be j (a < 0: a right edge); with
        a == 0 it bounds the rows instead. Each constraint is shrunk by 2^-24
        of its range over the buffer, and for whole-pixel coverage by half
-       its gradient (the pixel's worst corner). */
+       its gradient (the pixel's worst corner).
+       al + be j must not be NaN at any row (inf - inf from an edge with a
+       tiny a: al and be both overflow): where |al| or |be| > 2^900 (an
+       edge within 2^-900 of horizontal, or a tiny a from a hostile view),
+       the constraint goes to the slow list, whose bound is (t - b j) / a
+       per row: a division, but never NaN (t, b finite, a != 0). Real
+       views never take it. */
     double lal[MAX_CONS], lbe[MAX_CONS], ral[MAX_CONS], rbe[MAX_CONS];
-    uint32_t nl = 0, nr = 0;
+    double sa[MAX_CONS], sb[MAX_CONS], st[MAX_CONS];
+    uint32_t nl = 0, nr = 0, ns = 0;
     for (uint32_t k = 0; k < p->nc; k++) {
         const lin3 *c = &p->con[k];
         double marg = 0x1p-24 * (fabs(c->a) * b->w + fabs(c->b) * b->h + fabs(c->c));
         if (b->inner) marg += 0.5 * (fabs(c->a) + fabs(c->b));
         double a = c->a, bb = c->b, t = marg - c->c;
-        if (a > 0) {
-            lal[nl] = t / a;
-            lbe[nl++] = -bb / a;
-        } else if (a < 0) {
-            ral[nr] = t / a;
-            rbe[nr++] = -bb / a;
+        /* one test for the three: a NaN or infinite term makes the sum
+           NaN or infinite (a sum of finite terms that overflows is
+           refused too: drawing less is safe) */
+        if (!isfin(a + bb + t)) return; /* overflowed (or NaN): drawn nowhere */
+        if (a != 0) {
+            double al = t / a, be = -bb / a;
+            if (!(fabs(al) <= 0x1p900 && fabs(be) <= 0x1p900)) {
+                sa[ns] = a;
+                sb[ns] = bb;
+                st[ns++] = t;
+            } else if (a > 0) {
+                lal[nl] = al;
+                lbe[nl++] = be;
+            } else {
+                ral[nr] = al;
+                rbe[nr++] = be;
+            }
         } else if (bb > 0) {
             fj0 = dmax(fj0, dfloor(t / bb) + 1); /* j > t / b */
         } else if (bb < 0) {
@@ -541,6 +587,14 @@ static void raster_poly(band *bd, rpoly *p)
     /* nearness at the pixel's farthest corner (per plane: half its
        gradients off), never below the farthest vertex; one margin per plane
        for every row, 2^-20 of the largest magnitude the span loop sees */
+    double nlo = p->nmin - 0x1p-20 * fabs(p->nmin);
+    /* a plane that is not finite, or reaches Z_LIM over the buffer (float
+       would overflow, and inf - inf is NaN), is replaced by the constant
+       nlo: below the polygon's nearness everywhere, so still conservative */
+    for (uint32_t k = 0; k < p->nz; k++) {
+        const lin3 *z = &p->z[k];
+        if (!(fabs(z->a) * b->w + fabs(z->b) * b->h + fabs(z->c) <= Z_LIM)) p->z[k] = (lin3){0, 0, nlo};
+    }
     while (p->nz < 3) p->z[p->nz++] = p->z[0];
     double corner[3], m[3];
     for (int k = 0; k < 3; k++) {
@@ -548,7 +602,6 @@ static void raster_poly(band *bd, rpoly *p)
         corner[k] = 0.5 * (fabs(z->a) + fabs(z->b));
         m[k] = 0x1p-20 * (fabs(z->b) * (j1 + 1) + fabs(z->c) + corner[k] + fabs(z->a) * (i1 + 1));
     }
-    double nlo = p->nmin - 0x1p-20 * fabs(p->nmin);
     float zlo = cull_round_down(nlo);
     float da[3] = {(float)p->z[0].a, (float)p->z[1].a, (float)p->z[2].a};
     /* where the buffer is already nearer than the region's nearest point over
@@ -569,6 +622,11 @@ static void raster_poly(band *bd, rpoly *p)
             double tl = -0x1p40, th = 0x1p40;
             for (uint32_t k = 0; k < nl; k++) tl = dmax(tl, lal[k] + lbe[k] * j);
             for (uint32_t k = 0; k < nr; k++) th = dmin(th, ral[k] + rbe[k] * j);
+            for (uint32_t k = 0; k < ns; k++) {
+                double q = (st[k] - sb[k] * j) / sa[k]; /* +-inf at worst */
+                if (sa[k] > 0) tl = dmax(tl, q);
+                else th = dmin(th, q);
+            }
             int x0 = (int)dmax(i0, dfloor(tl) + 1), x1 = (int)dmin(i1, dceil(th) - 1);
             lo[j - r0] = x0;
             hi[j - r0] = x1;
@@ -663,6 +721,7 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f, bool 
         for (uint32_t i = 0; i < no; i++) {
             if (!(o[i].w > 0)) return; /* a projection whose near plane is not in front of the eye */
             double iw = 1.0 / o[i].w, x = o[i].x * iw, y = o[i].y * iw;
+            if (x != x || y != y || o[i].d * iw != o[i].d * iw) return; /* overflowed: drawn nowhere */
             p.xmin = dmin(p.xmin, x);
             p.xmax = dmax(p.xmax, x);
             p.ymin = dmin(p.ymin, y);
@@ -761,6 +820,7 @@ static bool raster_convex(band *bd, const cvert *cv, const cull_occ_cluster *cl)
         double iw = 1.0 / v->w;
         pt[i][0] = v->x * iw;
         pt[i][1] = v->y * iw;
+        if (pt[i][0] != pt[i][0] || pt[i][1] != pt[i][1] || v->d * iw != v->d * iw) return true; /* overflowed */
         p.xmin = dmin(p.xmin, pt[i][0]);
         p.xmax = dmax(p.xmax, pt[i][0]);
         p.ymin = dmin(p.ymin, pt[i][1]);

@@ -354,16 +354,33 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                mask is >= its band all over it: nothing discarded, no rim) */
             s->mask = mk && !vt_mask_clear(mk, (const float(*)[3])s->p) ? mk : NULL;
             /* the clipped polygon, projected and snapped, as a fan */
+            /* In exact arithmetic a clipped vertex lies in the guard band,
+               so |px|, |py| <= (GUARD + 1) / 2 * 16384 pixels and the fixed
+               point below (and the edge functions' products) fit their
+               integers. Clipping a huge coordinate (a 1e30 term in the
+               view) cancels catastrophically, and the rounding can put the
+               vertex anywhere, as far as overflowing int32 (undefined
+               behaviour): the vertex is clamped back to the band (where
+               it belongs, to within that rounding), and a NaN or infinite
+               one (w rounded to 0) drops the polygon. Two compares per
+               coordinate. */
             double px[12], py[12], pn[12];
             int32_t ix[12], iy[12];
+            const double gx0 = (1 - GUARD) * 0.5 * fr->w, gx1 = (1 + GUARD) * 0.5 * fr->w;
+            const double gy0 = (1 - GUARD) * 0.5 * fr->h, gy1 = (1 + GUARD) * 0.5 * fr->h;
+            bool bad = false;
             for (int k = 0; k < n; k++) {
                 double iw = 1.0 / v[k].c[3];
                 px[k] = (v[k].c[0] * iw + 1) * 0.5 * fr->w;
                 py[k] = (v[k].c[1] * iw + 1) * 0.5 * fr->h;
                 pn[k] = v[k].d * iw;
-                ix[k] = (int32_t)lrint(px[k] * SUB);
-                iy[k] = (int32_t)lrint(py[k] * SUB);
+                if (px[k] != px[k] || py[k] != py[k] || pn[k] - pn[k] != 0) bad = true;
+                px[k] = px[k] < gx0 ? gx0 : px[k] > gx1 ? gx1 : px[k];
+                py[k] = py[k] < gy0 ? gy0 : py[k] > gy1 ? gy1 : py[k];
+                ix[k] = bad ? 0 : (int32_t)lrint(px[k] * SUB);
+                iy[k] = bad ? 0 : (int32_t)lrint(py[k] * SUB);
             }
+            if (bad) continue; /* its shading record is not kept either */
             for (int k = 1; k + 1 < n; k++) {
                 rtri *rt = &r->rt[r->nrt];
                 int id[3] = {0, k, k + 1};

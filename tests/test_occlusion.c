@@ -16,6 +16,7 @@
  */
 #include "test_util.h"
 
+#include "cull_ref.h"
 #include "occ_ref.h"
 #include <float.h>
 #include <stdbool.h>
@@ -405,6 +406,154 @@ static void test_random_scenes_never_false_occluded(void **state)
            16..96-pixel buffers) */
         assert_true(t[cover].hidden_culled * (cover ? 2 : 3) > t[cover].hidden_exact);
     }
+    cull_pool_destroy(pool);
+}
+
+/* ---- adversarial views (issue 18) ---------------------------------------------- */
+
+/* A term of either sign from 1e-300 to 1e30, log-uniform: the cross terms
+ * a hand-made or hostile view-projection may carry. */
+static double adv_term(rng *r)
+{
+    double t = pow(10, rng_range(r, -300, 30));
+    return rng_below(r, 2) ? t : -t;
+}
+
+/* A view a decoder accepts (cull_view_init says OK) but that is built to
+ * break the rasteriser's arithmetic: the eye on the plane of an occluder
+ * box's face (level with its base, as a street-level camera is), tiny and
+ * huge cross terms in the up vector and in the matrix, near 1e-6, far 1e30
+ * or infinite, rows nearly dependent. false if the view was refused. */
+static bool adversarial_view(rng *r, const oscene *s, cull_view *v, cull_view_desc *out, uint32_t bw, uint32_t bh)
+{
+    cull_view_desc d = {.depth_mode = rng_below(r, 3), .viewport_w = bw, .viewport_h = bh};
+    const double *box = s->nboxes ? s->boxes[rng_below(r, s->nboxes)] : NULL;
+    if (box && rng_below(r, 5) != 0) {
+        for (int a = 0; a < 3; a++) d.origin[a] = box[a] + rng_range(r, -2, 3) * (box[a + 3] - box[a]);
+        int a = rng_below(r, 4) ? 1 : (int)rng_below(r, 3); /* mostly level with the base or top */
+        d.origin[a] = box[a + 3 * rng_below(r, 2)];
+    } else {
+        for (int a = 0; a < 3; a++) d.origin[a] = s->base[a] + rng_range(r, -100, 100);
+    }
+    double dir[3], up[3] = {0, 1, 0}, proj[16], view[16];
+    for (int a = 0; a < 3; a++)
+        dir[a] = (box ? 0.5 * (box[a] + box[a + 3]) : s->base[a]) + rng_range(r, -3, 3) - d.origin[a];
+    if (rng_below(r, 3)) dir[1] = rng_below(r, 2) ? 0 : dir[1] * 1e-12; /* horizontal: along the planes */
+    if (rng_below(r, 4)) up[rng_below(r, 3)] += adv_term(r);
+    if (fabs(dir[0]) + fabs(dir[1]) + fabs(dir[2]) < 1e-9) return false;
+    double aspect = (double)bw / bh;
+    if (rng_below(r, 6) == 0) {
+        double hw = rng_log(r, 1e-3, 1e6);
+        cull_mat_ortho(proj, -hw, hw, -hw / aspect, hw / aspect, -rng_log(r, 1e-6, 1e3), rng_log(r, 1, 1e30),
+                       d.depth_mode);
+    } else {
+        double n = rng_below(r, 2) ? 1e-6 : rng_log(r, 1e-6, 2);
+        uint32_t fk = rng_below(r, 3);
+        double f = fk == 0 ? INFINITY : fk == 1 ? 1e30 : rng_log(r, 10, 1e30);
+        cull_mat_perspective(proj, rng_range(r, 0.05, 3.0), aspect, n, f, d.depth_mode);
+    }
+    cull_mat_look_dir(view, dir, up);
+    cull_mat_mul(d.view_proj, proj, view);
+    /* cross terms straight into the matrix */
+    for (uint32_t k = rng_below(r, 4); k > 0; k--) {
+        uint32_t i = rng_below(r, 16);
+        if (rng_below(r, 2)) d.view_proj[i] += adv_term(r);
+        else d.view_proj[i] = adv_term(r);
+    }
+    /* nearly singular: one row almost a multiple of another */
+    if (rng_below(r, 6) == 0) {
+        uint32_t i = rng_below(r, 4), j = (i + 1 + rng_below(r, 3)) % 4;
+        double f = rng_range(r, -2, 2), e = pow(10, -rng_range(r, 6, 14));
+        for (int c = 0; c < 4; c++) d.view_proj[c * 4 + i] = f * d.view_proj[c * 4 + j] + e * d.view_proj[c * 4 + i];
+    }
+    *out = d;
+    return cull_view_init(v, &d) == CULL_OK;
+}
+
+/* Adversarial views: the frustum stage against the long-double model
+ * (tests/cull_ref.c: nothing it keeps is culled), occlusion against the
+ * ray caster (check_view: nothing it sees is culled), and a directly
+ * rendered buffer keeps its padding columns and holds no NaN (with ASan,
+ * any write outside the buffer is caught too). Before the fix, the eye on
+ * an occluder's base with a tiny cross term crashed write_span (issue 18). */
+static void test_adversarial_views_never_false_culled(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xAD5E4u};
+    cull_pool *pool;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    uint32_t scenes = (uint32_t)(12 * test_scale());
+    otally t[2] = {{0}};
+    uint64_t tried = 0, accepted = 0, frustum_checked = 0, frustum_false = 0;
+    for (uint32_t sc = 0; sc < scenes; sc++) {
+        oscene s;
+        build_scene(&r, &s);
+        for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+            if (!cull_isa_supported(isa)) continue;
+            cull_ctx *c;
+            assert_int_equal(cull_ctx_create(pool, &c), CULL_OK);
+            assert_int_equal(cull_ctx_set_isa(c, isa), CULL_OK);
+            for (int k = 0; k < 12; k++) {
+                uint32_t bw = 16 + rng_below(&r, 80), bh = 8 + rng_below(&r, 56);
+                cull_view v;
+                cull_view_desc d;
+                tried++;
+                if (!adversarial_view(&r, &s, &v, &d, bw, bh)) continue;
+                accepted++;
+                /* the frustum stage: every entity the model keeps is kept */
+                size_t cap = cull_query_bound(s.w), n0;
+                cull_result *res = malloc(cap * sizeof *res);
+                uint8_t *kept = calloc(s.n, 1);
+                assert_non_null(res);
+                assert_non_null(kept);
+                cull_query_desc q = {.views = &v, .view_count = 1, .flags = CULL_Q_NO_OCCLUSION};
+                assert_int_equal(cull_query(s.w, c, &q, res, cap, &n0, NULL), CULL_OK);
+                for (size_t i = 0; i < n0; i++) kept[slot_of(res[i].handle)] = 1;
+                ref_view rv;
+                ref_view_make(&rv, &d);
+                for (uint32_t e = 0; e < s.n; e++) {
+                    ref_verdict rr;
+                    ref_test(&rv, &s.e[e], &rr);
+                    frustum_checked++;
+                    if (rr.visible && !kept[e] && ++frustum_false < 6)
+                        fprintf(stderr, "frustum false cull: entity %u view %g %g %g ... origin %g %g %g\n", e,
+                                d.view_proj[0], d.view_proj[1], d.view_proj[2], d.origin[0], d.origin[1],
+                                d.origin[2]);
+                }
+                free(kept);
+                free(res);
+                uint32_t cover = rng_below(&r, 2);
+                check_view(&s, c, &v, bw, bh, cover, 1 + rng_below(&r, 2), &t[cover]);
+                /* a buffer rendered directly: padding intact, no NaN */
+                cull_occ_buffer *b;
+                assert_int_equal(cull_occ_buffer_create(bw, bh, &b), CULL_OK);
+                assert_int_equal(cull_occ_buffer_set_cover(b, cover), CULL_OK);
+                assert_int_equal(cull_occ_render(s.w, &v, b, pool, 2, NULL), CULL_OK);
+                uint32_t ww, hh;
+                size_t stride;
+                const float *z = cull_occ_depth(b, &ww, &hh, &stride);
+                for (uint32_t y = 0; y < hh; y++)
+                    for (size_t x = 0; x < stride; x++) {
+                        float f = z[y * stride + x];
+                        if (x >= ww) assert_true(f == FLT_MAX);
+                        else assert_false(isnan(f));
+                    }
+                cull_occ_buffer_destroy(b);
+            }
+            cull_ctx_destroy(c);
+        }
+        free_scene(&s);
+    }
+    fprintf(stderr, "adversarial views: %llu tried, %llu accepted; frustum: %llu entity tests, %llu false culls; "
+                    "occlusion: %llu + %llu views, %llu + %llu culled, %llu + %llu false occluded\n",
+            (unsigned long long)tried, (unsigned long long)accepted, (unsigned long long)frustum_checked,
+            (unsigned long long)frustum_false, (unsigned long long)t[0].queries, (unsigned long long)t[1].queries,
+            (unsigned long long)t[0].occ_culled, (unsigned long long)t[1].occ_culled,
+            (unsigned long long)t[0].false_occluded, (unsigned long long)t[1].false_occluded);
+    assert_true(accepted * 2 > tried); /* most views are decoded-valid */
+    assert_int_equal(frustum_false, 0);
+    assert_int_equal(t[0].false_occluded, 0);
+    assert_int_equal(t[1].false_occluded, 0);
     cull_pool_destroy(pool);
 }
 
@@ -940,5 +1089,6 @@ const struct CMUnitTest occlusion_tests[] = {
     cmocka_unit_test(test_wall_through_near_plane),
     cmocka_unit_test(test_random_scenes_never_false_occluded),
     cmocka_unit_test(test_sublevel_filter),
+    cmocka_unit_test(test_adversarial_views_never_false_culled),
 };
 const size_t occlusion_tests_count = sizeof occlusion_tests / sizeof occlusion_tests[0];

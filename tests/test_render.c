@@ -187,6 +187,154 @@ static void test_soft_bad_input(void **state)
     vt_soft_destroy(sr);
 }
 
+/* A term of either sign from 1e-300 to 1e30, log-uniform. */
+static double adv_term(rng *r)
+{
+    double t = pow(10, rng_range(r, -300, 30));
+    return rng_below(r, 2) ? t : -t;
+}
+
+/* Views every check accepts (cull_view_init, vt_frame_check) but built to
+ * break the renderers' arithmetic: the issue's 1e30 in element 5 (the
+ * clip y scale), tiny and huge cross terms elsewhere, near 1e-6 and far
+ * 1e30, the eye on a box's face plane; lights with tiny and huge ranges.
+ * Each frame renders (or is refused with a reason); under UBSan (the asan
+ * build) a signed overflow or an out-of-range conversion aborts: before
+ * the fix, vt_soft.c snapped a vertex the clipper rounded to ~1e15 pixels
+ * into int32 and overflowed the edge set-up (issue 18, item 6). A drawn
+ * frame has no NaN depth and alpha 0 or 1. Where a GL context can be made
+ * the GL path gets the same frames. */
+static void test_renderers_adversarial_views(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xAD7E4u};
+    vt_soft *sr;
+    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    vt_gl *g = NULL;
+    vt_glr *gr = NULL;
+    char gerr[512];
+    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_glr_create(g, &gr, gerr, sizeof gerr), 0);
+    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    /* first the issue's view itself, over many boxes: the eye at y = 0,
+       looking along +z, 1e30 in element 5, 48 boxes straddling y = 0.
+       Their side faces cross clip y from -1e31 to +1e31; about 5 % of those
+       edges come out of the bottom guard plane's clip at y ~ -2^50 (t's
+       rounding times 1e31), and a polygon with two such vertices gave the
+       old snap two wild int32s whose difference overflows */
+    for (uint32_t f = 0; f < (uint32_t)(60 * test_scale()); f++) {
+        enum { NB = 48, W = 64, H = 48 };
+        vt_instance in[NB];
+        memset(in, 0, sizeof in);
+        for (uint32_t i = 0; i < NB; i++) {
+            double c[3] = {rng_range(&r, -30, 30), 0, rng_range(&r, 8, 80)};
+            for (int a = 0; a < 3; a++) {
+                in[i].bmin[a] = a == 1 ? -rng_range(&r, 0.1, 20) : c[a] - rng_range(&r, 0.3, 4);
+                in[i].bmax[a] = a == 1 ? rng_range(&r, 0.1, 20) : c[a] + rng_range(&r, 0.3, 4);
+                in[i].albedo[a] = 0.5f;
+            }
+        }
+        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = W, .viewport_h = H};
+        double proj[16], view[16], dir[3] = {0, 0, 1}, up[3] = {0, 1, 0};
+        cull_mat_perspective(proj, 1.2, (double)W / H, 0.1, 1e4, d.depth_mode);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        d.view_proj[5] = 1e30;
+        cull_view v;
+        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        static float rgba[W * H * 4], depth[W * H];
+        char err[256];
+        assert_int_equal(vt_soft_render(sr, &v, W, H, &cube, 1, in, NB, NULL, 0, rgba, depth, W, NULL, err, sizeof err), 0);
+        for (size_t i = 0; i < (size_t)W * H; i++) assert_false(isnan(depth[i]));
+    }
+    uint32_t frames = (uint32_t)(300 * test_scale()), rendered = 0, refused = 0, tried = 0;
+    for (uint32_t f = 0; f < frames; f++) {
+        uint32_t w = 4 + rng_below(&r, 60), h = 4 + rng_below(&r, 60), n = 1 + rng_below(&r, 6);
+        /* the issue's case, a third of the time: boxes on integer
+           coordinates standing on y = 0, the eye at y = 0 or within a box's
+           height, looking horizontally, 1e30 in element 5: clip y is 0 or
+           +-1e30, and an edge from below to above is clipped at y ~ 0 by
+           cancelling terms of 1e30 (its rounding, ~1e14, lands the vertex
+           far outside the guard band) */
+        bool exact = rng_below(&r, 3) == 0;
+        vt_instance in[6];
+        memset(in, 0, sizeof in);
+        for (uint32_t i = 0; i < n; i++)
+            for (int a = 0; a < 3; a++) {
+                double c = rng_range(&r, -20, 20), e = rng_log(&r, 0.3, 8);
+                if (exact) c = floor(c), e = a == 1 ? c : ceil(e), c = a == 1 ? fabs(c) + 1 : c;
+                in[i].bmin[a] = exact && a == 1 ? 0 : c - e;
+                in[i].bmax[a] = exact && a == 1 ? c : c + e;
+                in[i].albedo[a] = 0.5f;
+            }
+        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
+        for (int a = 0; a < 3; a++) d.origin[a] = exact ? floor(rng_range(&r, -40, 40)) : rng_range(&r, -40, 40);
+        if (exact) d.origin[1] = rng_below(&r, 2) ? 0 : rng_range(&r, 0.1, 0.9) * in[0].bmax[1]; /* on the base, or
+                                                                   within the box's height */
+        else if (rng_below(&r, 2)) d.origin[1] = in[0].bmin[1]; /* level with a box's base */
+        double proj[16], view[16], dir[3], up[3] = {0, 1, 0};
+        for (int a = 0; a < 3; a++) dir[a] = 0.5 * (in[0].bmin[a] + in[0].bmax[a]) - d.origin[a];
+        if (exact || rng_below(&r, 2)) dir[1] = 0;
+        if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
+        if (!exact && rng_below(&r, 3)) up[rng_below(&r, 3)] += adv_term(&r);
+        cull_mat_perspective(proj, rng_range(&r, 0.1, 2.5), (double)w / h, rng_below(&r, 2) ? 1e-6 : rng_log(&r, 1e-6, 1),
+                             rng_below(&r, 2) ? 1e30 : INFINITY, d.depth_mode);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        if (exact || rng_below(&r, 2)) d.view_proj[5] = rng_below(&r, 2) ? 1e30 : -1e30;
+        else if (rng_below(&r, 2)) d.view_proj[rng_below(&r, 16)] = (rng_below(&r, 2) ? 1 : -1) * pow(10, rng_range(&r, 12, 30));
+        for (uint32_t k = exact ? 0 : rng_below(&r, 3); k > 0; k--) {
+            uint32_t i = rng_below(&r, 16);
+            if (rng_below(&r, 2)) d.view_proj[i] += adv_term(&r);
+            else d.view_proj[i] = adv_term(&r);
+        }
+        tried++;
+        cull_view v;
+        if (cull_view_init(&v, &d) != CULL_OK) continue;
+        vt_light L[3];
+        uint32_t nl = rng_below(&r, 4);
+        memset(L, 0, sizeof L);
+        for (uint32_t i = 0; i < nl; i++) {
+            for (int a = 0; a < 3; a++) L[i].l.pos[a] = rng_range(&r, -30, 30);
+            L[i].l.radius = rng_below(&r, 2) ? rng_log(&r, 1e-6, 1e6) : pow(10, rng_range(&r, -30, 12));
+            L[i].color[0] = L[i].color[1] = L[i].color[2] = 1;
+            if (rng_below(&r, 2)) {
+                L[i].l.type = CULL_LIGHT_SPOT;
+                L[i].l.dir[1] = -1;
+                L[i].l.cos_outer = 0.5f;
+                L[i].cos_inner = 0.7f;
+            }
+        }
+        float *rgba = malloc((size_t)w * h * 4 * sizeof *rgba), *depth = malloc((size_t)w * h * sizeof *depth);
+        assert_non_null(rgba);
+        assert_non_null(depth);
+        for (int path = 0; path < (gr ? 2 : 1); path++) {
+            char err[256] = "";
+            int rc = path ? vt_glr_render(gr, &v, w, h, &cube, 1, in, n, L, nl, rgba, depth, w, NULL, err, sizeof err)
+                          : vt_soft_render(sr, &v, w, h, &cube, 1, in, n, L, nl, rgba, depth, w, NULL, err, sizeof err);
+            if (rc == 0) {
+                rendered++;
+                for (size_t i = 0; i < (size_t)w * h; i++) {
+                    assert_false(isnan(depth[i]));
+                    assert_true(rgba[4 * i + 3] == 0 || rgba[4 * i + 3] == 1);
+                }
+                continue;
+            }
+            /* a refusal names its reason */
+            refused++;
+            assert_int_equal(rc, -EINVAL);
+            assert_true(err[0] != 0);
+        }
+        free(rgba);
+        free(depth);
+    }
+    fprintf(stderr, "adversarial frames: %u views tried, %u renders, %u refused (%s)\n", tried, rendered, refused,
+            gr ? "soft and gl" : "soft; no GL context");
+    assert_true(rendered * 2 > tried); /* most of them were drawn */
+    vt_glr_destroy(gr);
+    vt_gl_close(g);
+    vt_soft_destroy(sr);
+}
+
 /* The software and GL paths on the same scenes (llvmpipe here): coverage
  * the same on >= 99.9 % of pixels, depth within 1e-4 relative, colour
  * within 1 % + 1e-3 where both cover a pixel away from an edge. Skipped
@@ -461,5 +609,6 @@ const struct CMUnitTest render_tests[] = {
     cmocka_unit_test(test_soft_matches_ray_caster),
     cmocka_unit_test(test_soft_isas_agree),
     cmocka_unit_test(test_tile_ranges_kernels),
+    cmocka_unit_test(test_renderers_adversarial_views),
 };
 const size_t render_tests_count = sizeof render_tests / sizeof render_tests[0];

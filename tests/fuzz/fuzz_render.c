@@ -1,0 +1,140 @@
+/*
+ * fuzz_render.c — libFuzzer target for the software renderer
+ * (render/vt_soft.c, through vt_soft_render as the daemon's RENDER and
+ * frame streams call it), and, built as fuzz_render_gl.c, for the GL path
+ * (render/vt_glr.c, vt_gl.c) where an EGL context can be made; without one
+ * every input returns at once (a note on stderr, once).
+ *
+ * The input (fuzz_geom.h decodes numbers, views and lights): a header byte,
+ * the frame size (1..64 a side, so one execution is fast), one view
+ * (cull_view_init must accept it, as the daemon's would), up to 4 instances
+ * of the unit box or of a mesh from the bytes (up to 12 vertices, 8
+ * triangles, degenerate ones and normals of any length included; checked
+ * with vt_mesh_check as the daemon does before it keeps a mesh), stretched
+ * onto boxes from the bytes, and up to 4 lights with colours and cones.
+ * Checked:
+ *   1. vt_*_render returns 0, or -EINVAL with a message and the caller's
+ *      buffers untouched (the daemon answers INVALID with it);
+ *   2. drawn frames have alpha 0 or 1, and a depth per pixel that is
+ *      INFINITY (nothing) or not NaN.
+ * ASan and UBSan catch the rest (issue 18: a 1e30 term in the view
+ * overflowed an int32 at the vertex snap). A broken property calls abort().
+ */
+#include "culling.h"
+#include "fuzz_geom.h"
+#include "vt_soft.h"
+#ifdef FUZZ_RENDER_GL
+#include "vt_gl.h"
+#include "vt_glr.h"
+#endif
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+#define CHECK(cond)                                                                                        \
+    do {                                                                                                   \
+        if (!(cond)) {                                                                                     \
+            fprintf(stderr, "fuzz_render: property failed at line %d: %s\n", __LINE__, #cond);             \
+            abort();                                                                                       \
+        }                                                                                                  \
+    } while (0)
+
+enum { MAX_W = 64, MAX_INST = 4, MAX_LIGHTS = 4, MAX_MV = 12, MAX_MT = 8 };
+
+#ifdef FUZZ_RENDER_GL
+/* one context for the process (opening one costs tens of ms) */
+static vt_glr *renderer(void)
+{
+    static int tried;
+    static vt_gl *g;
+    static vt_glr *r;
+    if (!tried) {
+        tried = 1;
+        char err[512];
+        if (vt_gl_open(&g, NULL, err, sizeof err) != 0 || vt_glr_create(g, &r, err, sizeof err) != 0) {
+            fprintf(stderr, "fuzz_render_gl: no GL context (%s): every input is skipped\n", err);
+            r = NULL;
+        }
+    }
+    return r;
+}
+#else
+static vt_soft *renderer(void)
+{
+    static vt_soft *r;
+    if (!r && vt_soft_create(NULL, 1, &r) != 0) abort();
+    return r;
+}
+#endif
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    fz f = {data, size};
+    if (!renderer()) return 0;
+    uint8_t head = fz_u8(&f);
+    uint32_t w = 1 + fz_u8(&f) % MAX_W, h = 1 + fz_u8(&f) % MAX_W;
+    cull_view_desc d;
+    fz_view_desc(&f, &d, w, h);
+    cull_view v;
+    if (cull_view_init(&v, &d) != CULL_OK) return 0;
+
+    /* meshes: the box, and one from the bytes if it passes the check */
+    float pos[3 * MAX_MV], nrm[3 * MAX_MV];
+    uint32_t idx[3 * MAX_MT];
+    vt_mesh meshes[2] = {vt_mesh_box};
+    uint32_t nmesh = 1;
+    if (head & 1) {
+        vt_mesh m = {.pos = pos, .idx = idx, .nv = 3 + fz_u8(&f) % (MAX_MV - 2), .ni = 3 * (1 + fz_u8(&f) % MAX_MT)};
+        for (uint32_t i = 0; i < 3 * m.nv; i++) pos[i] = (float)fz_num(&f, 2);
+        for (uint32_t i = 0; i < m.ni; i++) idx[i] = fz_u8(&f) % m.nv;
+        if (head & 2) {
+            for (uint32_t i = 0; i < 3 * m.nv; i++) nrm[i] = (float)fz_num(&f, 1);
+            m.nrm = nrm;
+        }
+        char err[256];
+        if (vt_mesh_check(&m, err, sizeof err) == 0) meshes[nmesh++] = m;
+    }
+    vt_instance in[MAX_INST];
+    uint32_t ni = fz_u8(&f) % (MAX_INST + 1);
+    memset(in, 0, sizeof in);
+    for (uint32_t i = 0; i < ni; i++) {
+        in[i].mesh = fz_u8(&f) % nmesh;
+        for (int a = 0; a < 3; a++) {
+            double c = fz_num(&f, 30), e = fabs(fz_num(&f, 10));
+            in[i].bmin[a] = c - e;
+            in[i].bmax[a] = c + e;
+            in[i].albedo[a] = (float)((double)fz_u8(&f) / 255.0);
+        }
+    }
+    vt_light L[MAX_LIGHTS];
+    uint32_t nl = fz_u8(&f) % (MAX_LIGHTS + 1);
+    memset(L, 0, sizeof L);
+    for (uint32_t i = 0; i < nl; i++) {
+        fz_light(&f, &L[i].l);
+        for (int a = 0; a < 3; a++) L[i].color[a] = (float)fabs(fz_num(&f, 4));
+        L[i].cos_inner = (float)((double)fz_u8(&f) / 127.5 - 1.0);
+    }
+
+    static float rgba[MAX_W * MAX_W * 4], depth[MAX_W * MAX_W];
+    for (size_t i = 0; i < (size_t)w * h; i++) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = depth[i] = 7;
+    char err[256] = "";
+#ifdef FUZZ_RENDER_GL
+    int rc = vt_glr_render(renderer(), &v, w, h, meshes, nmesh, in, ni, L, nl, rgba, depth, w, NULL, err, sizeof err);
+#else
+    int rc = vt_soft_render(renderer(), &v, w, h, meshes, nmesh, in, ni, L, nl, rgba, depth, w, NULL, err, sizeof err);
+#endif
+    if (rc != 0) {
+        CHECK(rc == -EINVAL && err[0] != 0);
+        for (size_t i = 0; i < (size_t)w * h; i++) CHECK(rgba[4 * i] == 7 && depth[i] == 7);
+        return 0;
+    }
+    for (size_t i = 0; i < (size_t)w * h; i++) {
+        CHECK(rgba[4 * i + 3] == 0 || rgba[4 * i + 3] == 1);
+        CHECK(depth[i] == depth[i]);
+    }
+    return 0;
+}
