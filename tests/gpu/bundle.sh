@@ -8,15 +8,29 @@
 set -euo pipefail
 build=${1:?usage: bundle.sh BUILD_DIR OUT_DIR}
 out=${2:?usage: bundle.sh BUILD_DIR OUT_DIR}
+DEST=/opt/vantage-gpu   # where tests/gpu/run.sh installs it on the GPU machine
+command -v patchelf >/dev/null || { echo "bundle.sh: needs patchelf (apt-get install patchelf)"; exit 1; }
 rm -rf "$out"
 mkdir -p "$out/bin" "$out/lib"
-bins="vantage_tests vantaged vantage"
+bins="vantage_tests vantaged"  # not the CLI: SDL and its libraries are 20 MB the GL tests do not need
 for b in $bins; do cp "$build/$b" "$out/bin/"; done
-[ -x "$build/fuzz_render_replay" ] && cp "$build/fuzz_render_replay" "$out/bin/" || true
+# libFuzzer builds (make build/fuzz/fuzz_NAME), when there: a GPU machine's
+# many cores run a campaign in minutes
+for f in fuzz_query fuzz_render fuzz_render_gl; do
+  [ -x "build/fuzz/$f" ] && cp "build/fuzz/$f" "$out/bin/" || true
+done
 for b in "$out"/bin/*; do
   ldd "$b" | awk '/=> \//{print $3} /^\t\/lib/{print $1}'
 done | sort -u | while read -r l; do cp -L "$l" "$out/lib/"; done
 # libglvnd's EGL and dispatch stay: the GPU's vendor library is found
 # through __EGL_VENDOR_LIBRARY_FILENAMES there
 cp -L /lib64/ld-linux-x86-64.so.2 "$out/lib/"
+# debug sections are most of the size (the machine takes 64 MiB in all)
+strip --strip-debug "$out"/bin/* "$out"/lib/* 2>/dev/null || true
+# the binaries load the bundled loader and libraries from where run.sh puts
+# them, also when they start themselves again (libFuzzer's -jobs, the tests'
+# vantaged): an interpreter and an RPATH of that absolute path
+for b in "$out"/bin/*; do
+  patchelf --set-interpreter "$DEST/lib/ld-linux-x86-64.so.2" --force-rpath --set-rpath "$DEST/lib" "$b"
+done
 du -sh "$out"
