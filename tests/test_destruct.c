@@ -316,13 +316,8 @@ static void test_cut_building_back_wall_hides(void **state)
     }
     cull_world_commit(w);
     /* the view: 30 m in front, level with the hole, looking in */
-    cull_view_desc vd = {.origin = {0, 6, -30}, .viewport_w = 1280, .viewport_h = 720};
-    double proj[16], view[16], dir[3] = {0, 0, 1}, up[3] = {0, 1, 0};
-    cull_mat_perspective(proj, 1.0, 1280.0 / 720, 0.1, 1000, CULL_DEPTH_GL);
-    cull_mat_look_dir(view, dir, up);
-    cull_mat_mul(vd.view_proj, proj, view);
     cull_view cv;
-    assert_int_equal(cull_view_init(&cv, &vd), CULL_OK);
+    test_view_look(&cv, (double[]){0, 6, -30}, (double[]){0, 0, 1}, 1280, 720);
     cull_ctx *c;
     assert_int_equal(cull_ctx_create(NULL, &c), CULL_OK);
     cull_result res[N + CULL_RESULT_PAD];

@@ -197,15 +197,7 @@ static void dump_free(dump *d)
 /* Removes a data directory (its files, then it). */
 static void rm_data(const char *dir)
 {
-    DIR *d = opendir(dir);
-    struct dirent *e;
-    char p[600];
-    while (d && (e = readdir(d))) {
-        if (e->d_name[0] == '.') continue;
-        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
-        unlink(p);
-    }
-    if (d) closedir(d);
+    dir_unlink_files(dir);
     rmdir(dir);
 }
 

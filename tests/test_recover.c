@@ -239,22 +239,9 @@ static void scratch_make(char dir[256], const char *prefix)
     assert_non_null(mkdtemp(dir));
 }
 
-static void dir_clear(const char *dir)
-{
-    DIR *d = opendir(dir);
-    struct dirent *e;
-    char p[600];
-    while (d && (e = readdir(d))) {
-        if (e->d_name[0] == '.') continue;
-        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
-        unlink(p);
-    }
-    if (d) closedir(d);
-}
-
 static void dir_remove(const char *dir)
 {
-    dir_clear(dir);
+    dir_unlink_files(dir);
     rmdir(dir);
 }
 
@@ -494,7 +481,7 @@ typedef struct damage_run {
 /* Writes the trial's files: the snapshot, then the journal (p, n). */
 static void trial_files(damage_run *d, const uint8_t *sp, size_t sn, const uint8_t *jp, size_t jn)
 {
-    dir_clear(d->dir);
+    dir_unlink_files(d->dir);
     if (d->snap.n) spit(d->dir, d->snap_name, sp, sn);
     spit(d->dir, d->jr_name, jp, jn);
 }

@@ -16,6 +16,16 @@ void test_view_everything(cull_view *v)
     assert_int_equal(cull_view_init(v, &d), CULL_OK);
 }
 
+void test_view_look(cull_view *v, const double origin[3], const double dir[3], uint32_t w, uint32_t h)
+{
+    cull_view_desc d = {.origin = {origin[0], origin[1], origin[2]}, .viewport_w = w, .viewport_h = h};
+    double proj[16], view[16], up[3] = {0, 1, 0};
+    cull_mat_perspective(proj, 1.0, (double)w / h, 0.1, 1000, CULL_DEPTH_GL);
+    cull_mat_look_dir(view, dir, up);
+    cull_mat_mul(d.view_proj, proj, view);
+    assert_int_equal(cull_view_init(v, &d), CULL_OK);
+}
+
 size_t test_query_everything(const cull_world *w, cull_ctx *c, cull_result **out)
 {
     cull_ctx *own = NULL;
@@ -89,6 +99,19 @@ void tdir_remove(tdir *t)
     }
     closedir(d);
     assert_int_equal(rmdir(t->dir), 0);
+}
+
+void dir_unlink_files(const char *dir)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    char p[600];
+    while (d && (e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+        unlink(p);
+    }
+    if (d) closedir(d);
 }
 
 int test_run_cmd(const char *cmd, char *out, size_t cap)

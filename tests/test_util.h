@@ -41,6 +41,9 @@ static inline uint64_t test_seed(void)
 
 /* A view that sees everything within ±1e13 m. */
 void test_view_everything(cull_view *v);
+/* A perspective view (GL depth, 1 rad vertical, near 0.1, far 1000) from
+ * origin looking along dir (y up), w x h pixels. */
+void test_view_look(cull_view *v, const double origin[3], const double dir[3], uint32_t w, uint32_t h);
 /* Queries w with that view (ctx may be NULL); *out is malloc'ed. */
 size_t test_query_everything(const cull_world *w, cull_ctx *ctx, cull_result **out);
 /* res[0..got) holds exactly the n handles of want, in any order. */
@@ -55,6 +58,8 @@ void tdir_make(tdir *t, const char *prefix);
 const char *tdir_file(tdir *t, const char *name);
 int tdir_count(const tdir *t);
 void tdir_remove(tdir *t);
+/* Unlinks the files of dir (not its subfolders, not dir). */
+void dir_unlink_files(const char *dir);
 
 /* Runs cmd with popen; its stdout (up to cap - 1 bytes, NUL-ended) in
  * out; pclose's status. */

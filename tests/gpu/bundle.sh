@@ -22,8 +22,11 @@ done
 for b in "$out"/bin/*; do
   ldd "$b" | awk '/=> \//{print $3} /^\t\/lib/{print $1}'
 done | sort -u | while read -r l; do cp -L "$l" "$out/lib/"; done
-# libglvnd's EGL and dispatch stay: the GPU's vendor library is found
-# through __EGL_VENDOR_LIBRARY_FILENAMES there
+# libglvnd's dispatchers (libepoxy opens libOpenGL or libGL itself); the
+# GPU's vendor library is found through __EGL_VENDOR_LIBRARY_FILENAMES there
+for l in libOpenGL.so.0 libGL.so.1 libGLX.so.0 libGLdispatch.so.0 libEGL.so.1; do
+  cp -L "/lib/x86_64-linux-gnu/$l" "$out/lib/"
+done
 cp -L /lib64/ld-linux-x86-64.so.2 "$out/lib/"
 # debug sections are most of the size (the machine takes 64 MiB in all)
 strip --strip-debug "$out"/bin/* "$out"/lib/* 2>/dev/null || true
@@ -31,6 +34,7 @@ strip --strip-debug "$out"/bin/* "$out"/lib/* 2>/dev/null || true
 # them, also when they start themselves again (libFuzzer's -jobs, the tests'
 # vantaged): an interpreter and an RPATH of that absolute path
 for b in "$out"/bin/*; do
-  patchelf --set-interpreter "$DEST/lib/ld-linux-x86-64.so.2" --force-rpath --set-rpath "$DEST/lib" "$b"
+  patchelf --set-interpreter "$DEST/lib/ld-linux-x86-64.so.2" --force-rpath \
+    --set-rpath "$DEST/lib:/usr/local/nvidia/lib64:/usr/lib/x86_64-linux-gnu" "$b"
 done
 du -sh "$out"

@@ -7,7 +7,6 @@
 set -uo pipefail
 t=${1:?target}; secs=${2:?seconds}; jobs=${3:?jobs}; out=${4:?outdir}
 dst=/opt/vantage-gpu
-export LD_LIBRARY_PATH=$dst/lib:${NVLIB:-/usr/local/nvidia/lib64}
 work=/tmp/fuzz-$t; rm -rf "$work"; mkdir -p "$work/corpus" "$out"
 cp tests/fuzz/corpus/$t/* "$work/corpus/" 2>/dev/null
 cd "$work"

@@ -9,9 +9,8 @@ src=${1:?usage: run.sh BUNDLE [FILTER...]}
 shift
 dst=/opt/vantage-gpu
 rm -rf "$dst"; mkdir -p "$dst"; cp -r "$src"/. "$dst"/
-nvlib=/usr/local/nvidia/lib64
-[ -d "$nvlib" ] || nvlib=/usr/lib/x86_64-linux-gnu
-export LD_LIBRARY_PATH=$dst/lib:$nvlib
+# no LD_LIBRARY_PATH: the machine's own tools need its newer glibc; the
+# bundled binaries find theirs (and the driver's) through their RPATH
 for f in /usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json /usr/share/glvnd/egl_vendor.d/10_nvidia.json; do
   [ -f "$f" ] && export __EGL_VENDOR_LIBRARY_FILENAMES=$f && break
 done
