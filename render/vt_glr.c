@@ -542,7 +542,10 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
             const float *p = r->pix + 4 * ((size_t)y * width + x);
             float *c = rgba + 4 * ((size_t)y * stride + x), *dz = depth + (size_t)y * stride + x;
             float nz = p[3];
-            if (nz == EMPTY) {
+            /* a NaN nearness (a view term beyond float range: the matrix
+               handed to GL holds an infinity) is no surface, as in
+               vt_soft, where it never wins the depth test */
+            if (nz == EMPTY || nz != nz) {
                 c[0] = c[1] = c[2] = c[3] = 0;
                 *dz = INFINITY;
                 continue;
