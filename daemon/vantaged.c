@@ -303,7 +303,11 @@ int main(int argc, char **argv)
              sc->lights.count, (unsigned long long)(ae_now_ms() - t0));
     }
     server *srv = server_create(&cfg, sc);
-    if (!srv) return 1;
+    if (!srv) { /* it said why; it closed the journal, the scene is ours */
+        scene_free(sc);
+        free(sc);
+        return 1;
+    }
     if (cfg.bind && *cfg.bind) LOGI("listening on %s:%d", cfg.bind, cfg.port);
     if (cfg.unix_path && *cfg.unix_path) LOGI("listening on %s", cfg.unix_path);
     LOGI("try: vantage -p %d query --eye 0,2,-300 --at 0,2,0", cfg.port);
