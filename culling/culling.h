@@ -582,8 +582,10 @@ typedef struct cull_light_tiles {
  * larger is nearer; nearest < farthest marks a tile that shows nothing,
  * which gets no lights); NULL bins against the whole frustum depth.
  * Returns CULL_OK, CULL_ERR_VIEWPORT, CULL_ERR_INVALID (a light with a bad
- * position, radius or axis: nothing binned), or CULL_ERR_NOMEM. No lights:
- * every list is empty and nothing is tested. */
+ * position, radius or axis: nothing binned), CULL_ERR_MATRIX (a view whose
+ * rows admit no nearness mapping, e.g. an orthographic one with w <= 0:
+ * nothing binned), or CULL_ERR_NOMEM. No lights: every list is empty and
+ * nothing is tested. */
 int  cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const cull_light *lights, uint32_t n,
                      const float (*depth_range)[2], cull_light_tiles *out);
 /* What a light may be: the one validation shared by the daemon's edit
