@@ -108,11 +108,6 @@ int cull_light_validate(const cull_light *l, const double radiance[3], char *why
     return CULL_OK;
 }
 
-int cull_light_check(const cull_light *l)
-{
-    return cull_light_validate(l, NULL, NULL, 0);
-}
-
 void cull_light_tiles_free(cull_light_tiles *t)
 {
     if (!t) return;
@@ -169,7 +164,7 @@ int cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const c
     if (!v || !out || (n && !lights)) return CULL_ERR_INVALID;
     if (width == 0 || height == 0 || width > 65535 || height > 65535) return CULL_ERR_VIEWPORT;
     for (uint32_t i = 0; i < n; i++)
-        if (cull_light_check(&lights[i]) != CULL_OK) return CULL_ERR_INVALID;
+        if (cull_light_validate(&lights[i], NULL, NULL, 0) != CULL_OK) return CULL_ERR_INVALID;
     uint32_t tx = (width + CULL_LIGHT_TILE - 1) / CULL_LIGHT_TILE, ty = (height + CULL_LIGHT_TILE - 1) / CULL_LIGHT_TILE;
     size_t ntiles = (size_t)tx * ty;
     if (!cull_grow((void **)&out->offset, &out->offset_cap, ntiles + 1, sizeof *out->offset)) return CULL_ERR_NOMEM;

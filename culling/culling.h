@@ -604,8 +604,6 @@ int  cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const 
 #define CULL_LIGHT_MAX_RANGE 1e9
 #define CULL_LIGHT_MAX_RADIANCE 1e12
 int  cull_light_validate(const cull_light *l, const double radiance[3], char *why, size_t whylen);
-/* cull_light_validate without radiance or message. */
-int  cull_light_check(const cull_light *l);
 void cull_light_tiles_free(cull_light_tiles *t);
 
 /* ---- ISA dispatch -------------------------------------------------------- */
