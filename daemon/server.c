@@ -53,6 +53,14 @@ static void out_held_set(conn *c, uint8_t *out, size_t cap)
     c->out_cap = cap;
 }
 
+/* c's output buffer given back (its bytes all sent, or c going). */
+static void out_release(conn *c)
+{
+    free(c->out);
+    out_held_set(c, NULL, 0);
+    c->out_pos = c->out_len = c->out_peak = 0;
+}
+
 /* A writer over the connection's output buffer with room for need bytes. */
 bool out_reserve(conn *c, size_t need, vp_writer *w)
 {
@@ -95,8 +103,7 @@ static void conn_trim(conn *c)
 {
     if (c->out_pos == c->out_len && c->out_cap > OUT_REST && c->out_peak <= c->out_cap / 4) {
         if (!c->out_peak) {
-            free(c->out);
-            out_held_set(c, NULL, 0);
+            out_release(c);
         } else {
             size_t cap = pow2_at_least(2 * c->out_peak);
             uint8_t *n = realloc(c->out, cap);
@@ -141,8 +148,7 @@ static void conn_free(server *s, conn *c, int why)
     LOGD("client %u (%s) disconnected, %u connected; %llu frames streamed", c->id, c->name, s->nconns,
          (unsigned long long)c->fsub.frames);
     free(c->in);
-    free(c->out);
-    out_held_set(c, NULL, 0);
+    out_release(c);
     free(c);
 }
 
@@ -161,11 +167,7 @@ static bool out_total_enforce(server *s, conn *cur)
     /* empty buffers a burst grew cost no one anything: given back first */
     for (uint32_t i = 0; i < s->nconns; i++) {
         conn *c = s->live[i];
-        if (c->out_pos == c->out_len && c->out_cap) {
-            free(c->out);
-            out_held_set(c, NULL, 0);
-            c->out_pos = c->out_len = c->out_peak = 0;
-        }
+        if (c->out_pos == c->out_len && c->out_cap) out_release(c);
     }
     while (s->out_held > limit) {
         conn *worst = NULL;
