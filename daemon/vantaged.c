@@ -82,6 +82,13 @@ static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
     return true;
 }
 
+/* parse_u32, and want says what it accepts (the error names it) */
+static bool num32(char *want, size_t wantlen, const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    snprintf(want, wantlen, "an integer, %lu..%lu", (unsigned long)lo, (unsigned long)hi);
+    return parse_u32(s, lo, hi, out);
+}
+
 /* --out-limit-total's default: an eighth of physical memory (3 GiB on a
  * 24 GiB machine), at least 64 MiB: room for the scene, the journal's
  * snapshot fork and the workers' frames beside the clients' backlogs. */
@@ -154,6 +161,7 @@ int main(int argc, char **argv)
     };
     int o;
     bool ok = true, insecure = false;
+    char want[96] = ""; /* what the option being parsed accepts, for its error */
     const char *tokens_path = NULL, *data_dir = NULL;
     int durability = JOURNAL_EVERYSEC;
     static char metrics_addr[64];
@@ -161,43 +169,60 @@ int main(int argc, char **argv)
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (o) {
         case O_BIND: cfg.bind = optarg; break;
-        case O_PORT: ok = parse_u32(optarg, 1, 65535, &port); break;
+        case O_PORT: ok = num32(want, sizeof want, optarg, 1, 65535, &port); break;
         case O_UNIX: cfg.unix_path = optarg; break;
         case O_SCENE: scene_kind = optarg; break;
-        case O_PROPS: ok = parse_u32(optarg, 0, 10000000, &props); break;
-        case O_CELL: cfg.cell_size = atof(optarg); ok = cfg.cell_size >= 0.01 && cfg.cell_size <= 1e5; break;
-        case O_CLIENTS: ok = parse_u32(optarg, 1, 1000000, &cfg.max_clients); break;
-        case O_PAYLOAD: ok = parse_u32(optarg, 1024, 1u << 30, &cfg.max_payload); break;
-        case O_BATCH: ok = parse_u32(optarg, 1, 1u << 24, &cfg.max_batch); break;
-        case O_ENTITIES: ok = parse_u32(optarg, 1, CULL_MAX_ENTITIES, &cfg.limits.max_entities); break;
-        case O_OUT: ok = parse_u32(optarg, 4096, UINT32_MAX, &cfg.out_limit); break;
+        case O_PROPS: ok = num32(want, sizeof want, optarg, 0, 10000000, &props); break;
+        case O_CELL:
+            cfg.cell_size = atof(optarg);
+            ok = cfg.cell_size >= 0.01 && cfg.cell_size <= 1e5;
+            snprintf(want, sizeof want, "metres, 0.01..1e5");
+            break;
+        case O_CLIENTS: ok = num32(want, sizeof want, optarg, 1, 1000000, &cfg.max_clients); break;
+        case O_PAYLOAD: ok = num32(want, sizeof want, optarg, 1024, 1u << 30, &cfg.max_payload); break;
+        case O_BATCH: ok = num32(want, sizeof want, optarg, 1, 1u << 24, &cfg.max_batch); break;
+        case O_ENTITIES: ok = num32(want, sizeof want, optarg, 1, CULL_MAX_ENTITIES, &cfg.limits.max_entities); break;
+        case O_OUT: ok = num32(want, sizeof want, optarg, 4096, UINT32_MAX, &cfg.out_limit); break;
         case O_OUT_TOTAL:
             ok = parse_u64(optarg, 0, UINT64_MAX, &cfg.out_limit_total) &&
                  (!cfg.out_limit_total || cfg.out_limit_total >= 65536);
+            snprintf(want, sizeof want, "bytes, 0 (no limit) or at least 65536");
             break;
-        case O_THREADS: ok = parse_u32(optarg, 0, 256, &cfg.threads); break;
-        case O_DRES: ok = parse_u32(optarg, 2, CULL_DVOL_MAX_RES, &cfg.destruct_res); break;
+        case O_THREADS: ok = num32(want, sizeof want, optarg, 0, 256, &cfg.threads); break;
+        case O_DRES: ok = num32(want, sizeof want, optarg, 2, CULL_DVOL_MAX_RES, &cfg.destruct_res); break;
         case O_RENDER:
             cfg.renderer = !strcmp(optarg, "gl") ? VP_RENDERER_GL : VP_RENDERER_SOFT;
             ok = !strcmp(optarg, "gl") || !strcmp(optarg, "soft");
+            snprintf(want, sizeof want, "soft or gl");
             break;
-        case O_LOG: ok = (g_log_level = log_level_parse(optarg)) >= 0; break;
+        case O_LOG:
+            ok = (g_log_level = log_level_parse(optarg)) >= 0;
+            snprintf(want, sizeof want, "error, warn, info or debug");
+            break;
         case O_TOKENS: tokens_path = optarg; break;
-        case O_DATA: data_dir = optarg; ok = *optarg != 0; break;
+        case O_DATA:
+            data_dir = optarg;
+            ok = *optarg != 0;
+            snprintf(want, sizeof want, "a directory");
+            break;
         case O_DURABILITY:
             durability = !strcmp(optarg, "always") ? JOURNAL_ALWAYS : !strcmp(optarg, "off") ? JOURNAL_OFF : JOURNAL_EVERYSEC;
             ok = !strcmp(optarg, "always") || !strcmp(optarg, "everysec") || !strcmp(optarg, "off");
+            snprintf(want, sizeof want, "always, everysec or off");
             break;
-        case O_COMPACT: ok = parse_u32(optarg, 1, 1u << 20, &compact_mb); break;
-        case O_METRICS: ok = parse_metrics(optarg, metrics_addr, sizeof metrics_addr, &cfg.metrics_port); break;
+        case O_COMPACT: ok = num32(want, sizeof want, optarg, 1, 1u << 20, &compact_mb); break;
+        case O_METRICS:
+            ok = parse_metrics(optarg, metrics_addr, sizeof metrics_addr, &cfg.metrics_port);
+            snprintf(want, sizeof want, "[ADDR:]PORT, ADDR an IPv4 address or localhost, PORT 1..65535");
+            break;
         case O_INSECURE: insecure = true; break;
-        case O_HELLO_TO: ok = parse_u32(optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
-        case O_FRAME_TO: ok = parse_u32(optarg, 100, 3600000, &cfg.frame_timeout_ms); break;
+        case O_HELLO_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
+        case O_FRAME_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.frame_timeout_ms); break;
         case O_HELP: usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
         if (!ok) {
-            fprintf(stderr, "vantaged: bad value for --%s: %s\n", opts[o - O_BIND].name, optarg);
+            fprintf(stderr, "vantaged: bad value for --%s: %s (expected %s)\n", opts[o - O_BIND].name, optarg, want);
             return 2;
         }
     }

@@ -514,7 +514,31 @@ static void test_cli_commander_stats_no_samples(void **state)
     daemon_stop(&d);
 }
 
+/* vantaged's bad option values name the option and what it accepts (they
+ * only named the option) and exit 2. */
+static void test_vantaged_errors_name_what_is_accepted(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *args, *want;
+    } t[] = {
+        {"--out-limit-total 100", "bad value for --out-limit-total: 100 (expected bytes, 0 (no limit) or at least 65536)"},
+        {"--port 0", "bad value for --port: 0 (expected an integer, 1..65535)"},
+        {"--threads 999", "bad value for --threads: 999 (expected an integer, 0..256)"},
+        {"--durability sometimes", "(expected always, everysec or off)"},
+        {"--render vulkan", "(expected soft or gl)"},
+        {"--cell-size 0", "(expected metres, 0.01..1e5)"},
+        {"--log-level loud", "(expected error, warn, info or debug)"},
+    };
+    for (size_t i = 0; i < sizeof t / sizeof t[0]; i++) {
+        char out[2048];
+        int rc = daemon_run_to_exit(t[i].args, out, sizeof out);
+        if (rc != 2 || !strstr(out, t[i].want)) fail_msg("vantaged %s: exit %d: %s", t[i].args, rc, out);
+    }
+}
+
 const struct CMUnitTest cli_tests[] = {
+    cmocka_unit_test(test_vantaged_errors_name_what_is_accepted),
     cmocka_unit_test(test_cli_help_every_command),
     cmocka_unit_test(test_cli_vantaged_help_readme),
     cmocka_unit_test(test_cli_errors_name_the_option),
