@@ -1325,6 +1325,27 @@ static uint32_t ref_bits(const bitmap *t, size_t n, const uint8_t *b)
     return out;
 }
 
+/* The DS4's and the DualSense's axes by the reference formulas: sticks
+ * (Y up), triggers (a trigger at 0 whose digital bit is set reads 1;
+ * digital: the byte with L2 / R2 at bits 2 / 3), gyro (16 counts per
+ * degree per second, in radians), accelerometer (8192 counts per g).
+ * A failure names the caller's line. */
+static void ps_expect_axes(int line, const pad_state *s, const ps_raw *d, uint8_t digital)
+{
+#define AXIS_NEAR(got, want) near_at(line, #got, (got), (want))
+    AXIS_NEAR(s->lx, ref_u8(d->stick[0]));
+    AXIS_NEAR(s->ly, -ref_u8(d->stick[1]));
+    AXIS_NEAR(s->rx, ref_u8(d->stick[2]));
+    AXIS_NEAR(s->ry, -ref_u8(d->stick[3]));
+    AXIS_NEAR(s->lt, (d->trig[0] == 0 && (digital & 4)) ? 1 : d->trig[0] / 255.0);
+    AXIS_NEAR(s->rt, (d->trig[1] == 0 && (digital & 8)) ? 1 : d->trig[1] / 255.0);
+    for (int k = 0; k < 3; k++) {
+        AXIS_NEAR(s->gyro[k], d->gyro[k] / 16.0 * M_PI / 180);
+        AXIS_NEAR(s->accel[k], d->accel[k] / 8192.0);
+    }
+#undef AXIS_NEAR
+}
+
 static void test_pad_reference(void **state)
 {
     (void)state;
@@ -1362,18 +1383,9 @@ static void test_pad_reference(void **state)
             assert_int_equal(parse_as(PAD_PROTO_DS4, b, len, &s) >= 0, 1);
             uint8_t usb[64];
             ds4_usb(&d, usb);
-            NEAR(s.lx, ref_u8(d.stick[0]));
-            NEAR(s.ly, -ref_u8(d.stick[1]));
-            NEAR(s.rx, ref_u8(d.stick[2]));
-            NEAR(s.ry, -ref_u8(d.stick[3]));
-            NEAR(s.lt, (d.trig[0] == 0 && (d.b6 & 4)) ? 1 : d.trig[0] / 255.0);
-            NEAR(s.rt, (d.trig[1] == 0 && (d.b6 & 8)) ? 1 : d.trig[1] / 255.0);
+            ps_expect_axes(__LINE__, &s, &d, d.b6);
             assert_int_equal(s.buttons, ref_hat(d.hat) | ref_bits(ds4_bits, sizeof ds4_bits / sizeof ds4_bits[0], usb));
             assert_int_equal(s.counter, d.b7 >> 2);
-            for (int k = 0; k < 3; k++) {
-                NEAR(s.gyro[k], d.gyro[k] / 16.0 * M_PI / 180);
-                NEAR(s.accel[k], d.accel[k] / 8192.0);
-            }
             for (int k = 0; k < 2; k++) {
                 assert_int_equal(s.touch[k].down, !(d.contact[k] & 0x80));
                 assert_int_equal(s.touch[k].id, d.contact[k] & 0x7F);
@@ -1409,18 +1421,9 @@ static void test_pad_reference(void **state)
             assert_true(parse_as(PAD_PROTO_DUALSENSE, b, bt ? 78 : 64, &s) >= 0);
             uint8_t usb[64];
             ds_usb(&d, usb);
-            NEAR(s.lx, ref_u8(d.stick[0]));
-            NEAR(s.ly, -ref_u8(d.stick[1]));
-            NEAR(s.rx, ref_u8(d.stick[2]));
-            NEAR(s.ry, -ref_u8(d.stick[3]));
-            NEAR(s.lt, (d.trig[0] == 0 && (d.b9 & 4)) ? 1 : d.trig[0] / 255.0);
-            NEAR(s.rt, (d.trig[1] == 0 && (d.b9 & 8)) ? 1 : d.trig[1] / 255.0);
+            ps_expect_axes(__LINE__, &s, &d, d.b9);
             assert_int_equal(s.buttons, ref_hat(d.hat) | ref_bits(ds_bits, sizeof ds_bits / sizeof ds_bits[0], usb));
             assert_int_equal(s.counter, d.counter);
-            for (int k = 0; k < 3; k++) {
-                NEAR(s.gyro[k], d.gyro[k] / 16.0 * M_PI / 180);
-                NEAR(s.accel[k], d.accel[k] / 8192.0);
-            }
             for (int k = 0; k < 2; k++) {
                 assert_int_equal(s.touch[k].down, !(d.contact[k] & 0x80));
                 NEAR(s.touch[k].x, clampd(d.tx[k] / 1919.0, 0, 1));
