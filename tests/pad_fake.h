@@ -18,8 +18,9 @@
  * (tests/test_pad.c has captured layouts), xpad detaching, udev
  * permissions.
  *
- * Threads: every entry point takes fake.mu, as thread-safe as the
- * libraries; a test that reads the fake's fields takes it too.
+ * Threads: every entry point that reads or changes a device's queue,
+ * handles or references takes fake.mu (the rest read fields set before
+ * the hub opens); a test that reads the fake's fields takes it too.
  */
 #ifndef VANTAGE_PAD_FAKE_H
 #define VANTAGE_PAD_FAKE_H
