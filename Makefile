@@ -300,7 +300,7 @@ install: check-deps
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include/vantage
 	install -m 755 $(DAEMON_BIN) $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/
 	install -m 644 $(CLIENT_LIB) $(DESTDIR)$(PREFIX)/lib/
-	install -m 644 client/lib/vantage.h protocol/protocol.h $(DESTDIR)$(PREFIX)/include/vantage/
+	install -m 644 client/lib/vantage.h protocol/protocol.h protocol/vp_bytes.h protocol/vp_grow.h $(DESTDIR)$(PREFIX)/include/vantage/
 	install -d $(DESTDIR)$(PREFIX)/share/vantage/scenarios
 	install -m 644 client/loadgen/scenarios/*.scn $(DESTDIR)$(PREFIX)/share/vantage/scenarios/
 	sed 's|@PREFIX@|$(PREFIX)|' client/lib/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
