@@ -492,15 +492,9 @@ static int list_gens(const char *dir, const char *kind, gens *out)
         uint64_t g;
         char k[16];
         if (!gen_name(e->d_name, k, &g) || strcmp(k, kind)) continue;
-        if (out->n == out->cap) {
-            size_t cap = out->cap ? out->cap * 2 : 8;
-            uint64_t *v = realloc(out->v, cap * sizeof *v);
-            if (!v) {
-                closedir(d);
-                return -ENOMEM;
-            }
-            out->v = v;
-            out->cap = cap;
+        if (!vp_grow((void **)&out->v, &out->cap, out->n + 1, sizeof *out->v)) {
+            closedir(d);
+            return -ENOMEM;
         }
         out->v[out->n++] = g;
     }

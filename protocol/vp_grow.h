@@ -24,12 +24,12 @@
 #include <stdlib.h>
 
 /* The capacity, in elements of elem bytes, that holds need: cap itself when
- * need <= cap, else cap (first when cap is 0) doubled until it holds need.
- * 0 when no capacity fits: the doubling would pass max elements, or the
- * byte size would pass SIZE_MAX. first > 0; elem > 0. */
+ * it does, else cap (first when cap is 0, even for need 0: a table's first
+ * size) doubled until it holds need. 0 only when refused: the doubling
+ * would pass max elements, or the byte size SIZE_MAX. first > 0; elem > 0. */
 static inline size_t vp_grow_cap(size_t cap, size_t need, size_t first, size_t elem, size_t max)
 {
-    if (need <= cap) return cap;
+    if (cap && need <= cap) return cap;
     size_t lim = SIZE_MAX / elem;
     if (max < lim) lim = max;
     if (need > lim) return 0;

@@ -170,7 +170,7 @@ static void test_bytes_reader_short_read_sticks(void **state)
  * and its bytes at most SIZE_MAX; else 0. */
 static size_t grow_model(size_t cap, size_t need, size_t first, size_t elem, size_t max)
 {
-    if (need <= cap) return cap;
+    if (cap && need <= cap) return cap;
     unsigned __int128 c = cap ? cap : first;
     while (c < need) c *= 2;
     if (c > max || c * elem > SIZE_MAX) return 0;
@@ -193,6 +193,8 @@ static void test_grow_against_model(void **state)
         {(size_t)1 << 31, ((size_t)1 << 31) + 1, 8, 36, (size_t)1 << 31}, /* past it */
         {64, 0x80000001u, 64, 36, UINT32_MAX},                           /* import.c's old spin */
         {0, 100, 16, 8, UINT32_MAX},
+        {0, 0, 16, 4, UINT32_MAX}, /* an empty table still gets its first size */
+        {0, 0, 64, 4, 32},         /* unless that is past the maximum */
     };
     for (size_t i = 0; i < sizeof row / sizeof row[0]; i++) {
         size_t got = vp_grow_cap(row[i].cap, row[i].need, row[i].first, row[i].elem, row[i].max);
@@ -200,6 +202,7 @@ static void test_grow_against_model(void **state)
         if (got != want) fail_msg("row %zu: %zu, the model says %zu", i, got, want);
     }
     assert_int_equal(vp_grow_cap((size_t)1 << 63, ((size_t)1 << 63) + 1, 8, 1, SIZE_MAX), 0);
+    assert_int_equal(vp_grow_cap(0, 0, 16, 4, UINT32_MAX), 16);
     rng r = {test_seed() ^ 0x6E0ull};
     int iters = (int)(20000 * test_scale());
     for (int it = 0; it < iters; it++) {
