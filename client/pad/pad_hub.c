@@ -32,6 +32,7 @@
  */
 #include "pad_io_internal.h"
 #include "protocol.h"
+#include "vp_grow.h"
 
 #include <errno.h>
 #include <math.h>
@@ -87,7 +88,9 @@ static pad_event *slot(pad_hub *h, uint64_t seq)
 
 static bool queue_grow(pad_hub *h)
 {
-    size_t ncap = h->cap ? h->cap * 2 : 64;
+    /* doubled (a power of two: slot() masks), never past SIZE_MAX bytes */
+    size_t ncap = vp_grow_cap(h->cap, h->cap + 1, 64, sizeof(pad_event), SIZE_MAX);
+    if (!ncap) return false;
     pad_event *r = malloc(ncap * sizeof *r);
     if (!r) return false;
     for (uint64_t s = h->head; s < h->tail; s++) r[s & (ncap - 1)] = *slot(h, s);
@@ -331,13 +334,7 @@ pad_seen *pad_seen_get(pad_hub *h, pad_backend bk, const char *key)
 {
     for (size_t i = 0; i < h->nseen; i++)
         if (h->seen[i].bk == bk && !strcmp(h->seen[i].key, key)) return &h->seen[i];
-    if (h->nseen == h->capseen) {
-        size_t ncap = h->capseen ? h->capseen * 2 : 16;
-        pad_seen *s = realloc(h->seen, ncap * sizeof *s);
-        if (!s) return NULL;
-        h->seen = s;
-        h->capseen = ncap;
-    }
+    if (!vp_grow((void **)&h->seen, &h->capseen, h->nseen + 1, sizeof *h->seen)) return NULL;
     pad_seen *s = &h->seen[h->nseen++];
     memset(s, 0, sizeof *s);
     snprintf(s->key, sizeof s->key, "%s", key);

@@ -12,6 +12,7 @@
  * USB_ERR_MAX failed reads in a row. Also the USB half of `pad list`.
  */
 #include "pad_io_internal.h"
+#include "vp_grow.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -241,15 +242,10 @@ static int hotplug_cb(libusb_context *ctx, libusb_device *dev, libusb_hotplug_ev
     (void)ctx;
     pad_hub *h = user;
     pthread_mutex_lock(&h->pmu);
-    if (h->nnotes == h->capnotes) {
-        size_t ncap = h->capnotes ? h->capnotes * 2 : 16;
-        pad_usb_note *n = realloc(h->notes, ncap * sizeof *n);
-        if (!n) { /* out of memory: the news is lost, the periodic rescan still finds the device */
-            pthread_mutex_unlock(&h->pmu);
-            return 0;
-        }
-        h->notes = n;
-        h->capnotes = ncap;
+    if (!vp_grow((void **)&h->notes, &h->capnotes, h->nnotes + 1, sizeof *h->notes)) {
+        /* out of memory: the news is lost, the periodic rescan still finds the device */
+        pthread_mutex_unlock(&h->pmu);
+        return 0;
     }
     h->notes[h->nnotes].dev = h->ops->libusb_ref_device(dev);
     h->notes[h->nnotes].arrived = event == LIBUSB_HOTPLUG_EVENT_DEVICE_ARRIVED;
