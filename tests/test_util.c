@@ -122,3 +122,47 @@ int test_run_cmd(const char *cmd, char *out, size_t cap)
     out[n] = 0;
     return pclose(p);
 }
+
+int test_rows_marker(void **state)
+{
+    (void)state;
+    print_error("a TEST_ROWS entry ran unexpanded (tests/test_main.c expands them)\n");
+    return -1;
+}
+
+static char *name_dup(const char *a, const char *b)
+{
+    size_t la = strlen(a), lb = b ? strlen(b) + 1 : 0;
+    char *s = malloc(la + lb + 1);
+    if (!s) abort();
+    memcpy(s, a, la);
+    if (b) {
+        s[la] = '/';
+        memcpy(s + la + 1, b, lb - 1);
+    }
+    s[la + lb] = 0;
+    return s;
+}
+
+size_t test_rows_expand(const struct CMUnitTest *tests, size_t n, struct CMUnitTest *out)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++) {
+        const struct CMUnitTest *t = &tests[i];
+        if (t->setup_func != test_rows_marker) {
+            if (out) out[k] = *t, out[k].name = name_dup(t->name, NULL);
+            k++;
+            continue;
+        }
+        const test_rows *r = t->initial_state;
+        for (size_t j = 0; j < r->count; j++, k++) {
+            const void *row = (const char *)r->rows + j * r->size;
+            if (!out) continue;
+            /* the row's first member is its name */
+            out[k] = (struct CMUnitTest){.name = name_dup(t->name, *(const char *const *)row),
+                                         .test_func = t->test_func,
+                                         .initial_state = (void *)(uintptr_t)row};
+        }
+    }
+    return k;
+}

@@ -67,6 +67,28 @@ int test_run_cmd(const char *cmd, char *out, size_t cap);
 
 void test_assert_same_handles(const cull_handle *want, size_t n, const cull_result *res, size_t got);
 
+/* One named test per row of a table (malformed inputs above all, so that
+ * the first failure hides none of the others, as Redis's
+ * tests/unit/protocol.tcl sends one raw input per named test).
+ * TEST_ROWS(fn, rows) in a group's CMUnitTest array stands for one test
+ * per row of the static array rows, named "fn/<row name>", whose state is
+ * the row (`const T *row = *state;`); a row is a struct whose first member
+ * is `const char *name`. tests/test_main.c expands the rows before
+ * VANTAGE_TEST_ONLY filters the names, so a substring can pick one row. */
+typedef struct test_rows {
+    const void *rows;
+    size_t count, size;
+} test_rows;
+/* The setup TEST_ROWS marks its entry with; it fails the test if it ever
+ * runs (an entry nobody expanded). */
+int test_rows_marker(void **state);
+#define TEST_ROWS(fn, rows_) \
+    {#fn, fn, test_rows_marker, NULL, &(test_rows){rows_, sizeof rows_ / sizeof rows_[0], sizeof rows_[0]}}
+/* Copies tests[0..n) into out (NULL: only counts), one entry per row for
+ * TEST_ROWS entries; every name in out is malloc'ed (free them). Returns
+ * the number of entries. */
+size_t test_rows_expand(const struct CMUnitTest *tests, size_t n, struct CMUnitTest *out);
+
 #define TEST_GROUP(name) \
     extern const struct CMUnitTest name[]; \
     extern const size_t name##_count;
