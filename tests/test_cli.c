@@ -301,70 +301,84 @@ static void test_cli_vantaged_help_readme(void **state)
     forms_within(&fh, "vantaged --help", &fr, "README.md");
 }
 
-/* Usage errors name the option, what it accepts, or what is missing. */
+/* Usage errors name the option, what it accepts, or what is missing; a
+ * row is the command's arguments (its name) and what the error says. */
+typedef struct usage_case {
+    const char *args;
+    const char *want[3];
+} usage_case;
+
+static const usage_case usage_cases[] = {
+    {"render --eye 1,2,3 --at 0,0,0 --size 500 -o x.png", {"--size 500", "WxH"}},
+    {"render --eye 1,2,3 --at 0,0,0 --size 0x0 -o x.png", {"--size 0x0", "1..4096"}},
+    {"render --eye 1,2,3 --at 0,0,0 --renderer vulkan -o x.png", {"--renderer vulkan", "soft or gl"}},
+    {"render --eye 1,2,3 --at 0,0,0 --fov 200 -o x.png", {"--fov 200", "180"}},
+    {"render --eye 1,2,3 --at 0,0,0 -o x.tiff", {"-o x.tiff", ".png"}},
+    {"render --eye 1,2,3 --at 0,0,0", {"-o FILE", "missing"}},
+    {"render --eye 1,2,3 -o x.png", {"--at X,Y,Z is missing"}},
+    {"render --at 1,2,3 -o x.png", {"--eye X,Y,Z is missing"}},
+    {"query --eye 1,2,3", {"--at X,Y,Z is missing"}},
+    {"query --eye 1,2,3 --at 0,0,0 --ortho 0,1", {"--ortho 0,1", "> 0"}},
+    {"lights --eye 1,2,3 --at 0,0,0 --size 9x", {"--size 9x", "WxH"}},
+    {"watch --frames d --eye 1,2,3 --at 0,0,0 --fps 0", {"--fps 0", "1..240"}},
+    {"watch --frames d --eye 1,2,3 --at 0,0,0 --format gif", {"--format gif", "jpg, png or exr"}},
+    {"watch --eye 1,2,3 --at 0,0,0 --frames", {"--frames"}},
+    {"destroy 5 0,0,0 0", {"radius 0", "more than 0"}},
+    {"destroy 5 0,0,0 -2", {"radius -2", "more than 0"}},
+    {"destroy 5 0,0 1", {"centre 0,0", "X,Y,Z"}},
+    {"destroy 5 0,0,0 1 --debris 999", {"--debris 999", "0..64"}},
+    {"bench --test ping --requests 10 --clients 64", {"--requests 10 is fewer than --clients 64"}},
+    {"bench --clients 0", {"--clients 0", "1..1000"}},
+    {"bench --test fast", {"--test fast", "query, edit, ping or frames"}},
+    {"bench --test frames --fps 0", {"--fps", "1..240"}},
+    {"bench --test frames --viewers x", {"--viewers x"}},
+};
+
 static void test_cli_errors_name_the_option(void **state)
 {
-    (void)state;
-    static const struct {
-        const char *args;
-        const char *want[3];
-    } cases[] = {
-        {"render --eye 1,2,3 --at 0,0,0 --size 500 -o x.png", {"--size 500", "WxH"}},
-        {"render --eye 1,2,3 --at 0,0,0 --size 0x0 -o x.png", {"--size 0x0", "1..4096"}},
-        {"render --eye 1,2,3 --at 0,0,0 --renderer vulkan -o x.png", {"--renderer vulkan", "soft or gl"}},
-        {"render --eye 1,2,3 --at 0,0,0 --fov 200 -o x.png", {"--fov 200", "180"}},
-        {"render --eye 1,2,3 --at 0,0,0 -o x.tiff", {"-o x.tiff", ".png"}},
-        {"render --eye 1,2,3 --at 0,0,0", {"-o FILE", "missing"}},
-        {"render --eye 1,2,3 -o x.png", {"--at X,Y,Z is missing"}},
-        {"render --at 1,2,3 -o x.png", {"--eye X,Y,Z is missing"}},
-        {"query --eye 1,2,3", {"--at X,Y,Z is missing"}},
-        {"query --eye 1,2,3 --at 0,0,0 --ortho 0,1", {"--ortho 0,1", "> 0"}},
-        {"lights --eye 1,2,3 --at 0,0,0 --size 9x", {"--size 9x", "WxH"}},
-        {"watch --frames d --eye 1,2,3 --at 0,0,0 --fps 0", {"--fps 0", "1..240"}},
-        {"watch --frames d --eye 1,2,3 --at 0,0,0 --format gif", {"--format gif", "jpg, png or exr"}},
-        {"watch --eye 1,2,3 --at 0,0,0 --frames", {"--frames"}},
-        {"destroy 5 0,0,0 0", {"radius 0", "more than 0"}},
-        {"destroy 5 0,0,0 -2", {"radius -2", "more than 0"}},
-        {"destroy 5 0,0 1", {"centre 0,0", "X,Y,Z"}},
-        {"destroy 5 0,0,0 1 --debris 999", {"--debris 999", "0..64"}},
-        {"bench --test ping --requests 10 --clients 64", {"--requests 10 is fewer than --clients 64"}},
-        {"bench --clients 0", {"--clients 0", "1..1000"}},
-        {"bench --test fast", {"--test fast", "query, edit, ping or frames"}},
-        {"bench --test frames --fps 0", {"--fps", "1..240"}},
-        {"bench --test frames --viewers x", {"--viewers x"}},
-    };
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        char cmd[800], out[4096];
-        /* port 1: nothing listens; every case is refused before connecting */
-        snprintf(cmd, sizeof cmd, "%s/vantage -p 1 %s", bin_dir(), cases[i].args);
-        int rc = run(cmd, out, sizeof out);
-        if (rc != 2) fail_msg("%s: exit %d, want 2 (bad usage): %s", cases[i].args, rc, out);
-        for (int k = 0; k < 3 && cases[i].want[k]; k++)
-            if (!strstr(out, cases[i].want[k]))
-                fail_msg("%s: \"%s\" does not say \"%s\"", cases[i].args, out, cases[i].want[k]);
-        /* one line, the command's own help pointed to */
-        char hint[64];
-        snprintf(hint, sizeof hint, "(vantage %.*s --help)", (int)strcspn(cases[i].args, " "), cases[i].args);
-        if (!strstr(out, hint)) fail_msg("%s: \"%s\" does not point to %s", cases[i].args, out, hint);
-    }
+    const usage_case *t = *state;
+    char cmd[800], out[4096];
+    /* port 1: nothing listens; every case is refused before connecting */
+    snprintf(cmd, sizeof cmd, "%s/vantage -p 1 %s", bin_dir(), t->args);
+    int rc = run(cmd, out, sizeof out);
+    if (rc != 2) fail_msg("%s: exit %d, want 2 (bad usage): %s", t->args, rc, out);
+    for (int k = 0; k < 3 && t->want[k]; k++)
+        if (!strstr(out, t->want[k])) fail_msg("%s: \"%s\" does not say \"%s\"", t->args, out, t->want[k]);
+    /* one line, the command's own help pointed to */
+    char hint[64];
+    snprintf(hint, sizeof hint, "(vantage %.*s --help)", (int)strcspn(t->args, " "), t->args);
+    if (!strstr(out, hint)) fail_msg("%s: \"%s\" does not point to %s", t->args, out, hint);
 }
 
-/* The server's refusals: the record named once, the right code for a
- * name that names nothing. */
+/* The server's refusals of an id that names nothing: the record named
+ * once, and what is missing. A row is the command. */
+typedef struct refusal {
+    const char *op;
+} refusal;
+
+static const refusal refusals[] = {{"move 123456789 1,2,3"}, {"remove 123456789"}, {"get 123456789"}};
+
 static void test_cli_server_errors(void **state)
+{
+    const refusal *t = *state;
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    char cmd[800], out[4096];
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d %s", bin_dir(), d.port, t->op);
+    assert_int_equal(run(cmd, out, sizeof out), 1);
+    const char *r = strstr(out, "record 0");
+    if (!r || strstr(r + 1, "record 0")) fail_msg("%s: the record once: %s", t->op, out);
+    assert_non_null(strstr(out, "no entity with id 123456789"));
+    daemon_stop(&d);
+}
+
+/* A sub-level name that names nothing: its own code, no entity named. */
+static void test_cli_unload_unknown(void **state)
 {
     (void)state;
     daemon_proc d;
     daemon_start(&d, NULL);
     char cmd[800], out[4096];
-    const char *ops[] = {"move 123456789 1,2,3", "remove 123456789", "get 123456789"};
-    for (size_t i = 0; i < sizeof ops / sizeof ops[0]; i++) {
-        snprintf(cmd, sizeof cmd, "%s/vantage -p %d %s", bin_dir(), d.port, ops[i]);
-        assert_int_equal(run(cmd, out, sizeof out), 1);
-        const char *r = strstr(out, "record 0");
-        if (!r || strstr(r + 1, "record 0")) fail_msg("%s: the record once: %s", ops[i], out);
-        assert_non_null(strstr(out, "no entity with id 123456789"));
-    }
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel unload nosuch", bin_dir(), d.port);
     assert_int_equal(run(cmd, out, sizeof out), 1);
     if (!strstr(out, "no sub-level named \"nosuch\"") || strstr(out, "no entity") || !strstr(out, "error -23"))
@@ -515,34 +529,36 @@ static void test_cli_commander_stats_no_samples(void **state)
 }
 
 /* vantaged's bad option values name the option and what it accepts (they
- * only named the option) and exit 2. */
+ * only named the option) and exit 2. A row is the arguments. */
+typedef struct daemon_usage_case {
+    const char *args, *want;
+} daemon_usage_case;
+
+static const daemon_usage_case daemon_usage_cases[] = {
+    {"--out-limit-total 100", "bad value for --out-limit-total: 100 (expected bytes, 0 (no limit) or at least 65536)"},
+    {"--port 0", "bad value for --port: 0 (expected an integer, 1..65535)"},
+    {"--threads 999", "bad value for --threads: 999 (expected an integer, 0..256)"},
+    {"--durability sometimes", "(expected always, everysec or off)"},
+    {"--render vulkan", "(expected soft or gl)"},
+    {"--cell-size 0", "(expected metres, 0.01..1e5)"},
+    {"--log-level loud", "(expected error, warn, info or debug)"},
+};
+
 static void test_vantaged_errors_name_what_is_accepted(void **state)
 {
-    (void)state;
-    static const struct {
-        const char *args, *want;
-    } t[] = {
-        {"--out-limit-total 100", "bad value for --out-limit-total: 100 (expected bytes, 0 (no limit) or at least 65536)"},
-        {"--port 0", "bad value for --port: 0 (expected an integer, 1..65535)"},
-        {"--threads 999", "bad value for --threads: 999 (expected an integer, 0..256)"},
-        {"--durability sometimes", "(expected always, everysec or off)"},
-        {"--render vulkan", "(expected soft or gl)"},
-        {"--cell-size 0", "(expected metres, 0.01..1e5)"},
-        {"--log-level loud", "(expected error, warn, info or debug)"},
-    };
-    for (size_t i = 0; i < sizeof t / sizeof t[0]; i++) {
-        char out[2048];
-        int rc = daemon_run_to_exit(t[i].args, out, sizeof out);
-        if (rc != 2 || !strstr(out, t[i].want)) fail_msg("vantaged %s: exit %d: %s", t[i].args, rc, out);
-    }
+    const daemon_usage_case *t = *state;
+    char out[2048];
+    int rc = daemon_run_to_exit(t->args, out, sizeof out);
+    if (rc != 2 || !strstr(out, t->want)) fail_msg("vantaged %s: exit %d: %s", t->args, rc, out);
 }
 
 const struct CMUnitTest cli_tests[] = {
-    cmocka_unit_test(test_vantaged_errors_name_what_is_accepted),
+    TEST_ROWS(test_vantaged_errors_name_what_is_accepted, daemon_usage_cases),
     cmocka_unit_test(test_cli_help_every_command),
     cmocka_unit_test(test_cli_vantaged_help_readme),
-    cmocka_unit_test(test_cli_errors_name_the_option),
-    cmocka_unit_test(test_cli_server_errors),
+    TEST_ROWS(test_cli_errors_name_the_option, usage_cases),
+    TEST_ROWS(test_cli_server_errors, refusals),
+    cmocka_unit_test(test_cli_unload_unknown),
     cmocka_unit_test(test_cli_query_area),
     cmocka_unit_test(test_cli_watch_orbit_fps),
     cmocka_unit_test(test_cli_bench_exact_requests),

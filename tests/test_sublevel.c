@@ -123,7 +123,7 @@ static void test_import_gltf(void **state)
     vt_level_free(&lv);
 }
 
-static void test_import_obj_and_bad_files(void **state)
+static void test_import_obj(void **state)
 {
     (void)state;
     vt_level lv;
@@ -145,22 +145,41 @@ static void test_import_obj_and_bad_files(void **state)
     assert_true(lv.occ[0].entity >= 0);
     assert_true(lv.ent[lv.occ[0].entity].lo[0] < 0); /* the first, at x = 0, not the one at x = 20 */
     vt_level_free(&lv);
-    static const struct { const char *file, *says; } bad[] = {
-        {"bad_huge.gltf", "node 'vast': bounds beyond"},
-        {"bad_zero.gltf", "node 'flat': its transform has zero scale"},
-        {"bad_points.gltf", "node 'dots': its meshes have no triangles"},
-        {"bad_nan.obj", "node 'broken': mesh 'broken' has a non-finite vertex"},
-        {"bad_occ_far.gltf", "bounds beyond +-1e12 m"},
-        {"make_levels.py", "unsupported format"},
-        {"missing.glb", "No such file or directory"},
-    };
-    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        err[0] = 0;
-        assert_int_equal(vt_level_import(data_file(bad[i].file), &lv, err, sizeof err), -1);
-        if (!strstr(err, bad[i].says)) fail_msg("%s: \"%s\" does not say \"%s\"", bad[i].file, err, bad[i].says);
-        assert_int_equal(lv.nent, 0); /* nothing half-read is handed back */
-    }
-    /* a corrupt glTF: valid JSON cut short */
+}
+
+/* A bad level file: an error that names the node (or the file's
+ * trouble), and nothing half-read handed back. */
+typedef struct bad_level {
+    const char *name; /* the file in tests/data */
+    const char *says;
+} bad_level;
+
+static const bad_level bad_levels[] = {
+    {"bad_huge.gltf", "node 'vast': bounds beyond"},
+    {"bad_zero.gltf", "node 'flat': its transform has zero scale"},
+    {"bad_points.gltf", "node 'dots': its meshes have no triangles"},
+    {"bad_nan.obj", "node 'broken': mesh 'broken' has a non-finite vertex"},
+    {"bad_occ_far.gltf", "bounds beyond +-1e12 m"},
+    {"make_levels.py", "unsupported format"},
+    {"missing.glb", "No such file or directory"},
+};
+
+static void test_import_bad_file(void **state)
+{
+    const bad_level *t = *state;
+    vt_level lv;
+    char err[512] = "";
+    assert_int_equal(vt_level_import(data_file(t->name), &lv, err, sizeof err), -1);
+    if (!strstr(err, t->says)) fail_msg("%s: \"%s\" does not say \"%s\"", t->name, err, t->says);
+    assert_int_equal(lv.nent, 0); /* nothing half-read is handed back */
+}
+
+/* A corrupt glTF: valid JSON cut short. */
+static void test_import_cut_gltf(void **state)
+{
+    (void)state;
+    vt_level lv;
+    char err[512];
     tdir td;
     tdir_make(&td, "vantage_import");
     const char *cut = tdir_file(&td, "cut.gltf");
@@ -587,7 +606,9 @@ static void test_sublevel_cli(void **state)
 
 const struct CMUnitTest sublevel_tests[] = {
     cmocka_unit_test(test_import_gltf),
-    cmocka_unit_test(test_import_obj_and_bad_files),
+    cmocka_unit_test(test_import_obj),
+    TEST_ROWS(test_import_bad_file, bad_levels),
+    cmocka_unit_test(test_import_cut_gltf),
     cmocka_unit_test(test_import_isolated),
     cmocka_unit_test(test_sublevel_load_is_atomic),
     cmocka_unit_test(test_sublevel_rules),
