@@ -4,8 +4,14 @@
 #include "test_util.h"
 
 #include <dirent.h>
+#include <errno.h>
+#include <pthread.h>
+#include <signal.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 
@@ -165,4 +171,80 @@ size_t test_rows_expand(const struct CMUnitTest *tests, size_t n, struct CMUnitT
         }
     }
     return k;
+}
+
+const char *tdir_path_arg(tdir *t, test_path k, const char *name)
+{
+    return k == TPATH_NULL ? NULL : k == TPATH_EMPTY ? "" : tdir_file(t, name);
+}
+
+void test_unwritable_paths(tdir *t, test_write_fn write, void *ctx, const char *ext)
+{
+    char err[512], name[64];
+    snprintf(t->path, sizeof t->path, "%s/missing/x%s", t->dir, ext);
+    assert_int_equal(write(t->path, err, sizeof err, ctx), -ENOENT);
+    assert_non_null(strstr(err, t->path));
+    /* the parent is a file */
+    snprintf(name, sizeof name, "f%s", ext);
+    assert_int_equal(write(tdir_file(t, name), err, sizeof err, ctx), 0);
+    snprintf(t->path, sizeof t->path, "%s/f%s/x%s", t->dir, ext, ext);
+    assert_int_equal(write(t->path, err, sizeof err, ctx), -ENOTDIR);
+    /* the target is a directory: written, then the rename fails */
+    snprintf(name, sizeof name, "d%s", ext);
+    assert_int_equal(mkdir(tdir_file(t, name), 0700), 0);
+    assert_int_equal(write(t->path, err, sizeof err, ctx), -EISDIR);
+    assert_true(strlen(err) > 0);
+    assert_int_equal(tdir_count(t), 2); /* f, d: no temporary left */
+    assert_int_equal(rmdir(t->path), 0);
+    snprintf(name, sizeof name, "f%s", ext);
+    assert_int_equal(unlink(tdir_file(t, name)), 0);
+}
+
+void test_write_past_fsize(test_write_fn write, const char *path, void *ctx)
+{
+    fflush(NULL);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        struct rlimit lim = {64 << 10, 64 << 10};
+        signal(SIGXFSZ, SIG_IGN);
+        char err[512] = "";
+        int ok = setrlimit(RLIMIT_FSIZE, &lim) == 0 && write(path, err, sizeof err, ctx) == -EFBIG && strlen(err) > 0;
+        _exit(ok ? 0 : 1);
+    }
+    int status = 0;
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+}
+
+bool test_refused_naming(int rc, const char *err, const char *path)
+{
+    return rc == -EBADMSG && strncmp(err, path, strlen(path)) == 0;
+}
+
+void test_threads_in_tdir(const char *prefix, const char *ext, void *(*fn)(void *), int n, int per_thread)
+{
+    tdir t;
+    tdir_make(&t, prefix);
+    for (int i = 0; i < n; i++) {
+        char p[400];
+        snprintf(p, sizeof p, "%s/junk%d%s", t.dir, i, ext);
+        FILE *f = fopen(p, "w");
+        assert_non_null(f);
+        fprintf(f, "junk %d: not an image, long enough for a magic number and flags\n", i);
+        assert_int_equal(fclose(f), 0);
+    }
+    pthread_t *th = calloc((size_t)n, sizeof *th);
+    test_thread *args = calloc((size_t)n, sizeof *args);
+    assert_true(th && args);
+    for (int i = 0; i < n; i++) {
+        args[i] = (test_thread){.t = &t, .id = i};
+        assert_int_equal(pthread_create(&th[i], NULL, fn, &args[i]), 0);
+    }
+    for (int i = 0; i < n; i++) assert_int_equal(pthread_join(th[i], NULL), 0);
+    for (int i = 0; i < n; i++) assert_int_equal(args[i].failures, 0);
+    assert_int_equal(tdir_count(&t), per_thread * n);
+    free(args);
+    free(th);
+    tdir_remove(&t);
 }

@@ -7,6 +7,7 @@
 
 #include <setjmp.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
@@ -60,6 +61,40 @@ int tdir_count(const tdir *t);
 void tdir_remove(tdir *t);
 /* Unlinks the files of dir (not its subfolders, not dir). */
 void dir_unlink_files(const char *dir);
+
+/* The path a bad-argument row passes: none, an empty one, or a file in
+ * the test's fresh folder. */
+typedef enum test_path { TPATH_NULL, TPATH_EMPTY, TPATH_FILE } test_path;
+const char *tdir_path_arg(tdir *t, test_path k, const char *name);
+
+/* A writer of one small file under test (an image, an EXR): 0 or -errno,
+ * a message in err. */
+typedef int (*test_write_fn)(const char *path, char *err, size_t errlen, void *ctx);
+/* Places a writer cannot write fail with the file system's errno and
+ * leave nothing behind: a missing folder (-ENOENT, the message names the
+ * path), a parent that is a file (-ENOTDIR), a target that is a folder
+ * (-EISDIR: written, then the rename fails; no temporary left). The
+ * files are named x<ext>; t is empty again after. */
+void test_unwritable_paths(tdir *t, test_write_fn write, void *ctx, const char *ext);
+
+/* Threads writing and failing at once in one fresh folder (named after
+ * prefix): n files junk<i><ext> of text that is no image, then fn on n
+ * threads, each with its own test_thread (t, id i, failures 0); asserts
+ * that none failed and that the folder then holds per_thread * n files. */
+typedef struct test_thread {
+    const tdir *t;
+    int id;
+    int failures;
+} test_thread;
+/* write(path, ctx) in a child process whose files may grow to 64 KiB
+ * (RLIMIT_FSIZE, SIGXFSZ ignored: a full disk); asserts that it failed
+ * with -EFBIG and a message. */
+void test_write_past_fsize(test_write_fn write, const char *path, void *ctx);
+
+/* A refusal of a file that is no image, as the threads must see it:
+ * -EBADMSG, and the message begins with the file's path. */
+bool test_refused_naming(int rc, const char *err, const char *path);
+void test_threads_in_tdir(const char *prefix, const char *ext, void *(*fn)(void *), int n, int per_thread);
 
 /* Runs cmd with popen; its stdout (up to cap - 1 bytes, NUL-ended) in
  * out; pclose's status. */
