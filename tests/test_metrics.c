@@ -843,8 +843,7 @@ static void test_metrics_counts(void **state)
     expo_free(&ph);
     close(r.fd);
     vt_close(ed);
-    vt_close(v);
-    daemon_stop(&d);
+    daemon_close(&d, v);
 }
 
 /* Clients by role follow connects and disconnects; a connection that has
@@ -935,8 +934,7 @@ static void test_metrics_buffers_shrink(void **state)
     expo_free(&a);
     expo_free(&b);
     vt_close(ed);
-    vt_close(idle);
-    daemon_stop(&d);
+    daemon_close(&d, idle);
 }
 
 /* The daemon's peak resident memory (VmHWM), bytes. */
@@ -1061,8 +1059,7 @@ static void test_metrics_output_limit_total(void **state)
     assert_true(peak < cap + 8 * frame);
 #endif
     assert_int_equal(vt_ping(ok), VP_OK);
-    vt_close(ok);
-    daemon_stop(&d);
+    daemon_close(&d, ok);
 }
 
 /* A viewer that stops reading its raw frames while the scene changes:
@@ -1132,8 +1129,7 @@ static void test_metrics_dropped_frames(void **state)
     expo_free(&a);
     expo_free(&b);
     close(r.fd);
-    vt_close(ed);
-    daemon_stop(&d);
+    daemon_close(&d, ed);
 }
 
 /* The endpoint's answers to bad requests; the connection limit; a slow-

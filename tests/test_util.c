@@ -24,9 +24,15 @@ void test_view_everything(cull_view *v)
 
 void test_view_look(cull_view *v, const double origin[3], const double dir[3], uint32_t w, uint32_t h)
 {
+    test_view_look_range(v, origin, dir, w, h, 0.1, 1000);
+}
+
+void test_view_look_range(cull_view *v, const double origin[3], const double dir[3], uint32_t w, uint32_t h,
+                          double near, double far)
+{
     cull_view_desc d = {.origin = {origin[0], origin[1], origin[2]}, .viewport_w = w, .viewport_h = h};
     double proj[16], view[16], up[3] = {0, 1, 0};
-    cull_mat_perspective(proj, 1.0, (double)w / h, 0.1, 1000, CULL_DEPTH_GL);
+    cull_mat_perspective(proj, 1.0, (double)w / h, near, far, CULL_DEPTH_GL);
     cull_mat_look_dir(view, dir, up);
     cull_mat_mul(d.view_proj, proj, view);
     assert_int_equal(cull_view_init(v, &d), CULL_OK);

@@ -13,6 +13,7 @@
 #include <cmocka.h>
 #include <math.h>
 #include <stdlib.h>
+#include <time.h>
 #include "splitmix.h"
 
 typedef struct rng { uint64_t s; } rng;
@@ -32,6 +33,14 @@ static inline double test_scale(void)
     return v > 0 ? v : 1.0;
 }
 
+/* Seconds on the monotonic clock. */
+static inline double test_now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
 static inline uint64_t test_seed(void)
 {
     const char *s = getenv("VANTAGE_SEED");
@@ -45,6 +54,9 @@ void test_view_everything(cull_view *v);
 /* A perspective view (GL depth, 1 rad vertical, near 0.1, far 1000) from
  * origin looking along dir (y up), w x h pixels. */
 void test_view_look(cull_view *v, const double origin[3], const double dir[3], uint32_t w, uint32_t h);
+/* The same with the near and far planes given. */
+void test_view_look_range(cull_view *v, const double origin[3], const double dir[3], uint32_t w, uint32_t h,
+                          double near, double far);
 /* Queries w with that view (ctx may be NULL); *out is malloc'ed. */
 size_t test_query_everything(const cull_world *w, cull_ctx *ctx, cull_result **out);
 /* res[0..got) holds exactly the n handles of want, in any order. */

@@ -155,8 +155,7 @@ static void test_bad_lights_refused(void **state)
 {
     const light_case *t = *state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *ed = daemon_open(&d, VP_ROLE_EDITOR);
     vt_client *viewer = connect_role(&d, VP_ROLE_VIEWER, false);
     vt_client *stream = connect_role(&d, VP_ROLE_VIEWER, false);
     vp_entity e[4];
@@ -189,8 +188,7 @@ static void test_bad_lights_refused(void **state)
     assert_int_equal(vt_wait_frame(stream, &f, 10000), VP_OK);
     vt_close(stream);
     vt_close(viewer);
-    vt_close(ed);
-    daemon_stop(&d);
+    daemon_close(&d, ed);
 }
 
 /* The shared validation against the renderer, directly: for random and
@@ -280,8 +278,7 @@ static void test_batch_errors_name_the_record(void **state)
 {
     const bad_record *t = *state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *c = daemon_open(&d, VP_ROLE_EDITOR);
     vp_entity base[3];
     for (int i = 0; i < 3; i++) base[i] = (vp_entity){.id = 10 + (uint64_t)i, .sphere = {i * 3.0, 0, 0, 1}};
     uint32_t h[3];
@@ -303,22 +300,18 @@ static void test_batch_errors_name_the_record(void **state)
     assert_int_equal(vt_stats(c, &after), VP_OK);
     assert_int_equal(after.epoch, before.epoch); /* nothing changed */
     assert_int_equal(after.entities, before.entities);
-    vt_close(c);
-    daemon_stop(&d);
+    daemon_close(&d, c);
 }
 
 /* A bad LIGHT_PUT record by the decoder's own check names it too. */
 static void test_light_record_named(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     vp_light L[3] = {good_light(1), good_light(2), good_light(3)};
     L[2].pos[1] = NAN;
     assert_error(c, vt_put_lights(c, L, 3), VP_ERR_NONFINITE, 2, "record 2: position y is nan");
     vt_close(c);
-    daemon_stop(&d);
 }
 
 /* ---- UTF-8 ------------------------------------------------------------------------ */
@@ -448,8 +441,7 @@ static void test_sublevel_names_utf8(void **state)
 {
     const bad_name *t = *state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *c = daemon_open(&d, VP_ROLE_EDITOR);
     const char *names[3] = {"fine", "ch\xC3\xA2teau", t->bad};
     uint16_t ids[3];
     vp_stats_reply before, after;
@@ -471,8 +463,7 @@ static void test_sublevel_names_utf8(void **state)
     assert_int_equal(vt_sublevel_ids(c, ok, 2, ids), VP_OK);
     assert_int_equal(ids[0], 1);
     assert_int_equal(ids[1], 2);
-    vt_close(c);
-    daemon_stop(&d);
+    daemon_close(&d, c);
 }
 
 /* ---- views up front ---------------------------------------------------------------- */
@@ -504,8 +495,7 @@ static void test_frame_subscribe_checks_view(void **state)
 {
     const bad_view *t = *state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_VIEWER, false);
+    vt_client *c = daemon_open(&d, VP_ROLE_VIEWER);
     vp_render m = good_render();
     double *vp = m.view.view_proj;
     if (t->kind == 0) vp[0] = vp[4] = vp[8] = vp[12] = 0;
@@ -520,17 +510,14 @@ static void test_frame_subscribe_checks_view(void **state)
     assert_error(c, vt_frame_subscribe(c, &(vp_frame_sub){.r = m, .max_fps = 30}), t->code, UINT32_MAX, t->want);
     assert_error(c, vt_light_query(c, &(vp_light_query){.view = m.view}, &(vp_light_tiles){0}), t->code, UINT32_MAX,
                  t->want);
-    vt_close(c);
-    daemon_stop(&d);
+    daemon_close(&d, c);
 }
 
 /* A running stream re-aimed at a bad view is refused and keeps going. */
 static void test_stream_keeps_a_good_view(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_VIEWER, false);
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_VIEWER, false);
     vp_render good = good_render();
     vp_frame f;
     assert_int_equal(vt_frame_subscribe(c, &(vp_frame_sub){.r = good, .max_fps = 30}), VP_OK);
@@ -539,12 +526,11 @@ static void test_stream_keeps_a_good_view(void **state)
     memset(bad.view.view_proj, 0, sizeof bad.view.view_proj);
     assert_error(c, vt_frame_subscribe(c, &(vp_frame_sub){.r = bad, .max_fps = 30}), VP_ERR_MATRIX, UINT32_MAX,
                  "view");
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     assert_int_equal(vt_add(ed, &(vp_entity){.id = 1, .sphere = {0, 0, -10, 1}}, 1, NULL, NULL), VP_OK);
     assert_int_equal(vt_wait_frame(c, &f, 10000), VP_OK); /* the new scene, drawn */
     vt_close(ed);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 /* ---- DESTROY names the real cause ------------------------------------------------- */
@@ -575,8 +561,7 @@ static const bad_destroy bad_destroys[] = {
 
 static vt_client *destroy_target(daemon_proc *d)
 {
-    daemon_start(d, NULL);
-    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vt_client *c = daemon_open(d, VP_ROLE_EDITOR);
     assert_int_equal(vt_add(c, &(vp_entity){.id = 5, .aabb = {-1, -1, -1, 1, 1, 1}}, 1, NULL, NULL), VP_OK);
     return c;
 }
@@ -590,8 +575,7 @@ static void test_destroy_messages(void **state)
     vp_destroy m = {.id = 5, .center = {t->centre0, 0, 0}, .radius = t->radius};
     assert_error(c, vt_destroy(c, &m, &out), t->code, UINT32_MAX, t->want);
     assert_null(strstr(vt_last_error(c)->msg, "negative, NaN or infinite"));
-    vt_close(c);
-    daemon_stop(&d);
+    daemon_close(&d, c);
 }
 
 /* The limits themselves: the diagonal; a sphere that just touches from outside. */
@@ -603,8 +587,7 @@ static void test_destroy_limits(void **state)
     vp_destroyed out;
     assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .radius = sqrt(12.0)}, &out), VP_OK);
     assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .center = {3.5, 0, 0}, .radius = 2.5}, &out), VP_OK);
-    vt_close(c);
-    daemon_stop(&d);
+    daemon_close(&d, c);
 }
 
 static uint32_t rd32le(const uint8_t *p)
@@ -734,10 +717,8 @@ static void test_old_journal_replays(void **state)
  * triangle, and the daemon keeps answering. */
 static void test_occluder_put_bound(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     const uint32_t over = 349526, same = 65536;
     float *v = calloc((size_t)over * 9, sizeof *v);
     assert_non_null(v);
@@ -755,7 +736,6 @@ static void test_occluder_put_bound(void **state)
     assert_int_equal(st.occluders, 1);
     free(v);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 const struct CMUnitTest validate_tests[] = {
@@ -764,13 +744,13 @@ const struct CMUnitTest validate_tests[] = {
     cmocka_unit_test(test_accepted_lights_render),
     TEST_ROWS(test_bad_lights_refused, light_cases),
     TEST_ROWS(test_batch_errors_name_the_record, bad_records),
-    cmocka_unit_test(test_light_record_named),
+    DAEMON_TEST(test_light_record_named),
     TEST_ROWS(test_sublevel_names_utf8, bad_names),
     TEST_ROWS(test_frame_subscribe_checks_view, bad_views),
-    cmocka_unit_test(test_stream_keeps_a_good_view),
+    DAEMON_TEST(test_stream_keeps_a_good_view),
     TEST_ROWS(test_destroy_messages, bad_destroys),
     cmocka_unit_test(test_destroy_limits),
     cmocka_unit_test(test_old_journal_replays),
-    cmocka_unit_test(test_occluder_put_bound),
+    DAEMON_TEST(test_occluder_put_bound),
 };
 const size_t validate_tests_count = sizeof validate_tests / sizeof validate_tests[0];
