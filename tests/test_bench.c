@@ -171,54 +171,63 @@ static void test_bench_scenarios_shipped(void **state)
     assert_int_equal(s.g[0].cam.kind, SCN_CAM_PAN);
 }
 
+/* Scenario files the parser refuses: a row is the message it must give
+ * (its name) and the text; a refused file changes nothing. */
+typedef struct bad_scenario {
+    const char *want, *text;
+} bad_scenario;
+
+static const bad_scenario bad_scenarios[] = {
+    {"t:1: field 'op': group 'a' has no op", "group a\n role viewer\n clients 2\n"},
+    {"t:1: field 'clients'", "group a\n op query\n"},
+    {"t:1: field 'duration': expected a number, got 'abc'", "duration abc\ngroup a\n op ping\n clients 1\n"},
+    {"t:1: field 'duration': -3 is outside", "duration -3\n"},
+    {"t:5: field 'views': 33 is outside 1..32", "\n\ngroup a\n clients 1\n op query views 33\n"},
+    {"t:2: field 'clients': expected a whole number", "group a\n clients 2.5\n"},
+    {"t:1: field 'role': group 'a': op edit needs role editor", "group a\n clients 1\n op edit\n"},
+    {"t:3: field 'size'", "group a\n clients 1\n op frames size 10x10\n"},
+    {"field 'rate'", "group a\n clients 1\n op frames\n rate 5\n"},
+    {"t:4: field 'op': group 'a' has an op already", "group a\n clients 1\n op ping\n op query\n"},
+    {"t:3: field 'op': 'teleport'", "group a\n clients 1\n op teleport\n"},
+    {"t:3: field 'frobnicate': not an option of op query", "group a\n clients 1\n op query frobnicate\n"},
+    {"t:4: field 'center': expected x,y,z", "group a\n clients 1\n op ping\n camera orbit 0,0 1 2 3\n"},
+    {"t:4: field 'camera path'", "group a\n clients 1\n op ping\n camera path 5 1,2,3\n"},
+    {"t:4: field 'duration': a top-level setting inside group", "group a\n clients 1\n op ping\n duration 5\n"},
+    {"t:1: field 'colour': unknown", "colour blue\n"},
+    {"field 'group': no groups", ""},
+    {"t:2: field 'at': 7 s is at or after", "duration 5\nat 7 sublevel load x\ngroup a\n clients 1\n op ping\n"},
+    {"t:1: field 'at': 12 s is at or after the end of the run (duration 10 s)", "at 12 sublevel load x\ngroup a\n clients 1\n op ping\n"},
+    {"t:1: field 'destroy': destruction needs entities", "at 1 destroy 5\ngroup a\n clients 1\n op ping\n"},
+    {"t:1: field 'sublevel name': 'x' is unloaded before", "at 1 sublevel unload x\ngroup a\n clients 1\n op ping\n"},
+    {"t:4: field 'group': 'a' is named twice", "group a\n clients 1\n op ping\ngroup a\n"},
+    {"t:2: field 'role': expected editor, viewer, commander or query", "group a\n role admin\n"},
+    {"t:5: field 'op'", "group a\n clients 1\n op ping\n role commander\n op x\n"},
+    {"t:1: field 'probe': 'edit-to-dinner'", "probe edit-to-dinner\n"},
+    {"t:1: field 'line': a control byte 0x01", "group a\x01\n"},
+    {"field 'warmup': 20 s is not shorter", "warmup 20\nduration 10\ngroup a\n clients 1\n op ping\n"},
+};
+
 static void test_bench_scenario_errors(void **state)
 {
+    const bad_scenario *t = *state;
+    scenario s;
+    memset(&s, 0x5a, sizeof s);
+    scenario before = s;
+    char err[512] = "";
+    int rc = scn_parse("t", t->text, strlen(t->text), &s, err, sizeof err);
+    if (rc == 0) fail_msg("parsed: %s", t->text);
+    if (!strstr(err, t->want)) fail_msg("'%s' does not contain '%s'", err, t->want);
+    assert_memory_equal(&s, &before, sizeof s); /* a rejected file changes nothing */
+}
+
+/* A NUL byte says which line; a missing file says so. */
+static void test_bench_scenario_nul_and_missing(void **state)
+{
     (void)state;
-    static const struct { const char *text, *want; } cases[] = {
-        {"group a\n role viewer\n clients 2\n", "t:1: field 'op': group 'a' has no op"},
-        {"group a\n op query\n", "t:1: field 'clients'"},
-        {"duration abc\ngroup a\n op ping\n clients 1\n", "t:1: field 'duration': expected a number, got 'abc'"},
-        {"duration -3\n", "t:1: field 'duration': -3 is outside"},
-        {"\n\ngroup a\n clients 1\n op query views 33\n", "t:5: field 'views': 33 is outside 1..32"},
-        {"group a\n clients 2.5\n", "t:2: field 'clients': expected a whole number"},
-        {"group a\n clients 1\n op edit\n", "t:1: field 'role': group 'a': op edit needs role editor"},
-        {"group a\n clients 1\n op frames size 10x10\n", "t:3: field 'size'"},
-        {"group a\n clients 1\n op frames\n rate 5\n", "field 'rate'"},
-        {"group a\n clients 1\n op ping\n op query\n", "t:4: field 'op': group 'a' has an op already"},
-        {"group a\n clients 1\n op teleport\n", "t:3: field 'op': 'teleport'"},
-        {"group a\n clients 1\n op query frobnicate\n", "t:3: field 'frobnicate': not an option of op query"},
-        {"group a\n clients 1\n op ping\n camera orbit 0,0 1 2 3\n", "t:4: field 'center': expected x,y,z"},
-        {"group a\n clients 1\n op ping\n camera path 5 1,2,3\n", "t:4: field 'camera path'"},
-        {"group a\n clients 1\n op ping\n duration 5\n", "t:4: field 'duration': a top-level setting inside group"},
-        {"colour blue\n", "t:1: field 'colour': unknown"},
-        {"", "field 'group': no groups"},
-        {"duration 5\nat 7 sublevel load x\ngroup a\n clients 1\n op ping\n", "t:2: field 'at': 7 s is at or after"},
-        {"at 12 sublevel load x\ngroup a\n clients 1\n op ping\n", "t:1: field 'at': 12 s is at or after the end of the run (duration 10 s)"},
-        {"at 1 destroy 5\ngroup a\n clients 1\n op ping\n", "t:1: field 'destroy': destruction needs entities"},
-        {"at 1 sublevel unload x\ngroup a\n clients 1\n op ping\n", "t:1: field 'sublevel name': 'x' is unloaded before"},
-        {"group a\n clients 1\n op ping\ngroup a\n", "t:4: field 'group': 'a' is named twice"},
-        {"group a\n role admin\n", "t:2: field 'role': expected editor, viewer, commander or query"},
-        {"group a\n clients 1\n op ping\n role commander\n op x\n", "t:5: field 'op'"},
-        {"probe edit-to-dinner\n", "t:1: field 'probe': 'edit-to-dinner'"},
-        {"group a\x01\n", "t:1: field 'line': a control byte 0x01"},
-        {"warmup 20\nduration 10\ngroup a\n clients 1\n op ping\n", "field 'warmup': 20 s is not shorter"},
-    };
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        scenario s;
-        memset(&s, 0x5a, sizeof s);
-        scenario before = s;
-        char err[512] = "";
-        int rc = scn_parse("t", cases[i].text, strlen(cases[i].text), &s, err, sizeof err);
-        if (rc == 0) fail_msg("case %zu parsed: %s", i, cases[i].text);
-        if (!strstr(err, cases[i].want)) fail_msg("case %zu: '%s' does not contain '%s'", i, err, cases[i].want);
-        assert_memory_equal(&s, &before, sizeof s); /* a rejected file changes nothing */
-    }
-    /* a NUL byte says which line */
     scenario s;
     char err[256];
     assert_int_equal(scn_parse("t", "name a\nname\0b\n", 14, &s, err, sizeof err), -1);
     assert_non_null(strstr(err, "t:2: field 'line': a NUL byte"));
-    /* a missing file */
     assert_int_equal(scn_load("/nonexistent/x.scn", &s, err, sizeof err), -1);
     assert_non_null(strstr(err, "No such file"));
 }
@@ -448,7 +457,8 @@ const struct CMUnitTest bench_tests[] = {
     cmocka_unit_test(test_bench_hdr_distributions),
     cmocka_unit_test(test_bench_hdr_buckets),
     cmocka_unit_test(test_bench_scenarios_shipped),
-    cmocka_unit_test(test_bench_scenario_errors),
+    TEST_ROWS(test_bench_scenario_errors, bad_scenarios),
+    cmocka_unit_test(test_bench_scenario_nul_and_missing),
     cmocka_unit_test(test_bench_camera_and_schedule),
     DAEMON_TEST(test_bench_open_loop_keeps_rate),
     cmocka_unit_test(test_bench_daemon_goes_away),
