@@ -246,49 +246,6 @@ static void free_scene(oscene *s)
     free(s->h);
 }
 
-/* Random scenes, each under every supported ISA with its own context,
- * each with `views` buffer sizes (16..95 x 8..63): while
- * (scene_walk_next(&w)) runs its body once per view, with w.s, w.c, w.bw
- * and w.bh. The random numbers are drawn in that order, the scene first. */
-typedef struct scene_walk {
-    rng *r;
-    cull_pool *pool;
-    uint32_t scenes, views;
-    uint32_t sc, isa, k; /* where it is */
-    bool in_scene;
-    oscene s;
-    cull_ctx *c;
-    uint32_t bw, bh;
-} scene_walk;
-
-static bool scene_walk_next(scene_walk *w)
-{
-    while (!w->c || w->k == w->views) {
-        if (w->c) {
-            cull_ctx_destroy(w->c);
-            w->c = NULL;
-            w->isa++;
-        }
-        while (w->in_scene && w->isa < CULL_ISA_COUNT && !cull_isa_supported(w->isa)) w->isa++;
-        if (!w->in_scene || w->isa == CULL_ISA_COUNT) {
-            if (w->in_scene) free_scene(&w->s), w->sc++;
-            w->in_scene = false;
-            if (w->sc == w->scenes) return false;
-            build_scene(w->r, &w->s);
-            w->in_scene = true;
-            w->isa = 0;
-            continue;
-        }
-        assert_int_equal(cull_ctx_create(w->pool, &w->c), CULL_OK);
-        assert_int_equal(cull_ctx_set_isa(w->c, w->isa), CULL_OK);
-        w->k = 0;
-    }
-    w->k++;
-    w->bw = 16 + rng_below(w->r, 80);
-    w->bh = 8 + rng_below(w->r, 56);
-    return true;
-}
-
 static void random_view(rng *r, const oscene *s, cull_view *v, uint32_t bw, uint32_t bh)
 {
     for (;;) {
@@ -405,6 +362,49 @@ static void check_view(const oscene *s, cull_ctx *c, const cull_view *v, uint32_
     free(kept);
     free(r0);
     free(r1);
+}
+
+/* Random scenes, each under every supported ISA with its own context,
+ * each with `views` buffer sizes (16..95 x 8..63): while
+ * (scene_walk_next(&w)) runs its body once per view, with w.s, w.c, w.bw
+ * and w.bh. The random numbers are drawn in that order, the scene first. */
+typedef struct scene_walk {
+    rng *r;
+    cull_pool *pool;
+    uint32_t scenes, views;
+    uint32_t sc, isa, k; /* where it is */
+    bool in_scene;
+    oscene s;
+    cull_ctx *c;
+    uint32_t bw, bh;
+} scene_walk;
+
+static bool scene_walk_next(scene_walk *w)
+{
+    while (!w->c || w->k == w->views) {
+        if (w->c) {
+            cull_ctx_destroy(w->c);
+            w->c = NULL;
+            w->isa++;
+        }
+        while (w->in_scene && w->isa < CULL_ISA_COUNT && !cull_isa_supported(w->isa)) w->isa++;
+        if (!w->in_scene || w->isa == CULL_ISA_COUNT) {
+            if (w->in_scene) free_scene(&w->s), w->sc++;
+            w->in_scene = false;
+            if (w->sc == w->scenes) return false;
+            build_scene(w->r, &w->s);
+            w->in_scene = true;
+            w->isa = 0;
+            continue;
+        }
+        assert_int_equal(cull_ctx_create(w->pool, &w->c), CULL_OK);
+        assert_int_equal(cull_ctx_set_isa(w->c, w->isa), CULL_OK);
+        w->k = 0;
+    }
+    w->k++;
+    w->bw = 16 + rng_below(w->r, 80);
+    w->bh = 8 + rng_below(w->r, 56);
+    return true;
 }
 
 static void test_random_scenes_never_false_occluded(void **state)
@@ -962,7 +962,6 @@ static void test_sublevel_filter(void **state)
     cull_ctx_destroy(c);
     cull_pool_destroy(pool);
 }
-
 
 /* ---- the cost of building an occluder (issue 18 item 4) -------------------- */
 
