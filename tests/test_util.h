@@ -86,8 +86,13 @@ typedef int (*test_write_fn)(const char *path, char *err, size_t errlen, void *c
  * leave nothing behind: a missing folder (-ENOENT, the message names the
  * path), a parent that is a file (-ENOTDIR), a target that is a folder
  * (-EISDIR: written, then the rename fails; no temporary left). The
- * files are named x<ext>; t is empty again after. */
+ * files are f<ext>, d<ext> and x<ext>; t is empty again after. */
 void test_unwritable_paths(tdir *t, test_write_fn write, void *ctx, const char *ext);
+
+/* write(path, ctx) in a child process whose files may grow to 64 KiB
+ * (RLIMIT_FSIZE, SIGXFSZ ignored: a full disk); asserts that it failed
+ * with -EFBIG and a message. */
+void test_write_past_fsize(test_write_fn write, const char *path, void *ctx);
 
 /* Threads writing and failing at once in one fresh folder (named after
  * prefix): n files junk<i><ext> of text that is no image, then fn on n
@@ -98,15 +103,10 @@ typedef struct test_thread {
     int id;
     int failures;
 } test_thread;
-/* write(path, ctx) in a child process whose files may grow to 64 KiB
- * (RLIMIT_FSIZE, SIGXFSZ ignored: a full disk); asserts that it failed
- * with -EFBIG and a message. */
-void test_write_past_fsize(test_write_fn write, const char *path, void *ctx);
-
+void test_threads_in_tdir(const char *prefix, const char *ext, void *(*fn)(void *), int n, int per_thread);
 /* A refusal of a file that is no image, as the threads must see it:
  * -EBADMSG, and the message begins with the file's path. */
 bool test_refused_naming(int rc, const char *err, const char *path);
-void test_threads_in_tdir(const char *prefix, const char *ext, void *(*fn)(void *), int n, int per_thread);
 
 /* Runs cmd with popen; its stdout (up to cap - 1 bytes, NUL-ended) in
  * out; pclose's status. */
