@@ -72,7 +72,9 @@ CLIENT_OBJ:= $(BUILD)/client/lib/libvantage.o
 # devices through hidapi (hidraw flavour) and libusb (pad_io.h), the
 # commander's input mapping; linked into the CLI and the tests
 PAD_OBJ  := $(BUILD)/client/pad/pad.o $(BUILD)/client/pad/pad_parse.o $(BUILD)/client/pad/pad_line.o \
-            $(BUILD)/client/pad/pad_io.o $(BUILD)/client/pad/pad_io_real.o $(BUILD)/client/commander/pad_map.o
+            $(BUILD)/client/pad/pad_hub.o $(BUILD)/client/pad/pad_hidraw.o $(BUILD)/client/pad/pad_libusb.o \
+            $(BUILD)/client/pad/pad_replay.o $(BUILD)/client/pad/pad_record.o $(BUILD)/client/pad/pad_io_real.o \
+            $(BUILD)/client/commander/pad_map.o
 PAD_LIBS := $$(pkg-config --libs hidapi-hidraw libusb-1.0)
 SDL_LIBS := $$(pkg-config --libs sdl2 SDL2_ttf)
 # load-test scenarios (issue 9): the format and the histogram, pure (the
@@ -110,7 +112,7 @@ ASSIMP_LIBS := $$(pkg-config --libs assimp)
 # the daemon's journal and snapshots (daemon/journal.c, snapshot.c): zlib's CRC-32
 ZLIB_LIBS := $$(pkg-config --libs zlib)
 
-TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c
+TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c tests/pad_fake.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN := $(BUILD)/vantage_tests
 

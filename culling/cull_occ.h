@@ -1,7 +1,8 @@
 /*
  * cull_occ.h — private layout of occlusion buffers, shared by cull_occ.c
- * (render, hierarchy, double-precision tests), cull_query.c (the query's
- * occlusion stage) and the per-ISA loops (cull_occ_kern.inl).
+ * (buffers, hierarchy, projection, double-precision tests),
+ * cull_occ_raster.c (render), cull_query.c (the query's occlusion stage)
+ * and the per-ISA loops (cull_occ_kern.inl).
  */
 #ifndef VANTAGE_CULL_OCC_H
 #define VANTAGE_CULL_OCC_H

@@ -30,22 +30,22 @@
 static void test_commander_stick_shape(void **state)
 {
     (void)state;
-    cmd_map_cfg c;
-    cmd_map_defaults(&c);
+    cmdr_map_cfg c;
+    cmdr_map_defaults(&c);
     float x, y;
     /* inside the inner radius: nothing, whatever the direction */
     for (int i = 0; i < 64; i++) {
         double a = i * M_PI / 32, r = 0.149;
-        cmd_stick_shape(&c, (float)(r * cos(a)), (float)(r * sin(a)), &x, &y);
+        cmdr_stick_shape(&c, (float)(r * cos(a)), (float)(r * sin(a)), &x, &y);
         assert_true(x == 0 && y == 0);
     }
-    cmd_stick_shape(&c, NAN, 0, &x, &y);
+    cmdr_stick_shape(&c, NAN, 0, &x, &y);
     assert_true(x == 0 && y == 0);
     /* past the outer radius: magnitude 1; the direction kept (radial: a
        diagonal pans diagonally, no axis snaps) */
     for (int i = 0; i < 64; i++) {
         double a = i * M_PI / 32;
-        cmd_stick_shape(&c, (float)(0.97 * cos(a)), (float)(0.97 * sin(a)), &x, &y);
+        cmdr_stick_shape(&c, (float)(0.97 * cos(a)), (float)(0.97 * sin(a)), &x, &y);
         assert_float_equal(hypot(x, y), 1, 1e-5);
         assert_float_equal(atan2(y, x), atan2(sin(a), cos(a)), 1e-4);
     }
@@ -53,21 +53,21 @@ static void test_commander_stick_shape(void **state)
     double last = -1;
     for (int i = 0; i <= 100; i++) {
         double m = 0.15 + 0.8 * i / 100.0;
-        cmd_stick_shape(&c, (float)m, 0, &x, &y);
+        cmdr_stick_shape(&c, (float)m, 0, &x, &y);
         double want = pow((m - 0.15) / 0.8, 1.7);
         assert_float_equal(x, want, 2e-5);
         assert_true(x >= last);
         last = x;
     }
     /* triggers: dead travel, then linear; hysteresis as a button */
-    assert_true(cmd_trigger_shape(&c, 0.04f) == 0);
-    assert_float_equal(cmd_trigger_shape(&c, 0.525f), 0.5, 1e-6);
-    assert_true(cmd_trigger_shape(&c, 1.0f) == 1);
+    assert_true(cmdr_trigger_shape(&c, 0.04f) == 0);
+    assert_float_equal(cmdr_trigger_shape(&c, 0.525f), 0.5, 1e-6);
+    assert_true(cmdr_trigger_shape(&c, 1.0f) == 1);
     bool down = false;
     const float ramp[] = {0.3f, 0.5f, 0.56f, 0.5f, 0.46f, 0.44f, 0.5f, 0.56f};
     const bool want[] = {false, false, true, true, true, false, false, true};
     for (size_t i = 0; i < sizeof ramp / sizeof ramp[0]; i++) {
-        down = cmd_trigger_button(&c, ramp[i], down);
+        down = cmdr_trigger_button(&c, ramp[i], down);
         assert_int_equal(down, want[i]);
     }
 }
@@ -75,19 +75,19 @@ static void test_commander_stick_shape(void **state)
 static void test_commander_config(void **state)
 {
     (void)state;
-    cmd_map_cfg c, d;
-    cmd_map_defaults(&c);
+    cmdr_map_cfg c, d;
+    cmdr_map_defaults(&c);
     char err[256];
     const char *good = "# my pad\n dz_inner = 0.2\ncurve=2 # steeper\n\nping = west+rshoulder\nselect = none\n"
                        "destroy = rtrigger_d\ntick_hz = 240\n";
-    assert_int_equal(cmd_map_parse(&c, good, strlen(good), err, sizeof err), 0);
+    assert_int_equal(cmdr_map_parse(&c, good, strlen(good), err, sizeof err), 0);
     assert_float_equal(c.dz_inner, 0.2, 1e-7);
     assert_float_equal(c.curve, 2, 0);
     assert_float_equal(c.tick_hz, 240, 0);
-    assert_int_equal(c.bind[CMD_PING], PAD_WEST | PAD_RSHOULDER);
-    assert_int_equal(c.bind[CMD_SELECT], 0);
-    assert_int_equal(c.bind[CMD_DESTROY], PAD_RTRIGGER_D);
-    assert_int_equal(cmd_map_load(&d, "/nonexistent/commander.conf", err, sizeof err), -1);
+    assert_int_equal(c.bind[CMDR_PING], PAD_WEST | PAD_RSHOULDER);
+    assert_int_equal(c.bind[CMDR_SELECT], 0);
+    assert_int_equal(c.bind[CMDR_DESTROY], PAD_RTRIGGER_D);
+    assert_int_equal(cmdr_map_load(&d, "/nonexistent/commander.conf", err, sizeof err), -1);
     assert_non_null(strstr(err, "No such file"));
 }
 
@@ -112,52 +112,52 @@ static const bad_config bad_configs[] = {
 static void test_commander_config_refused(void **state)
 {
     const bad_config *t = *state;
-    cmd_map_cfg d;
-    cmd_map_defaults(&d);
-    cmd_map_cfg before = d;
+    cmdr_map_cfg d;
+    cmdr_map_defaults(&d);
+    cmdr_map_cfg before = d;
     char err[256] = "";
-    assert_int_equal(cmd_map_parse(&d, t->text, strlen(t->text), err, sizeof err), -1);
+    assert_int_equal(cmdr_map_parse(&d, t->text, strlen(t->text), err, sizeof err), -1);
     if (!strstr(err, t->says)) fail_msg("\"%s\": \"%s\" does not say \"%s\"", t->text, err, t->says);
     assert_memory_equal(&d, &before, sizeof d); /* a bad file changes nothing */
 }
 
 /* ---- the camera ------------------------------------------------------------------------- */
 
-static void run_steps(const cmd_map_cfg *c, cmd_camera *cam, cmd_input *in, const pad_state *s, double secs)
+static void run_steps(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pad_state *s, double secs)
 {
     int n = (int)lround(secs * c->tick_hz);
-    cmd_step_out o;
-    for (int i = 0; i < n; i++) cmd_step(c, cam, in, s, 1.0 / c->tick_hz, &o);
+    cmdr_step_out o;
+    for (int i = 0; i < n; i++) cmdr_step(c, cam, in, s, 1.0 / c->tick_hz, &o);
 }
 
 static void test_commander_camera(void **state)
 {
     (void)state;
-    cmd_map_cfg c;
-    cmd_map_defaults(&c);
-    cmd_camera cam;
-    cmd_input in = {0};
+    cmdr_map_cfg c;
+    cmdr_map_defaults(&c);
+    cmdr_camera cam;
+    cmdr_input in = {0};
     cam.perspective = false;
-    cmd_camera_reset(&cam, 16.0 / 9);
+    cmdr_camera_reset(&cam, 16.0 / 9);
     /* pan: full right for 1 s moves the target pan_speed view heights
        along the screen's right, at any zoom */
     pad_state s = {.lx = 1};
     run_steps(&c, &cam, &in, &s, 1.0);
     assert_float_equal(cam.target[0], -1.2 * 320, 1e-6); /* right = (-cos yaw, 0, sin yaw) at yaw 0 */
     assert_float_equal(cam.target[2], 0, 1e-9);
-    cmd_camera_reset(&cam, 16.0 / 9);
+    cmdr_camera_reset(&cam, 16.0 / 9);
     cam.half_h = 40;
     run_steps(&c, &cam, &in, &s, 1.0);
     assert_float_equal(cam.target[0], -1.2 * 80, 1e-6);
     /* zoom: exponential, right trigger in: e^-1.6 a second, clamped */
-    cmd_camera_reset(&cam, 16.0 / 9);
+    cmdr_camera_reset(&cam, 16.0 / 9);
     s = (pad_state){.rt = 1};
     run_steps(&c, &cam, &in, &s, 1.0);
     assert_float_equal(cam.half_h, 160 * exp(-1.6), 1e-6);
     run_steps(&c, &cam, &in, &s, 10.0);
-    assert_float_equal(cam.half_h, CMD_MIN_ZOOM, 0);
+    assert_float_equal(cam.half_h, CMDR_MIN_ZOOM, 0);
     /* rotate and tilt, clamped to 0..60 degrees */
-    cmd_camera_reset(&cam, 16.0 / 9);
+    cmdr_camera_reset(&cam, 16.0 / 9);
     s = (pad_state){.rx = 1};
     run_steps(&c, &cam, &in, &s, 0.5);
     assert_float_equal(cam.yaw, -1.0, 1e-9);
@@ -165,79 +165,79 @@ static void test_commander_camera(void **state)
     run_steps(&c, &cam, &in, &s, 0.5);
     assert_float_equal(cam.pitch, 0.6, 1e-9);
     run_steps(&c, &cam, &in, &s, 2.0);
-    assert_float_equal(cam.pitch, CMD_MAX_PITCH, 0);
+    assert_float_equal(cam.pitch, CMDR_MAX_PITCH, 0);
     /* no pad, or a pad at rest inside the dead zone: nothing moves */
-    cmd_camera before = cam;
-    cmd_step_out o;
-    cmd_step(&c, &cam, &in, NULL, 1.0 / 120, &o);
+    cmdr_camera before = cam;
+    cmdr_step_out o;
+    cmdr_step(&c, &cam, &in, NULL, 1.0 / 120, &o);
     s = (pad_state){.lx = 0.1f, .ly = -0.1f, .lt = 0.04f};
-    cmd_step(&c, &cam, &in, &s, 1.0 / 120, &o);
+    cmdr_step(&c, &cam, &in, &s, 1.0 / 120, &o);
     assert_false(o.moved);
     assert_memory_equal(&cam, &before, sizeof cam);
     /* actions fire on the edge, chords when all are held */
-    c.bind[CMD_PING] = PAD_WEST | PAD_RSHOULDER;
+    c.bind[CMDR_PING] = PAD_WEST | PAD_RSHOULDER;
     memset(&in, 0, sizeof in);
     s = (pad_state){.buttons = PAD_SOUTH};
-    cmd_step(&c, &cam, &in, &s, 1.0 / 120, &o);
-    assert_int_equal(o.fired, 1u << CMD_SELECT);
-    cmd_step(&c, &cam, &in, &s, 1.0 / 120, &o);
+    cmdr_step(&c, &cam, &in, &s, 1.0 / 120, &o);
+    assert_int_equal(o.fired, 1u << CMDR_SELECT);
+    cmdr_step(&c, &cam, &in, &s, 1.0 / 120, &o);
     assert_int_equal(o.fired, 0); /* held: no repeat */
     s.buttons = PAD_WEST;
-    cmd_step(&c, &cam, &in, &s, 1.0 / 120, &o);
+    cmdr_step(&c, &cam, &in, &s, 1.0 / 120, &o);
     assert_int_equal(o.fired, 0);
     s.buttons = PAD_WEST | PAD_RSHOULDER;
-    cmd_step(&c, &cam, &in, &s, 1.0 / 120, &o);
-    assert_int_equal(o.fired, (1u << CMD_PING) | (1u << CMD_GROUP_NEXT));
+    cmdr_step(&c, &cam, &in, &s, 1.0 / 120, &o);
+    assert_int_equal(o.fired, (1u << CMDR_PING) | (1u << CMDR_GROUP_NEXT));
     /* a trigger bound as a button, with hysteresis */
-    c.bind[CMD_DESTROY] = PAD_RTRIGGER_D;
+    c.bind[CMDR_DESTROY] = PAD_RTRIGGER_D;
     s = (pad_state){.rt = 0.6f};
-    cmd_step(&c, &cam, &in, &s, 1.0 / 120, &o);
-    assert_true(o.fired & 1u << CMD_DESTROY);
+    cmdr_step(&c, &cam, &in, &s, 1.0 / 120, &o);
+    assert_true(o.fired & 1u << CMDR_DESTROY);
     s.rt = 0.5f;
-    cmd_step(&c, &cam, &in, &s, 1.0 / 120, &o);
+    cmdr_step(&c, &cam, &in, &s, 1.0 / 120, &o);
     s.rt = 0.6f;
-    cmd_step(&c, &cam, &in, &s, 1.0 / 120, &o);
-    assert_false(o.fired & 1u << CMD_DESTROY); /* 0.5 did not release it */
+    cmdr_step(&c, &cam, &in, &s, 1.0 / 120, &o);
+    assert_false(o.fired & 1u << CMDR_DESTROY); /* 0.5 did not release it */
 
     /* the view: the target projects to the frame's centre, in both modes;
        the pick box holds the reticle's ray; a box under it is hit first
        at its top */
     for (int persp = 0; persp < 2; persp++) {
-        cmd_camera_reset(&cam, 16.0 / 9);
+        cmdr_camera_reset(&cam, 16.0 / 9);
         cam.perspective = persp;
         cam.target[0] = 120;
         cam.target[2] = -40;
         cam.yaw = 0.7;
         cam.pitch = persp ? 0.5 : 0;
         double px, py;
-        assert_true(cmd_camera_project(&cam, 1280, 720, cam.target, &px, &py));
+        assert_true(cmdr_camera_project(&cam, 1280, 720, cam.target, &px, &py));
         assert_float_equal(px, 640, 1e-6);
         assert_float_equal(py, 360, 1e-6);
         /* a point 10 m along the screen's up lands above the centre */
         double up[3] = {cam.target[0] + 10 * sin(cam.yaw), 0, cam.target[2] + 10 * cos(cam.yaw)};
-        assert_true(cmd_camera_project(&cam, 1280, 720, up, &px, &py));
+        assert_true(cmdr_camera_project(&cam, 1280, 720, up, &px, &py));
         assert_float_equal(px, 640, 1e-6);
         assert_true(py < 360);
         double eye[3], dir[3], t;
-        cmd_camera_ray(&cam, eye, dir);
+        cmdr_camera_ray(&cam, eye, dir);
         double lo[3] = {cam.target[0] - 1, 0, cam.target[2] - 1}, hi[3] = {cam.target[0] + 1, 7, cam.target[2] + 1};
-        assert_true(cmd_ray_box(eye, dir, lo, hi, &t));
+        assert_true(cmdr_ray_box(eye, dir, lo, hi, &t));
         double hit_y = eye[1] + t * dir[1];
         if (!persp) assert_float_equal(hit_y, 7, 1e-6); /* straight down: the roof */
         double far_lo[3] = {cam.target[0] + 50, 0, cam.target[2] + 50}, far_hi[3] = {cam.target[0] + 52, 7, cam.target[2] + 52};
-        assert_false(cmd_ray_box(eye, dir, far_lo, far_hi, &t));
+        assert_false(cmdr_ray_box(eye, dir, far_lo, far_hi, &t));
         vp_view v;
-        assert_true(cmd_pick_view(&cam, 2, &v));
-        assert_true(cmd_camera_view(&cam, 1280, 720, &v));
+        assert_true(cmdr_pick_view(&cam, 2, &v));
+        assert_true(cmdr_camera_view(&cam, 1280, 720, &v));
     }
     /* latency percentiles, nearest rank */
-    static cmd_lat l;
+    static cmdr_lat l;
     memset(&l, 0, sizeof l);
-    assert_true(isnan(cmd_lat_pct(&l, 50)));
-    for (int i = 1; i <= 100; i++) cmd_lat_add(&l, i);
-    assert_float_equal(cmd_lat_pct(&l, 50), 50, 0);
-    assert_float_equal(cmd_lat_pct(&l, 95), 95, 0);
-    assert_float_equal(cmd_lat_pct(&l, 100), 100, 0);
+    assert_true(isnan(cmdr_lat_pct(&l, 50)));
+    for (int i = 1; i <= 100; i++) cmdr_lat_add(&l, i);
+    assert_float_equal(cmdr_lat_pct(&l, 50), 50, 0);
+    assert_float_equal(cmdr_lat_pct(&l, 95), 95, 0);
+    assert_float_equal(cmdr_lat_pct(&l, 100), 100, 0);
 }
 
 /* ---- the daemon side of commands ------------------------------------------------------ */
@@ -294,9 +294,9 @@ static void test_commander_reaim_keeps_frames(void **state)
     daemon_proc d;
     daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "2000", NULL});
     vt_client *c = connect_role(&d, VP_ROLE_COMMANDER, false);
-    cmd_camera cam;
+    cmdr_camera cam;
     cam.perspective = false;
-    cmd_camera_reset(&cam, 16.0 / 9);
+    cmdr_camera_reset(&cam, 16.0 / 9);
     vp_frame_sub fs = {.r = {.format = VP_FRAME_JPEG, .quality = 80}, .max_fps = 240};
     uint8_t buf[VP_HEADER_SIZE + VP_FRAME_SUB_SIZE];
     uint16_t seq = 0, last_seen = 0;
@@ -305,7 +305,7 @@ static void test_commander_reaim_keeps_frames(void **state)
     while (test_now_s() - t0 < 1.5) {
         if (test_now_s() >= next) {
             cam.target[0] += 2;
-            assert_true(cmd_camera_view(&cam, 1280, 720, &fs.r.view));
+            assert_true(cmdr_camera_view(&cam, 1280, 720, &fs.r.view));
             fs.view_seq = ++seq;
             vp_writer w;
             vp_writer_init(&w, buf, sizeof buf);

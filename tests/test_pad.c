@@ -131,27 +131,47 @@ static const bitmap ds4_bits[] = {
     {7, 0x01, PAD_GUIDE},      {7, 0x02, PAD_TOUCHPAD},
 };
 
-typedef struct ds4_raw {
-    uint8_t stick[4], hat, face, b6, b7, trig[2], battery, status2, ntouch;
+/* A DS4's or a DualSense's state, as the tests set it: what both have
+ * (sticks, triggers, hat and face buttons, motion, two touch points,
+ * battery), then the bytes of one model only. */
+typedef struct ps_raw {
+    uint8_t stick[4], trig[2], hat, face, battery;
     int16_t gyro[3], accel[3];
     uint8_t contact[2];
     uint16_t tx[2], ty[2];
-} ds4_raw;
+    uint8_t b6, b7, status2, ntouch; /* DS4 */
+    uint8_t counter, b9, b10;        /* DualSense */
+} ps_raw;
 
-static ds4_raw ds4_rest(void)
+/* At rest: sticks centred, no hat, no touch (contact bit 7: none). */
+static ps_raw ps_rest(uint8_t battery)
 {
-    ds4_raw r;
+    ps_raw r;
     memset(&r, 0, sizeof r);
     for (int k = 0; k < 4; k++) r.stick[k] = 0x80;
     r.hat = 8;
     r.contact[0] = r.contact[1] = 0x80;
-    r.battery = 0x0B | 0x10; /* cable, full */
+    r.battery = battery;
     return r;
+}
+
+/* One touch point: contact (bit 7 = none, low bits an id), 12-bit X and Y. */
+static void ps_touch(uint8_t *pt, uint8_t contact, uint16_t x, uint16_t y)
+{
+    pt[0] = contact;
+    pt[1] = (uint8_t)(x & 0xFF);
+    pt[2] = (uint8_t)((x >> 8 & 0x0F) | (y & 0x0F) << 4);
+    pt[3] = (uint8_t)(y >> 4);
+}
+
+static ps_raw ds4_rest(void)
+{
+    return ps_rest(0x0B | 0x10); /* cable, full */
 }
 
 /* The USB report; state bytes 1..63 go to b[1 + shift ..] (shift 2: the
  * Bluetooth 0x11 layout, whose bytes 1-2 are flags). */
-static void ds4_place(const ds4_raw *r, uint8_t *b, int shift)
+static void ds4_place(const ps_raw *r, uint8_t *b, int shift)
 {
     uint8_t *s = b + shift; /* s[i] is USB byte i */
     s[1] = r->stick[0];
@@ -171,23 +191,17 @@ static void ds4_place(const ds4_raw *r, uint8_t *b, int shift)
     s[31] = r->status2;
     s[33] = r->ntouch;
     for (int t = 0; t < 3; t++) /* the same points in every touch report */
-        for (int k = 0; k < 2; k++) {
-            uint8_t *pt = s + 34 + 9 * t + 1 + 4 * k;
-            pt[0] = r->contact[k];
-            pt[1] = (uint8_t)(r->tx[k] & 0xFF);
-            pt[2] = (uint8_t)((r->tx[k] >> 8 & 0x0F) | (r->ty[k] & 0x0F) << 4);
-            pt[3] = (uint8_t)(r->ty[k] >> 4);
-        }
+        for (int k = 0; k < 2; k++) ps_touch(s + 34 + 9 * t + 1 + 4 * k, r->contact[k], r->tx[k], r->ty[k]);
 }
 
-static void ds4_usb(const ds4_raw *r, uint8_t b[64])
+static void ds4_usb(const ps_raw *r, uint8_t b[64])
 {
     memset(b, 0, 64);
     b[0] = 0x01;
     ds4_place(r, b, 0);
 }
 
-static void ds4_bt(const ds4_raw *r, uint8_t b[78])
+static void ds4_bt(const ps_raw *r, uint8_t b[78])
 {
     memset(b, 0, 78);
     ds4_place(r, b, 2);
@@ -208,25 +222,12 @@ static const bitmap ds_bits[] = {
     {10, 0x01, PAD_GUIDE},     {10, 0x02, PAD_TOUCHPAD},  {10, 0x04, PAD_MISC},
 };
 
-typedef struct ds_raw {
-    uint8_t stick[4], trig[2], counter, hat, face, b9, b10, battery;
-    int16_t gyro[3], accel[3];
-    uint8_t contact[2];
-    uint16_t tx[2], ty[2];
-} ds_raw;
-
-static ds_raw ds_rest(void)
+static ps_raw ds_rest(void)
 {
-    ds_raw r;
-    memset(&r, 0, sizeof r);
-    for (int k = 0; k < 4; k++) r.stick[k] = 0x80;
-    r.hat = 8;
-    r.contact[0] = r.contact[1] = 0x80;
-    r.battery = 0x08; /* discharging, level 8: 85 % */
-    return r;
+    return ps_rest(0x08); /* discharging, level 8: 85 % */
 }
 
-static void ds_place(const ds_raw *r, uint8_t *b, int shift)
+static void ds_place(const ps_raw *r, uint8_t *b, int shift)
 {
     uint8_t *s = b + shift;
     for (int k = 0; k < 4; k++) s[1 + k] = r->stick[k];
@@ -240,24 +241,18 @@ static void ds_place(const ds_raw *r, uint8_t *b, int shift)
         put16(s + 16 + 2 * k, r->gyro[k]);
         put16(s + 22 + 2 * k, r->accel[k]);
     }
-    for (int k = 0; k < 2; k++) {
-        uint8_t *pt = s + 33 + 4 * k;
-        pt[0] = r->contact[k];
-        pt[1] = (uint8_t)(r->tx[k] & 0xFF);
-        pt[2] = (uint8_t)((r->tx[k] >> 8 & 0x0F) | (r->ty[k] & 0x0F) << 4);
-        pt[3] = (uint8_t)(r->ty[k] >> 4);
-    }
+    for (int k = 0; k < 2; k++) ps_touch(s + 33 + 4 * k, r->contact[k], r->tx[k], r->ty[k]);
     s[53] = r->battery;
 }
 
-static void ds_usb(const ds_raw *r, uint8_t b[64])
+static void ds_usb(const ps_raw *r, uint8_t b[64])
 {
     memset(b, 0, 64);
     b[0] = 0x01;
     ds_place(r, b, 0);
 }
 
-static void ds_bt(const ds_raw *r, uint8_t b[78], uint8_t seq)
+static void ds_bt(const ps_raw *r, uint8_t b[78], uint8_t seq)
 {
     memset(b, 0, 78);
     ds_place(r, b, 1);
@@ -403,7 +398,7 @@ typedef struct proto_case {
 
 static void pc_ds4_rest(uint8_t *b)
 {
-    ds4_raw r = ds4_rest();
+    ps_raw r = ds4_rest();
     ds4_usb(&r, b);
 }
 static void pc_ds4_stick(uint8_t *b, int axis, int dir)
@@ -415,7 +410,7 @@ static void pc_ds4_trigger(uint8_t *b, int which) { b[8 + which] = 0xFF; }
 
 static void pc_ds_rest(uint8_t *b)
 {
-    ds_raw r = ds_rest();
+    ps_raw r = ds_rest();
     ds_usb(&r, b);
 }
 static void pc_ds_trigger(uint8_t *b, int which) { b[5 + which] = 0xFF; }
@@ -742,7 +737,7 @@ static void test_pad_ds4_usb(void **state)
     (void)state;
     uint8_t b[64];
     /* motion: gyro 16 LSB per deg/s, accel 8192 per g */
-    ds4_raw r = ds4_rest();
+    ps_raw r = ds4_rest();
     r.gyro[0] = 1600;  /* 100 deg/s pitch */
     r.gyro[1] = -5760; /* -360 deg/s yaw */
     r.gyro[2] = 32767;
@@ -848,7 +843,7 @@ static void test_pad_ds4_bluetooth(void **state)
     /* the reference CRC is the standard one */
     assert_int_equal(ref_crc32(0, (const uint8_t *)"123456789", 9), 0xCBF43926u);
     uint8_t usb[64], bt[78];
-    ds4_raw r = ds4_rest();
+    ps_raw r = ds4_rest();
     r.stick[0] = 0x10;
     r.stick[3] = 0xF0;
     r.face = 0x2;  /* Cross */
@@ -917,7 +912,7 @@ static void test_pad_ds4_adaptor(void **state)
     pad_parser p;
     pad_parser_init(&p, d->proto);
     uint8_t b[64];
-    ds4_raw r = ds4_rest();
+    ps_raw r = ds4_rest();
     r.face = 0xF;
     r.stick[0] = 0;
     r.status2 = 0x04; /* no pad behind the adaptor */
@@ -949,7 +944,7 @@ static void test_pad_dualsense(void **state)
 {
     (void)state;
     uint8_t usb[64], bt[78];
-    ds_raw r = ds_rest();
+    ps_raw r = ds_rest();
     r.stick[1] = 0x00; /* up */
     r.trig[0] = 0x80;
     r.counter = 77;
@@ -1330,6 +1325,27 @@ static uint32_t ref_bits(const bitmap *t, size_t n, const uint8_t *b)
     return out;
 }
 
+/* The DS4's and the DualSense's axes by the reference formulas: sticks
+ * (Y up), triggers (a trigger at 0 whose digital bit is set reads 1;
+ * digital: the byte with L2 / R2 at bits 2 / 3), gyro (16 counts per
+ * degree per second, in radians), accelerometer (8192 counts per g).
+ * A failure names the caller's line. */
+static void ps_expect_axes(int line, const pad_state *s, const ps_raw *d, uint8_t digital)
+{
+#define AXIS_NEAR(got, want) near_at(line, #got, (got), (want))
+    AXIS_NEAR(s->lx, ref_u8(d->stick[0]));
+    AXIS_NEAR(s->ly, -ref_u8(d->stick[1]));
+    AXIS_NEAR(s->rx, ref_u8(d->stick[2]));
+    AXIS_NEAR(s->ry, -ref_u8(d->stick[3]));
+    AXIS_NEAR(s->lt, (d->trig[0] == 0 && (digital & 4)) ? 1 : d->trig[0] / 255.0);
+    AXIS_NEAR(s->rt, (d->trig[1] == 0 && (digital & 8)) ? 1 : d->trig[1] / 255.0);
+    for (int k = 0; k < 3; k++) {
+        AXIS_NEAR(s->gyro[k], d->gyro[k] / 16.0 * M_PI / 180);
+        AXIS_NEAR(s->accel[k], d->accel[k] / 8192.0);
+    }
+#undef AXIS_NEAR
+}
+
 static void test_pad_reference(void **state)
 {
     (void)state;
@@ -1339,7 +1355,7 @@ static void test_pad_reference(void **state)
         uint8_t b[80];
         /* DS4 over USB or Bluetooth */
         {
-            ds4_raw d;
+            ps_raw d;
             memset(&d, 0, sizeof d);
             for (int k = 0; k < 4; k++) d.stick[k] = (uint8_t)rng_below(&r, 256);
             d.hat = (uint8_t)rng_below(&r, 16);
@@ -1367,18 +1383,9 @@ static void test_pad_reference(void **state)
             assert_int_equal(parse_as(PAD_PROTO_DS4, b, len, &s) >= 0, 1);
             uint8_t usb[64];
             ds4_usb(&d, usb);
-            NEAR(s.lx, ref_u8(d.stick[0]));
-            NEAR(s.ly, -ref_u8(d.stick[1]));
-            NEAR(s.rx, ref_u8(d.stick[2]));
-            NEAR(s.ry, -ref_u8(d.stick[3]));
-            NEAR(s.lt, (d.trig[0] == 0 && (d.b6 & 4)) ? 1 : d.trig[0] / 255.0);
-            NEAR(s.rt, (d.trig[1] == 0 && (d.b6 & 8)) ? 1 : d.trig[1] / 255.0);
+            ps_expect_axes(__LINE__, &s, &d, d.b6);
             assert_int_equal(s.buttons, ref_hat(d.hat) | ref_bits(ds4_bits, sizeof ds4_bits / sizeof ds4_bits[0], usb));
             assert_int_equal(s.counter, d.b7 >> 2);
-            for (int k = 0; k < 3; k++) {
-                NEAR(s.gyro[k], d.gyro[k] / 16.0 * M_PI / 180);
-                NEAR(s.accel[k], d.accel[k] / 8192.0);
-            }
             for (int k = 0; k < 2; k++) {
                 assert_int_equal(s.touch[k].down, !(d.contact[k] & 0x80));
                 assert_int_equal(s.touch[k].id, d.contact[k] & 0x7F);
@@ -1388,7 +1395,7 @@ static void test_pad_reference(void **state)
         }
         /* DualSense over USB or Bluetooth */
         {
-            ds_raw d;
+            ps_raw d;
             memset(&d, 0, sizeof d);
             for (int k = 0; k < 4; k++) d.stick[k] = (uint8_t)rng_below(&r, 256);
             d.trig[0] = (uint8_t)rng_below(&r, 256);
@@ -1414,18 +1421,9 @@ static void test_pad_reference(void **state)
             assert_true(parse_as(PAD_PROTO_DUALSENSE, b, bt ? 78 : 64, &s) >= 0);
             uint8_t usb[64];
             ds_usb(&d, usb);
-            NEAR(s.lx, ref_u8(d.stick[0]));
-            NEAR(s.ly, -ref_u8(d.stick[1]));
-            NEAR(s.rx, ref_u8(d.stick[2]));
-            NEAR(s.ry, -ref_u8(d.stick[3]));
-            NEAR(s.lt, (d.trig[0] == 0 && (d.b9 & 4)) ? 1 : d.trig[0] / 255.0);
-            NEAR(s.rt, (d.trig[1] == 0 && (d.b9 & 8)) ? 1 : d.trig[1] / 255.0);
+            ps_expect_axes(__LINE__, &s, &d, d.b9);
             assert_int_equal(s.buttons, ref_hat(d.hat) | ref_bits(ds_bits, sizeof ds_bits / sizeof ds_bits[0], usb));
             assert_int_equal(s.counter, d.counter);
-            for (int k = 0; k < 3; k++) {
-                NEAR(s.gyro[k], d.gyro[k] / 16.0 * M_PI / 180);
-                NEAR(s.accel[k], d.accel[k] / 8192.0);
-            }
             for (int k = 0; k < 2; k++) {
                 assert_int_equal(s.touch[k].down, !(d.contact[k] & 0x80));
                 NEAR(s.touch[k].x, clampd(d.tx[k] / 1919.0, 0, 1));

@@ -1,25 +1,18 @@
 /*
- * test_pad_io.c — the pad hub (client/pad/pad_io.c) behind a fake hidapi and
- * libusb (a pad_ops table whose devices live in this file), the replay and
+ * test_pad_io.c — the pad hub (client/pad/pad_hub.c and its backends)
+ * behind a fake hidapi and libusb (tests/pad_fake.h), the replay and
  * record backends, and `vantage pad` end to end.
  *
- * The fake completes the libraries' opaque structs (struct hid_device_,
- * struct libusb_device, ...) with its own, keeps every report it is given
- * in a per-device queue that its blocking reads pop (with the caller's
- * timeout, as the real reads), logs what is written to each device, counts
- * libusb references, and delivers hotplug news from inside
- * libusb_handle_events_timeout_completed, as libusb does. Expected states
- * come from running the same reports through pad_parse directly (the
- * reference model): the hub must neither lose nor invent a change.
- *
- * What only real hardware shows: the kernel's timing of unplug errors, the
- * real pads' report contents (tests/test_pad.c has captured layouts), xpad
- * detaching, udev permissions.
+ * Expected states come from running the same reports through pad_parse
+ * directly (the reference model): the hub must neither lose nor invent a
+ * change. The fake models the libraries only; what only real hardware
+ * shows is listed in pad_fake.h.
  */
 #include "test_util.h"
 #include "test_daemon.h"
 
 #include "pad.h"
+#include "pad_fake.h"
 #include "pad_io.h"
 
 #include <errno.h>
@@ -45,660 +38,6 @@ static void sleep_ms(int ms)
     nanosleep(&ts, NULL);
 }
 
-/* ---- the fake hidapi and libusb --------------------------------------------------------- */
-
-#define FAKE_DEVS 8
-#define FAKE_QUEUE 512
-#define FAKE_OUTS 64
-
-typedef struct fake_pkt {
-    uint8_t b[64];
-    int n;
-} fake_pkt;
-
-typedef struct fake_dev fake_dev;
-
-struct hid_device_ { fake_dev *d; };
-struct libusb_device { fake_dev *d; };
-struct libusb_device_handle { fake_dev *d; };
-struct libusb_context { int unused; };
-
-struct fake_dev {
-    bool used, usb, present;
-    char path[32];
-    uint16_t vid, pid;
-    bool bluetooth;
-    bool fail_open;           /* hid_open_path / libusb_open fail (permission) */
-    bool silent_leave;        /* usb: unplugged, reads time out instead of NO_DEVICE (only hotplug says it) */
-    bool needs_poweron;       /* GIP: nothing is read before 05 20 .. is written */
-    bool powered;
-    uint8_t cls[3];           /* usb: the interface's class, subclass, protocol */
-    uint8_t addr, port;
-    int opens, is_open, refs;
-    bool detach, claimed;     /* auto-detach asked before the claim */
-    bool claim_before_detach;
-    fake_pkt q[FAKE_QUEUE];
-    int qh, qt;
-    long consumed;            /* reports the hub has read */
-    long reads;               /* read calls */
-    long reads_before_write;  /* read calls before the first write */
-    fake_pkt out[FAKE_OUTS];
-    int nout;
-    struct libusb_device ud;
-};
-
-typedef struct fake_note {
-    fake_dev *d;
-    bool arrived;
-} fake_note;
-
-static struct fake {
-    pthread_mutex_t mu;
-    pthread_cond_t cv;
-    fake_dev dev[FAKE_DEVS];
-    bool hotplug;             /* LIBUSB_CAP_HAS_HOTPLUG */
-    libusb_hotplug_callback_fn cb;
-    void *cb_user;
-    bool registered;
-    bool usb_init_fails;      /* libusb_init refuses (no usbfs, say) */
-    fake_note notes[32];
-    int nnotes;
-    int hid_inits, usb_inits; /* init minus exit */
-    int handles;              /* hid and usb handles open */
-    int lists, cfgs;          /* enumerations, device lists and config descriptors not freed */
-    struct libusb_context ctx;
-} F = {.mu = PTHREAD_MUTEX_INITIALIZER, .cv = PTHREAD_COND_INITIALIZER};
-
-static void fake_reset(bool hotplug)
-{
-    pthread_mutex_lock(&F.mu);
-    memset(F.dev, 0, sizeof F.dev);
-    F.hotplug = hotplug;
-    F.cb = NULL;
-    F.registered = false;
-    F.nnotes = 0;
-    F.usb_init_fails = false;
-    F.hid_inits = F.usb_inits = F.handles = F.lists = F.cfgs = 0;
-    pthread_mutex_unlock(&F.mu);
-}
-
-static fake_dev *fake_new(bool usb, uint16_t vid, uint16_t pid)
-{
-    pthread_mutex_lock(&F.mu);
-    fake_dev *d = NULL;
-    for (int i = 0; i < FAKE_DEVS && !d; i++)
-        if (!F.dev[i].used) d = &F.dev[i];
-    assert_non_null(d);
-    memset(d, 0, sizeof *d);
-    d->used = true;
-    d->usb = usb;
-    d->vid = vid;
-    d->pid = pid;
-    d->ud.d = d;
-    int idx = (int)(d - F.dev);
-    snprintf(d->path, sizeof d->path, "/dev/hidraw%d", idx);
-    d->addr = (uint8_t)(10 + idx);
-    d->port = (uint8_t)(1 + idx);
-    pthread_mutex_unlock(&F.mu);
-    return d;
-}
-
-static fake_dev *fake_hid(uint16_t vid, uint16_t pid)
-{
-    fake_dev *d = fake_new(false, vid, pid);
-    d->present = true;
-    return d;
-}
-
-/* An Xbox 360 (0xFF/0x5D/0x01) or GIP (0xFF/0x47/0xD0) interface. */
-static fake_dev *fake_usb(uint16_t vid, uint16_t pid, bool gip)
-{
-    fake_dev *d = fake_new(true, vid, pid);
-    d->cls[0] = 0xFF;
-    d->cls[1] = gip ? 0x47 : 0x5D;
-    d->cls[2] = gip ? 0xD0 : 0x01;
-    d->needs_poweron = gip;
-    d->present = true;
-    return d;
-}
-
-static void fake_push(fake_dev *d, const uint8_t *b, int n)
-{
-    pthread_mutex_lock(&F.mu);
-    assert_true(d->qt - d->qh < FAKE_QUEUE);
-    fake_pkt *p = &d->q[d->qt++ % FAKE_QUEUE];
-    memcpy(p->b, b, (size_t)n);
-    p->n = n;
-    pthread_cond_broadcast(&F.cv);
-    pthread_mutex_unlock(&F.mu);
-}
-
-static void fake_note_add(fake_dev *d, bool arrived)
-{
-    if (!d->usb || !F.hotplug || !F.registered) return;
-    assert_true(F.nnotes < 32);
-    F.notes[F.nnotes].d = d;
-    F.notes[F.nnotes].arrived = arrived;
-    F.nnotes++;
-}
-
-static void fake_unplug(fake_dev *d)
-{
-    pthread_mutex_lock(&F.mu);
-    d->present = false;
-    d->qh = d->qt;
-    fake_note_add(d, false);
-    pthread_cond_broadcast(&F.cv);
-    pthread_mutex_unlock(&F.mu);
-}
-
-static void fake_plug(fake_dev *d)
-{
-    pthread_mutex_lock(&F.mu);
-    d->present = true;
-    d->powered = false;
-    d->nout = 0;
-    d->reads = d->reads_before_write = d->consumed = 0;
-    fake_note_add(d, true);
-    pthread_cond_broadcast(&F.cv);
-    pthread_mutex_unlock(&F.mu);
-}
-
-static long fake_consumed(fake_dev *d)
-{
-    pthread_mutex_lock(&F.mu);
-    long n = d->consumed;
-    pthread_mutex_unlock(&F.mu);
-    return n;
-}
-
-static struct timespec abs_in(int ms)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    ts.tv_sec += ms / 1000;
-    ts.tv_nsec += (long)(ms % 1000) * 1000000L;
-    if (ts.tv_nsec >= 1000000000L) {
-        ts.tv_sec++;
-        ts.tv_nsec -= 1000000000L;
-    }
-    return ts;
-}
-
-/* A blocking read as the libraries do it: a report, or 0 after ms, or
- * gone. Under F.mu. */
-static int fake_read_locked(fake_dev *d, unsigned char *data, size_t length, int ms, bool *gone)
-{
-    struct timespec until = abs_in(ms);
-    d->reads++;
-    if (!d->nout) d->reads_before_write++;
-    for (;;) {
-        *gone = !d->present;
-        if (*gone) return -1;
-        if (d->qh < d->qt && (!d->needs_poweron || d->powered)) {
-            fake_pkt *p = &d->q[d->qh++ % FAKE_QUEUE];
-            int n = p->n < (int)length ? p->n : (int)length;
-            memcpy(data, p->b, (size_t)n);
-            d->consumed++;
-            pthread_cond_broadcast(&F.cv);
-            return n;
-        }
-        if (pthread_cond_timedwait(&F.cv, &F.mu, &until) == ETIMEDOUT) return 0;
-    }
-}
-
-static void fake_log_out(fake_dev *d, const unsigned char *data, size_t n)
-{
-    assert_true(d->nout < FAKE_OUTS && n <= 64);
-    memcpy(d->out[d->nout].b, data, n);
-    d->out[d->nout].n = (int)n;
-    d->nout++;
-    if (n >= 2 && data[0] == 0x05 && data[1] == 0x20) d->powered = true;
-}
-
-/* hidapi */
-static wchar_t fake_hid_err[64] = L"";
-
-static int f_hid_init(void)
-{
-    pthread_mutex_lock(&F.mu);
-    F.hid_inits++;
-    pthread_mutex_unlock(&F.mu);
-    return 0;
-}
-
-static int f_hid_exit(void)
-{
-    pthread_mutex_lock(&F.mu);
-    F.hid_inits--;
-    pthread_mutex_unlock(&F.mu);
-    return 0;
-}
-
-static struct hid_device_info *f_hid_enumerate(unsigned short vid, unsigned short pid)
-{
-    (void)vid;
-    (void)pid;
-    struct hid_device_info *head = NULL;
-    pthread_mutex_lock(&F.mu);
-    for (int i = FAKE_DEVS - 1; i >= 0; i--) {
-        fake_dev *d = &F.dev[i];
-        if (!d->used || d->usb || !d->present) continue;
-        /* hidapi 0.13 lists a node once per top-level usage: twice here */
-        for (int k = 0; k < 2; k++) {
-            struct hid_device_info *e = calloc(1, sizeof *e);
-            assert_non_null(e);
-            e->path = strdup(d->path);
-            e->vendor_id = d->vid;
-            e->product_id = d->pid;
-            e->product_string = wcsdup(L"Wireless Controller");
-            e->bus_type = d->bluetooth ? HID_API_BUS_BLUETOOTH : HID_API_BUS_USB;
-            e->next = head;
-            head = e;
-        }
-    }
-    if (head) F.lists++;
-    pthread_mutex_unlock(&F.mu);
-    return head;
-}
-
-static void f_hid_free_enumeration(struct hid_device_info *e)
-{
-    if (e) {
-        pthread_mutex_lock(&F.mu);
-        F.lists--;
-        pthread_mutex_unlock(&F.mu);
-    }
-    while (e) {
-        struct hid_device_info *n = e->next;
-        free(e->path);
-        free(e->product_string);
-        free(e);
-        e = n;
-    }
-}
-
-static hid_device *f_hid_open_path(const char *path)
-{
-    pthread_mutex_lock(&F.mu);
-    fake_dev *d = NULL;
-    for (int i = 0; i < FAKE_DEVS && !d; i++)
-        if (F.dev[i].used && !F.dev[i].usb && F.dev[i].present && !strcmp(F.dev[i].path, path)) d = &F.dev[i];
-    hid_device *h = NULL;
-    if (!d) {
-        swprintf(fake_hid_err, 64, L"No such device");
-    } else if (d->fail_open) {
-        d->opens++;
-        swprintf(fake_hid_err, 64, L"Failed to open a device: Permission denied");
-    } else {
-        h = malloc(sizeof *h);
-        assert_non_null(h);
-        h->d = d;
-        d->opens++;
-        d->is_open++;
-        F.handles++;
-    }
-    pthread_mutex_unlock(&F.mu);
-    return h;
-}
-
-static int f_hid_read_timeout(hid_device *h, unsigned char *data, size_t length, int ms)
-{
-    bool gone;
-    pthread_mutex_lock(&F.mu);
-    int n = fake_read_locked(h->d, data, length, ms, &gone);
-    pthread_mutex_unlock(&F.mu);
-    return n;
-}
-
-static int f_hid_write(hid_device *h, const unsigned char *data, size_t length)
-{
-    pthread_mutex_lock(&F.mu);
-    int rc = h->d->present ? (fake_log_out(h->d, data, length), (int)length) : -1;
-    pthread_mutex_unlock(&F.mu);
-    return rc;
-}
-
-static void f_hid_close(hid_device *h)
-{
-    pthread_mutex_lock(&F.mu);
-    h->d->is_open--;
-    F.handles--;
-    pthread_mutex_unlock(&F.mu);
-    free(h);
-}
-
-static const wchar_t *f_hid_error(hid_device *h)
-{
-    return h ? L"Device disconnected" : fake_hid_err;
-}
-
-/* libusb */
-static int f_usb_init(libusb_context **ctx)
-{
-    if (F.usb_init_fails) return LIBUSB_ERROR_OTHER;
-    pthread_mutex_lock(&F.mu);
-    F.usb_inits++;
-    pthread_mutex_unlock(&F.mu);
-    *ctx = &F.ctx;
-    return 0;
-}
-
-static void f_usb_exit(libusb_context *ctx)
-{
-    assert_ptr_equal(ctx, &F.ctx);
-    pthread_mutex_lock(&F.mu);
-    F.usb_inits--;
-    pthread_mutex_unlock(&F.mu);
-}
-
-static int f_has_capability(uint32_t cap)
-{
-    return cap == LIBUSB_CAP_HAS_HOTPLUG && F.hotplug;
-}
-
-static ssize_t f_get_device_list(libusb_context *ctx, libusb_device ***list)
-{
-    (void)ctx;
-    pthread_mutex_lock(&F.mu);
-    libusb_device **l = calloc(FAKE_DEVS + 1, sizeof *l);
-    assert_non_null(l);
-    ssize_t n = 0;
-    for (int i = 0; i < FAKE_DEVS; i++) {
-        fake_dev *d = &F.dev[i];
-        if (!d->used || !d->usb || !d->present) continue;
-        d->refs++;
-        l[n++] = &d->ud;
-    }
-    F.lists++;
-    pthread_mutex_unlock(&F.mu);
-    *list = l;
-    return n;
-}
-
-static void f_free_device_list(libusb_device **list, int unref)
-{
-    pthread_mutex_lock(&F.mu);
-    for (libusb_device **p = list; unref && *p; p++) (*p)->d->refs--;
-    F.lists--;
-    pthread_mutex_unlock(&F.mu);
-    free(list);
-}
-
-static libusb_device *f_ref_device(libusb_device *dev)
-{
-    pthread_mutex_lock(&F.mu);
-    dev->d->refs++;
-    pthread_mutex_unlock(&F.mu);
-    return dev;
-}
-
-static void f_unref_device(libusb_device *dev)
-{
-    pthread_mutex_lock(&F.mu);
-    dev->d->refs--;
-    assert_true(dev->d->refs >= 0);
-    pthread_mutex_unlock(&F.mu);
-}
-
-static int f_get_device_descriptor(libusb_device *dev, struct libusb_device_descriptor *dd)
-{
-    memset(dd, 0, sizeof *dd);
-    dd->bLength = sizeof *dd;
-    dd->bDeviceClass = 0xFF;
-    dd->idVendor = dev->d->vid;
-    dd->idProduct = dev->d->pid;
-    dd->bNumConfigurations = 1;
-    return 0;
-}
-
-typedef struct fake_cfg {
-    struct libusb_config_descriptor c; /* first: the pointer freed is this */
-    struct libusb_interface i;
-    struct libusb_interface_descriptor a;
-    struct libusb_endpoint_descriptor e[2];
-} fake_cfg;
-
-static int f_get_active_config_descriptor(libusb_device *dev, struct libusb_config_descriptor **out)
-{
-    fake_cfg *f = calloc(1, sizeof *f);
-    assert_non_null(f);
-    f->c.bNumInterfaces = 1;
-    f->c.interface = &f->i;
-    f->i.num_altsetting = 1;
-    f->i.altsetting = &f->a;
-    f->a.bInterfaceNumber = 0;
-    f->a.bInterfaceClass = dev->d->cls[0];
-    f->a.bInterfaceSubClass = dev->d->cls[1];
-    f->a.bInterfaceProtocol = dev->d->cls[2];
-    f->a.bNumEndpoints = 2;
-    f->a.endpoint = f->e;
-    f->e[0].bEndpointAddress = 0x81;
-    f->e[0].bmAttributes = LIBUSB_TRANSFER_TYPE_INTERRUPT;
-    f->e[0].wMaxPacketSize = dev->d->needs_poweron ? 64 : 32;
-    f->e[1].bEndpointAddress = 0x02;
-    f->e[1].bmAttributes = LIBUSB_TRANSFER_TYPE_INTERRUPT;
-    f->e[1].wMaxPacketSize = 64;
-    pthread_mutex_lock(&F.mu);
-    F.cfgs++;
-    pthread_mutex_unlock(&F.mu);
-    *out = &f->c;
-    return 0;
-}
-
-static void f_free_config_descriptor(struct libusb_config_descriptor *c)
-{
-    pthread_mutex_lock(&F.mu);
-    F.cfgs--;
-    pthread_mutex_unlock(&F.mu);
-    free(c);
-}
-
-static uint8_t f_get_bus_number(libusb_device *dev)
-{
-    (void)dev;
-    return 1;
-}
-
-static uint8_t f_get_device_address(libusb_device *dev)
-{
-    return dev->d->addr;
-}
-
-static int f_get_port_numbers(libusb_device *dev, uint8_t *ports, int len)
-{
-    if (len < 1) return LIBUSB_ERROR_OVERFLOW;
-    ports[0] = dev->d->port;
-    return 1;
-}
-
-static int f_usb_open(libusb_device *dev, libusb_device_handle **out)
-{
-    pthread_mutex_lock(&F.mu);
-    fake_dev *d = dev->d;
-    int rc = 0;
-    d->opens++;
-    if (!d->present) rc = LIBUSB_ERROR_NO_DEVICE;
-    else if (d->fail_open) rc = LIBUSB_ERROR_ACCESS;
-    else {
-        libusb_device_handle *h = malloc(sizeof *h);
-        assert_non_null(h);
-        h->d = d;
-        d->is_open++;
-        d->detach = d->claimed = false;
-        F.handles++;
-        *out = h;
-    }
-    pthread_mutex_unlock(&F.mu);
-    return rc;
-}
-
-static void f_usb_close(libusb_device_handle *h)
-{
-    pthread_mutex_lock(&F.mu);
-    h->d->is_open--;
-    F.handles--;
-    pthread_mutex_unlock(&F.mu);
-    free(h);
-}
-
-static int f_set_auto_detach(libusb_device_handle *h, int enable)
-{
-    h->d->detach = enable != 0;
-    return 0;
-}
-
-static int f_claim(libusb_device_handle *h, int iface)
-{
-    assert_int_equal(iface, 0);
-    if (!h->d->detach) h->d->claim_before_detach = true;
-    h->d->claimed = true;
-    return 0;
-}
-
-static int f_release(libusb_device_handle *h, int iface)
-{
-    assert_int_equal(iface, 0);
-    h->d->claimed = false;
-    return 0;
-}
-
-static int f_interrupt_transfer(libusb_device_handle *h, unsigned char ep, unsigned char *data, int length,
-                                int *actual, unsigned int timeout)
-{
-    fake_dev *d = h->d;
-    int rc;
-    *actual = 0;
-    pthread_mutex_lock(&F.mu);
-    if (ep & 0x80) {
-        bool gone;
-        int n = fake_read_locked(d, data, (size_t)length, (int)timeout, &gone);
-        if (gone && d->silent_leave) {
-            pthread_mutex_unlock(&F.mu);
-            sleep_ms((int)timeout);
-            return LIBUSB_ERROR_TIMEOUT;
-        }
-        rc = gone ? LIBUSB_ERROR_NO_DEVICE : n == 0 ? LIBUSB_ERROR_TIMEOUT : 0;
-        if (n > 0) *actual = n;
-    } else if (!d->present) {
-        rc = LIBUSB_ERROR_NO_DEVICE;
-    } else {
-        fake_log_out(d, data, (size_t)length);
-        *actual = length;
-        rc = 0;
-    }
-    pthread_mutex_unlock(&F.mu);
-    return rc;
-}
-
-static int f_hotplug_register(libusb_context *ctx, int events, int flags, int vid, int pid, int cls,
-                              libusb_hotplug_callback_fn cb, void *user, libusb_hotplug_callback_handle *hp)
-{
-    (void)events;
-    (void)vid;
-    (void)pid;
-    (void)cls;
-    pthread_mutex_lock(&F.mu);
-    F.cb = cb;
-    F.cb_user = user;
-    F.registered = true;
-    *hp = 7;
-    libusb_device *now[FAKE_DEVS];
-    int n = 0;
-    for (int i = 0; i < FAKE_DEVS; i++)
-        if (F.dev[i].used && F.dev[i].usb && F.dev[i].present) now[n++] = &F.dev[i].ud;
-    pthread_mutex_unlock(&F.mu);
-    /* as libusb: ENUMERATE calls back for the devices present, before returning */
-    for (int i = 0; (flags & LIBUSB_HOTPLUG_ENUMERATE) && i < n; i++)
-        cb(ctx, now[i], LIBUSB_HOTPLUG_EVENT_DEVICE_ARRIVED, user);
-    return 0;
-}
-
-static void f_hotplug_deregister(libusb_context *ctx, libusb_hotplug_callback_handle hp)
-{
-    (void)ctx;
-    assert_int_equal(hp, 7);
-    pthread_mutex_lock(&F.mu);
-    F.registered = false;
-    pthread_mutex_unlock(&F.mu);
-}
-
-static int f_handle_events(libusb_context *ctx, struct timeval *tv, int *completed)
-{
-    (void)completed;
-    pthread_mutex_lock(&F.mu);
-    if (!F.nnotes) {
-        struct timespec until = abs_in((int)(tv->tv_sec * 1000 + tv->tv_usec / 1000));
-        pthread_cond_timedwait(&F.cv, &F.mu, &until);
-    }
-    fake_note notes[32];
-    int n = F.nnotes;
-    memcpy(notes, F.notes, sizeof notes);
-    F.nnotes = 0;
-    libusb_hotplug_callback_fn cb = F.cb;
-    void *user = F.cb_user;
-    pthread_mutex_unlock(&F.mu);
-    /* the callback runs without the fake's lock: it calls libusb_ref_device */
-    for (int i = 0; i < n; i++)
-        cb(ctx, &notes[i].d->ud,
-           notes[i].arrived ? LIBUSB_HOTPLUG_EVENT_DEVICE_ARRIVED : LIBUSB_HOTPLUG_EVENT_DEVICE_LEFT, user);
-    return 0;
-}
-
-static const pad_ops fake_ops = {
-    .ctx = &F,
-    .hid_init = f_hid_init,
-    .hid_exit = f_hid_exit,
-    .hid_enumerate = f_hid_enumerate,
-    .hid_free_enumeration = f_hid_free_enumeration,
-    .hid_open_path = f_hid_open_path,
-    .hid_read_timeout = f_hid_read_timeout,
-    .hid_write = f_hid_write,
-    .hid_close = f_hid_close,
-    .hid_error = f_hid_error,
-    .libusb_init = f_usb_init,
-    .libusb_exit = f_usb_exit,
-    .libusb_has_capability = f_has_capability,
-    .libusb_strerror = libusb_strerror, /* pure: the real one */
-    .libusb_get_device_list = f_get_device_list,
-    .libusb_free_device_list = f_free_device_list,
-    .libusb_ref_device = f_ref_device,
-    .libusb_unref_device = f_unref_device,
-    .libusb_get_device_descriptor = f_get_device_descriptor,
-    .libusb_get_active_config_descriptor = f_get_active_config_descriptor,
-    .libusb_free_config_descriptor = f_free_config_descriptor,
-    .libusb_get_bus_number = f_get_bus_number,
-    .libusb_get_device_address = f_get_device_address,
-    .libusb_get_port_numbers = f_get_port_numbers,
-    .libusb_open = f_usb_open,
-    .libusb_close = f_usb_close,
-    .libusb_set_auto_detach_kernel_driver = f_set_auto_detach,
-    .libusb_claim_interface = f_claim,
-    .libusb_release_interface = f_release,
-    .libusb_interrupt_transfer = f_interrupt_transfer,
-    .libusb_hotplug_register_callback = f_hotplug_register,
-    .libusb_hotplug_deregister_callback = f_hotplug_deregister,
-    .libusb_handle_events_timeout_completed = f_handle_events,
-};
-
-/* After pad_hub_close: every handle closed, every reference, list and
- * descriptor given back, both libraries exited. */
-static void fake_assert_clean(void)
-{
-    pthread_mutex_lock(&F.mu);
-    assert_int_equal(F.handles, 0);
-    assert_int_equal(F.hid_inits, 0);
-    assert_int_equal(F.usb_inits, 0);
-    assert_int_equal(F.lists, 0);
-    assert_int_equal(F.cfgs, 0);
-    assert_false(F.registered);
-    for (int i = 0; i < FAKE_DEVS; i++) {
-        assert_int_equal(F.dev[i].refs, 0);
-        assert_int_equal(F.dev[i].is_open, 0);
-        assert_false(F.dev[i].claimed);
-    }
-    pthread_mutex_unlock(&F.mu);
-}
 
 /* ---- reports (pad.h's layouts, INPUT.md) ----------------------------------------------------- */
 
@@ -746,37 +85,40 @@ static int gip_guide(uint8_t *b, uint8_t seq, bool down)
 /* The reference: the same reports through pad_parse, the states it says
  * changed, and what the parser asked to send (the start packet first). */
 typedef struct ref_run {
+    pad_parser p;
+    pad_state s;              /* the parser's running state */
     pad_state st[256];
     int n;
     fake_pkt out[FAKE_OUTS];
     int nout;
 } ref_run;
 
-static void ref_begin(ref_run *r, pad_parser *p, pad_state *s, pad_proto proto)
+/* what the parser asked to send, logged */
+static void ref_take_out(ref_run *r)
 {
-    memset(r, 0, sizeof *r);
-    pad_parser_init(p, proto);
-    pad_state_init(s);
-    pad_parser_start(p);
-    if (p->out_len) {
-        memcpy(r->out[r->nout].b, p->out, p->out_len);
-        r->out[r->nout++].n = (int)p->out_len;
-        p->out_len = 0;
-    }
+    if (!r->p.out_len) return;
+    assert_true(r->nout < FAKE_OUTS);
+    memcpy(r->out[r->nout].b, r->p.out, r->p.out_len);
+    r->out[r->nout++].n = (int)r->p.out_len;
+    r->p.out_len = 0;
 }
 
-static void ref_feed(ref_run *r, pad_parser *p, pad_state *s, const uint8_t *b, int n)
+static void ref_begin(ref_run *r, pad_proto proto)
 {
-    int rc = pad_parse(p, b, (size_t)n, s);
-    if (p->out_len) {
-        assert_true(r->nout < FAKE_OUTS);
-        memcpy(r->out[r->nout].b, p->out, p->out_len);
-        r->out[r->nout++].n = (int)p->out_len;
-        p->out_len = 0;
-    }
+    memset(r, 0, sizeof *r);
+    pad_parser_init(&r->p, proto);
+    pad_state_init(&r->s);
+    pad_parser_start(&r->p);
+    ref_take_out(r);
+}
+
+static void ref_feed(ref_run *r, const uint8_t *b, int n)
+{
+    int rc = pad_parse(&r->p, b, (size_t)n, &r->s);
+    ref_take_out(r);
     if (rc > 0) {
         assert_true(r->n < 256);
-        r->st[r->n++] = *s;
+        r->st[r->n++] = r->s;
     }
 }
 
@@ -831,6 +173,32 @@ static pad_hub *open_fake(int rescan_ms, const char *record)
     return h;
 }
 
+/* A fresh fake with one DualShock 4 v2 on hidraw, a hub over it
+ * (rescanning every 50 ms), and the pad's ADDED read into *ev. */
+static pad_hub *open_fake_ds4(fake_dev **ds, pad_event *ev)
+{
+    fake_reset(false);
+    *ds = fake_hid(0x054c, 0x09cc);
+    pad_hub *h = open_fake(50, NULL);
+    assert_true(wait_kind(h, PAD_EV_ADDED, ev, 5));
+    return h;
+}
+
+/* A pad's counts (the hub must know it). */
+static pad_counts counts_of(pad_hub *h, uint32_t pad)
+{
+    pad_counts c;
+    assert_int_equal(pad_hub_counts(h, pad, &c), 0);
+    return c;
+}
+
+/* Closed, and the fake holds nothing the hub took. */
+static void close_clean(pad_hub *h)
+{
+    pad_hub_close(h);
+    fake_assert_clean();
+}
+
 static void wait_consumed(fake_dev *d, long n)
 {
     double until = now_mono() + 10;
@@ -859,14 +227,12 @@ static void test_pad_io_hidraw_discovery(void **state)
     struct pollfd p = {.fd = pad_hub_fd(h), .events = POLLIN};
     assert_int_equal(poll(&p, 1, 0), 0);
 
-    pad_parser rp;
-    pad_state rs;
     ref_run ref;
-    ref_begin(&ref, &rp, &rs, PAD_PROTO_DS4);
+    ref_begin(&ref, PAD_PROTO_DS4);
     uint8_t b[64];
     for (int i = 0; i < 20; i++) {
         int n = ds4_usb(b, (uint8_t)(100 + i), (uint8_t)(i & 3), (uint8_t)i);
-        ref_feed(&ref, &rp, &rs, b, n);
+        ref_feed(&ref, b, n);
         fake_push(ds4, b, n);
         /* one at a time: no merging here */
         wait_consumed(ds4, i + 1);
@@ -882,19 +248,17 @@ static void test_pad_io_hidraw_discovery(void **state)
     assert_int_equal(next_ev(h, &ev, 0.3), 0);
     /* the unknown device and the Xbox id on hidraw were never opened */
     sleep_ms(150); /* a few rescans */
-    pthread_mutex_lock(&F.mu);
+    pthread_mutex_lock(&fake.mu);
     assert_int_equal(unknown->opens, 0);
     assert_int_equal(x360_on_hid->opens, 0);
     assert_int_equal(ds4->opens, 1); /* listed twice an enumeration (two usages), opened once */
-    pthread_mutex_unlock(&F.mu);
-    pad_counts c;
-    assert_int_equal(pad_hub_counts(h, 1, &c), 0);
+    pthread_mutex_unlock(&fake.mu);
+    pad_counts c = counts_of(h, 1);
     assert_int_equal(c.reports, 21);
     assert_int_equal(c.states, 20);
     assert_int_equal(c.ignored, 1);
     assert_int_equal(pad_hub_counts(h, 99, &c), -1);
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
 }
 
 static void test_pad_io_usb_xbox(void **state)
@@ -919,17 +283,15 @@ static void test_pad_io_usb_xbox(void **state)
     assert_true(id360 && idone && id360 != idone);
 
     /* Xbox One: power-on first, the queued input after it, the guide acknowledged */
-    pad_parser rp;
-    pad_state rs;
     ref_run ref;
-    ref_begin(&ref, &rp, &rs, PAD_PROTO_XBOXONE);
+    ref_begin(&ref, PAD_PROTO_XBOXONE);
     assert_int_equal(ref.nout, 1); /* the power-on */
-    ref_feed(&ref, &rp, &rs, b, n);
+    ref_feed(&ref, b, n);
     assert_true(wait_kind(h, PAD_EV_STATE, &ev, 5));
     assert_int_equal(ev.pad, idone);
     assert_same_state(&ev.state, &ref.st[0]);
     n = gip_guide(b, 2, true);
-    ref_feed(&ref, &rp, &rs, b, n);
+    ref_feed(&ref, b, n);
     assert_int_equal(ref.nout, 2); /* the guide's ack */
     fake_push(one, b, n);
     assert_true(wait_kind(h, PAD_EV_STATE, &ev, 5));
@@ -937,7 +299,7 @@ static void test_pad_io_usb_xbox(void **state)
     assert_same_state(&ev.state, &ref.st[1]);
     wait_consumed(one, 2);
     sleep_ms(50); /* the ack is written after the parse that queued the STATE */
-    pthread_mutex_lock(&F.mu);
+    pthread_mutex_lock(&fake.mu);
     assert_int_equal(one->reads_before_write, 0);
     assert_int_equal(one->nout, ref.nout);
     for (int i = 0; i < ref.nout; i++) {
@@ -949,19 +311,18 @@ static void test_pad_io_usb_xbox(void **state)
     assert_true(one->claimed && !one->claim_before_detach);
     assert_true(d360->claimed && !d360->claim_before_detach);
     assert_int_equal(d360->nout, 0); /* nothing is sent to a 360 pad */
-    pthread_mutex_unlock(&F.mu);
+    pthread_mutex_unlock(&fake.mu);
 
     /* Xbox 360 input */
-    ref_begin(&ref, &rp, &rs, PAD_PROTO_XBOX360);
+    ref_begin(&ref, PAD_PROTO_XBOX360);
     n = x360(b, -20000, 0x10); /* A */
-    ref_feed(&ref, &rp, &rs, b, n);
+    ref_feed(&ref, b, n);
     fake_push(d360, b, n);
     assert_true(wait_kind(h, PAD_EV_STATE, &ev, 5));
     assert_int_equal(ev.pad, id360);
     assert_true(ev.state.buttons & PAD_SOUTH);
     assert_same_state(&ev.state, &ref.st[0]);
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
 }
 
 static void test_pad_io_unknown_ignored(void **state)
@@ -978,16 +339,15 @@ static void test_pad_io_unknown_ignored(void **state)
     assert_true(wait_kind(h, PAD_EV_ERROR, &ev, 5));
     assert_non_null(strstr(ev.msg, "XInput"));
     assert_int_equal(wait_kind(h, PAD_EV_ADDED, &ev, 0.5), 0);
-    pthread_mutex_lock(&F.mu);
+    pthread_mutex_lock(&fake.mu);
     assert_int_equal(u1->opens + u2->opens + ds4_usb_id->opens + bad->opens, 0);
-    pthread_mutex_unlock(&F.mu);
+    pthread_mutex_unlock(&fake.mu);
     /* pad list with the same fake: none of them either */
     pad_found f[4];
     char err[128];
     assert_int_equal(pad_enumerate(&fake_ops, f, 4, err, sizeof err), 1); /* the 360 id is listed: not opened */
     assert_int_equal(f[0].info->proto, PAD_PROTO_XBOX360);
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
 }
 
 static void test_pad_io_enumerate(void **state)
@@ -1021,7 +381,7 @@ static void test_pad_io_enumerate(void **state)
     /* more than max: the count, max filled */
     assert_int_equal(pad_enumerate(&fake_ops, f, 1, err, sizeof err), 3);
     fake_assert_clean();
-    for (int i = 0; i < FAKE_DEVS; i++) assert_int_equal(F.dev[i].opens, 0); /* listed, not opened */
+    for (int i = 0; i < FAKE_DEVS; i++) assert_int_equal(fake.dev[i].opens, 0); /* listed, not opened */
 }
 
 /* ---- unplug, plug back, hotplug --------------------------------------------------------------- */
@@ -1042,9 +402,9 @@ static void test_pad_io_hidraw_replug(void **state)
         assert_int_equal(ev.pad, first);
         assert_non_null(strstr(ev.msg, "unplugged"));
         assert_non_null(strstr(ev.msg, "closed"));
-        pthread_mutex_lock(&F.mu);
+        pthread_mutex_lock(&fake.mu);
         assert_int_equal(ds->is_open, 0); /* closed by the time REMOVED is read */
-        pthread_mutex_unlock(&F.mu);
+        pthread_mutex_unlock(&fake.mu);
         double t0 = now_mono();
         fake_plug(ds);
         assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 5));
@@ -1062,8 +422,7 @@ static void test_pad_io_hidraw_replug(void **state)
     fake_push(ds, b, 64);
     assert_true(wait_kind(h, PAD_EV_STATE, &ev, 5));
     assert_int_equal(ev.pad, first);
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
 }
 
 static void test_pad_io_usb_hotplug(void **state)
@@ -1082,18 +441,18 @@ static void test_pad_io_usb_hotplug(void **state)
     double dt_add = now_mono() - t0;
     uint32_t id = ev.pad;
     /* it leaves without its reads failing: the LEFT news alone removes it */
-    pthread_mutex_lock(&F.mu);
+    pthread_mutex_lock(&fake.mu);
     x->silent_leave = true;
-    pthread_mutex_unlock(&F.mu);
+    pthread_mutex_unlock(&fake.mu);
     t0 = now_mono();
     fake_unplug(x);
     assert_true(wait_kind(h, PAD_EV_REMOVED, &ev, 3));
     double dt_rm = now_mono() - t0;
     assert_int_equal(ev.pad, id);
     assert_non_null(strstr(ev.msg, "hotplug"));
-    pthread_mutex_lock(&F.mu);
+    pthread_mutex_lock(&fake.mu);
     x->silent_leave = false;
-    pthread_mutex_unlock(&F.mu);
+    pthread_mutex_unlock(&fake.mu);
     sleep_ms(150); /* reaped */
     t0 = now_mono();
     fake_plug(x);
@@ -1107,8 +466,7 @@ static void test_pad_io_usb_hotplug(void **state)
     fake_unplug(x);
     assert_true(wait_kind(h, PAD_EV_REMOVED, &ev, 3));
     assert_int_equal(wait_kind(h, PAD_EV_REMOVED, &ev, 0.3), 0); /* once */
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
 }
 
 static void test_pad_io_open_failure(void **state)
@@ -1149,11 +507,11 @@ static void test_pad_io_open_failure(void **state)
     assert_int_equal(usb_err, 1);
     assert_int_equal(errors, 2);
     assert_int_equal(added, 1);
-    pthread_mutex_lock(&F.mu);
+    pthread_mutex_lock(&fake.mu);
     assert_true(locked->opens >= 2 && locked->opens <= 8); /* tried again, with a growing wait */
     locked->fail_open = false;
     ulocked->fail_open = false;
-    pthread_mutex_unlock(&F.mu);
+    pthread_mutex_unlock(&fake.mu);
     /* the permission fixed: both come within the (capped) retry wait */
     for (int i = 0; i < 2; i++) assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 8));
     /* a report the Switch parser refuses (a DS4 one): an ERROR tied to the pad */
@@ -1163,8 +521,7 @@ static void test_pad_io_open_failure(void **state)
     assert_true(wait_kind(h, PAD_EV_ERROR, &ev, 5));
     assert_int_not_equal(ev.pad, 0);
     assert_non_null(strstr(ev.msg, "refused"));
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
 }
 
 /* libusb that will not start: an ERROR says so, hidraw pads still come. */
@@ -1172,7 +529,7 @@ static void test_pad_io_no_libusb(void **state)
 {
     (void)state;
     fake_reset(true);
-    F.usb_init_fails = true;
+    fake.usb_init_fails = true;
     fake_hid(0x054c, 0x09cc);
     fake_usb(0x045e, 0x028e, false);
     pad_hub *h = open_fake(50, NULL);
@@ -1184,8 +541,7 @@ static void test_pad_io_no_libusb(void **state)
     assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 5));
     assert_int_equal(ev.info->proto, PAD_PROTO_DS4);
     assert_int_equal(wait_kind(h, PAD_EV_ADDED, &ev, 0.3), 0);
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
     /* pad list: the count stands, err says what is missing */
     pad_found f[4];
     char err[160];
@@ -1198,11 +554,9 @@ static void test_pad_io_no_libusb(void **state)
 static void test_pad_io_error_rate_limit(void **state)
 {
     (void)state;
-    fake_reset(false);
-    fake_dev *ds = fake_hid(0x054c, 0x09cc);
-    pad_hub *h = open_fake(50, NULL);
+    fake_dev *ds;
     pad_event ev;
-    assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 5));
+    pad_hub *h = open_fake_ds4(&ds, &ev);
     uint8_t junk[64];
     memset(junk, 0xEE, sizeof junk);
     for (int i = 0; i < 300; i++) fake_push(ds, junk, 7);
@@ -1210,29 +564,23 @@ static void test_pad_io_error_rate_limit(void **state)
     int errs = 0;
     while (next_ev(h, &ev, 0.2)) errs += ev.kind == PAD_EV_ERROR;
     assert_true(errs >= 1 && errs <= 7);
-    pad_counts c;
-    assert_int_equal(pad_hub_counts(h, 1, &c), 0);
+    pad_counts c = counts_of(h, 1);
     assert_int_equal(c.errors, 300);
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
 }
 
 static void test_pad_io_merge_slow_consumer(void **state)
 {
     (void)state;
-    fake_reset(false);
-    fake_dev *ds = fake_hid(0x054c, 0x09cc);
-    pad_hub *h = open_fake(50, NULL);
+    fake_dev *ds;
     pad_event ev;
-    assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 5));
-    pad_parser rp;
-    pad_state rs;
+    pad_hub *h = open_fake_ds4(&ds, &ev);
     ref_run ref;
-    ref_begin(&ref, &rp, &rs, PAD_PROTO_DS4);
+    ref_begin(&ref, PAD_PROTO_DS4);
     uint8_t b[64];
     for (int i = 0; i < 200; i++) {
         int n = ds4_usb(b, (uint8_t)i, (uint8_t)(i % 16), (uint8_t)i);
-        ref_feed(&ref, &rp, &rs, b, n);
+        ref_feed(&ref, b, n);
         fake_push(ds, b, n);
     }
     assert_int_equal(ref.n, 200);
@@ -1248,8 +596,7 @@ static void test_pad_io_merge_slow_consumer(void **state)
     }
     assert_int_equal(states, 1);
     assert_same_state(&last, &ref.st[199]);
-    pad_counts c;
-    assert_int_equal(pad_hub_counts(h, 1, &c), 0);
+    pad_counts c = counts_of(h, 1);
     assert_int_equal(c.states, 200);
     assert_int_equal(c.merged, 199);
     /* an event of another kind between STATEs keeps the order: STATE, REMOVED */
@@ -1260,8 +607,7 @@ static void test_pad_io_merge_slow_consumer(void **state)
     assert_true(next_ev(h, &ev, 5));
     assert_int_equal(ev.kind, PAD_EV_STATE);
     assert_true(wait_kind(h, PAD_EV_REMOVED, &ev, 5));
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
 }
 
 static void test_pad_io_close_while_blocked(void **state)
@@ -1309,6 +655,26 @@ static void test_pad_io_real_libraries(void **state)
     pad_hub_close(h);
 }
 
+/* ---- a folder per test (the replay, record and CLI tests' files) ------------------------------ */
+
+/* cmocka fixtures: *state is a fresh tdir, removed after the test even
+ * when it fails. */
+static int padio_dir(void **state)
+{
+    tdir *td = malloc(sizeof *td);
+    assert_non_null(td);
+    tdir_make(td, "padio");
+    *state = td;
+    return 0;
+}
+
+static int padio_dir_remove(void **state)
+{
+    tdir_remove(*state);
+    free(*state);
+    return 0;
+}
+
 /* ---- replay ------------------------------------------------------------------------------------- */
 
 static void write_file(const char *path, const char *text)
@@ -1334,13 +700,11 @@ static void write_ds4_file(const char *path, int n, double dt, ref_run *ref)
     assert_non_null(f);
     fprintf(f, "# a test recording\nD: 0\nR: 3 05 01 09\nN: Sony Interactive Entertainment Wireless Controller\n"
                "P: usb-0000:00:14.0-2/input3\nI: 3 054c 09cc\n");
-    pad_parser rp;
-    pad_state rs;
-    ref_begin(ref, &rp, &rs, PAD_PROTO_DS4);
+    ref_begin(ref, PAD_PROTO_DS4);
     uint8_t b[64];
     for (int i = 0; i < n; i++) {
         int k = ds4_usb(b, (uint8_t)(10 * i), (uint8_t)(i & 1), (uint8_t)i);
-        ref_feed(ref, &rp, &rs, b, k);
+        ref_feed(ref, b, k);
         write_event(f, i * dt, b, k);
     }
     fclose(f);
@@ -1359,10 +723,8 @@ static pad_hub *open_replay(const char *path, double speed, bool loop)
 
 static void test_pad_io_replay_timing(void **state)
 {
-    (void)state;
-    tdir td;
-    tdir_make(&td, "padio");
-    const char *path = tdir_file(&td, "ds4.txt");
+    tdir *td = *state; /* padio_dir */
+    const char *path = tdir_file(td, "ds4.txt");
     ref_run ref;
     write_ds4_file(path, 6, 0.1, &ref); /* 0.5 s of file */
     assert_int_equal(ref.n, 6);
@@ -1402,7 +764,6 @@ static void test_pad_io_replay_timing(void **state)
     assert_int_equal(k, 6);
     assert_int_equal(ev.kind, PAD_EV_END);
     pad_hub_close(h);
-    tdir_remove(&td);
 }
 
 static void expect_open_error(const char *path, const char *text, const char *want1, const char *want2)
@@ -1420,10 +781,8 @@ static void expect_open_error(const char *path, const char *text, const char *wa
 
 static void test_pad_io_replay_errors(void **state)
 {
-    (void)state;
-    tdir td;
-    tdir_make(&td, "padio");
-    const char *path = tdir_file(&td, "bad.txt");
+    tdir *td = *state; /* padio_dir */
+    const char *path = tdir_file(td, "bad.txt");
     char want[400];
     snprintf(want, sizeof want, "%s:6:", path);
     expect_open_error(path, "D: 0\nN: pad\nI: 3 054c 09cc\nE: 0.000000 3 01 80 80\nE: 0.100000 3 01 80 80\n"
@@ -1435,34 +794,29 @@ static void test_pad_io_replay_errors(void **state)
     expect_open_error(path, "D: 0\nE: 0.000000 3 01 80 80\nI: 3 054c 09cc\n", want, "I:");
     snprintf(want, sizeof want, "%s:1:", path);
     expect_open_error(path, "this is not a recording\n", want, NULL);
-    pad_hub_opts o = {.replay = tdir_file(&td, "missing.txt")};
+    pad_hub_opts o = {.replay = tdir_file(td, "missing.txt")};
     pad_hub *h;
     char err[256];
     assert_int_equal(pad_hub_open(&o, &h, err, sizeof err), -1);
     assert_non_null(strstr(err, "missing.txt"));
     assert_non_null(strstr(err, strerror(ENOENT)));
-    tdir_remove(&td);
 }
 
 static void test_pad_io_replay_loop_devices(void **state)
 {
-    (void)state;
-    tdir td;
-    tdir_make(&td, "padio");
-    const char *path = tdir_file(&td, "two.txt");
+    tdir *td = *state; /* padio_dir */
+    const char *path = tdir_file(td, "two.txt");
     /* two devices, the second over Bluetooth, their lines interleaved with D: */
     FILE *f = fopen(path, "w");
     assert_non_null(f);
     fprintf(f, "D: 0\nN: pad one\nI: 3 054c 09cc\nD: 1\nN: pad two\nI: 5 057e 2009\n");
-    pad_parser p0, p1;
-    pad_state s0, s1;
     ref_run r0, r1;
-    ref_begin(&r0, &p0, &s0, PAD_PROTO_DS4);
-    ref_begin(&r1, &p1, &s1, PAD_PROTO_SWITCH_PRO);
+    ref_begin(&r0, PAD_PROTO_DS4);
+    ref_begin(&r1, PAD_PROTO_SWITCH_PRO);
     uint8_t b[64];
     for (int i = 0; i < 4; i++) {
         int k = ds4_usb(b, (uint8_t)(50 + i), 0, (uint8_t)i);
-        ref_feed(&r0, &p0, &s0, b, k);
+        ref_feed(&r0, b, k);
         fprintf(f, "D: 0\n");
         write_event(f, 0.01 * i, b, k);
         memset(b, 0, 12);
@@ -1470,7 +824,7 @@ static void test_pad_io_replay_loop_devices(void **state)
         b[1] = (uint8_t)(1 << i); /* a button each */
         b[3] = 0x08;
         b[5] = b[7] = b[9] = b[11] = 0x80;
-        ref_feed(&r1, &p1, &s1, b, 12);
+        ref_feed(&r1, b, 12);
         fprintf(f, "D: 1\n");
         write_event(f, 0.01 * i + 0.005, b, 12);
     }
@@ -1529,17 +883,14 @@ static void test_pad_io_replay_loop_devices(void **state)
     }
     assert_int_equal(states, 20);
     pad_hub_close(h);
-    tdir_remove(&td);
 }
 
 /* ---- record -------------------------------------------------------------------------------------- */
 
 static void test_pad_io_record_roundtrip(void **state)
 {
-    (void)state;
-    tdir td;
-    tdir_make(&td, "padio");
-    const char *path = tdir_file(&td, "rec.txt");
+    tdir *td = *state; /* padio_dir */
+    const char *path = tdir_file(td, "rec.txt");
     fake_reset(false);
     fake_dev *ds = fake_hid(0x054c, 0x09cc);
     fake_dev *one = fake_usb(0x045e, 0x02ea, true);
@@ -1567,8 +918,7 @@ static void test_pad_io_record_roundtrip(void **state)
         if (ev.pad == id_ds) live_ds[nds++] = ev.state;
         else live_one[none++] = ev.state;
     }
-    pad_hub_close(h);
-    fake_assert_clean();
+    close_clean(h);
     assert_int_equal(nds, 6);
     assert_int_equal(none, 6);
 
@@ -1606,29 +956,23 @@ static void test_pad_io_record_roundtrip(void **state)
     assert_int_equal(kds, 6);
     assert_int_equal(kone, 6);
     pad_hub_close(h);
-    tdir_remove(&td);
 }
 
 /* ---- vantage pad ------------------------------------------------------------------------------- */
 
+/* test_run_cmd, its status as an exit code (128: killed) */
 static int run_cmd(const char *cmd, char *out, size_t cap)
 {
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    int st = pclose(p);
+    int st = test_run_cmd(cmd, out, cap);
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
 }
 
 static void test_pad_io_cli_dump(void **state)
 {
-    (void)state;
-    tdir td;
-    tdir_make(&td, "padio");
+    tdir *td = *state; /* padio_dir */
     char path[320], errpath[320];
-    snprintf(path, sizeof path, "%s", tdir_file(&td, "ds4.txt"));
-    snprintf(errpath, sizeof errpath, "%s", tdir_file(&td, "stderr.txt"));
+    snprintf(path, sizeof path, "%s", tdir_file(td, "ds4.txt"));
+    snprintf(errpath, sizeof errpath, "%s", tdir_file(td, "stderr.txt"));
     ref_run ref;
     write_ds4_file(path, 25, 0.004, &ref);
     char cmd[1200];
@@ -1680,23 +1024,20 @@ static void test_pad_io_cli_dump(void **state)
     assert_non_null(strstr(out, "pad list [--json]"));
     assert_non_null(strstr(out, "--record FILE"));
     assert_non_null(strstr(out, "--stats"));
-    tdir_remove(&td);
 }
 
 /* A capture of a few seconds (the commander's, tests/data/pads): the
  * CLI's lines against the parser run over the file's lines here. */
 static void test_pad_io_cli_capture(void **state)
 {
-    (void)state;
     char cap[512];
     const char *dd = getenv("VANTAGE_DATA_DIR");
     snprintf(cap, sizeof cap, "%s/pads/ds4_commander_walk.hidrec", dd ? dd : "tests/data");
     FILE *f = fopen(cap, "r");
     if (!f) skip();
-    tdir td;
-    tdir_make(&td, "padio");
+    tdir *td = *state; /* padio_dir */
     char outpath[320];
-    snprintf(outpath, sizeof outpath, "%s", tdir_file(&td, "out.jsonl"));
+    snprintf(outpath, sizeof outpath, "%s", tdir_file(td, "out.jsonl"));
     char cmd[1400];
     snprintf(cmd, sizeof cmd, "%s/vantage pad dump --replay %s --speed -1 >%s 2>/dev/null", bin_dir(), cap, outpath);
     int st = system(cmd);
@@ -1739,7 +1080,6 @@ static void test_pad_io_cli_capture(void **state)
     free(pl);
     fclose(f);
     fclose(o);
-    tdir_remove(&td);
 }
 
 static void test_pad_io_cli_list(void **state)
@@ -1775,12 +1115,12 @@ const struct CMUnitTest pad_io_tests[] = {
     cmocka_unit_test(test_pad_io_merge_slow_consumer),
     cmocka_unit_test(test_pad_io_close_while_blocked),
     cmocka_unit_test(test_pad_io_real_libraries),
-    cmocka_unit_test(test_pad_io_replay_timing),
-    cmocka_unit_test(test_pad_io_replay_errors),
-    cmocka_unit_test(test_pad_io_replay_loop_devices),
-    cmocka_unit_test(test_pad_io_record_roundtrip),
-    cmocka_unit_test(test_pad_io_cli_dump),
-    cmocka_unit_test(test_pad_io_cli_capture),
+    cmocka_unit_test_setup_teardown(test_pad_io_replay_timing, padio_dir, padio_dir_remove),
+    cmocka_unit_test_setup_teardown(test_pad_io_replay_errors, padio_dir, padio_dir_remove),
+    cmocka_unit_test_setup_teardown(test_pad_io_replay_loop_devices, padio_dir, padio_dir_remove),
+    cmocka_unit_test_setup_teardown(test_pad_io_record_roundtrip, padio_dir, padio_dir_remove),
+    cmocka_unit_test_setup_teardown(test_pad_io_cli_dump, padio_dir, padio_dir_remove),
+    cmocka_unit_test_setup_teardown(test_pad_io_cli_capture, padio_dir, padio_dir_remove),
     cmocka_unit_test(test_pad_io_cli_list),
 };
 const size_t pad_io_tests_count = sizeof pad_io_tests / sizeof pad_io_tests[0];

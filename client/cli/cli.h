@@ -81,6 +81,6 @@ int bench_scenario(cli *k, int argc, char **argv);
 int cmd_pad(cli *k, int argc, char **argv);
 
 /* commander.c: the tablet-commander thin client */
-int cmd_commander(cli *k, int argc, char **argv);
+int cmdr_main(cli *k, int argc, char **argv);
 
 #endif

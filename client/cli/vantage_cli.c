@@ -979,7 +979,7 @@ int main(int argc, char **argv)
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
         {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy}, {"pad", cmd_pad},
-        {"commander", cmd_commander},
+        {"commander", cmdr_main},
     };
     int rc = -1;
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)

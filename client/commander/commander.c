@@ -5,7 +5,7 @@
  * fd, timed to the mapping's fixed tick):
  *   pad reports (pad_io.h: hidraw, libusb, or a replayed capture) and the
  *   keyboard/mouse fallback -> the newest pad state;
- *   every 1/tick_hz s: cmd_step (dead zone, curve, camera, actions); a
+ *   every 1/tick_hz s: cmdr_step (dead zone, curve, camera, actions); a
  *   camera that moved is sent as a FRAME_SUBSCRIBE re-aim with the next
  *   view_seq (the daemon keeps drawing, latest-frame-wins);
  *   FRAMEs (JPEG) are decoded and shown (SDL2 window with the overlay, or
@@ -73,9 +73,9 @@ typedef struct commander {
     bool stats, json;
     pad_hub_opts hub_opts;
     /* input and camera */
-    cmd_map_cfg map;
-    cmd_camera cam;
-    cmd_input in;
+    cmdr_map_cfg map;
+    cmdr_camera cam;
+    cmdr_input in;
     pad_hub *hub;
     pad_state pad;
     uint32_t pad_id;         /* the pad driving the view, 0 = none */
@@ -97,8 +97,8 @@ typedef struct commander {
     bool fr_new;
     uint64_t frames, frame_errors;
     double shown_at[256];    /* the last frames' show times, a ring (> the 240 fps cap) */
-    cmd_lat lat, lat_tick, lat_daemon, lat_show, rtt;
-    cmd_lat fr_render, fr_encode; /* the daemon's own times per frame received */
+    cmdr_lat lat, lat_tick, lat_daemon, lat_show, rtt;
+    cmdr_lat fr_render, fr_encode; /* the daemon's own times per frame received */
     double ov_p50, ov_p95, ov_rtt, ov_next; /* the overlay's percentiles, refreshed 4 times a second */
     /* commands */
     enum pick_state pick;
@@ -109,7 +109,7 @@ typedef struct commander {
     uint64_t sel_id;
     double sel_lo[3], sel_hi[3];
     int group;
-    mark marks[CMD_OVERLAY_MARKS];
+    mark marks[CMDR_OVERLAY_MARKS];
     uint32_t nmarks;
     uint32_t client_id;
     char status[160];
@@ -118,7 +118,7 @@ typedef struct commander {
     double next_connect, backoff;
     bool ever_connected;
     /* output */
-    cmd_display *disp;
+    cmdr_display *disp;
     FILE *log;               /* headless: frames.jsonl */
     double t_start;
 } commander;
@@ -180,7 +180,7 @@ static void send_view(commander *m, double t_input)
     vp_frame_sub fs = {.r = {.format = VP_FRAME_JPEG, .quality = (uint8_t)m->quality, .renderer = m->renderer,
                              .exposure_ev = m->exposure},
                        .max_fps = (uint16_t)m->max_fps};
-    if (!cmd_camera_view(&m->cam, m->w, m->h, &fs.r.view)) {
+    if (!cmdr_camera_view(&m->cam, m->w, m->h, &fs.r.view)) {
         say(m, 3, "the camera is degenerate; view not sent");
         return;
     }
@@ -231,8 +231,8 @@ static void start_pick(commander *m, bool destroy)
     /* an orthographic box 1.5 % of the view across around the reticle (a
        1-degree cone in perspective): what the query sees there, occlusion
        included, are the candidates; the ray picks the nearest */
-    if (!cmd_pick_view(&m->cam, fmax(0.5, 0.03 * m->cam.half_h), &q)) return;
-    cmd_camera_ray(&m->cam, m->pick_o, m->pick_d);
+    if (!cmdr_pick_view(&m->cam, fmax(0.5, 0.03 * m->cam.half_h), &q)) return;
+    cmdr_camera_ray(&m->cam, m->pick_o, m->pick_d);
     m->pick_req = vt_next_req(m->c);
     m->pick_destroy = destroy;
     if (send_msg(m, VP_HEADER_SIZE + 8 + VP_VIEW_SIZE, enc_query, m->pick_req, &q)) m->pick = PICK_QUERY;
@@ -287,7 +287,7 @@ static void on_picked(commander *m, const uint8_t *p, uint32_t len)
     for (uint32_t i = 0; i < lr.batch.count; i++) {
         vp_entity_get(&lr.batch, i, &e);
         double t, lo[3] = {e.aabb[0], e.aabb[1], e.aabb[2]}, hi[3] = {e.aabb[3], e.aabb[4], e.aabb[5]};
-        if (cmd_ray_box(m->pick_o, m->pick_d, lo, hi, &t) && t < best) {
+        if (cmdr_ray_box(m->pick_o, m->pick_d, lo, hi, &t) && t < best) {
             best = t;
             hit = e;
         }
@@ -336,7 +336,7 @@ static void add_mark(commander *m, const vp_marked *mk)
 {
     double now = now_s();
     uint32_t slot = 0;
-    for (uint32_t i = 0; i < CMD_OVERLAY_MARKS; i++) { /* a free or the oldest slot */
+    for (uint32_t i = 0; i < CMDR_OVERLAY_MARKS; i++) { /* a free or the oldest slot */
         if (i >= m->nmarks) {
             slot = i;
             m->nmarks = i + 1;
@@ -351,17 +351,17 @@ static void add_mark(commander *m, const vp_marked *mk)
 
 static void run_actions(commander *m, uint32_t fired)
 {
-    if (fired & 1u << CMD_SELECT) start_pick(m, false);
-    if (fired & 1u << CMD_DESTROY) start_pick(m, true);
-    if (fired & 1u << CMD_PING) ping(m);
-    if (fired & 1u << CMD_CANCEL) {
+    if (fired & 1u << CMDR_SELECT) start_pick(m, false);
+    if (fired & 1u << CMDR_DESTROY) start_pick(m, true);
+    if (fired & 1u << CMDR_PING) ping(m);
+    if (fired & 1u << CMDR_CANCEL) {
         m->have_sel = false;
         say(m, 2, "selection cleared");
     }
-    if (fired & 1u << CMD_GROUP_PREV) m->group = (m->group + CMD_GROUPS - 1) % CMD_GROUPS;
-    if (fired & 1u << CMD_GROUP_NEXT) m->group = (m->group + 1) % CMD_GROUPS;
-    if (fired & (1u << CMD_GROUP_PREV | 1u << CMD_GROUP_NEXT)) say(m, 2, "group %d", m->group + 1);
-    if (fired & 1u << CMD_TOGGLE_PERSPECTIVE)
+    if (fired & 1u << CMDR_GROUP_PREV) m->group = (m->group + CMDR_GROUPS - 1) % CMDR_GROUPS;
+    if (fired & 1u << CMDR_GROUP_NEXT) m->group = (m->group + 1) % CMDR_GROUPS;
+    if (fired & (1u << CMDR_GROUP_PREV | 1u << CMDR_GROUP_NEXT)) say(m, 2, "group %d", m->group + 1);
+    if (fired & 1u << CMDR_TOGGLE_PERSPECTIVE)
         say(m, 2, "%s view", m->cam.perspective ? "tilted perspective" : "top-down orthographic");
 }
 
@@ -385,8 +385,8 @@ static void on_frame(commander *m, const uint8_t *p, uint32_t len)
     }
     memcpy(m->jpeg, f.data, f.data_len); /* latest wins: only the newest of a drain is shown */
     m->jpeg_len = f.data_len;
-    cmd_lat_add(&m->fr_render, f.render_ns / 1e6);
-    cmd_lat_add(&m->fr_encode, f.encode_ns / 1e6);
+    cmdr_lat_add(&m->fr_render, f.render_ns / 1e6);
+    cmdr_lat_add(&m->fr_encode, f.encode_ns / 1e6);
     m->fr = f;
     m->fr.data = m->jpeg;
     m->fr_recv = now_s();
@@ -407,10 +407,10 @@ static void account(commander *m, uint16_t seq, double t_recv, double t_shown)
         uint16_t s = (uint16_t)(seq - i);
         sent_view *v = &m->sent[s % SENT_RING];
         if (v->seq != s || !(v->t_input > 0)) continue;
-        cmd_lat_add(&m->lat, (t_shown - v->t_input) * 1e3);
-        cmd_lat_add(&m->lat_tick, (v->t_sent - v->t_input) * 1e3);
-        cmd_lat_add(&m->lat_daemon, (t_recv - v->t_sent) * 1e3);
-        cmd_lat_add(&m->lat_show, (t_shown - t_recv) * 1e3);
+        cmdr_lat_add(&m->lat, (t_shown - v->t_input) * 1e3);
+        cmdr_lat_add(&m->lat_tick, (v->t_sent - v->t_input) * 1e3);
+        cmdr_lat_add(&m->lat_daemon, (t_recv - v->t_sent) * 1e3);
+        cmdr_lat_add(&m->lat_show, (t_shown - t_recv) * 1e3);
         v->t_input = 0;
     }
     m->shown_seq = seq;
@@ -438,14 +438,14 @@ static const char *ms_or_dash(double v, char *buf, size_t n)
     return buf;
 }
 
-static void fill_overlay(commander *m, cmd_overlay *ov)
+static void fill_overlay(commander *m, cmdr_overlay *ov)
 {
     memset(ov, 0, sizeof *ov);
     double now = now_s();
     if (now >= m->ov_next) { /* each is a sort of up to 4096 samples: not on every frame */
-        m->ov_p50 = cmd_lat_pct(&m->lat, 50);
-        m->ov_p95 = cmd_lat_pct(&m->lat, 95);
-        m->ov_rtt = cmd_lat_pct(&m->rtt, 50);
+        m->ov_p50 = cmdr_lat_pct(&m->lat, 50);
+        m->ov_p95 = cmdr_lat_pct(&m->lat, 95);
+        m->ov_rtt = cmdr_lat_pct(&m->rtt, 50);
         m->ov_next = now + 0.25;
     }
     char a[24], b[24], c[24];
@@ -463,14 +463,14 @@ static void fill_overlay(commander *m, cmd_overlay *ov)
         for (int i = 0; i < 8; i++) {
             double p[3] = {i & 1 ? m->sel_hi[0] : m->sel_lo[0], i & 4 ? m->sel_hi[1] : m->sel_lo[1],
                            i & 2 ? m->sel_hi[2] : m->sel_lo[2]};
-            ov->sel_ok[i] = cmd_camera_project(&m->cam, m->w, m->h, p, &ov->sel_px[i][0], &ov->sel_px[i][1]);
+            ov->sel_ok[i] = cmdr_camera_project(&m->cam, m->w, m->h, p, &ov->sel_px[i][0], &ov->sel_px[i][1]);
         }
     }
     for (uint32_t i = 0; i < m->nmarks; i++) {
         const mark *k = &m->marks[i];
         if (now >= k->until) continue;
         double x, y;
-        if (!cmd_camera_project(&m->cam, m->w, m->h, k->pos, &x, &y)) continue;
+        if (!cmdr_camera_project(&m->cam, m->w, m->h, k->pos, &x, &y)) continue;
         uint32_t j = ov->nmarks++;
         ov->mark[j].x = x;
         ov->mark[j].y = y;
@@ -495,11 +495,11 @@ static void show_frame(commander *m)
             say(m, 3, "a frame did not decode: %s", err);
             return;
         }
-        cmd_display_frame(m->disp, rgb, w, h);
+        cmdr_display_frame(m->disp, rgb, w, h);
         free(rgb);
-        cmd_overlay ov;
+        cmdr_overlay ov;
         fill_overlay(m, &ov);
-        cmd_display_present(m->disp, &ov);
+        cmdr_display_present(m->disp, &ov);
         t_shown = now_s();
     } else {
         char path[4200];
@@ -548,7 +548,7 @@ static void drain_socket(commander *m)
             break;
         }
         case VP_ACK:
-            if (h.req == m->sub_req) cmd_lat_add(&m->rtt, (now_s() - m->t_sub_sent) * 1e3);
+            if (h.req == m->sub_req) cmdr_lat_add(&m->rtt, (now_s() - m->t_sub_sent) * 1e3);
             if (h.req == m->mark_req) {
                 vp_ack a;
                 if (!vp_dec_ack(p, h.len, &a)) say(m, 2, "mark sent to %u commanders", a.count);
@@ -622,7 +622,7 @@ static void drain_pads(commander *m)
 }
 
 /* The fixed-rate steps that are due. */
-static void tick(commander *m, const cmd_keys *keys)
+static void tick(commander *m, const cmdr_keys *keys)
 {
     double now = now_s(), dt = 1.0 / m->map.tick_hz;
     if (now < m->next_tick) return;
@@ -631,8 +631,8 @@ static void tick(commander *m, const cmd_keys *keys)
     uint32_t fired = 0;
     const pad_state *in = keys && keys->any ? &keys->state : m->pad_id ? &m->pad : NULL;
     while (now >= m->next_tick && steps < 8) {
-        cmd_step_out o;
-        cmd_step(&m->map, &m->cam, &m->in, in, dt, &o);
+        cmdr_step_out o;
+        cmdr_step(&m->map, &m->cam, &m->in, in, dt, &o);
         moved |= o.moved;
         fired |= o.fired;
         m->next_tick += dt;
@@ -640,7 +640,7 @@ static void tick(commander *m, const cmd_keys *keys)
     }
     if (now >= m->next_tick) m->next_tick = now + dt; /* far behind (a stall): do not catch up in a burst */
     if (keys && keys->wheel) {
-        m->cam.half_h = fmin(CMD_MAX_ZOOM, fmax(CMD_MIN_ZOOM, m->cam.half_h * pow(0.85, keys->wheel)));
+        m->cam.half_h = fmin(CMDR_MAX_ZOOM, fmax(CMDR_MIN_ZOOM, m->cam.half_h * pow(0.85, keys->wheel)));
         moved = true;
     }
     run_actions(m, fired);
@@ -736,14 +736,14 @@ static int parse_args(commander *m, int argc, char **argv)
 #undef NEED
     }
     m->cam.perspective = persp;
-    cmd_camera_reset(&m->cam, (double)m->w / m->h);
+    cmdr_camera_reset(&m->cam, (double)m->w / m->h);
     return -1; /* go on */
 }
 
 static void print_stats(commander *m)
 {
     double secs = now_s() - m->t_start;
-    const cmd_lat *L[] = {&m->lat, &m->lat_tick, &m->lat_daemon, &m->lat_show, &m->rtt, &m->fr_render, &m->fr_encode};
+    const cmdr_lat *L[] = {&m->lat, &m->lat_tick, &m->lat_daemon, &m->lat_show, &m->rtt, &m->fr_render, &m->fr_encode};
     const char *names[] = {"input_to_photon", "tick_wait",    "daemon_and_network", "decode_and_show",
                            "rtt",             "frame_render", "frame_encode"};
     enum { NL = sizeof L / sizeof L[0] };
@@ -758,7 +758,7 @@ static void print_stats(commander *m)
             printf(",\"%s_ms\":{", names[i]);
             for (int k = 0; k < 4; k++) {
                 printf("%s\"%s\":", k ? "," : "", key[k]);
-                if (L[i]->n) printf("%.3f", cmd_lat_pct(L[i], q[k]));
+                if (L[i]->n) printf("%.3f", cmdr_lat_pct(L[i], q[k]));
                 else printf("null");
             }
             printf("}");
@@ -773,14 +773,14 @@ static void print_stats(commander *m)
     for (int i = 0; i < NL; i++) {
         printf("%-20s", names[i]);
         for (int k = 0; k < 4; k++) {
-            if (L[i]->n) printf(" %8.2f", cmd_lat_pct(L[i], q[k]));
+            if (L[i]->n) printf(" %8.2f", cmdr_lat_pct(L[i], q[k]));
             else printf(" %8s", "-");
         }
         printf("\n");
     }
 }
 
-int cmd_commander(cli *k, int argc, char **argv)
+int cmdr_main(cli *k, int argc, char **argv)
 {
     commander *m = calloc(1, sizeof *m);
     if (!m) return fprintf(stderr, "%s: out of memory\n", g_prog), 1;
@@ -792,8 +792,8 @@ int cmd_commander(cli *k, int argc, char **argv)
     }
     rc = 1;
     char err[512];
-    cmd_map_defaults(&m->map);
-    if (m->config && cmd_map_load(&m->map, m->config, err, sizeof err)) {
+    cmdr_map_defaults(&m->map);
+    if (m->config && cmdr_map_load(&m->map, m->config, err, sizeof err)) {
         fprintf(stderr, "%s: commander: %s\n", g_prog, err);
         goto out;
     }
@@ -808,7 +808,7 @@ int cmd_commander(cli *k, int argc, char **argv)
             fprintf(stderr, "%s: commander: %s: %s\n", g_prog, path, strerror(errno));
             goto out;
         }
-    } else if (!(m->disp = cmd_display_open(m->w, m->h, "vantage commander", err, sizeof err))) {
+    } else if (!(m->disp = cmdr_display_open(m->w, m->h, "vantage commander", err, sizeof err))) {
         fprintf(stderr, "%s: commander: %s\n", g_prog, err);
         goto out;
     }
@@ -825,7 +825,7 @@ int cmd_commander(cli *k, int argc, char **argv)
     m->next_tick = m->t_start;
     m->next_connect = m->t_start;
     rc = 0;
-    cmd_keys keys = {0};
+    cmdr_keys keys = {0};
     double next_overlay = 0;
     while (!g_stop) {
         double now = now_s();
@@ -850,12 +850,12 @@ int cmd_commander(cli *k, int argc, char **argv)
         }
         drain_pads(m);
         if (m->disp) {
-            cmd_display_events(m->disp, &keys);
+            cmdr_display_events(m->disp, &keys);
             if (keys.quit) break;
             if (keys.changed && keys.any && !(m->pending_input > 0)) m->pending_input = now_s();
             if (keys.click) { /* pan to the clicked point of the ground */
                 double eye[3], dir[3];
-                cmd_camera_ray(&m->cam, eye, dir);
+                cmdr_camera_ray(&m->cam, eye, dir);
                 double dx = (keys.click_x / m->w - 0.5) * 2 * m->cam.half_h * m->w / m->h,
                        dy = (0.5 - keys.click_y / m->h) * 2 * m->cam.half_h;
                 double right[3] = {-cos(m->cam.yaw), 0, sin(m->cam.yaw)}, fwd[3] = {sin(m->cam.yaw), 0, cos(m->cam.yaw)};
@@ -867,16 +867,16 @@ int cmd_commander(cli *k, int argc, char **argv)
         drain_socket(m);
         show_frame(m);
         if (m->disp && now_s() >= next_overlay) { /* marks fade, status expires: redraw now and then */
-            cmd_overlay ov;
+            cmdr_overlay ov;
             fill_overlay(m, &ov);
-            cmd_display_present(m->disp, &ov);
+            cmdr_display_present(m->disp, &ov);
             next_overlay = now_s() + 0.1;
         }
     }
     if (m->disp && m->shot) {
-        cmd_overlay ov;
+        cmdr_overlay ov;
         fill_overlay(m, &ov);
-        if (cmd_display_screenshot(m->disp, &ov, m->shot, err, sizeof err)) {
+        if (cmdr_display_screenshot(m->disp, &ov, m->shot, err, sizeof err)) {
             fprintf(stderr, "%s: commander: %s\n", g_prog, err);
             rc = 1;
         }
@@ -888,7 +888,7 @@ int cmd_commander(cli *k, int argc, char **argv)
     }
 out:
     pad_hub_close(m->hub);
-    cmd_display_close(m->disp);
+    cmdr_display_close(m->disp);
     if (m->log) fclose(m->log);
     if (m->c) vt_close(m->c);
     k->c = NULL;

@@ -24,24 +24,24 @@
 
 /* ---- actions and their bindings -------------------------------------------------- */
 
-typedef enum cmd_action {
-    CMD_SELECT = 0,          /* the entity under the reticle (a visibility query, then a ray against boxes) */
-    CMD_PING,                /* MARK the place under the reticle for every commander */
-    CMD_CANCEL,              /* drop the selection */
-    CMD_DESTROY,             /* a destruction sphere where the reticle meets the selected entity */
-    CMD_GROUP_PREV,          /* cycle the selection groups (1..CMD_GROUPS) */
-    CMD_GROUP_NEXT,
-    CMD_TOGGLE_PERSPECTIVE,  /* top-down orthographic <-> tilted perspective */
-    CMD_RESET_VIEW,
-    CMD_ACTION_COUNT
-} cmd_action;
+typedef enum cmdr_action {
+    CMDR_SELECT = 0,         /* the entity under the reticle (a visibility query, then a ray against boxes) */
+    CMDR_PING,               /* MARK the place under the reticle for every commander */
+    CMDR_CANCEL,             /* drop the selection */
+    CMDR_DESTROY,            /* a destruction sphere where the reticle meets the selected entity */
+    CMDR_GROUP_PREV,         /* cycle the selection groups (1..CMDR_GROUPS) */
+    CMDR_GROUP_NEXT,
+    CMDR_TOGGLE_PERSPECTIVE, /* top-down orthographic <-> tilted perspective */
+    CMDR_RESET_VIEW,
+    CMDR_ACTION_COUNT
+} cmdr_action;
 
-#define CMD_GROUPS 4
+#define CMDR_GROUPS 4
 
-extern const char *const cmd_action_names[CMD_ACTION_COUNT]; /* "select", "ping", ... */
+extern const char *const cmdr_action_names[CMDR_ACTION_COUNT]; /* "select", "ping", ... */
 
-/* The mapping's settings; cmd_map_defaults fills INPUT.md's. */
-typedef struct cmd_map_cfg {
+/* The mapping's settings; cmdr_map_defaults fills INPUT.md's. */
+typedef struct cmdr_map_cfg {
     float dz_inner, dz_outer;    /* radial dead zone on stick magnitude: 0.15, 0.95 */
     float curve;                 /* response exponent after the dead zone: 1.7 */
     float trig_press, trig_release; /* a trigger as a button: 0.55 / 0.45 */
@@ -52,90 +52,90 @@ typedef struct cmd_map_cfg {
     float tilt_speed;            /* radians per second (pitch): 1.2 */
     float zoom_rate;             /* e-folds per second at a full trigger: 1.6 */
     float invert_tilt;           /* 1 or -1 */
-    uint32_t bind[CMD_ACTION_COUNT]; /* pad buttons (enum pad_button bits) that fire each action */
-} cmd_map_cfg;
+    uint32_t bind[CMDR_ACTION_COUNT]; /* pad buttons (enum pad_button bits) that fire each action */
+} cmdr_map_cfg;
 
-void cmd_map_defaults(cmd_map_cfg *c);
+void cmdr_map_defaults(cmdr_map_cfg *c);
 /* Reads a config file of "name = value" lines ('#' comments): the floats
  * by their field names above (dz_inner, curve, tick_hz, ...), and actions
  * bound to buttons ("ping = west", "destroy = north+rshoulder" for a
  * chord, "select = none"). 0, or -1 and err naming the line and field.
  * Unset names keep their values. */
-int cmd_map_load(cmd_map_cfg *c, const char *path, char *err, size_t errlen);
-/* The same over text in memory (what cmd_map_load reads), for tests. */
-int cmd_map_parse(cmd_map_cfg *c, const char *text, size_t len, char *err, size_t errlen);
+int cmdr_map_load(cmdr_map_cfg *c, const char *path, char *err, size_t errlen);
+/* The same over text in memory (what cmdr_map_load reads), for tests. */
+int cmdr_map_parse(cmdr_map_cfg *c, const char *text, size_t len, char *err, size_t errlen);
 
 /* ---- shaping ------------------------------------------------------------------------- */
 
 /* Scaled radial dead zone then the response curve: |v| below inner is 0,
  * inner..outer maps onto 0..1 and is raised to curve, the direction kept
  * (no per-axis snapping: diagonals pan diagonally). */
-void cmd_stick_shape(const cmd_map_cfg *c, float x, float y, float *ox, float *oy);
+void cmdr_stick_shape(const cmdr_map_cfg *c, float x, float y, float *ox, float *oy);
 /* A trigger, 0..1 after trig_dead. */
-float cmd_trigger_shape(const cmd_map_cfg *c, float t);
+float cmdr_trigger_shape(const cmdr_map_cfg *c, float t);
 /* Hysteresis: pressed above press, released below release. */
-bool cmd_trigger_button(const cmd_map_cfg *c, float t, bool was);
+bool cmdr_trigger_button(const cmdr_map_cfg *c, float t, bool was);
 
 /* ---- the camera ------------------------------------------------------------------------- */
 
-typedef struct cmd_camera {
+typedef struct cmdr_camera {
     double target[3];        /* the ground point at the screen's centre (the reticle), world metres, Y up */
     double yaw;              /* radians: the screen's up direction on the ground is (sin yaw, 0, cos yaw) */
-    double pitch;            /* radians from straight down: 0 top-down .. CMD_MAX_PITCH */
-    double half_h;           /* the view's half height at the target, metres (the zoom): CMD_MIN_ZOOM.. */
+    double pitch;            /* radians from straight down: 0 top-down .. CMDR_MAX_PITCH */
+    double half_h;           /* the view's half height at the target, metres (the zoom): CMDR_MIN_ZOOM.. */
     bool perspective;        /* false: orthographic */
     double aspect;           /* width / height of the frames */
-} cmd_camera;
+} cmdr_camera;
 
-#define CMD_MAX_PITCH 1.0472 /* 60 degrees */
-#define CMD_MIN_ZOOM 4.0
-#define CMD_MAX_ZOOM 4000.0
-#define CMD_FOVY_DEG 50.0    /* the perspective mode's vertical field of view */
+#define CMDR_MAX_PITCH 1.0472 /* 60 degrees */
+#define CMDR_MIN_ZOOM 4.0
+#define CMDR_MAX_ZOOM 4000.0
+#define CMDR_FOVY_DEG 50.0   /* the perspective mode's vertical field of view */
 
-void cmd_camera_reset(cmd_camera *cam, double aspect);
+void cmdr_camera_reset(cmdr_camera *cam, double aspect);
 
 /* What one fixed step produced: the actions whose bindings went down this
  * step (edges, not levels). */
-typedef struct cmd_step_out {
+typedef struct cmdr_step_out {
     bool moved;              /* the camera changed */
-    uint32_t fired;          /* 1 << cmd_action */
-} cmd_step_out;
+    uint32_t fired;          /* 1 << cmdr_action */
+} cmdr_step_out;
 
 /* The mapping's memory between steps: buttons held, triggers as buttons. */
-typedef struct cmd_input {
+typedef struct cmdr_input {
     uint32_t held;           /* buttons (and trigger buttons) after the previous step */
     bool lt_down, rt_down;
-} cmd_input;
+} cmdr_input;
 
 /* One step of dt seconds with the pad state s (NULL = no pad: nothing
  * held). Pure. */
-void cmd_step(const cmd_map_cfg *c, cmd_camera *cam, cmd_input *in, const pad_state *s, double dt,
-              cmd_step_out *out);
+void cmdr_step(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pad_state *s, double dt,
+              cmdr_step_out *out);
 
 /* The camera as a query/render view of w x h pixels. */
-bool cmd_camera_view(const cmd_camera *cam, uint32_t w, uint32_t h, vp_view *out);
+bool cmdr_camera_view(const cmdr_camera *cam, uint32_t w, uint32_t h, vp_view *out);
 /* The eye and the direction the screen's centre looks along (unit). */
-void cmd_camera_ray(const cmd_camera *cam, double eye[3], double dir[3]);
-/* A narrow view around the reticle's ray (for CMD_SELECT's query): an
+void cmdr_camera_ray(const cmdr_camera *cam, double eye[3], double dir[3]);
+/* A narrow view around the reticle's ray (for CMDR_SELECT's query): an
  * orthographic pick box of size metres across (orthographic mode) or a
  * 1-degree cone (perspective). */
-bool cmd_pick_view(const cmd_camera *cam, double size, vp_view *out);
+bool cmdr_pick_view(const cmdr_camera *cam, double size, vp_view *out);
 /* World point -> pixel (x right, y down) in a w x h frame of the camera;
  * false when behind the eye. */
-bool cmd_camera_project(const cmd_camera *cam, uint32_t w, uint32_t h, const double p[3], double *px, double *py);
+bool cmdr_camera_project(const cmdr_camera *cam, uint32_t w, uint32_t h, const double p[3], double *px, double *py);
 
 /* Ray against a box: true and *t (>= 0, the entry distance along dir)
  * when o + t dir enters [lo, hi]. */
-bool cmd_ray_box(const double o[3], const double dir[3], const double lo[3], const double hi[3], double *t);
+bool cmdr_ray_box(const double o[3], const double dir[3], const double lo[3], const double hi[3], double *t);
 
 /* ---- the window (commander_sdl.c: SDL2 + SDL_ttf) ------------------------------------- */
 
-typedef struct cmd_display cmd_display;
+typedef struct cmdr_display cmdr_display;
 
-#define CMD_OVERLAY_LINES 4
-#define CMD_OVERLAY_MARKS 32
-typedef struct cmd_overlay {
-    char text[CMD_OVERLAY_LINES][192]; /* top-left status lines ("" = none) */
+#define CMDR_OVERLAY_LINES 4
+#define CMDR_OVERLAY_MARKS 32
+typedef struct cmdr_overlay {
+    char text[CMDR_OVERLAY_LINES][192]; /* top-left status lines ("" = none) */
     bool sel;                /* a selection box: its 8 corners projected (x right, y down, frame pixels) */
     double sel_px[8][2];
     bool sel_ok[8];          /* corner in front of the eye */
@@ -145,15 +145,15 @@ typedef struct cmd_overlay {
         float alpha;         /* 1 new .. 0 expired */
         uint8_t kind;        /* 0 ping, 1 select */
         bool own;            /* this client's */
-    } mark[CMD_OVERLAY_MARKS];
-} cmd_overlay;
+    } mark[CMDR_OVERLAY_MARKS];
+} cmdr_overlay;
 
 /* What the keyboard and mouse did since the last call (the fallback when
  * no pad is present): a pad state from the held keys (WASD / arrows pan,
  * Q/E rotate, R/F tilt, Z/X or PageDown/PageUp zoom, Space select, P ping,
  * C cancel, Delete destroy, [ ] groups, Tab perspective, Home reset), the
  * wheel, a left click. */
-typedef struct cmd_keys {
+typedef struct cmdr_keys {
     bool any;                /* a key is held: state below is the input */
     pad_state state;
     int wheel;               /* notches, + = away from the user (zoom in) */
@@ -161,33 +161,33 @@ typedef struct cmd_keys {
     double click_x, click_y;
     bool quit;               /* window closed, Escape, Ctrl+Q */
     bool changed;            /* any of the above differs from the last call */
-} cmd_keys;
+} cmdr_keys;
 
 /* A window of w x h (the frames' size) titled title; NULL and err when
  * there is no display (SDL_VIDEODRIVER, DISPLAY). */
-cmd_display *cmd_display_open(uint32_t w, uint32_t h, const char *title, char *err, size_t errlen);
-void cmd_display_close(cmd_display *d);
+cmdr_display *cmdr_display_open(uint32_t w, uint32_t h, const char *title, char *err, size_t errlen);
+void cmdr_display_close(cmdr_display *d);
 /* The frame to show (RGB8, top row first, w x h as opened; another size
  * is scaled to the window). 0 or -1. */
-int cmd_display_frame(cmd_display *d, const uint8_t *rgb8, uint32_t w, uint32_t h);
+int cmdr_display_frame(cmdr_display *d, const uint8_t *rgb8, uint32_t w, uint32_t h);
 /* Draws the last frame with the overlay and presents it. */
-void cmd_display_present(cmd_display *d, const cmd_overlay *ov);
+void cmdr_display_present(cmdr_display *d, const cmdr_overlay *ov);
 /* Pumps the window's events into *k. */
-void cmd_display_events(cmd_display *d, cmd_keys *k);
+void cmdr_display_events(cmdr_display *d, cmdr_keys *k);
 /* What the window shows with overlay ov, as a PNG. 0, or -1 and err. */
-int cmd_display_screenshot(cmd_display *d, const cmd_overlay *ov, const char *path, char *err, size_t errlen);
+int cmdr_display_screenshot(cmdr_display *d, const cmdr_overlay *ov, const char *path, char *err, size_t errlen);
 
 /* ---- latency samples ------------------------------------------------------------------ */
 
 /* A fixed ring of the last n samples (ms) with their percentiles. */
-#define CMD_LAT_SAMPLES 4096
-typedef struct cmd_lat {
-    float v[CMD_LAT_SAMPLES];
+#define CMDR_LAT_SAMPLES 4096
+typedef struct cmdr_lat {
+    float v[CMDR_LAT_SAMPLES];
     uint32_t n, next;
     uint64_t total;
-} cmd_lat;
-void cmd_lat_add(cmd_lat *l, double ms);
+} cmdr_lat;
+void cmdr_lat_add(cmdr_lat *l, double ms);
 /* p in 0..100 over the samples kept; NAN when there are none. */
-double cmd_lat_pct(const cmd_lat *l, double p);
+double cmdr_lat_pct(const cmdr_lat *l, double p);
 
 #endif

@@ -22,21 +22,21 @@
 
 #define FONT_PATH "/usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf"
 
-struct cmd_display {
+struct cmdr_display {
     SDL_Window *win;
     SDL_Renderer *ren;
     SDL_Texture *tex;
     uint32_t tw, th;         /* the texture's size */
     bool have_frame;
     TTF_Font *font;
-    SDL_Texture *text[CMD_OVERLAY_LINES];
-    char text_src[CMD_OVERLAY_LINES][192];
-    int text_w[CMD_OVERLAY_LINES], text_h[CMD_OVERLAY_LINES];
+    SDL_Texture *text[CMDR_OVERLAY_LINES];
+    char text_src[CMDR_OVERLAY_LINES][192];
+    int text_w[CMDR_OVERLAY_LINES], text_h[CMDR_OVERLAY_LINES];
     char title[256];
-    cmd_keys keys;           /* the held state between calls */
+    cmdr_keys keys;           /* the held state between calls */
 };
 
-cmd_display *cmd_display_open(uint32_t w, uint32_t h, const char *title, char *err, size_t errlen)
+cmdr_display *cmdr_display_open(uint32_t w, uint32_t h, const char *title, char *err, size_t errlen)
 {
     if (SDL_Init(SDL_INIT_VIDEO)) {
         snprintf(err, errlen, "cannot open a window: SDL has no video driver: %s (without a display, --headless DIR "
@@ -58,7 +58,7 @@ cmd_display *cmd_display_open(uint32_t w, uint32_t h, const char *title, char *e
         SDL_Quit();
         return NULL;
     }
-    cmd_display *d = calloc(1, sizeof *d);
+    cmdr_display *d = calloc(1, sizeof *d);
     if (!d) {
         snprintf(err, errlen, "out of memory");
         SDL_Quit();
@@ -70,7 +70,7 @@ cmd_display *cmd_display_open(uint32_t w, uint32_t h, const char *title, char *e
     if (!d->ren) {
         snprintf(err, errlen, "cannot open a window: %s (without a display, --headless DIR writes the frames to a "
                  "folder)", SDL_GetError());
-        cmd_display_close(d);
+        cmdr_display_close(d);
         return NULL;
     }
     SDL_SetRenderDrawBlendMode(d->ren, SDL_BLENDMODE_BLEND);
@@ -82,10 +82,10 @@ cmd_display *cmd_display_open(uint32_t w, uint32_t h, const char *title, char *e
     return d;
 }
 
-void cmd_display_close(cmd_display *d)
+void cmdr_display_close(cmdr_display *d)
 {
     if (!d) return;
-    for (int i = 0; i < CMD_OVERLAY_LINES; i++)
+    for (int i = 0; i < CMDR_OVERLAY_LINES; i++)
         if (d->text[i]) SDL_DestroyTexture(d->text[i]);
     if (d->font) TTF_CloseFont(d->font);
     if (TTF_WasInit()) TTF_Quit();
@@ -96,7 +96,7 @@ void cmd_display_close(cmd_display *d)
     SDL_Quit();
 }
 
-int cmd_display_frame(cmd_display *d, const uint8_t *rgb8, uint32_t w, uint32_t h)
+int cmdr_display_frame(cmdr_display *d, const uint8_t *rgb8, uint32_t w, uint32_t h)
 {
     if (!d->tex || d->tw != w || d->th != h) {
         if (d->tex) SDL_DestroyTexture(d->tex);
@@ -111,7 +111,7 @@ int cmd_display_frame(cmd_display *d, const uint8_t *rgb8, uint32_t w, uint32_t 
 }
 
 /* Frame pixels -> window pixels (the frame is stretched over the window). */
-static void to_win(const cmd_display *d, double x, double y, int *wx, int *wy)
+static void to_win(const cmdr_display *d, double x, double y, int *wx, int *wy)
 {
     int ww, wh;
     SDL_GetRendererOutputSize(d->ren, &ww, &wh);
@@ -120,7 +120,7 @@ static void to_win(const cmd_display *d, double x, double y, int *wx, int *wy)
     *wy = (int)lround(y * sy);
 }
 
-static void draw_text(cmd_display *d, int i, const char *s, int y)
+static void draw_text(cmdr_display *d, int i, const char *s, int y)
 {
     if (strcmp(d->text_src[i], s) || (!d->text[i] && *s)) {
         snprintf(d->text_src[i], sizeof d->text_src[i], "%s", s);
@@ -142,7 +142,7 @@ static void draw_text(cmd_display *d, int i, const char *s, int y)
     SDL_RenderCopy(d->ren, d->text[i], NULL, &(SDL_Rect){10, y, d->text_w[i], d->text_h[i]});
 }
 
-static void draw_all(cmd_display *d, const cmd_overlay *ov)
+static void draw_all(cmdr_display *d, const cmdr_overlay *ov)
 {
     SDL_SetRenderDrawColor(d->ren, 20, 20, 24, 255);
     SDL_RenderClear(d->ren);
@@ -189,7 +189,7 @@ static void draw_all(cmd_display *d, const cmd_overlay *ov)
     }
     if (ov) {
         if (d->font) {
-            for (int i = 0; i < CMD_OVERLAY_LINES; i++) draw_text(d, i, ov->text[i], 8 + i * 20);
+            for (int i = 0; i < CMDR_OVERLAY_LINES; i++) draw_text(d, i, ov->text[i], 8 + i * 20);
         } else if (strcmp(d->text_src[0], ov->text[0])) {
             snprintf(d->text_src[0], sizeof d->text_src[0], "%s", ov->text[0]);
             SDL_SetWindowTitle(d->win, ov->text[0]);
@@ -197,14 +197,14 @@ static void draw_all(cmd_display *d, const cmd_overlay *ov)
     }
 }
 
-void cmd_display_present(cmd_display *d, const cmd_overlay *ov)
+void cmdr_display_present(cmdr_display *d, const cmdr_overlay *ov)
 {
     draw_all(d, ov);
     SDL_RenderPresent(d->ren);
 }
 
 /* Held keys -> a pad state. */
-static void keys_state(cmd_keys *k)
+static void keys_state(cmdr_keys *k)
 {
     const Uint8 *ks = SDL_GetKeyboardState(NULL);
     pad_state s = {.battery = -1, .connected = true};
@@ -229,7 +229,7 @@ static void keys_state(cmd_keys *k)
     k->state = s;
 }
 
-void cmd_display_events(cmd_display *d, cmd_keys *k)
+void cmdr_display_events(cmdr_display *d, cmdr_keys *k)
 {
     *k = d->keys;
     k->changed = false;
@@ -265,7 +265,7 @@ void cmd_display_events(cmd_display *d, cmd_keys *k)
     d->keys = *k;
 }
 
-int cmd_display_screenshot(cmd_display *d, const cmd_overlay *ov, const char *path, char *err, size_t errlen)
+int cmdr_display_screenshot(cmdr_display *d, const cmdr_overlay *ov, const char *path, char *err, size_t errlen)
 {
     draw_all(d, ov); /* what was presented: the back buffer is undefined after a present */
     int w, h;

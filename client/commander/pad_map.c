@@ -1,6 +1,6 @@
 /*
  * pad_map.c — the commander's input mapping and camera (commander.h):
- * pure functions, run at the fixed tick rate; no I/O but cmd_map_load's
+ * pure functions, run at the fixed tick rate; no I/O but cmdr_map_load's
  * one read of the config file.
  *
  * Conventions: world Y up, the ground at y = 0; the camera looks at its
@@ -19,23 +19,23 @@
 #include <stdlib.h>
 #include <string.h>
 
-const char *const cmd_action_names[CMD_ACTION_COUNT] = {
+const char *const cmdr_action_names[CMDR_ACTION_COUNT] = {
     "select", "ping", "cancel", "destroy", "group_prev", "group_next", "toggle_perspective", "reset_view",
 };
 
-void cmd_map_defaults(cmd_map_cfg *c)
+void cmdr_map_defaults(cmdr_map_cfg *c)
 {
-    *c = (cmd_map_cfg){.dz_inner = 0.15f, .dz_outer = 0.95f, .curve = 1.7f, .trig_press = 0.55f,
+    *c = (cmdr_map_cfg){.dz_inner = 0.15f, .dz_outer = 0.95f, .curve = 1.7f, .trig_press = 0.55f,
                        .trig_release = 0.45f, .trig_dead = 0.05f, .tick_hz = 120, .pan_speed = 1.2f,
                        .rot_speed = 2.0f, .tilt_speed = 1.2f, .zoom_rate = 1.6f, .invert_tilt = 1};
-    c->bind[CMD_SELECT] = PAD_SOUTH;
-    c->bind[CMD_PING] = PAD_WEST;
-    c->bind[CMD_CANCEL] = PAD_EAST;
-    c->bind[CMD_DESTROY] = PAD_NORTH;
-    c->bind[CMD_GROUP_PREV] = PAD_LSHOULDER;
-    c->bind[CMD_GROUP_NEXT] = PAD_RSHOULDER;
-    c->bind[CMD_TOGGLE_PERSPECTIVE] = PAD_BACK;
-    c->bind[CMD_RESET_VIEW] = PAD_RSTICK;
+    c->bind[CMDR_SELECT] = PAD_SOUTH;
+    c->bind[CMDR_PING] = PAD_WEST;
+    c->bind[CMDR_CANCEL] = PAD_EAST;
+    c->bind[CMDR_DESTROY] = PAD_NORTH;
+    c->bind[CMDR_GROUP_PREV] = PAD_LSHOULDER;
+    c->bind[CMDR_GROUP_NEXT] = PAD_RSHOULDER;
+    c->bind[CMDR_TOGGLE_PERSPECTIVE] = PAD_BACK;
+    c->bind[CMDR_RESET_VIEW] = PAD_RSTICK;
 }
 
 /* ---- the config file ------------------------------------------------------------------- */
@@ -46,7 +46,7 @@ typedef struct float_field {
     float lo, hi;
 } float_field;
 
-#define FF(n, l, h) {#n, offsetof(cmd_map_cfg, n), l, h}
+#define FF(n, l, h) {#n, offsetof(cmdr_map_cfg, n), l, h}
 static const float_field float_fields[] = {
     FF(dz_inner, 0, 0.9f),   FF(dz_outer, 0.1f, 1),   FF(curve, 0.2f, 5),         FF(trig_press, 0.05f, 1),
     FF(trig_release, 0, 0.95f), FF(trig_dead, 0, 0.5f), FF(tick_hz, 10, 1000),    FF(pan_speed, 0.01f, 100),
@@ -85,9 +85,9 @@ static bool parse_buttons(const char *v, uint32_t *out)
     return *out != 0;
 }
 
-int cmd_map_parse(cmd_map_cfg *c, const char *text, size_t len, char *err, size_t errlen)
+int cmdr_map_parse(cmdr_map_cfg *c, const char *text, size_t len, char *err, size_t errlen)
 {
-    cmd_map_cfg n = *c; /* whole file or nothing */
+    cmdr_map_cfg n = *c; /* whole file or nothing */
     unsigned line = 0;
     const char *p = text, *end = text + len;
     while (p < end) {
@@ -127,8 +127,8 @@ int cmd_map_parse(cmd_map_cfg *c, const char *text, size_t len, char *err, size_
             *(float *)(void *)((char *)&n + f->off) = (float)d;
             known = true;
         }
-        for (int a = 0; a < CMD_ACTION_COUNT && !known; a++) {
-            if (strcmp(k, cmd_action_names[a])) continue;
+        for (int a = 0; a < CMDR_ACTION_COUNT && !known; a++) {
+            if (strcmp(k, cmdr_action_names[a])) continue;
             if (!parse_buttons(v, &n.bind[a]))
                 return cfg_fail(err, errlen, line, "%s", "unknown button (south east west north back guide start "
                                                          "lstick rstick lshoulder rshoulder dpad_up ... or none)");
@@ -144,7 +144,7 @@ int cmd_map_parse(cmd_map_cfg *c, const char *text, size_t len, char *err, size_
     return 0;
 }
 
-int cmd_map_load(cmd_map_cfg *c, const char *path, char *err, size_t errlen)
+int cmdr_map_load(cmdr_map_cfg *c, const char *path, char *err, size_t errlen)
 {
     FILE *f = fopen(path, "rb");
     if (!f) {
@@ -160,7 +160,7 @@ int cmd_map_load(cmd_map_cfg *c, const char *path, char *err, size_t errlen)
         return -1;
     }
     char e[240];
-    if (cmd_map_parse(c, buf, n, e, sizeof e)) {
+    if (cmdr_map_parse(c, buf, n, e, sizeof e)) {
         snprintf(err, errlen, "%s: %s", path, e);
         return -1;
     }
@@ -169,7 +169,7 @@ int cmd_map_load(cmd_map_cfg *c, const char *path, char *err, size_t errlen)
 
 /* ---- shaping ------------------------------------------------------------------------- */
 
-void cmd_stick_shape(const cmd_map_cfg *c, float x, float y, float *ox, float *oy)
+void cmdr_stick_shape(const cmdr_map_cfg *c, float x, float y, float *ox, float *oy)
 {
     float m = sqrtf(x * x + y * y);
     if (!(m > c->dz_inner)) { /* NaN too */
@@ -183,38 +183,38 @@ void cmd_stick_shape(const cmd_map_cfg *c, float x, float y, float *ox, float *o
     *oy = y / m * s;
 }
 
-float cmd_trigger_shape(const cmd_map_cfg *c, float t)
+float cmdr_trigger_shape(const cmdr_map_cfg *c, float t)
 {
     if (!(t > c->trig_dead)) return 0;
     float s = (t - c->trig_dead) / (1 - c->trig_dead);
     return s > 1 ? 1 : s;
 }
 
-bool cmd_trigger_button(const cmd_map_cfg *c, float t, bool was)
+bool cmdr_trigger_button(const cmdr_map_cfg *c, float t, bool was)
 {
     return was ? !(t < c->trig_release) : t > c->trig_press;
 }
 
 /* ---- the camera ------------------------------------------------------------------------- */
 
-void cmd_camera_reset(cmd_camera *cam, double aspect)
+void cmdr_camera_reset(cmdr_camera *cam, double aspect)
 {
     bool persp = cam->perspective;
-    *cam = (cmd_camera){.half_h = 160, .aspect = aspect > 0 ? aspect : 16.0 / 9, .perspective = persp};
+    *cam = (cmdr_camera){.half_h = 160, .aspect = aspect > 0 ? aspect : 16.0 / 9, .perspective = persp};
     if (persp) cam->pitch = 0.6;
 }
 
-void cmd_step(const cmd_map_cfg *c, cmd_camera *cam, cmd_input *in, const pad_state *s, double dt,
-              cmd_step_out *out)
+void cmdr_step(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pad_state *s, double dt,
+              cmdr_step_out *out)
 {
-    *out = (cmd_step_out){0};
+    *out = (cmdr_step_out){0};
     pad_state none = {0};
     if (!s) s = &none;
-    cmd_camera before = *cam;
+    cmdr_camera before = *cam;
     float lx, ly, rx, ry;
-    cmd_stick_shape(c, s->lx, s->ly, &lx, &ly);
-    cmd_stick_shape(c, s->rx, s->ry, &rx, &ry);
-    float lt = cmd_trigger_shape(c, s->lt), rt = cmd_trigger_shape(c, s->rt);
+    cmdr_stick_shape(c, s->lx, s->ly, &lx, &ly);
+    cmdr_stick_shape(c, s->rx, s->ry, &rx, &ry);
+    float lt = cmdr_trigger_shape(c, s->lt), rt = cmdr_trigger_shape(c, s->rt);
 
     /* pan: view heights per second, so the picture moves at one speed at any zoom */
     double fwd[3] = {sin(cam->yaw), 0, cos(cam->yaw)}, right[3] = {-cos(cam->yaw), 0, sin(cam->yaw)};
@@ -227,33 +227,33 @@ void cmd_step(const cmd_map_cfg *c, cmd_camera *cam, cmd_input *in, const pad_st
     cam->yaw = remainder(cam->yaw - rx * c->rot_speed * dt, 2 * M_PI);
     cam->pitch += c->invert_tilt * ry * c->tilt_speed * dt;
     if (cam->pitch < 0) cam->pitch = 0;
-    if (cam->pitch > CMD_MAX_PITCH) cam->pitch = CMD_MAX_PITCH;
+    if (cam->pitch > CMDR_MAX_PITCH) cam->pitch = CMDR_MAX_PITCH;
     /* zoom: exponential, right trigger in */
     cam->half_h *= exp((double)(lt - rt) * c->zoom_rate * dt);
-    if (cam->half_h < CMD_MIN_ZOOM) cam->half_h = CMD_MIN_ZOOM;
-    if (cam->half_h > CMD_MAX_ZOOM) cam->half_h = CMD_MAX_ZOOM;
+    if (cam->half_h < CMDR_MIN_ZOOM) cam->half_h = CMDR_MIN_ZOOM;
+    if (cam->half_h > CMDR_MAX_ZOOM) cam->half_h = CMDR_MAX_ZOOM;
 
     /* buttons: the pad's, with the triggers' digital bits from hysteresis */
-    in->lt_down = cmd_trigger_button(c, s->lt, in->lt_down);
-    in->rt_down = cmd_trigger_button(c, s->rt, in->rt_down);
+    in->lt_down = cmdr_trigger_button(c, s->lt, in->lt_down);
+    in->rt_down = cmdr_trigger_button(c, s->rt, in->rt_down);
     uint32_t held = (s->buttons & ~(uint32_t)(PAD_LTRIGGER_D | PAD_RTRIGGER_D)) | (in->lt_down ? PAD_LTRIGGER_D : 0) |
                     (in->rt_down ? PAD_RTRIGGER_D : 0);
-    for (int a = 0; a < CMD_ACTION_COUNT; a++) {
+    for (int a = 0; a < CMDR_ACTION_COUNT; a++) {
         uint32_t b = c->bind[a];
         if (b && (held & b) == b && (in->held & b) != b) out->fired |= 1u << a;
     }
     in->held = held;
-    if (out->fired & (1u << CMD_TOGGLE_PERSPECTIVE)) {
+    if (out->fired & (1u << CMDR_TOGGLE_PERSPECTIVE)) {
         cam->perspective = !cam->perspective;
         if (cam->perspective && cam->pitch < 0.3) cam->pitch = 0.6; /* a tilted view, as the name says */
     }
-    if (out->fired & (1u << CMD_RESET_VIEW)) cmd_camera_reset(cam, cam->aspect);
+    if (out->fired & (1u << CMDR_RESET_VIEW)) cmdr_camera_reset(cam, cam->aspect);
     out->moved = memcmp(&before, cam, sizeof before) != 0;
 }
 
 /* The view direction (unit, from the eye to the target) and the eye's
  * distance from the target. */
-static void eye_of(const cmd_camera *cam, double eye[3], double dir[3], double *dist)
+static void eye_of(const cmdr_camera *cam, double eye[3], double dir[3], double *dist)
 {
     double fwd[3] = {sin(cam->yaw), 0, cos(cam->yaw)};
     double cp = cos(cam->pitch), sp = sin(cam->pitch);
@@ -261,18 +261,18 @@ static void eye_of(const cmd_camera *cam, double eye[3], double dir[3], double *
     dir[1] = -cp;
     /* perspective: the distance at which the view is half_h high at the
        target; orthographic: high above anything a level holds */
-    double d = cam->perspective ? cam->half_h / tan(CMD_FOVY_DEG * M_PI / 360) : 3000;
+    double d = cam->perspective ? cam->half_h / tan(CMDR_FOVY_DEG * M_PI / 360) : 3000;
     for (int a = 0; a < 3; a++) eye[a] = cam->target[a] - d * dir[a];
     *dist = d;
 }
 
-void cmd_camera_ray(const cmd_camera *cam, double eye[3], double dir[3])
+void cmdr_camera_ray(const cmdr_camera *cam, double eye[3], double dir[3])
 {
     double d;
     eye_of(cam, eye, dir, &d);
 }
 
-static bool view_of(const cmd_camera *cam, double ortho_w, double ortho_h, double fovy, uint32_t w, uint32_t h,
+static bool view_of(const cmdr_camera *cam, double ortho_w, double ortho_h, double fovy, uint32_t w, uint32_t h,
                     vp_view *out)
 {
     double eye[3], dir[3], d;
@@ -284,21 +284,21 @@ static bool view_of(const cmd_camera *cam, double ortho_w, double ortho_h, doubl
     return vt_view_ortho(out, eye, cam->target, up, ortho_w, ortho_h, (uint16_t)w, (uint16_t)h, 1, d + 3000);
 }
 
-bool cmd_camera_view(const cmd_camera *cam, uint32_t w, uint32_t h, vp_view *out)
+bool cmdr_camera_view(const cmdr_camera *cam, uint32_t w, uint32_t h, vp_view *out)
 {
     double hh = 2 * cam->half_h;
-    return view_of(cam, hh * w / h, hh, CMD_FOVY_DEG, w, h, out);
+    return view_of(cam, hh * w / h, hh, CMDR_FOVY_DEG, w, h, out);
 }
 
-bool cmd_pick_view(const cmd_camera *cam, double size, vp_view *out)
+bool cmdr_pick_view(const cmdr_camera *cam, double size, vp_view *out)
 {
     return view_of(cam, size, size, 1.0, 64, 64, out);
 }
 
-bool cmd_camera_project(const cmd_camera *cam, uint32_t w, uint32_t h, const double p[3], double *px, double *py)
+bool cmdr_camera_project(const cmdr_camera *cam, uint32_t w, uint32_t h, const double p[3], double *px, double *py)
 {
     vp_view v;
-    if (!cmd_camera_view(cam, w, h, &v)) return false;
+    if (!cmdr_camera_view(cam, w, h, &v)) return false;
     double r[4] = {p[0] - v.origin[0], p[1] - v.origin[1], p[2] - v.origin[2], 1}, c[4] = {0, 0, 0, 0};
     for (int i = 0; i < 4; i++)
         for (int k = 0; k < 4; k++) c[i] += v.view_proj[k * 4 + i] * r[k];
@@ -308,7 +308,7 @@ bool cmd_camera_project(const cmd_camera *cam, uint32_t w, uint32_t h, const dou
     return isfinite(*px) && isfinite(*py);
 }
 
-bool cmd_ray_box(const double o[3], const double dir[3], const double lo[3], const double hi[3], double *t)
+bool cmdr_ray_box(const double o[3], const double dir[3], const double lo[3], const double hi[3], double *t)
 {
     double t0 = 0, t1 = INFINITY;
     for (int a = 0; a < 3; a++) {
@@ -332,11 +332,11 @@ bool cmd_ray_box(const double o[3], const double dir[3], const double lo[3], con
 
 /* ---- latency samples ------------------------------------------------------------------ */
 
-void cmd_lat_add(cmd_lat *l, double ms)
+void cmdr_lat_add(cmdr_lat *l, double ms)
 {
     l->v[l->next] = (float)ms;
-    l->next = (l->next + 1) % CMD_LAT_SAMPLES;
-    if (l->n < CMD_LAT_SAMPLES) l->n++;
+    l->next = (l->next + 1) % CMDR_LAT_SAMPLES;
+    if (l->n < CMDR_LAT_SAMPLES) l->n++;
     l->total++;
 }
 
@@ -346,10 +346,10 @@ static int cmp_f(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-double cmd_lat_pct(const cmd_lat *l, double p)
+double cmdr_lat_pct(const cmdr_lat *l, double p)
 {
     if (!l->n) return NAN;
-    float s[CMD_LAT_SAMPLES]; /* 16 KiB */
+    float s[CMDR_LAT_SAMPLES]; /* 16 KiB */
     memcpy(s, l->v, l->n * sizeof *s);
     qsort(s, l->n, sizeof *s, cmp_f);
     /* nearest rank */

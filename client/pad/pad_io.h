@@ -8,7 +8,8 @@
  * (pad.h) and queue events; the caller's loop polls pad_hub_fd() beside
  * its socket and drains pad_hub_next(). Every hidapi and libusb call goes
  * through a pad_ops table so tests can put a fake behind the hub; the real
- * table calls the real libraries.
+ * table calls the real libraries. Implemented by pad_hub.c and one file
+ * per backend (pad_io_internal.h lists them).
  */
 #ifndef VANTAGE_PAD_IO_H
 #define VANTAGE_PAD_IO_H

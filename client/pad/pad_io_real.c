@@ -1,8 +1,8 @@
 /*
  * pad_io_real.c — the pad_ops table of the real hidapi (hidraw flavour)
  * and libusb: every entry is the library function itself, so the hub pays
- * one indirect call per library call and nothing else. The fakes live in
- * tests/test_pad_io.c.
+ * one indirect call per library call and nothing else. The fake lives in
+ * tests/pad_fake.c.
  */
 #include "pad_io.h"
 

@@ -301,12 +301,23 @@ static void ds4_full(pad_state *n, const uint8_t *s)
     }
 }
 
-int pad_parse_ds4(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out)
+/* How a PlayStation pad's reports differ: the Bluetooth full report's id
+ * and where its state bytes start, and the DS4's two special cases. */
+typedef struct ps_layout {
+    uint8_t bt_id;            /* 0x11 DS4, 0x31 DualSense (78 bytes, CRC-32) */
+    uint8_t bt_state;         /* the state's first byte in it */
+    bool bt_data_flag;        /* DS4: byte 1 bit 7 clear means no input in it */
+    bool usb_adaptor;         /* DS4: USB byte 31 bit 2, the wireless adaptor with no pad */
+    void (*full)(pad_state *n, const uint8_t *s);
+} ps_layout;
+
+/* 0x01 of 10 bytes (Bluetooth before the full reports: sticks, buttons,
+ * triggers), 0x01 of 64 (USB), the Bluetooth full report (78). */
+static int ps_parse(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out, const ps_layout *L)
 {
     if (len == 0) return PAD_ERR_SHORT;
     pad_state n = *out;
-    switch (buf[0]) {
-    case 0x01:
+    if (buf[0] == 0x01) {
         if (len == 10) {
             ps_simple(&n, buf + 1);
             p->bluetooth = true;
@@ -314,7 +325,7 @@ int pad_parse_ds4(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out)
         }
         if (len < 64) return PAD_ERR_SHORT;
         if (len > 64) return PAD_ERR_LONG;
-        if (buf[31] & 0x04) {
+        if (L->usb_adaptor && (buf[31] & 0x04)) {
             /* the USB wireless adaptor with no pad paired: the rest of the
              * report is whatever the adaptor holds; report a neutral pad */
             pad_state_init(&n);
@@ -322,19 +333,24 @@ int pad_parse_ds4(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out)
             n.counter = out->counter;
             return finish(out, &n);
         }
-        ds4_full(&n, buf + 1);
+        L->full(&n, buf + 1);
         return finish(out, &n);
-    case 0x11:
-        if (len < 78) return PAD_ERR_SHORT;
-        if (len > 78) return PAD_ERR_LONG;
-        if (!ps_crc_ok(buf, len)) return PAD_ERR_CRC;
-        p->bluetooth = true;
-        if (!(buf[1] & 0x80)) return PAD_OK_NONE; /* no HID data in this one */
-        ds4_full(&n, buf + 3);
-        return finish(out, &n);
-    default:
-        return PAD_ERR_REPORT_ID;
     }
+    if (buf[0] != L->bt_id) return PAD_ERR_REPORT_ID;
+    if (len < 78) return PAD_ERR_SHORT;
+    if (len > 78) return PAD_ERR_LONG;
+    if (!ps_crc_ok(buf, len)) return PAD_ERR_CRC;
+    p->bluetooth = true;
+    if (L->bt_data_flag && !(buf[1] & 0x80)) return PAD_OK_NONE; /* no HID data in this one */
+    L->full(&n, buf + L->bt_state);
+    return finish(out, &n);
+}
+
+int pad_parse_ds4(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out)
+{
+    static const ps_layout ds4 = {.bt_id = 0x11, .bt_state = 3, .bt_data_flag = true, .usb_adaptor = true,
+                                  .full = ds4_full};
+    return ps_parse(p, buf, len, out, &ds4);
 }
 
 /* DualSense state from s = the byte after the report id (USB) or after
@@ -359,29 +375,8 @@ static void ds_full(pad_state *n, const uint8_t *s)
 
 int pad_parse_dualsense(pad_parser *p, const uint8_t *buf, size_t len, pad_state *out)
 {
-    if (len == 0) return PAD_ERR_SHORT;
-    pad_state n = *out;
-    switch (buf[0]) {
-    case 0x01:
-        if (len == 10) {
-            ps_simple(&n, buf + 1);
-            p->bluetooth = true;
-            return finish(out, &n);
-        }
-        if (len < 64) return PAD_ERR_SHORT;
-        if (len > 64) return PAD_ERR_LONG;
-        ds_full(&n, buf + 1);
-        return finish(out, &n);
-    case 0x31:
-        if (len < 78) return PAD_ERR_SHORT;
-        if (len > 78) return PAD_ERR_LONG;
-        if (!ps_crc_ok(buf, len)) return PAD_ERR_CRC;
-        p->bluetooth = true;
-        ds_full(&n, buf + 2);
-        return finish(out, &n);
-    default:
-        return PAD_ERR_REPORT_ID;
-    }
+    static const ps_layout ds = {.bt_id = 0x31, .bt_state = 2, .full = ds_full};
+    return ps_parse(p, buf, len, out, &ds);
 }
 
 /* ---- Switch Pro ----------------------------------------------------------------------- */

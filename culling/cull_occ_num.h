@@ -1,0 +1,59 @@
+/*
+ * cull_occ_num.h — what cull_occ.c (buffers, projection, rectangle tests)
+ * and cull_occ_raster.c (rasterisation) share inside the occlusion
+ * buffer: the pixel values that mean "no occluder" and "padding", the
+ * tiles' states, and the inlined double helpers whose NaN and overflow
+ * rules the conservative bounds rely on. Private to those two files
+ * (cull_occ.h is the layout the query and the ISA loops see; these names
+ * are too short to share with them).
+ */
+#ifndef VANTAGE_CULL_OCC_NUM_H
+#define VANTAGE_CULL_OCC_NUM_H
+
+#include <float.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+#define EMPTY (-FLT_MAX)
+enum { TILE_INVALID = 0, TILE_CLEAN = 1, TILE_DIRTY = 2 }; /* pixels stale / minimum current / written since */
+#define PAD FLT_MAX
+
+/* libm's fmin, fmax, floor and ceil are calls on baseline x86-64 (NaN
+ * and errno rules); these are inlined. They do not order NaN (dmin(x, NaN)
+ * is NaN, dmin(NaN, x) is x): every caller keeps NaN out first (the
+ * isfin() checks below), because a NaN bound dropped silently would mark
+ * pixels the occluder does not cover, a wrong cull. */
+static inline double dmin(double a, double b) { return a < b ? a : b; }
+static inline double dmax(double a, double b) { return a > b ? a : b; }
+static inline float fmin_(float a, float b) { return a < b ? a : b; }
+/* neither infinite nor NaN (no libm call, no errno) */
+static inline bool isfin(double x) { return x - x == 0; }
+/* floor and ceil of pixel indices: x is clamped to +-2^30 first, so the
+ * result and the result +- 1 fit an int (buffers are <= 8192 pixels) and
+ * every (int) cast of them is defined; NaN (never passed) gives -2^30,
+ * not undefined behaviour */
+#define PIX_LIM 0x1p30
+static inline double clamp_pix(double x)
+{
+    return x >= -PIX_LIM ? (x <= PIX_LIM ? x : PIX_LIM) : -PIX_LIM;
+}
+static inline double dfloor(double x)
+{
+    x = clamp_pix(x);
+    double i = (double)(int64_t)x;
+    return i > x ? i - 1 : i;
+}
+static inline double dceil(double x)
+{
+    x = clamp_pix(x);
+    double i = (double)(int64_t)x;
+    return i < x ? i + 1 : i;
+}
+/* r . (p, 1): one row of the view-projection (cull_occ_setup_view) at a
+ * camera-relative point */
+static inline double lin4(const double r[4], const double p[3])
+{
+    return r[0] * p[0] + r[1] * p[1] + r[2] * p[2] + r[3];
+}
+
+#endif
