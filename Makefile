@@ -77,7 +77,7 @@ PAD_LIBS := $$(pkg-config --libs hidapi-hidraw libusb-1.0)
 SDL_LIBS := $$(pkg-config --libs sdl2 SDL2_ttf)
 # load-test scenarios (issue 9): the format and the histogram, pure (the
 # tests link them); the runner is cli_scenario.c
-SCN_OBJ  := $(BUILD)/client/loadgen/scenario.o $(BUILD)/client/loadgen/hdr.o
+SCN_OBJ  := $(BUILD)/client/loadgen/scenario.o $(BUILD)/client/loadgen/lat_hist.o
 CLI_OBJ  := $(BUILD)/client/cli/vantage_cli.o $(BUILD)/client/cli/cli_jsonl.o $(BUILD)/client/cli/cli_bench.o \
             $(BUILD)/client/cli/cli_render.o $(BUILD)/client/cli/cli_frames.o $(BUILD)/client/cli/cli_sublevel.o \
             $(BUILD)/client/import/import.o $(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_pad.o \

@@ -35,7 +35,6 @@ typedef struct server_config {
     int metrics_port;        /* its port; 0 = no endpoint */
 } server_config;
 
-#define VANTAGED_DEFAULT_PORT 7470
 #define VANTAGED_PREHELLO_MAX 4096u /* frame limit before the handshake */
 
 typedef struct server server;

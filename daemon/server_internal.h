@@ -53,7 +53,7 @@ typedef struct conn {
     uint8_t *out;
     size_t out_len, out_pos, out_cap;
     size_t in_peak, out_peak; /* most bytes held since the last sweep (conn_trim) */
-    uint16_t load;      /* the sub-level this connection is loading, 0 = none */
+    uint16_t sublevel;  /* the sub-level this connection is loading (its open load), 0 = none */
     bool held;          /* an edit's answer waits for the journal's sync (always) */
     bool ev_pending;    /* the scene changed since the last EVENT sent */
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */

@@ -61,7 +61,7 @@ static void usage(FILE *f)
             "                       last snapshot (default 64)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
             "  --help               this text\n",
-            VANTAGED_DEFAULT_PORT);
+            VP_DEFAULT_PORT);
 }
 
 static bool parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out)
@@ -123,7 +123,7 @@ int main(int argc, char **argv)
 {
     server_config cfg = {
         .bind = "127.0.0.1",
-        .port = VANTAGED_DEFAULT_PORT,
+        .port = VP_DEFAULT_PORT,
         .unix_path = "/tmp/vantaged.sock",
         .max_clients = 1024,
         .max_payload = 16u << 20,
