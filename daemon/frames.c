@@ -262,7 +262,7 @@ static int render_check(const server *s, const vp_render *m, cull_view *v, char 
         return VP_ERR_LIMIT;
     }
     if (m->format == VP_FRAME_RAW && s->cfg.out_limit_total && bytes > s->cfg.out_limit_total / 2) {
-        /* its buffer (a power of two) alone would pass the daemon-wide limit */
+        /* queued, it would leave the daemon-wide limit no room for a second one */
         snprintf(msg, msglen,
                  "a raw %ux%u frame is %zu bytes, over half this daemon's output limit for all clients, %llu "
                  "(--out-limit-total)",
@@ -567,7 +567,7 @@ int frames_schedule(server *s)
         frame_sub *f = &c->fsub;
         if (!f->active || f->inflight || c->closing) continue;
         if (!f->dirty && f->shown_epoch == s->sc->epoch) continue; /* nothing new to show */
-        if (c->out_len > c->out_pos) { /* the last frame is still leaving: it wins */
+        if (c->out_bytes) { /* the last frame is still leaving: it wins */
             frame_held(s, f, now);
             continue;
         }
@@ -623,15 +623,13 @@ void frames_done(server *s, conn *c, job *j)
         if (j->ok) s->m.frames_discarded++;
         return;
     }
-    vp_writer w;
-    if (!j->reply || !out_reserve(c, j->reply_len, &w)) {
+    uint32_t bytes = (uint32_t)j->reply_len;
+    if (!j->reply || !out_take_reply(c, j)) { /* linked into the queue, not copied */
         c->closing = true;
         return;
     }
-    vp_put_bytes(&w, j->reply, j->reply_len);
-    out_commit(c, &w);
     if (j->ok) {
-        f->last_bytes = (uint32_t)j->reply_len;
+        f->last_bytes = bytes;
         f->shown_epoch = j->epoch;
         f->frames++;
         s->m.frames_sent++;

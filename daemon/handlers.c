@@ -665,6 +665,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
     case VP_SUBSCRIBE: {
         uint32_t kinds;
         if ((rc = vp_dec_subscribe(p, h->len, &kinds))) break;
+        s->nev_subs += (kinds & VP_EVENT_SCENE ? 1u : 0u) - (c->sub_kinds & VP_EVENT_SCENE ? 1u : 0u);
         c->sub_kinds = kinds;
         reply_ack(c, h->req, s->sc->epoch, 0);
         return;

@@ -336,10 +336,10 @@ int main(int argc, char **argv)
     if (cfg.bind && *cfg.bind) LOGI("listening on %s:%d", cfg.bind, cfg.port);
     if (cfg.unix_path && *cfg.unix_path) LOGI("listening on %s", cfg.unix_path);
     LOGI("try: vantage -p %d query --eye 0,2,-300 --at 0,2,0", cfg.port);
-    server_run(srv);
+    int run = server_run(srv); /* it said why */
     int rc = server_destroy(srv);
     scene_free(sc);
     free(sc);
     LOGI("bye");
-    return rc ? 1 : 0;
+    return rc || run ? 1 : 0;
 }
