@@ -350,15 +350,18 @@ bool metrics_expose(server *s, mbuf *b)
     family(b, "vantage_output_buffered_bytes", "gauge",
            "Reply and frame bytes queued in the daemon for protocol clients, not yet taken by the kernel.");
     sample(b, "vantage_output_buffered_bytes", NULL, NULL, buffered);
+    family(b, "vantage_output_reply_bytes_total", "counter",
+           "Worker replies (query results, frames) queued to clients, by how: linked (queued by pointer, "
+           "no copy: every frame and every reply over 1 KiB) or copied (into the reply queue's tail block).");
+    {
+        const char *const how[2] = {"linked", "copied"};
+        const uint64_t bytes[2] = {m->out_linked, m->out_copied};
+        for (int i = 0; i < 2; i++) sample(b, "vantage_output_reply_bytes_total", "how", how[i], bytes[i]);
+    }
     family(b, "vantage_output_pending_clients", "gauge",
            "Protocol connections with output still to write (or an event or a held answer to send): the "
            "only ones the loop visits on a turn.");
     sample(b, "vantage_output_pending_clients", NULL, NULL, s->npend);
-    family(b, "vantage_output_reply_bytes_total", "counter",
-           "Worker replies (query results, frames) queued to clients, by how: linked (queued by pointer, "
-           "no copy: every frame and every reply over 1 KiB) or copied (into the reply queue's tail block).");
-    sample(b, "vantage_output_reply_bytes_total", "how", "linked", m->out_linked);
-    sample(b, "vantage_output_reply_bytes_total", "how", "copied", m->out_copied);
     family(b, "vantage_client_buffer_bytes", "gauge",
            "Memory held by protocol clients' input buffers and output blocks (what they hold, used or not: an "
            "input buffer a burst grew shrinks back to 64 KiB, and an idle output block is given back, within "

@@ -1426,12 +1426,12 @@ static void test_metrics_output_frames_linked_not_copied(void **state)
 {
     (void)state;
     enum { W = 320, H = 200, K = 3 };
+    vp_render m = {.format = VP_FRAME_RAW};
+    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
     daemon_proc d;
     int mport;
     daemon_with_metrics(&d, &mport, NULL);
     vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
-    vp_render m = {.format = VP_FRAME_RAW};
-    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
     expo a, b, c;
     scrape(mport, &a);
     for (int k = 0; k < K; k++) {
@@ -1551,8 +1551,8 @@ static void test_metrics_output_blocks_in_order(void **state)
 }
 
 /* The pending list (issue 25): the loop visits only the connections with
- * output waiting. Eight idle viewers and one that pipelines 64 PINGs of
- * 60 kB and reads nothing: exactly one connection is pending; once it has
+ * output waiting. Eight idle viewers and one that pipelines 4,096 PINGs
+ * of 1,000 bytes and reads nothing: exactly one connection is pending; once it has
  * read every PONG, none is, and the output blocks it held are given back
  * (each connection keeps at most its one small tail block, 16 KiB). */
 static void test_metrics_output_pending_list(void **state)
@@ -1623,12 +1623,12 @@ static void test_metrics_output_close_with_reply_in_flight(void **state)
 {
     (void)state;
     enum { ROUNDS = 24, W = 400, H = 300 };
-    daemon_proc d;
-    int mport;
-    daemon_with_metrics(&d, &mport, NULL);
     vp_render m = {.format = VP_FRAME_RAW};
     assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
     vp_frame_sub sub = {.r = m, .max_fps = VP_FRAME_SUB_MAX_FPS};
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
     expo a;
     scrape(mport, &a);
     static rawc r, n;
