@@ -8,10 +8,13 @@
  * alone, before its payload is buffered. Frames go to handlers.c; queries
  * go on to the worker threads, which read the scene under the shared scene
  * lock, so every query sees every edit acknowledged before it and none
- * half-applied. Replies go to a per-connection output buffer flushed before
- * the loop sleeps; a client that leaves more than out_limit bytes unread
- * is disconnected, and while all the output buffers together hold more
- * than out_limit_total, the client with the largest backlog is.
+ * half-applied. Replies go to a per-connection queue of output blocks (a
+ * worker's reply linked in by pointer, not copied), written before the
+ * loop sleeps for the connections on the pending list only; a client that
+ * leaves more than out_limit bytes unread is disconnected, and while all
+ * the output blocks together hold more than out_limit_total, the client
+ * with the largest backlog is. A connection ended anywhere is freed at one
+ * point, the end of before_sleep.
  */
 #include "server_internal.h"
 
