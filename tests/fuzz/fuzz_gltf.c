@@ -1,5 +1,6 @@
 /*
- * fuzz_gltf.c — libFuzzer target for the level import (client/import/import.c):
+ * fuzz_gltf.c — libFuzzer target for the level import (client/import/:
+ * import_walk.c, import_memio.c):
  * the input is a level file in memory, read by assimp and converted by
  * vt_level_import_mem exactly as `vantage sublevel load` converts a file
  * (glTF binary when it starts with the "glTF" magic, else glTF JSON).
@@ -22,7 +23,7 @@
  *      lights (LIGHT_PUT) encode and decode with VP_OK.
  *
  * assimp is the system's build, not instrumented: libFuzzer's coverage
- * comes from import.c and this file only, and ASan sees assimp's memory
+ * comes from the importer and this file only, and ASan sees assimp's memory
  * errors only where they reach an intercepted call (memcpy, free, ...).
  */
 #include "import.h"
@@ -252,7 +253,7 @@ static void check_level(const vt_level *lv)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    /* an exact copy: assimp reads through import.c's callbacks from it */
+    /* an exact copy: assimp reads through import_memio.c's callbacks from it */
     uint8_t *buf = malloc(size ? size : 1);
     CHECK(buf != NULL);
     memcpy(buf, data, size);
