@@ -6,9 +6,9 @@
  * request that names it).
  *
  * Streams are latest-frame-wins without a queue: a subscriber's next frame
- * is rendered only when its previous one has left the daemon's buffer and
- * the kernel's (SIOCOUTQ: on TCP, what the peer has not acknowledged; on a
- * Unix socket, what it has not read), the scene or its view has changed
+ * is rendered only when its previous one has left the connection's output
+ * and the kernel's (SIOCOUTQ: on TCP, what the peer has not acknowledged;
+ * on a Unix socket, what it has not read), the scene or its view has changed
  * since, and its rate cap allows; the frame then shows the scene as it is
  * at that moment. A slow viewer thus gets fewer frames and costs no render
  * time while it is stalled; the others do not wait for it. (A stalled TCP
