@@ -49,8 +49,8 @@
  * the socket from the buffer it was drawn into, never copied (it was
  * copied into one contiguous buffer, compacted and regrown, before). The
  * queue leaves through writev. A block written out is freed at once; the
- * last small one stays as the next replies' tail until a sweep finds it
- * unused. server.out_held sums every block's memory: what
+ * last small one stays as the next replies' tail (16 KiB a connection at
+ * rest; the daemon-wide cap takes it back first). server.out_held sums every block's memory: what
  * --out-limit-total bounds and the metrics report. */
 #define OUT_BLOCK 16384u  /* a tail block: a few hundred small replies */
 #define OUT_COPY_MAX 1024u /* a worker's reply up to this is copied into the tail block: cheaper
@@ -191,11 +191,11 @@ static void out_consume(conn *c, size_t n)
  * over its resting size that is empty and held at most a quarter of
  * itself since the last sweep shrinks to its resting size. A client that
  * just sent 100 MB of entities keeps the buffer while it keeps sending;
- * one that went quiet costs 64 KiB again. Output blocks go as soon as they
- * are written; the one small tail block kept goes at the first sweep that
- * finds it unused since the last. The loop keeps sweeping while an input
- * buffer is over its resting size, even when idle, so a burst's memory is
- * given back within ~0.5 s. */
+ * one that went quiet costs 64 KiB again. Output blocks are not the
+ * sweep's: they go as soon as they are written, but for the one small tail
+ * block kept for the connection's life (out_consume). The loop keeps
+ * sweeping while an input buffer is over its resting size, even when idle,
+ * so a burst's memory is given back within ~0.5 s. */
 #define IN_REST 65536u   /* conn_read's first buffer */
 
 static void conn_trim(conn *c)
