@@ -79,7 +79,7 @@ PAD_LIBS := $$(pkg-config --libs hidapi-hidraw libusb-1.0)
 SDL_LIBS := $$(pkg-config --libs sdl2 SDL2_ttf)
 # load-test scenarios (issue 9): the format and the histogram, pure (the
 # tests link them); the runner is cli_scenario.c
-SCN_OBJ  := $(BUILD)/client/loadgen/scenario.o $(BUILD)/client/loadgen/hdr.o
+SCN_OBJ  := $(BUILD)/client/loadgen/scenario.o $(BUILD)/client/loadgen/lat_hist.o
 # level import (client/import/README.md): the walk, in-memory files, the
 # child process and the level's bytes on its pipe
 IMPORT_OBJ := $(BUILD)/client/import/import_walk.o $(BUILD)/client/import/import_memio.o \
@@ -193,7 +193,7 @@ $(PROTO_LIB): $(PROTO_OBJ)
 
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
-PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o)
+PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o ae.o)
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 

@@ -116,7 +116,7 @@ void ae_stop(ae_loop *l)
     l->stop = true;
 }
 
-void ae_run(ae_loop *l)
+int ae_run(ae_loop *l)
 {
     l->stop = false;
     while (!l->stop) {
@@ -128,7 +128,7 @@ void ae_run(ae_loop *l)
             timeout = l->next_timer > now ? (int)(l->next_timer - now) : 0;
         }
         int n = epoll_wait(l->epfd, l->fired, l->setsize, timeout);
-        if (n < 0 && errno != EINTR) break;
+        if (n < 0 && errno != EINTR) return -errno; /* it ran silently out of the loop before */
         for (int i = 0; i < n; i++) {
             int fd = l->fired[i].data.fd;
             uint32_t ev = l->fired[i].events;
@@ -145,4 +145,5 @@ void ae_run(ae_loop *l)
             l->timer(l, l->timer_data);
         }
     }
+    return 0;
 }

@@ -28,8 +28,10 @@ int  ae_mask(const ae_loop *l, int fd);
 void ae_set_before_sleep(ae_loop *l, ae_hook hook, void *data);
 /* A periodic callback every period_ms (0 = none). */
 void ae_set_timer(ae_loop *l, int period_ms, ae_hook hook, void *data);
-/* Runs until ae_stop. Blocks in epoll_wait when idle: no busy loop. */
-void ae_run(ae_loop *l);
+/* Runs until ae_stop (0), or until epoll_wait fails with anything but
+ * EINTR: -errno (the loop cannot wait for events any more; the caller
+ * says so and ends). Blocks in epoll_wait when idle: no busy loop. */
+int  ae_run(ae_loop *l);
 void ae_stop(ae_loop *l);
 uint64_t ae_now_ms(void);
 

@@ -150,26 +150,26 @@ int edit_apply(scene *sc, const edit *e, edit_result *r, scene_err *err)
     case VP_ENTITY_ADD:
         if (!(r->handles = malloc((size_t)e->count * sizeof *r->handles)))
             return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
-        rc = scene_add(sc, e->load, &e->u.ents, r->handles, err);
+        rc = scene_add(sc, e->sublevel, &e->u.ents, r->handles, err);
         break;
     case VP_ENTITY_UPDATE:
-        rc = scene_update(sc, e->load, &e->u.ents, err);
+        rc = scene_update(sc, e->sublevel, &e->u.ents, err);
         break;
     case VP_ENTITY_REMOVE:
-        rc = scene_remove(sc, e->load, &e->u.ids, err);
+        rc = scene_remove(sc, e->sublevel, &e->u.ids, err);
         break;
     case VP_OCCLUDER_REMOVE:
     case VP_LIGHT_REMOVE:
-        rc = scene_remove_ids(sc, e->load, e->type == VP_LIGHT_REMOVE ? &sc->lights : &sc->occluders, &e->u.ids, err);
+        rc = scene_remove_ids(sc, e->sublevel, e->type == VP_LIGHT_REMOVE ? &sc->lights : &sc->occluders, &e->u.ids, err);
         break;
     case VP_MESH_PUT:
-        rc = scene_mesh_put(sc, e->load, &e->u.mesh, err);
+        rc = scene_mesh_put(sc, e->sublevel, &e->u.mesh, err);
         break;
     case VP_OCCLUDER_PUT:
-        rc = scene_occluder_put(sc, e->load, &e->u.occ, err);
+        rc = scene_occluder_put(sc, e->sublevel, &e->u.occ, err);
         break;
     case VP_LIGHT_PUT:
-        rc = scene_lights_put(sc, e->load, e->u.lights.recs, e->u.lights.n, err);
+        rc = scene_lights_put(sc, e->sublevel, e->u.lights.recs, e->u.lights.n, err);
         break;
     case VP_SUBLEVEL_NAMES:
         if (!(r->ids = malloc(((size_t)e->count + 1) * sizeof *r->ids)))
@@ -177,16 +177,16 @@ int edit_apply(scene *sc, const edit *e, edit_result *r, scene_err *err)
         rc = scene_sublevel_ids(sc, &e->u.names, r->ids, err);
         break;
     case VP_SUBLEVEL_BEGIN:
-        if (e->load)
+        if (e->sublevel)
             return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "this connection is already loading a sub-level");
         rc = scene_sublevel_begin(sc, &e->u.begin, e->aux, &r->begun, err);
         break;
     case VP_SUBLEVEL_COMMIT:
     case VP_SUBLEVEL_ABORT:
-        if (!e->load) return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "no load open on this connection");
+        if (!e->sublevel) return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "no load open on this connection");
         r->n = 0;
-        rc = e->type == VP_SUBLEVEL_COMMIT ? scene_sublevel_commit(sc, e->load, &r->n, err)
-                                           : scene_sublevel_drop(sc, e->load, &r->n, err);
+        rc = e->type == VP_SUBLEVEL_COMMIT ? scene_sublevel_commit(sc, e->sublevel, &r->n, err)
+                                           : scene_sublevel_drop(sc, e->sublevel, &r->n, err);
         break;
     case VP_SUBLEVEL_UNLOAD:
         r->n = 0;

@@ -8,7 +8,7 @@
  *
  * An edit depends on the scene and on nothing else except its context,
  * which the journal stores with it: the sub-level the editing connection
- * was loading (`load`) and `aux` (DESTROY: the volume resolution the daemon
+ * was loading (`sublevel`) and `aux` (DESTROY: the volume resolution the daemon
  * ran with; SUBLEVEL_BEGIN: the loading connection's id).
  */
 #ifndef VANTAGE_EDIT_H
@@ -22,7 +22,7 @@
 
 typedef struct edit {
     uint16_t type;   /* a VP_* request type, or EDIT_* */
-    uint16_t load;   /* the editing connection's open load, 0 = none */
+    uint16_t sublevel; /* the sub-level the editing connection is loading (its open load), 0 = none */
     uint32_t aux;
     uint32_t count;  /* records in it (the ACK's count) */
     union {

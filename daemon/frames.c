@@ -6,9 +6,9 @@
  * request that names it).
  *
  * Streams are latest-frame-wins without a queue: a subscriber's next frame
- * is rendered only when its previous one has left the daemon's buffer and
- * the kernel's (SIOCOUTQ: on TCP, what the peer has not acknowledged; on a
- * Unix socket, what it has not read), the scene or its view has changed
+ * is rendered only when its previous one has left the connection's output
+ * and the kernel's (SIOCOUTQ: on TCP, what the peer has not acknowledged;
+ * on a Unix socket, what it has not read), the scene or its view has changed
  * since, and its rate cap allows; the frame then shows the scene as it is
  * at that moment. A slow viewer thus gets fewer frames and costs no render
  * time while it is stalled; the others do not wait for it. (A stalled TCP
@@ -244,6 +244,34 @@ static int tonemap_frame(worker *wk, uint32_t w, uint32_t h, const float *rgba, 
     return 0;
 }
 
+/* The software renderer's picture of fi from v into rgba and depth (the
+ * view's size), on this worker: the one soft-draw path RENDER and
+ * LIGHT_QUERY share. VP_OK, or a code with msg. */
+static int soft_draw(worker *wk, const cull_view *v, const frame_in *fi, float *rgba, float *depth, char *msg,
+                     size_t msglen)
+{
+    char err[256];
+    uint32_t W = v->viewport_w, H = v->viewport_h;
+    int rc = vt_soft_render(wk->soft, v, W, H, fi->meshes, fi->nmesh, fi->inst, fi->ninst, fi->lights, fi->nl, rgba,
+                            depth, W, NULL, err, sizeof err);
+    if (!rc) return VP_OK;
+    snprintf(msg, msglen, "render: %s", err);
+    return rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
+}
+
+/* A picture job's end, RENDER's or LIGHT_QUERY's: its reply as drawn, or
+ * the ERROR for code (out of memory when code is VP_ERR_BUSY and msg is
+ * empty: what names what could not be had). */
+static void job_finish(job *j, int code, char *msg, size_t msglen, const char *what)
+{
+    if (code == VP_OK) {
+        j->ok = true;
+        return;
+    }
+    if (code == VP_ERR_BUSY && !*msg) snprintf(msg, msglen, "out of memory for %s", what);
+    job_error(j, code, UINT32_MAX, msg);
+}
+
 /* What RENDER and FRAME_SUBSCRIBE refuse before drawing anything: the
  * view (view_from: cull_view_init, the validation every request carrying
  * a view and both renderers share) and a RAW frame larger than the output
@@ -262,7 +290,7 @@ static int render_check(const server *s, const vp_render *m, cull_view *v, char 
         return VP_ERR_LIMIT;
     }
     if (m->format == VP_FRAME_RAW && s->cfg.out_limit_total && bytes > s->cfg.out_limit_total / 2) {
-        /* its buffer (a power of two) alone would pass the daemon-wide limit */
+        /* queued, it would leave the daemon-wide limit no room for a second one */
         snprintf(msg, msglen,
                  "a raw %ux%u frame is %zu bytes, over half this daemon's output limit for all clients, %llu "
                  "(--out-limit-total)",
@@ -287,20 +315,29 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     int renderer = m->renderer ? m->renderer : s->cfg.renderer;
     j->epoch = sc->epoch;
     cull_view v;
-    if ((code = render_check(s, m, &v, msg, sizeof msg))) goto error;
+    if ((code = render_check(s, m, &v, msg, sizeof msg))) goto done;
     uint32_t W = v.viewport_w, H = v.viewport_h;
     size_t np = (size_t)W * H;
-    if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) goto nomem;
-    if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto error;
+    if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) {
+        code = VP_ERR_BUSY; /* job_finish names what */
+        goto done;
+    }
+    if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto done;
     if (m->format == VP_FRAME_RAW) {
         /* drawn straight into the reply: RGBA then depth after the header */
-        if (!(raw = malloc(vp_size_frame((uint32_t)(np * 20))))) goto nomem;
+        if (!(raw = malloc(vp_size_frame((uint32_t)(np * 20))))) {
+            code = VP_ERR_BUSY; /* job_finish names what */
+            goto done;
+        }
         rgba = (float *)(void *)(raw + VP_HEADER_SIZE + VP_FRAME_HEADER);
         depth = rgba + np * 4;
     } else {
         rgba = malloc(np * 4 * sizeof *rgba);
         depth = malloc(np * sizeof *depth);
-        if (!rgba || !depth) goto nomem;
+        if (!rgba || !depth) {
+            code = VP_ERR_BUSY; /* job_finish names what */
+            goto done;
+        }
     }
     char err[256];
     int rc;
@@ -317,12 +354,9 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         }
         vt_gl_release(s->gl);
         pthread_mutex_unlock(&s->gl_mu);
-        if (code) goto error;
-    } else if ((rc = vt_soft_render(wk->soft, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
-                                    rgba, depth, W, NULL, err, sizeof err))) {
-        code = rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
-        snprintf(msg, sizeof msg, "render: %s", err);
-        goto error;
+        if (code) goto done;
+    } else if ((code = soft_draw(wk, &v, &fi, rgba, depth, msg, sizeof msg))) {
+        goto done;
     }
     uint64_t t1 = now_ns();
     vp_frame f = {.epoch = sc->epoch, .width = (uint16_t)W, .height = (uint16_t)H, .format = m->format,
@@ -334,13 +368,16 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     wk->scene_released = true;
     if (m->format == VP_FRAME_JPEG) {
         rgb8 = malloc(vt_image_rgba8_size(W, H));
-        if (!rgb8) goto nomem;
+        if (!rgb8) {
+            code = VP_ERR_BUSY; /* job_finish names what */
+            goto done;
+        }
         vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES};
         if (tonemap_frame(wk, W, H, rgba, &td, rgb8) ||
             vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err)) {
             code = VP_ERR_INTERNAL;
             snprintf(msg, sizeof msg, "jpeg: %s", err);
-            goto error;
+            goto done;
         }
         f.data = jpeg;
         f.data_len = (uint32_t)jpeg_len;
@@ -357,19 +394,15 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         j->reply = raw;
         raw = NULL;
     } else if (!(j->reply = malloc(j->reply_len))) {
-        goto nomem;
+        code = VP_ERR_BUSY;
+        goto done;
     }
     vp_writer fw;
     vp_writer_init(&fw, j->reply, j->reply_len);
     vp_enc_frame(&fw, j->h.req, &f);
-    j->ok = true;
-    goto done;
-nomem:
-    code = VP_ERR_BUSY;
-    snprintf(msg, sizeof msg, "out of memory for a frame");
-error:
-    job_error(j, code, UINT32_MAX, msg);
+    code = VP_OK;
 done:
+    job_finish(j, code, msg, sizeof msg, "a frame");
     frame_in_free(&fi);
     if (m->format != VP_FRAME_RAW) {
         free(rgba);
@@ -411,42 +444,51 @@ void run_light_query(server *s, worker *wk, job *j)
     cull_light *cl = NULL;
     if ((code = vp_dec_light_query(j->payload, j->h.len, &m))) {
         snprintf(msg, sizeof msg, "%s", vp_strerror(code));
-        goto error;
+        goto done;
     }
     cull_view v;
-    if ((code = view_from(&m.view, UINT32_MAX, &v, msg, sizeof msg))) goto error;
+    if ((code = view_from(&m.view, UINT32_MAX, &v, msg, sizeof msg))) goto done;
     uint32_t W = v.viewport_w, H = v.viewport_h;
     int rc;
     if (m.flags & VP_LQ_NO_DEPTH) {
         /* the frustum alone: the lights, nothing culled or drawn */
-        if (gather_lights(sc, scene_visible(sc, NULL, wk->vis), &fi)) goto nomem;
+        if (gather_lights(sc, scene_visible(sc, NULL, wk->vis), &fi)) {
+            code = VP_ERR_BUSY; /* job_finish names what */
+            goto done;
+        }
         cl = malloc(((size_t)fi.nl + 1) * sizeof *cl);
-        if (!cl) goto nomem;
+        if (!cl) {
+            code = VP_ERR_BUSY; /* job_finish names what */
+            goto done;
+        }
         for (uint32_t i = 0; i < fi.nl; i++) cl[i] = fi.lights[i].l;
         if ((rc = cull_lights_bin(&v, W, H, cl, fi.nl, NULL, &own))) {
             code = rc == CULL_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INTERNAL;
             snprintf(msg, sizeof msg, "lights: %s", cull_strerror(rc));
-            goto error;
+            goto done;
         }
     } else {
-        if (!worker_soft(wk)) goto nomem;
-        if ((code = gather(sc, wk, &v, false, &fi, msg, sizeof msg))) goto error;
+        if (!worker_soft(wk)) {
+            code = VP_ERR_BUSY; /* job_finish names what */
+            goto done;
+        }
+        if ((code = gather(sc, wk, &v, false, &fi, msg, sizeof msg))) goto done;
         rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
         depth = malloc((size_t)W * H * sizeof *depth);
-        if (!rgba || !depth) goto nomem;
-        char err[256];
-        if ((rc = vt_soft_render(wk->soft, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl, rgba,
-                                 depth, W, NULL, err, sizeof err))) {
-            code = rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
-            snprintf(msg, sizeof msg, "render: %s", err);
-            goto error;
+        if (!rgba || !depth) {
+            code = VP_ERR_BUSY; /* job_finish names what */
+            goto done;
         }
+        if ((code = soft_draw(wk, &v, &fi, rgba, depth, msg, sizeof msg))) goto done;
         lt = vt_soft_light_tiles(wk->soft);
     }
     uint32_t tiles = lt->tiles_x * lt->tiles_y, count = lt->offset ? lt->offset[tiles] : 0;
     j->reply_len = vp_size_light_tiles(tiles, count);
     j->reply = malloc(j->reply_len);
-    if (!j->reply) goto nomem;
+    if (!j->reply) {
+        code = VP_ERR_BUSY; /* job_finish names what */
+        goto done;
+    }
     vp_writer w;
     vp_writer_init(&w, j->reply, j->reply_len);
     vp_enc_light_tiles_begin(&w, j->h.req,
@@ -458,14 +500,9 @@ void run_light_query(server *s, worker *wk, job *j)
     for (uint32_t t = 0; t <= tiles; t++) vp_put_u32(&w, lt->offset ? lt->offset[t] : 0);
     for (uint32_t k = 0; k < count; k++) vp_put_u64(&w, fi.light_ids[lt->index[k]]);
     vp_frame_end(&w);
-    j->ok = true;
-    goto done;
-nomem:
-    code = VP_ERR_BUSY;
-    snprintf(msg, sizeof msg, "out of memory for light tiles");
-error:
-    job_error(j, code, UINT32_MAX, msg);
+    code = VP_OK;
 done:
+    job_finish(j, code, msg, sizeof msg, "light tiles");
     frame_in_free(&fi);
     free(rgba);
     free(depth);
@@ -567,7 +604,7 @@ int frames_schedule(server *s)
         frame_sub *f = &c->fsub;
         if (!f->active || f->inflight || c->closing) continue;
         if (!f->dirty && f->shown_epoch == s->sc->epoch) continue; /* nothing new to show */
-        if (c->out_len > c->out_pos) { /* the last frame is still leaving: it wins */
+        if (c->out_bytes) { /* the last frame is still leaving: it wins */
             frame_held(s, f, now);
             continue;
         }
@@ -623,15 +660,13 @@ void frames_done(server *s, conn *c, job *j)
         if (j->ok) s->m.frames_discarded++;
         return;
     }
-    vp_writer w;
-    if (!j->reply || !out_reserve(c, j->reply_len, &w)) {
+    uint32_t bytes = (uint32_t)j->reply_len;
+    if (!j->reply || !out_take_reply(c, j)) { /* linked into the queue, not copied */
         c->closing = true;
         return;
     }
-    vp_put_bytes(&w, j->reply, j->reply_len);
-    out_commit(c, &w);
     if (j->ok) {
-        f->last_bytes = (uint32_t)j->reply_len;
+        f->last_bytes = bytes;
         f->shown_epoch = j->epoch;
         f->frames++;
         s->m.frames_sent++;

@@ -462,9 +462,9 @@ static void on_sublevel_list(server *s, conn *c, uint32_t req)
 /* A change the daemon makes itself (a loading connection gone) goes
  * through the journal too; one that cannot be journaled is still made, and
  * the journal stops taking edits (replay would miss it). */
-static int internal_edit(server *s, uint16_t type, uint16_t load, uint32_t aux, edit_result *r, scene_err *err)
+static int internal_edit(server *s, uint16_t type, uint16_t sublevel, uint32_t aux, edit_result *r, scene_err *err)
 {
-    edit e = {.type = type, .load = load, .aux = aux};
+    edit e = {.type = type, .sublevel = sublevel, .aux = aux};
     pthread_rwlock_wrlock(&s->scene_lock);
     int rc = journal_apply(s->journal, s->sc, &e, NULL, 0, r, err);
     if (rc == VP_ERR_IO && s->journal) {
@@ -477,16 +477,16 @@ static int internal_edit(server *s, uint16_t type, uint16_t load, uint32_t aux, 
 
 void sublevel_conn_gone(server *s, conn *c)
 {
-    if (!c->load) return;
+    if (!c->sublevel) return;
     edit_result r;
     scene_err err;
-    if (internal_edit(s, VP_SUBLEVEL_ABORT, c->load, 0, &r, &err))
+    if (internal_edit(s, VP_SUBLEVEL_ABORT, c->sublevel, 0, &r, &err))
         LOGW("client %u: its load could not be dropped: %s", c->id, err.msg);
     else
-        LOGI("client %u gone while loading sub-level %s: %u entities thrown away", c->id, s->sc->sl[c->load].name,
+        LOGI("client %u gone while loading sub-level %s: %u entities thrown away", c->id, s->sc->sl[c->sublevel].name,
              r.n);
     edit_result_free(&r);
-    c->load = 0;
+    c->sublevel = 0;
 }
 
 bool server_unload_slice(server *s, uint32_t budget)
@@ -518,7 +518,7 @@ static void edit_reply(server *s, conn *c, const vp_header *h, const edit *e, co
         out_commit(c, &w);
         return;
     case VP_SUBLEVEL_BEGIN:
-        c->load = r->begun.id;
+        c->sublevel = r->begun.id;
         LOGI("client %u (%s) loading sub-level %s (id %u, classes %u..%u)", c->id, c->name,
              s->sc->sl[r->begun.id].name, r->begun.id, r->begun.class_base,
              r->begun.class_base + e->u.begin.classes - (e->u.begin.classes ? 1 : 0));
@@ -533,9 +533,9 @@ static void edit_reply(server *s, conn *c, const vp_header *h, const edit *e, co
         return;
     case VP_SUBLEVEL_COMMIT:
     case VP_SUBLEVEL_ABORT:
-        LOGI("client %u: sub-level %s %s, %u entities, epoch %llu", c->id, s->sc->sl[c->load].name,
+        LOGI("client %u: sub-level %s %s, %u entities, epoch %llu", c->id, s->sc->sl[c->sublevel].name,
              h->type == VP_SUBLEVEL_COMMIT ? "loaded" : "load aborted", r->n, (unsigned long long)s->sc->epoch);
-        c->load = 0;
+        c->sublevel = 0;
         reply_ack(c, h->req, s->sc->epoch, r->n);
         return;
     case VP_SUBLEVEL_UNLOAD:
@@ -567,7 +567,7 @@ static void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
         send_error(s, c, h->req, rc, de.index, de.msg);
         return;
     }
-    e.load = c->load;
+    e.sublevel = c->sublevel;
     e.aux = h->type == VP_DESTROY ? s->cfg.destruct_res : h->type == VP_SUBLEVEL_BEGIN ? c->id : 0;
     edit_result r;
     scene_err err = {0};
@@ -665,6 +665,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
     case VP_SUBSCRIBE: {
         uint32_t kinds;
         if ((rc = vp_dec_subscribe(p, h->len, &kinds))) break;
+        s->nev_subs += (kinds & VP_EVENT_SCENE ? 1u : 0u) - (c->sub_kinds & VP_EVENT_SCENE ? 1u : 0u);
         c->sub_kinds = kinds;
         reply_ack(c, h->req, s->sc->epoch, 0);
         return;

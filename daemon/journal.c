@@ -279,7 +279,7 @@ int journal_apply(journal *j, scene *sc, const edit *e, const uint8_t *p, uint32
     if (j) {
         if (j->broken[0])
             return scene_fail(err, VP_ERR_IO, UINT32_MAX, "the daemon is read-only: %.120s", j->broken);
-        int jrc = journal_append(j, e->type, e->load, e->aux, p, len);
+        int jrc = journal_append(j, e->type, e->sublevel, e->aux, p, len);
         if (jrc)
             return scene_fail(err, VP_ERR_IO, UINT32_MAX,
                               "the edit could not be journaled (%s): refused, nothing changed", strerror(-jrc));
@@ -641,7 +641,7 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
         uint16_t type = vp_ld_u16(r + 16);
         rc = edit_decode(type, r + REC_HDR, len, 0, &e);
         if (!rc) {
-            e.load = vp_ld_u16(r + 18);
+            e.sublevel = vp_ld_u16(r + 18);
             e.aux = vp_ld_u32(r + 20);
             rc = edit_apply(sc, &e, &res, &se);
             if (!rc) edit_result_free(&res);
@@ -807,7 +807,7 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
        a dropped connection's would (journaled like any change) */
     for (uint32_t id = 1; id <= sc->nsublevels; id++) {
         if (sc->sl[id].state != VP_SL_LOADING) continue;
-        edit e = {.type = VP_SUBLEVEL_ABORT, .load = (uint16_t)id};
+        edit e = {.type = VP_SUBLEVEL_ABORT, .sublevel = (uint16_t)id};
         edit_result res;
         scene_err se;
         if (journal_apply(j, sc, &e, NULL, 0, &res, &se)) {

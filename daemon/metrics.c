@@ -312,8 +312,8 @@ bool metrics_expose(server *s, mbuf *b)
     for (uint32_t i = 0; i < s->nconns; i++) {
         const conn *c = s->live[i];
         roles[!c->hello ? 0 : c->role >= VP_ROLE_VIEWER && c->role <= VP_ROLE_EDITOR ? 1 + c->role : 1]++;
-        buffered += c->out_len - c->out_pos;
-        held += c->in_cap + c->out_cap;
+        buffered += c->out_bytes;
+        held += c->in_cap + c->out_mem;
     }
     family(b, "vantage_clients", "gauge",
            "Protocol connections now, by role (role=\"handshake\": connected, HELLO not yet accepted).");
@@ -350,12 +350,25 @@ bool metrics_expose(server *s, mbuf *b)
     family(b, "vantage_output_buffered_bytes", "gauge",
            "Reply and frame bytes queued in the daemon for protocol clients, not yet taken by the kernel.");
     sample(b, "vantage_output_buffered_bytes", NULL, NULL, buffered);
+    family(b, "vantage_output_reply_bytes_total", "counter",
+           "Worker replies (query results, frames) queued to clients, by how: linked (queued by pointer, "
+           "no copy: every frame and every reply over 1 KiB) or copied (into the reply queue's tail block).");
+    {
+        const char *const how[2] = {"linked", "copied"};
+        const uint64_t bytes[2] = {m->out_linked, m->out_copied};
+        for (int i = 0; i < 2; i++) sample(b, "vantage_output_reply_bytes_total", "how", how[i], bytes[i]);
+    }
+    family(b, "vantage_output_pending_clients", "gauge",
+           "Protocol connections with output still to write (or an event or a held answer to send): the "
+           "only ones the loop visits on a turn.");
+    sample(b, "vantage_output_pending_clients", NULL, NULL, s->npend);
     family(b, "vantage_client_buffer_bytes", "gauge",
-           "Memory held by protocol clients' input and output buffers (what they hold, used or not: a "
-           "buffer a burst grew shrinks back to 64 KiB within half a second of going unused).");
+           "Memory held by protocol clients' input buffers and output blocks (what they hold, used or not: an "
+           "input buffer a burst grew shrinks back to 64 KiB, and an idle output block is given back, within "
+           "half a second of going unused; sent output blocks are given back at once).");
     sample(b, "vantage_client_buffer_bytes", NULL, NULL, held);
     family(b, "vantage_client_output_buffer_bytes", "gauge",
-           "Memory held by protocol clients' output buffers together: what --out-limit-total bounds.");
+           "Memory held by protocol clients' output blocks together: what --out-limit-total bounds.");
     sample(b, "vantage_client_output_buffer_bytes", NULL, NULL, s->out_held);
     family(b, "vantage_client_output_buffer_limit_bytes", "gauge",
            "--out-limit-total: past it the client with the largest backlog is dropped (0: no limit).");

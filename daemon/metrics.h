@@ -96,6 +96,9 @@ typedef struct metrics {
     uint64_t accepted, rejected, auth_failures;
     uint64_t disconnects[MD_COUNT];
     uint64_t jobs_submitted, jobs_done;
+    /* workers' reply bytes queued to clients: linked into the reply queue
+       by pointer, or copied into its tail block (small ones only) */
+    uint64_t out_linked, out_copied;
     uint64_t http[MH_COUNT];
     /* the request being handled (dispatch): whose error send_error counts,
        and when it was taken (a job started now carries it) */

@@ -8,10 +8,13 @@
  * alone, before its payload is buffered. Frames go to handlers.c; queries
  * go on to the worker threads, which read the scene under the shared scene
  * lock, so every query sees every edit acknowledged before it and none
- * half-applied. Replies go to a per-connection output buffer flushed before
- * the loop sleeps; a client that leaves more than out_limit bytes unread
- * is disconnected, and while all the output buffers together hold more
- * than out_limit_total, the client with the largest backlog is.
+ * half-applied. Replies go to a per-connection queue of output blocks (a
+ * worker's reply linked in by pointer, not copied), written before the
+ * loop sleeps for the connections on the pending list only; a client that
+ * leaves more than out_limit bytes unread is disconnected, and while all
+ * the output blocks together hold more than out_limit_total, the client
+ * with the largest backlog is. A connection ended anywhere is freed at one
+ * point, the end of before_sleep.
  */
 #include "server_internal.h"
 
@@ -31,91 +34,176 @@
 #include <sys/file.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/uio.h>
 #include <sys/un.h>
 #include <time.h>
 #include <unistd.h>
 
-/* ---- output ------------------------------------------------------------------ */
+/* ---- output: the reply queue -------------------------------------------------- */
 
-/* The buffer sizes: powers of two from 4 KiB. */
-static size_t pow2_at_least(size_t n)
+/* A connection's output is a queue of blocks (out_block), in the manner of
+ * Redis's reply list (_addReplyProtoToList): a reply the loop encodes goes
+ * into the tail block when it fits, else into a new block of OUT_BLOCK
+ * bytes (or of its own size, when larger); a worker's reply is linked in
+ * as a block by pointer, so a RAW frame (W x H x 20 bytes) is written to
+ * the socket from the buffer it was drawn into, never copied (it was
+ * copied into one contiguous buffer, compacted and regrown, before). The
+ * queue leaves through writev. A block written out is freed at once; the
+ * last small one stays as the next replies' tail (16 KiB a connection at
+ * rest; the daemon-wide cap takes it back first). server.out_held sums every block's memory: what
+ * --out-limit-total bounds and the metrics report. */
+#define OUT_BLOCK 16384u  /* a tail block: a few hundred small replies */
+#define OUT_COPY_MAX 1024u /* a worker's reply up to this is copied into the tail block: cheaper
+                              than a block header and an iovec of its own */
+#define OUT_IOV 64         /* blocks per writev */
+
+/* The pending list (server.pend): connections with output to write, an
+ * event to send or an answer held for the journal. before_sleep visits
+ * these only, as Redis's clients_pending_write, not every connection. */
+static void pend_add(server *s, conn *c)
 {
-    size_t p = 4096;
-    while (p < n) p *= 2;
-    return p;
+    if (c->pend_pos != UINT32_MAX || c->dead) return;
+    c->pend_pos = s->npend;
+    s->pend[s->npend++] = c;
 }
 
-/* c's output buffer is now out (cap bytes): the server's sum follows. */
-static void out_held_set(conn *c, uint8_t *out, size_t cap)
+static void pend_del(server *s, conn *c)
 {
-    c->srv->out_held = c->srv->out_held - c->out_cap + cap;
-    c->out = out;
-    c->out_cap = cap;
+    if (c->pend_pos == UINT32_MAX) return;
+    conn *last = s->pend[--s->npend];
+    s->pend[c->pend_pos] = last;
+    last->pend_pos = c->pend_pos;
+    c->pend_pos = UINT32_MAX;
 }
 
-/* c's output buffer given back (its bytes all sent, or c going). */
+static void block_link(conn *c, out_block *b)
+{
+    if (c->out_tail) c->out_tail->next = b;
+    else c->out_head = b;
+    c->out_tail = b;
+    c->out_mem += b->mem;
+    c->srv->out_held += b->mem;
+}
+
+/* b, out of c's queue (or never in it), freed and uncounted. */
+static void block_free(conn *c, out_block *b)
+{
+    c->out_mem -= b->mem;
+    c->srv->out_held -= b->mem;
+    if (b->p != b->data) free(b->p);
+    free(b);
+}
+
+/* c's output given back (its bytes all sent, or c going). */
 static void out_release(conn *c)
 {
-    free(c->out);
-    out_held_set(c, NULL, 0);
-    c->out_pos = c->out_len = c->out_peak = 0;
+    for (out_block *b = c->out_head, *n; b; b = n) {
+        n = b->next;
+        block_free(c, b);
+    }
+    c->out_head = c->out_tail = NULL;
+    c->out_pos = c->out_bytes = 0;
 }
 
-/* A writer over the connection's output buffer with room for need bytes. */
+/* A tail block with room for need bytes (a new one past the tail's room). */
+static out_block *out_tail_room(conn *c, size_t need)
+{
+    out_block *t = c->out_tail;
+    if (t && t->p == t->data && t->cap - t->len >= need) return t;
+    size_t cap = need > OUT_BLOCK ? need : OUT_BLOCK;
+    if (cap > SIZE_MAX - sizeof *t) return NULL;
+    t = malloc(sizeof *t + cap);
+    if (!t) return NULL;
+    *t = (out_block){.p = t->data, .cap = cap, .mem = sizeof *t + cap};
+    block_link(c, t);
+    return t;
+}
+
+static void out_queued(conn *c, size_t n)
+{
+    c->out_bytes += n;
+    pend_add(c->srv, c);
+}
+
 bool out_reserve(conn *c, size_t need, vp_writer *w)
 {
-    if (c->out_pos == c->out_len) c->out_pos = c->out_len = 0;
-    if (c->out_cap - c->out_len < need) {
-        if (c->out_pos) { /* compact first */
-            memmove(c->out, c->out + c->out_pos, c->out_len - c->out_pos);
-            c->out_len -= c->out_pos;
-            c->out_pos = 0;
-        }
-        if (c->out_cap - c->out_len < need) {
-            size_t cap = pow2_at_least(c->out_len + need);
-            uint8_t *n = realloc(c->out, cap);
-            if (!n) return false;
-            out_held_set(c, n, cap);
-        }
-    }
-    vp_writer_init(w, c->out + c->out_len, c->out_cap - c->out_len);
+    out_block *t = out_tail_room(c, need);
+    if (!t) return false;
+    vp_writer_init(w, t->p + t->len, t->cap - t->len);
     return true;
 }
 
 void out_commit(conn *c, const vp_writer *w)
 {
-    if (!w->overflow) c->out_len += w->len;
-    if (c->out_len > c->out_peak) c->out_peak = c->out_len;
+    if (w->overflow || !w->len) return;
+    c->out_tail->len += w->len;
+    out_queued(c, w->len);
 }
 
-/* Buffers a burst grew are given back once they go unused (as Redis's
- * clientsCron resizes client buffers): at a sweep, a buffer over its
- * resting size that is empty and held at most a quarter of itself since
- * the last sweep shrinks to twice that peak (output) or to its resting
- * size (input). A client that just asked for 100 MB of entities keeps the
- * buffer while it keeps asking; one that went quiet costs 64 KiB again.
- * The loop keeps sweeping while a buffer is over its resting size, even
- * when idle, so a burst's memory is given back within ~0.5 s. */
+bool out_take_reply(conn *c, job *j)
+{
+    metrics *m = &c->srv->m;
+    if (j->reply_len <= OUT_COPY_MAX) {
+        out_block *t = out_tail_room(c, j->reply_len);
+        if (!t) return false;
+        memcpy(t->p + t->len, j->reply, j->reply_len);
+        t->len += j->reply_len;
+        m->out_copied += j->reply_len;
+    } else {
+        out_block *b = malloc(sizeof *b);
+        if (!b) return false;
+        *b = (out_block){.p = j->reply, .len = j->reply_len, .cap = j->reply_len, .mem = sizeof *b + j->reply_len};
+        block_link(c, b);
+        j->reply = NULL; /* c's now */
+        m->out_linked += j->reply_len;
+    }
+    out_queued(c, j->reply_len);
+    return true;
+}
+
+/* n bytes written: the blocks they emptied go (the last small one stays
+ * as the tail, emptied, for the next replies). */
+static void out_consume(conn *c, size_t n)
+{
+    c->out_bytes -= n;
+    n += c->out_pos;
+    c->out_pos = 0;
+    for (out_block *b; (b = c->out_head);) {
+        if (n < b->len) {
+            c->out_pos = n;
+            return;
+        }
+        n -= b->len;
+        if (b == c->out_tail) {
+            if (b->p == b->data && b->cap == OUT_BLOCK) {
+                b->len = 0; /* kept */
+                return;
+            }
+            c->out_tail = NULL;
+        }
+        c->out_head = b->next;
+        block_free(c, b);
+    }
+}
+
+/* Input buffers a burst grew are given back once they go unused (as
+ * Redis's clientsCron resizes client buffers): at a sweep, an input buffer
+ * over its resting size that is empty and held at most a quarter of
+ * itself since the last sweep shrinks to its resting size. A client that
+ * just sent 100 MB of entities keeps the buffer while it keeps sending;
+ * one that went quiet costs 64 KiB again. Output blocks are not the
+ * sweep's: they go as soon as they are written, but for the one small tail
+ * block kept for the connection's life (out_consume). The loop keeps
+ * sweeping while an input buffer is over its resting size, even when idle,
+ * so a burst's memory is given back within ~0.5 s. */
 #define IN_REST 65536u   /* conn_read's first buffer */
-#define OUT_REST 65536u
 
 static void conn_trim(conn *c)
 {
-    if (c->out_pos == c->out_len && c->out_cap > OUT_REST && c->out_peak <= c->out_cap / 4) {
-        if (!c->out_peak) {
-            out_release(c);
-        } else {
-            size_t cap = pow2_at_least(2 * c->out_peak);
-            uint8_t *n = realloc(c->out, cap);
-            if (n) out_held_set(c, n, cap);
-        }
-        c->out_pos = c->out_len = 0;
-    }
     if (!c->in_len && c->in_cap > IN_REST && c->in_peak <= c->in_cap / 4) {
         uint8_t *n = realloc(c->in, IN_REST);
         if (n) c->in = n, c->in_cap = IN_REST;
     }
-    c->out_peak = c->out_len - c->out_pos;
     c->in_peak = c->in_len;
 }
 
@@ -133,55 +221,92 @@ void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, cons
     LOGD("client %u: error %d (%s): %s", c->id, code, vp_strerror(code), msg ? msg : "");
 }
 
-/* Ends c; why: MD_* (metrics: disconnects by reason). */
-static void conn_free(server *s, conn *c, int why)
+/* ---- ending connections ----------------------------------------------------------- */
+
+/* Ends c; why: MD_* (metrics: disconnects by reason). c is only marked
+ * (Redis's freeClientAsync): its events stop, its output is given back
+ * now (the daemon-wide cap sees it at once), and it is freed
+ * with its fd at one safe point, the end of before_sleep (conns_free_dead).
+ * Until then every pointer to it stays good, so no caller between here
+ * and there can touch freed memory, and its fd, still open, cannot be
+ * reused by a new connection: a worker's reply still on its way (jobs
+ * name a connection by fd and id, never by pointer) finds it dead and is
+ * dropped. */
+static void conn_kill(server *s, conn *c, int why)
 {
+    if (c->dead) return;
+    c->dead = (uint8_t)why;
+    c->closing = true;
     s->m.disconnects[why]++;
-    frames_conn_gone(s, c);
-    sublevel_conn_gone(s, c);
     ae_del(s->loop, c->fd, AE_READABLE | AE_WRITABLE);
-    close(c->fd);
-    s->conns[c->fd] = NULL;
-    conn *last = s->live[--s->nconns];
-    s->live[c->live_pos] = last;
-    last->live_pos = c->live_pos;
-    LOGD("client %u (%s) disconnected, %u connected; %llu frames streamed", c->id, c->name, s->nconns,
-         (unsigned long long)c->fsub.frames);
-    free(c->in);
+    pend_del(s, c);
     out_release(c);
-    free(c);
+    s->dead[s->ndead++] = c;
+}
+
+/* The connections conn_kill marked, freed: the one place a conn is freed. */
+static void conns_free_dead(server *s)
+{
+    bool loads = false;
+    /* in the order they ended (oldest first, as they mostly were
+       accepted): freed high to low, the small structs the allocator keeps
+       for reuse were the highest and pinned a burst's heap (5,000 churned
+       connections kept 6 MB more resident) */
+    for (uint32_t i = 0; i < s->ndead; i++) {
+        conn *c = s->dead[i];
+        frames_conn_gone(s, c);
+        loads |= c->sublevel != 0;
+        sublevel_conn_gone(s, c);
+        close(c->fd);
+        s->conns[c->fd] = NULL;
+        if (c->sub_kinds & VP_EVENT_SCENE) s->nev_subs--;
+        conn *last = s->live[--s->nconns];
+        s->live[c->live_pos] = last;
+        last->live_pos = c->live_pos;
+        LOGD("client %u (%s) disconnected, %u connected; %llu frames streamed", c->id, c->name, s->nconns,
+             (unsigned long long)c->fsub.frames);
+        free(c->in);
+        free(c);
+    }
+    s->ndead = 0;
+    if (loads) {
+        /* a load dropped here is journaled after this turn's sync and may
+           start an unload: one more turn does both */
+        uint64_t one = 1;
+        ssize_t ignored = write(s->done_fd, &one, sizeof one);
+        (void)ignored;
+    }
 }
 
 /* The daemon-wide output cap (--out-limit-total): while the connections'
- * output buffers together hold more than it, the client with the largest
- * backlog (unread bytes) is dropped, and the buffers with nothing in them
- * are given back first. Each client is still held to --out-limit alone;
- * this bounds what max_clients of them can pile up together (4 viewers
- * pipelining raw 1080p frames took 1.1 GB before). Returns true when cur
- * (may be NULL) was the one dropped. O(connections) per drop, O(1) while
- * under the cap. */
+ * output blocks together hold more than it, the client with the largest
+ * backlog (unread bytes) is dropped, and the tail blocks with nothing in
+ * them are given back first. Each client is still held to --out-limit
+ * alone; this bounds what max_clients of them can pile up together (4
+ * viewers pipelining raw 1080p frames took 1.1 GB before). Returns true
+ * when cur (may be NULL) was the one dropped. O(connections) per drop,
+ * O(1) while under the cap. */
 static bool out_total_enforce(server *s, conn *cur)
 {
     uint64_t limit = s->cfg.out_limit_total;
     if (!limit || s->out_held <= limit) return false;
-    /* empty buffers a burst grew cost no one anything: given back first */
+    /* empty blocks cost no one anything: given back first */
     for (uint32_t i = 0; i < s->nconns; i++) {
         conn *c = s->live[i];
-        if (c->out_pos == c->out_len && c->out_cap) out_release(c);
+        if (!c->out_bytes && c->out_head) out_release(c);
     }
     while (s->out_held > limit) {
         conn *worst = NULL;
         size_t most = 0;
         for (uint32_t i = 0; i < s->nconns; i++) {
             conn *c = s->live[i];
-            if (c->out_len - c->out_pos > most) most = c->out_len - c->out_pos, worst = c;
+            if (!c->dead && c->out_bytes > most) most = c->out_bytes, worst = c;
         }
         if (!worst) break; /* nothing queued anywhere: nothing to drop */
-        LOGW("client %u: dropped with the largest backlog (%zu bytes unread): the clients' output buffers hold "
+        LOGW("client %u: dropped with the largest backlog (%zu bytes unread): the clients' output blocks hold "
              "%zu bytes, over --out-limit-total %llu", worst->id, most, s->out_held, (unsigned long long)limit);
-        bool was_cur = worst == cur;
-        conn_free(s, worst, MD_OUTPUT_TOTAL);
-        if (was_cur) return true;
+        conn_kill(s, worst, MD_OUTPUT_TOTAL);
+        if (worst == cur) return true;
     }
     return false;
 }
@@ -189,17 +314,22 @@ static bool out_total_enforce(server *s, conn *cur)
 static void conn_event(ae_loop *l, int fd, void *data, int mask);
 
 /* Writes what the socket takes now. MD_NONE, or why the connection is
- * over (the caller frees it). */
+ * over (the caller ends it). */
 static int conn_flush(server *s, conn *c)
 {
     if (c->held) return MD_NONE; /* an edit's answer waits for the journal's sync */
     /* always: no reply leaves while the journal holds unsynced records (a
        query's answer may show them): before_sleep syncs, then flushes */
     if (s->journal && journal_policy(s->journal) == JOURNAL_ALWAYS && journal_dirty(s->journal)) return MD_NONE;
-    while (c->out_pos < c->out_len) {
-        ssize_t n = write(c->fd, c->out + c->out_pos, c->out_len - c->out_pos);
+    while (c->out_bytes) {
+        struct iovec iov[OUT_IOV];
+        int k = 0;
+        size_t at = c->out_pos;
+        for (out_block *b = c->out_head; b && k < OUT_IOV; b = b->next, at = 0)
+            if (b->len > at) iov[k++] = (struct iovec){.iov_base = b->p + at, .iov_len = b->len - at};
+        ssize_t n = writev(c->fd, iov, k);
         if (n > 0) {
-            c->out_pos += (size_t)n;
+            out_consume(c, (size_t)n);
             s->bytes_out += (uint64_t)n;
             continue;
         }
@@ -207,13 +337,12 @@ static int conn_flush(server *s, conn *c)
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
         return MD_PEER;
     }
-    if (c->out_pos == c->out_len) {
-        c->out_pos = c->out_len = 0;
+    if (!c->out_bytes) {
         if (ae_mask(s->loop, c->fd) & AE_WRITABLE) ae_del(s->loop, c->fd, AE_WRITABLE);
         return c->closing ? MD_ERROR : MD_NONE;
     }
-    if (c->out_len - c->out_pos > s->cfg.out_limit) {
-        LOGW("client %u: %zu bytes unread, over the output limit: disconnecting", c->id, c->out_len - c->out_pos);
+    if (c->out_bytes > s->cfg.out_limit) {
+        LOGW("client %u: %zu bytes unread, over the output limit: disconnecting", c->id, c->out_bytes);
         return MD_OUTPUT_LIMIT;
     }
     if (!(ae_mask(s->loop, c->fd) & AE_WRITABLE)) ae_add(s->loop, c->fd, AE_WRITABLE, conn_event, s);
@@ -224,7 +353,7 @@ static void conn_write(server *s, int fd)
 {
     conn *c = s->conns[fd];
     int why;
-    if (c && (why = conn_flush(s, c))) conn_free(s, c, why);
+    if (c && !c->dead && (why = conn_flush(s, c))) conn_kill(s, c, why);
 }
 
 /* ---- reading -------------------------------------------------------------------- */
@@ -241,18 +370,18 @@ static void conn_event(ae_loop *l, int fd, void *data, int mask)
 }
 
 /* Dispatches the whole frames buffered on c (until a query goes to a
- * worker), then flushes. May free c. */
+ * worker), then flushes. May end c (conn_kill: it stays readable). */
 static void conn_process(server *s, conn *c)
 {
     size_t pos = 0;
     while (!c->closing && !c->busy) {
-        if (c->out_len - c->out_pos > s->cfg.out_limit) {
+        if (c->out_bytes > s->cfg.out_limit) {
             /* replies pile up faster than the client reads (a pipeline of
                big ENTITY_LISTs, say): the same limit as conn_flush's,
                checked before answering more */
             LOGW("client %u: %zu bytes of replies unread, over the output limit: disconnecting", c->id,
-                 c->out_len - c->out_pos);
-            conn_free(s, c, MD_OUTPUT_LIMIT);
+                 c->out_bytes);
+            conn_kill(s, c, MD_OUTPUT_LIMIT);
             return;
         }
         if (out_total_enforce(s, c)) return;
@@ -285,17 +414,19 @@ static void conn_process(server *s, conn *c)
     /* a frame begun and not finished: its clock (the timer drops clients
        that trickle one in too slowly) */
     if (!c->in_len) c->since_ms = 0;
-    else if (pos || !c->since_ms) c->since_ms = ae_now_ms();
+    else if (pos || !c->since_ms) c->since_ms = ae_now_ms(), s->clocks = true;
     if (c->closing && !c->busy) {
         int why = conn_flush(s, c); /* best effort: let the client read why */
-        conn_free(s, c, why == MD_PEER || why == MD_OUTPUT_LIMIT ? why : MD_ERROR);
+        conn_kill(s, c, why == MD_PEER || why == MD_OUTPUT_LIMIT ? why : MD_ERROR);
         return;
     }
     int why = conn_flush(s, c);
-    if (why) conn_free(s, c, why);
+    if (why) conn_kill(s, c, why);
 }
 
-/* Replies from the workers: append, then go on with the connection's input. */
+/* Replies from the workers: queued (linked, not copied), then the
+ * connection's input goes on. A reply for a connection that ended, or
+ * whose fd a new one took, is dropped. */
 static void on_done(ae_loop *l, int fd, void *data, int mask)
 {
     (void)l;
@@ -318,15 +449,13 @@ static void on_done(ae_loop *l, int fd, void *data, int mask)
             mhist_add(&s->m.frame_render, j->render_ns);
             mhist_add(&s->m.frame_encode, j->encode_ns);
         }
-        if (c && c->id == j->conn_id && j->stream) {
+        bool same = c && c->id == j->conn_id && !c->dead; /* still the same client */
+        if (same && j->stream) {
             frames_done(s, c, j); /* the connection's own requests go on regardless */
-        } else if (c && c->id == j->conn_id) { /* still the same client */
-            vp_writer w;
-            if (!j->reply || !out_reserve(c, j->reply_len, &w)) {
+        } else if (same) {
+            if (!j->reply || !out_take_reply(c, j)) {
                 c->closing = true;
             } else {
-                vp_put_bytes(&w, j->reply, j->reply_len);
-                out_commit(c, &w);
                 int mt = metrics_type(j->h.type);
                 if (j->ok) {
                     s->queries++;
@@ -352,7 +481,7 @@ static void on_done(ae_loop *l, int fd, void *data, int mask)
 static void conn_read(server *s, int fd)
 {
     conn *c = s->conns[fd];
-    if (!c) return;
+    if (!c || c->dead) return;
     uint32_t limit = c->hello ? s->cfg.max_payload : VANTAGED_PREHELLO_MAX;
     for (;;) {
         if (c->busy && c->in_len >= (size_t)limit + VP_HEADER_SIZE) {
@@ -368,11 +497,12 @@ static void conn_read(server *s, int fd)
             if (cap <= c->in_cap) break; /* full: parse what is there first */
             uint8_t *n = realloc(c->in, cap);
             if (!n) {
-                conn_free(s, c, MD_ERROR);
+                conn_kill(s, c, MD_ERROR);
                 return;
             }
             c->in = n;
             c->in_cap = cap;
+            if (cap > IN_REST) s->clocks = true; /* the sweeps that give it back */
         }
         ssize_t n = read(fd, c->in + c->in_len, c->in_cap - c->in_len);
         if (n > 0) {
@@ -384,7 +514,7 @@ static void conn_read(server *s, int fd)
         }
         if (n < 0 && errno == EINTR) continue;
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-        conn_free(s, c, MD_PEER); /* closed by the peer, or an error */
+        conn_kill(s, c, MD_PEER); /* closed by the peer, or an error */
         return;
     }
     conn_process(s, c);
@@ -427,6 +557,8 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
         c->fd = fd;
         c->id = ++s->next_id;
         c->born_ms = ae_now_ms();
+        c->pend_pos = UINT32_MAX;
+        s->clocks = true; /* its HELLO clock */
         strcpy(c->name, "?");
         s->conns[fd] = c;
         c->live_pos = s->nconns;
@@ -439,14 +571,14 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
 
 /* A client that has not finished HELLO within hello_timeout_ms of its
  * accept, or has left a frame half-sent for frame_timeout_ms (slow-loris),
- * is dropped with a message: true when c was freed. A client whose frames
+ * is dropped with a message: true when c was ended. A client whose frames
  * wait behind its own query is not judged. The tick asks at most every
  * SWEEP_MS. */
 #define SWEEP_MS 250u
 
 static bool drop_if_slow(server *s, conn *c, uint64_t now)
 {
-    if (c->busy || c->closing) return false;
+    if (c->busy || c->closing || c->dead) return false;
     const char *why = NULL;
     if (!c->hello && now - c->born_ms > s->cfg.hello_timeout_ms) why = "no HELLO in time";
     else if (c->since_ms && now - c->since_ms > s->cfg.frame_timeout_ms) why = "a frame sent too slowly";
@@ -455,7 +587,7 @@ static bool drop_if_slow(server *s, conn *c, uint64_t now)
          !c->hello ? s->cfg.hello_timeout_ms : s->cfg.frame_timeout_ms);
     send_error(s, c, 0, VP_ERR_TIMEOUT, UINT32_MAX, why);
     (void)conn_flush(s, c);
-    conn_free(s, c, !c->hello ? MD_HELLO_TIMEOUT : MD_FRAME_TIMEOUT);
+    conn_kill(s, c, !c->hello ? MD_HELLO_TIMEOUT : MD_FRAME_TIMEOUT);
     return true;
 }
 
@@ -477,7 +609,6 @@ static void before_sleep(ae_loop *l, void *data)
     uint64_t now_ms = ae_now_ms();
     bool sweep = now_ms >= s->sweep_ms; /* slow clients are looked for this turn */
     if (sweep) s->sweep_ms = now_ms + SWEEP_MS;
-    bool clocks = false; /* some client is on a HELLO or frame clock */
     /* any edit moves the epoch (meshes, occluders and lights too); entity
        edits also leave counts and bounds to tighten */
     bool changed = sc->epoch != s->ev_epoch;
@@ -521,22 +652,40 @@ static void before_sleep(ae_loop *l, void *data)
     }
     /* what stream frames and worker replies added since */
     out_total_enforce(s, NULL);
-    /* backwards: conn_free moves the last connection into the freed place */
-    for (uint32_t i = s->nconns; i-- > 0;) {
-        conn *c = s->live[i];
-        c->held = false;
-        if (sweep && drop_if_slow(s, c, now_ms)) continue;
-        clocks |= !c->hello || c->since_ms;
-        if (sweep) conn_trim(c);
-        clocks |= c->in_cap > IN_REST || c->out_cap > OUT_REST; /* the sweeps that trim it */
-        if (changed && (c->sub_kinds & VP_EVENT_SCENE)) {
+    /* the sweep (every SWEEP_MS, O(connections)): slow clients, idle
+       buffers, and whether any client is still on a clock */
+    if (sweep) {
+        bool on_clock = false;
+        for (uint32_t i = 0; i < s->nconns; i++) {
+            conn *c = s->live[i];
+            if (c->dead || drop_if_slow(s, c, now_ms)) continue;
+            conn_trim(c);
+            /* a HELLO or frame clock, or a buffer the next sweeps give back */
+            on_clock |= !c->hello || c->since_ms || c->in_cap > IN_REST;
+        }
+        s->clocks = on_clock;
+    }
+    /* scene events, marked on their subscribers (only on a turn that
+       changed the scene, and only when someone subscribed) */
+    if (changed && s->nev_subs) {
+        for (uint32_t i = 0; i < s->nconns; i++) {
+            conn *c = s->live[i];
+            if (c->dead || !(c->sub_kinds & VP_EVENT_SCENE)) continue;
             c->ev_pending = true;
             c->ev_added += sc->ev_added;
             c->ev_updated += sc->ev_updated;
             c->ev_removed += sc->ev_removed;
+            pend_add(s, c);
         }
+    }
+    /* the pending list, not every connection (Redis's
+       handleClientsWithPendingWrites): backwards, as one done with (or
+       ended) leaves it and the last moves into its place */
+    for (uint32_t i = s->npend; i-- > 0;) {
+        conn *c = s->pend[i];
+        c->held = false;
         /* events coalesce while a subscriber is behind */
-        if (c->ev_pending && c->out_len - c->out_pos < 65536) {
+        if (c->ev_pending && c->out_bytes < 65536) {
             vp_writer w;
             if (out_reserve(c, VP_HEADER_SIZE + 28, &w)) {
                 vp_enc_event(&w, &(vp_event){.kind = VP_EVENT_SCENE, .epoch = sc->epoch, .added = c->ev_added,
@@ -547,11 +696,12 @@ static void before_sleep(ae_loop *l, void *data)
             }
         }
         int why;
-        if (c->out_len > c->out_pos && (why = conn_flush(s, c))) conn_free(s, c, why);
+        if (c->out_bytes && (why = conn_flush(s, c))) conn_kill(s, c, why);
+        else if (!c->out_bytes && !c->ev_pending) pend_del(s, c);
     }
     /* the metrics endpoint's connections have a deadline too */
     if (sweep) metrics_http_sweep(s, now_ms);
-    clocks |= metrics_http_busy(s);
+    bool clocks = s->clocks || metrics_http_busy(s);
     sc->ev_added = sc->ev_updated = sc->ev_removed = 0;
     /* one timer wakes the loop: for the next rate-capped frame, or for the
        next sweep while a client is on a clock (an idle loop sleeps) */
@@ -562,6 +712,8 @@ static void before_sleep(ae_loop *l, void *data)
         ms = ms < 0 || sw < ms ? sw : ms;
     }
     ae_set_timer(s->loop, ms < 0 ? 0 : ms, timer_noop, NULL);
+    /* the one safe point: the connections ended this turn are freed */
+    conns_free_dead(s);
 }
 
 static void on_signal(ae_loop *l, int fd, void *data, int mask)
@@ -688,9 +840,11 @@ server *server_create(const server_config *cfg, scene *sc)
     s->conns_cap = (int)cfg->max_clients + 64;
     s->conns = calloc((size_t)s->conns_cap, sizeof *s->conns);
     s->live = calloc((size_t)s->conns_cap, sizeof *s->live);
+    s->pend = calloc((size_t)s->conns_cap, sizeof *s->pend);
+    s->dead = calloc((size_t)s->conns_cap, sizeof *s->dead);
     s->loop = ae_create(s->conns_cap);
     s->done_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    if (!s->conns || !s->live || !s->loop || s->done_fd < 0 || s->done_fd >= s->conns_cap ||
+    if (!s->conns || !s->live || !s->pend || !s->dead || !s->loop || s->done_fd < 0 || s->done_fd >= s->conns_cap ||
         ae_add(s->loop, s->done_fd, AE_READABLE, on_done, s))
         goto fail;
     pthread_rwlockattr_t ra;
@@ -740,9 +894,11 @@ said: /* the listener said why */
     return NULL;
 }
 
-void server_run(server *s)
+int server_run(server *s)
 {
-    ae_run(s->loop);
+    int rc = ae_run(s->loop);
+    if (rc) LOGE("the event loop failed: epoll_wait: %s: exiting", strerror(-rc));
+    return rc;
 }
 
 void server_stop(server *s)
@@ -753,7 +909,8 @@ void server_stop(server *s)
 int server_destroy(server *s)
 {
     if (!s) return 0;
-    while (s->nconns) conn_free(s, s->live[0], MD_SHUTDOWN);
+    for (uint32_t i = 0; i < s->nconns; i++) conn_kill(s, s->live[i], MD_SHUTDOWN);
+    if (s->nconns) conns_free_dead(s);
     metrics_http_close(s);
     if (s->tcp_fd >= 0) close(s->tcp_fd);
     if (s->unix_fd >= 0) {
@@ -793,6 +950,8 @@ int server_destroy(server *s)
     mbuf_free(&s->mtext);
     free(s->conns);
     free(s->live);
+    free(s->pend);
+    free(s->dead);
     free(s);
     return rc;
 }

@@ -35,7 +35,6 @@ typedef struct server_config {
     int metrics_port;        /* its port; 0 = no endpoint */
 } server_config;
 
-#define VANTAGED_DEFAULT_PORT 7470
 #define VANTAGED_PREHELLO_MAX 4096u /* frame limit before the handshake */
 
 typedef struct server server;
@@ -43,8 +42,10 @@ typedef struct server server;
 /* Binds the listeners and builds the scene. NULL (with a log line) on
  * failure. The scene is moved into the server. */
 server *server_create(const server_config *cfg, scene *sc);
-/* Runs the event loop until server_stop (or SIGINT / SIGTERM). */
-void server_run(server *s);
+/* Runs the event loop until server_stop (or SIGINT / SIGTERM): 0; or,
+ * logged, -errno when the loop itself failed (epoll_wait): the daemon
+ * must end, with a non-zero status. */
+int  server_run(server *s);
 void server_stop(server *s);
 /* Ends the connections, stops the workers, closes the journal. 0, or
  * -errno when the journal's final sync failed (its last edits may be lost). */

@@ -37,12 +37,25 @@ typedef struct frame_sub {
     uint32_t held_aims;
 } frame_sub;
 
+/* One block of a connection's reply queue (server.c). Small replies are
+ * encoded straight into the tail block (OUT_BLOCK bytes, or one reply's
+ * size when larger); a worker's reply (a RAW frame is W x H x 20 bytes) is
+ * linked in as a block of its own by pointer, never copied. */
+typedef struct out_block {
+    struct out_block *next;
+    uint8_t *p;       /* the bytes, p[0..len): data[] here, or a worker's reply (linked) */
+    size_t len, cap;  /* bytes queued in it; room (a linked reply: cap = len, nothing is appended) */
+    size_t mem;       /* memory it holds, this header included: its share of server.out_held */
+    uint8_t data[];   /* a tail block's bytes; none for a linked reply */
+} out_block;
+
 typedef struct conn {
     struct server *srv; /* the server it belongs to (output accounting) */
     int fd;
     uint32_t id;
     int role;
-    bool hello, closing;
+    bool hello, closing; /* closing: ends once its output has left (or cannot) */
+    uint8_t dead;       /* MD_*: ended (conn_kill); freed at the loop's safe point, 0: live */
     uint32_t sub_kinds; /* SUBSCRIBE: VP_EVENT_* pushed to it */
     bool busy;          /* a query is with a worker: later frames wait */
     uint32_t live_pos;  /* index in server.live */
@@ -50,10 +63,13 @@ typedef struct conn {
     size_t in_len, in_cap;
     uint64_t since_ms;  /* when the partial frame in `in` began (0: none) */
     uint64_t born_ms;   /* accepted at */
-    uint8_t *out;
-    size_t out_len, out_pos, out_cap;
-    size_t in_peak, out_peak; /* most bytes held since the last sweep (conn_trim) */
-    uint16_t load;      /* the sub-level this connection is loading, 0 = none */
+    out_block *out_head, *out_tail; /* the reply queue, oldest first */
+    size_t out_pos;     /* bytes of out_head already written */
+    size_t out_bytes;   /* bytes queued and not yet written: what --out-limit bounds */
+    size_t out_mem;     /* memory the blocks hold (their mem summed) */
+    uint32_t pend_pos;  /* index in server.pend; UINT32_MAX: not there */
+    size_t in_peak;     /* most input bytes held since the last sweep (conn_trim) */
+    uint16_t sublevel;  /* the sub-level this connection is loading (its open load), 0 = none */
     bool held;          /* an edit's answer waits for the journal's sync (always) */
     bool ev_pending;    /* the scene changed since the last EVENT sent */
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */
@@ -70,7 +86,15 @@ struct server {
     int conns_cap;
     conn **live;            /* dense: the connections, for the tick's sweep */
     uint32_t nconns, next_id;
-    size_t out_held;        /* the connections' output buffers together (sum of out_cap),
+    conn **pend;            /* dense: the connections with output to write, a coalesced event to
+                               send or an answer held for the journal: the only ones a turn visits */
+    uint32_t npend;
+    uint32_t nev_subs;      /* connections subscribed to scene events (VP_EVENT_SCENE) */
+    conn **dead;            /* ended this turn (conn_kill), freed at the end of before_sleep */
+    uint32_t ndead;
+    bool clocks;            /* some client is on a HELLO or frame clock, or holds a big input
+                               buffer: the sweep is due (exact after each sweep, set on news) */
+    size_t out_held;        /* the connections' output blocks together (sum of out_mem),
                                held under cfg.out_limit_total */
     scene *sc;
     uint64_t start_ms, queries, bytes_in, bytes_out, errors;
@@ -153,9 +177,16 @@ static inline uint64_t now_ns(void)
 /* ---- server.c: output to a connection ---- */
 /* A TCP listener on an IPv4 address (logged on failure: -1). */
 int listen_tcp(const char *addr, int port);
-/* A writer over c's output buffer with room for need bytes (false: out of memory). */
+/* A writer over c's tail block with room for need bytes (a new block when
+ * the tail has less; false: out of memory). out_commit queues what the
+ * writer wrote (nothing when it overflowed); nothing else may be queued
+ * on c between the two. */
 bool out_reserve(conn *c, size_t need, vp_writer *w);
 void out_commit(conn *c, const vp_writer *w);
+/* Queues a worker's reply j->reply (j->reply_len bytes): linked in by
+ * pointer (j->reply becomes NULL: c owns it), or copied into the tail when
+ * small. false: out of memory (nothing queued, j keeps its reply). */
+bool out_take_reply(conn *c, job *j);
 void send_error(server *s, conn *c, uint32_t req, int code, uint32_t index, const char *msg);
 /* ACK (handlers.c). */
 void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count);

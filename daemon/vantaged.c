@@ -61,7 +61,7 @@ static void usage(FILE *f)
             "                       last snapshot (default 64)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
             "  --help               this text\n",
-            VANTAGED_DEFAULT_PORT);
+            VP_DEFAULT_PORT);
 }
 
 static bool parse_u64(const char *s, uint64_t lo, uint64_t hi, uint64_t *out)
@@ -123,7 +123,7 @@ int main(int argc, char **argv)
 {
     server_config cfg = {
         .bind = "127.0.0.1",
-        .port = VANTAGED_DEFAULT_PORT,
+        .port = VP_DEFAULT_PORT,
         .unix_path = "/tmp/vantaged.sock",
         .max_clients = 1024,
         .max_payload = 16u << 20,
@@ -336,10 +336,10 @@ int main(int argc, char **argv)
     if (cfg.bind && *cfg.bind) LOGI("listening on %s:%d", cfg.bind, cfg.port);
     if (cfg.unix_path && *cfg.unix_path) LOGI("listening on %s", cfg.unix_path);
     LOGI("try: vantage -p %d query --eye 0,2,-300 --at 0,2,0", cfg.port);
-    server_run(srv);
+    int run = server_run(srv); /* it said why */
     int rc = server_destroy(srv);
     scene_free(sc);
     free(sc);
     LOGI("bye");
-    return rc ? 1 : 0;
+    return rc || run ? 1 : 0;
 }

@@ -26,6 +26,7 @@ extern "C" {
 
 #define VP_MAGIC 0x47544E56u /* "VNTG" as little-endian bytes */
 #define VP_VERSION 1u
+#define VP_DEFAULT_PORT 7470 /* vantaged's TCP port unless --port, and the client's unless -p */
 #define VP_HEADER_SIZE 12u
 #define VP_MAX_VIEWS 32u
 #define VP_MAX_TOKEN 255u

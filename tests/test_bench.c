@@ -9,7 +9,7 @@
 #include "test_util.h"
 #include "test_daemon.h"
 
-#include "hdr.h"
+#include "lat_hist.h"
 #include "scenario.h"
 
 #include <math.h>
@@ -38,18 +38,18 @@ static uint64_t exact_pct(const uint64_t *sorted, size_t n, double q)
     return sorted[rank - 1];
 }
 
-static void test_bench_hdr_distributions(void **state)
+static void test_bench_hist_distributions(void **state)
 {
     (void)state;
     rng r = {test_seed()};
     enum { N = 200000 };
     uint64_t *v = malloc(sizeof *v * N);
-    hdr *h = malloc(sizeof *h);
+    scn_hist *h = malloc(sizeof *h);
     assert_non_null(v);
     assert_non_null(h);
     const char *names[] = {"uniform", "exponential", "lognormal", "bimodal"};
     for (int d = 0; d < 4; d++) {
-        hdr_init(h);
+        scn_hist_init(h);
         double sum = 0;
         for (size_t i = 0; i < N; i++) {
             double x;
@@ -59,18 +59,18 @@ static void test_bench_hdr_distributions(void **state)
             else x = rng_f(&r) < 0.99 ? rng_range(&r, 5e4, 6e4) : rng_range(&r, 5e7, 6e7); /* a 1 % tail */
             v[i] = (uint64_t)x;
             sum += (double)v[i];
-            hdr_record(h, v[i]);
+            scn_hist_record(h, v[i]);
         }
         qsort(v, N, sizeof *v, cmp_u64);
         assert_int_equal(h->count, N);
         assert_int_equal(h->min, v[0]);
         assert_int_equal(h->max, v[N - 1]);
-        assert_true(fabs(hdr_mean(h) - sum / N) <= 1e-9 * sum / N);
+        assert_true(fabs(scn_hist_mean(h) - sum / N) <= 1e-9 * sum / N);
         const double qs[] = {0, 1, 10, 25, 50, 75, 90, 99, 99.9, 99.99, 100};
         for (size_t k = 0; k < sizeof qs / sizeof qs[0]; k++) {
-            uint64_t want = exact_pct(v, N, qs[k]), got = hdr_percentile(h, qs[k]);
+            uint64_t want = exact_pct(v, N, qs[k]), got = scn_hist_percentile(h, qs[k]);
             /* the middle of the value's bucket: within half a bucket, 1/256 of it */
-            double tol = ldexp((double)want, -(int)HDR_SUB_BITS - 1) + 0.5;
+            double tol = ldexp((double)want, -(int)SCN_HIST_SUB_BITS - 1) + 0.5;
             if (fabs((double)got - (double)want) > tol)
                 fail_msg("%s p%g: histogram %llu, exact %llu (tolerance %.1f)", names[d], qs[k],
                          (unsigned long long)got, (unsigned long long)want, tol);
@@ -80,51 +80,51 @@ static void test_bench_hdr_distributions(void **state)
     free(h);
 }
 
-static void test_bench_hdr_buckets(void **state)
+static void test_bench_hist_buckets(void **state)
 {
     (void)state;
     /* buckets tile the range without gaps: low(i+1) = low(i) + width(i) */
-    for (uint32_t i = 0; i + 1 < HDR_BUCKETS; i++)
-        assert_int_equal(hdr_bucket_low(i + 1), hdr_bucket_low(i) + hdr_bucket_width(i));
-    assert_int_equal(hdr_bucket_low(HDR_BUCKETS - 1) + hdr_bucket_width(HDR_BUCKETS - 1), 1ull << HDR_MAX_BITS);
+    for (uint32_t i = 0; i + 1 < SCN_HIST_BUCKETS; i++)
+        assert_int_equal(scn_hist_bucket_low(i + 1), scn_hist_bucket_low(i) + scn_hist_bucket_width(i));
+    assert_int_equal(scn_hist_bucket_low(SCN_HIST_BUCKETS - 1) + scn_hist_bucket_width(SCN_HIST_BUCKETS - 1), 1ull << SCN_HIST_MAX_BITS);
     rng r = {test_seed() ^ 5};
     for (int k = 0; k < 100000; k++) {
         uint64_t x = (uint64_t)rng_log(&r, 1, 0x1p40) - (k & 1); /* 0 too */
-        if (x >= (1ull << HDR_MAX_BITS)) x = (1ull << HDR_MAX_BITS) - 1;
-        uint32_t i = hdr_index(x);
-        assert_true(i < HDR_BUCKETS);
-        assert_true(hdr_bucket_low(i) <= x && x - hdr_bucket_low(i) < hdr_bucket_width(i));
+        if (x >= (1ull << SCN_HIST_MAX_BITS)) x = (1ull << SCN_HIST_MAX_BITS) - 1;
+        uint32_t i = scn_hist_index(x);
+        assert_true(i < SCN_HIST_BUCKETS);
+        assert_true(scn_hist_bucket_low(i) <= x && x - scn_hist_bucket_low(i) < scn_hist_bucket_width(i));
         /* relative width: 1/128 at most above the exact range */
-        if (x >= 2 * HDR_SUB) assert_true(hdr_bucket_width(i) * HDR_SUB <= x);
+        if (x >= 2 * SCN_HIST_SUB) assert_true(scn_hist_bucket_width(i) * SCN_HIST_SUB <= x);
     }
-    hdr *a = malloc(sizeof *a), *b = malloc(sizeof *b), *u = malloc(sizeof *u);
+    scn_hist *a = malloc(sizeof *a), *b = malloc(sizeof *b), *u = malloc(sizeof *u);
     assert_non_null(a);
     assert_non_null(b);
     assert_non_null(u);
-    hdr_init(a);
-    assert_int_equal(hdr_percentile(a, 50), 0); /* empty */
-    assert_int_equal(hdr_mean(a), 0);
-    hdr_init(b);
-    hdr_init(u);
+    scn_hist_init(a);
+    assert_int_equal(scn_hist_percentile(a, 50), 0); /* empty */
+    assert_int_equal(scn_hist_mean(a), 0);
+    scn_hist_init(b);
+    scn_hist_init(u);
     for (int k = 0; k < 5000; k++) {
         uint64_t x = (uint64_t)rng_log(&r, 10, 1e9);
-        hdr_record(k % 3 ? a : b, x);
-        hdr_record(u, x);
+        scn_hist_record(k % 3 ? a : b, x);
+        scn_hist_record(u, x);
     }
-    hdr_merge(a, b); /* merging equals recording the union */
+    scn_hist_merge(a, b); /* merging equals recording the union */
     assert_int_equal(a->count, u->count);
     assert_int_equal(a->min, u->min);
     assert_int_equal(a->max, u->max);
     assert_memory_equal(a->counts, u->counts, sizeof a->counts);
-    /* below 2 HDR_SUB the histogram is exact */
-    hdr_init(a);
-    for (uint64_t x = 0; x < 2 * HDR_SUB; x++) hdr_record(a, x);
-    assert_int_equal(hdr_percentile(a, 50), HDR_SUB - 1);
+    /* below 2 SCN_HIST_SUB the histogram is exact */
+    scn_hist_init(a);
+    for (uint64_t x = 0; x < 2 * SCN_HIST_SUB; x++) scn_hist_record(a, x);
+    assert_int_equal(scn_hist_percentile(a, 50), SCN_HIST_SUB - 1);
     /* past the range: clamped, counted */
-    hdr_record_n(a, 1ull << 50, 3);
+    scn_hist_record_n(a, 1ull << 50, 3);
     assert_int_equal(a->clamped, 3);
-    assert_int_equal(a->max, (1ull << HDR_MAX_BITS) - 1);
-    assert_int_equal(hdr_percentile(a, 100), (1ull << HDR_MAX_BITS) - 1);
+    assert_int_equal(a->max, (1ull << SCN_HIST_MAX_BITS) - 1);
+    assert_int_equal(scn_hist_percentile(a, 100), (1ull << SCN_HIST_MAX_BITS) - 1);
     free(a);
     free(b);
     free(u);
@@ -454,8 +454,8 @@ static void test_bench_memory_tenths_unsampled(void **state)
 }
 
 const struct CMUnitTest bench_tests[] = {
-    cmocka_unit_test(test_bench_hdr_distributions),
-    cmocka_unit_test(test_bench_hdr_buckets),
+    cmocka_unit_test(test_bench_hist_distributions),
+    cmocka_unit_test(test_bench_hist_buckets),
     cmocka_unit_test(test_bench_scenarios_shipped),
     TEST_ROWS(test_bench_scenario_errors, bad_scenarios),
     cmocka_unit_test(test_bench_scenario_nul_and_missing),

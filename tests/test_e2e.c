@@ -11,6 +11,7 @@
  * configuration's build directory).
  */
 #include "test_util.h"
+#include "ae.h"
 #include "vt_exr.h"
 #include "vt_image.h"
 
@@ -20,6 +21,8 @@
 
 #include <arpa/inet.h>
 #include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
 #include <sys/resource.h>
 #include <netinet/in.h>
 #include <pthread.h>
@@ -524,6 +527,34 @@ static void test_connection_churn(void **state)
 #endif
     free(fd);
     daemon_close(&d, probe);
+}
+
+/* The event loop ends with the error when epoll_wait fails (issue 25): it
+ * used to leave the loop silently, and the daemon went on to a normal
+ * exit. Provoked here by putting a file that is not an epoll instance in
+ * place of the loop's (the lowest free descriptor when it was made):
+ * ae_run returns -EINVAL at once, where it returned nothing before.
+ * server_run logs it and vantaged exits 1. */
+static void test_server_ae_run_reports_epoll_failure(void **state)
+{
+    (void)state;
+    int lowest = dup(0);
+    assert_true(lowest >= 0);
+    close(lowest);
+    ae_loop *l = ae_create(8);
+    assert_non_null(l);
+    char link[64], what[64] = "";
+    snprintf(link, sizeof link, "/proc/self/fd/%d", lowest);
+    ssize_t n = readlink(link, what, sizeof what - 1);
+    assert_true(n > 0);
+    what[n] = 0;
+    assert_string_equal(what, "anon_inode:[eventpoll]"); /* the loop's own */
+    int null = open("/dev/null", O_RDONLY | O_CLOEXEC);
+    assert_true(null >= 0);
+    assert_int_equal(dup2(null, lowest), lowest);
+    close(null);
+    assert_int_equal(ae_run(l), -EINVAL);
+    ae_destroy(l); /* closes /dev/null */
 }
 
 /* Malformed frames on a raw socket, one named test each: the daemon
@@ -1677,6 +1708,7 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_unix_socket_clash),
     DAEMON_TEST(test_frame_rate_cap_on_reaim),
     cmocka_unit_test(test_connection_churn),
+    cmocka_unit_test(test_server_ae_run_reports_epoll_failure),
     DAEMON_TEST(test_concurrent_clients),
     cmocka_unit_test(test_slow_reader_dropped),
     cmocka_unit_test(test_cli_round_trip),

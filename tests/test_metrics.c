@@ -575,6 +575,46 @@ static int raw_frame(rawc *r, vp_header *h)
     }
 }
 
+/* Reads exactly n bytes (what raw_frame left buffered first); false at EOF. */
+static bool raw_read_full(rawc *r, uint8_t *p, size_t n)
+{
+    size_t k = r->have < n ? r->have : n;
+    memcpy(p, r->buf, k);
+    memmove(r->buf, r->buf + k, r->have - k);
+    r->have -= k;
+    while (k < n) {
+        ssize_t m = read(r->fd, p + k, n - k);
+        if (m <= 0) return false;
+        k += (size_t)m;
+        r->got += (uint64_t)m;
+    }
+    return true;
+}
+
+/* The next frame's header, its payload into p (room for cap bytes). */
+static int raw_reply(rawc *r, vp_header *h, uint8_t *p, size_t cap)
+{
+    uint8_t hb[VP_HEADER_SIZE];
+    if (!raw_read_full(r, hb, sizeof hb)) return -1;
+    size_t fs = 0;
+    vp_frame_check(hb, sizeof hb, UINT32_MAX, h, &fs);
+    assert_true(h->len <= cap);
+    if (!raw_read_full(r, p, h->len)) return -1;
+    return h->type;
+}
+
+static void raw_hello_as(rawc *r, const daemon_proc *d, int role)
+{
+    uint8_t buf[256];
+    vp_writer w;
+    raw_open(r, d);
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = (uint8_t)role});
+    raw_write(r, buf, w.len);
+    vp_header h;
+    assert_int_equal(raw_frame(r, &h), VP_HELLO_OK);
+}
+
 /* ---- the tests ------------------------------------------------------------------------- */
 
 static const char model_good[] =
@@ -1381,9 +1421,269 @@ static void test_metrics_access(void **state)
     unlink(path);
 }
 
+
+/* Output as reply blocks (issue 25): a worker's reply is linked into the
+ * connection's queue by pointer, never copied, except a small one, which
+ * is copied into the queue's tail block. The model: K raw frames of W x H
+ * (vp_size_frame(W * H * 20) bytes each) are linked, every byte of them,
+ * and none copied; a count-only query's VIS_RESULT (vp_size_vis_result(0)
+ * bytes) is copied; the frames arrive whole. */
+static void test_metrics_output_frames_linked_not_copied(void **state)
+{
+    (void)state;
+    enum { W = 320, H = 200, K = 3 };
+    vp_render m = {.format = VP_FRAME_RAW};
+    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
+    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    expo a, b, c;
+    scrape(mport, &a);
+    for (int k = 0; k < K; k++) {
+        vp_frame f;
+        assert_int_equal(vt_render(v, &m, &f), VP_OK);
+        assert_int_equal(f.width, W);
+        assert_int_equal(f.data_len, (uint32_t)W * H * 20);
+    }
+    scrape(mport, &b);
+    double frame = (double)vp_size_frame(W * H * 20);
+    double linked = xget(&b, "vantage_output_reply_bytes_total", "how", "linked") -
+                    xget(&a, "vantage_output_reply_bytes_total", "how", "linked");
+    double copied = xget(&b, "vantage_output_reply_bytes_total", "how", "copied") -
+                    xget(&a, "vantage_output_reply_bytes_total", "how", "copied");
+    fprintf(stderr, "metrics: %d raw %ux%u frames: %.0f bytes linked, %.0f copied\n", K, W, H, linked, copied);
+    assert_true(linked == K * frame);
+    assert_true(copied == 0);
+    vp_vis_result q;
+    assert_int_equal(vt_query(v, &m.view, 1, VP_Q_COUNT_ONLY, 0, &q), VP_OK);
+    scrape(mport, &c);
+    assert_true(xget(&c, "vantage_output_reply_bytes_total", "how", "copied") -
+                    xget(&b, "vantage_output_reply_bytes_total", "how", "copied") ==
+                (double)vp_size_vis_result(0));
+    assert_true(xget(&c, "vantage_output_reply_bytes_total", "how", "linked") ==
+                xget(&b, "vantage_output_reply_bytes_total", "how", "linked"));
+    expo_free(&a);
+    expo_free(&b);
+    expo_free(&c);
+    vt_close(v);
+    daemon_stop(&d);
+}
+
+/* Replies larger than a block (16 KiB): ENTITY_LIST pages of up to 1,000
+ * records (104 kB), encoded in place by the loop, with small PONGs and
+ * worker replies (raw RENDERs, linked) between them, pipelined in one
+ * stream to a client whose receive buffer is small, so that the daemon's
+ * writes are partial: each reply arrives whole, in request order, and
+ * holds what was asked. The model: a PONG echoes its PING's bytes; a page
+ * of max k from the start holds k distinct ids of the N added (all N
+ * when k = N). */
+static void test_metrics_output_blocks_in_order(void **state)
+{
+    (void)state;
+    static const uint32_t pings[] = {5, 1024, 0, 7, 1000, 1, 333, 12};
+    static const uint32_t maxes[] = {1000, 157, 158, 1, 640, 1000, 300, 999};
+    enum { N = 1000, R = sizeof pings / sizeof pings[0], W = 64, H = 32 };
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
+    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_entity *e = calloc(N, sizeof *e);
+    assert_non_null(e);
+    for (uint32_t i = 0; i < N; i++)
+        e[i] = (vp_entity){.id = i + 1, .sphere = {(double)(i % 30), 1, (double)(i / 30), 1}};
+    assert_int_equal(vt_add(ed, e, N, NULL, NULL), VP_OK);
+    free(e);
+    static rawc r;
+    memset(&r, 0, sizeof r);
+    r.fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    int small = 4096;
+    setsockopt(r.fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    snprintf(sa.sun_path, sizeof sa.sun_path, "%s", d.sock);
+    assert_int_equal(connect(r.fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    struct timeval tv = {.tv_sec = 10};
+    setsockopt(r.fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    size_t cap = 256 * 1024;
+    uint8_t *req = malloc(cap), *got = malloc(cap), data[1024];
+    assert_non_null(req);
+    assert_non_null(got);
+    for (size_t i = 0; i < sizeof data; i++) data[i] = (uint8_t)(i * 131 + 7);
+    vp_writer w;
+    vp_writer_init(&w, req, cap);
+    vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_VIEWER});
+    vp_render m = {.format = VP_FRAME_RAW};
+    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
+    for (uint32_t i = 0; i < R; i++) {
+        vp_enc_ping(&w, VP_PING, 100 + i, data, pings[i]);
+        vp_enc_list(&w, 200 + i, &(vp_list){.cursor = 0, .max = maxes[i]});
+        if (i % 3 == 1) vp_enc_render(&w, 300 + i, &m); /* a worker's reply after it */
+    }
+    assert_false(w.overflow);
+    raw_write(&r, req, w.len); /* the daemon reads it all: it queues what the client does not take yet */
+    vp_header h;
+    assert_int_equal(raw_reply(&r, &h, got, cap), VP_HELLO_OK);
+    uint8_t seen[N + 1];
+    for (uint32_t i = 0; i < R; i++) {
+        assert_int_equal(raw_reply(&r, &h, got, cap), VP_PONG);
+        assert_int_equal(h.req, 100 + i);
+        assert_int_equal(h.len, pings[i]);
+        assert_memory_equal(got, data, pings[i]);
+        assert_int_equal(raw_reply(&r, &h, got, cap), VP_ENTITY_LIST_REPLY);
+        assert_int_equal(h.req, 200 + i);
+        vp_list_reply lr;
+        assert_int_equal(vp_dec_list_reply(got, h.len, &lr), VP_OK);
+        assert_int_equal(lr.batch.count, maxes[i]);
+        memset(seen, 0, sizeof seen);
+        for (uint32_t k = 0; k < lr.batch.count; k++) {
+            vp_entity x;
+            assert_int_equal(vp_entity_get(&lr.batch, k, &x), VP_OK);
+            assert_true(x.id >= 1 && x.id <= N && !seen[x.id]);
+            seen[x.id] = 1;
+        }
+        if (i % 3 == 1) {
+            assert_int_equal(raw_reply(&r, &h, got, cap), VP_FRAME);
+            assert_int_equal(h.req, 300 + i);
+            assert_int_equal(h.len, vp_size_frame(W * H * 20) - VP_HEADER_SIZE);
+        }
+    }
+    /* nothing left in the daemon */
+    wait_value(mport, "vantage_output_buffered_bytes", NULL, NULL, 0);
+    free(req);
+    free(got);
+    close(r.fd);
+    vt_close(ed);
+    daemon_stop(&d);
+}
+
+/* The pending list (issue 25): the loop visits only the connections with
+ * output waiting. Eight idle viewers and one that pipelines 4,096 PINGs
+ * of 1,000 bytes and reads nothing: exactly one connection is pending; once it has
+ * read every PONG, none is, and the output blocks it held are given back
+ * (each connection keeps at most its one small tail block, 16 KiB). */
+static void test_metrics_output_pending_list(void **state)
+{
+    (void)state;
+    enum { NIDLE = 8, K = 4096, P = 1000 };
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
+    vt_client *idle[NIDLE];
+    for (int i = 0; i < NIDLE; i++) {
+        idle[i] = connect_role(&d, VP_ROLE_VIEWER, false);
+        assert_int_equal(vt_ping(idle[i]), VP_OK);
+    }
+    wait_value(mport, "vantage_output_pending_clients", NULL, NULL, 0);
+    static rawc r;
+    raw_hello_as(&r, &d, VP_ROLE_VIEWER);
+    uint8_t *buf = malloc(P + 64), *data = calloc(1, P);
+    assert_non_null(buf);
+    assert_non_null(data);
+    for (int k = 0; k < K; k++) {
+        vp_writer w;
+        vp_writer_init(&w, buf, P + 64);
+        vp_enc_ping(&w, VP_PING, (uint32_t)k + 1, data, P);
+        raw_write(&r, buf, w.len);
+    }
+    double q = 0;
+    for (int i = 0; i < 500 && q < (double)K * P / 2; i++) {
+        expo e;
+        scrape(mport, &e);
+        q = xget(&e, "vantage_output_buffered_bytes", NULL, NULL);
+        expo_free(&e);
+        if (q < (double)K * P / 2) usleep(10000);
+    }
+    assert_true(q >= (double)K * P / 2);
+    expo e;
+    scrape(mport, &e);
+    assert_true(xget(&e, "vantage_output_pending_clients", NULL, NULL) == 1);
+    double held = xget(&e, "vantage_client_output_buffer_bytes", NULL, NULL);
+    expo_free(&e);
+    assert_true(held >= q);
+    for (int k = 0; k < K; k++) {
+        vp_header h;
+        assert_int_equal(raw_frame(&r, &h), VP_PONG);
+        assert_int_equal(h.req, (uint32_t)k + 1);
+    }
+    wait_value(mport, "vantage_output_pending_clients", NULL, NULL, 0);
+    expo z;
+    scrape(mport, &z);
+    double rest = xget(&z, "vantage_client_output_buffer_bytes", NULL, NULL);
+    fprintf(stderr, "metrics: output blocks %.0f kB with %.0f kB unread, %.0f kB once read\n", held / 1024, q / 1024,
+            rest / 1024);
+    assert_true(rest <= (NIDLE + 1) * (16384.0 + 64));
+    expo_free(&z);
+    free(buf);
+    free(data);
+    close(r.fd);
+    for (int i = 0; i < NIDLE; i++) vt_close(idle[i]);
+    daemon_stop(&d);
+}
+
+/* Connections that close while their worker replies are still being drawn
+ * (a raw RENDER, a frame stream) are freed at the loop's safe point, and
+ * the replies that come back for them are dropped: new connections (which
+ * take the freed descriptors) get only their own replies, every job comes
+ * back, and under ASan nothing touches freed memory. */
+static void test_metrics_output_close_with_reply_in_flight(void **state)
+{
+    (void)state;
+    enum { ROUNDS = 24, W = 400, H = 300 };
+    vp_render m = {.format = VP_FRAME_RAW};
+    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
+    vp_frame_sub sub = {.r = m, .max_fps = VP_FRAME_SUB_MAX_FPS};
+    daemon_proc d;
+    int mport;
+    daemon_with_metrics(&d, &mport, NULL);
+    expo a;
+    scrape(mport, &a);
+    static rawc r, n;
+    for (int round = 0; round < ROUNDS; round++) {
+        raw_hello_as(&r, &d, VP_ROLE_VIEWER);
+        uint8_t buf[1024];
+        vp_writer w;
+        vp_writer_init(&w, buf, sizeof buf);
+        if (round % 2) vp_enc_frame_sub(&w, 5, &sub);
+        else vp_enc_render(&w, 5, &m);
+        vp_enc_ping(&w, VP_PING, 6, (const uint8_t *)"x", 1);
+        raw_write(&r, buf, w.len);
+        if (round % 3 == 0) usleep(1000);
+        close(r.fd); /* while the frame is drawn */
+        raw_hello_as(&n, &d, VP_ROLE_VIEWER);
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_enc_ping(&w, VP_PING, 77, (const uint8_t *)"mine", 4);
+        raw_write(&n, buf, w.len);
+        vp_header h;
+        assert_int_equal(raw_frame(&n, &h), VP_PONG);
+        assert_int_equal(h.req, 77);
+        close(n.fd);
+    }
+    wait_value(mport, "vantage_worker_jobs", NULL, NULL, 0);
+    wait_value(mport, "vantage_clients", "role", "viewer", 0);
+    expo z;
+    scrape(mport, &z);
+    assert_true(xget(&z, "vantage_disconnects_total", "reason", "peer") -
+                    xget(&a, "vantage_disconnects_total", "reason", "peer") ==
+                2 * ROUNDS);
+    assert_true(xget(&z, "vantage_frame_streams", NULL, NULL) == 0);
+    assert_true(xget(&z, "vantage_output_pending_clients", NULL, NULL) == 0);
+    expo_free(&a);
+    expo_free(&z);
+    /* and it still serves */
+    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    vp_frame f;
+    assert_int_equal(vt_render(v, &m, &f), VP_OK);
+    vt_close(v);
+    daemon_stop(&d);
+}
+
 const struct CMUnitTest metrics_tests[] = {
     cmocka_unit_test(test_metrics_buffers_shrink),
     cmocka_unit_test(test_metrics_output_limit_total),
+    cmocka_unit_test(test_metrics_output_frames_linked_not_copied),
+    cmocka_unit_test(test_metrics_output_blocks_in_order),
+    cmocka_unit_test(test_metrics_output_pending_list),
+    cmocka_unit_test(test_metrics_output_close_with_reply_in_flight),
     cmocka_unit_test(test_metrics_model),
     TEST_ROWS(test_metrics_model_refuses, model_cases),
     cmocka_unit_test(test_metrics_message_codec),

@@ -47,7 +47,7 @@ static const scene_limits LIMITS = {.max_entities = 1u << 20, .max_lights = 6553
 typedef struct sess {
     journal *j;
     scene sc;
-    uint16_t load; /* the one editing connection's open load */
+    uint16_t sublevel; /* the sub-level the one editing connection is loading, 0 = none */
     uint8_t buf[1 << 16];
 } sess;
 
@@ -59,14 +59,14 @@ static edit_result apply_w(sess *s, const vp_writer *w, uint32_t aux)
     uint32_t len = (uint32_t)(w->len - VP_HEADER_SIZE);
     edit e;
     assert_int_equal(edit_decode(type, p, len, 0, &e), VP_OK);
-    e.load = s->load;
+    e.sublevel = s->sublevel;
     e.aux = aux;
     edit_result r;
     scene_err err = {0};
     int rc = journal_apply(s->j, &s->sc, &e, p, len, &r, &err);
     if (rc) fail_msg("edit 0x%04x refused: %s", type, err.msg);
-    if (type == VP_SUBLEVEL_BEGIN) s->load = r.begun.id;
-    if (type == VP_SUBLEVEL_COMMIT || type == VP_SUBLEVEL_ABORT) s->load = 0;
+    if (type == VP_SUBLEVEL_BEGIN) s->sublevel = r.begun.id;
+    if (type == VP_SUBLEVEL_COMMIT || type == VP_SUBLEVEL_ABORT) s->sublevel = 0;
     return r;
 }
 
@@ -184,7 +184,7 @@ static void script_a(sess *s)
     s_ids(s, VP_LIGHT_REMOVE, (uint64_t[]){71}, 1);
     s_begin(s, "town", 2);
     s_add(s, 100, 2, 0);
-    s_mesh(s, s->sc.sl[s->load].class_base);
+    s_mesh(s, s->sc.sl[s->sublevel].class_base);
     s_occluder(s, 901, 20);
     s_lights(s, 80, 1);
     s_end(s, VP_SUBLEVEL_COMMIT);

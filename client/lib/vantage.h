@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define VT_ERR_IO (-100)
-#define VT_DEFAULT_PORT 7470
+#define VT_DEFAULT_PORT VP_DEFAULT_PORT
 #define VT_MAX_REPLY (1u << 30) /* largest reply frame accepted */
 
 typedef struct vt_client vt_client;

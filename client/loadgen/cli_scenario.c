@@ -1,7 +1,7 @@
 /*
  * cli_scenario.c — `vantage bench --scenario FILE`: runs a scripted mix of
  * clients (scenario.h) against a daemon and reports, per operation,
- * throughput and latency percentiles from log-bucket histograms (hdr.h).
+ * throughput and latency percentiles from log-bucket histograms (lat_hist.h).
  *
  * Threads: the load threads each drive their share of the clients from one
  * poll() loop (requests pipelined or scheduled, frames received, commander
@@ -89,8 +89,8 @@ int rows_init(rows *w, int n)
     w->h = malloc(sizeof *w->h * (size_t)n);
     w->win = malloc(sizeof *w->win * (size_t)n * WINDOWS);
     if (!w->h || !w->win) return -1;
-    for (int i = 0; i < n; i++) hdr_init(&w->h[i]);
-    for (int i = 0; i < n * WINDOWS; i++) hdr_init(&w->win[i]);
+    for (int i = 0; i < n; i++) scn_hist_init(&w->h[i]);
+    for (int i = 0; i < n * WINDOWS; i++) scn_hist_init(&w->win[i]);
     return 0;
 }
 
@@ -103,22 +103,22 @@ void rows_free(rows *w)
 void rows_merge(rows *into, const rows *from)
 {
     for (int j = 0; j < into->n; j++) {
-        hdr_merge(&into->h[j], &from->h[j]);
+        scn_hist_merge(&into->h[j], &from->h[j]);
         into->errors[j] += from->errors[j];
         into->unsent[j] += from->unsent[j];
         into->pending[j] += from->pending[j];
     }
-    for (int j = 0; j < into->n * WINDOWS; j++) hdr_merge(&into->win[j], &from->win[j]);
+    for (int j = 0; j < into->n * WINDOWS; j++) scn_hist_merge(&into->win[j], &from->win[j]);
 }
 
 void note(run *r, rows *w, int row, double t_begin, double secs)
 {
     if (t_begin < r->t_meas) return;
     uint64_t ns = secs > 0 ? (uint64_t)(secs * 1e9) : 0;
-    hdr_record(&w->h[row], ns);
+    scn_hist_record(&w->h[row], ns);
     double span = r->t_end - r->t_meas;
     int win = span > 0 ? (int)((t_begin - r->t_meas) / span * WINDOWS) : 0;
-    hdr_record(&w->win[row * WINDOWS + (win < 0 ? 0 : win >= WINDOWS ? WINDOWS - 1 : win)], ns);
+    scn_hist_record(&w->win[row * WINDOWS + (win < 0 ? 0 : win >= WINDOWS ? WINDOWS - 1 : win)], ns);
 }
 
 static vt_connect_opts conn_opts(run *r, int role, const char *name)

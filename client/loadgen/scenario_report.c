@@ -66,12 +66,12 @@ typedef struct row_stat {
 
 static row_stat stat_of(const report *rp, int i)
 {
-    const hdr *h = &rp->all.h[i];
+    const scn_hist *h = &rp->all.h[i];
     row_stat st = {.count = h->count, .errors = rp->all.errors[i], .unsent = rp->all.unsent[i],
                    .pending = rp->all.pending[i], .per_s = rp->secs > 0 ? h->count / rp->secs : 0,
-                   .mean_ms = hdr_mean(h) / 1e6};
+                   .mean_ms = scn_hist_mean(h) / 1e6};
     const double q[5] = {50, 90, 99, 99.9, 100};
-    for (int k = 0; k < 5; k++) st.pct_ms[k] = ms(hdr_percentile(h, q[k]));
+    for (int k = 0; k < 5; k++) st.pct_ms[k] = ms(scn_hist_percentile(h, q[k]));
     return st;
 }
 
@@ -100,8 +100,8 @@ void print_table(FILE *o, const run *r, const report *rp)
         head = true;
         fprintf(o, "  %-30s", rp->name[i]);
         for (int w = 0; w < WINDOWS; w++) { /* '-': nothing measured in that tenth */
-            const hdr *h = &rp->all.win[i * WINDOWS + w];
-            if (h->count) fprintf(o, " %7.2f", ms(hdr_percentile(h, 99)));
+            const scn_hist *h = &rp->all.win[i * WINDOWS + w];
+            if (h->count) fprintf(o, " %7.2f", ms(scn_hist_percentile(h, 99)));
             else fprintf(o, " %7s", "-");
         }
         fprintf(o, "\n");
@@ -146,8 +146,8 @@ static void print_json(FILE *o, const run *r, const report *rp)
         for (int k = 0; k < 5; k++) fprintf(o, ", \"%s\": %.4f", key[k], st.pct_ms[k]);
         fprintf(o, ", \"p99_ms_by_tenth\": [");
         for (int w = 0; w < WINDOWS && !s->requests; w++) { /* null: nothing measured in that tenth */
-            const hdr *h = &rp->all.win[i * WINDOWS + w];
-            if (h->count) fprintf(o, "%s%.4f", w ? ", " : "", ms(hdr_percentile(h, 99)));
+            const scn_hist *h = &rp->all.win[i * WINDOWS + w];
+            if (h->count) fprintf(o, "%s%.4f", w ? ", " : "", ms(scn_hist_percentile(h, 99)));
             else fprintf(o, "%snull", w ? ", " : "");
         }
         fprintf(o, "]}");

@@ -9,7 +9,7 @@
 #define VANTAGE_SCENARIO_RUN_H
 
 #include "cli.h"
-#include "hdr.h"
+#include "lat_hist.h"
 #include "scenario.h"
 #include "splitmix.h" /* entity placement, destruction targets */
 
@@ -29,8 +29,8 @@ enum row { R_EDIT_QUERY, R_EDIT_FRAME, R_SL_LOAD, R_SL_UNLOAD, R_DESTROY, R_FIXE
 /* Histograms of one thread (merged at the end); n rows. */
 typedef struct rows {
     int n;
-    hdr *h;   /* [n] */
-    hdr *win; /* [n][WINDOWS] */
+    scn_hist *h;   /* [n] */
+    scn_hist *win; /* [n][WINDOWS] */
     uint64_t errors[R_MAX], unsent[R_MAX], pending[R_MAX]; /* pending: no reply by the end */
 } rows;
 
