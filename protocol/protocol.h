@@ -629,10 +629,42 @@ void vp_enc_sublevel_ids(vp_writer *w, uint32_t req, const uint16_t *ids, uint32
 void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_t epoch, const vp_entity *e,
                        uint32_t n);
 
-/* Size of the frames above, for sizing buffers. */
+/* Size of the frames above, for sizing buffers: the exact bytes the
+ * encoder of the same name appends (header included) for the same
+ * arguments; a writer with that much room left never overflows. */
+size_t vp_size_hello(const vp_hello *m);
+size_t vp_size_hello_ok(void);
+size_t vp_size_error(const char *msg);
+size_t vp_size_ping(uint32_t n);
+size_t vp_size_empty(void);
 size_t vp_size_entities(uint32_t n);
 size_t vp_size_ids(uint32_t n);
+size_t vp_size_add_reply(uint32_t n);
+size_t vp_size_ack(void);
+size_t vp_size_vis_query(uint32_t n);
+size_t vp_size_vis_query_sub(uint8_t flags, uint32_t n, const uint16_t *subs, uint32_t nsub);
 size_t vp_size_vis_result(uint32_t n);
+size_t vp_size_stats_reply(void);
+size_t vp_size_subscribe(void);
+size_t vp_size_event(void);
+size_t vp_size_mesh(uint32_t nv, uint32_t ni);
+size_t vp_size_occluder(uint32_t ntris);
+size_t vp_size_lights(uint32_t n);
+size_t vp_size_list(void);
+size_t vp_size_names(const char *const *names, const uint16_t *ids, uint32_t n);
+size_t vp_size_sublevel_ids(uint32_t n);
+size_t vp_size_list_reply(uint32_t n);
+size_t vp_size_sublevel_begin(const vp_sublevel_begin *m);
+size_t vp_size_sublevel_begun(void);
+size_t vp_size_sublevel_name(const char *name);
+size_t vp_size_sublevel_infos(const vp_sublevel_info *infos, uint32_t n);
+size_t vp_size_destroy(void);
+size_t vp_size_destroyed(void);
+size_t vp_size_mark(void);
+size_t vp_size_marked(void);
+size_t vp_size_render(void);
+size_t vp_size_light_query(void);
+size_t vp_size_frame_sub(void);
 
 /* Decoders: payload p of len bytes (the frame minus its header). Return
  * VP_OK or a negative code; on error *m is unspecified. Batch decoders

@@ -18,6 +18,7 @@ int main(void)
         {render_tests, render_tests_count},
         {alloc_tests, alloc_tests_count},
         {protocol_tests, protocol_tests_count},
+        {protocol_size_tests, protocol_size_tests_count},
         {e2e_tests, e2e_tests_count},
         {exr_tests, exr_tests_count},
         {image_tests, image_tests_count},
