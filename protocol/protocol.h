@@ -324,11 +324,15 @@ typedef struct vp_event {
     uint32_t added, updated, removed;
 } vp_event;
 
+/* MESH_PUT flags: no normals on the wire; the mesh is drawn with flat
+ * (face) normals, as the renderers draw a vt_mesh whose nrm is NULL. */
+#define VP_MESH_NO_NORMALS 0x1u
 typedef struct vp_mesh {
     uint16_t class_id;
+    uint16_t flags;           /* VP_MESH_*; other bits INVALID */
     uint32_t vertex_count, index_count;
     const uint8_t *positions; /* f32 x3 per vertex */
-    const uint8_t *normals;   /* f32 x3 per vertex */
+    const uint8_t *normals;   /* f32 x3 per vertex; NULL with VP_MESH_NO_NORMALS */
     const uint8_t *indices;   /* u32, triangles */
 } vp_mesh;
 
@@ -647,7 +651,7 @@ size_t vp_size_vis_result(uint32_t n);
 size_t vp_size_stats_reply(void);
 size_t vp_size_subscribe(void);
 size_t vp_size_event(void);
-size_t vp_size_mesh(uint32_t nv, uint32_t ni);
+size_t vp_size_mesh(uint32_t nv, uint32_t ni, bool normals);
 size_t vp_size_occluder(uint32_t ntris);
 size_t vp_size_lights(uint32_t n);
 size_t vp_size_list(void);

@@ -10,21 +10,23 @@
 
 /* ---- meshes ----------------------------------------------------------------------- */
 
-size_t vp_size_mesh(uint32_t nv, uint32_t ni)
+size_t vp_size_mesh(uint32_t nv, uint32_t ni, bool normals)
 {
-    return VP_HEADER_SIZE + 12 + (size_t)nv * 24 + (size_t)ni * 4;
+    return VP_HEADER_SIZE + 12 + (size_t)nv * (normals ? 24 : 12) + (size_t)ni * 4;
 }
+
+/* nrm NULL: VP_MESH_NO_NORMALS and no normals block (drawn flat). */
 
 void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
                  const uint32_t *idx, uint32_t ni)
 {
     vp_frame_begin(w, VP_MESH_PUT, req);
     vp_put_u16(w, class_id);
-    vp_put_u16(w, 0);
+    vp_put_u16(w, nrm ? 0 : VP_MESH_NO_NORMALS);
     vp_put_u32(w, nv);
     vp_put_u32(w, ni);
     for (uint32_t i = 0; i < 3 * nv; i++) vp_put_f32(w, pos[i]);
-    for (uint32_t i = 0; i < 3 * nv; i++) vp_put_f32(w, nrm[i]);
+    for (uint32_t i = 0; nrm && i < 3 * nv; i++) vp_put_f32(w, nrm[i]);
     for (uint32_t i = 0; i < ni; i++) vp_put_u32(w, idx[i]);
     vp_frame_end(w);
 }
@@ -34,22 +36,24 @@ int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
     vp_reader r;
     vp_reader_init(&r, p, len);
     m->class_id = vp_get_u16(&r);
-    uint16_t pad = vp_get_u16(&r);
+    m->flags = vp_get_u16(&r);
     m->vertex_count = vp_get_u32(&r);
     m->index_count = vp_get_u32(&r);
     if (r.short_read) return VP_ERR_TRUNCATED;
-    if (pad) return VP_ERR_INVALID;
+    if (m->flags & ~VP_MESH_NO_NORMALS) return VP_ERR_INVALID;
     if (m->index_count % 3) return VP_ERR_COUNT;
     int rc;
+    bool normals = !(m->flags & VP_MESH_NO_NORMALS);
+    m->normals = NULL;
     if ((rc = vp_take_array(&r, m->vertex_count, 12, max_batch, &m->positions)) ||
-        (rc = vp_take_array(&r, m->vertex_count, 12, max_batch, &m->normals)) ||
+        (normals && (rc = vp_take_array(&r, m->vertex_count, 12, max_batch, &m->normals))) ||
         (rc = vp_take_array(&r, m->index_count, 4,
                          max_batch ? (uint32_t)(max_batch > UINT32_MAX / 3 ? UINT32_MAX : 3 * max_batch) : 0,
                          &m->indices)))
         return rc;
     if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
     for (uint32_t i = 0; i < 3 * m->vertex_count; i++) {
-        float f[2] = {rdf32(m->positions + 4 * (size_t)i), rdf32(m->normals + 4 * (size_t)i)};
+        float f[2] = {rdf32(m->positions + 4 * (size_t)i), normals ? rdf32(m->normals + 4 * (size_t)i) : 0};
         if (!vp_finite_nf(f, 2)) return VP_ERR_NONFINITE;
     }
     for (uint32_t i = 0; i < m->index_count; i++)

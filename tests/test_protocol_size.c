@@ -225,10 +225,12 @@ static uint32_t g_u[3 * 40000];
 
 static size_t case_mesh(vp_writer *w, int v)
 {
+    /* v >= 3: the same without normals (VP_MESH_NO_NORMALS) */
     uint32_t nv[] = {0, 3, 40000}, ni[] = {0, 3, 3 * 40000};
-    if (v >= 3) return SIZE_MAX;
-    vp_enc_mesh(w, 1, 7, g_f, g_f, nv[v], g_u, ni[v]);
-    return vp_size_mesh(nv[v], ni[v]);
+    if (v >= 6) return SIZE_MAX;
+    bool normals = v < 3;
+    vp_enc_mesh(w, 1, 7, g_f, normals ? g_f : NULL, nv[v % 3], g_u, ni[v % 3]);
+    return vp_size_mesh(nv[v % 3], ni[v % 3], normals);
 }
 
 static size_t case_occluder(vp_writer *w, int v)

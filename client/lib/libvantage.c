@@ -596,7 +596,7 @@ int vt_put_mesh(vt_client *c, uint16_t class_id, const float *pos, const float *
 {
     vp_writer w;
     uint32_t req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 12 + (size_t)nv * 24 + (size_t)ni * 4, &w)) return VT_ERR_IO;
+    if (!out_buf(c, vp_size_mesh(nv, ni, nrm != NULL), &w)) return VT_ERR_IO;
     vp_enc_mesh(&w, req, class_id, pos, nrm, nv, idx, ni);
     return ack_call(c, &w, req, NULL);
 }
