@@ -944,6 +944,65 @@ static void test_occlusion_over_the_wire(void **state)
 /* RENDER: a frame of a lit box, raw and JPEG; `vantage render` writes an
  * EXR that OpenEXR reads back with R G B A Z (and depth where the box is);
  * bad requests get clear errors and the daemon keeps serving. */
+/* A fake server on a Unix socket: reads the client's first request,
+ * answers it with reply[0..n), waits for the close. Its pid. */
+static int fake_server(const char *path, const uint8_t *reply, size_t n)
+{
+    int l = socket(AF_UNIX, SOCK_STREAM, 0);
+    assert_true(l >= 0);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    snprintf(sa.sun_path, sizeof sa.sun_path, "%s", path);
+    unlink(path);
+    assert_int_equal(bind(l, (struct sockaddr *)&sa, sizeof sa), 0);
+    assert_int_equal(listen(l, 1), 0);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int fd = accept(l, NULL, NULL);
+        uint8_t in[600];
+        if (fd < 0 || read(fd, in, sizeof in) <= 0 || write(fd, reply, n) != (ssize_t)n) _exit(1);
+        (void)read(fd, in, sizeof in); /* until the client closes */
+        _exit(0);
+    }
+    close(l);
+    return pid;
+}
+
+/* A reply the client cannot decode keeps the decoder's code and says which
+ * reply and why (the blocking calls answered "malformed X" with VT_ERR_IO,
+ * the decoder's code lost): HELLO_OK of 5 and of 29 payload bytes (28 are
+ * its layout), one row each. */
+static void test_client_keeps_decoder_code(void **state)
+{
+    (void)state;
+    const struct { const char *name; uint32_t len; int code; const char *why; } rows[] = {
+        {"hello_ok cut short", 5, VP_ERR_TRUNCATED, "malformed hello_ok from the server: payload shorter"},
+        {"hello_ok too long", 29, VP_ERR_TRAILING, "malformed hello_ok from the server: payload longer"},
+    };
+    tdir td;
+    tdir_make(&td, "vantage_e2e_malformed");
+    const char *path = tdir_file(&td, "fake.sock");
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        uint8_t reply[VP_HEADER_SIZE + 64] = {0};
+        vp_writer w;
+        vp_writer_init(&w, reply, sizeof reply);
+        vp_frame_begin(&w, VP_HELLO_OK, 1); /* the first request's id */
+        for (uint32_t k = 0; k < rows[i].len; k++) vp_put_u8(&w, 0);
+        assert_true(vp_frame_end(&w));
+        int pid = fake_server(path, reply, w.len);
+        vt_client *c = (vt_client *)1;
+        char err[256] = "";
+        int rc = vt_connect(&(vt_connect_opts){.unix_path = path, .timeout_ms = 5000}, &c, err, sizeof err);
+        print_message("%s: %d %s\n", rows[i].name, rc, err);
+        assert_int_equal(rc, rows[i].code);
+        assert_null(c);
+        assert_non_null(strstr(err, rows[i].why));
+        int st;
+        assert_int_equal(waitpid(pid, &st, 0), pid);
+    }
+    tdir_remove(&td);
+}
+
 /* A mesh without normals (vt_put_mesh with nrm NULL) is drawn flat, as the
  * renderer documents NULL normals: an octahedron of 6 shared vertices and
  * no normals draws as the same octahedron of 24 unshared vertices whose
@@ -1778,6 +1837,7 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_limits),
     cmocka_unit_test(test_occlusion_over_the_wire),
     cmocka_unit_test(test_render_frames),
+    cmocka_unit_test(test_client_keeps_decoder_code),
     cmocka_unit_test(test_mesh_without_normals_is_flat),
     cmocka_unit_test(test_frame_stream),
     cmocka_unit_test(test_stalled_viewer_isolated),
