@@ -4,7 +4,7 @@
  */
 #include "vantage.h"
 
-#include "culling.h"
+#include "cull_mat.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
