@@ -506,7 +506,24 @@ size_t vp_size_metrics_reply(uint32_t text_len);
 void vp_enc_metrics_reply(vp_writer *w, uint32_t req, const vp_metrics_reply *m);
 int  vp_dec_metrics_reply(const uint8_t *p, size_t len, vp_metrics_reply *m);
 
-/* Encoders: append one whole frame to w. */
+/* Encoders: append one whole frame to w (header and payload).
+ * Contracts for every vp_enc_* and vp_put_* here and above:
+ *   - w, and m where there is one, are non-NULL; input arrays hold what
+ *     their count says (e: n records, ids: n, v: n views, subs: nsub,
+ *     pos/nrm: 3 * nv floats, idx: ni, verts: 9 * ntris, l: n, names: n
+ *     NUL-terminated strings, ids of vp_enc_names: n or NULL) and may be
+ *     NULL when that count is 0; vp_enc_error's msg may be NULL (empty);
+ *     vp_enc_mesh's nrm may be NULL (VP_MESH_NO_NORMALS, no normals sent);
+ *     vp_enc_vis_query_sub's subs may be NULL (no sub-level list, unless
+ *     flags has VP_Q_SUBLEVELS: then nsub ids are read from subs);
+ *   - w needs room for the matching vp_size_* (below); with less, nothing
+ *     is cut in half silently: w->overflow is set and stays set (the
+ *     bytes written are garbage; vp_frame_end returns false);
+ *   - the encoders check nothing: a field out of range is sent as given
+ *     and the peer's decoder refuses it; names longer than VP_MAX_NAME and
+ *     error messages longer than VP_MAX_ERROR_MSG (after escaping) are cut;
+ *   - *_begin encoders leave the frame open: put the records, then
+ *     vp_frame_end(w). */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);
 void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m);
 void vp_enc_error(vp_writer *w, uint32_t req, int32_t code, uint32_t index, const char *msg);
@@ -670,8 +687,10 @@ size_t vp_size_render(void);
 size_t vp_size_light_query(void);
 size_t vp_size_frame_sub(void);
 
-/* Decoders: payload p of len bytes (the frame minus its header). Return
- * VP_OK or a negative code; on error *m is unspecified. Batch decoders
+/* Decoders: payload p of len bytes (the frame minus its header); p may be
+ * NULL only when len is 0; m non-NULL. Return VP_OK or a negative code; on
+ * error *m is unspecified. Pointers in *m point into p (no copy, no
+ * allocation): valid while p is. Batch decoders
  * check count * record size against the payload and against max_batch
  * (0 = no limit) before anything else. Numbers that must be finite are
  * checked (VP_ERR_NONFINITE). */
