@@ -10,9 +10,13 @@
 
 /* ---- meshes ----------------------------------------------------------------------- */
 
+/* MESH_PUT's fields before the arrays */
+#define MESH_FIELDS(X) X(u16, class_id) X(u16, flags) X(u32, vertex_count) X(u32, index_count)
+VP_LAYOUT(mesh, vp_mesh, MESH_FIELDS)
+
 size_t vp_size_mesh(uint32_t nv, uint32_t ni, bool normals)
 {
-    return VP_HEADER_SIZE + 12 + (size_t)nv * (normals ? 24 : 12) + (size_t)ni * 4;
+    return VP_HEADER_SIZE + mesh_size() + (size_t)nv * (normals ? 24 : 12) + (size_t)ni * 4;
 }
 
 /* nrm NULL: VP_MESH_NO_NORMALS and no normals block (drawn flat). */
@@ -21,10 +25,8 @@ void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos
                  const uint32_t *idx, uint32_t ni)
 {
     vp_frame_begin(w, VP_MESH_PUT, req);
-    vp_put_u16(w, class_id);
-    vp_put_u16(w, nrm ? 0 : VP_MESH_NO_NORMALS);
-    vp_put_u32(w, nv);
-    vp_put_u32(w, ni);
+    mesh_put(w, &(vp_mesh){.class_id = class_id, .flags = nrm ? 0 : VP_MESH_NO_NORMALS, .vertex_count = nv,
+                           .index_count = ni});
     for (uint32_t i = 0; i < 3 * nv; i++) vp_put_f32(w, pos[i]);
     for (uint32_t i = 0; nrm && i < 3 * nv; i++) vp_put_f32(w, nrm[i]);
     for (uint32_t i = 0; i < ni; i++) vp_put_u32(w, idx[i]);
@@ -34,15 +36,10 @@ void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos
 int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
 {
     vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->class_id = vp_get_u16(&r);
-    m->flags = vp_get_u16(&r);
-    m->vertex_count = vp_get_u32(&r);
-    m->index_count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
+    int rc = mesh_head(&r, p, len, m);
+    if (rc) return rc;
     if (m->flags & ~VP_MESH_NO_NORMALS) return VP_ERR_INVALID;
     if (m->index_count % 3) return VP_ERR_COUNT;
-    int rc;
     bool normals = !(m->flags & VP_MESH_NO_NORMALS);
     m->normals = NULL;
     if ((rc = vp_take_array(&r, m->vertex_count, 12, max_batch, &m->positions)) ||

@@ -19,6 +19,12 @@ VP_LAYOUT(entity, vp_entity, ENTITY_FIELDS)
 #define LIST_FIELDS(X) X(u64, cursor) X(u32, max)
 VP_LAYOUT(list, vp_list, LIST_FIELDS)
 
+/* the fixed parts before the records */
+#define LIST_REPLY_FIELDS(X) X(u64, next_cursor) X(u64, epoch)
+VP_LAYOUT(list_reply, vp_list_reply, LIST_REPLY_FIELDS)
+#define ADD_REPLY_FIELDS(X) X(u64, epoch) X(u32, count)
+VP_LAYOUT(add_reply, vp_add_reply, ADD_REPLY_FIELDS)
+
 size_t vp_size_entities(uint32_t n)
 {
     return VP_HEADER_SIZE + 4 + (size_t)n * entity_size();
@@ -112,15 +118,14 @@ int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m)
 
 size_t vp_size_list_reply(uint32_t n)
 {
-    return vp_size_entities(n) + 16;
+    return vp_size_entities(n) + list_reply_size();
 }
 
 void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_t epoch, const vp_entity *e,
                        uint32_t n)
 {
     vp_frame_begin(w, VP_ENTITY_LIST_REPLY, req);
-    vp_put_u64(w, next_cursor);
-    vp_put_u64(w, epoch);
+    list_reply_put(w, &(vp_list_reply){.next_cursor = next_cursor, .epoch = epoch});
     put_entities(w, e, n);
     vp_frame_end(w);
 }
@@ -128,11 +133,8 @@ void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_
 int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m)
 {
     vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->next_cursor = vp_get_u64(&r);
-    m->epoch = vp_get_u64(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    return get_entities(&r, 0, &m->batch);
+    int rc = list_reply_head(&r, p, len, m);
+    return rc ? rc : get_entities(&r, 0, &m->batch);
 }
 
 int vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out)
@@ -165,14 +167,13 @@ uint64_t vp_id_get(const vp_id_batch *b, uint32_t i)
 
 size_t vp_size_add_reply(uint32_t n)
 {
-    return VP_HEADER_SIZE + 12 + (size_t)n * 4;
+    return VP_HEADER_SIZE + add_reply_size() + (size_t)n * 4;
 }
 
 void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n)
 {
     vp_frame_begin(w, VP_ENTITY_ADD_REPLY, req);
-    vp_put_u64(w, epoch);
-    vp_put_u32(w, n);
+    add_reply_put(w, &(vp_add_reply){.epoch = epoch, .count = n});
     for (uint32_t i = 0; i < n; i++) vp_put_u32(w, handles[i]);
     vp_frame_end(w);
 }
@@ -180,10 +181,8 @@ void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t
 int vp_dec_add_reply(const uint8_t *p, size_t len, vp_add_reply *m)
 {
     vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->epoch = vp_get_u64(&r);
-    m->count = vp_get_u32(&r);
-    return vp_take_rest(&r, m->count, 4, 0, &m->handles);
+    int rc = add_reply_head(&r, p, len, m);
+    return rc ? rc : vp_take_rest(&r, m->count, 4, 0, &m->handles);
 }
 
 uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i)

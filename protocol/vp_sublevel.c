@@ -116,15 +116,19 @@ uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i)
 
 /* ---- sub-level loads ----------------------------------------------------------- */
 
+/* SUBLEVEL_BEGIN's fields before the name */
+#define BEGIN_FIELDS(X) X(u16, classes)
+VP_LAYOUT(sublevel_begin, vp_sublevel_begin, BEGIN_FIELDS)
+
 size_t vp_size_sublevel_begin(const vp_sublevel_begin *m)
 {
-    return VP_HEADER_SIZE + 3 + (size_t)m->name_len;
+    return VP_HEADER_SIZE + sublevel_begin_size() + 1 + (size_t)m->name_len;
 }
 
 void vp_enc_sublevel_begin(vp_writer *w, uint32_t req, const vp_sublevel_begin *m)
 {
     vp_frame_begin(w, VP_SUBLEVEL_BEGIN, req);
-    vp_put_u16(w, m->classes);
+    sublevel_begin_put(w, m);
     name_put(w, m->name, m->name_len);
     vp_frame_end(w);
 }
@@ -132,10 +136,8 @@ void vp_enc_sublevel_begin(vp_writer *w, uint32_t req, const vp_sublevel_begin *
 int vp_dec_sublevel_begin(const uint8_t *p, size_t len, vp_sublevel_begin *m)
 {
     vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->classes = vp_get_u16(&r);
-    int rc = name_take(&r, &m->name_len, &m->name);
-    if (rc) return rc;
+    int rc = sublevel_begin_head(&r, p, len, m);
+    if (rc || (rc = name_take(&r, &m->name_len, &m->name))) return rc;
     if (m->classes > 4096) return VP_ERR_LIMIT;
     return vp_reader_finish(&r);
 }
@@ -172,9 +174,13 @@ int vp_dec_sublevel_name(const uint8_t *p, size_t len, vp_name *m)
     X(u16, classes)
 VP_LAYOUT(info, vp_sublevel_info, INFO_FIELDS)
 
+/* SUBLEVEL_INFO_REPLY's fields before the entries */
+#define INFOS_FIELDS(X) X(u64, epoch) X(u32, count)
+VP_LAYOUT(infos, vp_sublevel_infos, INFOS_FIELDS)
+
 size_t vp_size_sublevel_infos(const vp_sublevel_info *infos, uint32_t n)
 {
-    size_t s = VP_HEADER_SIZE + 12;
+    size_t s = VP_HEADER_SIZE + infos_size();
     for (uint32_t i = 0; i < n; i++) s += info_size() + 1 + (size_t)infos[i].name_len;
     return s;
 }
@@ -182,8 +188,7 @@ size_t vp_size_sublevel_infos(const vp_sublevel_info *infos, uint32_t n)
 void vp_enc_sublevel_infos_begin(vp_writer *w, uint32_t req, uint64_t epoch, uint32_t n)
 {
     vp_frame_begin(w, VP_SUBLEVEL_INFO_REPLY, req);
-    vp_put_u64(w, epoch);
-    vp_put_u32(w, n);
+    infos_put(w, &(vp_sublevel_infos){.epoch = epoch, .count = n});
 }
 
 void vp_put_sublevel_info(vp_writer *w, const vp_sublevel_info *m)
@@ -195,10 +200,8 @@ void vp_put_sublevel_info(vp_writer *w, const vp_sublevel_info *m)
 int vp_dec_sublevel_infos(const uint8_t *p, size_t len, vp_sublevel_infos *m)
 {
     vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->epoch = vp_get_u64(&r);
-    m->count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
+    int rc = infos_head(&r, p, len, m);
+    if (rc) return rc;
     if (m->count > VP_MAX_SUBLEVELS) return VP_ERR_COUNT;
     m->p = p + r.pos;
     m->len = len - r.pos;
@@ -207,10 +210,9 @@ int vp_dec_sublevel_infos(const uint8_t *p, size_t len, vp_sublevel_infos *m)
         (void)info_get(&r, &e);
         if (r.short_read) return VP_ERR_COUNT;
         if (e.state > VP_SL_UNLOADING) return VP_ERR_INVALID;
-        int rc = name_take(&r, &e.name_len, &e.name);
-        if (rc) return rc == VP_ERR_TRUNCATED ? VP_ERR_COUNT : rc;
+        if ((rc = name_take(&r, &e.name_len, &e.name))) return rc == VP_ERR_TRUNCATED ? VP_ERR_COUNT : rc;
     }
-    int rc = vp_reader_finish(&r);
+    rc = vp_reader_finish(&r);
     return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
 }
 
