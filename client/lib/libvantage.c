@@ -33,6 +33,7 @@ struct vt_client {
     uint8_t *out;
     size_t out_cap;
     vp_writer w;            /* the request being encoded into out */
+    bool out_nomem;         /* request() could not make room: VT_ERR_IO */
     uint32_t stream_req;    /* the frame stream's req, 0 = none */
     vt_error stream_err;    /* code != 0: an ERROR ended the stream during another call */
 };
@@ -126,22 +127,27 @@ int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
 
 /* Starts a request: a writer over the client's send buffer with room for
  * size bytes (the encoder's vp_size_*), and the request's id in *req.
- * NULL when the buffer cannot grow (VT_ERR_IO, said in vt_last_error). */
+ * When the buffer cannot grow the writer has no room (the encoder only
+ * sets overflow) and the call that sends it answers VT_ERR_IO, out of
+ * memory, so a caller encodes and calls without a check in between. */
 static vp_writer *request(vt_client *c, size_t size, uint32_t *req)
 {
+    *req = vt_next_req(c);
+    c->out_nomem = false;
     if (c->out_cap < size) {
         size_t cap = c->out_cap ? c->out_cap : 4096;
         while (cap < size) cap *= 2;
         uint8_t *n = realloc(c->out, cap);
         if (!n) {
             set_err(c, VT_ERR_IO, "out of memory for a request of %zu bytes", size);
-            return NULL;
+            c->out_nomem = true;
+            vp_writer_init(&c->w, c->out, 0);
+            return &c->w;
         }
         c->out = n;
         c->out_cap = cap;
     }
     vp_writer_init(&c->w, c->out, c->out_cap);
-    *req = vt_next_req(c);
     return &c->w;
 }
 
@@ -164,6 +170,7 @@ static int error_from(vt_error *out, const uint8_t *p, uint32_t len)
  * and the frame stream's frames arriving in between are skipped. */
 static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, const uint8_t **p, uint32_t *len)
 {
+    if (c->out_nomem) return VT_ERR_IO; /* request() said why */
     if (w->overflow) return set_err(c, VP_ERR_LIMIT, "request too large for the send buffer");
     /* a frame past the server's limit would only get the connection closed:
        refuse it here, with the sizes, and keep the connection */
@@ -254,7 +261,6 @@ static int empty_call(vt_client *c, uint16_t type, uint16_t want, reply_dec dec,
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_empty(), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_empty(w, type, req);
     return call(c, w, req, want, dec, out);
 }
@@ -343,11 +349,8 @@ int vt_connect(const vt_connect_opts *o, vt_client **out, char *err, size_t errl
                    .name_len = (uint8_t)(nl > VP_MAX_NAME ? VP_MAX_NAME : nl), .name = (const uint8_t *)name};
     uint32_t req;
     vp_writer *w = request(c, vp_size_hello(&hi), &req);
-    int rc = VT_ERR_IO;
-    if (w) {
-        vp_enc_hello(w, req, &hi);
-        rc = call(c, w, req, VP_HELLO_OK, dec_hello_ok, &c->server);
-    }
+    vp_enc_hello(w, req, &hi);
+    int rc = call(c, w, req, VP_HELLO_OK, dec_hello_ok, &c->server);
     if (rc) {
         snprintf(err, errlen, "handshake: %s", c->err.msg);
         vt_close(c);
@@ -371,7 +374,6 @@ int vt_ping(vt_client *c)
     const uint8_t *p;
     uint32_t len, req;
     vp_writer *w = request(c, vp_size_ping(7), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_ping(w, VP_PING, req, (const uint8_t *)"vantage", 7);
     int rc = roundtrip(c, w, req, VP_PONG, &p, &len);
     if (rc) return rc;
@@ -397,7 +399,6 @@ int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_entities(n), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_entities(w, VP_ENTITY_ADD, req, e, n);
     vp_add_reply r;
     int rc = call(c, w, req, VP_ENTITY_ADD_REPLY, dec_add_reply, &r);
@@ -414,7 +415,6 @@ int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_entities(n), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_entities(w, VP_ENTITY_UPDATE, req, e, n);
     return ack_epoch(c, w, req, epoch);
 }
@@ -425,7 +425,6 @@ static int ids_call(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t n
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_ids(n), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_ids(w, type, req, ids, n);
     return call(c, w, req, reply, dec, out);
 }
@@ -457,7 +456,6 @@ int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_list(), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_list(w, req, &(vp_list){.cursor = cursor, .max = max});
     return call(c, w, req, VP_ENTITY_LIST_REPLY, dec_list_reply, out);
 }
@@ -473,7 +471,6 @@ int vt_query_sub(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t fl
     flags &= (uint8_t)~VP_Q_SUBLEVELS; /* the list is there iff subs is */
     uint32_t req;
     vp_writer *w = request(c, vp_size_vis_query_sub(flags, nviews, subs, nsub), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_vis_query_sub(w, req, flags, min_area, views, nviews, subs, nsub);
     return call(c, w, req, VP_VIS_RESULT, dec_vis_result, out);
 }
@@ -482,7 +479,6 @@ int vt_render(vt_client *c, const vp_render *m, vp_frame *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_render(), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_render(w, req, m);
     return call(c, w, req, VP_FRAME, dec_frame, out);
 }
@@ -491,7 +487,6 @@ int vt_light_query(vt_client *c, const vp_light_query *m, vp_light_tiles *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_light_query(), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_light_query(w, req, m);
     return call(c, w, req, VP_LIGHT_TILES, dec_light_tiles, out);
 }
@@ -500,7 +495,6 @@ int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_frame_sub(), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_frame_sub(w, req, m);
     int rc = call(c, w, req, VP_ACK, dec_ack, NULL);
     if (rc) return rc;
@@ -545,7 +539,6 @@ int vt_subscribe(vt_client *c, uint32_t kinds)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_subscribe(), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_subscribe(w, req, kinds);
     return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
@@ -554,7 +547,6 @@ int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_names(names, NULL, n), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_names(w, VP_SUBLEVEL_NAMES, req, names, NULL, n);
     ids_reply r;
     int rc = call(c, w, req, VP_SUBLEVEL_IDS, dec_sublevel_ids, &r);
@@ -586,7 +578,6 @@ int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_lights(n), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_lights(w, req, l, n);
     return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
@@ -595,7 +586,6 @@ int vt_put_occluder(vt_client *c, uint64_t id, const double origin[3], const flo
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_occluder(ntris), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_occluder(w, req, id, origin, verts, ntris);
     return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
@@ -605,7 +595,6 @@ int vt_put_mesh(vt_client *c, uint16_t class_id, const float *pos, const float *
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_mesh(nv, ni, nrm != NULL), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_mesh(w, req, class_id, pos, nrm, nv, idx, ni);
     return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
@@ -665,7 +654,6 @@ int vt_sublevel_begin(vt_client *c, const char *name, uint16_t classes, vp_suble
     vp_sublevel_begin m = {.classes = classes, .name_len = (uint8_t)strlen(name), .name = (const uint8_t *)name};
     uint32_t req;
     vp_writer *w = request(c, vp_size_sublevel_begin(&m), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_sublevel_begin(w, req, &m);
     return call(c, w, req, VP_SUBLEVEL_BEGUN, dec_begun, out);
 }
@@ -685,7 +673,6 @@ int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out)
     if (sublevel_name_ok(c, name)) return VP_ERR_INVALID;
     uint32_t req;
     vp_writer *w = request(c, vp_size_sublevel_name(name), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_sublevel_name(w, VP_SUBLEVEL_UNLOAD, req, name);
     return call(c, w, req, VP_ACK, dec_ack, out);
 }
@@ -699,7 +686,6 @@ int vt_mark(vt_client *c, const vp_mark *m, uint32_t *sent)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_mark(), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_mark(w, req, m);
     vp_ack a;
     int rc = call(c, w, req, VP_ACK, dec_ack, &a);
@@ -711,7 +697,6 @@ int vt_destroy(vt_client *c, const vp_destroy *m, vp_destroyed *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_destroy(), &req);
-    if (!w) return VT_ERR_IO;
     vp_enc_destroy(w, req, m);
     return call(c, w, req, VP_DESTROYED, dec_destroyed, out);
 }
