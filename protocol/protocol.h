@@ -65,6 +65,8 @@ enum {
 #undef VP_X_ENUM
 };
 
+/* The table's message for code; "unknown error" for a code not in it.
+ * Never NULL; static storage. */
 const char *vp_strerror(int code);
 /* The modules' message helper: formats into err[0..errlen) (err may be
  * NULL or errlen 0: nothing written) and returns -1, so a failing path is
@@ -154,10 +156,14 @@ typedef struct vp_header {
  * VP_OK with *h and *frame_size (header + payload) when a whole frame is
  * there, VP_ERR_TOO_LARGE when the length exceeds max_payload (decided from
  * the header alone, before any payload is buffered), VP_ERR_INVALID for
- * non-zero flags. */
+ * non-zero flags. buf may be NULL only when n is 0; h and frame_size are
+ * non-NULL (*h is filled whenever the header is there). */
 int vp_frame_check(const uint8_t *buf, size_t n, uint32_t max_payload, vp_header *h, size_t *frame_size);
 
-/* ---- writer: fixed buffer, overflow is sticky ------------------------------ */
+/* ---- writer: fixed buffer, overflow is sticky ------------------------------
+ * w non-NULL; buf has room for cap bytes (cap 0: every put overflows). A
+ * put that does not fit writes nothing and sets overflow, which stays set
+ * (later puts write nothing). vp_put_bytes's p may be NULL when n is 0. */
 typedef struct vp_writer {
     uint8_t *p;
     size_t   cap, len;
@@ -179,7 +185,11 @@ void vp_put_f32(vp_writer *w, float v);
 void vp_put_f64(vp_writer *w, double v);
 void vp_put_bytes(vp_writer *w, const void *p, size_t n);
 
-/* ---- reader over one payload ------------------------------------------------- */
+/* ---- reader over one payload -------------------------------------------------
+ * r non-NULL; p has len bytes (NULL only when len is 0). A get past the
+ * end reads nothing, sets short_read (sticky) and returns 0 (0.0, NULL for
+ * vp_get_bytes); vp_get_bytes otherwise returns a view into p (no copy).
+ * vp_remaining: bytes left, 0 after a short read. */
 typedef struct vp_reader {
     const uint8_t *p;
     size_t len, pos;
@@ -384,7 +394,9 @@ typedef struct vp_name {
     const uint8_t *name;
 } vp_name;
 
-/* Walks a decoded list: *pos starts at 0; false at the end. */
+/* Walks a decoded list (l from vp_dec_names, which checked every entry):
+ * *pos starts at 0; each true fills *out (name points into the payload,
+ * not terminated) and advances *pos; false at the end. */
 bool vp_name_next(const vp_name_list *l, size_t *pos, vp_name *out);
 
 /* Sub-level loads. SUBLEVEL_BEGIN opens a load of the named sub-level on
@@ -438,6 +450,8 @@ int  vp_dec_sublevel_name(const uint8_t *p, size_t len, vp_name *m);
 void vp_enc_sublevel_infos_begin(vp_writer *w, uint32_t req, uint64_t epoch, uint32_t n);
 void vp_put_sublevel_info(vp_writer *w, const vp_sublevel_info *m);
 int  vp_dec_sublevel_infos(const uint8_t *p, size_t len, vp_sublevel_infos *m);
+/* As vp_name_next: *pos from 0, *out filled (name into the payload), false
+ * at the end. */
 bool vp_sublevel_info_next(const vp_sublevel_infos *l, size_t *pos, vp_sublevel_info *out);
 
 /* DESTROY: a sphere of destruction on an entity ("Destruction Masking in
@@ -596,6 +610,8 @@ size_t vp_size_light_tiles(uint32_t tiles, uint32_t count);
 /* Header; then tiles + 1 offsets (vp_put_u32) and count ids (vp_put_u64). */
 void vp_enc_light_tiles_begin(vp_writer *w, uint32_t req, const vp_light_tiles *m);
 int  vp_dec_light_tiles(const uint8_t *p, size_t len, vp_light_tiles *m);
+/* offset[t] for t <= tiles (m->count past it); id k for k < m->count (0
+ * past it). m from vp_dec_light_tiles. */
 uint32_t vp_light_tiles_offset(const vp_light_tiles *m, uint32_t t);
 uint64_t vp_light_tiles_id(const vp_light_tiles *m, uint32_t k);
 
@@ -714,12 +730,15 @@ int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_
 int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m);
 int vp_dec_names(const uint8_t *p, size_t len, bool with_ids, vp_name_list *m);
 int vp_dec_sublevel_ids(const uint8_t *p, size_t len, uint32_t *n, const uint8_t **ids);
+/* id i of the n of vp_dec_sublevel_ids; 0 for i >= n. */
 uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i);
 int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m);
 
-/* Record getters for batches (validated by the decoder that made them;
- * they re-check what they decode so a record is never trusted blind; an
- * index past the count is VP_ERR_COUNT, or a zeroed record / 0). */
+/* Record getters for batches (validated by the decoder that made them).
+ * The int getters (entity, view, light) re-check the record they read, so
+ * a record is never trusted blind, and return VP_OK or its code; an index
+ * past the count is VP_ERR_COUNT (*out untouched). The others return 0
+ * (vp_vis_rec_get: a zeroed record) past the count. All non-NULL. */
 int  vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out);
 uint64_t vp_id_get(const vp_id_batch *b, uint32_t i);
 uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i);
@@ -735,7 +754,8 @@ int  vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out);
 int  vp_entity_rec_check(const vp_entity_batch *b, uint32_t i, char *why, size_t whylen);
 int  vp_light_rec_check(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen);
 
-/* Whether a message type is known to this version. */
+/* Whether a message type is known to this version, and its name
+ * ("entity_add"; "unknown" for another type; never NULL, static). */
 bool vp_type_known(uint16_t type);
 const char *vp_type_name(uint16_t type);
 

@@ -10,7 +10,9 @@
  *   - c is a client from vt_connect, never NULL;
  *   - other pointers must be non-NULL; an input array of n elements
  *     (e, ids, l, views, names) may be NULL when n is 0;
- *   - out parameters are written only when the call returns VP_OK;
+ *   - out parameters hold the reply only when the call returns VP_OK (on
+ *     an error they may hold part of one); views in them (data, recs,
+ *     text) point into the receive buffer, valid until the next call;
  *   - returns VP_OK; a negative VP_ERR_* the server answered with (ERROR;
  *     vt_last_error has its message and failing record index); a negative
  *     VP_ERR_* of the protocol decoder for a reply that did not decode
