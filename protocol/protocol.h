@@ -530,25 +530,36 @@ int  vp_dec_metrics_reply(const uint8_t *p, size_t len, vp_metrics_reply *m);
  *     vp_enc_mesh's nrm may be NULL (VP_MESH_NO_NORMALS, no normals sent);
  *     vp_enc_vis_query_sub's subs may be NULL (no sub-level list, unless
  *     flags has VP_Q_SUBLEVELS: then nsub ids are read from subs);
- *   - w needs room for the matching vp_size_* (below); with less, nothing
- *     is cut in half silently: w->overflow is set and stays set (the
- *     bytes written are garbage; vp_frame_end returns false);
+ *   - w needs room for the matching vp_size_* (below); with less,
+ *     w->overflow is set and stays set: the frame is incomplete and must
+ *     not be sent (vp_frame_end returns false);
  *   - the encoders check nothing: a field out of range is sent as given
- *     and the peer's decoder refuses it; names longer than VP_MAX_NAME and
- *     error messages longer than VP_MAX_ERROR_MSG (after escaping) are cut;
+ *     and the peer's decoder refuses it; a count wider than its wire field
+ *     is cut to it (vis_query's n to u8, nsub to u16); names longer than
+ *     VP_MAX_NAME and error messages longer than VP_MAX_ERROR_MSG (after
+ *     escaping) are cut;
  *   - *_begin encoders leave the frame open: put the records, then
  *     vp_frame_end(w). */
+/* m->token and m->name: token_len and name_len bytes (NULL when 0). */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);
 void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m);
+/* msg: NUL-terminated or NULL; sent escaped (control bytes and invalid
+ * UTF-8 as \\xNN), at most VP_MAX_ERROR_MSG bytes. */
 void vp_enc_error(vp_writer *w, uint32_t req, int32_t code, uint32_t index, const char *msg);
+/* PING or PONG (type) with data[0..n); a decoder takes at most VP_MAX_PING. */
 void vp_enc_ping(vp_writer *w, uint16_t type, uint32_t req, const uint8_t *data, uint32_t n);
+/* A frame of any type with an empty payload. */
 void vp_enc_empty(vp_writer *w, uint16_t type, uint32_t req);
+/* ENTITY_ADD or ENTITY_UPDATE (type): n records. */
 void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity *e, uint32_t n);
+/* An id batch: ENTITY_REMOVE, ENTITY_GET, OCCLUDER_REMOVE or LIGHT_REMOVE. */
 void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, uint32_t n);
 void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n);
 void vp_enc_ack(vp_writer *w, uint32_t req, const vp_ack *m);
+/* n views (1..VP_MAX_VIEWS); VP_Q_SUBLEVELS in flags is cleared. */
 void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n);
-/* The same seeing only sub-levels subs[0..nsub) (VP_Q_SUBLEVELS is set). */
+/* The same seeing only sub-levels subs[0..nsub) (VP_Q_SUBLEVELS is set
+ * when subs is given). */
 void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n,
                           const uint16_t *subs, uint32_t nsub);
 
