@@ -194,8 +194,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o ae.o)
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
@@ -204,8 +204,9 @@ DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/r
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
-# libvantage carries the protocol and the matrix helpers it uses
-$(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)
+# libvantage carries the protocol; its matrix helpers are culling/cull_mat.h
+# (header-only), so the culling core is not in it
+$(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
@@ -233,8 +234,8 @@ $(PADB_BIN): $(PADB_OBJ) $(PADB_PAD)
 $(SUBB_BIN): $(SUBB_OBJ) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(SUBB_OBJ) $(CLIENT_LIB) $(LDLIBS)
 
-$(DESB_BIN): $(DESB_OBJ) $(CLIENT_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DESB_OBJ) $(CLIENT_LIB) $(LDLIBS)
+$(DESB_BIN): $(DESB_OBJ) $(CLIENT_LIB) $(CULL_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(DESB_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(LDLIBS)
 
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)
@@ -317,6 +318,8 @@ install-check:
 	PKG_CONFIG_PATH=$(BUILD)/stage/lib/pkgconfig $(CC) -std=c11 -o $(BUILD)/install_check tests/install_check.c \
 	  $$(PKG_CONFIG_PATH=$(BUILD)/stage/lib/pkgconfig pkg-config --cflags --libs --static vantage)
 	$(BUILD)/install_check
+	@# the client library stands alone: no culling core in it (cull_mat.h is header-only)
+	@! nm $(BUILD)/stage/lib/libvantage.a | grep ' [TDB] cull_' || { echo "install-check: libvantage.a carries culling symbols"; exit 1; }
 
 clean:
 	rm -rf build

@@ -33,6 +33,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include "cull_mat.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -231,11 +232,7 @@ int cull_occluder_get_info(const cull_world *w, cull_occluder h, cull_occluder_i
 uint32_t cull_occluder_count(const cull_world *w);
 
 /* ---- views -------------------------------------------------------------- */
-enum cull_depth_mode {
-    CULL_DEPTH_GL = 0,       /* clip z in [-w, w] (OpenGL) */
-    CULL_DEPTH_ZERO_ONE,     /* clip z in [0, w] (D3D, Vulkan, GL clip-control) */
-    CULL_DEPTH_REVERSED,     /* clip z in [0, w], near at 1 (reversed-Z) */
-};
+/* enum cull_depth_mode: cull_mat.h */
 
 typedef struct cull_view_desc {
     /* Column-major 4x4 (m[col*4 + row]), mapping (p - origin, 1) to clip
@@ -278,15 +275,8 @@ typedef struct cull_view_rows {
 } cull_view_rows;
 void cull_view_rows_get(const cull_view *v, cull_view_rows *r);
 
-/* Matrix helpers (column-major, double). far may be INFINITY. */
-void cull_mat_perspective(double m[16], double fovy_rad, double aspect,
-                          double znear, double zfar, uint32_t depth_mode);
-void cull_mat_ortho(double m[16], double l, double r, double b, double t,
-                    double znear, double zfar, uint32_t depth_mode);
-/* Camera-relative look-at: the eye is at the origin (pass the eye as
- * cull_view_desc.origin). dir = target - eye. */
-void cull_mat_look_dir(double m[16], const double dir[3], const double up[3]);
-void cull_mat_mul(double out[16], const double a[16], const double b[16]);
+/* Matrix helpers (cull_mat_perspective, _ortho, _look_dir, _mul): cull_mat.h,
+ * header-only, included above. */
 
 /* ---- query -------------------------------------------------------------- */
 #define CULL_MAX_VIEWS 32u

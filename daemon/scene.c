@@ -409,9 +409,10 @@ int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err)
                     s->lim.max_mesh_verts);
     scene_mesh n = {.nv = m->vertex_count, .ni = m->index_count};
     n.pos = malloc((size_t)n.nv * 12 + 1);
-    n.nrm = malloc((size_t)n.nv * 12 + 1);
+    /* no normals on the wire (VP_MESH_NO_NORMALS): NULL, drawn flat */
+    n.nrm = m->normals ? malloc((size_t)n.nv * 12 + 1) : NULL;
     n.idx = malloc((size_t)n.ni * 4 + 1);
-    if (!n.pos || !n.nrm || !n.idx) {
+    if (!n.pos || (m->normals && !n.nrm) || !n.idx) {
         free(n.pos);
         free(n.nrm);
         free(n.idx);
@@ -420,8 +421,8 @@ int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err)
     vp_reader r;
     vp_reader_init(&r, m->positions, (size_t)n.nv * 12);
     for (uint32_t i = 0; i < 3 * n.nv; i++) n.pos[i] = vp_get_f32(&r);
-    vp_reader_init(&r, m->normals, (size_t)n.nv * 12);
-    for (uint32_t i = 0; i < 3 * n.nv; i++) n.nrm[i] = vp_get_f32(&r);
+    vp_reader_init(&r, m->normals, n.nrm ? (size_t)n.nv * 12 : 0);
+    for (uint32_t i = 0; n.nrm && i < 3 * n.nv; i++) n.nrm[i] = vp_get_f32(&r);
     vp_reader_init(&r, m->indices, (size_t)n.ni * 4);
     for (uint32_t i = 0; i < n.ni; i++) n.idx[i] = vp_get_u32(&r);
     scene_mesh *slot = &s->meshes[m->class_id];

@@ -8,6 +8,7 @@
  * allocate; a payload is either accepted whole or rejected with a code.
  */
 #include "vp_internal.h"
+#include "vp_layout.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -153,6 +154,15 @@ int vp_take_array(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint
     return VP_OK;
 }
 
+int vp_take_rest(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8_t **out)
+{
+    if (r->short_read) return VP_ERR_TRUNCATED;
+    int rc = vp_take_array(r, n, rec, max, out);
+    if (rc) return rc;
+    rc = vp_reader_finish(r);
+    return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
+}
+
 bool vp_finite_n(const double *v, int n)
 {
     for (int i = 0; i < n; i++)
@@ -168,6 +178,11 @@ bool vp_finite_nf(const float *v, int n)
 }
 
 /* ---- session messages ------------------------------------------------------------ */
+
+size_t vp_size_hello(const vp_hello *m)
+{
+    return VP_HEADER_SIZE + 9 + (size_t)m->token_len + m->name_len;
+}
 
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m)
 {
@@ -202,34 +217,13 @@ int vp_dec_hello(const uint8_t *p, size_t len, vp_hello *m)
     return VP_OK;
 }
 
-void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m)
-{
-    vp_frame_begin(w, VP_HELLO_OK, req);
-    vp_put_u16(w, m->version);
-    vp_put_u8(w, m->role);
-    vp_put_u8(w, 0);
-    vp_put_u32(w, m->max_payload);
-    vp_put_u32(w, m->max_batch);
-    vp_put_u32(w, m->max_views);
-    vp_put_u64(w, m->epoch);
-    vp_put_u32(w, m->client_id);
-    vp_frame_end(w);
-}
+#define HELLO_OK_FIELDS(X)                                                                                 \
+    X(u16, version) X(u8, role) X(rsv8, _) X(u32, max_payload) X(u32, max_batch) X(u32, max_views)       \
+    X(u64, epoch) X(u32, client_id)
+VP_LAYOUT(hello_ok, vp_hello_ok, HELLO_OK_FIELDS)
 
-int vp_dec_hello_ok(const uint8_t *p, size_t len, vp_hello_ok *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->version = vp_get_u16(&r);
-    m->role = vp_get_u8(&r);
-    (void)vp_get_u8(&r);
-    m->max_payload = vp_get_u32(&r);
-    m->max_batch = vp_get_u32(&r);
-    m->max_views = vp_get_u32(&r);
-    m->epoch = vp_get_u64(&r);
-    m->client_id = vp_get_u32(&r);
-    return vp_reader_finish(&r);
-}
+VP_MESSAGE(hello_ok, vp_hello_ok, VP_HELLO_OK)
+VP_MESSAGE_DEC(hello_ok, vp_hello_ok)
 
 /* ---- UTF-8 --------------------------------------------------------------------- */
 
@@ -316,6 +310,12 @@ size_t vp_escape(char *out, size_t cap, const uint8_t *p, size_t n)
     return escape(out, cap, p, n, true);
 }
 
+size_t vp_size_error(const char *msg)
+{
+    char esc[VP_MAX_ERROR_MSG + 1];
+    return VP_HEADER_SIZE + 10 + (msg ? escape(esc, sizeof esc, (const uint8_t *)msg, strlen(msg), false) : 0);
+}
+
 void vp_enc_error(vp_writer *w, uint32_t req, int32_t code, uint32_t index, const char *msg)
 {
     /* escaped: whatever client bytes a message quotes, ERROR carries valid
@@ -344,6 +344,11 @@ int vp_dec_error(const uint8_t *p, size_t len, vp_error *m)
     return vp_reader_finish(&r);
 }
 
+size_t vp_size_ping(uint32_t n)
+{
+    return VP_HEADER_SIZE + (size_t)n;
+}
+
 void vp_enc_ping(vp_writer *w, uint16_t type, uint32_t req, const uint8_t *data, uint32_t n)
 {
     vp_frame_begin(w, type, req);
@@ -359,6 +364,11 @@ int vp_dec_ping(const uint8_t *p, size_t len, const uint8_t **data, uint32_t *n)
     return VP_OK;
 }
 
+size_t vp_size_empty(void)
+{
+    return VP_HEADER_SIZE;
+}
+
 void vp_enc_empty(vp_writer *w, uint16_t type, uint32_t req)
 {
     vp_frame_begin(w, type, req);
@@ -371,62 +381,32 @@ int vp_dec_empty(const uint8_t *p, size_t len)
     return len ? VP_ERR_TRAILING : VP_OK;
 }
 
-void vp_enc_ack(vp_writer *w, uint32_t req, const vp_ack *m)
-{
-    vp_frame_begin(w, VP_ACK, req);
-    vp_put_u64(w, m->epoch);
-    vp_put_u32(w, m->count);
-    vp_frame_end(w);
-}
+#define ACK_FIELDS(X) X(u64, epoch) X(u32, count)
+VP_LAYOUT(ack, vp_ack, ACK_FIELDS)
 
-int vp_dec_ack(const uint8_t *p, size_t len, vp_ack *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->epoch = vp_get_u64(&r);
-    m->count = vp_get_u32(&r);
-    return vp_reader_finish(&r);
-}
+VP_MESSAGE(ack, vp_ack, VP_ACK)
+VP_MESSAGE_DEC(ack, vp_ack)
 
-void vp_enc_stats_reply(vp_writer *w, uint32_t req, const vp_stats_reply *m)
-{
-    vp_frame_begin(w, VP_STATS_REPLY, req);
-    vp_put_u64(w, m->epoch);
-    vp_put_u64(w, m->uptime_ms);
-    const uint32_t u[] = {m->entities, m->static_entities, m->dynamic_entities, m->regions, m->cells,
-                          m->connections, m->meshes, m->occluders, m->lights};
-    for (size_t i = 0; i < sizeof u / sizeof u[0]; i++) vp_put_u32(w, u[i]);
-    const uint64_t q[] = {m->queries, m->edits, m->bytes_in, m->bytes_out, m->errors};
-    for (size_t i = 0; i < sizeof q / sizeof q[0]; i++) vp_put_u64(w, q[i]);
-    vp_frame_end(w);
-}
-
-int vp_dec_stats_reply(const uint8_t *p, size_t len, vp_stats_reply *m)
-{
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->epoch = vp_get_u64(&r);
-    m->uptime_ms = vp_get_u64(&r);
-    uint32_t *u[] = {&m->entities, &m->static_entities, &m->dynamic_entities, &m->regions, &m->cells,
-                     &m->connections, &m->meshes, &m->occluders, &m->lights};
-    for (size_t i = 0; i < sizeof u / sizeof u[0]; i++) *u[i] = vp_get_u32(&r);
-    uint64_t *q[] = {&m->queries, &m->edits, &m->bytes_in, &m->bytes_out, &m->errors};
-    for (size_t i = 0; i < sizeof q / sizeof q[0]; i++) *q[i] = vp_get_u64(&r);
-    return vp_reader_finish(&r);
-}
+#define STATS_FIELDS(X)                                                                                    \
+    X(u64, epoch) X(u64, uptime_ms) X(u32, entities) X(u32, static_entities) X(u32, dynamic_entities)    \
+    X(u32, regions) X(u32, cells) X(u32, connections) X(u32, meshes) X(u32, occluders) X(u32, lights)    \
+    X(u64, queries) X(u64, edits) X(u64, bytes_in) X(u64, bytes_out) X(u64, errors)
+VP_LAYOUT(stats_reply, vp_stats_reply, STATS_FIELDS)
+VP_MESSAGE(stats_reply, vp_stats_reply, VP_STATS_REPLY)
+VP_MESSAGE_DEC(stats_reply, vp_stats_reply)
 
 size_t vp_size_metrics_reply(uint32_t text_len)
 {
     return VP_HEADER_SIZE + VP_METRICS_REPLY_HEADER + (size_t)text_len;
 }
 
+#define METRICS_FIELDS(X) X(u8, format) X(pad8, _) X(pad16, _) X(u32, text_len)
+VP_LAYOUT(metrics_head, vp_metrics_reply, METRICS_FIELDS)
+
 void vp_enc_metrics_reply(vp_writer *w, uint32_t req, const vp_metrics_reply *m)
 {
     vp_frame_begin(w, VP_METRICS_REPLY, req);
-    vp_put_u8(w, m->format);
-    vp_put_u8(w, 0);
-    vp_put_u16(w, 0);
-    vp_put_u32(w, m->text_len);
+    metrics_head_put(w, m);
     vp_put_bytes(w, m->text, m->text_len);
     vp_frame_end(w);
 }
@@ -435,18 +415,20 @@ int vp_dec_metrics_reply(const uint8_t *p, size_t len, vp_metrics_reply *m)
 {
     vp_reader r;
     vp_reader_init(&r, p, len);
-    m->format = vp_get_u8(&r);
-    uint8_t pad8 = vp_get_u8(&r);
-    uint16_t pad16 = vp_get_u16(&r);
-    m->text_len = vp_get_u32(&r);
+    uint32_t pad = metrics_head_get(&r, m);
     if (r.short_read) return VP_ERR_TRUNCATED;
     if (m->text_len > vp_remaining(&r)) return VP_ERR_TRUNCATED;
     m->text = vp_get_bytes(&r, m->text_len);
     int rc = vp_reader_finish(&r);
     if (rc) return rc;
-    if (pad8 || pad16 || m->format != VP_METRICS_PROMETHEUS) return VP_ERR_INVALID;
+    if (pad || m->format != VP_METRICS_PROMETHEUS) return VP_ERR_INVALID;
     if (m->text_len && memchr(m->text, 0, m->text_len)) return VP_ERR_INVALID;
     return VP_OK;
+}
+
+size_t vp_size_subscribe(void)
+{
+    return VP_HEADER_SIZE + 4;
 }
 
 void vp_enc_subscribe(vp_writer *w, uint32_t req, uint32_t kinds)
@@ -466,28 +448,21 @@ int vp_dec_subscribe(const uint8_t *p, size_t len, uint32_t *kinds)
     return (*kinds & ~(VP_EVENT_SCENE | VP_EVENT_MARKS)) ? VP_ERR_INVALID : VP_OK;
 }
 
+#define EVENT_FIELDS(X) X(u32, kind) X(rsv32, _) X(u64, epoch) X(u32, added) X(u32, updated) X(u32, removed)
+VP_LAYOUT(event, vp_event, EVENT_FIELDS)
+
+size_t vp_size_event(void)
+{
+    return VP_HEADER_SIZE + event_size();
+}
+
 void vp_enc_event(vp_writer *w, const vp_event *m)
 {
-    vp_frame_begin(w, VP_EVENT, 0);
-    vp_put_u32(w, m->kind);
-    vp_put_u32(w, 0);
-    vp_put_u64(w, m->epoch);
-    vp_put_u32(w, m->added);
-    vp_put_u32(w, m->updated);
-    vp_put_u32(w, m->removed);
-    vp_frame_end(w);
+    event_enc(w, VP_EVENT, 0, m);
 }
 
 int vp_dec_event(const uint8_t *p, size_t len, vp_event *m)
 {
-    vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->kind = vp_get_u32(&r);
-    (void)vp_get_u32(&r);
-    m->epoch = vp_get_u64(&r);
-    m->added = vp_get_u32(&r);
-    m->updated = vp_get_u32(&r);
-    m->removed = vp_get_u32(&r);
-    return vp_reader_finish(&r);
+    return event_dec(p, len, m);
 }
 

@@ -68,6 +68,8 @@ enum {
 #undef VP_X_ENUM
 };
 
+/* The table's message for code; "unknown error" for a code not in it.
+ * Never NULL; static storage. */
 const char *vp_strerror(int code);
 /* The modules' message helper: formats into err[0..errlen) (err may be
  * NULL or errlen 0: nothing written) and returns -1, so a failing path is
@@ -157,7 +159,8 @@ typedef struct vp_header {
  * VP_OK with *h and *frame_size (header + payload) when a whole frame is
  * there, VP_ERR_TOO_LARGE when the length exceeds max_payload (decided from
  * the header alone, before any payload is buffered), VP_ERR_INVALID for
- * non-zero flags. */
+ * non-zero flags. buf may be NULL only when n is 0; h and frame_size are
+ * non-NULL (*h is filled whenever the header is there). */
 int vp_frame_check(const uint8_t *buf, size_t n, uint32_t max_payload, vp_header *h, size_t *frame_size);
 
 /* ---- writer and reader: vp_bytes.h (vp_writer, vp_put_*, vp_reader, vp_get_*) ---- */
@@ -293,11 +296,15 @@ typedef struct vp_event {
     uint32_t added, updated, removed;
 } vp_event;
 
+/* MESH_PUT flags: no normals on the wire; the mesh is drawn with flat
+ * (face) normals, as the renderers draw a vt_mesh whose nrm is NULL. */
+#define VP_MESH_NO_NORMALS 0x1u
 typedef struct vp_mesh {
     uint16_t class_id;
+    uint16_t flags;           /* VP_MESH_*; other bits INVALID */
     uint32_t vertex_count, index_count;
     const uint8_t *positions; /* f32 x3 per vertex */
-    const uint8_t *normals;   /* f32 x3 per vertex */
+    const uint8_t *normals;   /* f32 x3 per vertex; NULL with VP_MESH_NO_NORMALS */
     const uint8_t *indices;   /* u32, triangles */
 } vp_mesh;
 
@@ -349,7 +356,9 @@ typedef struct vp_name {
     const uint8_t *name;
 } vp_name;
 
-/* Walks a decoded list: *pos starts at 0; false at the end. */
+/* Walks a decoded list (l from vp_dec_names, which checked every entry):
+ * *pos starts at 0; each true fills *out (name points into the payload,
+ * not terminated) and advances *pos; false at the end. */
 bool vp_name_next(const vp_name_list *l, size_t *pos, vp_name *out);
 
 /* Sub-level loads. SUBLEVEL_BEGIN opens a load of the named sub-level on
@@ -403,6 +412,8 @@ int  vp_dec_sublevel_name(const uint8_t *p, size_t len, vp_name *m);
 void vp_enc_sublevel_infos_begin(vp_writer *w, uint32_t req, uint64_t epoch, uint32_t n);
 void vp_put_sublevel_info(vp_writer *w, const vp_sublevel_info *m);
 int  vp_dec_sublevel_infos(const uint8_t *p, size_t len, vp_sublevel_infos *m);
+/* As vp_name_next: *pos from 0, *out filled (name into the payload), false
+ * at the end. */
 bool vp_sublevel_info_next(const vp_sublevel_infos *l, size_t *pos, vp_sublevel_info *out);
 
 /* DESTROY: a sphere of destruction on an entity ("Destruction Masking in
@@ -471,18 +482,46 @@ size_t vp_size_metrics_reply(uint32_t text_len);
 void vp_enc_metrics_reply(vp_writer *w, uint32_t req, const vp_metrics_reply *m);
 int  vp_dec_metrics_reply(const uint8_t *p, size_t len, vp_metrics_reply *m);
 
-/* Encoders: append one whole frame to w. */
+/* Encoders: append one whole frame to w (header and payload).
+ * Contracts for every vp_enc_* and vp_put_* here and above:
+ *   - w, and m where there is one, are non-NULL; input arrays hold what
+ *     their count says (e: n records, ids: n, v: n views, subs: nsub,
+ *     pos/nrm: 3 * nv floats, idx: ni, verts: 9 * ntris, l: n, names: n
+ *     NUL-terminated strings, ids of vp_enc_names: n or NULL) and may be
+ *     NULL when that count is 0; vp_enc_error's msg may be NULL (empty);
+ *     vp_enc_mesh's nrm may be NULL (VP_MESH_NO_NORMALS, no normals sent);
+ *     vp_enc_vis_query_sub's subs may be NULL (no sub-level list, unless
+ *     flags has VP_Q_SUBLEVELS: then nsub ids are read from subs);
+ *   - w needs room for the matching vp_size_* (below); with less,
+ *     w->overflow is set and stays set: the frame is incomplete and must
+ *     not be sent (vp_frame_end returns false);
+ *   - the encoders check nothing: a field out of range is sent as given
+ *     and the peer's decoder refuses it; a count wider than its wire field
+ *     is cut to it (vis_query's n to u8, nsub to u16); names longer than
+ *     VP_MAX_NAME and error messages longer than VP_MAX_ERROR_MSG (after
+ *     escaping) are cut;
+ *   - *_begin encoders leave the frame open: put the records, then
+ *     vp_frame_end(w). */
+/* m->token and m->name: token_len and name_len bytes (NULL when 0). */
 void vp_enc_hello(vp_writer *w, uint32_t req, const vp_hello *m);
 void vp_enc_hello_ok(vp_writer *w, uint32_t req, const vp_hello_ok *m);
+/* msg: NUL-terminated or NULL; sent escaped (control bytes and invalid
+ * UTF-8 as \\xNN), at most VP_MAX_ERROR_MSG bytes. */
 void vp_enc_error(vp_writer *w, uint32_t req, int32_t code, uint32_t index, const char *msg);
+/* PING or PONG (type) with data[0..n); a decoder takes at most VP_MAX_PING. */
 void vp_enc_ping(vp_writer *w, uint16_t type, uint32_t req, const uint8_t *data, uint32_t n);
+/* A frame of any type with an empty payload. */
 void vp_enc_empty(vp_writer *w, uint16_t type, uint32_t req);
+/* ENTITY_ADD or ENTITY_UPDATE (type): n records. */
 void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity *e, uint32_t n);
+/* An id batch: ENTITY_REMOVE, ENTITY_GET, OCCLUDER_REMOVE or LIGHT_REMOVE. */
 void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, uint32_t n);
 void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n);
 void vp_enc_ack(vp_writer *w, uint32_t req, const vp_ack *m);
+/* n views (1..VP_MAX_VIEWS); VP_Q_SUBLEVELS in flags is cleared. */
 void vp_enc_vis_query(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n);
-/* The same seeing only sub-levels subs[0..nsub) (VP_Q_SUBLEVELS is set). */
+/* The same seeing only sub-levels subs[0..nsub) (VP_Q_SUBLEVELS is set
+ * when subs is given). */
 void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_area, const vp_view *v, uint32_t n,
                           const uint16_t *subs, uint32_t nsub);
 
@@ -544,6 +583,8 @@ size_t vp_size_light_tiles(uint32_t tiles, uint32_t count);
 /* Header; then tiles + 1 offsets (vp_put_u32) and count ids (vp_put_u64). */
 void vp_enc_light_tiles_begin(vp_writer *w, uint32_t req, const vp_light_tiles *m);
 int  vp_dec_light_tiles(const uint8_t *p, size_t len, vp_light_tiles *m);
+/* offset[t] for t <= tiles (m->count past it); id k for k < m->count (0
+ * past it). m from vp_dec_light_tiles. */
 uint32_t vp_light_tiles_offset(const vp_light_tiles *m, uint32_t t);
 uint64_t vp_light_tiles_id(const vp_light_tiles *m, uint32_t k);
 
@@ -598,13 +639,47 @@ void vp_enc_sublevel_ids(vp_writer *w, uint32_t req, const uint16_t *ids, uint32
 void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_t epoch, const vp_entity *e,
                        uint32_t n);
 
-/* Size of the frames above, for sizing buffers. */
+/* Size of the frames above, for sizing buffers: the exact bytes the
+ * encoder of the same name appends (header included) for the same
+ * arguments; a writer with that much room left never overflows. */
+size_t vp_size_hello(const vp_hello *m);
+size_t vp_size_hello_ok(void);
+size_t vp_size_error(const char *msg);
+size_t vp_size_ping(uint32_t n);
+size_t vp_size_empty(void);
 size_t vp_size_entities(uint32_t n);
 size_t vp_size_ids(uint32_t n);
+size_t vp_size_add_reply(uint32_t n);
+size_t vp_size_ack(void);
+size_t vp_size_vis_query(uint32_t n);
+size_t vp_size_vis_query_sub(uint8_t flags, uint32_t n, const uint16_t *subs, uint32_t nsub);
 size_t vp_size_vis_result(uint32_t n);
+size_t vp_size_stats_reply(void);
+size_t vp_size_subscribe(void);
+size_t vp_size_event(void);
+size_t vp_size_mesh(uint32_t nv, uint32_t ni, bool normals);
+size_t vp_size_occluder(uint32_t ntris);
+size_t vp_size_lights(uint32_t n);
+size_t vp_size_list(void);
+size_t vp_size_names(const char *const *names, const uint16_t *ids, uint32_t n);
+size_t vp_size_sublevel_ids(uint32_t n);
+size_t vp_size_list_reply(uint32_t n);
+size_t vp_size_sublevel_begin(const vp_sublevel_begin *m);
+size_t vp_size_sublevel_begun(void);
+size_t vp_size_sublevel_name(const char *name);
+size_t vp_size_sublevel_infos(const vp_sublevel_info *infos, uint32_t n);
+size_t vp_size_destroy(void);
+size_t vp_size_destroyed(void);
+size_t vp_size_mark(void);
+size_t vp_size_marked(void);
+size_t vp_size_render(void);
+size_t vp_size_light_query(void);
+size_t vp_size_frame_sub(void);
 
-/* Decoders: payload p of len bytes (the frame minus its header). Return
- * VP_OK or a negative code; on error *m is unspecified. Batch decoders
+/* Decoders: payload p of len bytes (the frame minus its header); p may be
+ * NULL only when len is 0; m non-NULL. Return VP_OK or a negative code; on
+ * error *m is unspecified. Pointers in *m point into p (no copy, no
+ * allocation): valid while p is. Batch decoders
  * check count * record size against the payload and against max_batch
  * (0 = no limit) before anything else. Numbers that must be finite are
  * checked (VP_ERR_NONFINITE). */
@@ -628,12 +703,15 @@ int vp_dec_lights(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_
 int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m);
 int vp_dec_names(const uint8_t *p, size_t len, bool with_ids, vp_name_list *m);
 int vp_dec_sublevel_ids(const uint8_t *p, size_t len, uint32_t *n, const uint8_t **ids);
+/* id i of the n of vp_dec_sublevel_ids; 0 for i >= n. */
 uint16_t vp_sublevel_id_get(const uint8_t *ids, uint32_t n, uint32_t i);
 int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m);
 
-/* Record getters for batches (validated by the decoder that made them;
- * they re-check what they decode so a record is never trusted blind; an
- * index past the count is VP_ERR_COUNT, or a zeroed record / 0). */
+/* Record getters for batches (validated by the decoder that made them).
+ * The int getters (entity, view, light) re-check the record they read, so
+ * a record is never trusted blind, and return VP_OK or its code; an index
+ * past the count is VP_ERR_COUNT (*out untouched). The others return 0
+ * (vp_vis_rec_get: a zeroed record) past the count. All non-NULL. */
 int  vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out);
 uint64_t vp_id_get(const vp_id_batch *b, uint32_t i);
 uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i);
@@ -649,7 +727,8 @@ int  vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out);
 int  vp_entity_rec_check(const vp_entity_batch *b, uint32_t i, char *why, size_t whylen);
 int  vp_light_rec_check(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen);
 
-/* Whether a message type is known to this version. */
+/* Whether a message type is known to this version, and its name
+ * ("entity_add"; "unknown" for another type; never NULL, static). */
 bool vp_type_known(uint16_t type);
 const char *vp_type_name(uint16_t type);
 

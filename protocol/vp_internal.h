@@ -24,6 +24,9 @@
 /* A counted array of n records of size rec: the count is checked against
  * the limit (0 = none) and the bytes left before the records are taken. */
 int vp_take_array(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8_t **out);
+/* The same for records that end the payload: bytes left after them are a
+ * count that disagrees (VP_ERR_COUNT); a read already short is TRUNCATED. */
+int vp_take_rest(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8_t **out);
 bool vp_finite_n(const double *v, int n);
 bool vp_finite_nf(const float *v, int n);
 

@@ -935,6 +935,131 @@ static void test_occlusion_over_the_wire(void **state)
     vt_close(c);
 }
 
+/* A fake server on a Unix socket: reads the client's first request,
+ * answers it with reply[0..n), waits for the close. Its pid. */
+static int fake_server(const char *path, const uint8_t *reply, size_t n)
+{
+    int l = socket(AF_UNIX, SOCK_STREAM, 0);
+    assert_true(l >= 0);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    snprintf(sa.sun_path, sizeof sa.sun_path, "%s", path);
+    unlink(path);
+    assert_int_equal(bind(l, (struct sockaddr *)&sa, sizeof sa), 0);
+    assert_int_equal(listen(l, 1), 0);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int fd = accept(l, NULL, NULL);
+        uint8_t in[600];
+        if (fd < 0 || read(fd, in, sizeof in) <= 0 || write(fd, reply, n) != (ssize_t)n) _exit(1);
+        (void)read(fd, in, sizeof in); /* until the client closes */
+        _exit(0);
+    }
+    close(l);
+    return pid;
+}
+
+/* A reply the client cannot decode keeps the decoder's code and says which
+ * reply and why (the blocking calls answered "malformed X" with VT_ERR_IO,
+ * the decoder's code lost): HELLO_OK of 5 and of 29 payload bytes (28 are
+ * its layout), one row each. */
+static void test_client_keeps_decoder_code(void **state)
+{
+    (void)state;
+    const struct { const char *name; uint32_t len; int code; const char *why; } rows[] = {
+        {"hello_ok cut short", 5, VP_ERR_TRUNCATED, "malformed hello_ok from the server: payload shorter"},
+        {"hello_ok too long", 29, VP_ERR_TRAILING, "malformed hello_ok from the server: payload longer"},
+    };
+    tdir td;
+    tdir_make(&td, "vantage_e2e_malformed");
+    const char *path = tdir_file(&td, "fake.sock");
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        uint8_t reply[VP_HEADER_SIZE + 64] = {0};
+        vp_writer w;
+        vp_writer_init(&w, reply, sizeof reply);
+        vp_frame_begin(&w, VP_HELLO_OK, 1); /* the first request's id */
+        for (uint32_t k = 0; k < rows[i].len; k++) vp_put_u8(&w, 0);
+        assert_true(vp_frame_end(&w));
+        int pid = fake_server(path, reply, w.len);
+        vt_client *c = (vt_client *)1;
+        char err[256] = "";
+        int rc = vt_connect(&(vt_connect_opts){.unix_path = path, .timeout_ms = 5000}, &c, err, sizeof err);
+        print_message("%s: %d %s\n", rows[i].name, rc, err);
+        assert_int_equal(rc, rows[i].code);
+        assert_null(c);
+        assert_non_null(strstr(err, rows[i].why));
+        int st;
+        assert_int_equal(waitpid(pid, &st, 0), pid);
+    }
+    tdir_remove(&td);
+}
+
+/* A mesh without normals (vt_put_mesh with nrm NULL) is drawn flat, as the
+ * renderer documents NULL normals: an octahedron of 6 shared vertices and
+ * no normals draws as the same octahedron of 24 unshared vertices whose
+ * normals are its face normals (the model, put in its place). Before MESH_PUT could say "no
+ * normals" the encoder read nrm[i] of NULL: the client crashed. */
+static void test_mesh_without_normals_is_flat(void **state)
+{
+    (void)state;
+    static const float v6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    float pos6[18], pos24[72], nrm24[72];
+    uint32_t idx[24], idx24[24];
+    memcpy(pos6, v6, sizeof pos6);
+    int t = 0;
+    for (int sx = -1; sx <= 1; sx += 2)
+        for (int sy = -1; sy <= 1; sy += 2)
+            for (int sz = -1; sz <= 1; sz += 2, t++) {
+                uint32_t a = sx > 0 ? 0 : 1, b = sy > 0 ? 2 : 3, c = sz > 0 ? 4 : 5;
+                uint32_t tri[3] = {a, b, c};
+                if (sx * sy * sz < 0) tri[1] = c, tri[2] = b; /* counter-clockwise from outside */
+                for (int k = 0; k < 3; k++) {
+                    idx[3 * t + k] = tri[k];
+                    idx24[3 * t + k] = (uint32_t)(3 * t + k);
+                    memcpy(pos24 + 9 * t + 3 * k, v6[tri[k]], 3 * sizeof(float));
+                    float n[3] = {(float)sx, (float)sy, (float)sz};
+                    for (int q = 0; q < 3; q++) nrm24[9 * t + 3 * k + q] = n[q] / sqrtf(3.0f);
+                }
+            }
+    daemon_proc d;
+    daemon_start(&d, NULL);
+    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    assert_int_equal(vt_put_mesh(c, 1, pos6, NULL, 6, idx, 24), VP_OK);
+    vp_light l = {.id = 1, .kind = VP_LIGHT_POINT, .pos = {3, 2, -2}, .color = {1, 1, 1}, .intensity = 50,
+                  .range = 30};
+    assert_int_equal(vt_put_lights(c, &l, 1), VP_OK);
+    vp_entity e = {.id = 1, .class_id = 1, .aabb = {-2, -2, -12, 2, 2, -8}};
+    assert_int_equal(vt_add(c, &e, 1, NULL, NULL), VP_OK);
+    vp_render m = {.format = VP_FRAME_RAW};
+    const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
+    assert_true(vt_view_perspective(&m.view, eye, at, NULL, 40, 96, 96, 0.1, 100));
+    enum { NPX = 96 * 96 };
+    static float flat[NPX * 5];
+    vp_frame f;
+    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    assert_int_equal(f.data_len, sizeof flat);
+    memcpy(flat, f.data, sizeof flat);
+    /* the model replaces the class's mesh (a class has one colour) */
+    assert_int_equal(vt_put_mesh(c, 1, pos24, nrm24, 24, idx24, 24), VP_OK);
+    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    const float *ref = (const float *)f.data;
+    size_t covered = 0, shades = 0;
+    float first = -1;
+    for (size_t i = 0; i < NPX; i++) {
+        assert_true(flat[4 * i + 3] == ref[4 * i + 3]); /* the same coverage */
+        if (ref[4 * i + 3] == 0) continue;
+        covered++;
+        for (int k = 0; k < 3; k++) assert_true(fabsf(flat[4 * i + k] - ref[4 * i + k]) <= 1e-4f);
+        assert_true(fabsf(flat[4 * NPX + i] - ref[4 * NPX + i]) <= 1e-4f);
+        if (first < 0) first = flat[4 * i];
+        shades += fabsf(flat[4 * i] - first) > 1e-2f;
+    }
+    assert_true(covered > 500);
+    assert_true(shades > 100); /* facets, not one colour */
+    vt_close(c);
+    daemon_stop(&d);
+}
+
 /* RENDER: a frame of a lit box, raw and JPEG; `vantage render` writes an
  * EXR that OpenEXR reads back with R G B A Z (and depth where the box is);
  * bad requests get clear errors and the daemon keeps serving. */
@@ -1696,6 +1821,8 @@ const struct CMUnitTest e2e_tests[] = {
     cmocka_unit_test(test_limits),
     DAEMON_TEST(test_occlusion_over_the_wire),
     DAEMON_TEST(test_render_frames),
+    cmocka_unit_test(test_client_keeps_decoder_code),
+    cmocka_unit_test(test_mesh_without_normals_is_flat),
     DAEMON_TEST(test_frame_stream),
     cmocka_unit_test(test_stalled_viewer_isolated),
     DAEMON_TEST(test_light_query),

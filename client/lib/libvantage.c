@@ -4,7 +4,7 @@
  */
 #include "vantage.h"
 
-#include "culling.h"
+#include "cull_mat.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -32,6 +32,8 @@ struct vt_client {
     size_t consumed;        /* the frame handed out last, released on next recv */
     uint8_t *out;
     size_t out_cap;
+    vp_writer w;            /* the request being encoded into out */
+    bool out_nomem;         /* request() could not make room: VT_ERR_IO */
     uint32_t stream_req;    /* the frame stream's req, 0 = none */
     vt_error stream_err;    /* code != 0: an ERROR ended the stream during another call */
 };
@@ -123,22 +125,30 @@ int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
     }
 }
 
-/* A writer over the client's send buffer with room for need bytes. */
-static bool out_buf(vt_client *c, size_t need, vp_writer *w)
+/* Starts a request: a writer over the client's send buffer with room for
+ * size bytes (the encoder's vp_size_*), and the request's id in *req.
+ * When the buffer cannot grow the writer has no room (the encoder only
+ * sets overflow) and the call that sends it answers VT_ERR_IO, out of
+ * memory, so a caller encodes and calls without a check in between. */
+static vp_writer *request(vt_client *c, size_t size, uint32_t *req)
 {
-    if (c->out_cap < need) {
+    *req = vt_next_req(c);
+    c->out_nomem = false;
+    if (c->out_cap < size) {
         size_t cap = c->out_cap ? c->out_cap : 4096;
-        while (cap < need) cap *= 2;
+        while (cap < size) cap *= 2;
         uint8_t *n = realloc(c->out, cap);
         if (!n) {
-            set_err(c, VT_ERR_IO, "out of memory for a request of %zu bytes", need);
-            return false;
+            set_err(c, VT_ERR_IO, "out of memory for a request of %zu bytes", size);
+            c->out_nomem = true;
+            vp_writer_init(&c->w, c->out, 0);
+            return &c->w;
         }
         c->out = n;
         c->out_cap = cap;
     }
-    vp_writer_init(w, c->out, c->out_cap);
-    return true;
+    vp_writer_init(&c->w, c->out, c->out_cap);
+    return &c->w;
 }
 
 /* The server's ERROR frame as a vt_error; returns its (negative) code. */
@@ -160,6 +170,7 @@ static int error_from(vt_error *out, const uint8_t *p, uint32_t len)
  * and the frame stream's frames arriving in between are skipped. */
 static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, const uint8_t **p, uint32_t *len)
 {
+    if (c->out_nomem) return VT_ERR_IO; /* request() said why */
     if (w->overflow) return set_err(c, VP_ERR_LIMIT, "request too large for the send buffer");
     /* a frame past the server's limit would only get the connection closed:
        refuse it here, with the sizes, and keep the connection */
@@ -190,6 +201,77 @@ static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, co
         *len = h.len;
         return VP_OK;
     }
+}
+
+/* A reply the client cannot decode keeps the decoder's code, and says
+ * which reply and why; VP_OK passes through. */
+static int decoded(vt_client *c, uint16_t type, int rc)
+{
+    if (rc == VP_OK) return VP_OK;
+    return set_err(c, rc, "malformed %s from the server: %s", vp_type_name(type), vp_strerror(rc));
+}
+
+/* Decodes a reply payload into out (adapters: one signature for call). */
+typedef int (*reply_dec)(const uint8_t *p, uint32_t len, void *out);
+
+/* The one blocking call: sends the request encoded into w (see request),
+ * waits for its reply of type want and decodes it into out with dec
+ * (NULL: the reply's type alone is checked). Returns VP_OK, the server's
+ * ERROR code, the decoder's code (decoded) or VT_ERR_IO. */
+static int call(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, reply_dec dec, void *out)
+{
+    const uint8_t *p;
+    uint32_t len;
+    int rc = roundtrip(c, w, req, want, &p, &len);
+    if (rc || !dec) return rc;
+    return decoded(c, want, dec(p, len, out));
+}
+
+static int dec_ack(const uint8_t *p, uint32_t len, void *out)
+{
+    vp_ack a;
+    return vp_dec_ack(p, len, out ? out : &a);
+}
+static int dec_hello_ok(const uint8_t *p, uint32_t len, void *out) { return vp_dec_hello_ok(p, len, out); }
+static int dec_stats_reply(const uint8_t *p, uint32_t len, void *out) { return vp_dec_stats_reply(p, len, out); }
+static int dec_metrics_reply(const uint8_t *p, uint32_t len, void *out) { return vp_dec_metrics_reply(p, len, out); }
+static int dec_add_reply(const uint8_t *p, uint32_t len, void *out) { return vp_dec_add_reply(p, len, out); }
+static int dec_list_reply(const uint8_t *p, uint32_t len, void *out) { return vp_dec_list_reply(p, len, out); }
+static int dec_vis_result(const uint8_t *p, uint32_t len, void *out) { return vp_dec_vis_result(p, len, out); }
+static int dec_frame(const uint8_t *p, uint32_t len, void *out) { return vp_dec_frame(p, len, out); }
+static int dec_light_tiles(const uint8_t *p, uint32_t len, void *out) { return vp_dec_light_tiles(p, len, out); }
+static int dec_list_names(const uint8_t *p, uint32_t len, void *out) { return vp_dec_names(p, len, true, out); }
+static int dec_begun(const uint8_t *p, uint32_t len, void *out) { return vp_dec_sublevel_begun(p, len, out); }
+static int dec_infos(const uint8_t *p, uint32_t len, void *out) { return vp_dec_sublevel_infos(p, len, out); }
+static int dec_destroyed(const uint8_t *p, uint32_t len, void *out) { return vp_dec_destroyed(p, len, out); }
+
+/* SUBLEVEL_IDS as the ids view and its count */
+typedef struct ids_reply {
+    uint32_t n;
+    const uint8_t *ids;
+} ids_reply;
+static int dec_sublevel_ids(const uint8_t *p, uint32_t len, void *out)
+{
+    ids_reply *r = out;
+    return vp_dec_sublevel_ids(p, len, &r->n, &r->ids);
+}
+
+/* A request with an empty payload (type) and its reply. */
+static int empty_call(vt_client *c, uint16_t type, uint16_t want, reply_dec dec, void *out)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_empty(), &req);
+    vp_enc_empty(w, type, req);
+    return call(c, w, req, want, dec, out);
+}
+
+/* An edit answered with ACK: its epoch in *epoch (may be NULL). */
+static int ack_epoch(vt_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
+{
+    vp_ack a;
+    int rc = call(c, w, req, VP_ACK, dec_ack, &a);
+    if (!rc && epoch) *epoch = a.epoch;
+    return rc;
 }
 
 static int connect_fd(const vt_connect_opts *o, char *err, size_t errlen)
@@ -265,16 +347,10 @@ int vt_connect(const vt_connect_opts *o, vt_client **out, char *err, size_t errl
     vp_hello hi = {.magic = VP_MAGIC, .version = VP_VERSION, .role = (uint8_t)d.role,
                    .token_len = (uint8_t)(tl > VP_MAX_TOKEN ? VP_MAX_TOKEN : tl), .token = (const uint8_t *)d.token,
                    .name_len = (uint8_t)(nl > VP_MAX_NAME ? VP_MAX_NAME : nl), .name = (const uint8_t *)name};
-    vp_writer w;
-    const uint8_t *p;
-    uint32_t len;
-    uint32_t req = vt_next_req(c);
-    int rc = out_buf(c, 600, &w) ? VP_OK : VT_ERR_IO;
-    if (!rc) {
-        vp_enc_hello(&w, req, &hi);
-        rc = roundtrip(c, &w, req, VP_HELLO_OK, &p, &len);
-    }
-    if (!rc) rc = vp_dec_hello_ok(p, len, &c->server) ? set_err(c, VT_ERR_IO, "malformed HELLO_OK") : VP_OK;
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_hello(&hi), &req);
+    vp_enc_hello(w, req, &hi);
+    int rc = call(c, w, req, VP_HELLO_OK, dec_hello_ok, &c->server);
     if (rc) {
         snprintf(err, errlen, "handshake: %s", c->err.msg);
         vt_close(c);
@@ -295,55 +371,25 @@ void vt_close(vt_client *c)
 
 int vt_ping(vt_client *c)
 {
-    vp_writer w;
     const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
-    vp_enc_ping(&w, VP_PING, req, (const uint8_t *)"vantage", 7);
-    int rc = roundtrip(c, &w, req, VP_PONG, &p, &len);
+    uint32_t len, req;
+    vp_writer *w = request(c, vp_size_ping(7), &req);
+    vp_enc_ping(w, VP_PING, req, (const uint8_t *)"vantage", 7);
+    int rc = roundtrip(c, w, req, VP_PONG, &p, &len);
     if (rc) return rc;
     return len == 7 && !memcmp(p, "vantage", 7) ? VP_OK : set_err(c, VT_ERR_IO, "PONG did not echo the PING");
 }
 
-/* A request with an empty payload and its reply. */
-/* A request with an empty payload: its reply of type want. */
-static int empty_call(vt_client *c, uint16_t type, uint16_t want, const uint8_t **p, uint32_t *len)
-{
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
-    vp_enc_empty(&w, type, req);
-    return roundtrip(c, &w, req, want, p, len);
-}
-
-/* A request with an empty payload answered with ACK (out may be NULL). */
-static int empty_ack(vt_client *c, uint16_t type, vp_ack *out)
-{
-    const uint8_t *p;
-    uint32_t len;
-    vp_ack a;
-    int rc = empty_call(c, type, VP_ACK, &p, &len);
-    if (rc) return rc;
-    return vp_dec_ack(p, len, out ? out : &a) ? set_err(c, VT_ERR_IO, "malformed ACK") : VP_OK;
-}
-
 int vt_stats(vt_client *c, vp_stats_reply *out)
 {
-    const uint8_t *p;
-    uint32_t len;
-    int rc = empty_call(c, VP_STATS, VP_STATS_REPLY, &p, &len);
-    if (rc) return rc;
-    return vp_dec_stats_reply(p, len, out) ? set_err(c, VT_ERR_IO, "malformed STATS_REPLY") : VP_OK;
+    return empty_call(c, VP_STATS, VP_STATS_REPLY, dec_stats_reply, out);
 }
 
 int vt_metrics(vt_client *c, const char **text, size_t *text_len)
 {
-    const uint8_t *p;
-    uint32_t len;
     vp_metrics_reply m;
-    int rc = empty_call(c, VP_METRICS, VP_METRICS_REPLY, &p, &len);
+    int rc = empty_call(c, VP_METRICS, VP_METRICS_REPLY, dec_metrics_reply, &m);
     if (rc) return rc;
-    if (vp_dec_metrics_reply(p, len, &m)) return set_err(c, VT_ERR_IO, "malformed METRICS_REPLY");
     *text = (const char *)m.text;
     *text_len = m.text_len;
     return VP_OK;
@@ -351,56 +397,44 @@ int vt_metrics(vt_client *c, const char **text, size_t *text_len)
 
 int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint64_t *epoch)
 {
-    vp_writer w;
-    const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, vp_size_entities(n), &w)) return VT_ERR_IO; /* out_buf said why */
-    vp_enc_entities(&w, VP_ENTITY_ADD, req, e, n);
-    int rc = roundtrip(c, &w, req, VP_ENTITY_ADD_REPLY, &p, &len);
-    if (rc) return rc;
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_entities(n), &req);
+    vp_enc_entities(w, VP_ENTITY_ADD, req, e, n);
     vp_add_reply r;
-    if (vp_dec_add_reply(p, len, &r) || r.count != n) return set_err(c, VT_ERR_IO, "malformed ENTITY_ADD_REPLY");
+    int rc = call(c, w, req, VP_ENTITY_ADD_REPLY, dec_add_reply, &r);
+    if (rc) return rc;
+    if (r.count != n)
+        return set_err(c, VP_ERR_COUNT, "malformed entity_add_reply from the server: %u handles for %u records",
+                       r.count, n);
     for (uint32_t i = 0; handles && i < n; i++) handles[i] = vp_handle_get(&r, i);
     if (epoch) *epoch = r.epoch;
     return VP_OK;
 }
 
-/* out may be NULL. */
-static int ack_full(vt_client *c, vp_writer *w, uint32_t req, vp_ack *out)
-{
-    const uint8_t *p;
-    uint32_t len;
-    vp_ack a;
-    int rc = roundtrip(c, w, req, VP_ACK, &p, &len);
-    if (rc) return rc;
-    if (vp_dec_ack(p, len, out ? out : &a)) return set_err(c, VT_ERR_IO, "malformed ACK");
-    return VP_OK;
-}
-
-static int ack_call(vt_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
-{
-    vp_ack a;
-    int rc = ack_full(c, w, req, &a);
-    if (!rc && epoch) *epoch = a.epoch;
-    return rc;
-}
-
 int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, vp_size_entities(n), &w)) return VT_ERR_IO; /* out_buf said why */
-    vp_enc_entities(&w, VP_ENTITY_UPDATE, req, e, n);
-    return ack_call(c, &w, req, epoch);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_entities(n), &req);
+    vp_enc_entities(w, VP_ENTITY_UPDATE, req, e, n);
+    return ack_epoch(c, w, req, epoch);
+}
+
+/* An id batch of type answered with reply (dec into out). */
+static int ids_call(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t n, uint16_t reply, reply_dec dec,
+                    void *out)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_ids(n), &req);
+    vp_enc_ids(w, type, req, ids, n);
+    return call(c, w, req, reply, dec, out);
 }
 
 static int remove_ids(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t n, uint64_t *epoch)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, vp_size_ids(n), &w)) return VT_ERR_IO; /* out_buf said why */
-    vp_enc_ids(&w, type, req, ids, n);
-    return ack_call(c, &w, req, epoch);
+    vp_ack a;
+    int rc = ids_call(c, type, ids, n, VP_ACK, dec_ack, &a);
+    if (!rc && epoch) *epoch = a.epoch;
+    return rc;
 }
 
 int vt_remove(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
@@ -413,31 +447,17 @@ int vt_remove_occluders(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t 
     return remove_ids(c, VP_OCCLUDER_REMOVE, ids, n, epoch);
 }
 
-static int list_call(vt_client *c, vp_writer *w, uint32_t req, vp_list_reply *out)
-{
-    const uint8_t *p;
-    uint32_t len;
-    int rc = roundtrip(c, w, req, VP_ENTITY_LIST_REPLY, &p, &len);
-    if (rc) return rc;
-    return vp_dec_list_reply(p, len, out) ? set_err(c, VT_ERR_IO, "malformed ENTITY_LIST_REPLY") : VP_OK;
-}
-
 int vt_get(vt_client *c, const uint64_t *ids, uint32_t n, vp_list_reply *out)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, vp_size_ids(n), &w)) return VT_ERR_IO; /* out_buf said why */
-    vp_enc_ids(&w, VP_ENTITY_GET, req, ids, n);
-    return list_call(c, &w, req, out);
+    return ids_call(c, VP_ENTITY_GET, ids, n, VP_ENTITY_LIST_REPLY, dec_list_reply, out);
 }
 
 int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
-    vp_enc_list(&w, req, &(vp_list){.cursor = cursor, .max = max});
-    return list_call(c, &w, req, out);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_list(), &req);
+    vp_enc_list(w, req, &(vp_list){.cursor = cursor, .max = max});
+    return call(c, w, req, VP_ENTITY_LIST_REPLY, dec_list_reply, out);
 }
 
 int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area, vp_vis_result *out)
@@ -448,47 +468,35 @@ int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags,
 int vt_query_sub(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
                  const uint16_t *subs, uint32_t nsub, vp_vis_result *out)
 {
-    vp_writer w;
-    const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 10 + (size_t)nviews * VP_VIEW_SIZE + 2 * (size_t)nsub, &w)) return VT_ERR_IO;
-    vp_enc_vis_query_sub(&w, req, flags & (uint8_t)~VP_Q_SUBLEVELS, min_area, views, nviews, subs, nsub);
-    int rc = roundtrip(c, &w, req, VP_VIS_RESULT, &p, &len);
-    if (rc) return rc;
-    return vp_dec_vis_result(p, len, out) ? set_err(c, VT_ERR_IO, "malformed VIS_RESULT") : VP_OK;
+    flags &= (uint8_t)~VP_Q_SUBLEVELS; /* the list is there iff subs is */
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_vis_query_sub(flags, nviews, subs, nsub), &req);
+    vp_enc_vis_query_sub(w, req, flags, min_area, views, nviews, subs, nsub);
+    return call(c, w, req, VP_VIS_RESULT, dec_vis_result, out);
 }
 
 int vt_render(vt_client *c, const vp_render *m, vp_frame *out)
 {
-    vp_writer w;
-    const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + VP_RENDER_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_render(&w, req, m);
-    int rc = roundtrip(c, &w, req, VP_FRAME, &p, &len);
-    if (rc) return rc;
-    return vp_dec_frame(p, len, out) ? set_err(c, VT_ERR_IO, "malformed FRAME") : VP_OK;
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_render(), &req);
+    vp_enc_render(w, req, m);
+    return call(c, w, req, VP_FRAME, dec_frame, out);
 }
 
 int vt_light_query(vt_client *c, const vp_light_query *m, vp_light_tiles *out)
 {
-    vp_writer w;
-    const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + VP_LIGHT_QUERY_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_light_query(&w, req, m);
-    int rc = roundtrip(c, &w, req, VP_LIGHT_TILES, &p, &len);
-    if (rc) return rc;
-    return vp_dec_light_tiles(p, len, out) ? set_err(c, VT_ERR_IO, "malformed LIGHT_TILES") : VP_OK;
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_light_query(), &req);
+    vp_enc_light_query(w, req, m);
+    return call(c, w, req, VP_LIGHT_TILES, dec_light_tiles, out);
 }
 
 int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + VP_FRAME_SUB_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_frame_sub(&w, req, m);
-    int rc = ack_call(c, &w, req, NULL);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_frame_sub(), &req);
+    vp_enc_frame_sub(w, req, m);
+    int rc = call(c, w, req, VP_ACK, dec_ack, NULL);
     if (rc) return rc;
     /* frames of the old view already on their way (old req) are still
        handed out by vt_wait_frame: they are the latest there is */
@@ -499,7 +507,7 @@ int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
 
 int vt_frame_unsubscribe(vt_client *c)
 {
-    int rc = empty_ack(c, VP_FRAME_UNSUBSCRIBE, NULL);
+    int rc = empty_call(c, VP_FRAME_UNSUBSCRIBE, VP_ACK, dec_ack, NULL);
     c->stream_req = 0;
     return rc;
 }
@@ -523,42 +531,35 @@ int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms)
             continue;
         }
         if (h.type != VP_FRAME) continue; /* events, or a stray reply: not ours to keep */
-        return vp_dec_frame(p, h.len, out) ? set_err(c, VT_ERR_IO, "malformed FRAME") : VP_OK;
+        return decoded(c, VP_FRAME, vp_dec_frame(p, h.len, out));
     }
 }
 
 int vt_subscribe(vt_client *c, uint32_t kinds)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, 64, &w)) return VT_ERR_IO;
-    vp_enc_subscribe(&w, req, kinds);
-    return ack_call(c, &w, req, NULL);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_subscribe(), &req);
+    vp_enc_subscribe(w, req, kinds);
+    return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
 
 int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t *ids)
 {
-    vp_writer w;
-    const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 4 + (size_t)n * 256, &w)) return VT_ERR_IO; /* out_buf said why */
-    vp_enc_names(&w, VP_SUBLEVEL_NAMES, req, names, NULL, n);
-    int rc = roundtrip(c, &w, req, VP_SUBLEVEL_IDS, &p, &len);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_names(names, NULL, n), &req);
+    vp_enc_names(w, VP_SUBLEVEL_NAMES, req, names, NULL, n);
+    ids_reply r;
+    int rc = call(c, w, req, VP_SUBLEVEL_IDS, dec_sublevel_ids, &r);
     if (rc) return rc;
-    uint32_t got;
-    const uint8_t *raw;
-    if (vp_dec_sublevel_ids(p, len, &got, &raw) || got != n) return set_err(c, VT_ERR_IO, "malformed SUBLEVEL_IDS");
-    for (uint32_t i = 0; i < n; i++) ids[i] = vp_sublevel_id_get(raw, got, i);
+    if (r.n != n)
+        return set_err(c, VP_ERR_COUNT, "malformed sublevel_ids from the server: %u ids for %u names", r.n, n);
+    for (uint32_t i = 0; i < n; i++) ids[i] = vp_sublevel_id_get(r.ids, r.n, i);
     return VP_OK;
 }
 
 int vt_sublevel_list(vt_client *c, vp_name_list *out)
 {
-    const uint8_t *p;
-    uint32_t len;
-    int rc = empty_call(c, VP_SUBLEVEL_LIST, VP_SUBLEVEL_LIST_REPLY, &p, &len);
-    if (rc) return rc;
-    return vp_dec_names(p, len, true, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_LIST_REPLY") : VP_OK;
+    return empty_call(c, VP_SUBLEVEL_LIST, VP_SUBLEVEL_LIST_REPLY, dec_list_names, out);
 }
 
 int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms)
@@ -569,36 +570,33 @@ int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms)
         int rc = vt_recv(c, &h, &p, timeout_ms);
         if (rc) return rc;
         if (h.type != VP_EVENT) continue; /* a stray reply: not ours to keep */
-        return vp_dec_event(p, h.len, out) ? set_err(c, VT_ERR_IO, "malformed EVENT") : VP_OK;
+        return decoded(c, VP_EVENT, vp_dec_event(p, h.len, out));
     }
 }
 
 int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 4 + (size_t)n * VP_LIGHT_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_lights(&w, req, l, n);
-    return ack_call(c, &w, req, NULL);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_lights(n), &req);
+    vp_enc_lights(w, req, l, n);
+    return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
 
 int vt_put_occluder(vt_client *c, uint64_t id, const double origin[3], const float *verts, uint32_t ntris)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 36 + (size_t)ntris * 36, &w)) return VT_ERR_IO;
-    vp_enc_occluder(&w, req, id, origin, verts, ntris);
-    return ack_call(c, &w, req, NULL);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_occluder(ntris), &req);
+    vp_enc_occluder(w, req, id, origin, verts, ntris);
+    return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
 
 int vt_put_mesh(vt_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
                 const uint32_t *idx, uint32_t ni)
 {
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 12 + (size_t)nv * 24 + (size_t)ni * 4, &w)) return VT_ERR_IO;
-    vp_enc_mesh(&w, req, class_id, pos, nrm, nv, idx, ni);
-    return ack_call(c, &w, req, NULL);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_mesh(nv, ni, nrm != NULL), &req);
+    vp_enc_mesh(w, req, class_id, pos, nrm, nv, idx, ni);
+    return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
 
 /* ---- views ------------------------------------------------------------------------ */
@@ -643,71 +641,62 @@ bool vt_view_ortho(vp_view *v, const double eye[3], const double at[3], const do
 
 /* ---- sub-level loads -------------------------------------------------------------- */
 
-int vt_sublevel_begin(vt_client *c, const char *name, uint16_t classes, vp_sublevel_begun *out)
+/* A sub-level name the wire takes (1..255 bytes), or VP_ERR_INVALID. */
+static int sublevel_name_ok(vt_client *c, const char *name)
 {
     size_t l = strlen(name);
-    if (l == 0 || l > VP_MAX_NAME) return set_err(c, VP_ERR_INVALID, "sub-level names are 1..255 bytes");
-    vp_writer w;
-    const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 3 + l, &w)) return VT_ERR_IO;
-    vp_enc_sublevel_begin(&w, req, &(vp_sublevel_begin){.classes = classes, .name_len = (uint8_t)l,
-                                                        .name = (const uint8_t *)name});
-    int rc = roundtrip(c, &w, req, VP_SUBLEVEL_BEGUN, &p, &len);
-    if (rc) return rc;
-    return vp_dec_sublevel_begun(p, len, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_BEGUN") : VP_OK;
+    return l == 0 || l > VP_MAX_NAME ? set_err(c, VP_ERR_INVALID, "sub-level names are 1..255 bytes") : VP_OK;
+}
+
+int vt_sublevel_begin(vt_client *c, const char *name, uint16_t classes, vp_sublevel_begun *out)
+{
+    if (sublevel_name_ok(c, name)) return VP_ERR_INVALID;
+    vp_sublevel_begin m = {.classes = classes, .name_len = (uint8_t)strlen(name), .name = (const uint8_t *)name};
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_sublevel_begin(&m), &req);
+    vp_enc_sublevel_begin(w, req, &m);
+    return call(c, w, req, VP_SUBLEVEL_BEGUN, dec_begun, out);
 }
 
 int vt_sublevel_commit(vt_client *c, vp_ack *out)
 {
-    return empty_ack(c, VP_SUBLEVEL_COMMIT, out);
+    return empty_call(c, VP_SUBLEVEL_COMMIT, VP_ACK, dec_ack, out);
 }
 
 int vt_sublevel_abort(vt_client *c, vp_ack *out)
 {
-    return empty_ack(c, VP_SUBLEVEL_ABORT, out);
+    return empty_call(c, VP_SUBLEVEL_ABORT, VP_ACK, dec_ack, out);
 }
 
 int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out)
 {
-    size_t l = strlen(name);
-    if (l == 0 || l > VP_MAX_NAME) return set_err(c, VP_ERR_INVALID, "sub-level names are 1..255 bytes");
-    vp_writer w;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + 1 + l, &w)) return VT_ERR_IO;
-    vp_enc_sublevel_name(&w, VP_SUBLEVEL_UNLOAD, req, name);
-    return ack_full(c, &w, req, out);
+    if (sublevel_name_ok(c, name)) return VP_ERR_INVALID;
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_sublevel_name(name), &req);
+    vp_enc_sublevel_name(w, VP_SUBLEVEL_UNLOAD, req, name);
+    return call(c, w, req, VP_ACK, dec_ack, out);
 }
 
 int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out)
 {
-    const uint8_t *p;
-    uint32_t len;
-    int rc = empty_call(c, VP_SUBLEVEL_INFO, VP_SUBLEVEL_INFO_REPLY, &p, &len);
-    if (rc) return rc;
-    return vp_dec_sublevel_infos(p, len, out) ? set_err(c, VT_ERR_IO, "malformed SUBLEVEL_INFO_REPLY") : VP_OK;
+    return empty_call(c, VP_SUBLEVEL_INFO, VP_SUBLEVEL_INFO_REPLY, dec_infos, out);
 }
 
 int vt_mark(vt_client *c, const vp_mark *m, uint32_t *sent)
 {
-    vp_writer w;
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_mark(), &req);
+    vp_enc_mark(w, req, m);
     vp_ack a;
-    uint32_t req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + VP_MARK_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_mark(&w, req, m);
-    int rc = ack_full(c, &w, req, &a);
+    int rc = call(c, w, req, VP_ACK, dec_ack, &a);
     if (!rc && sent) *sent = a.count;
     return rc;
 }
 
 int vt_destroy(vt_client *c, const vp_destroy *m, vp_destroyed *out)
 {
-    vp_writer w;
-    const uint8_t *p;
-    uint32_t len, req = vt_next_req(c);
-    if (!out_buf(c, VP_HEADER_SIZE + VP_DESTROY_SIZE, &w)) return VT_ERR_IO;
-    vp_enc_destroy(&w, req, m);
-    int rc = roundtrip(c, &w, req, VP_DESTROYED, &p, &len);
-    if (rc) return rc;
-    return vp_dec_destroyed(p, len, out) ? set_err(c, VT_ERR_IO, "malformed DESTROYED") : VP_OK;
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_destroy(), &req);
+    vp_enc_destroy(w, req, m);
+    return call(c, w, req, VP_DESTROYED, dec_destroyed, out);
 }

@@ -359,7 +359,9 @@ static void fuzz_mesh(const uint8_t *p, size_t len, uint32_t limit)
         CHECK(rcl == VP_OK);
     if (rc) return;
     CHECK(m.index_count % 3 == 0);
-    CHECK(len == 12 + (size_t)m.vertex_count * 24 + (size_t)m.index_count * 4);
+    bool normals = !(m.flags & VP_MESH_NO_NORMALS);
+    CHECK(normals == (m.normals != NULL));
+    CHECK(len == 12 + (size_t)m.vertex_count * (normals ? 24 : 12) + (size_t)m.index_count * 4);
     vp_reader r;
     vp_reader_init(&r, m.indices, (size_t)m.index_count * 4);
     for (uint32_t i = 0; i < m.index_count; i++) CHECK(vp_get_u32(&r) < m.vertex_count);
@@ -367,8 +369,8 @@ static void fuzz_mesh(const uint8_t *p, size_t len, uint32_t limit)
     vp_reader_init(&r, m.positions, (size_t)m.vertex_count * 12);
     for (uint32_t i = 0; i < 3 * m.vertex_count; i++) (void)vp_get_f32(&r);
     CHECK(vp_reader_finish(&r) == VP_OK);
-    vp_reader_init(&r, m.normals, (size_t)m.vertex_count * 12);
-    for (uint32_t i = 0; i < 3 * m.vertex_count; i++) (void)vp_get_f32(&r);
+    vp_reader_init(&r, m.normals, normals ? (size_t)m.vertex_count * 12 : 0);
+    for (uint32_t i = 0; normals && i < 3 * m.vertex_count; i++) (void)vp_get_f32(&r);
     CHECK(vp_reader_finish(&r) == VP_OK);
 }
 

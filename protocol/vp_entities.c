@@ -1,0 +1,191 @@
+/*
+ * vp_entities.c — the entity messages of the protocol (see protocol.h and
+ * PROTOCOL.md): ENTITY_ADD / UPDATE batches and their records, id batches
+ * (REMOVE, GET, OCCLUDER_REMOVE, LIGHT_REMOVE), ENTITY_ADD_REPLY and
+ * ENTITY_LIST with its reply.
+ */
+#include "vp_internal.h"
+#include "vp_layout.h"
+
+#include <math.h>
+
+/* One entity record, VP_ENTITY_REC_SIZE bytes (the reserved word after
+ * flags is written 0 and not read). */
+#define ENTITY_FIELDS(X)                                                                                     \
+    X(u64, id) X(u32, handle) X(u16, class_id) X(u16, sublevel) X(u32, flags) X(rsv32, _) X(f64a, sphere)  \
+    X(f64a, aabb)
+VP_LAYOUT(entity, vp_entity, ENTITY_FIELDS)
+
+#define LIST_FIELDS(X) X(u64, cursor) X(u32, max)
+VP_LAYOUT(list, vp_list, LIST_FIELDS)
+
+/* the fixed parts before the records */
+#define LIST_REPLY_FIELDS(X) X(u64, next_cursor) X(u64, epoch)
+VP_LAYOUT(list_reply, vp_list_reply, LIST_REPLY_FIELDS)
+#define ADD_REPLY_FIELDS(X) X(u64, epoch) X(u32, count)
+VP_LAYOUT(add_reply, vp_add_reply, ADD_REPLY_FIELDS)
+
+size_t vp_size_entities(uint32_t n)
+{
+    return VP_HEADER_SIZE + 4 + (size_t)n * entity_size();
+}
+
+size_t vp_size_ids(uint32_t n)
+{
+    return VP_HEADER_SIZE + 4 + (size_t)n * 8;
+}
+
+static void put_entities(vp_writer *w, const vp_entity *e, uint32_t n)
+{
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) entity_put(w, &e[i]);
+}
+
+void vp_enc_entities(vp_writer *w, uint16_t type, uint32_t req, const vp_entity *e, uint32_t n)
+{
+    vp_frame_begin(w, type, req);
+    put_entities(w, e, n);
+    vp_frame_end(w);
+}
+
+/* Record i of a batch whose size the decoder checked. */
+static void entity_read(const vp_entity_batch *b, uint32_t i, vp_entity *e)
+{
+    vp_reader r;
+    vp_reader_init(&r, b->recs + (size_t)i * VP_ENTITY_REC_SIZE, VP_ENTITY_REC_SIZE);
+    (void)entity_get(&r, e);
+}
+
+/* A record's own checks (what no scene state decides), with the field and
+ * the cause in why (may be NULL). The range checks are the scene's. */
+static int entity_check(const vp_entity *e, char *why, size_t whylen)
+{
+    static const char *const sname[4] = {"sphere x", "sphere y", "sphere z", "sphere radius"};
+    static const char *const bname[6] = {"aabb min x", "aabb min y", "aabb min z",
+                                         "aabb max x", "aabb max y", "aabb max z"};
+    for (int k = 0; k < 4; k++)
+        if (!isfinite(e->sphere[k]))
+            return vp_errf(why, whylen, "%s is %g: NaN or infinite", sname[k], e->sphere[k]), VP_ERR_NONFINITE;
+    for (int k = 0; k < 6; k++)
+        if (!isfinite(e->aabb[k]))
+            return vp_errf(why, whylen, "%s is %g: NaN or infinite", bname[k], e->aabb[k]), VP_ERR_NONFINITE;
+    if (e->flags & ~VP_ENT_DYNAMIC)
+        return vp_errf(why, whylen, "flags 0x%08x has undefined bits 0x%08x (only 0x1, dynamic, is defined)",
+                       e->flags, e->flags & ~VP_ENT_DYNAMIC),
+               VP_ERR_INVALID;
+    return VP_OK;
+}
+
+int vp_entity_rec_check(const vp_entity_batch *b, uint32_t i, char *why, size_t whylen)
+{
+    if (i >= b->count) return VP_ERR_COUNT;
+    vp_entity e;
+    entity_read(b, i, &e);
+    return entity_check(&e, why, whylen);
+}
+
+/* count + records to the end of the payload */
+static int get_entities(vp_reader *rd, uint32_t max_batch, vp_entity_batch *m)
+{
+    vp_reader r = *rd;
+    m->count = vp_get_u32(&r);
+    int rc = vp_take_rest(&r, m->count, VP_ENTITY_REC_SIZE, max_batch, &m->recs);
+    if (rc) return rc;
+    for (uint32_t i = 0; i < m->count; i++) {
+        vp_entity e;
+        entity_read(m, i, &e);
+        if ((rc = entity_check(&e, NULL, 0))) return rc;
+    }
+    *rd = r;
+    return VP_OK;
+}
+
+int vp_dec_entities(const uint8_t *p, size_t len, uint32_t max_batch, vp_entity_batch *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    return get_entities(&r, max_batch, m);
+}
+
+VP_MESSAGE(list, vp_list, VP_ENTITY_LIST)
+
+int vp_dec_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_list *m)
+{
+    int rc = list_dec(p, len, m);
+    if (rc) return rc;
+    return (m->max == 0 || (max_batch && m->max > max_batch)) ? VP_ERR_COUNT : VP_OK;
+}
+
+size_t vp_size_list_reply(uint32_t n)
+{
+    return vp_size_entities(n) + list_reply_size();
+}
+
+void vp_enc_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, uint64_t epoch, const vp_entity *e,
+                       uint32_t n)
+{
+    vp_frame_begin(w, VP_ENTITY_LIST_REPLY, req);
+    list_reply_put(w, &(vp_list_reply){.next_cursor = next_cursor, .epoch = epoch});
+    put_entities(w, e, n);
+    vp_frame_end(w);
+}
+
+int vp_dec_list_reply(const uint8_t *p, size_t len, vp_list_reply *m)
+{
+    vp_reader r;
+    int rc = list_reply_head(&r, p, len, m);
+    return rc ? rc : get_entities(&r, 0, &m->batch);
+}
+
+int vp_entity_get(const vp_entity_batch *b, uint32_t i, vp_entity *out)
+{
+    if (i >= b->count) return VP_ERR_COUNT;
+    entity_read(b, i, out);
+    return entity_check(out, NULL, 0);
+}
+
+void vp_enc_ids(vp_writer *w, uint16_t type, uint32_t req, const uint64_t *ids, uint32_t n)
+{
+    vp_frame_begin(w, type, req);
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) vp_put_u64(w, ids[i]);
+    vp_frame_end(w);
+}
+
+int vp_dec_ids(const uint8_t *p, size_t len, uint32_t max_batch, vp_id_batch *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    m->count = vp_get_u32(&r);
+    return vp_take_rest(&r, m->count, 8, max_batch, &m->ids);
+}
+
+uint64_t vp_id_get(const vp_id_batch *b, uint32_t i)
+{
+    return i < b->count ? rd64(b->ids + (size_t)i * 8) : 0;
+}
+
+size_t vp_size_add_reply(uint32_t n)
+{
+    return VP_HEADER_SIZE + add_reply_size() + (size_t)n * 4;
+}
+
+void vp_enc_add_reply(vp_writer *w, uint32_t req, uint64_t epoch, const uint32_t *handles, uint32_t n)
+{
+    vp_frame_begin(w, VP_ENTITY_ADD_REPLY, req);
+    add_reply_put(w, &(vp_add_reply){.epoch = epoch, .count = n});
+    for (uint32_t i = 0; i < n; i++) vp_put_u32(w, handles[i]);
+    vp_frame_end(w);
+}
+
+int vp_dec_add_reply(const uint8_t *p, size_t len, vp_add_reply *m)
+{
+    vp_reader r;
+    int rc = add_reply_head(&r, p, len, m);
+    return rc ? rc : vp_take_rest(&r, m->count, 4, 0, &m->handles);
+}
+
+uint32_t vp_handle_get(const vp_add_reply *b, uint32_t i)
+{
+    return i < b->count ? rd32(b->handles + (size_t)i * 4) : 0;
+}

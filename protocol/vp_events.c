@@ -1,0 +1,86 @@
+/*
+ * vp_events.c — the event messages of the protocol (see protocol.h and
+ * PROTOCOL.md): MARK / MARKED, a commander's pings, and DESTROY /
+ * DESTROYED, destruction events.
+ */
+#include "vp_internal.h"
+#include "vp_layout.h"
+
+#include <math.h>
+
+/* ---- marks -------------------------------------------------------------------------- */
+
+#define MARK_FIELDS(X) X(f64a, pos) X(u64, entity) X(u8, kind) X(pad8, _) X(pad16, _) X(u32, ttl_ms)
+VP_LAYOUT(mark, vp_mark, MARK_FIELDS)
+
+/* MARKED's fields before the mark */
+#define MARKED_FIELDS(X) X(u32, client_id) X(pad32, _)
+VP_LAYOUT(marked_head, vp_marked, MARKED_FIELDS)
+
+/* A mark read to the end of the payload; pad is the OR of the pads
+ * before it. */
+static int mark_read(vp_reader *r, uint32_t pad, vp_mark *m)
+{
+    pad |= mark_get(r, m);
+    int rc = vp_reader_finish(r);
+    if (rc) return rc;
+    if (pad) return VP_ERR_INVALID;
+    if (!vp_finite_n(m->pos, 3)) return VP_ERR_NONFINITE;
+    for (int k = 0; k < 3; k++)
+        if (fabs(m->pos[k]) > 1e12) return VP_ERR_INVALID;
+    if (m->ttl_ms < 1 || m->ttl_ms > 600000) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+VP_MESSAGE(mark, vp_mark, VP_MARK)
+
+int vp_dec_mark(const uint8_t *p, size_t len, vp_mark *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    return mark_read(&r, 0, m);
+}
+
+size_t vp_size_marked(void)
+{
+    return VP_HEADER_SIZE + marked_head_size() + mark_size();
+}
+
+void vp_enc_marked(vp_writer *w, const vp_marked *m)
+{
+    vp_frame_begin(w, VP_MARKED, 0);
+    marked_head_put(w, m);
+    mark_put(w, &m->m);
+    vp_frame_end(w);
+}
+
+int vp_dec_marked(const uint8_t *p, size_t len, vp_marked *m)
+{
+    vp_reader r;
+    vp_reader_init(&r, p, len);
+    uint32_t pad = marked_head_get(&r, m);
+    return mark_read(&r, pad, &m->m);
+}
+
+/* ---- destruction --------------------------------------------------------------- */
+
+#define DESTROY_FIELDS(X) \
+    X(u64, id) X(u32, handle) X(u8, debris) X(pad8, _) X(pad16, _) X(f64a, center) X(f64, radius)
+VP_LAYOUT(destroy, vp_destroy, DESTROY_FIELDS)
+
+#define DESTROYED_FIELDS(X) X(u64, epoch) X(u32, spheres) X(u32, occluder_tris) X(u32, debris) X(u32, cut_us)
+VP_LAYOUT(destroyed, vp_destroyed, DESTROYED_FIELDS)
+
+VP_MESSAGE(destroy, vp_destroy, VP_DESTROY)
+
+int vp_dec_destroy(const uint8_t *p, size_t len, vp_destroy *m)
+{
+    int rc = destroy_dec(p, len, m);
+    if (rc) return rc;
+    if (!vp_finite_n(m->center, 3) || !isfinite(m->radius)) return VP_ERR_NONFINITE;
+    if (!(m->radius > 0) || m->debris > VP_MAX_DEBRIS) return VP_ERR_INVALID;
+    return VP_OK;
+}
+
+VP_MESSAGE(destroyed, vp_destroyed, VP_DESTROYED)
+VP_MESSAGE_DEC(destroyed, vp_destroyed)
