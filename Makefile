@@ -90,7 +90,7 @@ CLI_BIN  := $(BUILD)/vantage
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
 RENDER_SRC:= render/vt_exr.c render/vt_frame.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
-            render/vt_shade_avx2.c             render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c
+            render/vt_shade_avx2.c             render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c render/vt_err.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_image.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
@@ -187,12 +187,13 @@ $(PROTO_LIB): $(PROTO_OBJ)
 
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
-PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o)
+PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o errmap.o)
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import/import.o $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import/import.o $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
+                 $(BUILD)/render/vt_err.o \
                  $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
@@ -204,7 +205,7 @@ $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ) $(CULL_OBJ)
 	ar rcs $@ $^
 
 # the CLI writes EXR and PNG from raw frames
-CLI_RENDER := $(BUILD)/render/vt_exr.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o
+CLI_RENDER := $(BUILD)/render/vt_exr.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o $(BUILD)/render/vt_err.o
 $(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(SDL_LIBS) $(LDLIBS)
 
@@ -300,7 +301,7 @@ install: check-deps
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include/vantage
 	install -m 755 $(DAEMON_BIN) $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/
 	install -m 644 $(CLIENT_LIB) $(DESTDIR)$(PREFIX)/lib/
-	install -m 644 client/lib/vantage.h protocol/protocol.h $(DESTDIR)$(PREFIX)/include/vantage/
+	install -m 644 client/lib/vantage.h protocol/protocol.h protocol/vp_err.h $(DESTDIR)$(PREFIX)/include/vantage/
 	install -d $(DESTDIR)$(PREFIX)/share/vantage/scenarios
 	install -m 644 client/loadgen/scenarios/*.scn $(DESTDIR)$(PREFIX)/share/vantage/scenarios/
 	sed 's|@PREFIX@|$(PREFIX)|' client/lib/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc

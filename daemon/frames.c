@@ -16,6 +16,7 @@
  * filled; nothing here can reach into it.)
  */
 #include "server_internal.h"
+#include "errmap.h"
 #include "vt_glr.h"
 #include "vt_image.h"
 #include "vt_soft.h"
@@ -124,7 +125,7 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
     int rc = cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL);
     if (rc) {
         snprintf(msg, msglen, "%s", cull_strerror(rc));
-        return VP_ERR_INTERNAL;
+        return vp_code_from_cull(rc);
     }
     /* meshes numbered as they are met: the worker's class -> mesh index + 1
        table, emptied again below */
@@ -312,7 +313,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         } else if ((rc = vt_gl_make_current(s->gl, err, sizeof err)) ||
                    (rc = vt_glr_render(s->glr, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
                                        rgba, depth, W, NULL, err, sizeof err))) {
-            code = rc == -ENOMEM || rc == VT_GL_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INTERNAL;
+            code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "render (gl): %s", err);
         }
         vt_gl_release(s->gl);
@@ -320,7 +321,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         if (code) goto error;
     } else if ((rc = vt_soft_render(wk->soft, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
                                     rgba, depth, W, NULL, err, sizeof err))) {
-        code = rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
+        code = vp_code_from_vt(rc);
         snprintf(msg, sizeof msg, "render: %s", err);
         goto error;
     }
@@ -336,9 +337,9 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         rgb8 = malloc(vt_image_rgba8_size(W, H));
         if (!rgb8) goto nomem;
         vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES};
-        if (tonemap_frame(wk, W, H, rgba, &td, rgb8) ||
-            vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err)) {
-            code = VP_ERR_INTERNAL;
+        if ((rc = tonemap_frame(wk, W, H, rgba, &td, rgb8)) ||
+            (rc = vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err))) {
+            code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "jpeg: %s", err);
             goto error;
         }
@@ -424,7 +425,7 @@ void run_light_query(server *s, worker *wk, job *j)
         if (!cl) goto nomem;
         for (uint32_t i = 0; i < fi.nl; i++) cl[i] = fi.lights[i].l;
         if ((rc = cull_lights_bin(&v, W, H, cl, fi.nl, NULL, &own))) {
-            code = rc == CULL_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INTERNAL;
+            code = vp_code_from_cull(rc);
             snprintf(msg, sizeof msg, "lights: %s", cull_strerror(rc));
             goto error;
         }
@@ -437,7 +438,7 @@ void run_light_query(server *s, worker *wk, job *j)
         char err[256];
         if ((rc = vt_soft_render(wk->soft, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl, rgba,
                                  depth, W, NULL, err, sizeof err))) {
-            code = rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
+            code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "render: %s", err);
             goto error;
         }

@@ -4,6 +4,7 @@
  * validation is running out of memory, which is rolled back.
  */
 #include "scene.h"
+#include "errmap.h"
 #include "log.h"
 
 #include <math.h>
@@ -114,17 +115,6 @@ void scene_entity_record(const scene *s, cull_handle h, vp_entity *out)
     out->sphere[3] = d.radius;
 }
 
-static int cull_to_vp(int rc)
-{
-    switch (rc) {
-    case CULL_ERR_NONFINITE: return VP_ERR_NONFINITE;
-    case CULL_ERR_HANDLE: return VP_ERR_STALE;
-    case CULL_ERR_CAPACITY: return VP_ERR_LIMIT;
-    case CULL_ERR_NOMEM: return VP_ERR_LIMIT;
-    default: return VP_ERR_SCENE;
-    }
-}
-
 static int cmp_u64(const void *a, const void *b)
 {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
@@ -182,8 +172,8 @@ static int record_desc(const scene *s, const vp_entity_batch *b, uint32_t i, vp_
     to_desc(e, &d);
     int crc = cull_entity_check(s->world, &d, out);
     if (crc)
-        return scene_fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
-                    i, (unsigned long long)e->id, cull_strerror(crc));
+        return scene_fail(err, vp_code_from_cull(crc), i, "record %u (id %llu): %s", i, (unsigned long long)e->id,
+                          cull_strerror(crc));
     return VP_OK;
 }
 
@@ -265,7 +255,7 @@ static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t
         }
         if (crc) {
             for (uint32_t k = 0; k < i; k++) scene_entity_gone(s, ids[k], handles[k], &descs[k]); /* roll back */
-            rc = scene_fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
+            rc = scene_fail(err, vp_code_from_cull(crc), i, "record %u: %s", i, cull_strerror(crc));
             goto out;
         }
         handles[i] = h;
@@ -343,7 +333,7 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
         int crc = cull_entity_update(s->world, hs[i], &descs[i]);
         if (crc) {
             for (uint32_t k = 0; k < i; k++) cull_entity_update(s->world, hs[k], &old[k]);
-            rc = scene_fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
+            rc = scene_fail(err, vp_code_from_cull(crc), i, "record %u: %s", i, cull_strerror(crc));
             goto out;
         }
     }
@@ -480,7 +470,7 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
     if (crc != CULL_OK) {
         free(n);
         free(v);
-        return scene_fail(err, crc == CULL_ERR_NOMEM ? VP_ERR_LIMIT : VP_ERR_SCENE, UINT32_MAX, "occluder %llu: %s",
+        return scene_fail(err, vp_code_from_cull(crc), UINT32_MAX, "occluder %llu: %s",
                           (unsigned long long)o->id, cull_strerror(crc));
     }
     if (old) {
@@ -571,7 +561,7 @@ int scene_light_check(vp_light *l, char *why, size_t whylen)
     double rad[3];
     scene_light_cull(l, &cl, rad);
     int crc = cull_light_validate(&cl, rad, why, whylen);
-    return crc == CULL_OK ? VP_OK : crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID;
+    return vp_code_from_cull(crc);
 }
 
 bool scene_light_drawable(const vp_light *l)

@@ -22,12 +22,9 @@
  * false (nothing changed) when out of memory. */
 bool vt_grow(void **p, size_t *cap, size_t need, size_t elem);
 
-/* Formats err (when there is one) and returns code. */
-int vt_fail(char *err, size_t errlen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
-
 /* Checks everything a render call is given (buffers, size, meshes,
- * instances, lights: before any work) and fills *vr for v. 0, or -EINVAL
- * with err filled. */
+ * instances, lights: before any work) and fills *vr for v. 0, or
+ * VT_ERR_INVALID with err filled. */
 int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
                    uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                    const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen);

@@ -63,16 +63,6 @@ _Static_assert(sizeof(GLuint) == sizeof(unsigned), "GL names are passed as unsig
 
 /* ---- messages -------------------------------------------------------------- */
 
-const char *vt_gl_strerror(int code)
-{
-    switch (code) {
-#define VT_GL_X_STR(name, value, msg) case value: return msg;
-        VT_GL_ERRORS(VT_GL_X_STR)
-#undef VT_GL_X_STR
-    }
-    return "unknown error";
-}
-
 const char *vt_gl_platform_name(vt_gl_platform p)
 {
     switch (p) {
@@ -134,24 +124,10 @@ static const char *fbo_status_name(GLenum s)
     return "unknown framebuffer status";
 }
 
-#if defined(__GNUC__)
-__attribute__((format(printf, 4, 5)))
-#endif
-static int fail(int code, char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 static int ok(char *err, size_t errlen)
 {
     if (err && errlen) err[0] = 0;
-    return VT_GL_OK;
+    return VT_OK;
 }
 
 /* Appends to a fixed buffer, "; " between entries, truncating quietly. */
@@ -666,12 +642,12 @@ static void pin_drivers(void) {}
 int vt_gl_open(vt_gl **out, const vt_gl_opts *opts, char *err, size_t errlen)
 {
     vt_gl_opts o = opts ? *opts : (vt_gl_opts){0};
-    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_open: out is NULL");
+    if (!out) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_open: out is NULL");
     *out = NULL;
     if ((unsigned)o.platform > VT_GL_DEFAULT_DISPLAY || o.device < 0)
-        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_open: bad platform or device");
+        return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_open: bad platform or device");
     vt_gl *g = calloc(1, sizeof *g);
-    if (!g) return fail(VT_GL_ERR_NOMEM, err, errlen, "vt_gl_open: out of memory");
+    if (!g) return vp_errf(err, errlen, VT_ERR_NOMEM, "vt_gl_open: out of memory");
 
     /* what was current here before, to restore it if nothing works */
     EGLenum prev_api = eglQueryAPI();
@@ -698,12 +674,12 @@ int vt_gl_open(vt_gl **out, const vt_gl_opts *opts, char *err, size_t errlen)
         if (!f.client_ext)
             log_add(&s.log, "libEGL has no client extensions (no EGL vendor library installed?)");
         if (!s.have_display)
-            return fail(VT_GL_ERR_NO_DISPLAY, err, errlen,
+            return vp_errf(err, errlen, VT_ERR_NO_DISPLAY,
                         "no EGL: libEGL could not initialise a display on any platform (%s); "
                         "is an EGL driver installed (Debian: libegl-mesa0 and libgl1-mesa-dri, "
                         "or NVIDIA's)?",
                         s.log.s);
-        return fail(VT_GL_ERR_NO_CONTEXT, err, errlen,
+        return vp_errf(err, errlen, VT_ERR_NO_CONTEXT,
                     "no desktop OpenGL 3.3 core context on any EGL display (%s)", s.log.s);
     }
     /* a failed attempt after the fallback was made left nothing current */
@@ -711,7 +687,7 @@ int vt_gl_open(vt_gl **out, const vt_gl_opts *opts, char *err, size_t errlen)
         EGLint e = eglGetError();
         drop_context(s.best.dpy, s.best.ctx);
         free(g);
-        return fail(VT_GL_ERR_NO_CONTEXT, err, errlen, "eglMakeCurrent: %s (%s)",
+        return vp_errf(err, errlen, VT_ERR_NO_CONTEXT, "eglMakeCurrent: %s (%s)",
                     egl_error_name(e), s.log.s);
     }
     *g = s.best;
@@ -736,12 +712,12 @@ void vt_gl_close(vt_gl *g)
 
 int vt_gl_make_current(vt_gl *g, char *err, size_t errlen)
 {
-    if (!g) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_make_current: NULL");
+    if (!g) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_make_current: NULL");
     eglBindAPI(EGL_OPENGL_API);
     if (eglGetCurrentContext() == g->ctx) return ok(err, errlen);
     if (!eglMakeCurrent(g->dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, g->ctx)) {
         EGLint e = eglGetError();
-        return fail(VT_GL_ERR_CURRENT, err, errlen, "eglMakeCurrent: %s%s", egl_error_name(e),
+        return vp_errf(err, errlen, VT_ERR_CURRENT, "eglMakeCurrent: %s%s", egl_error_name(e),
                     e == EGL_BAD_ACCESS ? " (current on another thread)" : "");
     }
     return ok(err, errlen);
@@ -760,15 +736,15 @@ const vt_gl_info *vt_gl_get_info(const vt_gl *g)
     return g ? &g->info : NULL;
 }
 
-/* VT_GL_OK, or VT_GL_ERR_CURRENT with a message naming the call. */
+/* VT_OK, or VT_ERR_CURRENT with a message naming the call. */
 static int need_current(const vt_gl *g, const char *what, char *err, size_t errlen)
 {
-    if (!g) return fail(VT_GL_ERR_INVALID, err, errlen, "%s: NULL", what);
+    if (!g) return vp_errf(err, errlen, VT_ERR_INVALID, "%s: NULL", what);
     eglBindAPI(EGL_OPENGL_API);
     if (!is_current(g))
-        return fail(VT_GL_ERR_CURRENT, err, errlen,
+        return vp_errf(err, errlen, VT_ERR_CURRENT,
                     "%s: the context is not current on this thread (vt_gl_make_current)", what);
-    return VT_GL_OK;
+    return VT_OK;
 }
 
 /* Clears GL's error flags so the next check sees only our calls. */
@@ -782,7 +758,7 @@ int vt_gl_clip_control(vt_gl *g, bool zero_to_one, char *err, size_t errlen)
     int rc = need_current(g, "vt_gl_clip_control", err, errlen);
     if (rc) return rc;
     if (!g->info.clip_control)
-        return fail(VT_GL_ERR_UNSUPPORTED, err, errlen,
+        return vp_errf(err, errlen, VT_ERR_UNSUPPORTED,
                     "glClipControl needs GL 4.5 or GL_ARB_clip_control (have %s)", g->info.version);
     glClipControl(GL_LOWER_LEFT, zero_to_one ? GL_ZERO_TO_ONE : GL_NEGATIVE_ONE_TO_ONE);
     return ok(err, errlen);
@@ -831,22 +807,22 @@ static int target_alloc(vt_gl_target *t, uint32_t w, uint32_t h, char *err, size
     glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)old_read);
     const char *fname = t->format == VT_GL_RGBA32F ? "RGBA32F" : "RGBA16F";
     if (ge != GL_NO_ERROR)
-        return fail(VT_GL_ERR_GL, err, errlen, "target %ux%u %s: %s", w, h, fname,
+        return vp_errf(err, errlen, VT_ERR_GL, "target %ux%u %s: %s", w, h, fname,
                     gl_error_name(ge));
     if (st != GL_FRAMEBUFFER_COMPLETE)
-        return fail(VT_GL_ERR_FRAMEBUFFER, err, errlen, "target %ux%u %s: %s", w, h, fname,
+        return vp_errf(err, errlen, VT_ERR_FRAMEBUFFER, "target %ux%u %s: %s", w, h, fname,
                     fbo_status_name(st));
     t->w = w;
     t->h = h;
-    return VT_GL_OK;
+    return VT_OK;
 }
 
 static int check_size(const vt_gl *g, uint32_t w, uint32_t h, char *err, size_t errlen)
 {
     uint32_t m = (uint32_t)g->info.max_target_size;
     if (w < 1 || h < 1 || w > m || h > m)
-        return fail(VT_GL_ERR_RANGE, err, errlen, "target %ux%u: each side must be 1..%u", w, h, m);
-    return VT_GL_OK;
+        return vp_errf(err, errlen, VT_ERR_RANGE, "target %ux%u: each side must be 1..%u", w, h, m);
+    return VT_OK;
 }
 
 static void target_delete_gl(vt_gl_target *t)
@@ -861,15 +837,15 @@ int vt_gl_target_create(vt_gl *g, uint32_t w, uint32_t h, const vt_gl_target_des
                         vt_gl_target **out, char *err, size_t errlen)
 {
     vt_gl_target_desc d = desc ? *desc : (vt_gl_target_desc){0};
-    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_create: out is NULL");
+    if (!out) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_target_create: out is NULL");
     *out = NULL;
     int rc = need_current(g, "vt_gl_target_create", err, errlen);
     if (rc) return rc;
     if (d.color != VT_GL_RGBA16F && d.color != VT_GL_RGBA32F)
-        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_create: bad colour format");
+        return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_target_create: bad colour format");
     if ((rc = check_size(g, w, h, err, errlen))) return rc;
     vt_gl_target *t = calloc(1, sizeof *t);
-    if (!t) return fail(VT_GL_ERR_NOMEM, err, errlen, "vt_gl_target_create: out of memory");
+    if (!t) return vp_errf(err, errlen, VT_ERR_NOMEM, "vt_gl_target_create: out of memory");
     t->g = g;
     t->format = d.color;
     glGenFramebuffers(1, &t->fbo);
@@ -889,7 +865,7 @@ int vt_gl_target_create(vt_gl *g, uint32_t w, uint32_t h, const vt_gl_target_des
 
 int vt_gl_target_resize(vt_gl_target *t, uint32_t w, uint32_t h, char *err, size_t errlen)
 {
-    if (!t) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_resize: NULL");
+    if (!t) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_target_resize: NULL");
     int rc = need_current(t->g, "vt_gl_target_resize", err, errlen);
     if (rc) return rc;
     if ((rc = check_size(t->g, w, h, err, errlen))) return rc;
@@ -912,12 +888,12 @@ void vt_gl_target_destroy(vt_gl_target *t)
 
 int vt_gl_target_bind(vt_gl_target *t)
 {
-    if (!t) return VT_GL_ERR_INVALID;
+    if (!t) return VT_ERR_INVALID;
     int rc = need_current(t->g, "vt_gl_target_bind", NULL, 0);
     if (rc) return rc;
     glBindFramebuffer(GL_FRAMEBUFFER, t->fbo);
     glViewport(0, 0, (GLsizei)t->w, (GLsizei)t->h);
-    return VT_GL_OK;
+    return VT_OK;
 }
 
 int vt_gl_target_clear(vt_gl_target *t, const float rgba[4], float depth)
@@ -929,7 +905,7 @@ int vt_gl_target_clear(vt_gl_target *t, const float rgba[4], float depth)
         const GLfloat z = depth < 0 ? 0.0f : depth > 1 ? 1.0f : depth;
         glClearBufferfv(GL_DEPTH, 0, &z);
     }
-    return VT_GL_OK;
+    return VT_OK;
 }
 
 void vt_gl_target_size(const vt_gl_target *t, uint32_t *w, uint32_t *h)
@@ -959,11 +935,11 @@ int vt_gl_readback(vt_gl_target *t, float *rgba, float *depth, const vt_gl_read_
                    char *err, size_t errlen)
 {
     vt_gl_read_desc d = desc ? *desc : (vt_gl_read_desc){0};
-    if (!t) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: NULL target");
+    if (!t) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_readback: NULL target");
     if (!rgba && !depth)
-        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: no colour or depth buffer");
+        return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_readback: no colour or depth buffer");
     if ((unsigned)d.path > VT_GL_READ_PBO)
-        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: bad path");
+        return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_readback: bad path");
     int rc = need_current(t->g, "vt_gl_readback", err, errlen);
     if (rc) return rc;
     if (d.w == 0 && d.h == 0) {
@@ -973,7 +949,7 @@ int vt_gl_readback(vt_gl_target *t, float *rgba, float *depth, const vt_gl_read_
     }
     if (d.w == 0 || d.h == 0 || d.x > t->w || d.w > t->w - d.x || d.y > t->h ||
         d.h > t->h - d.y)
-        return fail(VT_GL_ERR_RANGE, err, errlen,
+        return vp_errf(err, errlen, VT_ERR_RANGE,
                     "vt_gl_readback: region %ux%u at (%u,%u) outside the %ux%u target", d.w, d.h,
                     d.x, d.y, t->w, t->h);
     const size_t npx = (size_t)d.w * d.h; /* sides below 2^31 each: no overflow */
@@ -1024,7 +1000,7 @@ int vt_gl_readback(vt_gl_target *t, float *rgba, float *depth, const vt_gl_read_
     glBindBuffer(GL_PIXEL_PACK_BUFFER, (GLuint)old_pack);
     glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)old_read);
     if (ge != GL_NO_ERROR)
-        return fail(VT_GL_ERR_GL, err, errlen, "vt_gl_readback%s: %s", pbo ? " (PBO)" : "",
+        return vp_errf(err, errlen, VT_ERR_GL, "vt_gl_readback%s: %s", pbo ? " (PBO)" : "",
                     gl_error_name(ge));
     return ok(err, errlen);
 }
@@ -1062,7 +1038,7 @@ static void put_log(char *err, size_t errlen, const char *what, GLuint obj, bool
 int vt_gl_shader_compile(vt_gl *g, unsigned stage, const char *src, unsigned *out, char *err,
                          size_t errlen)
 {
-    if (!out || !src) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_shader_compile: NULL");
+    if (!out || !src) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_shader_compile: NULL");
     *out = 0;
     int rc = need_current(g, "vt_gl_shader_compile", err, errlen);
     if (rc) return rc;
@@ -1070,7 +1046,7 @@ int vt_gl_shader_compile(vt_gl *g, unsigned stage, const char *src, unsigned *ou
     GLuint s = glCreateShader(stage);
     if (!s) {
         GLenum ge = glGetError();
-        return fail(ge == GL_INVALID_ENUM ? VT_GL_ERR_INVALID : VT_GL_ERR_GL, err, errlen,
+        return vp_errf(err, errlen, ge == GL_INVALID_ENUM ? VT_ERR_INVALID : VT_ERR_GL,
                     "glCreateShader(0x%x): %s", stage, gl_error_name(ge));
     }
     glShaderSource(s, 1, &src, NULL);
@@ -1080,7 +1056,7 @@ int vt_gl_shader_compile(vt_gl *g, unsigned stage, const char *src, unsigned *ou
     if (!okc) {
         put_log(err, errlen, stage_name(stage), s, false);
         glDeleteShader(s);
-        return VT_GL_ERR_COMPILE;
+        return VT_ERR_COMPILE;
     }
     *out = s;
     return ok(err, errlen);
@@ -1089,18 +1065,18 @@ int vt_gl_shader_compile(vt_gl *g, unsigned stage, const char *src, unsigned *ou
 int vt_gl_program_link(vt_gl *g, const unsigned *shaders, size_t n, unsigned *out, char *err,
                        size_t errlen)
 {
-    if (!out || (!shaders && n)) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_program_link: NULL");
+    if (!out || (!shaders && n)) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_program_link: NULL");
     *out = 0;
     int rc = need_current(g, "vt_gl_program_link", err, errlen);
     if (rc) return rc;
     gl_drain();
     GLuint p = glCreateProgram();
-    if (!p) return fail(VT_GL_ERR_GL, err, errlen, "glCreateProgram: %s", gl_error_name(glGetError()));
+    if (!p) return vp_errf(err, errlen, VT_ERR_GL, "glCreateProgram: %s", gl_error_name(glGetError()));
     for (size_t i = 0; i < n; i++) glAttachShader(p, shaders[i]);
     GLenum ge = glGetError();
     if (ge != GL_NO_ERROR) {
         glDeleteProgram(p);
-        return fail(VT_GL_ERR_INVALID, err, errlen, "glAttachShader: %s (not a shader name?)",
+        return vp_errf(err, errlen, VT_ERR_INVALID, "glAttachShader: %s (not a shader name?)",
                     gl_error_name(ge));
     }
     glLinkProgram(p);
@@ -1110,7 +1086,7 @@ int vt_gl_program_link(vt_gl *g, const unsigned *shaders, size_t n, unsigned *ou
     if (!okl) {
         put_log(err, errlen, "link", p, true);
         glDeleteProgram(p);
-        return VT_GL_ERR_LINK;
+        return VT_ERR_LINK;
     }
     *out = p;
     return ok(err, errlen);
@@ -1119,7 +1095,7 @@ int vt_gl_program_link(vt_gl *g, const unsigned *shaders, size_t n, unsigned *ou
 int vt_gl_program_build(vt_gl *g, const char *vs, const char *fs, unsigned *out, char *err,
                         size_t errlen)
 {
-    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_program_build: NULL");
+    if (!out) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_program_build: NULL");
     *out = 0;
     unsigned sh[2] = {0, 0};
     int rc = vt_gl_shader_compile(g, GL_VERTEX_SHADER, vs, &sh[0], err, errlen);

@@ -31,7 +31,6 @@
 
 #define TILE VT_TILE
 #define EMPTY VT_EMPTY
-#define fail vt_fail
 #define IV 10                /* floats an instance: scale, shift, albedo, mask */
 #define MASK_TEXELS 5        /* RGBA texels a mask header */
 
@@ -211,9 +210,9 @@ static const char *fs_src =
 
 int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
 {
-    if (!g || !out) return fail(err, errlen, VT_GL_ERR_INVALID, "missing argument");
+    if (!g || !out) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     vt_glr *r = calloc(1, sizeof *r);
-    if (!r) return fail(err, errlen, VT_GL_ERR_NOMEM, "out of memory");
+    if (!r) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     r->g = g;
     int rc = vt_gl_program_build(g, vs_src, fs_src, &r->prog, err, errlen);
     if (rc) {
@@ -290,7 +289,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
     size_t nvx = 0, nel = 0;
     if (!vt_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
         !vt_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * IV, sizeof *r->iv))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     memset(r->md, 0, (size_t)nmesh * sizeof *r->md);
     size_t nmask = 0, nfield = 0;
     for (uint32_t i = 0; i < ninst; i++) {
@@ -302,12 +301,11 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
         nfield += (size_t)dv->n[0] * dv->n[1] * dv->n[2];
     }
     if (nmask > (1u << 24) || nfield > (size_t)r->max_texels || nmask * MASK_TEXELS > (size_t)r->max_texels)
-        return fail(err, errlen, -E2BIG,
-                    "%zu damaged instances (%zu field samples) are past this GL's texture buffer limit (%d texels)",
-                    nmask, nfield, r->max_texels);
+        return vp_errf(err, errlen, -E2BIG,
+                       "%zu damaged instances (%zu field samples) are past this GL's texture buffer limit (%d texels)", nmask, nfield, r->max_texels);
     if (!vt_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
         !vt_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t mi = 0, first = 0; mi < nmesh; mi++) {
         mesh_draw *d = &r->md[mi];
         d->ifirst = first;
@@ -324,7 +322,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
     }
     if (!vt_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx) ||
         !vt_grow((void **)&r->el, &r->el_cap, nel + 1, sizeof *r->el))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t mi = 0; mi < nmesh; mi++) {
         const vt_mesh *m = &meshes[mi];
         if (!r->md[mi].nvx) continue;
@@ -400,7 +398,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ebuf);
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((nel + 1) * sizeof *r->el), r->el, GL_STREAM_DRAW);
     GLenum e = glGetError();
-    return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "upload: GL error 0x%x", e);
+    return e == GL_NO_ERROR ? 0 : vp_errf(err, errlen, VT_ERR_GL, "upload: GL error 0x%x", e);
 }
 
 /* Draws what upload put in the buffers: per mesh, one instanced draw of
@@ -437,7 +435,7 @@ static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
         }
     }
     GLenum e = glGetError();
-    return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "draw: GL error 0x%x", e);
+    return e == GL_NO_ERROR ? 0 : vp_errf(err, errlen, VT_ERR_GL, "draw: GL error 0x%x", e);
 }
 
 int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
@@ -445,7 +443,7 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
                   float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
     if (st) memset(st, 0, sizeof *st);
-    if (!r) return fail(err, errlen, -EINVAL, "missing argument");
+    if (!r) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     cull_view_rows vr;
     int rc = vt_frame_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &vr, err,
                             errlen);
@@ -471,7 +469,7 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
         !vt_grow((void **)&r->range, &r->range_cap, (size_t)tx * ty, sizeof *r->range) ||
         !vt_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
         !vt_grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     if ((rc = upload(r, meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
     float vp[16], d4[4];
     for (int i = 0; i < 16; i++) vp[i] = (float)v->clip[i];
@@ -514,7 +512,8 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     }
     int lrc = cull_lights_bin(v, width, height, r->cl, nl, nl ? (const float(*)[2])r->range : NULL, &r->tiles);
     if (lrc != CULL_OK)
-        return fail(err, errlen, lrc == CULL_ERR_NOMEM ? -ENOMEM : -EINVAL, "lights: %s", cull_strerror(lrc));
+        return vp_errf(err, errlen, lrc == CULL_ERR_NOMEM ? VT_ERR_NOMEM : VT_ERR_INVALID, "lights: %s",
+                       cull_strerror(lrc));
     /* pass 2: shading with the tile lists */
     glActiveTexture(GL_TEXTURE0);
     tbo(r->tex[0], r->buf[0], GL_RGBA32F, ld, (size_t)nl * 16 * sizeof *ld);

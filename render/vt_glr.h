@@ -19,8 +19,8 @@ typedef struct vt_glr vt_glr;
 int  vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen);
 void vt_glr_destroy(vt_glr *r);
 
-/* As vt_soft_render (same buffers, same conventions). Negative VT_GL_ERR_*
- * or -errno codes with err filled. */
+/* As vt_soft_render (same buffers, same conventions). 0 or a VT_ERRORS
+ * code (vt_err.h) with err filled. */
 int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
                   uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                   float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen);

@@ -61,40 +61,6 @@
 #include <jpeglib.h>
 #include <png.h>
 
-/* ---- one call's error state ---------------------------------------------- */
-
-typedef struct img_call {
-    const char *path; /* for messages; NULL for in-memory streams */
-    char       *err;  /* caller's buffer, or NULL */
-    size_t      errlen;
-    bool        have; /* a message is set: the first one is the cause */
-} img_call;
-
-#if defined(__GNUC__)
-__attribute__((format(printf, 2, 3)))
-#endif
-static void call_msg(img_call *c, const char *fmt, ...)
-{
-    if (!c) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vt_file_msgv(c->err, c->errlen, &c->have, c->path ? c->path : "<memory>", fmt, ap);
-    va_end(ap);
-}
-
-static img_call call_begin(const char *path, char *err, size_t errlen)
-{
-    if (err && errlen) err[0] = '\0';
-    return (img_call){.path = path, .err = err, .errlen = errlen};
-}
-
-static int call_end(img_call *c, int rc)
-{
-    if (rc == 0 && c->err && c->errlen) c->err[0] = '\0';
-    return rc;
-}
-
-
 /* ---- sRGB8 ----------------------------------------------------------------- */
 
 static const float srgb_t[257] = {
@@ -362,7 +328,7 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
         !src->g.data != !src->b.data || out_stride_bytes < (size_t)width * 4 ||
         (d.op != VT_TONEMAP_CLAMP && d.op != VT_TONEMAP_ACES) ||
         !(d.exposure_ev >= -64.0f && d.exposure_ev <= 64.0f))
-        return -EINVAL;
+        return VT_ERR_INVALID;
     const vt_image_channel *r = &src->r;
     const vt_image_channel *g = src->g.data ? &src->g : r, *b = src->b.data ? &src->b : r;
     const vt_image_channel *a = src->a.data ? &src->a : NULL;
@@ -409,14 +375,14 @@ typedef struct sink {
     size_t    len;  /* bytes in buf */
     size_t    cap;  /* bytes allocated */
     int       err;  /* first failure: a write's errno, or ENOMEM */
-    img_call *call;
+    vt_call *call;
 } sink;
 
 static bool sink_fail(sink *s, int e, const char *what)
 {
     char buf[128];
     if (!s->err) s->err = e;
-    call_msg(s->call, "%s: %s", what, vt_strerror(e, buf, sizeof buf));
+    vt_call_msg(s->call, "%s: %s", what, vt_errno_text(e, buf, sizeof buf));
     return false;
 }
 
@@ -466,68 +432,56 @@ static bool sink_put(sink *s, const void *p, size_t n)
 
 /* ---- files --------------------------------------------------------------- */
 
-/* A temporary file beside path (vt_file.c), its error in the call's message. */
-static int open_temp(img_call *c, const char *path, char **tmp, int *fd)
-{
-    char msg[512];
-    int rc = vt_temp_open(path, tmp, fd, msg, sizeof msg);
-    if (rc) call_msg(c, "%s", msg);
-    return rc;
-}
-
 /* Runs enc(job, sink) into a temporary file beside path and renames it
  * into place; on failure the temporary is removed and path untouched. */
-static int write_file(img_call *c, const char *path, int (*enc)(void *job, sink *s), void *job)
+static int write_file(vt_call *c, const char *path, int (*enc)(void *job, sink *s), void *job)
 {
     sink s = {.fd = -1, .call = c};
     char *tmp = NULL;
-    int rc = open_temp(c, path, &tmp, &s.fd);
+    int rc = vt_temp_open(c, path, &tmp, &s.fd);
     if (rc == 0 && !(s.buf = malloc(SINK_CHUNK))) {
-        call_msg(c, "out of memory");
-        rc = -ENOMEM;
+        vt_call_msg(c, "out of memory");
+        rc = VT_ERR_NOMEM;
     }
     s.cap = SINK_CHUNK;
     if (rc == 0) rc = enc(job, &s);
-    if (rc == 0 && !sink_flush(&s)) rc = -s.err;
-    char msg[600];
-    int frc = vt_temp_finish(path, tmp, s.fd, rc, msg, sizeof msg);
-    if (frc != rc) call_msg(c, "%s", msg);
-    rc = frc;
+    if (rc == 0 && !sink_flush(&s)) rc = vt_err_from_errno(s.err);
+    rc = vt_temp_finish(c, path, tmp, s.fd, rc);
     free(s.buf);
     return rc;
 }
 
 /* Checks an 8-bit image argument set. */
-static int check_pixels(img_call *c, uint32_t width, uint32_t height, const uint8_t *pix,
+static int check_pixels(vt_call *c, uint32_t width, uint32_t height, const uint8_t *pix,
                         size_t stride, uint32_t pixel_bytes)
 {
     if (width < 1 || height < 1 || width > VT_IMAGE_MAX_DIM || height > VT_IMAGE_MAX_DIM) {
-        call_msg(c, "image size %ux%u outside 1x1..%ux%u", width, height, VT_IMAGE_MAX_DIM,
+        vt_call_msg(c, "image size %ux%u outside 1x1..%ux%u", width, height, VT_IMAGE_MAX_DIM,
                  VT_IMAGE_MAX_DIM);
-        return -EINVAL;
+        return VT_ERR_INVALID;
     }
     if (!pix) {
-        call_msg(c, "no pixels");
-        return -EINVAL;
+        vt_call_msg(c, "no pixels");
+        return VT_ERR_INVALID;
     }
     if (stride < (size_t)width * pixel_bytes) {
-        call_msg(c, "row stride %zu below %u x %u bytes", stride, width, pixel_bytes);
-        return -EINVAL;
+        vt_call_msg(c, "row stride %zu below %u x %u bytes", stride, width, pixel_bytes);
+        return VT_ERR_INVALID;
     }
     return 0;
 }
 
-static int check_path(img_call *c, const char *path)
+static int check_path(vt_call *c, const char *path)
 {
     if (path && path[0]) return 0;
-    call_msg(c, "no path");
-    return -EINVAL;
+    vt_call_msg(c, "no path");
+    return VT_ERR_INVALID;
 }
 
 /* ---- PNG ------------------------------------------------------------------- */
 
 typedef struct png_job {
-    img_call     *c;
+    vt_call     *c;
     png_structp   png;
     png_infop     info;
     bool          nomem;   /* an allocation failed: the likely cause */
@@ -550,7 +504,7 @@ typedef struct png_job {
 static void png_on_error(png_structp png, png_const_charp msg)
 {
     png_job *j = png_get_error_ptr(png);
-    call_msg(j->c, "%s", msg ? msg : "libpng error");
+    vt_call_msg(j->c, "%s", msg ? msg : "libpng error");
     png_longjmp(png, 1);
 }
 
@@ -596,7 +550,7 @@ static void png_on_read(png_structp png, png_bytep data, size_t n)
         if (got < 0 && errno == EINTR) continue;
         if (got < 0) {
             j->io_err = errno;
-            call_msg(j->c, "read: %s", vt_strerror(errno, buf, sizeof buf));
+            vt_call_msg(j->c, "read: %s", vt_errno_text(errno, buf, sizeof buf));
             png_error(png, "read failed");
         }
         if (got == 0) png_error(png, "unexpected end of file");
@@ -638,8 +592,8 @@ static int png_encode(void *job, sink *s)
     if (j->png) j->info = png_create_info_struct(j->png);
     int rc = j->info ? png_guarded(j, png_write_body) : -1;
     if (rc != 0) {
-        rc = s->err ? -s->err : j->nomem || !j->info ? -ENOMEM : -EIO;
-        call_msg(j->c, "libpng failed");
+        rc = s->err ? vt_err_from_errno(s->err) : j->nomem || !j->info ? VT_ERR_NOMEM : VT_ERR_CODEC;
+        vt_call_msg(j->c, "libpng failed");
     }
     png_destroy_write_struct(&j->png, &j->info);
     return rc;
@@ -649,17 +603,17 @@ int vt_png_write(const char *path, uint32_t width, uint32_t height, const uint8_
                  size_t row_stride_bytes, bool alpha, int compression_level, char *err,
                  size_t errlen)
 {
-    img_call c = call_begin(path, err, errlen);
+    vt_call c = vt_call_begin(path, err, errlen);
     int rc = check_path(&c, path);
     if (rc == 0) rc = check_pixels(&c, width, height, rgba8, row_stride_bytes, 4);
     if (rc == 0 && (compression_level < -1 || compression_level > 9)) {
-        call_msg(&c, "compression level %d outside -1..9", compression_level);
-        rc = -EINVAL;
+        vt_call_msg(&c, "compression level %d outside -1..9", compression_level);
+        rc = VT_ERR_INVALID;
     }
-    if (rc != 0) return call_end(&c, rc);
+    if (rc != 0) return vt_call_end(&c, rc);
     png_job j = {.c = &c, .px = rgba8, .stride = row_stride_bytes, .alpha = alpha,
                  .level = compression_level, .w = width, .h = height, .fd = -1};
-    return call_end(&c, write_file(&c, path, png_encode, &j));
+    return vt_call_end(&c, write_file(&c, path, png_encode, &j));
 }
 
 static void png_read_body(png_job *j)
@@ -673,7 +627,7 @@ static void png_read_body(png_job *j)
     png_get_IHDR(png, info, &w, &h, &depth, &ctype, NULL, NULL, NULL);
     if (w > VT_IMAGE_MAX_DIM || h > VT_IMAGE_MAX_DIM) {
         j->too_big = true;
-        call_msg(j->c, "image %ux%u larger than %ux%u", (unsigned)w, (unsigned)h, VT_IMAGE_MAX_DIM,
+        vt_call_msg(j->c, "image %ux%u larger than %ux%u", (unsigned)w, (unsigned)h, VT_IMAGE_MAX_DIM,
                  VT_IMAGE_MAX_DIM);
         png_error(png, "image too large");
     }
@@ -705,7 +659,7 @@ static void png_read_body(png_job *j)
 int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *height,
                 bool *has_alpha, char *err, size_t errlen)
 {
-    img_call c = call_begin(path, err, errlen);
+    vt_call c = vt_call_begin(path, err, errlen);
     char buf[128];
     if (rgba8) *rgba8 = NULL;
     if (width) *width = 0;
@@ -713,36 +667,37 @@ int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *he
     if (has_alpha) *has_alpha = false;
     int rc = check_path(&c, path);
     if (rc == 0 && (!rgba8 || !width || !height)) {
-        call_msg(&c, "no output for the image or its size");
-        rc = -EINVAL;
+        vt_call_msg(&c, "no output for the image or its size");
+        rc = VT_ERR_INVALID;
     }
-    if (rc != 0) return call_end(&c, rc);
+    if (rc != 0) return vt_call_end(&c, rc);
     png_job j = {.c = &c, .fd = open(path, O_RDONLY | O_CLOEXEC)};
     if (j.fd < 0) {
-        rc = -errno;
-        call_msg(&c, "open: %s", vt_strerror(-rc, buf, sizeof buf));
-        return call_end(&c, rc);
+        int e = errno;
+        rc = vt_err_from_errno(e);
+        vt_call_msg(&c, "open: %s", vt_errno_text(e, buf, sizeof buf));
+        return vt_call_end(&c, rc);
     }
     j.png = png_create_read_struct_2(PNG_LIBPNG_VER_STRING, &j, png_on_error, png_on_warning, &j,
                                      png_on_malloc, png_on_free);
     if (j.png) j.info = png_create_info_struct(j.png);
     rc = j.info ? png_guarded(&j, png_read_body) : -1;
     if (rc != 0) {
-        rc = j.io_err ? -j.io_err : j.nomem || !j.info ? -ENOMEM : j.too_big ? -EFBIG : -EBADMSG;
-        call_msg(&c, "libpng failed");
+        rc = j.io_err ? vt_err_from_errno(j.io_err) : j.nomem || !j.info ? VT_ERR_NOMEM : j.too_big ? VT_ERR_TOO_LARGE : VT_ERR_CORRUPT;
+        vt_call_msg(&c, "libpng failed");
     }
     png_destroy_read_struct(&j.png, &j.info, NULL);
     close(j.fd);
     free(j.rows);
     if (rc != 0) {
         free(j.pix);
-        return call_end(&c, rc);
+        return vt_call_end(&c, rc);
     }
     *rgba8 = j.pix;
     *width = j.w;
     *height = j.h;
     if (has_alpha) *has_alpha = j.has_alpha;
-    return call_end(&c, 0);
+    return vt_call_end(&c, 0);
 }
 
 /* ---- JPEG ------------------------------------------------------------------ */
@@ -750,7 +705,7 @@ int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *he
 typedef struct jpg_err {
     struct jpeg_error_mgr pub; /* first: libjpeg's cinfo->err points here */
     jmp_buf    jump;
-    img_call  *c;
+    vt_call  *c;
     int        code; /* a negative errno chosen here before jumping, or 0 */
 } jpg_err;
 
@@ -759,7 +714,7 @@ static void jpg_on_error(j_common_ptr ci)
     jpg_err *e = (jpg_err *)ci->err;
     char msg[JMSG_LENGTH_MAX];
     (*ci->err->format_message)(ci, msg);
-    call_msg(e->c, "%s", msg);
+    vt_call_msg(e->c, "%s", msg);
     longjmp(e->jump, 1);
 }
 
@@ -789,12 +744,12 @@ static void jpg_abort(j_common_ptr ci, int code, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    call_msg(e->c, "%s", msg);
+    vt_call_msg(e->c, "%s", msg);
     e->code = code;
     longjmp(e->jump, 1);
 }
 
-static void jpg_err_init(jpg_err *e, img_call *c)
+static void jpg_err_init(jpg_err *e, vt_call *c)
 {
     jpeg_std_error(&e->pub);
     e->pub.error_exit = jpg_on_error;
@@ -808,8 +763,8 @@ static void jpg_err_init(jpg_err *e, img_call *c)
 static int jpg_code(const jpg_err *e, const sink *s, int otherwise)
 {
     if (e->code) return e->code;
-    if (s && s->err) return -s->err;
-    if (e->pub.msg_code == JERR_OUT_OF_MEMORY) return -ENOMEM;
+    if (s && s->err) return vt_err_from_errno(s->err);
+    if (e->pub.msg_code == JERR_OUT_OF_MEMORY) return VT_ERR_NOMEM;
     return otherwise;
 }
 
@@ -907,22 +862,22 @@ static int jpg_encode_to(void *job, sink *s)
     memset(&j->ci, 0, sizeof j->ci); /* ->mem NULL: destroy is safe if create fails */
     j->ci.err = &j->err.pub;
     int rc = jpg_guarded(j, jpg_compress_body);
-    if (rc != 0) rc = jpg_code(&j->err, s, -EIO);
+    if (rc != 0) rc = jpg_code(&j->err, s, VT_ERR_CODEC);
     jpeg_destroy_compress(&j->ci);
     return rc;
 }
 
-static int jpg_check(img_call *c, uint32_t width, uint32_t height, const uint8_t *pix,
+static int jpg_check(vt_call *c, uint32_t width, uint32_t height, const uint8_t *pix,
                      size_t stride, uint32_t pixel_bytes, int quality)
 {
     if (pixel_bytes != 3 && pixel_bytes != 4) {
-        call_msg(c, "pixel_bytes %u: must be 3 (RGB) or 4 (RGBA)", pixel_bytes);
-        return -EINVAL;
+        vt_call_msg(c, "pixel_bytes %u: must be 3 (RGB) or 4 (RGBA)", pixel_bytes);
+        return VT_ERR_INVALID;
     }
     int rc = check_pixels(c, width, height, pix, stride, pixel_bytes);
     if (rc == 0 && (quality < 1 || quality > 100)) {
-        call_msg(c, "quality %d outside 1..100", quality);
-        rc = -EINVAL;
+        vt_call_msg(c, "quality %d outside 1..100", quality);
+        rc = VT_ERR_INVALID;
     }
     return rc;
 }
@@ -931,36 +886,36 @@ int vt_jpeg_write(const char *path, uint32_t width, uint32_t height, const uint8
                   size_t row_stride_bytes, uint32_t pixel_bytes, int quality, char *err,
                   size_t errlen)
 {
-    img_call c = call_begin(path, err, errlen);
+    vt_call c = vt_call_begin(path, err, errlen);
     int rc = check_path(&c, path);
     if (rc == 0) rc = jpg_check(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality);
-    if (rc != 0) return call_end(&c, rc);
+    if (rc != 0) return vt_call_end(&c, rc);
     jpg_job *j = calloc(1, sizeof *j); /* ~2 KiB of libjpeg structs: not on the stack */
     if (!j) {
-        call_msg(&c, "out of memory");
-        return call_end(&c, -ENOMEM);
+        vt_call_msg(&c, "out of memory");
+        return vt_call_end(&c, VT_ERR_NOMEM);
     }
     *j = (jpg_job){.px = pix, .stride = row_stride_bytes, .pixel_bytes = pixel_bytes,
                    .quality = quality, .w = width, .h = height};
     jpg_err_init(&j->err, &c);
     rc = write_file(&c, path, jpg_encode_to, j);
     free(j);
-    return call_end(&c, rc);
+    return vt_call_end(&c, rc);
 }
 
 int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t row_stride_bytes,
                    uint32_t pixel_bytes, int quality, uint8_t **out, size_t *out_len, char *err,
                    size_t errlen)
 {
-    img_call c = call_begin(NULL, err, errlen);
+    vt_call c = vt_call_begin("<memory>", err, errlen);
     if (out) *out = NULL;
     if (out_len) *out_len = 0;
     int rc = jpg_check(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality);
     if (rc == 0 && (!out || !out_len)) {
-        call_msg(&c, "no output for the stream");
-        rc = -EINVAL;
+        vt_call_msg(&c, "no output for the stream");
+        rc = VT_ERR_INVALID;
     }
-    if (rc != 0) return call_end(&c, rc);
+    if (rc != 0) return vt_call_end(&c, rc);
     jpg_job *j = calloc(1, sizeof *j);
     /* first guess 1/4 byte per pixel (2 bits: q85 on rendered frames);
      * doubling from there */
@@ -968,8 +923,8 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
     sink s = {.fd = -1, .call = &c, .cap = guess < SINK_CHUNK ? SINK_CHUNK : guess};
     if (j) s.buf = malloc(s.cap);
     if (!j || !s.buf) {
-        call_msg(&c, "out of memory");
-        rc = -ENOMEM;
+        vt_call_msg(&c, "out of memory");
+        rc = VT_ERR_NOMEM;
     }
     if (rc == 0) {
         *j = (jpg_job){.px = pix, .stride = row_stride_bytes, .pixel_bytes = pixel_bytes,
@@ -980,12 +935,12 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
     free(j);
     if (rc != 0) {
         free(s.buf);
-        return call_end(&c, rc);
+        return vt_call_end(&c, rc);
     }
     uint8_t *fit = s.len < s.cap ? realloc(s.buf, s.len) : NULL; /* give back the slack */
     *out = fit ? fit : s.buf;
     *out_len = s.len;
-    return call_end(&c, 0);
+    return vt_call_end(&c, 0);
 }
 
 static void jpg_decompress_body(jpg_job *j)
@@ -996,23 +951,23 @@ static void jpg_decompress_body(jpg_job *j)
     jpeg_mem_src(di, j->data, (unsigned long)j->len); /* no allocation; empty: an error */
     jpeg_read_header(di, TRUE);
     if (di->image_width > VT_IMAGE_MAX_DIM || di->image_height > VT_IMAGE_MAX_DIM)
-        jpg_abort(cp, -EFBIG, "image %ux%u larger than %ux%u", di->image_width, di->image_height,
+        jpg_abort(cp, VT_ERR_TOO_LARGE, "image %ux%u larger than %ux%u", di->image_width, di->image_height,
                   VT_IMAGE_MAX_DIM, VT_IMAGE_MAX_DIM);
     if (di->jpeg_color_space != JCS_GRAYSCALE && di->jpeg_color_space != JCS_YCbCr &&
         di->jpeg_color_space != JCS_RGB)
-        jpg_abort(cp, -ENOTSUP, "colour space %d (CMYK / YCCK?) not supported",
+        jpg_abort(cp, VT_ERR_UNSUPPORTED, "colour space %d (CMYK / YCCK?) not supported",
                   (int)di->jpeg_color_space);
     di->out_color_space = JCS_RGB;
     di->dct_method = JDCT_ISLOW;
     jpeg_start_decompress(di);
     if (di->output_components != 3 || di->output_width != di->image_width ||
         di->output_height != di->image_height || di->output_width < 1 || di->output_height < 1)
-        jpg_abort(cp, -EIO, "libjpeg output %ux%ux%d, expected %ux%ux3", di->output_width,
+        jpg_abort(cp, VT_ERR_CODEC, "libjpeg output %ux%ux%d, expected %ux%ux3", di->output_width,
                   di->output_height, di->output_components, di->image_width, di->image_height);
     size_t row = (size_t)di->output_width * 3;
     j->pix = malloc(row * di->output_height);
     if (!j->pix)
-        jpg_abort(cp, -ENOMEM, "out of memory for %ux%u", di->output_width, di->output_height);
+        jpg_abort(cp, VT_ERR_NOMEM, "out of memory for %ux%u", di->output_width, di->output_height);
     JSAMPROW rows[JPG_ROWS];
     while (di->output_scanline < di->output_height) {
         JDIMENSION n = di->output_height - di->output_scanline;
@@ -1026,28 +981,28 @@ static void jpg_decompress_body(jpg_job *j)
     j->h = di->output_height;
 }
 
-static int jpg_decode(img_call *c, const uint8_t *data, size_t len, uint8_t **rgb8,
+static int jpg_decode(vt_call *c, const uint8_t *data, size_t len, uint8_t **rgb8,
                       uint32_t *width, uint32_t *height)
 {
     if (!data || !rgb8 || !width || !height) {
-        call_msg(c, "no input, or no output for the image or its size");
-        return -EINVAL;
+        vt_call_msg(c, "no input, or no output for the image or its size");
+        return VT_ERR_INVALID;
     }
     if (len == 0 || len > ULONG_MAX) {
-        call_msg(c, "stream of %zu bytes", len);
-        return len ? -EFBIG : -EBADMSG;
+        vt_call_msg(c, "stream of %zu bytes", len);
+        return len ? VT_ERR_TOO_LARGE : VT_ERR_CORRUPT;
     }
     jpg_job *j = calloc(1, sizeof *j);
     if (!j) {
-        call_msg(c, "out of memory");
-        return -ENOMEM;
+        vt_call_msg(c, "out of memory");
+        return VT_ERR_NOMEM;
     }
     j->data = data;
     j->len = len;
     jpg_err_init(&j->err, c);
     j->di.err = &j->err.pub;
     int rc = jpg_guarded(j, jpg_decompress_body);
-    if (rc != 0) rc = jpg_code(&j->err, NULL, -EBADMSG);
+    if (rc != 0) rc = jpg_code(&j->err, NULL, VT_ERR_CORRUPT);
     jpeg_destroy_decompress(&j->di);
     if (rc == 0) {
         *rgb8 = j->pix;
@@ -1063,11 +1018,11 @@ static int jpg_decode(img_call *c, const uint8_t *data, size_t len, uint8_t **rg
 int vt_jpeg_decode(const uint8_t *data, size_t len, uint8_t **rgb8, uint32_t *width,
                    uint32_t *height, char *err, size_t errlen)
 {
-    img_call c = call_begin(NULL, err, errlen);
+    vt_call c = vt_call_begin("<memory>", err, errlen);
     if (rgb8) *rgb8 = NULL;
     if (width) *width = 0;
     if (height) *height = 0;
-    return call_end(&c, jpg_decode(&c, data, len, rgb8, width, height));
+    return vt_call_end(&c, jpg_decode(&c, data, len, rgb8, width, height));
 }
 
 /* Largest file vt_jpeg_read loads. */
@@ -1076,38 +1031,41 @@ int vt_jpeg_decode(const uint8_t *data, size_t len, uint8_t **rgb8, uint32_t *wi
 int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *height, char *err,
                  size_t errlen)
 {
-    img_call c = call_begin(path, err, errlen);
+    vt_call c = vt_call_begin(path, err, errlen);
     char buf[128];
     if (rgb8) *rgb8 = NULL;
     if (width) *width = 0;
     if (height) *height = 0;
     int rc = check_path(&c, path);
-    if (rc != 0) return call_end(&c, rc);
+    if (rc != 0) return vt_call_end(&c, rc);
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0) {
-        rc = -errno;
-        call_msg(&c, "open: %s", vt_strerror(-rc, buf, sizeof buf));
-        return call_end(&c, rc);
+        int e = errno;
+        rc = vt_err_from_errno(e);
+        vt_call_msg(&c, "open: %s", vt_errno_text(e, buf, sizeof buf));
+        return vt_call_end(&c, rc);
     }
     struct stat st;
     uint8_t *data = NULL;
     size_t len = 0;
     if (fstat(fd, &st) != 0) {
-        rc = -errno;
-        call_msg(&c, "stat: %s", vt_strerror(-rc, buf, sizeof buf));
+        int e = errno;
+        rc = vt_err_from_errno(e);
+        vt_call_msg(&c, "stat: %s", vt_errno_text(e, buf, sizeof buf));
     } else if (!S_ISREG(st.st_mode) || st.st_size < 0 || (uint64_t)st.st_size > JPG_MAX_FILE) {
-        call_msg(&c, "not a regular file of at most %zu bytes", JPG_MAX_FILE);
-        rc = S_ISREG(st.st_mode) ? -EFBIG : -EINVAL;
+        vt_call_msg(&c, "not a regular file of at most %zu bytes", JPG_MAX_FILE);
+        rc = S_ISREG(st.st_mode) ? VT_ERR_TOO_LARGE : VT_ERR_INVALID;
     } else if (!(data = malloc(st.st_size ? (size_t)st.st_size : 1))) {
-        call_msg(&c, "out of memory");
-        rc = -ENOMEM;
+        vt_call_msg(&c, "out of memory");
+        rc = VT_ERR_NOMEM;
     }
     while (rc == 0 && len < (size_t)st.st_size) { /* a file that shrinks meanwhile ends early */
         ssize_t n = read(fd, data + len, (size_t)st.st_size - len);
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) {
-            rc = -errno;
-            call_msg(&c, "read: %s", vt_strerror(-rc, buf, sizeof buf));
+            int e = errno;
+            rc = vt_err_from_errno(e);
+            vt_call_msg(&c, "read: %s", vt_errno_text(e, buf, sizeof buf));
         }
         if (n <= 0) break;
         len += (size_t)n;
@@ -1115,5 +1073,5 @@ int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *he
     close(fd);
     if (rc == 0) rc = jpg_decode(&c, data, len, rgb8, width, height);
     free(data);
-    return call_end(&c, rc);
+    return vt_call_end(&c, rc);
 }

@@ -33,19 +33,23 @@
  * thread-locals (both libraries hand each call's own state to their error
  * callbacks). Any number of calls may run at once on different paths.
  *
- * Errors: 0 or a negative errno value — -EINVAL bad arguments (including a
- * size outside 1..VT_IMAGE_MAX_DIM), -ENOMEM, -ENOENT / -EACCES / -ENOSPC
- * / -EFBIG / ... from the file system (the real errno), -EBADMSG a file or
- * stream that is not a valid PNG / JPEG or is corrupt (for JPEG this
- * includes data libjpeg would only warn about, e.g. a truncated stream),
- * -ENOTSUP a valid image these readers do not handle (CMYK JPEG), -EFBIG
- * also for an image larger than VT_IMAGE_MAX_DIM, -EIO anything else a
- * library reports. `err` (may be NULL, any errlen) receives a
+ * Errors: 0 or a negative code from render/'s table (vt_err.h), never an
+ * errno — VT_ERR_INVALID bad arguments (including a size outside
+ * 1..VT_IMAGE_MAX_DIM), VT_ERR_NOMEM, VT_ERR_NOT_FOUND a missing file,
+ * VT_ERR_FILE any other file-system failure (EACCES, ENOSPC, EFBIG, ...:
+ * strerror's text is in the message), VT_ERR_CORRUPT a file or stream that
+ * is not a valid PNG / JPEG or is corrupt (for JPEG this includes data
+ * libjpeg would only warn about, e.g. a truncated stream),
+ * VT_ERR_UNSUPPORTED a valid image these readers do not handle (CMYK JPEG),
+ * VT_ERR_TOO_LARGE an image larger than VT_IMAGE_MAX_DIM (or a JPEG file
+ * over 1 GiB), VT_ERR_CODEC anything else a library reports. `err` (may be NULL, any errlen) receives a
  * NUL-terminated message, the library's own where it gave one, prefixed
  * with the path ("<memory>" for streams); it is set to "" on success.
  */
 #ifndef VANTAGE_VT_IMAGE_H
 #define VANTAGE_VT_IMAGE_H
+
+#include "vt_err.h"
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -111,7 +115,7 @@ size_t vt_image_rgba8_size(uint32_t width, uint32_t height);
  * apart (the caller's buffer; size it with vt_image_rgba8_size for packed
  * rows). Reads sample (x, y) of each given channel for 0 <= x < width,
  * 0 <= y < height, nothing else. No allocation.
- * Returns 0 or -EINVAL (size, NULL pointers, stride, op, exposure). */
+ * Returns 0 or VT_ERR_INVALID (size, NULL pointers, stride, op, exposure). */
 int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
                      const vt_tonemap_desc *desc, uint8_t *out, size_t out_stride_bytes);
 
@@ -176,12 +180,12 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
  * packed RGB rows (3 * width bytes each), top row first; grey is
  * replicated. libjpeg's accurate integer IDCT and smooth chroma
  * upsampling. Any warning from libjpeg (truncated or corrupt data) is an
- * error, -EBADMSG. On error nothing is allocated and the outputs are
+ * error, VT_ERR_CORRUPT. On error nothing is allocated and the outputs are
  * 0 / NULL. */
 int vt_jpeg_decode(const uint8_t *data, size_t len, uint8_t **rgb8, uint32_t *width,
                    uint32_t *height, char *err, size_t errlen);
 
-/* vt_jpeg_decode of the contents of `path` (at most 1 GiB, else -EFBIG). */
+/* vt_jpeg_decode of the contents of `path` (at most 1 GiB, else VT_ERR_TOO_LARGE). */
 int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *height, char *err,
                  size_t errlen);
 

@@ -451,7 +451,7 @@ static void test_exr_large(void **state)
     free(row);
 }
 
-/* Bad arguments: -EINVAL, a message, nothing on disk. */
+/* Bad arguments: VT_ERR_INVALID, a message, nothing on disk. */
 static void test_exr_bad_args(void **state)
 {
     (void)state;
@@ -479,23 +479,23 @@ static void test_exr_bad_args(void **state)
         char err[256] = "unchanged";
         int rc = vt_exr_write(cases[i].path, cases[i].w, cases[i].h, cases[i].ch, cases[i].n,
                               (vt_exr_compression)cases[i].comp, err, sizeof err);
-        assert_int_equal(rc, -EINVAL);
+        assert_int_equal(rc, VT_ERR_INVALID);
         assert_true(strlen(err) > 0 && strcmp(err, "unchanged") != 0);
         assert_int_equal(tdir_count(&t), 0);
     }
     /* tiny and absent error buffers are fine */
     char tiny[4];
-    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, tiny, sizeof tiny), -EINVAL);
+    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, tiny, sizeof tiny), VT_ERR_INVALID);
     assert_true(strlen(tiny) < sizeof tiny);
-    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, tiny, 0), -EINVAL);
+    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, tiny, 0), VT_ERR_INVALID);
     float out[4];
     uint32_t w, h;
-    assert_int_equal(vt_exr_read_channel(p, NULL, out, 2, 2, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_read_channel(p, "R", NULL, 2, 2, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_read_channel(NULL, "R", out, 2, 2, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_size(p, NULL, &h, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_size(NULL, &w, &h, NULL, 0), -EINVAL);
+    assert_int_equal(vt_exr_read_channel(p, NULL, out, 2, 2, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_read_channel(p, "R", NULL, 2, 2, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_read_channel(NULL, "R", out, 2, 2, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_size(p, NULL, &h, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_size(NULL, &w, &h, NULL, 0), VT_ERR_INVALID);
     tdir_remove(&t);
 }
 
@@ -509,15 +509,17 @@ static void test_exr_bad_path(void **state)
     tdir t;
     tdir_make(&t, "vt_exr_test");
     snprintf(t.path, sizeof t.path, "%s/missing/x.exr", t.dir);
-    assert_int_equal(vt_exr_write(t.path, 1, 1, &ch, 1, VT_EXR_ZIP, err, sizeof err), -ENOENT);
+    assert_int_equal(vt_exr_write(t.path, 1, 1, &ch, 1, VT_EXR_ZIP, err, sizeof err), VT_ERR_NOT_FOUND);
     assert_non_null(strstr(err, t.path));
     /* the parent is a file */
     write_ok(tdir_file(&t, "f.exr"), 1, 1, &ch, 1, VT_EXR_NONE);
     snprintf(t.path, sizeof t.path, "%s/f.exr/x.exr", t.dir);
-    assert_int_equal(vt_exr_write(t.path, 1, 1, &ch, 1, VT_EXR_ZIP, err, sizeof err), -ENOTDIR);
+    assert_int_equal(vt_exr_write(t.path, 1, 1, &ch, 1, VT_EXR_ZIP, err, sizeof err), VT_ERR_FILE);
+    assert_non_null(strstr(err, strerror(ENOTDIR))); /* errno's text names the cause */
     /* the target is a directory: written, then the rename fails */
     assert_int_equal(mkdir(tdir_file(&t, "d.exr"), 0700), 0);
-    assert_int_equal(vt_exr_write(t.path, 1, 1, &ch, 1, VT_EXR_ZIP, err, sizeof err), -EISDIR);
+    assert_int_equal(vt_exr_write(t.path, 1, 1, &ch, 1, VT_EXR_ZIP, err, sizeof err), VT_ERR_FILE);
+    assert_non_null(strstr(err, strerror(EISDIR))); /* errno's text names the cause */
     assert_true(strlen(err) > 0);
     assert_int_equal(tdir_count(&t), 2); /* f.exr, d.exr: no temporary left */
     rmdir(t.path);
@@ -545,8 +547,8 @@ static void test_exr_failed_write_keeps_old(void **state)
         signal(SIGXFSZ, SIG_IGN);
         char err[512];
         int ok = setrlimit(RLIMIT_FSIZE, &lim) == 0 &&
-                 vt_exr_write(t.path, w, h, &ch, 1, VT_EXR_NONE, err, sizeof err) == -EFBIG &&
-                 strlen(err) > 0;
+                 vt_exr_write(t.path, w, h, &ch, 1, VT_EXR_NONE, err, sizeof err) == VT_ERR_FILE &&
+                 strstr(err, strerror(EFBIG)) != NULL; /* the file system's EFBIG, named */
         _exit(ok ? 0 : 1);
     }
     int status = 0;
@@ -575,18 +577,18 @@ static void test_exr_reader_errors(void **state)
     uint32_t rw, rh;
     tdir t;
     tdir_make(&t, "vt_exr_test");
-    assert_int_equal(vt_exr_read_channel(tdir_file(&t, "none.exr"), "Z", out, w, h, err, sizeof err), -ENOENT);
-    assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), -ENOENT);
+    assert_int_equal(vt_exr_read_channel(tdir_file(&t, "none.exr"), "Z", out, w, h, err, sizeof err), VT_ERR_NOT_FOUND);
+    assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), VT_ERR_NOT_FOUND);
     FILE *f = fopen(tdir_file(&t, "text.exr"), "w");
     assert_non_null(f);
     fputs("this is not an OpenEXR file, just some text long enough to be a header\n", f);
     fclose(f);
-    assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), -EBADMSG);
+    assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), VT_ERR_CORRUPT);
     assert_non_null(strstr(err, t.path));
     write_ok(tdir_file(&t, "z.exr"), w, h, &ch, 1, VT_EXR_ZIPS);
-    assert_int_equal(vt_exr_read_channel(t.path, "Q", out, w, h, err, sizeof err), -ENOENT);
+    assert_int_equal(vt_exr_read_channel(t.path, "Q", out, w, h, err, sizeof err), VT_ERR_NOT_FOUND);
     assert_non_null(strstr(err, "'Q'"));
-    assert_int_equal(vt_exr_read_channel(t.path, "Z", out, w, h + 1, err, sizeof err), -EINVAL);
+    assert_int_equal(vt_exr_read_channel(t.path, "Z", out, w, h + 1, err, sizeof err), VT_ERR_INVALID);
     /* cut the file in half: an error, never a crash or a read past out */
     struct stat st;
     assert_int_equal(stat(t.path, &st), 0);
@@ -626,7 +628,7 @@ static void *exr_thread_main(void *arg)
         /* library-reported errors: each message must name this thread's file */
         for (int k = 0; k < 50; k++) {
             uint32_t rw, rh;
-            if (vt_exr_size(junk, &rw, &rh, err, sizeof err) != -EBADMSG ||
+            if (vt_exr_size(junk, &rw, &rh, err, sizeof err) != VT_ERR_CORRUPT ||
                 strncmp(err, junk, strlen(junk)) != 0)
                 a->failures++;
         }

@@ -36,6 +36,7 @@ int main(void)
         {bench_tests, bench_tests_count},
         {validate_tests, validate_tests_count},
         {cli_tests, cli_tests_count},
+        {errmap_tests, errmap_tests_count},
     };
     size_t total = 0;
     for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;

@@ -249,7 +249,7 @@ static void test_mask_matches_reference(void **state)
 /* A 4 m box with a hole in its front face: through it, the back wall's
  * inside (its back face, turned over: depth of the back wall, the albedo
  * times VT_MASK_INTERIOR); beside it, the front face as before. A broken
- * volume is refused with -EINVAL before anything is drawn. */
+ * volume is refused with VT_ERR_INVALID before anything is drawn. */
 static void test_mask_inside_shows(void **state)
 {
     (void)state;
@@ -294,7 +294,7 @@ static void test_mask_inside_shows(void **state)
                                                   sizeof err)
                                  : vt_glr_render(rs[ri].gl, &v, W, H, &cube, 1, &in, 1, NULL, 0, c, d, W, NULL, err,
                                                  sizeof err);
-            assert_int_equal(rc, -EINVAL);
+            assert_int_equal(rc, VT_ERR_INVALID);
             assert_non_null(strstr(err, "bad destruction volume"));
             for (size_t q = 0; q < (size_t)W * H; q++) assert_true(d[q] == -7.0f);
         }

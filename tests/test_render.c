@@ -122,12 +122,12 @@ static void test_soft_bad_input(void **state)
     char err[256];
     uint32_t bad_idx[3] = {0, 1, 9};
     vt_mesh m = {.pos = cube_pos, .idx = bad_idx, .nv = 8, .ni = 3};
-    assert_int_equal(vt_mesh_check(&m, err, sizeof err), -EINVAL);
+    assert_int_equal(vt_mesh_check(&m, err, sizeof err), VT_ERR_INVALID);
     assert_non_null(strstr(err, "index"));
     float nanpos[9] = {0, 0, 0, 1, 0, 0, 0, NAN, 0};
     uint32_t idx3[3] = {0, 1, 2};
     vt_mesh m2 = {.pos = nanpos, .idx = idx3, .nv = 3, .ni = 3};
-    assert_int_equal(vt_mesh_check(&m2, err, sizeof err), -EINVAL);
+    assert_int_equal(vt_mesh_check(&m2, err, sizeof err), VT_ERR_INVALID);
     cull_view_desc d = {.viewport_w = 8, .viewport_h = 8};
     double proj[16], view[16], dir[3] = {0, 0, -1}, up[3] = {0, 1, 0};
     cull_mat_perspective(proj, 1, 1, 0.1, 100, CULL_DEPTH_GL);
@@ -139,13 +139,13 @@ static void test_soft_bad_input(void **state)
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
     vt_instance in = {.mesh = 3};
     assert_int_equal(vt_soft_render(sr, &v, 8, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
-                     -EINVAL);
+                     VT_ERR_INVALID);
     in.mesh = 0;
     assert_int_equal(vt_soft_render(sr, &v, 0, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
-                     -EINVAL);
+                     VT_ERR_INVALID);
     in.bmin[0] = NAN;
     assert_int_equal(vt_soft_render(sr, &v, 8, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
-                     -EINVAL);
+                     VT_ERR_INVALID);
     /* both renderers refuse every bad input the same way, with a reason,
        and leave the caller's buffers as they were */
     vt_gl *g = NULL;
@@ -177,7 +177,7 @@ static void test_soft_bad_input(void **state)
                                           depth, 8, NULL, err, sizeof err)
                           : vt_soft_render(sr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
                                            depth, 8, NULL, err, sizeof err);
-            assert_int_equal(rc, -EINVAL);
+            assert_int_equal(rc, VT_ERR_INVALID);
             if (!strstr(err, cases[c].why)) fail_msg("case %zu, %s: \"%s\"", c, path ? "gl" : "soft", err);
             for (size_t i = 0; i < 64; i++) assert_true(rgba[4 * i] == 7 && depth[i] == 7);
         }
@@ -321,7 +321,7 @@ static void test_renderers_adversarial_views(void **state)
             }
             /* a refusal names its reason */
             refused++;
-            assert_int_equal(rc, -EINVAL);
+            assert_int_equal(rc, VT_ERR_INVALID);
             assert_true(err[0] != 0);
         }
         free(rgba);

@@ -97,5 +97,6 @@ TEST_GROUP(gl_tests)
 TEST_GROUP(sublevel_tests)
 TEST_GROUP(destruct_tests)
 TEST_GROUP(validate_tests)
+TEST_GROUP(errmap_tests)
 
 #endif

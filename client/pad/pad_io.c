@@ -1035,7 +1035,7 @@ static int replay_load(pad_hub *h, char *err, size_t errlen)
     const char *path = h->replay;
     h->rf = fopen(path, "r");
     if (!h->rf) {
-        vp_errf(err, errlen, "%s: %s", path, strerror(errno));
+        vp_errf(err, errlen, -1, "%s: %s", path, strerror(errno));
         return -1;
     }
     char *line = NULL;
@@ -1045,7 +1045,7 @@ static int replay_load(pad_hub *h, char *err, size_t errlen)
     int rc = -1;
     pad_line *pl = malloc(sizeof *pl);
     if (!pl) {
-        vp_errf(err, errlen, "%s: out of memory", path);
+        vp_errf(err, errlen, -1, "%s: out of memory", path);
         goto out;
     }
     replay_dev *cur = NULL;
@@ -1053,13 +1053,13 @@ static int replay_load(pad_hub *h, char *err, size_t errlen)
         lineno++;
         char why[160] = "";
         if (pad_line_parse(line, (size_t)n, pl, why, sizeof why)) {
-            vp_errf(err, errlen, "%s:%lu: %s", path, lineno, why[0] ? why : "malformed line");
+            vp_errf(err, errlen, -1, "%s:%lu: %s", path, lineno, why[0] ? why : "malformed line");
             goto out;
         }
         if (pl->kind == PAD_LINE_DEVICE || (!cur && pl->kind != PAD_LINE_BLANK && pl->kind != PAD_LINE_OTHER)) {
             /* lines before the first D: belong to device 0, as hid-recorder's single-device files */
             if (!(cur = rdev_get(h, pl->kind == PAD_LINE_DEVICE ? pl->device : 0))) {
-                vp_errf(err, errlen, "%s: out of memory", path);
+                vp_errf(err, errlen, -1, "%s: out of memory", path);
                 goto out;
             }
         }
@@ -1067,8 +1067,8 @@ static int replay_load(pad_hub *h, char *err, size_t errlen)
         case PAD_LINE_INFO:
             cur->info = pad_device_lookup(pl->vid, pl->pid);
             if (!cur->info) {
-                vp_errf(err, errlen, "%s:%lu: unknown device %04x:%04x (not a pad this build reads)", path, lineno,
-                        pl->vid, pl->pid);
+                vp_errf(err, errlen, -1, "%s:%lu: unknown device %04x:%04x (not a pad this build reads)",
+                        path, lineno, pl->vid, pl->pid);
                 goto out;
             }
             cur->have_info = true;
@@ -1079,8 +1079,8 @@ static int replay_load(pad_hub *h, char *err, size_t errlen)
         case PAD_LINE_NAME: snprintf(cur->name, sizeof cur->name, "%s", pl->name); break;
         case PAD_LINE_EVENT:
             if (!cur->have_info) {
-                vp_errf(err, errlen, "%s:%lu: a report before device %u's I: line (which pad it is)", path, lineno,
-                        cur->index);
+                vp_errf(err, errlen, -1, "%s:%lu: a report before device %u's I: line (which pad it is)",
+                        path, lineno, cur->index);
                 goto out;
             }
             break;
@@ -1088,7 +1088,7 @@ static int replay_load(pad_hub *h, char *err, size_t errlen)
         }
     }
     if (ferror(h->rf)) {
-        vp_errf(err, errlen, "%s: %s", path, strerror(errno));
+        vp_errf(err, errlen, -1, "%s: %s", path, strerror(errno));
         goto out;
     }
     rc = 0;
@@ -1269,10 +1269,10 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     static const pad_hub_opts none;
     if (!o) o = &none;
     *out = NULL;
-    vp_errf(err, errlen, "%s", "");
+    vp_errf(err, errlen, -1, "%s", "");
     pad_hub *h = calloc(1, sizeof *h);
     if (!h) {
-        vp_errf(err, errlen, "out of memory");
+        vp_errf(err, errlen, -1, "out of memory");
         return -1;
     }
     h->efd = -1;
@@ -1281,7 +1281,7 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     pthread_mutex_init(&h->pmu, NULL);
     pthread_mutex_init(&h->rmu, NULL);
     if (cond_init_mono(&h->wake) || cond_init_mono(&h->drained)) {
-        vp_errf(err, errlen, "pthread_cond_init failed");
+        vp_errf(err, errlen, -1, "pthread_cond_init failed");
         free(h);
         return -1;
     }
@@ -1293,22 +1293,22 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     h->loop = o->replay_loop;
     h->rec_last = -1;
     if (!queue_grow(h)) {
-        vp_errf(err, errlen, "out of memory");
+        vp_errf(err, errlen, -1, "out of memory");
         goto fail;
     }
     h->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
     if (h->efd < 0) {
-        vp_errf(err, errlen, "eventfd: %s", strerror(errno));
+        vp_errf(err, errlen, -1, "eventfd: %s", strerror(errno));
         goto fail;
     }
     if (o->replay) {
         /* no library is touched: a replay works where no pad could */
         if (!(h->replay = strdup(o->replay))) {
-            vp_errf(err, errlen, "out of memory");
+            vp_errf(err, errlen, -1, "out of memory");
             goto fail;
         }
         if (o->record && !strcmp(o->record, o->replay)) {
-            vp_errf(err, errlen, "%s: recording into the file being replayed", o->record);
+            vp_errf(err, errlen, -1, "%s: recording into the file being replayed", o->record);
             goto fail;
         }
         if (replay_load(h, err, errlen)) goto fail;
@@ -1316,11 +1316,11 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     /* after the replay file is known good: a failed open leaves no empty recording behind */
     if (o->record) {
         if (!(h->rec_path = strdup(o->record))) {
-            vp_errf(err, errlen, "out of memory");
+            vp_errf(err, errlen, -1, "out of memory");
             goto fail;
         }
         if (!(h->rec = fopen(o->record, "w"))) {
-            vp_errf(err, errlen, "%s: %s", o->record, strerror(errno));
+            vp_errf(err, errlen, -1, "%s: %s", o->record, strerror(errno));
             goto fail;
         }
         fprintf(h->rec, "# vantage pad dump --record: hid-recorder's format, times in seconds since each pad "
@@ -1330,7 +1330,7 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     if (h->replay) {
         int rc = pthread_create(&h->replay_thread, NULL, replay_main, h);
         if (rc) {
-            vp_errf(err, errlen, "replay thread: %s", strerror(rc));
+            vp_errf(err, errlen, -1, "replay thread: %s", strerror(rc));
             goto fail;
         }
         h->replay_started = true;
@@ -1362,7 +1362,7 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     }
     rc = pthread_create(&h->hub_thread, NULL, hub_main, h);
     if (rc) {
-        vp_errf(err, errlen, "hub thread: %s", strerror(rc));
+        vp_errf(err, errlen, -1, "hub thread: %s", strerror(rc));
         goto fail;
     }
     h->hub_started = true;
@@ -1399,7 +1399,7 @@ int pad_hub_counts(pad_hub *h, uint32_t pad, pad_counts *out)
 int pad_enumerate(const pad_ops *ops, pad_found *out, size_t max, char *err, size_t errlen)
 {
     if (!ops) ops = pad_ops_real();
-    vp_errf(err, errlen, "%s", "");
+    vp_errf(err, errlen, -1, "%s", "");
     size_t n = 0;
     bool hid_ok = ops->hid_init() == 0, usb_ok = false;
     char hid_why[128] = "", usb_why[128] = "";
@@ -1453,11 +1453,12 @@ int pad_enumerate(const pad_ops *ops, pad_found *out, size_t max, char *err, siz
         snprintf(usb_why, sizeof usb_why, "%s", ops->libusb_strerror(rc));
     }
     if (!hid_ok && !usb_ok) {
-        vp_errf(err, errlen, "neither hidapi (%s) nor libusb (%s) would start", hid_why[0] ? hid_why : "?", usb_why);
+        vp_errf(err, errlen, -1, "neither hidapi (%s) nor libusb (%s) would start",
+                hid_why[0] ? hid_why : "?", usb_why);
         return -1;
     }
     if (!hid_ok)
-        vp_errf(err, errlen, "hidapi would not start (%s): hidraw pads not listed", hid_why[0] ? hid_why : "?");
-    if (!usb_ok) vp_errf(err, errlen, "libusb would not start (%s): USB (Xbox) pads not listed", usb_why);
+        vp_errf(err, errlen, -1, "hidapi would not start (%s): hidraw pads not listed", hid_why[0] ? hid_why : "?");
+    if (!usb_ok) vp_errf(err, errlen, -1, "libusb would not start (%s): USB (Xbox) pads not listed", usb_why);
     return n > (size_t)INT32_MAX ? INT32_MAX : (int)n;
 }

@@ -13,7 +13,7 @@
  * with vt_mesh_check as the daemon does before it keeps a mesh), stretched
  * onto boxes from the bytes, and up to 4 lights with colours and cones.
  * Checked:
- *   1. vt_*_render returns 0, or -EINVAL with a message and the caller's
+ *   1. vt_*_render returns 0, or VT_ERR_INVALID with a message and the caller's
  *      buffers untouched (the daemon answers INVALID with it);
  *   2. drawn frames have alpha 0 or 1, and a depth per pixel that is
  *      INFINITY (nothing) or not NaN.
@@ -128,7 +128,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     int rc = vt_soft_render(renderer(), &v, w, h, meshes, nmesh, in, ni, L, nl, rgba, depth, w, NULL, err, sizeof err);
 #endif
     if (rc != 0) {
-        CHECK(rc == -EINVAL && err[0] != 0);
+        CHECK(rc == VT_ERR_INVALID && err[0] != 0);
         for (size_t i = 0; i < (size_t)w * h; i++) CHECK(rgba[4 * i] == 7 && depth[i] == 7);
         return 0;
     }
