@@ -90,13 +90,14 @@ CLI_BIN  := $(BUILD)/vantage
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
 RENDER_SRC:= render/vt_exr.c render/vt_frame.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
-            render/vt_shade_avx2.c             render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c render/vt_err.c
+            render/vt_shade_avx2.c             render/vt_image.c render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
+            render/vt_glr.c render/vt_file.c render/vt_err.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_image.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
 # (libjpeg.so.62); every binary that links RENDER_OBJ needs both
 IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
-# headless OpenGL (vt_gl.c): libglvnd's libEGL and libepoxy; at run time
+# headless OpenGL (vt_egl.c, vt_gl_*.c): libglvnd's libEGL and libepoxy; at run time
 # Mesa's EGL vendor library and drivers (libegl-mesa0, libgl1-mesa-dri:
 # llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
 # RENDER_OBJ needs these; the GL tests skip when no context can be made
@@ -194,7 +195,8 @@ $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import/import.o $(BUILD)/
 # the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
 DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
                  $(BUILD)/render/vt_err.o \
-                 $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o $(BUILD)/render/vt_shade_base.o \
+                 $(BUILD)/render/vt_egl.o $(BUILD)/render/vt_gl_target.o $(BUILD)/render/vt_gl_shader.o \
+                 $(BUILD)/render/vt_glr.o $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)

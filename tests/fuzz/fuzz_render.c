@@ -2,7 +2,7 @@
  * fuzz_render.c — libFuzzer target for the software renderer
  * (render/vt_soft.c, through vt_soft_render as the daemon's RENDER and
  * frame streams call it), and, built as fuzz_render_gl.c, for the GL path
- * (render/vt_glr.c, vt_gl.c) where an EGL context can be made; without one
+ * (render/vt_glr.c on vt_egl.c and vt_gl_*.c) where an EGL context can be made; without one
  * every input returns at once (a note on stderr, once).
  *
  * The input (fuzz_geom.h decodes numbers, views and lights): a header byte,
