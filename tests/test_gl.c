@@ -1,9 +1,9 @@
 /*
  * test_gl.c — the headless OpenGL path (render/vt_gl.h: vt_egl.c,
- * vt_gl_target.c, vt_gl_shader.c) against reference models: a clear reads back bit for bit (RGBA16F and RGBA32F, direct and
- * PBO, whole target and sub-regions); a triangle with vertices on the
- * 1/16-pixel grid covers exactly the pixel centres an edge-function test
- * in double says it covers (pixels within 0.01 px of an edge are not
+ * vt_gl_target.c, vt_gl_shader.c) against reference models: a clear reads
+ * back bit for bit (RGBA16F and RGBA32F, direct and PBO, whole target and
+ * sub-regions); a triangle with vertices on the 1/16-pixel grid covers
+ * exactly the pixel centres an edge-function test in double says it covers (pixels within 0.01 px of an edge are not
  * judged), and its depth at those centres is the analytic screen-space
  * interpolation within 1e-6, under GL's default depth convention and
  * under glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE); random floats go
