@@ -92,9 +92,9 @@ CLI_BIN  := $(BUILD)/vantage
 # the image files of vt_image.h: tone mapping, the encoders' sink, PNG, JPEG
 IMAGE_SRC := render/vt_tonemap.c render/vt_sink.c render/vt_png.c render/vt_jpeg.c
 IMAGE_OBJ := $(IMAGE_SRC:%.c=$(BUILD)/%.o)
-RENDER_SRC:= render/vt_exr.c render/vt_frame.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
+RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
             render/vt_shade_avx2.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
-            render/vt_glr.c render/vt_file.c render/vt_err.c
+            render/vt_gldraw.c render/vt_file.c render/vt_err.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_png.c, vt_jpeg.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
@@ -195,11 +195,11 @@ PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o 
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import/import.o $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(BUILD)/client/import/import.o $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
-# the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
-DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o \
+# the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG (no EXR)
+DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_soft.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o \
                  $(BUILD)/render/vt_err.o \
                  $(BUILD)/render/vt_egl.o $(BUILD)/render/vt_gl_target.o $(BUILD)/render/vt_gl_shader.o \
-                 $(BUILD)/render/vt_glr.o $(BUILD)/render/vt_shade_base.o \
+                 $(BUILD)/render/vt_gldraw.o $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)

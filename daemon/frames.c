@@ -17,7 +17,7 @@
  */
 #include "server_internal.h"
 #include "errmap.h"
-#include "vt_glr.h"
+#include "vt_gldraw.h"
 #include "vt_image.h"
 #include "vt_soft.h"
 
@@ -47,10 +47,10 @@ const char *renderer_name(int r)
  * nowhere. Caller holds gl_mu. */
 static int gl_open_locked(server *s)
 {
-    if (s->glr) return 0;
+    if (s->gldraw) return 0;
     if (s->gl_failed) return -1;
     char err[300];
-    if (vt_gl_open(&s->gl, NULL, err, sizeof err) || vt_glr_create(s->gl, &s->glr, err, sizeof err)) {
+    if (vt_gl_open(&s->gl, NULL, err, sizeof err) || vt_gldraw_create(s->gl, &s->gldraw, err, sizeof err)) {
         vt_gl_close(s->gl);
         s->gl = NULL;
         s->gl_failed = true;
@@ -79,11 +79,11 @@ void frames_fini(server *s)
 {
     if (s->gl) {
         char err[64];
-        if (!vt_gl_make_current(s->gl, err, sizeof err)) vt_glr_destroy(s->glr);
+        if (!vt_gl_make_current(s->gl, err, sizeof err)) vt_gldraw_destroy(s->gldraw);
         vt_gl_close(s->gl);
     }
     s->gl = NULL;
-    s->glr = NULL;
+    s->gldraw = NULL;
     pthread_mutex_destroy(&s->gl_mu);
 }
 
@@ -311,8 +311,8 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
             code = VP_ERR_UNSUPPORTED;
             snprintf(msg, sizeof msg, "%.250s", s->gl_err);
         } else if ((rc = vt_gl_make_current(s->gl, err, sizeof err)) ||
-                   (rc = vt_glr_render(s->glr, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
-                                       rgba, depth, W, NULL, err, sizeof err))) {
+                   (rc = vt_gldraw_render(s->gldraw, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
+                                          rgba, depth, W, NULL, err, sizeof err))) {
             code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "render (gl): %s", err);
         }

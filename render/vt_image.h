@@ -9,9 +9,9 @@
  * pkg-config libjpeg).
  *
  * Load it expects: a frame at a time, 1x1 to 16384x16384 pixels. Costs on
- * one core for 1280x720 (details in vt_image.c): tone mapping 15 ms; PNG
- * level 1 40-60 ms, level 6 130-300 ms (zlib dominates); JPEG quality 85
- * 2-3 ms (SIMD libjpeg-turbo). Memory: the PNG and JPEG writers hold a
+ * one core for 1280x720 (details in vt_tonemap.c, vt_png.c, vt_jpeg.c):
+ * tone mapping 15 ms; PNG level 1 40-60 ms, level 6 130-300 ms (zlib
+ * dominates); JPEG quality 85 2-3 ms (SIMD libjpeg-turbo). Memory: the PNG and JPEG writers hold a
  * 64 KiB output buffer plus the libraries' row buffers (a few rows: up to
  * about 1 MiB at 16384 wide), never a copy of the image; the in-memory
  * JPEG grows its result by doubling. Readers allocate the decoded image.

@@ -24,7 +24,7 @@
  * Shading once per pixel, whatever the overdraw, is the point of the
  * visibility buffer.
  */
-#include "vt_frame.h"
+#include "vt_picture.h"
 #include "vt_shade.h"
 
 #include <errno.h>
@@ -630,8 +630,8 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     if (st) memset(st, 0, sizeof *st);
     if (!r) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     frame fr = {.v = v, .w = width, .h = height};
-    int rc = vt_frame_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &fr.vr,
-                            err, errlen);
+    int rc = vt_picture_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &fr.vr,
+                              err, errlen);
     if (rc) return rc;
     size_t npx = (size_t)width * height;
     if (!vt_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||

@@ -1,5 +1,5 @@
 /*
- * test_image.c — tone mapping, PNG and JPEG (render/vt_image.c) against
+ * test_image.c — tone mapping, PNG and JPEG (render/vt_image.h) against
  * slow references: the sRGB8 encoding equals a long double powl
  * evaluation of the IEC 61966-2-1 formula on a dense sweep of 65536
  * values, at every rounding threshold (recomputed here by bisection) and

@@ -10,9 +10,9 @@
 #include "test_util.h"
 
 #include "occ_ref.h"
-#include "vt_glr.h"
+#include "vt_gldraw.h"
 #include "vt_soft.h"
-#include "vt_frame.h"
+#include "vt_picture.h"
 #include "vt_shade.h"
 #include <errno.h>
 #include <stdio.h>
@@ -149,9 +149,9 @@ static void test_soft_bad_input(void **state)
     /* both renderers refuse every bad input the same way, with a reason,
        and leave the caller's buffers as they were */
     vt_gl *g = NULL;
-    vt_glr *gr = NULL;
+    vt_gldraw *gr = NULL;
     char gerr[512];
-    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_glr_create(g, &gr, gerr, sizeof gerr), 0);
+    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_gldraw_create(g, &gr, gerr, sizeof gerr), 0);
     vt_instance good = {.mesh = 0, .bmin = {-1, -1, -5}, .bmax = {1, 1, -3}}, bad_bounds = good;
     bad_bounds.bmin[2] = -2; /* min above max */
     vt_light nan_light = {.l = {.pos = {0, 0, NAN}, .radius = 5}};
@@ -173,8 +173,8 @@ static void test_soft_bad_input(void **state)
         for (int path = 0; path < (gr ? 2 : 1); path++) {
             for (size_t i = 0; i < 64; i++) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = depth[i] = 7;
             err[0] = 0;
-            int rc = path ? vt_glr_render(gr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
-                                          depth, 8, NULL, err, sizeof err)
+            int rc = path ? vt_gldraw_render(gr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
+                                             depth, 8, NULL, err, sizeof err)
                           : vt_soft_render(sr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
                                            depth, 8, NULL, err, sizeof err);
             assert_int_equal(rc, VT_ERR_INVALID);
@@ -182,7 +182,7 @@ static void test_soft_bad_input(void **state)
             for (size_t i = 0; i < 64; i++) assert_true(rgba[4 * i] == 7 && depth[i] == 7);
         }
     }
-    vt_glr_destroy(gr);
+    vt_gldraw_destroy(gr);
     vt_gl_close(g);
     vt_soft_destroy(sr);
 }
@@ -194,7 +194,7 @@ static double adv_term(rng *r)
     return rng_below(r, 2) ? t : -t;
 }
 
-/* Views every check accepts (cull_view_init, vt_frame_check) but built to
+/* Views every check accepts (cull_view_init, vt_picture_check) but built to
  * break the renderers' arithmetic: the issue's 1e30 in element 5 (the
  * clip y scale), tiny and huge cross terms elsewhere, near 1e-6 and far
  * 1e30, the eye on a box's face plane; lights with tiny and huge ranges.
@@ -211,9 +211,9 @@ static void test_renderers_adversarial_views(void **state)
     vt_soft *sr;
     assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
     vt_gl *g = NULL;
-    vt_glr *gr = NULL;
+    vt_gldraw *gr = NULL;
     char gerr[512];
-    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_glr_create(g, &gr, gerr, sizeof gerr), 0);
+    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_gldraw_create(g, &gr, gerr, sizeof gerr), 0);
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
     /* first the issue's view itself, over many boxes: the eye at y = 0,
        looking along +z, 1e30 in element 5, 48 boxes straddling y = 0.
@@ -309,7 +309,8 @@ static void test_renderers_adversarial_views(void **state)
         assert_non_null(depth);
         for (int path = 0; path < (gr ? 2 : 1); path++) {
             char err[256] = "";
-            int rc = path ? vt_glr_render(gr, &v, w, h, &cube, 1, in, n, L, nl, rgba, depth, w, NULL, err, sizeof err)
+            int rc = path ? vt_gldraw_render(gr, &v, w, h, &cube, 1, in, n, L, nl, rgba, depth, w, NULL, err,
+                                             sizeof err)
                           : vt_soft_render(sr, &v, w, h, &cube, 1, in, n, L, nl, rgba, depth, w, NULL, err, sizeof err);
             if (rc == 0) {
                 rendered++;
@@ -330,7 +331,7 @@ static void test_renderers_adversarial_views(void **state)
     fprintf(stderr, "adversarial frames: %u views tried, %u renders, %u refused (%s)\n", tried, rendered, refused,
             gr ? "soft and gl" : "soft; no GL context");
     assert_true(rendered * 2 > tried); /* most of them were drawn */
-    vt_glr_destroy(gr);
+    vt_gldraw_destroy(gr);
     vt_gl_close(g);
     vt_soft_destroy(sr);
 }
@@ -523,8 +524,8 @@ static void test_soft_and_gl_agree(void **state)
         fprintf(stderr, "no GL here, cross-check skipped: %s\n", err);
         skip();
     }
-    vt_glr *gr;
-    assert_int_equal(vt_glr_create(g, &gr, err, sizeof err), 0);
+    vt_gldraw *gr;
+    assert_int_equal(vt_gldraw_create(g, &gr, err, sizeof err), 0);
     vt_soft *sr;
     assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
     rng r = {test_seed() ^ 0x61u};
@@ -548,7 +549,7 @@ static void test_soft_and_gl_agree(void **state)
         /* odd frames: the cube with smooth corner normals (GL draws it indexed) */
         const vt_mesh *mesh = f % 2 ? &smooth : &cube;
         assert_int_equal(vt_soft_render(sr, &v, w, h, mesh, 1, in, n, L, nl, c1, d1, w, NULL, err, sizeof err), 0);
-        int grc = vt_glr_render(gr, &v, w, h, mesh, 1, in, n, L, nl, c2, d2, w, NULL, err, sizeof err);
+        int grc = vt_gldraw_render(gr, &v, w, h, mesh, 1, in, n, L, nl, c2, d2, w, NULL, err, sizeof err);
         if (grc) fprintf(stderr, "gl render: %s\n", err);
         assert_int_equal(grc, 0);
         for (uint32_t y = 0; y < h; y++)
@@ -598,7 +599,7 @@ static void test_soft_and_gl_agree(void **state)
     assert_true(cov_diff * 1000 <= pixels);
     assert_true(depth_bad * 1000 <= both);
     assert_true(color_bad * 1000 <= compared);
-    vt_glr_destroy(gr);
+    vt_gldraw_destroy(gr);
     vt_soft_destroy(sr);
     vt_gl_close(g);
 }

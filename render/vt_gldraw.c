@@ -1,5 +1,5 @@
 /*
- * vt_glr.c — the OpenGL renderer (see vt_glr.h).
+ * vt_gldraw.c — the OpenGL renderer (see vt_gldraw.h).
  *
  * Per frame: one vertex buffer for every mesh (positions and normals, with
  * an index buffer; a mesh without normals is expanded to flat-shaded
@@ -17,8 +17,8 @@
  * textures; pass 2 shades. Colour alpha carries nearness on the way out
  * and is turned into coverage and depth on the CPU, as vt_soft does.
  */
-#include "vt_glr.h"
-#include "vt_frame.h"
+#include "vt_gldraw.h"
+#include "vt_picture.h"
 
 #include <epoxy/gl.h>
 #include <errno.h>
@@ -44,7 +44,7 @@ typedef struct mesh_draw {
     float b[6];             /* the mesh's bounds */
 } mesh_draw;
 
-struct vt_glr {
+struct vt_gldraw {
     vt_gl *g;
     unsigned prog, vao;
     int loc_vp, loc_d, loc_pass, loc_tiles_x;
@@ -208,10 +208,10 @@ static const char *fs_src =
     "  o_color = vec4(c, v_near);\n"
     "}\n";
 
-int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
+int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
 {
     if (!g || !out) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
-    vt_glr *r = calloc(1, sizeof *r);
+    vt_gldraw *r = calloc(1, sizeof *r);
     if (!r) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     r->g = g;
     int rc = vt_gl_program_build(g, vs_src, fs_src, &r->prog, err, errlen);
@@ -241,7 +241,7 @@ int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
     return 0;
 }
 
-void vt_glr_destroy(vt_glr *r)
+void vt_gldraw_destroy(vt_gldraw *r)
 {
     if (!r) return;
     vt_gl_target_destroy(r->target);
@@ -283,7 +283,7 @@ static void tbo(unsigned tex, unsigned buf, GLenum format, const void *data, siz
  * albedo, mask index or -1; the transform in double, as vt_soft computes
  * it), into a third; the damaged instances' masks (vt_mask.h) into two
  * buffer textures. */
-static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
+static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
                   const double origin[3], char *err, size_t errlen)
 {
     size_t nvx = 0, nel = 0;
@@ -404,7 +404,7 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
 /* Draws what upload put in the buffers: per mesh, one instanced draw of
  * its intact instances (back faces culled) and one of its damaged ones
  * (two-sided: their insides show through their holes). */
-static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
+static int draw(const vt_gldraw *r, uint32_t nmesh, char *err, size_t errlen)
 {
     for (uint32_t mi = 0; mi < nmesh; mi++) {
         const mesh_draw *d = &r->md[mi];
@@ -438,15 +438,15 @@ static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
     return e == GL_NO_ERROR ? 0 : vp_errf(err, errlen, VT_ERR_GL, "draw: GL error 0x%x", e);
 }
 
-int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
-                  uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
-                  float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
+int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
+                     uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                     float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
     if (st) memset(st, 0, sizeof *st);
     if (!r) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     cull_view_rows vr;
-    int rc = vt_frame_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &vr, err,
-                            errlen);
+    int rc = vt_picture_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &vr, err,
+                              errlen);
     if (rc) return rc;
     if ((rc = vt_gl_make_current(r->g, err, errlen))) return rc;
     bool reversed = v->depth_mode == CULL_DEPTH_REVERSED;

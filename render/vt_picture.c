@@ -1,7 +1,7 @@
 /*
- * vt_frame.c — see vt_frame.h.
+ * vt_picture.c — see vt_picture.h.
  */
-#include "vt_frame.h"
+#include "vt_picture.h"
 
 #include <errno.h>
 #include <math.h>
@@ -53,9 +53,9 @@ static bool dvol_ok(const cull_dvol *dv)
     return true;
 }
 
-int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
-                   uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
-                   const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen)
+int vt_picture_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
+                     uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                     const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen)
 {
     if (!v || !rgba || !depth || (ninst && (!inst || !meshes)) || (nl && !lights))
         return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
