@@ -20,15 +20,18 @@ extern "C" {
     X(VT_OK,                0, "ok")                                                   \
     X(VT_ERR_INVALID,      -1, "invalid argument")                                     \
     X(VT_ERR_NOMEM,        -2, "out of memory")                                        \
+    /* the GL context (vt_gl.h) */                                                     \
     X(VT_ERR_NO_DISPLAY,   -3, "no EGL display could be initialised")                  \
     X(VT_ERR_NO_CONTEXT,   -4, "no desktop OpenGL 3.3+ core context")                  \
     X(VT_ERR_CURRENT,      -5, "context not current on this thread, or cannot be made current") \
     X(VT_ERR_UNSUPPORTED,  -6, "not supported: a GL feature the context lacks, or a valid file this reader does not handle") \
+    /* drawing with it */                                                              \
     X(VT_ERR_RANGE,        -7, "size, region or count beyond the target, the GL limits or the renderer's") \
     X(VT_ERR_FRAMEBUFFER,  -8, "framebuffer incomplete")                               \
     X(VT_ERR_COMPILE,      -9, "shader did not compile")                               \
     X(VT_ERR_LINK,        -10, "program did not link")                                 \
     X(VT_ERR_GL,          -11, "a GL call failed (glGetError)")                        \
+    /* files and streams (vt_exr.h, vt_image.h) */                                     \
     X(VT_ERR_FILE,        -12, "file system error (the message names the call and the cause)") \
     X(VT_ERR_NOT_FOUND,   -13, "no such file, or no such channel in it")               \
     X(VT_ERR_CORRUPT,     -14, "not a valid file or stream of its format, or corrupt") \
