@@ -47,8 +47,8 @@ int auth_parse(const char *text, size_t len, auth_tokens *t, char *err, size_t e
         while (k < b && (text[k] == ' ' || text[k] == '\t')) k++;
         size_t n = b - k;
         if (n < AUTH_MIN_TOKEN || n > VP_MAX_TOKEN)
-            return vp_errf(err, errlen, -1, "line %u: a token is %u to %u characters (this one: %zu)",
-                           line, AUTH_MIN_TOKEN, VP_MAX_TOKEN, n);
+            return vp_errf(err, errlen, -1, "line %u: a token is %u to %u characters (this one: %zu)", line,
+                        AUTH_MIN_TOKEN, VP_MAX_TOKEN, n);
         for (size_t q = k; q < b; q++)
             if ((unsigned char)text[q] <= ' ' || (unsigned char)text[q] >= 127)
                 return vp_errf(err, errlen, -1, "line %u: a token is printable ASCII without spaces", line);
@@ -78,11 +78,11 @@ int auth_load(const char *path, auth_tokens *t, char *err, size_t errlen)
     } else if (!S_ISREG(st.st_mode)) {
         vp_errf(err, errlen, -1, "%s: not a regular file", path);
     } else if (st.st_mode & 077) {
-        vp_errf(err, errlen, -1, "%s: readable or writable by others (mode %04o): chmod 600 it",
-                path, (unsigned)(st.st_mode & 07777));
+        vp_errf(err, errlen, -1, "%s: readable or writable by others (mode %04o): chmod 600 it", path,
+             (unsigned)(st.st_mode & 07777));
     } else if (st.st_uid != geteuid()) {
-        vp_errf(err, errlen, -1, "%s: owned by uid %u, not by this daemon's user (%u)",
-                path, (unsigned)st.st_uid, (unsigned)geteuid());
+        vp_errf(err, errlen, -1, "%s: owned by uid %u, not by this daemon's user (%u)", path, (unsigned)st.st_uid,
+             (unsigned)geteuid());
     } else if (st.st_size > (off_t)TOKEN_FILE_MAX) {
         vp_errf(err, errlen, -1, "%s: larger than %u bytes", path, TOKEN_FILE_MAX);
     } else if (!(buf = malloc((size_t)st.st_size + 1))) {

@@ -67,7 +67,8 @@ static int entity_check(const vp_entity *e, char *why, size_t whylen)
             return vp_errf(why, whylen, VP_ERR_NONFINITE, "%s is %g: NaN or infinite", bname[k], e->aabb[k]);
     if (e->flags & ~VP_ENT_DYNAMIC)
         return vp_errf(why, whylen, VP_ERR_INVALID,
-                       "flags 0x%08x has undefined bits 0x%08x (only 0x1, dynamic, is defined)", e->flags, e->flags & ~VP_ENT_DYNAMIC);
+                       "flags 0x%08x has undefined bits 0x%08x (only 0x1, dynamic, is defined)", e->flags,
+                       e->flags & ~VP_ENT_DYNAMIC);
     return VP_OK;
 }
 

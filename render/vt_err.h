@@ -24,7 +24,7 @@ extern "C" {
     X(VT_ERR_NO_DISPLAY,   -3, "no EGL display could be initialised")                  \
     X(VT_ERR_NO_CONTEXT,   -4, "no desktop OpenGL 3.3+ core context")                  \
     X(VT_ERR_CURRENT,      -5, "context not current on this thread, or cannot be made current") \
-    X(VT_ERR_UNSUPPORTED,  -6, "not supported: a GL feature the context lacks, or a valid file this reader does not handle") \
+    X(VT_ERR_UNSUPPORTED,  -6, "not supported (a GL feature, or a valid file this reader does not handle)") \
     /* drawing with it */                                                              \
     X(VT_ERR_RANGE,        -7, "size, region or count beyond the target, the GL limits or the renderer's") \
     X(VT_ERR_FRAMEBUFFER,  -8, "framebuffer incomplete")                               \

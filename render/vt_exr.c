@@ -85,25 +85,35 @@ static void file_failed(exr_file *f, int e, const char *what)
     vt_call_msg(f->call, "%s: %s", what, vt_errno_text(e, buf, sizeof buf));
 }
 
+/* Reads into or writes from buf[0..sz) at off, retrying after EINTR; a
+ * read stops early at the end of the file (the library decides whether
+ * short is bad). The bytes moved, or -1 with the failure recorded. */
+static int64_t file_move(exr_file *f, const void *buf, uint64_t sz, uint64_t off, bool write)
+{
+    uint64_t done = 0;
+    if (sz > INT64_MAX || off > INT64_MAX - sz) return -1;
+    while (done < sz) {
+        char *at = (char *)(uintptr_t)buf + done; /* the reader's buf is not const */
+        size_t want = (size_t)(sz - done);
+        off_t where = (off_t)(off + done);
+        ssize_t n = write ? pwrite(f->fd, at, want, where) : pread(f->fd, at, want, where);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 || (n == 0 && write)) {
+            file_failed(f, n < 0 ? errno : EIO, write ? "write" : "read");
+            return -1;
+        }
+        if (n == 0) break;
+        done += (uint64_t)n;
+    }
+    return (int64_t)done;
+}
+
 static int64_t file_read(exr_const_context_t ctxt, void *ud, void *buf, uint64_t sz, uint64_t off,
                          exr_stream_error_func_ptr_t error_cb)
 {
     (void)ctxt;
     (void)error_cb;
-    exr_file *f = ud;
-    uint64_t got = 0;
-    if (sz > INT64_MAX || off > INT64_MAX - sz) return -1;
-    while (got < sz) {
-        ssize_t n = pread(f->fd, (char *)buf + got, (size_t)(sz - got), (off_t)(off + got));
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0) {
-            file_failed(f, errno, "read");
-            return -1;
-        }
-        if (n == 0) break; /* end of file: the library decides if short is bad */
-        got += (uint64_t)n;
-    }
-    return (int64_t)got;
+    return file_move(ud, buf, sz, off, false);
 }
 
 static int64_t file_write(exr_const_context_t ctxt, void *ud, const void *buf, uint64_t sz,
@@ -111,19 +121,7 @@ static int64_t file_write(exr_const_context_t ctxt, void *ud, const void *buf, u
 {
     (void)ctxt;
     (void)error_cb;
-    exr_file *f = ud;
-    uint64_t put = 0;
-    if (sz > INT64_MAX || off > INT64_MAX - sz) return -1;
-    while (put < sz) {
-        ssize_t n = pwrite(f->fd, (const char *)buf + put, (size_t)(sz - put), (off_t)(off + put));
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) {
-            file_failed(f, n < 0 ? errno : EIO, "write");
-            return -1;
-        }
-        put += (uint64_t)n;
-    }
-    return (int64_t)put;
+    return file_move(ud, buf, sz, off, true);
 }
 
 static int64_t file_size(exr_const_context_t ctxt, void *ud)

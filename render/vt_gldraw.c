@@ -21,7 +21,6 @@
 #include "vt_picture.h"
 
 #include <epoxy/gl.h>
-#include <errno.h>
 #include <float.h>
 #include <math.h>
 #include <stdarg.h>
@@ -301,8 +300,9 @@ static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_
         nfield += (size_t)dv->n[0] * dv->n[1] * dv->n[2];
     }
     if (nmask > (1u << 24) || nfield > (size_t)r->max_texels || nmask * MASK_TEXELS > (size_t)r->max_texels)
-        return vp_errf(err, errlen, -E2BIG,
-                       "%zu damaged instances (%zu field samples) are past this GL's texture buffer limit (%d texels)", nmask, nfield, r->max_texels);
+        return vp_errf(err, errlen, VT_ERR_RANGE,
+                       "%zu damaged instances (%zu field samples) are past this GL's texture buffer limit (%d texels)",
+                       nmask, nfield, r->max_texels);
     if (!vt_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
         !vt_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");

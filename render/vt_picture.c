@@ -3,7 +3,6 @@
  */
 #include "vt_picture.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>

@@ -239,7 +239,10 @@ int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *he
     if (j.png) j.info = png_create_info_struct(j.png);
     rc = j.info ? png_guarded(&j, png_read_body) : -1;
     if (rc != 0) {
-        rc = j.io_err ? vt_err_from_errno(j.io_err) : j.nomem || !j.info ? VT_ERR_NOMEM : j.too_big ? VT_ERR_TOO_LARGE : VT_ERR_CORRUPT;
+        rc = j.io_err ? vt_err_from_errno(j.io_err)
+             : j.nomem || !j.info ? VT_ERR_NOMEM
+             : j.too_big ? VT_ERR_TOO_LARGE
+             : VT_ERR_CORRUPT;
         vt_call_msg(&c, "libpng failed");
     }
     png_destroy_read_struct(&j.png, &j.info, NULL);

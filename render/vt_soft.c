@@ -27,7 +27,6 @@
 #include "vt_picture.h"
 #include "vt_shade.h"
 
-#include <errno.h>
 #include <float.h>
 #include <math.h>
 #include <stdbool.h>

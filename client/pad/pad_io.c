@@ -1067,8 +1067,8 @@ static int replay_load(pad_hub *h, char *err, size_t errlen)
         case PAD_LINE_INFO:
             cur->info = pad_device_lookup(pl->vid, pl->pid);
             if (!cur->info) {
-                vp_errf(err, errlen, -1, "%s:%lu: unknown device %04x:%04x (not a pad this build reads)",
-                        path, lineno, pl->vid, pl->pid);
+                vp_errf(err, errlen, -1, "%s:%lu: unknown device %04x:%04x (not a pad this build reads)", path, lineno,
+                        pl->vid, pl->pid);
                 goto out;
             }
             cur->have_info = true;
@@ -1079,8 +1079,8 @@ static int replay_load(pad_hub *h, char *err, size_t errlen)
         case PAD_LINE_NAME: snprintf(cur->name, sizeof cur->name, "%s", pl->name); break;
         case PAD_LINE_EVENT:
             if (!cur->have_info) {
-                vp_errf(err, errlen, -1, "%s:%lu: a report before device %u's I: line (which pad it is)",
-                        path, lineno, cur->index);
+                vp_errf(err, errlen, -1, "%s:%lu: a report before device %u's I: line (which pad it is)", path, lineno,
+                        cur->index);
                 goto out;
             }
             break;

@@ -165,8 +165,8 @@ static int parse_bytes(cursor *c, char tag, size_t max, uint8_t *data, uint16_t 
         got++;
     }
     if (got != want)
-        return vp_errf(err, errlen, -1, "%c: the length is %llu but %zu %s",
-                       tag, (unsigned long long)want, got, got == 1 ? "byte follows" : "bytes follow");
+        return vp_errf(err, errlen, -1, "%c: the length is %llu but %zu %s", tag, (unsigned long long)want, got,
+                    got == 1 ? "byte follows" : "bytes follow");
     *lenp = (uint16_t)want;
     return 0;
 }
