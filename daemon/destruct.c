@@ -154,7 +154,7 @@ static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t ns
     uint32_t *h = malloc(n * sizeof *h);
     int rc = VP_OK;
     if (!buf || !e || !h) {
-        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for debris");
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for debris");
         goto out;
     }
     uint64_t st = m->id * 31 + nsph, next = s->debris_next;
@@ -275,7 +275,7 @@ int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out
     bool fresh = !idmap_get(&s->destruct, m->id, &dv);
     if (fresh) {
         if (!idmap_reserve(&s->destruct, s->destruct.count + 1) || !(d = calloc(1, sizeof *d)))
-            return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a distance volume");
+            return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a distance volume");
         int crc = cull_dvol_init(&d->v, e.aabb_min, e.aabb_max, res);
         if (crc) {
             free(d);

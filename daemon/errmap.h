@@ -11,7 +11,8 @@
  *     renderer takes): VP_ERR_LIMIT;
  *   * out of memory: VP_ERR_BUSY. It is the server's state at that moment,
  *     not the request's fault nor a fixed limit, and memory comes back as
- *     frames and replies finish, so the client may retry;
+ *     frames and replies finish, so the client may retry (the daemon's own
+ *     allocation failures answer BUSY too);
  *   * a GL context or feature this server lacks: VP_ERR_UNSUPPORTED;
  *   * anything else (a GL call failing, a codec failing, an output buffer
  *     the daemon sized wrong): VP_ERR_INTERNAL.

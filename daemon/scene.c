@@ -182,7 +182,7 @@ static int check_unique(const uint64_t *ids, uint32_t n, scene_err *err)
 {
     bool nomem;
     uint32_t dup = first_duplicate(ids, n, &nomem);
-    if (nomem) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids");
+    if (nomem) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory checking ids");
     if (dup != UINT32_MAX)
         return scene_fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
                     (unsigned long long)ids[dup]);
@@ -225,7 +225,7 @@ static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t
     if (!ids || !descs) {
         free(ids);
         free(descs);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
     }
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
@@ -242,7 +242,7 @@ static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t
     /* room in the id map only for a batch that is going in: a rejected one
        must not rehash it (ENTITY_LIST cursors are slots) */
     if (!scene_members_reserve(s, descs, n) || !idmap_reserve(&s->ids, s->ids.count + n)) {
-        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
     /* apply */
@@ -293,7 +293,7 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
     cull_entity_desc *old = malloc(((size_t)n + 1) * sizeof *old);
     int rc = VP_OK;
     if (!ids || !hs || !descs || !old) {
-        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
     for (uint32_t i = 0; i < n; i++) {
@@ -326,7 +326,7 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
     }
     if ((rc = check_unique(ids, n, err))) goto out;
     if (!scene_members_reserve(s, descs, n)) {
-        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
     for (uint32_t i = 0; i < n; i++) {
@@ -360,7 +360,7 @@ int scene_remove(scene *s, uint16_t load, const vp_id_batch *b, scene_err *err)
 {
     uint32_t n = b->count, seen = 0;
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
-    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+    if (!ids) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
         ids[i] = vp_id_get(b, i);
@@ -405,7 +405,7 @@ int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err)
         free(n.pos);
         free(n.nrm);
         free(n.idx);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a mesh");
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a mesh");
     }
     vp_reader r;
     vp_reader_init(&r, m->positions, (size_t)n.nv * 12);
@@ -452,7 +452,7 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
     if (!n || !v || !idmap_reserve(&s->occluders, s->occluders.count + 1)) {
         free(n);
         free(v);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an occluder");
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for an occluder");
     }
     memcpy(n->origin, o->origin, sizeof n->origin);
     n->ntris = o->tri_count;
@@ -508,7 +508,7 @@ int scene_remove_ids(scene *s, uint16_t load, idmap *which, const vp_id_batch *b
         seen |= !scene_sublevel_hidden(s, sub);
     }
     uint64_t *ids = malloc(((size_t)b->count + 1) * sizeof *ids);
-    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
+    if (!ids) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
     for (uint32_t i = 0; i < b->count; i++) ids[i] = vp_id_get(b, i);
     int rc = check_unique(ids, b->count, err);
     free(ids);
@@ -579,7 +579,7 @@ int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, s
     int src = scene_sublevel_target(s, load, &sub, UINT32_MAX, err);
     if (src) return src;
     uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
-    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for lights");
+    if (!ids) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for lights");
     for (uint32_t i = 0; i < n; i++) {
         vp_light l;
         char why[120];
@@ -616,7 +616,7 @@ int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, s
     if (!ok) {
         for (uint32_t i = 0; mem && i < n; i++) free(mem[i]);
         free(mem);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for lights");
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for lights");
     }
     for (uint32_t i = 0; i < n; i++) {
         vp_light_get(recs, n, i, &mem[i]->l);
