@@ -539,50 +539,64 @@ static int read_chunks(vt_call *c, exr_context_t ctx, const exr_file *f, const c
     return rc;
 }
 
+/* One read call's state: its error context, the file, the library's
+ * context and the data window once read. */
+typedef struct exr_reader {
+    vt_call          call, *saved;
+    exr_file         f;
+    exr_context_t    ctx;
+    exr_attr_box2i_t dw;
+    uint32_t         w, h;
+} exr_reader;
+
+static vt_call *reader_begin(exr_reader *r, const char *path, char *err, size_t errlen)
+{
+    *r = (exr_reader){.f = {.fd = -1}};
+    r->f.call = call_begin(&r->call, path, err, errlen, &r->saved);
+    return r->f.call;
+}
+
+/* Closes what the call opened and ends it with rc. */
+static int reader_end(exr_reader *r, int rc)
+{
+    read_close(&r->f, &r->ctx);
+    return call_end(&r->call, r->saved, rc);
+}
+
 int vt_exr_read_channel(const char *path, const char *name, float *out, uint32_t width,
                         uint32_t height, char *err, size_t errlen)
 {
-    vt_call call, *saved;
-    vt_call *c = call_begin(&call, path, err, errlen, &saved);
-    exr_file f = {.fd = -1, .call = c};
-    exr_context_t ctx = NULL;
-    exr_attr_box2i_t dw;
-    uint32_t w = 0, h = 0;
+    exr_reader r;
+    vt_call *c = reader_begin(&r, path, err, errlen);
     if (!name || !out || width < 1 || width > VT_EXR_MAX_WIDTH || height < 1) {
         vt_call_msg(c, "bad arguments (name, out or size %ux%u)", width, height);
-        return call_end(c, saved, VT_ERR_INVALID);
+        return reader_end(&r, VT_ERR_INVALID);
     }
-    int rc = read_open(c, path, &f, &ctx);
-    if (rc == 0) rc = find_channel(c, ctx, &f, name);
-    if (rc == 0) rc = data_window(c, ctx, &f, &dw, &w, &h);
-    if (rc == 0 && (w != width || h != height)) {
-        vt_call_msg(c, "image is %ux%u, buffer %ux%u", w, h, width, height);
+    int rc = read_open(c, path, &r.f, &r.ctx);
+    if (rc == 0) rc = find_channel(c, r.ctx, &r.f, name);
+    if (rc == 0) rc = data_window(c, r.ctx, &r.f, &r.dw, &r.w, &r.h);
+    if (rc == 0 && (r.w != width || r.h != height)) {
+        vt_call_msg(c, "image is %ux%u, buffer %ux%u", r.w, r.h, width, height);
         rc = VT_ERR_INVALID;
     }
-    if (rc == 0) rc = read_chunks(c, ctx, &f, name, out, width, &dw);
-    if (rc == 0 && c->lib_code == EXR_ERR_OUT_OF_MEMORY) rc = exr_fail(c, c->lib_code, &f, "decoding");
-    read_close(&f, &ctx);
-    return call_end(c, saved, rc);
+    if (rc == 0) rc = read_chunks(c, r.ctx, &r.f, name, out, width, &r.dw);
+    if (rc == 0 && c->lib_code == EXR_ERR_OUT_OF_MEMORY) rc = exr_fail(c, c->lib_code, &r.f, "decoding");
+    return reader_end(&r, rc);
 }
 
 int vt_exr_size(const char *path, uint32_t *width, uint32_t *height, char *err, size_t errlen)
 {
-    vt_call call, *saved;
-    vt_call *c = call_begin(&call, path, err, errlen, &saved);
-    exr_file f = {.fd = -1, .call = c};
-    exr_context_t ctx = NULL;
-    exr_attr_box2i_t dw;
-    uint32_t w = 0, h = 0;
+    exr_reader r;
+    vt_call *c = reader_begin(&r, path, err, errlen);
     if (!width || !height) {
         vt_call_msg(c, "no output for the size");
-        return call_end(c, saved, VT_ERR_INVALID);
+        return reader_end(&r, VT_ERR_INVALID);
     }
-    int rc = read_open(c, path, &f, &ctx);
-    if (rc == 0) rc = data_window(c, ctx, &f, &dw, &w, &h);
-    read_close(&f, &ctx);
+    int rc = read_open(c, path, &r.f, &r.ctx);
+    if (rc == 0) rc = data_window(c, r.ctx, &r.f, &r.dw, &r.w, &r.h);
     if (rc == 0) {
-        *width = w;
-        *height = h;
+        *width = r.w;
+        *height = r.h;
     }
-    return call_end(c, saved, rc);
+    return reader_end(&r, rc);
 }

@@ -312,6 +312,7 @@ static void test_scene_edits_out_of_memory_are_busy(void **state)
     vp_writer w;
     vp_writer_init(&w, buf, cap);
     vp_enc_entities(&w, VP_ENTITY_ADD, 1, ents, N);
+    free(ents);
     assert_false(w.overflow);
     vp_entity_batch b;
     assert_int_equal(vp_dec_entities(buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &b), VP_OK);
@@ -333,12 +334,11 @@ static void test_scene_edits_out_of_memory_are_busy(void **state)
         failures++;
         assert_true(k < 100000);
     }
-    assert_true(failures > 0);
     scene_free(sc);
     free(sc);
-    free(ents);
     free(buf);
     free(handles);
+    assert_true(failures > 0);
 }
 
 const struct CMUnitTest alloc_tests[] = {
