@@ -106,20 +106,20 @@ FUZZ_SOFT_SRC         := render/vt_soft.c render/vt_picture.c render/vt_shade_ba
                          render/vt_shade_avx2.c
 FUZZ_query_OBJ        := $(CULL_OBJ)
 FUZZ_query_SRC        := $(FUZZ_CULL_FOBJ)
-FUZZ_query_CFLAGS     := -Iculling -Iprotocol
+FUZZ_query_CFLAGS     := -Iculling
 # one input is a scene of <= 4 occluders, 24 entities, 6 lights, 3 views;
 # a merge after a 2.4M-execution campaign keeps 190 small files (20 KiB)
 FUZZ_query_MAX_LEN    := 1024
 FUZZ_query_BUDGET     := 250 256
 FUZZ_render_OBJ       := $(FUZZ_SOFT_SRC:%.c=$(BUILD)/%.o) $(CULL_OBJ)
 FUZZ_render_SRC       := $(FUZZ_SOFT_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o) $(FUZZ_CULL_FOBJ)
-FUZZ_render_CFLAGS    := -Iculling -Irender -Iprotocol
+FUZZ_render_CFLAGS    := -Iculling -Irender
 FUZZ_render_MAX_LEN   := 1024
 FUZZ_render_BUDGET    := 150 256
 FUZZ_GL_SRC           := render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c render/vt_gldraw.c
 FUZZ_render_gl_OBJ    := $(FUZZ_GL_SRC:%.c=$(BUILD)/%.o) $(FUZZ_render_OBJ)
 FUZZ_render_gl_SRC    := $(FUZZ_GL_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o) $(FUZZ_render_SRC)
-FUZZ_render_gl_CFLAGS := -Iculling -Irender -Iprotocol
+FUZZ_render_gl_CFLAGS := -Iculling -Irender
 FUZZ_render_gl_LIBS   := $(GL_LIBS)
 FUZZ_render_gl_MAX_LEN := 1024
 FUZZ_render_gl_BUDGET := 150 256
@@ -127,7 +127,7 @@ FUZZ_render_gl_BUDGET := 150 256
 $(FUZZ_OBJ_DIR)/%.o: %.c $(wildcard culling/*.h culling/*.inl render/*.h render/*.inl)
 	@mkdir -p $(@D)
 	$(FUZZ_CLANG) $(subst -fsanitize=fuzzer$(FUZZ_COMMA),-fsanitize=fuzzer-no-link$(FUZZ_COMMA),$(FUZZ_CFLAGS)) \
-	  -Iculling -Irender -Iprotocol $(if $(findstring _avx2,$*),$(ISA_AVX2)) $(if $(findstring _sse41,$*),$(ISA_SSE41)) -c $< -o $@
+	  -Iculling -Irender $(if $(findstring _avx2,$*),$(ISA_AVX2)) $(if $(findstring _sse41,$*),$(ISA_SSE41)) -c $< -o $@
 
 # ---- replay driver and corpus generator: $(CC), this CONFIG -------------------
 FUZZ_REPLAY_MAIN := $(BUILD)/fuzz/replay_main.o
