@@ -25,7 +25,7 @@ void vt_call_msg(vt_call *c, const char *fmt, ...)
 {
     if (!c || c->have || !c->err || c->errlen == 0) return;
     c->have = true;
-    int n = snprintf(c->err, c->errlen, "%s: ", c->path ? c->path : "(null)");
+    int n = snprintf(c->err, c->errlen, "%s: ", c->path ? c->path : "(no path)");
     if (n < 0 || (size_t)n >= c->errlen) return;
     va_list ap;
     va_start(ap, fmt);

@@ -19,7 +19,7 @@
  * on device") and are dropped. Messages read "WHERE: what", WHERE the path
  * (or what the caller named instead, e.g. "<memory>" for a stream). */
 typedef struct vt_call {
-    const char *path;     /* WHERE in messages; NULL prints "(null)" */
+    const char *path;     /* WHERE in messages; NULL prints "(no path)" */
     char       *err;      /* the caller's buffer, or NULL */
     size_t      errlen;
     bool        have;     /* a message is set */
