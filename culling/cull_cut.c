@@ -90,9 +90,9 @@ static void emit(cutter *c, const double t[3][3], uint32_t parent)
         return;
     }
     if (c->n == c->cap) {
-        uint32_t cap = c->cap ? 2 * c->cap : 64;
-        float *o = realloc(c->out, (size_t)cap * 9 * sizeof *o);
-        uint32_t *p = realloc(c->parent, (size_t)cap * sizeof *p);
+        uint32_t cap = (uint32_t)vp_grow_cap(c->cap, (size_t)c->n + 1, 64, 9 * sizeof(float), (size_t)1 << 31);
+        float *o = cap ? realloc(c->out, (size_t)cap * 9 * sizeof *o) : NULL;
+        uint32_t *p = cap ? realloc(c->parent, (size_t)cap * sizeof *p) : NULL;
         if (o) c->out = o;
         if (p) c->parent = p;
         if (!o || !p) {

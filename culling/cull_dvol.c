@@ -87,13 +87,7 @@ int cull_dvol_add_sphere(cull_dvol *v, const double c[3], double r)
     for (int a = 0; a < 3; a++)
         if (fabs(c[a]) > CULL_MAX_COORD) return CULL_ERR_RANGE;
     if (v->nsph >= CULL_DVOL_MAX_SPHERES) return CULL_ERR_CAPACITY;
-    if (v->nsph == v->cap) {
-        uint32_t cap = v->cap ? 2 * v->cap : 16;
-        double(*s)[4] = realloc(v->sph, cap * sizeof *s);
-        if (!s) return CULL_ERR_NOMEM;
-        v->sph = s;
-        v->cap = cap;
-    }
+    if (!vp_grow32((void **)&v->sph, &v->cap, (size_t)v->nsph + 1, sizeof *v->sph)) return CULL_ERR_NOMEM;
     double *s = v->sph[v->nsph++];
     memcpy(s, c, 3 * sizeof *c);
     s[3] = r;

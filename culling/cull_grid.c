@@ -16,21 +16,6 @@
 #include <string.h>
 #include <sys/mman.h>
 
-/* ---- small helpers ---------------------------------------------------------- */
-
-bool cull_grow(void **p, uint32_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap) return true;
-    if (need > UINT32_MAX / 2) return false;
-    uint32_t n = *cap ? *cap : 8;
-    while (n < need) n *= 2;
-    void *q = realloc(*p, (size_t)n * elem);
-    if (!q) return false;
-    *p = q;
-    *cap = n;
-    return true;
-}
-
 /* ---- hash map of {int32_t key[3], ...} pointers ------------------------------ */
 
 static uint32_t key_hash(const int32_t k[3])
@@ -74,8 +59,9 @@ static void map_insert_nogrow(cull_map *m, void *e)
 static bool map_reserve(cull_map *m, uint32_t need)
 {
     if ((uint64_t)need * 2 <= m->cap) return true;
-    uint32_t cap = m->cap ? m->cap : 64;
-    while ((uint64_t)need * 2 > cap) cap *= 2;
+    size_t grown = vp_grow_cap(m->cap, (size_t)need * 2, 64, sizeof(void *), (size_t)1 << 31);
+    if (!grown) return false;
+    uint32_t cap = (uint32_t)grown;
     void **old = m->slot;
     uint32_t old_cap = m->cap;
     void **n = calloc(cap, sizeof *n);
@@ -114,9 +100,8 @@ bool cull_soa_reserve(cull_bounds_soa *s, uint32_t count, uint32_t need)
 {
     need = (need + 4u) & ~3u; /* whole vectors past the last entry */
     if (need <= s->cap) return true;
-    uint32_t cap = s->cap ? s->cap : 8;
-    while (cap < need) cap *= 2;
-    double *n = calloc((size_t)cap * 6, sizeof *n);
+    uint32_t cap = (uint32_t)vp_grow_cap(s->cap, need, 8, 6 * sizeof(double), (size_t)1 << 31);
+    double *n = cap ? calloc((size_t)cap * 6, sizeof *n) : NULL;
     if (!n) return false;
     for (int k = 0; k < 6 && s->v; k++)
         memcpy(n + (size_t)k * cap, s->v + (size_t)k * s->cap, count * sizeof *n);
@@ -204,7 +189,7 @@ static cull_block *block_carve(cull_world *w)
 {
     if (w->npool) return w->block_pool[--w->npool];
     if (!w->slab_left) {
-        if (!cull_grow((void **)&w->slabs, &w->cap_slabs, w->nslabs + 1, sizeof *w->slabs)) return NULL;
+        if (!vp_grow32((void **)&w->slabs, &w->cap_slabs, w->nslabs + 1, sizeof *w->slabs)) return NULL;
         size_t blocks = (size_t)SLAB_MIN_BLOCKS << (w->nslabs < 6 ? w->nslabs : 6);
         if (blocks * sizeof(cull_block) > SLAB_MAX_BYTES) blocks = SLAB_MAX_BYTES / sizeof(cull_block);
         bool huge = blocks * sizeof(cull_block) * 2 > SLAB_MAX_BYTES;
@@ -255,7 +240,7 @@ static int region_reserve(cull_grid *g, uint32_t gi, const int32_t ck[3], cull_r
     cull_region *r = map_find(&g->region_map, rk);
     if (!r) {
         if (!map_reserve(&g->region_map, g->region_map.used + 1) ||
-            !cull_grow((void **)&g->regions, &g->cap_regions, g->nregions + 1, sizeof *g->regions) ||
+            !vp_grow32((void **)&g->regions, &g->cap_regions, g->nregions + 1, sizeof *g->regions) ||
             !cull_soa_reserve(&g->soa, g->nregions, g->nregions + 1))
             return CULL_ERR_NOMEM;
         r = calloc(1, sizeof *r);
@@ -264,7 +249,7 @@ static int region_reserve(cull_grid *g, uint32_t gi, const int32_t ck[3], cull_r
         r->grid = gi;
         empty_bounds_d(r->bmin, r->bmax);
     }
-    if (!cull_grow((void **)&r->cells, &r->cap_cells, r->ncells + 1, sizeof *r->cells) ||
+    if (!vp_grow32((void **)&r->cells, &r->cap_cells, r->ncells + 1, sizeof *r->cells) ||
         !cull_soa_reserve(&r->soa, r->ncells, r->ncells + 1)) {
         if (!r->ncells && !map_find(&g->region_map, rk)) region_free(r);
         return CULL_ERR_NOMEM;
@@ -284,7 +269,7 @@ static void region_link(cull_grid *g, cull_region *r)
 
 static bool block_add(cull_world *w, cull_cell *c)
 {
-    if (!cull_grow((void **)&c->blocks, &c->cap_blocks, c->nblocks + 1, sizeof *c->blocks)) return false;
+    if (!vp_grow32((void **)&c->blocks, &c->cap_blocks, c->nblocks + 1, sizeof *c->blocks)) return false;
     cull_block *b = block_carve(w);
     if (!b) return false;
     memset(b, 0, sizeof *b);
@@ -397,8 +382,8 @@ void cull_grid_reserve_removal(cull_world *w)
     /* failure only costs tightness: a block the pool cannot take stays
        unused in its slab until the world is destroyed, a cell not listed
        dirty keeps loose (still correct) bounds */
-    (void)cull_grow((void **)&w->block_pool, &w->cap_pool, w->npool + 1, sizeof *w->block_pool);
-    (void)cull_grow((void **)&w->dirty, &w->cap_dirty, w->ndirty + 1, sizeof *w->dirty);
+    (void)vp_grow32((void **)&w->block_pool, &w->cap_pool, w->npool + 1, sizeof *w->block_pool);
+    (void)vp_grow32((void **)&w->dirty, &w->cap_dirty, w->ndirty + 1, sizeof *w->dirty);
 }
 
 void cull_grid_mark_dirty(cull_world *w, cull_cell *c)

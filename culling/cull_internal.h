@@ -12,6 +12,7 @@
 #define VANTAGE_CULL_INTERNAL_H
 
 #include "culling.h"
+#include "vp_grow.h" /* vp_grow32: every growing array here (header-only) */
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
@@ -263,9 +264,6 @@ cull_block_fn cull_isa_kernel(uint32_t isa);
 
 
 
-/* Grows *p (an array of *cap elements) to hold need; doubles the capacity.
- * false (nothing changed) on failure or past 2^31 elements. */
-bool cull_grow(void **p, uint32_t *cap, size_t need, size_t elem);
 
 /* Outward rounding of a double to float. */
 float cull_round_down(double v);

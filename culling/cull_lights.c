@@ -152,7 +152,7 @@ int cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const c
         if (cull_light_validate(&lights[i], NULL, NULL, 0) != CULL_OK) return CULL_ERR_INVALID;
     uint32_t tx = (width + CULL_LIGHT_TILE - 1) / CULL_LIGHT_TILE, ty = (height + CULL_LIGHT_TILE - 1) / CULL_LIGHT_TILE;
     size_t ntiles = (size_t)tx * ty;
-    if (!cull_grow((void **)&out->offset, &out->offset_cap, ntiles + 1, sizeof *out->offset)) return CULL_ERR_NOMEM;
+    if (!vp_grow32((void **)&out->offset, &out->offset_cap, ntiles + 1, sizeof *out->offset)) return CULL_ERR_NOMEM;
     out->tiles_x = tx;
     out->tiles_y = ty;
     out->in_view = 0;
@@ -226,7 +226,7 @@ int cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const c
                     if (!(depth_range[t][0] >= depth_range[t][1])) continue; /* the tile shows nothing */
                     if (!touches(&dpl[2 * t], c, r) || !touches(&dpl[2 * t + 1], c, r)) continue;
                 }
-                if (!cull_grow((void **)&out->scratch, &out->scratch_cap, 2 * (npairs + 1), sizeof *out->scratch)) {
+                if (!vp_grow32((void **)&out->scratch, &out->scratch_cap, 2 * (npairs + 1), sizeof *out->scratch)) {
                     rc = CULL_ERR_NOMEM;
                     break;
                 }
@@ -237,7 +237,7 @@ int cull_lights_bin(const cull_view *v, uint32_t width, uint32_t height, const c
         }
     }
     free(col);
-    if (rc == CULL_OK && !cull_grow((void **)&out->index, &out->index_cap, npairs + 1, sizeof *out->index))
+    if (rc == CULL_OK && !vp_grow32((void **)&out->index, &out->index_cap, npairs + 1, sizeof *out->index))
         rc = CULL_ERR_NOMEM;
     if (rc != CULL_OK) {
         memset(out->offset, 0, (ntiles + 1) * sizeof *out->offset);

@@ -973,8 +973,8 @@ static void job_band(void *arg, uint32_t t)
 static bool sort_items(cull_occ_buffer *b)
 {
     uint32_t n = b->nitems;
-    if (!cull_grow((void **)&b->sortbuf, &b->sortbuf_cap, 2 * (size_t)n, sizeof *b->sortbuf) ||
-        !cull_grow((void **)&b->items2, &b->items2_cap, n, sizeof *b->items2))
+    if (!vp_grow32((void **)&b->sortbuf, &b->sortbuf_cap, 2 * (size_t)n, sizeof *b->sortbuf) ||
+        !vp_grow32((void **)&b->items2, &b->items2_cap, n, sizeof *b->items2))
         return false;
     uint64_t *a = b->sortbuf, *t = a + n;
     for (uint32_t i = 0; i < n; i++) {
@@ -1020,8 +1020,8 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
 
     /* the clusters in view (the SIMD box kernel of the cell stage over the
        world's cluster bounds), nearest first */
-    if (!cull_grow((void **)&b->items, &b->items_cap, (size_t)w->nclusters + 1, sizeof *b->items) ||
-        !cull_grow((void **)&b->codes, &b->codes_cap, (size_t)w->nclusters + 8, 1))
+    if (!vp_grow32((void **)&b->items, &b->items_cap, (size_t)w->nclusters + 1, sizeof *b->items) ||
+        !vp_grow32((void **)&b->codes, &b->codes_cap, (size_t)w->nclusters + 8, 1))
         return CULL_ERR_NOMEM;
     uint32_t n = 0;
     if (b->usable && w->nclusters) {

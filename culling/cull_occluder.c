@@ -108,9 +108,10 @@ static double len3(const double a[3])
  * each corner; sharing is what lets coplanar pairs be found. */
 static int weld(builder *b, const double *pos, uint32_t n, uint32_t *remap)
 {
-    uint32_t cap = 16;
-    while (cap < 2 * n) cap <<= 1;
-    uint32_t *tab = malloc(cap * sizeof *tab);
+    /* at most half full, a power of two (masked); 2 n in size_t, where it
+       cannot wrap */
+    uint32_t cap = (uint32_t)vp_grow_cap(0, 2 * (size_t)n, 16, sizeof(uint32_t), (size_t)1 << 31);
+    uint32_t *tab = cap ? malloc(cap * sizeof *tab) : NULL;
     b->v = malloc((size_t)n * 3 * sizeof *b->v);
     if (!tab || !b->v) {
         free(tab);
@@ -213,10 +214,9 @@ static int make_faces(builder *b)
 {
     b->f = malloc((size_t)(b->ntri ? b->ntri : 1) * sizeof *b->f);
     if (!b->f) return CULL_ERR_NOMEM;
-    uint32_t cap = 16;
-    while (cap < 6 * b->ntri) cap <<= 1;
-    uint64_t *key = malloc(cap * sizeof *key);
-    uint32_t *head = malloc(cap * sizeof *head);
+    uint32_t cap = (uint32_t)vp_grow_cap(0, 6 * (size_t)b->ntri, 16, sizeof(uint64_t), (size_t)1 << 31);
+    uint64_t *key = cap ? malloc(cap * sizeof *key) : NULL;
+    uint32_t *head = cap ? malloc(cap * sizeof *head) : NULL;
     uint32_t *next = malloc(((size_t)3 * b->ntri + 1) * sizeof *next);
     uint8_t *used = calloc(b->ntri ? b->ntri : 1, 1);
     if (!key || !head || !next || !used) {
@@ -288,9 +288,8 @@ static int make_faces(builder *b)
  * its smallest index: O(triangles). */
 static int drop_duplicates(builder *b)
 {
-    uint32_t cap = 16;
-    while (cap < 2 * b->ntri) cap <<= 1;
-    uint32_t *tab = malloc(cap * sizeof *tab);
+    uint32_t cap = (uint32_t)vp_grow_cap(0, 2 * (size_t)b->ntri, 16, sizeof(uint32_t), (size_t)1 << 31);
+    uint32_t *tab = cap ? malloc(cap * sizeof *tab) : NULL;
     if (!tab) return CULL_ERR_NOMEM;
     memset(tab, 0xff, cap * sizeof *tab);
     uint32_t kept = 0;
@@ -631,7 +630,7 @@ static int reserve_clusters(cull_world *w, uint32_t more)
 {
     size_t need = (size_t)w->nclusters + more;
     if (need > UINT32_MAX / 2) return CULL_ERR_CAPACITY;
-    if (!cull_grow((void **)&w->ocl, &w->cap_ocl, need + 1, sizeof *w->ocl) ||
+    if (!vp_grow32((void **)&w->ocl, &w->cap_ocl, need + 1, sizeof *w->ocl) ||
         !cull_soa_reserve(&w->ocl_soa, w->nclusters, (uint32_t)need + 1))
         return CULL_ERR_NOMEM;
     return CULL_OK;
@@ -665,13 +664,13 @@ static int insert(cull_world *w, cull_occ_mesh *m, cull_occluder *out)
     if (w->nocc >= CULL_MAX_OCCLUDERS) return CULL_ERR_CAPACITY;
     int rc = reserve_clusters(w, m->ncl);
     if (rc != CULL_OK) return rc;
-    if (!cull_grow((void **)&w->occ, &w->cap_occ, (size_t)w->nocc + 1, sizeof *w->occ)) return CULL_ERR_NOMEM;
+    if (!vp_grow32((void **)&w->occ, &w->cap_occ, (size_t)w->nocc + 1, sizeof *w->occ)) return CULL_ERR_NOMEM;
     uint32_t slot;
     if (w->ofree_head != UINT32_MAX && w->ofree_head < w->noslots) {
         slot = w->ofree_head;
         w->ofree_head = w->oslots[slot].next_free;
     } else {
-        if (!cull_grow((void **)&w->oslots, &w->cap_oslots, (size_t)w->noslots + 1, sizeof *w->oslots))
+        if (!vp_grow32((void **)&w->oslots, &w->cap_oslots, (size_t)w->noslots + 1, sizeof *w->oslots))
             return CULL_ERR_NOMEM;
         slot = w->noslots++;
         w->oslots[slot] = (cull_occ_slot){.gen = 1, .next_free = UINT32_MAX};

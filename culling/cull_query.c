@@ -356,7 +356,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         regions += grid->nregions;
         cells += grid->ncells;
         size_t rstride = (grid->nregions + 4u) & ~(size_t)3;
-        if (!cull_grow((void **)&c->codes, &c->codes_cap, (rstride + cstride) * q->view_count, 1))
+        if (!vp_grow32((void **)&c->codes, &c->codes_cap, (rstride + cstride) * q->view_count, 1))
             return CULL_ERR_NOMEM;
         uint8_t *rcodes = c->codes, *ccodes = c->codes + rstride * q->view_count;
         for (uint32_t v = 0; v < q->view_count; v++)
@@ -391,8 +391,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                     cells_filtered++;
                     continue;
                 }
-                if (!cull_grow((void **)&c->kv, &c->kv_cap, (size_t)nkv + nrv, sizeof *c->kv) ||
-                    !cull_grow((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
+                if (!vp_grow32((void **)&c->kv, &c->kv_cap, (size_t)nkv + nrv, sizeof *c->kv) ||
+                    !vp_grow32((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
                     return CULL_ERR_NOMEM;
                 uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, c->kv + nkv,
                                           &cells_occluded);
@@ -428,7 +428,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     if (threads == 1) {
         /* counting through the filter: one block's results at a time */
         if (count_only && subs &&
-            !cull_grow((void **)&c->tres[0], &c->tres_cap[0], CULL_BLOCK_CAP + CULL_RESULT_PAD, sizeof(cull_result)))
+            !vp_grow32((void **)&c->tres[0], &c->tres_cap[0], CULL_BLOCK_CAP + CULL_RESULT_PAD, sizeof(cull_result)))
             return CULL_ERR_NOMEM;
         for (uint32_t i = 0; i < nitems; i++) {
             const cull_item *it = &c->items[i];
@@ -444,10 +444,10 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         }
     } else {
         uint32_t nchunks = (nitems + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
-        if (!cull_grow((void **)&c->chunks, &c->chunks_cap, nchunks + 1, sizeof *c->chunks))
+        if (!vp_grow32((void **)&c->chunks, &c->chunks_cap, nchunks + 1, sizeof *c->chunks))
             return CULL_ERR_NOMEM;
         for (uint32_t t = 0; t < threads; t++)
-            if (!cull_grow((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
+            if (!vp_grow32((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
                          sizeof(cull_result)))
                 return CULL_ERR_NOMEM;
         job j = {.c = c, .kp = &kp, .subs = subs, .items = c->items, .nitems = nitems, .nchunks = nchunks,

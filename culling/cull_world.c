@@ -179,7 +179,7 @@ int cull_entity_add(cull_world *w, const cull_entity_desc *desc, cull_handle *ou
     bool fresh = s == UINT32_MAX;
     if (fresh) {
         if (w->nslots >= w->max_entities) return CULL_ERR_CAPACITY;
-        if (!cull_grow((void **)&w->slots, &w->cap_slots, w->nslots + 1, sizeof *w->slots))
+        if (!vp_grow32((void **)&w->slots, &w->cap_slots, w->nslots + 1, sizeof *w->slots))
             return CULL_ERR_NOMEM;
         s = w->nslots;
         w->slots[s] = (cull_slot){.gen = 1};
@@ -236,7 +236,7 @@ int cull_world_slots_restore(cull_world *w, uint32_t n, const uint16_t *gens, co
     if (!w || w->nslots || n > w->max_entities || nfree > n) return CULL_ERR_INVALID;
     for (uint32_t s = 0; s < n; s++)
         if (gens[s] == 0 || gens[s] >= (1u << CULL_GEN_BITS)) return CULL_ERR_INVALID;
-    if (n && !cull_grow((void **)&w->slots, &w->cap_slots, n, sizeof *w->slots)) return CULL_ERR_NOMEM;
+    if (n && !vp_grow32((void **)&w->slots, &w->cap_slots, n, sizeof *w->slots)) return CULL_ERR_NOMEM;
     for (uint32_t s = 0; s < n; s++) w->slots[s] = (cull_slot){.gen = gens[s], .next_free = SLOT_RESERVED};
     /* the free list, in the order it hands slots out; a slot twice or out
        of range is a bad image */

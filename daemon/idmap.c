@@ -2,6 +2,7 @@
  * idmap.c — see idmap.h.
  */
 #include "idmap.h"
+#include "vp_grow.h"
 
 #include <stdlib.h>
 
@@ -35,9 +36,11 @@ static void put_nogrow(idmap *m, uint64_t key, uint64_t val)
 
 bool idmap_reserve(idmap *m, size_t need)
 {
-    if (need * 2 <= m->cap) return true;
-    size_t cap = m->cap ? m->cap : 64;
-    while (need * 2 > cap) cap *= 2;
+    if (need <= m->cap / 2) return true;
+    /* at most half full; a power of two (the probe masks with cap - 1) */
+    size_t cap = vp_grow_cap(m->cap, need <= SIZE_MAX / 2 ? need * 2 : SIZE_MAX, 64,
+                             sizeof *m->keys + sizeof *m->vals + 1, SIZE_MAX);
+    if (!cap) return false;
     idmap n = {.cap = cap};
     n.keys = malloc(cap * sizeof *n.keys);
     n.vals = malloc(cap * sizeof *n.vals);

@@ -14,12 +14,14 @@
  *   u32 aux      edit.h
  *   len bytes    the request's payload as it came off the socket
  *
- * all little-endian. A record is written with one writev; a short write is
- * cut back, so the file never ends inside a record the daemon knows of.
+ * all little-endian (vp_bytes.h). A record is written with one writev; a
+ * short write is cut back, so the file never ends inside a record the
+ * daemon knows of.
  */
 #include "journal.h"
 #include "log.h"
 #include "snapshot.h"
+#include "vp_bytes.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -72,29 +74,6 @@ struct journal {
     pid_t child;
     uint64_t child_gen;
 };
-
-/* ---- little-endian helpers ------------------------------------------------------- */
-
-static void put32(uint8_t *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put64(uint8_t *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++) p[i] = (uint8_t)(v >> (8 * i));
-}
-static uint32_t get32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-static uint64_t get64(const uint8_t *p)
-{
-    return (uint64_t)get32(p) | (uint64_t)get32(p + 4) << 32;
-}
-static uint16_t get16(const uint8_t *p)
-{
-    return (uint16_t)(p[0] | p[1] << 8);
-}
 
 static uint32_t crc(const uint8_t *a, size_t na, const uint8_t *b, size_t nb)
 {
@@ -199,9 +178,9 @@ static int start_file(journal *j, uint64_t gen, uint64_t seq)
     if (!rc) {
         uint8_t h[HDR_SIZE] = {0};
         memcpy(h, MAGIC, 8);
-        put64(h + 8, gen);
-        put64(h + 16, seq);
-        put32(h + 28, crc(h, 28, NULL, 0));
+        vp_st_u64(h + 8, gen);
+        vp_st_u64(h + 16, seq);
+        vp_st_u32(h + 28, crc(h, 28, NULL, 0));
         if (write(fd, h, HDR_SIZE) != (ssize_t)HDR_SIZE || fdatasync(fd)) rc = errno ? -errno : -EIO;
     }
     if (!rc) rc = sync_dir(j->dir);
@@ -229,14 +208,15 @@ static int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux
 {
     if (j->broken[0]) return -EROFS;
     uint8_t h[REC_HDR];
-    put32(h, len);
-    put64(h + 8, j->seq);
-    h[16] = (uint8_t)type;
-    h[17] = (uint8_t)(type >> 8);
-    h[18] = (uint8_t)load;
-    h[19] = (uint8_t)(load >> 8);
-    put32(h + 20, aux);
-    put32(h + 4, crc(h + 8, 16, p, len));
+    vp_writer hw;
+    vp_writer_init(&hw, h, sizeof h);
+    vp_put_u32(&hw, len);
+    vp_put_u32(&hw, 0); /* the CRC, of what follows it: patched below */
+    vp_put_u64(&hw, j->seq);
+    vp_put_u16(&hw, type);
+    vp_put_u16(&hw, load);
+    vp_put_u32(&hw, aux);
+    vp_st_u32(h + 4, crc(h + 8, 16, p, len));
     struct iovec iov[2] = {{h, REC_HDR}, {(void *)p, len}};
     size_t want = REC_HDR + (size_t)len, done = 0;
     int rc = 0;
@@ -512,15 +492,9 @@ static int list_gens(const char *dir, const char *kind, gens *out)
         uint64_t g;
         char k[16];
         if (!gen_name(e->d_name, k, &g) || strcmp(k, kind)) continue;
-        if (out->n == out->cap) {
-            size_t cap = out->cap ? out->cap * 2 : 8;
-            uint64_t *v = realloc(out->v, cap * sizeof *v);
-            if (!v) {
-                closedir(d);
-                return -ENOMEM;
-            }
-            out->v = v;
-            out->cap = cap;
+        if (!vp_grow((void **)&out->v, &out->cap, out->n + 1, sizeof *out->v)) {
+            closedir(d);
+            return -ENOMEM;
         }
         out->v[out->n++] = g;
     }
@@ -591,11 +565,11 @@ static bool intact_after(const uint8_t *p, size_t n, size_t from, uint64_t seq, 
 {
     for (size_t q = from; q + REC_HDR <= n; q++) {
         const uint8_t *r = p + q;
-        uint64_t s = get64(r + 8);
-        uint32_t len = get32(r);
+        uint64_t s = vp_ld_u64(r + 8);
+        uint32_t len = vp_ld_u32(r);
         /* a record's seq is at most one per REC_HDR bytes past seq */
         if (s < seq || s - seq > (n - from) / REC_HDR + 1 || len > REC_MAX || len > n - q - REC_HDR) continue;
-        if (get32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) continue;
+        if (vp_ld_u32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) continue;
         *at = q;
         *got = s;
         return true;
@@ -638,9 +612,9 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
     size_t off = 0;
     if (m.n < HDR_SIZE) why = "shorter than its header";
     else if (memcmp(m.p, MAGIC, 8)) why = "not a Vantage journal (bad magic)";
-    else if (get32(m.p + 28) != crc(m.p, 28, NULL, 0)) why = "header CRC mismatch";
-    else if (get64(m.p + 8) != gen) why = "header names another generation";
-    else if (get64(m.p + 16) != *seq) why = "its first record does not follow the one before";
+    else if (vp_ld_u32(m.p + 28) != crc(m.p, 28, NULL, 0)) why = "header CRC mismatch";
+    else if (vp_ld_u64(m.p + 8) != gen) why = "header names another generation";
+    else if (vp_ld_u64(m.p + 16) != *seq) why = "its first record does not follow the one before";
     if (why) {
         /* a header is written and synced before any record: a bad one
            means the file is not ours or the disk lied */
@@ -654,21 +628,21 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
     while (off < m.n) {
         const uint8_t *r = m.p + off;
         size_t left = m.n - off;
-        uint32_t len = left >= REC_HDR ? get32(r) : 0;
+        uint32_t len = left >= REC_HDR ? vp_ld_u32(r) : 0;
         if (left < REC_HDR) why = "a torn record header";
         else if (len > REC_MAX) why = "a record length no record has";
         else if (left - REC_HDR < len) why = "a torn record (shorter than its length)";
-        else if (get32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) why = "a record CRC mismatch";
-        else if (get64(r + 8) != *seq) why = "a record out of sequence";
+        else if (vp_ld_u32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) why = "a record CRC mismatch";
+        else if (vp_ld_u64(r + 8) != *seq) why = "a record out of sequence";
         if (why) break;
         edit e;
         edit_result res;
         scene_err se = {0};
-        uint16_t type = get16(r + 16);
+        uint16_t type = vp_ld_u16(r + 16);
         rc = edit_decode(type, r + REC_HDR, len, 0, &e);
         if (!rc) {
-            e.load = get16(r + 18);
-            e.aux = get32(r + 20);
+            e.load = vp_ld_u16(r + 18);
+            e.aux = vp_ld_u32(r + 20);
             rc = edit_apply(sc, &e, &res, &se);
             if (!rc) edit_result_free(&res);
         } else {

@@ -11,6 +11,7 @@
  * the types seen at least once; error counters for each (type, code) seen.
  */
 #include "server_internal.h"
+#include "vp_grow.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -95,9 +96,8 @@ void mbuf_put(mbuf *b, const char *s, size_t n)
 {
     if (b->oom) return;
     if (b->cap - b->len < n) {
-        size_t cap = b->cap ? b->cap : 16384;
-        while (cap - b->len < n) cap *= 2;
-        char *p = realloc(b->p, cap);
+        size_t cap = n <= SIZE_MAX - b->len ? vp_grow_cap(b->cap, b->len + n, 16384, 1, SIZE_MAX) : 0;
+        char *p = cap ? realloc(b->p, cap) : NULL;
         if (!p) {
             b->oom = true;
             return;

@@ -6,6 +6,7 @@
 #include "scene.h"
 #include "errmap.h"
 #include "log.h"
+#include "vp_grow.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -152,9 +153,8 @@ static uint32_t first_duplicate(const uint64_t *ids, uint32_t n, bool *nomem)
 static bool grow_id_of_slot(scene *s, uint32_t need)
 {
     if (need <= s->id_cap) return true;
-    uint32_t cap = s->id_cap ? s->id_cap : 1024;
-    while (cap < need) cap *= 2;
-    uint64_t *n = realloc(s->id_of_slot, (size_t)cap * sizeof *n);
+    uint32_t cap = (uint32_t)vp_grow_cap(s->id_cap, need, 1024, sizeof(uint64_t), (size_t)1 << 31);
+    uint64_t *n = cap ? realloc(s->id_of_slot, (size_t)cap * sizeof *n) : NULL;
     if (!n) return false;
     memset(n + s->id_cap, 0, (size_t)(cap - s->id_cap) * sizeof *n);
     s->id_of_slot = n;

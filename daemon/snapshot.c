@@ -1,7 +1,8 @@
 /*
  * snapshot.c — the scene written whole and read back exactly (snapshot.h).
  *
- * The body, in order (integers and floats little-endian, as the host):
+ * The body, in order (integers and floats little-endian, vp_bytes.h; the
+ * arrays of floats and ids copied as they are, the host being little-endian):
  *   u64 epoch, edits, debris_next; u32 sub-levels
  *   per sub-level 1..n: u8 name length, name, u8 state, u32 owner,
  *     u16 class base, u16 classes, u32 members capacity, u32 members, u64
@@ -43,68 +44,68 @@ static const char MAGIC_V1[8] = {'V', 'N', 'T', 'S', 'N', 'A', 'P', '1'}; /* den
 
 typedef struct out {
     int fd;
-    uint8_t *buf;
-    size_t len, cap;
-    uint64_t total;
-    uLong crc;
+    vp_writer w;    /* over a buffer of its own, written out when full */
+    uint64_t total; /* bytes written out */
+    uLong crc;      /* of them */
     int err;
 } out;
 
 static void flush(out *o)
 {
+    if (o->w.len) {
+        o->crc = crc32(o->crc, o->w.p, (uInt)o->w.len); /* the buffer is < 4 GiB */
+        o->total += o->w.len;
+    }
     size_t done = 0;
-    while (!o->err && done < o->len) {
-        ssize_t w = write(o->fd, o->buf + done, o->len - done);
+    while (!o->err && done < o->w.len) {
+        ssize_t w = write(o->fd, o->w.p + done, o->w.len - done);
         if (w > 0) done += (size_t)w;
         else if (w < 0 && errno == EINTR) continue;
         else o->err = w < 0 ? errno : ENOSPC;
     }
-    o->len = 0;
+    o->w.len = 0;
 }
 
+/* The writer, with room for one more scalar (8 bytes). */
+static vp_writer *wr(out *o)
+{
+    if (o->w.cap - o->w.len < 8) flush(o);
+    return &o->w;
+}
+
+/* n bytes as they are (host order: the arrays of floats and ids), streamed
+ * through the buffer; p may be NULL when n is 0 (a sub-level with no
+ * members yet). */
 static void put(out *o, const void *p, size_t n)
 {
     const uint8_t *b = p;
-    /* an empty piece may come with a NULL pointer (a sub-level with no
-       members yet), and zlib's crc32(c, NULL, 0) does not return c: it
-       returns 0, the initial value, which silently restarted the running
-       CRC and made every snapshot holding such a piece unreadable */
-    if (!n) return;
-    o->crc = crc32(o->crc, b, (uInt)n); /* n < 4 GiB: every piece is */
-    o->total += n;
     while (n) {
-        if (o->len == o->cap) flush(o);
-        size_t k = n < o->cap - o->len ? n : o->cap - o->len;
-        memcpy(o->buf + o->len, b, k);
-        o->len += k;
+        if (o->w.len == o->w.cap) flush(o);
+        size_t k = n < o->w.cap - o->w.len ? n : o->w.cap - o->w.len;
+        vp_put_bytes(&o->w, b, k);
         b += k;
         n -= k;
     }
 }
 
-#define PUT(o, v) put((o), &(v), sizeof(v))
-static void put8(out *o, uint8_t v) { PUT(o, v); }
-static void put16(out *o, uint16_t v) { PUT(o, v); }
-static void put32(out *o, uint32_t v) { PUT(o, v); }
-static void put64(out *o, uint64_t v) { PUT(o, v); }
+/* A sub-level's fixed fields, in file order, written from a scene_sublevel
+ * and read into a sl_saved (the same names): one list for both ways. */
+#define SL_FIELDS(X) X(u8, state) X(u32, owner) X(u16, class_base) X(u16, classes) X(u32, members_cap) X(u32, nmembers)
 
 static void write_sublevels(out *o, const scene *s)
 {
-    put32(o, s->nsublevels);
+    vp_put_u32(wr(o), s->nsublevels);
     for (uint32_t id = 1; id <= s->nsublevels; id++) {
         const scene_sublevel *l = &s->sl[id];
         size_t nl = strlen(l->name);
-        put8(o, (uint8_t)nl);
+        vp_put_u8(wr(o), (uint8_t)nl);
         put(o, l->name, nl);
-        put8(o, l->state);
-        put32(o, l->owner);
-        put16(o, l->class_base);
-        put16(o, l->classes);
-        put32(o, l->members_cap);
-        put32(o, l->nmembers);
+#define SL_PUT(t, f) vp_put_##t(wr(o), l->f);
+        SL_FIELDS(SL_PUT)
+#undef SL_PUT
         put(o, l->members, (size_t)l->nmembers * 8);
-        put32(o, l->ndoomed);
-        put32(o, l->doomed_pos);
+        vp_put_u32(wr(o), l->ndoomed);
+        vp_put_u32(wr(o), l->doomed_pos);
         put(o, l->doomed, (size_t)l->ndoomed * 8);
     }
     /* the hidden bitmap and the class owners, sparse (version 2): a
@@ -112,21 +113,21 @@ static void write_sublevels(out *o, const scene *s)
        arrays whole (version 1, still read) */
     uint32_t n = 0;
     for (uint32_t i = 0; i < CULL_SUBLEVEL_WORDS; i++) n += s->hidden[i] != 0;
-    put32(o, n);
+    vp_put_u32(wr(o), n);
     for (uint32_t i = 0; i < CULL_SUBLEVEL_WORDS; i++)
         if (s->hidden[i]) {
-            put32(o, i);
-            put64(o, s->hidden[i]);
+            vp_put_u32(wr(o), i);
+            vp_put_u64(wr(o), s->hidden[i]);
         }
-    put32(o, s->nhidden);
-    put32(o, s->unloading);
+    vp_put_u32(wr(o), s->nhidden);
+    vp_put_u32(wr(o), s->unloading);
     n = 0;
     for (uint32_t c = 0; c < 65536; c++) n += s->class_owner[c] != 0;
-    put32(o, n);
+    vp_put_u32(wr(o), n);
     for (uint32_t c = 0; c < 65536; c++)
         if (s->class_owner[c]) {
-            put16(o, (uint16_t)c);
-            put16(o, s->class_owner[c]);
+            vp_put_u16(wr(o), (uint16_t)c);
+            vp_put_u16(wr(o), s->class_owner[c]);
         }
 }
 
@@ -134,15 +135,15 @@ static void write_meshes(out *o, const scene *s)
 {
     uint32_t n = 0;
     for (uint32_t c = 0; c < 65536; c++) n += s->meshes[c].pos != NULL;
-    put32(o, n);
+    vp_put_u32(wr(o), n);
     for (uint32_t c = 0; c < 65536; c++) {
         const scene_mesh *m = &s->meshes[c];
         if (!m->pos) continue;
-        put16(o, (uint16_t)c);
-        put32(o, m->nv);
-        put32(o, m->ni);
+        vp_put_u16(wr(o), (uint16_t)c);
+        vp_put_u32(wr(o), m->nv);
+        vp_put_u32(wr(o), m->ni);
         put(o, m->pos, (size_t)m->nv * 12);
-        put8(o, m->nrm != NULL);
+        vp_put_u8(wr(o), m->nrm != NULL);
         if (m->nrm) put(o, m->nrm, (size_t)m->nv * 12);
         put(o, m->idx, (size_t)m->ni * 4);
     }
@@ -172,11 +173,11 @@ static int write_entities(out *o, const scene *s)
         live += on;
     }
     uint32_t nfree = cull_world_free_list(s->world, fl, nslots);
-    put32(o, nslots);
+    vp_put_u32(wr(o), nslots);
     put(o, gens, (size_t)nslots * 2);
-    put32(o, nfree);
+    vp_put_u32(wr(o), nfree);
     put(o, fl, (size_t)nfree * 4);
-    put32(o, live);
+    vp_put_u32(wr(o), live);
     uint32_t k = 0;
     for (uint32_t i = 0; i <= nslots; i++) {
         bool on = false;
@@ -190,7 +191,7 @@ static int write_entities(out *o, const scene *s)
             vp_writer w;
             vp_writer_init(&w, buf, bufsz);
             vp_enc_entities(&w, VP_ENTITY_ADD, 0, recs, k);
-            put32(o, (uint32_t)(w.len - VP_HEADER_SIZE));
+            vp_put_u32(wr(o), (uint32_t)(w.len - VP_HEADER_SIZE));
             put(o, buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
             put(o, hs, (size_t)k * 4);
             k = 0;
@@ -206,34 +207,34 @@ static int write_entities(out *o, const scene *s)
 
 static void write_items(out *o, const scene *s)
 {
-    put32(o, (uint32_t)s->destruct.count);
+    vp_put_u32(wr(o), (uint32_t)s->destruct.count);
     for (size_t i = 0; i < s->destruct.cap; i++) {
         if (!s->destruct.used[i]) continue;
         const cull_dvol *v = &((const scene_destruct *)(uintptr_t)s->destruct.vals[i])->v;
         size_t total = (size_t)v->n[0] * v->n[1] * v->n[2];
-        put64(o, s->destruct.keys[i]);
+        vp_put_u64(wr(o), s->destruct.keys[i]);
         put(o, v->origin, sizeof v->origin);
         put(o, v->step, sizeof v->step);
         put(o, v->n, sizeof v->n);
-        put64(o, v->version);
-        put32(o, v->nsph);
+        vp_put_u64(wr(o), v->version);
+        vp_put_u32(wr(o), v->nsph);
         put(o, v->sph, (size_t)v->nsph * sizeof *v->sph);
         put(o, v->d, total * 4);
         put(o, v->px, total * 4);
         put(o, v->py, total * 4);
         put(o, v->pz, total * 4);
     }
-    put32(o, (uint32_t)s->occluders.count);
+    vp_put_u32(wr(o), (uint32_t)s->occluders.count);
     for (size_t i = 0; i < s->occluders.cap; i++) {
         if (!s->occluders.used[i]) continue;
         const scene_occluder *oc = (const scene_occluder *)(uintptr_t)s->occluders.vals[i];
-        put64(o, oc->id);
-        put16(o, oc->sublevel);
+        vp_put_u64(wr(o), oc->id);
+        vp_put_u16(wr(o), oc->sublevel);
         put(o, oc->origin, sizeof oc->origin);
-        put32(o, oc->ntris);
+        vp_put_u32(wr(o), oc->ntris);
         put(o, oc->verts, (size_t)oc->ntris * 36);
     }
-    put32(o, (uint32_t)s->lights.count);
+    vp_put_u32(wr(o), (uint32_t)s->lights.count);
     for (size_t i = 0; i < s->lights.cap; i++) {
         if (!s->lights.used[i]) continue;
         const scene_light *l = (const scene_light *)(uintptr_t)s->lights.vals[i];
@@ -241,90 +242,64 @@ static void write_items(out *o, const scene *s)
         vp_writer w;
         vp_writer_init(&w, buf, sizeof buf);
         vp_enc_lights(&w, 0, &l->l, 1);
-        put16(o, l->sublevel);
+        vp_put_u16(wr(o), l->sublevel);
         put(o, buf + VP_HEADER_SIZE + 4, VP_LIGHT_SIZE);
     }
 }
 
 int snapshot_write(int fd, const scene *s, uint64_t gen, uint64_t seq)
 {
-    out o = {.fd = fd, .cap = 1u << 20, .crc = crc32(0L, Z_NULL, 0)};
-    if (!(o.buf = malloc(o.cap))) return -ENOMEM;
+    out o = {.fd = fd, .crc = crc32(0L, Z_NULL, 0)};
+    size_t cap = 1u << 20;
+    uint8_t *buf = malloc(cap);
+    if (!buf) return -ENOMEM;
+    vp_writer_init(&o.w, buf, cap);
     if (lseek(fd, HDR, SEEK_SET) != (off_t)HDR) {
-        free(o.buf);
+        free(buf);
         return -errno;
     }
-    put64(&o, s->epoch);
-    put64(&o, s->edits);
-    put64(&o, s->debris_next);
+    vp_put_u64(wr(&o), s->epoch);
+    vp_put_u64(wr(&o), s->edits);
+    vp_put_u64(wr(&o), s->debris_next);
     write_sublevels(&o, s);
     write_meshes(&o, s);
     int rc = write_entities(&o, s);
     write_items(&o, s);
     flush(&o);
-    free(o.buf);
+    free(buf);
     if (rc) return rc;
     if (o.err) return -o.err;
     uint8_t h[HDR];
-    uint32_t body_crc = (uint32_t)o.crc;
-    memcpy(h, MAGIC, 8);
-    memcpy(h + 8, &gen, 8);
-    memcpy(h + 16, &seq, 8);
-    memcpy(h + 24, &o.total, 8);
-    memcpy(h + 32, &body_crc, 4);
-    uint32_t hc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), h, 36);
-    memcpy(h + 36, &hc, 4);
+    vp_writer hw;
+    vp_writer_init(&hw, h, sizeof h);
+    vp_put_bytes(&hw, MAGIC, 8);
+    vp_put_u64(&hw, gen);
+    vp_put_u64(&hw, seq);
+    vp_put_u64(&hw, o.total);
+    vp_put_u32(&hw, (uint32_t)o.crc);
+    vp_put_u32(&hw, (uint32_t)crc32(crc32(0L, Z_NULL, 0), h, 36));
     if (pwrite(fd, h, HDR, 0) != (ssize_t)HDR) return errno ? -errno : -EIO;
     return 0;
 }
 
-/* ---- reading: a bounds-checked cursor ------------------------------------------------------- */
+/* ---- reading: vp_bytes.h's checked reader ------------------------------------------------------ */
 
-typedef struct in {
-    const uint8_t *p;
-    size_t n, at;
-    bool bad;
-    bool v1; /* the hidden bitmap and class owners whole */
-} in;
-
-static const void *take(in *r, size_t n)
-{
-    if (r->bad || n > r->n - r->at) {
-        r->bad = true;
-        return NULL;
-    }
-    const void *p = r->p + r->at;
-    r->at += n;
-    return p;
-}
-
-static void get(in *r, void *dst, size_t n)
-{
-    const void *p = take(r, n);
-    if (p) memcpy(dst, p, n);
-    else memset(dst, 0, n);
-}
-
-static uint8_t get8(in *r) { uint8_t v; get(r, &v, 1); return v; }
-static uint16_t get16(in *r) { uint16_t v; get(r, &v, 2); return v; }
-static uint32_t get32(in *r) { uint32_t v; get(r, &v, 4); return v; }
-static uint64_t get64(in *r) { uint64_t v; get(r, &v, 8); return v; }
-
-/* A fresh array of n elements of size sz copied from the stream (NULL when
- * n is 0 or the stream is short / memory out: *bad set for the latter). */
-static void *take_array(in *r, size_t n, size_t sz, bool *nomem)
+/* r->short_read is the reader's sticky failure: set by a read past the end
+ * and, here, by an inconsistent record too, it stops every later read.
+ *
+ * A fresh array of n elements of size sz copied from the stream (NULL when
+ * n is 0 or the stream is short / memory out: *nomem set for the latter). */
+static void *take_array(vp_reader *r, size_t n, size_t sz, bool *nomem)
 {
     if (!n) return NULL;
-    if (n > (r->n - r->at) / sz) {
-        r->bad = true;
-        return NULL;
-    }
+    const uint8_t *p = vp_get_array(r, n, sz);
+    if (!p) return NULL;
     void *m = malloc(n * sz);
     if (!m) {
         *nomem = true;
         return NULL;
     }
-    get(r, m, n * sz);
+    memcpy(m, p, n * sz);
     return m;
 }
 
@@ -341,121 +316,118 @@ typedef struct sl_saved {
     uint64_t *members, *doomed;
 } sl_saved;
 
-static int load_body(in *r, scene *s, char *err, size_t errlen)
+static int load_body(vp_reader *r, bool v1, scene *s, char *err, size_t errlen)
 {
     bool nomem = false;
-    uint64_t epoch = get64(r), edits = get64(r), debris = get64(r);
-    uint32_t nsl = get32(r);
+    uint64_t epoch = vp_get_u64(r), edits = vp_get_u64(r), debris = vp_get_u64(r);
+    uint32_t nsl = vp_get_u32(r);
     if (nsl > SCENE_MAX_SUBLEVELS) return fail(err, errlen, "more sub-levels than a scene holds");
     sl_saved *sv = calloc((size_t)nsl + 1, sizeof *sv);
     if (!sv) return fail(err, errlen, "out of memory");
     int ret = -1;
     const char *why = "truncated or corrupt";
-    for (uint32_t id = 1; id <= nsl && !r->bad; id++) {
-        uint8_t nl = get8(r);
-        const char *name = take(r, nl);
+    for (uint32_t id = 1; id <= nsl && !r->short_read; id++) {
+        uint8_t nl = vp_get_u8(r);
+        const char *name = (const char *)vp_get_bytes(r, nl);
         if (!name) break;
         s->sl[id].name = strndup(name, nl);
         s->nsublevels = id;
         sl_saved *v = &sv[id];
-        v->state = get8(r);
-        v->owner = get32(r);
-        v->class_base = get16(r);
-        v->classes = get16(r);
-        v->members_cap = get32(r);
-        v->nmembers = get32(r);
+#define SL_GET(t, f) v->f = vp_get_##t(r);
+        SL_FIELDS(SL_GET)
+#undef SL_GET
         v->members = take_array(r, v->nmembers, 8, &nomem);
-        v->ndoomed = get32(r);
-        v->doomed_pos = get32(r);
+        v->ndoomed = vp_get_u32(r);
+        v->doomed_pos = vp_get_u32(r);
         v->doomed = take_array(r, v->ndoomed, 8, &nomem);
         if (!s->sl[id].name || nomem) goto out_nomem;
         if (v->nmembers > v->members_cap || v->doomed_pos > v->ndoomed ||
             (v->state && v->state != VP_SL_LOADING && v->state != VP_SL_UNLOADING)) {
             why = "a sub-level record is inconsistent";
-            r->bad = true;
+            r->short_read = true;
         }
     }
     uint64_t hidden[CULL_SUBLEVEL_WORDS] = {0};
     uint32_t nhidden, unloading;
-    if (r->v1) {
-        get(r, hidden, sizeof hidden);
-        nhidden = get32(r);
-        unloading = get32(r);
-        get(r, s->class_owner, 65536 * sizeof *s->class_owner);
+    if (v1) {
+        vp_get_copy(r, hidden, sizeof hidden);
+        nhidden = vp_get_u32(r);
+        unloading = vp_get_u32(r);
+        vp_get_copy(r, s->class_owner, 65536 * sizeof *s->class_owner);
     } else {
-        uint32_t n = get32(r);
-        for (uint32_t i = 0; i < n && !r->bad; i++) {
-            uint32_t w = get32(r);
-            uint64_t bits = get64(r);
+        uint32_t n = vp_get_u32(r);
+        for (uint32_t i = 0; i < n && !r->short_read; i++) {
+            uint32_t w = vp_get_u32(r);
+            uint64_t bits = vp_get_u64(r);
             if (w >= CULL_SUBLEVEL_WORDS || hidden[w] || !bits) {
                 why = "the hidden sub-levels are inconsistent";
-                r->bad = true;
+                r->short_read = true;
             } else {
                 hidden[w] = bits;
             }
         }
-        nhidden = get32(r);
-        unloading = get32(r);
-        n = get32(r);
-        for (uint32_t i = 0; i < n && !r->bad; i++) {
-            uint16_t c = get16(r), owner = get16(r);
+        nhidden = vp_get_u32(r);
+        unloading = vp_get_u32(r);
+        n = vp_get_u32(r);
+        for (uint32_t i = 0; i < n && !r->short_read; i++) {
+            uint16_t c = vp_get_u16(r), owner = vp_get_u16(r);
             if (s->class_owner[c] || !owner) {
                 why = "the class reservations are inconsistent";
-                r->bad = true;
+                r->short_read = true;
             } else {
                 s->class_owner[c] = owner;
             }
         }
     }
-    if (r->bad) goto out;
+    if (r->short_read) goto out;
     /* meshes */
-    uint32_t nm = get32(r);
-    for (uint32_t i = 0; i < nm && !r->bad; i++) {
-        uint16_t c = get16(r);
+    uint32_t nm = vp_get_u32(r);
+    for (uint32_t i = 0; i < nm && !r->short_read; i++) {
+        uint16_t c = vp_get_u16(r);
         scene_mesh *m = &s->meshes[c];
         if (m->pos) {
             why = "a mesh class twice";
-            r->bad = true;
+            r->short_read = true;
             break;
         }
-        m->nv = get32(r);
-        m->ni = get32(r);
+        m->nv = vp_get_u32(r);
+        m->ni = vp_get_u32(r);
         m->pos = take_array(r, m->nv, 12, &nomem);
-        if (get8(r)) m->nrm = take_array(r, m->nv, 12, &nomem);
+        if (vp_get_u8(r)) m->nrm = take_array(r, m->nv, 12, &nomem);
         m->idx = take_array(r, m->ni, 4, &nomem);
         if (nomem) goto out_nomem;
-        if (!m->pos || !m->idx) r->bad = true;
+        if (!m->pos || !m->idx) r->short_read = true;
         else s->nmeshes++;
     }
-    if (r->bad) goto out;
+    if (r->short_read) goto out;
     /* the handle allocator, then the entities at their handles */
-    uint32_t nslots = get32(r);
+    uint32_t nslots = vp_get_u32(r);
     if (nslots > CULL_MAX_ENTITIES) {
-        r->bad = true;
+        r->short_read = true;
         goto out;
     }
     uint16_t *gens = take_array(r, nslots, 2, &nomem);
-    uint32_t nfree = get32(r);
+    uint32_t nfree = vp_get_u32(r);
     uint32_t *fl = take_array(r, nfree, 4, &nomem);
-    int crc = r->bad || nomem ? CULL_ERR_INVALID : cull_world_slots_restore(s->world, nslots, gens, fl, nfree);
+    int crc = r->short_read || nomem ? CULL_ERR_INVALID : cull_world_slots_restore(s->world, nslots, gens, fl, nfree);
     free(gens);
     free(fl);
     if (nomem) goto out_nomem;
     if (crc) {
         why = crc == CULL_ERR_NOMEM ? "out of memory" : "the handle table is inconsistent";
-        r->bad = true;
+        r->short_read = true;
         goto out;
     }
-    uint32_t live = get32(r);
-    for (uint32_t done = 0; done < live && !r->bad;) {
-        uint32_t len = get32(r);
-        const uint8_t *payload = take(r, len);
+    uint32_t live = vp_get_u32(r);
+    for (uint32_t done = 0; done < live && !r->short_read;) {
+        uint32_t len = vp_get_u32(r);
+        const uint8_t *payload = vp_get_bytes(r, len);
         vp_entity_batch b;
         if (!payload || vp_dec_entities(payload, len, 0, &b) || b.count > live - done) {
-            r->bad = true;
+            r->short_read = true;
             break;
         }
-        const uint8_t *hs = take(r, (size_t)b.count * 4);
+        const uint8_t *hs = vp_get_bytes(r, (size_t)b.count * 4);
         uint32_t *h = hs ? malloc((size_t)b.count * 4) : NULL;
         if (!hs) break;
         if (!h) goto out_nomem;
@@ -469,27 +441,27 @@ static int load_body(in *r, scene *s, char *err, size_t errlen)
         }
         done += b.count;
     }
-    if (r->bad) goto out;
+    if (r->short_read) goto out;
     /* destruction volumes before the occluders (they are drawn cut) */
-    uint32_t nd = get32(r);
-    for (uint32_t i = 0; i < nd && !r->bad; i++) {
-        uint64_t eid = get64(r);
+    uint32_t nd = vp_get_u32(r);
+    for (uint32_t i = 0; i < nd && !r->short_read; i++) {
+        uint64_t eid = vp_get_u64(r);
         scene_destruct *d = calloc(1, sizeof *d);
         if (!d || !idmap_reserve(&s->destruct, s->destruct.count + 1)) {
             free(d);
             goto out_nomem;
         }
         cull_dvol *v = &d->v;
-        get(r, v->origin, sizeof v->origin);
-        get(r, v->step, sizeof v->step);
-        get(r, v->n, sizeof v->n);
-        v->version = get64(r);
-        v->nsph = get32(r);
+        vp_get_copy(r, v->origin, sizeof v->origin);
+        vp_get_copy(r, v->step, sizeof v->step);
+        vp_get_copy(r, v->n, sizeof v->n);
+        v->version = vp_get_u64(r);
+        v->nsph = vp_get_u32(r);
         size_t total = (size_t)v->n[0] * v->n[1] * v->n[2];
         if (v->n[0] < 2 || v->n[1] < 2 || v->n[2] < 2 || v->n[0] > CULL_DVOL_MAX_RES || v->n[1] > CULL_DVOL_MAX_RES ||
             v->n[2] > CULL_DVOL_MAX_RES) {
             free(d);
-            r->bad = true;
+            r->short_read = true;
             break;
         }
         v->sph = take_array(r, v->nsph, sizeof *v->sph, &nomem);
@@ -501,24 +473,24 @@ static int load_body(in *r, scene *s, char *err, size_t errlen)
         idmap_put(&s->destruct, eid, (uint64_t)(uintptr_t)d); /* freed with the scene from here on */
         if (nomem) goto out_nomem;
     }
-    if (r->bad) goto out;
-    uint32_t no = get32(r);
-    for (uint32_t i = 0; i < no && !r->bad; i++) {
+    if (r->short_read) goto out;
+    uint32_t no = vp_get_u32(r);
+    for (uint32_t i = 0; i < no && !r->short_read; i++) {
         scene_occluder *oc = calloc(1, sizeof *oc);
         if (!oc || !idmap_reserve(&s->occluders, s->occluders.count + 1)) {
             free(oc);
             goto out_nomem;
         }
-        oc->id = get64(r);
-        oc->sublevel = get16(r);
-        get(r, oc->origin, sizeof oc->origin);
-        oc->ntris = get32(r);
+        oc->id = vp_get_u64(r);
+        oc->sublevel = vp_get_u16(r);
+        vp_get_copy(r, oc->origin, sizeof oc->origin);
+        oc->ntris = vp_get_u32(r);
         oc->verts = take_array(r, (size_t)oc->ntris * 9, 4, &nomem);
-        if (r->bad || nomem || oc->sublevel > s->nsublevels || idmap_get(&s->occluders, oc->id, NULL)) {
+        if (r->short_read || nomem || oc->sublevel > s->nsublevels || idmap_get(&s->occluders, oc->id, NULL)) {
             free(oc->verts);
             free(oc);
             if (nomem) goto out_nomem;
-            r->bad = true;
+            r->short_read = true;
             break;
         }
         idmap_put(&s->occluders, oc->id, (uint64_t)(uintptr_t)oc);
@@ -529,10 +501,10 @@ static int load_body(in *r, scene *s, char *err, size_t errlen)
             goto out_free;
         }
     }
-    uint32_t nli = get32(r);
-    for (uint32_t i = 0; i < nli && !r->bad; i++) {
-        uint16_t sub = get16(r);
-        const uint8_t *rec = take(r, VP_LIGHT_SIZE);
+    uint32_t nli = vp_get_u32(r);
+    for (uint32_t i = 0; i < nli && !r->short_read; i++) {
+        uint16_t sub = vp_get_u16(r);
+        const uint8_t *rec = vp_get_bytes(r, VP_LIGHT_SIZE);
         scene_light *l = malloc(sizeof *l);
         if (!l || !idmap_reserve(&s->lights, s->lights.count + 1)) {
             free(l);
@@ -540,15 +512,15 @@ static int load_body(in *r, scene *s, char *err, size_t errlen)
         }
         if (!rec || sub > s->nsublevels || vp_light_get(rec, 1, 0, &l->l) || idmap_get(&s->lights, l->l.id, NULL)) {
             free(l);
-            r->bad = true;
+            r->short_read = true;
             break;
         }
         l->sublevel = sub;
         idmap_put(&s->lights, l->l.id, (uint64_t)(uintptr_t)l);
         s->sl[sub].lights++;
     }
-    if (r->bad) goto out;
-    if (r->at != r->n) {
+    if (r->short_read) goto out;
+    if (r->pos != r->len) {
         why = "bytes after its end";
         goto out;
     }
@@ -584,9 +556,9 @@ static int load_body(in *r, scene *s, char *err, size_t errlen)
     goto out_free;
 out_nomem:
     why = "out of memory";
-    r->bad = true;
+    r->short_read = true;
 out:
-    snprintf(err, errlen, "%s (at offset %zu)", why, r->at + HDR);
+    snprintf(err, errlen, "%s (at offset %zu)", why, r->pos + HDR);
 out_free:
     for (uint32_t id = 0; id <= nsl; id++) {
         free(sv[id].members);
@@ -605,15 +577,12 @@ int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *
     }
     bool v1 = !memcmp(p, MAGIC_V1, 8);
     if (!v1 && memcmp(p, MAGIC, 8)) return fail(err, errlen, "not a Vantage snapshot (bad magic at offset 0)");
-    uint32_t hc;
-    memcpy(&hc, p + 36, 4);
+    vp_reader h;
+    vp_reader_init(&h, p + 8, HDR - 8);
+    uint64_t g = vp_get_u64(&h), first = vp_get_u64(&h), body = vp_get_u64(&h);
+    uint32_t bc = vp_get_u32(&h), hc = vp_get_u32(&h);
     if (hc != (uint32_t)crc32(crc32(0L, Z_NULL, 0), p, 36)) return fail(err, errlen, "header CRC mismatch: the header (offset 0, 40 bytes) is damaged");
-    uint64_t g, body;
-    uint32_t bc;
-    memcpy(&g, p + 8, 8);
-    memcpy(seq, p + 16, 8);
-    memcpy(&body, p + 24, 8);
-    memcpy(&bc, p + 32, 4);
+    *seq = first;
     if (g != gen) return fail(err, errlen, "its header names another generation (offset 8)");
     if (body != n - HDR) {
         snprintf(why, sizeof why, "truncated or extended: %zu bytes, its header says %llu (offset %zu)", n,
@@ -631,6 +600,7 @@ int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *
                  (unsigned long long)body);
         return fail(err, errlen, why);
     }
-    in r = {.p = p + HDR, .n = (size_t)body, .v1 = v1};
-    return load_body(&r, s, err, errlen);
+    vp_reader r;
+    vp_reader_init(&r, p + HDR, (size_t)body);
+    return load_body(&r, v1, s, err, errlen);
 }

@@ -11,6 +11,7 @@
  * scene lock (exclusive).
  */
 #include "scene.h"
+#include "vp_grow.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -241,9 +242,8 @@ bool scene_members_reserve(scene *s, const cull_entity_desc *descs, uint32_t n)
         /* entities leave without telling the list: drop those first when
            it has grown well past the sub-level */
         if (l->nmembers > 2 * s->sl_entities[id] + 1024) members_compact(s, l, id);
-        size_t cap = l->members_cap ? l->members_cap : 1024;
-        while (cap < (size_t)l->nmembers + n) cap *= 2;
-        if (cap > UINT32_MAX) return false;
+        size_t cap = vp_grow_cap(l->members_cap, (size_t)l->nmembers + n, 1024, sizeof(uint64_t), (size_t)1 << 31);
+        if (!cap) return false;
         uint64_t *m = realloc(l->members, cap * sizeof *m);
         if (!m) return false;
         l->members = m;

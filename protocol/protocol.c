@@ -1,8 +1,9 @@
 /*
  * protocol.c — see protocol.h and PROTOCOL.md: errors and type names,
- * framing, the writer and reader, and the session messages. The scene
- * and query messages are in vp_messages.c. Byte-level reads and writes are
- * explicit little-endian shifts, so the code is right on any host.
+ * framing (on vp_bytes.h's writer and reader), and the session messages.
+ * The scene and query messages are in vp_messages.c. Byte-level reads and
+ * writes are vp_bytes.h's explicit little-endian shifts, so the code is
+ * right on any host.
  * Decoders check sizes from the counts before touching records and never
  * allocate; a payload is either accepted whole or rejected with a code.
  */
@@ -93,63 +94,8 @@ int vp_frame_check(const uint8_t *buf, size_t n, uint32_t max_payload, vp_header
     return n >= *frame_size ? VP_OK : VP_NEED_MORE;
 }
 
-/* ---- writer ------------------------------------------------------------------------- */
-
-void vp_writer_init(vp_writer *w, uint8_t *buf, size_t cap)
-{
-    *w = (vp_writer){.p = buf, .cap = cap};
-}
-
-uint8_t *vp_reserve(vp_writer *w, size_t n)
-{
-    if (w->overflow || w->cap - w->len < n) {
-        w->overflow = true;
-        return NULL;
-    }
-    uint8_t *p = w->p + w->len;
-    w->len += n;
-    return p;
-}
-
-void vp_put_u8(vp_writer *w, uint8_t v)
-{
-    uint8_t *p = vp_reserve(w, 1);
-    if (p) *p = v;
-}
-void vp_put_u16(vp_writer *w, uint16_t v)
-{
-    uint8_t *p = vp_reserve(w, 2);
-    if (p) wr16(p, v);
-}
-void vp_put_u32(vp_writer *w, uint32_t v)
-{
-    uint8_t *p = vp_reserve(w, 4);
-    if (p) wr32(p, v);
-}
-void vp_put_u64(vp_writer *w, uint64_t v)
-{
-    uint8_t *p = vp_reserve(w, 8);
-    if (p) wr64(p, v);
-}
-void vp_put_i32(vp_writer *w, int32_t v) { vp_put_u32(w, (uint32_t)v); }
-void vp_put_f32(vp_writer *w, float v)
-{
-    uint32_t u;
-    memcpy(&u, &v, sizeof u);
-    vp_put_u32(w, u);
-}
-void vp_put_f64(vp_writer *w, double v)
-{
-    uint64_t u;
-    memcpy(&u, &v, sizeof u);
-    vp_put_u64(w, u);
-}
-void vp_put_bytes(vp_writer *w, const void *src, size_t n)
-{
-    uint8_t *p = vp_reserve(w, n);
-    if (p && n) memcpy(p, src, n);
-}
-
+/* The writer and the reader are vp_bytes.h's; a frame is written on the
+ * writer and a payload finished on the reader here. */
 void vp_frame_begin(vp_writer *w, uint16_t type, uint32_t req)
 {
     w->frame_start = w->len;
@@ -171,58 +117,6 @@ bool vp_frame_end(vp_writer *w)
     return true;
 }
 
-/* ---- reader -------------------------------------------------------------------------- */
-
-void vp_reader_init(vp_reader *r, const uint8_t *p, size_t len)
-{
-    *r = (vp_reader){.p = p, .len = len};
-}
-
-static const uint8_t *take(vp_reader *r, size_t n)
-{
-    if (r->short_read || r->len - r->pos < n) {
-        r->short_read = true;
-        return NULL;
-    }
-    const uint8_t *p = r->p + r->pos;
-    r->pos += n;
-    return p;
-}
-
-uint8_t vp_get_u8(vp_reader *r)
-{
-    const uint8_t *p = take(r, 1);
-    return p ? *p : 0;
-}
-uint16_t vp_get_u16(vp_reader *r)
-{
-    const uint8_t *p = take(r, 2);
-    return p ? rd16(p) : 0;
-}
-uint32_t vp_get_u32(vp_reader *r)
-{
-    const uint8_t *p = take(r, 4);
-    return p ? rd32(p) : 0;
-}
-uint64_t vp_get_u64(vp_reader *r)
-{
-    const uint8_t *p = take(r, 8);
-    return p ? rd64(p) : 0;
-}
-int32_t vp_get_i32(vp_reader *r) { return (int32_t)vp_get_u32(r); }
-float vp_get_f32(vp_reader *r)
-{
-    const uint8_t *p = take(r, 4);
-    return p ? rdf32(p) : 0.0f;
-}
-double vp_get_f64(vp_reader *r)
-{
-    const uint8_t *p = take(r, 8);
-    return p ? rdf64(p) : 0.0;
-}
-const uint8_t *vp_get_bytes(vp_reader *r, size_t n) { return take(r, n); }
-size_t vp_remaining(const vp_reader *r) { return r->short_read ? 0 : r->len - r->pos; }
-
 int vp_reader_finish(const vp_reader *r)
 {
     if (r->short_read) return VP_ERR_TRUNCATED;
@@ -235,7 +129,7 @@ int vp_take_array(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint
     size_t left = vp_remaining(r);
     if (r->short_read) return VP_ERR_TRUNCATED;
     if ((uint64_t)n * rec > left) return VP_ERR_COUNT;
-    *out = take(r, (size_t)n * rec);
+    *out = vp_get_bytes(r, (size_t)n * rec);
     return VP_OK;
 }
 

@@ -14,6 +14,8 @@
 #ifndef VANTAGE_PROTOCOL_H
 #define VANTAGE_PROTOCOL_H
 
+#include "vp_bytes.h"
+
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -153,45 +155,11 @@ typedef struct vp_header {
  * non-zero flags. */
 int vp_frame_check(const uint8_t *buf, size_t n, uint32_t max_payload, vp_header *h, size_t *frame_size);
 
-/* ---- writer: fixed buffer, overflow is sticky ------------------------------ */
-typedef struct vp_writer {
-    uint8_t *p;
-    size_t   cap, len;
-    size_t   frame_start;
-    bool     overflow;
-} vp_writer;
-
-void vp_writer_init(vp_writer *w, uint8_t *buf, size_t cap);
+/* ---- writer and reader: vp_bytes.h (vp_writer, vp_put_*, vp_reader, vp_get_*) ---- */
 /* Starts a frame (header with length patched by vp_frame_end). */
 void vp_frame_begin(vp_writer *w, uint16_t type, uint32_t req);
 /* Finishes the frame; returns false if the buffer overflowed. */
 bool vp_frame_end(vp_writer *w);
-void vp_put_u8(vp_writer *w, uint8_t v);
-void vp_put_u16(vp_writer *w, uint16_t v);
-void vp_put_u32(vp_writer *w, uint32_t v);
-void vp_put_u64(vp_writer *w, uint64_t v);
-void vp_put_i32(vp_writer *w, int32_t v);
-void vp_put_f32(vp_writer *w, float v);
-void vp_put_f64(vp_writer *w, double v);
-void vp_put_bytes(vp_writer *w, const void *p, size_t n);
-
-/* ---- reader over one payload ------------------------------------------------- */
-typedef struct vp_reader {
-    const uint8_t *p;
-    size_t len, pos;
-    bool   short_read;
-} vp_reader;
-
-void     vp_reader_init(vp_reader *r, const uint8_t *p, size_t len);
-uint8_t  vp_get_u8(vp_reader *r);
-uint16_t vp_get_u16(vp_reader *r);
-uint32_t vp_get_u32(vp_reader *r);
-uint64_t vp_get_u64(vp_reader *r);
-int32_t  vp_get_i32(vp_reader *r);
-float    vp_get_f32(vp_reader *r);
-double   vp_get_f64(vp_reader *r);
-const uint8_t *vp_get_bytes(vp_reader *r, size_t n);
-size_t   vp_remaining(const vp_reader *r);
 /* VP_ERR_TRUNCATED if a read ran short, VP_ERR_TRAILING if bytes are left. */
 int      vp_reader_finish(const vp_reader *r);
 

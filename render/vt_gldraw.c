@@ -286,8 +286,8 @@ static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_
                   const double origin[3], char *err, size_t errlen)
 {
     size_t nvx = 0, nel = 0;
-    if (!vt_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
-        !vt_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * IV, sizeof *r->iv))
+    if (!vp_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
+        !vp_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * IV, sizeof *r->iv))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     memset(r->md, 0, (size_t)nmesh * sizeof *r->md);
     size_t nmask = 0, nfield = 0;
@@ -303,8 +303,8 @@ static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_
         return vp_errf(err, errlen, VT_ERR_RANGE,
                        "%zu damaged instances (%zu field samples) are past this GL's texture buffer limit (%d texels)",
                        nmask, nfield, r->max_texels);
-    if (!vt_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
-        !vt_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
+    if (!vp_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
+        !vp_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t mi = 0, first = 0; mi < nmesh; mi++) {
         mesh_draw *d = &r->md[mi];
@@ -320,8 +320,8 @@ static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_
         nel += d->nel;
         d->pi = d->pm = 0;
     }
-    if (!vt_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx) ||
-        !vt_grow((void **)&r->el, &r->el_cap, nel + 1, sizeof *r->el))
+    if (!vp_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx) ||
+        !vp_grow((void **)&r->el, &r->el_cap, nel + 1, sizeof *r->el))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t mi = 0; mi < nmesh; mi++) {
         const vt_mesh *m = &meshes[mi];
@@ -465,10 +465,10 @@ int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t 
     }
     size_t npx = (size_t)width * height;
     uint32_t tx = (width + TILE - 1) / TILE, ty = (height + TILE - 1) / TILE;
-    if (!vt_grow((void **)&r->pix, &r->pix_cap, npx * 4, sizeof *r->pix) ||
-        !vt_grow((void **)&r->range, &r->range_cap, (size_t)tx * ty, sizeof *r->range) ||
-        !vt_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
-        !vt_grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
+    if (!vp_grow((void **)&r->pix, &r->pix_cap, npx * 4, sizeof *r->pix) ||
+        !vp_grow((void **)&r->range, &r->range_cap, (size_t)tx * ty, sizeof *r->range) ||
+        !vp_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
+        !vp_grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     if ((rc = upload(r, meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
     float vp[16], d4[4];

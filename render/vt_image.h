@@ -64,14 +64,13 @@ extern "C" {
 
 /* ---- tone mapping -------------------------------------------------------- */
 
-/* One float channel of the source, laid out as vt_exr_channel: sample
- * (x, y) at data[x * x_stride + y * y_stride]. */
+/* One float channel of the source, laid out as vt_exr_channel's data and
+ * strides (vt_exr.h): sample (x, y) at data[x * x_stride + y * y_stride],
+ * data the top-left pixel, strides in floats of any sign (1 planar, 4
+ * interleaved RGBA, 0 repeats; a negative y_stride for bottom-up rows). */
 typedef struct vt_image_channel {
-    const float *data;     /* sample (x=0, y=0), the top-left pixel */
-    ptrdiff_t    x_stride; /* floats between horizontal neighbours: 1 planar,
-                              4 interleaved RGBA; any value, 0 repeats */
-    ptrdiff_t    y_stride; /* floats from a row to the row below; negative
-                              for bottom-up buffers (data = the top row) */
+    const float *data;
+    ptrdiff_t    x_stride, y_stride;
 } vt_image_channel;
 
 /* Source of vt_image_tonemap: linear scene-referred RGB (Rec.709 / sRGB

@@ -15,18 +15,6 @@ static const uint32_t box_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5
                                      2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
 const vt_mesh vt_mesh_box = {.pos = box_pos, .idx = box_idx, .nv = 8, .ni = 36};
 
-bool vt_grow(void **p, size_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap) return true;
-    size_t c = *cap ? *cap : 256;
-    while (c < need) c *= 2;
-    void *n = realloc(*p, c * elem);
-    if (!n) return false;
-    *p = n;
-    *cap = c;
-    return true;
-}
-
 int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen)
 {
     if (!m || !m->pos || !m->idx || !m->nv || !m->ni || m->ni % 3)

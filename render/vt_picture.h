@@ -12,16 +12,13 @@
 #include "vt_mask.h"
 #include "vt_shade.h"
 #include "vt_soft.h"
+#include "vp_grow.h"
 
 #include <float.h>
 #include <stdbool.h>
 #include <stddef.h>
 
 #define VT_TILE CULL_LIGHT_TILE
-
-/* Grows *p (an array of *cap elements) to hold need, doubling from 256;
- * false (nothing changed) when out of memory. */
-bool vt_grow(void **p, size_t *cap, size_t need, size_t elem);
 
 /* Checks everything a render call is given (buffers, size, meshes,
  * instances, lights: before any work) and fills *vr for v. 0, or

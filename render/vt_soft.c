@@ -241,7 +241,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         vt_instance_xform(in, mb[in->mesh], o, scale, shift);
         for (int a = 0; a < 3; a++) inv_scale[a] = scale[a] > 0 ? 1 / scale[a] : 1;
         /* every vertex once: camera-relative position and clip coordinates */
-        if (!vt_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
+        if (!vp_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
             return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for %u vertices", m->nv);
         for (uint32_t k = 0; k < m->nv; k++) {
             xv *x = &r->vx[k];
@@ -318,8 +318,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             if (n < 3) continue;
             if (r->nst + 1 >= (1u << ID_BITS))
                 return vp_errf(err, errlen, VT_ERR_RANGE, "more than 2^27 triangles a thread");
-            if (!vt_grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
-                !vt_grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
+            if (!vp_grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
+                !vp_grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
                 return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for %zu triangles", r->nrt);
             /* the shading record: adjugate rows of the source triangle,
                scaled by 1/det (homogeneous barycentrics: the kernel divides
@@ -633,17 +633,17 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
                               err, errlen);
     if (rc) return rc;
     size_t npx = (size_t)width * height;
-    if (!vt_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
-        !vt_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
-        !vt_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
+    if (!vp_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
+        !vp_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
+        !vp_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
     /* the damaged instances' masks (most frames have none: no table) */
     uint32_t nmk = 0;
     for (uint32_t i = 0; i < ninst; i++) nmk += vt_dvol_live(inst[i].dvol);
     if (nmk) {
-        if (!vt_grow((void **)&r->mk, &r->mk_cap, nmk, sizeof *r->mk) ||
-            !vt_grow((void **)&r->mk_of, &r->mk_of_cap, ninst, sizeof *r->mk_of))
+        if (!vp_grow((void **)&r->mk, &r->mk_cap, nmk, sizeof *r->mk) ||
+            !vp_grow((void **)&r->mk_of, &r->mk_of_cap, ninst, sizeof *r->mk_of))
             return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
         nmk = 0;
         for (uint32_t i = 0; i < ninst; i++) {
@@ -662,9 +662,9 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     uint32_t nt = r->threads < trows ? r->threads : trows;
     if (!nt) nt = 1;
     uint32_t tx = (width + TILE - 1) / TILE;
-    if (!vt_grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
-        !vt_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
-        !vt_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
+    if (!vp_grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
+        !vp_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
+        !vp_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     /* no lights: no ranges, no binning */
     job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst, .rgba = rgba, .depth = depth,

@@ -48,6 +48,24 @@ static int parse_doubles(const char *p, double *out, int n)
     return *p ? -1 : 0;
 }
 
+/* The line "KEY N" that form names (N at most MAX_ITEMS) into *count:
+ * room for that many records of size bytes (one at least), or NULL with
+ * the message in err. */
+static void *read_section(FILE *f, char *buf, size_t n, unsigned *ln, const char *path, const char *form, size_t size,
+                          unsigned long *count, char *err, size_t errlen)
+{
+    char scan[64];
+    snprintf(scan, sizeof scan, "%.*s %%lu", (int)strcspn(form, " "), form);
+    char *p = next_line(f, buf, n, ln);
+    if (!p || sscanf(p, scan, count) != 1 || *count > MAX_ITEMS) {
+        fail(err, errlen, "%s:%u: expected '%s'", path, *ln, form);
+        return NULL;
+    }
+    void *mem = malloc((*count ? *count : 1) * size);
+    if (!mem) fail(err, errlen, "%s: out of memory", path);
+    return mem;
+}
+
 int scene_file_load(const char *path, scene_file *s, char *err, size_t errlen)
 {
     memset(s, 0, sizeof *s);
@@ -74,17 +92,9 @@ int scene_file_load(const char *path, scene_file *s, char *err, size_t errlen)
     s->zfar = cam[11];
     s->aspect = cam[12];
     unsigned long n;
-    if (!(p = next_line(f, buf, sizeof buf, &ln)) ||
-        sscanf(p, "occluder_triangles %lu", &n) != 1 || n > MAX_ITEMS) {
-        fail(err, errlen, "%s:%u: expected 'occluder_triangles N'", path, ln);
-        goto out;
-    }
+    s->tris = read_section(f, buf, sizeof buf, &ln, path, "occluder_triangles N", 9 * sizeof *s->tris, &n, err, errlen);
+    if (!s->tris) goto out;
     s->ntris = n;
-    s->tris = malloc((n ? n : 1) * 9 * sizeof *s->tris);
-    if (!s->tris) {
-        fail(err, errlen, "%s: out of memory", path);
-        goto out;
-    }
     for (size_t i = 0; i < n; i++) {
         double v[9];
         if (!(p = next_line(f, buf, sizeof buf, &ln)) || parse_doubles(p, v, 9)) {
@@ -93,17 +103,9 @@ int scene_file_load(const char *path, scene_file *s, char *err, size_t errlen)
         }
         for (int k = 0; k < 9; k++) s->tris[i * 9 + k] = (float)v[k];
     }
-    if (!(p = next_line(f, buf, sizeof buf, &ln)) || sscanf(p, "objects %lu", &n) != 1 ||
-        n > MAX_ITEMS) {
-        fail(err, errlen, "%s:%u: expected 'objects M'", path, ln);
-        goto out;
-    }
+    s->objects = read_section(f, buf, sizeof buf, &ln, path, "objects M", 6 * sizeof *s->objects, &n, err, errlen);
+    if (!s->objects) goto out;
     s->nobjects = n;
-    s->objects = malloc((n ? n : 1) * 6 * sizeof *s->objects);
-    if (!s->objects) {
-        fail(err, errlen, "%s: out of memory", path);
-        goto out;
-    }
     for (size_t i = 0; i < n; i++) {
         if (!(p = next_line(f, buf, sizeof buf, &ln)) || parse_doubles(p, s->objects + i * 6, 6)) {
             fail(err, errlen, "%s:%u: object %zu needs 6 finite numbers", path, ln, i);

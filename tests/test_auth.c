@@ -35,20 +35,30 @@ static void test_auth_parse(void **state)
     assert_int_equal(t.role[0], VP_ROLE_EDITOR);
     assert_int_equal(t.role[1], VP_ROLE_VIEWER);
     assert_int_equal(t.len[1], strlen(VIEW_TOK));
-    static const struct { const char *text, *want; } bad[] = {
-        {"", "no tokens"},
-        {"# only a comment\n", "no tokens"},
-        {"editor " EDIT_TOK "\nadmin " VIEW_TOK "\n", "line 2: the role"},
-        {"viewer short\n", "line 1: a token is 16 to 255"},
-        {"\n\neditor " EDIT_TOK " more\n", "line 3: a token is printable"},
-        {"editor\n", "line 1: a token is 16"},
-        {"viewer caf\xc3\xa9-0123456789abcdef\n", "line 1: a token is printable"},
-    };
-    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        err[0] = 0;
-        assert_int_equal(auth_parse(bad[i].text, strlen(bad[i].text), &t, err, sizeof err), -1);
-        if (!strstr(err, bad[i].want)) fail_msg("case %zu: \"%s\" lacks \"%s\"", i, err, bad[i].want);
-    }
+}
+
+/* Token files refused: the text and what the message says. */
+typedef struct bad_tokens {
+    const char *name, *text, *want;
+} bad_tokens;
+
+static const bad_tokens bad_token_files[] = {
+    {"empty", "", "no tokens"},
+    {"a comment only", "# only a comment\n", "no tokens"},
+    {"role admin", "editor " EDIT_TOK "\nadmin " VIEW_TOK "\n", "line 2: the role"},
+    {"short token", "viewer short\n", "line 1: a token is 16 to 255"},
+    {"a space in the token", "\n\neditor " EDIT_TOK " more\n", "line 3: a token is printable"},
+    {"no token", "editor\n", "line 1: a token is 16"},
+    {"UTF-8 in the token", "viewer caf\xc3\xa9-0123456789abcdef\n", "line 1: a token is printable"},
+};
+
+static void test_auth_parse_refused(void **state)
+{
+    const bad_tokens *t = *state;
+    auth_tokens tk;
+    char err[256] = "";
+    assert_int_equal(auth_parse(t->text, strlen(t->text), &tk, err, sizeof err), -1);
+    if (!strstr(err, t->want)) fail_msg("\"%s\" lacks \"%s\"", err, t->want);
 }
 
 static void test_auth_grants(void **state)
@@ -182,6 +192,7 @@ static void test_auth_end_to_end(void **state)
 
 const struct CMUnitTest auth_tests[] = {
     cmocka_unit_test(test_auth_parse),
+    TEST_ROWS(test_auth_parse_refused, bad_token_files),
     cmocka_unit_test(test_auth_grants),
     cmocka_unit_test(test_auth_end_to_end),
 };

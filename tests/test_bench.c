@@ -171,54 +171,63 @@ static void test_bench_scenarios_shipped(void **state)
     assert_int_equal(s.g[0].cam.kind, SCN_CAM_PAN);
 }
 
+/* Scenario files the parser refuses: a row is the message it must give
+ * (its name) and the text; a refused file changes nothing. */
+typedef struct bad_scenario {
+    const char *want, *text;
+} bad_scenario;
+
+static const bad_scenario bad_scenarios[] = {
+    {"t:1: field 'op': group 'a' has no op", "group a\n role viewer\n clients 2\n"},
+    {"t:1: field 'clients'", "group a\n op query\n"},
+    {"t:1: field 'duration': expected a number, got 'abc'", "duration abc\ngroup a\n op ping\n clients 1\n"},
+    {"t:1: field 'duration': -3 is outside", "duration -3\n"},
+    {"t:5: field 'views': 33 is outside 1..32", "\n\ngroup a\n clients 1\n op query views 33\n"},
+    {"t:2: field 'clients': expected a whole number", "group a\n clients 2.5\n"},
+    {"t:1: field 'role': group 'a': op edit needs role editor", "group a\n clients 1\n op edit\n"},
+    {"t:3: field 'size'", "group a\n clients 1\n op frames size 10x10\n"},
+    {"field 'rate'", "group a\n clients 1\n op frames\n rate 5\n"},
+    {"t:4: field 'op': group 'a' has an op already", "group a\n clients 1\n op ping\n op query\n"},
+    {"t:3: field 'op': 'teleport'", "group a\n clients 1\n op teleport\n"},
+    {"t:3: field 'frobnicate': not an option of op query", "group a\n clients 1\n op query frobnicate\n"},
+    {"t:4: field 'center': expected x,y,z", "group a\n clients 1\n op ping\n camera orbit 0,0 1 2 3\n"},
+    {"t:4: field 'camera path'", "group a\n clients 1\n op ping\n camera path 5 1,2,3\n"},
+    {"t:4: field 'duration': a top-level setting inside group", "group a\n clients 1\n op ping\n duration 5\n"},
+    {"t:1: field 'colour': unknown", "colour blue\n"},
+    {"field 'group': no groups", ""},
+    {"t:2: field 'at': 7 s is at or after", "duration 5\nat 7 sublevel load x\ngroup a\n clients 1\n op ping\n"},
+    {"t:1: field 'at': 12 s is at or after the end of the run (duration 10 s)", "at 12 sublevel load x\ngroup a\n clients 1\n op ping\n"},
+    {"t:1: field 'destroy': destruction needs entities", "at 1 destroy 5\ngroup a\n clients 1\n op ping\n"},
+    {"t:1: field 'sublevel name': 'x' is unloaded before", "at 1 sublevel unload x\ngroup a\n clients 1\n op ping\n"},
+    {"t:4: field 'group': 'a' is named twice", "group a\n clients 1\n op ping\ngroup a\n"},
+    {"t:2: field 'role': expected editor, viewer, commander or query", "group a\n role admin\n"},
+    {"t:5: field 'op'", "group a\n clients 1\n op ping\n role commander\n op x\n"},
+    {"t:1: field 'probe': 'edit-to-dinner'", "probe edit-to-dinner\n"},
+    {"t:1: field 'line': a control byte 0x01", "group a\x01\n"},
+    {"field 'warmup': 20 s is not shorter", "warmup 20\nduration 10\ngroup a\n clients 1\n op ping\n"},
+};
+
 static void test_bench_scenario_errors(void **state)
 {
+    const bad_scenario *t = *state;
+    scenario s;
+    memset(&s, 0x5a, sizeof s);
+    scenario before = s;
+    char err[512] = "";
+    int rc = scn_parse("t", t->text, strlen(t->text), &s, err, sizeof err);
+    if (rc == 0) fail_msg("parsed: %s", t->text);
+    if (!strstr(err, t->want)) fail_msg("'%s' does not contain '%s'", err, t->want);
+    assert_memory_equal(&s, &before, sizeof s); /* a rejected file changes nothing */
+}
+
+/* A NUL byte says which line; a missing file says so. */
+static void test_bench_scenario_nul_and_missing(void **state)
+{
     (void)state;
-    static const struct { const char *text, *want; } cases[] = {
-        {"group a\n role viewer\n clients 2\n", "t:1: field 'op': group 'a' has no op"},
-        {"group a\n op query\n", "t:1: field 'clients'"},
-        {"duration abc\ngroup a\n op ping\n clients 1\n", "t:1: field 'duration': expected a number, got 'abc'"},
-        {"duration -3\n", "t:1: field 'duration': -3 is outside"},
-        {"\n\ngroup a\n clients 1\n op query views 33\n", "t:5: field 'views': 33 is outside 1..32"},
-        {"group a\n clients 2.5\n", "t:2: field 'clients': expected a whole number"},
-        {"group a\n clients 1\n op edit\n", "t:1: field 'role': group 'a': op edit needs role editor"},
-        {"group a\n clients 1\n op frames size 10x10\n", "t:3: field 'size'"},
-        {"group a\n clients 1\n op frames\n rate 5\n", "field 'rate'"},
-        {"group a\n clients 1\n op ping\n op query\n", "t:4: field 'op': group 'a' has an op already"},
-        {"group a\n clients 1\n op teleport\n", "t:3: field 'op': 'teleport'"},
-        {"group a\n clients 1\n op query frobnicate\n", "t:3: field 'frobnicate': not an option of op query"},
-        {"group a\n clients 1\n op ping\n camera orbit 0,0 1 2 3\n", "t:4: field 'center': expected x,y,z"},
-        {"group a\n clients 1\n op ping\n camera path 5 1,2,3\n", "t:4: field 'camera path'"},
-        {"group a\n clients 1\n op ping\n duration 5\n", "t:4: field 'duration': a top-level setting inside group"},
-        {"colour blue\n", "t:1: field 'colour': unknown"},
-        {"", "field 'group': no groups"},
-        {"duration 5\nat 7 sublevel load x\ngroup a\n clients 1\n op ping\n", "t:2: field 'at': 7 s is at or after"},
-        {"at 12 sublevel load x\ngroup a\n clients 1\n op ping\n", "t:1: field 'at': 12 s is at or after the end of the run (duration 10 s)"},
-        {"at 1 destroy 5\ngroup a\n clients 1\n op ping\n", "t:1: field 'destroy': destruction needs entities"},
-        {"at 1 sublevel unload x\ngroup a\n clients 1\n op ping\n", "t:1: field 'sublevel name': 'x' is unloaded before"},
-        {"group a\n clients 1\n op ping\ngroup a\n", "t:4: field 'group': 'a' is named twice"},
-        {"group a\n role admin\n", "t:2: field 'role': expected editor, viewer, commander or query"},
-        {"group a\n clients 1\n op ping\n role commander\n op x\n", "t:5: field 'op'"},
-        {"probe edit-to-dinner\n", "t:1: field 'probe': 'edit-to-dinner'"},
-        {"group a\x01\n", "t:1: field 'line': a control byte 0x01"},
-        {"warmup 20\nduration 10\ngroup a\n clients 1\n op ping\n", "field 'warmup': 20 s is not shorter"},
-    };
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        scenario s;
-        memset(&s, 0x5a, sizeof s);
-        scenario before = s;
-        char err[512] = "";
-        int rc = scn_parse("t", cases[i].text, strlen(cases[i].text), &s, err, sizeof err);
-        if (rc == 0) fail_msg("case %zu parsed: %s", i, cases[i].text);
-        if (!strstr(err, cases[i].want)) fail_msg("case %zu: '%s' does not contain '%s'", i, err, cases[i].want);
-        assert_memory_equal(&s, &before, sizeof s); /* a rejected file changes nothing */
-    }
-    /* a NUL byte says which line */
     scenario s;
     char err[256];
     assert_int_equal(scn_parse("t", "name a\nname\0b\n", 14, &s, err, sizeof err), -1);
     assert_non_null(strstr(err, "t:2: field 'line': a NUL byte"));
-    /* a missing file */
     assert_int_equal(scn_load("/nonexistent/x.scn", &s, err, sizeof err), -1);
     assert_non_null(strstr(err, "No such file"));
 }
@@ -286,34 +295,45 @@ static void write_text(const char *path, const char *text)
     assert_int_equal(fclose(f), 0);
 }
 
-/* Writes the scenario text into td and the command that runs it against
- * d, its report also to outpath (--json or --csv: outopt). */
-static void bench_cmd(tdir *td, const daemon_proc *d, const char *text, const char *outopt, char *outpath,
-                      char *cmd, size_t cap)
+/* A bench run's files in a folder of their own: the scenario (its text
+ * written) and the report that --json or --csv writes. */
+typedef struct bench_files {
+    tdir td;
+    char scn[600], report[600];
+} bench_files;
+
+static void bench_files_make(bench_files *b, const char *text)
 {
-    char scn[600];
-    snprintf(scn, sizeof scn, "%s", tdir_file(td, "bench.scn"));
-    write_text(scn, text);
-    snprintf(outpath, 600, "%s", tdir_file(td, "report.out"));
-    snprintf(cmd, cap, "%s/vantage -p %d bench --scenario %s %s %s 2>&1", bin_dir(), d->port, scn, outopt, outpath);
+    tdir_make(&b->td, "vt-bench");
+    snprintf(b->scn, sizeof b->scn, "%s", tdir_file(&b->td, "bench.scn"));
+    write_text(b->scn, text);
+    snprintf(b->report, sizeof b->report, "%s", tdir_file(&b->td, "report.out"));
+}
+
+/* Runs the scenario text against d (over its Unix socket if use_unix: the
+ * daemon's pid comes from the peer credentials) with its report in
+ * b->report (format: --json or --csv); what it printed in out; asserts
+ * exit 0. */
+static void bench_run(bench_files *b, const daemon_proc *d, bool use_unix, const char *text, const char *format,
+                      char *out, size_t cap)
+{
+    bench_files_make(b, text);
+    int rc = use_unix ? vantage_run(NULL, out, cap, "-s %s bench --scenario %s %s %s", d->sock, b->scn, format, b->report)
+                      : vantage_run(d, out, cap, "bench --scenario %s %s %s", b->scn, format, b->report);
+    if (rc != 0) fail_msg("bench: exit %d: %s", rc, out);
 }
 
 static void test_bench_open_loop_keeps_rate(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    tdir td;
-    tdir_make(&td, "vt-bench");
-    char csv[600], cmd[2048], out[8192];
+    char out[8192];
+    bench_files b;
     /* 4 clients x 250/s for 3 s after a 0.5 s warm-up; a closed-loop group beside them */
-    bench_cmd(&td, &d,
+    bench_run(&b, *state, false,
               "name rate\nduration 3.5\nwarmup 0.5\n"
               "group fixed\n role query\n clients 4\n op ping\n rate 250\n"
               "group busy\n role query\n clients 2\n op query views 2 count-only\n pipeline 2\n",
-              "--csv", csv, cmd, sizeof cmd);
-    int st = test_run_cmd(cmd, out, sizeof out);
-    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("bench: status %d: %s", st, out);
+              "--csv", out, sizeof out);
+    const char *csv = b.report;
     assert_non_null(strstr(out, "fixed.ping"));
     csv_row row;
     assert_true(csv_find(csv, "fixed.ping", &row));
@@ -325,15 +345,7 @@ static void test_bench_open_loop_keeps_rate(void **state)
     assert_true(row.per_s > 900 && row.per_s < 1100);
     assert_true(csv_find(csv, "busy.query", &row));
     assert_true(row.count > 0 && row.errors == 0);
-    tdir_remove(&td);
-    daemon_stop(&d);
-}
-
-static double mono(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
+    tdir_remove(&b.td);
 }
 
 static void test_bench_daemon_goes_away(void **state)
@@ -341,15 +353,15 @@ static void test_bench_daemon_goes_away(void **state)
     (void)state;
     daemon_proc d;
     daemon_start(&d, NULL);
-    tdir td;
-    tdir_make(&td, "vt-bench");
-    char js[600], cmd[2048], out[8192];
-    bench_cmd(&td, &d,
-              "name gone\nduration 30\nsetup entities 100\nprobe edit-to-query every 0.1\n"
-              "group q\n role query\n clients 2\n op ping\n rate 100\n"
-              "group v\n role viewer\n clients 1\n op frames size 64x64 fps 30\n",
-              "--json", js, cmd, sizeof cmd);
-    double t0 = mono();
+    char cmd[2048], out[8192];
+    bench_files b;
+    bench_files_make(&b,
+                     "name gone\nduration 30\nsetup entities 100\nprobe edit-to-query every 0.1\n"
+                     "group q\n role query\n clients 2\n op ping\n rate 100\n"
+                     "group v\n role viewer\n clients 1\n op frames size 64x64 fps 30\n");
+    const char *js = b.report;
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --scenario %s --json %s 2>&1", bin_dir(), d.port, b.scn, js);
+    double t0 = test_now_s();
     FILE *p = popen(cmd, "r");
     assert_non_null(p);
     usleep(1500 * 1000);
@@ -360,7 +372,7 @@ static void test_bench_daemon_goes_away(void **state)
     size_t n = fread(out, 1, sizeof out - 1, p);
     out[n] = 0;
     st = pclose(p);
-    double took = mono() - t0;
+    double took = test_now_s() - t0;
     /* it ends at once, not at 30 s, with what it measured, marked partial, exit 3 (the connection) */
     if (took > 10) fail_msg("bench took %.1f s after its daemon went away", took);
     assert_true(WIFEXITED(st));
@@ -375,42 +387,33 @@ static void test_bench_daemon_goes_away(void **state)
     fclose(f);
     assert_non_null(strstr(j, "\"partial\": true"));
     assert_non_null(strstr(j, "\"q.ping\""));
-    tdir_remove(&td);
+    tdir_remove(&b.td);
 }
 
 static void test_bench_cli_errors(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
+    daemon_proc *d = *state;
     tdir td;
     tdir_make(&td, "vt-bench");
-    char scn[600], cmd[2048], out[8192];
+    char scn[600], out[8192];
     snprintf(scn, sizeof scn, "%s", tdir_file(&td, "bad.scn"));
     write_text(scn, "name bad\ngroup a\n role viewer\n clients 3\n op query views 0\n");
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --scenario %s 2>&1", bin_dir(), d.port, scn);
-    int st = test_run_cmd(cmd, out, sizeof out);
-    assert_true(WIFEXITED(st));
-    assert_int_equal(WEXITSTATUS(st), 2);
+    assert_int_equal(vantage_run(d, out, sizeof out, "bench --scenario %s", scn), 2);
     if (!strstr(out, "bad.scn:5: field 'views': 0 is outside 1..32")) fail_msg("%s", out);
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --scenario no-such-scenario 2>&1", bin_dir(), d.port);
-    st = test_run_cmd(cmd, out, sizeof out);
-    assert_int_equal(WEXITSTATUS(st), 2);
+    assert_int_equal(vantage_run(d, out, sizeof out, "bench --scenario no-such-scenario"), 2);
     assert_non_null(strstr(out, "no-such-scenario: no such file"));
     /* a shipped scenario by name, cut short; the scene is left as it was found */
-    vt_client *c = connect_role(&d, VP_ROLE_VIEWER, false);
+    vt_client *c = connect_role(d, VP_ROLE_VIEWER, false);
     vp_stats_reply before, after;
     assert_int_equal(vt_stats(c, &before), 0);
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --scenario destruction-barrage --seconds 3 2>&1", bin_dir(), d.port);
-    st = test_run_cmd(cmd, out, sizeof out);
-    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("bench: status %d: %s", st, out);
+    int rc = vantage_run(d, out, sizeof out, "bench --scenario destruction-barrage --seconds 3");
+    if (rc != 0) fail_msg("bench: exit %d: %s", rc, out);
     assert_non_null(strstr(out, "destroy "));
     assert_non_null(strstr(out, "commanders.input_to_frame"));
     assert_int_equal(vt_stats(c, &after), 0);
     assert_int_equal(after.entities, before.entities);
     vt_close(c);
     tdir_remove(&td);
-    daemon_stop(&d);
 }
 
 /* The daemon's memory per tenth of a short run: sampled once a second, so
@@ -418,24 +421,11 @@ static void test_bench_cli_errors(void **state)
  * not 0.0 as if the daemon had given its memory back. */
 static void test_bench_memory_tenths_unsampled(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    tdir td;
-    tdir_make(&td, "vt-bench");
-    char js[600], cmd[2048], out[8192];
-    bench_cmd(&td, &d, "name mem\nduration 2\ngroup q\n role query\n clients 1\n op ping\n rate 50\n", "--json", js,
-              cmd, sizeof cmd);
-    /* over the Unix socket: the daemon's pid from its peer credentials */
-    char port[32];
-    snprintf(port, sizeof port, "-p %d ", d.port);
-    char *at = strstr(cmd, port), sock[200];
-    assert_non_null(at);
-    snprintf(sock, sizeof sock, "-s %s ", d.sock);
-    char full[2300];
-    snprintf(full, sizeof full, "%.*s%s%s", (int)(at - cmd), cmd, sock, at + strlen(port));
-    int st = test_run_cmd(full, out, sizeof out);
-    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) fail_msg("bench: status %d: %s", st, out);
+    char out[8192];
+    bench_files b;
+    bench_run(&b, *state, true, "name mem\nduration 2\ngroup q\n role query\n clients 1\n op ping\n rate 50\n", "--json",
+              out, sizeof out);
+    const char *js = b.report;
     const char *row = strstr(out, "max MiB per tenth");
     if (!row) fail_msg("no memory row: %s", out);
     int dashes = 0, samples = 0;
@@ -460,19 +450,19 @@ static void test_bench_memory_tenths_unsampled(void **state)
     assert_non_null(m);
     assert_non_null(strstr(m, "null"));
     assert_null(strstr(m, " 0.00"));
-    tdir_remove(&td);
-    daemon_stop(&d);
+    tdir_remove(&b.td);
 }
 
 const struct CMUnitTest bench_tests[] = {
     cmocka_unit_test(test_bench_hdr_distributions),
     cmocka_unit_test(test_bench_hdr_buckets),
     cmocka_unit_test(test_bench_scenarios_shipped),
-    cmocka_unit_test(test_bench_scenario_errors),
+    TEST_ROWS(test_bench_scenario_errors, bad_scenarios),
+    cmocka_unit_test(test_bench_scenario_nul_and_missing),
     cmocka_unit_test(test_bench_camera_and_schedule),
-    cmocka_unit_test(test_bench_open_loop_keeps_rate),
+    DAEMON_TEST(test_bench_open_loop_keeps_rate),
     cmocka_unit_test(test_bench_daemon_goes_away),
-    cmocka_unit_test(test_bench_cli_errors),
-    cmocka_unit_test(test_bench_memory_tenths_unsampled),
+    DAEMON_TEST(test_bench_cli_errors),
+    DAEMON_TEST(test_bench_memory_tenths_unsampled),
 };
 const size_t bench_tests_count = sizeof bench_tests / sizeof bench_tests[0];

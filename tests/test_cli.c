@@ -174,9 +174,7 @@ static void forms_within(const forms *a, const char *an, const forms *b, const c
 /* The lines between "commands:" and the next empty line of vantage --help. */
 static void help_forms(forms *fs, char *out, size_t cap)
 {
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "%s/vantage --help", bin_dir());
-    assert_int_equal(run(cmd, out, cap), 0);
+    assert_int_equal(vantage_run(NULL, out, cap, "--help"), 0);
     const char *a = strstr(out, "\ncommands:\n");
     assert_non_null(a);
     a += strlen("\ncommands:\n");
@@ -249,12 +247,10 @@ static void test_cli_help_every_command(void **state)
         int n = pass ? help.n : ncmds;
         for (int i = 0; i < n; i++) {
             const char *key = pass ? help.f[i].key : cmds[i];
-            char cmd[600];
-            snprintf(cmd, sizeof cmd, "%.400s/vantage %.96s --help", bin_dir(), key);
-            int rc = run(cmd, out, sizeof out);
-            if (rc != 0) fail_msg("%s: exit %d: %s", cmd, rc, out);
-            if (strstr(out, "\ncommands:\n")) fail_msg("%s: the global help:\n%s", cmd, out);
-            if (!names_usage(out, key)) fail_msg("%s: no usage line for '%s':\n%s", cmd, key, out);
+            int rc = vantage_run(NULL, out, sizeof out, "%.96s --help", key);
+            if (rc != 0) fail_msg("vantage %s --help: exit %d: %s", key, rc, out);
+            if (strstr(out, "\ncommands:\n")) fail_msg("vantage %s --help: the global help:\n%s", key, out);
+            if (!names_usage(out, key)) fail_msg("vantage %s --help: no usage line for '%s':\n%s", key, key, out);
         }
     }
     /* the forms the issue named */
@@ -301,96 +297,102 @@ static void test_cli_vantaged_help_readme(void **state)
     forms_within(&fh, "vantaged --help", &fr, "README.md");
 }
 
-/* Usage errors name the option, what it accepts, or what is missing. */
+/* Usage errors name the option, what it accepts, or what is missing; a
+ * row is the command's arguments (its name) and what the error says. */
+typedef struct usage_case {
+    const char *args;
+    const char *want[3];
+} usage_case;
+
+static const usage_case usage_cases[] = {
+    {"render --eye 1,2,3 --at 0,0,0 --size 500 -o x.png", {"--size 500", "WxH"}},
+    {"render --eye 1,2,3 --at 0,0,0 --size 0x0 -o x.png", {"--size 0x0", "1..4096"}},
+    {"render --eye 1,2,3 --at 0,0,0 --renderer vulkan -o x.png", {"--renderer vulkan", "soft or gl"}},
+    {"render --eye 1,2,3 --at 0,0,0 --fov 200 -o x.png", {"--fov 200", "180"}},
+    {"render --eye 1,2,3 --at 0,0,0 -o x.tiff", {"-o x.tiff", ".png"}},
+    {"render --eye 1,2,3 --at 0,0,0", {"-o FILE", "missing"}},
+    {"render --eye 1,2,3 -o x.png", {"--at X,Y,Z is missing"}},
+    {"render --at 1,2,3 -o x.png", {"--eye X,Y,Z is missing"}},
+    {"query --eye 1,2,3", {"--at X,Y,Z is missing"}},
+    {"query --eye 1,2,3 --at 0,0,0 --ortho 0,1", {"--ortho 0,1", "> 0"}},
+    {"lights --eye 1,2,3 --at 0,0,0 --size 9x", {"--size 9x", "WxH"}},
+    {"watch --frames d --eye 1,2,3 --at 0,0,0 --fps 0", {"--fps 0", "1..240"}},
+    {"watch --frames d --eye 1,2,3 --at 0,0,0 --format gif", {"--format gif", "jpg, png or exr"}},
+    {"watch --eye 1,2,3 --at 0,0,0 --frames", {"--frames"}},
+    {"destroy 5 0,0,0 0", {"radius 0", "more than 0"}},
+    {"destroy 5 0,0,0 -2", {"radius -2", "more than 0"}},
+    {"destroy 5 0,0 1", {"centre 0,0", "X,Y,Z"}},
+    {"destroy 5 0,0,0 1 --debris 999", {"--debris 999", "0..64"}},
+    {"bench --test ping --requests 10 --clients 64", {"--requests 10 is fewer than --clients 64"}},
+    {"bench --clients 0", {"--clients 0", "1..1000"}},
+    {"bench --test fast", {"--test fast", "query, edit, ping or frames"}},
+    {"bench --test frames --fps 0", {"--fps", "1..240"}},
+    {"bench --test frames --viewers x", {"--viewers x"}},
+};
+
 static void test_cli_errors_name_the_option(void **state)
 {
-    (void)state;
-    static const struct {
-        const char *args;
-        const char *want[3];
-    } cases[] = {
-        {"render --eye 1,2,3 --at 0,0,0 --size 500 -o x.png", {"--size 500", "WxH"}},
-        {"render --eye 1,2,3 --at 0,0,0 --size 0x0 -o x.png", {"--size 0x0", "1..4096"}},
-        {"render --eye 1,2,3 --at 0,0,0 --renderer vulkan -o x.png", {"--renderer vulkan", "soft or gl"}},
-        {"render --eye 1,2,3 --at 0,0,0 --fov 200 -o x.png", {"--fov 200", "180"}},
-        {"render --eye 1,2,3 --at 0,0,0 -o x.tiff", {"-o x.tiff", ".png"}},
-        {"render --eye 1,2,3 --at 0,0,0", {"-o FILE", "missing"}},
-        {"render --eye 1,2,3 -o x.png", {"--at X,Y,Z is missing"}},
-        {"render --at 1,2,3 -o x.png", {"--eye X,Y,Z is missing"}},
-        {"query --eye 1,2,3", {"--at X,Y,Z is missing"}},
-        {"query --eye 1,2,3 --at 0,0,0 --ortho 0,1", {"--ortho 0,1", "> 0"}},
-        {"lights --eye 1,2,3 --at 0,0,0 --size 9x", {"--size 9x", "WxH"}},
-        {"watch --frames d --eye 1,2,3 --at 0,0,0 --fps 0", {"--fps 0", "1..240"}},
-        {"watch --frames d --eye 1,2,3 --at 0,0,0 --format gif", {"--format gif", "jpg, png or exr"}},
-        {"watch --eye 1,2,3 --at 0,0,0 --frames", {"--frames"}},
-        {"destroy 5 0,0,0 0", {"radius 0", "more than 0"}},
-        {"destroy 5 0,0,0 -2", {"radius -2", "more than 0"}},
-        {"destroy 5 0,0 1", {"centre 0,0", "X,Y,Z"}},
-        {"destroy 5 0,0,0 1 --debris 999", {"--debris 999", "0..64"}},
-        {"bench --test ping --requests 10 --clients 64", {"--requests 10 is fewer than --clients 64"}},
-        {"bench --clients 0", {"--clients 0", "1..1000"}},
-        {"bench --test fast", {"--test fast", "query, edit, ping or frames"}},
-        {"bench --test frames --fps 0", {"--fps", "1..240"}},
-        {"bench --test frames --viewers x", {"--viewers x"}},
-    };
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        char cmd[800], out[4096];
-        /* port 1: nothing listens; every case is refused before connecting */
-        snprintf(cmd, sizeof cmd, "%s/vantage -p 1 %s", bin_dir(), cases[i].args);
-        int rc = run(cmd, out, sizeof out);
-        if (rc != 2) fail_msg("%s: exit %d, want 2 (bad usage): %s", cases[i].args, rc, out);
-        for (int k = 0; k < 3 && cases[i].want[k]; k++)
-            if (!strstr(out, cases[i].want[k]))
-                fail_msg("%s: \"%s\" does not say \"%s\"", cases[i].args, out, cases[i].want[k]);
-        /* one line, the command's own help pointed to */
-        char hint[64];
-        snprintf(hint, sizeof hint, "(vantage %.*s --help)", (int)strcspn(cases[i].args, " "), cases[i].args);
-        if (!strstr(out, hint)) fail_msg("%s: \"%s\" does not point to %s", cases[i].args, out, hint);
-    }
+    const usage_case *t = *state;
+    char out[4096];
+    /* port 1: nothing listens; every case is refused before connecting */
+    int rc = vantage_run(NULL, out, sizeof out, "-p 1 %s", t->args);
+    if (rc != 2) fail_msg("%s: exit %d, want 2 (bad usage): %s", t->args, rc, out);
+    for (int k = 0; k < 3 && t->want[k]; k++)
+        if (!strstr(out, t->want[k])) fail_msg("%s: \"%s\" does not say \"%s\"", t->args, out, t->want[k]);
+    /* one line, the command's own help pointed to */
+    char hint[64];
+    snprintf(hint, sizeof hint, "(vantage %.*s --help)", (int)strcspn(t->args, " "), t->args);
+    if (!strstr(out, hint)) fail_msg("%s: \"%s\" does not point to %s", t->args, out, hint);
 }
 
-/* The server's refusals: the record named once, the right code for a
- * name that names nothing. */
+/* The server's refusals of an id that names nothing: the record named
+ * once, and what is missing. A row is the command. */
+typedef struct refusal {
+    const char *op;
+} refusal;
+
+static const refusal refusals[] = {{"move 123456789 1,2,3"}, {"remove 123456789"}, {"get 123456789"}};
+
 static void test_cli_server_errors(void **state)
 {
-    (void)state;
+    const refusal *t = *state;
     daemon_proc d;
     daemon_start(&d, NULL);
-    char cmd[800], out[4096];
-    const char *ops[] = {"move 123456789 1,2,3", "remove 123456789", "get 123456789"};
-    for (size_t i = 0; i < sizeof ops / sizeof ops[0]; i++) {
-        snprintf(cmd, sizeof cmd, "%s/vantage -p %d %s", bin_dir(), d.port, ops[i]);
-        assert_int_equal(run(cmd, out, sizeof out), 1);
-        const char *r = strstr(out, "record 0");
-        if (!r || strstr(r + 1, "record 0")) fail_msg("%s: the record once: %s", ops[i], out);
-        assert_non_null(strstr(out, "no entity with id 123456789"));
-    }
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel unload nosuch", bin_dir(), d.port);
-    assert_int_equal(run(cmd, out, sizeof out), 1);
+    char out[4096];
+    assert_int_equal(vantage_run(&d, out, sizeof out, "%s", t->op), 1);
+    const char *r = strstr(out, "record 0");
+    if (!r || strstr(r + 1, "record 0")) fail_msg("%s: the record once: %s", t->op, out);
+    assert_non_null(strstr(out, "no entity with id 123456789"));
+    daemon_stop(&d);
+}
+
+/* A sub-level name that names nothing: its own code, no entity named. */
+static void test_cli_unload_unknown(void **state)
+{
+    daemon_proc *d = *state;
+    char out[4096];
+    assert_int_equal(vantage_run(d, out, sizeof out, "sublevel unload nosuch"), 1);
     if (!strstr(out, "no sub-level named \"nosuch\"") || strstr(out, "no entity") || !strstr(out, "error -23"))
         fail_msg("sublevel unload nosuch: %s", out);
-    daemon_stop(&d);
 }
 
 /* query prints an area only where it was measured (--exact-area). */
 static void test_cli_query_area(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
+    daemon_proc *d = *state;
     char cmd[800], out[8192];
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d add 7 0,0,20 1 && %s/vantage -p %d add 8 2,0,30 1", bin_dir(), d.port,
-             bin_dir(), d.port);
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d add 7 0,0,20 1 && %s/vantage -p %d add 8 2,0,30 1", bin_dir(), d->port,
+             bin_dir(), d->port);
     assert_int_equal(run(cmd, out, sizeof out), 0);
     const char *q = "query --eye 0,0,0 --at 0,0,10 --size 640x480";
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d %s && %s/vantage -p %d %s --json", bin_dir(), d.port, q, bin_dir(),
-             d.port, q);
+    snprintf(cmd, sizeof cmd, "%s/vantage -p %d %s && %s/vantage -p %d %s --json", bin_dir(), d->port, q, bin_dir(),
+             d->port, q);
     assert_int_equal(run(cmd, out, sizeof out), 0);
     assert_non_null(strstr(out, "id 7 "));
     assert_non_null(strstr(out, "\"id\": 8, "));
     if (strstr(out, "area")) fail_msg("an area that was not measured: %s", out);
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d %s --exact-area && %s/vantage -p %d %s --exact-area --json",
-             bin_dir(), d.port, q, bin_dir(), d.port, q);
+             bin_dir(), d->port, q, bin_dir(), d->port, q);
     assert_int_equal(run(cmd, out, sizeof out), 0);
     /* a unit sphere 20 m away in a 60-degree, 480-pixel-high view: about
        pi (480 / (2 tan 30) / 20)^2 = 1,380 pixels */
@@ -402,31 +404,26 @@ static void test_cli_query_area(void **state)
     assert_non_null(a);
     assert_true(atof(a + 8) > 0);
     assert_null(strstr(out, "-1"));
-    daemon_stop(&d);
 }
 
 /* watch --orbit keeps --fps: frames counted over a window, bounds wide
  * enough for a loaded machine (a miss only lowers the count). */
 static void test_cli_watch_orbit_fps(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
+    daemon_proc *d = *state;
     tdir td;
     tdir_make(&td, "vt-cli-watch");
-    char cmd[800];
     static char out[65536];
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d add 7 0,0,0 5 > /dev/null", bin_dir(), d.port);
-    assert_int_equal(system(cmd), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 7 0,0,0 5"), 0);
     const struct { int fps; double secs; } runs[] = {{5, 3}, {10, 2}};
     for (size_t i = 0; i < 2; i++) {
         /* the frames written are counted (not the lines: an uncapped run
            prints more than a pipe is read here) */
-        snprintf(cmd, sizeof cmd,
-                 "%s/vantage -p %d watch --frames %s --eye 50,20,0 --at 0,0,0 --size 96x64 --orbit 30 --fps %d "
-                 "--seconds %g > /dev/null",
-                 bin_dir(), d.port, td.dir, runs[i].fps, runs[i].secs);
-        assert_int_equal(run(cmd, out, sizeof out), 0);
+        assert_int_equal(vantage_run(d, out, sizeof out,
+                                     "watch --frames %s --eye 50,20,0 --at 0,0,0 --size 96x64 --orbit 30 --fps %d "
+                                     "--seconds %g > /dev/null",
+                                     td.dir, runs[i].fps, runs[i].secs),
+                         0);
         int frames = tdir_count(&td);
         double want = runs[i].fps * runs[i].secs;
         print_message("watch --orbit 30 --fps %d for %g s: %d frames (%g at the cap)\n", runs[i].fps, runs[i].secs,
@@ -437,64 +434,53 @@ static void test_cli_watch_orbit_fps(void **state)
         tdir_make(&td, "vt-cli-watch");
     }
     tdir_remove(&td);
-    daemon_stop(&d);
 }
 
 /* bench runs exactly --requests, the remainder spread over the clients. */
 static void test_cli_bench_exact_requests(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    char cmd[800], out[4096];
+    daemon_proc *d = *state;
+    char out[4096];
     const struct { int requests, clients; } runs[] = {{1000, 64}, {101, 7}, {64, 64}};
     for (size_t i = 0; i < 3; i++) {
-        snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --test ping --requests %d --clients %d --threads 2 --json",
-                 bin_dir(), d.port, runs[i].requests, runs[i].clients);
-        assert_int_equal(run(cmd, out, sizeof out), 0);
+        assert_int_equal(vantage_run(d, out, sizeof out, "bench --test ping --requests %d --clients %d --threads 2 --json",
+                                     runs[i].requests, runs[i].clients),
+                         0);
         char want[64];
         snprintf(want, sizeof want, "\"requests\": %d, \"failed_threads\": 0", runs[i].requests);
         if (!strstr(out, want)) fail_msg("%d requests over %d clients: %s", runs[i].requests, runs[i].clients, out);
     }
-    daemon_stop(&d);
 }
 
 /* The commander without a display: says why, suggests --headless, fails. */
 static void test_cli_commander_no_display(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
+    daemon_proc *d = *state;
     char cmd[1200], out[8192];
     const char *envs[] = {"env -u DISPLAY -u WAYLAND_DISPLAY -u SDL_VIDEODRIVER", "env SDL_VIDEODRIVER=nosuch"};
     for (int i = 0; i < 2; i++) {
         snprintf(cmd, sizeof cmd, "%s ASAN_OPTIONS=\"$ASAN_OPTIONS:detect_leaks=0\" timeout 20 %s/vantage -p %d commander --seconds 2",
-                 envs[i], bin_dir(), d.port);
+                 envs[i], bin_dir(), d->port);
         int rc = run(cmd, out, sizeof out);
         if (rc == 0 || rc == 124) fail_msg("%s: exit %d: %s", envs[i], rc, out);
         if (!strstr(out, "cannot open a window") || !strstr(out, "--headless"))
             fail_msg("%s: \"%s\" does not say why or suggest --headless", envs[i], out);
     }
-    daemon_stop(&d);
 }
 
 /* The commander's --stats with no latency sample: '-' and null, never
  * nan; its frame rate is frames shown over the run. */
 static void test_cli_commander_stats_no_samples(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
+    daemon_proc *d = *state;
     tdir td;
     tdir_make(&td, "vt-cli-cmd");
-    char cmd[1200];
     static char out[16384];
     for (int json = 0; json < 2; json++) {
         /* no pad, no replay, no window: nothing moves the view */
-        snprintf(cmd, sizeof cmd, "%s/vantage -p %d commander --headless %s --size 64x48 --seconds 1.5 --stats%s",
-                 bin_dir(), d.port, td.dir, json ? " --json" : "");
-        int rc = run(cmd, out, sizeof out);
-        if (rc) fail_msg("%s: exit %d: %s", cmd, rc, out);
+        int rc = vantage_run(d, out, sizeof out, "commander --headless %s --size 64x48 --seconds 1.5 --stats%s", td.dir,
+                             json ? " --json" : "");
+        if (rc) fail_msg("commander --stats%s: exit %d: %s", json ? " --json" : "", rc, out);
         if (strstr(out, "nan") || strstr(out, "NaN")) fail_msg("nan printed: %s", out);
         if (json) {
             assert_non_null(strstr(out, "\"input_to_photon_ms\":{\"p50\":null"));
@@ -511,42 +497,43 @@ static void test_cli_commander_stats_no_samples(void **state)
         }
     }
     tdir_remove(&td);
-    daemon_stop(&d);
 }
 
 /* vantaged's bad option values name the option and what it accepts (they
- * only named the option) and exit 2. */
+ * only named the option) and exit 2. A row is the arguments. */
+typedef struct daemon_usage_case {
+    const char *args, *want;
+} daemon_usage_case;
+
+static const daemon_usage_case daemon_usage_cases[] = {
+    {"--out-limit-total 100", "bad value for --out-limit-total: 100 (expected bytes, 0 (no limit) or at least 65536)"},
+    {"--port 0", "bad value for --port: 0 (expected an integer, 1..65535)"},
+    {"--threads 999", "bad value for --threads: 999 (expected an integer, 0..256)"},
+    {"--durability sometimes", "(expected always, everysec or off)"},
+    {"--render vulkan", "(expected soft or gl)"},
+    {"--cell-size 0", "(expected metres, 0.01..1e5)"},
+    {"--log-level loud", "(expected error, warn, info or debug)"},
+};
+
 static void test_vantaged_errors_name_what_is_accepted(void **state)
 {
-    (void)state;
-    static const struct {
-        const char *args, *want;
-    } t[] = {
-        {"--out-limit-total 100", "bad value for --out-limit-total: 100 (expected bytes, 0 (no limit) or at least 65536)"},
-        {"--port 0", "bad value for --port: 0 (expected an integer, 1..65535)"},
-        {"--threads 999", "bad value for --threads: 999 (expected an integer, 0..256)"},
-        {"--durability sometimes", "(expected always, everysec or off)"},
-        {"--render vulkan", "(expected soft or gl)"},
-        {"--cell-size 0", "(expected metres, 0.01..1e5)"},
-        {"--log-level loud", "(expected error, warn, info or debug)"},
-    };
-    for (size_t i = 0; i < sizeof t / sizeof t[0]; i++) {
-        char out[2048];
-        int rc = daemon_run_to_exit(t[i].args, out, sizeof out);
-        if (rc != 2 || !strstr(out, t[i].want)) fail_msg("vantaged %s: exit %d: %s", t[i].args, rc, out);
-    }
+    const daemon_usage_case *t = *state;
+    char out[2048];
+    int rc = daemon_run_to_exit(t->args, out, sizeof out);
+    if (rc != 2 || !strstr(out, t->want)) fail_msg("vantaged %s: exit %d: %s", t->args, rc, out);
 }
 
 const struct CMUnitTest cli_tests[] = {
-    cmocka_unit_test(test_vantaged_errors_name_what_is_accepted),
+    TEST_ROWS(test_vantaged_errors_name_what_is_accepted, daemon_usage_cases),
     cmocka_unit_test(test_cli_help_every_command),
     cmocka_unit_test(test_cli_vantaged_help_readme),
-    cmocka_unit_test(test_cli_errors_name_the_option),
-    cmocka_unit_test(test_cli_server_errors),
-    cmocka_unit_test(test_cli_query_area),
-    cmocka_unit_test(test_cli_watch_orbit_fps),
-    cmocka_unit_test(test_cli_bench_exact_requests),
-    cmocka_unit_test(test_cli_commander_no_display),
-    cmocka_unit_test(test_cli_commander_stats_no_samples),
+    TEST_ROWS(test_cli_errors_name_the_option, usage_cases),
+    TEST_ROWS(test_cli_server_errors, refusals),
+    DAEMON_TEST(test_cli_unload_unknown),
+    DAEMON_TEST(test_cli_query_area),
+    DAEMON_TEST(test_cli_watch_orbit_fps),
+    DAEMON_TEST(test_cli_bench_exact_requests),
+    DAEMON_TEST(test_cli_commander_no_display),
+    DAEMON_TEST(test_cli_commander_stats_no_samples),
 };
 const size_t cli_tests_count = sizeof cli_tests / sizeof cli_tests[0];

@@ -25,13 +25,6 @@
 #include <fcntl.h>
 #include <unistd.h>
 
-static double now_s_test(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
 /* ---- shaping ------------------------------------------------------------------------- */
 
 static void test_commander_stick_shape(void **state)
@@ -94,27 +87,38 @@ static void test_commander_config(void **state)
     assert_int_equal(c.bind[CMD_PING], PAD_WEST | PAD_RSHOULDER);
     assert_int_equal(c.bind[CMD_SELECT], 0);
     assert_int_equal(c.bind[CMD_DESTROY], PAD_RTRIGGER_D);
-    static const struct { const char *text, *says; } bad[] = {
-        {"dz_inner = 0.2\nspeed = 3\n", "line 2: unknown setting \"speed\""},
-        {"curve = 9\n", "line 1: curve: 9 is outside 0.2..5"},
-        {"curve = fast\n", "line 1: curve: not a number"},
-        {"curve\n", "line 1: expected NAME = VALUE"},
-        {"ping = thumb\n", "line 1: unknown button"},
-        {"ping = west+\n", "line 1: unknown button"},
-        {"dz_inner = 0.6\ndz_outer = 0.5\n", "dz_inner must be below dz_outer"},
-        {"trig_press = 0.3\n", "trig_release must be below trig_press"},
-        {"tick_hz =\n", "line 1: tick_hz: no value"},
-    };
-    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        cmd_map_defaults(&d);
-        cmd_map_cfg before = d;
-        err[0] = 0;
-        assert_int_equal(cmd_map_parse(&d, bad[i].text, strlen(bad[i].text), err, sizeof err), -1);
-        if (!strstr(err, bad[i].says)) fail_msg("\"%s\": \"%s\" does not say \"%s\"", bad[i].text, err, bad[i].says);
-        assert_memory_equal(&d, &before, sizeof d); /* a bad file changes nothing */
-    }
     assert_int_equal(cmd_map_load(&d, "/nonexistent/commander.conf", err, sizeof err), -1);
     assert_non_null(strstr(err, "No such file"));
+}
+
+/* Pad configuration files refused: the message names the line and the
+ * setting, and a refused file changes nothing. */
+typedef struct bad_config {
+    const char *name, *text, *says;
+} bad_config;
+
+static const bad_config bad_configs[] = {
+    {"unknown setting", "dz_inner = 0.2\nspeed = 3\n", "line 2: unknown setting \"speed\""},
+    {"curve out of range", "curve = 9\n", "line 1: curve: 9 is outside 0.2..5"},
+    {"curve not a number", "curve = fast\n", "line 1: curve: not a number"},
+    {"no value", "curve\n", "line 1: expected NAME = VALUE"},
+    {"unknown button", "ping = thumb\n", "line 1: unknown button"},
+    {"a chord cut short", "ping = west+\n", "line 1: unknown button"},
+    {"dead zones crossed", "dz_inner = 0.6\ndz_outer = 0.5\n", "dz_inner must be below dz_outer"},
+    {"trigger hysteresis inverted", "trig_press = 0.3\n", "trig_release must be below trig_press"},
+    {"empty value", "tick_hz =\n", "line 1: tick_hz: no value"},
+};
+
+static void test_commander_config_refused(void **state)
+{
+    const bad_config *t = *state;
+    cmd_map_cfg d;
+    cmd_map_defaults(&d);
+    cmd_map_cfg before = d;
+    char err[256] = "";
+    assert_int_equal(cmd_map_parse(&d, t->text, strlen(t->text), err, sizeof err), -1);
+    if (!strstr(err, t->says)) fail_msg("\"%s\": \"%s\" does not say \"%s\"", t->text, err, t->says);
+    assert_memory_equal(&d, &before, sizeof d); /* a bad file changes nothing */
 }
 
 /* ---- the camera ------------------------------------------------------------------------- */
@@ -240,15 +244,13 @@ static void test_commander_camera(void **state)
 
 static void test_commander_daemon_commands(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     vp_entity e = {.id = 7, .aabb = {0, 0, 0, 10, 10, 10}};
     uint32_t h;
     assert_int_equal(vt_add(ed, &e, 1, &h, NULL), VP_OK);
-    vt_client *view = connect_role(&d, VP_ROLE_VIEWER, false), *cmd = connect_role(&d, VP_ROLE_COMMANDER, true),
-              *other = connect_role(&d, VP_ROLE_COMMANDER, false);
+    vt_client *view = connect_role(d, VP_ROLE_VIEWER, false), *cmd = connect_role(d, VP_ROLE_COMMANDER, true),
+              *other = connect_role(d, VP_ROLE_COMMANDER, false);
     /* a viewer may neither mark nor destroy */
     vp_mark mk = {.pos = {5, 10, 5}, .entity = 7, .kind = 0, .ttl_ms = 1000};
     assert_int_equal(vt_mark(view, &mk, NULL), VP_ERR_AUTH);
@@ -281,7 +283,6 @@ static void test_commander_daemon_commands(void **state)
     vt_close(cmd);
     vt_close(other);
     vt_close(ed);
-    daemon_stop(&d);
 }
 
 /* Re-aims at 120 Hz for 1.5 s on a daemon whose frames take longer than
@@ -300,9 +301,9 @@ static void test_commander_reaim_keeps_frames(void **state)
     uint8_t buf[VP_HEADER_SIZE + VP_FRAME_SUB_SIZE];
     uint16_t seq = 0, last_seen = 0;
     uint32_t frames = 0, acks = 0, sent = 0;
-    double t0 = now_s_test(), next = t0;
-    while (now_s_test() - t0 < 1.5) {
-        if (now_s_test() >= next) {
+    double t0 = test_now_s(), next = t0;
+    while (test_now_s() - t0 < 1.5) {
+        if (test_now_s() >= next) {
             cam.target[0] += 2;
             assert_true(cmd_camera_view(&cam, 1280, 720, &fs.r.view));
             fs.view_seq = ++seq;
@@ -329,8 +330,7 @@ static void test_commander_reaim_keeps_frames(void **state)
     print_message("re-aims %u, acks %u, frames %u, last view_seq %u of %u\n", sent, acks, frames, last_seen, seq);
     assert_true(frames >= 5);
     assert_true(last_seen > seq / 2);
-    vt_close(c);
-    daemon_stop(&d);
+    daemon_close(&d, c);
 }
 
 /* ---- vantage commander, end to end ---------------------------------------------------- */
@@ -379,11 +379,9 @@ static void test_commander_replay_headless(void **state)
     tdir td;
     tdir_make(&td, "vantage_commander");
     const char *dir = td.dir; /* the frames and frames.jsonl go here */
-    char cmd[2048], out[8192];
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d commander --replay %s --headless %s --seconds 7 --json 2>&1",
-             bin_dir(), d.port, capture(), dir);
-    int st = test_run_cmd(cmd, out, sizeof out);
-    if (st) fail_msg("%s: exit %d: %s", cmd, st, out);
+    char out[8192];
+    int st = vantage_run(&d, out, sizeof out, "commander --replay %s --headless %s --seconds 7 --json", capture(), dir);
+    if (st) fail_msg("commander --replay %s: exit %d: %s", capture(), st, out);
     /* the stats: frames shown, latency samples taken */
     const char *js = strstr(out, "{\"seconds\"");
     if (!js) fail_msg("no stats: %s", out);
@@ -438,9 +436,7 @@ static void test_commander_replay_headless(void **state)
     FILE *f = fopen(bad, "w");
     fprintf(f, "I: 3 054c 09cc\nE: 0.000000 64 01 80\n");
     fclose(f);
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d commander --replay %s --headless %s --seconds 1 2>&1", bin_dir(),
-             d.port, bad, dir);
-    st = test_run_cmd(cmd, out, sizeof out);
+    st = vantage_run(&d, out, sizeof out, "commander --replay %s --headless %s --seconds 1", bad, dir);
     assert_int_not_equal(st, 0);
     if (!strstr(out, "bad.hidrec:2:")) fail_msg("\"%s\" does not name the line", out);
     daemon_stop(&d);
@@ -565,8 +561,9 @@ static void test_commander_window_xvfb(void **state)
 const struct CMUnitTest commander_tests[] = {
     cmocka_unit_test(test_commander_stick_shape),
     cmocka_unit_test(test_commander_config),
+    TEST_ROWS(test_commander_config_refused, bad_configs),
     cmocka_unit_test(test_commander_camera),
-    cmocka_unit_test(test_commander_daemon_commands),
+    DAEMON_TEST(test_commander_daemon_commands),
     cmocka_unit_test(test_commander_reaim_keeps_frames),
     cmocka_unit_test(test_commander_replay_headless),
     cmocka_unit_test(test_commander_reconnects),

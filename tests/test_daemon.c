@@ -104,6 +104,50 @@ void daemon_stop(daemon_proc *d)
     assert_true(access(d->sock, F_OK) != 0); /* and the socket is gone */
 }
 
+int daemon_setup(void **state)
+{
+    daemon_proc *d = malloc(sizeof *d);
+    assert_non_null(d);
+    *state = d;
+    daemon_start(d, NULL);
+    return 0;
+}
+
+int daemon_teardown(void **state)
+{
+    daemon_proc *d = *state;
+    if (d) daemon_stop(d);
+    free(d);
+    return 0;
+}
+
+vt_client *daemon_open(daemon_proc *d, int role)
+{
+    daemon_start(d, NULL);
+    return connect_role(d, role, false);
+}
+
+void daemon_close(daemon_proc *d, vt_client *c)
+{
+    vt_close(c);
+    daemon_stop(d);
+}
+
+int vantage_run(const daemon_proc *d, char *out, size_t cap, const char *fmt, ...)
+{
+    char args[2048], cmd[3072], port[24] = "";
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(args, sizeof args, fmt, ap);
+    va_end(ap);
+    assert_true(n >= 0 && (size_t)n < sizeof args);
+    if (d) snprintf(port, sizeof port, "-p %d ", d->port);
+    n = snprintf(cmd, sizeof cmd, "%s/vantage %s%s 2>&1", bin_dir(), port, args);
+    assert_true(n >= 0 && (size_t)n < sizeof cmd);
+    int st = test_run_cmd(cmd, out, cap);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
 int daemon_run_to_exit(const char *args, char *out, size_t outlen)
 {
     char cmd[1024];

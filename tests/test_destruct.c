@@ -252,6 +252,12 @@ static void box_tris(const double lo[3], const double hi[3], float t[108])
             for (int a = 0; a < 3; a++) t[i * 9 + v * 3 + a] = c[f[i][v]][a];
 }
 
+/* A 0.6 m cube centred on (x, y, z). */
+static cull_entity_desc small_box(double x, double y, double z)
+{
+    return (cull_entity_desc){.aabb_min = {x - 0.3, y - 0.3, z - 0.3}, .aabb_max = {x + 0.3, y + 0.3, z + 0.3}};
+}
+
 /* A building with a hole in its front wall, seen through the hole: what
  * stands behind it is still hidden by its intact back wall, whose inside
  * (a back face from here) the hole shows. The daemon gives a cut occluder
@@ -288,23 +294,11 @@ static void test_cut_building_back_wall_hides(void **state)
     uint32_t ne = 0;
     for (int i = 0; i < 9; i++)
         for (int j = 0; j < 7; j++)
-            for (int k = 0; k < 5; k++) {
-                double c[3] = {-8 + 2 * i, 2 + 2 * j, 25 + 6 * k};
-                ents[ne++] = (cull_entity_desc){.aabb_min = {c[0] - 0.3, c[1] - 0.3, c[2] - 0.3},
-                                                .aabb_max = {c[0] + 0.3, c[1] + 0.3, c[2] + 0.3}};
-            }
+            for (int k = 0; k < 5; k++) ents[ne++] = small_box(-8 + 2 * i, 2 + 2 * j, 25 + 6 * k);
     for (int i = 0; i < 5; i++)
         for (int j = 0; j < 4; j++)
-            for (int k = 0; k < 3; k++) {
-                double c[3] = {-6 + 3 * i, 2 + 3 * j, 4 + 5 * k};
-                ents[ne++] = (cull_entity_desc){.aabb_min = {c[0] - 0.3, c[1] - 0.3, c[2] - 0.3},
-                                                .aabb_max = {c[0] + 0.3, c[1] + 0.3, c[2] + 0.3}};
-            }
-    for (int i = 0; i < 20; i++) {
-        double c[3] = {i < 10 ? -14 : 14, 2 + (i % 10) * 2, 10};
-        ents[ne++] = (cull_entity_desc){.aabb_min = {c[0] - 0.3, c[1] - 0.3, c[2] - 0.3},
-                                        .aabb_max = {c[0] + 0.3, c[1] + 0.3, c[2] + 0.3}};
-    }
+            for (int k = 0; k < 3; k++) ents[ne++] = small_box(-6 + 3 * i, 2 + 3 * j, 4 + 5 * k);
+    for (int i = 0; i < 20; i++) ents[ne++] = small_box(i < 10 ? -14 : 14, 2 + (i % 10) * 2, 10);
     assert_int_equal(ne, N);
     cull_handle eh[N];
     for (uint32_t i = 0; i < ne; i++) {
@@ -403,10 +397,8 @@ static float frame_centre_depth(vt_client *c, uint8_t renderer, uint64_t *epoch)
 
 static void test_destroy_opens_occluder(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false), *viewer = connect_role(&d, VP_ROLE_VIEWER, true);
+    daemon_proc *d = *state;
+    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false), *viewer = connect_role(d, VP_ROLE_VIEWER, true);
     /* a wall (entity 10 and its occluder 10) and a crate behind it */
     double lo[3] = {-10, 0, -0.5}, hi[3] = {10, 8, 0.5};
     vp_entity e[2] = {{.id = 10, .aabb = {-10, 0, -0.5, 10, 8, 0.5}}, {.id = 20, .aabb = {-0.25, 1.75, 10, 0.25, 2.25, 10.5}}};
@@ -493,14 +485,13 @@ static void test_destroy_opens_occluder(void **state)
     assert_false(sees(viewer, 20, NULL));
     vt_close(ed);
     vt_close(viewer);
-    daemon_stop(&d);
 }
 
 const struct CMUnitTest destruct_tests[] = {
     cmocka_unit_test(test_dvol_matches_brute_force),
     cmocka_unit_test(test_dvol_bad_input),
     cmocka_unit_test(test_occ_cut_matches_point_sampling),
-    cmocka_unit_test(test_destroy_opens_occluder),
+    DAEMON_TEST(test_destroy_opens_occluder),
     cmocka_unit_test(test_cut_building_back_wall_hides),
 };
 const size_t destruct_tests_count = sizeof destruct_tests / sizeof destruct_tests[0];

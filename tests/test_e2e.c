@@ -94,11 +94,9 @@ static void model_del(model *m, uint64_t id)
 
 static void test_edits_then_queries_match_model(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
-    vt_client *u = connect_role(&d, VP_ROLE_VIEWER, true); /* queries over the Unix socket */
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vt_client *u = connect_role(d, VP_ROLE_VIEWER, true); /* queries over the Unix socket */
     rng r = {test_seed() ^ 0x7777};
     model m = {0};
     assert_int_equal(cull_world_create(NULL, &m.norm), CULL_OK);
@@ -189,15 +187,12 @@ static void test_edits_then_queries_match_model(void **state)
     cull_world_destroy(m.norm);
     free(m.ids);
     free(m.d);
-    daemon_stop(&d);
 }
 
 static void test_batches_all_or_nothing(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     rng r = {test_seed() ^ 0x8888};
     vp_entity b[10];
     for (int i = 0; i < 10; i++) b[i] = rand_entity(&r, 100 + (uint64_t)i, 50);
@@ -237,11 +232,10 @@ static void test_batches_all_or_nothing(void **state)
     assert_int_equal(st.entities, 10);
     assert_int_equal(st.epoch, e0); /* rejected batches change no epoch */
     /* a viewer cannot edit */
-    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, true);
+    vt_client *v = connect_role(d, VP_ROLE_VIEWER, true);
     assert_int_equal(vt_remove(v, rm, 1, NULL), VP_ERR_AUTH);
     vt_close(v);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 /* --unix PATH held by a live daemon: a second vantaged on the same path
@@ -348,6 +342,18 @@ static void raw_hello(int fd)
     assert_int_equal(raw_read(fd, NULL), VP_HELLO_OK);
 }
 
+/* Waits (5 s at most) until the daemon counts n connections, c's among them. */
+static void wait_connections(vt_client *c, uint32_t n)
+{
+    vp_stats_reply st;
+    int tries = 0;
+    do {
+        usleep(20000);
+        assert_int_equal(vt_stats(c, &st), VP_OK);
+    } while (st.connections > n && ++tries < 250);
+    assert_int_equal(st.connections, n);
+}
+
 static uint64_t now_ms(void)
 {
     struct timespec ts;
@@ -360,10 +366,8 @@ static uint64_t now_ms(void)
  * (about 200 frames a second here instead of 5). */
 static void test_frame_rate_cap_on_reaim(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    int fd = raw_connect(&d);
+    daemon_proc *d = *state;
+    int fd = raw_connect(d);
     raw_hello(fd);
     struct timeval tv = {.tv_usec = 1000};
     setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
@@ -396,7 +400,6 @@ static void test_frame_rate_cap_on_reaim(void **state)
     print_message("re-aimed every 5 ms for 1 s at max_fps 5: %d frames\n", frames);
     assert_true(frames >= 1 && frames <= 7);
     close(fd);
-    daemon_stop(&d);
 }
 
 /* Slow-loris: a client that never says HELLO, and one that leaves a frame
@@ -520,102 +523,98 @@ static void test_connection_churn(void **state)
     assert_true(rss_round[ROUNDS - 1] <= rss_round[0] + 4096);
 #endif
     free(fd);
-    vt_close(probe);
-    daemon_stop(&d);
+    daemon_close(&d, probe);
 }
+
+/* Malformed frames on a raw socket, one named test each: the daemon
+ * answers ERROR with the row's code, then closes the connection or keeps
+ * it (a ping split across two writes still gets its PONG: the server
+ * resumes at any byte), and another client is served throughout. */
+static void enc_bad_magic(vp_writer *w) { vp_enc_hello(w, 1, &(vp_hello){.magic = 0x12345678, .version = VP_VERSION}); }
+static void enc_bad_version(vp_writer *w) { vp_enc_hello(w, 1, &(vp_hello){.magic = VP_MAGIC, .version = 7}); }
+static void enc_stats(vp_writer *w) { vp_enc_empty(w, VP_STATS, 1); }
+static void enc_too_large(vp_writer *w)
+{
+    static const uint8_t hdr[12] = {0xff, 0xff, 0xff, 0x7f, 0x04, 0x00, 0, 0, 9, 0, 0, 0};
+    memcpy(w->p, hdr, sizeof hdr);
+    w->len = sizeof hdr;
+}
+static void enc_unknown_type(vp_writer *w) { vp_enc_empty(w, 0x0333, 2); }
+static void enc_count_mismatch(vp_writer *w)
+{
+    vp_entity e = {.id = 1, .sphere = {0, 0, 0, 1}};
+    vp_enc_entities(w, VP_ENTITY_ADD, 3, &e, 1);
+    w->p[VP_HEADER_SIZE] = 2; /* count says 2, payload holds 1 */
+}
+static void enc_nan_matrix(vp_writer *w)
+{
+    vp_view v = {.view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}};
+    v.view_proj[3] = NAN;
+    vp_enc_vis_query(w, 4, 0, 0, &v, 1);
+}
+static void enc_singular_matrix(vp_writer *w)
+{
+    vp_view v = {.view_proj = {0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}};
+    vp_enc_vis_query(w, 5, 0, 0, &v, 1);
+}
+
+typedef struct bad_frame {
+    const char *name;
+    bool hello;  /* a HELLO first */
+    void (*enc)(vp_writer *w);
+    int32_t code;
+    bool closes; /* the daemon closes the connection after the ERROR */
+} bad_frame;
+
+static const bad_frame bad_frames[] = {
+    {"wrong magic", false, enc_bad_magic, VP_ERR_MAGIC, true},
+    {"wrong version", false, enc_bad_version, VP_ERR_VERSION, true},
+    {"not HELLO first", false, enc_stats, VP_ERR_STATE, true},
+    {"length beyond the limit", true, enc_too_large, VP_ERR_TOO_LARGE, true},
+    {"unknown type", true, enc_unknown_type, VP_ERR_TYPE, false},
+    {"count 2, payload of 1", true, enc_count_mismatch, VP_ERR_COUNT, false},
+    {"NaN in a matrix", true, enc_nan_matrix, VP_ERR_NONFINITE, false},
+    {"singular matrix", true, enc_singular_matrix, VP_ERR_MATRIX, false},
+};
 
 static void test_malformed_frames(void **state)
 {
-    (void)state;
+    const bad_frame *t = *state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *other = connect_role(&d, VP_ROLE_VIEWER, false); /* must keep being served */
+    vt_client *other = daemon_open(&d, VP_ROLE_VIEWER); /* must keep being served */
     uint8_t buf[4096];
     vp_writer w;
-    int32_t code;
-
-    /* wrong magic: ERROR MAGIC, then the connection is closed */
     int fd = raw_connect(&d);
+    if (t->hello) raw_hello(fd);
     vp_writer_init(&w, buf, sizeof buf);
-    vp_enc_hello(&w, 1, &(vp_hello){.magic = 0x12345678, .version = VP_VERSION});
+    t->enc(&w);
     assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
-    code = 0;
+    int32_t code = 0;
     assert_int_equal(raw_read(fd, &code), VP_ERROR);
-    assert_int_equal(code, VP_ERR_MAGIC);
-    assert_int_equal(raw_read(fd, NULL), -1);
+    assert_int_equal(code, t->code);
+    if (t->closes) {
+        assert_int_equal(raw_read(fd, NULL), -1);
+    } else {
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_enc_ping(&w, VP_PING, 6, (const uint8_t *)"ok", 2);
+        assert_int_equal(write(fd, buf, 5), 5);
+        usleep(20000);
+        assert_int_equal(write(fd, buf + 5, w.len - 5), (ssize_t)(w.len - 5));
+        assert_int_equal(raw_read(fd, NULL), VP_PONG);
+    }
     close(fd);
     assert_int_equal(vt_ping(other), VP_OK);
+    daemon_close(&d, other);
+}
 
-    /* wrong version */
-    fd = raw_connect(&d);
-    vp_writer_init(&w, buf, sizeof buf);
-    vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = 7});
-    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
-    assert_int_equal(raw_read(fd, &code), VP_ERROR);
-    assert_int_equal(code, VP_ERR_VERSION);
-    assert_int_equal(raw_read(fd, NULL), -1);
-    close(fd);
-
-    /* not HELLO first */
-    fd = raw_connect(&d);
-    vp_writer_init(&w, buf, sizeof buf);
-    vp_enc_empty(&w, VP_STATS, 1);
-    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
-    assert_int_equal(raw_read(fd, &code), VP_ERROR);
-    assert_int_equal(code, VP_ERR_STATE);
-    assert_int_equal(raw_read(fd, NULL), -1);
-    close(fd);
-
-    /* a length beyond the limit: decided from the header, connection closed */
-    fd = raw_connect(&d);
-    raw_hello(fd);
-    uint8_t hdr[12] = {0xff, 0xff, 0xff, 0x7f, 0x04, 0x00, 0, 0, 9, 0, 0, 0};
-    assert_int_equal(write(fd, hdr, sizeof hdr), 12);
-    assert_int_equal(raw_read(fd, &code), VP_ERROR);
-    assert_int_equal(code, VP_ERR_TOO_LARGE);
-    assert_int_equal(raw_read(fd, NULL), -1);
-    close(fd);
-
-    /* errors that keep the connection: unknown type, count mismatch,
-       truncated, NaN in a matrix; then a ping still works */
-    fd = raw_connect(&d);
-    raw_hello(fd);
-    vp_writer_init(&w, buf, sizeof buf);
-    vp_enc_empty(&w, 0x0333, 2); /* unknown type */
-    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
-    assert_int_equal(raw_read(fd, &code), VP_ERROR);
-    assert_int_equal(code, VP_ERR_TYPE);
-    vp_entity e = {.id = 1, .sphere = {0, 0, 0, 1}};
-    vp_writer_init(&w, buf, sizeof buf);
-    vp_enc_entities(&w, VP_ENTITY_ADD, 3, &e, 1);
-    buf[VP_HEADER_SIZE] = 2; /* count says 2, payload holds 1 */
-    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
-    assert_int_equal(raw_read(fd, &code), VP_ERROR);
-    assert_int_equal(code, VP_ERR_COUNT);
-    vp_view v = {.view_proj = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}};
-    v.view_proj[3] = NAN;
-    vp_writer_init(&w, buf, sizeof buf);
-    vp_enc_vis_query(&w, 4, 0, 0, &v, 1);
-    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
-    assert_int_equal(raw_read(fd, &code), VP_ERROR);
-    assert_int_equal(code, VP_ERR_NONFINITE);
-    v.view_proj[3] = 0;
-    v.view_proj[0] = 0; /* singular */
-    vp_writer_init(&w, buf, sizeof buf);
-    vp_enc_vis_query(&w, 5, 0, 0, &v, 1);
-    assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
-    assert_int_equal(raw_read(fd, &code), VP_ERROR);
-    assert_int_equal(code, VP_ERR_MATRIX);
-    vp_writer_init(&w, buf, sizeof buf);
-    vp_enc_ping(&w, VP_PING, 6, (const uint8_t *)"ok", 2);
-    /* and split it across two writes: the server resumes at any byte */
-    assert_int_equal(write(fd, buf, 5), 5);
-    usleep(20000);
-    assert_int_equal(write(fd, buf + 5, w.len - 5), (ssize_t)(w.len - 5));
-    assert_int_equal(raw_read(fd, NULL), VP_PONG);
-    close(fd);
-
-    /* random garbage after a hello: the daemon survives */
+/* Random garbage after a hello: the daemon survives. */
+static void test_random_frames(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    vt_client *other = daemon_open(&d, VP_ROLE_VIEWER); /* must keep being served */
+    uint8_t buf[4096];
+    int fd;
     rng r = {test_seed() ^ 0x9999};
     for (int i = 0; i < 50; i++) {
         fd = raw_connect(&d);
@@ -627,8 +626,7 @@ static void test_malformed_frames(void **state)
         close(fd);
     }
     assert_int_equal(vt_ping(other), VP_OK);
-    vt_close(other);
-    daemon_stop(&d);
+    daemon_close(&d, other);
 }
 
 typedef struct worker_arg {
@@ -687,14 +685,12 @@ static void *worker(void *p)
 
 static void test_concurrent_clients(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
+    daemon_proc *d = *state;
     enum { N = 32 };
     pthread_t th[N];
     worker_arg args[N];
     for (int i = 0; i < N; i++) {
-        args[i] = (worker_arg){.d = &d, .idx = i};
+        args[i] = (worker_arg){.d = d, .idx = i};
         assert_int_equal(pthread_create(&th[i], NULL, worker, &args[i]), 0);
     }
     int failures = 0;
@@ -703,12 +699,11 @@ static void test_concurrent_clients(void **state)
         failures += args[i].failures;
     }
     assert_int_equal(failures, 0);
-    vt_client *c = connect_role(&d, VP_ROLE_VIEWER, false);
+    vt_client *c = connect_role(d, VP_ROLE_VIEWER, false);
     vp_stats_reply st;
     assert_int_equal(vt_stats(c, &st), VP_OK);
     assert_int_equal(st.entities, N * 10 * 20);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 static void test_slow_reader_dropped(void **state)
@@ -735,13 +730,7 @@ static void test_slow_reader_dropped(void **state)
     }
     /* the daemon drops it; meanwhile the editor is served */
     assert_int_equal(vt_ping(ed), VP_OK);
-    vp_stats_reply st;
-    int tries = 0;
-    do {
-        usleep(20000);
-        assert_int_equal(vt_stats(ed, &st), VP_OK);
-    } while (st.connections > 1 && ++tries < 250);
-    assert_int_equal(st.connections, 1);
+    wait_connections(ed, 1);
     close(fd);
     /* the same with ENTITY_LIST, answered on the loop thread itself: a
        pipeline of them is cut off at the output limit, not answered whole */
@@ -752,15 +741,9 @@ static void test_slow_reader_dropped(void **state)
     for (sent = 0; sent < 20000; sent++)
         if (send(fd, buf, w.len, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) break;
     assert_int_equal(vt_ping(ed), VP_OK);
-    tries = 0;
-    do {
-        usleep(20000);
-        assert_int_equal(vt_stats(ed, &st), VP_OK);
-    } while (st.connections > 1 && ++tries < 250);
-    assert_int_equal(st.connections, 1);
+    wait_connections(ed, 1);
     close(fd);
-    vt_close(ed);
-    daemon_stop(&d);
+    daemon_close(&d, ed);
 }
 
 /* The CLI against a real daemon: add, query --json, export, import into a
@@ -773,16 +756,9 @@ static void test_cli_round_trip(void **state)
     char cmd[4096], out[8192];
     FILE *f;
     const char *cli = bin_dir();
-    snprintf(cmd, sizeof cmd,
-             "%s/vantage -s %s add 7 0,0,20 1 --class 3 > /dev/null && "
-             "%s/vantage -p %d add 8 5,1,30 2 --dynamic --aabb 4,0,29,6,2,31 > /dev/null && "
-             "%s/vantage -p %d query --eye 0,0,0 --at 0,0,10 --json",
-             cli, d.sock, cli, d.port, cli, d.port);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, sizeof out - 1, p);
-    out[n] = 0;
-    assert_int_equal(pclose(p), 0);
+    assert_int_equal(vantage_run(NULL, out, sizeof out, "-s %s add 7 0,0,20 1 --class 3", d.sock), 0);
+    assert_int_equal(vantage_run(&d, out, sizeof out, "add 8 5,1,30 2 --dynamic --aabb 4,0,29,6,2,31"), 0);
+    assert_int_equal(vantage_run(&d, out, sizeof out, "query --eye 0,0,0 --at 0,0,10 --json"), 0);
     assert_non_null(strstr(out, "{\"id\": 7, "));
     assert_non_null(strstr(out, "{\"id\": 8, "));
     assert_non_null(strstr(out, "\"visible\": 2"));
@@ -807,7 +783,7 @@ static void test_cli_round_trip(void **state)
              cli, d.port, f1, cli, d2.port, f1, cli, d2.port, f2, f1, f2);
     assert_int_equal(system(cmd), 0);
     f = fopen(f2, "r");
-    n = fread(out, 1, sizeof out - 1, f);
+    size_t n = fread(out, 1, sizeof out - 1, f);
     out[n] = 0;
     fclose(f);
     assert_non_null(strstr(out, "\"id\": 20, \"class\": 4, \"sphere\": [1, 2, 3, 4]"));
@@ -817,19 +793,12 @@ static void test_cli_round_trip(void **state)
     f = fopen(f1, "a");
     fprintf(f, "{\"id\": 99, \"sphere\": [1, 2]}\n");
     fclose(f);
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d import %s 2>&1", cli, d2.port, f1);
-    p = popen(cmd, "r");
-    n = fread(out, 1, sizeof out - 1, p);
-    out[n] = 0;
-    assert_int_not_equal(pclose(p), 0);
+    assert_int_not_equal(vantage_run(&d2, out, sizeof out, "import %s", f1), 0);
     assert_non_null(strstr(out, ":6: \"sphere\" must be"));
     /* the load generator, briefly: every request answered */
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --test query --clients 6 --threads 2 --requests 60 --pipeline 3 --json",
-             cli, d.port);
-    p = popen(cmd, "r");
-    n = fread(out, 1, sizeof out - 1, p);
-    out[n] = 0;
-    assert_int_equal(pclose(p), 0);
+    assert_int_equal(
+        vantage_run(&d, out, sizeof out, "bench --test query --clients 6 --threads 2 --requests 60 --pipeline 3 --json"),
+        0);
     assert_non_null(strstr(out, "\"requests\": 60, \"failed_threads\": 0"));
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d bench --test edit --clients 2 --requests 10 --batch 50 > /dev/null",
              cli, d.port);
@@ -842,11 +811,9 @@ static void test_cli_round_trip(void **state)
 /* Subscribers get coalesced scene events that add up to the edits. */
 static void test_events(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *sub = connect_role(&d, VP_ROLE_VIEWER, true);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *sub = connect_role(d, VP_ROLE_VIEWER, true);
+    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     assert_int_equal(vt_subscribe(sub, VP_EVENT_SCENE), VP_OK);
     vp_entity e[10];
     for (int i = 0; i < 10; i++) e[i] = (vp_entity){.id = 500 + (uint64_t)i, .sphere = {i, 0, 0, 1}};
@@ -885,7 +852,6 @@ static void test_events(void **state)
     assert_int_equal(ev.added + ev.updated + ev.removed, 0);
     vt_close(sub);
     vt_close(ed);
-    daemon_stop(&d);
 }
 
 /* Occluders pushed over the protocol hide what is behind them in the next
@@ -893,10 +859,8 @@ static void test_events(void **state)
  * replacing it by one with a hole, brings entities back. */
 static void test_occlusion_over_the_wire(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     /* a wall 100 x 40 m at z = -20, facing the camera at the origin */
     const float wall[18] = {-50, 0, 0, 50, 0, 0, 50, 40, 0, -50, 0, 0, 50, 40, 0, -50, 40, 0};
     const double at_wall[3] = {0, 0, -20};
@@ -940,7 +904,6 @@ static void test_occlusion_over_the_wire(void **state)
     assert_int_equal(vt_stats(c, &st), VP_OK);
     assert_int_equal(st.occluders, 0);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 /* RENDER: a frame of a lit box, raw and JPEG; `vantage render` writes an
@@ -948,10 +911,8 @@ static void test_occlusion_over_the_wire(void **state)
  * bad requests get clear errors and the daemon keeps serving. */
 static void test_render_frames(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     vp_entity e = {.id = 1, .aabb = {-2, -2, -12, 2, 2, -8}};
     assert_int_equal(vt_add(c, &e, 1, NULL, NULL), VP_OK);
     vp_light l = {.id = 1, .kind = VP_LIGHT_POINT, .pos = {3, 3, -2}, .color = {1, 1, 1}, .intensity = 50,
@@ -1004,7 +965,7 @@ static void test_render_frames(void **state)
     tdir_make(&td, "vantage_e2e_render");
     snprintf(path, sizeof path, "%s", tdir_file(&td, "frame.exr"));
     snprintf(cmd, sizeof cmd, "%s/vantage -p %d render --eye 0,0,0 --at 0,0,-10 --size 160x90 -o %s > /dev/null",
-             bin_dir(), d.port, path);
+             bin_dir(), d->port, path);
     assert_int_equal(system(cmd), 0);
     uint32_t ew, eh;
     assert_int_equal(vt_exr_size(path, &ew, &eh, err, sizeof err), 0);
@@ -1020,7 +981,6 @@ static void test_render_frames(void **state)
     free(a);
     tdir_remove(&td);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 /* Reads one whole frame of any size from fd (SO_RCVTIMEO set): its type,
@@ -1083,10 +1043,8 @@ static int frames_until(vt_client *v, uint64_t want, uint64_t *last, uint16_t wi
  * showing the final scene, while another viewer saw every edit. */
 static void test_frame_stream(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     vp_entity e[200];
     rng r = {test_seed() ^ 0xF5};
     for (int i = 0; i < 200; i++) {
@@ -1094,7 +1052,7 @@ static void test_frame_stream(void **state)
         e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 1, y - 1, z - 1, x + 1, y + 1, z + 1}};
     }
     assert_int_equal(vt_add(ed, e, 200, NULL, NULL), VP_OK);
-    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, true);
+    vt_client *v = connect_role(d, VP_ROLE_VIEWER, true);
     vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = 80}, .max_fps = VP_FRAME_SUB_MAX_FPS};
     const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
     assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 70, 320, 180, 0.1, 200));
@@ -1116,7 +1074,7 @@ static void test_frame_stream(void **state)
     assert_int_equal(vt_wait_frame(v, &f, 300), VT_ERR_IO);
     assert_non_null(strstr(vt_last_error(v)->msg, "timed out"));
     /* a second viewer that subscribes for big raw frames and stops reading */
-    int stalled = raw_connect(&d);
+    int stalled = raw_connect(d);
     raw_hello(stalled);
     {
         uint8_t buf[512];
@@ -1180,7 +1138,6 @@ static void test_frame_stream(void **state)
     assert_int_equal(vt_ping(v), VP_OK);
     vt_close(v);
     vt_close(ed);
-    daemon_stop(&d);
 }
 
 /* The phases of test_stalled_viewer_isolated: the clients' threads file
@@ -1521,8 +1478,7 @@ static void test_render_gl_over_the_wire(void **state)
 {
     (void)state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *c = daemon_open(&d, VP_ROLE_EDITOR);
     vp_entity e[50];
     rng r = {test_seed() ^ 0x61};
     for (int i = 0; i < 50; i++) {
@@ -1580,10 +1536,8 @@ static void test_render_gl_over_the_wire(void **state)
  * ones; bad queries are refused. */
 static void test_light_query(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     rng r = {test_seed() ^ 0x116};
     vp_entity e[120];
     for (int i = 0; i < 120; i++) {
@@ -1676,7 +1630,6 @@ static void test_light_query(void **state)
     free(ids);
     free(depth);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 /* Configured limits: connections, records per batch. */
@@ -1710,22 +1663,23 @@ static void test_limits(void **state)
 }
 
 const struct CMUnitTest e2e_tests[] = {
-    cmocka_unit_test(test_events),
+    DAEMON_TEST(test_events),
     cmocka_unit_test(test_limits),
-    cmocka_unit_test(test_occlusion_over_the_wire),
-    cmocka_unit_test(test_render_frames),
-    cmocka_unit_test(test_frame_stream),
+    DAEMON_TEST(test_occlusion_over_the_wire),
+    DAEMON_TEST(test_render_frames),
+    DAEMON_TEST(test_frame_stream),
     cmocka_unit_test(test_stalled_viewer_isolated),
-    cmocka_unit_test(test_light_query),
+    DAEMON_TEST(test_light_query),
     cmocka_unit_test(test_render_gl_over_the_wire),
-    cmocka_unit_test(test_edits_then_queries_match_model),
-    cmocka_unit_test(test_batches_all_or_nothing),
-    cmocka_unit_test(test_malformed_frames),
+    DAEMON_TEST(test_edits_then_queries_match_model),
+    DAEMON_TEST(test_batches_all_or_nothing),
+    TEST_ROWS(test_malformed_frames, bad_frames),
+    cmocka_unit_test(test_random_frames),
     cmocka_unit_test(test_slow_clients_time_out),
     cmocka_unit_test(test_unix_socket_clash),
-    cmocka_unit_test(test_frame_rate_cap_on_reaim),
+    DAEMON_TEST(test_frame_rate_cap_on_reaim),
     cmocka_unit_test(test_connection_churn),
-    cmocka_unit_test(test_concurrent_clients),
+    DAEMON_TEST(test_concurrent_clients),
     cmocka_unit_test(test_slow_reader_dropped),
     cmocka_unit_test(test_cli_round_trip),
 };

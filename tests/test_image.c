@@ -34,7 +34,6 @@
 #include <dirent.h>
 #include <errno.h>
 #include <float.h>
-#include <pthread.h>
 #include <signal.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -983,53 +982,109 @@ static void test_image_large(void **state)
 
 /* ---- failures -------------------------------------------------------------------- */
 
-static void test_image_bad_args(void **state)
+/* Bad arguments to the writers: VT_ERR_INVALID, a message, nothing on disk. A
+ * row: the path, the size, the pixels (or none), the stride, and the PNG
+ * level or the JPEG bytes a pixel and quality. */
+#define M VT_IMAGE_MAX_DIM
+typedef struct bad_png_args {
+    const char *name;
+    test_path path;
+    uint32_t w, h;
+    bool no_px;
+    size_t stride;
+    int level;
+} bad_png_args;
+
+static const bad_png_args bad_png_rows[] = {
+    {"no path", TPATH_NULL, 2, 2, false, 8, 6},
+    {"empty path", TPATH_EMPTY, 2, 2, false, 8, 6},
+    {"width 0", TPATH_FILE, 0, 2, false, 8, 6},
+    {"height 0", TPATH_FILE, 2, 0, false, 8, 6},
+    {"width past the limit", TPATH_FILE, M + 1, 1, false, 4 * (M + 1), 6},
+    {"height past the limit", TPATH_FILE, 1, M + 1, false, 4, 6},
+    {"width 2^32 - 1", TPATH_FILE, UINT32_MAX, 1, false, SIZE_MAX, 6},
+    {"no pixels", TPATH_FILE, 2, 2, true, 8, 6},
+    {"stride short of a row", TPATH_FILE, 2, 2, false, 7, 6},
+    {"level 10", TPATH_FILE, 2, 2, false, 8, 10},
+    {"level -2", TPATH_FILE, 2, 2, false, 8, -2},
+};
+
+static void test_image_png_bad_args(void **state)
+{
+    const bad_png_args *r = *state;
+    uint8_t px[64] = {0};
+    tdir t;
+    tdir_make(&t, "vt_image_test");
+    char err[256] = "unchanged";
+    assert_int_equal(vt_png_write(tdir_path_arg(&t, r->path, "bad.img"), r->w, r->h, r->no_px ? NULL : px, r->stride,
+                                  true, r->level, err, sizeof err),
+                     VT_ERR_INVALID);
+    assert_true(strlen(err) > 0 && strcmp(err, "unchanged") != 0);
+    assert_int_equal(tdir_count(&t), 0);
+    tdir_remove(&t);
+}
+
+typedef struct bad_jpeg_args {
+    const char *name;
+    test_path path;
+    uint32_t w, h;
+    bool no_px;
+    size_t stride;
+    uint32_t bpp;
+    int q;
+} bad_jpeg_args;
+
+static const bad_jpeg_args bad_jpeg_rows[] = {
+    {"no path", TPATH_NULL, 2, 2, false, 6, 3, 85},
+    {"empty path", TPATH_EMPTY, 2, 2, false, 6, 3, 85},
+    {"width 0", TPATH_FILE, 0, 2, false, 6, 3, 85},
+    {"height 0", TPATH_FILE, 2, 0, false, 6, 3, 85},
+    {"width past the limit", TPATH_FILE, M + 1, 1, false, 3 * (M + 1), 3, 85},
+    {"height past the limit", TPATH_FILE, 1, M + 1, false, 3, 3, 85},
+    {"no pixels", TPATH_FILE, 2, 2, true, 6, 3, 85},
+    {"stride short of a row", TPATH_FILE, 2, 2, false, 5, 3, 85},
+    {"stride short of an RGBA row", TPATH_FILE, 2, 2, false, 7, 4, 85},
+    {"2 bytes a pixel", TPATH_FILE, 2, 2, false, 8, 2, 85},
+    {"1 byte a pixel", TPATH_FILE, 2, 2, false, 8, 1, 85},
+    {"quality 0", TPATH_FILE, 2, 2, false, 6, 3, 0},
+    {"quality 101", TPATH_FILE, 2, 2, false, 6, 3, 101},
+};
+#undef M
+
+/* The file writer refuses the row; the memory encoder too (where a path
+ * is not what is wrong), handing back nothing. */
+static void test_image_jpeg_bad_args(void **state)
+{
+    const bad_jpeg_args *r = *state;
+    uint8_t px[64] = {0};
+    const uint8_t *src = r->no_px ? NULL : px;
+    tdir t;
+    tdir_make(&t, "vt_image_test");
+    char err[256] = "unchanged";
+    assert_int_equal(vt_jpeg_write(tdir_path_arg(&t, r->path, "bad.img"), r->w, r->h, src, r->stride, r->bpp, r->q,
+                                   err, sizeof err),
+                     VT_ERR_INVALID);
+    assert_true(strlen(err) > 0 && strcmp(err, "unchanged") != 0);
+    assert_int_equal(tdir_count(&t), 0);
+    if (r->path == TPATH_FILE) {
+        uint8_t *out = (uint8_t *)1;
+        size_t n = 1;
+        assert_int_equal(vt_jpeg_encode(r->w, r->h, src, r->stride, r->bpp, r->q, &out, &n, err, sizeof err),
+                         VT_ERR_INVALID);
+        assert_null(out);
+        assert_int_equal(n, 0);
+    }
+    tdir_remove(&t);
+}
+
+/* NULL outputs, tiny and absent error buffers, and the readers' NULLs. */
+static void test_image_null_args(void **state)
 {
     (void)state;
     uint8_t px[64] = {0};
     tdir t;
     tdir_make(&t, "vt_image_test");
     const char *p = tdir_file(&t, "bad.img");
-    const uint32_t M = VT_IMAGE_MAX_DIM;
-    struct { const char *path; uint32_t w, h; const uint8_t *px; size_t stride; int level; } pc[] = {
-        {NULL, 2, 2, px, 8, 6}, {"", 2, 2, px, 8, 6}, {p, 0, 2, px, 8, 6}, {p, 2, 0, px, 8, 6},
-        {p, M + 1, 1, px, 4 * (M + 1), 6}, {p, 1, M + 1, px, 4, 6}, {p, UINT32_MAX, 1, px, SIZE_MAX, 6},
-        {p, 2, 2, NULL, 8, 6}, {p, 2, 2, px, 7, 6}, {p, 2, 2, px, 8, 10}, {p, 2, 2, px, 8, -2},
-    };
-    for (size_t i = 0; i < sizeof pc / sizeof pc[0]; i++) {
-        char err[256] = "unchanged";
-        assert_int_equal(vt_png_write(pc[i].path, pc[i].w, pc[i].h, pc[i].px, pc[i].stride, true,
-                                      pc[i].level, err, sizeof err), VT_ERR_INVALID);
-        assert_true(strlen(err) > 0 && strcmp(err, "unchanged") != 0);
-        assert_int_equal(tdir_count(&t), 0);
-    }
-    struct {
-        const char *path;
-        uint32_t w, h;
-        const uint8_t *px;
-        size_t stride;
-        uint32_t bpp;
-        int q;
-    } jc[] = {
-        {NULL, 2, 2, px, 6, 3, 85}, {"", 2, 2, px, 6, 3, 85}, {p, 0, 2, px, 6, 3, 85},
-        {p, 2, 0, px, 6, 3, 85}, {p, M + 1, 1, px, 3 * (M + 1), 3, 85}, {p, 1, M + 1, px, 3, 3, 85},
-        {p, 2, 2, NULL, 6, 3, 85}, {p, 2, 2, px, 5, 3, 85}, {p, 2, 2, px, 7, 4, 85},
-        {p, 2, 2, px, 8, 2, 85}, {p, 2, 2, px, 8, 1, 85}, {p, 2, 2, px, 6, 3, 0}, {p, 2, 2, px, 6, 3, 101},
-    };
-    for (size_t i = 0; i < sizeof jc / sizeof jc[0]; i++) {
-        char err[256] = "unchanged";
-        assert_int_equal(vt_jpeg_write(jc[i].path, jc[i].w, jc[i].h, jc[i].px, jc[i].stride, jc[i].bpp,
-                                       jc[i].q, err, sizeof err), VT_ERR_INVALID);
-        assert_true(strlen(err) > 0 && strcmp(err, "unchanged") != 0);
-        assert_int_equal(tdir_count(&t), 0);
-        if (!jc[i].path || !jc[i].path[0]) continue;
-        uint8_t *out = (uint8_t *)1;
-        size_t n = 1;
-        assert_int_equal(vt_jpeg_encode(jc[i].w, jc[i].h, jc[i].px, jc[i].stride, jc[i].bpp, jc[i].q,
-                                        &out, &n, err, sizeof err), VT_ERR_INVALID);
-        assert_null(out);
-        assert_int_equal(n, 0);
-    }
     uint8_t *out;
     size_t n;
     assert_int_equal(vt_jpeg_encode(2, 2, px, 6, 3, 85, NULL, &n, NULL, 0), VT_ERR_INVALID);
@@ -1052,34 +1107,23 @@ static void test_image_bad_args(void **state)
     tdir_remove(&t);
 }
 
+/* Writes a 2 x 2 RGBA image as PNG (ctx NULL) or JPEG (ctx not NULL). */
+static int write_small(const char *path, char *err, size_t errlen, void *ctx)
+{
+    static const uint8_t px[16] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
+    return ctx ? vt_jpeg_write(path, 2, 2, px, 8, 4, 85, err, errlen)
+               : vt_png_write(path, 2, 2, px, 8, true, 6, err, errlen);
+}
+
 /* Unwritable places fail with the file system's errno and leave nothing. */
 static void test_image_bad_path(void **state)
 {
     (void)state;
-    uint8_t px[16] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
     char err[512];
     tdir t;
     tdir_make(&t, "vt_image_test");
-    for (int fmt = 0; fmt < 2; fmt++) {
-#define WRITE(path) (fmt ? vt_jpeg_write((path), 2, 2, px, 8, 4, 85, err, sizeof err) \
-                         : vt_png_write((path), 2, 2, px, 8, true, 6, err, sizeof err))
-        snprintf(t.path, sizeof t.path, "%s/missing/x.img", t.dir);
-        assert_int_equal(WRITE(t.path), VT_ERR_NOT_FOUND);
-        assert_non_null(strstr(err, t.path));
-        assert_int_equal(WRITE(tdir_file(&t, "f.img")), 0);
-        snprintf(t.path, sizeof t.path, "%s/f.img/x.img", t.dir);
-        assert_int_equal(WRITE(t.path), VT_ERR_FILE);
-        assert_non_null(strstr(err, strerror(ENOTDIR))); /* errno's text names the cause */
-        /* the target is a directory: written, then the rename fails */
-        assert_int_equal(mkdir(tdir_file(&t, "d.img"), 0700), 0);
-        assert_int_equal(WRITE(t.path), VT_ERR_FILE);
-        assert_non_null(strstr(err, strerror(EISDIR))); /* errno's text names the cause */
-        assert_true(strlen(err) > 0);
-        assert_int_equal(tdir_count(&t), 2); /* f.img, d.img: no temporary left */
-        assert_int_equal(rmdir(t.path), 0);
-        assert_int_equal(unlink(tdir_file(&t, "f.img")), 0);
-#undef WRITE
-    }
+    test_unwritable_paths(&t, write_small, NULL, ".png");
+    test_unwritable_paths(&t, write_small, &t, ".jpg");
     /* readers: missing file, directory, not an image */
     uint8_t *out;
     uint32_t w, h;
@@ -1094,6 +1138,20 @@ static void test_image_bad_path(void **state)
     assert_int_equal(vt_png_read(t.path, &out, &w, &h, NULL, err, sizeof err), VT_ERR_CORRUPT);
     assert_int_equal(vt_jpeg_read(t.path, &out, &w, &h, err, sizeof err), VT_ERR_CORRUPT);
     tdir_remove(&t);
+}
+
+typedef struct noise_image {
+    const uint8_t *px;
+    uint32_t w, h;
+    int jpeg;
+} noise_image;
+
+/* The whole of it, as a JPEG of quality 100 or an uncompressed PNG. */
+static int write_noise(const char *path, char *err, size_t errlen, void *ctx)
+{
+    const noise_image *n = ctx;
+    return n->jpeg ? vt_jpeg_write(path, n->w, n->h, n->px, (size_t)n->w * 4, 4, 100, err, errlen)
+                   : vt_png_write(path, n->w, n->h, n->px, (size_t)n->w * 4, true, 0, err, errlen);
 }
 
 /* A write cut short by RLIMIT_FSIZE (in a child, SIGXFSZ ignored) fails
@@ -1114,21 +1172,7 @@ static void test_image_failed_write_keeps_old(void **state)
         else png_write_ok(p, 4, 4, noise, (size_t)w * 4, true, 6);
         size_t n0;
         uint8_t *before = read_file(p, &n0);
-        fflush(NULL);
-        pid_t pid = fork();
-        assert_true(pid >= 0);
-        if (pid == 0) {
-            struct rlimit lim = {64 << 10, 64 << 10};
-            signal(SIGXFSZ, SIG_IGN);
-            int rc = setrlimit(RLIMIT_FSIZE, &lim) == 0 ? 0 : -1;
-            if (rc == 0)
-                rc = fmt ? vt_jpeg_write(p, w, h, noise, (size_t)w * 4, 4, 100, err, sizeof err)
-                         : vt_png_write(p, w, h, noise, (size_t)w * 4, true, 0, err, sizeof err);
-            _exit(rc == VT_ERR_FILE && strstr(err, strerror(EFBIG)) ? 0 : 1); /* the file system's EFBIG */
-        }
-        int status = 0;
-        assert_int_equal(waitpid(pid, &status, 0), pid);
-        assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+        test_write_past_fsize(write_noise, p, &(noise_image){noise, w, h, fmt});
         assert_int_equal(tdir_count(&t), fmt + 1);
         size_t n1;
         uint8_t *after = read_file(p, &n1);
@@ -1154,15 +1198,9 @@ static void test_image_failed_write_keeps_old(void **state)
 
 /* Threads writing and failing at once: each error lands in its own
  * thread's buffer, every good file reads back right. */
-typedef struct img_thread {
-    tdir *t;
-    int id;
-    int failures;
-} img_thread;
-
 static void *img_thread_main(void *arg)
 {
-    img_thread *a = arg;
+    test_thread *a = arg;
     uint32_t w = 45, h = 31;
     char png[400], jpg[400], junk[400], err[512];
     snprintf(png, sizeof png, "%s/t%d.png", a->t->dir, a->id);
@@ -1193,12 +1231,8 @@ static void *img_thread_main(void *arg)
         free(file);
         free(mem);
         for (int k = 0; k < 20; k++) {
-            if (vt_png_read(junk, &got, &rw, &rh, NULL, err, sizeof err) != VT_ERR_CORRUPT ||
-                strncmp(err, junk, strlen(junk)) != 0)
-                a->failures++;
-            if (vt_jpeg_read(junk, &got, &rw, &rh, err, sizeof err) != VT_ERR_CORRUPT ||
-                strncmp(err, junk, strlen(junk)) != 0)
-                a->failures++;
+            a->failures += !test_refused_naming(vt_png_read(junk, &got, &rw, &rh, NULL, err, sizeof err), err, junk);
+            a->failures += !test_refused_naming(vt_jpeg_read(junk, &got, &rw, &rh, err, sizeof err), err, junk);
         }
     }
     free(px);
@@ -1208,27 +1242,7 @@ static void *img_thread_main(void *arg)
 static void test_image_threads(void **state)
 {
     (void)state;
-    enum { N = 4 };
-    tdir t;
-    tdir_make(&t, "vt_image_test");
-    pthread_t th[N];
-    img_thread args[N];
-    for (int i = 0; i < N; i++) {
-        char p[400], text[80];
-        snprintf(p, sizeof p, "%s/junk%d", t.dir, i);
-        int n = snprintf(text, sizeof text, "junk %d: neither a PNG nor a JPEG, but long enough\n", i);
-        write_bytes(p, text, (size_t)n);
-    }
-    for (int i = 0; i < N; i++) {
-        args[i] = (img_thread){.t = &t, .id = i};
-        assert_int_equal(pthread_create(&th[i], NULL, img_thread_main, &args[i]), 0);
-    }
-    for (int i = 0; i < N; i++) {
-        assert_int_equal(pthread_join(th[i], NULL), 0);
-        assert_int_equal(args[i].failures, 0);
-    }
-    assert_int_equal(tdir_count(&t), 3 * N);
-    tdir_remove(&t);
+    test_threads_in_tdir("vt_image_test", "", img_thread_main, 4, 3);
 }
 
 const struct CMUnitTest image_tests[] = {
@@ -1245,7 +1259,9 @@ const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_image_jpeg_roundtrip),
     cmocka_unit_test(test_image_jpeg_details),
     cmocka_unit_test(test_image_large),
-    cmocka_unit_test(test_image_bad_args),
+    TEST_ROWS(test_image_png_bad_args, bad_png_rows),
+    TEST_ROWS(test_image_jpeg_bad_args, bad_jpeg_rows),
+    cmocka_unit_test(test_image_null_args),
     cmocka_unit_test(test_image_bad_path),
     cmocka_unit_test(test_image_failed_write_keeps_old),
     cmocka_unit_test(test_image_threads),

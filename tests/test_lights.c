@@ -192,13 +192,8 @@ static void test_tile_lists_cover_brute_force(void **state)
 static void test_bad_lights(void **state)
 {
     (void)state;
-    cull_view_desc d = {.viewport_w = 64, .viewport_h = 64};
-    double proj[16], view[16], dir[3] = {0, 0, -1}, up[3] = {0, 1, 0};
-    cull_mat_perspective(proj, 1, 1, 0.1, 100, CULL_DEPTH_GL);
-    cull_mat_look_dir(view, dir, up);
-    cull_mat_mul(d.view_proj, proj, view);
     cull_view v;
-    assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+    test_view_look_range(&v, (double[3]){0, 0, 0}, (double[3]){0, 0, -1}, 64, 64, 0.1, 100);
     cull_light_tiles t = {0};
     cull_light l = {.pos = {0, 0, -5}, .radius = 1};
     assert_int_equal(cull_lights_bin(&v, 64, 64, &l, 1, NULL, &t), CULL_OK);

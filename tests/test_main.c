@@ -18,6 +18,7 @@ int main(void)
         {render_tests, render_tests_count},
         {alloc_tests, alloc_tests_count},
         {protocol_tests, protocol_tests_count},
+        {bytes_tests, bytes_tests_count},
         {e2e_tests, e2e_tests_count},
         {exr_tests, exr_tests_count},
         {image_tests, image_tests_count},
@@ -38,19 +39,25 @@ int main(void)
         {cli_tests, cli_tests_count},
         {errmap_tests, errmap_tests_count},
     };
+    /* TEST_ROWS entries become one test per row (test_util.h) */
     size_t total = 0;
-    for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) total += groups[g].n;
+    for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++)
+        total += test_rows_expand(groups[g].t, groups[g].n, NULL);
     struct CMUnitTest *all = calloc(total, sizeof *all);
     if (!all) return 1;
+    for (size_t g = 0, at = 0; g < sizeof groups / sizeof groups[0]; g++)
+        at += test_rows_expand(groups[g].t, groups[g].n, all + at);
     /* VANTAGE_TEST_ONLY=substring runs the tests whose name contains it */
     const char *only = getenv("VANTAGE_TEST_ONLY");
     size_t k = 0;
-    for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++)
-        for (size_t i = 0; i < groups[g].n; i++)
-            if (!only || strstr(groups[g].t[i].name, only)) all[k++] = groups[g].t[i];
+    for (size_t i = 0; i < total; i++) {
+        if (!only || strstr(all[i].name, only)) all[k++] = all[i];
+        else free((char *)all[i].name);
+    }
     total = k;
     printf("vantage tests: seed 0x%llx, scale %g\n", (unsigned long long)test_seed(), test_scale());
     int failed = _cmocka_run_group_tests("vantage", all, total, NULL, NULL);
+    for (size_t i = 0; i < total; i++) free((char *)all[i].name);
     free(all);
     return failed ? 1 : 0;
 }

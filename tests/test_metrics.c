@@ -577,77 +577,87 @@ static int raw_frame(rawc *r, vp_header *h)
 
 /* ---- the tests ------------------------------------------------------------------------- */
 
+static const char model_good[] =
+    "# HELP vantage_x_total A counter with \\\\ and \\n in its help.\n"
+    "# TYPE vantage_x_total counter\n"
+    "vantage_x_total{type=\"a\\\"b\\\\c\\nd\",code=\"X\"} 3\n"
+    "vantage_x_total{code=\"Y\",type=\"e\"} 0\n"
+    "# TYPE vantage_g gauge\n"
+    "# HELP vantage_g A gauge.\n"
+    "vantage_g -1.5e-3\n"
+    "# HELP vantage_h_seconds A histogram.\n"
+    "# TYPE vantage_h_seconds histogram\n"
+    "vantage_h_seconds_bucket{le=\"1e-06\"} 1\n"
+    "vantage_h_seconds_bucket{le=\"0.5\"} 1\n"
+    "vantage_h_seconds_bucket{le=\"+Inf\"} 4\n"
+    "vantage_h_seconds_sum 7.25\n"
+    "vantage_h_seconds_count 4\n";
+
 /* The model itself: a text written by hand per the format passes; each
  * way of breaking it is refused (so a pass below means something). */
 static void test_metrics_model(void **state)
 {
     (void)state;
-    static const char good[] =
-        "# HELP vantage_x_total A counter with \\\\ and \\n in its help.\n"
-        "# TYPE vantage_x_total counter\n"
-        "vantage_x_total{type=\"a\\\"b\\\\c\\nd\",code=\"X\"} 3\n"
-        "vantage_x_total{code=\"Y\",type=\"e\"} 0\n"
-        "# TYPE vantage_g gauge\n"
-        "# HELP vantage_g A gauge.\n"
-        "vantage_g -1.5e-3\n"
-        "# HELP vantage_h_seconds A histogram.\n"
-        "# TYPE vantage_h_seconds histogram\n"
-        "vantage_h_seconds_bucket{le=\"1e-06\"} 1\n"
-        "vantage_h_seconds_bucket{le=\"0.5\"} 1\n"
-        "vantage_h_seconds_bucket{le=\"+Inf\"} 4\n"
-        "vantage_h_seconds_sum 7.25\n"
-        "vantage_h_seconds_count 4\n";
     expo e;
-    assert_true(expo_read(good, sizeof good - 1, &e));
+    assert_true(expo_read(model_good, sizeof model_good - 1, &e));
     assert_true(xv(&e, "vantage_x_total", "type", "a\"b\\c\nd", "code", "X") == 3);
     assert_true(xv(&e, "vantage_g", NULL, NULL, NULL, NULL) == -1.5e-3);
     assert_int_equal(e.nf, 3);
     expo_free(&e);
-    /* each replaces one line (or adds one) of the good text */
-    static const struct {
-        const char *from, *to;
-    } bad[] = {
-        {"vantage_g -1.5e-3\n", "vantage_g -1.5e-3 1700000000\n"},          /* a timestamp */
-        {"vantage_g -1.5e-3\n", "vantage_g  1\n"},                          /* two spaces */
-        {"vantage_g -1.5e-3\n", "vantage_g one\n"},                         /* no number */
-        {"vantage_g -1.5e-3\n", "vantage_g{} \n"},                          /* no value */
-        {"vantage_g -1.5e-3\n", "vantage_g{a=\"b} 1\n"},                    /* unterminated */
-        {"vantage_g -1.5e-3\n", "vantage_g{a=\"\\t\"} 1\n"},                /* bad escape */
-        {"vantage_g -1.5e-3\n", "vantage_g{a=\"1\",a=\"2\"} 1\n"},          /* a label twice */
-        {"vantage_g -1.5e-3\n", "vantage_g{__a=\"1\"} 1\n"},                /* reserved */
-        {"vantage_g -1.5e-3\n", "vantage_g{1a=\"1\"} 1\n"},                 /* label name */
-        {"vantage_g -1.5e-3\n", "vantage_g -1.5e-3\r\n"},                   /* CR */
-        {"vantage_g -1.5e-3\n", "vantage_g 1\n\n"},                         /* empty line */
-        {"vantage_g -1.5e-3\n", "vantage_g 1\nvantage_g 2\n"},              /* series twice */
-        {"vantage_g -1.5e-3\n", "vantage_g 1\nvantage_y 2\n"},              /* no TYPE */
-        {"vantage_g -1.5e-3\n", "vantage_g 1\n# a comment\n"},              /* other comment */
-        {"vantage_g -1.5e-3\n", "vantage_g 1\n# TYPE vantage_g gauge\n"},   /* TYPE after samples */
-        {"vantage_x_total{code=\"Y\",type=\"e\"} 0\n", "vantage_x_total{code=\"Y\",type=\"e\"} -1\n"}, /* counter < 0 */
-        {"vantage_x_total{code=\"Y\",type=\"e\"} 0\n", ""},                 /* fine: the control */
-        {"# TYPE vantage_x_total counter\n", "# TYPE vantage_x_total counte\n"},
-        {"# TYPE vantage_x_total counter\n", "# TYPE vantage_x counter\n"}, /* counter name */
-        {"# HELP vantage_g A gauge.\n", "# HELP vantage_g A \\gauge.\n"},   /* HELP escape */
-        {"# HELP vantage_g A gauge.\n", ""},                                /* no HELP */
-        {"vantage_h_seconds_bucket{le=\"0.5\"} 1\n", "vantage_h_seconds_bucket{le=\"0.5\"} 0\n"}, /* not cumulative */
-        {"vantage_h_seconds_bucket{le=\"0.5\"} 1\n", "vantage_h_seconds_bucket{le=\"1e-07\"} 1\n"}, /* le order */
-        {"vantage_h_seconds_bucket{le=\"+Inf\"} 4\n", "vantage_h_seconds_bucket{le=\"+Inf\"} 5\n"}, /* != count */
-        {"vantage_h_seconds_bucket{le=\"+Inf\"} 4\n", ""},                  /* no +Inf */
-        {"vantage_h_seconds_sum 7.25\n", ""},                               /* no _sum */
-        {"vantage_h_seconds_sum 7.25\n", "vantage_h_seconds_sum 7.25\nvantage_h_seconds 1\n"},
-        {"vantage_h_seconds_count 4\n", "vantage_h_seconds_count 4\nvantage_x_total{type=\"z\"} 1\n"}, /* not contiguous */
-    };
-    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        char t[2048];
-        const char *at = strstr(good, bad[i].from);
-        assert_non_null(at);
-        size_t pre = (size_t)(at - good);
-        snprintf(t, sizeof t, "%.*s%s%s", (int)pre, good, bad[i].to, at + strlen(bad[i].from));
-        bool ok = expo_read(t, strlen(t), &e);
-        bool control = i == 16;
-        if (ok != control) fail_msg("model case %zu: %s (%s)", i, ok ? "accepted" : "refused", e.err);
-        expo_free(&e);
-    }
     assert_false(expo_read("vantage_g 1", 11, &e)); /* no final line feed */
+    expo_free(&e);
+}
+
+/* One line of the good text replaced (or one added): a row is what
+ * breaks, the line, what replaces it, and whether the model accepts it
+ * (the control only). */
+typedef struct model_case {
+    const char *name, *from, *to;
+    bool accepted;
+} model_case;
+
+static const model_case model_cases[] = {
+    {"a timestamp", "vantage_g -1.5e-3\n", "vantage_g -1.5e-3 1700000000\n", false},
+    {"two spaces before the value", "vantage_g -1.5e-3\n", "vantage_g  1\n", false},
+    {"a word for the value", "vantage_g -1.5e-3\n", "vantage_g one\n", false},
+    {"empty labels, no value", "vantage_g -1.5e-3\n", "vantage_g{} \n", false},
+    {"unterminated label value", "vantage_g -1.5e-3\n", "vantage_g{a=\"b} 1\n", false},
+    {"bad escape in a label value", "vantage_g -1.5e-3\n", "vantage_g{a=\"\\t\"} 1\n", false},
+    {"a label twice", "vantage_g -1.5e-3\n", "vantage_g{a=\"1\",a=\"2\"} 1\n", false},
+    {"reserved label name", "vantage_g -1.5e-3\n", "vantage_g{__a=\"1\"} 1\n", false},
+    {"label name starting with a digit", "vantage_g -1.5e-3\n", "vantage_g{1a=\"1\"} 1\n", false},
+    {"CR before the line feed", "vantage_g -1.5e-3\n", "vantage_g -1.5e-3\r\n", false},
+    {"an empty line", "vantage_g -1.5e-3\n", "vantage_g 1\n\n", false},
+    {"a series twice", "vantage_g -1.5e-3\n", "vantage_g 1\nvantage_g 2\n", false},
+    {"a series with no TYPE", "vantage_g -1.5e-3\n", "vantage_g 1\nvantage_y 2\n", false},
+    {"a comment other than HELP or TYPE", "vantage_g -1.5e-3\n", "vantage_g 1\n# a comment\n", false},
+    {"TYPE after samples", "vantage_g -1.5e-3\n", "vantage_g 1\n# TYPE vantage_g gauge\n", false},
+    {"counter below 0", "vantage_x_total{code=\"Y\",type=\"e\"} 0\n", "vantage_x_total{code=\"Y\",type=\"e\"} -1\n", false},
+    {"the control: a zero counter sample removed", "vantage_x_total{code=\"Y\",type=\"e\"} 0\n", "", true},
+    {"counter TYPE misspelt", "# TYPE vantage_x_total counter\n", "# TYPE vantage_x_total counte\n", false},
+    {"counter TYPE of another name", "# TYPE vantage_x_total counter\n", "# TYPE vantage_x counter\n", false},
+    {"HELP escape", "# HELP vantage_g A gauge.\n", "# HELP vantage_g A \\gauge.\n", false},
+    {"no HELP", "# HELP vantage_g A gauge.\n", "", false},
+    {"buckets not cumulative", "vantage_h_seconds_bucket{le=\"0.5\"} 1\n", "vantage_h_seconds_bucket{le=\"0.5\"} 0\n", false},
+    {"le out of order", "vantage_h_seconds_bucket{le=\"0.5\"} 1\n", "vantage_h_seconds_bucket{le=\"1e-07\"} 1\n", false},
+    {"+Inf bucket other than the count", "vantage_h_seconds_bucket{le=\"+Inf\"} 4\n", "vantage_h_seconds_bucket{le=\"+Inf\"} 5\n", false},
+    {"no +Inf", "vantage_h_seconds_bucket{le=\"+Inf\"} 4\n", "", false},
+    {"no _sum", "vantage_h_seconds_sum 7.25\n", "", false},
+    {"a sample of another series inside the histogram", "vantage_h_seconds_sum 7.25\n", "vantage_h_seconds_sum 7.25\nvantage_h_seconds 1\n", false},
+    {"histogram not contiguous", "vantage_h_seconds_count 4\n", "vantage_h_seconds_count 4\nvantage_x_total{type=\"z\"} 1\n", false},
+};
+
+static void test_metrics_model_refuses(void **state)
+{
+    const model_case *c = *state;
+    char t[2048];
+    const char *at = strstr(model_good, c->from);
+    assert_non_null(at);
+    size_t pre = (size_t)(at - model_good);
+    snprintf(t, sizeof t, "%.*s%s%s", (int)pre, model_good, c->to, at + strlen(c->from));
+    expo e;
+    bool ok = expo_read(t, strlen(t), &e);
+    if (ok != c->accepted) fail_msg("%s (%s)", ok ? "accepted" : "refused", e.err);
     expo_free(&e);
 }
 
@@ -843,8 +853,7 @@ static void test_metrics_counts(void **state)
     expo_free(&ph);
     close(r.fd);
     vt_close(ed);
-    vt_close(v);
-    daemon_stop(&d);
+    daemon_close(&d, v);
 }
 
 /* Clients by role follow connects and disconnects; a connection that has
@@ -935,8 +944,7 @@ static void test_metrics_buffers_shrink(void **state)
     expo_free(&a);
     expo_free(&b);
     vt_close(ed);
-    vt_close(idle);
-    daemon_stop(&d);
+    daemon_close(&d, idle);
 }
 
 /* The daemon's peak resident memory (VmHWM), bytes. */
@@ -1061,8 +1069,7 @@ static void test_metrics_output_limit_total(void **state)
     assert_true(peak < cap + 8 * frame);
 #endif
     assert_int_equal(vt_ping(ok), VP_OK);
-    vt_close(ok);
-    daemon_stop(&d);
+    daemon_close(&d, ok);
 }
 
 /* A viewer that stops reading its raw frames while the scene changes:
@@ -1132,8 +1139,7 @@ static void test_metrics_dropped_frames(void **state)
     expo_free(&a);
     expo_free(&b);
     close(r.fd);
-    vt_close(ed);
-    daemon_stop(&d);
+    daemon_close(&d, ed);
 }
 
 /* The endpoint's answers to bad requests; the connection limit; a slow-
@@ -1379,6 +1385,7 @@ const struct CMUnitTest metrics_tests[] = {
     cmocka_unit_test(test_metrics_buffers_shrink),
     cmocka_unit_test(test_metrics_output_limit_total),
     cmocka_unit_test(test_metrics_model),
+    TEST_ROWS(test_metrics_model_refuses, model_cases),
     cmocka_unit_test(test_metrics_message_codec),
     cmocka_unit_test(test_metrics_counts),
     cmocka_unit_test(test_metrics_clients),

@@ -364,6 +364,49 @@ static void check_view(const oscene *s, cull_ctx *c, const cull_view *v, uint32_
     free(r1);
 }
 
+/* Random scenes, each under every supported ISA with its own context,
+ * each with `views` buffer sizes (16..95 x 8..63): while
+ * (scene_walk_next(&w)) runs its body once per view, with w.s, w.c, w.bw
+ * and w.bh. The random numbers are drawn in that order, the scene first. */
+typedef struct scene_walk {
+    rng *r;
+    cull_pool *pool;
+    uint32_t scenes, views;
+    uint32_t sc, isa, k; /* where it is */
+    bool in_scene;
+    oscene s;
+    cull_ctx *c;
+    uint32_t bw, bh;
+} scene_walk;
+
+static bool scene_walk_next(scene_walk *w)
+{
+    while (!w->c || w->k == w->views) {
+        if (w->c) {
+            cull_ctx_destroy(w->c);
+            w->c = NULL;
+            w->isa++;
+        }
+        while (w->in_scene && w->isa < CULL_ISA_COUNT && !cull_isa_supported(w->isa)) w->isa++;
+        if (!w->in_scene || w->isa == CULL_ISA_COUNT) {
+            if (w->in_scene) free_scene(&w->s), w->sc++;
+            w->in_scene = false;
+            if (w->sc == w->scenes) return false;
+            build_scene(w->r, &w->s);
+            w->in_scene = true;
+            w->isa = 0;
+            continue;
+        }
+        assert_int_equal(cull_ctx_create(w->pool, &w->c), CULL_OK);
+        assert_int_equal(cull_ctx_set_isa(w->c, w->isa), CULL_OK);
+        w->k = 0;
+    }
+    w->k++;
+    w->bw = 16 + rng_below(w->r, 80);
+    w->bh = 8 + rng_below(w->r, 56);
+    return true;
+}
+
 static void test_random_scenes_never_false_occluded(void **state)
 {
     (void)state;
@@ -372,24 +415,12 @@ static void test_random_scenes_never_false_occluded(void **state)
     assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
     uint32_t scenes = (uint32_t)(60 * test_scale());
     otally t[2] = {{0}};
-    for (uint32_t sc = 0; sc < scenes; sc++) {
-        oscene s;
-        build_scene(&r, &s);
-        for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
-            if (!cull_isa_supported(isa)) continue;
-            cull_ctx *c;
-            assert_int_equal(cull_ctx_create(pool, &c), CULL_OK);
-            assert_int_equal(cull_ctx_set_isa(c, isa), CULL_OK);
-            for (int k = 0; k < 3; k++) {
-                uint32_t bw = 16 + rng_below(&r, 80), bh = 8 + rng_below(&r, 56);
-                cull_view v;
-                random_view(&r, &s, &v, bw, bh);
-                uint32_t cover = rng_below(&r, 2);
-                check_view(&s, c, &v, bw, bh, cover, 1 + rng_below(&r, 2), &t[cover]);
-            }
-            cull_ctx_destroy(c);
-        }
-        free_scene(&s);
+    scene_walk it = {.r = &r, .pool = pool, .scenes = scenes, .views = 3};
+    while (scene_walk_next(&it)) {
+        cull_view v;
+        random_view(&r, &it.s, &v, it.bw, it.bh);
+        uint32_t cover = rng_below(&r, 2);
+        check_view(&it.s, it.c, &v, it.bw, it.bh, cover, 1 + rng_below(&r, 2), &t[cover]);
     }
     for (int cover = 0; cover < 2; cover++)
         fprintf(stderr, "occlusion (%s): %llu views, %llu frustum survivors, %llu culled by occlusion; of %llu "
@@ -485,64 +516,52 @@ static void test_adversarial_views_never_false_culled(void **state)
     uint32_t scenes = (uint32_t)(12 * test_scale());
     otally t[2] = {{0}};
     uint64_t tried = 0, accepted = 0, frustum_checked = 0, frustum_false = 0;
-    for (uint32_t sc = 0; sc < scenes; sc++) {
-        oscene s;
-        build_scene(&r, &s);
-        for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
-            if (!cull_isa_supported(isa)) continue;
-            cull_ctx *c;
-            assert_int_equal(cull_ctx_create(pool, &c), CULL_OK);
-            assert_int_equal(cull_ctx_set_isa(c, isa), CULL_OK);
-            for (int k = 0; k < 12; k++) {
-                uint32_t bw = 16 + rng_below(&r, 80), bh = 8 + rng_below(&r, 56);
-                cull_view v;
-                cull_view_desc d;
-                tried++;
-                if (!adversarial_view(&r, &s, &v, &d, bw, bh)) continue;
-                accepted++;
-                /* the frustum stage: every entity the model keeps is kept */
-                size_t cap = cull_query_bound(s.w), n0;
-                cull_result *res = malloc(cap * sizeof *res);
-                uint8_t *kept = calloc(s.n, 1);
-                assert_non_null(res);
-                assert_non_null(kept);
-                cull_query_desc q = {.views = &v, .view_count = 1, .flags = CULL_Q_NO_OCCLUSION};
-                assert_int_equal(cull_query(s.w, c, &q, res, cap, &n0, NULL), CULL_OK);
-                for (size_t i = 0; i < n0; i++) kept[slot_of(res[i].handle)] = 1;
-                ref_view rv;
-                ref_view_make(&rv, &d);
-                for (uint32_t e = 0; e < s.n; e++) {
-                    ref_verdict rr;
-                    ref_test(&rv, &s.e[e], &rr);
-                    frustum_checked++;
-                    if (rr.visible && !kept[e] && ++frustum_false < 6)
-                        fprintf(stderr, "frustum false cull: entity %u view %g %g %g ... origin %g %g %g\n", e,
-                                d.view_proj[0], d.view_proj[1], d.view_proj[2], d.origin[0], d.origin[1],
-                                d.origin[2]);
-                }
-                free(kept);
-                free(res);
-                uint32_t cover = rng_below(&r, 2);
-                check_view(&s, c, &v, bw, bh, cover, 1 + rng_below(&r, 2), &t[cover]);
-                /* a buffer rendered directly: padding intact, no NaN */
-                cull_occ_buffer *b;
-                assert_int_equal(cull_occ_buffer_create(bw, bh, &b), CULL_OK);
-                assert_int_equal(cull_occ_buffer_set_cover(b, cover), CULL_OK);
-                assert_int_equal(cull_occ_render(s.w, &v, b, pool, 2, NULL), CULL_OK);
-                uint32_t ww, hh;
-                size_t stride;
-                const float *z = cull_occ_depth(b, &ww, &hh, &stride);
-                for (uint32_t y = 0; y < hh; y++)
-                    for (size_t x = 0; x < stride; x++) {
-                        float f = z[y * stride + x];
-                        if (x >= ww) assert_true(f == FLT_MAX);
-                        else assert_false(isnan(f));
-                    }
-                cull_occ_buffer_destroy(b);
-            }
-            cull_ctx_destroy(c);
+    scene_walk it = {.r = &r, .pool = pool, .scenes = scenes, .views = 12};
+    while (scene_walk_next(&it)) {
+        cull_view v;
+        cull_view_desc d;
+        tried++;
+        if (!adversarial_view(&r, &it.s, &v, &d, it.bw, it.bh)) continue;
+        accepted++;
+        /* the frustum stage: every entity the model keeps is kept */
+        size_t cap = cull_query_bound(it.s.w), n0;
+        cull_result *res = malloc(cap * sizeof *res);
+        uint8_t *kept = calloc(it.s.n, 1);
+        assert_non_null(res);
+        assert_non_null(kept);
+        cull_query_desc q = {.views = &v, .view_count = 1, .flags = CULL_Q_NO_OCCLUSION};
+        assert_int_equal(cull_query(it.s.w, it.c, &q, res, cap, &n0, NULL), CULL_OK);
+        for (size_t i = 0; i < n0; i++) kept[slot_of(res[i].handle)] = 1;
+        ref_view rv;
+        ref_view_make(&rv, &d);
+        for (uint32_t e = 0; e < it.s.n; e++) {
+            ref_verdict rr;
+            ref_test(&rv, &it.s.e[e], &rr);
+            frustum_checked++;
+            if (rr.visible && !kept[e] && ++frustum_false < 6)
+                fprintf(stderr, "frustum false cull: entity %u view %g %g %g ... origin %g %g %g\n", e,
+                        d.view_proj[0], d.view_proj[1], d.view_proj[2], d.origin[0], d.origin[1],
+                        d.origin[2]);
         }
-        free_scene(&s);
+        free(kept);
+        free(res);
+        uint32_t cover = rng_below(&r, 2);
+        check_view(&it.s, it.c, &v, it.bw, it.bh, cover, 1 + rng_below(&r, 2), &t[cover]);
+        /* a buffer rendered directly: padding intact, no NaN */
+        cull_occ_buffer *b;
+        assert_int_equal(cull_occ_buffer_create(it.bw, it.bh, &b), CULL_OK);
+        assert_int_equal(cull_occ_buffer_set_cover(b, cover), CULL_OK);
+        assert_int_equal(cull_occ_render(it.s.w, &v, b, pool, 2, NULL), CULL_OK);
+        uint32_t ww, hh;
+        size_t stride;
+        const float *z = cull_occ_depth(b, &ww, &hh, &stride);
+        for (uint32_t y = 0; y < hh; y++)
+            for (size_t x = 0; x < stride; x++) {
+                float f = z[y * stride + x];
+                if (x >= ww) assert_true(f == FLT_MAX);
+                else assert_false(isnan(f));
+            }
+        cull_occ_buffer_destroy(b);
     }
     fprintf(stderr, "adversarial views: %llu tried, %llu accepted; frustum: %llu entity tests, %llu false culls; "
                     "occlusion: %llu + %llu views, %llu + %llu culled, %llu + %llu false occluded\n",
@@ -943,7 +962,6 @@ static void test_sublevel_filter(void **state)
     cull_ctx_destroy(c);
     cull_pool_destroy(pool);
 }
-
 
 /* ---- the cost of building an occluder (issue 18 item 4) -------------------- */
 

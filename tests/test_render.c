@@ -18,6 +18,22 @@
 #include <stdio.h>
 #include <string.h>
 
+/* A random perspective view of w x h pixels from within +-60 m towards a
+ * point within +-10 m of the origin: any depth mode, a vertical field of
+ * view of 0.5..fov_max rad, the near plane log-uniform in near_min..1 m. */
+static void random_view(rng *r, cull_view *v, uint32_t w, uint32_t h, double fov_max, double near_min, double far)
+{
+    cull_view_desc d = {.depth_mode = rng_below(r, 3), .viewport_w = w, .viewport_h = h};
+    for (int a = 0; a < 3; a++) d.origin[a] = rng_range(r, -60, 60);
+    double proj[16], view[16], dir[3], up[3] = {0, 1, 0};
+    for (int a = 0; a < 3; a++) dir[a] = rng_range(r, -10, 10) - d.origin[a];
+    if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
+    cull_mat_perspective(proj, rng_range(r, 0.5, fov_max), (double)w / h, rng_log(r, near_min, 1), far, d.depth_mode);
+    cull_mat_look_dir(view, dir, up);
+    cull_mat_mul(d.view_proj, proj, view);
+    assert_int_equal(cull_view_init(v, &d), CULL_OK);
+}
+
 /* The unit cube [-1, 1]^3: 8 vertices, 12 counter-clockwise triangles. */
 static const float cube_pos[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1,
                                    -1, -1, 1,  1, -1, 1,  -1, 1, 1,  1, 1, 1};
@@ -59,16 +75,8 @@ static void test_soft_matches_ray_caster(void **state)
                             in[i].bmin[a] + (u + 1) * 0.5 * (in[i].bmax[a] - in[i].bmin[a]);
                     }
         }
-        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
-        for (int a = 0; a < 3; a++) d.origin[a] = rng_range(&r, -60, 60);
-        double proj[16], view[16], dir[3], up[3] = {0, 1, 0};
-        for (int a = 0; a < 3; a++) dir[a] = rng_range(&r, -10, 10) - d.origin[a];
-        if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
-        cull_mat_perspective(proj, rng_range(&r, 0.5, 1.6), (double)w / h, rng_log(&r, 0.05, 1), 1e5, d.depth_mode);
-        cull_mat_look_dir(view, dir, up);
-        cull_mat_mul(d.view_proj, proj, view);
         cull_view v;
-        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        random_view(&r, &v, w, h, 1.6, 0.05, 1e5);
         float *rgba = malloc((size_t)w * h * 4 * sizeof *rgba), *depth = malloc((size_t)w * h * sizeof *depth);
         assert_non_null(rgba);
         assert_non_null(depth);
@@ -128,13 +136,8 @@ static void test_soft_bad_input(void **state)
     uint32_t idx3[3] = {0, 1, 2};
     vt_mesh m2 = {.pos = nanpos, .idx = idx3, .nv = 3, .ni = 3};
     assert_int_equal(vt_mesh_check(&m2, err, sizeof err), VT_ERR_INVALID);
-    cull_view_desc d = {.viewport_w = 8, .viewport_h = 8};
-    double proj[16], view[16], dir[3] = {0, 0, -1}, up[3] = {0, 1, 0};
-    cull_mat_perspective(proj, 1, 1, 0.1, 100, CULL_DEPTH_GL);
-    cull_mat_look_dir(view, dir, up);
-    cull_mat_mul(d.view_proj, proj, view);
     cull_view v;
-    assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+    test_view_look_range(&v, (double[3]){0, 0, 0}, (double[3]){0, 0, -1}, 8, 8, 0.1, 100);
     float rgba[8 * 8 * 4], depth[64];
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
     vt_instance in = {.mesh = 3};
@@ -434,15 +437,7 @@ static void lit_frame_make(rng *rp, lit_frame *lf)
             L[i].cos_inner = 0.8f;
         }
     }
-    cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
-    for (int a = 0; a < 3; a++) d.origin[a] = rng_range(&r, -60, 60);
-    double proj[16], view[16], dir[3], up[3] = {0, 1, 0};
-    for (int a = 0; a < 3; a++) dir[a] = rng_range(&r, -10, 10) - d.origin[a];
-    if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
-    cull_mat_perspective(proj, rng_range(&r, 0.5, 1.4), (double)w / h, rng_log(&r, 0.1, 1), 1e4, d.depth_mode);
-    cull_mat_look_dir(view, dir, up);
-    cull_mat_mul(d.view_proj, proj, view);
-    assert_int_equal(cull_view_init(&lf->v, &d), CULL_OK);
+    random_view(&r, &lf->v, w, h, 1.4, 0.1, 1e4);
     *rp = r;
     lf->w = w;
     lf->h = h;

@@ -51,13 +51,18 @@ static void assert_box(const lvl_entity *e, double x0, double y0, double z0, dou
             fail_msg("%s: bound %d is %.9g, want %.9g", e->name, a, got[a], want[a]);
 }
 
+/* Imports tests/data/name into lv; fails the test with the importer's message. */
+static void import_ok(const char *name, vt_level *lv)
+{
+    char err[512];
+    if (vt_level_import(data_file(name), lv, err, sizeof err)) fail_msg("%s: %s", name, err);
+}
+
 static void test_import_gltf(void **state)
 {
     (void)state;
     vt_level lv;
-    char err[512];
-    int rc = vt_level_import(data_file("level_small.gltf"), &lv, err, sizeof err);
-    if (rc) fail_msg("%s", err);
+    import_ok("level_small.gltf", &lv);
     /* crate_a..d, cart, tower, wall, lamp_post; OCC_* are not entities */
     assert_int_equal(lv.nent, 8);
     /* crate_a = crate_b (identity), crate_c = crate_d (45 degrees, scale 2,1,1),
@@ -123,13 +128,11 @@ static void test_import_gltf(void **state)
     vt_level_free(&lv);
 }
 
-static void test_import_obj_and_bad_files(void **state)
+static void test_import_obj(void **state)
 {
     (void)state;
     vt_level lv;
-    char err[512];
-    int rc = vt_level_import(data_file("level_small.obj"), &lv, err, sizeof err);
-    if (rc) fail_msg("%s", err);
+    import_ok("level_small.obj", &lv);
     assert_int_equal(lv.nent, 2);
     assert_int_equal(lv.nocc, 1);
     assert_int_equal(lv.occ[0].entity >= 0, 1);
@@ -138,29 +141,47 @@ static void test_import_obj_and_bad_files(void **state)
     vt_level_free(&lv);
     /* names are matched whole, however long: the occluder goes to the one
        entity whose name is its name after OCC_ (not to the near namesake) */
-    rc = vt_level_import(data_file("level_names.gltf"), &lv, err, sizeof err);
-    if (rc) fail_msg("%s", err);
+    import_ok("level_names.gltf", &lv);
     assert_int_equal(lv.nent, 2);
     assert_int_equal(lv.nocc, 1);
     assert_true(lv.occ[0].entity >= 0);
     assert_true(lv.ent[lv.occ[0].entity].lo[0] < 0); /* the first, at x = 0, not the one at x = 20 */
     vt_level_free(&lv);
-    static const struct { const char *file, *says; } bad[] = {
-        {"bad_huge.gltf", "node 'vast': bounds beyond"},
-        {"bad_zero.gltf", "node 'flat': its transform has zero scale"},
-        {"bad_points.gltf", "node 'dots': its meshes have no triangles"},
-        {"bad_nan.obj", "node 'broken': mesh 'broken' has a non-finite vertex"},
-        {"bad_occ_far.gltf", "bounds beyond +-1e12 m"},
-        {"make_levels.py", "unsupported format"},
-        {"missing.glb", "No such file or directory"},
-    };
-    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        err[0] = 0;
-        assert_int_equal(vt_level_import(data_file(bad[i].file), &lv, err, sizeof err), -1);
-        if (!strstr(err, bad[i].says)) fail_msg("%s: \"%s\" does not say \"%s\"", bad[i].file, err, bad[i].says);
-        assert_int_equal(lv.nent, 0); /* nothing half-read is handed back */
-    }
-    /* a corrupt glTF: valid JSON cut short */
+}
+
+/* A bad level file: an error that names the node (or the file's
+ * trouble), and nothing half-read handed back. */
+typedef struct bad_level {
+    const char *name; /* the file in tests/data */
+    const char *says;
+} bad_level;
+
+static const bad_level bad_levels[] = {
+    {"bad_huge.gltf", "node 'vast': bounds beyond"},
+    {"bad_zero.gltf", "node 'flat': its transform has zero scale"},
+    {"bad_points.gltf", "node 'dots': its meshes have no triangles"},
+    {"bad_nan.obj", "node 'broken': mesh 'broken' has a non-finite vertex"},
+    {"bad_occ_far.gltf", "bounds beyond +-1e12 m"},
+    {"make_levels.py", "unsupported format"},
+    {"missing.glb", "No such file or directory"},
+};
+
+static void test_import_bad_file(void **state)
+{
+    const bad_level *t = *state;
+    vt_level lv;
+    char err[512] = "";
+    assert_int_equal(vt_level_import(data_file(t->name), &lv, err, sizeof err), -1);
+    if (!strstr(err, t->says)) fail_msg("%s: \"%s\" does not say \"%s\"", t->name, err, t->says);
+    assert_int_equal(lv.nent, 0); /* nothing half-read is handed back */
+}
+
+/* A corrupt glTF: valid JSON cut short. */
+static void test_import_cut_gltf(void **state)
+{
+    (void)state;
+    vt_level lv;
+    char err[512];
     tdir td;
     tdir_make(&td, "vantage_import");
     const char *cut = tdir_file(&td, "cut.gltf");
@@ -341,17 +362,15 @@ static void *watch(void *p)
 
 static void test_sublevel_load_is_atomic(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     const uint32_t base = 3000, k = (uint32_t)(30000 * test_scale());
     add_boxes(ed, 1, base, 0, 1000);
-    watcher w = {.d = &d, .base = base, .full = base + k};
+    watcher w = {.d = d, .base = base, .full = base + k};
     pthread_t th;
     assert_int_equal(pthread_create(&th, NULL, watch, &w), 0);
     usleep(20000);
-    vt_client *ld = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *ld = connect_role(d, VP_ROLE_EDITOR, false);
     vp_sublevel_begun b;
     assert_int_equal(vt_sublevel_begin(ld, "alpha", 1, &b), VP_OK);
     assert_true(b.id > 0);
@@ -411,17 +430,14 @@ static void test_sublevel_load_is_atomic(void **state)
     assert_int_equal(st.meshes, 0);
     vt_close(ld);
     vt_close(ed);
-    daemon_stop(&d);
 }
 
 static void test_sublevel_rules(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *a = connect_role(&d, VP_ROLE_EDITOR, false), *b = connect_role(&d, VP_ROLE_EDITOR, true);
-    vt_client *viewer = connect_role(&d, VP_ROLE_VIEWER, false);
-    vt_client *events = connect_role(&d, VP_ROLE_VIEWER, false);
+    daemon_proc *d = *state;
+    vt_client *a = connect_role(d, VP_ROLE_EDITOR, false), *b = connect_role(d, VP_ROLE_EDITOR, true);
+    vt_client *viewer = connect_role(d, VP_ROLE_VIEWER, false);
+    vt_client *events = connect_role(d, VP_ROLE_VIEWER, false);
     assert_int_equal(vt_subscribe(events, VP_EVENT_SCENE), VP_OK);
     vp_entity visible = {.id = 50, .aabb = {20, 0, 0, 21, 1, 1}};
     assert_int_equal(vt_add(b, &visible, 1, NULL, NULL), VP_OK);
@@ -515,7 +531,7 @@ static void test_sublevel_rules(void **state)
     assert_int_equal(vt_sublevel_begin(b, "east", 0, &bb), VP_OK);
     add_boxes(b, 5000, 2000, 0, 500);
     vt_close(b);
-    b = connect_role(&d, VP_ROLE_EDITOR, true);
+    b = connect_role(d, VP_ROLE_EDITOR, true);
     vp_sublevel_infos in;
     vp_sublevel_info si = {0};
     for (int i = 0; i < 200; i++) {
@@ -536,61 +552,41 @@ static void test_sublevel_rules(void **state)
     vt_close(b);
     vt_close(viewer);
     vt_close(events);
-    daemon_stop(&d);
-}
-
-static int run(const char *cmd, char *out, size_t cap)
-{
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = 0;
-    return pclose(p);
 }
 
 static void test_sublevel_cli(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    char cmd[2048], out[8192];
-    const char *cli = bin_dir();
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel load town %s --json 2>&1", cli, d.port,
-             data_file("level_small.gltf"));
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    daemon_proc *d = *state;
+    char out[8192];
+    assert_int_equal(vantage_run(d, out, sizeof out, "sublevel load town %s --json", data_file("level_small.gltf")), 0);
     assert_non_null(strstr(out, "\"sublevel\": \"town\""));
     assert_non_null(strstr(out, "\"entities\": 8"));
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel list --json", cli, d.port);
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "sublevel list --json"), 0);
     assert_non_null(strstr(out, "\"name\": \"town\", \"state\": \"loaded\", \"entities\": 8, \"occluders\": 3, "
                                 "\"lights\": 2, \"classes\": 6"));
     /* a bad file: an error naming the node, and the scene as it was */
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel load dunes %s 2>&1", cli, d.port, data_file("bad_zero.gltf"));
-    assert_int_equal(WEXITSTATUS(run(cmd, out, sizeof out)), 1);
+    assert_int_equal(vantage_run(d, out, sizeof out, "sublevel load dunes %s", data_file("bad_zero.gltf")), 1);
     assert_non_null(strstr(out, "node 'flat'"));
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel load town %s 2>&1", cli, d.port, data_file("level_small.obj"));
-    assert_int_equal(WEXITSTATUS(run(cmd, out, sizeof out)), 1);
+    assert_int_equal(vantage_run(d, out, sizeof out, "sublevel load town %s", data_file("level_small.obj")), 1);
     assert_non_null(strstr(out, "unload it first"));
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d stats --json", cli, d.port);
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "stats --json"), 0);
     assert_non_null(strstr(out, "\"entities\": 8"));
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel unload town && %s/vantage -p %d sublevel load shed %s 2>&1", cli,
-             d.port, cli, d.port, data_file("level_small.obj"));
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "sublevel unload town"), 0);
     assert_non_null(strstr(out, "sub-level town unloaded"));
-    snprintf(cmd, sizeof cmd, "%s/vantage -p %d sublevel list", cli, d.port);
-    assert_int_equal(run(cmd, out, sizeof out), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "sublevel load shed %s", data_file("level_small.obj")), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "sublevel list"), 0);
     assert_non_null(strstr(out, "shed"));
     assert_non_null(strstr(out, "loaded"));
-    daemon_stop(&d);
 }
 
 const struct CMUnitTest sublevel_tests[] = {
     cmocka_unit_test(test_import_gltf),
-    cmocka_unit_test(test_import_obj_and_bad_files),
+    cmocka_unit_test(test_import_obj),
+    TEST_ROWS(test_import_bad_file, bad_levels),
+    cmocka_unit_test(test_import_cut_gltf),
     cmocka_unit_test(test_import_isolated),
-    cmocka_unit_test(test_sublevel_load_is_atomic),
-    cmocka_unit_test(test_sublevel_rules),
-    cmocka_unit_test(test_sublevel_cli),
+    DAEMON_TEST(test_sublevel_load_is_atomic),
+    DAEMON_TEST(test_sublevel_rules),
+    DAEMON_TEST(test_sublevel_cli),
 };
 const size_t sublevel_tests_count = sizeof sublevel_tests / sizeof sublevel_tests[0];

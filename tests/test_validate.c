@@ -63,73 +63,76 @@ static vp_light spot_light(uint64_t id)
     return l;
 }
 
+static const double kMaxCoord = 1e12;
+
+/* The LIGHT_PUT rows: name, the light it starts from (good_light or
+ * spot_light, id 77), what changes, the code (0: accepted) and what the
+ * message says. An X-macro, so that one list gives both the named rows
+ * and the change each makes (the changes are statements). */
+#define LIGHT_CASES(ROW, SPOT)                                                                                    \
+    /* the inputs */                                                                                    \
+    ROW("position beyond 1e12", l.pos[0] = 2e12, VP_ERR_INVALID, "position x is 2e+12 m, beyond")               \
+    ROW("range 3e38", l.range = 3e38f, VP_ERR_INVALID, "range is 3e+38 m, outside")                            \
+    ROW("colour 3e38", l.color[1] = 3e38f, VP_ERR_INVALID, "colour g x intensity")                             \
+    ROW("colour 3e38 x intensity 50 (float overflow)", (l.color[2] = 3e38f, l.intensity = 50), VP_ERR_INVALID, \
+        "colour b x intensity is 1.5e+40")                                                                      \
+    SPOT("spot direction zero", (l.dir[0] = l.dir[1] = l.dir[2] = 0), VP_ERR_INVALID, "spot direction is (0, 0, 0)") \
+    /* the record's own checks */                                                                               \
+    ROW("position NaN", l.pos[1] = NAN, VP_ERR_NONFINITE, "position y is nan")                                 \
+    ROW("range infinite", l.range = INFINITY, VP_ERR_NONFINITE, "range is inf")                                \
+    ROW("range zero", l.range = 0, VP_ERR_INVALID, "range 0 is not > 0")                                        \
+    ROW("negative intensity", l.intensity = -1, VP_ERR_INVALID, "intensity -1 is negative")                    \
+    ROW("negative colour", l.color[0] = -0.5f, VP_ERR_INVALID, "colour r -0.5 is negative")                    \
+    ROW("kind 7", l.kind = 7, VP_ERR_INVALID, "kind 7 is neither")                                              \
+    SPOT("cone outer > inner", l.outer_cos = 0.95f, VP_ERR_INVALID, "spot cone")                                \
+    SPOT("inner cosine NaN", l.inner_cos = NAN, VP_ERR_NONFINITE, "inner cosine is nan")                       \
+    /* boundaries: the limit itself accepted, the next value refused */                                         \
+    ROW("position at +1e12", l.pos[2] = kMaxCoord, 0, "")                                                       \
+    ROW("position just past -1e12", l.pos[2] = -nextafter(kMaxCoord, INFINITY), VP_ERR_INVALID, "position z")  \
+    ROW("range at 1e9", l.range = 1e9f, 0, "")                                                                  \
+    ROW("range just past 1e9", l.range = nextafterf(1e9f, INFINITY), VP_ERR_INVALID, "range")                  \
+    ROW("range at 1e-3", l.range = 1e-3f, 0, "")                                                                \
+    ROW("range just under 1e-3", l.range = nextafterf(1e-3f, 0), VP_ERR_INVALID, "range")                      \
+    ROW("range 1e-30", l.range = 1e-30f, VP_ERR_INVALID, "range is 1e-30 m, outside 0.001..1e+09 m")           \
+    ROW("colour x intensity at 1e12", (l.color[0] = 1e6f, l.intensity = 1e6f), 0, "")                          \
+    ROW("colour x intensity past 1e12", (l.color[0] = 1e6f, l.intensity = 1000001.0f), VP_ERR_INVALID,         \
+        "colour r x intensity is 1e+12, outside 0..1e+12")                                                      \
+    /* spot axes of any finite non-zero length are normalised in double */                                      \
+    SPOT("spot direction 1e-30", (l.dir[0] = 1e-30f, l.dir[2] = -1e-30f), 0, "")                                \
+    SPOT("spot direction 3e38", (l.dir[1] = 3e38f, l.dir[2] = -3e38f), 0, "")                                   \
+    SPOT("spot direction denormal", (l.dir[2] = -1e-45f), 0, "")                                               \
+    SPOT("spot cone of a denormal width", (l.inner_cos = 0.8f, l.outer_cos = nextafterf(0.8f, 0)), 0, "")      \
+    SPOT("outer cosine -1", (l.outer_cos = -1, l.inner_cos = 0), 0, "")                                         \
+    SPOT("outer cosine just under -1", (l.outer_cos = nextafterf(-1, -2), l.inner_cos = 0), VP_ERR_INVALID,    \
+         "spot cone")                                                                                           \
+    SPOT("inner cosine 1", l.inner_cos = 1, 0, "")                                                              \
+    SPOT("inner cosine just over 1", l.inner_cos = nextafterf(1, 2), VP_ERR_INVALID, "spot cone")              \
+    ROW("point light with no direction", (l.dir[0] = l.dir[1] = l.dir[2] = 0), 0, "")                          \
+    ROW("intensity 0", l.intensity = 0, 0, "")
+
 typedef struct light_case {
     const char *name;
-    vp_light l;
+    bool spot;
     int code;          /* 0: accepted */
     const char *want;  /* in the message */
 } light_case;
 
-static const double kMaxCoord = 1e12;
+#define LIGHT_ROW(nm, expr, code_, want_) {nm, false, code_, want_},
+#define LIGHT_SPOT(nm, expr, code_, want_) {nm, true, code_, want_},
+static const light_case light_cases[] = {LIGHT_CASES(LIGHT_ROW, LIGHT_SPOT)};
+#undef LIGHT_ROW
+#undef LIGHT_SPOT
 
-static void light_cases(light_case *t, size_t *n)
+/* The light of row t: its start, with the row's change made. */
+static vp_light light_of(const light_case *t)
 {
-    size_t k = 0;
-    vp_light l;
-#define ROW(nm, expr, code_, want_) \
-    do {                            \
-        l = good_light(77);         \
-        expr;                       \
-        t[k++] = (light_case){nm, l, code_, want_}; \
-    } while (0)
-#define SPOT(nm, expr, code_, want_) \
-    do {                             \
-        l = spot_light(77);          \
-        expr;                        \
-        t[k++] = (light_case){nm, l, code_, want_}; \
-    } while (0)
-    /* the inputs */
-    ROW("position beyond 1e12", l.pos[0] = 2e12, VP_ERR_INVALID, "position x is 2e+12 m, beyond");
-    ROW("range 3e38", l.range = 3e38f, VP_ERR_INVALID, "range is 3e+38 m, outside");
-    ROW("colour 3e38", l.color[1] = 3e38f, VP_ERR_INVALID, "colour g x intensity");
-    ROW("colour 3e38 x intensity 50 (float overflow)", (l.color[2] = 3e38f, l.intensity = 50), VP_ERR_INVALID,
-        "colour b x intensity is 1.5e+40");
-    SPOT("spot direction zero", (l.dir[0] = l.dir[1] = l.dir[2] = 0), VP_ERR_INVALID, "spot direction is (0, 0, 0)");
-    /* the record's own checks */
-    ROW("position NaN", l.pos[1] = NAN, VP_ERR_NONFINITE, "position y is nan");
-    ROW("range infinite", l.range = INFINITY, VP_ERR_NONFINITE, "range is inf");
-    ROW("range zero", l.range = 0, VP_ERR_INVALID, "range 0 is not > 0");
-    ROW("negative intensity", l.intensity = -1, VP_ERR_INVALID, "intensity -1 is negative");
-    ROW("negative colour", l.color[0] = -0.5f, VP_ERR_INVALID, "colour r -0.5 is negative");
-    ROW("kind 7", l.kind = 7, VP_ERR_INVALID, "kind 7 is neither");
-    SPOT("cone outer > inner", l.outer_cos = 0.95f, VP_ERR_INVALID, "spot cone");
-    SPOT("inner cosine NaN", l.inner_cos = NAN, VP_ERR_NONFINITE, "inner cosine is nan");
-    /* boundaries: the limit itself accepted, the next value refused */
-    ROW("position at +1e12", l.pos[2] = kMaxCoord, 0, "");
-    ROW("position just past -1e12", l.pos[2] = -nextafter(kMaxCoord, INFINITY), VP_ERR_INVALID, "position z");
-    ROW("range at 1e9", l.range = 1e9f, 0, "");
-    ROW("range just past 1e9", l.range = nextafterf(1e9f, INFINITY), VP_ERR_INVALID, "range");
-    ROW("range at 1e-3", l.range = 1e-3f, 0, "");
-    ROW("range just under 1e-3", l.range = nextafterf(1e-3f, 0), VP_ERR_INVALID, "range");
-    ROW("range 1e-30", l.range = 1e-30f, VP_ERR_INVALID, "range is 1e-30 m, outside 0.001..1e+09 m");
-    ROW("colour x intensity at 1e12", (l.color[0] = 1e6f, l.intensity = 1e6f), 0, "");
-    ROW("colour x intensity past 1e12", (l.color[0] = 1e6f, l.intensity = 1000001.0f), VP_ERR_INVALID,
-        "colour r x intensity is 1e+12, outside 0..1e+12");
-    /* spot axes of any finite non-zero length are normalised in double */
-    SPOT("spot direction 1e-30", (l.dir[0] = 1e-30f, l.dir[2] = -1e-30f), 0, "");
-    SPOT("spot direction 3e38", (l.dir[1] = 3e38f, l.dir[2] = -3e38f), 0, "");
-    SPOT("spot direction denormal", (l.dir[2] = -1e-45f), 0, "");
-    SPOT("spot cone of a denormal width", (l.inner_cos = 0.8f, l.outer_cos = nextafterf(0.8f, 0)), 0, "");
-    SPOT("outer cosine -1", (l.outer_cos = -1, l.inner_cos = 0), 0, "");
-    SPOT("outer cosine just under -1", (l.outer_cos = nextafterf(-1, -2), l.inner_cos = 0), VP_ERR_INVALID,
-         "spot cone");
-    SPOT("inner cosine 1", l.inner_cos = 1, 0, "");
-    SPOT("inner cosine just over 1", l.inner_cos = nextafterf(1, 2), VP_ERR_INVALID, "spot cone");
-    ROW("point light with no direction", (l.dir[0] = l.dir[1] = l.dir[2] = 0), 0, "");
-    ROW("intensity 0", l.intensity = 0, 0, "");
-#undef ROW
-#undef SPOT
-    *n = k;
+    size_t row = (size_t)(t - light_cases), k = 0;
+    vp_light l = t->spot ? spot_light(77) : good_light(77);
+#define LIGHT_EDIT(nm, expr, code_, want_) \
+    if (row == k++) expr;
+    LIGHT_CASES(LIGHT_EDIT, LIGHT_EDIT)
+#undef LIGHT_EDIT
+    return l;
 }
 
 /* What the viewer sees keeps working: RENDER, LIGHT_QUERY and a frame. */
@@ -145,12 +148,14 @@ static void viewer_still_served(vt_client *v, const vp_render *m, uint32_t want_
     assert_int_equal(st.lights, want_lights);
 }
 
+/* One LIGHT_PUT row: a good light and the row's in one batch. A refused
+ * batch names record 1 and leaves nothing (all or nothing); every client
+ * keeps being served, and an accepted light renders. */
 static void test_bad_lights_refused(void **state)
 {
-    (void)state;
+    const light_case *t = *state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *ed = daemon_open(&d, VP_ROLE_EDITOR);
     vt_client *viewer = connect_role(&d, VP_ROLE_VIEWER, false);
     vt_client *stream = connect_role(&d, VP_ROLE_VIEWER, false);
     vp_entity e[4];
@@ -167,34 +172,23 @@ static void test_bad_lights_refused(void **state)
     assert_int_equal(vt_frame_subscribe(stream, &(vp_frame_sub){.r = m, .max_fps = 60}), VP_OK);
     assert_int_equal(vt_wait_frame(stream, &f, 10000), VP_OK);
 
-    light_case t[40];
-    size_t n;
-    light_cases(t, &n);
-    for (size_t i = 0; i < n; i++) {
-        print_message("LIGHT_PUT: %s\n", t[i].name);
-        /* a good light first: all or nothing, so it must not stay */
-        vp_light batch[2] = {good_light(1000 + i), t[i].l};
-        batch[1].id = 2000 + i;
-        int rc = vt_put_lights(ed, batch, 2);
-        if (t[i].code) {
-            assert_error(ed, rc, t[i].code, 1, t[i].want);
-            char rec[32];
-            snprintf(rec, sizeof rec, "record 1: ");
-            assert_non_null(strstr(vt_last_error(ed)->msg, rec));
-        } else {
-            assert_int_equal(rc, VP_OK);
-            nlights += 2;
-        }
-        /* every client keeps being served, and an accepted light renders */
-        viewer_still_served(viewer, &m, nlights);
-        m.view.origin[0] += 1e-3; /* a new aim: the stream must draw again */
-        assert_int_equal(vt_frame_subscribe(stream, &(vp_frame_sub){.r = m, .max_fps = 60}), VP_OK);
-        assert_int_equal(vt_wait_frame(stream, &f, 10000), VP_OK);
+    vp_light batch[2] = {good_light(1000), light_of(t)};
+    batch[1].id = 2000;
+    int rc = vt_put_lights(ed, batch, 2);
+    if (t->code) {
+        assert_error(ed, rc, t->code, 1, t->want);
+        assert_non_null(strstr(vt_last_error(ed)->msg, "record 1: "));
+    } else {
+        assert_int_equal(rc, VP_OK);
+        nlights += 2;
     }
+    viewer_still_served(viewer, &m, nlights);
+    m.view.origin[0] += 1e-3; /* a new aim: the stream must draw again */
+    assert_int_equal(vt_frame_subscribe(stream, &(vp_frame_sub){.r = m, .max_fps = 60}), VP_OK);
+    assert_int_equal(vt_wait_frame(stream, &f, 10000), VP_OK);
     vt_close(stream);
     vt_close(viewer);
-    vt_close(ed);
-    daemon_stop(&d);
+    daemon_close(&d, ed);
 }
 
 /* The shared validation against the renderer, directly: for random and
@@ -257,106 +251,119 @@ static void test_accepted_lights_render(void **state)
 
 /* ---- batches name the record --------------------------------------------------- */
 
+/* One bad record in an ENTITY batch of 3 (ADD or UPDATE): the ERROR
+ * names that record and nothing changes. */
+typedef struct bad_record {
+    const char *name;
+    int type; /* 0 add, 1 update */
+    uint32_t bad;
+    int field; /* 0..3 sphere, 4..9 aabb, 10 flags */
+    double val;
+    uint32_t flags;
+    int code;
+    const char *want;
+} bad_record;
+
+static const bad_record bad_records[] = {
+    {"NaN sphere radius in record 2 of an ADD", 0, 2, 3, NAN, 0, VP_ERR_NONFINITE, "record 2: sphere radius is nan"},
+    {"inf aabb max y in record 0 of an ADD", 0, 0, 8, INFINITY, 0, VP_ERR_NONFINITE, "record 0: aabb max y is inf"},
+    {"undefined flags in record 1 of an ADD", 0, 1, 10, 0, 0x4, VP_ERR_INVALID,
+     "record 1: flags 0x00000004 has undefined bits 0x00000004"},
+    {"NaN centre x in record 1 of an UPDATE", 1, 1, 0, NAN, 0, VP_ERR_NONFINITE, "record 1: sphere x is nan"},
+    {"undefined flags in record 2 of an UPDATE", 1, 2, 10, 0, 0x80000001u, VP_ERR_INVALID,
+     "record 2: flags 0x80000001 has undefined bits 0x80000000"},
+};
+
 static void test_batch_errors_name_the_record(void **state)
 {
-    (void)state;
+    const bad_record *t = *state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
-    struct {
-        const char *name;
-        int type; /* 0 add, 1 update */
-        uint32_t bad;
-        int field; /* 0..3 sphere, 4..9 aabb, 10 flags */
-        double val;
-        uint32_t flags;
-        int code;
-        const char *want;
-    } t[] = {
-        {"NaN sphere radius in record 2 of an ADD", 0, 2, 3, NAN, 0, VP_ERR_NONFINITE, "record 2: sphere radius is nan"},
-        {"inf aabb max y in record 0 of an ADD", 0, 0, 8, INFINITY, 0, VP_ERR_NONFINITE, "record 0: aabb max y is inf"},
-        {"undefined flags in record 1 of an ADD", 0, 1, 10, 0, 0x4, VP_ERR_INVALID,
-         "record 1: flags 0x00000004 has undefined bits 0x00000004"},
-        {"NaN centre x in record 1 of an UPDATE", 1, 1, 0, NAN, 0, VP_ERR_NONFINITE, "record 1: sphere x is nan"},
-        {"undefined flags in record 2 of an UPDATE", 1, 2, 10, 0, 0x80000001u, VP_ERR_INVALID,
-         "record 2: flags 0x80000001 has undefined bits 0x80000000"},
-    };
+    vt_client *c = daemon_open(&d, VP_ROLE_EDITOR);
     vp_entity base[3];
     for (int i = 0; i < 3; i++) base[i] = (vp_entity){.id = 10 + (uint64_t)i, .sphere = {i * 3.0, 0, 0, 1}};
     uint32_t h[3];
     assert_int_equal(vt_add(c, base, 3, h, NULL), VP_OK);
-    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
-        print_message("%s\n", t[k].name);
-        vp_entity b[3];
-        for (int i = 0; i < 3; i++) {
-            b[i] = base[i];
-            if (t[k].type == 0) b[i].id += 100;
-            else b[i].handle = h[i];
-        }
-        vp_entity *x = &b[t[k].bad];
-        if (t[k].field < 4) x->sphere[t[k].field] = t[k].val;
-        else if (t[k].field < 10) x->aabb[t[k].field - 4] = t[k].val;
-        else x->flags = t[k].flags;
-        vp_stats_reply before, after;
-        assert_int_equal(vt_stats(c, &before), VP_OK);
-        int rc = t[k].type == 0 ? vt_add(c, b, 3, NULL, NULL) : vt_update(c, b, 3, NULL);
-        assert_error(c, rc, t[k].code, t[k].bad, t[k].want);
-        assert_int_equal(vt_stats(c, &after), VP_OK);
-        assert_int_equal(after.epoch, before.epoch); /* nothing changed */
-        assert_int_equal(after.entities, before.entities);
+    vp_entity b[3];
+    for (int i = 0; i < 3; i++) {
+        b[i] = base[i];
+        if (t->type == 0) b[i].id += 100;
+        else b[i].handle = h[i];
     }
-    /* a bad LIGHT_PUT record by the decoder's own check names it too */
+    vp_entity *x = &b[t->bad];
+    if (t->field < 4) x->sphere[t->field] = t->val;
+    else if (t->field < 10) x->aabb[t->field - 4] = t->val;
+    else x->flags = t->flags;
+    vp_stats_reply before, after;
+    assert_int_equal(vt_stats(c, &before), VP_OK);
+    int rc = t->type == 0 ? vt_add(c, b, 3, NULL, NULL) : vt_update(c, b, 3, NULL);
+    assert_error(c, rc, t->code, t->bad, t->want);
+    assert_int_equal(vt_stats(c, &after), VP_OK);
+    assert_int_equal(after.epoch, before.epoch); /* nothing changed */
+    assert_int_equal(after.entities, before.entities);
+    daemon_close(&d, c);
+}
+
+/* A bad LIGHT_PUT record by the decoder's own check names it too. */
+static void test_light_record_named(void **state)
+{
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     vp_light L[3] = {good_light(1), good_light(2), good_light(3)};
     L[2].pos[1] = NAN;
     assert_error(c, vt_put_lights(c, L, 3), VP_ERR_NONFINITE, 2, "record 2: position y is nan");
     vt_close(c);
-    daemon_stop(&d);
 }
 
 /* ---- UTF-8 ------------------------------------------------------------------------ */
 
+typedef struct utf8_case {
+    const char *name;
+    const char *s;
+    size_t len;
+    size_t bad; /* SIZE_MAX: valid */
+    const char *why;
+} utf8_case;
+
+static const utf8_case utf8_cases[] = {
+    {"ascii", "plain", 5, SIZE_MAX, ""},
+    {"2-byte e-acute", "caf\xC3\xA9", 5, SIZE_MAX, ""},
+    {"3-byte euro", "\xE2\x82\xAC", 3, SIZE_MAX, ""},
+    {"4-byte U+10FFFF", "\xF4\x8F\xBF\xBF", 4, SIZE_MAX, ""},
+    {"U+D7FF before the surrogates", "\xED\x9F\xBF", 3, SIZE_MAX, ""},
+    {"U+E000 after them", "\xEE\x80\x80", 3, SIZE_MAX, ""},
+    {"U+0080 smallest 2-byte", "\xC2\x80", 2, SIZE_MAX, ""},
+    {"U+0800 smallest 3-byte", "\xE0\xA0\x80", 3, SIZE_MAX, ""},
+    {"U+10000 smallest 4-byte", "\xF0\x90\x80\x80", 4, SIZE_MAX, ""},
+    {"lone continuation", "a\x80", 2, 1, "continuation"},
+    {"overlong slash C0 AF", "\xC0\xAF", 2, 0, "overlong"},
+    {"overlong C1 BF", "\xC1\xBF", 2, 0, "overlong"},
+    {"overlong 3-byte E0 80 AF", "x\xE0\x80\xAF", 4, 1, "overlong"},
+    {"overlong 4-byte F0 8F BF BF", "\xF0\x8F\xBF\xBF", 4, 0, "overlong"},
+    {"surrogate D800", "\xED\xA0\x80", 3, 0, "surrogate"},
+    {"surrogate DFFF", "ab\xED\xBF\xBF", 5, 2, "surrogate"},
+    {"U+110000", "\xF4\x90\x80\x80", 4, 0, "beyond U+10FFFF"},
+    {"F5 lead", "\xF5\x80\x80\x80", 4, 0, "beyond U+10FFFF"},
+    {"F8 byte", "\xF8\x88\x80\x80\x80", 5, 0, "never occurs"},
+    {"FF byte", "\xFF", 1, 0, "never occurs"},
+    {"cut short at the end", "ok\xE2\x82", 4, 2, "cut short"},
+    {"cut short by ascii", "\xE2" "a\xAC", 3, 0, "cut short"},
+};
+
 static void test_utf8_validator(void **state)
 {
+    const utf8_case *t = *state;
+    const char *why = "";
+    size_t at = vp_utf8_check((const uint8_t *)t->s, t->len, &why);
+    size_t want = t->bad == SIZE_MAX ? t->len : t->bad;
+    if (at != want || (t->bad != SIZE_MAX && !strstr(why, t->why)))
+        print_message("at %zu (%s), want %zu (%s)\n", at, why, want, t->why);
+    assert_int_equal(at, want);
+    if (t->bad != SIZE_MAX) assert_non_null(strstr(why, t->why));
+}
+
+static void test_utf8_validator_vs_iconv(void **state)
+{
     (void)state;
-    static const struct {
-        const char *name;
-        const char *s;
-        size_t len;
-        size_t bad; /* SIZE_MAX: valid */
-        const char *why;
-    } t[] = {
-        {"ascii", "plain", 5, SIZE_MAX, ""},
-        {"2-byte e-acute", "caf\xC3\xA9", 5, SIZE_MAX, ""},
-        {"3-byte euro", "\xE2\x82\xAC", 3, SIZE_MAX, ""},
-        {"4-byte U+10FFFF", "\xF4\x8F\xBF\xBF", 4, SIZE_MAX, ""},
-        {"U+D7FF before the surrogates", "\xED\x9F\xBF", 3, SIZE_MAX, ""},
-        {"U+E000 after them", "\xEE\x80\x80", 3, SIZE_MAX, ""},
-        {"U+0080 smallest 2-byte", "\xC2\x80", 2, SIZE_MAX, ""},
-        {"U+0800 smallest 3-byte", "\xE0\xA0\x80", 3, SIZE_MAX, ""},
-        {"U+10000 smallest 4-byte", "\xF0\x90\x80\x80", 4, SIZE_MAX, ""},
-        {"lone continuation", "a\x80", 2, 1, "continuation"},
-        {"overlong slash C0 AF", "\xC0\xAF", 2, 0, "overlong"},
-        {"overlong C1 BF", "\xC1\xBF", 2, 0, "overlong"},
-        {"overlong 3-byte E0 80 AF", "x\xE0\x80\xAF", 4, 1, "overlong"},
-        {"overlong 4-byte F0 8F BF BF", "\xF0\x8F\xBF\xBF", 4, 0, "overlong"},
-        {"surrogate D800", "\xED\xA0\x80", 3, 0, "surrogate"},
-        {"surrogate DFFF", "ab\xED\xBF\xBF", 5, 2, "surrogate"},
-        {"U+110000", "\xF4\x90\x80\x80", 4, 0, "beyond U+10FFFF"},
-        {"F5 lead", "\xF5\x80\x80\x80", 4, 0, "beyond U+10FFFF"},
-        {"F8 byte", "\xF8\x88\x80\x80\x80", 5, 0, "never occurs"},
-        {"FF byte", "\xFF", 1, 0, "never occurs"},
-        {"cut short at the end", "ok\xE2\x82", 4, 2, "cut short"},
-        {"cut short by ascii", "\xE2" "a\xAC", 3, 0, "cut short"},
-    };
-    for (size_t i = 0; i < sizeof t / sizeof t[0]; i++) {
-        const char *why = "";
-        size_t at = vp_utf8_check((const uint8_t *)t[i].s, t[i].len, &why);
-        size_t want = t[i].bad == SIZE_MAX ? t[i].len : t[i].bad;
-        if (at != want || (t[i].bad != SIZE_MAX && !strstr(why, t[i].why)))
-            print_message("%s: at %zu (%s), want %zu (%s)\n", t[i].name, at, why, want, t[i].why);
-        assert_int_equal(at, want);
-        if (t[i].bad != SIZE_MAX) assert_non_null(strstr(why, t[i].why));
-    }
     /* against the C library's decoder (glibc's iconv from UTF-8 is strict:
        no overlongs, surrogates or code points past U+10FFFF; its mbrtowc
        is not, it takes up to 0x7FFFFFFF), over random strings biased
@@ -414,151 +421,174 @@ static void test_utf8_validator(void **state)
     assert_true(valid > runs / 5 && valid < runs - runs / 5);
 }
 
+/* A sub-level name that is not UTF-8: SUBLEVEL_NAMES names record 2 and
+ * why, SUBLEVEL_BEGIN and SUBLEVEL_UNLOAD quote it escaped; nothing is
+ * defined, and a valid UTF-8 name still is. */
+typedef struct bad_name {
+    const char *name, *bad, *want_why, *want_esc;
+} bad_name;
+
+static const bad_name bad_names[] = {
+    {"overlong slash", "x\xC0\xAFy", "overlong encoding at byte 1", "x\\xc0\\xafy"},
+    {"surrogate", "\xED\xA0\x80", "surrogate", "\\xed\\xa0\\x80"},
+    {"past U+10FFFF", "a\xF4\x90\x80\x80", "beyond U+10FFFF", "a\\xf4\\x90\\x80\\x80"},
+    {"cut short", "ab\xE2\x82", "cut short", "ab\\xe2\\x82"},
+    {"latin-1 e-acute", "caf\xE9", "cut short", "caf\\xe9"},
+    {"lone continuation", "\x80", "continuation", "\\x80"},
+};
+
 static void test_sublevel_names_utf8(void **state)
 {
-    (void)state;
+    const bad_name *t = *state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
-    struct {
-        const char *name, *bad, *want_why, *want_esc;
-    } t[] = {
-        {"overlong slash", "x\xC0\xAFy", "overlong encoding at byte 1", "x\\xc0\\xafy"},
-        {"surrogate", "\xED\xA0\x80", "surrogate", "\\xed\\xa0\\x80"},
-        {"past U+10FFFF", "a\xF4\x90\x80\x80", "beyond U+10FFFF", "a\\xf4\\x90\\x80\\x80"},
-        {"cut short", "ab\xE2\x82", "cut short", "ab\\xe2\\x82"},
-        {"latin-1 e-acute", "caf\xE9", "cut short", "caf\\xe9"},
-        {"lone continuation", "\x80", "continuation", "\\x80"},
-    };
-    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
-        print_message("SUBLEVEL_NAMES: %s\n", t[k].name);
-        const char *names[3] = {"fine", "ch\xC3\xA2teau", t[k].bad};
-        uint16_t ids[3];
-        vp_stats_reply before, after;
-        assert_int_equal(vt_stats(c, &before), VP_OK);
-        assert_error(c, vt_sublevel_ids(c, names, 3, ids), VP_ERR_INVALID, 2, t[k].want_why);
-        assert_non_null(strstr(vt_last_error(c)->msg, t[k].want_esc));
-        assert_int_equal(vt_stats(c, &after), VP_OK);
-        assert_int_equal(after.epoch, before.epoch);
-        vp_sublevel_begun b;
-        assert_error(c, vt_sublevel_begin(c, t[k].bad, 0, &b), VP_ERR_INVALID, UINT32_MAX, t[k].want_esc);
-        /* an unknown name is quoted escaped too */
-        vp_ack a;
-        assert_error(c, vt_sublevel_unload(c, t[k].bad, &a), VP_ERR_NOT_FOUND, UINT32_MAX, t[k].want_esc);
-    }
+    vt_client *c = daemon_open(&d, VP_ROLE_EDITOR);
+    const char *names[3] = {"fine", "ch\xC3\xA2teau", t->bad};
+    uint16_t ids[3];
+    vp_stats_reply before, after;
+    assert_int_equal(vt_stats(c, &before), VP_OK);
+    assert_error(c, vt_sublevel_ids(c, names, 3, ids), VP_ERR_INVALID, 2, t->want_why);
+    assert_non_null(strstr(vt_last_error(c)->msg, t->want_esc));
+    assert_int_equal(vt_stats(c, &after), VP_OK);
+    assert_int_equal(after.epoch, before.epoch);
+    vp_sublevel_begun b;
+    assert_error(c, vt_sublevel_begin(c, t->bad, 0, &b), VP_ERR_INVALID, UINT32_MAX, t->want_esc);
+    /* an unknown name is quoted escaped too */
+    vp_ack a;
+    assert_error(c, vt_sublevel_unload(c, t->bad, &a), VP_ERR_NOT_FOUND, UINT32_MAX, t->want_esc);
     /* nothing was defined; a valid UTF-8 name still is */
     vp_name_list l;
     assert_int_equal(vt_sublevel_list(c, &l), VP_OK);
     assert_int_equal(l.count, 0);
     const char *ok[2] = {"ch\xC3\xA2teau", "\xF0\x9F\x8F\xB0"};
-    uint16_t ids[2];
     assert_int_equal(vt_sublevel_ids(c, ok, 2, ids), VP_OK);
     assert_int_equal(ids[0], 1);
     assert_int_equal(ids[1], 2);
-    vt_close(c);
-    daemon_stop(&d);
+    daemon_close(&d, c);
 }
 
 /* ---- views up front ---------------------------------------------------------------- */
 
-static void test_frame_subscribe_checks_view(void **state)
+/* A view RENDER refuses: RENDER, FRAME_SUBSCRIBE and LIGHT_QUERY answer
+ * the same, before any frame. */
+typedef struct bad_view {
+    const char *name;
+    int kind; /* 0 singular, 1 orthographic with w <= 0, 2 all zero */
+    int code;
+    const char *want;
+} bad_view;
+
+static const bad_view bad_views[] = {
+    {"singular", 0, VP_ERR_MATRIX, "view: degenerate"},
+    {"orthographic, w <= 0", 1, VP_ERR_MATRIX, "view: degenerate"},
+    {"all zero", 2, VP_ERR_MATRIX, "view: degenerate"},
+};
+
+static vp_render good_render(void)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_VIEWER, false);
     vp_render good = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
     const double eye[3] = {0, 2, 0}, at[3] = {0, 0, -30}, up[3] = {0, 1, 0};
     assert_true(vt_view_perspective(&good.view, eye, at, up, 70, 64, 48, 0.1, 300));
-    struct {
-        const char *name;
-        int code;
-        const char *want;
-    } t[] = {
-        {"singular", VP_ERR_MATRIX, "view: degenerate"},
-        {"orthographic, w <= 0", VP_ERR_MATRIX, "view: degenerate"},
-        {"all zero", VP_ERR_MATRIX, "view: degenerate"},
-    };
-    vp_frame f;
-    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
-        vp_render m = good;
-        if (k == 0) m.view.view_proj[0] = m.view.view_proj[4] = m.view.view_proj[8] = m.view.view_proj[12] = 0;
-        if (k == 1) {
-            memset(m.view.view_proj, 0, sizeof m.view.view_proj);
-            m.view.view_proj[0] = m.view.view_proj[5] = m.view.view_proj[10] = 0.01;
-            m.view.view_proj[15] = -1;
-        }
-        if (k == 2) memset(m.view.view_proj, 0, sizeof m.view.view_proj);
-        print_message("view: %s\n", t[k].name);
-        /* RENDER and FRAME_SUBSCRIBE answer the same, before any frame */
-        assert_error(c, vt_render(c, &m, &f), t[k].code, UINT32_MAX, t[k].want);
-        assert_error(c, vt_frame_subscribe(c, &(vp_frame_sub){.r = m, .max_fps = 30}), t[k].code, UINT32_MAX,
-                     t[k].want);
-        assert_error(c, vt_light_query(c, &(vp_light_query){.view = m.view}, &(vp_light_tiles){0}), t[k].code,
-                     UINT32_MAX, t[k].want);
+    return good;
+}
+
+static void test_frame_subscribe_checks_view(void **state)
+{
+    const bad_view *t = *state;
+    daemon_proc d;
+    vt_client *c = daemon_open(&d, VP_ROLE_VIEWER);
+    vp_render m = good_render();
+    double *vp = m.view.view_proj;
+    if (t->kind == 0) vp[0] = vp[4] = vp[8] = vp[12] = 0;
+    if (t->kind == 1) {
+        memset(vp, 0, sizeof m.view.view_proj);
+        vp[0] = vp[5] = vp[10] = 0.01;
+        vp[15] = -1;
     }
-    /* a running stream re-aimed at a bad view is refused and keeps going */
+    if (t->kind == 2) memset(vp, 0, sizeof m.view.view_proj);
+    vp_frame f;
+    assert_error(c, vt_render(c, &m, &f), t->code, UINT32_MAX, t->want);
+    assert_error(c, vt_frame_subscribe(c, &(vp_frame_sub){.r = m, .max_fps = 30}), t->code, UINT32_MAX, t->want);
+    assert_error(c, vt_light_query(c, &(vp_light_query){.view = m.view}, &(vp_light_tiles){0}), t->code, UINT32_MAX,
+                 t->want);
+    daemon_close(&d, c);
+}
+
+/* A running stream re-aimed at a bad view is refused and keeps going. */
+static void test_stream_keeps_a_good_view(void **state)
+{
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_VIEWER, false);
+    vp_render good = good_render();
+    vp_frame f;
     assert_int_equal(vt_frame_subscribe(c, &(vp_frame_sub){.r = good, .max_fps = 30}), VP_OK);
     assert_int_equal(vt_wait_frame(c, &f, 10000), VP_OK);
     vp_render bad = good;
     memset(bad.view.view_proj, 0, sizeof bad.view.view_proj);
     assert_error(c, vt_frame_subscribe(c, &(vp_frame_sub){.r = bad, .max_fps = 30}), VP_ERR_MATRIX, UINT32_MAX,
                  "view");
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     assert_int_equal(vt_add(ed, &(vp_entity){.id = 1, .sphere = {0, 0, -10, 1}}, 1, NULL, NULL), VP_OK);
     assert_int_equal(vt_wait_frame(c, &f, 10000), VP_OK); /* the new scene, drawn */
     vt_close(ed);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 /* ---- DESTROY names the real cause ------------------------------------------------- */
 
+/* A DESTROY of entity 5 (a 2 m cube at the origin) with one bad field. */
+typedef struct bad_destroy {
+    const char *name;
+    double centre0, radius;
+    int code;
+    const char *want;
+} bad_destroy;
+
+static const bad_destroy bad_destroys[] = {
+    {"radius 1e300", 0, 1e300, VP_ERR_INVALID, "radius 1e+300 m is larger than the limit 1e+09 m"},
+    {"radius just past 1e9", 0, 1000000000.0000001 /* nextafter(1e9, inf) */, VP_ERR_INVALID, "larger than the limit 1e+09 m"},
+    {"radius -1", 0, -1, VP_ERR_INVALID, "radius -1 m is not > 0"},
+    {"radius 0", 0, 0, VP_ERR_INVALID, "radius 0 m is not > 0"},
+    {"radius NaN", 0, NAN, VP_ERR_NONFINITE, "radius is nan"},
+    {"radius inf", 0, INFINITY, VP_ERR_NONFINITE, "radius is inf"},
+    {"centre NaN", NAN, 1, VP_ERR_NONFINITE, "centre x is nan"},
+    {"centre 2e12", 2e12, 1, VP_ERR_INVALID, "centre x is 2e+12 m, beyond the world's +-1e+12 m"},
+    /* relative to the entity (a 2 m cube: diagonal 3.4641 m) */
+    {"radius past the diagonal", 0, 3.4642, VP_ERR_INVALID, "larger than entity 5's diagonal, 3.4641 m"},
+    {"radius 1e9", 0, 1e9, VP_ERR_INVALID, "larger than entity 5's diagonal"},
+    {"1 km away", 1000, 5, VP_ERR_INVALID, "does not touch entity 5: its centre is 999 m from"},
+    {"just out of reach", 3.5, 2.4999, VP_ERR_INVALID, "does not touch entity 5"},
+};
+
+static vt_client *destroy_target(daemon_proc *d)
+{
+    vt_client *c = daemon_open(d, VP_ROLE_EDITOR);
+    assert_int_equal(vt_add(c, &(vp_entity){.id = 5, .aabb = {-1, -1, -1, 1, 1, 1}}, 1, NULL, NULL), VP_OK);
+    return c;
+}
+
 static void test_destroy_messages(void **state)
+{
+    const bad_destroy *t = *state;
+    daemon_proc d;
+    vt_client *c = destroy_target(&d);
+    vp_destroyed out;
+    vp_destroy m = {.id = 5, .center = {t->centre0, 0, 0}, .radius = t->radius};
+    assert_error(c, vt_destroy(c, &m, &out), t->code, UINT32_MAX, t->want);
+    assert_null(strstr(vt_last_error(c)->msg, "negative, NaN or infinite"));
+    daemon_close(&d, c);
+}
+
+/* The limits themselves: the diagonal; a sphere that just touches from outside. */
+static void test_destroy_limits(void **state)
 {
     (void)state;
     daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
-    assert_int_equal(vt_add(c, &(vp_entity){.id = 5, .aabb = {-1, -1, -1, 1, 1, 1}}, 1, NULL, NULL), VP_OK);
-    struct {
-        const char *name;
-        double centre0, radius;
-        int code;
-        const char *want;
-    } t[] = {
-        {"radius 1e300", 0, 1e300, VP_ERR_INVALID, "radius 1e+300 m is larger than the limit 1e+09 m"},
-        {"radius just past 1e9", 0, nextafter(1e9, INFINITY), VP_ERR_INVALID, "larger than the limit 1e+09 m"},
-        {"radius -1", 0, -1, VP_ERR_INVALID, "radius -1 m is not > 0"},
-        {"radius 0", 0, 0, VP_ERR_INVALID, "radius 0 m is not > 0"},
-        {"radius NaN", 0, NAN, VP_ERR_NONFINITE, "radius is nan"},
-        {"radius inf", 0, INFINITY, VP_ERR_NONFINITE, "radius is inf"},
-        {"centre NaN", NAN, 1, VP_ERR_NONFINITE, "centre x is nan"},
-        {"centre 2e12", 2e12, 1, VP_ERR_INVALID, "centre x is 2e+12 m, beyond the world's +-1e+12 m"},
-        /* relative to the entity (a 2 m cube: diagonal 3.4641 m) */
-        {"radius past the diagonal", 0, 3.4642, VP_ERR_INVALID, "larger than entity 5's diagonal, 3.4641 m"},
-        {"radius 1e9", 0, 1e9, VP_ERR_INVALID, "larger than entity 5's diagonal"},
-        {"1 km away", 1000, 5, VP_ERR_INVALID, "does not touch entity 5: its centre is 999 m from"},
-        {"just out of reach", 3.5, 2.4999, VP_ERR_INVALID, "does not touch entity 5"},
-    };
-    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
-        print_message("DESTROY: %s\n", t[k].name);
-        vp_destroyed out;
-        vp_destroy m = {.id = 5, .center = {t[k].centre0, 0, 0}, .radius = t[k].radius};
-        int rc = vt_destroy(c, &m, &out);
-        assert_error(c, rc, t[k].code, UINT32_MAX, t[k].want);
-        assert_null(strstr(vt_last_error(c)->msg, "negative, NaN or infinite"));
-    }
+    vt_client *c = destroy_target(&d);
     vp_destroyed out;
-    /* the limits themselves: the diagonal; a sphere that just touches from outside */
     assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .radius = sqrt(12.0)}, &out), VP_OK);
     assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .center = {3.5, 0, 0}, .radius = 2.5}, &out), VP_OK);
-    vt_close(c);
-    daemon_stop(&d);
+    daemon_close(&d, c);
 }
-
-
-/* ---- journals written before the checks still replay ------------------------------ */
 
 static uint32_t rd32le(const uint8_t *p)
 {
@@ -687,10 +717,8 @@ static void test_old_journal_replays(void **state)
  * triangle, and the daemon keeps answering. */
 static void test_occluder_put_bound(void **state)
 {
-    (void)state;
-    daemon_proc d;
-    daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    daemon_proc *d = *state;
+    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     const uint32_t over = 349526, same = 65536;
     float *v = calloc((size_t)over * 9, sizeof *v);
     assert_non_null(v);
@@ -708,18 +736,21 @@ static void test_occluder_put_bound(void **state)
     assert_int_equal(st.occluders, 1);
     free(v);
     vt_close(c);
-    daemon_stop(&d);
 }
 
 const struct CMUnitTest validate_tests[] = {
-    cmocka_unit_test(test_utf8_validator),
+    TEST_ROWS(test_utf8_validator, utf8_cases),
+    cmocka_unit_test(test_utf8_validator_vs_iconv),
     cmocka_unit_test(test_accepted_lights_render),
-    cmocka_unit_test(test_bad_lights_refused),
-    cmocka_unit_test(test_batch_errors_name_the_record),
-    cmocka_unit_test(test_sublevel_names_utf8),
-    cmocka_unit_test(test_frame_subscribe_checks_view),
-    cmocka_unit_test(test_destroy_messages),
+    TEST_ROWS(test_bad_lights_refused, light_cases),
+    TEST_ROWS(test_batch_errors_name_the_record, bad_records),
+    DAEMON_TEST(test_light_record_named),
+    TEST_ROWS(test_sublevel_names_utf8, bad_names),
+    TEST_ROWS(test_frame_subscribe_checks_view, bad_views),
+    DAEMON_TEST(test_stream_keeps_a_good_view),
+    TEST_ROWS(test_destroy_messages, bad_destroys),
+    cmocka_unit_test(test_destroy_limits),
     cmocka_unit_test(test_old_journal_replays),
-    cmocka_unit_test(test_occluder_put_bound),
+    DAEMON_TEST(test_occluder_put_bound),
 };
 const size_t validate_tests_count = sizeof validate_tests / sizeof validate_tests[0];

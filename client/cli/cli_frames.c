@@ -8,6 +8,7 @@
  * stalled ones must not lower the others' rate.
  */
 #include "cli.h"
+#include "vp_grow.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -63,13 +64,7 @@ static void *viewer_main(void *p)
         double t = now_s();
         if (!v->frames) v->first = t;
         else {
-            if (v->ngaps == v->gaps_cap) {
-                size_t cap = v->gaps_cap ? 2 * v->gaps_cap : 1024;
-                double *g = realloc(v->gaps, cap * sizeof *g);
-                if (!g) break;
-                v->gaps = g;
-                v->gaps_cap = cap;
-            }
+            if (!vp_grow((void **)&v->gaps, &v->gaps_cap, v->ngaps + 1, sizeof *v->gaps)) break;
             v->gaps[v->ngaps++] = (t - prev) * 1e3;
         }
         prev = v->last = t;

@@ -13,6 +13,7 @@
 #include "cli.h"
 #include "pad.h"
 #include "pad_io.h"
+#include "vp_grow.h"
 
 #include <errno.h>
 #include <poll.h>
@@ -97,13 +98,7 @@ static seen_pad *stats_pad(dump_stats *s, uint32_t id, const pad_device_info *in
 {
     for (size_t i = 0; i < s->n; i++)
         if (s->p[i].id == id) return &s->p[i];
-    if (s->n == s->cap) {
-        size_t ncap = s->cap ? s->cap * 2 : 8;
-        seen_pad *p = realloc(s->p, ncap * sizeof *p);
-        if (!p) return NULL;
-        s->p = p;
-        s->cap = ncap;
-    }
+    if (!vp_grow((void **)&s->p, &s->cap, s->n + 1, sizeof *s->p)) return NULL;
     seen_pad *p = &s->p[s->n++];
     memset(p, 0, sizeof *p);
     p->id = id;

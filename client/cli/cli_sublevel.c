@@ -1,6 +1,6 @@
 /*
  * cli_sublevel.c — `vantage sublevel load NAME FILE`, `unload NAME`,
- * `list`: a level file imported here (import.c, assimp) and pushed as one
+ * `list`: a level file imported here (client/import, assimp) and pushed as one
  * sub-level load: BEGIN, the class meshes, the entities in batches, the
  * occluders and lights, COMMIT. Nothing of it is visible to anyone before
  * the commit; if anything fails the load is aborted (and the daemon drops

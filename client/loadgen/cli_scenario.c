@@ -14,6 +14,7 @@
  * threads are in scenario_events.c, the report in scenario_report.c.
  */
 #include "scenario_run.h"
+#include "vp_grow.h"
 
 #include <errno.h>
 #include <math.h>
@@ -154,9 +155,8 @@ static bool make_view(const scn_group *g, double t, int idx, uint16_t w, uint16_
 static uint8_t *out_room(lconn *lc, size_t n)
 {
     if (lc->outcap - lc->outlen < n) {
-        size_t cap = lc->outcap ? lc->outcap : 4096;
-        while (cap - lc->outlen < n) cap *= 2;
-        uint8_t *p = realloc(lc->out, cap);
+        size_t cap = n <= SIZE_MAX - lc->outlen ? vp_grow_cap(lc->outcap, lc->outlen + n, 4096, 1, SIZE_MAX) : 0;
+        uint8_t *p = cap ? realloc(lc->out, cap) : NULL;
         if (!p) return NULL;
         lc->out = p;
         lc->outcap = cap;

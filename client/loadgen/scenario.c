@@ -7,6 +7,7 @@
 #include "scenario.h"
 
 #include "protocol.h"
+#include "vp_grow.h"
 
 #include <errno.h>
 #include <math.h>
@@ -435,10 +436,7 @@ int scn_load(const char *path, scenario *s, char *err, size_t errlen)
                 snprintf(err, errlen, "%s: over 1 MiB: not a scenario", path);
                 return -1;
             }
-            char *t = realloc(text, cap * 2);
-            if (!t) break;
-            text = t;
-            cap *= 2;
+            if (!vp_grow((void **)&text, &cap, cap + 1, 1)) break;
         }
     }
     bool bad = ferror(f);

@@ -286,15 +286,9 @@ static void run_matrix(uint32_t n, cull_pool *pool)
 static int demo(const char *path, cull_pool *pool)
 {
     scene_file sf;
-    char err[256];
-    if (scene_file_load(path, &sf, err, sizeof err)) {
-        fprintf(stderr, "bench_cull: %s\n", err);
-        return 1;
-    }
     cull_world *w;
     double cs = getenv("VANTAGE_CELL") ? atof(getenv("VANTAGE_CELL")) : 0;
-    if (cull_world_create(&(cull_world_desc){.cell_size = cs}, &w)) return 1;
-    if (bench_add_objects(w, &sf, NULL, NULL)) return 1;
+    if (bench_load_world("bench_cull", path, &sf, &(cull_world_desc){.cell_size = cs}, &w)) return 1;
     cull_world_info info;
     cull_world_info_get(w, &info);
     printf("city scene %s: %zu objects in %u cells, %u blocks, %.1f MiB\n", path, sf.nobjects, info.cells,

@@ -79,15 +79,9 @@ int main(int argc, char **argv)
     if (frames < 1 || frames > MAX_FRAMES || reps < 1) return 2;
 
     scene_file sf;
-    char err[256];
-    if (scene_file_load(scene, &sf, err, sizeof err)) {
-        fprintf(stderr, "bench_occlusion: %s\n", err);
-        return 1;
-    }
     cull_world *w;
-    if (cull_world_create(NULL, &w)) return 1;
     /* a fresh world hands out slots 0, 1, 2...: slot = object index */
-    if (bench_add_objects(w, &sf, NULL, NULL) || bench_add_boxes(w, &sf, NULL)) return 1;
+    if (bench_load_world("bench_occlusion", scene, &sf, NULL, &w) || bench_add_boxes(w, &sf, NULL)) return 1;
     size_t nboxes = sf.ntris / 12;
     double *tri = bench_tris_world(&sf, NULL);
     if (!tri) return 1;
@@ -232,6 +226,7 @@ int main(int argc, char **argv)
                         snprintf(path, sizeof path, "%s/occlusion_%ux%u_%s.exr", exr_dir, W, H,
                                  cover ? "centre" : "inner");
                         vt_exr_channel ch = {"Z", VT_EXR_FLOAT, img, 1, (ptrdiff_t)W};
+                        char err[256];
                         if (vt_exr_write(path, W, H, &ch, 1, VT_EXR_ZIP, err, sizeof err))
                             fprintf(stderr, "bench_occlusion: %s: %s\n", path, err);
                         else if (!json)

@@ -69,23 +69,29 @@ static void ds4_state(uint8_t *s, unsigned i)
     s[38] = 0x80;
 }
 
-static size_t make_ds4_usb(uint8_t *b, unsigned i)
+/* A PlayStation report over USB: 64 bytes, id 0x01, the state after it. */
+static size_t ps_usb(uint8_t *b, unsigned i, void (*state)(uint8_t *, unsigned))
 {
     memset(b, 0, 64);
     b[0] = 0x01;
-    ds4_state(b + 1, i);
+    state(b + 1, i);
     return 64;
 }
 
-static size_t make_ds4_bt(uint8_t *b, unsigned i)
+/* Over Bluetooth: 78 bytes, the report id and its second byte, the state
+ * at offset at, a CRC-32 at the end. */
+static size_t ps_bt(uint8_t *b, unsigned i, uint8_t id, uint8_t b1, size_t at, void (*state)(uint8_t *, unsigned))
 {
     memset(b, 0, 78);
-    b[0] = 0x11;
-    b[1] = 0xC0;
-    ds4_state(b + 3, i);
+    b[0] = id;
+    b[1] = b1;
+    state(b + at, i);
     ps_crc(b, 78);
     return 78;
 }
+
+static size_t make_ds4_usb(uint8_t *b, unsigned i) { return ps_usb(b, i, ds4_state); }
+static size_t make_ds4_bt(uint8_t *b, unsigned i) { return ps_bt(b, i, 0x11, 0xC0, 3, ds4_state); }
 
 static void ds_state(uint8_t *s, unsigned i)
 {
@@ -99,23 +105,8 @@ static void ds_state(uint8_t *s, unsigned i)
     s[52] = (uint8_t)(rnd8() % 11);
 }
 
-static size_t make_ds_usb(uint8_t *b, unsigned i)
-{
-    memset(b, 0, 64);
-    b[0] = 0x01;
-    ds_state(b + 1, i);
-    return 64;
-}
-
-static size_t make_ds_bt(uint8_t *b, unsigned i)
-{
-    memset(b, 0, 78);
-    b[0] = 0x31;
-    b[1] = (uint8_t)(i << 4);
-    ds_state(b + 2, i);
-    ps_crc(b, 78);
-    return 78;
-}
+static size_t make_ds_usb(uint8_t *b, unsigned i) { return ps_usb(b, i, ds_state); }
+static size_t make_ds_bt(uint8_t *b, unsigned i) { return ps_bt(b, i, 0x31, (uint8_t)(i << 4), 2, ds_state); }
 
 static size_t make_switch_full(uint8_t *b, unsigned i)
 {

@@ -22,6 +22,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -50,6 +51,21 @@ static inline int bench_add_objects(cull_world *w, const scene_file *sf, const d
         if (handles) handles[i] = h;
     }
     return 0;
+}
+
+/* Loads the scene file at path (its error printed after who: on failure)
+ * and makes a world (desc may be NULL) holding its objects, as
+ * bench_add_objects does; 0 or -1. */
+static inline int bench_load_world(const char *who, const char *path, scene_file *sf, const cull_world_desc *desc,
+                                   cull_world **w)
+{
+    char err[256];
+    if (scene_file_load(path, sf, err, sizeof err)) {
+        fprintf(stderr, "%s: %s\n", who, err);
+        return -1;
+    }
+    if (cull_world_create(desc, w)) return -1;
+    return bench_add_objects(*w, sf, NULL, NULL);
 }
 
 /* The scene's occluder triangles as one occluder per box (12 triangles, 36

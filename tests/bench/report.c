@@ -905,6 +905,18 @@ static void md_front(FILE *f, const point *pts)
     fprintf(f, ".\n\n");
 }
 
+/* A table's header: "| case | <second> |", a column per configuration
+ * g_cfg[0..ncfg), then `tail` (its own "| ... |" cells, ntail of them),
+ * and the rule line under it. */
+static void md_cfg_header(FILE *md, const char *second, int ncfg, const char *tail, int ntail)
+{
+    fprintf(md, "| case | %s |", second);
+    for (int c = 0; c < ncfg; c++) fprintf(md, " %s |", g_cfg[c].name);
+    fprintf(md, "%s\n|---|---|", tail ? tail : "");
+    for (int c = 0; c < ncfg + ntail; c++) fprintf(md, "---|");
+    fprintf(md, "\n");
+}
+
 /* The gnuplot script: both panels' data inline, run from its own folder. */
 static void write_gp(FILE *f, const point *city, const point *rnd_pts, int ntowns, const char *machine)
 {
@@ -1230,11 +1242,7 @@ int main(int argc, char **argv)
             "table). Reversed-Z: supported by the core (`CULL_DEPTH_REVERSED`, with finite or infinite far "
             "planes), tested here.\n\n",
             o.probe_n, o.probe_views);
-    fprintf(md, "| case | cases |");
-    for (int c = 0; c < NFRUSTUM; c++) fprintf(md, " %s |", g_cfg[c].name);
-    fprintf(md, "\n|---|---|");
-    for (int c = 0; c < NFRUSTUM; c++) fprintf(md, "---|");
-    fprintf(md, "\n");
+    md_cfg_header(md, "cases", NFRUSTUM, NULL, 0);
     for (int k = 0; k < NPROBE; k++) {
         if (!probe[k][0].cases) continue;
         fprintf(md, "| %s | %llu |", g_probe[k].name, (unsigned long long)probe[k][0].cases);
@@ -1260,11 +1268,7 @@ int main(int argc, char **argv)
             "multiple of the 64 m cell regroups the entities into other cells, whose float rounding differs). "
             "*2 threads differ*: verdicts that differ between 1 and 2 threads, all configurations.\n\n",
             o.stress_frames, o.truth_w, o.truth_h);
-    fprintf(md, "| case | truly visible |");
-    for (int c = 0; c < NCFG; c++) fprintf(md, " %s |", g_cfg[c].name);
-    fprintf(md, " differs from origin | 2 threads differ |\n|---|---|");
-    for (int c = 0; c < NCFG; c++) fprintf(md, "---|");
-    fprintf(md, "---|---|\n");
+    md_cfg_header(md, "truly visible", NCFG, " differs from origin | 2 threads differ |", 2);
     for (int k = 0; k < NCITY; k++) {
         fprintf(md, "| %s | %.1f |", g_city_stress[k].name, cst[k].truth);
         for (int c = 0; c < NCFG; c++) {

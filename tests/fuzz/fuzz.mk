@@ -5,7 +5,7 @@
 # Targets (FUZZ_ALL), each fuzz_<name>.c with corpus/<name>/ and crashes/<name>/:
 #   protocol   the wire-protocol decoders (protocol/)
 #   jsonl      the JSON lines parser of `vantage import` (client/import/jsonl.c, json-c)
-#   gltf       the level import of `vantage sublevel load` (client/import/import.c, assimp)
+#   gltf       the level import of `vantage sublevel load` (client/import/import_*.c, assimp)
 #   pad        the game-pad report parsers (client/pad/pad.c, pad_parse.c)
 #   replay     hid-recorder's text format and the replay path (client/pad/pad_line.c)
 #   query      the culling core past the decoders: occluders, entities, lights
@@ -65,8 +65,8 @@ FUZZ_jsonl_LIBS       := $$(pkg-config --libs json-c)
 FUZZ_jsonl_MAX_LEN    := 2048
 FUZZ_jsonl_BUDGET     := 100 256
 
-FUZZ_gltf_OBJ         := $(BUILD)/client/import/import.o $(PROTO_OBJ)
-FUZZ_gltf_SRC         := client/import/import.c $(PROTO_SRC)
+FUZZ_gltf_OBJ         := $(IMPORT_OBJ) $(PROTO_OBJ)
+FUZZ_gltf_SRC         := $(wildcard client/import/import_*.c) $(PROTO_SRC)
 FUZZ_gltf_CFLAGS      := $$(pkg-config --cflags assimp)
 FUZZ_gltf_LIBS        := $$(pkg-config --libs assimp)
 FUZZ_gltf_MAX_LEN     := 16384

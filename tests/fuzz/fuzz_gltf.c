@@ -1,5 +1,6 @@
 /*
- * fuzz_gltf.c — libFuzzer target for the level import (client/import/import.c):
+ * fuzz_gltf.c — libFuzzer target for the level import (client/import/:
+ * import_walk.c, import_memio.c):
  * the input is a level file in memory, read by assimp and converted by
  * vt_level_import_mem exactly as `vantage sublevel load` converts a file
  * (glTF binary when it starts with the "glTF" magic, else glTF JSON).
@@ -22,18 +23,20 @@
  *      lights (LIGHT_PUT) encode and decode with VP_OK.
  *
  * assimp is the system's build, not instrumented: libFuzzer's coverage
- * comes from import.c and this file only, and ASan sees assimp's memory
+ * comes from the importer and this file only, and ASan sees assimp's memory
  * errors only where they reach an intercepted call (memcpy, free, ...).
  */
 #include "import.h"
 #include "protocol.h"
+
+#define FUZZ_NAME "fuzz_gltf"
+#include "fuzz_check.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 const char *__lsan_default_suppressions(void);
 const char *__lsan_default_options(void);
 const char *__asan_default_options(void);
@@ -64,15 +67,6 @@ const char *__asan_default_options(void)
     return "allocator_may_return_null=1";
 }
 
-#define CHECK(cond)                                                                     \
-    do {                                                                                \
-        if (!(cond)) {                                                                  \
-            fprintf(stderr, "fuzz_gltf: property failed at %s:%d: %s\n", __FILE__,      \
-                    __LINE__, #cond);                                                   \
-            abort();                                                                    \
-        }                                                                               \
-    } while (0)
-
 #define MAX_COORD 1e12
 #define ERR_LEN 512 /* cli_sublevel.c's */
 
@@ -96,44 +90,19 @@ static bool name_ok(const char *name) { return memchr(name, 0, LVL_NAME) != NULL
 
 /* ---- 4: through the protocol ----------------------------------------------------- */
 
-/* A writer over an exact heap buffer: an overrun is ASan's, a short one ours. */
-typedef struct wbuf {
-    uint8_t *mem;
-    vp_writer w;
-} wbuf;
-
-static void wopen(wbuf *b, size_t cap)
-{
-    b->mem = malloc(cap ? cap : 1);
-    CHECK(b->mem != NULL);
-    vp_writer_init(&b->w, b->mem, cap);
-}
-
-/* The payload of the one frame written, of the type wanted. */
-static const uint8_t *wframe(wbuf *b, uint16_t type, size_t *len)
-{
-    vp_header h;
-    size_t fs = 0;
-    CHECK(!b->w.overflow);
-    CHECK(vp_frame_check(b->mem, b->w.len, UINT32_MAX, &h, &fs) == VP_OK);
-    CHECK(fs == b->w.len && h.type == type);
-    *len = h.len;
-    return b->mem + VP_HEADER_SIZE;
-}
-
 static void check_wire(const vt_level *lv)
 {
     size_t len;
     for (uint32_t i = 0; i < lv->nmesh; i++) {
         const lvl_mesh *m = &lv->mesh[i];
-        wbuf b;
-        wopen(&b, VP_HEADER_SIZE + 12 + 24 * (size_t)m->nv + 4 * (size_t)m->ni);
+        fuzz_wbuf b;
+        fuzz_wopen(&b, VP_HEADER_SIZE + 12 + 24 * (size_t)m->nv + 4 * (size_t)m->ni);
         vp_enc_mesh(&b.w, 1, (uint16_t)i, m->pos, m->nrm, m->nv, m->idx, m->ni);
-        const uint8_t *p = wframe(&b, VP_MESH_PUT, &len);
+        const uint8_t *p = fuzz_wframe(&b, VP_MESH_PUT, &len);
         vp_mesh dm;
         CHECK(vp_dec_mesh(p, len, 0, &dm) == VP_OK);
         CHECK(dm.vertex_count == m->nv && dm.index_count == m->ni);
-        free(b.mem);
+        fuzz_wclose(&b);
     }
     if (lv->nent) {
         vp_entity *rec = calloc(lv->nent, sizeof *rec);
@@ -152,34 +121,34 @@ static void check_wire(const vt_level *lv)
                 CHECK(rec[i].aabb[a] <= rec[i].aabb[3 + a] && in_range(rec[i].aabb[a]) &&
                       in_range(rec[i].aabb[3 + a]));
         }
-        wbuf b;
-        wopen(&b, vp_size_entities(lv->nent));
+        fuzz_wbuf b;
+        fuzz_wopen(&b, vp_size_entities(lv->nent));
         vp_enc_entities(&b.w, VP_ENTITY_ADD, 1, rec, lv->nent);
-        const uint8_t *p = wframe(&b, VP_ENTITY_ADD, &len);
+        const uint8_t *p = fuzz_wframe(&b, VP_ENTITY_ADD, &len);
         vp_entity_batch eb;
         CHECK(vp_dec_entities(p, len, 0, &eb) == VP_OK && eb.count == lv->nent);
-        free(b.mem);
+        fuzz_wclose(&b);
         free(rec);
     }
     for (uint32_t i = 0; i < lv->nocc; i++) {
         const lvl_occluder *o = &lv->occ[i];
-        wbuf b;
-        wopen(&b, VP_HEADER_SIZE + 36 + 36 * (size_t)o->ntri);
+        fuzz_wbuf b;
+        fuzz_wopen(&b, VP_HEADER_SIZE + 36 + 36 * (size_t)o->ntri);
         vp_enc_occluder(&b.w, 1, 1ull << 63 | i, o->origin, o->tri, o->ntri);
-        const uint8_t *p = wframe(&b, VP_OCCLUDER_PUT, &len);
+        const uint8_t *p = fuzz_wframe(&b, VP_OCCLUDER_PUT, &len);
         vp_occluder dec;
         CHECK(vp_dec_occluder(p, len, 0, &dec) == VP_OK && dec.tri_count == o->ntri);
-        free(b.mem);
+        fuzz_wclose(&b);
     }
     if (lv->nlight) {
-        wbuf b;
-        wopen(&b, VP_HEADER_SIZE + 4 + (size_t)VP_LIGHT_SIZE * lv->nlight);
+        fuzz_wbuf b;
+        fuzz_wopen(&b, VP_HEADER_SIZE + 4 + (size_t)VP_LIGHT_SIZE * lv->nlight);
         vp_enc_lights(&b.w, 1, lv->light, lv->nlight);
-        const uint8_t *p = wframe(&b, VP_LIGHT_PUT, &len);
+        const uint8_t *p = fuzz_wframe(&b, VP_LIGHT_PUT, &len);
         const uint8_t *recs;
         uint32_t n;
         CHECK(vp_dec_lights(p, len, 0, &recs, &n) == VP_OK && n == lv->nlight);
-        free(b.mem);
+        fuzz_wclose(&b);
     }
 }
 
@@ -252,7 +221,7 @@ static void check_level(const vt_level *lv)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    /* an exact copy: assimp reads through import.c's callbacks from it */
+    /* an exact copy: assimp reads through import_memio.c's callbacks from it */
     uint8_t *buf = malloc(size ? size : 1);
     CHECK(buf != NULL);
     memcpy(buf, data, size);

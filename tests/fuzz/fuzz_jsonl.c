@@ -25,21 +25,13 @@
 #include "jsonl.h"
 #include "protocol.h"
 
+#define FUZZ_NAME "fuzz_jsonl"
+#include "fuzz_check.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-#define CHECK(cond)                                                                     \
-    do {                                                                                \
-        if (!(cond)) {                                                                  \
-            fprintf(stderr, "fuzz_jsonl: property failed at %s:%d: %s\n", __FILE__,     \
-                    __LINE__, #cond);                                                   \
-            abort();                                                                    \
-        }                                                                               \
-    } while (0)
 
 #define ERR_LEN 160 /* cmd_import's */
 
@@ -47,18 +39,6 @@ static bool same_f64(double a, double b) { return memcmp(&a, &b, sizeof a) == 0;
 
 /* By value, as text can carry it: equal, and a 0 of either sign for a 0. */
 static bool same_value(double a, double b) { return same_f64(a, b) || (a == 0 && b == 0); }
-
-static bool same_record(const vp_entity *a, const vp_entity *b, bool (*eq)(double, double))
-{
-    if (a->id != b->id || a->handle != b->handle || a->class_id != b->class_id || a->sublevel != b->sublevel ||
-        a->flags != b->flags)
-        return false;
-    for (int k = 0; k < 4; k++)
-        if (!eq(a->sphere[k], b->sphere[k])) return false;
-    for (int k = 0; k < 6; k++)
-        if (!eq(a->aabb[k], b->aabb[k])) return false;
-    return true;
-}
 
 static bool all_zero(const void *p, size_t n)
 {
@@ -83,23 +63,19 @@ static bool parse_exact(const char *line, size_t len, vp_entity *e, char *sub, c
 /* 3: ENTITY_ADD with the one record, through the decoder and the getter. */
 static void check_wire(const vp_entity *e)
 {
-    size_t cap = vp_size_entities(1);
-    uint8_t *mem = malloc(cap);
-    CHECK(mem != NULL);
-    vp_writer w;
-    vp_writer_init(&w, mem, cap);
-    vp_enc_entities(&w, VP_ENTITY_ADD, 1, e, 1);
-    CHECK(!w.overflow && w.len == cap);
-    vp_header h;
-    size_t fs = 0;
-    CHECK(vp_frame_check(mem, w.len, UINT32_MAX, &h, &fs) == VP_OK && fs == w.len);
+    size_t cap = vp_size_entities(1), len;
+    fuzz_wbuf w;
+    fuzz_wopen(&w, cap);
+    vp_enc_entities(&w.w, VP_ENTITY_ADD, 1, e, 1);
+    CHECK(w.w.len == cap);
+    const uint8_t *p = fuzz_wframe(&w, VP_ENTITY_ADD, &len);
     vp_entity_batch b;
-    CHECK(vp_dec_entities(mem + VP_HEADER_SIZE, h.len, 0, &b) == VP_OK);
+    CHECK(vp_dec_entities(p, len, 0, &b) == VP_OK);
     CHECK(b.count == 1);
     vp_entity back;
     CHECK(vp_entity_get(&b, 0, &back) == VP_OK);
-    CHECK(same_record(e, &back, same_f64));
-    free(mem);
+    CHECK(fuzz_same_entity(e, &back, same_f64));
+    fuzz_wclose(&w);
 }
 
 /* 4: the export line (and the `get` line, with the handle) parse back. */
@@ -119,7 +95,7 @@ static void check_export(const vp_entity *e, const char *sub)
         bool ok = parse_exact(line, (size_t)n - 1, &back, bsub, err);
         if (!ok) fprintf(stderr, "fuzz_jsonl: the export line is refused: %s\n%s", err, line);
         CHECK(ok);
-        CHECK(same_record(e, &back, same_value));
+        CHECK(fuzz_same_entity(e, &back, same_value));
         CHECK(strcmp(sub, bsub) == 0);
     }
 }

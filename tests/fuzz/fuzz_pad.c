@@ -28,20 +28,13 @@
  */
 #include "pad.h"
 
+#define FUZZ_NAME "fuzz_pad"
+#include "fuzz_check.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-#define CHECK(cond)                                                                                        \
-    do {                                                                                                   \
-        if (!(cond)) {                                                                                     \
-            fprintf(stderr, "fuzz_pad: property failed at %s:%d: %s\n", __FILE__, __LINE__, #cond);        \
-            abort();                                                                                       \
-        }                                                                                                  \
-    } while (0)
 
 static bool in(float v, float lo, float hi) { return isfinite(v) && v >= lo && v <= hi; }
 

@@ -17,20 +17,12 @@
  */
 #include "protocol.h"
 
+#define FUZZ_NAME "fuzz_protocol"
+#include "fuzz_check.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-#define CHECK(cond)                                                                     \
-    do {                                                                                \
-        if (!(cond)) {                                                                  \
-            fprintf(stderr, "fuzz_protocol: property failed at %s:%d: %s\n", __FILE__,  \
-                    __LINE__, #cond);                                                   \
-            abort();                                                                    \
-        }                                                                               \
-    } while (0)
 
 /* Frames per input; keeps a pathological stream of empty frames bounded. */
 #define MAX_FRAMES 4096u
@@ -47,46 +39,17 @@ static void check_code(int rc)
     CHECK(strcmp(vp_strerror(rc), "unknown error") != 0);
 }
 
-/* Writer over a heap buffer of exactly cap bytes, so ASan sees overruns. */
-typedef struct enc_buf {
-    uint8_t  *mem;
-    vp_writer w;
-} enc_buf;
-
-static void enc_open(enc_buf *b, size_t cap)
-{
-    b->mem = malloc(cap ? cap : 1);
-    CHECK(b->mem != NULL);
-    vp_writer_init(&b->w, b->mem, cap);
-}
-
 /* Frames the encoded bytes and returns the payload; its type and length must
  * match what was decoded. */
-static const uint8_t *enc_payload(enc_buf *b, uint16_t type, size_t want_len)
+static const uint8_t *enc_payload(fuzz_wbuf *b, uint16_t type, size_t want_len)
 {
-    vp_header h;
-    size_t fs = 0;
-    CHECK(!b->w.overflow);
-    CHECK(vp_frame_check(b->mem, b->w.len, UINT32_MAX, &h, &fs) == VP_OK);
-    CHECK(fs == b->w.len);
-    CHECK(h.type == type);
-    CHECK(h.len == want_len);
-    return b->mem + VP_HEADER_SIZE;
+    size_t len;
+    const uint8_t *p = fuzz_wframe(b, type, &len);
+    CHECK(len == want_len);
+    return p;
 }
 
-static void enc_close(enc_buf *b) { free(b->mem); }
-
-static bool same_entity(const vp_entity *a, const vp_entity *b)
-{
-    if (a->id != b->id || a->handle != b->handle || a->class_id != b->class_id || a->sublevel != b->sublevel ||
-        a->flags != b->flags)
-        return false;
-    for (int k = 0; k < 4; k++)
-        if (!same_f64(a->sphere[k], b->sphere[k])) return false;
-    for (int k = 0; k < 6; k++)
-        if (!same_f64(a->aabb[k], b->aabb[k])) return false;
-    return true;
-}
+static bool same_entity(const vp_entity *a, const vp_entity *b) { return fuzz_same_entity(a, b, same_f64); }
 
 static bool same_view(const vp_view *a, const vp_view *b)
 {
@@ -128,8 +91,8 @@ static void fuzz_hello(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(len == 9u + m.token_len + m.name_len);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_hello(&b.w, 1, &m);
     const uint8_t *q = enc_payload(&b, VP_HELLO, len);
     vp_hello r;
@@ -137,7 +100,7 @@ static void fuzz_hello(const uint8_t *p, size_t len)
     CHECK(r.magic == m.magic && r.version == m.version && r.role == m.role);
     CHECK(r.token_len == m.token_len && r.name_len == m.name_len);
     CHECK(memcmp(r.token, m.token, m.token_len) == 0 && memcmp(r.name, m.name, m.name_len) == 0);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_hello_ok(const uint8_t *p, size_t len)
@@ -146,8 +109,8 @@ static void fuzz_hello_ok(const uint8_t *p, size_t len)
     int rc = vp_dec_hello_ok(p, len, &m);
     check_code(rc);
     if (rc) return;
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_hello_ok(&b.w, 2, &m);
     const uint8_t *q = enc_payload(&b, VP_HELLO_OK, len);
     vp_hello_ok r;
@@ -155,7 +118,7 @@ static void fuzz_hello_ok(const uint8_t *p, size_t len)
     CHECK(r.version == m.version && r.role == m.role && r.max_payload == m.max_payload &&
           r.max_batch == m.max_batch && r.max_views == m.max_views && r.epoch == m.epoch &&
           r.client_id == m.client_id);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_error(const uint8_t *p, size_t len)
@@ -195,8 +158,8 @@ static void fuzz_stats_reply(const uint8_t *p, size_t len)
     int rc = vp_dec_stats_reply(p, len, &m);
     check_code(rc);
     if (rc) return;
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_stats_reply(&b.w, 3, &m);
     const uint8_t *q = enc_payload(&b, VP_STATS_REPLY, len);
     vp_stats_reply r;
@@ -208,7 +171,7 @@ static void fuzz_stats_reply(const uint8_t *p, size_t len)
           r.queries == m.queries && r.edits == m.edits && r.bytes_in == m.bytes_in &&
           r.bytes_out == m.bytes_out && r.errors == m.errors);
     CHECK(memcmp(q, p, len) == 0); /* no pad bytes: the bytes themselves round-trip */
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_subscribe(const uint8_t *p, size_t len)
@@ -218,13 +181,13 @@ static void fuzz_subscribe(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK((kinds & ~(VP_EVENT_SCENE | VP_EVENT_MARKS)) == 0); /* MARKS since MARK/MARKED */
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_subscribe(&b.w, 4, kinds);
     const uint8_t *q = enc_payload(&b, VP_SUBSCRIBE, len);
     uint32_t r;
     CHECK(vp_dec_subscribe(q, len, &r) == VP_OK && r == kinds);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_event(const uint8_t *p, size_t len)
@@ -233,15 +196,15 @@ static void fuzz_event(const uint8_t *p, size_t len)
     int rc = vp_dec_event(p, len, &m);
     check_code(rc);
     if (rc) return;
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_event(&b.w, &m);
     const uint8_t *q = enc_payload(&b, VP_EVENT, len);
     vp_event r;
     CHECK(vp_dec_event(q, len, &r) == VP_OK);
     CHECK(r.kind == m.kind && r.epoch == m.epoch && r.added == m.added && r.updated == m.updated &&
           r.removed == m.removed);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_ack(const uint8_t *p, size_t len)
@@ -250,14 +213,14 @@ static void fuzz_ack(const uint8_t *p, size_t len)
     int rc = vp_dec_ack(p, len, &m);
     check_code(rc);
     if (rc) return;
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_ack(&b.w, 5, &m);
     const uint8_t *q = enc_payload(&b, VP_ACK, len);
     vp_ack r;
     CHECK(vp_dec_ack(q, len, &r) == VP_OK && r.epoch == m.epoch && r.count == m.count);
     CHECK(memcmp(q, p, len) == 0);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_entities(const uint8_t *p, size_t len, uint16_t type, uint32_t limit)
@@ -274,8 +237,8 @@ static void fuzz_entities(const uint8_t *p, size_t len, uint16_t type, uint32_t 
     if (rc) return;
     CHECK(len == 4 + (size_t)m.count * VP_ENTITY_REC_SIZE);
     vp_entity *e = read_entities(&m);
-    enc_buf b;
-    enc_open(&b, vp_size_entities(m.count));
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_entities(m.count));
     vp_enc_entities(&b.w, type, 6, e, m.count);
     const uint8_t *q = enc_payload(&b, type, len);
     vp_entity_batch r;
@@ -285,7 +248,7 @@ static void fuzz_entities(const uint8_t *p, size_t len, uint16_t type, uint32_t 
         CHECK(vp_entity_get(&r, i, &x) == VP_OK);
         CHECK(same_entity(&x, &e[i]));
     }
-    enc_close(&b);
+    fuzz_wclose(&b);
     free(e);
 }
 
@@ -305,15 +268,15 @@ static void fuzz_ids(const uint8_t *p, size_t len, uint16_t type, uint32_t limit
     CHECK(ids != NULL);
     for (uint32_t i = 0; i < m.count; i++) ids[i] = vp_id_get(&m, i);
     CHECK(vp_id_get(&m, m.count) == 0);
-    enc_buf b;
-    enc_open(&b, vp_size_ids(m.count));
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_ids(m.count));
     vp_enc_ids(&b.w, type, 7, ids, m.count);
     const uint8_t *q = enc_payload(&b, type, len);
     CHECK(memcmp(q, p, len) == 0);
     vp_id_batch r;
     CHECK(vp_dec_ids(q, len, 0, &r) == VP_OK && r.count == m.count);
     for (uint32_t i = 0; i < r.count; i++) CHECK(vp_id_get(&r, i) == ids[i]);
-    enc_close(&b);
+    fuzz_wclose(&b);
     free(ids);
 }
 
@@ -328,12 +291,12 @@ static void fuzz_add_reply(const uint8_t *p, size_t len)
     CHECK(h != NULL);
     for (uint32_t i = 0; i < m.count; i++) h[i] = vp_handle_get(&m, i);
     CHECK(vp_handle_get(&m, m.count) == 0);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_add_reply(&b.w, 8, m.epoch, h, m.count);
     const uint8_t *q = enc_payload(&b, VP_ENTITY_ADD_REPLY, len);
     CHECK(memcmp(q, p, len) == 0);
-    enc_close(&b);
+    fuzz_wclose(&b);
     free(h);
 }
 
@@ -349,12 +312,12 @@ static void fuzz_list(const uint8_t *p, size_t len, uint32_t limit)
     if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.max > limit);
     if (rc) return;
     CHECK(m.max >= 1);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_list(&b.w, 9, &m);
     const uint8_t *q = enc_payload(&b, VP_ENTITY_LIST, len);
     CHECK(memcmp(q, p, len) == 0);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_list_reply(const uint8_t *p, size_t len)
@@ -365,8 +328,8 @@ static void fuzz_list_reply(const uint8_t *p, size_t len)
     if (rc) return;
     CHECK(len == 20 + (size_t)m.batch.count * VP_ENTITY_REC_SIZE);
     vp_entity *e = read_entities(&m.batch);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_list_reply(&b.w, 10, m.next_cursor, m.epoch, e, m.batch.count);
     const uint8_t *q = enc_payload(&b, VP_ENTITY_LIST_REPLY, len);
     vp_list_reply r;
@@ -376,7 +339,7 @@ static void fuzz_list_reply(const uint8_t *p, size_t len)
         vp_entity x;
         CHECK(vp_entity_get(&r.batch, i, &x) == VP_OK && same_entity(&x, &e[i]));
     }
-    enc_close(&b);
+    fuzz_wclose(&b);
     free(e);
 }
 
@@ -444,8 +407,8 @@ static void fuzz_lights(const uint8_t *p, size_t len, uint32_t limit)
     vp_light *l = malloc(((size_t)n ? n : 1) * sizeof *l);
     CHECK(l != NULL);
     for (uint32_t i = 0; i < n; i++) CHECK(vp_light_get(recs, n, i, &l[i]) == VP_OK);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_lights(&b.w, 11, l, n);
     const uint8_t *q = enc_payload(&b, VP_LIGHT_PUT, len);
     const uint8_t *rrecs = NULL;
@@ -455,7 +418,7 @@ static void fuzz_lights(const uint8_t *p, size_t len, uint32_t limit)
         vp_light x;
         CHECK(vp_light_get(rrecs, n, i, &x) == VP_OK && same_light(&x, &l[i]));
     }
-    enc_close(&b);
+    fuzz_wclose(&b);
     free(l);
 }
 
@@ -476,8 +439,8 @@ static void fuzz_vis_query(const uint8_t *p, size_t len)
     static uint16_t subs[VP_MAX_QUERY_SUBLEVELS];
     for (uint32_t i = 0; i < m.nsub; i++) subs[i] = vp_query_sublevel_get(&m, i);
     CHECK(vp_query_sublevel_get(&m, m.nsub) == 0);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_vis_query_sub(&b.w, 12, m.flags, m.min_area, v, m.view_count, m.nsub ? subs : NULL, m.nsub);
     const uint8_t *q = enc_payload(&b, VP_VIS_QUERY, len);
     vp_vis_query r;
@@ -488,7 +451,7 @@ static void fuzz_vis_query(const uint8_t *p, size_t len)
         vp_view x;
         CHECK(vp_view_get(&r, i, &x) == VP_OK && same_view(&x, &v[i]));
     }
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_render(const uint8_t *p, size_t len)
@@ -498,15 +461,15 @@ static void fuzz_render(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(len == VP_RENDER_SIZE && m.format <= VP_FRAME_JPEG);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_render(&b.w, 14, &m);
     const uint8_t *q = enc_payload(&b, VP_RENDER, len);
     vp_render r;
     CHECK(vp_dec_render(q, len, &r) == VP_OK);
     CHECK(same_view(&r.view, &m.view) && r.format == m.format && r.quality == m.quality && r.flags == m.flags &&
           r.renderer == m.renderer && same_f32(r.exposure_ev, m.exposure_ev));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_light_query(const uint8_t *p, size_t len)
@@ -516,12 +479,12 @@ static void fuzz_light_query(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(len == VP_LIGHT_QUERY_SIZE && !(m.flags & ~VP_LQ_NO_DEPTH));
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_light_query(&b.w, 17, &m);
     const uint8_t *q = enc_payload(&b, VP_LIGHT_QUERY, len);
     CHECK(memcmp(q, p, len) == 0); /* the encoding is canonical */
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_light_tiles(const uint8_t *p, size_t len)
@@ -540,15 +503,15 @@ static void fuzz_light_tiles(const uint8_t *p, size_t len)
         prev = o;
     }
     CHECK(prev == m.count);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_light_tiles_begin(&b.w, 18, &m);
     for (uint32_t t = 0; t <= tiles; t++) vp_put_u32(&b.w, vp_light_tiles_offset(&m, t));
     for (uint32_t k = 0; k < m.count; k++) vp_put_u64(&b.w, vp_light_tiles_id(&m, k));
     vp_frame_end(&b.w);
     const uint8_t *q = enc_payload(&b, VP_LIGHT_TILES, len);
     CHECK(memcmp(q, p, len) == 0);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_frame_sub(const uint8_t *p, size_t len)
@@ -558,8 +521,8 @@ static void fuzz_frame_sub(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(len == VP_FRAME_SUB_SIZE && m.max_fps >= 1 && m.max_fps <= VP_FRAME_SUB_MAX_FPS);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_frame_sub(&b.w, 16, &m);
     const uint8_t *q = enc_payload(&b, VP_FRAME_SUBSCRIBE, len);
     CHECK(memcmp(q, p, len) == 0); /* the encoding is canonical */
@@ -567,7 +530,7 @@ static void fuzz_frame_sub(const uint8_t *p, size_t len)
     CHECK(vp_dec_frame_sub(q, len, &r) == VP_OK);
     CHECK(same_view(&r.r.view, &m.r.view) && r.r.format == m.r.format && r.r.renderer == m.r.renderer &&
           r.max_fps == m.max_fps);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_frame(const uint8_t *p, size_t len)
@@ -577,12 +540,12 @@ static void fuzz_frame(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(vp_size_frame(m.data_len) == VP_HEADER_SIZE + len);
-    enc_buf b;
-    enc_open(&b, vp_size_frame(m.data_len));
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_frame(m.data_len));
     vp_enc_frame(&b.w, 15, &m);
     const uint8_t *q = enc_payload(&b, VP_FRAME, len);
     CHECK(memcmp(q, p, len) == 0);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_vis_result(const uint8_t *p, size_t len)
@@ -593,8 +556,8 @@ static void fuzz_vis_result(const uint8_t *p, size_t len)
     if (rc) return;
     CHECK(len == 20 + 4 * VP_STAGES + (size_t)m.count * VP_VIS_REC_SIZE);
     CHECK(vp_size_vis_result(m.count) == VP_HEADER_SIZE + len);
-    enc_buf b;
-    enc_open(&b, vp_size_vis_result(m.count));
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_vis_result(m.count));
     vp_enc_vis_result_begin(&b.w, 13, &m);
     for (uint32_t i = 0; i < m.count; i++) {
         vp_vis_rec rec;
@@ -604,7 +567,7 @@ static void fuzz_vis_result(const uint8_t *p, size_t len)
     CHECK(vp_frame_end(&b.w));
     const uint8_t *q = enc_payload(&b, VP_VIS_RESULT, len);
     CHECK(memcmp(q, p, len) == 0);
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 /* ---- dispatch ------------------------------------------------------------------------ */
@@ -658,11 +621,11 @@ static void fuzz_sublevel_begin(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(m.name_len >= 1 && m.classes <= 4096 && len == 3u + m.name_len);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_sublevel_begin(&b.w, 3, &m);
     CHECK(!memcmp(enc_payload(&b, VP_SUBLEVEL_BEGIN, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_sublevel_begun(const uint8_t *p, size_t len)
@@ -672,11 +635,11 @@ static void fuzz_sublevel_begun(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(len == 16);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_sublevel_begun(&b.w, 3, &m);
     CHECK(!memcmp(enc_payload(&b, VP_SUBLEVEL_BEGUN, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_sublevel_name(const uint8_t *p, size_t len)
@@ -690,11 +653,11 @@ static void fuzz_sublevel_name(const uint8_t *p, size_t len)
     memcpy(name, m.name, m.len);
     name[m.len] = 0;
     if (strlen(name) != m.len) return; /* a NUL inside: C strings cannot carry it (the decoder refuses < 32) */
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_sublevel_name(&b.w, VP_SUBLEVEL_UNLOAD, 3, name);
     CHECK(!memcmp(enc_payload(&b, VP_SUBLEVEL_UNLOAD, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_sublevel_infos(const uint8_t *p, size_t len)
@@ -703,8 +666,8 @@ static void fuzz_sublevel_infos(const uint8_t *p, size_t len)
     int rc = vp_dec_sublevel_infos(p, len, &m);
     check_code(rc);
     if (rc) return;
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_sublevel_infos_begin(&b.w, 3, m.epoch, m.count);
     size_t pos = 0;
     uint32_t n = 0;
@@ -717,7 +680,7 @@ static void fuzz_sublevel_infos(const uint8_t *p, size_t len)
     CHECK(n == m.count && pos == m.len);
     vp_frame_end(&b.w);
     CHECK(!memcmp(enc_payload(&b, VP_SUBLEVEL_INFO_REPLY, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_destroy(const uint8_t *p, size_t len)
@@ -727,11 +690,11 @@ static void fuzz_destroy(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(len == VP_DESTROY_SIZE && m.radius > 0 && m.debris <= VP_MAX_DEBRIS);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_destroy(&b.w, 3, &m);
     CHECK(!memcmp(enc_payload(&b, VP_DESTROY, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_destroyed(const uint8_t *p, size_t len)
@@ -740,11 +703,11 @@ static void fuzz_destroyed(const uint8_t *p, size_t len)
     int rc = vp_dec_destroyed(p, len, &m);
     check_code(rc);
     if (rc) return;
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_destroyed(&b.w, 3, &m);
     CHECK(!memcmp(enc_payload(&b, VP_DESTROYED, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_mark(const uint8_t *p, size_t len)
@@ -754,11 +717,11 @@ static void fuzz_mark(const uint8_t *p, size_t len)
     check_code(rc);
     if (rc) return;
     CHECK(m.ttl_ms >= 1 && m.ttl_ms <= 600000);
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_mark(&b.w, 3, &m);
     CHECK(!memcmp(enc_payload(&b, VP_MARK, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void fuzz_marked(const uint8_t *p, size_t len)
@@ -767,11 +730,11 @@ static void fuzz_marked(const uint8_t *p, size_t len)
     int rc = vp_dec_marked(p, len, &m);
     check_code(rc);
     if (rc) return;
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_marked(&b.w, &m);
     CHECK(!memcmp(enc_payload(&b, VP_MARKED, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 /* METRICS_REPLY: the text is the rest of the payload, NUL-free; re-encoded
@@ -785,11 +748,11 @@ static void fuzz_metrics_reply(const uint8_t *p, size_t len)
     CHECK(m.format == VP_METRICS_PROMETHEUS && len == VP_METRICS_REPLY_HEADER + (size_t)m.text_len);
     CHECK(vp_size_metrics_reply(m.text_len) == VP_HEADER_SIZE + len);
     CHECK(m.text_len == 0 || (m.text == p + VP_METRICS_REPLY_HEADER && !memchr(m.text, 0, m.text_len)));
-    enc_buf b;
-    enc_open(&b, VP_HEADER_SIZE + len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_metrics_reply(&b.w, 3, &m);
     CHECK(!memcmp(enc_payload(&b, VP_METRICS_REPLY, len), p, len));
-    enc_close(&b);
+    fuzz_wclose(&b);
 }
 
 static void dispatch(const vp_header *h, const uint8_t *p, size_t len)

@@ -33,20 +33,13 @@
 #include "culling.h"
 #include "fuzz_geom.h"
 
+#define FUZZ_NAME "fuzz_query"
+#include "fuzz_check.h"
+
 #include <float.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-#define CHECK(cond)                                                                                        \
-    do {                                                                                                   \
-        if (!(cond)) {                                                                                     \
-            fprintf(stderr, "fuzz_query: property failed at line %d: %s\n", __LINE__, #cond);              \
-            abort();                                                                                       \
-        }                                                                                                  \
-    } while (0)
 
 enum { MAX_ENT = 24, MAX_LIGHTS = 6, MAX_VIEWS = 3 };
 

@@ -28,20 +28,13 @@
 #include "vt_gldraw.h"
 #endif
 
+#define FUZZ_NAME "fuzz_render"
+#include "fuzz_check.h"
+
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-#define CHECK(cond)                                                                                        \
-    do {                                                                                                   \
-        if (!(cond)) {                                                                                     \
-            fprintf(stderr, "fuzz_render: property failed at line %d: %s\n", __LINE__, #cond);             \
-            abort();                                                                                       \
-        }                                                                                                  \
-    } while (0)
 
 enum { MAX_W = 64, MAX_INST = 4, MAX_LIGHTS = 4, MAX_MV = 12, MAX_MT = 8 };
 

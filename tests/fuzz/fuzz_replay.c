@@ -25,20 +25,13 @@
  */
 #include "pad.h"
 
+#define FUZZ_NAME "fuzz_replay"
+#include "fuzz_check.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-#define CHECK(cond)                                                                                        \
-    do {                                                                                                   \
-        if (!(cond)) {                                                                                     \
-            fprintf(stderr, "fuzz_replay: property failed at %s:%d: %s\n", __FILE__, __LINE__, #cond);     \
-            abort();                                                                                       \
-        }                                                                                                  \
-    } while (0)
 
 #define ERR_LEN 160
 #define MAX_DEVICES 4 /* D: indexes beyond fold onto these */

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes the seed-*.gltf / seed-*.glb files of tests/fuzz/corpus/gltf/:
 the test levels of tests/data/ without their indentation, and small levels
-made here that each exercise one convention or one corner of import.c
+made here that each exercise one convention or one corner of the importer (client/import/import_walk.c)
 (instancing, mirroring, OCC_ pairing and merging, lights under scaled
 nodes, spot cones, primitive modes, index types, sparse accessors, a
 matrix transform, a deep tree, binary glTF, glTF 1.0).

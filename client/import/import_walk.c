@@ -1,33 +1,27 @@
 /*
- * import.c — level files through assimp (see import.h).
+ * import_walk.c — assimp's scene to a vt_level (import.h): the node walk,
+ * the classes, entities, occluders and lights, and vt_level_free.
  *
  * assimp reads the file (triangulated, primitives sorted by type, missing
  * normals generated, identical vertices joined, the data structure
- * validated); this file walks the node tree with world matrices in double,
- * applies the conventions and checks every number.
+ * validated: IMP_FLAGS); this file walks the node tree with world matrices
+ * in double, applies the conventions and checks every number. Where the
+ * file comes from is import_child.c's (on disk) and import_memio.c's (in
+ * memory). Cost: one pass over the nodes and each class mesh's vertices;
+ * instances reuse their class's box.
  */
-#include "import.h"
+#include "import_internal.h"
+#include "vp_grow.h"
 
-#include <assimp/cfileio.h>
 #include <assimp/cimport.h>
-#include <assimp/postprocess.h>
 #include <assimp/scene.h>
-#include <assimp/version.h>
 
-#include <ctype.h>
-#include <errno.h>
 #include <math.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <fcntl.h>
-#include <poll.h>
-#include <sys/wait.h>
-#include <time.h>
-#include <unistd.h>
 
 #define MAX_COORD 1e12 /* the culling core's range */
 #define CLASS_SLOTS (2 * LVL_MAX_CLASSES)
@@ -158,8 +152,10 @@ static bool name_eq(const struct aiString *a, const struct aiString *b)
 /* Room for n names; false when out of memory. */
 static bool name_map_init(name_map *m, uint32_t n)
 {
-    m->cap = 16;
-    while (m->cap < 2 * n) m->cap *= 2;
+    /* at most half full; a power of two (the probe masks with cap - 1) */
+    size_t cap = vp_grow_cap(0, 2 * (size_t)n, 16, sizeof *m->key, UINT32_MAX);
+    if (!cap) return false;
+    m->cap = (uint32_t)cap;
     m->key = calloc(m->cap, sizeof *m->key);
     m->val = calloc(m->cap, sizeof *m->val);
     return m->key && m->val;
@@ -195,18 +191,6 @@ static bool name_map_get(const name_map *m, const struct aiString *k, uint32_t *
     return false;
 }
 
-static bool grow(void **p, uint32_t *cap, uint32_t need, size_t elem)
-{
-    if (need <= *cap) return true;
-    uint32_t c = *cap ? *cap : 64;
-    while (c < need) c *= 2;
-    void *n = realloc(*p, (size_t)c * elem);
-    if (!n) return false;
-    *p = n;
-    *cap = c;
-    return true;
-}
-
 /* The node has triangles (its point and line primitives are counted and
  * dropped): 0, or -1 with the error. */
 static int node_meshes(importer *im, const struct aiNode *n, const char *name)
@@ -233,7 +217,7 @@ static int occ_append(importer *im, lvl_occluder *o, const struct aiNode *n, con
     for (unsigned k = 0; k < n->mNumMeshes; k++) {
         const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[k]];
         if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
-        if (!grow((void **)&o->tri, &o->cap, o->ntri + m->mNumFaces, 9 * sizeof(float)))
+        if (!vp_grow32((void **)&o->tri, &o->cap, (size_t)o->ntri + m->mNumFaces, 9 * sizeof(float)))
             return fail(im, "out of memory for occluder '%s'", o->name);
         for (unsigned f = 0; f < m->mNumFaces; f++) {
             const struct aiFace *face = &m->mFaces[f];
@@ -258,8 +242,8 @@ static int new_occluder(importer *im, const struct aiString *full, const char *n
 {
     vt_level *lv = im->lv;
     uint32_t cap = im->occ_cap;
-    if (!grow((void **)&lv->occ, &im->occ_cap, lv->nocc + 1, sizeof *lv->occ) ||
-        !grow((void **)&im->occ_name, &cap, lv->nocc + 1, sizeof *im->occ_name))
+    if (!vp_grow32((void **)&lv->occ, &im->occ_cap, lv->nocc + 1, sizeof *lv->occ) ||
+        !vp_grow32((void **)&im->occ_name, &cap, lv->nocc + 1, sizeof *im->occ_name))
         return fail(im, "out of memory for occluders");
     im->occ_name[lv->nocc] = full;
     lvl_occluder *o = &lv->occ[lv->nocc++];
@@ -391,8 +375,8 @@ static int node_entity(importer *im, const struct aiNode *n, const mat *w, const
     vt_level *lv = im->lv;
     uint32_t cls = 0, cap = im->ent_cap;
     if (class_of(im, n, w, name, &cls)) return -1;
-    if (!grow((void **)&lv->ent, &im->ent_cap, lv->nent + 1, sizeof *lv->ent) ||
-        !grow((void **)&im->ent_name, &cap, lv->nent + 1, sizeof *im->ent_name))
+    if (!vp_grow32((void **)&lv->ent, &im->ent_cap, lv->nent + 1, sizeof *lv->ent) ||
+        !vp_grow32((void **)&im->ent_name, &cap, lv->nent + 1, sizeof *im->ent_name))
         return fail(im, "out of memory for entities");
     im->ent_name[lv->nent] = &n->mName;
     lvl_entity *e = &lv->ent[lv->nent];
@@ -552,7 +536,7 @@ static int attach(importer *im)
         }
         /* merge into the one it has: re-based to its origin */
         lvl_occluder *p = &lv->occ[prev];
-        if (!grow((void **)&p->tri, &p->cap, p->ntri + o->ntri, 9 * sizeof(float))) {
+        if (!vp_grow32((void **)&p->tri, &p->cap, (size_t)p->ntri + o->ntri, 9 * sizeof(float))) {
             name_map_free(&ents);
             return fail(im, "out of memory for occluder '%s'", p->name);
         }
@@ -576,14 +560,7 @@ static int attach(importer *im)
     return 0;
 }
 
-/* What assimp does before this file sees the scene (see the top). */
-#define IMPORT_FLAGS                                                                                                 \
-    (aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_GenNormals | aiProcess_JoinIdenticalVertices |       \
-     aiProcess_ValidateDataStructure)
-
-/* The level in assimp's scene sc, which it releases; what names the file in
- * messages. */
-static int level_from_scene(const struct aiScene *sc, const char *what, vt_level *out, char *err, size_t errlen)
+int imp_level_from_scene(const struct aiScene *sc, const char *what, vt_level *out, char *err, size_t errlen)
 {
     importer *im = calloc(1, sizeof *im);
     int rc = -1;
@@ -622,396 +599,9 @@ done:
     return rc;
 }
 
-static bool known_format(const char *ext)
+bool imp_known_format(const char *ext)
 {
     return !strcasecmp(ext, "gltf") || !strcasecmp(ext, "glb") || !strcasecmp(ext, "obj");
-}
-
-/* vt_level_import's work, in this process (the child's). */
-static int level_import_here(const char *path, vt_level *out, char *err, size_t errlen)
-{
-    memset(out, 0, sizeof *out);
-    const char *dot = strrchr(path, '.');
-    if (!dot || !known_format(dot + 1)) {
-        snprintf(err, errlen, "%s: unsupported format (Vantage imports glTF 2.0 .gltf/.glb and OBJ .obj)", path);
-        return -1;
-    }
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        snprintf(err, errlen, "%s: %s", path, strerror(errno));
-        return -1;
-    }
-    fclose(f);
-    const struct aiScene *sc = aiImportFile(path, IMPORT_FLAGS);
-    if (!sc) {
-        snprintf(err, errlen, "%s: cannot import: %s", path, aiGetErrorString());
-        return -1;
-    }
-    return level_from_scene(sc, path, out, err, errlen);
-}
-
-/* ---- from memory: one file that assimp reads through these callbacks ---------------- */
-
-/* The buffer, and one open file's position in it. */
-typedef struct mem_file {
-    const char *name;
-    const uint8_t *buf;
-    size_t len, pos;
-} mem_file;
-
-typedef struct mem_open_file {
-    struct aiFile f;
-    mem_file m;
-} mem_open_file;
-
-/* As assimp's own MemoryIOStream: whole items only, their count back. */
-static size_t mem_read(struct aiFile *f, char *dst, size_t size, size_t count)
-{
-    mem_file *m = &((mem_open_file *)(void *)f->UserData)->m;
-    if (!size) return 0;
-    size_t n = (m->len - m->pos) / size;
-    if (n > count) n = count;
-    if (n) memcpy(dst, m->buf + m->pos, n * size);
-    m->pos += n * size;
-    return n;
-}
-
-static size_t mem_write(struct aiFile *f, const char *src, size_t size, size_t count)
-{
-    (void)f, (void)src, (void)size, (void)count;
-    return 0;
-}
-
-static size_t mem_tell(struct aiFile *f)
-{
-    return ((mem_open_file *)(void *)f->UserData)->m.pos;
-}
-
-static size_t mem_size(struct aiFile *f)
-{
-    return ((mem_open_file *)(void *)f->UserData)->m.len;
-}
-
-/* As MemoryIOStream again: aiOrigin_END counts back from the end. */
-static enum aiReturn mem_seek(struct aiFile *f, size_t off, enum aiOrigin origin)
-{
-    mem_file *m = &((mem_open_file *)(void *)f->UserData)->m;
-    if (origin == aiOrigin_SET) {
-        if (off > m->len) return aiReturn_FAILURE;
-        m->pos = off;
-    } else if (origin == aiOrigin_END) {
-        if (off > m->len) return aiReturn_FAILURE;
-        m->pos = m->len - off;
-    } else {
-        if (off > m->len - m->pos) return aiReturn_FAILURE;
-        m->pos += off;
-    }
-    return aiReturn_SUCCESS;
-}
-
-static void mem_flush(struct aiFile *f)
-{
-    (void)f;
-}
-
-/* Only the one name opens, for reading: a glTF file's external buffers and
- * images and an OBJ's .mtl are not found. */
-static struct aiFile *mem_open(struct aiFileIO *io, const char *name, const char *mode)
-{
-    const mem_file *m = (const mem_file *)(void *)io->UserData;
-    if (strcmp(name, m->name) || mode[0] != 'r') return NULL;
-    mem_open_file *o = calloc(1, sizeof *o);
-    if (!o) return NULL;
-    o->m = *m;
-    o->f = (struct aiFile){.ReadProc = mem_read, .WriteProc = mem_write, .TellProc = mem_tell,
-                           .FileSizeProc = mem_size, .SeekProc = mem_seek, .FlushProc = mem_flush,
-                           .UserData = (aiUserData)(void *)o};
-    return &o->f;
-}
-
-static void mem_close(struct aiFileIO *io, struct aiFile *f)
-{
-    (void)io;
-    free(f->UserData);
-}
-
-int vt_level_import_mem(const void *buf, size_t len, const char *hint, vt_level *out, char *err, size_t errlen)
-{
-    memset(out, 0, sizeof *out);
-    char name[32];
-    if (strlen(hint) > 8 || !known_format(hint)) {
-        snprintf(err, errlen, "memory.%.8s: unsupported format (Vantage imports glTF 2.0 .gltf/.glb and OBJ .obj)",
-                 hint);
-        return -1;
-    }
-    snprintf(name, sizeof name, "memory.%s", hint);
-    mem_file m = {.name = name, .buf = buf, .len = len};
-    struct aiFileIO io = {.OpenProc = mem_open, .CloseProc = mem_close, .UserData = (aiUserData)(void *)&m};
-    const struct aiScene *sc = aiImportFileEx(name, IMPORT_FLAGS, &io);
-    if (!sc) {
-        snprintf(err, errlen, "%s: cannot import: %s", name, aiGetErrorString());
-        return -1;
-    }
-    return level_from_scene(sc, name, out, err, errlen);
-}
-
-/* ---- in a child process ------------------------------------------------------------- */
-/*
- * assimp is a large C++ parser of untrusted files, and Debian 12's 5.2.4
- * crashes on some malformed glTF (tests/fuzz/known). vt_level_import runs it
- * in a forked child that sends the finished level back over a pipe: a crash
- * or an abort there is an error message here, and nothing was loaded. The
- * bytes cross between two copies of this program, so they are in host
- * layout; they are still checked as they are read.
- */
-
-#define PACK_MAGIC 0x564c564cu /* "LVLV" */
-
-typedef struct pack {
-    uint8_t *p;
-    size_t n, cap;
-    bool oom;
-} pack;
-
-static void put(pack *b, const void *src, size_t n)
-{
-    if (b->oom || !n) return;
-    if (n > b->cap - b->n) {
-        size_t cap = b->cap ? b->cap : 1 << 16;
-        while (n > cap - b->n) cap *= 2;
-        uint8_t *p = realloc(b->p, cap);
-        if (!p) {
-            b->oom = true;
-            return;
-        }
-        b->p = p;
-        b->cap = cap;
-    }
-    memcpy(b->p + b->n, src, n);
-    b->n += n;
-}
-
-static void level_pack(pack *b, const vt_level *lv)
-{
-    uint32_t head[7] = {PACK_MAGIC, lv->nmesh, lv->nent, lv->nocc, lv->nlight, lv->skipped_lights, lv->skipped_prims};
-    put(b, head, sizeof head);
-    for (uint32_t i = 0; i < lv->nmesh; i++) {
-        const lvl_mesh *m = &lv->mesh[i];
-        put(b, &m->nv, sizeof m->nv);
-        put(b, &m->ni, sizeof m->ni);
-        put(b, m->pos, (size_t)m->nv * 3 * sizeof(float));
-        put(b, m->nrm, (size_t)m->nv * 3 * sizeof(float));
-        put(b, m->idx, (size_t)m->ni * sizeof(uint32_t));
-    }
-    put(b, lv->ent, (size_t)lv->nent * sizeof *lv->ent);
-    for (uint32_t i = 0; i < lv->nocc; i++) {
-        lvl_occluder o = lv->occ[i];
-        put(b, &o, sizeof o);
-        put(b, o.tri, (size_t)o.ntri * 9 * sizeof(float));
-    }
-    put(b, lv->light, (size_t)lv->nlight * sizeof *lv->light);
-}
-
-/* The reading side: take n bytes, or fail. */
-typedef struct unpack {
-    const uint8_t *p;
-    size_t n;
-} unpack;
-
-static bool take(unpack *u, void *dst, size_t n)
-{
-    if (n > u->n) return false;
-    if (n) memcpy(dst, u->p, n);
-    u->p += n;
-    u->n -= n;
-    return true;
-}
-
-/* A copy of n items of size bytes each, or NULL (check n first: size * n
- * within what is left). The +1 keeps malloc(0) from meaning failure. */
-static void *take_array(unpack *u, size_t n, size_t size)
-{
-    if (n > u->n / size) return NULL;
-    void *p = malloc(n * size + 1);
-    if (p && !take(u, p, n * size)) {
-        free(p);
-        return NULL;
-    }
-    return p;
-}
-
-static bool level_unpack(unpack *u, vt_level *lv)
-{
-    uint32_t head[7];
-    if (!take(u, head, sizeof head) || head[0] != PACK_MAGIC || head[1] > LVL_MAX_CLASSES) return false;
-    lv->mesh = calloc(head[1] + 1, sizeof *lv->mesh);
-    if (!lv->mesh) return false;
-    for (uint32_t i = 0; i < head[1]; i++) {
-        lvl_mesh *m = &lv->mesh[i];
-        if (!take(u, &m->nv, sizeof m->nv) || !take(u, &m->ni, sizeof m->ni)) return false;
-        lv->nmesh = i + 1; /* what vt_level_free walks */
-        uint32_t nv = m->nv, ni = m->ni;
-        m->nv = m->ni = 0;
-        if (!(m->pos = take_array(u, (size_t)nv * 3, sizeof(float))) ||
-            !(m->nrm = take_array(u, (size_t)nv * 3, sizeof(float))) || !(m->idx = take_array(u, ni, sizeof(uint32_t))))
-            return false;
-        m->nv = nv;
-        m->ni = ni;
-        for (uint32_t k = 0; k < ni; k++)
-            if (m->idx[k] >= nv) return false;
-    }
-    if (!(lv->ent = take_array(u, head[2], sizeof *lv->ent))) return false;
-    lv->nent = head[2];
-    if (!(lv->occ = calloc(head[3] + 1, sizeof *lv->occ))) return false;
-    for (uint32_t i = 0; i < head[3]; i++) {
-        lvl_occluder *o = &lv->occ[i];
-        if (!take(u, o, sizeof *o)) return false;
-        o->tri = NULL;
-        lv->nocc = i + 1;
-        uint32_t ntri = o->ntri;
-        o->ntri = o->cap = 0;
-        if (!(o->tri = take_array(u, (size_t)ntri * 9, sizeof(float)))) return false;
-        o->ntri = o->cap = ntri;
-        o->name[LVL_NAME - 1] = 0;
-        if (o->entity < -1 || o->entity >= (int64_t)head[2]) return false;
-    }
-    for (uint32_t i = 0; i < lv->nent; i++) {
-        lvl_entity *e = &lv->ent[i];
-        e->name[LVL_NAME - 1] = 0;
-        if (e->cls >= lv->nmesh || e->occluder < -1 || e->occluder >= (int64_t)lv->nocc) return false;
-    }
-    if (!(lv->light = take_array(u, head[4], sizeof *lv->light))) return false;
-    lv->nlight = head[4];
-    lv->skipped_lights = head[5];
-    lv->skipped_prims = head[6];
-    return u->n == 0;
-}
-
-static bool write_all(int fd, const void *p, size_t n)
-{
-    const uint8_t *s = p;
-    while (n) {
-        ssize_t w = write(fd, s, n);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) return false;
-        s += w;
-        n -= (size_t)w;
-    }
-    return true;
-}
-
-/* The child: import, send 'L' and the level or 'E' and the message, exit. */
-static _Noreturn void import_child(int fd, const char *path)
-{
-    vt_level lv;
-    char err[512];
-    pack b = {0};
-    uint8_t tag = 'L';
-    if (level_import_here(path, &lv, err, sizeof err)) {
-        tag = 'E';
-        put(&b, err, strlen(err));
-    } else {
-        level_pack(&b, &lv);
-        if (b.oom) {
-            tag = 'E';
-            b.n = 0;
-            b.oom = false;
-            put(&b, "out of memory", 13);
-        }
-    }
-    bool ok = !b.oom && write_all(fd, &tag, 1) && write_all(fd, b.p, b.n);
-    _exit(ok ? 0 : 1);
-}
-
-int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
-{
-    memset(out, 0, sizeof *out);
-    int fds[2];
-    /* close-on-exec: a process the child starts (a sanitizer's symbolizer
-       when assimp crashes under ASan) must not keep the pipe open, or the
-       end of the level never arrives here */
-    if (pipe2(fds, O_CLOEXEC)) {
-        snprintf(err, errlen, "%s: cannot start the importer: %s", path, strerror(errno));
-        return -1;
-    }
-    fflush(NULL); /* nothing buffered is written twice */
-    pid_t pid = fork();
-    if (pid < 0) {
-        snprintf(err, errlen, "%s: cannot start the importer: %s", path, strerror(errno));
-        close(fds[0]);
-        close(fds[1]);
-        return -1;
-    }
-    if (pid == 0) {
-        /* a crash ends the child, whatever handlers the caller set (a
-         * test framework's would carry on running the caller's code here) */
-        static const int fatal[] = {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGSYS, SIGPIPE};
-        for (size_t i = 0; i < sizeof fatal / sizeof fatal[0]; i++) signal(fatal[i], SIG_DFL);
-        close(fds[0]);
-        import_child(fds[1], path);
-    }
-    close(fds[1]);
-    pack in = {0};
-    uint8_t chunk[1 << 16];
-    int read_errno = 0;
-    /* a file that sends assimp into an endless loop is an error, not a
-       hang: VANTAGE_IMPORT_TIMEOUT seconds (default 300) */
-    const char *ts = getenv("VANTAGE_IMPORT_TIMEOUT");
-    double limit = ts && atof(ts) > 0 ? atof(ts) : 300.0;
-    struct timespec t0;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
-    bool timed_out = false;
-    for (;;) {
-        struct timespec now;
-        clock_gettime(CLOCK_MONOTONIC, &now);
-        double left = limit - ((double)(now.tv_sec - t0.tv_sec) + (now.tv_nsec - t0.tv_nsec) * 1e-9);
-        struct pollfd pf = {.fd = fds[0], .events = POLLIN};
-        int pr = left > 0 ? poll(&pf, 1, (int)(left * 1000) + 1) : 0;
-        if (pr < 0 && errno == EINTR) continue;
-        if (pr == 0) {
-            timed_out = true;
-            kill(pid, SIGKILL);
-            break;
-        }
-        ssize_t r = read(fds[0], chunk, sizeof chunk);
-        if (r < 0 && errno == EINTR) continue;
-        if (r < 0) read_errno = errno;
-        if (r <= 0) break;
-        put(&in, chunk, (size_t)r);
-    }
-    close(fds[0]);
-    int st = 0;
-    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
-    }
-    int rc = -1;
-    if (timed_out) {
-        snprintf(err, errlen, "%s: assimp did not finish reading the file in %g s (VANTAGE_IMPORT_TIMEOUT); "
-                 "stopped, nothing was loaded", path, limit);
-    } else if (WIFSIGNALED(st)) {
-        snprintf(err, errlen,
-                 "%s: assimp crashed reading the file (%s); it is malformed or meets a bug in assimp %u.%u; "
-                 "nothing was loaded",
-                 path, strsignal(WTERMSIG(st)), aiGetVersionMajor(), aiGetVersionMinor());
-    } else if (in.oom || read_errno) {
-        snprintf(err, errlen, "%s: cannot take the level from the importer: %s", path,
-                 in.oom ? "out of memory" : strerror(read_errno));
-    } else if (!WIFEXITED(st) || WEXITSTATUS(st) || in.n < 1) {
-        snprintf(err, errlen, "%s: the importer stopped (exit status %d) before it finished; nothing was loaded",
-                 path, WIFEXITED(st) ? WEXITSTATUS(st) : -1);
-    } else if (in.p[0] == 'E') {
-        size_t n = in.n - 1 < errlen ? in.n - 1 : errlen - 1;
-        memcpy(err, in.p + 1, n);
-        err[n] = 0;
-    } else {
-        unpack u = {in.p + 1, in.n - 1};
-        if (in.p[0] == 'L' && level_unpack(&u, out)) rc = 0;
-        else {
-            vt_level_free(out);
-            snprintf(err, errlen, "%s: the importer sent a damaged level; nothing was loaded", path);
-        }
-    }
-    free(in.p);
-    return rc;
 }
 
 void vt_level_free(vt_level *lv)
