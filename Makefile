@@ -95,14 +95,18 @@ CLI_BIN  := $(BUILD)/vantage
 # render/: the EXR writer needs only OpenEXRCore, the C layer; `pkg-config
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
-RENDER_SRC:= render/vt_exr.c render/vt_frame.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
-            render/vt_shade_avx2.c             render/vt_image.c render/vt_gl.c render/vt_glr.c render/vt_file.c
+# the image files of vt_image.h: tone mapping, the encoders' sink, PNG, JPEG
+IMAGE_SRC := render/vt_tonemap.c render/vt_sink.c render/vt_png.c render/vt_jpeg.c
+IMAGE_OBJ := $(IMAGE_SRC:%.c=$(BUILD)/%.o)
+RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
+            render/vt_shade_avx2.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
+            render/vt_gldraw.c render/vt_file.c render/vt_err.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
-# PNG and JPEG (vt_image.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
+# PNG and JPEG (vt_png.c, vt_jpeg.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
 # (libjpeg.so.62); every binary that links RENDER_OBJ needs both
 IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
-# headless OpenGL (vt_gl.c): libglvnd's libEGL and libepoxy; at run time
+# headless OpenGL (vt_egl.c, vt_gl_*.c): libglvnd's libEGL and libepoxy; at run time
 # Mesa's EGL vendor library and drivers (libegl-mesa0, libgl1-mesa-dri:
 # llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
 # RENDER_OBJ needs these; the GL tests skip when no context can be made
@@ -193,13 +197,15 @@ $(PROTO_LIB): $(PROTO_OBJ)
 
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
-PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o ae.o)
+PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o ae.o errmap.o)
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
-# the daemon renders with the software path or OpenGL (vt_glr on vt_gl) and encodes JPEG (no EXR)
-DAEMON_RENDER := $(BUILD)/render/vt_frame.o $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o \
-                 $(BUILD)/render/vt_gl.o $(BUILD)/render/vt_glr.o $(BUILD)/render/vt_shade_base.o \
+# the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG (no EXR)
+DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_soft.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o \
+                 $(BUILD)/render/vt_err.o \
+                 $(BUILD)/render/vt_egl.o $(BUILD)/render/vt_gl_target.o $(BUILD)/render/vt_gl_shader.o \
+                 $(BUILD)/render/vt_gldraw.o $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
@@ -211,7 +217,7 @@ $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ)
 	ar rcs $@ $^
 
 # the CLI writes EXR and PNG from raw frames
-CLI_RENDER := $(BUILD)/render/vt_exr.o $(BUILD)/render/vt_image.o $(BUILD)/render/vt_file.o
+CLI_RENDER := $(BUILD)/render/vt_exr.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o $(BUILD)/render/vt_err.o
 $(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(SDL_LIBS) $(LDLIBS)
 
@@ -307,7 +313,7 @@ install: check-deps
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include/vantage
 	install -m 755 $(DAEMON_BIN) $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/
 	install -m 644 $(CLIENT_LIB) $(DESTDIR)$(PREFIX)/lib/
-	install -m 644 client/lib/vantage.h protocol/protocol.h protocol/vp_bytes.h protocol/vp_grow.h $(DESTDIR)$(PREFIX)/include/vantage/
+	install -m 644 client/lib/vantage.h protocol/protocol.h protocol/vp_err.h protocol/vp_bytes.h protocol/vp_grow.h $(DESTDIR)$(PREFIX)/include/vantage/
 	install -d $(DESTDIR)$(PREFIX)/share/vantage/scenarios
 	install -m 644 client/loadgen/scenarios/*.scn $(DESTDIR)$(PREFIX)/share/vantage/scenarios/
 	sed 's|@PREFIX@|$(PREFIX)|' client/lib/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc

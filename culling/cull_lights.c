@@ -20,7 +20,6 @@
 #include "cull_internal.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,19 +44,6 @@ static void lin(double out[4], double a, const double f[4], double b, const doub
 }
 
 /* The sphere (camera-relative centre c, radius r) is not entirely outside. */
-/* Formats why (may be NULL) and returns code. */
-static int cull_whyf(char *why, size_t whylen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
-static int cull_whyf(char *why, size_t whylen, int code, const char *fmt, ...)
-{
-    if (why && whylen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(why, whylen, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 static inline bool touches(const plane *p, const double c[3], double r)
 {
     return p->n[0] * c[0] + p->n[1] * c[1] + p->n[2] * c[2] + p->d >= -r;
@@ -74,37 +60,36 @@ static inline bool touches(const plane *p, const double c[3], double r)
 int cull_light_validate(const cull_light *l, const double radiance[3], char *why, size_t whylen)
 {
     static const char axis[3] = {'x', 'y', 'z'}, chan[3] = {'r', 'g', 'b'};
-    if (!l) return cull_whyf(why, whylen, CULL_ERR_INVALID, "no light");
+    if (!l) return vp_errf(why, whylen, CULL_ERR_INVALID, "no light");
     for (int a = 0; a < 3; a++) {
         if (!isfinite(l->pos[a]))
-            return cull_whyf(why, whylen, CULL_ERR_NONFINITE, "position %c is %g: NaN or infinite", axis[a],
-                             l->pos[a]);
+            return vp_errf(why, whylen, CULL_ERR_NONFINITE, "position %c is %g: NaN or infinite", axis[a], l->pos[a]);
         if (fabs(l->pos[a]) > CULL_MAX_COORD)
-            return cull_whyf(why, whylen, CULL_ERR_RANGE, "position %c is %g m, beyond the world's +-%g m", axis[a],
-                             l->pos[a], CULL_MAX_COORD);
+            return vp_errf(why, whylen, CULL_ERR_RANGE, "position %c is %g m, beyond the world's +-%g m",
+                           axis[a], l->pos[a], CULL_MAX_COORD);
     }
     if (!isfinite(l->radius))
-        return cull_whyf(why, whylen, CULL_ERR_NONFINITE, "range is %g: NaN or infinite", l->radius);
+        return vp_errf(why, whylen, CULL_ERR_NONFINITE, "range is %g: NaN or infinite", l->radius);
     if (!(l->radius >= CULL_LIGHT_MIN_RANGE) || !(l->radius <= CULL_LIGHT_MAX_RANGE))
-        return cull_whyf(why, whylen, CULL_ERR_RADIUS, "range is %g m, outside %g..%g m", l->radius,
-                         CULL_LIGHT_MIN_RANGE, CULL_LIGHT_MAX_RANGE);
+        return vp_errf(why, whylen, CULL_ERR_RADIUS, "range is %g m, outside %g..%g m",
+                       l->radius, CULL_LIGHT_MIN_RANGE, CULL_LIGHT_MAX_RANGE);
     for (int k = 0; radiance && k < 3; k++) {
         if (!isfinite(radiance[k]))
-            return cull_whyf(why, whylen, CULL_ERR_NONFINITE, "colour %c x intensity is %g: NaN or infinite",
-                             chan[k], radiance[k]);
+            return vp_errf(why, whylen, CULL_ERR_NONFINITE, "colour %c x intensity is %g: NaN or infinite",
+                           chan[k], radiance[k]);
         if (!(radiance[k] >= 0) || radiance[k] > CULL_LIGHT_MAX_RADIANCE)
-            return cull_whyf(why, whylen, CULL_ERR_RANGE, "colour %c x intensity is %g, outside 0..%g", chan[k],
-                             radiance[k], CULL_LIGHT_MAX_RADIANCE);
+            return vp_errf(why, whylen, CULL_ERR_RANGE, "colour %c x intensity is %g, outside 0..%g",
+                           chan[k], radiance[k], CULL_LIGHT_MAX_RADIANCE);
     }
     if (l->type == CULL_LIGHT_POINT) return CULL_OK;
     if (l->type != CULL_LIGHT_SPOT)
-        return cull_whyf(why, whylen, CULL_ERR_INVALID, "type %u is neither point (0) nor spot (1)", l->type);
+        return vp_errf(why, whylen, CULL_ERR_INVALID, "type %u is neither point (0) nor spot (1)", l->type);
     double n = (double)l->dir[0] * l->dir[0] + (double)l->dir[1] * l->dir[1] + (double)l->dir[2] * l->dir[2];
     if (!isfinite(n) || !(fabs(n - 1) < 1e-3))
-        return cull_whyf(why, whylen, CULL_ERR_INVALID, "spot direction (%g, %g, %g) is not of unit length",
-                         (double)l->dir[0], (double)l->dir[1], (double)l->dir[2]);
+        return vp_errf(why, whylen, CULL_ERR_INVALID, "spot direction (%g, %g, %g) is not of unit length",
+                       (double)l->dir[0], (double)l->dir[1], (double)l->dir[2]);
     if (!(l->cos_outer >= -1 && l->cos_outer <= 1))
-        return cull_whyf(why, whylen, CULL_ERR_INVALID, "spot outer cosine %g is outside -1..1", (double)l->cos_outer);
+        return vp_errf(why, whylen, CULL_ERR_INVALID, "spot outer cosine %g is outside -1..1", (double)l->cos_outer);
     return CULL_OK;
 }
 

@@ -14,15 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-const char *cull_strerror(int code)
-{
-    switch (code) {
-#define CULL_X_STR(name, value, msg) case value: return msg;
-        CULL_ERRORS(CULL_X_STR)
-#undef CULL_X_STR
-    }
-    return "unknown error";
-}
+VP_ERR_DEFINE_STRERROR(cull_strerror, CULL_ERRORS)
 
 float cull_round_down(double v)
 {

@@ -35,6 +35,8 @@
 #include <stdint.h>
 #include "cull_mat.h"
 
+#include "vp_err.h" /* the X-macro plumbing of CULL_ERRORS, vp_errf */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -58,11 +60,7 @@ extern "C" {
     X(CULL_ERR_MESH,        -14, "occluder mesh: bad counts or index out of range") \
     X(CULL_ERR_BUFFER,      -15, "occlusion buffer must be 8..8192 x 8..8192 pixels")
 
-enum {
-#define CULL_X_ENUM(name, value, msg) name = value,
-    CULL_ERRORS(CULL_X_ENUM)
-#undef CULL_X_ENUM
-};
+VP_ERR_ENUM(CULL_ERRORS);
 
 /* Message for a code from CULL_ERRORS; "unknown error" otherwise. Static. */
 const char *cull_strerror(int code);

@@ -42,24 +42,25 @@ int auth_parse(const char *text, size_t len, auth_tokens *t, char *err, size_t e
         size_t r1 = a;
         while (r1 < b && text[r1] != ' ' && text[r1] != '\t') r1++;
         int role = role_of(text + a, r1 - a);
-        if (role < 0) return vp_errf(err, errlen, "line %u: the role must be viewer, commander or editor", line);
+        if (role < 0) return vp_errf(err, errlen, -1, "line %u: the role must be viewer, commander or editor", line);
         size_t k = r1;
         while (k < b && (text[k] == ' ' || text[k] == '\t')) k++;
         size_t n = b - k;
         if (n < AUTH_MIN_TOKEN || n > VP_MAX_TOKEN)
-            return vp_errf(err, errlen, "line %u: a token is %u to %u characters (this one: %zu)", line,
+            return vp_errf(err, errlen, -1, "line %u: a token is %u to %u characters (this one: %zu)", line,
                         AUTH_MIN_TOKEN, VP_MAX_TOKEN, n);
         for (size_t q = k; q < b; q++)
             if ((unsigned char)text[q] <= ' ' || (unsigned char)text[q] >= 127)
-                return vp_errf(err, errlen, "line %u: a token is printable ASCII without spaces", line);
-        if (t->n == AUTH_MAX_TOKENS) return vp_errf(err, errlen, "line %u: more than %u tokens", line, AUTH_MAX_TOKENS);
+                return vp_errf(err, errlen, -1, "line %u: a token is printable ASCII without spaces", line);
+        if (t->n == AUTH_MAX_TOKENS)
+            return vp_errf(err, errlen, -1, "line %u: more than %u tokens", line, AUTH_MAX_TOKENS);
         t->role[t->n] = (uint8_t)role;
         t->len[t->n] = (uint8_t)n;
         memcpy(t->tok[t->n], text + k, n);
         t->n++;
         viewer_line |= role == VP_ROLE_VIEWER;
     }
-    if (!t->n) return vp_errf(err, errlen, "no tokens in it (lines: ROLE TOKEN)");
+    if (!t->n) return vp_errf(err, errlen, -1, "no tokens in it (lines: ROLE TOKEN)");
     t->public_viewer = !viewer_line;
     return 0;
 }
@@ -67,34 +68,34 @@ int auth_parse(const char *text, size_t len, auth_tokens *t, char *err, size_t e
 int auth_load(const char *path, auth_tokens *t, char *err, size_t errlen)
 {
     int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
-    if (fd < 0 && errno == ELOOP) return vp_errf(err, errlen, "%s: a symbolic link (name the file itself)", path);
-    if (fd < 0) return vp_errf(err, errlen, "%s: %s", path, strerror(errno));
+    if (fd < 0 && errno == ELOOP) return vp_errf(err, errlen, -1, "%s: a symbolic link (name the file itself)", path);
+    if (fd < 0) return vp_errf(err, errlen, -1, "%s: %s", path, strerror(errno));
     struct stat st;
     char *buf = NULL;
     int rc = -1;
     if (fstat(fd, &st) != 0) {
-        vp_errf(err, errlen, "%s: %s", path, strerror(errno));
+        vp_errf(err, errlen, -1, "%s: %s", path, strerror(errno));
     } else if (!S_ISREG(st.st_mode)) {
-        vp_errf(err, errlen, "%s: not a regular file", path);
+        vp_errf(err, errlen, -1, "%s: not a regular file", path);
     } else if (st.st_mode & 077) {
-        vp_errf(err, errlen, "%s: readable or writable by others (mode %04o): chmod 600 it", path,
+        vp_errf(err, errlen, -1, "%s: readable or writable by others (mode %04o): chmod 600 it", path,
              (unsigned)(st.st_mode & 07777));
     } else if (st.st_uid != geteuid()) {
-        vp_errf(err, errlen, "%s: owned by uid %u, not by this daemon's user (%u)", path, (unsigned)st.st_uid,
+        vp_errf(err, errlen, -1, "%s: owned by uid %u, not by this daemon's user (%u)", path, (unsigned)st.st_uid,
              (unsigned)geteuid());
     } else if (st.st_size > (off_t)TOKEN_FILE_MAX) {
-        vp_errf(err, errlen, "%s: larger than %u bytes", path, TOKEN_FILE_MAX);
+        vp_errf(err, errlen, -1, "%s: larger than %u bytes", path, TOKEN_FILE_MAX);
     } else if (!(buf = malloc((size_t)st.st_size + 1))) {
-        vp_errf(err, errlen, "%s: out of memory", path);
+        vp_errf(err, errlen, -1, "%s: out of memory", path);
     } else {
         ssize_t got = 0, n;
         while (got < st.st_size && (n = read(fd, buf + got, (size_t)(st.st_size - got))) > 0) got += n;
         if (got != st.st_size) {
-            vp_errf(err, errlen, "%s: short read", path);
+            vp_errf(err, errlen, -1, "%s: short read", path);
         } else {
             char why[200];
             rc = auth_parse(buf, (size_t)got, t, why, sizeof why);
-            if (rc) vp_errf(err, errlen, "%s: %s", path, why);
+            if (rc) vp_errf(err, errlen, -1, "%s: %s", path, why);
         }
     }
     if (buf) {

@@ -13,6 +13,7 @@
  * set): an OCCLUDER_PUT of that id is cut the same way before it is drawn.
  */
 #include "scene.h"
+#include "errmap.h"
 #include "log.h"
 #include "vt_mask.h"
 
@@ -153,7 +154,7 @@ static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t ns
     uint32_t *h = malloc(n * sizeof *h);
     int rc = VP_OK;
     if (!buf || !e || !h) {
-        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for debris");
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for debris");
         goto out;
     }
     uint64_t st = m->id * 31 + nsph, next = s->debris_next;
@@ -194,7 +195,7 @@ out:
 static int sphere_refused(scene_err *err, int crc, const vp_destroy *m)
 {
     static const char axis[3] = {'x', 'y', 'z'};
-    int code = crc == CULL_ERR_CAPACITY ? VP_ERR_LIMIT : crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID;
+    int code = vp_code_from_cull(crc);
     switch (crc) {
     case CULL_ERR_RADIUS:
         if (!isfinite(m->radius)) break;
@@ -274,11 +275,11 @@ int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out
     bool fresh = !idmap_get(&s->destruct, m->id, &dv);
     if (fresh) {
         if (!idmap_reserve(&s->destruct, s->destruct.count + 1) || !(d = calloc(1, sizeof *d)))
-            return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a distance volume");
+            return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a distance volume");
         int crc = cull_dvol_init(&d->v, e.aabb_min, e.aabb_max, res);
         if (crc) {
             free(d);
-            return scene_fail(err, crc == CULL_ERR_NOMEM ? VP_ERR_LIMIT : VP_ERR_SCENE, UINT32_MAX,
+            return scene_fail(err, vp_code_from_cull(crc), UINT32_MAX,
                               "distance volume: %s", cull_strerror(crc));
         }
     } else {

@@ -16,11 +16,11 @@
  * filled; nothing here can reach into it.)
  */
 #include "server_internal.h"
-#include "vt_glr.h"
+#include "errmap.h"
+#include "vt_gldraw.h"
 #include "vt_image.h"
 #include "vt_soft.h"
 
-#include <errno.h>
 #include <linux/sockios.h>
 #include <stdio.h>
 #include <sys/ioctl.h>
@@ -46,10 +46,10 @@ const char *renderer_name(int r)
  * nowhere. Caller holds gl_mu. */
 static int gl_open_locked(server *s)
 {
-    if (s->glr) return 0;
+    if (s->gldraw) return 0;
     if (s->gl_failed) return -1;
     char err[300];
-    if (vt_gl_open(&s->gl, NULL, err, sizeof err) || vt_glr_create(s->gl, &s->glr, err, sizeof err)) {
+    if (vt_gl_open(&s->gl, NULL, err, sizeof err) || vt_gldraw_create(s->gl, &s->gldraw, err, sizeof err)) {
         vt_gl_close(s->gl);
         s->gl = NULL;
         s->gl_failed = true;
@@ -78,11 +78,11 @@ void frames_fini(server *s)
 {
     if (s->gl) {
         char err[64];
-        if (!vt_gl_make_current(s->gl, err, sizeof err)) vt_glr_destroy(s->glr);
+        if (!vt_gl_make_current(s->gl, err, sizeof err)) vt_gldraw_destroy(s->gldraw);
         vt_gl_close(s->gl);
     }
     s->gl = NULL;
-    s->glr = NULL;
+    s->gldraw = NULL;
     pthread_mutex_destroy(&s->gl_mu);
 }
 
@@ -124,7 +124,7 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
     int rc = cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL);
     if (rc) {
         snprintf(msg, msglen, "%s", cull_strerror(rc));
-        return VP_ERR_INTERNAL;
+        return vp_code_from_cull(rc);
     }
     /* meshes numbered as they are met: the worker's class -> mesh index + 1
        table, emptied again below */
@@ -256,7 +256,7 @@ static int soft_draw(worker *wk, const cull_view *v, const frame_in *fi, float *
                             depth, W, NULL, err, sizeof err);
     if (!rc) return VP_OK;
     snprintf(msg, msglen, "render: %s", err);
-    return rc == -ENOMEM ? VP_ERR_BUSY : VP_ERR_INVALID;
+    return vp_code_from_vt(rc);
 }
 
 /* A picture job's end, RENDER's or LIGHT_QUERY's: its reply as drawn, or
@@ -347,9 +347,9 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
             code = VP_ERR_UNSUPPORTED;
             snprintf(msg, sizeof msg, "%.250s", s->gl_err);
         } else if ((rc = vt_gl_make_current(s->gl, err, sizeof err)) ||
-                   (rc = vt_glr_render(s->glr, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
-                                       rgba, depth, W, NULL, err, sizeof err))) {
-            code = rc == -ENOMEM || rc == VT_GL_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INTERNAL;
+                   (rc = vt_gldraw_render(s->gldraw, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
+                                          rgba, depth, W, NULL, err, sizeof err))) {
+            code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "render (gl): %s", err);
         }
         vt_gl_release(s->gl);
@@ -373,9 +373,9 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
             goto done;
         }
         vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES};
-        if (tonemap_frame(wk, W, H, rgba, &td, rgb8) ||
-            vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err)) {
-            code = VP_ERR_INTERNAL;
+        if ((rc = tonemap_frame(wk, W, H, rgba, &td, rgb8)) ||
+            (rc = vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err))) {
+            code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "jpeg: %s", err);
             goto done;
         }
@@ -463,7 +463,7 @@ void run_light_query(server *s, worker *wk, job *j)
         }
         for (uint32_t i = 0; i < fi.nl; i++) cl[i] = fi.lights[i].l;
         if ((rc = cull_lights_bin(&v, W, H, cl, fi.nl, NULL, &own))) {
-            code = rc == CULL_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INTERNAL;
+            code = vp_code_from_cull(rc);
             snprintf(msg, sizeof msg, "lights: %s", cull_strerror(rc));
             goto done;
         }

@@ -4,6 +4,7 @@
  * exclusive) or handed to the query workers (shared), and answered.
  */
 #include "server_internal.h"
+#include "errmap.h"
 #include "vt_soft.h"
 
 #include <errno.h>
@@ -152,7 +153,7 @@ int view_from(const vp_view *pv, uint32_t index, cull_view *v, char *msg, size_t
     if (!rc) return VP_OK;
     if (index == UINT32_MAX) snprintf(msg, msglen, "view: %s", cull_strerror(rc));
     else snprintf(msg, msglen, "view %u: %s", index, cull_strerror(rc));
-    return rc == CULL_ERR_VIEWPORT ? VP_ERR_INVALID : VP_ERR_MATRIX;
+    return vp_code_from_cull(rc);
 }
 
 bool worker_res_reserve(worker *wk, size_t need)
@@ -225,7 +226,7 @@ static void run_query(const scene *sc, worker *wk, job *j)
                     count_only ? NULL : wk->res, count_only ? 0 : wk->res_cap, &n, &st);
     uint64_t t2 = now_ns();
     if (rc) {
-        code = VP_ERR_INTERNAL;
+        code = vp_code_from_cull(rc);
         snprintf(msg, sizeof msg, "%s", cull_strerror(rc));
         goto error;
     }

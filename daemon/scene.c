@@ -4,6 +4,7 @@
  * validation is running out of memory, which is rolled back.
  */
 #include "scene.h"
+#include "errmap.h"
 #include "log.h"
 #include "vp_grow.h"
 
@@ -115,17 +116,6 @@ void scene_entity_record(const scene *s, cull_handle h, vp_entity *out)
     out->sphere[3] = d.radius;
 }
 
-static int cull_to_vp(int rc)
-{
-    switch (rc) {
-    case CULL_ERR_NONFINITE: return VP_ERR_NONFINITE;
-    case CULL_ERR_HANDLE: return VP_ERR_STALE;
-    case CULL_ERR_CAPACITY: return VP_ERR_LIMIT;
-    case CULL_ERR_NOMEM: return VP_ERR_LIMIT;
-    default: return VP_ERR_SCENE;
-    }
-}
-
 static int cmp_u64(const void *a, const void *b)
 {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
@@ -182,8 +172,8 @@ static int record_desc(const scene *s, const vp_entity_batch *b, uint32_t i, vp_
     to_desc(e, &d);
     int crc = cull_entity_check(s->world, &d, out);
     if (crc)
-        return scene_fail(err, crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID, i, "record %u (id %llu): %s",
-                    i, (unsigned long long)e->id, cull_strerror(crc));
+        return scene_fail(err, vp_code_from_cull(crc), i, "record %u (id %llu): %s", i, (unsigned long long)e->id,
+                          cull_strerror(crc));
     return VP_OK;
 }
 
@@ -192,7 +182,7 @@ static int check_unique(const uint64_t *ids, uint32_t n, scene_err *err)
 {
     bool nomem;
     uint32_t dup = first_duplicate(ids, n, &nomem);
-    if (nomem) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory checking ids");
+    if (nomem) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory checking ids");
     if (dup != UINT32_MAX)
         return scene_fail(err, VP_ERR_DUPLICATE, dup, "record %u: id %llu twice in the batch", dup,
                     (unsigned long long)ids[dup]);
@@ -235,7 +225,7 @@ static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t
     if (!ids || !descs) {
         free(ids);
         free(descs);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
     }
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
@@ -252,7 +242,7 @@ static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t
     /* room in the id map only for a batch that is going in: a rejected one
        must not rehash it (ENTITY_LIST cursors are slots) */
     if (!scene_members_reserve(s, descs, n) || !idmap_reserve(&s->ids, s->ids.count + n)) {
-        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
     /* apply */
@@ -265,7 +255,7 @@ static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t
         }
         if (crc) {
             for (uint32_t k = 0; k < i; k++) scene_entity_gone(s, ids[k], handles[k], &descs[k]); /* roll back */
-            rc = scene_fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
+            rc = scene_fail(err, vp_code_from_cull(crc), i, "record %u: %s", i, cull_strerror(crc));
             goto out;
         }
         handles[i] = h;
@@ -303,7 +293,7 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
     cull_entity_desc *old = malloc(((size_t)n + 1) * sizeof *old);
     int rc = VP_OK;
     if (!ids || !hs || !descs || !old) {
-        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
     for (uint32_t i = 0; i < n; i++) {
@@ -336,14 +326,14 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
     }
     if ((rc = check_unique(ids, n, err))) goto out;
     if (!scene_members_reserve(s, descs, n)) {
-        rc = scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
     for (uint32_t i = 0; i < n; i++) {
         int crc = cull_entity_update(s->world, hs[i], &descs[i]);
         if (crc) {
             for (uint32_t k = 0; k < i; k++) cull_entity_update(s->world, hs[k], &old[k]);
-            rc = scene_fail(err, cull_to_vp(crc), i, "record %u: %s", i, cull_strerror(crc));
+            rc = scene_fail(err, vp_code_from_cull(crc), i, "record %u: %s", i, cull_strerror(crc));
             goto out;
         }
     }
@@ -370,7 +360,7 @@ int scene_remove(scene *s, uint16_t load, const vp_id_batch *b, scene_err *err)
 {
     uint32_t n = b->count, seen = 0;
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
-    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a batch of %u", n);
+    if (!ids) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
     int rc = VP_OK;
     for (uint32_t i = 0; i < n; i++) {
         ids[i] = vp_id_get(b, i);
@@ -416,7 +406,7 @@ int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err)
         free(n.pos);
         free(n.nrm);
         free(n.idx);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for a mesh");
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a mesh");
     }
     vp_reader r;
     vp_reader_init(&r, m->positions, (size_t)n.nv * 12);
@@ -463,7 +453,7 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
     if (!n || !v || !idmap_reserve(&s->occluders, s->occluders.count + 1)) {
         free(n);
         free(v);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an occluder");
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for an occluder");
     }
     memcpy(n->origin, o->origin, sizeof n->origin);
     n->ntris = o->tri_count;
@@ -481,7 +471,7 @@ int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err 
     if (crc != CULL_OK) {
         free(n);
         free(v);
-        return scene_fail(err, crc == CULL_ERR_NOMEM ? VP_ERR_LIMIT : VP_ERR_SCENE, UINT32_MAX, "occluder %llu: %s",
+        return scene_fail(err, vp_code_from_cull(crc), UINT32_MAX, "occluder %llu: %s",
                           (unsigned long long)o->id, cull_strerror(crc));
     }
     if (old) {
@@ -519,7 +509,7 @@ int scene_remove_ids(scene *s, uint16_t load, idmap *which, const vp_id_batch *b
         seen |= !scene_sublevel_hidden(s, sub);
     }
     uint64_t *ids = malloc(((size_t)b->count + 1) * sizeof *ids);
-    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory");
+    if (!ids) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
     for (uint32_t i = 0; i < b->count; i++) ids[i] = vp_id_get(b, i);
     int rc = check_unique(ids, b->count, err);
     free(ids);
@@ -572,7 +562,7 @@ int scene_light_check(vp_light *l, char *why, size_t whylen)
     double rad[3];
     scene_light_cull(l, &cl, rad);
     int crc = cull_light_validate(&cl, rad, why, whylen);
-    return crc == CULL_OK ? VP_OK : crc == CULL_ERR_NONFINITE ? VP_ERR_NONFINITE : VP_ERR_INVALID;
+    return vp_code_from_cull(crc);
 }
 
 bool scene_light_drawable(const vp_light *l)
@@ -590,7 +580,7 @@ int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, s
     int src = scene_sublevel_target(s, load, &sub, UINT32_MAX, err);
     if (src) return src;
     uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
-    if (!ids) return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for lights");
+    if (!ids) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for lights");
     for (uint32_t i = 0; i < n; i++) {
         vp_light l;
         char why[120];
@@ -627,7 +617,7 @@ int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, s
     if (!ok) {
         for (uint32_t i = 0; mem && i < n; i++) free(mem[i]);
         free(mem);
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for lights");
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for lights");
     }
     for (uint32_t i = 0; i < n; i++) {
         vp_light_get(recs, n, i, &mem[i]->l);

@@ -114,7 +114,7 @@ struct server {
     /* pictures (frames.c): the shared OpenGL renderer, taken in turn */
     pthread_mutex_t gl_mu;
     struct vt_gl *gl;
-    struct vt_glr *glr;
+    struct vt_gldraw *gldraw;
     bool gl_failed;
     char gl_err[400];
     uint32_t nsubs;         /* connections with a frame stream */

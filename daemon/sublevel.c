@@ -279,7 +279,7 @@ int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *er
     if (!gone) {
         l->members = doomed;
         l->nmembers = l->members_cap = k;
-        return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX, "out of memory for an unload");
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for an unload");
     }
     hide(s, id, true);
     for (size_t i = 0; i < s->occluders.cap && nocc; i++)

@@ -11,30 +11,10 @@
 #include "vp_layout.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
-const char *vp_strerror(int code)
-{
-    switch (code) {
-#define VP_X_STR(name, value, msg) case value: return msg;
-        VP_ERRORS(VP_X_STR)
-#undef VP_X_STR
-    }
-    return "unknown error";
-}
-
-int vp_errf(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
+VP_ERR_DEFINE_STRERROR(vp_strerror, VP_ERRORS)
 
 static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_HELLO, "hello"},

@@ -20,6 +20,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "vp_err.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -62,19 +64,12 @@ extern "C" {
     X(VP_ERR_IO,         -22, "the server could not make the edit durable")   \
     X(VP_ERR_NOT_FOUND,  -23, "nothing of that name")
 
-enum {
-#define VP_X_ENUM(name, value, msg) name = value,
-    VP_ERRORS(VP_X_ENUM)
-#undef VP_X_ENUM
-};
+VP_ERR_ENUM(VP_ERRORS);
 
 /* The table's message for code; "unknown error" for a code not in it.
- * Never NULL; static storage. */
+ * Never NULL; static storage. (The modules' message formatter, vp_errf, is
+ * in vp_err.h.) */
 const char *vp_strerror(int code);
-/* The modules' message helper: formats into err[0..errlen) (err may be
- * NULL or errlen 0: nothing written) and returns -1, so a failing path is
- * `return vp_errf(err, errlen, "...", ...);`. */
-int vp_errf(char *err, size_t errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 /* Strict UTF-8 (RFC 3629): no overlong forms, no surrogates, nothing past
  * U+10FFFF, no sequence cut short. Returns n if p[0..n) is valid, else the
  * offset of the first bad sequence with the reason in *why (may be NULL). */

@@ -134,22 +134,21 @@ static int light_check(const vp_light *l, char *why, size_t whylen)
         {"outer cosine", l->outer_cos}};
     for (int k = 0; k < 3; k++)
         if (!isfinite(l->pos[k]))
-            return vp_errf(why, whylen, "%s is %g: NaN or infinite", pname[k], l->pos[k]), VP_ERR_NONFINITE;
+            return vp_errf(why, whylen, VP_ERR_NONFINITE, "%s is %g: NaN or infinite", pname[k], l->pos[k]);
     for (size_t k = 0; k < sizeof f / sizeof f[0]; k++)
         if (!isfinite(f[k].v))
-            return vp_errf(why, whylen, "%s is %g: NaN or infinite", f[k].name, (double)f[k].v), VP_ERR_NONFINITE;
+            return vp_errf(why, whylen, VP_ERR_NONFINITE, "%s is %g: NaN or infinite", f[k].name, (double)f[k].v);
     if (l->kind > VP_LIGHT_SPOT)
-        return vp_errf(why, whylen, "kind %u is neither 0 (point) nor 1 (spot)", l->kind), VP_ERR_INVALID;
-    if (!(l->range > 0)) return vp_errf(why, whylen, "range %g is not > 0", (double)l->range), VP_ERR_INVALID;
+        return vp_errf(why, whylen, VP_ERR_INVALID, "kind %u is neither 0 (point) nor 1 (spot)", l->kind);
+    if (!(l->range > 0)) return vp_errf(why, whylen, VP_ERR_INVALID, "range %g is not > 0", (double)l->range);
     if (l->intensity < 0)
-        return vp_errf(why, whylen, "intensity %g is negative", (double)l->intensity), VP_ERR_INVALID;
+        return vp_errf(why, whylen, VP_ERR_INVALID, "intensity %g is negative", (double)l->intensity);
     for (int k = 0; k < 3; k++)
         if (l->color[k] < 0)
-            return vp_errf(why, whylen, "%s %g is negative", f[4 + k].name, (double)l->color[k]), VP_ERR_INVALID;
+            return vp_errf(why, whylen, VP_ERR_INVALID, "%s %g is negative", f[4 + k].name, (double)l->color[k]);
     if (l->kind == VP_LIGHT_SPOT && !(l->outer_cos <= l->inner_cos && l->outer_cos >= -1 && l->inner_cos <= 1))
-        return vp_errf(why, whylen, "spot cone: need -1 <= outer cosine (%g) <= inner cosine (%g) <= 1",
-                       (double)l->outer_cos, (double)l->inner_cos),
-               VP_ERR_INVALID;
+        return vp_errf(why, whylen, VP_ERR_INVALID, "spot cone: need -1 <= outer cosine (%g) <= inner cosine (%g) <= 1",
+                       (double)l->outer_cos, (double)l->inner_cos);
     return VP_OK;
 }
 

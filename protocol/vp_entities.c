@@ -65,14 +65,14 @@ static int entity_check(const vp_entity *e, char *why, size_t whylen)
                                          "aabb max x", "aabb max y", "aabb max z"};
     for (int k = 0; k < 4; k++)
         if (!isfinite(e->sphere[k]))
-            return vp_errf(why, whylen, "%s is %g: NaN or infinite", sname[k], e->sphere[k]), VP_ERR_NONFINITE;
+            return vp_errf(why, whylen, VP_ERR_NONFINITE, "%s is %g: NaN or infinite", sname[k], e->sphere[k]);
     for (int k = 0; k < 6; k++)
         if (!isfinite(e->aabb[k]))
-            return vp_errf(why, whylen, "%s is %g: NaN or infinite", bname[k], e->aabb[k]), VP_ERR_NONFINITE;
+            return vp_errf(why, whylen, VP_ERR_NONFINITE, "%s is %g: NaN or infinite", bname[k], e->aabb[k]);
     if (e->flags & ~VP_ENT_DYNAMIC)
-        return vp_errf(why, whylen, "flags 0x%08x has undefined bits 0x%08x (only 0x1, dynamic, is defined)",
-                       e->flags, e->flags & ~VP_ENT_DYNAMIC),
-               VP_ERR_INVALID;
+        return vp_errf(why, whylen, VP_ERR_INVALID,
+                       "flags 0x%08x has undefined bits 0x%08x (only 0x1, dynamic, is defined)", e->flags,
+                       e->flags & ~VP_ENT_DYNAMIC);
     return VP_OK;
 }
 

@@ -4,8 +4,9 @@
  *
  * What it owns: the file descriptors (the library is given read / write /
  * size callbacks on our own fd instead of a path, so errno reaches the
- * caller and the temporary-file-and-rename is ours), the chunk scratch
- * buffer, and the translation of library results into errno values.
+ * caller's message and the temporary-file-and-rename is ours), the chunk
+ * scratch buffer, and the translation of library results and errno into
+ * render/'s codes (vt_err.h).
  *
  * Writing, per chunk of 1, 16 or 32 rows (set by the compression): the
  * caller's samples are gathered into a planar float scratch, then an
@@ -42,68 +43,69 @@
 
 /* ---- one call's error state ---------------------------------------------- */
 
-typedef struct exr_call {
-    const char *path;
-    char       *err;    /* caller's buffer, or NULL */
-    size_t      errlen;
-    bool        have;   /* a message is set: the first one is the cause */
-    exr_result_t code;  /* first code the library reported, 0 if none */
-} exr_call;
-
-/* The running call on this thread, for the library's error callback. */
-static _Thread_local exr_call *tl_call;
-
-#if defined(__GNUC__)
-__attribute__((format(printf, 2, 3)))
-#endif
-static void call_msg(exr_call *c, const char *fmt, ...)
-{
-    if (!c) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vt_file_msgv(c->err, c->errlen, &c->have, c->path ? c->path : "(null)", fmt, ap);
-    va_end(ap);
-}
+/* The running call on this thread (vt_file.h's context), for the library's
+ * error callback, which gets no user pointer it could use (see the top). */
+static _Thread_local vt_call *tl_call;
 
 static void on_exr_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
     (void)ctxt;
     if (!tl_call) return;
-    if (!tl_call->code) tl_call->code = code;
-    call_msg(tl_call, "%s", msg ? msg : exr_get_default_error_message(code));
+    if (!tl_call->lib_code) tl_call->lib_code = code;
+    vt_call_msg(tl_call, "%s", msg ? msg : exr_get_default_error_message(code));
 }
 
 /* Starts a call: clears err, installs the thread-local. Pair with call_end. */
-static exr_call *call_begin(exr_call *c, const char *path, char *err, size_t errlen, exr_call **saved)
+static vt_call *call_begin(vt_call *c, const char *path, char *err, size_t errlen, vt_call **saved)
 {
-    *c = (exr_call){.path = path, .err = err, .errlen = errlen};
-    if (err && errlen) err[0] = '\0';
+    *c = vt_call_begin(path, err, errlen);
     *saved = tl_call;
     tl_call = c;
     return c;
 }
 
-static int call_end(exr_call *c, exr_call *saved, int rc)
+static int call_end(vt_call *c, vt_call *saved, int rc)
 {
     tl_call = saved;
-    if (rc == 0 && c->err && c->errlen) c->err[0] = '\0';
-    return rc;
+    return vt_call_end(c, rc);
 }
-
 
 /* ---- file I/O callbacks ---------------------------------------------------- */
 
 typedef struct exr_file {
     int       fd;
     int       err; /* first errno from a failed read/write/close, else 0 */
-    exr_call *call;
+    vt_call *call;
 } exr_file;
 
 static void file_failed(exr_file *f, int e, const char *what)
 {
     char buf[128];
     if (!f->err) f->err = e;
-    call_msg(f->call, "%s: %s", what, vt_strerror(e, buf, sizeof buf));
+    vt_call_msg(f->call, "%s: %s", what, vt_errno_text(e, buf, sizeof buf));
+}
+
+/* Reads into or writes from buf[0..sz) at off, retrying after EINTR; a
+ * read stops early at the end of the file (the library decides whether
+ * short is bad). The bytes moved, or -1 with the failure recorded. */
+static int64_t file_move(exr_file *f, const void *buf, uint64_t sz, uint64_t off, bool write)
+{
+    uint64_t done = 0;
+    if (sz > INT64_MAX || off > INT64_MAX - sz) return -1;
+    while (done < sz) {
+        char *at = (char *)(uintptr_t)buf + done; /* the reader's buf is not const */
+        size_t want = (size_t)(sz - done);
+        off_t where = (off_t)(off + done);
+        ssize_t n = write ? pwrite(f->fd, at, want, where) : pread(f->fd, at, want, where);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 || (n == 0 && write)) {
+            file_failed(f, n < 0 ? errno : EIO, write ? "write" : "read");
+            return -1;
+        }
+        if (n == 0) break;
+        done += (uint64_t)n;
+    }
+    return (int64_t)done;
 }
 
 static int64_t file_read(exr_const_context_t ctxt, void *ud, void *buf, uint64_t sz, uint64_t off,
@@ -111,20 +113,7 @@ static int64_t file_read(exr_const_context_t ctxt, void *ud, void *buf, uint64_t
 {
     (void)ctxt;
     (void)error_cb;
-    exr_file *f = ud;
-    uint64_t got = 0;
-    if (sz > INT64_MAX || off > INT64_MAX - sz) return -1;
-    while (got < sz) {
-        ssize_t n = pread(f->fd, (char *)buf + got, (size_t)(sz - got), (off_t)(off + got));
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0) {
-            file_failed(f, errno, "read");
-            return -1;
-        }
-        if (n == 0) break; /* end of file: the library decides if short is bad */
-        got += (uint64_t)n;
-    }
-    return (int64_t)got;
+    return file_move(ud, buf, sz, off, false);
 }
 
 static int64_t file_write(exr_const_context_t ctxt, void *ud, const void *buf, uint64_t sz,
@@ -132,19 +121,7 @@ static int64_t file_write(exr_const_context_t ctxt, void *ud, const void *buf, u
 {
     (void)ctxt;
     (void)error_cb;
-    exr_file *f = ud;
-    uint64_t put = 0;
-    if (sz > INT64_MAX || off > INT64_MAX - sz) return -1;
-    while (put < sz) {
-        ssize_t n = pwrite(f->fd, (const char *)buf + put, (size_t)(sz - put), (off_t)(off + put));
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) {
-            file_failed(f, n < 0 ? errno : EIO, "write");
-            return -1;
-        }
-        put += (uint64_t)n;
-    }
-    return (int64_t)put;
+    return file_move(ud, buf, sz, off, true);
 }
 
 static int64_t file_size(exr_const_context_t ctxt, void *ud)
@@ -154,18 +131,18 @@ static int64_t file_size(exr_const_context_t ctxt, void *ud)
     return fstat(((exr_file *)ud)->fd, &st) == 0 ? (int64_t)st.st_size : -1;
 }
 
-/* An OpenEXRCore result as a negative errno; an errno from our own I/O
+/* An OpenEXRCore result as a VT_ERRORS code; an errno from our own I/O
  * wins, being the cause. */
-static int exr_errno(exr_result_t rv, const exr_file *f)
+static int exr_code(exr_result_t rv, const exr_file *f)
 {
     if (rv == EXR_ERR_SUCCESS) return 0;
-    if (f && f->err) return -f->err;
+    if (f && f->err) return vt_err_from_errno(f->err);
     switch (rv) {
-    case EXR_ERR_OUT_OF_MEMORY: return -ENOMEM;
+    case EXR_ERR_OUT_OF_MEMORY: return VT_ERR_NOMEM;
     case EXR_ERR_MISSING_CONTEXT_ARG:
     case EXR_ERR_INVALID_ARGUMENT:
     case EXR_ERR_ARGUMENT_OUT_OF_RANGE:
-    case EXR_ERR_NAME_TOO_LONG: return -EINVAL;
+    case EXR_ERR_NAME_TOO_LONG: return VT_ERR_INVALID;
     case EXR_ERR_FILE_BAD_HEADER:
     case EXR_ERR_READ_IO: /* no errno: a short read, the file is truncated */
     case EXR_ERR_MISSING_REQ_ATTR:
@@ -174,21 +151,21 @@ static int exr_errno(exr_result_t rv, const exr_file *f)
     case EXR_ERR_ATTR_SIZE_MISMATCH:
     case EXR_ERR_BAD_CHUNK_LEADER:
     case EXR_ERR_CORRUPT_CHUNK:
-    case EXR_ERR_INVALID_SAMPLE_DATA: return -EBADMSG;
+    case EXR_ERR_INVALID_SAMPLE_DATA: return VT_ERR_CORRUPT;
     case EXR_ERR_SCAN_TILE_MIXEDAPI:
     case EXR_ERR_TILE_SCAN_MIXEDAPI:
-    case EXR_ERR_FEATURE_NOT_IMPLEMENTED: return -ENOTSUP;
-    default: return -EIO;
+    case EXR_ERR_FEATURE_NOT_IMPLEMENTED: return VT_ERR_UNSUPPORTED;
+    default: return VT_ERR_CODEC;
     }
 }
 
 /* Fails the call with an OpenEXRCore result, making sure err says something.
  * The first code the library reported is the cause and wins over rv: 3.1
  * returns e.g. "bad header" for a header it could not allocate. */
-static int exr_fail(exr_call *c, exr_result_t rv, const exr_file *f, const char *what)
+static int exr_fail(vt_call *c, exr_result_t rv, const exr_file *f, const char *what)
 {
-    call_msg(c, "%s: %s", what, exr_get_default_error_message(rv));
-    return exr_errno(c->code ? c->code : rv, f);
+    vt_call_msg(c, "%s: %s", what, exr_get_default_error_message(rv));
+    return exr_code(c->lib_code ? c->lib_code : rv, f);
 }
 
 /* ---- writing ------------------------------------------------------------- */
@@ -211,47 +188,38 @@ static exr_compression_t exr_compression(vt_exr_compression c)
     }
 }
 
-static int check_write_args(exr_call *c, uint32_t width, uint32_t height, const vt_exr_channel *ch,
+static int check_write_args(vt_call *c, uint32_t width, uint32_t height, const vt_exr_channel *ch,
                             uint32_t nch, vt_exr_compression comp)
 {
     if (width < 1 || width > VT_EXR_MAX_WIDTH || height < 1 || height > VT_EXR_MAX_HEIGHT) {
-        call_msg(c, "image size %ux%u outside 1x1..%dx%d", width, height, VT_EXR_MAX_WIDTH,
+        vt_call_msg(c, "image size %ux%u outside 1x1..%dx%d", width, height, VT_EXR_MAX_WIDTH,
                  VT_EXR_MAX_HEIGHT);
-        return -EINVAL;
+        return VT_ERR_INVALID;
     }
     if (!ch || nch < 1 || nch > VT_EXR_MAX_CHANNELS) {
-        call_msg(c, "need 1..%u channels, got %u", VT_EXR_MAX_CHANNELS, ch ? nch : 0);
-        return -EINVAL;
+        vt_call_msg(c, "need 1..%u channels, got %u", VT_EXR_MAX_CHANNELS, ch ? nch : 0);
+        return VT_ERR_INVALID;
     }
     if ((unsigned)comp > VT_EXR_RLE) {
-        call_msg(c, "unknown compression %d", (int)comp);
-        return -EINVAL;
+        vt_call_msg(c, "unknown compression %d", (int)comp);
+        return VT_ERR_INVALID;
     }
     for (uint32_t i = 0; i < nch; i++) {
         size_t len = ch[i].name ? strlen(ch[i].name) : 0;
         if (len < 1 || len > 31) {
-            call_msg(c, "channel %u: name must be 1..31 bytes", i);
-            return -EINVAL;
+            vt_call_msg(c, "channel %u: name must be 1..31 bytes", i);
+            return VT_ERR_INVALID;
         }
         if (!ch[i].data || (ch[i].type != VT_EXR_HALF && ch[i].type != VT_EXR_FLOAT)) {
-            call_msg(c, "channel '%s': no data or unknown type", ch[i].name);
-            return -EINVAL;
+            vt_call_msg(c, "channel '%s': no data or unknown type", ch[i].name);
+            return VT_ERR_INVALID;
         }
     }
     return 0;
 }
 
-/* A temporary file beside path (vt_file.c), its error in the call's message. */
-static int open_temp(exr_call *c, const char *path, char **tmp, int *fd)
-{
-    char msg[512];
-    int rc = vt_temp_open(path, tmp, fd, msg, sizeof msg);
-    if (rc) call_msg(c, "%s", msg);
-    return rc;
-}
-
 /* Declares the part: windows, compression, channels in name order. */
-static int define_part(exr_call *c, exr_context_t ctx, const exr_file *f, uint32_t width,
+static int define_part(vt_call *c, exr_context_t ctx, const exr_file *f, uint32_t width,
                        uint32_t height, const vt_exr_channel *const *sorted, uint32_t nch,
                        vt_exr_compression comp)
 {
@@ -284,21 +252,21 @@ static void gather(float *dst, const vt_exr_channel *ch, uint32_t width, int32_t
 
 /* The pipeline's channels come in the file's (sorted) order; src[i] is the
  * caller's channel for pipeline channel i. */
-static int match_channels(exr_call *c, const exr_encode_pipeline_t *enc,
+static int match_channels(vt_call *c, const exr_encode_pipeline_t *enc,
                           const vt_exr_channel *const *sorted, uint32_t nch,
                           const vt_exr_channel **src)
 {
     if (enc->channel_count < 0 || (uint32_t)enc->channel_count != nch) {
-        call_msg(c, "library reports %d channels, expected %u", enc->channel_count, nch);
-        return -EIO;
+        vt_call_msg(c, "library reports %d channels, expected %u", enc->channel_count, nch);
+        return VT_ERR_CODEC;
     }
     for (uint32_t i = 0; i < nch; i++) {
         src[i] = NULL;
         for (uint32_t j = 0; j < nch && !src[i]; j++)
             if (strcmp(enc->channels[i].channel_name, sorted[j]->name) == 0) src[i] = sorted[j];
         if (!src[i]) {
-            call_msg(c, "library reports unknown channel '%s'", enc->channels[i].channel_name);
-            return -EIO;
+            vt_call_msg(c, "library reports unknown channel '%s'", enc->channels[i].channel_name);
+            return VT_ERR_CODEC;
         }
     }
     return 0;
@@ -306,7 +274,7 @@ static int match_channels(exr_call *c, const exr_encode_pipeline_t *enc,
 
 /* Encodes and writes every chunk. scratch holds lines x width floats per
  * channel. */
-static int write_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, uint32_t width,
+static int write_chunks(vt_call *c, exr_context_t ctx, const exr_file *f, uint32_t width,
                         uint32_t height, const vt_exr_channel *const *sorted, uint32_t nch,
                         int32_t lines, float *scratch, const vt_exr_channel **src)
 {
@@ -325,9 +293,9 @@ static int write_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, uint3
         if (rv != EXR_ERR_SUCCESS) break;
         if (!started && (rc = match_channels(c, &enc, sorted, nch, src)) != 0) break;
         if (ci.height < 1 || ci.height > lines || ci.start_y != y || ci.width != (int32_t)width) {
-            call_msg(c, "library chunk at row %lld is %dx%d at %d", (long long)y, ci.width, ci.height,
+            vt_call_msg(c, "library chunk at row %lld is %dx%d at %d", (long long)y, ci.width, ci.height,
                      ci.start_y);
-            rc = -EIO;
+            rc = VT_ERR_CODEC;
             break;
         }
         for (uint32_t i = 0; i < nch; i++) {
@@ -353,7 +321,7 @@ static int write_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, uint3
 }
 
 /* Writes the whole image through fd; the context is finished either way. */
-static int write_exr(exr_call *c, const char *path, exr_file *f, uint32_t width, uint32_t height,
+static int write_exr(vt_call *c, const char *path, exr_file *f, uint32_t width, uint32_t height,
                      const vt_exr_channel *const *sorted, uint32_t nch, vt_exr_compression comp)
 {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -370,24 +338,24 @@ static int write_exr(exr_call *c, const char *path, exr_file *f, uint32_t width,
     if (rc == 0 && (rv = exr_get_scanlines_per_chunk(ctx, 0, &lines)) != EXR_ERR_SUCCESS)
         rc = exr_fail(c, rv, f, "chunk rows");
     if (rc == 0 && (lines < 1 || lines > 256)) {
-        call_msg(c, "library reports %d rows per chunk", lines);
-        rc = -EIO;
+        vt_call_msg(c, "library reports %d rows per chunk", lines);
+        rc = VT_ERR_CODEC;
     }
     if (rc == 0) {
-        if (width > SIZE_MAX / sizeof(float) / (size_t)lines / nch) rc = -ENOMEM;
+        if (width > SIZE_MAX / sizeof(float) / (size_t)lines / nch) rc = VT_ERR_NOMEM;
         if (rc == 0) scratch = malloc((size_t)lines * width * nch * sizeof(float));
         if (rc == 0) src = malloc(nch * sizeof *src);
-        if (!scratch || !src) rc = -ENOMEM;
-        if (rc) call_msg(c, "out of memory for %d rows x %u x %u channels", lines, width, nch);
+        if (!scratch || !src) rc = VT_ERR_NOMEM;
+        if (rc) vt_call_msg(c, "out of memory for %d rows x %u x %u channels", lines, width, nch);
     }
     if (rc == 0) rc = write_chunks(c, ctx, f, width, height, sorted, nch, lines, scratch, src);
     /* finishing a complete write emits what is still buffered; a failed
      * one just frees (our fd and temp file are ours to clean up) */
     rv = exr_finish(&ctx);
     if (rc == 0 && rv != EXR_ERR_SUCCESS) rc = exr_fail(c, rv, f, "finish");
-    if (rc == 0 && f->err) rc = -f->err;
+    if (rc == 0 && f->err) rc = vt_err_from_errno(f->err);
     /* nothing the library complained about is kept, even if it carried on */
-    if (rc == 0 && c->code) rc = exr_fail(c, c->code, f, "write");
+    if (rc == 0 && c->lib_code) rc = exr_fail(c, c->lib_code, f, "write");
     free(src);
     free(scratch);
     return rc;
@@ -396,36 +364,33 @@ static int write_exr(exr_call *c, const char *path, exr_file *f, uint32_t width,
 int vt_exr_write(const char *path, uint32_t width, uint32_t height, const vt_exr_channel *ch,
                  uint32_t nch, vt_exr_compression comp, char *err, size_t errlen)
 {
-    exr_call call, *saved;
-    exr_call *c = call_begin(&call, path, err, errlen, &saved);
+    vt_call call, *saved;
+    vt_call *c = call_begin(&call, path, err, errlen, &saved);
     exr_file f = {.fd = -1, .call = c};
     const vt_exr_channel **sorted = NULL;
     char *tmp = NULL;
     int rc = 0;
     if (!path || !path[0]) {
-        call_msg(c, "no path");
-        return call_end(c, saved, -EINVAL);
+        vt_call_msg(c, "no path");
+        return call_end(c, saved, VT_ERR_INVALID);
     }
     if ((rc = check_write_args(c, width, height, ch, nch, comp)) != 0) return call_end(c, saved, rc);
     sorted = malloc(nch * sizeof *sorted);
     if (!sorted) {
-        call_msg(c, "out of memory");
-        return call_end(c, saved, -ENOMEM);
+        vt_call_msg(c, "out of memory");
+        return call_end(c, saved, VT_ERR_NOMEM);
     }
     for (uint32_t i = 0; i < nch; i++) sorted[i] = &ch[i];
     qsort(sorted, nch, sizeof *sorted, cmp_channel_name);
     for (uint32_t i = 1; i < nch && rc == 0; i++) {
         if (strcmp(sorted[i - 1]->name, sorted[i]->name) == 0) {
-            call_msg(c, "channel '%s' given twice", sorted[i]->name);
-            rc = -EINVAL;
+            vt_call_msg(c, "channel '%s' given twice", sorted[i]->name);
+            rc = VT_ERR_INVALID;
         }
     }
-    if (rc == 0) rc = open_temp(c, path, &tmp, &f.fd);
+    if (rc == 0) rc = vt_temp_open(c, path, &tmp, &f.fd);
     if (rc == 0) rc = write_exr(c, path, &f, width, height, sorted, nch, comp);
-    char msg[600];
-    int frc = vt_temp_finish(path, tmp, f.fd, rc, msg, sizeof msg);
-    if (frc != rc) call_msg(c, "%s", msg);
-    rc = frc;
+    rc = vt_temp_finish(c, path, tmp, f.fd, rc);
     free(sorted);
     return call_end(c, saved, rc);
 }
@@ -442,19 +407,19 @@ static void read_close(exr_file *f, exr_context_t *ctx)
 
 /* Opens path and parses its header. On success *ctx must be finished and
  * f->fd closed (read_close). */
-static int read_open(exr_call *c, const char *path, exr_file *f, exr_context_t *ctx)
+static int read_open(vt_call *c, const char *path, exr_file *f, exr_context_t *ctx)
 {
     char buf[128];
     *ctx = NULL;
     if (!path || !path[0]) {
-        call_msg(c, "no path");
-        return -EINVAL;
+        vt_call_msg(c, "no path");
+        return VT_ERR_INVALID;
     }
     f->fd = open(path, O_RDONLY | O_CLOEXEC);
     if (f->fd < 0) {
         int e = errno;
-        call_msg(c, "open: %s", vt_strerror(e, buf, sizeof buf));
-        return -e;
+        vt_call_msg(c, "open: %s", vt_errno_text(e, buf, sizeof buf));
+        return vt_err_from_errno(e);
     }
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = on_exr_error;
@@ -465,7 +430,7 @@ static int read_open(exr_call *c, const char *path, exr_file *f, exr_context_t *
     if (rv != EXR_ERR_SUCCESS) *ctx = NULL; /* the library finished it */
     /* 3.1 reports an allocation failure while parsing an attribute, then
      * carries on without the attribute and returns success */
-    if (rv == EXR_ERR_SUCCESS && c->code == EXR_ERR_OUT_OF_MEMORY) rv = EXR_ERR_OUT_OF_MEMORY;
+    if (rv == EXR_ERR_SUCCESS && c->lib_code == EXR_ERR_OUT_OF_MEMORY) rv = EXR_ERR_OUT_OF_MEMORY;
     if (rv != EXR_ERR_SUCCESS) {
         read_close(f, ctx);
         return exr_fail(c, rv, f, "header");
@@ -473,15 +438,15 @@ static int read_open(exr_call *c, const char *path, exr_file *f, exr_context_t *
     return 0;
 }
 
-static int data_window(exr_call *c, exr_context_t ctx, const exr_file *f, exr_attr_box2i_t *dw,
+static int data_window(vt_call *c, exr_context_t ctx, const exr_file *f, exr_attr_box2i_t *dw,
                        uint32_t *w, uint32_t *h)
 {
     exr_result_t rv = exr_get_data_window(ctx, 0, dw);
     if (rv != EXR_ERR_SUCCESS) return exr_fail(c, rv, f, "data window");
     int64_t ww = (int64_t)dw->max.x - dw->min.x + 1, hh = (int64_t)dw->max.y - dw->min.y + 1;
     if (ww < 1 || hh < 1 || ww > UINT32_MAX || hh > UINT32_MAX) {
-        call_msg(c, "bad data window (%d %d) - (%d %d)", dw->min.x, dw->min.y, dw->max.x, dw->max.y);
-        return -EBADMSG;
+        vt_call_msg(c, "bad data window (%d %d) - (%d %d)", dw->min.x, dw->min.y, dw->max.x, dw->max.y);
+        return VT_ERR_CORRUPT;
     }
     *w = (uint32_t)ww;
     *h = (uint32_t)hh;
@@ -489,14 +454,14 @@ static int data_window(exr_call *c, exr_context_t ctx, const exr_file *f, exr_at
 }
 
 /* Checks the part and finds channel `name` in it. */
-static int find_channel(exr_call *c, exr_context_t ctx, const exr_file *f, const char *name)
+static int find_channel(vt_call *c, exr_context_t ctx, const exr_file *f, const char *name)
 {
     exr_storage_t st;
     const exr_attr_chlist_t *cl = NULL;
     exr_result_t rv = exr_get_storage(ctx, 0, &st);
     if (rv == EXR_ERR_SUCCESS && st != EXR_STORAGE_SCANLINE) {
-        call_msg(c, "only flat scanline images can be read (storage %d)", (int)st);
-        return -ENOTSUP;
+        vt_call_msg(c, "only flat scanline images can be read (storage %d)", (int)st);
+        return VT_ERR_UNSUPPORTED;
     }
     if (rv == EXR_ERR_SUCCESS) rv = exr_get_channels(ctx, 0, &cl);
     if (rv != EXR_ERR_SUCCESS) return exr_fail(c, rv, f, "channels");
@@ -504,13 +469,13 @@ static int find_channel(exr_call *c, exr_context_t ctx, const exr_file *f, const
         const exr_attr_chlist_entry_t *e = &cl->entries[i];
         if (strcmp(e->name.str, name) != 0) continue;
         if (e->x_sampling != 1 || e->y_sampling != 1) {
-            call_msg(c, "channel '%s' is subsampled", name);
-            return -ENOTSUP;
+            vt_call_msg(c, "channel '%s' is subsampled", name);
+            return VT_ERR_UNSUPPORTED;
         }
         return 0;
     }
-    call_msg(c, "no channel '%s'", name);
-    return -ENOENT;
+    vt_call_msg(c, "no channel '%s'", name);
+    return VT_ERR_NOT_FOUND;
 }
 
 /* Points the decoder at out for channel `name` and at junk for the others.
@@ -531,7 +496,7 @@ static void aim_decoder(exr_decode_pipeline_t *dec, const char *name, float *out
     }
 }
 
-static int read_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, const char *name,
+static int read_chunks(vt_call *c, exr_context_t ctx, const exr_file *f, const char *name,
                        float *out, uint32_t width, const exr_attr_box2i_t *dw)
 {
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
@@ -544,8 +509,8 @@ static int read_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, const 
     if (rv == EXR_ERR_SUCCESS &&
         (width > SIZE_MAX / sizeof *junk / (size_t)lines ||
          !(junk = malloc((size_t)lines * width * sizeof *junk)))) {
-        call_msg(c, "out of memory for %d rows x %u", lines, width);
-        rc = -ENOMEM;
+        vt_call_msg(c, "out of memory for %d rows x %u", lines, width);
+        rc = VT_ERR_NOMEM;
     }
     for (int64_t y = dw->min.y; y <= dw->max.y && rv == EXR_ERR_SUCCESS && rc == 0; y += lines) {
         exr_chunk_info_t ci;
@@ -554,8 +519,8 @@ static int read_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, const 
         /* the chunk must lie inside the window: out is exactly its size */
         if (ci.start_y != y || ci.height < 1 || ci.height > lines ||
             (int64_t)ci.start_y + ci.height - 1 > dw->max.y || ci.width != (int32_t)width) {
-            call_msg(c, "chunk at row %lld does not fit the data window", (long long)y);
-            rc = -EBADMSG;
+            vt_call_msg(c, "chunk at row %lld does not fit the data window", (long long)y);
+            rc = VT_ERR_CORRUPT;
             break;
         }
         rv = started ? exr_decoding_update(ctx, 0, &ci, &dec) : exr_decoding_initialize(ctx, 0, &ci, &dec);
@@ -574,50 +539,64 @@ static int read_chunks(exr_call *c, exr_context_t ctx, const exr_file *f, const 
     return rc;
 }
 
+/* One read call's state: its error context, the file, the library's
+ * context and the data window once read. */
+typedef struct exr_reader {
+    vt_call          call, *saved;
+    exr_file         f;
+    exr_context_t    ctx;
+    exr_attr_box2i_t dw;
+    uint32_t         w, h;
+} exr_reader;
+
+static vt_call *reader_begin(exr_reader *r, const char *path, char *err, size_t errlen)
+{
+    *r = (exr_reader){.f = {.fd = -1}};
+    r->f.call = call_begin(&r->call, path, err, errlen, &r->saved);
+    return r->f.call;
+}
+
+/* Closes what the call opened and ends it with rc. */
+static int reader_end(exr_reader *r, int rc)
+{
+    read_close(&r->f, &r->ctx);
+    return call_end(&r->call, r->saved, rc);
+}
+
 int vt_exr_read_channel(const char *path, const char *name, float *out, uint32_t width,
                         uint32_t height, char *err, size_t errlen)
 {
-    exr_call call, *saved;
-    exr_call *c = call_begin(&call, path, err, errlen, &saved);
-    exr_file f = {.fd = -1, .call = c};
-    exr_context_t ctx = NULL;
-    exr_attr_box2i_t dw;
-    uint32_t w = 0, h = 0;
+    exr_reader r;
+    vt_call *c = reader_begin(&r, path, err, errlen);
     if (!name || !out || width < 1 || width > VT_EXR_MAX_WIDTH || height < 1) {
-        call_msg(c, "bad arguments (name, out or size %ux%u)", width, height);
-        return call_end(c, saved, -EINVAL);
+        vt_call_msg(c, "bad arguments (name, out or size %ux%u)", width, height);
+        return reader_end(&r, VT_ERR_INVALID);
     }
-    int rc = read_open(c, path, &f, &ctx);
-    if (rc == 0) rc = find_channel(c, ctx, &f, name);
-    if (rc == 0) rc = data_window(c, ctx, &f, &dw, &w, &h);
-    if (rc == 0 && (w != width || h != height)) {
-        call_msg(c, "image is %ux%u, buffer %ux%u", w, h, width, height);
-        rc = -EINVAL;
+    int rc = read_open(c, path, &r.f, &r.ctx);
+    if (rc == 0) rc = find_channel(c, r.ctx, &r.f, name);
+    if (rc == 0) rc = data_window(c, r.ctx, &r.f, &r.dw, &r.w, &r.h);
+    if (rc == 0 && (r.w != width || r.h != height)) {
+        vt_call_msg(c, "image is %ux%u, buffer %ux%u", r.w, r.h, width, height);
+        rc = VT_ERR_INVALID;
     }
-    if (rc == 0) rc = read_chunks(c, ctx, &f, name, out, width, &dw);
-    if (rc == 0 && c->code == EXR_ERR_OUT_OF_MEMORY) rc = exr_fail(c, c->code, &f, "decoding");
-    read_close(&f, &ctx);
-    return call_end(c, saved, rc);
+    if (rc == 0) rc = read_chunks(c, r.ctx, &r.f, name, out, width, &r.dw);
+    if (rc == 0 && c->lib_code == EXR_ERR_OUT_OF_MEMORY) rc = exr_fail(c, c->lib_code, &r.f, "decoding");
+    return reader_end(&r, rc);
 }
 
 int vt_exr_size(const char *path, uint32_t *width, uint32_t *height, char *err, size_t errlen)
 {
-    exr_call call, *saved;
-    exr_call *c = call_begin(&call, path, err, errlen, &saved);
-    exr_file f = {.fd = -1, .call = c};
-    exr_context_t ctx = NULL;
-    exr_attr_box2i_t dw;
-    uint32_t w = 0, h = 0;
+    exr_reader r;
+    vt_call *c = reader_begin(&r, path, err, errlen);
     if (!width || !height) {
-        call_msg(c, "no output for the size");
-        return call_end(c, saved, -EINVAL);
+        vt_call_msg(c, "no output for the size");
+        return reader_end(&r, VT_ERR_INVALID);
     }
-    int rc = read_open(c, path, &f, &ctx);
-    if (rc == 0) rc = data_window(c, ctx, &f, &dw, &w, &h);
-    read_close(&f, &ctx);
+    int rc = read_open(c, path, &r.f, &r.ctx);
+    if (rc == 0) rc = data_window(c, r.ctx, &r.f, &r.dw, &r.w, &r.h);
     if (rc == 0) {
-        *width = w;
-        *height = h;
+        *width = r.w;
+        *height = r.h;
     }
-    return call_end(c, saved, rc);
+    return reader_end(&r, rc);
 }

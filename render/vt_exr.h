@@ -29,16 +29,20 @@
  * The only static is a thread-local pointer to the running call's error
  * buffer (see vt_exr.c for why OpenEXRCore's error callback needs it).
  *
- * Errors: 0 or a negative errno value — -EINVAL bad arguments, -ENOMEM,
- * -ENOENT / -EACCES / -ENOSPC / ... from the file system (the real errno),
- * -EBADMSG a file that is not a valid EXR or is corrupt, -ENOTSUP a valid
- * EXR this reader does not handle (tiled, deep, subsampled), -EIO anything
- * else the library reports. `err` (may be NULL, any errlen) receives a
+ * Errors: 0 or a negative code from render/'s table (vt_err.h), never an
+ * errno — VT_ERR_INVALID bad arguments, VT_ERR_NOMEM, VT_ERR_NOT_FOUND a
+ * missing file (or channel), VT_ERR_FILE any other file-system failure
+ * (EACCES, ENOSPC, EFBIG, ...: strerror's text is in the message),
+ * VT_ERR_CORRUPT a file that is not a valid EXR or is corrupt,
+ * VT_ERR_UNSUPPORTED a valid EXR this reader does not handle (tiled, deep,
+ * subsampled), VT_ERR_CODEC anything else the library reports. `err` (may be NULL, any errlen) receives a
  * NUL-terminated message, OpenEXRCore's own where it gave one, prefixed
  * with the path; it is set to "" on success.
  */
 #ifndef VANTAGE_VT_EXR_H
 #define VANTAGE_VT_EXR_H
+
+#include "vt_err.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -86,7 +90,7 @@ int vt_exr_write(const char *path, uint32_t width, uint32_t height, const vt_exr
 /* Reads channel `name` of the first part of a scanline EXR into out[0 ..
  * width*height), planar, top row first, converting half or uint to float.
  * The file's data window must be exactly width x height (its origin may be
- * anywhere). -ENOENT if there is no such channel, -EINVAL if the size
+ * anywhere). VT_ERR_NOT_FOUND if there is no such channel, VT_ERR_INVALID if the size
  * differs. On error out may be partly written. */
 int vt_exr_read_channel(const char *path, const char *name, float *out, uint32_t width,
                         uint32_t height, char *err, size_t errlen);

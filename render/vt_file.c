@@ -1,10 +1,12 @@
 /*
- * vt_file.c — see vt_file.h.
+ * vt_file.c — see vt_file.h: the call context the file formats share, the
+ * temporary file and its rename, errno's text.
  */
 #include "vt_file.h"
 
 #include <errno.h>
 #include <fcntl.h>
+#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,13 +15,37 @@
 #include <time.h>
 #include <unistd.h>
 
-int vt_temp_open(const char *path, char **tmp, int *fd, char *msg, size_t msglen)
+vt_call vt_call_begin(const char *path, char *err, size_t errlen)
+{
+    if (err && errlen) err[0] = '\0';
+    return (vt_call){.path = path, .err = err, .errlen = errlen};
+}
+
+void vt_call_msg(vt_call *c, const char *fmt, ...)
+{
+    if (!c || c->have || !c->err || c->errlen == 0) return;
+    c->have = true;
+    int n = snprintf(c->err, c->errlen, "%s: ", c->path ? c->path : "(no path)");
+    if (n < 0 || (size_t)n >= c->errlen) return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(c->err + n, c->errlen - (size_t)n, fmt, ap);
+    va_end(ap);
+}
+
+int vt_call_end(vt_call *c, int rc)
+{
+    if (rc == 0 && c->err && c->errlen) c->err[0] = '\0';
+    return rc;
+}
+
+int vt_temp_open(vt_call *c, const char *path, char **tmp, int *fd)
 {
     size_t n = strlen(path) + 22;
     char *name = malloc(n);
     if (!name) {
-        snprintf(msg, msglen, "out of memory");
-        return -ENOMEM;
+        vt_call_msg(c, "out of memory");
+        return VT_ERR_NOMEM;
     }
     for (unsigned attempt = 0; attempt < 16; attempt++) {
         uint64_t salt;
@@ -39,37 +65,30 @@ int vt_temp_open(const char *path, char **tmp, int *fd, char *msg, size_t msglen
     }
     int e = errno;
     char buf[128];
-    snprintf(msg, msglen, "cannot create temporary file %s: %s", name, strerror_r(e, buf, sizeof buf));
+    vt_call_msg(c, "cannot create temporary file %s: %s", name, vt_errno_text(e, buf, sizeof buf));
     free(name);
-    return -e;
+    return vt_err_from_errno(e);
 }
 
-void vt_file_msgv(char *err, size_t errlen, bool *have, const char *where, const char *fmt, va_list ap)
-{
-    if (*have || !err || errlen == 0) return;
-    *have = true;
-    int n = snprintf(err, errlen, "%s: ", where);
-    if (n < 0 || (size_t)n >= errlen) return;
-    vsnprintf(err + n, errlen - (size_t)n, fmt, ap);
-}
-
-int vt_temp_finish(const char *path, char *tmp, int fd, int rc, char *msg, size_t msglen)
+int vt_temp_finish(vt_call *c, const char *path, char *tmp, int fd, int rc)
 {
     char buf[128];
     if (fd >= 0 && close(fd) != 0 && rc == 0) {
-        rc = -errno;
-        snprintf(msg, msglen, "close: %s", strerror_r(-rc, buf, sizeof buf));
+        int e = errno;
+        rc = vt_err_from_errno(e);
+        vt_call_msg(c, "close: %s", vt_errno_text(e, buf, sizeof buf));
     }
     if (rc == 0 && rename(tmp, path) != 0) {
-        rc = -errno;
-        snprintf(msg, msglen, "rename from %s: %s", tmp, strerror_r(-rc, buf, sizeof buf));
+        int e = errno;
+        rc = vt_err_from_errno(e);
+        vt_call_msg(c, "rename from %s: %s", tmp, vt_errno_text(e, buf, sizeof buf));
     }
     if (rc != 0 && tmp) unlink(tmp);
     free(tmp);
     return rc;
 }
 
-const char *vt_strerror(int e, char *buf, size_t n)
+const char *vt_errno_text(int e, char *buf, size_t n)
 {
     return strerror_r(e, buf, n); /* GNU: returns the message, maybe not buf */
 }

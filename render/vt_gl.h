@@ -42,7 +42,7 @@
  * EGL_BAD_ACCESS if the context is still current elsewhere. Every
  * function that makes GL calls (clip control, targets, readback, shaders)
  * needs the context current on the calling thread and returns
- * VT_GL_ERR_CURRENT otherwise (a GL call with no current context would
+ * VT_ERR_CURRENT otherwise (a GL call with no current context would
  * silently do nothing). Different vt_gl may be used on different
  * threads at the same time; they share no GL objects. These functions
  * call eglBindAPI(EGL_OPENGL_API) on the calling thread and leave it bound.
@@ -72,7 +72,8 @@
  * (clear to 0, glDepthFunc(GL_GREATER)).
  * Depth is linear in window x and y across a triangle whatever the w.
  *
- * Errors: 0 or a negative code from VT_GL_ERRORS. `err` (may be NULL, any
+ * Errors: 0 or a negative code from render/'s table (VT_ERRORS, vt_err.h;
+ * the GL codes are VT_ERR_NO_DISPLAY .. VT_ERR_GL). `err` (may be NULL, any
  * errlen) receives a NUL-terminated message that says what failed: EGL and
  * GL error names, every platform tried and why it failed, the compiler's
  * info log; it is set to "" on success.
@@ -85,6 +86,8 @@
 #ifndef VANTAGE_VT_GL_H
 #define VANTAGE_VT_GL_H
 
+#include "vt_err.h"
+
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -92,30 +95,6 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-/* ---- error codes: one table, tests assert on the code ------------------- */
-#define VT_GL_ERRORS(X)                                                              \
-    X(VT_GL_OK,                0, "ok")                                              \
-    X(VT_GL_ERR_INVALID,      -1, "invalid argument")                                \
-    X(VT_GL_ERR_NOMEM,        -2, "out of memory")                                   \
-    X(VT_GL_ERR_NO_DISPLAY,   -3, "no EGL display could be initialised")             \
-    X(VT_GL_ERR_NO_CONTEXT,   -4, "no desktop OpenGL 3.3+ core context")             \
-    X(VT_GL_ERR_CURRENT,      -5, "context not current on this thread, or cannot be made current") \
-    X(VT_GL_ERR_UNSUPPORTED,  -6, "the context lacks a feature this call needs")     \
-    X(VT_GL_ERR_RANGE,        -7, "size or region beyond the target or the GL limits") \
-    X(VT_GL_ERR_FRAMEBUFFER,  -8, "framebuffer incomplete")                          \
-    X(VT_GL_ERR_COMPILE,      -9, "shader did not compile")                          \
-    X(VT_GL_ERR_LINK,        -10, "program did not link")                            \
-    X(VT_GL_ERR_GL,          -11, "a GL call failed (glGetError)")
-
-enum {
-#define VT_GL_X_ENUM(name, value, msg) name = value,
-    VT_GL_ERRORS(VT_GL_X_ENUM)
-#undef VT_GL_X_ENUM
-};
-
-/* Message for a code from VT_GL_ERRORS; "unknown error" otherwise. Static. */
-const char *vt_gl_strerror(int code);
 
 /* ---- context ------------------------------------------------------------ */
 
@@ -178,11 +157,11 @@ typedef struct vt_gl vt_gl;
  * the context; free it with vt_gl_close. On failure *out is NULL, the
  * thread's previously current context (if any) is current again, and err
  * names every platform tried and why it failed:
- *   VT_GL_ERR_NO_DISPLAY — no platform gave an initialised EGL display
+ *   VT_ERR_NO_DISPLAY — no platform gave an initialised EGL display
  *     (no EGL vendor library, no device, no X server, ...);
- *   VT_GL_ERR_NO_CONTEXT — some display initialised, but none gave a
+ *   VT_ERR_NO_CONTEXT — some display initialised, but none gave a
  *     desktop OpenGL 3.3+ core context current with no surface;
- *   VT_GL_ERR_INVALID, VT_GL_ERR_NOMEM. */
+ *   VT_ERR_INVALID, VT_ERR_NOMEM. */
 int vt_gl_open(vt_gl **out, const vt_gl_opts *o, char *err, size_t errlen);
 
 /* Destroys the context and every target still alive on it (their pointers
@@ -193,7 +172,7 @@ int vt_gl_open(vt_gl **out, const vt_gl_opts *o, char *err, size_t errlen);
  * thread releases it. NULL is ignored. */
 void vt_gl_close(vt_gl *g);
 
-/* Makes g current on the calling thread, with no surface. VT_GL_ERR_CURRENT
+/* Makes g current on the calling thread, with no surface. VT_ERR_CURRENT
  * if EGL refuses (most often: still current on another thread). Cheap when
  * already current. */
 int vt_gl_make_current(vt_gl *g, char *err, size_t errlen);
@@ -210,7 +189,7 @@ const vt_gl_info *vt_gl_get_info(const vt_gl *g);
  * state): zero_to_one = true sets glClipControl(GL_LOWER_LEFT,
  * GL_ZERO_TO_ONE), so window depth is z_ndc in [0,1]; false restores GL's
  * default (GL_LOWER_LEFT, GL_NEGATIVE_ONE_TO_ONE), depth z_ndc/2 + 1/2.
- * VT_GL_ERR_UNSUPPORTED when info.clip_control is false. */
+ * VT_ERR_UNSUPPORTED when info.clip_control is false. */
 int vt_gl_clip_control(vt_gl *g, bool zero_to_one, char *err, size_t errlen);
 
 /* ---- offscreen targets -------------------------------------------------- */
@@ -237,14 +216,14 @@ typedef struct vt_gl_target vt_gl_target;
  * filtering and CLAMP_TO_EDGE, so they can be sampled as they are. Costs
  * (16 + 4) * w * h bytes of GPU memory with RGBA32F, (8 + 4) * w * h with
  * RGBA16F. Restores the framebuffer and texture bindings it changes.
- * VT_GL_ERR_RANGE for a bad size, VT_GL_ERR_GL (GL_OUT_OF_MEMORY, ...),
- * VT_GL_ERR_FRAMEBUFFER, VT_GL_ERR_CURRENT, VT_GL_ERR_NOMEM. */
+ * VT_ERR_RANGE for a bad size, VT_ERR_GL (GL_OUT_OF_MEMORY, ...),
+ * VT_ERR_FRAMEBUFFER, VT_ERR_CURRENT, VT_ERR_NOMEM. */
 int vt_gl_target_create(vt_gl *g, uint32_t w, uint32_t h, const vt_gl_target_desc *d,
                         vt_gl_target **out, char *err, size_t errlen);
 
 /* Reallocates both textures at w x h (same GL names, contents undefined).
  * On failure the target keeps its old size only if the error was
- * VT_GL_ERR_RANGE or VT_GL_ERR_CURRENT; after a GL failure it must be
+ * VT_ERR_RANGE or VT_ERR_CURRENT; after a GL failure it must be
  * destroyed. */
 int vt_gl_target_resize(vt_gl_target *t, uint32_t w, uint32_t h, char *err, size_t errlen);
 
@@ -294,14 +273,14 @@ size_t vt_gl_read_bound(uint32_t w, uint32_t h, bool color);
 /* Waits for the rendering into t to finish and reads the region
  * (d NULL: all of t) back: colour as RGBA floats into rgba[0 ..
  * 4*w*h), depth as floats in [0,1] into depth[0 .. w*h), either
- * pointer NULL to skip it (both NULL is VT_GL_ERR_INVALID). Rows
+ * pointer NULL to skip it (both NULL is VT_ERR_INVALID). Rows
  * bottom-up and tightly packed: sample (x, y) of the region (y = 0 the
  * lowest row) at rgba[4*(y*w + x) + c] and depth[y*w + x]. Colour is
  * exactly the stored value (a half widens exactly; no clamping: GL
  * clamps only fixed-point buffers on read). Sets GL_PACK_ALIGNMENT to 4 and
  * GL_PACK_ROW_LENGTH, GL_PACK_SKIP_ROWS and GL_PACK_SKIP_PIXELS to 0 (GL's
  * defaults) and leaves them so; restores the framebuffer and pixel pack
- * buffer bindings. VT_GL_ERR_RANGE if the region is outside t. */
+ * buffer bindings. VT_ERR_RANGE if the region is outside t. */
 int vt_gl_readback(vt_gl_target *t, float *rgba, float *depth, const vt_gl_read_desc *d,
                    char *err, size_t errlen);
 
@@ -309,14 +288,14 @@ int vt_gl_readback(vt_gl_target *t, float *rgba, float *depth, const vt_gl_read_
 
 /* Compiles one shader of GL type `stage` (GL_VERTEX_SHADER, GL_FRAGMENT_SHADER,
  * ...) from a NUL-terminated source; *out is the shader name, the caller's
- * to glDeleteShader. VT_GL_ERR_COMPILE with "vertex shader: " and the info
+ * to glDeleteShader. VT_ERR_COMPILE with "vertex shader: " and the info
  * log in err. */
 int vt_gl_shader_compile(vt_gl *g, unsigned stage, const char *src, unsigned *out, char *err,
                          size_t errlen);
 
 /* Links the n shaders into a program; *out is the caller's to
  * glDeleteProgram. The shaders are detached again (the caller may delete
- * them). VT_GL_ERR_LINK with the info log in err. */
+ * them). VT_ERR_LINK with the info log in err. */
 int vt_gl_program_link(vt_gl *g, const unsigned *shaders, size_t n, unsigned *out, char *err,
                        size_t errlen);
 

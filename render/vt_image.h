@@ -9,9 +9,9 @@
  * pkg-config libjpeg).
  *
  * Load it expects: a frame at a time, 1x1 to 16384x16384 pixels. Costs on
- * one core for 1280x720 (details in vt_image.c): tone mapping 15 ms; PNG
- * level 1 40-60 ms, level 6 130-300 ms (zlib dominates); JPEG quality 85
- * 2-3 ms (SIMD libjpeg-turbo). Memory: the PNG and JPEG writers hold a
+ * one core for 1280x720 (details in vt_tonemap.c, vt_png.c, vt_jpeg.c):
+ * tone mapping 15 ms; PNG level 1 40-60 ms, level 6 130-300 ms (zlib
+ * dominates); JPEG quality 85 2-3 ms (SIMD libjpeg-turbo). Memory: the PNG and JPEG writers hold a
  * 64 KiB output buffer plus the libraries' row buffers (a few rows: up to
  * about 1 MiB at 16384 wide), never a copy of the image; the in-memory
  * JPEG grows its result by doubling. Readers allocate the decoded image.
@@ -33,19 +33,23 @@
  * thread-locals (both libraries hand each call's own state to their error
  * callbacks). Any number of calls may run at once on different paths.
  *
- * Errors: 0 or a negative errno value — -EINVAL bad arguments (including a
- * size outside 1..VT_IMAGE_MAX_DIM), -ENOMEM, -ENOENT / -EACCES / -ENOSPC
- * / -EFBIG / ... from the file system (the real errno), -EBADMSG a file or
- * stream that is not a valid PNG / JPEG or is corrupt (for JPEG this
- * includes data libjpeg would only warn about, e.g. a truncated stream),
- * -ENOTSUP a valid image these readers do not handle (CMYK JPEG), -EFBIG
- * also for an image larger than VT_IMAGE_MAX_DIM, -EIO anything else a
- * library reports. `err` (may be NULL, any errlen) receives a
+ * Errors: 0 or a negative code from render/'s table (vt_err.h), never an
+ * errno — VT_ERR_INVALID bad arguments (including a size outside
+ * 1..VT_IMAGE_MAX_DIM), VT_ERR_NOMEM, VT_ERR_NOT_FOUND a missing file,
+ * VT_ERR_FILE any other file-system failure (EACCES, ENOSPC, EFBIG, ...:
+ * strerror's text is in the message), VT_ERR_CORRUPT a file or stream that
+ * is not a valid PNG / JPEG or is corrupt (for JPEG this includes data
+ * libjpeg would only warn about, e.g. a truncated stream),
+ * VT_ERR_UNSUPPORTED a valid image these readers do not handle (CMYK JPEG),
+ * VT_ERR_TOO_LARGE an image larger than VT_IMAGE_MAX_DIM (or a JPEG file
+ * over 1 GiB), VT_ERR_CODEC anything else a library reports. `err` (may be NULL, any errlen) receives a
  * NUL-terminated message, the library's own where it gave one, prefixed
  * with the path ("<memory>" for streams); it is set to "" on success.
  */
 #ifndef VANTAGE_VT_IMAGE_H
 #define VANTAGE_VT_IMAGE_H
+
+#include "vt_err.h"
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -60,14 +64,13 @@ extern "C" {
 
 /* ---- tone mapping -------------------------------------------------------- */
 
-/* One float channel of the source, laid out as vt_exr_channel: sample
- * (x, y) at data[x * x_stride + y * y_stride]. */
+/* One float channel of the source, laid out as vt_exr_channel's data and
+ * strides (vt_exr.h): sample (x, y) at data[x * x_stride + y * y_stride],
+ * data the top-left pixel, strides in floats of any sign (1 planar, 4
+ * interleaved RGBA, 0 repeats; a negative y_stride for bottom-up rows). */
 typedef struct vt_image_channel {
-    const float *data;     /* sample (x=0, y=0), the top-left pixel */
-    ptrdiff_t    x_stride; /* floats between horizontal neighbours: 1 planar,
-                              4 interleaved RGBA; any value, 0 repeats */
-    ptrdiff_t    y_stride; /* floats from a row to the row below; negative
-                              for bottom-up buffers (data = the top row) */
+    const float *data;
+    ptrdiff_t    x_stride, y_stride;
 } vt_image_channel;
 
 /* Source of vt_image_tonemap: linear scene-referred RGB (Rec.709 / sRGB
@@ -111,7 +114,7 @@ size_t vt_image_rgba8_size(uint32_t width, uint32_t height);
  * apart (the caller's buffer; size it with vt_image_rgba8_size for packed
  * rows). Reads sample (x, y) of each given channel for 0 <= x < width,
  * 0 <= y < height, nothing else. No allocation.
- * Returns 0 or -EINVAL (size, NULL pointers, stride, op, exposure). */
+ * Returns 0 or VT_ERR_INVALID (size, NULL pointers, stride, op, exposure). */
 int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
                      const vt_tonemap_desc *desc, uint8_t *out, size_t out_stride_bytes);
 
@@ -176,12 +179,12 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
  * packed RGB rows (3 * width bytes each), top row first; grey is
  * replicated. libjpeg's accurate integer IDCT and smooth chroma
  * upsampling. Any warning from libjpeg (truncated or corrupt data) is an
- * error, -EBADMSG. On error nothing is allocated and the outputs are
+ * error, VT_ERR_CORRUPT. On error nothing is allocated and the outputs are
  * 0 / NULL. */
 int vt_jpeg_decode(const uint8_t *data, size_t len, uint8_t **rgb8, uint32_t *width,
                    uint32_t *height, char *err, size_t errlen);
 
-/* vt_jpeg_decode of the contents of `path` (at most 1 GiB, else -EFBIG). */
+/* vt_jpeg_decode of the contents of `path` (at most 1 GiB, else VT_ERR_TOO_LARGE). */
 int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *height, char *err,
                  size_t errlen);
 

@@ -21,7 +21,7 @@
  * at most amp; the occluder cut (daemon/destruct.c) widens by that margin
  * so the occluder's hole always contains the drawn one.
  *
- * The float code here is what vt_soft runs per pixel; vt_glr's fragment
+ * The float code here is what vt_soft runs per pixel; vt_gldraw's fragment
  * shader is the same formula in GLSL (same hash, same order of
  * operations), so the two agree but for pixels on the rim itself.
  */

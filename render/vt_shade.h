@@ -25,7 +25,7 @@
 
 /* The output depth of a pixel of nearness z (see vt_soft.h): 1 / z for
  * perspective views, 1 - k z for orthographic ones (k 0.5 with GL depth,
- * else 1). vt_depth_rule_of (vt_frame.h) makes it for a view. */
+ * else 1). vt_depth_rule_of (vt_picture.h) makes it for a view. */
 typedef struct vt_depth_rule {
     int ortho;
     float k;

@@ -24,10 +24,9 @@
  * Shading once per pixel, whatever the overdraw, is the point of the
  * visibility buffer.
  */
-#include "vt_frame.h"
+#include "vt_picture.h"
 #include "vt_shade.h"
 
-#include <errno.h>
 #include <float.h>
 #include <math.h>
 #include <stdbool.h>
@@ -113,13 +112,12 @@ static uint64_t now_ns(void)
     return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
 }
 
-#define fail vt_fail
 
 int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
 {
-    if (!out) return -EINVAL;
+    if (!out) return VT_ERR_INVALID;
     vt_soft *r = calloc(1, sizeof *r);
-    if (!r) return -ENOMEM;
+    if (!r) return VT_ERR_NOMEM;
     r->pool = pool;
     r->k = vt_kern_pick();
     uint32_t pt = cull_pool_threads(pool);
@@ -243,8 +241,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         vt_instance_xform(in, mb[in->mesh], o, scale, shift);
         for (int a = 0; a < 3; a++) inv_scale[a] = scale[a] > 0 ? 1 / scale[a] : 1;
         /* every vertex once: camera-relative position and clip coordinates */
-        if (!vt_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
-            return fail(err, errlen, -ENOMEM, "out of memory for %u vertices", m->nv);
+        if (!vp_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
+            return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for %u vertices", m->nv);
         for (uint32_t k = 0; k < m->nv; k++) {
             xv *x = &r->vx[k];
             for (int a = 0; a < 3; a++) x->p[a] = m->pos[3 * k + a] * scale[a] + shift[a];
@@ -318,10 +316,11 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             cv src[3] = {v[0], v[1], v[2]};
             int n = out_or ? clip_poly(v, 3, pl) : 3;
             if (n < 3) continue;
-            if (r->nst + 1 >= (1u << ID_BITS)) return fail(err, errlen, -E2BIG, "more than 2^27 triangles a thread");
-            if (!vt_grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
-                !vt_grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
-                return fail(err, errlen, -ENOMEM, "out of memory for %zu triangles", r->nrt);
+            if (r->nst + 1 >= (1u << ID_BITS))
+                return vp_errf(err, errlen, VT_ERR_RANGE, "more than 2^27 triangles a thread");
+            if (!vp_grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
+                !vp_grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
+                return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for %zu triangles", r->nrt);
             /* the shading record: adjugate rows of the source triangle,
                scaled by 1/det (homogeneous barycentrics: the kernel divides
                by their sum) */
@@ -628,24 +627,24 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
                    float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
     if (st) memset(st, 0, sizeof *st);
-    if (!r) return fail(err, errlen, -EINVAL, "missing argument");
+    if (!r) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     frame fr = {.v = v, .w = width, .h = height};
-    int rc = vt_frame_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &fr.vr,
-                            err, errlen);
+    int rc = vt_picture_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &fr.vr,
+                              err, errlen);
     if (rc) return rc;
     size_t npx = (size_t)width * height;
-    if (!vt_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
-        !vt_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
-        !vt_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+    if (!vp_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
+        !vp_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
+        !vp_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
     /* the damaged instances' masks (most frames have none: no table) */
     uint32_t nmk = 0;
     for (uint32_t i = 0; i < ninst; i++) nmk += vt_dvol_live(inst[i].dvol);
     if (nmk) {
-        if (!vt_grow((void **)&r->mk, &r->mk_cap, nmk, sizeof *r->mk) ||
-            !vt_grow((void **)&r->mk_of, &r->mk_of_cap, ninst, sizeof *r->mk_of))
-            return fail(err, errlen, -ENOMEM, "out of memory");
+        if (!vp_grow((void **)&r->mk, &r->mk_cap, nmk, sizeof *r->mk) ||
+            !vp_grow((void **)&r->mk_of, &r->mk_of_cap, ninst, sizeof *r->mk_of))
+            return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
         nmk = 0;
         for (uint32_t i = 0; i < ninst; i++) {
             r->mk_of[i] = 0;
@@ -657,15 +656,16 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
         fr.mk_of = r->mk_of;
     }
 
-    if (!r->tb && !(r->tb = calloc(MAX_THREADS, sizeof *r->tb))) return fail(err, errlen, -ENOMEM, "out of memory");
+    if (!r->tb && !(r->tb = calloc(MAX_THREADS, sizeof *r->tb)))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     uint32_t trows = (height + TILE - 1) / TILE;
     uint32_t nt = r->threads < trows ? r->threads : trows;
     if (!nt) nt = 1;
     uint32_t tx = (width + TILE - 1) / TILE;
-    if (!vt_grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
-        !vt_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
-        !vt_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+    if (!vp_grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
+        !vp_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
+        !vp_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     /* no lights: no ranges, no binning */
     job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst, .rgba = rgba, .depth = depth,
               .stride = stride, .nthreads = nt, .ranges = nl > 0};
@@ -674,7 +674,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
     else job_setup(&jb, 0);
     size_t ntri = 0;
     for (uint32_t t = 0; t < nt; t++) {
-        if (r->tb[t].rc) return fail(err, errlen, r->tb[t].rc, "%s", r->tb[t].err);
+        if (r->tb[t].rc) return vp_errf(err, errlen, r->tb[t].rc, "%s", r->tb[t].err);
         ntri += r->tb[t].nrt;
     }
     uint64_t t1 = now_ns();
@@ -686,7 +686,9 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
        ranges came with the raster) */
     for (uint32_t i = 0; i < nl; i++) vt_light_prepare(&lights[i], v->origin, &r->sl[i], &r->cl[i]);
     int lrc = cull_lights_bin(v, width, height, r->cl, nl, nl ? (const float(*)[2])r->range : NULL, &r->tiles);
-    if (lrc != CULL_OK) return fail(err, errlen, lrc == CULL_ERR_NOMEM ? -ENOMEM : -EINVAL, "lights: %s", cull_strerror(lrc));
+    if (lrc != CULL_OK)
+        return vp_errf(err, errlen, lrc == CULL_ERR_NOMEM ? VT_ERR_NOMEM : VT_ERR_INVALID, "lights: %s",
+                       cull_strerror(lrc));
     uint64_t t3 = now_ns();
 
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);

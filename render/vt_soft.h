@@ -22,6 +22,8 @@
 
 #include "culling.h"
 
+#include "vt_err.h"
+
 #include <stddef.h>
 #include <stdint.h>
 
@@ -69,7 +71,7 @@ const cull_light_tiles *vt_soft_light_tiles(const vt_soft *r);
 void vt_soft_destroy(vt_soft *r);
 
 /* Checks a mesh: counts, indices in range, finite positions and normals.
- * 0, or -EINVAL with a reason in err. Both renderers check every mesh
+ * 0, or VT_ERR_INVALID with a reason in err. Both renderers check every mesh
  * they are given this way. */
 int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen);
 
@@ -78,8 +80,8 @@ int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen);
 extern const vt_mesh vt_mesh_box;
 
 /* Renders ninst instances of nmesh meshes lit by nl lights for view v into
- * width x height buffers. 0, or a negative errno with err filled: -EINVAL
- * (bad size, a bad mesh, a bad mesh index or bounds, a bad light), -ENOMEM. */
+ * width x height buffers. 0, or a VT_ERRORS code with err filled: VT_ERR_INVALID
+ * (bad size, a bad mesh, a bad mesh index or bounds, a bad light), VT_ERR_NOMEM. */
 int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
                    uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                    float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen);

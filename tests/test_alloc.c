@@ -12,6 +12,10 @@
 #include "test_util.h"
 
 #include "culling.h"
+#include "protocol.h"
+#include "scene.h"
+
+#include <stdlib.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
@@ -285,8 +289,61 @@ static void test_occluders_under_failing_allocations(void **state)
     cull_world_destroy(w);
 }
 
+/* The daemon's edits under failing allocations (the scene's own and the
+ * culling core's, through daemon/errmap.c): every failure of an ADD is
+ * BUSY, "out of memory" in its message, with nothing added; then it
+ * succeeds. Out of memory was LIMIT in scene.c and BUSY in frames.c. */
+static void test_scene_edits_out_of_memory_are_busy(void **state)
+{
+    (void)state;
+    enum { N = 600 };
+    static const scene_limits lim = {.max_entities = 1u << 16, .max_lights = 64, .max_occluders = 64,
+                                     .max_occluder_tris = 1024, .max_mesh_verts = 1024};
+    scene *sc = malloc(sizeof *sc); /* megabytes: not on the stack */
+    assert_non_null(sc);
+    assert_int_equal(scene_init(sc, 16, &lim), 0);
+    vp_entity *ents = calloc(N, sizeof *ents);
+    size_t cap = vp_size_entities(N);
+    uint8_t *buf = malloc(cap);
+    uint32_t *handles = calloc(N, sizeof *handles);
+    assert_true(ents && buf && handles);
+    for (uint32_t i = 0; i < N; i++) /* spread over many cells: the grid grows */
+        ents[i] = (vp_entity){.id = 1000 + i, .sphere = {(double)(i % 40) * 50.0, 0, (double)(i / 40) * 50.0, 1}};
+    vp_writer w;
+    vp_writer_init(&w, buf, cap);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 1, ents, N);
+    free(ents);
+    assert_false(w.overflow);
+    vp_entity_batch b;
+    assert_int_equal(vp_dec_entities(buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, 0, &b), VP_OK);
+    long failures = 0;
+    for (long k = 0;; k++) {
+        scene_err e = {0};
+        arm(k);
+        int rc = scene_add(sc, 0, &b, handles, &e);
+        disarm();
+        cull_world_info info;
+        cull_world_info_get(sc->world, &info);
+        if (rc == VP_OK) {
+            assert_int_equal(info.entities, N);
+            break;
+        }
+        if (rc != VP_ERR_BUSY || !strstr(e.msg, "out of memory"))
+            fail_msg("allocation %ld failing: %d (%s) '%s', want BUSY, out of memory", k, rc, vp_strerror(rc), e.msg);
+        assert_int_equal(info.entities, 0);
+        failures++;
+        assert_true(k < 100000);
+    }
+    scene_free(sc);
+    free(sc);
+    free(buf);
+    free(handles);
+    assert_true(failures > 0);
+}
+
 const struct CMUnitTest alloc_tests[] = {
     cmocka_unit_test(test_occluders_under_failing_allocations),
     cmocka_unit_test(test_edits_under_failing_allocations),
+    cmocka_unit_test(test_scene_edits_out_of_memory_are_busy),
 };
 const size_t alloc_tests_count = sizeof alloc_tests / sizeof alloc_tests[0];

@@ -445,7 +445,7 @@ static void test_exr_large(void **state)
     free(row);
 }
 
-/* Bad arguments: -EINVAL, a message, nothing on disk. A row: the path,
+/* Bad arguments: VT_ERR_INVALID, a message, nothing on disk. A row: the path,
  * the size, which channels (a good one, or one with a bad field), how
  * many, the compression. */
 enum { CH_OK, CH_NONE, CH_DUP, CH_NONAME, CH_EMPTY_NAME, CH_LONG_NAME, CH_NODATA, CH_BADTYPE };
@@ -490,7 +490,7 @@ static void test_exr_bad_args(void **state)
     char err[256] = "unchanged";
     int rc = vt_exr_write(tdir_path_arg(&t, r->path, "bad.exr"), r->w, r->h, r->ch == CH_NONE ? NULL : ch,
                           (uint32_t)r->n, (vt_exr_compression)r->comp, err, sizeof err);
-    assert_int_equal(rc, -EINVAL);
+    assert_int_equal(rc, VT_ERR_INVALID);
     assert_true(strlen(err) > 0 && strcmp(err, "unchanged") != 0);
     assert_int_equal(tdir_count(&t), 0);
     tdir_remove(&t);
@@ -507,17 +507,17 @@ static void test_exr_null_args(void **state)
     const char *p = tdir_file(&t, "bad.exr");
     /* tiny and absent error buffers are fine */
     char tiny[4];
-    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, tiny, sizeof tiny), -EINVAL);
+    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, tiny, sizeof tiny), VT_ERR_INVALID);
     assert_true(strlen(tiny) < sizeof tiny);
-    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, tiny, 0), -EINVAL);
+    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_write(p, 0, 2, &ok, 1, VT_EXR_NONE, tiny, 0), VT_ERR_INVALID);
     float out[4];
     uint32_t w, h;
-    assert_int_equal(vt_exr_read_channel(p, NULL, out, 2, 2, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_read_channel(p, "R", NULL, 2, 2, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_read_channel(NULL, "R", out, 2, 2, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_size(p, NULL, &h, NULL, 0), -EINVAL);
-    assert_int_equal(vt_exr_size(NULL, &w, &h, NULL, 0), -EINVAL);
+    assert_int_equal(vt_exr_read_channel(p, NULL, out, 2, 2, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_read_channel(p, "R", NULL, 2, 2, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_read_channel(NULL, "R", out, 2, 2, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_size(p, NULL, &h, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_exr_size(NULL, &w, &h, NULL, 0), VT_ERR_INVALID);
     tdir_remove(&t);
 }
 
@@ -587,18 +587,18 @@ static void test_exr_reader_errors(void **state)
     uint32_t rw, rh;
     tdir t;
     tdir_make(&t, "vt_exr_test");
-    assert_int_equal(vt_exr_read_channel(tdir_file(&t, "none.exr"), "Z", out, w, h, err, sizeof err), -ENOENT);
-    assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), -ENOENT);
+    assert_int_equal(vt_exr_read_channel(tdir_file(&t, "none.exr"), "Z", out, w, h, err, sizeof err), VT_ERR_NOT_FOUND);
+    assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), VT_ERR_NOT_FOUND);
     FILE *f = fopen(tdir_file(&t, "text.exr"), "w");
     assert_non_null(f);
     fputs("this is not an OpenEXR file, just some text long enough to be a header\n", f);
     fclose(f);
-    assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), -EBADMSG);
+    assert_int_equal(vt_exr_size(t.path, &rw, &rh, err, sizeof err), VT_ERR_CORRUPT);
     assert_non_null(strstr(err, t.path));
     write_ok(tdir_file(&t, "z.exr"), w, h, &ch, 1, VT_EXR_ZIPS);
-    assert_int_equal(vt_exr_read_channel(t.path, "Q", out, w, h, err, sizeof err), -ENOENT);
+    assert_int_equal(vt_exr_read_channel(t.path, "Q", out, w, h, err, sizeof err), VT_ERR_NOT_FOUND);
     assert_non_null(strstr(err, "'Q'"));
-    assert_int_equal(vt_exr_read_channel(t.path, "Z", out, w, h + 1, err, sizeof err), -EINVAL);
+    assert_int_equal(vt_exr_read_channel(t.path, "Z", out, w, h + 1, err, sizeof err), VT_ERR_INVALID);
     /* cut the file in half: an error, never a crash or a read past out */
     struct stat st;
     assert_int_equal(stat(t.path, &st), 0);

@@ -1,9 +1,9 @@
 /*
- * test_gl.c — the headless OpenGL path (render/vt_gl.c) against reference
- * models: a clear reads back bit for bit (RGBA16F and RGBA32F, direct and
- * PBO, whole target and sub-regions); a triangle with vertices on the
- * 1/16-pixel grid covers exactly the pixel centres an edge-function test
- * in double says it covers (pixels within 0.01 px of an edge are not
+ * test_gl.c — the headless OpenGL path (render/vt_gl.h: vt_egl.c,
+ * vt_gl_target.c, vt_gl_shader.c) against reference models: a clear reads
+ * back bit for bit (RGBA16F and RGBA32F, direct and PBO, whole target and
+ * sub-regions); a triangle with vertices on the 1/16-pixel grid covers
+ * exactly the pixel centres an edge-function test in double says it covers (pixels within 0.01 px of an edge are not
  * judged), and its depth at those centres is the analytic screen-space
  * interpolation within 1e-6, under GL's default depth convention and
  * under glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE); random floats go
@@ -59,7 +59,7 @@ static vt_gl *open_or_skip(const vt_gl_opts *o)
     vt_gl *g = NULL;
     char err[1024];
     int rc = vt_gl_open(&g, o, err, sizeof err);
-    if (rc == VT_GL_ERR_NO_DISPLAY || rc == VT_GL_ERR_NO_CONTEXT) {
+    if (rc == VT_ERR_NO_DISPLAY || rc == VT_ERR_NO_CONTEXT) {
         if (gl_required()) fail_msg("VANTAGE_GL_REQUIRED is set but: %s", err);
         print_message("no OpenGL 3.3 core here, GL test skipped: %s\n", err);
         skip();
@@ -133,7 +133,7 @@ static int drawer_init(vt_gl *g, drawer *d, char *err, size_t errlen)
     glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, sizeof(vtx), (void *)0);
     glEnableVertexAttribArray(0);
     glBindVertexArray(0);
-    return glGetError() == GL_NO_ERROR ? 0 : VT_GL_ERR_GL;
+    return glGetError() == GL_NO_ERROR ? 0 : VT_ERR_GL;
 }
 
 static void drawer_free(drawer *d)
@@ -165,25 +165,25 @@ static void drawer_draw(const drawer *d, const vtx *v, int n, const float color[
 static void test_gl_errors_table(void **state)
 {
     (void)state;
-    assert_string_equal(vt_gl_strerror(VT_GL_OK), "ok");
-    assert_string_equal(vt_gl_strerror(VT_GL_ERR_NO_DISPLAY), "no EGL display could be initialised");
-    assert_string_equal(vt_gl_strerror(12345), "unknown error");
+    assert_string_equal(vt_strerror(VT_OK), "ok");
+    assert_string_equal(vt_strerror(VT_ERR_NO_DISPLAY), "no EGL display could be initialised");
+    assert_string_equal(vt_strerror(12345), "unknown error");
     assert_string_equal(vt_gl_platform_name(VT_GL_SURFACELESS), "surfaceless");
     assert_string_equal(vt_gl_platform_name((vt_gl_platform)77), "?");
     char err[256] = "x";
-    assert_int_equal(vt_gl_open(NULL, NULL, err, sizeof err), VT_GL_ERR_INVALID);
+    assert_int_equal(vt_gl_open(NULL, NULL, err, sizeof err), VT_ERR_INVALID);
     assert_true(err[0] != 0);
     vt_gl *g = (vt_gl *)&g;
     assert_int_equal(vt_gl_open(&g, &(vt_gl_opts){.platform = (vt_gl_platform)9}, err, sizeof err),
-                     VT_GL_ERR_INVALID);
+                     VT_ERR_INVALID);
     assert_null(g);
-    assert_int_equal(vt_gl_open(&g, &(vt_gl_opts){.device = -2}, NULL, 0), VT_GL_ERR_INVALID);
+    assert_int_equal(vt_gl_open(&g, &(vt_gl_opts){.device = -2}, NULL, 0), VT_ERR_INVALID);
     /* destroy functions take NULL */
     vt_gl_close(NULL);
     vt_gl_release(NULL);
     vt_gl_target_destroy(NULL);
     assert_null(vt_gl_get_info(NULL));
-    assert_int_equal(vt_gl_make_current(NULL, NULL, 0), VT_GL_ERR_INVALID);
+    assert_int_equal(vt_gl_make_current(NULL, NULL, 0), VT_ERR_INVALID);
     assert_int_equal(vt_gl_read_bound(7, 5, true), 140);
     assert_int_equal(vt_gl_read_bound(7, 5, false), 35);
     if (sizeof(size_t) == 8) assert_int_equal(vt_gl_read_bound(UINT32_MAX, UINT32_MAX, true), 0);
@@ -248,7 +248,7 @@ static void test_gl_each_platform(void **state)
             vt_gl_close(g);
         } else {
             print_message("%s: %d %s\n", vt_gl_platform_name(ps[i]), rc, err);
-            assert_true(rc == VT_GL_ERR_NO_DISPLAY || rc == VT_GL_ERR_NO_CONTEXT);
+            assert_true(rc == VT_ERR_NO_DISPLAY || rc == VT_ERR_NO_CONTEXT);
             assert_null(g);
             const char *name = ps[i] == VT_GL_DEVICE ? "device" : vt_gl_platform_name(ps[i]);
             assert_non_null(strstr(err, name));
@@ -259,7 +259,7 @@ static void test_gl_each_platform(void **state)
     char err[1024];
     int rc = vt_gl_open(&g, &(vt_gl_opts){.platform = VT_GL_DEVICE, .device = VT_GL_DEVICE_INDEX(999)},
                         err, sizeof err);
-    assert_true(rc == VT_GL_ERR_NO_DISPLAY || rc == VT_GL_ERR_NO_CONTEXT);
+    assert_true(rc == VT_ERR_NO_DISPLAY || rc == VT_ERR_NO_CONTEXT);
     assert_null(g);
     print_message("device 999: %s\n", err);
 }
@@ -474,7 +474,7 @@ static void test_gl_triangle_coverage_depth(void **state)
         check_triangles(g, false);
     } else {
         print_message("no glClipControl (%s): [0,1] depth not tested\n", vt_gl_get_info(g)->version);
-        assert_int_equal(vt_gl_clip_control(g, true, err, sizeof err), VT_GL_ERR_UNSUPPORTED);
+        assert_int_equal(vt_gl_clip_control(g, true, err, sizeof err), VT_ERR_UNSUPPORTED);
     }
     vt_gl_close(g);
 }
@@ -580,7 +580,7 @@ static void test_gl_shader_errors(void **state)
     int rc = vt_gl_shader_compile(g, GL_VERTEX_SHADER, "#version 330 core\nvoid main() { nonsense; }\n",
                                   &s, err, sizeof err);
     print_message("compile: %s\n", err);
-    assert_int_equal(rc, VT_GL_ERR_COMPILE);
+    assert_int_equal(rc, VT_ERR_COMPILE);
     assert_int_equal(s, 0);
     assert_int_equal(strncmp(err, "vertex shader: ", 15), 0);
     assert_true(strlen(err) > 20); /* the driver's log follows */
@@ -588,7 +588,7 @@ static void test_gl_shader_errors(void **state)
     char tiny[24];
     rc = vt_gl_shader_compile(g, GL_FRAGMENT_SHADER, "#version 330 core\nvoid main() { x = 1; }\n",
                               &s, tiny, sizeof tiny);
-    assert_int_equal(rc, VT_GL_ERR_COMPILE);
+    assert_int_equal(rc, VT_ERR_COMPILE);
     assert_true(strlen(tiny) < sizeof tiny);
     /* one uniform of two types in two stages does not link */
     rc = vt_gl_program_build(g,
@@ -596,10 +596,10 @@ static void test_gl_shader_errors(void **state)
                              "#version 330 core\nuniform vec2 u;\nout vec4 o;\nvoid main() { o = u.xyxy; }\n",
                              &p, err, sizeof err);
     print_message("link: %s\n", err);
-    assert_int_equal(rc, VT_GL_ERR_LINK);
+    assert_int_equal(rc, VT_ERR_LINK);
     assert_int_equal(p, 0);
     assert_int_equal(strncmp(err, "link: ", 6), 0);
-    assert_int_equal(vt_gl_shader_compile(g, 0x1234, "", &s, err, sizeof err), VT_GL_ERR_INVALID);
+    assert_int_equal(vt_gl_shader_compile(g, 0x1234, "", &s, err, sizeof err), VT_ERR_INVALID);
     assert_int_equal(vt_gl_program_build(g, TRI_VS, TRI_FS, &p, err, sizeof err), 0);
     assert_string_equal(err, "");
     assert_true(glIsProgram(p));
@@ -616,22 +616,22 @@ static void test_gl_target_errors(void **state)
     vt_gl_target *t = NULL;
     const vt_gl_info *in = vt_gl_get_info(g);
     uint32_t big = (uint32_t)in->max_target_size + 1;
-    assert_int_equal(vt_gl_target_create(g, 0, 5, NULL, &t, err, sizeof err), VT_GL_ERR_RANGE);
-    assert_int_equal(vt_gl_target_create(g, big, 5, NULL, &t, err, sizeof err), VT_GL_ERR_RANGE);
+    assert_int_equal(vt_gl_target_create(g, 0, 5, NULL, &t, err, sizeof err), VT_ERR_RANGE);
+    assert_int_equal(vt_gl_target_create(g, big, 5, NULL, &t, err, sizeof err), VT_ERR_RANGE);
     assert_int_equal(vt_gl_target_create(g, 5, 5, &(vt_gl_target_desc){.color = 7}, &t, err, sizeof err),
-                     VT_GL_ERR_INVALID);
+                     VT_ERR_INVALID);
     assert_null(t);
     t = make_target(g, 32, 16, VT_GL_RGBA16F);
     float buf[4 * 50 * 70], zb[50 * 70];
-    assert_int_equal(vt_gl_readback(t, NULL, NULL, NULL, err, sizeof err), VT_GL_ERR_INVALID);
+    assert_int_equal(vt_gl_readback(t, NULL, NULL, NULL, err, sizeof err), VT_ERR_INVALID);
     assert_int_equal(vt_gl_readback(t, buf, NULL, &(vt_gl_read_desc){.x = 30, .w = 3, .h = 1}, err, sizeof err),
-                     VT_GL_ERR_RANGE);
+                     VT_ERR_RANGE);
     assert_int_equal(vt_gl_readback(t, buf, NULL, &(vt_gl_read_desc){.y = UINT32_MAX, .w = 1, .h = 2}, err,
                                     sizeof err),
-                     VT_GL_ERR_RANGE);
-    assert_int_equal(vt_gl_readback(t, buf, NULL, &(vt_gl_read_desc){.w = 1}, err, sizeof err), VT_GL_ERR_RANGE);
+                     VT_ERR_RANGE);
+    assert_int_equal(vt_gl_readback(t, buf, NULL, &(vt_gl_read_desc){.w = 1}, err, sizeof err), VT_ERR_RANGE);
     /* resize: a bad size keeps the old one; a good one takes */
-    assert_int_equal(vt_gl_target_resize(t, big, 2, err, sizeof err), VT_GL_ERR_RANGE);
+    assert_int_equal(vt_gl_target_resize(t, big, 2, err, sizeof err), VT_ERR_RANGE);
     uint32_t w, h;
     vt_gl_target_size(t, &w, &h);
     assert_true(w == 32 && h == 16);
@@ -646,12 +646,12 @@ static void test_gl_target_errors(void **state)
     }
     /* not current: every call that needs GL says so */
     vt_gl_release(g);
-    assert_int_equal(vt_gl_readback(t, buf, NULL, NULL, err, sizeof err), VT_GL_ERR_CURRENT);
+    assert_int_equal(vt_gl_readback(t, buf, NULL, NULL, err, sizeof err), VT_ERR_CURRENT);
     assert_non_null(strstr(err, "not current"));
-    assert_int_equal(vt_gl_target_bind(t), VT_GL_ERR_CURRENT);
-    assert_int_equal(vt_gl_target_resize(t, 8, 8, err, sizeof err), VT_GL_ERR_CURRENT);
+    assert_int_equal(vt_gl_target_bind(t), VT_ERR_CURRENT);
+    assert_int_equal(vt_gl_target_resize(t, 8, 8, err, sizeof err), VT_ERR_CURRENT);
     unsigned s;
-    assert_int_equal(vt_gl_shader_compile(g, GL_VERTEX_SHADER, TRI_VS, &s, err, sizeof err), VT_GL_ERR_CURRENT);
+    assert_int_equal(vt_gl_shader_compile(g, GL_VERTEX_SHADER, TRI_VS, &s, err, sizeof err), VT_ERR_CURRENT);
     assert_int_equal(vt_gl_make_current(g, err, sizeof err), 0);
     /* a second target left alive: close frees it */
     make_target(g, 8, 8, VT_GL_RGBA32F);
@@ -770,7 +770,7 @@ static void *mover_main(void *p)
 }
 
 /* The documented handover: release here, take there, release there, take
- * back here; taking a context current elsewhere is VT_GL_ERR_CURRENT. */
+ * back here; taking a context current elsewhere is VT_ERR_CURRENT. */
 static void test_gl_move_between_threads(void **state)
 {
     (void)state;
@@ -782,7 +782,7 @@ static void test_gl_move_between_threads(void **state)
     assert_int_equal(pthread_create(&th, NULL, mover_main, &m), 0);
     assert_int_equal(pthread_join(th, NULL), 0);
     print_message("while current elsewhere: %s\n", m.err);
-    assert_int_equal(m.rc_take, VT_GL_ERR_CURRENT);
+    assert_int_equal(m.rc_take, VT_ERR_CURRENT);
     vt_gl_release(g);
     memset(&m, 0, sizeof m);
     m.g = g;

@@ -1,5 +1,5 @@
 /*
- * test_image.c — tone mapping, PNG and JPEG (render/vt_image.c) against
+ * test_image.c — tone mapping, PNG and JPEG (render/vt_image.h) against
  * slow references: the sRGB8 encoding equals a long double powl
  * evaluation of the IEC 61966-2-1 formula on a dense sweep of 65536
  * values, at every rounding threshold (recomputed here by bisection) and
@@ -668,19 +668,19 @@ static void test_image_tonemap_bad_args(void **state)
     vt_image_src only_g = {.r = {v, 1, 2}, .g = {v, 1, 2}};
     vt_image_src no_r = {.g = {v, 1, 2}, .b = {v, 1, 2}};
     assert_int_equal(vt_image_tonemap(2, 2, &ok, NULL, out, 8), 0);
-    assert_int_equal(vt_image_tonemap(0, 2, &ok, NULL, out, 8), -EINVAL);
-    assert_int_equal(vt_image_tonemap(2, 0, &ok, NULL, out, 8), -EINVAL);
-    assert_int_equal(vt_image_tonemap(VT_IMAGE_MAX_DIM + 1, 1, &ok, NULL, out, 1 << 20), -EINVAL);
-    assert_int_equal(vt_image_tonemap(1, VT_IMAGE_MAX_DIM + 1, &ok, NULL, out, 8), -EINVAL);
-    assert_int_equal(vt_image_tonemap(2, 2, NULL, NULL, out, 8), -EINVAL);
-    assert_int_equal(vt_image_tonemap(2, 2, &ok, NULL, NULL, 8), -EINVAL);
-    assert_int_equal(vt_image_tonemap(2, 2, &ok, NULL, out, 7), -EINVAL);
-    assert_int_equal(vt_image_tonemap(2, 2, &only_g, NULL, out, 8), -EINVAL);
-    assert_int_equal(vt_image_tonemap(2, 2, &no_r, NULL, out, 8), -EINVAL);
+    assert_int_equal(vt_image_tonemap(0, 2, &ok, NULL, out, 8), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(2, 0, &ok, NULL, out, 8), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(VT_IMAGE_MAX_DIM + 1, 1, &ok, NULL, out, 1 << 20), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(1, VT_IMAGE_MAX_DIM + 1, &ok, NULL, out, 8), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(2, 2, NULL, NULL, out, 8), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(2, 2, &ok, NULL, NULL, 8), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(2, 2, &ok, NULL, out, 7), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(2, 2, &only_g, NULL, out, 8), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(2, 2, &no_r, NULL, out, 8), VT_ERR_INVALID);
     vt_tonemap_desc bad_op = {.op = (vt_tonemap_op)2};
-    assert_int_equal(vt_image_tonemap(2, 2, &ok, &bad_op, out, 8), -EINVAL);
-    assert_int_equal(vt_image_tonemap(2, 2, &ok, &(vt_tonemap_desc){.exposure_ev = NAN}, out, 8), -EINVAL);
-    assert_int_equal(vt_image_tonemap(2, 2, &ok, &(vt_tonemap_desc){.exposure_ev = 65}, out, 8), -EINVAL);
+    assert_int_equal(vt_image_tonemap(2, 2, &ok, &bad_op, out, 8), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(2, 2, &ok, &(vt_tonemap_desc){.exposure_ev = NAN}, out, 8), VT_ERR_INVALID);
+    assert_int_equal(vt_image_tonemap(2, 2, &ok, &(vt_tonemap_desc){.exposure_ev = 65}, out, 8), VT_ERR_INVALID);
     assert_int_equal(vt_image_rgba8_size(3, 5), 60);
     assert_int_equal(vt_image_rgba8_size(0, 5), 0);
     assert_int_equal(vt_image_rgba8_size(VT_IMAGE_MAX_DIM, VT_IMAGE_MAX_DIM),
@@ -802,11 +802,11 @@ static void test_image_png_reader_formats(void **state)
     assert_int_equal(vt_png_read(t.path, &got, &w, &h, NULL, err, sizeof err), 0);
     for (int i = 0; i < 4; i++) assert_int_equal(got[i * 4], i * 85);
     free(got);
-    /* too big: -EFBIG before any allocation (the IDAT is not even valid) */
+    /* too big: VT_ERR_TOO_LARGE before any allocation (the IDAT is not even valid) */
     make_png(&o, VT_IMAGE_MAX_DIM + 1, 1, 8, 0, NULL, 0, NULL, 0, g8, 2);
     write_bytes(tdir_file(&t, "big.png"), o.b, o.n);
     got = (uint8_t *)1;
-    assert_int_equal(vt_png_read(t.path, &got, &w, &h, &alpha, err, sizeof err), -EFBIG);
+    assert_int_equal(vt_png_read(t.path, &got, &w, &h, &alpha, err, sizeof err), VT_ERR_TOO_LARGE);
     assert_null(got);
     assert_true(w == 0 && h == 0);
     assert_non_null(strstr(err, t.path));
@@ -814,7 +814,7 @@ static void test_image_png_reader_formats(void **state)
     make_png(&o, 3, 2, 8, 0, NULL, 0, NULL, 0, g8, sizeof g8);
     o.b[8 + 8 + 13] ^= 1;
     write_bytes(tdir_file(&t, "crc.png"), o.b, o.n);
-    assert_int_equal(vt_png_read(t.path, &got, &w, &h, &alpha, err, sizeof err), -EBADMSG);
+    assert_int_equal(vt_png_read(t.path, &got, &w, &h, &alpha, err, sizeof err), VT_ERR_CORRUPT);
     tdir_remove(&t);
 }
 
@@ -913,7 +913,7 @@ static void test_image_jpeg_details(void **state)
     /* truncated: libjpeg would warn and pad with grey; here it is an error */
     for (size_t cut = 2; cut < na; cut += na / 7) {
         dec = (uint8_t *)1;
-        assert_int_equal(vt_jpeg_decode(a, cut, &dec, &rw, &rh, err, sizeof err), -EBADMSG);
+        assert_int_equal(vt_jpeg_decode(a, cut, &dec, &rw, &rh, err, sizeof err), VT_ERR_CORRUPT);
         assert_null(dec);
         assert_true(strncmp(err, "<memory>: ", 10) == 0);
     }
@@ -921,17 +921,17 @@ static void test_image_jpeg_details(void **state)
     rng r = {test_seed() ^ 0x1BE6};
     uint8_t junk[600];
     for (size_t i = 0; i < sizeof junk; i++) junk[i] = (uint8_t)rng_u64(&r);
-    assert_int_equal(vt_jpeg_decode(junk, sizeof junk, &dec, &rw, &rh, err, sizeof err), -EBADMSG);
+    assert_int_equal(vt_jpeg_decode(junk, sizeof junk, &dec, &rw, &rh, err, sizeof err), VT_ERR_CORRUPT);
     junk[0] = 0xFF, junk[1] = 0xD8;
-    assert_int_equal(vt_jpeg_decode(junk, sizeof junk, &dec, &rw, &rh, err, sizeof err), -EBADMSG);
-    assert_int_equal(vt_jpeg_decode(a, 0, &dec, &rw, &rh, err, sizeof err), -EBADMSG);
+    assert_int_equal(vt_jpeg_decode(junk, sizeof junk, &dec, &rw, &rh, err, sizeof err), VT_ERR_CORRUPT);
+    assert_int_equal(vt_jpeg_decode(a, 0, &dec, &rw, &rh, err, sizeof err), VT_ERR_CORRUPT);
     /* corrupt entropy-coded data somewhere in the middle */
     uint8_t *c = malloc(na);
     assert_non_null(c);
     memcpy(c, a, na);
     for (size_t i = na / 2; i < na / 2 + 40; i++) c[i] = 0xFF;
     int rc = vt_jpeg_decode(c, na, &dec, &rw, &rh, err, sizeof err);
-    assert_true(rc == -EBADMSG);
+    assert_true(rc == VT_ERR_CORRUPT);
     assert_null(dec);
     free(c);
     free(a);
@@ -982,7 +982,7 @@ static void test_image_large(void **state)
 
 /* ---- failures -------------------------------------------------------------------- */
 
-/* Bad arguments to the writers: -EINVAL, a message, nothing on disk. A
+/* Bad arguments to the writers: VT_ERR_INVALID, a message, nothing on disk. A
  * row: the path, the size, the pixels (or none), the stride, and the PNG
  * level or the JPEG bytes a pixel and quality. */
 #define M VT_IMAGE_MAX_DIM
@@ -1018,7 +1018,7 @@ static void test_image_png_bad_args(void **state)
     char err[256] = "unchanged";
     assert_int_equal(vt_png_write(tdir_path_arg(&t, r->path, "bad.img"), r->w, r->h, r->no_px ? NULL : px, r->stride,
                                   true, r->level, err, sizeof err),
-                     -EINVAL);
+                     VT_ERR_INVALID);
     assert_true(strlen(err) > 0 && strcmp(err, "unchanged") != 0);
     assert_int_equal(tdir_count(&t), 0);
     tdir_remove(&t);
@@ -1063,14 +1063,14 @@ static void test_image_jpeg_bad_args(void **state)
     char err[256] = "unchanged";
     assert_int_equal(vt_jpeg_write(tdir_path_arg(&t, r->path, "bad.img"), r->w, r->h, src, r->stride, r->bpp, r->q,
                                    err, sizeof err),
-                     -EINVAL);
+                     VT_ERR_INVALID);
     assert_true(strlen(err) > 0 && strcmp(err, "unchanged") != 0);
     assert_int_equal(tdir_count(&t), 0);
     if (r->path == TPATH_FILE) {
         uint8_t *out = (uint8_t *)1;
         size_t n = 1;
         assert_int_equal(vt_jpeg_encode(r->w, r->h, src, r->stride, r->bpp, r->q, &out, &n, err, sizeof err),
-                         -EINVAL);
+                         VT_ERR_INVALID);
         assert_null(out);
         assert_int_equal(n, 0);
     }
@@ -1087,22 +1087,22 @@ static void test_image_null_args(void **state)
     const char *p = tdir_file(&t, "bad.img");
     uint8_t *out;
     size_t n;
-    assert_int_equal(vt_jpeg_encode(2, 2, px, 6, 3, 85, NULL, &n, NULL, 0), -EINVAL);
-    assert_int_equal(vt_jpeg_encode(2, 2, px, 6, 3, 85, &out, NULL, NULL, 0), -EINVAL);
+    assert_int_equal(vt_jpeg_encode(2, 2, px, 6, 3, 85, NULL, &n, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_jpeg_encode(2, 2, px, 6, 3, 85, &out, NULL, NULL, 0), VT_ERR_INVALID);
     /* tiny and absent error buffers */
     char tiny[4];
-    assert_int_equal(vt_png_write(p, 0, 2, px, 8, true, 6, tiny, sizeof tiny), -EINVAL);
+    assert_int_equal(vt_png_write(p, 0, 2, px, 8, true, 6, tiny, sizeof tiny), VT_ERR_INVALID);
     assert_true(strlen(tiny) < sizeof tiny);
-    assert_int_equal(vt_png_write(p, 0, 2, px, 8, true, 6, NULL, 0), -EINVAL);
-    assert_int_equal(vt_jpeg_write(p, 0, 2, px, 8, 3, 85, tiny, 0), -EINVAL);
+    assert_int_equal(vt_png_write(p, 0, 2, px, 8, true, 6, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_jpeg_write(p, 0, 2, px, 8, 3, 85, tiny, 0), VT_ERR_INVALID);
     /* readers */
     uint32_t w, h;
-    assert_int_equal(vt_png_read(NULL, &out, &w, &h, NULL, NULL, 0), -EINVAL);
-    assert_int_equal(vt_png_read(p, NULL, &w, &h, NULL, NULL, 0), -EINVAL);
-    assert_int_equal(vt_png_read(p, &out, NULL, &h, NULL, NULL, 0), -EINVAL);
-    assert_int_equal(vt_jpeg_read(NULL, &out, &w, &h, NULL, 0), -EINVAL);
-    assert_int_equal(vt_jpeg_decode(NULL, 4, &out, &w, &h, NULL, 0), -EINVAL);
-    assert_int_equal(vt_jpeg_decode(px, 4, NULL, &w, &h, NULL, 0), -EINVAL);
+    assert_int_equal(vt_png_read(NULL, &out, &w, &h, NULL, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_png_read(p, NULL, &w, &h, NULL, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_png_read(p, &out, NULL, &h, NULL, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_jpeg_read(NULL, &out, &w, &h, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_jpeg_decode(NULL, 4, &out, &w, &h, NULL, 0), VT_ERR_INVALID);
+    assert_int_equal(vt_jpeg_decode(px, 4, NULL, &w, &h, NULL, 0), VT_ERR_INVALID);
     assert_int_equal(tdir_count(&t), 0);
     tdir_remove(&t);
 }
@@ -1127,16 +1127,16 @@ static void test_image_bad_path(void **state)
     /* readers: missing file, directory, not an image */
     uint8_t *out;
     uint32_t w, h;
-    assert_int_equal(vt_png_read(tdir_file(&t, "none.png"), &out, &w, &h, NULL, err, sizeof err), -ENOENT);
+    assert_int_equal(vt_png_read(tdir_file(&t, "none.png"), &out, &w, &h, NULL, err, sizeof err), VT_ERR_NOT_FOUND);
     assert_non_null(strstr(err, t.path));
-    assert_int_equal(vt_jpeg_read(t.path, &out, &w, &h, err, sizeof err), -ENOENT);
+    assert_int_equal(vt_jpeg_read(t.path, &out, &w, &h, err, sizeof err), VT_ERR_NOT_FOUND);
     write_bytes(tdir_file(&t, "text.png"), "this is text, not a PNG or a JPEG\n", 34);
-    assert_int_equal(vt_png_read(t.path, &out, &w, &h, NULL, err, sizeof err), -EBADMSG);
+    assert_int_equal(vt_png_read(t.path, &out, &w, &h, NULL, err, sizeof err), VT_ERR_CORRUPT);
     assert_non_null(strstr(err, t.path));
-    assert_int_equal(vt_jpeg_read(t.path, &out, &w, &h, err, sizeof err), -EBADMSG);
+    assert_int_equal(vt_jpeg_read(t.path, &out, &w, &h, err, sizeof err), VT_ERR_CORRUPT);
     write_bytes(tdir_file(&t, "empty"), "", 0);
-    assert_int_equal(vt_png_read(t.path, &out, &w, &h, NULL, err, sizeof err), -EBADMSG);
-    assert_int_equal(vt_jpeg_read(t.path, &out, &w, &h, err, sizeof err), -EBADMSG);
+    assert_int_equal(vt_png_read(t.path, &out, &w, &h, NULL, err, sizeof err), VT_ERR_CORRUPT);
+    assert_int_equal(vt_jpeg_read(t.path, &out, &w, &h, err, sizeof err), VT_ERR_CORRUPT);
     tdir_remove(&t);
 }
 
@@ -1189,7 +1189,7 @@ static void test_image_failed_write_keeps_old(void **state)
         uint8_t *out = (uint8_t *)1;
         uint32_t rw = 1, rh = 1;
         char err[512];
-        assert_int_equal(vt_png_read(t.path, &out, &rw, &rh, NULL, err, sizeof err), -EBADMSG);
+        assert_int_equal(vt_png_read(t.path, &out, &rw, &rh, NULL, err, sizeof err), VT_ERR_CORRUPT);
         assert_true(out == NULL && rw == 0 && rh == 0);
     }
     free(noise);

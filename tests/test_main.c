@@ -38,6 +38,7 @@ int main(void)
         {bench_tests, bench_tests_count},
         {validate_tests, validate_tests_count},
         {cli_tests, cli_tests_count},
+        {errmap_tests, errmap_tests_count},
     };
     /* TEST_ROWS entries become one test per row (test_util.h) */
     size_t total = 0;

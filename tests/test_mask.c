@@ -12,7 +12,7 @@
 #include "test_util.h"
 
 #include "occ_ref.h"
-#include "vt_glr.h"
+#include "vt_gldraw.h"
 #include "vt_mask.h"
 #include "vt_shade.h"
 #include "vt_soft.h"
@@ -97,7 +97,7 @@ typedef struct rend {
     const char *name;
     vt_soft *soft;
     vt_gl *g;
-    vt_glr *gl;
+    vt_gldraw *gl;
 } rend;
 
 static int rend_draw(const rend *r, const cull_view *v, uint32_t w, uint32_t h, const vt_mesh *m,
@@ -105,7 +105,7 @@ static int rend_draw(const rend *r, const cull_view *v, uint32_t w, uint32_t h, 
 {
     char err[256];
     int rc = r->soft ? vt_soft_render(r->soft, v, w, h, m, 1, in, n, NULL, 0, rgba, depth, w, NULL, err, sizeof err)
-                     : vt_glr_render(r->gl, v, w, h, m, 1, in, n, NULL, 0, rgba, depth, w, NULL, err, sizeof err);
+                     : vt_gldraw_render(r->gl, v, w, h, m, 1, in, n, NULL, 0, rgba, depth, w, NULL, err, sizeof err);
     if (rc) fprintf(stderr, "%s: %s\n", r->name, err);
     return rc;
 }
@@ -121,7 +121,7 @@ static uint32_t rends_open(rend rs[2])
         fprintf(stderr, "no GL here, the GL renderer's masks are not checked: %s\n", err);
         return 1;
     }
-    assert_int_equal(vt_glr_create(rs[1].g, &rs[1].gl, err, sizeof err), 0);
+    assert_int_equal(vt_gldraw_create(rs[1].g, &rs[1].gl, err, sizeof err), 0);
     rs[1].name = "gl";
     return 2;
 }
@@ -130,7 +130,7 @@ static void rends_close(rend rs[2], uint32_t n)
 {
     vt_soft_destroy(rs[0].soft);
     if (n > 1) {
-        vt_glr_destroy(rs[1].gl);
+        vt_gldraw_destroy(rs[1].gl);
         vt_gl_close(rs[1].g);
     }
 }
@@ -249,7 +249,7 @@ static void test_mask_matches_reference(void **state)
 /* A 4 m box with a hole in its front face: through it, the back wall's
  * inside (its back face, turned over: depth of the back wall, the albedo
  * times VT_MASK_INTERIOR); beside it, the front face as before. A broken
- * volume is refused with -EINVAL before anything is drawn. */
+ * volume is refused with VT_ERR_INVALID before anything is drawn. */
 static void test_mask_inside_shows(void **state)
 {
     (void)state;
@@ -292,9 +292,9 @@ static void test_mask_inside_shows(void **state)
             char err[256] = "";
             int rc = rs[ri].soft ? vt_soft_render(rs[ri].soft, &v, W, H, &cube, 1, &in, 1, NULL, 0, c, d, W, NULL, err,
                                                   sizeof err)
-                                 : vt_glr_render(rs[ri].gl, &v, W, H, &cube, 1, &in, 1, NULL, 0, c, d, W, NULL, err,
-                                                 sizeof err);
-            assert_int_equal(rc, -EINVAL);
+                                 : vt_gldraw_render(rs[ri].gl, &v, W, H, &cube, 1, &in, 1, NULL, 0, c, d, W, NULL, err,
+                                                    sizeof err);
+            assert_int_equal(rc, VT_ERR_INVALID);
             assert_non_null(strstr(err, "bad destruction volume"));
             for (size_t q = 0; q < (size_t)W * H; q++) assert_true(d[q] == -7.0f);
         }

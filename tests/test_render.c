@@ -10,9 +10,9 @@
 #include "test_util.h"
 
 #include "occ_ref.h"
-#include "vt_glr.h"
+#include "vt_gldraw.h"
 #include "vt_soft.h"
-#include "vt_frame.h"
+#include "vt_picture.h"
 #include "vt_shade.h"
 #include <errno.h>
 #include <stdio.h>
@@ -130,31 +130,31 @@ static void test_soft_bad_input(void **state)
     char err[256];
     uint32_t bad_idx[3] = {0, 1, 9};
     vt_mesh m = {.pos = cube_pos, .idx = bad_idx, .nv = 8, .ni = 3};
-    assert_int_equal(vt_mesh_check(&m, err, sizeof err), -EINVAL);
+    assert_int_equal(vt_mesh_check(&m, err, sizeof err), VT_ERR_INVALID);
     assert_non_null(strstr(err, "index"));
     float nanpos[9] = {0, 0, 0, 1, 0, 0, 0, NAN, 0};
     uint32_t idx3[3] = {0, 1, 2};
     vt_mesh m2 = {.pos = nanpos, .idx = idx3, .nv = 3, .ni = 3};
-    assert_int_equal(vt_mesh_check(&m2, err, sizeof err), -EINVAL);
+    assert_int_equal(vt_mesh_check(&m2, err, sizeof err), VT_ERR_INVALID);
     cull_view v;
     test_view_look_range(&v, (double[3]){0, 0, 0}, (double[3]){0, 0, -1}, 8, 8, 0.1, 100);
     float rgba[8 * 8 * 4], depth[64];
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
     vt_instance in = {.mesh = 3};
     assert_int_equal(vt_soft_render(sr, &v, 8, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
-                     -EINVAL);
+                     VT_ERR_INVALID);
     in.mesh = 0;
     assert_int_equal(vt_soft_render(sr, &v, 0, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
-                     -EINVAL);
+                     VT_ERR_INVALID);
     in.bmin[0] = NAN;
     assert_int_equal(vt_soft_render(sr, &v, 8, 8, &cube, 1, &in, 1, NULL, 0, rgba, depth, 8, NULL, err, sizeof err),
-                     -EINVAL);
+                     VT_ERR_INVALID);
     /* both renderers refuse every bad input the same way, with a reason,
        and leave the caller's buffers as they were */
     vt_gl *g = NULL;
-    vt_glr *gr = NULL;
+    vt_gldraw *gr = NULL;
     char gerr[512];
-    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_glr_create(g, &gr, gerr, sizeof gerr), 0);
+    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_gldraw_create(g, &gr, gerr, sizeof gerr), 0);
     vt_instance good = {.mesh = 0, .bmin = {-1, -1, -5}, .bmax = {1, 1, -3}}, bad_bounds = good;
     bad_bounds.bmin[2] = -2; /* min above max */
     vt_light nan_light = {.l = {.pos = {0, 0, NAN}, .radius = 5}};
@@ -176,16 +176,16 @@ static void test_soft_bad_input(void **state)
         for (int path = 0; path < (gr ? 2 : 1); path++) {
             for (size_t i = 0; i < 64; i++) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = depth[i] = 7;
             err[0] = 0;
-            int rc = path ? vt_glr_render(gr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
-                                          depth, 8, NULL, err, sizeof err)
+            int rc = path ? vt_gldraw_render(gr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
+                                             depth, 8, NULL, err, sizeof err)
                           : vt_soft_render(sr, &v, 8, 8, cases[c].m, 1, cases[c].in, 1, cases[c].l, cases[c].nl, rgba,
                                            depth, 8, NULL, err, sizeof err);
-            assert_int_equal(rc, -EINVAL);
+            assert_int_equal(rc, VT_ERR_INVALID);
             if (!strstr(err, cases[c].why)) fail_msg("case %zu, %s: \"%s\"", c, path ? "gl" : "soft", err);
             for (size_t i = 0; i < 64; i++) assert_true(rgba[4 * i] == 7 && depth[i] == 7);
         }
     }
-    vt_glr_destroy(gr);
+    vt_gldraw_destroy(gr);
     vt_gl_close(g);
     vt_soft_destroy(sr);
 }
@@ -197,7 +197,7 @@ static double adv_term(rng *r)
     return rng_below(r, 2) ? t : -t;
 }
 
-/* Views every check accepts (cull_view_init, vt_frame_check) but built to
+/* Views every check accepts (cull_view_init, vt_picture_check) but built to
  * break the renderers' arithmetic: the issue's 1e30 in element 5 (the
  * clip y scale), tiny and huge cross terms elsewhere, near 1e-6 and far
  * 1e30, the eye on a box's face plane; lights with tiny and huge ranges.
@@ -214,9 +214,9 @@ static void test_renderers_adversarial_views(void **state)
     vt_soft *sr;
     assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
     vt_gl *g = NULL;
-    vt_glr *gr = NULL;
+    vt_gldraw *gr = NULL;
     char gerr[512];
-    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_glr_create(g, &gr, gerr, sizeof gerr), 0);
+    if (vt_gl_open(&g, NULL, gerr, sizeof gerr) == 0) assert_int_equal(vt_gldraw_create(g, &gr, gerr, sizeof gerr), 0);
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
     /* first the issue's view itself, over many boxes: the eye at y = 0,
        looking along +z, 1e30 in element 5, 48 boxes straddling y = 0.
@@ -312,7 +312,8 @@ static void test_renderers_adversarial_views(void **state)
         assert_non_null(depth);
         for (int path = 0; path < (gr ? 2 : 1); path++) {
             char err[256] = "";
-            int rc = path ? vt_glr_render(gr, &v, w, h, &cube, 1, in, n, L, nl, rgba, depth, w, NULL, err, sizeof err)
+            int rc = path ? vt_gldraw_render(gr, &v, w, h, &cube, 1, in, n, L, nl, rgba, depth, w, NULL, err,
+                                             sizeof err)
                           : vt_soft_render(sr, &v, w, h, &cube, 1, in, n, L, nl, rgba, depth, w, NULL, err, sizeof err);
             if (rc == 0) {
                 rendered++;
@@ -324,7 +325,7 @@ static void test_renderers_adversarial_views(void **state)
             }
             /* a refusal names its reason */
             refused++;
-            assert_int_equal(rc, -EINVAL);
+            assert_int_equal(rc, VT_ERR_INVALID);
             assert_true(err[0] != 0);
         }
         free(rgba);
@@ -333,7 +334,7 @@ static void test_renderers_adversarial_views(void **state)
     fprintf(stderr, "adversarial frames: %u views tried, %u renders, %u refused (%s)\n", tried, rendered, refused,
             gr ? "soft and gl" : "soft; no GL context");
     assert_true(rendered * 2 > tried); /* most of them were drawn */
-    vt_glr_destroy(gr);
+    vt_gldraw_destroy(gr);
     vt_gl_close(g);
     vt_soft_destroy(sr);
 }
@@ -518,8 +519,8 @@ static void test_soft_and_gl_agree(void **state)
         fprintf(stderr, "no GL here, cross-check skipped: %s\n", err);
         skip();
     }
-    vt_glr *gr;
-    assert_int_equal(vt_glr_create(g, &gr, err, sizeof err), 0);
+    vt_gldraw *gr;
+    assert_int_equal(vt_gldraw_create(g, &gr, err, sizeof err), 0);
     vt_soft *sr;
     assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
     rng r = {test_seed() ^ 0x61u};
@@ -543,7 +544,7 @@ static void test_soft_and_gl_agree(void **state)
         /* odd frames: the cube with smooth corner normals (GL draws it indexed) */
         const vt_mesh *mesh = f % 2 ? &smooth : &cube;
         assert_int_equal(vt_soft_render(sr, &v, w, h, mesh, 1, in, n, L, nl, c1, d1, w, NULL, err, sizeof err), 0);
-        int grc = vt_glr_render(gr, &v, w, h, mesh, 1, in, n, L, nl, c2, d2, w, NULL, err, sizeof err);
+        int grc = vt_gldraw_render(gr, &v, w, h, mesh, 1, in, n, L, nl, c2, d2, w, NULL, err, sizeof err);
         if (grc) fprintf(stderr, "gl render: %s\n", err);
         assert_int_equal(grc, 0);
         for (uint32_t y = 0; y < h; y++)
@@ -593,7 +594,7 @@ static void test_soft_and_gl_agree(void **state)
     assert_true(cov_diff * 1000 <= pixels);
     assert_true(depth_bad * 1000 <= both);
     assert_true(color_bad * 1000 <= compared);
-    vt_glr_destroy(gr);
+    vt_gldraw_destroy(gr);
     vt_soft_destroy(sr);
     vt_gl_close(g);
 }

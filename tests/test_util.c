@@ -2,6 +2,7 @@
  * test_util.c — helpers more than one test file needs.
  */
 #include "test_util.h"
+#include "vt_err.h" /* the writers' codes the helpers below assert */
 
 #include <dirent.h>
 #include <errno.h>
@@ -188,17 +189,19 @@ void test_unwritable_paths(tdir *t, test_write_fn write, void *ctx, const char *
 {
     char err[512], name[64];
     snprintf(t->path, sizeof t->path, "%s/missing/x%s", t->dir, ext);
-    assert_int_equal(write(t->path, err, sizeof err, ctx), -ENOENT);
+    assert_int_equal(write(t->path, err, sizeof err, ctx), VT_ERR_NOT_FOUND);
     assert_non_null(strstr(err, t->path));
     /* the parent is a file */
     snprintf(name, sizeof name, "f%s", ext);
     assert_int_equal(write(tdir_file(t, name), err, sizeof err, ctx), 0);
     snprintf(t->path, sizeof t->path, "%s/f%s/x%s", t->dir, ext, ext);
-    assert_int_equal(write(t->path, err, sizeof err, ctx), -ENOTDIR);
+    assert_int_equal(write(t->path, err, sizeof err, ctx), VT_ERR_FILE);
+    assert_non_null(strstr(err, strerror(ENOTDIR))); /* errno's text names the cause */
     /* the target is a directory: written, then the rename fails */
     snprintf(name, sizeof name, "d%s", ext);
     assert_int_equal(mkdir(tdir_file(t, name), 0700), 0);
-    assert_int_equal(write(t->path, err, sizeof err, ctx), -EISDIR);
+    assert_int_equal(write(t->path, err, sizeof err, ctx), VT_ERR_FILE);
+    assert_non_null(strstr(err, strerror(EISDIR)));
     assert_true(strlen(err) > 0);
     assert_int_equal(tdir_count(t), 2); /* f, d: no temporary left */
     assert_int_equal(rmdir(t->path), 0);
@@ -215,7 +218,9 @@ void test_write_past_fsize(test_write_fn write, const char *path, void *ctx)
         struct rlimit lim = {64 << 10, 64 << 10};
         signal(SIGXFSZ, SIG_IGN);
         char err[512] = "";
-        int ok = setrlimit(RLIMIT_FSIZE, &lim) == 0 && write(path, err, sizeof err, ctx) == -EFBIG && strlen(err) > 0;
+        /* the file system's EFBIG: VT_ERR_FILE, its text in the message */
+        int ok = setrlimit(RLIMIT_FSIZE, &lim) == 0 && write(path, err, sizeof err, ctx) == VT_ERR_FILE &&
+                 strstr(err, strerror(EFBIG)) != NULL;
         _exit(ok ? 0 : 1);
     }
     int status = 0;
@@ -225,7 +230,7 @@ void test_write_past_fsize(test_write_fn write, const char *path, void *ctx)
 
 bool test_refused_naming(int rc, const char *err, const char *path)
 {
-    return rc == -EBADMSG && strncmp(err, path, strlen(path)) == 0;
+    return rc == VT_ERR_CORRUPT && strncmp(err, path, strlen(path)) == 0;
 }
 
 void test_threads_in_tdir(const char *prefix, const char *ext, void *(*fn)(void *), int n, int per_thread)

@@ -83,15 +83,16 @@ const char *tdir_path_arg(tdir *t, test_path k, const char *name);
  * a message in err. */
 typedef int (*test_write_fn)(const char *path, char *err, size_t errlen, void *ctx);
 /* Places a writer cannot write fail with the file system's errno and
- * leave nothing behind: a missing folder (-ENOENT, the message names the
- * path), a parent that is a file (-ENOTDIR), a target that is a folder
- * (-EISDIR: written, then the rename fails; no temporary left). The
+ * leave nothing behind: a missing folder (VT_ERR_NOT_FOUND, the message
+ * names the path), a parent that is a file (VT_ERR_FILE, strerror(ENOTDIR)
+ * in the message), a target that is a folder (VT_ERR_FILE, EISDIR's text:
+ * written, then the rename fails; no temporary left). The
  * files are f<ext>, d<ext> and x<ext>; t is empty again after. */
 void test_unwritable_paths(tdir *t, test_write_fn write, void *ctx, const char *ext);
 
 /* write(path, ctx) in a child process whose files may grow to 64 KiB
  * (RLIMIT_FSIZE, SIGXFSZ ignored: a full disk); asserts that it failed
- * with -EFBIG and a message. */
+ * with VT_ERR_FILE and strerror(EFBIG) in the message. */
 void test_write_past_fsize(test_write_fn write, const char *path, void *ctx);
 
 /* Threads writing and failing at once in one fresh folder (named after
@@ -105,7 +106,7 @@ typedef struct test_thread {
 } test_thread;
 void test_threads_in_tdir(const char *prefix, const char *ext, void *(*fn)(void *), int n, int per_thread);
 /* A refusal of a file that is no image, as the threads must see it:
- * -EBADMSG, and the message begins with the file's path. */
+ * VT_ERR_CORRUPT, and the message begins with the file's path. */
 bool test_refused_naming(int rc, const char *err, const char *path);
 
 /* Runs cmd with popen; its stdout (up to cap - 1 bytes, NUL-ended) in
@@ -168,5 +169,6 @@ TEST_GROUP(gl_tests)
 TEST_GROUP(sublevel_tests)
 TEST_GROUP(destruct_tests)
 TEST_GROUP(validate_tests)
+TEST_GROUP(errmap_tests)
 
 #endif

@@ -166,7 +166,7 @@ static int write_frame(const char *path, out_kind k, const vp_frame *fr, double 
         uint8_t *rgb8 = malloc(vt_image_rgba8_size(fr->width, fr->height));
         vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}};
         vt_tonemap_desc td = {.exposure_ev = (float)ev, .op = VT_TONEMAP_ACES};
-        wrc = !rgb8 ? -ENOMEM : vt_image_tonemap(fr->width, fr->height, &src, &td, rgb8, 4 * (size_t)fr->width);
+        wrc = !rgb8 ? VT_ERR_NOMEM : vt_image_tonemap(fr->width, fr->height, &src, &td, rgb8, 4 * (size_t)fr->width);
         if (!wrc) wrc = vt_png_write(path, fr->width, fr->height, rgb8, 4 * (size_t)fr->width, false, 6, err, sizeof err);
         else snprintf(err, sizeof err, "tone mapping failed");
         free(rgb8);

@@ -515,10 +515,10 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     static const pad_hub_opts none;
     if (!o) o = &none;
     *out = NULL;
-    vp_errf(err, errlen, "%s", "");
+    vp_errf(err, errlen, -1, "%s", "");
     pad_hub *h = calloc(1, sizeof *h);
     if (!h) {
-        vp_errf(err, errlen, "out of memory");
+        vp_errf(err, errlen, -1, "out of memory");
         return -1;
     }
     h->efd = -1;
@@ -527,7 +527,7 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     pthread_mutex_init(&h->pmu, NULL);
     pthread_mutex_init(&h->rmu, NULL);
     if (cond_init_mono(&h->wake) || cond_init_mono(&h->drained)) {
-        vp_errf(err, errlen, "pthread_cond_init failed");
+        vp_errf(err, errlen, -1, "pthread_cond_init failed");
         free(h);
         return -1;
     }
@@ -539,22 +539,22 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     h->loop = o->replay_loop;
     h->rec_last = -1;
     if (!queue_grow(h)) {
-        vp_errf(err, errlen, "out of memory");
+        vp_errf(err, errlen, -1, "out of memory");
         goto fail;
     }
     h->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
     if (h->efd < 0) {
-        vp_errf(err, errlen, "eventfd: %s", strerror(errno));
+        vp_errf(err, errlen, -1, "eventfd: %s", strerror(errno));
         goto fail;
     }
     if (o->replay) {
         /* no library is touched: a replay works where no pad could */
         if (!(h->replay = strdup(o->replay))) {
-            vp_errf(err, errlen, "out of memory");
+            vp_errf(err, errlen, -1, "out of memory");
             goto fail;
         }
         if (o->record && !strcmp(o->record, o->replay)) {
-            vp_errf(err, errlen, "%s: recording into the file being replayed", o->record);
+            vp_errf(err, errlen, -1, "%s: recording into the file being replayed", o->record);
             goto fail;
         }
         if (pad_replay_load(h, err, errlen)) goto fail;
@@ -567,7 +567,7 @@ int pad_hub_open(const pad_hub_opts *o, pad_hub **out, char *err, size_t errlen)
     }
     int rc = pthread_create(&h->thread, NULL, h->replay ? pad_replay_main : hub_main, h);
     if (rc) {
-        vp_errf(err, errlen, "%s thread: %s", h->replay ? "replay" : "hub", strerror(rc));
+        vp_errf(err, errlen, -1, "%s thread: %s", h->replay ? "replay" : "hub", strerror(rc));
         goto fail;
     }
     h->thread_started = true;
@@ -604,17 +604,18 @@ int pad_hub_counts(pad_hub *h, uint32_t pad, pad_counts *out)
 int pad_enumerate(const pad_ops *ops, pad_found *out, size_t max, char *err, size_t errlen)
 {
     if (!ops) ops = pad_ops_real();
-    vp_errf(err, errlen, "%s", "");
+    vp_errf(err, errlen, -1, "%s", "");
     size_t n = 0;
     char hid_why[128] = "", usb_why[128] = "";
     bool hid_ok = pad_hid_list(ops, out, max, &n, hid_why, sizeof hid_why);
     bool usb_ok = pad_usb_list(ops, out, max, &n, usb_why, sizeof usb_why);
     if (!hid_ok && !usb_ok) {
-        vp_errf(err, errlen, "neither hidapi (%s) nor libusb (%s) would start", hid_why[0] ? hid_why : "?", usb_why);
+        vp_errf(err, errlen, -1, "neither hidapi (%s) nor libusb (%s) would start",
+                hid_why[0] ? hid_why : "?", usb_why);
         return -1;
     }
     if (!hid_ok)
-        vp_errf(err, errlen, "hidapi would not start (%s): hidraw pads not listed", hid_why[0] ? hid_why : "?");
-    if (!usb_ok) vp_errf(err, errlen, "libusb would not start (%s): USB (Xbox) pads not listed", usb_why);
+        vp_errf(err, errlen, -1, "hidapi would not start (%s): hidraw pads not listed", hid_why[0] ? hid_why : "?");
+    if (!usb_ok) vp_errf(err, errlen, -1, "libusb would not start (%s): USB (Xbox) pads not listed", usb_why);
     return n > (size_t)INT32_MAX ? INT32_MAX : (int)n;
 }

@@ -105,15 +105,15 @@ static bool parse_hex(const char *tok, size_t tlen, size_t maxdig, uint32_t *v)
 static int parse_time(const char *tok, size_t tlen, double *t, char *err, size_t errlen)
 {
     char sh[80];
-    if (tlen && tok[0] == '-') return vp_errf(err, errlen, "E: the time is negative: '%s'", show(tok, tlen, sh));
+    if (tlen && tok[0] == '-') return vp_errf(err, errlen, -1, "E: the time is negative: '%s'", show(tok, tlen, sh));
     size_t i = 0;
     uint64_t sec = 0;
     while (i < tlen && is_digit(tok[i])) {
         sec = sec * 10 + (uint64_t)(tok[i] - '0');
-        if (sec >= SEC_LIMIT) return vp_errf(err, errlen, "E: the time is too large (at most 999999999.999999 s)");
+        if (sec >= SEC_LIMIT) return vp_errf(err, errlen, -1, "E: the time is too large (at most 999999999.999999 s)");
         i++;
     }
-    if (i == 0) return vp_errf(err, errlen, "E: the time is not a number of seconds: '%s'", show(tok, tlen, sh));
+    if (i == 0) return vp_errf(err, errlen, -1, "E: the time is not a number of seconds: '%s'", show(tok, tlen, sh));
     uint32_t usec = 0;
     if (i < tlen && tok[i] == '.') {
         i++;
@@ -126,14 +126,16 @@ static int parse_time(const char *tok, size_t tlen, double *t, char *err, size_t
             digits++;
             i++;
         }
-        if (i == first) return vp_errf(err, errlen, "E: the time has no digits after '.': '%s'", show(tok, tlen, sh));
+        if (i == first)
+            return vp_errf(err, errlen, -1, "E: the time has no digits after '.': '%s'", show(tok, tlen, sh));
         for (; digits < 6; digits++) usec *= 10;
         if (round_up && ++usec == 1000000) {
             usec = 0;
-            if (++sec >= SEC_LIMIT) return vp_errf(err, errlen, "E: the time is too large (at most 999999999.999999 s)");
+            if (++sec >= SEC_LIMIT)
+                return vp_errf(err, errlen, -1, "E: the time is too large (at most 999999999.999999 s)");
         }
     }
-    if (i != tlen) return vp_errf(err, errlen, "E: the time is not a number of seconds: '%s'", show(tok, tlen, sh));
+    if (i != tlen) return vp_errf(err, errlen, -1, "E: the time is not a number of seconds: '%s'", show(tok, tlen, sh));
     *t = (double)sec + (double)usec / 1e6;
     return 0;
 }
@@ -145,23 +147,25 @@ static int parse_bytes(cursor *c, char tag, size_t max, uint8_t *data, uint16_t 
     const char *tok;
     size_t tlen;
     uint64_t want;
-    if (!next_token(c, &tok, &tlen)) return vp_errf(err, errlen, "%c: the length is missing", tag);
+    if (!next_token(c, &tok, &tlen)) return vp_errf(err, errlen, -1, "%c: the length is missing", tag);
     if (!parse_dec(tok, tlen, UINT64_MAX / 16, &want))
-        return vp_errf(err, errlen, "%c: the length is not a decimal number: '%s'", tag, show(tok, tlen, sh));
-    if (want > max) return vp_errf(err, errlen, "%c: the length %llu is over %zu", tag, (unsigned long long)want, max);
-    if (want == 0 && tag == 'E') return vp_errf(err, errlen, "E: the length is 0 (a report has at least one byte)");
+        return vp_errf(err, errlen, -1, "%c: the length is not a decimal number: '%s'", tag, show(tok, tlen, sh));
+    if (want > max)
+        return vp_errf(err, errlen, -1, "%c: the length %llu is over %zu", tag, (unsigned long long)want, max);
+    if (want == 0 && tag == 'E') return vp_errf(err, errlen, -1, "E: the length is 0 (a report has at least one byte)");
     size_t got = 0;
     while (next_token(c, &tok, &tlen)) {
         uint32_t v;
         if (!parse_hex(tok, tlen, 2, &v))
-            return vp_errf(err, errlen, "%c: byte %zu is not a hex byte: '%s'", tag, got + 1, show(tok, tlen, sh));
+            return vp_errf(err, errlen, -1, "%c: byte %zu is not a hex byte: '%s'", tag, got + 1, show(tok, tlen, sh));
         if (got == want)
-            return vp_errf(err, errlen, "%c: the length is %llu but more bytes follow", tag, (unsigned long long)want);
+            return vp_errf(err, errlen, -1, "%c: the length is %llu but more bytes follow",
+                           tag, (unsigned long long)want);
         if (data) data[got] = (uint8_t)v;
         got++;
     }
     if (got != want)
-        return vp_errf(err, errlen, "%c: the length is %llu but %zu %s", tag, (unsigned long long)want, got,
+        return vp_errf(err, errlen, -1, "%c: the length is %llu but %zu %s", tag, (unsigned long long)want, got,
                     got == 1 ? "byte follows" : "bytes follow");
     *lenp = (uint16_t)want;
     return 0;
@@ -181,7 +185,7 @@ int pad_line_parse(const char *line, size_t n, pad_line *out, char *err, size_t 
         return 0;
     }
     if (c.end - c.p < 2 || c.p[1] != ':' || (c.end - c.p > 2 && !is_space(c.p[2])))
-        return vp_errf(err, errlen, "not a hid-recorder line: no tag such as 'E:' at its start");
+        return vp_errf(err, errlen, -1, "not a hid-recorder line: no tag such as 'E:' at its start");
     char tag = c.p[0];
     c.p += 2;
     const char *tok;
@@ -189,10 +193,11 @@ int pad_line_parse(const char *line, size_t n, pad_line *out, char *err, size_t 
     switch (tag) {
     case 'D': {
         uint64_t v;
-        if (!next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, "D: the device index is missing");
+        if (!next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, -1, "D: the device index is missing");
         if (!parse_dec(tok, tlen, UINT32_MAX, &v))
-            return vp_errf(err, errlen, "D: the device index is not a number below 2^32: '%s'", show(tok, tlen, sh));
-        if (next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, "D: text after the device index");
+            return vp_errf(err, errlen, -1, "D: the device index is not a number below 2^32: '%s'",
+                           show(tok, tlen, sh));
+        if (next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, -1, "D: text after the device index");
         out->kind = PAD_LINE_DEVICE;
         out->device = (uint32_t)v;
         return 0;
@@ -201,11 +206,12 @@ int pad_line_parse(const char *line, size_t n, pad_line *out, char *err, size_t 
         static const char *const what[3] = {"bus", "vendor id", "product id"};
         uint32_t v[3];
         for (int k = 0; k < 3; k++) {
-            if (!next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, "I: the %s is missing", what[k]);
+            if (!next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, -1, "I: the %s is missing", what[k]);
             if (!parse_hex(tok, tlen, 8, &v[k]) || v[k] > 0xFFFF)
-                return vp_errf(err, errlen, "I: the %s is not a 16-bit hex number: '%s'", what[k], show(tok, tlen, sh));
+                return vp_errf(err, errlen, -1, "I: the %s is not a 16-bit hex number: '%s'",
+                               what[k], show(tok, tlen, sh));
         }
-        if (next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, "I: text after the product id");
+        if (next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, -1, "I: text after the product id");
         out->kind = PAD_LINE_INFO;
         out->bus = (uint16_t)v[0];
         out->vid = (uint16_t)v[1];
@@ -232,7 +238,7 @@ int pad_line_parse(const char *line, size_t n, pad_line *out, char *err, size_t 
     }
     case 'E': {
         double t = 0;
-        if (!next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, "E: the time is missing");
+        if (!next_token(&c, &tok, &tlen)) return vp_errf(err, errlen, -1, "E: the time is missing");
         if (parse_time(tok, tlen, &t, err, errlen)) return -1;
         if (parse_bytes(&c, 'E', PAD_REPORT_MAX, out->data, &out->len, err, errlen)) {
             out->len = 0;
@@ -243,7 +249,7 @@ int pad_line_parse(const char *line, size_t n, pad_line *out, char *err, size_t 
         return 0;
     }
     default:
-        return vp_errf(err, errlen, "unknown line tag '%s:'", show(&tag, 1, sh));
+        return vp_errf(err, errlen, -1, "unknown line tag '%s:'", show(&tag, 1, sh));
     }
 }
 

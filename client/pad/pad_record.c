@@ -49,11 +49,11 @@ static void rec_stopped(pad_hub *h, int e)
 int pad_rec_open(pad_hub *h, const char *path, char *err, size_t errlen)
 {
     if (!(h->rec_path = strdup(path))) {
-        vp_errf(err, errlen, "out of memory");
+        vp_errf(err, errlen, -1, "out of memory");
         return -1;
     }
     if (!(h->rec = fopen(path, "w"))) {
-        vp_errf(err, errlen, "%s: %s", path, strerror(errno));
+        vp_errf(err, errlen, -1, "%s: %s", path, strerror(errno));
         return -1;
     }
     fprintf(h->rec, "# vantage pad dump --record: hid-recorder's format, times in seconds since each pad "

@@ -58,7 +58,7 @@ int pad_replay_load(pad_hub *h, char *err, size_t errlen)
     const char *path = h->replay;
     h->rf = fopen(path, "r");
     if (!h->rf) {
-        vp_errf(err, errlen, "%s: %s", path, strerror(errno));
+        vp_errf(err, errlen, -1, "%s: %s", path, strerror(errno));
         return -1;
     }
     char *line = NULL;
@@ -68,7 +68,7 @@ int pad_replay_load(pad_hub *h, char *err, size_t errlen)
     int rc = -1;
     pad_line *pl = malloc(sizeof *pl);
     if (!pl) {
-        vp_errf(err, errlen, "%s: out of memory", path);
+        vp_errf(err, errlen, -1, "%s: out of memory", path);
         goto out;
     }
     pad_replay_dev *cur = NULL;
@@ -76,13 +76,13 @@ int pad_replay_load(pad_hub *h, char *err, size_t errlen)
         lineno++;
         char why[160] = "";
         if (pad_line_parse(line, (size_t)n, pl, why, sizeof why)) {
-            vp_errf(err, errlen, "%s:%lu: %s", path, lineno, why[0] ? why : "malformed line");
+            vp_errf(err, errlen, -1, "%s:%lu: %s", path, lineno, why[0] ? why : "malformed line");
             goto out;
         }
         if (pl->kind == PAD_LINE_DEVICE || (!cur && pl->kind != PAD_LINE_BLANK && pl->kind != PAD_LINE_OTHER)) {
             /* lines before the first D: belong to device 0, as hid-recorder's single-device files */
             if (!(cur = rdev_get(h, pl->kind == PAD_LINE_DEVICE ? pl->device : 0))) {
-                vp_errf(err, errlen, "%s: out of memory", path);
+                vp_errf(err, errlen, -1, "%s: out of memory", path);
                 goto out;
             }
         }
@@ -90,7 +90,7 @@ int pad_replay_load(pad_hub *h, char *err, size_t errlen)
         case PAD_LINE_INFO:
             cur->info = pad_device_lookup(pl->vid, pl->pid);
             if (!cur->info) {
-                vp_errf(err, errlen, "%s:%lu: unknown device %04x:%04x (not a pad this build reads)", path, lineno,
+                vp_errf(err, errlen, -1, "%s:%lu: unknown device %04x:%04x (not a pad this build reads)", path, lineno,
                         pl->vid, pl->pid);
                 goto out;
             }
@@ -102,7 +102,7 @@ int pad_replay_load(pad_hub *h, char *err, size_t errlen)
         case PAD_LINE_NAME: snprintf(cur->name, sizeof cur->name, "%s", pl->name); break;
         case PAD_LINE_EVENT:
             if (!cur->have_info) {
-                vp_errf(err, errlen, "%s:%lu: a report before device %u's I: line (which pad it is)", path, lineno,
+                vp_errf(err, errlen, -1, "%s:%lu: a report before device %u's I: line (which pad it is)", path, lineno,
                         cur->index);
                 goto out;
             }
@@ -111,7 +111,7 @@ int pad_replay_load(pad_hub *h, char *err, size_t errlen)
         }
     }
     if (ferror(h->rf)) {
-        vp_errf(err, errlen, "%s: %s", path, strerror(errno));
+        vp_errf(err, errlen, -1, "%s: %s", path, strerror(errno));
         goto out;
     }
     rc = 0;

@@ -9,7 +9,7 @@
  * range among them, a camera 60 degrees wide at 1280x720. The software
  * path runs the whole frame: the culling query (frustum; no occluders here,
  * so no occlusion stage) picks the visible boxes, then vt_soft renders
- * them; 1 and 2 threads. The GL path (vt_glr through headless EGL:
+ * them; 1 and 2 threads. The GL path (vt_gldraw through headless EGL:
  * llvmpipe here, LP_NUM_THREADS=2 unless set) draws the same visible set
  * in the same run: the culling query, then two passes (nearness, then
  * shading with the CPU-binned tile lists) and the readback of colour and
@@ -27,7 +27,7 @@
 #include "culling.h"
 #include "bench_util.h"
 #include "vt_exr.h"
-#include "vt_glr.h"
+#include "vt_gldraw.h"
 #include "vt_image.h"
 #include "vt_soft.h"
 
@@ -120,7 +120,7 @@ typedef struct run {
     vt_instance *vis;
     size_t cap;
     vt_gl *g;
-    vt_glr *gr;
+    vt_gldraw *gr;
     const char *gl_name;
     unsigned lp_threads;
 } run;
@@ -194,8 +194,8 @@ static int time_gl(run *rn, const scene *s, const vt_light *L, uint32_t nl, doub
         double t0 = (bench_now_ns() / 1e6);
         size_t n;
         if (visible(rn, s, 2, &n)) return -1;
-        if (vt_glr_render(rn->gr, &rn->v, rn->W, rn->H, &vt_mesh_box, 1, rn->vis, (uint32_t)n, L, nl, rn->rgba,
-                          rn->depth, rn->W, NULL, err, sizeof err)) {
+        if (vt_gldraw_render(rn->gr, &rn->v, rn->W, rn->H, &vt_mesh_box, 1, rn->vis, (uint32_t)n, L, nl, rn->rgba,
+                             rn->depth, rn->W, NULL, err, sizeof err)) {
             fprintf(stderr, "bench_render: gl: %s\n", err);
             return -1;
         }
@@ -269,7 +269,7 @@ int main(int argc, char **argv)
     if (gl) {
         setenv("LP_NUM_THREADS", "2", 0);
         rn.lp_threads = (unsigned)atoi(getenv("LP_NUM_THREADS"));
-        if (vt_gl_open(&rn.g, NULL, err, sizeof err) || vt_glr_create(rn.g, &rn.gr, err, sizeof err)) {
+        if (vt_gl_open(&rn.g, NULL, err, sizeof err) || vt_gldraw_create(rn.g, &rn.gr, err, sizeof err)) {
             fprintf(stderr, "bench_render: no GL path here (%s)\n", err);
             vt_gl_close(rn.g);
             rn.g = NULL;
@@ -374,7 +374,7 @@ int main(int argc, char **argv)
     free(rgb8);
     free(rgba);
     free(depth);
-    vt_glr_destroy(rn.gr);
+    vt_gldraw_destroy(rn.gr);
     vt_gl_close(rn.g);
     cull_ctx_destroy(rn.ctx);
     cull_pool_destroy(rn.pool);

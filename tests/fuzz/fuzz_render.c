@@ -2,7 +2,7 @@
  * fuzz_render.c — libFuzzer target for the software renderer
  * (render/vt_soft.c, through vt_soft_render as the daemon's RENDER and
  * frame streams call it), and, built as fuzz_render_gl.c, for the GL path
- * (render/vt_glr.c, vt_gl.c) where an EGL context can be made; without one
+ * (render/vt_gldraw.c on vt_egl.c and vt_gl_*.c) where an EGL context can be made; without one
  * every input returns at once (a note on stderr, once).
  *
  * The input (fuzz_geom.h decodes numbers, views and lights): a header byte,
@@ -13,7 +13,7 @@
  * with vt_mesh_check as the daemon does before it keeps a mesh), stretched
  * onto boxes from the bytes, and up to 4 lights with colours and cones.
  * Checked:
- *   1. vt_*_render returns 0, or -EINVAL with a message and the caller's
+ *   1. vt_*_render returns 0, or VT_ERR_INVALID with a message and the caller's
  *      buffers untouched (the daemon answers INVALID with it);
  *   2. drawn frames have alpha 0 or 1, and a depth per pixel that is
  *      INFINITY (nothing) or not NaN.
@@ -25,7 +25,7 @@
 #include "vt_soft.h"
 #ifdef FUZZ_RENDER_GL
 #include "vt_gl.h"
-#include "vt_glr.h"
+#include "vt_gldraw.h"
 #endif
 
 #define FUZZ_NAME "fuzz_render"
@@ -40,15 +40,15 @@ enum { MAX_W = 64, MAX_INST = 4, MAX_LIGHTS = 4, MAX_MV = 12, MAX_MT = 8 };
 
 #ifdef FUZZ_RENDER_GL
 /* one context for the process (opening one costs tens of ms) */
-static vt_glr *renderer(void)
+static vt_gldraw *renderer(void)
 {
     static int tried;
     static vt_gl *g;
-    static vt_glr *r;
+    static vt_gldraw *r;
     if (!tried) {
         tried = 1;
         char err[512];
-        if (vt_gl_open(&g, NULL, err, sizeof err) != 0 || vt_glr_create(g, &r, err, sizeof err) != 0) {
+        if (vt_gl_open(&g, NULL, err, sizeof err) != 0 || vt_gldraw_create(g, &r, err, sizeof err) != 0) {
             fprintf(stderr, "fuzz_render_gl: no GL context (%s): every input is skipped\n", err);
             r = NULL;
         }
@@ -116,12 +116,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (size_t i = 0; i < (size_t)w * h; i++) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = depth[i] = 7;
     char err[256] = "";
 #ifdef FUZZ_RENDER_GL
-    int rc = vt_glr_render(renderer(), &v, w, h, meshes, nmesh, in, ni, L, nl, rgba, depth, w, NULL, err, sizeof err);
+    int rc = vt_gldraw_render(renderer(), &v, w, h, meshes, nmesh, in, ni, L, nl, rgba, depth, w, NULL, err,
+                              sizeof err);
 #else
     int rc = vt_soft_render(renderer(), &v, w, h, meshes, nmesh, in, ni, L, nl, rgba, depth, w, NULL, err, sizeof err);
 #endif
     if (rc != 0) {
-        CHECK(rc == -EINVAL && err[0] != 0);
+        CHECK(rc == VT_ERR_INVALID && err[0] != 0);
         for (size_t i = 0; i < (size_t)w * h; i++) CHECK(rgba[4 * i] == 7 && depth[i] == 7);
         return 0;
     }

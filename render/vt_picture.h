@@ -1,12 +1,13 @@
 /*
- * vt_frame.h — what the two renderers (vt_soft.c, vt_glr.c) share, so they
- * draw the same picture from the same rules: the checks of a frame's
- * inputs, a mesh's bounds stretched onto an instance's box, the per-tile
- * nearness ranges that feed the light binning, the depth the outputs
- * carry, and a spot light's inner cone. Internal to render/.
+ * vt_picture.h — what the two renderers (vt_soft.c, vt_gldraw.c) share,
+ * so they draw the same picture from the same rules: the checks of a
+ * picture's inputs (vt_picture_check; a wire frame is protocol/'s), a
+ * mesh's bounds stretched onto an instance's box, the per-tile nearness
+ * ranges that feed the light binning, the depth the outputs carry, and a
+ * spot light's inner cone. Internal to render/.
  */
-#ifndef VANTAGE_VT_FRAME_H
-#define VANTAGE_VT_FRAME_H
+#ifndef VANTAGE_VT_PICTURE_H
+#define VANTAGE_VT_PICTURE_H
 
 #include "vt_mask.h"
 #include "vt_shade.h"
@@ -19,24 +20,12 @@
 
 #define VT_TILE CULL_LIGHT_TILE
 
-/* Grows *p (an array of *cap elements) to hold need: the renderer's name
- * for vp_grow (vp_grow.h: doubling, refused past SIZE_MAX; false with
- * nothing changed). Kept while vt_glr.c's call sites change for issue 25's
- * error codes; then they call vp_grow and this goes. */
-static inline bool vt_grow(void **p, size_t *cap, size_t need, size_t elem)
-{
-    return vp_grow(p, cap, need, elem);
-}
-
-/* Formats err (when there is one) and returns code. */
-int vt_fail(char *err, size_t errlen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
-
 /* Checks everything a render call is given (buffers, size, meshes,
- * instances, lights: before any work) and fills *vr for v. 0, or -EINVAL
- * with err filled. */
-int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
-                   uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
-                   const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen);
+ * instances, lights: before any work) and fills *vr for v. 0, or
+ * VT_ERR_INVALID with err filled. */
+int vt_picture_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
+                     uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                     const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen);
 
 /* A mesh's bounds: lo[0..2], hi[3..5]. */
 void vt_mesh_bounds(const vt_mesh *m, float b[6]);
@@ -61,7 +50,7 @@ static inline vt_depth_rule vt_depth_rule_of(const cull_view *v, const cull_view
 /* A light as both renderers shade it (camera-relative, the spot's inner
  * cosine kept above the outer one so the smoothstep between them never
  * divides by zero) and as the binning takes it. Checked beforehand by
- * vt_frame_check. */
+ * vt_picture_check. */
 void vt_light_prepare(const vt_light *L, const double origin[3], vt_slight *q, cull_light *cl);
 
 #endif

@@ -1,13 +1,18 @@
 /*
- * vt_gl.c — the headless OpenGL context, offscreen targets, readback and
- * shader helpers of vt_gl.h, on EGL (libglvnd's libEGL, linked directly)
- * and libepoxy (GL entry points, resolved on first call).
+ * vt_egl.c — the headless OpenGL context of vt_gl.h (bring-up): EGL
+ * displays and platforms, opening and closing a context, making it current
+ * and releasing it, its description, clip control, and the helpers the
+ * module's other files share (vt_gl_internal.h). On EGL (libglvnd's
+ * libEGL, linked directly) and libepoxy (GL entry points, resolved on
+ * first call). Targets and readback: vt_gl_target.c; shaders:
+ * vt_gl_shader.c.
  *
  * What it owns: one EGLContext per vt_gl, a reference on its EGLDisplay
- * in the process-wide display table below, and the GL objects of its
- * targets. Opening walks the platforms of vt_gl.h in order; each attempt
- * appends "platform: what happened" to a log that becomes the error
- * message when nothing works and vt_gl_info.tried when something does.
+ * in the process-wide display table below, and the list of its targets
+ * (freed with it; their GL objects die with the context). Opening walks
+ * the platforms of vt_gl.h in order; each attempt appends "platform: what
+ * happened" to a log that becomes the error message when nothing works and
+ * vt_gl_info.tried when something does.
  *
  * EGL entry points: eglGetPlatformDisplayEXT (EGL_EXT_platform_base) and
  * the EGL_EXT_device_* queries are extensions, fetched with
@@ -31,10 +36,8 @@
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
 #endif
-#include "vt_gl.h"
+#include "vt_gl_internal.h"
 
-#include <epoxy/gl.h>
-#include <EGL/egl.h>
 #include <EGL/eglext.h>
 
 #ifdef __SANITIZE_ADDRESS__
@@ -48,8 +51,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-_Static_assert(sizeof(GLuint) == sizeof(unsigned), "GL names are passed as unsigned");
-
 /* Values the headers of older EGL may lack (all from the Khronos registry). */
 #ifndef EGL_PLATFORM_SURFACELESS_MESA
 #define EGL_PLATFORM_SURFACELESS_MESA 0x31DD
@@ -62,16 +63,6 @@ _Static_assert(sizeof(GLuint) == sizeof(unsigned), "GL names are passed as unsig
 #endif
 
 /* ---- messages -------------------------------------------------------------- */
-
-const char *vt_gl_strerror(int code)
-{
-    switch (code) {
-#define VT_GL_X_STR(name, value, msg) case value: return msg;
-        VT_GL_ERRORS(VT_GL_X_STR)
-#undef VT_GL_X_STR
-    }
-    return "unknown error";
-}
 
 const char *vt_gl_platform_name(vt_gl_platform p)
 {
@@ -106,7 +97,7 @@ static const char *egl_error_name(EGLint e)
     return "unknown EGL error";
 }
 
-static const char *gl_error_name(GLenum e)
+const char *vt_gl_error_name(GLenum e)
 {
     switch (e) {
     case GL_NO_ERROR:                      return "GL_NO_ERROR";
@@ -119,39 +110,10 @@ static const char *gl_error_name(GLenum e)
     return "unknown GL error";
 }
 
-static const char *fbo_status_name(GLenum s)
-{
-    switch (s) {
-    case GL_FRAMEBUFFER_COMPLETE:                      return "complete";
-    case GL_FRAMEBUFFER_UNDEFINED:                     return "GL_FRAMEBUFFER_UNDEFINED";
-    case GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT:         return "GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT";
-    case GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT: return "GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT";
-    case GL_FRAMEBUFFER_INCOMPLETE_DRAW_BUFFER:        return "GL_FRAMEBUFFER_INCOMPLETE_DRAW_BUFFER";
-    case GL_FRAMEBUFFER_INCOMPLETE_READ_BUFFER:        return "GL_FRAMEBUFFER_INCOMPLETE_READ_BUFFER";
-    case GL_FRAMEBUFFER_UNSUPPORTED:                   return "GL_FRAMEBUFFER_UNSUPPORTED";
-    case GL_FRAMEBUFFER_INCOMPLETE_MULTISAMPLE:        return "GL_FRAMEBUFFER_INCOMPLETE_MULTISAMPLE";
-    }
-    return "unknown framebuffer status";
-}
-
-#if defined(__GNUC__)
-__attribute__((format(printf, 4, 5)))
-#endif
-static int fail(int code, char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
-static int ok(char *err, size_t errlen)
+int vt_gl_ok(char *err, size_t errlen)
 {
     if (err && errlen) err[0] = 0;
-    return VT_GL_OK;
+    return VT_OK;
 }
 
 /* Appends to a fixed buffer, "; " between entries, truncating quietly. */
@@ -264,23 +226,6 @@ static void dpy_release(EGLDisplay dpy)
 
 /* ---- opening --------------------------------------------------------------- */
 
-struct vt_gl_target {
-    vt_gl              *g;
-    vt_gl_target       *prev, *next; /* g's live targets */
-    uint32_t            w, h;
-    vt_gl_color_format  format;
-    GLuint              fbo, color, depth;
-    GLuint              pbo;         /* 0 until a PBO readback */
-    size_t              pbo_bytes;   /* its size */
-};
-
-struct vt_gl {
-    EGLDisplay    dpy;
-    EGLContext    ctx;
-    vt_gl_info    info;
-    vt_gl_target *targets;
-};
-
 /* The EGL extension entry points one open uses; NULL where absent. */
 typedef struct egl_fns {
     const char                         *client_ext; /* EGL_NO_DISPLAY's EGL_EXTENSIONS */
@@ -357,7 +302,7 @@ static bool renderer_is_software(const char *r)
            strstr(r, "Software Rasterizer") != NULL;
 }
 
-static bool is_current(const vt_gl *g)
+bool vt_gl_is_current(const vt_gl *g)
 {
     return g && g->ctx != EGL_NO_CONTEXT && eglGetCurrentContext() == g->ctx;
 }
@@ -666,12 +611,12 @@ static void pin_drivers(void) {}
 int vt_gl_open(vt_gl **out, const vt_gl_opts *opts, char *err, size_t errlen)
 {
     vt_gl_opts o = opts ? *opts : (vt_gl_opts){0};
-    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_open: out is NULL");
+    if (!out) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_open: out is NULL");
     *out = NULL;
     if ((unsigned)o.platform > VT_GL_DEFAULT_DISPLAY || o.device < 0)
-        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_open: bad platform or device");
+        return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_open: bad platform or device");
     vt_gl *g = calloc(1, sizeof *g);
-    if (!g) return fail(VT_GL_ERR_NOMEM, err, errlen, "vt_gl_open: out of memory");
+    if (!g) return vp_errf(err, errlen, VT_ERR_NOMEM, "vt_gl_open: out of memory");
 
     /* what was current here before, to restore it if nothing works */
     EGLenum prev_api = eglQueryAPI();
@@ -698,12 +643,12 @@ int vt_gl_open(vt_gl **out, const vt_gl_opts *opts, char *err, size_t errlen)
         if (!f.client_ext)
             log_add(&s.log, "libEGL has no client extensions (no EGL vendor library installed?)");
         if (!s.have_display)
-            return fail(VT_GL_ERR_NO_DISPLAY, err, errlen,
+            return vp_errf(err, errlen, VT_ERR_NO_DISPLAY,
                         "no EGL: libEGL could not initialise a display on any platform (%s); "
                         "is an EGL driver installed (Debian: libegl-mesa0 and libgl1-mesa-dri, "
                         "or NVIDIA's)?",
                         s.log.s);
-        return fail(VT_GL_ERR_NO_CONTEXT, err, errlen,
+        return vp_errf(err, errlen, VT_ERR_NO_CONTEXT,
                     "no desktop OpenGL 3.3 core context on any EGL display (%s)", s.log.s);
     }
     /* a failed attempt after the fallback was made left nothing current */
@@ -711,14 +656,14 @@ int vt_gl_open(vt_gl **out, const vt_gl_opts *opts, char *err, size_t errlen)
         EGLint e = eglGetError();
         drop_context(s.best.dpy, s.best.ctx);
         free(g);
-        return fail(VT_GL_ERR_NO_CONTEXT, err, errlen, "eglMakeCurrent: %s (%s)",
+        return vp_errf(err, errlen, VT_ERR_NO_CONTEXT, "eglMakeCurrent: %s (%s)",
                     egl_error_name(e), s.log.s);
     }
     *g = s.best;
     copy_str(g->info.tried, sizeof g->info.tried, s.log.s);
     pin_drivers();
     *out = g;
-    return ok(err, errlen);
+    return vt_gl_ok(err, errlen);
 }
 
 void vt_gl_close(vt_gl *g)
@@ -736,15 +681,15 @@ void vt_gl_close(vt_gl *g)
 
 int vt_gl_make_current(vt_gl *g, char *err, size_t errlen)
 {
-    if (!g) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_make_current: NULL");
+    if (!g) return vp_errf(err, errlen, VT_ERR_INVALID, "vt_gl_make_current: NULL");
     eglBindAPI(EGL_OPENGL_API);
-    if (eglGetCurrentContext() == g->ctx) return ok(err, errlen);
+    if (eglGetCurrentContext() == g->ctx) return vt_gl_ok(err, errlen);
     if (!eglMakeCurrent(g->dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, g->ctx)) {
         EGLint e = eglGetError();
-        return fail(VT_GL_ERR_CURRENT, err, errlen, "eglMakeCurrent: %s%s", egl_error_name(e),
+        return vp_errf(err, errlen, VT_ERR_CURRENT, "eglMakeCurrent: %s%s", egl_error_name(e),
                     e == EGL_BAD_ACCESS ? " (current on another thread)" : "");
     }
-    return ok(err, errlen);
+    return vt_gl_ok(err, errlen);
 }
 
 void vt_gl_release(vt_gl *g)
@@ -760,372 +705,30 @@ const vt_gl_info *vt_gl_get_info(const vt_gl *g)
     return g ? &g->info : NULL;
 }
 
-/* VT_GL_OK, or VT_GL_ERR_CURRENT with a message naming the call. */
-static int need_current(const vt_gl *g, const char *what, char *err, size_t errlen)
+/* VT_OK, or VT_ERR_CURRENT with a message naming the call. */
+int vt_gl_need_current(const vt_gl *g, const char *what, char *err, size_t errlen)
 {
-    if (!g) return fail(VT_GL_ERR_INVALID, err, errlen, "%s: NULL", what);
+    if (!g) return vp_errf(err, errlen, VT_ERR_INVALID, "%s: NULL", what);
     eglBindAPI(EGL_OPENGL_API);
-    if (!is_current(g))
-        return fail(VT_GL_ERR_CURRENT, err, errlen,
+    if (!vt_gl_is_current(g))
+        return vp_errf(err, errlen, VT_ERR_CURRENT,
                     "%s: the context is not current on this thread (vt_gl_make_current)", what);
-    return VT_GL_OK;
+    return VT_OK;
 }
 
 /* Clears GL's error flags so the next check sees only our calls. */
-static void gl_drain(void)
+void vt_gl_drain(void)
 {
     for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; i++) {}
 }
 
 int vt_gl_clip_control(vt_gl *g, bool zero_to_one, char *err, size_t errlen)
 {
-    int rc = need_current(g, "vt_gl_clip_control", err, errlen);
+    int rc = vt_gl_need_current(g, "vt_gl_clip_control", err, errlen);
     if (rc) return rc;
     if (!g->info.clip_control)
-        return fail(VT_GL_ERR_UNSUPPORTED, err, errlen,
+        return vp_errf(err, errlen, VT_ERR_UNSUPPORTED,
                     "glClipControl needs GL 4.5 or GL_ARB_clip_control (have %s)", g->info.version);
     glClipControl(GL_LOWER_LEFT, zero_to_one ? GL_ZERO_TO_ONE : GL_NEGATIVE_ONE_TO_ONE);
-    return ok(err, errlen);
-}
-
-/* ---- targets ----------------------------------------------------------------- */
-
-/* (Re)specifies both textures at w x h and checks the framebuffer. The
- * caller has checked the size. Restores the bindings it changes. */
-static int target_alloc(vt_gl_target *t, uint32_t w, uint32_t h, char *err, size_t errlen)
-{
-    GLint old_tex = 0, old_draw = 0, old_read = 0;
-    glGetIntegerv(GL_TEXTURE_BINDING_2D, &old_tex);
-    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &old_draw);
-    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &old_read);
-    gl_drain();
-
-    GLenum cfmt = t->format == VT_GL_RGBA32F ? GL_RGBA32F : GL_RGBA16F;
-    const GLuint tex[2] = {t->color, t->depth};
-    for (int i = 0; i < 2; i++) {
-        glBindTexture(GL_TEXTURE_2D, tex[i]);
-        if (i == 0)
-            glTexImage2D(GL_TEXTURE_2D, 0, (GLint)cfmt, (GLsizei)w, (GLsizei)h, 0, GL_RGBA, GL_FLOAT,
-                         NULL);
-        else
-            glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT32F, (GLsizei)w, (GLsizei)h, 0,
-                         GL_DEPTH_COMPONENT, GL_FLOAT, NULL);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_BASE_LEVEL, 0);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-    }
-    glBindFramebuffer(GL_FRAMEBUFFER, t->fbo);
-    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, t->color, 0);
-    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, t->depth, 0);
-    const GLenum buf = GL_COLOR_ATTACHMENT0;
-    glDrawBuffers(1, &buf);
-    glReadBuffer(GL_COLOR_ATTACHMENT0);
-    GLenum st = glCheckFramebufferStatus(GL_FRAMEBUFFER);
-    GLenum ge = glGetError();
-
-    glBindTexture(GL_TEXTURE_2D, (GLuint)old_tex);
-    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, (GLuint)old_draw);
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)old_read);
-    const char *fname = t->format == VT_GL_RGBA32F ? "RGBA32F" : "RGBA16F";
-    if (ge != GL_NO_ERROR)
-        return fail(VT_GL_ERR_GL, err, errlen, "target %ux%u %s: %s", w, h, fname,
-                    gl_error_name(ge));
-    if (st != GL_FRAMEBUFFER_COMPLETE)
-        return fail(VT_GL_ERR_FRAMEBUFFER, err, errlen, "target %ux%u %s: %s", w, h, fname,
-                    fbo_status_name(st));
-    t->w = w;
-    t->h = h;
-    return VT_GL_OK;
-}
-
-static int check_size(const vt_gl *g, uint32_t w, uint32_t h, char *err, size_t errlen)
-{
-    uint32_t m = (uint32_t)g->info.max_target_size;
-    if (w < 1 || h < 1 || w > m || h > m)
-        return fail(VT_GL_ERR_RANGE, err, errlen, "target %ux%u: each side must be 1..%u", w, h, m);
-    return VT_GL_OK;
-}
-
-static void target_delete_gl(vt_gl_target *t)
-{
-    glDeleteFramebuffers(1, &t->fbo);
-    glDeleteTextures(1, &t->color);
-    glDeleteTextures(1, &t->depth);
-    if (t->pbo) glDeleteBuffers(1, &t->pbo);
-}
-
-int vt_gl_target_create(vt_gl *g, uint32_t w, uint32_t h, const vt_gl_target_desc *desc,
-                        vt_gl_target **out, char *err, size_t errlen)
-{
-    vt_gl_target_desc d = desc ? *desc : (vt_gl_target_desc){0};
-    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_create: out is NULL");
-    *out = NULL;
-    int rc = need_current(g, "vt_gl_target_create", err, errlen);
-    if (rc) return rc;
-    if (d.color != VT_GL_RGBA16F && d.color != VT_GL_RGBA32F)
-        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_create: bad colour format");
-    if ((rc = check_size(g, w, h, err, errlen))) return rc;
-    vt_gl_target *t = calloc(1, sizeof *t);
-    if (!t) return fail(VT_GL_ERR_NOMEM, err, errlen, "vt_gl_target_create: out of memory");
-    t->g = g;
-    t->format = d.color;
-    glGenFramebuffers(1, &t->fbo);
-    glGenTextures(1, &t->color);
-    glGenTextures(1, &t->depth);
-    if ((rc = target_alloc(t, w, h, err, errlen))) {
-        target_delete_gl(t);
-        free(t);
-        return rc;
-    }
-    t->next = g->targets;
-    if (g->targets) g->targets->prev = t;
-    g->targets = t;
-    *out = t;
-    return ok(err, errlen);
-}
-
-int vt_gl_target_resize(vt_gl_target *t, uint32_t w, uint32_t h, char *err, size_t errlen)
-{
-    if (!t) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_target_resize: NULL");
-    int rc = need_current(t->g, "vt_gl_target_resize", err, errlen);
-    if (rc) return rc;
-    if ((rc = check_size(t->g, w, h, err, errlen))) return rc;
-    if (w == t->w && h == t->h) return ok(err, errlen);
-    if ((rc = target_alloc(t, w, h, err, errlen))) return rc;
-    return ok(err, errlen);
-}
-
-void vt_gl_target_destroy(vt_gl_target *t)
-{
-    if (!t) return;
-    vt_gl *g = t->g;
-    eglBindAPI(EGL_OPENGL_API);
-    if (is_current(g)) target_delete_gl(t);
-    if (t->prev) t->prev->next = t->next;
-    else g->targets = t->next;
-    if (t->next) t->next->prev = t->prev;
-    free(t);
-}
-
-int vt_gl_target_bind(vt_gl_target *t)
-{
-    if (!t) return VT_GL_ERR_INVALID;
-    int rc = need_current(t->g, "vt_gl_target_bind", NULL, 0);
-    if (rc) return rc;
-    glBindFramebuffer(GL_FRAMEBUFFER, t->fbo);
-    glViewport(0, 0, (GLsizei)t->w, (GLsizei)t->h);
-    return VT_GL_OK;
-}
-
-int vt_gl_target_clear(vt_gl_target *t, const float rgba[4], float depth)
-{
-    int rc = vt_gl_target_bind(t);
-    if (rc) return rc;
-    if (rgba) glClearBufferfv(GL_COLOR, 0, rgba);
-    if (!isnan(depth)) {
-        const GLfloat z = depth < 0 ? 0.0f : depth > 1 ? 1.0f : depth;
-        glClearBufferfv(GL_DEPTH, 0, &z);
-    }
-    return VT_GL_OK;
-}
-
-void vt_gl_target_size(const vt_gl_target *t, uint32_t *w, uint32_t *h)
-{
-    if (w) *w = t ? t->w : 0;
-    if (h) *h = t ? t->h : 0;
-}
-
-unsigned vt_gl_target_fbo(const vt_gl_target *t) { return t ? t->fbo : 0; }
-unsigned vt_gl_target_color_texture(const vt_gl_target *t) { return t ? t->color : 0; }
-unsigned vt_gl_target_depth_texture(const vt_gl_target *t) { return t ? t->depth : 0; }
-
-/* ---- readback ------------------------------------------------------------------ */
-
-size_t vt_gl_read_bound(uint32_t w, uint32_t h, bool color)
-{
-    size_t n = (size_t)w * h;
-    if (h && n / h != w) return 0;
-    if (color) {
-        if (n > SIZE_MAX / 16) return 0; /* 4 floats of 4 bytes must fit too */
-        n *= 4;
-    }
-    return n;
-}
-
-int vt_gl_readback(vt_gl_target *t, float *rgba, float *depth, const vt_gl_read_desc *desc,
-                   char *err, size_t errlen)
-{
-    vt_gl_read_desc d = desc ? *desc : (vt_gl_read_desc){0};
-    if (!t) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: NULL target");
-    if (!rgba && !depth)
-        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: no colour or depth buffer");
-    if ((unsigned)d.path > VT_GL_READ_PBO)
-        return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_readback: bad path");
-    int rc = need_current(t->g, "vt_gl_readback", err, errlen);
-    if (rc) return rc;
-    if (d.w == 0 && d.h == 0) {
-        d.x = d.y = 0;
-        d.w = t->w;
-        d.h = t->h;
-    }
-    if (d.w == 0 || d.h == 0 || d.x > t->w || d.w > t->w - d.x || d.y > t->h ||
-        d.h > t->h - d.y)
-        return fail(VT_GL_ERR_RANGE, err, errlen,
-                    "vt_gl_readback: region %ux%u at (%u,%u) outside the %ux%u target", d.w, d.h,
-                    d.x, d.y, t->w, t->h);
-    const size_t npx = (size_t)d.w * d.h; /* sides below 2^31 each: no overflow */
-    const size_t cbytes = rgba ? npx * 16 : 0, zbytes = depth ? npx * 4 : 0;
-    bool pbo = d.path == VT_GL_READ_PBO;
-
-    GLint old_read = 0, old_pack = 0;
-    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &old_read);
-    glGetIntegerv(GL_PIXEL_PACK_BUFFER_BINDING, &old_pack);
-    gl_drain();
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, t->fbo);
-    glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
-    glPixelStorei(GL_PACK_SKIP_ROWS, 0);
-    glPixelStorei(GL_PACK_SKIP_PIXELS, 0);
-    const GLint x = (GLint)d.x, y = (GLint)d.y;
-    const GLsizei w = (GLsizei)d.w, h = (GLsizei)d.h;
-    GLenum ge = GL_NO_ERROR;
-    if (!pbo) {
-        glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
-        if (rgba) glReadPixels(x, y, w, h, GL_RGBA, GL_FLOAT, rgba);
-        if (depth) glReadPixels(x, y, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth);
-        ge = glGetError();
-    } else {
-        size_t need = cbytes + zbytes;
-        if (!t->pbo) glGenBuffers(1, &t->pbo);
-        glBindBuffer(GL_PIXEL_PACK_BUFFER, t->pbo);
-        if (t->pbo_bytes < need) {
-            glBufferData(GL_PIXEL_PACK_BUFFER, (GLsizeiptr)need, NULL, GL_STREAM_READ);
-            t->pbo_bytes = (ge = glGetError()) == GL_NO_ERROR ? need : 0;
-        }
-        if (ge == GL_NO_ERROR) {
-            /* both reads queued before the one wait in the map */
-            if (rgba) glReadPixels(x, y, w, h, GL_RGBA, GL_FLOAT, (void *)0);
-            if (depth)
-                glReadPixels(x, y, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, (void *)(uintptr_t)cbytes);
-            const unsigned char *p =
-                glMapBufferRange(GL_PIXEL_PACK_BUFFER, 0, (GLsizeiptr)need, GL_MAP_READ_BIT);
-            if (p) {
-                if (rgba) memcpy(rgba, p, cbytes);
-                if (depth) memcpy(depth, p + cbytes, zbytes);
-                glUnmapBuffer(GL_PIXEL_PACK_BUFFER);
-            }
-            ge = glGetError();
-            if (!p && ge == GL_NO_ERROR) ge = GL_OUT_OF_MEMORY;
-        }
-    }
-    glBindBuffer(GL_PIXEL_PACK_BUFFER, (GLuint)old_pack);
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)old_read);
-    if (ge != GL_NO_ERROR)
-        return fail(VT_GL_ERR_GL, err, errlen, "vt_gl_readback%s: %s", pbo ? " (PBO)" : "",
-                    gl_error_name(ge));
-    return ok(err, errlen);
-}
-
-/* ---- shaders ------------------------------------------------------------------- */
-
-static const char *stage_name(GLenum s)
-{
-    switch (s) {
-    case GL_VERTEX_SHADER:          return "vertex shader";
-    case GL_FRAGMENT_SHADER:        return "fragment shader";
-    case GL_GEOMETRY_SHADER:        return "geometry shader";
-    case GL_TESS_CONTROL_SHADER:    return "tessellation control shader";
-    case GL_TESS_EVALUATION_SHADER: return "tessellation evaluation shader";
-    case GL_COMPUTE_SHADER:         return "compute shader";
-    }
-    return "shader";
-}
-
-/* "what: " + the info log of a shader or program, into err. */
-static void put_log(char *err, size_t errlen, const char *what, GLuint obj, bool program)
-{
-    if (!err || !errlen) return;
-    int n = snprintf(err, errlen, "%s: ", what);
-    if (n < 0 || (size_t)n >= errlen) return;
-    GLsizei cap = (GLsizei)(errlen - (size_t)n > 0x7fffffff ? 0x7fffffff : errlen - (size_t)n);
-    GLsizei len = 0;
-    if (program) glGetProgramInfoLog(obj, cap, &len, err + n);
-    else glGetShaderInfoLog(obj, cap, &len, err + n);
-    if (len <= 0) snprintf(err + n, errlen - (size_t)n, "(no info log)");
-    else /* drop the trailing newline drivers add */
-        for (char *e = err + n + len - 1; e >= err + n && (*e == '\n' || *e == ' '); e--) *e = 0;
-}
-
-int vt_gl_shader_compile(vt_gl *g, unsigned stage, const char *src, unsigned *out, char *err,
-                         size_t errlen)
-{
-    if (!out || !src) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_shader_compile: NULL");
-    *out = 0;
-    int rc = need_current(g, "vt_gl_shader_compile", err, errlen);
-    if (rc) return rc;
-    gl_drain();
-    GLuint s = glCreateShader(stage);
-    if (!s) {
-        GLenum ge = glGetError();
-        return fail(ge == GL_INVALID_ENUM ? VT_GL_ERR_INVALID : VT_GL_ERR_GL, err, errlen,
-                    "glCreateShader(0x%x): %s", stage, gl_error_name(ge));
-    }
-    glShaderSource(s, 1, &src, NULL);
-    glCompileShader(s);
-    GLint okc = GL_FALSE;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &okc);
-    if (!okc) {
-        put_log(err, errlen, stage_name(stage), s, false);
-        glDeleteShader(s);
-        return VT_GL_ERR_COMPILE;
-    }
-    *out = s;
-    return ok(err, errlen);
-}
-
-int vt_gl_program_link(vt_gl *g, const unsigned *shaders, size_t n, unsigned *out, char *err,
-                       size_t errlen)
-{
-    if (!out || (!shaders && n)) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_program_link: NULL");
-    *out = 0;
-    int rc = need_current(g, "vt_gl_program_link", err, errlen);
-    if (rc) return rc;
-    gl_drain();
-    GLuint p = glCreateProgram();
-    if (!p) return fail(VT_GL_ERR_GL, err, errlen, "glCreateProgram: %s", gl_error_name(glGetError()));
-    for (size_t i = 0; i < n; i++) glAttachShader(p, shaders[i]);
-    GLenum ge = glGetError();
-    if (ge != GL_NO_ERROR) {
-        glDeleteProgram(p);
-        return fail(VT_GL_ERR_INVALID, err, errlen, "glAttachShader: %s (not a shader name?)",
-                    gl_error_name(ge));
-    }
-    glLinkProgram(p);
-    GLint okl = GL_FALSE;
-    glGetProgramiv(p, GL_LINK_STATUS, &okl);
-    for (size_t i = 0; i < n; i++) glDetachShader(p, shaders[i]);
-    if (!okl) {
-        put_log(err, errlen, "link", p, true);
-        glDeleteProgram(p);
-        return VT_GL_ERR_LINK;
-    }
-    *out = p;
-    return ok(err, errlen);
-}
-
-int vt_gl_program_build(vt_gl *g, const char *vs, const char *fs, unsigned *out, char *err,
-                        size_t errlen)
-{
-    if (!out) return fail(VT_GL_ERR_INVALID, err, errlen, "vt_gl_program_build: NULL");
-    *out = 0;
-    unsigned sh[2] = {0, 0};
-    int rc = vt_gl_shader_compile(g, GL_VERTEX_SHADER, vs, &sh[0], err, errlen);
-    if (!rc) rc = vt_gl_shader_compile(g, GL_FRAGMENT_SHADER, fs, &sh[1], err, errlen);
-    if (!rc) rc = vt_gl_program_link(g, sh, 2, out, err, errlen);
-    if (sh[0]) glDeleteShader(sh[0]);
-    if (sh[1]) glDeleteShader(sh[1]);
-    return rc;
+    return vt_gl_ok(err, errlen);
 }

@@ -1,9 +1,8 @@
 /*
- * vt_frame.c — see vt_frame.h.
+ * vt_picture.c — see vt_picture.h.
  */
-#include "vt_frame.h"
+#include "vt_picture.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -16,27 +15,16 @@ static const uint32_t box_idx[36] = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5
                                      2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};
 const vt_mesh vt_mesh_box = {.pos = box_pos, .idx = box_idx, .nv = 8, .ni = 36};
 
-int vt_fail(char *err, size_t errlen, int code, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen)
 {
     if (!m || !m->pos || !m->idx || !m->nv || !m->ni || m->ni % 3)
-        return vt_fail(err, errlen, -EINVAL, "mesh: needs vertices and a multiple of 3 indices");
+        return vp_errf(err, errlen, VT_ERR_INVALID, "mesh: needs vertices and a multiple of 3 indices");
     for (uint32_t i = 0; i < m->ni; i++)
         if (m->idx[i] >= m->nv)
-            return vt_fail(err, errlen, -EINVAL, "mesh: index %u is %u, past %u vertices", i, m->idx[i], m->nv);
+            return vp_errf(err, errlen, VT_ERR_INVALID, "mesh: index %u is %u, past %u vertices", i, m->idx[i], m->nv);
     for (uint32_t i = 0; i < 3 * m->nv; i++)
         if (!isfinite(m->pos[i]) || (m->nrm && !isfinite(m->nrm[i])))
-            return vt_fail(err, errlen, -EINVAL, "mesh: vertex %u is not finite", i / 3);
+            return vp_errf(err, errlen, VT_ERR_INVALID, "mesh: vertex %u is not finite", i / 3);
     return 0;
 }
 
@@ -52,25 +40,26 @@ static bool dvol_ok(const cull_dvol *dv)
     return true;
 }
 
-int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
-                   uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
-                   const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen)
+int vt_picture_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
+                     uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                     const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen)
 {
     if (!v || !rgba || !depth || (ninst && (!inst || !meshes)) || (nl && !lights))
-        return vt_fail(err, errlen, -EINVAL, "missing argument");
+        return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     if (width < 1 || height < 1 || width > 16384 || height > 16384 || stride < width)
-        return vt_fail(err, errlen, -EINVAL, "size %ux%u (stride %zu) outside 1..16384", width, height, stride);
+        return vp_errf(err, errlen, VT_ERR_INVALID, "size %ux%u (stride %zu) outside 1..16384", width, height, stride);
     for (uint32_t i = 0; i < nmesh; i++) {
         char why[160];
-        if (vt_mesh_check(&meshes[i], why, sizeof why)) return vt_fail(err, errlen, -EINVAL, "%u: %s", i, why);
+        if (vt_mesh_check(&meshes[i], why, sizeof why)) return vp_errf(err, errlen, VT_ERR_INVALID, "%u: %s", i, why);
     }
     for (uint32_t i = 0; i < ninst; i++) {
-        if (inst[i].mesh >= nmesh) return vt_fail(err, errlen, -EINVAL, "instance %u: no mesh %u", i, inst[i].mesh);
+        if (inst[i].mesh >= nmesh)
+            return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: no mesh %u", i, inst[i].mesh);
         for (int a = 0; a < 3; a++)
             if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
-                return vt_fail(err, errlen, -EINVAL, "instance %u: bad bounds", i);
+                return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: bad bounds", i);
         if (vt_dvol_live(inst[i].dvol) && !dvol_ok(inst[i].dvol))
-            return vt_fail(err, errlen, -EINVAL, "instance %u: bad destruction volume", i);
+            return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: bad destruction volume", i);
     }
     for (uint32_t i = 0; i < nl; i++) {
         /* the daemon's LIGHT_PUT runs the same validation: a light it
@@ -79,11 +68,12 @@ int vt_frame_check(const cull_view *v, uint32_t width, uint32_t height, size_t s
         const double rad[3] = {L->color[0], L->color[1], L->color[2]};
         char why[120];
         if (cull_light_validate(&L->l, rad, why, sizeof why) != CULL_OK)
-            return vt_fail(err, errlen, -EINVAL, "light %u: %s", i, why);
-        if (!isfinite(L->cos_inner)) return vt_fail(err, errlen, -EINVAL, "light %u: inner cosine not finite", i);
+            return vp_errf(err, errlen, VT_ERR_INVALID, "light %u: %s", i, why);
+        if (!isfinite(L->cos_inner))
+            return vp_errf(err, errlen, VT_ERR_INVALID, "light %u: inner cosine not finite", i);
     }
     cull_view_rows_get(v, vr);
-    if (!vr->usable) return vt_fail(err, errlen, -EINVAL, "orthographic view with w <= 0");
+    if (!vr->usable) return vp_errf(err, errlen, VT_ERR_INVALID, "orthographic view with w <= 0");
     return 0;
 }
 

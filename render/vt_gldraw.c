@@ -1,5 +1,5 @@
 /*
- * vt_glr.c — the OpenGL renderer (see vt_glr.h).
+ * vt_gldraw.c — the OpenGL renderer (see vt_gldraw.h).
  *
  * Per frame: one vertex buffer for every mesh (positions and normals, with
  * an index buffer; a mesh without normals is expanded to flat-shaded
@@ -17,11 +17,10 @@
  * textures; pass 2 shades. Colour alpha carries nearness on the way out
  * and is turned into coverage and depth on the CPU, as vt_soft does.
  */
-#include "vt_glr.h"
-#include "vt_frame.h"
+#include "vt_gldraw.h"
+#include "vt_picture.h"
 
 #include <epoxy/gl.h>
-#include <errno.h>
 #include <float.h>
 #include <math.h>
 #include <stdarg.h>
@@ -31,7 +30,6 @@
 
 #define TILE VT_TILE
 #define EMPTY VT_EMPTY
-#define fail vt_fail
 #define IV 10                /* floats an instance: scale, shift, albedo, mask */
 #define MASK_TEXELS 5        /* RGBA texels a mask header */
 
@@ -45,7 +43,7 @@ typedef struct mesh_draw {
     float b[6];             /* the mesh's bounds */
 } mesh_draw;
 
-struct vt_glr {
+struct vt_gldraw {
     vt_gl *g;
     unsigned prog, vao;
     int loc_vp, loc_d, loc_pass, loc_tiles_x;
@@ -209,11 +207,11 @@ static const char *fs_src =
     "  o_color = vec4(c, v_near);\n"
     "}\n";
 
-int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
+int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
 {
-    if (!g || !out) return fail(err, errlen, VT_GL_ERR_INVALID, "missing argument");
-    vt_glr *r = calloc(1, sizeof *r);
-    if (!r) return fail(err, errlen, VT_GL_ERR_NOMEM, "out of memory");
+    if (!g || !out) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
+    vt_gldraw *r = calloc(1, sizeof *r);
+    if (!r) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     r->g = g;
     int rc = vt_gl_program_build(g, vs_src, fs_src, &r->prog, err, errlen);
     if (rc) {
@@ -242,7 +240,7 @@ int vt_glr_create(vt_gl *g, vt_glr **out, char *err, size_t errlen)
     return 0;
 }
 
-void vt_glr_destroy(vt_glr *r)
+void vt_gldraw_destroy(vt_gldraw *r)
 {
     if (!r) return;
     vt_gl_target_destroy(r->target);
@@ -284,13 +282,13 @@ static void tbo(unsigned tex, unsigned buf, GLenum format, const void *data, siz
  * albedo, mask index or -1; the transform in double, as vt_soft computes
  * it), into a third; the damaged instances' masks (vt_mask.h) into two
  * buffer textures. */
-static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
+static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
                   const double origin[3], char *err, size_t errlen)
 {
     size_t nvx = 0, nel = 0;
-    if (!vt_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
-        !vt_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * IV, sizeof *r->iv))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+    if (!vp_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
+        !vp_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * IV, sizeof *r->iv))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     memset(r->md, 0, (size_t)nmesh * sizeof *r->md);
     size_t nmask = 0, nfield = 0;
     for (uint32_t i = 0; i < ninst; i++) {
@@ -302,12 +300,12 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
         nfield += (size_t)dv->n[0] * dv->n[1] * dv->n[2];
     }
     if (nmask > (1u << 24) || nfield > (size_t)r->max_texels || nmask * MASK_TEXELS > (size_t)r->max_texels)
-        return fail(err, errlen, -E2BIG,
-                    "%zu damaged instances (%zu field samples) are past this GL's texture buffer limit (%d texels)",
-                    nmask, nfield, r->max_texels);
-    if (!vt_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
-        !vt_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+        return vp_errf(err, errlen, VT_ERR_RANGE,
+                       "%zu damaged instances (%zu field samples) are past this GL's texture buffer limit (%d texels)",
+                       nmask, nfield, r->max_texels);
+    if (!vp_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
+        !vp_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t mi = 0, first = 0; mi < nmesh; mi++) {
         mesh_draw *d = &r->md[mi];
         d->ifirst = first;
@@ -322,9 +320,9 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
         nel += d->nel;
         d->pi = d->pm = 0;
     }
-    if (!vt_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx) ||
-        !vt_grow((void **)&r->el, &r->el_cap, nel + 1, sizeof *r->el))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+    if (!vp_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx) ||
+        !vp_grow((void **)&r->el, &r->el_cap, nel + 1, sizeof *r->el))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t mi = 0; mi < nmesh; mi++) {
         const vt_mesh *m = &meshes[mi];
         if (!r->md[mi].nvx) continue;
@@ -400,13 +398,13 @@ static int upload(vt_glr *r, const vt_mesh *meshes, uint32_t nmesh, const vt_ins
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ebuf);
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((nel + 1) * sizeof *r->el), r->el, GL_STREAM_DRAW);
     GLenum e = glGetError();
-    return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "upload: GL error 0x%x", e);
+    return e == GL_NO_ERROR ? 0 : vp_errf(err, errlen, VT_ERR_GL, "upload: GL error 0x%x", e);
 }
 
 /* Draws what upload put in the buffers: per mesh, one instanced draw of
  * its intact instances (back faces culled) and one of its damaged ones
  * (two-sided: their insides show through their holes). */
-static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
+static int draw(const vt_gldraw *r, uint32_t nmesh, char *err, size_t errlen)
 {
     for (uint32_t mi = 0; mi < nmesh; mi++) {
         const mesh_draw *d = &r->md[mi];
@@ -437,18 +435,18 @@ static int draw(const vt_glr *r, uint32_t nmesh, char *err, size_t errlen)
         }
     }
     GLenum e = glGetError();
-    return e == GL_NO_ERROR ? 0 : fail(err, errlen, VT_GL_ERR_GL, "draw: GL error 0x%x", e);
+    return e == GL_NO_ERROR ? 0 : vp_errf(err, errlen, VT_ERR_GL, "draw: GL error 0x%x", e);
 }
 
-int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
-                  uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
-                  float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
+int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
+                     uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
+                     float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
     if (st) memset(st, 0, sizeof *st);
-    if (!r) return fail(err, errlen, -EINVAL, "missing argument");
+    if (!r) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     cull_view_rows vr;
-    int rc = vt_frame_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &vr, err,
-                            errlen);
+    int rc = vt_picture_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &vr, err,
+                              errlen);
     if (rc) return rc;
     if ((rc = vt_gl_make_current(r->g, err, errlen))) return rc;
     bool reversed = v->depth_mode == CULL_DEPTH_REVERSED;
@@ -467,11 +465,11 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     }
     size_t npx = (size_t)width * height;
     uint32_t tx = (width + TILE - 1) / TILE, ty = (height + TILE - 1) / TILE;
-    if (!vt_grow((void **)&r->pix, &r->pix_cap, npx * 4, sizeof *r->pix) ||
-        !vt_grow((void **)&r->range, &r->range_cap, (size_t)tx * ty, sizeof *r->range) ||
-        !vt_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
-        !vt_grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
-        return fail(err, errlen, -ENOMEM, "out of memory");
+    if (!vp_grow((void **)&r->pix, &r->pix_cap, npx * 4, sizeof *r->pix) ||
+        !vp_grow((void **)&r->range, &r->range_cap, (size_t)tx * ty, sizeof *r->range) ||
+        !vp_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
+        !vp_grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     if ((rc = upload(r, meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
     float vp[16], d4[4];
     for (int i = 0; i < 16; i++) vp[i] = (float)v->clip[i];
@@ -514,7 +512,8 @@ int vt_glr_render(vt_glr *r, const cull_view *v, uint32_t width, uint32_t height
     }
     int lrc = cull_lights_bin(v, width, height, r->cl, nl, nl ? (const float(*)[2])r->range : NULL, &r->tiles);
     if (lrc != CULL_OK)
-        return fail(err, errlen, lrc == CULL_ERR_NOMEM ? -ENOMEM : -EINVAL, "lights: %s", cull_strerror(lrc));
+        return vp_errf(err, errlen, lrc == CULL_ERR_NOMEM ? VT_ERR_NOMEM : VT_ERR_INVALID, "lights: %s",
+                       cull_strerror(lrc));
     /* pass 2: shading with the tile lists */
     glActiveTexture(GL_TEXTURE0);
     tbo(r->tex[0], r->buf[0], GL_RGBA32F, ld, (size_t)nl * 16 * sizeof *ld);
