@@ -114,12 +114,12 @@ static const char *token_file(const char *text, mode_t mode)
     return path;
 }
 
-static int try_connect(const daemon_proc *d, int role, const char *token, vt_client **out)
+static int try_connect(const daemon_proc *d, int role, const char *token, vtc_client **out)
 {
     char err[256] = "";
-    vt_connect_opts o = {.port = d->port, .role = role, .token = token, .timeout_ms = 20000};
+    vtc_connect_opts o = {.port = d->port, .role = role, .token = token, .timeout_ms = 20000};
     *out = NULL;
-    int rc = vt_connect(&o, out, err, sizeof err);
+    int rc = vtc_connect(&o, out, err, sizeof err);
     if (rc) fprintf(stderr, "auth e2e: role %d refused: %s\n", role, err);
     return rc;
 }
@@ -158,26 +158,26 @@ static void test_auth_end_to_end(void **state)
     /* daemon_start_args waits with a token-less viewer, which this file
        refuses: it polls until the daemon answers at all, refusals too */
     daemon_start_args(&d, extra);
-    vt_client *c;
+    vtc_client *c;
     assert_int_equal(try_connect(&d, VP_ROLE_VIEWER, NULL, &c), VP_ERR_AUTH);
     assert_int_equal(try_connect(&d, VP_ROLE_VIEWER, "not-the-viewer-token-at-all", &c), VP_ERR_AUTH);
     assert_int_equal(try_connect(&d, VP_ROLE_EDITOR, VIEW_TOK, &c), VP_ERR_AUTH);
     /* a viewer sees, and cannot edit */
     assert_int_equal(try_connect(&d, VP_ROLE_VIEWER, VIEW_TOK, &c), VP_OK);
     vp_entity e = {.id = 1, .aabb = {0, 0, 0, 1, 1, 1}};
-    assert_int_equal(vt_add(c, &e, 1, NULL, NULL), VP_ERR_AUTH);
+    assert_int_equal(vtc_add(c, &e, 1, NULL, NULL), VP_ERR_AUTH);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     assert_int_equal(st.entities, 0);
-    vt_close(c);
+    vtc_close(c);
     /* the editor token edits, and serves as a viewer's too */
     assert_int_equal(try_connect(&d, VP_ROLE_EDITOR, EDIT_TOK, &c), VP_OK);
-    assert_int_equal(vt_add(c, &e, 1, NULL, NULL), VP_OK);
-    vt_close(c);
+    assert_int_equal(vtc_add(c, &e, 1, NULL, NULL), VP_OK);
+    vtc_close(c);
     assert_int_equal(try_connect(&d, VP_ROLE_VIEWER, EDIT_TOK, &c), VP_OK);
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     assert_int_equal(st.entities, 1);
-    vt_close(c);
+    vtc_close(c);
     /* the CLI takes the token from the environment */
     char cmd[512];
     snprintf(cmd, sizeof cmd, "VANTAGE_TOKEN=%s %s/vantage -p %d add 2 5,0,0 1 >/dev/null 2>&1", EDIT_TOK, bin_dir(),

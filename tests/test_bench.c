@@ -403,16 +403,16 @@ static void test_bench_cli_errors(void **state)
     assert_int_equal(vantage_run(d, out, sizeof out, "bench --scenario no-such-scenario"), 2);
     assert_non_null(strstr(out, "no-such-scenario: no such file"));
     /* a shipped scenario by name, cut short; the scene is left as it was found */
-    vt_client *c = connect_role(d, VP_ROLE_VIEWER, false);
+    vtc_client *c = connect_role(d, VP_ROLE_VIEWER, false);
     vp_stats_reply before, after;
-    assert_int_equal(vt_stats(c, &before), 0);
+    assert_int_equal(vtc_stats(c, &before), 0);
     int rc = vantage_run(d, out, sizeof out, "bench --scenario destruction-barrage --seconds 3");
     if (rc != 0) fail_msg("bench: exit %d: %s", rc, out);
     assert_non_null(strstr(out, "destroy "));
     assert_non_null(strstr(out, "commanders.input_to_frame"));
-    assert_int_equal(vt_stats(c, &after), 0);
+    assert_int_equal(vtc_stats(c, &after), 0);
     assert_int_equal(after.entities, before.entities);
-    vt_close(c);
+    vtc_close(c);
     tdir_remove(&td);
 }
 

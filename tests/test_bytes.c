@@ -246,7 +246,7 @@ static void test_grow_refusal_keeps_the_array(void **state)
 
 /* ---- the importer's pipe ---------------------------------------------------------------------- */
 
-static void level_equal(const vt_level *a, const vt_level *b)
+static void level_equal(const imp_level *a, const imp_level *b)
 {
     assert_int_equal(a->nmesh, b->nmesh);
     assert_int_equal(a->nent, b->nent);
@@ -289,7 +289,7 @@ static void level_equal(const vt_level *a, const vt_level *b)
 
 /* A level packed and unpacked is the level; every proper prefix of its
  * bytes, and the bytes with one more, are refused (ASan watches the
- * reads), and what a refusal leaves is freed by vt_level_free. */
+ * reads), and what a refusal leaves is freed by imp_level_free. */
 static void test_import_pack_round_trip_and_cuts(void **state)
 {
     (void)state;
@@ -301,9 +301,9 @@ static void test_import_pack_round_trip_and_cuts(void **state)
     static char file[1 << 20];
     size_t fn = fread(file, 1, sizeof file, f);
     fclose(f);
-    vt_level lv, back;
+    imp_level lv, back;
     char err[512];
-    if (vt_level_import_mem(file, fn, "gltf", &lv, err, sizeof err)) fail_msg("%s", err);
+    if (imp_level_import_mem(file, fn, "gltf", &lv, err, sizeof err)) fail_msg("%s", err);
     assert_true(lv.nmesh && lv.nent && lv.nocc && lv.nlight);
     vp_writer w;
     vp_writer_init_grow(&w);
@@ -314,23 +314,23 @@ static void test_import_pack_round_trip_and_cuts(void **state)
     memset(&back, 0, sizeof back);
     assert_true(imp_level_unpack(&r, &back));
     level_equal(&lv, &back);
-    vt_level_free(&back);
+    imp_level_free(&back);
     for (size_t cut = 0; cut < w.len; cut++) {
         uint8_t *exact = malloc(cut + 1); /* exact size: ASan sees any overread */
         memcpy(exact, w.p, cut);
         vp_reader_init(&r, exact, cut);
         memset(&back, 0, sizeof back);
         if (imp_level_unpack(&r, &back)) fail_msg("a level cut at %zu of %zu bytes was taken", cut, w.len);
-        vt_level_free(&back);
+        imp_level_free(&back);
         free(exact);
     }
     vp_put_u8(&w, 0);
     vp_reader_init(&r, w.p, w.len);
     memset(&back, 0, sizeof back);
     assert_false(imp_level_unpack(&r, &back));
-    vt_level_free(&back);
+    imp_level_free(&back);
     vp_writer_free(&w);
-    vt_level_free(&lv);
+    imp_level_free(&lv);
 }
 
 const struct CMUnitTest bytes_tests[] = {

@@ -245,44 +245,44 @@ static void test_commander_camera(void **state)
 static void test_commander_daemon_commands(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     vp_entity e = {.id = 7, .aabb = {0, 0, 0, 10, 10, 10}};
     uint32_t h;
-    assert_int_equal(vt_add(ed, &e, 1, &h, NULL), VP_OK);
-    vt_client *view = connect_role(d, VP_ROLE_VIEWER, false), *cmd = connect_role(d, VP_ROLE_COMMANDER, true),
+    assert_int_equal(vtc_add(ed, &e, 1, &h, NULL), VP_OK);
+    vtc_client *view = connect_role(d, VP_ROLE_VIEWER, false), *cmd = connect_role(d, VP_ROLE_COMMANDER, true),
               *other = connect_role(d, VP_ROLE_COMMANDER, false);
     /* a viewer may neither mark nor destroy */
     vp_mark mk = {.pos = {5, 10, 5}, .entity = 7, .kind = 0, .ttl_ms = 1000};
-    assert_int_equal(vt_mark(view, &mk, NULL), VP_ERR_AUTH);
+    assert_int_equal(vtc_mark(view, &mk, NULL), VP_ERR_AUTH);
     vp_destroy ds = {.id = 7, .center = {5, 10, 5}, .radius = 2};
     vp_destroyed dd;
-    assert_int_equal(vt_destroy(view, &ds, &dd), VP_ERR_AUTH);
+    assert_int_equal(vtc_send_destruction(view, &ds, &dd), VP_ERR_AUTH);
     /* a commander may; marks reach the subscribers, the sender's own included */
-    assert_int_equal(vt_subscribe(cmd, VP_EVENT_MARKS), VP_OK);
-    assert_int_equal(vt_subscribe(other, VP_EVENT_MARKS | VP_EVENT_SCENE), VP_OK);
+    assert_int_equal(vtc_subscribe(cmd, VP_EVENT_MARKS), VP_OK);
+    assert_int_equal(vtc_subscribe(other, VP_EVENT_MARKS | VP_EVENT_SCENE), VP_OK);
     uint32_t sent = 0;
-    assert_int_equal(vt_mark(cmd, &mk, &sent), VP_OK);
+    assert_int_equal(vtc_mark(cmd, &mk, &sent), VP_OK);
     assert_int_equal(sent, 2);
     vp_header hd;
     const uint8_t *p;
-    assert_int_equal(vt_recv(other, &hd, &p, 5000), VP_OK);
+    assert_int_equal(vtc_recv(other, &hd, &p, 5000), VP_OK);
     assert_int_equal(hd.type, VP_MARKED);
     vp_marked got;
     assert_int_equal(vp_dec_marked(p, hd.len, &got), VP_OK);
-    assert_int_equal(got.client_id, vt_server(cmd)->client_id);
+    assert_int_equal(got.client_id, vtc_server(cmd)->client_id);
     assert_memory_equal(got.m.pos, mk.pos, sizeof mk.pos);
     assert_true(got.m.entity == 7 && got.m.ttl_ms == 1000);
-    assert_int_equal(vt_destroy(cmd, &ds, &dd), VP_OK);
+    assert_int_equal(vtc_send_destruction(cmd, &ds, &dd), VP_OK);
     assert_int_equal(dd.spheres, 1);
     /* bad marks are refused with the code, the connection stays */
     vp_mark bad = mk;
     bad.ttl_ms = 0;
-    assert_int_equal(vt_mark(cmd, &bad, NULL), VP_ERR_INVALID);
-    assert_int_equal(vt_ping(cmd), VP_OK);
-    vt_close(view);
-    vt_close(cmd);
-    vt_close(other);
-    vt_close(ed);
+    assert_int_equal(vtc_mark(cmd, &bad, NULL), VP_ERR_INVALID);
+    assert_int_equal(vtc_ping(cmd), VP_OK);
+    vtc_close(view);
+    vtc_close(cmd);
+    vtc_close(other);
+    vtc_close(ed);
 }
 
 /* Re-aims at 120 Hz for 1.5 s on a daemon whose frames take longer than
@@ -293,7 +293,7 @@ static void test_commander_reaim_keeps_frames(void **state)
     (void)state;
     daemon_proc d;
     daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "2000", NULL});
-    vt_client *c = connect_role(&d, VP_ROLE_COMMANDER, false);
+    vtc_client *c = connect_role(&d, VP_ROLE_COMMANDER, false);
     cmdr_camera cam;
     cam.perspective = false;
     cmdr_camera_reset(&cam, 16.0 / 9);
@@ -309,15 +309,15 @@ static void test_commander_reaim_keeps_frames(void **state)
             fs.view_seq = ++seq;
             vp_writer w;
             vp_writer_init(&w, buf, sizeof buf);
-            vp_enc_frame_sub(&w, vt_next_req(c), &fs);
-            assert_int_equal(vt_send(c, buf, w.len), VP_OK);
+            vp_enc_frame_sub(&w, vtc_next_req(c), &fs);
+            assert_int_equal(vtc_send(c, buf, w.len), VP_OK);
             sent++;
             next += 1.0 / 120;
         }
         vp_header h;
         const uint8_t *p;
-        int rc = vt_recv(c, &h, &p, 1);
-        if (rc == VP_NEED_MORE || (rc == VT_ERR_IO && vt_last_error(c)->timed_out)) continue;
+        int rc = vtc_recv(c, &h, &p, 1);
+        if (rc == VP_NEED_MORE || (rc == VTC_ERR_IO && vtc_last_error(c)->timed_out)) continue;
         assert_int_equal(rc, VP_OK);
         if (h.type == VP_ACK) acks++;
         if (h.type != VP_FRAME) continue;

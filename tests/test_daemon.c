@@ -32,13 +32,13 @@ int free_port(void)
     return ntohs(sa.sin_port);
 }
 
-vt_client *connect_role(const daemon_proc *d, int role, bool use_unix)
+vtc_client *connect_role(const daemon_proc *d, int role, bool use_unix)
 {
-    vt_client *c = NULL;
+    vtc_client *c = NULL;
     char err[256];
-    vt_connect_opts o = {.port = d->port, .role = role, .unix_path = use_unix ? d->sock : NULL,
+    vtc_connect_opts o = {.port = d->port, .role = role, .unix_path = use_unix ? d->sock : NULL,
                          .timeout_ms = 20000};
-    int rc = vt_connect(&o, &c, err, sizeof err);
+    int rc = vtc_connect(&o, &c, err, sizeof err);
     if (rc) fprintf(stderr, "connect: %s\n", err);
     assert_int_equal(rc, VP_OK);
     return c;
@@ -83,10 +83,10 @@ void daemon_start_args(daemon_proc *d, const char *const *extra)
     /* wait until it answers (a refusal of the token-less viewer is an
        answer: a daemon with --tokens) */
     for (int i = 0; i < 500; i++) {
-        vt_client *c = NULL;
-        int rc = vt_connect(&(vt_connect_opts){.port = d->port, .timeout_ms = 2000}, &c, NULL, 0);
+        vtc_client *c = NULL;
+        int rc = vtc_connect(&(vtc_connect_opts){.port = d->port, .timeout_ms = 2000}, &c, NULL, 0);
         if (rc == VP_OK || rc == VP_ERR_AUTH) {
-            vt_close(c);
+            vtc_close(c);
             return;
         }
         usleep(10000);
@@ -121,15 +121,15 @@ int daemon_teardown(void **state)
     return 0;
 }
 
-vt_client *daemon_open(daemon_proc *d, int role)
+vtc_client *daemon_open(daemon_proc *d, int role)
 {
     daemon_start(d, NULL);
     return connect_role(d, role, false);
 }
 
-void daemon_close(daemon_proc *d, vt_client *c)
+void daemon_close(daemon_proc *d, vtc_client *c)
 {
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(d);
 }
 

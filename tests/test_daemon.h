@@ -22,7 +22,7 @@ typedef struct daemon_proc {
 const char *bin_dir(void);
 int free_port(void);
 /* Connects with a role (over the Unix socket if use_unix); asserts success. */
-vt_client *connect_role(const daemon_proc *d, int role, bool use_unix);
+vtc_client *connect_role(const daemon_proc *d, int role, bool use_unix);
 /* Starts vantaged (--out-limit out_limit if not NULL) and waits until it answers. */
 void daemon_start(daemon_proc *d, const char *out_limit);
 /* The same with extra arguments (NULL-terminated). */
@@ -38,8 +38,8 @@ int daemon_teardown(void **state);
 /* What most end-to-end tests begin and end with: daemon_open starts
  * vantaged (no extra arguments) and connects one client of role over TCP;
  * daemon_close closes that client, then stops the daemon as daemon_stop. */
-vt_client *daemon_open(daemon_proc *d, int role);
-void daemon_close(daemon_proc *d, vt_client *c);
+vtc_client *daemon_open(daemon_proc *d, int role);
+void daemon_close(daemon_proc *d, vtc_client *c);
 /* Runs this configuration's vantage against d (d NULL: no -p) with the
  * printf-formatted arguments, its stderr with its stdout in out (up to
  * cap - 1 bytes, NUL-ended): its exit status, -1 if it did not exit. */

@@ -359,13 +359,13 @@ static void test_cut_building_back_wall_hides(void **state)
 }
 
 /* Whether entity id is in a query of the street view (occlusion on). */
-static bool sees(vt_client *c, uint64_t id, uint64_t *epoch)
+static bool sees(vtc_client *c, uint64_t id, uint64_t *epoch)
 {
     vp_view v;
     double eye[3] = {0, 2, -30}, at[3] = {0, 2, 0}, up[3] = {0, 1, 0};
-    assert_true(vt_view_perspective(&v, eye, at, up, 60, 640, 360, 0.5, 500));
+    assert_true(vtc_view_perspective(&v, eye, at, up, 60, 640, 360, 0.5, 500));
     vp_vis_result r;
-    assert_int_equal(vt_query(c, &v, 1, 0, 0, &r), VP_OK);
+    assert_int_equal(vtc_query(c, &v, 1, 0, 0, &r), VP_OK);
     if (epoch) *epoch = r.epoch;
     for (uint32_t i = 0; i < r.count; i++) {
         vp_vis_rec rec;
@@ -378,14 +378,14 @@ static bool sees(vt_client *c, uint64_t id, uint64_t *epoch)
 /* The depth at the centre of a raw frame of the street view, drawn by
  * renderer (VP_RENDERER_*); NAN when the daemon has no such renderer. The
  * frame's epoch in *epoch. */
-static float frame_centre_depth(vt_client *c, uint8_t renderer, uint64_t *epoch)
+static float frame_centre_depth(vtc_client *c, uint8_t renderer, uint64_t *epoch)
 {
     vp_render m = {.format = VP_FRAME_RAW, .renderer = renderer};
     double eye[3] = {0, 2, -30}, at[3] = {0, 2, 0}, up[3] = {0, 1, 0};
     const uint32_t W = 161, H = 91;
-    assert_true(vt_view_perspective(&m.view, eye, at, up, 60, W, H, 0.5, 500));
+    assert_true(vtc_view_perspective(&m.view, eye, at, up, 60, W, H, 0.5, 500));
     vp_frame f;
-    int rc = vt_render(c, &m, &f);
+    int rc = vtc_render(c, &m, &f);
     if (rc == VP_ERR_UNSUPPORTED) return NAN;
     assert_int_equal(rc, VP_OK);
     assert_int_equal(f.data_len, W * H * 20);
@@ -398,15 +398,15 @@ static float frame_centre_depth(vt_client *c, uint8_t renderer, uint64_t *epoch)
 static void test_destroy_opens_occluder(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false), *viewer = connect_role(d, VP_ROLE_VIEWER, true);
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false), *viewer = connect_role(d, VP_ROLE_VIEWER, true);
     /* a wall (entity 10 and its occluder 10) and a crate behind it */
     double lo[3] = {-10, 0, -0.5}, hi[3] = {10, 8, 0.5};
     vp_entity e[2] = {{.id = 10, .aabb = {-10, 0, -0.5, 10, 8, 0.5}}, {.id = 20, .aabb = {-0.25, 1.75, 10, 0.25, 2.25, 10.5}}};
     uint32_t hs[2];
-    assert_int_equal(vt_add(ed, e, 2, hs, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, e, 2, hs, NULL), VP_OK);
     float tri[108];
     box_tris(lo, hi, tri);
-    assert_int_equal(vt_put_occluder(ed, 10, lo, tri, 12), VP_OK);
+    assert_int_equal(vtc_put_occluder(ed, 10, lo, tri, 12), VP_OK);
     assert_false(sees(viewer, 20, NULL));
     assert_true(sees(viewer, 10, NULL));
     /* the frame shows the wall's face, 29.5 m out, at its centre */
@@ -419,25 +419,25 @@ static void test_destroy_opens_occluder(void **state)
     /* bad events change nothing */
     vp_destroyed out;
     vp_stats_reply st0, st1;
-    assert_int_equal(vt_stats(ed, &st0), VP_OK);
+    assert_int_equal(vtc_stats(ed, &st0), VP_OK);
     vp_destroy m = {.id = 99, .center = {0, 2, 0}, .radius = 2};
-    assert_int_equal(vt_destroy(ed, &m, &out), VP_ERR_UNKNOWN_ID);
+    assert_int_equal(vtc_send_destruction(ed, &m, &out), VP_ERR_UNKNOWN_ID);
     m = (vp_destroy){.id = 10, .handle = hs[0] + 1, .center = {0, 2, 0}, .radius = 2};
-    assert_int_equal(vt_destroy(ed, &m, &out), VP_ERR_STALE);
+    assert_int_equal(vtc_send_destruction(ed, &m, &out), VP_ERR_STALE);
     m = (vp_destroy){.id = 10, .center = {0, 2, 0}, .radius = 0};
-    assert_int_equal(vt_destroy(ed, &m, &out), VP_ERR_INVALID);
+    assert_int_equal(vtc_send_destruction(ed, &m, &out), VP_ERR_INVALID);
     m = (vp_destroy){.id = 10, .center = {NAN, 2, 0}, .radius = 1};
-    assert_int_equal(vt_destroy(ed, &m, &out), VP_ERR_NONFINITE);
+    assert_int_equal(vtc_send_destruction(ed, &m, &out), VP_ERR_NONFINITE);
     m = (vp_destroy){.id = 10, .center = {0, 2, 0}, .radius = 2};
-    assert_int_equal(vt_destroy(viewer, &m, &out), VP_ERR_AUTH);
-    assert_int_equal(vt_stats(ed, &st1), VP_OK);
+    assert_int_equal(vtc_send_destruction(viewer, &m, &out), VP_ERR_AUTH);
+    assert_int_equal(vtc_stats(ed, &st1), VP_OK);
     assert_int_equal(st1.epoch, st0.epoch);
     assert_false(sees(viewer, 20, NULL));
     /* the hole: the crate shows in the very next query (2.5 m: the wall's
        8^3 volume has 2.9 m voxels along it; a sphere much smaller than a
        voxel is cut from the occluder but hardly shows in the field) */
     m = (vp_destroy){.id = 10, .handle = hs[0], .center = {0, 2, 0}, .radius = 2.5};
-    assert_int_equal(vt_destroy(ed, &m, &out), VP_OK);
+    assert_int_equal(vtc_send_destruction(ed, &m, &out), VP_OK);
     assert_int_equal(out.spheres, 1);
     assert_true(out.occluder_tris > 12); /* cut, not dropped */
     uint64_t ep;
@@ -460,31 +460,31 @@ static void test_destroy_opens_occluder(void **state)
     }
     /* a second sphere elsewhere; the hole stays */
     m = (vp_destroy){.id = 10, .center = {-9, 7, 0}, .radius = 1, .debris = 5};
-    assert_int_equal(vt_destroy(ed, &m, &out), VP_OK);
+    assert_int_equal(vtc_send_destruction(ed, &m, &out), VP_OK);
     assert_int_equal(out.spheres, 2);
     assert_int_equal(out.debris, 5);
     assert_true(sees(viewer, 20, NULL));
-    assert_int_equal(vt_stats(ed, &st1), VP_OK);
+    assert_int_equal(vtc_stats(ed, &st1), VP_OK);
     assert_int_equal(st1.entities, 2 + 5);
     assert_int_equal(st1.dynamic_entities, 5);
     /* an editor's entity where the next debris id would be: skipped, not refused */
     vp_entity squat = {.id = (1ull << 62) + 5, .aabb = {100, 0, 0, 101, 1, 1}};
-    assert_int_equal(vt_add(ed, &squat, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, &squat, 1, NULL, NULL), VP_OK);
     m = (vp_destroy){.id = 10, .center = {9, 7, 0}, .radius = 1, .debris = 2};
-    assert_int_equal(vt_destroy(ed, &m, &out), VP_OK);
+    assert_int_equal(vtc_send_destruction(ed, &m, &out), VP_OK);
     assert_int_equal(out.debris, 2);
-    assert_int_equal(vt_remove(ed, &squat.id, 1, NULL), VP_OK);
+    assert_int_equal(vtc_remove(ed, &squat.id, 1, NULL), VP_OK);
     /* the editor sends the wall's occluder again: it gets the holes too */
-    assert_int_equal(vt_put_occluder(ed, 10, lo, tri, 12), VP_OK);
+    assert_int_equal(vtc_put_occluder(ed, 10, lo, tri, 12), VP_OK);
     assert_true(sees(viewer, 20, NULL));
     /* the wall entity goes: so does its destruction, and a new occluder of
        that id is whole */
     uint64_t gone = 10;
-    assert_int_equal(vt_remove(ed, &gone, 1, NULL), VP_OK);
-    assert_int_equal(vt_put_occluder(ed, 10, lo, tri, 12), VP_OK);
+    assert_int_equal(vtc_remove(ed, &gone, 1, NULL), VP_OK);
+    assert_int_equal(vtc_put_occluder(ed, 10, lo, tri, 12), VP_OK);
     assert_false(sees(viewer, 20, NULL));
-    vt_close(ed);
-    vt_close(viewer);
+    vtc_close(ed);
+    vtc_close(viewer);
 }
 
 const struct CMUnitTest destruct_tests[] = {

@@ -98,8 +98,8 @@ static void model_del(model *m, uint64_t id)
 static void test_edits_then_queries_match_model(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
-    vt_client *u = connect_role(d, VP_ROLE_VIEWER, true); /* queries over the Unix socket */
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *u = connect_role(d, VP_ROLE_VIEWER, true); /* queries over the Unix socket */
     rng r = {test_seed() ^ 0x7777};
     model m = {0};
     assert_int_equal(cull_world_create(NULL, &m.norm), CULL_OK);
@@ -109,7 +109,7 @@ static void test_edits_then_queries_match_model(void **state)
     for (int round = 0; round < 6; round++) {
         for (int i = 0; i < B; i++) batch[i] = rand_entity(&r, next++, 400);
         uint32_t handles[B];
-        assert_int_equal(vt_add(c, batch, B, handles, NULL), VP_OK);
+        assert_int_equal(vtc_add(c, batch, B, handles, NULL), VP_OK);
         for (int i = 0; i < B; i++) {
             assert_int_not_equal(handles[i], 0);
             model_set(&m, &batch[i]);
@@ -120,15 +120,15 @@ static void test_edits_then_queries_match_model(void **state)
             vp_entity e = rand_entity(&r, m.ids[i], 400);
             batch[nu++] = e;
         }
-        assert_int_equal(vt_update(c, batch, nu, NULL), VP_OK);
+        assert_int_equal(vtc_update(c, batch, nu, NULL), VP_OK);
         for (uint32_t i = 0; i < nu; i++) model_set(&m, &batch[i]);
         uint64_t rm[50];
         for (int i = 0; i < 50; i++) rm[i] = m.ids[(size_t)i * 5 + 3];
-        assert_int_equal(vt_remove(c, rm, 50, NULL), VP_OK);
+        assert_int_equal(vtc_remove(c, rm, 50, NULL), VP_OK);
         for (int i = 0; i < 50; i++) model_del(&m, rm[i]);
     }
     vp_stats_reply st;
-    assert_int_equal(vt_stats(u, &st), VP_OK);
+    assert_int_equal(vtc_stats(u, &st), VP_OK);
     assert_int_equal(st.entities, m.n);
 
     /* random views, 1..8 at a time, against the model */
@@ -141,8 +141,8 @@ static void test_edits_then_queries_match_model(void **state)
             double eye[3] = {rng_range(&r, -300, 300), rng_range(&r, -20, 60), rng_range(&r, -300, 300)};
             double at[3] = {rng_range(&r, -300, 300), 0, rng_range(&r, -300, 300)};
             bool ok = rng_below(&r, 4)
-                          ? vt_view_perspective(&views[v], eye, at, NULL, rng_range(&r, 20, 100), 1280, 720, 0.1, 2000)
-                          : vt_view_ortho(&views[v], eye, at, NULL, 200, 120, 800, 480, -500, 500);
+                          ? vtc_view_perspective(&views[v], eye, at, NULL, rng_range(&r, 20, 100), 1280, 720, 0.1, 2000)
+                          : vtc_view_ortho(&views[v], eye, at, NULL, 200, 120, 800, 480, -500, 500);
             if (!ok) { /* degenerate pick: try another */
                 v--;
                 continue;
@@ -154,7 +154,7 @@ static void test_edits_then_queries_match_model(void **state)
             ref_view_make(&rv[v], &cd);
         }
         vp_vis_result res;
-        assert_int_equal(vt_query(u, views, nv, 0, 0, &res), VP_OK);
+        assert_int_equal(vtc_query(u, views, nv, 0, 0, &res), VP_OK);
         assert_int_equal(res.count, res.visible);
         uint32_t *mask = calloc(m.n, sizeof *mask);
         for (uint32_t i = 0; i < res.count; i++) {
@@ -185,8 +185,8 @@ static void test_edits_then_queries_match_model(void **state)
     }
     printf("e2e: %zu entities, %llu entity x view cases against the model, %llu kept within the slack\n", m.n,
            (unsigned long long)cases, (unsigned long long)kept_near);
-    vt_close(c);
-    vt_close(u);
+    vtc_close(c);
+    vtc_close(u);
     cull_world_destroy(m.norm);
     free(m.ids);
     free(m.d);
@@ -195,50 +195,50 @@ static void test_edits_then_queries_match_model(void **state)
 static void test_batches_all_or_nothing(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     rng r = {test_seed() ^ 0x8888};
     vp_entity b[10];
     for (int i = 0; i < 10; i++) b[i] = rand_entity(&r, 100 + (uint64_t)i, 50);
     b[5].aabb[0] = 10; /* min > max on x */
     b[5].aabb[3] = -10;
-    assert_int_equal(vt_add(c, b, 10, NULL, NULL), VP_ERR_INVALID);
-    assert_int_equal(vt_last_error(c)->index, 5);
+    assert_int_equal(vtc_add(c, b, 10, NULL, NULL), VP_ERR_INVALID);
+    assert_int_equal(vtc_last_error(c)->index, 5);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     assert_int_equal(st.entities, 0);
     b[5] = rand_entity(&r, 105, 50);
     b[7].id = b[2].id; /* the same id twice */
-    assert_int_equal(vt_add(c, b, 10, NULL, NULL), VP_ERR_DUPLICATE);
-    assert_int_equal(vt_last_error(c)->index, 7);
+    assert_int_equal(vtc_add(c, b, 10, NULL, NULL), VP_ERR_DUPLICATE);
+    assert_int_equal(vtc_last_error(c)->index, 7);
     b[7].id = 107;
     uint64_t e0, e1;
-    assert_int_equal(vt_add(c, b, 10, NULL, &e0), VP_OK);
+    assert_int_equal(vtc_add(c, b, 10, NULL, &e0), VP_OK);
     /* update with one unknown id: nothing moves */
     vp_entity u[3] = {b[0], b[1], b[2]};
     u[0].sphere[0] += 5;
     u[2].id = 9999;
-    assert_int_equal(vt_update(c, u, 3, NULL), VP_ERR_UNKNOWN_ID);
-    assert_int_equal(vt_last_error(c)->index, 2);
+    assert_int_equal(vtc_update(c, u, 3, NULL), VP_ERR_UNKNOWN_ID);
+    assert_int_equal(vtc_last_error(c)->index, 2);
     vp_list_reply lr;
-    assert_int_equal(vt_get(c, &b[0].id, 1, &lr), VP_OK);
+    assert_int_equal(vtc_get(c, &b[0].id, 1, &lr), VP_OK);
     vp_entity got;
     vp_entity_get(&lr.batch, 0, &got);
     assert_true(got.sphere[0] == b[0].sphere[0]);
     /* a stale handle is refused */
     u[2] = b[2];
     u[1].handle = 12345;
-    assert_int_equal(vt_update(c, u, 3, NULL), VP_ERR_STALE);
+    assert_int_equal(vtc_update(c, u, 3, NULL), VP_ERR_STALE);
     /* remove with a duplicate: nothing removed */
     uint64_t rm[3] = {100, 101, 100};
-    assert_int_equal(vt_remove(c, rm, 3, &e1), VP_ERR_DUPLICATE);
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_remove(c, rm, 3, &e1), VP_ERR_DUPLICATE);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     assert_int_equal(st.entities, 10);
     assert_int_equal(st.epoch, e0); /* rejected batches change no epoch */
     /* a viewer cannot edit */
-    vt_client *v = connect_role(d, VP_ROLE_VIEWER, true);
-    assert_int_equal(vt_remove(v, rm, 1, NULL), VP_ERR_AUTH);
-    vt_close(v);
-    vt_close(c);
+    vtc_client *v = connect_role(d, VP_ROLE_VIEWER, true);
+    assert_int_equal(vtc_remove(v, rm, 1, NULL), VP_ERR_AUTH);
+    vtc_close(v);
+    vtc_close(c);
 }
 
 /* --unix PATH held by a live daemon: a second vantaged on the same path
@@ -256,9 +256,9 @@ static void test_unix_socket_clash(void **state)
     assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 1);
     assert_non_null(strstr(out, "another vantaged"));
     assert_non_null(strstr(out, d.sock));
-    vt_client *c = connect_role(&d, VP_ROLE_VIEWER, true); /* still the first daemon's */
-    assert_int_equal(vt_ping(c), VP_OK);
-    vt_close(c);
+    vtc_client *c = connect_role(&d, VP_ROLE_VIEWER, true); /* still the first daemon's */
+    assert_int_equal(vtc_ping(c), VP_OK);
+    vtc_close(c);
     daemon_stop(&d);
 
     tdir td;
@@ -287,10 +287,10 @@ static void test_unix_socket_clash(void **state)
     close(fd);
     daemon_proc d2;
     daemon_start_args(&d2, (const char *const[]){"--unix", stale, NULL});
-    vt_client *c2 = NULL;
-    assert_int_equal(vt_connect(&(vt_connect_opts){.unix_path = stale, .timeout_ms = 5000}, &c2, NULL, 0), VP_OK);
-    assert_int_equal(vt_ping(c2), VP_OK);
-    vt_close(c2);
+    vtc_client *c2 = NULL;
+    assert_int_equal(vtc_connect(&(vtc_connect_opts){.unix_path = stale, .timeout_ms = 5000}, &c2, NULL, 0), VP_OK);
+    assert_int_equal(vtc_ping(c2), VP_OK);
+    vtc_close(c2);
     daemon_stop(&d2);
     assert_true(access(stale, F_OK) != 0); /* removed on exit, and its lock */
     char lock[420];
@@ -346,13 +346,13 @@ static void raw_hello(int fd)
 }
 
 /* Waits (5 s at most) until the daemon counts n connections, c's among them. */
-static void wait_connections(vt_client *c, uint32_t n)
+static void wait_connections(vtc_client *c, uint32_t n)
 {
     vp_stats_reply st;
     int tries = 0;
     do {
         usleep(20000);
-        assert_int_equal(vt_stats(c, &st), VP_OK);
+        assert_int_equal(vtc_stats(c, &st), VP_OK);
     } while (st.connections > n && ++tries < 250);
     assert_int_equal(st.connections, n);
 }
@@ -381,7 +381,7 @@ static void test_frame_rate_cap_on_reaim(void **state)
     uint64_t t0 = now_ms();
     for (int aim = 0; now_ms() - t0 < 1000; aim++) {
         double eye[3] = {0.01 * aim, 0, 0}, at[3] = {0, 0, -10};
-        assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 60, 64, 36, 0.1, 100));
+        assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 60, 64, 36, 0.1, 100));
         sub.view_seq = (uint16_t)aim;
         uint8_t buf[512];
         vp_writer w;
@@ -414,7 +414,7 @@ static void test_slow_clients_time_out(void **state)
     daemon_proc d;
     const char *extra[] = {"--hello-timeout", "600", "--frame-timeout", "1200", NULL};
     daemon_start_args(&d, extra);
-    vt_client *idle = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *idle = connect_role(&d, VP_ROLE_VIEWER, false);
     int mute = raw_connect(&d);  /* connects, says nothing */
     int trickle = raw_connect(&d);
     raw_hello(trickle);
@@ -440,8 +440,8 @@ static void test_slow_clients_time_out(void **state)
             (unsigned long long)t_mute, (unsigned long long)t_trickle);
     assert_true(t_trickle >= 1000 && t_trickle < 5000);
     /* the idle client was never half-way through a frame: still served */
-    assert_int_equal(vt_ping(idle), VP_OK);
-    vt_close(idle);
+    assert_int_equal(vtc_ping(idle), VP_OK);
+    vtc_close(idle);
     close(mute);
     close(trickle);
     daemon_stop(&d);
@@ -485,7 +485,7 @@ static void test_connection_churn(void **state)
     daemon_proc d;
     const char *extra[] = {"--max-clients", "2000", NULL};
     daemon_start_args(&d, extra);
-    vt_client *probe = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *probe = connect_role(&d, VP_ROLE_VIEWER, false);
     enum { N = 1000, ROUNDS = 5 };
     int *fd = malloc(N * sizeof *fd);
     assert_non_null(fd);
@@ -497,14 +497,14 @@ static void test_connection_churn(void **state)
             fd[i] = raw_connect(&d);
             raw_hello(fd[i]);
         }
-        assert_int_equal(vt_ping(probe), VP_OK);
+        assert_int_equal(vtc_ping(probe), VP_OK);
         daemon_usage(d.pid, &fds_held, &rss_held);
         for (int i = 0; i < N; i++) close(fd[i]);
         /* the daemon notices the hang-ups on its next turns */
         int fds_now = 0;
         long rss_now = 0;
         for (int k = 0; k < 500; k++) {
-            assert_int_equal(vt_ping(probe), VP_OK);
+            assert_int_equal(vtc_ping(probe), VP_OK);
             daemon_usage(d.pid, &fds_now, &rss_now);
             if (fds_now == fds0) break;
             usleep(10000);
@@ -612,7 +612,7 @@ static void test_malformed_frames(void **state)
 {
     const bad_frame *t = *state;
     daemon_proc d;
-    vt_client *other = daemon_open(&d, VP_ROLE_VIEWER); /* must keep being served */
+    vtc_client *other = daemon_open(&d, VP_ROLE_VIEWER); /* must keep being served */
     uint8_t buf[4096];
     vp_writer w;
     int fd = raw_connect(&d);
@@ -634,7 +634,7 @@ static void test_malformed_frames(void **state)
         assert_int_equal(raw_read(fd, NULL), VP_PONG);
     }
     close(fd);
-    assert_int_equal(vt_ping(other), VP_OK);
+    assert_int_equal(vtc_ping(other), VP_OK);
     daemon_close(&d, other);
 }
 
@@ -643,7 +643,7 @@ static void test_random_frames(void **state)
 {
     (void)state;
     daemon_proc d;
-    vt_client *other = daemon_open(&d, VP_ROLE_VIEWER); /* must keep being served */
+    vtc_client *other = daemon_open(&d, VP_ROLE_VIEWER); /* must keep being served */
     uint8_t buf[4096];
     int fd;
     rng r = {test_seed() ^ 0x9999};
@@ -656,7 +656,7 @@ static void test_random_frames(void **state)
         (void)ignored;
         close(fd);
     }
-    assert_int_equal(vt_ping(other), VP_OK);
+    assert_int_equal(vtc_ping(other), VP_OK);
     daemon_close(&d, other);
 }
 
@@ -672,10 +672,10 @@ typedef struct worker_arg {
 static void *worker(void *p)
 {
     worker_arg *a = p;
-    vt_client *c = NULL;
-    vt_connect_opts o = {.port = a->d->port, .role = VP_ROLE_EDITOR, .timeout_ms = 30000,
+    vtc_client *c = NULL;
+    vtc_connect_opts o = {.port = a->d->port, .role = VP_ROLE_EDITOR, .timeout_ms = 30000,
                          .unix_path = a->idx % 2 ? a->d->sock : NULL};
-    if (vt_connect(&o, &c, NULL, 0)) {
+    if (vtc_connect(&o, &c, NULL, 0)) {
         a->failures++;
         return NULL;
     }
@@ -686,11 +686,11 @@ static void *worker(void *p)
             e[i] = (vp_entity){.id = (uint64_t)a->idx * 1000000 + (uint64_t)round * 100 + (uint64_t)i,
                                .sphere = {x0 + i, 0, 50, 0.5}};
         }
-        if (vt_add(c, e, 20, NULL, NULL)) a->failures++;
+        if (vtc_add(c, e, 20, NULL, NULL)) a->failures++;
         vp_view v;
-        vt_view_perspective(&v, (double[]){x0 + 10, 0, 0}, (double[]){x0 + 10, 0, 50}, NULL, 90, 640, 480, 1, 200);
+        vtc_view_perspective(&v, (double[]){x0 + 10, 0, 0}, (double[]){x0 + 10, 0, 50}, NULL, 90, 640, 480, 1, 200);
         vp_vis_result res;
-        if (vt_query(c, &v, 1, 0, 0, &res)) {
+        if (vtc_query(c, &v, 1, 0, 0, &res)) {
             a->failures++;
             continue;
         }
@@ -702,15 +702,15 @@ static void *worker(void *p)
         }
         if (mine != 20) a->failures++;
         for (int i = 0; i < 20; i++) e[i].sphere[2] = -500; /* behind the camera */
-        if (vt_update(c, e, 20, NULL)) a->failures++;
-        if (vt_query(c, &v, 1, 0, 0, &res)) a->failures++;
+        if (vtc_update(c, e, 20, NULL)) a->failures++;
+        if (vtc_query(c, &v, 1, 0, 0, &res)) a->failures++;
         for (uint32_t i = 0; i < res.count; i++) {
             vp_vis_rec x;
             vp_vis_rec_get(&res, i, &x);
             if (x.id / 1000000 == (uint64_t)a->idx && (x.id % 1000000) / 100 == (uint64_t)round) a->failures++;
         }
     }
-    vt_close(c);
+    vtc_close(c);
     return NULL;
 }
 
@@ -730,11 +730,11 @@ static void test_concurrent_clients(void **state)
         failures += args[i].failures;
     }
     assert_int_equal(failures, 0);
-    vt_client *c = connect_role(d, VP_ROLE_VIEWER, false);
+    vtc_client *c = connect_role(d, VP_ROLE_VIEWER, false);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     assert_int_equal(st.entities, N * 10 * 20);
-    vt_close(c);
+    vtc_close(c);
 }
 
 static void test_slow_reader_dropped(void **state)
@@ -742,15 +742,15 @@ static void test_slow_reader_dropped(void **state)
     (void)state;
     daemon_proc d;
     daemon_start(&d, "65536");
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
     vp_entity e[1000];
     for (int i = 0; i < 1000; i++) e[i] = (vp_entity){.id = (uint64_t)i + 1, .sphere = {i * 0.1, 0, 10, 0.5}};
-    assert_int_equal(vt_add(ed, e, 1000, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, e, 1000, NULL, NULL), VP_OK);
     /* a client that sends queries (24 KB of results each) and never reads */
     int fd = raw_connect(&d);
     raw_hello(fd);
     vp_view v;
-    assert_true(vt_view_perspective(&v, (double[]){50, 0, 0}, (double[]){50, 0, 10}, NULL, 120, 640, 480, 0.1, 100));
+    assert_true(vtc_view_perspective(&v, (double[]){50, 0, 0}, (double[]){50, 0, 10}, NULL, 120, 640, 480, 0.1, 100));
     uint8_t buf[512];
     vp_writer w;
     vp_writer_init(&w, buf, sizeof buf);
@@ -760,7 +760,7 @@ static void test_slow_reader_dropped(void **state)
         if (send(fd, buf, w.len, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) break;
     }
     /* the daemon drops it; meanwhile the editor is served */
-    assert_int_equal(vt_ping(ed), VP_OK);
+    assert_int_equal(vtc_ping(ed), VP_OK);
     wait_connections(ed, 1);
     close(fd);
     /* the same with ENTITY_LIST, answered on the loop thread itself: a
@@ -771,7 +771,7 @@ static void test_slow_reader_dropped(void **state)
     vp_enc_list(&w, 2, &(vp_list){.max = 1000});
     for (sent = 0; sent < 20000; sent++)
         if (send(fd, buf, w.len, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) break;
-    assert_int_equal(vt_ping(ed), VP_OK);
+    assert_int_equal(vtc_ping(ed), VP_OK);
     wait_connections(ed, 1);
     close(fd);
     daemon_close(&d, ed);
@@ -843,22 +843,22 @@ static void test_cli_round_trip(void **state)
 static void test_events(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *sub = connect_role(d, VP_ROLE_VIEWER, true);
-    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
-    assert_int_equal(vt_subscribe(sub, VP_EVENT_SCENE), VP_OK);
+    vtc_client *sub = connect_role(d, VP_ROLE_VIEWER, true);
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
+    assert_int_equal(vtc_subscribe(sub, VP_EVENT_SCENE), VP_OK);
     vp_entity e[10];
     for (int i = 0; i < 10; i++) e[i] = (vp_entity){.id = 500 + (uint64_t)i, .sphere = {i, 0, 0, 1}};
     uint64_t epoch;
-    assert_int_equal(vt_add(ed, e, 10, NULL, &epoch), VP_OK);
+    assert_int_equal(vtc_add(ed, e, 10, NULL, &epoch), VP_OK);
     for (int i = 0; i < 5; i++) e[i].sphere[1] = 3;
-    assert_int_equal(vt_update(ed, e, 5, &epoch), VP_OK);
+    assert_int_equal(vtc_update(ed, e, 5, &epoch), VP_OK);
     uint64_t rm[2] = {508, 509};
-    assert_int_equal(vt_remove(ed, rm, 2, &epoch), VP_OK);
+    assert_int_equal(vtc_remove(ed, rm, 2, &epoch), VP_OK);
     uint32_t added = 0, updated = 0, removed = 0;
     uint64_t last = 0;
     while (added + updated + removed < 17) {
         vp_event ev;
-        assert_int_equal(vt_wait_event(sub, &ev, 5000), VP_OK);
+        assert_int_equal(vtc_wait_event(sub, &ev, 5000), VP_OK);
         assert_int_equal(ev.kind, VP_EVENT_SCENE);
         assert_true(ev.epoch > last);
         last = ev.epoch;
@@ -871,18 +871,18 @@ static void test_events(void **state)
     assert_int_equal(removed, 2);
     assert_true(last == epoch);
     /* a rejected edit sends no event */
-    assert_int_equal(vt_remove(ed, rm, 1, NULL), VP_ERR_UNKNOWN_ID);
+    assert_int_equal(vtc_remove(ed, rm, 1, NULL), VP_ERR_UNKNOWN_ID);
     vp_event ev;
-    assert_int_equal(vt_wait_event(sub, &ev, 300), VT_ERR_IO); /* timed out: nothing came */
+    assert_int_equal(vtc_wait_event(sub, &ev, 300), VTC_ERR_IO); /* timed out: nothing came */
     /* a light edit changes the scene too: an event with its epoch, no
        entity counts */
     vp_light l = {.id = 9, .kind = VP_LIGHT_POINT, .pos = {0, 5, 0}, .color = {1, 1, 1}, .intensity = 1, .range = 10};
-    assert_int_equal(vt_put_lights(ed, &l, 1), VP_OK);
-    assert_int_equal(vt_wait_event(sub, &ev, 5000), VP_OK);
+    assert_int_equal(vtc_put_lights(ed, &l, 1), VP_OK);
+    assert_int_equal(vtc_wait_event(sub, &ev, 5000), VP_OK);
     assert_true(ev.epoch > last);
     assert_int_equal(ev.added + ev.updated + ev.removed, 0);
-    vt_close(sub);
-    vt_close(ed);
+    vtc_close(sub);
+    vtc_close(ed);
 }
 
 /* Occluders pushed over the protocol hide what is behind them in the next
@@ -891,50 +891,50 @@ static void test_events(void **state)
 static void test_occlusion_over_the_wire(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     /* a wall 100 x 40 m at z = -20, facing the camera at the origin */
     const float wall[18] = {-50, 0, 0, 50, 0, 0, 50, 40, 0, -50, 0, 0, 50, 40, 0, -50, 40, 0};
     const double at_wall[3] = {0, 0, -20};
-    assert_int_equal(vt_put_occluder(c, 7, at_wall, wall, 2), VP_OK);
+    assert_int_equal(vtc_put_occluder(c, 7, at_wall, wall, 2), VP_OK);
     vp_entity e[2] = {{.id = 1, .sphere = {-5, 5, -60, 2}}, {.id = 2, .sphere = {0, 5, -10, 1}}};
-    assert_int_equal(vt_add(c, e, 2, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, e, 2, NULL, NULL), VP_OK);
     vp_view v;
     const double eye[3] = {0, 5, 0}, at[3] = {0, 5, -100};
-    assert_true(vt_view_perspective(&v, eye, at, NULL, 60, 1280, 720, 0.1, 1000));
+    assert_true(vtc_view_perspective(&v, eye, at, NULL, 60, 1280, 720, 0.1, 1000));
     vp_vis_result res;
     vp_vis_rec rec;
-    assert_int_equal(vt_query(c, &v, 1, 0, 0, &res), VP_OK);
+    assert_int_equal(vtc_query(c, &v, 1, 0, 0, &res), VP_OK);
     assert_int_equal(res.count, 1); /* the one in front of the wall */
     vp_vis_rec_get(&res, 0, &rec);
     assert_int_equal(rec.id, 2);
-    assert_int_equal(vt_query(c, &v, 1, VP_Q_OCC_CENTRE, 0, &res), VP_OK);
+    assert_int_equal(vtc_query(c, &v, 1, VP_Q_OCC_CENTRE, 0, &res), VP_OK);
     assert_int_equal(res.count, 1);
-    assert_int_equal(vt_query(c, &v, 1, VP_Q_NO_OCCLUSION, 0, &res), VP_OK);
+    assert_int_equal(vtc_query(c, &v, 1, VP_Q_NO_OCCLUSION, 0, &res), VP_OK);
     assert_int_equal(res.count, 2);
     /* destruction: the wall again, with a gap from x = -10 to 0 */
     const float holed[36] = {-50, 0, 0, -10, 0, 0, -10, 40, 0, -50, 0, 0, -10, 40, 0, -50, 40, 0,
                              0,   0, 0, 50,  0, 0, 50,  40, 0, 0,   0, 0, 50,  40, 0, 0,   40, 0};
-    assert_int_equal(vt_put_occluder(c, 7, at_wall, holed, 4), VP_OK);
-    assert_int_equal(vt_query(c, &v, 1, 0, 0, &res), VP_OK);
+    assert_int_equal(vtc_put_occluder(c, 7, at_wall, holed, 4), VP_OK);
+    assert_int_equal(vtc_query(c, &v, 1, 0, 0, &res), VP_OK);
     assert_int_equal(res.count, 2);
-    assert_int_equal(vt_put_occluder(c, 7, at_wall, wall, 2), VP_OK);
-    assert_int_equal(vt_query(c, &v, 1, 0, 0, &res), VP_OK);
+    assert_int_equal(vtc_put_occluder(c, 7, at_wall, wall, 2), VP_OK);
+    assert_int_equal(vtc_query(c, &v, 1, 0, 0, &res), VP_OK);
     assert_int_equal(res.count, 1);
     uint64_t id = 7;
-    assert_int_equal(vt_remove_occluders(c, &id, 1, NULL), VP_OK);
-    assert_int_equal(vt_query(c, &v, 1, 0, 0, &res), VP_OK);
+    assert_int_equal(vtc_remove_occluders(c, &id, 1, NULL), VP_OK);
+    assert_int_equal(vtc_query(c, &v, 1, 0, 0, &res), VP_OK);
     assert_int_equal(res.count, 2);
-    assert_int_equal(vt_remove_occluders(c, &id, 1, NULL), VP_ERR_UNKNOWN_ID);
+    assert_int_equal(vtc_remove_occluders(c, &id, 1, NULL), VP_ERR_UNKNOWN_ID);
     /* a bad occluder is refused with a reason, and nothing changes */
     const float bad[9] = {0, 0, 0, 1, 0, 0, 0, 1e30f, 0};
     const double far_away[3] = {1e13, 0, 0};
     /* beyond the world's range: INVALID, as for an entity, a light or a
        destruction sphere (daemon/errmap.c; it was SCENE for occluders alone) */
-    assert_int_equal(vt_put_occluder(c, 8, far_away, bad, 1), VP_ERR_INVALID);
+    assert_int_equal(vtc_put_occluder(c, 8, far_away, bad, 1), VP_ERR_INVALID);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     assert_int_equal(st.occluders, 0);
-    vt_close(c);
+    vtc_close(c);
 }
 
 /* A fake server on a Unix socket: reads the client's first request,
@@ -962,7 +962,7 @@ static int fake_server(const char *path, const uint8_t *reply, size_t n)
 }
 
 /* A reply the client cannot decode keeps the decoder's code and says which
- * reply and why (the blocking calls answered "malformed X" with VT_ERR_IO,
+ * reply and why (the blocking calls answered "malformed X" with VTC_ERR_IO,
  * the decoder's code lost): HELLO_OK of 5 and of 29 payload bytes (28 are
  * its layout), one row each. */
 static void test_client_keeps_decoder_code(void **state)
@@ -983,9 +983,9 @@ static void test_client_keeps_decoder_code(void **state)
         for (uint32_t k = 0; k < rows[i].len; k++) vp_put_u8(&w, 0);
         assert_true(vp_frame_end(&w));
         int pid = fake_server(path, reply, w.len);
-        vt_client *c = (vt_client *)1;
+        vtc_client *c = (vtc_client *)1;
         char err[256] = "";
-        int rc = vt_connect(&(vt_connect_opts){.unix_path = path, .timeout_ms = 5000}, &c, err, sizeof err);
+        int rc = vtc_connect(&(vtc_connect_opts){.unix_path = path, .timeout_ms = 5000}, &c, err, sizeof err);
         print_message("%s: %d %s\n", rows[i].name, rc, err);
         assert_int_equal(rc, rows[i].code);
         assert_null(c);
@@ -996,7 +996,7 @@ static void test_client_keeps_decoder_code(void **state)
     tdir_remove(&td);
 }
 
-/* A mesh without normals (vt_put_mesh with nrm NULL) is drawn flat, as the
+/* A mesh without normals (vtc_put_mesh with nrm NULL) is drawn flat, as the
  * renderer documents NULL normals: an octahedron of 6 shared vertices and
  * no normals draws as the same octahedron of 24 unshared vertices whose
  * normals are its face normals (the model, put in its place). Before MESH_PUT could say "no
@@ -1025,25 +1025,25 @@ static void test_mesh_without_normals_is_flat(void **state)
             }
     daemon_proc d;
     daemon_start(&d, NULL);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
-    assert_int_equal(vt_put_mesh(c, 1, pos6, NULL, 6, idx, 24), VP_OK);
+    vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    assert_int_equal(vtc_put_mesh(c, 1, pos6, NULL, 6, idx, 24), VP_OK);
     vp_light l = {.id = 1, .kind = VP_LIGHT_POINT, .pos = {3, 2, -2}, .color = {1, 1, 1}, .intensity = 50,
                   .range = 30};
-    assert_int_equal(vt_put_lights(c, &l, 1), VP_OK);
+    assert_int_equal(vtc_put_lights(c, &l, 1), VP_OK);
     vp_entity e = {.id = 1, .class_id = 1, .aabb = {-2, -2, -12, 2, 2, -8}};
-    assert_int_equal(vt_add(c, &e, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, &e, 1, NULL, NULL), VP_OK);
     vp_render m = {.format = VP_FRAME_RAW};
     const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
-    assert_true(vt_view_perspective(&m.view, eye, at, NULL, 40, 96, 96, 0.1, 100));
+    assert_true(vtc_view_perspective(&m.view, eye, at, NULL, 40, 96, 96, 0.1, 100));
     enum { NPX = 96 * 96 };
     static float flat[NPX * 5];
     vp_frame f;
-    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    assert_int_equal(vtc_render(c, &m, &f), VP_OK);
     assert_int_equal(f.data_len, sizeof flat);
     memcpy(flat, f.data, sizeof flat);
     /* the model replaces the class's mesh (a class has one colour) */
-    assert_int_equal(vt_put_mesh(c, 1, pos24, nrm24, 24, idx24, 24), VP_OK);
-    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    assert_int_equal(vtc_put_mesh(c, 1, pos24, nrm24, 24, idx24, 24), VP_OK);
+    assert_int_equal(vtc_render(c, &m, &f), VP_OK);
     const float *ref = (const float *)f.data;
     size_t covered = 0, shades = 0;
     float first = -1;
@@ -1058,7 +1058,7 @@ static void test_mesh_without_normals_is_flat(void **state)
     }
     assert_true(covered > 500);
     assert_true(shades > 100); /* facets, not one colour */
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
 }
 
@@ -1068,17 +1068,17 @@ static void test_mesh_without_normals_is_flat(void **state)
 static void test_render_frames(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     vp_entity e = {.id = 1, .aabb = {-2, -2, -12, 2, 2, -8}};
-    assert_int_equal(vt_add(c, &e, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, &e, 1, NULL, NULL), VP_OK);
     vp_light l = {.id = 1, .kind = VP_LIGHT_POINT, .pos = {3, 3, -2}, .color = {1, 1, 1}, .intensity = 50,
                   .range = 30};
-    assert_int_equal(vt_put_lights(c, &l, 1), VP_OK);
+    assert_int_equal(vtc_put_lights(c, &l, 1), VP_OK);
     vp_render m = {.format = VP_FRAME_RAW};
     const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
-    assert_true(vt_view_perspective(&m.view, eye, at, NULL, 60, 160, 90, 0.1, 100));
+    assert_true(vtc_view_perspective(&m.view, eye, at, NULL, 60, 160, 90, 0.1, 100));
     vp_frame f;
-    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    assert_int_equal(vtc_render(c, &m, &f), VP_OK);
     assert_int_equal(f.width, 160);
     assert_int_equal(f.height, 90);
     assert_int_equal(f.visible, 1);
@@ -1091,7 +1091,7 @@ static void test_render_frames(void **state)
     assert_true(isinf(z[0]) && px[3] == 0.0f); /* a corner sees nothing */
     m.format = VP_FRAME_JPEG;
     m.quality = 90;
-    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    assert_int_equal(vtc_render(c, &m, &f), VP_OK);
     uint8_t *rgb;
     uint32_t jw, jh;
     char err[256];
@@ -1101,20 +1101,20 @@ static void test_render_frames(void **state)
     free(rgb);
     /* bad requests */
     m.quality = 0;
-    assert_int_equal(vt_render(c, &m, &f), VP_ERR_INVALID);
+    assert_int_equal(vtc_render(c, &m, &f), VP_ERR_INVALID);
     m.quality = 90;
     m.view.viewport_w = 4096;
     m.view.viewport_h = 4097;
-    assert_int_equal(vt_render(c, &m, &f), VP_ERR_LIMIT);
+    assert_int_equal(vtc_render(c, &m, &f), VP_ERR_LIMIT);
     /* a RAW frame bigger than the daemon's output limit: refused up front,
        not drawn and then dropped with the client */
     vp_render big = m;
     big.format = VP_FRAME_RAW;
     big.quality = 0;
     big.view.viewport_w = big.view.viewport_h = 4096; /* 335 MB > 256 MiB */
-    assert_int_equal(vt_render(c, &big, &f), VP_ERR_LIMIT);
-    assert_non_null(strstr(vt_last_error(c)->msg, "out-limit"));
-    assert_int_equal(vt_ping(c), VP_OK);
+    assert_int_equal(vtc_render(c, &big, &f), VP_ERR_LIMIT);
+    assert_non_null(strstr(vtc_last_error(c)->msg, "out-limit"));
+    assert_int_equal(vtc_ping(c), VP_OK);
     /* the CLI writes an EXR that OpenEXR opens, with its channels */
     char path[400], cmd[1024];
     tdir td;
@@ -1136,7 +1136,7 @@ static void test_render_frames(void **state)
     free(zz);
     free(a);
     tdir_remove(&td);
-    vt_close(c);
+    vtc_close(c);
 }
 
 /* Reads one whole frame of any size from fd (SO_RCVTIMEO set): its type,
@@ -1177,13 +1177,13 @@ static int raw_read_big(int fd, uint64_t *epoch)
 
 /* Reads the stream until a frame shows at least epoch `want`; epochs never
  * go back. The number of frames read. */
-static int frames_until(vt_client *v, uint64_t want, uint64_t *last, uint16_t width)
+static int frames_until(vtc_client *v, uint64_t want, uint64_t *last, uint16_t width)
 {
     int n = 0;
     for (;;) {
         vp_frame f;
-        int rc = vt_wait_frame(v, &f, 10000);
-        if (rc) fail_msg("no frame showing epoch %llu: %s", (unsigned long long)want, vt_last_error(v)->msg);
+        int rc = vtc_wait_frame(v, &f, 10000);
+        if (rc) fail_msg("no frame showing epoch %llu: %s", (unsigned long long)want, vtc_last_error(v)->msg);
         n++;
         assert_true(f.epoch >= *last);
         *last = f.epoch;
@@ -1200,21 +1200,21 @@ static int frames_until(vt_client *v, uint64_t want, uint64_t *last, uint16_t wi
 static void test_frame_stream(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     vp_entity e[200];
     rng r = {test_seed() ^ 0xF5};
     for (int i = 0; i < 200; i++) {
         double x = rng_range(&r, -20, 20), y = rng_range(&r, -10, 10), z = rng_range(&r, -60, -10);
         e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 1, y - 1, z - 1, x + 1, y + 1, z + 1}};
     }
-    assert_int_equal(vt_add(ed, e, 200, NULL, NULL), VP_OK);
-    vt_client *v = connect_role(d, VP_ROLE_VIEWER, true);
+    assert_int_equal(vtc_add(ed, e, 200, NULL, NULL), VP_OK);
+    vtc_client *v = connect_role(d, VP_ROLE_VIEWER, true);
     vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = 80}, .max_fps = VP_FRAME_SUB_MAX_FPS};
     const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
-    assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 70, 320, 180, 0.1, 200));
-    assert_int_equal(vt_frame_subscribe(v, &sub), VP_OK);
+    assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 70, 320, 180, 0.1, 200));
+    assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
     vp_frame f;
-    assert_int_equal(vt_wait_frame(v, &f, 10000), VP_OK);
+    assert_int_equal(vtc_wait_frame(v, &f, 10000), VP_OK);
     assert_int_equal(f.width, 320);
     assert_int_equal(f.height, 180);
     assert_int_equal(f.format, VP_FRAME_JPEG);
@@ -1227,8 +1227,8 @@ static void test_frame_stream(void **state)
     free(rgb);
     uint64_t last = f.epoch;
     /* nothing changes: nothing comes */
-    assert_int_equal(vt_wait_frame(v, &f, 300), VT_ERR_IO);
-    assert_non_null(strstr(vt_last_error(v)->msg, "timed out"));
+    assert_int_equal(vtc_wait_frame(v, &f, 300), VTC_ERR_IO);
+    assert_non_null(strstr(vtc_last_error(v)->msg, "timed out"));
     /* a second viewer that subscribes for big raw frames and stops reading */
     int stalled = raw_connect(d);
     raw_hello(stalled);
@@ -1247,7 +1247,7 @@ static void test_frame_stream(void **state)
     uint64_t epoch = 0;
     for (int i = 0; i < 60; i++) {
         e[i].aabb[0] += 0.5, e[i].aabb[3] += 0.5;
-        assert_int_equal(vt_update(ed, &e[i], 1, &epoch), VP_OK);
+        assert_int_equal(vtc_update(ed, &e[i], 1, &epoch), VP_OK);
         frames += frames_until(v, epoch, &last, 0);
     }
     assert_true(frames >= 1 && frames <= 120);
@@ -1272,28 +1272,28 @@ static void test_frame_stream(void **state)
     assert_int_equal(s_last, epoch); /* it shows the scene as it is now */
     close(stalled);
     /* re-aimed in place: a frame of the new view, with no scene change */
-    assert_true(vt_view_perspective(&sub.r.view, (double[]){5, 0, 0}, at, NULL, 70, 160, 90, 0.1, 200));
-    assert_int_equal(vt_frame_subscribe(v, &sub), VP_OK);
+    assert_true(vtc_view_perspective(&sub.r.view, (double[]){5, 0, 0}, at, NULL, 70, 160, 90, 0.1, 200));
+    assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
     frames_until(v, epoch, &last, 160);
     /* unsubscribed: an edit brings nothing */
-    assert_int_equal(vt_frame_unsubscribe(v), VP_OK);
+    assert_int_equal(vtc_frame_unsubscribe(v), VP_OK);
     e[0].aabb[1] += 1;
-    assert_int_equal(vt_update(ed, &e[0], 1, NULL), VP_OK);
+    assert_int_equal(vtc_update(ed, &e[0], 1, NULL), VP_OK);
     vp_header h;
     const uint8_t *p;
     int rc;
-    while ((rc = vt_recv(v, &h, &p, 300)) == VP_OK) assert_int_equal(h.type, VP_FRAME); /* already on its way */
-    assert_int_equal(rc, VT_ERR_IO);
-    assert_int_equal(vt_wait_frame(v, &f, 10), VP_ERR_STATE);
+    while ((rc = vtc_recv(v, &h, &p, 300)) == VP_OK) assert_int_equal(h.type, VP_FRAME); /* already on its way */
+    assert_int_equal(rc, VTC_ERR_IO);
+    assert_int_equal(vtc_wait_frame(v, &f, 10), VP_ERR_STATE);
     /* bad subscriptions: refused, the connection fine */
     sub.max_fps = 0;
-    assert_int_equal(vt_frame_subscribe(v, &sub), VP_ERR_INVALID);
+    assert_int_equal(vtc_frame_subscribe(v, &sub), VP_ERR_INVALID);
     sub.max_fps = 30;
     sub.r.quality = 0;
-    assert_int_equal(vt_frame_subscribe(v, &sub), VP_ERR_INVALID);
-    assert_int_equal(vt_ping(v), VP_OK);
-    vt_close(v);
-    vt_close(ed);
+    assert_int_equal(vtc_frame_subscribe(v, &sub), VP_ERR_INVALID);
+    assert_int_equal(vtc_ping(v), VP_OK);
+    vtc_close(v);
+    vtc_close(ed);
 }
 
 /* The phases of test_stalled_viewer_isolated: the clients' threads file
@@ -1303,7 +1303,7 @@ enum { STALL_WARM, STALL_A, STALL_SETUP, STALL_B, STALL_STOP };
 
 typedef struct stall_run {
     atomic_int phase;
-    vt_client *query, *viewer, *editor; /* each used by its own thread only */
+    vtc_client *query, *viewer, *editor; /* each used by its own thread only */
     vp_view qview;                       /* the queries' camera */
     /* the query client: each round trip (ms) by phase (0: A, 1: B) */
     double *rtt[2];
@@ -1339,8 +1339,8 @@ static void *stall_querier(void *p)
     while ((ph = atomic_load(&r->phase)) != STALL_STOP) {
         double t0 = mono_ms();
         vp_vis_result res;
-        if (vt_query(r->query, &r->qview, 1, 0, 0, &res) != VP_OK) {
-            snprintf(r->err_query, sizeof r->err_query, "query: %.300s", vt_last_error(r->query)->msg);
+        if (vtc_query(r->query, &r->qview, 1, 0, 0, &res) != VP_OK) {
+            snprintf(r->err_query, sizeof r->err_query, "query: %.300s", vtc_last_error(r->query)->msg);
             return NULL;
         }
         double dt = mono_ms() - t0;
@@ -1359,10 +1359,10 @@ static void *stall_viewer(void *p)
     int last_k = -1;
     while (atomic_load(&r->phase) != STALL_STOP) {
         vp_frame f;
-        int rc = vt_wait_frame(r->viewer, &f, 200);
-        if (rc == VT_ERR_IO && vt_last_error(r->viewer)->timed_out) continue;
+        int rc = vtc_wait_frame(r->viewer, &f, 200);
+        if (rc == VTC_ERR_IO && vtc_last_error(r->viewer)->timed_out) continue;
         if (rc != VP_OK) {
-            snprintf(r->err_viewer, sizeof r->err_viewer, "frame: %.300s", vt_last_error(r->viewer)->msg);
+            snprintf(r->err_viewer, sizeof r->err_viewer, "frame: %.300s", vtc_last_error(r->viewer)->msg);
             return NULL;
         }
         double t = mono_ms();
@@ -1387,8 +1387,8 @@ static void *stall_editor(void *p)
         double x = 8 * sin(i * 0.15);
         e.aabb[0] = x - 2;
         e.aabb[3] = x + 2;
-        if (vt_update(r->editor, &e, 1, NULL) != VP_OK) {
-            snprintf(r->err_editor, sizeof r->err_editor, "update: %.300s", vt_last_error(r->editor)->msg);
+        if (vtc_update(r->editor, &e, 1, NULL) != VP_OK) {
+            snprintf(r->err_editor, sizeof r->err_editor, "update: %.300s", vtc_last_error(r->editor)->msg);
             return NULL;
         }
         r->edits++;
@@ -1441,7 +1441,7 @@ static double quantile(double *v, size_t n, double q)
 
 /* A stalled viewer, read again at the end. */
 typedef struct stall_drain {
-    vt_client *c;
+    vtc_client *c;
     uint64_t want;        /* the scene's epoch now */
     int frames;           /* frames that were waiting for it, and the fresh one */
     uint64_t last_epoch;
@@ -1456,14 +1456,14 @@ static void *stall_drain_main(void *p)
     stall_drain *x = p;
     vp_frame f;
     int rc = VP_OK;
-    while (x->last_epoch < x->want && (rc = vt_wait_frame(x->c, &f, 20000)) == VP_OK) {
+    while (x->last_epoch < x->want && (rc = vtc_wait_frame(x->c, &f, 20000)) == VP_OK) {
         x->frames++;
         x->last_epoch = f.epoch;
     }
-    while (rc == VP_OK && (rc = vt_wait_frame(x->c, &f, 250)) == VP_OK) x->frames++;
-    if (rc == VT_ERR_IO && vt_last_error(x->c)->timed_out && x->last_epoch >= x->want) return NULL;
-    x->closed = rc == VT_ERR_IO && !vt_last_error(x->c)->timed_out;
-    snprintf(x->err, sizeof x->err, "%.300s", vt_last_error(x->c)->msg);
+    while (rc == VP_OK && (rc = vtc_wait_frame(x->c, &f, 250)) == VP_OK) x->frames++;
+    if (rc == VTC_ERR_IO && vtc_last_error(x->c)->timed_out && x->last_epoch >= x->want) return NULL;
+    x->closed = rc == VTC_ERR_IO && !vtc_last_error(x->c)->timed_out;
+    snprintf(x->err, sizeof x->err, "%.300s", vtc_last_error(x->c)->msg);
     return NULL;
 }
 
@@ -1502,15 +1502,15 @@ static void test_stalled_viewer_isolated(void **state)
     }
     /* the cameras: down a street of the city, over the moved entity */
     const double eye[3] = {0, 20, -300}, at[3] = {0, 2, 0};
-    assert_true(vt_view_perspective(&r.qview, eye, at, NULL, 60, 1280, 720, 0.5, 1500));
+    assert_true(vtc_view_perspective(&r.qview, eye, at, NULL, 60, 1280, 720, 0.5, 1500));
     vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = 80}, .max_fps = 30};
-    assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 60, 320, 180, 0.5, 1500));
+    assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 60, 320, 180, 0.5, 1500));
     r.query = connect_role(&d, VP_ROLE_VIEWER, true);
     r.viewer = connect_role(&d, VP_ROLE_VIEWER, false);
     r.editor = connect_role(&d, VP_ROLE_EDITOR, false);
     r.moved = (vp_entity){.id = 9000001, .class_id = 2, .aabb = {-2, 0, -202, 2, 4, -198}};
-    assert_int_equal(vt_add(r.editor, &r.moved, 1, NULL, NULL), VP_OK);
-    assert_int_equal(vt_frame_subscribe(r.viewer, &sub), VP_OK);
+    assert_int_equal(vtc_add(r.editor, &r.moved, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_frame_subscribe(r.viewer, &sub), VP_OK);
     pthread_t th[3];
     assert_int_equal(pthread_create(&th[0], NULL, stall_querier, &r), 0);
     assert_int_equal(pthread_create(&th[1], NULL, stall_viewer, &r), 0);
@@ -1529,7 +1529,7 @@ static void test_stalled_viewer_isolated(void **state)
        set up once each has its first frame on the way (bytes waiting in
        its socket: the frame is drawn). Nothing here asserts while the
        clients' threads run: a failure stops them first. */
-    vt_client *stalled[NSTALL] = {0};
+    vtc_client *stalled[NSTALL] = {0};
     vp_frame_sub big = {.r = {.format = VP_FRAME_RAW, .view = sub.r.view}, .max_fps = VP_FRAME_SUB_MAX_FPS};
     big.r.view.viewport_w = SW; /* the same 16:9 camera, bigger */
     big.r.view.viewport_h = SH;
@@ -1537,21 +1537,21 @@ static void test_stalled_viewer_isolated(void **state)
     char setup_err[400] = "";
     double t_setup = mono_ms();
     for (int i = 0; i < NSTALL && !setup_err[0]; i++) {
-        vt_connect_opts o = {.port = d.port, .role = VP_ROLE_VIEWER, .unix_path = i % 2 == 0 ? d.sock : NULL,
+        vtc_connect_opts o = {.port = d.port, .role = VP_ROLE_VIEWER, .unix_path = i % 2 == 0 ? d.sock : NULL,
                              .timeout_ms = 20000};
         char err[256] = "";
-        if (vt_connect(&o, &stalled[i], err, sizeof err) != VP_OK)
+        if (vtc_connect(&o, &stalled[i], err, sizeof err) != VP_OK)
             snprintf(setup_err, sizeof setup_err, "stalled viewer %d: connect: %s", i, err);
-        else if (vt_frame_subscribe(stalled[i], &big) != VP_OK)
+        else if (vtc_frame_subscribe(stalled[i], &big) != VP_OK)
             snprintf(setup_err, sizeof setup_err, "stalled viewer %d: subscribe: %.300s", i,
-                     vt_last_error(stalled[i])->msg);
+                     vtc_last_error(stalled[i])->msg);
     }
     for (int ready = 0; !setup_err[0] && ready < NSTALL;) {
         stall_sleep(d.pid, 10, &rss_b);
         ready = 0;
         for (int i = 0; i < NSTALL; i++) {
             int q = 0;
-            ready += ioctl(vt_fd(stalled[i]), FIONREAD, &q) == 0 && q >= 16384;
+            ready += ioctl(vtc_fd(stalled[i]), FIONREAD, &q) == 0 && q >= 16384;
         }
         if (mono_ms() - t_setup > 30000)
             snprintf(setup_err, sizeof setup_err, "the stalled viewers' first frames did not come in 30 s");
@@ -1599,7 +1599,7 @@ static void test_stalled_viewer_isolated(void **state)
     /* each stalled viewer reads again: the frame that was waiting, then
        one of the scene as it is now, and nothing more; or it was dropped */
     vp_stats_reply st;
-    assert_int_equal(vt_stats(r.editor, &st), VP_OK);
+    assert_int_equal(vtc_stats(r.editor, &st), VP_OK);
     stall_drain dr[NSTALL];
     pthread_t dt[NSTALL];
     for (int i = 0; i < NSTALL; i++) {
@@ -1617,10 +1617,10 @@ static void test_stalled_viewer_isolated(void **state)
         assert_int_equal(dr[i].last_epoch, st.epoch);
     }
     print_message("stalled viewer: daemon RSS %ld kB once they have read everything\n", daemon_rss_kb(d.pid));
-    for (int i = 0; i < NSTALL; i++) vt_close(stalled[i]);
-    vt_close(r.query);
-    vt_close(r.viewer);
-    vt_close(r.editor);
+    for (int i = 0; i < NSTALL; i++) vtc_close(stalled[i]);
+    vtc_close(r.query);
+    vtc_close(r.viewer);
+    vtc_close(r.editor);
     free(r.rtt[0]);
     free(r.rtt[1]);
     daemon_stop(&d);
@@ -1634,27 +1634,27 @@ static void test_render_gl_over_the_wire(void **state)
 {
     (void)state;
     daemon_proc d;
-    vt_client *c = daemon_open(&d, VP_ROLE_EDITOR);
+    vtc_client *c = daemon_open(&d, VP_ROLE_EDITOR);
     vp_entity e[50];
     rng r = {test_seed() ^ 0x61};
     for (int i = 0; i < 50; i++) {
         double x = rng_range(&r, -15, 15), y = rng_range(&r, -8, 8), z = rng_range(&r, -50, -8);
         e[i] = (vp_entity){.id = (uint64_t)i + 1, .class_id = (uint16_t)(i % 5), .aabb = {x - 1, y - 1, z - 2, x + 1, y + 2, z + 1}};
     }
-    assert_int_equal(vt_add(c, e, 50, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, e, 50, NULL, NULL), VP_OK);
     vp_light l = {.id = 1, .kind = VP_LIGHT_POINT, .pos = {0, 5, -10}, .color = {1, 0.9f, 0.8f}, .intensity = 200,
                   .range = 60};
-    assert_int_equal(vt_put_lights(c, &l, 1), VP_OK);
+    assert_int_equal(vtc_put_lights(c, &l, 1), VP_OK);
     vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
-    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 70, 256, 144, 0.1, 200));
+    assert_true(vtc_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 70, 256, 144, 0.1, 200));
     vp_frame f;
-    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    assert_int_equal(vtc_render(c, &m, &f), VP_OK);
     size_t np = 256 * 144;
     float *soft = malloc(np * 20);
     assert_non_null(soft);
     memcpy(soft, f.data, np * 20);
     m.renderer = VP_RENDERER_GL;
-    int rc = vt_render(c, &m, &f);
+    int rc = vtc_render(c, &m, &f);
     if (rc == VP_OK) {
         const float *gl = (const float *)f.data;
         size_t differ = 0, covered = 0;
@@ -1668,12 +1668,12 @@ static void test_render_gl_over_the_wire(void **state)
         assert_true(differ * 1000 <= np);
     } else {
         assert_int_equal(rc, VP_ERR_UNSUPPORTED);
-        assert_non_null(strstr(vt_last_error(c)->msg, "OpenGL"));
-        print_message("no OpenGL here: %s\n", vt_last_error(c)->msg);
+        assert_non_null(strstr(vtc_last_error(c)->msg, "OpenGL"));
+        print_message("no OpenGL here: %s\n", vtc_last_error(c)->msg);
     }
-    assert_int_equal(vt_ping(c), VP_OK);
+    assert_int_equal(vtc_ping(c), VP_OK);
     free(soft);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
 
     /* --render gl with no EGL driver to be found: a clear refusal to start */
@@ -1693,32 +1693,32 @@ static void test_render_gl_over_the_wire(void **state)
 static void test_light_query(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     rng r = {test_seed() ^ 0x116};
     vp_entity e[120];
     for (int i = 0; i < 120; i++) {
         double x = rng_range(&r, -25, 25), y = rng_range(&r, -6, 6), z = rng_range(&r, -70, -8);
         e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 1.5, y - 1, z - 1.5, x + 1.5, y + 1, z + 1.5}};
     }
-    assert_int_equal(vt_add(c, e, 120, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, e, 120, NULL, NULL), VP_OK);
     vp_light L[48];
     for (int i = 0; i < 48; i++)
         L[i] = (vp_light){.id = 1000 + (uint64_t)i * 7, .kind = VP_LIGHT_POINT,
                           .pos = {rng_range(&r, -30, 30), rng_range(&r, -8, 8), rng_range(&r, -80, -5)},
                           .color = {1, 1, 1}, .intensity = 10, .range = (float)rng_range(&r, 2, 12)};
-    assert_int_equal(vt_put_lights(c, L, 48), VP_OK);
+    assert_int_equal(vtc_put_lights(c, L, 48), VP_OK);
     const uint32_t W = 320, H = 180;
     const double eye[3] = {0, 2, 0}, at[3] = {0, 0, -30}, up[3] = {0, 1, 0}, fov = 70;
     vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
-    assert_true(vt_view_perspective(&m.view, eye, at, up, fov, W, H, 0.1, 300));
+    assert_true(vtc_view_perspective(&m.view, eye, at, up, fov, W, H, 0.1, 300));
     vp_frame f;
-    assert_int_equal(vt_render(c, &m, &f), VP_OK);
+    assert_int_equal(vtc_render(c, &m, &f), VP_OK);
     float *depth = malloc((size_t)W * H * sizeof *depth);
     assert_non_null(depth);
     memcpy(depth, f.data + (size_t)W * H * 16, (size_t)W * H * sizeof *depth);
     vp_light_query q = {.view = m.view};
     vp_light_tiles t;
-    assert_int_equal(vt_light_query(c, &q, &t), VP_OK);
+    assert_int_equal(vtc_light_query(c, &q, &t), VP_OK);
     assert_int_equal(t.tile, 16);
     assert_int_equal(t.tiles_x, (W + 15) / 16);
     assert_int_equal(t.tiles_y, (H + 15) / 16);
@@ -1730,7 +1730,7 @@ static void test_light_query(void **state)
     assert_true(off && ids);
     for (uint32_t i = 0; i <= tiles; i++) off[i] = vp_light_tiles_offset(&t, i);
     for (uint32_t k = 0; k < t.count; k++) ids[k] = vp_light_tiles_id(&t, k);
-    /* the camera basis, as vt_view_perspective builds it */
+    /* the camera basis, as vtc_view_perspective builds it */
     double fw[3], s[3], u[3], n = 0;
     for (int a = 0; a < 3; a++) fw[a] = at[a] - eye[a], n += fw[a] * fw[a];
     for (int a = 0; a < 3; a++) fw[a] /= sqrt(n);
@@ -1766,7 +1766,7 @@ static void test_light_query(void **state)
     assert_int_equal(missing, 0);
     /* the frustum-only lists hold every depth-tested one */
     q.flags = VP_LQ_NO_DEPTH;
-    assert_int_equal(vt_light_query(c, &q, &t), VP_OK);
+    assert_int_equal(vtc_light_query(c, &q, &t), VP_OK);
     assert_true(t.count >= off[tiles]);
     for (uint32_t i = 0; i < tiles; i++)
         for (uint32_t k = off[i]; k < off[i + 1]; k++) {
@@ -1777,15 +1777,15 @@ static void test_light_query(void **state)
         }
     /* bad queries: refused, the connection fine */
     q.flags = 0x80;
-    assert_int_equal(vt_light_query(c, &q, &t), VP_ERR_INVALID);
+    assert_int_equal(vtc_light_query(c, &q, &t), VP_ERR_INVALID);
     q.flags = 0;
     q.view.view_proj[0] = NAN;
-    assert_int_equal(vt_light_query(c, &q, &t), VP_ERR_NONFINITE);
-    assert_int_equal(vt_ping(c), VP_OK);
+    assert_int_equal(vtc_light_query(c, &q, &t), VP_ERR_NONFINITE);
+    assert_int_equal(vtc_ping(c), VP_OK);
     free(off);
     free(ids);
     free(depth);
-    vt_close(c);
+    vtc_close(c);
 }
 
 /* Configured limits: connections, records per batch. */
@@ -1795,26 +1795,26 @@ static void test_limits(void **state)
     daemon_proc d;
     daemon_start_args(&d, (const char *const[]){"--max-clients", "3", "--max-batch", "100", "--max-payload", "16384",
                                                 NULL});
-    vt_client *c[3];
+    vtc_client *c[3];
     for (int i = 0; i < 3; i++) c[i] = connect_role(&d, VP_ROLE_EDITOR, i % 2);
-    vt_client *extra = NULL;
+    vtc_client *extra = NULL;
     char err[256];
-    assert_int_not_equal(vt_connect(&(vt_connect_opts){.port = d.port, .timeout_ms = 2000}, &extra, err, sizeof err),
+    assert_int_not_equal(vtc_connect(&(vtc_connect_opts){.port = d.port, .timeout_ms = 2000}, &extra, err, sizeof err),
                          VP_OK);
     assert_null(extra);
     assert_non_null(strstr(err, "too many connections"));
     vp_entity e[101];
     for (int i = 0; i < 101; i++) e[i] = (vp_entity){.id = (uint64_t)i + 1, .sphere = {i, 0, 0, 1}};
-    assert_int_equal(vt_add(c[0], e, 101, NULL, NULL), VP_ERR_COUNT);
+    assert_int_equal(vtc_add(c[0], e, 101, NULL, NULL), VP_ERR_COUNT);
     /* 200 records are 20 KiB, past --max-payload: refused by the client
        library with the sizes, before sending, and the connection goes on */
     static vp_entity big[200];
     for (int i = 0; i < 200; i++) big[i] = (vp_entity){.id = 1000 + (uint64_t)i, .sphere = {i, 0, 0, 1}};
-    assert_int_equal(vt_add(c[0], big, 200, NULL, NULL), VP_ERR_TOO_LARGE);
-    assert_non_null(strstr(vt_last_error(c[0])->msg, "the server takes at most 16384"));
-    assert_int_equal(vt_add(c[0], e, 100, NULL, NULL), VP_OK);
-    assert_int_equal(vt_add(c[1], e + 100, 1, NULL, NULL), VP_OK);
-    for (int i = 0; i < 3; i++) vt_close(c[i]);
+    assert_int_equal(vtc_add(c[0], big, 200, NULL, NULL), VP_ERR_TOO_LARGE);
+    assert_non_null(strstr(vtc_last_error(c[0])->msg, "the server takes at most 16384"));
+    assert_int_equal(vtc_add(c[0], e, 100, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c[1], e + 100, 1, NULL, NULL), VP_OK);
+    for (int i = 0; i < 3; i++) vtc_close(c[i]);
     daemon_stop(&d);
 }
 

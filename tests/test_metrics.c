@@ -798,44 +798,44 @@ static void test_metrics_counts(void **state)
     expo_free(&b);
 
     /* queries: counted, their stages timed, their entities summed */
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
-    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, true);
+    vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, true);
     vp_entity e[300];
     rng rg = {test_seed() ^ 0x3E7};
     for (int i = 0; i < 300; i++) {
         double x = rng_range(&rg, -100, 100), y = rng_range(&rg, -10, 10), z = rng_range(&rg, -200, 200);
         e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 1, y - 1, z - 1, x + 1, y + 1, z + 1}};
     }
-    assert_int_equal(vt_add(ed, e, 300, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, e, 300, NULL, NULL), VP_OK);
     scrape(mport, &a);
     enum { NQ = 12 };
     double tested = 0, visible = 0;
     for (int i = 0; i < NQ; i++) {
         vp_view view;
         const double eye[3] = {0, 0, 0}, at[3] = {cos(i * 0.5), 0, sin(i * 0.5)};
-        assert_true(vt_view_perspective(&view, eye, at, NULL, 60, 640, 360, 0.1, 500));
+        assert_true(vtc_view_perspective(&view, eye, at, NULL, 60, 640, 360, 0.1, 500));
         vp_vis_result res;
-        assert_int_equal(vt_query(v, &view, 1, i % 2 ? VP_Q_COUNT_ONLY : 0, 0, &res), VP_OK);
+        assert_int_equal(vtc_query(v, &view, 1, i % 2 ? VP_Q_COUNT_ONLY : 0, 0, &res), VP_OK);
         tested += res.tested;
         visible += res.visible;
     }
     /* errors by type and code: a singular matrix, an oversized PING, an unknown type */
     vp_view bad = {.viewport_w = 64, .viewport_h = 64};
     vp_vis_result res;
-    assert_int_equal(vt_query(v, &bad, 1, 0, 0, &res), VP_ERR_MATRIX);
+    assert_int_equal(vtc_query(v, &bad, 1, 0, 0, &res), VP_ERR_MATRIX);
     {
         static uint8_t big[VP_HEADER_SIZE + 2000], data[2000];
         vp_writer_init(&w, big, sizeof big);
-        vp_enc_ping(&w, VP_PING, vt_next_req(v), data, sizeof data);
-        assert_int_equal(vt_send(v, big, w.len), VP_OK);
+        vp_enc_ping(&w, VP_PING, vtc_next_req(v), data, sizeof data);
+        assert_int_equal(vtc_send(v, big, w.len), VP_OK);
         const uint8_t *p;
-        assert_int_equal(vt_recv(v, &h, &p, -1), VP_OK);
+        assert_int_equal(vtc_recv(v, &h, &p, -1), VP_OK);
         assert_int_equal(h.type, VP_ERROR);
         vp_writer_init(&w, buf, sizeof buf);
-        vp_frame_begin(&w, 0x0777, vt_next_req(v));
+        vp_frame_begin(&w, 0x0777, vtc_next_req(v));
         vp_frame_end(&w);
-        assert_int_equal(vt_send(v, buf, w.len), VP_OK);
-        assert_int_equal(vt_recv(v, &h, &p, -1), VP_OK);
+        assert_int_equal(vtc_send(v, buf, w.len), VP_OK);
+        assert_int_equal(vtc_recv(v, &h, &p, -1), VP_OK);
         assert_int_equal(h.type, VP_ERROR);
     }
     scrape(mport, &b);
@@ -878,7 +878,7 @@ static void test_metrics_counts(void **state)
     /* the METRICS message: the same families as HTTP, and it is counted */
     const char *text;
     size_t tlen;
-    assert_int_equal(vt_metrics(v, &text, &tlen), VP_OK);
+    assert_int_equal(vtc_metrics(v, &text, &tlen), VP_OK);
     expo pm, ph;
     expo_parse(text, tlen, &pm);
     scrape(mport, &ph);
@@ -892,7 +892,7 @@ static void test_metrics_counts(void **state)
     expo_free(&pm);
     expo_free(&ph);
     close(r.fd);
-    vt_close(ed);
+    vtc_close(ed);
     daemon_close(&d, v);
 }
 
@@ -907,10 +907,10 @@ static void test_metrics_clients(void **state)
     wait_value(mport, "vantage_clients", "role", "viewer", 0); /* daemon_start's own probe is gone */
     expo a;
     scrape(mport, &a);
-    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
-    vt_client *c = connect_role(&d, VP_ROLE_COMMANDER, true);
-    vt_client *e1 = connect_role(&d, VP_ROLE_EDITOR, false);
-    vt_client *e2 = connect_role(&d, VP_ROLE_EDITOR, true);
+    vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *c = connect_role(&d, VP_ROLE_COMMANDER, true);
+    vtc_client *e1 = connect_role(&d, VP_ROLE_EDITOR, false);
+    vtc_client *e2 = connect_role(&d, VP_ROLE_EDITOR, true);
     rawc mute;
     raw_open(&mute, &d); /* says nothing */
     wait_value(mport, "vantage_clients", "role", "handshake", 1);
@@ -922,9 +922,9 @@ static void test_metrics_clients(void **state)
     assert_true(xget(&b, "vantage_connections_accepted_total", NULL, NULL) -
                     xget(&a, "vantage_connections_accepted_total", NULL, NULL) ==
                 5);
-    vt_close(c);
+    vtc_close(c);
     wait_value(mport, "vantage_clients", "role", "commander", 0);
-    vt_close(e1);
+    vtc_close(e1);
     wait_value(mport, "vantage_clients", "role", "editor", 1);
     close(mute.fd);
     wait_value(mport, "vantage_clients", "role", "handshake", 0);
@@ -934,8 +934,8 @@ static void test_metrics_clients(void **state)
                     xget(&b, "vantage_disconnects_total", "reason", "peer") ==
                 3);
     assert_true(xget(&z, "vantage_clients", "role", "viewer") == 1);
-    vt_close(v);
-    vt_close(e2);
+    vtc_close(v);
+    vtc_close(e2);
     wait_value(mport, "vantage_clients", "role", "editor", 0);
     expo_free(&a);
     expo_free(&b);
@@ -953,14 +953,14 @@ static void test_metrics_buffers_shrink(void **state)
     daemon_proc d;
     int mport;
     daemon_with_metrics(&d, &mport, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
-    vt_client *idle = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vtc_client *idle = connect_role(&d, VP_ROLE_VIEWER, false);
     enum { N = 60000 };
     vp_entity *e = calloc(N, sizeof *e);
     uint32_t *h = calloc(N, sizeof *h);
     for (uint32_t i = 0; i < N; i++)
         e[i] = (vp_entity){.id = i + 1, .sphere = {(double)(i % 300), 1, (double)(i / 300), 1}};
-    assert_int_equal(vt_add(ed, e, N, h, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, e, N, h, NULL), VP_OK);
     expo a;
     scrape(mport, &a);
     double burst = xget(&a, "vantage_client_buffer_bytes", NULL, NULL);
@@ -975,15 +975,15 @@ static void test_metrics_buffers_shrink(void **state)
     assert_true(rest <= 2 * (64 + 64) * 1024);
     /* and it still takes a burst */
     for (uint32_t i = 0; i < N; i++) e[i].id += N;
-    assert_int_equal(vt_add(ed, e, N, h, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, e, N, h, NULL), VP_OK);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(idle, &st), VP_OK);
+    assert_int_equal(vtc_stats(idle, &st), VP_OK);
     assert_int_equal(st.entities, 2 * N);
     free(e);
     free(h);
     expo_free(&a);
     expo_free(&b);
-    vt_close(ed);
+    vtc_close(ed);
     daemon_close(&d, idle);
 }
 
@@ -1017,18 +1017,18 @@ static void test_metrics_output_limit_total(void **state)
     daemon_proc d;
     int mport;
     daemon_with_metrics(&d, &mport, (const char *const[]){"--out-limit-total", "67108864", NULL});
-    vt_client *ok = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *ok = connect_role(&d, VP_ROLE_VIEWER, false);
     vp_render m = {.format = VP_FRAME_RAW};
-    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
+    assert_true(vtc_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
     /* the baseline: after frames of this size (the renderers' own buffers) */
     vp_frame f;
-    for (int i = 0; i < 4; i++) assert_int_equal(vt_render(ok, &m, &f), VP_OK);
+    for (int i = 0; i < 4; i++) assert_int_equal(vtc_render(ok, &m, &f), VP_OK);
     double base = daemon_peak_rss(&d);
     /* a raw frame whose buffer alone would pass the cap is refused up front */
     vp_render big = m;
     big.view.viewport_w = big.view.viewport_h = 1400; /* 39 MB: over half of 64 MiB */
-    assert_int_equal(vt_render(ok, &big, &f), VP_ERR_LIMIT);
-    assert_non_null(strstr(vt_last_error(ok)->msg, "--out-limit-total"));
+    assert_int_equal(vtc_render(ok, &big, &f), VP_ERR_LIMIT);
+    assert_non_null(strstr(vtc_last_error(ok)->msg, "--out-limit-total"));
     static rawc r[NV + 1]; /* r[NV]: a viewer with one frame waiting, the smallest backlog */
     uint8_t buf[1024];
     vp_writer w;
@@ -1059,7 +1059,7 @@ static void test_metrics_output_limit_total(void **state)
             raw_write(&r[i], buf, w.len);
         }
     /* the reading client is answered while the others pile up */
-    for (int i = 0; i < 20; i++) assert_int_equal(vt_ping(ok), VP_OK);
+    for (int i = 0; i < 20; i++) assert_int_equal(vtc_ping(ok), VP_OK);
     /* at least one viewer is dropped for the total (the buffers could not
        otherwise hold 205 MB under 64 MiB) */
     double dropped = 0;
@@ -1108,7 +1108,7 @@ static void test_metrics_output_limit_total(void **state)
        it is +230 MB */
     assert_true(peak < cap + 8 * frame);
 #endif
-    assert_int_equal(vt_ping(ok), VP_OK);
+    assert_int_equal(vtc_ping(ok), VP_OK);
     daemon_close(&d, ok);
 }
 
@@ -1121,13 +1121,13 @@ static void test_metrics_dropped_frames(void **state)
     daemon_proc d;
     int mport;
     daemon_with_metrics(&d, &mport, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
     vp_entity e[50];
     for (int i = 0; i < 50; i++) {
         double x = -25 + i, z = -30;
         e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 0.4, -1, z - 0.4, x + 0.4, 1, z + 0.4}};
     }
-    assert_int_equal(vt_add(ed, e, 50, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, e, 50, NULL, NULL), VP_OK);
     rawc r;
     raw_open(&r, &d);
     uint8_t buf[512];
@@ -1136,7 +1136,7 @@ static void test_metrics_dropped_frames(void **state)
     vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_VIEWER});
     vp_frame_sub sub = {.r = {.format = VP_FRAME_RAW}, .max_fps = VP_FRAME_SUB_MAX_FPS};
     const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -10};
-    assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 70, 480, 270, 0.1, 200)); /* 2.6 MB a frame */
+    assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 70, 480, 270, 0.1, 200)); /* 2.6 MB a frame */
     vp_enc_frame_sub(&w, 9, &sub);
     raw_write(&r, buf, w.len);
     vp_header h;
@@ -1147,7 +1147,7 @@ static void test_metrics_dropped_frames(void **state)
     wait_value(mport, "vantage_frames_sent_total", NULL, NULL, 1);
     for (int i = 0; i < 10; i++) {
         e[i].aabb[1] += 0.5, e[i].aabb[4] += 0.5;
-        assert_int_equal(vt_update(ed, &e[i], 1, NULL), VP_OK);
+        assert_int_equal(vtc_update(ed, &e[i], 1, NULL), VP_OK);
         usleep(25000);
     }
     expo a;
@@ -1300,7 +1300,7 @@ static void test_metrics_http_bad_input(void **state)
        served meanwhile; it gets 408 and is closed at its deadline (500 ms
        after the accept, swept every 250 ms) */
     {
-        vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+        vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
         int slow = tcp_connect(mport);
         assert_int_equal(write(slow, "GET /metr", 9), 9);
         struct timespec t0, t1;
@@ -1310,7 +1310,7 @@ static void test_metrics_http_bad_input(void **state)
         while (!closed) {
             struct timespec a, b;
             clock_gettime(CLOCK_MONOTONIC, &a);
-            assert_int_equal(vt_ping(v), VP_OK);
+            assert_int_equal(vtc_ping(v), VP_OK);
             clock_gettime(CLOCK_MONOTONIC, &b);
             double ms = (b.tv_sec - a.tv_sec) * 1e3 + (b.tv_nsec - a.tv_nsec) / 1e6;
             if (ms > worst) worst = ms;
@@ -1330,7 +1330,7 @@ static void test_metrics_http_bad_input(void **state)
         assert_true(ms >= 400 && ms < 2500);
         assert_true(worst < 250);
         http_free(&r);
-        vt_close(v);
+        vtc_close(v);
     }
     /* every answer counted by its code (this scrape's own 200 not yet) */
     expo e;
@@ -1406,17 +1406,17 @@ static void test_metrics_access(void **state)
         http_free(&r);
     }
     /* over the protocol, a viewer's token is enough */
-    vt_client *c = NULL;
+    vtc_client *c = NULL;
     char err[256];
-    assert_int_equal(vt_connect(&(vt_connect_opts){.port = d.port, .token = VIEW_TOK}, &c, err, sizeof err), VP_OK);
+    assert_int_equal(vtc_connect(&(vtc_connect_opts){.port = d.port, .token = VIEW_TOK}, &c, err, sizeof err), VP_OK);
     const char *t;
     size_t tl;
-    assert_int_equal(vt_metrics(c, &t, &tl), VP_OK);
+    assert_int_equal(vtc_metrics(c, &t, &tl), VP_OK);
     expo e;
     expo_parse(t, tl, &e);
     assert_true(xget(&e, "vantage_clients", "role", "viewer") == 1);
     expo_free(&e);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     unlink(path);
 }
@@ -1433,16 +1433,16 @@ static void test_metrics_output_frames_linked_not_copied(void **state)
     (void)state;
     enum { W = 320, H = 200, K = 3 };
     vp_render m = {.format = VP_FRAME_RAW};
-    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
+    assert_true(vtc_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
     daemon_proc d;
     int mport;
     daemon_with_metrics(&d, &mport, NULL);
-    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
     expo a, b, c;
     scrape(mport, &a);
     for (int k = 0; k < K; k++) {
         vp_frame f;
-        assert_int_equal(vt_render(v, &m, &f), VP_OK);
+        assert_int_equal(vtc_render(v, &m, &f), VP_OK);
         assert_int_equal(f.width, W);
         assert_int_equal(f.data_len, (uint32_t)W * H * 20);
     }
@@ -1456,7 +1456,7 @@ static void test_metrics_output_frames_linked_not_copied(void **state)
     assert_true(linked == K * frame);
     assert_true(copied == 0);
     vp_vis_result q;
-    assert_int_equal(vt_query(v, &m.view, 1, VP_Q_COUNT_ONLY, 0, &q), VP_OK);
+    assert_int_equal(vtc_query(v, &m.view, 1, VP_Q_COUNT_ONLY, 0, &q), VP_OK);
     scrape(mport, &c);
     assert_true(xget(&c, "vantage_output_reply_bytes_total", "how", "copied") -
                     xget(&b, "vantage_output_reply_bytes_total", "how", "copied") ==
@@ -1466,7 +1466,7 @@ static void test_metrics_output_frames_linked_not_copied(void **state)
     expo_free(&a);
     expo_free(&b);
     expo_free(&c);
-    vt_close(v);
+    vtc_close(v);
     daemon_stop(&d);
 }
 
@@ -1487,12 +1487,12 @@ static void test_metrics_output_blocks_in_order(void **state)
     daemon_proc d;
     int mport;
     daemon_with_metrics(&d, &mport, NULL);
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
     vp_entity *e = calloc(N, sizeof *e);
     assert_non_null(e);
     for (uint32_t i = 0; i < N; i++)
         e[i] = (vp_entity){.id = i + 1, .sphere = {(double)(i % 30), 1, (double)(i / 30), 1}};
-    assert_int_equal(vt_add(ed, e, N, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, e, N, NULL, NULL), VP_OK);
     free(e);
     static rawc r;
     memset(&r, 0, sizeof r);
@@ -1513,7 +1513,7 @@ static void test_metrics_output_blocks_in_order(void **state)
     vp_writer_init(&w, req, cap);
     vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = VP_VERSION, .role = VP_ROLE_VIEWER});
     vp_render m = {.format = VP_FRAME_RAW};
-    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
+    assert_true(vtc_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
     for (uint32_t i = 0; i < R; i++) {
         vp_enc_ping(&w, VP_PING, 100 + i, data, pings[i]);
         vp_enc_list(&w, 200 + i, &(vp_list){.cursor = 0, .max = maxes[i]});
@@ -1552,7 +1552,7 @@ static void test_metrics_output_blocks_in_order(void **state)
     free(req);
     free(got);
     close(r.fd);
-    vt_close(ed);
+    vtc_close(ed);
     daemon_stop(&d);
 }
 
@@ -1568,10 +1568,10 @@ static void test_metrics_output_pending_list(void **state)
     daemon_proc d;
     int mport;
     daemon_with_metrics(&d, &mport, NULL);
-    vt_client *idle[NIDLE];
+    vtc_client *idle[NIDLE];
     for (int i = 0; i < NIDLE; i++) {
         idle[i] = connect_role(&d, VP_ROLE_VIEWER, false);
-        assert_int_equal(vt_ping(idle[i]), VP_OK);
+        assert_int_equal(vtc_ping(idle[i]), VP_OK);
     }
     wait_value(mport, "vantage_output_pending_clients", NULL, NULL, 0);
     static rawc r;
@@ -1616,7 +1616,7 @@ static void test_metrics_output_pending_list(void **state)
     free(buf);
     free(data);
     close(r.fd);
-    for (int i = 0; i < NIDLE; i++) vt_close(idle[i]);
+    for (int i = 0; i < NIDLE; i++) vtc_close(idle[i]);
     daemon_stop(&d);
 }
 
@@ -1630,7 +1630,7 @@ static void test_metrics_output_close_with_reply_in_flight(void **state)
     (void)state;
     enum { ROUNDS = 24, W = 400, H = 300 };
     vp_render m = {.format = VP_FRAME_RAW};
-    assert_true(vt_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
+    assert_true(vtc_view_perspective(&m.view, (double[]){0, 0, 0}, (double[]){0, 0, -10}, NULL, 60, W, H, 0.1, 100));
     vp_frame_sub sub = {.r = m, .max_fps = VP_FRAME_SUB_MAX_FPS};
     daemon_proc d;
     int mport;
@@ -1670,10 +1670,10 @@ static void test_metrics_output_close_with_reply_in_flight(void **state)
     expo_free(&a);
     expo_free(&z);
     /* and it still serves */
-    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
     vp_frame f;
-    assert_int_equal(vt_render(v, &m, &f), VP_OK);
-    vt_close(v);
+    assert_int_equal(vtc_render(v, &m, &f), VP_OK);
+    vtc_close(v);
     daemon_stop(&d);
 }
 

@@ -86,7 +86,7 @@ static int cmp_ent(const void *a, const void *b)
 /* take_dump adds a light query and a render (the every-point test) */
 static bool full_dumps;
 
-static void take_dump(vt_client *c, dump *out)
+static void take_dump(vtc_client *c, dump *out)
 {
     memset(out, 0, sizeof *out);
     uint32_t cap = 1024;
@@ -94,7 +94,7 @@ static void take_dump(vt_client *c, dump *out)
     uint64_t cur = 0;
     do {
         vp_list_reply lr;
-        assert_int_equal(vt_list(c, cur, 4096, &lr), VP_OK);
+        assert_int_equal(vtc_list(c, cur, 4096, &lr), VP_OK);
         for (uint32_t i = 0; i < lr.batch.count; i++) {
             if (out->n == cap) out->e = realloc(out->e, (cap *= 2) * sizeof *out->e);
             vp_entity_get(&lr.batch, i, &out->e[out->n++]);
@@ -103,10 +103,10 @@ static void take_dump(vt_client *c, dump *out)
     } while (cur);
     qsort(out->e, out->n, sizeof *out->e, cmp_ent);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     out->epoch = st.epoch;
     vp_sublevel_infos li;
-    assert_int_equal(vt_sublevel_info(c, &li), VP_OK);
+    assert_int_equal(vtc_sublevel_info(c, &li), VP_OK);
     size_t pos = 0, k = 0;
     vp_sublevel_info in;
     while (vp_sublevel_info_next(&li, &pos, &in) && k < sizeof out->sl - 128)
@@ -116,9 +116,9 @@ static void take_dump(vt_client *c, dump *out)
     const double eyes[3][3] = {{0, 5, -120}, {80, 40, 80}, {-30, 2, 10}};
     for (int v = 0; v < 3; v++) {
         vp_view view;
-        assert_true(vt_view_perspective(&view, eyes[v], (double[]){0, 0, 0}, NULL, 70, 256, 114, 0.1, 1000));
+        assert_true(vtc_view_perspective(&view, eyes[v], (double[]){0, 0, 0}, NULL, 70, 256, 114, 0.1, 1000));
         vp_vis_result res;
-        assert_int_equal(vt_query(c, &view, 1, 0, 0, &res), VP_OK);
+        assert_int_equal(vtc_query(c, &view, 1, 0, 0, &res), VP_OK);
         out->vis[v][0] = res.count;
         for (uint32_t i = 0; i < res.count; i++) {
             vp_vis_rec x;
@@ -130,9 +130,9 @@ static void take_dump(vt_client *c, dump *out)
     }
     if (!full_dumps) return;
     vp_light_query lq = {.flags = 0};
-    assert_true(vt_view_perspective(&lq.view, eyes[0], (double[]){0, 0, 0}, NULL, 70, 256, 144, 0.1, 1000));
+    assert_true(vtc_view_perspective(&lq.view, eyes[0], (double[]){0, 0, 0}, NULL, 70, 256, 144, 0.1, 1000));
     vp_light_tiles lt;
-    assert_int_equal(vt_light_query(c, &lq, &lt), VP_OK);
+    assert_int_equal(vtc_light_query(c, &lq, &lt), VP_OK);
     uint32_t ntiles = (uint32_t)lt.tiles_x * lt.tiles_y;
     for (uint32_t t = 0; t < ntiles; t++) {
         uint32_t a, b;
@@ -146,9 +146,9 @@ static void take_dump(vt_client *c, dump *out)
         }
     }
     vp_render rm = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
-    assert_true(vt_view_perspective(&rm.view, (double[]){0, 8, -40}, (double[]){0, 2, 0}, NULL, 60, 96, 64, 0.1, 500));
+    assert_true(vtc_view_perspective(&rm.view, (double[]){0, 8, -40}, (double[]){0, 2, 0}, NULL, 60, 96, 64, 0.1, 500));
     vp_frame f;
-    assert_int_equal(vt_render(c, &rm, &f), VP_OK);
+    assert_int_equal(vtc_render(c, &rm, &f), VP_OK);
     out->npx = (uint32_t)f.width * f.height * 5;
     assert_int_equal(f.data_len, out->npx * 4);
     out->px = malloc(f.data_len);
@@ -214,76 +214,76 @@ static bool has_file(const char *dir, const char *prefix)
 
 /* ---- the same edits to two daemons ------------------------------------------------------ */
 
-static void add_many(vt_client *c, uint64_t first, uint32_t n, uint16_t sub, uint32_t *handles)
+static void add_many(vtc_client *c, uint64_t first, uint32_t n, uint16_t sub, uint32_t *handles)
 {
     vp_entity *e = malloc(n * sizeof *e);
     for (uint32_t i = 0; i < n; i++)
         e[i] = ent(first + i, (double)(i % 200) * 3 - 300, (double)(i / 200) * 3 - 150, 0.5 + (i % 7) * 0.1, sub,
                    (uint16_t)(1 + i % 3));
-    assert_int_equal(vt_add(c, e, n, handles, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, e, n, handles, NULL), VP_OK);
     free(e);
 }
 
 /* Part one of the script: entities (some removed, so the free list has
  * holes), meshes, occluders, lights, a committed sub-level, a destruction. */
-static void script_a(vt_client *c, uint32_t *handles)
+static void script_a(vtc_client *c, uint32_t *handles)
 {
     add_many(c, 1, 12000, 0, handles);
     uint64_t gone[500];
     for (int i = 0; i < 500; i++) gone[i] = 1 + (uint64_t)i * 23;
-    assert_int_equal(vt_remove(c, gone, 500, NULL), VP_OK);
+    assert_int_equal(vtc_remove(c, gone, 500, NULL), VP_OK);
     vp_entity up[50];
     for (int i = 0; i < 50; i++) up[i] = ent(2 + (uint64_t)i * 23, i, 40, 2.5, 0, 2);
-    assert_int_equal(vt_update(c, up, 50, NULL), VP_OK);
+    assert_int_equal(vtc_update(c, up, 50, NULL), VP_OK);
     float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, nrm[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
     uint32_t idx[3] = {0, 1, 2};
-    assert_int_equal(vt_put_mesh(c, 1, pos, nrm, 3, idx, 3), VP_OK);
+    assert_int_equal(vtc_put_mesh(c, 1, pos, nrm, 3, idx, 3), VP_OK);
     /* a wall, its occluder, and a destruction in it */
     vp_entity wall = {.id = 900000, .aabb = {-20, 0, -1, 20, 10, 1}};
-    assert_int_equal(vt_add(c, &wall, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, &wall, 1, NULL, NULL), VP_OK);
     float quad[18] = {0, 0, 0, 40, 0, 0, 40, 10, 0, 0, 0, 0, 40, 10, 0, 0, 10, 0};
-    assert_int_equal(vt_put_occluder(c, 900000, (double[]){-20, 0, 0}, quad, 2), VP_OK);
+    assert_int_equal(vtc_put_occluder(c, 900000, (double[]){-20, 0, 0}, quad, 2), VP_OK);
     vp_light l[3];
     for (int i = 0; i < 3; i++)
         l[i] = (vp_light){.id = 70 + (uint64_t)i, .kind = VP_LIGHT_POINT, .pos = {i * 10.0, 5, 0}, .color = {1, 1, 1},
                           .intensity = 100, .range = 20};
-    assert_int_equal(vt_put_lights(c, l, 3), VP_OK);
+    assert_int_equal(vtc_put_lights(c, l, 3), VP_OK);
     vp_sublevel_begun b;
-    assert_int_equal(vt_sublevel_begin(c, "town", 2, &b), VP_OK);
+    assert_int_equal(vtc_sublevel_begin(c, "town", 2, &b), VP_OK);
     add_many(c, 500000, 3000, 0, NULL);
-    assert_int_equal(vt_put_mesh(c, b.class_base, pos, nrm, 3, idx, 3), VP_OK);
+    assert_int_equal(vtc_put_mesh(c, b.class_base, pos, nrm, 3, idx, 3), VP_OK);
     vp_ack ack;
-    assert_int_equal(vt_sublevel_commit(c, &ack), VP_OK);
+    assert_int_equal(vtc_sublevel_commit(c, &ack), VP_OK);
     vp_destroyed dd;
-    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 900000, .debris = 6, .center = {0, 5, 0}, .radius = 3}, &dd),
+    assert_int_equal(vtc_send_destruction(c, &(vp_destroy){.id = 900000, .debris = 6, .center = {0, 5, 0}, .radius = 3}, &dd),
                      VP_OK);
 }
 
 /* Part two, after a snapshot: more of everything, a second sub-level
  * loaded, and one unload left running. */
-static void script_b(vt_client *c)
+static void script_b(vtc_client *c)
 {
     add_many(c, 20000, 4000, 0, NULL);
     uint64_t gone[300];
     for (int i = 0; i < 300; i++) gone[i] = 20000 + (uint64_t)i * 7;
-    assert_int_equal(vt_remove(c, gone, 300, NULL), VP_OK);
+    assert_int_equal(vtc_remove(c, gone, 300, NULL), VP_OK);
     vp_destroyed dd;
-    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 900000, .debris = 2, .center = {8, 3, 0}, .radius = 2}, &dd),
+    assert_int_equal(vtc_send_destruction(c, &(vp_destroy){.id = 900000, .debris = 2, .center = {8, 3, 0}, .radius = 2}, &dd),
                      VP_OK);
     vp_sublevel_begun b;
-    assert_int_equal(vt_sublevel_begin(c, "harbour", 1, &b), VP_OK);
+    assert_int_equal(vtc_sublevel_begin(c, "harbour", 1, &b), VP_OK);
     add_many(c, 600000, 5000, 0, NULL);
     vp_ack ack;
-    assert_int_equal(vt_sublevel_commit(c, &ack), VP_OK);
-    assert_int_equal(vt_sublevel_unload(c, "town", &ack), VP_OK);
+    assert_int_equal(vtc_sublevel_commit(c, &ack), VP_OK);
+    assert_int_equal(vtc_sublevel_unload(c, "town", &ack), VP_OK);
 }
 
 /* Waits until no sub-level is unloading. */
-static void settle(vt_client *c)
+static void settle(vtc_client *c)
 {
     for (int i = 0; i < 500; i++) {
         vp_sublevel_infos li;
-        assert_int_equal(vt_sublevel_info(c, &li), VP_OK);
+        assert_int_equal(vtc_sublevel_info(c, &li), VP_OK);
         size_t pos = 0;
         vp_sublevel_info in;
         bool busy = false;
@@ -303,7 +303,7 @@ static void test_persist_restore_exact(void **state)
     daemon_proc a, ref;
     start_dd(&a, dir, "always", "1"); /* a snapshot once the journal passes 1 MB */
     daemon_start(&ref, NULL);
-    vt_client *ca = connect_role(&a, VP_ROLE_EDITOR, true), *cr = connect_role(&ref, VP_ROLE_EDITOR, true);
+    vtc_client *ca = connect_role(&a, VP_ROLE_EDITOR, true), *cr = connect_role(&ref, VP_ROLE_EDITOR, true);
     uint32_t *ha = malloc(12000 * sizeof *ha), *hr = malloc(12000 * sizeof *hr);
     script_a(ca, ha);
     script_a(cr, hr);
@@ -319,16 +319,16 @@ static void test_persist_restore_exact(void **state)
     script_b(ca);
     script_b(cr);
     /* a load left open by a client that is then killed with the daemon */
-    vt_client *la = connect_role(&a, VP_ROLE_EDITOR, true), *lr = connect_role(&ref, VP_ROLE_EDITOR, true);
+    vtc_client *la = connect_role(&a, VP_ROLE_EDITOR, true), *lr = connect_role(&ref, VP_ROLE_EDITOR, true);
     vp_sublevel_begun b;
-    assert_int_equal(vt_sublevel_begin(la, "limbo", 0, &b), VP_OK);
-    assert_int_equal(vt_sublevel_begin(lr, "limbo", 0, &b), VP_OK);
+    assert_int_equal(vtc_sublevel_begin(la, "limbo", 0, &b), VP_OK);
+    assert_int_equal(vtc_sublevel_begin(lr, "limbo", 0, &b), VP_OK);
     add_many(la, 800000, 100, 0, NULL);
     add_many(lr, 800000, 100, 0, NULL);
     kill9(&a);
-    vt_close(ca);
-    vt_close(la);
-    vt_close(lr); /* the reference drops its load as the restart does */
+    vtc_close(ca);
+    vtc_close(la);
+    vtc_close(lr); /* the reference drops its load as the restart does */
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     start_dd(&a, dir, "always", "1");
@@ -350,7 +350,7 @@ static void test_persist_restore_exact(void **state)
     free(dr.e);
     /* and a clean stop + start restores the same again */
     take_dump(ca, &dr);
-    vt_close(ca);
+    vtc_close(ca);
     daemon_stop(&a);
     start_dd(&a, dir, "everysec", "1");
     ca = connect_role(&a, VP_ROLE_EDITOR, true);
@@ -360,8 +360,8 @@ static void test_persist_restore_exact(void **state)
     free(dr.e);
     free(ha);
     free(hr);
-    vt_close(ca);
-    vt_close(cr);
+    vtc_close(ca);
+    vtc_close(cr);
     daemon_stop(&a);
     daemon_stop(&ref);
     rm_data(dir);
@@ -380,16 +380,16 @@ static void test_persist_snapshot_with_sublevel_name(void **state)
     data_dir_make(&td, "persist-slname", dir);
     daemon_proc a;
     start_dd(&a, dir, "always", "1");
-    vt_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
+    vtc_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
     const char *names[1] = {"alpha"};
     uint16_t id;
-    assert_int_equal(vt_sublevel_ids(c, names, 1, &id), VP_OK);
+    assert_int_equal(vtc_sublevel_ids(c, names, 1, &id), VP_OK);
     for (uint32_t k = 0; k < 5 && !has_file(dir, "snapshot."); k++) add_many(c, 1 + k * 4000, 4000, 0, NULL);
     for (int waited = 0; waited < 2000 && !has_file(dir, "snapshot.000002"); waited++) usleep(10000);
     assert_true(has_file(dir, "snapshot.000002"));
     dump before, after;
     take_dump(c, &before);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&a);
     start_dd(&a, dir, "always", "1");
     c = connect_role(&a, VP_ROLE_EDITOR, true);
@@ -397,7 +397,7 @@ static void test_persist_snapshot_with_sublevel_name(void **state)
     assert_same(&before, &after);
     free(before.e);
     free(after.e);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&a);
     rm_data(dir);
     tdir_remove(&td);
@@ -406,7 +406,7 @@ static void test_persist_snapshot_with_sublevel_name(void **state)
 /* ---- a snapshot at every point ------------------------------------------------------------------ */
 
 typedef struct side {
-    vt_client *ed, *ld; /* an editor, and a second editor that loads sub-levels */
+    vtc_client *ed, *ld; /* an editor, and a second editor that loads sub-levels */
     uint16_t class_base;
 } side;
 
@@ -425,27 +425,27 @@ static void step(side *s, int i)
     case 0: {
         const char *names[2] = {"alpha", "beta"};
         uint16_t ids[2];
-        assert_int_equal(vt_sublevel_ids(s->ed, names, 2, ids), VP_OK);
+        assert_int_equal(vtc_sublevel_ids(s->ed, names, 2, ids), VP_OK);
         break;
     }
     case 1: add_many(s->ed, 1, 600, 0, NULL); break;
     case 2: {
         uint64_t gone[40];
         for (int k = 0; k < 40; k++) gone[k] = 1 + (uint64_t)k * 13;
-        assert_int_equal(vt_remove(s->ed, gone, 40, NULL), VP_OK);
+        assert_int_equal(vtc_remove(s->ed, gone, 40, NULL), VP_OK);
         break;
     }
     case 3: {
         vp_entity up[10];
         for (int k = 0; k < 10; k++) up[k] = ent(3 + (uint64_t)k * 13, k, 30, 2.5, 0, 2);
-        assert_int_equal(vt_update(s->ed, up, 10, NULL), VP_OK);
+        assert_int_equal(vtc_update(s->ed, up, 10, NULL), VP_OK);
         break;
     }
-    case 4: assert_int_equal(vt_put_mesh(s->ed, 1, pos, nrm, 3, idx, 3), VP_OK); break;
+    case 4: assert_int_equal(vtc_put_mesh(s->ed, 1, pos, nrm, 3, idx, 3), VP_OK); break;
     case 5: {
         vp_entity wall = {.id = 900000, .aabb = {-20, 0, -1, 20, 10, 1}};
-        assert_int_equal(vt_add(s->ed, &wall, 1, NULL, NULL), VP_OK);
-        assert_int_equal(vt_put_occluder(s->ed, 900000, (double[]){-20, 0, 0}, quad, 2), VP_OK);
+        assert_int_equal(vtc_add(s->ed, &wall, 1, NULL, NULL), VP_OK);
+        assert_int_equal(vtc_put_occluder(s->ed, 900000, (double[]){-20, 0, 0}, quad, 2), VP_OK);
         break;
     }
     case 6: {
@@ -453,7 +453,7 @@ static void step(side *s, int i)
         for (int k = 0; k < 3; k++)
             l[k] = (vp_light){.id = 70 + (uint64_t)k, .kind = VP_LIGHT_POINT, .pos = {k * 10.0 - 10, 5, -5},
                               .color = {1, 1, 1}, .intensity = 100, .range = 30};
-        assert_int_equal(vt_put_lights(s->ed, l, 3), VP_OK);
+        assert_int_equal(vtc_put_lights(s->ed, l, 3), VP_OK);
         break;
     }
     case 7: {
@@ -464,45 +464,45 @@ static void step(side *s, int i)
         vp_enc_ids(&w, VP_LIGHT_REMOVE, 1, &id, 1);
         vp_header h;
         const uint8_t *p;
-        assert_int_equal(vt_send(s->ed, buf, w.len), 0);
-        assert_int_equal(vt_recv(s->ed, &h, &p, 5000), 0);
+        assert_int_equal(vtc_send(s->ed, buf, w.len), 0);
+        assert_int_equal(vtc_recv(s->ed, &h, &p, 5000), 0);
         assert_int_equal(h.type, VP_ACK);
         break;
     }
     case 8:
-        assert_int_equal(vt_sublevel_begin(s->ld, "town", 2, &b), VP_OK);
+        assert_int_equal(vtc_sublevel_begin(s->ld, "town", 2, &b), VP_OK);
         s->class_base = b.class_base;
         break;
     case 9: add_many(s->ld, 500000, 300, 0, NULL); break;
-    case 10: assert_int_equal(vt_put_mesh(s->ld, s->class_base, pos, nrm, 3, idx, 3), VP_OK); break;
+    case 10: assert_int_equal(vtc_put_mesh(s->ld, s->class_base, pos, nrm, 3, idx, 3), VP_OK); break;
     case 11: {
-        assert_int_equal(vt_put_occluder(s->ld, 500001, (double[]){30, 0, 5}, quad, 2), VP_OK);
+        assert_int_equal(vtc_put_occluder(s->ld, 500001, (double[]){30, 0, 5}, quad, 2), VP_OK);
         vp_light l = {.id = 80, .kind = VP_LIGHT_SPOT, .pos = {0, 8, -8}, .dir = {0, -1, 0}, .color = {1, 0.5f, 0.2f},
                       .intensity = 80, .range = 25, .inner_cos = 0.9f, .outer_cos = 0.7f};
-        assert_int_equal(vt_put_lights(s->ld, &l, 1), VP_OK);
+        assert_int_equal(vtc_put_lights(s->ld, &l, 1), VP_OK);
         break;
     }
-    case 12: assert_int_equal(vt_sublevel_commit(s->ld, &ack), VP_OK); break;
+    case 12: assert_int_equal(vtc_sublevel_commit(s->ld, &ack), VP_OK); break;
     case 13:
-        assert_int_equal(vt_destroy(s->ed, &(vp_destroy){.id = 900000, .debris = 4, .center = {0, 5, 0}, .radius = 3},
+        assert_int_equal(vtc_send_destruction(s->ed, &(vp_destroy){.id = 900000, .debris = 4, .center = {0, 5, 0}, .radius = 3},
                                     &dd),
                          VP_OK);
         break;
-    case 14: assert_int_equal(vt_remove_occluders(s->ed, (uint64_t[]){500001}, 1, NULL), VP_OK); break;
+    case 14: assert_int_equal(vtc_remove_occluders(s->ed, (uint64_t[]){500001}, 1, NULL), VP_OK); break;
     case 15:
-        assert_int_equal(vt_sublevel_begin(s->ld, "harbour", 0, &b), VP_OK);
+        assert_int_equal(vtc_sublevel_begin(s->ld, "harbour", 0, &b), VP_OK);
         add_many(s->ld, 600000, 200, 0, NULL);
         break;
-    case 16: assert_int_equal(vt_sublevel_commit(s->ld, &ack), VP_OK); break;
-    case 17: assert_int_equal(vt_sublevel_unload(s->ed, "town", &ack), VP_OK); break;
+    case 16: assert_int_equal(vtc_sublevel_commit(s->ld, &ack), VP_OK); break;
+    case 17: assert_int_equal(vtc_sublevel_unload(s->ed, "town", &ack), VP_OK); break;
     case 18: add_many(s->ed, 20000, 300, 1, NULL); break;
     case 19:
-        assert_int_equal(vt_destroy(s->ed, &(vp_destroy){.id = 900000, .debris = 0, .center = {8, 3, 0}, .radius = 2},
+        assert_int_equal(vtc_send_destruction(s->ed, &(vp_destroy){.id = 900000, .debris = 0, .center = {8, 3, 0}, .radius = 2},
                                     &dd),
                          VP_OK);
         break;
     case 20:
-        assert_int_equal(vt_sublevel_begin(s->ld, "limbo", 1, &b), VP_OK);
+        assert_int_equal(vtc_sublevel_begin(s->ld, "limbo", 1, &b), VP_OK);
         add_many(s->ld, 800000, 50, 0, NULL);
         break;
     }
@@ -590,8 +590,8 @@ static void test_persist_snapshot_every_point(void **state)
         daemon_start(&ref, NULL);
         side sr = {connect_role(&ref, VP_ROLE_EDITOR, true), connect_role(&ref, VP_ROLE_EDITOR, true), 0};
         for (int k = 0; k <= i; k++) step(&sr, k);
-        vt_close(sr.ld); /* a load left open is dropped, as the restart drops it */
-        vt_client *cc = connect_role(&c, VP_ROLE_EDITOR, true);
+        vtc_close(sr.ld); /* a load left open is dropped, as the restart drops it */
+        vtc_client *cc = connect_role(&c, VP_ROLE_EDITOR, true);
         settle(cc);
         settle(sr.ed);
         dump dc, dr;
@@ -611,16 +611,16 @@ static void test_persist_snapshot_every_point(void **state)
         assert_memory_equal(ha, hr, sizeof ha);
         dump_free(&dc);
         dump_free(&dr);
-        vt_close(cc);
-        vt_close(sr.ed);
+        vtc_close(cc);
+        vtc_close(sr.ed);
         daemon_stop(&c);
         daemon_stop(&ref);
         rm_data(cdir);
     }
     printf("persist: %u snapshots, one after each step of the session, each restored exactly\n", snaps);
     full_dumps = false;
-    vt_close(sa.ed);
-    vt_close(sa.ld);
+    vtc_close(sa.ed);
+    vtc_close(sa.ld);
     daemon_stop(&a);
     rm_data(dir);
     tdir_remove(&td);
@@ -636,7 +636,7 @@ typedef struct sent_rec {
 
 /* Pipelines single-record ENTITY_ADDs (window 128) for ms milliseconds or
  * until the connection dies; returns the records sent (acked marked). */
-static uint32_t stream_adds(vt_client *c, uint64_t first, sent_rec *out, uint32_t max, int ms, double *rate)
+static uint32_t stream_adds(vtc_client *c, uint64_t first, sent_rec *out, uint32_t max, int ms, double *rate)
 {
     struct timespec t0, t;
     clock_gettime(CLOCK_MONOTONIC, &t0);
@@ -654,7 +654,7 @@ static uint32_t stream_adds(vt_client *c, uint64_t first, sent_rec *out, uint32_
             vp_writer w;
             vp_writer_init(&w, buf, sizeof buf);
             vp_enc_entities(&w, VP_ENTITY_ADD, sent + 1, &out[sent].e, 1);
-            if (vt_send(c, buf, w.len)) {
+            if (vtc_send(c, buf, w.len)) {
                 dead = true;
                 break;
             }
@@ -663,7 +663,7 @@ static uint32_t stream_adds(vt_client *c, uint64_t first, sent_rec *out, uint32_
         if (dead) break;
         vp_header h;
         const uint8_t *p;
-        int rc = vt_recv(c, &h, &p, 2000);
+        int rc = vtc_recv(c, &h, &p, 2000);
         if (rc) break; /* the daemon is gone: what was not acked is unknown */
         assert_int_equal(h.type, VP_ENTITY_ADD_REPLY);
         assert_true(h.req >= 1 && h.req <= sent);
@@ -706,14 +706,14 @@ static void test_persist_kill9_keeps_acked(void **state)
     for (int cyc = 0; cyc < cycles; cyc++) {
         daemon_proc d;
         start_dd(&d, dir, "always", "4");
-        vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+        vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
         /* what earlier cycles acknowledged is all there, exactly */
         for (uint32_t i = 0; i < nkept; i += 4096) {
             uint32_t n = nkept - i < 4096 ? nkept - i : 4096;
             uint64_t *ids = malloc(n * sizeof *ids);
             for (uint32_t k = 0; k < n; k++) ids[k] = kept[i + k].id;
             vp_list_reply lr;
-            int rc = vt_get(c, ids, n, &lr);
+            int rc = vtc_get(c, ids, n, &lr);
             if (rc) fail_msg("cycle %d: an acknowledged entity is missing (%s)", cyc, vp_strerror(rc));
             for (uint32_t k = 0; k < n; k++) {
                 vp_entity e;
@@ -732,7 +732,7 @@ static void test_persist_kill9_keeps_acked(void **state)
         waitpid(d.pid, &st, 0);
         assert_true(WIFSIGNALED(st));
         unlink(d.sock);
-        vt_close(c);
+        vtc_close(c);
         /* restart: acked ones present, unacked ones whole or absent */
         daemon_proc d2;
         start_dd(&d2, dir, "always", "4");
@@ -740,7 +740,7 @@ static void test_persist_kill9_keeps_acked(void **state)
         kept = realloc(kept, (nkept + sent + 1) * sizeof *kept);
         for (uint32_t i = 0; i < sent; i++) {
             vp_list_reply lr;
-            int rc = vt_get(c, &recs[i].e.id, 1, &lr);
+            int rc = vtc_get(c, &recs[i].e.id, 1, &lr);
             if (recs[i].acked) {
                 if (rc) fail_msg("cycle %d: acknowledged entity %llu lost", cyc, (unsigned long long)recs[i].e.id);
                 total_acked++;
@@ -757,7 +757,7 @@ static void test_persist_kill9_keeps_acked(void **state)
             if (!sent_eq(&e, &recs[i].e)) fail_msg("cycle %d: entity %llu half-applied", cyc, (unsigned long long)e.id);
             kept[nkept++] = recs[i].e;
         }
-        vt_close(c);
+        vtc_close(c);
         daemon_stop(&d2);
     }
     double r[20];
@@ -788,12 +788,12 @@ static void test_persist_torn_tail_cut(void **state)
     data_dir_make(&td, "persist-tail", dir);
     daemon_proc d;
     start_dd(&d, dir, "always", "64");
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+    vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
     add_many(c, 1, 100, 0, NULL);
     add_many(c, 1000, 50, 0, NULL);
     dump before;
     take_dump(c, &before);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     snprintf(jr, sizeof jr, "%s/journal.000001", dir);
     struct stat st;
@@ -820,7 +820,7 @@ static void test_persist_torn_tail_cut(void **state)
     /* 2: edits go on after the cut; then one bit flipped inside the last
        record: its CRC fails and it is cut, nothing before it */
     add_many(c, 5000, 10, 0, NULL);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     assert_int_equal(stat(jr, &st2), 0);
     fd = open(jr, O_RDWR);
@@ -835,7 +835,7 @@ static void test_persist_torn_tail_cut(void **state)
     assert_int_equal(after.n, before.n); /* the last add, damaged, is gone; nothing else */
     free(after.e);
     free(before.e);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     rm_data(dir);
     tdir_remove(&td);
@@ -855,12 +855,12 @@ static void test_persist_mid_journal_flip_refused(void **state)
     data_dir_make(&td, "persist-flip", dir);
     daemon_proc d;
     start_dd(&d, dir, "everysec", "64");
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+    vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
     for (uint64_t i = 0; i < 1000; i++) {
         vp_entity e = ent(1 + i, (double)(i % 40), (double)(i / 40), 0.5, 0, 1);
-        assert_int_equal(vt_add(c, &e, 1, NULL, NULL), VP_OK);
+        assert_int_equal(vtc_add(c, &e, 1, NULL, NULL), VP_OK);
     }
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     snprintf(jr, sizeof jr, "%s/journal.000001", dir);
     struct stat st;
@@ -890,9 +890,9 @@ static void test_persist_mid_journal_flip_refused(void **state)
     start_dd(&d, dir, "always", "64");
     c = connect_role(&d, VP_ROLE_EDITOR, true);
     vp_stats_reply sr;
-    assert_int_equal(vt_stats(c, &sr), VP_OK);
+    assert_int_equal(vtc_stats(c, &sr), VP_OK);
     assert_int_equal(sr.entities, 1000);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     rm_data(dir);
     tdir_remove(&td);
@@ -912,13 +912,13 @@ static void test_persist_write_error(void **state)
     daemon_fsize_limit = 200000;
     start_dd(&d, dir, "always", "64");
     daemon_fsize_limit = 0;
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true), *q = connect_role(&d, VP_ROLE_VIEWER, true);
+    vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, true), *q = connect_role(&d, VP_ROLE_VIEWER, true);
     uint32_t ok = 0, refused = 0;
     int code = 0;
     for (uint64_t i = 0; i < 400; i++) {
         vp_entity e[10];
         for (int k = 0; k < 10; k++) e[k] = ent(1 + i * 10 + (uint64_t)k, (double)k, (double)i, 0.5, 0, 1);
-        int rc = vt_add(c, e, 10, NULL, NULL);
+        int rc = vtc_add(c, e, 10, NULL, NULL);
         if (rc == VP_OK) {
             assert_int_equal(refused, 0); /* once full, full */
             ok++;
@@ -931,13 +931,13 @@ static void test_persist_write_error(void **state)
     assert_true(ok > 50 && refused > 50);
     /* nothing refused went in; reads go on */
     vp_stats_reply st;
-    assert_int_equal(vt_stats(q, &st), VP_OK);
+    assert_int_equal(vtc_stats(q, &st), VP_OK);
     assert_int_equal(st.entities, ok * 10);
     dump live;
     take_dump(q, &live);
     printf("write error: %u batches stored, then %u refused with IO; %u entities served\n", ok, refused, live.n);
-    vt_close(c);
-    vt_close(q);
+    vtc_close(c);
+    vtc_close(q);
     daemon_stop(&d);
     /* a restart with room: exactly the acknowledged batches */
     start_dd(&d, dir, "always", "64");
@@ -947,7 +947,7 @@ static void test_persist_write_error(void **state)
     assert_same(&live, &back);
     free(live.e);
     free(back.e);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     rm_data(dir);
     tdir_remove(&td);
@@ -956,7 +956,7 @@ static void test_persist_write_error(void **state)
 /* ---- a failed sync ------------------------------------------------------------------------------ */
 
 typedef struct watcher {
-    vt_client *c;
+    vtc_client *c;
     volatile bool stop;
     uint32_t most, replies; /* entities, the most any reply showed; replies */
 } watcher;
@@ -965,7 +965,7 @@ static void *watcher_main(void *arg)
 {
     watcher *w = arg;
     vp_stats_reply st;
-    while (!w->stop && vt_stats(w->c, &st) == VP_OK) {
+    while (!w->stop && vtc_stats(w->c, &st) == VP_OK) {
         if (st.entities > w->most) w->most = st.entities;
         w->replies++;
     }
@@ -990,18 +990,18 @@ static void test_persist_sync_failure_stops(void **state)
     setenv("VANTAGED_FAIL_SYNC", "3", 1);
     start_dd(&d, dir, "always", "64");
     unsetenv("VANTAGED_FAIL_SYNC");
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+    vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
     watcher w = {.c = connect_role(&d, VP_ROLE_VIEWER, true)};
     vp_entity e[10];
     for (uint64_t b = 0; b < 2; b++) {
         for (int k = 0; k < 10; k++) e[k] = ent(1 + b * 10 + (uint64_t)k, (double)k, (double)b, 0.5, 0, 1);
-        assert_int_equal(vt_add(c, e, 10, NULL, NULL), VP_OK);
+        assert_int_equal(vtc_add(c, e, 10, NULL, NULL), VP_OK);
     }
     pthread_t th;
     pthread_create(&th, NULL, watcher_main, &w);
     usleep(20000);
     for (int k = 0; k < 10; k++) e[k] = ent(21 + (uint64_t)k, (double)k, 2, 0.5, 0, 1);
-    int rc = vt_add(c, e, 10, NULL, NULL); /* its sync fails */
+    int rc = vtc_add(c, e, 10, NULL, NULL); /* its sync fails */
     int st = 0, waited = 0;
     pid_t r = 0;
     for (; waited < 500 && (r = waitpid(d.pid, &st, WNOHANG)) == 0; waited++) usleep(10000);
@@ -1019,19 +1019,19 @@ static void test_persist_sync_failure_stops(void **state)
     assert_true(w.replies > 0);
     assert_int_equal(w.most, 20); /* no reader saw the unsynced edit */
     assert_true(r > 0 && WIFEXITED(st) && WEXITSTATUS(st) == 1);
-    vt_close(c);
-    vt_close(w.c);
+    vtc_close(c);
+    vtc_close(w.c);
     /* the restart: the two synced batches, not the third */
     start_dd(&d, dir, "always", "64");
     c = connect_role(&d, VP_ROLE_EDITOR, true);
     vp_stats_reply sr;
-    assert_int_equal(vt_stats(c, &sr), VP_OK);
+    assert_int_equal(vtc_stats(c, &sr), VP_OK);
     assert_int_equal(sr.entities, 20);
     vp_list_reply lr;
-    assert_int_equal(vt_get(c, (uint64_t[]){21}, 1, &lr), VP_ERR_UNKNOWN_ID);
+    assert_int_equal(vtc_get(c, (uint64_t[]){21}, 1, &lr), VP_ERR_UNKNOWN_ID);
     /* and it takes edits again */
-    assert_int_equal(vt_add(c, e, 10, NULL, NULL), VP_OK);
-    vt_close(c);
+    assert_int_equal(vtc_add(c, e, 10, NULL, NULL), VP_OK);
+    vtc_close(c);
     daemon_stop(&d);
     /* everysec: the thread's first sync fails: the daemon exits too (its
        edits were acknowledged before the sync, by the policy's promise;
@@ -1041,7 +1041,7 @@ static void test_persist_sync_failure_stops(void **state)
     unsetenv("VANTAGED_FAIL_SYNC");
     c = connect_role(&d, VP_ROLE_EDITOR, true);
     for (int k = 0; k < 10; k++) e[k] = ent(31 + (uint64_t)k, (double)k, 3, 0.5, 0, 1);
-    assert_int_equal(vt_add(c, e, 10, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, e, 10, NULL, NULL), VP_OK);
     for (waited = 0; waited < 500 && (r = waitpid(d.pid, &st, WNOHANG)) == 0; waited++) usleep(10000);
     if (r == 0) {
         kill(d.pid, SIGKILL);
@@ -1049,12 +1049,12 @@ static void test_persist_sync_failure_stops(void **state)
     }
     unlink(d.sock);
     assert_true(r > 0 && WIFEXITED(st) && WEXITSTATUS(st) == 1);
-    vt_close(c);
+    vtc_close(c);
     start_dd(&d, dir, "always", "64");
     c = connect_role(&d, VP_ROLE_EDITOR, true);
-    assert_int_equal(vt_stats(c, &sr), VP_OK);
+    assert_int_equal(vtc_stats(c, &sr), VP_OK);
     assert_int_equal(sr.entities, 40);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     rm_data(dir);
     tdir_remove(&td);
@@ -1073,11 +1073,11 @@ static void test_persist_final_sync_failure_exit_status(void **state)
     setenv("VANTAGED_FAIL_SYNC", "3", 1); /* the two edits' syncs pass, the final one fails */
     start_dd(&d, dir, "always", "64");
     unsetenv("VANTAGED_FAIL_SYNC");
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+    vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
     vp_entity e[2] = {ent(1, 0, 0, 0.5, 0, 1), ent(2, 1, 0, 0.5, 0, 1)};
-    assert_int_equal(vt_add(c, &e[0], 1, NULL, NULL), VP_OK);
-    assert_int_equal(vt_add(c, &e[1], 1, NULL, NULL), VP_OK);
-    vt_close(c);
+    assert_int_equal(vtc_add(c, &e[0], 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, &e[1], 1, NULL, NULL), VP_OK);
+    vtc_close(c);
     kill(d.pid, SIGTERM);
     int st = 0;
     waitpid(d.pid, &st, 0);
@@ -1088,9 +1088,9 @@ static void test_persist_final_sync_failure_exit_status(void **state)
     start_dd(&d, dir, "always", "64");
     c = connect_role(&d, VP_ROLE_EDITOR, true);
     vp_stats_reply sr;
-    assert_int_equal(vt_stats(c, &sr), VP_OK);
+    assert_int_equal(vtc_stats(c, &sr), VP_OK);
     assert_int_equal(sr.entities, 2);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&d);
     rm_data(dir);
     tdir_remove(&td);
@@ -1108,7 +1108,7 @@ static void test_persist_snapshot_while_idle(void **state)
     data_dir_make(&td, "persist-idle", dir);
     daemon_proc a;
     start_dd_slow_snapshot(&a, dir, "300");
-    vt_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
+    vtc_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
     add_many(c, 1, 20000, 0, NULL); /* past 1 MB of journal in one edit */
     int waited = 0;
     /* (the snapshot is renamed into place, the directory synced, then the
@@ -1120,7 +1120,7 @@ static void test_persist_snapshot_while_idle(void **state)
     assert_true(has_file(dir, "snapshot.000002"));
     assert_false(has_file(dir, "journal.000001")); /* what it made redundant is gone */
     assert_true(has_file(dir, "journal.000002"));
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&a);
     rm_data(dir);
     tdir_remove(&td);
@@ -1138,14 +1138,14 @@ static void test_persist_snapshot_child_dies_with_daemon(void **state)
     data_dir_make(&td, "persist-orphan", dir);
     daemon_proc a;
     start_dd_slow_snapshot(&a, dir, "5000");
-    vt_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
+    vtc_client *c = connect_role(&a, VP_ROLE_EDITOR, true);
     add_many(c, 1, 20000, 0, NULL); /* past 1 MB: the child starts, and waits */
-    assert_int_equal(vt_ping(c), VP_OK);
+    assert_int_equal(vtc_ping(c), VP_OK);
     kill9(&a);
     /* the client sees the daemon go: its socket is not held open */
-    struct pollfd pfd = {.fd = vt_fd(c), .events = POLLIN};
+    struct pollfd pfd = {.fd = vtc_fd(c), .events = POLLIN};
     assert_int_equal(poll(&pfd, 1, 2000), 1);
-    vt_close(c);
+    vtc_close(c);
     /* and the port can be bound again (the orphan would hold it 5 s) */
     int fd = socket(AF_INET, SOCK_STREAM, 0), one = 1, bound = -1, tries = 0;
     setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
@@ -1158,9 +1158,9 @@ static void test_persist_snapshot_child_dies_with_daemon(void **state)
     start_dd(&a, dir, "always", "1");
     c = connect_role(&a, VP_ROLE_EDITOR, true);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     assert_int_equal(st.entities, 20000);
-    vt_close(c);
+    vtc_close(c);
     daemon_stop(&a);
     rm_data(dir);
     tdir_remove(&td);

@@ -51,36 +51,36 @@ static double median(double *v, int n)
 static void *viewer_main(void *arg)
 {
     sched_run *r = arg;
-    vt_client *v = connect_role(r->d, VP_ROLE_VIEWER, true);
+    vtc_client *v = connect_role(r->d, VP_ROLE_VIEWER, true);
     vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = 80}, .max_fps = VP_FRAME_SUB_MAX_FPS};
     const double eye[3] = {-150, 60, -150}, at[3] = {0, 0, 0};
-    assert_true(vt_view_perspective(&sub.r.view, eye, at, NULL, 60, 640, 360, 0.5, 2000));
-    assert_int_equal(vt_frame_subscribe(v, &sub), VP_OK);
+    assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 60, 640, 360, 0.5, 2000));
+    assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
     while (!atomic_load(&r->stop)) {
         vp_frame f;
-        int rc = vt_wait_frame(v, &f, 200);
-        if (rc == VT_ERR_IO) continue; /* none in 200 ms */
+        int rc = vtc_wait_frame(v, &f, 200);
+        if (rc == VTC_ERR_IO) continue; /* none in 200 ms */
         assert_int_equal(rc, VP_OK);
         pthread_mutex_lock(&r->mu);
         if (r->nframes < MAX_FRAMES) r->frame_ms[r->nframes++] = (f.render_ns + (double)f.encode_ns) / 1e6;
         pthread_mutex_unlock(&r->mu);
     }
-    vt_close(v);
+    vtc_close(v);
     return NULL;
 }
 
 static void *editor_main(void *arg)
 {
     sched_run *r = arg;
-    vt_client *ed = connect_role(r->d, VP_ROLE_EDITOR, true);
+    vtc_client *ed = connect_role(r->d, VP_ROLE_EDITOR, true);
     vp_entity e = {.id = 1u << 30, .sphere = {0, 5, 0, 2}};
-    assert_int_equal(vt_add(ed, &e, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, &e, 1, NULL, NULL), VP_OK);
     for (int i = 0; !atomic_load(&r->stop); i++) {
         e.sphere[0] = i % 50;
-        assert_int_equal(vt_update(ed, &e, 1, NULL), VP_OK);
+        assert_int_equal(vtc_update(ed, &e, 1, NULL), VP_OK);
         usleep(5000);
     }
-    vt_close(ed);
+    vtc_close(ed);
     return NULL;
 }
 
@@ -104,19 +104,19 @@ static void test_queries_before_frames(void **state)
         if (n >= 2 * VIEWERS) break;
         usleep(10000);
     }
-    vt_client *q = connect_role(&d, VP_ROLE_VIEWER, true);
+    vtc_client *q = connect_role(&d, VP_ROLE_VIEWER, true);
     vp_view view;
     const double eye[3] = {0, 30, -200}, at[3] = {0, 0, 0};
-    assert_true(vt_view_perspective(&view, eye, at, NULL, 60, 1280, 720, 0.5, 2000));
+    assert_true(vtc_view_perspective(&view, eye, at, NULL, 60, 1280, 720, 0.5, 2000));
     double lat[QUERIES];
     for (int i = 0; i < QUERIES; i++) {
         vp_vis_result res;
         double t0 = now_ms();
-        assert_int_equal(vt_query(q, &view, 1, VP_Q_COUNT_ONLY, 0, &res), VP_OK);
+        assert_int_equal(vtc_query(q, &view, 1, VP_Q_COUNT_ONLY, 0, &res), VP_OK);
         lat[i] = now_ms() - t0;
         usleep(20000);
     }
-    vt_close(q);
+    vtc_close(q);
     atomic_store(&r->stop, 1);
     for (int i = 0; i <= VIEWERS; i++) pthread_join(th[i], NULL);
     int nf = r->nframes;

@@ -35,7 +35,7 @@ static const char *data_file(const char *name)
     return path;
 }
 
-static const lvl_entity *entity_named(const vt_level *lv, const char *name)
+static const lvl_entity *entity_named(const imp_level *lv, const char *name)
 {
     for (uint32_t i = 0; i < lv->nent; i++)
         if (!strcmp(lv->ent[i].name, name)) return &lv->ent[i];
@@ -52,16 +52,16 @@ static void assert_box(const lvl_entity *e, double x0, double y0, double z0, dou
 }
 
 /* Imports tests/data/name into lv; fails the test with the importer's message. */
-static void import_ok(const char *name, vt_level *lv)
+static void import_ok(const char *name, imp_level *lv)
 {
     char err[512];
-    if (vt_level_import(data_file(name), lv, err, sizeof err)) fail_msg("%s: %s", name, err);
+    if (imp_level_import(data_file(name), lv, err, sizeof err)) fail_msg("%s: %s", name, err);
 }
 
 static void test_import_gltf(void **state)
 {
     (void)state;
-    vt_level lv;
+    imp_level lv;
     import_ok("level_small.gltf", &lv);
     /* crate_a..d, cart, tower, wall, lamp_post; OCC_* are not entities */
     assert_int_equal(lv.nent, 8);
@@ -125,20 +125,20 @@ static void test_import_gltf(void **state)
             assert_true(fabs(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1) < 1e-4);
         }
     }
-    vt_level_free(&lv);
+    imp_level_free(&lv);
 }
 
 static void test_import_obj(void **state)
 {
     (void)state;
-    vt_level lv;
+    imp_level lv;
     import_ok("level_small.obj", &lv);
     assert_int_equal(lv.nent, 2);
     assert_int_equal(lv.nocc, 1);
     assert_int_equal(lv.occ[0].entity >= 0, 1);
     assert_string_equal(lv.ent[lv.occ[0].entity].name, "shed");
     assert_box(entity_named(&lv, "shed"), -1, 0, -1, 1, 2, 1);
-    vt_level_free(&lv);
+    imp_level_free(&lv);
     /* names are matched whole, however long: the occluder goes to the one
        entity whose name is its name after OCC_ (not to the near namesake) */
     import_ok("level_names.gltf", &lv);
@@ -146,7 +146,7 @@ static void test_import_obj(void **state)
     assert_int_equal(lv.nocc, 1);
     assert_true(lv.occ[0].entity >= 0);
     assert_true(lv.ent[lv.occ[0].entity].lo[0] < 0); /* the first, at x = 0, not the one at x = 20 */
-    vt_level_free(&lv);
+    imp_level_free(&lv);
 }
 
 /* A bad level file: an error that names the node (or the file's
@@ -169,9 +169,9 @@ static const bad_level bad_levels[] = {
 static void test_import_bad_file(void **state)
 {
     const bad_level *t = *state;
-    vt_level lv;
+    imp_level lv;
     char err[512] = "";
-    assert_int_equal(vt_level_import(data_file(t->name), &lv, err, sizeof err), -1);
+    assert_int_equal(imp_level_import(data_file(t->name), &lv, err, sizeof err), -1);
     if (!strstr(err, t->says)) fail_msg("%s: \"%s\" does not say \"%s\"", t->name, err, t->says);
     assert_int_equal(lv.nent, 0); /* nothing half-read is handed back */
 }
@@ -180,7 +180,7 @@ static void test_import_bad_file(void **state)
 static void test_import_cut_gltf(void **state)
 {
     (void)state;
-    vt_level lv;
+    imp_level lv;
     char err[512];
     tdir td;
     tdir_make(&td, "vantage_import");
@@ -191,12 +191,12 @@ static void test_import_cut_gltf(void **state)
     fwrite(buf, 1, n, out);
     fclose(in);
     fclose(out);
-    assert_int_equal(vt_level_import(cut, &lv, err, sizeof err), -1);
+    assert_int_equal(imp_level_import(cut, &lv, err, sizeof err), -1);
     assert_non_null(strstr(err, "cannot import"));
     tdir_remove(&td);
 }
 
-/* vt_level_import runs assimp in a child and takes the level back over a
+/* imp_level_import runs assimp in a child and takes the level back over a
  * pipe: the level is the one the same bytes give in this process, record
  * for record; files that crash Debian 12's assimp 5.2 (tests/fuzz/known)
  * are errors naming the file, and this process goes on. */
@@ -210,10 +210,10 @@ static void test_import_isolated(void **state)
     size_t n = fread(bytes, 1, sizeof bytes, f);
     fclose(f);
     assert_true(n > 0 && n < sizeof bytes);
-    vt_level a, b;
+    imp_level a, b;
     char err[512];
-    if (vt_level_import(path, &a, err, sizeof err)) fail_msg("%s", err);
-    if (vt_level_import_mem(bytes, n, "gltf", &b, err, sizeof err)) fail_msg("%s", err);
+    if (imp_level_import(path, &a, err, sizeof err)) fail_msg("%s", err);
+    if (imp_level_import_mem(bytes, n, "gltf", &b, err, sizeof err)) fail_msg("%s", err);
     assert_int_equal(a.nmesh, b.nmesh);
     assert_int_equal(a.nent, b.nent);
     assert_int_equal(a.nocc, b.nocc);
@@ -243,8 +243,8 @@ static void test_import_isolated(void **state)
         assert_string_equal(a.occ[i].name, b.occ[i].name);
     }
     assert_memory_equal(a.light, b.light, a.nlight * sizeof *a.light);
-    vt_level_free(&a);
-    vt_level_free(&b);
+    imp_level_free(&a);
+    imp_level_free(&b);
 
     static const char *const known[] = {"tests/fuzz/known/gltf/segv-sparse-no-values.gltf",
                                         "tests/fuzz/known/gltf/segv-line-loop-bad-index.glb",
@@ -262,7 +262,7 @@ static void test_import_isolated(void **state)
         int saved = dup(2), null = open("/dev/null", O_WRONLY);
         assert_true(saved >= 0 && null >= 0);
         dup2(null, 2);
-        int rc = vt_level_import(known[i], &a, err, sizeof err);
+        int rc = imp_level_import(known[i], &a, err, sizeof err);
         dup2(saved, 2);
         close(saved);
         close(null);
@@ -280,14 +280,14 @@ static void test_import_isolated(void **state)
     snprintf(fifo, sizeof fifo, "%s", tdir_file(&td, "never.gltf"));
     assert_int_equal(mkfifo(fifo, 0600), 0);
     setenv("VANTAGE_IMPORT_TIMEOUT", "0.5", 1);
-    assert_int_equal(vt_level_import(fifo, &a, err, sizeof err), -1);
+    assert_int_equal(imp_level_import(fifo, &a, err, sizeof err), -1);
     if (!strstr(err, fifo) || !strstr(err, "did not finish reading the file in 0.5 s")) fail_msg("%s", err);
     tdir_remove(&td);
     unsetenv("VANTAGE_IMPORT_TIMEOUT");
     /* and the next import is whole */
-    if (vt_level_import(path, &a, err, sizeof err)) fail_msg("%s", err);
+    if (imp_level_import(path, &a, err, sizeof err)) fail_msg("%s", err);
     assert_int_equal(a.nent, 8);
-    vt_level_free(&a);
+    imp_level_free(&a);
 }
 
 /* ---- loads, end to end ----------------------------------------------------------------- */
@@ -296,11 +296,11 @@ static vp_view everything(void)
 {
     vp_view v;
     double eye[3] = {0, 1e5, 0}, at[3] = {0, 0, 0}, up[3] = {0, 0, 1};
-    assert_true(vt_view_ortho(&v, eye, at, up, 1e6, 1e6, 256, 256, 1, 1e6));
+    assert_true(vtc_view_ortho(&v, eye, at, up, 1e6, 1e6, 256, 256, 1, 1e6));
     return v;
 }
 
-static void add_boxes(vt_client *c, uint64_t first, uint32_t n, uint16_t sub, uint32_t batch)
+static void add_boxes(vtc_client *c, uint64_t first, uint32_t n, uint16_t sub, uint32_t batch)
 {
     vp_entity *e = calloc(batch, sizeof *e);
     assert_non_null(e);
@@ -313,8 +313,8 @@ static void add_boxes(vt_client *c, uint64_t first, uint32_t n, uint16_t sub, ui
             double b[6] = {x, 0, z, x + 1, 1, z + 1};
             memcpy(e[j].aabb, b, sizeof b);
         }
-        int rc = vt_add(c, e, k, NULL, NULL);
-        if (rc) fail_msg("add: %d %s", rc, vt_last_error(c)->msg);
+        int rc = vtc_add(c, e, k, NULL, NULL);
+        if (rc) fail_msg("add: %d %s", rc, vtc_last_error(c)->msg);
     }
     free(e);
 }
@@ -332,11 +332,11 @@ typedef struct watcher {
 static void *watch(void *p)
 {
     watcher *w = p;
-    vt_client *c = connect_role(w->d, VP_ROLE_VIEWER, true);
+    vtc_client *c = connect_role(w->d, VP_ROLE_VIEWER, true);
     vp_view v = everything();
     while (!w->stop) {
         vp_vis_result r;
-        int rc = vt_query(c, &v, 1, VP_Q_NO_OCCLUSION | VP_Q_COUNT_ONLY, 0, &r);
+        int rc = vtc_query(c, &v, 1, VP_Q_NO_OCCLUSION | VP_Q_COUNT_ONLY, 0, &r);
         if (rc) {
             snprintf(w->why, sizeof w->why, "query failed: %d", rc);
             w->bad++;
@@ -356,43 +356,43 @@ static void *watch(void *p)
         w->saw_full += r.visible == w->full;
         w->saw_base += r.visible == w->base;
     }
-    vt_close(c);
+    vtc_close(c);
     return NULL;
 }
 
 static void test_sublevel_load_is_atomic(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
     const uint32_t base = 3000, k = (uint32_t)(30000 * test_scale());
     add_boxes(ed, 1, base, 0, 1000);
     watcher w = {.d = d, .base = base, .full = base + k};
     pthread_t th;
     assert_int_equal(pthread_create(&th, NULL, watch, &w), 0);
     usleep(20000);
-    vt_client *ld = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *ld = connect_role(d, VP_ROLE_EDITOR, false);
     vp_sublevel_begun b;
-    assert_int_equal(vt_sublevel_begin(ld, "alpha", 1, &b), VP_OK);
+    assert_int_equal(vtc_sublevel_begin(ld, "alpha", 1, &b), VP_OK);
     assert_true(b.id > 0);
     static const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
     static const uint32_t idx[3] = {0, 1, 2};
     static const float nrm[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
-    assert_int_equal(vt_put_mesh(ld, b.class_base, tri, nrm, 3, idx, 3), VP_OK);
+    assert_int_equal(vtc_put_mesh(ld, b.class_base, tri, nrm, 3, idx, 3), VP_OK);
     uint32_t q0 = w.queries;
     add_boxes(ld, 1000000, k, 0, 1000); /* sub-level 0 from a loading connection: the load's */
     vp_light l = {.id = 5, .kind = VP_LIGHT_POINT, .pos = {1, 2, 3}, .color = {1, 1, 1}, .intensity = 10, .range = 5};
-    assert_int_equal(vt_put_lights(ld, &l, 1), VP_OK);
+    assert_int_equal(vtc_put_lights(ld, &l, 1), VP_OK);
     double origin[3] = {0, 0, 0};
-    assert_int_equal(vt_put_occluder(ld, 1000000, origin, tri, 1), VP_OK);
+    assert_int_equal(vtc_put_occluder(ld, 1000000, origin, tri, 1), VP_OK);
     uint32_t during = w.queries - q0;
     vp_ack a;
-    assert_int_equal(vt_sublevel_commit(ld, &a), VP_OK);
+    assert_int_equal(vtc_sublevel_commit(ld, &a), VP_OK);
     assert_int_equal(a.count, k);
     w.flip = a.epoch;
     usleep(50000);
     /* listed, with what it holds */
     vp_sublevel_infos in;
-    assert_int_equal(vt_sublevel_info(ed, &in), VP_OK);
+    assert_int_equal(vtc_sublevel_info(ed, &in), VP_OK);
     size_t pos = 0;
     vp_sublevel_info si;
     assert_true(vp_sublevel_info_next(&in, &pos, &si));
@@ -403,7 +403,7 @@ static void test_sublevel_load_is_atomic(void **state)
     assert_int_equal(si.lights, 1);
     assert_int_equal(si.classes, 1);
     /* unload: gone at one epoch, freed in slices behind it */
-    assert_int_equal(vt_sublevel_unload(ed, "alpha", &a), VP_OK);
+    assert_int_equal(vtc_sublevel_unload(ed, "alpha", &a), VP_OK);
     assert_int_equal(a.count, k);
     w.back = a.epoch;
     usleep(50000);
@@ -414,7 +414,7 @@ static void test_sublevel_load_is_atomic(void **state)
     if (w.bad) fail_msg("%u bad queries: %s", w.bad, w.why);
     assert_true(during > 0 && w.saw_full > 0);
     for (int i = 0; i < 200; i++) {
-        assert_int_equal(vt_sublevel_info(ed, &in), VP_OK);
+        assert_int_equal(vtc_sublevel_info(ed, &in), VP_OK);
         pos = 0;
         assert_true(vp_sublevel_info_next(&in, &pos, &si));
         if (si.state == VP_SL_EMPTY) break;
@@ -423,121 +423,121 @@ static void test_sublevel_load_is_atomic(void **state)
     assert_int_equal(si.state, VP_SL_EMPTY);
     assert_int_equal(si.entities, 0);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(ed, &st), VP_OK);
+    assert_int_equal(vtc_stats(ed, &st), VP_OK);
     assert_int_equal(st.entities, base);
     assert_int_equal(st.occluders, 0);
     assert_int_equal(st.lights, 0);
     assert_int_equal(st.meshes, 0);
-    vt_close(ld);
-    vt_close(ed);
+    vtc_close(ld);
+    vtc_close(ed);
 }
 
 static void test_sublevel_rules(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *a = connect_role(d, VP_ROLE_EDITOR, false), *b = connect_role(d, VP_ROLE_EDITOR, true);
-    vt_client *viewer = connect_role(d, VP_ROLE_VIEWER, false);
-    vt_client *events = connect_role(d, VP_ROLE_VIEWER, false);
-    assert_int_equal(vt_subscribe(events, VP_EVENT_SCENE), VP_OK);
+    vtc_client *a = connect_role(d, VP_ROLE_EDITOR, false), *b = connect_role(d, VP_ROLE_EDITOR, true);
+    vtc_client *viewer = connect_role(d, VP_ROLE_VIEWER, false);
+    vtc_client *events = connect_role(d, VP_ROLE_VIEWER, false);
+    assert_int_equal(vtc_subscribe(events, VP_EVENT_SCENE), VP_OK);
     vp_entity visible = {.id = 50, .aabb = {20, 0, 0, 21, 1, 1}};
-    assert_int_equal(vt_add(b, &visible, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(b, &visible, 1, NULL, NULL), VP_OK);
     vp_sublevel_begun ba, bb;
     vp_ack ack;
     /* viewers do not load; commit with nothing open */
-    assert_int_equal(vt_sublevel_begin(viewer, "x", 0, &ba), VP_ERR_AUTH);
-    assert_int_equal(vt_sublevel_commit(a, &ack), VP_ERR_STATE);
-    assert_int_equal(vt_sublevel_begin(a, "north", 2, &ba), VP_OK);
+    assert_int_equal(vtc_sublevel_begin(viewer, "x", 0, &ba), VP_ERR_AUTH);
+    assert_int_equal(vtc_sublevel_commit(a, &ack), VP_ERR_STATE);
+    assert_int_equal(vtc_sublevel_begin(a, "north", 2, &ba), VP_OK);
     /* one load a connection; another connection cannot take the same one */
-    assert_int_equal(vt_sublevel_begin(a, "south", 0, &bb), VP_ERR_STATE);
-    assert_int_equal(vt_sublevel_begin(b, "north", 0, &bb), VP_ERR_STATE);
+    assert_int_equal(vtc_sublevel_begin(a, "south", 0, &bb), VP_ERR_STATE);
+    assert_int_equal(vtc_sublevel_begin(b, "north", 0, &bb), VP_ERR_STATE);
     /* nobody writes into a load but its connection */
     vp_entity e = {.id = 1, .sublevel = ba.id, .aabb = {0, 0, 0, 1, 1, 1}};
-    assert_int_equal(vt_add(b, &e, 1, NULL, NULL), VP_ERR_STATE);
+    assert_int_equal(vtc_add(b, &e, 1, NULL, NULL), VP_ERR_STATE);
     static const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, nrm[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
     static const uint32_t idx[3] = {0, 1, 2};
-    assert_int_equal(vt_put_mesh(b, ba.class_base + 1, tri, nrm, 3, idx, 3), VP_ERR_STATE);
+    assert_int_equal(vtc_put_mesh(b, ba.class_base + 1, tri, nrm, 3, idx, 3), VP_ERR_STATE);
     /* and the loading connection writes only into its load */
     e.sublevel = ba.id + 7;
-    assert_int_equal(vt_add(a, &e, 1, NULL, NULL), VP_ERR_INVALID);
+    assert_int_equal(vtc_add(a, &e, 1, NULL, NULL), VP_ERR_INVALID);
     e.sublevel = ba.id;
     uint64_t ep0, ep1;
     vp_stats_reply st;
-    assert_int_equal(vt_stats(a, &st), VP_OK);
+    assert_int_equal(vtc_stats(a, &st), VP_OK);
     ep0 = st.epoch;
-    assert_int_equal(vt_add(a, &e, 1, NULL, &ep1), VP_OK);
+    assert_int_equal(vtc_add(a, &e, 1, NULL, &ep1), VP_OK);
     assert_int_equal(ep1, ep0); /* nothing anyone sees changed */
     /* nobody moves an entity out of the load, or removes it, but its connection */
     e.sublevel = 0;
-    assert_int_equal(vt_update(b, &e, 1, NULL), VP_ERR_STATE);
-    assert_int_equal(vt_remove(b, &e.id, 1, NULL), VP_ERR_STATE);
+    assert_int_equal(vtc_update(b, &e, 1, NULL), VP_ERR_STATE);
+    assert_int_equal(vtc_remove(b, &e.id, 1, NULL), VP_ERR_STATE);
     /* nor does the load pull a visible entity in, or push one of its own out */
     visible.sublevel = ba.id;
-    assert_int_equal(vt_update(a, &visible, 1, NULL), VP_ERR_STATE);
-    assert_int_equal(vt_update(a, &e, 1, NULL), VP_ERR_STATE);
+    assert_int_equal(vtc_update(a, &visible, 1, NULL), VP_ERR_STATE);
+    assert_int_equal(vtc_update(a, &e, 1, NULL), VP_ERR_STATE);
     e.sublevel = ba.id;
     /* an empty or repeating light batch is refused */
     vp_light two[2] = {{.id = 3, .kind = VP_LIGHT_POINT, .color = {1, 1, 1}, .intensity = 1, .range = 2},
                        {.id = 3, .kind = VP_LIGHT_POINT, .color = {1, 1, 1}, .intensity = 1, .range = 2}};
-    assert_int_equal(vt_put_lights(b, two, 0), VP_ERR_COUNT);
-    assert_int_equal(vt_put_lights(b, two, 2), VP_ERR_DUPLICATE);
-    assert_int_equal(vt_stats(a, &st), VP_OK);
+    assert_int_equal(vtc_put_lights(b, two, 0), VP_ERR_COUNT);
+    assert_int_equal(vtc_put_lights(b, two, 2), VP_ERR_DUPLICATE);
+    assert_int_equal(vtc_stats(a, &st), VP_OK);
     assert_int_equal(st.epoch, ep0);
     assert_int_equal(st.lights, 0);
     /* unloading what is being loaded, or what does not exist */
-    assert_int_equal(vt_sublevel_unload(b, "north", &ack), VP_ERR_STATE);
-    assert_int_equal(vt_sublevel_unload(b, "nowhere", &ack), VP_ERR_NOT_FOUND);
+    assert_int_equal(vtc_sublevel_unload(b, "north", &ack), VP_ERR_STATE);
+    assert_int_equal(vtc_sublevel_unload(b, "nowhere", &ack), VP_ERR_NOT_FOUND);
     /* an id taken in the load is taken for everyone */
     e.sublevel = 0;
-    assert_int_equal(vt_add(b, &e, 1, NULL, NULL), VP_ERR_DUPLICATE);
+    assert_int_equal(vtc_add(b, &e, 1, NULL, NULL), VP_ERR_DUPLICATE);
     vp_view v = everything();
     vp_vis_result r;
-    assert_int_equal(vt_query(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &r), VP_OK);
+    assert_int_equal(vtc_query(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &r), VP_OK);
     assert_int_equal(r.visible, 1); /* entity 50 only */
-    assert_int_equal(vt_sublevel_commit(a, &ack), VP_OK);
+    assert_int_equal(vtc_sublevel_commit(a, &ack), VP_OK);
     assert_int_equal(ack.count, 1);
     /* the subscriber heard of entity 50 and of the load's one entity, once each */
     uint32_t added = 0;
     for (;;) {
         vp_event ev;
-        int erc = vt_wait_event(events, &ev, 300);
+        int erc = vtc_wait_event(events, &ev, 300);
         if (erc) break;
         added += ev.added;
         if (ev.epoch >= ack.epoch) break;
     }
     assert_int_equal(added, 2);
     uint64_t fifty = 50;
-    assert_int_equal(vt_remove(b, &fifty, 1, NULL), VP_OK);
+    assert_int_equal(vtc_remove(b, &fifty, 1, NULL), VP_OK);
     /* loading a loaded sub-level again: unload first */
-    assert_int_equal(vt_sublevel_begin(b, "north", 0, &bb), VP_ERR_DUPLICATE);
+    assert_int_equal(vtc_sublevel_begin(b, "north", 0, &bb), VP_ERR_DUPLICATE);
     /* queries may name their sub-levels */
     e = (vp_entity){.id = 2, .aabb = {5, 0, 0, 6, 1, 1}};
-    assert_int_equal(vt_add(b, &e, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(b, &e, 1, NULL, NULL), VP_OK);
     uint16_t only = ba.id, none = 999, dflt = 0;
-    assert_int_equal(vt_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &only, 1, &r), VP_OK);
+    assert_int_equal(vtc_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &only, 1, &r), VP_OK);
     assert_int_equal(r.visible, 1);
     vp_vis_rec rec;
     vp_vis_rec_get(&r, 0, &rec);
     assert_int_equal(rec.id, 1);
     assert_int_equal(rec.sublevel, ba.id);
-    assert_int_equal(vt_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &dflt, 1, &r), VP_OK);
+    assert_int_equal(vtc_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &dflt, 1, &r), VP_OK);
     assert_int_equal(r.visible, 1);
     vp_vis_rec_get(&r, 0, &rec);
     assert_int_equal(rec.id, 2);
-    assert_int_equal(vt_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &none, 1, &r), VP_OK);
+    assert_int_equal(vtc_query_sub(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &none, 1, &r), VP_OK);
     assert_int_equal(r.visible, 0);
-    assert_int_equal(vt_query(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &r), VP_OK);
+    assert_int_equal(vtc_query(viewer, &v, 1, VP_Q_NO_OCCLUSION, 0, &r), VP_OK);
     assert_int_equal(r.visible, 2);
     /* a load whose connection dies is never seen, and is freed */
-    assert_int_equal(vt_sublevel_begin(b, "east", 0, &bb), VP_OK);
+    assert_int_equal(vtc_sublevel_begin(b, "east", 0, &bb), VP_OK);
     add_boxes(b, 5000, 2000, 0, 500);
-    vt_close(b);
+    vtc_close(b);
     b = connect_role(d, VP_ROLE_EDITOR, true);
     vp_sublevel_infos in;
     vp_sublevel_info si = {0};
     for (int i = 0; i < 200; i++) {
-        assert_int_equal(vt_query(viewer, &v, 1, VP_Q_NO_OCCLUSION | VP_Q_COUNT_ONLY, 0, &r), VP_OK);
+        assert_int_equal(vtc_query(viewer, &v, 1, VP_Q_NO_OCCLUSION | VP_Q_COUNT_ONLY, 0, &r), VP_OK);
         assert_int_equal(r.visible, 2);
-        assert_int_equal(vt_sublevel_info(b, &in), VP_OK);
+        assert_int_equal(vtc_sublevel_info(b, &in), VP_OK);
         size_t pos = 0;
         while (vp_sublevel_info_next(&in, &pos, &si) && si.id != bb.id) {}
         if (si.id == bb.id && si.state == VP_SL_EMPTY) break;
@@ -546,12 +546,12 @@ static void test_sublevel_rules(void **state)
     assert_int_equal(si.id, bb.id);
     assert_int_equal(si.state, VP_SL_EMPTY);
     /* and its name can be loaded again */
-    assert_int_equal(vt_sublevel_begin(b, "east", 0, &bb), VP_OK);
-    assert_int_equal(vt_sublevel_abort(b, &ack), VP_OK);
-    vt_close(a);
-    vt_close(b);
-    vt_close(viewer);
-    vt_close(events);
+    assert_int_equal(vtc_sublevel_begin(b, "east", 0, &bb), VP_OK);
+    assert_int_equal(vtc_sublevel_abort(b, &ack), VP_OK);
+    vtc_close(a);
+    vtc_close(b);
+    vtc_close(viewer);
+    vtc_close(events);
 }
 
 static void test_sublevel_cli(void **state)

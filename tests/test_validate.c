@@ -34,9 +34,9 @@ static void assert_clean_msg(const char *msg)
     for (size_t i = 0; i < n; i++) assert_true((uint8_t)msg[i] >= 32 && (uint8_t)msg[i] != 127);
 }
 
-static void assert_error(vt_client *c, int rc, int code, uint32_t index, const char *want)
+static void assert_error(vtc_client *c, int rc, int code, uint32_t index, const char *want)
 {
-    const vt_error *e = vt_last_error(c);
+    const vtc_error *e = vtc_last_error(c);
     if (rc != code || e->index != index || !strstr(e->msg, want))
         print_message("got %d index %u \"%s\"; want %d index %u \"%s\"\n", rc, e->index, e->msg, code, index, want);
     assert_int_equal(rc, code);
@@ -136,15 +136,15 @@ static vp_light light_of(const light_case *t)
 }
 
 /* What the viewer sees keeps working: RENDER, LIGHT_QUERY and a frame. */
-static void viewer_still_served(vt_client *v, const vp_render *m, uint32_t want_lights)
+static void viewer_still_served(vtc_client *v, const vp_render *m, uint32_t want_lights)
 {
     vp_frame f;
-    assert_int_equal(vt_render(v, m, &f), VP_OK);
+    assert_int_equal(vtc_render(v, m, &f), VP_OK);
     vp_light_tiles t;
-    assert_int_equal(vt_light_query(v, &(vp_light_query){.view = m->view}, &t), VP_OK);
+    assert_int_equal(vtc_light_query(v, &(vp_light_query){.view = m->view}, &t), VP_OK);
     assert_true(t.in_view <= want_lights);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(v, &st), VP_OK);
+    assert_int_equal(vtc_stats(v, &st), VP_OK);
     assert_int_equal(st.lights, want_lights);
 }
 
@@ -155,39 +155,39 @@ static void test_bad_lights_refused(void **state)
 {
     const light_case *t = *state;
     daemon_proc d;
-    vt_client *ed = daemon_open(&d, VP_ROLE_EDITOR);
-    vt_client *viewer = connect_role(&d, VP_ROLE_VIEWER, false);
-    vt_client *stream = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *ed = daemon_open(&d, VP_ROLE_EDITOR);
+    vtc_client *viewer = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *stream = connect_role(&d, VP_ROLE_VIEWER, false);
     vp_entity e[4];
     for (int i = 0; i < 4; i++)
         e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {-8.0 + 4 * i, -1, -25, -6.0 + 4 * i, 1, -23}};
-    assert_int_equal(vt_add(ed, e, 4, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_add(ed, e, 4, NULL, NULL), VP_OK);
     vp_light base[2] = {good_light(1), spot_light(2)};
-    assert_int_equal(vt_put_lights(ed, base, 2), VP_OK);
+    assert_int_equal(vtc_put_lights(ed, base, 2), VP_OK);
     uint32_t nlights = 2;
     vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
     const double eye[3] = {0, 2, 0}, at[3] = {0, 0, -30}, up[3] = {0, 1, 0};
-    assert_true(vt_view_perspective(&m.view, eye, at, up, 70, 96, 64, 0.1, 300));
+    assert_true(vtc_view_perspective(&m.view, eye, at, up, 70, 96, 64, 0.1, 300));
     vp_frame f;
-    assert_int_equal(vt_frame_subscribe(stream, &(vp_frame_sub){.r = m, .max_fps = 60}), VP_OK);
-    assert_int_equal(vt_wait_frame(stream, &f, 10000), VP_OK);
+    assert_int_equal(vtc_frame_subscribe(stream, &(vp_frame_sub){.r = m, .max_fps = 60}), VP_OK);
+    assert_int_equal(vtc_wait_frame(stream, &f, 10000), VP_OK);
 
     vp_light batch[2] = {good_light(1000), light_of(t)};
     batch[1].id = 2000;
-    int rc = vt_put_lights(ed, batch, 2);
+    int rc = vtc_put_lights(ed, batch, 2);
     if (t->code) {
         assert_error(ed, rc, t->code, 1, t->want);
-        assert_non_null(strstr(vt_last_error(ed)->msg, "record 1: "));
+        assert_non_null(strstr(vtc_last_error(ed)->msg, "record 1: "));
     } else {
         assert_int_equal(rc, VP_OK);
         nlights += 2;
     }
     viewer_still_served(viewer, &m, nlights);
     m.view.origin[0] += 1e-3; /* a new aim: the stream must draw again */
-    assert_int_equal(vt_frame_subscribe(stream, &(vp_frame_sub){.r = m, .max_fps = 60}), VP_OK);
-    assert_int_equal(vt_wait_frame(stream, &f, 10000), VP_OK);
-    vt_close(stream);
-    vt_close(viewer);
+    assert_int_equal(vtc_frame_subscribe(stream, &(vp_frame_sub){.r = m, .max_fps = 60}), VP_OK);
+    assert_int_equal(vtc_wait_frame(stream, &f, 10000), VP_OK);
+    vtc_close(stream);
+    vtc_close(viewer);
     daemon_close(&d, ed);
 }
 
@@ -278,11 +278,11 @@ static void test_batch_errors_name_the_record(void **state)
 {
     const bad_record *t = *state;
     daemon_proc d;
-    vt_client *c = daemon_open(&d, VP_ROLE_EDITOR);
+    vtc_client *c = daemon_open(&d, VP_ROLE_EDITOR);
     vp_entity base[3];
     for (int i = 0; i < 3; i++) base[i] = (vp_entity){.id = 10 + (uint64_t)i, .sphere = {i * 3.0, 0, 0, 1}};
     uint32_t h[3];
-    assert_int_equal(vt_add(c, base, 3, h, NULL), VP_OK);
+    assert_int_equal(vtc_add(c, base, 3, h, NULL), VP_OK);
     vp_entity b[3];
     for (int i = 0; i < 3; i++) {
         b[i] = base[i];
@@ -294,10 +294,10 @@ static void test_batch_errors_name_the_record(void **state)
     else if (t->field < 10) x->aabb[t->field - 4] = t->val;
     else x->flags = t->flags;
     vp_stats_reply before, after;
-    assert_int_equal(vt_stats(c, &before), VP_OK);
-    int rc = t->type == 0 ? vt_add(c, b, 3, NULL, NULL) : vt_update(c, b, 3, NULL);
+    assert_int_equal(vtc_stats(c, &before), VP_OK);
+    int rc = t->type == 0 ? vtc_add(c, b, 3, NULL, NULL) : vtc_update(c, b, 3, NULL);
     assert_error(c, rc, t->code, t->bad, t->want);
-    assert_int_equal(vt_stats(c, &after), VP_OK);
+    assert_int_equal(vtc_stats(c, &after), VP_OK);
     assert_int_equal(after.epoch, before.epoch); /* nothing changed */
     assert_int_equal(after.entities, before.entities);
     daemon_close(&d, c);
@@ -307,11 +307,11 @@ static void test_batch_errors_name_the_record(void **state)
 static void test_light_record_named(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     vp_light L[3] = {good_light(1), good_light(2), good_light(3)};
     L[2].pos[1] = NAN;
-    assert_error(c, vt_put_lights(c, L, 3), VP_ERR_NONFINITE, 2, "record 2: position y is nan");
-    vt_close(c);
+    assert_error(c, vtc_put_lights(c, L, 3), VP_ERR_NONFINITE, 2, "record 2: position y is nan");
+    vtc_close(c);
 }
 
 /* ---- UTF-8 ------------------------------------------------------------------------ */
@@ -441,26 +441,26 @@ static void test_sublevel_names_utf8(void **state)
 {
     const bad_name *t = *state;
     daemon_proc d;
-    vt_client *c = daemon_open(&d, VP_ROLE_EDITOR);
+    vtc_client *c = daemon_open(&d, VP_ROLE_EDITOR);
     const char *names[3] = {"fine", "ch\xC3\xA2teau", t->bad};
     uint16_t ids[3];
     vp_stats_reply before, after;
-    assert_int_equal(vt_stats(c, &before), VP_OK);
-    assert_error(c, vt_sublevel_ids(c, names, 3, ids), VP_ERR_INVALID, 2, t->want_why);
-    assert_non_null(strstr(vt_last_error(c)->msg, t->want_esc));
-    assert_int_equal(vt_stats(c, &after), VP_OK);
+    assert_int_equal(vtc_stats(c, &before), VP_OK);
+    assert_error(c, vtc_sublevel_ids(c, names, 3, ids), VP_ERR_INVALID, 2, t->want_why);
+    assert_non_null(strstr(vtc_last_error(c)->msg, t->want_esc));
+    assert_int_equal(vtc_stats(c, &after), VP_OK);
     assert_int_equal(after.epoch, before.epoch);
     vp_sublevel_begun b;
-    assert_error(c, vt_sublevel_begin(c, t->bad, 0, &b), VP_ERR_INVALID, UINT32_MAX, t->want_esc);
+    assert_error(c, vtc_sublevel_begin(c, t->bad, 0, &b), VP_ERR_INVALID, UINT32_MAX, t->want_esc);
     /* an unknown name is quoted escaped too */
     vp_ack a;
-    assert_error(c, vt_sublevel_unload(c, t->bad, &a), VP_ERR_NOT_FOUND, UINT32_MAX, t->want_esc);
+    assert_error(c, vtc_sublevel_unload(c, t->bad, &a), VP_ERR_NOT_FOUND, UINT32_MAX, t->want_esc);
     /* nothing was defined; a valid UTF-8 name still is */
     vp_name_list l;
-    assert_int_equal(vt_sublevel_list(c, &l), VP_OK);
+    assert_int_equal(vtc_sublevel_list(c, &l), VP_OK);
     assert_int_equal(l.count, 0);
     const char *ok[2] = {"ch\xC3\xA2teau", "\xF0\x9F\x8F\xB0"};
-    assert_int_equal(vt_sublevel_ids(c, ok, 2, ids), VP_OK);
+    assert_int_equal(vtc_sublevel_ids(c, ok, 2, ids), VP_OK);
     assert_int_equal(ids[0], 1);
     assert_int_equal(ids[1], 2);
     daemon_close(&d, c);
@@ -487,7 +487,7 @@ static vp_render good_render(void)
 {
     vp_render good = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
     const double eye[3] = {0, 2, 0}, at[3] = {0, 0, -30}, up[3] = {0, 1, 0};
-    assert_true(vt_view_perspective(&good.view, eye, at, up, 70, 64, 48, 0.1, 300));
+    assert_true(vtc_view_perspective(&good.view, eye, at, up, 70, 64, 48, 0.1, 300));
     return good;
 }
 
@@ -495,7 +495,7 @@ static void test_frame_subscribe_checks_view(void **state)
 {
     const bad_view *t = *state;
     daemon_proc d;
-    vt_client *c = daemon_open(&d, VP_ROLE_VIEWER);
+    vtc_client *c = daemon_open(&d, VP_ROLE_VIEWER);
     vp_render m = good_render();
     double *vp = m.view.view_proj;
     if (t->kind == 0) vp[0] = vp[4] = vp[8] = vp[12] = 0;
@@ -506,9 +506,9 @@ static void test_frame_subscribe_checks_view(void **state)
     }
     if (t->kind == 2) memset(vp, 0, sizeof m.view.view_proj);
     vp_frame f;
-    assert_error(c, vt_render(c, &m, &f), t->code, UINT32_MAX, t->want);
-    assert_error(c, vt_frame_subscribe(c, &(vp_frame_sub){.r = m, .max_fps = 30}), t->code, UINT32_MAX, t->want);
-    assert_error(c, vt_light_query(c, &(vp_light_query){.view = m.view}, &(vp_light_tiles){0}), t->code, UINT32_MAX,
+    assert_error(c, vtc_render(c, &m, &f), t->code, UINT32_MAX, t->want);
+    assert_error(c, vtc_frame_subscribe(c, &(vp_frame_sub){.r = m, .max_fps = 30}), t->code, UINT32_MAX, t->want);
+    assert_error(c, vtc_light_query(c, &(vp_light_query){.view = m.view}, &(vp_light_tiles){0}), t->code, UINT32_MAX,
                  t->want);
     daemon_close(&d, c);
 }
@@ -517,20 +517,20 @@ static void test_frame_subscribe_checks_view(void **state)
 static void test_stream_keeps_a_good_view(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *c = connect_role(d, VP_ROLE_VIEWER, false);
+    vtc_client *c = connect_role(d, VP_ROLE_VIEWER, false);
     vp_render good = good_render();
     vp_frame f;
-    assert_int_equal(vt_frame_subscribe(c, &(vp_frame_sub){.r = good, .max_fps = 30}), VP_OK);
-    assert_int_equal(vt_wait_frame(c, &f, 10000), VP_OK);
+    assert_int_equal(vtc_frame_subscribe(c, &(vp_frame_sub){.r = good, .max_fps = 30}), VP_OK);
+    assert_int_equal(vtc_wait_frame(c, &f, 10000), VP_OK);
     vp_render bad = good;
     memset(bad.view.view_proj, 0, sizeof bad.view.view_proj);
-    assert_error(c, vt_frame_subscribe(c, &(vp_frame_sub){.r = bad, .max_fps = 30}), VP_ERR_MATRIX, UINT32_MAX,
+    assert_error(c, vtc_frame_subscribe(c, &(vp_frame_sub){.r = bad, .max_fps = 30}), VP_ERR_MATRIX, UINT32_MAX,
                  "view");
-    vt_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
-    assert_int_equal(vt_add(ed, &(vp_entity){.id = 1, .sphere = {0, 0, -10, 1}}, 1, NULL, NULL), VP_OK);
-    assert_int_equal(vt_wait_frame(c, &f, 10000), VP_OK); /* the new scene, drawn */
-    vt_close(ed);
-    vt_close(c);
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
+    assert_int_equal(vtc_add(ed, &(vp_entity){.id = 1, .sphere = {0, 0, -10, 1}}, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_wait_frame(c, &f, 10000), VP_OK); /* the new scene, drawn */
+    vtc_close(ed);
+    vtc_close(c);
 }
 
 /* ---- DESTROY names the real cause ------------------------------------------------- */
@@ -559,10 +559,10 @@ static const bad_destroy bad_destroys[] = {
     {"just out of reach", 3.5, 2.4999, VP_ERR_INVALID, "does not touch entity 5"},
 };
 
-static vt_client *destroy_target(daemon_proc *d)
+static vtc_client *destroy_target(daemon_proc *d)
 {
-    vt_client *c = daemon_open(d, VP_ROLE_EDITOR);
-    assert_int_equal(vt_add(c, &(vp_entity){.id = 5, .aabb = {-1, -1, -1, 1, 1, 1}}, 1, NULL, NULL), VP_OK);
+    vtc_client *c = daemon_open(d, VP_ROLE_EDITOR);
+    assert_int_equal(vtc_add(c, &(vp_entity){.id = 5, .aabb = {-1, -1, -1, 1, 1, 1}}, 1, NULL, NULL), VP_OK);
     return c;
 }
 
@@ -570,11 +570,11 @@ static void test_destroy_messages(void **state)
 {
     const bad_destroy *t = *state;
     daemon_proc d;
-    vt_client *c = destroy_target(&d);
+    vtc_client *c = destroy_target(&d);
     vp_destroyed out;
     vp_destroy m = {.id = 5, .center = {t->centre0, 0, 0}, .radius = t->radius};
-    assert_error(c, vt_destroy(c, &m, &out), t->code, UINT32_MAX, t->want);
-    assert_null(strstr(vt_last_error(c)->msg, "negative, NaN or infinite"));
+    assert_error(c, vtc_send_destruction(c, &m, &out), t->code, UINT32_MAX, t->want);
+    assert_null(strstr(vtc_last_error(c)->msg, "negative, NaN or infinite"));
     daemon_close(&d, c);
 }
 
@@ -583,10 +583,10 @@ static void test_destroy_limits(void **state)
 {
     (void)state;
     daemon_proc d;
-    vt_client *c = destroy_target(&d);
+    vtc_client *c = destroy_target(&d);
     vp_destroyed out;
-    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .radius = sqrt(12.0)}, &out), VP_OK);
-    assert_int_equal(vt_destroy(c, &(vp_destroy){.id = 5, .center = {3.5, 0, 0}, .radius = 2.5}, &out), VP_OK);
+    assert_int_equal(vtc_send_destruction(c, &(vp_destroy){.id = 5, .radius = sqrt(12.0)}, &out), VP_OK);
+    assert_int_equal(vtc_send_destruction(c, &(vp_destroy){.id = 5, .center = {3.5, 0, 0}, .radius = 2.5}, &out), VP_OK);
     daemon_close(&d, c);
 }
 
@@ -622,14 +622,14 @@ static void test_old_journal_replays(void **state)
     const char *extra[] = {"--data-dir", dir, "--durability", "always", NULL};
     daemon_proc d;
     daemon_start_args(&d, extra);
-    vt_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
+    vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
     const char *names[1] = {"zz-name"};
     uint16_t ids[1];
-    assert_int_equal(vt_sublevel_ids(c, names, 1, ids), VP_OK);
-    assert_int_equal(vt_add(c, &(vp_entity){.id = 1, .aabb = {-3, -1, -25, 3, 1, -20}}, 1, NULL, NULL), VP_OK);
+    assert_int_equal(vtc_sublevel_ids(c, names, 1, ids), VP_OK);
+    assert_int_equal(vtc_add(c, &(vp_entity){.id = 1, .aabb = {-3, -1, -25, 3, 1, -20}}, 1, NULL, NULL), VP_OK);
     vp_light L[2] = {good_light(1), good_light(9)};
-    assert_int_equal(vt_put_lights(c, L, 2), VP_OK);
-    vt_close(c);
+    assert_int_equal(vtc_put_lights(c, L, 2), VP_OK);
+    vtc_close(c);
     daemon_stop(&d);
 
     /* patch the journal: light 9's range, the name's first two bytes */
@@ -669,32 +669,32 @@ static void test_old_journal_replays(void **state)
     fclose(f);
 
     daemon_start_args(&d, extra);
-    vt_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(v, &st), VP_OK);
+    assert_int_equal(vtc_stats(v, &st), VP_OK);
     assert_int_equal(st.lights, 2);
     vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
-    assert_true(vt_view_perspective(&m.view, (double[3]){0, 2, 0}, (double[3]){0, 0, -30}, (double[3]){0, 1, 0}, 70,
+    assert_true(vtc_view_perspective(&m.view, (double[3]){0, 2, 0}, (double[3]){0, 0, -30}, (double[3]){0, 1, 0}, 70,
                                     64, 48, 0.1, 300));
     vp_frame fr;
-    assert_int_equal(vt_render(v, &m, &fr), VP_OK);
+    assert_int_equal(vtc_render(v, &m, &fr), VP_OK);
     vp_light_tiles t;
-    assert_int_equal(vt_light_query(v, &(vp_light_query){.view = m.view}, &t), VP_OK);
+    assert_int_equal(vtc_light_query(v, &(vp_light_query){.view = m.view}, &t), VP_OK);
     assert_int_equal(t.in_view, 1);
     for (uint32_t k = 0; k < t.count; k++) assert_int_equal(vp_light_tiles_id(&t, k), 1);
-    vt_close(v);
+    vtc_close(v);
     /* the light can still be removed by id */
-    vt_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
     uint8_t msg[64];
     vp_writer w;
     vp_writer_init(&w, msg, sizeof msg);
-    vp_enc_ids(&w, VP_LIGHT_REMOVE, vt_next_req(ed), (const uint64_t[1]){9}, 1);
-    assert_int_equal(vt_send(ed, msg, w.len), VP_OK);
+    vp_enc_ids(&w, VP_LIGHT_REMOVE, vtc_next_req(ed), (const uint64_t[1]){9}, 1);
+    assert_int_equal(vtc_send(ed, msg, w.len), VP_OK);
     vp_header h;
     const uint8_t *pl;
-    assert_int_equal(vt_recv(ed, &h, &pl, 10000), VP_OK);
+    assert_int_equal(vtc_recv(ed, &h, &pl, 10000), VP_OK);
     assert_int_equal(h.type, VP_ACK);
-    vt_close(ed);
+    vtc_close(ed);
     daemon_stop(&d);
     DIR *dd = opendir(dir);
     assert_non_null(dd);
@@ -718,7 +718,7 @@ static void test_old_journal_replays(void **state)
 static void test_occluder_put_bound(void **state)
 {
     daemon_proc *d = *state;
-    vt_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     const uint32_t over = 349526, same = 65536;
     float *v = calloc((size_t)over * 9, sizeof *v);
     assert_non_null(v);
@@ -727,15 +727,15 @@ static void test_occluder_put_bound(void **state)
         v[9 * (size_t)t + 7] = 10;
     }
     const double origin[3] = {0, 0, -50};
-    assert_error(c, vt_put_occluder(c, 7, origin, v, over), VP_ERR_LIMIT, UINT32_MAX,
+    assert_error(c, vtc_put_occluder(c, 7, origin, v, over), VP_ERR_LIMIT, UINT32_MAX,
                  "occluder of 349526 triangles, limit 349525");
-    assert_int_equal(vt_put_occluder(c, 7, origin, v, same), VP_OK);
-    assert_int_equal(vt_ping(c), VP_OK);
+    assert_int_equal(vtc_put_occluder(c, 7, origin, v, same), VP_OK);
+    assert_int_equal(vtc_ping(c), VP_OK);
     vp_stats_reply st;
-    assert_int_equal(vt_stats(c, &st), VP_OK);
+    assert_int_equal(vtc_stats(c, &st), VP_OK);
     assert_int_equal(st.occluders, 1);
     free(v);
-    vt_close(c);
+    vtc_close(c);
 }
 
 const struct CMUnitTest validate_tests[] = {

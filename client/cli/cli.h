@@ -15,8 +15,8 @@
 #include <stdio.h>
 
 typedef struct cli {
-    vt_connect_opts co;
-    vt_client *c;
+    vtc_connect_opts co;
+    vtc_client *c;
 } cli;
 
 extern const char *g_prog;

@@ -16,7 +16,7 @@
 /* ---- bench ------------------------------------------------------------------------ */
 
 typedef struct bench_conn {
-    vt_client *c;
+    vtc_client *c;
     int idx;            /* client number: ids and camera vary with it */
     long sent, recvd, quota;
     double *sent_at;    /* ring of pipeline send times */
@@ -50,7 +50,7 @@ static void bench_views(vp_view *v, int n, int idx, long i)
     for (int k = 0; k < n; k++) {
         double a = 0.01 * (double)i + k * 0.7 + idx;
         double eye[3] = {cos(a) * 200, 2, sin(a) * 200}, at[3] = {0, 2, 0};
-        vt_view_perspective(&v[k], eye, at, NULL, 60, 1280, 720, 0.1, 2000);
+        vtc_view_perspective(&v[k], eye, at, NULL, 60, 1280, 720, 0.1, 2000);
     }
 }
 
@@ -59,7 +59,7 @@ static int bench_send(bench_arg *a, bench_conn *bc, uint8_t *buf, size_t cap)
 {
     vp_writer w;
     vp_writer_init(&w, buf, cap);
-    uint32_t req = vt_next_req(bc->c);
+    uint32_t req = vtc_next_req(bc->c);
     if (a->test == T_EDIT) {
         for (int e = 0; e < a->batch; e++) bc->ents[e].sphere[1] = (double)(bc->sent % 100) * 0.1;
         vp_enc_entities(&w, VP_ENTITY_UPDATE, req, bc->ents, (uint32_t)a->batch);
@@ -72,7 +72,7 @@ static int bench_send(bench_arg *a, bench_conn *bc, uint8_t *buf, size_t cap)
     }
     bc->sent_at[bc->sent % a->pipeline] = now_s();
     bc->sent++;
-    return vt_send(bc->c, buf, w.len);
+    return vtc_send(bc->c, buf, w.len);
 }
 
 static void *bench_worker(void *p)
@@ -85,14 +85,14 @@ static void *bench_worker(void *p)
     bool edit = a->test == T_EDIT;
     for (int i = 0; i < a->nconn && !a->failed; i++) {
         bench_conn *bc = &cs[i];
-        vt_connect_opts o = a->k->co;
+        vtc_connect_opts o = a->k->co;
         o.role = VP_ROLE_EDITOR;
         o.name = "vantage-bench";
         bc->idx = a->first + i;
         bc->quota = a->per_conn + (bc->idx < a->extra); /* N requests exactly, the remainder spread */
         bc->sent_at = calloc((size_t)a->pipeline, sizeof *bc->sent_at);
         char err[256];
-        if (vt_connect(&o, &bc->c, err, sizeof err)) {
+        if (vtc_connect(&o, &bc->c, err, sizeof err)) {
             snprintf(a->why, sizeof a->why, "cannot connect: %s", err);
             a->failed = 1;
             a->noconn = true;
@@ -104,9 +104,9 @@ static void *bench_worker(void *p)
             for (int e = 0; e < a->batch; e++)
                 bc->ents[e] = (vp_entity){.id = base + (uint64_t)e, .sphere = {bc->idx * 10.0, 0, e * 0.5, 0.25},
                                           .flags = VP_ENT_DYNAMIC};
-            if (vt_add(bc->c, bc->ents, (uint32_t)a->batch, NULL, NULL)) a->failed = 1;
+            if (vtc_add(bc->c, bc->ents, (uint32_t)a->batch, NULL, NULL)) a->failed = 1;
         }
-        pf[i] = (struct pollfd){.fd = vt_fd(bc->c), .events = POLLIN};
+        pf[i] = (struct pollfd){.fd = vtc_fd(bc->c), .events = POLLIN};
     }
     /* fill every connection's pipeline, then one new request per reply */
     for (int i = 0; i < a->nconn && !a->failed; i++)
@@ -125,7 +125,7 @@ static void *bench_worker(void *p)
             for (;;) {
                 vp_header h;
                 const uint8_t *pl;
-                int rc = vt_recv(bc->c, &h, &pl, 0);
+                int rc = vtc_recv(bc->c, &h, &pl, 0);
                 if (rc == VP_NEED_MORE) break;
                 if (rc || h.type == VP_ERROR) {
                     a->failed = 1;
@@ -148,7 +148,7 @@ static void *bench_worker(void *p)
         }
     }
     for (int i = 0; i < a->nconn; i++) {
-        vt_close(cs[i].c);
+        vtc_close(cs[i].c);
         free(cs[i].sent_at);
         free(cs[i].ents);
     }

@@ -21,7 +21,7 @@
 
 typedef struct viewer {
     pthread_t th;
-    vt_connect_opts co;
+    vtc_connect_opts co;
     vp_frame_sub sub;
     bool stalled;
     atomic_bool *stop;
@@ -38,27 +38,27 @@ typedef struct viewer {
 static void *viewer_main(void *p)
 {
     viewer *v = p;
-    vt_client *c;
-    if ((v->rc = vt_connect(&v->co, &c, v->err, sizeof v->err))) return NULL;
-    if ((v->rc = vt_frame_subscribe(c, &v->sub))) {
-        snprintf(v->err, sizeof v->err, "%.200s", vt_last_error(c)->msg);
-        vt_close(c);
+    vtc_client *c;
+    if ((v->rc = vtc_connect(&v->co, &c, v->err, sizeof v->err))) return NULL;
+    if ((v->rc = vtc_frame_subscribe(c, &v->sub))) {
+        snprintf(v->err, sizeof v->err, "%.200s", vtc_last_error(c)->msg);
+        vtc_close(c);
         return NULL;
     }
     if (v->stalled) {
         /* subscribed, and never reads: the daemon must not queue for it */
         while (!atomic_load(v->stop)) usleep(10000);
-        vt_close(c);
+        vtc_close(c);
         return NULL;
     }
     double prev = 0;
     while (!atomic_load(v->stop)) {
         vp_frame f;
-        int rc = vt_wait_frame(c, &f, 100);
-        if (rc == VT_ERR_IO && vt_last_error(c)->timed_out) continue;
+        int rc = vtc_wait_frame(c, &f, 100);
+        if (rc == VTC_ERR_IO && vtc_last_error(c)->timed_out) continue;
         if (rc) {
             v->rc = rc;
-            snprintf(v->err, sizeof v->err, "%.200s", vt_last_error(c)->msg);
+            snprintf(v->err, sizeof v->err, "%.200s", vtc_last_error(c)->msg);
             break;
         }
         double t = now_s();
@@ -73,7 +73,7 @@ static void *viewer_main(void *p)
         v->render_ms += f.render_ns / 1e6;
         v->encode_ms += f.encode_ns / 1e6;
     }
-    vt_close(c);
+    vtc_close(c);
     return NULL;
 }
 
@@ -113,7 +113,7 @@ int bench_frames(cli *k, int argc, char **argv)
     if (quality < 1 || quality > 100) return die_usage("bench --test frames: --quality is 1..100");
     vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = (uint8_t)quality, .renderer = renderer},
                         .max_fps = (uint16_t)fps};
-    if (!vt_view_perspective(&sub.r.view, eye, at, NULL, 60, (uint16_t)w, (uint16_t)h, 0.1, 10000))
+    if (!vtc_view_perspective(&sub.r.view, eye, at, NULL, 60, (uint16_t)w, (uint16_t)h, 0.1, 10000))
         return die_usage("bench: degenerate camera");
     int rc = connect_cli(k, VP_ROLE_EDITOR);
     if (rc) return rc;
@@ -127,7 +127,7 @@ int bench_frames(cli *k, int argc, char **argv)
         double c = eye[a] + dir[a] / len * fmin(50, len / 2);
         e.aabb[a] = c - 2, e.aabb[3 + a] = c + 2;
     }
-    if ((rc = vt_add(k->c, &e, 1, NULL, NULL))) return server_fail(k, "bench: add", rc);
+    if ((rc = vtc_add(k->c, &e, 1, NULL, NULL))) return server_fail(k, "bench: add", rc);
 
     size_t n = (size_t)(viewers + stalled), started = 0;
     viewer *vs = calloc(n, sizeof *vs);
@@ -159,7 +159,7 @@ int bench_frames(cli *k, int argc, char **argv)
         double dx = 3 * sin(edits * 0.05);
         vp_entity m = e;
         m.aabb[0] += dx, m.aabb[3] += dx;
-        if ((rc = vt_update(k->c, &m, 1, NULL))) {
+        if ((rc = vtc_update(k->c, &m, 1, NULL))) {
             fail = server_fail(k, "bench: update", rc);
             break;
         }
@@ -172,7 +172,7 @@ int bench_frames(cli *k, int argc, char **argv)
     /* one way out: the viewers stopped and joined, the entity taken away */
     atomic_store(&stop, true);
     for (size_t i = 0; i < started; i++) pthread_join(vs[i].th, NULL);
-    vt_remove(k->c, &id, 1, NULL);
+    vtc_remove(k->c, &id, 1, NULL);
     double *rates = fail ? NULL : calloc((size_t)viewers, sizeof *rates), *gaps = NULL;
     if (!fail && !rates) fail = (fprintf(stderr, "%s: out of memory\n", g_prog), 1);
     if (fail) {

@@ -44,7 +44,7 @@ static int resolve_sublevels(cli *k, vp_entity *batch, char (*subs)[VP_MAX_NAME 
         if (j == nn) names[nn++] = subs[i];
         which[i] = j;
     }
-    if (nn && (rc = vt_sublevel_ids(k->c, names, nn, ids))) rc = server_fail(k, "import", rc);
+    if (nn && (rc = vtc_sublevel_ids(k->c, names, nn, ids))) rc = server_fail(k, "import", rc);
     for (uint32_t i = 0; !rc && i < n; i++)
         if (subs[i][0]) batch[i].sublevel = ids[which[i]];
     free(names);
@@ -66,7 +66,7 @@ int cmd_import(cli *k, int argc, char **argv)
         if (f != stdin) fclose(f);
         return rc;
     }
-    uint32_t cap = vt_server(k->c)->max_batch;
+    uint32_t cap = vtc_server(k->c)->max_batch;
     if (cap > 8192) cap = 8192;
     vp_entity *batch = malloc((size_t)cap * sizeof *batch);
     uint32_t *handles = malloc((size_t)cap * sizeof *handles);
@@ -90,7 +90,7 @@ int cmd_import(cli *k, int argc, char **argv)
         if (n == 0) first_line = lineno;
         if (++n == cap) {
             if ((rc = resolve_sublevels(k, batch, subs, n))) break;
-            if ((rc = vt_add(k->c, batch, n, handles, NULL))) {
+            if ((rc = vtc_add(k->c, batch, n, handles, NULL))) {
                 fprintf(stderr, "%s: %s: the batch starting at line %zu was rejected whole\n", g_prog, argv[1],
                         first_line);
                 rc = server_fail(k, "import", rc);
@@ -102,7 +102,7 @@ int cmd_import(cli *k, int argc, char **argv)
     }
     if (rc == 0 && n) rc = resolve_sublevels(k, batch, subs, n);
     if (rc == 0 && n) {
-        if ((rc = vt_add(k->c, batch, n, handles, NULL))) {
+        if ((rc = vtc_add(k->c, batch, n, handles, NULL))) {
             fprintf(stderr, "%s: %s: the batch starting at line %zu was rejected whole\n", g_prog, argv[1], first_line);
             rc = server_fail(k, "import", rc);
         }
@@ -133,7 +133,7 @@ int cmd_export(cli *k, int argc, char **argv)
     /* sub-level ids that have names are written as their names */
     static char *names[65536];
     vp_name_list nl;
-    if ((rc = vt_sublevel_list(k->c, &nl))) {
+    if ((rc = vtc_sublevel_list(k->c, &nl))) {
         if (f != stdout) fclose(f);
         return server_fail(k, "export", rc);
     }
@@ -147,10 +147,10 @@ int cmd_export(cli *k, int argc, char **argv)
     }
     uint64_t cursor = 0, epoch0 = 0;
     size_t total = 0;
-    uint32_t page = vt_server(k->c)->max_batch < 4096 ? vt_server(k->c)->max_batch : 4096;
+    uint32_t page = vtc_server(k->c)->max_batch < 4096 ? vtc_server(k->c)->max_batch : 4096;
     do {
         vp_list_reply lr;
-        if ((rc = vt_list(k->c, cursor, page, &lr))) {
+        if ((rc = vtc_list(k->c, cursor, page, &lr))) {
             rc = server_fail(k, "export", rc);
             break;
         }

@@ -119,7 +119,7 @@ static bool frame_request(const frame_opts *f, const double eye[3], out_kind k, 
     *m = (vp_render){.format = k == OUT_JPG ? VP_FRAME_JPEG : VP_FRAME_RAW,
                      .quality = k == OUT_JPG ? (uint8_t)f->quality : 0, .flags = f->flags, .renderer = f->renderer,
                      .exposure_ev = (float)f->ev};
-    return vt_view_perspective(&m->view, eye, f->at, f->up, f->fov, (uint16_t)f->w, (uint16_t)f->h, f->znear,
+    return vtc_view_perspective(&m->view, eye, f->at, f->up, f->fov, (uint16_t)f->w, (uint16_t)f->h, f->znear,
                                f->zfar);
 }
 
@@ -207,7 +207,7 @@ int cmd_render(cli *k, int argc, char **argv)
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
     vp_frame fr;
-    if ((rc = vt_render(k->c, &m, &fr))) return server_fail(k, "render", rc);
+    if ((rc = vtc_render(k->c, &m, &fr))) return server_fail(k, "render", rc);
     if (write_frame(out, kind, &fr, f.ev)) return 1;
     printf("%s: %ux%u, %u entities drawn at epoch %llu; render %.2f ms, encode %.2f ms (server)\n", out, fr.width,
            fr.height, fr.visible, (unsigned long long)fr.epoch, fr.render_ns / 1e6, fr.encode_ns / 1e6);
@@ -267,7 +267,7 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
     }
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
-    if ((rc = vt_frame_subscribe(k->c, &sub))) return server_fail(k, "watch", rc);
+    if ((rc = vtc_frame_subscribe(k->c, &sub))) return server_fail(k, "watch", rc);
     catch_sigint();
     fprintf(stderr, "writing frames to %s/ (Ctrl-C to stop)\n", dir);
     const char *ext = kind == OUT_EXR ? "exr" : kind == OUT_PNG ? "png" : "jpg";
@@ -275,8 +275,8 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
     uint64_t n = 0;
     while (!g_stop && (!count || n < count) && (seconds <= 0 || now_s() - t0 < seconds)) {
         vp_frame fr;
-        rc = vt_wait_frame(k->c, &fr, 250);
-        if (rc == VT_ERR_IO && vt_last_error(k->c)->timed_out) continue;
+        rc = vtc_wait_frame(k->c, &fr, 250);
+        if (rc == VTC_ERR_IO && vtc_last_error(k->c)->timed_out) continue;
         if (rc) return server_fail(k, "watch", rc);
         char path[4096];
         snprintf(path, sizeof path, "%s/frame-%06llu.%s", dir, (unsigned long long)n, ext);
@@ -305,10 +305,10 @@ int cmd_watch_frames(cli *k, int argc, char **argv)
             double eye[3];
             orbit(&f, (now_s() - t0) * orbit_dps * M_PI / 180, eye);
             if (!frame_request(&f, eye, kind, &sub.r)) return die_usage("watch: degenerate orbit camera");
-            if ((rc = vt_frame_subscribe(k->c, &sub))) return server_fail(k, "watch", rc);
+            if ((rc = vtc_frame_subscribe(k->c, &sub))) return server_fail(k, "watch", rc);
         }
     }
-    vt_frame_unsubscribe(k->c);
+    vtc_frame_unsubscribe(k->c);
     return 0;
 }
 
@@ -348,12 +348,12 @@ int cmd_lights(cli *k, int argc, char **argv)
     if (optind != argc) return die_usage("lights: unexpected argument %s", argv[optind]);
     if (!f.have_eye || !f.have_at) return frame_missing("lights", &f);
     vp_light_query m = {.flags = no_depth ? VP_LQ_NO_DEPTH : 0};
-    if (!vt_view_perspective(&m.view, f.eye, f.at, f.up, f.fov, (uint16_t)f.w, (uint16_t)f.h, f.znear, f.zfar))
+    if (!vtc_view_perspective(&m.view, f.eye, f.at, f.up, f.fov, (uint16_t)f.w, (uint16_t)f.h, f.znear, f.zfar))
         return die_usage("lights: degenerate camera (eye == at, up parallel to the view, or near/far)");
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
     vp_light_tiles t;
-    if ((rc = vt_light_query(k->c, &m, &t))) return server_fail(k, "lights", rc);
+    if ((rc = vtc_light_query(k->c, &m, &t))) return server_fail(k, "lights", rc);
     uint32_t tiles = (uint32_t)t.tiles_x * t.tiles_y, lit = 0;
     for (uint32_t i = 0; i < tiles; i++) lit += vp_light_tiles_offset(&t, i + 1) > vp_light_tiles_offset(&t, i);
     if (json) {

@@ -37,13 +37,13 @@ static void progress(bool tty, const char *name, uint32_t done, uint32_t total, 
 
 /* The level, as the load's messages; VP_OK, a code from the server or the
  * connection, or PUSH_NOMEM. Batches stay within the server's max_batch. */
-static int push(cli *k, const char *name, vt_level *lv, const vp_sublevel_begun *b, bool tty, double *t_ent)
+static int push(cli *k, const char *name, imp_level *lv, const vp_sublevel_begun *b, bool tty, double *t_ent)
 {
     int rc;
-    uint32_t max = vt_server(k->c)->max_batch, step = max < LOAD_BATCH ? max : LOAD_BATCH;
+    uint32_t max = vtc_server(k->c)->max_batch, step = max < LOAD_BATCH ? max : LOAD_BATCH;
     for (uint32_t i = 0; i < lv->nmesh; i++) {
         const lvl_mesh *m = &lv->mesh[i];
-        if ((rc = vt_put_mesh(k->c, (uint16_t)(b->class_base + i), m->pos, m->nrm, m->nv, m->idx, m->ni))) return rc;
+        if ((rc = vtc_put_mesh(k->c, (uint16_t)(b->class_base + i), m->pos, m->nrm, m->nv, m->idx, m->ni))) return rc;
     }
     vp_entity *batch = calloc(step, sizeof *batch);
     if (!batch) return PUSH_NOMEM;
@@ -63,7 +63,7 @@ static int push(cli *k, const char *name, vt_level *lv, const vp_sublevel_begun 
                 o->aabb[3 + a] = e->hi[a];
             }
         }
-        if ((rc = vt_add(k->c, batch, n, NULL, NULL))) {
+        if ((rc = vtc_add(k->c, batch, n, NULL, NULL))) {
             free(batch);
             return rc;
         }
@@ -75,11 +75,11 @@ static int push(cli *k, const char *name, vt_level *lv, const vp_sublevel_begun 
     for (uint32_t i = 0; i < lv->nocc; i++) {
         const lvl_occluder *o = &lv->occ[i];
         uint64_t id = o->entity >= 0 ? level_id(b->id, (uint32_t)o->entity) : level_id(b->id, 1u << 31 | i);
-        if ((rc = vt_put_occluder(k->c, id, o->origin, o->tri, o->ntri))) return rc;
+        if ((rc = vtc_put_occluder(k->c, id, o->origin, o->tri, o->ntri))) return rc;
     }
     for (uint32_t i = 0; i < lv->nlight; i++) lv->light[i].id = level_id(b->id, i);
     for (uint32_t i = 0; i < lv->nlight; i += step)
-        if ((rc = vt_put_lights(k->c, lv->light + i, lv->nlight - i < step ? lv->nlight - i : step))) return rc;
+        if ((rc = vtc_put_lights(k->c, lv->light + i, lv->nlight - i < step ? lv->nlight - i : step))) return rc;
     return VP_OK;
 }
 
@@ -103,9 +103,9 @@ static int sub_load(cli *k, int argc, char **argv)
     for (size_t i = 0; i < nl; i++)
         if ((unsigned char)name[i] < 32 || name[i] == 127) return die_usage("sublevel: no control characters in names");
     double t0 = now_s();
-    vt_level lv;
+    imp_level lv;
     char err[512];
-    if (vt_level_import(path, &lv, err, sizeof err)) {
+    if (imp_level_import(path, &lv, err, sizeof err)) {
         fprintf(stderr, "%s: %s\n", g_prog, err);
         return 1;
     }
@@ -121,7 +121,7 @@ static int sub_load(cli *k, int argc, char **argv)
     if (dry) goto out;
     if ((rc = connect_cli(k, VP_ROLE_EDITOR))) goto out;
     vp_sublevel_begun b;
-    if ((rc = vt_sublevel_begin(k->c, name, (uint16_t)lv.nmesh, &b))) {
+    if ((rc = vtc_sublevel_begin(k->c, name, (uint16_t)lv.nmesh, &b))) {
         rc = server_fail(k, "sublevel load", rc);
         goto out;
     }
@@ -134,11 +134,11 @@ static int sub_load(cli *k, int argc, char **argv)
         } else {
             rc = server_fail(k, "sublevel load", rc);
         }
-        if (rc != 3) vt_sublevel_abort(k->c, NULL); /* a lost connection aborts by itself */
+        if (rc != 3) vtc_sublevel_abort(k->c, NULL); /* a lost connection aborts by itself */
         goto out;
     }
     vp_ack a;
-    if ((rc = vt_sublevel_commit(k->c, &a))) {
+    if ((rc = vtc_sublevel_commit(k->c, &a))) {
         rc = server_fail(k, "sublevel load", rc);
         goto out;
     }
@@ -155,7 +155,7 @@ static int sub_load(cli *k, int argc, char **argv)
         printf("sub-level %s (id %u) loaded at epoch %llu: %u entities, %u occluders, %u lights in %.0f ms\n", name,
                b.id, (unsigned long long)a.epoch, a.count, lv.nocc, lv.nlight, t_push * 1e3);
 out:
-    vt_level_free(&lv);
+    imp_level_free(&lv);
     return rc;
 }
 
@@ -165,7 +165,7 @@ static int sub_unload(cli *k, int argc, char **argv)
     int rc = connect_cli(k, VP_ROLE_EDITOR);
     if (rc) return rc;
     vp_ack a;
-    if ((rc = vt_sublevel_unload(k->c, argv[2], &a))) return server_fail(k, "sublevel unload", rc);
+    if ((rc = vtc_sublevel_unload(k->c, argv[2], &a))) return server_fail(k, "sublevel unload", rc);
     printf("sub-level %s unloaded at epoch %llu: %u entities\n", argv[2], (unsigned long long)a.epoch, a.count);
     return 0;
 }
@@ -177,7 +177,7 @@ static int sub_list(cli *k, int argc, char **argv)
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
     vp_sublevel_infos in;
-    if ((rc = vt_sublevel_info(k->c, &in))) return server_fail(k, "sublevel list", rc);
+    if ((rc = vtc_sublevel_info(k->c, &in))) return server_fail(k, "sublevel list", rc);
     static const char *const states[] = {"empty", "loaded", "loading", "unloading"};
     if (!json) printf("%-5s %-10s %10s %9s %7s  %s\n", "id", "state", "entities", "occluders", "lights", "name");
     size_t pos = 0;

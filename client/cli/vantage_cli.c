@@ -183,7 +183,7 @@ static void usage(FILE *f)
             "            --token T (or VANTAGE_TOKEN) where the daemon has --tokens\n"
             "exit status: 0 ok, 1 refused (the server's code and message on stderr), 2 bad usage, 3 cannot\n"
             "             connect. COMMAND --help prints that command's usage.\n",
-            VT_DEFAULT_PORT);
+            VTC_DEFAULT_PORT);
 }
 
 /* The words after the command that pick a form ("--test frames",
@@ -280,8 +280,8 @@ int die_bad_opt(const char *cmd, const cli_opt_doc *docs, size_t n, int code, co
 
 int server_fail(cli *k, const char *what, int rc)
 {
-    const vt_error *e = vt_last_error(k->c);
-    if (rc == VT_ERR_IO) {
+    const vtc_error *e = vtc_last_error(k->c);
+    if (rc == VTC_ERR_IO) {
         fprintf(stderr, "%s: %s: %s\n", g_prog, what, e->msg);
         return 3;
     }
@@ -303,7 +303,7 @@ int connect_cli(cli *k, int role)
     char err[256];
     k->co.role = role;
     k->co.name = "vantage-cli";
-    if (vt_connect(&k->co, &k->c, err, sizeof err)) {
+    if (vtc_connect(&k->co, &k->c, err, sizeof err)) {
         fprintf(stderr, "%s: cannot connect: %s\n", g_prog, err);
         return 3;
     }
@@ -410,7 +410,7 @@ static int cmd_ping(cli *k, int argc, char **argv)
     if (rc) return rc;
     for (uint64_t i = 0; i < n; i++) {
         double t0 = now_s();
-        if ((rc = vt_ping(k->c))) return server_fail(k, "ping", rc);
+        if ((rc = vtc_ping(k->c))) return server_fail(k, "ping", rc);
         if (n == 1) printf("PONG\n");
         else printf("PONG %.1f us\n", (now_s() - t0) * 1e6);
     }
@@ -586,17 +586,17 @@ static int cmd_stats(cli *k, int argc, char **argv)
     const char *text = NULL;
     size_t tlen = 0;
     if (prom) {
-        if ((rc = vt_metrics(k->c, &text, &tlen))) return server_fail(k, "stats --metrics", rc);
+        if ((rc = vtc_metrics(k->c, &text, &tlen))) return server_fail(k, "stats --metrics", rc);
         fwrite(text, 1, tlen, stdout);
         return 0;
     }
     vp_stats_reply s;
-    if ((rc = vt_stats(k->c, &s))) return server_fail(k, "stats", rc);
+    if ((rc = vtc_stats(k->c, &s))) return server_fail(k, "stats", rc);
     /* a daemon from before METRICS answers ERROR TYPE: its figures only */
-    rc = vt_metrics(k->c, &text, &tlen);
+    rc = vtc_metrics(k->c, &text, &tlen);
     if (rc && rc != VP_ERR_TYPE) return server_fail(k, "stats (metrics)", rc);
     xstats *x = calloc(1, sizeof *x);
-    if (!x) return server_fail(k, "stats", VT_ERR_IO);
+    if (!x) return server_fail(k, "stats", VTC_ERR_IO);
     if (!rc) xparse(text, tlen, x);
     bool have = !rc;
     int nreq = 0;
@@ -693,7 +693,7 @@ static int cmd_add(cli *k, int argc, char **argv)
     if (rc) return rc;
     uint32_t h;
     uint64_t epoch;
-    if ((rc = vt_add(k->c, &e, 1, &h, &epoch))) return server_fail(k, "add", rc);
+    if ((rc = vtc_add(k->c, &e, 1, &h, &epoch))) return server_fail(k, "add", rc);
     printf("added id %llu handle %u at epoch %llu\n", (unsigned long long)e.id, h, (unsigned long long)epoch);
     return 0;
 }
@@ -712,7 +712,7 @@ static int cmd_move(cli *k, int argc, char **argv)
     int rc = connect_cli(k, VP_ROLE_EDITOR);
     if (rc) return rc;
     vp_list_reply lr;
-    if ((rc = vt_get(k->c, &id, 1, &lr))) return server_fail(k, "move", rc);
+    if ((rc = vtc_get(k->c, &id, 1, &lr))) return server_fail(k, "move", rc);
     vp_entity e;
     vp_entity_get(&lr.batch, 0, &e);
     double d[3] = {pos[0] - e.sphere[0], pos[1] - e.sphere[1], pos[2] - e.sphere[2]};
@@ -726,7 +726,7 @@ static int cmd_move(cli *k, int argc, char **argv)
         for (int a = 0; a < 6; a++) e.aabb[a] = 0;
     }
     uint64_t epoch;
-    if ((rc = vt_update(k->c, &e, 1, &epoch))) return server_fail(k, "move", rc);
+    if ((rc = vtc_update(k->c, &e, 1, &epoch))) return server_fail(k, "move", rc);
     printf("moved id %llu at epoch %llu\n", (unsigned long long)id, (unsigned long long)epoch);
     return 0;
 }
@@ -742,7 +742,7 @@ static int cmd_remove(cli *k, int argc, char **argv)
         }
     int rc = connect_cli(k, VP_ROLE_EDITOR);
     uint64_t epoch;
-    if (!rc && (rc = vt_remove(k->c, ids, (uint32_t)(argc - 1), &epoch))) rc = server_fail(k, "remove", rc);
+    if (!rc && (rc = vtc_remove(k->c, ids, (uint32_t)(argc - 1), &epoch))) rc = server_fail(k, "remove", rc);
     else if (!rc) printf("removed %d at epoch %llu\n", argc - 1, (unsigned long long)epoch);
     free(ids);
     return rc;
@@ -759,7 +759,7 @@ static int cmd_get(cli *k, int argc, char **argv)
         }
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     vp_list_reply lr;
-    if (!rc && (rc = vt_get(k->c, ids, (uint32_t)(argc - 1), &lr))) rc = server_fail(k, "get", rc);
+    if (!rc && (rc = vtc_get(k->c, ids, (uint32_t)(argc - 1), &lr))) rc = server_fail(k, "get", rc);
     for (uint32_t i = 0; !rc && i < lr.batch.count; i++) {
         vp_entity e;
         vp_entity_get(&lr.batch, i, &e);
@@ -825,14 +825,14 @@ static int cmd_query(cli *k, int argc, char **argv)
         return die_usage("query: --no-occlusion and --occ-centre exclude each other");
     if (have_fov && ortho[0] > 0) return die_usage("query: --fov and --ortho exclude each other");
     vp_view v;
-    bool ok = ortho[0] > 0 ? vt_view_ortho(&v, eye, at, up, ortho[0], ortho[1], (uint16_t)w, (uint16_t)h, znear, zfar)
-                           : vt_view_perspective(&v, eye, at, up, fov, (uint16_t)w, (uint16_t)h, znear, zfar);
+    bool ok = ortho[0] > 0 ? vtc_view_ortho(&v, eye, at, up, ortho[0], ortho[1], (uint16_t)w, (uint16_t)h, znear, zfar)
+                           : vtc_view_perspective(&v, eye, at, up, fov, (uint16_t)w, (uint16_t)h, znear, zfar);
     if (!ok) return die_usage("query: degenerate camera (eye == at, up parallel to the view, or near/far)");
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
     double t0 = now_s();
     vp_vis_result r;
-    if ((rc = vt_query(k->c, &v, 1, flags, min_area, &r))) return server_fail(k, "query", rc);
+    if ((rc = vtc_query(k->c, &v, 1, flags, min_area, &r))) return server_fail(k, "query", rc);
     double rtt = now_s() - t0;
     if (json) {
         for (uint32_t i = 0; i < r.count; i++) {
@@ -895,7 +895,7 @@ static int cmd_destroy(cli *k, int argc, char **argv)
     int rc = connect_cli(k, VP_ROLE_EDITOR);
     if (rc) return rc;
     vp_destroyed out;
-    if ((rc = vt_destroy(k->c, &m, &out))) return server_fail(k, "destroy", rc);
+    if ((rc = vtc_send_destruction(k->c, &m, &out))) return server_fail(k, "destroy", rc);
     if (json)
         printf("{\"id\": %llu, \"epoch\": %llu, \"spheres\": %u, \"occluder_triangles\": %u, \"debris\": %u, "
                "\"cut_us\": %u}\n",
@@ -920,13 +920,13 @@ static int cmd_watch(cli *k, int argc, char **argv)
     }
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
-    if ((rc = vt_subscribe(k->c, VP_EVENT_SCENE))) return server_fail(k, "watch", rc);
+    if ((rc = vtc_subscribe(k->c, VP_EVENT_SCENE))) return server_fail(k, "watch", rc);
     catch_sigint();
     fprintf(stderr, "watching scene changes (Ctrl-C to stop)\n");
     for (uint64_t n = 0; !g_stop && n < count;) {
         vp_event ev;
-        rc = vt_wait_event(k->c, &ev, 500);
-        if (rc == VT_ERR_IO && vt_last_error(k->c)->timed_out) continue;
+        rc = vtc_wait_event(k->c, &ev, 500);
+        if (rc == VTC_ERR_IO && vtc_last_error(k->c)->timed_out) continue;
         if (rc) return server_fail(k, "watch", rc);
         printf("{\"epoch\": %llu, \"added\": %u, \"updated\": %u, \"removed\": %u}\n", (unsigned long long)ev.epoch,
                ev.added, ev.updated, ev.removed);
@@ -943,7 +943,7 @@ int main(int argc, char **argv)
     static const struct option opts[] = {{"token", 1, 0, 't'}, {"timeout", 1, 0, 'T'}, {"help", 0, 0, 'H'},
                                          {0, 0, 0, 0}};
     int o;
-    uint64_t port = VT_DEFAULT_PORT, to;
+    uint64_t port = VTC_DEFAULT_PORT, to;
     while ((o = getopt_long(argc, argv, "+h:p:s:", opts, NULL)) != -1) {
         switch (o) {
         case 'h': k.co.host = optarg; break;
@@ -988,6 +988,6 @@ int main(int argc, char **argv)
             rc = cmds[i].fn(&k, ac, av);
         }
     if (rc < 0) rc = die_usage("unknown command %s", av[0]);
-    vt_close(k.c);
+    vtc_close(k.c);
     return rc;
 }

@@ -61,7 +61,7 @@ enum pick_state { PICK_IDLE, PICK_QUERY, PICK_GET };
 
 typedef struct commander {
     cli *k;
-    vt_client *c;
+    vtc_client *c;
     /* options */
     const char *headless, *shot, *config;
     uint32_t w, h;
@@ -140,7 +140,7 @@ static void disconnect(commander *m, const char *why)
 {
     if (!m->c) return;
     say(m, 5, "daemon connection lost (%s); reconnecting", why);
-    vt_close(m->c);
+    vtc_close(m->c);
     m->c = NULL;
     m->k->c = NULL;
     m->backoff = 0.25;
@@ -157,8 +157,8 @@ static bool send_msg(commander *m, size_t size, void (*enc)(vp_writer *, uint32_
     vp_writer w;
     vp_writer_init(&w, buf, size <= sizeof buf ? size : sizeof buf);
     enc(&w, req, arg);
-    if (w.overflow || vt_send(m->c, buf, w.len)) {
-        disconnect(m, w.overflow ? "message too large" : vt_last_error(m->c)->msg);
+    if (w.overflow || vtc_send(m->c, buf, w.len)) {
+        disconnect(m, w.overflow ? "message too large" : vtc_last_error(m->c)->msg);
         return false;
     }
     return true;
@@ -187,7 +187,7 @@ static void send_view(commander *m, double t_input)
     fs.view_seq = ++m->seq;
     double now = now_s();
     m->sent[m->seq % SENT_RING] = (sent_view){.seq = m->seq, .t_input = t_input, .t_sent = now};
-    m->sub_req = vt_next_req(m->c);
+    m->sub_req = vtc_next_req(m->c);
     m->t_sub_sent = now;
     if (send_msg(m, VP_HEADER_SIZE + VP_FRAME_SUB_SIZE, enc_frame_sub, m->sub_req, &fs)) m->need_view = false;
 }
@@ -196,24 +196,24 @@ static void try_connect(commander *m)
 {
     double now = now_s();
     if (m->c || now < m->next_connect) return;
-    vt_connect_opts o = m->k->co;
+    vtc_connect_opts o = m->k->co;
     o.role = VP_ROLE_COMMANDER;
     o.name = "vantage commander";
     char err[256];
-    if (vt_connect(&o, &m->c, err, sizeof err)) {
+    if (vtc_connect(&o, &m->c, err, sizeof err)) {
         if (!m->ever_connected || m->backoff >= 5) say(m, 5, "cannot reach the daemon: %s (retrying)", err);
         m->backoff = m->backoff ? fmin(m->backoff * 2, 5) : 0.25;
         m->next_connect = now + m->backoff;
         return;
     }
     m->k->c = m->c;
-    m->client_id = vt_server(m->c)->client_id;
+    m->client_id = vtc_server(m->c)->client_id;
     m->ever_connected = true;
     m->backoff = 0;
     say(m, 3, "connected (client %u, role %s)", m->client_id,
-        vt_server(m->c)->role >= VP_ROLE_COMMANDER ? "commander" : "viewer");
+        vtc_server(m->c)->role >= VP_ROLE_COMMANDER ? "commander" : "viewer");
     uint32_t kinds = VP_EVENT_MARKS;
-    m->mark_sub_req = vt_next_req(m->c);
+    m->mark_sub_req = vtc_next_req(m->c);
     if (!send_msg(m, 64, enc_subscribe, m->mark_sub_req, &kinds)) return;
     send_view(m, 0);
 }
@@ -233,7 +233,7 @@ static void start_pick(commander *m, bool destroy)
        included, are the candidates; the ray picks the nearest */
     if (!cmdr_pick_view(&m->cam, fmax(0.5, 0.03 * m->cam.half_h), &q)) return;
     cmdr_camera_ray(&m->cam, m->pick_o, m->pick_d);
-    m->pick_req = vt_next_req(m->c);
+    m->pick_req = vtc_next_req(m->c);
     m->pick_destroy = destroy;
     if (send_msg(m, VP_HEADER_SIZE + 8 + VP_VIEW_SIZE, enc_query, m->pick_req, &q)) m->pick = PICK_QUERY;
 }
@@ -265,10 +265,10 @@ static void on_vis_result(commander *m, const uint8_t *p, uint32_t len)
     uint8_t buf[VP_HEADER_SIZE + 4 + 8 * MAX_PICK];
     vp_writer w;
     vp_writer_init(&w, buf, sizeof buf);
-    m->pick_req = vt_next_req(m->c);
+    m->pick_req = vtc_next_req(m->c);
     vp_enc_ids(&w, VP_ENTITY_GET, m->pick_req, ids, n);
-    if (vt_send(m->c, buf, w.len)) {
-        disconnect(m, vt_last_error(m->c)->msg);
+    if (vtc_send(m->c, buf, w.len)) {
+        disconnect(m, vtc_last_error(m->c)->msg);
         return;
     }
     m->pick = PICK_GET;
@@ -301,7 +301,7 @@ static void on_picked(commander *m, const uint8_t *p, uint32_t len)
     for (int a = 0; a < 3; a++) at[a] = m->pick_o[a] + best * m->pick_d[a];
     if (m->pick_destroy) {
         vp_destroy d = {.id = hit.id, .center = {at[0], at[1], at[2]}, .radius = m->destroy_radius};
-        m->destroy_req = vt_next_req(m->c);
+        m->destroy_req = vtc_next_req(m->c);
         if (send_msg(m, VP_HEADER_SIZE + VP_DESTROY_SIZE, enc_destroy, m->destroy_req, &d))
             say(m, 3, "destroy #%llu at (%.1f, %.1f, %.1f), radius %.1f m", (unsigned long long)hit.id, at[0], at[1],
                 at[2], m->destroy_radius);
@@ -317,7 +317,7 @@ static void on_picked(commander *m, const uint8_t *p, uint32_t len)
         hit.aabb[3] - hit.aabb[0], hit.aabb[4] - hit.aabb[1], hit.aabb[5] - hit.aabb[2]);
     /* a select is a mark of kind 1 for the other commanders */
     vp_mark mk = {.pos = {at[0], at[1], at[2]}, .entity = hit.id, .kind = 1, .ttl_ms = 4000};
-    m->mark_req = vt_next_req(m->c);
+    m->mark_req = vtc_next_req(m->c);
     send_msg(m, VP_HEADER_SIZE + VP_MARK_SIZE, enc_mark, m->mark_req, &mk);
 }
 
@@ -328,7 +328,7 @@ static void ping(commander *m)
         return;
     }
     vp_mark mk = {.pos = {m->cam.target[0], m->cam.target[1], m->cam.target[2]}, .kind = 0, .ttl_ms = 6000};
-    m->mark_req = vt_next_req(m->c);
+    m->mark_req = vtc_next_req(m->c);
     send_msg(m, VP_HEADER_SIZE + VP_MARK_SIZE, enc_mark, m->mark_req, &mk);
 }
 
@@ -534,10 +534,10 @@ static void drain_socket(commander *m)
     while (m->c) {
         vp_header h;
         const uint8_t *p;
-        int rc = vt_recv(m->c, &h, &p, 0);
+        int rc = vtc_recv(m->c, &h, &p, 0);
         if (rc == VP_NEED_MORE) return;
         if (rc) {
-            disconnect(m, vt_last_error(m->c)->msg);
+            disconnect(m, vtc_last_error(m->c)->msg);
             return;
         }
         switch (h.type) {
@@ -838,7 +838,7 @@ int cmdr_main(cli *k, int argc, char **argv)
         if (m->disp && until > now + 0.004) until = now + 0.004; /* window events have no fd */
         struct pollfd pf[2];
         nfds_t n = 0;
-        if (m->c) pf[n++] = (struct pollfd){.fd = vt_fd(m->c), .events = POLLIN};
+        if (m->c) pf[n++] = (struct pollfd){.fd = vtc_fd(m->c), .events = POLLIN};
         if (m->hub) pf[n++] = (struct pollfd){.fd = pad_hub_fd(m->hub), .events = POLLIN};
         double wait = until - now_s();
         if (wait < 0) wait = 0;
@@ -890,7 +890,7 @@ out:
     pad_hub_close(m->hub);
     cmdr_display_close(m->disp);
     if (m->log) fclose(m->log);
-    if (m->c) vt_close(m->c);
+    if (m->c) vtc_close(m->c);
     k->c = NULL;
     free(m->jpeg);
     free(m);

@@ -280,8 +280,8 @@ static bool view_of(const cmdr_camera *cam, double ortho_w, double ortho_h, doub
     double up[3] = {sin(cam->yaw), 0, cos(cam->yaw)};
     if (w < 1 || h < 1 || w > 4096 || h > 4096) return false;
     if (cam->perspective)
-        return vt_view_perspective(out, eye, cam->target, up, fovy, (uint16_t)w, (uint16_t)h, d * 0.02, d + 5000);
-    return vt_view_ortho(out, eye, cam->target, up, ortho_w, ortho_h, (uint16_t)w, (uint16_t)h, 1, d + 3000);
+        return vtc_view_perspective(out, eye, cam->target, up, fovy, (uint16_t)w, (uint16_t)h, d * 0.02, d + 5000);
+    return vtc_view_ortho(out, eye, cam->target, up, ortho_w, ortho_h, (uint16_t)w, (uint16_t)h, 1, d + 3000);
 }
 
 bool cmdr_camera_view(const cmdr_camera *cam, uint32_t w, uint32_t h, vp_view *out)

@@ -52,7 +52,7 @@ typedef struct lvl_occluder {
     char name[LVL_NAME];
 } lvl_occluder;
 
-typedef struct vt_level {
+typedef struct imp_level {
     lvl_mesh *mesh;
     uint32_t nmesh;
     lvl_entity *ent;
@@ -63,19 +63,19 @@ typedef struct vt_level {
     uint32_t nlight;
     uint32_t skipped_lights; /* directional, ambient, area */
     uint32_t skipped_prims;  /* point and line primitives dropped */
-} vt_level;
+} imp_level;
 
 /* 0, or -1 with err filled (the file, the node, what is wrong). assimp
  * runs in a forked child that sends the level back over a pipe, so a file
  * that crashes assimp is an error here, not a crash of the caller (whose
  * threads other than the caller's do not run in the child). */
-int  vt_level_import(const char *path, vt_level *out, char *err, size_t errlen);
+int  imp_level_import(const char *path, imp_level *out, char *err, size_t errlen);
 /* The same for a file in memory, buf[0..len), of the type hint names
  * ("gltf", "glb" or "obj"; it is called memory.<hint> in messages). It
  * reads no other file: a glTF buffer or image must be a data: URI, an
  * OBJ's .mtl is not read. In this process: a file that crashes assimp
  * crashes the caller. (The fuzz target's entry: tests/fuzz.) */
-int  vt_level_import_mem(const void *buf, size_t len, const char *hint, vt_level *out, char *err, size_t errlen);
-void vt_level_free(vt_level *lv);
+int  imp_level_import_mem(const void *buf, size_t len, const char *hint, imp_level *out, char *err, size_t errlen);
+void imp_level_free(imp_level *lv);
 
 #endif

@@ -1,9 +1,9 @@
 /*
- * import_child.c — vt_level_import (import.h): a level file on disk, read
+ * import_child.c — imp_level_import (import.h): a level file on disk, read
  * by assimp in a forked child.
  *
  * assimp is a large C++ parser of untrusted files, and Debian 12's 5.2.4
- * crashes on some malformed glTF (tests/fuzz/known). vt_level_import runs it
+ * crashes on some malformed glTF (tests/fuzz/known). imp_level_import runs it
  * in a forked child that sends the finished level back over a pipe: a crash
  * or an abort there is an error message here, and nothing was loaded. The
  * level crosses as import_pack.c's bytes, checked as they are read.
@@ -25,8 +25,8 @@
 #include <time.h>
 #include <unistd.h>
 
-/* vt_level_import's work, in this process (the child's). */
-static int level_import_here(const char *path, vt_level *out, char *err, size_t errlen)
+/* imp_level_import's work, in this process (the child's). */
+static int level_import_here(const char *path, imp_level *out, char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
     const char *dot = strrchr(path, '.');
@@ -64,7 +64,7 @@ static bool write_all(int fd, const void *p, size_t n)
 /* The child: import, send 'L' and the level or 'E' and the message, exit. */
 static _Noreturn void import_child(int fd, const char *path)
 {
-    vt_level lv;
+    imp_level lv;
     char err[512];
     vp_writer w;
     vp_writer_init_grow(&w);
@@ -85,7 +85,7 @@ static _Noreturn void import_child(int fd, const char *path)
     _exit(ok ? 0 : 1);
 }
 
-int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
+int imp_level_import(const char *path, imp_level *out, char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
     int fds[2];
@@ -170,7 +170,7 @@ int vt_level_import(const char *path, vt_level *out, char *err, size_t errlen)
         vp_reader_init(&u, in.p + 1, in.len - 1);
         if (in.p[0] == 'L' && imp_level_unpack(&u, out)) rc = 0;
         else {
-            vt_level_free(out);
+            imp_level_free(out);
             snprintf(err, errlen, "%s: the importer sent a damaged level; nothing was loaded", path);
         }
     }

@@ -1,6 +1,6 @@
 /*
  * import_internal.h — what the level importer's files share (import.h is
- * the public side). import_walk.c turns assimp's scene into a vt_level;
+ * the public side). import_walk.c turns assimp's scene into a imp_level;
  * import_memio.c reads a file in memory, in this process; import_child.c
  * reads a file on disk in a forked child; import_pack.c is the level's
  * byte form on the pipe between the two.
@@ -24,16 +24,16 @@ struct aiScene;
 /* The level in assimp's scene sc into *out (zeroed first by the caller),
  * releasing sc; `what` names the file in messages. 0, or -1 with err filled
  * and *out freed. */
-int imp_level_from_scene(const struct aiScene *sc, const char *what, vt_level *out, char *err, size_t errlen);
+int imp_level_from_scene(const struct aiScene *sc, const char *what, imp_level *out, char *err, size_t errlen);
 
 /* A file extension (no dot) Vantage imports: gltf, glb, obj (any case). */
 bool imp_known_format(const char *ext);
 
 /* The level as bytes on w (a growing vp_writer; w->overflow when memory
  * ran out). */
-void imp_level_pack(vp_writer *w, const vt_level *lv);
+void imp_level_pack(vp_writer *w, const imp_level *lv);
 /* The level back from all of r's bytes, every count and index checked:
- * true, or false with *lv holding what was read so far (vt_level_free it). */
-bool imp_level_unpack(vp_reader *r, vt_level *lv);
+ * true, or false with *lv holding what was read so far (imp_level_free it). */
+bool imp_level_unpack(vp_reader *r, imp_level *lv);
 
 #endif

@@ -1,5 +1,5 @@
 /*
- * import_memio.c — vt_level_import_mem (import.h): a level file held in
+ * import_memio.c — imp_level_import_mem (import.h): a level file held in
  * memory, read by assimp through an aiFileIO whose one file is the buffer,
  * in this process (a file that crashes assimp crashes the caller: the fuzz
  * target's entry). Nothing else opens: a glTF file's external buffers and
@@ -97,7 +97,7 @@ static void mem_close(struct aiFileIO *io, struct aiFile *f)
     free(f->UserData);
 }
 
-int vt_level_import_mem(const void *buf, size_t len, const char *hint, vt_level *out, char *err, size_t errlen)
+int imp_level_import_mem(const void *buf, size_t len, const char *hint, imp_level *out, char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
     char name[32];

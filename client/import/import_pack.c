@@ -1,5 +1,5 @@
 /*
- * import_pack.c — a vt_level as bytes, written by the import child and read
+ * import_pack.c — a imp_level as bytes, written by the import child and read
  * back by its parent (import_child.c), on vp_bytes.h's writer and reader:
  *
  *   u32 magic "LVLV", meshes, entities, occluders, lights, skipped lights,
@@ -49,7 +49,7 @@ static void put_name(vp_writer *w, const char *name)
     vp_put_bytes(w, name, n);
 }
 
-void imp_level_pack(vp_writer *w, const vt_level *lv)
+void imp_level_pack(vp_writer *w, const imp_level *lv)
 {
     const uint32_t head[7] = {PACK_MAGIC, lv->nmesh, lv->nent, lv->nocc, lv->nlight, lv->skipped_lights,
                               lv->skipped_prims};
@@ -106,7 +106,7 @@ static bool get_name(vp_reader *r, char name[LVL_NAME])
     return true;
 }
 
-bool imp_level_unpack(vp_reader *r, vt_level *lv)
+bool imp_level_unpack(vp_reader *r, imp_level *lv)
 {
     uint32_t head[7];
     for (int i = 0; i < 7; i++) head[i] = vp_get_u32(r);
@@ -116,7 +116,7 @@ bool imp_level_unpack(vp_reader *r, vt_level *lv)
     for (uint32_t i = 0; i < head[1]; i++) {
         lvl_mesh *m = &lv->mesh[i];
         uint32_t nv = vp_get_u32(r), ni = vp_get_u32(r);
-        lv->nmesh = i + 1; /* what vt_level_free walks */
+        lv->nmesh = i + 1; /* what imp_level_free walks */
         if (!(m->pos = get_32s(r, (size_t)nv * 3)) || !(m->nrm = get_32s(r, (size_t)nv * 3)) ||
             !(m->idx = get_32s(r, ni)))
             return false;

@@ -1,6 +1,6 @@
 /*
- * import_walk.c — assimp's scene to a vt_level (import.h): the node walk,
- * the classes, entities, occluders and lights, and vt_level_free.
+ * import_walk.c — assimp's scene to a imp_level (import.h): the node walk,
+ * the classes, entities, occluders and lights, and imp_level_free.
  *
  * assimp reads the file (triangulated, primitives sorted by type, missing
  * normals generated, identical vertices joined, the data structure
@@ -47,7 +47,7 @@ typedef struct name_map {
 
 typedef struct importer {
     const struct aiScene *sc;
-    vt_level *lv;
+    imp_level *lv;
     ckey keys[LVL_MAX_CLASSES];
     int32_t slot[CLASS_SLOTS]; /* class index + 1 */
     float cbox[LVL_MAX_CLASSES][6]; /* each class mesh's bounds: lo xyz, hi xyz */
@@ -240,7 +240,7 @@ static int occ_append(importer *im, lvl_occluder *o, const struct aiNode *n, con
 static int new_occluder(importer *im, const struct aiString *full, const char *name, const mat *w, int32_t entity,
                         lvl_occluder **out)
 {
-    vt_level *lv = im->lv;
+    imp_level *lv = im->lv;
     uint32_t cap = im->occ_cap;
     if (!vp_grow32((void **)&lv->occ, &im->occ_cap, lv->nocc + 1, sizeof *lv->occ) ||
         !vp_grow32((void **)&im->occ_name, &cap, lv->nocc + 1, sizeof *im->occ_name))
@@ -289,7 +289,7 @@ static int class_of(importer *im, const struct aiNode *n, const mat *w, const ch
             return 0;
         }
     }
-    vt_level *lv = im->lv;
+    imp_level *lv = im->lv;
     if (lv->nmesh >= LVL_MAX_CLASSES)
         return fail(im, "node '%s': more than %u distinct (mesh, rotation, scale) classes", name, LVL_MAX_CLASSES);
     uint32_t nv = 0, ni = 0;
@@ -372,7 +372,7 @@ static int class_of(importer *im, const struct aiNode *n, const mat *w, const ch
 
 static int node_entity(importer *im, const struct aiNode *n, const mat *w, const char *name)
 {
-    vt_level *lv = im->lv;
+    imp_level *lv = im->lv;
     uint32_t cls = 0, cap = im->ent_cap;
     if (class_of(im, n, w, name, &cls)) return -1;
     if (!vp_grow32((void **)&lv->ent, &im->ent_cap, lv->nent + 1, sizeof *lv->ent) ||
@@ -447,7 +447,7 @@ static int lights_prepare(importer *im)
 
 static int lights(importer *im, const mat *id)
 {
-    vt_level *lv = im->lv;
+    imp_level *lv = im->lv;
     lv->light = calloc((size_t)im->sc->mNumLights + 1, sizeof *lv->light);
     if (!lv->light) return fail(im, "out of memory for lights");
     for (unsigned i = 0; i < im->sc->mNumLights; i++) {
@@ -514,7 +514,7 @@ static int lights(importer *im, const mat *id)
  * occluders of one entity merge. */
 static int attach(importer *im)
 {
-    vt_level *lv = im->lv;
+    imp_level *lv = im->lv;
     name_map ents = {0};
     if (lv->nocc && !name_map_init(&ents, lv->nent)) return fail(im, "out of memory matching occluders");
     for (uint32_t e = 0; e < lv->nent && lv->nocc; e++) name_map_put(&ents, im->ent_name[e], e);
@@ -560,7 +560,7 @@ static int attach(importer *im)
     return 0;
 }
 
-int imp_level_from_scene(const struct aiScene *sc, const char *what, vt_level *out, char *err, size_t errlen)
+int imp_level_from_scene(const struct aiScene *sc, const char *what, imp_level *out, char *err, size_t errlen)
 {
     importer *im = calloc(1, sizeof *im);
     int rc = -1;
@@ -595,7 +595,7 @@ done:
     }
     free(im);
     aiReleaseImport(sc);
-    if (rc) vt_level_free(out);
+    if (rc) imp_level_free(out);
     return rc;
 }
 
@@ -604,7 +604,7 @@ bool imp_known_format(const char *ext)
     return !strcasecmp(ext, "gltf") || !strcasecmp(ext, "glb") || !strcasecmp(ext, "obj");
 }
 
-void vt_level_free(vt_level *lv)
+void imp_level_free(imp_level *lv)
 {
     for (uint32_t i = 0; lv->mesh && i < lv->nmesh; i++) {
         free(lv->mesh[i].pos);

@@ -21,25 +21,25 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-struct vt_client {
+struct vtc_client {
     int fd;
     int timeout_ms;
     uint32_t next_req;
     vp_hello_ok server;
-    vt_error err;
+    vtc_error err;
     uint8_t *in;            /* received bytes; [in_pos, in_len) unread */
     size_t in_len, in_pos, in_cap;
     size_t consumed;        /* the frame handed out last, released on next recv */
     uint8_t *out;
     size_t out_cap;
     vp_writer w;            /* the request being encoded into out */
-    bool out_nomem;         /* request() could not make room: VT_ERR_IO */
+    bool out_nomem;         /* request() could not make room: VTC_ERR_IO */
     uint32_t stream_req;    /* the frame stream's req, 0 = none */
-    vt_error stream_err;    /* code != 0: an ERROR ended the stream during another call */
+    vtc_error stream_err;    /* code != 0: an ERROR ended the stream during another call */
 };
 
-static int set_err(vt_client *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int set_err(vt_client *c, int code, const char *fmt, ...)
+static int set_err(vtc_client *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int set_err(vtc_client *c, int code, const char *fmt, ...)
 {
     c->err.code = code;
     c->err.index = UINT32_MAX;
@@ -51,19 +51,19 @@ static int set_err(vt_client *c, int code, const char *fmt, ...)
     return code;
 }
 
-static int timed_out(vt_client *c, const char *what)
+static int timed_out(vtc_client *c, const char *what)
 {
-    set_err(c, VT_ERR_IO, "%s", what);
+    set_err(c, VTC_ERR_IO, "%s", what);
     c->err.timed_out = true;
-    return VT_ERR_IO;
+    return VTC_ERR_IO;
 }
 
-const vt_error *vt_last_error(const vt_client *c) { return &c->err; }
-const vp_hello_ok *vt_server(const vt_client *c) { return &c->server; }
-int vt_fd(const vt_client *c) { return c->fd; }
-uint32_t vt_next_req(vt_client *c) { return ++c->next_req ? c->next_req : ++c->next_req; }
+const vtc_error *vtc_last_error(const vtc_client *c) { return &c->err; }
+const vp_hello_ok *vtc_server(const vtc_client *c) { return &c->server; }
+int vtc_fd(const vtc_client *c) { return c->fd; }
+uint32_t vtc_next_req(vtc_client *c) { return ++c->next_req ? c->next_req : ++c->next_req; }
 
-int vt_send(vt_client *c, const uint8_t *data, size_t len)
+int vtc_send(vtc_client *c, const uint8_t *data, size_t len)
 {
     size_t off = 0;
     while (off < len) {
@@ -74,25 +74,25 @@ int vt_send(vt_client *c, const uint8_t *data, size_t len)
         }
         if (n < 0 && errno == EINTR) continue;
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return timed_out(c, "send: timed out"); /* SO_SNDTIMEO */
-        return set_err(c, VT_ERR_IO, "send: %s", n < 0 ? strerror(errno) : "connection closed");
+        return set_err(c, VTC_ERR_IO, "send: %s", n < 0 ? strerror(errno) : "connection closed");
     }
     return VP_OK;
 }
 
-int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
+int vtc_recv(vtc_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
 {
     if (timeout_ms < 0) timeout_ms = c->timeout_ms;
     c->in_pos += c->consumed;
     c->consumed = 0;
     for (;;) {
         size_t fs;
-        int rc = vp_frame_check(c->in + c->in_pos, c->in_len - c->in_pos, VT_MAX_REPLY, h, &fs);
+        int rc = vp_frame_check(c->in + c->in_pos, c->in_len - c->in_pos, VTC_MAX_REPLY, h, &fs);
         if (rc == VP_OK) {
             *payload = c->in + c->in_pos + VP_HEADER_SIZE;
             c->consumed = fs;
             return VP_OK;
         }
-        if (rc != VP_NEED_MORE) return set_err(c, VT_ERR_IO, "bad frame from the server: %s", vp_strerror(rc));
+        if (rc != VP_NEED_MORE) return set_err(c, VTC_ERR_IO, "bad frame from the server: %s", vp_strerror(rc));
         /* make room: compact, then grow */
         if (c->in_pos) {
             memmove(c->in, c->in + c->in_pos, c->in_len - c->in_pos);
@@ -102,7 +102,7 @@ int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
         if (c->in_cap - c->in_len < 65536) {
             size_t cap = c->in_cap ? c->in_cap * 2 : 1u << 17;
             uint8_t *n = realloc(c->in, cap);
-            if (!n) return set_err(c, VT_ERR_IO, "out of memory");
+            if (!n) return set_err(c, VTC_ERR_IO, "out of memory");
             c->in = n;
             c->in_cap = cap;
         }
@@ -112,7 +112,7 @@ int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
         if (r == 0) return timed_out(c, "timed out waiting for the server");
         if (r < 0) {
             if (errno == EINTR) continue;
-            return set_err(c, VT_ERR_IO, "poll: %s", strerror(errno));
+            return set_err(c, VTC_ERR_IO, "poll: %s", strerror(errno));
         }
         ssize_t n = recv(c->fd, c->in + c->in_len, c->in_cap - c->in_len, 0);
         if (n > 0) {
@@ -120,7 +120,7 @@ int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
             continue;
         }
         if (n < 0 && errno == EINTR) continue;
-        return set_err(c, VT_ERR_IO, "connection closed by the server%s%s", n < 0 ? ": " : "",
+        return set_err(c, VTC_ERR_IO, "connection closed by the server%s%s", n < 0 ? ": " : "",
                        n < 0 ? strerror(errno) : "");
     }
 }
@@ -128,18 +128,18 @@ int vt_recv(vt_client *c, vp_header *h, const uint8_t **payload, int timeout_ms)
 /* Starts a request: a writer over the client's send buffer with room for
  * size bytes (the encoder's vp_size_*), and the request's id in *req.
  * When the buffer cannot grow the writer has no room (the encoder only
- * sets overflow) and the call that sends it answers VT_ERR_IO, out of
+ * sets overflow) and the call that sends it answers VTC_ERR_IO, out of
  * memory, so a caller encodes and calls without a check in between. */
-static vp_writer *request(vt_client *c, size_t size, uint32_t *req)
+static vp_writer *request(vtc_client *c, size_t size, uint32_t *req)
 {
-    *req = vt_next_req(c);
+    *req = vtc_next_req(c);
     c->out_nomem = false;
     if (c->out_cap < size) {
         size_t cap = c->out_cap ? c->out_cap : 4096;
         while (cap < size) cap *= 2;
         uint8_t *n = realloc(c->out, cap);
         if (!n) {
-            set_err(c, VT_ERR_IO, "out of memory for a request of %zu bytes", size);
+            set_err(c, VTC_ERR_IO, "out of memory for a request of %zu bytes", size);
             c->out_nomem = true;
             vp_writer_init(&c->w, c->out, 0);
             return &c->w;
@@ -151,15 +151,15 @@ static vp_writer *request(vt_client *c, size_t size, uint32_t *req)
     return &c->w;
 }
 
-/* The server's ERROR frame as a vt_error; returns its (negative) code. */
-static int error_from(vt_error *out, const uint8_t *p, uint32_t len)
+/* The server's ERROR frame as a vtc_error; returns its (negative) code. */
+static int error_from(vtc_error *out, const uint8_t *p, uint32_t len)
 {
     vp_error e;
     if (vp_dec_error(p, len, &e)) {
-        *out = (vt_error){.code = VT_ERR_IO, .index = UINT32_MAX};
+        *out = (vtc_error){.code = VTC_ERR_IO, .index = UINT32_MAX};
         snprintf(out->msg, sizeof out->msg, "malformed ERROR from the server");
     } else {
-        *out = (vt_error){.code = e.code < 0 ? e.code : VP_ERR_INTERNAL, .index = e.index};
+        *out = (vtc_error){.code = e.code < 0 ? e.code : VP_ERR_INTERNAL, .index = e.index};
         snprintf(out->msg, sizeof out->msg, "%.*s", (int)e.msg_len, (const char *)e.msg);
     }
     return out->code;
@@ -168,9 +168,9 @@ static int error_from(vt_error *out, const uint8_t *p, uint32_t len)
 /* Sends what w holds and reads the reply to req: an ERROR becomes the
  * return value; another type than want is a protocol error. EVENT frames
  * and the frame stream's frames arriving in between are skipped. */
-static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, const uint8_t **p, uint32_t *len)
+static int roundtrip(vtc_client *c, vp_writer *w, uint32_t req, uint16_t want, const uint8_t **p, uint32_t *len)
 {
-    if (c->out_nomem) return VT_ERR_IO; /* request() said why */
+    if (c->out_nomem) return VTC_ERR_IO; /* request() said why */
     if (w->overflow) return set_err(c, VP_ERR_LIMIT, "request too large for the send buffer");
     /* a frame past the server's limit would only get the connection closed:
        refuse it here, with the sizes, and keep the connection */
@@ -178,16 +178,16 @@ static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, co
         return set_err(c, VP_ERR_TOO_LARGE, "a %s request of %zu bytes, the server takes at most %u",
                        vp_type_name((uint16_t)(w->p[4] | w->p[5] << 8)), w->len - VP_HEADER_SIZE,
                        c->server.max_payload);
-    int rc = vt_send(c, w->p, w->len);
+    int rc = vtc_send(c, w->p, w->len);
     if (rc) return rc;
     for (;;) {
         vp_header h;
-        if ((rc = vt_recv(c, &h, p, -1))) return rc;
-        if (h.type == VP_EVENT || h.type == VP_MARKED) continue; /* pushed: vt_recv's callers see them */
+        if ((rc = vtc_recv(c, &h, p, -1))) return rc;
+        if (h.type == VP_EVENT || h.type == VP_MARKED) continue; /* pushed: vtc_recv's callers see them */
         /* a frame kept across a re-aim carries the req it started under */
         if (c->stream_req && h.req != req && (h.req == c->stream_req || h.type == VP_FRAME)) {
             /* the frame stream's: a frame is dropped (the next one is
-               newer); an error ends the stream and waits for vt_wait_frame */
+               newer); an error ends the stream and waits for vtc_wait_frame */
             if (h.type == VP_ERROR) {
                 error_from(&c->stream_err, *p, h.len);
                 c->stream_req = 0;
@@ -196,7 +196,7 @@ static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, co
         }
         if (h.type == VP_ERROR) return error_from(&c->err, *p, h.len);
         if (h.req != req || h.type != want)
-            return set_err(c, VT_ERR_IO, "unexpected reply %s (req %u) to request %u", vp_type_name(h.type), h.req,
+            return set_err(c, VTC_ERR_IO, "unexpected reply %s (req %u) to request %u", vp_type_name(h.type), h.req,
                            req);
         *len = h.len;
         return VP_OK;
@@ -205,7 +205,7 @@ static int roundtrip(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, co
 
 /* A reply the client cannot decode keeps the decoder's code, and says
  * which reply and why; VP_OK passes through. */
-static int decoded(vt_client *c, uint16_t type, int rc)
+static int decoded(vtc_client *c, uint16_t type, int rc)
 {
     if (rc == VP_OK) return VP_OK;
     return set_err(c, rc, "malformed %s from the server: %s", vp_type_name(type), vp_strerror(rc));
@@ -217,8 +217,8 @@ typedef int (*reply_dec)(const uint8_t *p, uint32_t len, void *out);
 /* The one blocking call: sends the request encoded into w (see request),
  * waits for its reply of type want and decodes it into out with dec
  * (NULL: the reply's type alone is checked). Returns VP_OK, the server's
- * ERROR code, the decoder's code (decoded) or VT_ERR_IO. */
-static int call(vt_client *c, vp_writer *w, uint32_t req, uint16_t want, reply_dec dec, void *out)
+ * ERROR code, the decoder's code (decoded) or VTC_ERR_IO. */
+static int call(vtc_client *c, vp_writer *w, uint32_t req, uint16_t want, reply_dec dec, void *out)
 {
     const uint8_t *p;
     uint32_t len;
@@ -257,7 +257,7 @@ static int dec_sublevel_ids(const uint8_t *p, uint32_t len, void *out)
 }
 
 /* A request with an empty payload (type) and its reply. */
-static int empty_call(vt_client *c, uint16_t type, uint16_t want, reply_dec dec, void *out)
+static int empty_call(vtc_client *c, uint16_t type, uint16_t want, reply_dec dec, void *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_empty(), &req);
@@ -266,7 +266,7 @@ static int empty_call(vt_client *c, uint16_t type, uint16_t want, reply_dec dec,
 }
 
 /* An edit answered with ACK: its epoch in *epoch (may be NULL). */
-static int ack_epoch(vt_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
+static int ack_epoch(vtc_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
 {
     vp_ack a;
     int rc = call(c, w, req, VP_ACK, dec_ack, &a);
@@ -274,7 +274,7 @@ static int ack_epoch(vt_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
     return rc;
 }
 
-static int connect_fd(const vt_connect_opts *o, char *err, size_t errlen)
+static int connect_fd(const vtc_connect_opts *o, char *err, size_t errlen)
 {
     int fd = -1;
     if (o->unix_path && *o->unix_path) {
@@ -293,7 +293,7 @@ static int connect_fd(const vt_connect_opts *o, char *err, size_t errlen)
         return fd;
     }
     char port[16];
-    snprintf(port, sizeof port, "%d", o->port ? o->port : VT_DEFAULT_PORT);
+    snprintf(port, sizeof port, "%d", o->port ? o->port : VTC_DEFAULT_PORT);
     struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM}, *res = NULL;
     const char *host = o->host && *o->host ? o->host : "127.0.0.1";
     int g = getaddrinfo(host, port, &hints, &res);
@@ -317,7 +317,7 @@ static int connect_fd(const vt_connect_opts *o, char *err, size_t errlen)
     return fd;
 }
 
-int vt_connect(const vt_connect_opts *o, vt_client **out, char *err, size_t errlen)
+int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t errlen)
 {
     char tmp[256];
     if (!err) {
@@ -325,16 +325,16 @@ int vt_connect(const vt_connect_opts *o, vt_client **out, char *err, size_t errl
         errlen = sizeof tmp;
     }
     *out = NULL;
-    vt_connect_opts d = o ? *o : (vt_connect_opts){0};
-    vt_client *c = calloc(1, sizeof *c);
+    vtc_connect_opts d = o ? *o : (vtc_connect_opts){0};
+    vtc_client *c = calloc(1, sizeof *c);
     if (!c) {
         snprintf(err, errlen, "out of memory");
-        return VT_ERR_IO;
+        return VTC_ERR_IO;
     }
     c->timeout_ms = d.timeout_ms == 0 ? 10000 : d.timeout_ms < 0 ? -1 : d.timeout_ms;
     if ((c->fd = connect_fd(&d, err, errlen)) < 0) {
         free(c);
-        return VT_ERR_IO;
+        return VTC_ERR_IO;
     }
     if (c->timeout_ms > 0) {
         /* the per-call timeout holds for sending too: a server that stops
@@ -353,14 +353,14 @@ int vt_connect(const vt_connect_opts *o, vt_client **out, char *err, size_t errl
     int rc = call(c, w, req, VP_HELLO_OK, dec_hello_ok, &c->server);
     if (rc) {
         snprintf(err, errlen, "handshake: %s", c->err.msg);
-        vt_close(c);
+        vtc_close(c);
         return rc;
     }
     *out = c;
     return VP_OK;
 }
 
-void vt_close(vt_client *c)
+void vtc_close(vtc_client *c)
 {
     if (!c) return;
     if (c->fd >= 0) close(c->fd);
@@ -369,7 +369,7 @@ void vt_close(vt_client *c)
     free(c);
 }
 
-int vt_ping(vt_client *c)
+int vtc_ping(vtc_client *c)
 {
     const uint8_t *p;
     uint32_t len, req;
@@ -377,15 +377,15 @@ int vt_ping(vt_client *c)
     vp_enc_ping(w, VP_PING, req, (const uint8_t *)"vantage", 7);
     int rc = roundtrip(c, w, req, VP_PONG, &p, &len);
     if (rc) return rc;
-    return len == 7 && !memcmp(p, "vantage", 7) ? VP_OK : set_err(c, VT_ERR_IO, "PONG did not echo the PING");
+    return len == 7 && !memcmp(p, "vantage", 7) ? VP_OK : set_err(c, VTC_ERR_IO, "PONG did not echo the PING");
 }
 
-int vt_stats(vt_client *c, vp_stats_reply *out)
+int vtc_stats(vtc_client *c, vp_stats_reply *out)
 {
     return empty_call(c, VP_STATS, VP_STATS_REPLY, dec_stats_reply, out);
 }
 
-int vt_metrics(vt_client *c, const char **text, size_t *text_len)
+int vtc_metrics(vtc_client *c, const char **text, size_t *text_len)
 {
     vp_metrics_reply m;
     int rc = empty_call(c, VP_METRICS, VP_METRICS_REPLY, dec_metrics_reply, &m);
@@ -395,7 +395,7 @@ int vt_metrics(vt_client *c, const char **text, size_t *text_len)
     return VP_OK;
 }
 
-int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint64_t *epoch)
+int vtc_add(vtc_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint64_t *epoch)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_entities(n), &req);
@@ -411,7 +411,7 @@ int vt_add(vt_client *c, const vp_entity *e, uint32_t n, uint32_t *handles, uint
     return VP_OK;
 }
 
-int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
+int vtc_update(vtc_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_entities(n), &req);
@@ -420,7 +420,7 @@ int vt_update(vt_client *c, const vp_entity *e, uint32_t n, uint64_t *epoch)
 }
 
 /* An id batch of type answered with reply (dec into out). */
-static int ids_call(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t n, uint16_t reply, reply_dec dec,
+static int ids_call(vtc_client *c, uint16_t type, const uint64_t *ids, uint32_t n, uint16_t reply, reply_dec dec,
                     void *out)
 {
     uint32_t req;
@@ -429,7 +429,7 @@ static int ids_call(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t n
     return call(c, w, req, reply, dec, out);
 }
 
-static int remove_ids(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+static int remove_ids(vtc_client *c, uint16_t type, const uint64_t *ids, uint32_t n, uint64_t *epoch)
 {
     vp_ack a;
     int rc = ids_call(c, type, ids, n, VP_ACK, dec_ack, &a);
@@ -437,22 +437,22 @@ static int remove_ids(vt_client *c, uint16_t type, const uint64_t *ids, uint32_t
     return rc;
 }
 
-int vt_remove(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+int vtc_remove(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
 {
     return remove_ids(c, VP_ENTITY_REMOVE, ids, n, epoch);
 }
 
-int vt_remove_occluders(vt_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+int vtc_remove_occluders(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
 {
     return remove_ids(c, VP_OCCLUDER_REMOVE, ids, n, epoch);
 }
 
-int vt_get(vt_client *c, const uint64_t *ids, uint32_t n, vp_list_reply *out)
+int vtc_get(vtc_client *c, const uint64_t *ids, uint32_t n, vp_list_reply *out)
 {
     return ids_call(c, VP_ENTITY_GET, ids, n, VP_ENTITY_LIST_REPLY, dec_list_reply, out);
 }
 
-int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out)
+int vtc_list(vtc_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_list(), &req);
@@ -460,12 +460,12 @@ int vt_list(vt_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out)
     return call(c, w, req, VP_ENTITY_LIST_REPLY, dec_list_reply, out);
 }
 
-int vt_query(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area, vp_vis_result *out)
+int vtc_query(vtc_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area, vp_vis_result *out)
 {
-    return vt_query_sub(c, views, nviews, flags, min_area, NULL, 0, out);
+    return vtc_query_sub(c, views, nviews, flags, min_area, NULL, 0, out);
 }
 
-int vt_query_sub(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
+int vtc_query_sub(vtc_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
                  const uint16_t *subs, uint32_t nsub, vp_vis_result *out)
 {
     flags &= (uint8_t)~VP_Q_SUBLEVELS; /* the list is there iff subs is */
@@ -475,7 +475,7 @@ int vt_query_sub(vt_client *c, const vp_view *views, uint32_t nviews, uint8_t fl
     return call(c, w, req, VP_VIS_RESULT, dec_vis_result, out);
 }
 
-int vt_render(vt_client *c, const vp_render *m, vp_frame *out)
+int vtc_render(vtc_client *c, const vp_render *m, vp_frame *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_render(), &req);
@@ -483,7 +483,7 @@ int vt_render(vt_client *c, const vp_render *m, vp_frame *out)
     return call(c, w, req, VP_FRAME, dec_frame, out);
 }
 
-int vt_light_query(vt_client *c, const vp_light_query *m, vp_light_tiles *out)
+int vtc_light_query(vtc_client *c, const vp_light_query *m, vp_light_tiles *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_light_query(), &req);
@@ -491,7 +491,7 @@ int vt_light_query(vt_client *c, const vp_light_query *m, vp_light_tiles *out)
     return call(c, w, req, VP_LIGHT_TILES, dec_light_tiles, out);
 }
 
-int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
+int vtc_frame_subscribe(vtc_client *c, const vp_frame_sub *m)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_frame_sub(), &req);
@@ -499,20 +499,20 @@ int vt_frame_subscribe(vt_client *c, const vp_frame_sub *m)
     int rc = call(c, w, req, VP_ACK, dec_ack, NULL);
     if (rc) return rc;
     /* frames of the old view already on their way (old req) are still
-       handed out by vt_wait_frame: they are the latest there is */
+       handed out by vtc_wait_frame: they are the latest there is */
     c->stream_req = req;
     c->stream_err.code = 0;
     return VP_OK;
 }
 
-int vt_frame_unsubscribe(vt_client *c)
+int vtc_frame_unsubscribe(vtc_client *c)
 {
     int rc = empty_call(c, VP_FRAME_UNSUBSCRIBE, VP_ACK, dec_ack, NULL);
     c->stream_req = 0;
     return rc;
 }
 
-int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms)
+int vtc_wait_frame(vtc_client *c, vp_frame *out, int timeout_ms)
 {
     for (;;) {
         if (c->stream_err.code) {
@@ -520,10 +520,10 @@ int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms)
             c->stream_err.code = 0;
             return c->err.code;
         }
-        if (!c->stream_req) return set_err(c, VP_ERR_STATE, "no frame stream (vt_frame_subscribe first)");
+        if (!c->stream_req) return set_err(c, VP_ERR_STATE, "no frame stream (vtc_frame_subscribe first)");
         vp_header h;
         const uint8_t *p;
-        int rc = vt_recv(c, &h, &p, timeout_ms);
+        int rc = vtc_recv(c, &h, &p, timeout_ms);
         if (rc) return rc;
         if (h.type == VP_ERROR && h.req == c->stream_req) {
             error_from(&c->stream_err, p, h.len);
@@ -535,7 +535,7 @@ int vt_wait_frame(vt_client *c, vp_frame *out, int timeout_ms)
     }
 }
 
-int vt_subscribe(vt_client *c, uint32_t kinds)
+int vtc_subscribe(vtc_client *c, uint32_t kinds)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_subscribe(), &req);
@@ -543,7 +543,7 @@ int vt_subscribe(vt_client *c, uint32_t kinds)
     return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
 
-int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t *ids)
+int vtc_sublevel_ids(vtc_client *c, const char *const *names, uint32_t n, uint16_t *ids)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_names(names, NULL, n), &req);
@@ -557,24 +557,24 @@ int vt_sublevel_ids(vt_client *c, const char *const *names, uint32_t n, uint16_t
     return VP_OK;
 }
 
-int vt_sublevel_list(vt_client *c, vp_name_list *out)
+int vtc_sublevel_list(vtc_client *c, vp_name_list *out)
 {
     return empty_call(c, VP_SUBLEVEL_LIST, VP_SUBLEVEL_LIST_REPLY, dec_list_names, out);
 }
 
-int vt_wait_event(vt_client *c, vp_event *out, int timeout_ms)
+int vtc_wait_event(vtc_client *c, vp_event *out, int timeout_ms)
 {
     for (;;) {
         vp_header h;
         const uint8_t *p;
-        int rc = vt_recv(c, &h, &p, timeout_ms);
+        int rc = vtc_recv(c, &h, &p, timeout_ms);
         if (rc) return rc;
         if (h.type != VP_EVENT) continue; /* a stray reply: not ours to keep */
         return decoded(c, VP_EVENT, vp_dec_event(p, h.len, out));
     }
 }
 
-int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n)
+int vtc_put_lights(vtc_client *c, const vp_light *l, uint32_t n)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_lights(n), &req);
@@ -582,7 +582,7 @@ int vt_put_lights(vt_client *c, const vp_light *l, uint32_t n)
     return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
 
-int vt_put_occluder(vt_client *c, uint64_t id, const double origin[3], const float *verts, uint32_t ntris)
+int vtc_put_occluder(vtc_client *c, uint64_t id, const double origin[3], const float *verts, uint32_t ntris)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_occluder(ntris), &req);
@@ -590,7 +590,7 @@ int vt_put_occluder(vt_client *c, uint64_t id, const double origin[3], const flo
     return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
 
-int vt_put_mesh(vt_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
+int vtc_put_mesh(vtc_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
                 const uint32_t *idx, uint32_t ni)
 {
     uint32_t req;
@@ -621,7 +621,7 @@ static bool camera(vp_view *v, const double eye[3], const double at[3], const do
     return true;
 }
 
-bool vt_view_perspective(vp_view *v, const double eye[3], const double at[3], const double up[3], double fovy_deg,
+bool vtc_view_perspective(vp_view *v, const double eye[3], const double at[3], const double up[3], double fovy_deg,
                          uint16_t w, uint16_t h, double znear, double zfar)
 {
     if (!(fovy_deg > 0 && fovy_deg < 180) || !w || !h || !(znear > 0) || !(zfar > znear)) return false;
@@ -630,7 +630,7 @@ bool vt_view_perspective(vp_view *v, const double eye[3], const double at[3], co
     return camera(v, eye, at, up, proj, w, h);
 }
 
-bool vt_view_ortho(vp_view *v, const double eye[3], const double at[3], const double up[3], double width,
+bool vtc_view_ortho(vp_view *v, const double eye[3], const double at[3], const double up[3], double width,
                    double height, uint16_t w, uint16_t h, double znear, double zfar)
 {
     if (!(width > 0) || !(height > 0) || !w || !h || !(zfar > znear)) return false;
@@ -642,13 +642,13 @@ bool vt_view_ortho(vp_view *v, const double eye[3], const double at[3], const do
 /* ---- sub-level loads -------------------------------------------------------------- */
 
 /* A sub-level name the wire takes (1..255 bytes), or VP_ERR_INVALID. */
-static int sublevel_name_ok(vt_client *c, const char *name)
+static int sublevel_name_ok(vtc_client *c, const char *name)
 {
     size_t l = strlen(name);
     return l == 0 || l > VP_MAX_NAME ? set_err(c, VP_ERR_INVALID, "sub-level names are 1..255 bytes") : VP_OK;
 }
 
-int vt_sublevel_begin(vt_client *c, const char *name, uint16_t classes, vp_sublevel_begun *out)
+int vtc_sublevel_begin(vtc_client *c, const char *name, uint16_t classes, vp_sublevel_begun *out)
 {
     if (sublevel_name_ok(c, name)) return VP_ERR_INVALID;
     vp_sublevel_begin m = {.classes = classes, .name_len = (uint8_t)strlen(name), .name = (const uint8_t *)name};
@@ -658,17 +658,17 @@ int vt_sublevel_begin(vt_client *c, const char *name, uint16_t classes, vp_suble
     return call(c, w, req, VP_SUBLEVEL_BEGUN, dec_begun, out);
 }
 
-int vt_sublevel_commit(vt_client *c, vp_ack *out)
+int vtc_sublevel_commit(vtc_client *c, vp_ack *out)
 {
     return empty_call(c, VP_SUBLEVEL_COMMIT, VP_ACK, dec_ack, out);
 }
 
-int vt_sublevel_abort(vt_client *c, vp_ack *out)
+int vtc_sublevel_abort(vtc_client *c, vp_ack *out)
 {
     return empty_call(c, VP_SUBLEVEL_ABORT, VP_ACK, dec_ack, out);
 }
 
-int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out)
+int vtc_sublevel_unload(vtc_client *c, const char *name, vp_ack *out)
 {
     if (sublevel_name_ok(c, name)) return VP_ERR_INVALID;
     uint32_t req;
@@ -677,12 +677,12 @@ int vt_sublevel_unload(vt_client *c, const char *name, vp_ack *out)
     return call(c, w, req, VP_ACK, dec_ack, out);
 }
 
-int vt_sublevel_info(vt_client *c, vp_sublevel_infos *out)
+int vtc_sublevel_info(vtc_client *c, vp_sublevel_infos *out)
 {
     return empty_call(c, VP_SUBLEVEL_INFO, VP_SUBLEVEL_INFO_REPLY, dec_infos, out);
 }
 
-int vt_mark(vt_client *c, const vp_mark *m, uint32_t *sent)
+int vtc_mark(vtc_client *c, const vp_mark *m, uint32_t *sent)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_mark(), &req);
@@ -693,7 +693,7 @@ int vt_mark(vt_client *c, const vp_mark *m, uint32_t *sent)
     return rc;
 }
 
-int vt_destroy(vt_client *c, const vp_destroy *m, vp_destroyed *out)
+int vtc_send_destruction(vtc_client *c, const vp_destroy *m, vp_destroyed *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_destroy(), &req);

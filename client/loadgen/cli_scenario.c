@@ -36,7 +36,7 @@
 #define RING 4096 /* requests in flight per connection (open loop: beyond it, counted as not sent) */
 
 typedef struct lconn {
-    vt_client *c;
+    vtc_client *c;
     const scn_group *g;
     int gi, idx;
     scn_sched sched;
@@ -121,9 +121,9 @@ void note(run *r, rows *w, int row, double t_begin, double secs)
     scn_hist_record(&w->win[row * WINDOWS + (win < 0 ? 0 : win >= WINDOWS ? WINDOWS - 1 : win)], ns);
 }
 
-static vt_connect_opts conn_opts(run *r, int role, const char *name)
+static vtc_connect_opts conn_opts(run *r, int role, const char *name)
 {
-    vt_connect_opts o = r->k->co;
+    vtc_connect_opts o = r->k->co;
     o.role = role;
     o.name = name;
     return o;
@@ -144,10 +144,10 @@ static bool make_view(const scn_group *g, double t, int idx, uint16_t w, uint16_
     if (g->cam.kind == SCN_CAM_PAN) {
         const double up[3] = {0, 0, 1};
         double hh = g->cam.height * 0.5; /* half the height seen: a 53-degree field */
-        return vt_view_ortho(v, eye, at, up, 2 * hh * w / h, 2 * hh, w, h, 0.5, g->cam.height * 2 + 100);
+        return vtc_view_ortho(v, eye, at, up, 2 * hh * w / h, 2 * hh, w, h, 0.5, g->cam.height * 2 + 100);
     }
     const double up[3] = {0, 1, 0};
-    return vt_view_perspective(v, eye, at, up, 60, w, h, 0.5, 3000);
+    return vtc_view_perspective(v, eye, at, up, 60, w, h, 0.5, 3000);
 }
 
 /* ---- load threads ------------------------------------------------------------------- */
@@ -176,7 +176,7 @@ static int queue_request(run *r, lconn *lc, double t_int)
     if (!p) return -1;
     vp_writer w;
     vp_writer_init(&w, p, need);
-    uint32_t req = vt_next_req(lc->c);
+    uint32_t req = vtc_next_req(lc->c);
     if (g->op == SCN_EDIT) {
         for (uint32_t e = 0; e < g->batch; e++) lc->ents[e].sphere[1] = 1 + (double)(lc->sent % 100) * 0.1;
         vp_enc_entities(&w, VP_ENTITY_UPDATE, req, lc->ents, g->batch);
@@ -208,7 +208,7 @@ static int queue_subscribe(run *r, lconn *lc, double now)
     if (!p) return -1;
     vp_writer w;
     vp_writer_init(&w, p, VP_HEADER_SIZE + VP_FRAME_SUB_SIZE);
-    lc->sub_req = vt_next_req(lc->c);
+    lc->sub_req = vtc_next_req(lc->c);
     vp_enc_frame_sub(&w, lc->sub_req, &fs);
     lc->outlen += w.len;
     lc->seq_t[lc->seq % 256] = now;
@@ -258,7 +258,7 @@ static int pump(run *r, lthread *t, lconn *lc, double now)
 static int flush(lconn *lc)
 {
     if (!lc->outlen) return 0;
-    int rc = vt_send(lc->c, lc->out, lc->outlen);
+    int rc = vtc_send(lc->c, lc->out, lc->outlen);
     lc->outlen = 0;
     return rc;
 }
@@ -292,10 +292,10 @@ static int drain(run *r, lthread *t, lconn *lc)
     for (;;) {
         vp_header h;
         const uint8_t *pl;
-        int rc = vt_recv(lc->c, &h, &pl, 0);
+        int rc = vtc_recv(lc->c, &h, &pl, 0);
         if (rc == VP_NEED_MORE) return 0;
         if (rc) {
-            fail_run(r, true, "group %s client %d: %s", lc->g->name, lc->idx, vt_last_error(lc->c)->msg);
+            fail_run(r, true, "group %s client %d: %s", lc->g->name, lc->idx, vtc_last_error(lc->c)->msg);
             return -1;
         }
         double now = now_s();
@@ -339,8 +339,8 @@ static int lconn_open(run *r, lconn *lc)
 {
     const scn_group *g = lc->g;
     char err[300];
-    vt_connect_opts o = conn_opts(r, proto_role(g->role), "vantage-bench");
-    if (vt_connect(&o, &lc->c, err, sizeof err)) {
+    vtc_connect_opts o = conn_opts(r, proto_role(g->role), "vantage-bench");
+    if (vtc_connect(&o, &lc->c, err, sizeof err)) {
         fail_run(r, true, "group %s: cannot connect: %s", g->name, err);
         return -1;
     }
@@ -352,11 +352,11 @@ static int lconn_open(run *r, lconn *lc)
         for (uint32_t e = 0; e < g->batch; e++)
             lc->ents[e] = (vp_entity){.id = base + e, .flags = VP_ENT_DYNAMIC,
                                       .sphere = {(splitmix_unit(&x) - 0.5) * 400, 1, (splitmix_unit(&x) - 0.5) * 400, 0.5}};
-        uint32_t max = vt_server(lc->c)->max_batch;
+        uint32_t max = vtc_server(lc->c)->max_batch;
         for (uint32_t i = 0; i < g->batch; i += max) {
             uint32_t n = g->batch - i < max ? g->batch - i : max;
-            if (vt_add(lc->c, lc->ents + i, n, NULL, NULL)) {
-                fail_run(r, false, "group %s: adding its entities: %s", g->name, vt_last_error(lc->c)->msg);
+            if (vtc_add(lc->c, lc->ents + i, n, NULL, NULL)) {
+                fail_run(r, false, "group %s: adding its entities: %s", g->name, vtc_last_error(lc->c)->msg);
                 return -1;
             }
         }
@@ -370,13 +370,13 @@ static void lconn_close(lconn *lc)
         uint64_t *ids = malloc(sizeof *ids * lc->g->batch);
         if (ids) {
             for (uint32_t e = 0; e < lc->g->batch; e++) ids[e] = lc->ents[e].id;
-            uint32_t max = vt_server(lc->c)->max_batch;
+            uint32_t max = vtc_server(lc->c)->max_batch;
             for (uint32_t i = 0; i < lc->g->batch; i += max)
-                (void)vt_remove(lc->c, ids + i, lc->g->batch - i < max ? lc->g->batch - i : max, NULL);
+                (void)vtc_remove(lc->c, ids + i, lc->g->batch - i < max ? lc->g->batch - i : max, NULL);
             free(ids);
         }
     }
-    vt_close(lc->c);
+    vtc_close(lc->c);
     free(lc->ents);
     free(lc->out);
 }
@@ -397,9 +397,9 @@ static void *load_thread(void *arg)
         double phase = lc->g->clients ? (double)lc->idx / lc->g->clients : 0;
         scn_sched_init(&lc->sched, start + (lc->g->rate > 0 ? phase / lc->g->rate : 0), lc->g->rate);
         lc->next_reaim = start + phase / lc->g->reaim_hz;
-        pf[i] = (struct pollfd){.fd = vt_fd(lc->c), .events = POLLIN};
+        pf[i] = (struct pollfd){.fd = vtc_fd(lc->c), .events = POLLIN};
         if (lc->g->op == SCN_FRAMES && (queue_subscribe(r, lc, now_s()) || flush(lc))) {
-            fail_run(r, true, "group %s: subscribing: %s", lc->g->name, vt_last_error(lc->c)->msg);
+            fail_run(r, true, "group %s: subscribing: %s", lc->g->name, vtc_last_error(lc->c)->msg);
             break;
         }
     }
@@ -408,7 +408,7 @@ static void *load_thread(void *arg)
         for (int i = 0; i < t->n && !stopping(r); i++) {
             lconn *lc = &t->cs[i];
             if (pump(r, t, lc, now) || flush(lc)) {
-                fail_run(r, true, "group %s client %d: sending: %s", lc->g->name, lc->idx, vt_last_error(lc->c)->msg);
+                fail_run(r, true, "group %s client %d: sending: %s", lc->g->name, lc->idx, vtc_last_error(lc->c)->msg);
                 break;
             }
             if (lc->g->op == SCN_COMMANDER && lc->next_reaim < wake) wake = lc->next_reaim;
@@ -512,7 +512,7 @@ int bench_scenario(cli *k, int argc, char **argv)
     char err[600];
     int rc = 0;
     uint32_t total = 0;
-    vt_client *setup = NULL, *evc = NULL;
+    vtc_client *setup = NULL, *evc = NULL;
     probe_arg pa = {.r = r};
     events_arg *ea = calloc(1, sizeof *ea);
     if (!ea || find_scenario(file, s, err, sizeof err)) {
@@ -553,9 +553,9 @@ int bench_scenario(cli *k, int argc, char **argv)
     r->probe_rows = &rw[threads + 1];
 
     /* setup: the entities edits and destruction work on; the probe entity */
-    vt_connect_opts so = conn_opts(r, VP_ROLE_EDITOR, "vantage-bench-setup");
+    vtc_connect_opts so = conn_opts(r, VP_ROLE_EDITOR, "vantage-bench-setup");
     bool need_editor = s->setup_n || s->nev || s->probe_query > 0 || s->probe_frame > 0;
-    if (need_editor && vt_connect(&so, &setup, err, sizeof err)) {
+    if (need_editor && vtc_connect(&so, &setup, err, sizeof err)) {
         fprintf(stderr, "%s: bench: cannot connect: %s\n", g_prog, err);
         rc = 3;
         goto out;
@@ -568,14 +568,14 @@ int bench_scenario(cli *k, int argc, char **argv)
     if (s->setup_n) fprintf(stderr, "setup: %u entities in %.2f s\n", s->setup_n, now_s() - ts0);
     if (s->probe_query > 0 || s->probe_frame > 0) {
         vp_entity pe = {.id = PROBE_ID, .flags = VP_ENT_DYNAMIC, .sphere = {30000, -5200, 0, 5}};
-        if ((rc = vt_add(setup, &pe, 1, NULL, NULL))) {
+        if ((rc = vtc_add(setup, &pe, 1, NULL, NULL))) {
             rc = server_fail(&(cli){.c = setup}, "bench probe", rc);
             goto out;
         }
         pa.ed = setup;
-        vt_connect_opts po = conn_opts(r, VP_ROLE_VIEWER, "vantage-bench-probe");
-        if ((s->probe_query > 0 && vt_connect(&po, &pa.q, err, sizeof err)) ||
-            (s->probe_frame > 0 && vt_connect(&po, &pa.fr, err, sizeof err))) {
+        vtc_connect_opts po = conn_opts(r, VP_ROLE_VIEWER, "vantage-bench-probe");
+        if ((s->probe_query > 0 && vtc_connect(&po, &pa.q, err, sizeof err)) ||
+            (s->probe_frame > 0 && vtc_connect(&po, &pa.fr, err, sizeof err))) {
             fprintf(stderr, "%s: bench: cannot connect: %s\n", g_prog, err);
             rc = 3;
             goto out;
@@ -584,15 +584,15 @@ int bench_scenario(cli *k, int argc, char **argv)
             vp_frame_sub fs = {.r = {.format = VP_FRAME_JPEG, .quality = 50, .renderer = VP_RENDERER_SOFT},
                                .max_fps = VP_FRAME_SUB_MAX_FPS};
             probe_view(&fs.r.view, 64, 64);
-            if ((rc = vt_frame_subscribe(pa.fr, &fs))) {
+            if ((rc = vtc_frame_subscribe(pa.fr, &fs))) {
                 rc = server_fail(&(cli){.c = pa.fr}, "bench probe", rc);
                 goto out;
             }
         }
     }
     if (s->nev) {
-        vt_connect_opts eo = conn_opts(r, VP_ROLE_EDITOR, "vantage-bench-events");
-        if (vt_connect(&eo, &evc, err, sizeof err)) {
+        vtc_connect_opts eo = conn_opts(r, VP_ROLE_EDITOR, "vantage-bench-events");
+        if (vtc_connect(&eo, &evc, err, sizeof err)) {
             fprintf(stderr, "%s: bench: cannot connect: %s\n", g_prog, err);
             rc = 3;
             goto out;
@@ -723,7 +723,7 @@ int bench_scenario(cli *k, int argc, char **argv)
     if (!atomic_load(&r->gone)) { /* leave the scene as it was */
         for (int i = 0; evc && i < s->nev; i++) {
             vp_ack a;
-            if (ea->loaded[i]) (void)vt_sublevel_unload(evc, s->ev[i].name, &a);
+            if (ea->loaded[i]) (void)vtc_sublevel_unload(evc, s->ev[i].name, &a);
         }
         if (setup && s->setup_n) (void)remove_range(setup, SETUP_BASE, s->setup_n);
         if (setup && (pa.q || pa.fr)) (void)remove_range(setup, PROBE_ID, 1);
@@ -731,10 +731,10 @@ int bench_scenario(cli *k, int argc, char **argv)
 out:
     for (uint32_t i = 0; cs && i < total; i++) lconn_close(&cs[i]);
     free(cs);
-    vt_close(pa.q);
-    vt_close(pa.fr);
-    vt_close(setup);
-    vt_close(evc);
+    vtc_close(pa.q);
+    vtc_close(pa.fr);
+    vtc_close(setup);
+    vtc_close(evc);
     if (r->s) pthread_mutex_destroy(&r->mu);
     free(ea);
     free(ts);

@@ -11,12 +11,12 @@
 #include <string.h>
 #include <time.h>
 
-int add_many(vt_client *c, uint64_t base, uint32_t n, double spread, double height, uint16_t sublevel,
+int add_many(vtc_client *c, uint64_t base, uint32_t n, double spread, double height, uint16_t sublevel,
              uint64_t seed)
 {
-    uint32_t max = vt_server(c)->max_batch, step = max < 4096 ? max : 4096;
+    uint32_t max = vtc_server(c)->max_batch, step = max < 4096 ? max : 4096;
     vp_entity *b = calloc(step, sizeof *b);
-    if (!b) return VT_ERR_IO;
+    if (!b) return VTC_ERR_IO;
     uint64_t x = seed;
     int rc = 0;
     for (uint32_t i = 0; i < n && rc == 0; i += step) {
@@ -27,24 +27,24 @@ int add_many(vt_client *c, uint64_t base, uint32_t n, double spread, double heig
             b[j] = (vp_entity){.id = base + i + j, .sublevel = sublevel, .flags = VP_ENT_DYNAMIC,
                                .aabb = {px - hw, 0, pz - hw, px + hw, h, pz + hw}};
         }
-        rc = vt_add(c, b, k, NULL, NULL);
+        rc = vtc_add(c, b, k, NULL, NULL);
     }
     free(b);
     return rc;
 }
 
-int remove_range(vt_client *c, uint64_t base, uint32_t n)
+int remove_range(vtc_client *c, uint64_t base, uint32_t n)
 {
-    uint32_t max = vt_server(c)->max_batch, step = max < 4096 ? max : 4096;
+    uint32_t max = vtc_server(c)->max_batch, step = max < 4096 ? max : 4096;
     uint64_t *ids = malloc(sizeof *ids * step);
-    if (!ids) return VT_ERR_IO;
+    if (!ids) return VTC_ERR_IO;
     int rc = 0;
     for (uint32_t i = 0; i < n && rc == 0; i += step) {
         uint32_t k = n - i < step ? n - i : step;
         for (uint32_t j = 0; j < k; j++) ids[j] = base + i + j;
-        rc = vt_remove(c, ids, k, NULL);
+        rc = vtc_remove(c, ids, k, NULL);
         if (rc == VP_ERR_UNKNOWN_ID) /* a batch with one missing is refused whole: one by one */
-            for (uint32_t j = 0; j < k && rc != VT_ERR_IO; j++) rc = vt_remove(c, ids + j, 1, NULL);
+            for (uint32_t j = 0; j < k && rc != VTC_ERR_IO; j++) rc = vtc_remove(c, ids + j, 1, NULL);
         if (rc == VP_ERR_UNKNOWN_ID) rc = 0;
     }
     free(ids);
@@ -85,16 +85,16 @@ void *events_thread(void *arg)
         if (e->kind == SCN_EV_LOAD) {
             vp_sublevel_begun b;
             vp_ack a;
-            rc = vt_sublevel_begin(ea->c, e->name, 0, &b);
+            rc = vtc_sublevel_begin(ea->c, e->name, 0, &b);
             if (!rc) rc = add_many(ea->c, LOAD_BASE + ((uint64_t)b.id << 24), e->n, e->spread, 20, b.id, x + (uint64_t)oi);
-            if (!rc) rc = vt_sublevel_commit(ea->c, &a);
-            else (void)vt_sublevel_abort(ea->c, &a);
+            if (!rc) rc = vtc_sublevel_commit(ea->c, &a);
+            else (void)vtc_sublevel_abort(ea->c, &a);
             if (!rc) ea->loaded[order[oi]] = true;
             if (rc) r->ev_rows->errors[R_SL_LOAD]++;
             else note(r, r->ev_rows, R_SL_LOAD, t1, now_s() - t1);
         } else if (e->kind == SCN_EV_UNLOAD) {
             vp_ack a;
-            rc = vt_sublevel_unload(ea->c, e->name, &a);
+            rc = vtc_sublevel_unload(ea->c, e->name, &a);
             if (rc) r->ev_rows->errors[R_SL_UNLOAD]++;
             else note(r, r->ev_rows, R_SL_UNLOAD, t1, now_s() - t1);
             for (int j = 0; !rc && j < s->nev; j++)
@@ -107,7 +107,7 @@ void *events_thread(void *arg)
                 vp_list_reply got;
                 vp_destroy d = {.id = id, .radius = e->radius, .debris = e->debris};
                 double ts = now_s();
-                rc = vt_get(ea->c, &id, 1, &got);
+                rc = vtc_get(ea->c, &id, 1, &got);
                 vp_entity ent;
                 if (rc == 0 && got.batch.count == 1 && vp_entity_get(&got.batch, 0, &ent) == 0) {
                     double diag2 = 0;
@@ -122,16 +122,16 @@ void *events_thread(void *arg)
                     if (diag2 > 0 && d.radius * d.radius > diag2) d.radius = sqrt(diag2);
                     ts = now_s();
                     vp_destroyed out;
-                    rc = vt_destroy(ea->c, &d, &out);
+                    rc = vtc_send_destruction(ea->c, &d, &out);
                 }
                 if (rc) r->ev_rows->errors[R_DESTROY]++;
                 else note(r, r->ev_rows, R_DESTROY, ts, now_s() - ts);
-                if (rc == VT_ERR_IO) break;
+                if (rc == VTC_ERR_IO) break;
                 rc = 0;
             }
         }
-        if (rc == VT_ERR_IO) {
-            fail_run(r, true, "events: %s", vt_last_error(ea->c)->msg);
+        if (rc == VTC_ERR_IO) {
+            fail_run(r, true, "events: %s", vtc_last_error(ea->c)->msg);
             break;
         }
     }
@@ -142,13 +142,13 @@ void *events_thread(void *arg)
 void probe_view(vp_view *v, uint16_t w, uint16_t h)
 {
     const double eye[3] = {0, -5000, 0}, at[3] = {0, -5100, 0}, up[3] = {0, 0, 1};
-    vt_view_perspective(v, eye, at, up, 40, w, h, 1, 500);
+    vtc_view_perspective(v, eye, at, up, 40, w, h, 1, 500);
 }
 
 static int probe_move(probe_arg *pa, bool in, uint64_t *epoch)
 {
     vp_entity e = {.id = PROBE_ID, .flags = VP_ENT_DYNAMIC, .sphere = {in ? 0 : 30000, -5200, 0, 5}};
-    return vt_update(pa->ed, &e, 1, epoch);
+    return vtc_update(pa->ed, &e, 1, epoch);
 }
 
 void *probe_thread(void *arg)
@@ -174,7 +174,7 @@ void *probe_thread(void *arg)
             bool seen = false;
             for (int tries = 0; rc == 0 && !seen && tries < 1000; tries++) {
                 vp_vis_result res;
-                rc = vt_query(pa->q, &v, 1, VP_Q_COUNT_ONLY, 0, &res);
+                rc = vtc_query(pa->q, &v, 1, VP_Q_COUNT_ONLY, 0, &res);
                 seen = rc == 0 && res.epoch >= epoch && (res.visible == 1) == in;
             }
             if (rc == 0 && !seen) rc = -1;
@@ -189,16 +189,16 @@ void *probe_thread(void *arg)
                     rc = -1; /* not seen in 5 s: an error, not the end */
                     break;
                 }
-                rc = vt_wait_frame(pa->fr, &f, (int)(left * 1e3) + 1);
-                if (rc == VT_ERR_IO && vt_last_error(pa->fr)->timed_out) rc = -1;
+                rc = vtc_wait_frame(pa->fr, &f, (int)(left * 1e3) + 1);
+                if (rc == VTC_ERR_IO && vtc_last_error(pa->fr)->timed_out) rc = -1;
                 if (rc || (f.epoch >= epoch && (f.visible == 1) == in)) break;
             }
             if (rc) r->probe_rows->errors[R_EDIT_FRAME]++;
             else note(r, r->probe_rows, R_EDIT_FRAME, t1, now_s() - t1);
             next_f += s->probe_frame;
         }
-        if (rc == VT_ERR_IO) {
-            fail_run(r, true, "probe: %s", vt_last_error(frame ? pa->fr : pa->q)->msg);
+        if (rc == VTC_ERR_IO) {
+            fail_run(r, true, "probe: %s", vtc_last_error(frame ? pa->fr : pa->q)->msg);
             break;
         }
         double now = now_s();

@@ -12,11 +12,11 @@
 /* ---- the daemon's memory ------------------------------------------------------------ */
 
 /* The daemon's pid from a Unix socket's peer credentials (0 over TCP). */
-int daemon_pid(vt_client *c)
+int daemon_pid(vtc_client *c)
 {
     struct ucred cr;
     socklen_t n = sizeof cr;
-    if (getsockopt(vt_fd(c), SOL_SOCKET, SO_PEERCRED, &cr, &n) == 0 && cr.pid > 0) return cr.pid;
+    if (getsockopt(vtc_fd(c), SOL_SOCKET, SO_PEERCRED, &cr, &n) == 0 && cr.pid > 0) return cr.pid;
     return 0;
 }
 

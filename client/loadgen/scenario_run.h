@@ -61,13 +61,13 @@ typedef struct report {
 
 typedef struct events_arg {
     run *r;
-    vt_client *c;
+    vtc_client *c;
     bool loaded[SCN_MAX_EVENTS];
 } events_arg;
 
 typedef struct probe_arg {
     run *r;
-    vt_client *ed, *q, *fr; /* editor, query, frames (each NULL when its probe is off) */
+    vtc_client *ed, *q, *fr; /* editor, query, frames (each NULL when its probe is off) */
 } probe_arg;
 
 #define SETUP_BASE 0x7C0000000000ull
@@ -85,14 +85,14 @@ void rows_merge(rows *into, const rows *from);
 void note(run *r, rows *w, int row, double t_begin, double secs);
 
 /* scenario_events.c */
-int add_many(vt_client *c, uint64_t base, uint32_t n, double spread, double height, uint16_t sublevel, uint64_t seed);
-int remove_range(vt_client *c, uint64_t base, uint32_t n);
+int add_many(vtc_client *c, uint64_t base, uint32_t n, double spread, double height, uint16_t sublevel, uint64_t seed);
+int remove_range(vtc_client *c, uint64_t base, uint32_t n);
 void *events_thread(void *arg); /* events_arg */
 void *probe_thread(void *arg);  /* probe_arg */
 void probe_view(vp_view *v, uint16_t w, uint16_t h);
 
 /* scenario_report.c */
-int daemon_pid(vt_client *c);
+int daemon_pid(vtc_client *c);
 double rss_mib(int pid);
 void row_names(const scenario *s, report *rp);
 void print_table(FILE *o, const run *r, const report *rp);

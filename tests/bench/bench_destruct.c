@@ -67,9 +67,9 @@ int main(int argc, char **argv)
            res, ns, t[reps / 2], t[(size_t)(0.9 * reps)], u[reps / 2], reps);
     (void)sink;
     if (port) {
-        vt_client *c;
+        vtc_client *c;
         char err[256];
-        if (vt_connect(&(vt_connect_opts){.port = port, .role = VP_ROLE_EDITOR, .name = "bench_destruct"}, &c, err,
+        if (vtc_connect(&(vtc_connect_opts){.port = port, .role = VP_ROLE_EDITOR, .name = "bench_destruct"}, &c, err,
                        sizeof err)) {
             fprintf(stderr, "bench_destruct: %s\n", err);
             return 3;
@@ -79,17 +79,17 @@ int main(int argc, char **argv)
         for (uint64_t id = 1; id <= 100; id++) {
             vp_list_reply lr;
             vp_entity e;
-            if (vt_get(c, &id, 1, &lr) || vp_entity_get(&lr.batch, 0, &e) || e.class_id != 1) continue;
+            if (vtc_get(c, &id, 1, &lr) || vp_entity_get(&lr.batch, 0, &e) || e.class_id != 1) continue;
             double face[3] = {0.5 * (e.aabb[0] + e.aabb[3]), 0.5 * (e.aabb[1] + e.aabb[4]), e.aabb[2]};
             double eye[3] = {face[0], face[1], face[2] - 40}, up[3] = {0, 1, 0};
             vp_view view;
-            vt_view_perspective(&view, eye, face, up, 60, 1280, 720, 0.5, 2000);
+            vtc_view_perspective(&view, eye, face, up, 60, 1280, 720, 0.5, 2000);
             vp_destroy m = {.id = id, .center = {face[0], face[1], face[2]}, .radius = 3};
             vp_destroyed out;
             vp_vis_result r;
             double t0 = bench_now_ns();
-            if (vt_destroy(c, &m, &out) || vt_query(c, &view, 1, 0, 0, &r)) {
-                fprintf(stderr, "bench_destruct: %s\n", vt_last_error(c)->msg);
+            if (vtc_send_destruction(c, &m, &out) || vtc_query(c, &view, 1, 0, 0, &r)) {
+                fprintf(stderr, "bench_destruct: %s\n", vtc_last_error(c)->msg);
                 return 1;
             }
             lat[n] = (bench_now_ns() - t0) / 1e3;
@@ -101,7 +101,7 @@ int main(int argc, char **argv)
             printf("destruction to the next query (%d buildings): median %.0f us, max %.0f us; the server's cut "
                    "median %.0f us, max %.0f us\n",
                    n, lat[n / 2], lat[n - 1], srv[n / 2], srv[n - 1]);
-        vt_close(c);
+        vtc_close(c);
     }
     cull_dvol_free(&v);
     cull_dvol_free(&w);

@@ -23,11 +23,11 @@ static unsigned W, H;
 static atomic_bool stop;
 static atomic_ulong frames;
 
-static vt_client *connect_as(int role)
+static vtc_client *connect_as(int role)
 {
-    vt_client *c;
+    vtc_client *c;
     char err[256];
-    if (vt_connect(&(vt_connect_opts){.unix_path = sock, .role = role}, &c, err, sizeof err)) {
+    if (vtc_connect(&(vtc_connect_opts){.unix_path = sock, .role = role}, &c, err, sizeof err)) {
         fprintf(stderr, "connect: %s\n", err);
         exit(1);
     }
@@ -37,18 +37,18 @@ static vt_client *connect_as(int role)
 static void *viewer(void *arg)
 {
     (void)arg;
-    vt_client *c = connect_as(VP_ROLE_VIEWER);
+    vtc_client *c = connect_as(VP_ROLE_VIEWER);
     vp_frame_sub sub = {.r = {.format = VP_FRAME_RAW}, .max_fps = VP_FRAME_SUB_MAX_FPS};
-    vt_view_perspective(&sub.r.view, (double[]){150, 200, 150}, (double[]){0, 0, 0}, NULL, 60, (uint16_t)W,
+    vtc_view_perspective(&sub.r.view, (double[]){150, 200, 150}, (double[]){0, 0, 0}, NULL, 60, (uint16_t)W,
                         (uint16_t)H, 0.1, 10000);
-    if (vt_frame_subscribe(c, &sub)) {
-        fprintf(stderr, "subscribe: %s\n", vt_last_error(c)->msg);
+    if (vtc_frame_subscribe(c, &sub)) {
+        fprintf(stderr, "subscribe: %s\n", vtc_last_error(c)->msg);
         exit(1);
     }
     vp_frame f;
     while (!stop)
-        if (vt_wait_frame(c, &f, 200) == VP_OK) frames++;
-    vt_close(c);
+        if (vtc_wait_frame(c, &f, 200) == VP_OK) frames++;
+    vtc_close(c);
     return NULL;
 }
 
@@ -79,9 +79,9 @@ int main(int argc, char **argv)
     int nv = atoi(argv[5]);
     double secs = atof(argv[6]);
     if (nv < 1 || nv > 64) return 2;
-    vt_client *ed = connect_as(VP_ROLE_EDITOR);
+    vtc_client *ed = connect_as(VP_ROLE_EDITOR);
     vp_entity e = {.id = 0xBE7C00000001ull, .class_id = 7, .aabb = {0, 0, 0, 4, 4, 4}};
-    vt_add(ed, &e, 1, NULL, NULL);
+    vtc_add(ed, &e, 1, NULL, NULL);
     pthread_t t[64];
     for (int i = 0; i < nv; i++) pthread_create(&t[i], NULL, viewer, NULL);
     usleep(300000); /* subscribed: count from here */
@@ -93,13 +93,13 @@ int main(int argc, char **argv)
     do { /* the scene changes every millisecond: every stream always has a new frame due */
         e.aabb[1] = 0.01 * (k++ % 100);
         e.aabb[4] = e.aabb[1] + 4;
-        vt_update(ed, &e, 1, NULL);
+        vtc_update(ed, &e, 1, NULL);
         usleep(1000);
     } while ((el = since(&t0)) < secs);
     unsigned long n = frames;
     stop = true;
     for (int i = 0; i < nv; i++) pthread_join(t[i], NULL);
     printf("%lu %.3f\n", n, el);
-    vt_close(ed);
+    vtc_close(ed);
     return 0;
 }

@@ -38,27 +38,27 @@ typedef struct querier {
 static void *query_loop(void *p)
 {
     querier *q = p;
-    vt_client *c;
+    vtc_client *c;
     char err[256];
-    if (vt_connect(&(vt_connect_opts){.port = q->port, .name = "bench_sublevel"}, &c, err, sizeof err)) {
+    if (vtc_connect(&(vtc_connect_opts){.port = q->port, .name = "bench_sublevel"}, &c, err, sizeof err)) {
         fprintf(stderr, "bench_sublevel: %s\n", err);
         q->failed = 1;
         return NULL;
     }
     vp_view v;
     double eye[3] = {0, 2, -300}, at[3] = {0, 2, 0}, up[3] = {0, 1, 0};
-    vt_view_perspective(&v, eye, at, up, 60, 1920, 1080, 0.5, 2000);
+    vtc_view_perspective(&v, eye, at, up, 60, 1920, 1080, 0.5, 2000);
     uint16_t only = 0;
     while (!q->stop && q->n < q->cap) {
         vp_vis_result r;
         uint64_t t0 = (uint64_t)bench_now_ns();
-        if (vt_query_sub(c, &v, 1, 0, 0, &only, 1, &r)) {
+        if (vtc_query_sub(c, &v, 1, 0, 0, &only, 1, &r)) {
             q->failed = 1;
             break;
         }
         q->s[q->n++] = (sample){t0, (uint64_t)bench_now_ns()};
     }
-    vt_close(c);
+    vtc_close(c);
     return NULL;
 }
 
@@ -122,9 +122,9 @@ int main(int argc, char **argv)
     char self[4096], cli[4200];
     snprintf(self, sizeof self, "%s", argv[0]);
     snprintf(cli, sizeof cli, "%s/vantage", dirname(self));
-    vt_client *ed;
+    vtc_client *ed;
     char err[256];
-    if (vt_connect(&(vt_connect_opts){.port = port, .role = VP_ROLE_EDITOR, .name = "bench_sublevel",
+    if (vtc_connect(&(vtc_connect_opts){.port = port, .role = VP_ROLE_EDITOR, .name = "bench_sublevel",
                                       .timeout_ms = 60000},
                    &ed, err, sizeof err)) {
         fprintf(stderr, "bench_sublevel: %s\n", err);
@@ -159,8 +159,8 @@ int main(int argc, char **argv)
         /* unload: hidden at the ack, freed a slice a loop turn after it */
         uint64_t u0 = (uint64_t)bench_now_ns();
         vp_ack a;
-        if (vt_sublevel_unload(ed, "bench", &a)) {
-            fprintf(stderr, "bench_sublevel: unload: %s\n", vt_last_error(ed)->msg);
+        if (vtc_sublevel_unload(ed, "bench", &a)) {
+            fprintf(stderr, "bench_sublevel: unload: %s\n", vtc_last_error(ed)->msg);
             return 1;
         }
         uint64_t u1 = (uint64_t)bench_now_ns();
@@ -168,8 +168,8 @@ int main(int argc, char **argv)
             vp_sublevel_infos in;
             vp_sublevel_info si = {0};
             bool found = false;
-            if (vt_sublevel_info(ed, &in)) {
-                fprintf(stderr, "bench_sublevel: sublevel info: %s\n", vt_last_error(ed)->msg);
+            if (vtc_sublevel_info(ed, &in)) {
+                fprintf(stderr, "bench_sublevel: sublevel info: %s\n", vtc_last_error(ed)->msg);
                 return 1;
             }
             size_t pos = 0;
@@ -216,7 +216,7 @@ int main(int argc, char **argv)
         if (pid)
             printf("daemon RSS: %ld KiB before, %ld loaded, %ld after the last unload\n", rss0, rss_loaded, rss_after);
     }
-    vt_close(ed);
+    vtc_close(ed);
     free(q.s);
     return q.failed;
 }

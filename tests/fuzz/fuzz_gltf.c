@@ -2,7 +2,7 @@
  * fuzz_gltf.c — libFuzzer target for the level import (client/import/:
  * import_walk.c, import_memio.c):
  * the input is a level file in memory, read by assimp and converted by
- * vt_level_import_mem exactly as `vantage sublevel load` converts a file
+ * imp_level_import_mem exactly as `vantage sublevel load` converts a file
  * (glTF binary when it starts with the "glTF" magic, else glTF JSON).
  *
  * Properties (a broken one calls abort()):
@@ -90,7 +90,7 @@ static bool name_ok(const char *name) { return memchr(name, 0, LVL_NAME) != NULL
 
 /* ---- 4: through the protocol ----------------------------------------------------- */
 
-static void check_wire(const vt_level *lv)
+static void check_wire(const imp_level *lv)
 {
     size_t len;
     for (uint32_t i = 0; i < lv->nmesh; i++) {
@@ -154,7 +154,7 @@ static void check_wire(const vt_level *lv)
 
 /* ---- 2 and 3 ------------------------------------------------------------------- */
 
-static void check_level(const vt_level *lv)
+static void check_level(const imp_level *lv)
 {
     CHECK(lv->nent || lv->nocc || lv->nlight);
     CHECK(lv->nmesh <= LVL_MAX_CLASSES);
@@ -226,13 +226,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     CHECK(buf != NULL);
     memcpy(buf, data, size);
     const char *hint = size >= 4 && !memcmp(buf, "glTF", 4) ? "glb" : "gltf";
-    vt_level lv;
+    imp_level lv;
     char err[ERR_LEN];
     memset(err, 0x55, sizeof err);
     memset(&lv, 0xA5, sizeof lv);
-    if (vt_level_import_mem(buf, size, hint, &lv, err, sizeof err) == 0) {
+    if (imp_level_import_mem(buf, size, hint, &lv, err, sizeof err) == 0) {
         check_level(&lv);
-        vt_level_free(&lv);
+        imp_level_free(&lv);
     } else {
         CHECK(memchr(err, 0, sizeof err) != NULL && err[0] != 0);
         CHECK(all_zero(&lv, sizeof lv));
