@@ -245,8 +245,10 @@ void test_threads_in_tdir(const char *prefix, const char *ext, void *(*fn)(void 
         fprintf(f, "junk %d: not an image, long enough for a magic number and flags\n", i);
         assert_int_equal(fclose(f), 0);
     }
-    pthread_t *th = calloc((size_t)n, sizeof *th);
-    test_thread *args = calloc((size_t)n, sizeof *args);
+    assert_true(n > 0);
+    size_t cnt = (size_t)(n > 0 ? n : 1); /* (the range GCC can see: -Walloc-size-larger-than) */
+    pthread_t *th = calloc(cnt, sizeof *th);
+    test_thread *args = calloc(cnt, sizeof *args);
     assert_true(th && args);
     for (int i = 0; i < n; i++) {
         args[i] = (test_thread){.t = &t, .id = i};
