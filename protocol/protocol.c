@@ -1,7 +1,8 @@
 /*
  * protocol.c — see protocol.h and PROTOCOL.md: errors and type names,
  * framing (on vp_bytes.h's writer and reader), and the session messages.
- * The scene and query messages are in vp_messages.c. Byte-level reads and
+ * The other messages are one file per family (vp_entities.c, vp_query.c,
+ * vp_assets.c, vp_sublevel.c, vp_events.c). Byte-level reads and
  * writes are vp_bytes.h's explicit little-endian shifts, so the code is
  * right on any host.
  * Decoders check sizes from the counts before touching records and never

@@ -10,6 +10,7 @@
 #include "culling.h"
 #include "errmap.h"
 #include "protocol.h"
+#include "vantage.h"
 #include "vt_err.h"
 
 #include <string.h>
@@ -24,6 +25,7 @@ typedef struct row {
 static const row cull_rows[] = {CULL_ERRORS(ROW)};
 static const row vt_rows[] = {VT_ERRORS(ROW)};
 static const row vp_rows[] = {VP_ERRORS(ROW)};
+static const row vtc_rows[] = {VTC_ERRORS(ROW)};
 #undef ROW
 
 typedef struct table {
@@ -38,6 +40,7 @@ static const table tables[] = {
     {"culling", cull_rows, sizeof cull_rows / sizeof cull_rows[0], cull_strerror, vp_code_from_cull},
     {"render", vt_rows, sizeof vt_rows / sizeof vt_rows[0], vt_strerror, vp_code_from_vt},
     {"protocol", vp_rows, sizeof vp_rows / sizeof vp_rows[0], vp_strerror, NULL},
+    {"client library", vtc_rows, sizeof vtc_rows / sizeof vtc_rows[0], vtc_strerror, NULL},
 };
 
 static bool vp_defined(int code)
@@ -55,7 +58,7 @@ static void test_errmap_every_code(void **state)
     (void)state;
     for (size_t t = 0; t < sizeof tables / sizeof tables[0]; t++) {
         const table *tb = &tables[t];
-        assert_true(tb->n >= 2);
+        assert_true(tb->n >= (tb->rows == vtc_rows ? 1u : 2u)); /* the client library has one code */
         for (size_t i = 0; i < tb->n; i++) {
             const row *r = &tb->rows[i];
             if (strcmp(tb->msg(r->value), r->msg) != 0 || !r->msg[0] || !strcmp(r->msg, "unknown error"))
@@ -109,6 +112,12 @@ static void test_errmap_decisions(void **state)
                      vp_strerror(spec[i].want));
     }
     assert_int_equal(vp_code_from_cull(CULL_OK), VP_OK);
+    /* the client library's codes sit beside the protocol's, none shared:
+       vtc_strerror names both */
+    for (size_t i = 0; i < sizeof vtc_rows / sizeof vtc_rows[0]; i++)
+        if (vp_defined(vtc_rows[i].value)) fail_msg("%s shares a protocol code", vtc_rows[i].name);
+    for (size_t i = 0; i < sizeof vp_rows / sizeof vp_rows[0]; i++)
+        assert_string_equal(vtc_strerror(vp_rows[i].value), vp_rows[i].msg);
     assert_int_equal(vp_code_from_vt(VT_OK), VP_OK);
 }
 

@@ -38,6 +38,14 @@ struct vtc_client {
     vtc_error stream_err;    /* code != 0: an ERROR ended the stream during another call */
 };
 
+const char *vtc_strerror(int code)
+{
+    switch (code) {
+        VTC_ERRORS(VP_ERR_MSG_ROW_)
+    }
+    return vp_strerror(code);
+}
+
 static int set_err(vtc_client *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 static int set_err(vtc_client *c, int code, const char *fmt, ...)
 {

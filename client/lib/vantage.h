@@ -36,8 +36,16 @@
 extern "C" {
 #endif
 
-#define VTC_ERR_IO (-100)
+/* The library's own codes, a space beside the protocol's VP_ERRORS (no
+ * value shared): the calls return a VP code or one of these. */
+#define VTC_ERRORS(X) X(VTC_ERR_IO, -100, "connection lost, timed out or out of memory")
+VP_ERR_ENUM(VTC_ERRORS);
 #define VTC_DEFAULT_PORT VP_DEFAULT_PORT
+
+/* The message for any code a call returns: VTC_ERRORS' rows, else
+ * vp_strerror's ("unknown error" for a value in neither). Never NULL;
+ * static storage. */
+const char *vtc_strerror(int code);
 #define VTC_MAX_REPLY (1u << 30) /* largest reply frame accepted */
 
 typedef struct vtc_client vtc_client;
