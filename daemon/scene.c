@@ -212,7 +212,7 @@ static void edit_done(scene *s, uint32_t n, uint32_t seen, uint32_t *ev)
 
 /* scene_add, or with `at` the restore of a snapshot: handles[] are given
  * (slots the world has reserved) instead of handed out. */
-static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, bool at, scene_err *err)
+static int add_batch(scene *s, uint16_t loading, const vp_entity_batch *b, uint32_t *handles, bool at, scene_err *err)
 {
     uint32_t n = b->count;
     cull_world_info info;
@@ -231,7 +231,7 @@ static int add_batch(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t
     for (uint32_t i = 0; i < n; i++) {
         vp_entity e;
         if ((rc = record_desc(s, b, i, &e, &descs[i], err))) goto out;
-        if ((rc = scene_sublevel_target(s, load, &descs[i].sublevel, i, err))) goto out;
+        if ((rc = scene_sublevel_target(s, loading, &descs[i].sublevel, i, err))) goto out;
         ids[i] = e.id;
         if (idmap_get(&s->ids, e.id, NULL)) {
             rc = scene_fail(err, VP_ERR_DUPLICATE, i, "record %u: id %llu already exists", i, (unsigned long long)e.id);
@@ -274,9 +274,9 @@ out:
     return rc;
 }
 
-int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
+int scene_add(scene *s, uint16_t loading, const vp_entity_batch *b, uint32_t *handles, scene_err *err)
 {
-    return add_batch(s, load, b, handles, false, err);
+    return add_batch(s, loading, b, handles, false, err);
 }
 
 int scene_add_at(scene *s, const vp_entity_batch *b, const uint32_t *handles, scene_err *err)
@@ -284,7 +284,7 @@ int scene_add_at(scene *s, const vp_entity_batch *b, const uint32_t *handles, sc
     return add_batch(s, 0, b, (uint32_t *)handles, true, err);
 }
 
-int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *err)
+int scene_update(scene *s, uint16_t loading, const vp_entity_batch *b, scene_err *err)
 {
     uint32_t n = b->count;
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
@@ -316,7 +316,7 @@ int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *e
            moves into or out of a sub-level no query sees (it would appear
            or vanish on its own, before the commit or after the unload) */
         uint16_t from = old[i].sublevel, to = descs[i].sublevel;
-        if ((rc = scene_sublevel_writable(s, load, from, i, err)) || (rc = scene_sublevel_writable(s, load, to, i, err)))
+        if ((rc = scene_sublevel_writable(s, loading, from, i, err)) || (rc = scene_sublevel_writable(s, loading, to, i, err)))
             goto out;
         if (from != to && (scene_sublevel_hidden(s, from) || scene_sublevel_hidden(s, to))) {
             rc = scene_fail(err, VP_ERR_STATE, i, "record %u: entity %llu cannot move between sub-levels %u and %u while "
@@ -356,7 +356,7 @@ out:
     return rc;
 }
 
-int scene_remove(scene *s, uint16_t load, const vp_id_batch *b, scene_err *err)
+int scene_remove(scene *s, uint16_t loading, const vp_id_batch *b, scene_err *err)
 {
     uint32_t n = b->count, seen = 0;
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
@@ -371,7 +371,7 @@ int scene_remove(scene *s, uint16_t load, const vp_id_batch *b, scene_err *err)
             goto out;
         }
         cull_entity_get(s->world, (cull_handle)h, &d);
-        if ((rc = scene_sublevel_writable(s, load, d.sublevel, i, err))) goto out;
+        if ((rc = scene_sublevel_writable(s, loading, d.sublevel, i, err))) goto out;
         seen += !scene_sublevel_hidden(s, d.sublevel);
     }
     if ((rc = check_unique(ids, n, err))) goto out;
@@ -388,10 +388,10 @@ out:
     return rc;
 }
 
-int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err)
+int scene_mesh_put(scene *s, uint16_t loading, const vp_mesh *m, scene_err *err)
 {
     uint16_t owner = s->class_owner[m->class_id];
-    if (owner && owner != load)
+    if (owner && owner != loading)
         return scene_fail(err, VP_ERR_STATE, UINT32_MAX, "class %u is reserved for sub-level %s", m->class_id,
                           s->sl[owner].name ? s->sl[owner].name : "?");
     if (m->vertex_count > s->lim.max_mesh_verts)
@@ -425,10 +425,10 @@ int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err)
     return VP_OK;
 }
 
-int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err *err)
+int scene_occluder_put(scene *s, uint16_t loading, const vp_occluder *o, scene_err *err)
 {
     uint16_t sub = 0;
-    int src = scene_sublevel_target(s, load, &sub, UINT32_MAX, err);
+    int src = scene_sublevel_target(s, loading, &sub, UINT32_MAX, err);
     if (src) return src;
     /* the cost bound of one OCCLUDER_PUT: the build is O(n log n) in its
        triangles (cull_occluder.c), n at most the limit, and at most what
@@ -495,7 +495,7 @@ static uint16_t item_sublevel(const scene *s, const idmap *which, uint64_t v)
                                   : ((const scene_light *)(uintptr_t)v)->sublevel;
 }
 
-int scene_remove_ids(scene *s, uint16_t load, idmap *which, const vp_id_batch *b, scene_err *err)
+int scene_remove_ids(scene *s, uint16_t loading, idmap *which, const vp_id_batch *b, scene_err *err)
 {
     bool seen = false;
     for (uint32_t i = 0; i < b->count; i++) {
@@ -504,7 +504,7 @@ int scene_remove_ids(scene *s, uint16_t load, idmap *which, const vp_id_batch *b
             return scene_fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no such id %llu", i,
                         (unsigned long long)vp_id_get(b, i));
         uint16_t sub = item_sublevel(s, which, v);
-        int rc = scene_sublevel_writable(s, load, sub, i, err);
+        int rc = scene_sublevel_writable(s, loading, sub, i, err);
         if (rc) return rc;
         seen |= !scene_sublevel_hidden(s, sub);
     }
@@ -573,11 +573,11 @@ bool scene_light_drawable(const vp_light *l)
     return cull_light_validate(&cl, rad, NULL, 0) == CULL_OK;
 }
 
-int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, scene_err *err)
+int scene_lights_put(scene *s, uint16_t loading, const uint8_t *recs, uint32_t n, scene_err *err)
 {
     size_t fresh = 0;
     uint16_t sub = 0;
-    int src = scene_sublevel_target(s, load, &sub, UINT32_MAX, err);
+    int src = scene_sublevel_target(s, loading, &sub, UINT32_MAX, err);
     if (src) return src;
     uint64_t *ids = malloc(((size_t)n + 1) * sizeof *ids);
     if (!ids) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for lights");

@@ -103,21 +103,21 @@ void scene_free(scene *s);
 /* Fills e and returns code (scene.c and sublevel.c). */
 int scene_fail(scene_err *e, int code, uint32_t index, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 
-/* Edits. `load` is the sub-level the editing connection is loading (0 =
+/* Edits. `loading` is the sub-level the editing connection is loading (0 =
  * none): what it adds goes into that sub-level, invisible until commit.
  * Entity batches (records from the protocol): handles gets one per record;
  * a record with sub-level 0 from a loading connection joins its load. */
-int scene_add(scene *s, uint16_t load, const vp_entity_batch *b, uint32_t *handles, scene_err *err);
+int scene_add(scene *s, uint16_t loading, const vp_entity_batch *b, uint32_t *handles, scene_err *err);
 /* A snapshot's entities back at their handles (slots the world reserved:
  * cull_world_slots_restore); otherwise as scene_add. */
 int scene_add_at(scene *s, const vp_entity_batch *b, const uint32_t *handles, scene_err *err);
-int scene_update(scene *s, uint16_t load, const vp_entity_batch *b, scene_err *err);
-int scene_remove(scene *s, uint16_t load, const vp_id_batch *b, scene_err *err);
+int scene_update(scene *s, uint16_t loading, const vp_entity_batch *b, scene_err *err);
+int scene_remove(scene *s, uint16_t loading, const vp_id_batch *b, scene_err *err);
 
-int scene_mesh_put(scene *s, uint16_t load, const vp_mesh *m, scene_err *err);
-int scene_occluder_put(scene *s, uint16_t load, const vp_occluder *o, scene_err *err);
-int scene_remove_ids(scene *s, uint16_t load, idmap *which, const vp_id_batch *b, scene_err *err);
-int scene_lights_put(scene *s, uint16_t load, const uint8_t *recs, uint32_t n, scene_err *err);
+int scene_mesh_put(scene *s, uint16_t loading, const vp_mesh *m, scene_err *err);
+int scene_occluder_put(scene *s, uint16_t loading, const vp_occluder *o, scene_err *err);
+int scene_remove_ids(scene *s, uint16_t loading, idmap *which, const vp_id_batch *b, scene_err *err);
+int scene_lights_put(scene *s, uint16_t loading, const uint8_t *recs, uint32_t n, scene_err *err);
 /* A light record as the renderers take it: the culling light and colour x
  * intensity per channel (double, so an overflow is seen, not rounded). */
 void scene_light_cull(const vp_light *l, cull_light *cl, double radiance[3]);
@@ -154,15 +154,15 @@ bool scene_sublevel_work(scene *s, uint32_t budget);
 /* What a query sees: every visible sub-level, within `only` if given
  * (CULL_SUBLEVEL_WORDS words). NULL when that is every sub-level; else buf. */
 const uint64_t *scene_visible(const scene *s, const uint64_t *only, uint64_t *buf);
-/* Whether connection `load` (0 = not loading) may change what sub-level
- * sub holds (add to it, take from it): not one another connection is
+/* Whether connection `loading` (its open load; 0 = none) may change what
+ * sub-level sub holds (add to it, take from it): not one another connection is
  * loading (STATE), nor one being unloaded (BUSY). VP_OK or an error naming
  * record `index` (UINT32_MAX: none). */
-int scene_sublevel_writable(const scene *s, uint16_t load, uint16_t sub, uint32_t index, scene_err *err);
-/* Where an add of connection `load` puts something of sub-level *sub: a
+int scene_sublevel_writable(const scene *s, uint16_t loading, uint16_t sub, uint32_t index, scene_err *err);
+/* Where an add of connection `loading` puts something of sub-level *sub: a
  * loading connection's sub-level 0 becomes its load and it may add into
  * its load only; others as scene_sublevel_writable. */
-int scene_sublevel_target(const scene *s, uint16_t load, uint16_t *sub, uint32_t index, scene_err *err);
+int scene_sublevel_target(const scene *s, uint16_t loading, uint16_t *sub, uint32_t index, scene_err *err);
 /* Whether no query sees sub-level id now (being loaded or unloaded). */
 static inline bool scene_sublevel_hidden(const scene *s, uint16_t id)
 {

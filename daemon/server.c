@@ -17,6 +17,7 @@
  * point, the end of before_sleep.
  */
 #include "server_internal.h"
+#include "vp_grow.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -491,7 +492,7 @@ static void conn_read(server *s, int fd)
             return;
         }
         if (c->in_cap - c->in_len < 65536) {
-            size_t cap = c->in_cap ? c->in_cap * 2 : 65536;
+            size_t cap = vp_grow_cap(c->in_cap, c->in_len + 65536, 65536, 1, SIZE_MAX);
             size_t most = (size_t)limit + VP_HEADER_SIZE + 65536;
             if (cap > most) cap = most;
             if (cap <= c->in_cap) break; /* full: parse what is there first */

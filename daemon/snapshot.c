@@ -25,6 +25,7 @@
  * scene without locks and allocates only its own buffer.
  */
 #include "snapshot.h"
+#include "vp_err.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -303,12 +304,6 @@ static void *take_array(vp_reader *r, size_t n, size_t sz, bool *nomem)
     return m;
 }
 
-static int fail(char *err, size_t errlen, const char *what)
-{
-    snprintf(err, errlen, "%s", what);
-    return -1;
-}
-
 typedef struct sl_saved {
     uint8_t state;
     uint32_t owner, members_cap, nmembers, ndoomed, doomed_pos;
@@ -321,9 +316,9 @@ static int load_body(vp_reader *r, bool v1, scene *s, char *err, size_t errlen)
     bool nomem = false;
     uint64_t epoch = vp_get_u64(r), edits = vp_get_u64(r), debris = vp_get_u64(r);
     uint32_t nsl = vp_get_u32(r);
-    if (nsl > SCENE_MAX_SUBLEVELS) return fail(err, errlen, "more sub-levels than a scene holds");
+    if (nsl > SCENE_MAX_SUBLEVELS) return vp_errf(err, errlen, -1, "%s", "more sub-levels than a scene holds");
     sl_saved *sv = calloc((size_t)nsl + 1, sizeof *sv);
-    if (!sv) return fail(err, errlen, "out of memory");
+    if (!sv) return vp_errf(err, errlen, -1, "%s", "out of memory");
     int ret = -1;
     const char *why = "truncated or corrupt";
     for (uint32_t id = 1; id <= nsl && !r->short_read; id++) {
@@ -573,21 +568,21 @@ int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *
     char why[160];
     if (n < HDR) {
         snprintf(why, sizeof why, "shorter than its header (%zu bytes, offset 0)", n);
-        return fail(err, errlen, why);
+        return vp_errf(err, errlen, -1, "%s", why);
     }
     bool v1 = !memcmp(p, MAGIC_V1, 8);
-    if (!v1 && memcmp(p, MAGIC, 8)) return fail(err, errlen, "not a Vantage snapshot (bad magic at offset 0)");
+    if (!v1 && memcmp(p, MAGIC, 8)) return vp_errf(err, errlen, -1, "%s", "not a Vantage snapshot (bad magic at offset 0)");
     vp_reader h;
     vp_reader_init(&h, p + 8, HDR - 8);
     uint64_t g = vp_get_u64(&h), first = vp_get_u64(&h), body = vp_get_u64(&h);
     uint32_t bc = vp_get_u32(&h), hc = vp_get_u32(&h);
-    if (hc != (uint32_t)crc32(crc32(0L, Z_NULL, 0), p, 36)) return fail(err, errlen, "header CRC mismatch: the header (offset 0, 40 bytes) is damaged");
+    if (hc != (uint32_t)crc32(crc32(0L, Z_NULL, 0), p, 36)) return vp_errf(err, errlen, -1, "%s", "header CRC mismatch: the header (offset 0, 40 bytes) is damaged");
     *seq = first;
-    if (g != gen) return fail(err, errlen, "its header names another generation (offset 8)");
+    if (g != gen) return vp_errf(err, errlen, -1, "%s", "its header names another generation (offset 8)");
     if (body != n - HDR) {
         snprintf(why, sizeof why, "truncated or extended: %zu bytes, its header says %llu (offset %zu)", n,
                  (unsigned long long)body + HDR, body < n - HDR ? (size_t)body + HDR : n);
-        return fail(err, errlen, why);
+        return vp_errf(err, errlen, -1, "%s", why);
     }
     uLong c = crc32(0L, Z_NULL, 0);
     for (size_t off = 0; off < body;) {
@@ -598,7 +593,7 @@ int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *
     if ((uint32_t)c != bc) {
         snprintf(why, sizeof why, "body CRC mismatch: the body (offset %u, %llu bytes) is damaged", HDR,
                  (unsigned long long)body);
-        return fail(err, errlen, why);
+        return vp_errf(err, errlen, -1, "%s", why);
     }
     vp_reader r;
     vp_reader_init(&r, p + HDR, (size_t)body);

@@ -133,9 +133,9 @@ static const char *at_record(uint32_t index, char buf[32])
     return buf;
 }
 
-int scene_sublevel_writable(const scene *s, uint16_t load, uint16_t sub, uint32_t index, scene_err *err)
+int scene_sublevel_writable(const scene *s, uint16_t loading, uint16_t sub, uint32_t index, scene_err *err)
 {
-    if (!sub || sub > s->nsublevels || sub == load) return VP_OK;
+    if (!sub || sub > s->nsublevels || sub == loading) return VP_OK;
     const scene_sublevel *l = &s->sl[sub];
     char at[32];
     if (l->state == VP_SL_LOADING)
@@ -147,15 +147,15 @@ int scene_sublevel_writable(const scene *s, uint16_t load, uint16_t sub, uint32_
     return VP_OK;
 }
 
-int scene_sublevel_target(const scene *s, uint16_t load, uint16_t *sub, uint32_t index, scene_err *err)
+int scene_sublevel_target(const scene *s, uint16_t loading, uint16_t *sub, uint32_t index, scene_err *err)
 {
-    if (load && *sub == 0) *sub = load;
-    if (load && *sub != load) {
+    if (loading && *sub == 0) *sub = loading;
+    if (loading && *sub != loading) {
         char at[32];
         return scene_fail(err, VP_ERR_INVALID, index, "%ssub-level %u, but this connection is loading %s",
-                          at_record(index, at), *sub, sl_name(s, load));
+                          at_record(index, at), *sub, sl_name(s, loading));
     }
-    return scene_sublevel_writable(s, load, *sub, index, err);
+    return scene_sublevel_writable(s, loading, *sub, index, err);
 }
 
 uint8_t scene_sublevel_state(const scene *s, uint16_t id)

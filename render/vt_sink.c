@@ -4,6 +4,7 @@
  */
 #include "vt_sink.h"
 #include "vt_image.h"
+#include "vp_grow.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -36,10 +37,8 @@ bool vt_sink_room(vt_sink *s)
     if (s->err) return false;
     if (s->fd >= 0) return s->len < s->cap || vt_sink_flush(s);
     if (s->len < s->cap) return true;
-    size_t cap = s->cap < VT_SINK_CHUNK ? VT_SINK_CHUNK : s->cap;
-    if (cap > SIZE_MAX / 2) return vt_sink_fail(s, ENOMEM, "out of memory");
-    cap *= 2;
-    uint8_t *b = realloc(s->buf, cap);
+    size_t cap = vp_grow_cap(s->cap, s->cap + 1, VT_SINK_CHUNK, 1, SIZE_MAX);
+    uint8_t *b = cap ? realloc(s->buf, cap) : NULL;
     if (!b) return vt_sink_fail(s, ENOMEM, "out of memory");
     s->buf = b;
     s->cap = cap;

@@ -3,6 +3,7 @@
  * growing receive buffer; each call encodes into a growing send buffer.
  */
 #include "vantage.h"
+#include "vp_grow.h"
 
 #include "cull_mat.h"
 
@@ -108,8 +109,8 @@ int vtc_recv(vtc_client *c, vp_header *h, const uint8_t **payload, int timeout_m
             c->in_pos = 0;
         }
         if (c->in_cap - c->in_len < 65536) {
-            size_t cap = c->in_cap ? c->in_cap * 2 : 1u << 17;
-            uint8_t *n = realloc(c->in, cap);
+            size_t cap = vp_grow_cap(c->in_cap, c->in_len + 65536, 1u << 17, 1, SIZE_MAX);
+            uint8_t *n = cap ? realloc(c->in, cap) : NULL;
             if (!n) return set_err(c, VTC_ERR_IO, "out of memory");
             c->in = n;
             c->in_cap = cap;
@@ -143,9 +144,8 @@ static vp_writer *request(vtc_client *c, size_t size, uint32_t *req)
     *req = vtc_next_req(c);
     c->out_nomem = false;
     if (c->out_cap < size) {
-        size_t cap = c->out_cap ? c->out_cap : 4096;
-        while (cap < size) cap *= 2;
-        uint8_t *n = realloc(c->out, cap);
+        size_t cap = vp_grow_cap(c->out_cap, size, 4096, 1, SIZE_MAX);
+        uint8_t *n = cap ? realloc(c->out, cap) : NULL;
         if (!n) {
             set_err(c, VTC_ERR_IO, "out of memory for a request of %zu bytes", size);
             c->out_nomem = true;
