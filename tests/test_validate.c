@@ -675,7 +675,7 @@ static void test_old_journal_replays(void **state)
     assert_int_equal(st.lights, 2);
     vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
     assert_true(vtc_view_perspective(&m.view, (double[3]){0, 2, 0}, (double[3]){0, 0, -30}, (double[3]){0, 1, 0}, 70,
-                                    64, 48, 0.1, 300));
+                                     64, 48, 0.1, 300));
     vp_frame fr;
     assert_int_equal(vtc_render(v, &m, &fr), VP_OK);
     vp_light_tiles t;

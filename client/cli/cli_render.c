@@ -120,7 +120,7 @@ static bool frame_request(const frame_opts *f, const double eye[3], out_kind k, 
                      .quality = k == OUT_JPG ? (uint8_t)f->quality : 0, .flags = f->flags, .renderer = f->renderer,
                      .exposure_ev = (float)f->ev};
     return vtc_view_perspective(&m->view, eye, f->at, f->up, f->fov, (uint16_t)f->w, (uint16_t)f->h, f->znear,
-                               f->zfar);
+                                f->zfar);
 }
 
 /* Writes frame fr to path as kind k. 0, or 1 with a message printed. */

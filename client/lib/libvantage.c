@@ -474,7 +474,7 @@ int vtc_query(vtc_client *c, const vp_view *views, uint32_t nviews, uint8_t flag
 }
 
 int vtc_query_sub(vtc_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
-                 const uint16_t *subs, uint32_t nsub, vp_vis_result *out)
+                  const uint16_t *subs, uint32_t nsub, vp_vis_result *out)
 {
     flags &= (uint8_t)~VP_Q_SUBLEVELS; /* the list is there iff subs is */
     uint32_t req;
@@ -599,7 +599,7 @@ int vtc_put_occluder(vtc_client *c, uint64_t id, const double origin[3], const f
 }
 
 int vtc_put_mesh(vtc_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
-                const uint32_t *idx, uint32_t ni)
+                 const uint32_t *idx, uint32_t ni)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_mesh(nv, ni, nrm != NULL), &req);
@@ -630,7 +630,7 @@ static bool camera(vp_view *v, const double eye[3], const double at[3], const do
 }
 
 bool vtc_view_perspective(vp_view *v, const double eye[3], const double at[3], const double up[3], double fovy_deg,
-                         uint16_t w, uint16_t h, double znear, double zfar)
+                          uint16_t w, uint16_t h, double znear, double zfar)
 {
     if (!(fovy_deg > 0 && fovy_deg < 180) || !w || !h || !(znear > 0) || !(zfar > znear)) return false;
     double proj[16];
@@ -639,7 +639,7 @@ bool vtc_view_perspective(vp_view *v, const double eye[3], const double at[3], c
 }
 
 bool vtc_view_ortho(vp_view *v, const double eye[3], const double at[3], const double up[3], double width,
-                   double height, uint16_t w, uint16_t h, double znear, double zfar)
+                    double height, uint16_t w, uint16_t h, double znear, double zfar)
 {
     if (!(width > 0) || !(height > 0) || !w || !h || !(zfar > znear)) return false;
     double proj[16];

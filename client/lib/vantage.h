@@ -115,11 +115,11 @@ int vtc_list(vtc_client *c, uint64_t cursor, uint32_t max, vp_list_reply *out);
  * VP_Q_SUBLEVELS is ignored), min_area >= 0 pixels; out views the reply
  * (vp_vis_rec_get), valid until the next call. */
 int vtc_query(vtc_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
-             vp_vis_result *out);
+              vp_vis_result *out);
 /* The same, seeing only the sub-levels subs[0..nsub) (1..4096 ids); subs
  * NULL is vtc_query (VP_Q_SUBLEVELS is set exactly when subs is given). */
 int vtc_query_sub(vtc_client *c, const vp_view *views, uint32_t nviews, uint8_t flags, float min_area,
-                 const uint16_t *subs, uint32_t nsub, vp_vis_result *out);
+                  const uint16_t *subs, uint32_t nsub, vp_vis_result *out);
 /* One frame (RENDER -> FRAME); out->data is valid until the next call. */
 int vtc_render(vtc_client *c, const vp_render *m, vp_frame *out);
 int vtc_subscribe(vtc_client *c, uint32_t kinds);
@@ -179,7 +179,7 @@ int vtc_remove_occluders(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_
  * NO_NORMALS), idx ni indices (a multiple of 3, each < nv, counter-
  * clockwise triangles). */
 int vtc_put_mesh(vtc_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
-                const uint32_t *idx, uint32_t ni);
+                 const uint32_t *idx, uint32_t ni);
 
 /* Views: gluLookAt + gluPerspective (fovy in degrees, aspect = w/h) or an
  * orthographic box of width x height metres, camera-relative (origin = eye),
@@ -188,9 +188,9 @@ int vtc_put_mesh(vtc_client *c, uint16_t class_id, const float *pos, const float
  * parallel to the view), w or h 0, znear <= 0 (perspective), zfar <= znear,
  * fovy outside (0, 180), or width / height <= 0. */
 bool vtc_view_perspective(vp_view *v, const double eye[3], const double at[3], const double up[3], double fovy_deg,
-                         uint16_t w, uint16_t h, double znear, double zfar);
+                          uint16_t w, uint16_t h, double znear, double zfar);
 bool vtc_view_ortho(vp_view *v, const double eye[3], const double at[3], const double up[3], double width,
-                   double height, uint16_t w, uint16_t h, double znear, double zfar);
+                    double height, uint16_t w, uint16_t h, double znear, double zfar);
 
 #ifdef __cplusplus
 }

@@ -70,7 +70,7 @@ int main(int argc, char **argv)
         vtc_client *c;
         char err[256];
         if (vtc_connect(&(vtc_connect_opts){.port = port, .role = VP_ROLE_EDITOR, .name = "bench_destruct"}, &c, err,
-                       sizeof err)) {
+                        sizeof err)) {
             fprintf(stderr, "bench_destruct: %s\n", err);
             return 3;
         }

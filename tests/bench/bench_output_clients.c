@@ -40,7 +40,7 @@ static void *viewer(void *arg)
     vtc_client *c = connect_as(VP_ROLE_VIEWER);
     vp_frame_sub sub = {.r = {.format = VP_FRAME_RAW}, .max_fps = VP_FRAME_SUB_MAX_FPS};
     vtc_view_perspective(&sub.r.view, (double[]){150, 200, 150}, (double[]){0, 0, 0}, NULL, 60, (uint16_t)W,
-                        (uint16_t)H, 0.1, 10000);
+                         (uint16_t)H, 0.1, 10000);
     if (vtc_frame_subscribe(c, &sub)) {
         fprintf(stderr, "subscribe: %s\n", vtc_last_error(c)->msg);
         exit(1);
