@@ -101,10 +101,13 @@ int vp_frame_check(const uint8_t *buf, size_t n, uint32_t max_payload, vp_header
 void vp_frame_begin(vp_writer *w, uint16_t type, uint32_t req)
 {
     w->frame_start = w->len;
-    vp_put_u32(w, 0);
-    vp_put_u16(w, type);
-    vp_put_u16(w, 0);
-    vp_put_u32(w, req);
+    /* one reservation for the header, not four: every reply starts here */
+    uint8_t *p = vp_reserve(w, VP_HEADER_SIZE);
+    if (!p) return;
+    vp_st_u32(p, 0); /* the length, patched by vp_frame_end */
+    vp_st_u16(p + 4, type);
+    vp_st_u16(p + 6, 0); /* flags */
+    vp_st_u32(p + 8, req);
 }
 
 bool vp_frame_end(vp_writer *w)
