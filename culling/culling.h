@@ -25,6 +25,36 @@
  * AABB's largest distance from its cell's origin, so float evaluation never
  * culls a bound the exact (double) test keeps.
  *
+ * Derived bounds (cull_bounds_from_trs): a mesh's local box [lo, hi] under
+ * position t, quaternion q (x,y,z,w) and scale S yields an AABB and sphere
+ * that contain the exact image of the box. Exactly, with M = R(q/|q|) S,
+ * c = (lo+hi)/2, h = (hi-lo)/2, the image's AABB is t + Mc -+ |M|h (Arvo).
+ * R is formed as I - sigma*(...) with sigma = 2/|q|^2, which is R(q/|q|)
+ * exactly, so renormalising q is the same as not (|q| is only checked to be
+ * within 1e-3 of 1). With u = 2^-53, A = sum_j |S_j| max(|lo_j|, |hi_j|):
+ *  - each entry of R: off-diagonals s(xy-zw) err <= 2u s(|xy|+|zw|) + 6u <=
+ *    8u (s(|xy|+|zw|) <= 1 by AM-GM); diagonals 1 - s(y^2+z^2) err <= 9u*2
+ *    + u = 19u (|q|^2 has 4u, 2/|q|^2 5u); times S_j: |M~ - M|_ij <= 20u|S_j|;
+ *  - c~, h~: u max(|lo_j|,|hi_j|) each (a subnormal difference is exact);
+ *  - the dots M~c~ and |M~|h~: 3u each (gamma_3), relative to A;
+ *    so mc~ and mh~ are each within (3u + 20u + u)A = 24u A of Mc, |M|h;
+ *  - mh~ + W, then mc~ -+ that: 3u A more (|mc~|, mh~ <= A(1+2^-40)).
+ * Sum: 51u A < 2^-47.3 A, first order; second-order terms are below
+ * 2^-90 A. W = 2^-46 A (= 128u A, a 2.5x margin) plus 2^-900 m for
+ * underflow (at most 2^7 operations lose 2^-1075 each, scaled by at most
+ * |S| |lo,hi| < 2^128 2^40). So mc~ - (mh~ + W) <= Mc - |M|h exactly; the
+ * last step, t + that, rounds to nearest, i.e. within one ulp, and
+ * next_down (next_up for the max) makes it <= (>=) the exact face. The
+ * sphere: centre any double, each axis' reach to the farther AABB face
+ * rounded up by one ulp, radius sqrt(sum e^2)(1 + 2^-48) rounded up (the
+ * squares, sum and root lose < 4u; 2^-48 is 16u), or 2 max e when
+ * max e < 2^-500 (squares would underflow; 2 > sqrt 3). The AABB contains
+ * the image, so the sphere does. Cost: each face moves out by at most
+ * 2^-45 A + 2 ulp(|t| + A) + 2^-899 m beyond the exact one;
+ * tests/test_bounds.c holds it to 2^-43 (|t_i| + A) + 2^-898 m against a
+ * long-double reference. A position
+ * 1e9 m from the origin adds only its own two ulps (2.4e-7 m).
+ *
  * No I/O, no sockets, no files. Errors are negative codes from CULL_ERRORS.
  */
 #ifndef VANTAGE_CULLING_H
@@ -121,6 +151,28 @@ int cull_entity_remove(cull_world *w, cull_handle h);
 /* Reads back an entity's stored bounds (the desc as normalised at add/update:
  * derived sphere or AABB filled in). */
 int cull_entity_get(const cull_world *w, cull_handle h, cull_entity_desc *out);
+
+/* An entity's transform: local box -> world, in the order scale, rotate,
+ * translate. */
+#define CULL_QUAT_TOLERANCE 1e-3 /* |rot| may be 1 +- this; it is renormalised */
+typedef struct cull_trs {
+    double pos[3];   /* metres, within +-CULL_MAX_COORD */
+    double rot[4];   /* unit quaternion x, y, z, w */
+    float  scale[3]; /* per local axis; negative mirrors; 0 on at most one axis */
+} cull_trs;
+/* Derives an entity's bounds from a mesh's local box [local_min, local_max]
+ * (metres, within +-CULL_MAX_COORD, min <= max; a zero extent is fine) and
+ * t: fills d's center, radius, aabb_min and aabb_max, rounded outward (the
+ * proof is under "Derived bounds" above) and leaves its class, sub-level and
+ * flags as they are, so d goes to cull_entity_add/update as is (which check
+ * the derived bounds' ranges). Refuses NaN or Inf in any field
+ * (CULL_ERR_NONFINITE), a quaternion whose length is not within
+ * CULL_QUAT_TOLERANCE of 1 or a scale 0 on two or three axes
+ * (CULL_ERR_INVALID), min > max (CULL_ERR_AABB), a position or local bound
+ * beyond +-CULL_MAX_COORD (CULL_ERR_RANGE); err (may be NULL) names the
+ * field. On error d is unchanged. Stores nothing; about 20 ns. */
+int cull_bounds_from_trs(const double local_min[3], const double local_max[3], const cull_trs *t,
+                         cull_entity_desc *d, char *err, size_t errlen);
 
 /* ---- persistence: the handle allocator saved and restored exactly ------ */
 /* Slots ever used (live or free); slot s's generation (of its live handle,
