@@ -119,6 +119,15 @@ static double check_case(const double lmin[3], const double lmax[3], const cull_
         }
         if (!(dd <= r2)) fail_msg("corner %d at distance %.21Lg outside radius %.17g", k, sqrtl(dd), d.radius);
     }
+    /* the proof's sharper claim: the sphere holds the derived AABB's corners */
+    for (int k = 0; k < 8; k++) {
+        long double dd = 0;
+        for (int i = 0; i < 3; i++) {
+            long double v = (long double)((k >> i & 1) ? d.aabb_max[i] : d.aabb_min[i]) - d.center[i];
+            dd += v * v;
+        }
+        if (!(dd <= r2)) fail_msg("AABB corner %d at distance %.21Lg outside radius %.17g", k, sqrtl(dd), d.radius);
+    }
     /* the sphere is the derived AABB's: at most its slack wider than the
      * exact AABB's half-diagonal */
     long double tmax = fmaxl(fabsl((long double)t->pos[0]), fmaxl(fabsl((long double)t->pos[1]), fabsl((long double)t->pos[2])));
