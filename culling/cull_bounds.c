@@ -36,6 +36,10 @@ static inline double next_up(double x)
 
 static inline double next_down(double x) { return -next_up(-x); }
 
+/* fmax without the libm call (GCC does not inline it at -O2); the
+ * arguments here are never NaN */
+static inline double max2(double a, double b) { return a > b ? a : b; }
+
 static const char axis_name[4] = {'x', 'y', 'z', 'w'};
 
 /* The field checks, each naming the field; on failure d is untouched. */
@@ -104,7 +108,7 @@ int cull_bounds_from_trs(const double local_min[3], const double local_max[3], c
     for (int j = 0; j < 3; j++) {
         c[j] = (local_min[j] + local_max[j]) * 0.5;
         h[j] = (local_max[j] - local_min[j]) * 0.5;
-        mag += fabs((double)t->scale[j]) * fmax(fabs(local_min[j]), fabs(local_max[j]));
+        mag += fabs((double)t->scale[j]) * max2(fabs(local_min[j]), fabs(local_max[j]));
     }
     /* W = 2^-46 A + 2^-900: covers every rounding before the last add */
     const double widen = mag * 0x1p-46 + 0x1p-900;
@@ -125,8 +129,8 @@ int cull_bounds_from_trs(const double local_min[3], const double local_max[3], c
     double ctr[3], e[3], emax = 0;
     for (int i = 0; i < 3; i++) {
         ctr[i] = lo[i] * 0.5 + hi[i] * 0.5;
-        e[i] = fmax(next_up(ctr[i] - lo[i]), next_up(hi[i] - ctr[i]));
-        emax = fmax(emax, e[i]);
+        e[i] = max2(next_up(ctr[i] - lo[i]), next_up(hi[i] - ctr[i]));
+        emax = max2(emax, e[i]);
     }
     double rad;
     if (emax < 0x1p-500) /* squares would underflow: 2 max e >= sqrt(3) max e */

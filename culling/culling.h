@@ -26,34 +26,41 @@
  * culls a bound the exact (double) test keeps.
  *
  * Derived bounds (cull_bounds_from_trs): a mesh's local box [lo, hi] under
- * position t, quaternion q (x,y,z,w) and scale S yields an AABB and sphere
- * that contain the exact image of the box. Exactly, with M = R(q/|q|) S,
- * c = (lo+hi)/2, h = (hi-lo)/2, the image's AABB is t + Mc -+ |M|h (Arvo).
- * R is formed as I - sigma*(...) with sigma = 2/|q|^2, which is R(q/|q|)
- * exactly, so renormalising q is the same as not (|q| is only checked to be
- * within 1e-3 of 1). With u = 2^-53, A = sum_j |S_j| max(|lo_j|, |hi_j|):
- *  - each entry of R: off-diagonals s(xy-zw) err <= 2u s(|xy|+|zw|) + 6u <=
- *    8u (s(|xy|+|zw|) <= 1 by AM-GM); diagonals 1 - s(y^2+z^2) err <= 9u*2
- *    + u = 19u (|q|^2 has 4u, 2/|q|^2 5u); times S_j: |M~ - M|_ij <= 20u|S_j|;
- *  - c~, h~: u max(|lo_j|,|hi_j|) each (a subnormal difference is exact);
- *  - the dots M~c~ and |M~|h~: 3u each (gamma_3), relative to A;
- *    so mc~ and mh~ are each within (3u + 20u + u)A = 24u A of Mc, |M|h;
- *  - mh~ + W, then mc~ -+ that: 3u A more (|mc~|, mh~ <= A(1+2^-40)).
- * Sum: 51u A < 2^-47.3 A, first order; second-order terms are below
- * 2^-90 A. W = 2^-46 A (= 128u A, a 2.5x margin) plus 2^-900 m for
- * underflow (at most 2^7 operations lose 2^-1075 each, scaled by at most
- * |S| |lo,hi| < 2^128 2^40). So mc~ - (mh~ + W) <= Mc - |M|h exactly; the
- * last step, t + that, rounds to nearest, i.e. within one ulp, and
- * next_down (next_up for the max) makes it <= (>=) the exact face. The
- * sphere: centre any double, each axis' reach to the farther AABB face
- * rounded up by one ulp, radius sqrt(sum e^2)(1 + 2^-48) rounded up (the
- * squares, sum and root lose < 4u; 2^-48 is 16u), or 2 max e when
- * max e < 2^-500 (squares would underflow; 2 > sqrt 3). The AABB contains
- * the image, so the sphere does. Cost: each face moves out by at most
- * 2^-45 A + 2 ulp(|t| + A) + 2^-899 m beyond the exact one;
- * tests/test_bounds.c holds it to 2^-43 (|t_i| + A) + 2^-898 m against a
- * long-double reference. A position
- * 1e9 m from the origin adds only its own two ulps (2.4e-7 m).
+ * position t, quaternion q = (x,y,z,w) and scale S gives an AABB and a
+ * sphere that contain the exact image of the box. Exactly, with
+ * M = R(q/|q|) S, c = (lo+hi)/2, h = (hi-lo)/2, the image's AABB is
+ * t + Mc -+ |M|h (Arvo). R is formed with s = 2/|q|^2 where the unit
+ * formula has 2 (R_00 = 1 - s(y^2+z^2), R_01 = s(xy-zw), ...), which is
+ * R(q/|q|) exactly: renormalising q is implied (|q| is only checked to be
+ * within 1e-3 of 1). Let u = 2^-53 and A = sum_j |S_j| max(|lo_j|, |hi_j|):
+ *  - |q|^2 carries 4u, s 5u. An off-diagonal s(xy-zw) is off by at most
+ *    2u s(|xy|+|zw|) + 6u |s(xy-zw)| <= 8u, since s(|xy|+|zw|) <= 1 (AM-GM);
+ *    a diagonal's s(y^2+z^2) <= 2 carries 8u (16u absolute), 1 - it one u
+ *    more: 17u. Times S_j, rounded: |M~ - M|_ij <= 18u |S_j| (used as 20u);
+ *  - c~ and h~ are off by u max(|lo_j|, |hi_j|) each;
+ *  - the dots M~c~ and |M~|h~ add gamma_3 = 3u of A; so mc~ and mh~ are
+ *    each within (20u + u + 3u) A = 24u A of Mc and |M|h;
+ *  - mh~ + W, then mc~ -+ that: 3u A more (|mc~|, mh~ <= A (1 + 2^-40)).
+ * Sum: 51u A < 2^-47.3 A to first order; the second-order terms are below
+ * 2^-90 A. W = 2^-46 A = 128u A (a 2.5x margin; its own rounding is 5u of
+ * W) plus 2^-900 m for underflow (a subnormal sum or difference is exact;
+ * a product or halving loses at most 2^-1075, at most 2^7 of them, scaled
+ * by at most |S| max|lo, hi| < 2^128 2^40). Nothing overflows: inputs are
+ * within 1e12 m and float scales, so every term is below 1e52. So
+ * mc~ - (mh~ + W) <= Mc - |M|h exactly (>= for the max face); the last
+ * step, t + that, rounds to nearest, within half an ulp, and one ulp down
+ * (up for the max face) makes it <= (>=) the exact face. A contracted FMA
+ * only removes roundings, so the bound holds with or without one.
+ * The sphere: its centre is any double (the AABB's midpoint); each axis'
+ * reach e_i to the farther AABB face is rounded up one ulp; the radius is
+ * sqrt(sum e_i^2) (1 + 2^-48) rounded up one ulp (the squares, sum and
+ * root lose < 4u; 2^-48 is 16u), or 2 max e_i when max e_i < 2^-500
+ * (squares would underflow; 2 > sqrt 3). It holds the AABB's corners,
+ * hence the image. Cost: each face moves out by at most
+ * 2^-45 A + 2 ulp(|t| + A) + 2^-899 m beyond the exact one; tests/
+ * test_bounds.c holds it to 2^-43 (|t_i| + A) + 2^-898 m against a
+ * long-double model (seen: 1.5e-14 (|t_i| + A) = 2^-45.9). A position
+ * 1e9 m from the origin adds only its own two ulps, 2.4e-7 m.
  *
  * No I/O, no sockets, no files. Errors are negative codes from CULL_ERRORS.
  */
