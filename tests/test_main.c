@@ -11,6 +11,7 @@ int main(void)
 {
     const struct { const struct CMUnitTest *t; size_t n; } groups[] = {
         {world_tests, world_tests_count},
+        {bounds_tests, bounds_tests_count},
         {view_tests, view_tests_count},
         {query_tests, query_tests_count},
         {occlusion_tests, occlusion_tests_count},

@@ -142,6 +142,7 @@ size_t test_rows_expand(const struct CMUnitTest *tests, size_t n, struct CMUnitT
     extern const size_t name##_count;
 
 TEST_GROUP(world_tests)
+TEST_GROUP(bounds_tests)
 TEST_GROUP(mask_tests)
 TEST_GROUP(auth_tests)
 TEST_GROUP(persist_tests)
