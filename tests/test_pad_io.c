@@ -431,13 +431,15 @@ static void test_pad_io_usb_hotplug(void **state)
     fake_reset(true);
     fake_dev *x = fake_usb(0x046d, 0xc21d, false); /* F310 */
     x->present = false;
-    /* a long rescan: only the hotplug callback can find it in time */
+    /* a long rescan (60 s): only the hotplug callback can find it within
+       the 20 s waited here (a liveness bound far above the milliseconds it
+       takes, so a loaded machine cannot fail it; the times are printed) */
     pad_hub *h = open_fake(60000, NULL);
     pad_event ev;
     assert_int_equal(next_ev(h, &ev, 0.3), 0);
     double t0 = now_mono();
     fake_plug(x);
-    assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 3));
+    assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 20));
     double dt_add = now_mono() - t0;
     uint32_t id = ev.pad;
     /* it leaves without its reads failing: the LEFT news alone removes it */
@@ -446,7 +448,7 @@ static void test_pad_io_usb_hotplug(void **state)
     pthread_mutex_unlock(&fake.mu);
     t0 = now_mono();
     fake_unplug(x);
-    assert_true(wait_kind(h, PAD_EV_REMOVED, &ev, 3));
+    assert_true(wait_kind(h, PAD_EV_REMOVED, &ev, 20));
     double dt_rm = now_mono() - t0;
     assert_int_equal(ev.pad, id);
     assert_non_null(strstr(ev.msg, "hotplug"));
@@ -456,15 +458,15 @@ static void test_pad_io_usb_hotplug(void **state)
     sleep_ms(150); /* reaped */
     t0 = now_mono();
     fake_plug(x);
-    assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 3));
+    assert_true(wait_kind(h, PAD_EV_ADDED, &ev, 20));
     double dt_add2 = now_mono() - t0;
     assert_true(ev.pad > id);
     printf("usb hotplug: added in %.0f ms, removed in %.0f ms, added again in %.0f ms\n", dt_add * 1e3, dt_rm * 1e3,
            dt_add2 * 1e3);
-    assert_true(dt_add < 2.0 && dt_add2 < 2.0);
+    assert_true(dt_add < 20.0 && dt_add2 < 20.0); /* not the 60 s rescan */
     /* plugged out with failing reads: REMOVED by the reader, whichever comes first */
     fake_unplug(x);
-    assert_true(wait_kind(h, PAD_EV_REMOVED, &ev, 3));
+    assert_true(wait_kind(h, PAD_EV_REMOVED, &ev, 20));
     assert_int_equal(wait_kind(h, PAD_EV_REMOVED, &ev, 0.3), 0); /* once */
     close_clean(h);
 }
