@@ -318,26 +318,17 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     if ((code = render_check(s, m, &v, msg, sizeof msg))) goto done;
     uint32_t W = v.viewport_w, H = v.viewport_h;
     size_t np = (size_t)W * H;
-    if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) {
-        code = VP_ERR_BUSY; /* job_finish names what */
-        goto done;
-    }
+    if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) goto nomem;
     if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto done;
     if (m->format == VP_FRAME_RAW) {
         /* drawn straight into the reply: RGBA then depth after the header */
-        if (!(raw = malloc(vp_size_frame((uint32_t)(np * 20))))) {
-            code = VP_ERR_BUSY; /* job_finish names what */
-            goto done;
-        }
+        if (!(raw = malloc(vp_size_frame((uint32_t)(np * 20))))) goto nomem;
         rgba = (float *)(void *)(raw + VP_HEADER_SIZE + VP_FRAME_HEADER);
         depth = rgba + np * 4;
     } else {
         rgba = malloc(np * 4 * sizeof *rgba);
         depth = malloc(np * sizeof *depth);
-        if (!rgba || !depth) {
-            code = VP_ERR_BUSY; /* job_finish names what */
-            goto done;
-        }
+        if (!rgba || !depth) goto nomem;
     }
     char err[256];
     int rc;
@@ -368,10 +359,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     wk->scene_released = true;
     if (m->format == VP_FRAME_JPEG) {
         rgb8 = malloc(vt_image_rgba8_size(W, H));
-        if (!rgb8) {
-            code = VP_ERR_BUSY; /* job_finish names what */
-            goto done;
-        }
+        if (!rgb8) goto nomem;
         vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES};
         if ((rc = tonemap_frame(wk, W, H, rgba, &td, rgb8)) ||
             (rc = vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err))) {
@@ -393,14 +381,15 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     if (raw) {
         j->reply = raw;
         raw = NULL;
-    } else if (!(j->reply = malloc(j->reply_len))) {
-        code = VP_ERR_BUSY;
-        goto done;
-    }
+    } else if (!(j->reply = malloc(j->reply_len)))
+        goto nomem;
     vp_writer fw;
     vp_writer_init(&fw, j->reply, j->reply_len);
     vp_enc_frame(&fw, j->h.req, &f);
     code = VP_OK;
+    goto done;
+nomem:
+    code = VP_ERR_BUSY; /* out of memory: job_finish names what */
 done:
     job_finish(j, code, msg, sizeof msg, "a frame");
     frame_in_free(&fi);
@@ -452,15 +441,9 @@ void run_light_query(server *s, worker *wk, job *j)
     int rc;
     if (m.flags & VP_LQ_NO_DEPTH) {
         /* the frustum alone: the lights, nothing culled or drawn */
-        if (gather_lights(sc, scene_visible(sc, NULL, wk->vis), &fi)) {
-            code = VP_ERR_BUSY; /* job_finish names what */
-            goto done;
-        }
+        if (gather_lights(sc, scene_visible(sc, NULL, wk->vis), &fi)) goto nomem;
         cl = malloc(((size_t)fi.nl + 1) * sizeof *cl);
-        if (!cl) {
-            code = VP_ERR_BUSY; /* job_finish names what */
-            goto done;
-        }
+        if (!cl) goto nomem;
         for (uint32_t i = 0; i < fi.nl; i++) cl[i] = fi.lights[i].l;
         if ((rc = cull_lights_bin(&v, W, H, cl, fi.nl, NULL, &own))) {
             code = vp_code_from_cull(rc);
@@ -468,27 +451,18 @@ void run_light_query(server *s, worker *wk, job *j)
             goto done;
         }
     } else {
-        if (!worker_soft(wk)) {
-            code = VP_ERR_BUSY; /* job_finish names what */
-            goto done;
-        }
+        if (!worker_soft(wk)) goto nomem;
         if ((code = gather(sc, wk, &v, false, &fi, msg, sizeof msg))) goto done;
         rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
         depth = malloc((size_t)W * H * sizeof *depth);
-        if (!rgba || !depth) {
-            code = VP_ERR_BUSY; /* job_finish names what */
-            goto done;
-        }
+        if (!rgba || !depth) goto nomem;
         if ((code = soft_draw(wk, &v, &fi, rgba, depth, msg, sizeof msg))) goto done;
         lt = vt_soft_light_tiles(wk->soft);
     }
     uint32_t tiles = lt->tiles_x * lt->tiles_y, count = lt->offset ? lt->offset[tiles] : 0;
     j->reply_len = vp_size_light_tiles(tiles, count);
     j->reply = malloc(j->reply_len);
-    if (!j->reply) {
-        code = VP_ERR_BUSY; /* job_finish names what */
-        goto done;
-    }
+    if (!j->reply) goto nomem;
     vp_writer w;
     vp_writer_init(&w, j->reply, j->reply_len);
     vp_enc_light_tiles_begin(&w, j->h.req,
@@ -501,6 +475,9 @@ void run_light_query(server *s, worker *wk, job *j)
     for (uint32_t k = 0; k < count; k++) vp_put_u64(&w, fi.light_ids[lt->index[k]]);
     vp_frame_end(&w);
     code = VP_OK;
+    goto done;
+nomem:
+    code = VP_ERR_BUSY; /* out of memory: job_finish names what */
 done:
     job_finish(j, code, msg, sizeof msg, "light tiles");
     frame_in_free(&fi);
