@@ -31,6 +31,7 @@ int scene_init(scene *s, double cell_size, const scene_limits *lim)
 {
     memset(s, 0, sizeof *s);
     s->lim = *lim;
+    vp_env_default(&s->env);
     s->sl_entities = calloc(CULL_SUBLEVELS, sizeof *s->sl_entities);
     s->class_owner = calloc(65536, sizeof *s->class_owner);
     s->class_entities = calloc(65536, sizeof *s->class_entities);
@@ -690,7 +691,7 @@ int scene_build_demo(scene *s, uint32_t props)
                 if (add_one(s, next_id++, 1, lo, hi, false)) return -1;
                 float t[12 * 9];
                 box_tris(lo, hi, t);
-                uint8_t buf[VP_HEADER_SIZE + 36 + 12 * 36];
+                uint8_t buf[VP_HEADER_SIZE + 40 + 12 * 36];
                 vp_writer wr;
                 vp_writer_init(&wr, buf, sizeof buf);
                 vp_enc_occluder(&wr, 0, next_id - 1, lo, t, 12);

@@ -17,8 +17,41 @@
 typedef struct scene_mesh {
     uint32_t nv, ni;
     float *pos, *nrm;
+    float *uv;              /* 2 per vertex, or NULL */
+    float *tan;             /* 4 per vertex (xyz, w handedness), or NULL */
     uint32_t *idx;
+    double lo[3], hi[3];    /* local bounds of the positions */
 } scene_mesh;
+
+/* An entity's placement (entities with VP_ENT_TRANSFORM), by handle slot. */
+typedef struct scene_xform {
+    double pos[3];
+    float rot[4];           /* unit (renormalised on the way in) */
+    float scale[3];
+    uint32_t material;      /* every entity's material, transform or not */
+} scene_xform;
+
+/* A material as stored (the materials map's values point to these). */
+typedef struct scene_material {
+    vp_material m;
+    uint32_t users;         /* entities using it (it cannot be removed while > 0) */
+} scene_material;
+
+/* A texture as stored (the textures map's values point to these): the
+ * encoded bytes as uploaded (snapshots, export) and the decoded image
+ * with its mip chain. */
+typedef struct scene_texture {
+    uint32_t id;
+    uint8_t format, flags;  /* VP_TEX_* */
+    uint8_t *bytes;         /* the upload, encoded */
+    uint32_t nbytes;
+    uint32_t w, h;          /* level 0 */
+    uint32_t levels;
+    float *hdr;             /* EXR: RGBA float, level 0 only */
+    uint8_t **mip;          /* PNG / JPEG: RGBA8 per level, levels of them */
+    size_t mem;             /* bytes held, for the texture memory limit */
+    uint32_t users;         /* materials (and the environment) using it */
+} scene_texture;
 
 typedef struct scene_occluder {
     uint64_t id;
@@ -59,6 +92,9 @@ typedef struct scene_sublevel {
 
 typedef struct scene_limits {
     uint32_t max_entities, max_lights, max_occluders, max_occluder_tris, max_mesh_verts;
+    uint32_t max_materials;
+    uint32_t max_texture_size;   /* pixels on a side */
+    uint64_t max_texture_mem;    /* bytes, all textures (mips and uploads) together */
 } scene_limits;
 
 typedef struct scene {
@@ -84,6 +120,11 @@ typedef struct scene {
     uint32_t nhidden;
     uint32_t unloading;     /* sub-levels with entities left to free */
     idmap destruct;         /* entity id -> scene_destruct * */
+    scene_xform *xf;        /* by handle slot (id_cap of them): transform and material */
+    idmap materials;        /* id -> scene_material * */
+    idmap textures;         /* id -> scene_texture * */
+    uint64_t texture_mem;   /* bytes the textures hold */
+    vp_env env;
     uint64_t debris_next;   /* debris entities spawned, ever */
     bool replaying;         /* a journal is being replayed: what an older
                                daemon acknowledged before it checked it is
@@ -202,6 +243,12 @@ void scene_entity_gone(scene *s, uint64_t id, cull_handle h, const cull_entity_d
 uint64_t scene_id_of(const scene *s, cull_handle h);
 /* An entity as a protocol record. */
 void scene_entity_record(const scene *s, cull_handle h, vp_entity *out);
+
+/* ---- the scene model (transform.c, material.c, texture.c) ---- */
+/* The texture with that id, or NULL. */
+scene_texture *scene_texture_find(const scene *s, uint32_t id);
+/* The material with that id, or NULL (0 is the default material: NULL). */
+scene_material *scene_material_find(const scene *s, uint32_t id);
 
 /* Fills the scene with a procedural city: a street grid of buildings
  * (entities and box occluders), props and lights. Deterministic. */

@@ -136,7 +136,8 @@ int main(int argc, char **argv)
         .hello_timeout_ms = 10000,
         .frame_timeout_ms = 30000,
         .limits = {.max_entities = CULL_MAX_ENTITIES, .max_lights = 65536, .max_occluders = 1u << 20,
-                   .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 22},
+                   .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 22,
+                   .max_materials = 1u << 20, .max_texture_size = 8192, .max_texture_mem = 1ull << 30},
     };
     const char *scene_kind = "demo";
     uint32_t props = 3000, port = (uint32_t)cfg.port;

@@ -40,6 +40,14 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_OCCLUDER_REMOVE, "occluder_remove"},
     {VP_LIGHT_PUT, "light_put"},
     {VP_LIGHT_REMOVE, "light_remove"},
+    {VP_TRANSFORM_SET, "transform_set"},
+    {VP_MATERIAL_PUT, "material_put"},
+    {VP_MATERIAL_REMOVE, "material_remove"},
+    {VP_TEXTURE_PUT, "texture_put"},
+    {VP_TEXTURE_REMOVE, "texture_remove"},
+    {VP_ENV_SET, "env_set"},
+    {VP_ENV_GET, "env_get"},
+    {VP_ENV_REPLY, "env_reply"},
     {VP_SUBLEVEL_NAMES, "sublevel_names"},
     {VP_SUBLEVEL_IDS, "sublevel_ids"},
     {VP_SUBLEVEL_LIST, "sublevel_list"},
@@ -196,7 +204,7 @@ int vp_dec_hello(const uint8_t *p, size_t len, vp_hello *m)
     m->name = vp_get_bytes(&r, m->name_len);
     int rc = vp_reader_finish(&r);
     if (rc) return rc;
-    if (m->version != VP_VERSION) return VP_ERR_VERSION;
+    if (m->version < VP_VERSION_MIN || m->version > VP_VERSION) return VP_ERR_VERSION;
     if (m->role > VP_ROLE_EDITOR) return VP_ERR_INVALID;
     return VP_OK;
 }

@@ -27,7 +27,8 @@ extern "C" {
 #endif
 
 #define VP_MAGIC 0x47544E56u /* "VNTG" as little-endian bytes */
-#define VP_VERSION 1u
+#define VP_VERSION 2u       /* 2: the scene model (transforms, materials, textures, environment) */
+#define VP_VERSION_MIN 2u   /* the oldest a client may speak (HELLO) */
 #define VP_DEFAULT_PORT 7470 /* vantaged's TCP port unless --port, and the client's unless -p */
 #define VP_HEADER_SIZE 12u
 #define VP_MAX_VIEWS 32u
@@ -101,11 +102,19 @@ enum vp_type {
     VP_ENTITY_LIST = 0x0104,
     VP_ENTITY_LIST_REPLY = 0x0105,
     VP_ENTITY_GET = 0x0106,
+    VP_TRANSFORM_SET = 0x0107,
     VP_MESH_PUT = 0x0110,
     VP_OCCLUDER_PUT = 0x0120,
     VP_OCCLUDER_REMOVE = 0x0121,
     VP_LIGHT_PUT = 0x0130,
     VP_LIGHT_REMOVE = 0x0131,
+    VP_MATERIAL_PUT = 0x0140,
+    VP_MATERIAL_REMOVE = 0x0141,
+    VP_TEXTURE_PUT = 0x0150,
+    VP_TEXTURE_REMOVE = 0x0151,
+    VP_ENV_SET = 0x0160,
+    VP_ENV_GET = 0x0161,
+    VP_ENV_REPLY = 0x0162,
     /* 0x0200..0x02ff queries */
     VP_VIS_QUERY = 0x0200,
     VP_VIS_RESULT = 0x0201,
@@ -195,23 +204,58 @@ typedef struct vp_error {
     const uint8_t *msg;
 } vp_error;
 
-/* One entity record of an add or update batch. 104 bytes on the wire. */
-#define VP_ENTITY_REC_SIZE 104u
+/* One entity record of an add or update batch, VP_ENTITY_REC_SIZE bytes.
+ * Two kinds of entity:
+ *   - with VP_ENT_TRANSFORM: mesh class_id (which must hold a mesh) placed
+ *     by pos / rot / scale; its culling bounds are derived from the mesh's
+ *     local bounds and the transform (cull_bounds_from_trs) and sphere /
+ *     aabb are ignored on input (0 recommended) and carry the derived
+ *     bounds on output (ENTITY_LIST_REPLY);
+ *   - without it: bounds as given (sphere, aabb), as in version 1: a
+ *     culling-only entity, drawn as its class mesh's bounding box stretched
+ *     onto the aabb (the unit box when the class has no mesh). pos / rot /
+ *     scale are not read (0 on output).
+ * material 0 is the default material (mid grey, rough dielectric). */
+#define VP_ENTITY_REC_SIZE 160u
+#define VP_ENTITY_REC_SIZE_V1 104u /* version 1's record: no material, no transform (journals, snapshots) */
 #define VP_ENT_DYNAMIC 0x1u
+#define VP_ENT_TRANSFORM 0x2u
+#define VP_ENT_FLAGS (VP_ENT_DYNAMIC | VP_ENT_TRANSFORM)
+#define VP_QUAT_TOLERANCE 1e-3 /* |q| may be 1 +- this (renormalised), else INVALID */
 typedef struct vp_entity {
     uint64_t id;         /* the editor's own id, unique per scene */
     uint32_t handle;     /* add: ignored; update: 0 or the current handle */
-    uint16_t class_id;
+    uint16_t class_id;   /* the mesh class */
     uint16_t sublevel;
     uint32_t flags;      /* VP_ENT_* */
+    uint32_t material;   /* a MATERIAL_PUT id, 0 = default */
+    double   pos[3];     /* VP_ENT_TRANSFORM: world position (metres) */
+    float    rot[4];     /* unit quaternion x y z w */
+    float    scale[3];   /* per axis; negative mirrors (winding flipped); at most one axis 0 */
     double   sphere[4];  /* x y z r; r = 0: derived from the AABB */
     double   aabb[6];    /* min xyz, max xyz; all 0: derived from the sphere */
 } vp_entity;
+
+/* TRANSFORM_SET: transform-only updates of many entities (entities with
+ * VP_ENT_TRANSFORM), answered with ACK. All or nothing, like every batch. */
+#define VP_TRANSFORM_REC_SIZE 64u
+typedef struct vp_transform {
+    uint64_t id;
+    uint32_t handle;     /* 0 or the current handle (else STALE) */
+    double   pos[3];
+    float    rot[4];     /* x y z w */
+    float    scale[3];
+} vp_transform;
+typedef struct vp_transform_batch {
+    uint32_t count;
+    const uint8_t *recs;
+} vp_transform_batch;
 
 /* Batches are views into the payload; read record i with the getters. */
 typedef struct vp_entity_batch {
     uint32_t count;
     const uint8_t *recs;
+    uint8_t version;     /* record layout: 2 (VP_ENTITY_REC_SIZE), or 1 (a version 1 journal's) */
 } vp_entity_batch;
 
 typedef struct vp_id_batch {
@@ -292,19 +336,34 @@ typedef struct vp_event {
 } vp_event;
 
 /* MESH_PUT flags: no normals on the wire; the mesh is drawn with flat
- * (face) normals, as the renderers draw a vt_mesh whose nrm is NULL. */
+ * (face) normals, as the renderers draw a vt_mesh whose nrm is NULL.
+ * UVS: a texture coordinate pair per vertex follows the normals;
+ * TANGENTS: a tangent (xyz unit, w = +-1 handedness) per vertex follows
+ * the UVs (needs UVS). The arrays, in order: positions, normals, uvs,
+ * tangents, indices. */
 #define VP_MESH_NO_NORMALS 0x1u
+#define VP_MESH_UVS 0x2u
+#define VP_MESH_TANGENTS 0x4u
+#define VP_MESH_FLAGS (VP_MESH_NO_NORMALS | VP_MESH_UVS | VP_MESH_TANGENTS)
 typedef struct vp_mesh {
     uint16_t class_id;
     uint16_t flags;           /* VP_MESH_*; other bits INVALID */
     uint32_t vertex_count, index_count;
     const uint8_t *positions; /* f32 x3 per vertex */
     const uint8_t *normals;   /* f32 x3 per vertex; NULL with VP_MESH_NO_NORMALS */
+    const uint8_t *uvs;       /* f32 x2 per vertex; NULL without VP_MESH_UVS */
+    const uint8_t *tangents;  /* f32 x4 per vertex; NULL without VP_MESH_TANGENTS */
     const uint8_t *indices;   /* u32, triangles */
 } vp_mesh;
 
+/* OCCLUDER_PUT flags. ATTACHED: the occluder belongs to the entity with
+ * the same id, which must have VP_ENT_TRANSFORM: origin and vertices are
+ * in the entity's local space and the occluder follows the entity's
+ * transform (no re-upload on a move); it goes when the entity goes. */
+#define VP_OCC_ATTACHED 0x1u
 typedef struct vp_occluder {
     uint64_t id;
+    uint32_t flags;           /* VP_OCC_* (version 1 journals: 0) */
     double   origin[3];       /* vertices are relative to it */
     uint32_t tri_count;
     const uint8_t *verts;     /* f32 x9 per triangle */
@@ -461,6 +520,149 @@ void vp_enc_mark(vp_writer *w, uint32_t req, const vp_mark *m);
 int  vp_dec_mark(const uint8_t *p, size_t len, vp_mark *m);
 void vp_enc_marked(vp_writer *w, const vp_marked *m);
 int  vp_dec_marked(const uint8_t *p, size_t len, vp_marked *m);
+
+/* ---- materials, textures, environment (version 2) ------------------------- */
+
+/* A texture slot of a material: glTF 2.0's textureInfo with its sampler
+ * and KHR_texture_transform. texture 0 = no texture. */
+#define VP_WRAP_REPEAT 0u
+#define VP_WRAP_CLAMP 1u
+#define VP_WRAP_MIRROR 2u
+#define VP_FILTER_NEAREST 0u
+#define VP_FILTER_LINEAR 1u
+#define VP_FILTER_NEAREST_MIP_NEAREST 2u
+#define VP_FILTER_LINEAR_MIP_NEAREST 3u
+#define VP_FILTER_NEAREST_MIP_LINEAR 4u
+#define VP_FILTER_LINEAR_MIP_LINEAR 5u /* trilinear; mag takes NEAREST or LINEAR only */
+#define VP_TEXREF_SIZE 32u
+typedef struct vp_texref {
+    uint32_t texture;         /* a TEXTURE_PUT id; 0 = none */
+    uint8_t  wrap_s, wrap_t;  /* VP_WRAP_* */
+    uint8_t  min_filter;      /* VP_FILTER_* */
+    uint8_t  mag_filter;      /* VP_FILTER_NEAREST or _LINEAR */
+    float    offset[2];       /* uv' = offset + R(rotation) * (scale * uv) */
+    float    scale[2];
+    float    rotation;        /* radians */
+    uint8_t  texcoord;        /* 0 (one UV set) */
+} vp_texref;
+
+#define VP_ALPHA_OPAQUE 0u
+#define VP_ALPHA_MASK 1u
+#define VP_MAT_DOUBLE_SIDED 0x1u
+#define VP_MATERIAL_SIZE (60u + 4u * VP_TEXREF_SIZE)
+enum { VP_TEX_BASE, VP_TEX_MR, VP_TEX_NORMAL, VP_TEX_EMISSIVE, VP_TEX_SLOTS };
+/* glTF 2.0 metallic-roughness. Colours linear; textures: base colour and
+ * emissive are sRGB, metallic-roughness (G roughness, B metallic) and
+ * normal (tangent space) linear. */
+typedef struct vp_material {
+    uint32_t id;              /* 1..UINT32_MAX (0 is the default material) */
+    uint32_t flags;           /* VP_MAT_* */
+    uint8_t  alpha_mode;      /* VP_ALPHA_* */
+    float    alpha_cutoff;    /* MASK: 0..1 */
+    float    base_color[4];   /* 0..1 each, linear RGBA */
+    float    metallic, roughness; /* 0..1 */
+    float    emissive[3];     /* 0..1 each, linear */
+    float    emissive_strength; /* >= 0 (KHR_materials_emissive_strength), <= 1e6 */
+    float    normal_scale;    /* finite */
+    vp_texref tex[VP_TEX_SLOTS]; /* base colour, metallic-roughness, normal, emissive */
+} vp_material;
+
+/* TEXTURE_PUT: an image (PNG or JPEG; OpenEXR for an environment), sent
+ * whole or in chunks: each chunk carries the total size and its offset;
+ * chunks arrive in order (offset = bytes so far) on one connection. The
+ * chunk that completes it makes the daemon decode it (libpng /
+ * libjpeg-turbo / OpenEXR), check its limits, build its mip chain, and
+ * put it in the scene (journalled whole); earlier chunks are ACKed with
+ * count 0 and held by the connection (dropped if it closes first). */
+#define VP_TEX_PNG 0u
+#define VP_TEX_JPEG 1u
+#define VP_TEX_EXR 2u            /* linear RGB(A) half or float: environment maps */
+#define VP_TEX_SRGB 0x1u         /* colour data: mips averaged in linear light */
+#define VP_TEXTURE_PUT_HEADER 16u
+#define VP_MAX_TEXTURE_BYTES (64u << 20) /* encoded, whole */
+typedef struct vp_texture_put {
+    uint32_t id;              /* 1..UINT32_MAX */
+    uint8_t  format;          /* VP_TEX_PNG / JPEG / EXR */
+    uint8_t  flags;           /* VP_TEX_* */
+    uint32_t total;           /* the whole encoded image, 1..VP_MAX_TEXTURE_BYTES */
+    uint32_t offset;          /* of this chunk; offset + len <= total */
+    uint32_t len;             /* this chunk: the rest of the payload, >= 1 */
+    const uint8_t *data;
+} vp_texture_put;
+
+/* ENV_SET (editor), ENV_GET (empty, any role) answered by ENV_REPLY: the
+ * environment, one fixed record. Y is up. */
+#define VP_SKY_COLOR 0u          /* uniform sky_color x sky_intensity */
+#define VP_SKY_ANALYTIC 1u       /* clear sky from the sun's direction and turbidity */
+#define VP_SKY_TEXTURE 2u        /* sky_texture: an EXR texture, equirectangular (lat-long) */
+#define VP_ENV_GROUND 0x1u       /* an infinite ground plane at ground_height */
+#define VP_EXPOSURE_FIXED 0u     /* exposure_ev (EV100) */
+#define VP_EXPOSURE_AUTO 1u      /* from the frame's mean luminance, + exposure_comp */
+#define VP_ENV_SIZE 120u
+typedef struct vp_env {
+    float    sun_dir[3];      /* towards the sun; unit within VP_QUAT_TOLERANCE, or 0,0,0 = no sun */
+    float    sun_color[3];    /* linear RGB, 0..1 each */
+    float    sun_lux;         /* illuminance at normal incidence, 0..200000 */
+    uint8_t  sky_mode;        /* VP_SKY_* */
+    uint8_t  flags;           /* VP_ENV_* */
+    uint8_t  exposure_mode;   /* VP_EXPOSURE_* */
+    float    sky_color[3];    /* COLOR: linear RGB, >= 0 */
+    float    sky_intensity;   /* multiplier, 0..1e6 (cd/m2 scale of the sky) */
+    float    turbidity;       /* ANALYTIC: 1..10 */
+    uint32_t sky_texture;     /* TEXTURE: an EXR texture id */
+    float    sky_rotation;    /* TEXTURE: radians about +Y */
+    double   ground_height;   /* GROUND: metres */
+    float    ground_color[3]; /* GROUND: albedo 0..1 */
+    uint32_t ground_material; /* GROUND: 0 = ground_color, else a material */
+    float    fog_density;     /* per metre, 0 = no fog, <= 1 */
+    float    fog_color[3];    /* linear RGB, >= 0 */
+    float    fog_height_falloff; /* per metre, >= 0 (0 = uniform) */
+    float    exposure_ev;     /* FIXED: EV100, -10..30 */
+    float    exposure_comp;   /* AUTO: EV added, -10..10 */
+} vp_env;
+
+/* The environment a fresh scene has: a noon-ish sun, the analytic sky,
+ * the ground at y = 0, light fog, auto exposure. */
+void vp_env_default(vp_env *out);
+
+size_t vp_size_transforms(uint32_t n);
+void   vp_enc_transforms(vp_writer *w, uint32_t req, const vp_transform *t, uint32_t n);
+int    vp_dec_transforms(const uint8_t *p, size_t len, uint32_t max_batch, vp_transform_batch *m);
+int    vp_transform_get(const vp_transform_batch *b, uint32_t i, vp_transform *out);
+int    vp_transform_rec_check(const vp_transform_batch *b, uint32_t i, char *why, size_t whylen);
+/* The checks a transform gets wherever it comes from (TRANSFORM_SET, an
+ * entity record with VP_ENT_TRANSFORM): finite, |q| within
+ * VP_QUAT_TOLERANCE of 1 (rot renormalised in place), at most one scale
+ * axis 0, |pos| and |scale| within the culling core's range. VP_OK, or
+ * NONFINITE / INVALID with the field named in why (may be NULL). */
+int    vp_trs_check(double pos[3], float rot[4], float scale[3], char *why, size_t whylen);
+
+size_t vp_size_materials(uint32_t n);
+void   vp_enc_materials(vp_writer *w, uint32_t req, const vp_material *m, uint32_t n);
+/* MATERIAL_PUT: u32 count, then records; every record checked. */
+int    vp_dec_materials(const uint8_t *p, size_t len, uint32_t max_batch, const uint8_t **recs, uint32_t *n);
+int    vp_material_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_material *out);
+int    vp_material_rec_check(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen);
+/* MATERIAL_REMOVE and TEXTURE_REMOVE are id batches (vp_enc_ids). */
+
+size_t vp_size_texture_put(uint32_t len);
+void   vp_enc_texture_put(vp_writer *w, uint32_t req, const vp_texture_put *m);
+int    vp_dec_texture_put(const uint8_t *p, size_t len, vp_texture_put *m);
+
+size_t vp_size_env(void);
+/* ENV_SET or ENV_REPLY (type). */
+void   vp_enc_env(vp_writer *w, uint16_t type, uint32_t req, const vp_env *m);
+/* Checks every field (finite, ranges, defined modes and flags); the sun
+ * direction is normalised in place. why may be NULL. */
+int    vp_dec_env(const uint8_t *p, size_t len, vp_env *m);
+int    vp_env_check(vp_env *m, char *why, size_t whylen);
+
+/* Version 1 layouts, read from journals and snapshots a version 1 daemon
+ * wrote (the upgrade on start): ENTITY_ADD / UPDATE batches of 104-byte
+ * records (b->version = 1; read with vp_entity_get as bounds entities,
+ * material 0) and OCCLUDER_PUT without flags. */
+int    vp_dec_entities_v1(const uint8_t *p, size_t len, uint32_t max_batch, vp_entity_batch *m);
+int    vp_dec_occluder_v1(const uint8_t *p, size_t len, uint32_t max_batch, vp_occluder *m);
 
 /* METRICS (empty payload, any role) asks for the daemon's metrics;
  * METRICS_REPLY carries them as text in the Prometheus exposition format
@@ -623,8 +825,15 @@ void vp_enc_subscribe(vp_writer *w, uint32_t req, uint32_t kinds);
 void vp_enc_event(vp_writer *w, const vp_event *m);
 void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
                  const uint32_t *idx, uint32_t ni);
+/* The same with UVs (2 per vertex) and tangents (4 per vertex), each NULL
+ * when not sent (tangents need uvs). */
+void vp_enc_mesh_uv(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm,
+                    const float *uv, const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni);
 void vp_enc_occluder(vp_writer *w, uint32_t req, uint64_t id, const double origin[3], const float *verts,
                      uint32_t ntris);
+/* The same with flags (VP_OCC_*). */
+void vp_enc_occluder_flags(vp_writer *w, uint32_t req, uint64_t id, uint32_t flags, const double origin[3],
+                           const float *verts, uint32_t ntris);
 void vp_enc_lights(vp_writer *w, uint32_t req, const vp_light *l, uint32_t n);
 void vp_enc_list(vp_writer *w, uint32_t req, const vp_list *m);
 /* SUBLEVEL_NAMES (ids NULL) or SUBLEVEL_LIST_REPLY (ids given). */
@@ -653,6 +862,7 @@ size_t vp_size_stats_reply(void);
 size_t vp_size_subscribe(void);
 size_t vp_size_event(void);
 size_t vp_size_mesh(uint32_t nv, uint32_t ni, bool normals);
+size_t vp_size_mesh_uv(uint32_t nv, uint32_t ni, bool normals, bool uvs, bool tangents);
 size_t vp_size_occluder(uint32_t ntris);
 size_t vp_size_lights(uint32_t n);
 size_t vp_size_list(void);

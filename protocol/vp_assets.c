@@ -14,23 +14,51 @@
 #define MESH_FIELDS(X) X(u16, class_id) X(u16, flags) X(u32, vertex_count) X(u32, index_count)
 VP_LAYOUT(mesh, vp_mesh, MESH_FIELDS)
 
-size_t vp_size_mesh(uint32_t nv, uint32_t ni, bool normals)
+size_t vp_size_mesh_uv(uint32_t nv, uint32_t ni, bool normals, bool uvs, bool tangents)
 {
-    return VP_HEADER_SIZE + mesh_size() + (size_t)nv * (normals ? 24 : 12) + (size_t)ni * 4;
+    size_t per = 12 + (normals ? 12 : 0) + (uvs ? 8 : 0) + (uvs && tangents ? 16 : 0);
+    return VP_HEADER_SIZE + mesh_size() + (size_t)nv * per + (size_t)ni * 4;
 }
 
-/* nrm NULL: VP_MESH_NO_NORMALS and no normals block (drawn flat). */
+size_t vp_size_mesh(uint32_t nv, uint32_t ni, bool normals)
+{
+    return vp_size_mesh_uv(nv, ni, normals, false, false);
+}
+
+static void put_f32s(vp_writer *w, const float *f, size_t n)
+{
+    for (size_t i = 0; f && i < n; i++) vp_put_f32(w, f[i]);
+}
+
+/* nrm NULL: VP_MESH_NO_NORMALS and no normals block (drawn flat); uv and
+ * tan NULL: not sent (tan only with uv). */
+void vp_enc_mesh_uv(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm,
+                    const float *uv, const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni)
+{
+    if (!uv) tan = NULL;
+    uint16_t flags = (uint16_t)((nrm ? 0 : VP_MESH_NO_NORMALS) | (uv ? VP_MESH_UVS : 0) | (tan ? VP_MESH_TANGENTS : 0));
+    vp_frame_begin(w, VP_MESH_PUT, req);
+    mesh_put(w, &(vp_mesh){.class_id = class_id, .flags = flags, .vertex_count = nv, .index_count = ni});
+    put_f32s(w, pos, 3 * (size_t)nv);
+    put_f32s(w, nrm, 3 * (size_t)nv);
+    put_f32s(w, uv, 2 * (size_t)nv);
+    put_f32s(w, tan, 4 * (size_t)nv);
+    for (uint32_t i = 0; i < ni; i++) vp_put_u32(w, idx[i]);
+    vp_frame_end(w);
+}
 
 void vp_enc_mesh(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
                  const uint32_t *idx, uint32_t ni)
 {
-    vp_frame_begin(w, VP_MESH_PUT, req);
-    mesh_put(w, &(vp_mesh){.class_id = class_id, .flags = nrm ? 0 : VP_MESH_NO_NORMALS, .vertex_count = nv,
-                           .index_count = ni});
-    for (uint32_t i = 0; i < 3 * nv; i++) vp_put_f32(w, pos[i]);
-    for (uint32_t i = 0; nrm && i < 3 * nv; i++) vp_put_f32(w, nrm[i]);
-    for (uint32_t i = 0; i < ni; i++) vp_put_u32(w, idx[i]);
-    vp_frame_end(w);
+    vp_enc_mesh_uv(w, req, class_id, pos, nrm, NULL, NULL, nv, idx, ni);
+}
+
+/* Every float of an array of n x k is finite. */
+static bool finite_block(const uint8_t *p, uint32_t n, uint32_t k)
+{
+    for (size_t i = 0; p && i < (size_t)n * k; i++)
+        if (!isfinite(rdf32(p + 4 * i))) return false;
+    return true;
 }
 
 int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
@@ -38,58 +66,82 @@ int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
     vp_reader r;
     int rc = mesh_head(&r, p, len, m);
     if (rc) return rc;
-    if (m->flags & ~VP_MESH_NO_NORMALS) return VP_ERR_INVALID;
+    if (m->flags & ~VP_MESH_FLAGS) return VP_ERR_INVALID;
+    if ((m->flags & VP_MESH_TANGENTS) && !(m->flags & VP_MESH_UVS)) return VP_ERR_INVALID;
     if (m->index_count % 3) return VP_ERR_COUNT;
     bool normals = !(m->flags & VP_MESH_NO_NORMALS);
-    m->normals = NULL;
+    bool uvs = m->flags & VP_MESH_UVS, tangents = m->flags & VP_MESH_TANGENTS;
+    m->normals = m->uvs = m->tangents = NULL;
     if ((rc = vp_take_array(&r, m->vertex_count, 12, max_batch, &m->positions)) ||
         (normals && (rc = vp_take_array(&r, m->vertex_count, 12, max_batch, &m->normals))) ||
+        (uvs && (rc = vp_take_array(&r, m->vertex_count, 8, max_batch, &m->uvs))) ||
+        (tangents && (rc = vp_take_array(&r, m->vertex_count, 16, max_batch, &m->tangents))) ||
         (rc = vp_take_array(&r, m->index_count, 4,
                          max_batch ? (uint32_t)(max_batch > UINT32_MAX / 3 ? UINT32_MAX : 3 * max_batch) : 0,
                          &m->indices)))
         return rc;
     if ((rc = vp_reader_finish(&r))) return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
-    for (uint32_t i = 0; i < 3 * m->vertex_count; i++) {
-        float f[2] = {rdf32(m->positions + 4 * (size_t)i), normals ? rdf32(m->normals + 4 * (size_t)i) : 0};
-        if (!vp_finite_nf(f, 2)) return VP_ERR_NONFINITE;
-    }
+    if (!finite_block(m->positions, m->vertex_count, 3) || !finite_block(m->normals, m->vertex_count, 3) ||
+        !finite_block(m->uvs, m->vertex_count, 2) || !finite_block(m->tangents, m->vertex_count, 4))
+        return VP_ERR_NONFINITE;
     for (uint32_t i = 0; i < m->index_count; i++)
         if (rd32(m->indices + 4 * (size_t)i) >= m->vertex_count) return VP_ERR_INVALID;
     return VP_OK;
 }
 
+/* ---- occluders ----------------------------------------------------------------------- */
+
+#define OCCLUDER_FIELDS(X) X(u64, id) X(u32, flags) X(f64a, origin) X(u32, tri_count)
+VP_LAYOUT(occluder, vp_occluder, OCCLUDER_FIELDS)
+#define OCCLUDER_V1_FIELDS(X) X(u64, id) X(f64a, origin) X(u32, tri_count)
+VP_LAYOUT(occluder_v1, vp_occluder, OCCLUDER_V1_FIELDS)
+
 size_t vp_size_occluder(uint32_t ntris)
 {
-    return VP_HEADER_SIZE + 36 + (size_t)ntris * 36;
+    return VP_HEADER_SIZE + occluder_size() + (size_t)ntris * 36;
+}
+
+void vp_enc_occluder_flags(vp_writer *w, uint32_t req, uint64_t id, uint32_t flags, const double origin[3],
+                           const float *verts, uint32_t ntris)
+{
+    vp_frame_begin(w, VP_OCCLUDER_PUT, req);
+    vp_occluder o = {.id = id, .flags = flags, .tri_count = ntris};
+    memcpy(o.origin, origin, sizeof o.origin);
+    occluder_put(w, &o);
+    put_f32s(w, verts, 9 * (size_t)ntris);
+    vp_frame_end(w);
 }
 
 void vp_enc_occluder(vp_writer *w, uint32_t req, uint64_t id, const double origin[3], const float *verts,
                      uint32_t ntris)
 {
-    vp_frame_begin(w, VP_OCCLUDER_PUT, req);
-    vp_put_u64(w, id);
-    for (int k = 0; k < 3; k++) vp_put_f64(w, origin[k]);
-    vp_put_u32(w, ntris);
-    for (uint32_t i = 0; i < 9 * ntris; i++) vp_put_f32(w, verts[i]);
-    vp_frame_end(w);
+    vp_enc_occluder_flags(w, req, id, 0, origin, verts, ntris);
+}
+
+/* the triangles after the fixed part, checked */
+static int occluder_rest(vp_reader *r, uint32_t max_batch, vp_occluder *m)
+{
+    if (!vp_finite_n(m->origin, 3)) return VP_ERR_NONFINITE;
+    int rc = vp_take_rest(r, m->tri_count, 36, max_batch, &m->verts);
+    if (rc) return rc;
+    return finite_block(m->verts, m->tri_count, 9) ? VP_OK : VP_ERR_NONFINITE;
 }
 
 int vp_dec_occluder(const uint8_t *p, size_t len, uint32_t max_batch, vp_occluder *m)
 {
     vp_reader r;
-    vp_reader_init(&r, p, len);
-    m->id = vp_get_u64(&r);
-    for (int k = 0; k < 3; k++) m->origin[k] = vp_get_f64(&r);
-    m->tri_count = vp_get_u32(&r);
-    if (r.short_read) return VP_ERR_TRUNCATED;
-    if (!vp_finite_n(m->origin, 3)) return VP_ERR_NONFINITE;
-    int rc = vp_take_rest(&r, m->tri_count, 36, max_batch, &m->verts);
+    int rc = occluder_head(&r, p, len, m);
     if (rc) return rc;
-    for (uint32_t i = 0; i < 9 * m->tri_count; i++) {
-        float f = rdf32(m->verts + 4 * (size_t)i);
-        if (!isfinite(f)) return VP_ERR_NONFINITE;
-    }
-    return VP_OK;
+    if (m->flags & ~VP_OCC_ATTACHED) return VP_ERR_INVALID;
+    return occluder_rest(&r, max_batch, m);
+}
+
+int vp_dec_occluder_v1(const uint8_t *p, size_t len, uint32_t max_batch, vp_occluder *m)
+{
+    vp_reader r;
+    int rc = occluder_v1_head(&r, p, len, m);
+    m->flags = 0;
+    return rc ? rc : occluder_rest(&r, max_batch, m);
 }
 
 /* ---- lights ----------------------------------------------------------------------- */

@@ -133,7 +133,7 @@ static void check_wire(const imp_level *lv)
     for (uint32_t i = 0; i < lv->nocc; i++) {
         const lvl_occluder *o = &lv->occ[i];
         fuzz_wbuf b;
-        fuzz_wopen(&b, VP_HEADER_SIZE + 36 + 36 * (size_t)o->ntri);
+        fuzz_wopen(&b, vp_size_occluder(o->ntri));
         vp_enc_occluder(&b.w, 1, 1ull << 63 | i, o->origin, o->tri, o->ntri);
         const uint8_t *p = fuzz_wframe(&b, VP_OCCLUDER_PUT, &len);
         vp_occluder dec;
