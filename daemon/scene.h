@@ -29,6 +29,7 @@ typedef struct scene_xform {
     float rot[4];           /* unit (renormalised on the way in) */
     float scale[3];
     uint32_t material;      /* every entity's material, transform or not */
+    uint32_t flags;         /* the entity's VP_ENT_* (VP_ENT_TRANSFORM: pos/rot/scale hold) */
 } scene_xform;
 
 /* A material as stored (the materials map's values point to these). */
