@@ -35,6 +35,8 @@ typedef struct edit {
         vp_sublevel_begin begin;
         vp_name name;
         vp_destroy destroy;
+        vp_transform_batch xf;
+        struct { const uint8_t *recs; uint32_t n; } mats;
     } u;
 } edit;
 
