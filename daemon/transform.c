@@ -278,8 +278,7 @@ int scene_mesh_rederive(scene *s, uint16_t c, const double lo[3], const double h
             /* the mesh is refused: say which entity it would break */
             char msg[sizeof err->msg];
             snprintf(msg, sizeof msg, "%s", err->msg);
-            rc = scene_fail(err, rc, UINT32_MAX, "mesh of class %u refused: entity %llu: %s", c,
-                            (unsigned long long)id, msg);
+            rc = scene_fail(err, rc, UINT32_MAX, "mesh of class %u refused: %s", c, msg);
             goto out;
         }
         m.n++;
