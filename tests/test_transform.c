@@ -546,6 +546,71 @@ static void test_destruction_follows(void **state)
     vtc_close(c);
 }
 
+/* The CLI: material put / rm, add --mesh with --rotate / --quat /
+ * --scale, move of a transform entity, the sphere form kept, bad values
+ * refused with exit 2 before anything is sent, the server's refusals
+ * with exit 1 and its message. */
+static void test_cli_transforms_and_materials(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    rng r = {3};
+    put_mesh(c, CLS, MLO, MHI, &r);
+    char out[4096];
+    assert_int_equal(vantage_run(d, out, sizeof out, "material put 3 --base 0.8,0.1,0.1 --roughness 0.4 "
+                                                       "--metallic 1 --emissive 1,0.5,0 --emissive-strength 20 "
+                                                       "--alpha-mask 0.5 --double-sided"), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 1 --mesh %d --pos 1,2,3 --rotate 90,0,0 --scale 2 "
+                                                       "--material 3", CLS), 0);
+    vp_entity g;
+    get_one(c, 1, &g);
+    assert_int_equal(g.flags, VP_ENT_TRANSFORM);
+    assert_int_equal(g.material, 3);
+    assert_true(g.pos[0] == 1 && g.pos[1] == 2 && g.pos[2] == 3);
+    assert_true(g.scale[0] == 2 && g.scale[1] == 2 && g.scale[2] == 2);
+    assert_true(fabsf(g.rot[1] - 0.70710678f) < 1e-6f && fabsf(g.rot[3] - 0.70710678f) < 1e-6f);
+    /* pitch alone: about +X */
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 2 --mesh %d --rotate 0,90,0", CLS), 0);
+    get_one(c, 2, &g);
+    assert_true(fabsf(g.rot[0] - 0.70710678f) < 1e-6f && fabsf(g.rot[3] - 0.70710678f) < 1e-6f);
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 3 --mesh %d --quat 0,0,2,0", CLS), 0);
+    get_one(c, 3, &g);
+    assert_true(g.rot[2] == 1 && g.rot[3] == 0);
+    /* move: what is not given is kept */
+    assert_int_equal(vantage_run(d, out, sizeof out, "move 1 --pos 5,6,7 --scale 1,1,-1"), 0);
+    get_one(c, 1, &g);
+    assert_true(g.pos[0] == 5 && g.scale[2] == -1 && fabsf(g.rot[1] - 0.70710678f) < 1e-6f);
+    assert_int_equal(vantage_run(d, out, sizeof out, "move 1 9,9,9"), 0);
+    get_one(c, 1, &g);
+    assert_true(g.pos[0] == 9 && g.scale[2] == -1);
+    /* the sphere form */
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 4 1,2,3 0.5 --material 3"), 0);
+    get_one(c, 4, &g);
+    assert_true(g.flags == 0 && g.material == 3 && g.sphere[3] == 0.5);
+    assert_int_equal(vantage_run(d, out, sizeof out, "move 4 2,2,2"), 0);
+    /* refusals: the server's (exit 1, its message), and bad values (exit 2) */
+    assert_int_equal(vantage_run(d, out, sizeof out, "material rm 3"), 1);
+    assert_non_null(strstr(out, "used by 2 entities"));
+    assert_int_equal(vantage_run(d, out, sizeof out, "material put 5 --texture base=9"), 1);
+    assert_non_null(strstr(out, "base colour texture 9"));
+    assert_int_equal(vantage_run(d, out, sizeof out, "material put 5 --roughness 3"), 1);
+    assert_non_null(strstr(out, "roughness"));
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 9 --mesh %d --scale 0,1,0", CLS), 1);
+    assert_non_null(strstr(out, "2 axes"));
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 9 --mesh 300"), 1);
+    assert_non_null(strstr(out, "mesh class 300 has no mesh"));
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 9 --mesh %d --rotate 1,2", CLS), 2);
+    assert_int_equal(vantage_run(d, out, sizeof out, "add 9 --mesh %d --quat 0,0,0,0", CLS), 2);
+    assert_int_equal(vantage_run(d, out, sizeof out, "material put 5 --texture roof=1"), 2);
+    assert_int_equal(vantage_run(d, out, sizeof out, "move 4 --scale 2"), 2);
+    assert_int_equal(vantage_run(d, out, sizeof out, "material --help"), 0);
+    assert_non_null(strstr(out, "--alpha-mask"));
+    /* gone: the material can go */
+    assert_int_equal(vantage_run(d, out, sizeof out, "remove 1 4"), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "material rm 3"), 0);
+    vtc_close(c);
+}
+
 const struct CMUnitTest transform_tests[] = {
     DAEMON_TEST(test_transform_bounds_match_model),
     DAEMON_TEST(test_transform_set_visible_next_query),
@@ -554,5 +619,6 @@ const struct CMUnitTest transform_tests[] = {
     DAEMON_TEST(test_transform_mesh_rederives),
     DAEMON_TEST(test_attached_occluder_follows),
     DAEMON_TEST(test_destruction_follows),
+    DAEMON_TEST(test_cli_transforms_and_materials),
 };
 const size_t transform_tests_count = sizeof transform_tests / sizeof transform_tests[0];
