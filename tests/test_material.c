@@ -234,6 +234,10 @@ static void test_material_bad_input(void **state)
     vtc_client *c = daemon_open(&d, VP_ROLE_EDITOR);
     vp_material ok[3] = {mat(1), mat(2), mat(3)};
     assert_int_equal(vtc_material_put(c, ok, 3, NULL), VP_OK);
+    const char *text;
+    size_t tlen;
+    assert_int_equal(vtc_metrics(c, &text, &tlen), VP_OK);
+    assert_non_null(memmem(text, tlen, "\nvantage_scene_materials 3\n", 27));
     vp_entity e = {.id = 5, .aabb = {0, 0, 0, 1, 1, 1}, .material = 3};
     assert_int_equal(vtc_add(c, &e, 1, NULL, NULL), VP_OK);
     vp_list_reply lr;
