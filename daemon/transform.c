@@ -77,20 +77,21 @@ static int derive(const scene *s, uint16_t c, const double lo[3], const double h
                   const float rot[4], const float scale[3], uint64_t id, uint32_t i, cull_entity_desc *d,
                   scene_err *err)
 {
-    char who[64];
-    if (i == UINT32_MAX) snprintf(who, sizeof who, "entity %llu (class %u)", (unsigned long long)id, c);
-    else snprintf(who, sizeof who, "record %u (id %llu, class %u)", i, (unsigned long long)id, c);
     cull_trs t;
     memcpy(t.pos, pos, sizeof t.pos);
     for (int a = 0; a < 4; a++) t.rot[a] = rot[a];
     memcpy(t.scale, scale, sizeof t.scale);
     char why[120];
     int crc = cull_bounds_from_trs(lo, hi, &t, d, why, sizeof why);
-    if (crc)
-        return scene_fail(err, vp_code_from_cull(crc), i, "%s: %s", who, why);
-    crc = cull_entity_check(s->world, d, d);
-    if (crc) return scene_fail(err, vp_code_from_cull(crc), i, "%s: derived bounds: %s", who, cull_strerror(crc));
-    return VP_OK;
+    if (!crc && (crc = cull_entity_check(s->world, d, d)))
+        snprintf(why, sizeof why, "derived bounds: %s", cull_strerror(crc));
+    if (!crc) return VP_OK;
+    /* named as a record of the batch, or (a new mesh's check) as the entity */
+    if (i == UINT32_MAX)
+        return scene_fail(err, vp_code_from_cull(crc), i, "entity %llu (class %u): %s", (unsigned long long)id, c,
+                          why);
+    return scene_fail(err, vp_code_from_cull(crc), i, "record %u (id %llu, class %u): %s", i,
+                      (unsigned long long)id, c, why);
 }
 
 int scene_entity_desc(const scene *s, const vp_entity *e, uint32_t i, cull_entity_desc *d, scene_err *err)
