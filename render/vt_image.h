@@ -143,6 +143,10 @@ int vt_png_write(const char *path, uint32_t width, uint32_t height, const uint8_
                  size_t row_stride_bytes, bool alpha, int compression_level, char *err,
                  size_t errlen);
 
+/* The same PNG in memory: *out (malloc'ed; free()) and *out_len. */
+int vt_png_encode(uint32_t width, uint32_t height, const uint8_t *rgba8, size_t row_stride_bytes, bool alpha,
+                  int compression_level, uint8_t **out, size_t *out_len, char *err, size_t errlen);
+
 /* Reads a PNG of any colour type, bit depth and interlacing into *rgba8,
  * malloc'ed by this call (caller frees with free()), packed RGBA rows
  * (4 * width bytes each), top row first. Palette and grey are expanded,

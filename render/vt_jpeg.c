@@ -253,30 +253,18 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
     }
     if (rc != 0) return vt_call_end(&c, rc);
     jpg_job *j = calloc(1, sizeof *j);
+    if (!j) {
+        vt_call_msg(&c, "out of memory");
+        return vt_call_end(&c, VT_ERR_NOMEM);
+    }
+    *j = (jpg_job){.px = pix, .stride = row_stride_bytes, .pixel_bytes = pixel_bytes, .quality = quality,
+                   .w = width, .h = height};
+    jpg_err_init(&j->err, &c);
     /* first guess 1/4 byte per pixel (2 bits: q85 on rendered frames);
      * doubling from there */
-    size_t guess = (size_t)width * height / 4;
-    vt_sink s = {.fd = -1, .call = &c, .cap = guess < VT_SINK_CHUNK ? VT_SINK_CHUNK : guess};
-    if (j) s.buf = malloc(s.cap);
-    if (!j || !s.buf) {
-        vt_call_msg(&c, "out of memory");
-        rc = VT_ERR_NOMEM;
-    }
-    if (rc == 0) {
-        *j = (jpg_job){.px = pix, .stride = row_stride_bytes, .pixel_bytes = pixel_bytes,
-                       .quality = quality, .w = width, .h = height};
-        jpg_err_init(&j->err, &c);
-        rc = jpg_encode_to(j, &s);
-    }
+    rc = vt_sink_encode_mem(&c, (size_t)width * height / 4, jpg_encode_to, j, out, out_len);
     free(j);
-    if (rc != 0) {
-        free(s.buf);
-        return vt_call_end(&c, rc);
-    }
-    uint8_t *fit = s.len < s.cap ? realloc(s.buf, s.len) : NULL; /* give back the slack */
-    *out = fit ? fit : s.buf;
-    *out_len = s.len;
-    return vt_call_end(&c, 0);
+    return vt_call_end(&c, rc);
 }
 
 static void jpg_decompress_body(jpg_job *j)

@@ -172,6 +172,27 @@ int vt_png_write(const char *path, uint32_t width, uint32_t height, const uint8_
     return vt_call_end(&c, vt_sink_write_file(&c, path, png_encode, &j));
 }
 
+int vt_png_encode(uint32_t width, uint32_t height, const uint8_t *rgba8, size_t row_stride_bytes, bool alpha,
+                  int compression_level, uint8_t **out, size_t *out_len, char *err, size_t errlen)
+{
+    vt_call c = vt_call_begin("<memory>", err, errlen);
+    if (out) *out = NULL;
+    if (out_len) *out_len = 0;
+    int rc = vt_image_check_pixels(&c, width, height, rgba8, row_stride_bytes, 4);
+    if (rc == 0 && (compression_level < -1 || compression_level > 9)) {
+        vt_call_msg(&c, "compression level %d outside -1..9", compression_level);
+        rc = VT_ERR_INVALID;
+    }
+    if (rc == 0 && (!out || !out_len)) {
+        vt_call_msg(&c, "no output for the stream");
+        rc = VT_ERR_INVALID;
+    }
+    if (rc != 0) return vt_call_end(&c, rc);
+    png_job j = {.c = &c, .px = rgba8, .stride = row_stride_bytes, .alpha = alpha,
+                 .level = compression_level, .w = width, .h = height, .fd = -1};
+    return vt_call_end(&c, vt_sink_encode_mem(&c, (size_t)width * height, png_encode, &j, out, out_len));
+}
+
 static void png_read_body(png_job *j)
 {
     png_structp png = j->png;

@@ -715,6 +715,43 @@ static void test_image_png_roundtrip(void **state)
     tdir_remove(&t);
 }
 
+/* vt_png_encode's stream is the file vt_png_write writes, byte for byte,
+ * and reads back as the pixels (the memory sink against the file sink). */
+static void test_image_png_encode_memory(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x9A7};
+    tdir t;
+    tdir_make(&t, "vt_image_test");
+    const uint32_t w = 300, h = 257; /* larger than the first 64 KiB guess after filtering: it must grow */
+    uint8_t *px = random_rgba(&r, h, (size_t)w * 4);
+    for (int alpha = 0; alpha < 2; alpha++) {
+        uint8_t *mem = NULL;
+        size_t len = 0;
+        char err[256];
+        assert_int_equal(vt_png_encode(w, h, px, (size_t)w * 4, alpha, 6, &mem, &len, err, sizeof err), 0);
+        png_write_ok(tdir_file(&t, "file.png"), w, h, px, (size_t)w * 4, alpha, 6);
+        FILE *f = fopen(t.path, "rb");
+        assert_non_null(f);
+        uint8_t *disk = malloc(len + 1);
+        assert_non_null(disk);
+        assert_int_equal(fread(disk, 1, len + 1, f), len);
+        fclose(f);
+        assert_memory_equal(disk, mem, len);
+        png_check(t.path, w, h, px, (size_t)w * 4, alpha);
+        free(disk);
+        free(mem);
+    }
+    uint8_t *mem = (uint8_t *)1;
+    size_t len = 1;
+    char err[256];
+    assert_int_equal(vt_png_encode(0, 1, px, 4, true, 6, &mem, &len, err, sizeof err), VT_ERR_INVALID);
+    assert_null(mem);
+    assert_int_equal(len, 0);
+    free(px);
+    tdir_remove(&t);
+}
+
 /* A tone-mapped bottom-up HDR buffer written as PNG reads back as the
  * tone map of the top-down one, and Python's zlib reader agrees. */
 static void test_image_png_from_hdr(void **state)
@@ -1254,6 +1291,7 @@ const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_image_tonemap_layouts),
     cmocka_unit_test(test_image_tonemap_bad_args),
     cmocka_unit_test(test_image_png_roundtrip),
+    cmocka_unit_test(test_image_png_encode_memory),
     cmocka_unit_test(test_image_png_from_hdr),
     cmocka_unit_test(test_image_png_reader_formats),
     cmocka_unit_test(test_image_jpeg_roundtrip),
