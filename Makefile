@@ -86,6 +86,7 @@ IMPORT_OBJ := $(BUILD)/client/import/import_walk.o $(BUILD)/client/import/import
             $(BUILD)/client/import/import_child.o $(BUILD)/client/import/import_pack.o
 CLI_OBJ  := $(BUILD)/client/cli/vantage_cli.o $(BUILD)/client/cli/cli_jsonl.o $(BUILD)/client/cli/cli_bench.o \
             $(BUILD)/client/cli/cli_render.o $(BUILD)/client/cli/cli_frames.o $(BUILD)/client/cli/cli_sublevel.o \
+            $(BUILD)/client/cli/cli_env.o \
             $(IMPORT_OBJ) $(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_pad.o \
             $(BUILD)/client/commander/commander.o $(BUILD)/client/commander/commander_sdl.o \
             $(BUILD)/client/loadgen/cli_scenario.o $(BUILD)/client/loadgen/scenario_events.o \
