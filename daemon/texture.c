@@ -72,7 +72,7 @@ int scene_texture_put(scene *s, const vp_texture_put *m, scene_err *err)
     int rc = vt_texture_info(m->format, m->data, m->len, &w, &h, why, sizeof why);
     if (rc)
         return scene_fail(err, rc == VT_ERR_NOMEM ? VP_ERR_BUSY : VP_ERR_INVALID, UINT32_MAX,
-                          "texture %u: not a %s image: %s", m->id, fmt, why);
+                          "texture %u: not a valid %s image: %s", m->id, fmt, why);
     if (w > s->lim.max_texture_size || h > s->lim.max_texture_size)
         return scene_fail(err, VP_ERR_LIMIT, UINT32_MAX,
                           "texture %u: %ux%u is larger than %u pixels a side (--max-texture-size)", m->id, w, h,
