@@ -365,6 +365,10 @@ int vt_jpeg_decode(const uint8_t *data, size_t len, uint8_t **rgb8, uint32_t *wi
     if (rgb8) *rgb8 = NULL;
     if (width) *width = 0;
     if (height) *height = 0;
+    if (!rgb8) { /* NULL is vt_jpeg_info's (the header only), not this call's */
+        vt_call_msg(&c, "no output for the image");
+        return vt_call_end(&c, VT_ERR_INVALID);
+    }
     return vt_call_end(&c, jpg_decode(&c, data, len, rgb8, width, height));
 }
 
