@@ -30,21 +30,6 @@ static const scene_limits LIMITS = {.max_entities = 1024, .max_lights = 16, .max
                                     .max_occluder_tris = 16, .max_mesh_verts = 16, .max_materials = 16,
                                     .max_texture_size = 4096, .max_texture_mem = 64u << 20};
 
-static uint8_t *file_bytes(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *p = malloc((size_t)n);
-    assert_non_null(p);
-    assert_int_equal(fread(p, 1, (size_t)n, f), (size_t)n);
-    fclose(f);
-    *len = (size_t)n;
-    return p;
-}
-
 /* An EXR of w x h (finite values) in t's folder as name: its path. */
 static const char *write_exr(tdir *t, const char *name, uint32_t w, uint32_t h)
 {
@@ -106,7 +91,7 @@ static const env_row env_rows[] = {
 static int put_file(scene *s, uint32_t id, uint8_t format, const char *path)
 {
     size_t n;
-    uint8_t *b = file_bytes(path, &n);
+    uint8_t *b = test_slurp(path, &n);
     scene_err err;
     int rc = scene_texture_put(s, &(vp_texture_put){.id = id, .format = format, .total = (uint32_t)n,
                                                     .len = (uint32_t)n, .data = b},
@@ -263,7 +248,7 @@ static void test_texture_chunks(void **state)
     vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, false);
     /* 40x30 random RGBA: about 4.8 KB, five chunks of at most 1008 bytes */
     size_t n;
-    uint8_t *png = file_bytes(write_png(&t, "a.png", 40, 30, 9), &n);
+    uint8_t *png = test_slurp(write_png(&t, "a.png", 40, 30, 9), &n);
     assert_true(n > 4 * 1008);
     uint64_t epoch = 0;
     assert_int_equal(vtc_texture_put(c, 5, VP_TEX_PNG, VP_TEX_SRGB, png, n, &epoch), VP_OK);
@@ -315,7 +300,7 @@ static void test_texture_chunks(void **state)
 
     /* an EXR for the sky, which then holds on to it */
     size_t en;
-    uint8_t *exr = file_bytes(write_exr(&t, "sky.exr", 32, 16), &en);
+    uint8_t *exr = test_slurp(write_exr(&t, "sky.exr", 32, 16), &en);
     assert_int_equal(vtc_texture_put(c, 10, VP_TEX_EXR, 0, exr, en, NULL), VP_OK);
     vp_env e = test_env();
     e.sky_mode = VP_SKY_TEXTURE;

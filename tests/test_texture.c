@@ -41,21 +41,6 @@ static void scene_gone(scene *s)
     free(s);
 }
 
-static uint8_t *slurp(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *p = malloc((size_t)n + 1);
-    assert_non_null(p);
-    assert_int_equal(fread(p, 1, (size_t)n, f), (size_t)n);
-    fclose(f);
-    *len = (size_t)n;
-    return p;
-}
-
 /* Random RGBA pixels, or a smooth ramp (JPEG likes those). */
 static uint8_t *pixels(uint32_t w, uint32_t h, uint64_t seed, bool smooth)
 {
@@ -71,32 +56,43 @@ static uint8_t *pixels(uint32_t w, uint32_t h, uint64_t seed, bool smooth)
     return p;
 }
 
-static uint8_t *png_of(const uint8_t *px, uint32_t w, uint32_t h, size_t *len)
+/* The bytes a file writer makes (through a file in a fresh folder). */
+typedef int (*write_fn)(const char *path, const void *px, uint32_t w, uint32_t h, char *err, size_t errlen);
+
+static uint8_t *bytes_of(write_fn write, const void *px, uint32_t w, uint32_t h, size_t *len)
 {
     tdir t;
     char err[256];
     tdir_make(&t, "tex");
-    const char *path = tdir_file(&t, "a.png");
-    assert_int_equal(vt_png_write(path, w, h, px, (size_t)w * 4, true, 1, err, sizeof err), 0);
-    uint8_t *b = slurp(path, len);
+    const char *path = tdir_file(&t, "a.img");
+    assert_int_equal(write(path, px, w, h, err, sizeof err), 0);
+    uint8_t *b = test_slurp(path, len);
     tdir_remove(&t);
     return b;
 }
 
+static int write_png(const char *path, const void *px, uint32_t w, uint32_t h, char *err, size_t errlen)
+{
+    return vt_png_write(path, w, h, px, (size_t)w * 4, true, 1, err, errlen);
+}
+
+static int write_exr(const char *path, const void *px, uint32_t w, uint32_t h, char *err, size_t errlen)
+{
+    static const char *const names[4] = {"R", "G", "B", "A"};
+    const float *f = px;
+    vt_exr_channel ch[4];
+    for (int c = 0; c < 4; c++) ch[c] = (vt_exr_channel){names[c], VT_EXR_FLOAT, f + c, 4, 4 * (ptrdiff_t)w};
+    return vt_exr_write(path, w, h, ch, 4, VT_EXR_ZIP, err, errlen);
+}
+
+static uint8_t *png_of(const uint8_t *px, uint32_t w, uint32_t h, size_t *len)
+{
+    return bytes_of(write_png, px, w, h, len);
+}
+
 static uint8_t *exr_of(const float *rgba, uint32_t w, uint32_t h, size_t *len)
 {
-    tdir t;
-    char err[256];
-    tdir_make(&t, "tex");
-    const char *path = tdir_file(&t, "a.exr");
-    vt_exr_channel ch[4] = {{"R", VT_EXR_FLOAT, rgba + 0, 4, 4 * (ptrdiff_t)w},
-                            {"G", VT_EXR_FLOAT, rgba + 1, 4, 4 * (ptrdiff_t)w},
-                            {"B", VT_EXR_FLOAT, rgba + 2, 4, 4 * (ptrdiff_t)w},
-                            {"A", VT_EXR_FLOAT, rgba + 3, 4, 4 * (ptrdiff_t)w}};
-    assert_int_equal(vt_exr_write(path, w, h, ch, 4, VT_EXR_ZIP, err, sizeof err), 0);
-    uint8_t *b = slurp(path, len);
-    tdir_remove(&t);
-    return b;
+    return bytes_of(write_exr, rgba, w, h, len);
 }
 
 static float *hdr_pixels(uint32_t w, uint32_t h)
