@@ -279,6 +279,25 @@ static void test_texture_chunks(void **state)
     assert_int_equal(metric(c, "vantage_texture_upload_bytes"), 0);
     assert_int_equal(metric(c, "vantage_scene_textures"), 1);
 
+    /* assembled but not an image: the last chunk gets the decoder's refusal, nothing stays */
+    uint8_t *junk = malloc(n);
+    memcpy(junk, png, n);
+    memset(junk + 100, 0x5a, n - 200); /* the header intact, the pixels garbage */
+    uint32_t off = 0;
+    for (; off + 1000 < n; off += 1000)
+        assert_int_equal(chunk(c, 11, (uint32_t)n, off, junk + off, 1000, &code, msg, sizeof msg), VP_ACK);
+    assert_int_equal(chunk(c, 11, (uint32_t)n, off, junk + off, (uint32_t)n - off, &code, msg, sizeof msg), VP_ERROR);
+    assert_int_equal(code, VP_ERR_INVALID);
+    assert_non_null(strstr(msg, "texture 11: the PNG image does not decode"));
+    free(junk);
+    assert_int_equal(metric(c, "vantage_texture_upload_bytes"), 0);
+    assert_int_equal(metric(c, "vantage_scene_textures"), 1);
+    /* a viewer cannot start one */
+    vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    assert_int_equal(chunk(v, 12, (uint32_t)n, 0, png, 1000, &code, msg, sizeof msg), VP_ERROR);
+    assert_int_equal(code, VP_ERR_AUTH);
+    vtc_close(v);
+
     /* uploads under way count against --max-texture-mem: one of 195000
        bytes does not fit beside the texture held */
     static uint8_t big[1000];

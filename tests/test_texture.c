@@ -306,6 +306,51 @@ static void test_texture_exr(void **state)
     scene_gone(s);
 }
 
+/* Channels other than RGBA: grey (Y) copied to R, G and B; no A is
+ * opaque; half samples (values half holds exactly) come back as stored. */
+static void test_texture_exr_channels(void **state)
+{
+    (void)state;
+    enum { W = 6, H = 3 };
+    float v[W * H], a[W * H];
+    for (int i = 0; i < W * H; i++) v[i] = 0.25f * (float)i, a[i] = 1.0f / (float)(1 << (i % 4)); /* halves hold these exactly */
+    static const struct { const char *names[3]; int n; bool grey, alpha; } cases[] = {
+        {{"Y"}, 1, true, false}, {{"Y", "A"}, 2, true, true}, {{"R", "G", "B"}, 3, false, false}};
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        tdir t;
+        char err[256];
+        tdir_make(&t, "texc");
+        vt_exr_channel ch[3];
+        for (int c = 0; c < cases[k].n; c++) {
+            const char *nm = cases[k].names[c];
+            /* R, G, B: the same values scaled 1, 2, 3 */
+            static float rgb[3][W * H];
+            const float *src = !strcmp(nm, "A") ? a : v;
+            if (!cases[k].grey) {
+                for (int i = 0; i < W * H; i++) rgb[c][i] = v[i] * (float)(c + 1);
+                src = rgb[c];
+            }
+            ch[c] = (vt_exr_channel){nm, VT_EXR_HALF, src, 1, W};
+        }
+        const char *path = tdir_file(&t, "c.exr");
+        assert_int_equal(vt_exr_write(path, W, H, ch, (uint32_t)cases[k].n, VT_EXR_PIZ, err, sizeof err), 0);
+        size_t n;
+        uint8_t *b = test_slurp(path, &n);
+        scene *s = scene_new(NULL);
+        scene_err se;
+        assert_int_equal(put(s, 1, VP_TEX_EXR, 0, b, n, &se), VP_OK);
+        const float *h = scene_texture_find(s, 1)->hdr;
+        for (int i = 0; i < W * H; i++)
+            for (int c = 0; c < 4; c++) {
+                float want = c == 3 ? (cases[k].alpha ? a[i] : 1.0f) : cases[k].grey ? v[i] : v[i] * (float)(c + 1);
+                if (h[4 * i + c] != want) fail_msg("case %zu pixel %d channel %d: %g, want %g", k, i, c, (double)h[4 * i + c], (double)want);
+            }
+        free(b);
+        scene_gone(s);
+        tdir_remove(&t);
+    }
+}
+
 /* ---- bad inputs ----------------------------------------------------------------------- */
 
 typedef enum { IMG_PNG, IMG_PNG_CUT, IMG_GARBAGE, IMG_JPEG_GARBAGE, IMG_EXR, IMG_EXR_NAN, IMG_EXR_INF } img_kind;
@@ -454,6 +499,7 @@ const struct CMUnitTest texture_tests[] = {
     cmocka_unit_test(test_texture_srgb_linear_light),
     cmocka_unit_test(test_texture_jpeg),
     cmocka_unit_test(test_texture_exr),
+    cmocka_unit_test(test_texture_exr_channels),
     TEST_ROWS(test_texture_bad, bad_rows),
     cmocka_unit_test(test_texture_part_refused),
     cmocka_unit_test(test_texture_remove),
