@@ -18,6 +18,7 @@
 #include "vt_image.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -87,19 +88,23 @@ static void axis_taps(uint32_t n, uint32_t i, taps *t)
     }
 }
 
-/* sRGB8 to linear, exactly as IEC 61966-2-1 defines it. */
+/* sRGB8 to linear, exactly as IEC 61966-2-1 defines it: built once
+ * (pthread_once), read-only after. */
+static float srgb_lut[256];
+static pthread_once_t srgb_once = PTHREAD_ONCE_INIT;
+
+static void srgb_lut_init(void)
+{
+    for (int v = 0; v < 256; v++) {
+        double c = v / 255.0;
+        srgb_lut[v] = (float)(c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4));
+    }
+}
+
 static const float *srgb_to_linear(void)
 {
-    static float lut[256];
-    static bool done; /* racing first calls write the same values */
-    if (!done) {
-        for (int v = 0; v < 256; v++) {
-            double c = v / 255.0;
-            lut[v] = (float)(c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4));
-        }
-        __atomic_store_n(&done, true, __ATOMIC_RELEASE);
-    }
-    return lut;
+    pthread_once(&srgb_once, srgb_lut_init);
+    return srgb_lut;
 }
 
 static uint8_t round8(double v)

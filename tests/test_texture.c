@@ -435,6 +435,17 @@ static void test_texture_part_refused(void **state)
                      VP_ERR_INVALID);
     assert_non_null(strstr(err.msg, "not the whole image"));
     assert_int_equal(s->textures.count, 0);
+    /* a pad byte set: refused by the decoder, explained as such */
+    uint8_t buf[VP_HEADER_SIZE + VP_TEXTURE_PUT_HEADER + 10];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_texture_put(&w, 1, &(vp_texture_put){.id = 2, .total = 10, .len = 10, .data = part});
+    buf[VP_HEADER_SIZE + 6] = 1;
+    edit e;
+    int rc = edit_decode(VP_TEXTURE_PUT, buf + VP_HEADER_SIZE, VP_TEXTURE_PUT_HEADER + 10, 0, &e);
+    assert_int_equal(rc, VP_ERR_INVALID);
+    edit_explain(&e, rc, &err);
+    assert_non_null(strstr(err.msg, "texture 2: pad bytes 6..7 must be zero"));
     scene_gone(s);
 }
 
