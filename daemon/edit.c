@@ -120,7 +120,8 @@ void edit_explain(const edit *e, int rc, scene_err *err)
         const vp_texture_put *t = &e->u.tex;
         if (!t->id) scene_fail(err, rc, UINT32_MAX, "texture id 0: texture ids start at 1");
         else if (t->format > VP_TEX_EXR)
-            scene_fail(err, rc, UINT32_MAX, "texture %u: format %u: 0 PNG, 1 JPEG, 2 EXR are defined", t->id, t->format);
+            scene_fail(err, rc, UINT32_MAX, "texture %u: format %u: 0 PNG, 1 JPEG, 2 EXR are defined", t->id,
+                       t->format);
         else if (t->flags & ~VP_TEX_SRGB)
             scene_fail(err, rc, UINT32_MAX, "texture %u: flags 0x%x: only 0x1 (sRGB) is defined", t->id, t->flags);
         else scene_fail(err, rc, UINT32_MAX, "texture %u: pad bytes 6..7 must be zero", t->id);

@@ -50,8 +50,8 @@ int scene_env_set(scene *s, const vp_env *in, scene_err *err)
     scene_texture *sky = sky_of(s, &e);
     if (e.sky_mode == VP_SKY_TEXTURE) {
         if (!sky)
-            return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "sky texture %u: no such texture (TEXTURE_PUT it first)",
-                              e.sky_texture);
+            return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX,
+                              "sky texture %u: no such texture (TEXTURE_PUT it first)", e.sky_texture);
         if ((rc = scene_env_sky_check(s, sky, err))) return rc;
     }
     scene_material *ground = ground_of(s, &e);

@@ -99,9 +99,9 @@ int scene_texture_put(scene *s, const vp_texture_put *m, scene_err *err)
         vt_texture_free(&vt);
         free(t);
         free(bytes);
-        return t && bytes ? scene_fail(err, VP_ERR_INVALID, UINT32_MAX, "texture %u: decoded %ux%u, its header says %ux%u",
-                                       m->id, vt.w, vt.h, w, h)
-                          : scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        if (!t || !bytes) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        return scene_fail(err, VP_ERR_INVALID, UINT32_MAX, "texture %u: decoded %ux%u, its header says %ux%u", m->id,
+                          vt.w, vt.h, w, h);
     }
     memcpy(bytes, m->data, m->len);
     *t = (scene_texture){.id = m->id, .format = m->format, .flags = m->flags, .bytes = bytes, .nbytes = m->len,

@@ -313,7 +313,8 @@ static void test_texture_exr_channels(void **state)
     (void)state;
     enum { W = 6, H = 3 };
     float v[W * H], a[W * H];
-    for (int i = 0; i < W * H; i++) v[i] = 0.25f * (float)i, a[i] = 1.0f / (float)(1 << (i % 4)); /* halves hold these exactly */
+    for (int i = 0; i < W * H; i++) /* values halves hold exactly */
+        v[i] = 0.25f * (float)i, a[i] = 1.0f / (float)(1 << (i % 4));
     static const struct { const char *names[3]; int n; bool grey, alpha; } cases[] = {
         {{"Y"}, 1, true, false}, {{"Y", "A"}, 2, true, true}, {{"R", "G", "B"}, 3, false, false}};
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
@@ -343,7 +344,8 @@ static void test_texture_exr_channels(void **state)
         for (int i = 0; i < W * H; i++)
             for (int c = 0; c < 4; c++) {
                 float want = c == 3 ? (cases[k].alpha ? a[i] : 1.0f) : cases[k].grey ? v[i] : v[i] * (float)(c + 1);
-                if (h[4 * i + c] != want) fail_msg("case %zu pixel %d channel %d: %g, want %g", k, i, c, (double)h[4 * i + c], (double)want);
+                if (h[4 * i + c] != want)
+                    fail_msg("case %zu pixel %d channel %d: %g, want %g", k, i, c, (double)h[4 * i + c], (double)want);
             }
         free(b);
         scene_gone(s);

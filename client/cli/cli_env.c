@@ -46,7 +46,8 @@ int cmd_texture(cli *k, int argc, char **argv)
         rc = connect_cli(k, VP_ROLE_EDITOR);
         if (!rc && (rc = vtc_texture_remove(k->c, ids, (uint32_t)(argc - 2), &epoch)))
             rc = server_fail(k, "texture rm", rc);
-        else if (!rc) printf("removed %d texture%s, epoch %llu\n", argc - 2, argc > 3 ? "s" : "", (unsigned long long)epoch);
+        else if (!rc)
+            printf("removed %d texture%s, epoch %llu\n", argc - 2, argc > 3 ? "s" : "", (unsigned long long)epoch);
         free(ids);
         return rc;
     }

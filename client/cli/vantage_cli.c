@@ -102,7 +102,7 @@ static const cli_form forms[] = {
      "        [--sky-intensity X] [--sky-rotation DEG] [--turbidity T] [--ground HEIGHT|off] [--ground-color R,G,B]\n"
      "        [--ground-material ID] [--fog DENSITY[,R,G,B]] [--exposure auto[:COMP]|EV]",
      "print the environment (sun, sky, ground, fog, exposure); options change it",
-     "  AZ from +Z towards +X, EL above the horizon (degrees); options apply in the order given (put --day / --night first).\n"},
+     "  AZ from +Z towards +X, EL above the horizon (degrees); options apply in the order given.\n"},
     {"destroy", "destroy ID X,Y,Z RADIUS [--debris N] [--handle H] [--json]",
      "a destruction sphere on an entity: its occluder is cut open for the next query",
      "  RADIUS in metres, > 0; --debris N (0..64) small dynamic entities around the hole; --handle H:\n"
