@@ -96,9 +96,9 @@ int scene_texture_put(scene *s, const vp_texture_put *m, scene_err *err)
     scene_texture *t = calloc(1, sizeof *t);
     uint8_t *bytes = malloc(m->len);
     if (!t || !bytes || vt.w != w || vt.h != h) {
-        rc = !t || !bytes ? scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory")
-                          : scene_fail(err, VP_ERR_INVALID, UINT32_MAX, "texture %u: decoded %ux%u, its header says %ux%u",
-                                       m->id, vt.w, vt.h, w, h);
+        if (!t || !bytes) rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
+        else rc = scene_fail(err, VP_ERR_INVALID, UINT32_MAX, "texture %u: decoded %ux%u, its header says %ux%u", m->id,
+                             vt.w, vt.h, w, h);
         vt_texture_free(&vt);
         free(t);
         free(bytes);
