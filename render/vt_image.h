@@ -158,6 +158,13 @@ int vt_png_encode(uint32_t width, uint32_t height, const uint8_t *rgba8, size_t 
 int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *height,
                 bool *has_alpha, char *err, size_t errlen);
 
+/* vt_png_read of a whole PNG stream in memory, data[0..len) (the daemon's
+ * texture uploads). rgba8 NULL reads the header only: *width and *height
+ * (checked against VT_IMAGE_MAX_DIM), nothing allocated, so a caller can
+ * check its own limits before the pixels are. "<memory>" in messages. */
+int vt_png_decode(const uint8_t *data, size_t len, uint8_t **rgba8, uint32_t *width, uint32_t *height,
+                  bool *has_alpha, char *err, size_t errlen);
+
 /* ---- JPEG ------------------------------------------------------------------ */
 
 /* Writes `path` as a baseline JFIF JPEG: YCbCr 4:2:0, the IJG tables
@@ -187,6 +194,11 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
  * 0 / NULL. */
 int vt_jpeg_decode(const uint8_t *data, size_t len, uint8_t **rgb8, uint32_t *width,
                    uint32_t *height, char *err, size_t errlen);
+
+/* The size in a JPEG stream's header (frame header parsed, checked against
+ * VT_IMAGE_MAX_DIM and the colour spaces vt_jpeg_decode takes); nothing
+ * decoded or allocated. */
+int vt_jpeg_info(const uint8_t *data, size_t len, uint32_t *width, uint32_t *height, char *err, size_t errlen);
 
 /* vt_jpeg_decode of the contents of `path` (at most 1 GiB, else VT_ERR_TOO_LARGE). */
 int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *height, char *err,

@@ -91,22 +91,6 @@ static void ref_thresholds(float t[256])
     }
 }
 
-static uint8_t *read_file(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    assert_int_equal(fseek(f, 0, SEEK_END), 0);
-    long n = ftell(f);
-    assert_true(n >= 0);
-    rewind(f);
-    uint8_t *b = malloc((size_t)n + 1);
-    assert_non_null(b);
-    assert_int_equal(fread(b, 1, (size_t)n, f), (size_t)n);
-    fclose(f);
-    *len = (size_t)n;
-    return b;
-}
-
 static void write_bytes(const char *path, const void *p, size_t n)
 {
     FILE *f = fopen(path, "wb");
@@ -277,7 +261,7 @@ static void check_python_png(tdir *t, const char *path, uint32_t w, uint32_t h, 
     assert_int_equal(ct, alpha ? 6 : 2);
     assert_non_null(strstr(line, "IHDR sRGB IDAT"));
     size_t n = 0;
-    uint8_t *got = read_file(raw, &n);
+    uint8_t *got = test_slurp(raw, &n);
     uint32_t bpp = alpha ? 4 : 3;
     assert_int_equal(n, (size_t)w * h * bpp);
     for (uint32_t y = 0; y < h; y++)
@@ -893,7 +877,7 @@ static void test_image_jpeg_roundtrip(void **state)
                                            err, sizeof err), 0);
             assert_string_equal(err, "");
             assert_int_equal(tdir_count(&t), 1);
-            file = read_file(t.path, &nf);
+            file = test_slurp(t.path, &nf);
             assert_int_equal(nf, n3);
             assert_memory_equal(file, m3, n3);
             uint32_t rw = 0, rh = 0, fw = 0, fh = 0;
@@ -1208,11 +1192,11 @@ static void test_image_failed_write_keeps_old(void **state)
         if (fmt) assert_int_equal(vt_jpeg_write(p, 4, 4, noise, (size_t)w * 4, 4, 90, err, sizeof err), 0);
         else png_write_ok(p, 4, 4, noise, (size_t)w * 4, true, 6);
         size_t n0;
-        uint8_t *before = read_file(p, &n0);
+        uint8_t *before = test_slurp(p, &n0);
         test_write_past_fsize(write_noise, p, &(noise_image){noise, w, h, fmt});
         assert_int_equal(tdir_count(&t), fmt + 1);
         size_t n1;
-        uint8_t *after = read_file(p, &n1);
+        uint8_t *after = test_slurp(p, &n1);
         assert_true(n0 == n1 && memcmp(before, after, n0) == 0);
         free(before);
         free(after);
