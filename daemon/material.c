@@ -3,8 +3,8 @@
  * protocol.h vp_material): stored by id, shared by any number of entities,
  * global (not in sub-levels). What it owns: MATERIAL_PUT and
  * MATERIAL_REMOVE, and the reference counts that keep a texture while a
- * material names it and a material while an entity (or the environment's
- * ground) uses it. A material is 188 bytes; at most lim.max_materials.
+ * material names it and a material while an entity uses it (env.c counts
+ * the environment's ground). A material is 188 bytes; at most lim.max_materials.
  */
 #include "scene.h"
 
@@ -102,14 +102,12 @@ int scene_materials_remove(scene *s, const vp_id_batch *b, scene_err *err)
             rc = scene_fail(err, VP_ERR_UNKNOWN_ID, i, "record %u: no material %llu", i, (unsigned long long)ids[i]);
             goto out;
         }
-        if (m->users) {
-            rc = scene_fail(err, VP_ERR_STATE, i, "record %u: material %llu is used by %u entities", i,
-                            (unsigned long long)ids[i], m->users);
-            goto out;
-        }
-        if (s->env.ground_material == ids[i]) {
-            rc = scene_fail(err, VP_ERR_STATE, i, "record %u: material %llu is the environment's ground", i,
-                            (unsigned long long)ids[i]);
+        bool ground = s->env.ground_material == ids[i]; /* (counted in users too, by env.c) */
+        if (ground || m->users) {
+            rc = ground ? scene_fail(err, VP_ERR_STATE, i, "record %u: material %llu is the environment's ground", i,
+                                     (unsigned long long)ids[i])
+                        : scene_fail(err, VP_ERR_STATE, i, "record %u: material %llu is used by %u entities", i,
+                                     (unsigned long long)ids[i], m->users);
             goto out;
         }
     }

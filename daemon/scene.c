@@ -66,6 +66,7 @@ void scene_free(scene *s)
     scene_destruct_free_all(s);
     scene_materials_free(s);
     free(s->xf);
+    scene_textures_free(s);
     for (uint32_t i = 1; i <= s->nsublevels; i++) {
         free(s->sl[i].name);
         free(s->sl[i].doomed);

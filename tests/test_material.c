@@ -11,10 +11,12 @@
 #include "edit.h"
 #include "test_daemon.h"
 #include "vantage.h"
+#include "vt_image.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static vp_material mat(uint32_t id)
 {
@@ -270,9 +272,42 @@ static void test_material_bad_input(void **state)
     daemon_close(&d, c);
 }
 
+/* A real texture over the wire: a material naming it keeps it (TEXTURE_REMOVE
+ * refused with STATE), a replaced material lets it go. */
+static void test_material_keeps_texture(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    uint8_t px[4 * 4 * 4];
+    for (size_t i = 0; i < sizeof px; i++) px[i] = (uint8_t)(i * 37);
+    char path[] = "/tmp/vantage-mat-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    char why[200];
+    assert_int_equal(vt_png_write(path, 4, 4, px, 16, true, 1, why, sizeof why), 0);
+    assert_int_equal(vtc_texture_put_file(c, 7, -1, VP_TEX_SRGB, path, NULL), VP_OK);
+    unlink(path);
+    vp_material m = mat(1);
+    m.tex[VP_TEX_BASE].texture = 7;
+    m.tex[VP_TEX_EMISSIVE].texture = 7;
+    assert_int_equal(vtc_material_put(c, &m, 1, NULL), VP_OK);
+    uint64_t tex = 7;
+    assert_int_equal(vtc_texture_remove(c, &tex, 1, NULL), VP_ERR_STATE);
+    fprintf(stderr, "texture in use: %s\n", vtc_last_error(c)->msg);
+    m.tex[VP_TEX_BASE].texture = 0;
+    assert_int_equal(vtc_material_put(c, &m, 1, NULL), VP_OK);
+    assert_int_equal(vtc_texture_remove(c, &tex, 1, NULL), VP_ERR_STATE); /* the emissive slot still */
+    m.tex[VP_TEX_EMISSIVE].texture = 0;
+    assert_int_equal(vtc_material_put(c, &m, 1, NULL), VP_OK);
+    assert_int_equal(vtc_texture_remove(c, &tex, 1, NULL), VP_OK);
+    vtc_close(c);
+}
+
 const struct CMUnitTest material_tests[] = {
     cmocka_unit_test(test_material_refs_against_model),
     cmocka_unit_test(test_material_limit_and_batches),
     TEST_ROWS(test_material_bad_input, mat_rows),
+    DAEMON_TEST(test_material_keeps_texture),
 };
 const size_t material_tests_count = sizeof material_tests / sizeof material_tests[0];

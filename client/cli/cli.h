@@ -75,6 +75,9 @@ int cmd_sublevel(cli *k, int argc, char **argv);
 int cmd_add(cli *k, int argc, char **argv);
 int cmd_move(cli *k, int argc, char **argv);
 int cmd_material(cli *k, int argc, char **argv);
+/* cli_env.c: texture put | rm, env */
+int cmd_texture(cli *k, int argc, char **argv);
+int cmd_env(cli *k, int argc, char **argv);
 
 /* cli_bench.c */
 int cmd_bench(cli *k, int argc, char **argv);
