@@ -16,6 +16,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #define CLS 7
 
@@ -605,6 +606,29 @@ static void test_cli_transforms_and_materials(void **state)
     assert_int_equal(vantage_run(d, out, sizeof out, "move 4 --scale 2"), 2);
     assert_int_equal(vantage_run(d, out, sizeof out, "material --help"), 0);
     assert_non_null(strstr(out, "--alpha-mask"));
+    /* get and export write the transform and material; import reads them back */
+    assert_int_equal(vantage_run(d, out, sizeof out, "get 1"), 0);
+    if (!strstr(out, "\"material\": 3, \"pos\": [9, 9, 9], \"rot\": [0, 0.707106769, 0, 0.707106769], "
+                     "\"scale\": [1, 1, -1]"))
+        fail_msg("get 1: %s", out);
+    char path[] = "/tmp/vantage-trs-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    get_one(c, 1, &g);
+    vp_entity before = g;
+    assert_int_equal(vantage_run(d, out, sizeof out, "export %s", path), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "remove 1 2 3 4"), 0);
+    assert_int_equal(vantage_run(d, out, sizeof out, "import %s", path), 0);
+    unlink(path);
+    get_one(c, 1, &g);
+    assert_true(g.flags == VP_ENT_TRANSFORM && g.material == 3);
+    assert_memory_equal(g.pos, before.pos, sizeof g.pos);
+    assert_memory_equal(g.rot, before.rot, sizeof g.rot);
+    assert_memory_equal(g.scale, before.scale, sizeof g.scale);
+    assert_memory_equal(g.aabb, before.aabb, sizeof g.aabb);
+    get_one(c, 4, &g);
+    assert_true(g.flags == 0 && g.material == 3 && g.sphere[3] == 0.5);
     /* gone: the material can go */
     assert_int_equal(vantage_run(d, out, sizeof out, "remove 1 4"), 0);
     assert_int_equal(vantage_run(d, out, sizeof out, "material rm 3"), 0);
