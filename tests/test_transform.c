@@ -260,6 +260,16 @@ static void test_transform_batches_all_or_nothing(void **state)
         assert_true(g.pos[0] == i * 10.0 && g.aabb[0] == g.aabb[0]);
         assert_true(g.aabb[0] <= i * 10.0 + MLO[0] && g.aabb[3] >= i * 10.0 + MHI[0]);
     }
+    /* a quaternion within 1e-3 of unit is taken, stored renormalised */
+    vp_transform near = {.id = e[0].id, .rot = {0, 0.6f, 0, 0.8008f}, .scale = {1, 1, 1}};
+    assert_int_equal(vtc_transform_set(c, &near, 1, NULL), VP_OK);
+    vp_entity n1;
+    get_one(c, e[0].id, &n1);
+    assert_true(fabsf(n1.rot[1] - 0.6f / 1.00064f) < 1e-6f && fabsf(n1.rot[3] - 0.8008f / 1.00064f) < 1e-6f);
+    near.rot[3] = 0.8016f; /* |q| = 1.00128 */
+    assert_int_equal(vtc_transform_set(c, &near, 1, NULL), VP_ERR_INVALID);
+    near.rot[3] = 0.8f;
+    assert_int_equal(vtc_transform_set(c, &near, 1, NULL), VP_OK);
     /* ENTITY_UPDATE with a bad record in the middle: nothing changes */
     vp_entity u[3] = {e[0], e[1], e[2]};
     u[0].pos[0] = 77;
@@ -268,7 +278,7 @@ static void test_transform_batches_all_or_nothing(void **state)
     assert_int_equal(vtc_last_error(c)->index, 1);
     vp_entity g;
     get_one(c, e[0].id, &g);
-    assert_true(g.pos[0] == 0);
+    assert_true(g.pos[0] == 0 && g.rot[3] == 0.8f);
     vtc_close(c);
 }
 
