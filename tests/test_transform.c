@@ -523,6 +523,43 @@ static void test_attached_occluder_follows(void **state)
     vtc_close(c);
 }
 
+/* An attached occluder in a sub-level: loaded with its entity (hidden until
+ * the commit), gone with the unload. */
+static void test_attached_occluder_sublevel(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *ld = connect_role(d, VP_ROLE_EDITOR, false), *ed = connect_role(d, VP_ROLE_EDITOR, false);
+    crate(ed, 20, 0, 2, 10);
+    vp_sublevel_begun b;
+    assert_int_equal(vtc_sublevel_begin(ld, "block", 0, &b), VP_OK);
+    double p[3] = {0, 0, 0};
+    float one[3] = {1, 1, 1};
+    wall(ld, 10, p, one); /* entity 10 joins the load; its occluder is the load's */
+    assert_true(street_sees(ed, 0, 20));
+    vp_ack a;
+    assert_int_equal(vtc_sublevel_commit(ld, &a), VP_OK);
+    assert_false(street_sees(ed, 0, 20));
+    vp_stats_reply st;
+    assert_int_equal(vtc_stats(ed, &st), VP_OK);
+    assert_int_equal(st.occluders, 1);
+    /* another connection moves it: the occluder follows */
+    float id4[4] = {0, 0, 0, 1};
+    move(ed, 10, 300, 0, id4, one);
+    assert_true(street_sees(ed, 0, 20));
+    move(ed, 10, 0, 0, id4, one);
+    assert_false(street_sees(ed, 0, 20));
+    assert_int_equal(vtc_sublevel_unload(ed, "block", &a), VP_OK);
+    assert_true(street_sees(ed, 0, 20));
+    for (int k = 0; k < 100 && st.entities != 1; k++) {
+        assert_int_equal(vtc_stats(ed, &st), VP_OK); /* the unload frees in slices */
+        if (st.entities != 1) usleep(20000);
+    }
+    assert_int_equal(st.entities, 1);
+    assert_int_equal(st.occluders, 0);
+    vtc_close(ld);
+    vtc_close(ed);
+}
+
 /* Destruction follows the transform: a hole cut in a wall moves with it,
  * so a query through the hole sees behind it at the new place. */
 static void test_destruction_follows(void **state)
@@ -655,6 +692,7 @@ const struct CMUnitTest transform_tests[] = {
     TEST_ROWS(test_transform_bad_input, bad_rows),
     DAEMON_TEST(test_transform_mesh_rederives),
     DAEMON_TEST(test_attached_occluder_follows),
+    DAEMON_TEST(test_attached_occluder_sublevel),
     DAEMON_TEST(test_destruction_follows),
     DAEMON_TEST(test_cli_transforms_and_materials),
 };
