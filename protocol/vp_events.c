@@ -10,11 +10,11 @@
 
 /* ---- marks -------------------------------------------------------------------------- */
 
-#define MARK_FIELDS(X) X(f64a, pos) X(u64, entity) X(u8, kind) X(pad8, _) X(pad16, _) X(u32, ttl_ms)
+#define MARK_FIELDS(X) X(f64a, pos) X(u64, entity) X(u8, kind) X(pad8, pad1) X(pad16, pad2) X(u32, ttl_ms)
 VP_LAYOUT(mark, vp_mark, MARK_FIELDS)
 
 /* MARKED's fields before the mark */
-#define MARKED_FIELDS(X) X(u32, client_id) X(pad32, _)
+#define MARKED_FIELDS(X) X(u32, client_id) X(pad32, pad1)
 VP_LAYOUT(marked_head, vp_marked, MARKED_FIELDS)
 
 /* A mark read to the end of the payload; pad is the OR of the pads
@@ -65,7 +65,7 @@ int vp_dec_marked(const uint8_t *p, size_t len, vp_marked *m)
 /* ---- destruction --------------------------------------------------------------- */
 
 #define DESTROY_FIELDS(X) \
-    X(u64, id) X(u32, handle) X(u8, debris) X(pad8, _) X(pad16, _) X(f64a, center) X(f64, radius)
+    X(u64, id) X(u32, handle) X(u8, debris) X(pad8, pad1) X(pad16, pad2) X(f64a, center) X(f64, radius)
 VP_LAYOUT(destroy, vp_destroy, DESTROY_FIELDS)
 
 #define DESTROYED_FIELDS(X) X(u64, epoch) X(u32, spheres) X(u32, occluder_tris) X(u32, debris) X(u32, cut_us)
