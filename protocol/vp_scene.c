@@ -180,7 +180,7 @@ int vp_dec_texture_put(const uint8_t *p, size_t len, vp_texture_put *m)
     X(f32, fog_density) X(f32a, fog_color) X(f32, fog_height_falloff) X(f32, exposure_ev)                \
     X(f32, exposure_comp) X(pad32, pad3)
 #define ENV_CHECKS(X)                                                                                       \
-    X(range, sun_dir, "sun direction", "x,y,z", -2, 2) X(range, sun_color, "sun colour", "r,g,b", 0, 1)   \
+    X(range, sun_dir, "sun direction", "x,y,z", -INFINITY, INFINITY) X(range, sun_color, "sun colour", "r,g,b", 0, 1)   \
     X(range, sun_lux, "sun illuminance", "", 0, 200000)                                                  \
     X(max, sky_mode, "sky mode", "0 colour, 1 analytic, 2 texture are defined", 0, VP_SKY_TEXTURE)       \
     X(mask, flags, "flags", "0x1 ground is defined", 0, VP_ENV_GROUND)                                   \
