@@ -662,6 +662,8 @@ void   vp_enc_env(vp_writer *w, uint16_t type, uint32_t req, const vp_env *m);
 /* Checks every field (finite, ranges, defined modes and flags); the sun
  * direction is normalised in place. why may be NULL. */
 int    vp_dec_env(const uint8_t *p, size_t len, vp_env *m);
+/* The same with the field and the cause in why (may be NULL). */
+int    vp_dec_env_why(const uint8_t *p, size_t len, vp_env *m, char *why, size_t whylen);
 int    vp_env_check(vp_env *m, char *why, size_t whylen);
 
 /* Version 1 layouts, read from journals and snapshots a version 1 daemon

@@ -110,12 +110,21 @@ int vp_check_count(uint64_t v, const char *pre, const char *label, double lo, do
 
 int vp_check_pad(const vp_layout_desc *d, uint32_t pad, const char *pre, char *why, size_t whylen)
 {
-    uint32_t off = pad - 1, end = off;
-    /* the pad field it falls in, and the pads right after it: one run of pad bytes */
+    /* the run of adjacent pad fields holding the bad byte: "pad bytes 29..31" */
+    uint32_t off = pad - 1, lo = off, hi = off, run = 0;
+    bool in_run = false;
     for (uint32_t i = 0; i < d->nfields; i++) {
         const vp_field_desc *f = &d->fields[i];
-        if (f->kind == VP_KIND_PAD && f->offset <= end + 1 && f->offset + f->size - 1u >= off)
-            end = f->offset + f->size - 1u;
+        if (f->kind != VP_KIND_PAD) {
+            if (in_run && run <= off && off <= hi) break;
+            in_run = false;
+            continue;
+        }
+        if (!in_run) run = f->offset;
+        in_run = true;
+        hi = f->offset + f->size - 1u;
+        lo = run;
     }
-    return vp_errf(why, whylen, VP_ERR_INVALID, "%spad bytes %u..%u must be zero", pre ? pre : "", off, end);
+    if (!(lo <= off && off <= hi)) lo = hi = off; /* not a described pad: cannot happen */
+    return vp_errf(why, whylen, VP_ERR_INVALID, "%spad bytes %u..%u must be zero", pre ? pre : "", lo, hi);
 }

@@ -247,11 +247,17 @@ int vp_env_check(vp_env *m, char *why, size_t whylen)
     return env_check(m, 0, why, whylen);
 }
 
-int vp_dec_env(const uint8_t *p, size_t len, vp_env *m)
+int vp_dec_env_why(const uint8_t *p, size_t len, vp_env *m, char *why, size_t whylen)
 {
     vp_reader r;
     vp_reader_init(&r, p, len);
     uint32_t pad = env_get(&r, m);
     int rc = vp_reader_finish(&r);
-    return rc ? rc : env_check(m, pad, NULL, 0);
+    if (rc) return vp_errf(why, whylen, rc, "%u bytes: the environment record is %u", (unsigned)len, VP_ENV_SIZE);
+    return env_check(m, pad, why, whylen);
+}
+
+int vp_dec_env(const uint8_t *p, size_t len, vp_env *m)
+{
+    return vp_dec_env_why(p, len, m, NULL, 0);
 }
