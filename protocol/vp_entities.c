@@ -166,7 +166,8 @@ int vp_trs_check(double pos[3], float rot[4], float scale[3], char *why, size_t 
     if (zeros > 1)
         return vp_errf(why, whylen, VP_ERR_INVALID, "scale (%g, %g, %g) is 0 on %d axes; at most one may be 0",
                        (double)scale[0], (double)scale[1], (double)scale[2], zeros);
-    for (int a = 0; a < 4; a++) rot[a] = (float)(rot[a] / n);
+    if (fabs(n - 1) > VP_UNIT_EXACT)
+        for (int a = 0; a < 4; a++) rot[a] = (float)(rot[a] / n);
     return VP_OK;
 }
 

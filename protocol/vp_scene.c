@@ -237,7 +237,8 @@ static int env_check(vp_env *m, uint32_t pad, char *why, size_t whylen)
             return vp_errf(why, whylen, VP_ERR_INVALID,
                            "sun direction (%g, %g, %g) has length %.6g: not a unit vector (1 +- %g) nor 0",
                            (double)m->sun_dir[0], (double)m->sun_dir[1], (double)m->sun_dir[2], n, VP_QUAT_TOLERANCE);
-        for (int k = 0; k < 3; k++) m->sun_dir[k] = (float)(m->sun_dir[k] / n);
+        if (fabs(n - 1) > VP_UNIT_EXACT)
+            for (int k = 0; k < 3; k++) m->sun_dir[k] = (float)(m->sun_dir[k] / n);
     }
     return VP_OK;
 }
