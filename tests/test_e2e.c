@@ -312,7 +312,10 @@ static int raw_connect(const daemon_proc *d)
 }
 
 /* Reads one frame; returns its type (and the error code if ERROR), -1 on EOF. */
-static int raw_read(int fd, int32_t *code)
+/* The next frame's type (-1 at the end of the stream); an ERROR's code
+ * in *code and its message, NUL-terminated, in msg[0..cap) (each may be
+ * NULL / 0). */
+static int raw_read_msg(int fd, int32_t *code, char *msg, size_t cap)
 {
     uint8_t buf[8192];
     size_t have = 0;
@@ -321,10 +324,11 @@ static int raw_read(int fd, int32_t *code)
         size_t fs;
         int rc = vp_frame_check(buf, have, sizeof buf - VP_HEADER_SIZE, &h, &fs);
         if (rc == VP_OK) {
-            if (h.type == VP_ERROR && code) {
+            if (h.type == VP_ERROR && (code || cap)) {
                 vp_error e;
                 assert_int_equal(vp_dec_error(buf + VP_HEADER_SIZE, h.len, &e), VP_OK);
-                *code = e.code;
+                if (code) *code = e.code;
+                if (cap) snprintf(msg, cap, "%.*s", (int)e.msg_len, (const char *)e.msg);
             }
             return h.type;
         }
@@ -335,32 +339,7 @@ static int raw_read(int fd, int32_t *code)
     }
 }
 
-/* The next frame, which must be an ERROR: its code, and its message
- * NUL-terminated in msg[0..cap). */
-static void raw_read_error(int fd, int32_t *code, char *msg, size_t cap)
-{
-    uint8_t buf[8192];
-    size_t have = 0;
-    for (;;) {
-        vp_header h;
-        size_t fs;
-        int rc = vp_frame_check(buf, have, sizeof buf - VP_HEADER_SIZE, &h, &fs);
-        if (rc == VP_OK) {
-            vp_error e;
-            assert_int_equal(h.type, VP_ERROR);
-            assert_int_equal(vp_dec_error(buf + VP_HEADER_SIZE, h.len, &e), VP_OK);
-            *code = e.code;
-            size_t n = e.msg_len < cap - 1 ? e.msg_len : cap - 1;
-            memcpy(msg, e.msg, n);
-            msg[n] = 0;
-            return;
-        }
-        assert_int_equal(rc, VP_NEED_MORE);
-        ssize_t n = read(fd, buf + have, sizeof buf - have);
-        assert_true(n > 0);
-        have += (size_t)n;
-    }
-}
+static int raw_read(int fd, int32_t *code) { return raw_read_msg(fd, code, NULL, 0); }
 
 static void raw_hello(int fd)
 {
@@ -683,7 +662,7 @@ static void test_hello_old_version(void **state)
         vp_writer_init(&w, buf, sizeof buf);
         vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = sent[i], .role = VP_ROLE_EDITOR});
         assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
-        raw_read_error(fd, &code, msg, sizeof msg);
+        assert_int_equal(raw_read_msg(fd, &code, msg, sizeof msg), VP_ERROR);
         assert_int_equal(code, VP_ERR_VERSION);
         snprintf(want, sizeof want, "version %u:", sent[i]);
         if (!strstr(msg, want) || !strstr(msg, "speaks version 2")) fail_msg("message: %s", msg);

@@ -30,6 +30,16 @@ static bool same_f64s(const double *a, const double *b, int n)
 /* A batch decoder refused the payload: if the count fitted, the record
  * check names the first bad record with the decoder's code. check(i, why)
  * is the record check of record i of n records at recs. */
+/* A batch decoded with no limit (rc, n records) and with limit (rcl, ln
+ * records): a limit can only turn an accept into COUNT. */
+static void check_limit(int rc, uint32_t n, int rcl, uint32_t ln, uint32_t limit)
+{
+    check_code(rc);
+    check_code(rcl);
+    if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || ln <= limit));
+    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && n > limit);
+}
+
 typedef int (*rec_check_fn)(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen);
 
 static void check_refusal(int rc, const uint8_t *p, size_t len, size_t rec, rec_check_fn check)
@@ -63,13 +73,9 @@ static bool same_transform(const vp_transform *a, const vp_transform *b)
 
 static void fuzz_transforms(const uint8_t *p, size_t len, uint32_t limit)
 {
-    vp_transform_batch m, lim;
-    int rc = vp_dec_transforms(p, len, 0, &m);
-    check_code(rc);
-    int rcl = vp_dec_transforms(p, len, limit, &lim);
-    check_code(rcl);
-    if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || lim.count <= limit));
-    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.count > limit);
+    vp_transform_batch m = {0}, lim = {0};
+    int rc = vp_dec_transforms(p, len, 0, &m), rcl = vp_dec_transforms(p, len, limit, &lim);
+    check_limit(rc, m.count, rcl, lim.count, limit);
     check_refusal(rc, p, len, VP_TRANSFORM_REC_SIZE, xf_check);
     if (rc) return;
     CHECK(len == 4 + (size_t)m.count * VP_TRANSFORM_REC_SIZE);
@@ -120,13 +126,9 @@ static bool same_material(const vp_material *a, const vp_material *b)
 static void fuzz_materials(const uint8_t *p, size_t len, uint32_t limit)
 {
     const uint8_t *recs, *lrecs;
-    uint32_t n, ln;
-    int rc = vp_dec_materials(p, len, 0, &recs, &n);
-    check_code(rc);
-    int rcl = vp_dec_materials(p, len, limit, &lrecs, &ln);
-    check_code(rcl);
-    if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || ln <= limit));
-    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && n > limit);
+    uint32_t n = 0, ln = 0;
+    int rc = vp_dec_materials(p, len, 0, &recs, &n), rcl = vp_dec_materials(p, len, limit, &lrecs, &ln);
+    check_limit(rc, n, rcl, ln, limit);
     check_refusal(rc, p, len, VP_MATERIAL_SIZE, vp_material_rec_check);
     if (rc) return;
     CHECK(len == 4 + (size_t)n * VP_MATERIAL_SIZE);
@@ -223,13 +225,9 @@ static void fuzz_env(const uint8_t *p, size_t len, uint16_t type)
  * re-encoded) it decodes to the same entity. */
 static void fuzz_entities_v1(const uint8_t *p, size_t len, uint32_t limit)
 {
-    vp_entity_batch m, lim;
-    int rc = vp_dec_entities_v1(p, len, 0, &m);
-    check_code(rc);
-    int rcl = vp_dec_entities_v1(p, len, limit, &lim);
-    check_code(rcl);
-    if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || lim.count <= limit));
-    if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.count > limit);
+    vp_entity_batch m = {0}, lim = {0};
+    int rc = vp_dec_entities_v1(p, len, 0, &m), rcl = vp_dec_entities_v1(p, len, limit, &lim);
+    check_limit(rc, m.count, rcl, lim.count, limit);
     if (rc) return;
     CHECK(m.version == 1 && len == 4 + (size_t)m.count * VP_ENTITY_REC_SIZE_V1);
     vp_entity *e = read_entities(&m);
