@@ -40,6 +40,13 @@ static void check_limit(int rc, uint32_t n, int rcl, uint32_t ln, uint32_t limit
     if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && n > limit);
 }
 
+/* A decoder's code and its why-variant's agree, and only a refusal has a why. */
+static void check_why(int rc, int rc_why, const char *why)
+{
+    check_code(rc);
+    CHECK(rc_why == rc && (rc == VP_OK ? why[0] == 0 : why[0] != 0));
+}
+
 typedef int (*rec_check_fn)(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen);
 
 static void check_refusal(int rc, const uint8_t *p, size_t len, size_t rec, rec_check_fn check)
@@ -159,9 +166,7 @@ static void fuzz_texture_put(const uint8_t *p, size_t len)
     vp_texture_put m, w;
     char why[256] = "";
     int rc = vp_dec_texture_put(p, len, &m);
-    check_code(rc);
-    CHECK(vp_dec_texture_put_why(p, len, &w, why, sizeof why) == rc);
-    CHECK(rc == VP_OK ? why[0] == 0 : why[0] != 0);
+    check_why(rc, vp_dec_texture_put_why(p, len, &w, why, sizeof why), why);
     if (rc) return;
     CHECK(vp_texture_put_check(&m, NULL, 0) == VP_OK);
     CHECK(m.id && m.format <= VP_TEX_EXR && m.total >= 1 && m.total <= VP_MAX_TEXTURE_BYTES);
@@ -199,9 +204,7 @@ static void fuzz_env(const uint8_t *p, size_t len, uint16_t type)
     vp_env m, w;
     char why[256] = "";
     int rc = vp_dec_env(p, len, &m);
-    check_code(rc);
-    CHECK(vp_dec_env_why(p, len, &w, why, sizeof why) == rc);
-    CHECK(rc == VP_OK ? why[0] == 0 : why[0] != 0);
+    check_why(rc, vp_dec_env_why(p, len, &w, why, sizeof why), why);
     if (rc) return;
     CHECK(len == VP_ENV_SIZE);
     vp_env c = m;
