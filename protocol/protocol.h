@@ -948,7 +948,7 @@ int  vp_light_rec_check(const uint8_t *recs, uint32_t n, uint32_t i, char *why, 
  * holds PROTOCOL.md's byte tables to it. */
 enum vp_kind { VP_KIND_U8, VP_KIND_U16, VP_KIND_U32, VP_KIND_U64, VP_KIND_I32, VP_KIND_F32, VP_KIND_F64,
                VP_KIND_PAD /* written 0, must read 0 */, VP_KIND_RSV /* written 0, not read */ };
-enum vp_check_op { VP_CHECK_RANGE, VP_CHECK_MAX, VP_CHECK_MASK, VP_CHECK_NONZERO, VP_CHECK_COUNT };
+enum vp_check_op { VP_CHECK_RANGE, VP_CHECK_MAX, VP_CHECK_MASK, VP_CHECK_NONZERO, VP_CHECK_COUNT, VP_CHECK_IRANGE };
 typedef struct vp_field_desc {
     const char *name;    /* the C member ("pos"); pads "pad1", "pad2", ... */
     uint8_t  kind;       /* enum vp_kind of one element */
@@ -961,7 +961,7 @@ typedef struct vp_check_desc {
     const char *label;   /* how messages name it ("base colour") */
     const char *elems;   /* RANGE: element names, comma-separated; others: the defined values, in words */
     uint8_t  op;         /* enum vp_check_op */
-    double   lo, hi;     /* RANGE, COUNT: lo..hi; MAX: hi; MASK: hi = the defined bits */
+    double   lo, hi;     /* RANGE, COUNT, IRANGE: lo..hi; MAX: hi; MASK: hi = the defined bits */
 } vp_check_desc;
 typedef struct vp_layout_desc {
     const char *name;    /* the layout's name in the sources ("entity", "env") */

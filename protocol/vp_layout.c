@@ -101,10 +101,11 @@ int vp_check_nonzero(uint64_t v, const char *pre, const char *label, const char 
     return vp_errf(why, whylen, VP_ERR_INVALID, "%s%s is 0: %s", pre ? pre : "", label, why0);
 }
 
-int vp_check_count(uint64_t v, const char *pre, const char *label, double lo, double hi, char *why, size_t whylen)
+int vp_check_count(uint64_t v, const char *pre, const char *label, double lo, double hi, int code, char *why,
+                   size_t whylen)
 {
     if ((double)v >= lo && (double)v <= hi) return VP_OK;
-    return vp_errf(why, whylen, VP_ERR_COUNT, "%s%s %llu is outside %.0f..%.0f", pre ? pre : "", label,
+    return vp_errf(why, whylen, code, "%s%s %llu is outside %.0f..%.0f", pre ? pre : "", label,
                    (unsigned long long)v, lo, hi);
 }
 

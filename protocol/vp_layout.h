@@ -42,7 +42,8 @@
  *            which values are defined);
  *   mask     integer with no bit outside hi, else INVALID;
  *   nonzero  integer != 0, else INVALID "label is 0: <elems>";
- *   count    integer in lo..hi, else COUNT.
+ *   count    integer in lo..hi, else COUNT;
+ *   irange   integer in lo..hi, else INVALID.
  * Checks that span fields (a unit quaternion, a chunk inside its image)
  * stay hand-written next to the list.
  *
@@ -182,6 +183,7 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_CKOP_mask    VP_CHECK_MASK
 #define VP_CKOP_nonzero VP_CHECK_NONZERO
 #define VP_CKOP_count   VP_CHECK_COUNT
+#define VP_CKOP_irange  VP_CHECK_IRANGE
 #define VP_DESC_CHECK_(op, f, label, elems, lo, hi) {#f, label, elems, VP_CKOP_##op, (double)(lo), (double)(hi)},
 /* bytes of one element of a float field or array (m_ is const) */
 #define VP_FBYTES_(x) _Generic((x) + 0, float: 4, double: 8, const float *: 4, const double *: 8, float *: 4, double *: 8)
@@ -190,7 +192,8 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_CK_max(f, label, elems, lo, hi)     vp_check_max(m_->f, pre_, label, elems, hi, why_, whylen_)
 #define VP_CK_mask(f, label, elems, lo, hi)    vp_check_mask(m_->f, pre_, label, elems, hi, why_, whylen_)
 #define VP_CK_nonzero(f, label, elems, lo, hi) vp_check_nonzero(m_->f, pre_, label, elems, why_, whylen_)
-#define VP_CK_count(f, label, elems, lo, hi)   vp_check_count(m_->f, pre_, label, lo, hi, why_, whylen_)
+#define VP_CK_count(f, label, elems, lo, hi)   vp_check_count(m_->f, pre_, label, lo, hi, VP_ERR_COUNT, why_, whylen_)
+#define VP_CK_irange(f, label, elems, lo, hi)  vp_check_count(m_->f, pre_, label, lo, hi, VP_ERR_INVALID, why_, whylen_)
 #define VP_CHECK_ROW_(op, f, label, elems, lo, hi) \
     if ((rc_ = VP_CK_##op(f, label, elems, lo, hi))) return rc_;
 #define VP_NO_CHECKS_(X)
@@ -262,7 +265,9 @@ int vp_check_max(uint64_t v, const char *pre, const char *label, const char *def
 int vp_check_mask(uint64_t v, const char *pre, const char *label, const char *defined, double mask, char *why,
                   size_t whylen);
 int vp_check_nonzero(uint64_t v, const char *pre, const char *label, const char *why0, char *why, size_t whylen);
-int vp_check_count(uint64_t v, const char *pre, const char *label, double lo, double hi, char *why, size_t whylen);
+/* v in lo..hi, else code (COUNT or INVALID) */
+int vp_check_count(uint64_t v, const char *pre, const char *label, double lo, double hi, int code, char *why,
+                   size_t whylen);
 /* pad: 1 + the offset of the first non-zero pad byte group (name_get). */
 int vp_check_pad(const vp_layout_desc *d, uint32_t pad, const char *pre, char *why, size_t whylen);
 

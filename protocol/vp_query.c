@@ -172,7 +172,12 @@ void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
 
 /* RENDER's fields after its view */
 #define RENDER_FIELDS(X) X(u8, format) X(u8, quality) X(u8, flags) X(u8, renderer) X(f32, exposure_ev)
-VP_LAYOUT(render_tail, vp_render, RENDER_FIELDS)
+#define RENDER_CHECKS(X)                                                                                    \
+    X(max, renderer, "renderer", "0 default, 1 software, 2 OpenGL are defined", 0, VP_RENDERER_GL)         \
+    X(max, format, "format", "0 raw, 1 JPEG are defined", 0, VP_FRAME_JPEG)                                \
+    X(mask, flags, "flags", "0x1 no occlusion is defined", 0, VP_RENDER_NO_OCCLUSION)                      \
+    X(range, exposure_ev, "exposure", "", -64, 64)
+VP_LAYOUT_CHECKED(render_tail, vp_render, RENDER_FIELDS, RENDER_CHECKS)
 
 static void render_put(vp_writer *w, const vp_render *m)
 {
@@ -185,13 +190,10 @@ static int render_read(const uint8_t *p, vp_render *m)
 {
     vp_reader r;
     vp_reader_init(&r, p + VP_VIEW_SIZE, VP_RENDER_SIZE - VP_VIEW_SIZE);
-    (void)render_tail_get(&r, m);
-    if (m->renderer > VP_RENDERER_GL) return VP_ERR_INVALID;
-    if (m->format > VP_FRAME_JPEG || (m->flags & ~VP_RENDER_NO_OCCLUSION)) return VP_ERR_INVALID;
+    int rc = render_tail_check_fields(m, render_tail_get(&r, m), "", NULL, 0);
+    if (rc) return rc;
     if (m->format == VP_FRAME_JPEG && (m->quality < 1 || m->quality > 100)) return VP_ERR_INVALID;
     if (m->format == VP_FRAME_RAW && m->quality) return VP_ERR_INVALID;
-    if (!isfinite(m->exposure_ev)) return VP_ERR_NONFINITE;
-    if (fabsf(m->exposure_ev) > 64) return VP_ERR_INVALID;
     return picture_view_take(p, &m->view);
 }
 

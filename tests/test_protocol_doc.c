@@ -8,7 +8,7 @@
  *     order with their offset, size, type and name (adjacent pads as one
  *     `pad` row), and the row after them, if any, starts where the layout
  *     ends (or at "..."): no field left out, none made up;
- *   - a field with a range check (range, count) states its bounds in its
+ *   - a field with a range check (range, count, irange) states its bounds in its
  *     row ("0..1", "-1e6..1e6");
  *   - every layout has a table, every table names a layout, and every
  *     VP_LAYOUT in protocol/ is in the list (vp_layout.c).
@@ -223,7 +223,7 @@ static void check_table(const doc_table *t, const vp_layout_desc *d)
     }
     for (uint32_t k = 0; k < d->nchecks; k++) {
         const vp_check_desc *c = &d->checks[k];
-        if ((c->op != VP_CHECK_RANGE && c->op != VP_CHECK_COUNT) || !isfinite(c->lo) || !isfinite(c->hi)) continue;
+        if ((c->op != VP_CHECK_RANGE && c->op != VP_CHECK_COUNT && c->op != VP_CHECK_IRANGE) || !isfinite(c->lo) || !isfinite(c->hi)) continue;
         const doc_row *row = NULL;
         char want_name[160];
         snprintf(want_name, sizeof want_name, "`%s`", c->field);
