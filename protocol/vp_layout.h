@@ -186,7 +186,8 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_CKOP_irange  VP_CHECK_IRANGE
 #define VP_DESC_CHECK_(op, f, label, elems, lo, hi) {#f, label, elems, VP_CKOP_##op, (double)(lo), (double)(hi)},
 /* bytes of one element of a float field or array (m_ is const) */
-#define VP_FBYTES_(x) _Generic((x) + 0, float: 4, double: 8, const float *: 4, const double *: 8, float *: 4, double *: 8)
+#define VP_FBYTES_(x)                                                                                   \
+    _Generic((x) + 0, float: 4, double: 8, const float *: 4, const double *: 8, float *: 4, double *: 8)
 #define VP_CK_range(f, label, elems, lo, hi)                                                            \
     vp_check_floats(&m_->f, sizeof m_->f, VP_FBYTES_(m_->f), pre_, label, elems, lo, hi, why_, whylen_)
 #define VP_CK_max(f, label, elems, lo, hi)     vp_check_max(m_->f, pre_, label, elems, hi, why_, whylen_)

@@ -79,7 +79,8 @@ static const char *const slot_name[VP_TEX_SLOTS] = {"base colour texture ", "met
 static int material_check(const vp_material *m, const material_pads *pad, char *why, size_t whylen)
 {
     int rc = material_check_fields(m, pad->head, "", why, whylen);
-    for (int k = 0; !rc && k < VP_TEX_SLOTS; k++) rc = texref_check_fields(&m->tex[k], pad->tex[k], slot_name[k], why, whylen);
+    for (int k = 0; !rc && k < VP_TEX_SLOTS; k++)
+        rc = texref_check_fields(&m->tex[k], pad->tex[k], slot_name[k], why, whylen);
     return rc;
 }
 
@@ -180,7 +181,8 @@ int vp_dec_texture_put(const uint8_t *p, size_t len, vp_texture_put *m)
     X(f32, fog_density) X(f32a, fog_color) X(f32, fog_height_falloff) X(f32, exposure_ev)                \
     X(f32, exposure_comp) X(pad32, pad3)
 #define ENV_CHECKS(X)                                                                                       \
-    X(range, sun_dir, "sun direction", "x,y,z", -INFINITY, INFINITY) X(range, sun_color, "sun colour", "r,g,b", 0, 1)   \
+    X(range, sun_dir, "sun direction", "x,y,z", -INFINITY, INFINITY)                                     \
+    X(range, sun_color, "sun colour", "r,g,b", 0, 1)                                                     \
     X(range, sun_lux, "sun illuminance", "", 0, 200000)                                                  \
     X(max, sky_mode, "sky mode", "0 colour, 1 analytic, 2 texture are defined", 0, VP_SKY_TEXTURE)       \
     X(mask, flags, "flags", "0x1 ground is defined", 0, VP_ENV_GROUND)                                   \
@@ -228,7 +230,8 @@ static int env_check(vp_env *m, uint32_t pad, char *why, size_t whylen)
                                                                 1, 10, why, whylen)))
         return rc;
     if (m->sky_mode == VP_SKY_TEXTURE && !m->sky_texture)
-        return vp_errf(why, whylen, VP_ERR_INVALID, "%s", "sky texture is 0: sky mode 2 (texture) needs a texture id");
+        return vp_errf(why, whylen, VP_ERR_INVALID, "%s",
+                       "sky texture is 0: sky mode 2 (texture) needs a sky texture id");
     double n2 = 0;
     for (int k = 0; k < 3; k++) n2 += (double)m->sun_dir[k] * m->sun_dir[k];
     if (n2 != 0) {

@@ -767,7 +767,8 @@ enum { IN_ENT, IN_XF, IN_MAT, IN_TEX, IN_ENV };
     MAT("normal scale inf", in.m.normal_scale = INFINITY, VP_ERR_NONFINITE, "normal scale is inf")                  \
     MAT("normal texture wrap s 3", in.m.tex[VP_TEX_NORMAL].wrap_s = 3, VP_ERR_INVALID,                             \
         "normal texture wrap s 3: 0 repeat, 1 clamp, 2 mirror")                                                     \
-    MAT("base colour texture wrap t 9", in.m.tex[VP_TEX_BASE].wrap_t = 9, VP_ERR_INVALID, "base colour texture wrap t 9") \
+    MAT("base colour texture wrap t 9", in.m.tex[VP_TEX_BASE].wrap_t = 9, VP_ERR_INVALID,                        \
+        "base colour texture wrap t 9")                                                                             \
     MAT("min filter 6", in.m.tex[VP_TEX_BASE].min_filter = 6, VP_ERR_INVALID, "base colour texture min filter 6")   \
     MAT("mag filter 2 (a mip filter)", in.m.tex[VP_TEX_EMISSIVE].mag_filter = 2, VP_ERR_INVALID,                   \
         "emissive texture mag filter 2")                                                                            \
@@ -776,14 +777,17 @@ enum { IN_ENT, IN_XF, IN_MAT, IN_TEX, IN_ENV };
         "metallic-roughness texture offset v is nan")                                                               \
     MAT("material pad byte 10", in.poke = 10, VP_ERR_INVALID, "pad bytes 9..11 must be zero")                      \
     MAT("texture slot pad byte 31", in.poke = 60 + 31, VP_ERR_INVALID, "base colour texture pad bytes 29..31")      \
-    MAT("every factor at its bound", (in.m.base_color[0] = 1, in.m.roughness = 0, in.m.emissive_strength = 1e6f), 0, "") \
+    MAT("every factor at its bound", (in.m.base_color[0] = 1, in.m.roughness = 0, in.m.emissive_strength = 1e6f),  \
+        0, "")                                                                                                      \
     TEX("chunk offset past total", (in.x.total = 10, in.x.offset = 11, in.x.len = 1), VP_ERR_COUNT,                \
         "chunk at offset 11 of 1 bytes ends past the total, 10 bytes")                                              \
-    TEX("chunk running past total", (in.x.total = 10, in.x.offset = 8, in.x.len = 3), VP_ERR_COUNT, "ends past the total") \
+    TEX("chunk running past total", (in.x.total = 10, in.x.offset = 8, in.x.len = 3), VP_ERR_COUNT,              \
+        "ends past the total")                                                                                      \
     TEX("chunk of 0 bytes", in.x.len = 0, VP_ERR_COUNT, "chunk of 0 bytes")                                         \
     TEX("total 0", (in.x.total = 0, in.x.len = 1), VP_ERR_COUNT, "total bytes 0 is outside 1..67108864")            \
     TEX("total past 64 MiB", in.x.total = VP_MAX_TEXTURE_BYTES + 1, VP_ERR_COUNT, "total bytes 67108865 is outside") \
-    TEX("total of 64 MiB, the last chunk", (in.x.total = VP_MAX_TEXTURE_BYTES, in.x.offset = VP_MAX_TEXTURE_BYTES - 4), 0, "") \
+    TEX("total of 64 MiB, the last chunk",                                                                       \
+        (in.x.total = VP_MAX_TEXTURE_BYTES, in.x.offset = VP_MAX_TEXTURE_BYTES - 4), 0, "")                         \
     TEX("format 3", in.x.format = 3, VP_ERR_INVALID, "format 3: 0 PNG, 1 JPEG, 2 OpenEXR")                         \
     TEX("flags 0x2", in.x.flags = 2, VP_ERR_INVALID, "flags 0x00000002 has undefined bits")                        \
     TEX("texture id 0", in.x.id = 0, VP_ERR_INVALID, "id is 0")                                                    \
@@ -798,7 +802,8 @@ enum { IN_ENT, IN_XF, IN_MAT, IN_TEX, IN_ENV };
         "sun direction (0, 2, 0) has length 2: not a unit vector")                                                  \
     ENV("no sun (0, 0, 0)", (in.v.sun_dir[0] = in.v.sun_dir[1] = in.v.sun_dir[2] = 0), 0, "")                     \
     ENV("sun direction x NaN", in.v.sun_dir[0] = NAN, VP_ERR_NONFINITE, "sun direction x is nan")                 \
-    ENV("analytic sky turbidity 11", in.v.turbidity = 11, VP_ERR_INVALID, "analytic sky turbidity 11 is outside 1..10") \
+    ENV("analytic sky turbidity 11", in.v.turbidity = 11, VP_ERR_INVALID,                                         \
+        "analytic sky turbidity 11 is outside 1..10")                                                               \
     ENV("colour sky turbidity 11", (in.v.sky_mode = VP_SKY_COLOR, in.v.turbidity = 11), 0, "")                    \
     ENV("sun colour r 1.5", in.v.sun_color[0] = 1.5f, VP_ERR_INVALID, "sun colour r 1.5 is outside 0..1")          \
     ENV("sun lux 3e5", in.v.sun_lux = 3e5f, VP_ERR_INVALID, "sun illuminance 300000 is outside 0..200000")        \

@@ -223,7 +223,8 @@ static void check_table(const doc_table *t, const vp_layout_desc *d)
     }
     for (uint32_t k = 0; k < d->nchecks; k++) {
         const vp_check_desc *c = &d->checks[k];
-        if ((c->op != VP_CHECK_RANGE && c->op != VP_CHECK_COUNT && c->op != VP_CHECK_IRANGE) || !isfinite(c->lo) || !isfinite(c->hi)) continue;
+        bool ranged = c->op == VP_CHECK_RANGE || c->op == VP_CHECK_COUNT || c->op == VP_CHECK_IRANGE;
+        if (!ranged || !isfinite(c->lo) || !isfinite(c->hi)) continue;
         const doc_row *row = NULL;
         char want_name[160];
         snprintf(want_name, sizeof want_name, "`%s`", c->field);

@@ -431,8 +431,8 @@ static size_t case_mesh_uv(vp_writer *w, int v)
     vp_enc_mesh_uv(w, 1, 7, g_f, normals ? g_f : NULL, uvs ? g_f : NULL, tan ? g_f : NULL, n, g_u, ni[v % 3]);
     size_t size = vp_size_mesh_uv(n, ni[v % 3], normals, uvs, tan);
     /* PROTOCOL.md: 12 + per vertex 12 (+12 normals, +8 uvs, +16 tangents) + 4 per index */
-    assert_int_equal(size, VP_HEADER_SIZE + 12 + (size_t)n * (12 + (normals ? 12 : 0) + (uvs ? 8 : 0) + (tan ? 16 : 0)) +
-                               4 * (size_t)ni[v % 3]);
+    size_t per_vertex = 12 + (normals ? 12 : 0) + (uvs ? 8 : 0) + (tan ? 16 : 0);
+    assert_int_equal(size, VP_HEADER_SIZE + 12 + (size_t)n * per_vertex + 4 * (size_t)ni[v % 3]);
     return size;
 }
 
