@@ -216,7 +216,7 @@ typedef struct mat_row {
 #define MAT(id_, rough, g, es) \
     .id = id_, .base_color = {1, g, 1, 1}, .roughness = rough, .emissive_strength = es, .normal_scale = 1
 static const mat_row mat_rows[] = {
-    {"id 0", 0, {MAT(0, 1, 1, 0)}, 0, VP_ERR_INVALID, 1, "id 0"},
+    {"id 0", 0, {MAT(0, 1, 1, 0)}, 0, VP_ERR_INVALID, 1, "default material"},
     {"roughness 2", 0, {MAT(8, 2, 1, 0)}, 0, VP_ERR_INVALID, 1, "roughness"},
     {"base colour NaN", 0, {MAT(8, 1, NAN, 0)}, 0, VP_ERR_NONFINITE, 1, "base colour g"},
     {"emissive strength negative", 0, {MAT(8, 1, 1, -1)}, 0, VP_ERR_INVALID, 1, "emissive strength"},
