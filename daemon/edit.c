@@ -93,6 +93,7 @@ int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batc
         return vp_dec_env(p, len, &e->u.env);
     case EDIT_DEMO:
     case EDIT_WORK:
+    case EDIT_CITY:
         return len ? VP_ERR_TRAILING : VP_OK;
     default:
         return VP_ERR_TYPE;
@@ -258,6 +259,9 @@ int edit_apply(scene *sc, const edit *e, edit_result *r, scene_err *err)
     case EDIT_DEMO:
         rc = scene_build_demo(sc, e->aux) ? scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "cannot build the demo city")
                                           : VP_OK;
+        break;
+    case EDIT_CITY:
+        rc = scene_build_city(sc, e->aux, err);
         break;
     case EDIT_WORK:
         (void)scene_sublevel_work(sc, e->aux);

@@ -19,6 +19,7 @@
 /* Kinds that are not protocol messages (0xF0xx is never a wire type). */
 #define EDIT_DEMO   0xF001u /* aux = props: the procedural demo city */
 #define EDIT_WORK   0xF002u /* aux = budget: one slice of the unloads' freeing */
+#define EDIT_CITY   0xF003u /* aux = props: the demo city on the scene model (city.c) */
 
 typedef struct edit {
     uint16_t type;   /* a VP_* request type, or EDIT_* */
@@ -66,5 +67,9 @@ void edit_explain(const edit *e, int rc, scene_err *err);
  * changed. */
 int edit_apply(scene *sc, const edit *e, edit_result *r, scene_err *err);
 void edit_result_free(edit_result *r);
+
+/* The demo city on the scene model, built from protocol edits (city.c):
+ * deterministic; props cars. VP_OK, or a code with err filled. */
+int scene_build_city(scene *s, uint32_t props, scene_err *err);
 
 #endif

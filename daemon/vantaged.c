@@ -28,7 +28,9 @@ static void usage(FILE *f)
             "  --port N             TCP port (default %d)\n"
             "  --unix PATH          Unix socket (default /tmp/vantaged.sock; \"\" for none)\n"
             "  --scene demo|empty   starting scene (default demo: a procedural city)\n"
-            "  --props N            props in the demo city (default 3000)\n"
+            "  --props N            cars in the demo city (default 3000)\n"
+            "  --env day|night      set the environment at start (sun, sky, fog, exposure presets;\n"
+            "                       default: a fresh scene has the day preset)\n"
             "  --cell-size M        culling grid cell, metres (default 64)\n"
             "  --max-clients N      connections (default 1024)\n"
             "  --max-payload BYTES  largest request frame (default 16777216)\n"
@@ -145,13 +147,15 @@ int main(int argc, char **argv)
                    .max_materials = 1u << 20, .max_texture_size = 8192, .max_texture_mem = 1ull << 30},
     };
     const char *scene_kind = "demo";
+    const char *env_name = NULL;
     uint32_t props = 3000, port = (uint32_t)cfg.port;
-    enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
+    enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_ENV, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
            O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
+        {"env", required_argument, 0, O_ENV},
         {"props", required_argument, 0, O_PROPS}, {"cell-size", required_argument, 0, O_CELL},
         {"max-clients", required_argument, 0, O_CLIENTS}, {"max-payload", required_argument, 0, O_PAYLOAD},
         {"max-batch", required_argument, 0, O_BATCH}, {"max-entities", required_argument, 0, O_ENTITIES},
@@ -179,6 +183,7 @@ int main(int argc, char **argv)
         case O_PORT: ok = num32(want, sizeof want, optarg, 1, 65535, &port); break;
         case O_UNIX: cfg.unix_path = optarg; break;
         case O_SCENE: scene_kind = optarg; break;
+        case O_ENV: env_name = optarg; break;
         case O_PROPS: ok = num32(want, sizeof want, optarg, 0, 10000000, &props); break;
         case O_CELL:
             cfg.cell_size = atof(optarg);
@@ -296,6 +301,11 @@ int main(int argc, char **argv)
         return 2;
     }
     bool build_demo = !strcmp(scene_kind, "demo");
+    vp_env env_preset;
+    if (env_name && vp_env_preset(env_name, &env_preset)) {
+        fprintf(stderr, "vantaged: --env %s: use day or night\n", env_name);
+        return 2;
+    }
     if (data_dir) {
         static const char *const pol[] = {"off", "everysec", "always"};
         journal_report rep;
@@ -331,15 +341,34 @@ int main(int argc, char **argv)
         uint64_t t0 = ae_now_ms();
         edit_result r;
         scene_err err;
-        if (journal_apply(cfg.journal, sc, &(edit){.type = EDIT_DEMO, .aux = props}, NULL, 0, &r, &err)) {
+        if (journal_apply(cfg.journal, sc, &(edit){.type = EDIT_CITY, .aux = props}, NULL, 0, &r, &err)) {
             LOGE("cannot build the demo scene: %s", err.msg);
             return 1;
         }
         edit_result_free(&r);
         cull_world_info info;
         cull_world_info_get(sc->world, &info);
-        LOGI("demo city: %u entities, %zu occluders, %zu lights in %llu ms", info.entities, sc->occluders.count,
-             sc->lights.count, (unsigned long long)(ae_now_ms() - t0));
+        LOGI("demo city: %u entities, %zu occluders, %zu lights, %zu materials, %zu textures in %llu ms",
+             info.entities, sc->occluders.count, sc->lights.count, sc->materials.count, sc->textures.count,
+             (unsigned long long)(ae_now_ms() - t0));
+    }
+    if (env_name) {
+        /* an ENV_SET like a client's, journalled */
+        uint8_t buf[VP_HEADER_SIZE + VP_ENV_SIZE];
+        vp_writer w;
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_enc_env(&w, VP_ENV_SET, 0, &env_preset);
+        edit e;
+        edit_result r;
+        scene_err err;
+        int erc = edit_decode(VP_ENV_SET, buf + VP_HEADER_SIZE, VP_ENV_SIZE, 0, &e);
+        if (erc) edit_explain(&e, erc, &err);
+        else erc = journal_apply(cfg.journal, sc, &e, buf + VP_HEADER_SIZE, VP_ENV_SIZE, &r, &err);
+        if (erc) {
+            LOGE("--env %s: %s", env_name, err.msg);
+            return 1;
+        }
+        edit_result_free(&r);
     }
     server *srv = server_create(&cfg, sc);
     if (!srv) { /* it said why; it closed the journal, the scene is ours */

@@ -209,6 +209,31 @@ void vp_env_default(vp_env *e)
     e->sun_dir[2] = (float)(cos(el) * cos(az));
 }
 
+int vp_env_preset(const char *name, vp_env *e)
+{
+    vp_env_default(e);
+    if (!strcmp(name, "day")) return VP_OK;
+    if (!strcmp(name, "night")) {
+        /* a moonlit night: the "sun" is the full moon (0.25 lux, bluish,
+           high in the south-east), a dark blue sky, auto exposure pushed
+           down 1.5 EV so night stays night while lamps and windows glow */
+        double el = 55 * M_PI / 180, az = 135 * M_PI / 180;
+        e->sun_dir[0] = (float)(cos(el) * sin(az));
+        e->sun_dir[1] = (float)sin(el);
+        e->sun_dir[2] = (float)(cos(el) * cos(az));
+        e->sun_color[0] = 0.6f, e->sun_color[1] = 0.7f, e->sun_color[2] = 1.0f;
+        e->sun_lux = 0.25f;
+        e->sky_mode = VP_SKY_COLOR;
+        e->sky_color[0] = 0.004f, e->sky_color[1] = 0.006f, e->sky_color[2] = 0.015f;
+        e->sky_intensity = 1.0f;
+        e->fog_density = 0.002f;
+        e->fog_color[0] = 0.01f, e->fog_color[1] = 0.012f, e->fog_color[2] = 0.02f;
+        e->exposure_comp = -1.5f;
+        return VP_OK;
+    }
+    return VP_ERR_NOT_FOUND;
+}
+
 size_t vp_size_env(void)
 {
     _Static_assert(VP_ENV_SIZE == 120, "env record");
