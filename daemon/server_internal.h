@@ -198,6 +198,9 @@ bool server_unload_slice(server *s, uint32_t budget);
 void sublevel_conn_gone(server *s, conn *c);
 /* Handles one complete frame from c (may set c->closing or c->busy). */
 void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p);
+/* readback.c: MESH_GET, MATERIAL_LIST, TEXTURE_GET, LIGHT_LIST answered;
+ * false for another type. */
+bool readback_dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p);
 /* A query worker thread: jobs in, replies out through s->done_fd. */
 void *worker_main(void *arg);
 /* Queues j for the workers. */
