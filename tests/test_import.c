@@ -490,6 +490,51 @@ static void test_import_bad_model(void **state)
     tdir_remove(&td);
 }
 
+/* OBJ + MTL through assimp: the diffuse colour and map_Kd as the base
+ * colour, the texture the PNG next to it, Ke as emissive. */
+static void test_import_obj_mtl(void **state)
+{
+    (void)state;
+    tdir td;
+    tdir_make(&td, "vantage_import_obj");
+    char err[256];
+    uint8_t rgba[16];
+    for (int i = 0; i < 16; i++) rgba[i] = (uint8_t)(i * 16 + 15);
+    assert_int_equal(vt_png_write(tdir_file(&td, "brick.png"), 2, 2, rgba, 8, true, 6, err, sizeof err), 0);
+    FILE *f = fopen(tdir_file(&td, "shed.mtl"), "w");
+    fprintf(f, "newmtl brick\nKd 0.5 0.25 0.125\nKe 0 0 0\nd 1\nmap_Kd brick.png\n");
+    fclose(f);
+    f = fopen(tdir_file(&td, "shed.obj"), "w");
+    fprintf(f, "mtllib shed.mtl\no shed\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+               "vn 0 0 1\nusemtl brick\nf 1/1/1 2/2/1 3/3/1 4/4/1\n");
+    fclose(f);
+    imp_level lv;
+    if (imp_level_import(tdir_file(&td, "shed.obj"), &lv, err, sizeof err)) fail_msg("%s", err);
+    assert_int_equal(lv.nent, 1);
+    assert_int_equal(lv.nmat, 1);
+    const vp_material *m = &lv.mat[0];
+    assert_int_equal(lv.ent[0].material, m->id);
+    assert_near("Kd r", m->base_color[0], 0.5, 1e-6);
+    assert_near("Kd g", m->base_color[1], 0.25, 1e-6);
+    assert_near("Kd b", m->base_color[2], 0.125, 1e-6);
+    assert_near("metallic", m->metallic, 0, 0); /* an OBJ's material: a dielectric */
+    assert_int_equal(m->tex[VP_TEX_BASE].texture, 1);
+    assert_int_equal(lv.ntex, 1);
+    size_t n;
+    uint8_t *png = read_file(tdir_file(&td, "brick.png"), &n);
+    assert_true(lv.tex[0].nbytes == n && lv.tex[0].format == VP_TEX_PNG);
+    assert_memory_equal(lv.tex[0].bytes, png, n);
+    /* OBJ's v is up: in glTF's convention (down) the corner (0,0) is v = 1 */
+    assert_non_null(lv.mesh[0].uv);
+    bool corner = false;
+    for (uint32_t v = 0; v < lv.mesh[0].nv; v++)
+        corner |= lv.mesh[0].pos[3 * v] == 0 && lv.mesh[0].pos[3 * v + 1] == 0 && lv.mesh[0].uv[2 * v + 1] == 1;
+    assert_true(corner);
+    free(png);
+    imp_level_free(&lv);
+    tdir_remove(&td);
+}
+
 /* ---- the .glb, read by hand ------------------------------------------------------------- */
 
 static json_object *jget(json_object *o, const char *k)
@@ -787,6 +832,7 @@ static void test_readback_messages(void **state)
 const struct CMUnitTest import_tests[] = {
     cmocka_unit_test(test_import_scene_model),
     TEST_ROWS(test_import_bad_model, bad_fixtures),
+    cmocka_unit_test(test_import_obj_mtl),
     DAEMON_TEST(test_readback_messages),
     DAEMON_TEST(test_import_export_round_trip),
 };

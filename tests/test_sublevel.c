@@ -567,7 +567,7 @@ static void test_sublevel_cli(void **state)
     assert_non_null(strstr(out, "\"entities\": 8"));
     assert_int_equal(vantage_run(d, out, sizeof out, "sublevel list --json"), 0);
     assert_non_null(strstr(out, "\"name\": \"town\", \"state\": \"loaded\", \"entities\": 8, \"occluders\": 3, "
-                                "\"lights\": 2, \"classes\": 6"));
+                                "\"lights\": 2, \"classes\": 2"));
     /* a bad file: an error naming the node, and the scene as it was */
     assert_int_equal(vantage_run(d, out, sizeof out, "sublevel load dunes %s", data_file("bad_zero.gltf")), 1);
     assert_non_null(strstr(out, "node 'flat'"));
