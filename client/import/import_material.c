@@ -52,7 +52,8 @@ typedef struct tex_src {
 
 typedef struct mat_ctx {
     const struct aiScene *sc;
-    json_object *gltf;      /* the file's glTF JSON, or NULL */
+    json_object *gltf;      /* the file's glTF JSON when it has what assimp drops, or NULL */
+    bool is_gltf;
     const char *dir;
     imp_level *lv;
     tex_src *src;           /* per texture, lv->tex's order */
@@ -228,14 +229,13 @@ static float gltf_emissive_strength(json_object *root, unsigned i)
 }
 
 /* Whether material i is the one assimp adds for meshes that name none
- * (past the glTF file's materials; an OBJ's "DefaultMaterial"): those
- * meshes get the daemon's default material, id 0. */
+ * (the last one of a glTF file's, after the file's own: assimp 5.2's
+ * glTF 2 reader always adds it; an OBJ's "DefaultMaterial"): those meshes
+ * get the daemon's default material, id 0. */
 static bool assimp_default(const mat_ctx *x, unsigned i)
 {
-    json_object *mats;
-    if (x->gltf)
-        return !json_object_object_get_ex(x->gltf, "materials", &mats) || !json_object_is_type(mats, json_type_array) ||
-               i >= json_object_array_length(mats);
+    /* assimp's glTF 2 reader appends its default after the file's own */
+    if (x->is_gltf) return i + 1 == x->sc->mNumMaterials;
     struct aiString name;
     return aiGetMaterialString(x->sc->mMaterials[i], AI_MATKEY_NAME, &name) == AI_SUCCESS &&
            !strcmp(name.data, AI_DEFAULT_MATERIAL_NAME);
@@ -340,8 +340,10 @@ static int convert(mat_ctx *x, unsigned i, uint32_t id, vp_material *m)
 int imp_materials(const struct aiScene *sc, const char *dir, const char *json, size_t jsonlen, imp_level *lv,
                   uint32_t **ids, char *err, size_t errlen)
 {
-    mat_ctx x = {.sc = sc, .dir = dir, .lv = lv, .err = err, .errlen = errlen};
-    if (json && jsonlen <= INT32_MAX) {
+    mat_ctx x = {.sc = sc, .dir = dir, .lv = lv, .err = err, .errlen = errlen, .is_gltf = json != NULL};
+    /* parsed only when it holds what is read from it (json-c takes about
+       60 ms a megabyte: a 10k-node level's 1.8 MB would double the import) */
+    if (json && jsonlen <= INT32_MAX && memmem(json, jsonlen, "KHR_materials_emissive_strength", 31)) {
         json_tokener *tok = json_tokener_new();
         if (tok) x.gltf = json_tokener_parse_ex(tok, json, (int)jsonlen);
         json_tokener_free(tok);

@@ -139,7 +139,9 @@ def long_names(path):
 
 def big(n, path, meshes=1):
     # meshes > 1: that many boxes of different proportions, node i using
-    # mesh i % meshes (the import benchmark: 10k nodes sharing 20 meshes)
+    # mesh i % meshes (the import benchmark: 10k nodes sharing 20 meshes;
+    # baked per rotation and scale, as the importer did before issue 19,
+    # that is 320 classes)
     d = Doc()
     pos, nrm, idx = box_mesh()
     boxes = [d.mesh("box%d" % k, [(p[0] * (1 + 0.1 * k), p[1], p[2] * (1 + 0.05 * k)) for p in pos], nrm, idx)
@@ -147,8 +149,12 @@ def big(n, path, meshes=1):
     side = int(math.ceil(math.sqrt(n)))
     for i in range(n):
         x, z = i % side, i // side
-        d.node(name="b%d" % i, mesh=boxes[i % meshes], translation=[5000 + x * 4.0, 1, z * 4.0],
-               rotation=yaw(90 * (i % 4)))
+        if meshes == 1:
+            d.node(name="b%d" % i, mesh=boxes[0], translation=[5000 + x * 4.0, 1, z * 4.0], rotation=yaw(90 * (i % 4)))
+        else:  # each mesh in 4 rotations and 4 scales: 16 placements a mesh, as a level's props vary
+            k = i // meshes
+            d.node(name="b%d" % i, mesh=boxes[i % meshes], translation=[5000 + x * 4.0, 1, z * 4.0],
+                   rotation=yaw(90 * (k % 4)), scale=[1 + 0.25 * ((k // 4) % 4)] * 3)
     d.write(path)
 
 if __name__ == "__main__":
