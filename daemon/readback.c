@@ -52,7 +52,7 @@ static int cmp_u32(const void *a, const void *b)
 
 static void on_material_list(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
-    vp_material_list m;
+    vp_page m;
     int rc = vp_dec_material_list(p, h->len, s->cfg.max_batch, &m);
     if (rc) {
         send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
@@ -125,7 +125,7 @@ static void on_texture_get(server *s, conn *c, const vp_header *h, const uint8_t
 
 static void on_light_list(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
-    vp_light_list m;
+    vp_page m;
     int rc = vp_dec_light_list(p, h->len, s->cfg.max_batch, &m);
     if (rc) {
         send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));

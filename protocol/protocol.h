@@ -681,58 +681,55 @@ int    vp_env_check(vp_env *m, char *why, size_t whylen);
 typedef struct vp_mesh_get {
     uint16_t class_id;
 } vp_mesh_get;
-typedef struct vp_material_list {
-    uint32_t cursor;          /* the id to start after */
-    uint32_t max;             /* records wanted, 1..max_batch */
-} vp_material_list;
-typedef struct vp_material_list_reply {
-    uint32_t next_cursor;     /* 0 = done */
-    uint32_t count;
-    const uint8_t *recs;      /* count records of VP_MATERIAL_SIZE (vp_material_get) */
-} vp_material_list_reply;
 typedef struct vp_texture_get {
     uint32_t id;
     uint32_t offset;          /* into the encoded bytes */
     uint32_t max_len;         /* >= 1 */
 } vp_texture_get;
-typedef struct vp_light_list {
-    uint64_t cursor;          /* 0 = from the start */
+/* MATERIAL_LIST and LIGHT_LIST: a page of a listing. */
+typedef struct vp_page {
+    uint64_t cursor;          /* MATERIAL_LIST: the id to start after (u32 on the wire); LIGHT_LIST: 0 = from the start */
     uint32_t max;             /* records wanted, 1..max_batch */
-} vp_light_list;
-typedef struct vp_light_list_reply {
+} vp_page;
+/* Their replies: the next page's cursor and the records, as the put
+ * message has them (read with vp_material_get or vp_light_get). */
+typedef struct vp_page_reply {
     uint64_t next_cursor;     /* 0 = done */
     uint32_t count;
-    const uint8_t *recs;      /* count records of VP_LIGHT_SIZE (vp_light_get) */
-} vp_light_list_reply;
+    const uint8_t *recs;      /* count records of VP_MATERIAL_SIZE or VP_LIGHT_SIZE */
+} vp_page_reply;
+/* One record of a put message, as it has them: MATERIAL_PUT's
+ * (VP_MATERIAL_SIZE bytes) and LIGHT_PUT's (VP_LIGHT_SIZE bytes). */
+void   vp_put_material(vp_writer *w, const vp_material *m);
+void   vp_put_light(vp_writer *w, const vp_light *l);
+/* MESH_GET; its reply: MESH_PUT's layout under type MESH_REPLY (sized by
+ * vp_size_mesh_uv, read with vp_dec_mesh). */
 size_t vp_size_mesh_get(void);
 void   vp_enc_mesh_get(vp_writer *w, uint32_t req, const vp_mesh_get *m);
 int    vp_dec_mesh_get(const uint8_t *p, size_t len, vp_mesh_get *m);
-/* MESH_PUT or MESH_REPLY (type), as vp_enc_mesh_uv; sized by vp_size_mesh_uv. */
 void   vp_enc_mesh_as(vp_writer *w, uint16_t type, uint32_t req, uint16_t class_id, const float *pos, const float *nrm,
                       const float *uv, const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni);
-size_t vp_size_material_list(void);
-void   vp_enc_material_list(vp_writer *w, uint32_t req, const vp_material_list *m);
-int    vp_dec_material_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_material_list *m);
-size_t vp_size_material_list_reply(uint32_t n);
-void   vp_enc_material_list_reply(vp_writer *w, uint32_t req, uint32_t next_cursor, const vp_material *m, uint32_t n);
-/* Every record checked as MATERIAL_PUT's. */
-int    vp_dec_material_list_reply(const uint8_t *p, size_t len, vp_material_list_reply *m);
-/* One material record (VP_MATERIAL_SIZE bytes), as MATERIAL_PUT has it. */
-void   vp_put_material(vp_writer *w, const vp_material *m);
+/* TEXTURE_GET; its reply: TEXTURE_PUT's layout under type TEXTURE_REPLY
+ * (sized by vp_size_texture_put, read with vp_dec_texture_put). */
 size_t vp_size_texture_get(void);
 void   vp_enc_texture_get(vp_writer *w, uint32_t req, const vp_texture_get *m);
 int    vp_dec_texture_get(const uint8_t *p, size_t len, vp_texture_get *m);
-/* TEXTURE_PUT or TEXTURE_REPLY (type), as vp_enc_texture_put; sized by vp_size_texture_put. */
 void   vp_enc_texture_as(vp_writer *w, uint16_t type, uint32_t req, const vp_texture_put *m);
+/* MATERIAL_LIST and LIGHT_LIST: max checked against max_batch (0 = none). */
+size_t vp_size_material_list(void);
 size_t vp_size_light_list(void);
-void   vp_enc_light_list(vp_writer *w, uint32_t req, const vp_light_list *m);
-int    vp_dec_light_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_light_list *m);
+void   vp_enc_material_list(vp_writer *w, uint32_t req, const vp_page *m);
+void   vp_enc_light_list(vp_writer *w, uint32_t req, const vp_page *m);
+int    vp_dec_material_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_page *m);
+int    vp_dec_light_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_page *m);
+/* Their replies: n records after the cursor; the decoders check every
+ * record as MATERIAL_PUT's and LIGHT_PUT's. */
+size_t vp_size_material_list_reply(uint32_t n);
 size_t vp_size_light_list_reply(uint32_t n);
+void   vp_enc_material_list_reply(vp_writer *w, uint32_t req, uint32_t next_cursor, const vp_material *m, uint32_t n);
 void   vp_enc_light_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, const vp_light *l, uint32_t n);
-/* Every record checked as LIGHT_PUT's. */
-int    vp_dec_light_list_reply(const uint8_t *p, size_t len, vp_light_list_reply *m);
-/* One light record (VP_LIGHT_SIZE bytes), as LIGHT_PUT has it. */
-void   vp_put_light(vp_writer *w, const vp_light *l);
+int    vp_dec_material_list_reply(const uint8_t *p, size_t len, vp_page_reply *m);
+int    vp_dec_light_list_reply(const uint8_t *p, size_t len, vp_page_reply *m);
 
 /* Version 1 layouts, read from journals and snapshots a version 1 daemon
  * wrote (the upgrade on start): ENTITY_ADD / UPDATE batches of 104-byte

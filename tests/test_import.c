@@ -368,6 +368,24 @@ static void assert_material(const vp_material *got, const vp_material *want, dou
     }
 }
 
+/* The level through the import child's pipe: its bytes unpacked into a
+ * level equal to it (true), or refused (false). */
+static bool through_pipe(const imp_level *lv)
+{
+    vp_writer w;
+    vp_writer_init_grow(&w);
+    imp_level_pack(&w, lv);
+    vp_reader r;
+    vp_reader_init(&r, w.p, w.len);
+    imp_level back;
+    memset(&back, 0, sizeof back);
+    bool ok = imp_level_unpack(&r, &back);
+    if (ok) test_level_equal(lv, &back);
+    imp_level_free(&back);
+    vp_writer_free(&w);
+    return ok;
+}
+
 static void test_import_scene_model(void **state)
 {
     (void)state;
@@ -436,27 +454,11 @@ static void test_import_scene_model(void **state)
     assert_near("bulb intensity", lv.light[0].intensity, 80, 1e-4);
     assert_near("bulb range", lv.light[0].range, 30, 1e-4);
     assert_near("bulb blue", lv.light[0].color[2], 0.25, 1e-6);
-    /* the pipe's bytes carry all of it */
-    vp_writer w;
-    vp_writer_init_grow(&w);
-    imp_level_pack(&w, &lv);
-    imp_level back;
-    memset(&back, 0, sizeof back);
-    vp_reader r;
-    vp_reader_init(&r, w.p, w.len);
-    assert_true(imp_level_unpack(&r, &back));
-    test_level_equal(&lv, &back);
-    imp_level_free(&back);
-    /* a texture naming a missing one is refused by the parent */
+    /* the pipe's bytes carry all of it; a material naming a texture the
+       level does not have is refused by the parent */
+    assert_true(through_pipe(&lv));
     lv.mat[0].tex[VP_TEX_EMISSIVE].texture = 3;
-    vp_writer_free(&w);
-    vp_writer_init_grow(&w);
-    imp_level_pack(&w, &lv);
-    vp_reader_init(&r, w.p, w.len);
-    memset(&back, 0, sizeof back);
-    assert_false(imp_level_unpack(&r, &back));
-    imp_level_free(&back);
-    vp_writer_free(&w);
+    assert_false(through_pipe(&lv));
     imp_level_free(&lv);
     fx_free(&fx);
     tdir_remove(&td);
@@ -665,7 +667,7 @@ static void env_get(vtc_client *c, vp_env *out)
 
 static vp_material *all_materials(vtc_client *c, uint32_t *n)
 {
-    vp_material_list_reply r;
+    vp_page_reply r;
     /* pages of one: the cursor walks them in id order */
     vp_material *m = calloc(64, sizeof *m);
     uint32_t cursor = 0;
@@ -750,7 +752,7 @@ static void test_import_export_round_trip(void **state)
         assert_near("sun colour", vb.sun_color[k], va.sun_color[k], 1e-6);
     }
     assert_near("sun lux", vb.sun_lux, va.sun_lux, 1e-2);
-    vp_light_list_reply la, lb;
+    vp_page_reply la, lb;
     assert_int_equal(vtc_light_list(a, 0, 100, &la), VP_OK);
     vp_light pa, pb;
     assert_int_equal(la.count, 1);
@@ -804,7 +806,7 @@ static void test_readback_messages(void **state)
     uint64_t cursor = 0;
     int pages = 0;
     do {
-        vp_light_list_reply r;
+        vp_page_reply r;
         assert_int_equal(vtc_light_list(v, cursor, 5, &r), VP_OK);
         assert_true(r.count <= 5);
         for (uint32_t i = 0; i < r.count; i++) {
@@ -819,9 +821,9 @@ static void test_readback_messages(void **state)
     } while (cursor && pages < 100);
     for (int i = 0; i < 37; i++) assert_true(seen[i]);
     /* a page of 0 is refused, as ENTITY_LIST's */
-    vp_light_list_reply r;
+    vp_page_reply r;
     assert_int_equal(vtc_light_list(v, 0, 0, &r), VP_ERR_COUNT);
-    vp_material_list_reply mr;
+    vp_page_reply mr;
     assert_int_equal(vtc_material_list(v, 0, 10, &mr), VP_OK);
     assert_int_equal(mr.count, 0);
     assert_int_equal(mr.next_cursor, 0);

@@ -431,7 +431,7 @@ static size_t case_mesh_get(vp_writer *w, int v)
 static size_t case_material_list(vp_writer *w, int v)
 {
     if (v >= 2) return SIZE_MAX;
-    vp_enc_material_list(w, 1, &(vp_material_list){.cursor = (uint32_t)v, .max = 100});
+    vp_enc_material_list(w, 1, &(vp_page){.cursor = (uint32_t)v, .max = 100});
     assert_int_equal(vp_size_material_list(), VP_HEADER_SIZE + 8);
     return vp_size_material_list();
 }
@@ -456,7 +456,7 @@ static size_t case_texture_get(vp_writer *w, int v)
 static size_t case_light_list(vp_writer *w, int v)
 {
     if (v >= 2) return SIZE_MAX;
-    vp_enc_light_list(w, 1, &(vp_light_list){.cursor = (uint64_t)v, .max = 10});
+    vp_enc_light_list(w, 1, &(vp_page){.cursor = (uint64_t)v, .max = 10});
     assert_int_equal(vp_size_light_list(), VP_HEADER_SIZE + 12);
     return vp_size_light_list();
 }

@@ -156,7 +156,7 @@ static int read_materials(exporter *x)
 {
     uint32_t cursor = 0, cap = 0, page = vtc_server(x->k->c)->max_batch;
     do {
-        vp_material_list_reply r;
+        vp_page_reply r;
         int rc = vtc_material_list(x->k->c, cursor, page, &r);
         if (rc == VP_ERR_TYPE) return 0; /* a daemon without materials */
         if (rc) return server_fail(x->k, "export", rc);
@@ -211,7 +211,7 @@ static int read_lights(exporter *x)
     uint64_t cursor = 0;
     uint32_t cap = 0, page = vtc_server(x->k->c)->max_batch;
     do {
-        vp_light_list_reply r;
+        vp_page_reply r;
         int rc = vtc_light_list(x->k->c, cursor, page, &r);
         if (rc) return server_fail(x->k, "export", rc);
         if (!vp_grow32((void **)&x->light, &cap, x->nlight + r.count, sizeof *x->light))

@@ -727,11 +727,11 @@ int vtc_mesh_get(vtc_client *c, uint16_t class_id, vp_mesh *out)
     return call(c, w, req, VP_MESH_REPLY, dec_mesh_reply, out);
 }
 
-int vtc_material_list(vtc_client *c, uint32_t cursor, uint32_t max, vp_material_list_reply *out)
+int vtc_material_list(vtc_client *c, uint32_t cursor, uint32_t max, vp_page_reply *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_material_list(), &req);
-    vp_enc_material_list(w, req, &(vp_material_list){.cursor = cursor, .max = max});
+    vp_enc_material_list(w, req, &(vp_page){.cursor = cursor, .max = max});
     return call(c, w, req, VP_MATERIAL_LIST_REPLY, dec_material_page, out);
 }
 
@@ -747,10 +747,10 @@ int vtc_texture_get(vtc_client *c, uint32_t id, uint32_t offset, uint32_t max_le
     return rc;
 }
 
-int vtc_light_list(vtc_client *c, uint64_t cursor, uint32_t max, vp_light_list_reply *out)
+int vtc_light_list(vtc_client *c, uint64_t cursor, uint32_t max, vp_page_reply *out)
 {
     uint32_t req;
     vp_writer *w = request(c, vp_size_light_list(), &req);
-    vp_enc_light_list(w, req, &(vp_light_list){.cursor = cursor, .max = max});
+    vp_enc_light_list(w, req, &(vp_page){.cursor = cursor, .max = max});
     return call(c, w, req, VP_LIGHT_LIST_REPLY, dec_light_page, out);
 }

@@ -776,7 +776,7 @@ static void fuzz_mesh_get(const uint8_t *p, size_t len)
 
 static void fuzz_material_list(const uint8_t *p, size_t len, uint32_t limit)
 {
-    vp_material_list m, lim;
+    vp_page m, lim;
     int rc = vp_dec_material_list(p, len, 0, &m), rcl = vp_dec_material_list(p, len, limit, &lim);
     check_code(rc);
     check_code(rcl);
@@ -805,7 +805,7 @@ static void fuzz_texture_get(const uint8_t *p, size_t len)
 
 static void fuzz_light_list(const uint8_t *p, size_t len, uint32_t limit)
 {
-    vp_light_list m, lim;
+    vp_page m, lim;
     int rc = vp_dec_light_list(p, len, 0, &m), rcl = vp_dec_light_list(p, len, limit, &lim);
     check_code(rc);
     check_code(rcl);
@@ -820,7 +820,7 @@ static void fuzz_light_list(const uint8_t *p, size_t len, uint32_t limit)
 
 static void fuzz_material_list_reply(const uint8_t *p, size_t len)
 {
-    vp_material_list_reply m;
+    vp_page_reply m;
     int rc = vp_dec_material_list_reply(p, len, &m);
     check_code(rc);
     if (rc) return;
@@ -839,7 +839,7 @@ static void fuzz_material_list_reply(const uint8_t *p, size_t len)
 
 static void fuzz_light_list_reply(const uint8_t *p, size_t len)
 {
-    vp_light_list_reply m;
+    vp_page_reply m;
     int rc = vp_dec_light_list_reply(p, len, &m);
     check_code(rc);
     if (rc) return;
@@ -850,7 +850,7 @@ static void fuzz_light_list_reply(const uint8_t *p, size_t len)
     fuzz_wbuf b;
     fuzz_wopen(&b, vp_size_light_list_reply(m.count));
     vp_enc_light_list_reply(&b.w, 17, m.next_cursor, l, m.count);
-    vp_light_list_reply r;
+    vp_page_reply r;
     CHECK(vp_dec_light_list_reply(enc_payload(&b, VP_LIGHT_LIST_REPLY, len), len, &r) == VP_OK);
     CHECK(r.next_cursor == m.next_cursor && r.count == m.count);
     for (uint32_t i = 0; i < r.count; i++) {
