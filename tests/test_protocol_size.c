@@ -490,6 +490,8 @@ static size_t case_env(vp_writer *w, int v)
     vp_enc_env(w, types[v], 1, &e);
     assert_int_equal(vp_size_env(), VP_HEADER_SIZE + 120);
     return vp_size_env();
+}
+
 /* read-back (vp_readback.c) */
 static size_t case_mesh_get(vp_writer *w, int v)
 {
