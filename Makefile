@@ -87,6 +87,7 @@ IMPORT_OBJ := $(BUILD)/client/import/import_walk.o $(BUILD)/client/import/import
             $(BUILD)/client/import/import_material.o
 CLI_OBJ  := $(BUILD)/client/cli/vantage_cli.o $(BUILD)/client/cli/cli_jsonl.o $(BUILD)/client/cli/cli_bench.o \
             $(BUILD)/client/cli/cli_render.o $(BUILD)/client/cli/cli_frames.o $(BUILD)/client/cli/cli_sublevel.o \
+            $(BUILD)/client/cli/cli_scene.o \
             $(BUILD)/client/cli/cli_env.o \
             $(BUILD)/client/cli/cli_export.o $(BUILD)/client/cli/cli_level_send.o \
             $(IMPORT_OBJ) $(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_pad.o \
@@ -201,7 +202,7 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o ae.o errmap.o \
-               texture.o env.o material.o)
+               texture.o env.o material.o transform.o)
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 

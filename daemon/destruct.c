@@ -11,6 +11,13 @@
  * destroyed) and the culling world's copy replaced: the next query
  * sees through the hole. The cut is a cache of (triangles as sent, sphere
  * set): an OCCLUDER_PUT of that id is cut the same way before it is drawn.
+ *
+ * Entities with a transform: the spheres are also kept in the entity's
+ * local space (scene_destruct.local), and a move rebuilds the volume from
+ * them under the new transform, radius times the largest |scale| (a
+ * bigger hole is the safe side: the occluder hides less). An attached
+ * occluder (VP_OCC_ATTACHED) is drawn as its local triangles under the
+ * entity's transform, cut the same way, again on every move.
  */
 #include "scene.h"
 #include "errmap.h"
@@ -26,6 +33,7 @@
                                   also bounds a cut's work (cull_occ_cut): 65536 * 512 piece-sphere
                                   tests, about 0.6 s, for any DESTROY or OCCLUDER_PUT */
 #define DEBRIS_ID_BASE (1ull << 62)
+#define SLOT(h) ((h) & (CULL_MAX_ENTITIES - 1u))
 
 const scene_destruct *scene_destruct_of(const scene *s, uint64_t id)
 {
@@ -39,6 +47,7 @@ void scene_destruct_forget(scene *s, uint64_t id)
     if (!s->destruct.count || !idmap_get(&s->destruct, id, &v)) return;
     scene_destruct *d = (scene_destruct *)(uintptr_t)v;
     cull_dvol_free(&d->v);
+    free(d->local);
     free(d);
     idmap_del(&s->destruct, id);
 }
@@ -82,16 +91,82 @@ void scene_destruct_moved(scene *s, uint64_t id, const cull_entity_desc *from, c
     d->v = nv;
 }
 
+/* d's volume rebuilt over the entity's new box `to` from its local spheres
+ * under transform x. false (d unchanged): out of memory, or a sphere the
+ * volume refuses (beyond the world's range). */
+static bool rebuild_local(scene_destruct *d, const scene_xform *x, const cull_entity_desc *to)
+{
+    double smax = fmax(fabs(x->scale[0]), fmax(fabs(x->scale[1]), fabs(x->scale[2])));
+    uint32_t res = d->v.n[0] > d->v.n[1] ? d->v.n[0] : d->v.n[1];
+    res = res > d->v.n[2] ? res : d->v.n[2];
+    cull_dvol nv;
+    if (cull_dvol_init(&nv, to->aabb_min, to->aabb_max, res) != CULL_OK) return false;
+    for (uint32_t k = 0; k < d->v.nsph; k++) {
+        double c[3];
+        scene_xform_apply(x, d->local[k], c);
+        if (cull_dvol_add_sphere(&nv, c, fmin(d->local[k][3] * smax, CULL_MAX_RADIUS)) != CULL_OK) {
+            cull_dvol_free(&nv);
+            return false;
+        }
+    }
+    nv.version = d->v.version + 1;
+    cull_dvol_free(&d->v);
+    d->v = nv;
+    return true;
+}
+
+void scene_destruct_follow(scene *s, uint64_t id, const scene_xform *x, const cull_entity_desc *from,
+                           const cull_entity_desc *to)
+{
+    uint64_t v;
+    bool lost = false;
+    if (s->destruct.count && idmap_get(&s->destruct, id, &v)) {
+        scene_destruct *d = (scene_destruct *)(uintptr_t)v;
+        if (d->local && !(x->flags & VP_ENT_TRANSFORM)) { /* a bounds entity now: its box carries it */
+            free(d->local);
+            d->local = NULL;
+        }
+        if (!d->local) {
+            scene_destruct_moved(s, id, from, to);
+        } else if (!rebuild_local(d, x, to)) {
+            LOGW("entity %llu moved: its destruction could not follow (out of memory or out of range), dropped",
+                 (unsigned long long)id);
+            scene_destruct_forget(s, id);
+            lost = true;
+        }
+    }
+    scene_occluder *o = scene_attached_occluder(s, id);
+    if (!o) return;
+    if (o->sublevel != to->sublevel) { /* it is in its entity's sub-level */
+        s->sl[o->sublevel].occluders--;
+        s->sl[to->sublevel].occluders++;
+        o->sublevel = to->sublevel;
+    }
+    /* without its holes (lost) or on failure it goes from the world whole:
+       an occluder drawn where its entity is no longer would hide what the
+       entity no longer does; hiding less is always safe */
+    int crc = lost ? CULL_ERR_NOMEM : scene_occluder_draw(s, o, NULL);
+    if (crc) {
+        LOGW("attached occluder %llu: cannot follow its entity (%s), taken out of the world until its next move",
+             (unsigned long long)id, cull_strerror(crc));
+        if (o->h) cull_occluder_remove(s->world, o->h);
+        o->h = 0;
+    }
+}
+
 void scene_destruct_free_all(scene *s)
 {
     for (size_t i = 0; i < s->destruct.cap; i++) {
         if (!s->destruct.used[i]) continue;
         scene_destruct *d = (scene_destruct *)(uintptr_t)s->destruct.vals[i];
         cull_dvol_free(&d->v);
+        free(d->local);
         free(d);
     }
     idmap_free(&s->destruct);
 }
+
+static int occluder_draw(scene *s, scene_occluder *o, uint32_t *kept);
 
 /* d (o's triangles as sent) with the holes of v cut in: *pieces
  * (malloc'ed, or NULL when nothing is cut) holds what d then points to. */
@@ -119,7 +194,53 @@ static int occluder_cut(const scene_occluder *o, const cull_dvol *v, cull_occlud
     return CULL_OK;
 }
 
+/* An attached occluder in world space: *w is o with its triangles under
+ * its entity's transform (in double, stored as floats relative to the
+ * entity's position: *verts, malloc'ed) and origin that position. A
+ * mirroring transform (negative determinant) reverses each triangle's
+ * corners, so front faces still look out of the solid: the rasterizer
+ * draws front faces only, and a mirrored shell drawn as sent would hide
+ * what stands inside it. */
+static int attached_world(const scene *s, const scene_occluder *o, scene_occluder *w, float **verts)
+{
+    uint64_t h;
+    *w = *o;
+    *verts = NULL;
+    if (!idmap_get(&s->ids, o->id, &h)) return CULL_ERR_HANDLE; /* (checked at OCCLUDER_PUT; the entity owns it) */
+    scene_xform x = s->xf[SLOT(h)];
+    memcpy(w->origin, x.pos, sizeof w->origin);
+    memset(x.pos, 0, sizeof x.pos);
+    float *v = malloc((size_t)o->ntris * 36 + 1);
+    if (!v) return CULL_ERR_NOMEM;
+    bool flip = (double)x.scale[0] * x.scale[1] * x.scale[2] < 0;
+    for (uint32_t t = 0; t < o->ntris; t++)
+        for (int c = 0; c < 3; c++) {
+            const float *p = &o->verts[9 * t + 3 * c];
+            double l[3] = {o->origin[0] + p[0], o->origin[1] + p[1], o->origin[2] + p[2]}, g[3];
+            scene_xform_apply(&x, l, g);
+            int k = flip && c ? 3 - c : c;
+            for (int a = 0; a < 3; a++) v[9 * t + 3 * k + a] = (float)g[a];
+        }
+    w->verts = *verts = v;
+    return CULL_OK;
+}
+
 int scene_occluder_draw(scene *s, scene_occluder *o, uint32_t *kept)
+{
+    float *world = NULL;
+    scene_occluder wo;
+    if (o->flags & VP_OCC_ATTACHED) {
+        int rc = attached_world(s, o, &wo, &world);
+        if (rc) return rc;
+    }
+    int rc = occluder_draw(s, world ? &wo : o, kept);
+    o->h = world ? wo.h : o->h;
+    free(world);
+    return rc;
+}
+
+/* scene_occluder_draw of an occluder in world space. */
+static int occluder_draw(scene *s, scene_occluder *o, uint32_t *kept)
 {
     const scene_destruct *sd = scene_destruct_of(s, o->id);
     /* cut open: the far walls' insides, seen through a hole, hide what is
@@ -285,18 +406,40 @@ int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out
     } else {
         d = (scene_destruct *)(uintptr_t)dv;
     }
-    int crc = cull_dvol_add_sphere(&d->v, m->center, m->radius);
-    if (crc) {
+    /* a transform entity's spheres are kept in its local space too (room
+       made first: nothing to take back after the sphere is in) */
+    const scene_xform *x = &s->xf[SLOT(h)];
+    bool local = (x->flags & VP_ENT_TRANSFORM) && (fresh || d->local);
+    double(*nl)[4] = local ? realloc(d->local, ((size_t)d->v.nsph + 1) * sizeof *nl) : NULL;
+    if (local && !nl) {
         if (fresh) {
             cull_dvol_free(&d->v);
             free(d);
         }
+        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a destruction sphere");
+    }
+    if (nl) d->local = nl;
+    int crc = cull_dvol_add_sphere(&d->v, m->center, m->radius);
+    if (crc) {
+        if (fresh) {
+            cull_dvol_free(&d->v);
+            free(d->local);
+            free(d);
+        }
         return sphere_refused(err, crc, m);
+    }
+    if (local) { /* the radius over the smallest non-zero |scale|: the local set holds the world sphere */
+        double smin = INFINITY;
+        for (int a = 0; a < 3; a++)
+            if (x->scale[a] != 0) smin = fmin(smin, fabs(x->scale[a]));
+        scene_xform_local(x, m->center, d->local[d->v.nsph - 1]);
+        d->local[d->v.nsph - 1][3] = m->radius / smin;
     }
     /* debris now, so a failure can still take the sphere back */
     if (m->debris && (rc = spawn_debris(s, m, sub, d->v.nsph, err)) != VP_OK) {
         if (fresh) {
             cull_dvol_free(&d->v);
+            free(d->local);
             free(d);
         } else {
             d->v.nsph--;

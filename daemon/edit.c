@@ -26,6 +26,9 @@ bool edit_is(uint16_t type)
     case VP_SUBLEVEL_ABORT:
     case VP_SUBLEVEL_UNLOAD:
     case VP_DESTROY:
+    case VP_TRANSFORM_SET:
+    case VP_MATERIAL_PUT:
+    case VP_MATERIAL_REMOVE:
     case VP_TEXTURE_PUT:
     case VP_TEXTURE_REMOVE:
     case VP_ENV_SET:
@@ -47,9 +50,18 @@ int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batc
         rc = vp_dec_entities(p, len, max_batch, &e->u.ents);
         e->count = e->u.ents.count;
         break;
+    case VP_TRANSFORM_SET:
+        rc = vp_dec_transforms(p, len, max_batch, &e->u.xf);
+        e->count = e->u.xf.count;
+        break;
+    case VP_MATERIAL_PUT:
+        rc = vp_dec_materials(p, len, max_batch, &e->u.mats.recs, &e->u.mats.n);
+        e->count = e->u.mats.n;
+        break;
     case VP_ENTITY_REMOVE:
     case VP_OCCLUDER_REMOVE:
     case VP_LIGHT_REMOVE:
+    case VP_MATERIAL_REMOVE:
     case VP_TEXTURE_REMOVE:
         rc = vp_dec_ids(p, len, max_batch, &e->u.ids);
         e->count = e->u.ids.count;
@@ -137,6 +149,12 @@ void edit_explain(const edit *e, int rc, scene_err *err)
         } else if (e->type == VP_LIGHT_PUT) {
             if (i >= e->u.lights.n || !e->u.lights.recs) return;
             r = vp_light_rec_check(e->u.lights.recs, e->u.lights.n, i, why, sizeof why);
+        } else if (e->type == VP_TRANSFORM_SET) {
+            if (i >= e->u.xf.count || !e->u.xf.recs) return;
+            r = vp_transform_rec_check(&e->u.xf, i, why, sizeof why);
+        } else if (e->type == VP_MATERIAL_PUT) {
+            if (i >= e->u.mats.n || !e->u.mats.recs) return;
+            r = vp_material_rec_check(e->u.mats.recs, e->u.mats.n, i, why, sizeof why);
         } else {
             return;
         }
@@ -218,6 +236,15 @@ int edit_apply(scene *sc, const edit *e, edit_result *r, scene_err *err)
         break;
     case VP_DESTROY:
         rc = scene_destroy(sc, &e->u.destroy, e->aux, &r->destroyed, err);
+        break;
+    case VP_TRANSFORM_SET:
+        rc = scene_transform_set(sc, e->sublevel, &e->u.xf, err);
+        break;
+    case VP_MATERIAL_PUT:
+        rc = scene_materials_put(sc, e->u.mats.recs, e->u.mats.n, err);
+        break;
+    case VP_MATERIAL_REMOVE:
+        rc = scene_materials_remove(sc, &e->u.ids, err);
         break;
     case VP_TEXTURE_PUT: /* global, as materials: a loading connection's goes in at once */
         rc = scene_texture_put(sc, &e->u.tex, err);

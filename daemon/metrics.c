@@ -413,6 +413,8 @@ bool metrics_expose(server *s, mbuf *b)
     sample(b, "vantage_scene_occluders", NULL, NULL, sc->occluders.count);
     family(b, "vantage_scene_lights", "gauge", "Lights.");
     sample(b, "vantage_scene_lights", NULL, NULL, sc->lights.count);
+    family(b, "vantage_scene_materials", "gauge", "Materials (MATERIAL_PUT).");
+    sample(b, "vantage_scene_materials", NULL, NULL, sc->materials.count);
     family(b, "vantage_scene_sublevels", "gauge", "Named sub-levels.");
     sample(b, "vantage_scene_sublevels", NULL, NULL, sc->nsublevels);
     family(b, "vantage_scene_textures", "gauge", "Textures (TEXTURE_PUT).");

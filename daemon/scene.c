@@ -51,12 +51,8 @@ void scene_free(scene *s)
     cull_world_destroy(s->world);
     idmap_free(&s->ids);
     free(s->id_of_slot);
-    for (uint32_t i = 0; i < 65536; i++) {
-        if (!s->meshes[i].pos && !s->meshes[i].nrm && !s->meshes[i].idx) continue; /* 196k free(NULL): 0.6 ms */
-        free(s->meshes[i].pos);
-        free(s->meshes[i].nrm);
-        free(s->meshes[i].idx);
-    }
+    for (uint32_t i = 0; i < 65536; i++)
+        if (s->meshes[i].pos) scene_mesh_release(&s->meshes[i]); /* 327k free(NULL): 0.9 ms */
     for (size_t i = 0; i < s->occluders.cap; i++) {
         if (!s->occluders.used[i]) continue;
         scene_occluder *o = (scene_occluder *)(uintptr_t)s->occluders.vals[i];
@@ -68,6 +64,8 @@ void scene_free(scene *s)
     idmap_free(&s->occluders);
     idmap_free(&s->lights);
     scene_destruct_free_all(s);
+    scene_materials_free(s);
+    free(s->xf);
     scene_textures_free(s);
     for (uint32_t i = 1; i <= s->nsublevels; i++) {
         free(s->sl[i].name);
@@ -86,20 +84,6 @@ uint64_t scene_id_of(const scene *s, cull_handle h)
     return slot < s->id_cap ? s->id_of_slot[slot] : 0;
 }
 
-static void to_desc(const vp_entity *e, cull_entity_desc *d)
-{
-    memset(d, 0, sizeof *d);
-    for (int a = 0; a < 3; a++) {
-        d->center[a] = e->sphere[a];
-        d->aabb_min[a] = e->aabb[a];
-        d->aabb_max[a] = e->aabb[3 + a];
-    }
-    d->radius = e->sphere[3];
-    d->class_id = e->class_id;
-    d->sublevel = e->sublevel;
-    d->flags = (e->flags & VP_ENT_DYNAMIC) ? CULL_ENTITY_DYNAMIC : 0;
-}
-
 void scene_entity_record(const scene *s, cull_handle h, vp_entity *out)
 {
     cull_entity_desc d;
@@ -110,6 +94,14 @@ void scene_entity_record(const scene *s, cull_handle h, vp_entity *out)
     out->class_id = d.class_id;
     out->sublevel = d.sublevel;
     out->flags = (d.flags & CULL_ENTITY_DYNAMIC) ? VP_ENT_DYNAMIC : 0;
+    const scene_xform *x = &s->xf[SLOT(h)];
+    out->material = x->material;
+    if (x->flags & VP_ENT_TRANSFORM) {
+        out->flags |= VP_ENT_TRANSFORM;
+        memcpy(out->pos, x->pos, sizeof out->pos);
+        memcpy(out->rot, x->rot, sizeof out->rot);
+        memcpy(out->scale, x->scale, sizeof out->scale);
+    }
     for (int a = 0; a < 3; a++) {
         out->sphere[a] = d.center[a];
         out->aabb[a] = d.aabb_min[a];
@@ -152,14 +144,19 @@ static uint32_t first_duplicate(const uint64_t *ids, uint32_t n, bool *nomem)
     return UINT32_MAX;
 }
 
+/* Room for slot need - 1 in id_of_slot and xf (which grow together). */
 static bool grow_id_of_slot(scene *s, uint32_t need)
 {
     if (need <= s->id_cap) return true;
-    uint32_t cap = (uint32_t)vp_grow_cap(s->id_cap, need, 1024, sizeof(uint64_t), (size_t)1 << 31);
+    uint32_t cap = (uint32_t)vp_grow_cap(s->id_cap, need, 1024, sizeof(scene_xform), (size_t)1 << 31);
     uint64_t *n = cap ? realloc(s->id_of_slot, (size_t)cap * sizeof *n) : NULL;
     if (!n) return false;
+    s->id_of_slot = n; /* larger, cap unchanged until xf is too */
+    scene_xform *x = realloc(s->xf, (size_t)cap * sizeof *x);
+    if (!x) return false;
+    s->xf = x;
     memset(n + s->id_cap, 0, (size_t)(cap - s->id_cap) * sizeof *n);
-    s->id_of_slot = n;
+    memset(x + s->id_cap, 0, (size_t)(cap - s->id_cap) * sizeof *x);
     s->id_cap = cap;
     return true;
 }
@@ -170,17 +167,10 @@ static int record_desc(const scene *s, const vp_entity_batch *b, uint32_t i, vp_
 {
     int rc = vp_entity_get(b, i, e);
     if (rc) return scene_fail(err, rc, i, "record %u: %s", i, vp_strerror(rc));
-    cull_entity_desc d;
-    to_desc(e, &d);
-    int crc = cull_entity_check(s->world, &d, out);
-    if (crc)
-        return scene_fail(err, vp_code_from_cull(crc), i, "record %u (id %llu): %s", i, (unsigned long long)e->id,
-                          cull_strerror(crc));
-    return VP_OK;
+    return scene_entity_desc(s, e, i, out, err);
 }
 
-/* VP_OK when no id appears twice in ids[0..n), else the error. */
-static int check_unique(const uint64_t *ids, uint32_t n, scene_err *err)
+int scene_check_unique(const uint64_t *ids, uint32_t n, scene_err *err)
 {
     bool nomem;
     uint32_t dup = first_duplicate(ids, n, &nomem);
@@ -199,6 +189,30 @@ void scene_entity_gone(scene *s, uint64_t id, cull_handle h, const cull_entity_d
     s->sl_entities[d->sublevel]--;
     s->class_entities[d->class_id]--;
     scene_destruct_forget(s, id);
+    scene_xform *x = &s->xf[SLOT(h)];
+    scene_material *m = scene_material_find(s, x->material);
+    if (m) m->users--;
+    memset(x, 0, sizeof *x);
+    scene_occluder *o = scene_attached_occluder(s, id); /* it goes with its entity */
+    if (o) {
+        if (o->h) cull_occluder_remove(s->world, o->h);
+        s->sl[o->sublevel].occluders--;
+        idmap_del(&s->occluders, id);
+        free(o->verts);
+        free(o);
+    }
+}
+
+/* The transform and material of record e, as stored. */
+static scene_xform xform_of(const vp_entity *e)
+{
+    scene_xform x = {.material = e->material, .flags = e->flags};
+    if (e->flags & VP_ENT_TRANSFORM) {
+        memcpy(x.pos, e->pos, sizeof x.pos);
+        memcpy(x.rot, e->rot, sizeof x.rot);
+        memcpy(x.scale, e->scale, sizeof x.scale);
+    }
+    return x;
 }
 
 /* The end of an applied edit of n records, `seen` of them in visible
@@ -224,23 +238,24 @@ static int add_batch(scene *s, uint16_t loading, const vp_entity_batch *b, uint3
                     s->lim.max_entities);
     uint64_t *ids = calloc((size_t)n + 1, sizeof *ids);
     cull_entity_desc *descs = malloc(((size_t)n + 1) * sizeof *descs);
-    if (!ids || !descs) {
-        free(ids);
-        free(descs);
-        return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
-    }
+    scene_xform *xfs = malloc(((size_t)n + 1) * sizeof *xfs);
     int rc = VP_OK;
+    if (!ids || !descs || !xfs) {
+        rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
+        goto out;
+    }
     for (uint32_t i = 0; i < n; i++) {
         vp_entity e;
         if ((rc = record_desc(s, b, i, &e, &descs[i], err))) goto out;
         if ((rc = scene_sublevel_target(s, loading, &descs[i].sublevel, i, err))) goto out;
         ids[i] = e.id;
+        xfs[i] = xform_of(&e);
         if (idmap_get(&s->ids, e.id, NULL)) {
             rc = scene_fail(err, VP_ERR_DUPLICATE, i, "record %u: id %llu already exists", i, (unsigned long long)e.id);
             goto out;
         }
     }
-    if ((rc = check_unique(ids, n, err))) goto out;
+    if ((rc = scene_check_unique(ids, n, err))) goto out;
     /* room in the id map only for a batch that is going in: a rejected one
        must not rehash it (ENTITY_LIST cursors are slots) */
     if (!scene_members_reserve(s, descs, n) || !idmap_reserve(&s->ids, s->ids.count + n)) {
@@ -263,6 +278,9 @@ static int add_batch(scene *s, uint16_t loading, const vp_entity_batch *b, uint3
         handles[i] = h;
         idmap_put(&s->ids, ids[i], h);
         s->id_of_slot[SLOT(h)] = ids[i];
+        s->xf[SLOT(h)] = xfs[i];
+        scene_material *mat = scene_material_find(s, xfs[i].material);
+        if (mat) mat->users++;
         s->sl_entities[descs[i].sublevel]++;
         s->class_entities[descs[i].class_id]++;
         scene_members_add(s, descs[i].sublevel, ids[i]);
@@ -273,6 +291,7 @@ static int add_batch(scene *s, uint16_t loading, const vp_entity_batch *b, uint3
 out:
     free(ids);
     free(descs);
+    free(xfs);
     return rc;
 }
 
@@ -293,8 +312,9 @@ int scene_update(scene *s, uint16_t loading, const vp_entity_batch *b, scene_err
     cull_handle *hs = malloc(((size_t)n + 1) * sizeof *hs);
     cull_entity_desc *descs = malloc(((size_t)n + 1) * sizeof *descs);
     cull_entity_desc *old = malloc(((size_t)n + 1) * sizeof *old);
+    scene_xform *xfs = malloc(((size_t)n + 1) * sizeof *xfs);
     int rc = VP_OK;
-    if (!ids || !hs || !descs || !old) {
+    if (!ids || !hs || !descs || !old || !xfs) {
         rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
@@ -313,6 +333,12 @@ int scene_update(scene *s, uint16_t loading, const vp_entity_batch *b, scene_err
         }
         ids[i] = e.id;
         hs[i] = (cull_handle)h;
+        xfs[i] = xform_of(&e);
+        if (!(e.flags & VP_ENT_TRANSFORM) && scene_attached_occluder(s, e.id)) {
+            rc = scene_fail(err, VP_ERR_STATE, i, "record %u: entity %llu has an attached occluder: it keeps "
+                            "VP_ENT_TRANSFORM (remove the occluder first)", i, (unsigned long long)e.id);
+            goto out;
+        }
         cull_entity_get(s->world, hs[i], &old[i]);
         /* what it leaves and where it goes must be writable; and nothing
            moves into or out of a sub-level no query sees (it would appear
@@ -326,26 +352,24 @@ int scene_update(scene *s, uint16_t loading, const vp_entity_batch *b, scene_err
             goto out;
         }
     }
-    if ((rc = check_unique(ids, n, err))) goto out;
+    if ((rc = scene_check_unique(ids, n, err))) goto out;
     if (!scene_members_reserve(s, descs, n)) {
         rc = scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a batch of %u", n);
         goto out;
     }
+    if ((rc = scene_moves_apply(s, n, hs, old, descs, err))) goto out;
     for (uint32_t i = 0; i < n; i++) {
-        int crc = cull_entity_update(s->world, hs[i], &descs[i]);
-        if (crc) {
-            for (uint32_t k = 0; k < i; k++) cull_entity_update(s->world, hs[k], &old[k]);
-            rc = scene_fail(err, vp_code_from_cull(crc), i, "record %u: %s", i, cull_strerror(crc));
-            goto out;
-        }
-    }
-    for (uint32_t i = 0; i < n; i++) {
+        scene_xform *x = &s->xf[SLOT(hs[i])];
+        scene_material *m = scene_material_find(s, x->material);
+        if (m) m->users--;
+        if ((m = scene_material_find(s, xfs[i].material))) m->users++;
+        *x = xfs[i];
         s->sl_entities[old[i].sublevel]--;
         s->sl_entities[descs[i].sublevel]++;
         s->class_entities[old[i].class_id]--;
         s->class_entities[descs[i].class_id]++;
         if (old[i].sublevel != descs[i].sublevel) scene_members_add(s, descs[i].sublevel, ids[i]);
-        scene_destruct_moved(s, ids[i], &old[i], &descs[i]);
+        scene_destruct_follow(s, ids[i], x, &old[i], &descs[i]);
     }
     uint32_t seen = 0;
     for (uint32_t i = 0; i < n; i++) seen += !scene_sublevel_hidden(s, descs[i].sublevel);
@@ -355,6 +379,7 @@ out:
     free(hs);
     free(descs);
     free(old);
+    free(xfs);
     return rc;
 }
 
@@ -376,7 +401,7 @@ int scene_remove(scene *s, uint16_t loading, const vp_id_batch *b, scene_err *er
         if ((rc = scene_sublevel_writable(s, loading, d.sublevel, i, err))) goto out;
         seen += !scene_sublevel_hidden(s, d.sublevel);
     }
-    if ((rc = check_unique(ids, n, err))) goto out;
+    if ((rc = scene_check_unique(ids, n, err))) goto out;
     for (uint32_t i = 0; i < n; i++) { /* removal cannot fail once validated */
         uint64_t h;
         cull_entity_desc d;
@@ -403,34 +428,61 @@ int scene_mesh_put(scene *s, uint16_t loading, const vp_mesh *m, scene_err *err)
     n.pos = malloc((size_t)n.nv * 12 + 1);
     /* no normals on the wire (VP_MESH_NO_NORMALS): NULL, drawn flat */
     n.nrm = m->normals ? malloc((size_t)n.nv * 12 + 1) : NULL;
+    n.uv = m->uvs ? malloc((size_t)n.nv * 8 + 1) : NULL;
+    n.tan = m->tangents ? malloc((size_t)n.nv * 16 + 1) : NULL;
     n.idx = malloc((size_t)n.ni * 4 + 1);
-    if (!n.pos || (m->normals && !n.nrm) || !n.idx) {
-        free(n.pos);
-        free(n.nrm);
-        free(n.idx);
+    if (!n.pos || (m->normals && !n.nrm) || (m->uvs && !n.uv) || (m->tangents && !n.tan) || !n.idx) {
+        scene_mesh_release(&n);
         return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory for a mesh");
     }
+    /* each array as floats (u32 for the indices), n per vertex */
+    struct { const uint8_t *p; float *f; uint32_t per; } arr[] = {
+        {m->positions, n.pos, 3}, {m->normals, n.nrm, 3}, {m->uvs, n.uv, 2}, {m->tangents, n.tan, 4}};
     vp_reader r;
-    vp_reader_init(&r, m->positions, (size_t)n.nv * 12);
-    for (uint32_t i = 0; i < 3 * n.nv; i++) n.pos[i] = vp_get_f32(&r);
-    vp_reader_init(&r, m->normals, n.nrm ? (size_t)n.nv * 12 : 0);
-    for (uint32_t i = 0; n.nrm && i < 3 * n.nv; i++) n.nrm[i] = vp_get_f32(&r);
+    for (size_t k = 0; k < sizeof arr / sizeof arr[0]; k++) {
+        if (!arr[k].f) continue;
+        vp_reader_init(&r, arr[k].p, (size_t)n.nv * arr[k].per * 4);
+        for (uint32_t i = 0; i < arr[k].per * n.nv; i++) arr[k].f[i] = vp_get_f32(&r);
+    }
     vp_reader_init(&r, m->indices, (size_t)n.ni * 4);
     for (uint32_t i = 0; i < n.ni; i++) n.idx[i] = vp_get_u32(&r);
+    scene_mesh_bounds(&n);
+    /* the class's transform entities take the new bounds, or the mesh is refused */
+    int rc = scene_mesh_rederive(s, m->class_id, n.lo, n.hi, err);
+    if (rc) {
+        scene_mesh_release(&n);
+        return rc;
+    }
     scene_mesh *slot = &s->meshes[m->class_id];
     if (!slot->pos) s->nmeshes++;
-    free(slot->pos);
-    free(slot->nrm);
-    free(slot->idx);
+    scene_mesh_release(slot);
     *slot = n;
     if (!owner || !scene_sublevel_hidden(s, owner)) s->epoch++; /* a hidden load's mesh shows at its commit */
     return VP_OK;
 }
 
+/* An attached occluder's entity (same id) must exist and have a
+ * transform; the occluder is in the entity's sub-level. */
+static int attached_sublevel(const scene *s, uint16_t loading, uint64_t id, uint16_t *sub, scene_err *err)
+{
+    uint64_t h;
+    cull_entity_desc d;
+    if (!idmap_get(&s->ids, id, &h) || cull_entity_get(s->world, (cull_handle)h, &d))
+        return scene_fail(err, VP_ERR_UNKNOWN_ID, UINT32_MAX, "attached occluder %llu: no entity with that id",
+                          (unsigned long long)id);
+    if (!(s->xf[SLOT(h)].flags & VP_ENT_TRANSFORM))
+        return scene_fail(err, VP_ERR_STATE, UINT32_MAX,
+                          "attached occluder %llu: its entity has no transform (VP_ENT_TRANSFORM)",
+                          (unsigned long long)id);
+    *sub = d.sublevel;
+    return scene_sublevel_writable(s, loading, d.sublevel, UINT32_MAX, err);
+}
+
 int scene_occluder_put(scene *s, uint16_t loading, const vp_occluder *o, scene_err *err)
 {
     uint16_t sub = 0;
-    int src = scene_sublevel_target(s, loading, &sub, UINT32_MAX, err);
+    int src = (o->flags & VP_OCC_ATTACHED) ? attached_sublevel(s, loading, o->id, &sub, err)
+                                           : scene_sublevel_target(s, loading, &sub, UINT32_MAX, err);
     if (src) return src;
     /* the cost bound of one OCCLUDER_PUT: the build is O(n log n) in its
        triangles (cull_occluder.c), n at most the limit, and at most what
@@ -460,6 +512,7 @@ int scene_occluder_put(scene *s, uint16_t loading, const vp_occluder *o, scene_e
     memcpy(n->origin, o->origin, sizeof n->origin);
     n->ntris = o->tri_count;
     n->sublevel = sub;
+    n->flags = o->flags;
     vp_reader r;
     vp_reader_init(&r, o->verts, (size_t)o->tri_count * 36);
     for (uint32_t i = 0; i < 9 * o->tri_count; i++) v[i] = vp_get_f32(&r);
@@ -513,7 +566,7 @@ int scene_remove_ids(scene *s, uint16_t loading, idmap *which, const vp_id_batch
     uint64_t *ids = malloc(((size_t)b->count + 1) * sizeof *ids);
     if (!ids) return scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "out of memory");
     for (uint32_t i = 0; i < b->count; i++) ids[i] = vp_id_get(b, i);
-    int rc = check_unique(ids, b->count, err);
+    int rc = scene_check_unique(ids, b->count, err);
     free(ids);
     if (rc) return rc;
     for (uint32_t i = 0; i < b->count; i++) {
@@ -607,7 +660,7 @@ int scene_lights_put(scene *s, uint16_t loading, const uint8_t *recs, uint32_t n
                               (unsigned long long)l.id);
         }
     }
-    int urc = check_unique(ids, n, err);
+    int urc = scene_check_unique(ids, n, err);
     free(ids);
     if (urc) return urc;
     if (s->lights.count + fresh > s->lim.max_lights)

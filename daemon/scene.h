@@ -56,9 +56,10 @@ typedef struct scene_texture {
 
 typedef struct scene_occluder {
     uint64_t id;
-    double origin[3];
+    double origin[3];       /* VP_OCC_ATTACHED: in the entity's local space */
     uint32_t ntris;
-    float *verts;           /* 9 per triangle, relative to origin */
+    float *verts;           /* 9 per triangle, relative to origin (as sent) */
+    uint32_t flags;         /* VP_OCC_*: ATTACHED follows entity id's transform */
     cull_occluder h;        /* in the culling world, which draws it */
     uint16_t sublevel;
 } scene_occluder;
@@ -66,6 +67,10 @@ typedef struct scene_occluder {
 /* An entity's destruction: its distance volume (the sphere set in it). */
 typedef struct scene_destruct {
     cull_dvol v;
+    /* destroyed while the entity had a transform: the spheres in its local
+       space (centre xyz, radius divided by the smallest non-zero |scale|),
+       v.nsph of them, from which v is rebuilt when it moves; else NULL */
+    double (*local)[4];
 } scene_destruct;
 
 /* A light as stored (the lights map's values point to these). */
@@ -230,6 +235,11 @@ void scene_destruct_free_all(scene *s);
  * updated in place (o->h) or removed when nothing is left. *kept (if not
  * NULL): the triangles drawn. On error the world's copy is unchanged. */
 int scene_occluder_draw(scene *s, scene_occluder *o, uint32_t *kept);
+/* Entity id (transform x, bounds now d) was placed anew: its destruction
+ * is rebuilt from its local spheres (else follows the box as
+ * scene_destruct_moved) and its attached occluder redrawn. */
+void scene_destruct_follow(scene *s, uint64_t id, const scene_xform *x, const cull_entity_desc *from,
+                           const cull_entity_desc *to);
 
 
 /* Uniform in [0, 1) from a splitmix64 stream (the demo city, debris). */
@@ -246,6 +256,42 @@ uint64_t scene_id_of(const scene *s, cull_handle h);
 void scene_entity_record(const scene *s, cull_handle h, vp_entity *out);
 
 /* ---- the scene model (transform.c, material.c, texture.c) ---- */
+/* VP_OK when no id appears twice in ids[0..n), else DUPLICATE naming the
+ * second appearance's record (BUSY: out of memory). */
+int scene_check_unique(const uint64_t *ids, uint32_t n, scene_err *err);
+/* Moves entities hs[0..n) from their bounds from[] to to[] (the culling
+ * world's update), all or nothing: on failure the ones moved go back. */
+int scene_moves_apply(scene *s, uint32_t n, const cull_handle *hs, const cull_entity_desc *from,
+                      const cull_entity_desc *to, scene_err *err);
+/* Fills m->lo / hi from its positions (0 for an empty mesh). */
+void scene_mesh_bounds(scene_mesh *m);
+/* Frees a mesh's arrays and zeroes it. */
+void scene_mesh_release(scene_mesh *m);
+/* Entity record i (e) as a culling desc in *d: a VP_ENT_TRANSFORM record
+ * gets bounds derived from its class mesh (which must exist: UNKNOWN_ID)
+ * and its TRS; every record's material must be 0 or exist (UNKNOWN_ID);
+ * then cull_entity_check. Errors name the record. */
+int scene_entity_desc(const scene *s, const vp_entity *e, uint32_t i, cull_entity_desc *d, scene_err *err);
+/* Point p of local space under transform x (scale, rotate, translate), in
+ * double. */
+void scene_xform_apply(const scene_xform *x, const double p[3], double out[3]);
+/* The inverse: world point p in x's local space (an axis scaled by 0
+ * gives 0). */
+void scene_xform_local(const scene_xform *x, const double p[3], double out[3]);
+/* TRANSFORM_SET: all or nothing (see protocol.h). */
+int scene_transform_set(scene *s, uint16_t loading, const vp_transform_batch *b, scene_err *err);
+/* MESH_PUT's new local bounds for class c: every transform entity of the
+ * class gets its bounds derived again (all or nothing: refused, nothing
+ * changed, if one would leave the world's range). Called before the mesh
+ * is stored; VP_OK when the class has no such entity. */
+int scene_mesh_rederive(scene *s, uint16_t c, const double lo[3], const double hi[3], scene_err *err);
+/* The attached occluder of entity id, or NULL. */
+scene_occluder *scene_attached_occluder(const scene *s, uint64_t id);
+/* MATERIAL_PUT (records of vp_dec_materials) and MATERIAL_REMOVE: all or
+ * nothing; a material in use is not removed (STATE). */
+int scene_materials_put(scene *s, const uint8_t *recs, uint32_t n, scene_err *err);
+int scene_materials_remove(scene *s, const vp_id_batch *b, scene_err *err);
+void scene_materials_free(scene *s);
 /* The texture with that id, or NULL. */
 scene_texture *scene_texture_find(const scene *s, uint32_t id);
 /* The material with that id, or NULL (0 is the default material: NULL). */

@@ -309,10 +309,7 @@ int scene_sublevel_drop(scene *s, uint16_t id, uint32_t *entities, scene_err *er
     for (uint32_t c = l->class_base; c < (uint32_t)l->class_base + l->classes; c++) {
         scene_mesh *m = &s->meshes[c];
         if (m->pos) s->nmeshes--;
-        free(m->pos);
-        free(m->nrm);
-        free(m->idx);
-        memset(m, 0, sizeof *m);
+        scene_mesh_release(m);
         s->class_owner[c] = 0;
     }
     l->class_base = l->classes = 0;

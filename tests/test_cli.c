@@ -141,10 +141,13 @@ static void parse_forms(const char *text, size_t len, forms *fs)
     }
 }
 
-static const form *find_form(const forms *fs, const char *key)
+/* The nth form (0: the first) keyed key: a command may have several forms
+ * with the same literal words ("add ID --mesh C ..." and "add ID X,Y,Z
+ * R ..."), matched in order. */
+static const form *find_form(const forms *fs, const char *key, int nth)
 {
     for (int i = 0; i < fs->n; i++)
-        if (!strcmp(fs->f[i].key, key)) return &fs->f[i];
+        if (!strcmp(fs->f[i].key, key) && nth-- == 0) return &fs->f[i];
     return NULL;
 }
 
@@ -164,7 +167,9 @@ static void opts_within(const char *key, const char *x, const char *xn, const ch
 static void forms_within(const forms *a, const char *an, const forms *b, const char *bn)
 {
     for (int i = 0; i < a->n; i++) {
-        const form *o = find_form(b, a->f[i].key);
+        int nth = 0;
+        for (int j = 0; j < i; j++) nth += !strcmp(a->f[j].key, a->f[i].key);
+        const form *o = find_form(b, a->f[i].key, nth);
         if (!o) fail_msg("'%s' is in %s but not in %s", a->f[i].key, an, bn);
         opts_within(a->f[i].key, a->f[i].opts, an, o->opts, bn);
         opts_within(a->f[i].key, o->opts, bn, a->f[i].opts, an);
@@ -254,8 +259,8 @@ static void test_cli_help_every_command(void **state)
         }
     }
     /* the forms the issue named */
-    assert_non_null(find_form(&help, "bench --scenario"));
-    assert_non_null(find_form(&help, "bench --test frames"));
+    assert_non_null(find_form(&help, "bench --scenario", 0));
+    assert_non_null(find_form(&help, "bench --test frames", 0));
     for (const char *const *w = (const char *const[]){"ping", "stats", "add", "move", "remove", "get", "import",
                                                      "export", "destroy", "watch", "bench", NULL};
          *w; w++) {
@@ -325,7 +330,10 @@ static const usage_case usage_cases[] = {
     {"destroy 5 0,0,0 1 --debris 999", {"--debris 999", "0..64"}},
     {"bench --test ping --requests 10 --clients 64", {"--requests 10 is fewer than --clients 64"}},
     {"bench --clients 0", {"--clients 0", "1..1000"}},
-    {"bench --test fast", {"--test fast", "query, edit, ping or frames"}},
+    {"bench --test fast", {"--test fast", "query, edit, transform, ping or frames"}},
+    {"add 1 --mesh 2 --rotate 1,2", {"--rotate 1,2", "YAW,PITCH,ROLL"}},
+    {"add 1 --mesh 2 --scale x", {"--scale x", "S or X,Y,Z"}},
+    {"material put 1 --texture roof=1", {"--texture roof=1", "SLOT=ID"}},
     {"bench --test frames --fps 0", {"--fps", "1..240"}},
     {"bench --test frames --viewers x", {"--viewers x"}},
 };

@@ -33,6 +33,8 @@ int main(void)
         {mask_tests, mask_tests_count},
         {auth_tests, auth_tests_count},
         {persist_tests, persist_tests_count},
+        {transform_tests, transform_tests_count},
+        {material_tests, material_tests_count},
         {recover_tests, recover_tests_count},
         {pad_tests, pad_tests_count},
         {pad_io_tests, pad_io_tests_count},

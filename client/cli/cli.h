@@ -71,6 +71,10 @@ int bench_frames(cli *k, int argc, char **argv);
 /* cli_sublevel.c: sublevel load | unload | list */
 int cmd_sublevel(cli *k, int argc, char **argv);
 
+/* cli_scene.c: add, move, material put | rm */
+int cmd_add(cli *k, int argc, char **argv);
+int cmd_move(cli *k, int argc, char **argv);
+int cmd_material(cli *k, int argc, char **argv);
 /* cli_env.c: texture put | rm, env */
 int cmd_texture(cli *k, int argc, char **argv);
 int cmd_env(cli *k, int argc, char **argv);

@@ -21,12 +21,13 @@ typedef struct bench_conn {
     long sent, recvd, quota;
     double *sent_at;    /* ring of pipeline send times */
     vp_entity *ents;    /* edit test: the entities this client moves */
+    vp_transform *xf;   /* transform test: their transforms */
 } bench_conn;
 
 /* One load-generator thread: several connections driven from one poll()
  * loop, like redis-benchmark, so 64 connections do not need 64 threads
  * competing with the daemon for the cores. */
-enum bench_test { T_QUERY, T_EDIT, T_PING };
+enum bench_test { T_QUERY, T_EDIT, T_PING, T_XFORM };
 
 typedef struct bench_arg {
     cli *k;
@@ -63,6 +64,13 @@ static int bench_send(bench_arg *a, bench_conn *bc, uint8_t *buf, size_t cap)
     if (a->test == T_EDIT) {
         for (int e = 0; e < a->batch; e++) bc->ents[e].sphere[1] = (double)(bc->sent % 100) * 0.1;
         vp_enc_entities(&w, VP_ENTITY_UPDATE, req, bc->ents, (uint32_t)a->batch);
+    } else if (a->test == T_XFORM) {
+        for (int e = 0; e < a->batch; e++) {
+            bc->xf[e].pos[1] = (double)(bc->sent % 100) * 0.1;
+            bc->xf[e].rot[1] = (float)sin(0.005 * (double)(bc->sent % 100)); /* a turn about y */
+            bc->xf[e].rot[3] = (float)cos(0.005 * (double)(bc->sent % 100));
+        }
+        vp_enc_transforms(&w, req, bc->xf, (uint32_t)a->batch);
     } else if (a->test == T_PING) {
         vp_enc_ping(&w, VP_PING, req, (const uint8_t *)"b", 1);
     } else {
@@ -75,14 +83,39 @@ static int bench_send(bench_arg *a, bench_conn *bc, uint8_t *buf, size_t cap)
     return vtc_send(bc->c, buf, w.len);
 }
 
+/* The transform test's class: a 0.5 m cube, put by each connection (the
+ * same mesh each time). */
+#define BENCH_XFORM_CLASS 65000u
+
+/* The transform test: bc->ents become transform entities of the bench
+ * class, bc->xf their TRANSFORM_SET records. */
+static bool xform_setup(bench_conn *bc, int batch)
+{
+    static const float cube[24] = {-0.25f, -0.25f, -0.25f, 0.25f, -0.25f, -0.25f, -0.25f, 0.25f, -0.25f,
+                                   0.25f,  0.25f,  -0.25f, -0.25f, -0.25f, 0.25f, 0.25f, -0.25f, 0.25f,
+                                   -0.25f, 0.25f,  0.25f,  0.25f,  0.25f,  0.25f};
+    static const uint32_t idx[6] = {0, 1, 2, 4, 5, 6};
+    if (vtc_put_mesh(bc->c, BENCH_XFORM_CLASS, cube, NULL, 8, idx, 6)) return false;
+    if (!(bc->xf = calloc((size_t)batch, sizeof *bc->xf))) return false;
+    for (int e = 0; e < batch; e++) {
+        double pos[3] = {bc->idx * 10.0, 0, e * 0.5};
+        float q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+        vtc_entity_trs(&bc->ents[e], bc->ents[e].id, BENCH_XFORM_CLASS, pos, q, s);
+        bc->ents[e].flags |= VP_ENT_DYNAMIC;
+        bc->xf[e] = (vp_transform){.id = bc->ents[e].id, .pos = {pos[0], 0, pos[2]}, .rot = {0, 0, 0, 1},
+                                   .scale = {1, 1, 1}};
+    }
+    return true;
+}
+
 static void *bench_worker(void *p)
 {
     bench_arg *a = p;
     bench_conn *cs = calloc((size_t)a->nconn, sizeof *cs);
     struct pollfd *pf = calloc((size_t)a->nconn, sizeof *pf);
-    size_t cap = vp_size_entities((uint32_t)a->batch) + VP_HEADER_SIZE + 8 + (size_t)a->views * VP_VIEW_SIZE;
+    size_t cap = vp_size_entities((uint32_t)a->batch) + vp_size_transforms((uint32_t)a->batch) + VP_HEADER_SIZE + 8 + (size_t)a->views * VP_VIEW_SIZE;
     uint8_t *buf = malloc(cap);
-    bool edit = a->test == T_EDIT;
+    bool edit = a->test == T_EDIT || a->test == T_XFORM;
     for (int i = 0; i < a->nconn && !a->failed; i++) {
         bench_conn *bc = &cs[i];
         vtc_connect_opts o = a->k->co;
@@ -104,6 +137,7 @@ static void *bench_worker(void *p)
             for (int e = 0; e < a->batch; e++)
                 bc->ents[e] = (vp_entity){.id = base + (uint64_t)e, .sphere = {bc->idx * 10.0, 0, e * 0.5, 0.25},
                                           .flags = VP_ENT_DYNAMIC};
+            if (a->test == T_XFORM && !xform_setup(bc, a->batch)) a->failed = 1;
             if (vtc_add(bc->c, bc->ents, (uint32_t)a->batch, NULL, NULL)) a->failed = 1;
         }
         pf[i] = (struct pollfd){.fd = vtc_fd(bc->c), .events = POLLIN};
@@ -148,9 +182,15 @@ static void *bench_worker(void *p)
         }
     }
     for (int i = 0; i < a->nconn; i++) {
+        /* the entities go, so the next run can add them again */
+        uint64_t *ids = cs[i].ents && cs[i].c ? malloc((size_t)a->batch * sizeof *ids) : NULL;
+        for (int e = 0; ids && e < a->batch; e++) ids[e] = cs[i].ents[e].id;
+        if (ids && !a->failed) vtc_remove(cs[i].c, ids, (uint32_t)a->batch, NULL);
+        free(ids);
         vtc_close(cs[i].c);
         free(cs[i].sent_at);
         free(cs[i].ents);
+        free(cs[i].xf);
     }
     free(cs);
     free(pf);
@@ -164,7 +204,7 @@ int cmd_bench(cli *k, int argc, char **argv)
         if (!strcmp(argv[i], "--test") && !strcmp(argv[i + 1], "frames")) return bench_frames(k, argc, argv);
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--scenario")) return bench_scenario(k, argc, argv);
-    const char *use = "bench [--test query|edit|ping|frames] [--clients N] [--threads T] [--requests N] [--pipeline P] "
+    const char *use = "bench [--test query|edit|transform|ping|frames] [--clients N] [--threads T] [--requests N] [--pipeline P] "
                       "[--views K] [--batch B] [--count-only] [--no-occlusion] [--json]";
     const char *test = "query";
     uint64_t clients = 64, requests = 100000, pipeline = 1, views = 1, batch = 1000, threads = 2;
@@ -191,7 +231,8 @@ int cmd_bench(cli *k, int argc, char **argv)
     if (!strcmp(test, "query")) kind = T_QUERY;
     else if (!strcmp(test, "edit")) kind = T_EDIT;
     else if (!strcmp(test, "ping")) kind = T_PING;
-    else return die_bad_value("bench", "--test", test, "query, edit, ping or frames");
+    else if (!strcmp(test, "transform")) kind = T_XFORM;
+    else return die_bad_value("bench", "--test", test, "query, edit, transform, ping or frames");
     /* each bound named with the option it bounds */
     const struct { const char *name; uint64_t v, lo, hi; } range[] = {
         {"--clients", clients, 1, 1000}, {"--pipeline", pipeline, 1, 1000}, {"--views", views, 1, 32},
@@ -246,12 +287,13 @@ int cmd_bench(cli *k, int argc, char **argv)
                "\"records_per_second\": %.0f, \"p50_ms\": %.4f, \"p90_ms\": %.4f, \"p99_ms\": %.4f, "
                "\"p999_ms\": %.4f, \"max_ms\": %.4f}\n",
                test, clients, pipeline, views, batch, done, failed, secs, rate,
-               !strcmp(test, "edit") ? rate * batch : records / secs, PCT(0.5), PCT(0.9), PCT(0.99), PCT(0.999),
+               kind == T_EDIT || kind == T_XFORM ? rate * batch : records / secs, PCT(0.5), PCT(0.9), PCT(0.99), PCT(0.999),
                PCT(1.0));
     } else {
         printf("%s: %ld requests, %ld clients, pipeline %ld: %.2f s, %.0f requests/s", test, done, clients,
                pipeline, secs, rate);
-        if (!strcmp(test, "edit")) printf(", %.0f entity updates/s", rate * batch);
+        if (kind == T_EDIT) printf(", %.0f entity updates/s", rate * batch);
+        if (kind == T_XFORM) printf(", %.0f transforms/s", rate * batch);
         if (!strcmp(test, "query")) printf(", %.0f visible records/s", records / secs);
         printf("\nlatency ms: p50 %.3f  p90 %.3f  p99 %.3f  p99.9 %.3f  max %.3f\n", PCT(0.5), PCT(0.9), PCT(0.99),
                PCT(0.999), PCT(1.0));

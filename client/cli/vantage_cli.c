@@ -51,13 +51,29 @@ static const cli_form forms[] = {
      "  by role, frame streams, p50/p99 per request type and per query stage (estimated from the\n"
      "  histogram buckets). --json: one JSON object; --metrics: the Prometheus text as the daemon\n"
      "  sends it.\n"},
-    {"add", "add ID X,Y,Z R [--class N] [--sublevel N] [--dynamic] [--aabb X0,Y0,Z0,X1,Y1,Z1]",
-     "add an entity: a sphere (centre, radius), and a box (derived unless --aabb)",
+    {"add", "add ID --mesh C [--pos X,Y,Z] [--rotate YAW,PITCH,ROLL | --quat X,Y,Z,W] [--scale S|X,Y,Z]\n"
+     "        [--material M] [--sublevel N] [--dynamic]",
+     "add an entity: mesh class C placed by a transform (its bounds derived from the mesh)",
+     "  --pos in metres (0,0,0); --rotate in degrees about +Y, then +X, then +Z (Y up), or --quat a\n"
+     "  unit quaternion; --scale one factor or one per axis (1; negative mirrors, 0 on one axis at\n"
+     "  most). Class C must hold a mesh; material M (0) must exist. Needs the editor role.\n"},
+    {"add", "add ID X,Y,Z R [--class N] [--sublevel N] [--dynamic] [--aabb X0,Y0,Z0,X1,Y1,Z1] [--material M]",
+     "add a culling-only entity: a sphere (centre, radius), and a box (derived unless --aabb)",
      "  ID is a 64-bit id (decimal or 0x hex); --class and --sublevel are 0..65535; --dynamic marks\n"
      "  an entity that moves often. Needs the editor role.\n"},
-    {"move", "move ID X,Y,Z [--radius R]", "move an entity (its AABB moves with it)",
+    {"move", "move ID [X,Y,Z] [--pos X,Y,Z] [--rotate YAW,PITCH,ROLL | --quat X,Y,Z,W] [--scale S|X,Y,Z]",
+     "move an entity with a transform (TRANSFORM_SET)", "  What is not given is kept.\n"},
+    {"move", "move ID X,Y,Z [--radius R]", "move a culling-only entity (its AABB moves with it)",
      "  The entity's sphere is centred on X,Y,Z and its box moves with it; --radius R (>= 0) gives it\n"
      "  a new radius and a box derived from the sphere.\n"},
+    {"material",
+     "material put ID [--base R,G,B[,A]] [--metallic M] [--roughness R] [--emissive R,G,B]\n"
+     "        [--emissive-strength S] [--alpha-mask CUTOFF] [--double-sided] [--normal-scale S]\n"
+     "        [--texture SLOT=ID]...",
+     "add or replace a material (glTF metallic-roughness); entities using it see the change",
+     "  Colours linear, 0..1 (base 1,1,1,1; metallic 0; roughness 1; emissive 0, strength 1).\n"
+     "  SLOT: base, mr (metallic-roughness), normal or emissive; ID an uploaded texture.\n"},
+    {"material", "material rm ID [ID...]", "remove materials (refused while an entity uses one)", ""},
     {"remove", "remove ID [ID...]", "remove entities",
      "  All or nothing: an id that does not exist refuses the whole batch, naming it.\n"},
     {"get", "get ID [ID...]", "print entities as JSON lines", "  One JSON line per entity, with its handle.\n"},
@@ -124,12 +140,13 @@ static const cli_form forms[] = {
      "  --orbit D turns the camera D degrees a second around --at, re-aimed after each frame,\n"
      "  at most --fps times a second. The camera options are render's.\n"},
     {"bench",
-     "bench [--test query|edit|ping] [--clients N] [--threads T] [--requests N] [--pipeline P]\n"
+     "bench [--test query|edit|transform|ping] [--clients N] [--threads T] [--requests N] [--pipeline P]\n"
      "        [--views K] [--batch B] [--count-only] [--no-occlusion] [--json]",
      "load test: rate and latency percentiles",
      "  Exactly --requests N requests (100000), spread over --clients N connections (64, 1..1000;\n"
      "  at most N) driven by --threads T (2); --pipeline P in flight per connection (1); --views K\n"
-     "  per query (1..32); --batch B entities per edit (1000).\n"},
+     "  per query (1..32); --batch B entities per edit (1000). transform: TRANSFORM_SET batches\n"
+     "  of B transform entities (a 0.5 m cube mesh on class 65000).\n"},
     {"bench",
      "bench --test frames [--viewers N] [--stalled S] [--seconds T] [--size WxH] [--fps F]\n"
      "        [--edits-per-s R] [--quality Q] [--renderer soft|gl] [--eye X,Y,Z] [--at X,Y,Z] [--json]",
@@ -683,68 +700,6 @@ static int cmd_stats(cli *k, int argc, char **argv)
     return 0;
 }
 
-static int cmd_add(cli *k, int argc, char **argv)
-{
-    const char *use = "add ID X,Y,Z R [--class N] [--sublevel N] [--dynamic] [--aabb X0,Y0,Z0,X1,Y1,Z1]";
-    if (argc < 4) return die_usage("%s", use);
-    vp_entity e = {0};
-    if (!parse_u64(argv[1], &e.id)) return die_usage("add: bad id %s", argv[1]);
-    if (!parse_vec(argv[2], e.sphere, 3) || !parse_vec(argv[3], &e.sphere[3], 1))
-        return die_usage("add: bad position or radius");
-    for (int i = 4; i < argc; i++) {
-        uint64_t v;
-        if (!strcmp(argv[i], "--dynamic")) e.flags |= VP_ENT_DYNAMIC;
-        else if (!strcmp(argv[i], "--class") && i + 1 < argc && parse_u64(argv[++i], &v) && v <= 65535)
-            e.class_id = (uint16_t)v;
-        else if (!strcmp(argv[i], "--sublevel") && i + 1 < argc && parse_u64(argv[++i], &v) && v <= 65535)
-            e.sublevel = (uint16_t)v;
-        else if (!strcmp(argv[i], "--aabb") && i + 1 < argc && parse_vec(argv[++i], e.aabb, 6))
-            ;
-        else
-            return die_usage("%s", use);
-    }
-    int rc = connect_cli(k, VP_ROLE_EDITOR);
-    if (rc) return rc;
-    uint32_t h;
-    uint64_t epoch;
-    if ((rc = vtc_add(k->c, &e, 1, &h, &epoch))) return server_fail(k, "add", rc);
-    printf("added id %llu handle %u at epoch %llu\n", (unsigned long long)e.id, h, (unsigned long long)epoch);
-    return 0;
-}
-
-static int cmd_move(cli *k, int argc, char **argv)
-{
-    const char *use = "move ID X,Y,Z [--radius R]";
-    uint64_t id;
-    double pos[3], r = -1;
-    if (argc < 3 || !parse_u64(argv[1], &id) || !parse_vec(argv[2], pos, 3)) return die_usage("%s", use);
-    if (argc == 5 && !strcmp(argv[3], "--radius")) {
-        if (!parse_vec(argv[4], &r, 1) || r < 0) return die_usage("%s", use);
-    } else if (argc != 3) {
-        return die_usage("%s", use);
-    }
-    int rc = connect_cli(k, VP_ROLE_EDITOR);
-    if (rc) return rc;
-    vp_list_reply lr;
-    if ((rc = vtc_get(k->c, &id, 1, &lr))) return server_fail(k, "move", rc);
-    vp_entity e;
-    vp_entity_get(&lr.batch, 0, &e);
-    double d[3] = {pos[0] - e.sphere[0], pos[1] - e.sphere[1], pos[2] - e.sphere[2]};
-    for (int a = 0; a < 3; a++) {
-        e.sphere[a] = pos[a];
-        e.aabb[a] += d[a];
-        e.aabb[3 + a] += d[a];
-    }
-    if (r >= 0) { /* a new radius: the AABB follows the sphere */
-        e.sphere[3] = r;
-        for (int a = 0; a < 6; a++) e.aabb[a] = 0;
-    }
-    uint64_t epoch;
-    if ((rc = vtc_update(k->c, &e, 1, &epoch))) return server_fail(k, "move", rc);
-    printf("moved id %llu at epoch %llu\n", (unsigned long long)id, (unsigned long long)epoch);
-    return 0;
-}
-
 static int cmd_remove(cli *k, int argc, char **argv)
 {
     if (argc < 2) return die_usage("remove ID [ID...]");
@@ -989,7 +944,7 @@ int main(int argc, char **argv)
             break;
         }
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
-        {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
+        {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"material", cmd_material}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
         {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy}, {"pad", cmd_pad},
         {"commander", cmdr_main}, {"texture", cmd_texture}, {"env", cmd_env},

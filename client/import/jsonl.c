@@ -37,12 +37,21 @@ int jsonl_entity_format(char *buf, size_t cap, const vp_entity *e, bool handle, 
     if (handle) snprintf(hd, sizeof hd, "\"handle\": %u, ", e->handle);
     snprintf(num, sizeof num, "%u", e->sublevel);
     const char *q = sublevel_json ? "\"" : "";
+    /* the scene model's fields when set: a material, a transform (its
+       sphere and aabb are then the derived bounds, not read back) */
+    char mat[32] = "", trs[320] = "";
+    if (e->material) snprintf(mat, sizeof mat, ", \"material\": %u", e->material);
+    if (e->flags & VP_ENT_TRANSFORM)
+        snprintf(trs, sizeof trs, ", \"pos\": [%.17g, %.17g, %.17g], \"rot\": [%.9g, %.9g, %.9g, %.9g], "
+                                  "\"scale\": [%.9g, %.9g, %.9g]",
+                 e->pos[0], e->pos[1], e->pos[2], (double)e->rot[0], (double)e->rot[1], (double)e->rot[2],
+                 (double)e->rot[3], (double)e->scale[0], (double)e->scale[1], (double)e->scale[2]);
     return snprintf(buf, cap,
                     "{\"id\": %llu, %s\"class\": %u, \"sphere\": [%.17g, %.17g, %.17g, %.17g], "
-                    "\"aabb\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g], \"sublevel\": %s%s%s, \"dynamic\": %s}\n",
+                    "\"aabb\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g], \"sublevel\": %s%s%s, \"dynamic\": %s%s%s}\n",
                     (unsigned long long)e->id, hd, e->class_id, e->sphere[0], e->sphere[1], e->sphere[2],
                     e->sphere[3], e->aabb[0], e->aabb[1], e->aabb[2], e->aabb[3], e->aabb[4], e->aabb[5], q,
-                    sublevel_json ? sublevel_json : num, q, (e->flags & VP_ENT_DYNAMIC) ? "true" : "false");
+                    sublevel_json ? sublevel_json : num, q, (e->flags & VP_ENT_DYNAMIC) ? "true" : "false", mat, trs);
 }
 
 static bool json_num_array(json_object *a, double *out, size_t n)
@@ -147,6 +156,44 @@ bool jsonl_entity_parse(const char *line, size_t len, vp_entity *e, char sub[VP_
             goto out;
         }
         if (json_object_get_boolean(v)) e->flags |= VP_ENT_DYNAMIC;
+    }
+    if (json_object_object_get_ex(o, "material", &v)) {
+        int64_t m = json_object_get_int64(v);
+        if (!json_object_is_type(v, json_type_int) || m < 0 || m > UINT32_MAX) {
+            snprintf(err, errlen, "\"material\" must be 0..4294967295");
+            goto out;
+        }
+        e->material = (uint32_t)m;
+    }
+    /* a transform: "pos" (and "rot", "scale": identity, 1 if left out) */
+    double t[4] = {0, 0, 0, 1};
+    static const char *const tname[3] = {"pos", "rot", "scale"};
+    static const char *const twhat[3] = {"[x, y, z]", "[x, y, z, w] (a unit quaternion)", "[x, y, z]"};
+    bool has_trs = false;
+    for (int k = 0; k < 3; k++) {
+        if (!json_object_object_get_ex(o, tname[k], &v)) continue;
+        bool fits = json_num_array(v, t, k == 1 ? 4 : 3);
+        for (int a = 0; fits && k && a < (k == 1 ? 4 : 3); a++) fits = isfinite((float)t[a]); /* f32 on the wire */
+        if (!fits) {
+            snprintf(err, errlen, "\"%s\" must be %s of finite numbers%s", tname[k], twhat[k],
+                     k ? " within a float's range" : "");
+            goto out;
+        }
+        has_trs = true;
+        for (int a = 0; a < (k == 1 ? 4 : 3); a++) {
+            if (k == 0) e->pos[a] = t[a];
+            else if (k == 1) e->rot[a] = (float)t[a];
+            else e->scale[a] = (float)t[a];
+        }
+    }
+    if (has_trs) {
+        if (!json_object_object_get_ex(o, "rot", &v)) e->rot[3] = 1;
+        if (!json_object_object_get_ex(o, "scale", &v)) e->scale[0] = e->scale[1] = e->scale[2] = 1;
+        e->flags |= VP_ENT_TRANSFORM;
+        memset(e->sphere, 0, sizeof e->sphere); /* derived by the daemon */
+        memset(e->aabb, 0, sizeof e->aabb);
+        ok = true;
+        goto out;
     }
     bool has_sphere = json_object_object_get_ex(o, "sphere", &v);
     if (has_sphere && !json_num_array(v, e->sphere, 4)) {

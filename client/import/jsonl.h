@@ -25,7 +25,10 @@
  * An accepted record has: an id (a JSON integer >= 0; json-c saturates one
  * above 2^64-1), class and sublevel 0..65535, flags 0 or VP_ENT_DYNAMIC,
  * handle 0, a sphere and an AABB of finite numbers (the one left out all
- * 0). sub gets the sub-level's name when "sublevel" is a name (1..255
+ * 0); or, with any of "pos" [x,y,z], "rot" [x,y,z,w] (identity if left
+ * out), "scale" [x,y,z] (1,1,1), an entity with VP_ENT_TRANSFORM whose
+ * sphere and AABB (written by export as the derived bounds) are not read;
+ * "material" 0..2^32-1 in either. sub gets the sub-level's name when "sublevel" is a name (1..255
  * bytes, none below 32 or 127; the caller resolves it to an id), else "".
  * The scene's record rules (r >= 0, min <= max, |x| <= 1e12, r <= 1e9) are
  * not checked here: the daemon checks them and refuses the whole batch.

@@ -607,6 +607,59 @@ int vtc_put_mesh(vtc_client *c, uint16_t class_id, const float *pos, const float
     return call(c, w, req, VP_ACK, dec_ack, NULL);
 }
 
+/* ---- the scene model --------------------------------------------------------------- */
+
+void vtc_entity_trs(vp_entity *e, uint64_t id, uint16_t class_id, const double pos[3], const float rot[4],
+                    const float scale[3])
+{
+    memset(e, 0, sizeof *e);
+    e->id = id;
+    e->class_id = class_id;
+    e->flags = VP_ENT_TRANSFORM;
+    memcpy(e->pos, pos, sizeof e->pos);
+    memcpy(e->rot, rot, sizeof e->rot);
+    memcpy(e->scale, scale, sizeof e->scale);
+}
+
+int vtc_transform_set(vtc_client *c, const vp_transform *t, uint32_t n, uint64_t *epoch)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_transforms(n), &req);
+    vp_enc_transforms(w, req, t, n);
+    return ack_epoch(c, w, req, epoch);
+}
+
+int vtc_material_put(vtc_client *c, const vp_material *m, uint32_t n, uint64_t *epoch)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_materials(n), &req);
+    vp_enc_materials(w, req, m, n);
+    return ack_epoch(c, w, req, epoch);
+}
+
+int vtc_material_remove(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+{
+    return remove_ids(c, VP_MATERIAL_REMOVE, ids, n, epoch);
+}
+
+int vtc_put_occluder_flags(vtc_client *c, uint64_t id, uint32_t flags, const double origin[3], const float *verts,
+                           uint32_t ntris)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_occluder(ntris), &req);
+    vp_enc_occluder_flags(w, req, id, flags, origin, verts, ntris);
+    return call(c, w, req, VP_ACK, dec_ack, NULL);
+}
+
+int vtc_put_mesh_uv(vtc_client *c, uint16_t class_id, const float *pos, const float *nrm, const float *uv,
+                    const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_mesh_uv(nv, ni, nrm != NULL, uv != NULL, tan != NULL), &req);
+    vp_enc_mesh_uv(w, req, class_id, pos, nrm, uv, tan, nv, idx, ni);
+    return call(c, w, req, VP_ACK, dec_ack, NULL);
+}
+
 /* ---- views ------------------------------------------------------------------------ */
 
 static bool camera(vp_view *v, const double eye[3], const double at[3], const double up[3], const double proj[16],

@@ -174,6 +174,26 @@ int vtc_put_lights(vtc_client *c, const vp_light *l, uint32_t n);
  * what occluders hide (VP_Q_*). */
 int vtc_put_occluder(vtc_client *c, uint64_t id, const double origin[3], const float *verts, uint32_t ntris);
 int vtc_remove_occluders(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch);
+/* Scene model (protocol version 2). An entity added with VP_ENT_TRANSFORM
+ * in its flags (vtc_add / vtc_update) is placed by pos / rot / scale over
+ * its class mesh (which must exist); vtc_entity_trs fills such a record.
+ * vtc_transform_set moves many of them (TRANSFORM_SET, all or nothing);
+ * vtc_material_put adds or replaces materials (entities using one see the
+ * change); vtc_material_remove refuses a material in use (VP_ERR_STATE).
+ * Each answered with ACK (epoch in *epoch if not NULL). */
+void vtc_entity_trs(vp_entity *e, uint64_t id, uint16_t class_id, const double pos[3], const float rot[4],
+                    const float scale[3]);
+int vtc_transform_set(vtc_client *c, const vp_transform *t, uint32_t n, uint64_t *epoch);
+int vtc_material_put(vtc_client *c, const vp_material *m, uint32_t n, uint64_t *epoch);
+int vtc_material_remove(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch);
+/* The same as vtc_put_occluder with flags (VP_OCC_ATTACHED: verts and
+ * origin in the local space of the entity with the same id). */
+int vtc_put_occluder_flags(vtc_client *c, uint64_t id, uint32_t flags, const double origin[3], const float *verts,
+                           uint32_t ntris);
+/* Replaces the mesh of class_id with UVs (2 per vertex) and tangents (4
+ * per vertex, need uv), either NULL when not sent. */
+int vtc_put_mesh_uv(vtc_client *c, uint16_t class_id, const float *pos, const float *nrm, const float *uv,
+                    const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni);
 /* Replaces the mesh of class_id: pos holds 3 * nv floats (object space),
  * nrm 3 * nv unit normals or NULL: no normals, drawn flat (MESH_PUT's
  * NO_NORMALS), idx ni indices (a multiple of 3, each < nv, counter-

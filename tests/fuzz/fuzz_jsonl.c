@@ -9,11 +9,15 @@
  *   1. a refused line has a message (not empty, ended within err), and the
  *      record and the sub-level name come back cleared;
  *   2. an accepted record is what jsonl.h promises: handle 0, flags 0 or
- *      VP_ENT_DYNAMIC, ten finite numbers, and either a sub-level name of
+ *      VP_ENT_DYNAMIC (and VP_ENT_TRANSFORM with a finite pos, rot and
+ *      scale and a zero sphere and aabb), ten finite numbers, and either a
+ *      sub-level name of
  *      1..255 bytes without control bytes (sublevel 0, the name decides) or
  *      no name;
  *   3. the wire takes it: an ENTITY_ADD frame of the record decodes
- *      (vp_dec_entities, vp_entity_get) to the same record, bit for bit;
+ *      (vp_dec_entities, vp_entity_get) to the same record, bit for bit
+ *      (a transform's rotation renormalised as vp_trs_check does; one
+ *      vp_trs_check refuses, the daemon's to refuse, is not sent);
  *   4. export -> import: the line jsonl_entity_format writes for it (the
  *      name escaped as `vantage export` escapes it), and the line with the
  *      handle that `vantage get` writes, parse back to the same record and
@@ -60,9 +64,21 @@ static bool parse_exact(const char *line, size_t len, vp_entity *e, char *sub, c
     return ok;
 }
 
-/* 3: ENTITY_ADD with the one record, through the decoder and the getter. */
-static void check_wire(const vp_entity *e)
+/* The scene model's fields of a and b the same (eq on the position). */
+static bool same_model(const vp_entity *a, const vp_entity *b, bool (*eq)(double, double))
 {
+    for (int k = 0; k < 3; k++)
+        if (!eq(a->pos[k], b->pos[k]) || !eq(a->scale[k], b->scale[k])) return false;
+    for (int k = 0; k < 4; k++)
+        if (!eq(a->rot[k], b->rot[k])) return false;
+    return a->material == b->material;
+}
+
+/* 3: ENTITY_ADD with the one record, through the decoder and the getter. */
+static void check_wire(const vp_entity *rec)
+{
+    vp_entity copy = *rec, *e = &copy;
+    if ((e->flags & VP_ENT_TRANSFORM) && vp_trs_check(e->pos, e->rot, e->scale, NULL, 0) != VP_OK) return;
     size_t cap = vp_size_entities(1), len;
     fuzz_wbuf w;
     fuzz_wopen(&w, cap);
@@ -75,6 +91,8 @@ static void check_wire(const vp_entity *e)
     vp_entity back;
     CHECK(vp_entity_get(&b, 0, &back) == VP_OK);
     CHECK(fuzz_same_entity(e, &back, same_f64));
+    if (e->flags & VP_ENT_TRANSFORM) CHECK(vp_trs_check(e->pos, e->rot, e->scale, NULL, 0) == VP_OK);
+    CHECK(same_model(e, &back, same_f64)); /* (renormalising twice may move a bit: the getter's rot is e's, checked) */
     fuzz_wclose(&w);
 }
 
@@ -96,6 +114,7 @@ static void check_export(const vp_entity *e, const char *sub)
         if (!ok) fprintf(stderr, "fuzz_jsonl: the export line is refused: %s\n%s", err, line);
         CHECK(ok);
         CHECK(fuzz_same_entity(e, &back, same_value));
+        CHECK(same_model(e, &back, same_value));
         CHECK(strcmp(sub, bsub) == 0);
     }
 }
@@ -117,7 +136,13 @@ static void check_line(const char *line, size_t len)
     }
     /* 2 */
     CHECK(e.handle == 0);
-    CHECK((e.flags & ~VP_ENT_DYNAMIC) == 0);
+    CHECK((e.flags & ~(VP_ENT_DYNAMIC | VP_ENT_TRANSFORM)) == 0);
+    for (int k = 0; k < 3; k++) CHECK(isfinite(e.pos[k]) && isfinite(e.scale[k]));
+    for (int k = 0; k < 4; k++) CHECK(isfinite(e.rot[k]));
+    if (e.flags & VP_ENT_TRANSFORM) {
+        CHECK(all_zero(e.sphere, sizeof e.sphere));
+        CHECK(all_zero(e.aabb, sizeof e.aabb));
+    }
     for (int k = 0; k < 4; k++) CHECK(isfinite(e.sphere[k]));
     for (int k = 0; k < 6; k++) CHECK(isfinite(e.aabb[k]));
     size_t sl = strnlen(sub, sizeof sub);
