@@ -62,8 +62,10 @@ static void on_material_list(server *s, conn *c, const vp_header *h, const uint8
     /* the ids after the cursor, ascending: a stable order however the map
        is laid out, so a page boundary never skips or repeats one */
     uint32_t *ids = malloc((mm->count + 1) * sizeof *ids);
+    /* what fits a frame the size of max_payload, at least one (a page
+       of none would never move on) */
     size_t room = (s->cfg.max_payload - 8) / VP_MATERIAL_SIZE;
-    uint32_t want = m.max < room ? m.max : (uint32_t)room;
+    uint32_t want = m.max < room ? m.max : room ? (uint32_t)room : 1;
     vp_material *recs = malloc(((size_t)want + 1) * sizeof *recs);
     if (!ids || !recs) {
         free(ids);
@@ -134,7 +136,7 @@ static void on_light_list(server *s, conn *c, const vp_header *h, const uint8_t 
     /* the cursor is a slot of the lights map + 1, as ENTITY_LIST's */
     const idmap *lm = &s->sc->lights;
     size_t room = (s->cfg.max_payload - 12) / VP_LIGHT_SIZE;
-    uint32_t want = m.max < room ? m.max : (uint32_t)room;
+    uint32_t want = m.max < room ? m.max : room ? (uint32_t)room : 1;
     vp_light *l = malloc(((size_t)want + 1) * sizeof *l);
     if (!l) {
         send_error(s, c, h->req, VP_ERR_BUSY, UINT32_MAX, "out of memory");

@@ -46,6 +46,11 @@ static int level_import_here(const char *path, imp_level *out, char *err, size_t
     const char *json = NULL;
     if (strcasecmp(dot + 1, "obj") && !fseek(f, 0, SEEK_END)) {
         long len = ftell(f);
+        /* a .glb: its header and JSON chunk only, not the binary one */
+        uint8_t head[20];
+        if (len >= 20 && !fseek(f, 0, SEEK_SET) && fread(head, 1, 20, f) == 20 && !memcmp(head, "glTF", 4) &&
+            vp_ld_u32(head + 12) <= (uint64_t)len - 20)
+            len = 20 + (long)vp_ld_u32(head + 12);
         if (len > 0 && !fseek(f, 0, SEEK_SET) && (bytes = malloc((size_t)len))) n = fread(bytes, 1, (size_t)len, f);
         if (!imp_gltf_json(bytes, n, &json, &jl)) json = NULL;
     }
