@@ -83,11 +83,13 @@ SCN_OBJ  := $(BUILD)/client/loadgen/scenario.o $(BUILD)/client/loadgen/lat_hist.
 # level import (client/import/README.md): the walk, in-memory files, the
 # child process and the level's bytes on its pipe
 IMPORT_OBJ := $(BUILD)/client/import/import_walk.o $(BUILD)/client/import/import_memio.o \
-            $(BUILD)/client/import/import_child.o $(BUILD)/client/import/import_pack.o
+            $(BUILD)/client/import/import_child.o $(BUILD)/client/import/import_pack.o \
+            $(BUILD)/client/import/import_material.o
 CLI_OBJ  := $(BUILD)/client/cli/vantage_cli.o $(BUILD)/client/cli/cli_jsonl.o $(BUILD)/client/cli/cli_bench.o \
             $(BUILD)/client/cli/cli_render.o $(BUILD)/client/cli/cli_frames.o $(BUILD)/client/cli/cli_sublevel.o \
             $(BUILD)/client/cli/cli_scene.o \
             $(BUILD)/client/cli/cli_env.o \
+            $(BUILD)/client/cli/cli_export.o $(BUILD)/client/cli/cli_level_send.o \
             $(IMPORT_OBJ) $(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_pad.o \
             $(BUILD)/client/commander/commander.o $(BUILD)/client/commander/commander_sdl.o \
             $(BUILD)/client/loadgen/cli_scenario.o $(BUILD)/client/loadgen/scenario_events.o \
@@ -202,7 +204,7 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # every daemon module but the server's (the tests drive scenes, journals and edits in-process)
 PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o auth.o upload.o),$(DAEMON_OBJ))
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG; it
 # decodes uploaded textures (vt_texture: PNG, JPEG, and EXR through OpenEXRCore)
@@ -226,7 +228,7 @@ CLI_RENDER := $(BUILD)/render/vt_exr.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o $(
 $(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(SDL_LIBS) $(LDLIBS)
 
-$(BUILD)/client/import/jsonl.o: CPPFLAGS += $$(pkg-config --cflags json-c)
+$(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_export.o $(BUILD)/tests/test_import.o: CPPFLAGS += $$(pkg-config --cflags json-c)
 $(BUILD)/client/pad/pad_io_real.o $(BUILD)/client/cli/cli_pad.o: CPPFLAGS += $$(pkg-config --cflags hidapi-hidraw libusb-1.0)
 $(BUILD)/client/commander/commander_sdl.o: CPPFLAGS += $$(pkg-config --cflags sdl2 SDL2_ttf) -Irender
 

@@ -720,6 +720,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         on_env_get(s, c, h->req);
         return;
     default: {
+        if (readback_dispatch(s, c, h, p)) return;
         if (edit_is(h->type)) {
             on_edit(s, c, h, p);
             return;

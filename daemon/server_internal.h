@@ -214,6 +214,9 @@ bool editor(server *s, conn *c, uint32_t req);
 void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p);
 /* Handles one complete frame from c (may set c->closing or c->busy). */
 void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p);
+/* readback.c: MESH_GET, MATERIAL_LIST, TEXTURE_GET, LIGHT_LIST answered;
+ * false for another type. */
+bool readback_dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p);
 /* A query worker thread: jobs in, replies out through s->done_fd. */
 void *worker_main(void *arg);
 /* Queues j for the workers. */

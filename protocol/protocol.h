@@ -104,14 +104,22 @@ enum vp_type {
     VP_ENTITY_GET = 0x0106,
     VP_TRANSFORM_SET = 0x0107,
     VP_MESH_PUT = 0x0110,
+    VP_MESH_GET = 0x0111,
+    VP_MESH_REPLY = 0x0112,
     VP_OCCLUDER_PUT = 0x0120,
     VP_OCCLUDER_REMOVE = 0x0121,
     VP_LIGHT_PUT = 0x0130,
     VP_LIGHT_REMOVE = 0x0131,
+    VP_LIGHT_LIST = 0x0132,
+    VP_LIGHT_LIST_REPLY = 0x0133,
     VP_MATERIAL_PUT = 0x0140,
     VP_MATERIAL_REMOVE = 0x0141,
+    VP_MATERIAL_LIST = 0x0142,
+    VP_MATERIAL_LIST_REPLY = 0x0143,
     VP_TEXTURE_PUT = 0x0150,
     VP_TEXTURE_REMOVE = 0x0151,
+    VP_TEXTURE_GET = 0x0152,
+    VP_TEXTURE_REPLY = 0x0153,
     VP_ENV_SET = 0x0160,
     VP_ENV_GET = 0x0161,
     VP_ENV_REPLY = 0x0162,
@@ -669,6 +677,72 @@ int    vp_dec_env(const uint8_t *p, size_t len, vp_env *m);
 /* The same with the field and the cause in why (may be NULL). */
 int    vp_dec_env_why(const uint8_t *p, size_t len, vp_env *m, char *why, size_t whylen);
 int    vp_env_check(vp_env *m, char *why, size_t whylen);
+
+/* ---- read-back (vp_readback.c): what export reads of the live scene ---- */
+/* Any role may send these. MESH_GET (u16 class) is answered by MESH_REPLY
+ * in MESH_PUT's layout (decode it with vp_dec_mesh), NOT_FOUND when the
+ * class has no mesh. MATERIAL_LIST pages through the materials by id:
+ * cursor = the id to start after (0 = from the first), max 1..max_batch;
+ * MATERIAL_LIST_REPLY has the next cursor (0 = done) and MATERIAL_PUT's
+ * records. TEXTURE_GET asks for a texture's stored encoded bytes from
+ * offset (< total), at most max_len (1..) and what fits max_payload;
+ * TEXTURE_REPLY is a TEXTURE_PUT chunk (decode it with vp_dec_texture_put).
+ * LIGHT_LIST pages through the lights (cursor 0 = from the start, as
+ * ENTITY_LIST's: opaque, stable while the scene does not change), max
+ * 1..max_batch; LIGHT_LIST_REPLY has the next cursor and LIGHT_PUT's
+ * records. */
+typedef struct vp_mesh_get {
+    uint16_t class_id;
+} vp_mesh_get;
+typedef struct vp_texture_get {
+    uint32_t id;
+    uint32_t offset;          /* into the encoded bytes */
+    uint32_t max_len;         /* >= 1 */
+} vp_texture_get;
+/* MATERIAL_LIST and LIGHT_LIST: a page of a listing. */
+typedef struct vp_page {
+    uint64_t cursor;          /* MATERIAL_LIST: the id to start after (u32 on the wire); LIGHT_LIST: 0 = from the start */
+    uint32_t max;             /* records wanted, 1..max_batch */
+} vp_page;
+/* Their replies: the next page's cursor and the records, as the put
+ * message has them (read with vp_material_get or vp_light_get). */
+typedef struct vp_page_reply {
+    uint64_t next_cursor;     /* 0 = done */
+    uint32_t count;
+    const uint8_t *recs;      /* count records of VP_MATERIAL_SIZE or VP_LIGHT_SIZE */
+} vp_page_reply;
+/* One record of a put message, as it has them: MATERIAL_PUT's
+ * (VP_MATERIAL_SIZE bytes) and LIGHT_PUT's (VP_LIGHT_SIZE bytes). */
+void   vp_put_material(vp_writer *w, const vp_material *m);
+void   vp_put_light(vp_writer *w, const vp_light *l);
+/* MESH_GET; its reply: MESH_PUT's layout under type MESH_REPLY (sized by
+ * vp_size_mesh_uv, read with vp_dec_mesh). */
+size_t vp_size_mesh_get(void);
+void   vp_enc_mesh_get(vp_writer *w, uint32_t req, const vp_mesh_get *m);
+int    vp_dec_mesh_get(const uint8_t *p, size_t len, vp_mesh_get *m);
+void   vp_enc_mesh_as(vp_writer *w, uint16_t type, uint32_t req, uint16_t class_id, const float *pos, const float *nrm,
+                      const float *uv, const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni);
+/* TEXTURE_GET; its reply: TEXTURE_PUT's layout under type TEXTURE_REPLY
+ * (sized by vp_size_texture_put, read with vp_dec_texture_put). */
+size_t vp_size_texture_get(void);
+void   vp_enc_texture_get(vp_writer *w, uint32_t req, const vp_texture_get *m);
+int    vp_dec_texture_get(const uint8_t *p, size_t len, vp_texture_get *m);
+void   vp_enc_texture_as(vp_writer *w, uint16_t type, uint32_t req, const vp_texture_put *m);
+/* MATERIAL_LIST and LIGHT_LIST: max checked against max_batch (0 = none). */
+size_t vp_size_material_list(void);
+size_t vp_size_light_list(void);
+void   vp_enc_material_list(vp_writer *w, uint32_t req, const vp_page *m);
+void   vp_enc_light_list(vp_writer *w, uint32_t req, const vp_page *m);
+int    vp_dec_material_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_page *m);
+int    vp_dec_light_list(const uint8_t *p, size_t len, uint32_t max_batch, vp_page *m);
+/* Their replies: n records after the cursor; the decoders check every
+ * record as MATERIAL_PUT's and LIGHT_PUT's. */
+size_t vp_size_material_list_reply(uint32_t n);
+size_t vp_size_light_list_reply(uint32_t n);
+void   vp_enc_material_list_reply(vp_writer *w, uint32_t req, uint32_t next_cursor, const vp_material *m, uint32_t n);
+void   vp_enc_light_list_reply(vp_writer *w, uint32_t req, uint64_t next_cursor, const vp_light *l, uint32_t n);
+int    vp_dec_material_list_reply(const uint8_t *p, size_t len, vp_page_reply *m);
+int    vp_dec_light_list_reply(const uint8_t *p, size_t len, vp_page_reply *m);
 
 /* Version 1 layouts, read from journals and snapshots a version 1 daemon
  * wrote (the upgrade on start): ENTITY_ADD / UPDATE batches of 104-byte

@@ -36,9 +36,16 @@ static void put_f32s(vp_writer *w, const float *f, size_t n)
 void vp_enc_mesh_uv(vp_writer *w, uint32_t req, uint16_t class_id, const float *pos, const float *nrm,
                     const float *uv, const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni)
 {
+    vp_enc_mesh_as(w, VP_MESH_PUT, req, class_id, pos, nrm, uv, tan, nv, idx, ni);
+}
+
+/* MESH_PUT's layout under type (MESH_REPLY: the same bytes read back) */
+void vp_enc_mesh_as(vp_writer *w, uint16_t type, uint32_t req, uint16_t class_id, const float *pos, const float *nrm,
+                    const float *uv, const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni)
+{
     if (!uv) tan = NULL;
     uint16_t flags = (uint16_t)((nrm ? 0 : VP_MESH_NO_NORMALS) | (uv ? VP_MESH_UVS : 0) | (tan ? VP_MESH_TANGENTS : 0));
-    vp_frame_begin(w, VP_MESH_PUT, req);
+    vp_frame_begin(w, type, req);
     mesh_put(w, &(vp_mesh){.class_id = class_id, .flags = flags, .vertex_count = nv, .index_count = ni});
     put_f32s(w, pos, 3 * (size_t)nv);
     put_f32s(w, nrm, 3 * (size_t)nv);
@@ -166,6 +173,11 @@ void vp_enc_lights(vp_writer *w, uint32_t req, const vp_light *l, uint32_t n)
     vp_put_u32(w, n);
     for (uint32_t i = 0; i < n; i++) light_put(w, &l[i]);
     vp_frame_end(w);
+}
+
+void vp_put_light(vp_writer *w, const vp_light *l)
+{
+    light_put(w, l);
 }
 
 /* Record i of recs, whose size the decoder checked. */

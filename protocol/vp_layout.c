@@ -18,7 +18,7 @@
     X(entity) X(entity_v1) X(transform) X(list) X(list_reply) X(add_reply) X(mark) X(marked_head) X(destroy)  \
     X(destroyed) X(view) X(vis_query) X(vis_result) X(vis_rec) X(render_tail) X(frame) X(light_query_tail)    \
     X(light_tiles) X(texref) X(material) X(texture_put) X(env) X(sublevel_begin) X(sublevel_begun) X(info)     \
-    X(infos)
+    X(infos) X(mesh_get) X(material_list) X(texture_get) X(light_list)
 
 #define VP_DESC_DECL_(name) const vp_layout_desc *vp_desc_##name(void);
 VP_LAYOUT_NAMES(VP_DESC_DECL_)

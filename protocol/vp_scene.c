@@ -58,6 +58,11 @@ void vp_enc_materials(vp_writer *w, uint32_t req, const vp_material *m, uint32_t
     vp_frame_end(w);
 }
 
+void vp_put_material(vp_writer *w, const vp_material *m)
+{
+    material_put_all(w, m);
+}
+
 /* Record i (size checked by the decoder); the pads of its head and of
  * each texture slot (name_get's: 0, or 1 + the first bad pad's offset). */
 typedef struct material_pads {
@@ -131,7 +136,13 @@ size_t vp_size_texture_put(uint32_t len)
 
 void vp_enc_texture_put(vp_writer *w, uint32_t req, const vp_texture_put *m)
 {
-    vp_frame_begin(w, VP_TEXTURE_PUT, req);
+    vp_enc_texture_as(w, VP_TEXTURE_PUT, req, m);
+}
+
+/* TEXTURE_PUT's layout under type (TEXTURE_REPLY: a chunk read back) */
+void vp_enc_texture_as(vp_writer *w, uint16_t type, uint32_t req, const vp_texture_put *m)
+{
+    vp_frame_begin(w, type, req);
     texture_put_put(w, m);
     vp_put_bytes(w, m->data, m->len);
     vp_frame_end(w);

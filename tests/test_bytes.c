@@ -246,7 +246,9 @@ static void test_grow_refusal_keeps_the_array(void **state)
 
 /* ---- the importer's pipe ---------------------------------------------------------------------- */
 
-static void level_equal(const imp_level *a, const imp_level *b)
+/* Two levels hold the same, field for field (the pipe's bytes and the
+ * child's isolation must change nothing). */
+void test_level_equal(const imp_level *a, const imp_level *b)
 {
     assert_int_equal(a->nmesh, b->nmesh);
     assert_int_equal(a->nent, b->nent);
@@ -260,9 +262,30 @@ static void level_equal(const imp_level *a, const imp_level *b)
         assert_memory_equal(a->mesh[i].pos, b->mesh[i].pos, a->mesh[i].nv * 3 * sizeof(float));
         assert_memory_equal(a->mesh[i].nrm, b->mesh[i].nrm, a->mesh[i].nv * 3 * sizeof(float));
         assert_memory_equal(a->mesh[i].idx, b->mesh[i].idx, a->mesh[i].ni * sizeof(uint32_t));
+        assert_int_equal(a->mesh[i].material, b->mesh[i].material);
+        assert_int_equal(!a->mesh[i].uv, !b->mesh[i].uv);
+        assert_int_equal(!a->mesh[i].tan, !b->mesh[i].tan);
+        if (a->mesh[i].uv) assert_memory_equal(a->mesh[i].uv, b->mesh[i].uv, a->mesh[i].nv * 2 * sizeof(float));
+        if (a->mesh[i].tan) assert_memory_equal(a->mesh[i].tan, b->mesh[i].tan, a->mesh[i].nv * 4 * sizeof(float));
     }
+    assert_int_equal(a->nmat, b->nmat);
+    for (uint32_t i = 0; i < a->nmat; i++) assert_memory_equal(&a->mat[i], &b->mat[i], sizeof a->mat[i]);
+    assert_int_equal(a->ntex, b->ntex);
+    for (uint32_t i = 0; i < a->ntex; i++) {
+        assert_true(a->tex[i].id == b->tex[i].id && a->tex[i].format == b->tex[i].format &&
+                    a->tex[i].flags == b->tex[i].flags && a->tex[i].nbytes == b->tex[i].nbytes);
+        assert_memory_equal(a->tex[i].bytes, b->tex[i].bytes, a->tex[i].nbytes);
+    }
+    assert_int_equal(a->has_sun, b->has_sun);
+    assert_memory_equal(a->sun_dir, b->sun_dir, sizeof a->sun_dir);
+    assert_memory_equal(a->sun_color, b->sun_color, sizeof a->sun_color);
+    assert_true(a->sun_lux == b->sun_lux);
     for (uint32_t i = 0; i < a->nent; i++) {
         assert_int_equal(a->ent[i].cls, b->ent[i].cls);
+        assert_int_equal(a->ent[i].material, b->ent[i].material);
+        assert_memory_equal(a->ent[i].pos, b->ent[i].pos, sizeof a->ent[i].pos);
+        assert_memory_equal(a->ent[i].rot, b->ent[i].rot, sizeof a->ent[i].rot);
+        assert_memory_equal(a->ent[i].scale, b->ent[i].scale, sizeof a->ent[i].scale);
         assert_memory_equal(a->ent[i].lo, b->ent[i].lo, sizeof a->ent[i].lo);
         assert_memory_equal(a->ent[i].hi, b->ent[i].hi, sizeof a->ent[i].hi);
         assert_int_equal(a->ent[i].dynamic, b->ent[i].dynamic);
@@ -313,7 +336,7 @@ static void test_import_pack_round_trip_and_cuts(void **state)
     vp_reader_init(&r, w.p, w.len);
     memset(&back, 0, sizeof back);
     assert_true(imp_level_unpack(&r, &back));
-    level_equal(&lv, &back);
+    test_level_equal(&lv, &back);
     imp_level_free(&back);
     for (size_t cut = 0; cut < w.len; cut++) {
         uint8_t *exact = malloc(cut + 1); /* exact size: ASan sees any overread */

@@ -45,6 +45,7 @@ int main(void)
         {validate_tests, validate_tests_count},
         {cli_tests, cli_tests_count},
         {errmap_tests, errmap_tests_count},
+        {import_tests, import_tests_count},
     };
     /* TEST_ROWS entries become one test per row (test_util.h) */
     size_t total = 0;

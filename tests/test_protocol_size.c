@@ -492,13 +492,65 @@ static size_t case_env(vp_writer *w, int v)
     return vp_size_env();
 }
 
+/* read-back (vp_readback.c) */
+static size_t case_mesh_get(vp_writer *w, int v)
+{
+    if (v >= 2) return SIZE_MAX;
+    vp_enc_mesh_get(w, 1, &(vp_mesh_get){.class_id = (uint16_t)(v ? 65535 : 7)});
+    assert_int_equal(vp_size_mesh_get(), VP_HEADER_SIZE + 2);
+    return vp_size_mesh_get();
+}
+
+static size_t case_material_list(vp_writer *w, int v)
+{
+    if (v >= 2) return SIZE_MAX;
+    vp_enc_material_list(w, 1, &(vp_page){.cursor = (uint32_t)v, .max = 100});
+    assert_int_equal(vp_size_material_list(), VP_HEADER_SIZE + 8);
+    return vp_size_material_list();
+}
+
+static size_t case_material_list_reply(vp_writer *w, int v)
+{
+    static const vp_material m[3] = {{.id = 1}, {.id = 2}, {.id = 9}};
+    if (v >= 4) return SIZE_MAX;
+    vp_enc_material_list_reply(w, 1, (uint32_t)v, m, (uint32_t)v);
+    assert_int_equal(vp_size_material_list_reply(1) - vp_size_material_list_reply(0), VP_MATERIAL_SIZE);
+    return vp_size_material_list_reply((uint32_t)v);
+}
+
+static size_t case_texture_get(vp_writer *w, int v)
+{
+    if (v >= 2) return SIZE_MAX;
+    vp_enc_texture_get(w, 1, &(vp_texture_get){.id = 1, .offset = (uint32_t)v, .max_len = 1000});
+    assert_int_equal(vp_size_texture_get(), VP_HEADER_SIZE + 12);
+    return vp_size_texture_get();
+}
+
+static size_t case_light_list(vp_writer *w, int v)
+{
+    if (v >= 2) return SIZE_MAX;
+    vp_enc_light_list(w, 1, &(vp_page){.cursor = (uint64_t)v, .max = 10});
+    assert_int_equal(vp_size_light_list(), VP_HEADER_SIZE + 12);
+    return vp_size_light_list();
+}
+
+static size_t case_light_list_reply(vp_writer *w, int v)
+{
+    static const vp_light l[2] = {{.id = 1, .range = 1}, {.id = 2, .range = 1}};
+    if (v >= 3) return SIZE_MAX;
+    vp_enc_light_list_reply(w, 1, (uint64_t)v, l, (uint32_t)v);
+    assert_int_equal(vp_size_light_list_reply(1) - vp_size_light_list_reply(0), VP_LIGHT_SIZE);
+    return vp_size_light_list_reply((uint32_t)v);
+}
+
 #define SIZE_CASES(X)                                                                                      \
     X(hello) X(hello_ok) X(error) X(ping) X(empty) X(entities) X(ids) X(add_reply) X(ack) X(vis_query)     \
     X(vis_query_sub) X(vis_result) X(stats_reply) X(subscribe) X(event) X(mesh) X(occluder) X(lights)      \
     X(list) X(names) X(sublevel_ids) X(list_reply) X(sublevel_begin) X(sublevel_begun) X(sublevel_name)   \
     X(sublevel_infos) X(destroy) X(destroyed) X(mark) X(marked) X(metrics_reply) X(render) X(light_query) \
     X(light_tiles) X(frame_sub) X(frame) X(mesh_uv) X(occluder_flags) X(transforms) X(materials)  \
-    X(texture_put) X(env)
+    X(texture_put) X(env) X(mesh_get) X(material_list) X(material_list_reply) X(texture_get) X(light_list)  \
+    X(light_list_reply)
 
 #define SIZE_TEST(name)                                                                                    \
     static void test_size_##name(void **state)                                                             \

@@ -51,6 +51,20 @@ static void assert_box(const lvl_entity *e, double x0, double y0, double z0, dou
             fail_msg("%s: bound %d is %.9g, want %.9g", e->name, a, got[a], want[a]);
 }
 
+/* An entity's transform against the file's (q and -q are one rotation). */
+static void assert_trs(const lvl_entity *e, const double pos[3], const double rot[4], const double scale[3])
+{
+    double dot = 0;
+    for (int a = 0; a < 4; a++) dot += rot[a] * e->rot[a];
+    for (int a = 0; a < 3; a++)
+        if (!(fabs(e->pos[a] - pos[a]) <= 1e-6 * (1 + fabs(pos[a])) && fabs(e->scale[a] - scale[a]) <= 1e-6))
+            fail_msg("%s: position or scale axis %d is %.9g / %.9g, want %.9g / %.9g", e->name, a, e->pos[a],
+                     (double)e->scale[a], pos[a], scale[a]);
+    if (!(fabs(fabs(dot) - 1) <= 1e-6))
+        fail_msg("%s: rotation (%g %g %g %g), want (%g %g %g %g)", e->name, (double)e->rot[0], (double)e->rot[1],
+                 (double)e->rot[2], (double)e->rot[3], rot[0], rot[1], rot[2], rot[3]);
+}
+
 /* Imports tests/data/name into lv; fails the test with the importer's message. */
 static void import_ok(const char *name, imp_level *lv)
 {
@@ -65,12 +79,24 @@ static void test_import_gltf(void **state)
     import_ok("level_small.gltf", &lv);
     /* crate_a..d, cart, tower, wall, lamp_post; OCC_* are not entities */
     assert_int_equal(lv.nent, 8);
-    /* crate_a = crate_b (identity), crate_c = crate_d (45 degrees, scale 2,1,1),
-       cart, tower, wall, lamp_post: 6 classes */
-    assert_int_equal(lv.nmesh, 6);
+    /* the scene model: one class per mesh the file has, however placed:
+       the box (crates, cart, tower, lamp post) and the wall */
+    assert_int_equal(lv.nmesh, 2);
     assert_int_equal(entity_named(&lv, "crate_a")->cls, entity_named(&lv, "crate_b")->cls);
-    assert_int_equal(entity_named(&lv, "crate_c")->cls, entity_named(&lv, "crate_d")->cls);
-    assert_int_not_equal(entity_named(&lv, "crate_a")->cls, entity_named(&lv, "crate_c")->cls);
+    assert_int_equal(entity_named(&lv, "crate_a")->cls, entity_named(&lv, "crate_c")->cls);
+    assert_int_equal(entity_named(&lv, "crate_a")->cls, entity_named(&lv, "lamp_post")->cls);
+    assert_int_not_equal(entity_named(&lv, "crate_a")->cls, entity_named(&lv, "wall")->cls);
+    /* transforms as the file gives them (make_levels.py), the lamp post's
+       composed with its group's (a quarter turn about y, moved to 20,0,20) */
+    const double s45 = sin(M_PI / 8), c45 = cos(M_PI / 8), s90 = sin(M_PI / 4);
+    assert_trs(entity_named(&lv, "crate_c"), (double[3]){0, 1, 10}, (double[4]){0, s45, 0, c45},
+               (double[3]){2, 1, 1});
+    assert_trs(entity_named(&lv, "crate_a"), (double[3]){0, 1, 0}, (double[4]){0, 0, 0, 1}, (double[3]){1, 1, 1});
+    assert_trs(entity_named(&lv, "lamp_post"), (double[3]){20, 2, 20}, (double[4]){0, s90, 0, s90},
+               (double[3]){0.2, 2, 0.2});
+    /* the box class in its own space, -1..1 */
+    const lvl_mesh *bm = &lv.mesh[entity_named(&lv, "crate_a")->cls];
+    for (uint32_t v = 0; v < 3 * bm->nv; v++) assert_true(fabsf(fabsf(bm->pos[v]) - 1) < 1e-6f);
     assert_box(entity_named(&lv, "crate_a"), -1, 0, -1, 1, 2, 1);
     assert_box(entity_named(&lv, "crate_b"), 9, 0, -1, 11, 2, 1);
     double r = 3 / sqrt(2.0); /* half extents (2, 1) turned 45 degrees */
@@ -97,9 +123,15 @@ static void test_import_gltf(void **state)
         assert_true(fabs(fabs(x) - 9.5) < 1e-5);
         assert_true(fabs(z - 20) < 1e-5);
     }
-    /* lights: bulb (point, range 25) and spot (down); the sun is skipped */
+    /* lights: bulb (point, range 25) and spot (down); the sun (3 lux, a
+       node turned 30 degrees about y: it shines along (-1/2, 0, -sqrt 3/2),
+       so the sun is towards (1/2, 0, sqrt 3/2)) */
     assert_int_equal(lv.nlight, 2);
-    assert_int_equal(lv.skipped_lights, 1);
+    assert_int_equal(lv.skipped_lights, 0);
+    assert_true(lv.has_sun);
+    assert_true(fabs(lv.sun_lux - 3) < 1e-6);
+    assert_true(fabs(lv.sun_dir[0] - 0.5) < 1e-6 && fabs(lv.sun_dir[1]) < 1e-6 &&
+                fabs(lv.sun_dir[2] - sqrt(3) / 2) < 1e-6);
     for (uint32_t i = 0; i < lv.nlight; i++) {
         const vp_light *l = &lv.light[i];
         if (l->kind == VP_LIGHT_POINT) {
@@ -214,35 +246,7 @@ static void test_import_isolated(void **state)
     char err[512];
     if (imp_level_import(path, &a, err, sizeof err)) fail_msg("%s", err);
     if (imp_level_import_mem(bytes, n, "gltf", &b, err, sizeof err)) fail_msg("%s", err);
-    assert_int_equal(a.nmesh, b.nmesh);
-    assert_int_equal(a.nent, b.nent);
-    assert_int_equal(a.nocc, b.nocc);
-    assert_int_equal(a.nlight, b.nlight);
-    assert_int_equal(a.skipped_lights, b.skipped_lights);
-    assert_int_equal(a.skipped_prims, b.skipped_prims);
-    for (uint32_t i = 0; i < a.nmesh; i++) {
-        assert_int_equal(a.mesh[i].nv, b.mesh[i].nv);
-        assert_int_equal(a.mesh[i].ni, b.mesh[i].ni);
-        assert_memory_equal(a.mesh[i].pos, b.mesh[i].pos, a.mesh[i].nv * 3 * sizeof(float));
-        assert_memory_equal(a.mesh[i].nrm, b.mesh[i].nrm, a.mesh[i].nv * 3 * sizeof(float));
-        assert_memory_equal(a.mesh[i].idx, b.mesh[i].idx, a.mesh[i].ni * sizeof(uint32_t));
-    }
-    for (uint32_t i = 0; i < a.nent; i++) {
-        assert_int_equal(a.ent[i].cls, b.ent[i].cls);
-        assert_memory_equal(a.ent[i].lo, b.ent[i].lo, sizeof a.ent[i].lo);
-        assert_memory_equal(a.ent[i].hi, b.ent[i].hi, sizeof a.ent[i].hi);
-        assert_int_equal(a.ent[i].dynamic, b.ent[i].dynamic);
-        assert_int_equal(a.ent[i].occluder, b.ent[i].occluder);
-        assert_string_equal(a.ent[i].name, b.ent[i].name);
-    }
-    for (uint32_t i = 0; i < a.nocc; i++) {
-        assert_memory_equal(a.occ[i].origin, b.occ[i].origin, sizeof a.occ[i].origin);
-        assert_int_equal(a.occ[i].ntri, b.occ[i].ntri);
-        assert_memory_equal(a.occ[i].tri, b.occ[i].tri, a.occ[i].ntri * 9 * sizeof(float));
-        assert_int_equal(a.occ[i].entity, b.occ[i].entity);
-        assert_string_equal(a.occ[i].name, b.occ[i].name);
-    }
-    assert_memory_equal(a.light, b.light, a.nlight * sizeof *a.light);
+    test_level_equal(&a, &b);
     imp_level_free(&a);
     imp_level_free(&b);
 
@@ -563,7 +567,7 @@ static void test_sublevel_cli(void **state)
     assert_non_null(strstr(out, "\"entities\": 8"));
     assert_int_equal(vantage_run(d, out, sizeof out, "sublevel list --json"), 0);
     assert_non_null(strstr(out, "\"name\": \"town\", \"state\": \"loaded\", \"entities\": 8, \"occluders\": 3, "
-                                "\"lights\": 2, \"classes\": 6"));
+                                "\"lights\": 2, \"classes\": 2"));
     /* a bad file: an error naming the node, and the scene as it was */
     assert_int_equal(vantage_run(d, out, sizeof out, "sublevel load dunes %s", data_file("bad_zero.gltf")), 1);
     assert_non_null(strstr(out, "node 'flat'"));

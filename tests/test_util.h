@@ -178,5 +178,10 @@ TEST_GROUP(sublevel_tests)
 TEST_GROUP(destruct_tests)
 TEST_GROUP(validate_tests)
 TEST_GROUP(errmap_tests)
+TEST_GROUP(import_tests)
+
+/* test_bytes.c: two imported levels are the same, field for field */
+struct imp_level;
+void test_level_equal(const struct imp_level *a, const struct imp_level *b);
 
 #endif

@@ -11,7 +11,15 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
+
+/* FILE's extension is ext (any case) */
+static bool has_ext(const char *file, const char *ext)
+{
+    const char *dot = strrchr(file, '.');
+    return dot && !strcasecmp(dot + 1, ext);
+}
 
 /* ---- JSON lines ---------------------------------------------------------------- */
 
@@ -55,7 +63,15 @@ static int resolve_sublevels(cli *k, vp_entity *batch, char (*subs)[VP_MAX_NAME 
 
 int cmd_import(cli *k, int argc, char **argv)
 {
-    if (argc != 2) return die_usage("import FILE.jsonl");
+    if (argc != 2) return die_usage("import FILE.jsonl | FILE.gltf|glb|obj");
+    if (has_ext(argv[1], "gltf") || has_ext(argv[1], "glb") || has_ext(argv[1], "obj")) {
+        /* a level: loaded as the sub-level named after the file (cli_sublevel.c) */
+        char name[VP_MAX_NAME + 1];
+        const char *base = strrchr(argv[1], '/') ? strrchr(argv[1], '/') + 1 : argv[1];
+        snprintf(name, sizeof name, "%.*s", (int)(strrchr(base, '.') - base), base);
+        char *sub[] = {"sublevel", "load", name[0] ? name : "level", argv[1]};
+        return cmd_sublevel(k, 4, sub);
+    }
     FILE *f = strcmp(argv[1], "-") ? fopen(argv[1], "r") : stdin;
     if (!f) {
         fprintf(stderr, "%s: %s: %s\n", g_prog, argv[1], strerror(errno));
@@ -122,7 +138,8 @@ int cmd_import(cli *k, int argc, char **argv)
 
 int cmd_export(cli *k, int argc, char **argv)
 {
-    if (argc != 2) return die_usage("export FILE.jsonl");
+    if (argc != 2) return die_usage("export FILE.jsonl | FILE.glb");
+    if (has_ext(argv[1], "glb")) return cmd_export_glb(k, argv[1]); /* cli_export.c */
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
     FILE *f = strcmp(argv[1], "-") ? fopen(argv[1], "w") : stdout;

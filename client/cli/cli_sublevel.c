@@ -1,14 +1,17 @@
 /*
  * cli_sublevel.c — `vantage sublevel load NAME FILE`, `unload NAME`,
  * `list`: a level file imported here (client/import, assimp) and pushed as one
- * sub-level load: BEGIN, the class meshes, the entities in batches, the
- * occluders and lights, COMMIT. Nothing of it is visible to anyone before
+ * sub-level load: BEGIN, the class meshes, the textures and materials,
+ * the entities (each placed by its transform) in batches, the occluders and
+ * lights, the sun (ENV_SET, only when the file has one), COMMIT. Nothing of it is visible to anyone before
  * the commit; if anything fails the load is aborted (and the daemon drops
  * it by itself if this process dies).
  *
  * Ids (documented in README): entity i of sub-level S is
  * 2^63 | S << 32 | i; an occluder attached to an entity has that entity's
  * id, a free one 2^63 | S << 32 | 2^31 | k; light k 2^63 | S << 32 | k.
+ * Materials and textures are global, with the ids the importer gives them
+ * (import.h): a second level with the same ids replaces them.
  */
 #include "cli.h"
 #include "import.h"
@@ -35,16 +38,58 @@ static void progress(bool tty, const char *name, uint32_t done, uint32_t total, 
 
 #define PUSH_NOMEM 1 /* push: out of memory here, not the server's refusal */
 
-/* The level, as the load's messages; VP_OK, a code from the server or the
- * connection, or PUSH_NOMEM. Batches stay within the server's max_batch. */
-static int push(cli *k, const char *name, imp_level *lv, const vp_sublevel_begun *b, bool tty, double *t_ent)
+/* The level's global assets: textures (chunked), then the materials that
+ * name them. Sent with cli_level_send.c's calls (*raw set on a failure:
+ * its message is in cli_send_err). */
+static int push_assets(cli *k, const imp_level *lv, bool *raw)
 {
     int rc;
+    *raw = true;
+    for (uint32_t i = 0; i < lv->ntex; i++) {
+        const lvl_texture *t = &lv->tex[i];
+        if ((rc = cli_put_texture(k->c, t->id, t->format, t->flags, t->bytes, t->nbytes))) return rc;
+    }
+    if (lv->nmat && (rc = cli_put_materials(k->c, lv->mat, lv->nmat))) return rc;
+    *raw = false;
+    return VP_OK;
+}
+
+/* The sun of the file, if it has one, into the environment (the rest of
+ * the environment as it is). */
+static int push_sun(cli *k, const imp_level *lv, bool *raw)
+{
+    if (!lv->has_sun) return VP_OK;
+    *raw = true;
+    vp_env env;
+    int rc = cli_env_get(k->c, &env);
+    if (rc) return rc;
+    for (int a = 0; a < 3; a++) {
+        env.sun_dir[a] = lv->sun_dir[a];
+        env.sun_color[a] = lv->sun_color[a];
+    }
+    env.sun_lux = lv->sun_lux;
+    if ((rc = cli_env_set(k->c, &env))) return rc;
+    *raw = false;
+    return VP_OK;
+}
+
+/* The level, as the load's messages: meshes, textures, materials,
+ * entities, occluders, lights, the sun; VP_OK, a code from the server or
+ * the connection, or PUSH_NOMEM. Batches stay within the server's
+ * max_batch. *raw: the failure was a cli_level_send.c call's. */
+static int push(cli *k, const char *name, imp_level *lv, const vp_sublevel_begun *b, bool tty, double *t_ent,
+                bool *raw)
+{
+    int rc;
+    *raw = true;
     uint32_t max = vtc_server(k->c)->max_batch, step = max < LOAD_BATCH ? max : LOAD_BATCH;
     for (uint32_t i = 0; i < lv->nmesh; i++) {
         const lvl_mesh *m = &lv->mesh[i];
-        if ((rc = vtc_put_mesh(k->c, (uint16_t)(b->class_base + i), m->pos, m->nrm, m->nv, m->idx, m->ni))) return rc;
+        if ((rc = cli_put_mesh_uv(k->c, (uint16_t)(b->class_base + i), m->pos, m->nrm, m->uv, m->tan, m->nv, m->idx,
+                                  m->ni)))
+            return rc;
     }
+    if ((rc = push_assets(k, lv, raw))) return rc;
     vp_entity *batch = calloc(step, sizeof *batch);
     if (!batch) return PUSH_NOMEM;
     double t0 = now_s();
@@ -57,11 +102,11 @@ static int push(cli *k, const char *name, imp_level *lv, const vp_sublevel_begun
             o->id = level_id(b->id, i + j);
             o->class_id = (uint16_t)(b->class_base + e->cls);
             o->sublevel = b->id;
-            o->flags = e->dynamic ? VP_ENT_DYNAMIC : 0;
-            for (int a = 0; a < 3; a++) {
-                o->aabb[a] = e->lo[a];
-                o->aabb[3 + a] = e->hi[a];
-            }
+            o->material = e->material;
+            o->flags = VP_ENT_TRANSFORM | (e->dynamic ? VP_ENT_DYNAMIC : 0);
+            memcpy(o->pos, e->pos, sizeof o->pos);
+            memcpy(o->rot, e->rot, sizeof o->rot);
+            memcpy(o->scale, e->scale, sizeof o->scale);
         }
         if ((rc = vtc_add(k->c, batch, n, NULL, NULL))) {
             free(batch);
@@ -80,7 +125,7 @@ static int push(cli *k, const char *name, imp_level *lv, const vp_sublevel_begun
     for (uint32_t i = 0; i < lv->nlight; i++) lv->light[i].id = level_id(b->id, i);
     for (uint32_t i = 0; i < lv->nlight; i += step)
         if ((rc = vtc_put_lights(k->c, lv->light + i, lv->nlight - i < step ? lv->nlight - i : step))) return rc;
-    return VP_OK;
+    return push_sun(k, lv, raw);
 }
 
 static int sub_load(cli *k, int argc, char **argv)
@@ -114,9 +159,10 @@ static int sub_load(cli *k, int argc, char **argv)
     for (uint32_t i = 0; i < lv.nocc; i++) tris += lv.occ[i].ntri;
     if (!json)
         fprintf(stderr,
-                "%s: %u entities, %u classes, %u occluders (%u triangles), %u lights (%u skipped), %u point and line "
-                "primitives skipped, in %.0f ms\n",
-                path, lv.nent, lv.nmesh, lv.nocc, tris, lv.nlight, lv.skipped_lights, lv.skipped_prims, t_import * 1e3);
+                "%s: %u entities, %u meshes, %u materials, %u textures, %u occluders (%u triangles), %u lights (%u "
+                "skipped)%s, %u point and line primitives skipped, in %.0f ms\n",
+                path, lv.nent, lv.nmesh, lv.nmat, lv.ntex, lv.nocc, tris, lv.nlight, lv.skipped_lights,
+                lv.has_sun ? ", a sun" : "", lv.skipped_prims, t_import * 1e3);
     int rc = 0;
     if (dry) goto out;
     if ((rc = connect_cli(k, VP_ROLE_EDITOR))) goto out;
@@ -127,10 +173,13 @@ static int sub_load(cli *k, int argc, char **argv)
     }
     double t1 = now_s(), t_ent = 0;
     bool tty = !json && isatty(2);
-    if ((rc = push(k, name, &lv, &b, tty, &t_ent))) {
+    bool raw = false;
+    if ((rc = push(k, name, &lv, &b, tty, &t_ent, &raw))) {
         if (rc == PUSH_NOMEM) {
             fprintf(stderr, "%s: sublevel load: out of memory\n", g_prog);
             rc = 1;
+        } else if (raw) {
+            rc = cli_send_fail("sublevel load", rc);
         } else {
             rc = server_fail(k, "sublevel load", rc);
         }

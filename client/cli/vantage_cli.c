@@ -81,8 +81,14 @@ static const cli_form forms[] = {
      "  {\"id\": 64-bit id, \"class\": n, \"sphere\": [x,y,z,r], \"aabb\": [minx,miny,minz,maxx,maxy,maxz],\n"
      "   \"sublevel\": \"name\" or n, \"dynamic\": false}; sphere or aabb may be left out. A bad line stops\n"
      "  the import with its line number (exit 2); a batch the daemon refuses is refused whole.\n"},
+    {"import", "import FILE.gltf|glb|obj", "load a level file as the sub-level named after it",
+     "  As sublevel load NAME FILE with NAME the file's name without its extension (README: Authoring\n"
+     "  levels).\n"},
     {"export", "export FILE.jsonl", "write every entity, same format (- = stdout)",
      "  Sub-levels with names are written by name. Fails if the scene changes during the export.\n"},
+    {"export", "export FILE.glb", "write the live scene as glTF 2.0 binary (Blender, any glTF viewer)",
+     "  Entities as nodes with their transforms, meshes, materials with their textures (the uploaded\n"
+     "  PNG/JPEG bytes), lights and the sun (KHR_lights_punctual). Any role.\n"},
     {"query",
      "query --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG | --ortho W,H] [--near N] [--far F]\n"
      "        [--size WxH] [--min-area PX] [--exact-area] [--no-occlusion | --occ-centre] [--json]",

@@ -21,6 +21,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -39,13 +40,36 @@ static int level_import_here(const char *path, imp_level *out, char *err, size_t
         snprintf(err, errlen, "%s: %s", path, strerror(errno));
         return -1;
     }
+    /* a glTF file's JSON, for what assimp does not carry (import_material.c) */
+    uint8_t *bytes = NULL;
+    size_t n = 0, jl = 0;
+    const char *json = NULL;
+    if (strcasecmp(dot + 1, "obj") && !fseek(f, 0, SEEK_END)) {
+        long len = ftell(f);
+        /* a .glb: its header and JSON chunk only, not the binary one */
+        uint8_t head[20];
+        if (len >= 20 && !fseek(f, 0, SEEK_SET) && fread(head, 1, 20, f) == 20 && !memcmp(head, "glTF", 4) &&
+            vp_ld_u32(head + 12) <= (uint64_t)len - 20)
+            len = 20 + (long)vp_ld_u32(head + 12);
+        if (len > 0 && !fseek(f, 0, SEEK_SET) && (bytes = malloc((size_t)len))) n = fread(bytes, 1, (size_t)len, f);
+        if (!imp_gltf_json(bytes, n, &json, &jl)) json = NULL;
+    }
     fclose(f);
     const struct aiScene *sc = aiImportFile(path, IMP_FLAGS);
     if (!sc) {
         snprintf(err, errlen, "%s: cannot import: %s", path, aiGetErrorString());
+        free(bytes);
         return -1;
     }
-    return imp_level_from_scene(sc, path, out, err, errlen);
+    /* external images are read from the level's directory */
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (slash) *slash = 0;
+    else snprintf(dir, sizeof dir, ".");
+    int rc = imp_level_from_scene(sc, path, dir, json, jl, out, err, errlen);
+    free(bytes); /* the child exits after: freed for the sanitizers */
+    return rc;
 }
 
 static bool write_all(int fd, const void *p, size_t n)

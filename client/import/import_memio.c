@@ -114,5 +114,8 @@ int imp_level_import_mem(const void *buf, size_t len, const char *hint, imp_leve
         snprintf(err, errlen, "%s: cannot import: %s", name, aiGetErrorString());
         return -1;
     }
-    return imp_level_from_scene(sc, name, out, err, errlen);
+    const char *json = NULL;
+    size_t jl = 0;
+    if (strcmp(hint, "obj") && !imp_gltf_json(buf, len, &json, &jl)) json = NULL;
+    return imp_level_from_scene(sc, name, NULL, json, jl, out, err, errlen);
 }

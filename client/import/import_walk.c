@@ -5,10 +5,12 @@
  * assimp reads the file (triangulated, primitives sorted by type, missing
  * normals generated, identical vertices joined, the data structure
  * validated: IMP_FLAGS); this file walks the node tree with world matrices
- * in double, applies the conventions and checks every number. Where the
- * file comes from is import_child.c's (on disk) and import_memio.c's (in
- * memory). Cost: one pass over the nodes and each class mesh's vertices;
- * instances reuse their class's box.
+ * in double, decomposes each into the entity's position, rotation and
+ * scale, applies the conventions and checks every number. Materials and
+ * textures are import_material.c's. Where the file comes from is
+ * import_child.c's (on disk) and import_memio.c's (in memory). Cost: one
+ * pass over the nodes, and over each used mesh's vertices once however
+ * many nodes use it (an instance costs its 8 box corners).
  */
 #include "import_internal.h"
 #include "vp_grow.h"
@@ -24,18 +26,11 @@
 #include <strings.h>
 
 #define MAX_COORD 1e12 /* the culling core's range */
-#define CLASS_SLOTS (2 * LVL_MAX_CLASSES)
+#define SHEAR_TOLERANCE 1e-4 /* |R^T R - I| of a decomposed rotation, per element */
 
 typedef struct mat {
     double m[4][4]; /* row-major, column vectors: p' = m p */
 } mat;
-
-/* A class: the meshes of a node in one orientation and scale. */
-typedef struct ckey {
-    uint32_t nmesh;
-    const unsigned *meshes; /* the node's, owned by assimp's scene */
-    float m[9];             /* the linear part, row-major */
-} ckey;
 
 /* Names to indices: open addressing over (bytes, length) keys that live
  * in assimp's scene (node and light names, matched whole). */
@@ -48,8 +43,8 @@ typedef struct name_map {
 typedef struct importer {
     const struct aiScene *sc;
     imp_level *lv;
-    ckey keys[LVL_MAX_CLASSES];
-    int32_t slot[CLASS_SLOTS]; /* class index + 1 */
+    uint32_t *mesh_cls;     /* per assimp mesh: its class + 1, 0 = not met yet */
+    uint32_t *mat_ids;      /* per assimp material: its id (import_material.c) */
     float cbox[LVL_MAX_CLASSES][6]; /* each class mesh's bounds: lo xyz, hi xyz */
     uint32_t ent_cap, occ_cap;
     const struct aiString **ent_name, **occ_name; /* full names, for OCC_ matching */
@@ -255,108 +250,97 @@ static int new_occluder(importer *im, const struct aiString *full, const char *n
     return 0;
 }
 
-static uint32_t hash_key(const ckey *k)
+static void mesh_free(lvl_mesh *m)
 {
-    uint32_t h = 2166136261u;
-    for (uint32_t i = 0; i < k->nmesh; i++) h = (h ^ k->meshes[i]) * 16777619u;
-    for (int i = 0; i < 9; i++) {
-        uint32_t b;
-        memcpy(&b, &k->m[i], 4);
-        h = (h ^ b) * 16777619u;
+    free(m->pos);
+    free(m->nrm);
+    free(m->uv);
+    free(m->tan);
+    free(m->idx);
+    memset(m, 0, sizeof *m);
+}
+
+/* One vertex of assimp mesh m into class mesh out (v): its position
+ * checked, its normal kept (made unit if it is not: a normal already unit
+ * is kept bit for bit, so a level exported and read again has the same
+ * bytes), its UV in glTF's convention (assimp turned v up), its tangent's
+ * handedness from assimp's bitangent. */
+static int copy_vertex(importer *im, const struct aiMesh *m, unsigned v, lvl_mesh *out, const char *name)
+{
+    const struct aiVector3D *p = &m->mVertices[v];
+    const double q[3] = {p->x, p->y, p->z};
+    for (int i = 0; i < 3; i++) {
+        if (!(fabs(q[i]) <= MAX_COORD)) return bad_vertex(im, name, m, v, q[i]);
+        out->pos[3 * v + i] = (float)q[i];
     }
-    return h;
-}
-
-static bool key_eq(const ckey *a, const ckey *b)
-{
-    return a->nmesh == b->nmesh && !memcmp(a->meshes, b->meshes, a->nmesh * sizeof *a->meshes) &&
-           !memcmp(a->m, b->m, sizeof a->m);
-}
-
-/* The class of a node's meshes under world matrix w: found, or made (the
- * meshes transformed by w's linear part, normals by its inverse transpose). */
-static int class_of(importer *im, const struct aiNode *n, const mat *w, const char *name, uint32_t *cls)
-{
-    ckey k = {.nmesh = n->mNumMeshes, .meshes = n->mMeshes};
+    double n[3] = {0, 0, 0}, l = 0;
+    if (m->mNormals) {
+        n[0] = m->mNormals[v].x, n[1] = m->mNormals[v].y, n[2] = m->mNormals[v].z;
+        l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    }
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) k.m[3 * i + j] = (float)w->m[i][j];
-    uint32_t h = hash_key(&k) % CLASS_SLOTS;
-    for (;; h = (h + 1) % CLASS_SLOTS) {
-        int32_t s = im->slot[h];
-        if (!s) break;
-        if (key_eq(&im->keys[s - 1], &k)) {
-            *cls = (uint32_t)s - 1;
-            return 0;
+        out->nrm[3 * v + i] = !(l > 0 && isfinite(l)) ? (i == 1 ? 1.0f : 0.0f)
+                              : fabs(l - 1) <= 1e-5  ? (float)n[i]
+                                                     : (float)(n[i] / l);
+    if (out->uv) {
+        const struct aiVector3D *t = &m->mTextureCoords[0][v];
+        if (!isfinite(t->x) || !isfinite(t->y))
+            return fail(im, "node '%s': mesh '%s' has a non-finite texture coordinate (%u)", name, m->mName.data, v);
+        out->uv[2 * v] = t->x;
+        out->uv[2 * v + 1] = (float)(1.0 - (double)t->y);
+    }
+    if (out->tan) {
+        const struct aiVector3D *t = &m->mTangents[v], *b = &m->mBitangents[v], *nn = &m->mNormals[v];
+        double c[3] = {nn->y * t->z - nn->z * t->y, nn->z * t->x - nn->x * t->z, nn->x * t->y - nn->y * t->x};
+        double w = c[0] * b->x + c[1] * b->y + c[2] * b->z;
+        const float tv[4] = {t->x, t->y, t->z, w < 0 ? -1.0f : 1.0f};
+        for (int i = 0; i < 4; i++) {
+            if (!isfinite(tv[i]))
+                return fail(im, "node '%s': mesh '%s' has a non-finite tangent (%u)", name, m->mName.data, v);
+            out->tan[4 * v + i] = tv[i];
         }
     }
-    imp_level *lv = im->lv;
-    if (lv->nmesh >= LVL_MAX_CLASSES)
-        return fail(im, "node '%s': more than %u distinct (mesh, rotation, scale) classes", name, LVL_MAX_CLASSES);
-    uint32_t nv = 0, ni = 0;
-    for (unsigned q = 0; q < n->mNumMeshes; q++) {
-        const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[q]];
-        if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
-        nv += m->mNumVertices;
-        ni += 3 * m->mNumFaces;
+    return 0;
+}
+
+/* The class of assimp mesh k: found, or made when the walk first meets
+ * it (its vertices copied and checked, naming the node that met it). */
+static int mesh_class(importer *im, unsigned k, const char *name, uint32_t *cls)
+{
+    if (im->mesh_cls[k]) {
+        *cls = im->mesh_cls[k] - 1;
+        return 0;
     }
+    imp_level *lv = im->lv;
+    if (lv->nmesh >= LVL_MAX_CLASSES) return fail(im, "node '%s': more than %u meshes", name, LVL_MAX_CLASSES);
+    const struct aiMesh *m = im->sc->mMeshes[k];
+    uint32_t nv = m->mNumVertices, ni = 0;
+    for (unsigned f = 0; f < m->mNumFaces; f++) ni += m->mFaces[f].mNumIndices == 3 ? 3 : 0;
+    bool uv = m->mTextureCoords[0] && m->mNumUVComponents[0] >= 2;
+    bool tan = uv && m->mNormals && m->mTangents && m->mBitangents;
     lvl_mesh *out = &lv->mesh[lv->nmesh];
     memset(out, 0, sizeof *out);
     out->pos = malloc((size_t)nv * 3 * sizeof(float) + 1);
     out->nrm = malloc((size_t)nv * 3 * sizeof(float) + 1);
+    out->uv = uv ? malloc((size_t)nv * 2 * sizeof(float) + 1) : NULL;
+    out->tan = tan ? malloc((size_t)nv * 4 * sizeof(float) + 1) : NULL;
     out->idx = malloc((size_t)ni * sizeof(uint32_t) + 1);
-    if (!out->pos || !out->nrm || !out->idx) {
-        free(out->pos);
-        free(out->nrm);
-        free(out->idx);
+    if (!out->pos || !out->nrm || (uv && !out->uv) || (tan && !out->tan) || !out->idx) {
+        mesh_free(out);
         return fail(im, "out of memory for the mesh of node '%s'", name);
     }
-    /* normals: the inverse transpose of the linear part (cofactors; the
-       determinant's sign is kept, its size normalised away) */
-    const double(*a)[4] = w->m;
-    double cof[3][3] = {{a[1][1] * a[2][2] - a[1][2] * a[2][1], a[1][2] * a[2][0] - a[1][0] * a[2][2],
-                         a[1][0] * a[2][1] - a[1][1] * a[2][0]},
-                        {a[0][2] * a[2][1] - a[0][1] * a[2][2], a[0][0] * a[2][2] - a[0][2] * a[2][0],
-                         a[0][1] * a[2][0] - a[0][0] * a[2][1]},
-                        {a[0][1] * a[1][2] - a[0][2] * a[1][1], a[0][2] * a[1][0] - a[0][0] * a[1][2],
-                         a[0][0] * a[1][1] - a[0][1] * a[1][0]}};
-    double sgn = det3(w) < 0 ? -1 : 1;
-    for (unsigned q = 0; q < n->mNumMeshes; q++) {
-        const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[q]];
-        if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
-        uint32_t base = out->nv;
-        for (unsigned v = 0; v < m->mNumVertices; v++) {
-            const struct aiVector3D *p = &m->mVertices[v];
-            for (int i = 0; i < 3; i++) {
-                double x = a[i][0] * p->x + a[i][1] * p->y + a[i][2] * p->z;
-                if (!(fabs(x) <= MAX_COORD)) {
-                    free(out->pos);
-                    free(out->nrm);
-                    free(out->idx);
-                    return bad_vertex(im, name, m, v, x);
-                }
-                out->pos[3 * (out->nv + v) + i] = (float)x;
-            }
-            double nn[3] = {0, 0, 0}, l = 0;
-            if (m->mNormals) {
-                const struct aiVector3D *o = &m->mNormals[v];
-                for (int i = 0; i < 3; i++) {
-                    nn[i] = sgn * (cof[0][i] * o->x + cof[1][i] * o->y + cof[2][i] * o->z);
-                    l += nn[i] * nn[i];
-                }
-            }
-            l = sqrt(l);
-            for (int i = 0; i < 3; i++)
-                out->nrm[3 * (out->nv + v) + i] = l > 0 && isfinite(l) ? (float)(nn[i] / l) : (i == 1 ? 1.0f : 0.0f);
+    for (unsigned v = 0; v < nv; v++)
+        if (copy_vertex(im, m, v, out, name)) {
+            mesh_free(out);
+            return -1;
         }
-        out->nv += m->mNumVertices;
-        for (unsigned f = 0; f < m->mNumFaces; f++) {
-            const struct aiFace *face = &m->mFaces[f];
-            if (face->mNumIndices != 3) continue;
-            /* a mirroring transform turns the winding over */
-            int order[3] = {0, sgn < 0 ? 2 : 1, sgn < 0 ? 1 : 2};
-            for (int v = 0; v < 3; v++) out->idx[out->ni++] = base + face->mIndices[order[v]];
-        }
+    out->nv = nv;
+    for (unsigned f = 0; f < m->mNumFaces; f++) {
+        const struct aiFace *face = &m->mFaces[f];
+        if (face->mNumIndices != 3) continue;
+        for (int v = 0; v < 3; v++) out->idx[out->ni++] = face->mIndices[v];
     }
+    out->material = m->mMaterialIndex < im->sc->mNumMaterials ? im->mat_ids[m->mMaterialIndex] : 0;
     float *box = im->cbox[lv->nmesh];
     for (int i = 0; i < 3; i++) box[i] = INFINITY, box[3 + i] = -INFINITY;
     for (uint32_t v = 0; v < out->nv; v++)
@@ -364,17 +348,66 @@ static int class_of(importer *im, const struct aiNode *n, const mat *w, const ch
             box[i] = fminf(box[i], out->pos[3 * v + i]);
             box[3 + i] = fmaxf(box[3 + i], out->pos[3 * v + i]);
         }
-    im->keys[lv->nmesh] = k;
-    im->slot[h] = (int32_t)++lv->nmesh;
+    im->mesh_cls[k] = ++lv->nmesh;
     *cls = lv->nmesh - 1;
     return 0;
 }
 
-static int node_entity(importer *im, const struct aiNode *n, const mat *w, const char *name)
+/* The node's world matrix w as the entity's position, unit rotation and
+ * scale, in double: scale = the columns' lengths (x negative when w
+ * mirrors), rotation = the columns over them, which must be orthonormal
+ * (else w has shear, which an entity cannot carry). 0, or -1 naming the
+ * node. */
+static int decompose(importer *im, const mat *w, const char *name, lvl_entity *e)
+{
+    const double(*a)[4] = w->m;
+    double s[3], r[3][3];
+    for (int j = 0; j < 3; j++) s[j] = sqrt(a[0][j] * a[0][j] + a[1][j] * a[1][j] + a[2][j] * a[2][j]);
+    if (det3(w) < 0) s[0] = -s[0];
+    for (int j = 0; j < 3; j++) {
+        if (!(fabs(s[j]) > 0 && isfinite(s[j])))
+            return fail(im, "node '%s': its transform has zero scale on axis %c", name, "xyz"[j]);
+        for (int i = 0; i < 3; i++) r[i][j] = a[i][j] / s[j];
+    }
+    for (int p = 0; p < 3; p++)
+        for (int q = 0; q < 3; q++) {
+            double d = r[0][p] * r[0][q] + r[1][p] * r[1][q] + r[2][p] * r[2][q] - (p == q);
+            if (!(fabs(d) <= SHEAR_TOLERANCE))
+                return fail(im, "node '%s': its transform has shear (columns %c and %c: %.3g off a rotation and "
+                            "a scale per axis)", name, "xyz"[p], "xyz"[q], d);
+        }
+    /* Shepperd's method: the largest of w, x, y, z first, for accuracy */
+    double q[4], tr = r[0][0] + r[1][1] + r[2][2];
+    if (tr > 0) {
+        double k = 2 * sqrt(tr + 1);
+        q[3] = k / 4, q[0] = (r[2][1] - r[1][2]) / k, q[1] = (r[0][2] - r[2][0]) / k, q[2] = (r[1][0] - r[0][1]) / k;
+    } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
+        double k = 2 * sqrt(1 + r[0][0] - r[1][1] - r[2][2]);
+        q[3] = (r[2][1] - r[1][2]) / k, q[0] = k / 4, q[1] = (r[0][1] + r[1][0]) / k, q[2] = (r[0][2] + r[2][0]) / k;
+    } else if (r[1][1] > r[2][2]) {
+        double k = 2 * sqrt(1 + r[1][1] - r[0][0] - r[2][2]);
+        q[3] = (r[0][2] - r[2][0]) / k, q[0] = (r[0][1] + r[1][0]) / k, q[1] = k / 4, q[2] = (r[1][2] + r[2][1]) / k;
+    } else {
+        double k = 2 * sqrt(1 + r[2][2] - r[0][0] - r[1][1]);
+        q[3] = (r[1][0] - r[0][1]) / k, q[0] = (r[0][2] + r[2][0]) / k, q[1] = (r[1][2] + r[2][1]) / k, q[2] = k / 4;
+    }
+    /* one of q and -q: w >= 0, so a file read twice gives the same one */
+    double l = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) * (q[3] < 0 ? -1 : 1);
+    for (int i = 0; i < 4; i++) e->rot[i] = (float)(q[i] / l);
+    for (int i = 0; i < 3; i++) {
+        e->pos[i] = a[i][3];
+        e->scale[i] = (float)s[i];
+    }
+    char why[160];
+    if (vp_trs_check(e->pos, e->rot, e->scale, why, sizeof why)) return fail(im, "node '%s': %s", name, why);
+    return 0;
+}
+
+/* An entity of the node's mesh k (class cls) placed by w. */
+static int mesh_entity(importer *im, const struct aiNode *n, const mat *w, const char *name, uint32_t cls)
 {
     imp_level *lv = im->lv;
-    uint32_t cls = 0, cap = im->ent_cap;
-    if (class_of(im, n, w, name, &cls)) return -1;
+    uint32_t cap = im->ent_cap;
     if (!vp_grow32((void **)&lv->ent, &im->ent_cap, lv->nent + 1, sizeof *lv->ent) ||
         !vp_grow32((void **)&im->ent_name, &cap, lv->nent + 1, sizeof *im->ent_name))
         return fail(im, "out of memory for entities");
@@ -382,26 +415,47 @@ static int node_entity(importer *im, const struct aiNode *n, const mat *w, const
     lvl_entity *e = &lv->ent[lv->nent];
     memset(e, 0, sizeof *e);
     e->cls = cls;
+    e->material = lv->mesh[cls].material;
     e->dynamic = meta_true(n, "vantage_dynamic");
     e->occluder = -1;
     snprintf(e->name, sizeof e->name, "%s", name);
-    /* the class's box, placed: instances never walk their vertices */
-    for (int a = 0; a < 3; a++) {
-        e->lo[a] = (double)im->cbox[cls][a] + w->m[a][3];
-        e->hi[a] = (double)im->cbox[cls][3 + a] + w->m[a][3];
+    if (decompose(im, w, name, e)) return -1;
+    /* the world box: the mesh's box corners placed (instances never walk
+       their vertices) */
+    const float *b = im->cbox[cls];
+    for (int a = 0; a < 3; a++) e->lo[a] = INFINITY, e->hi[a] = -INFINITY;
+    for (int c = 0; c < 8; c++) {
+        double p[3] = {b[(c & 1) ? 3 : 0], b[(c & 2) ? 4 : 1], b[(c & 4) ? 5 : 2]}, o[3];
+        xform(w, p, o);
+        for (int a = 0; a < 3; a++) e->lo[a] = fmin(e->lo[a], o[a]), e->hi[a] = fmax(e->hi[a], o[a]);
     }
     for (int a = 0; a < 3; a++)
         if (!(fabs(e->lo[a]) <= MAX_COORD && fabs(e->hi[a]) <= MAX_COORD))
             return fail(im, "node '%s': bounds beyond +-1e12 m (or not finite)", name);
     lv->nent++;
-    if (meta_true(n, "vantage_occluder")) {
-        lvl_occluder *o;
-        if (new_occluder(im, &n->mName, name, w, (int32_t)lv->nent - 1, &o) || occ_append(im, o, n, w)) return -1;
-        lv->ent[lv->nent - 1].occluder = (int32_t)lv->nocc - 1;
-    }
     return 0;
 }
 
+/* The node's entities: one per triangle mesh, all with the node's
+ * transform; with vantage_occluder the first also owns the node's
+ * occluder. */
+static int node_entity(importer *im, const struct aiNode *n, const mat *w, const char *name)
+{
+    imp_level *lv = im->lv;
+    uint32_t first = lv->nent;
+    for (unsigned k = 0; k < n->mNumMeshes; k++) {
+        const struct aiMesh *m = im->sc->mMeshes[n->mMeshes[k]];
+        if (!(m->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || !m->mNumFaces) continue;
+        uint32_t cls = 0;
+        if (mesh_class(im, n->mMeshes[k], name, &cls) || mesh_entity(im, n, w, name, cls)) return -1;
+    }
+    if (meta_true(n, "vantage_occluder")) {
+        lvl_occluder *o;
+        if (new_occluder(im, &n->mName, name, w, (int32_t)first, &o) || occ_append(im, o, n, w)) return -1;
+        lv->ent[first].occluder = (int32_t)lv->nocc - 1;
+    }
+    return 0;
+}
 static int walk(importer *im, const struct aiNode *n, const mat *parent, unsigned depth)
 {
     if (depth > 256) return fail(im, "node tree deeper than 256");
@@ -454,7 +508,8 @@ static int lights(importer *im, const mat *id)
         const struct aiLight *L = im->sc->mLights[i];
         char name[LVL_NAME];
         copy_name(name, &L->mName);
-        if (L->mType != aiLightSource_POINT && L->mType != aiLightSource_SPOT) {
+        bool sun = L->mType == aiLightSource_DIRECTIONAL && !lv->has_sun;
+        if (L->mType != aiLightSource_POINT && L->mType != aiLightSource_SPOT && !sun) {
             lv->skipped_lights++;
             continue;
         }
@@ -493,6 +548,19 @@ static int lights(importer *im, const mat *id)
         }
         for (int a = 0; a < 3; a++) o->color[a] = (float)(c[a] / mx);
         o->intensity = (float)mx;
+        if (sun) {
+            /* KHR_lights_punctual's directional intensity is lux; the sun
+               direction points towards it, against the light's */
+            if (!(mx <= 200000))
+                return fail(im, "light '%s': a sun of %g lux, more than 200000 (the brightest noon)", name, mx);
+            lv->has_sun = true;
+            for (int a = 0; a < 3; a++) {
+                lv->sun_dir[a] = -o->dir[a];
+                lv->sun_color[a] = o->color[a];
+            }
+            lv->sun_lux = o->intensity;
+            continue;
+        }
         double range;
         if (!node || !meta_float(node, "PBR_LightRange", &range) || !(range > 0))
             range = sqrt(mx / 0.05); /* where it falls to 1/20 candela */
@@ -560,7 +628,8 @@ static int attach(importer *im)
     return 0;
 }
 
-int imp_level_from_scene(const struct aiScene *sc, const char *what, imp_level *out, char *err, size_t errlen)
+int imp_level_from_scene(const struct aiScene *sc, const char *what, const char *dir, const char *json,
+                         size_t jsonlen, imp_level *out, char *err, size_t errlen)
 {
     importer *im = calloc(1, sizeof *im);
     int rc = -1;
@@ -574,19 +643,24 @@ int imp_level_from_scene(const struct aiScene *sc, const char *what, imp_level *
         goto done;
     }
     out->mesh = calloc(LVL_MAX_CLASSES, sizeof *out->mesh);
-    if (!out->mesh) {
+    im->mesh_cls = calloc((size_t)sc->mNumMeshes + 1, sizeof *im->mesh_cls);
+    if (!out->mesh || !im->mesh_cls) {
         fail(im, "out of memory");
         goto done;
     }
     mat id = {{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}};
-    if (lights_prepare(im) || walk(im, sc->mRootNode, &id, 0) || lights(im, &id) || attach(im)) goto done;
-    if (!out->nent && !out->nocc && !out->nlight) {
+    if (imp_materials(sc, dir, json, jsonlen, out, &im->mat_ids, err, errlen) || lights_prepare(im) || walk(im, sc->mRootNode, &id, 0) ||
+        lights(im, &id) || attach(im))
+        goto done;
+    if (!out->nent && !out->nocc && !out->nlight && !out->has_sun) {
         fail(im, "%s: no meshes or lights in the file", what);
         goto done;
     }
     rc = 0;
 done:
     if (im) {
+        free(im->mesh_cls);
+        free(im->mat_ids);
         free(im->ent_name);
         free(im->occ_name);
         free(im->light_w);
@@ -606,11 +680,10 @@ bool imp_known_format(const char *ext)
 
 void imp_level_free(imp_level *lv)
 {
-    for (uint32_t i = 0; lv->mesh && i < lv->nmesh; i++) {
-        free(lv->mesh[i].pos);
-        free(lv->mesh[i].nrm);
-        free(lv->mesh[i].idx);
-    }
+    for (uint32_t i = 0; lv->mesh && i < lv->nmesh; i++) mesh_free(&lv->mesh[i]);
+    for (uint32_t i = 0; lv->tex && i < lv->ntex; i++) free(lv->tex[i].bytes);
+    free(lv->mat);
+    free(lv->tex);
     for (uint32_t i = 0; i < lv->nocc; i++) free(lv->occ[i].tri);
     free(lv->mesh);
     free(lv->ent);

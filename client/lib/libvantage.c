@@ -845,3 +845,49 @@ int vtc_env_get(vtc_client *c, vp_env *out)
 {
     return empty_call(c, VP_ENV_GET, VP_ENV_REPLY, dec_env, out);
 }
+
+/* ---- read-back (export) ------------------------------------------------------------ */
+
+static int dec_mesh_reply(const uint8_t *p, uint32_t len, void *out) { return vp_dec_mesh(p, len, 0, out); }
+static int dec_material_page(const uint8_t *p, uint32_t len, void *out)
+{
+    return vp_dec_material_list_reply(p, len, out);
+}
+static int dec_texture_reply(const uint8_t *p, uint32_t len, void *out) { return vp_dec_texture_put(p, len, out); }
+static int dec_light_page(const uint8_t *p, uint32_t len, void *out) { return vp_dec_light_list_reply(p, len, out); }
+
+int vtc_mesh_get(vtc_client *c, uint16_t class_id, vp_mesh *out)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_mesh_get(), &req);
+    vp_enc_mesh_get(w, req, &(vp_mesh_get){.class_id = class_id});
+    return call(c, w, req, VP_MESH_REPLY, dec_mesh_reply, out);
+}
+
+int vtc_material_list(vtc_client *c, uint32_t cursor, uint32_t max, vp_page_reply *out)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_material_list(), &req);
+    vp_enc_material_list(w, req, &(vp_page){.cursor = cursor, .max = max});
+    return call(c, w, req, VP_MATERIAL_LIST_REPLY, dec_material_page, out);
+}
+
+int vtc_texture_get(vtc_client *c, uint32_t id, uint32_t offset, uint32_t max_len, vp_texture_put *out)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_texture_get(), &req);
+    vp_enc_texture_get(w, req, &(vp_texture_get){.id = id, .offset = offset, .max_len = max_len});
+    int rc = call(c, w, req, VP_TEXTURE_REPLY, dec_texture_reply, out);
+    if (!rc && (out->id != id || out->offset != offset))
+        return set_err(c, VP_ERR_INVALID, "TEXTURE_REPLY for texture %u at %u, asked %u at %u", out->id, out->offset,
+                       id, offset);
+    return rc;
+}
+
+int vtc_light_list(vtc_client *c, uint64_t cursor, uint32_t max, vp_page_reply *out)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_light_list(), &req);
+    vp_enc_light_list(w, req, &(vp_page){.cursor = cursor, .max = max});
+    return call(c, w, req, VP_LIGHT_LIST_REPLY, dec_light_page, out);
+}

@@ -227,6 +227,19 @@ int vtc_texture_remove(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_t 
 int vtc_env_set(vtc_client *c, const vp_env *env, uint64_t *epoch);
 int vtc_env_get(vtc_client *c, vp_env *out);
 
+/* Read-back (any role; what `vantage export` reads). The mesh of a class
+ * (NOT_FOUND: none), in MESH_PUT's layout (out's arrays view the reply). */
+int vtc_mesh_get(vtc_client *c, uint16_t class_id, vp_mesh *out);
+/* A page of materials by id after cursor (0 = from the first), max
+ * 1..max_batch; pass out->next_cursor back until 0 (read the records with
+ * vp_material_get). */
+int vtc_material_list(vtc_client *c, uint32_t cursor, uint32_t max, vp_page_reply *out);
+/* Texture id's stored encoded bytes from offset: out->len of them (at most
+ * max_len and what fits the server's max_payload), out->total in all. */
+int vtc_texture_get(vtc_client *c, uint32_t id, uint32_t offset, uint32_t max_len, vp_texture_put *out);
+/* A page of lights (cursor 0 = from the start, then out->next_cursor until
+ * 0; read the records with vp_light_get). */
+int vtc_light_list(vtc_client *c, uint64_t cursor, uint32_t max, vp_page_reply *out);
 /* Views: gluLookAt + gluPerspective (fovy in degrees, aspect = w/h) or an
  * orthographic box of width x height metres, camera-relative (origin = eye),
  * OpenGL depth. v, eye and at non-NULL; up NULL = +Y. Writes *v and

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Authors the glTF 2.0 levels the import tests read (tests/data/*.gltf),
-and, with --big N OUT, a level of N instanced boxes for the load benchmark
-(a grid 4 m apart from x = 5000 m: away from the demo city).
+and, with --big N OUT [MESHES], a level of N instanced boxes for the load
+benchmark (a grid 4 m apart from x = 5000 m: away from the demo city),
+sharing MESHES meshes (1).
 
 Conventions exercised (README "Authoring levels"): every node with a mesh
 is an entity; a node named OCC_<name> is an occluder only, attached to the
@@ -136,18 +137,29 @@ def long_names(path):
     d.node(name="OCC_" + name, mesh=box, translation=[0, 5, 0], scale=[4.5, 4.5, 4.5])
     d.write(path)
 
-def big(n, path):
+def big(n, path, meshes=1):
+    # meshes > 1: that many boxes of different proportions, node i using
+    # mesh i % meshes (the import benchmark: 10k nodes sharing 20 meshes;
+    # baked per rotation and scale, as the importer did before issue 19,
+    # that is 320 classes)
     d = Doc()
-    box = d.mesh("box", *box_mesh())
+    pos, nrm, idx = box_mesh()
+    boxes = [d.mesh("box%d" % k, [(p[0] * (1 + 0.1 * k), p[1], p[2] * (1 + 0.05 * k)) for p in pos], nrm, idx)
+             for k in range(meshes)] if meshes > 1 else [d.mesh("box", pos, nrm, idx)]
     side = int(math.ceil(math.sqrt(n)))
     for i in range(n):
         x, z = i % side, i // side
-        d.node(name="b%d" % i, mesh=box, translation=[5000 + x * 4.0, 1, z * 4.0], rotation=yaw(90 * (i % 4)))
+        if meshes == 1:
+            d.node(name="b%d" % i, mesh=boxes[0], translation=[5000 + x * 4.0, 1, z * 4.0], rotation=yaw(90 * (i % 4)))
+        else:  # each mesh in 4 rotations and 4 scales: 16 placements a mesh, as a level's props vary
+            k = i // meshes
+            d.node(name="b%d" % i, mesh=boxes[i % meshes], translation=[5000 + x * 4.0, 1, z * 4.0],
+                   rotation=yaw(90 * (k % 4)), scale=[1 + 0.25 * ((k // 4) % 4)] * 3)
     d.write(path)
 
 if __name__ == "__main__":
-    if len(sys.argv) == 4 and sys.argv[1] == "--big":
-        big(int(sys.argv[2]), sys.argv[3])
+    if len(sys.argv) in (4, 5) and sys.argv[1] == "--big":
+        big(int(sys.argv[2]), sys.argv[3], int(sys.argv[4]) if len(sys.argv) == 5 else 1)
     else:
         out = sys.argv[1] if len(sys.argv) > 1 else "tests/data"
         small(out + "/level_small.gltf")

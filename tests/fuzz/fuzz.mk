@@ -67,8 +67,8 @@ FUZZ_jsonl_BUDGET     := 100 256
 
 FUZZ_gltf_OBJ         := $(IMPORT_OBJ) $(PROTO_OBJ)
 FUZZ_gltf_SRC         := $(wildcard client/import/import_*.c) $(PROTO_SRC)
-FUZZ_gltf_CFLAGS      := $$(pkg-config --cflags assimp)
-FUZZ_gltf_LIBS        := $$(pkg-config --libs assimp)
+FUZZ_gltf_CFLAGS      := $$(pkg-config --cflags assimp json-c)
+FUZZ_gltf_LIBS        := $$(pkg-config --libs assimp json-c)
 FUZZ_gltf_MAX_LEN     := 16384
 # Debian's assimp 5.2 crashes, leaks and asks for gigabytes on some broken
 # files (README: "assimp"), so this target fuzzes in fork mode and goes on

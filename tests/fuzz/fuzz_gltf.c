@@ -8,19 +8,25 @@
  * Properties (a broken one calls abort()):
  *   1. a refused file has a message (not empty, ended within err) and the
  *      level comes back all zero;
- *   2. an accepted level holds something (an entity, occluder or light) and
- *      its counts agree: every entity's class exists and every class is
- *      some entity's; an entity's occluder and an occluder's entity point
- *      at each other; no class, occluder or light is empty;
+ *   2. an accepted level holds something (an entity, occluder, light or
+ *      the sun) and its counts agree: every entity's class exists and every
+ *      class is some entity's; an entity's material is its mesh's and is 0
+ *      or a material of the level, whose textures are the level's (ids 1..n
+ *      in order, PNG or JPEG by their first bytes); an entity's occluder
+ *      and an occluder's entity point at each other; no class, occluder or
+ *      light is empty;
  *   3. every number is finite and in range: class vertices and entity
  *      boxes within +-1e12 m with min <= max, indices below the vertex
- *      count, normals and light directions of unit length, light colours in
- *      0..1 (the largest 1), intensity > 0, range 0.01..1e6 m, spot cones
- *      -1 <= outer <= inner <= 1;
+ *      count, normals, tangents and light directions of unit length,
+ *      tangent handedness +-1, transforms as vp_trs_check takes them,
+ *      light colours in 0..1 (the largest 1), intensity > 0, range
+ *      0.01..1e6 m, spot cones -1 <= outer <= inner <= 1;
  *   4. the wire takes all of it, as the load sends it: each class mesh
- *      (MESH_PUT), the entities as records (ENTITY_ADD, which then also meet
- *      the scene's record rules), each occluder (OCCLUDER_PUT) and the
- *      lights (LIGHT_PUT) encode and decode with VP_OK.
+ *      with its UVs and tangents (MESH_PUT), the textures (TEXTURE_PUT),
+ *      the materials (MATERIAL_PUT), the entities as transform records
+ *      (ENTITY_ADD), each occluder (OCCLUDER_PUT), the lights (LIGHT_PUT)
+ *      and the sun in an environment (ENV_SET) encode and decode with
+ *      VP_OK.
  *
  * assimp is the system's build, not instrumented: libFuzzer's coverage
  * comes from the importer and this file only, and ASan sees assimp's memory
@@ -96,12 +102,46 @@ static void check_wire(const imp_level *lv)
     for (uint32_t i = 0; i < lv->nmesh; i++) {
         const lvl_mesh *m = &lv->mesh[i];
         fuzz_wbuf b;
-        fuzz_wopen(&b, VP_HEADER_SIZE + 12 + 24 * (size_t)m->nv + 4 * (size_t)m->ni);
-        vp_enc_mesh(&b.w, 1, (uint16_t)i, m->pos, m->nrm, m->nv, m->idx, m->ni);
+        fuzz_wopen(&b, vp_size_mesh_uv(m->nv, m->ni, true, m->uv != NULL, m->tan != NULL));
+        vp_enc_mesh_uv(&b.w, 1, (uint16_t)i, m->pos, m->nrm, m->uv, m->tan, m->nv, m->idx, m->ni);
         const uint8_t *p = fuzz_wframe(&b, VP_MESH_PUT, &len);
         vp_mesh dm;
         CHECK(vp_dec_mesh(p, len, 0, &dm) == VP_OK);
-        CHECK(dm.vertex_count == m->nv && dm.index_count == m->ni);
+        CHECK(dm.vertex_count == m->nv && dm.index_count == m->ni && (dm.uvs != NULL) == (m->uv != NULL));
+        fuzz_wclose(&b);
+    }
+    for (uint32_t i = 0; i < lv->ntex; i++) {
+        const lvl_texture *t = &lv->tex[i];
+        fuzz_wbuf b;
+        fuzz_wopen(&b, vp_size_texture_put(t->nbytes));
+        vp_enc_texture_put(&b.w, 1, &(vp_texture_put){.id = t->id, .format = t->format, .flags = t->flags,
+                                                      .total = t->nbytes, .len = t->nbytes, .data = t->bytes});
+        const uint8_t *p = fuzz_wframe(&b, VP_TEXTURE_PUT, &len);
+        vp_texture_put dt;
+        CHECK(vp_dec_texture_put(p, len, &dt) == VP_OK && dt.len == t->nbytes);
+        fuzz_wclose(&b);
+    }
+    if (lv->nmat) {
+        fuzz_wbuf b;
+        fuzz_wopen(&b, vp_size_materials(lv->nmat));
+        vp_enc_materials(&b.w, 1, lv->mat, lv->nmat);
+        const uint8_t *p = fuzz_wframe(&b, VP_MATERIAL_PUT, &len), *recs;
+        uint32_t n;
+        CHECK(vp_dec_materials(p, len, 0, &recs, &n) == VP_OK && n == lv->nmat);
+        fuzz_wclose(&b);
+    }
+    if (lv->has_sun) {
+        vp_env e;
+        vp_env_default(&e);
+        memcpy(e.sun_dir, lv->sun_dir, sizeof e.sun_dir);
+        memcpy(e.sun_color, lv->sun_color, sizeof e.sun_color);
+        e.sun_lux = lv->sun_lux;
+        fuzz_wbuf b;
+        fuzz_wopen(&b, vp_size_env());
+        vp_enc_env(&b.w, VP_ENV_SET, 1, &e);
+        const uint8_t *p = fuzz_wframe(&b, VP_ENV_SET, &len);
+        vp_env de;
+        CHECK(vp_dec_env(p, len, &de) == VP_OK);
         fuzz_wclose(&b);
     }
     if (lv->nent) {
@@ -111,15 +151,15 @@ static void check_wire(const imp_level *lv)
             const lvl_entity *e = &lv->ent[i];
             rec[i].id = 1ull << 63 | i;
             rec[i].class_id = (uint16_t)e->cls;
-            rec[i].flags = e->dynamic ? VP_ENT_DYNAMIC : 0;
-            for (int a = 0; a < 3; a++) {
-                rec[i].aabb[a] = e->lo[a];
-                rec[i].aabb[3 + a] = e->hi[a];
-            }
-            /* the scene's record rules (the sphere is all 0: derived) */
-            for (int a = 0; a < 3; a++)
-                CHECK(rec[i].aabb[a] <= rec[i].aabb[3 + a] && in_range(rec[i].aabb[a]) &&
-                      in_range(rec[i].aabb[3 + a]));
+            rec[i].material = e->material;
+            rec[i].flags = VP_ENT_TRANSFORM | (e->dynamic ? VP_ENT_DYNAMIC : 0);
+            memcpy(rec[i].pos, e->pos, sizeof rec[i].pos);
+            memcpy(rec[i].rot, e->rot, sizeof rec[i].rot);
+            memcpy(rec[i].scale, e->scale, sizeof rec[i].scale);
+            /* the scene's transform rules */
+            double pos[3] = {e->pos[0], e->pos[1], e->pos[2]};
+            float rot[4] = {e->rot[0], e->rot[1], e->rot[2], e->rot[3]}, sc[3] = {e->scale[0], e->scale[1], e->scale[2]};
+            CHECK(vp_trs_check(pos, rot, sc, NULL, 0) == VP_OK);
         }
         fuzz_wbuf b;
         fuzz_wopen(&b, vp_size_entities(lv->nent));
@@ -154,9 +194,39 @@ static void check_wire(const imp_level *lv)
 
 /* ---- 2 and 3 ------------------------------------------------------------------- */
 
+/* a material id of the level, or 0 */
+static bool material_known(const imp_level *lv, uint32_t id)
+{
+    for (uint32_t i = 0; id && i < lv->nmat; i++)
+        if (lv->mat[i].id == id) return true;
+    return id == 0;
+}
+
+static void check_materials(const imp_level *lv)
+{
+    CHECK(lv->nmat == 0 || lv->mat);
+    CHECK(lv->ntex == 0 || lv->tex);
+    for (uint32_t i = 0; i < lv->nmat; i++) {
+        CHECK(lv->mat[i].id == i + 1); /* the used ones, 1.. in order */
+        for (int k = 0; k < VP_TEX_SLOTS; k++) CHECK(lv->mat[i].tex[k].texture <= lv->ntex);
+    }
+    for (uint32_t i = 0; i < lv->ntex; i++) {
+        const lvl_texture *t = &lv->tex[i];
+        CHECK(t->id == i + 1 && t->nbytes >= 3 && t->bytes);
+        CHECK(t->format == VP_TEX_PNG ? !memcmp(t->bytes, "\x89PNG", 4)
+                                      : t->format == VP_TEX_JPEG && t->bytes[0] == 0xff && t->bytes[1] == 0xd8);
+    }
+    if (lv->has_sun) {
+        CHECK(unit(lv->sun_dir[0], lv->sun_dir[1], lv->sun_dir[2]));
+        CHECK(lv->sun_lux > 0 && lv->sun_lux <= 200000);
+        CHECK(fmaxf(lv->sun_color[0], fmaxf(lv->sun_color[1], lv->sun_color[2])) == 1);
+    }
+}
+
 static void check_level(const imp_level *lv)
 {
-    CHECK(lv->nent || lv->nocc || lv->nlight);
+    CHECK(lv->nent || lv->nocc || lv->nlight || lv->has_sun);
+    check_materials(lv);
     CHECK(lv->nmesh <= LVL_MAX_CLASSES);
     CHECK(lv->nmesh == 0 || lv->mesh);
     CHECK(lv->nent == 0 || lv->ent);
@@ -168,15 +238,20 @@ static void check_level(const imp_level *lv)
         const lvl_mesh *m = &lv->mesh[i];
         CHECK(m->nv > 0 && m->ni > 0 && m->ni % 3 == 0);
         for (uint32_t k = 0; k < m->ni; k++) CHECK(m->idx[k] < m->nv);
+        CHECK(material_known(lv, m->material));
+        CHECK(!m->tan || m->uv);
         for (uint32_t v = 0; v < m->nv; v++) {
             const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
             CHECK(in_range(p[0]) && in_range(p[1]) && in_range(p[2]));
             CHECK(isfinite(n[0]) && isfinite(n[1]) && isfinite(n[2]) && unit(n[0], n[1], n[2]));
+            if (m->uv) CHECK(isfinite(m->uv[2 * (size_t)v]) && isfinite(m->uv[2 * (size_t)v + 1]));
+            if (m->tan) CHECK(fabsf(m->tan[4 * (size_t)v + 3]) == 1);
         }
     }
     for (uint32_t i = 0; i < lv->nent; i++) {
         const lvl_entity *e = &lv->ent[i];
         CHECK(e->cls < lv->nmesh);
+        CHECK(e->material == lv->mesh[e->cls].material);
         used[e->cls] = 1;
         for (int a = 0; a < 3; a++) CHECK(in_range(e->lo[a]) && in_range(e->hi[a]) && e->lo[a] <= e->hi[a]);
         CHECK(name_ok(e->name));

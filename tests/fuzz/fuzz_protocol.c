@@ -790,6 +790,123 @@ static void fuzz_metrics_reply(const uint8_t *p, size_t len)
     fuzz_wclose(&b);
 }
 
+/* ---- read-back (vp_readback.c) ---- */
+
+static void fuzz_mesh_get(const uint8_t *p, size_t len)
+{
+    vp_mesh_get m;
+    int rc = vp_dec_mesh_get(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == 2);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_mesh_get());
+    vp_enc_mesh_get(&b.w, 12, &m);
+    CHECK(memcmp(enc_payload(&b, VP_MESH_GET, len), p, len) == 0);
+    fuzz_wclose(&b);
+}
+
+static void fuzz_material_list(const uint8_t *p, size_t len, uint32_t limit)
+{
+    vp_page m, lim;
+    int rc = vp_dec_material_list(p, len, 0, &m), rcl = vp_dec_material_list(p, len, limit, &lim);
+    check_code(rc);
+    check_code(rcl);
+    if (rcl == VP_OK) CHECK(rc == VP_OK && lim.max >= 1 && (limit == 0 || lim.max <= limit));
+    if (rc) return;
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_material_list());
+    vp_enc_material_list(&b.w, 13, &m);
+    CHECK(memcmp(enc_payload(&b, VP_MATERIAL_LIST, len), p, len) == 0);
+    fuzz_wclose(&b);
+}
+
+static void fuzz_texture_get(const uint8_t *p, size_t len)
+{
+    vp_texture_get m;
+    int rc = vp_dec_texture_get(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.id != 0 && m.max_len != 0);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_texture_get());
+    vp_enc_texture_get(&b.w, 14, &m);
+    CHECK(memcmp(enc_payload(&b, VP_TEXTURE_GET, len), p, len) == 0);
+    fuzz_wclose(&b);
+}
+
+static void fuzz_light_list(const uint8_t *p, size_t len, uint32_t limit)
+{
+    vp_page m, lim;
+    int rc = vp_dec_light_list(p, len, 0, &m), rcl = vp_dec_light_list(p, len, limit, &lim);
+    check_code(rc);
+    check_code(rcl);
+    if (rcl == VP_OK) CHECK(rc == VP_OK && lim.max >= 1 && (limit == 0 || lim.max <= limit));
+    if (rc) return;
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_light_list());
+    vp_enc_light_list(&b.w, 15, &m);
+    CHECK(memcmp(enc_payload(&b, VP_LIGHT_LIST, len), p, len) == 0);
+    fuzz_wclose(&b);
+}
+
+static void fuzz_material_list_reply(const uint8_t *p, size_t len)
+{
+    vp_page_reply m;
+    int rc = vp_dec_material_list_reply(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == 8 + (size_t)m.count * VP_MATERIAL_SIZE);
+    vp_material *r = malloc(((size_t)m.count + 1) * sizeof *r);
+    CHECK(r != NULL);
+    for (uint32_t i = 0; i < m.count; i++) CHECK(vp_material_get(m.recs, m.count, i, &r[i]) == VP_OK);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_material_list_reply(m.count));
+    vp_enc_material_list_reply(&b.w, 16, m.next_cursor, r, m.count);
+    /* a record's checks renormalise nothing, so the bytes come back */
+    CHECK(memcmp(enc_payload(&b, VP_MATERIAL_LIST_REPLY, len), p, len) == 0);
+    fuzz_wclose(&b);
+    free(r);
+}
+
+static void fuzz_light_list_reply(const uint8_t *p, size_t len)
+{
+    vp_page_reply m;
+    int rc = vp_dec_light_list_reply(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(len == 12 + (size_t)m.count * VP_LIGHT_SIZE);
+    vp_light *l = malloc(((size_t)m.count + 1) * sizeof *l);
+    CHECK(l != NULL);
+    for (uint32_t i = 0; i < m.count; i++) CHECK(vp_light_get(m.recs, m.count, i, &l[i]) == VP_OK);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_light_list_reply(m.count));
+    vp_enc_light_list_reply(&b.w, 17, m.next_cursor, l, m.count);
+    vp_page_reply r;
+    CHECK(vp_dec_light_list_reply(enc_payload(&b, VP_LIGHT_LIST_REPLY, len), len, &r) == VP_OK);
+    CHECK(r.next_cursor == m.next_cursor && r.count == m.count);
+    for (uint32_t i = 0; i < r.count; i++) {
+        vp_light x;
+        CHECK(vp_light_get(r.recs, r.count, i, &x) == VP_OK && same_light(&x, &l[i]));
+    }
+    fuzz_wclose(&b);
+    free(l);
+}
+
+static void fuzz_texture_reply(const uint8_t *p, size_t len)
+{
+    vp_texture_put m;
+    int rc = vp_dec_texture_put(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.len >= 1 && m.offset + (uint64_t)m.len <= m.total && len == VP_TEXTURE_PUT_HEADER + (size_t)m.len);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_texture_put(m.len));
+    vp_enc_texture_as(&b.w, VP_TEXTURE_REPLY, 18, &m);
+    CHECK(memcmp(enc_payload(&b, VP_TEXTURE_REPLY, len), p, len) == 0);
+    fuzz_wclose(&b);
+}
+
 static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
 {
     uint32_t limit = h->req; /* fuzzer-chosen max_batch for the batch decoders */
@@ -855,6 +972,14 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_MARKED: fuzz_marked(p, len); return;
     case VP_METRICS: fuzz_empty(p, len); return;
     case VP_METRICS_REPLY: fuzz_metrics_reply(p, len); return;
+    case VP_MESH_GET: fuzz_mesh_get(p, len); return;
+    case VP_MESH_REPLY: fuzz_mesh(p, len, limit); return;
+    case VP_MATERIAL_LIST: fuzz_material_list(p, len, limit); return;
+    case VP_MATERIAL_LIST_REPLY: fuzz_material_list_reply(p, len); return;
+    case VP_TEXTURE_GET: fuzz_texture_get(p, len); return;
+    case VP_TEXTURE_REPLY: fuzz_texture_reply(p, len); return;
+    case VP_LIGHT_LIST: fuzz_light_list(p, len, limit); return;
+    case VP_LIGHT_LIST_REPLY: fuzz_light_list_reply(p, len); return;
     default: break;
     }
     /* Unknown to this version: a server would answer ERROR TYPE and skip

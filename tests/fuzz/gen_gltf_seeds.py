@@ -4,7 +4,10 @@ the test levels of tests/data/ without their indentation, and small levels
 made here that each exercise one convention or one corner of the importer (client/import/import_walk.c)
 (instancing, mirroring, OCC_ pairing and merging, lights under scaled
 nodes, spot cones, primitive modes, index types, sparse accessors, a
-matrix transform, a deep tree, binary glTF, glTF 1.0).
+matrix transform, a deep tree, binary glTF, glTF 1.0, the scene model's
+materials: textures embedded as PNG and JPEG with samplers and
+KHR_texture_transform, KHR_materials_emissive_strength, UVs and tangents,
+a directional light as the sun).
 
     python3 tests/fuzz/gen_gltf_seeds.py [OUT_DIR]
 """
@@ -141,6 +144,65 @@ def sparse_doc():
     return d
 
 
+def tiny_png():
+    """A 2x2 RGBA PNG, written by hand (zlib)."""
+    import zlib
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xffffffff)
+    raw = b"".join(b"\0" + bytes([40 * x + 10 * y, 200, 90, 255]) * 1 + bytes([99, 1, 2, 255]) for y in range(2)
+                   for x in range(1))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 2, 8, 6, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def materials_doc():
+    """Two materials, two embedded images (a PNG in the buffer, a JPEG's
+    first bytes as a data: URI: the importer checks only the magic), a box
+    with UVs and tangents placed mirrored and turned, a sun and a bulb."""
+    import base64
+    d = Doc()
+    pos, nrm, idx = box_mesh()
+    box = d.mesh("box", pos, nrm, idx)
+    acc = d.g["accessors"]
+    uv = d.view(b"".join(struct.pack("<2f", (i % 4) * 0.25, (i % 3) * 0.5) for i in range(len(pos))), 34962)
+    acc.append({"bufferView": uv, "componentType": 5126, "count": len(pos), "type": "VEC2"})
+    tg = d.view(b"".join(struct.pack("<4f", 1, 0, 0, -1 if i % 2 else 1) for i in range(len(pos))), 34962)
+    acc.append({"bufferView": tg, "componentType": 5126, "count": len(pos), "type": "VEC4"})
+    prim = d.g["meshes"][box]["primitives"][0]
+    prim["attributes"]["TEXCOORD_0"] = len(acc) - 2
+    prim["attributes"]["TANGENT"] = len(acc) - 1
+    prim["material"] = 0
+    wall = d.mesh("wall", *quad_mesh())
+    d.g["meshes"][wall]["primitives"][0]["material"] = 1
+    png = d.view(tiny_png(), None)
+    d.g["bufferViews"][png].pop("target")
+    jpg = b"\xff\xd8\xff\xe0" + b"\0" * 12 + b"\xff\xd9"
+    d.g["images"] = [{"bufferView": png, "mimeType": "image/png"},
+                     {"uri": "data:image/jpeg;base64," + base64.b64encode(jpg).decode()}]
+    d.g["samplers"] = [{"wrapS": 33071, "wrapT": 33648, "minFilter": 9984, "magFilter": 9728}, {}]
+    d.g["textures"] = [{"source": 0, "sampler": 0}, {"source": 1, "sampler": 1}]
+    tt = {"KHR_texture_transform": {"offset": [0.5, 0.25], "scale": [2, 0.5], "rotation": 1.2}}
+    d.g["materials"] = [
+        {"name": "a", "pbrMetallicRoughness": {"baseColorFactor": [1, 0.5, 0.25, 1], "metallicFactor": 0,
+                                               "baseColorTexture": {"index": 0, "extensions": tt},
+                                               "metallicRoughnessTexture": {"index": 1}},
+         "normalTexture": {"index": 1, "scale": 2}, "emissiveTexture": {"index": 0},
+         "emissiveFactor": [1, 1, 0.5], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 7}},
+         "alphaMode": "MASK", "alphaCutoff": 0.3, "doubleSided": True},
+        {"name": "b", "alphaMode": "BLEND"}]
+    d.g["extensionsUsed"] = ["KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_emissive_strength"]
+    d.g["extensions"] = {"KHR_lights_punctual": {"lights": [
+        {"name": "sun", "type": "directional", "color": [1, 0.9, 0.7], "intensity": 80000},
+        {"name": "moon", "type": "directional", "intensity": 0.1},
+        {"name": "bulb", "type": "point", "intensity": 30, "range": 9}]}}
+    d.node(name="box", mesh=box, translation=[1, 2, 3], rotation=yaw(30), scale=[-1, 2, 0.5])
+    d.node(name="wall", mesh=wall, translation=[0, 0, -5], scale=[3, 3, 3])
+    d.node(name="sun", rotation=[-0.5, 0, 0, 0.8660254], extensions={"KHR_lights_punctual": {"light": 0}})
+    d.node(name="moon", extensions={"KHR_lights_punctual": {"light": 1}})
+    d.node(name="bulb", translation=[0, 5, 0], extensions={"KHR_lights_punctual": {"light": 2}})
+    return d
+
+
 def deep_doc(depth):
     d = tri_doc()
     top = 0
@@ -177,6 +239,8 @@ def main():
     files["seed-deep-256.gltf"] = compact(finish(deep_doc(256)))
     files["seed-deep-257.gltf"] = compact(finish(deep_doc(257)))
     files["seed-v1.gltf"] = compact(gltf1())
+    files["seed-materials.gltf"] = compact(finish(materials_doc()))
+    files["seed-materials.glb"] = glb(materials_doc())
     for name, blob in sorted(files.items()):
         with open(os.path.join(out, name), "wb") as f:
             f.write(blob)
