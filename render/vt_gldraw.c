@@ -442,12 +442,25 @@ int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t 
                      uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                      float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
+    vt_frame f = {.view = v, .width = width, .height = height, .meshes = meshes, .nmesh = nmesh, .inst = inst,
+                  .ninst = ninst, .lights = lights, .nl = nl, .rgba = rgba, .depth = depth, .stride = stride};
+    return vt_gldraw_draw(r, &f, st, err, errlen);
+}
+
+int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err, size_t errlen)
+{
     if (st) memset(st, 0, sizeof *st);
     if (!r) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     cull_view_rows vr;
-    int rc = vt_picture_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &vr, err,
-                              errlen);
+    int rc = vt_picture_check(f, &vr, err, errlen);
     if (rc) return rc;
+    const cull_view *v = f->view;
+    const uint32_t width = f->width, height = f->height, nmesh = f->nmesh, ninst = f->ninst, nl = f->nl;
+    const vt_mesh *meshes = f->meshes;
+    const vt_instance *inst = f->inst;
+    const vt_light *lights = f->lights;
+    float *rgba = f->rgba, *depth = f->depth;
+    const size_t stride = f->stride;
     if ((rc = vt_gl_make_current(r->g, err, errlen))) return rc;
     bool reversed = v->depth_mode == CULL_DEPTH_REVERSED;
     if (v->depth_mode != CULL_DEPTH_GL) {

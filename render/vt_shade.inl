@@ -104,27 +104,45 @@ void VT_SHADE_NAME(const vt_span *sp)
 {
     surf s;
     A float cov[S];
+    const bool env = sp->pe && sp->pe->on;
     /* nothing drawn in the whole span (sky, off the geometry): no surface */
     uint32_t any = 0;
     for (unsigned i = 0; i < sp->n; i++) any |= sp->id[i];
     if (!any) {
         memset(sp->rgba, 0, (size_t)sp->n * 4 * sizeof(float));
-        for (unsigned i = 0; i < sp->n; i++) sp->depth[i] = INFINITY;
+        for (unsigned i = 0; i < sp->n; i++) {
+            sp->depth[i] = INFINITY;
+            if (!env) continue;
+            vt_span_finish(sp, i, NULL, sp->rgba + 4 * i, 0);
+            sp->rgba[4 * i + 3] = 1;
+        }
         return;
     }
     /* gather: each pixel's record, perspective-correct barycentrics from
-       the homogeneous edge functions, the interpolated surface */
+       the homogeneous edge functions, the interpolated surface; a
+       material's, the ground's or any pixel under an environment through
+       vt_span_surface (textures, sun, sky ambient, emissive) */
     for (unsigned i = 0; i < S; i++) {
         uint32_t id = i < sp->n ? sp->id[i] : 0;
         if (!id) {
             s.px[i] = s.py[i] = s.pz[i] = 0;
             s.nx[i] = s.ny[i] = s.nz[i] = 0;
             s.ar[i] = s.ag[i] = s.ab[i] = 0;
+            s.cr[i] = s.cg[i] = s.cb[i] = 0;
             cov[i] = 0;
             continue;
         }
-        id--;
-        const vt_stri *t = &sp->st[id >> VT_ID_BITS][id & VT_ID_MASK];
+        const vt_stri *t = id == VT_ID_GROUND ? NULL : &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
+        if (env || !t || t->mat) {
+            float p[3];
+            vt_surfout o;
+            vt_span_surface(sp, i, p, &o, &cov[i]);
+            s.px[i] = p[0], s.py[i] = p[1], s.pz[i] = p[2];
+            s.nx[i] = o.n[0], s.ny[i] = o.n[1], s.nz[i] = o.n[2];
+            s.ar[i] = o.diffuse[0], s.ag[i] = o.diffuse[1], s.ab[i] = o.diffuse[2];
+            s.cr[i] = o.c[0], s.cg[i] = o.c[1], s.cb[i] = o.c[2];
+            continue;
+        }
         float b[3];
         vt_stri_bary(t, vt_ndc_x(sp->x0 + i, sp->inv_w), sp->Y, b);
         float b0 = b[0], b1 = b[1], b2 = b[2];
@@ -140,9 +158,12 @@ void VT_SHADE_NAME(const vt_span *sp)
         s.ar[i] = t->albedo[0] * k;
         s.ag[i] = t->albedo[1] * k;
         s.ab[i] = t->albedo[2] * k;
+        s.cr[i] = VT_AMBIENT * s.ar[i];
+        s.cg[i] = VT_AMBIENT * s.ag[i];
+        s.cb[i] = VT_AMBIENT * s.ab[i];
         cov[i] = 1;
     }
-    const vf zero = vf_set(0), one = vf_set(1), amb = vf_set(VT_AMBIENT), inv_pi = vf_set(1.0f / 3.14159265f);
+    const vf zero = vf_set(0), one = vf_set(1), inv_pi = vf_set(1.0f / 3.14159265f);
     for (unsigned i = 0; i < S; i += W) {
         vf nx = vf_load(s.nx + i), ny = vf_load(s.ny + i), nz = vf_load(s.nz + i);
         vf l2 = dot3(nx, ny, nz, nx, ny, nz);
@@ -158,19 +179,24 @@ void VT_SHADE_NAME(const vt_span *sp)
         vf_store(s.vx + i, vf_mul(px, iv));
         vf_store(s.vy + i, vf_mul(py, iv));
         vf_store(s.vz + i, vf_mul(pz, iv));
-        vf ar = vf_load(s.ar + i), ag = vf_load(s.ag + i), ab = vf_load(s.ab + i);
-        vf_store(s.cr + i, vf_mul(amb, ar));
-        vf_store(s.cg + i, vf_mul(amb, ag));
-        vf_store(s.cb + i, vf_mul(amb, ab));
-        vf_store(s.ar + i, vf_mul(ar, inv_pi));
-        vf_store(s.ag + i, vf_mul(ag, inv_pi));
-        vf_store(s.ab + i, vf_mul(ab, inv_pi));
+        vf_store(s.ar + i, vf_mul(vf_load(s.ar + i), inv_pi));
+        vf_store(s.ag + i, vf_mul(vf_load(s.ag + i), inv_pi));
+        vf_store(s.ab + i, vf_mul(vf_load(s.ab + i), inv_pi));
     }
     for (uint32_t k = 0; k < sp->nli; k++) {
         const vt_slight *L = &sp->sl[sp->li[k]];
         if (L->spot) light(&s, L, 1);
         else light(&s, L, 0);
     }
+    if (env) {
+        /* fog over what is drawn, the sky elsewhere; the picture is opaque */
+        for (unsigned i = 0; i < sp->n; i++) {
+            float p[3] = {s.px[i], s.py[i], s.pz[i]}, c[3] = {s.cr[i], s.cg[i], s.cb[i]};
+            vt_span_finish(sp, i, p, c, cov[i]);
+            s.cr[i] = c[0], s.cg[i] = c[1], s.cb[i] = c[2];
+        }
+    }
+    const vf alpha1 = vf_set(1);
     if (sp->n == S) {
         /* vt_depth_apply, W lanes at a time */
         const vf inf = vf_set(INFINITY), k = vf_set(sp->rule.k);
@@ -178,7 +204,7 @@ void VT_SHADE_NAME(const vt_span *sp)
             vf c = vf_load(cov + i), z = vf_loadu(sp->near + i);
             vf d = sp->rule.ortho ? vf_sub(one, vf_mul(k, z)) : vf_div(one, z);
             vf_store(sp->depth + i, vf_select(vf_lt(zero, c), d, inf));
-            store_rgba(sp->rgba + 4 * i, vf_load(s.cr + i), vf_load(s.cg + i), vf_load(s.cb + i), c);
+            store_rgba(sp->rgba + 4 * i, vf_load(s.cr + i), vf_load(s.cg + i), vf_load(s.cb + i), env ? alpha1 : c);
         }
         return;
     }
@@ -187,7 +213,7 @@ void VT_SHADE_NAME(const vt_span *sp)
         o[0] = s.cr[i];
         o[1] = s.cg[i];
         o[2] = s.cb[i];
-        o[3] = cov[i];
+        o[3] = env ? 1.0f : cov[i];
         float z = sp->near[i];
         sp->depth[i] = cov[i] == 0 ? INFINITY : vt_depth_apply(sp->rule, z);
     }

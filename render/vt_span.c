@@ -1,0 +1,126 @@
+/*
+ * vt_span.c — the per-pixel half of the software renderer's shading (see
+ * vt_shade.h), one copy for every instruction set: which surface a pixel
+ * shows (a triangle's shading record, perspective-correct, or the ground
+ * plane solved per pixel), its UVs with their derivatives one pixel over
+ * and one up (the mip level), the material, sun and ambient
+ * (vt_surface_shade), and after the point lights, fog or the sky.
+ * Scalar: texture fetches and the sky are per pixel anyway.
+ */
+#include "vt_mask.h"
+#include "vt_shade.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Interpolated UVs of t at NDC (X, Y). */
+static void tri_uv(const vt_stri *t, float X, float Y, float uv[2])
+{
+    float b[3];
+    vt_stri_bary(t, X, Y, b);
+    uv[0] = b[0] * t->uv[0][0] + b[1] * t->uv[1][0] + b[2] * t->uv[2][0];
+    uv[1] = b[0] * t->uv[0][1] + b[1] * t->uv[1][1] + b[2] * t->uv[2][1];
+}
+
+/* The UVs at (X, Y) and their differences one pixel right and one up. */
+static void tri_uv_d(const vt_stri *t, float X, float Y, float dX, float dY, float uv[2], float dx[2], float dy[2])
+{
+    float ux[2], uy[2];
+    tri_uv(t, X, Y, uv);
+    tri_uv(t, X + dX, Y, ux);
+    tri_uv(t, X, Y + dY, uy);
+    for (int k = 0; k < 2; k++) {
+        dx[k] = ux[k] - uv[k];
+        dy[k] = uy[k] - uv[k];
+    }
+}
+
+bool vt_stri_alpha_pass(const vt_stri *t, float X, float Y, float dX, float dY)
+{
+    float uv[2], dx[2], dy[2];
+    tri_uv_d(t, X, Y, dX, dY, uv, dx, dy);
+    return vt_surface_alpha(t->mat, uv, dx, dy) >= t->mat->alpha_cutoff;
+}
+
+/* The ground's UVs: world x and z (modulo 4096 m at the view's origin). */
+static bool ground_uv(const vt_span *sp, double X, double Y, float uv[2])
+{
+    double q[3], nz;
+    if (!vt_ground_hit(sp->pe, sp->vr, sp->depth_mode, X, Y, q, &nz)) return false;
+    uv[0] = (float)(sp->pe->ground_uv0[0] + q[0]);
+    uv[1] = (float)(sp->pe->ground_uv0[1] + q[2]);
+    return true;
+}
+
+void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, float *cov)
+{
+    uint32_t id = i < sp->n ? sp->id[i] : 0;
+    if (!id) {
+        memset(o, 0, sizeof *o);
+        p[0] = p[1] = p[2] = 0;
+        *cov = 0;
+        return;
+    }
+    *cov = 1;
+    const float X = vt_ndc_x(sp->x0 + i, sp->inv_w), dX = (float)sp->inv_w, dY = (float)sp->inv_h;
+    vt_surfin in = {0};
+    if (id == VT_ID_GROUND) {
+        double q[3], nz;
+        const vt_penv *pe = sp->pe;
+        if (!vt_ground_hit(pe, sp->vr, sp->depth_mode, X, sp->Y, q, &nz)) q[0] = q[1] = q[2] = 0; /* raster hit it */
+        for (int k = 0; k < 3; k++) p[k] = in.p[k] = (float)q[k];
+        in.n[1] = 1;
+        in.albedo = pe->ground_albedo;
+        in.mat = pe->ground_mat;
+        if (in.mat && ground_uv(sp, X, sp->Y, in.uv)) {
+            float ux[2], uy[2];
+            in.has_uv = true;
+            bool hx = ground_uv(sp, X + dX, sp->Y, ux), hy = ground_uv(sp, X, sp->Y + dY, uy);
+            for (int k = 0; k < 2; k++) {
+                in.dx[k] = hx ? ux[k] - in.uv[k] : 0;
+                in.dy[k] = hy ? uy[k] - in.uv[k] : 0;
+            }
+        }
+        vt_surface_shade(pe, &in, o);
+        return;
+    }
+    id--;
+    const vt_stri *t = &sp->st[id >> VT_ID_BITS][id & VT_ID_MASK];
+    float b[3];
+    vt_stri_bary(t, X, sp->Y, b);
+    for (int k = 0; k < 3; k++) {
+        p[k] = in.p[k] = b[0] * t->p[0][k] + b[1] * t->p[1][k] + b[2] * t->p[2][k];
+        in.n[k] = b[0] * t->n[0][k] + b[1] * t->n[1][k] + b[2] * t->n[2][k];
+    }
+    /* a damaged instance: charred towards a hole's rim (the raster kept
+       only pixels whose mask is >= 0) */
+    float k = t->mask ? vt_mask_rim(t->mask, vt_mask_eval(t->mask, p[0], p[1], p[2])) : 1.0f;
+    float alb[3] = {t->albedo[0] * k, t->albedo[1] * k, t->albedo[2] * k};
+    in.albedo = alb;
+    in.mat = t->mat;
+    if (t->has_uv && t->mat) {
+        in.has_uv = true;
+        tri_uv_d(t, X, sp->Y, dX, dY, in.uv, in.dx, in.dy);
+        if (t->has_tg) {
+            in.has_t = true;
+            for (int c = 0; c < 4; c++) in.t[c] = b[0] * t->tg[0][c] + b[1] * t->tg[1][c] + b[2] * t->tg[2][c];
+        }
+    }
+    vt_surface_shade(sp->pe, &in, o);
+    if (t->mat && k != 1.0f)
+        for (int c = 0; c < 3; c++) {
+            o->diffuse[c] *= k;
+            o->c[c] *= k;
+        }
+}
+
+void vt_span_finish(const vt_span *sp, uint32_t i, const float p[3], float c[3], float cov)
+{
+    if (cov > 0) {
+        vt_fog_apply(sp->pe, p, c);
+        return;
+    }
+    float d[3];
+    vt_view_dir(sp->vr, vt_ndc_x(sp->x0 + i, sp->inv_w), sp->Y, d);
+    vt_sky_radiance(sp->pe, d, c);
+}
