@@ -183,6 +183,8 @@ $(BUILD)/culling/cull_dvol.o: CFLAGS += -O3 -fno-math-errno
 $(BUILD)/render/vt_shade_avx2.o:  CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_shade_sse41.o: CFLAGS += $(ISA_SSE41)
 $(BUILD)/render/vt_shade_base.o:  CFLAGS += -fno-tree-vectorize -fno-math-errno
+# per-pixel shading of the scene model: sqrtf inline, no errno
+$(BUILD)/render/vt_scene.o $(BUILD)/render/vt_span.o: CFLAGS += -fno-math-errno
 
 $(CULL_LIB): $(CULL_OBJ)
 	@rm -f $@

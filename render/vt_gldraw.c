@@ -69,8 +69,8 @@ typedef struct group {
     X(u_vp) X(u_d) X(u_pass) X(u_tiles_x) X(u_two_sided) X(u_mat_on) X(u_alpha_mask) X(u_tex_on)     \
     X(u_has_uv) X(u_has_t) X(u_base) X(u_mr) X(u_em) X(u_nscale) X(u_cutoff) X(u_txm) X(u_txo)       \
     X(u_env_on) X(u_sun_on) X(u_sky_mode) X(u_sun_dir) X(u_sun) X(u_amb_up) X(u_amb_down) X(u_fog)   \
-    X(u_sky) X(u_zenith) X(u_inv_f0) X(u_fog_density) X(u_fog_falloff) X(u_fog_y0) X(u_sky_rot)      \
-    X(u_perez) X(u_ground) X(u_depth_half) X(u_reversed) X(u_size) X(u_rx) X(u_ry) X(u_rz) X(u_rw)   \
+    X(u_sky) X(u_fog_density) X(u_fog_falloff) X(u_fog_y0) X(u_sky_rot) X(u_ground)                   \
+    X(u_depth_half) X(u_reversed) X(u_size) X(u_rx) X(u_ry) X(u_rz) X(u_rw)                          \
     X(u_rn) X(u_rd) X(u_ground_y) X(u_ground_albedo) X(u_ground_uv0)
 #define U_ENUM(n) n,
 enum { UNIFORMS(U_ENUM) U_COUNT };
@@ -109,6 +109,7 @@ struct vt_gldraw {
     cull_light_tiles tiles;
     cull_light *cl;
     size_t cl_cap;
+    vt_skytab sky;          /* the analytic sky's table */
 };
 
 int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
@@ -465,16 +466,13 @@ static void set_env(vt_gldraw *r, int p, const vt_penv *pe, const cull_view_rows
     const int *L = r->loc[p];
     glUniform1i(L[u_env_on], pe->on);
     glUniform1i(L[u_sun_on], pe->sun_on);
-    glUniform1i(L[u_sky_mode], pe->sky_mode);
+    glUniform1i(L[u_sky_mode], pe->sky_img ? 2 : 0);
     glUniform3fv(L[u_sun_dir], 1, pe->sun_dir);
     glUniform3fv(L[u_sun], 1, pe->sun);
     glUniform3fv(L[u_amb_up], 1, pe->amb_up);
     glUniform3fv(L[u_amb_down], 1, pe->amb_down);
     glUniform3fv(L[u_fog], 1, pe->fog);
-    glUniform3fv(L[u_sky], 1, pe->sky);
-    glUniform3fv(L[u_zenith], 1, pe->zenith);
-    glUniform3fv(L[u_inv_f0], 1, pe->inv_f0);
-    glUniform1fv(L[u_perez], 15, &pe->perez[0][0]);
+    glUniform3fv(L[u_sky], 1, pe->sky_img ? pe->sky_mul : pe->sky);
     glUniform1f(L[u_fog_density], pe->fog_density);
     glUniform1f(L[u_fog_falloff], pe->fog_falloff);
     glUniform1f(L[u_fog_y0], pe->fog_y0);
@@ -556,7 +554,7 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     if ((rc = upload(r, f, err, errlen))) return rc;
     vt_penv pe;
-    vt_penv_make(f->env, v->origin, &pe);
+    vt_penv_make(f->env, v->origin, &r->sky, &pe);
     const bool bg = pe.on; /* a background pass: the ground, the sky */
     float vp[16], d4[4];
     for (int i = 0; i < 16; i++) vp[i] = (float)v->clip[i];
@@ -564,11 +562,11 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     if (bg) {
         glUseProgram(r->bg);
         set_env(r, 1, &pe, &vr, f);
-        if (pe.sky_mode == VT_SKY_TEXTURE) {
+        if (pe.sky_img) { /* the environment map, or the analytic sky's table (id 0: this frame's) */
             glActiveTexture(GL_TEXTURE9);
-            if (!vt_gltex_get(&r->tc, pe.sky_tex, false))
-                return vp_errf(err, errlen, VT_ERR_GL, "sky texture %u (%ux%u) could not be uploaded", pe.sky_tex->id,
-                               pe.sky_tex->w, pe.sky_tex->h);
+            if (!vt_gltex_get(&r->tc, pe.sky_img, false))
+                return vp_errf(err, errlen, VT_ERR_GL, "sky texture %u (%ux%u) could not be uploaded", pe.sky_img->id,
+                               pe.sky_img->w, pe.sky_img->h);
         }
     }
     glUseProgram(r->prog);

@@ -2,9 +2,10 @@
  * vt_gldraw_glsl.c — the OpenGL renderer's shaders (vt_gldraw.c builds
  * them): the scene's vertex and fragment shaders and the background pass
  * (the ground plane solved per pixel, the sky), over one shared part: the
- * material, sun and ambient of vt_scene.c's vt_surface_shade, Preetham's
- * sky, fog, operation for operation as the software renderer computes
- * them (in float, camera-relative).
+ * material of vt_scene.c's vt_surface_params, the sky's ambient and the
+ * sun of vt_shade.inl's env_light, the sky (an environment map or the
+ * analytic sky's table), fog, operation for operation as the software
+ * renderer computes them (in float, camera-relative).
  */
 #include "vt_gldraw_internal.h"
 
@@ -15,9 +16,8 @@
 #define COMMON                                                                                                 \
     "#define PI 3.14159265\n"                                                                                  \
     "uniform int u_env_on, u_sun_on, u_sky_mode;\n"                                                            \
-    "uniform vec3 u_sun_dir, u_sun, u_amb_up, u_amb_down, u_fog, u_sky, u_zenith, u_inv_f0;\n"                 \
+    "uniform vec3 u_sun_dir, u_sun, u_amb_up, u_amb_down, u_fog, u_sky;\n"                                     \
     "uniform float u_fog_density, u_fog_falloff, u_fog_y0, u_sky_rot;\n"                                       \
-    "uniform float u_perez[15];\n"                                                                             \
     "uniform sampler2D u_sky_tex;\n"                                                                           \
     "uniform int u_mat_on, u_alpha_mask, u_tex_on, u_has_uv, u_has_t;\n"                                       \
     "uniform vec4 u_base;\n"                                                                                   \
@@ -30,14 +30,10 @@
     "vec2 txf(int k, vec2 uv) {\n"                                                                             \
     "  return u_txo[k] + vec2(u_txm[k].x * uv.x + u_txm[k].y * uv.y, u_txm[k].z * uv.x + u_txm[k].w * uv.y);\n" \
     "}\n"                                                                                                      \
-    "float perez(int c, float ct, float g) {\n"                                                                \
-    "  float cg = cos(g);\n"                                                                                   \
-    "  return (1.0 + u_perez[5 * c] * exp(u_perez[5 * c + 1] / ct)) *\n"                                       \
-    "         (1.0 + u_perez[5 * c + 2] * exp(u_perez[5 * c + 3] * g) + u_perez[5 * c + 4] * cg * cg);\n"     \
-    "}\n"                                                                                                      \
     "vec3 sky_radiance(vec3 d) {\n"                                                                            \
     "  if (u_sky_mode == 0) return u_sky;\n"                                                                   \
-    "  if (u_sky_mode == 2) {\n"                                                                               \
+    /* the environment map or the analytic sky's table, bilinear as vt_sky_radiance */                       \
+    "  {\n"                                                                                                    \
     "    ivec2 sz = textureSize(u_sky_tex, 0);\n"                                                              \
     "    float u = 0.5 + (atan(d.x, -d.z) + u_sky_rot) * (0.5 / PI);\n"                                        \
     "    float v = acos(clamp(d.y, -1.0, 1.0)) * (1.0 / PI);\n"                                                \
@@ -51,18 +47,6 @@
     "    vec3 top = a + ax * (b - a), bot = e + ax * (f - e);\n"                                               \
     "    return (top + ay * (bot - top)) * u_sky;\n"                                                           \
     "  }\n"                                                                                                    \
-    "  float dy = max(d.y, 0.01);\n"                                                                           \
-    "  float cg = d.x * u_sun_dir.x + dy * u_sun_dir.y + d.z * u_sun_dir.z;\n"                                 \
-    "  float g = acos(clamp(cg, -1.0, 1.0));\n"                                                                \
-    "  float Y = u_zenith.x * perez(0, dy, g) * u_inv_f0.x;\n"                                                 \
-    "  float x = u_zenith.y * perez(1, dy, g) * u_inv_f0.y;\n"                                                 \
-    "  float y = u_zenith.z * perez(2, dy, g) * u_inv_f0.z;\n"                                                 \
-    "  if (!(y > 1e-4) || !(Y > 0.0)) return vec3(0.0);\n"                                                     \
-    "  float X = x / y * Y, Z = (1.0 - x - y) / y * Y;\n"                                                      \
-    "  float sy = u_sun_dir.y, fade = sy >= 0.0 ? 1.0 : sy <= -0.1 ? 0.001 : 0.001 + 0.999 * (1.0 + sy * 10.0);\n" \
-    "  vec3 rgb = vec3(3.2406 * X - 1.5372 * Y - 0.4986 * Z, -0.9689 * X + 1.8758 * Y + 0.0415 * Z,\n"         \
-    "                  0.0557 * X - 0.2040 * Y + 1.0570 * Z);\n"                                               \
-    "  return max(rgb, vec3(0.0)) * fade * u_sky;\n"                                                           \
     "}\n"                                                                                                      \
     "vec3 fog_apply(vec3 p, vec3 c) {\n"                                                                       \
     "  if (u_env_on == 0 || !(u_fog_density > 0.0)) return c;\n"                                              \
@@ -80,11 +64,12 @@
     "  if ((u_tex_on & 1) != 0 && u_has_uv != 0) a *= texture(u_tex0, txf(0, uv)).a;\n"                        \
     "  return a;\n"                                                                                            \
     "}\n"                                                                                                      \
-    /* vt_surface_shade: out diffuse, c (ambient + sun + emissive), n */                                       \
-    "vec3 surface(vec3 p, inout vec3 n, vec4 t, vec2 uv, vec3 albedo, out vec3 diffuse) {\n"                   \
+    /* vt_surface_params: the material at a point (n normalised and mapped) */                                \
+    "void params(inout vec3 n, vec4 t, vec2 uv, vec3 albedo, out vec3 diffuse, out vec3 f0, out vec3 em,\n"     \
+    "            out float s, out float g2) {\n"                                                                \
     "  vec4 base = u_mat_on != 0 ? u_base : vec4(albedo, 1.0);\n"                                              \
     "  float metal = u_mat_on != 0 ? u_mr.x : 0.0, rough = u_mat_on != 0 ? u_mr.y : 0.6;\n"                    \
-    "  vec3 em = u_mat_on != 0 ? u_em : vec3(0.0);\n"                                                          \
+    "  em = u_mat_on != 0 ? u_em : vec3(0.0);\n"                                                               \
     "  float nl = length(n);\n"                                                                                \
     "  n = nl > 0.0 ? n / nl : vec3(0.0);\n"                                                                   \
     "  if (u_mat_on != 0 && u_has_uv != 0) {\n"                                                                \
@@ -92,8 +77,8 @@
     "    if ((u_tex_on & 2) != 0) { vec4 m = texture(u_tex1, txf(1, uv)); rough *= m.g; metal *= m.b; }\n"     \
     "    if ((u_tex_on & 8) != 0) em *= texture(u_tex3, txf(3, uv)).rgb;\n"                                    \
     "    if ((u_tex_on & 4) != 0 && u_has_t != 0) {\n"                                                         \
-    "      vec4 s = texture(u_tex2, txf(2, uv));\n"                                                            \
-    "      vec3 tn = vec3((2.0 * s.r - 1.0) * u_nscale, (2.0 * s.g - 1.0) * u_nscale, 2.0 * s.b - 1.0);\n"    \
+    "      vec4 sm = texture(u_tex2, txf(2, uv));\n"                                                           \
+    "      vec3 tn = vec3((2.0 * sm.r - 1.0) * u_nscale, (2.0 * sm.g - 1.0) * u_nscale, 2.0 * sm.b - 1.0);\n" \
     "      vec3 T = t.xyz - dot(t.xyz, n) * n;\n"                                                              \
     "      float tl = length(T);\n"                                                                            \
     "      T = tl > 0.0 ? T / tl : vec3(0.0);\n"                                                               \
@@ -104,25 +89,31 @@
     "    }\n"                                                                                                  \
     "  }\n"                                                                                                    \
     "  diffuse = base.rgb * (1.0 - metal);\n"                                                                  \
-    "  vec3 f0 = 0.04 + (base.rgb - 0.04) * metal;\n"                                                          \
+    "  f0 = 0.04 + (base.rgb - 0.04) * metal;\n"                                                               \
+    "  float a = rough * rough, a2 = max(a * a, 1e-3);\n"                                                      \
+    "  s = 2.0 / a2 - 2.0;\n"                                                                                  \
+    "  g2 = (1.0 - rough) * (1.0 - rough);\n"                                                                  \
+    "}\n"                                                                                                      \
+    /* vt_shade.inl's env_light: the sky's ambient and the sun */                                             \
+    "vec3 env_light(vec3 p, vec3 n, vec3 diffuse, vec3 f0, vec3 em, float s, float g2) {\n"                    \
     "  if (u_env_on == 0) return " STR(VT_AMBIENT) " * diffuse + em;\n"                                        \
-    "  vec3 v = normalize(-p);\n"                                                                              \
-    "  float nv = dot(n, v);\n"                                                                                \
-    "  vec3 r = 2.0 * nv * n - v;\n"                                                                           \
-    "  float ka = 0.5 + 0.5 * n.y, kr = 0.5 + 0.5 * clamp(r.y, -1.0, 1.0);\n"                                  \
-    "  float fv = 1.0 - max(nv, 0.0), fv5 = fv * fv * fv * fv * fv, gloss = 1.0 - rough;\n"                   \
-    "  vec3 la = u_amb_down + ka * (u_amb_up - u_amb_down), lr = u_amb_down + kr * (u_amb_up - u_amb_down);\n" \
-    "  vec3 fr = f0 + (1.0 - f0) * fv5 * gloss * gloss;\n"                                                     \
-    "  vec3 c = diffuse * la + fr * lr + em;\n"                                                                \
+    "  float pl = length(p);\n"                                                                                \
+    "  vec3 v = pl > 0.0 ? -p / pl : vec3(0.0);\n"                                                             \
+    "  float nv = dot(n, v), ry = 2.0 * nv * n.y - v.y;\n"                                                     \
+    "  float ka = 0.5 * n.y + 0.5, kr = 0.5 * clamp(ry, -1.0, 1.0) + 0.5;\n"                                   \
+    "  float fv = 1.0 - max(nv, 0.0), fv2 = fv * fv, wf = fv2 * fv2 * fv * g2;\n"                              \
+    "  vec3 d = u_amb_up - u_amb_down, la = ka * d + u_amb_down, lr = kr * d + u_amb_down;\n"                   \
+    "  vec3 fr = (1.0 - f0) * wf + f0;\n"                                                                      \
+    "  vec3 c = diffuse * la + (fr * lr + em);\n"                                                              \
     "  if (u_sun_on == 0) return c;\n"                                                                         \
     "  float ndl = dot(n, u_sun_dir);\n"                                                                       \
-    "  if (ndl <= 0.0) return c;\n"                                                                            \
-    "  vec3 h = normalize(u_sun_dir + v);\n"                                                                   \
-    "  float a = rough * rough, a2 = max(a * a, 1e-3), s = 2.0 / a2 - 2.0;\n"                                  \
-    "  float ndh = max(dot(n, h), 0.0), vh = max(dot(v, h), 0.0);\n"                                           \
-    "  float lobe = (s + 8.0) / (8.0 * PI) * pow(ndh, s), f5 = pow(1.0 - vh, 5.0);\n"                          \
-    "  vec3 F = f0 + (1.0 - f0) * f5;\n"                                                                       \
-    "  return c + u_sun * ndl * (diffuse / PI + F * lobe);\n"                                                  \
+    "  vec3 h = u_sun_dir + v;\n"                                                                              \
+    "  float hl2 = dot(h, h), ih = hl2 > 0.0 ? 1.0 / sqrt(hl2) : 0.0;\n"                                       \
+    "  float ndh = max(dot(n, h) * ih, 0.0), vh = max(dot(v, h) * ih, 0.0);\n"                                 \
+    "  float lobe = (s + 8.0) * (1.0 / (8.0 * PI)) * (ndh / max(s - s * ndh + ndh, 1e-6));\n"                  \
+    "  float f1 = 1.0 - vh, f2 = f1 * f1, f5 = f2 * f2 * f1;\n"                                                \
+    "  vec3 F = (1.0 - f0) * f5 + f0;\n"                                                                       \
+    "  return c + u_sun * max(ndl, 0.0) * (F * lobe + diffuse * (1.0 / PI));\n"                                \
     "}\n"
 
 const char *const vt_gldraw_vs =
@@ -244,9 +235,11 @@ const char *const vt_gldraw_fs =
     "    albedo *= k;\n"
     "  } else if (u_two_sided != 0 && !gl_FrontFacing) nv = -nv;\n"
     "  if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, v_near); return; }\n"
-    "  vec3 n = nv, diffuse;\n"
-    "  vec3 c = surface(v_p, n, v_t, v_uv, albedo, diffuse);\n"
-    "  if (u_mat_on != 0) { c *= k; diffuse *= k; }\n"
+    "  vec3 n = nv, diffuse, f0, em;\n"
+    "  float se, g2;\n"
+    "  params(n, v_t, v_uv, albedo, diffuse, f0, em, se, g2);\n"
+    "  if (u_mat_on != 0) { diffuse *= k; f0 *= k; em *= k; }\n"
+    "  vec3 c = env_light(v_p, n, diffuse, f0, em, se, g2);\n"
     "  vec3 vd = normalize(-v_p);\n"
     "  ivec2 tp = ivec2(gl_FragCoord.xy) / 16;\n"
     "  int t = tp.y * u_tiles_x + tp.x;\n"
@@ -317,8 +310,10 @@ const char *const vt_gldraw_bg_fs =
     "  if (ground(ndc, q, near, depth)) {\n"
     "    gl_FragDepth = depth;\n"
     "    if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, near); return; }\n"
-    "    vec3 n = vec3(0.0, 1.0, 0.0), diffuse;\n"
-    "    vec3 c = surface(q, n, vec4(0.0), u_ground_uv0 + q.xz, u_ground_albedo, diffuse);\n"
+    "    vec3 n = vec3(0.0, 1.0, 0.0), diffuse, f0, em;\n"
+    "    float se, g2;\n"
+    "    params(n, vec4(0.0), u_ground_uv0 + q.xz, u_ground_albedo, diffuse, f0, em, se, g2);\n"
+    "    vec3 c = env_light(q, n, diffuse, f0, em, se, g2);\n"
     "    o_color = vec4(fog_apply(q, c), near);\n"
     "    return;\n"
     "  }\n"

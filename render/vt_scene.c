@@ -2,10 +2,10 @@
  * vt_scene.c — the scene model's checks and shared shading (vt_scene.h,
  * vt_surface.h): textures sampled as OpenGL samples them (wrap, nearest
  * or bilinear, mip levels from the UV derivatives, sRGB decoded before
- * filtering), glTF metallic-roughness lit by the sun (Lambert plus a
- * normalised Blinn-Phong lobe from the roughness, Schlick Fresnel) and a
- * two-colour sky ambient, Preetham's analytic clear sky, height fog and
- * exposure. vt_gldraw.c's shader is the same formulas in GLSL.
+ * filtering), glTF metallic-roughness evaluated per pixel (the kernels
+ * of vt_shade.inl light it), Preetham's analytic clear sky, the ground
+ * plane, height fog and exposure. vt_gldraw_glsl.c is the same formulas
+ * in GLSL.
  *
  * Cost: per shaded pixel a textured material samples up to 4 slots (8
  * texels each, trilinear); the sky costs three Perez evaluations per sky
@@ -299,9 +299,9 @@ void vt_sky_radiance(const vt_penv *pe, const float d[3], float out[3])
         memcpy(out, pe->sky, 3 * sizeof *out);
         return;
     }
-    if (pe->sky_mode == VT_SKY_TEXTURE) {
+    if (pe->sky_img) {
         /* equirectangular: u from the azimuth (0.5 towards -Z), v 0 at the zenith */
-        const vt_texture *t = pe->sky_tex;
+        const vt_texture *t = pe->sky_img;
         float u = 0.5f + (atan2f(d[0], -d[2]) + pe->sky_rot) * (0.5f / PI_F);
         float v = acosf(d[1] < -1 ? -1 : d[1] > 1 ? 1 : d[1]) * (1 / PI_F);
         u -= floorf(u);
@@ -315,7 +315,7 @@ void vt_sky_radiance(const vt_penv *pe, const float d[3], float out[3])
             float e = t->hdr[4 * ((size_t)j1 * w + i0) + c], f = t->hdr[4 * ((size_t)j1 * w + i1) + c];
             float top = a + ax * (b - a), bot = e + ax * (f - e);
             float s = top + ay * (bot - top);
-            out[c] = (isfinite(s) ? s : 0) * pe->sky[c];
+            out[c] = (isfinite(s) ? s : 0) * pe->sky_mul[c];
         }
         return;
     }
@@ -338,7 +338,7 @@ void vt_sky_radiance(const vt_penv *pe, const float d[3], float out[3])
     for (int c = 0; c < 3; c++) out[c] = (rgb[c] > 0 ? rgb[c] : 0) * fade * pe->sky[c];
 }
 
-void vt_penv_make(const vt_env *env, const double origin[3], vt_penv *pe)
+void vt_penv_make(const vt_env *env, const double origin[3], vt_skytab *tab, vt_penv *pe)
 {
     memset(pe, 0, sizeof *pe);
     if (!env) return;
@@ -353,8 +353,11 @@ void vt_penv_make(const vt_env *env, const double origin[3], vt_penv *pe)
         pe->ground_albedo[k] = env->ground_albedo[k];
     }
     pe->sky_mode = env->sky_mode;
-    pe->sky_tex = env->sky_tex;
-    pe->sky_rot = env->sky_rotation;
+    if (pe->sky_mode == VT_SKY_TEXTURE) {
+        pe->sky_img = env->sky_tex;
+        pe->sky_rot = env->sky_rotation;
+        memcpy(pe->sky_mul, pe->sky, sizeof pe->sky_mul);
+    }
     if (pe->sky_mode == VT_SKY_ANALYTIC) {
         pe->theta_s = acosf(pe->sun_dir[1] < -1 ? -1 : pe->sun_dir[1] > 1 ? 1 : pe->sun_dir[1]);
         preetham_make(pe, env->turbidity);
@@ -385,6 +388,27 @@ void vt_penv_make(const vt_env *env, const double origin[3], vt_penv *pe)
         }
     }
     float sun_y = pe->sun_dir[1] > 0 ? pe->sun_dir[1] : 0;
+    float key[7] = {pe->sun_dir[0], pe->sun_dir[1], pe->sun_dir[2], env->turbidity, pe->sky[0], pe->sky[1], pe->sky[2]};
+    if (pe->sky_mode == VT_SKY_ANALYTIC && tab && !(tab->ok && !memcmp(key, tab->key, sizeof key))) {
+        memcpy(tab->key, key, sizeof key);
+        tab->ok = true;
+        /* the table: texel centres of the equirectangular layout */
+        for (uint32_t j = 0; j < VT_SKY_TAB_H; j++) {
+            float th = (j + 0.5f) * (PI_F / VT_SKY_TAB_H), st = sinf(th), ct = cosf(th);
+            for (uint32_t i = 0; i < VT_SKY_TAB_W; i++) {
+                float ph = ((i + 0.5f) / VT_SKY_TAB_W - 0.5f) * 2 * PI_F;
+                float d[3] = {st * sinf(ph), ct, -st * cosf(ph)};
+                float *o = tab->t + 4 * ((size_t)j * VT_SKY_TAB_W + i);
+                vt_sky_radiance(pe, d, o);
+                o[3] = 1;
+            }
+        }
+    }
+    if (pe->sky_mode == VT_SKY_ANALYTIC && tab) {
+        pe->sky_tab = (vt_texture){.w = VT_SKY_TAB_W, .h = VT_SKY_TAB_H, .levels = 1, .hdr = tab->t};
+        pe->sky_img = &pe->sky_tab;
+        pe->sky_mul[0] = pe->sky_mul[1] = pe->sky_mul[2] = 1;
+    }
     for (int c = 0; c < 3; c++) {
         pe->amb_up[c] = up[c] / wsum;
         pe->amb_down[c] = env->ground ? env->ground_albedo[c] * (pe->sun[c] * sun_y / PI_F + pe->amb_up[c]) : hor[c];
@@ -394,7 +418,7 @@ void vt_penv_make(const vt_env *env, const double origin[3], vt_penv *pe)
 
 /* ---- surfaces ------------------------------------------------------------------------ */
 
-static void normalize3(float v[3])
+static inline void normalize3(float v[3])
 {
     float l = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     float il = l > 0 ? 1 / l : 0;
@@ -403,7 +427,7 @@ static void normalize3(float v[3])
     v[2] *= il;
 }
 
-static float dot3f(const float a[3], const float b[3])
+static inline float dot3f(const float a[3], const float b[3])
 {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
@@ -419,20 +443,32 @@ float vt_surface_alpha(const vt_material *m, const float uv[2], const float dx[2
     return a;
 }
 
-void vt_surface_shade(const vt_penv *pe, const vt_surfin *in, vt_surfout *out)
+void vt_surface_params(const vt_surfin *in, vt_surfout *out)
 {
-    vt_material dm;
     const vt_material *m = in->mat;
     if (!m) {
-        vt_material_default(in->albedo, &dm);
-        m = &dm;
+        /* the default material (vt_material_default), without making one:
+           most pixels of most frames */
+        float n[3] = {in->n[0], in->n[1], in->n[2]};
+        normalize3(n);
+        const float a = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS, a2 = a * a;
+        for (int c = 0; c < 3; c++) {
+            out->n[c] = n[c];
+            out->diffuse[c] = in->albedo[c];
+            out->f0[c] = 0.04f;
+            out->em[c] = 0;
+        }
+        out->s = 2 / a2 - 2;
+        out->g2 = (1 - VT_DEFAULT_ROUGHNESS) * (1 - VT_DEFAULT_ROUGHNESS);
+        out->alpha = 1;
+        return;
     }
     float base[4] = {m->base[0], m->base[1], m->base[2], m->base[3]};
-    float metal = m->metallic, rough = m->roughness, em[3];
-    for (int c = 0; c < 3; c++) em[c] = m->emissive[c] * m->emissive_strength;
+    float metal = m->metallic, rough = m->roughness;
+    for (int c = 0; c < 3; c++) out->em[c] = m->emissive[c] * m->emissive_strength;
     float n[3] = {in->n[0], in->n[1], in->n[2]};
     normalize3(n);
-    if (in->has_uv) {
+    if (in->has_uv && in->mat) {
         float t[4];
         if (m->tex[VT_SLOT_BASE].tex) {
             vt_tex_sample(&m->tex[VT_SLOT_BASE], in->uv, in->dx, in->dy, true, t);
@@ -445,7 +481,7 @@ void vt_surface_shade(const vt_penv *pe, const vt_surfin *in, vt_surfout *out)
         }
         if (m->tex[VT_SLOT_EMISSIVE].tex) {
             vt_tex_sample(&m->tex[VT_SLOT_EMISSIVE], in->uv, in->dx, in->dy, true, t);
-            for (int c = 0; c < 3; c++) em[c] *= t[c];
+            for (int c = 0; c < 3; c++) out->em[c] *= t[c];
         }
         if (m->tex[VT_SLOT_NORMAL].tex && in->has_t) {
             /* tangent space: T, B = w (N x T), N; xy scaled */
@@ -465,62 +501,38 @@ void vt_surface_shade(const vt_penv *pe, const vt_surfin *in, vt_surfout *out)
     }
     memcpy(out->n, n, sizeof n);
     out->alpha = base[3];
-    float f0[3];
     for (int c = 0; c < 3; c++) {
         out->diffuse[c] = base[c] * (1 - metal);
-        f0[c] = 0.04f + (base[c] - 0.04f) * metal;
+        out->f0[c] = 0.04f + (base[c] - 0.04f) * metal;
     }
-    if (!pe->on) {
-        for (int c = 0; c < 3; c++) out->c[c] = VT_AMBIENT * out->diffuse[c] + em[c];
-        return;
-    }
-    /* the sky's ambient: from above and below, by the normal's height;
-       its specular share by the reflected direction's */
-    float v[3] = {-in->p[0], -in->p[1], -in->p[2]};
-    normalize3(v);
-    float nv = dot3f(n, v), r[3];
-    for (int c = 0; c < 3; c++) r[c] = 2 * nv * n[c] - v[c];
-    float ka = 0.5f + 0.5f * n[1], kr = 0.5f + 0.5f * (r[1] < -1 ? -1 : r[1] > 1 ? 1 : r[1]);
-    float fv = 1 - (nv > 0 ? nv : 0), fv5 = fv * fv * fv * fv * fv;
-    float gloss = 1 - rough;
-    for (int c = 0; c < 3; c++) {
-        float la = pe->amb_down[c] + ka * (pe->amb_up[c] - pe->amb_down[c]);
-        float lr = pe->amb_down[c] + kr * (pe->amb_up[c] - pe->amb_down[c]);
-        float fr = f0[c] + (1 - f0[c]) * fv5 * gloss * gloss;
-        out->c[c] = out->diffuse[c] * la + fr * lr + em[c];
-    }
-    if (!pe->sun_on) return;
-    float ndl = dot3f(n, pe->sun_dir);
-    if (ndl <= 0) return;
-    /* normalised Blinn-Phong with the exponent of roughness^2 (the GGX
-       alpha), Schlick's Fresnel on v.h */
-    float h[3] = {pe->sun_dir[0] + v[0], pe->sun_dir[1] + v[1], pe->sun_dir[2] + v[2]};
-    normalize3(h);
     float a = rough * rough, a2 = a * a > 1e-3f ? a * a : 1e-3f;
-    float s = 2 / a2 - 2, ndh = dot3f(n, h), vh = dot3f(v, h);
-    ndh = ndh > 0 ? ndh : 0;
-    vh = vh > 0 ? vh : 0;
-    float lobe = (s + 8) / (8 * PI_F) * powf(ndh, s), f5 = (1 - vh) * (1 - vh) * (1 - vh) * (1 - vh) * (1 - vh);
-    for (int c = 0; c < 3; c++) {
-        float F = f0[c] + (1 - f0[c]) * f5;
-        out->c[c] += pe->sun[c] * ndl * (out->diffuse[c] / PI_F + F * lobe);
-    }
+    out->s = 2 / a2 - 2;
+    out->g2 = (1 - rough) * (1 - rough);
 }
 
 /* ---- rays: the ground, the sky's direction, fog ------------------------------------- */
 
-void vt_view_dir(const cull_view_rows *vr, double X, double Y, float d[3])
+void vt_view_dir_row(const cull_view_rows *vr, double Y, float c0[3], float c1[3])
 {
-    double a[3], b[3];
+    /* the ray: (x - X w) . q = 0 and (y - Y w) . q = 0, its direction the
+       cross product of the two rows' xyz: linear in X; turned to point
+       into the frustum (the near plane's normal) */
+    double b[3], x[3], w[3];
     for (int k = 0; k < 3; k++) {
-        a[k] = vr->x[k] - X * vr->w[k];
         b[k] = vr->y[k] - Y * vr->w[k];
+        x[k] = vr->x[k];
+        w[k] = -vr->w[k];
     }
-    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-    double f = c[0] * vr->nearfn[0] + c[1] * vr->nearfn[1] + c[2] * vr->nearfn[2];
-    double l = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-    double s = l > 0 ? (f < 0 ? -1 : 1) / l : 0;
-    for (int k = 0; k < 3; k++) d[k] = (float)(c[k] * s);
+    double p[3] = {x[1] * b[2] - x[2] * b[1], x[2] * b[0] - x[0] * b[2], x[0] * b[1] - x[1] * b[0]};
+    double q[3] = {w[1] * b[2] - w[2] * b[1], w[2] * b[0] - w[0] * b[2], w[0] * b[1] - w[1] * b[0]};
+    /* the sign at the view's centre column (X = 0) decides: the ray
+       never turns within a view */
+    double f = p[0] * vr->nearfn[0] + p[1] * vr->nearfn[1] + p[2] * vr->nearfn[2];
+    double s = f < 0 ? -1 : 1;
+    for (int k = 0; k < 3; k++) {
+        c0[k] = (float)(p[k] * s);
+        c1[k] = (float)(q[k] * s);
+    }
 }
 
 bool vt_ground_hit(const vt_penv *pe, const cull_view_rows *vr, int depth_mode, double X, double Y, double q[3],
@@ -555,6 +567,80 @@ bool vt_ground_hit(const vt_penv *pe, const cull_view_rows *vr, int depth_mode, 
     double d = vr->d[0] * q[0] + vr->d[1] * q[1] + vr->d[2] * q[2] + vr->d[3];
     *near = d / c[3];
     return isfinite(*near) && isfinite(q[0]) && isfinite(q[2]);
+}
+
+/* Inverts the 4x4 m (rows) into o; false if singular. Gauss-Jordan with
+ * partial pivoting, in double. */
+static bool inv4(const double m[4][4], double o[4][4])
+{
+    double a[4][8];
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 8; c++) a[r][c] = c < 4 ? m[r][c] : (c - 4 == r);
+    for (int c = 0; c < 4; c++) {
+        int p = c;
+        for (int r = c + 1; r < 4; r++)
+            if (fabs(a[r][c]) > fabs(a[p][c])) p = r;
+        if (!(fabs(a[p][c]) > 1e-300)) return false;
+        for (int k = 0; k < 8; k++) {
+            double t = a[c][k];
+            a[c][k] = a[p][k];
+            a[p][k] = t;
+        }
+        double iv = 1 / a[c][c];
+        for (int k = 0; k < 8; k++) a[c][k] *= iv;
+        for (int r = 0; r < 4; r++) {
+            if (r == c) continue;
+            double f = a[r][c];
+            for (int k = 0; k < 8; k++) a[r][k] -= f * a[c][k];
+        }
+    }
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++) o[r][c] = a[r][4 + c];
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++)
+            if (!isfinite(o[r][c])) return false;
+    return true;
+}
+
+void vt_ground_make(const vt_penv *pe, const cull_view_rows *vr, int depth_mode, vt_ground *g)
+{
+    memset(g, 0, sizeof *g);
+    if (!pe->ground) return;
+    /* R maps (q, 1) to (x, y, d, w); a function f . (q, 1) is
+       (f R^-1) . (x, y, d, w), and over w: . (X, Y, N, 1) */
+    double R[4][4], Ri[4][4];
+    memcpy(R[0], vr->x, sizeof R[0]);
+    memcpy(R[1], vr->y, sizeof R[1]);
+    memcpy(R[2], vr->d, sizeof R[2]);
+    memcpy(R[3], vr->w, sizeof R[3]);
+    if (!inv4(R, Ri)) return;
+    double far_row[4];
+    for (int k = 0; k < 4; k++) far_row[k] = depth_mode == CULL_DEPTH_REVERSED ? vr->z[k] : vr->w[k] - vr->z[k];
+    const double plane[4] = {0, 1, 0, -(double)pe->ground_y};
+    const double *rows[3] = {plane, vr->nearfn, far_row};
+    double co[3][4];
+    for (int f = 0; f < 3; f++)
+        for (int c = 0; c < 4; c++) {
+            co[f][c] = 0;
+            for (int k = 0; k < 4; k++) co[f][c] += rows[f][k] * Ri[k][c];
+        }
+    /* on the plane: co0 . (X, Y, N, 1) = 0, solved for N */
+    if (!(fabs(co[0][2]) > 1e-300)) return;
+    g->n[0] = -co[0][0] / co[0][2];
+    g->n[1] = -co[0][1] / co[0][2];
+    g->n[2] = -co[0][3] / co[0][2];
+    for (int k = 0; k < 2; k++) memcpy(g->lim[k], co[k + 1], sizeof g->lim[k]);
+    memcpy(g->inv, Ri, sizeof Ri);
+    g->persp = !vr->ortho;
+    g->on = isfinite(g->n[0]) && isfinite(g->n[1]) && isfinite(g->n[2]);
+}
+
+void vt_ground_point(const vt_ground *g, double X, double Y, double N, double q[3])
+{
+    double h[4];
+    for (int r = 0; r < 4; r++) h[r] = g->inv[r][0] * X + g->inv[r][1] * Y + g->inv[r][2] * N + g->inv[r][3];
+    double iw = h[3] != 0 ? 1 / h[3] : 0;
+    for (int k = 0; k < 3; k++) q[k] = h[k] * iw;
 }
 
 void vt_fog_apply(const vt_penv *pe, const float p[3], float c[3])

@@ -95,21 +95,23 @@ typedef struct vt_span {
     vt_depth_rule rule;         /* nearness to output depth */
     float *rgba, *depth;        /* the span's first pixel in the outputs */
     const vt_penv *pe;          /* the environment (pe->on false: none) */
-    const cull_view_rows *vr;   /* the view's rows (rays for the sky and the ground) */
-    int depth_mode;
+    const cull_view_rows *vr;   /* the view's rows (rays for the sky) */
+    const vt_ground *gr;        /* the ground plane */
     double inv_h;               /* 2 / height: one row in NDC */
 } vt_span;
 
-/* The surface a pixel shows (a triangle's record, or the ground plane)
- * shaded by the material, sun and ambient: what the kernels gather per
- * pixel before the point lights. cov: 0 nothing drawn there, else 1.
- * p: camera-relative position. */
+/* The surface a pixel shows (a triangle's record, or the ground plane),
+ * its material evaluated: what the kernels gather per pixel before they
+ * light it. cov: 0 nothing drawn there, else 1. p: camera-relative
+ * position. */
 void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, float *cov);
 /* Whether a MASK material's triangle keeps the pixel at NDC (X, Y) (the
  * base alpha >= the cutoff; dX, dY one pixel in NDC). */
 bool vt_stri_alpha_pass(const vt_stri *t, float X, float Y, float dX, float dY);
-/* After the lights: fog over drawn pixels, the sky where nothing is. */
-void vt_span_finish(const vt_span *sp, uint32_t i, const float p[3], float c[3], float cov);
+/* After the lights, over the span's pixels: fog over drawn ones
+ * (positions p*, radiance c*, changed in place), the sky where cov is 0. */
+void vt_span_finish(const vt_span *sp, const float *px, const float *py, const float *pz, float *cr, float *cg,
+                    float *cb, const float *cov);
 
 typedef void (*vt_shade_fn)(const vt_span *s);
 /* vt_tile_ranges for one row of tiles of a packed nearness image. */

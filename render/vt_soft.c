@@ -104,6 +104,7 @@ struct vt_soft {
     uint32_t *mk_of;        /* per instance: mask + 1 */
     size_t mk_of_cap;
     vt_kern k;              /* the kernels for this CPU */
+    vt_skytab sky;          /* the analytic sky's table */
 };
 
 static uint64_t now_ns(void)
@@ -157,6 +158,7 @@ typedef struct frame {
     cull_view_rows vr;
     uint32_t w, h;
     vt_penv pe;             /* the environment, prepared */
+    vt_ground gr;           /* its ground plane in screen space */
     const vt_mask *mk;      /* the damaged instances' masks */
     const uint32_t *mk_of;  /* per instance: its mask + 1, 0 intact; NULL: none damaged */
 } frame;
@@ -609,17 +611,17 @@ static void job_raster(void *arg, uint32_t t)
             uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
             for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
         }
-    /* the ground plane, depth-tested against the triangles: its ray hit
-       per pixel (vt_ground_hit, double) */
-    if (fr->pe.ground)
+    /* the ground plane, depth-tested against the triangles: its nearness
+       plane per pixel (vt_ground_at, double) */
+    if (fr->gr.on)
         for (uint32_t tr = t; tr < trows; tr += nt) {
             uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
             for (uint32_t y = tr * TILE; y < y1; y++) {
                 float *nrow = r->near + (size_t)y * fr->w;
                 uint32_t *irow = r->id + (size_t)y * fr->w;
-                double Y = ndc_y(fr, y), inv_w = 2.0 / fr->w, q[3], nz;
+                double Y = ndc_y(fr, y), inv_w = 2.0 / fr->w, nz;
                 for (uint32_t x = 0; x < fr->w; x++) {
-                    if (!vt_ground_hit(&fr->pe, &fr->vr, (int)fr->v->depth_mode, vt_ndc_x(x, inv_w), Y, q, &nz)) continue;
+                    if (!vt_ground_at(&fr->gr, vt_ndc_x(x, inv_w), Y, &nz)) continue;
                     float z = (float)nz;
                     if (z > nrow[x]) {
                         nrow[x] = z;
@@ -651,7 +653,7 @@ static void job_shade(void *arg, uint32_t t)
     const stri *st[MAX_THREADS];
     for (uint32_t b = 0; b < jb->nthreads; b++) st[b] = r->tb[b].st;
     vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .rule = vt_depth_rule_of(fr->v, &fr->vr),
-                  .pe = &fr->pe, .vr = &fr->vr, .depth_mode = (int)fr->v->depth_mode, .inv_h = 2.0 / fr->h};
+                  .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
@@ -701,7 +703,8 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     const vt_mesh *meshes = f->meshes;
     const vt_instance *inst = f->inst;
     const vt_light *lights = f->lights;
-    vt_penv_make(f->env, v->origin, &fr.pe);
+    vt_penv_make(f->env, v->origin, &r->sky, &fr.pe);
+    vt_ground_make(&fr.pe, &fr.vr, (int)v->depth_mode, &fr.gr);
     size_t npx = (size_t)width * height;
     if (!vp_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
         !vp_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||

@@ -2,9 +2,9 @@
  * vt_span.c — the per-pixel half of the software renderer's shading (see
  * vt_shade.h), one copy for every instruction set: which surface a pixel
  * shows (a triangle's shading record, perspective-correct, or the ground
- * plane solved per pixel), its UVs with their derivatives one pixel over
- * and one up (the mip level), the material, sun and ambient
- * (vt_surface_shade), and after the point lights, fog or the sky.
+ * plane), its UVs with their derivatives one pixel over and one up (the
+ * mip level), its material (vt_surface_params), and after the lights,
+ * fog or the sky.
  * Scalar: texture fetches and the sky are per pixel anyway.
  */
 #include "vt_mask.h"
@@ -46,7 +46,8 @@ bool vt_stri_alpha_pass(const vt_stri *t, float X, float Y, float dX, float dY)
 static bool ground_uv(const vt_span *sp, double X, double Y, float uv[2])
 {
     double q[3], nz;
-    if (!vt_ground_hit(sp->pe, sp->vr, sp->depth_mode, X, Y, q, &nz)) return false;
+    if (!vt_ground_at(sp->gr, X, Y, &nz)) return false;
+    vt_ground_point(sp->gr, X, Y, nz, q);
     uv[0] = (float)(sp->pe->ground_uv0[0] + q[0]);
     uv[1] = (float)(sp->pe->ground_uv0[1] + q[2]);
     return true;
@@ -67,7 +68,8 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
     if (id == VT_ID_GROUND) {
         double q[3], nz;
         const vt_penv *pe = sp->pe;
-        if (!vt_ground_hit(pe, sp->vr, sp->depth_mode, X, sp->Y, q, &nz)) q[0] = q[1] = q[2] = 0; /* raster hit it */
+        if (vt_ground_at(sp->gr, X, sp->Y, &nz)) vt_ground_point(sp->gr, X, sp->Y, nz, q);
+        else q[0] = q[1] = q[2] = 0; /* the raster found it there */
         for (int k = 0; k < 3; k++) p[k] = in.p[k] = (float)q[k];
         in.n[1] = 1;
         in.albedo = pe->ground_albedo;
@@ -81,7 +83,7 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
                 in.dy[k] = hy ? uy[k] - in.uv[k] : 0;
             }
         }
-        vt_surface_shade(pe, &in, o);
+        vt_surface_params(&in, o);
         return;
     }
     id--;
@@ -106,21 +108,34 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
             for (int c = 0; c < 4; c++) in.t[c] = b[0] * t->tg[0][c] + b[1] * t->tg[1][c] + b[2] * t->tg[2][c];
         }
     }
-    vt_surface_shade(sp->pe, &in, o);
+    vt_surface_params(&in, o);
     if (t->mat && k != 1.0f)
         for (int c = 0; c < 3; c++) {
             o->diffuse[c] *= k;
-            o->c[c] *= k;
+            o->f0[c] *= k;
+            o->em[c] *= k;
         }
 }
 
-void vt_span_finish(const vt_span *sp, uint32_t i, const float p[3], float c[3], float cov)
+void vt_span_finish(const vt_span *sp, const float *px, const float *py, const float *pz, float *cr, float *cg,
+                    float *cb, const float *cov)
 {
-    if (cov > 0) {
-        vt_fog_apply(sp->pe, p, c);
-        return;
+    float c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0};
+    bool row = false;
+    for (uint32_t i = 0; i < sp->n; i++) {
+        float c[3] = {cr[i], cg[i], cb[i]};
+        if (cov[i] > 0) {
+            const float p[3] = {px[i], py[i], pz[i]};
+            vt_fog_apply(sp->pe, p, c);
+        } else {
+            if (!row) vt_view_dir_row(sp->vr, sp->Y, c0, c1);
+            row = true;
+            float X = vt_ndc_x(sp->x0 + i, sp->inv_w), d[3];
+            for (int k = 0; k < 3; k++) d[k] = c0[k] + X * c1[k];
+            float l = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), il = l > 0 ? 1 / l : 0;
+            for (int k = 0; k < 3; k++) d[k] *= il;
+            vt_sky_radiance(sp->pe, d, c);
+        }
+        cr[i] = c[0], cg[i] = c[1], cb[i] = c[2];
     }
-    float d[3];
-    vt_view_dir(sp->vr, vt_ndc_x(sp->x0 + i, sp->inv_w), sp->Y, d);
-    vt_sky_radiance(sp->pe, d, c);
 }
