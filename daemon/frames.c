@@ -116,7 +116,7 @@ static vt_frame frame_of(const cull_view *v, const frame_in *fi, float *rgba, fl
 {
     return (vt_frame){.view = v, .width = v->viewport_w, .height = v->viewport_h, .meshes = fi->meshes,
                       .nmesh = fi->nmesh, .inst = fi->inst, .ninst = fi->ninst, .lights = fi->lights, .nl = fi->nl,
-                      .env = fi->fs.env_ok && !getenv("XNOENV") ? &fi->fs.env : NULL, .rgba = rgba, .depth = depth,
+                      .env = fi->fs.env_ok ? &fi->fs.env : NULL, .rgba = rgba, .depth = depth,
                       .stride = v->viewport_w};
 }
 

@@ -53,6 +53,22 @@ static bool ground_uv(const vt_span *sp, double X, double Y, float uv[2])
     return true;
 }
 
+/* vt_surface_params of the default material (no texture, no map). */
+static inline void default_params(const float n[3], const float albedo[3], vt_surfout *o)
+{
+    float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), il = l > 0 ? 1 / l : 0;
+    const float a = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS, a2 = a * a;
+    for (int c = 0; c < 3; c++) {
+        o->n[c] = n[c] * il;
+        o->diffuse[c] = albedo[c];
+        o->f0[c] = 0.04f;
+        o->em[c] = 0;
+    }
+    o->s = 2 / a2 - 2;
+    o->g2 = (1 - VT_DEFAULT_ROUGHNESS) * (1 - VT_DEFAULT_ROUGHNESS);
+    o->alpha = 1;
+}
+
 void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, float *cov)
 {
     uint32_t id = i < sp->n ? sp->id[i] : 0;
@@ -72,6 +88,10 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
         else q[0] = q[1] = q[2] = 0; /* the raster found it there */
         for (int k = 0; k < 3; k++) p[k] = in.p[k] = (float)q[k];
         in.n[1] = 1;
+        if (!pe->ground_mat) {
+            default_params(in.n, pe->ground_albedo, o);
+            return;
+        }
         in.albedo = pe->ground_albedo;
         in.mat = pe->ground_mat;
         if (in.mat && ground_uv(sp, X, sp->Y, in.uv)) {
@@ -98,6 +118,10 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
        only pixels whose mask is >= 0) */
     float k = t->mask ? vt_mask_rim(t->mask, vt_mask_eval(t->mask, p[0], p[1], p[2])) : 1.0f;
     float alb[3] = {t->albedo[0] * k, t->albedo[1] * k, t->albedo[2] * k};
+    if (!t->mat) { /* the default material: vt_surface_params' fast path, inline */
+        default_params(in.n, alb, o);
+        return;
+    }
     in.albedo = alb;
     in.mat = t->mat;
     if (t->has_uv && t->mat) {
