@@ -233,7 +233,7 @@ void vt_tex_sample(const vt_texref *r, const float uv0[2], const float dx0[2], c
     /* GL's scale factor: the longer of the two derivative vectors, in texels */
     float lx = hypotf(dx[0] * (float)t->w, dx[1] * (float)t->h), ly = hypotf(dy[0] * (float)t->w, dy[1] * (float)t->h);
     float rho = lx > ly ? lx : ly;
-    float lod = rho > 0 && isfinite(rho) ? log2f(rho) : rho > 0 ? 64.0f : -64.0f;
+    float lod = rho > 0 && isfinite(rho) ? log2f(rho) : rho > 0 ? 64.0f : -64.0f; /* NaN: -64 */
     uint8_t mf = r->min_filter;
     if (lod <= 0 || mf <= VT_FILTER_LINEAR) {
         bool lin = lod <= 0 ? r->mag_filter == VT_FILTER_LINEAR : mf == VT_FILTER_LINEAR;
@@ -305,6 +305,10 @@ void vt_sky_radiance(const vt_penv *pe, const float d[3], float out[3])
         float u = 0.5f + (atan2f(d[0], -d[2]) + pe->sky_rot) * (0.5f / PI_F);
         float v = acosf(d[1] < -1 ? -1 : d[1] > 1 ? 1 : d[1]) * (1 / PI_F);
         u -= floorf(u);
+        if (!(u >= 0 && u <= 1 && v >= 0 && v <= 1)) { /* a NaN direction (a degenerate view): black */
+            out[0] = out[1] = out[2] = 0;
+            return;
+        }
         float x = u * (float)t->w - 0.5f, y = v * (float)t->h - 0.5f, x0 = floorf(x), y0 = floorf(y);
         float ax = x - x0, ay = y - y0;
         int32_t w = (int32_t)t->w, h = (int32_t)t->h;

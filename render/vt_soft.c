@@ -228,6 +228,19 @@ static void adj_row(const cv *a, const cv *b, double r[3])
     r[2] = a->c[0] * b->c[1] - a->c[1] * b->c[0];
 }
 
+/* m v, normalised into o (0 when it collapses); false if it did. */
+static bool xform_unit(const double m[3][3], const float *v, float o[3])
+{
+    double t[3], l = 0;
+    for (int a = 0; a < 3; a++) {
+        t[a] = m[a][0] * v[0] + m[a][1] * v[1] + m[a][2] * v[2];
+        l += t[a] * t[a];
+    }
+    l = sqrt(l);
+    for (int a = 0; a < 3; a++) o[a] = l > 0 ? (float)(t[a] / l) : 0;
+    return l > 0;
+}
+
 static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const float (*mb)[6],
                  const vt_instance *inst, uint32_t i0, uint32_t i1, char *err, size_t errlen)
 {
@@ -266,29 +279,12 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             x->v.d = dot4(vr->d, q);
             x->out = 0;
             for (int pp = 0; pp < 6; pp++) x->out |= (unsigned)(dot4(cpl[pp], x->v.c) < 0) << pp;
-            /* normals under a scale: by the inverse scale */
-            x->has_n = false;
-            if (m->nrm) {
-                double nn[3], l = 0;
-                const float *mn = m->nrm + 3 * k;
-                for (int a = 0; a < 3; a++) {
-                    nn[a] = pl.n[a][0] * mn[0] + pl.n[a][1] * mn[1] + pl.n[a][2] * mn[2];
-                    l += nn[a] * nn[a];
-                }
-                l = sqrt(l);
-                x->has_n = l > 0;
-                for (int a = 0; a < 3; a++) x->n[a] = x->has_n ? (float)(nn[a] / l) : 0;
-            }
+            /* normals under a scale: by the inverse scale; tangents
+               with the placement */
+            x->has_n = m->nrm && xform_unit(pl.n, m->nrm + 3 * k, x->n);
             if (m->tan && mat) {
-                double tt[3], l = 0;
-                const float *mt = m->tan + 4 * k;
-                for (int a = 0; a < 3; a++) {
-                    tt[a] = pl.m[a][0] * mt[0] + pl.m[a][1] * mt[1] + pl.m[a][2] * mt[2];
-                    l += tt[a] * tt[a];
-                }
-                l = sqrt(l);
-                for (int a = 0; a < 3; a++) x->tg[a] = l > 0 ? (float)(tt[a] / l) : 0;
-                x->tg[3] = (mt[3] < 0) != pl.mirror ? -1.0f : 1.0f;
+                xform_unit(pl.m, m->tan + 4 * k, x->tg);
+                x->tg[3] = (m->tan[4 * k + 3] < 0) != pl.mirror ? -1.0f : 1.0f;
             }
         }
         /* a damaged instance: its front faces first, then its back faces,

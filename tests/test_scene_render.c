@@ -268,6 +268,27 @@ static void check_quad(const quad_case *qc, vt_gldraw *gr)
     tex_free(&to);
 }
 
+/* Both renderers (GL where a context can be made). */
+typedef struct rpair {
+    vt_gl *g;
+    vt_gldraw *gr;
+    vt_soft *sr;
+} rpair;
+static vt_gldraw *gl_or_null(vt_gl **g);
+
+static void rpair_open(rpair *p)
+{
+    p->gr = gl_or_null(&p->g);
+    assert_int_equal(vt_soft_create(NULL, 0, &p->sr), 0);
+}
+
+static void rpair_close(rpair *p)
+{
+    vt_soft_destroy(p->sr);
+    vt_gldraw_destroy(p->gr);
+    vt_gl_close(p->g);
+}
+
 static vt_gldraw *gl_or_null(vt_gl **g)
 {
     char err[512];
@@ -309,10 +330,10 @@ static void test_scene_transformed_silhouettes(void **state)
     (void)state;
     rng r = {test_seed() ^ 0x511u};
     vt_mesh m = {.pos = obox_pos, .idx = obox_idx, .nv = 8, .ni = 24};
-    vt_gl *g;
-    vt_gldraw *gr = gl_or_null(&g);
-    vt_soft *sr;
-    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    rpair rp;
+    rpair_open(&rp);
+    vt_gldraw *gr = rp.gr;
+    vt_soft *sr = rp.sr;
     uint64_t pixels = 0, both = 0, mismatch = 0, depth_bad = 0, gl_mismatch = 0, mirrored = 0;
     for (int fno = 0; fno < 12; fno++) {
         const uint32_t W = 96 + rng_below(&r, 64), H = 64 + rng_below(&r, 64), n = 1 + rng_below(&r, 6);
@@ -395,9 +416,7 @@ static void test_scene_transformed_silhouettes(void **state)
     assert_true(both * 20 > pixels);
     assert_true((mismatch + depth_bad) * 1000 <= pixels);
     assert_true(gl_mismatch * 1000 <= pixels);
-    vt_soft_destroy(sr);
-    vt_gldraw_destroy(gr);
-    vt_gl_close(g);
+    rpair_close(&rp);
 }
 
 /* ---- sky, ground, fog in closed form -------------------------------------------------- */
@@ -405,10 +424,10 @@ static void test_scene_transformed_silhouettes(void **state)
 static void test_scene_sky_ground_fog(void **state)
 {
     (void)state;
-    vt_gl *g;
-    vt_gldraw *gr = gl_or_null(&g);
-    vt_soft *sr;
-    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    rpair rp;
+    rpair_open(&rp);
+    vt_gldraw *gr = rp.gr;
+    vt_soft *sr = rp.sr;
     const uint32_t W = 64, H = 48;
     const double eye[3] = {3, 2.5, 7}, at[3] = {3, 1.5, -3};
     const float L[3] = {500, 800, 1200}, rho[3] = {0.3f, 0.2f, 0.1f};
@@ -481,9 +500,7 @@ static void test_scene_sky_ground_fog(void **state)
             free(c);
             free(d);
         }
-    vt_soft_destroy(sr);
-    vt_gldraw_destroy(gr);
-    vt_gl_close(g);
+    rpair_close(&rp);
 }
 
 /* ---- a small textured scene: the default environment, soft vs GL ---------------------- */
@@ -588,10 +605,10 @@ static void test_scene_default_env(void **state)
     const uint32_t W = 320, H = 200;
     small_scene sc;
     small_scene_make(&sc, W, H);
-    vt_gl *g;
-    vt_gldraw *gr = gl_or_null(&g);
-    vt_soft *sr;
-    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    rpair rp;
+    rpair_open(&rp);
+    vt_gldraw *gr = rp.gr;
+    vt_soft *sr = rp.sr;
     size_t np = (size_t)W * H;
     float *c[2] = {malloc(np * 16), malloc(np * 16)}, *d[2] = {malloc(np * 4), malloc(np * 4)};
     assert_true(c[0] && c[1] && d[0] && d[1]);
@@ -683,9 +700,7 @@ static void test_scene_default_env(void **state)
     free(d[0]);
     free(d[1]);
     tex_free(&sc.tex);
-    vt_soft_destroy(sr);
-    vt_gldraw_destroy(gr);
-    vt_gl_close(g);
+    rpair_close(&rp);
 }
 
 /* ---- bad input ---------------------------------------------------------------------- */
@@ -741,10 +756,8 @@ static const bad_row bad_rows[] = {
 static void test_scene_bad_input(void **state)
 {
     (void)state;
-    vt_gl *g;
-    vt_gldraw *gr = gl_or_null(&g);
-    vt_soft *sr;
-    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    rpair rp;
+    rpair_open(&rp);
     const uint32_t W = 32, H = 24;
     float *c = malloc((size_t)W * H * 16), *d = malloc((size_t)W * H * 4);
     assert_true(c && d);
@@ -754,24 +767,22 @@ static void test_scene_bad_input(void **state)
         vt_frame f = {.view = &sc.v, .width = W, .height = H, .meshes = &sc.mesh, .nmesh = 1, .inst = sc.in,
                       .ninst = 6, .env = &sc.env, .rgba = c, .depth = d, .stride = W};
         char err[256] = "";
-        assert_int_equal(vt_soft_draw(sr, &f, NULL, err, sizeof err), 0); /* the scene is good */
-        if (gr) assert_int_equal(vt_gldraw_draw(gr, &f, NULL, err, sizeof err), 0);
+        assert_int_equal(vt_soft_draw(rp.sr, &f, NULL, err, sizeof err), 0); /* the scene is good */
+        if (rp.gr) assert_int_equal(vt_gldraw_draw(rp.gr, &f, NULL, err, sizeof err), 0);
         bad_rows[i].spoil(&sc);
         memset(c, 0x5a, (size_t)W * H * 16);
         err[0] = 0;
-        assert_int_equal(vt_soft_draw(sr, &f, NULL, err, sizeof err), VT_ERR_INVALID);
+        assert_int_equal(vt_soft_draw(rp.sr, &f, NULL, err, sizeof err), VT_ERR_INVALID);
         print_message("%s: %s\n", bad_rows[i].name, err);
         assert_true(err[0] != 0);
         assert_true(((uint8_t *)c)[0] == 0x5a); /* nothing drawn */
-        if (gr) assert_int_equal(vt_gldraw_draw(gr, &f, NULL, err, sizeof err), VT_ERR_INVALID);
+        if (rp.gr) assert_int_equal(vt_gldraw_draw(rp.gr, &f, NULL, err, sizeof err), VT_ERR_INVALID);
         tex_free(&sc.tex);
         (void)cube24(); /* the shared UVs back */
     }
     free(c);
     free(d);
-    vt_soft_destroy(sr);
-    vt_gldraw_destroy(gr);
-    vt_gl_close(g);
+    rpair_close(&rp);
 }
 
 const struct CMUnitTest scene_render_tests[] = {
