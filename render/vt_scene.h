@@ -95,8 +95,9 @@ typedef struct vt_env {
     float sky_rotation;          /* TEXTURE: radians about +Y, |x| <= 1e3 */
     bool ground;                 /* an infinite plane y = ground_height, facing up */
     double ground_height;        /* |x| <= 1e12 */
-    float ground_albedo[3];      /* 0..1; times the ground material's base colour if one */
-    const vt_material *ground_mat; /* NULL: ground_albedo alone; UVs are world x, z in metres */
+    float ground_albedo[3];      /* 0..1: the ground's colour without a material */
+    const vt_material *ground_mat; /* NULL: ground_albedo; else this material, its UVs world x, z
+                                      in metres (modulo 4096 m at the view's origin) */
     float fog_density;           /* per metre at ground_height (at y = 0 without a ground), 0..1 */
     float fog_falloff;           /* per metre of height, 0..10 (0: uniform) */
     float fog_color[3];          /* times the sky's mean radiance, 0..1e6 */
