@@ -293,6 +293,36 @@ static void preetham_make(vt_penv *pe, float T)
     pe->theta_s = th;
 }
 
+void vt_sky_uv(const vt_penv *pe, const float d[3], float uv[2])
+{
+    /* equirectangular: u from the azimuth (0.5 towards -Z), v 0 at the zenith */
+    float u = 0.5f + (atan2f(d[0], -d[2]) + pe->sky_rot) * (0.5f / PI_F);
+    uv[0] = u - floorf(u);
+    uv[1] = acosf(d[1] < -1 ? -1 : d[1] > 1 ? 1 : d[1]) * (1 / PI_F);
+}
+
+void vt_sky_sample(const vt_penv *pe, const float uv[2], float out[3])
+{
+    const vt_texture *t = pe->sky_img;
+    float u = uv[0], v = uv[1];
+    if (!(u >= 0 && u <= 1 && v >= 0 && v <= 1)) { /* a NaN direction (a degenerate view): black */
+        out[0] = out[1] = out[2] = 0;
+        return;
+    }
+    float x = u * (float)t->w - 0.5f, y = v * (float)t->h - 0.5f, x0 = floorf(x), y0 = floorf(y);
+    float ax = x - x0, ay = y - y0;
+    int32_t w = (int32_t)t->w, h = (int32_t)t->h;
+    int32_t i0 = wrap_i((int32_t)x0, w, VT_WRAP_REPEAT), i1 = wrap_i((int32_t)x0 + 1, w, VT_WRAP_REPEAT);
+    int32_t j0 = wrap_i((int32_t)y0, h, VT_WRAP_CLAMP), j1 = wrap_i((int32_t)y0 + 1, h, VT_WRAP_CLAMP);
+    for (int c = 0; c < 3; c++) {
+        float a = t->hdr[4 * ((size_t)j0 * w + i0) + c], b = t->hdr[4 * ((size_t)j0 * w + i1) + c];
+        float e = t->hdr[4 * ((size_t)j1 * w + i0) + c], f = t->hdr[4 * ((size_t)j1 * w + i1) + c];
+        float top = a + ax * (b - a), bot = e + ax * (f - e);
+        float s = top + ay * (bot - top);
+        out[c] = (isfinite(s) ? s : 0) * pe->sky_mul[c];
+    }
+}
+
 void vt_sky_radiance(const vt_penv *pe, const float d[3], float out[3])
 {
     if (pe->sky_mode == VT_SKY_COLOR) {
@@ -300,27 +330,9 @@ void vt_sky_radiance(const vt_penv *pe, const float d[3], float out[3])
         return;
     }
     if (pe->sky_img) {
-        /* equirectangular: u from the azimuth (0.5 towards -Z), v 0 at the zenith */
-        const vt_texture *t = pe->sky_img;
-        float u = 0.5f + (atan2f(d[0], -d[2]) + pe->sky_rot) * (0.5f / PI_F);
-        float v = acosf(d[1] < -1 ? -1 : d[1] > 1 ? 1 : d[1]) * (1 / PI_F);
-        u -= floorf(u);
-        if (!(u >= 0 && u <= 1 && v >= 0 && v <= 1)) { /* a NaN direction (a degenerate view): black */
-            out[0] = out[1] = out[2] = 0;
-            return;
-        }
-        float x = u * (float)t->w - 0.5f, y = v * (float)t->h - 0.5f, x0 = floorf(x), y0 = floorf(y);
-        float ax = x - x0, ay = y - y0;
-        int32_t w = (int32_t)t->w, h = (int32_t)t->h;
-        int32_t i0 = wrap_i((int32_t)x0, w, VT_WRAP_REPEAT), i1 = wrap_i((int32_t)x0 + 1, w, VT_WRAP_REPEAT);
-        int32_t j0 = wrap_i((int32_t)y0, h, VT_WRAP_CLAMP), j1 = wrap_i((int32_t)y0 + 1, h, VT_WRAP_CLAMP);
-        for (int c = 0; c < 3; c++) {
-            float a = t->hdr[4 * ((size_t)j0 * w + i0) + c], b = t->hdr[4 * ((size_t)j0 * w + i1) + c];
-            float e = t->hdr[4 * ((size_t)j1 * w + i0) + c], f = t->hdr[4 * ((size_t)j1 * w + i1) + c];
-            float top = a + ax * (b - a), bot = e + ax * (f - e);
-            float s = top + ay * (bot - top);
-            out[c] = (isfinite(s) ? s : 0) * pe->sky_mul[c];
-        }
+        float uv[2];
+        vt_sky_uv(pe, d, uv);
+        vt_sky_sample(pe, uv, out);
         return;
     }
     /* analytic; below the horizon the horizon's colour */

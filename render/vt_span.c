@@ -141,11 +141,22 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
         }
 }
 
+/* The sky image's coordinates of column i's ray (row coefficients c0, c1). */
+static void sky_uv_at(const vt_span *sp, uint32_t i, const float c0[3], const float c1[3], float uv[2])
+{
+    float X = vt_ndc_x(sp->x0 + i, sp->inv_w), d[3];
+    for (int k = 0; k < 3; k++) d[k] = c0[k] + X * c1[k];
+    float l = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), il = l > 0 ? 1 / l : 0;
+    for (int k = 0; k < 3; k++) d[k] *= il;
+    vt_sky_uv(sp->pe, d, uv);
+}
+
 void vt_span_finish(const vt_span *sp, const float *px, const float *py, const float *pz, float *cr, float *cg,
                     float *cb, const float *cov)
 {
-    float c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0};
+    float c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0}, ua[2] = {0, 0}, ub[2] = {0, 0};
     bool row = false;
+    uint32_t ia = UINT32_MAX, ib = 0;
     for (uint32_t i = 0; i < sp->n; i++) {
         float c[3] = {cr[i], cg[i], cb[i]};
         if (cov[i] > 0) {
@@ -154,11 +165,36 @@ void vt_span_finish(const vt_span *sp, const float *px, const float *py, const f
         } else {
             if (!row) vt_view_dir_row(sp->vr, sp->Y, c0, c1);
             row = true;
-            float X = vt_ndc_x(sp->x0 + i, sp->inv_w), d[3];
-            for (int k = 0; k < 3; k++) d[k] = c0[k] + X * c1[k];
-            float l = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), il = l > 0 ? 1 / l : 0;
-            for (int k = 0; k < 3; k++) d[k] *= il;
-            vt_sky_radiance(sp->pe, d, c);
+            if (!sp->pe->sky_img) {
+                float X = vt_ndc_x(sp->x0 + i, sp->inv_w), d[3];
+                for (int k = 0; k < 3; k++) d[k] = c0[k] + X * c1[k];
+                float l = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), il = l > 0 ? 1 / l : 0;
+                for (int k = 0; k < 3; k++) d[k] *= il;
+                vt_sky_radiance(sp->pe, d, c);
+            } else {
+                /* the image's coordinates are smooth across the screen:
+                   exact every 4th column, linear between, exact where the
+                   azimuth wraps or near the poles (two inverse
+                   trigonometric calls saved on 3 pixels of 4) */
+                uint32_t a = i & ~3u, b = a + 4 < sp->n ? a + 4 : sp->n - 1;
+                if (a != ia) {
+                    sky_uv_at(sp, a, c0, c1, ua);
+                    if (b != a) sky_uv_at(sp, b, c0, c1, ub);
+                    ia = a, ib = b;
+                }
+                float uv[2];
+                if (i == ia) {
+                    memcpy(uv, ua, sizeof uv);
+                } else if (fabsf(ua[0] - ub[0]) < 0.25f && ua[1] > 0.05f && ua[1] < 0.95f && ub[1] > 0.05f &&
+                           ub[1] < 0.95f) {
+                    float f = (float)(i - ia) / (float)(ib - ia);
+                    uv[0] = ua[0] + f * (ub[0] - ua[0]);
+                    uv[1] = ua[1] + f * (ub[1] - ua[1]);
+                } else {
+                    sky_uv_at(sp, i, c0, c1, uv);
+                }
+                vt_sky_sample(sp->pe, uv, c);
+            }
         }
         cr[i] = c[0], cg[i] = c[1], cb[i] = c[2];
     }

@@ -20,12 +20,12 @@
 /* The analytic sky is tabulated once a frame (equirectangular, as an
  * environment map is laid out) and read bilinearly by both renderers: a
  * sky pixel then costs one lookup, not three Perez evaluations. */
-#define VT_SKY_TAB_W 128u
-#define VT_SKY_TAB_H 64u
+#define VT_SKY_TAB_W 256u
+#define VT_SKY_TAB_H 128u
 #define VT_SKY_TAB_FLOATS (4u * VT_SKY_TAB_W * VT_SKY_TAB_H)
 /* The table, kept from frame to frame while the sky's inputs (sun
- * direction, turbidity, multipliers) stay the same: 8192 Perez
- * evaluations (about 1 ms) only when the sky changes. */
+ * direction, turbidity, multipliers) stay the same: 32768 Perez
+ * evaluations (a few ms) only when the sky changes. */
 typedef struct vt_skytab {
     float t[VT_SKY_TAB_FLOATS];
     float key[7];
@@ -63,6 +63,10 @@ void vt_penv_make(const vt_env *env, const double origin[3], vt_skytab *tab, vt_
 
 /* The sky's radiance towards unit direction d (camera-independent). */
 void vt_sky_radiance(const vt_penv *pe, const float d[3], float out[3]);
+/* With an image (pe->sky_img): direction d's coordinates in it, and the
+ * image (bilinear, times sky_mul) at them. */
+void vt_sky_uv(const vt_penv *pe, const float d[3], float uv[2]);
+void vt_sky_sample(const vt_penv *pe, const float uv[2], float out[3]);
 
 /* A texture slot sampled at uv (before its transform) with derivatives
  * duv/dx, duv/dy per pixel: RGBA, sRGB colour decoded when srgb. */
