@@ -19,6 +19,7 @@
  */
 #include "test_util.h"
 
+#include "frame_scene.h"
 #include "occ_ref.h"
 #include "vt_gldraw.h"
 #include "vt_image.h"
@@ -871,6 +872,116 @@ static void test_scene_bad_input(void **state)
     rpair_close(&rp);
 }
 
+
+/* ---- the daemon's glue: the scene's model as the renderers take it ------------------- */
+
+/* frame_scene (daemon/frame_scene.c) on a scene with a material, two
+ * textures (PNG-like mips, an EXR) and an environment: every field where
+ * the renderers read it, the texture views pointing at the scene's own
+ * pixels, an EXR refused in a material slot, a missing material the
+ * default, and both renderers draw the result. */
+static void test_scene_frame_glue(void **state)
+{
+    (void)state;
+    static const scene_limits lim = {.max_entities = 1024, .max_lights = 16, .max_occluders = 16,
+                                     .max_occluder_tris = 1024, .max_mesh_verts = 1024, .max_materials = 16,
+                                     .max_texture_size = 4096, .max_texture_mem = 1u << 24};
+    scene *sc = malloc(sizeof *sc);
+    assert_non_null(sc);
+    assert_int_equal(scene_init(sc, 64, &lim), 0);
+    uint8_t l0[4 * 4 * 4], l1[2 * 2 * 4], l2[4];
+    uint8_t *mips[3] = {l0, l1, l2};
+    float hdr[8 * 4 * 4];
+    for (size_t i = 0; i < sizeof l0; i++) l0[i] = (uint8_t)(i * 7);
+    memset(l1, 100, sizeof l1);
+    memset(l2, 50, sizeof l2);
+    for (size_t i = 0; i < 8 * 4 * 4; i++) hdr[i] = (float)i;
+    scene_texture tx = {.id = 5, .format = VP_TEX_PNG, .w = 4, .h = 4, .levels = 3, .mip = mips, .nbytes = 99};
+    scene_texture te = {.id = 6, .format = VP_TEX_EXR, .w = 8, .h = 4, .levels = 1, .hdr = hdr, .nbytes = 512};
+    scene_material sm = {.m = {.id = 9, .flags = VP_MAT_DOUBLE_SIDED, .alpha_mode = VP_ALPHA_MASK, .alpha_cutoff = 0.25f,
+                               .base_color = {0.5f, 0.6f, 0.7f, 1}, .metallic = 0.2f, .roughness = 0.8f,
+                               .emissive = {1, 0, 0}, .emissive_strength = 3, .normal_scale = 1}};
+    sm.m.tex[VP_TEX_BASE] = (vp_texref){.texture = 5, .wrap_s = VP_WRAP_MIRROR, .wrap_t = VP_WRAP_CLAMP,
+                                        .min_filter = VP_FILTER_LINEAR_MIP_LINEAR, .mag_filter = VP_FILTER_LINEAR,
+                                        .offset = {0.5f, 0.25f}, .scale = {2, 3}, .rotation = 0.3f};
+    sm.m.tex[VP_TEX_EMISSIVE] = (vp_texref){.texture = 6, .scale = {1, 1}}; /* an EXR: not for a material */
+    sm.m.tex[VP_TEX_MR] = (vp_texref){.texture = 77, .scale = {1, 1}};     /* missing */
+    assert_true(idmap_reserve(&sc->textures, 4) && idmap_reserve(&sc->materials, 4));
+    idmap_put(&sc->textures, 5, (uint64_t)(uintptr_t)&tx);
+    idmap_put(&sc->textures, 6, (uint64_t)(uintptr_t)&te);
+    idmap_put(&sc->materials, 9, (uint64_t)(uintptr_t)&sm);
+    sc->env.sky_mode = VP_SKY_COLOR;
+    sc->env.sky_color[0] = 0.5f, sc->env.sky_color[1] = 0.25f, sc->env.sky_color[2] = 1;
+    sc->env.sky_intensity = 2000;
+    sc->env.ground_material = 9;
+    frame_scene fs;
+    assert_true(frame_scene_init(&fs, sc));
+    assert_true(fs.env_ok);
+    const vt_env *e = &fs.env;
+    for (int k = 0; k < 3; k++) {
+        assert_true(e->sun[k] == sc->env.sun_color[k] * sc->env.sun_lux);
+        assert_true(e->sun_dir[k] == sc->env.sun_dir[k]);
+        assert_true(e->sky[k] == sc->env.sky_color[k] * 2000);
+        assert_true(e->ground_albedo[k] == sc->env.ground_color[k]);
+    }
+    assert_int_equal(e->sky_mode, VT_SKY_COLOR);
+    assert_true(e->ground && e->ground_height == sc->env.ground_height);
+    assert_true(e->fog_density == sc->env.fog_density && e->exposure_mode == VT_EXPOSURE_AUTO);
+    const vt_material *m = e->ground_mat;
+    assert_non_null(m);
+    assert_true(frame_scene_material(&fs, sc, 9) == m); /* converted once */
+    assert_null(frame_scene_material(&fs, sc, 0));
+    assert_null(frame_scene_material(&fs, sc, 10));
+    assert_true(m->double_sided && m->alpha_mode == VT_ALPHA_MASK && m->alpha_cutoff == 0.25f);
+    assert_true(m->base[2] == 0.7f && m->metallic == 0.2f && m->roughness == 0.8f && m->emissive_strength == 3);
+    const vt_texref *r = &m->tex[VT_SLOT_BASE];
+    assert_non_null(r->tex);
+    assert_true(r->tex->mip[0] == l0 && r->tex->mip[2] == l2 && r->tex->levels == 3 && r->tex->id == 5);
+    assert_true(r->wrap_s == VT_WRAP_MIRROR && r->wrap_t == VT_WRAP_CLAMP && r->min_filter == VT_FILTER_LINEAR_MIP_LINEAR);
+    assert_true(r->offset[0] == 0.5f && r->scale[1] == 3 && r->rotation == 0.3f);
+    assert_null(m->tex[VT_SLOT_EMISSIVE].tex);
+    assert_null(m->tex[VT_SLOT_MR].tex);
+    char err[256];
+    assert_int_equal(vt_material_check(m, err, sizeof err), 0);
+    frame_scene_free(&fs);
+    /* the sky from the EXR: a view of its floats */
+    sc->env.sky_mode = VP_SKY_TEXTURE;
+    sc->env.sky_texture = 6;
+    sc->env.sky_rotation = 1;
+    assert_true(frame_scene_init(&fs, sc));
+    assert_true(fs.env_ok && fs.env.sky_mode == VT_SKY_TEXTURE && fs.env.sky_tex && fs.env.sky_tex->hdr == hdr);
+    /* both renderers draw it: ground with the material's texture, sky */
+    rpair rp;
+    rpair_open(&rp);
+    const uint32_t W = 48, H = 32;
+    float *c = malloc((size_t)W * H * 16), *d = malloc((size_t)W * H * 4);
+    assert_true(c && d);
+    cull_view v;
+    look(&v, (const double[3]){0, 3, 0}, (const double[3]){4, 1, -9}, W, H, 1.2, CULL_DEPTH_GL);
+    vt_frame f = {.view = &v, .width = W, .height = H, .env = &fs.env, .rgba = c, .depth = d, .stride = W};
+    assert_int_equal(vt_soft_draw(rp.sr, &f, NULL, err, sizeof err), 0);
+    if (rp.gr) assert_int_equal(vt_gldraw_draw(rp.gr, &f, NULL, err, sizeof err), 0);
+    uint32_t ground = 0;
+    for (size_t p = 0; p < (size_t)W * H; p++) ground += d[p] != INFINITY;
+    assert_true(ground > 100 && ground < W * H - 100);
+    /* the sky's texture gone: the analytic sky rather than no picture */
+    idmap_del(&sc->textures, 6);
+    frame_scene_free(&fs);
+    assert_true(frame_scene_init(&fs, sc));
+    assert_true(fs.env_ok && fs.env.sky_mode == VT_SKY_ANALYTIC);
+    frame_scene_free(&fs);
+    rpair_close(&rp);
+    free(c);
+    free(d);
+    /* the maps' values are this test's: emptied before the scene goes */
+    idmap_free(&sc->textures);
+    idmap_free(&sc->materials);
+    memset(&sc->textures, 0, sizeof sc->textures);
+    memset(&sc->materials, 0, sizeof sc->materials);
+    scene_free(sc);
+    free(sc);
+}
+
 const struct CMUnitTest scene_render_tests[] = {
     cmocka_unit_test(test_scene_textured_quad),
     cmocka_unit_test(test_scene_transformed_silhouettes),
@@ -878,5 +989,6 @@ const struct CMUnitTest scene_render_tests[] = {
     cmocka_unit_test(test_scene_analytic_sky),
     cmocka_unit_test(test_scene_default_env),
     cmocka_unit_test(test_scene_bad_input),
+    cmocka_unit_test(test_scene_frame_glue),
 };
 const size_t scene_render_tests_count = sizeof scene_render_tests / sizeof scene_render_tests[0];
