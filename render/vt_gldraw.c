@@ -143,11 +143,8 @@ int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
         glUniform1i(glGetUniformLocation(prog, "u_index"), 2);
         glUniform1i(glGetUniformLocation(prog, "u_mhead"), 3);
         glUniform1i(glGetUniformLocation(prog, "u_mfield"), 4);
-        for (int k = 0; k < 4; k++) {
-            char nm[16];
-            snprintf(nm, sizeof nm, "u_tex%d", k);
-            glUniform1i(glGetUniformLocation(prog, nm), 5 + k);
-        }
+        static const char *const slot[4] = {"u_tex0", "u_tex1", "u_tex2", "u_tex3"};
+        for (int k = 0; k < 4; k++) glUniform1i(glGetUniformLocation(prog, slot[k]), 5 + k);
         glUniform1i(glGetUniformLocation(prog, "u_sky_tex"), 9);
     }
     *out = r;
