@@ -4,7 +4,8 @@
  *   - a textured quad placed by a transform, each pixel against the
  *     texture evaluated directly at the UV of the pixel centre's ray hit
  *     (double; nearest and bilinear with wrap modes and sRGB, a mip level
- *     from the UV's finite differences);
+ *     from the UV's finite differences; the holes of an alpha mask; a
+ *     back face drawn double-sided and culled one-sided);
  *   - rotated, scaled and mirrored open meshes against the ray caster of
  *     tests/occ_ref.c on the triangles transformed here (quaternion
  *     rotation written out, a mirrored triangle's winding turned);
@@ -162,7 +163,11 @@ typedef struct quad_case {
     uint8_t wrap_s, wrap_t, min_f, mag_f;
     uint32_t tw, th, levels;
     double dist;            /* camera distance */
+    uint8_t flags;          /* QUAD_* */
 } quad_case;
+#define QUAD_MASK 1u        /* alpha MASK, cutoff 0.5: texels below it are holes */
+#define QUAD_BACK 2u        /* turned by pi about its y: seen from behind */
+#define QUAD_TWO 4u         /* a double-sided material */
 
 static void check_quad(const quad_case *qc, vt_gldraw *gr)
 {
@@ -176,7 +181,9 @@ static void check_quad(const quad_case *qc, vt_gldraw *gr)
     }
     if (qc->levels > 1)
         for (size_t i = 0; i < (size_t)qc->tw * qc->th; i++) memcpy(to.lv[0] + 4 * i, (uint8_t[4]){0, 200, 255, 255}, 4);
-    vt_material mat = {.base = {1, 1, 1, 1}, .roughness = 1, .normal_scale = 1};
+    vt_material mat = {.base = {1, 1, 1, 1}, .roughness = 1, .normal_scale = 1,
+                       .alpha_mode = qc->flags & QUAD_MASK ? VT_ALPHA_MASK : VT_ALPHA_OPAQUE, .alpha_cutoff = 0.5f,
+                       .double_sided = (qc->flags & QUAD_TWO) != 0};
     mat.tex[VT_SLOT_BASE] = (vt_texref){.tex = &to.t, .wrap_s = qc->wrap_s, .wrap_t = qc->wrap_t,
                                         .min_filter = qc->min_f, .mag_filter = qc->mag_f, .scale = {1, 1}};
     vt_mesh quad = {.pos = quad_pos, .nrm = quad_nrm, .uv = quad_uv, .idx = quad_idx, .nv = 4, .ni = 6};
@@ -185,6 +192,10 @@ static void check_quad(const quad_case *qc, vt_gldraw *gr)
     double pos[3] = {0.1, -0.15, -qc->dist}, s[3] = {qc->dist * 0.7, qc->dist * 0.45, 1};
     float qf[4];
     axis_angle(0.3, 1, 0.2, qc->levels > 1 ? 1.1 : 0.45, qf);
+    if (qc->flags & QUAD_BACK) { /* q (x) (0, 1, 0, 0): a half turn about the quad's own y */
+        float a[4] = {qf[0], qf[1], qf[2], qf[3]};
+        qf[0] = -a[2], qf[1] = a[3], qf[2] = a[0], qf[3] = -a[1];
+    }
     double q[4] = {qf[0], qf[1], qf[2], qf[3]}, ql = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     for (int a = 0; a < 4; a++) q[a] /= ql;
     vt_instance in = {.place = VT_PLACE_TRS, .pos = {pos[0], pos[1], pos[2]}, .rot = {qf[0], qf[1], qf[2], qf[3]},
@@ -241,6 +252,18 @@ static void check_quad(const quad_case *qc, vt_gldraw *gr)
                         want[k] = (1 - ay) * ((1 - ax) * c[0][k] + ax * c[1][k]) + ay * ((1 - ax) * c[2][k] + ax * c[3][k]);
                 }
                 judged++;
+                /* seen from behind and one-sided, or a hole of the mask: nothing */
+                bool hole = ((qc->flags & QUAD_BACK) && !(qc->flags & QUAD_TWO)) ||
+                            ((qc->flags & QUAD_MASK) && want[3] < 0.5);
+                if (hole || depth[px] == INFINITY) {
+                    if (hole != (depth[px] == INFINITY)) {
+                        if (bad < 3)
+                            fprintf(stderr, "%s (%s) %u,%u: %s, want %s\n", qc->name, which ? "gl" : "soft", x, y,
+                                    depth[px] == INFINITY ? "nothing" : "drawn", hole ? "nothing" : "drawn");
+                        bad++;
+                    }
+                    continue;
+                }
                 /* no environment, no lights: the constant ambient of the base colour */
                 for (int k = 0; k < 3; k++) {
                     double got = rgba[4 * px + k], e = fabs(got - 0.03 * want[k]);
@@ -307,10 +330,15 @@ static void test_scene_textured_quad(void **state)
 {
     (void)state;
     static const quad_case cases[] = {
-        {"nearest, repeat x mirror", VT_WRAP_REPEAT, VT_WRAP_MIRROR, VT_FILTER_NEAREST, VT_FILTER_NEAREST, 8, 8, 1, 4},
-        {"bilinear, mirror x clamp", VT_WRAP_MIRROR, VT_WRAP_CLAMP, VT_FILTER_LINEAR, VT_FILTER_LINEAR, 5, 4, 1, 4},
+        {"nearest, repeat x mirror", VT_WRAP_REPEAT, VT_WRAP_MIRROR, VT_FILTER_NEAREST, VT_FILTER_NEAREST, 8, 8, 1, 4, 0},
+        {"bilinear, mirror x clamp", VT_WRAP_MIRROR, VT_WRAP_CLAMP, VT_FILTER_LINEAR, VT_FILTER_LINEAR, 5, 4, 1, 4, 0},
         {"mip levels (nearest-mip-nearest)", VT_WRAP_REPEAT, VT_WRAP_REPEAT, VT_FILTER_NEAREST_MIP_NEAREST,
-         VT_FILTER_NEAREST, 256, 256, 9, 40},
+         VT_FILTER_NEAREST, 256, 256, 9, 40, 0},
+        {"alpha mask at 0.5", VT_WRAP_REPEAT, VT_WRAP_REPEAT, VT_FILTER_NEAREST, VT_FILTER_NEAREST, 8, 8, 1, 4, QUAD_MASK},
+        {"back face, double-sided", VT_WRAP_REPEAT, VT_WRAP_MIRROR, VT_FILTER_NEAREST, VT_FILTER_NEAREST, 8, 8, 1, 4,
+         QUAD_BACK | QUAD_TWO},
+        {"back face, one-sided", VT_WRAP_REPEAT, VT_WRAP_MIRROR, VT_FILTER_NEAREST, VT_FILTER_NEAREST, 8, 8, 1, 4,
+         QUAD_BACK},
     };
     vt_gl *g;
     vt_gldraw *gr = gl_or_null(&g);
