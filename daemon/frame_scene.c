@@ -14,18 +14,18 @@ _Static_assert(VT_WRAP_MIRROR == VP_WRAP_MIRROR && VT_FILTER_LINEAR_MIP_LINEAR =
 
 /* The view of texture id (NULL: none, or not drawable in a material
  * slot: an EXR is the sky's). */
-static const vt_texture *frame_tex(frame_scene *fs, const scene *sc, uint32_t id, bool hdr)
+static const vt_texview *frame_tex(frame_scene *fs, const scene *sc, uint32_t id, bool hdr)
 {
     uint64_t v;
     if (!id) return NULL;
     if (idmap_get(&fs->tex_ix, id, &v)) return fs->texs[v].hdr && !hdr ? NULL : &fs->texs[v];
     const scene_texture *st = scene_texture_find(sc, id);
     if (!st || (!st->mip && !st->hdr)) return NULL;
-    vt_texture *t = &fs->texs[fs->ntexs];
+    vt_texview *t = &fs->texs[fs->ntexs];
     /* a texture replaced under the same id has new pixel buffers: their
        addresses stand in for a generation (scene_texture has none) */
     uintptr_t a = (uintptr_t)(st->mip ? (const void *)st->mip : (const void *)st->hdr);
-    *t = (vt_texture){.w = st->w, .h = st->h, .levels = st->hdr ? 1 : st->levels,
+    *t = (vt_texview){.w = st->w, .h = st->h, .levels = st->hdr ? 1 : st->levels,
                       .mip = st->hdr ? NULL : (const uint8_t *const *)st->mip, .hdr = st->hdr, .id = id,
                       .gen = (uint32_t)(a >> 4) ^ (uint32_t)((uint64_t)a >> 36) ^ st->nbytes};
     idmap_put(&fs->tex_ix, id, fs->ntexs++);

@@ -14,7 +14,7 @@
 typedef struct frame_scene {
     vt_material *mats;      /* room for every material of the scene, + the ground's */
     uint32_t nmats;
-    vt_texture *texs;       /* room for every texture of the scene */
+    vt_texview *texs;       /* room for every texture of the scene */
     uint32_t ntexs;
     idmap mat_ix, tex_ix;   /* id -> index in mats / texs */
     vt_env env;

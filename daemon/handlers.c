@@ -16,7 +16,7 @@
 
 /* ---- handlers ---------------------------------------------------------------- */
 
-static bool editor(server *s, conn *c, uint32_t req)
+bool editor(server *s, conn *c, uint32_t req)
 {
     if (c->role >= VP_ROLE_EDITOR) return true;
     send_error(s, c, req, VP_ERR_AUTH, UINT32_MAX, "editing needs the editor role");
@@ -74,9 +74,22 @@ static void on_hello(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
     vp_hello m;
     int rc = vp_dec_hello(p, h->len, &m);
+    if (rc == VP_ERR_VERSION) {
+        /* say both sides' versions, so an old client's user knows what to upgrade */
+        char msg[160];
+        if (VP_VERSION_MIN == VP_VERSION)
+            snprintf(msg, sizeof msg, "unsupported protocol version %u: this server speaks version %u only",
+                     m.version, VP_VERSION);
+        else
+            snprintf(msg, sizeof msg, "unsupported protocol version %u: this server speaks versions %u..%u",
+                     m.version, VP_VERSION_MIN, VP_VERSION);
+        send_error(s, c, h->req, rc, UINT32_MAX, msg);
+        c->closing = true;
+        return;
+    }
     if (rc) {
         send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
-        c->closing = true; /* not our protocol, or not this version */
+        c->closing = true; /* not our protocol, or a malformed HELLO */
         return;
     }
     /* roles and tokens (auth.h): with a token file, a role needs a token
@@ -555,7 +568,7 @@ static void edit_reply(server *s, conn *c, const vp_header *h, const edit *e, co
  * fails refuses it with nothing changed), applied, answered. Under the
  * always policy the answer waits in the connection's buffer (c->held) for
  * the turn's sync. */
-static void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
+void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
     /* a destruction event is a command (the commander's "destroy at the
        reticle"); every other edit needs an editor */
@@ -698,6 +711,13 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
     case VP_SUBLEVEL_INFO:
         if ((rc = vp_dec_empty(p, h->len))) break;
         on_sublevel_info(s, c, h->req);
+        return;
+    case VP_TEXTURE_PUT:
+        if (editor(s, c, h->req)) upload_chunk(s, c, h, p);
+        return;
+    case VP_ENV_GET:
+        if ((rc = vp_dec_empty(p, h->len))) break;
+        on_env_get(s, c, h->req);
         return;
     default: {
         if (edit_is(h->type)) {

@@ -37,7 +37,7 @@ typedef struct vt_gltex {
 
 /* The texture object for t (bound to GL_TEXTURE_2D on the active unit as a
  * side effect), or 0 when it cannot be made (out of memory, a GL error). */
-unsigned vt_gltex_get(vt_gltex *c, const vt_texture *t, bool srgb);
+unsigned vt_gltex_get(vt_gltex *c, const vt_texview *t, bool srgb);
 /* Ends a frame: deletes this frame's temporary textures and those unused
  * for VT_GLTEX_KEEP frames. */
 void vt_gltex_end_frame(vt_gltex *c);

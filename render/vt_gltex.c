@@ -1,6 +1,6 @@
 /*
  * vt_gltex.c — the OpenGL renderer's textures (see vt_gldraw_internal.h):
- * each vt_texture uploaded once with its mip chain (RGBA8, sRGB for the
+ * each vt_texview uploaded once with its mip chain (RGBA8, sRGB for the
  * colour slots; float RGBA for an environment map) and kept by (id,
  * generation) while frames use it; the sampler states of a material slot.
  * Cost: one upload per new texture (a 2k RGBA8 chain is 22 MB of copies
@@ -13,7 +13,7 @@
 #include <epoxy/gl.h>
 #include <stdlib.h>
 
-static unsigned upload(const vt_texture *t, bool srgb)
+static unsigned upload(const vt_texview *t, bool srgb)
 {
     GLuint name = 0;
     glGenTextures(1, &name);
@@ -41,7 +41,7 @@ static unsigned upload(const vt_texture *t, bool srgb)
     return name;
 }
 
-unsigned vt_gltex_get(vt_gltex *c, const vt_texture *t, bool srgb)
+unsigned vt_gltex_get(vt_gltex *c, const vt_texview *t, bool srgb)
 {
     if (t->id)
         for (size_t i = 0; i < c->n; i++) {

@@ -27,7 +27,7 @@ static bool fin_in(float x, float lo, float hi)
     return isfinite(x) && x >= lo && x <= hi;
 }
 
-int vt_texture_check(const vt_texture *t, char *err, size_t errlen)
+int vt_texview_check(const vt_texview *t, char *err, size_t errlen)
 {
     if (!t) return vp_errf(err, errlen, VT_ERR_INVALID, "texture: NULL");
     if (t->w < 1 || t->h < 1 || t->w > VT_TEX_MAX_DIM || t->h > VT_TEX_MAX_DIM)
@@ -53,7 +53,7 @@ static int texref_check(const vt_texref *r, const char *slot, char *err, size_t 
 {
     if (!r->tex) return 0;
     char why[120];
-    if (vt_texture_check(r->tex, why, sizeof why)) return vp_errf(err, errlen, VT_ERR_INVALID, "%s: %s", slot, why);
+    if (vt_texview_check(r->tex, why, sizeof why)) return vp_errf(err, errlen, VT_ERR_INVALID, "%s: %s", slot, why);
     if (r->tex->hdr) return vp_errf(err, errlen, VT_ERR_INVALID, "%s: a float (EXR) texture is for the sky only", slot);
     if (r->wrap_s > VT_WRAP_MIRROR || r->wrap_t > VT_WRAP_MIRROR)
         return vp_errf(err, errlen, VT_ERR_INVALID, "%s: wrap mode %u/%u undefined", slot, r->wrap_s, r->wrap_t);
@@ -112,7 +112,7 @@ int vt_env_check(const vt_env *e, char *err, size_t errlen)
     if (e->sky_mode == VT_SKY_TEXTURE) {
         char why[120];
         if (!e->sky_tex) return vp_errf(err, errlen, VT_ERR_INVALID, "env: sky mode texture without a texture");
-        if (vt_texture_check(e->sky_tex, why, sizeof why))
+        if (vt_texview_check(e->sky_tex, why, sizeof why))
             return vp_errf(err, errlen, VT_ERR_INVALID, "env: sky %s", why);
         if (!fin_in(e->sky_rotation, -1e3f, 1e3f))
             return vp_errf(err, errlen, VT_ERR_INVALID, "env: sky rotation not finite or beyond 1e3");
@@ -164,7 +164,7 @@ static int32_t wrap_i(int32_t i, int32_t n, int mode)
     return p < 0 ? p + n : p;
 }
 
-static void texel(const vt_texture *t, uint32_t lv, int32_t x, int32_t y, bool srgb, float o[4])
+static void texel(const vt_texview *t, uint32_t lv, int32_t x, int32_t y, bool srgb, float o[4])
 {
     uint32_t w = t->w >> lv ? t->w >> lv : 1;
     const uint8_t *px = t->mip[lv] + 4 * ((size_t)y * w + (size_t)x);
@@ -184,7 +184,7 @@ static void texel(const vt_texture *t, uint32_t lv, int32_t x, int32_t y, bool s
  * after flooring, as GL does; u, v far beyond 2^24 lose their fraction. */
 static void sample_level(const vt_texref *r, uint32_t lv, float u, float v, bool linear, bool srgb, float o[4])
 {
-    const vt_texture *t = r->tex;
+    const vt_texview *t = r->tex;
     int32_t w = (int32_t)(t->w >> lv ? t->w >> lv : 1), h = (int32_t)(t->h >> lv ? t->h >> lv : 1);
     /* keep the float to int conversions defined far from the origin */
     double fu = fmin(fmax((double)u * w, -1e9), 1e9), fv = fmin(fmax((double)v * h, -1e9), 1e9);
@@ -225,7 +225,7 @@ void vt_tex_sample(const vt_texref *r, const float uv0[2], const float dx0[2], c
         srgb_init();
         __atomic_store_n(&once, 1, __ATOMIC_RELEASE);
     }
-    const vt_texture *t = r->tex;
+    const vt_texview *t = r->tex;
     float uv[2], dx[2], dy[2];
     vt_tex_xform(r, uv0, false, uv);
     vt_tex_xform(r, dx0, true, dx);
@@ -303,7 +303,7 @@ void vt_sky_uv(const vt_penv *pe, const float d[3], float uv[2])
 
 void vt_sky_sample(const vt_penv *pe, const float uv[2], float out[3])
 {
-    const vt_texture *t = pe->sky_img;
+    const vt_texview *t = pe->sky_img;
     float u = uv[0], v = uv[1];
     if (!(u >= 0 && u <= 1 && v >= 0 && v <= 1)) { /* a NaN direction (a degenerate view): black */
         out[0] = out[1] = out[2] = 0;
@@ -421,7 +421,7 @@ void vt_penv_make(const vt_env *env, const double origin[3], vt_skytab *tab, vt_
         }
     }
     if (pe->sky_mode == VT_SKY_ANALYTIC && tab) {
-        pe->sky_tab = (vt_texture){.w = VT_SKY_TAB_W, .h = VT_SKY_TAB_H, .levels = 1, .hdr = tab->t};
+        pe->sky_tab = (vt_texview){.w = VT_SKY_TAB_W, .h = VT_SKY_TAB_H, .levels = 1, .hdr = tab->t};
         pe->sky_img = &pe->sky_tab;
         pe->sky_mul[0] = pe->sky_mul[1] = pe->sky_mul[2] = 1;
     }

@@ -47,18 +47,18 @@ enum { VT_EXPOSURE_FIXED, VT_EXPOSURE_AUTO };
  * during the render call only. (id, gen) name the pixels for a cache (the
  * GL renderer keeps its texture objects by them; id 0: uploaded each
  * frame); a change of pixels under the same id needs a new gen. */
-typedef struct vt_texture {
+typedef struct vt_texview {
     uint32_t w, h, levels;       /* level 0: 1..VT_TEX_MAX_DIM a side */
     const uint8_t *const *mip;   /* levels RGBA8 images, or NULL */
     const float *hdr;            /* RGBA float, or NULL */
     uint32_t id, gen;
-} vt_texture;
+} vt_texview;
 
 /* A material's texture slot: glTF's textureInfo, its sampler and
  * KHR_texture_transform: uv' = offset + Rot(rotation) (scale * uv), with
  * Rot = [cos -sin; sin cos] as the extension's GLSL writes it. */
 typedef struct vt_texref {
-    const vt_texture *tex;       /* NULL: no texture in this slot */
+    const vt_texview *tex;       /* NULL: no texture in this slot */
     uint8_t wrap_s, wrap_t;      /* VT_WRAP_* */
     uint8_t min_filter, mag_filter; /* VT_FILTER_*; mag NEAREST or LINEAR */
     float offset[2], scale[2], rotation;
@@ -91,7 +91,7 @@ typedef struct vt_env {
     uint8_t sky_mode;            /* VT_SKY_* */
     float sky[3];                /* COLOR: radiance; ANALYTIC, TEXTURE: a multiplier; >= 0, <= 1e9 */
     float turbidity;             /* ANALYTIC: 1..10 */
-    const vt_texture *sky_tex;   /* TEXTURE: equirectangular (u: azimuth, v: 0 at the zenith) */
+    const vt_texview *sky_tex;   /* TEXTURE: equirectangular (u: azimuth, v: 0 at the zenith) */
     float sky_rotation;          /* TEXTURE: radians about +Y, |x| <= 1e3 */
     bool ground;                 /* an infinite plane y = ground_height, facing up */
     double ground_height;        /* |x| <= 1e12 */
@@ -108,7 +108,7 @@ typedef struct vt_env {
 
 /* Checks a texture, a material, an environment. 0, or VT_ERR_INVALID
  * with the field in err. */
-int vt_texture_check(const vt_texture *t, char *err, size_t errlen);
+int vt_texview_check(const vt_texview *t, char *err, size_t errlen);
 int vt_material_check(const vt_material *m, char *err, size_t errlen);
 int vt_env_check(const vt_env *e, char *err, size_t errlen);
 

@@ -39,8 +39,8 @@ typedef struct vt_penv {
     float sun_dir[3], sun[3];    /* unit towards the sun; irradiance, lux */
     uint8_t sky_mode;
     float sky[3];
-    const vt_texture *sky_img;   /* TEXTURE: the environment map; ANALYTIC: the table */
-    vt_texture sky_tab;          /* ANALYTIC: the table as a float texture */
+    const vt_texview *sky_img;   /* TEXTURE: the environment map; ANALYTIC: the table */
+    vt_texview sky_tab;          /* ANALYTIC: the table as a float texture */
     float sky_mul[3];            /* times what sky_img gives */
     float sky_rot;
     /* ANALYTIC: Perez coefficients (Y, x, y) x (A..E), zenith values,

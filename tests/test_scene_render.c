@@ -80,14 +80,14 @@ static int32_t wrap_ref(int64_t i, int32_t n, int mode)
 
 /* A texture of random RGBA8 texels with a box-filtered mip chain. */
 typedef struct tex_own {
-    vt_texture t;
+    vt_texview t;
     uint8_t *lv[16];
 } tex_own;
 
 static void tex_make(tex_own *o, rng *r, uint32_t w, uint32_t h, uint32_t levels, uint32_t id)
 {
     memset(o, 0, sizeof *o);
-    o->t = (vt_texture){.w = w, .h = h, .levels = levels, .mip = (const uint8_t *const *)o->lv, .id = id, .gen = 1};
+    o->t = (vt_texview){.w = w, .h = h, .levels = levels, .mip = (const uint8_t *const *)o->lv, .id = id, .gen = 1};
     for (uint32_t k = 0; k < levels; k++) {
         uint32_t lw = w >> k ? w >> k : 1, lh = h >> k ? h >> k : 1;
         o->lv[k] = malloc((size_t)lw * lh * 4);

@@ -45,7 +45,7 @@
 enum { MAX_W = 64, MAX_INST = 4, MAX_LIGHTS = 4, MAX_MV = 12, MAX_MT = 8 };
 
 /* The scene model's inputs from the rest of the bytes. */
-static void scene_model(fz *f, vt_env *env, bool *env_on, vt_material *mat, vt_texture *tex, uint8_t *texels,
+static void scene_model(fz *f, vt_env *env, bool *env_on, vt_material *mat, vt_texview *tex, uint8_t *texels,
                         const uint8_t **lv, float *uv, float *tan, uint32_t nv, vt_instance *in, uint32_t ni)
 {
     uint8_t e = fz_u8(f);
@@ -75,7 +75,7 @@ static void scene_model(fz *f, vt_env *env, bool *env_on, vt_material *mat, vt_t
     /* a 4x4 texture with 3 levels (4, 2, 1), or a float one (for the sky) */
     for (int i = 0; i < 4 * (16 + 4 + 1); i++) texels[i] = fz_u8(f);
     lv[0] = texels, lv[1] = texels + 64, lv[2] = texels + 80;
-    *tex = (vt_texture){.w = 4, .h = 4, .levels = 1 + fz_u8(f) % 4, .mip = lv, .id = 0};
+    *tex = (vt_texview){.w = 4, .h = 4, .levels = 1 + fz_u8(f) % 4, .mip = lv, .id = 0};
     vt_texref r = {.tex = (m & 8) ? tex : NULL, .wrap_s = fz_u8(f) % 4, .wrap_t = fz_u8(f) % 4,
                    .min_filter = fz_u8(f) % 7, .mag_filter = fz_u8(f) % 3, .rotation = (float)fz_num(f, 3)};
     for (int a = 0; a < 2; a++) {
@@ -181,7 +181,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     vt_env env;
     bool env_on;
     vt_material mat;
-    vt_texture tex;
+    vt_texview tex;
     uint8_t texels[4 * 21];
     const uint8_t *lv[3];
     scene_model(&f, &env, &env_on, &mat, &tex, texels, lv, uv, tan, MAX_MV, in, ni);
@@ -190,8 +190,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (env.sky_mode == VT_SKY_TEXTURE && (head & 16)) {
         static float hdr[4 * 16];
         for (int i = 0; i < 64; i++) hdr[i] = (float)fz_num(&f, 1e3);
-        static vt_texture sky;
-        sky = (vt_texture){.w = 4, .h = 4, .levels = 1, .hdr = hdr};
+        static vt_texview sky;
+        sky = (vt_texview){.w = 4, .h = 4, .levels = 1, .hdr = hdr};
         env.sky_tex = &sky;
     }
 
