@@ -22,6 +22,8 @@
 
 #include "frame_scene.h"
 #include "occ_ref.h"
+#include "test_daemon.h"
+#include "vantage.h"
 #include "vt_gldraw.h"
 #include "vt_image.h"
 #include "vt_soft.h"
@@ -1010,6 +1012,59 @@ static void test_scene_frame_glue(void **state)
     free(sc);
 }
 
+
+/* The environment end to end: ENV_SET to a running daemon, then RENDER
+ * (raw, both renderers): a uniform sky of colour x intensity at a fixed
+ * EV100 of 5 comes back at that radiance / (1.2 x 2^5) on every pixel
+ * looking up (no depth, opaque); with the ground at y = -2 a view looking
+ * down sees it at the ray's distance. */
+static void test_scene_env_over_the_wire(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vp_env e;
+    vp_env_default(&e);
+    e.sky_mode = VP_SKY_COLOR;
+    e.sky_color[0] = 0.2f, e.sky_color[1] = 0.4f, e.sky_color[2] = 0.8f;
+    e.sky_intensity = 1000;
+    e.flags = 0;
+    e.fog_density = 0;
+    e.exposure_mode = VP_EXPOSURE_FIXED;
+    e.exposure_ev = 5;
+    assert_int_equal(vtc_env_set(c, &e, NULL), VP_OK);
+    for (unsigned renderer = VP_RENDERER_SOFT; renderer <= VP_RENDERER_GL; renderer++) {
+        vp_render m = {.format = VP_FRAME_RAW, .renderer = (uint8_t)renderer};
+        const double eye[3] = {0, 0, 0}, up_at[3] = {0.1, 10, -1}, down_at[3] = {0, -10, -8};
+        assert_true(vtc_view_perspective(&m.view, eye, up_at, NULL, 60, 32, 24, 0.1, 100));
+        vp_frame f;
+        int rc = vtc_render(c, &m, &f);
+        if (rc == VP_ERR_UNSUPPORTED) continue; /* no GL here */
+        assert_int_equal(rc, VP_OK);
+        const float *px = (const float *)f.data, *z = px + 32 * 24 * 4;
+        for (size_t i = 0; i < 32 * 24; i++) {
+            assert_true(isinf(z[i]) && px[4 * i + 3] == 1.0f);
+            for (int k = 0; k < 3; k++) {
+                double want = e.sky_color[k] * 1000.0 / (1.2 * 32);
+                assert_true(fabs(px[4 * i + k] - want) <= 1e-5 * want);
+            }
+        }
+        vp_env g = e;
+        g.flags = VP_ENV_GROUND;
+        g.ground_height = -2;
+        assert_int_equal(vtc_env_set(c, &g, NULL), VP_OK);
+        assert_true(vtc_view_perspective(&m.view, eye, down_at, NULL, 60, 32, 24, 0.1, 100));
+        assert_int_equal(vtc_render(c, &m, &f), VP_OK);
+        px = (const float *)f.data, z = px + 32 * 24 * 4;
+        /* the centre pixel's ray hits y = -2 at w = |(0, -10, -8)| x 2 / 10 along the axis */
+        size_t mid = 12 * 32 + 16;
+        double w = sqrt(10.0 * 10 + 8 * 8) * 2 / 10;
+        assert_true(fabs(z[mid] - w) <= 0.02 * w); /* the pixel centre is half a pixel off the axis */
+        assert_true(px[4 * mid] > 0);
+        assert_int_equal(vtc_env_set(c, &e, NULL), VP_OK);
+    }
+    vtc_close(c);
+}
+
 const struct CMUnitTest scene_render_tests[] = {
     cmocka_unit_test(test_scene_textured_quad),
     cmocka_unit_test(test_scene_transformed_silhouettes),
@@ -1018,5 +1073,6 @@ const struct CMUnitTest scene_render_tests[] = {
     cmocka_unit_test(test_scene_default_env),
     cmocka_unit_test(test_scene_bad_input),
     cmocka_unit_test(test_scene_frame_glue),
+    DAEMON_TEST(test_scene_env_over_the_wire),
 };
 const size_t scene_render_tests_count = sizeof scene_render_tests / sizeof scene_render_tests[0];
