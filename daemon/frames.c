@@ -17,11 +17,13 @@
  */
 #include "server_internal.h"
 #include "errmap.h"
+#include "frame_scene.h"
 #include "vt_gldraw.h"
 #include "vt_image.h"
 #include "vt_soft.h"
 
 #include <linux/sockios.h>
+#include <math.h>
 #include <stdio.h>
 #include <sys/ioctl.h>
 #include <stdlib.h>
@@ -97,6 +99,7 @@ typedef struct frame_in {
     vt_light *lights;
     uint64_t *light_ids;
     uint32_t nl;
+    frame_scene fs;         /* materials, textures, the environment */
 } frame_in;
 
 static void frame_in_free(frame_in *fi)
@@ -105,6 +108,28 @@ static void frame_in_free(frame_in *fi)
     free(fi->meshes);
     free(fi->lights);
     free(fi->light_ids);
+    frame_scene_free(&fi->fs);
+}
+
+/* The picture fi draws from v into rgba and depth (the view's size). */
+static vt_frame frame_of(const cull_view *v, const frame_in *fi, float *rgba, float *depth)
+{
+    return (vt_frame){.view = v, .width = v->viewport_w, .height = v->viewport_h, .meshes = fi->meshes,
+                      .nmesh = fi->nmesh, .inst = fi->inst, .ninst = fi->ninst, .lights = fi->lights, .nl = fi->nl,
+                      .env = fi->fs.env_ok ? &fi->fs.env : NULL, .rgba = rgba, .depth = depth,
+                      .stride = v->viewport_w};
+}
+
+/* An entity's transform as the renderers take it (vt_frame_check's
+ * limits; the daemon's own are the culling core's: an entity past them is
+ * drawn by its bounds instead). */
+static bool trs_drawable(const scene_xform *x)
+{
+    double q2 = 0;
+    for (int a = 0; a < 4; a++) q2 += (double)x->rot[a] * x->rot[a];
+    for (int a = 0; a < 3; a++)
+        if (!(fabs(x->pos[a]) <= 1e15) || !(fabsf(x->scale[a]) <= 1e6f)) return false;
+    return fabs(q2 - 1) <= 1e-3;
 }
 
 static int gather_lights(const scene *sc, const uint64_t *subs, frame_in *fi);
@@ -134,6 +159,7 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
     if (!fi->inst || !fi->meshes) goto nomem;
     fi->meshes[0] = vt_mesh_box;
     fi->nmesh = 1;
+    if (!frame_scene_init(&fi->fs, sc)) goto nomem;
     for (size_t i = 0; i < n; i++) {
         cull_entity_desc e;
         cull_entity_get(sc->world, wk->res[i].handle, &e);
@@ -142,8 +168,8 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
         uint32_t mi = 0;
         if (sm->pos && sm->ni) {
             if (!mesh_of[cls]) {
-                fi->meshes[fi->nmesh] =
-                    (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv, .ni = sm->ni};
+                fi->meshes[fi->nmesh] = (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv,
+                                                  .ni = sm->ni, .uv = sm->uv, .tan = sm->tan};
                 mesh_of[cls] = ++fi->nmesh;
             }
             mi = mesh_of[cls] - 1;
@@ -152,6 +178,19 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
         memcpy(fi->inst[i].bmin, e.aabb_min, sizeof e.aabb_min);
         memcpy(fi->inst[i].bmax, e.aabb_max, sizeof e.aabb_max);
         class_albedo(cls, fi->inst[i].albedo);
+        /* the scene model: an entity with a transform is its mesh under
+           it (others stretch the mesh onto their box), with its material */
+        uint32_t slot = wk->res[i].handle & (CULL_MAX_ENTITIES - 1);
+        const scene_xform *x = sc->xf && slot < sc->id_cap ? &sc->xf[slot] : NULL;
+        if (x) {
+            fi->inst[i].mat = frame_scene_material(&fi->fs, sc, x->material);
+            if ((x->flags & VP_ENT_TRANSFORM) && trs_drawable(x)) {
+                fi->inst[i].place = VT_PLACE_TRS;
+                memcpy(fi->inst[i].pos, x->pos, sizeof x->pos);
+                memcpy(fi->inst[i].rot, x->rot, sizeof x->rot);
+                memcpy(fi->inst[i].scale, x->scale, sizeof x->scale);
+            }
+        }
         /* damaged: drawn with its destruction mask (the volume is read
            under the shared scene lock the frame is rendered in) */
         if (sc->destruct.count) {
@@ -251,9 +290,8 @@ static int soft_draw(worker *wk, const cull_view *v, const frame_in *fi, float *
                      size_t msglen)
 {
     char err[256];
-    uint32_t W = v->viewport_w, H = v->viewport_h;
-    int rc = vt_soft_render(wk->soft, v, W, H, fi->meshes, fi->nmesh, fi->inst, fi->ninst, fi->lights, fi->nl, rgba,
-                            depth, W, NULL, err, sizeof err);
+    vt_frame f = frame_of(v, fi, rgba, depth);
+    int rc = vt_soft_draw(wk->soft, &f, NULL, err, sizeof err);
     if (!rc) return VP_OK;
     snprintf(msg, msglen, "render: %s", err);
     return vp_code_from_vt(rc);
@@ -333,13 +371,13 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     char err[256];
     int rc;
     if (renderer == VP_RENDERER_GL) {
+        vt_frame gf = frame_of(&v, &fi, rgba, depth);
         pthread_mutex_lock(&s->gl_mu);
         if (gl_open_locked(s)) {
             code = VP_ERR_UNSUPPORTED;
             snprintf(msg, sizeof msg, "%.250s", s->gl_err);
         } else if ((rc = vt_gl_make_current(s->gl, err, sizeof err)) ||
-                   (rc = vt_gldraw_render(s->gldraw, &v, W, H, fi.meshes, fi.nmesh, fi.inst, fi.ninst, fi.lights, fi.nl,
-                                          rgba, depth, W, NULL, err, sizeof err))) {
+                   (rc = vt_gldraw_draw(s->gldraw, &gf, NULL, err, sizeof err))) {
             code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "render (gl): %s", err);
         }

@@ -16,8 +16,21 @@
  * cull_lights_bin its depth planes; the lights and lists go to buffer
  * textures; pass 2 shades. Colour alpha carries nearness on the way out
  * and is turned into coverage and depth on the CPU, as vt_soft does.
+ *
+ * The scene model (issue 19): instances carry a rotation (quaternion) as
+ * well as a scale and shift; draws are grouped by (mesh, material,
+ * damaged, mirrored): a material's factors are uniforms and its textures
+ * GL textures (kept by texture id and generation across frames,
+ * vt_gltex.c) with sampler objects set from its slots; mirrored
+ * instances are drawn with clockwise front faces, double-sided materials
+ * without culling. With an environment, a background pass (a triangle
+ * over the viewport) solves the ground plane per pixel and writes its
+ * depth (gl_FragDepth), else the sky at the far plane; fog is applied in
+ * the shaders; exposure on the CPU after the readback (vt_exposure_apply,
+ * the software renderer's code). The shaders are in vt_gldraw_glsl.c.
  */
 #include "vt_gldraw.h"
+#include "vt_gldraw_internal.h"
 #include "vt_picture.h"
 
 #include <epoxy/gl.h>
@@ -30,27 +43,50 @@
 
 #define TILE VT_TILE
 #define EMPTY VT_EMPTY
-#define IV 10                /* floats an instance: scale, shift, albedo, mask */
+#define IV 14                /* floats an instance: scale, shift, albedo, mask, rotation */
 #define MASK_TEXELS 5        /* RGBA texels a mask header */
 
-/* One mesh's share of the frame's buffers. */
+/* One mesh's share of the frame's vertex buffer. */
 typedef struct mesh_draw {
     uint32_t vfirst, nvx;   /* its vertices (expanded per index without normals) */
     uint32_t efirst, nel;   /* its indices (0: drawn from the expanded vertices) */
-    uint32_t ifirst, ninst; /* instances: the intact ones first */
-    uint32_t nmasked;       /* the last nmasked are damaged: drawn two-sided */
-    uint32_t pi, pm;        /* placing: intact and damaged instances so far */
+    uint32_t ninst;         /* instances of it this frame */
     float b[6];             /* the mesh's bounds */
 } mesh_draw;
 
+/* A run of instances drawn with one call: same mesh, material, damage
+ * and handedness. */
+typedef struct group {
+    uint32_t mesh, ifirst, n;
+    const vt_material *mat;
+    bool masked, mirror;
+} group;
+
+#define VF 12               /* floats a vertex: position, normal, uv, tangent */
+
+/* The programs' uniforms, by name (UNIFORMS order). */
+#define UNIFORMS(X)                                                                                  \
+    X(u_vp) X(u_d) X(u_pass) X(u_tiles_x) X(u_two_sided) X(u_mat_on) X(u_alpha_mask) X(u_tex_on)     \
+    X(u_has_uv) X(u_has_t) X(u_base) X(u_mr) X(u_em) X(u_nscale) X(u_cutoff) X(u_txm) X(u_txo)       \
+    X(u_env_on) X(u_sun_on) X(u_sky_mode) X(u_sun_dir) X(u_sun) X(u_amb_up) X(u_amb_down) X(u_fog)   \
+    X(u_sky) X(u_fog_density) X(u_fog_falloff) X(u_fog_y0) X(u_sky_rot) X(u_ground)                   \
+    X(u_depth_half) X(u_reversed) X(u_size) X(u_rx) X(u_ry) X(u_rz) X(u_rw)                          \
+    X(u_rn) X(u_rd) X(u_ground_y) X(u_ground_albedo) X(u_ground_uv0)
+#define U_ENUM(n) n,
+enum { UNIFORMS(U_ENUM) U_COUNT };
+#define U_NAME(n) #n,
+static const char *const u_names[U_COUNT] = {UNIFORMS(U_NAME)};
+
 struct vt_gldraw {
     vt_gl *g;
-    unsigned prog, vao;
-    int loc_vp, loc_d, loc_pass, loc_tiles_x;
+    unsigned prog, bg, vao;
+    int loc[2][U_COUNT];     /* [main, background] */
     int max_texels;          /* GL_MAX_TEXTURE_BUFFER_SIZE */
     unsigned tex[5], buf[5]; /* buffer textures: lights, tile offsets, tile indices,
                                 mask headers, mask fields */
     unsigned vbuf, ibuf, ebuf; /* this frame's vertices, instances and indices, all meshes */
+    unsigned samp[4];        /* the material slots' sampler objects (units 5..8) */
+    vt_gltex tc;             /* textures */
     vt_gl_target *target;
     /* per frame, grown as needed */
     float *pix;              /* readback */
@@ -64,148 +100,17 @@ struct vt_gldraw {
     size_t el_cap;
     mesh_draw *md;
     size_t md_cap;
+    struct dkey *key;        /* instances in draw order */
+    size_t key_cap;
+    group *gr;
+    size_t ngr, gr_cap;
     float (*range)[2];
     size_t range_cap;
     cull_light_tiles tiles;
     cull_light *cl;
     size_t cl_cap;
+    vt_skytab sky;          /* the analytic sky's table */
 };
-
-static const char *vs_src =
-    "#version 330 core\n"
-    "layout(location = 0) in vec3 a_pos;\n"
-    "layout(location = 1) in vec3 a_nrm;\n"
-    "layout(location = 2) in vec3 a_scale;\n"
-    "layout(location = 3) in vec3 a_shift;\n"
-    "layout(location = 4) in vec3 a_albedo;\n"
-    "layout(location = 5) in float a_mask;\n"
-    "uniform mat4 u_vp;\n"
-    "uniform vec4 u_d;\n" /* nearness numerator row */
-    "invariant gl_Position;\n" /* pass 2 tests against pass 1's depth */
-    "invariant out vec3 v_p;\n"
-    "out vec3 v_n;\n"
-    "flat out vec3 v_albedo;\n"
-    "flat out int v_mask;\n"
-    "out float v_dp;\n"
-    "void main() {\n"
-    "  vec3 p = a_pos * a_scale + a_shift;\n"
-    "  vec3 s = vec3(a_scale.x > 0.0 ? a_scale.x : 1.0, a_scale.y > 0.0 ? a_scale.y : 1.0,\n"
-    "                a_scale.z > 0.0 ? a_scale.z : 1.0);\n"
-    "  v_p = p;\n"
-    "  v_n = a_nrm / s;\n"
-    "  v_albedo = a_albedo;\n"
-    "  v_mask = int(a_mask);\n"
-    "  vec4 c = u_vp * vec4(p, 1.0);\n"
-    "  v_dp = dot(u_d, vec4(p, 1.0));\n"
-    "  gl_Position = c;\n"
-    "}\n";
-
-#define STR_(x) #x
-#define STR(x) STR_(x)
-static const char *fs_src =
-    "#version 330 core\n"
-    "#define VT_MASK_INTERIOR " STR(VT_MASK_INTERIOR) "\n"
-    "#define VT_MASK_CHAR " STR(VT_MASK_CHAR) "\n"
-    "invariant in vec3 v_p;\n"
-    "in vec3 v_n;\n"
-    "flat in vec3 v_albedo;\n"
-    "flat in int v_mask;\n"
-    "in float v_dp;\n"
-    "uniform int u_pass;\n"
-    "uniform int u_tiles_x;\n"
-    "uniform samplerBuffer u_lights;\n"   /* 4 texels a light */
-    "uniform usamplerBuffer u_offset;\n"
-    "uniform usamplerBuffer u_index;\n"
-    "uniform usamplerBuffer u_mhead;\n"  /* MASK_TEXELS texels a mask: float bits, then integers */
-    "uniform samplerBuffer u_mfield;\n"
-    "out vec4 o_color;\n"
-    /* the destruction mask of vt_mask.h, operation for operation */
-    "float lattice(ivec3 c) {\n"
-    "  uvec3 u = uvec3(c);\n"
-    "  uint h = u.x * 0x8da6b343u ^ u.y * 0xd8163841u ^ u.z * 0xcb1ab31fu;\n"
-    "  h ^= h >> 16u; h *= 0x7feb352du; h ^= h >> 15u; h *= 0x846ca68bu; h ^= h >> 16u;\n"
-    "  return float(h >> 8u) * (1.0 / 8388607.5) - 1.0;\n"
-    "}\n"
-    "float vnoise(vec3 p) {\n"
-    "  vec3 f = floor(p);\n"
-    "  ivec3 i = ivec3(f);\n"
-    "  vec3 t = p - f;\n"
-    "  t = t * t * (3.0 - 2.0 * t);\n"
-    "  float c00 = lattice(i) + t.x * (lattice(i + ivec3(1, 0, 0)) - lattice(i));\n"
-    "  float c10 = lattice(i + ivec3(0, 1, 0)) + t.x * (lattice(i + ivec3(1, 1, 0)) - lattice(i + ivec3(0, 1, 0)));\n"
-    "  float c01 = lattice(i + ivec3(0, 0, 1)) + t.x * (lattice(i + ivec3(1, 0, 1)) - lattice(i + ivec3(0, 0, 1)));\n"
-    "  float c11 = lattice(i + ivec3(0, 1, 1)) + t.x * (lattice(i + ivec3(1, 1, 1)) - lattice(i + ivec3(0, 1, 1)));\n"
-    "  float c0 = c00 + t.y * (c10 - c00), c1 = c01 + t.y * (c11 - c01);\n"
-    "  return c0 + t.z * (c1 - c0);\n"
-    "}\n"
-    "float field(int k) { return texelFetch(u_mfield, k).r; }\n"
-    "float mask_eval(int m, vec3 p, out float ib) {\n"
-    "  vec4 h0 = uintBitsToFloat(texelFetch(u_mhead, 5 * m)), h1 = uintBitsToFloat(texelFetch(u_mhead, 5 * m + 1));\n"
-    "  vec4 h2 = uintBitsToFloat(texelFetch(u_mhead, 5 * m + 2)), h3 = uintBitsToFloat(texelFetch(u_mhead, 5 * m + 3));\n"
-    "  uvec4 q = texelFetch(u_mhead, 5 * m + 4);\n"
-    "  ib = h1.w;\n"
-    "  vec3 u = clamp((p - h0.xyz) * h1.xyz, vec3(0.0), h2.xyz);\n"
-    "  vec3 fl = min(floor(u), h2.xyz - 1.0);\n"
-    "  vec3 t = u - fl;\n"
-    "  int sy = int(q.y), sz = int(q.z);\n"
-    "  int b = int(q.x) + int(fl.x) + int(fl.y) * sy + int(fl.z) * sz;\n"
-    "  float c00 = field(b) + t.x * (field(b + 1) - field(b));\n"
-    "  float c10 = field(b + sy) + t.x * (field(b + sy + 1) - field(b + sy));\n"
-    "  float c01 = field(b + sz) + t.x * (field(b + sz + 1) - field(b + sz));\n"
-    "  float c11 = field(b + sz + sy) + t.x * (field(b + sz + sy + 1) - field(b + sz + sy));\n"
-    "  float c0 = c00 + t.y * (c10 - c00), c1 = c01 + t.y * (c11 - c01);\n"
-    "  float f = c0 + t.z * (c1 - c0);\n"
-    "  if (f < -h0.w || f >= h2.w) return f;\n"
-    "  vec3 c = u * h3.xyz;\n"
-    "  return f + h0.w * (0.6 * vnoise(c) + 0.4 * vnoise(2.0 * c + 17.0));\n"
-    "}\n"
-    "void main() {\n"
-    "  float v_near = v_dp * gl_FragCoord.w;\n"
-    "  vec3 albedo = v_albedo, nv = v_n;\n"
-    "  if (v_mask >= 0) {\n"
-    "    float ib, e = mask_eval(v_mask, v_p, ib);\n"
-    "    if (e < 0.0) discard;\n"
-    "    if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, v_near); return; }\n"
-    "    float k = e * ib;\n"
-    "    if (!gl_FrontFacing) { nv = -nv; albedo *= VT_MASK_INTERIOR; }\n"
-    "    if (k < 1.0) {\n"
-    "      k = max(k, 0.0);\n"
-    "      albedo *= VT_MASK_CHAR + (1.0 - VT_MASK_CHAR) * (k * k * (3.0 - 2.0 * k));\n"
-    "    }\n"
-    "  }\n"
-    "  if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, v_near); return; }\n"
-    "  vec3 n = normalize(nv);\n"
-    "  vec3 vd = normalize(-v_p);\n"
-    "  vec3 c = 0.03 * albedo;\n"
-    "  ivec2 tp = ivec2(gl_FragCoord.xy) / 16;\n"
-    "  int t = tp.y * u_tiles_x + tp.x;\n"
-    "  int k0 = int(texelFetch(u_offset, t).r), k1 = int(texelFetch(u_offset, t + 1).r);\n"
-    "  for (int k = k0; k < k1; k++) {\n"
-    "    int li = int(texelFetch(u_index, k).r) * 4;\n"
-    "    vec4 q0 = texelFetch(u_lights, li), q1 = texelFetch(u_lights, li + 1);\n"
-    "    vec4 q2 = texelFetch(u_lights, li + 2), q3 = texelFetch(u_lights, li + 3);\n"
-    "    vec3 l = q0.xyz - v_p;\n"
-    "    float d2 = dot(l, l);\n"
-    "    if (d2 >= q0.w || d2 <= 0.0) continue;\n"
-    "    l *= inversesqrt(d2);\n"
-    "    float ndl = dot(n, l);\n"
-    "    if (ndl <= 0.0) continue;\n"
-    "    float qq = d2 / q0.w, win = 1.0 - qq * qq;\n"
-    "    float att = win * win / (d2 + 0.01);\n"
-    "    if (q1.w > 0.5) {\n"
-    "      float cd = -dot(l, q2.xyz);\n"
-    "      float s = clamp((cd - q2.w) / (q3.x - q2.w), 0.0, 1.0);\n"
-    "      att *= s * s * (3.0 - 2.0 * s);\n"
-    "    }\n"
-    "    if (att <= 0.0) continue;\n"
-    "    vec3 h = l + vd;\n"
-    "    float hl = length(h);\n"
-    "    float ndh = hl > 0.0 ? max(dot(n, h) / hl, 0.0) : 0.0;\n"
-    "    float spec = 0.04 * 40.0 / (8.0 * 3.14159265) * pow(ndh, 32.0);\n"
-    "    c += q1.xyz * att * ndl * (albedo / 3.14159265 + spec);\n"
-    "  }\n"
-    "  o_color = vec4(c, v_near);\n"
-    "}\n";
 
 int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
 {
@@ -213,7 +118,9 @@ int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
     vt_gldraw *r = calloc(1, sizeof *r);
     if (!r) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     r->g = g;
-    int rc = vt_gl_program_build(g, vs_src, fs_src, &r->prog, err, errlen);
+    int rc = vt_gl_program_build(g, vt_gldraw_vs, vt_gldraw_fs, &r->prog, err, errlen);
+    if (!rc && (rc = vt_gl_program_build(g, vt_gldraw_bg_vs, vt_gldraw_bg_fs, &r->bg, err, errlen)))
+        glDeleteProgram(r->prog);
     if (rc) {
         free(r);
         return rc;
@@ -224,18 +131,22 @@ int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
     glGenBuffers(1, &r->vbuf);
     glGenBuffers(1, &r->ibuf);
     glGenBuffers(1, &r->ebuf);
+    glGenSamplers(4, r->samp);
     glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &r->max_texels);
     if (r->max_texels <= 0) r->max_texels = 65536; /* the GL 3.3 minimum */
-    r->loc_vp = glGetUniformLocation(r->prog, "u_vp");
-    r->loc_d = glGetUniformLocation(r->prog, "u_d");
-    r->loc_pass = glGetUniformLocation(r->prog, "u_pass");
-    r->loc_tiles_x = glGetUniformLocation(r->prog, "u_tiles_x");
-    glUseProgram(r->prog); /* the samplers' units never change */
-    glUniform1i(glGetUniformLocation(r->prog, "u_lights"), 0);
-    glUniform1i(glGetUniformLocation(r->prog, "u_offset"), 1);
-    glUniform1i(glGetUniformLocation(r->prog, "u_index"), 2);
-    glUniform1i(glGetUniformLocation(r->prog, "u_mhead"), 3);
-    glUniform1i(glGetUniformLocation(r->prog, "u_mfield"), 4);
+    for (int p = 0; p < 2; p++) {
+        unsigned prog = p ? r->bg : r->prog;
+        for (int u = 0; u < U_COUNT; u++) r->loc[p][u] = glGetUniformLocation(prog, u_names[u]);
+        glUseProgram(prog); /* the samplers' units never change */
+        glUniform1i(glGetUniformLocation(prog, "u_lights"), 0);
+        glUniform1i(glGetUniformLocation(prog, "u_offset"), 1);
+        glUniform1i(glGetUniformLocation(prog, "u_index"), 2);
+        glUniform1i(glGetUniformLocation(prog, "u_mhead"), 3);
+        glUniform1i(glGetUniformLocation(prog, "u_mfield"), 4);
+        static const char *const slot[4] = {"u_tex0", "u_tex1", "u_tex2", "u_tex3"};
+        for (int k = 0; k < 4; k++) glUniform1i(glGetUniformLocation(prog, slot[k]), 5 + k);
+        glUniform1i(glGetUniformLocation(prog, "u_sky_tex"), 9);
+    }
     *out = r;
     return 0;
 }
@@ -244,6 +155,8 @@ void vt_gldraw_destroy(vt_gldraw *r)
 {
     if (!r) return;
     vt_gl_target_destroy(r->target);
+    vt_gltex_free(&r->tc);
+    glDeleteSamplers(4, r->samp);
     glDeleteTextures(5, r->tex);
     glDeleteBuffers(5, r->buf);
     glDeleteBuffers(1, &r->vbuf);
@@ -251,6 +164,7 @@ void vt_gldraw_destroy(vt_gldraw *r)
     glDeleteBuffers(1, &r->ebuf);
     glDeleteVertexArrays(1, &r->vao);
     glDeleteProgram(r->prog);
+    glDeleteProgram(r->bg);
     cull_light_tiles_free(&r->tiles);
     free(r->pix);
     free(r->vx);
@@ -260,6 +174,8 @@ void vt_gldraw_destroy(vt_gldraw *r)
     free(r->mh);
     free(r->mf);
     free(r->md);
+    free(r->key);
+    free(r->gr);
     free(r->range);
     free(r->cl);
     free(r);
@@ -274,28 +190,87 @@ static void tbo(unsigned tex, unsigned buf, GLenum format, const void *data, siz
     glTexBuffer(GL_TEXTURE_BUFFER, format, buf);
 }
 
-/* Uploads the frame's geometry once for both passes: every drawn mesh's
- * vertices (positions and normals) into one buffer and its indices into
- * another (a mesh without normals instead gets one vertex per index with
- * its face's normal, the one vt_soft shades with), and the instances,
- * grouped by mesh, intact ones first (scale, camera-relative shift,
- * albedo, mask index or -1; the transform in double, as vt_soft computes
- * it), into a third; the damaged instances' masks (vt_mask.h) into two
- * buffer textures. */
-static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_instance *inst, uint32_t ninst,
-                  const double origin[3], char *err, size_t errlen)
+/* An instance's place in the draw order. */
+typedef struct dkey {
+    uint32_t mesh;
+    uintptr_t mat;
+    uint8_t masked, mirror;
+    uint32_t i;
+} dkey;
+
+static int dkey_cmp(const void *pa, const void *pb)
 {
+    const dkey *a = pa, *b = pb;
+    if (a->mesh != b->mesh) return a->mesh < b->mesh ? -1 : 1;
+    if (a->mat != b->mat) return a->mat < b->mat ? -1 : 1;
+    if (a->masked != b->masked) return a->masked < b->masked ? -1 : 1;
+    if (a->mirror != b->mirror) return a->mirror < b->mirror ? -1 : 1;
+    return a->i < b->i ? -1 : a->i > b->i;
+}
+
+static bool trs_mirrored(const vt_instance *in)
+{
+    return in->place == VT_PLACE_TRS && (in->scale[0] < 0) ^ (in->scale[1] < 0) ^ (in->scale[2] < 0);
+}
+
+/* One mesh's vertices as uploaded (VF floats each: position, normal, uv,
+ * tangent): as given, indexed, where it has normals; else one vertex per
+ * index with its face's normal (the model-space face normal: the shader
+ * divides by the scale and rotates, which gives the placed face's normal,
+ * M^-T n, the one vt_soft shades with). */
+static void mesh_vertices(const vt_mesh *m, const mesh_draw *d, float *vx, uint32_t *el)
+{
+    for (uint32_t k = 0; k < d->nvx; k++) {
+        uint32_t vi = d->nel ? k : m->idx[k];
+        float *o = vx + VF * (size_t)k;
+        memcpy(o, m->pos + 3 * (size_t)vi, 3 * sizeof *o);
+        if (m->nrm) {
+            memcpy(o + 3, m->nrm + 3 * (size_t)vi, 3 * sizeof *o);
+        } else {
+            const uint32_t *t = m->idx + 3 * (k / 3);
+            const float *p0 = m->pos + 3 * t[0], *p1 = m->pos + 3 * t[1], *p2 = m->pos + 3 * t[2];
+            float u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+            float w[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+            o[3] = u[1] * w[2] - u[2] * w[1];
+            o[4] = u[2] * w[0] - u[0] * w[2];
+            o[5] = u[0] * w[1] - u[1] * w[0];
+        }
+        o[6] = m->uv ? m->uv[2 * (size_t)vi] : 0;
+        o[7] = m->uv ? m->uv[2 * (size_t)vi + 1] : 0;
+        for (int a = 0; a < 4; a++) o[8 + a] = m->tan ? m->tan[4 * (size_t)vi + a] : 0;
+    }
+    if (d->nel) memcpy(el, m->idx, (size_t)m->ni * sizeof *el);
+}
+
+/* Uploads the frame's geometry once for both passes: every drawn mesh's
+ * vertices into one buffer and its indices into another (mesh_vertices),
+ * the instances in draw order (sorted by mesh, material, damage and
+ * handedness: one draw per run) into a third (scale, camera-relative
+ * shift, albedo, mask index or -1, rotation; the placement in double, as
+ * vt_soft computes it), and the damaged instances' masks (vt_mask.h)
+ * into two buffer textures. */
+static int upload(vt_gldraw *r, const vt_frame *f, char *err, size_t errlen)
+{
+    const vt_mesh *meshes = f->meshes;
+    const vt_instance *inst = f->inst;
+    const uint32_t nmesh = f->nmesh, ninst = f->ninst;
+    const double *origin = f->view->origin;
     size_t nvx = 0, nel = 0;
     if (!vp_grow((void **)&r->md, &r->md_cap, (size_t)nmesh + 1, sizeof *r->md) ||
-        !vp_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * IV, sizeof *r->iv))
+        !vp_grow((void **)&r->iv, &r->iv_cap, ((size_t)ninst + 1) * IV, sizeof *r->iv) ||
+        !vp_grow((void **)&r->key, &r->key_cap, (size_t)ninst + 1, sizeof *r->key) ||
+        !vp_grow((void **)&r->gr, &r->gr_cap, (size_t)ninst + 1, sizeof *r->gr))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     memset(r->md, 0, (size_t)nmesh * sizeof *r->md);
     size_t nmask = 0, nfield = 0;
+    dkey *key = r->key;
     for (uint32_t i = 0; i < ninst; i++) {
         r->md[inst[i].mesh].ninst++;
         const cull_dvol *dv = inst[i].dvol;
-        if (!vt_dvol_live(dv)) continue;
-        r->md[inst[i].mesh].nmasked++;
+        bool damaged = vt_dvol_live(dv);
+        key[i] = (dkey){.mesh = inst[i].mesh, .mat = (uintptr_t)inst[i].mat, .masked = damaged,
+                        .mirror = trs_mirrored(&inst[i]), .i = i};
+        if (!damaged) continue;
         nmask++;
         nfield += (size_t)dv->n[0] * dv->n[1] * dv->n[2];
     }
@@ -306,10 +281,18 @@ static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_
     if (!vp_grow((void **)&r->mh, &r->mh_cap, (nmask + 1) * 4 * MASK_TEXELS, sizeof *r->mh) ||
         !vp_grow((void **)&r->mf, &r->mf_cap, nfield + 1, sizeof *r->mf))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
-    for (uint32_t mi = 0, first = 0; mi < nmesh; mi++) {
+    qsort(key, ninst, sizeof *key, dkey_cmp);
+    r->ngr = 0;
+    for (uint32_t k = 0; k < ninst; k++) {
+        group *g = r->ngr ? &r->gr[r->ngr - 1] : NULL;
+        if (!g || g->mesh != key[k].mesh || (uintptr_t)g->mat != key[k].mat || g->masked != key[k].masked ||
+            g->mirror != key[k].mirror)
+            r->gr[r->ngr++] = (group){.mesh = key[k].mesh, .ifirst = k, .mat = inst[key[k].i].mat,
+                                      .masked = key[k].masked, .mirror = key[k].mirror};
+        r->gr[r->ngr - 1].n++;
+    }
+    for (uint32_t mi = 0; mi < nmesh; mi++) {
         mesh_draw *d = &r->md[mi];
-        d->ifirst = first;
-        first += d->ninst;
         d->vfirst = (uint32_t)nvx;
         d->efirst = (uint32_t)nel;
         bool indexed = meshes[mi].nrm != NULL;
@@ -318,61 +301,28 @@ static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_
         if (d->ninst) vt_mesh_bounds(&meshes[mi], d->b);
         nvx += d->nvx;
         nel += d->nel;
-        d->pi = d->pm = 0;
     }
-    if (!vp_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * 6, sizeof *r->vx) ||
+    if (!vp_grow((void **)&r->vx, &r->vx_cap, (nvx + 1) * VF, sizeof *r->vx) ||
         !vp_grow((void **)&r->el, &r->el_cap, nel + 1, sizeof *r->el))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
-    for (uint32_t mi = 0; mi < nmesh; mi++) {
-        const vt_mesh *m = &meshes[mi];
-        if (!r->md[mi].nvx) continue;
-        float *vx = r->vx + 6 * (size_t)r->md[mi].vfirst;
-        if (r->md[mi].nel) { /* as given: each vertex once, the indices beside */
-            for (uint32_t k = 0; k < m->nv; k++) {
-                memcpy(vx + 6 * (size_t)k, m->pos + 3 * (size_t)k, 3 * sizeof *vx);
-                memcpy(vx + 6 * (size_t)k + 3, m->nrm + 3 * (size_t)k, 3 * sizeof *vx);
-            }
-            memcpy(r->el + r->md[mi].efirst, m->idx, (size_t)m->ni * sizeof *r->el);
-            continue;
-        }
-        for (uint32_t t = 0; t < m->ni / 3; t++) {
-            const float *p0 = m->pos + 3 * m->idx[3 * t], *p1 = m->pos + 3 * m->idx[3 * t + 1],
-                        *p2 = m->pos + 3 * m->idx[3 * t + 2];
-            float fn[3] = {0, 0, 0};
-            if (!m->nrm) {
-                /* the model-space face normal: the shader divides by the
-                   scale, which gives the stretched face's normal (M^-T n),
-                   the one vt_soft shades with */
-                float u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-                float w[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-                fn[0] = u[1] * w[2] - u[2] * w[1];
-                fn[1] = u[2] * w[0] - u[0] * w[2];
-                fn[2] = u[0] * w[1] - u[1] * w[0];
-            }
-            for (int k = 0; k < 3; k++) {
-                uint32_t vi = m->idx[3 * t + k];
-                float *o = vx + 6 * ((size_t)3 * t + k);
-                memcpy(o, m->pos + 3 * vi, 3 * sizeof *o);
-                if (m->nrm) memcpy(o + 3, m->nrm + 3 * vi, 3 * sizeof *o);
-                else memcpy(o + 3, fn, sizeof fn);
-            }
-        }
-    }
+    for (uint32_t mi = 0; mi < nmesh; mi++)
+        if (r->md[mi].nvx)
+            mesh_vertices(&meshes[mi], &r->md[mi], r->vx + VF * (size_t)r->md[mi].vfirst, r->el + r->md[mi].efirst);
     nmask = nfield = 0;
-    for (uint32_t i = 0; i < ninst; i++) {
-        mesh_draw *d = &r->md[inst[i].mesh];
-        double scale[3], shift[3];
-        vt_instance_xform(&inst[i], d->b, origin, scale, shift);
+    for (uint32_t k = 0; k < ninst; k++) {
+        uint32_t i = key[k].i;
+        vt_place pl;
+        vt_instance_place(&inst[i], r->md[inst[i].mesh].b, origin, &pl);
         const cull_dvol *dv = inst[i].dvol;
         bool damaged = vt_dvol_live(dv);
-        size_t at = damaged ? d->ifirst + (d->ninst - d->nmasked) + d->pm++ : d->ifirst + d->pi++;
-        float *q = r->iv + IV * at;
+        float *q = r->iv + IV * (size_t)k;
         for (int a = 0; a < 3; a++) {
-            q[a] = (float)scale[a];
-            q[3 + a] = (float)shift[a];
+            q[a] = (float)pl.s[a];
+            q[3 + a] = (float)pl.t[a];
             q[6 + a] = inst[i].albedo[a];
         }
         q[9] = damaged ? (float)nmask : -1.0f;
+        for (int a = 0; a < 4; a++) q[10 + a] = (float)pl.q[a];
         if (!damaged) continue;
         vt_mask m;
         vt_mask_make(dv, origin, &m);
@@ -387,7 +337,7 @@ static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_
         nfield += ns;
     }
     glBindBuffer(GL_ARRAY_BUFFER, r->vbuf);
-    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((nvx ? nvx : 1) * 6 * sizeof *r->vx), r->vx, GL_STREAM_DRAW);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((nvx ? nvx : 1) * VF * sizeof *r->vx), r->vx, GL_STREAM_DRAW);
     glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
     glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(((size_t)ninst + 1) * IV * sizeof *r->iv), r->iv, GL_STREAM_DRAW);
     glActiveTexture(GL_TEXTURE3);
@@ -401,53 +351,182 @@ static int upload(vt_gldraw *r, const vt_mesh *meshes, uint32_t nmesh, const vt_
     return e == GL_NO_ERROR ? 0 : vp_errf(err, errlen, VT_ERR_GL, "upload: GL error 0x%x", e);
 }
 
-/* Draws what upload put in the buffers: per mesh, one instanced draw of
- * its intact instances (back faces culled) and one of its damaged ones
- * (two-sided: their insides show through their holes). */
-static int draw(const vt_gldraw *r, uint32_t nmesh, char *err, size_t errlen)
+/* A material's uniforms and textures on program p (0 main, 1 background;
+ * NULL: the default material of each instance's albedo). false: nothing
+ * of it is drawn (a MASK material whose constant alpha is below its
+ * cutoff), or a texture could not be made (*rc set). */
+static bool set_material(vt_gldraw *r, int p, const vt_material *m, bool has_uv, bool has_t, int *rc, char *err,
+                         size_t errlen)
 {
-    for (uint32_t mi = 0; mi < nmesh; mi++) {
-        const mesh_draw *d = &r->md[mi];
-        if (!d->ninst) continue;
-        glBindBuffer(GL_ARRAY_BUFFER, r->vbuf);
-        for (unsigned a = 0; a < 2; a++) {
-            glEnableVertexAttribArray(a);
-            glVertexAttribPointer(a, 3, GL_FLOAT, GL_FALSE, 24, (void *)(uintptr_t)(24 * (size_t)d->vfirst + 12 * a));
-            glVertexAttribDivisor(a, 0);
-        }
-        uint32_t part[2][2] = {{d->ifirst, d->ninst - d->nmasked}, {d->ifirst + d->ninst - d->nmasked, d->nmasked}};
-        for (int p = 0; p < 2; p++) {
-            if (!part[p][1]) continue;
-            if (p) glDisable(GL_CULL_FACE);
-            glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
-            for (unsigned a = 0; a < 4; a++) {
-                glEnableVertexAttribArray(2 + a);
-                glVertexAttribPointer(2 + a, a < 3 ? 3 : 1, GL_FLOAT, GL_FALSE, 4 * IV,
-                                      (void *)(uintptr_t)(4 * IV * (size_t)part[p][0] + 12 * a));
-                glVertexAttribDivisor(2 + a, 1);
-            }
-            if (d->nel)
-                glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)d->nel, GL_UNSIGNED_INT,
-                                        (void *)(uintptr_t)(4 * (size_t)d->efirst), (GLsizei)part[p][1]);
-            else
-                glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)d->nvx, (GLsizei)part[p][1]);
-            if (p) glEnable(GL_CULL_FACE);
-        }
+    const int *L = r->loc[p];
+    glUniform1i(L[u_mat_on], m != NULL);
+    glUniform1i(L[u_has_uv], has_uv);
+    glUniform1i(L[u_has_t], has_t);
+    if (!m) {
+        glUniform1i(L[u_tex_on], 0);
+        glUniform1i(L[u_alpha_mask], 0);
+        glUniform1i(L[u_two_sided], 0);
+        return true;
     }
+    bool test = m->alpha_mode == VT_ALPHA_MASK && m->tex[VT_SLOT_BASE].tex && has_uv;
+    if (m->alpha_mode == VT_ALPHA_MASK && !test && m->base[3] < m->alpha_cutoff) return false;
+    glUniform4fv(L[u_base], 1, m->base);
+    glUniform2f(L[u_mr], m->metallic, m->roughness);
+    glUniform3f(L[u_em], m->emissive[0] * m->emissive_strength, m->emissive[1] * m->emissive_strength,
+                m->emissive[2] * m->emissive_strength);
+    glUniform1f(L[u_nscale], m->normal_scale);
+    glUniform1i(L[u_alpha_mask], test);
+    glUniform1f(L[u_cutoff], m->alpha_cutoff);
+    glUniform1i(L[u_two_sided], m->double_sided);
+    int on = 0;
+    float txm[16], txo[8];
+    for (int k = 0; k < VT_SLOTS; k++) {
+        const vt_texref *t = &m->tex[k];
+        /* vt_tex_xform's matrix: columns of the unit vectors' images */
+        float e[2][2], o0[2], zero[2] = {0, 0};
+        vt_tex_xform(t, (const float[2]){1, 0}, true, e[0]);
+        vt_tex_xform(t, (const float[2]){0, 1}, true, e[1]);
+        vt_tex_xform(t, zero, false, o0);
+        txm[4 * k] = e[0][0];
+        txm[4 * k + 1] = e[1][0];
+        txm[4 * k + 2] = e[0][1];
+        txm[4 * k + 3] = e[1][1];
+        txo[2 * k] = o0[0];
+        txo[2 * k + 1] = o0[1];
+        if (!t->tex || !has_uv) continue;
+        glActiveTexture(GL_TEXTURE5 + (unsigned)k);
+        if (!vt_gltex_get(&r->tc, t->tex, k == VT_SLOT_BASE || k == VT_SLOT_EMISSIVE)) {
+            *rc = vp_errf(err, errlen, VT_ERR_GL, "texture %u (%ux%u) could not be uploaded", t->tex->id, t->tex->w,
+                          t->tex->h);
+            return false;
+        }
+        glBindSampler(5 + (unsigned)k, r->samp[k]);
+        vt_gltex_sampler(r->samp[k], t);
+        on |= 1 << k;
+    }
+    glUniform4fv(L[u_txm], 4, txm);
+    glUniform2fv(L[u_txo], 4, txo);
+    glUniform1i(L[u_tex_on], on);
+    return true;
+}
+
+/* Draws what upload put in the buffers: per group one instanced draw,
+ * back faces culled unless damaged (their insides show through their
+ * holes) or double-sided; mirrored groups with clockwise front faces. */
+static int draw(vt_gldraw *r, const vt_frame *f, char *err, size_t errlen)
+{
+    int rc = 0;
+    for (size_t gi = 0; gi < r->ngr; gi++) {
+        const group *g = &r->gr[gi];
+        const mesh_draw *d = &r->md[g->mesh];
+        const vt_mesh *m = &f->meshes[g->mesh];
+        if (!set_material(r, 0, g->mat, m->uv != NULL, m->tan != NULL, &rc, err, errlen)) {
+            if (rc) return rc;
+            continue;
+        }
+        glBindBuffer(GL_ARRAY_BUFFER, r->vbuf);
+        static const struct { unsigned loc, n, off; } va[4] = {{0, 3, 0}, {1, 3, 3}, {7, 2, 6}, {8, 4, 8}};
+        for (int a = 0; a < 4; a++) {
+            glEnableVertexAttribArray(va[a].loc);
+            glVertexAttribPointer(va[a].loc, (GLint)va[a].n, GL_FLOAT, GL_FALSE, 4 * VF,
+                                  (void *)(uintptr_t)(4 * VF * (size_t)d->vfirst + 4 * va[a].off));
+            glVertexAttribDivisor(va[a].loc, 0);
+        }
+        glBindBuffer(GL_ARRAY_BUFFER, r->ibuf);
+        static const struct { unsigned loc, n, off; } ia[5] = {{2, 3, 0}, {3, 3, 3}, {4, 3, 6}, {5, 1, 9}, {6, 4, 10}};
+        for (int a = 0; a < 5; a++) {
+            glEnableVertexAttribArray(ia[a].loc);
+            glVertexAttribPointer(ia[a].loc, (GLint)ia[a].n, GL_FLOAT, GL_FALSE, 4 * IV,
+                                  (void *)(uintptr_t)(4 * IV * (size_t)g->ifirst + 4 * ia[a].off));
+            glVertexAttribDivisor(ia[a].loc, 1);
+        }
+        bool two = g->masked || (g->mat && g->mat->double_sided);
+        if (two) glDisable(GL_CULL_FACE);
+        glFrontFace(g->mirror ? GL_CW : GL_CCW);
+        if (d->nel)
+            glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)d->nel, GL_UNSIGNED_INT,
+                                    (void *)(uintptr_t)(4 * (size_t)d->efirst), (GLsizei)g->n);
+        else
+            glDrawArraysInstanced(GL_TRIANGLES, 0, (GLsizei)d->nvx, (GLsizei)g->n);
+        if (two) glEnable(GL_CULL_FACE);
+    }
+    glFrontFace(GL_CCW);
     GLenum e = glGetError();
     return e == GL_NO_ERROR ? 0 : vp_errf(err, errlen, VT_ERR_GL, "draw: GL error 0x%x", e);
+}
+
+/* The environment's uniforms on program p (vt_penv: the same values the
+ * software renderer shades with) and, on the background program, the
+ * view's rows for its rays. */
+static void set_env(vt_gldraw *r, int p, const vt_penv *pe, const cull_view_rows *vr, const vt_frame *f)
+{
+    const int *L = r->loc[p];
+    glUniform1i(L[u_env_on], pe->on);
+    glUniform1i(L[u_sun_on], pe->sun_on);
+    glUniform1i(L[u_sky_mode], pe->sky_img ? 2 : 0);
+    glUniform3fv(L[u_sun_dir], 1, pe->sun_dir);
+    glUniform3fv(L[u_sun], 1, pe->sun);
+    glUniform3fv(L[u_amb_up], 1, pe->amb_up);
+    glUniform3fv(L[u_amb_down], 1, pe->amb_down);
+    glUniform3fv(L[u_fog], 1, pe->fog);
+    glUniform3fv(L[u_sky], 1, pe->sky_img ? pe->sky_mul : pe->sky);
+    glUniform1f(L[u_fog_density], pe->fog_density);
+    glUniform1f(L[u_fog_falloff], pe->fog_falloff);
+    glUniform1f(L[u_fog_y0], pe->fog_y0);
+    glUniform1f(L[u_sky_rot], pe->sky_rot);
+    if (!p) return;
+    const double *rows[6] = {vr->x, vr->y, vr->z, vr->w, vr->nearfn, vr->d};
+    for (int k = 0; k < 6; k++)
+        glUniform4f(L[u_rx + k], (float)rows[k][0], (float)rows[k][1], (float)rows[k][2], (float)rows[k][3]);
+    glUniform1i(L[u_ground], pe->ground);
+    glUniform1i(L[u_depth_half], f->view->depth_mode == CULL_DEPTH_GL);
+    glUniform1i(L[u_reversed], f->view->depth_mode == CULL_DEPTH_REVERSED);
+    glUniform2f(L[u_size], (float)f->width, (float)f->height);
+    glUniform1f(L[u_ground_y], pe->ground_y);
+    glUniform3fv(L[u_ground_albedo], 1, pe->ground_albedo);
+    glUniform2fv(L[u_ground_uv0], 1, pe->ground_uv0);
+}
+
+/* The background pass (pass 0: the ground's nearness; 1: the ground shaded
+ * and the sky): depth-tested against the scene drawn before it, the sky
+ * at the far plane passing only where nothing is. */
+static int draw_bg(vt_gldraw *r, int pass, bool reversed, const vt_penv *pe, char *err, size_t errlen)
+{
+    int rc = 0;
+    glUseProgram(r->bg);
+    glUniform1i(r->loc[1][u_pass], pass);
+    if (pe->ground && !set_material(r, 1, pe->ground_mat, pe->ground_mat != NULL, false, &rc, err, errlen) && rc)
+        return rc;
+    glDisable(GL_CULL_FACE);
+    glDepthFunc(reversed ? GL_GEQUAL : GL_LEQUAL);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glEnable(GL_CULL_FACE);
+    glUseProgram(r->prog);
+    GLenum e = glGetError();
+    return e == GL_NO_ERROR ? 0 : vp_errf(err, errlen, VT_ERR_GL, "background: GL error 0x%x", e);
 }
 
 int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,
                      uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                      float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
+    vt_frame f = {.view = v, .width = width, .height = height, .meshes = meshes, .nmesh = nmesh, .inst = inst,
+                  .ninst = ninst, .lights = lights, .nl = nl, .rgba = rgba, .depth = depth, .stride = stride};
+    return vt_gldraw_draw(r, &f, st, err, errlen);
+}
+
+int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err, size_t errlen)
+{
     if (st) memset(st, 0, sizeof *st);
     if (!r) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     cull_view_rows vr;
-    int rc = vt_picture_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &vr, err,
-                              errlen);
+    int rc = vt_picture_check(f, &vr, err, errlen);
     if (rc) return rc;
+    const cull_view *v = f->view;
+    const uint32_t width = f->width, height = f->height, nl = f->nl;
+    const vt_light *lights = f->lights;
+    float *rgba = f->rgba, *depth = f->depth;
+    const size_t stride = f->stride;
     if ((rc = vt_gl_make_current(r->g, err, errlen))) return rc;
     bool reversed = v->depth_mode == CULL_DEPTH_REVERSED;
     if (v->depth_mode != CULL_DEPTH_GL) {
@@ -470,13 +549,27 @@ int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t 
         !vp_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
         !vp_grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
-    if ((rc = upload(r, meshes, nmesh, inst, ninst, v->origin, err, errlen))) return rc;
+    if ((rc = upload(r, f, err, errlen))) return rc;
+    vt_penv pe;
+    vt_penv_make(f->env, v->origin, &r->sky, &pe);
+    const bool bg = pe.on; /* a background pass: the ground, the sky */
     float vp[16], d4[4];
     for (int i = 0; i < 16; i++) vp[i] = (float)v->clip[i];
     for (int i = 0; i < 4; i++) d4[i] = (float)vr.d[i];
+    if (bg) {
+        glUseProgram(r->bg);
+        set_env(r, 1, &pe, &vr, f);
+        if (pe.sky_img) { /* the environment map, or the analytic sky's table (id 0: this frame's) */
+            glActiveTexture(GL_TEXTURE9);
+            if (!vt_gltex_get(&r->tc, pe.sky_img, false))
+                return vp_errf(err, errlen, VT_ERR_GL, "sky texture %u (%ux%u) could not be uploaded", pe.sky_img->id,
+                               pe.sky_img->w, pe.sky_img->h);
+        }
+    }
     glUseProgram(r->prog);
-    glUniformMatrix4fv(r->loc_vp, 1, GL_FALSE, vp);
-    glUniform4fv(r->loc_d, 1, d4);
+    set_env(r, 0, &pe, &vr, f);
+    glUniformMatrix4fv(r->loc[0][u_vp], 1, GL_FALSE, vp);
+    glUniform4fv(r->loc[0][u_d], 1, d4);
     glBindVertexArray(r->vao);
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
@@ -489,8 +582,9 @@ int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t 
     /* pass 1, only where there are lights to bin: nearness (and depth) */
     vt_gl_target_clear(r->target, clear, reversed ? 0.0f : 1.0f);
     if (nl) {
-        glUniform1i(r->loc_pass, 0);
-        if ((rc = draw(r, nmesh, err, errlen))) return rc;
+        glUniform1i(r->loc[0][u_pass], 0);
+        if ((rc = draw(r, f, err, errlen))) return rc;
+        if (bg && (rc = draw_bg(r, 0, reversed, &pe, err, errlen))) return rc;
         if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
         vt_tile_ranges(r->pix + 3, 4, 4 * (size_t)width, width, height, r->range);
     }
@@ -521,8 +615,8 @@ int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t 
     tbo(r->tex[1], r->buf[1], GL_R32UI, r->tiles.offset, ((size_t)tx * ty + 1) * sizeof(uint32_t));
     glActiveTexture(GL_TEXTURE2);
     tbo(r->tex[2], r->buf[2], GL_R32UI, r->tiles.index, (size_t)r->tiles.offset[tx * ty] * sizeof(uint32_t));
-    glUniform1i(r->loc_tiles_x, (int)tx);
-    glUniform1i(r->loc_pass, 1);
+    glUniform1i(r->loc[0][u_tiles_x], (int)tx);
+    glUniform1i(r->loc[0][u_pass], 1);
     if (nl) {
         /* the depth of pass 1 stays: each pixel is shaded once, by the
            surface pass 1 found there (the same positions: invariant) */
@@ -530,8 +624,10 @@ int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t 
         glDepthFunc(reversed ? GL_GEQUAL : GL_LEQUAL);
         glDepthMask(GL_FALSE);
     }
-    rc = draw(r, nmesh, err, errlen);
+    rc = draw(r, f, err, errlen);
+    if (!rc && bg) rc = draw_bg(r, 1, reversed, &pe, err, errlen);
     glDepthMask(GL_TRUE);
+    vt_gltex_end_frame(&r->tc);
     if (rc) return rc;
     if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
     /* alpha: nearness -> coverage, and depth as vt_soft gives it */
@@ -545,7 +641,11 @@ int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t 
                handed to GL holds an infinity) is no surface, as in
                vt_soft, where it never wins the depth test */
             if (nz == EMPTY || nz != nz) {
-                c[0] = c[1] = c[2] = c[3] = 0;
+                /* the sky's colour with an environment */
+                c[0] = bg ? p[0] : 0;
+                c[1] = bg ? p[1] : 0;
+                c[2] = bg ? p[2] : 0;
+                c[3] = bg ? 1 : 0;
                 *dz = INFINITY;
                 continue;
             }
@@ -555,7 +655,9 @@ int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t 
             c[3] = 1;
             *dz = vt_depth_apply(rule, nz);
         }
+    float ev = vt_exposure_apply(f->env, rgba, width, height, stride);
     if (st) {
+        st->exposure_ev = ev;
         st->lights_in_view = r->tiles.in_view;
         st->max_lights_per_tile = r->tiles.max_per_tile;
         st->threads = 1;

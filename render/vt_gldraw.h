@@ -19,6 +19,9 @@ typedef struct vt_gldraw vt_gldraw;
 int  vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen);
 void vt_gldraw_destroy(vt_gldraw *r);
 
+/* As vt_soft_draw (same frame, same conventions). */
+int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err, size_t errlen);
+
 /* As vt_soft_render (same buffers, same conventions). 0 or a VT_ERRORS
  * code (vt_err.h) with err filled. */
 int vt_gldraw_render(vt_gldraw *r, const cull_view *v, uint32_t width, uint32_t height, const vt_mesh *meshes,

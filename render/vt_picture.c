@@ -40,31 +40,83 @@ static bool dvol_ok(const cull_dvol *dv)
     return true;
 }
 
-int vt_picture_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
-                     uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
-                     const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen)
+/* An instance's placement: finite bounds in order, or a transform as the
+ * protocol's vp_trs_check accepts it (the daemon renormalised it). */
+static int place_check(const vt_instance *in, uint32_t i, char *err, size_t errlen)
 {
-    if (!v || !rgba || !depth || (ninst && (!inst || !meshes)) || (nl && !lights))
-        return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
-    if (width < 1 || height < 1 || width > 16384 || height > 16384 || stride < width)
-        return vp_errf(err, errlen, VT_ERR_INVALID, "size %ux%u (stride %zu) outside 1..16384", width, height, stride);
-    for (uint32_t i = 0; i < nmesh; i++) {
-        char why[160];
-        if (vt_mesh_check(&meshes[i], why, sizeof why)) return vp_errf(err, errlen, VT_ERR_INVALID, "%u: %s", i, why);
-    }
-    for (uint32_t i = 0; i < ninst; i++) {
-        if (inst[i].mesh >= nmesh)
-            return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: no mesh %u", i, inst[i].mesh);
+    if (in->place == VT_PLACE_BOUNDS) {
         for (int a = 0; a < 3; a++)
-            if (!isfinite(inst[i].bmin[a]) || !isfinite(inst[i].bmax[a]) || inst[i].bmin[a] > inst[i].bmax[a])
+            if (!isfinite(in->bmin[a]) || !isfinite(in->bmax[a]) || in->bmin[a] > in->bmax[a])
                 return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: bad bounds", i);
-        if (vt_dvol_live(inst[i].dvol) && !dvol_ok(inst[i].dvol))
-            return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: bad destruction volume", i);
+        return 0;
     }
-    for (uint32_t i = 0; i < nl; i++) {
+    if (in->place != VT_PLACE_TRS) return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: placement %u", i, in->place);
+    double q2 = 0;
+    int zeros = 0;
+    for (int a = 0; a < 3; a++) {
+        if (!(fabs(in->pos[a]) <= 1e15))
+            return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: position %d not finite or beyond 1e15", i, a);
+        if (!(fabsf(in->scale[a]) <= 1e6f))
+            return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: scale %d not finite or beyond 1e6", i, a);
+        zeros += in->scale[a] == 0;
+    }
+    for (int a = 0; a < 4; a++) {
+        if (!isfinite(in->rot[a])) return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: rotation not finite", i);
+        q2 += (double)in->rot[a] * in->rot[a];
+    }
+    if (!(fabs(sqrt(q2) - 1) <= 1e-3))
+        return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: rotation of length %g, not a unit quaternion", i,
+                       sqrt(q2));
+    if (zeros > 1) return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: scale 0 on %d axes", i, zeros);
+    return 0;
+}
+
+static int mesh_attr_check(const vt_mesh *m, char *err, size_t errlen)
+{
+    for (uint32_t k = 0; m->uv && k < 2 * m->nv; k++)
+        if (!(fabsf(m->uv[k]) <= 1e6f))
+            return vp_errf(err, errlen, VT_ERR_INVALID, "mesh: UV of vertex %u not finite or beyond 1e6", k / 2);
+    for (uint32_t k = 0; m->tan && k < 4 * m->nv; k++)
+        if (!isfinite(m->tan[k]))
+            return vp_errf(err, errlen, VT_ERR_INVALID, "mesh: tangent of vertex %u not finite", k / 4);
+    return 0;
+}
+
+int vt_frame_check(const vt_frame *f, char *err, size_t errlen)
+{
+    if (!f || !f->view || !f->rgba || !f->depth || (f->ninst && (!f->inst || !f->meshes)) || (f->nl && !f->lights) ||
+        (f->nmesh && !f->meshes))
+        return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
+    if (f->width < 1 || f->height < 1 || f->width > 16384 || f->height > 16384 || f->stride < f->width)
+        return vp_errf(err, errlen, VT_ERR_INVALID, "size %ux%u (stride %zu) outside 1..16384", f->width, f->height,
+                       f->stride);
+    for (uint32_t i = 0; i < f->nmesh; i++) {
+        char why[160];
+        if (vt_mesh_check(&f->meshes[i], why, sizeof why) || mesh_attr_check(&f->meshes[i], why, sizeof why))
+            return vp_errf(err, errlen, VT_ERR_INVALID, "%u: %s", i, why);
+    }
+    const vt_material *last = NULL; /* instances share few materials: each checked once in a run */
+    for (uint32_t i = 0; i < f->ninst; i++) {
+        const vt_instance *in = &f->inst[i];
+        if (in->mesh >= f->nmesh) return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: no mesh %u", i, in->mesh);
+        int rc = place_check(in, i, err, errlen);
+        if (rc) return rc;
+        if (vt_dvol_live(in->dvol) && !dvol_ok(in->dvol))
+            return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: bad destruction volume", i);
+        for (int a = 0; a < 3; a++)
+            if (!(fabsf(in->albedo[a]) <= 1e6f))
+                return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: albedo not finite", i);
+        if (in->mat && in->mat != last) {
+            char why[160];
+            if (vt_material_check(in->mat, why, sizeof why))
+                return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: material: %s", i, why);
+            last = in->mat;
+        }
+    }
+    for (uint32_t i = 0; i < f->nl; i++) {
         /* the daemon's LIGHT_PUT runs the same validation: a light it
            acknowledged is never refused here */
-        const vt_light *L = &lights[i];
+        const vt_light *L = &f->lights[i];
         const double rad[3] = {L->color[0], L->color[1], L->color[2]};
         char why[120];
         if (cull_light_validate(&L->l, rad, why, sizeof why) != CULL_OK)
@@ -72,7 +124,14 @@ int vt_picture_check(const cull_view *v, uint32_t width, uint32_t height, size_t
         if (!isfinite(L->cos_inner))
             return vp_errf(err, errlen, VT_ERR_INVALID, "light %u: inner cosine not finite", i);
     }
-    cull_view_rows_get(v, vr);
+    return vt_env_check(f->env, err, errlen);
+}
+
+int vt_picture_check(const vt_frame *f, cull_view_rows *vr, char *err, size_t errlen)
+{
+    int rc = vt_frame_check(f, err, errlen);
+    if (rc) return rc;
+    cull_view_rows_get(f->view, vr);
     if (!vr->usable) return vp_errf(err, errlen, VT_ERR_INVALID, "orthographic view with w <= 0");
     return 0;
 }
@@ -113,6 +172,39 @@ void vt_instance_xform(const vt_instance *in, const float b[6], const double ori
         scale[a] = ext > 0 ? (in->bmax[a] - in->bmin[a]) / ext : 0;
         shift[a] = ext > 0 ? in->bmin[a] - origin[a] - b[a] * scale[a] : 0.5 * (in->bmin[a] + in->bmax[a]) - origin[a];
     }
+}
+
+void vt_instance_place(const vt_instance *in, const float b[6], const double origin[3], vt_place *pl)
+{
+    double s[3];
+    if (in->place != VT_PLACE_TRS) {
+        vt_instance_xform(in, b, origin, s, pl->t);
+        for (int a = 0; a < 3; a++) pl->q[a] = 0;
+        pl->q[3] = 1;
+    } else {
+        for (int a = 0; a < 3; a++) {
+            s[a] = in->scale[a];
+            pl->t[a] = in->pos[a] - origin[a];
+        }
+        double q2 = 0;
+        for (int a = 0; a < 4; a++) q2 += (double)in->rot[a] * in->rot[a];
+        double iq = 1 / sqrt(q2); /* checked: within 1e-3 of 1 */
+        for (int a = 0; a < 4; a++) pl->q[a] = in->rot[a] * iq;
+    }
+    /* R from the unit quaternion (x, y, z, w) */
+    double x = pl->q[0], y = pl->q[1], z = pl->q[2], w = pl->q[3];
+    double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            pl->m[r][c] = R[r][c] * s[c];
+            /* normals: the inverse transpose, R diag(1 / s); a flat axis
+               (scale 0) keeps its normal component */
+            pl->n[r][c] = R[r][c] * (s[c] != 0 ? 1 / s[c] : 1);
+        }
+    for (int a = 0; a < 3; a++) pl->s[a] = s[a];
+    pl->mirror = (s[0] < 0) ^ (s[1] < 0) ^ (s[2] < 0);
 }
 
 void vt_tile_ranges(const float *near, size_t xs, size_t ys, uint32_t width, uint32_t height, float (*range)[2])

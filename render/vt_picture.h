@@ -20,12 +20,9 @@
 
 #define VT_TILE CULL_LIGHT_TILE
 
-/* Checks everything a render call is given (buffers, size, meshes,
- * instances, lights: before any work) and fills *vr for v. 0, or
- * VT_ERR_INVALID with err filled. */
-int vt_picture_check(const cull_view *v, uint32_t width, uint32_t height, size_t stride, const vt_mesh *meshes,
-                     uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
-                     const float *rgba, const float *depth, cull_view_rows *vr, char *err, size_t errlen);
+/* vt_frame_check, then fills *vr for the view. 0, or VT_ERR_INVALID with
+ * err filled. */
+int vt_picture_check(const vt_frame *f, cull_view_rows *vr, char *err, size_t errlen);
 
 /* A mesh's bounds: lo[0..2], hi[3..5]. */
 void vt_mesh_bounds(const vt_mesh *m, float b[6]);
@@ -35,6 +32,16 @@ void vt_mesh_bounds(const vt_mesh *m, float b[6]);
  * the mesh maps to the box's centre. */
 void vt_instance_xform(const vt_instance *in, const float b[6], const double origin[3], double scale[3],
                        double shift[3]);
+
+/* An instance's placement, camera-relative, in double: p' = m p + t,
+ * normals by n (then normalised); mirror: the determinant is negative
+ * (the winding turns over). Bounds instances have q = identity. */
+typedef struct vt_place {
+    double m[3][3], n[3][3], t[3];
+    double q[4], s[3];      /* the rotation (unit) and scale m is made of */
+    bool mirror;
+} vt_place;
+void vt_instance_place(const vt_instance *in, const float b[6], const double origin[3], vt_place *pl);
 
 /* Per 16x16 tile {nearest, farthest} nearness of what the tile shows, from
  * a width x height nearness image (pixel (x, y) at near[y * ys + x * xs],

@@ -13,6 +13,8 @@
 #ifndef VANTAGE_VT_SHADE_H
 #define VANTAGE_VT_SHADE_H
 
+#include "vt_surface.h"
+
 #include <float.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -22,6 +24,8 @@
 #define VT_ID_MASK ((1u << VT_ID_BITS) - 1)
 #define VT_AMBIENT 0.03f
 #define VT_EMPTY (-FLT_MAX) /* the nearness of a pixel nothing covers */
+#define VT_ID_GROUND 0xFFFFFFFFu /* a pixel's record + 1 where the ground plane shows (set-up
+                                    keeps every record + 1 below it) */
 
 /* The output depth of a pixel of nearness z (see vt_soft.h): 1 / z for
  * perspective views, 1 - k z for orthographic ones (k 0.5 with GL depth,
@@ -43,6 +47,11 @@ typedef struct vt_stri {
     float n[3][3];          /* unit normals */
     float albedo[3];
     const struct vt_mask *mask; /* its instance's destruction mask, or NULL */
+    const vt_material *mat; /* NULL: the default material of albedo */
+    float uv[3][2];         /* has_uv */
+    float tg[3][4];         /* tangents (xyz, handedness w), has_tg */
+    uint8_t has_uv, has_tg;
+    uint8_t alpha_test;     /* a MASK material with a base texture: raster tests each pixel */
 } vt_stri;
 
 /* Perspective-correct barycentrics of t at NDC (X, Y): what the shading
@@ -85,7 +94,24 @@ typedef struct vt_span {
     float Y;                    /* the row's NDC y */
     vt_depth_rule rule;         /* nearness to output depth */
     float *rgba, *depth;        /* the span's first pixel in the outputs */
+    const vt_penv *pe;          /* the environment (pe->on false: none) */
+    const cull_view_rows *vr;   /* the view's rows (rays for the sky) */
+    const vt_ground *gr;        /* the ground plane */
+    double inv_h;               /* 2 / height: one row in NDC */
 } vt_span;
+
+/* The surface a pixel shows (a triangle's record, or the ground plane),
+ * its material evaluated: what the kernels gather per pixel before they
+ * light it. cov: 0 nothing drawn there, else 1. p: camera-relative
+ * position. */
+void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, float *cov);
+/* Whether a MASK material's triangle keeps the pixel at NDC (X, Y) (the
+ * base alpha >= the cutoff; dX, dY one pixel in NDC). */
+bool vt_stri_alpha_pass(const vt_stri *t, float X, float Y, float dX, float dY);
+/* After the lights, over the span's pixels: fog over drawn ones
+ * (positions p*, radiance c*, changed in place), the sky where cov is 0. */
+void vt_span_finish(const vt_span *sp, const float *px, const float *py, const float *pz, float *cr, float *cg,
+                    float *cb, const float *cov);
 
 typedef void (*vt_shade_fn)(const vt_span *s);
 /* vt_tile_ranges for one row of tiles of a packed nearness image. */

@@ -21,7 +21,63 @@ typedef struct surf {
     A float vx[S]; A float vy[S]; A float vz[S];   /* unit direction to the eye */
     A float ar[S]; A float ag[S]; A float ab[S];   /* albedo / pi */
     A float cr[S]; A float cg[S]; A float cb[S];   /* radiance so far */
+    /* with an environment: the material's specular and emission */
+    A float fr[S]; A float fg[S]; A float fb[S];   /* F0 */
+    A float er[S]; A float eg[S]; A float eb[S];   /* emitted */
+    A float se[S]; A float g2[S];                  /* the sun's exponent, (1 - roughness)^2 */
 } surf;
+
+static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
+{
+    return vf_fma(ax, bx, vf_fma(ay, by, vf_mul(az, bz)));
+}
+
+/* The sky's ambient and the sun on W pixels at i (vt_surface.h's model):
+ * diffuse x the ambient by the normal's height (from below to above),
+ * Fresnel (Schlick, weighted by gloss^2) x the ambient by the reflected
+ * direction's, emission; the sun Lambert plus a normalised Blinn-Phong
+ * lobe with Schlick's rational approximation of the power (t / (s - s t
+ * + t)) and Schlick's Fresnel on v.h. vt_gldraw_glsl.c: the same. */
+static inline void env_light(surf *restrict s, const vt_penv *pe, unsigned i)
+{
+    const vf zero = vf_set(0), one = vf_set(1), half = vf_set(0.5f), two = vf_set(2);
+    vf nx = vf_load(s->nx + i), ny = vf_load(s->ny + i), nz = vf_load(s->nz + i);
+    vf vx = vf_load(s->vx + i), vy = vf_load(s->vy + i), vz = vf_load(s->vz + i);
+    vf nv = dot3(nx, ny, nz, vx, vy, vz);
+    vf ry = vf_sub(vf_mul(vf_mul(two, nv), ny), vy);
+    vf ka = vf_fma(half, ny, half), kr = vf_fma(half, vf_min(vf_max(ry, vf_set(-1)), one), half);
+    vf fv = vf_sub(one, vf_max(nv, zero)), fv2 = vf_mul(fv, fv), fv5 = vf_mul(vf_mul(fv2, fv2), fv);
+    vf wf = vf_mul(fv5, vf_load(s->g2 + i));
+    float *const dif[3] = {s->ar, s->ag, s->ab}, *const f0[3] = {s->fr, s->fg, s->fb}, *const em[3] = {s->er, s->eg, s->eb};
+    float *const out[3] = {s->cr, s->cg, s->cb};
+    vf c[3];
+    for (int k = 0; k < 3; k++) {
+        vf up = vf_set(pe->amb_up[k]), dn = vf_set(pe->amb_down[k]), d = vf_sub(up, dn);
+        vf la = vf_fma(ka, d, dn), lr = vf_fma(kr, d, dn), F0 = vf_load(f0[k] + i);
+        vf fr = vf_fma(vf_sub(one, F0), wf, F0);
+        c[k] = vf_fma(vf_load(dif[k] + i), la, vf_fma(fr, lr, vf_load(em[k] + i)));
+    }
+    if (pe->sun_on) {
+        const vf lx = vf_set(pe->sun_dir[0]), ly = vf_set(pe->sun_dir[1]), lz = vf_set(pe->sun_dir[2]);
+        vf ndl = dot3(nx, ny, nz, lx, ly, lz);
+        vf hx = vf_add(lx, vx), hy = vf_add(ly, vy), hz = vf_add(lz, vz);
+        vf hl2 = dot3(hx, hy, hz, hx, hy, hz);
+        vf ih = vf_select(vf_lt(zero, hl2), vf_div(one, vf_sqrt(hl2)), zero);
+        vf ndh = vf_max(vf_mul(dot3(nx, ny, nz, hx, hy, hz), ih), zero);
+        vf vh = vf_max(vf_mul(dot3(vx, vy, vz, hx, hy, hz), ih), zero);
+        vf se = vf_load(s->se + i);
+        vf den = vf_max(vf_add(vf_sub(se, vf_mul(se, ndh)), ndh), vf_set(1e-6f));
+        vf lobe = vf_mul(vf_mul(vf_add(se, vf_set(8)), vf_set(1.0f / (8 * 3.14159265f))), vf_div(ndh, den));
+        vf f1 = vf_sub(one, vh), f2 = vf_mul(f1, f1), f5 = vf_mul(vf_mul(f2, f2), f1);
+        vf kl = vf_select(vf_lt(zero, ndl), ndl, zero);
+        for (int k = 0; k < 3; k++) {
+            vf F0 = vf_load(f0[k] + i), F = vf_fma(vf_sub(one, F0), f5, F0);
+            vf b = vf_fma(F, lobe, vf_mul(vf_load(dif[k] + i), vf_set(1.0f / 3.14159265f)));
+            c[k] = vf_fma(vf_mul(vf_set(pe->sun[k]), kl), b, c[k]);
+        }
+    }
+    for (int k = 0; k < 3; k++) vf_store(out[k] + i, c[k]);
+}
 
 /* Four channels of W pixels, interleaved, to dst (4 W floats). */
 static inline void store_rgba(float *dst, vf r, vf g, vf b, vf a)
@@ -47,11 +103,6 @@ static inline void store_rgba(float *dst, vf r, vf g, vf b, vf a)
     dst[2] = b;
     dst[3] = a;
 #endif
-}
-
-static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
-{
-    return vf_fma(ax, bx, vf_fma(ay, by, vf_mul(az, bz)));
 }
 
 /* One light over the span; spot is a constant at each call site, so each
@@ -104,27 +155,54 @@ void VT_SHADE_NAME(const vt_span *sp)
 {
     surf s;
     A float cov[S];
+    const bool env = sp->pe && sp->pe->on;
     /* nothing drawn in the whole span (sky, off the geometry): no surface */
     uint32_t any = 0;
     for (unsigned i = 0; i < sp->n; i++) any |= sp->id[i];
     if (!any) {
         memset(sp->rgba, 0, (size_t)sp->n * 4 * sizeof(float));
         for (unsigned i = 0; i < sp->n; i++) sp->depth[i] = INFINITY;
+        if (!env) return;
+        A float zero[S] = {0}, r[S], g[S], b[S];
+        vt_span_finish(sp, zero, zero, zero, r, g, b, zero);
+        for (unsigned i = 0; i < sp->n; i++) {
+            float *o = sp->rgba + 4 * i;
+            o[0] = r[i], o[1] = g[i], o[2] = b[i], o[3] = 1;
+        }
         return;
     }
     /* gather: each pixel's record, perspective-correct barycentrics from
-       the homogeneous edge functions, the interpolated surface */
+       the homogeneous edge functions, the interpolated surface; a
+       material's, the ground's or any pixel under an environment through
+       vt_span_surface (textures, sun, sky ambient, emissive) */
     for (unsigned i = 0; i < S; i++) {
         uint32_t id = i < sp->n ? sp->id[i] : 0;
         if (!id) {
             s.px[i] = s.py[i] = s.pz[i] = 0;
             s.nx[i] = s.ny[i] = s.nz[i] = 0;
             s.ar[i] = s.ag[i] = s.ab[i] = 0;
+            s.cr[i] = s.cg[i] = s.cb[i] = 0;
+            s.fr[i] = s.fg[i] = s.fb[i] = s.er[i] = s.eg[i] = s.eb[i] = s.se[i] = s.g2[i] = 0;
             cov[i] = 0;
             continue;
         }
-        id--;
-        const vt_stri *t = &sp->st[id >> VT_ID_BITS][id & VT_ID_MASK];
+        const vt_stri *t = id == VT_ID_GROUND ? NULL : &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
+        if (env || !t || t->mat) {
+            float p[3];
+            vt_surfout o;
+            vt_span_surface(sp, i, p, &o, &cov[i]);
+            s.px[i] = p[0], s.py[i] = p[1], s.pz[i] = p[2];
+            s.nx[i] = o.n[0], s.ny[i] = o.n[1], s.nz[i] = o.n[2];
+            s.ar[i] = o.diffuse[0], s.ag[i] = o.diffuse[1], s.ab[i] = o.diffuse[2];
+            s.fr[i] = o.f0[0], s.fg[i] = o.f0[1], s.fb[i] = o.f0[2];
+            s.er[i] = o.em[0], s.eg[i] = o.em[1], s.eb[i] = o.em[2];
+            s.se[i] = o.s, s.g2[i] = o.g2;
+            /* without an environment: the constant ambient of before */
+            s.cr[i] = VT_AMBIENT * o.diffuse[0] + o.em[0];
+            s.cg[i] = VT_AMBIENT * o.diffuse[1] + o.em[1];
+            s.cb[i] = VT_AMBIENT * o.diffuse[2] + o.em[2];
+            continue;
+        }
         float b[3];
         vt_stri_bary(t, vt_ndc_x(sp->x0 + i, sp->inv_w), sp->Y, b);
         float b0 = b[0], b1 = b[1], b2 = b[2];
@@ -140,9 +218,12 @@ void VT_SHADE_NAME(const vt_span *sp)
         s.ar[i] = t->albedo[0] * k;
         s.ag[i] = t->albedo[1] * k;
         s.ab[i] = t->albedo[2] * k;
+        s.cr[i] = VT_AMBIENT * s.ar[i];
+        s.cg[i] = VT_AMBIENT * s.ag[i];
+        s.cb[i] = VT_AMBIENT * s.ab[i];
         cov[i] = 1;
     }
-    const vf zero = vf_set(0), one = vf_set(1), amb = vf_set(VT_AMBIENT), inv_pi = vf_set(1.0f / 3.14159265f);
+    const vf zero = vf_set(0), one = vf_set(1), inv_pi = vf_set(1.0f / 3.14159265f);
     for (unsigned i = 0; i < S; i += W) {
         vf nx = vf_load(s.nx + i), ny = vf_load(s.ny + i), nz = vf_load(s.nz + i);
         vf l2 = dot3(nx, ny, nz, nx, ny, nz);
@@ -158,19 +239,19 @@ void VT_SHADE_NAME(const vt_span *sp)
         vf_store(s.vx + i, vf_mul(px, iv));
         vf_store(s.vy + i, vf_mul(py, iv));
         vf_store(s.vz + i, vf_mul(pz, iv));
-        vf ar = vf_load(s.ar + i), ag = vf_load(s.ag + i), ab = vf_load(s.ab + i);
-        vf_store(s.cr + i, vf_mul(amb, ar));
-        vf_store(s.cg + i, vf_mul(amb, ag));
-        vf_store(s.cb + i, vf_mul(amb, ab));
-        vf_store(s.ar + i, vf_mul(ar, inv_pi));
-        vf_store(s.ag + i, vf_mul(ag, inv_pi));
-        vf_store(s.ab + i, vf_mul(ab, inv_pi));
+        if (env) env_light(&s, sp->pe, i);
+        vf_store(s.ar + i, vf_mul(vf_load(s.ar + i), inv_pi));
+        vf_store(s.ag + i, vf_mul(vf_load(s.ag + i), inv_pi));
+        vf_store(s.ab + i, vf_mul(vf_load(s.ab + i), inv_pi));
     }
     for (uint32_t k = 0; k < sp->nli; k++) {
         const vt_slight *L = &sp->sl[sp->li[k]];
         if (L->spot) light(&s, L, 1);
         else light(&s, L, 0);
     }
+    /* fog over what is drawn, the sky elsewhere; the picture is opaque */
+    if (env) vt_span_finish(sp, s.px, s.py, s.pz, s.cr, s.cg, s.cb, cov);
+    const vf alpha1 = vf_set(1);
     if (sp->n == S) {
         /* vt_depth_apply, W lanes at a time */
         const vf inf = vf_set(INFINITY), k = vf_set(sp->rule.k);
@@ -178,7 +259,7 @@ void VT_SHADE_NAME(const vt_span *sp)
             vf c = vf_load(cov + i), z = vf_loadu(sp->near + i);
             vf d = sp->rule.ortho ? vf_sub(one, vf_mul(k, z)) : vf_div(one, z);
             vf_store(sp->depth + i, vf_select(vf_lt(zero, c), d, inf));
-            store_rgba(sp->rgba + 4 * i, vf_load(s.cr + i), vf_load(s.cg + i), vf_load(s.cb + i), c);
+            store_rgba(sp->rgba + 4 * i, vf_load(s.cr + i), vf_load(s.cg + i), vf_load(s.cb + i), env ? alpha1 : c);
         }
         return;
     }
@@ -187,7 +268,7 @@ void VT_SHADE_NAME(const vt_span *sp)
         o[0] = s.cr[i];
         o[1] = s.cg[i];
         o[2] = s.cb[i];
-        o[3] = cov[i];
+        o[3] = env ? 1.0f : cov[i];
         float z = sp->near[i];
         sp->depth[i] = cov[i] == 0 ? INFINITY : vt_depth_apply(sp->rule, z);
     }

@@ -65,6 +65,7 @@ typedef struct xv {
     unsigned out;           /* bit p: outside clip plane p */
     float n[3];             /* its normal under the instance's scale (unit) */
     bool has_n;             /* false: no normal, or it collapsed: the face's */
+    float tg[4];            /* its tangent under the placement (unit), handedness */
 } xv;
 
 /* What one set-up thread produces, for its range of instances, in order. */
@@ -103,6 +104,7 @@ struct vt_soft {
     uint32_t *mk_of;        /* per instance: mask + 1 */
     size_t mk_of_cap;
     vt_kern k;              /* the kernels for this CPU */
+    vt_skytab sky;          /* the analytic sky's table */
 };
 
 static uint64_t now_ns(void)
@@ -155,6 +157,8 @@ typedef struct frame {
     const cull_view *v;
     cull_view_rows vr;
     uint32_t w, h;
+    vt_penv pe;             /* the environment, prepared */
+    vt_ground gr;           /* its ground plane in screen space */
     const vt_mask *mk;      /* the damaged instances' masks */
     const uint32_t *mk_of;  /* per instance: its mask + 1, 0 intact; NULL: none damaged */
 } frame;
@@ -224,28 +228,49 @@ static void adj_row(const cv *a, const cv *b, double r[3])
     r[2] = a->c[0] * b->c[1] - a->c[1] * b->c[0];
 }
 
+/* m v, normalised into o (0 when it collapses); false if it did. */
+static bool xform_unit(const double m[3][3], const float *v, float o[3])
+{
+    double t[3], l = 0;
+    for (int a = 0; a < 3; a++) {
+        t[a] = m[a][0] * v[0] + m[a][1] * v[1] + m[a][2] * v[2];
+        l += t[a] * t[a];
+    }
+    l = sqrt(l);
+    for (int a = 0; a < 3; a++) o[a] = l > 0 ? (float)(t[a] / l) : 0;
+    return l > 0;
+}
+
 static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const float (*mb)[6],
                  const vt_instance *inst, uint32_t i0, uint32_t i1, char *err, size_t errlen)
 {
     r->nrt = r->nst = 0;
-    double pl[6][4];
-    clip_planes(fr, pl);
+    double cpl[6][4];
+    clip_planes(fr, cpl);
     const cull_view_rows *vr = &fr->vr;
     const double *o = fr->v->origin;
     for (uint32_t ii = i0; ii < i1; ii++) {
         const vt_instance *in = &inst[ii];
         const vt_mesh *m = &meshes[in->mesh];
         const vt_mask *mk = fr->mk_of && fr->mk_of[ii] ? &fr->mk[fr->mk_of[ii] - 1] : NULL;
-        /* the mesh's bounds onto the instance's box */
-        double scale[3], shift[3], inv_scale[3];
-        vt_instance_xform(in, mb[in->mesh], o, scale, shift);
-        for (int a = 0; a < 3; a++) inv_scale[a] = scale[a] > 0 ? 1 / scale[a] : 1;
+        /* the placement: the mesh's bounds onto the instance's box, or
+           its transform; camera-relative, in double */
+        vt_place pl;
+        vt_instance_place(in, mb[in->mesh], o, &pl);
+        const vt_material *mat = in->mat;
+        const bool two_sided = mat && mat->double_sided;
+        const bool alpha_test = mat && mat->alpha_mode == VT_ALPHA_MASK && mat->tex[VT_SLOT_BASE].tex && m->uv;
+        /* a MASK material whose alpha is a constant below its cutoff:
+           nothing of it is drawn */
+        if (mat && mat->alpha_mode == VT_ALPHA_MASK && !alpha_test && mat->base[3] < mat->alpha_cutoff) continue;
         /* every vertex once: camera-relative position and clip coordinates */
         if (!vp_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
             return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for %u vertices", m->nv);
         for (uint32_t k = 0; k < m->nv; k++) {
             xv *x = &r->vx[k];
-            for (int a = 0; a < 3; a++) x->p[a] = m->pos[3 * k + a] * scale[a] + shift[a];
+            const float *mp = m->pos + 3 * k;
+            for (int a = 0; a < 3; a++)
+                x->p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
             double q[4] = {x->p[0], x->p[1], x->p[2], 1};
             x->v.c[0] = dot4(vr->x, q);
             x->v.c[1] = dot4(vr->y, q);
@@ -253,18 +278,13 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             x->v.c[3] = dot4(vr->w, q);
             x->v.d = dot4(vr->d, q);
             x->out = 0;
-            for (int pp = 0; pp < 6; pp++) x->out |= (unsigned)(dot4(pl[pp], x->v.c) < 0) << pp;
-            /* normals under a scale: by the inverse scale */
-            x->has_n = false;
-            if (m->nrm) {
-                double nn[3], l = 0;
-                for (int a = 0; a < 3; a++) {
-                    nn[a] = m->nrm[3 * k + a] * inv_scale[a];
-                    l += nn[a] * nn[a];
-                }
-                l = sqrt(l);
-                x->has_n = l > 0;
-                for (int a = 0; a < 3; a++) x->n[a] = x->has_n ? (float)(nn[a] / l) : 0;
+            for (int pp = 0; pp < 6; pp++) x->out |= (unsigned)(dot4(cpl[pp], x->v.c) < 0) << pp;
+            /* normals under a scale: by the inverse scale; tangents
+               with the placement */
+            x->has_n = m->nrm && xform_unit(pl.n, m->nrm + 3 * k, x->n);
+            if (m->tan && mat) {
+                xform_unit(pl.m, m->tan + 4 * k, x->tg);
+                x->tg[3] = (m->tan[4 * k + 3] < 0) != pl.mirror ? -1.0f : 1.0f;
             }
         }
         /* a damaged instance: its front faces first, then its back faces,
@@ -278,7 +298,9 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             const xv *xs[3];
             unsigned out_and = ~0u, out_or = 0;
             for (int k = 0; k < 3; k++) {
-                const xv *x = xs[k] = &r->vx[m->idx[3 * t + k]];
+                /* a mirrored placement turns the winding over: read the
+                   triangle backwards so its front stays its front */
+                const xv *x = xs[k] = &r->vx[m->idx[3 * t + (pl.mirror && k ? 3 - k : k)]];
                 memcpy(p[k], x->p, sizeof p[k]);
                 v[k] = x->v;
                 out_and &= x->out;
@@ -293,7 +315,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             if (!(det > 0)) {
                 /* a damaged instance is two-sided: its inside shows
                    through its holes, drawn as the face turned over */
-                if (!mk || !(det < 0) || pass == 0) continue;
+                if (!(det < 0) || (!mk && !two_sided) || (mk && pass == 0)) continue;
                 cv tv = v[1];
                 v[1] = v[2];
                 v[2] = tv;
@@ -314,9 +336,9 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                every plane: nothing to clip */
             if (out_and) continue;
             cv src[3] = {v[0], v[1], v[2]};
-            int n = out_or ? clip_poly(v, 3, pl) : 3;
+            int n = out_or ? clip_poly(v, 3, cpl) : 3;
             if (n < 3) continue;
-            if (r->nst + 1 >= (1u << ID_BITS))
+            if (r->nst + 2 >= (1u << ID_BITS)) /* record + 1 stays below VT_ID_GROUND */
                 return vp_errf(err, errlen, VT_ERR_RANGE, "more than 2^27 triangles a thread");
             if (!vp_grow((void **)&r->st, &r->st_cap, r->nst + 1, sizeof *r->st) ||
                 !vp_grow((void **)&r->rt, &r->rt_cap, r->nrt + (size_t)n - 2, sizeof *r->rt))
@@ -348,7 +370,16 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                     s->n[k][q] = !xs[k]->has_n ? fn[q] : back ? -xs[k]->n[q] : xs[k]->n[q];
                 }
             }
-            for (int q = 0; q < 3; q++) s->albedo[q] = back ? in->albedo[q] * VT_MASK_INTERIOR : in->albedo[q];
+            for (int q = 0; q < 3; q++) s->albedo[q] = back && mk ? in->albedo[q] * VT_MASK_INTERIOR : in->albedo[q];
+            s->mat = mat;
+            s->has_uv = m->uv != NULL;
+            s->has_tg = m->tan != NULL && mat;
+            s->alpha_test = alpha_test;
+            for (int k = 0; k < 3; k++) {
+                uint32_t vi = (uint32_t)(xs[k] - r->vx);
+                if (m->uv) memcpy(s->uv[k], m->uv + 2 * (size_t)vi, sizeof s->uv[k]);
+                if (s->has_tg) memcpy(s->tg[k], xs[k]->tg, sizeof s->tg[k]);
+            }
             /* a triangle the holes do not come near is drawn plain (the
                mask is >= its band all over it: nothing discarded, no rim) */
             s->mask = mk && !vt_mask_clear(mk, (const float(*)[3])s->p) ? mk : NULL;
@@ -416,7 +447,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 if (rt->by1 > (int32_t)fr->h - 1) rt->by1 = (int32_t)fr->h - 1;
                 if (rt->bx0 > rt->bx1 || rt->by0 > rt->by1) continue;
                 rt->shade = tid << ID_BITS | (uint32_t)r->nst;
-                rt->masked = s->mask != NULL;
+                rt->masked = s->mask != NULL || s->alpha_test;
                 r->nrt++;
             }
             r->nst++;
@@ -455,9 +486,10 @@ static inline float ndc_y(const frame *fr, uint32_t y)
     return (float)((2.0 * y + 1) / fr->h - 1);
 }
 
-/* Columns [i0, i1] of row j of a damaged instance's triangle: a pixel
- * nearer than what is there is kept only where the mask is >= 0 at its
- * surface point (interpolated as the shading gather does). */
+/* Columns [i0, i1] of row j of a damaged instance's triangle or of a MASK
+ * material's: a pixel nearer than what is there is kept only where the
+ * destruction mask is >= 0 at its surface point (interpolated as the
+ * shading gather does) and the base alpha reaches the cutoff. */
 static void raster_masked(vt_soft *r, const frame *fr, const rtri *rt, int j, int i0, int i1, float *nrow,
                           uint32_t *irow, double nz)
 {
@@ -470,10 +502,14 @@ static void raster_masked(vt_soft *r, const frame *fr, const rtri *rt, int j, in
         if (!(z > nrow[i])) continue;
         float b[3];
         vt_stri_bary(t, vt_ndc_x((uint32_t)i, inv_w), Y, b);
-        float px = b[0] * t->p[0][0] + b[1] * t->p[1][0] + b[2] * t->p[2][0];
-        float py = b[0] * t->p[0][1] + b[1] * t->p[1][1] + b[2] * t->p[2][1];
-        float pz = b[0] * t->p[0][2] + b[1] * t->p[1][2] + b[2] * t->p[2][2];
-        if (vt_mask_eval(t->mask, px, py, pz) < 0) continue;
+        if (t->mask) {
+            float px = b[0] * t->p[0][0] + b[1] * t->p[1][0] + b[2] * t->p[2][0];
+            float py = b[0] * t->p[0][1] + b[1] * t->p[1][1] + b[2] * t->p[2][1];
+            float pz = b[0] * t->p[0][2] + b[1] * t->p[1][2] + b[2] * t->p[2][2];
+            if (vt_mask_eval(t->mask, px, py, pz) < 0) continue;
+        }
+        if (t->alpha_test && !vt_stri_alpha_pass(t, vt_ndc_x((uint32_t)i, inv_w), Y, (float)inv_w, (float)(2.0 / fr->h)))
+            continue;
         nrow[i] = z;
         irow[i] = id;
     }
@@ -571,6 +607,25 @@ static void job_raster(void *arg, uint32_t t)
             uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
             for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
         }
+    /* the ground plane, depth-tested against the triangles: its nearness
+       plane per pixel (vt_ground_at, double) */
+    if (fr->gr.on)
+        for (uint32_t tr = t; tr < trows; tr += nt) {
+            uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
+            for (uint32_t y = tr * TILE; y < y1; y++) {
+                float *nrow = r->near + (size_t)y * fr->w;
+                uint32_t *irow = r->id + (size_t)y * fr->w;
+                double Y = ndc_y(fr, y), inv_w = 2.0 / fr->w, nz;
+                for (uint32_t x = 0; x < fr->w; x++) {
+                    if (!vt_ground_at(&fr->gr, vt_ndc_x(x, inv_w), Y, &nz)) continue;
+                    float z = (float)nz;
+                    if (z > nrow[x]) {
+                        nrow[x] = z;
+                        irow[x] = VT_ID_GROUND;
+                    }
+                }
+            }
+        }
     /* the light tiles' nearness ranges of this thread's rows, while they
        are in its cache */
     if (!jb->ranges) return;
@@ -593,7 +648,8 @@ static void job_shade(void *arg, uint32_t t)
     const cull_light_tiles *lt = &r->tiles;
     const stri *st[MAX_THREADS];
     for (uint32_t b = 0; b < jb->nthreads; b++) st[b] = r->tb[b].st;
-    vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .rule = vt_depth_rule_of(fr->v, &fr->vr)};
+    vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .rule = vt_depth_rule_of(fr->v, &fr->vr),
+                  .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
@@ -626,12 +682,25 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
                    uint32_t nmesh, const vt_instance *inst, uint32_t ninst, const vt_light *lights, uint32_t nl,
                    float *rgba, float *depth, size_t stride, vt_soft_stats *st, char *err, size_t errlen)
 {
+    vt_frame f = {.view = v, .width = width, .height = height, .meshes = meshes, .nmesh = nmesh, .inst = inst,
+                  .ninst = ninst, .lights = lights, .nl = nl, .rgba = rgba, .depth = depth, .stride = stride};
+    return vt_soft_draw(r, &f, st, err, errlen);
+}
+
+int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, size_t errlen)
+{
     if (st) memset(st, 0, sizeof *st);
     if (!r) return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
-    frame fr = {.v = v, .w = width, .h = height};
-    int rc = vt_picture_check(v, width, height, stride, meshes, nmesh, inst, ninst, lights, nl, rgba, depth, &fr.vr,
-                              err, errlen);
+    frame fr = {.v = f ? f->view : NULL, .w = f ? f->width : 0, .h = f ? f->height : 0};
+    int rc = vt_picture_check(f, &fr.vr, err, errlen);
     if (rc) return rc;
+    const cull_view *v = f->view;
+    const uint32_t width = f->width, height = f->height, nmesh = f->nmesh, ninst = f->ninst, nl = f->nl;
+    const vt_mesh *meshes = f->meshes;
+    const vt_instance *inst = f->inst;
+    const vt_light *lights = f->lights;
+    vt_penv_make(f->env, v->origin, &r->sky, &fr.pe);
+    vt_ground_make(&fr.pe, &fr.vr, (int)v->depth_mode, &fr.gr);
     size_t npx = (size_t)width * height;
     if (!vp_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
         !vp_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
@@ -667,8 +736,8 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
         !vp_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     /* no lights: no ranges, no binning */
-    job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst, .rgba = rgba, .depth = depth,
-              .stride = stride, .nthreads = nt, .ranges = nl > 0};
+    job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst,
+              .rgba = f->rgba, .depth = f->depth, .stride = f->stride, .nthreads = nt, .ranges = nl > 0};
     uint64_t t0 = now_ns();
     if (nt > 1) cull_pool_run(r->pool, job_setup, &jb, nt);
     else job_setup(&jb, 0);
@@ -693,6 +762,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
 
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
     else job_shade(&jb, 0);
+    float ev = vt_exposure_apply(f->env, f->rgba, width, height, f->stride);
     uint64_t t4 = now_ns();
     if (st) {
         st->triangles = (uint32_t)ntri;
@@ -703,6 +773,7 @@ int vt_soft_render(vt_soft *r, const cull_view *v, uint32_t width, uint32_t heig
         st->raster_ns = t2 - t1;
         st->bin_ns = t3 - t2;
         st->shade_ns = t4 - t3;
+        st->exposure_ev = ev;
     }
     return 0;
 }

@@ -23,6 +23,7 @@
 #include "culling.h"
 
 #include "vt_err.h"
+#include "vt_scene.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -36,12 +37,25 @@ typedef struct vt_mesh {
     const float    *nrm;    /* 3 per vertex, unit; NULL: flat (face) normals */
     const uint32_t *idx;    /* 3 per triangle */
     uint32_t        nv, ni;
+    const float    *uv;     /* 2 per vertex, or NULL (no textures drawn on it) */
+    const float    *tan;    /* 4 per vertex (xyz unit, w +-1 handedness), or NULL */
 } vt_mesh;
+
+/* How an instance places its mesh. */
+enum {
+    VT_PLACE_BOUNDS,        /* the mesh's bounding box stretched onto bmin..bmax */
+    VT_PLACE_TRS            /* p' = pos + rot (scale * p): negative scale mirrors */
+};
 
 typedef struct vt_instance {
     uint32_t mesh;          /* index into the mesh array */
-    double   bmin[3], bmax[3]; /* world AABB the mesh's bounds are stretched onto */
-    float    albedo[3];     /* linear */
+    double   bmin[3], bmax[3]; /* BOUNDS: world AABB the mesh's bounds are stretched onto */
+    float    albedo[3];     /* linear; the material's base colour when mat is NULL */
+    uint8_t  place;         /* VT_PLACE_* (zero: BOUNDS) */
+    double   pos[3];        /* TRS: world position, |x| <= 1e15 */
+    float    rot[4];        /* TRS: unit quaternion x, y, z, w (within 1e-3) */
+    float    scale[3];      /* TRS: |x| <= 1e6, at most one axis 0 */
+    const vt_material *mat; /* NULL: the default material of albedo */
     const cull_dvol *dvol;  /* its destruction (NULL, or no spheres: intact);
                                drawn masked and two-sided (vt_mask.h). Read
                                during the call only. */
@@ -59,7 +73,27 @@ typedef struct vt_soft_stats {
     uint32_t max_lights_per_tile;
     uint32_t threads;
     uint64_t setup_ns, raster_ns, bin_ns, shade_ns;
+    float exposure_ev;      /* the EV100 the frame was exposed with (0 without an environment) */
 } vt_soft_stats;
+
+/* One picture's inputs and outputs (both renderers take it). Zero fields
+ * default: no lights, no environment. */
+typedef struct vt_frame {
+    const cull_view *view;
+    uint32_t width, height;
+    const vt_mesh *meshes;
+    uint32_t nmesh;
+    const vt_instance *inst;
+    uint32_t ninst;
+    const vt_light *lights;
+    uint32_t nl;
+    const vt_env *env;      /* NULL: a black background, the small constant
+                               ambient, no exposure (the look before the
+                               scene model); else sun, sky, ground, fog and
+                               exposure, and alpha 1 everywhere */
+    float *rgba, *depth;    /* width x height, stride pixels apart */
+    size_t stride;
+} vt_frame;
 
 typedef struct vt_soft vt_soft;
 
@@ -78,6 +112,16 @@ int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen);
 /* The unit box (-1..1 on each axis, 12 counter-clockwise triangles, flat
  * normals): what an entity without a mesh of its own is drawn as. */
 extern const vt_mesh vt_mesh_box;
+
+/* Renders frame f (see vt_frame). 0, or a VT_ERRORS code with err filled:
+ * VT_ERR_INVALID (vt_frame_check's reasons), VT_ERR_NOMEM, VT_ERR_RANGE. */
+int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, size_t errlen);
+
+/* Checks everything a render call is given, as both renderers do before
+ * any work: sizes and buffers, meshes, instances (mesh index, bounds or
+ * transform), materials and their textures, lights, the environment.
+ * 0, or VT_ERR_INVALID with the first bad field named in err. */
+int vt_frame_check(const vt_frame *f, char *err, size_t errlen);
 
 /* Renders ninst instances of nmesh meshes lit by nl lights for view v into
  * width x height buffers. 0, or a VT_ERRORS code with err filled: VT_ERR_INVALID

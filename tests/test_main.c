@@ -17,6 +17,7 @@ int main(void)
         {occlusion_tests, occlusion_tests_count},
         {light_tests, light_tests_count},
         {render_tests, render_tests_count},
+        {scene_render_tests, scene_render_tests_count},
         {alloc_tests, alloc_tests_count},
         {protocol_tests, protocol_tests_count},
         {bytes_tests, bytes_tests_count},

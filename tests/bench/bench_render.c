@@ -145,7 +145,28 @@ static const char *damage_label(double damaged)
 
 /* The software path: median frame time (query + render), one line out.
  * damaged: the share of boxes damaged, for the label (-1: no label). */
+static int time_soft_env(run *rn, const scene *s, const vt_light *L, uint32_t nl, uint32_t threads, double damaged,
+                         const vt_env *env);
 static int time_soft(run *rn, const scene *s, const vt_light *L, uint32_t nl, uint32_t threads, double damaged)
+{
+    return time_soft_env(rn, s, L, nl, threads, damaged, NULL);
+}
+
+/* The scene model's default environment (the protocol's vp_env_default):
+ * sun, analytic sky, ground, light fog, auto exposure. */
+static const vt_env *default_env(void)
+{
+    static vt_env e;
+    double el = 50 * M_PI / 180, az = 225 * M_PI / 180;
+    e = (vt_env){.sun_dir = {(float)(cos(el) * sin(az)), (float)sin(el), (float)(cos(el) * cos(az))},
+                 .sun = {100000.0f, 96000.0f, 90000.0f}, .sky_mode = VT_SKY_ANALYTIC, .sky = {1, 1, 1},
+                 .turbidity = 2.5f, .ground = true, .ground_albedo = {0.25f, 0.25f, 0.25f}, .fog_density = 0.0005f,
+                 .fog_color = {0.6f, 0.7f, 0.8f}, .exposure_mode = VT_EXPOSURE_AUTO, .exposure_ev = 14};
+    return &e;
+}
+
+static int time_soft_env(run *rn, const scene *s, const vt_light *L, uint32_t nl, uint32_t threads, double damaged,
+                         const vt_env *env)
 {
     vt_soft *sr;
     if (vt_soft_create(rn->pool, threads, &sr)) return -1;
@@ -157,8 +178,10 @@ static int time_soft(run *rn, const scene *s, const vt_light *L, uint32_t nl, ui
         double t0 = (bench_now_ns() / 1e6);
         size_t n;
         if (visible(rn, s, threads, &n)) return -1;
-        if (vt_soft_render(sr, &rn->v, rn->W, rn->H, &vt_mesh_box, 1, rn->vis, (uint32_t)n, L, nl, rn->rgba, rn->depth,
-                           rn->W, &st, err, sizeof err)) {
+        vt_frame f = {.view = &rn->v, .width = rn->W, .height = rn->H, .meshes = &vt_mesh_box, .nmesh = 1,
+                      .inst = rn->vis, .ninst = (uint32_t)n, .lights = L, .nl = nl, .env = env, .rgba = rn->rgba,
+                      .depth = rn->depth, .stride = rn->W};
+        if (vt_soft_draw(sr, &f, &st, err, sizeof err)) {
             fprintf(stderr, "bench_render: %s\n", err);
             return -1;
         }
@@ -168,14 +191,14 @@ static int time_soft(run *rn, const scene *s, const vt_light *L, uint32_t nl, ui
     double med = t[rn->reps / 2];
     if (rn->json)
         printf("{\"path\":\"soft\",\"renderer\":\"vantage soft\",\"width\":%u,\"height\":%u,\"boxes\":%u,"
-               "\"lights\":%u,\"threads\":%u,\"damaged\":%.3f,\"median_ms\":%.3f,\"triangles\":%u,\"setup_ms\":%.3f,"
-               "\"raster_ms\":%.3f,\"bin_ms\":%.3f,\"shade_ms\":%.3f}\n",
-               rn->W, rn->H, s->n, nl, threads, damaged < 0 ? 0 : damaged, med, st.triangles, st.setup_ns / 1e6,
-               st.raster_ns / 1e6, st.bin_ns / 1e6, st.shade_ns / 1e6);
+               "\"lights\":%u,\"threads\":%u,\"damaged\":%.3f,\"env\":%s,\"median_ms\":%.3f,\"triangles\":%u,"
+               "\"setup_ms\":%.3f,\"raster_ms\":%.3f,\"bin_ms\":%.3f,\"shade_ms\":%.3f}\n",
+               rn->W, rn->H, s->n, nl, threads, damaged < 0 ? 0 : damaged, env ? "true" : "false", med, st.triangles,
+               st.setup_ns / 1e6, st.raster_ns / 1e6, st.bin_ns / 1e6, st.shade_ns / 1e6);
     else
         printf("%-6s %8u %7u %7u %10.2f %8.1f %9u  (setup %.2f raster %.2f bin %.2f shade %.2f ms)%s\n", "soft",
                s->n, nl, threads, med, 1000 / med, st.triangles, st.setup_ns / 1e6, st.raster_ns / 1e6,
-               st.bin_ns / 1e6, st.shade_ns / 1e6, damage_label(damaged));
+               st.bin_ns / 1e6, st.shade_ns / 1e6, env ? " sun, sky, ground, fog, auto exposure" : damage_label(damaged));
     fflush(stdout);
     free(t);
     vt_soft_destroy(sr);
@@ -301,6 +324,8 @@ int main(int argc, char **argv)
             for (uint32_t threads = 1; threads <= 2; threads++)
                 if (time_soft(&rn, &s, L, nl, threads, -1)) return 1;
             if (rn.g && time_gl(&rn, &s, L, nl, -1)) return 1;
+            /* the scene model's default environment (16 lights, 2 threads) */
+            if (nl == 16 && time_soft_env(&rn, &s, L, nl, 2, -1, default_env())) return 1;
             free(L);
         }
         /* destruction masks: the same boxes, 16 lights, none / every

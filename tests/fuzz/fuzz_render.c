@@ -12,6 +12,12 @@
  * triangles, degenerate ones and normals of any length included; checked
  * with vt_mesh_check as the daemon does before it keeps a mesh), stretched
  * onto boxes from the bytes, and up to 4 lights with colours and cones.
+ * Then the scene model (issue 19), from the bytes after those: an
+ * environment (sun, sky mode, ground, fog, exposure: any values, the
+ * out-of-range ones included), a material with a 4x4 base texture (its
+ * sampler, KHR transform, alpha mode, double-sided), UVs and tangents for
+ * the mesh, and per instance a transform (position, quaternion of any
+ * length, scales of any sign, zeros) and the material or none.
  * Checked:
  *   1. vt_*_render returns 0, or VT_ERR_INVALID with a message and the caller's
  *      buffers untouched (the daemon answers INVALID with it);
@@ -37,6 +43,66 @@
 #include <string.h>
 
 enum { MAX_W = 64, MAX_INST = 4, MAX_LIGHTS = 4, MAX_MV = 12, MAX_MT = 8 };
+
+/* The scene model's inputs from the rest of the bytes. */
+static void scene_model(fz *f, vt_env *env, bool *env_on, vt_material *mat, vt_texview *tex, uint8_t *texels,
+                        const uint8_t **lv, float *uv, float *tan, uint32_t nv, vt_instance *in, uint32_t ni)
+{
+    uint8_t e = fz_u8(f);
+    *env_on = e & 1;
+    *env = (vt_env){.sky_mode = (uint8_t)((e >> 1) % 4), .ground = (e & 8) != 0, .exposure_mode = (uint8_t)((e >> 4) % 3)};
+    for (int a = 0; a < 3; a++) {
+        env->sun_dir[a] = (float)fz_num(f, 1);
+        env->sun[a] = (float)fabs(fz_num(f, 1e5));
+        env->sky[a] = (float)fabs(fz_num(f, 1e4));
+        env->ground_albedo[a] = (float)fabs(fz_num(f, 1));
+        env->fog_color[a] = (float)fabs(fz_num(f, 1));
+    }
+    env->turbidity = (float)fz_num(f, 10);
+    env->ground_height = fz_num(f, 30);
+    env->fog_density = (float)fz_num(f, 0.1);
+    env->fog_falloff = (float)fz_num(f, 1);
+    env->exposure_ev = (float)fz_num(f, 20);
+    env->exposure_comp = (float)fz_num(f, 5);
+    env->sky_rotation = (float)fz_num(f, 3);
+    uint8_t m = fz_u8(f);
+    *mat = (vt_material){.metallic = (float)fz_num(f, 1), .roughness = (float)fz_num(f, 1),
+                         .emissive_strength = (float)fabs(fz_num(f, 10)), .normal_scale = (float)fz_num(f, 2),
+                         .alpha_mode = (uint8_t)(m % 3), .alpha_cutoff = (float)fz_num(f, 1),
+                         .double_sided = (m & 4) != 0};
+    for (int a = 0; a < 4; a++) mat->base[a] = (float)fabs(fz_num(f, 1));
+    for (int a = 0; a < 3; a++) mat->emissive[a] = (float)fabs(fz_num(f, 1));
+    /* a 4x4 texture with 3 levels (4, 2, 1), or a float one (for the sky) */
+    for (int i = 0; i < 4 * (16 + 4 + 1); i++) texels[i] = fz_u8(f);
+    lv[0] = texels, lv[1] = texels + 64, lv[2] = texels + 80;
+    *tex = (vt_texview){.w = 4, .h = 4, .levels = 1 + fz_u8(f) % 4, .mip = lv, .id = 0};
+    vt_texref r = {.tex = (m & 8) ? tex : NULL, .wrap_s = fz_u8(f) % 4, .wrap_t = fz_u8(f) % 4,
+                   .min_filter = fz_u8(f) % 7, .mag_filter = fz_u8(f) % 3, .rotation = (float)fz_num(f, 3)};
+    for (int a = 0; a < 2; a++) {
+        r.offset[a] = (float)fz_num(f, 2);
+        r.scale[a] = (float)fz_num(f, 2);
+    }
+    mat->tex[(m >> 4) % VT_SLOTS] = r;
+    for (uint32_t i = 0; i < 2 * nv; i++) uv[i] = (float)fz_num(f, 2);
+    for (uint32_t i = 0; i < 4 * nv; i++) tan[i] = (float)fz_num(f, 1);
+    for (uint32_t i = 0; i < ni; i++) {
+        uint8_t t = fz_u8(f);
+        if (t & 1) in[i].mat = mat;
+        if (!(t & 2)) continue;
+        in[i].place = (t & 4) ? (uint8_t)(t >> 3) : VT_PLACE_TRS;
+        for (int a = 0; a < 3; a++) {
+            in[i].pos[a] = fz_num(f, 30);
+            in[i].scale[a] = (float)fz_num(f, 3);
+        }
+        for (int a = 0; a < 4; a++) in[i].rot[a] = (float)fz_num(f, 1);
+        /* most quaternions from the bytes are not unit: half of them are
+           made so, to reach the drawing */
+        double q2 = 0;
+        for (int a = 0; a < 4; a++) q2 += (double)in[i].rot[a] * in[i].rot[a];
+        if ((t & 64) && q2 > 0 && isfinite(q2))
+            for (int a = 0; a < 4; a++) in[i].rot[a] = (float)(in[i].rot[a] / sqrt(q2));
+    }
+}
 
 #ifdef FUZZ_RENDER_GL
 /* one context for the process (opening one costs tens of ms) */
@@ -76,7 +142,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (cull_view_init(&v, &d) != CULL_OK) return 0;
 
     /* meshes: the box, and one from the bytes if it passes the check */
-    float pos[3 * MAX_MV], nrm[3 * MAX_MV];
+    float pos[3 * MAX_MV], nrm[3 * MAX_MV], uv[2 * MAX_MV], tan[4 * MAX_MV];
     uint32_t idx[3 * MAX_MT];
     vt_mesh meshes[2] = {vt_mesh_box};
     uint32_t nmesh = 1;
@@ -112,14 +178,32 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         L[i].cos_inner = (float)((double)fz_u8(&f) / 127.5 - 1.0);
     }
 
+    vt_env env;
+    bool env_on;
+    vt_material mat;
+    vt_texview tex;
+    uint8_t texels[4 * 21];
+    const uint8_t *lv[3];
+    scene_model(&f, &env, &env_on, &mat, &tex, texels, lv, uv, tan, MAX_MV, in, ni);
+    if (nmesh > 1 && (head & 4)) meshes[1].uv = uv;
+    if (nmesh > 1 && (head & 8)) meshes[1].tan = tan;
+    if (env.sky_mode == VT_SKY_TEXTURE && (head & 16)) {
+        static float hdr[4 * 16];
+        for (int i = 0; i < 64; i++) hdr[i] = (float)fz_num(&f, 1e3);
+        static vt_texview sky;
+        sky = (vt_texview){.w = 4, .h = 4, .levels = 1, .hdr = hdr};
+        env.sky_tex = &sky;
+    }
+
     static float rgba[MAX_W * MAX_W * 4], depth[MAX_W * MAX_W];
     for (size_t i = 0; i < (size_t)w * h; i++) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = depth[i] = 7;
     char err[256] = "";
+    vt_frame fr = {.view = &v, .width = w, .height = h, .meshes = meshes, .nmesh = nmesh, .inst = in, .ninst = ni,
+                   .lights = L, .nl = nl, .env = env_on ? &env : NULL, .rgba = rgba, .depth = depth, .stride = w};
 #ifdef FUZZ_RENDER_GL
-    int rc = vt_gldraw_render(renderer(), &v, w, h, meshes, nmesh, in, ni, L, nl, rgba, depth, w, NULL, err,
-                              sizeof err);
+    int rc = vt_gldraw_draw(renderer(), &fr, NULL, err, sizeof err);
 #else
-    int rc = vt_soft_render(renderer(), &v, w, h, meshes, nmesh, in, ni, L, nl, rgba, depth, w, NULL, err, sizeof err);
+    int rc = vt_soft_draw(renderer(), &fr, NULL, err, sizeof err);
 #endif
     if (rc != 0) {
         CHECK(rc == VT_ERR_INVALID && err[0] != 0);
@@ -128,6 +212,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     for (size_t i = 0; i < (size_t)w * h; i++) {
         CHECK(rgba[4 * i + 3] == 0 || rgba[4 * i + 3] == 1);
+        CHECK(!env_on || rgba[4 * i + 3] == 1); /* opaque with an environment */
         CHECK(depth[i] == depth[i]);
     }
     return 0;
