@@ -7,7 +7,7 @@
  *
  * It is built the way an editor would build it: every piece is a protocol
  * message (MESH_PUT, TEXTURE_PUT, MATERIAL_PUT, ENTITY_ADD with
- * transforms, attached OCCLUDER_PUT, LIGHT_PUT, ENV_SET) applied through
+ * transforms, attached OCCLUDER_PUT, LIGHT_PUT, ENV_SET: the day preset) applied through
  * edit_decode / edit_apply, so the city exercises the same checks as a
  * client's scene and a snapshot of it is an ordinary snapshot. The whole
  * city is one journal record (EDIT_CITY, aux = props): deterministic
@@ -291,7 +291,7 @@ static void put_materials(city *c)
         m[n] = mat(M_FACADE + (uint32_t)k, tint[k][0], tint[k][1], tint[k][2], 0, 0.8f);
         m[n].tex[VP_TEX_BASE].texture = T_FACADE;
         m[n].emissive[0] = m[n].emissive[1] = m[n].emissive[2] = 1;
-        m[n].emissive_strength = 40; /* lit rooms seen through the windows, cd/m2 */
+        m[n].emissive_strength = 25; /* lit rooms seen through the windows, cd/m2 */
         m[n].tex[VP_TEX_EMISSIVE].texture = T_LIGHTS;
         m[n].tex[VP_TEX_EMISSIVE].scale[0] = m[n].tex[VP_TEX_EMISSIVE].scale[1] = 0.125f;
         n++;
@@ -464,6 +464,14 @@ int scene_build_city(scene *s, uint32_t props, scene_err *err)
         vp_writer w;
         uint8_t *b = wbuf(&c, &w, vp_size_lights(nl));
         if (b) vp_enc_lights(&w, 0, lights, nl);
+        send_and_free(&c, b, &w);
+    }
+    if (!c.rc) { /* the day preset: the default sun and sky over asphalt */
+        vp_env env;
+        vp_env_preset("day", &env);
+        vp_writer w;
+        uint8_t *b = wbuf(&c, &w, vp_size_env());
+        if (b) vp_enc_env(&w, VP_ENV_SET, 0, &env);
         send_and_free(&c, b, &w);
     }
     free(lights);

@@ -632,8 +632,9 @@ typedef struct vp_env {
 /* The environment a fresh scene has: a noon-ish sun, the analytic sky,
  * the ground at y = 0, light fog, auto exposure. */
 void vp_env_default(vp_env *out);
-/* A named environment: "day" (the default) or "night" (moonlight, dark
- * sky: lamps and windows carry the frame). VP_OK, or VP_ERR_NOT_FOUND
+/* A named environment: "day" (the default's sun and sky over an asphalt
+ * ground) or "night" (moonlight, dark sky: lamps and windows carry the
+ * frame). VP_OK, or VP_ERR_NOT_FOUND
  * (*out is then the default). */
 int vp_env_preset(const char *name, vp_env *out);
 

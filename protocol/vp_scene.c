@@ -223,6 +223,8 @@ void vp_env_default(vp_env *e)
 int vp_env_preset(const char *name, vp_env *e)
 {
     vp_env_default(e);
+    /* the city's streets: asphalt (albedo about 0.08) */
+    e->ground_color[0] = 0.08f, e->ground_color[1] = 0.08f, e->ground_color[2] = 0.085f;
     if (!strcmp(name, "day")) return VP_OK;
     if (!strcmp(name, "night")) {
         /* a moonlit night: the "sun" is the full moon (0.25 lux, bluish,
@@ -242,6 +244,7 @@ int vp_env_preset(const char *name, vp_env *e)
         e->exposure_comp = -1.5f;
         return VP_OK;
     }
+    vp_env_default(e);
     return VP_ERR_NOT_FOUND;
 }
 

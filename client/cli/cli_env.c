@@ -64,21 +64,6 @@ static void sun_from(vp_env *e, double az_deg, double el_deg)
     e->sun_dir[2] = (float)(cos(el) * cos(az));
 }
 
-/* The night preset: no sun, a dark blue sky, exposure for a lit street. */
-static void night(vp_env *e)
-{
-    e->sun_dir[0] = e->sun_dir[1] = e->sun_dir[2] = 0;
-    e->sun_lux = 0;
-    e->sky_mode = VP_SKY_COLOR;
-    e->sky_texture = 0;
-    e->sky_color[0] = 0.010f, e->sky_color[1] = 0.015f, e->sky_color[2] = 0.035f;
-    e->sky_intensity = 1;
-    e->fog_density = 0.001f;
-    e->fog_color[0] = 0.02f, e->fog_color[1] = 0.025f, e->fog_color[2] = 0.04f;
-    e->exposure_mode = VP_EXPOSURE_AUTO;
-    e->exposure_comp = 0;
-}
-
 static void print_env(const vp_env *e)
 {
     static const char *const sky[3] = {"color", "analytic", "exr"};
@@ -125,8 +110,8 @@ static bool env_option(vp_env *e, int o, const char *a)
     double v[4];
     uint64_t id;
     switch (o) {
-    case 'd': vp_env_default(e); return true;
-    case 'n': night(e); return true;
+    case 'd': vp_env_preset("day", e); return true;
+    case 'n': vp_env_preset("night", e); return true;
     case 's':
         if (!strcmp(a, "off")) {
             e->sun_dir[0] = e->sun_dir[1] = e->sun_dir[2] = 0;
