@@ -459,6 +459,7 @@ int scene_occluder_put(scene *s, uint16_t loading, const vp_occluder *o, scene_e
     memcpy(n->origin, o->origin, sizeof n->origin);
     n->ntris = o->tri_count;
     n->sublevel = sub;
+    n->flags = o->flags;
     vp_reader r;
     vp_reader_init(&r, o->verts, (size_t)o->tri_count * 36);
     for (uint32_t i = 0; i < 9 * o->tri_count; i++) v[i] = vp_get_f32(&r);

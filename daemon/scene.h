@@ -56,9 +56,10 @@ typedef struct scene_texture {
 
 typedef struct scene_occluder {
     uint64_t id;
-    double origin[3];
+    double origin[3];       /* VP_OCC_ATTACHED: in the entity's local space */
     uint32_t ntris;
-    float *verts;           /* 9 per triangle, relative to origin */
+    float *verts;           /* 9 per triangle, relative to origin (as sent) */
+    uint32_t flags;         /* VP_OCC_*: ATTACHED follows entity id's transform */
     cull_occluder h;        /* in the culling world, which draws it */
     uint16_t sublevel;
 } scene_occluder;
@@ -66,6 +67,10 @@ typedef struct scene_occluder {
 /* An entity's destruction: its distance volume (the sphere set in it). */
 typedef struct scene_destruct {
     cull_dvol v;
+    /* destroyed while the entity had a transform: the spheres in its local
+       space (centre xyz, radius divided by the smallest non-zero |scale|),
+       v.nsph of them, from which v is rebuilt when it moves; else NULL */
+    double (*local)[4];
 } scene_destruct;
 
 /* A light as stored (the lights map's values point to these). */

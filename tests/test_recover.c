@@ -58,7 +58,7 @@ static edit_result apply_w(sess *s, const vp_writer *w, uint32_t aux)
     const uint8_t *p = s->buf + VP_HEADER_SIZE;
     uint32_t len = (uint32_t)(w->len - VP_HEADER_SIZE);
     edit e;
-    assert_int_equal(edit_decode(type, p, len, 0, &e), VP_OK);
+    assert_int_equal(edit_decode(type, p, len, 0, EDIT_LAYOUT, &e), VP_OK);
     e.sublevel = s->sublevel;
     e.aux = aux;
     edit_result r;
@@ -358,7 +358,146 @@ static void test_recover_snapshot_sublevel_name(void **state)
     g_log_level = lvl;
 }
 
-/* ---- format 1 snapshots -------------------------------------------------------------------------- */
+/* ---- format 1 and 2 snapshots --------------------------------------------------------------------- */
+
+/* A byte cursor over a snapshot body (the layouts in snapshot.c's header,
+ * read here independently of its reader). */
+typedef struct cur {
+    const uint8_t *p;
+    size_t at;
+} cur;
+
+static uint32_t cur_u32(cur *c)
+{
+    uint32_t v;
+    memcpy(&v, c->p + c->at, 4);
+    c->at += 4;
+    return v;
+}
+
+/* Appends n bytes to b (grown as needed; b->n is the length). */
+static void cat(blob *b, const void *p, size_t n)
+{
+    b->p = realloc(b->p, b->n + n + 1);
+    memcpy(b->p + b->n, p, n);
+    b->n += n;
+}
+
+static void cat_u32(blob *b, uint32_t v)
+{
+    cat(b, &v, 4);
+}
+
+/* Seals a body as a whole snapshot of the given magic (hdr: the 40-byte
+ * header to take the generation and sequence number from). */
+static blob sealed(const uint8_t *hdr, const char *magic, const blob *body)
+{
+    blob f = {malloc(40 + body->n), 40 + body->n};
+    memcpy(f.p, hdr, 40);
+    memcpy(f.p, magic, 8);
+    uint64_t bl = body->n;
+    memcpy(f.p + 24, &bl, 8);
+    memcpy(f.p + 40, body->p, body->n);
+    uint32_t bc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), body->p, (uInt)body->n);
+    memcpy(f.p + 32, &bc, 4);
+    uint32_t hc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), f.p, 36);
+    memcpy(f.p + 36, &hc, 4);
+    return f;
+}
+
+/* Rewrites a format 3 snapshot of a version 1 scene (no textures,
+ * materials, environment, transforms, UVs, local spheres, occluder flags)
+ * as format 2 wrote it: meshes in their old layout, entities in 104-byte
+ * records (id..flags, a zero word, sphere, aabb: the 160-byte record's
+ * bytes 0..20 and 80..160). */
+static blob snapshot_v2(const blob *v3)
+{
+    cur c = {v3->p + 40, 24};
+    uint32_t nsl = cur_u32(&c);
+    for (uint32_t i = 0; i < nsl; i++) {
+        c.at += 1 + c.p[c.at];      /* name */
+        c.at += 1 + 4 + 2 + 2 + 4; /* state, owner, class base, classes, capacity */
+        c.at += 8 * (size_t)cur_u32(&c);     /* members */
+        uint32_t nd = cur_u32(&c);
+        c.at += 4 + (size_t)nd * 8; /* doomed done, ids */
+    }
+    c.at += 12 * (size_t)cur_u32(&c) + 8; /* hidden words, hidden count, unloading */
+    c.at += 4 * (size_t)cur_u32(&c);      /* class owners */
+    blob b = {0};
+    cat(&b, c.p, c.at); /* the same in both */
+    assert_int_equal(cur_u32(&c), 0); /* textures */
+    assert_int_equal(cur_u32(&c), 0); /* materials */
+    c.at += VP_ENV_SIZE;
+    uint32_t nm = cur_u32(&c);
+    cat_u32(&b, nm);
+    for (uint32_t i = 0; i < nm; i++) { /* MESH_PUT payloads to the old layout */
+        uint32_t len = cur_u32(&c);
+        uint16_t cls, flags;
+        uint32_t nv, ni;
+        memcpy(&cls, c.p + c.at, 2);
+        memcpy(&flags, c.p + c.at + 2, 2);
+        memcpy(&nv, c.p + c.at + 4, 4);
+        memcpy(&ni, c.p + c.at + 8, 4);
+        assert_int_equal(flags & ~VP_MESH_NO_NORMALS, 0);
+        uint8_t has = !(flags & VP_MESH_NO_NORMALS);
+        const uint8_t *arr = c.p + c.at + 12;
+        cat(&b, &cls, 2);
+        cat(&b, &nv, 4);
+        cat(&b, &ni, 4);
+        cat(&b, arr, (size_t)nv * 12);
+        cat(&b, &has, 1);
+        cat(&b, arr + (size_t)nv * 12, (size_t)nv * 12 * has + (size_t)ni * 4);
+        c.at += len;
+    }
+    uint32_t nslots = cur_u32(&c);
+    size_t from = c.at - 4;
+    c.at += (size_t)nslots * 2;
+    c.at += 4 * (size_t)cur_u32(&c); /* free list */
+    uint32_t live = cur_u32(&c);
+    cat(&b, c.p + from, c.at - from); /* the handle table, the entity count */
+    for (uint32_t done = 0; done < live;) { /* ENTITY_ADD payloads of 104-byte records */
+        c.at += 4;
+        uint32_t n = cur_u32(&c);
+        cat_u32(&b, 4 + n * 104);
+        cat_u32(&b, n);
+        for (uint32_t k = 0; k < n; k++, c.at += 160) {
+            static const uint8_t zero[4] = {0};
+            cat(&b, c.p + c.at, 20);
+            cat(&b, zero, 4);
+            cat(&b, c.p + c.at + 80, 80);
+        }
+        cat(&b, c.p + c.at, (size_t)n * 4); /* handles */
+        c.at += (size_t)n * 4;
+        done += n;
+    }
+    uint32_t nd = cur_u32(&c);
+    cat_u32(&b, nd);
+    for (uint32_t i = 0; i < nd; i++) { /* volumes: without the local-spheres byte */
+        size_t start = c.at;
+        uint32_t n[3];
+        memcpy(n, c.p + c.at + 56, 12);
+        c.at += 8 + 48 + 12 + 8;
+        uint32_t nsph = cur_u32(&c);
+        c.at += (size_t)nsph * 32 + (size_t)n[0] * n[1] * n[2] * 16;
+        cat(&b, c.p + start, c.at - start);
+        assert_int_equal(c.p[c.at++], 0);
+    }
+    uint32_t no = cur_u32(&c);
+    cat_u32(&b, no);
+    for (uint32_t i = 0; i < no; i++) { /* occluders: without flags */
+        cat(&b, c.p + c.at, 10);
+        c.at += 10;
+        assert_int_equal(cur_u32(&c), 0);
+        uint32_t nt;
+        memcpy(&nt, c.p + c.at + 24, 4);
+        cat(&b, c.p + c.at, 28 + (size_t)nt * 36);
+        c.at += 28 + (size_t)nt * 36;
+    }
+    cat(&b, c.p + c.at, v3->n - 40 - c.at); /* lights */
+    blob f = sealed(v3->p, "VNTSNAP2", &b);
+    free(b.p);
+    return f;
+}
 
 /* Rewrites a format 2 snapshot as format 1 wrote it (the hidden bitmap and
  * the class owners whole), from the layout in snapshot.c's header. */
@@ -420,9 +559,26 @@ static blob snapshot_v1(const blob *v2)
     return b;
 }
 
-/* A format 1 snapshot (what the daemon wrote before format 2) is still
- * read, into the same scene: the session's snapshot, with sub-levels,
- * classes reserved, hidden (loading) and unloading sub-levels, rewritten
+/* Loads snapshot f (generation 5, sequence 77) into a fresh scene: its bytes. */
+static blob load_as_scene(const blob *f, const char *what)
+{
+    scene *sc = malloc(sizeof *sc);
+    assert_int_equal(scene_init(sc, 64, &LIMITS), 0);
+    uint64_t seq = 0;
+    char err[400];
+    if (snapshot_load(f->p, f->n, sc, 5, &seq, err, sizeof err)) fail_msg("%s: %s", what, err);
+    assert_int_equal(seq, 77);
+    blob got = scene_bytes(sc);
+    scene_free(sc);
+    free(sc);
+    return got;
+}
+
+/* Format 1 and format 2 snapshots (what protocol version 1's daemons
+ * wrote) are still read, into the same scene: the session's snapshot,
+ * with sub-levels, classes reserved, hidden (loading) and unloading
+ * sub-levels, meshes, entities, a destruction, occluders and lights,
+ * rewritten as format 2 wrote it (entities in 104-byte records), and that
  * as format 1 wrote it. */
 static void test_recover_snapshot_format1(void **state)
 {
@@ -437,31 +593,29 @@ static void test_recover_snapshot_format1(void **state)
     script_b(s); /* an unload half done, a load open: both in the bitmap */
     assert_true(s->sc.nhidden > 0 && s->sc.unloading > 0);
     blob want = scene_bytes(&s->sc);
-    int fd = memfd_create("v2", MFD_CLOEXEC);
+    int fd = memfd_create("v3", MFD_CLOEXEC);
     assert_int_equal(snapshot_write(fd, &s->sc, 5, 77), 0);
     sess_close(s);
     free(s);
     off_t end = lseek(fd, 0, SEEK_END);
-    blob v2 = {malloc((size_t)end), (size_t)end};
-    assert_int_equal(pread(fd, v2.p, v2.n, 0), end);
+    blob v3 = {malloc((size_t)end), (size_t)end};
+    assert_int_equal(pread(fd, v3.p, v3.n, 0), end);
     close(fd);
+    assert_memory_equal(v3.p, "VNTSNAP3", 8);
+    blob v2 = snapshot_v2(&v3);
     blob v1 = snapshot_v1(&v2);
-    assert_true(v1.n > v2.n + 130000);
-    scene *sc = malloc(sizeof *sc);
-    assert_int_equal(scene_init(sc, 64, &LIMITS), 0);
-    uint64_t seq = 0;
-    char err[400];
-    if (snapshot_load(v1.p, v1.n, sc, 5, &seq, err, sizeof err)) fail_msg("format 1: %s", err);
-    assert_int_equal(seq, 77);
-    blob got = scene_bytes(sc);
-    assert_int_equal(got.n, want.n);
-    assert_memory_equal(got.p, want.p, want.n);
-    scene_free(sc);
-    free(sc);
-    free(got.p);
+    assert_true(v2.n < v3.n && v1.n > v2.n + 130000);
+    const blob *old[2] = {&v2, &v1};
+    for (int k = 0; k < 2; k++) {
+        blob got = load_as_scene(old[k], k ? "format 1" : "format 2");
+        assert_int_equal(got.n, want.n);
+        assert_memory_equal(got.p, want.p, want.n);
+        free(got.p);
+    }
     free(want.p);
     free(v1.p);
     free(v2.p);
+    free(v3.p);
     dir_remove(dir);
     g_log_level = lvl;
 }
