@@ -31,6 +31,7 @@ int main(void)
         {auth_tests, auth_tests_count},
         {persist_tests, persist_tests_count},
         {recover_tests, recover_tests_count},
+        {upgrade_tests, upgrade_tests_count},
         {pad_tests, pad_tests_count},
         {pad_io_tests, pad_io_tests_count},
         {commander_tests, commander_tests_count},
