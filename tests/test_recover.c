@@ -18,6 +18,7 @@
 #include "journal.h"
 #include "log.h"
 #include "snapshot.h"
+#include "vt_image.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -48,6 +49,7 @@ typedef struct sess {
     journal *j;
     scene sc;
     uint16_t sublevel; /* the sub-level the one editing connection is loading, 0 = none */
+    bool v1_scene;     /* what protocol version 1 had only (no model edits) */
     uint8_t buf[1 << 16];
 } sess;
 
@@ -161,6 +163,134 @@ static void s_work(sess *s, uint32_t budget)
     edit_result_free(&r);
 }
 
+/* ---- the scene model: textures, materials, the environment, transforms ---------------------- */
+
+/* Whether this build applies the scene model's edits (the daemon's part of
+ * issue 19 lands separately from its persistence: until it does, the
+ * sessions leave them out and the campaign covers the rest). */
+static bool model_ready(void)
+{
+    return edit_is(VP_TRANSFORM_SET) && edit_is(VP_MATERIAL_PUT) && edit_is(VP_TEXTURE_PUT) && edit_is(VP_ENV_SET);
+}
+
+/* TEXTURE_PUT of a w x h PNG (a gradient, seeded), whole. */
+static void s_texture(sess *s, uint32_t id, uint32_t w, uint32_t h, uint8_t seed)
+{
+    uint8_t px[16 * 16 * 4];
+    for (uint32_t i = 0; i < w * h * 4; i++) px[i] = (uint8_t)(seed + i * 7);
+    char path[] = "/tmp/recover-tex.XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    char err[200];
+    if (vt_png_write(path, w, h, px, w * 4, true, 6, err, sizeof err)) fail_msg("png: %s", err);
+    static uint8_t png[8192];
+    fd = open(path, O_RDONLY);
+    ssize_t n = read(fd, png, sizeof png);
+    assert_true(n > 0 && n < (ssize_t)sizeof png);
+    close(fd);
+    unlink(path);
+    vp_writer w0;
+    vp_writer_init(&w0, s->buf, sizeof s->buf);
+    vp_enc_texture_put(&w0, 1, &(vp_texture_put){.id = id, .format = VP_TEX_PNG, .flags = VP_TEX_SRGB,
+                                                  .total = (uint32_t)n, .len = (uint32_t)n, .data = png});
+    ap(s, &w0, 0);
+}
+
+static void s_material(sess *s, uint32_t id, uint32_t tex, float rough)
+{
+    vp_material m = {.id = id, .base_color = {0.8f, 0.5f, 0.25f, 1}, .metallic = 0.25f, .roughness = rough,
+                     .emissive = {0.1f, 0, 0}, .emissive_strength = 2, .normal_scale = 1};
+    m.tex[VP_TEX_BASE] = (vp_texref){.texture = tex, .min_filter = VP_FILTER_LINEAR_MIP_LINEAR,
+                                     .mag_filter = VP_FILTER_LINEAR, .scale = {1, 1}};
+    vp_writer w = wr(s);
+    vp_enc_materials(&w, 1, &m, 1);
+    ap(s, &w, 0);
+}
+
+static void s_env(sess *s, float sun_y, float ev)
+{
+    vp_env e;
+    vp_env_default(&e);
+    e.sun_dir[0] = 0.3f;
+    e.sun_dir[1] = sun_y;
+    e.sun_dir[2] = 0.2f;
+    e.exposure_mode = VP_EXPOSURE_FIXED;
+    e.exposure_ev = ev;
+    vp_writer w = wr(s);
+    vp_enc_env(&w, VP_ENV_SET, 1, &e);
+    ap(s, &w, 0);
+}
+
+/* A quad mesh with UVs and tangents. */
+static void s_mesh_uv(sess *s, uint16_t cls)
+{
+    float pos[12] = {-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1}, nrm[12] = {0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0};
+    float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1}, tan[16] = {1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1};
+    uint32_t idx[6] = {0, 2, 1, 0, 3, 2};
+    vp_writer w = wr(s);
+    vp_enc_mesh_uv(&w, 1, cls, pos, nrm, uv, tan, 4, idx, 6);
+    ap(s, &w, 0);
+}
+
+/* Entities with a transform (class cls, material mat), rotations not unit
+ * to the last bit (renormalised on the way in). */
+static void s_add_trs(sess *s, uint64_t first, uint32_t n, uint16_t cls, uint32_t mat, uint16_t type)
+{
+    vp_entity e[4];
+    for (uint32_t i = 0; i < n; i++) {
+        float a = 0.3f + 0.7f * (float)i;
+        e[i] = (vp_entity){.id = first + i, .class_id = cls, .flags = VP_ENT_TRANSFORM, .material = mat,
+                           .pos = {5.0 * i - 3, 1.5, -7.25 + i}, .rot = {0, sinf(a / 2), 0.0001f, cosf(a / 2)},
+                           .scale = {1.5f, 2, i ? -1.0f : 1.0f}};
+    }
+    vp_writer w = wr(s);
+    vp_enc_entities(&w, type, 1, e, n);
+    ap(s, &w, 0);
+}
+
+static void s_transform(sess *s, uint64_t id, double x)
+{
+    vp_transform t = {.id = id, .pos = {x, 2, -3}, .rot = {0.1f, 0.2f, 0.3f, 0.9273618f}, .scale = {1, 1, 3}};
+    vp_writer w = wr(s);
+    vp_enc_transforms(&w, 1, &t, 1);
+    ap(s, &w, 0);
+}
+
+/* Part one of the model: every kind of its state, into the snapshot. */
+static void script_model_a(sess *s)
+{
+    s_texture(s, 1, 4, 4, 1);
+    s_texture(s, 2, 8, 2, 50);
+    s_material(s, 1, 1, 0.5f);
+    s_material(s, 2, 0, 0.9f);
+    s_env(s, 0.8f, 12);
+    s_mesh_uv(s, 4);
+    s_add_trs(s, 600, 2, 4, 1, VP_ENTITY_ADD);
+    float quad[18] = {-1, 0, 0, 1, 0, 0, 1, 2, 0, -1, 0, 0, 1, 2, 0, -1, 2, 0};
+    vp_writer w = wr(s);
+    vp_enc_occluder_flags(&w, 1, 600, VP_OCC_ATTACHED, (double[]){0, 0, 0}, quad, 2);
+    ap(s, &w, 0);
+    s_transform(s, 600, 4);
+    vp_destroy d = {.id = 601, .center = {2, 1.5, -6.25}, .radius = 0.5};
+    w = wr(s);
+    vp_enc_destroy(&w, 1, &d);
+    ap(s, &w, 4);
+}
+
+/* Part two: each changed again, in the journal. */
+static void script_model_b(sess *s)
+{
+    s_texture(s, 3, 16, 16, 9);
+    s_material(s, 2, 3, 0.125f); /* replaced */
+    s_env(s, 0.5f, 9);
+    s_transform(s, 601, -2);
+    s_add_trs(s, 600, 1, 4, 2, VP_ENTITY_UPDATE);
+    s_ids(s, VP_TEXTURE_REMOVE, (uint64_t[]){2}, 1);
+    s_mesh_uv(s, 5);
+    s_add_trs(s, 610, 1, 5, 0, VP_ENTITY_ADD);
+}
+
 /* Part one: sub-level names only (no members, no classes), entities with
  * holes in the handle table, an update, meshes, a wall with its occluder,
  * lights (one removed), a committed load with classes, a destruction. */
@@ -192,6 +322,7 @@ static void script_a(sess *s)
     w = wr(s);
     vp_enc_destroy(&w, 1, &d);
     ap(s, &w, 4 /* the volume resolution */);
+    if (model_ready() && !s->v1_scene) script_model_a(s);
 }
 
 /* Part two: more of each, an aborted load, an unload left half done, a
@@ -222,6 +353,7 @@ static void script_b(sess *s)
     s_work(s, 1);
     s_work(s, 1);
     s_lights(s, 90, 2);
+    if (model_ready() && !s->v1_scene) script_model_b(s);
     s_begin(s, "limbo", 1);
     s_add(s, 500, 1, 0);
 }
@@ -589,6 +721,7 @@ static void test_recover_snapshot_format1(void **state)
     scratch_make(dir, "recover-v1");
     sess *s = malloc(sizeof *s);
     sess_open(s, dir);
+    s->v1_scene = true;
     script_a(s);
     script_b(s); /* an unload half done, a load open: both in the bitmap */
     assert_true(s->sc.nhidden > 0 && s->sc.unloading > 0);
@@ -630,6 +763,7 @@ typedef struct damage_run {
     uint32_t nrec;
     blob *want;                 /* the scene after records 0..k-1, and the open load dropped */
     uint64_t trials, cut, refused;
+    uint64_t gen;               /* of the snapshot */
 } damage_run;
 
 /* Writes the trial's files: the snapshot, then the journal (p, n). */
@@ -750,7 +884,7 @@ static void damage_all(damage_run *d, uint32_t stride)
     for (size_t b = 0; b < d->snap.n; b += stride) {
         for (int bit = 0; bit < 8; bit++, n++) {
             sp[b] ^= (uint8_t)(1u << bit);
-            if (!snapshot_load(sp, d->snap.n, sc, 2, &seq, err, sizeof err))
+            if (!snapshot_load(sp, d->snap.n, sc, d->gen, &seq, err, sizeof err))
                 fail_msg("a flipped bit at byte %zu of the snapshot was loaded", b);
             d->trials++;
             d->refused++;
@@ -762,7 +896,7 @@ static void damage_all(damage_run *d, uint32_t stride)
         }
     }
     for (size_t len = 0; len < d->snap.n; len += stride) {
-        if (!snapshot_load(sp, len, sc, 2, &seq, err, sizeof err))
+        if (!snapshot_load(sp, len, sc, d->gen, &seq, err, sizeof err))
             fail_msg("the snapshot cut to %zu bytes was loaded", len);
         d->trials++;
         d->refused++;
@@ -819,6 +953,7 @@ static void test_recover_every_bit(void **state)
     free(s);
     snprintf(d.jr_name, sizeof d.jr_name, "journal.000002");
     snprintf(d.snap_name, sizeof d.snap_name, "snapshot.000002");
+    d.gen = 2;
     d.jr = slurp(d.src, d.jr_name);
     d.snap = slurp(d.src, d.snap_name);
     struct timespec t0, t1;
@@ -834,9 +969,56 @@ static void test_recover_every_bit(void **state)
     g_log_level = lvl;
 }
 
+/* The same campaign over protocol version 1's directory (tests/data/
+ * upgrade_v1: a format 2 snapshot, a format 1 journal of version 1's
+ * records): every damaged copy recovers exactly the scene before the
+ * damage (only a torn end cut), upgraded, or is refused naming the file
+ * and the offset. */
+static void test_recover_every_bit_v1(void **state)
+{
+    (void)state;
+    int lvl = g_log_level;
+    g_log_level = -1;
+#ifdef UNDER_ASAN
+    uint32_t stride = 8;
+#else
+    uint32_t stride = test_scale() >= 1 ? 1 : 5;
+#endif
+    damage_run d = {0};
+    scratch_make(d.src, "recover-v1src");
+    scratch_make(d.dir, "recover-v1try");
+    const char *dd = getenv("VANTAGE_DATA_DIR");
+    char fx[512];
+    snprintf(fx, sizeof fx, "%s/upgrade_v1", dd ? dd : "tests/data");
+    DIR *dir = opendir(fx);
+    if (!dir) fail_msg("%s: %s", fx, strerror(errno));
+    struct dirent *e;
+    while ((e = readdir(dir))) {
+        unsigned long long g;
+        if (sscanf(e->d_name, "journal.%llu", &g) == 1) snprintf(d.jr_name, sizeof d.jr_name, "%.24s", e->d_name);
+        if (sscanf(e->d_name, "snapshot.%llu", &g) == 1) {
+            snprintf(d.snap_name, sizeof d.snap_name, "%.24s", e->d_name);
+            d.gen = g;
+        }
+    }
+    closedir(dir);
+    d.jr = slurp(fx, d.jr_name);
+    d.snap = slurp(fx, d.snap_name);
+    assert_memory_equal(d.jr.p, "VNTJRNL1", 8);
+    assert_memory_equal(d.snap.p, "VNTSNAP2", 8);
+    damage_all(&d, stride);
+    printf("recover, version 1's directory: journal %zu bytes (%u records), snapshot %zu bytes: %llu damaged copies, "
+           "%llu torn ends cut exactly, %llu refused naming file and offset\n",
+           d.jr.n, d.nrec, d.snap.n, (unsigned long long)d.trials, (unsigned long long)d.cut,
+           (unsigned long long)d.refused);
+    damage_free(&d);
+    g_log_level = lvl;
+}
+
 const struct CMUnitTest recover_tests[] = {
     cmocka_unit_test(test_recover_snapshot_sublevel_name),
     cmocka_unit_test(test_recover_snapshot_format1),
     cmocka_unit_test(test_recover_every_bit),
+    cmocka_unit_test(test_recover_every_bit_v1),
 };
 const size_t recover_tests_count = sizeof recover_tests / sizeof recover_tests[0];
