@@ -23,6 +23,7 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -41,7 +42,9 @@
 #endif
 
 static const scene_limits LIMITS = {.max_entities = 1u << 20, .max_lights = 65536, .max_occluders = 1u << 20,
-                                    .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 20};
+                                    .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 20,
+                                    .max_materials = 1u << 16, .max_texture_size = 4096,
+                                    .max_texture_mem = 1ull << 28};
 
 /* ---- a session: edits through journal_apply, as handlers.c makes them ------------------- */
 
@@ -60,7 +63,8 @@ static edit_result apply_w(sess *s, const vp_writer *w, uint32_t aux)
     const uint8_t *p = s->buf + VP_HEADER_SIZE;
     uint32_t len = (uint32_t)(w->len - VP_HEADER_SIZE);
     edit e;
-    assert_int_equal(edit_decode(type, p, len, 0, EDIT_LAYOUT, &e), VP_OK);
+    int drc = edit_decode(type, p, len, 0, EDIT_LAYOUT, &e);
+    if (drc) fail_msg("edit 0x%04x does not decode: %s", type, vp_strerror(drc));
     e.sublevel = s->sublevel;
     e.aux = aux;
     edit_result r;
@@ -212,9 +216,10 @@ static void s_env(sess *s, float sun_y, float ev)
 {
     vp_env e;
     vp_env_default(&e);
-    e.sun_dir[0] = 0.3f;
-    e.sun_dir[1] = sun_y;
-    e.sun_dir[2] = 0.2f;
+    double n = sqrt(0.09 + (double)sun_y * sun_y + 0.04);
+    e.sun_dir[0] = (float)(0.3 / n);
+    e.sun_dir[1] = (float)(sun_y / n);
+    e.sun_dir[2] = (float)(0.2 / n);
     e.exposure_mode = VP_EXPOSURE_FIXED;
     e.exposure_ev = ev;
     vp_writer w = wr(s);
@@ -265,8 +270,8 @@ static void script_model_a(sess *s)
     s_material(s, 1, 1, 0.5f);
     s_material(s, 2, 0, 0.9f);
     s_env(s, 0.8f, 12);
-    s_mesh_uv(s, 4);
-    s_add_trs(s, 600, 2, 4, 1, VP_ENTITY_ADD);
+    s_mesh_uv(s, 20);
+    s_add_trs(s, 600, 2, 20, 1, VP_ENTITY_ADD);
     float quad[18] = {-1, 0, 0, 1, 0, 0, 1, 2, 0, -1, 0, 0, 1, 2, 0, -1, 2, 0};
     vp_writer w = wr(s);
     vp_enc_occluder_flags(&w, 1, 600, VP_OCC_ATTACHED, (double[]){0, 0, 0}, quad, 2);
@@ -285,10 +290,10 @@ static void script_model_b(sess *s)
     s_material(s, 2, 3, 0.125f); /* replaced */
     s_env(s, 0.5f, 9);
     s_transform(s, 601, -2);
-    s_add_trs(s, 600, 1, 4, 2, VP_ENTITY_UPDATE);
+    s_add_trs(s, 600, 1, 20, 2, VP_ENTITY_UPDATE);
     s_ids(s, VP_TEXTURE_REMOVE, (uint64_t[]){2}, 1);
-    s_mesh_uv(s, 5);
-    s_add_trs(s, 610, 1, 5, 0, VP_ENTITY_ADD);
+    s_mesh_uv(s, 21);
+    s_add_trs(s, 610, 1, 21, 0, VP_ENTITY_ADD);
 }
 
 /* Part one: sub-level names only (no members, no classes), entities with
@@ -486,6 +491,100 @@ static void test_recover_snapshot_sublevel_name(void **state)
     free(got.p);
     free(want.p);
     free(jr.p);
+    dir_remove(dir);
+    g_log_level = lvl;
+}
+
+/* Everything of sc that a snapshot's bytes do not show (it is derived on
+ * the way back) equals in want: per handle slot the transform and
+ * material (scene_xform), the users of materials and textures, the
+ * texture memory, every texture's decoded levels. */
+static void assert_same_derived(const scene *want, const scene *got)
+{
+    assert_int_equal(cull_world_slots(want->world), cull_world_slots(got->world));
+    for (uint32_t i = 0; i < cull_world_slots(want->world); i++) {
+        bool on;
+        cull_world_slot_gen(want->world, i, &on);
+        if (on && want->xf && memcmp(&want->xf[i], &got->xf[i], sizeof want->xf[i]))
+            fail_msg("slot %u: transform or material differs after the restore", i);
+    }
+    assert_int_equal(want->materials.count, got->materials.count);
+    for (size_t i = 0; i < want->materials.cap; i++) {
+        if (!want->materials.used[i]) continue;
+        const scene_material *a = (const scene_material *)(uintptr_t)want->materials.vals[i];
+        uint64_t v;
+        assert_true(idmap_get(&got->materials, want->materials.keys[i], &v));
+        const scene_material *b = (const scene_material *)(uintptr_t)v;
+        assert_memory_equal(&a->m, &b->m, sizeof a->m);
+        assert_int_equal(a->users, b->users);
+    }
+    assert_int_equal(want->textures.count, got->textures.count);
+    assert_int_equal(want->texture_mem, got->texture_mem);
+    for (size_t i = 0; i < want->textures.cap; i++) {
+        if (!want->textures.used[i]) continue;
+        const scene_texture *a = (const scene_texture *)(uintptr_t)want->textures.vals[i];
+        uint64_t v;
+        assert_true(idmap_get(&got->textures, a->id, &v));
+        const scene_texture *b = (const scene_texture *)(uintptr_t)v;
+        assert_true(a->format == b->format && a->flags == b->flags && a->w == b->w && a->h == b->h);
+        assert_int_equal(a->levels, b->levels);
+        assert_int_equal(a->users, b->users);
+        assert_int_equal(a->mem, b->mem);
+        assert_int_equal(a->nbytes, b->nbytes);
+        assert_memory_equal(a->bytes, b->bytes, a->nbytes);
+        for (uint32_t l = 0; a->mip && l < a->levels; l++) {
+            uint32_t w = a->w >> l ? a->w >> l : 1, h = a->h >> l ? a->h >> l : 1;
+            assert_memory_equal(a->mip[l], b->mip[l], (size_t)w * h * 4);
+        }
+    }
+    assert_memory_equal(&want->env, &got->env, sizeof want->env);
+}
+
+/* A snapshot of the whole session (every kind of state: the scene
+ * model's too when this build applies its edits) restores the same scene:
+ * its bytes, and what is derived from them on the way back (transforms
+ * per slot, users, decoded textures with their mips). */
+static void test_recover_snapshot_model_exact(void **state)
+{
+    (void)state;
+    int lvl = g_log_level;
+    g_log_level = LOG_ERROR;
+    char dir[256];
+    scratch_make(dir, "recover-model");
+    sess *s = malloc(sizeof *s);
+    sess_open(s, dir);
+    script_a(s);
+    script_b(s);
+    if (model_ready()) {
+        assert_true(s->sc.textures.count >= 2 && s->sc.materials.count >= 2);
+        assert_non_null(s->sc.meshes[20].uv);
+        assert_non_null(s->sc.meshes[20].tan);
+    } else {
+        printf("recover: the scene model's edits are not in this build: left out\n");
+    }
+    blob want = scene_bytes(&s->sc);
+    int fd = memfd_create("v3", MFD_CLOEXEC);
+    assert_int_equal(snapshot_write(fd, &s->sc, 5, 77), 0);
+    off_t end = lseek(fd, 0, SEEK_END);
+    blob f = {malloc((size_t)end), (size_t)end};
+    assert_int_equal(pread(fd, f.p, f.n, 0), end);
+    close(fd);
+    scene *sc = malloc(sizeof *sc);
+    assert_int_equal(scene_init(sc, 64, &LIMITS), 0);
+    uint64_t seq = 0;
+    char err[400];
+    if (snapshot_load(f.p, f.n, sc, 5, &seq, err, sizeof err)) fail_msg("%s", err);
+    blob got = scene_bytes(sc);
+    assert_int_equal(got.n, want.n);
+    assert_memory_equal(got.p, want.p, want.n);
+    assert_same_derived(&s->sc, sc);
+    scene_free(sc);
+    free(sc);
+    sess_close(s);
+    free(s);
+    free(got.p);
+    free(want.p);
+    free(f.p);
     dir_remove(dir);
     g_log_level = lvl;
 }
@@ -1017,6 +1116,7 @@ static void test_recover_every_bit_v1(void **state)
 
 const struct CMUnitTest recover_tests[] = {
     cmocka_unit_test(test_recover_snapshot_sublevel_name),
+    cmocka_unit_test(test_recover_snapshot_model_exact),
     cmocka_unit_test(test_recover_snapshot_format1),
     cmocka_unit_test(test_recover_every_bit),
     cmocka_unit_test(test_recover_every_bit_v1),
