@@ -540,6 +540,41 @@ static void assert_same_derived(const scene *want, const scene *got)
     assert_memory_equal(&want->env, &got->env, sizeof want->env);
 }
 
+/* The whole session (script_a, script_b; v1_scene: only what protocol
+ * version 1 had) in dir: *want gets its scene's bytes, *out the open
+ * session (sess_close, free); returns a snapshot file of it (generation
+ * 5, sequence 77). */
+static blob session_snapshot(const char *dir, bool v1_scene, sess **out, blob *want)
+{
+    sess *s = malloc(sizeof *s);
+    sess_open(s, dir);
+    s->v1_scene = v1_scene;
+    script_a(s);
+    script_b(s); /* an unload half done, a load open: both in the bitmap */
+    assert_true(s->sc.nhidden > 0 && s->sc.unloading > 0);
+    *want = scene_bytes(&s->sc);
+    int fd = memfd_create("snapshot", MFD_CLOEXEC);
+    assert_int_equal(snapshot_write(fd, &s->sc, 5, 77), 0);
+    off_t end = lseek(fd, 0, SEEK_END);
+    blob f = {malloc((size_t)end), (size_t)end};
+    assert_int_equal(pread(fd, f.p, f.n, 0), end);
+    close(fd);
+    *out = s;
+    return f;
+}
+
+/* Snapshot f (generation 5, sequence 77) loaded into a fresh scene. */
+static scene *load_scene(const blob *f, const char *what)
+{
+    scene *sc = malloc(sizeof *sc);
+    assert_int_equal(scene_init(sc, 64, &LIMITS), 0);
+    uint64_t seq = 0;
+    char err[400];
+    if (snapshot_load(f->p, f->n, sc, 5, &seq, err, sizeof err)) fail_msg("%s: %s", what, err);
+    assert_int_equal(seq, 77);
+    return sc;
+}
+
 /* A snapshot of the whole session (every kind of state: the scene
  * model's too when this build applies its edits) restores the same scene:
  * its bytes, and what is derived from them on the way back (transforms
@@ -551,10 +586,8 @@ static void test_recover_snapshot_model_exact(void **state)
     g_log_level = LOG_ERROR;
     char dir[256];
     scratch_make(dir, "recover-model");
-    sess *s = malloc(sizeof *s);
-    sess_open(s, dir);
-    script_a(s);
-    script_b(s);
+    sess *s;
+    blob want, f = session_snapshot(dir, false, &s, &want);
     if (model_ready()) {
         assert_true(s->sc.textures.count >= 2 && s->sc.materials.count >= 2);
         assert_non_null(s->sc.meshes[20].uv);
@@ -562,18 +595,7 @@ static void test_recover_snapshot_model_exact(void **state)
     } else {
         printf("recover: the scene model's edits are not in this build: left out\n");
     }
-    blob want = scene_bytes(&s->sc);
-    int fd = memfd_create("v3", MFD_CLOEXEC);
-    assert_int_equal(snapshot_write(fd, &s->sc, 5, 77), 0);
-    off_t end = lseek(fd, 0, SEEK_END);
-    blob f = {malloc((size_t)end), (size_t)end};
-    assert_int_equal(pread(fd, f.p, f.n, 0), end);
-    close(fd);
-    scene *sc = malloc(sizeof *sc);
-    assert_int_equal(scene_init(sc, 64, &LIMITS), 0);
-    uint64_t seq = 0;
-    char err[400];
-    if (snapshot_load(f.p, f.n, sc, 5, &seq, err, sizeof err)) fail_msg("%s", err);
+    scene *sc = load_scene(&f, "format 3");
     blob got = scene_bytes(sc);
     assert_int_equal(got.n, want.n);
     assert_memory_equal(got.p, want.p, want.n);
@@ -793,12 +815,7 @@ static blob snapshot_v1(const blob *v2)
 /* Loads snapshot f (generation 5, sequence 77) into a fresh scene: its bytes. */
 static blob load_as_scene(const blob *f, const char *what)
 {
-    scene *sc = malloc(sizeof *sc);
-    assert_int_equal(scene_init(sc, 64, &LIMITS), 0);
-    uint64_t seq = 0;
-    char err[400];
-    if (snapshot_load(f->p, f->n, sc, 5, &seq, err, sizeof err)) fail_msg("%s: %s", what, err);
-    assert_int_equal(seq, 77);
+    scene *sc = load_scene(f, what);
     blob got = scene_bytes(sc);
     scene_free(sc);
     free(sc);
@@ -818,21 +835,10 @@ static void test_recover_snapshot_format1(void **state)
     g_log_level = LOG_ERROR;
     char dir[256];
     scratch_make(dir, "recover-v1");
-    sess *s = malloc(sizeof *s);
-    sess_open(s, dir);
-    s->v1_scene = true;
-    script_a(s);
-    script_b(s); /* an unload half done, a load open: both in the bitmap */
-    assert_true(s->sc.nhidden > 0 && s->sc.unloading > 0);
-    blob want = scene_bytes(&s->sc);
-    int fd = memfd_create("v3", MFD_CLOEXEC);
-    assert_int_equal(snapshot_write(fd, &s->sc, 5, 77), 0);
+    sess *s;
+    blob want, v3 = session_snapshot(dir, true, &s, &want);
     sess_close(s);
     free(s);
-    off_t end = lseek(fd, 0, SEEK_END);
-    blob v3 = {malloc((size_t)end), (size_t)end};
-    assert_int_equal(pread(fd, v3.p, v3.n, 0), end);
-    close(fd);
     assert_memory_equal(v3.p, "VNTSNAP3", 8);
     blob v2 = snapshot_v2(&v3);
     blob v1 = snapshot_v1(&v2);

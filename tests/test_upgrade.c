@@ -189,6 +189,20 @@ static void magic_of(const char *dir, const char *kind, uint64_t gen, char out[9
     close(fd);
 }
 
+/* dir holds exactly snapshot.<gen> in format 3 and journal.<gen> in
+ * format 2 (want: their names, as dir_files lists them). */
+static void assert_current_formats(const char *dir, uint64_t gen, char want[512])
+{
+    char files[512], m[9];
+    dir_files(dir, files, sizeof files);
+    snprintf(want, 512, "journal.%06llu snapshot.%06llu ", (unsigned long long)gen, (unsigned long long)gen);
+    assert_string_equal(files, want);
+    magic_of(dir, "snapshot", gen, m);
+    assert_string_equal(m, "VNTSNAP3");
+    magic_of(dir, "journal", gen, m);
+    assert_string_equal(m, "VNTJRNL2");
+}
+
 static void rm_dir(const char *dir)
 {
     dir_unlink_files(dir);
@@ -392,14 +406,7 @@ static void test_upgrade_v1_dir_restores_and_upgrades(void **state)
 
     /* the directory is now the current formats, the old files gone */
     char files[512], want[512];
-    dir_files(dir, files, sizeof files);
-    snprintf(want, sizeof want, "journal.%06llu snapshot.%06llu ", (unsigned long long)gen + 1,
-             (unsigned long long)gen + 1);
-    assert_string_equal(files, want);
-    magic_of(dir, "snapshot", gen + 1, m);
-    assert_string_equal(m, "VNTSNAP3");
-    magic_of(dir, "journal", gen + 1, m);
-    assert_string_equal(m, "VNTJRNL2");
+    assert_current_formats(dir, gen + 1, want);
 
     /* a second open: the same scene, from the new snapshot, no upgrade */
     sc = open_dir(dir, &j, &rep);
@@ -520,15 +527,8 @@ static void test_upgrade_v1_dir_daemon(void **state)
     check_client_view(c, false);
     /* the files: the current formats from the start, nothing appended to
        version 1's */
-    char files[512], want[512], m[9];
-    dir_files(dir, files, sizeof files);
-    snprintf(want, sizeof want, "journal.%06llu snapshot.%06llu ", (unsigned long long)gen + 1,
-             (unsigned long long)gen + 1);
-    assert_string_equal(files, want);
-    magic_of(dir, "snapshot", gen + 1, m);
-    assert_string_equal(m, "VNTSNAP3");
-    magic_of(dir, "journal", gen + 1, m);
-    assert_string_equal(m, "VNTJRNL2");
+    char files[512], want[512];
+    assert_current_formats(dir, gen + 1, want);
     /* the wall's hole (the version 1 journal's destruction) is open: a
        probe behind its centre is seen, one behind a corner of the wall
        (which the hole, cut conservatively large, leaves) is not. Without
