@@ -588,7 +588,8 @@ static int cut_tail(const char *path, const mapped *m, size_t off, char *kept, s
  * (put_in_place). Costs one snapshot of the scene, once. If the snapshot
  * cannot be written the old files stay with the new journal after them
  * (a valid directory: recovery replays across formats) and the next start
- * tries again. 0, or -1 with err when not even the journal can be started. */
+ * tries again. 0 done; 1 the snapshot failed (the old files kept); -1
+ * with err when not even the journal can be started. */
 static int upgrade(journal *j, const scene *sc, uint64_t gen, uint64_t seq, const char *what, char *err,
                    size_t errlen)
 {
@@ -604,7 +605,7 @@ static int upgrade(journal *j, const scene *sc, uint64_t gen, uint64_t seq, cons
         LOGW("upgrade: %s; snapshot %06" PRIu64 " could not be written (%s): the old files are kept, edits go to "
              "journal %06" PRIu64 " (format 2), and the next start tries again",
              what, gen, strerror(rc ? -rc : EIO), gen);
-        return 0;
+        return 1;
     }
     LOGI("upgrade: %s; the scene is now snapshot %06" PRIu64 " (format %u) and edits go to journal %06" PRIu64
          " (format 2); the older files were removed",
@@ -852,8 +853,9 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
         snprintf(what, sizeof what, "%s held %s", dir,
                  first < jrns.n && jr_format == 1 ? "a format 1 journal (protocol version 1)"
                                                   : "a snapshot of an older format");
-        if (upgrade(j, sc, next, seq, what, err, errlen)) goto fail;
-        rep->upgrade_gen = next;
+        int urc = upgrade(j, sc, next, seq, what, err, errlen);
+        if (urc < 0) goto fail;
+        if (urc == 0) rep->upgrade_gen = next;
     } else if (first < jrns.n) {
         /* go on writing the last file */
         uint64_t last = jrns.v[jrns.n - 1];

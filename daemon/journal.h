@@ -56,7 +56,8 @@ typedef struct journal_report {
     uint32_t loads_dropped; /* sub-level loads left open by the crash, dropped */
     bool fresh;             /* the directory held no scene */
     uint64_t upgrade_gen;   /* an older daemon's directory was upgraded: the generation
-                               written in the current formats (0: none) */
+                               written in the current formats (0: none, or its snapshot
+                               failed: then edits go to a new journal all the same) */
 } journal_report;
 
 /* Opens (creating) dir with the policy, takes its lock, and restores sc

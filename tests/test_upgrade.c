@@ -244,8 +244,9 @@ static void check_mesh(const scene *sc, const want_mesh *w)
     assert_null(m->uv); /* version 1 had none */
 }
 
-/* Everything make_fixture.c put in, and nothing else. */
-static void check_scene(const scene *sc)
+/* Everything make_fixture.c put in, and nothing else (but `extra`
+ * entities the test added in the default sub-level). */
+static void check_scene(const scene *sc, uint32_t extra)
 {
     /* sub-levels: names in definition order, their reserved classes */
     assert_int_equal(sc->nsublevels, 3);
@@ -262,8 +263,8 @@ static void check_scene(const scene *sc)
     /* entities */
     cull_world_info info;
     cull_world_info_get(sc->world, &info);
-    assert_int_equal(info.entities, N_ENTITIES);
-    uint32_t per_sub[4] = {0};
+    assert_int_equal(info.entities, N_ENTITIES + extra);
+    uint32_t per_sub[4] = {extra};
     for (size_t i = 0; i < N_ENTITIES; i++) {
         const want_entity *w = &WANT_ENTITIES[i];
         uint64_t h;
@@ -399,7 +400,7 @@ static void test_upgrade_v1_dir_restores_and_upgrades(void **state)
     assert_true(rep.records >= 15); /* part b: every kind of edit, in version 1's layouts */
     assert_int_equal(rep.cut_bytes, 0);
     assert_int_equal(rep.upgrade_gen, gen + 1);
-    check_scene(sc);
+    check_scene(sc, 0);
     size_t n1;
     uint8_t *b1 = scene_bytes(sc, &n1);
     close_dir(sc, j);
@@ -413,7 +414,7 @@ static void test_upgrade_v1_dir_restores_and_upgrades(void **state)
     assert_int_equal(rep.upgrade_gen, 0);
     assert_int_equal(rep.snapshot_gen, gen + 1);
     assert_int_equal(rep.records, 0);
-    check_scene(sc);
+    check_scene(sc, 0);
     size_t n2;
     uint8_t *b2 = scene_bytes(sc, &n2);
     assert_int_equal(n1, n2);
@@ -423,6 +424,75 @@ static void test_upgrade_v1_dir_restores_and_upgrades(void **state)
     assert_string_equal(files, want);
     free(b1);
     free(b2);
+    rm_dir(dir);
+    tdir_remove(&td);
+    g_log_level = lvl;
+}
+
+static size_t file_size(const char *dir, const char *kind, uint64_t gen)
+{
+    char p[600];
+    snprintf(p, sizeof p, "%s/%s.%06llu", dir, kind, (unsigned long long)gen);
+    struct stat st;
+    if (stat(p, &st)) fail_msg("%s: %s", p, strerror(errno));
+    return (size_t)st.st_size;
+}
+
+/* An upgrade whose snapshot cannot be written (its temporary file's name
+ * taken by a directory): the old files stay as they were, edits go to a
+ * new format 2 journal after the format 1 one, and the next start
+ * replays across both formats and upgrades then, the edit kept. */
+static void test_upgrade_v1_dir_snapshot_fails(void **state)
+{
+    (void)state;
+    int lvl = g_log_level;
+    g_log_level = -1;
+    tdir td;
+    tdir_make(&td, "upgrade-fail");
+    char dir[320], block[400];
+    snprintf(dir, sizeof dir, "%s", tdir_file(&td, "data"));
+    uint64_t gen = 0;
+    fixture_copy(dir, &gen);
+    size_t v1_size = file_size(dir, "journal", gen);
+    snprintf(block, sizeof block, "%s/snapshot.tmp.%06llu", dir, (unsigned long long)gen + 1);
+    assert_int_equal(mkdir(block, 0700), 0);
+    journal *j;
+    journal_report rep;
+    scene *sc = open_dir(dir, &j, &rep);
+    assert_int_equal(rep.upgrade_gen, 0); /* not done */
+    check_scene(sc, 0);
+    char files[512], want[512], m[9];
+    dir_files(dir, files, sizeof files);
+    snprintf(want, sizeof want, "journal.%06llu journal.%06llu snapshot.%06llu snapshot.tmp.%06llu ",
+             (unsigned long long)gen, (unsigned long long)gen + 1, (unsigned long long)gen,
+             (unsigned long long)gen + 1); /* (the blocker) */
+    assert_string_equal(files, want);
+    magic_of(dir, "journal", gen + 1, m);
+    assert_string_equal(m, "VNTJRNL2");
+    /* an edit: into the new journal, not the old one */
+    uint8_t buf[VP_HEADER_SIZE + 4 + VP_ENTITY_REC_SIZE];
+    vp_writer w;
+    vp_writer_init(&w, buf, sizeof buf);
+    vp_enc_entities(&w, VP_ENTITY_ADD, 1, &(vp_entity){.id = 77, .sphere = {1, 2, 3, 4}}, 1);
+    edit e;
+    assert_int_equal(edit_decode(VP_ENTITY_ADD, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE), 0,
+                                 EDIT_LAYOUT, &e),
+                     VP_OK);
+    edit_result r;
+    scene_err err;
+    assert_int_equal(journal_apply(j, sc, &e, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE), &r, &err),
+                     VP_OK);
+    edit_result_free(&r);
+    close_dir(sc, j);
+    assert_int_equal(file_size(dir, "journal", gen), v1_size);
+    assert_int_equal(rmdir(block), 0);
+    /* the next start: both journals replayed, upgraded now */
+    sc = open_dir(dir, &j, &rep);
+    assert_int_equal(rep.upgrade_gen, gen + 2);
+    assert_true(idmap_get(&sc->ids, 77, NULL));
+    check_scene(sc, 1);
+    close_dir(sc, j);
+    assert_current_formats(dir, gen + 2, want);
     rm_dir(dir);
     tdir_remove(&td);
     g_log_level = lvl;
@@ -563,6 +633,7 @@ static void test_upgrade_v1_dir_daemon(void **state)
 
 const struct CMUnitTest upgrade_tests[] = {
     cmocka_unit_test(test_upgrade_v1_dir_restores_and_upgrades),
+    cmocka_unit_test(test_upgrade_v1_dir_snapshot_fails),
     cmocka_unit_test(test_upgrade_v1_dir_daemon),
 };
 const size_t upgrade_tests_count = sizeof upgrade_tests / sizeof upgrade_tests[0];
