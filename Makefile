@@ -86,6 +86,7 @@ IMPORT_OBJ := $(BUILD)/client/import/import_walk.o $(BUILD)/client/import/import
             $(BUILD)/client/import/import_child.o $(BUILD)/client/import/import_pack.o
 CLI_OBJ  := $(BUILD)/client/cli/vantage_cli.o $(BUILD)/client/cli/cli_jsonl.o $(BUILD)/client/cli/cli_bench.o \
             $(BUILD)/client/cli/cli_render.o $(BUILD)/client/cli/cli_frames.o $(BUILD)/client/cli/cli_sublevel.o \
+            $(BUILD)/client/cli/cli_env.o \
             $(IMPORT_OBJ) $(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_pad.o \
             $(BUILD)/client/commander/commander.o $(BUILD)/client/commander/commander_sdl.o \
             $(BUILD)/client/loadgen/cli_scenario.o $(BUILD)/client/loadgen/scenario_events.o \
@@ -100,7 +101,7 @@ IMAGE_SRC := render/vt_tonemap.c render/vt_sink.c render/vt_png.c render/vt_jpeg
 IMAGE_OBJ := $(IMAGE_SRC:%.c=$(BUILD)/%.o)
 RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
             render/vt_shade_avx2.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
-            render/vt_gldraw.c render/vt_file.c render/vt_err.c
+            render/vt_gldraw.c render/vt_file.c render/vt_err.c render/vt_texture.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_png.c, vt_jpeg.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
@@ -197,18 +198,20 @@ $(PROTO_LIB): $(PROTO_OBJ)
 
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
-PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o ae.o errmap.o)
+PERSIST_OBJ := $(addprefix $(BUILD)/daemon/,journal.o snapshot.o scene.o edit.o sublevel.o destruct.o idmap.o log.o ae.o errmap.o \
+               texture.o env.o material.o)
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
-# the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG (no EXR)
+# the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG; it
+# decodes uploaded textures (vt_texture: PNG, JPEG, and EXR through OpenEXRCore)
 DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_soft.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o \
-                 $(BUILD)/render/vt_err.o \
+                 $(BUILD)/render/vt_err.o $(BUILD)/render/vt_texture.o $(BUILD)/render/vt_exr.o \
                  $(BUILD)/render/vt_egl.o $(BUILD)/render/vt_gl_target.o $(BUILD)/render/vt_gl_shader.o \
                  $(BUILD)/render/vt_gldraw.o $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
 # libvantage carries the protocol; its matrix helpers are culling/cull_mat.h
 # (header-only), so the culling core is not in it
@@ -217,7 +220,8 @@ $(CLIENT_LIB): $(CLIENT_OBJ) $(PROTO_OBJ)
 	ar rcs $@ $^
 
 # the CLI writes EXR and PNG from raw frames
-CLI_RENDER := $(BUILD)/render/vt_exr.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o $(BUILD)/render/vt_err.o
+CLI_RENDER := $(BUILD)/render/vt_exr.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o $(BUILD)/render/vt_err.o \
+              $(BUILD)/render/vt_texture.o
 $(CLI_BIN): $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(CLI_RENDER) $(CLIENT_LIB) $$(pkg-config --libs json-c) $(EXR_LIBS) $(IMG_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(SDL_LIBS) $(LDLIBS)
 

@@ -26,6 +26,9 @@ bool edit_is(uint16_t type)
     case VP_SUBLEVEL_ABORT:
     case VP_SUBLEVEL_UNLOAD:
     case VP_DESTROY:
+    case VP_TEXTURE_PUT:
+    case VP_TEXTURE_REMOVE:
+    case VP_ENV_SET:
         return true;
     default:
         return false;
@@ -48,6 +51,7 @@ int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batc
     case VP_ENTITY_REMOVE:
     case VP_OCCLUDER_REMOVE:
     case VP_LIGHT_REMOVE:
+    case VP_TEXTURE_REMOVE:
         rc = vp_dec_ids(p, len, max_batch, &e->u.ids);
         e->count = e->u.ids.count;
         break;
@@ -72,6 +76,10 @@ int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batc
         return vp_dec_sublevel_name(p, len, &e->u.name);
     case VP_DESTROY:
         return vp_dec_destroy(p, len, &e->u.destroy);
+    case VP_TEXTURE_PUT:
+        return vp_dec_texture_put(p, len, &e->u.tex);
+    case VP_ENV_SET:
+        return vp_dec_env(p, len, &e->u.env);
     case EDIT_DEMO:
     case EDIT_WORK:
         return len ? VP_ERR_TRAILING : VP_OK;
@@ -102,6 +110,22 @@ void edit_explain(const edit *e, int rc, scene_err *err)
         else if (d->debris > VP_MAX_DEBRIS)
             scene_fail(err, rc, UINT32_MAX, "debris %u is more than %u", d->debris, VP_MAX_DEBRIS);
         else scene_fail(err, rc, UINT32_MAX, "pad bytes 13..15 must be zero");
+        return;
+    }
+    if (e->type == VP_ENV_SET) { /* the decoder's check again, for its words */
+        vp_env env = e->u.env;
+        if (vp_env_check(&env, why, sizeof why)) scene_fail(err, rc, UINT32_MAX, "environment: %s", why);
+        return;
+    }
+    if (e->type == VP_TEXTURE_PUT) {
+        const vp_texture_put *t = &e->u.tex;
+        if (!t->id) scene_fail(err, rc, UINT32_MAX, "texture id 0: texture ids start at 1");
+        else if (t->format > VP_TEX_EXR)
+            scene_fail(err, rc, UINT32_MAX, "texture %u: format %u: 0 PNG, 1 JPEG, 2 EXR are defined", t->id,
+                       t->format);
+        else if (t->flags & ~VP_TEX_SRGB)
+            scene_fail(err, rc, UINT32_MAX, "texture %u: flags 0x%x: only 0x1 (sRGB) is defined", t->id, t->flags);
+        else scene_fail(err, rc, UINT32_MAX, "texture %u: pad bytes 6..7 must be zero", t->id);
         return;
     }
     /* a batch whose structure held but a record did not: the first such
@@ -195,6 +219,15 @@ int edit_apply(scene *sc, const edit *e, edit_result *r, scene_err *err)
         break;
     case VP_DESTROY:
         rc = scene_destroy(sc, &e->u.destroy, e->aux, &r->destroyed, err);
+        break;
+    case VP_TEXTURE_PUT: /* global, as materials: a loading connection's goes in at once */
+        rc = scene_texture_put(sc, &e->u.tex, err);
+        break;
+    case VP_TEXTURE_REMOVE:
+        rc = scene_textures_remove(sc, &e->u.ids, err);
+        break;
+    case VP_ENV_SET:
+        rc = scene_env_set(sc, &e->u.env, err);
         break;
     case EDIT_DEMO:
         rc = scene_build_demo(sc, e->aux) ? scene_fail(err, VP_ERR_BUSY, UINT32_MAX, "cannot build the demo city")

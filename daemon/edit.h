@@ -35,6 +35,8 @@ typedef struct edit {
         vp_sublevel_begin begin;
         vp_name name;
         vp_destroy destroy;
+        vp_texture_put tex;   /* TEXTURE_PUT: the whole image (the connection assembled it) */
+        vp_env env;           /* ENV_SET */
     } u;
 } edit;
 

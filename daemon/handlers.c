@@ -16,7 +16,7 @@
 
 /* ---- handlers ---------------------------------------------------------------- */
 
-static bool editor(server *s, conn *c, uint32_t req)
+bool editor(server *s, conn *c, uint32_t req)
 {
     if (c->role >= VP_ROLE_EDITOR) return true;
     send_error(s, c, req, VP_ERR_AUTH, UINT32_MAX, "editing needs the editor role");
@@ -555,7 +555,7 @@ static void edit_reply(server *s, conn *c, const vp_header *h, const edit *e, co
  * fails refuses it with nothing changed), applied, answered. Under the
  * always policy the answer waits in the connection's buffer (c->held) for
  * the turn's sync. */
-static void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
+void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
     /* a destruction event is a command (the commander's "destroy at the
        reticle"); every other edit needs an editor */
@@ -698,6 +698,13 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
     case VP_SUBLEVEL_INFO:
         if ((rc = vp_dec_empty(p, h->len))) break;
         on_sublevel_info(s, c, h->req);
+        return;
+    case VP_TEXTURE_PUT:
+        if (editor(s, c, h->req)) upload_chunk(s, c, h, p);
+        return;
+    case VP_ENV_GET:
+        if ((rc = vp_dec_empty(p, h->len))) break;
+        on_env_get(s, c, h->req);
         return;
     default: {
         if (edit_is(h->type)) {

@@ -415,6 +415,26 @@ bool metrics_expose(server *s, mbuf *b)
     sample(b, "vantage_scene_lights", NULL, NULL, sc->lights.count);
     family(b, "vantage_scene_sublevels", "gauge", "Named sub-levels.");
     sample(b, "vantage_scene_sublevels", NULL, NULL, sc->nsublevels);
+    family(b, "vantage_scene_textures", "gauge", "Textures (TEXTURE_PUT).");
+    sample(b, "vantage_scene_textures", NULL, NULL, sc->textures.count);
+    family(b, "vantage_scene_texture_bytes", "gauge",
+           "Bytes the textures hold (uploads as sent, decoded pixels, mip chains), under --max-texture-mem.");
+    sample(b, "vantage_scene_texture_bytes", NULL, NULL, sc->texture_mem);
+    family(b, "vantage_texture_upload_bytes", "gauge",
+           "Texture uploads under way on the connections (their total sizes), also under --max-texture-mem.");
+    sample(b, "vantage_texture_upload_bytes", NULL, NULL, s->upload_bytes);
+    {
+        static const char *const sky[3] = {"color", "analytic", "texture"};
+        family(b, "vantage_env_sky", "gauge", "The environment's sky mode: 1 for the current one.");
+        for (uint8_t i = 0; i < 3; i++) sample(b, "vantage_env_sky", "mode", sky[i], sc->env.sky_mode == i);
+        family(b, "vantage_env_exposure_auto", "gauge", "1: auto exposure, 0: fixed EV.");
+        sample(b, "vantage_env_exposure_auto", NULL, NULL, sc->env.exposure_mode == VP_EXPOSURE_AUTO);
+        family(b, "vantage_env_ground", "gauge", "1: the ground plane is on.");
+        sample(b, "vantage_env_ground", NULL, NULL, (sc->env.flags & VP_ENV_GROUND) != 0);
+        family(b, "vantage_env_sun_lux", "gauge", "The sun's illuminance (lux, rounded; 0 with no sun).");
+        bool sun = sc->env.sun_dir[0] || sc->env.sun_dir[1] || sc->env.sun_dir[2];
+        sample(b, "vantage_env_sun_lux", NULL, NULL, sun ? (uint64_t)(sc->env.sun_lux + 0.5f) : 0);
+    }
     family(b, "vantage_scene_edit_records_total", "counter", "Entity records applied by edits, ever.");
     sample(b, "vantage_scene_edit_records_total", NULL, NULL, sc->edits);
 

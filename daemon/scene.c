@@ -68,6 +68,7 @@ void scene_free(scene *s)
     idmap_free(&s->occluders);
     idmap_free(&s->lights);
     scene_destruct_free_all(s);
+    scene_textures_free(s);
     for (uint32_t i = 1; i <= s->nsublevels; i++) {
         free(s->sl[i].name);
         free(s->sl[i].doomed);

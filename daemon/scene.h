@@ -255,6 +255,27 @@ void scene_entity_record(const scene *s, cull_handle h, vp_entity *out);
 scene_texture *scene_texture_find(const scene *s, uint32_t id);
 /* The material with that id, or NULL (0 is the default material: NULL). */
 scene_material *scene_material_find(const scene *s, uint32_t id);
+/* TEXTURE_PUT of a whole image (offset 0, len = total; the connection
+ * assembled its chunks): header read, limits checked (LIMIT, with the
+ * numbers), decoded (INVALID with the decoder's reason; an EXR with NaN or
+ * infinity: NONFINITE), mip chain built, stored under m->id with a copy
+ * of the encoded bytes. An existing id is replaced: its users (materials,
+ * the sky) carry over and keep pointing at the id; the sky's texture must
+ * stay an EXR lat-long. All or nothing. */
+int scene_texture_put(scene *s, const vp_texture_put *m, scene_err *err);
+/* TEXTURE_REMOVE (ids): each must exist, once, with no users (STATE). */
+int scene_textures_remove(scene *s, const vp_id_batch *b, scene_err *err);
+/* Frees every texture (scene_free). */
+void scene_textures_free(scene *s);
+/* ENV_SET (env.c): vp_env_check, then the scene's checks (a TEXTURE sky
+ * names an EXR lat-long texture, UNKNOWN_ID if none; the ground material
+ * is 0 or exists); s->env replaced, the users of the sky texture and the
+ * ground material moved from the old environment to the new. A snapshot's
+ * environment is restored through it too (after its textures and
+ * materials), so the users counts hold. */
+int scene_env_set(scene *s, const vp_env *env, scene_err *err);
+/* Whether texture t may be the sky: EXR, width = 2 x height. */
+int scene_env_sky_check(const scene *s, const scene_texture *t, scene_err *err);
 
 /* Fills the scene with a procedural city: a street grid of buildings
  * (entities and box occluders), props and lights. Deterministic. */

@@ -258,6 +258,7 @@ static void conns_free_dead(server *s)
         frames_conn_gone(s, c);
         loads |= c->sublevel != 0;
         sublevel_conn_gone(s, c);
+        upload_drop(s, c);
         close(c->fd);
         s->conns[c->fd] = NULL;
         if (c->sub_kinds & VP_EVENT_SCENE) s->nev_subs--;

@@ -49,6 +49,14 @@ typedef struct out_block {
     uint8_t data[];   /* a tail block's bytes; none for a linked reply */
 } out_block;
 
+/* A texture being uploaded in chunks on a connection (upload.c): the
+ * whole TEXTURE_PUT payload it will become, header (offset 0) and bytes. */
+typedef struct tex_upload {
+    uint32_t id, total, got; /* got: bytes received, the next chunk's offset */
+    uint8_t format, flags;
+    uint8_t *payload;        /* VP_TEXTURE_PUT_HEADER + total bytes */
+} tex_upload;
+
 typedef struct conn {
     struct server *srv; /* the server it belongs to (output accounting) */
     int fd;
@@ -74,6 +82,7 @@ typedef struct conn {
     bool ev_pending;    /* the scene changed since the last EVENT sent */
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */
     frame_sub fsub;
+    tex_upload *upload; /* a chunked TEXTURE_PUT under way, or NULL (one per connection) */
     char name[64];
 } conn;
 
@@ -119,6 +128,8 @@ struct server {
     char gl_err[400];
     uint32_t nsubs;         /* connections with a frame stream */
     uint64_t ev_epoch;      /* the epoch the last tick's events reported */
+    uint64_t upload_bytes;  /* the connections' unfinished texture uploads (total sizes): held
+                               under lim.max_texture_mem with the textures */
     journal *journal;       /* --data-dir: the edit journal; NULL = none */
     /* metrics (metrics.h): written on the loop thread only */
     metrics m;
@@ -196,6 +207,11 @@ void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count);
 bool server_unload_slice(server *s, uint32_t budget);
 /* A connection that was loading a sub-level is gone: its load is dropped. */
 void sublevel_conn_gone(server *s, conn *c);
+/* Whether c may edit; if not, it is told (AUTH) and false. */
+bool editor(server *s, conn *c, uint32_t req);
+/* An edit request (h->len payload bytes at p): decoded, journaled,
+ * applied, answered. */
+void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p);
 /* Handles one complete frame from c (may set c->closing or c->busy). */
 void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p);
 /* A query worker thread: jobs in, replies out through s->done_fd. */
@@ -208,6 +224,16 @@ void job_submit(server *s, job *j);
 void job_error(job *j, int code, uint32_t index, const char *msg);
 int  view_from(const vp_view *pv, uint32_t index, cull_view *v, char *msg, size_t msglen);
 bool worker_res_reserve(worker *wk, size_t need);
+
+/* ---- upload.c ---- */
+/* TEXTURE_PUT from an editor: a whole image is an edit at once; chunks
+ * are assembled on the connection (ACK count 0 each, not journaled) and
+ * the one that completes the image becomes the edit. */
+void upload_chunk(server *s, conn *c, const vp_header *h, const uint8_t *p);
+/* Drops c's unfinished upload (a refused chunk, c gone). */
+void upload_drop(server *s, conn *c);
+/* ENV_GET: the environment as ENV_REPLY. */
+void on_env_get(server *s, conn *c, uint32_t req);
 
 /* ---- frames.c ---- */
 int  frames_init(server *s);  /* --render gl: the context now, or fail */

@@ -5,6 +5,7 @@
 #include "log.h"
 #include "server.h"
 #include "ae.h"
+#include "vt_image.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -33,6 +34,10 @@ static void usage(FILE *f)
             "  --max-payload BYTES  largest request frame (default 16777216)\n"
             "  --max-batch N        records per edit message (default 65536)\n"
             "  --max-entities N     entities in the scene (default 4194304)\n"
+            "  --max-texture-size N largest texture side, pixels (default 8192)\n"
+            "  --max-texture-mem BYTES\n"
+            "                       textures together: encoded uploads, decoded pixels and mip chains,\n"
+            "                       and uploads under way (default 1073741824)\n"
             "  --out-limit BYTES    unread reply bytes before a client is dropped (default 268435456)\n"
             "  --out-limit-total BYTES\n"
             "                       output buffer bytes of all clients together; past it the client\n"
@@ -143,7 +148,7 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL };
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -158,6 +163,7 @@ int main(int argc, char **argv)
         {"frame-timeout", required_argument, 0, O_FRAME_TO}, {"data-dir", required_argument, 0, O_DATA},
         {"durability", required_argument, 0, O_DURABILITY}, {"compact-mb", required_argument, 0, O_COMPACT},
         {"metrics", required_argument, 0, O_METRICS}, {"out-limit-total", required_argument, 0, O_OUT_TOTAL},
+        {"max-texture-size", required_argument, 0, O_TEX_SIZE}, {"max-texture-mem", required_argument, 0, O_TEX_MEM},
         {0, 0, 0, 0},
     };
     int o;
@@ -188,6 +194,13 @@ int main(int argc, char **argv)
             ok = parse_u64(optarg, 0, UINT64_MAX, &cfg.out_limit_total) &&
                  (!cfg.out_limit_total || cfg.out_limit_total >= 65536);
             snprintf(want, sizeof want, "bytes, 0 (no limit) or at least 65536");
+            break;
+        case O_TEX_SIZE:
+            ok = num32(want, sizeof want, optarg, 1, VT_IMAGE_MAX_DIM, &cfg.limits.max_texture_size);
+            break;
+        case O_TEX_MEM:
+            ok = parse_u64(optarg, 0, UINT64_MAX, &cfg.limits.max_texture_mem);
+            snprintf(want, sizeof want, "bytes, 0 (no textures) or more");
             break;
         case O_THREADS: ok = num32(want, sizeof want, optarg, 0, 256, &cfg.threads); break;
         case O_DRES: ok = num32(want, sizeof want, optarg, 2, CULL_DVOL_MAX_RES, &cfg.destruct_res); break;

@@ -76,6 +76,8 @@ typedef struct exr_file {
     int       fd;
     int       err; /* first errno from a failed read/write/close, else 0 */
     vt_call *call;
+    const uint8_t *mem; /* reading from memory (vt_exr_decode_rgba): mem[0..mem_len), no fd */
+    size_t    mem_len;
 } exr_file;
 
 static void file_failed(exr_file *f, int e, const char *what)
@@ -113,6 +115,13 @@ static int64_t file_read(exr_const_context_t ctxt, void *ud, void *buf, uint64_t
 {
     (void)ctxt;
     (void)error_cb;
+    const exr_file *f = ud;
+    if (f->mem) { /* short at the end, as a file read is */
+        if (off >= f->mem_len) return 0;
+        size_t n = sz < f->mem_len - off ? (size_t)sz : (size_t)(f->mem_len - off);
+        memcpy(buf, f->mem + off, n);
+        return (int64_t)n;
+    }
     return file_move(ud, buf, sz, off, false);
 }
 
@@ -128,7 +137,9 @@ static int64_t file_size(exr_const_context_t ctxt, void *ud)
 {
     (void)ctxt;
     struct stat st;
-    return fstat(((exr_file *)ud)->fd, &st) == 0 ? (int64_t)st.st_size : -1;
+    const exr_file *f = ud;
+    if (f->mem) return (int64_t)f->mem_len;
+    return fstat(f->fd, &st) == 0 ? (int64_t)st.st_size : -1;
 }
 
 /* An OpenEXRCore result as a VT_ERRORS code; an errno from our own I/O
@@ -411,12 +422,12 @@ static int read_open(vt_call *c, const char *path, exr_file *f, exr_context_t *c
 {
     char buf[128];
     *ctx = NULL;
-    if (!path || !path[0]) {
+    if (!f->mem && (!path || !path[0])) {
         vt_call_msg(c, "no path");
         return VT_ERR_INVALID;
     }
-    f->fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (f->fd < 0) {
+    if (!f->mem) f->fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (!f->mem && f->fd < 0) {
         int e = errno;
         vt_call_msg(c, "open: %s", vt_errno_text(e, buf, sizeof buf));
         return vt_err_from_errno(e);
@@ -478,25 +489,39 @@ static int find_channel(vt_call *c, exr_context_t ctx, const exr_file *f, const 
     return VT_ERR_NOT_FOUND;
 }
 
-/* Points the decoder at out for channel `name` and at junk for the others.
- * OpenEXRCore documents a NULL destination as "skip this channel", but 3.1's
- * generic unpacker (used whenever it converts half to float) writes through
- * it anyway; so every channel gets a destination, the unwanted ones sharing
- * one chunk of junk rows. */
-static void aim_decoder(exr_decode_pipeline_t *dec, const char *name, float *out, float *junk,
-                        uint32_t width)
+/* Where decoded channels go: channel names[k] to out + k, pixels `stride`
+ * floats apart (1: one planar channel; 4: interleaved RGBA). */
+typedef struct exr_aim {
+    const char *const *names;
+    int n;
+    uint32_t stride;
+} exr_aim;
+
+/* Points the decoder at out for the aimed channels and at junk for the
+ * others. OpenEXRCore documents a NULL destination as "skip this channel",
+ * but 3.1's generic unpacker (used whenever it converts half to float)
+ * writes through it anyway; so every channel gets a destination, the
+ * unwanted ones sharing one chunk of junk rows. */
+static void aim_decoder(exr_decode_pipeline_t *dec, const exr_aim *a, float *out, float *junk, uint32_t width)
 {
     for (int i = 0; i < dec->channel_count; i++) {
         exr_coding_channel_info_t *cc = &dec->channels[i];
-        cc->decode_to_ptr = (uint8_t *)(strcmp(cc->channel_name, name) == 0 ? out : junk);
-        cc->user_pixel_stride = (int32_t)sizeof(float);
-        cc->user_line_stride = (int32_t)(width * sizeof(float));
+        float *to = junk;
+        int32_t stride = 1;
+        for (int k = 0; k < a->n; k++)
+            if (strcmp(cc->channel_name, a->names[k]) == 0) {
+                to = out + k;
+                stride = (int32_t)a->stride;
+            }
+        cc->decode_to_ptr = (uint8_t *)to;
+        cc->user_pixel_stride = stride * (int32_t)sizeof(float);
+        cc->user_line_stride = (int32_t)(width * (uint32_t)stride * sizeof(float));
         cc->user_data_type = EXR_PIXEL_FLOAT;
         cc->user_bytes_per_element = (int16_t)sizeof(float);
     }
 }
 
-static int read_chunks(vt_call *c, exr_context_t ctx, const exr_file *f, const char *name,
+static int read_chunks(vt_call *c, exr_context_t ctx, const exr_file *f, const exr_aim *aim,
                        float *out, uint32_t width, const exr_attr_box2i_t *dw)
 {
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
@@ -525,7 +550,7 @@ static int read_chunks(vt_call *c, exr_context_t ctx, const exr_file *f, const c
         }
         rv = started ? exr_decoding_update(ctx, 0, &ci, &dec) : exr_decoding_initialize(ctx, 0, &ci, &dec);
         if (rv != EXR_ERR_SUCCESS) break;
-        aim_decoder(&dec, name, out + (size_t)(y - dw->min.y) * width, junk, width);
+        aim_decoder(&dec, aim, out + (size_t)(y - dw->min.y) * width * aim->stride, junk, width);
         if (!started) {
             started = true;
             rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
@@ -579,7 +604,7 @@ int vt_exr_read_channel(const char *path, const char *name, float *out, uint32_t
         vt_call_msg(c, "image is %ux%u, buffer %ux%u", r.w, r.h, width, height);
         rc = VT_ERR_INVALID;
     }
-    if (rc == 0) rc = read_chunks(c, r.ctx, &r.f, name, out, width, &r.dw);
+    if (rc == 0) rc = read_chunks(c, r.ctx, &r.f, &(exr_aim){.names = &name, .n = 1, .stride = 1}, out, width, &r.dw);
     if (rc == 0 && c->lib_code == EXR_ERR_OUT_OF_MEMORY) rc = exr_fail(c, c->lib_code, &r.f, "decoding");
     return reader_end(&r, rc);
 }
@@ -599,4 +624,78 @@ int vt_exr_size(const char *path, uint32_t *width, uint32_t *height, char *err, 
         *height = r.h;
     }
     return reader_end(&r, rc);
+}
+
+int vt_exr_decode_rgba(const uint8_t *data, size_t len, float **rgba, uint32_t *width, uint32_t *height,
+                       char *err, size_t errlen)
+{
+    exr_reader r;
+    vt_call *c = reader_begin(&r, "<memory>", err, errlen);
+    static const char *const rgba_names[4] = {"R", "G", "B", "A"}, *const grey_names[1] = {"Y"};
+    if (rgba) *rgba = NULL;
+    if (width) *width = 0;
+    if (height) *height = 0;
+    if (!data || !len || !width || !height) {
+        vt_call_msg(c, "no stream, or no output for its size");
+        return reader_end(&r, data && !len ? VT_ERR_CORRUPT : VT_ERR_INVALID);
+    }
+    r.f.mem = data;
+    r.f.mem_len = len;
+    int rc = read_open(c, "<memory>", &r.f, &r.ctx);
+    if (rc == 0) rc = data_window(c, r.ctx, &r.f, &r.dw, &r.w, &r.h);
+    if (rc == 0 && (r.w > VT_EXR_MAX_WIDTH || (uint64_t)r.w * r.h > SIZE_MAX / 16)) {
+        vt_call_msg(c, "image %ux%u too large", r.w, r.h);
+        rc = VT_ERR_TOO_LARGE;
+    }
+    /* colour: R, G and B, or Y alone (grey); alpha optional */
+    bool grey = false, alpha = false;
+    if (rc == 0) {
+        char ignored[8];
+        vt_call probe = vt_call_begin("", ignored, sizeof ignored); /* find_channel's "no channel" is ours to say */
+        for (int k = 0; k < 3 && rc == 0; k++)
+            if (find_channel(&probe, r.ctx, &r.f, rgba_names[k])) {
+                grey = find_channel(&probe, r.ctx, &r.f, "Y") == 0;
+                if (!grey) {
+                    rc = find_channel(c, r.ctx, &r.f, rgba_names[k]);
+                    if (rc == VT_ERR_NOT_FOUND) {
+                        vt_call_msg(c, "no R, G, B (or Y) channels");
+                        rc = VT_ERR_CORRUPT;
+                    }
+                }
+                break;
+            }
+        alpha = find_channel(&probe, r.ctx, &r.f, "A") == 0;
+    }
+    if (rc != 0 || !rgba) {
+        if (rc == 0) {
+            *width = r.w;
+            *height = r.h;
+        }
+        return reader_end(&r, rc);
+    }
+    float *px = malloc((size_t)r.w * r.h * 4 * sizeof *px);
+    if (!px) {
+        vt_call_msg(c, "out of memory for %ux%u RGBA", r.w, r.h);
+        return reader_end(&r, VT_ERR_NOMEM);
+    }
+    size_t n = (size_t)r.w * r.h;
+    for (size_t i = 0; i < n; i++) px[4 * i + 3] = 1.0f; /* no A channel: opaque */
+    exr_aim aim = {.names = grey ? grey_names : rgba_names, .n = grey ? 1 : alpha ? 4 : 3, .stride = 4};
+    rc = read_chunks(c, r.ctx, &r.f, &aim, px, r.w, &r.dw);
+    if (rc == 0 && c->lib_code == EXR_ERR_OUT_OF_MEMORY) rc = exr_fail(c, c->lib_code, &r.f, "decoding");
+    if (rc == 0 && grey)
+        for (size_t i = 0; i < n; i++) px[4 * i + 1] = px[4 * i + 2] = px[4 * i];
+    if (rc == 0 && grey && alpha) { /* Y and A: A in a second pass (rare) */
+        static const char *const a_name[1] = {"A"};
+        exr_aim aa = {.names = a_name, .n = 1, .stride = 4};
+        rc = read_chunks(c, r.ctx, &r.f, &aa, px + 3, r.w, &r.dw);
+    }
+    if (rc != 0) {
+        free(px);
+        return reader_end(&r, rc);
+    }
+    *rgba = px;
+    *width = r.w;
+    *height = r.h;
+    return reader_end(&r, 0);
 }

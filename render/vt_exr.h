@@ -95,6 +95,18 @@ int vt_exr_write(const char *path, uint32_t width, uint32_t height, const vt_exr
 int vt_exr_read_channel(const char *path, const char *name, float *out, uint32_t width,
                         uint32_t height, char *err, size_t errlen);
 
+/* An EXR stream in memory, data[0..len) (the daemon's texture uploads):
+ * the first part, a flat scanline image, as interleaved RGBA float, top
+ * row first, into *rgba (malloc'ed by this call, 16 bytes per pixel;
+ * caller frees with free()). Colour from channels R, G and B, or Y alone
+ * (grey, copied to all three); A if there is one, else 1. Half and uint
+ * samples are converted to float; values are as stored (NaN and infinity
+ * kept: the caller decides). rgba NULL reads the header only: the size,
+ * nothing allocated. On error nothing is allocated. "<memory>" in
+ * messages. */
+int vt_exr_decode_rgba(const uint8_t *data, size_t len, float **rgba, uint32_t *width, uint32_t *height,
+                       char *err, size_t errlen);
+
 /* Width and height of the first part's data window. */
 int vt_exr_size(const char *path, uint32_t *width, uint32_t *height, char *err, size_t errlen);
 

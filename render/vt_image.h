@@ -143,6 +143,10 @@ int vt_png_write(const char *path, uint32_t width, uint32_t height, const uint8_
                  size_t row_stride_bytes, bool alpha, int compression_level, char *err,
                  size_t errlen);
 
+/* The same PNG in memory: *out (malloc'ed; free()) and *out_len. */
+int vt_png_encode(uint32_t width, uint32_t height, const uint8_t *rgba8, size_t row_stride_bytes, bool alpha,
+                  int compression_level, uint8_t **out, size_t *out_len, char *err, size_t errlen);
+
 /* Reads a PNG of any colour type, bit depth and interlacing into *rgba8,
  * malloc'ed by this call (caller frees with free()), packed RGBA rows
  * (4 * width bytes each), top row first. Palette and grey are expanded,
@@ -153,6 +157,13 @@ int vt_png_write(const char *path, uint32_t width, uint32_t height, const uint8_
  * allocated and the outputs are 0 / NULL. */
 int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *height,
                 bool *has_alpha, char *err, size_t errlen);
+
+/* vt_png_read of a whole PNG stream in memory, data[0..len) (the daemon's
+ * texture uploads). rgba8 NULL reads the header only: *width and *height
+ * (checked against VT_IMAGE_MAX_DIM), nothing allocated, so a caller can
+ * check its own limits before the pixels are. "<memory>" in messages. */
+int vt_png_decode(const uint8_t *data, size_t len, uint8_t **rgba8, uint32_t *width, uint32_t *height,
+                  bool *has_alpha, char *err, size_t errlen);
 
 /* ---- JPEG ------------------------------------------------------------------ */
 
@@ -183,6 +194,11 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
  * 0 / NULL. */
 int vt_jpeg_decode(const uint8_t *data, size_t len, uint8_t **rgb8, uint32_t *width,
                    uint32_t *height, char *err, size_t errlen);
+
+/* The size in a JPEG stream's header (frame header parsed, checked against
+ * VT_IMAGE_MAX_DIM and the colour spaces vt_jpeg_decode takes); nothing
+ * decoded or allocated. */
+int vt_jpeg_info(const uint8_t *data, size_t len, uint32_t *width, uint32_t *height, char *err, size_t errlen);
 
 /* vt_jpeg_decode of the contents of `path` (at most 1 GiB, else VT_ERR_TOO_LARGE). */
 int vt_jpeg_read(const char *path, uint8_t **rgb8, uint32_t *width, uint32_t *height, char *err,

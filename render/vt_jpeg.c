@@ -150,6 +150,7 @@ typedef struct jpg_job {
     size_t         len;
     uint8_t       *pix; /* the decoded image, malloc'ed */
     uint32_t       w, h;
+    bool           header_only; /* the size only (vt_jpeg_info) */
 } jpg_job;
 
 /* The only function that calls setjmp for libjpeg (see the top). */
@@ -253,30 +254,18 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
     }
     if (rc != 0) return vt_call_end(&c, rc);
     jpg_job *j = calloc(1, sizeof *j);
+    if (!j) {
+        vt_call_msg(&c, "out of memory");
+        return vt_call_end(&c, VT_ERR_NOMEM);
+    }
+    *j = (jpg_job){.px = pix, .stride = row_stride_bytes, .pixel_bytes = pixel_bytes, .quality = quality,
+                   .w = width, .h = height};
+    jpg_err_init(&j->err, &c);
     /* first guess 1/4 byte per pixel (2 bits: q85 on rendered frames);
      * doubling from there */
-    size_t guess = (size_t)width * height / 4;
-    vt_sink s = {.fd = -1, .call = &c, .cap = guess < VT_SINK_CHUNK ? VT_SINK_CHUNK : guess};
-    if (j) s.buf = malloc(s.cap);
-    if (!j || !s.buf) {
-        vt_call_msg(&c, "out of memory");
-        rc = VT_ERR_NOMEM;
-    }
-    if (rc == 0) {
-        *j = (jpg_job){.px = pix, .stride = row_stride_bytes, .pixel_bytes = pixel_bytes,
-                       .quality = quality, .w = width, .h = height};
-        jpg_err_init(&j->err, &c);
-        rc = jpg_encode_to(j, &s);
-    }
+    rc = vt_sink_encode_mem(&c, (size_t)width * height / 4, jpg_encode_to, j, out, out_len);
     free(j);
-    if (rc != 0) {
-        free(s.buf);
-        return vt_call_end(&c, rc);
-    }
-    uint8_t *fit = s.len < s.cap ? realloc(s.buf, s.len) : NULL; /* give back the slack */
-    *out = fit ? fit : s.buf;
-    *out_len = s.len;
-    return vt_call_end(&c, 0);
+    return vt_call_end(&c, rc);
 }
 
 static void jpg_decompress_body(jpg_job *j)
@@ -293,6 +282,11 @@ static void jpg_decompress_body(jpg_job *j)
         di->jpeg_color_space != JCS_RGB)
         jpg_abort(cp, VT_ERR_UNSUPPORTED, "colour space %d (CMYK / YCCK?) not supported",
                   (int)di->jpeg_color_space);
+    if (j->header_only) {
+        j->w = di->image_width;
+        j->h = di->image_height;
+        return;
+    }
     di->out_color_space = JCS_RGB;
     di->dct_method = JDCT_ISLOW;
     jpeg_start_decompress(di);
@@ -320,8 +314,8 @@ static void jpg_decompress_body(jpg_job *j)
 static int jpg_decode(vt_call *c, const uint8_t *data, size_t len, uint8_t **rgb8,
                       uint32_t *width, uint32_t *height)
 {
-    if (!data || !rgb8 || !width || !height) {
-        vt_call_msg(c, "no input, or no output for the image or its size");
+    if (!data || !width || !height) { /* rgb8 NULL: the header only */
+        vt_call_msg(c, "no input, or no output for the image's size");
         return VT_ERR_INVALID;
     }
     if (len == 0 || len > ULONG_MAX) {
@@ -335,13 +329,14 @@ static int jpg_decode(vt_call *c, const uint8_t *data, size_t len, uint8_t **rgb
     }
     j->data = data;
     j->len = len;
+    j->header_only = !rgb8;
     jpg_err_init(&j->err, c);
     j->di.err = &j->err.pub;
     int rc = jpg_guarded(j, jpg_decompress_body);
     if (rc != 0) rc = jpg_code(&j->err, NULL, VT_ERR_CORRUPT);
     jpeg_destroy_decompress(&j->di);
     if (rc == 0) {
-        *rgb8 = j->pix;
+        if (rgb8) *rgb8 = j->pix;
         *width = j->w;
         *height = j->h;
     } else {
@@ -358,7 +353,19 @@ int vt_jpeg_decode(const uint8_t *data, size_t len, uint8_t **rgb8, uint32_t *wi
     if (rgb8) *rgb8 = NULL;
     if (width) *width = 0;
     if (height) *height = 0;
+    if (!rgb8) { /* NULL is vt_jpeg_info's (the header only), not this call's */
+        vt_call_msg(&c, "no output for the image");
+        return vt_call_end(&c, VT_ERR_INVALID);
+    }
     return vt_call_end(&c, jpg_decode(&c, data, len, rgb8, width, height));
+}
+
+int vt_jpeg_info(const uint8_t *data, size_t len, uint32_t *width, uint32_t *height, char *err, size_t errlen)
+{
+    vt_call c = vt_call_begin("<memory>", err, errlen);
+    if (width) *width = 0;
+    if (height) *height = 0;
+    return vt_call_end(&c, jpg_decode(&c, data, len, NULL, width, height));
 }
 
 /* Largest file vt_jpeg_read loads. */

@@ -48,9 +48,12 @@ typedef struct png_job {
     size_t        stride;
     bool          alpha;
     int           level;
-    /* reading */
+    /* reading: from fd, or from mem[0..mem_len) when mem is set */
     int           fd;
     int           io_err;  /* errno of a failed read */
+    const uint8_t *mem;
+    size_t        mem_len, mem_pos;
+    bool          header_only; /* the size only: no pixel is allocated */
     uint8_t      *pix;     /* the decoded image, malloc'ed */
     png_bytep    *rows;    /* row pointers into pix, malloc'ed */
     bool          has_alpha;
@@ -101,6 +104,12 @@ static void png_on_read(png_structp png, png_bytep data, size_t n)
 {
     png_job *j = png_get_io_ptr(png);
     char buf[128];
+    if (j->mem) {
+        if (n > j->mem_len - j->mem_pos) png_error(png, "unexpected end of the stream");
+        memcpy(data, j->mem + j->mem_pos, n);
+        j->mem_pos += n;
+        return;
+    }
     while (n > 0) {
         ssize_t got = read(j->fd, data, n);
         if (got < 0 && errno == EINTR) continue;
@@ -172,6 +181,27 @@ int vt_png_write(const char *path, uint32_t width, uint32_t height, const uint8_
     return vt_call_end(&c, vt_sink_write_file(&c, path, png_encode, &j));
 }
 
+int vt_png_encode(uint32_t width, uint32_t height, const uint8_t *rgba8, size_t row_stride_bytes, bool alpha,
+                  int compression_level, uint8_t **out, size_t *out_len, char *err, size_t errlen)
+{
+    vt_call c = vt_call_begin("<memory>", err, errlen);
+    if (out) *out = NULL;
+    if (out_len) *out_len = 0;
+    int rc = vt_image_check_pixels(&c, width, height, rgba8, row_stride_bytes, 4);
+    if (rc == 0 && (compression_level < -1 || compression_level > 9)) {
+        vt_call_msg(&c, "compression level %d outside -1..9", compression_level);
+        rc = VT_ERR_INVALID;
+    }
+    if (rc == 0 && (!out || !out_len)) {
+        vt_call_msg(&c, "no output for the stream");
+        rc = VT_ERR_INVALID;
+    }
+    if (rc != 0) return vt_call_end(&c, rc);
+    png_job j = {.c = &c, .px = rgba8, .stride = row_stride_bytes, .alpha = alpha,
+                 .level = compression_level, .w = width, .h = height, .fd = -1};
+    return vt_call_end(&c, vt_sink_encode_mem(&c, (size_t)width * height, png_encode, &j, out, out_len));
+}
+
 static void png_read_body(png_job *j)
 {
     png_structp png = j->png;
@@ -186,6 +216,11 @@ static void png_read_body(png_job *j)
         vt_call_msg(j->c, "image %ux%u larger than %ux%u", (unsigned)w, (unsigned)h, VT_IMAGE_MAX_DIM,
                  VT_IMAGE_MAX_DIM);
         png_error(png, "image too large");
+    }
+    if (j->header_only) {
+        j->w = w;
+        j->h = h;
+        return;
     }
     bool trns = png_get_valid(png, info, PNG_INFO_tRNS) != 0;
     j->has_alpha = (ctype & PNG_COLOR_MASK_ALPHA) || trns;
@@ -212,6 +247,32 @@ static void png_read_body(png_job *j)
     j->h = h;
 }
 
+/* Runs a read job (its source set): the image (or, header_only, its size)
+ * into j, or a code with nothing left allocated. */
+static int png_decode_job(vt_call *c, png_job *j)
+{
+    int rc;
+    j->png = png_create_read_struct_2(PNG_LIBPNG_VER_STRING, j, png_on_error, png_on_warning, j,
+                                      png_on_malloc, png_on_free);
+    if (j->png) j->info = png_create_info_struct(j->png);
+    rc = j->info ? png_guarded(j, png_read_body) : -1;
+    if (rc != 0) {
+        rc = j->io_err ? vt_err_from_errno(j->io_err)
+             : j->nomem || !j->info ? VT_ERR_NOMEM
+             : j->too_big ? VT_ERR_TOO_LARGE
+             : VT_ERR_CORRUPT;
+        vt_call_msg(c, "libpng failed");
+    }
+    png_destroy_read_struct(&j->png, &j->info, NULL);
+    free(j->rows);
+    j->rows = NULL;
+    if (rc != 0) {
+        free(j->pix);
+        j->pix = NULL;
+    }
+    return rc;
+}
+
 int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *height,
                 bool *has_alpha, char *err, size_t errlen)
 {
@@ -234,25 +295,32 @@ int vt_png_read(const char *path, uint8_t **rgba8, uint32_t *width, uint32_t *he
         vt_call_msg(&c, "open: %s", vt_errno_text(e, buf, sizeof buf));
         return vt_call_end(&c, rc);
     }
-    j.png = png_create_read_struct_2(PNG_LIBPNG_VER_STRING, &j, png_on_error, png_on_warning, &j,
-                                     png_on_malloc, png_on_free);
-    if (j.png) j.info = png_create_info_struct(j.png);
-    rc = j.info ? png_guarded(&j, png_read_body) : -1;
-    if (rc != 0) {
-        rc = j.io_err ? vt_err_from_errno(j.io_err)
-             : j.nomem || !j.info ? VT_ERR_NOMEM
-             : j.too_big ? VT_ERR_TOO_LARGE
-             : VT_ERR_CORRUPT;
-        vt_call_msg(&c, "libpng failed");
-    }
-    png_destroy_read_struct(&j.png, &j.info, NULL);
+    rc = png_decode_job(&c, &j);
     close(j.fd);
-    free(j.rows);
-    if (rc != 0) {
-        free(j.pix);
-        return vt_call_end(&c, rc);
-    }
+    if (rc != 0) return vt_call_end(&c, rc);
     *rgba8 = j.pix;
+    *width = j.w;
+    *height = j.h;
+    if (has_alpha) *has_alpha = j.has_alpha;
+    return vt_call_end(&c, 0);
+}
+
+int vt_png_decode(const uint8_t *data, size_t len, uint8_t **rgba8, uint32_t *width, uint32_t *height,
+                  bool *has_alpha, char *err, size_t errlen)
+{
+    vt_call c = vt_call_begin("<memory>", err, errlen);
+    if (rgba8) *rgba8 = NULL;
+    if (width) *width = 0;
+    if (height) *height = 0;
+    if (has_alpha) *has_alpha = false;
+    if (!data || !len || !width || !height) {
+        vt_call_msg(&c, "no stream, or no output for its size");
+        return vt_call_end(&c, data && !len ? VT_ERR_CORRUPT : VT_ERR_INVALID);
+    }
+    png_job j = {.c = &c, .fd = -1, .mem = data, .mem_len = len, .header_only = !rgba8};
+    int rc = png_decode_job(&c, &j);
+    if (rc != 0) return vt_call_end(&c, rc);
+    if (rgba8) *rgba8 = j.pix;
     *width = j.w;
     *height = j.h;
     if (has_alpha) *has_alpha = j.has_alpha;

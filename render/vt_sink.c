@@ -103,3 +103,22 @@ int vt_image_check_path(vt_call *c, const char *path)
     vt_call_msg(c, "no path");
     return VT_ERR_INVALID;
 }
+
+int vt_sink_encode_mem(vt_call *c, size_t guess, int (*enc)(void *job, vt_sink *s), void *job, uint8_t **out,
+                       size_t *out_len)
+{
+    vt_sink s = {.fd = -1, .call = c, .cap = guess < VT_SINK_CHUNK ? VT_SINK_CHUNK : guess};
+    if (!(s.buf = malloc(s.cap))) {
+        vt_call_msg(c, "out of memory");
+        return VT_ERR_NOMEM;
+    }
+    int rc = enc(job, &s);
+    if (rc != 0) {
+        free(s.buf);
+        return rc;
+    }
+    uint8_t *fit = s.len < s.cap ? realloc(s.buf, s.len) : NULL; /* give back the slack */
+    *out = fit ? fit : s.buf;
+    *out_len = s.len;
+    return 0;
+}

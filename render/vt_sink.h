@@ -45,6 +45,12 @@ bool vt_sink_put(vt_sink *s, const void *p, size_t n);
  * into place; on failure the temporary is removed and path untouched. */
 int vt_sink_write_file(vt_call *c, const char *path, int (*enc)(void *job, vt_sink *s), void *job);
 
+/* Runs enc(job, sink) into a growing memory buffer (first guess bytes,
+ * doubling); on success *out (malloc'ed, the slack given back) and
+ * *out_len; on failure nothing is kept. */
+int vt_sink_encode_mem(vt_call *c, size_t guess, int (*enc)(void *job, vt_sink *s), void *job, uint8_t **out,
+                       size_t *out_len);
+
 /* Checks an 8-bit image argument set: size within 1..VT_IMAGE_MAX_DIM,
  * pixels, a row stride of at least width * pixel_bytes. VT_ERR_INVALID. */
 int vt_image_check_pixels(vt_call *c, uint32_t width, uint32_t height, const uint8_t *pix, size_t stride,

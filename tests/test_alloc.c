@@ -14,6 +14,8 @@
 #include "culling.h"
 #include "protocol.h"
 #include "scene.h"
+#include "test_util.h"
+#include "vt_image.h"
 
 #include <stdlib.h>
 #include <stdbool.h>
@@ -341,7 +343,53 @@ static void test_scene_edits_out_of_memory_are_busy(void **state)
     assert_true(failures > 0);
 }
 
+/* TEXTURE_PUT under failing allocations (the decoders', the mip chain's,
+ * the store's): every failure is BUSY, nothing stored, nothing charged
+ * (and, under ASan, nothing leaked); then it succeeds. PNG and JPEG. */
+static void test_textures_under_failing_allocations(void **state)
+{
+    (void)state;
+    static const scene_limits lim = {.max_entities = 64, .max_texture_size = 64, .max_texture_mem = 1u << 20};
+    uint8_t px[13 * 7 * 4];
+    for (size_t i = 0; i < sizeof px; i++) px[i] = (uint8_t)(i * 29 + 7);
+    char err[256];
+    tdir t;
+    tdir_make(&t, "texalloc");
+    const char *path = tdir_file(&t, "a.png");
+    assert_int_equal(vt_png_write(path, 13, 7, px, 13 * 4, true, 1, err, sizeof err), 0);
+    size_t n[2];
+    uint8_t *img[2] = {test_slurp(path, &n[0]), NULL};
+    assert_int_equal(vt_jpeg_encode(13, 7, px, 13 * 4, 4, 90, &img[1], &n[1], err, sizeof err), 0);
+    for (int f = 0; f < 2; f++) {
+        scene *sc = malloc(sizeof *sc);
+        assert_non_null(sc);
+        assert_int_equal(scene_init(sc, 16, &lim), 0);
+        vp_texture_put m = {.id = 3, .format = f ? VP_TEX_JPEG : VP_TEX_PNG, .flags = VP_TEX_SRGB,
+                            .total = (uint32_t)n[f], .len = (uint32_t)n[f], .data = img[f]};
+        long failures = 0;
+        for (long k = 0;; k++) {
+            scene_err e = {0};
+            arm(k);
+            int rc = scene_texture_put(sc, &m, &e);
+            disarm();
+            if (rc == VP_OK) break;
+            if (rc != VP_ERR_BUSY) fail_msg("allocation %ld failing: %d (%s) '%s', want BUSY", k, rc, vp_strerror(rc), e.msg);
+            assert_int_equal(sc->textures.count, 0);
+            assert_int_equal(sc->texture_mem, 0);
+            failures++;
+            assert_true(k < 10000);
+        }
+        assert_non_null(scene_texture_find(sc, 3));
+        assert_true(failures > 3);
+        scene_free(sc);
+        free(sc);
+        free(img[f]);
+    }
+    tdir_remove(&t);
+}
+
 const struct CMUnitTest alloc_tests[] = {
+    cmocka_unit_test(test_textures_under_failing_allocations),
     cmocka_unit_test(test_occluders_under_failing_allocations),
     cmocka_unit_test(test_edits_under_failing_allocations),
     cmocka_unit_test(test_scene_edits_out_of_memory_are_busy),

@@ -91,22 +91,6 @@ static void ref_thresholds(float t[256])
     }
 }
 
-static uint8_t *read_file(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    assert_int_equal(fseek(f, 0, SEEK_END), 0);
-    long n = ftell(f);
-    assert_true(n >= 0);
-    rewind(f);
-    uint8_t *b = malloc((size_t)n + 1);
-    assert_non_null(b);
-    assert_int_equal(fread(b, 1, (size_t)n, f), (size_t)n);
-    fclose(f);
-    *len = (size_t)n;
-    return b;
-}
-
 static void write_bytes(const char *path, const void *p, size_t n)
 {
     FILE *f = fopen(path, "wb");
@@ -277,7 +261,7 @@ static void check_python_png(tdir *t, const char *path, uint32_t w, uint32_t h, 
     assert_int_equal(ct, alpha ? 6 : 2);
     assert_non_null(strstr(line, "IHDR sRGB IDAT"));
     size_t n = 0;
-    uint8_t *got = read_file(raw, &n);
+    uint8_t *got = test_slurp(raw, &n);
     uint32_t bpp = alpha ? 4 : 3;
     assert_int_equal(n, (size_t)w * h * bpp);
     for (uint32_t y = 0; y < h; y++)
@@ -715,6 +699,43 @@ static void test_image_png_roundtrip(void **state)
     tdir_remove(&t);
 }
 
+/* vt_png_encode's stream is the file vt_png_write writes, byte for byte,
+ * and reads back as the pixels (the memory sink against the file sink). */
+static void test_image_png_encode_memory(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x9A7};
+    tdir t;
+    tdir_make(&t, "vt_image_test");
+    const uint32_t w = 300, h = 257; /* larger than the first 64 KiB guess after filtering: it must grow */
+    uint8_t *px = random_rgba(&r, h, (size_t)w * 4);
+    for (int alpha = 0; alpha < 2; alpha++) {
+        uint8_t *mem = NULL;
+        size_t len = 0;
+        char err[256];
+        assert_int_equal(vt_png_encode(w, h, px, (size_t)w * 4, alpha, 6, &mem, &len, err, sizeof err), 0);
+        png_write_ok(tdir_file(&t, "file.png"), w, h, px, (size_t)w * 4, alpha, 6);
+        FILE *f = fopen(t.path, "rb");
+        assert_non_null(f);
+        uint8_t *disk = malloc(len + 1);
+        assert_non_null(disk);
+        assert_int_equal(fread(disk, 1, len + 1, f), len);
+        fclose(f);
+        assert_memory_equal(disk, mem, len);
+        png_check(t.path, w, h, px, (size_t)w * 4, alpha);
+        free(disk);
+        free(mem);
+    }
+    uint8_t *mem = (uint8_t *)1;
+    size_t len = 1;
+    char err[256];
+    assert_int_equal(vt_png_encode(0, 1, px, 4, true, 6, &mem, &len, err, sizeof err), VT_ERR_INVALID);
+    assert_null(mem);
+    assert_int_equal(len, 0);
+    free(px);
+    tdir_remove(&t);
+}
+
 /* A tone-mapped bottom-up HDR buffer written as PNG reads back as the
  * tone map of the top-down one, and Python's zlib reader agrees. */
 static void test_image_png_from_hdr(void **state)
@@ -856,7 +877,7 @@ static void test_image_jpeg_roundtrip(void **state)
                                            err, sizeof err), 0);
             assert_string_equal(err, "");
             assert_int_equal(tdir_count(&t), 1);
-            file = read_file(t.path, &nf);
+            file = test_slurp(t.path, &nf);
             assert_int_equal(nf, n3);
             assert_memory_equal(file, m3, n3);
             uint32_t rw = 0, rh = 0, fw = 0, fh = 0;
@@ -1171,11 +1192,11 @@ static void test_image_failed_write_keeps_old(void **state)
         if (fmt) assert_int_equal(vt_jpeg_write(p, 4, 4, noise, (size_t)w * 4, 4, 90, err, sizeof err), 0);
         else png_write_ok(p, 4, 4, noise, (size_t)w * 4, true, 6);
         size_t n0;
-        uint8_t *before = read_file(p, &n0);
+        uint8_t *before = test_slurp(p, &n0);
         test_write_past_fsize(write_noise, p, &(noise_image){noise, w, h, fmt});
         assert_int_equal(tdir_count(&t), fmt + 1);
         size_t n1;
-        uint8_t *after = read_file(p, &n1);
+        uint8_t *after = test_slurp(p, &n1);
         assert_true(n0 == n1 && memcmp(before, after, n0) == 0);
         free(before);
         free(after);
@@ -1254,6 +1275,7 @@ const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_image_tonemap_layouts),
     cmocka_unit_test(test_image_tonemap_bad_args),
     cmocka_unit_test(test_image_png_roundtrip),
+    cmocka_unit_test(test_image_png_encode_memory),
     cmocka_unit_test(test_image_png_from_hdr),
     cmocka_unit_test(test_image_png_reader_formats),
     cmocka_unit_test(test_image_jpeg_roundtrip),

@@ -27,6 +27,8 @@ int main(void)
         {gl_tests, gl_tests_count},
         {sublevel_tests, sublevel_tests_count},
         {destruct_tests, destruct_tests_count},
+        {texture_tests, texture_tests_count},
+        {env_tests, env_tests_count},
         {mask_tests, mask_tests_count},
         {auth_tests, auth_tests_count},
         {persist_tests, persist_tests_count},

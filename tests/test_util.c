@@ -114,6 +114,22 @@ void tdir_remove(tdir *t)
     assert_int_equal(rmdir(t->dir), 0);
 }
 
+uint8_t *test_slurp(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fseek(f, 0, SEEK_END), 0);
+    long n = ftell(f);
+    assert_true(n >= 0);
+    rewind(f);
+    uint8_t *p = malloc((size_t)n + 1);
+    assert_non_null(p);
+    assert_int_equal(fread(p, 1, (size_t)n, f), (size_t)n);
+    fclose(f);
+    *len = (size_t)n;
+    return p;
+}
+
 void dir_unlink_files(const char *dir)
 {
     DIR *d = opendir(dir);

@@ -71,6 +71,8 @@ void tdir_make(tdir *t, const char *prefix);
 const char *tdir_file(tdir *t, const char *name);
 int tdir_count(const tdir *t);
 void tdir_remove(tdir *t);
+/* The whole file at path, malloc'ed (*len bytes; asserts it reads). */
+uint8_t *test_slurp(const char *path, size_t *len);
 /* Unlinks the files of dir (not its subfolders, not dir). */
 void dir_unlink_files(const char *dir);
 
@@ -159,6 +161,8 @@ TEST_GROUP(view_tests)
 TEST_GROUP(query_tests)
 TEST_GROUP(alloc_tests)
 TEST_GROUP(protocol_tests)
+TEST_GROUP(texture_tests)
+TEST_GROUP(env_tests)
 TEST_GROUP(bytes_tests)
 TEST_GROUP(protocol_size_tests)
 TEST_GROUP(e2e_tests)

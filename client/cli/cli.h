@@ -71,6 +71,10 @@ int bench_frames(cli *k, int argc, char **argv);
 /* cli_sublevel.c: sublevel load | unload | list */
 int cmd_sublevel(cli *k, int argc, char **argv);
 
+/* cli_env.c: texture put | rm, env */
+int cmd_texture(cli *k, int argc, char **argv);
+int cmd_env(cli *k, int argc, char **argv);
+
 /* cli_bench.c */
 int cmd_bench(cli *k, int argc, char **argv);
 

@@ -95,6 +95,14 @@ static const cli_form forms[] = {
     {"sublevel", "sublevel unload NAME", "hide a sub-level at one epoch and free it",
      "  A name that names no sub-level is refused with NOT_FOUND; one not loaded with STATE.\n"},
     {"sublevel", "sublevel list [--json]", "sub-levels with their state and counts", ""},
+    {"texture", "texture put ID FILE [--srgb]", "upload a PNG, JPEG or EXR file (by its bytes) as a texture", ""},
+    {"texture", "texture rm ID [ID...]", "remove textures (refused while a material or the sky uses one)", ""},
+    {"env",
+     "env [--day | --night] [--sun AZ,EL[,LUX] | --sun off] [--sun-color R,G,B] [--sky analytic|color:R,G,B|exr:ID]\n"
+     "        [--sky-intensity X] [--sky-rotation DEG] [--turbidity T] [--ground HEIGHT|off] [--ground-color R,G,B]\n"
+     "        [--ground-material ID] [--fog DENSITY[,R,G,B]] [--exposure auto[:COMP]|EV]",
+     "print the environment (sun, sky, ground, fog, exposure); options change it",
+     "  AZ from +Z towards +X, EL above the horizon (degrees); options apply in the order given.\n"},
     {"destroy", "destroy ID X,Y,Z RADIUS [--debris N] [--handle H] [--json]",
      "a destruction sphere on an entity: its occluder is cut open for the next query",
      "  RADIUS in metres, > 0; --debris N (0..64) small dynamic entities around the hole; --handle H:\n"
@@ -936,7 +944,6 @@ static int cmd_watch(cli *k, int argc, char **argv)
     return 0;
 }
 
-
 int main(int argc, char **argv)
 {
     cli k = {0};
@@ -979,7 +986,7 @@ int main(int argc, char **argv)
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
         {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy}, {"pad", cmd_pad},
-        {"commander", cmdr_main},
+        {"commander", cmdr_main}, {"texture", cmd_texture}, {"env", cmd_env},
     };
     int rc = -1;
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)

@@ -708,3 +708,87 @@ int vtc_send_destruction(vtc_client *c, const vp_destroy *m, vp_destroyed *out)
     vp_enc_destroy(w, req, m);
     return call(c, w, req, VP_DESTROYED, dec_destroyed, out);
 }
+
+/* ---- textures and the environment ---------------------------------------------- */
+
+int vtc_texture_format(const uint8_t *p, size_t n)
+{
+    static const uint8_t png[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+    static const uint8_t jpg[3] = {0xff, 0xd8, 0xff};    /* SOI, then a marker */
+    static const uint8_t exr[4] = {0x76, 0x2f, 0x31, 0x01}; /* OpenEXR's magic number 20000630 */
+    if (n >= sizeof png && !memcmp(p, png, sizeof png)) return VP_TEX_PNG;
+    if (n >= sizeof jpg && !memcmp(p, jpg, sizeof jpg)) return VP_TEX_JPEG;
+    if (n >= sizeof exr && !memcmp(p, exr, sizeof exr)) return VP_TEX_EXR;
+    return -1;
+}
+
+int vtc_texture_put(vtc_client *c, uint32_t id, uint8_t format, uint8_t flags, const uint8_t *data, size_t len,
+                    uint64_t *epoch)
+{
+    if (!len || len > VP_MAX_TEXTURE_BYTES)
+        return set_err(c, VP_ERR_COUNT, "a texture of %zu bytes: 1..%u are allowed", len, VP_MAX_TEXTURE_BYTES);
+    /* chunks fill the server's frames; the daemon assembles them in order */
+    size_t room = c->server.max_payload > VP_TEXTURE_PUT_HEADER ? c->server.max_payload - VP_TEXTURE_PUT_HEADER
+                                                                 : len;
+    int rc = VP_OK;
+    for (size_t off = 0; off < len && !rc;) {
+        uint32_t n = (uint32_t)(len - off < room ? len - off : room), req;
+        vp_texture_put m = {.id = id, .format = format, .flags = flags, .total = (uint32_t)len,
+                            .offset = (uint32_t)off, .len = n, .data = data + off};
+        vp_writer *w = request(c, vp_size_texture_put(n), &req);
+        vp_enc_texture_put(w, req, &m);
+        rc = ack_epoch(c, w, req, epoch);
+        off += n;
+    }
+    return rc;
+}
+
+int vtc_texture_put_file(vtc_client *c, uint32_t id, int format, uint8_t flags, const char *path, uint64_t *epoch)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return set_err(c, VTC_ERR_IO, "%s: %s", path, strerror(errno));
+    uint8_t *data = NULL;
+    size_t len = 0, cap = 0;
+    int rc = VP_OK;
+    for (;;) { /* whole, up to one byte past the protocol's limit (which is then refused) */
+        if (len == cap) {
+            cap = cap ? cap * 2 : 65536;
+            if (cap > (size_t)VP_MAX_TEXTURE_BYTES + 1) cap = (size_t)VP_MAX_TEXTURE_BYTES + 1;
+            uint8_t *n = len < cap ? realloc(data, cap) : NULL;
+            if (!n) break;
+            data = n;
+        }
+        size_t got = fread(data + len, 1, cap - len, f);
+        len += got;
+        if (!got) break;
+    }
+    if (ferror(f)) rc = set_err(c, VTC_ERR_IO, "%s: read failed", path);
+    else if (len > VP_MAX_TEXTURE_BYTES || (len == cap && !feof(f)))
+        rc = set_err(c, VP_ERR_COUNT, "%s: larger than a texture may be (%u bytes)", path, VP_MAX_TEXTURE_BYTES);
+    fclose(f);
+    if (!rc && format < 0 && (format = vtc_texture_format(data, len)) < 0)
+        rc = set_err(c, VP_ERR_INVALID, "%s: not a PNG, JPEG or EXR file (by its first bytes)", path);
+    if (!rc) rc = vtc_texture_put(c, id, (uint8_t)format, flags, data, len, epoch);
+    free(data);
+    return rc;
+}
+
+int vtc_texture_remove(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch)
+{
+    return remove_ids(c, VP_TEXTURE_REMOVE, ids, n, epoch);
+}
+
+static int dec_env(const uint8_t *p, uint32_t len, void *out) { return vp_dec_env(p, len, out); }
+
+int vtc_env_set(vtc_client *c, const vp_env *env, uint64_t *epoch)
+{
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_env(), &req);
+    vp_enc_env(w, VP_ENV_SET, req, env);
+    return ack_epoch(c, w, req, epoch);
+}
+
+int vtc_env_get(vtc_client *c, vp_env *out)
+{
+    return empty_call(c, VP_ENV_GET, VP_ENV_REPLY, dec_env, out);
+}

@@ -180,6 +180,32 @@ int vtc_remove_occluders(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_
  * clockwise triangles). */
 int vtc_put_mesh(vtc_client *c, uint16_t class_id, const float *pos, const float *nrm, uint32_t nv,
                  const uint32_t *idx, uint32_t ni);
+/* TEXTURE_PUT (editor): the encoded image data[0..len) (1..
+ * VP_MAX_TEXTURE_BYTES; format VP_TEX_PNG / JPEG / EXR, flags VP_TEX_SRGB
+ * for colour data) under id (1..UINT32_MAX; an existing one is replaced).
+ * Sent in chunks of at most the server's max_payload, each waiting for its
+ * ACK; the last is answered once the image is decoded and stored (its
+ * errors: INVALID not decodable, LIMIT over --max-texture-size or
+ * --max-texture-mem, NONFINITE an EXR with NaN or infinity). epoch may be
+ * NULL. A failure part-way leaves nothing on the server (the daemon drops
+ * an upload whose chunk it refused). */
+int vtc_texture_put(vtc_client *c, uint32_t id, uint8_t format, uint8_t flags, const uint8_t *data, size_t len,
+                    uint64_t *epoch);
+/* The format an image's first bytes data[0..n) say: VP_TEX_PNG (PNG's
+ * 8-byte signature), VP_TEX_JPEG (FF D8 FF), VP_TEX_EXR (76 2F 31 01), or
+ * -1. */
+int vtc_texture_format(const uint8_t *data, size_t n);
+/* The same, from a file read whole; format -1: told by its first bytes
+ * (PNG, JPEG, EXR signatures; VP_ERR_INVALID if none). A file that cannot
+ * be read: VTC_ERR_IO with the path and why in vtc_last_error. */
+int vtc_texture_put_file(vtc_client *c, uint32_t id, int format, uint8_t flags, const char *path, uint64_t *epoch);
+/* TEXTURE_REMOVE (editor): ids[0..n), all or nothing; STATE while a
+ * material or the sky uses one. */
+int vtc_texture_remove(vtc_client *c, const uint64_t *ids, uint32_t n, uint64_t *epoch);
+/* ENV_SET (editor): the environment, replaced whole (start from
+ * vtc_env_get's or vp_env_default's). ENV_GET (any role): the current one. */
+int vtc_env_set(vtc_client *c, const vp_env *env, uint64_t *epoch);
+int vtc_env_get(vtc_client *c, vp_env *out);
 
 /* Views: gluLookAt + gluPerspective (fovy in degrees, aspect = w/h) or an
  * orthographic box of width x height metres, camera-relative (origin = eye),
