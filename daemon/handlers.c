@@ -74,9 +74,22 @@ static void on_hello(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
     vp_hello m;
     int rc = vp_dec_hello(p, h->len, &m);
+    if (rc == VP_ERR_VERSION) {
+        /* say both sides' versions, so an old client's user knows what to upgrade */
+        char msg[160];
+        if (VP_VERSION_MIN == VP_VERSION)
+            snprintf(msg, sizeof msg, "unsupported protocol version %u: this server speaks version %u only",
+                     m.version, VP_VERSION);
+        else
+            snprintf(msg, sizeof msg, "unsupported protocol version %u: this server speaks versions %u..%u",
+                     m.version, VP_VERSION_MIN, VP_VERSION);
+        send_error(s, c, h->req, rc, UINT32_MAX, msg);
+        c->closing = true;
+        return;
+    }
     if (rc) {
         send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
-        c->closing = true; /* not our protocol, or not this version */
+        c->closing = true; /* not our protocol, or a malformed HELLO */
         return;
     }
     /* roles and tokens (auth.h): with a token file, a role needs a token

@@ -210,7 +210,7 @@ int vp_dec_hello(const uint8_t *p, size_t len, vp_hello *m)
 }
 
 #define HELLO_OK_FIELDS(X)                                                                                 \
-    X(u16, version) X(u8, role) X(rsv8, _) X(u32, max_payload) X(u32, max_batch) X(u32, max_views)       \
+    X(u16, version) X(u8, role) X(rsv8, pad1) X(u32, max_payload) X(u32, max_batch) X(u32, max_views)       \
     X(u64, epoch) X(u32, client_id)
 VP_LAYOUT(hello_ok, vp_hello_ok, HELLO_OK_FIELDS)
 
@@ -392,7 +392,7 @@ size_t vp_size_metrics_reply(uint32_t text_len)
     return VP_HEADER_SIZE + VP_METRICS_REPLY_HEADER + (size_t)text_len;
 }
 
-#define METRICS_FIELDS(X) X(u8, format) X(pad8, _) X(pad16, _) X(u32, text_len)
+#define METRICS_FIELDS(X) X(u8, format) X(pad8, pad1) X(pad16, pad2) X(u32, text_len)
 VP_LAYOUT(metrics_head, vp_metrics_reply, METRICS_FIELDS)
 
 void vp_enc_metrics_reply(vp_writer *w, uint32_t req, const vp_metrics_reply *m)
@@ -440,7 +440,7 @@ int vp_dec_subscribe(const uint8_t *p, size_t len, uint32_t *kinds)
     return (*kinds & ~(VP_EVENT_SCENE | VP_EVENT_MARKS)) ? VP_ERR_INVALID : VP_OK;
 }
 
-#define EVENT_FIELDS(X) X(u32, kind) X(rsv32, _) X(u64, epoch) X(u32, added) X(u32, updated) X(u32, removed)
+#define EVENT_FIELDS(X) X(u32, kind) X(rsv32, pad1) X(u64, epoch) X(u32, added) X(u32, updated) X(u32, removed)
 VP_LAYOUT(event, vp_event, EVENT_FIELDS)
 
 size_t vp_size_event(void)

@@ -648,6 +648,13 @@ int    vp_material_rec_check(const uint8_t *recs, uint32_t n, uint32_t i, char *
 size_t vp_size_texture_put(uint32_t len);
 void   vp_enc_texture_put(vp_writer *w, uint32_t req, const vp_texture_put *m);
 int    vp_dec_texture_put(const uint8_t *p, size_t len, vp_texture_put *m);
+/* The same with the field and the cause in why (may be NULL): "total bytes
+ * 0 is outside 1..67108864", "chunk at offset 10 of 5 bytes ends past the
+ * total, 12 bytes". */
+int    vp_dec_texture_put_why(const uint8_t *p, size_t len, vp_texture_put *m, char *why, size_t whylen);
+/* A header's checks (id, format, flags, total, the chunk inside it), as
+ * the decoder makes them. */
+int    vp_texture_put_check(const vp_texture_put *m, char *why, size_t whylen);
 
 size_t vp_size_env(void);
 /* ENV_SET or ENV_REPLY (type). */
@@ -655,6 +662,8 @@ void   vp_enc_env(vp_writer *w, uint16_t type, uint32_t req, const vp_env *m);
 /* Checks every field (finite, ranges, defined modes and flags); the sun
  * direction is normalised in place. why may be NULL. */
 int    vp_dec_env(const uint8_t *p, size_t len, vp_env *m);
+/* The same with the field and the cause in why (may be NULL). */
+int    vp_dec_env_why(const uint8_t *p, size_t len, vp_env *m, char *why, size_t whylen);
 int    vp_env_check(vp_env *m, char *why, size_t whylen);
 
 /* Version 1 layouts, read from journals and snapshots a version 1 daemon
@@ -931,6 +940,43 @@ int  vp_light_get(const uint8_t *recs, uint32_t n, uint32_t i, vp_light *out);
  * first record these refuse, so its ERROR names the record. */
 int  vp_entity_rec_check(const vp_entity_batch *b, uint32_t i, char *why, size_t whylen);
 int  vp_light_rec_check(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen);
+
+/* ---- the layouts described: machine-readable (protocol/vp_layout.h) ------- */
+/* Every fixed layout (a message, a record, the fixed head of a longer
+ * message) is one field list in protocol/vp_*.c, from which its encoder,
+ * decoder, size and this description come. tests/test_protocol_doc.c
+ * holds PROTOCOL.md's byte tables to it. */
+enum vp_kind { VP_KIND_U8, VP_KIND_U16, VP_KIND_U32, VP_KIND_U64, VP_KIND_I32, VP_KIND_F32, VP_KIND_F64,
+               VP_KIND_PAD /* written 0, must read 0 */, VP_KIND_RSV /* written 0, not read */ };
+enum vp_check_op { VP_CHECK_RANGE, VP_CHECK_MAX, VP_CHECK_MASK, VP_CHECK_NONZERO, VP_CHECK_COUNT, VP_CHECK_IRANGE };
+typedef struct vp_field_desc {
+    const char *name;    /* the C member ("pos"); pads "pad1", "pad2", ... */
+    uint8_t  kind;       /* enum vp_kind of one element */
+    uint16_t offset;     /* bytes from the layout's start */
+    uint16_t size;       /* bytes, all elements */
+    uint16_t count;      /* elements: 1, or the array's length */
+} vp_field_desc;
+typedef struct vp_check_desc {
+    const char *field;   /* the field checked (a vp_field_desc name) */
+    const char *label;   /* how messages name it ("base colour") */
+    const char *elems;   /* RANGE: element names, comma-separated; others: the defined values, in words */
+    uint8_t  op;         /* enum vp_check_op */
+    double   lo, hi;     /* RANGE, COUNT, IRANGE: lo..hi; MAX: hi; MASK: hi = the defined bits */
+} vp_check_desc;
+typedef struct vp_layout_desc {
+    const char *name;    /* the layout's name in the sources ("entity", "env") */
+    uint32_t size;       /* bytes on the wire */
+    uint32_t nfields, nchecks;
+    const vp_field_desc *fields; /* in wire order, contiguous */
+    const vp_check_desc *checks; /* in the order the decoder runs them */
+} vp_layout_desc;
+/* The layouts: count, i-th (NULL past the count), by name (NULL if none).
+ * All static; never NULL fields. */
+size_t vp_layout_count(void);
+const vp_layout_desc *vp_layout_at(size_t i);
+const vp_layout_desc *vp_layout_find(const char *name);
+/* "u8", "u16", "u32", "u64", "i32", "f32", "f64", "pad", "rsv"; "?" else. */
+const char *vp_kind_name(unsigned kind);
 
 /* Whether a message type is known to this version, and its name
  * ("entity_add"; "unknown" for another type; never NULL, static). */

@@ -12,7 +12,8 @@
 
 /* MESH_PUT's fields before the arrays */
 #define MESH_FIELDS(X) X(u16, class_id) X(u16, flags) X(u32, vertex_count) X(u32, index_count)
-VP_LAYOUT(mesh, vp_mesh, MESH_FIELDS)
+#define MESH_CHECKS(X) X(mask, flags, "flags", "0x1 no normals, 0x2 UVs, 0x4 tangents are defined", 0, VP_MESH_FLAGS)
+VP_LAYOUT_CHECKED(mesh, vp_mesh, MESH_FIELDS, MESH_CHECKS)
 
 size_t vp_size_mesh_uv(uint32_t nv, uint32_t ni, bool normals, bool uvs, bool tangents)
 {
@@ -65,8 +66,7 @@ int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
 {
     vp_reader r;
     int rc = mesh_head(&r, p, len, m);
-    if (rc) return rc;
-    if (m->flags & ~VP_MESH_FLAGS) return VP_ERR_INVALID;
+    if (rc || (rc = mesh_check_fields(m, 0, "", NULL, 0))) return rc;
     if ((m->flags & VP_MESH_TANGENTS) && !(m->flags & VP_MESH_UVS)) return VP_ERR_INVALID;
     if (m->index_count % 3) return VP_ERR_COUNT;
     bool normals = !(m->flags & VP_MESH_NO_NORMALS);
@@ -92,9 +92,13 @@ int vp_dec_mesh(const uint8_t *p, size_t len, uint32_t max_batch, vp_mesh *m)
 /* ---- occluders ----------------------------------------------------------------------- */
 
 #define OCCLUDER_FIELDS(X) X(u64, id) X(u32, flags) X(f64a, origin) X(u32, tri_count)
-VP_LAYOUT(occluder, vp_occluder, OCCLUDER_FIELDS)
+#define OCCLUDER_CHECKS(X)                                                                                 \
+    X(mask, flags, "flags", "0x1 attached is defined", 0, VP_OCC_ATTACHED)                               \
+    X(range, origin, "origin", "x,y,z", -INFINITY, INFINITY)
+VP_LAYOUT_CHECKED(occluder, vp_occluder, OCCLUDER_FIELDS, OCCLUDER_CHECKS)
 #define OCCLUDER_V1_FIELDS(X) X(u64, id) X(f64a, origin) X(u32, tri_count)
-VP_LAYOUT(occluder_v1, vp_occluder, OCCLUDER_V1_FIELDS)
+#define OCCLUDER_V1_CHECKS(X) X(range, origin, "origin", "x,y,z", -INFINITY, INFINITY)
+VP_LAYOUT_CHECKED(occluder_v1, vp_occluder, OCCLUDER_V1_FIELDS, OCCLUDER_V1_CHECKS)
 
 size_t vp_size_occluder(uint32_t ntris)
 {
@@ -121,7 +125,6 @@ void vp_enc_occluder(vp_writer *w, uint32_t req, uint64_t id, const double origi
 /* the triangles after the fixed part, checked */
 static int occluder_rest(vp_reader *r, uint32_t max_batch, vp_occluder *m)
 {
-    if (!vp_finite_n(m->origin, 3)) return VP_ERR_NONFINITE;
     int rc = vp_take_rest(r, m->tri_count, 36, max_batch, &m->verts);
     if (rc) return rc;
     return finite_block(m->verts, m->tri_count, 9) ? VP_OK : VP_ERR_NONFINITE;
@@ -131,8 +134,7 @@ int vp_dec_occluder(const uint8_t *p, size_t len, uint32_t max_batch, vp_occlude
 {
     vp_reader r;
     int rc = occluder_head(&r, p, len, m);
-    if (rc) return rc;
-    if (m->flags & ~VP_OCC_ATTACHED) return VP_ERR_INVALID;
+    if (rc || (rc = occluder_check_fields(m, 0, "", NULL, 0))) return rc;
     return occluder_rest(&r, max_batch, m);
 }
 
@@ -141,15 +143,16 @@ int vp_dec_occluder_v1(const uint8_t *p, size_t len, uint32_t max_batch, vp_occl
     vp_reader r;
     int rc = occluder_v1_head(&r, p, len, m);
     m->flags = 0;
-    return rc ? rc : occluder_rest(&r, max_batch, m);
+    if (rc || (rc = occluder_v1_check_fields(m, 0, "", NULL, 0))) return rc;
+    return occluder_rest(&r, max_batch, m);
 }
 
 /* ---- lights ----------------------------------------------------------------------- */
 
 /* One light record, VP_LIGHT_SIZE bytes (reserved bytes written 0, not read). */
 #define LIGHT_FIELDS(X)                                                                                   \
-    X(u64, id) X(u8, kind) X(rsv8, _) X(rsv16, _) X(f32, intensity) X(f64a, pos) X(f32a, dir)          \
-    X(f32a, color) X(f32, range) X(f32, inner_cos) X(f32, outer_cos) X(rsv32, _)
+    X(u64, id) X(u8, kind) X(rsv8, pad1) X(rsv16, pad2) X(f32, intensity) X(f64a, pos) X(f32a, dir)          \
+    X(f32a, color) X(f32, range) X(f32, inner_cos) X(f32, outer_cos) X(rsv32, pad3)
 VP_LAYOUT(light, vp_light, LIGHT_FIELDS)
 
 size_t vp_size_lights(uint32_t n)

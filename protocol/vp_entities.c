@@ -12,14 +12,19 @@
 /* One entity record, VP_ENTITY_REC_SIZE bytes. */
 #define ENTITY_FIELDS(X)                                                                                      \
     X(u64, id) X(u32, handle) X(u16, class_id) X(u16, sublevel) X(u32, flags) X(u32, material) X(f64a, pos) \
-    X(f32a, rot) X(f32a, scale) X(pad32, _) X(f64a, sphere) X(f64a, aabb)
-VP_LAYOUT(entity, vp_entity, ENTITY_FIELDS)
+    X(f32a, rot) X(f32a, scale) X(pad32, pad1) X(f64a, sphere) X(f64a, aabb)
+/* its own checks (the transform's are vp_trs_check; ranges are the scene's) */
+#define ENTITY_CHECKS(X)                                                                                      \
+    X(range, sphere, "sphere", "x,y,z,radius", -INFINITY, INFINITY)                                         \
+    X(range, aabb, "aabb", "min x,min y,min z,max x,max y,max z", -INFINITY, INFINITY)                      \
+    X(mask, flags, "flags", "0x1 dynamic and 0x2 transform are defined", 0, VP_ENT_FLAGS)
+VP_LAYOUT_CHECKED(entity, vp_entity, ENTITY_FIELDS, ENTITY_CHECKS)
 _Static_assert(VP_ENTITY_REC_SIZE == 160, "entity record");
 
 /* Version 1's record, VP_ENTITY_REC_SIZE_V1 bytes (the reserved word after
  * flags is written 0 and not read): journals and snapshots of version 1. */
 #define ENTITY_V1_FIELDS(X)                                                                                  \
-    X(u64, id) X(u32, handle) X(u16, class_id) X(u16, sublevel) X(u32, flags) X(rsv32, _) X(f64a, sphere)  \
+    X(u64, id) X(u32, handle) X(u16, class_id) X(u16, sublevel) X(u32, flags) X(rsv32, pad1) X(f64a, sphere)  \
     X(f64a, aabb)
 VP_LAYOUT(entity_v1, vp_entity, ENTITY_V1_FIELDS)
 
@@ -84,20 +89,8 @@ static uint32_t entity_read(const vp_entity_batch *b, uint32_t i, vp_entity *e)
  * the cause in why (may be NULL). The range checks are the scene's. */
 static int entity_check(vp_entity *e, uint32_t pad, char *why, size_t whylen)
 {
-    static const char *const sname[4] = {"sphere x", "sphere y", "sphere z", "sphere radius"};
-    static const char *const bname[6] = {"aabb min x", "aabb min y", "aabb min z",
-                                         "aabb max x", "aabb max y", "aabb max z"};
-    for (int k = 0; k < 4; k++)
-        if (!isfinite(e->sphere[k]))
-            return vp_errf(why, whylen, VP_ERR_NONFINITE, "%s is %g: NaN or infinite", sname[k], e->sphere[k]);
-    for (int k = 0; k < 6; k++)
-        if (!isfinite(e->aabb[k]))
-            return vp_errf(why, whylen, VP_ERR_NONFINITE, "%s is %g: NaN or infinite", bname[k], e->aabb[k]);
-    if (e->flags & ~VP_ENT_FLAGS)
-        return vp_errf(why, whylen, VP_ERR_INVALID,
-                       "flags 0x%08x has undefined bits 0x%08x (0x1 dynamic and 0x2 transform are defined)", e->flags,
-                       e->flags & ~VP_ENT_FLAGS);
-    if (pad) return vp_errf(why, whylen, VP_ERR_INVALID, "%s", "pad bytes 76..79 must be zero");
+    int rc = entity_check_fields(e, pad, "", why, whylen);
+    if (rc) return rc;
     if (e->flags & VP_ENT_TRANSFORM) return vp_trs_check(e->pos, e->rot, e->scale, why, whylen);
     return VP_OK;
 }
@@ -173,7 +166,8 @@ int vp_trs_check(double pos[3], float rot[4], float scale[3], char *why, size_t 
     if (zeros > 1)
         return vp_errf(why, whylen, VP_ERR_INVALID, "scale (%g, %g, %g) is 0 on %d axes; at most one may be 0",
                        (double)scale[0], (double)scale[1], (double)scale[2], zeros);
-    for (int a = 0; a < 4; a++) rot[a] = (float)(rot[a] / n);
+    if (fabs(n - 1) > VP_UNIT_EXACT)
+        for (int a = 0; a < 4; a++) rot[a] = (float)(rot[a] / n);
     return VP_OK;
 }
 

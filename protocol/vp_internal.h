@@ -27,6 +27,13 @@ int vp_take_array(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint
 /* The same for records that end the payload: bytes left after them are a
  * count that disagrees (VP_ERR_COUNT); a read already short is TRUNCATED. */
 int vp_take_rest(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8_t **out);
+/* A vector whose length is within this of 1 is unit to float precision
+ * and is kept as sent, not renormalised: renormalising leaves |n - 1| <=
+ * 2^-24 (each component rounded once), so a value renormalised on the way
+ * in passes unchanged the next time (a listed entity sent back, a journal
+ * replayed), where renormalising it again would move 1.4 % of them by an
+ * ulp (tests/test_protocol.c, test_renormalised). */
+#define VP_UNIT_EXACT 0x1p-22
 bool vp_finite_n(const double *v, int n);
 bool vp_finite_nf(const float *v, int n);
 

@@ -16,17 +16,55 @@
  *                      VP_ERR_TRUNCATED, VP_ERR_TRAILING, or VP_ERR_INVALID
  *                      for a pad that is not 0 (in that order).
  *
+ *   name_desc()        the machine-readable description (vp_layout_desc,
+ *                      protocol.h): every field's name, kind, byte offset
+ *                      and size, and the checks below; vp_desc_<name>()
+ *                      exports it, vp_layout_find() finds it by name, and
+ *                      tests/test_protocol_doc.c checks PROTOCOL.md's byte
+ *                      tables against it.
+ *
+ * VP_LAYOUT_CHECKED(name, type, FIELDS, CHECKS) adds the field checks,
+ * a list of X(op, field, label, elems, lo, hi) next to the field list, so
+ * a decoder's limits are stated once beside the bytes they apply to:
+ *
+ *   name_check_fields(m, pad, pre, why, whylen) runs them in list order, then the
+ *                      pad check; VP_OK or the first failure's code with the
+ *                      field named in why (prefixed by pre, "" for none:
+ *                      "sphere x is nan: NaN or infinite", "pad bytes 76..79
+ *                      must be zero"). No allocation.
+ *
+ * Check ops (label names the field in messages):
+ *   range    f32/f64 field or array: each element finite (else NONFINITE)
+ *            and in lo..hi (else INVALID); elems names the elements,
+ *            comma-separated ("x,y,z,radius"; "" for a scalar); bounds
+ *            +-INFINITY: finite only;
+ *   max      integer <= hi, else INVALID "label v: <elems>" (elems says
+ *            which values are defined);
+ *   mask     integer with no bit outside hi, else INVALID;
+ *   nonzero  integer != 0, else INVALID "label is 0: <elems>";
+ *   count    integer in lo..hi, else COUNT;
+ *   irange   integer in lo..hi, else INVALID.
+ * Checks that span fields (a unit quaternion, a chunk inside its image)
+ * stay hand-written next to the list.
+ *
  * Kinds: u8 u16 u32 u64 i32 f32 f64 (one field of that type); u32a f32a
  * f64a (a C array of that type, every element in order); pad8 pad16 pad32
- * (written 0, must read 0; the field name is not used); rsv8 rsv16 rsv32
- * (reserved: written 0, ignored on read, as the layouts that predate the
- * pad check have them). Used by protocol/vp_*.c only; variable parts
- * (counted records, names) stay hand-written next to the list.
+ * (written 0, must read 0); rsv8 rsv16 rsv32 (reserved: written 0,
+ * ignored on read, as the layouts that predate the pad check have them).
+ * Every field name in a list is distinct (pads: pad1, pad2, ...): the
+ * description's offsets come from a struct of the fields' wire bytes.
+ * Used by protocol/vp_*.c only; variable parts (counted records, names)
+ * stay hand-written next to the list. A new layout's name goes in
+ * VP_LAYOUT_NAMES (protocol/vp_layout.c), which the doc test holds to
+ * every VP_LAYOUT in protocol/.
  */
 #ifndef VANTAGE_VP_LAYOUT_H
 #define VANTAGE_VP_LAYOUT_H
 
 #include "protocol.h"
+
+#include <math.h>
+#include <stddef.h>
 
 /* a field's wire size is its C size: IEEE single and double, fixed ints */
 _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double");
@@ -60,9 +98,12 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_R_u32a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) m_->f[k_] = vp_get_u32(r_);
 #define VP_R_f32a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) m_->f[k_] = vp_get_f32(r_);
 #define VP_R_f64a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) m_->f[k_] = vp_get_f64(r_);
-#define VP_R_pad8(f)  pad_ |= vp_get_u8(r_);
-#define VP_R_pad16(f) pad_ |= vp_get_u16(r_);
-#define VP_R_pad32(f) pad_ |= vp_get_u32(r_);
+/* the first pad that is not 0: 1 + its offset (vp_check_pad names it) */
+#define VP_R_PAD_(f, v)                                                                                       \
+    if ((v) && !pad_) pad_ = 1 + (uint32_t)offsetof(struct vp_wire_, f);
+#define VP_R_pad8(f)  VP_R_PAD_(f, vp_get_u8(r_))
+#define VP_R_pad16(f) VP_R_PAD_(f, vp_get_u16(r_))
+#define VP_R_pad32(f) VP_R_PAD_(f, vp_get_u32(r_))
 #define VP_R_rsv8(f)  (void)vp_get_u8(r_);
 #define VP_R_rsv16(f) (void)vp_get_u16(r_);
 #define VP_R_rsv32(f) (void)vp_get_u32(r_);
@@ -84,6 +125,80 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_S_rsv16(f) + 2
 #define VP_S_rsv32(f) + 4
 
+/* wire bytes of a field (vp_ct_: the layout's C type, in scope) */
+#define VP_B_u8(f)    1
+#define VP_B_u16(f)   2
+#define VP_B_u32(f)   4
+#define VP_B_u64(f)   8
+#define VP_B_i32(f)   4
+#define VP_B_f32(f)   4
+#define VP_B_f64(f)   8
+#define VP_B_u32a(f)  sizeof(((vp_ct_ *)0)->f)
+#define VP_B_f32a(f)  sizeof(((vp_ct_ *)0)->f)
+#define VP_B_f64a(f)  sizeof(((vp_ct_ *)0)->f)
+#define VP_B_pad8(f)  1
+#define VP_B_pad16(f) 2
+#define VP_B_pad32(f) 4
+#define VP_B_rsv8(f)  1
+#define VP_B_rsv16(f) 2
+#define VP_B_rsv32(f) 4
+
+/* an element's kind and bytes, for the description */
+#define VP_K_u8    VP_KIND_U8, 1
+#define VP_K_u16   VP_KIND_U16, 2
+#define VP_K_u32   VP_KIND_U32, 4
+#define VP_K_u64   VP_KIND_U64, 8
+#define VP_K_i32   VP_KIND_I32, 4
+#define VP_K_f32   VP_KIND_F32, 4
+#define VP_K_f64   VP_KIND_F64, 8
+#define VP_K_u32a  VP_KIND_U32, 4
+#define VP_K_f32a  VP_KIND_F32, 4
+#define VP_K_f64a  VP_KIND_F64, 8
+#define VP_K_pad8  VP_KIND_PAD, 1
+#define VP_K_pad16 VP_KIND_PAD, 2
+#define VP_K_pad32 VP_KIND_PAD, 4
+#define VP_K_rsv8  VP_KIND_RSV, 1
+#define VP_K_rsv16 VP_KIND_RSV, 2
+#define VP_K_rsv32 VP_KIND_RSV, 4
+#define VP_KIND_OF_(k, n) (k)
+#define VP_EBYTES_(k, n) (n)
+#define VP_KIND_OF(...) VP_KIND_OF_(__VA_ARGS__)
+#define VP_EBYTES_OF(...) VP_EBYTES_(__VA_ARGS__)
+
+/* The fields' wire bytes as a struct of byte arrays: no padding (all
+ * alignment 1), so offsetof is the wire offset and sizeof the wire size. */
+#define VP_WIRE_FIELD_(kind, f) uint8_t f[VP_B_##kind(f)];
+#define VP_WIRE_(type, FIELDS)                                                                          \
+    typedef type vp_ct_ __attribute__((unused));                                                         \
+    struct vp_wire_ {                                                                                    \
+        FIELDS(VP_WIRE_FIELD_)                                                                           \
+    };
+#define VP_DESC_FIELD_(kind, f)                                                                         \
+    {#f, VP_KIND_OF(VP_K_##kind), (uint16_t)offsetof(struct vp_wire_, f), (uint16_t)VP_B_##kind(f),      \
+     (uint16_t)(VP_B_##kind(f) / VP_EBYTES_OF(VP_K_##kind))},
+
+/* checks: the description's rows and the code */
+#define VP_CKOP_range   VP_CHECK_RANGE
+#define VP_CKOP_max     VP_CHECK_MAX
+#define VP_CKOP_mask    VP_CHECK_MASK
+#define VP_CKOP_nonzero VP_CHECK_NONZERO
+#define VP_CKOP_count   VP_CHECK_COUNT
+#define VP_CKOP_irange  VP_CHECK_IRANGE
+#define VP_DESC_CHECK_(op, f, label, elems, lo, hi) {#f, label, elems, VP_CKOP_##op, (double)(lo), (double)(hi)},
+/* bytes of one element of a float field or array (m_ is const) */
+#define VP_FBYTES_(x)                                                                                   \
+    _Generic((x) + 0, float: 4, double: 8, const float *: 4, const double *: 8, float *: 4, double *: 8)
+#define VP_CK_range(f, label, elems, lo, hi)                                                            \
+    vp_check_floats(&m_->f, sizeof m_->f, VP_FBYTES_(m_->f), pre_, label, elems, lo, hi, why_, whylen_)
+#define VP_CK_max(f, label, elems, lo, hi)     vp_check_max(m_->f, pre_, label, elems, hi, why_, whylen_)
+#define VP_CK_mask(f, label, elems, lo, hi)    vp_check_mask(m_->f, pre_, label, elems, hi, why_, whylen_)
+#define VP_CK_nonzero(f, label, elems, lo, hi) vp_check_nonzero(m_->f, pre_, label, elems, why_, whylen_)
+#define VP_CK_count(f, label, elems, lo, hi)   vp_check_count(m_->f, pre_, label, lo, hi, VP_ERR_COUNT, why_, whylen_)
+#define VP_CK_irange(f, label, elems, lo, hi)  vp_check_count(m_->f, pre_, label, lo, hi, VP_ERR_INVALID, why_, whylen_)
+#define VP_CHECK_ROW_(op, f, label, elems, lo, hi) \
+    if ((rc_ = VP_CK_##op(f, label, elems, lo, hi))) return rc_;
+#define VP_NO_CHECKS_(X)
+
 #define VP_PUT_FIELD_(kind, f)  VP_W_##kind(f)
 #define VP_GET_FIELD_(kind, f)  VP_R_##kind(f)
 #define VP_SIZE_FIELD_(kind, f) VP_S_##kind(f)
@@ -91,13 +206,34 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 /* not every layout uses all five (clang warns of unused static inline) */
 #define VP_LAYOUT_FN_ static inline __attribute__((unused))
 
-#define VP_LAYOUT(name, type, FIELDS)                                                   \
+#define VP_LAYOUT(name, type, FIELDS) VP_LAYOUT_CHECKED(name, type, FIELDS, VP_NO_CHECKS_)
+
+#define VP_LAYOUT_CHECKED(name, type, FIELDS, CHECKS)                                   \
     VP_LAYOUT_FN_ void name##_put(vp_writer *w_, const type *m_) { FIELDS(VP_PUT_FIELD_) } \
     VP_LAYOUT_FN_ uint32_t name##_get(vp_reader *r_, type *m_)                           \
     {                                                                                    \
+        VP_WIRE_(type, FIELDS)                                                           \
         uint32_t pad_ = 0;                                                               \
         FIELDS(VP_GET_FIELD_)                                                            \
         return pad_;                                                                     \
+    }                                                                                    \
+    VP_LAYOUT_FN_ const vp_layout_desc *name##_desc(void)                                \
+    {                                                                                    \
+        VP_WIRE_(type, FIELDS)                                                           \
+        static const vp_field_desc f_[] = {FIELDS(VP_DESC_FIELD_)};                      \
+        static const vp_check_desc c_[] = {CHECKS(VP_DESC_CHECK_){NULL, NULL, NULL, 0, 0, 0}}; \
+        static const vp_layout_desc d_ = {#name, sizeof(struct vp_wire_), sizeof f_ / sizeof f_[0], \
+                                          sizeof c_ / sizeof c_[0] - 1, f_, c_};          \
+        return &d_;                                                                      \
+    }                                                                                    \
+    const vp_layout_desc *vp_desc_##name(void);                                          \
+    const vp_layout_desc *vp_desc_##name(void) { return name##_desc(); }                 \
+    VP_LAYOUT_FN_ int name##_check_fields(const type *m_, uint32_t pad_, const char *pre_, char *why_, size_t whylen_) \
+    {                                                                                    \
+        int rc_ = VP_OK;                                                                 \
+        (void)m_;                                                                        \
+        CHECKS(VP_CHECK_ROW_)                                                            \
+        return pad_ ? vp_check_pad(name##_desc(), pad_, pre_, why_, whylen_) : rc_;      \
     }                                                                                    \
     VP_LAYOUT_FN_ size_t name##_size(void)                                               \
     {                                                                                    \
@@ -120,6 +256,21 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
         return rc_ ? rc_ : pad_ ? VP_ERR_INVALID : VP_OK;                                \
     }                                                                                    \
     VP_LAYOUT_HEAD(name, type)
+
+/* The checks' messages (protocol/vp_layout.c); pre and label name the
+ * field, why may be NULL. Each returns VP_OK or the code it wrote. */
+int vp_check_floats(const void *v, size_t bytes, size_t esize, const char *pre, const char *label, const char *elems,
+                    double lo, double hi, char *why, size_t whylen);
+int vp_check_max(uint64_t v, const char *pre, const char *label, const char *defined, double hi, char *why,
+                 size_t whylen);
+int vp_check_mask(uint64_t v, const char *pre, const char *label, const char *defined, double mask, char *why,
+                  size_t whylen);
+int vp_check_nonzero(uint64_t v, const char *pre, const char *label, const char *why0, char *why, size_t whylen);
+/* v in lo..hi, else code (COUNT or INVALID) */
+int vp_check_count(uint64_t v, const char *pre, const char *label, double lo, double hi, int code, char *why,
+                   size_t whylen);
+/* pad: 1 + the offset of the first non-zero pad byte group (name_get). */
+int vp_check_pad(const vp_layout_desc *d, uint32_t pad, const char *pre, char *why, size_t whylen);
 
 /* A fixed message's header before variable parts: r over the payload,
  * the fields read; VP_ERR_TRUNCATED if they do not fit, VP_ERR_INVALID

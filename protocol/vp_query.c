@@ -11,8 +11,8 @@
 /* ---- views ---------------------------------------------------------------------- */
 
 #define VIEW_FIELDS(X)                                                                                      \
-    X(f64a, origin) X(f64a, view_proj) X(u8, depth_mode) X(pad8, _) X(u16, viewport_w) X(u16, viewport_h) \
-    X(pad16, _)
+    X(f64a, origin) X(f64a, view_proj) X(u8, depth_mode) X(pad8, pad1) X(u16, viewport_w) X(u16, viewport_h) \
+    X(pad16, pad2)
 VP_LAYOUT(view, vp_view, VIEW_FIELDS)
 
 static int view_check(const vp_view *v)
@@ -45,7 +45,7 @@ static int picture_view_take(const uint8_t *p, vp_view *v)
 
 /* ---- VIS_QUERY / VIS_RESULT ----------------------------------------------------- */
 
-#define VIS_QUERY_FIELDS(X) X(u8, view_count) X(u8, flags) X(pad16, _) X(f32, min_area)
+#define VIS_QUERY_FIELDS(X) X(u8, view_count) X(u8, flags) X(pad16, pad1) X(f32, min_area)
 VP_LAYOUT(vis_query, vp_vis_query, VIS_QUERY_FIELDS)
 
 size_t vp_size_vis_query(uint32_t n)
@@ -172,7 +172,12 @@ void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
 
 /* RENDER's fields after its view */
 #define RENDER_FIELDS(X) X(u8, format) X(u8, quality) X(u8, flags) X(u8, renderer) X(f32, exposure_ev)
-VP_LAYOUT(render_tail, vp_render, RENDER_FIELDS)
+#define RENDER_CHECKS(X)                                                                                    \
+    X(max, renderer, "renderer", "0 default, 1 software, 2 OpenGL are defined", 0, VP_RENDERER_GL)         \
+    X(max, format, "format", "0 raw, 1 JPEG are defined", 0, VP_FRAME_JPEG)                                \
+    X(mask, flags, "flags", "0x1 no occlusion is defined", 0, VP_RENDER_NO_OCCLUSION)                      \
+    X(range, exposure_ev, "exposure", "", -64, 64)
+VP_LAYOUT_CHECKED(render_tail, vp_render, RENDER_FIELDS, RENDER_CHECKS)
 
 static void render_put(vp_writer *w, const vp_render *m)
 {
@@ -185,13 +190,10 @@ static int render_read(const uint8_t *p, vp_render *m)
 {
     vp_reader r;
     vp_reader_init(&r, p + VP_VIEW_SIZE, VP_RENDER_SIZE - VP_VIEW_SIZE);
-    (void)render_tail_get(&r, m);
-    if (m->renderer > VP_RENDERER_GL) return VP_ERR_INVALID;
-    if (m->format > VP_FRAME_JPEG || (m->flags & ~VP_RENDER_NO_OCCLUSION)) return VP_ERR_INVALID;
+    int rc = render_tail_check_fields(m, render_tail_get(&r, m), "", NULL, 0);
+    if (rc) return rc;
     if (m->format == VP_FRAME_JPEG && (m->quality < 1 || m->quality > 100)) return VP_ERR_INVALID;
     if (m->format == VP_FRAME_RAW && m->quality) return VP_ERR_INVALID;
-    if (!isfinite(m->exposure_ev)) return VP_ERR_NONFINITE;
-    if (fabsf(m->exposure_ev) > 64) return VP_ERR_INVALID;
     return picture_view_take(p, &m->view);
 }
 
@@ -244,7 +246,7 @@ int vp_dec_frame_sub(const uint8_t *p, size_t len, vp_frame_sub *m)
 }
 
 #define FRAME_FIELDS(X)                                                                                     \
-    X(u64, epoch) X(u16, width) X(u16, height) X(u8, format) X(pad8, _) X(u16, view_seq) X(u32, visible) \
+    X(u64, epoch) X(u16, width) X(u16, height) X(u8, format) X(pad8, pad1) X(u16, view_seq) X(u32, visible) \
     X(u32, render_ns) X(u32, encode_ns) X(u32, data_len)
 VP_LAYOUT(frame, vp_frame, FRAME_FIELDS)
 
@@ -278,7 +280,7 @@ int vp_dec_frame(const uint8_t *p, size_t len, vp_frame *m)
 
 /* ---- LIGHT_QUERY / LIGHT_TILES ------------------------------------------------------ */
 
-#define LIGHT_QUERY_FIELDS(X) X(u8, flags) X(pad8, _) X(pad16, _)
+#define LIGHT_QUERY_FIELDS(X) X(u8, flags) X(pad8, pad1) X(pad16, pad2)
 VP_LAYOUT(light_query_tail, vp_light_query, LIGHT_QUERY_FIELDS)
 
 size_t vp_size_light_query(void)
@@ -305,7 +307,7 @@ int vp_dec_light_query(const uint8_t *p, size_t len, vp_light_query *m)
 }
 
 #define LIGHT_TILES_FIELDS(X)                                                                              \
-    X(u64, epoch) X(u16, tiles_x) X(u16, tiles_y) X(u16, tile) X(u8, flags) X(pad8, _) X(u32, in_view)   \
+    X(u64, epoch) X(u16, tiles_x) X(u16, tiles_y) X(u16, tile) X(u8, flags) X(pad8, pad1) X(u32, in_view)   \
     X(u32, max_per_tile) X(u32, count) X(u32, ns)
 VP_LAYOUT(light_tiles, vp_light_tiles, LIGHT_TILES_FIELDS)
 

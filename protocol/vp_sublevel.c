@@ -142,7 +142,7 @@ int vp_dec_sublevel_begin(const uint8_t *p, size_t len, vp_sublevel_begin *m)
     return vp_reader_finish(&r);
 }
 
-#define BEGUN_FIELDS(X) X(u16, id) X(u16, class_base) X(pad32, _) X(u64, epoch)
+#define BEGUN_FIELDS(X) X(u16, id) X(u16, class_base) X(pad32, pad1) X(u64, epoch)
 VP_LAYOUT(sublevel_begun, vp_sublevel_begun, BEGUN_FIELDS)
 VP_MESSAGE(sublevel_begun, vp_sublevel_begun, VP_SUBLEVEL_BEGUN)
 VP_MESSAGE_DEC(sublevel_begun, vp_sublevel_begun)

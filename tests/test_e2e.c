@@ -312,7 +312,10 @@ static int raw_connect(const daemon_proc *d)
 }
 
 /* Reads one frame; returns its type (and the error code if ERROR), -1 on EOF. */
-static int raw_read(int fd, int32_t *code)
+/* The next frame's type (-1 at the end of the stream); an ERROR's code
+ * in *code and its message, NUL-terminated, in msg[0..cap) (each may be
+ * NULL / 0). */
+static int raw_read_msg(int fd, int32_t *code, char *msg, size_t cap)
 {
     uint8_t buf[8192];
     size_t have = 0;
@@ -321,10 +324,11 @@ static int raw_read(int fd, int32_t *code)
         size_t fs;
         int rc = vp_frame_check(buf, have, sizeof buf - VP_HEADER_SIZE, &h, &fs);
         if (rc == VP_OK) {
-            if (h.type == VP_ERROR && code) {
+            if (h.type == VP_ERROR && (code || cap)) {
                 vp_error e;
                 assert_int_equal(vp_dec_error(buf + VP_HEADER_SIZE, h.len, &e), VP_OK);
-                *code = e.code;
+                if (code) *code = e.code;
+                if (cap) snprintf(msg, cap, "%.*s", (int)e.msg_len, (const char *)e.msg);
             }
             return h.type;
         }
@@ -334,6 +338,8 @@ static int raw_read(int fd, int32_t *code)
         have += (size_t)n;
     }
 }
+
+static int raw_read(int fd, int32_t *code) { return raw_read_msg(fd, code, NULL, 0); }
 
 static void raw_hello(int fd)
 {
@@ -634,6 +640,35 @@ static void test_malformed_frames(void **state)
         assert_int_equal(raw_read(fd, NULL), VP_PONG);
     }
     close(fd);
+    assert_int_equal(vtc_ping(other), VP_OK);
+    daemon_close(&d, other);
+}
+
+/* A version 1 client (the version before the scene model) is refused
+ * with VERSION, and the message says what it sent and what the server
+ * speaks, so its user knows what to upgrade; the connection is closed. */
+static void test_hello_old_version(void **state)
+{
+    (void)state;
+    static const uint16_t sent[] = {1, 3, 65535};
+    daemon_proc d;
+    vtc_client *other = daemon_open(&d, VP_ROLE_VIEWER);
+    for (size_t i = 0; i < sizeof sent / sizeof sent[0]; i++) {
+        uint8_t buf[128];
+        char msg[VP_MAX_ERROR_MSG + 1], want[64];
+        int32_t code = 0;
+        vp_writer w;
+        int fd = raw_connect(&d);
+        vp_writer_init(&w, buf, sizeof buf);
+        vp_enc_hello(&w, 1, &(vp_hello){.magic = VP_MAGIC, .version = sent[i], .role = VP_ROLE_EDITOR});
+        assert_int_equal(write(fd, buf, w.len), (ssize_t)w.len);
+        assert_int_equal(raw_read_msg(fd, &code, msg, sizeof msg), VP_ERROR);
+        assert_int_equal(code, VP_ERR_VERSION);
+        snprintf(want, sizeof want, "version %u:", sent[i]);
+        if (!strstr(msg, want) || !strstr(msg, "speaks version 2")) fail_msg("message: %s", msg);
+        assert_int_equal(raw_read(fd, NULL), -1);
+        close(fd);
+    }
     assert_int_equal(vtc_ping(other), VP_OK);
     daemon_close(&d, other);
 }
@@ -1820,6 +1855,7 @@ static void test_limits(void **state)
 
 const struct CMUnitTest e2e_tests[] = {
     DAEMON_TEST(test_events),
+    cmocka_unit_test(test_hello_old_version),
     cmocka_unit_test(test_limits),
     DAEMON_TEST(test_occlusion_over_the_wire),
     DAEMON_TEST(test_render_frames),

@@ -21,6 +21,7 @@ int main(void)
         {protocol_tests, protocol_tests_count},
         {bytes_tests, bytes_tests_count},
         {protocol_size_tests, protocol_size_tests_count},
+        {protocol_doc_tests, protocol_doc_tests_count},
         {e2e_tests, e2e_tests_count},
         {exr_tests, exr_tests_count},
         {image_tests, image_tests_count},

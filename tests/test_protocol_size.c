@@ -419,12 +419,86 @@ static size_t case_frame(vp_writer *w, int v)
     return vp_size_frame(in[v].len);
 }
 
+/* mesh with UVs and tangents: normals, uvs, tangents each on or off
+ * (tangents only with uvs), over 0, 3 and 40000 vertices */
+static size_t case_mesh_uv(vp_writer *w, int v)
+{
+    uint32_t nv[] = {0, 3, 40000}, ni[] = {0, 3, 3 * 40000};
+    if (v >= 3 * 6) return SIZE_MAX;
+    int shape = v / 3; /* normals x {none, uvs, uvs + tangents} */
+    bool normals = shape % 2, uvs = shape / 2 >= 1, tan = shape / 2 == 2;
+    uint32_t n = nv[v % 3];
+    vp_enc_mesh_uv(w, 1, 7, g_f, normals ? g_f : NULL, uvs ? g_f : NULL, tan ? g_f : NULL, n, g_u, ni[v % 3]);
+    size_t size = vp_size_mesh_uv(n, ni[v % 3], normals, uvs, tan);
+    /* PROTOCOL.md: 12 + per vertex 12 (+12 normals, +8 uvs, +16 tangents) + 4 per index */
+    size_t per_vertex = 12 + (normals ? 12 : 0) + (uvs ? 8 : 0) + (tan ? 16 : 0);
+    assert_int_equal(size, VP_HEADER_SIZE + 12 + (size_t)n * per_vertex + 4 * (size_t)ni[v % 3]);
+    return size;
+}
+
+static size_t case_occluder_flags(vp_writer *w, int v)
+{
+    uint32_t n[] = {0, 1, 40000};
+    double origin[3] = {1, 2, 3};
+    if (v >= 3) return SIZE_MAX;
+    vp_enc_occluder_flags(w, 1, 5, VP_OCC_ATTACHED, origin, g_f, n[v]);
+    assert_int_equal(vp_size_occluder(n[v]), VP_HEADER_SIZE + 40 + 36 * (size_t)n[v]);
+    return vp_size_occluder(n[v]);
+}
+
+static vp_transform g_xf[3000];
+
+static size_t case_transforms(vp_writer *w, int v)
+{
+    uint32_t n[] = {0, 1, 3000};
+    if (v >= 3) return SIZE_MAX;
+    for (uint32_t i = 0; i < n[v]; i++) g_xf[i] = (vp_transform){.id = i, .rot = {0, 0, 0, 1}, .scale = {1, 1, 1}};
+    vp_enc_transforms(w, 1, g_xf, n[v]);
+    assert_int_equal(vp_size_transforms(n[v]), VP_HEADER_SIZE + 4 + 64 * (size_t)n[v]);
+    return vp_size_transforms(n[v]);
+}
+
+static vp_material g_mat[2000];
+
+static size_t case_materials(vp_writer *w, int v)
+{
+    uint32_t n[] = {0, 1, 2000};
+    if (v >= 3) return SIZE_MAX;
+    for (uint32_t i = 0; i < n[v]; i++) g_mat[i] = (vp_material){.id = i + 1, .roughness = 0.5f};
+    vp_enc_materials(w, 1, g_mat, n[v]);
+    assert_int_equal(vp_size_materials(n[v]), VP_HEADER_SIZE + 4 + 188 * (size_t)n[v]);
+    return vp_size_materials(n[v]);
+}
+
+static size_t case_texture_put(vp_writer *w, int v)
+{
+    static uint8_t data[1 << 20];
+    uint32_t len[] = {0, 1, sizeof data};
+    if (v >= 3) return SIZE_MAX;
+    vp_enc_texture_put(w, 1, &(vp_texture_put){.id = 3, .total = sizeof data, .len = len[v], .data = data});
+    assert_int_equal(vp_size_texture_put(len[v]), VP_HEADER_SIZE + 16 + (size_t)len[v]);
+    return vp_size_texture_put(len[v]);
+}
+
+static size_t case_env(vp_writer *w, int v)
+{
+    static const uint16_t types[] = {VP_ENV_SET, VP_ENV_REPLY, VP_ENV_SET};
+    if (v >= 3) return SIZE_MAX;
+    vp_env e;
+    vp_env_default(&e);
+    if (v == 2) e = (vp_env){0};
+    vp_enc_env(w, types[v], 1, &e);
+    assert_int_equal(vp_size_env(), VP_HEADER_SIZE + 120);
+    return vp_size_env();
+}
+
 #define SIZE_CASES(X)                                                                                      \
     X(hello) X(hello_ok) X(error) X(ping) X(empty) X(entities) X(ids) X(add_reply) X(ack) X(vis_query)     \
     X(vis_query_sub) X(vis_result) X(stats_reply) X(subscribe) X(event) X(mesh) X(occluder) X(lights)      \
     X(list) X(names) X(sublevel_ids) X(list_reply) X(sublevel_begin) X(sublevel_begun) X(sublevel_name)   \
     X(sublevel_infos) X(destroy) X(destroyed) X(mark) X(marked) X(metrics_reply) X(render) X(light_query) \
-    X(light_tiles) X(frame_sub) X(frame)
+    X(light_tiles) X(frame_sub) X(frame) X(mesh_uv) X(occluder_flags) X(transforms) X(materials)  \
+    X(texture_put) X(env)
 
 #define SIZE_TEST(name)                                                                                    \
     static void test_size_##name(void **state)                                                             \

@@ -60,8 +60,12 @@ static inline void fuzz_wclose(fuzz_wbuf *b) { free(b->mem); }
 static inline bool fuzz_same_entity(const vp_entity *a, const vp_entity *b, bool (*eq)(double, double))
 {
     if (a->id != b->id || a->handle != b->handle || a->class_id != b->class_id || a->sublevel != b->sublevel ||
-        a->flags != b->flags)
+        a->flags != b->flags || a->material != b->material)
         return false;
+    for (int k = 0; k < 3; k++)
+        if (!eq(a->pos[k], b->pos[k]) || !eq(a->scale[k], b->scale[k])) return false;
+    for (int k = 0; k < 4; k++)
+        if (!eq(a->rot[k], b->rot[k])) return false;
     for (int k = 0; k < 4; k++)
         if (!eq(a->sphere[k], b->sphere[k])) return false;
     for (int k = 0; k < 6; k++)

@@ -82,6 +82,8 @@ static vp_entity *read_entities(const vp_entity_batch *b)
     return e;
 }
 
+#include "fuzz_scene.h"
+
 /* ---- one decoder per message kind --------------------------------------------------- */
 
 static void fuzz_hello(const uint8_t *p, size_t len)
@@ -223,6 +225,12 @@ static void fuzz_ack(const uint8_t *p, size_t len)
     fuzz_wclose(&b);
 }
 
+static int ent_check(const uint8_t *recs, uint32_t n, uint32_t i, char *why, size_t whylen)
+{
+    vp_entity_batch b = {.count = n, .recs = recs, .version = 2};
+    return vp_entity_rec_check(&b, i, why, whylen);
+}
+
 static void fuzz_entities(const uint8_t *p, size_t len, uint16_t type, uint32_t limit)
 {
     vp_entity_batch m;
@@ -234,6 +242,7 @@ static void fuzz_entities(const uint8_t *p, size_t len, uint16_t type, uint32_t 
     /* a limit can only turn an accept into COUNT, never the other way */
     if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || lim.count <= limit));
     if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.count > limit);
+    check_refusal(rc, p, len, VP_ENTITY_REC_SIZE, ent_check);
     if (rc) return;
     CHECK(len == 4 + (size_t)m.count * VP_ENTITY_REC_SIZE);
     vp_entity *e = read_entities(&m);
@@ -343,6 +352,16 @@ static void fuzz_list_reply(const uint8_t *p, size_t len)
     free(e);
 }
 
+/* n floats of a decoded array (NULL: none), copied out */
+static float *floats_of(const uint8_t *p, size_t n)
+{
+    if (!p) return NULL;
+    float *f = malloc(n * sizeof *f + 1);
+    CHECK(f != NULL);
+    for (size_t k = 0; k < n; k++) f[k] = vp_ld_f32(p + 4 * k);
+    return f;
+}
+
 static void fuzz_mesh(const uint8_t *p, size_t len, uint32_t limit)
 {
     vp_mesh m;
@@ -358,20 +377,30 @@ static void fuzz_mesh(const uint8_t *p, size_t len, uint32_t limit)
     if (rc == VP_OK && (limit == 0 || (m.vertex_count <= limit && m.index_count / 3 <= limit)))
         CHECK(rcl == VP_OK);
     if (rc) return;
-    CHECK(m.index_count % 3 == 0);
-    bool normals = !(m.flags & VP_MESH_NO_NORMALS);
-    CHECK(normals == (m.normals != NULL));
-    CHECK(len == 12 + (size_t)m.vertex_count * (normals ? 24 : 12) + (size_t)m.index_count * 4);
+    CHECK(m.index_count % 3 == 0 && !(m.flags & ~VP_MESH_FLAGS));
+    bool normals = !(m.flags & VP_MESH_NO_NORMALS), uvs = m.flags & VP_MESH_UVS, tan = m.flags & VP_MESH_TANGENTS;
+    CHECK(normals == (m.normals != NULL) && uvs == (m.uvs != NULL) && tan == (m.tangents != NULL) && (uvs || !tan));
+    size_t nv = m.vertex_count;
+    CHECK(len == 12 + nv * (12 + (normals ? 12 : 0) + (uvs ? 8 : 0) + (tan ? 16 : 0)) + (size_t)m.index_count * 4);
+    CHECK(vp_size_mesh_uv(m.vertex_count, m.index_count, normals, uvs, tan) == VP_HEADER_SIZE + len);
     vp_reader r;
     vp_reader_init(&r, m.indices, (size_t)m.index_count * 4);
-    for (uint32_t i = 0; i < m.index_count; i++) CHECK(vp_get_u32(&r) < m.vertex_count);
+    uint32_t *idx = malloc((size_t)m.index_count * 4 + 1);
+    CHECK(idx != NULL);
+    for (uint32_t i = 0; i < m.index_count; i++) CHECK((idx[i] = vp_get_u32(&r)) < m.vertex_count);
     CHECK(vp_reader_finish(&r) == VP_OK);
-    vp_reader_init(&r, m.positions, (size_t)m.vertex_count * 12);
-    for (uint32_t i = 0; i < 3 * m.vertex_count; i++) (void)vp_get_f32(&r);
-    CHECK(vp_reader_finish(&r) == VP_OK);
-    vp_reader_init(&r, m.normals, normals ? (size_t)m.vertex_count * 12 : 0);
-    for (uint32_t i = 0; normals && i < 3 * m.vertex_count; i++) (void)vp_get_f32(&r);
-    CHECK(vp_reader_finish(&r) == VP_OK);
+    /* decode -> encode: the same bytes (the arrays are taken as sent) */
+    float *pos = floats_of(m.positions, 3 * nv), *nrm = floats_of(m.normals, 3 * nv), *uv = floats_of(m.uvs, 2 * nv),
+          *tg = floats_of(m.tangents, 4 * nv);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
+    vp_enc_mesh_uv(&b.w, 3, m.class_id, pos ? pos : (float[1]){0}, nrm, uv, tg, m.vertex_count, idx, m.index_count);
+    const uint8_t *q = enc_payload(&b, VP_MESH_PUT, len);
+    CHECK(memcmp(q, p, len) == 0);
+    vp_mesh x;
+    CHECK(vp_dec_mesh(q, len, 0, &x) == VP_OK && x.flags == m.flags && x.vertex_count == m.vertex_count);
+    fuzz_wclose(&b);
+    free(pos), free(nrm), free(uv), free(tg), free(idx);
 }
 
 static void fuzz_occluder(const uint8_t *p, size_t len, uint32_t limit)
@@ -385,11 +414,15 @@ static void fuzz_occluder(const uint8_t *p, size_t len, uint32_t limit)
     if (rcl == VP_OK) CHECK(rc == VP_OK && (limit == 0 || lim.tri_count <= limit));
     if (rc == VP_OK && rcl != VP_OK) CHECK(rcl == VP_ERR_COUNT && limit && m.tri_count > limit);
     if (rc) return;
-    CHECK(len == 36 + (size_t)m.tri_count * 36);
-    vp_reader r;
-    vp_reader_init(&r, m.verts, (size_t)m.tri_count * 36);
-    for (uint32_t i = 0; i < 9 * m.tri_count; i++) (void)vp_get_f32(&r);
-    CHECK(vp_reader_finish(&r) == VP_OK);
+    CHECK(len == 40 + (size_t)m.tri_count * 36 && !(m.flags & ~VP_OCC_ATTACHED));
+    /* decode -> encode: the same bytes */
+    float *v = floats_of(m.verts, 9 * (size_t)m.tri_count);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, vp_size_occluder(m.tri_count));
+    vp_enc_occluder_flags(&b.w, 4, m.id, m.flags, m.origin, v ? v : (float[1]){0}, m.tri_count);
+    CHECK(memcmp(enc_payload(&b, VP_OCCLUDER_PUT, len), p, len) == 0);
+    fuzz_wclose(&b);
+    free(v);
 }
 
 static void fuzz_lights(const uint8_t *p, size_t len, uint32_t limit)
@@ -773,7 +806,18 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_EVENT: fuzz_event(p, len); return;
     case VP_ACK: fuzz_ack(p, len); return;
     case VP_ENTITY_ADD:
-    case VP_ENTITY_UPDATE: fuzz_entities(p, len, h->type, limit); return;
+    case VP_ENTITY_UPDATE:
+        fuzz_entities(p, len, h->type, limit);
+        fuzz_entities_v1(p, len, limit); /* a version 1 journal's records */
+        return;
+    case VP_TRANSFORM_SET: fuzz_transforms(p, len, limit); return;
+    case VP_MATERIAL_PUT: fuzz_materials(p, len, limit); return;
+    case VP_TEXTURE_PUT: fuzz_texture_put(p, len); return;
+    case VP_ENV_SET:
+    case VP_ENV_REPLY: fuzz_env(p, len, h->type); return;
+    case VP_ENV_GET: fuzz_empty(p, len); return;
+    case VP_MATERIAL_REMOVE:
+    case VP_TEXTURE_REMOVE: fuzz_ids(p, len, h->type, limit); return;
     case VP_ENTITY_ADD_REPLY: fuzz_add_reply(p, len); return;
     case VP_ENTITY_REMOVE:
     case VP_OCCLUDER_REMOVE:
@@ -781,7 +825,10 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_ENTITY_LIST: fuzz_list(p, len, limit); return;
     case VP_ENTITY_LIST_REPLY: fuzz_list_reply(p, len); return;
     case VP_MESH_PUT: fuzz_mesh(p, len, limit); return;
-    case VP_OCCLUDER_PUT: fuzz_occluder(p, len, limit); return;
+    case VP_OCCLUDER_PUT:
+        fuzz_occluder(p, len, limit);
+        fuzz_occluder_v1(p, len, limit);
+        return;
     case VP_LIGHT_PUT: fuzz_lights(p, len, limit); return;
     case VP_VIS_QUERY: fuzz_vis_query(p, len); return;
     case VP_VIS_RESULT: fuzz_vis_result(p, len); return;
@@ -820,7 +867,7 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
                                      fuzz_ack,     fuzz_add_reply,   fuzz_list_reply, fuzz_vis_query,
                                      fuzz_vis_result};
     const size_t np = sizeof plain / sizeof plain[0];
-    size_t pick = h->type % (np + 6);
+    size_t pick = h->type % (np + 12);
     if (pick < np) {
         plain[pick](p, len);
         return;
@@ -831,7 +878,13 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case 2: fuzz_list(p, len, limit); break;
     case 3: fuzz_mesh(p, len, limit); break;
     case 4: fuzz_occluder(p, len, limit); break;
-    default: fuzz_lights(p, len, limit); break;
+    case 5: fuzz_lights(p, len, limit); break;
+    case 6: fuzz_transforms(p, len, limit); break;
+    case 7: fuzz_materials(p, len, limit); break;
+    case 8: fuzz_texture_put(p, len); break;
+    case 9: fuzz_env(p, len, VP_ENV_SET); break;
+    case 10: fuzz_entities_v1(p, len, limit); break;
+    default: fuzz_occluder_v1(p, len, limit); break;
     }
 }
 

@@ -208,6 +208,184 @@ static void enc_list_reply(uint32_t req, uint32_t n)
     vp_enc_list_reply(&g_w, req, n ? 1003 : 0, 8, e, n);
 }
 
+/* ---- version 2: the scene model --------------------------------------------------- */
+
+/* A placed mesh (VP_ENT_TRANSFORM): entity(i) with a material and a
+ * transform, a quarter turn about +Y, scale 2 x 1 x 0.5. */
+static vp_entity placed(uint32_t i)
+{
+    vp_entity e = entity(i);
+    e.flags |= VP_ENT_TRANSFORM;
+    e.material = 1 + i % 3;
+    e.pos[0] = 12.5 * i;
+    e.pos[2] = -4e6; /* far from the origin: f64 positions */
+    e.rot[1] = 0.70710678f;
+    e.rot[3] = 0.70710678f;
+    e.scale[0] = 2;
+    e.scale[1] = 1;
+    e.scale[2] = i % 2 ? -0.5f : 0.5f; /* mirrored on odd ones */
+    memset(e.sphere, 0, sizeof e.sphere);
+    memset(e.aabb, 0, sizeof e.aabb);
+    return e;
+}
+
+static vp_material material(uint32_t i)
+{
+    vp_material m = {.id = 1 + i, .flags = i % 2 ? VP_MAT_DOUBLE_SIDED : 0, .alpha_mode = (uint8_t)(i % 2),
+                     .alpha_cutoff = 0.5f, .base_color = {0.8f, 0.2f, 0.1f, 1}, .metallic = 0.1f * i,
+                     .roughness = 0.6f, .emissive = {1, 0.9f, 0.5f}, .emissive_strength = i ? 40.0f : 0,
+                     .normal_scale = 1};
+    for (int k = 0; k < VP_TEX_SLOTS; k++)
+        m.tex[k] = (vp_texref){.texture = i ? (uint32_t)(10 + k) : 0, .wrap_s = (uint8_t)(k % 3),
+                               .wrap_t = VP_WRAP_REPEAT, .min_filter = VP_FILTER_LINEAR_MIP_LINEAR,
+                               .mag_filter = VP_FILTER_LINEAR, .offset = {0.25f, 0}, .scale = {2, 2},
+                               .rotation = 0.5f};
+    return m;
+}
+
+/* Version 1's 104-byte entity records, written by hand (no encoder
+ * writes them any more): what a journal of a version 1 daemon holds. */
+static void enc_entities_v1(uint16_t type, uint32_t req, uint32_t n)
+{
+    vp_frame_begin(&g_w, type, req);
+    vp_put_u32(&g_w, n);
+    for (uint32_t i = 0; i < n; i++) {
+        vp_entity e = entity(i);
+        vp_put_u64(&g_w, e.id), vp_put_u32(&g_w, e.handle), vp_put_u16(&g_w, e.class_id);
+        vp_put_u16(&g_w, e.sublevel), vp_put_u32(&g_w, e.flags), vp_put_u32(&g_w, 0);
+        for (int k = 0; k < 4; k++) vp_put_f64(&g_w, e.sphere[k]);
+        for (int k = 0; k < 6; k++) vp_put_f64(&g_w, e.aabb[k]);
+    }
+    vp_frame_end(&g_w);
+}
+
+/* an editor's version 2 session: texture, material, placed entities, moves, environment */
+static void seeds_v2_stream(void)
+{
+    static const uint8_t img[8] = {0xff, 0xd8, 0xff, 0xe0, 0, 0, 0, 0};
+    vp_material m = material(1);
+    vp_entity e[2] = {placed(0), placed(1)};
+    vp_transform t = {.id = e[0].id, .rot = {0, 0, 0, 1}, .scale = {1, 1, 1}};
+    vp_env env;
+    vp_env_default(&env);
+    vp_enc_texture_put(&g_w, 2, &(vp_texture_put){.id = 10, .format = VP_TEX_JPEG, .total = 8, .len = 8, .data = img});
+    vp_enc_materials(&g_w, 3, &m, 1);
+    vp_enc_entities(&g_w, VP_ENTITY_ADD, 4, e, 2);
+    vp_enc_transforms(&g_w, 5, &t, 1);
+    vp_enc_env(&g_w, VP_ENV_SET, 6, &env);
+    vp_enc_empty(&g_w, VP_ENV_GET, 7);
+    save("stream_scene_session");
+}
+
+static void seeds_v2(void)
+{
+    size_t at;
+    {
+        vp_entity e[3] = {placed(0), placed(1), entity(2)}; /* two placed, one bounds entity */
+        vp_enc_entities(&g_w, VP_ENTITY_ADD, 40, e, 3), save("entity_add_placed");
+        e[0].rot[3] = 0.7075f; /* off unit by 4e-4: renormalised */
+        vp_enc_entities(&g_w, VP_ENTITY_UPDATE, 41, e, 3), save("entity_update_renormalised");
+        e[0].rot[3] = 1.01f;
+        vp_enc_entities(&g_w, VP_ENTITY_ADD, 42, e, 3), save("bad_entity_quaternion");
+        e[0] = placed(0);
+        e[1].scale[0] = e[1].scale[1] = 0;
+        vp_enc_entities(&g_w, VP_ENTITY_ADD, 42, e, 3), save("bad_entity_scale_zero");
+        vp_enc_list_reply(&g_w, 43, 0, 9, e, 1), save("entity_list_reply_placed");
+    }
+    {
+        vp_transform t[3];
+        for (uint32_t i = 0; i < 3; i++) {
+            vp_entity e = placed(i);
+            t[i] = (vp_transform){.id = e.id, .handle = e.handle, .pos = {e.pos[0], 1, e.pos[2]}};
+            memcpy(t[i].rot, e.rot, sizeof t[i].rot);
+            memcpy(t[i].scale, e.scale, sizeof t[i].scale);
+        }
+        vp_enc_transforms(&g_w, 44, t, 3), save("transform_set");
+        t[2].rot[0] = 0.001f; /* within tolerance */
+        vp_enc_transforms(&g_w, 44, t, 3), save("transform_set_renormalised");
+        t[1].pos[1] = NAN;
+        vp_enc_transforms(&g_w, 45, t, 3), save("bad_transform_nan");
+    }
+    {
+        vp_material m[3] = {material(0), material(1), material(2)};
+        vp_enc_materials(&g_w, 46, m, 3), save("material_put");
+        m[1].roughness = 2;
+        vp_enc_materials(&g_w, 47, m, 3), save("bad_material_roughness");
+        m[1] = material(1);
+        m[2].tex[VP_TEX_NORMAL].wrap_t = 7;
+        vp_enc_materials(&g_w, 47, m, 3), save("bad_material_wrap");
+        at = g_w.len, vp_enc_materials(&g_w, 47, m, 1), *payload_at(at, 4 + 60 + 32 + 29) = 1,
+            save("bad_material_slot_pad");
+        static const uint64_t ids[] = {1, 2};
+        vp_enc_ids(&g_w, VP_MATERIAL_REMOVE, 48, ids, 2), save("material_remove");
+        vp_enc_ids(&g_w, VP_TEXTURE_REMOVE, 48, ids, 1), save("texture_remove");
+    }
+    {
+        /* a 1 x 1 PNG, whole and in two chunks */
+        static const uint8_t png[] = {0x89, 'P',  'N',  'G',  0x0d, 0x0a, 0x1a, 0x0a, 0,    0,    0,    0x0d, 'I',
+                                      'H',  'D',  'R',  0,    0,    0,    1,    0,    0,    0,    1,    8,    6,
+                                      0,    0,    0,    0x1f, 0x15, 0xc4, 0x89, 0,    0,    0,    0x0d, 'I',  'D',
+                                      'A',  'T',  0x78, 0x9c, 0x63, 0xf8, 0xcf, 0xc0, 0xf0, 0x1f, 0,    5,    0,
+                                      1,    0xff, 0x56, 0xc7, 0x2f, 0x0d, 0,    0,    0,    0,    'I',  'E',  'N',
+                                      'D',  0xae, 0x42, 0x60, 0x82};
+        vp_texture_put x = {.id = 10, .format = VP_TEX_PNG, .flags = VP_TEX_SRGB, .total = sizeof png,
+                            .len = sizeof png, .data = png};
+        vp_enc_texture_put(&g_w, 49, &x), save("texture_put_whole");
+        x.len = 20;
+        vp_enc_texture_put(&g_w, 50, &x);
+        x.offset = 20, x.len = sizeof png - 20, x.data = png + 20;
+        vp_enc_texture_put(&g_w, 51, &x), save("texture_put_chunks");
+        x.offset = sizeof png - 2, x.len = 5;
+        vp_enc_texture_put(&g_w, 52, &x), save("bad_texture_chunk_past_total");
+        x = (vp_texture_put){.id = 11, .format = 3, .total = 4, .len = 4, .data = png};
+        vp_enc_texture_put(&g_w, 52, &x), save("bad_texture_format");
+    }
+    {
+        vp_env e;
+        vp_env_default(&e);
+        vp_enc_env(&g_w, VP_ENV_SET, 53, &e), save("env_set");
+        vp_enc_empty(&g_w, VP_ENV_GET, 54), save("env_get");
+        e.sky_mode = VP_SKY_TEXTURE, e.sky_texture = 12, e.exposure_mode = VP_EXPOSURE_FIXED;
+        vp_enc_env(&g_w, VP_ENV_REPLY, 54, &e), save("env_reply_texture_sky");
+        e.sky_texture = 0;
+        vp_enc_env(&g_w, VP_ENV_SET, 55, &e), save("bad_env_sky_texture_0");
+        vp_env_default(&e);
+        e.sun_dir[1] *= 1.5f;
+        vp_enc_env(&g_w, VP_ENV_SET, 55, &e), save("bad_env_sun_not_unit");
+    }
+    {
+        /* a quad with UVs, and with UVs and tangents */
+        static const float pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+        static const float nrm[] = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+        static const float uv[] = {0, 1, 1, 1, 1, 0, 0, 0};
+        static const float tan[] = {1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, -1};
+        static const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+        vp_enc_mesh_uv(&g_w, 56, 5, pos, nrm, uv, NULL, 4, idx, 6), save("mesh_put_uvs");
+        vp_enc_mesh_uv(&g_w, 56, 5, pos, nrm, uv, tan, 4, idx, 6), save("mesh_put_uvs_tangents");
+        vp_enc_mesh_uv(&g_w, 56, 5, pos, NULL, uv, tan, 4, idx, 6), save("mesh_put_flat_uvs_tangents");
+        at = g_w.len, vp_enc_mesh_uv(&g_w, 57, 5, pos, nrm, uv, tan, 4, idx, 6), *payload_at(at, 2) = VP_MESH_TANGENTS,
+            save("bad_mesh_tangents_without_uvs");
+    }
+    {
+        static const double origin[3] = {0, 0, 0};
+        static const float verts[] = {-1, 0, -1, 1, 0, -1, 1, 2, -1};
+        vp_enc_occluder_flags(&g_w, 58, placed(0).id, VP_OCC_ATTACHED, origin, verts, 1), save("occluder_attached");
+        vp_enc_occluder_flags(&g_w, 58, 3, 2, origin, verts, 1), save("bad_occluder_flags");
+    }
+    enc_entities_v1(VP_ENTITY_ADD, 59, 3), save("entity_add_v1");
+    at = g_w.len, enc_entities_v1(VP_ENTITY_ADD, 59, 2), *payload_at(at, 4 + 16) = 2, save("bad_entity_v1_flags");
+    {
+        /* version 1's OCCLUDER_PUT: no flags word */
+        vp_frame_begin(&g_w, VP_OCCLUDER_PUT, 60);
+        vp_put_u64(&g_w, 77), vp_put_f64(&g_w, 10), vp_put_f64(&g_w, 0), vp_put_f64(&g_w, -4), vp_put_u32(&g_w, 1);
+        static const float tri[9] = {0, 0, 0, 4, 0, 0, 4, 3, 0};
+        for (int k = 0; k < 9; k++) vp_put_f32(&g_w, tri[k]);
+        vp_frame_end(&g_w), save("occluder_put_v1");
+    }
+    enc_hello(1), seeds_v2_stream();
+}
+
+
 int main(int argc, char **argv)
 {
     if (argc != 2) {
@@ -329,7 +507,7 @@ int main(int argc, char **argv)
     /* ---- deliberately broken: each breaks one rule ---- */
     size_t at;
     at = g_w.len, enc_hello(1), patch32(payload_at(at, 0), 0x50545448u), save("bad_hello_magic"); /* "HTTP" */
-    at = g_w.len, enc_hello(1), *payload_at(at, 4) = 2, save("bad_hello_version");
+    at = g_w.len, enc_hello(1), *payload_at(at, 4) = 1, save("bad_hello_version"); /* version 1: refused */
     at = g_w.len, enc_hello(1), *payload_at(at, 6) = 3, save("bad_hello_role");
     at = g_w.len, enc_hello(1), g_buf[at + 6] = 1, save("bad_frame_flags");
     at = g_w.len, vp_enc_empty(&g_w, VP_STATS, 1), patch32(g_buf + at, 0xfffffff0u), save("bad_frame_too_large");
@@ -392,7 +570,9 @@ int main(int argc, char **argv)
     at = g_w.len, vp_enc_error(&g_w, 1, VP_ERR_INTERNAL, 0, "x"), payload_at(at, 8)[1] = 0x10, save("bad_error_msg_len");
     vp_enc_subscribe(&g_w, 1, 0x6), save("bad_subscribe_kinds");
     vp_enc_list(&g_w, 1, &(vp_list){.cursor = 5, .max = 0}), save("bad_list_max_zero");
-    at = g_w.len, enc_occluder(1), patch32(payload_at(at, 32), 0x71c71c72u), save("bad_occluder_tri_count");
+    at = g_w.len, enc_occluder(1), patch32(payload_at(at, 36), 0x71c71c72u), save("bad_occluder_tri_count");
+
+    seeds_v2();
 
     printf("gen_corpus: wrote %u files to %s\n", g_files, g_dir);
     return 0;
