@@ -286,7 +286,7 @@ static void script_model_a(sess *s)
 /* Part two: each changed again, in the journal. */
 static void script_model_b(sess *s)
 {
-    s_texture(s, 3, 16, 16, 9);
+    s_texture(s, 3, 4, 2, 9);
     s_material(s, 2, 3, 0.125f); /* replaced */
     s_env(s, 0.5f, 9);
     s_transform(s, 601, -2);
