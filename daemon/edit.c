@@ -38,8 +38,9 @@ bool edit_is(uint16_t type)
     }
 }
 
-int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batch, edit *e)
+int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batch, unsigned layout, edit *e)
 {
+    bool v1 = layout == EDIT_LAYOUT_V1;
     memset(e, 0, sizeof *e);
     e->type = type;
     e->count = 1;
@@ -47,7 +48,7 @@ int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batc
     switch (type) {
     case VP_ENTITY_ADD:
     case VP_ENTITY_UPDATE:
-        rc = vp_dec_entities(p, len, max_batch, &e->u.ents);
+        rc = v1 ? vp_dec_entities_v1(p, len, max_batch, &e->u.ents) : vp_dec_entities(p, len, max_batch, &e->u.ents);
         e->count = e->u.ents.count;
         break;
     case VP_TRANSFORM_SET:
@@ -69,7 +70,7 @@ int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batc
     case VP_MESH_PUT:
         return vp_dec_mesh(p, len, 0, &e->u.mesh);
     case VP_OCCLUDER_PUT:
-        return vp_dec_occluder(p, len, 0, &e->u.occ);
+        return v1 ? vp_dec_occluder_v1(p, len, 0, &e->u.occ) : vp_dec_occluder(p, len, 0, &e->u.occ);
     case VP_LIGHT_PUT:
         rc = vp_dec_lights(p, len, max_batch, &e->u.lights.recs, &e->u.lights.n);
         e->count = e->u.lights.n;

@@ -53,10 +53,19 @@ typedef struct edit_result {
 
 /* Whether type is a request that changes the scene (editor role). */
 bool edit_is(uint16_t type);
-/* Decodes payload p (len bytes) of request `type` into e (which points into
- * p); max_batch bounds batches (0 = the protocol's own limit). VP_OK, or a
- * code from the decoders (the message is vp_strerror's). */
-int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batch, edit *e);
+/* Payload layouts: the protocol version a payload was written in. A
+ * request off the socket is EDIT_LAYOUT; a journal says which its records
+ * are (journal.c: format 1 files hold version 1's). Version 1 differs in
+ * ENTITY_ADD / ENTITY_UPDATE (104-byte records: bounds entities, material
+ * 0) and OCCLUDER_PUT (no flags word); every other payload is the same. */
+#define EDIT_LAYOUT_V1 1u
+#define EDIT_LAYOUT 2u
+
+/* Decodes payload p (len bytes) of request `type`, in `layout` (EDIT_LAYOUT
+ * or EDIT_LAYOUT_V1), into e (which points into p); max_batch bounds
+ * batches (0 = the protocol's own limit). VP_OK, or a code from the
+ * decoders (the message is vp_strerror's). */
+int edit_decode(uint16_t type, const uint8_t *p, uint32_t len, uint32_t max_batch, unsigned layout, edit *e);
 /* The ERROR for a decode that failed with rc: for a batch whose records
  * the decoder refused (NaN, undefined flags or kinds), the first such
  * record's index and a message naming its field and the cause; else

@@ -574,7 +574,7 @@ void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
        reticle"); every other edit needs an editor */
     if (!(h->type == VP_DESTROY ? commander(s, c, h->req) : editor(s, c, h->req))) return;
     edit e;
-    int rc = edit_decode(h->type, p, h->len, s->cfg.max_batch, &e);
+    int rc = edit_decode(h->type, p, h->len, s->cfg.max_batch, EDIT_LAYOUT, &e);
     if (rc) {
         scene_err de;
         edit_explain(&e, rc, &de);

@@ -2,7 +2,7 @@
  * journal.c — the edit journal: records, the sync policies, recovery and
  * its tail check, compaction (see journal.h).
  *
- * A journal file: a 32-byte header (magic "VNTJRNL1", u64 generation, u64
+ * A journal file: a 32-byte header (magic "VNTJRNL2", u64 generation, u64
  * sequence number of its first record, u32 reserved, u32 CRC-32 of the 28
  * bytes before), then records:
  *
@@ -17,6 +17,11 @@
  * all little-endian (vp_bytes.h). A record is written with one writev; a
  * short write is cut back, so the file never ends inside a record the
  * daemon knows of.
+ *
+ * Format 1 ("VNTJRNL1", protocol version 1's daemons) is the same file
+ * with version 1's payloads (edit.h, EDIT_LAYOUT_V1). It is replayed, never
+ * appended to: a start whose current journal is format 1, or whose
+ * snapshot is an older format, upgrades the directory (upgrade()).
  */
 #include "journal.h"
 #include "log.h"
@@ -48,7 +53,8 @@
 #define REC_MAX (1u << 30)              /* no payload is this big: a bad length */
 #define DEFAULT_LIMIT (64ull << 20)     /* a snapshot once the journal passes this... */
 
-static const char MAGIC[8] = {'V', 'N', 'T', 'J', 'R', 'N', 'L', '1'};
+static const char MAGIC[8] = {'V', 'N', 'T', 'J', 'R', 'N', 'L', '2'};
+static const char MAGIC_V1[8] = {'V', 'N', 'T', 'J', 'R', 'N', 'L', '1'}; /* version 1 payloads; read, not written */
 
 struct journal {
     char *dir;
@@ -353,6 +359,17 @@ bool journal_wants_snapshot(const journal *j)
     return !j->child && !j->broken[0] && j->size > need;
 }
 
+/* Writes snapshot.tmp.<gen> (path tmp) of sc, synced: 0, or -errno. */
+static int write_tmp(const char *tmp, const scene *sc, uint64_t gen, uint64_t seq)
+{
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0) return -errno;
+    int rc = snapshot_write(fd, sc, gen, seq);
+    if (!rc && fdatasync(fd)) rc = -errno;
+    close(fd);
+    return rc;
+}
+
 int journal_snapshot(journal *j, const scene *sc)
 {
     if (j->child) return -EBUSY;
@@ -399,9 +416,7 @@ int journal_snapshot(journal *j, const scene *sc)
         if (close_range(3, ~0u, 0))
             for (long fd = 3, most = sysconf(_SC_OPEN_MAX); fd < most; fd++) close((int)fd);
         if (delay_ms) usleep((useconds_t)(delay_ms * 1000));
-        int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
-        int ok = fd >= 0 && snapshot_write(fd, sc, gen, j->seq) == 0 && fdatasync(fd) == 0;
-        _exit(ok ? 0 : 1);
+        _exit(write_tmp(tmp, sc, gen, j->seq) ? 1 : 0);
     }
     free(tmp);
     j->child = pid;
@@ -437,28 +452,38 @@ static void drop_before(journal *j, uint64_t gen)
     closedir(d);
 }
 
+/* snapshot.tmp.<gen>, written whole (ok), is renamed into place and what it
+ * makes redundant removed (the files of older generations); else, or if
+ * that fails, it is dropped and the journals stay (recovery replays across
+ * generations). Whether it is in place. */
+static bool put_in_place(journal *j, uint64_t gen, bool ok)
+{
+    char *tmp = path_of(j, "snapshot.tmp", gen), *dst = path_of(j, "snapshot", gen);
+    struct stat st;
+    if (!tmp || !dst || (ok && (rename(tmp, dst) || sync_dir(j->dir) || stat(dst, &st)))) ok = false;
+    if (ok) {
+        j->base_bytes = (uint64_t)st.st_size;
+        drop_before(j, gen);
+        LOGI("snapshot %06" PRIu64 " written: %.1f MB; older journals removed", gen, (double)st.st_size / 1e6);
+    } else if (tmp) {
+        unlink(tmp);
+    }
+    free(tmp);
+    free(dst);
+    return ok;
+}
+
 /* The child is done (status from waitpid; r its return): the snapshot is
  * put in place and what it makes redundant removed, or it is dropped. */
 static void child_done(journal *j, pid_t r, int status)
 {
     uint64_t gen = j->child_gen;
     j->child = 0;
-    char *tmp = path_of(j, "snapshot.tmp", gen), *dst = path_of(j, "snapshot", gen);
-    bool ok = r > 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0 && tmp && dst;
-    struct stat st;
-    if (ok && (rename(tmp, dst) || sync_dir(j->dir) || stat(dst, &st))) ok = false;
-    if (ok) {
-        j->base_bytes = (uint64_t)st.st_size;
-        drop_before(j, gen);
-        LOGI("snapshot %06" PRIu64 " written: %.1f MB; older journals removed", gen, (double)st.st_size / 1e6);
-    } else {
-        /* the journals stay (recovery replays across generations) */
-        if (tmp) unlink(tmp);
+    bool ok = r > 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    if (!put_in_place(j, gen, ok)) {
         LOGW("snapshot %06" PRIu64 " failed; the journals are kept and it is tried again later", gen);
         j->base_bytes = j->size; /* not again at once */
     }
-    free(tmp);
-    free(dst);
 }
 
 void journal_poll(journal *j)
@@ -555,6 +580,39 @@ static int cut_tail(const char *path, const mapped *m, size_t off, char *kept, s
     return rc;
 }
 
+/* The upgrade of a directory an older daemon wrote (what: which files,
+ * for the log): the scene just restored is written at once as snapshot
+ * <gen> in the current format, and edits go on in a new journal <gen> of
+ * the current format (nothing is ever appended to an older file). The
+ * older generations are then removed, as after any snapshot
+ * (put_in_place). Costs one snapshot of the scene, once. If the snapshot
+ * cannot be written the old files stay with the new journal after them
+ * (a valid directory: recovery replays across formats) and the next start
+ * tries again. 0 done; 1 the snapshot failed (the old files kept); -1
+ * with err when not even the journal can be started. */
+static int upgrade(journal *j, const scene *sc, uint64_t gen, uint64_t seq, const char *what, char *err,
+                   size_t errlen)
+{
+    int rc = start_file(j, gen, seq);
+    if (rc) {
+        snprintf(err, errlen, "%s/journal.%06" PRIu64 ": %s (upgrading: %s)", j->dir, gen, strerror(-rc), what);
+        return -1;
+    }
+    char *tmp = path_of(j, "snapshot.tmp", gen);
+    rc = tmp ? write_tmp(tmp, sc, gen, seq) : -ENOMEM;
+    free(tmp);
+    if (!put_in_place(j, gen, rc == 0)) {
+        LOGW("upgrade: %s; snapshot %06" PRIu64 " could not be written (%s): the old files are kept, edits go to "
+             "journal %06" PRIu64 " (format 2), and the next start tries again",
+             what, gen, strerror(rc ? -rc : EIO), gen);
+        return 1;
+    }
+    LOGI("upgrade: %s; the scene is now snapshot %06" PRIu64 " (format %u) and edits go to journal %06" PRIu64
+         " (format 2); the older files were removed",
+         what, gen, SNAPSHOT_FORMAT, gen);
+    return 0;
+}
+
 /* Whether an intact record with a sequence number of at least seq starts
  * anywhere in p[from, n): a length that fits, the sequence number, the
  * CRC. Every byte offset is tried, so a damaged length field (which puts
@@ -596,8 +654,8 @@ static bool intact_after(const uint8_t *p, size_t n, size_t from, uint64_t seq, 
  * machine crash under everysec or off whose page writeback reached the
  * disk out of order (a hole, then later records); those records were
  * never synced, and refusing still loses nothing silently. */
-static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t *seq, journal_report *rep,
-                       char *err, size_t errlen)
+static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t *seq, unsigned *format,
+                       journal_report *rep, char *err, size_t errlen)
 {
     char *path = path_of(j, "journal", gen);
     if (!path) return -1;
@@ -610,8 +668,9 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
     }
     const char *why = NULL;
     size_t off = 0;
+    *format = m.n >= HDR_SIZE && !memcmp(m.p, MAGIC_V1, 8) ? 1 : 2;
     if (m.n < HDR_SIZE) why = "shorter than its header";
-    else if (memcmp(m.p, MAGIC, 8)) why = "not a Vantage journal (bad magic)";
+    else if (*format == 2 && memcmp(m.p, MAGIC, 8)) why = "not a Vantage journal (bad magic)";
     else if (vp_ld_u32(m.p + 28) != crc(m.p, 28, NULL, 0)) why = "header CRC mismatch";
     else if (vp_ld_u64(m.p + 8) != gen) why = "header names another generation";
     else if (vp_ld_u64(m.p + 16) != *seq) why = "its first record does not follow the one before";
@@ -639,7 +698,7 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
         edit_result res;
         scene_err se = {0};
         uint16_t type = vp_ld_u16(r + 16);
-        rc = edit_decode(type, r + REC_HDR, len, 0, &e);
+        rc = edit_decode(type, r + REC_HDR, len, 0, *format == 1 ? EDIT_LAYOUT_V1 : EDIT_LAYOUT, &e);
         if (!rc) {
             e.sublevel = vp_ld_u16(r + 18);
             e.aux = vp_ld_u32(r + 20);
@@ -747,6 +806,7 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
         goto fail;
     }
     uint64_t gen = 1, seq = 1;
+    unsigned snap_format = SNAPSHOT_FORMAT, jr_format = 2;
     if (snaps.n) {
         /* the newest snapshot (a complete one: they are renamed into place) */
         gen = snaps.v[snaps.n - 1];
@@ -755,6 +815,7 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
         rc = p ? map_file(p, &m) : -ENOMEM;
         if (!rc) {
             rc = snapshot_load(m.p, m.n, sc, gen, &seq, err, errlen);
+            snap_format = snapshot_format(m.p, m.n);
             rep->snapshot_bytes = m.n;
             unmap_file(&m);
         } else {
@@ -783,9 +844,19 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
                      gen + (i - first), jrns.v[i]);
             goto fail;
         }
-        if (replay_file(j, jrns.v[i], i + 1 == jrns.n, sc, &seq, rep, err, errlen)) goto fail;
+        if (replay_file(j, jrns.v[i], i + 1 == jrns.n, sc, &seq, &jr_format, rep, err, errlen)) goto fail;
     }
-    if (first < jrns.n) {
+    if ((first < jrns.n && jr_format == 1) || snap_format < SNAPSHOT_FORMAT) {
+        /* an older daemon's directory: written anew in the current formats */
+        uint64_t next = (first < jrns.n ? jrns.v[jrns.n - 1] : gen) + 1;
+        char what[160];
+        snprintf(what, sizeof what, "%s held %s", dir,
+                 first < jrns.n && jr_format == 1 ? "a format 1 journal (protocol version 1)"
+                                                  : "a snapshot of an older format");
+        int urc = upgrade(j, sc, next, seq, what, err, errlen);
+        if (urc < 0) goto fail;
+        if (urc == 0) rep->upgrade_gen = next;
+    } else if (first < jrns.n) {
         /* go on writing the last file */
         uint64_t last = jrns.v[jrns.n - 1];
         char *p = path_of(j, "journal", last);

@@ -25,6 +25,12 @@
  * journal.<gen>.cut-<offset>) and reported; any other damage (a damaged
  * record with an intact one after it, a bad header, a damaged snapshot)
  * stops the daemon with the file and offset named (journal.c, replay_file).
+ *
+ * Formats: journals are format 2 ("VNTJRNL2"), snapshots format 3
+ * (snapshot.h). A directory an older daemon wrote (a format 1 journal,
+ * protocol version 1's payloads; a snapshot of format 1 or 2) is read and
+ * upgraded on open: a snapshot of the restored scene in the current format
+ * and a new journal after it (journal.c, upgrade()).
  */
 #ifndef VANTAGE_JOURNAL_H
 #define VANTAGE_JOURNAL_H
@@ -49,6 +55,9 @@ typedef struct journal_report {
     char cut[700];          /* what was cut, where, why, and where it is kept */
     uint32_t loads_dropped; /* sub-level loads left open by the crash, dropped */
     bool fresh;             /* the directory held no scene */
+    uint64_t upgrade_gen;   /* an older daemon's directory was upgraded: the generation
+                               written in the current formats (0: none, or its snapshot
+                               failed: then edits go to a new journal all the same) */
 } journal_report;
 
 /* Opens (creating) dir with the policy, takes its lock, and restores sc

@@ -1,8 +1,9 @@
 /*
  * snapshot.c — the scene written whole and read back exactly (snapshot.h).
  *
- * The body, in order (integers and floats little-endian, vp_bytes.h; the
- * arrays of floats and ids copied as they are, the host being little-endian):
+ * The body of format 3 ("VNTSNAP3"), in order (integers and floats
+ * little-endian, vp_bytes.h; the arrays of floats and ids copied as they
+ * are, the host being little-endian):
  *   u64 epoch, edits, debris_next; u32 sub-levels
  *   per sub-level 1..n: u8 name length, name, u8 state, u32 owner,
  *     u16 class base, u16 classes, u32 members capacity, u32 members, u64
@@ -10,21 +11,40 @@
  *   u32 hidden words, per: u32 word index, u64 bits (the non-zero words of
  *     hidden[CULL_SUBLEVEL_WORDS]); u32 hidden count, u32 unloading
  *   u32 reserved classes, per: u16 class, u16 owner (the non-zero ones)
- *   (version 1, "VNTSNAP1", still read: u64 hidden[CULL_SUBLEVEL_WORDS],
- *   u32 hidden count, u32 unloading, u16 class owner[65536], whole)
- *   u32 meshes; per: u16 class, u32 vertices, u32 indices, f32 pos, u8 has
- *     normals, f32 normals, u32 indices
+ *   u32 textures (by id); per: u32 length, a whole TEXTURE_PUT payload
+ *     (offset 0: id, format, flags and the bytes as uploaded)
+ *   u32 materials (by id); per chunk of up to 4096: u32 length, a
+ *     MATERIAL_PUT payload
+ *   the environment: a 120-byte ENV_SET payload
+ *   u32 meshes; per: u32 length, a MESH_PUT payload (UVs, tangents)
  *   u32 slots, u16 generation each, u32 free, u32 free list
- *   u32 entities; per chunk of up to 4096: an ENTITY_ADD payload, u32 handles
+ *   u32 entities; per chunk of up to 4096: an ENTITY_ADD payload (160-byte
+ *     records: material, transform), u32 handles
  *   u32 destruction volumes; per: u64 entity id, f64 origin[3], step[3],
- *     u32 n[3], u64 version, u32 spheres, f64 x4 each, f32 d, px, py, pz
- *   u32 occluders; per: u64 id, u16 sub-level, f64 origin[3], u32
- *     triangles, f32 x9 each
+ *     u32 n[3], u64 version, u32 spheres, f64 x4 each, f32 d, px, py, pz,
+ *     u8 local spheres (1: f64 x4 per sphere follow: the destruction of a
+ *     transform entity, in its local space)
+ *   u32 occluders; per: u64 id, u16 sub-level, u32 flags (VP_OCC_*), f64
+ *     origin[3], u32 triangles, f32 x9 each
  *   u32 lights; per: u16 sub-level, an 80-byte LIGHT_PUT record
+ * Textures, materials, the environment and meshes are restored through
+ * the live path (edit_decode / edit_apply of their payloads), so a texture
+ * is decoded and its mips built as an upload's are, and every check and
+ * count (users) is the live one's; textures before the materials naming
+ * them, both before the environment and the entities using them.
+ *
+ * Older formats, still read (a version 1 daemon wrote them):
+ *   format 2 ("VNTSNAP2"): no textures, materials, environment; meshes as
+ *     u16 class, u32 vertices, u32 indices, f32 pos, u8 has normals, f32
+ *     normals, u32 indices; entities in 104-byte records (bounds entities,
+ *     material 0); no local spheres; occluders without flags;
+ *   format 1 ("VNTSNAP1"): format 2 with u64 hidden[CULL_SUBLEVEL_WORDS],
+ *     u32 hidden count, u32 unloading, u16 class owner[65536], whole.
  * The child of a fork writes it (journal.c), so everything here reads the
- * scene without locks and allocates only its own buffer.
+ * scene without locks and allocates only its own buffers.
  */
 #include "snapshot.h"
+#include "edit.h"
 #include "vp_err.h"
 
 #include <errno.h>
@@ -38,8 +58,12 @@ _Static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "snapshots are written
 
 #define HDR 40u
 #define CHUNK 4096u
-static const char MAGIC[8] = {'V', 'N', 'T', 'S', 'N', 'A', 'P', '2'};
-static const char MAGIC_V1[8] = {'V', 'N', 'T', 'S', 'N', 'A', 'P', '1'}; /* dense arrays; read, not written */
+/* by format - 1; the last is written, the others read */
+static const char MAGIC[SNAPSHOT_FORMAT][8] = {
+    {'V', 'N', 'T', 'S', 'N', 'A', 'P', '1'}, /* dense arrays */
+    {'V', 'N', 'T', 'S', 'N', 'A', 'P', '2'}, /* protocol version 1's records */
+    {'V', 'N', 'T', 'S', 'N', 'A', 'P', '3'},
+};
 
 /* ---- writing: a buffered stream with a running CRC ---------------------------------------- */
 
@@ -132,6 +156,79 @@ static void write_sublevels(out *o, const scene *s)
         }
 }
 
+typedef struct kv {
+    uint64_t k, v;
+} kv;
+
+static int cmp_key(const void *a, const void *b)
+{
+    uint64_t x = ((const kv *)a)->k, y = ((const kv *)b)->k;
+    return (x > y) - (x < y);
+}
+
+/* The entries of map m by id, ascending (a snapshot does not depend on the
+ * map's history); NULL when out of memory (*n = SIZE_MAX) or empty. */
+static kv *sorted_entries(const idmap *m, size_t *n)
+{
+    *n = 0;
+    kv *e = m->count ? malloc(m->count * sizeof *e) : NULL;
+    if (m->count && !e) {
+        *n = SIZE_MAX;
+        return NULL;
+    }
+    for (size_t i = 0; i < m->cap; i++)
+        if (m->used[i]) e[(*n)++] = (kv){m->keys[i], m->vals[i]};
+    if (*n > 1) qsort(e, *n, sizeof *e, cmp_key);
+    return e;
+}
+
+/* Textures, materials and the environment: payloads of the messages that
+ * make them (snapshot_load applies them as they came). 0, or -ENOMEM. */
+static int write_model(out *o, const scene *s)
+{
+    size_t nt, nm;
+    kv *tex = sorted_entries(&s->textures, &nt), *mat = sorted_entries(&s->materials, &nm);
+    vp_material *recs = malloc(CHUNK * sizeof *recs);
+    size_t bufsz = vp_size_materials(CHUNK) > vp_size_env() ? vp_size_materials(CHUNK) : vp_size_env();
+    uint8_t *buf = malloc(bufsz);
+    int rc = nt == SIZE_MAX || nm == SIZE_MAX || !recs || !buf ? -ENOMEM : 0;
+    vp_writer w;
+    if (!rc) vp_put_u32(wr(o), (uint32_t)nt);
+    for (size_t i = 0; !rc && i < nt; i++) {
+        /* the TEXTURE_PUT header as its encoder writes it, then the bytes
+           streamed (a texture is up to 64 MiB: not copied) */
+        const scene_texture *t = (const scene_texture *)(uintptr_t)tex[i].v;
+        vp_writer_init(&w, buf, bufsz);
+        vp_enc_texture_put(&w, 0, &(vp_texture_put){.id = t->id, .format = t->format, .flags = t->flags,
+                                                      .total = t->nbytes});
+        vp_put_u32(wr(o), (uint32_t)(w.len - VP_HEADER_SIZE + t->nbytes));
+        put(o, buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+        put(o, t->bytes, t->nbytes);
+    }
+    if (!rc) vp_put_u32(wr(o), (uint32_t)nm);
+    for (size_t i = 0; !rc && i < nm;) {
+        uint32_t k = 0;
+        for (; k < CHUNK && i < nm; i++) recs[k++] = ((const scene_material *)(uintptr_t)mat[i].v)->m;
+        vp_writer_init(&w, buf, bufsz);
+        vp_enc_materials(&w, 0, recs, k);
+        vp_put_u32(wr(o), (uint32_t)(w.len - VP_HEADER_SIZE));
+        put(o, buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    }
+    if (!rc) {
+        vp_writer_init(&w, buf, bufsz);
+        vp_enc_env(&w, VP_ENV_SET, 0, &s->env);
+        put(o, buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    }
+    free(tex);
+    free(mat);
+    free(recs);
+    free(buf);
+    return rc;
+}
+
+/* Each mesh as a MESH_PUT payload, streamed: its 12-byte head (u16 class,
+ * u16 VP_MESH_* flags, u32 vertices, u32 indices: protocol.h's layout,
+ * which the decoder checks on the way back), then the arrays. */
 static void write_meshes(out *o, const scene *s)
 {
     uint32_t n = 0;
@@ -140,12 +237,19 @@ static void write_meshes(out *o, const scene *s)
     for (uint32_t c = 0; c < 65536; c++) {
         const scene_mesh *m = &s->meshes[c];
         if (!m->pos) continue;
+        const float *tan = m->uv ? m->tan : NULL;
+        uint16_t flags = (uint16_t)((m->nrm ? 0 : VP_MESH_NO_NORMALS) | (m->uv ? VP_MESH_UVS : 0) |
+                                    (tan ? VP_MESH_TANGENTS : 0));
+        size_t per = 12 + (m->nrm ? 12 : 0) + (m->uv ? 8 : 0) + (tan ? 16 : 0);
+        vp_put_u32(wr(o), (uint32_t)(12 + (size_t)m->nv * per + (size_t)m->ni * 4));
         vp_put_u16(wr(o), (uint16_t)c);
+        vp_put_u16(wr(o), flags);
         vp_put_u32(wr(o), m->nv);
         vp_put_u32(wr(o), m->ni);
         put(o, m->pos, (size_t)m->nv * 12);
-        vp_put_u8(wr(o), m->nrm != NULL);
         if (m->nrm) put(o, m->nrm, (size_t)m->nv * 12);
+        if (m->uv) put(o, m->uv, (size_t)m->nv * 8);
+        if (tan) put(o, tan, (size_t)m->nv * 16);
         put(o, m->idx, (size_t)m->ni * 4);
     }
 }
@@ -224,6 +328,9 @@ static void write_items(out *o, const scene *s)
         put(o, v->px, total * 4);
         put(o, v->py, total * 4);
         put(o, v->pz, total * 4);
+        const double(*local)[4] = ((const scene_destruct *)(uintptr_t)s->destruct.vals[i])->local;
+        vp_put_u8(wr(o), local != NULL);
+        if (local) put(o, local, (size_t)v->nsph * sizeof *local);
     }
     vp_put_u32(wr(o), (uint32_t)s->occluders.count);
     for (size_t i = 0; i < s->occluders.cap; i++) {
@@ -231,6 +338,7 @@ static void write_items(out *o, const scene *s)
         const scene_occluder *oc = (const scene_occluder *)(uintptr_t)s->occluders.vals[i];
         vp_put_u64(wr(o), oc->id);
         vp_put_u16(wr(o), oc->sublevel);
+        vp_put_u32(wr(o), oc->flags);
         put(o, oc->origin, sizeof oc->origin);
         vp_put_u32(wr(o), oc->ntris);
         put(o, oc->verts, (size_t)oc->ntris * 36);
@@ -263,8 +371,9 @@ int snapshot_write(int fd, const scene *s, uint64_t gen, uint64_t seq)
     vp_put_u64(wr(&o), s->edits);
     vp_put_u64(wr(&o), s->debris_next);
     write_sublevels(&o, s);
+    int rc = write_model(&o, s);
     write_meshes(&o, s);
-    int rc = write_entities(&o, s);
+    if (!rc) rc = write_entities(&o, s);
     write_items(&o, s);
     flush(&o);
     free(buf);
@@ -273,7 +382,7 @@ int snapshot_write(int fd, const scene *s, uint64_t gen, uint64_t seq)
     uint8_t h[HDR];
     vp_writer hw;
     vp_writer_init(&hw, h, sizeof h);
-    vp_put_bytes(&hw, MAGIC, 8);
+    vp_put_bytes(&hw, MAGIC[SNAPSHOT_FORMAT - 1], 8);
     vp_put_u64(&hw, gen);
     vp_put_u64(&hw, seq);
     vp_put_u64(&hw, o.total);
@@ -311,8 +420,117 @@ typedef struct sl_saved {
     uint64_t *members, *doomed;
 } sl_saved;
 
-static int load_body(vp_reader *r, bool v1, scene *s, char *err, size_t errlen)
+/* Restores one piece through the live path: payload p (len bytes) of
+ * request type, applied as connection loading `load` would apply it (e
+ * the decoded edit). VP_OK, or the code with why saying what was refused. */
+static int restore_edit(scene *s, uint16_t type, const uint8_t *p, uint32_t len, uint16_t load, edit *e, char *why,
+                        size_t whylen)
 {
+    int rc = edit_decode(type, p, len, 0, EDIT_LAYOUT, e);
+    if (rc) return vp_errf(why, whylen, rc, "%s: %s", vp_type_name(type), vp_strerror(rc));
+    e->sublevel = load;
+    edit_result res;
+    scene_err se = {0};
+    rc = edit_apply(s, e, &res, &se);
+    if (rc) return vp_errf(why, whylen, rc, "%s: %s", vp_type_name(type), se.msg);
+    edit_result_free(&res);
+    return VP_OK;
+}
+
+/* Format 3's textures, materials and environment (in that order: each
+ * may name the ones before). 0, or -1 with why. */
+static int load_model(vp_reader *r, scene *s, char *why, size_t whylen)
+{
+    char msg[200];
+    edit e;
+    uint32_t nt = vp_get_u32(r);
+    for (uint32_t i = 0; i < nt && !r->short_read; i++) {
+        uint32_t len = vp_get_u32(r);
+        const uint8_t *p = vp_get_bytes(r, len);
+        vp_texture_put t;
+        if (!p) break;
+        if (vp_dec_texture_put(p, len, &t) || t.offset || t.len != t.total)
+            return vp_errf(why, whylen, -1, "texture %u of %u is not a whole TEXTURE_PUT", i, nt);
+        if (restore_edit(s, VP_TEXTURE_PUT, p, len, 0, &e, msg, sizeof msg))
+            return vp_errf(why, whylen, -1, "texture %u cannot be restored: %s", t.id, msg);
+    }
+    uint32_t nm = vp_get_u32(r);
+    for (uint32_t done = 0; done < nm && !r->short_read;) {
+        uint32_t len = vp_get_u32(r);
+        const uint8_t *p = vp_get_bytes(r, len);
+        if (!p) break;
+        if (restore_edit(s, VP_MATERIAL_PUT, p, len, 0, &e, msg, sizeof msg))
+            return vp_errf(why, whylen, -1, "materials cannot be restored: %s", msg);
+        if (e.count > nm - done) return vp_errf(why, whylen, -1, "%s", "more materials than the snapshot holds");
+        done += e.count;
+    }
+    const uint8_t *env = vp_get_bytes(r, VP_ENV_SIZE);
+    if (r->short_read) return vp_errf(why, whylen, -1, "%s", "truncated or corrupt");
+    /* the environment a fresh scene has (most scenes') is not set again */
+    uint8_t cur[VP_HEADER_SIZE + VP_ENV_SIZE];
+    vp_writer w;
+    vp_writer_init(&w, cur, sizeof cur);
+    vp_enc_env(&w, VP_ENV_SET, 0, &s->env);
+    if (memcmp(cur + VP_HEADER_SIZE, env, VP_ENV_SIZE) &&
+        restore_edit(s, VP_ENV_SET, env, VP_ENV_SIZE, 0, &e, msg, sizeof msg))
+        return vp_errf(why, whylen, -1, "the environment cannot be restored: %s", msg);
+    return 0;
+}
+
+/* A mesh of format 1 or 2 (u16 class, u32 vertices, u32 indices, f32 pos,
+ * u8 has normals, f32 normals, u32 indices) as the MESH_PUT it was made
+ * by, applied. 0, or -1 with why (the reader stopped). */
+static int load_mesh_v2(vp_reader *r, scene *s, char *why, size_t whylen)
+{
+    bool nomem = false;
+    uint16_t c = vp_get_u16(r);
+    uint32_t nv = vp_get_u32(r), ni = vp_get_u32(r);
+    float *pos = take_array(r, nv, 12, &nomem), *nrm = vp_get_u8(r) ? take_array(r, nv, 12, &nomem) : NULL;
+    uint32_t *idx = take_array(r, ni, 4, &nomem);
+    size_t sz = r->short_read || nomem ? 0 : vp_size_mesh(nv, ni, nrm != NULL);
+    uint8_t *buf = sz ? malloc(sz) : NULL;
+    int rc = -1;
+    if (r->short_read) vp_errf(why, whylen, -1, "%s", "truncated or corrupt");
+    else if (nomem || !buf) vp_errf(why, whylen, -1, "%s", "out of memory");
+    else if (s->meshes[c].pos) vp_errf(why, whylen, -1, "%s", "a mesh class twice");
+    else {
+        vp_writer w;
+        vp_writer_init(&w, buf, sz);
+        vp_enc_mesh(&w, 0, c, pos, nrm, nv, idx, ni);
+        edit e;
+        rc = restore_edit(s, VP_MESH_PUT, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE),
+                          s->class_owner[c], &e, why, whylen) ? -1 : 0;
+    }
+    free(pos);
+    free(nrm);
+    free(idx);
+    free(buf);
+    return rc;
+}
+
+/* Format 3's meshes: MESH_PUT payloads. 0, or -1 with why. */
+static int load_meshes(vp_reader *r, scene *s, unsigned fmt, char *why, size_t whylen)
+{
+    uint32_t nm = vp_get_u32(r);
+    for (uint32_t i = 0; i < nm && !r->short_read; i++) {
+        if (fmt < 3) {
+            if (load_mesh_v2(r, s, why, whylen)) return -1;
+            continue;
+        }
+        uint32_t len = vp_get_u32(r);
+        const uint8_t *p = vp_get_bytes(r, len);
+        if (!p) break;
+        uint16_t c = len >= 2 ? vp_ld_u16(p) : 0;
+        edit e;
+        if (s->meshes[c].pos) return vp_errf(why, whylen, -1, "%s", "a mesh class twice");
+        if (restore_edit(s, VP_MESH_PUT, p, len, s->class_owner[c], &e, why, whylen)) return -1;
+    }
+    return r->short_read ? vp_errf(why, whylen, -1, "%s", "truncated or corrupt") : 0;
+}
+
+static int load_body(vp_reader *r, unsigned fmt, scene *s, char *err, size_t errlen)
+{
+    char whybuf[240];
     bool nomem = false;
     uint64_t epoch = vp_get_u64(r), edits = vp_get_u64(r), debris = vp_get_u64(r);
     uint32_t nsl = vp_get_u32(r);
@@ -344,7 +562,7 @@ static int load_body(vp_reader *r, bool v1, scene *s, char *err, size_t errlen)
     }
     uint64_t hidden[CULL_SUBLEVEL_WORDS] = {0};
     uint32_t nhidden, unloading;
-    if (v1) {
+    if (fmt == 1) {
         vp_get_copy(r, hidden, sizeof hidden);
         nhidden = vp_get_u32(r);
         unloading = vp_get_u32(r);
@@ -375,26 +593,12 @@ static int load_body(vp_reader *r, bool v1, scene *s, char *err, size_t errlen)
         }
     }
     if (r->short_read) goto out;
-    /* meshes */
-    uint32_t nm = vp_get_u32(r);
-    for (uint32_t i = 0; i < nm && !r->short_read; i++) {
-        uint16_t c = vp_get_u16(r);
-        scene_mesh *m = &s->meshes[c];
-        if (m->pos) {
-            why = "a mesh class twice";
-            r->short_read = true;
-            break;
-        }
-        m->nv = vp_get_u32(r);
-        m->ni = vp_get_u32(r);
-        m->pos = take_array(r, m->nv, 12, &nomem);
-        if (vp_get_u8(r)) m->nrm = take_array(r, m->nv, 12, &nomem);
-        m->idx = take_array(r, m->ni, 4, &nomem);
-        if (nomem) goto out_nomem;
-        if (!m->pos || !m->idx) r->short_read = true;
-        else s->nmeshes++;
+    /* what the entities name, then the meshes */
+    if ((fmt >= 3 && load_model(r, s, whybuf, sizeof whybuf)) || load_meshes(r, s, fmt, whybuf, sizeof whybuf)) {
+        why = whybuf;
+        r->short_read = true;
+        goto out;
     }
-    if (r->short_read) goto out;
     /* the handle allocator, then the entities at their handles */
     uint32_t nslots = vp_get_u32(r);
     if (nslots > CULL_MAX_ENTITIES) {
@@ -418,7 +622,10 @@ static int load_body(vp_reader *r, bool v1, scene *s, char *err, size_t errlen)
         uint32_t len = vp_get_u32(r);
         const uint8_t *payload = vp_get_bytes(r, len);
         vp_entity_batch b;
-        if (!payload || vp_dec_entities(payload, len, 0, &b) || b.count > live - done) {
+        int drc = !payload ? VP_ERR_TRUNCATED
+                  : fmt >= 3 ? vp_dec_entities(payload, len, 0, &b)
+                             : vp_dec_entities_v1(payload, len, 0, &b);
+        if (drc || b.count > live - done) {
             r->short_read = true;
             break;
         }
@@ -465,8 +672,11 @@ static int load_body(vp_reader *r, bool v1, scene *s, char *err, size_t errlen)
         v->px = take_array(r, total, 4, &nomem);
         v->py = take_array(r, total, 4, &nomem);
         v->pz = take_array(r, total, 4, &nomem);
+        uint8_t local = fmt >= 3 ? vp_get_u8(r) : 0;
+        if (local == 1) d->local = take_array(r, v->nsph, sizeof *d->local, &nomem);
         idmap_put(&s->destruct, eid, (uint64_t)(uintptr_t)d); /* freed with the scene from here on */
         if (nomem) goto out_nomem;
+        if (local > 1) r->short_read = true;
     }
     if (r->short_read) goto out;
     uint32_t no = vp_get_u32(r);
@@ -478,10 +688,12 @@ static int load_body(vp_reader *r, bool v1, scene *s, char *err, size_t errlen)
         }
         oc->id = vp_get_u64(r);
         oc->sublevel = vp_get_u16(r);
+        oc->flags = fmt >= 3 ? vp_get_u32(r) : 0;
         vp_get_copy(r, oc->origin, sizeof oc->origin);
         oc->ntris = vp_get_u32(r);
         oc->verts = take_array(r, (size_t)oc->ntris * 9, 4, &nomem);
-        if (r->short_read || nomem || oc->sublevel > s->nsublevels || idmap_get(&s->occluders, oc->id, NULL)) {
+        if (r->short_read || nomem || oc->sublevel > s->nsublevels || (oc->flags & ~VP_OCC_ATTACHED) ||
+            idmap_get(&s->occluders, oc->id, NULL)) {
             free(oc->verts);
             free(oc);
             if (nomem) goto out_nomem;
@@ -563,6 +775,13 @@ out_free:
     return ret;
 }
 
+unsigned snapshot_format(const uint8_t *p, size_t n)
+{
+    for (unsigned f = 1; n >= 8 && f <= SNAPSHOT_FORMAT; f++)
+        if (!memcmp(p, MAGIC[f - 1], 8)) return f;
+    return 0;
+}
+
 int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *seq, char *err, size_t errlen)
 {
     char why[160];
@@ -570,8 +789,8 @@ int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *
         snprintf(why, sizeof why, "shorter than its header (%zu bytes, offset 0)", n);
         return vp_errf(err, errlen, -1, "%s", why);
     }
-    bool v1 = !memcmp(p, MAGIC_V1, 8);
-    if (!v1 && memcmp(p, MAGIC, 8)) return vp_errf(err, errlen, -1, "%s", "not a Vantage snapshot (bad magic at offset 0)");
+    unsigned fmt = snapshot_format(p, n);
+    if (!fmt) return vp_errf(err, errlen, -1, "%s", "not a Vantage snapshot (bad magic at offset 0)");
     vp_reader h;
     vp_reader_init(&h, p + 8, HDR - 8);
     uint64_t g = vp_get_u64(&h), first = vp_get_u64(&h), body = vp_get_u64(&h);
@@ -597,5 +816,5 @@ int snapshot_load(const uint8_t *p, size_t n, scene *s, uint64_t gen, uint64_t *
     }
     vp_reader r;
     vp_reader_init(&r, p + HDR, (size_t)body);
-    return load_body(&r, v1, s, err, errlen);
+    return load_body(&r, fmt, s, err, errlen);
 }

@@ -116,7 +116,8 @@ static int put(scene *s, uint32_t id, uint8_t format, uint8_t flags, const uint8
                                                  .len = (uint32_t)n, .data = b});
     edit e;
     edit_result r;
-    int rc = edit_decode(VP_TEXTURE_PUT, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE), 0, &e);
+    int rc = edit_decode(VP_TEXTURE_PUT, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE), 0, EDIT_LAYOUT,
+                         &e);
     if (rc) edit_explain(&e, rc, err);
     else if (!(rc = edit_apply(s, &e, &r, err))) edit_result_free(&r);
     free(buf);
@@ -131,7 +132,8 @@ static int remove_tex(scene *s, const uint64_t *ids, uint32_t n, scene_err *err)
     vp_enc_ids(&w, VP_TEXTURE_REMOVE, 1, ids, n);
     edit e;
     edit_result r;
-    int rc = edit_decode(VP_TEXTURE_REMOVE, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE), 0, &e);
+    int rc = edit_decode(VP_TEXTURE_REMOVE, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE), 0, EDIT_LAYOUT,
+                         &e);
     if (!rc && !(rc = edit_apply(s, &e, &r, err))) edit_result_free(&r);
     return rc;
 }
@@ -444,7 +446,7 @@ static void test_texture_part_refused(void **state)
     vp_enc_texture_put(&w, 1, &(vp_texture_put){.id = 2, .total = 10, .len = 10, .data = part});
     buf[VP_HEADER_SIZE + 6] = 1;
     edit e;
-    int rc = edit_decode(VP_TEXTURE_PUT, buf + VP_HEADER_SIZE, VP_TEXTURE_PUT_HEADER + 10, 0, &e);
+    int rc = edit_decode(VP_TEXTURE_PUT, buf + VP_HEADER_SIZE, VP_TEXTURE_PUT_HEADER + 10, 0, EDIT_LAYOUT, &e);
     assert_int_equal(rc, VP_ERR_INVALID);
     edit_explain(&e, rc, &err);
     assert_non_null(strstr(err.msg, "texture 2: pad bytes 6..7 must be zero"));
