@@ -75,7 +75,7 @@ static void apply(city *c, const uint8_t *frame, size_t len)
     edit_result r;
     const uint8_t *p = frame + VP_HEADER_SIZE;
     uint16_t type = (uint16_t)(frame[4] | frame[5] << 8);
-    int rc = edit_decode(type, p, (uint32_t)(len - VP_HEADER_SIZE), 0, &e);
+    int rc = edit_decode(type, p, (uint32_t)(len - VP_HEADER_SIZE), 0, EDIT_LAYOUT, &e);
     if (rc) {
         edit_explain(&e, rc, &c->err);
         c->rc = rc;

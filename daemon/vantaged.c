@@ -361,7 +361,7 @@ int main(int argc, char **argv)
         edit e;
         edit_result r;
         scene_err err;
-        int erc = edit_decode(VP_ENV_SET, buf + VP_HEADER_SIZE, VP_ENV_SIZE, 0, &e);
+        int erc = edit_decode(VP_ENV_SET, buf + VP_HEADER_SIZE, VP_ENV_SIZE, 0, EDIT_LAYOUT, &e);
         if (erc) edit_explain(&e, erc, &err);
         else erc = journal_apply(cfg.journal, sc, &e, buf + VP_HEADER_SIZE, VP_ENV_SIZE, &r, &err);
         if (erc) {

@@ -46,7 +46,7 @@ static int apply(scene *s, one_edit x, scene_err *err)
     else vp_enc_entities(&w, x.type, 1, x.e, x.n);
     assert_false(w.overflow);
     edit e;
-    int rc = edit_decode(x.type, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE), 0, &e);
+    int rc = edit_decode(x.type, buf + VP_HEADER_SIZE, (uint32_t)(w.len - VP_HEADER_SIZE), 0, EDIT_LAYOUT, &e);
     if (rc) {
         edit_explain(&e, rc, err);
     } else {
