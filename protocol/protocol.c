@@ -163,6 +163,15 @@ int vp_take_rest(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8
     return rc == VP_ERR_TRAILING ? VP_ERR_COUNT : rc;
 }
 
+void vp_enc_batch(vp_writer *w, uint16_t type, uint32_t req, const void *recs, size_t stride, uint32_t n,
+                  void (*put)(vp_writer *w, const void *rec))
+{
+    vp_frame_begin(w, type, req);
+    vp_put_u32(w, n);
+    for (uint32_t i = 0; i < n; i++) put(w, (const uint8_t *)recs + i * stride);
+    vp_frame_end(w);
+}
+
 bool vp_finite_n(const double *v, int n)
 {
     for (int i = 0; i < n; i++)

@@ -162,18 +162,7 @@ int vp_dec_occluder_v1(const uint8_t *p, size_t len, uint32_t max_batch, vp_occl
     X(f32a, color) X(f32, range) X(f32, inner_cos) X(f32, outer_cos) X(rsv32, pad3)
 VP_LAYOUT(light, vp_light, LIGHT_FIELDS)
 
-size_t vp_size_lights(uint32_t n)
-{
-    return VP_HEADER_SIZE + 4 + (size_t)n * light_size();
-}
-
-void vp_enc_lights(vp_writer *w, uint32_t req, const vp_light *l, uint32_t n)
-{
-    vp_frame_begin(w, VP_LIGHT_PUT, req);
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) light_put(w, &l[i]);
-    vp_frame_end(w);
-}
+VP_BATCH_MESSAGE(lights, vp_light, VP_LIGHT_PUT, light_put, light_size())
 
 void vp_put_light(vp_writer *w, const vp_light *l)
 {

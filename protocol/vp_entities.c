@@ -171,18 +171,7 @@ int vp_trs_check(double pos[3], float rot[4], float scale[3], char *why, size_t 
     return VP_OK;
 }
 
-size_t vp_size_transforms(uint32_t n)
-{
-    return VP_HEADER_SIZE + 4 + (size_t)n * transform_size();
-}
-
-void vp_enc_transforms(vp_writer *w, uint32_t req, const vp_transform *t, uint32_t n)
-{
-    vp_frame_begin(w, VP_TRANSFORM_SET, req);
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) transform_put(w, &t[i]);
-    vp_frame_end(w);
-}
+VP_BATCH_MESSAGE(transforms, vp_transform, VP_TRANSFORM_SET, transform_put, transform_size())
 
 static void transform_read(const vp_transform_batch *b, uint32_t i, vp_transform *t)
 {

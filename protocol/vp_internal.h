@@ -34,6 +34,11 @@ int vp_take_rest(vp_reader *r, uint32_t n, size_t rec, uint32_t max, const uint8
  * replayed), where renormalising it again would move 1.4 % of them by an
  * ulp (tests/test_protocol.c, test_renormalised). */
 #define VP_UNIT_EXACT 0x1p-22
+/* A counted batch's frame: u32 n, then put(w, recs + i * stride) for
+ * each of the n records (the encoders of LIGHT_PUT, MATERIAL_PUT,
+ * TRANSFORM_SET). */
+void vp_enc_batch(vp_writer *w, uint16_t type, uint32_t req, const void *recs, size_t stride, uint32_t n,
+                  void (*put)(vp_writer *w, const void *rec));
 bool vp_finite_n(const double *v, int n);
 bool vp_finite_nf(const float *v, int n);
 

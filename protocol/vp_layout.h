@@ -289,6 +289,16 @@ int vp_check_pad(const vp_layout_desc *d, uint32_t pad, const char *pre, char *w
 #define VP_MESSAGE(msg, type, code)                                                                \
     size_t vp_size_##msg(void) { return VP_HEADER_SIZE + msg##_size(); }                           \
     void vp_enc_##msg(vp_writer *w, uint32_t req, const type *m) { msg##_enc(w, code, req, m); }
+/* The public vp_size_<msg>(n) and vp_enc_<msg>(w, req, recs, n) of a
+ * counted batch of records of C type `type` (u32 n, then put_fn of each,
+ * rec_size bytes on the wire): vp_enc_batch with put_fn. */
+#define VP_BATCH_MESSAGE(msg, type, code, put_fn, rec_size)                                          \
+    static void msg##_put_any_(vp_writer *w, const void *r) { put_fn(w, (const type *)r); }          \
+    size_t vp_size_##msg(uint32_t n) { return VP_HEADER_SIZE + 4 + (size_t)n * (rec_size); }         \
+    void vp_enc_##msg(vp_writer *w, uint32_t req, const type *r, uint32_t n)                           \
+    {                                                                                                \
+        vp_enc_batch(w, code, req, r, sizeof *r, n, msg##_put_any_);                                 \
+    }
 #define VP_MESSAGE_DEC(msg, type) \
     int vp_dec_##msg(const uint8_t *p, size_t len, type *m) { return msg##_dec(p, len, m); }
 

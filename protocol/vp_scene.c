@@ -44,19 +44,8 @@ static void material_put_all(vp_writer *w, const vp_material *m)
     for (int k = 0; k < VP_TEX_SLOTS; k++) texref_put(w, &m->tex[k]);
 }
 
-size_t vp_size_materials(uint32_t n)
-{
-    _Static_assert(VP_MATERIAL_SIZE == 188 && VP_TEXREF_SIZE == 32, "material record");
-    return VP_HEADER_SIZE + 4 + (size_t)n * (material_size() + VP_TEX_SLOTS * texref_size());
-}
-
-void vp_enc_materials(vp_writer *w, uint32_t req, const vp_material *m, uint32_t n)
-{
-    vp_frame_begin(w, VP_MATERIAL_PUT, req);
-    vp_put_u32(w, n);
-    for (uint32_t i = 0; i < n; i++) material_put_all(w, &m[i]);
-    vp_frame_end(w);
-}
+_Static_assert(VP_MATERIAL_SIZE == 188 && VP_TEXREF_SIZE == 32, "material record");
+VP_BATCH_MESSAGE(materials, vp_material, VP_MATERIAL_PUT, material_put_all, VP_MATERIAL_SIZE)
 
 void vp_put_material(vp_writer *w, const vp_material *m)
 {
