@@ -22,12 +22,9 @@ static const vt_texview *frame_tex(frame_scene *fs, const scene *sc, uint32_t id
     const scene_texture *st = scene_texture_find(sc, id);
     if (!st || (!st->mip && !st->hdr)) return NULL;
     vt_texview *t = &fs->texs[fs->ntexs];
-    /* a texture replaced under the same id has new pixel buffers: their
-       addresses stand in for a generation (scene_texture has none) */
-    uintptr_t a = (uintptr_t)(st->mip ? (const void *)st->mip : (const void *)st->hdr);
     *t = (vt_texview){.w = st->w, .h = st->h, .levels = st->hdr ? 1 : st->levels,
                       .mip = st->hdr ? NULL : (const uint8_t *const *)st->mip, .hdr = st->hdr, .id = id,
-                      .gen = (uint32_t)(a >> 4) ^ (uint32_t)((uint64_t)a >> 36) ^ st->nbytes};
+                      .gen = st->gen}; /* a texture replaced under its id has a new gen */
     idmap_put(&fs->tex_ix, id, fs->ntexs++);
     return t->hdr && !hdr ? NULL : t;
 }

@@ -52,6 +52,8 @@ typedef struct scene_texture {
     uint8_t **mip;          /* PNG / JPEG: RGBA8 per level, levels of them */
     size_t mem;             /* bytes held, for the texture memory limit */
     uint32_t users;         /* materials (and the environment) using it */
+    uint32_t gen;           /* new with every upload (scene.texture_gens): with the id, the
+                               key of a renderer's cache (the GL textures) */
 } scene_texture;
 
 typedef struct scene_occluder {
@@ -130,6 +132,7 @@ typedef struct scene {
     idmap materials;        /* id -> scene_material * */
     idmap textures;         /* id -> scene_texture * */
     uint64_t texture_mem;   /* bytes the textures hold */
+    uint32_t texture_gens;  /* textures stored, ever: the next scene_texture.gen */
     vp_env env;
     uint64_t debris_next;   /* debris entities spawned, ever */
     bool replaying;         /* a journal is being replayed: what an older

@@ -107,7 +107,7 @@ int scene_texture_put(scene *s, const vp_texture_put *m, scene_err *err)
     memcpy(bytes, m->data, m->len);
     *t = (scene_texture){.id = m->id, .format = m->format, .flags = m->flags, .bytes = bytes, .nbytes = m->len,
                          .w = w, .h = h, .levels = vt.levels, .hdr = vt.hdr, .mip = vt.mip, .mem = mem,
-                         .users = old ? old->users : 0};
+                         .users = old ? old->users : 0, .gen = ++s->texture_gens};
     /* an EXR is environment light: NaN or infinity would poison every pixel it lights */
     rc = t->hdr ? check_finite(t, err) : VP_OK;
     /* the sky's texture stays fit to be the sky */

@@ -1065,6 +1065,68 @@ static void test_scene_env_over_the_wire(void **state)
     vtc_close(c);
 }
 
+/* A texture replaced under its id shows its new pixels in the next frame
+ * from both renderers (the GL renderer keeps textures across frames by id
+ * and generation: a replacement must not show the old one). A unit quad
+ * filling the view, base colour texture only, lit by the sky colour. */
+static void test_scene_texture_replaced(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vp_env e;
+    vp_env_default(&e);
+    e.sky_mode = VP_SKY_COLOR;
+    e.sky_color[0] = e.sky_color[1] = e.sky_color[2] = 1;
+    e.sun_dir[0] = e.sun_dir[1] = e.sun_dir[2] = 0;
+    e.flags = 0;
+    e.fog_density = 0;
+    e.exposure_mode = VP_EXPOSURE_FIXED;
+    e.exposure_ev = 0;
+    assert_int_equal(vtc_env_set(c, &e, NULL), VP_OK);
+    static const float pos[12] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, nrm[12] = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+    static const float uv[8] = {0, 1, 1, 1, 1, 0, 0, 0};
+    static const uint32_t idx[6] = {0, 1, 2, 0, 2, 3};
+    assert_int_equal(vtc_put_mesh_uv(c, 5, pos, nrm, uv, NULL, 4, idx, 6), VP_OK);
+    uint8_t px[2][4 * 4 * 4];
+    for (int k = 0; k < 2; k++)
+        for (int i = 0; i < 16; i++)
+            px[k][4 * i] = k ? 0 : 255, px[k][4 * i + 1] = k ? 255 : 0, px[k][4 * i + 2] = 0, px[k][4 * i + 3] = 255;
+    uint8_t *png[2];
+    size_t len[2];
+    char why[200];
+    for (int k = 0; k < 2; k++) assert_int_equal(vt_png_encode(4, 4, px[k], 16, true, 6, &png[k], &len[k], why, sizeof why), 0);
+    assert_int_equal(vtc_texture_put(c, 1, VP_TEX_PNG, VP_TEX_SRGB, png[0], len[0], NULL), VP_OK);
+    vp_material m = {.id = 1, .base_color = {1, 1, 1, 1}, .roughness = 1, .emissive_strength = 1, .normal_scale = 1};
+    for (int k = 0; k < VP_TEX_SLOTS; k++) m.tex[k] = (vp_texref){.scale = {1, 1}, .mag_filter = VP_FILTER_NEAREST};
+    m.tex[VP_TEX_BASE].texture = 1;
+    assert_int_equal(vtc_material_put(c, &m, 1, NULL), VP_OK);
+    vp_entity ent = {.id = 1, .class_id = 5, .material = 1, .flags = VP_ENT_TRANSFORM, .pos = {0, 0, -2},
+                     .rot = {0, 0, 0, 1}, .scale = {4, 4, 1}};
+    assert_int_equal(vtc_add(c, &ent, 1, NULL, NULL), VP_OK);
+    for (int round = 0; round < 2; round++) {
+        if (round) assert_int_equal(vtc_texture_put(c, 1, VP_TEX_PNG, VP_TEX_SRGB, png[1], len[1], NULL), VP_OK);
+        for (unsigned renderer = VP_RENDERER_SOFT; renderer <= VP_RENDERER_GL; renderer++) {
+            vp_render r = {.format = VP_FRAME_RAW, .renderer = (uint8_t)renderer};
+            const double eye[3] = {0, 0, 0}, at[3] = {0, 0, -1};
+            assert_true(vtc_view_perspective(&r.view, eye, at, NULL, 40, 16, 16, 0.1, 100));
+            vp_frame f;
+            int rc = vtc_render(c, &r, &f);
+            if (rc == VP_ERR_UNSUPPORTED) continue; /* no GL here */
+            assert_int_equal(rc, VP_OK);
+            const float *o = (const float *)f.data;
+            size_t mid = 8 * 16 + 8;
+            /* red, then green: the texture's channel; the other only the dielectric's specular (4 %) */
+            float want = o[4 * mid + (round ? 1 : 0)], other = o[4 * mid + (round ? 0 : 1)];
+            if (!(want > 0 && other <= 0.1f * want))
+                fail_msg("round %d renderer %u: r %g g %g b %g", round, renderer, (double)o[4 * mid],
+                         (double)o[4 * mid + 1], (double)o[4 * mid + 2]);
+        }
+    }
+    free(png[0]);
+    free(png[1]);
+    vtc_close(c);
+}
+
 const struct CMUnitTest scene_render_tests[] = {
     cmocka_unit_test(test_scene_textured_quad),
     cmocka_unit_test(test_scene_transformed_silhouettes),
@@ -1074,5 +1136,6 @@ const struct CMUnitTest scene_render_tests[] = {
     cmocka_unit_test(test_scene_bad_input),
     cmocka_unit_test(test_scene_frame_glue),
     DAEMON_TEST(test_scene_env_over_the_wire),
+    DAEMON_TEST(test_scene_texture_replaced),
 };
 const size_t scene_render_tests_count = sizeof scene_render_tests / sizeof scene_render_tests[0];
