@@ -160,6 +160,7 @@ static int32_t wrap_i(int32_t i, int32_t n, int mode)
         if (p < 0) p += 2 * n;
         return p < n ? p : 2 * n - 1 - p;
     }
+    if (!(n & (n - 1))) return i & (n - 1); /* a power of two (most textures): the same, without a division */
     int32_t p = i % n;
     return p < 0 ? p + n : p;
 }
@@ -212,7 +213,8 @@ void vt_tex_xform(const vt_texref *r, const float uv[2], bool vec, float out[2])
 {
     float su = uv[0] * (r->scale[0] == 0 && r->scale[1] == 0 ? 1 : r->scale[0]);
     float sv = uv[1] * (r->scale[0] == 0 && r->scale[1] == 0 ? 1 : r->scale[1]);
-    float c = cosf(r->rotation), s = sinf(r->rotation);
+    /* no rotation (most slots): cos 0 = 1 and sin 0 = 0 exactly, without the calls */
+    float c = r->rotation == 0 ? 1.0f : cosf(r->rotation), s = r->rotation == 0 ? 0.0f : sinf(r->rotation);
     out[0] = c * su - s * sv + (vec ? 0 : r->offset[0]);
     out[1] = s * su + c * sv + (vec ? 0 : r->offset[1]);
 }
