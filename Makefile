@@ -89,7 +89,7 @@ CLI_OBJ  := $(BUILD)/client/cli/vantage_cli.o $(BUILD)/client/cli/cli_jsonl.o $(
             $(BUILD)/client/cli/cli_render.o $(BUILD)/client/cli/cli_frames.o $(BUILD)/client/cli/cli_sublevel.o \
             $(BUILD)/client/cli/cli_scene.o \
             $(BUILD)/client/cli/cli_env.o \
-            $(BUILD)/client/cli/cli_export.o $(BUILD)/client/cli/cli_level_send.o \
+            $(BUILD)/client/cli/cli_export.o \
             $(IMPORT_OBJ) $(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_pad.o \
             $(BUILD)/client/commander/commander.o $(BUILD)/client/commander/commander_sdl.o \
             $(BUILD)/client/loadgen/cli_scenario.o $(BUILD)/client/loadgen/scenario_events.o \
@@ -150,7 +150,7 @@ DESB_BIN := $(BUILD)/bench_destruct
 
 SCENE    ?= tests/data/scenes/city_scene.txt
 
-.PHONY: all run demo test bench bench-persist bench-commander deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-full bench bench-persist bench-commander deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN)
 
@@ -295,10 +295,18 @@ test: check-deps
 	./build/release/bench_cull --smoke
 	./build/release/bench_occlusion --smoke --scene $(SCENE)
 	./build/release/bench_render --smoke
-	VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
+	VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-	  VANTAGE_BIN_DIR=build/asan ./build/asan/vantage_tests
+	  VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/asan ./build/asan/vantage_tests
+
+# make test runs the randomized tests and the damage campaigns whole in the
+# release build and at half size in the scalar and ASan builds (every 5th
+# or 16th byte of the every-bit campaigns); make test-full runs all three
+# whole (about 5 minutes more)
+SIDE_SCALE ?= 0.5
+test-full:
+	@$(MAKE) --no-print-directory test SIDE_SCALE=1
 
 bench: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion \

@@ -79,17 +79,6 @@ int cmd_material(cli *k, int argc, char **argv);
 int cmd_texture(cli *k, int argc, char **argv);
 int cmd_env(cli *k, int argc, char **argv);
 
-/* cli_level_send.c: scene-model messages sent with vtc_send / vtc_recv
- * (libvantage has no calls for them here); a failure's message is in
- * cli_send_err, cli_send_fail prints it and returns the exit status. */
-extern char cli_send_err[1100];
-int cli_put_mesh_uv(vtc_client *c, uint16_t class_id, const float *pos, const float *nrm, const float *uv,
-                    const float *tan, uint32_t nv, const uint32_t *idx, uint32_t ni);
-int cli_put_texture(vtc_client *c, uint32_t id, uint8_t format, uint8_t flags, const uint8_t *bytes, uint32_t n);
-int cli_put_materials(vtc_client *c, const vp_material *m, uint32_t n);
-int cli_env_get(vtc_client *c, vp_env *out);
-int cli_env_set(vtc_client *c, const vp_env *e);
-int cli_send_fail(const char *what, int rc);
 
 /* cli_export.c: `vantage export FILE.glb`, the live scene as glTF 2.0 */
 int cmd_export_glb(cli *k, const char *path);

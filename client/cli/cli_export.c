@@ -222,9 +222,9 @@ static int read_lights(exporter *x)
         cursor = r.next_cursor;
     } while (cursor);
     qsort(x->light, x->nlight, sizeof *x->light, cmp_light);
-    int rc = cli_env_get(x->k->c, &x->env);
+    int rc = vtc_env_get(x->k->c, &x->env);
     if (rc == VP_ERR_TYPE) return 0; /* a daemon without an environment: no sun */
-    if (rc) return cli_send_fail("export", rc);
+    if (rc) return server_fail(x->k, "export", rc);
     double l2 = 0;
     for (int a = 0; a < 3; a++) l2 += (double)x->env.sun_dir[a] * x->env.sun_dir[a];
     x->has_env = l2 > 0 && x->env.sun_lux > 0;

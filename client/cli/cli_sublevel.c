@@ -38,58 +38,52 @@ static void progress(bool tty, const char *name, uint32_t done, uint32_t total, 
 
 #define PUSH_NOMEM 1 /* push: out of memory here, not the server's refusal */
 
-/* The level's global assets: textures (chunked), then the materials that
- * name them. Sent with cli_level_send.c's calls (*raw set on a failure:
- * its message is in cli_send_err). */
-static int push_assets(cli *k, const imp_level *lv, bool *raw)
+/* The level's global assets: textures (vtc_texture_put sends each in
+ * chunks that fit the server's frames), then the materials that name
+ * them, step records a message. */
+static int push_assets(cli *k, const imp_level *lv, uint32_t step)
 {
     int rc;
-    *raw = true;
     for (uint32_t i = 0; i < lv->ntex; i++) {
         const lvl_texture *t = &lv->tex[i];
-        if ((rc = cli_put_texture(k->c, t->id, t->format, t->flags, t->bytes, t->nbytes))) return rc;
+        if ((rc = vtc_texture_put(k->c, t->id, t->format, t->flags, t->bytes, t->nbytes, NULL))) return rc;
     }
-    if (lv->nmat && (rc = cli_put_materials(k->c, lv->mat, lv->nmat))) return rc;
-    *raw = false;
+    for (uint32_t i = 0; i < lv->nmat; i += step)
+        if ((rc = vtc_material_put(k->c, lv->mat + i, lv->nmat - i < step ? lv->nmat - i : step, NULL))) return rc;
     return VP_OK;
 }
 
 /* The sun of the file, if it has one, into the environment (the rest of
  * the environment as it is). */
-static int push_sun(cli *k, const imp_level *lv, bool *raw)
+static int push_sun(cli *k, const imp_level *lv)
 {
     if (!lv->has_sun) return VP_OK;
-    *raw = true;
     vp_env env;
-    int rc = cli_env_get(k->c, &env);
+    int rc = vtc_env_get(k->c, &env);
     if (rc) return rc;
     for (int a = 0; a < 3; a++) {
         env.sun_dir[a] = lv->sun_dir[a];
         env.sun_color[a] = lv->sun_color[a];
     }
     env.sun_lux = lv->sun_lux;
-    if ((rc = cli_env_set(k->c, &env))) return rc;
-    *raw = false;
-    return VP_OK;
+    return vtc_env_set(k->c, &env, NULL);
 }
 
 /* The level, as the load's messages: meshes, textures, materials,
  * entities, occluders, lights, the sun; VP_OK, a code from the server or
  * the connection, or PUSH_NOMEM. Batches stay within the server's
- * max_batch. *raw: the failure was a cli_level_send.c call's. */
-static int push(cli *k, const char *name, imp_level *lv, const vp_sublevel_begun *b, bool tty, double *t_ent,
-                bool *raw)
+ * max_batch. */
+static int push(cli *k, const char *name, imp_level *lv, const vp_sublevel_begun *b, bool tty, double *t_ent)
 {
     int rc;
-    *raw = true;
     uint32_t max = vtc_server(k->c)->max_batch, step = max < LOAD_BATCH ? max : LOAD_BATCH;
     for (uint32_t i = 0; i < lv->nmesh; i++) {
         const lvl_mesh *m = &lv->mesh[i];
-        if ((rc = cli_put_mesh_uv(k->c, (uint16_t)(b->class_base + i), m->pos, m->nrm, m->uv, m->tan, m->nv, m->idx,
+        if ((rc = vtc_put_mesh_uv(k->c, (uint16_t)(b->class_base + i), m->pos, m->nrm, m->uv, m->tan, m->nv, m->idx,
                                   m->ni)))
             return rc;
     }
-    if ((rc = push_assets(k, lv, raw))) return rc;
+    if ((rc = push_assets(k, lv, step))) return rc;
     vp_entity *batch = calloc(step, sizeof *batch);
     if (!batch) return PUSH_NOMEM;
     double t0 = now_s();
@@ -125,7 +119,7 @@ static int push(cli *k, const char *name, imp_level *lv, const vp_sublevel_begun
     for (uint32_t i = 0; i < lv->nlight; i++) lv->light[i].id = level_id(b->id, i);
     for (uint32_t i = 0; i < lv->nlight; i += step)
         if ((rc = vtc_put_lights(k->c, lv->light + i, lv->nlight - i < step ? lv->nlight - i : step))) return rc;
-    return push_sun(k, lv, raw);
+    return push_sun(k, lv);
 }
 
 static int sub_load(cli *k, int argc, char **argv)
@@ -173,13 +167,10 @@ static int sub_load(cli *k, int argc, char **argv)
     }
     double t1 = now_s(), t_ent = 0;
     bool tty = !json && isatty(2);
-    bool raw = false;
-    if ((rc = push(k, name, &lv, &b, tty, &t_ent, &raw))) {
+    if ((rc = push(k, name, &lv, &b, tty, &t_ent))) {
         if (rc == PUSH_NOMEM) {
             fprintf(stderr, "%s: sublevel load: out of memory\n", g_prog);
             rc = 1;
-        } else if (raw) {
-            rc = cli_send_fail("sublevel load", rc);
         } else {
             rc = server_fail(k, "sublevel load", rc);
         }
