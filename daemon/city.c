@@ -19,7 +19,9 @@
  * mapped with KHR_texture_transform), and pavement slabs.
  *
  * Version 1's city (scene_build_demo, EDIT_DEMO) stays for journals that
- * recorded it.
+ * recorded it; for the same reason a different city must be a new edit
+ * kind, never a change to this one (a journal's EDIT_CITY replays this
+ * code).
  */
 #include "edit.h"
 #include "vt_image.h"
