@@ -13,6 +13,7 @@
 #ifndef VANTAGE_VT_SHADE_H
 #define VANTAGE_VT_SHADE_H
 
+#include "vt_shadow.h"
 #include "vt_surface.h"
 
 #include <float.h>
@@ -98,6 +99,8 @@ typedef struct vt_span {
     const cull_view_rows *vr;   /* the view's rows (rays for the sky) */
     const vt_ground *gr;        /* the ground plane */
     double inv_h;               /* 2 / height: one row in NDC */
+    const struct vt_shadow *sh; /* the sun's shadow cascades (vt_shadow.h), or NULL: unshadowed */
+    const float *ao;            /* per pixel: ambient occlusion 0..1 (the SSAO pass), or NULL: 1 */
 } vt_span;
 
 /* The surface a pixel shows (a triangle's record, or the ground plane),

@@ -25,6 +25,7 @@ typedef struct surf {
     A float fr[S]; A float fg[S]; A float fb[S];   /* F0 */
     A float er[S]; A float eg[S]; A float eb[S];   /* emitted */
     A float se[S]; A float g2[S];                  /* the sun's exponent, (1 - roughness)^2 */
+    A float sv[S]; A float ao[S];                  /* the sun's visibility (shadows), ambient occlusion */
 } surf;
 
 static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
@@ -48,6 +49,7 @@ static inline void env_light(surf *restrict s, const vt_penv *pe, unsigned i)
     vf ka = vf_fma(half, ny, half), kr = vf_fma(half, vf_min(vf_max(ry, vf_set(-1)), one), half);
     vf fv = vf_sub(one, vf_max(nv, zero)), fv2 = vf_mul(fv, fv), fv5 = vf_mul(vf_mul(fv2, fv2), fv);
     vf wf = vf_mul(fv5, vf_load(s->g2 + i));
+    vf ao = vf_load(s->ao + i);
     float *const dif[3] = {s->ar, s->ag, s->ab}, *const f0[3] = {s->fr, s->fg, s->fb}, *const em[3] = {s->er, s->eg, s->eb};
     float *const out[3] = {s->cr, s->cg, s->cb};
     vf c[3];
@@ -55,7 +57,8 @@ static inline void env_light(surf *restrict s, const vt_penv *pe, unsigned i)
         vf up = vf_set(pe->amb_up[k]), dn = vf_set(pe->amb_down[k]), d = vf_sub(up, dn);
         vf la = vf_fma(ka, d, dn), lr = vf_fma(kr, d, dn), F0 = vf_load(f0[k] + i);
         vf fr = vf_fma(vf_sub(one, F0), wf, F0);
-        c[k] = vf_fma(vf_load(dif[k] + i), la, vf_fma(fr, lr, vf_load(em[k] + i)));
+        /* the ambient, occluded */
+        c[k] = vf_fma(vf_mul(vf_load(dif[k] + i), la), ao, vf_fma(vf_mul(fr, lr), ao, vf_load(em[k] + i)));
     }
     if (pe->sun_on) {
         const vf lx = vf_set(pe->sun_dir[0]), ly = vf_set(pe->sun_dir[1]), lz = vf_set(pe->sun_dir[2]);
@@ -69,7 +72,8 @@ static inline void env_light(surf *restrict s, const vt_penv *pe, unsigned i)
         vf den = vf_max(vf_add(vf_sub(se, vf_mul(se, ndh)), ndh), vf_set(1e-6f));
         vf lobe = vf_mul(vf_mul(vf_add(se, vf_set(8)), vf_set(1.0f / (8 * 3.14159265f))), vf_div(ndh, den));
         vf f1 = vf_sub(one, vh), f2 = vf_mul(f1, f1), f5 = vf_mul(vf_mul(f2, f2), f1);
-        vf kl = vf_select(vf_lt(zero, ndl), ndl, zero);
+        /* n.l, times the sun's visibility (the shadow cascades) */
+        vf kl = vf_mul(vf_select(vf_lt(zero, ndl), ndl, zero), vf_load(s->sv + i));
         for (int k = 0; k < 3; k++) {
             vf F0 = vf_load(f0[k] + i), F = vf_fma(vf_sub(one, F0), f5, F0);
             vf b = vf_fma(F, lobe, vf_mul(vf_load(dif[k] + i), vf_set(1.0f / 3.14159265f)));
@@ -183,6 +187,7 @@ void VT_SHADE_NAME(const vt_span *sp)
             s.ar[i] = s.ag[i] = s.ab[i] = 0;
             s.cr[i] = s.cg[i] = s.cb[i] = 0;
             s.fr[i] = s.fg[i] = s.fb[i] = s.er[i] = s.eg[i] = s.eb[i] = s.se[i] = s.g2[i] = 0;
+            s.sv[i] = s.ao[i] = 0;
             cov[i] = 0;
             continue;
         }
@@ -197,6 +202,8 @@ void VT_SHADE_NAME(const vt_span *sp)
             s.fr[i] = o.f0[0], s.fg[i] = o.f0[1], s.fb[i] = o.f0[2];
             s.er[i] = o.em[0], s.eg[i] = o.em[1], s.eb[i] = o.em[2];
             s.se[i] = o.s, s.g2[i] = o.g2;
+            s.sv[i] = sp->sh ? vt_shadow_sun(sp->sh, p, o.n) : 1.0f;
+            s.ao[i] = sp->ao ? sp->ao[i] : 1.0f;
             /* without an environment: the constant ambient of before */
             s.cr[i] = VT_AMBIENT * o.diffuse[0] + o.em[0];
             s.cg[i] = VT_AMBIENT * o.diffuse[1] + o.em[1];

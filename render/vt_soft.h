@@ -73,8 +73,35 @@ typedef struct vt_soft_stats {
     uint32_t max_lights_per_tile;
     uint32_t threads;
     uint64_t setup_ns, raster_ns, bin_ns, shade_ns;
+    /* issue 20's passes (0 when off): the sun's shadow cascades (caster
+       set-up and depth raster), the ambient occlusion from the nearness
+       buffer, the post passes (FXAA, exposure) */
+    uint64_t shadow_ns, ssao_ns, post_ns;
+    uint32_t shadow_triangles; /* drawn into the cascades, all together */
     float exposure_ev;      /* the EV100 the frame was exposed with (0 without an environment) */
 } vt_soft_stats;
+
+/* The effects of a frame with an environment (issue 20), as bits of
+ * vt_frame.fx_off: each is on unless its bit is set. Without an
+ * environment none of them runs (the look before the scene model). */
+enum {
+    VT_FX_SHADOWS = 1u << 0, /* the sun's cascaded shadow maps (vt_shadow.h) */
+    VT_FX_SSAO = 1u << 1,    /* screen-space ambient occlusion from the nearness buffer */
+    VT_FX_IBL = 1u << 2,     /* image-based ambient (irradiance + prefiltered specular); off: the
+                                two-colour hemisphere ambient of issue 19 */
+    VT_FX_FXAA = 1u << 3,    /* FXAA over the exposed picture */
+    VT_FX_MSAA = 1u << 4     /* the GL path's multisampling (where it is cheap) */
+};
+
+/* A stream's eye adaptation (issue 20): the exposure the last frame used,
+ * carried by the caller from frame to frame of one viewer's stream. The
+ * renderer moves it towards the new frame's histogram exposure at a
+ * bounded rate per second of dt; invalid: the first frame, exposed from
+ * its own histogram alone. */
+typedef struct vt_adapt {
+    float ev;               /* EV100 of the last frame */
+    bool valid;
+} vt_adapt;
 
 /* One picture's inputs and outputs (both renderers take it). Zero fields
  * default: no lights, no environment. */
@@ -93,6 +120,14 @@ typedef struct vt_frame {
                                exposure, and alpha 1 everywhere */
     float *rgba, *depth;    /* width x height, stride pixels apart */
     size_t stride;
+    uint32_t fx_off;        /* VT_FX_* bits turned off; zero: every effect on */
+    const vt_instance *casters; /* what may cast the sun's shadows into the view
+                               (a superset of inst: casters out of the view
+                               frustum included); NULL: inst */
+    uint32_t ncasters;
+    vt_adapt *adapt;        /* a stream's eye adaptation (in and out); NULL: a
+                               single picture */
+    float dt;               /* seconds since adapt's frame, >= 0 */
 } vt_frame;
 
 typedef struct vt_soft vt_soft;
