@@ -16,18 +16,9 @@
 set -euo pipefail
 B=${1:-build/release}
 OUT=${2:-docs}
-ROOT=$(mktemp -d /tmp/vantage-docs.XXXXXX)
-PID=
-cleanup() {
-    if [ -n "$PID" ]; then kill "$PID" 2>/dev/null || true; wait "$PID" 2>/dev/null || true; fi
-    rm -rf "$ROOT"
-}
-trap cleanup EXIT
-V() { "$B/vantage" -s "$ROOT/s.sock" "$@"; }
-"$B/vantaged" --scene demo --bind "" --unix "$ROOT/s.sock" --data-dir "$ROOT/data" --log-level warn 2>"$ROOT/log" &
-PID=$!
-for _ in $(seq 400); do V ping >/dev/null 2>&1 && break; sleep 0.05; done
-V ping >/dev/null || { echo "docs_renders.sh: vantaged did not start"; cat "$ROOT/log"; exit 1; }
+# shellcheck source=tests/bench/vantaged_tmp.sh
+. "$(dirname "$0")/vantaged_tmp.sh"
+start_daemon docs --scene demo
 mkdir -p "$OUT"
 
 shot() { # shot NAME render-options...

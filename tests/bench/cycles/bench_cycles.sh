@@ -31,29 +31,9 @@ $PY -c 'import numpy' || { echo "bench_cycles.sh: compare.py needs numpy (apt-ge
 # the comparison tool first checks itself (SSIM against its references)
 $PY "$HERE/compare.py" --self-check | tail -1
 command -v "$BLENDER" >/dev/null || { echo "bench_cycles.sh: no $BLENDER (apt-get install blender)"; exit 1; }
-ROOT=$(mktemp -d /tmp/vantage-cycles.XXXXXX)
-PID=
-cleanup() {
-    if [ -n "$PID" ]; then kill "$PID" 2>/dev/null || true; wait "$PID" 2>/dev/null || true; fi
-    rm -rf "$ROOT"
-}
-trap cleanup EXIT
+# shellcheck source=tests/bench/vantaged_tmp.sh
+. "$HERE/../vantaged_tmp.sh"
 mkdir -p "$OUT"
-V() { "$B/vantage" -s "$ROOT/s.sock" "$@"; }
-
-start() { # start NAME [vantaged args]
-    local name=$1
-    shift
-    "$B/vantaged" --bind "" --unix "$ROOT/s.sock" --data-dir "$ROOT/data.$name" --log-level warn "$@" \
-        2>"$ROOT/log.$name" &
-    PID=$!
-    for _ in $(seq 400); do V ping >/dev/null 2>&1 && return; sleep 0.05; done
-    echo "bench_cycles.sh: vantaged did not start"; cat "$ROOT/log.$name"; exit 1
-}
-
-stop() {
-    kill "$PID"; wait "$PID" 2>/dev/null || true; PID=
-}
 
 # The environment both renderers get: set on the daemon here and passed
 # to Blender as the same numbers (SUN = azimuth,elevation,lux; SKY =
@@ -72,7 +52,7 @@ env_set() {
 scene_boxes() {
     # boxes and spheres of five materials (diffuse, plastic, gold, glossy,
     # rough) on a grey ground, the sun at 50 degrees, the analytic sky
-    start boxes --scene empty
+    start_daemon boxes --scene empty
     $PY "$HERE/scenes.py" boxes "$ROOT/boxes.gltf"
     V import "$ROOT/boxes.gltf" >/dev/null
     # one more through the CLI: a semi-gloss white cube (mesh class 1 is
@@ -86,7 +66,7 @@ scene_boxes() {
 scene_textured() {
     # brick walls (an sRGB base-colour texture, mipmapped) on a concrete
     # slab under a uniform blue-grey sky and a low sun from the south-east
-    start textured --scene empty
+    start_daemon textured --scene empty
     $PY "$HERE/scenes.py" textured "$ROOT/textured.gltf"
     V import "$ROOT/textured.gltf" >/dev/null
     SUN=150,35,80000 SUN_COLOR=1,0.95,0.88 SKY=color:2500,3200,4500 GROUND=0,0.3,0.3,0.3 EV=14.5
@@ -96,7 +76,7 @@ scene_textured() {
 scene_city() {
     # a corner of the demo city by day (300 cars): buildings with textured
     # facades, pavements, roofs, trees, lamps, the day preset's sun
-    start city --scene demo --props 300
+    start_daemon city --scene demo --props 300
     SUN=225,50,100000 SUN_COLOR=1,0.96,0.9 SKY=analytic:2.5 GROUND=0,0.08,0.08,0.085 EV=15
     EYE=4,30,-60 AT=0,5,20 FOV=60
 }
@@ -111,7 +91,7 @@ for s in $SCENES; do
     V render "${cam[@]}" -o "$d/vantage.exr"
     V render "${cam[@]}" -o "$d/vantage.png"
     V export "$d/scene.glb"
-    stop
+    stop_daemon
     for seed in 1 2; do
         name=$([ $seed = 1 ] && echo cycles || echo cycles_b)
         t0=$(date +%s)

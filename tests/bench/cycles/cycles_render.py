@@ -120,17 +120,21 @@ def preetham(d, sdir, T):
 
 
 def sky_image(sdir, T, mul, scale, path, w=1024, h=512):
-    """Blender's equirectangular layout: u = atan2(dir.y, -dir.x) / 2pi + 0.5,
-    v = atan2(dir.z, hypot(dir.x, dir.y)) / pi + 0.5 (Z-up), rows bottom-up"""
+    """Blender's equirectangular layout (Cycles' direction_to_equirectangular):
+    u = 0.5 - atan2(dir.y, dir.x) / 2pi, v = 0.5 + asin(dir.z) / pi (Z-up),
+    rows bottom-up"""
     u = (np.arange(w) + 0.5) / w
     v = (np.arange(h) + 0.5) / h
     phi = (u - 0.5) * 2 * math.pi
     lat = (v - 0.5) * math.pi
     lat, phi = np.meshgrid(lat, phi, indexing="ij")
-    bx, by, bz = -np.cos(lat) * np.cos(phi), np.cos(lat) * np.sin(phi), np.sin(lat)
+    bx, by, bz = np.cos(lat) * np.cos(phi), -np.cos(lat) * np.sin(phi), np.sin(lat)
     d = np.stack([bx, bz, -by], -1)  # Blender (x, y, z) -> glTF (x, z, -y)
     rgb = preetham(d, sdir, T) * np.array(mul) * scale
     img = bpy.data.images.new("vantage_sky", w, h, alpha=False, float_buffer=True)
+    # Non-Color before the pixels: a 'Linear' generated image is written to
+    # EXR sRGB-encoded by Blender 3.4 (0.4 comes back 0.665)
+    img.colorspace_settings.name = "Non-Color"
     px = np.concatenate([rgb, np.ones((h, w, 1))], -1).astype(np.float32)
     img.pixels.foreach_set(px.ravel())
     # Cycles reads a generated image's original buffer, not edited pixels:
