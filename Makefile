@@ -7,6 +7,8 @@
 #                          the scalar-only build, and a bench smoke run
 #   make bench             the full culling, occlusion, render and pad-parser benchmarks
 #                          (bench_cull, bench_occlusion, bench_render, bench_pad)
+#   make bench-cycles      the renderer against Blender Cycles (SSIM per scene, minutes)
+#   make docs-renders      the demo city pictures in docs/ (day, night, street, aerial, ...)
 #   make report            run time against error of the culling configurations and a
 #                          numerical stress table: docs/report/ (tables, CSV, SVG plot)
 #   make deps              install the Debian packages the build needs
@@ -150,7 +152,7 @@ DESB_BIN := $(BUILD)/bench_destruct
 
 SCENE    ?= tests/data/scenes/city_scene.txt
 
-.PHONY: all run demo test test-full bench bench-persist bench-commander deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN)
 
@@ -325,6 +327,18 @@ bench-persist: check-deps
 bench-commander: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
 	tests/bench/bench_commander.sh build/release $(or $(BENCH_SECONDS),15)
+
+# the renderer against Blender Cycles on three scenes: SSIM and luminance
+# differences, side-by-side pictures in build/bench-cycles (minutes; needs
+# blender and python3-numpy; not part of make test)
+bench-cycles: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	tests/bench/cycles/bench_cycles.sh build/release build/bench-cycles
+
+# the demo city pictures in docs/ (day, night, street, aerial, top-down, destruction)
+docs-renders: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	tests/bench/docs_renders.sh build/release docs
 
 # ---- install: the binaries, libvantage, its headers and pkg-config file ----------
 PREFIX ?= /usr/local
