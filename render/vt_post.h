@@ -9,7 +9,7 @@
  * pixel, linear HDR, rows bottom-up, `stride` pixels apart. The passes run
  * in place, over bands of rows on a cull_pool (NULL: one thread); FXAA
  * needs a copy of the picture, the scratch of a vt_post (owned by the
- * renderer, grown as needed, 16 bytes per pixel).
+ * renderer, grown as needed, 20 bytes per pixel).
  */
 #ifndef VANTAGE_VT_POST_H
 #define VANTAGE_VT_POST_H
@@ -50,7 +50,7 @@ extern "C" {
 #define VT_ADAPT_TAU_DOWN 1.5f
 
 typedef struct vt_post {
-    float *scratch; /* FXAA's copy: compressed colour + luma per pixel */
+    float *scratch; /* FXAA's copy of the picture (4 floats a pixel), then its luma plane */
     size_t cap;     /* in floats */
 } vt_post;
 

@@ -34,6 +34,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static void view_at(cull_view *v, const double eye[3], const double at[3], uint32_t w, uint32_t h, double fov)
 {
@@ -320,6 +321,67 @@ static void test_post_eye_adaptation(void **state)
     vt_soft_destroy(sr);
     free(c);
     free(d);
+}
+
+/* A stream's eye adaptation through the daemon: a uniform sky of L under
+ * auto exposure comes back at L / (1.2 x 2^EV) (RAW), so each frame tells
+ * its EV. A stream's first frame is exposed at the target at once; when
+ * the sky brightens 8 EV, the frames that follow (re-aimed every 100 ms)
+ * climb towards the new target without passing it, the first well short
+ * of it, the last within 0.3 EV (20 frames, 2 s = 4 time constants:
+ * 8 EV x e^-4 = 0.15 EV); a new stream starts at the target again. */
+static double stream_ev(vtc_client *v, double L)
+{
+    vp_frame f;
+    assert_int_equal(vtc_wait_frame(v, &f, 10000), VP_OK);
+    const float *px = (const float *)f.data;
+    return log2(L / (1.2 * px[4 * (12 * 32 + 16) + 1]));
+}
+
+static void test_post_stream_adaptation(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
+    vp_env e;
+    vp_env_default(&e);
+    e.sky_mode = VP_SKY_COLOR;
+    e.sky_color[0] = e.sky_color[1] = e.sky_color[2] = 1;
+    e.sky_intensity = 2;
+    e.flags = 0;
+    e.fog_density = 0;
+    e.exposure_mode = VP_EXPOSURE_AUTO;
+    e.exposure_comp = 0;
+    e.sun_lux = 0;
+    assert_int_equal(vtc_env_set(ed, &e, NULL), VP_OK);
+    vtc_client *v = connect_role(d, VP_ROLE_VIEWER, false);
+    vp_frame_sub sub = {.r = {.format = VP_FRAME_RAW}, .max_fps = VP_FRAME_SUB_MAX_FPS};
+    const double eye[3] = {0, 0, 0}, at[3] = {0.1, 10, -1};
+    assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 60, 32, 24, 0.1, 100));
+    assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
+    /* one bin: the target is its centre, within 1/8 EV of log2(2 x 8) = 4 */
+    double ev0 = stream_ev(v, 2);
+    assert_true(fabs(ev0 - 4) <= 0.125 + 1e-4);
+    e.sky_intensity = 512;
+    assert_int_equal(vtc_env_set(ed, &e, NULL), VP_OK);
+    double target = ev0 + 8, prev = ev0, first = 0;
+    for (int k = 0; k < 20; k++) {
+        double ev = k ? (vtc_frame_subscribe(v, &sub), stream_ev(v, 512)) : stream_ev(v, 512);
+        if (!k) first = ev;
+        if (!(ev >= prev - 1e-4 && ev <= target + 1e-4)) fail_msg("frame %d: ev %.4f after %.4f, target %.4f", k, ev, prev, target);
+        prev = ev;
+        usleep(100000);
+    }
+    print_message("stream: EV %.2f, sky 8 EV brighter: first frame %.2f, after 2 s %.2f (target %.2f)\n", ev0, first,
+                  prev, target);
+    assert_true(first < target - 2); /* a frame comes within ~0.1 s: 8 (1 - e^-0.2) = 1.5 EV of the way at most */
+    assert_true(prev > target - 0.3);
+    assert_int_equal(vtc_frame_unsubscribe(v), VP_OK);
+    e.sky_intensity = 2;
+    assert_int_equal(vtc_env_set(ed, &e, NULL), VP_OK);
+    assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
+    assert_true(fabs(stream_ev(v, 2) - ev0) < 1e-4); /* a new stream: no memory of the bright sky */
+    vtc_close(v);
+    vtc_close(ed);
 }
 
 /* ---- the demo city's exposure coverage ------------------------------------------------------ */
@@ -635,6 +697,7 @@ const struct CMUnitTest post_tests[] = {
     cmocka_unit_test(test_post_fxaa_flat_and_bad),
     cmocka_unit_test(test_post_histogram_vs_sort),
     cmocka_unit_test(test_post_eye_adaptation),
+    DAEMON_TEST(test_post_stream_adaptation),
     cmocka_unit_test(test_post_city_exposure),
     cmocka_unit_test(test_post_lut_identity_and_warm),
     TEST_ROWS(test_post_lut_bad, bad_cubes),
