@@ -8,12 +8,12 @@
 
 #include "vt_err.h"
 #include "vt_file.h"
+#include "vp_err.h"
 
 #include <ctype.h>
 #include <errno.h>
 #include <float.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,17 +26,9 @@ void vt_lut_free(vt_lut3d *l)
     *l = (vt_lut3d){0};
 }
 
-static int fail(vt_lut3d *out, int rc, char *err, size_t errlen, const char *fmt, ...)
-{
-    vt_lut_free(out);
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return rc;
-}
+/* An error: the message formatted (from *out's fields, still there), then
+ * the table freed and *out zeroed; rc (a constant). */
+#define fail(out, rc, err, errlen, ...) (vp_errf(err, errlen, rc, __VA_ARGS__), vt_lut_free(out), (rc))
 
 /* k finite floats separated by blanks, nothing after: 0, else -1. */
 static int numbers(const char *s, int k, float *v)
@@ -209,26 +201,7 @@ int vt_lut_load(const char *path, vt_lut3d *out, char *err, size_t errlen)
 
 void vt_lut_apply(const vt_lut3d *l, const float in[3], float out[3])
 {
-    const uint32_t n = l->n;
-    uint32_t i[3];
-    float f[3];
-    for (int k = 0; k < 3; k++) {
-        float x = (in[k] - l->dmin[k]) / (l->dmax[k] - l->dmin[k]);
-        x = x > 0 ? (x < 1 ? x : 1.0f) : 0.0f; /* NaN: 0 */
-        x *= (float)(n - 1);
-        uint32_t c = (uint32_t)x;
-        if (c > n - 2) c = n - 2;
-        i[k] = c;
-        f[k] = x - (float)c;
-    }
-    const size_t sr = 3, sg = 3 * (size_t)n, sb = 3 * (size_t)n * n;
-    const float *p = l->rgb + i[0] * sr + i[1] * sg + i[2] * sb;
-    for (int k = 0; k < 3; k++) {
-        float c00 = p[k] + (p[sr + k] - p[k]) * f[0];
-        float c10 = p[sg + k] + (p[sg + sr + k] - p[sg + k]) * f[0];
-        float c01 = p[sb + k] + (p[sb + sr + k] - p[sb + k]) * f[0];
-        float c11 = p[sb + sg + k] + (p[sb + sg + sr + k] - p[sb + sg + k]) * f[0];
-        float c0 = c00 + (c10 - c00) * f[1], c1 = c01 + (c11 - c01) * f[1];
-        out[k] = c0 + (c1 - c0) * f[2];
-    }
+    float k[3];
+    vt_lut_scale(l, k);
+    vt_lut_sample(l, k, in, out);
 }

@@ -51,6 +51,39 @@ void vt_lut_free(vt_lut3d *l);
  * 8 surrounding rows. in and out may alias. */
 void vt_lut_apply(const vt_lut3d *l, const float in[3], float out[3]);
 
+/* vt_lut_apply inline, for loops over pixels: k[c] = (n - 1) /
+ * (dmax[c] - dmin[c]), computed once by the caller (vt_lut_scale). */
+static inline void vt_lut_scale(const vt_lut3d *l, float k[3])
+{
+    for (int c = 0; c < 3; c++) k[c] = (float)(l->n - 1) / (l->dmax[c] - l->dmin[c]);
+}
+
+static inline void vt_lut_sample(const vt_lut3d *l, const float k[3], const float in[3], float out[3])
+{
+    const uint32_t n = l->n;
+    uint32_t i[3];
+    float f[3];
+    for (int c = 0; c < 3; c++) {
+        float x = (in[c] - l->dmin[c]) * k[c];
+        float top = (float)(n - 1);
+        x = x > 0 ? (x < top ? x : top) : 0.0f; /* NaN: 0 */
+        uint32_t q = (uint32_t)x;
+        if (q > n - 2) q = n - 2;
+        i[c] = q;
+        f[c] = x - (float)q;
+    }
+    const size_t sr = 3, sg = 3 * (size_t)n, sb = 3 * (size_t)n * n;
+    const float *p = l->rgb + i[0] * sr + i[1] * sg + i[2] * sb;
+    for (int c = 0; c < 3; c++) {
+        float c00 = p[c] + (p[sr + c] - p[c]) * f[0];
+        float c10 = p[sg + c] + (p[sg + sr + c] - p[sg + c]) * f[0];
+        float c01 = p[sb + c] + (p[sb + sr + c] - p[sb + c]) * f[0];
+        float c11 = p[sb + sg + c] + (p[sb + sg + sr + c] - p[sb + sg + c]) * f[0];
+        float c0 = c00 + (c10 - c00) * f[1], c1 = c01 + (c11 - c01) * f[1];
+        out[c] = c0 + (c1 - c0) * f[2];
+    }
+}
+
 #ifdef __cplusplus
 }
 #endif

@@ -235,6 +235,7 @@ static inline uint8_t alpha8(float a)
 #define ACES_HI_BITS 0x41800000u /* 16 */
 #define ACES_NBUCKETS ((ACES_HI_BITS - ACES_LO_BITS) >> 15)
 static float aces_t[257];
+static float aces_rw[256]; /* 1 / (aces_t[k + 1] - aces_t[k]), 0 for the last */
 static uint8_t aces_bucket[ACES_NBUCKETS];
 static pthread_once_t aces_once = PTHREAD_ONCE_INIT;
 
@@ -259,6 +260,7 @@ static void aces_init(void)
         memcpy(&aces_t[k], &lo, sizeof lo);
     }
     aces_t[256] = INFINITY;
+    for (unsigned k = 0; k < 256; k++) aces_rw[k] = k < 255 ? 1 / (aces_t[k + 1] - aces_t[k]) : 0;
     for (uint32_t i = 0; i < ACES_NBUCKETS; i++) {
         uint32_t bits = ACES_LO_BITS + (i << 15);
         float x;
@@ -291,8 +293,8 @@ static inline float aces_encoded(float x)
     unsigned k = aces8(x);
     if (k == 255) return 1.0f;
     float c = x >= 0x1p-12f ? x : 0.0f; /* NaN: 0 */
-    float lo = aces_t[k], hi = aces_t[k + 1];
-    float fr = c > lo ? (c - lo) / (hi - lo) : 0.0f;
+    float lo = aces_t[k];
+    float fr = c > lo ? (c - lo) * aces_rw[k] : 0.0f;
     fr = fr < 1 ? fr : 1.0f;
     float v = ((float)k - 0.5f + fr) / 255.0f;
     return v > 0 ? v : 0.0f;
@@ -335,6 +337,8 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
     static const float opaque = 1.0f; /* alpha of a source without one (ax = 0) */
     const double scale = exp2((double)d.exposure_ev); /* 1 exactly for 0 EV */
     if (d.op == VT_TONEMAP_ACES) pthread_once(&aces_once, aces_init);
+    float lk[3] = {0, 0, 0};
+    if (d.lut) vt_lut_scale(d.lut, lk);
     for (uint32_t y = 0; y < height; y++) {
         const float *pr = r->data + (ptrdiff_t)y * r->y_stride;
         const float *pg = g->data + (ptrdiff_t)y * g->y_stride;
@@ -353,7 +357,7 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
                 for (int c = 0; c < 3; c++)
                     e[c] = d.op == VT_TONEMAP_ACES ? aces_encoded((float)v[c])
                                                    : srgb_encoded(tonemap_curve(d.op, v[c]));
-                vt_lut_apply(d.lut, e, e);
+                vt_lut_sample(d.lut, lk, e, e);
                 o[0] = code_of(e[0]);
                 o[1] = code_of(e[1]);
                 o[2] = code_of(e[2]);

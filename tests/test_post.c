@@ -12,7 +12,8 @@
  *   - eye adaptation through vt_soft_draw: a stream from a dark to a
  *     bright view and back follows the closed-form exponential frame by
  *     frame, monotone, never past the target; its first frame is exposed
- *     directly;
+ *     directly; and through the daemon's frame streams (FRAME_SUBSCRIBE,
+ *     RAW): climbing after the sky brightens, a new stream starting over;
  *   - the demo city through the daemon (RAW frames tone mapped as the
  *     daemon's JPEG path does): street, aerial and top-down, day and
  *     night, at least 95 % of pixels neither black nor clipped;
@@ -622,7 +623,7 @@ static const bad_cube bad_cubes[] = {
     {"unknown keyword", "# x\nLUT_3D_SIZE 2\nGAMMA 2.2\n" ROWS8, VT_ERR_CORRUPT, "line 3: unknown keyword GAMMA", 0},
     {"rows before size", "0 0 0\nLUT_3D_SIZE 2\n", VT_ERR_CORRUPT, "line 1: a table row before LUT_3D_SIZE", 0},
     {"too few rows", "LUT_3D_SIZE 2\n0 0 0\n1 0 0\n", VT_ERR_CORRUPT, "line 3: the table ends after 2 of 8 rows", 0},
-    {"too many rows", "LUT_3D_SIZE 2\n" ROWS8 "1 1 1\n", VT_ERR_CORRUPT, "line 10: more than the 8 rows", 0},
+    {"too many rows", "LUT_3D_SIZE 2\n" ROWS8 "1 1 1\n", VT_ERR_CORRUPT, "line 10: more than the 8 rows of a 2^3 table", 0},
     {"two numbers", "LUT_3D_SIZE 2\n0 0\n", VT_ERR_CORRUPT, "line 2: a row wants three finite numbers", 0},
     {"four numbers", "LUT_3D_SIZE 2\n0 0 0 0\n", VT_ERR_CORRUPT, "line 2: a row wants three", 0},
     {"nan", "LUT_3D_SIZE 2\n0 nan 0\n", VT_ERR_CORRUPT, "line 2: a row wants three finite", 0},
@@ -635,7 +636,7 @@ static const bad_cube bad_cubes[] = {
     {"domain short", "LUT_3D_SIZE 2\nDOMAIN_MIN 0 0\n" ROWS8, VT_ERR_CORRUPT,
      "line 2: DOMAIN_MIN wants three finite numbers", 0},
     {"domain inverted", "LUT_3D_SIZE 2\nDOMAIN_MIN 0 0 0\nDOMAIN_MAX 1 0 1\n" ROWS8, VT_ERR_CORRUPT,
-     "line 3: DOMAIN_MIN is not below DOMAIN_MAX (channel 1", 0},
+     "line 3: DOMAIN_MIN is not below DOMAIN_MAX (channel 1: 0, 0)", 0},
     {"range and domain", "DOMAIN_MIN 0 0 0\nLUT_3D_INPUT_RANGE 0 1\n", VT_ERR_CORRUPT, "line 2: a second input domain", 0},
     {"nul byte", "LUT_3D_SIZE 2\n0 0\0 0\n", VT_ERR_CORRUPT, "line 2: a NUL byte", 21},
 };
