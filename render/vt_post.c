@@ -489,7 +489,9 @@ int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame 
         float target = vt_exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads);
         e = target;
         if (f->adapt) {
-            if (f->adapt->valid) e = vt_adapt_step(f->adapt->ev, target, f->dt);
+            /* the caller's state: a bad EV (NaN, out of range) starts over */
+            float a = f->adapt->ev;
+            if (f->adapt->valid && a >= VT_EV_MIN && a <= VT_EV_MAX) e = vt_adapt_step(a, target, f->dt);
             f->adapt->ev = (float)e;
             f->adapt->valid = true;
         }

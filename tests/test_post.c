@@ -319,6 +319,12 @@ static void test_post_eye_adaptation(void **state)
     f.dt = NAN;
     assert_int_equal(vt_soft_draw(sr, &f, &st, err, sizeof err), 0);
     assert_true(st.exposure_ev == (float)hold);
+    /* a caller's state that is garbage starts over at the target */
+    ad.ev = NAN;
+    f.dt = 0.1f;
+    assert_int_equal(vt_soft_draw(sr, &f, &st, err, sizeof err), 0);
+    assert_true(st.exposure_ev == (float)ev_bright && ad.ev == (float)ev_bright);
+    for (size_t i = 0; i < (size_t)W * H * 4; i++) assert_false(isnan(c[i]));
     vt_soft_destroy(sr);
     free(c);
     free(d);
