@@ -697,6 +697,51 @@ static void test_post_daemon_lut(void **state)
     assert_int_not_equal(rc, 0);
     if (!strstr(out, "line 3: a row wants three finite numbers")) fail_msg("vantaged said: %s", out);
     tdir_remove(&td);
+    /* the shipped grade: the daemon's JPEG is the RAW frame tone mapped
+       here with the LUT, and clearly further from it without. JPEG at
+       quality 95 with half-resolution chroma on a busy 160x90 city is
+       about 2.5 codes off on average; the grade moves it about 5.5 */
+    char lut_path[512];
+    const char *dd = getenv("VANTAGE_DATA_DIR");
+    snprintf(lut_path, sizeof lut_path, "%s/warm.cube", dd ? dd : "tests/data");
+    daemon_proc d;
+    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "100", "--lut", lut_path, NULL});
+    vtc_client *c = connect_role(&d, VP_ROLE_VIEWER, false);
+    enum { W = 160, H = 90 };
+    vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
+    assert_true(vtc_view_perspective(&m.view, (double[3]){150, 200, 150}, (double[3]){0, 0, 0}, NULL, 60, W, H, 0.5,
+                                     3000));
+    vp_frame fr;
+    assert_int_equal(vtc_render(c, &m, &fr), VP_OK);
+    static float raw[W * H * 4];
+    memcpy(raw, fr.data, sizeof raw);
+    m.format = VP_FRAME_JPEG;
+    m.quality = 95;
+    assert_int_equal(vtc_render(c, &m, &fr), VP_OK);
+    uint8_t *rgb;
+    uint32_t jw, jh;
+    char err[256];
+    assert_int_equal(vt_jpeg_decode(fr.data, fr.data_len, &rgb, &jw, &jh, err, sizeof err), 0);
+    vt_lut3d lut;
+    assert_int_equal(vt_lut_load(lut_path, &lut, err, sizeof err), 0);
+    static uint8_t mine[2][W * H * 4];
+    vt_image_src src = {.r = {raw + 4 * (H - 1) * W, 4, -4 * W}, .g = {raw + 4 * (H - 1) * W + 1, 4, -4 * W},
+                        .b = {raw + 4 * (H - 1) * W + 2, 4, -4 * W}};
+    double diff[2] = {0, 0};
+    for (int k = 0; k < 2; k++) {
+        vt_tonemap_desc tdd = {.op = VT_TONEMAP_ACES, .lut = k ? &lut : NULL};
+        assert_int_equal(vt_image_tonemap(W, H, &src, &tdd, mine[k], 4 * W), 0);
+        for (size_t i = 0; i < (size_t)W * H; i++)
+            for (int q = 0; q < 3; q++) diff[k] += abs((int)rgb[3 * i + q] - (int)mine[k][4 * i + q]);
+        diff[k] /= 3.0 * W * H;
+    }
+    print_message("daemon --lut: JPEG vs the RAW frame graded here %.2f codes on average, ungraded %.2f\n", diff[1],
+                  diff[0]);
+    assert_true(diff[1] < 4 && diff[1] < 0.7 * diff[0]);
+    vt_lut_free(&lut);
+    free(rgb);
+    vtc_close(c);
+    daemon_stop(&d);
 }
 
 const struct CMUnitTest post_tests[] = {
