@@ -656,6 +656,8 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
             *dz = vt_depth_apply(rule, nz);
         }
     float ev = vt_exposure_apply(f->env, rgba, width, height, stride);
+    /* last: the overlay over the read-back picture, the soft path's own pass */
+    if ((rc = vt_overlay_draw(f, &vr, err, errlen))) return rc;
     if (st) {
         st->exposure_ev = ev;
         st->lights_in_view = r->tiles.in_view;

@@ -764,6 +764,9 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     else job_shade(&jb, 0);
     float ev = vt_exposure_apply(f->env, f->rgba, width, height, f->stride);
     uint64_t t4 = now_ns();
+    /* last: the overlay over the finished picture (after exposure and post) */
+    if ((rc = vt_overlay_draw(f, &fr.vr, err, errlen))) return rc;
+    if (st) st->overlay_ns = now_ns() - t4;
     if (st) {
         st->triangles = (uint32_t)ntri;
         st->lights_in_view = r->tiles.in_view;
