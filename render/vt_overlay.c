@@ -12,10 +12,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* after exposure; ACES at exposure_ev 0 maps 4.0 to 0.97 and 2.0 to 0.92:
-   amber, orange, cyan and white near the top of the tone curve */
-static const float hl_default[3] = {4.0f, 2.0f, 0.1f};
-static const float icon_default[3][3] = {{4.0f, 0.9f, 0.15f}, {0.15f, 2.2f, 4.0f}, {3.0f, 3.0f, 3.0f}};
+/* after exposure, before the tone map: ACES at exposure_ev 0 maps 4.0 to
+   0.97, 0.6 to 0.67 and 0.15 to 0.22 (sRGB 0.99, 0.84, 0.5): a golden
+   outline, an orange ping, a cyan select, a white unit, each saturated
+   (the curve is steep: 2.0 would already read as 0.92, nearly white) */
+static const float hl_default[3] = {4.0f, 0.6f, 0.0f};
+static const float icon_default[3][3] = {{4.0f, 0.15f, 0.0f}, {0.0f, 0.6f, 4.0f}, {3.0f, 3.0f, 3.0f}};
 #define HIDDEN_WEIGHT 0.45f /* an edge behind something: blended this much */
 #define HALO_WEIGHT 0.8f    /* an icon's halo darkens what is under it this much */
 

@@ -62,7 +62,7 @@ typedef struct vt_overlay {
     uint32_t nhl;           /* <= VT_OVERLAY_MAX_HL */
     const vt_icon *icons;
     uint32_t nicons;        /* <= VT_OVERLAY_MAX_ICONS */
-    float hl_color[3];      /* linear, after exposure; all 0: bright amber */
+    float hl_color[3];      /* linear, after exposure; all 0: golden (4, 0.6, 0) */
 } vt_overlay;
 
 /* The checks of f->overlay (NULL passes): counts, indices, positions,

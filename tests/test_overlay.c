@@ -89,7 +89,7 @@ static bool px_differs(const float *a, const float *b)
     return false;
 }
 
-static const float amber[3] = {4.0f, 2.0f, 0.1f}; /* vt_overlay.c's default outline colour */
+static const float amber[3] = {4.0f, 0.6f, 0.0f}; /* vt_overlay.c's default outline colour */
 
 /* The outline pixels (those the highlight changed) lie within 1 px of the
  * box's projected silhouette, and every pixel whose centre is within
@@ -172,7 +172,7 @@ static void test_icons_soft(void **state)
     draw_scene(&dr, NULL, NULL, 0, base);
     vt_icon icons[2] = {{.pos = {-10, 0, 8}, .kind = VT_ICON_PING}, {.pos = {10, 60, -8}, .kind = VT_ICON_PING}};
     draw_scene(&dr, NULL, icons, 2, ic);
-    const float ping[3] = {4.0f, 0.9f, 0.15f};
+    const float ping[3] = {4.0f, 0.15f, 0.0f}; /* vt_overlay.c's default ping colour */
     /* the centre: (-10, 8) -> pixel (24, 16) exactly; the pixel whose
        corner is there is 0.7 px from it, inside the 4 px diamond */
     double cx = px_of_x(-10), cy = py_of_z(8);
@@ -303,7 +303,7 @@ static void test_marks_in_frames(void **state)
     assert_true(project(&m.view, seen, &x, &y));
     /* the 4 px diamond (radius max(4, 7 * 72 / 720)) in ping orange
        around the projected point: the 2 x 2 pixels about it */
-    const float ping[3] = {4.0f, 0.9f, 0.15f};
+    const float ping[3] = {4.0f, 0.15f, 0.0f}; /* vt_overlay.c's default ping colour */
     for (int dy = -1; dy <= 0; dy++)
         for (int dx = -1; dx <= 0; dx++) {
             size_t i = ((size_t)(floor(y) + dy) * DW + (size_t)(floor(x) + dx)) * 4;
@@ -318,7 +318,7 @@ static void test_marks_in_frames(void **state)
         }
     /* the highlighted block's outline: amber pixels, around its top face */
     uint32_t amber_px = 0;
-    for (size_t i = 0; i < (size_t)DW * DH; i++) amber_px += fabsf(now[4 * i] - 4.0f) < 1e-4f && fabsf(now[4 * i + 1] - 2.0f) < 1e-4f;
+    for (size_t i = 0; i < (size_t)DW * DH; i++) amber_px += fabsf(now[4 * i] - 4.0f) < 1e-4f && fabsf(now[4 * i + 1] - 0.6f) < 1e-4f;
     assert_true(amber_px > 20);
     /* the marks expire with their ttl: gone from a frame after it */
     usleep(2300 * 1000);
@@ -332,11 +332,51 @@ static void test_marks_in_frames(void **state)
     vtc_close(viewer);
 }
 
+/* A stream redraws when a mark arrives (the scene's epoch did not move)
+ * and again when it expires; each frame shows the marks live then. */
+static void test_mark_redraws_stream(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *cmd = connect_role(d, VP_ROLE_COMMANDER, false), *viewer = connect_role(d, VP_ROLE_VIEWER, true);
+    vp_frame_sub sub = {.r = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT}, .max_fps = 60};
+    double eye[3] = {0, 40, 0}, at[3] = {0, 0, 0}, up[3] = {0, 0, -1}, spot[3] = {10, 0, -8};
+    assert_true(vtc_view_perspective(&sub.r.view, eye, at, up, 60, DW, DH, 1, 200));
+    double x, y;
+    assert_true(project(&sub.r.view, spot, &x, &y));
+    /* the select square's ring: its right side at 0.8 r = 3.2 px from the
+       centre, fully covered within 0.5 px of that (r = 4, the ring r/4 but
+       at least 1 px thick either side: vt_overlay.c): the pixel whose
+       centre is 2.7..3.7 px right of it, in cyan (0, 0.6, 4) */
+    size_t i = ((size_t)floor(y) * DW + (size_t)floor(x + 3.2)) * 4;
+    assert_int_equal(vtc_frame_subscribe(viewer, &sub), VP_OK);
+    static float f0[DW * DH * 4];
+    vp_frame f;
+    assert_int_equal(vtc_wait_frame(viewer, &f, 10000), VP_OK);
+    memcpy(f0, f.data, sizeof f0);
+    vp_mark a = {.pos = {spot[0], spot[1], spot[2]}, .kind = 1, .ttl_ms = 1500};
+    assert_int_equal(vtc_mark(cmd, &a, NULL), VP_OK);
+    assert_int_equal(vtc_wait_frame(viewer, &f, 10000), VP_OK);
+    float px[4];
+    memcpy(px, f.data + i * 4, sizeof px);
+    assert_float_equal(px[2], 4.0f, 1e-4);
+    assert_float_equal(px[1], 0.6f, 1e-4);
+    /* expired: a next frame comes unasked, without the ring (a stream's
+       eye adaptation may move the rest of the picture: only the ring is
+       compared) */
+    assert_int_equal(vtc_wait_frame(viewer, &f, 10000), VP_OK);
+    memcpy(px, f.data + i * 4, sizeof px);
+    assert_true(fabsf(px[2] - 4.0f) > 0.1f || fabsf(px[1] - 0.6f) > 0.1f);
+    assert_float_equal(px[2], f0[i + 2], 1e-3 + 0.5 * f0[i + 2]);
+    vtc_close(cmd);
+    vtc_close(viewer);
+}
+
 const struct CMUnitTest overlay_tests[] = {
     cmocka_unit_test(test_outline_soft),
     cmocka_unit_test(test_outline_gl),
     cmocka_unit_test(test_icons_soft),
     cmocka_unit_test(test_render_highlight_wire),
     DAEMON_TEST(test_marks_in_frames),
+    DAEMON_TEST(test_mark_redraws_stream),
 };
 const size_t overlay_tests_count = sizeof overlay_tests / sizeof overlay_tests[0];
