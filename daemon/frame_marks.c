@@ -56,16 +56,36 @@ void frame_overlay_make(frame_overlay *o, const scene *sc, const cull_result *re
     memset(&o->ov, 0, sizeof o->ov);
     o->ov.hl = o->hl;
     o->ov.icons = o->icons;
+    o->ov.extra = o->extra;
     /* at most 8 ids against the frame's instances: one pass, 8 compares */
+    bool found[VP_RENDER_MAX_HIGHLIGHT] = {false};
     if (m->nhighlight)
         for (uint32_t i = 0; i < n && o->ov.nhl < VP_RENDER_MAX_HIGHLIGHT; i++) {
             uint64_t id = scene_id_of(sc, res[i].handle);
             for (uint32_t k = 0; k < m->nhighlight; k++)
-                if (id && m->highlight[k] == id) {
+                if (id && m->highlight[k] == id && !found[k]) {
                     o->hl[o->ov.nhl++] = i;
+                    found[k] = true;
                     break;
                 }
         }
+    /* the culled ones by their boxes: behind a building, the commander
+       still sees where the selection is */
+    uint64_t vis[CULL_SUBLEVEL_WORDS];
+    const uint64_t *subs = m->nhighlight ? scene_visible(sc, NULL, vis) : NULL;
+    for (uint32_t k = 0; k < m->nhighlight; k++) {
+        uint64_t h;
+        cull_entity_desc e;
+        bool dup = false;
+        for (uint32_t j = 0; j < k; j++) dup = dup || m->highlight[j] == m->highlight[k];
+        if (found[k] || dup || !m->highlight[k] || !idmap_get(&sc->ids, m->highlight[k], &h) ||
+            cull_entity_get(sc->world, (cull_handle)h, &e) != CULL_OK || !cull_sublevel_in(subs, e.sublevel))
+            continue;
+        vt_instance *in = &o->extra[o->ov.nextra++];
+        *in = (vt_instance){.mesh = 0, .place = VT_PLACE_BOUNDS};
+        memcpy(in->bmin, e.aabb_min, sizeof in->bmin);
+        memcpy(in->bmax, e.aabb_max, sizeof in->bmax);
+    }
     pthread_mutex_lock(&ms->mu);
     for (uint32_t k = 0; k < ms->n; k++) {
         uint32_t at = (ms->head + k) % MARK_KEEP;
@@ -80,5 +100,5 @@ void frame_overlay_make(frame_overlay *o, const scene *sc, const cull_result *re
 
 const vt_overlay *frame_overlay_get(const frame_overlay *o)
 {
-    return o->ov.nhl || o->ov.nicons ? &o->ov : NULL;
+    return o->ov.nhl || o->ov.nextra || o->ov.nicons ? &o->ov : NULL;
 }

@@ -43,12 +43,16 @@ uint64_t mark_store_expire(mark_store *ms, uint64_t now);
 typedef struct frame_overlay {
     vt_overlay ov;
     uint32_t hl[VP_RENDER_MAX_HIGHLIGHT];
+    vt_instance extra[VP_RENDER_MAX_HIGHLIGHT];
     vt_icon icons[MARK_KEEP];
 } frame_overlay;
 
 /* The overlay of a frame of request m whose instance i is the entity of
- * res[i] (i < n): the instances of m's highlighted ids (an id that is 0,
- * unknown or not drawn: none; a frame is never refused for it), and an
+ * res[i] (i < n): the instances of m's highlighted ids; a highlighted
+ * entity the query culled (hidden, or out of view) is outlined by its
+ * box (mesh 0: the frame's unit box, as gather puts it first), dim where
+ * the picture covers it; an id that is 0 or unknown, or in a sub-level
+ * not shown, outlines nothing (a frame is never refused for it). And an
  * icon per mark of ms live at now. Any thread, under the scene lock. */
 void frame_overlay_make(frame_overlay *o, const scene *sc, const cull_result *res, uint32_t n,
                         const vp_render *m, mark_store *ms, uint64_t now);

@@ -40,9 +40,19 @@ int vt_overlay_check(const vt_frame *f, char *err, size_t errlen)
     if (!o) return 0;
     if ((o->nhl && !o->hl) || (o->nicons && !o->icons))
         return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: missing argument");
+    if ((o->nextra && !o->extra) || o->nextra > VT_OVERLAY_MAX_HL)
+        return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: %u extra instances (at most %u)", o->nextra,
+                       VT_OVERLAY_MAX_HL);
     if (o->nhl > VT_OVERLAY_MAX_HL || o->nicons > VT_OVERLAY_MAX_ICONS)
         return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: %u highlights, %u icons (at most %u, %u)", o->nhl,
                        o->nicons, VT_OVERLAY_MAX_HL, VT_OVERLAY_MAX_ICONS);
+    for (uint32_t i = 0; i < o->nextra; i++) {
+        const vt_instance *in = &o->extra[i];
+        bool ok = in->place == VT_PLACE_BOUNDS && in->mesh < f->nmesh;
+        for (int a = 0; a < 3; a++)
+            ok = ok && fabs(in->bmin[a]) <= 1e15 && fabs(in->bmax[a]) <= 1e15 && in->bmin[a] <= in->bmax[a];
+        if (!ok) return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: extra instance %u: bad mesh or bounds", i);
+    }
     for (uint32_t i = 0; i < o->nhl; i++)
         if (o->hl[i] >= f->ninst)
             return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: highlight %u is instance %u, past %u", i, o->hl[i],
@@ -199,6 +209,7 @@ static int draw_outline(const vt_frame *f, const cull_view_rows *vr, char *err, 
     }
     for (size_t i = 0; i < (size_t)W * H; i++) c.near[i] = -INFINITY;
     for (uint32_t i = 0; i < o->nhl; i++) cover_instance(&c, f, vr, &f->inst[o->hl[i]]);
+    for (uint32_t i = 0; i < o->nextra; i++) cover_instance(&c, f, vr, &o->extra[i]);
     /* each covered pixel seen or hidden by the picture's own depth: the
        same surface differs only by the renderers' float rounding of the
        nearness (a relative 1e-4 covers it; a real occluder in front is
@@ -283,7 +294,7 @@ int vt_overlay_draw(const vt_frame *f, const cull_view_rows *vr, char *err, size
 {
     const vt_overlay *o = f->overlay;
     if (!o) return 0;
-    if (o->nhl) {
+    if (o->nhl || o->nextra) {
         int rc = draw_outline(f, vr, err, errlen);
         if (rc) return rc;
     }

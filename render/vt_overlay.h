@@ -15,7 +15,9 @@
  * picture's own visibility, read the same way from either renderer. The
  * outline is a band 2 px wide at 720 rows (1 px each side of the coverage
  * edge; scaled with the height), bright where the edge's object pixels
- * are visible, dimmer where they are hidden behind something else.
+ * are visible, dimmer where they are hidden behind something else. A
+ * caller that culled a highlighted thing as hidden passes it as an extra
+ * instance, outlined (dim, where the picture covers it) but not drawn.
  *
  * Icons are shapes of constant screen size at the projected position,
  * drawn on top (not depth-tested) with a dark halo for contrast, their
@@ -60,6 +62,11 @@ typedef struct vt_icon {
 typedef struct vt_overlay {
     const uint32_t *hl;     /* indices into the frame's inst, < ninst */
     uint32_t nhl;           /* <= VT_OVERLAY_MAX_HL */
+    const vt_instance *extra; /* outlined but not drawn: highlighted things the
+                               caller culled as hidden (their outline is the
+                               dim one where the picture covers them); BOUNDS
+                               placement, mesh an index into the frame's */
+    uint32_t nextra;        /* <= VT_OVERLAY_MAX_HL */
     const vt_icon *icons;
     uint32_t nicons;        /* <= VT_OVERLAY_MAX_ICONS */
     float hl_color[3];      /* linear, after exposure; all 0: golden (4, 0.6, 0) */

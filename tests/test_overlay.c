@@ -96,12 +96,17 @@ static const float amber[3] = {4.0f, 0.6f, 0.0f}; /* vt_overlay.c's default outl
  * 0.5 px of it is one (a 2 px band: 1 px each side, vt_overlay.h). Where
  * the box is seen they are amber; under the plate, 45 % amber over the
  * picture (the hidden weight). */
-static void check_outline(const drawer *dr, const char *name)
+static void check_outline(const drawer *dr, const char *name, bool as_extra)
 {
     static float base[OW * OH * 4], hl[OW * OH * 4];
     draw_scene(dr, NULL, NULL, 0, base);
     uint32_t idx = 0;
-    vt_overlay ov = {.hl = &idx, .nhl = 1};
+    /* the box as an outlined instance not drawn (the daemon's culled
+       highlight): the same geometry, the same band */
+    vt_instance box = {.place = VT_PLACE_BOUNDS};
+    memcpy(box.bmin, box_lo, sizeof box_lo);
+    memcpy(box.bmax, box_hi, sizeof box_hi);
+    vt_overlay ov = as_extra ? (vt_overlay){.extra = &box, .nextra = 1} : (vt_overlay){.hl = &idx, .nhl = 1};
     draw_scene(dr, &ov, NULL, 0, hl);
     uint32_t band = 0, bright = 0, dim = 0;
     /* the plate's left edge x = 1 on screen; 2 px either side of it a
@@ -140,7 +145,8 @@ static void test_outline_soft(void **state)
     (void)state;
     drawer dr = {0};
     assert_int_equal(vt_soft_create(NULL, 1, &dr.soft), 0);
-    check_outline(&dr, "soft");
+    check_outline(&dr, "soft", false);
+    check_outline(&dr, "soft (extra)", true);
     vt_soft_destroy(dr.soft);
 }
 
@@ -155,7 +161,7 @@ static void test_outline_gl(void **state)
     }
     drawer dr = {0};
     assert_int_equal(vt_gldraw_create(g, &dr.gl, err, sizeof err), 0);
-    check_outline(&dr, "gl");
+    check_outline(&dr, "gl", false);
     vt_gldraw_destroy(dr.gl);
     vt_gl_close(g);
 }
@@ -332,6 +338,56 @@ static void test_marks_in_frames(void **state)
     vtc_close(viewer);
 }
 
+/* A highlighted entity the occlusion culling hid (a crate behind a wall
+ * with an occluder) is outlined all the same, by its box, dim (45 %
+ * golden over the wall) and only around where its box projects. */
+static void test_highlight_hidden(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false), *viewer = connect_role(d, VP_ROLE_VIEWER, true);
+    vp_entity e[2] = {{.id = 10, .aabb = {-10, 0, -0.5, 10, 8, 0.5}}, {.id = 20, .aabb = {-1, 1, 5, 1, 3, 7}}};
+    uint32_t hs[2];
+    assert_int_equal(vtc_add(ed, e, 2, hs, NULL), VP_OK);
+    /* the wall's face towards the camera, both windings */
+    const double o[3] = {0, 0, -0.5};
+    const float quad[36] = {-10, 0, 0, 10, 0, 0, 10, 8, 0, -10, 0, 0, 10, 8, 0, -10, 8, 0,
+                            -10, 0, 0, 10, 8, 0, 10, 0, 0, -10, 0, 0, -10, 8, 0, 10, 8, 0};
+    assert_int_equal(vtc_put_occluder(ed, 10, o, quad, 4), VP_OK);
+    vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
+    double eye[3] = {0, 4, -30}, at[3] = {0, 4, 0}, up[3] = {0, 1, 0};
+    assert_true(vtc_view_perspective(&m.view, eye, at, up, 60, DW, DH, 0.5, 200));
+    static float base[DW * DH * 4], hl[DW * DH * 4];
+    raw_frame(viewer, &m, base);
+    m.nhighlight = 1;
+    m.highlight[0] = 20;
+    vp_frame f;
+    assert_int_equal(vtc_render(viewer, &m, &f), VP_OK);
+    assert_int_equal(f.visible, 1); /* the wall only: the crate was culled */
+    memcpy(hl, f.data, sizeof hl);
+    /* the crate's box on screen, from its 8 corners */
+    double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
+    for (int c = 0; c < 8; c++) {
+        double p[3] = {e[1].aabb[c & 1 ? 3 : 0], e[1].aabb[c & 2 ? 4 : 1], e[1].aabb[c & 4 ? 5 : 2]}, x, y;
+        assert_true(project(&m.view, p, &x, &y));
+        x0 = fmin(x0, x), x1 = fmax(x1, x), y0 = fmin(y0, y), y1 = fmax(y1, y);
+    }
+    uint32_t changed = 0;
+    for (uint32_t y = 0; y < DH; y++)
+        for (uint32_t x = 0; x < DW; x++) {
+            size_t i = ((size_t)y * DW + x) * 4;
+            if (!px_differs(&base[i], &hl[i])) continue;
+            changed++;
+            /* within the band's 1 px of the projected box */
+            assert_true(x + 0.5 >= x0 - 1 && x + 0.5 <= x1 + 1 && y + 0.5 >= y0 - 1 && y + 0.5 <= y1 + 1);
+            for (int k = 0; k < 3; k++)
+                assert_float_equal(hl[i + k], 0.55f * base[i + k] + 0.45f * amber[k], 1e-4 * (1 + amber[k]));
+        }
+    /* the box is about 4.6 x 4.6 px (2 m at 35 m): its band, a ring 2 px wide */
+    assert_true(changed >= 12);
+    vtc_close(ed);
+    vtc_close(viewer);
+}
+
 /* A stream redraws when a mark arrives (the scene's epoch did not move)
  * and again when it expires; each frame shows the marks live then. */
 static void test_mark_redraws_stream(void **state)
@@ -378,5 +434,6 @@ const struct CMUnitTest overlay_tests[] = {
     cmocka_unit_test(test_render_highlight_wire),
     DAEMON_TEST(test_marks_in_frames),
     DAEMON_TEST(test_mark_redraws_stream),
+    DAEMON_TEST(test_highlight_hidden),
 };
 const size_t overlay_tests_count = sizeof overlay_tests / sizeof overlay_tests[0];
