@@ -96,11 +96,15 @@ static cvert cvert_lerp(const cvert *a, const cvert *b, double t)
 
 /* The pixels whose centres a screen triangle (pixels, nearness per
  * vertex, affine on screen) covers, either winding, edges included:
- * each keeps the largest nearness met (the nearest surface). */
+ * each keeps the largest nearness met (the nearest surface). Two passes
+ * over the triangles: the first (measure) only finds the box they cover
+ * on screen, so the buffers are the box's, not the picture's. */
 typedef struct cover {
-    float *near;            /* width x height, -INFINITY: not covered */
-    uint32_t w, h;
-    int x0, y0, x1, y1;     /* the covered box, inclusive (x0 > x1: empty) */
+    bool measure;
+    uint32_t w, h;          /* the picture */
+    int x0, y0, x1, y1;     /* measure: the covered box, inclusive (x0 > x1: empty) */
+    int ox, oy, bw, bh;     /* the buffers' box: origin and size */
+    float *near;            /* bw x bh, -INFINITY: not covered */
 } cover;
 
 static void cover_tri(cover *c, const double sx[3], const double sy[3], const double nz[3])
@@ -112,22 +116,31 @@ static void cover_tri(cover *c, const double sx[3], const double sy[3], const do
     /* centres x + 0.5 in lo..hi, within the picture */
     int x0 = (int)fmax(0, ceil(lo_x - 0.5)), x1 = (int)fmin((double)c->w - 1, floor(hi_x - 0.5));
     int y0 = (int)fmax(0, ceil(lo_y - 0.5)), y1 = (int)fmin((double)c->h - 1, floor(hi_y - 0.5));
+    if (x0 > x1 || y0 > y1) return;
+    if (c->measure) {
+        if (x0 < c->x0) c->x0 = x0;
+        if (x1 > c->x1) c->x1 = x1;
+        if (y0 < c->y0) c->y0 = y0;
+        if (y1 > c->y1) c->y1 = y1;
+        return;
+    }
+    /* barycentric k = ea[k] x + eb[k] y + ec[k] at a centre (x, y) */
+    double ea[3], eb[3], ec[3];
+    for (int k = 0; k < 3; k++) {
+        int i = (k + 1) % 3, j = (k + 2) % 3;
+        ea[k] = -(sy[j] - sy[i]) / area;
+        eb[k] = (sx[j] - sx[i]) / area;
+        ec[k] = -(ea[k] * sx[i] + eb[k] * sy[i]);
+    }
     for (int y = y0; y <= y1; y++) {
         double py = y + 0.5;
+        float *row = c->near + (size_t)(y - c->oy) * (size_t)c->bw - c->ox;
         for (int x = x0; x <= x1; x++) {
-            double px = x + 0.5, b[3];
-            for (int k = 0; k < 3; k++) {
-                int i = (k + 1) % 3, j = (k + 2) % 3;
-                b[k] = ((sx[j] - sx[i]) * (py - sy[i]) - (sy[j] - sy[i]) * (px - sx[i])) / area;
-            }
-            if (b[0] < 0 || b[1] < 0 || b[2] < 0) continue;
-            float n = (float)(b[0] * nz[0] + b[1] * nz[1] + b[2] * nz[2]);
-            float *o = &c->near[(size_t)y * c->w + (size_t)x];
-            if (n > *o) *o = n;
-            if (x < c->x0) c->x0 = x;
-            if (x > c->x1) c->x1 = x;
-            if (y < c->y0) c->y0 = y;
-            if (y > c->y1) c->y1 = y;
+            double px = x + 0.5, b0 = ea[0] * px + eb[0] * py + ec[0], b1 = ea[1] * px + eb[1] * py + ec[1],
+                   b2 = ea[2] * px + eb[2] * py + ec[2];
+            if (b0 < 0 || b1 < 0 || b2 < 0) continue;
+            float n = (float)(b0 * nz[0] + b1 * nz[1] + b2 * nz[2]);
+            if (n > row[x]) row[x] = n;
         }
     }
 }
@@ -189,62 +202,94 @@ static float near_of_depth(vt_depth_rule rule, float dz)
 
 /* ---- the outline ----------------------------------------------------------------------- */
 
-enum { PX_NONE = 0, PX_HIDDEN = 1, PX_SEEN = 2 };
-
 static void blend(float *px, const float c[3], float a)
 {
     for (int k = 0; k < 3; k++) px[k] = px[k] * (1 - a) + c[k] * a;
     if (a > px[3]) px[3] = a > 1 ? 1 : a;
 }
 
+/* Sums over a sliding window of 2 hw + 1 (clipped to 0..n): out[i] = the
+   sum of in[i - hw .. i + hw], each n values stride apart. */
+static void window_sum(const uint16_t *in, uint16_t *out, int n, size_t stride, int hw)
+{
+    uint32_t s = 0;
+    for (int i = 0; i < hw && i < n; i++) s += in[(size_t)i * stride];
+    for (int i = 0; i < n; i++) {
+        if (i + hw < n) s += in[(size_t)(i + hw) * stride];
+        if (i - hw - 1 >= 0) s -= in[(size_t)(i - hw - 1) * stride];
+        out[(size_t)i * stride] = (uint16_t)s;
+    }
+}
+
 static int draw_outline(const vt_frame *f, const cull_view_rows *vr, char *err, size_t errlen)
 {
     const vt_overlay *o = f->overlay;
     const uint32_t W = f->width, H = f->height;
-    cover c = {.w = W, .h = H, .x0 = (int)W, .y0 = (int)H, .x1 = -1, .y1 = -1};
-    uint8_t *st = NULL;
-    if (!(c.near = malloc((size_t)W * H * sizeof *c.near)) || !(st = calloc((size_t)W * H, 1))) {
-        free(c.near);
+    const int hw = (int)vt_overlay_half_width(H);
+    cover c = {.measure = true, .w = W, .h = H, .x0 = (int)W, .y0 = (int)H, .x1 = -1, .y1 = -1};
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t i = 0; i < o->nhl; i++) cover_instance(&c, f, vr, &f->inst[o->hl[i]]);
+        for (uint32_t i = 0; i < o->nextra; i++) cover_instance(&c, f, vr, &o->extra[i]);
+        if (pass) break;
+        if (c.x0 > c.x1) return 0; /* nothing of them on screen */
+        /* the covered box and the band's hw around it, within the picture */
+        c.ox = c.x0 - hw > 0 ? c.x0 - hw : 0;
+        c.oy = c.y0 - hw > 0 ? c.y0 - hw : 0;
+        c.bw = (c.x1 + hw < (int)W - 1 ? c.x1 + hw : (int)W - 1) - c.ox + 1;
+        c.bh = (c.y1 + hw < (int)H - 1 ? c.y1 + hw : (int)H - 1) - c.oy + 1;
+        size_t n = (size_t)c.bw * (size_t)c.bh;
+        if (!(c.near = malloc(n * sizeof *c.near)))
+            return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the outline");
+        for (size_t i = 0; i < n; i++) c.near[i] = -INFINITY;
+        c.measure = false;
+    }
+    /* per pixel of the box: covered (1 << 0) and seen (1 << 8), as counts
+       a window sum adds up; then the sums over the (2 hw + 1)^2 square */
+    size_t n = (size_t)c.bw * (size_t)c.bh;
+    uint16_t *cov = malloc(n * sizeof *cov), *seen = malloc(n * sizeof *seen), *tmp = malloc(n * sizeof *tmp);
+    if (!cov || !seen || !tmp) {
+        free(cov), free(seen), free(tmp), free(c.near);
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the outline");
     }
-    for (size_t i = 0; i < (size_t)W * H; i++) c.near[i] = -INFINITY;
-    for (uint32_t i = 0; i < o->nhl; i++) cover_instance(&c, f, vr, &f->inst[o->hl[i]]);
-    for (uint32_t i = 0; i < o->nextra; i++) cover_instance(&c, f, vr, &o->extra[i]);
     /* each covered pixel seen or hidden by the picture's own depth: the
        same surface differs only by the renderers' float rounding of the
        nearness (a relative 1e-4 covers it; a real occluder in front is
        nearer by far more) */
     vt_depth_rule rule = vt_depth_rule_of(f->view, vr);
-    for (int y = c.y0; y <= c.y1; y++)
-        for (int x = c.x0; x <= c.x1; x++) {
-            size_t i = (size_t)y * W + (size_t)x;
-            if (c.near[i] == -INFINITY) continue;
-            float fz = near_of_depth(rule, f->depth[(size_t)y * f->stride + (size_t)x]);
-            st[i] = c.near[i] >= fz - 1e-4f * fabsf(fz) - 1e-6f ? PX_SEEN : PX_HIDDEN;
+    for (int y = 0; y < c.bh; y++)
+        for (int x = 0; x < c.bw; x++) {
+            size_t i = (size_t)y * (size_t)c.bw + (size_t)x;
+            float nz = c.near[i];
+            cov[i] = nz != -INFINITY;
+            float fz = cov[i] ? near_of_depth(rule, f->depth[(size_t)(y + c.oy) * f->stride + (size_t)(x + c.ox)]) : 0;
+            seen[i] = cov[i] && nz >= fz - 1e-4f * fabsf(fz) - 1e-6f;
         }
-    /* the band: pixels within hw (square) of a pixel of the other side */
-    const int hw = (int)vt_overlay_half_width(H);
+    /* the band: pixels within hw (square) of a pixel of the other side,
+       i.e. whose window holds some covered pixels but not only those */
+    uint16_t *cnt[2] = {cov, seen};
+    uint8_t *in = malloc(n);
+    if (!in) {
+        free(cov), free(seen), free(tmp), free(c.near);
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the outline");
+    }
+    for (size_t i = 0; i < n; i++) in[i] = (uint8_t)cov[i];
+    for (int k = 0; k < 2; k++) {
+        for (int y = 0; y < c.bh; y++) window_sum(cnt[k] + (size_t)y * c.bw, tmp + (size_t)y * c.bw, c.bw, 1, hw);
+        for (int x = 0; x < c.bw; x++) window_sum(tmp + x, cnt[k] + x, c.bh, (size_t)c.bw, hw);
+    }
     const float *col = o->hl_color[0] + o->hl_color[1] + o->hl_color[2] > 0 ? o->hl_color : hl_default;
-    int bx0 = c.x0 - hw > 0 ? c.x0 - hw : 0, bx1 = c.x1 + hw < (int)W - 1 ? c.x1 + hw : (int)W - 1;
-    int by0 = c.y0 - hw > 0 ? c.y0 - hw : 0, by1 = c.y1 + hw < (int)H - 1 ? c.y1 + hw : (int)H - 1;
-    for (int y = by0; y <= by1; y++)
-        for (int x = bx0; x <= bx1; x++) {
-            bool in = st[(size_t)y * W + (size_t)x] != PX_NONE, edge = false, seen = false;
-            for (int dy = -hw; dy <= hw; dy++) {
-                int yy = y + dy;
-                if (yy < 0 || yy >= (int)H) continue;
-                for (int dx = -hw; dx <= hw; dx++) {
-                    int xx = x + dx;
-                    if (xx < 0 || xx >= (int)W) continue;
-                    uint8_t s = st[(size_t)yy * W + (size_t)xx];
-                    if ((s != PX_NONE) != in) edge = true;
-                    if (s == PX_SEEN) seen = true;
-                }
-            }
-            if (edge) blend(&f->rgba[((size_t)y * f->stride + (size_t)x) * 4], col, seen ? 1.0f : HIDDEN_WEIGHT);
+    for (int y = 0; y < c.bh; y++) {
+        int gy = y + c.oy, wy = (gy + hw < (int)H ? gy + hw : (int)H - 1) - (gy - hw > 0 ? gy - hw : 0) + 1;
+        for (int x = 0; x < c.bw; x++) {
+            size_t i = (size_t)y * (size_t)c.bw + (size_t)x;
+            int gx = x + c.ox, wx = (gx + hw < (int)W ? gx + hw : (int)W - 1) - (gx - hw > 0 ? gx - hw : 0) + 1;
+            /* the window's pixels in the picture (the box holds every
+               covered one, so a window past the box's edge counts right) */
+            bool edge = in[i] ? cov[i] < wx * wy : cov[i] > 0;
+            if (edge) blend(&f->rgba[((size_t)gy * f->stride + (size_t)gx) * 4], col, seen[i] ? 1.0f : HIDDEN_WEIGHT);
         }
-    free(c.near);
-    free(st);
+    }
+    free(in), free(cov), free(seen), free(tmp), free(c.near);
     return 0;
 }
 
