@@ -17,6 +17,7 @@
  */
 #include "server_internal.h"
 #include "errmap.h"
+#include "frame_marks.h"
 #include "frame_scene.h"
 #include "vt_gldraw.h"
 #include "vt_image.h"
@@ -67,6 +68,7 @@ static int gl_open_locked(server *s)
 int frames_init(server *s)
 {
     pthread_mutex_init(&s->gl_mu, NULL);
+    mark_store_init(&s->marks);
     if (s->cfg.renderer != VP_RENDERER_GL) return 0;
     pthread_mutex_lock(&s->gl_mu);
     int rc = gl_open_locked(s);
@@ -86,6 +88,7 @@ void frames_fini(server *s)
     s->gl = NULL;
     s->gldraw = NULL;
     pthread_mutex_destroy(&s->gl_mu);
+    mark_store_fini(&s->marks);
 }
 
 /* ---- one frame, on a worker -------------------------------------------------------- */
@@ -102,6 +105,7 @@ typedef struct frame_in {
     frame_scene fs;         /* materials, textures, the environment */
     vt_adapt *adapt;        /* a stream's eye adaptation, NULL: a single picture */
     float dt;
+    frame_overlay ov;       /* outline and icons (frame_marks.h) */
 } frame_in;
 
 static void frame_in_free(frame_in *fi)
@@ -119,7 +123,8 @@ static vt_frame frame_of(const cull_view *v, const frame_in *fi, float *rgba, fl
     return (vt_frame){.view = v, .width = v->viewport_w, .height = v->viewport_h, .meshes = fi->meshes,
                       .nmesh = fi->nmesh, .inst = fi->inst, .ninst = fi->ninst, .lights = fi->lights, .nl = fi->nl,
                       .env = fi->fs.env_ok ? &fi->fs.env : NULL, .rgba = rgba, .depth = depth,
-                      .stride = v->viewport_w, .adapt = fi->adapt, .dt = fi->dt};
+                      .stride = v->viewport_w, .adapt = fi->adapt, .dt = fi->dt,
+                      .overlay = frame_overlay_get(&fi->ov)};
 }
 
 /* An entity's transform as the renderers take it (vt_frame_check's
@@ -363,6 +368,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     vt_adapt ad = {.ev = j->adapt_ev, .valid = j->adapt_valid}; /* a stream's eye, out again below */
     fi.adapt = j->stream ? &ad : NULL;
     fi.dt = j->adapt_dt;
+    frame_overlay_make(&fi.ov, sc, wk->res, fi.ninst, m, &s->marks, now_ns());
     if (m->format == VP_FRAME_RAW) {
         /* drawn straight into the reply: RGBA then depth after the header */
         if (!(raw = malloc(vp_size_frame((uint32_t)(np * 20))))) goto nomem;
@@ -621,12 +627,13 @@ static void frame_held(server *s, frame_sub *f, uint64_t now)
 int frames_schedule(server *s)
 {
     if (!s->nsubs) return -1;
-    uint64_t now = now_ns(), wake = UINT64_MAX; /* ns */
+    uint64_t now = now_ns(), wake = mark_store_expire(&s->marks, now); /* ns; a mark's end redraws */
     for (uint32_t i = 0; i < s->nconns; i++) {
         conn *c = s->live[i];
         frame_sub *f = &c->fsub;
         if (!f->active || f->inflight || c->closing) continue;
-        if (!f->dirty && f->shown_epoch == s->sc->epoch) continue; /* nothing new to show */
+        if (!f->dirty && f->shown_epoch == s->sc->epoch && f->shown_marks == s->marks.gen)
+            continue; /* nothing new to show */
         if (c->out_bytes) { /* the last frame is still leaving: it wins */
             frame_held(s, f, now);
             continue;
@@ -663,6 +670,7 @@ int frames_schedule(server *s)
                    .adapt_dt = f->adapt_valid ? (float)((double)(now - f->adapt_ns) * 1e-9) : 0};
         f->inflight = true;
         f->dirty = false;
+        f->shown_marks = s->marks.gen;
         f->held_ns = 0;
         /* the cap: frame starts 1/max_fps apart (a late start does not
            bank time for a burst) */

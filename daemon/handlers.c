@@ -31,9 +31,10 @@ static bool commander(server *s, conn *c, uint32_t req)
     return false;
 }
 
-/* MARK: pushed as MARKED to every connection subscribed to marks. Each
- * copy goes through that connection's output limit: a subscriber that does
- * not read is dropped by it, as for any reply. */
+/* MARK: pushed as MARKED to every connection subscribed to marks, and
+ * kept for the frames to draw (frame_marks.h). Each copy goes through
+ * that connection's output limit: a subscriber that does not read is
+ * dropped by it, as for any reply. */
 static void on_mark(server *s, conn *c, const vp_header *h, const uint8_t *p)
 {
     if (!commander(s, c, h->req)) return;
@@ -43,6 +44,7 @@ static void on_mark(server *s, conn *c, const vp_header *h, const uint8_t *p)
         send_error(s, c, h->req, rc, UINT32_MAX, vp_strerror(rc));
         return;
     }
+    mark_store_add(&s->marks, &m, now_ns()); /* drawn into frames while it lives */
     uint32_t sent = 0;
     for (uint32_t i = 0; i < s->nconns; i++) {
         conn *o = s->live[i];

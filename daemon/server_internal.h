@@ -7,6 +7,7 @@
 
 #include "ae.h"
 #include "edit.h"
+#include "frame_marks.h"
 #include "journal.h"
 #include "log.h"
 #include "metrics.h"
@@ -26,6 +27,7 @@ typedef struct frame_sub {
     uint32_t gen;           /* bumped when re-aimed or ended: stale frames drop */
     vp_frame_sub m;
     uint64_t shown_epoch;   /* the scene epoch of the last frame sent */
+    uint64_t shown_marks;   /* the marks' gen when the last frame was started */
     uint64_t next_ns;       /* the rate cap: no frame starts before (now_ns) */
     uint64_t frames;
     uint32_t last_bytes;    /* the size of the last frame sent */
@@ -132,6 +134,7 @@ struct server {
     bool gl_failed;
     char gl_err[400];
     uint32_t nsubs;         /* connections with a frame stream */
+    mark_store marks;       /* the recent MARKs, drawn into frames (frame_marks.h) */
     uint64_t ev_epoch;      /* the epoch the last tick's events reported */
     uint64_t upload_bytes;  /* the connections' unfinished texture uploads (total sizes): held
                                under lim.max_texture_mem with the textures */

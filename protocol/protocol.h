@@ -817,7 +817,9 @@ void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_a
 #define VP_FRAME_RAW 0u
 #define VP_FRAME_JPEG 1u
 #define VP_RENDER_NO_OCCLUSION 0x01u
-#define VP_RENDER_SIZE (VP_VIEW_SIZE + 8u)
+/* the entities a frame outlines (a commander's selection): at most this many */
+#define VP_RENDER_MAX_HIGHLIGHT 8u
+#define VP_RENDER_SIZE (VP_VIEW_SIZE + 80u)
 #define VP_FRAME_MAX_PIXELS (4096u * 4096u)
 /* which renderer draws it: the daemon's default (--render), or one named */
 #define VP_RENDERER_DEFAULT 0u
@@ -830,6 +832,9 @@ typedef struct vp_render {
     uint8_t  flags;         /* VP_RENDER_* */
     uint8_t  renderer;      /* VP_RENDERER_* */
     float    exposure_ev;   /* JPEG: -64..64 */
+    uint8_t  nhighlight;    /* 0..VP_RENDER_MAX_HIGHLIGHT: entities outlined */
+    uint64_t highlight[VP_RENDER_MAX_HIGHLIGHT]; /* their ids (0 and unknown ids: nothing drawn);
+                               past nhighlight: 0 */
 } vp_render;
 void vp_enc_render(vp_writer *w, uint32_t req, const vp_render *m);
 int  vp_dec_render(const uint8_t *p, size_t len, vp_render *m);

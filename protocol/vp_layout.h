@@ -47,8 +47,8 @@
  * Checks that span fields (a unit quaternion, a chunk inside its image)
  * stay hand-written next to the list.
  *
- * Kinds: u8 u16 u32 u64 i32 f32 f64 (one field of that type); u32a f32a
- * f64a (a C array of that type, every element in order); pad8 pad16 pad32
+ * Kinds: u8 u16 u32 u64 i32 f32 f64 (one field of that type); u32a u64a
+ * f32a f64a (a C array of that type, every element in order); pad8 pad16 pad32
  * (written 0, must read 0); rsv8 rsv16 rsv32 (reserved: written 0,
  * ignored on read, as the layouts that predate the pad check have them).
  * Every field name in a list is distinct (pads: pad1, pad2, ...): the
@@ -79,6 +79,7 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_W_f32(f)   vp_put_f32(w_, m_->f);
 #define VP_W_f64(f)   vp_put_f64(w_, m_->f);
 #define VP_W_u32a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) vp_put_u32(w_, m_->f[k_]);
+#define VP_W_u64a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) vp_put_u64(w_, m_->f[k_]);
 #define VP_W_f32a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) vp_put_f32(w_, m_->f[k_]);
 #define VP_W_f64a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) vp_put_f64(w_, m_->f[k_]);
 #define VP_W_pad8(f)  vp_put_u8(w_, 0);
@@ -96,6 +97,7 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_R_f32(f)   m_->f = vp_get_f32(r_);
 #define VP_R_f64(f)   m_->f = vp_get_f64(r_);
 #define VP_R_u32a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) m_->f[k_] = vp_get_u32(r_);
+#define VP_R_u64a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) m_->f[k_] = vp_get_u64(r_);
 #define VP_R_f32a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) m_->f[k_] = vp_get_f32(r_);
 #define VP_R_f64a(f)  for (size_t k_ = 0; k_ < VP_ALEN_(m_->f); k_++) m_->f[k_] = vp_get_f64(r_);
 /* the first pad that is not 0: 1 + its offset (vp_check_pad names it) */
@@ -116,6 +118,7 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_S_f32(f)   + sizeof m_->f
 #define VP_S_f64(f)   + sizeof m_->f
 #define VP_S_u32a(f)  + sizeof m_->f
+#define VP_S_u64a(f)  + sizeof m_->f
 #define VP_S_f32a(f)  + sizeof m_->f
 #define VP_S_f64a(f)  + sizeof m_->f
 #define VP_S_pad8(f)  + 1
@@ -134,6 +137,7 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_B_f32(f)   4
 #define VP_B_f64(f)   8
 #define VP_B_u32a(f)  sizeof(((vp_ct_ *)0)->f)
+#define VP_B_u64a(f)  sizeof(((vp_ct_ *)0)->f)
 #define VP_B_f32a(f)  sizeof(((vp_ct_ *)0)->f)
 #define VP_B_f64a(f)  sizeof(((vp_ct_ *)0)->f)
 #define VP_B_pad8(f)  1
@@ -152,6 +156,7 @@ _Static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE float and double
 #define VP_K_f32   VP_KIND_F32, 4
 #define VP_K_f64   VP_KIND_F64, 8
 #define VP_K_u32a  VP_KIND_U32, 4
+#define VP_K_u64a  VP_KIND_U64, 8
 #define VP_K_f32a  VP_KIND_F32, 4
 #define VP_K_f64a  VP_KIND_F64, 8
 #define VP_K_pad8  VP_KIND_PAD, 1

@@ -171,8 +171,11 @@ void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
 /* ---- RENDER / FRAME_SUBSCRIBE / FRAME --------------------------------------------- */
 
 /* RENDER's fields after its view */
-#define RENDER_FIELDS(X) X(u8, format) X(u8, quality) X(u8, flags) X(u8, renderer) X(f32, exposure_ev)
+#define RENDER_FIELDS(X)                                                                                    \
+    X(u8, format) X(u8, quality) X(u8, flags) X(u8, renderer) X(f32, exposure_ev) X(u8, nhighlight)        \
+    X(pad8, pad1) X(pad16, pad2) X(pad32, pad3) X(u64a, highlight)
 #define RENDER_CHECKS(X)                                                                                    \
+    X(count, nhighlight, "highlights", "", 0, VP_RENDER_MAX_HIGHLIGHT)                                     \
     X(max, renderer, "renderer", "0 default, 1 software, 2 OpenGL are defined", 0, VP_RENDERER_GL)         \
     X(max, format, "format", "0 raw, 1 JPEG are defined", 0, VP_FRAME_JPEG)                                \
     X(mask, flags, "flags", "0x1 no occlusion is defined", 0, VP_RENDER_NO_OCCLUSION)                      \
@@ -194,6 +197,8 @@ static int render_read(const uint8_t *p, vp_render *m)
     if (rc) return rc;
     if (m->format == VP_FRAME_JPEG && (m->quality < 1 || m->quality > 100)) return VP_ERR_INVALID;
     if (m->format == VP_FRAME_RAW && m->quality) return VP_ERR_INVALID;
+    for (uint32_t i = m->nhighlight; i < VP_RENDER_MAX_HIGHLIGHT; i++)
+        if (m->highlight[i]) return VP_ERR_INVALID; /* past the count: 0, so a list has one reading */
     return picture_view_take(p, &m->view);
 }
 

@@ -665,6 +665,8 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     float ev;
     if (vt_post_apply(&r->post, NULL, 1, f, &ev)) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     clock_gettime(CLOCK_MONOTONIC, &p1);
+    /* last: the overlay over the read-back picture, the soft path's own pass */
+    if ((rc = vt_overlay_draw(f, &vr, err, errlen))) return rc;
     if (st) {
         st->exposure_ev = ev;
         st->post_ns = (uint64_t)((p1.tv_sec - p0.tv_sec) * 1000000000ll + (p1.tv_nsec - p0.tv_nsec));

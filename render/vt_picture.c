@@ -124,7 +124,8 @@ int vt_frame_check(const vt_frame *f, char *err, size_t errlen)
         if (!isfinite(L->cos_inner))
             return vp_errf(err, errlen, VT_ERR_INVALID, "light %u: inner cosine not finite", i);
     }
-    return vt_env_check(f->env, err, errlen);
+    int rc = vt_overlay_check(f, err, errlen);
+    return rc ? rc : vt_env_check(f->env, err, errlen);
 }
 
 int vt_picture_check(const vt_frame *f, cull_view_rows *vr, char *err, size_t errlen)

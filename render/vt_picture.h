@@ -10,6 +10,7 @@
 #define VANTAGE_VT_PICTURE_H
 
 #include "vt_mask.h"
+#include "vt_overlay.h"
 #include "vt_shade.h"
 #include "vt_soft.h"
 #include "vp_grow.h"

@@ -770,6 +770,9 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (vt_post_apply(&r->post, r->pool, r->threads, f, &ev))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     uint64_t t5 = now_ns();
+    /* last: the overlay over the finished picture (after exposure and post) */
+    if ((rc = vt_overlay_draw(f, &fr.vr, err, errlen))) return rc;
+    if (st) st->overlay_ns = now_ns() - t5;
     if (st) {
         st->triangles = (uint32_t)ntri;
         st->lights_in_view = r->tiles.in_view;

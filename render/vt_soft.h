@@ -78,6 +78,7 @@ typedef struct vt_soft_stats {
        buffer, the post passes (FXAA, exposure) */
     uint64_t shadow_ns, ssao_ns, post_ns;
     uint32_t shadow_triangles; /* drawn into the cascades, all together */
+    uint64_t overlay_ns;    /* the overlay (vt_overlay.h: outline, icons); 0 without one */
     float exposure_ev;      /* the EV100 the frame was exposed with (0 without an environment) */
 } vt_soft_stats;
 
@@ -128,6 +129,7 @@ typedef struct vt_frame {
     vt_adapt *adapt;        /* a stream's eye adaptation (in and out); NULL: a
                                single picture */
     float dt;               /* seconds since adapt's frame, >= 0 */
+    const struct vt_overlay *overlay; /* outline and icons drawn last (vt_overlay.h); NULL: none */
 } vt_frame;
 
 typedef struct vt_soft vt_soft;

@@ -28,6 +28,7 @@ int main(void)
         {exr_tests, exr_tests_count},
         {image_tests, image_tests_count},
         {gl_tests, gl_tests_count},
+        {overlay_tests, overlay_tests_count},
         {sublevel_tests, sublevel_tests_count},
         {destruct_tests, destruct_tests_count},
         {texture_tests, texture_tests_count},

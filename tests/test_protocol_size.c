@@ -372,8 +372,11 @@ static size_t case_metrics_reply(vp_writer *w, int v)
 static size_t case_render(vp_writer *w, int v)
 {
     if (v >= 2) return SIZE_MAX;
-    vp_enc_render(w, 1, &(vp_render){.view = view(0), .format = (uint8_t)v, .quality = v ? 90 : 0});
-    assert_int_equal(vp_size_render(), VP_HEADER_SIZE + VP_VIEW_SIZE + 8);
+    vp_render m = {.view = view(0), .format = (uint8_t)v, .quality = v ? 90 : 0, .nhighlight = (uint8_t)(v * 8)};
+    for (uint32_t i = 0; i < m.nhighlight; i++) m.highlight[i] = i + 1;
+    vp_enc_render(w, 1, &m);
+    /* the 8 tail bytes, the count and its pad (8), the 8 ids */
+    assert_int_equal(vp_size_render(), VP_HEADER_SIZE + VP_VIEW_SIZE + 8 + 8 + 64);
     return vp_size_render();
 }
 
@@ -403,7 +406,7 @@ static size_t case_frame_sub(vp_writer *w, int v)
 {
     if (v >= 2) return SIZE_MAX;
     vp_enc_frame_sub(w, 1, &(vp_frame_sub){.r = {.view = view(0)}, .max_fps = v ? VP_FRAME_SUB_MAX_FPS : 1});
-    assert_int_equal(vp_size_frame_sub(), VP_HEADER_SIZE + VP_VIEW_SIZE + 12);
+    assert_int_equal(vp_size_frame_sub(), VP_HEADER_SIZE + VP_VIEW_SIZE + 80 + 4);
     return vp_size_frame_sub();
 }
 

@@ -55,15 +55,17 @@ typedef struct frame_opts {
     bool have_eye, have_at;
     unsigned w, h, quality;
     uint8_t flags, renderer;
+    uint8_t nhl;            /* --highlight: entities outlined in the frame */
+    uint64_t hl[VP_RENDER_MAX_HIGHLIGHT];
 } frame_opts;
 
 #define FRAME_LONGOPTS                                                                                              \
     {"eye", 1, 0, 'e'}, {"at", 1, 0, 'a'}, {"up", 1, 0, 'u'}, {"fov", 1, 0, 'f'}, {"near", 1, 0, 'n'},          \
         {"far", 1, 0, 'F'}, {"size", 1, 0, 's'}, {"exposure", 1, 0, 'x'}, {"quality", 1, 0, 'q'},               \
-        {"no-occlusion", 0, 0, 'N'}, {"renderer", 1, 0, 'R'}
+        {"no-occlusion", 0, 0, 'N'}, {"renderer", 1, 0, 'R'}, {"highlight", 1, 0, 'H'}
 #define FRAME_USAGE                                                                                                 \
     "--eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH] [--exposure EV] "          \
-    "[--quality Q] [--no-occlusion] [--renderer soft|gl]"
+    "[--quality Q] [--no-occlusion] [--renderer soft|gl] [--highlight ID[,ID..]]"
 
 /* What each camera/frame option accepts, for the refusal of a bad value
  * (the bounds frame_opt checks). */
@@ -73,6 +75,7 @@ static const cli_opt_doc frame_docs[] = {
     {'n', "--near", "a finite number"},             {'F', "--far", "a finite number"},
     {'s', "--size", "WxH, each 1..4096"},           {'x', "--exposure", "EV, -64..64"},
     {'q', "--quality", "1..100"},                   {'R', "--renderer", "soft or gl"},
+    {'H', "--highlight", "1..8 entity ids, comma-separated (decimal or 0x hex)"},
     /* watch --frames */
     {'r', "--fps", "frames a second, 1..240"},      {'c', "--count", "a count of frames"},
     {'O', "--orbit", "degrees a second (a finite number)"}, {'S', "--seconds", "seconds, >= 0"},
@@ -89,6 +92,19 @@ static int frame_missing(const char *cmd, const frame_opts *f)
 static void frame_opts_init(frame_opts *f)
 {
     *f = (frame_opts){.up = {0, 1, 0}, .fov = 60, .znear = 0.1, .zfar = 10000, .w = 1280, .h = 720, .quality = 85};
+}
+
+/* --highlight's ids: 1..VP_RENDER_MAX_HIGHLIGHT comma-separated u64s. */
+static bool parse_highlight(const char *arg, frame_opts *f)
+{
+    char buf[512];
+    if (snprintf(buf, sizeof buf, "%s", arg) >= (int)sizeof buf) return false;
+    f->nhl = 0;
+    for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+        if (f->nhl == VP_RENDER_MAX_HIGHLIGHT || !parse_u64(t, &f->hl[f->nhl])) return false;
+        f->nhl++;
+    }
+    return f->nhl > 0;
 }
 
 /* One camera/frame option: 1 taken, 0 not one of ours, -1 a bad value. */
@@ -108,6 +124,7 @@ static int frame_opt(frame_opts *f, int o, const char *arg)
     case 'q': ok = parse_vec(arg, &q, 1) && q >= 1 && q <= 100 && (f->quality = (unsigned)q); break;
     case 'N': f->flags |= VP_RENDER_NO_OCCLUSION; break;
     case 'R': ok = parse_renderer(arg, &f->renderer); break;
+    case 'H': ok = parse_highlight(arg, f); break;
     default: return 0;
     }
     return ok ? 1 : -1;
@@ -118,7 +135,8 @@ static bool frame_request(const frame_opts *f, const double eye[3], out_kind k, 
 {
     *m = (vp_render){.format = k == OUT_JPG ? VP_FRAME_JPEG : VP_FRAME_RAW,
                      .quality = k == OUT_JPG ? (uint8_t)f->quality : 0, .flags = f->flags, .renderer = f->renderer,
-                     .exposure_ev = (float)f->ev};
+                     .exposure_ev = (float)f->ev, .nhighlight = f->nhl};
+    memcpy(m->highlight, f->hl, sizeof m->highlight);
     return vtc_view_perspective(&m->view, eye, f->at, f->up, f->fov, (uint16_t)f->w, (uint16_t)f->h, f->znear,
                                 f->zfar);
 }
@@ -386,5 +404,40 @@ int cmd_lights(cli *k, int argc, char **argv)
         putchar('\n');
     }
     printf("(lights per tile: . none, 1-9, a-z 10-35, A-Z 36-61, # more)\n");
+    return 0;
+}
+
+/* MARK: a commander's ping of a place (or an entity), pushed as MARKED to
+ * the mark subscribers and drawn as an icon in every frame that shows it
+ * while it lives. */
+int cmd_mark(cli *k, int argc, char **argv)
+{
+    const char *use = "mark X,Y,Z [--kind K] [--ttl MS] [--entity ID]";
+    vp_mark m = {.ttl_ms = 10000};
+    if (argc < 2) return die_usage("%s", use);
+    if (!parse_vec(argv[1], m.pos, 3))
+        return die_usage("mark: bad position %s: expected X,Y,Z (three finite numbers)", argv[1]);
+    for (int i = 2; i < argc; i++) {
+        uint64_t v;
+        const char *arg = i + 1 < argc ? argv[i + 1] : "(none)";
+        if (!strcmp(argv[i], "--kind")) {
+            if (!parse_u64(arg, &v) || v > 255) return die_bad_value("mark", "--kind", arg, "0..255 (0 ping, 1 select)");
+            m.kind = (uint8_t)v, i++;
+        } else if (!strcmp(argv[i], "--ttl")) {
+            if (!parse_u64(arg, &v) || v < 1 || v > 600000) return die_bad_value("mark", "--ttl", arg, "1..600000 ms");
+            m.ttl_ms = (uint32_t)v, i++;
+        } else if (!strcmp(argv[i], "--entity")) {
+            if (!parse_u64(arg, &m.entity)) return die_bad_value("mark", "--entity", arg, "an entity id");
+            i++;
+        } else {
+            return die_usage("mark: unexpected %s; %s", argv[i], use);
+        }
+    }
+    int rc = connect_cli(k, VP_ROLE_COMMANDER);
+    if (rc) return rc;
+    uint32_t sent = 0;
+    if ((rc = vtc_mark(k->c, &m, &sent))) return server_fail(k, "mark", rc);
+    printf("marked %g,%g,%g (kind %u, %u ms): sent to %u subscriber%s\n", m.pos[0], m.pos[1], m.pos[2], m.kind,
+           m.ttl_ms, sent, sent == 1 ? "" : "s");
     return 0;
 }

@@ -99,11 +99,13 @@ static const cli_form forms[] = {
      "  culls by pixel-centre coverage.\n"},
     {"render",
      "render --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH]\n"
-     "        [--exposure EV] [--quality Q] [--no-occlusion] [--renderer soft|gl] -o FILE.exr|png|jpg",
+     "        [--exposure EV] [--quality Q] [--no-occlusion] [--renderer soft|gl] [--highlight ID[,ID..]]\n"
+     "        -o FILE.exr|png|jpg",
      "one frame from the daemon, written by the file's extension",
      "  -o FILE (required): .exr (half RGBA + float Z), .png (tone mapped here, ACES after --exposure),\n"
      "  .jpg (encoded by the daemon at --quality 1..100, 85). --size WxH 1..4096 each (1280x720);\n"
-     "  --fov 0..180 exclusive (60); --exposure -64..64 EV (0); --renderer soft or gl.\n"},
+     "  --fov 0..180 exclusive (60); --exposure -64..64 EV (0); --renderer soft or gl; --highlight: up to\n"
+     "  8 entities outlined (ids not drawn are ignored); the live marks (vantage mark) are drawn as icons.\n"},
     {"lights",
      "lights --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH]\n"
      "        [--no-depth] [--json]",
@@ -129,12 +131,16 @@ static const cli_form forms[] = {
      "a destruction sphere on an entity: its occluder is cut open for the next query",
      "  RADIUS in metres, > 0; --debris N (0..64) small dynamic entities around the hole; --handle H:\n"
      "  refused if the entity's handle is not H. Needs the editor role.\n"},
+    {"mark", "mark X,Y,Z [--kind K] [--ttl MS] [--entity ID]",
+     "a commander's mark: pushed to mark subscribers, drawn as an icon in frames while it lives",
+     "  --kind 0 ping (a diamond, the default), 1 select (a square), others a disc; --ttl 1..600000 ms\n"
+     "  (10000). Needs the commander role.\n"},
     {"watch", "watch [--count N]", "print scene-changed events as they happen",
      "  One JSON line per coalesced scene change (epoch, added, updated, removed); Ctrl-C stops.\n"},
     {"watch",
      "watch --frames DIR --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F]\n"
      "        [--size WxH] [--exposure EV] [--quality Q] [--no-occlusion] [--renderer soft|gl]\n"
-     "        [--format jpg|png|exr] [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]",
+     "        [--highlight ID[,ID..]] [--format jpg|png|exr] [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]",
      "write the frames pushed as the scene changes (latest-frame-wins), one JSON line each",
      "  DIR/frame-NNNNNN.jpg (or .png, .exr); at most --fps N frames a second (1..240, 30).\n"
      "  --orbit D turns the camera D degrees a second around --at, re-aimed after each frame,\n"
@@ -946,7 +952,7 @@ int main(int argc, char **argv)
     static const struct { const char *name; int (*fn)(cli *, int, char **); } cmds[] = {
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"material", cmd_material}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
-        {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy}, {"pad", cmd_pad},
+        {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy}, {"pad", cmd_pad}, {"mark", cmd_mark},
         {"commander", cmdr_main}, {"texture", cmd_texture}, {"env", cmd_env},
     };
     int rc = -1;

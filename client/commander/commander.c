@@ -107,7 +107,6 @@ typedef struct commander {
     double pick_o[3], pick_d[3];
     bool have_sel;
     uint64_t sel_id;
-    double sel_lo[3], sel_hi[3];
     int group;
     mark marks[CMDR_OVERLAY_MARKS];
     uint32_t nmarks;
@@ -177,8 +176,12 @@ static void send_view(commander *m, double t_input)
         m->need_view = true;
         return;
     }
+    /* the selection rides with the view: the daemon outlines it in the
+       frames (its silhouette, dimmer where hidden), so the window draws
+       no box of its own */
     vp_frame_sub fs = {.r = {.format = VP_FRAME_JPEG, .quality = (uint8_t)m->quality, .renderer = m->renderer,
-                             .exposure_ev = m->exposure},
+                             .exposure_ev = m->exposure, .nhighlight = m->have_sel,
+                             .highlight = {m->have_sel ? m->sel_id : 0}},
                        .max_fps = (uint16_t)m->max_fps};
     if (!cmdr_camera_view(&m->cam, m->w, m->h, &fs.r.view)) {
         say(m, 3, "the camera is degenerate; view not sent");
@@ -309,10 +312,7 @@ static void on_picked(commander *m, const uint8_t *p, uint32_t len)
     }
     m->have_sel = true;
     m->sel_id = hit.id;
-    for (int a = 0; a < 3; a++) {
-        m->sel_lo[a] = hit.aabb[a];
-        m->sel_hi[a] = hit.aabb[3 + a];
-    }
+    m->need_view = true; /* the stream outlines the new selection */
     say(m, 4, "selected #%llu (group %d), %.0f x %.0f x %.0f m", (unsigned long long)hit.id, m->group + 1,
         hit.aabb[3] - hit.aabb[0], hit.aabb[4] - hit.aabb[1], hit.aabb[5] - hit.aabb[2]);
     /* a select is a mark of kind 1 for the other commanders */
@@ -356,6 +356,7 @@ static void run_actions(commander *m, uint32_t fired)
     if (fired & 1u << CMDR_PING) ping(m);
     if (fired & 1u << CMDR_CANCEL) {
         m->have_sel = false;
+        m->need_view = true;
         say(m, 2, "selection cleared");
     }
     if (fired & 1u << CMDR_GROUP_PREV) m->group = (m->group + CMDR_GROUPS - 1) % CMDR_GROUPS;
@@ -458,14 +459,6 @@ static void fill_overlay(commander *m, cmdr_overlay *ov)
              m->c ? "" : "   [disconnected]");
     if (m->have_sel) snprintf(ov->text[2], sizeof ov->text[2], "selected #%llu", (unsigned long long)m->sel_id);
     if (now < m->status_until) snprintf(ov->text[3], sizeof ov->text[3], "%s", m->status);
-    if (m->have_sel) {
-        ov->sel = true;
-        for (int i = 0; i < 8; i++) {
-            double p[3] = {i & 1 ? m->sel_hi[0] : m->sel_lo[0], i & 4 ? m->sel_hi[1] : m->sel_lo[1],
-                           i & 2 ? m->sel_hi[2] : m->sel_lo[2]};
-            ov->sel_ok[i] = cmdr_camera_project(&m->cam, m->w, m->h, p, &ov->sel_px[i][0], &ov->sel_px[i][1]);
-        }
-    }
     for (uint32_t i = 0; i < m->nmarks; i++) {
         const mark *k = &m->marks[i];
         if (now >= k->until) continue;

@@ -136,9 +136,6 @@ typedef struct cmdr_display cmdr_display;
 #define CMDR_OVERLAY_MARKS 32
 typedef struct cmdr_overlay {
     char text[CMDR_OVERLAY_LINES][192]; /* top-left status lines ("" = none) */
-    bool sel;                /* a selection box: its 8 corners projected (x right, y down, frame pixels) */
-    double sel_px[8][2];
-    bool sel_ok[8];          /* corner in front of the eye */
     uint32_t nmarks;
     struct {
         double x, y;         /* frame pixels */

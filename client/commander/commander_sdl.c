@@ -1,7 +1,8 @@
 /*
  * commander_sdl.c — the commander's window (commander.h): SDL2 shows the
- * streamed frames (one streaming texture, updated per frame), the overlay
- * is drawn with SDL's renderer (reticle, selection box, marks) and SDL_ttf
+ * streamed frames (one streaming texture, updated per frame; the daemon
+ * drew the selection's outline and the marks' icons into them), the
+ * overlay is drawn with SDL's renderer (reticle, mark rings) and SDL_ttf
  * (status lines, DejaVu Sans Mono from fonts-dejavu-core; without the
  * font the lines go to the window title instead).
  *
@@ -157,21 +158,10 @@ static void draw_all(cmdr_display *d, const cmdr_overlay *ov)
         SDL_RenderDrawLine(d->ren, cx, cy + s * 6, cx, cy + s * 18);
     }
     SDL_RenderDrawPoint(d->ren, cx, cy);
-    /* the selection: the box's 12 edges */
-    if (ov && ov->sel) {
-        static const int e[12][2] = {{0, 1}, {1, 3}, {3, 2}, {2, 0}, {4, 5}, {5, 7}, {7, 6}, {6, 4},
-                                     {0, 4}, {1, 5}, {2, 6}, {3, 7}};
-        SDL_SetRenderDrawColor(d->ren, 255, 210, 40, 255);
-        for (int i = 0; i < 12; i++) {
-            int a = e[i][0], b = e[i][1];
-            if (!ov->sel_ok[a] || !ov->sel_ok[b]) continue;
-            int x0, y0, x1, y1;
-            to_win(d, ov->sel_px[a][0], ov->sel_px[a][1], &x0, &y0);
-            to_win(d, ov->sel_px[b][0], ov->sel_px[b][1], &x1, &y1);
-            SDL_RenderDrawLine(d->ren, x0, y0, x1, y1);
-        }
-    }
-    /* marks: a diamond (ping) or a square (select), fading out */
+    /* the selection's outline and the marks' icons are in the frame (the
+       daemon draws them: vt_overlay.h); marks get a ring here too, a
+       diamond (ping) or a square (select) around the daemon's icon, in
+       this client's colour or the others', fading out */
     for (uint32_t i = 0; ov && i < ov->nmarks; i++) {
         int x, y;
         to_win(d, ov->mark[i].x, ov->mark[i].y, &x, &y);

@@ -430,7 +430,8 @@ int main(int argc, char **argv)
     /* a few edge shapes of valid messages */
     enc_vis_query(20, VP_Q_COUNT_ONLY | VP_Q_STATIC_ONLY, VP_MAX_VIEWS), save("vis_query_32_views");
     {
-        vp_render rm = {.view = view(0), .format = VP_FRAME_JPEG, .quality = 85, .exposure_ev = -1};
+        vp_render rm = {.view = view(0), .format = VP_FRAME_JPEG, .quality = 85, .exposure_ev = -1,
+                        .nhighlight = 2, .highlight = {42, 7}}; /* outlined: a selection */
         vp_enc_render(&g_w, 21, &rm), save("render_jpeg");
         rm.format = VP_FRAME_RAW;
         rm.quality = 0;
