@@ -133,7 +133,7 @@ OCCB_SRC := tests/bench/bench_occlusion.c tests/occ_ref.c tests/scene_file.c
 OCCB_OBJ := $(OCCB_SRC:%.c=$(BUILD)/%.o)
 OCCB_BIN := $(BUILD)/bench_occlusion
 
-RENDB_SRC:= tests/bench/bench_render.c
+RENDB_SRC:= tests/bench/bench_render.c tests/bench/bench_city.c
 RENDB_OBJ:= $(RENDB_SRC:%.c=$(BUILD)/%.o)
 RENDB_BIN:= $(BUILD)/bench_render
 
@@ -243,8 +243,9 @@ $(BENCH_BIN): $(BENCH_OBJ) $(CULL_LIB)
 $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
 
-$(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(CULL_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(LDLIBS)
+# the demo city (bench_city.c) is the daemon's: its scene and edit modules linked in, as the tests link them
+$(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
 $(PADB_BIN): $(PADB_OBJ) $(PADB_PAD)
 	$(CC) $(LDFLAGS) -o $@ $(PADB_OBJ) $(PADB_PAD) $(LDLIBS)

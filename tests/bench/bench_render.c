@@ -2,7 +2,15 @@
  * bench_render.c — frames per second of the render path (a benchmark: it
  * fails on nothing).
  *
- *   bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N]
+ *   bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] [--city-only]
+ *                [--no-city] [--png DIR]
+ *
+ * First issue 20's budget, the demo city (bench_city.c): the daemon's
+ * city and day environment, a street and an aerial view at 1280x720 on 2
+ * threads, each pass of the software frame timed (setup, raster, bin,
+ * shade, and shadow / ssao / post when they run), the tone map and the
+ * JPEG apart, the GL path on the same frames. --city-only stops there;
+ * --no-city skips it; --png DIR writes the last city frames there.
  *
  * The scene: N boxes (1k, 15k, 100k) of 0.5..4 m scattered over a 200 x
  * 380 m field in front of the camera, 0, 16 or 256 point lights of 30 m
@@ -25,6 +33,7 @@
  * bytes} for the encoders.
  */
 #include "culling.h"
+#include "bench_city.h"
 #include "bench_util.h"
 #include "vt_exr.h"
 #include "vt_gldraw.h"
@@ -256,7 +265,8 @@ static vt_light *make_lights(uint32_t nl)
 
 int main(int argc, char **argv)
 {
-    bool json = false, quick = false, smoke = false, gl = true;
+    bool json = false, quick = false, smoke = false, gl = true, city = true, city_only = false;
+    const char *png_dir = NULL;
     uint32_t W = 1280, H = 720;
     int reps = 15;
     for (int i = 1; i < argc; i++) {
@@ -266,8 +276,12 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--no-gl")) gl = false;
         else if (!strcmp(argv[i], "--size") && i + 1 < argc && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2) i++;
         else if (!strcmp(argv[i], "--reps") && i + 1 < argc) reps = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--city-only")) city_only = true;
+        else if (!strcmp(argv[i], "--no-city")) city = false;
+        else if (!strcmp(argv[i], "--png") && i + 1 < argc) png_dir = argv[++i];
         else {
-            fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N]\n");
+            fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] "
+                            "[--city-only] [--no-city] [--png DIR]\n");
             return 2;
         }
     }
@@ -308,7 +322,13 @@ int main(int argc, char **argv)
         cull_mat_mul(d.view_proj, proj, view);
         if (cull_view_init(&rn.v, &d)) return 1;
     }
-    if (!json) printf("%-6s %8s %7s %7s %10s %8s %9s  (median of %d frames)\n", "path", "boxes", "lights", "threads",
+    if (city || city_only) {
+        bench_city_opts co = {.pool = rn.pool, .width = W, .height = H, .reps = reps, .json = json, .gl = rn.gr,
+                              .gl_name = rn.gl_name, .lp_threads = rn.lp_threads, .png_dir = png_dir};
+        if (bench_city(&co)) return 1;
+    }
+    if (city_only) ncounts = 0;
+    if (!json && ncounts) printf("%-6s %8s %7s %7s %10s %8s %9s  (median of %d frames)\n", "path", "boxes", "lights", "threads",
                       "median_ms", "fps", "triangles", reps);
     for (size_t ci = 0; ci < ncounts; ci++) {
         scene s;
@@ -349,6 +369,15 @@ int main(int argc, char **argv)
     }
 
     /* the encoders, on the last frame */
+    if (city_only) {
+        free(rgba);
+        free(depth);
+        vt_gldraw_destroy(rn.gr);
+        vt_gl_close(rn.g);
+        cull_ctx_destroy(rn.ctx);
+        cull_pool_destroy(rn.pool);
+        return 0;
+    }
     char dir[] = "/tmp/vantage-bench-XXXXXX";
     if (!mkdtemp(dir)) return 1;
     char path[256];
