@@ -114,7 +114,7 @@ static inline __m128 lerp(__m128 a, __m128 b, __m128 t)
 /* Level L at (u, v), nearest or bilinear; tab: the sRGB table (NULL:
  * linear). Texel coordinates are wrapped after flooring, as GL does; u, v
  * far beyond 2^24 lose their fraction. */
-static inline __m128 sample_level(const level *L, float u, float v, bool linear, const float *tab)
+static inline __attribute__((always_inline)) __m128 sample_level(const level *L, float u, float v, bool linear, const float *tab)
 {
     /* keep the float to int conversions defined far from the origin */
     double fu = clamp9((double)u * L->w), fv = clamp9((double)v * L->h);
@@ -160,24 +160,34 @@ void vt_tex_sample(const vt_texref *r, const float uv0[2], const float dx0[2], c
     double lx2 = len2(dx[0] * (float)t->w, dx[1] * (float)t->h), ly2 = len2(dy[0] * (float)t->w, dy[1] * (float)t->h);
     float rho = (float)sqrt(lx2 > ly2 ? lx2 : ly2);
     float lod = rho > 0 && isfinite(rho) ? log2f(rho) : rho > 0 ? 64.0f : -64.0f; /* NaN: -64 */
+    /* which levels, how filtered: one level (magnified, no mips, nearest
+       mip, past the last) or two blended by f */
     uint8_t mf = r->min_filter;
+    uint32_t l0;
+    bool lin, two = false;
+    float f = 0;
     if (lod <= 0 || mf <= VT_FILTER_LINEAR) {
-        bool lin = lod <= 0 ? r->mag_filter == VT_FILTER_LINEAR : mf == VT_FILTER_LINEAR;
-        level L = level_of(r, 0);
-        _mm_storeu_ps(out, sample_level(&L, uv[0], uv[1], lin, tab));
-        return;
+        lin = lod <= 0 ? r->mag_filter == VT_FILTER_LINEAR : mf == VT_FILTER_LINEAR;
+        l0 = 0;
+    } else {
+        lin = mf == VT_FILTER_LINEAR_MIP_NEAREST || mf == VT_FILTER_LINEAR_MIP_LINEAR;
+        float top = (float)(t->levels - 1);
+        if (mf <= VT_FILTER_LINEAR_MIP_NEAREST || lod >= top) {
+            /* GL: level ceil(lod + 0.5) - 1; past the last level, the last */
+            float lv = mf > VT_FILTER_LINEAR_MIP_NEAREST ? top : lod <= 0.5f ? 0 : ceil_pos(lod + 0.5f) - 1;
+            l0 = (uint32_t)(lv < top ? lv : top);
+        } else {
+            float fl = (float)(int32_t)lod; /* floorf: 0 < lod < 15 here */
+            l0 = (uint32_t)fl;
+            f = lod - fl;
+            two = true;
+        }
     }
-    bool lin = mf == VT_FILTER_LINEAR_MIP_NEAREST || mf == VT_FILTER_LINEAR_MIP_LINEAR;
-    float top = (float)(t->levels - 1);
-    if (mf <= VT_FILTER_LINEAR_MIP_NEAREST || lod >= top) {
-        /* GL: level ceil(lod + 0.5) - 1; past the last level, the last */
-        float lv = mf > VT_FILTER_LINEAR_MIP_NEAREST ? top : lod <= 0.5f ? 0 : ceil_pos(lod + 0.5f) - 1;
-        level L = level_of(r, (uint32_t)(lv < top ? lv : top));
-        _mm_storeu_ps(out, sample_level(&L, uv[0], uv[1], lin, tab));
-        return;
+    level L0 = level_of(r, l0);
+    __m128 a = sample_level(&L0, uv[0], uv[1], lin, tab);
+    if (two) {
+        level L1 = level_of(r, l0 + 1);
+        a = lerp(a, sample_level(&L1, uv[0], uv[1], lin, tab), _mm_set1_ps(f));
     }
-    float l0 = (float)(int32_t)lod, f = lod - l0; /* floorf: 0 < lod < 15 here */
-    level L0 = level_of(r, (uint32_t)l0), L1 = level_of(r, (uint32_t)l0 + 1);
-    __m128 a = sample_level(&L0, uv[0], uv[1], lin, tab), b = sample_level(&L1, uv[0], uv[1], lin, tab);
-    _mm_storeu_ps(out, lerp(a, b, _mm_set1_ps(f)));
+    _mm_storeu_ps(out, a);
 }
