@@ -133,10 +133,11 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
     }
     in.albedo = alb;
     in.mat = t->mat;
-    if (t->has_uv && t->mat) {
+    const vt_texref *tx = t->mat->tex; /* UVs only for a material with a texture (they read nothing else) */
+    if (t->has_uv && (tx[VT_SLOT_BASE].tex || tx[VT_SLOT_MR].tex || tx[VT_SLOT_NORMAL].tex || tx[VT_SLOT_EMISSIVE].tex)) {
         in.has_uv = true;
         tri_uv_d(t, b, X, sp->Y, dX, dY, in.uv, in.dx, in.dy); /* b: the pixel's, reused */
-        if (t->has_tg) {
+        if (t->has_tg && t->mat->tex[VT_SLOT_NORMAL].tex) { /* only a normal map reads the tangent */
             in.has_t = true;
             for (int c = 0; c < 4; c++) in.t[c] = b[0] * t->tg[0][c] + b[1] * t->tg[1][c] + b[2] * t->tg[2][c];
         }
