@@ -263,6 +263,62 @@ static vt_light *make_lights(uint32_t nl)
     return L;
 }
 
+/* The encoders on the frame in rgba and depth: tone map, EXR (ZIP and
+ * none), PNG (levels 1 and 6), JPEG 85; a line each. */
+static int time_encoders(uint32_t W, uint32_t H, int reps, bool json, const float *rgba, const float *depth)
+{
+    char err[1024];
+    char dir[] = "/tmp/vantage-bench-XXXXXX";
+    if (!mkdtemp(dir)) return -1;
+    char path[256];
+    uint8_t *rgb8 = malloc(vt_image_rgba8_size(W, H));
+    if (!rgb8) return -1;
+    const float *top = rgba + (size_t)(H - 1) * W * 4;
+    ptrdiff_t ys = -(ptrdiff_t)W * 4;
+    vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}, .a = {top + 3, 4, ys}};
+    vt_tonemap_desc td = {.exposure_ev = -2, .op = VT_TONEMAP_ACES};
+    static const char *names[] = {"tonemap", "exr-zip", "exr-none", "png-1", "png-6", "jpeg-85"};
+    for (int e = 0; e < 6; e++) {
+        double *t = malloc((size_t)reps * sizeof *t);
+        long bytes = 0;
+        for (int r = 0; r < reps; r++) {
+            snprintf(path, sizeof path, "%s/frame", dir);
+            double t0 = (bench_now_ns() / 1e6);
+            int rc = 0;
+            if (e == 0) {
+                rc = vt_image_tonemap(W, H, &src, &td, rgb8, 4 * (size_t)W);
+            } else if (e <= 2) {
+                vt_exr_channel ch[5] = {{"R", VT_EXR_HALF, top, 4, ys},     {"G", VT_EXR_HALF, top + 1, 4, ys},
+                                        {"B", VT_EXR_HALF, top + 2, 4, ys}, {"A", VT_EXR_HALF, top + 3, 4, ys},
+                                        {"Z", VT_EXR_FLOAT, depth + (size_t)(H - 1) * W, 1, -(ptrdiff_t)W}};
+                rc = vt_exr_write(path, W, H, ch, 5, e == 1 ? VT_EXR_ZIP : VT_EXR_NONE, err, sizeof err);
+            } else if (e <= 4) {
+                rc = vt_png_write(path, W, H, rgb8, 4 * (size_t)W, false, e == 3 ? 1 : 6, err, sizeof err);
+            } else {
+                rc = vt_jpeg_write(path, W, H, rgb8, 4 * (size_t)W, 4, 85, err, sizeof err);
+            }
+            t[r] = (bench_now_ns() / 1e6) - t0;
+            if (rc) {
+                fprintf(stderr, "bench_render: %s: %s\n", names[e], err);
+                return -1;
+            }
+            struct stat sb;
+            if (e && stat(path, &sb) == 0) bytes = (long)sb.st_size;
+        }
+        qsort(t, (size_t)reps, sizeof *t, bench_cmp_d);
+        if (json)
+            printf("{\"encode\":\"%s\",\"width\":%u,\"height\":%u,\"median_ms\":%.3f,\"bytes\":%ld}\n", names[e], W, H,
+                   t[reps / 2], bytes);
+        else
+            printf("encode %-9s %8.2f ms %9ld bytes\n", names[e], t[reps / 2], bytes);
+        free(t);
+    }
+    unlink(path);
+    rmdir(dir);
+    free(rgb8);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     bool json = false, quick = false, smoke = false, gl = true, city = true, city_only = false;
@@ -369,63 +425,7 @@ int main(int argc, char **argv)
     }
 
     /* the encoders, on the last frame */
-    if (city_only) {
-        free(rgba);
-        free(depth);
-        vt_gldraw_destroy(rn.gr);
-        vt_gl_close(rn.g);
-        cull_ctx_destroy(rn.ctx);
-        cull_pool_destroy(rn.pool);
-        return 0;
-    }
-    char dir[] = "/tmp/vantage-bench-XXXXXX";
-    if (!mkdtemp(dir)) return 1;
-    char path[256];
-    uint8_t *rgb8 = malloc(vt_image_rgba8_size(W, H));
-    if (!rgb8) return 1;
-    const float *top = rgba + (size_t)(H - 1) * W * 4;
-    ptrdiff_t ys = -(ptrdiff_t)W * 4;
-    vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}, .a = {top + 3, 4, ys}};
-    vt_tonemap_desc td = {.exposure_ev = -2, .op = VT_TONEMAP_ACES};
-    static const char *names[] = {"tonemap", "exr-zip", "exr-none", "png-1", "png-6", "jpeg-85"};
-    for (int e = 0; e < 6; e++) {
-        double *t = malloc((size_t)reps * sizeof *t);
-        long bytes = 0;
-        for (int r = 0; r < reps; r++) {
-            snprintf(path, sizeof path, "%s/frame", dir);
-            double t0 = (bench_now_ns() / 1e6);
-            int rc = 0;
-            if (e == 0) {
-                rc = vt_image_tonemap(W, H, &src, &td, rgb8, 4 * (size_t)W);
-            } else if (e <= 2) {
-                vt_exr_channel ch[5] = {{"R", VT_EXR_HALF, top, 4, ys},     {"G", VT_EXR_HALF, top + 1, 4, ys},
-                                        {"B", VT_EXR_HALF, top + 2, 4, ys}, {"A", VT_EXR_HALF, top + 3, 4, ys},
-                                        {"Z", VT_EXR_FLOAT, depth + (size_t)(H - 1) * W, 1, -(ptrdiff_t)W}};
-                rc = vt_exr_write(path, W, H, ch, 5, e == 1 ? VT_EXR_ZIP : VT_EXR_NONE, err, sizeof err);
-            } else if (e <= 4) {
-                rc = vt_png_write(path, W, H, rgb8, 4 * (size_t)W, false, e == 3 ? 1 : 6, err, sizeof err);
-            } else {
-                rc = vt_jpeg_write(path, W, H, rgb8, 4 * (size_t)W, 4, 85, err, sizeof err);
-            }
-            t[r] = (bench_now_ns() / 1e6) - t0;
-            if (rc) {
-                fprintf(stderr, "bench_render: %s: %s\n", names[e], err);
-                return 1;
-            }
-            struct stat sb;
-            if (e && stat(path, &sb) == 0) bytes = (long)sb.st_size;
-        }
-        qsort(t, (size_t)reps, sizeof *t, bench_cmp_d);
-        if (json)
-            printf("{\"encode\":\"%s\",\"width\":%u,\"height\":%u,\"median_ms\":%.3f,\"bytes\":%ld}\n", names[e], W, H,
-                   t[reps / 2], bytes);
-        else
-            printf("encode %-9s %8.2f ms %9ld bytes\n", names[e], t[reps / 2], bytes);
-        free(t);
-    }
-    unlink(path);
-    rmdir(dir);
-    free(rgb8);
+    if (!city_only && time_encoders(W, H, reps, json, rgba, depth)) return 1;
     free(rgba);
     free(depth);
     vt_gldraw_destroy(rn.gr);
