@@ -20,9 +20,42 @@
  */
 #include "vt_surface.h"
 
-#include <emmintrin.h>
 #include <math.h>
 #include <string.h>
+
+/* RGBA in 4 lanes: SSE2 on x86-64 (every such CPU; the lanes' adds and
+ * multiplies are the scalar ones, so the numbers are the same), 4 floats
+ * elsewhere. */
+#if defined(__SSE2__) && !defined(VT_NO_SSE2) /* VT_NO_SSE2: the portable lanes on x86 too (a check) */
+#include <emmintrin.h>
+typedef __m128 v4;
+static inline v4 v4_set(float a, float b, float c, float d) { return _mm_setr_ps(a, b, c, d); }
+static inline v4 v4_set1(float a) { return _mm_set1_ps(a); }
+static inline v4 v4_add(v4 a, v4 b) { return _mm_add_ps(a, b); }
+static inline v4 v4_sub(v4 a, v4 b) { return _mm_sub_ps(a, b); }
+static inline v4 v4_mul(v4 a, v4 b) { return _mm_mul_ps(a, b); }
+static inline void v4_store(float *o, v4 a) { _mm_storeu_ps(o, a); }
+/* 4 bytes to 4 floats, each times 1/255 */
+static inline v4 v4_unorm8(const uint8_t *p)
+{
+    int32_t v;
+    memcpy(&v, p, 4);
+    __m128i z = _mm_setzero_si128(), b = _mm_cvtsi32_si128(v);
+    return _mm_mul_ps(_mm_cvtepi32_ps(_mm_unpacklo_epi16(_mm_unpacklo_epi8(b, z), z)), _mm_set1_ps(1 / 255.0f));
+}
+#else
+typedef struct v4 { float l[4]; } v4;
+static inline v4 v4_set(float a, float b, float c, float d) { return (v4){{a, b, c, d}}; }
+static inline v4 v4_set1(float a) { return (v4){{a, a, a, a}}; }
+static inline v4 v4_add(v4 a, v4 b) { return (v4){{a.l[0] + b.l[0], a.l[1] + b.l[1], a.l[2] + b.l[2], a.l[3] + b.l[3]}}; }
+static inline v4 v4_sub(v4 a, v4 b) { return (v4){{a.l[0] - b.l[0], a.l[1] - b.l[1], a.l[2] - b.l[2], a.l[3] - b.l[3]}}; }
+static inline v4 v4_mul(v4 a, v4 b) { return (v4){{a.l[0] * b.l[0], a.l[1] * b.l[1], a.l[2] * b.l[2], a.l[3] * b.l[3]}}; }
+static inline void v4_store(float *o, v4 a) { memcpy(o, a.l, sizeof a.l); }
+static inline v4 v4_unorm8(const uint8_t *p)
+{
+    return v4_set(p[0] * (1 / 255.0f), p[1] * (1 / 255.0f), p[2] * (1 / 255.0f), p[3] * (1 / 255.0f));
+}
+#endif
 
 /* The sRGB decode of every 8-bit value, made once (racing threads write
  * the same table). */
@@ -91,41 +124,35 @@ static inline int32_t wrap(int32_t i, int32_t n, uint8_t mode)
     return vt_wrap_i(i, n, mode);
 }
 
-/* Texel (x, y) of a level, decoded, RGBA in the 4 lanes (SSE2, every
- * x86-64: the lanes' adds and multiplies are the scalar ones, so the
- * numbers are the same). */
-static inline __m128 texel(const level *L, int32_t x, int32_t y, const float *tab)
+/* Texel (x, y) of a level, decoded. */
+static inline v4 texel(const level *L, int32_t x, int32_t y, const float *tab)
 {
     const uint8_t *p = L->px + 4 * ((size_t)y * (size_t)L->w + (size_t)x);
-    if (tab) return _mm_setr_ps(tab[p[0]], tab[p[1]], tab[p[2]], (float)p[3] * (1 / 255.0f));
-    int32_t v;
-    memcpy(&v, p, 4);
-    __m128i z = _mm_setzero_si128(), b = _mm_cvtsi32_si128(v);
-    __m128i i = _mm_unpacklo_epi16(_mm_unpacklo_epi8(b, z), z);
-    return _mm_mul_ps(_mm_cvtepi32_ps(i), _mm_set1_ps(1 / 255.0f));
+    if (tab) return v4_set(tab[p[0]], tab[p[1]], tab[p[2]], (float)p[3] * (1 / 255.0f));
+    return v4_unorm8(p);
 }
 
 /* a + t (b - a), per lane */
-static inline __m128 lerp(__m128 a, __m128 b, __m128 t)
+static inline v4 lerp(v4 a, v4 b, v4 t)
 {
-    return _mm_add_ps(a, _mm_mul_ps(t, _mm_sub_ps(b, a)));
+    return v4_add(a, v4_mul(t, v4_sub(b, a)));
 }
 
 /* Level L at (u, v), nearest or bilinear; tab: the sRGB table (NULL:
  * linear). Texel coordinates are wrapped after flooring, as GL does; u, v
  * far beyond 2^24 lose their fraction. */
-static inline __attribute__((always_inline)) __m128 sample_level(const level *L, float u, float v, bool linear, const float *tab)
+static inline __attribute__((always_inline)) v4 sample_level(const level *L, float u, float v, bool linear, const float *tab)
 {
     /* keep the float to int conversions defined far from the origin */
     double fu = clamp9((double)u * L->w), fv = clamp9((double)v * L->h);
     if (!linear) return texel(L, wrap(floor_i(fu), L->w, L->ws), wrap(floor_i(fv), L->h, L->wt), tab);
     double x = fu - 0.5, y = fv - 0.5;
     int32_t xi = floor_i(x), yi = floor_i(y);
-    __m128 ax = _mm_set1_ps((float)(x - xi)), ay = _mm_set1_ps((float)(y - yi));
+    v4 ax = v4_set1((float)(x - xi)), ay = v4_set1((float)(y - yi));
     int32_t i0 = wrap(xi, L->w, L->ws), i1 = wrap(xi + 1, L->w, L->ws);
     int32_t j0 = wrap(yi, L->h, L->wt), j1 = wrap(yi + 1, L->h, L->wt);
-    __m128 top = lerp(texel(L, i0, j0, tab), texel(L, i1, j0, tab), ax);
-    __m128 bot = lerp(texel(L, i0, j1, tab), texel(L, i1, j1, tab), ax);
+    v4 top = lerp(texel(L, i0, j0, tab), texel(L, i1, j0, tab), ax);
+    v4 bot = lerp(texel(L, i0, j1, tab), texel(L, i1, j1, tab), ax);
     return lerp(top, bot, ay);
 }
 
@@ -184,10 +211,10 @@ void vt_tex_sample(const vt_texref *r, const float uv0[2], const float dx0[2], c
         }
     }
     level L0 = level_of(r, l0);
-    __m128 a = sample_level(&L0, uv[0], uv[1], lin, tab);
+    v4 a = sample_level(&L0, uv[0], uv[1], lin, tab);
     if (two) {
         level L1 = level_of(r, l0 + 1);
-        a = lerp(a, sample_level(&L1, uv[0], uv[1], lin, tab), _mm_set1_ps(f));
+        a = lerp(a, sample_level(&L1, uv[0], uv[1], lin, tab), v4_set1(f));
     }
-    _mm_storeu_ps(out, a);
+    v4_store(out, a);
 }
