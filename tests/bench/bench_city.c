@@ -281,7 +281,7 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
                    o->gl_name, name, W, H, o->lp_threads, gm, med[P_TOTAL] - med[P_TONEMAP] - med[P_JPEG]);
         else
             printf("city %-7s gl (%s, %u threads): %.2f ms (gather + draw + readback); soft's same part %.2f ms: "
-                   "soft %.2fx faster\n",
+                   "gl / soft %.2f\n",
                    name, o->gl_name, o->lp_threads, gm, med[P_TOTAL] - med[P_TONEMAP] - med[P_JPEG],
                    gm / (med[P_TOTAL] - med[P_TONEMAP] - med[P_JPEG]));
         fflush(stdout);
