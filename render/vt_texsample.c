@@ -8,15 +8,17 @@
  *
  * Cost: the hot loop of a textured frame (a trilinear sample is 8 texels;
  * a facade pixel of the demo city takes two, base colour and emissive).
- * Issue 19's version went through a call per texel, a level size and a
- * wrap with a modulo per texel, libm's floor and hypotf, and the slot
+ * Issue 19's version went through a call per texel with the level's size
+ * and the wrap recomputed per texel, libm's floor and hypotf, and the slot
  * transform called 3 times: 35-45 % of a city frame. This one computes the
  * same numbers (bit for bit: the same operations in the same order on the
  * same types; tests/test_texsample.c holds issue 19's code as the
  * reference and compares) with a level's size and base pointer resolved
- * once, the power-of-two wraps as masks, the floors as integer
+ * once, the power-of-two REPEAT wraps as masks, the floors as integer
  * conversions (the coordinates are clamped to +-1e9 first, so they fit),
- * and the 4 channels of a texel from one 32-bit load.
+ * hypotf's length compared squared, and a texel's 4 channels decoded and
+ * filtered together in SSE2 lanes: half the instructions of the old one
+ * on the demo city (BENCHMARKS.md, issue 20's frame).
  */
 #include "vt_surface.h"
 
