@@ -1,14 +1,12 @@
 /*
  * vt_scene.c — the scene model's checks and shared shading (vt_scene.h,
- * vt_surface.h): textures sampled as OpenGL samples them (wrap, nearest
- * or bilinear, mip levels from the UV derivatives, sRGB decoded before
- * filtering), glTF metallic-roughness evaluated per pixel (the kernels
+ * vt_surface.h): glTF metallic-roughness evaluated per pixel (the kernels
  * of vt_shade.inl light it), Preetham's analytic clear sky, the ground
  * plane, height fog and exposure. vt_gldraw_glsl.c is the same formulas
  * in GLSL.
  *
  * Cost: per shaded pixel a textured material samples up to 4 slots (8
- * texels each, trilinear); the sky costs three Perez evaluations per sky
+ * texels each, trilinear: vt_texsample.c); the sky costs three Perez evaluations per sky
  * pixel; the ambient is 128 sky samples a frame.
  */
 #include "vt_surface.h"
@@ -139,128 +137,6 @@ void vt_material_default(const float albedo[3], vt_material *out)
                          .normal_scale = 1};
 }
 
-/* ---- textures ----------------------------------------------------------------------- */
-
-static float srgb_table[256];
-
-static void srgb_init(void)
-{
-    for (int i = 0; i < 256; i++) {
-        double c = i / 255.0;
-        srgb_table[i] = (float)(c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4));
-    }
-}
-
-/* An integer texel coordinate wrapped into 0..n-1 (GL's rules). */
-static int32_t wrap_i(int32_t i, int32_t n, int mode)
-{
-    if (mode == VT_WRAP_CLAMP) return i < 0 ? 0 : i >= n ? n - 1 : i;
-    if (mode == VT_WRAP_MIRROR) {
-        int32_t p = i % (2 * n);
-        if (p < 0) p += 2 * n;
-        return p < n ? p : 2 * n - 1 - p;
-    }
-    if (!(n & (n - 1))) return i & (n - 1); /* a power of two (most textures): the same, without a division */
-    int32_t p = i % n;
-    return p < 0 ? p + n : p;
-}
-
-static void texel(const vt_texview *t, uint32_t lv, int32_t x, int32_t y, bool srgb, float o[4])
-{
-    uint32_t w = t->w >> lv ? t->w >> lv : 1;
-    const uint8_t *px = t->mip[lv] + 4 * ((size_t)y * w + (size_t)x);
-    if (srgb) {
-        o[0] = srgb_table[px[0]];
-        o[1] = srgb_table[px[1]];
-        o[2] = srgb_table[px[2]];
-    } else {
-        o[0] = px[0] * (1 / 255.0f);
-        o[1] = px[1] * (1 / 255.0f);
-        o[2] = px[2] * (1 / 255.0f);
-    }
-    o[3] = px[3] * (1 / 255.0f);
-}
-
-/* Level lv at (u, v), nearest or bilinear. Texel coordinates are wrapped
- * after flooring, as GL does; u, v far beyond 2^24 lose their fraction. */
-static void sample_level(const vt_texref *r, uint32_t lv, float u, float v, bool linear, bool srgb, float o[4])
-{
-    const vt_texview *t = r->tex;
-    int32_t w = (int32_t)(t->w >> lv ? t->w >> lv : 1), h = (int32_t)(t->h >> lv ? t->h >> lv : 1);
-    /* keep the float to int conversions defined far from the origin */
-    double fu = fmin(fmax((double)u * w, -1e9), 1e9), fv = fmin(fmax((double)v * h, -1e9), 1e9);
-    if (!linear) {
-        int32_t x = (int32_t)floor(fu), y = (int32_t)floor(fv);
-        texel(t, lv, wrap_i(x, w, r->wrap_s), wrap_i(y, h, r->wrap_t), srgb, o);
-        return;
-    }
-    double x = fu - 0.5, y = fv - 0.5, x0 = floor(x), y0 = floor(y);
-    float ax = (float)(x - x0), ay = (float)(y - y0);
-    int32_t i0 = wrap_i((int32_t)x0, w, r->wrap_s), i1 = wrap_i((int32_t)x0 + 1, w, r->wrap_s);
-    int32_t j0 = wrap_i((int32_t)y0, h, r->wrap_t), j1 = wrap_i((int32_t)y0 + 1, h, r->wrap_t);
-    float a[4], b[4], c[4], d[4];
-    texel(t, lv, i0, j0, srgb, a);
-    texel(t, lv, i1, j0, srgb, b);
-    texel(t, lv, i0, j1, srgb, c);
-    texel(t, lv, i1, j1, srgb, d);
-    for (int k = 0; k < 4; k++) {
-        float top = a[k] + ax * (b[k] - a[k]), bot = c[k] + ax * (d[k] - c[k]);
-        o[k] = top + ay * (bot - top);
-    }
-}
-
-void vt_tex_xform(const vt_texref *r, const float uv[2], bool vec, float out[2])
-{
-    float su = uv[0] * (r->scale[0] == 0 && r->scale[1] == 0 ? 1 : r->scale[0]);
-    float sv = uv[1] * (r->scale[0] == 0 && r->scale[1] == 0 ? 1 : r->scale[1]);
-    /* no rotation (most slots): cos 0 = 1 and sin 0 = 0 exactly, without the calls */
-    float c = r->rotation == 0 ? 1.0f : cosf(r->rotation), s = r->rotation == 0 ? 0.0f : sinf(r->rotation);
-    out[0] = c * su - s * sv + (vec ? 0 : r->offset[0]);
-    out[1] = s * su + c * sv + (vec ? 0 : r->offset[1]);
-}
-
-void vt_tex_sample(const vt_texref *r, const float uv0[2], const float dx0[2], const float dy0[2], bool srgb,
-                   float out[4])
-{
-    static int once;
-    if (!__atomic_load_n(&once, __ATOMIC_ACQUIRE)) { /* idempotent: racing threads write the same table */
-        srgb_init();
-        __atomic_store_n(&once, 1, __ATOMIC_RELEASE);
-    }
-    const vt_texview *t = r->tex;
-    float uv[2], dx[2], dy[2];
-    vt_tex_xform(r, uv0, false, uv);
-    vt_tex_xform(r, dx0, true, dx);
-    vt_tex_xform(r, dy0, true, dy);
-    /* GL's scale factor: the longer of the two derivative vectors, in texels */
-    float lx = hypotf(dx[0] * (float)t->w, dx[1] * (float)t->h), ly = hypotf(dy[0] * (float)t->w, dy[1] * (float)t->h);
-    float rho = lx > ly ? lx : ly;
-    float lod = rho > 0 && isfinite(rho) ? log2f(rho) : rho > 0 ? 64.0f : -64.0f; /* NaN: -64 */
-    uint8_t mf = r->min_filter;
-    if (lod <= 0 || mf <= VT_FILTER_LINEAR) {
-        bool lin = lod <= 0 ? r->mag_filter == VT_FILTER_LINEAR : mf == VT_FILTER_LINEAR;
-        sample_level(r, 0, uv[0], uv[1], lin, srgb, out);
-        return;
-    }
-    bool lin = mf == VT_FILTER_LINEAR_MIP_NEAREST || mf == VT_FILTER_LINEAR_MIP_LINEAR;
-    float top = (float)(t->levels - 1);
-    if (mf <= VT_FILTER_LINEAR_MIP_NEAREST) {
-        /* GL: level ceil(lod + 0.5) - 1 */
-        float lv = lod <= 0.5f ? 0 : ceilf(lod + 0.5f) - 1;
-        sample_level(r, (uint32_t)(lv < top ? lv : top), uv[0], uv[1], lin, srgb, out);
-        return;
-    }
-    if (lod >= top) {
-        sample_level(r, (uint32_t)top, uv[0], uv[1], lin, srgb, out);
-        return;
-    }
-    float l0 = floorf(lod), f = lod - l0;
-    float a[4], b[4];
-    sample_level(r, (uint32_t)l0, uv[0], uv[1], lin, srgb, a);
-    sample_level(r, (uint32_t)l0 + 1, uv[0], uv[1], lin, srgb, b);
-    for (int k = 0; k < 4; k++) out[k] = a[k] + f * (b[k] - a[k]);
-}
-
 /* ---- the sky ------------------------------------------------------------------------- */
 
 static float perez(const float c[5], float cos_theta, float gamma)
@@ -314,8 +190,8 @@ void vt_sky_sample(const vt_penv *pe, const float uv[2], float out[3])
     float x = u * (float)t->w - 0.5f, y = v * (float)t->h - 0.5f, x0 = floorf(x), y0 = floorf(y);
     float ax = x - x0, ay = y - y0;
     int32_t w = (int32_t)t->w, h = (int32_t)t->h;
-    int32_t i0 = wrap_i((int32_t)x0, w, VT_WRAP_REPEAT), i1 = wrap_i((int32_t)x0 + 1, w, VT_WRAP_REPEAT);
-    int32_t j0 = wrap_i((int32_t)y0, h, VT_WRAP_CLAMP), j1 = wrap_i((int32_t)y0 + 1, h, VT_WRAP_CLAMP);
+    int32_t i0 = vt_wrap_i((int32_t)x0, w, VT_WRAP_REPEAT), i1 = vt_wrap_i((int32_t)x0 + 1, w, VT_WRAP_REPEAT);
+    int32_t j0 = vt_wrap_i((int32_t)y0, h, VT_WRAP_CLAMP), j1 = vt_wrap_i((int32_t)y0 + 1, h, VT_WRAP_CLAMP);
     for (int c = 0; c < 3; c++) {
         float a = t->hdr[4 * ((size_t)j0 * w + i0) + c], b = t->hdr[4 * ((size_t)j0 * w + i1) + c];
         float e = t->hdr[4 * ((size_t)j1 * w + i0) + c], f = t->hdr[4 * ((size_t)j1 * w + i1) + c];

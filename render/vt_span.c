@@ -13,20 +13,28 @@
 #include <math.h>
 #include <string.h>
 
-/* Interpolated UVs of t at NDC (X, Y). */
-static void tri_uv(const vt_stri *t, float X, float Y, float uv[2])
+/* Interpolated UVs of t at barycentrics b. */
+static inline void tri_uv_b(const vt_stri *t, const float b[3], float uv[2])
 {
-    float b[3];
-    vt_stri_bary(t, X, Y, b);
     uv[0] = b[0] * t->uv[0][0] + b[1] * t->uv[1][0] + b[2] * t->uv[2][0];
     uv[1] = b[0] * t->uv[0][1] + b[1] * t->uv[1][1] + b[2] * t->uv[2][1];
 }
 
-/* The UVs at (X, Y) and their differences one pixel right and one up. */
-static void tri_uv_d(const vt_stri *t, float X, float Y, float dX, float dY, float uv[2], float dx[2], float dy[2])
+/* Interpolated UVs of t at NDC (X, Y). */
+static inline void tri_uv(const vt_stri *t, float X, float Y, float uv[2])
+{
+    float b[3];
+    vt_stri_bary(t, X, Y, b);
+    tri_uv_b(t, b, uv);
+}
+
+/* The UVs at (X, Y), whose barycentrics are b, and their differences one
+ * pixel right and one up. */
+static void tri_uv_d(const vt_stri *t, const float b[3], float X, float Y, float dX, float dY, float uv[2], float dx[2],
+                     float dy[2])
 {
     float ux[2], uy[2];
-    tri_uv(t, X, Y, uv);
+    tri_uv_b(t, b, uv);
     tri_uv(t, X + dX, Y, ux);
     tri_uv(t, X, Y + dY, uy);
     for (int k = 0; k < 2; k++) {
@@ -37,8 +45,9 @@ static void tri_uv_d(const vt_stri *t, float X, float Y, float dX, float dY, flo
 
 bool vt_stri_alpha_pass(const vt_stri *t, float X, float Y, float dX, float dY)
 {
-    float uv[2], dx[2], dy[2];
-    tri_uv_d(t, X, Y, dX, dY, uv, dx, dy);
+    float b[3], uv[2], dx[2], dy[2];
+    vt_stri_bary(t, X, Y, b);
+    tri_uv_d(t, b, X, Y, dX, dY, uv, dx, dy);
     return vt_surface_alpha(t->mat, uv, dx, dy) >= t->mat->alpha_cutoff;
 }
 
@@ -124,10 +133,11 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
     }
     in.albedo = alb;
     in.mat = t->mat;
-    if (t->has_uv && t->mat) {
+    const vt_texref *tx = t->mat->tex; /* UVs only for a material with a texture (they read nothing else) */
+    if (t->has_uv && (tx[VT_SLOT_BASE].tex || tx[VT_SLOT_MR].tex || tx[VT_SLOT_NORMAL].tex || tx[VT_SLOT_EMISSIVE].tex)) {
         in.has_uv = true;
-        tri_uv_d(t, X, sp->Y, dX, dY, in.uv, in.dx, in.dy);
-        if (t->has_tg) {
+        tri_uv_d(t, b, X, sp->Y, dX, dY, in.uv, in.dx, in.dy); /* b: the pixel's, reused */
+        if (t->has_tg && t->mat->tex[VT_SLOT_NORMAL].tex) { /* only a normal map reads the tangent */
             in.has_t = true;
             for (int c = 0; c < 4; c++) in.t[c] = b[0] * t->tg[0][c] + b[1] * t->tg[1][c] + b[2] * t->tg[2][c];
         }

@@ -68,7 +68,22 @@ void vt_sky_radiance(const vt_penv *pe, const float d[3], float out[3]);
 void vt_sky_uv(const vt_penv *pe, const float d[3], float uv[2]);
 void vt_sky_sample(const vt_penv *pe, const float uv[2], float out[3]);
 
-/* A texture slot sampled at uv (before its transform) with derivatives
+/* An integer texel coordinate wrapped into 0..n-1 (GL's rules, mode a
+ * VT_WRAP_*). */
+static inline int32_t vt_wrap_i(int32_t i, int32_t n, int mode)
+{
+    if (mode == VT_WRAP_CLAMP) return i < 0 ? 0 : i >= n ? n - 1 : i;
+    if (mode == VT_WRAP_MIRROR) {
+        int32_t p = i % (2 * n);
+        if (p < 0) p += 2 * n;
+        return p < n ? p : 2 * n - 1 - p;
+    }
+    if (!(n & (n - 1))) return i & (n - 1); /* a power of two (most textures): the same, without a division */
+    int32_t p = i % n;
+    return p < 0 ? p + n : p;
+}
+
+/* A texture slot sampled at uv (vt_texsample.c) (before its transform) with derivatives
  * duv/dx, duv/dy per pixel: RGBA, sRGB colour decoded when srgb. */
 void vt_tex_sample(const vt_texref *r, const float uv[2], const float dx[2], const float dy[2], bool srgb,
                    float out[4]);

@@ -32,6 +32,7 @@ int main(void)
         {sublevel_tests, sublevel_tests_count},
         {destruct_tests, destruct_tests_count},
         {texture_tests, texture_tests_count},
+        {texsample_tests, texsample_tests_count},
         {env_tests, env_tests_count},
         {mask_tests, mask_tests_count},
         {auth_tests, auth_tests_count},

@@ -2,7 +2,15 @@
  * bench_render.c — frames per second of the render path (a benchmark: it
  * fails on nothing).
  *
- *   bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N]
+ *   bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] [--city-only]
+ *                [--no-city] [--png DIR]
+ *
+ * First issue 20's budget, the demo city (bench_city.c): the daemon's
+ * city and day environment, a street and an aerial view at 1280x720 on 2
+ * threads, each pass of the software frame timed (setup, raster, bin,
+ * shade, and shadow / ssao / post when they run), the tone map and the
+ * JPEG apart, the GL path on the same frames. --city-only stops there;
+ * --no-city skips it; --png DIR writes the last city frames there.
  *
  * The scene: N boxes (1k, 15k, 100k) of 0.5..4 m scattered over a 200 x
  * 380 m field in front of the camera, 0, 16 or 256 point lights of 30 m
@@ -25,6 +33,7 @@
  * bytes} for the encoders.
  */
 #include "culling.h"
+#include "bench_city.h"
 #include "bench_util.h"
 #include "vt_exr.h"
 #include "vt_gldraw.h"
@@ -254,9 +263,66 @@ static vt_light *make_lights(uint32_t nl)
     return L;
 }
 
+/* The encoders on the frame in rgba and depth: tone map, EXR (ZIP and
+ * none), PNG (levels 1 and 6), JPEG 85; a line each. */
+static int time_encoders(uint32_t W, uint32_t H, int reps, bool json, const float *rgba, const float *depth)
+{
+    char err[1024];
+    char dir[] = "/tmp/vantage-bench-XXXXXX";
+    if (!mkdtemp(dir)) return -1;
+    char path[256];
+    uint8_t *rgb8 = malloc(vt_image_rgba8_size(W, H));
+    if (!rgb8) return -1;
+    const float *top = rgba + (size_t)(H - 1) * W * 4;
+    ptrdiff_t ys = -(ptrdiff_t)W * 4;
+    vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}, .a = {top + 3, 4, ys}};
+    vt_tonemap_desc td = {.exposure_ev = -2, .op = VT_TONEMAP_ACES};
+    static const char *names[] = {"tonemap", "exr-zip", "exr-none", "png-1", "png-6", "jpeg-85"};
+    for (int e = 0; e < 6; e++) {
+        double *t = malloc((size_t)reps * sizeof *t);
+        long bytes = 0;
+        for (int r = 0; r < reps; r++) {
+            snprintf(path, sizeof path, "%s/frame", dir);
+            double t0 = (bench_now_ns() / 1e6);
+            int rc = 0;
+            if (e == 0) {
+                rc = vt_image_tonemap(W, H, &src, &td, rgb8, 4 * (size_t)W);
+            } else if (e <= 2) {
+                vt_exr_channel ch[5] = {{"R", VT_EXR_HALF, top, 4, ys},     {"G", VT_EXR_HALF, top + 1, 4, ys},
+                                        {"B", VT_EXR_HALF, top + 2, 4, ys}, {"A", VT_EXR_HALF, top + 3, 4, ys},
+                                        {"Z", VT_EXR_FLOAT, depth + (size_t)(H - 1) * W, 1, -(ptrdiff_t)W}};
+                rc = vt_exr_write(path, W, H, ch, 5, e == 1 ? VT_EXR_ZIP : VT_EXR_NONE, err, sizeof err);
+            } else if (e <= 4) {
+                rc = vt_png_write(path, W, H, rgb8, 4 * (size_t)W, false, e == 3 ? 1 : 6, err, sizeof err);
+            } else {
+                rc = vt_jpeg_write(path, W, H, rgb8, 4 * (size_t)W, 4, 85, err, sizeof err);
+            }
+            t[r] = (bench_now_ns() / 1e6) - t0;
+            if (rc) {
+                fprintf(stderr, "bench_render: %s: %s\n", names[e], err);
+                return -1;
+            }
+            struct stat sb;
+            if (e && stat(path, &sb) == 0) bytes = (long)sb.st_size;
+        }
+        qsort(t, (size_t)reps, sizeof *t, bench_cmp_d);
+        if (json)
+            printf("{\"encode\":\"%s\",\"width\":%u,\"height\":%u,\"median_ms\":%.3f,\"bytes\":%ld}\n", names[e], W, H,
+                   t[reps / 2], bytes);
+        else
+            printf("encode %-9s %8.2f ms %9ld bytes\n", names[e], t[reps / 2], bytes);
+        free(t);
+    }
+    unlink(path);
+    rmdir(dir);
+    free(rgb8);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
-    bool json = false, quick = false, smoke = false, gl = true;
+    bool json = false, quick = false, smoke = false, gl = true, city = true, city_only = false;
+    const char *png_dir = NULL;
     uint32_t W = 1280, H = 720;
     int reps = 15;
     for (int i = 1; i < argc; i++) {
@@ -266,8 +332,12 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--no-gl")) gl = false;
         else if (!strcmp(argv[i], "--size") && i + 1 < argc && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2) i++;
         else if (!strcmp(argv[i], "--reps") && i + 1 < argc) reps = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--city-only")) city_only = true;
+        else if (!strcmp(argv[i], "--no-city")) city = false;
+        else if (!strcmp(argv[i], "--png") && i + 1 < argc) png_dir = argv[++i];
         else {
-            fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N]\n");
+            fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] "
+                            "[--city-only] [--no-city] [--png DIR]\n");
             return 2;
         }
     }
@@ -308,7 +378,13 @@ int main(int argc, char **argv)
         cull_mat_mul(d.view_proj, proj, view);
         if (cull_view_init(&rn.v, &d)) return 1;
     }
-    if (!json) printf("%-6s %8s %7s %7s %10s %8s %9s  (median of %d frames)\n", "path", "boxes", "lights", "threads",
+    if (city || city_only) {
+        bench_city_opts co = {.pool = rn.pool, .width = W, .height = H, .reps = reps, .json = json, .gl = rn.gr,
+                              .gl_name = rn.gl_name, .lp_threads = rn.lp_threads, .png_dir = png_dir};
+        if (bench_city(&co)) return 1;
+    }
+    if (city_only) ncounts = 0;
+    if (!json && ncounts) printf("%-6s %8s %7s %7s %10s %8s %9s  (median of %d frames)\n", "path", "boxes", "lights", "threads",
                       "median_ms", "fps", "triangles", reps);
     for (size_t ci = 0; ci < ncounts; ci++) {
         scene s;
@@ -349,54 +425,7 @@ int main(int argc, char **argv)
     }
 
     /* the encoders, on the last frame */
-    char dir[] = "/tmp/vantage-bench-XXXXXX";
-    if (!mkdtemp(dir)) return 1;
-    char path[256];
-    uint8_t *rgb8 = malloc(vt_image_rgba8_size(W, H));
-    if (!rgb8) return 1;
-    const float *top = rgba + (size_t)(H - 1) * W * 4;
-    ptrdiff_t ys = -(ptrdiff_t)W * 4;
-    vt_image_src src = {.r = {top, 4, ys}, .g = {top + 1, 4, ys}, .b = {top + 2, 4, ys}, .a = {top + 3, 4, ys}};
-    vt_tonemap_desc td = {.exposure_ev = -2, .op = VT_TONEMAP_ACES};
-    static const char *names[] = {"tonemap", "exr-zip", "exr-none", "png-1", "png-6", "jpeg-85"};
-    for (int e = 0; e < 6; e++) {
-        double *t = malloc((size_t)reps * sizeof *t);
-        long bytes = 0;
-        for (int r = 0; r < reps; r++) {
-            snprintf(path, sizeof path, "%s/frame", dir);
-            double t0 = (bench_now_ns() / 1e6);
-            int rc = 0;
-            if (e == 0) {
-                rc = vt_image_tonemap(W, H, &src, &td, rgb8, 4 * (size_t)W);
-            } else if (e <= 2) {
-                vt_exr_channel ch[5] = {{"R", VT_EXR_HALF, top, 4, ys},     {"G", VT_EXR_HALF, top + 1, 4, ys},
-                                        {"B", VT_EXR_HALF, top + 2, 4, ys}, {"A", VT_EXR_HALF, top + 3, 4, ys},
-                                        {"Z", VT_EXR_FLOAT, depth + (size_t)(H - 1) * W, 1, -(ptrdiff_t)W}};
-                rc = vt_exr_write(path, W, H, ch, 5, e == 1 ? VT_EXR_ZIP : VT_EXR_NONE, err, sizeof err);
-            } else if (e <= 4) {
-                rc = vt_png_write(path, W, H, rgb8, 4 * (size_t)W, false, e == 3 ? 1 : 6, err, sizeof err);
-            } else {
-                rc = vt_jpeg_write(path, W, H, rgb8, 4 * (size_t)W, 4, 85, err, sizeof err);
-            }
-            t[r] = (bench_now_ns() / 1e6) - t0;
-            if (rc) {
-                fprintf(stderr, "bench_render: %s: %s\n", names[e], err);
-                return 1;
-            }
-            struct stat sb;
-            if (e && stat(path, &sb) == 0) bytes = (long)sb.st_size;
-        }
-        qsort(t, (size_t)reps, sizeof *t, bench_cmp_d);
-        if (json)
-            printf("{\"encode\":\"%s\",\"width\":%u,\"height\":%u,\"median_ms\":%.3f,\"bytes\":%ld}\n", names[e], W, H,
-                   t[reps / 2], bytes);
-        else
-            printf("encode %-9s %8.2f ms %9ld bytes\n", names[e], t[reps / 2], bytes);
-        free(t);
-    }
-    unlink(path);
-    rmdir(dir);
-    free(rgb8);
+    if (!city_only && time_encoders(W, H, reps, json, rgba, depth)) return 1;
     free(rgba);
     free(depth);
     vt_gldraw_destroy(rn.gr);

@@ -1,0 +1,334 @@
+/*
+ * bench_city.c — issue 20's frame budget: the demo city as the daemon
+ * draws it, for bench_render (bench_city.h).
+ *
+ * The scene is the daemon's own: scene_init with vantaged's defaults, then
+ * the EDIT_CITY edit (daemon/city.c: 3000 cars, the "day" environment),
+ * through the daemon's scene objects linked in (as the tests link them).
+ * A frame is what daemon/frames.c's render_frame does for a JPEG RENDER:
+ * the culling query with occlusion over the visible sub-levels, the
+ * visible entities turned into instances of their class meshes with their
+ * materials and transforms (frame_scene.c), all the scene's lights, the
+ * software renderer on 2 threads, the ACES tone map in bands over the same
+ * 2 threads, and vt_jpeg_encode at quality 85. Timed apart: the gather
+ * (cull + instances), each pass of vt_soft_draw (its stats), the tone map
+ * and the JPEG; the frame is their sum. The GL path (llvmpipe) draws the
+ * same vt_frame in the same run.
+ *
+ * Two cameras (60 degrees, 0.1..10000 m, as `vantage render`): down a
+ * street (test_e2e's stream camera) and the aerial view of `make run`'s
+ * hint (BENCHMARKS.md, issue 19's 127-144 ms).
+ */
+#include "bench_city.h"
+#include "bench_util.h"
+#include "edit.h"
+#include "frame_scene.h"
+#include "scene.h"
+#include "vt_gldraw.h"
+#include "vt_image.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* What one frame draws (daemon/frames.c's frame_in). */
+typedef struct city_frame {
+    vt_instance *inst;
+    vt_mesh *meshes;
+    uint32_t ninst, nmesh;
+    vt_light *lights;
+    uint32_t nl;
+    frame_scene fs;
+} city_frame;
+
+typedef struct city_run {
+    scene *sc;
+    cull_pool *pool;
+    cull_ctx *ctx;
+    cull_result *res;
+    size_t cap;
+    uint32_t *mesh_of;      /* class -> mesh index + 1, zero between frames */
+    uint64_t vis[CULL_SUBLEVEL_WORDS];
+} city_run;
+
+static void city_frame_free(city_frame *cf)
+{
+    free(cf->inst);
+    free(cf->meshes);
+    free(cf->lights);
+    frame_scene_free(&cf->fs);
+    memset(cf, 0, sizeof *cf);
+}
+
+/* The daemon's gather (frames.c) for a scene whose entities all have a
+ * material and none is damaged: the class albedo a material-less entity
+ * would take is not needed, nor the destruction volumes. */
+static int city_gather(city_run *cr, const cull_view *v, city_frame *cf)
+{
+    const scene *sc = cr->sc;
+    memset(cf, 0, sizeof *cf);
+    size_t n = 0;
+    cull_query_desc q = {.views = v, .view_count = 1, .sublevels = scene_visible(sc, NULL, cr->vis)};
+    if (cull_query(sc->world, cr->ctx, &q, cr->res, cr->cap, &n, NULL)) return -1;
+    cf->inst = malloc((n + 1) * sizeof *cf->inst);
+    cf->meshes = malloc((n + 1) * sizeof *cf->meshes);
+    cf->lights = malloc((sc->lights.count + 1) * sizeof *cf->lights);
+    if (!cf->inst || !cf->meshes || !cf->lights || !frame_scene_init(&cf->fs, sc)) return -1;
+    cf->meshes[cf->nmesh++] = vt_mesh_box;
+    for (size_t i = 0; i < n; i++) {
+        uint16_t cls = cr->res[i].class_id;
+        const scene_mesh *sm = &sc->meshes[cls];
+        if (sm->pos && sm->ni && !cr->mesh_of[cls]) {
+            cf->meshes[cf->nmesh] = (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv,
+                                              .ni = sm->ni, .uv = sm->uv, .tan = sm->tan};
+            cr->mesh_of[cls] = ++cf->nmesh;
+        }
+        cull_entity_desc e;
+        cull_entity_get(sc->world, cr->res[i].handle, &e);
+        vt_instance *in = &cf->inst[i];
+        *in = (vt_instance){.mesh = cr->mesh_of[cls] ? cr->mesh_of[cls] - 1 : 0, .albedo = {0.5f, 0.5f, 0.5f}};
+        memcpy(in->bmin, e.aabb_min, sizeof e.aabb_min);
+        memcpy(in->bmax, e.aabb_max, sizeof e.aabb_max);
+        uint32_t slot = cr->res[i].handle & (CULL_MAX_ENTITIES - 1);
+        const scene_xform *x = sc->xf && slot < sc->id_cap ? &sc->xf[slot] : NULL;
+        if (!x) continue;
+        in->mat = frame_scene_material(&cf->fs, sc, x->material);
+        if (x->flags & VP_ENT_TRANSFORM) {
+            in->place = VT_PLACE_TRS;
+            memcpy(in->pos, x->pos, sizeof x->pos);
+            memcpy(in->rot, x->rot, sizeof x->rot);
+            memcpy(in->scale, x->scale, sizeof x->scale);
+        }
+    }
+    for (size_t i = 0; i < n; i++) cr->mesh_of[cr->res[i].class_id] = 0;
+    cf->ninst = (uint32_t)n;
+    for (size_t i = 0; i < sc->lights.cap; i++) {
+        if (!sc->lights.used[i]) continue;
+        const vp_light *l = &((const scene_light *)(uintptr_t)sc->lights.vals[i])->l;
+        if (!scene_light_drawable(l)) continue;
+        vt_light *o = &cf->lights[cf->nl++];
+        double rad[3];
+        memset(o, 0, sizeof *o);
+        scene_light_cull(l, &o->l, rad);
+        o->cos_inner = l->inner_cos;
+        for (int a = 0; a < 3; a++) o->color[a] = (float)rad[a];
+    }
+    return 0;
+}
+
+/* The tone map in bands over the pool, as frames.c's tonemap_frame. */
+typedef struct tm_job {
+    uint32_t w, h, bands;
+    const float *top;
+    ptrdiff_t ys;
+    const vt_tonemap_desc *td;
+    uint8_t *out;
+} tm_job;
+
+static void tm_band(void *arg, uint32_t t)
+{
+    tm_job *j = arg;
+    uint32_t y0 = j->h * t / j->bands, y1 = j->h * (t + 1) / j->bands;
+    const float *row = j->top + (ptrdiff_t)y0 * j->ys;
+    vt_image_src src = {.r = {row, 4, j->ys}, .g = {row + 1, 4, j->ys}, .b = {row + 2, 4, j->ys}};
+    if (y1 > y0) vt_image_tonemap(j->w, y1 - y0, &src, j->td, j->out + (size_t)y0 * 4 * j->w, 4 * (size_t)j->w);
+}
+
+/* The passes a row reports, in the order of the frame. */
+enum { P_GATHER, P_SETUP, P_RASTER, P_BIN, P_SHADE, P_SHADOW, P_SSAO, P_POST, P_TONEMAP, P_JPEG, P_TOTAL, NP };
+static const char *const pass_name[NP] = {"gather", "setup", "raster", "bin", "shade", "shadow",
+                                          "ssao",   "post",  "tonemap", "jpeg", "total"};
+
+static int cmp_d(const void *a, const void *b)
+{
+    return bench_cmp_d(a, b);
+}
+
+/* One camera: the software frame reps times (median per pass), then the
+ * GL path's draw of the same frames. */
+static int city_view(city_run *cr, const bench_city_opts *o, const char *name, const double eye[3],
+                     const double at[3])
+{
+    uint32_t W = o->width, H = o->height;
+    cull_view v;
+    {
+        double proj[16], view[16], dir[3] = {at[0] - eye[0], at[1] - eye[1], at[2] - eye[2]}, up[3] = {0, 1, 0};
+        cull_mat_perspective(proj, 60 * M_PI / 180, (double)W / H, 0.1, 10000, CULL_DEPTH_GL);
+        cull_mat_look_dir(view, dir, up);
+        cull_view_desc d = {.viewport_w = W, .viewport_h = H, .depth_mode = CULL_DEPTH_GL};
+        memcpy(d.origin, eye, sizeof d.origin);
+        cull_mat_mul(d.view_proj, proj, view);
+        if (cull_view_init(&v, &d)) return -1;
+    }
+    int reps = o->reps;
+    float *rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = malloc((size_t)W * H * sizeof *depth);
+    uint8_t *rgb8 = malloc(vt_image_rgba8_size(W, H));
+    double *t = calloc((size_t)NP * (size_t)(reps + 1), sizeof *t);
+    vt_soft *sr = NULL;
+    char err[512];
+    int rc = -1;
+    if (!rgba || !depth || !rgb8 || !t || vt_soft_create(cr->pool, 2, &sr)) goto out;
+    uint32_t ninst = 0, nl = 0, tris = 0, shadow_tris = 0;
+    size_t jbytes = 0;
+    /* one warm-up frame (the sky's table, the renderer's buffers), not counted */
+    for (int r = -1; r < reps; r++) {
+        double *row = t + (size_t)NP * (size_t)(r + 1);
+        double t0 = bench_now_ns();
+        city_frame cf;
+        if (city_gather(cr, &v, &cf)) {
+            city_frame_free(&cf);
+            fprintf(stderr, "bench_render: city: gather failed (out of memory)\n");
+            goto out;
+        }
+        double t1 = bench_now_ns();
+        vt_frame f = {.view = &v, .width = W, .height = H, .meshes = cf.meshes, .nmesh = cf.nmesh, .inst = cf.inst,
+                      .ninst = cf.ninst, .lights = cf.lights, .nl = cf.nl, .env = cf.fs.env_ok ? &cf.fs.env : NULL,
+                      .rgba = rgba, .depth = depth, .stride = W};
+        vt_soft_stats st = {0};
+        if (vt_soft_draw(sr, &f, &st, err, sizeof err)) {
+            fprintf(stderr, "bench_render: city: %s\n", err);
+            city_frame_free(&cf);
+            goto out;
+        }
+        ninst = cf.ninst, nl = cf.nl, tris = st.triangles, shadow_tris = st.shadow_triangles;
+        city_frame_free(&cf);
+        double t2 = bench_now_ns();
+        vt_tonemap_desc td = {.op = VT_TONEMAP_ACES};
+        tm_job tj = {.w = W, .h = H, .bands = 2, .top = rgba + (size_t)(H - 1) * W * 4, .ys = -(ptrdiff_t)W * 4,
+                     .td = &td, .out = rgb8};
+        cull_pool_run(cr->pool, tm_band, &tj, tj.bands);
+        double t3 = bench_now_ns();
+        uint8_t *jpeg = NULL;
+        if (vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, 85, &jpeg, &jbytes, err, sizeof err)) {
+            fprintf(stderr, "bench_render: city: jpeg: %s\n", err);
+            goto out;
+        }
+        free(jpeg);
+        double t4 = bench_now_ns();
+        row[P_GATHER] = (t1 - t0) / 1e6;
+        row[P_SETUP] = st.setup_ns / 1e6;
+        row[P_RASTER] = st.raster_ns / 1e6;
+        row[P_BIN] = st.bin_ns / 1e6;
+        row[P_SHADE] = st.shade_ns / 1e6;
+        row[P_SHADOW] = st.shadow_ns / 1e6;
+        row[P_SSAO] = st.ssao_ns / 1e6;
+        row[P_POST] = st.post_ns / 1e6;
+        row[P_TONEMAP] = (t3 - t2) / 1e6;
+        row[P_JPEG] = (t4 - t3) / 1e6;
+        row[P_TOTAL] = (t4 - t0) / 1e6;
+        if (r == reps - 1 && o->png_dir) {
+            char path[512];
+            snprintf(path, sizeof path, "%s/city-%s.png", o->png_dir, name);
+            if (vt_png_write(path, W, H, rgb8, 4 * (size_t)W, false, 1, err, sizeof err))
+                fprintf(stderr, "bench_render: %s\n", err);
+        }
+    }
+    /* medians per pass (the frame's median is its own, not the sum of the passes') */
+    double med[NP], *col = malloc((size_t)reps * sizeof *col);
+    if (!col) goto out;
+    for (int p = 0; p < NP; p++) {
+        for (int r = 0; r < reps; r++) col[r] = t[(size_t)NP * (size_t)(r + 1) + (size_t)p];
+        qsort(col, (size_t)reps, sizeof *col, cmp_d);
+        med[p] = reps % 2 ? col[reps / 2] : 0.5 * (col[reps / 2 - 1] + col[reps / 2]);
+    }
+    free(col);
+    if (o->json) {
+        printf("{\"path\":\"soft\",\"renderer\":\"vantage soft\",\"scene\":\"city\",\"view\":\"%s\",\"width\":%u,"
+               "\"height\":%u,\"threads\":2,\"instances\":%u,\"lights\":%u,\"triangles\":%u,\"shadow_triangles\":%u,"
+               "\"jpeg_bytes\":%zu,\"reps\":%d",
+               name, W, H, ninst, nl, tris, shadow_tris, jbytes, reps);
+        for (int p = 0; p < NP; p++) printf(",\"%s_ms\":%.3f", pass_name[p], med[p]);
+        printf(",\"median_ms\":%.3f}\n", med[P_TOTAL]);
+    } else {
+        printf("city %-7s soft 2 threads %ux%u: %u instances, %u lights, %u triangles: %.2f ms a frame (%.1f fps), "
+               "median of %d\n  ",
+               name, W, H, ninst, nl, tris, med[P_TOTAL], 1000 / med[P_TOTAL], reps);
+        for (int p = 0; p < P_TOTAL; p++)
+            if (med[p] > 0 || p <= P_SHADE || p >= P_TONEMAP) printf("%s %.2f  ", pass_name[p], med[p]);
+        printf("(ms; jpeg %zu bytes)\n", jbytes);
+    }
+    fflush(stdout);
+    /* the GL path: the same frame (gather, draw, readback; no encode) */
+    if (o->gl) {
+        double *g = malloc((size_t)(reps + 1) * sizeof *g);
+        if (!g) goto out;
+        for (int r = 0; r <= reps; r++) {
+            double t0 = bench_now_ns();
+            city_frame cf;
+            if (city_gather(cr, &v, &cf)) {
+                city_frame_free(&cf);
+                free(g);
+                goto out;
+            }
+            vt_frame f = {.view = &v, .width = W, .height = H, .meshes = cf.meshes, .nmesh = cf.nmesh,
+                          .inst = cf.inst, .ninst = cf.ninst, .lights = cf.lights, .nl = cf.nl,
+                          .env = cf.fs.env_ok ? &cf.fs.env : NULL, .rgba = rgba, .depth = depth, .stride = W};
+            int grc = vt_gldraw_draw(o->gl, &f, NULL, err, sizeof err);
+            city_frame_free(&cf);
+            if (grc) {
+                fprintf(stderr, "bench_render: city: gl: %s\n", err);
+                free(g);
+                goto out;
+            }
+            g[r] = (bench_now_ns() - t0) / 1e6;
+        }
+        double gm = bench_median(g + 1, reps); /* the first: shader compiles, texture uploads */
+        free(g);
+        if (o->json)
+            printf("{\"path\":\"gl\",\"renderer\":\"%s\",\"scene\":\"city\",\"view\":\"%s\",\"width\":%u,"
+                   "\"height\":%u,\"threads\":%u,\"median_ms\":%.3f,\"soft_render_ms\":%.3f}\n",
+                   o->gl_name, name, W, H, o->lp_threads, gm, med[P_TOTAL] - med[P_TONEMAP] - med[P_JPEG]);
+        else
+            printf("city %-7s gl (%s, %u threads): %.2f ms (gather + draw + readback); soft's same part %.2f ms: "
+                   "gl / soft %.2f\n",
+                   name, o->gl_name, o->lp_threads, gm, med[P_TOTAL] - med[P_TONEMAP] - med[P_JPEG],
+                   gm / (med[P_TOTAL] - med[P_TONEMAP] - med[P_JPEG]));
+        fflush(stdout);
+    }
+    rc = 0;
+out:
+    vt_soft_destroy(sr);
+    free(t);
+    free(rgb8);
+    free(rgba);
+    free(depth);
+    return rc;
+}
+
+int bench_city(const bench_city_opts *o)
+{
+    /* vantaged's defaults (daemon/vantaged.c: cell 64 m, its limits, 3000 props) */
+    const scene_limits lim = {.max_entities = CULL_MAX_ENTITIES, .max_lights = 65536, .max_occluders = 1u << 20,
+                              .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 22, .max_materials = 1u << 20,
+                              .max_texture_size = 8192, .max_texture_mem = 1ull << 30};
+    city_run cr = {.pool = o->pool};
+    int rc = -1;
+    scene_err serr = {0};
+    edit_result er;
+    double t0 = bench_now_ns();
+    if (!(cr.sc = calloc(1, sizeof *cr.sc)) || scene_init(cr.sc, 64, &lim)) return -1;
+    if (edit_apply(cr.sc, &(edit){.type = EDIT_CITY, .aux = 3000}, &er, &serr)) {
+        fprintf(stderr, "bench_render: city: %s\n", serr.msg);
+        goto out;
+    }
+    edit_result_free(&er);
+    if (!o->json)
+        printf("demo city built in %.0f ms (%zu entities, %zu lights)\n", (bench_now_ns() - t0) / 1e6, cr.sc->ids.count,
+               cr.sc->lights.count);
+    cr.cap = cull_query_bound(cr.sc->world);
+    cr.res = malloc(cr.cap * sizeof *cr.res);
+    cr.mesh_of = calloc(65536, sizeof *cr.mesh_of);
+    if (!cr.res || !cr.mesh_of || cull_ctx_create(o->pool, &cr.ctx)) goto out;
+    static const double street_eye[3] = {0, 20, -300}, street_at[3] = {0, 2, 0};
+    static const double air_eye[3] = {150, 200, 150}, air_at[3] = {0, 0, 0};
+    if (city_view(&cr, o, "street", street_eye, street_at) || city_view(&cr, o, "aerial", air_eye, air_at)) goto out;
+    rc = 0;
+out:
+    cull_ctx_destroy(cr.ctx);
+    free(cr.res);
+    free(cr.mesh_of);
+    if (cr.sc) scene_free(cr.sc);
+    free(cr.sc);
+    return rc;
+}

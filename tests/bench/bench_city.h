@@ -1,0 +1,30 @@
+/*
+ * bench_city.h — bench_render's demo city frames (issue 20's budget):
+ * the daemon's city and day environment built in process, two cameras,
+ * the software path's passes, tone map and JPEG timed apart, the GL path
+ * on the same frames. bench_city.c.
+ */
+#ifndef VANTAGE_BENCH_CITY_H
+#define VANTAGE_BENCH_CITY_H
+
+#include "culling.h"
+#include "vt_gldraw.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+
+typedef struct bench_city_opts {
+    cull_pool *pool;        /* 2 threads */
+    uint32_t width, height;
+    int reps;
+    bool json;
+    vt_gldraw *gl;          /* NULL: no GL path */
+    const char *gl_name;
+    unsigned lp_threads;
+    const char *png_dir;    /* non-NULL: the last frame of each view as city-VIEW.png there */
+} bench_city_opts;
+
+/* 0, or -1 with a line on stderr. */
+int bench_city(const bench_city_opts *o);
+
+#endif
