@@ -226,6 +226,18 @@ bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, con
     return true;
 }
 
+bool vt_shadow_fit_frame(const vt_frame *f, vt_shadow_fit *fit)
+{
+    float sd[3];
+    if (!vt_shadow_sun_dir(f->env, f->fx_off, sd)) return false;
+    float(*mb)[6] = malloc(((size_t)f->nmesh + 1) * sizeof *mb);
+    if (!mb) return false;
+    for (uint32_t i = 0; i < f->nmesh; i++) vt_mesh_bounds(&f->meshes[i], mb[i]);
+    bool ok = vt_shadow_fit_make(f->view, f->width, f->height, f->env, sd, (const float(*)[6])mb, f->inst, f->ninst, fit);
+    free(mb);
+    return ok;
+}
+
 bool vt_shadow_caster_view(const vt_shadow_fit *fit, const double origin[3], double reach, cull_view *out)
 {
     if (!fit || !fit->n || !out) return false;

@@ -54,6 +54,7 @@
 typedef struct vt_shadow vt_shadow;
 struct vt_mesh;
 struct vt_instance;
+struct vt_frame;
 
 /* The cascades of one frame, as both renderers draw and read them.
  * Camera-relative, float where the lookup reads it. */
@@ -82,6 +83,13 @@ bool vt_shadow_sun_dir(const vt_env *env, uint32_t fx_off, float s[3]);
  * usable cascade (the view's depth range is empty or not finite). */
 bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, const vt_env *env, const float s[3],
                         const float (*mb)[6], const struct vt_instance *inst, uint32_t ninst, vt_shadow_fit *fit);
+
+/* The cascades of frame f (its environment and fx_off, view, size,
+ * instances; the meshes' bounds computed here): vt_shadow_sun_dir, then
+ * vt_shadow_fit_make. false: no shadow pass (or out of memory for the
+ * bounds, a frame without shadows). What the GL path and the daemon's
+ * caster query use. */
+bool vt_shadow_fit_frame(const struct vt_frame *f, vt_shadow_fit *fit);
 
 /* An orthographic view along the sun covering every cascade's sphere,
  * extended `reach` metres towards the sun: what may cast into the

@@ -132,15 +132,11 @@ int vt_shadow_gl_frame(vt_shadow_gl *s, const vt_frame *f, uint32_t *tris, uint6
     *ns = 0;
     uint64_t t0 = now_ns();
     s->on = false;
-    float sd[3];
-    if (!vt_shadow_sun_dir(f->env, f->fx_off, sd)) return 0;
+    vt_shadow_fit fit;
+    if (!vt_shadow_fit_frame(f, &fit)) return 0;
     if (!vp_grow((void **)&s->mb, &s->mb_cap, (size_t)f->nmesh + 1, sizeof *s->mb))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t i = 0; i < f->nmesh; i++) vt_mesh_bounds(&f->meshes[i], s->mb[i]);
-    vt_shadow_fit fit;
-    if (!vt_shadow_fit_make(f->view, f->width, f->height, f->env, sd, (const float(*)[6])s->mb, f->inst, f->ninst,
-                            &fit))
-        return 0;
     int rc = vt_shadow_draw(s->sh, NULL, 1, &fit, f->view->origin, f->meshes, (const float(*)[6])s->mb,
                             f->casters ? f->casters : f->inst, f->casters ? f->ncasters : f->ninst, tris, err, errlen);
     if (rc) return rc;

@@ -13,7 +13,10 @@
  *   - adversarial inputs (the sun at the horizon, huge and degenerate
  *     instances): no crash, nothing non-finite in the picture.
  */
+#include "test_daemon.h"
 #include "test_util.h"
+
+#include "vantage.h"
 
 #include "vt_gl.h"
 #include "vt_gldraw.h"
@@ -466,10 +469,69 @@ static void test_shadow_adversarial(void **state)
     vt_soft_destroy(r);
 }
 
+/* ---- casters outside the view, through the daemon ---------------------------------- */
+
+/* A 40 m tower at x 20..24 (outside a view of the ground about the origin,
+ * 64x48 RAW frames) with the sun low from +x: its shadow, a 4 m strip
+ * along -x, crosses the view. The frame shows no entity (visible 0) and
+ * the strip is dark; with the sun from -x the shadow falls away from the
+ * view and nothing on the ground is dark. Both renderers (GL skipped
+ * where there is none). */
+static void test_shadow_caster_outside_view(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
+    vp_entity e = {.id = 1, .class_id = 0, .aabb = {20, 0, -2, 24, 40, 2}};
+    assert_int_equal(vtc_add(c, &e, 1, NULL, NULL), VP_OK);
+    vp_env env;
+    vp_env_default(&env);
+    env.sky_mode = VP_SKY_COLOR;
+    env.sky_color[0] = env.sky_color[1] = env.sky_color[2] = 1;
+    env.sky_intensity = 2000;
+    env.fog_density = 0;
+    env.ground_height = 0;
+    env.exposure_mode = VP_EXPOSURE_FIXED;
+    env.exposure_ev = 13;
+    enum { W = 64, H = 48 };
+    for (int side = 0; side < 2; side++) {
+        float l = sqrtf(0.5f);
+        env.sun_dir[0] = side ? -l : l, env.sun_dir[1] = l, env.sun_dir[2] = 0;
+        assert_int_equal(vtc_env_set(c, &env, NULL), VP_OK);
+        for (unsigned renderer = VP_RENDERER_SOFT; renderer <= VP_RENDERER_GL; renderer++) {
+            vp_render m = {.format = VP_FRAME_RAW, .renderer = (uint8_t)renderer};
+            const double eye[3] = {0, 15, 4}, at[3] = {0, 0, 0};
+            assert_true(vtc_view_perspective(&m.view, eye, at, NULL, 60, W, H, 0.5, 200));
+            vp_frame f;
+            int rc = vtc_render(c, &m, &f);
+            if (rc == VP_ERR_UNSUPPORTED) continue; /* no GL here */
+            assert_int_equal(rc, VP_OK);
+            assert_int_equal(f.visible, 0);
+            /* the centre column, all ground: its darkest pixel against its
+               brightest (lit ground is sun + sky, shadowed the sky alone:
+               under half) */
+            const float *px = (const float *)f.data;
+            float lo = INFINITY, hi = 0;
+            int dark = 0;
+            for (int y = 0; y < H; y++) {
+                float g = px[4 * (y * W + W / 2) + 1];
+                lo = g < lo ? g : lo;
+                hi = g > hi ? g : hi;
+            }
+            for (int y = 0; y < H; y++) dark += px[4 * (y * W + W / 2) + 1] < 0.5f * hi;
+            print_message("sun from %s, renderer %u: ground %g .. %g, %d dark pixels\n", side ? "-x" : "+x", renderer,
+                          (double)lo, (double)hi, dark);
+            if (!side) assert_true(dark >= 5); /* the 4 m strip: about 10 rows */
+            else assert_int_equal(dark, 0);
+        }
+    }
+    vtc_close(c);
+}
+
 const struct CMUnitTest shadow_tests[] = {
     cmocka_unit_test(test_shadow_analytic_box_soft),
     cmocka_unit_test(test_shadow_analytic_box_gl),
     cmocka_unit_test(test_shadow_stable),
     cmocka_unit_test(test_shadow_adversarial),
+    DAEMON_TEST(test_shadow_caster_outside_view),
 };
 const size_t shadow_tests_count = sizeof shadow_tests / sizeof shadow_tests[0];
