@@ -158,7 +158,11 @@ bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, con
     double n0 = nearv > 1.0 ? nearv : 1.0;
     n0 = n0 > D * 2e-3 ? n0 : D * 2e-3;
     if (!(D > n0) || !isfinite(D)) return false;
-    fit->n = NC;
+    /* an orthographic view has no perspective aliasing to split against:
+       one cascade over its whole depth (4 would each cover the whole
+       picture's width, every caster drawn 4 times) */
+    const int N = vr.ortho ? 1 : NC;
+    fit->n = (uint32_t)N;
     /* the map: about 0.8 of the picture's larger side, in 64s (1024 at
        1280x720), 64..2048 */
     uint32_t big = width > height ? width : height, sz = (uint32_t)(big * 0.8 + 63) / 64 * 64;
@@ -184,17 +188,17 @@ bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, con
     /* the practical split: lambda x logarithmic + (1 - lambda) x uniform
        (orthographic views: uniform, depth is not perspective there) */
     double lambda = vr.ortho ? 0 : VT_SHADOW_LAMBDA;
-    for (int i = 0; i <= NC; i++) {
-        double t = (double)i / NC;
+    for (int i = 0; i <= N; i++) {
+        double t = (double)i / N;
         double lg = vr.ortho ? 0 : n0 * pow(D / n0, t), un = n0 + (D - n0) * t;
         fit->split[i] = (float)(lambda * lg + (1 - lambda) * un);
     }
     fit->split[0] = (float)nearv;
-    fit->split[NC] = (float)D;
+    fit->split[N] = (float)D;
     double uo = u[0] * v->origin[0] + u[1] * v->origin[1] + u[2] * v->origin[2];
     double vo = w[0] * v->origin[0] + w[1] * v->origin[1] + w[2] * v->origin[2];
-    for (int i = 0; i < NC; i++) {
-        double a = i ? fit->split[i] : n0, b = fit->split[i + 1], pc[8][3], c[3] = {0, 0, 0}, r2 = 0;
+    for (int i = 0; i < N; i++) {
+        double a = i ? fit->split[i] : vr.ortho ? nearv : n0, b = fit->split[i + 1], pc[8][3], c[3] = {0, 0, 0}, r2 = 0;
         for (int k = 0; k < 8; k++) {
             if (!corner(&vr, dr, k & 1 ? 1 : -1, k & 2 ? 1 : -1, k & 4 ? b : a, pc[k])) return false;
             for (int q = 0; q < 3; q++) c[q] += pc[k][q] / 8;
@@ -512,19 +516,30 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
         double il = ceil(xlo - 0.5), ih = floor(xhi - 0.5);
         int bx0 = il > 0 ? (int)il : 0, bx1 = ih < sz - 1.0 ? (int)ih : (int)sz - 1;
         if (bx0 > bx1) continue;
+        /* each edge's crossing of a row as x = m yc + c (E(x, yc) >= 0 is
+           x >= it where the edge rises to the left, <= where it falls):
+           once per triangle, so a row costs three multiply-adds */
+        double em[3], ec[3];
+        int kind[3];
+        for (int k = 0; k < 3; k++) {
+            int a = k, b = (k + 1) % 3;
+            /* E(x) = (xb - xa)(yc - ya) - (yb - ya)(x - xa) = A x + Bs yc + B0 */
+            double A = -(Y[b] - Y[a]), Bs = X[b] - X[a], B0 = -(X[b] - X[a]) * Y[a] + (Y[b] - Y[a]) * X[a];
+            kind[k] = A > 0 ? 1 : A < 0 ? -1 : 0;
+            em[k] = A != 0 ? -Bs / A : Bs;
+            ec[k] = A != 0 ? -B0 / A : B0;
+        }
         for (int j = j0; j <= j1; j++) {
             double yc = j + 0.5, lo = bx0, hi = bx1;
             for (int k = 0; k < 3; k++) {
-                int a = k, b = (k + 1) % 3;
-                /* E(x) = (xb - xa)(yc - ya) - (yb - ya)(x - xa) >= 0 */
-                double A = -(Y[b] - Y[a]), B = (X[b] - X[a]) * (yc - Y[a]) + (Y[b] - Y[a]) * X[a];
-                if (A > 0) {
-                    double xm = ceil(-B / A - 0.5);
-                    lo = xm > lo ? xm : lo;
-                } else if (A < 0) {
-                    double xm = floor(B / -A - 0.5);
-                    hi = xm < hi ? xm : hi;
-                } else if (B < 0) {
+                double xm = em[k] * yc + ec[k] - 0.5;
+                if (kind[k] > 0) {
+                    double c = ceil(xm);
+                    lo = c > lo ? c : lo;
+                } else if (kind[k] < 0) {
+                    double f = floor(xm);
+                    hi = f < hi ? f : hi;
+                } else if (xm + 0.5 < 0) { /* a horizontal edge: E = Bs yc + B0 */
                     hi = -1;
                 }
             }

@@ -433,8 +433,24 @@ static void test_shadow_adversarial(void **state)
     float rgba[4 * 64 * 48], depth[64 * 48];
     vt_soft *r;
     assert_int_equal(vt_soft_create(NULL, 0, &r), 0);
-    cull_view v;
-    look(&v, (double[3]){0, 3, 10}, (double[3]){0, 0, 0}, W, H, 1.0);
+    /* a perspective view (GL depth), a reversed-Z one, a top-down
+       orthographic one (the commander's) */
+    cull_view views[3];
+    look(&views[0], (double[3]){0, 3, 10}, (double[3]){0, 0, 0}, W, H, 1.0);
+    {
+        double proj[16], view[16], dir[3] = {0, -3, -10}, up[3] = {0, 1, 0};
+        cull_view_desc d = {.origin = {0, 3, 10}, .depth_mode = CULL_DEPTH_REVERSED, .viewport_w = W, .viewport_h = H};
+        cull_mat_perspective(proj, 1.0, (double)W / H, 0.1, 1000, CULL_DEPTH_REVERSED);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        assert_int_equal(cull_view_init(&views[1], &d), CULL_OK);
+        cull_view_desc o = {.origin = {0, 50, 0}, .depth_mode = CULL_DEPTH_GL, .viewport_w = W, .viewport_h = H};
+        double down[3] = {0, -1, 0}, north[3] = {0, 0, -1};
+        cull_mat_ortho(proj, -20, 20, -15, 15, 1, 200, CULL_DEPTH_GL);
+        cull_mat_look_dir(view, down, north);
+        cull_mat_mul(o.view_proj, proj, view);
+        assert_int_equal(cull_view_init(&views[2], &o), CULL_OK);
+    }
     vt_instance in[4] = {
         {.mesh = 0, .bmin = {-1, 0, -1}, .bmax = {1, 2, 1}, .albedo = {0.5f, 0.5f, 0.5f}},
         {.mesh = 0, .bmin = {-1e12, -1e12, -1e12}, .bmax = {1e12, 1e12, 1e12}, .albedo = {0.5f, 0.5f, 0.5f}},
@@ -442,17 +458,20 @@ static void test_shadow_adversarial(void **state)
         {.mesh = 0, .place = VT_PLACE_TRS, .pos = {1e9, 0, 0}, .rot = {0, 0, 0, 1}, .scale = {1e6, 1e6, 0}},
     };
     const double suns[][3] = {{1, 0.0201, 0}, {1, 0.02, 0.01}, {0, 1, 0}, {0.3, -0.5, 0}, {0, 1e-7, 1}};
+    for (int vi = 0; vi < 3; vi++)
     for (size_t k = 0; k < sizeof suns / sizeof suns[0]; k++)
         for (uint32_t ni = 1; ni <= 4; ni++) {
             vt_env env = scene_env(suns[k]);
-            vt_frame f = {.view = &v, .width = W, .height = H, .meshes = &vt_mesh_box, .nmesh = 1, .inst = in,
+            vt_frame f = {.view = &views[vi], .width = W, .height = H, .meshes = &vt_mesh_box, .nmesh = 1, .inst = in,
                           .ninst = ni == 4 ? 1 : ni, .casters = ni == 4 ? in : NULL, .ncasters = ni == 4 ? 4 : 0,
                           .env = &env, .rgba = rgba, .depth = depth, .stride = W, .fx_off = FX_ONLY_SHADOWS};
             vt_soft_stats st;
             char err[256];
             assert_int_equal(vt_soft_draw(r, &f, &st, err, sizeof err), 0);
             for (size_t i = 0; i < 4u * W * H; i++)
-                if (!isfinite(rgba[i])) fail_msg("sun %zu, %u instances: pixel %zu not finite", k, ni, i / 4);
+                if (!isfinite(rgba[i])) fail_msg("view %d, sun %zu, %u instances: pixel %zu not finite", vi, k, ni, i / 4);
+            /* the plain box under a high sun: a pass, and its shadow */
+            if (k == 2 && ni == 1) assert_true(st.shadow_triangles > 0);
             /* at or below the horizon: no pass */
             if (suns[k][1] / sqrt(suns[k][0] * suns[k][0] + suns[k][1] * suns[k][1] + suns[k][2] * suns[k][2]) <
                 VT_SHADOW_MIN_SUN)
@@ -461,7 +480,7 @@ static void test_shadow_adversarial(void **state)
     /* a caster with a bad placement is refused like an instance */
     vt_instance bad = {.mesh = 3};
     vt_env env = scene_env(SUN);
-    vt_frame f = {.view = &v, .width = W, .height = H, .meshes = &vt_mesh_box, .nmesh = 1, .inst = in, .ninst = 1,
+    vt_frame f = {.view = &views[0], .width = W, .height = H, .meshes = &vt_mesh_box, .nmesh = 1, .inst = in, .ninst = 1,
                   .casters = &bad, .ncasters = 1, .env = &env, .rgba = rgba, .depth = depth, .stride = W};
     char err[256];
     assert_int_equal(vt_soft_draw(r, &f, NULL, err, sizeof err), VT_ERR_INVALID);
