@@ -537,8 +537,8 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
                     double c = ceil(xm);
                     lo = c > lo ? c : lo;
                 } else if (kind[k] < 0) {
-                    double f = floor(xm);
-                    hi = f < hi ? f : hi;
+                    double fl = floor(xm);
+                    hi = fl < hi ? fl : hi;
                 } else if (xm + 0.5 < 0) { /* a horizontal edge: E = Bs yc + B0 */
                     hi = -1;
                 }
