@@ -7,6 +7,8 @@
 #                          the scalar-only build, and a bench smoke run
 #   make bench             the full culling, occlusion, render and pad-parser benchmarks
 #                          (bench_cull, bench_occlusion, bench_render, bench_pad)
+#   make bench-cycles      the renderer against Blender Cycles (SSIM per scene, minutes)
+#   make docs-renders      the demo city pictures in docs/ (day, night, street, aerial, ...)
 #   make report            run time against error of the culling configurations and a
 #                          numerical stress table: docs/report/ (tables, CSV, SVG plot)
 #   make deps              install the Debian packages the build needs
@@ -100,9 +102,9 @@ CLI_BIN  := $(BUILD)/vantage
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
 # the image files of vt_image.h: tone mapping, the encoders' sink, PNG, JPEG
-IMAGE_SRC := render/vt_tonemap.c render/vt_sink.c render/vt_png.c render/vt_jpeg.c
+IMAGE_SRC := render/vt_tonemap.c render/vt_lut.c render/vt_sink.c render/vt_png.c render/vt_jpeg.c
 IMAGE_OBJ := $(IMAGE_SRC:%.c=$(BUILD)/%.o)
-RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_scene.c render/vt_span.c render/vt_shadow.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
+RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_scene.c render/vt_span.c render/vt_shadow.c render/vt_post.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
             render/vt_shade_avx2.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
             render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_gltex.c render/vt_file.c render/vt_err.c \
             render/vt_texture.c
@@ -150,7 +152,7 @@ DESB_BIN := $(BUILD)/bench_destruct
 
 SCENE    ?= tests/data/scenes/city_scene.txt
 
-.PHONY: all run demo test test-full bench bench-persist bench-commander deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN)
 
@@ -211,7 +213,7 @@ $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PE
 
 # the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG; it
 # decodes uploaded textures (vt_texture: PNG, JPEG, and EXR through OpenEXRCore)
-DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD)/render/vt_span.o $(BUILD)/render/vt_shadow.o \
+DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD)/render/vt_span.o $(BUILD)/render/vt_shadow.o $(BUILD)/render/vt_post.o \
                  $(BUILD)/render/vt_soft.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o \
                  $(BUILD)/render/vt_err.o $(BUILD)/render/vt_texture.o $(BUILD)/render/vt_exr.o \
                  $(BUILD)/render/vt_egl.o $(BUILD)/render/vt_gl_target.o $(BUILD)/render/vt_gl_shader.o \
@@ -325,6 +327,18 @@ bench-persist: check-deps
 bench-commander: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
 	tests/bench/bench_commander.sh build/release $(or $(BENCH_SECONDS),15)
+
+# the renderer against Blender Cycles on three scenes: SSIM and luminance
+# differences, side-by-side pictures in build/bench-cycles (minutes; needs
+# blender and python3-numpy; not part of make test)
+bench-cycles: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	tests/bench/cycles/bench_cycles.sh build/release build/bench-cycles
+
+# the demo city pictures in docs/ (day, night, street, aerial, top-down, destruction)
+docs-renders: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	tests/bench/docs_renders.sh build/release docs
 
 # ---- install: the binaries, libvantage, its headers and pkg-config file ----------
 PREFIX ?= /usr/local

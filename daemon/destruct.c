@@ -279,20 +279,26 @@ static int spawn_debris(scene *s, const vp_destroy *m, uint16_t sub, uint32_t ns
         goto out;
     }
     uint64_t st = m->id * 31 + nsph, next = s->debris_next;
+    /* thrown out of the sphere, then fallen to rest (debris.c) */
+    double c[VP_MAX_DEBRIS][3] = {{0}}, half[VP_MAX_DEBRIS] = {0};
     for (uint32_t i = 0; i < n; i++) {
-        double half = 0.1 + 0.3 * scene_rand(&st), dir[3], l = 0;
+        double dir[3], l = 0;
+        half[i] = 0.1 + 0.3 * scene_rand(&st);
         for (int a = 0; a < 3; a++) {
             dir[a] = scene_rand(&st) * 2 - 1;
             l += dir[a] * dir[a];
         }
         l = l > 1e-12 ? sqrt(l) : 1;
         double dist = m->radius * (1 + 0.5 * scene_rand(&st));
+        for (int a = 0; a < 3; a++) c[i][a] = m->center[a] + dir[a] / l * dist;
+    }
+    if ((rc = scene_debris_settle(s, n, c, half, err))) goto out;
+    for (uint32_t i = 0; i < n; i++) {
         while (idmap_get(&s->ids, DEBRIS_ID_BASE + next, NULL)) next++; /* an editor's id there: skip it */
         e[i] = (vp_entity){.id = DEBRIS_ID_BASE + next++, .sublevel = sub, .flags = VP_ENT_DYNAMIC};
         for (int a = 0; a < 3; a++) {
-            double c = m->center[a] + dir[a] / l * dist;
-            e[i].aabb[a] = c - half;
-            e[i].aabb[3 + a] = c + half;
+            e[i].aabb[a] = c[i][a] - half[i];
+            e[i].aabb[3 + a] = c[i][a] + half[i];
         }
     }
     vp_writer w;

@@ -103,6 +103,8 @@ typedef struct frame_in {
     uint64_t *light_ids;
     uint32_t nl;
     frame_scene fs;         /* materials, textures, the environment */
+    vt_adapt *adapt;        /* a stream's eye adaptation, NULL: a single picture */
+    float dt;
 } frame_in;
 
 static void frame_in_free(frame_in *fi)
@@ -121,7 +123,8 @@ static vt_frame frame_of(const cull_view *v, const frame_in *fi, float *rgba, fl
     return (vt_frame){.view = v, .width = v->viewport_w, .height = v->viewport_h, .meshes = fi->meshes,
                       .nmesh = fi->nmesh, .inst = fi->inst, .ninst = fi->ninst, .lights = fi->lights, .nl = fi->nl,
                       .env = fi->fs.env_ok ? &fi->fs.env : NULL, .rgba = rgba, .depth = depth,
-                      .stride = v->viewport_w, .casters = fi->casters, .ncasters = fi->ncasters};
+                      .stride = v->viewport_w, .adapt = fi->adapt, .dt = fi->dt, .casters = fi->casters,
+                      .ncasters = fi->ncasters};
 }
 
 /* An entity's transform as the renderers take it (vt_frame_check's
@@ -410,6 +413,9 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     size_t np = (size_t)W * H;
     if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) goto nomem;
     if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto done;
+    vt_adapt ad = {.ev = j->adapt_ev, .valid = j->adapt_valid}; /* a stream's eye, out again below */
+    fi.adapt = j->stream ? &ad : NULL;
+    fi.dt = j->adapt_dt;
     if (m->format == VP_FRAME_RAW) {
         /* drawn straight into the reply: RGBA then depth after the header */
         if (!(raw = malloc(vp_size_frame((uint32_t)(np * 20))))) goto nomem;
@@ -439,6 +445,8 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     } else if ((code = soft_draw(wk, &v, &fi, rgba, depth, msg, sizeof msg))) {
         goto done;
     }
+    j->adapt_ev = ad.ev;
+    j->adapt_valid = ad.valid;
     uint64_t t1 = now_ns();
     vp_frame f = {.epoch = sc->epoch, .width = (uint16_t)W, .height = (uint16_t)H, .format = m->format,
                   .view_seq = j->stream ? j->view_seq : 0, .visible = fi.ninst, .render_ns = (uint32_t)(t1 - t0)};
@@ -450,7 +458,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     if (m->format == VP_FRAME_JPEG) {
         rgb8 = malloc(vt_image_rgba8_size(W, H));
         if (!rgb8) goto nomem;
-        vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES};
+        vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES, .lut = s->cfg.lut};
         if ((rc = tonemap_frame(wk, W, H, rgba, &td, rgb8)) ||
             (rc = vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err))) {
             code = vp_code_from_vt(rc);
@@ -629,6 +637,7 @@ static void sub_end(server *s, conn *c)
     c->fsub.active = false;
     c->fsub.gen++;
     c->fsub.held_ns = 0;
+    c->fsub.adapt_valid = false; /* a new stream's first frame is exposed directly */
 }
 
 void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t *p)
@@ -702,7 +711,9 @@ int frames_schedule(server *s)
         job *j = calloc(1, sizeof *j);
         if (!j) return 1; /* try again on the next pass */
         *j = (job){.fd = c->fd, .conn_id = c->id, .h = {.type = VP_RENDER, .req = f->req}, .stream = true,
-                   .gen = f->gen, .view_seq = f->m.view_seq, .stream_req = f->m.r};
+                   .gen = f->gen, .view_seq = f->m.view_seq, .stream_req = f->m.r, .start_ns = now,
+                   .adapt_ev = f->adapt_ev, .adapt_valid = f->adapt_valid,
+                   .adapt_dt = f->adapt_valid ? (float)((double)(now - f->adapt_ns) * 1e-9) : 0};
         f->inflight = true;
         f->dirty = false;
         f->held_ns = 0;
@@ -733,6 +744,9 @@ void frames_done(server *s, conn *c, job *j)
         return;
     }
     if (j->ok) {
+        f->adapt_ev = j->adapt_ev; /* the eye saw this frame */
+        f->adapt_valid = j->adapt_valid;
+        f->adapt_ns = j->start_ns;
         f->last_bytes = bytes;
         f->shown_epoch = j->epoch;
         f->frames++;

@@ -226,6 +226,11 @@ uint8_t scene_sublevel_state(const scene *s, uint16_t id);
  * on the first, res^3 over its box), its occluder (same id) is cut open,
  * debris spawned; one epoch. All or nothing. */
 int scene_destroy(scene *s, const vp_destroy *m, uint32_t res, vp_destroyed *out, scene_err *err);
+/* Where n debris pieces (centres c, half sizes half) thrown by a blast
+ * come to rest: each falls straight down onto the ground plane, an
+ * entity's box or a piece landed before it (debris.c); c changed in
+ * place. VP_OK, or VP_ERR_BUSY (out of memory) with err. */
+int scene_debris_settle(const scene *s, uint32_t n, double (*c)[3], const double *half, scene_err *err);
 /* The entity's destruction, or NULL. */
 const scene_destruct *scene_destruct_of(const scene *s, uint64_t id);
 /* An entity's box changed: its destruction follows it. */

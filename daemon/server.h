@@ -24,6 +24,7 @@ typedef struct server_config {
                                 client with the largest backlog is dropped first (0: no limit) */
     uint32_t threads;        /* query worker threads, 0 = cores */
     int renderer;            /* VP_RENDERER_SOFT or VP_RENDERER_GL: when a request names none */
+    const struct vt_lut3d *lut; /* --lut: JPEG frames' colour grade (vt_lut.h), NULL: none */
     double cell_size;
     uint32_t destruct_res;   /* samples per axis of a destruction volume */
     const auth_tokens *tokens; /* NULL: every role granted (loopback, or --insecure) */

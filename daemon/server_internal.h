@@ -35,6 +35,11 @@ typedef struct frame_sub {
        (metrics: frames dropped): since when, and what it would show */
     uint64_t held_ns, held_epoch;
     uint32_t held_aims;
+    /* eye adaptation (vt_adapt): the EV100 of the last frame sent, and
+       when that frame started (now_ns); reset when the stream ends */
+    float adapt_ev;
+    bool adapt_valid;
+    uint64_t adapt_ns;
 } frame_sub;
 
 /* One block of a connection's reply queue (server.c). Small replies are
@@ -153,6 +158,9 @@ typedef struct job {
     uint32_t gen;
     uint16_t view_seq;      /* the subscription's, when the frame was started */
     vp_render stream_req;
+    uint64_t start_ns;      /* a stream's frame: when it was started (now_ns) */
+    float adapt_ev, adapt_dt; /* its eye adaptation in (and out: the EV used) */
+    bool adapt_valid;
     uint64_t epoch;     /* the scene epoch it was drawn from */
     /* metrics: when the request was taken (loop clock, ns), the error code
        of a failed job, what the worker measured */

@@ -6,6 +6,7 @@
 #include "server.h"
 #include "ae.h"
 #include "vt_image.h"
+#include "vt_lut.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -49,6 +50,8 @@ static void usage(FILE *f)
             "  --destruct-res N     destruction distance volumes: N^3 samples over an entity's box (default 8)\n"
             "  --render soft|gl     renderer for frames that name none (default soft; gl: headless\n"
             "                       OpenGL through EGL, and the daemon will not start without it)\n"
+            "  --lut FILE           grade JPEG frames with this 3D LUT (.cube, LUT_3D_SIZE 2..128)\n"
+            "                       after the ACES tone map; the daemon will not start on a bad file\n"
             "  --tokens FILE        roles need tokens: lines \"viewer|commander|editor TOKEN\" in a\n"
             "                       file only its owner can read (chmod 600); without it every\n"
             "                       client may edit, and only loopback is served\n"
@@ -151,7 +154,7 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_ENV, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM };
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -168,12 +171,12 @@ int main(int argc, char **argv)
         {"durability", required_argument, 0, O_DURABILITY}, {"compact-mb", required_argument, 0, O_COMPACT},
         {"metrics", required_argument, 0, O_METRICS}, {"out-limit-total", required_argument, 0, O_OUT_TOTAL},
         {"max-texture-size", required_argument, 0, O_TEX_SIZE}, {"max-texture-mem", required_argument, 0, O_TEX_MEM},
-        {0, 0, 0, 0},
+        {"lut", required_argument, 0, O_LUT}, {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
     char want[96] = ""; /* what the option being parsed accepts, for its error */
-    const char *tokens_path = NULL, *data_dir = NULL;
+    const char *tokens_path = NULL, *data_dir = NULL, *lut_path = NULL;
     int durability = JOURNAL_EVERYSEC;
     static char metrics_addr[64];
     uint32_t compact_mb = 64;
@@ -237,6 +240,7 @@ int main(int argc, char **argv)
         case O_INSECURE: insecure = true; break;
         case O_HELLO_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
         case O_FRAME_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.frame_timeout_ms); break;
+        case O_LUT: lut_path = optarg; break;
         case O_HELP: usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
@@ -251,6 +255,15 @@ int main(int argc, char **argv)
         return 2;
     }
     cfg.port = (int)port;
+    static vt_lut3d lut; /* read-only once loaded, for the daemon's life */
+    if (lut_path) {
+        char lerr[300];
+        if (vt_lut_load(lut_path, &lut, lerr, sizeof lerr)) {
+            fprintf(stderr, "vantaged: --lut %s\n", lerr);
+            return 2;
+        }
+        cfg.lut = &lut;
+    }
     if ((!cfg.bind || !*cfg.bind) && (!cfg.unix_path || !*cfg.unix_path)) {
         fprintf(stderr, "vantaged: nothing to listen on (--bind \"\" and --unix \"\")\n");
         return 2;
@@ -383,6 +396,7 @@ int main(int argc, char **argv)
     int rc = server_destroy(srv);
     scene_free(sc);
     free(sc);
+    vt_lut_free(&lut);
     LOGI("bye");
     return rc || run ? 1 : 0;
 }

@@ -217,8 +217,11 @@ int vp_env_preset(const char *name, vp_env *e)
     if (!strcmp(name, "day")) return VP_OK;
     if (!strcmp(name, "night")) {
         /* a moonlit night: the "sun" is the full moon (0.25 lux, bluish,
-           high in the south-east), a dark blue sky, auto exposure pushed
-           down 1.5 EV so night stays night while lamps and windows glow */
+           high in the south-east), a dark blue sky, auto exposure raised
+           0.5 EV: the histogram meter (render/vt_post.h) averages the
+           brighter half of the frame, here the lamps and windows, and
+           night stays night (it was -1.5 EV for the log-average meter of
+           issue 19, which the dark half pulled up) */
         double el = 55 * M_PI / 180, az = 135 * M_PI / 180;
         e->sun_dir[0] = (float)(cos(el) * sin(az));
         e->sun_dir[1] = (float)sin(el);
@@ -230,7 +233,7 @@ int vp_env_preset(const char *name, vp_env *e)
         e->sky_intensity = 1.0f;
         e->fog_density = 0.002f;
         e->fog_color[0] = 0.01f, e->fog_color[1] = 0.012f, e->fog_color[2] = 0.02f;
-        e->exposure_comp = -1.5f;
+        e->exposure_comp = 0.5f;
         return VP_OK;
     }
     vp_env_default(e);

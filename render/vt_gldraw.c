@@ -26,12 +26,13 @@
  * without culling. With an environment, a background pass (a triangle
  * over the viewport) solves the ground plane per pixel and writes its
  * depth (gl_FragDepth), else the sky at the far plane; fog is applied in
- * the shaders; exposure on the CPU after the readback (vt_exposure_apply,
- * the software renderer's code). The shaders are in vt_gldraw_glsl.c.
+ * the shaders; exposure and FXAA on the CPU after the readback
+ * (vt_post_apply, the software renderer's code: one set of rules). The shaders are in vt_gldraw_glsl.c.
  */
 #include "vt_gldraw.h"
 #include "vt_gldraw_internal.h"
 #include "vt_picture.h"
+#include "vt_post.h"
 #include "vt_shadow_gl.h"
 
 #include <epoxy/gl.h>
@@ -41,6 +42,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #define TILE VT_TILE
 #define EMPTY VT_EMPTY
@@ -103,6 +105,7 @@ struct vt_gldraw {
     size_t md_cap;
     struct dkey *key;        /* instances in draw order */
     size_t key_cap;
+    vt_post post;            /* exposure and FXAA on the readback (vt_post.h) */
     group *gr;
     size_t ngr, gr_cap;
     float (*range)[2];
@@ -173,6 +176,7 @@ void vt_gldraw_destroy(vt_gldraw *r)
     glDeleteProgram(r->prog);
     glDeleteProgram(r->bg);
     cull_light_tiles_free(&r->tiles);
+    vt_post_free(&r->post);
     free(r->pix);
     free(r->vx);
     free(r->el);
@@ -667,9 +671,15 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
             c[3] = 1;
             *dz = vt_depth_apply(rule, nz);
         }
-    float ev = vt_exposure_apply(f->env, rgba, width, height, stride);
+    /* the software renderer's post passes, on one thread (no pool here) */
+    struct timespec p0, p1;
+    clock_gettime(CLOCK_MONOTONIC, &p0);
+    float ev;
+    if (vt_post_apply(&r->post, NULL, 1, f, &ev)) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
+    clock_gettime(CLOCK_MONOTONIC, &p1);
     if (st) {
         st->exposure_ev = ev;
+        st->post_ns = (uint64_t)((p1.tv_sec - p0.tv_sec) * 1000000000ll + (p1.tv_nsec - p0.tv_nsec));
         st->lights_in_view = r->tiles.in_view;
         st->max_lights_per_tile = r->tiles.max_per_tile;
         st->threads = 1;

@@ -92,7 +92,9 @@ typedef enum vt_tonemap_op {
                              log2(0.6) = -0.737 */
 } vt_tonemap_op;
 
-/* Zero is the default: exposure 0 EV, CLAMP, straight alpha. */
+struct vt_lut3d;
+
+/* Zero is the default: exposure 0 EV, CLAMP, straight alpha, no LUT. */
 typedef struct vt_tonemap_desc {
     float         exposure_ev;   /* colour times 2^exposure_ev before the
                                     curve; finite, -64..64 */
@@ -101,6 +103,10 @@ typedef struct vt_tonemap_desc {
                                     alpha (the EXR convention): divided out
                                     first, colour 0 where alpha <= 0; the
                                     output is straight, as PNG wants */
+    const struct vt_lut3d *lut;  /* colour grading (vt_lut.h), NULL: none.
+                                    Applied after the curve to the display
+                                    value sRGB-encoded (0..1), its output
+                                    clamped and rounded to 8 bits */
 } vt_tonemap_desc;
 
 /* Bytes of an RGBA8 buffer of width x height packed rows (4 * width * height),
@@ -114,7 +120,8 @@ size_t vt_image_rgba8_size(uint32_t width, uint32_t height);
  * apart (the caller's buffer; size it with vt_image_rgba8_size for packed
  * rows). Reads sample (x, y) of each given channel for 0 <= x < width,
  * 0 <= y < height, nothing else. No allocation.
- * Returns 0 or VT_ERR_INVALID (size, NULL pointers, stride, op, exposure). */
+ * Returns 0 or VT_ERR_INVALID (size, NULL pointers, stride, op, exposure,
+ * a LUT without a table). */
 int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
                      const vt_tonemap_desc *desc, uint8_t *out, size_t out_stride_bytes);
 

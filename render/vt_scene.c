@@ -678,34 +678,3 @@ void vt_fog_apply(const vt_penv *pe, const float p[3], float c[3])
     float T = expf(-(od > 0 ? od : 0));
     for (int i = 0; i < 3; i++) c[i] = c[i] * T + pe->fog[i] * (1 - T);
 }
-
-float vt_exposure_apply(const vt_env *env, float *rgba, uint32_t width, uint32_t height, size_t stride)
-{
-    if (!env) return 0;
-    double ev = env->exposure_ev;
-    if (env->exposure_mode == VT_EXPOSURE_AUTO) {
-        /* the log-average luminance of every 4th pixel of every 4th row */
-        double sum = 0;
-        size_t n = 0;
-        for (uint32_t y = 2 % height; y < height; y += 4)
-            for (uint32_t x = 2 % width; x < width; x += 4) {
-                const float *p = rgba + 4 * ((size_t)y * stride + x);
-                double L = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-                sum += log(L > 1e-4 ? (isfinite(L) ? L : 1e9) : 1e-4);
-                n++;
-            }
-        double avg = exp(sum / (double)(n ? n : 1));
-        ev = log2(avg * 100.0 / 12.5) - env->exposure_comp;
-        ev = ev < -12 ? -12 : ev > 32 ? 32 : ev;
-    }
-    float scale = (float)(1.0 / (1.2 * exp2(ev)));
-    for (uint32_t y = 0; y < height; y++) {
-        float *p = rgba + 4 * (size_t)y * stride;
-        for (uint32_t x = 0; x < width; x++, p += 4) {
-            p[0] *= scale;
-            p[1] *= scale;
-            p[2] *= scale;
-        }
-    }
-    return (float)ev;
-}

@@ -25,6 +25,7 @@
  * visibility buffer.
  */
 #include "vt_picture.h"
+#include "vt_post.h"
 #include "vt_shade.h"
 
 #include <float.h>
@@ -105,6 +106,7 @@ struct vt_soft {
     size_t mk_of_cap;
     vt_kern k;              /* the kernels for this CPU */
     vt_skytab sky;          /* the analytic sky's table */
+    vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
 };
 
@@ -133,6 +135,7 @@ int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
 void vt_soft_destroy(vt_soft *r)
 {
     if (!r) return;
+    vt_post_free(&r->post);
     free(r->near);
     free(r->id);
     free(r->mb);
@@ -778,8 +781,11 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
 
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
     else job_shade(&jb, 0);
-    float ev = vt_exposure_apply(f->env, f->rgba, width, height, f->stride);
     uint64_t t4 = now_ns();
+    float ev;
+    if (vt_post_apply(&r->post, r->pool, r->threads, f, &ev))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
+    uint64_t t5 = now_ns();
     if (st) {
         st->triangles = (uint32_t)ntri;
         st->lights_in_view = r->tiles.in_view;
@@ -791,6 +797,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         st->shadow_ns = jb.sh ? t3 - ts : 0;
         st->shadow_triangles = stris;
         st->shade_ns = t4 - t3;
+        st->post_ns = t5 - t4;
         st->exposure_ev = ev;
     }
     return 0;

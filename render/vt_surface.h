@@ -3,7 +3,7 @@
  * (internal to render/; the code is vt_scene.c, vt_gldraw.c's shader
  * mirrors it): the environment prepared once a frame (vt_penv), texture
  * sampling, a surface point's material evaluated (the kernels light it:
- * vt_shade.inl), the ground plane, the sky, fog, exposure.
+ * vt_shade.inl), the ground plane, the sky, fog (exposure: vt_post.h).
  * Positions are camera-relative (the view's origin subtracted), in float
  * for shading, in double where they are solved for.
  */
@@ -139,10 +139,5 @@ void vt_ground_point(const vt_ground *g, double X, double Y, double N, double q[
 void vt_view_dir_row(const cull_view_rows *vr, double Y, float c0[3], float c1[3]);
 /* Fog over the segment from the eye to camera-relative p: c blended. */
 void vt_fog_apply(const vt_penv *pe, const float p[3], float c[3]);
-
-/* Exposure over a drawn frame (rgb times the scale, alpha and depth kept):
- * FIXED from its EV100, AUTO from the log-average luminance of a grid of
- * pixels. pe off: nothing done. Returns the EV100 used (0 when off). */
-float vt_exposure_apply(const vt_env *env, float *rgba, uint32_t width, uint32_t height, size_t stride);
 
 #endif

@@ -21,6 +21,7 @@
  * the first thing to vectorise if it matters).
  */
 #include "vt_image.h"
+#include "vt_lut.h"
 
 #include <math.h>
 #include <pthread.h>
@@ -234,6 +235,7 @@ static inline uint8_t alpha8(float a)
 #define ACES_HI_BITS 0x41800000u /* 16 */
 #define ACES_NBUCKETS ((ACES_HI_BITS - ACES_LO_BITS) >> 15)
 static float aces_t[257];
+static float aces_rw[256]; /* 1 / (aces_t[k + 1] - aces_t[k]), 0 for the last */
 static uint8_t aces_bucket[ACES_NBUCKETS];
 static pthread_once_t aces_once = PTHREAD_ONCE_INIT;
 
@@ -258,6 +260,7 @@ static void aces_init(void)
         memcpy(&aces_t[k], &lo, sizeof lo);
     }
     aces_t[256] = INFINITY;
+    for (unsigned k = 0; k < 256; k++) aces_rw[k] = k < 255 ? 1 / (aces_t[k + 1] - aces_t[k]) : 0;
     for (uint32_t i = 0; i < ACES_NBUCKETS; i++) {
         uint32_t bits = ACES_LO_BITS + (i << 15);
         float x;
@@ -279,6 +282,38 @@ static inline uint8_t aces8(float x)
     return (uint8_t)k;
 }
 
+/* ACES then sRGB-encoded, as a float for the LUT: code k of aces8 spans
+ * the encoded values [k - 1/2, k + 1/2) / 255 between thresholds aces_t[k]
+ * and aces_t[k + 1]; where x lies between them, linearly, gives the
+ * fraction. Exact at the thresholds, within a fraction of a code between
+ * them (the curve is smooth over one code): enough for a LUT of slope
+ * about 1, and an identity LUT gives back aces8's code exactly. */
+static inline float aces_encoded(float x)
+{
+    unsigned k = aces8(x);
+    if (k == 255) return 1.0f;
+    float c = x >= 0x1p-12f ? x : 0.0f; /* NaN: 0 */
+    float lo = aces_t[k];
+    float fr = c > lo ? (c - lo) * aces_rw[k] : 0.0f;
+    fr = fr < 1 ? fr : 1.0f;
+    float v = ((float)k - 0.5f + fr) / 255.0f;
+    return v > 0 ? v : 0.0f;
+}
+
+/* The exact OETF in double (the CLAMP curve's path with a LUT: tests,
+ * masks; not a hot path). */
+static inline float srgb_encoded(double v)
+{
+    v = v > 0 ? (v < 1 ? v : 1.0) : 0.0;
+    return (float)(v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1 / 2.4) - 0.055);
+}
+
+static inline uint8_t code_of(float v)
+{
+    v = v > 0 ? (v < 1 ? v : 1.0f) : 0.0f; /* NaN: 0 */
+    return (uint8_t)(v * 255.0f + 0.5f);
+}
+
 size_t vt_image_rgba8_size(uint32_t width, uint32_t height)
 {
     if (width < 1 || height < 1 || width > VT_IMAGE_MAX_DIM || height > VT_IMAGE_MAX_DIM) return 0;
@@ -292,7 +327,8 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
     if (!vt_image_rgba8_size(width, height) || !src || !out || !src->r.data ||
         !src->g.data != !src->b.data || out_stride_bytes < (size_t)width * 4 ||
         (d.op != VT_TONEMAP_CLAMP && d.op != VT_TONEMAP_ACES) ||
-        !(d.exposure_ev >= -64.0f && d.exposure_ev <= 64.0f))
+        !(d.exposure_ev >= -64.0f && d.exposure_ev <= 64.0f) ||
+        (d.lut && (!d.lut->rgb || d.lut->n < 2 || d.lut->n > VT_LUT_MAX_SIZE)))
         return VT_ERR_INVALID;
     const vt_image_channel *r = &src->r;
     const vt_image_channel *g = src->g.data ? &src->g : r, *b = src->b.data ? &src->b : r;
@@ -301,6 +337,8 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
     static const float opaque = 1.0f; /* alpha of a source without one (ax = 0) */
     const double scale = exp2((double)d.exposure_ev); /* 1 exactly for 0 EV */
     if (d.op == VT_TONEMAP_ACES) pthread_once(&aces_once, aces_init);
+    float lk[3] = {0, 0, 0};
+    if (d.lut) vt_lut_scale(d.lut, lk);
     for (uint32_t y = 0; y < height; y++) {
         const float *pr = r->data + (ptrdiff_t)y * r->y_stride;
         const float *pg = g->data + (ptrdiff_t)y * g->y_stride;
@@ -313,7 +351,17 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
             double k = scale;
             if (d.premultiplied) k = al > 0 ? scale / (double)al : 0.0; /* NaN alpha: 0 */
             /* inf * 0 is NaN, which the curve makes 0 */
-            if (d.op == VT_TONEMAP_ACES) {
+            if (d.lut) {
+                float e[3];
+                double v[3] = {(double)pr[i * rx] * k, (double)pg[i * gx] * k, (double)pb[i * bx] * k};
+                for (int c = 0; c < 3; c++)
+                    e[c] = d.op == VT_TONEMAP_ACES ? aces_encoded((float)v[c])
+                                                   : srgb_encoded(tonemap_curve(d.op, v[c]));
+                vt_lut_sample(d.lut, lk, e, e);
+                o[0] = code_of(e[0]);
+                o[1] = code_of(e[1]);
+                o[2] = code_of(e[2]);
+            } else if (d.op == VT_TONEMAP_ACES) {
                 o[0] = aces8((float)((double)pr[i * rx] * k));
                 o[1] = aces8((float)((double)pg[i * gx] * k));
                 o[2] = aces8((float)((double)pb[i * bx] * k));

@@ -487,11 +487,84 @@ static void test_destroy_opens_occluder(void **state)
     vtc_close(viewer);
 }
 
+
+/* Debris comes to rest (issue 20): a blast in a wall over a low block in
+ * front of it throws 64 pieces; each must lie on something, checked from
+ * outside against the scene as the test built it: its bottom is the
+ * ground (y = 0, the default environment's plane), the top of the wall or
+ * the block under its footprint, or the top of another piece under it.
+ * None floats, none is under the ground, and the block holds some. */
+static void test_debris_settles(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false);
+    const double X = 5000; /* clear of anything else in the scene */
+    vp_entity e[2] = {{.id = 30, .aabb = {X - 10, 0, -0.5, X + 10, 8, 0.5}},
+                      {.id = 31, .aabb = {X - 6, 0, 1, X + 6, 3, 7}}};
+    assert_int_equal(vtc_add(ed, e, 2, NULL, NULL), VP_OK);
+    vp_destroyed out;
+    vp_destroy m = {.id = 30, .center = {X, 6, 0.5}, .radius = 3, .debris = VP_MAX_DEBRIS};
+    assert_int_equal(vtc_send_destruction(ed, &m, &out), VP_OK);
+    assert_int_equal(out.debris, VP_MAX_DEBRIS);
+    vp_entity p[VP_MAX_DEBRIS];
+    uint32_t n = 0;
+    vp_list_reply lr;
+    uint64_t cur = 0;
+    do {
+        assert_int_equal(vtc_list(ed, cur, 4096, &lr), VP_OK);
+        for (uint32_t i = 0; i < lr.batch.count; i++) {
+            vp_entity x;
+            assert_int_equal(vp_entity_get(&lr.batch, i, &x), VP_OK);
+            if (x.id >= (1ull << 62) && x.aabb[0] > X - 100 && x.aabb[3] < X + 100) {
+                assert_true(n < VP_MAX_DEBRIS);
+                p[n++] = x;
+            }
+        }
+        cur = lr.next_cursor;
+    } while (cur);
+    assert_int_equal(n, VP_MAX_DEBRIS);
+    uint32_t on_ground = 0, on_block = 0, on_wall = 0, on_piece = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        double b = p[i].aabb[1];
+        assert_true(b >= 0);
+        if (b == 0) {
+            on_ground++;
+            continue;
+        }
+        bool held = false;
+        for (int k = 0; k < 2 && !held; k++) {
+            const double *a = e[k].aabb;
+            bool under = a[0] < p[i].aabb[3] && a[3] > p[i].aabb[0] && a[2] < p[i].aabb[5] && a[5] > p[i].aabb[2];
+            if (under && fabs(a[4] - b) < 1e-9) {
+                held = true;
+                if (k) on_block++;
+                else on_wall++;
+            }
+        }
+        for (uint32_t j = 0; j < n && !held; j++) {
+            const double *a = p[j].aabb;
+            bool under = j != i && a[0] < p[i].aabb[3] && a[3] > p[i].aabb[0] && a[2] < p[i].aabb[5] &&
+                         a[5] > p[i].aabb[2];
+            if (under && fabs(a[4] - b) < 1e-9) {
+                held = true;
+                on_piece++;
+            }
+        }
+        if (!held) fprintf(stderr, "debris %u floats: bottom %g at x %g z %g\n", i, b, p[i].aabb[0], p[i].aabb[2]);
+        assert_true(held);
+    }
+    fprintf(stderr, "debris at rest: %u on the ground, %u on the block, %u on the wall, %u on other pieces\n",
+            on_ground, on_block, on_wall, on_piece);
+    assert_true(on_block > 0 && on_ground > 0);
+    vtc_close(ed);
+}
+
 const struct CMUnitTest destruct_tests[] = {
     cmocka_unit_test(test_dvol_matches_brute_force),
     cmocka_unit_test(test_dvol_bad_input),
     cmocka_unit_test(test_occ_cut_matches_point_sampling),
     DAEMON_TEST(test_destroy_opens_occluder),
+    DAEMON_TEST(test_debris_settles),
     cmocka_unit_test(test_cut_building_back_wall_hides),
 };
 const size_t destruct_tests_count = sizeof destruct_tests / sizeof destruct_tests[0];

@@ -1,0 +1,509 @@
+/*
+ * vt_post.c — the post passes of both renderers (vt_post.h): exposure from
+ * a luminance histogram with eye adaptation, then FXAA 3.11. Runs once per
+ * frame on the whole picture, in bands of rows on the renderer's pool; at
+ * 1280x720 on 2 threads the histogram and exposure cost about 1 ms, FXAA
+ * a few (BENCHMARKS.md; FXAA touches only the pixels on edges beyond the
+ * early exit, the copy into the scratch is the fixed cost).
+ *
+ * FXAA works in a perceptual space, as it was designed to: Lottes' shader
+ * expects gamma-space luma and blends display values. Blending the HDR
+ * values themselves would let a sky of 10 next to a roof of 0.1 blend to 5,
+ * white after the tone map: no anti-aliasing where it shows most. So each
+ * colour is blended compressed, c / (1 + max(c)) (invertible, Karis'
+ * weighting for HDR resolves), and its luma is sqrt(Y(compressed)) (a
+ * Reinhard-compressed luminance, square root for ~gamma 2); the blend is
+ * expanded back, c' / (1 - max(c')). The scratch holds the exposed
+ * picture compressed (FXAA reads neighbours the pass is overwriting) and,
+ * apart, the luma plane (the early exit and the edge search read only it,
+ * a quarter of the bytes).
+ * Pixels FXAA leaves alone are not written: they keep their exact values.
+ */
+#include "vt_post.h"
+
+#include "vt_err.h"
+
+#include <math.h>
+#ifdef __SSE2__
+#include <xmmintrin.h>
+#include <emmintrin.h>
+#endif
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_BANDS 64
+
+static uint32_t bands_of(cull_pool *pool, uint32_t threads, uint32_t height)
+{
+    uint32_t n = pool ? cull_pool_threads(pool) : 1;
+    if (threads && threads < n) n = threads;
+    if (n > MAX_BANDS) n = MAX_BANDS;
+    if (n > height) n = height;
+    return n ? n : 1;
+}
+
+static void run(cull_pool *pool, cull_job_fn fn, void *arg, uint32_t n)
+{
+    if (n > 1) cull_pool_run(pool, fn, arg, n);
+    else fn(arg, 0);
+}
+
+void vt_post_free(vt_post *p)
+{
+    if (!p) return;
+    free(p->scratch);
+    p->scratch = NULL;
+    p->cap = 0;
+}
+
+/* ---- exposure ------------------------------------------------------------------ */
+
+typedef struct hist_job {
+    const float *rgba;
+    uint32_t w, h, nb;
+    size_t stride;
+    uint32_t q[3];      /* mantissa bits of the smallest floats >= 2^0.25, 2^0.5, 2^0.75 */
+    uint32_t hist[MAX_BANDS][VT_HIST_BINS];
+} hist_job;
+
+static inline float lum(const float *p)
+{
+    return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2];
+}
+
+/* The bin of luminance L: floor(4 (log2 L - VT_HIST_LO)), clamped; NaN and
+ * L <= 2^-16: 0. Exact: 4 log2 L = 4 e + 4 log2 m, the quarter found by
+ * comparing the mantissa with 2^(k/4). */
+static inline uint32_t bin_of(const hist_job *j, float L)
+{
+    if (!(L > 0x1p-16f)) return 0;
+    if (!(L < 0x1p16f)) return VT_HIST_BINS - 1;
+    uint32_t bits;
+    memcpy(&bits, &L, sizeof bits);
+    int e = (int)(bits >> 23) - 127; /* L is normal here */
+    uint32_t m = bits & 0x7fffffu;
+    uint32_t b = (uint32_t)(4 * (e - VT_HIST_LO)) + (m >= j->q[0]) + (m >= j->q[1]) + (m >= j->q[2]);
+    return b < VT_HIST_BINS ? b : VT_HIST_BINS - 1;
+}
+
+static void job_hist(void *arg, uint32_t t)
+{
+    hist_job *j = arg;
+    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
+    uint32_t *hb = j->hist[t];
+    memset(hb, 0, sizeof j->hist[t]);
+    for (uint32_t y = y0; y < y1; y++) {
+        const float *p = j->rgba + 4 * (size_t)y * j->stride;
+        for (uint32_t x = 0; x < j->w; x++, p += 4) hb[bin_of(j, lum(p))]++;
+    }
+}
+
+typedef struct scale_job {
+    float *rgba;
+    uint32_t w, h, nb;
+    size_t stride;
+    float scale;
+} scale_job;
+
+static void job_scale(void *arg, uint32_t t)
+{
+    scale_job *j = arg;
+    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
+    for (uint32_t y = y0; y < y1; y++) {
+        float *p = j->rgba + 4 * (size_t)y * j->stride;
+        for (uint32_t x = 0; x < j->w; x++, p += 4) {
+            p[0] *= j->scale;
+            p[1] *= j->scale;
+            p[2] *= j->scale;
+        }
+    }
+}
+
+double vt_ev_of_luminance(double L)
+{
+    return log2(L * 100.0 / 12.5);
+}
+
+float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                       cull_pool *pool, uint32_t threads)
+{
+    static hist_job z;
+    hist_job *j = malloc(sizeof *j); /* 32 KiB of bins: not on a worker's stack */
+    if (!j) return 0;
+    *j = z;
+    j->rgba = rgba;
+    j->w = width;
+    j->h = height;
+    j->stride = stride;
+    j->nb = bands_of(pool, threads, height);
+    for (int k = 0; k < 3; k++) {
+        double r = exp2((k + 1) / 4.0);
+        float f = (float)r;
+        if ((double)f < r) f = nextafterf(f, 2.0f);
+        uint32_t bits;
+        memcpy(&bits, &f, sizeof bits);
+        j->q[k] = bits & 0x7fffffu;
+    }
+    run(pool, job_hist, j, j->nb);
+    uint64_t hist[VT_HIST_BINS] = {0}, n = 0;
+    for (uint32_t t = 0; t < j->nb; t++)
+        for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += j->hist[t][b];
+    free(j);
+    for (int b = 0; b < VT_HIST_BINS; b++) n += hist[b];
+    /* the mean log2 luminance of the pixels ranked [PLO n, PHI n) (bin
+       centres; a bin straddling a bound counts in part) */
+    double lo = VT_HIST_PLO * (double)n, hi = VT_HIST_PHI * (double)n, acc = 0, sum = 0, wsum = 0;
+    for (int b = 0; b < VT_HIST_BINS; b++) {
+        double a = acc, c = acc + (double)hist[b];
+        acc = c;
+        double in = fmin(c, hi) - fmax(a, lo);
+        if (in <= 0) continue;
+        sum += in * (VT_HIST_LO + (b + 0.5) / 4.0);
+        wsum += in;
+    }
+    double l2 = wsum > 0 ? sum / wsum : VT_HIST_LO;
+    double ev = l2 + log2(100.0 / 12.5) - comp;
+    return (float)(ev < VT_EV_MIN ? VT_EV_MIN : ev > VT_EV_MAX ? VT_EV_MAX : ev);
+}
+
+float vt_adapt_step(float ev, float target, float dt)
+{
+    if (!(dt > 0)) return ev;
+    float tau = target > ev ? VT_ADAPT_TAU_UP : VT_ADAPT_TAU_DOWN;
+    float k = expf(-dt / tau); /* in (0, 1]: never past the target */
+    return target + (ev - target) * k;
+}
+
+/* ---- FXAA ------------------------------------------------------------------------ */
+
+/* FXAA 3.11's quality settings, preset 12 (its default): the edge search
+ * steps in pixels, the thresholds, the sub-pixel amount. */
+static const float fx_step[] = {1.0f, 1.5f, 2.0f, 4.0f, 12.0f};
+#define FX_STEPS 5
+#define FX_SUBPIX 0.75f
+#define FX_EDGE 0.166f
+#define FX_EDGE_MIN 0.0833f
+
+typedef struct fx_job {
+    float *rgba;
+    float *copy;  /* the exposed picture compressed (r, g, b, 0), width x height x 4 packed */
+    float *luma;  /* sqrt(Y(c) / (1 + max c)) per pixel, width x height */
+    uint32_t w, h, nb;
+    size_t stride;
+    float scale;  /* the exposure, applied on the way (1: none) */
+} fx_job;
+
+/* NaN-free inputs only (compressed values, luma): plain comparisons, not
+ * libm's fmaxf / fminf calls */
+static inline float mx(float a, float b) { return a > b ? a : b; }
+static inline float mn(float a, float b) { return a < b ? a : b; }
+
+/* A colour as FXAA blends it: clamped to 0..1e6 (NaN 0), then c / (1 + max c). */
+static inline void compress(const float *p, float q[3])
+{
+    float c[3];
+    for (int k = 0; k < 3; k++) c[k] = p[k] > 0 ? (p[k] < 1e6f ? p[k] : 1e6f) : 0.0f; /* NaN: 0 */
+    float k = 1 / (1 + mx(mx(c[0], c[1]), c[2]));
+    q[0] = c[0] * k;
+    q[1] = c[1] * k;
+    q[2] = c[2] * k;
+}
+
+/* The exposure (scale), then the compressed copy and the luma plane, a
+ * row at a time. */
+#ifdef __SSE2__
+/* job_prep's row for 4 pixels at once: the same operations in the same
+ * order as the scalar loop (so the same bits). */
+static inline void prep4(float *p, float *q, float *l, __m128 sc)
+{
+    __m128 a = _mm_mul_ps(_mm_loadu_ps(p), sc), b = _mm_mul_ps(_mm_loadu_ps(p + 4), sc);
+    __m128 c = _mm_mul_ps(_mm_loadu_ps(p + 8), sc), d = _mm_mul_ps(_mm_loadu_ps(p + 12), sc);
+    _mm_storeu_ps(p, a);
+    _mm_storeu_ps(p + 4, b);
+    _mm_storeu_ps(p + 8, c);
+    _mm_storeu_ps(p + 12, d);
+    _MM_TRANSPOSE4_PS(a, b, c, d); /* a, b, c: red, green, blue of the 4 */
+    const __m128 zero = _mm_setzero_ps(), big = _mm_set1_ps(1e6f);
+    /* max(x, 0) gives 0 for NaN (the second operand), as p > 0 ? .. : 0 */
+    a = _mm_min_ps(_mm_max_ps(a, zero), big);
+    b = _mm_min_ps(_mm_max_ps(b, zero), big);
+    c = _mm_min_ps(_mm_max_ps(c, zero), big);
+    __m128 k = _mm_div_ps(_mm_set1_ps(1), _mm_add_ps(_mm_set1_ps(1), _mm_max_ps(_mm_max_ps(a, b), c)));
+    a = _mm_mul_ps(a, k);
+    b = _mm_mul_ps(b, k);
+    c = _mm_mul_ps(c, k);
+    __m128 y = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0.2126f), a), _mm_mul_ps(_mm_set1_ps(0.7152f), b)),
+                          _mm_mul_ps(_mm_set1_ps(0.0722f), c));
+    _mm_storeu_ps(l, _mm_sqrt_ps(y));
+    d = zero;
+    _MM_TRANSPOSE4_PS(a, b, c, d);
+    _mm_storeu_ps(q, a);
+    _mm_storeu_ps(q + 4, b);
+    _mm_storeu_ps(q + 8, c);
+    _mm_storeu_ps(q + 12, d);
+}
+#endif
+
+static void job_prep(void *arg, uint32_t t)
+{
+    fx_job *j = arg;
+    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
+    const float s = j->scale;
+    for (uint32_t y = y0; y < y1; y++) {
+        float *p = j->rgba + 4 * (size_t)y * j->stride, *l = j->luma + (size_t)y * j->w;
+        float *q = j->copy + 4 * (size_t)y * j->w;
+        uint32_t x = 0;
+#ifdef __SSE2__
+        const __m128 sc = _mm_set_ps(1, s, s, s);
+        for (; x + 4 <= j->w; x += 4) prep4(p + 4 * x, q + 4 * x, l + x, sc);
+#endif
+        for (; x < j->w; x++) {
+            float *px = p + 4 * x, *qx = q + 4 * x;
+            px[0] *= s;
+            px[1] *= s;
+            px[2] *= s;
+            compress(px, qx);
+            qx[3] = 0;
+            l[x] = sqrtf(0.2126f * qx[0] + 0.7152f * qx[1] + 0.0722f * qx[2]);
+        }
+    }
+}
+
+/* floor for the search's positions (|v| < 2^23): libm's floorf is a call
+ * on x86-64 before SSE4.1 */
+static inline int ifloor(float v)
+{
+    int i = (int)v;
+    return (float)i > v ? i - 1 : i;
+}
+
+static inline size_t clamp_at(const fx_job *j, int x, int y)
+{
+    x = x < 0 ? 0 : x >= (int)j->w ? (int)j->w - 1 : x;
+    y = y < 0 ? 0 : y >= (int)j->h ? (int)j->h - 1 : y;
+    return (size_t)y * j->w + (size_t)x;
+}
+
+/* Bilinear fetch at pixel coordinates (pixel centres on integers), clamped
+ * to the edge: the luma, or the compressed colour. */
+static inline float luma_at(const fx_job *j, float px, float py)
+{
+    int x0 = ifloor(px), y0 = ifloor(py);
+    float fx = px - (float)x0, fy = py - (float)y0;
+    const float *L = j->luma;
+    float a = L[clamp_at(j, x0, y0)], b = L[clamp_at(j, x0 + 1, y0)];
+    float c = L[clamp_at(j, x0, y0 + 1)], d = L[clamp_at(j, x0 + 1, y0 + 1)];
+    float top = a + (b - a) * fx, bot = c + (d - c) * fx;
+    return top + (bot - top) * fy;
+}
+
+static inline void colour_at(const fx_job *j, float px, float py, float out[3])
+{
+    int x0 = ifloor(px), y0 = ifloor(py);
+    float fx = px - (float)x0, fy = py - (float)y0;
+    const float *a = j->copy + 4 * clamp_at(j, x0, y0), *b = j->copy + 4 * clamp_at(j, x0 + 1, y0);
+    const float *c = j->copy + 4 * clamp_at(j, x0, y0 + 1), *d = j->copy + 4 * clamp_at(j, x0 + 1, y0 + 1);
+    for (int k = 0; k < 3; k++) {
+        float top = a[k] + (b[k] - a[k]) * fx, bot = c[k] + (d[k] - c[k]) * fx;
+        out[k] = top + (bot - top) * fy;
+    }
+}
+
+/* FxaaPixelShader (FXAA 3.11, PC quality), written from Lottes' published
+ * algorithm: pixel units instead of texture units, "north" is y - 1. 1 and
+ * the new colour (compressed) in out, or 0 where it leaves the pixel be. */
+static int fxaa_pixel(const fx_job *j, int x, int y, float out[3])
+{
+    const float *L = j->luma;
+    const bool inner = x > 0 && y > 0 && x + 1 < (int)j->w && y + 1 < (int)j->h;
+    const size_t w = j->w, m = (size_t)y * w + (size_t)x;
+#define LUMA(dx, dy) (inner ? L[m + (size_t)((dy) * (ptrdiff_t)w + (dx))] : L[clamp_at(j, x + (dx), y + (dy))])
+    float lumaM = L[m];
+    float lumaS = LUMA(0, 1), lumaE = LUMA(1, 0);
+    float lumaN = LUMA(0, -1), lumaW = LUMA(-1, 0);
+    float maxSM = mx(lumaS, lumaM), minSM = mn(lumaS, lumaM);
+    float maxESM = mx(lumaE, maxSM), minESM = mn(lumaE, minSM);
+    float maxWN = mx(lumaN, lumaW), minWN = mn(lumaN, lumaW);
+    float rangeMax = mx(maxWN, maxESM), rangeMin = mn(minWN, minESM);
+    float range = rangeMax - rangeMin;
+    if (range < mx(FX_EDGE_MIN, rangeMax * FX_EDGE)) return 0; /* early exit */
+    float lumaNW = LUMA(-1, -1), lumaSE = LUMA(1, 1);
+    float lumaNE = LUMA(1, -1), lumaSW = LUMA(-1, 1);
+#undef LUMA
+    float lumaNS = lumaN + lumaS, lumaWE = lumaW + lumaE;
+    float subpixRcpRange = 1.0f / range;
+    float subpixNSWE = lumaNS + lumaWE;
+    float edgeHorz1 = -2.0f * lumaM + lumaNS, edgeVert1 = -2.0f * lumaM + lumaWE;
+    float lumaNESE = lumaNE + lumaSE, lumaNWNE = lumaNW + lumaNE;
+    float edgeHorz2 = -2.0f * lumaE + lumaNESE, edgeVert2 = -2.0f * lumaN + lumaNWNE;
+    float lumaNWSW = lumaNW + lumaSW, lumaSWSE = lumaSW + lumaSE;
+    float edgeHorz4 = fabsf(edgeHorz1) * 2.0f + fabsf(edgeHorz2);
+    float edgeVert4 = fabsf(edgeVert1) * 2.0f + fabsf(edgeVert2);
+    float edgeHorz3 = -2.0f * lumaW + lumaNWSW, edgeVert3 = -2.0f * lumaS + lumaSWSE;
+    float edgeHorz = fabsf(edgeHorz3) + edgeHorz4, edgeVert = fabsf(edgeVert3) + edgeVert4;
+    float subpixNWSWNESE = lumaNWSW + lumaNESE;
+    int horzSpan = edgeHorz >= edgeVert;
+    float lengthSign = 1.0f;
+    float subpixA = subpixNSWE * 2.0f + subpixNWSWNESE;
+    if (!horzSpan) {
+        lumaN = lumaW;
+        lumaS = lumaE;
+    }
+    float subpixB = subpixA * (1.0f / 12.0f) - lumaM;
+    float gradientN = lumaN - lumaM, gradientS = lumaS - lumaM;
+    float lumaNN = lumaN + lumaM, lumaSS = lumaS + lumaM;
+    int pairN = fabsf(gradientN) >= fabsf(gradientS);
+    float gradient = mx(fabsf(gradientN), fabsf(gradientS));
+    if (pairN) lengthSign = -lengthSign;
+    float subpixC = mn(mx(fabsf(subpixB) * subpixRcpRange, 0.0f), 1.0f);
+    /* posB: half a pixel across the edge, towards the steeper side; the
+       search runs along the edge (offNP) both ways from it */
+    float bx = (float)x, by = (float)y, ox = horzSpan ? 1.0f : 0.0f, oy = horzSpan ? 0.0f : 1.0f;
+    if (!horzSpan) bx += lengthSign * 0.5f;
+    else by += lengthSign * 0.5f;
+    float nx = bx - ox * fx_step[0], ny = by - oy * fx_step[0];
+    float px = bx + ox * fx_step[0], py = by + oy * fx_step[0];
+    float subpixD = -2.0f * subpixC + 3.0f;
+    float lumaEndN = luma_at(j, nx, ny), lumaEndP = luma_at(j, px, py);
+    float subpixE = subpixC * subpixC;
+    if (!pairN) lumaNN = lumaSS;
+    float gradientScaled = gradient * 0.25f;
+    float lumaMM = lumaM - lumaNN * 0.5f;
+    float subpixF = subpixD * subpixE;
+    int lumaMLTZero = lumaMM < 0.0f;
+    lumaEndN -= lumaNN * 0.5f;
+    lumaEndP -= lumaNN * 0.5f;
+    int doneN = fabsf(lumaEndN) >= gradientScaled, doneP = fabsf(lumaEndP) >= gradientScaled;
+    for (int k = 1; k < FX_STEPS; k++) {
+        if (!doneN) {
+            nx -= ox * fx_step[k];
+            ny -= oy * fx_step[k];
+        }
+        if (!doneP) {
+            px += ox * fx_step[k];
+            py += oy * fx_step[k];
+        }
+        if ((doneN && doneP) || k == FX_STEPS - 1) break; /* the last step is a guess, unsampled */
+        if (!doneN) lumaEndN = luma_at(j, nx, ny) - lumaNN * 0.5f;
+        if (!doneP) lumaEndP = luma_at(j, px, py) - lumaNN * 0.5f;
+        doneN = fabsf(lumaEndN) >= gradientScaled;
+        doneP = fabsf(lumaEndP) >= gradientScaled;
+    }
+    float dstN = horzSpan ? (float)x - nx : (float)y - ny;
+    float dstP = horzSpan ? px - (float)x : py - (float)y;
+    int goodSpanN = (lumaEndN < 0.0f) != lumaMLTZero, goodSpanP = (lumaEndP < 0.0f) != lumaMLTZero;
+    float spanLengthRcp = 1.0f / (dstP + dstN);
+    int directionN = dstN < dstP;
+    float dst = mn(dstN, dstP);
+    int goodSpan = directionN ? goodSpanN : goodSpanP;
+    float subpixG = subpixF * subpixF;
+    float pixelOffset = dst * -spanLengthRcp + 0.5f;
+    float subpixH = subpixG * FX_SUBPIX;
+    float pixelOffsetGood = goodSpan ? pixelOffset : 0.0f;
+    float pixelOffsetSubpix = mx(pixelOffsetGood, subpixH);
+    float ux = (float)x, uy = (float)y;
+    if (!horzSpan) ux += pixelOffsetSubpix * lengthSign;
+    else uy += pixelOffsetSubpix * lengthSign;
+    colour_at(j, ux, uy, out);
+    return 1;
+}
+
+/* FXAA's early exit for 4 pixels of an inner row at once: a bit per pixel
+ * whose neighbourhood's luma range passes the thresholds (the same test
+ * fxaa_pixel makes first). Most of a frame is flat: this skips it at
+ * about a nanosecond a pixel. */
+#ifdef __SSE2__
+static inline unsigned edge4(const float *L, size_t m, size_t w)
+{
+    __m128 M = _mm_loadu_ps(L + m), N = _mm_loadu_ps(L + m - w), S = _mm_loadu_ps(L + m + w);
+    __m128 E = _mm_loadu_ps(L + m + 1), W = _mm_loadu_ps(L + m - 1);
+    __m128 hi = _mm_max_ps(_mm_max_ps(_mm_max_ps(M, N), _mm_max_ps(S, E)), W);
+    __m128 lo = _mm_min_ps(_mm_min_ps(_mm_min_ps(M, N), _mm_min_ps(S, E)), W);
+    __m128 th = _mm_max_ps(_mm_set1_ps(FX_EDGE_MIN), _mm_mul_ps(hi, _mm_set1_ps(FX_EDGE)));
+    return (unsigned)_mm_movemask_ps(_mm_cmpge_ps(_mm_sub_ps(hi, lo), th));
+}
+#endif
+
+static void job_fxaa(void *arg, uint32_t t)
+{
+    fx_job *j = arg;
+    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
+    for (uint32_t y = y0; y < y1; y++) {
+        float *row = j->rgba + 4 * (size_t)y * j->stride;
+        uint32_t x = 0;
+        while (x < j->w) {
+            uint32_t n = 1;
+            unsigned bits = 1;
+#ifdef __SSE2__
+            if (y > 0 && y + 1 < j->h && x > 0 && x + 5 <= j->w) {
+                n = 4;
+                bits = edge4(j->luma, (size_t)y * j->w + x, j->w);
+            }
+#endif
+            for (uint32_t i = 0; i < n; i++) {
+                float c[3];
+                if (!(bits >> i & 1u) || !fxaa_pixel(j, (int)(x + i), (int)y, c)) continue;
+                float m = mx(mx(c[0], c[1]), c[2]);
+                /* m <= 1e6 / (1 + 1e6) < 1: a blend of compressed colours */
+                float k = 1 / (1 - m);
+                float *p = row + 4 * (size_t)(x + i);
+                p[0] = c[0] * k;
+                p[1] = c[1] * k;
+                p[2] = c[2] * k;
+            }
+            x += n;
+        }
+    }
+}
+
+static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, uint32_t width, uint32_t height,
+                    size_t stride, float scale)
+{
+    size_t np = (size_t)width * height, need = np * 5;
+    if (need > p->cap) {
+        float *s = realloc(p->scratch, need * sizeof *s);
+        if (!s) return VT_ERR_NOMEM;
+        p->scratch = s;
+        p->cap = need;
+    }
+    fx_job j = {.rgba = rgba, .copy = p->scratch, .luma = p->scratch + 4 * np, .w = width, .h = height,
+                .stride = stride, .nb = bands_of(pool, threads, height), .scale = scale};
+    run(pool, job_prep, &j, j.nb);
+    run(pool, job_fxaa, &j, j.nb);
+    return 0;
+}
+
+int vt_fxaa(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, uint32_t width, uint32_t height,
+            size_t stride)
+{
+    return fxaa_run(p, pool, threads, rgba, width, height, stride, 1.0f);
+}
+
+int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame *f, float *ev)
+{
+    *ev = 0;
+    const vt_env *env = f->env;
+    if (!env) return 0;
+    double e = env->exposure_ev;
+    if (env->exposure_mode == VT_EXPOSURE_AUTO) {
+        float target = vt_exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads);
+        e = target;
+        if (f->adapt) {
+            /* the caller's state: a bad EV (NaN, out of range) starts over */
+            float a = f->adapt->ev;
+            if (f->adapt->valid && a >= VT_EV_MIN && a <= VT_EV_MAX) e = vt_adapt_step(a, target, f->dt);
+            f->adapt->ev = (float)e;
+            f->adapt->valid = true;
+        }
+    }
+    *ev = (float)e;
+    float scale = (float)(1.0 / (1.2 * exp2(e)));
+    /* FXAA's first pass applies the exposure on its way (one pass over
+       the picture fewer); without FXAA, or without memory for it, alone */
+    if (!(f->fx_off & VT_FX_FXAA) && !fxaa_run(p, pool, threads, f->rgba, f->width, f->height, f->stride, scale))
+        return 0;
+    scale_job sj = {.rgba = f->rgba, .w = f->width, .h = f->height, .stride = f->stride,
+                    .nb = bands_of(pool, threads, f->height), .scale = scale};
+    run(pool, job_scale, &sj, sj.nb);
+    return f->fx_off & VT_FX_FXAA ? 0 : VT_ERR_NOMEM;
+}

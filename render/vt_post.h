@@ -1,0 +1,88 @@
+/*
+ * vt_post.h — the post passes both renderers run on their HDR picture
+ * (issue 20): exposure (fixed, or automatic from the frame's luminance
+ * histogram, with eye adaptation for a stream) and then FXAA on the
+ * exposed picture. One C implementation for both renderers: the GL path
+ * runs it on its readback, so the two share one set of rules exactly.
+ *
+ * The buffer is the renderers' output (vt_soft.h): rgba, 4 floats per
+ * pixel, linear HDR, rows bottom-up, `stride` pixels apart. The passes run
+ * in place, over bands of rows on a cull_pool (NULL: one thread); FXAA
+ * needs a copy of the picture, the scratch of a vt_post (owned by the
+ * renderer, grown as needed, 20 bytes per pixel).
+ */
+#ifndef VANTAGE_VT_POST_H
+#define VANTAGE_VT_POST_H
+
+#include "culling.h"
+
+#include "vt_scene.h"
+#include "vt_soft.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The histogram: 4 bins per EV of log2 luminance (cd/m^2) over
+ * [VT_HIST_LO, VT_HIST_LO + 32) EV, 2^-16 .. 2^16 nits: a moonlit street
+ * (~1e-3) to a sunlit white wall (~1e4); darker pixels count in the first
+ * bin, brighter (the sun's disc) in the last. Bins of 1/4 EV are found
+ * exactly from the float's exponent and three mantissa comparisons. */
+#define VT_HIST_BINS 128
+#define VT_HIST_LO (-16)
+/* The part of the histogram the exposure averages: from the darkest 50 %
+ * to the brightest 5 %, both left out, as engines do (a dark half of
+ * shadows and the sun's disc do not set the exposure). */
+#define VT_HIST_PLO 0.50
+#define VT_HIST_PHI 0.95
+/* The automatic exposure's range, EV100: the FIXED mode's low end (-10, a
+ * starless night) to 20 (above a sunlit snow field, ~16). */
+#define VT_EV_MIN (-10.0f)
+#define VT_EV_MAX 20.0f
+/* Eye adaptation: time constants in seconds. Towards a brighter scene
+ * (the EV rises) the eye adapts fast, towards a darker one slowly, as
+ * light and dark adaptation do (and as engines default: UE's speed up 3,
+ * down 1 EV/s). */
+#define VT_ADAPT_TAU_UP 0.5f
+#define VT_ADAPT_TAU_DOWN 1.5f
+
+typedef struct vt_post {
+    float *scratch; /* FXAA's copy of the picture (4 floats a pixel), then its luma plane */
+    size_t cap;     /* in floats */
+} vt_post;
+
+void vt_post_free(vt_post *p);
+
+/* The post passes of a frame with an environment env (NULL: nothing,
+ * returns 0 and *ev 0): exposure (env's mode; AUTO: the histogram EV,
+ * moved by adapt when adapt is non-NULL, see vt_adapt), then FXAA unless
+ * fx_off has VT_FX_FXAA. pool NULL or threads <= 1: one thread. *ev: the
+ * EV100 used. 0, or VT_ERR_NOMEM (the scratch; the picture is exposed but
+ * not anti-aliased). */
+int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame *f, float *ev);
+
+/* The histogram exposure's EV100 of a picture (before exposure):
+ * comp is subtracted (env's exposure_comp: brighter), the result clamped
+ * to VT_EV_MIN..VT_EV_MAX. Every pixel counts; pool as vt_post_apply. */
+float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                       cull_pool *pool, uint32_t threads);
+/* The EV100 whose exposure maps luminance L (cd/m^2, > 0) to mid grey:
+ * log2(L x 100 / 12.5), as a reflected-light meter's calibration K = 12.5. */
+double vt_ev_of_luminance(double L);
+/* One step of eye adaptation: ev moved towards target over dt seconds
+ * (tau VT_ADAPT_TAU_UP when the target is higher, else TAU_DOWN):
+ * target + (ev - target) exp(-dt / tau). Never past target. dt NaN or
+ * negative: 0. */
+float vt_adapt_step(float ev, float target, float dt);
+
+/* FXAA (Lottes' FXAA 3.11, quality preset 12) over the picture in place. */
+int vt_fxaa(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, uint32_t width, uint32_t height,
+            size_t stride);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
