@@ -29,15 +29,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-static void look(cull_view *v, const double eye[3], const double at[3], uint32_t w, uint32_t h, double fov)
+/* A perspective view (GL depth, 1 rad vertical, near 0.1, far 1000) from
+ * eye towards at: test_util's. */
+static void look(cull_view *v, const double eye[3], const double at[3], uint32_t w, uint32_t h)
 {
-    cull_view_desc d = {.depth_mode = CULL_DEPTH_GL, .viewport_w = w, .viewport_h = h};
-    memcpy(d.origin, eye, sizeof d.origin);
-    double proj[16], view[16], dir[3] = {at[0] - eye[0], at[1] - eye[1], at[2] - eye[2]}, up[3] = {0, 1, 0};
-    cull_mat_perspective(proj, fov, (double)w / h, 0.1, 1000, CULL_DEPTH_GL);
-    cull_mat_look_dir(view, dir, up);
-    cull_mat_mul(d.view_proj, proj, view);
-    assert_int_equal(cull_view_init(v, &d), CULL_OK);
+    test_view_look(v, eye, (const double[3]){at[0] - eye[0], at[1] - eye[1], at[2] - eye[2]}, w, h);
 }
 
 /* The scene: a sun from (0.5, 0.7, 0.35) (normalised), a grey ground at
@@ -246,7 +242,7 @@ static size_t check_analytic(const cull_view *v, const float *rgba, const float 
 
 static void analytic_view(cull_view *v, uint32_t w, uint32_t h)
 {
-    look(v, (double[3]){3, 9, 11}, (double[3]){-1.5, 0, -2.5}, w, h, 1.0);
+    look(v, (double[3]){3, 9, 11}, (double[3]){-1.5, 0, -2.5}, w, h);
 }
 
 static void test_shadow_analytic_box_soft(void **state)
@@ -360,7 +356,7 @@ static void test_shadow_stable(void **state)
         double eye[3] = {3 + 0.013 * step, 5 + 0.007 * step, 9 - 0.011 * step};
         double at[3] = {-1 + 0.013 * step + (step == 5 ? 0.3 : 0), 0, -3 - 0.011 * step};
         cull_view v;
-        look(&v, eye, at, 320, 180, 1.0);
+        look(&v, eye, at, 320, 180);
         vt_shadow_fit fit;
         fit_for(&v, &env, &in, &fit);
         uint32_t tris;
@@ -436,7 +432,7 @@ static void test_shadow_adversarial(void **state)
     /* a perspective view (GL depth), a reversed-Z one, a top-down
        orthographic one (the commander's) */
     cull_view views[3];
-    look(&views[0], (double[3]){0, 3, 10}, (double[3]){0, 0, 0}, W, H, 1.0);
+    look(&views[0], (double[3]){0, 3, 10}, (double[3]){0, 0, 0}, W, H);
     {
         double proj[16], view[16], dir[3] = {0, -3, -10}, up[3] = {0, 1, 0};
         cull_view_desc d = {.origin = {0, 3, 10}, .depth_mode = CULL_DEPTH_REVERSED, .viewport_w = W, .viewport_h = H};
