@@ -498,15 +498,12 @@ static void test_shadow_caster_outside_view(void **state)
     vtc_client *c = connect_role(d, VP_ROLE_EDITOR, false);
     vp_entity e = {.id = 1, .class_id = 0, .aabb = {20, 0, -2, 24, 40, 2}};
     assert_int_equal(vtc_add(c, &e, 1, NULL, NULL), VP_OK);
+    /* a white sky of 2000 nits, the ground at y 0, no fog, a fixed exposure */
     vp_env env;
     vp_env_default(&env);
-    env.sky_mode = VP_SKY_COLOR;
-    env.sky_color[0] = env.sky_color[1] = env.sky_color[2] = 1;
-    env.sky_intensity = 2000;
-    env.fog_density = 0;
-    env.ground_height = 0;
-    env.exposure_mode = VP_EXPOSURE_FIXED;
-    env.exposure_ev = 13;
+    for (int k = 0; k < 3; k++) env.sky_color[k] = 1;
+    env.sky_mode = VP_SKY_COLOR, env.sky_intensity = 2000, env.fog_density = 0, env.ground_height = 0;
+    env.exposure_mode = VP_EXPOSURE_FIXED, env.exposure_ev = 13;
     enum { W = 64, H = 48 };
     for (int side = 0; side < 2; side++) {
         float l = sqrtf(0.5f);
