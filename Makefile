@@ -106,7 +106,7 @@ IMAGE_SRC := render/vt_tonemap.c render/vt_lut.c render/vt_sink.c render/vt_png.
 IMAGE_OBJ := $(IMAGE_SRC:%.c=$(BUILD)/%.o)
 RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_span.c render/vt_shadow.c render/vt_post.c render/vt_overlay.c render/vt_soft.c render/vt_shade_base.c render/vt_shade_sse41.c \
             render/vt_shade_avx2.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
-            render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_gltex.c render/vt_file.c render/vt_err.c \
+            render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_gltex.c render/vt_file.c render/vt_err.c \
             render/vt_texture.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
 EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
@@ -217,7 +217,7 @@ DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD
                  $(BUILD)/render/vt_soft.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o \
                  $(BUILD)/render/vt_err.o $(BUILD)/render/vt_texture.o $(BUILD)/render/vt_exr.o \
                  $(BUILD)/render/vt_egl.o $(BUILD)/render/vt_gl_target.o $(BUILD)/render/vt_gl_shader.o \
-                 $(BUILD)/render/vt_gldraw.o $(BUILD)/render/vt_gldraw_glsl.o $(BUILD)/render/vt_gltex.o \
+                 $(BUILD)/render/vt_gldraw.o $(BUILD)/render/vt_gldraw_glsl.o $(BUILD)/render/vt_shadow_gl.o $(BUILD)/render/vt_gltex.o \
                  $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)

@@ -21,6 +21,7 @@
 #include "frame_scene.h"
 #include "vt_gldraw.h"
 #include "vt_image.h"
+#include "vt_shadow.h"
 #include "vt_soft.h"
 
 #include <linux/sockios.h>
@@ -99,6 +100,8 @@ typedef struct frame_in {
     vt_instance *inst;
     vt_mesh *meshes;
     uint32_t ninst, nmesh;
+    vt_instance *casters;   /* what may cast the sun's shadows into the view (NULL: inst) */
+    uint32_t ncasters;
     vt_light *lights;
     uint64_t *light_ids;
     uint32_t nl;
@@ -111,6 +114,7 @@ typedef struct frame_in {
 static void frame_in_free(frame_in *fi)
 {
     free(fi->inst);
+    free(fi->casters);
     free(fi->meshes);
     free(fi->lights);
     free(fi->light_ids);
@@ -123,8 +127,8 @@ static vt_frame frame_of(const cull_view *v, const frame_in *fi, float *rgba, fl
     return (vt_frame){.view = v, .width = v->viewport_w, .height = v->viewport_h, .meshes = fi->meshes,
                       .nmesh = fi->nmesh, .inst = fi->inst, .ninst = fi->ninst, .lights = fi->lights, .nl = fi->nl,
                       .env = fi->fs.env_ok ? &fi->fs.env : NULL, .rgba = rgba, .depth = depth,
-                      .stride = v->viewport_w, .adapt = fi->adapt, .dt = fi->dt,
-                      .overlay = frame_overlay_get(&fi->ov)};
+                      .stride = v->viewport_w, .adapt = fi->adapt, .dt = fi->dt, .casters = fi->casters,
+                      .ncasters = fi->ncasters, .overlay = frame_overlay_get(&fi->ov)};
 }
 
 /* An entity's transform as the renderers take it (vt_frame_check's
@@ -141,6 +145,83 @@ static bool trs_drawable(const scene_xform *x)
 
 static int gather_lights(const scene *sc, const uint64_t *subs, frame_in *fi);
 
+/* Entity r as the renderers take it (its class's mesh numbered into fi
+ * as met: the worker's class -> mesh index + 1 table, mcls the way back). */
+static void entity_instance(const scene *sc, worker *wk, const cull_result *r, uint16_t *mcls, frame_in *fi,
+                            vt_instance *out)
+{
+    uint32_t *mesh_of = wk->mesh_of;
+    cull_entity_desc e;
+    cull_entity_get(sc->world, r->handle, &e);
+    uint16_t cls = r->class_id;
+    const scene_mesh *sm = &sc->meshes[cls];
+    uint32_t mi = 0;
+    if (sm->pos && sm->ni) {
+        if (!mesh_of[cls]) {
+            fi->meshes[fi->nmesh] = (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv,
+                                              .ni = sm->ni, .uv = sm->uv, .tan = sm->tan};
+            mcls[fi->nmesh] = cls;
+            mesh_of[cls] = ++fi->nmesh;
+        }
+        mi = mesh_of[cls] - 1;
+    }
+    *out = (vt_instance){.mesh = mi};
+    memcpy(out->bmin, e.aabb_min, sizeof e.aabb_min);
+    memcpy(out->bmax, e.aabb_max, sizeof e.aabb_max);
+    class_albedo(cls, out->albedo);
+    /* the scene model: an entity with a transform is its mesh under
+       it (others stretch the mesh onto their box), with its material */
+    uint32_t slot = r->handle & (CULL_MAX_ENTITIES - 1);
+    const scene_xform *x = sc->xf && slot < sc->id_cap ? &sc->xf[slot] : NULL;
+    if (x) {
+        out->mat = frame_scene_material(&fi->fs, sc, x->material);
+        if ((x->flags & VP_ENT_TRANSFORM) && trs_drawable(x)) {
+            out->place = VT_PLACE_TRS;
+            memcpy(out->pos, x->pos, sizeof x->pos);
+            memcpy(out->rot, x->rot, sizeof x->rot);
+            memcpy(out->scale, x->scale, sizeof x->scale);
+        }
+    }
+    /* damaged: drawn with its destruction mask (the volume is read
+       under the shared scene lock the frame is rendered in) */
+    if (sc->destruct.count) {
+        const scene_destruct *sd = scene_destruct_of(sc, scene_id_of(sc, r->handle));
+        out->dvol = sd ? &sd->v : NULL;
+    }
+}
+
+/* The sun's shadow casters of a frame whose visible instances fi holds:
+ * a building outside the view can shadow the ground inside it. The
+ * renderers' own cascade fit (vt_shadow_fit_make) gives the volume; one
+ * orthographic query along the sun over it, extended VT_SHADOW_MAX_DIST
+ * towards the sun, frustum only (what hides a caster from the camera does
+ * not stop its shadow). No environment or no sun: none (the instances
+ * stand in). 0, or -1 out of memory. */
+static int gather_casters(const scene *sc, worker *wk, const cull_view *v, const uint64_t *subs, uint16_t **mcls,
+                          frame_in *fi)
+{
+    if (!fi->fs.env_ok) return 0;
+    vt_frame f = frame_of(v, fi, NULL, NULL);
+    vt_shadow_fit fit;
+    cull_view cv;
+    bool ok = vt_shadow_fit_frame(&f, &fit) && vt_shadow_caster_view(&fit, v->origin, VT_SHADOW_MAX_DIST, &cv);
+    if (!ok) return 0;
+    size_t n = 0;
+    cull_query_desc q = {.views = &cv, .view_count = 1, .flags = CULL_Q_NO_OCCLUSION, .sublevels = subs};
+    if (cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL) != CULL_OK) return 0;
+    size_t cap = (size_t)fi->nmesh + n + 1;
+    vt_mesh *nm = realloc(fi->meshes, cap * sizeof *nm);
+    if (!nm) return -1;
+    fi->meshes = nm;
+    uint16_t *nc = realloc(*mcls, cap * sizeof *nc);
+    if (!nc) return -1;
+    *mcls = nc;
+    if (!(fi->casters = malloc((n + 1) * sizeof *fi->casters))) return -1;
+    for (size_t i = 0; i < n; i++) entity_instance(sc, wk, &wk->res[i], *mcls, fi, &fi->casters[i]);
+    fi->ncasters = (uint32_t)n;
+    return 0;
+}
+
 /* Culls (with occlusion unless no_occlusion) and collects the frame's
  * instances and lights. VP_OK, or an error code with msg. */
 static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlusion, frame_in *fi, char *msg,
@@ -148,6 +229,7 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
 {
     memset(fi, 0, sizeof *fi);
     size_t n = 0;
+    uint16_t *mcls = NULL; /* per mesh of the frame: its class (mesh_of is emptied by it) */
     if (!worker_res_reserve(wk, cull_query_bound(sc->world))) goto nomem;
     if (!wk->mesh_of && !(wk->mesh_of = calloc(65536, sizeof *wk->mesh_of))) goto nomem;
     const uint64_t *subs = scene_visible(sc, NULL, wk->vis);
@@ -163,53 +245,23 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
     uint32_t *mesh_of = wk->mesh_of;
     fi->inst = malloc((n + 1) * sizeof *fi->inst);
     fi->meshes = malloc((n + 1) * sizeof *fi->meshes);
-    if (!fi->inst || !fi->meshes) goto nomem;
+    mcls = malloc((n + 1) * sizeof *mcls);
+    if (!fi->inst || !fi->meshes || !mcls) goto nomem;
     fi->meshes[0] = vt_mesh_box;
     fi->nmesh = 1;
     if (!frame_scene_init(&fi->fs, sc)) goto nomem;
-    for (size_t i = 0; i < n; i++) {
-        cull_entity_desc e;
-        cull_entity_get(sc->world, wk->res[i].handle, &e);
-        uint16_t cls = wk->res[i].class_id;
-        const scene_mesh *sm = &sc->meshes[cls];
-        uint32_t mi = 0;
-        if (sm->pos && sm->ni) {
-            if (!mesh_of[cls]) {
-                fi->meshes[fi->nmesh] = (vt_mesh){.pos = sm->pos, .nrm = sm->nrm, .idx = sm->idx, .nv = sm->nv,
-                                                  .ni = sm->ni, .uv = sm->uv, .tan = sm->tan};
-                mesh_of[cls] = ++fi->nmesh;
-            }
-            mi = mesh_of[cls] - 1;
-        }
-        fi->inst[i] = (vt_instance){.mesh = mi};
-        memcpy(fi->inst[i].bmin, e.aabb_min, sizeof e.aabb_min);
-        memcpy(fi->inst[i].bmax, e.aabb_max, sizeof e.aabb_max);
-        class_albedo(cls, fi->inst[i].albedo);
-        /* the scene model: an entity with a transform is its mesh under
-           it (others stretch the mesh onto their box), with its material */
-        uint32_t slot = wk->res[i].handle & (CULL_MAX_ENTITIES - 1);
-        const scene_xform *x = sc->xf && slot < sc->id_cap ? &sc->xf[slot] : NULL;
-        if (x) {
-            fi->inst[i].mat = frame_scene_material(&fi->fs, sc, x->material);
-            if ((x->flags & VP_ENT_TRANSFORM) && trs_drawable(x)) {
-                fi->inst[i].place = VT_PLACE_TRS;
-                memcpy(fi->inst[i].pos, x->pos, sizeof x->pos);
-                memcpy(fi->inst[i].rot, x->rot, sizeof x->rot);
-                memcpy(fi->inst[i].scale, x->scale, sizeof x->scale);
-            }
-        }
-        /* damaged: drawn with its destruction mask (the volume is read
-           under the shared scene lock the frame is rendered in) */
-        if (sc->destruct.count) {
-            const scene_destruct *sd = scene_destruct_of(sc, scene_id_of(sc, wk->res[i].handle));
-            fi->inst[i].dvol = sd ? &sd->v : NULL;
-        }
-    }
-    for (size_t i = 0; i < n; i++) mesh_of[wk->res[i].class_id] = 0;
+    for (size_t i = 0; i < n; i++) entity_instance(sc, wk, &wk->res[i], mcls, fi, &fi->inst[i]);
     fi->ninst = (uint32_t)n;
+    if (gather_casters(sc, wk, v, subs, &mcls, fi)) goto nomem;
+    for (uint32_t m = 1; m < fi->nmesh; m++) mesh_of[mcls[m]] = 0;
+    free(mcls);
+    mcls = NULL;
     if (gather_lights(sc, subs, fi)) goto nomem;
     return VP_OK;
 nomem:
+    if (wk->mesh_of && mcls)
+        for (uint32_t m = 1; m < fi->nmesh; m++) wk->mesh_of[mcls[m]] = 0;
+    free(mcls);
     frame_in_free(fi);
     memset(fi, 0, sizeof *fi);
     snprintf(msg, msglen, "out of memory for a frame");

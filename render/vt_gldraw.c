@@ -33,6 +33,7 @@
 #include "vt_gldraw_internal.h"
 #include "vt_picture.h"
 #include "vt_post.h"
+#include "vt_shadow_gl.h"
 
 #include <epoxy/gl.h>
 #include <float.h>
@@ -113,6 +114,7 @@ struct vt_gldraw {
     cull_light *cl;
     size_t cl_cap;
     vt_skytab sky;          /* the analytic sky's table */
+    vt_shadow_gl *shadow;   /* the sun's cascades */
 };
 
 int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
@@ -121,9 +123,13 @@ int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
     vt_gldraw *r = calloc(1, sizeof *r);
     if (!r) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     r->g = g;
-    int rc = vt_gl_program_build(g, vt_gldraw_vs, vt_gldraw_fs, &r->prog, err, errlen);
-    if (!rc && (rc = vt_gl_program_build(g, vt_gldraw_bg_vs, vt_gldraw_bg_fs, &r->bg, err, errlen)))
+    int rc = vt_shadow_gl_program(g, vt_gldraw_vs, vt_gldraw_fs, &r->prog, err, errlen);
+    if (!rc && (rc = vt_shadow_gl_program(g, vt_gldraw_bg_vs, vt_gldraw_bg_fs, &r->bg, err, errlen)))
         glDeleteProgram(r->prog);
+    if (!rc && (rc = vt_shadow_gl_create(&r->shadow))) {
+        glDeleteProgram(r->prog);
+        glDeleteProgram(r->bg);
+    }
     if (rc) {
         free(r);
         return rc;
@@ -159,6 +165,7 @@ void vt_gldraw_destroy(vt_gldraw *r)
     if (!r) return;
     vt_gl_target_destroy(r->target);
     vt_gltex_free(&r->tc);
+    vt_shadow_gl_destroy(r->shadow);
     glDeleteSamplers(4, r->samp);
     glDeleteTextures(5, r->tex);
     glDeleteBuffers(5, r->buf);
@@ -478,6 +485,7 @@ static void set_env(vt_gldraw *r, int p, const vt_penv *pe, const cull_view_rows
     glUniform1f(L[u_fog_falloff], pe->fog_falloff);
     glUniform1f(L[u_fog_y0], pe->fog_y0);
     glUniform1f(L[u_sky_rot], pe->sky_rot);
+    vt_shadow_gl_uniforms(r->shadow, p ? r->bg : r->prog);
     if (!p) return;
     const double *rows[6] = {vr->x, vr->y, vr->z, vr->w, vr->nearfn, vr->d};
     for (int k = 0; k < 6; k++)
@@ -554,6 +562,10 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
         !vp_grow((void **)&r->ld, &r->ld_cap, ((size_t)nl + 1) * 16, sizeof *r->ld))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     if ((rc = upload(r, f, err, errlen))) return rc;
+    /* the sun's shadow cascades: vt_shadow.c's maps, uploaded */
+    uint32_t stris = 0;
+    uint64_t shadow_ns = 0;
+    if ((rc = vt_shadow_gl_frame(r->shadow, f, &stris, &shadow_ns, err, errlen))) return rc;
     vt_penv pe;
     vt_penv_make(f->env, v->origin, &r->sky, &pe);
     const bool bg = pe.on; /* a background pass: the ground, the sky */
@@ -673,6 +685,8 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
         st->lights_in_view = r->tiles.in_view;
         st->max_lights_per_tile = r->tiles.max_per_tile;
         st->threads = 1;
+        st->shadow_ns = shadow_ns;
+        st->shadow_triangles = stris;
     }
     return 0;
 }

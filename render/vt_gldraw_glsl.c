@@ -95,6 +95,7 @@
     "  g2 = (1.0 - rough) * (1.0 - rough);\n"                                                                  \
     "}\n"                                                                                                      \
     /* vt_shade.inl's env_light: the sky's ambient and the sun */                                             \
+    "float sun_visibility(vec3 p, vec3 n);\n" /* the shadow cascades (vt_shadow_gl.c) */                     \
     "vec3 env_light(vec3 p, vec3 n, vec3 diffuse, vec3 f0, vec3 em, float s, float g2) {\n"                    \
     "  if (u_env_on == 0) return " STR(VT_AMBIENT) " * diffuse + em;\n"                                        \
     "  float pl = length(p);\n"                                                                                \
@@ -113,7 +114,7 @@
     "  float lobe = (s + 8.0) * (1.0 / (8.0 * PI)) * (ndh / max(s - s * ndh + ndh, 1e-6));\n"                  \
     "  float f1 = 1.0 - vh, f2 = f1 * f1, f5 = f2 * f2 * f1;\n"                                                \
     "  vec3 F = (1.0 - f0) * f5 + f0;\n"                                                                       \
-    "  return c + u_sun * max(ndl, 0.0) * (F * lobe + diffuse * (1.0 / PI));\n"                                \
+    "  return c + u_sun * (max(ndl, 0.0) * sun_visibility(p, n)) * (F * lobe + diffuse * (1.0 / PI));\n"      \
     "}\n"
 
 const char *const vt_gldraw_vs =

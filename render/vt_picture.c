@@ -82,9 +82,36 @@ static int mesh_attr_check(const vt_mesh *m, char *err, size_t errlen)
     return 0;
 }
 
+/* Instances (the frame's, or its shadow casters: what names them in a
+ * message). */
+static int insts_check(const vt_instance *inst, uint32_t n, uint32_t nmesh, const char *what, char *err,
+                       size_t errlen)
+{
+    const vt_material *last = NULL; /* instances share few materials: each checked once in a run */
+    for (uint32_t i = 0; i < n; i++) {
+        const vt_instance *in = &inst[i];
+        if (in->mesh >= nmesh) return vp_errf(err, errlen, VT_ERR_INVALID, "%sinstance %u: no mesh %u", what, i, in->mesh);
+        char why[160];
+        int rc = place_check(in, i, why, sizeof why);
+        if (rc) return vp_errf(err, errlen, rc, "%s%s", what, why);
+        if (vt_dvol_live(in->dvol) && !dvol_ok(in->dvol))
+            return vp_errf(err, errlen, VT_ERR_INVALID, "%sinstance %u: bad destruction volume", what, i);
+        for (int a = 0; a < 3; a++)
+            if (!(fabsf(in->albedo[a]) <= 1e6f))
+                return vp_errf(err, errlen, VT_ERR_INVALID, "%sinstance %u: albedo not finite", what, i);
+        if (in->mat && in->mat != last) {
+            if (vt_material_check(in->mat, why, sizeof why))
+                return vp_errf(err, errlen, VT_ERR_INVALID, "%sinstance %u: material: %s", what, i, why);
+            last = in->mat;
+        }
+    }
+    return 0;
+}
+
 int vt_frame_check(const vt_frame *f, char *err, size_t errlen)
 {
     if (!f || !f->view || !f->rgba || !f->depth || (f->ninst && (!f->inst || !f->meshes)) || (f->nl && !f->lights) ||
+        (f->ncasters && f->casters && !f->meshes) ||
         (f->nmesh && !f->meshes))
         return vp_errf(err, errlen, VT_ERR_INVALID, "missing argument");
     if (f->width < 1 || f->height < 1 || f->width > 16384 || f->height > 16384 || f->stride < f->width)
@@ -95,24 +122,9 @@ int vt_frame_check(const vt_frame *f, char *err, size_t errlen)
         if (vt_mesh_check(&f->meshes[i], why, sizeof why) || mesh_attr_check(&f->meshes[i], why, sizeof why))
             return vp_errf(err, errlen, VT_ERR_INVALID, "%u: %s", i, why);
     }
-    const vt_material *last = NULL; /* instances share few materials: each checked once in a run */
-    for (uint32_t i = 0; i < f->ninst; i++) {
-        const vt_instance *in = &f->inst[i];
-        if (in->mesh >= f->nmesh) return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: no mesh %u", i, in->mesh);
-        int rc = place_check(in, i, err, errlen);
-        if (rc) return rc;
-        if (vt_dvol_live(in->dvol) && !dvol_ok(in->dvol))
-            return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: bad destruction volume", i);
-        for (int a = 0; a < 3; a++)
-            if (!(fabsf(in->albedo[a]) <= 1e6f))
-                return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: albedo not finite", i);
-        if (in->mat && in->mat != last) {
-            char why[160];
-            if (vt_material_check(in->mat, why, sizeof why))
-                return vp_errf(err, errlen, VT_ERR_INVALID, "instance %u: material: %s", i, why);
-            last = in->mat;
-        }
-    }
+    int rc = insts_check(f->inst, f->ninst, f->nmesh, "", err, errlen);
+    if (!rc && f->casters && f->ncasters) rc = insts_check(f->casters, f->ncasters, f->nmesh, "caster: ", err, errlen);
+    if (rc) return rc;
     for (uint32_t i = 0; i < f->nl; i++) {
         /* the daemon's LIGHT_PUT runs the same validation: a light it
            acknowledged is never refused here */
@@ -124,7 +136,7 @@ int vt_frame_check(const vt_frame *f, char *err, size_t errlen)
         if (!isfinite(L->cos_inner))
             return vp_errf(err, errlen, VT_ERR_INVALID, "light %u: inner cosine not finite", i);
     }
-    int rc = vt_overlay_check(f, err, errlen);
+    rc = vt_overlay_check(f, err, errlen);
     return rc ? rc : vt_env_check(f->env, err, errlen);
 }
 

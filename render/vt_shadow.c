@@ -1,18 +1,661 @@
 /*
- * vt_shadow.c — the sun's cascaded shadow maps (see vt_shadow.h).
+ * vt_shadow.c — the sun's cascaded shadow maps (see vt_shadow.h for the
+ * rules): the cascade fitting both renderers use (and the daemon's caster
+ * view), the lookup the shading kernel calls per pixel, and the software
+ * path's depth-only rasterizer:
+ *
+ *   1. set-up (threads over contiguous shares of the casters): an
+ *      instance's world box in light coordinates says which cascades it
+ *      can reach; its vertices go to (u.p, v.p, s.p) once, its faces
+ *      turned away from the sun (all faces of a double-sided material)
+ *      to each of those cascades' lists in map coordinates;
+ *   2. raster (threads over interleaved 32-row bands of every cascade,
+ *      each thread clears its bands and walks every list once): per row
+ *      the covered run solved from the three edge functions (double), the
+ *      depth plane clamped to the triangle's depth range (no spikes from
+ *      a face seen edge-on), max into the band. No depth clipping: a
+ *      face farther from the sun than a receiver never darkens it, and
+ *      an orthographic projection needs no division.
+ * Cost: one pass over the caster vertices, a few compares per triangle
+ * and cascade; the maps (4 x 1024^2 floats at 720p, 16 MB) are cleared by
+ * the raster threads as they draw.
  */
 #include "vt_shadow.h"
 
-#include <stddef.h>
+#include "vt_picture.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
+#define BAND 32u           /* rows a raster band */
+#define MAX_THREADS 32u
+#define NC VT_SHADOW_CASCADES
+
+/* ---- the fit ---------------------------------------------------------------------- */
+
+bool vt_shadow_sun_dir(const vt_env *env, uint32_t fx_off, float s[3])
+{
+    if (!env || (fx_off & VT_FX_SHADOWS)) return false;
+    double n2 = 0;
+    for (int k = 0; k < 3; k++) n2 += (double)env->sun_dir[k] * env->sun_dir[k];
+    if (!(n2 > 0) || !(env->sun[0] > 0 || env->sun[1] > 0 || env->sun[2] > 0)) return false;
+    for (int k = 0; k < 3; k++) s[k] = (float)(env->sun_dir[k] / sqrt(n2));
+    return s[1] >= VT_SHADOW_MIN_SUN;
+}
+
+/* Solves a p = b (3x3, rows); false when singular or not finite. */
+static bool solve3(const double a[3][3], const double b[3], double p[3])
+{
+    double c0 = a[1][1] * a[2][2] - a[1][2] * a[2][1];
+    double c1 = a[1][2] * a[2][0] - a[1][0] * a[2][2];
+    double c2 = a[1][0] * a[2][1] - a[1][1] * a[2][0];
+    double det = a[0][0] * c0 + a[0][1] * c1 + a[0][2] * c2;
+    if (!(fabs(det) > 1e-300) || !isfinite(det)) return false;
+    double id = 1 / det;
+    /* Cramer: p_k = det(a with column k = b) / det */
+    for (int k = 0; k < 3; k++) {
+        double m[3][3];
+        memcpy(m, a, sizeof m);
+        for (int r = 0; r < 3; r++) m[r][k] = b[r];
+        p[k] = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) + m[0][1] * (m[1][2] * m[2][0] - m[1][0] * m[2][2]) +
+                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])) *
+               id;
+    }
+    return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
+}
+
+/* The point where clip x = X (times d, perspective), clip y = Y (likewise)
+ * and depth row = d. */
+static bool corner(const cull_view_rows *vr, const double dr[4], double X, double Y, double d, double p[3])
+{
+    double k = vr->ortho ? 1 : d;
+    double a[3][3] = {{vr->x[0], vr->x[1], vr->x[2]}, {vr->y[0], vr->y[1], vr->y[2]}, {dr[0], dr[1], dr[2]}};
+    double b[3] = {X * k - vr->x[3], Y * k - vr->y[3], d - dr[3]};
+    return solve3(a, b, p);
+}
+
+/* The view depth where plane row f (a clip-space function, >= 0 inside)
+ * crosses the view's axis. */
+static bool axis_depth(const cull_view_rows *vr, const double dr[4], const double f[4], double *d)
+{
+    double a[3][3] = {{vr->x[0], vr->x[1], vr->x[2]}, {vr->y[0], vr->y[1], vr->y[2]}, {f[0], f[1], f[2]}};
+    double b[3] = {-vr->x[3], -vr->y[3], -f[3]}, p[3];
+    if (!solve3(a, b, p)) return false;
+    *d = dr[0] * p[0] + dr[1] * p[1] + dr[2] * p[2] + dr[3];
+    return isfinite(*d);
+}
+
+/* The farthest view depth of instance in's box and, with a ground, of its
+ * shadow on it; -inf when it cannot be placed. */
+static double inst_reach(const vt_instance *in, const float b[6], const double origin[3], const double dr[4],
+                         const float s[3], bool ground, double gy)
+{
+    vt_place pl;
+    vt_instance_place(in, b, origin, &pl);
+    double c[3], h[3], bc[3], bh[3];
+    for (int a = 0; a < 3; a++) {
+        bc[a] = 0.5 * ((double)b[a] + b[3 + a]);
+        bh[a] = 0.5 * ((double)b[3 + a] - b[a]);
+    }
+    double top = 0;
+    for (int a = 0; a < 3; a++) {
+        c[a] = pl.t[a] + pl.m[a][0] * bc[0] + pl.m[a][1] * bc[1] + pl.m[a][2] * bc[2];
+        h[a] = fabs(pl.m[a][0]) * bh[0] + fabs(pl.m[a][1]) * bh[1] + fabs(pl.m[a][2]) * bh[2];
+    }
+    double far = dr[0] * c[0] + dr[1] * c[1] + dr[2] * c[2] + dr[3];
+    far += fabs(dr[0]) * h[0] + fabs(dr[1]) * h[1] + fabs(dr[2]) * h[2];
+    if (ground && (top = c[1] + h[1] - gy) > 0) {
+        /* the shadow of its top reaches top / s_y along -s (the sun's
+           height clamped at 0.2: at most 5 heights long) */
+        double k = top / (s[1] > 0.2f ? s[1] : 0.2f);
+        double step = -(dr[0] * s[0] + dr[1] * s[1] + dr[2] * s[2]) * k;
+        if (step > 0) far += step;
+    }
+    return isfinite(far) ? far : -INFINITY;
+}
+
+bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, const vt_env *env, const float s[3],
+                        const float (*mb)[6], const vt_instance *inst, uint32_t ninst, vt_shadow_fit *fit)
+{
+    memset(fit, 0, sizeof *fit);
+    cull_view_rows vr;
+    cull_view_rows_get(v, &vr);
+    if (!vr.usable) return false;
+    /* a point's view depth: w (perspective), metres from the near plane
+       (orthographic) */
+    double dr[4], nearv = 0, farv = INFINITY, farfn[4];
+    if (!vr.ortho) {
+        memcpy(dr, vr.w, sizeof dr);
+        if (!axis_depth(&vr, dr, vr.nearfn, &nearv)) return false;
+    } else {
+        double g = sqrt(vr.nearfn[0] * vr.nearfn[0] + vr.nearfn[1] * vr.nearfn[1] + vr.nearfn[2] * vr.nearfn[2]);
+        if (!(g > 0) || !isfinite(g)) return false;
+        for (int k = 0; k < 4; k++) dr[k] = vr.nearfn[k] / g;
+    }
+    for (int k = 0; k < 4; k++) farfn[k] = v->depth_mode == CULL_DEPTH_REVERSED ? vr.z[k] : vr.w[k] - vr.z[k];
+    double fd;
+    if (axis_depth(&vr, dr, farfn, &fd) && fd > nearv) farv = fd;
+    /* the shadow distance: what the frame shows and its shadows on the
+       ground, within the far plane and VT_SHADOW_MAX_DIST */
+    double reach = ninst ? -INFINITY : VT_SHADOW_MAX_DIST;
+    const bool ground = env && env->ground;
+    const double gy = ground ? env->ground_height - v->origin[1] : 0;
+    for (uint32_t i = 0; i < ninst; i++) {
+        double r = inst_reach(&inst[i], mb[inst[i].mesh], v->origin, dr, s, ground, gy);
+        if (r > reach) reach = r;
+    }
+    /* rounded up to 1/8 of its power of two: the cascades keep their
+       size (and their texel grid) while the camera moves, until the
+       distance crosses a step */
+    double D = reach, dq = exp2(floor(log2(D)) - 3);
+    if (isfinite(dq) && dq > 0) D = ceil(D / dq) * dq;
+    D = D < farv ? D : farv;
+    if (D > VT_SHADOW_MAX_DIST) D = VT_SHADOW_MAX_DIST;
+    /* the split's near end at least 1 m (and 1/500 of the distance): a
+       0.1 m near plane would spend the first cascade on the first metre */
+    double n0 = nearv > 1.0 ? nearv : 1.0;
+    n0 = n0 > D * 2e-3 ? n0 : D * 2e-3;
+    if (!(D > n0) || !isfinite(D)) return false;
+    /* an orthographic view has no perspective aliasing to split against:
+       one cascade over its whole depth (4 would each cover the whole
+       picture's width, every caster drawn 4 times) */
+    const int N = vr.ortho ? 1 : NC;
+    fit->n = (uint32_t)N;
+    /* the map: about 0.8 of the picture's larger side, in 64s (1024 at
+       1280x720), 64..2048 */
+    uint32_t big = width > height ? width : height, sz = (uint32_t)(big * 0.8 + 63) / 64 * 64;
+    fit->size = sz < 64 ? 64 : sz > 2048 ? 2048 : sz;
+    /* the light basis: s, and u, v perpendicular (from the sun alone, so
+       the grid does not turn with the camera) */
+    double sd[3] = {s[0], s[1], s[2]}, ref[3] = {0, 0, 1}, u[3], w[3];
+    if (fabs(sd[2]) > 0.9) ref[0] = 1, ref[2] = 0;
+    u[0] = ref[1] * sd[2] - ref[2] * sd[1];
+    u[1] = ref[2] * sd[0] - ref[0] * sd[2];
+    u[2] = ref[0] * sd[1] - ref[1] * sd[0];
+    double ul = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int k = 0; k < 3; k++) u[k] /= ul;
+    w[0] = sd[1] * u[2] - sd[2] * u[1]; /* v = s x u: (u, v, s) right-handed */
+    w[1] = sd[2] * u[0] - sd[0] * u[2];
+    w[2] = sd[0] * u[1] - sd[1] * u[0];
+    for (int k = 0; k < 3; k++) {
+        fit->s[k] = s[k];
+        fit->u[k] = (float)u[k];
+        fit->v[k] = (float)w[k];
+    }
+    for (int k = 0; k < 4; k++) fit->drow[k] = (float)dr[k];
+    /* the practical split: lambda x logarithmic + (1 - lambda) x uniform
+       (orthographic views: uniform, depth is not perspective there) */
+    double lambda = vr.ortho ? 0 : VT_SHADOW_LAMBDA;
+    for (int i = 0; i <= N; i++) {
+        double t = (double)i / N;
+        double lg = vr.ortho ? 0 : n0 * pow(D / n0, t), un = n0 + (D - n0) * t;
+        fit->split[i] = (float)(lambda * lg + (1 - lambda) * un);
+    }
+    fit->split[0] = (float)nearv;
+    fit->split[N] = (float)D;
+    double uo = u[0] * v->origin[0] + u[1] * v->origin[1] + u[2] * v->origin[2];
+    double vo = w[0] * v->origin[0] + w[1] * v->origin[1] + w[2] * v->origin[2];
+    for (int i = 0; i < N; i++) {
+        double a = i ? fit->split[i] : vr.ortho ? nearv : n0, b = fit->split[i + 1], pc[8][3], c[3] = {0, 0, 0}, r2 = 0;
+        for (int k = 0; k < 8; k++) {
+            if (!corner(&vr, dr, k & 1 ? 1 : -1, k & 2 ? 1 : -1, k & 4 ? b : a, pc[k])) return false;
+            for (int q = 0; q < 3; q++) c[q] += pc[k][q] / 8;
+        }
+        for (int k = 0; k < 8; k++) {
+            double d2 = 0;
+            for (int q = 0; q < 3; q++) d2 += (pc[k][q] - c[q]) * (pc[k][q] - c[q]);
+            r2 = d2 > r2 ? d2 : r2;
+        }
+        /* the radius rounded up to 1/64 of its power of two: the same
+           sphere whatever the camera's rotation (the corners' rounding
+           differs in the last bits) */
+        double r = sqrt(r2), q = exp2(floor(log2(r)) - 6);
+        r = ceil(r / q) * q;
+        if (!(r > 0) || !isfinite(r)) return false;
+        double tx = 2 * r / fit->size;
+        /* the centre in world-space light coordinates, moved to whole
+           texels: the grid is k texel along u and v, wherever the camera */
+        double cu = uo + u[0] * c[0] + u[1] * c[1] + u[2] * c[2];
+        double cv = vo + w[0] * c[0] + w[1] * c[1] + w[2] * c[2];
+        double su = floor(cu / tx) * tx, sv = floor(cv / tx) * tx;
+        fit->texel[i] = (float)tx;
+        fit->scale[i] = (float)(1 / tx);
+        fit->off[i][0] = (float)((uo - su) / tx + fit->size / 2);
+        fit->off[i][1] = (float)((vo - sv) / tx + fit->size / 2);
+        for (int q2 = 0; q2 < 3; q2++) fit->cen[i][q2] = (float)c[q2];
+        fit->rad[i] = (float)r;
+    }
+    return true;
+}
+
+bool vt_shadow_fit_frame(const vt_frame *f, vt_shadow_fit *fit)
+{
+    float sd[3];
+    if (!vt_shadow_sun_dir(f->env, f->fx_off, sd)) return false;
+    float(*mb)[6] = malloc(((size_t)f->nmesh + 1) * sizeof *mb);
+    if (!mb) return false;
+    for (uint32_t i = 0; i < f->nmesh; i++) vt_mesh_bounds(&f->meshes[i], mb[i]);
+    bool ok = vt_shadow_fit_make(f->view, f->width, f->height, f->env, sd, (const float(*)[6])mb, f->inst, f->ninst, fit);
+    free(mb);
+    return ok;
+}
+
+bool vt_shadow_caster_view(const vt_shadow_fit *fit, const double origin[3], double reach, cull_view *out)
+{
+    if (!fit || !fit->n || !out) return false;
+    double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+    const float *ax[3] = {fit->u, fit->v, fit->s};
+    for (uint32_t i = 0; i < fit->n; i++)
+        for (int a = 0; a < 3; a++) {
+            double c = (double)ax[a][0] * fit->cen[i][0] + (double)ax[a][1] * fit->cen[i][1] +
+                       (double)ax[a][2] * fit->cen[i][2];
+            double r = fit->rad[i] + 2.0 * fit->texel[i];
+            lo[a] = c - r < lo[a] ? c - r : lo[a];
+            hi[a] = c + r > hi[a] ? c + r : hi[a];
+        }
+    hi[2] += reach > 0 ? reach : 0;
+    /* x = (u.p - cu) / hu, y likewise, z (GL) -1 at the sun's side, w 1 */
+    double m[16] = {0};
+    for (int a = 0; a < 2; a++) {
+        double c = 0.5 * (lo[a] + hi[a]), h = 0.5 * (hi[a] - lo[a]);
+        for (int k = 0; k < 3; k++) m[k * 4 + a] = ax[a][k] / h;
+        m[12 + a] = -c / h;
+    }
+    double dz = hi[2] - lo[2];
+    for (int k = 0; k < 3; k++) m[k * 4 + 2] = -2 * fit->s[k] / dz;
+    m[14] = 2 * hi[2] / dz - 1;
+    m[15] = 1;
+    cull_view_desc d = {.origin = {origin[0], origin[1], origin[2]}, .depth_mode = CULL_DEPTH_GL,
+                        .viewport_w = 64, .viewport_h = 64};
+    memcpy(d.view_proj, m, sizeof m);
+    return cull_view_init(out, &d) == CULL_OK;
+}
+
+/* ---- the lookup -------------------------------------------------------------------- */
+
+/* Cascade i's PCF at camera-relative p (normal n, n.s = ndl > 0). */
+static float cascade_vis(const vt_shadow_fit *f, const float *maps, int i, const float p[3], const float n[3],
+                         float ndl)
+{
+    const float tx = f->texel[i];
+    float sn = sqrtf(fmaxf(1.0f - ndl * ndl, 0.0f)), tn = fminf(sn / ndl, 8.0f);
+    float o = VT_SHADOW_NOFS * tx * sn;
+    float q[3] = {p[0] + n[0] * o, p[1] + n[1] * o, p[2] + n[2] * o};
+    float dref = f->s[0] * q[0] + f->s[1] * q[1] + f->s[2] * q[2] + tx * (VT_SHADOW_BIAS_C + VT_SHADOW_BIAS_S * tn);
+    float mx = (f->u[0] * q[0] + f->u[1] * q[1] + f->u[2] * q[2]) * f->scale[i] + f->off[i][0];
+    float my = (f->v[0] * q[0] + f->v[1] * q[1] + f->v[2] * q[2]) * f->scale[i] + f->off[i][1];
+    const float sz = (float)f->size;
+    if (!(mx > -2.0f && mx < sz + 2.0f && my > -2.0f && my < sz + 2.0f)) return 1.0f;
+    float X = mx - 0.5f, Y = my - 0.5f, fx0 = floorf(X), fy0 = floorf(Y), fx = X - fx0, fy = Y - fy0;
+    int x0 = (int)fx0 - 1, y0 = (int)fy0 - 1, S = (int)f->size;
+    const float wx[4] = {1.0f - fx, 1.0f, 1.0f, fx}, wy[4] = {1.0f - fy, 1.0f, 1.0f, fy};
+    const float *m = maps + (size_t)i * f->size * f->size;
+    float lit = 0;
+    for (int b = 0; b < 4; b++) {
+        int y = y0 + b;
+        if (y < 0 || y >= S) {
+            lit += wy[b] * 3.0f;
+            continue;
+        }
+        const float *row = m + (size_t)y * f->size;
+        float r = 0;
+        for (int a = 0; a < 4; a++) {
+            int x = x0 + a;
+            r += (x < 0 || x >= S || row[x] <= dref) ? wx[a] : 0.0f;
+        }
+        lit += wy[b] * r;
+    }
+    return lit * (1.0f / 9.0f);
+}
+
+float vt_shadow_lookup(const vt_shadow_fit *f, const float *maps, const float p[3], const float n[3])
+{
+    float ndl = f->s[0] * n[0] + f->s[1] * n[1] + f->s[2] * n[2];
+    if (!(ndl > 0)) return 1.0f;
+    float d = f->drow[0] * p[0] + f->drow[1] * p[1] + f->drow[2] * p[2] + f->drow[3];
+    int N = (int)f->n;
+    if (!(d < f->split[N])) return 1.0f;
+    int i = 0;
+    while (i + 1 < N && d >= f->split[i + 1]) i++;
+    float vis = cascade_vis(f, maps, i, p, n, ndl);
+    /* the band at the cascade's far end blends into the next one (the
+       last one fades to lit) */
+    float band = VT_SHADOW_BLEND * (f->split[i + 1] - f->split[i]);
+    float t = (d - (f->split[i + 1] - band)) / band;
+    if (t > 0) {
+        float v2 = i + 1 < N ? cascade_vis(f, maps, i + 1, p, n, ndl) : 1.0f;
+        vis += (v2 - vis) * fminf(t, 1.0f);
+    }
+    return vis;
+}
+
+/* ---- the maps ------------------------------------------------------------------------ */
+
+/* A triangle in one cascade's map coordinates (texels, y along v) and
+ * its depth s.p at the corners. */
+typedef struct ltri {
+    float x[3], y[3], z[3];
+} ltri;
+
+typedef struct sbuf {
+    ltri *t[NC];
+    size_t n[NC], cap[NC];
+    float *vx;              /* one instance's vertices: u.p, v.p, s.p */
+    size_t vx_cap;
+    int rc;
+} sbuf;
 
 struct vt_shadow {
-    int unused;
+    vt_shadow_fit fit;
+    float *maps;
+    size_t maps_cap;
+    sbuf tb[MAX_THREADS];
 };
+
+int vt_shadow_create(vt_shadow **out)
+{
+    if (!out) return VT_ERR_INVALID;
+    *out = calloc(1, sizeof **out);
+    return *out ? 0 : VT_ERR_NOMEM;
+}
+
+void vt_shadow_destroy(vt_shadow *sh)
+{
+    if (!sh) return;
+    for (uint32_t t = 0; t < MAX_THREADS; t++) {
+        for (int c = 0; c < NC; c++) free(sh->tb[t].t[c]);
+        free(sh->tb[t].vx);
+    }
+    free(sh->maps);
+    free(sh);
+}
+
+const vt_shadow_fit *vt_shadow_fit_of(const vt_shadow *sh)
+{
+    return &sh->fit;
+}
+
+const float *vt_shadow_maps(const vt_shadow *sh)
+{
+    return sh->maps;
+}
 
 float vt_shadow_sun(const vt_shadow *sh, const float p[3], const float n[3])
 {
-    (void)p;
-    (void)n;
-    if (!sh) return 1.0f;
-    return 1.0f;
+    return sh ? vt_shadow_lookup(&sh->fit, sh->maps, p, n) : 1.0f;
+}
+
+typedef struct sjob {
+    vt_shadow *sh;
+    const double *origin;
+    const vt_mesh *meshes;
+    const float (*mb)[6];
+    const vt_instance *in;
+    uint32_t nin, nt;
+} sjob;
+
+/* Set-up of casters [i0, i1) into b's lists. */
+static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
+{
+    const vt_shadow_fit *f = &jb->sh->fit;
+    for (int c = 0; c < NC; c++) b->n[c] = 0;
+    double cu[NC], cv[NC], cs[NC];
+    for (int c = 0; c < (int)f->n; c++) {
+        cu[c] = (double)f->u[0] * f->cen[c][0] + (double)f->u[1] * f->cen[c][1] + (double)f->u[2] * f->cen[c][2];
+        cv[c] = (double)f->v[0] * f->cen[c][0] + (double)f->v[1] * f->cen[c][1] + (double)f->v[2] * f->cen[c][2];
+        cs[c] = (double)f->s[0] * f->cen[c][0] + (double)f->s[1] * f->cen[c][1] + (double)f->s[2] * f->cen[c][2];
+    }
+    for (uint32_t ii = i0; ii < i1; ii++) {
+        const vt_instance *in = &jb->in[ii];
+        const vt_mesh *m = &jb->meshes[in->mesh];
+        const vt_material *mat = in->mat;
+        if (!m->nv || m->ni < 3) continue;
+        if (mat && mat->alpha_mode == VT_ALPHA_MASK && !mat->tex[VT_SLOT_BASE].tex && mat->base[3] < mat->alpha_cutoff)
+            continue;
+        const float *bb = jb->mb[in->mesh];
+        vt_place pl;
+        vt_instance_place(in, bb, jb->origin, &pl);
+        /* its world box in light coordinates: which cascades it reaches */
+        double c[3], h[3], lc[3] = {0, 0, 0}, lh[3] = {0, 0, 0};
+        const float *ax[3] = {f->u, f->v, f->s};
+        for (int a = 0; a < 3; a++) {
+            c[a] = pl.t[a];
+            h[a] = 0;
+            for (int k = 0; k < 3; k++) {
+                double bc = 0.5 * ((double)bb[k] + bb[3 + k]), bh = 0.5 * ((double)bb[3 + k] - bb[k]);
+                c[a] += pl.m[a][k] * bc;
+                h[a] += fabs(pl.m[a][k]) * bh;
+            }
+        }
+        for (int a = 0; a < 3; a++)
+            for (int k = 0; k < 3; k++) {
+                lc[a] += ax[a][k] * c[k];
+                lh[a] += fabs(ax[a][k]) * h[k];
+            }
+        unsigned cm = 0;
+        for (int k = 0; k < (int)f->n; k++) {
+            double r = f->rad[k] + 2.0 * f->texel[k];
+            if (fabs(lc[0] - cu[k]) <= lh[0] + r && fabs(lc[1] - cv[k]) <= lh[1] + r && lc[2] + lh[2] >= cs[k] - r)
+                cm |= 1u << k;
+        }
+        if (!cm) continue;
+        if (!vp_grow((void **)&b->vx, &b->vx_cap, (size_t)m->nv * 3, sizeof *b->vx)) return VT_ERR_NOMEM;
+        for (uint32_t k = 0; k < m->nv; k++) {
+            const float *mp = m->pos + 3 * k;
+            double p[3];
+            for (int a = 0; a < 3; a++) p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
+            for (int a = 0; a < 3; a++) b->vx[3 * k + a] = (float)(ax[a][0] * p[0] + ax[a][1] * p[1] + ax[a][2] * p[2]);
+        }
+        const bool two = mat && mat->double_sided;
+        for (uint32_t t = 0; t < m->ni / 3; t++) {
+            const float *q0 = b->vx + 3 * m->idx[3 * t], *q1 = b->vx + 3 * m->idx[3 * t + 1],
+                        *q2 = b->vx + 3 * m->idx[3 * t + 2];
+            /* seen from the sun (u, v right-handed about s): a face
+               turned towards it is counter-clockwise (a mirroring
+               placement turns that over) */
+            float area = (q1[0] - q0[0]) * (q2[1] - q0[1]) - (q1[1] - q0[1]) * (q2[0] - q0[0]);
+            if (pl.mirror) area = -area;
+            if (!(area < 0) && !(two && area > 0)) continue;
+            for (int k = 0; k < (int)f->n; k++) {
+                if (!(cm >> k & 1)) continue;
+                ltri L;
+                const float *qs[3] = {q0, q1, q2};
+                float x0 = FLT_MAX, x1 = -FLT_MAX, y0 = FLT_MAX, y1 = -FLT_MAX;
+                for (int e = 0; e < 3; e++) {
+                    L.x[e] = qs[e][0] * f->scale[k] + f->off[k][0];
+                    L.y[e] = qs[e][1] * f->scale[k] + f->off[k][1];
+                    L.z[e] = qs[e][2];
+                    x0 = fminf(x0, L.x[e]), x1 = fmaxf(x1, L.x[e]);
+                    y0 = fminf(y0, L.y[e]), y1 = fmaxf(y1, L.y[e]);
+                }
+                if (!(x1 > 0 && y1 > 0 && x0 < (float)f->size && y0 < (float)f->size)) continue;
+                /* no texel centre in its box: it covers none (most of a far
+                   cascade's small casters' triangles) */
+                if (ceilf(x0 - 0.5f) > floorf(x1 - 0.5f) || ceilf(y0 - 0.5f) > floorf(y1 - 0.5f)) continue;
+                if (!vp_grow((void **)&b->t[k], &b->cap[k], b->n[k] + 1, sizeof *b->t[k])) return VT_ERR_NOMEM;
+                b->t[k][b->n[k]++] = L;
+            }
+        }
+    }
+    return 0;
+}
+
+static void job_setup(void *arg, uint32_t t)
+{
+    sjob *jb = arg;
+    uint32_t i0 = (uint32_t)((uint64_t)jb->nin * t / jb->nt), i1 = (uint32_t)((uint64_t)jb->nin * (t + 1) / jb->nt);
+    jb->sh->tb[t].rc = setup(&jb->sh->tb[t], jb, i0, i1);
+}
+
+/* Rows [r0, r1] of triangle (x, y, z: n corners after clipping, a fan) of
+ * map m (size sz), max depth. */
+static void raster_poly(float *m, uint32_t sz, const double *x, const double *y, const double *z, int n, int r0, int r1)
+{
+    for (int f = 1; f + 1 < n; f++) {
+        int id[3] = {0, f, f + 1};
+        double X[3], Y[3], Z[3];
+        for (int k = 0; k < 3; k++) X[k] = x[id[k]], Y[k] = y[id[k]], Z[k] = z[id[k]];
+        double area = (X[1] - X[0]) * (Y[2] - Y[0]) - (Y[1] - Y[0]) * (X[2] - X[0]);
+        if (!(area != 0) || !isfinite(area)) continue;
+        if (area < 0) { /* counter-clockwise, so every edge function is >= 0 inside */
+            double t;
+            t = X[1], X[1] = X[2], X[2] = t;
+            t = Y[1], Y[1] = Y[2], Y[2] = t;
+            t = Z[1], Z[1] = Z[2], Z[2] = t;
+            area = -area;
+        }
+        /* rows and columns whose centre (j + 0.5) can be inside: most
+           far-cascade triangles cover no texel centre and stop here,
+           before the divisions below */
+        double ylo = fmin(Y[0], fmin(Y[1], Y[2])), yhi = fmax(Y[0], fmax(Y[1], Y[2]));
+        double xlo = fmin(X[0], fmin(X[1], X[2])), xhi = fmax(X[0], fmax(X[1], X[2]));
+        double jl = ceil(ylo - 0.5), jh = floor(yhi - 0.5);
+        int j0 = jl > r0 ? (int)jl : r0, j1 = jh < r1 ? (int)jh : r1;
+        double il = ceil(xlo - 0.5), ih = floor(xhi - 0.5);
+        int bx0 = il > 0 ? (int)il : 0, bx1 = ih < sz - 1.0 ? (int)ih : (int)sz - 1;
+        if (bx0 > bx1 || j0 > j1) continue;
+        /* the depth plane z = za x + zb y + zc, clamped to the corners' range */
+        double za = ((Z[1] - Z[0]) * (Y[2] - Y[0]) - (Y[1] - Y[0]) * (Z[2] - Z[0])) / area;
+        double zb = ((X[1] - X[0]) * (Z[2] - Z[0]) - (Z[1] - Z[0]) * (X[2] - X[0])) / area;
+        double zc = Z[0] - za * X[0] - zb * Y[0];
+        float zlo = (float)fmin(Z[0], fmin(Z[1], Z[2])), zhi = (float)fmax(Z[0], fmax(Z[1], Z[2]));
+        /* each edge's crossing of a row as x = m yc + c (E(x, yc) >= 0 is
+           x >= it where the edge rises to the left, <= where it falls):
+           once per triangle, so a row costs three multiply-adds */
+        double em[3], ec[3];
+        int kind[3];
+        for (int k = 0; k < 3; k++) {
+            int a = k, b = (k + 1) % 3;
+            /* E(x) = (xb - xa)(yc - ya) - (yb - ya)(x - xa) = A x + Bs yc + B0 */
+            double A = -(Y[b] - Y[a]), Bs = X[b] - X[a], B0 = -(X[b] - X[a]) * Y[a] + (Y[b] - Y[a]) * X[a];
+            kind[k] = A > 0 ? 1 : A < 0 ? -1 : 0;
+            em[k] = A != 0 ? -Bs / A : Bs;
+            ec[k] = A != 0 ? -B0 / A : B0;
+        }
+        for (int j = j0; j <= j1; j++) {
+            double yc = j + 0.5, lo = bx0, hi = bx1;
+            for (int k = 0; k < 3; k++) {
+                double xm = em[k] * yc + ec[k] - 0.5;
+                if (kind[k] > 0) {
+                    double c = ceil(xm);
+                    lo = c > lo ? c : lo;
+                } else if (kind[k] < 0) {
+                    double fl = floor(xm);
+                    hi = fl < hi ? fl : hi;
+                } else if (xm + 0.5 < 0) { /* a horizontal edge: E = Bs yc + B0 */
+                    hi = -1;
+                }
+            }
+            if (!(lo <= hi)) continue;
+            float *row = m + (size_t)j * sz;
+            float zr = (float)(zb * yc + zc), fa = (float)za;
+            int i = (int)lo, i1 = (int)hi;
+#ifdef __SSE2__
+            /* four texels a step (x86-64's baseline): the same operations */
+            const __m128 va = _mm_set1_ps(fa), vr = _mm_set1_ps(zr), vlo = _mm_set1_ps(zlo), vhi = _mm_set1_ps(zhi);
+            for (; i + 3 <= i1; i += 4) {
+                __m128 cx = _mm_add_ps(_mm_set1_ps((float)i + 0.5f), _mm_set_ps(3, 2, 1, 0));
+                __m128 zz = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
+                _mm_storeu_ps(row + i, _mm_max_ps(zz, _mm_loadu_ps(row + i)));
+            }
+#endif
+            for (; i <= i1; i++) {
+                float zz = fminf(fmaxf(fa * ((float)i + 0.5f) + zr, zlo), zhi);
+                row[i] = zz > row[i] ? zz : row[i];
+            }
+        }
+    }
+}
+
+/* 2D Sutherland-Hodgman of a triangle far outside the map against
+ * [-1, size + 1]^2 (with depth): the fixed-size coordinates the raster's
+ * integer conversions need. Returns the vertex count. */
+static int clip_rect(const ltri *t, double sz, double x[9], double y[9], double z[9])
+{
+    double ax[9], ay[9], az[9];
+    int n = 3;
+    for (int k = 0; k < 3; k++) x[k] = t->x[k], y[k] = t->y[k], z[k] = t->z[k];
+    for (int p = 0; p < 4 && n; p++) {
+        int m = 0;
+        for (int i = 0; i < n && m < 9; i++) {
+            int j = (i + 1) % n;
+            double vi = p == 0 ? x[i] + 1 : p == 1 ? sz + 1 - x[i] : p == 2 ? y[i] + 1 : sz + 1 - y[i];
+            double vj = p == 0 ? x[j] + 1 : p == 1 ? sz + 1 - x[j] : p == 2 ? y[j] + 1 : sz + 1 - y[j];
+            if (vi >= 0) ax[m] = x[i], ay[m] = y[i], az[m] = z[i], m++;
+            if ((vi >= 0) != (vj >= 0) && m < 9) {
+                double s = vi / (vi - vj);
+                ax[m] = x[i] + s * (x[j] - x[i]);
+                ay[m] = y[i] + s * (y[j] - y[i]);
+                az[m] = z[i] + s * (z[j] - z[i]);
+                m++;
+            }
+        }
+        n = m;
+        memcpy(x, ax, sizeof ax);
+        memcpy(y, ay, sizeof ay);
+        memcpy(z, az, sizeof az);
+    }
+    return n;
+}
+
+/* Thread t: bands k of every cascade with k % nt == t, cleared, then
+ * every list walked once. */
+static void job_raster(void *arg, uint32_t t)
+{
+    sjob *jb = arg;
+    vt_shadow *sh = jb->sh;
+    const uint32_t sz = sh->fit.size, nb = (sz + BAND - 1) / BAND, nt = jb->nt;
+    for (uint32_t c = 0; c < sh->fit.n; c++) {
+        float *m = sh->maps + (size_t)c * sz * sz;
+        for (uint32_t k = t; k < nb; k += nt) {
+            uint32_t y1 = (k + 1) * BAND < sz ? (k + 1) * BAND : sz;
+            for (size_t i = (size_t)k * BAND * sz; i < (size_t)y1 * sz; i++) m[i] = -FLT_MAX;
+        }
+        for (uint32_t b = 0; b < nt; b++)
+            for (size_t q = 0; q < sh->tb[b].n[c]; q++) {
+                const ltri *L = &sh->tb[b].t[c][q];
+                float y0 = fminf(L->y[0], fminf(L->y[1], L->y[2])), y1 = fmaxf(L->y[0], fmaxf(L->y[1], L->y[2]));
+                uint32_t k0 = y0 > 0 ? (uint32_t)y0 / BAND : 0, k1 = y1 < (float)sz ? (uint32_t)y1 / BAND : nb - 1;
+                uint32_t k = k0 + (t + nt - k0 % nt) % nt;
+                if (k > k1) continue;
+                double x[9], y[9], z[9];
+                int n = 3;
+                bool far = false;
+                for (int e = 0; e < 3; e++) far |= !(fabsf(L->x[e]) < 4.0f * sz && fabsf(L->y[e]) < 4.0f * sz);
+                if (far) n = clip_rect(L, sz, x, y, z);
+                else
+                    for (int e = 0; e < 3; e++) x[e] = L->x[e], y[e] = L->y[e], z[e] = L->z[e];
+                for (; k <= k1; k += nt)
+                    raster_poly(m, sz, x, y, z, n, (int)(k * BAND), (int)((k + 1) * BAND < sz ? (k + 1) * BAND : sz) - 1);
+            }
+    }
+}
+
+int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_shadow_fit *fit,
+                   const double origin[3], const vt_mesh *meshes, const float (*mb)[6], const vt_instance *casters,
+                   uint32_t ncasters, uint32_t *tris, char *err, size_t errlen)
+{
+    *tris = 0;
+    sh->fit = *fit;
+    size_t npx = (size_t)fit->n * fit->size * fit->size;
+    if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow maps");
+    uint32_t nt = threads ? threads : 1;
+    if (nt > MAX_THREADS) nt = MAX_THREADS;
+    if (!pool) nt = 1;
+    sjob jb = {.sh = sh, .origin = origin, .meshes = meshes, .mb = mb, .in = casters, .nin = ncasters, .nt = nt};
+    if (nt > 1) cull_pool_run(pool, job_setup, &jb, nt);
+    else job_setup(&jb, 0);
+    for (uint32_t t = 0; t < nt; t++) {
+        if (sh->tb[t].rc) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow casters");
+        for (uint32_t c = 0; c < fit->n; c++) *tris += (uint32_t)sh->tb[t].n[c];
+    }
+    if (nt > 1) cull_pool_run(pool, job_raster, &jb, nt);
+    else job_raster(&jb, 0);
+    return 0;
 }

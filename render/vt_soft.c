@@ -107,6 +107,7 @@ struct vt_soft {
     vt_kern k;              /* the kernels for this CPU */
     vt_skytab sky;          /* the analytic sky's table */
     vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
+    vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
 };
 
 static uint64_t now_ns(void)
@@ -149,6 +150,7 @@ void vt_soft_destroy(vt_soft *r)
     free(r->sl);
     free(r->mk);
     free(r->mk_of);
+    vt_shadow_destroy(r->shadow);
     cull_light_tiles_free(&r->tiles);
     free(r);
 }
@@ -472,6 +474,7 @@ typedef struct job {
     size_t stride;
     uint32_t nthreads;
     bool ranges;            /* the tile nearness ranges are wanted (there are lights) */
+    const vt_shadow *sh;    /* the sun's cascades, or NULL */
 } job;
 
 /* Top-left rule, y up, counter-clockwise: an edge going down (dy < 0) is a
@@ -652,7 +655,7 @@ static void job_shade(void *arg, uint32_t t)
     const stri *st[MAX_THREADS];
     for (uint32_t b = 0; b < jb->nthreads; b++) st[b] = r->tb[b].st;
     vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .rule = vt_depth_rule_of(fr->v, &fr->vr),
-                  .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h};
+                  .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h, .sh = jb->sh};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
@@ -761,6 +764,19 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (lrc != CULL_OK)
         return vp_errf(err, errlen, lrc == CULL_ERR_NOMEM ? VT_ERR_NOMEM : VT_ERR_INVALID, "lights: %s",
                        cull_strerror(lrc));
+    /* the sun's shadow cascades, from the casters (NULL: the instances) */
+    uint64_t ts = now_ns();
+    uint32_t stris = 0;
+    float sdir[3];
+    vt_shadow_fit fit;
+    if (vt_shadow_sun_dir(f->env, f->fx_off, sdir) &&
+        vt_shadow_fit_make(v, width, height, f->env, sdir, jb.mb, inst, ninst, &fit)) {
+        if (!r->shadow && vt_shadow_create(&r->shadow)) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
+        rc = vt_shadow_draw(r->shadow, r->pool, r->threads, &fit, v->origin, meshes, jb.mb,
+                            f->casters ? f->casters : inst, f->casters ? f->ncasters : ninst, &stris, err, errlen);
+        if (rc) return rc;
+        jb.sh = r->shadow;
+    }
     uint64_t t3 = now_ns();
 
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
@@ -780,7 +796,9 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         st->threads = nt;
         st->setup_ns = t1 - t0;
         st->raster_ns = t2 - t1;
-        st->bin_ns = t3 - t2;
+        st->bin_ns = ts - t2;
+        st->shadow_ns = jb.sh ? t3 - ts : 0;
+        st->shadow_triangles = stris;
         st->shade_ns = t4 - t3;
         st->post_ns = t5 - t4;
         st->exposure_ev = ev;
