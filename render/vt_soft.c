@@ -24,6 +24,7 @@
  * Shading once per pixel, whatever the overdraw, is the point of the
  * visibility buffer.
  */
+#include "vt_brdf.h"
 #include "vt_picture.h"
 #include "vt_shade.h"
 
@@ -105,6 +106,7 @@ struct vt_soft {
     size_t mk_of_cap;
     vt_kern k;              /* the kernels for this CPU */
     vt_skytab sky;          /* the analytic sky's table */
+    vt_ibl ibl;             /* the image-based ambient, kept while the sky is the same */
 };
 
 static uint64_t now_ns(void)
@@ -700,6 +702,10 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     const vt_instance *inst = f->inst;
     const vt_light *lights = f->lights;
     vt_penv_make(f->env, v->origin, &r->sky, &fr.pe);
+    if (fr.pe.on && !(f->fx_off & VT_FX_IBL)) { /* remade only when the sky changed */
+        vt_ibl_update(&r->ibl, &fr.pe);
+        fr.pe.ibl = &r->ibl;
+    }
     vt_ground_make(&fr.pe, &fr.vr, (int)v->depth_mode, &fr.gr);
     size_t npx = (size_t)width * height;
     if (!vp_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
