@@ -23,7 +23,9 @@ float vt_brdf_rough(float r)
 float vt_brdf_d(float ndh, float a2)
 {
     if (!(ndh > 0)) return 0;
-    float t = ndh * ndh * (a2 - 1) + 1;
+    /* 1 - n.h^2 (1 - a2) as (1 - n.h)(1 + n.h) + n.h^2 a2: no cancellation
+       near the peak, where t ~ a2 >= 4e-6 (1 - n.h is exact there) */
+    float t = (1 - ndh) * (1 + ndh) + ndh * ndh * a2;
     return a2 / (PI_F * t * t);
 }
 
@@ -58,7 +60,9 @@ void vt_brdf_eval(const float n[3], const float v[3], const float l[3], const fl
     for (int k = 0; k < 3; k++) h[k] /= hl;
     float dv = vt_brdf_d(dot3(n, h), a2) * vt_brdf_v(ndl, ndv, a2), vh = dot3(v, h);
     for (int c = 0; c < 3; c++) {
-        float f0 = VT_F0_DIELECTRIC + (base[c] - VT_F0_DIELECTRIC) * metallic;
+        /* lerp(0.04, base, metallic) as a sum of two positive terms: 0.04 +
+           (base - 0.04) m cancels for a metal of a small base */
+        float f0 = VT_F0_DIELECTRIC * (1 - metallic) + base[c] * metallic;
         float F = vt_brdf_f(f0, vh), cd = base[c] * (1 - metallic);
         out[c] = (1 - F) * cd / PI_F + F * dv;
     }
@@ -79,41 +83,55 @@ static float radical_inverse(uint32_t b)
     return (float)b * 2.3283064365386963e-10f;
 }
 
-/* One entry: n = z, v in the xz plane. In double: the sums of 1024
-   terms. */
+/* The sample points, the same for every entry: Hammersley's (i + 0.5) / N
+   and the radical inverse of i as the azimuth. */
+enum { DFG_SAMPLES = 1024 };
+static double dfg_x1[DFG_SAMPLES], dfg_cos[DFG_SAMPLES], dfg_sin[DFG_SAMPLES];
+
+static inline double pow5(double x)
+{
+    double x2 = x * x;
+    return x2 * x2 * x;
+}
+
+/* One entry: n = z, v in the xz plane; the sums in double. */
 static void dfg_entry(float ndv, float rough, float out[4])
 {
-    enum { N = 1024 };
     double nv = ndv > 1e-4f ? ndv : 1e-4, v[3] = {sqrt(1 - nv * nv), 0, nv};
     float r = vt_brdf_rough(rough), a = r * r, a2 = a * a;
     double A = 0, B = 0, C = 0;
-    for (uint32_t i = 0; i < N; i++) {
-        double x1 = (i + 0.5) / N, x2 = radical_inverse(i), ph = 2 * M_PI * x2;
+    for (uint32_t i = 0; i < DFG_SAMPLES; i++) {
+        double x1 = dfg_x1[i], cp = dfg_cos[i], sp = dfg_sin[i];
         /* the half vector, GGX-distributed: pdf(l) = D n.h / (4 v.h) */
         double ct = sqrt((1 - x1) / (1 + (a2 - 1) * x1)), st = sqrt(1 - ct * ct);
-        double h[3] = {st * cos(ph), st * sin(ph), ct};
+        double h[3] = {st * cp, st * sp, ct};
         double vh = v[0] * h[0] + v[2] * h[2], lz = 2 * vh * h[2] - v[2];
         if (lz > 0 && vh > 0) {
-            double g = vt_brdf_v((float)lz, (float)nv, a2) * lz * 4 * vh / ct;
-            double fc = pow(1 - vh, 5);
+            double g = vt_brdf_v((float)lz, (float)nv, a2) * lz * 4 * vh / ct, fc = pow5(1 - vh);
             A += (1 - fc) * g;
             B += fc * g;
         }
         /* l cosine-distributed: pdf(l) = n.l / pi */
-        double sr = sqrt(x1), l[3] = {sr * cos(ph), sr * sin(ph), sqrt(1 - x1)};
+        double sr = sqrt(x1), l[3] = {sr * cp, sr * sp, sqrt(1 - x1)};
         double hh[3] = {l[0] + v[0], l[1] + v[1], l[2] + v[2]};
         double hn = sqrt(hh[0] * hh[0] + hh[1] * hh[1] + hh[2] * hh[2]);
         double vh2 = hn > 0 ? (v[0] * hh[0] + v[2] * hh[2]) / hn : 1;
-        C += 1 - pow(1 - vh2, 5);
+        C += 1 - pow5(1 - vh2);
     }
-    out[0] = (float)(A / N);
-    out[1] = (float)(B / N);
-    out[2] = (float)(C / N);
+    out[0] = (float)(A / DFG_SAMPLES);
+    out[1] = (float)(B / DFG_SAMPLES);
+    out[2] = (float)(C / DFG_SAMPLES);
     out[3] = 0;
 }
 
 static void dfg_make(void)
 {
+    for (uint32_t i = 0; i < DFG_SAMPLES; i++) {
+        double ph = 2 * M_PI * radical_inverse(i);
+        dfg_x1[i] = (i + 0.5) / DFG_SAMPLES;
+        dfg_cos[i] = cos(ph);
+        dfg_sin[i] = sin(ph);
+    }
     for (uint32_t j = 0; j < VT_DFG_N; j++)
         for (uint32_t i = 0; i < VT_DFG_N; i++)
             dfg_entry((float)i / (VT_DFG_N - 1), (float)j / (VT_DFG_N - 1), dfg + 4 * (j * VT_DFG_N + i));

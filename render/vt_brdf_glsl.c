@@ -35,7 +35,7 @@ const char *const vt_brdf_fs =
     "  float hl2 = dot(h, h), ih = hl2 > 0.0 ? 1.0 / sqrt(hl2) : 0.0;\n"
     "  float ndh = max(dot(n, h) * ih, 0.0), vh = clamp(dot(v, h) * ih, 0.0, 1.0);\n"
     "  float f1 = 1.0 - vh, f2 = f1 * f1, f5 = f2 * f2 * f1;\n"
-    "  float t = ndh * ndh * (a2 - 1.0) + 1.0;\n"
+    "  float t = (ndh * ndh) * a2 + (1.0 - ndh) * (1.0 + ndh);\n"
     "  float gl = ndl + sqrt((1.0 - a2) * (ndl * ndl) + a2);\n"
     "  float vv = 1.0 / max(nv + sqrt((1.0 - a2) * (nv * nv) + a2), 1e-6);\n"
     "  float dv = a2 * (1.0 / PI) * vv / ((t * t) * gl);\n"

@@ -94,7 +94,7 @@
     "    }\n"                                                                                                  \
     "  }\n"                                                                                                    \
     "  diffuse = base.rgb * (1.0 - metal);\n"                                                                  \
-    "  f0 = 0.04 + (base.rgb - 0.04) * metal;\n"                                                               \
+    "  f0 = 0.04 * (1.0 - metal) + base.rgb * metal;\n"                                                        \
     "  ro = vt_rough(rough);\n"                                                                                \
     "  float a = ro * ro;\n"                                                                                   \
     "  a2 = a * a;\n"                                                                                          \

@@ -522,7 +522,7 @@ void vt_surface_params(const vt_surfin *in, vt_surfout *out)
     out->alpha = base[3];
     for (int c = 0; c < 3; c++) {
         out->diffuse[c] = base[c] * (1 - metal);
-        out->f0[c] = 0.04f + (base[c] - 0.04f) * metal;
+        out->f0[c] = 0.04f * (1 - metal) + base[c] * metal; /* no cancellation (vt_brdf_eval) */
     }
     /* glTF's alpha = roughness^2, clamped away from the singular D
        (vt_brdf.h) */

@@ -43,7 +43,8 @@ static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
 static inline vf ggx_dv(vf ndh, vf ndl, vf a2, vf vv)
 {
     const vf one = vf_set(1);
-    vf t = vf_fma(vf_mul(ndh, ndh), vf_sub(a2, one), one);
+    /* (1 - n.h)(1 + n.h) + n.h^2 a2: vt_brdf_d's well-conditioned form */
+    vf t = vf_fma(vf_mul(ndh, ndh), a2, vf_mul(vf_sub(one, ndh), vf_add(one, ndh)));
     vf gl = vf_add(ndl, vf_sqrt(vf_fma(vf_sub(one, a2), vf_mul(ndl, ndl), a2)));
     return vf_div(vf_mul(vf_mul(a2, vf_set(1.0f / 3.14159265f)), vv), vf_mul(vf_mul(t, t), gl));
 }
