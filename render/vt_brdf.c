@@ -145,16 +145,10 @@ const float *vt_dfg_table(void)
 
 void vt_dfg(float ndv, float roughness, float out[3])
 {
-    const float *t = vt_dfg_table(), m = (float)(VT_DFG_N - 1);
-    float x = (ndv > 0 ? (ndv < 1 ? ndv : 1) : 0) * m, y = vt_brdf_rough(roughness) * m;
-    uint32_t i = (uint32_t)x < VT_DFG_N - 2 ? (uint32_t)x : VT_DFG_N - 2;
-    uint32_t j = (uint32_t)y < VT_DFG_N - 2 ? (uint32_t)y : VT_DFG_N - 2;
-    float ax = x - (float)i, ay = y - (float)j;
-    const float *a = t + 4 * (j * VT_DFG_N + i), *c = a + 4 * VT_DFG_N;
-    for (int k = 0; k < 3; k++) {
-        float top = a[k] + ax * (a[4 + k] - a[k]), bot = c[k] + ax * (c[4 + k] - c[k]);
-        out[k] = top + ay * (bot - top);
-    }
+    /* grid points at 0 .. N - 1: texel units are value x (N - 1) */
+    const float m = (float)(VT_DFG_N - 1);
+    out[0] = out[1] = out[2] = 0;
+    vt_bilerp_add(vt_dfg_table(), VT_DFG_N, (ndv > 0 ? (ndv < 1 ? ndv : 1) : 0) * m, vt_brdf_rough(roughness) * m, 1, out);
 }
 
 /* ---- the image-based ambient -------------------------------------------------------- */
@@ -238,6 +232,7 @@ bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
         memcpy(&key[20], &pe->sky_img->id, sizeof(float));
         memcpy(&key[21], &pe->sky_img->gen, sizeof(float));
     }
+    ibl->dfg = vt_dfg_table();
     if (ibl->ok && ibl->key_img == img && !memcmp(key, ibl->key, sizeof key)) return false;
     memcpy(ibl->key, key, sizeof key);
     ibl->key_img = img;
@@ -324,23 +319,6 @@ void vt_ibl_irradiance(const vt_ibl *ibl, const float n[3], float out[3])
     }
 }
 
-/* Level lv at octahedral uv, bilinear, clamped at the square's edges. */
-static void oct_sample(const float *t, const float uv[2], float w, float out[3])
-{
-    const float m = (float)VT_IBL_RES;
-    float x = uv[0] * m - 0.5f, y = uv[1] * m - 0.5f;
-    x = x > 0 ? (x < m - 1 ? x : m - 1) : 0;
-    y = y > 0 ? (y < m - 1 ? y : m - 1) : 0;
-    uint32_t i = (uint32_t)x < VT_IBL_RES - 2 ? (uint32_t)x : VT_IBL_RES - 2;
-    uint32_t j = (uint32_t)y < VT_IBL_RES - 2 ? (uint32_t)y : VT_IBL_RES - 2;
-    float ax = x - (float)i, ay = y - (float)j;
-    const float *a = t + 4 * (j * VT_IBL_RES + i), *c = a + 4 * VT_IBL_RES;
-    for (int k = 0; k < 3; k++) {
-        float top = a[k] + ax * (a[4 + k] - a[k]), bot = c[k] + ax * (c[4 + k] - c[k]);
-        out[k] += w * (top + ay * (bot - top));
-    }
-}
-
 void vt_ibl_specular(const vt_ibl *ibl, const float r[3], float roughness, float out[3])
 {
     float uv[2], f = vt_brdf_rough(roughness) * (VT_IBL_LEVELS - 1);
@@ -349,6 +327,7 @@ void vt_ibl_specular(const vt_ibl *ibl, const float r[3], float roughness, float
     vt_oct_uv(r, uv);
     if (!(uv[0] >= 0 && uv[0] <= 1 && uv[1] >= 0 && uv[1] <= 1)) uv[0] = uv[1] = 0.5f; /* NaN: straight up */
     out[0] = out[1] = out[2] = 0;
-    oct_sample(ibl->spec[k], uv, 1 - t, out);
-    oct_sample(ibl->spec[k + 1], uv, t, out);
+    float x = uv[0] * VT_IBL_RES - 0.5f, y = uv[1] * VT_IBL_RES - 0.5f;
+    vt_bilerp_add(ibl->spec[k], VT_IBL_RES, x, y, 1 - t, out);
+    vt_bilerp_add(ibl->spec[k + 1], VT_IBL_RES, x, y, t, out);
 }

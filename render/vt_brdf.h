@@ -73,6 +73,7 @@ typedef struct vt_ibl {
     const void *key_img;
     bool ok;
     uint32_t gen;                /* counts remakes: the GL copy follows it */
+    const float *dfg;            /* vt_dfg_table(), for the kernels */
     /* scratch of a remake: the environment on 64 x 32 and 32 x 16
        equirectangular grids (direction, radiance, solid angle) */
     float src_hi[64 * 32][7], src_lo[32 * 16][7];
@@ -94,6 +95,23 @@ void vt_ibl_specular(const vt_ibl *ibl, const float r[3], float roughness, float
 /* Octahedral coordinates (0..1) of unit d, and back. */
 void vt_oct_uv(const float d[3], float uv[2]);
 void vt_oct_dir(const float uv[2], float d[3]);
+
+/* A RES x RES RGBA table at (x, y) in texel units (texel centres at
+ * i + 0.5), bilinear, clamped to the edge texels: w x the RGB added to
+ * out: vt_dfg and vt_ibl_specular (vt_shade.inl does the same in lanes). */
+static inline void vt_bilerp_add(const float *t, int res, float x, float y, float w, float out[3])
+{
+    const float m = (float)(res - 1);
+    x = x > 0 ? (x < m ? x : m) : 0;
+    y = y > 0 ? (y < m ? y : m) : 0;
+    int i = (int)x < res - 2 ? (int)x : res - 2, j = (int)y < res - 2 ? (int)y : res - 2;
+    float ax = x - (float)i, ay = y - (float)j;
+    const float *a = t + 4 * (j * res + i), *c = a + 4 * res;
+    for (int k = 0; k < 3; k++) {
+        float top = a[k] + ax * (a[4 + k] - a[k]), bot = c[k] + ax * (c[4 + k] - c[k]);
+        out[k] += w * (top + ay * (bot - top));
+    }
+}
 
 /* The GLSL of the above (vt_brdf_glsl.c): one fragment-shader object
  * defining vt_rough, vt_pbr_brdf, vt_pbr_ambient (see there), and what

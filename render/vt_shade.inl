@@ -38,6 +38,82 @@ static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
     return vf_fma(ax, bx, vf_fma(ay, by, vf_mul(az, bz)));
 }
 
+/* Table lookups in lanes: floor, float to index, and a gather of one
+ * float per lane at base + index (AVX2's gather; one load a lane below). */
+#if CULL_SIMD_ISA == 3
+typedef __m256i vix;
+static inline vf vf_floor(vf a) { return _mm256_floor_ps(a); }
+static inline vix vx_of(vf a) { return _mm256_cvttps_epi32(a); }
+static inline vix vx_add(vix a, int k) { return _mm256_add_epi32(a, _mm256_set1_epi32(k)); }
+static inline vf vf_gather(const float *b, vix i) { return _mm256_i32gather_ps(b, i, 4); }
+#elif CULL_SIMD_ISA == 2
+typedef __m128i vix;
+static inline vf vf_floor(vf a) { return _mm_floor_ps(a); }
+static inline vix vx_of(vf a) { return _mm_cvttps_epi32(a); }
+static inline vix vx_add(vix a, int k) { return _mm_add_epi32(a, _mm_set1_epi32(k)); }
+static inline vf vf_gather(const float *b, vix i)
+{
+    return _mm_setr_ps(b[_mm_extract_epi32(i, 0)], b[_mm_extract_epi32(i, 1)], b[_mm_extract_epi32(i, 2)],
+                       b[_mm_extract_epi32(i, 3)]);
+}
+#else
+typedef int32_t vix;
+static inline vf vf_floor(vf a) { return floorf(a); }
+static inline vix vx_of(vf a) { return (int32_t)a; }
+static inline vix vx_add(vix a, int k) { return a + k; }
+static inline vf vf_gather(const float *b, vix i) { return b[i]; }
+#endif
+
+/* vt_bilerp_add in lanes: a res x res RGBA table (the first at t, more
+ * of them after it: off, in floats, per lane) at texel units (x, y),
+ * clamped to the edge texels (a NaN: 0), w x the RGB added to o. */
+static inline void bilerp_lanes(const float *t, int res, vf off, vf x, vf y, vf w, vf o[3])
+{
+    const vf zero = vf_set(0), m = vf_set((float)(res - 1)), m2 = vf_set((float)(res - 2));
+    x = vf_min(vf_max(x, zero), m);
+    y = vf_min(vf_max(y, zero), m);
+    vf fi = vf_min(vf_floor(x), m2), fj = vf_min(vf_floor(y), m2);
+    vf ax = vf_sub(x, fi), ay = vf_sub(y, fj);
+    vix i00 = vx_of(vf_fma(vf_fma(fj, vf_set((float)res), fi), vf_set(4), off));
+    vix i10 = vx_add(i00, 4), i01 = vx_add(i00, 4 * res), i11 = vx_add(i00, 4 * res + 4);
+    for (int k = 0; k < 3; k++) {
+        vf a = vf_gather(t + k, i00), b = vf_gather(t + k, i10), c = vf_gather(t + k, i01), d = vf_gather(t + k, i11);
+        vf top = vf_fma(ax, vf_sub(b, a), a), bot = vf_fma(ax, vf_sub(d, c), c);
+        o[k] = vf_fma(w, vf_fma(ay, vf_sub(bot, top), top), o[k]);
+    }
+}
+
+/* vt_ibl_lookup in lanes: the prefiltered sky towards r = 2 (n.v) n - v
+ * at the pixels' roughness (two levels), and the DFG table at |n.v|. */
+static inline void ibl_lanes(const vt_ibl *ibl, vf nx, vf ny, vf nz, vf vx_, vf vy, vf vz, vf nv, vf ro, vf sp[3],
+                             vf g[3])
+{
+    const vf zero = vf_set(0), one = vf_set(1), half = vf_set(0.5f), none = vf_set(-1);
+    vf two_d = vf_add(nv, nv);
+    vf rx = vf_fma(two_d, nx, vf_sub(zero, vx_)), ry = vf_fma(two_d, ny, vf_sub(zero, vy)), rz = vf_fma(two_d, nz, vf_sub(zero, vz));
+    vf s = vf_add(vf_add(vf_abs(rx), vf_abs(ry)), vf_abs(rz));
+    vf is = vf_select(vf_lt(zero, s), vf_div(one, s), zero);
+    vf px = vf_mul(rx, is), pz = vf_mul(rz, is);
+    vf qx = vf_mul(vf_sub(one, vf_abs(pz)), vf_select(vf_lt(px, zero), none, one));
+    vf qz = vf_mul(vf_sub(one, vf_abs(px)), vf_select(vf_lt(pz, zero), none, one));
+    vm below = vf_lt(ry, zero);
+    px = vf_select(below, qx, px);
+    pz = vf_select(below, qz, pz);
+    const vf res = vf_set((float)VT_IBL_RES), centre = vf_set(0.5f * VT_IBL_RES - 0.5f);
+    vf x = vf_sub(vf_mul(vf_fma(half, px, half), res), half), y = vf_sub(vf_mul(vf_fma(half, pz, half), res), half);
+    vm ok = vm_and(vf_ge(x, x), vf_ge(y, y)); /* a NaN direction: the centre */
+    x = vf_select(ok, x, centre);
+    y = vf_select(ok, y, centre);
+    vf f = vf_mul(ro, vf_set((float)(VT_IBL_LEVELS - 1)));
+    vf lv = vf_min(vf_floor(f), vf_set((float)(VT_IBL_LEVELS - 2))), t = vf_sub(f, lv);
+    vf off = vf_mul(lv, vf_set((float)(4 * VT_IBL_RES * VT_IBL_RES)));
+    for (int k = 0; k < 3; k++) sp[k] = g[k] = zero;
+    bilerp_lanes(ibl->spec[0], VT_IBL_RES, off, x, y, vf_sub(one, t), sp);
+    bilerp_lanes(ibl->spec[1], VT_IBL_RES, off, x, y, t, sp);
+    const vf dm = vf_set((float)(VT_DFG_N - 1));
+    bilerp_lanes(ibl->dfg, VT_DFG_N, zero, vf_mul(vf_min(vf_abs(nv), one), dm), vf_mul(vf_min(ro, one), dm), one, g);
+}
+
 /* glTF's D V for one light (Appendix B): n.h, n.l >= 0, alpha^2, and
  * the pixel's view half of V (vv). One square root, one division. */
 static inline vf ggx_dv(vf ndh, vf ndl, vf a2, vf vv)
@@ -82,28 +158,20 @@ static inline void env_light(surf *restrict s, const vt_penv *pe, unsigned i)
     float *const out[3] = {s->cr, s->cg, s->cb};
     vf c[3];
     if (pe->ibl) {
-        /* per lane: the lookups (prefiltered sky, DFG); the rest in lanes */
-        A float sp[3][W], dfg[3][W];
-        for (unsigned j = 0; j < W; j++) {
-            unsigned q = i + j;
-            float n[3] = {s->nx[q], s->ny[q], s->nz[q]}, v[3] = {s->vx[q], s->vy[q], s->vz[q]};
-            float d = n[0] * v[0] + n[1] * v[1] + n[2] * v[2], r[3], o[3], t[3];
-            for (int k = 0; k < 3; k++) r[k] = 2 * d * n[k] - v[k];
-            vt_ibl_specular(pe->ibl, r, s->ro[q], o);
-            vt_dfg(fabsf(d), s->ro[q], t);
-            for (int k = 0; k < 3; k++) sp[k][j] = o[k], dfg[k][j] = t[k];
-        }
+        /* the lookups (prefiltered sky, DFG) in lanes */
+        vf sp[3], dfg[3];
+        ibl_lanes(pe->ibl, nx, ny, nz, vx, vy, vz, nv, vf_load(s->ro + i), sp, dfg);
         const float(*sh)[3] = pe->ibl->sh;
         vf xy = vf_mul(nx, ny), yz = vf_mul(ny, nz), xz = vf_mul(nx, nz);
         vf z3 = vf_fma(vf_set(3), vf_mul(nz, nz), vf_set(-1)), x2y2 = vf_sub(vf_mul(nx, nx), vf_mul(ny, ny));
-        vf dA = vf_load(dfg[0]), dB = vf_load(dfg[1]), dC = vf_load(dfg[2]);
+        vf dA = dfg[0], dB = dfg[1], dC = dfg[2];
         for (int k = 0; k < 3; k++) {
             vf e = vf_fma(vf_set(sh[1][k]), ny, vf_fma(vf_set(sh[2][k]), nz, vf_fma(vf_set(sh[3][k]), nx, vf_set(sh[0][k]))));
             e = vf_fma(vf_set(sh[4][k]), xy, vf_fma(vf_set(sh[5][k]), yz, vf_fma(vf_set(sh[6][k]), z3, e)));
             e = vf_max(vf_fma(vf_set(sh[7][k]), xz, vf_fma(vf_set(sh[8][k]), x2y2, e)), zero);
             vf F0 = vf_load(f0[k] + i);
             vf d = vf_mul(vf_mul(vf_load(dif[k] + i), vf_mul(vf_sub(one, F0), dC)), e);
-            vf sr = vf_mul(vf_load(sp[k]), vf_fma(F0, dA, dB));
+            vf sr = vf_mul(sp[k], vf_fma(F0, dA, dB));
             c[k] = vf_fma(vf_add(d, sr), ao, vf_load(em[k] + i));
         }
     } else {
