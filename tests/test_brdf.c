@@ -14,14 +14,12 @@
  *     quadrature; a Lambert surface checks the quadrature itself), in both
  *     renderers; a smooth and a half-rough metal under the same sky
  *     against F(n.v) and the quadrature (energy).
- * VANTAGE_SCENE_PNG=DIR writes the furnace pictures there as PNG.
  */
 #include "test_util.h"
 
 #include "occ_ref.h"
 #include "vt_brdf.h"
 #include "vt_gldraw.h"
-#include "vt_image.h"
 #include "vt_soft.h"
 
 #include <math.h>
@@ -317,6 +315,17 @@ static void rig_make(rig *g, double tilt)
     g->half = 2;
 }
 
+/* A rig at tilt (calloc'ed: the caller frees it after occ_ref_free) and
+   the material of a grey base. */
+static rig *rig_new(double tilt, float base, float metal, float rough, vt_material *m)
+{
+    rig *g = calloc(1, sizeof *g);
+    assert_non_null(g);
+    rig_make(g, tilt);
+    *m = (vt_material){.base = {base, base, base, 1}, .metallic = metal, .roughness = rough, .normal_scale = 1};
+    return g;
+}
+
 /* Pixel px's view direction (unit, towards the eye) where its ray meets
    the quad at least 2 px inside its edge (false elsewhere). */
 static bool rig_view(const rig *g, size_t px, double v[3])
@@ -362,34 +371,6 @@ static void rig_draw(rig *g, vt_gldraw *gr, const vt_material *m, const vt_env *
         if (i % 4 != 3) g->rgba[i] *= 1.2f;
 }
 
-static vt_gldraw *gl_or_null(vt_gl **g)
-{
-    char err[512];
-    vt_gldraw *gr = NULL;
-    if (vt_gl_open(g, NULL, err, sizeof err) != 0) {
-        fprintf(stderr, "no GL here: %s\n", err);
-        *g = NULL;
-        return NULL;
-    }
-    assert_int_equal(vt_gldraw_create(*g, &gr, err, sizeof err), 0);
-    return gr;
-}
-
-static void maybe_png(const char *name, const float *rgba)
-{
-    const char *dir = getenv("VANTAGE_SCENE_PNG");
-    if (!dir || !*dir) return;
-    uint8_t px[RW * RH * 4];
-    vt_image_src src = {.r = {rgba + (size_t)(RH - 1) * RW * 4, 4, -(ptrdiff_t)RW * 4},
-                        .g = {rgba + (size_t)(RH - 1) * RW * 4 + 1, 4, -(ptrdiff_t)RW * 4},
-                        .b = {rgba + (size_t)(RH - 1) * RW * 4 + 2, 4, -(ptrdiff_t)RW * 4}};
-    vt_tonemap_desc td = {.op = VT_TONEMAP_ACES};
-    assert_int_equal(vt_image_tonemap(RW, RH, &src, &td, px, 4 * (size_t)RW), 0);
-    char path[512], err[256];
-    snprintf(path, sizeof path, "%s/%s.png", dir, name);
-    if (vt_png_write(path, RW, RH, px, 4 * (size_t)RW, false, 6, err, sizeof err)) fprintf(stderr, "png: %s\n", err);
-}
-
 /* The sun and a point light on a flat quad: each pixel is sun x n.l x f
    + light x att x n.l x f (the reference f at the pixel's view
    direction), with no sky (black) and no ground. The renderers' n, v, l
@@ -399,15 +380,12 @@ static void test_brdf_lights_through_renderers(void **state)
 {
     (void)state;
     vt_gl *glc = NULL;
-    vt_gldraw *gr = gl_or_null(&glc);
+    vt_gldraw *gr = test_gldraw_or_null(&glc);
     static const struct { float base, metal, rough; } mats[] = {{0.8f, 0, 0.6f}, {0.9f, 1, 0.3f}, {0.5f, 0.5f, 0.15f}};
     for (size_t mi = 0; mi < sizeof mats / sizeof mats[0]; mi++)
         for (int which = 0; which < (gr ? 2 : 1); which++) {
-            rig *g = calloc(1, sizeof *g);
-            assert_non_null(g);
-            rig_make(g, 0.5);
-            vt_material m = {.base = {mats[mi].base, mats[mi].base, mats[mi].base, 1}, .metallic = mats[mi].metal,
-                             .roughness = mats[mi].rough, .normal_scale = 1};
+            vt_material m;
+            rig *g = rig_new(0.5, mats[mi].base, mats[mi].metal, mats[mi].rough, &m);
             /* the sun from up right and behind the eye: its highlight on the quad */
             double s[3] = {0.35, 0.3, 1}, sl = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
             vt_env env = {.sun_dir = {(float)(s[0] / sl), (float)(s[1] / sl), (float)(s[2] / sl)}, .sun = {1, 1, 1},
@@ -465,7 +443,7 @@ static void test_brdf_white_furnace(void **state)
     fprintf(stderr, "quadrature of a Lambert BRDF under a uniform sky: %.6f (analytic 1)\n", lam);
     assert_true(fabs(lam - 1) < 1e-4);
     vt_gl *glc = NULL;
-    vt_gldraw *gr = gl_or_null(&glc);
+    vt_gldraw *gr = test_gldraw_or_null(&glc);
     static const struct {
         const char *name;
         float base, metal, rough;
@@ -485,15 +463,11 @@ static void test_brdf_white_furnace(void **state)
     for (size_t ci = 0; ci < sizeof cases / sizeof cases[0]; ci++)
         for (size_t ti = 0; ti < sizeof tilts / sizeof tilts[0]; ti++)
             for (int which = 0; which < (gr ? 2 : 1); which++) {
-                rig *g = calloc(1, sizeof *g);
-                assert_non_null(g);
-                rig_make(g, tilts[ti]);
-                vt_material m = {.base = {cases[ci].base, cases[ci].base, cases[ci].base, 1},
-                                 .metallic = cases[ci].metal, .roughness = cases[ci].rough, .normal_scale = 1};
+                vt_material m;
+                rig *g = rig_new(tilts[ti], cases[ci].base, cases[ci].metal, cases[ci].rough, &m);
                 vt_env env = {.sky_mode = VT_SKY_COLOR, .sky = {1, 1, 1}, .exposure_mode = VT_EXPOSURE_FIXED,
                               .exposure_ev = 0};
                 rig_draw(g, which ? gr : NULL, &m, &env, NULL, 0);
-                if (ti == 1 && ci == 0) maybe_png(which ? "furnace_gl" : "furnace_soft", g->rgba);
                 /* the reference at a few pixels spread over the quad */
                 double worst = 0, hi = 0;
                 uint32_t judged = 0;
@@ -541,6 +515,16 @@ static double env_grad(const double d[3])
     return 1 + 0.8 * d[0];
 }
 
+/* A random unit direction (false: too short a draw to normalise). */
+static bool rand_dir(rng *r, float d[3])
+{
+    for (int k = 0; k < 3; k++) d[k] = (float)rng_range(r, -1, 1);
+    float l = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (l < 0.1f) return false;
+    for (int k = 0; k < 3; k++) d[k] /= l;
+    return true;
+}
+
 static void test_brdf_directional_sky(void **state)
 {
     (void)state;
@@ -569,10 +553,8 @@ static void test_brdf_directional_sky(void **state)
     rng r = {test_seed() ^ 0x5CA1u};
     double worst_e = 0;
     for (int i = 0; i < 200; i++) {
-        float n[3] = {(float)rng_range(&r, -1, 1), (float)rng_range(&r, -1, 1), (float)rng_range(&r, -1, 1)}, e[3];
-        float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        if (l < 0.1f) continue;
-        for (int k = 0; k < 3; k++) n[k] /= l;
+        float n[3], e[3];
+        if (!rand_dir(&r, n)) continue;
         vt_ibl_irradiance(ibl, n, e);
         double want = 1 + 0.8 * (2.0 / 3.0) * n[0];
         if (fabs(e[0] - want) / want > worst_e) worst_e = fabs(e[0] - want) / want;
@@ -587,10 +569,8 @@ static void test_brdf_directional_sky(void **state)
        sky is darkest: 4 % there): within 0.035 of the sky's mean (1) */
     double worst_s = 0;
     for (int i = 0; i < 40; i++) {
-        float d[3] = {(float)rng_range(&r, -1, 1), (float)rng_range(&r, -1, 1), (float)rng_range(&r, -1, 1)}, o[3];
-        float l = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        if (l < 0.1f) continue;
-        for (int k = 0; k < 3; k++) d[k] /= l;
+        float d[3], o[3];
+        if (!rand_dir(&r, d)) continue;
         float rough = (float)rng_f(&r), rr = rough > VT_MIN_ROUGHNESS ? rough : VT_MIN_ROUGHNESS;
         vt_ibl_specular(ibl, d, rough, o);
         double a2 = pow(rr, 4), num = 0, den = 0;
@@ -619,17 +599,14 @@ static void test_brdf_directional_sky(void **state)
        (4.6 % facing the bright side): Karis's approximation, not the
        tables (checked above): 20 %. */
     vt_gl *glc = NULL;
-    vt_gldraw *gr = gl_or_null(&glc);
+    vt_gldraw *gr = test_gldraw_or_null(&glc);
     static const struct { float base, metal, rough; } mats[] = {{1, 0, 1}, {0.9f, 1, 0.5f}, {0.8f, 0, 0.6f}};
     const double tilts[] = {1.0, -1.0};
     for (size_t mi = 0; mi < sizeof mats / sizeof mats[0]; mi++)
         for (size_t ti = 0; ti < 2; ti++)
             for (int which = 0; which < (gr ? 2 : 1); which++) {
-                rig *g = calloc(1, sizeof *g);
-                assert_non_null(g);
-                rig_make(g, tilts[ti]);
-                vt_material m = {.base = {mats[mi].base, mats[mi].base, mats[mi].base, 1},
-                                 .metallic = mats[mi].metal, .roughness = mats[mi].rough, .normal_scale = 1};
+                vt_material m;
+                rig *g = rig_new(tilts[ti], mats[mi].base, mats[mi].metal, mats[mi].rough, &m);
                 rig_draw(g, which ? gr : NULL, &m, &env, NULL, 0);
                 double w = 0;
                 uint32_t judged = 0;
