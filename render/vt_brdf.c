@@ -3,8 +3,8 @@
  * split-sum DFG table and the image-based ambient (see vt_brdf.h).
  * Costs: the DFG table 32 x 32 x 2 x 1024 samples once per process (a few
  * ms); vt_ibl_update, per sky change, 64 x 32 x 16 + 4096 environment
- * lookups and 2 x 1024 x 2048 + 2 x 1024 x 512 lobe weights (about 10 ms
- * on this machine); per pixel the kernels then pay one SH polynomial, one
+ * lookups and 1024 x 2048 + 3 x 1024 x 512 lobe weights (about 7 ms on
+ * this machine unloaded); per pixel the kernels then pay one SH polynomial, one
  * DFG lookup and two bilinear octahedral lookups.
  */
 #include "vt_brdf.h"
@@ -282,11 +282,13 @@ bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
         }
     /* the rougher levels: the GGX lobe about r (n = v = r, so n.h^2 =
        (1 + r.l) / 2 and the l-space density is D / 4), weighted by r.l;
-       the narrower two from the fine grid */
+       the narrowest (roughness 0.25: a lobe about 7 degrees wide) from the
+       fine grid (5.6 degree cells), the others from the coarse one (11
+       degrees; 0.5's lobe is 28) */
     for (uint32_t lv = 1; lv < VT_IBL_LEVELS; lv++) {
         float r = vt_brdf_rough((float)lv / (VT_IBL_LEVELS - 1)), a2 = r * r * r * r;
-        const float(*g)[7] = lv <= 2 ? ibl->src_hi : ibl->src_lo;
-        uint32_t ng = lv <= 2 ? 64 * 32 : 32 * 16;
+        const float(*g)[7] = lv <= 1 ? ibl->src_hi : ibl->src_lo;
+        uint32_t ng = lv <= 1 ? 64 * 32 : 32 * 16;
         for (uint32_t j = 0; j < VT_IBL_RES; j++)
             for (uint32_t i = 0; i < VT_IBL_RES; i++) {
                 float uv[2] = {(i + 0.5f) / VT_IBL_RES, (j + 0.5f) / VT_IBL_RES}, R[3];
