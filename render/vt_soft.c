@@ -18,8 +18,8 @@
  *   4. shading (threads over tile rows): per pixel, perspective-correct
  *      barycentrics from the homogeneous edge functions of the source
  *      triangle give the surface point and normal (and a masked one's
- *      rim char); Lambert + Blinn-Phong over the tile's lights, plus a
- *      small ambient term.
+ *      rim char); glTF's metallic-roughness BRDF (vt_brdf.h) over the
+ *      tile's lights and the sun, plus the ambient (image-based, vt_brdf.h).
  *
  * Shading once per pixel, whatever the overdraw, is the point of the
  * visibility buffer.
