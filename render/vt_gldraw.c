@@ -29,6 +29,7 @@
  * the shaders; exposure and FXAA on the CPU after the readback
  * (vt_post_apply, the software renderer's code: one set of rules). The shaders are in vt_gldraw_glsl.c.
  */
+#include "vt_brdf.h"
 #include "vt_gldraw.h"
 #include "vt_gldraw_internal.h"
 #include "vt_picture.h"
@@ -115,7 +116,28 @@ struct vt_gldraw {
     size_t cl_cap;
     vt_skytab sky;          /* the analytic sky's table */
     vt_shadow_gl *shadow;   /* the sun's cascades */
+    vt_ibl ibl;             /* the image-based ambient (vt_brdf.h) */
+    vt_brdf_gl brdf;        /* its textures */
 };
+
+/* vs + fs + vt_brdf_fs (the shading model's functions) as one program. */
+/* A shading program: vs and fs linked with the fragment-shader objects
+ * that define what fs declares (the BRDF and image-based ambient, the
+ * shadow cascades' lookup). */
+enum { NSRC = 4 };
+static int build(vt_gl *g, const char *vs, const char *fs, unsigned *out, char *err, size_t errlen)
+{
+    static const unsigned stage[NSRC] = {GL_VERTEX_SHADER, GL_FRAGMENT_SHADER, GL_FRAGMENT_SHADER, GL_FRAGMENT_SHADER};
+    const char *src[NSRC] = {vs, fs, vt_brdf_fs, vt_shadow_gl_fs};
+    unsigned sh[NSRC] = {0};
+    int rc = 0;
+    for (int k = 0; k < NSRC && !rc; k++) rc = vt_gl_shader_compile(g, stage[k], src[k], &sh[k], err, errlen);
+    if (!rc) rc = vt_gl_program_link(g, sh, NSRC, out, err, errlen);
+    for (int k = 0; k < NSRC; k++)
+        if (sh[k]) glDeleteShader(sh[k]);
+    if (!rc) vt_shadow_gl_program_init(*out);
+    return rc;
+}
 
 int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
 {
@@ -123,8 +145,8 @@ int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
     vt_gldraw *r = calloc(1, sizeof *r);
     if (!r) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     r->g = g;
-    int rc = vt_shadow_gl_program(g, vt_gldraw_vs, vt_gldraw_fs, &r->prog, err, errlen);
-    if (!rc && (rc = vt_shadow_gl_program(g, vt_gldraw_bg_vs, vt_gldraw_bg_fs, &r->bg, err, errlen)))
+    int rc = build(g, vt_gldraw_vs, vt_gldraw_fs, &r->prog, err, errlen);
+    if (!rc && (rc = build(g, vt_gldraw_bg_vs, vt_gldraw_bg_fs, &r->bg, err, errlen)))
         glDeleteProgram(r->prog);
     if (!rc && (rc = vt_shadow_gl_create(&r->shadow))) {
         glDeleteProgram(r->prog);
@@ -141,6 +163,7 @@ int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
     glGenBuffers(1, &r->ibuf);
     glGenBuffers(1, &r->ebuf);
     glGenSamplers(4, r->samp);
+    vt_brdf_gl_init(&r->brdf);
     glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &r->max_texels);
     if (r->max_texels <= 0) r->max_texels = 65536; /* the GL 3.3 minimum */
     for (int p = 0; p < 2; p++) {
@@ -168,6 +191,7 @@ void vt_gldraw_destroy(vt_gldraw *r)
     vt_shadow_gl_destroy(r->shadow);
     glDeleteSamplers(4, r->samp);
     glDeleteTextures(5, r->tex);
+    vt_brdf_gl_free(&r->brdf);
     glDeleteBuffers(5, r->buf);
     glDeleteBuffers(1, &r->vbuf);
     glDeleteBuffers(1, &r->ibuf);
@@ -486,6 +510,7 @@ static void set_env(vt_gldraw *r, int p, const vt_penv *pe, const cull_view_rows
     glUniform1f(L[u_fog_y0], pe->fog_y0);
     glUniform1f(L[u_sky_rot], pe->sky_rot);
     vt_shadow_gl_uniforms(r->shadow, p ? r->bg : r->prog);
+    vt_brdf_gl_uniforms(p ? r->bg : r->prog, pe);
     if (!p) return;
     const double *rows[6] = {vr->x, vr->y, vr->z, vr->w, vr->nearfn, vr->d};
     for (int k = 0; k < 6; k++)
@@ -568,6 +593,11 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     if ((rc = vt_shadow_gl_frame(r->shadow, f, &stris, &shadow_ns, err, errlen))) return rc;
     vt_penv pe;
     vt_penv_make(f->env, v->origin, &r->sky, &pe);
+    if (pe.on && !(f->fx_off & VT_FX_IBL)) { /* remade only when the sky changed */
+        vt_ibl_update(&r->ibl, &pe);
+        pe.ibl = &r->ibl;
+    }
+    vt_brdf_gl_frame(&r->brdf, pe.ibl);
     const bool bg = pe.on; /* a background pass: the ground, the sky */
     float vp[16], d4[4];
     for (int i = 0; i < 16; i++) vp[i] = (float)v->clip[i];

@@ -27,6 +27,11 @@
     "uniform vec4 u_txm[4];\n"                                                                                 \
     "uniform vec2 u_txo[4];\n"                                                                                 \
     "uniform sampler2D u_tex0, u_tex1, u_tex2, u_tex3;\n"                                                      \
+    /* vt_brdf_glsl.c's object */                                                                             \
+    "uniform int u_ibl_on;\n"                                                                                  \
+    "float vt_rough(float r);\n"                                                                               \
+    "vec3 vt_pbr_brdf(vec3 n, vec3 v, vec3 l, vec3 diffuse, vec3 f0, float a2);\n"                             \
+    "vec3 vt_pbr_ambient(vec3 n, vec3 v, vec3 diffuse, vec3 f0, float rough);\n"                               \
     "vec2 txf(int k, vec2 uv) {\n"                                                                             \
     "  return u_txo[k] + vec2(u_txm[k].x * uv.x + u_txm[k].y * uv.y, u_txm[k].z * uv.x + u_txm[k].w * uv.y);\n" \
     "}\n"                                                                                                      \
@@ -66,7 +71,7 @@
     "}\n"                                                                                                      \
     /* vt_surface_params: the material at a point (n normalised and mapped) */                                \
     "void params(inout vec3 n, vec4 t, vec2 uv, vec3 albedo, out vec3 diffuse, out vec3 f0, out vec3 em,\n"     \
-    "            out float s, out float g2) {\n"                                                                \
+    "            out float a2, out float ro) {\n"                                                               \
     "  vec4 base = u_mat_on != 0 ? u_base : vec4(albedo, 1.0);\n"                                              \
     "  float metal = u_mat_on != 0 ? u_mr.x : 0.0, rough = u_mat_on != 0 ? u_mr.y : 0.6;\n"                    \
     "  em = u_mat_on != 0 ? u_em : vec3(0.0);\n"                                                               \
@@ -89,32 +94,29 @@
     "    }\n"                                                                                                  \
     "  }\n"                                                                                                    \
     "  diffuse = base.rgb * (1.0 - metal);\n"                                                                  \
-    "  f0 = 0.04 + (base.rgb - 0.04) * metal;\n"                                                               \
-    "  float a = rough * rough, a2 = max(a * a, 1e-3);\n"                                                      \
-    "  s = 2.0 / a2 - 2.0;\n"                                                                                  \
-    "  g2 = (1.0 - rough) * (1.0 - rough);\n"                                                                  \
+    "  f0 = 0.04 * (1.0 - metal) + base.rgb * metal;\n"                                                        \
+    "  ro = vt_rough(rough);\n"                                                                                \
+    "  float a = ro * ro;\n"                                                                                   \
+    "  a2 = a * a;\n"                                                                                          \
     "}\n"                                                                                                      \
     /* vt_shade.inl's env_light: the sky's ambient and the sun */                                             \
     "float sun_visibility(vec3 p, vec3 n);\n" /* the shadow cascades (vt_shadow_gl.c) */                     \
-    "vec3 env_light(vec3 p, vec3 n, vec3 diffuse, vec3 f0, vec3 em, float s, float g2) {\n"                    \
+    "vec3 env_light(vec3 p, vec3 n, vec3 diffuse, vec3 f0, vec3 em, float a2, float ro) {\n"                   \
     "  if (u_env_on == 0) return " STR(VT_AMBIENT) " * diffuse + em;\n"                                        \
     "  float pl = length(p);\n"                                                                                \
     "  vec3 v = pl > 0.0 ? -p / pl : vec3(0.0);\n"                                                             \
-    "  float nv = dot(n, v), ry = 2.0 * nv * n.y - v.y;\n"                                                     \
-    "  float ka = 0.5 * n.y + 0.5, kr = 0.5 * clamp(ry, -1.0, 1.0) + 0.5;\n"                                   \
-    "  float fv = 1.0 - max(nv, 0.0), fv2 = fv * fv, wf = fv2 * fv2 * fv * g2;\n"                              \
-    "  vec3 d = u_amb_up - u_amb_down, la = ka * d + u_amb_down, lr = kr * d + u_amb_down;\n"                   \
-    "  vec3 fr = (1.0 - f0) * wf + f0;\n"                                                                      \
-    "  vec3 c = diffuse * la + (fr * lr + em);\n"                                                              \
+    "  vec3 c;\n"                                                                                              \
+    "  if (u_ibl_on != 0) c = vt_pbr_ambient(n, v, diffuse, f0, ro) + em;\n"                                   \
+    "  else {\n"                                                                                               \
+    "    float nv = dot(n, v), ry = 2.0 * nv * n.y - v.y, g = 1.0 - ro;\n"                                     \
+    "    float ka = 0.5 * n.y + 0.5, kr = 0.5 * clamp(ry, -1.0, 1.0) + 0.5;\n"                                 \
+    "    float fv = 1.0 - max(nv, 0.0), fv2 = fv * fv, wf = fv2 * fv2 * fv * (g * g);\n"                       \
+    "    vec3 d = u_amb_up - u_amb_down, la = ka * d + u_amb_down, lr = kr * d + u_amb_down;\n"                 \
+    "    vec3 fr = (1.0 - f0) * wf + f0;\n"                                                                    \
+    "    c = diffuse * la + (fr * lr + em);\n"                                                                 \
+    "  }\n"                                                                                                    \
     "  if (u_sun_on == 0) return c;\n"                                                                         \
-    "  float ndl = dot(n, u_sun_dir);\n"                                                                       \
-    "  vec3 h = u_sun_dir + v;\n"                                                                              \
-    "  float hl2 = dot(h, h), ih = hl2 > 0.0 ? 1.0 / sqrt(hl2) : 0.0;\n"                                       \
-    "  float ndh = max(dot(n, h) * ih, 0.0), vh = max(dot(v, h) * ih, 0.0);\n"                                 \
-    "  float lobe = (s + 8.0) * (1.0 / (8.0 * PI)) * (ndh / max(s - s * ndh + ndh, 1e-6));\n"                  \
-    "  float f1 = 1.0 - vh, f2 = f1 * f1, f5 = f2 * f2 * f1;\n"                                                \
-    "  vec3 F = (1.0 - f0) * f5 + f0;\n"                                                                       \
-    "  return c + u_sun * (max(ndl, 0.0) * sun_visibility(p, n)) * (F * lobe + diffuse * (1.0 / PI));\n"      \
+    "  return c + u_sun * (max(dot(n, u_sun_dir), 0.0) * sun_visibility(p, n)) * vt_pbr_brdf(n, v, u_sun_dir, diffuse, f0, a2);\n" \
     "}\n"
 
 const char *const vt_gldraw_vs =
@@ -237,10 +239,10 @@ const char *const vt_gldraw_fs =
     "  } else if (u_two_sided != 0 && !gl_FrontFacing) nv = -nv;\n"
     "  if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, v_near); return; }\n"
     "  vec3 n = nv, diffuse, f0, em;\n"
-    "  float se, g2;\n"
-    "  params(n, v_t, v_uv, albedo, diffuse, f0, em, se, g2);\n"
+    "  float a2, ro;\n"
+    "  params(n, v_t, v_uv, albedo, diffuse, f0, em, a2, ro);\n"
     "  if (u_mat_on != 0) { diffuse *= k; f0 *= k; em *= k; }\n"
-    "  vec3 c = env_light(v_p, n, diffuse, f0, em, se, g2);\n"
+    "  vec3 c = env_light(v_p, n, diffuse, f0, em, a2, ro);\n"
     "  vec3 vd = normalize(-v_p);\n"
     "  ivec2 tp = ivec2(gl_FragCoord.xy) / 16;\n"
     "  int t = tp.y * u_tiles_x + tp.x;\n"
@@ -263,11 +265,7 @@ const char *const vt_gldraw_fs =
     "      att *= s * s * (3.0 - 2.0 * s);\n"
     "    }\n"
     "    if (att <= 0.0) continue;\n"
-    "    vec3 h = l + vd;\n"
-    "    float hl = length(h);\n"
-    "    float ndh = hl > 0.0 ? max(dot(n, h) / hl, 0.0) : 0.0;\n"
-    "    float spec = 0.04 * 40.0 / (8.0 * 3.14159265) * pow(ndh, 32.0);\n"
-    "    c += q1.xyz * att * ndl * (diffuse / 3.14159265 + spec);\n"
+    "    c += q1.xyz * (att * ndl) * vt_pbr_brdf(n, vd, l, diffuse, f0, a2);\n"
     "  }\n"
     "  o_color = vec4(fog_apply(v_p, c), v_near);\n"
     "}\n";
@@ -312,9 +310,9 @@ const char *const vt_gldraw_bg_fs =
     "    gl_FragDepth = depth;\n"
     "    if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, near); return; }\n"
     "    vec3 n = vec3(0.0, 1.0, 0.0), diffuse, f0, em;\n"
-    "    float se, g2;\n"
-    "    params(n, vec4(0.0), u_ground_uv0 + q.xz, u_ground_albedo, diffuse, f0, em, se, g2);\n"
-    "    vec3 c = env_light(q, n, diffuse, f0, em, se, g2);\n"
+    "    float a2, ro;\n"
+    "    params(n, vec4(0.0), u_ground_uv0 + q.xz, u_ground_albedo, diffuse, f0, em, a2, ro);\n"
+    "    vec3 c = env_light(q, n, diffuse, f0, em, a2, ro);\n"
     "    o_color = vec4(fog_apply(q, c), near);\n"
     "    return;\n"
     "  }\n"

@@ -10,6 +10,7 @@
  * pixel; the ambient is 128 sky samples a frame.
  */
 #include "vt_surface.h"
+#include "vt_brdf.h"
 #include "vt_err.h"
 #include "vt_shade.h"
 
@@ -345,15 +346,15 @@ void vt_surface_params(const vt_surfin *in, vt_surfout *out)
            most pixels of most frames */
         float n[3] = {in->n[0], in->n[1], in->n[2]};
         normalize3(n);
-        const float a = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS, a2 = a * a;
+        const float a = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS;
         for (int c = 0; c < 3; c++) {
             out->n[c] = n[c];
             out->diffuse[c] = in->albedo[c];
             out->f0[c] = 0.04f;
             out->em[c] = 0;
         }
-        out->s = 2 / a2 - 2;
-        out->g2 = (1 - VT_DEFAULT_ROUGHNESS) * (1 - VT_DEFAULT_ROUGHNESS);
+        out->a2 = a * a;
+        out->rough = VT_DEFAULT_ROUGHNESS;
         out->alpha = 1;
         return;
     }
@@ -397,11 +398,14 @@ void vt_surface_params(const vt_surfin *in, vt_surfout *out)
     out->alpha = base[3];
     for (int c = 0; c < 3; c++) {
         out->diffuse[c] = base[c] * (1 - metal);
-        out->f0[c] = 0.04f + (base[c] - 0.04f) * metal;
+        out->f0[c] = 0.04f * (1 - metal) + base[c] * metal; /* no cancellation (vt_brdf_eval) */
     }
-    float a = rough * rough, a2 = a * a > 1e-3f ? a * a : 1e-3f;
-    out->s = 2 / a2 - 2;
-    out->g2 = (1 - rough) * (1 - rough);
+    /* glTF's alpha = roughness^2, clamped away from the singular D
+       (vt_brdf.h) */
+    rough = vt_brdf_rough(rough);
+    float a = rough * rough;
+    out->a2 = a * a;
+    out->rough = rough;
 }
 
 /* ---- rays: the ground, the sky's direction, fog ------------------------------------- */

@@ -1,10 +1,14 @@
 /*
  * vt_shade.inl — the shading kernel (see vt_shade.h), included once per
  * instruction set after cull_simd.h (W lanes) with VT_SHADE_NAME defined.
- * Lambert + energy-normalised Blinn-Phong (exponent 32, F0 0.04),
- * inverse-square falloff windowed to zero at the light's range, smoothstep
- * spot cones, a small ambient term.
+ * glTF 2.0's metallic-roughness BRDF (vt_brdf.h: GGX D, height-
+ * correlated Smith V, Schlick F, diffuse x (1 - F)) for the sun and the
+ * point and spot lights, inverse-square falloff windowed to zero at the
+ * light's range, smoothstep spot cones; the ambient image-based (SH
+ * irradiance, prefiltered sky x the DFG table) or the two-colour
+ * hemisphere, or without an environment a small constant.
  */
+#include "vt_brdf.h"
 #include "vt_mask.h"
 
 #include <float.h>
@@ -24,7 +28,8 @@ typedef struct surf {
     /* with an environment: the material's specular and emission */
     A float fr[S]; A float fg[S]; A float fb[S];   /* F0 */
     A float er[S]; A float eg[S]; A float eb[S];   /* emitted */
-    A float se[S]; A float g2[S];                  /* the sun's exponent, (1 - roughness)^2 */
+    A float a2[S]; A float ro[S];                  /* GGX alpha^2, perceptual roughness (clamped) */
+    A float vv[S];                                 /* 1 / (|n.v| + sqrt(a2 + (1 - a2) n.v^2)): V's view half */
     A float sv[S]; A float ao[S];                  /* the sun's visibility (shadows), ambient occlusion */
 } surf;
 
@@ -33,50 +38,167 @@ static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
     return vf_fma(ax, bx, vf_fma(ay, by, vf_mul(az, bz)));
 }
 
-/* The sky's ambient and the sun on W pixels at i (vt_surface.h's model):
- * diffuse x the ambient by the normal's height (from below to above),
- * Fresnel (Schlick, weighted by gloss^2) x the ambient by the reflected
- * direction's, emission; the sun Lambert plus a normalised Blinn-Phong
- * lobe with Schlick's rational approximation of the power (t / (s - s t
- * + t)) and Schlick's Fresnel on v.h. vt_gldraw_glsl.c: the same. */
+/* Table lookups in lanes: floor, float to index, and a gather of one
+ * float per lane at base + index (AVX2's gather; one load a lane below). */
+#if CULL_SIMD_ISA == 3
+typedef __m256i vix;
+static inline vf vf_floor(vf a) { return _mm256_floor_ps(a); }
+static inline vix vx_of(vf a) { return _mm256_cvttps_epi32(a); }
+static inline vix vx_add(vix a, int k) { return _mm256_add_epi32(a, _mm256_set1_epi32(k)); }
+static inline vf vf_gather(const float *b, vix i) { return _mm256_i32gather_ps(b, i, 4); }
+#elif CULL_SIMD_ISA == 2
+typedef __m128i vix;
+static inline vf vf_floor(vf a) { return _mm_floor_ps(a); }
+static inline vix vx_of(vf a) { return _mm_cvttps_epi32(a); }
+static inline vix vx_add(vix a, int k) { return _mm_add_epi32(a, _mm_set1_epi32(k)); }
+static inline vf vf_gather(const float *b, vix i)
+{
+    return _mm_setr_ps(b[_mm_extract_epi32(i, 0)], b[_mm_extract_epi32(i, 1)], b[_mm_extract_epi32(i, 2)],
+                       b[_mm_extract_epi32(i, 3)]);
+}
+#else
+typedef int32_t vix;
+static inline vf vf_floor(vf a) { return floorf(a); }
+static inline vix vx_of(vf a) { return (int32_t)a; }
+static inline vix vx_add(vix a, int k) { return a + k; }
+static inline vf vf_gather(const float *b, vix i) { return b[i]; }
+#endif
+
+/* vt_bilerp_add in lanes: a res x res RGBA table (the first at t, more
+ * of them after it: off, in floats, per lane) at texel units (x, y),
+ * clamped to the edge texels (a NaN: 0), w x the RGB added to o. */
+static inline void bilerp_lanes(const float *t, int res, vf off, vf x, vf y, vf w, vf o[3])
+{
+    const vf zero = vf_set(0), m = vf_set((float)(res - 1)), m2 = vf_set((float)(res - 2));
+    x = vf_min(vf_max(x, zero), m);
+    y = vf_min(vf_max(y, zero), m);
+    vf fi = vf_min(vf_floor(x), m2), fj = vf_min(vf_floor(y), m2);
+    vf ax = vf_sub(x, fi), ay = vf_sub(y, fj);
+    vix i00 = vx_of(vf_fma(vf_fma(fj, vf_set((float)res), fi), vf_set(4), off));
+    vix i10 = vx_add(i00, 4), i01 = vx_add(i00, 4 * res), i11 = vx_add(i00, 4 * res + 4);
+    for (int k = 0; k < 3; k++) {
+        vf a = vf_gather(t + k, i00), b = vf_gather(t + k, i10), c = vf_gather(t + k, i01), d = vf_gather(t + k, i11);
+        vf top = vf_fma(ax, vf_sub(b, a), a), bot = vf_fma(ax, vf_sub(d, c), c);
+        o[k] = vf_fma(w, vf_fma(ay, vf_sub(bot, top), top), o[k]);
+    }
+}
+
+/* vt_ibl_lookup in lanes: the prefiltered sky towards r = 2 (n.v) n - v
+ * at the pixels' roughness (two levels), and the DFG table at |n.v|. */
+static inline void ibl_lanes(const vt_ibl *ibl, vf nx, vf ny, vf nz, vf vx_, vf vy, vf vz, vf nv, vf ro, vf sp[3],
+                             vf g[3])
+{
+    const vf zero = vf_set(0), one = vf_set(1), half = vf_set(0.5f), none = vf_set(-1);
+    vf two_d = vf_add(nv, nv);
+    vf rx = vf_fma(two_d, nx, vf_sub(zero, vx_)), ry = vf_fma(two_d, ny, vf_sub(zero, vy)), rz = vf_fma(two_d, nz, vf_sub(zero, vz));
+    vf s = vf_add(vf_add(vf_abs(rx), vf_abs(ry)), vf_abs(rz));
+    vf is = vf_select(vf_lt(zero, s), vf_div(one, s), zero);
+    vf px = vf_mul(rx, is), pz = vf_mul(rz, is);
+    vf qx = vf_mul(vf_sub(one, vf_abs(pz)), vf_select(vf_lt(px, zero), none, one));
+    vf qz = vf_mul(vf_sub(one, vf_abs(px)), vf_select(vf_lt(pz, zero), none, one));
+    vm below = vf_lt(ry, zero);
+    px = vf_select(below, qx, px);
+    pz = vf_select(below, qz, pz);
+    const vf res = vf_set((float)VT_IBL_RES), centre = vf_set(0.5f * VT_IBL_RES - 0.5f);
+    vf x = vf_sub(vf_mul(vf_fma(half, px, half), res), half), y = vf_sub(vf_mul(vf_fma(half, pz, half), res), half);
+    vm ok = vm_and(vf_ge(x, x), vf_ge(y, y)); /* a NaN direction: the centre */
+    x = vf_select(ok, x, centre);
+    y = vf_select(ok, y, centre);
+    vf f = vf_mul(ro, vf_set((float)(VT_IBL_LEVELS - 1)));
+    vf lv = vf_min(vf_floor(f), vf_set((float)(VT_IBL_LEVELS - 2))), t = vf_sub(f, lv);
+    vf off = vf_mul(lv, vf_set((float)(4 * VT_IBL_RES * VT_IBL_RES)));
+    for (int k = 0; k < 3; k++) sp[k] = g[k] = zero;
+    bilerp_lanes(ibl->spec[0], VT_IBL_RES, off, x, y, vf_sub(one, t), sp);
+    bilerp_lanes(ibl->spec[1], VT_IBL_RES, off, x, y, t, sp);
+    const vf dm = vf_set((float)(VT_DFG_N - 1));
+    bilerp_lanes(ibl->dfg, VT_DFG_N, zero, vf_mul(vf_min(vf_abs(nv), one), dm), vf_mul(vf_min(ro, one), dm), one, g);
+}
+
+/* glTF's D V for one light (Appendix B): n.h, n.l >= 0, alpha^2, and
+ * the pixel's view half of V (vv). One square root, one division. */
+static inline vf ggx_dv(vf ndh, vf ndl, vf a2, vf vv)
+{
+    const vf one = vf_set(1);
+    /* (1 - n.h)(1 + n.h) + n.h^2 a2: vt_brdf_d's well-conditioned form */
+    vf t = vf_fma(vf_mul(ndh, ndh), a2, vf_mul(vf_sub(one, ndh), vf_add(one, ndh)));
+    vf gl = vf_add(ndl, vf_sqrt(vf_fma(vf_sub(one, a2), vf_mul(ndl, ndl), a2)));
+    return vf_div(vf_mul(vf_mul(a2, vf_set(1.0f / 3.14159265f)), vv), vf_mul(vf_mul(t, t), gl));
+}
+
+/* (1 - v.h)^5 of Schlick's Fresnel, for unit v, l (h = (l + v) / |l + v|),
+ * and n.h >= 0. */
+static inline vf half_terms(vf nx, vf ny, vf nz, vf vx, vf vy, vf vz, vf lx, vf ly, vf lz, vf *ndh)
+{
+    const vf zero = vf_set(0), one = vf_set(1);
+    vf hx = vf_add(lx, vx), hy = vf_add(ly, vy), hz = vf_add(lz, vz);
+    vf hl2 = dot3(hx, hy, hz, hx, hy, hz);
+    vf ih = vf_select(vf_lt(zero, hl2), vf_div(one, vf_sqrt(hl2)), zero);
+    *ndh = vf_max(vf_mul(dot3(nx, ny, nz, hx, hy, hz), ih), zero);
+    vf vh = vf_min(vf_max(vf_mul(dot3(vx, vy, vz, hx, hy, hz), ih), zero), one);
+    vf f1 = vf_sub(one, vh), f2 = vf_mul(f1, f1);
+    return vf_mul(vf_mul(f2, f2), f1);
+}
+
+/* The sky's ambient and the sun on W pixels at i (vt_surface.h's model).
+ * Image-based (pe->ibl): diffuse x (1 - f0) C x the SH irradiance / pi,
+ * plus the prefiltered sky towards the reflected direction x (f0 A + B)
+ * (A, B, C: vt_dfg at |n.v|, roughness), both x the occlusion; else the
+ * hemisphere of before: diffuse x the ambient by the normal's height,
+ * Fresnel (Schlick, weighted by (1 - roughness)^2) x the ambient by the
+ * reflected direction's. Emission. The sun: glTF's BRDF x n.l x its
+ * visibility. vt_gldraw's GLSL (vt_brdf_glsl.c): the same. */
 static inline void env_light(surf *restrict s, const vt_penv *pe, unsigned i)
 {
     const vf zero = vf_set(0), one = vf_set(1), half = vf_set(0.5f), two = vf_set(2);
     vf nx = vf_load(s->nx + i), ny = vf_load(s->ny + i), nz = vf_load(s->nz + i);
     vf vx = vf_load(s->vx + i), vy = vf_load(s->vy + i), vz = vf_load(s->vz + i);
     vf nv = dot3(nx, ny, nz, vx, vy, vz);
-    vf ry = vf_sub(vf_mul(vf_mul(two, nv), ny), vy);
-    vf ka = vf_fma(half, ny, half), kr = vf_fma(half, vf_min(vf_max(ry, vf_set(-1)), one), half);
-    vf fv = vf_sub(one, vf_max(nv, zero)), fv2 = vf_mul(fv, fv), fv5 = vf_mul(vf_mul(fv2, fv2), fv);
-    vf wf = vf_mul(fv5, vf_load(s->g2 + i));
     vf ao = vf_load(s->ao + i);
     float *const dif[3] = {s->ar, s->ag, s->ab}, *const f0[3] = {s->fr, s->fg, s->fb}, *const em[3] = {s->er, s->eg, s->eb};
     float *const out[3] = {s->cr, s->cg, s->cb};
     vf c[3];
-    for (int k = 0; k < 3; k++) {
-        vf up = vf_set(pe->amb_up[k]), dn = vf_set(pe->amb_down[k]), d = vf_sub(up, dn);
-        vf la = vf_fma(ka, d, dn), lr = vf_fma(kr, d, dn), F0 = vf_load(f0[k] + i);
-        vf fr = vf_fma(vf_sub(one, F0), wf, F0);
-        /* the ambient, occluded */
-        c[k] = vf_fma(vf_mul(vf_load(dif[k] + i), la), ao, vf_fma(vf_mul(fr, lr), ao, vf_load(em[k] + i)));
+    if (pe->ibl) {
+        /* the lookups (prefiltered sky, DFG) in lanes */
+        vf sp[3], dfg[3];
+        ibl_lanes(pe->ibl, nx, ny, nz, vx, vy, vz, nv, vf_load(s->ro + i), sp, dfg);
+        const float(*sh)[3] = pe->ibl->sh;
+        vf xy = vf_mul(nx, ny), yz = vf_mul(ny, nz), xz = vf_mul(nx, nz);
+        vf z3 = vf_fma(vf_set(3), vf_mul(nz, nz), vf_set(-1)), x2y2 = vf_sub(vf_mul(nx, nx), vf_mul(ny, ny));
+        vf dA = dfg[0], dB = dfg[1], dC = dfg[2];
+        for (int k = 0; k < 3; k++) {
+            vf e = vf_fma(vf_set(sh[1][k]), ny, vf_fma(vf_set(sh[2][k]), nz, vf_fma(vf_set(sh[3][k]), nx, vf_set(sh[0][k]))));
+            e = vf_fma(vf_set(sh[4][k]), xy, vf_fma(vf_set(sh[5][k]), yz, vf_fma(vf_set(sh[6][k]), z3, e)));
+            e = vf_max(vf_fma(vf_set(sh[7][k]), xz, vf_fma(vf_set(sh[8][k]), x2y2, e)), zero);
+            vf F0 = vf_load(f0[k] + i);
+            vf d = vf_mul(vf_mul(vf_load(dif[k] + i), vf_mul(vf_sub(one, F0), dC)), e);
+            vf sr = vf_mul(sp[k], vf_fma(F0, dA, dB));
+            c[k] = vf_fma(vf_add(d, sr), ao, vf_load(em[k] + i));
+        }
+    } else {
+        vf ry = vf_sub(vf_mul(vf_mul(two, nv), ny), vy);
+        vf ka = vf_fma(half, ny, half), kr = vf_fma(half, vf_min(vf_max(ry, vf_set(-1)), one), half);
+        vf fv = vf_sub(one, vf_max(nv, zero)), fv2 = vf_mul(fv, fv), fv5 = vf_mul(vf_mul(fv2, fv2), fv);
+        vf g = vf_sub(one, vf_load(s->ro + i));
+        vf wf = vf_mul(fv5, vf_mul(g, g));
+        for (int k = 0; k < 3; k++) {
+            vf up = vf_set(pe->amb_up[k]), dn = vf_set(pe->amb_down[k]), d = vf_sub(up, dn);
+            vf la = vf_fma(ka, d, dn), lr = vf_fma(kr, d, dn), F0 = vf_load(f0[k] + i);
+            vf fr = vf_fma(vf_sub(one, F0), wf, F0);
+            /* the ambient, occluded */
+            c[k] = vf_fma(vf_mul(vf_load(dif[k] + i), la), ao, vf_fma(vf_mul(fr, lr), ao, vf_load(em[k] + i)));
+        }
     }
     if (pe->sun_on) {
         const vf lx = vf_set(pe->sun_dir[0]), ly = vf_set(pe->sun_dir[1]), lz = vf_set(pe->sun_dir[2]);
-        vf ndl = dot3(nx, ny, nz, lx, ly, lz);
-        vf hx = vf_add(lx, vx), hy = vf_add(ly, vy), hz = vf_add(lz, vz);
-        vf hl2 = dot3(hx, hy, hz, hx, hy, hz);
-        vf ih = vf_select(vf_lt(zero, hl2), vf_div(one, vf_sqrt(hl2)), zero);
-        vf ndh = vf_max(vf_mul(dot3(nx, ny, nz, hx, hy, hz), ih), zero);
-        vf vh = vf_max(vf_mul(dot3(vx, vy, vz, hx, hy, hz), ih), zero);
-        vf se = vf_load(s->se + i);
-        vf den = vf_max(vf_add(vf_sub(se, vf_mul(se, ndh)), ndh), vf_set(1e-6f));
-        vf lobe = vf_mul(vf_mul(vf_add(se, vf_set(8)), vf_set(1.0f / (8 * 3.14159265f))), vf_div(ndh, den));
-        vf f1 = vf_sub(one, vh), f2 = vf_mul(f1, f1), f5 = vf_mul(vf_mul(f2, f2), f1);
+        vf ndl = vf_max(dot3(nx, ny, nz, lx, ly, lz), zero), ndh;
+        vf f5 = half_terms(nx, ny, nz, vx, vy, vz, lx, ly, lz, &ndh);
+        vf dv = ggx_dv(ndh, ndl, vf_load(s->a2 + i), vf_load(s->vv + i));
         /* n.l, times the sun's visibility (the shadow cascades) */
-        vf kl = vf_mul(vf_select(vf_lt(zero, ndl), ndl, zero), vf_load(s->sv + i));
+        vf kl = vf_mul(ndl, vf_load(s->sv + i));
         for (int k = 0; k < 3; k++) {
             vf F0 = vf_load(f0[k] + i), F = vf_fma(vf_sub(one, F0), f5, F0);
-            vf b = vf_fma(F, lobe, vf_mul(vf_load(dif[k] + i), vf_set(1.0f / 3.14159265f)));
+            vf cd = vf_mul(vf_load(dif[k] + i), vf_set(1.0f / 3.14159265f));
+            vf b = vf_fma(F, vf_sub(dv, cd), cd); /* (1 - F) c_diff / pi + F D V */
             c[k] = vf_fma(vf_mul(vf_set(pe->sun[k]), kl), b, c[k]);
         }
     }
@@ -118,7 +240,6 @@ static inline __attribute__((always_inline)) void light(surf *restrict s, const 
     const vf dx = vf_set(L->dir[0]), dy = vf_set(L->dir[1]), dz = vf_set(L->dir[2]);
     const vf co = vf_set(L->cos_outer), cspan = vf_set(L->inv_cone);
     const vf lr = vf_set(L->color[0]), lg = vf_set(L->color[1]), lb = vf_set(L->color[2]);
-    const vf ks = vf_set(0.04f * (32 + 8) / (8 * 3.14159265f));
     const vf zero = vf_set(0), one = vf_set(1), eps = vf_set(1e-2f), two = vf_set(2), three = vf_set(3);
     for (unsigned i = 0; i < S; i += W) {
         vf nx = vf_load(s->nx + i), ny = vf_load(s->ny + i), nz = vf_load(s->nz + i);
@@ -142,16 +263,19 @@ static inline __attribute__((always_inline)) void light(surf *restrict s, const 
         }
         vm lit = vm_and(in, vm_and(vf_lt(zero, ndl), vf_lt(zero, att)));
         if (!vm_bits(lit)) continue;
-        vf hx = vf_add(lx, vf_load(s->vx + i)), hy = vf_add(ly, vf_load(s->vy + i)), hz = vf_add(lz, vf_load(s->vz + i));
-        vf hl2 = dot3(hx, hy, hz, hx, hy, hz);
-        vf ih = vf_select(vf_lt(zero, hl2), vf_div(one, vf_sqrt(hl2)), zero);
-        vf ndh = vf_max(vf_mul(dot3(nx, ny, nz, hx, hy, hz), ih), zero);
-        vf n2 = vf_mul(ndh, ndh), n4 = vf_mul(n2, n2), n8 = vf_mul(n4, n4), n16 = vf_mul(n8, n8);
-        vf spec = vf_mul(ks, vf_mul(n16, n16));
-        vf f = vf_select(lit, vf_mul(att, ndl), zero);
-        vf_store(s->cr + i, vf_fma(vf_mul(lr, f), vf_add(vf_load(s->ar + i), spec), vf_load(s->cr + i)));
-        vf_store(s->cg + i, vf_fma(vf_mul(lg, f), vf_add(vf_load(s->ag + i), spec), vf_load(s->cg + i)));
-        vf_store(s->cb + i, vf_fma(vf_mul(lb, f), vf_add(vf_load(s->ab + i), spec), vf_load(s->cb + i)));
+        /* the pixel's material: glTF's BRDF as for the sun (ar.. already
+           c_diff / pi here) */
+        ndl = vf_max(ndl, zero);
+        vf ndh, f5 = half_terms(nx, ny, nz, vf_load(s->vx + i), vf_load(s->vy + i), vf_load(s->vz + i), lx, ly, lz, &ndh);
+        vf dv = ggx_dv(ndh, ndl, vf_load(s->a2 + i), vf_load(s->vv + i));
+        vf f = vf_mul(att, ndl);
+        const vf lc[3] = {lr, lg, lb};
+        float *const cd[3] = {s->ar, s->ag, s->ab}, *const f0[3] = {s->fr, s->fg, s->fb}, *const acc[3] = {s->cr, s->cg, s->cb};
+        for (int k = 0; k < 3; k++) {
+            vf F0 = vf_load(f0[k] + i), F = vf_fma(vf_sub(one, F0), f5, F0), d = vf_load(cd[k] + i);
+            vf b = vf_fma(F, vf_sub(dv, d), d);
+            vf_store(acc[k] + i, vf_add(vf_load(acc[k] + i), vf_select(lit, vf_mul(vf_mul(lc[k], f), b), zero)));
+        }
     }
 }
 
@@ -186,7 +310,8 @@ void VT_SHADE_NAME(const vt_span *sp)
             s.nx[i] = s.ny[i] = s.nz[i] = 0;
             s.ar[i] = s.ag[i] = s.ab[i] = 0;
             s.cr[i] = s.cg[i] = s.cb[i] = 0;
-            s.fr[i] = s.fg[i] = s.fb[i] = s.er[i] = s.eg[i] = s.eb[i] = s.se[i] = s.g2[i] = 0;
+            s.fr[i] = s.fg[i] = s.fb[i] = s.er[i] = s.eg[i] = s.eb[i] = 0;
+            s.a2[i] = s.ro[i] = 1; /* finite V, D in the unlit lanes */
             s.sv[i] = s.ao[i] = 0;
             cov[i] = 0;
             continue;
@@ -201,7 +326,7 @@ void VT_SHADE_NAME(const vt_span *sp)
             s.ar[i] = o.diffuse[0], s.ag[i] = o.diffuse[1], s.ab[i] = o.diffuse[2];
             s.fr[i] = o.f0[0], s.fg[i] = o.f0[1], s.fb[i] = o.f0[2];
             s.er[i] = o.em[0], s.eg[i] = o.em[1], s.eb[i] = o.em[2];
-            s.se[i] = o.s, s.g2[i] = o.g2;
+            s.a2[i] = o.a2, s.ro[i] = o.rough;
             s.sv[i] = sp->sh ? vt_shadow_sun(sp->sh, p, o.n) : 1.0f;
             s.ao[i] = sp->ao ? sp->ao[i] : 1.0f;
             /* without an environment: the constant ambient of before */
@@ -228,6 +353,10 @@ void VT_SHADE_NAME(const vt_span *sp)
         s.cr[i] = VT_AMBIENT * s.ar[i];
         s.cg[i] = VT_AMBIENT * s.ag[i];
         s.cb[i] = VT_AMBIENT * s.ab[i];
+        /* the default material's specular (vt_material_default) */
+        s.fr[i] = s.fg[i] = s.fb[i] = VT_F0_DIELECTRIC;
+        s.a2[i] = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS;
+        s.ro[i] = VT_DEFAULT_ROUGHNESS;
         cov[i] = 1;
     }
     const vf zero = vf_set(0), one = vf_set(1), inv_pi = vf_set(1.0f / 3.14159265f);
@@ -246,6 +375,12 @@ void VT_SHADE_NAME(const vt_span *sp)
         vf_store(s.vx + i, vf_mul(px, iv));
         vf_store(s.vy + i, vf_mul(py, iv));
         vf_store(s.vz + i, vf_mul(pz, iv));
+        /* V's view half, once a pixel for the sun and every light */
+        vf nv = vf_abs(dot3(vf_load(s.nx + i), vf_load(s.ny + i), vf_load(s.nz + i), vf_mul(px, iv), vf_mul(py, iv),
+                            vf_mul(pz, iv)));
+        vf a2 = vf_load(s.a2 + i);
+        vf gv = vf_add(nv, vf_sqrt(vf_fma(vf_sub(one, a2), vf_mul(nv, nv), a2)));
+        vf_store(s.vv + i, vf_div(one, vf_max(gv, vf_set(1e-6f))));
         if (env) env_light(&s, sp->pe, i);
         vf_store(s.ar + i, vf_mul(vf_load(s.ar + i), inv_pi));
         vf_store(s.ag + i, vf_mul(vf_load(s.ag + i), inv_pi));

@@ -20,7 +20,7 @@
 #define STR(x) STR_(x)
 
 /* vt_shadow_lookup, in GLSL */
-static const char *const shadow_fs =
+const char *const vt_shadow_gl_fs =
     "#version 330 core\n"
     "uniform int u_sh_on, u_sh_n, u_sh_size;\n"
     "uniform vec3 u_sh_s, u_sh_u, u_sh_v;\n"
@@ -83,20 +83,10 @@ struct vt_shadow_gl {
     bool on;                /* this frame has cascades */
 };
 
-int vt_shadow_gl_program(vt_gl *g, const char *vs, const char *fs, unsigned *out, char *err, size_t errlen)
+void vt_shadow_gl_program_init(unsigned prog)
 {
-    unsigned sh[3] = {0, 0, 0};
-    int rc = vt_gl_shader_compile(g, GL_VERTEX_SHADER, vs, &sh[0], err, errlen);
-    if (!rc) rc = vt_gl_shader_compile(g, GL_FRAGMENT_SHADER, fs, &sh[1], err, errlen);
-    if (!rc) rc = vt_gl_shader_compile(g, GL_FRAGMENT_SHADER, shadow_fs, &sh[2], err, errlen);
-    if (!rc) rc = vt_gl_program_link(g, sh, 3, out, err, errlen);
-    for (int k = 0; k < 3; k++)
-        if (sh[k]) glDeleteShader(sh[k]);
-    if (!rc) {
-        glUseProgram(*out);
-        glUniform1i(glGetUniformLocation(*out, "u_sh_map"), VT_SHADOW_GL_UNIT);
-    }
-    return rc;
+    glUseProgram(prog);
+    glUniform1i(glGetUniformLocation(prog, "u_sh_map"), VT_SHADOW_GL_UNIT);
 }
 
 int vt_shadow_gl_create(vt_shadow_gl **out)

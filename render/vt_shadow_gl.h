@@ -16,8 +16,11 @@
 
 typedef struct vt_shadow_gl vt_shadow_gl;
 
-/* A vertex and a fragment shader linked with the shadow lookup's object. */
-int vt_shadow_gl_program(vt_gl *g, const char *vs, const char *fs, unsigned *out, char *err, size_t errlen);
+/* The shadow lookup's fragment-shader object (sun_visibility), linked
+ * into each shading program; vt_shadow_gl_program_init binds a linked
+ * program's map sampler to VT_SHADOW_GL_UNIT (leaves it in use). */
+extern const char *const vt_shadow_gl_fs;
+void vt_shadow_gl_program_init(unsigned prog);
 int vt_shadow_gl_create(vt_shadow_gl **out);
 /* Deletes its texture (g's context current). NULL: nothing. */
 void vt_shadow_gl_destroy(vt_shadow_gl *s);

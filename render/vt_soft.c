@@ -18,12 +18,13 @@
  *   4. shading (threads over tile rows): per pixel, perspective-correct
  *      barycentrics from the homogeneous edge functions of the source
  *      triangle give the surface point and normal (and a masked one's
- *      rim char); Lambert + Blinn-Phong over the tile's lights, plus a
- *      small ambient term.
+ *      rim char); glTF's metallic-roughness BRDF (vt_brdf.h) over the
+ *      tile's lights and the sun, plus the ambient (image-based, vt_brdf.h).
  *
  * Shading once per pixel, whatever the overdraw, is the point of the
  * visibility buffer.
  */
+#include "vt_brdf.h"
 #include "vt_picture.h"
 #include "vt_post.h"
 #include "vt_shade.h"
@@ -108,6 +109,7 @@ struct vt_soft {
     vt_skytab sky;          /* the analytic sky's table */
     vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
+    vt_ibl ibl;             /* the image-based ambient, kept while the sky is the same */
 };
 
 static uint64_t now_ns(void)
@@ -706,6 +708,10 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     const vt_instance *inst = f->inst;
     const vt_light *lights = f->lights;
     vt_penv_make(f->env, v->origin, &r->sky, &fr.pe);
+    if (fr.pe.on && !(f->fx_off & VT_FX_IBL)) { /* remade only when the sky changed */
+        vt_ibl_update(&r->ibl, &fr.pe);
+        fr.pe.ibl = &r->ibl;
+    }
     vt_ground_make(&fr.pe, &fr.vr, (int)v->depth_mode, &fr.gr);
     size_t npx = (size_t)width * height;
     if (!vp_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||

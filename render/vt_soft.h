@@ -1,7 +1,7 @@
 /*
  * vt_soft.h — the software renderer: what the culling core says is visible,
  * rasterised with a top-left fill rule into an HDR colour buffer and a depth
- * buffer, and shaded (Lambert + Blinn-Phong, point and spot lights) with
+ * buffer, and shaded (glTF's metallic-roughness BRDF, point and spot lights) with
  * the Forward+ tile light lists of culling/ (cull_lights_bin).
  *
  * Meshes are per class: positions, optional normals, counter-clockwise

@@ -66,15 +66,15 @@ static bool ground_uv(const vt_span *sp, double X, double Y, float uv[2])
 static inline void default_params(const float n[3], const float albedo[3], vt_surfout *o)
 {
     float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), il = l > 0 ? 1 / l : 0;
-    const float a = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS, a2 = a * a;
+    const float a = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS;
     for (int c = 0; c < 3; c++) {
         o->n[c] = n[c] * il;
         o->diffuse[c] = albedo[c];
         o->f0[c] = 0.04f;
         o->em[c] = 0;
     }
-    o->s = 2 / a2 - 2;
-    o->g2 = (1 - VT_DEFAULT_ROUGHNESS) * (1 - VT_DEFAULT_ROUGHNESS);
+    o->a2 = a * a;
+    o->rough = VT_DEFAULT_ROUGHNESS;
     o->alpha = 1;
 }
 

@@ -54,6 +54,9 @@ typedef struct vt_penv {
     float ground_uv0[2];         /* the view origin's x, z, modulo 4096 m */
     float fog_density, fog_falloff, fog_y0; /* fog_y0: the fog's reference height, camera-relative */
     float fog[3];                /* fog radiance: fog_color x the sky's mean */
+    const struct vt_ibl *ibl;    /* image-based ambient (vt_brdf.h), or NULL: the two-colour
+                                    hemisphere of amb_up, amb_down (VT_FX_IBL off); the
+                                    renderer sets it after vt_penv_make */
 } vt_penv;
 
 /* Prepares env (NULL: off) for a view at origin; tab (the caller's, kept
@@ -109,8 +112,8 @@ typedef struct vt_surfout {
     float diffuse[3];            /* base x (1 - metallic) */
     float f0[3];                 /* specular colour at normal incidence: 0.04 .. base by metallic */
     float em[3];                 /* emitted radiance */
-    float s;                     /* the sun's Blinn-Phong exponent, 2 / roughness^4 - 2 */
-    float g2;                    /* (1 - roughness)^2: the ambient Fresnel's weight */
+    float a2;                    /* GGX alpha^2 = roughness^4 (vt_brdf.h) */
+    float rough;                 /* perceptual roughness, clamped to VT_MIN_ROUGHNESS..1 */
     float alpha;
 } vt_surfout;
 

@@ -277,3 +277,16 @@ void test_threads_in_tdir(const char *prefix, const char *ext, void *(*fn)(void 
     free(th);
     tdir_remove(&t);
 }
+
+vt_gldraw *test_gldraw_or_null(vt_gl **g)
+{
+    char err[512];
+    vt_gldraw *gr = NULL;
+    if (vt_gl_open(g, NULL, err, sizeof err) != 0) {
+        fprintf(stderr, "no GL here: %s\n", err);
+        *g = NULL;
+        return NULL;
+    }
+    assert_int_equal(vt_gldraw_create(*g, &gr, err, sizeof err), 0);
+    return gr;
+}

@@ -48,6 +48,11 @@ static inline uint64_t test_seed(void)
 }
 
 #include "culling.h"
+#include "vt_gldraw.h"
+
+/* A GL renderer on a new context, or NULL (and *g NULL) where this
+ * machine has no GL: the tests that compare with it skip that half. */
+vt_gldraw *test_gldraw_or_null(vt_gl **g);
 
 /* A view that sees everything within ±1e13 m. */
 void test_view_everything(cull_view *v);
@@ -176,6 +181,7 @@ TEST_GROUP(render_tests)
 TEST_GROUP(scene_render_tests)
 TEST_GROUP(post_tests)
 TEST_GROUP(shadow_tests)
+TEST_GROUP(brdf_tests)
 TEST_GROUP(image_tests)
 TEST_GROUP(exr_tests)
 TEST_GROUP(gl_tests)

@@ -102,7 +102,7 @@ FUZZ_replay_BUDGET    := 150 256
 FUZZ_OBJ_DIR          := $(FUZZ_OUT)/obj
 FUZZ_COMMA            := ,
 FUZZ_CULL_FOBJ        := $(CULL_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o)
-FUZZ_SOFT_SRC         := render/vt_soft.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_span.c render/vt_shadow.c render/vt_post.c render/vt_overlay.c render/vt_shade_base.c render/vt_shade_sse41.c \
+FUZZ_SOFT_SRC         := render/vt_soft.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_span.c render/vt_shadow.c render/vt_post.c render/vt_overlay.c render/vt_brdf.c render/vt_shade_base.c render/vt_shade_sse41.c \
                          render/vt_shade_avx2.c
 FUZZ_query_OBJ        := $(CULL_OBJ)
 FUZZ_query_SRC        := $(FUZZ_CULL_FOBJ)
@@ -116,7 +116,7 @@ FUZZ_render_SRC       := $(FUZZ_SOFT_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o) $(FUZZ_CULL_FO
 FUZZ_render_CFLAGS    := -Iculling -Irender
 FUZZ_render_MAX_LEN   := 1024
 FUZZ_render_BUDGET    := 150 256
-FUZZ_GL_SRC           := render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_gltex.c
+FUZZ_GL_SRC           := render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_brdf_glsl.c render/vt_gltex.c
 FUZZ_render_gl_OBJ    := $(FUZZ_GL_SRC:%.c=$(BUILD)/%.o) $(FUZZ_render_OBJ)
 FUZZ_render_gl_SRC    := $(FUZZ_GL_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o) $(FUZZ_render_SRC)
 FUZZ_render_gl_CFLAGS := -Iculling -Irender

@@ -1,0 +1,335 @@
+/*
+ * vt_brdf.c — glTF 2.0's metallic-roughness BRDF in scalar form, the
+ * split-sum DFG table and the image-based ambient (see vt_brdf.h).
+ * Costs: the DFG table 32 x 32 x 2 x 1024 samples once per process (a few
+ * ms); vt_ibl_update, per sky change, 64 x 32 x 16 + 4096 environment
+ * lookups and 1024 x 2048 + 3 x 1024 x 512 lobe weights (about 7 ms on
+ * this machine unloaded); per pixel the kernels then pay one SH polynomial, one
+ * DFG lookup and two bilinear octahedral lookups.
+ */
+#include "vt_brdf.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <string.h>
+
+#define PI_F 3.14159265358979f
+
+float vt_brdf_rough(float r)
+{
+    return r >= VT_MIN_ROUGHNESS ? (r <= 1 ? r : 1) : r < VT_MIN_ROUGHNESS ? VT_MIN_ROUGHNESS : 1;
+}
+
+float vt_brdf_d(float ndh, float a2)
+{
+    if (!(ndh > 0)) return 0;
+    /* 1 - n.h^2 (1 - a2) as (1 - n.h)(1 + n.h) + n.h^2 a2: no cancellation
+       near the peak, where t ~ a2 >= 4e-6 (1 - n.h is exact there) */
+    float t = (1 - ndh) * (1 + ndh) + ndh * ndh * a2;
+    return a2 / (PI_F * t * t);
+}
+
+float vt_brdf_v(float ndl, float ndv, float a2)
+{
+    ndl = fabsf(ndl), ndv = fabsf(ndv);
+    float gl = ndl + sqrtf(a2 + (1 - a2) * ndl * ndl), gv = ndv + sqrtf(a2 + (1 - a2) * ndv * ndv);
+    return 1 / (gl * gv);
+}
+
+float vt_brdf_f(float f0, float vdh)
+{
+    float k = 1 - fabsf(vdh), k2 = k * k;
+    return f0 + (1 - f0) * k2 * k2 * k;
+}
+
+static inline float dot3(const float a[3], const float b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+void vt_brdf_eval(const float n[3], const float v[3], const float l[3], const float base[3], float metallic,
+                  float roughness, float out[3])
+{
+    float r = vt_brdf_rough(roughness), a = r * r, a2 = a * a;
+    float ndl = dot3(n, l), ndv = dot3(n, v), h[3] = {l[0] + v[0], l[1] + v[1], l[2] + v[2]};
+    float hl = sqrtf(dot3(h, h));
+    if (!(ndl > 0) || !(hl > 0)) {
+        out[0] = out[1] = out[2] = 0;
+        return;
+    }
+    for (int k = 0; k < 3; k++) h[k] /= hl;
+    float dv = vt_brdf_d(dot3(n, h), a2) * vt_brdf_v(ndl, ndv, a2), vh = dot3(v, h);
+    for (int c = 0; c < 3; c++) {
+        /* lerp(0.04, base, metallic) as a sum of two positive terms: 0.04 +
+           (base - 0.04) m cancels for a metal of a small base */
+        float f0 = VT_F0_DIELECTRIC * (1 - metallic) + base[c] * metallic;
+        float F = vt_brdf_f(f0, vh), cd = base[c] * (1 - metallic);
+        out[c] = (1 - F) * cd / PI_F + F * dv;
+    }
+}
+
+/* ---- the DFG table ------------------------------------------------------------------ */
+
+static float dfg[VT_DFG_N * VT_DFG_N * 4];
+static pthread_once_t dfg_once = PTHREAD_ONCE_INIT;
+
+static float radical_inverse(uint32_t b)
+{
+    b = (b << 16) | (b >> 16);
+    b = ((b & 0x55555555u) << 1) | ((b & 0xAAAAAAAAu) >> 1);
+    b = ((b & 0x33333333u) << 2) | ((b & 0xCCCCCCCCu) >> 2);
+    b = ((b & 0x0F0F0F0Fu) << 4) | ((b & 0xF0F0F0F0u) >> 4);
+    b = ((b & 0x00FF00FFu) << 8) | ((b & 0xFF00FF00u) >> 8);
+    return (float)b * 2.3283064365386963e-10f;
+}
+
+/* The sample points, the same for every entry: Hammersley's (i + 0.5) / N
+   and the radical inverse of i as the azimuth. */
+enum { DFG_SAMPLES = 1024 };
+static double dfg_x1[DFG_SAMPLES], dfg_cos[DFG_SAMPLES], dfg_sin[DFG_SAMPLES];
+
+static inline double pow5(double x)
+{
+    double x2 = x * x;
+    return x2 * x2 * x;
+}
+
+/* One entry: n = z, v in the xz plane; the sums in double. */
+static void dfg_entry(float ndv, float rough, float out[4])
+{
+    double nv = ndv > 1e-4f ? ndv : 1e-4, v[3] = {sqrt(1 - nv * nv), 0, nv};
+    float r = vt_brdf_rough(rough), a = r * r, a2 = a * a;
+    double A = 0, B = 0, C = 0;
+    for (uint32_t i = 0; i < DFG_SAMPLES; i++) {
+        double x1 = dfg_x1[i], cp = dfg_cos[i], sp = dfg_sin[i];
+        /* the half vector, GGX-distributed: pdf(l) = D n.h / (4 v.h) */
+        double ct = sqrt((1 - x1) / (1 + (a2 - 1) * x1)), st = sqrt(1 - ct * ct);
+        double h[3] = {st * cp, st * sp, ct};
+        double vh = v[0] * h[0] + v[2] * h[2], lz = 2 * vh * h[2] - v[2];
+        if (lz > 0 && vh > 0) {
+            double g = vt_brdf_v((float)lz, (float)nv, a2) * lz * 4 * vh / ct, fc = pow5(1 - vh);
+            A += (1 - fc) * g;
+            B += fc * g;
+        }
+        /* l cosine-distributed: pdf(l) = n.l / pi */
+        double sr = sqrt(x1), l[3] = {sr * cp, sr * sp, sqrt(1 - x1)};
+        double hh[3] = {l[0] + v[0], l[1] + v[1], l[2] + v[2]};
+        double hn = sqrt(hh[0] * hh[0] + hh[1] * hh[1] + hh[2] * hh[2]);
+        double vh2 = hn > 0 ? (v[0] * hh[0] + v[2] * hh[2]) / hn : 1;
+        C += 1 - pow5(1 - vh2);
+    }
+    out[0] = (float)(A / DFG_SAMPLES);
+    out[1] = (float)(B / DFG_SAMPLES);
+    out[2] = (float)(C / DFG_SAMPLES);
+    out[3] = 0;
+}
+
+static void dfg_make(void)
+{
+    for (uint32_t i = 0; i < DFG_SAMPLES; i++) {
+        double ph = 2 * M_PI * radical_inverse(i);
+        dfg_x1[i] = (i + 0.5) / DFG_SAMPLES;
+        dfg_cos[i] = cos(ph);
+        dfg_sin[i] = sin(ph);
+    }
+    for (uint32_t j = 0; j < VT_DFG_N; j++)
+        for (uint32_t i = 0; i < VT_DFG_N; i++)
+            dfg_entry((float)i / (VT_DFG_N - 1), (float)j / (VT_DFG_N - 1), dfg + 4 * (j * VT_DFG_N + i));
+}
+
+const float *vt_dfg_table(void)
+{
+    pthread_once(&dfg_once, dfg_make);
+    return dfg;
+}
+
+void vt_dfg(float ndv, float roughness, float out[3])
+{
+    /* grid points at 0 .. N - 1: texel units are value x (N - 1) */
+    const float m = (float)(VT_DFG_N - 1);
+    out[0] = out[1] = out[2] = 0;
+    vt_bilerp_add(vt_dfg_table(), VT_DFG_N, (ndv > 0 ? (ndv < 1 ? ndv : 1) : 0) * m, vt_brdf_rough(roughness) * m, 1, out);
+}
+
+/* ---- the image-based ambient -------------------------------------------------------- */
+
+void vt_oct_uv(const float d[3], float uv[2])
+{
+    float s = fabsf(d[0]) + fabsf(d[1]) + fabsf(d[2]);
+    float px = s > 0 ? d[0] / s : 0, pz = s > 0 ? d[2] / s : 0;
+    if (d[1] < 0) {
+        float qx = (1 - fabsf(pz)) * (px < 0 ? -1 : 1), qz = (1 - fabsf(px)) * (pz < 0 ? -1 : 1);
+        px = qx, pz = qz;
+    }
+    uv[0] = 0.5f * px + 0.5f;
+    uv[1] = 0.5f * pz + 0.5f;
+}
+
+void vt_oct_dir(const float uv[2], float d[3])
+{
+    float px = 2 * uv[0] - 1, pz = 2 * uv[1] - 1, y = 1 - fabsf(px) - fabsf(pz);
+    if (y < 0) {
+        float qx = (1 - fabsf(pz)) * (px < 0 ? -1 : 1), qz = (1 - fabsf(px)) * (pz < 0 ? -1 : 1);
+        px = qx, pz = qz;
+    }
+    float l = sqrtf(px * px + y * y + pz * pz);
+    d[0] = px / l, d[1] = y / l, d[2] = pz / l;
+}
+
+void vt_ibl_env(const vt_penv *pe, const float d[3], float out[3])
+{
+    if (d[1] < 0 && pe->ground) {
+        memcpy(out, pe->amb_down, 3 * sizeof *out);
+        return;
+    }
+    vt_sky_radiance(pe, d, out);
+    for (int c = 0; c < 3; c++) out[c] = isfinite(out[c]) && out[c] > 0 ? out[c] : 0;
+}
+
+/* The environment on a w x h equirectangular grid, each cell the mean of
+   ss x ss directions: direction, radiance, exact solid angle. */
+static void grid_make(const vt_penv *pe, uint32_t w, uint32_t h, uint32_t ss, float (*g)[7])
+{
+    for (uint32_t j = 0; j < h; j++) {
+        double t0 = M_PI * j / h, t1 = M_PI * (j + 1) / h;
+        float dw = (float)(2 * M_PI / w * (cos(t0) - cos(t1)));
+        for (uint32_t i = 0; i < w; i++) {
+            float *o = g[j * w + i], L[3] = {0, 0, 0};
+            for (uint32_t b = 0; b < ss; b++)
+                for (uint32_t a = 0; a < ss; a++) {
+                    float th = (float)M_PI * (j + (b + 0.5f) / ss) / h, ph = 2 * (float)M_PI * (i + (a + 0.5f) / ss) / w;
+                    float d[3] = {sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph)}, e[3];
+                    vt_ibl_env(pe, d, e);
+                    for (int c = 0; c < 3; c++) L[c] += e[c] / (float)(ss * ss);
+                }
+            float th = (float)M_PI * (j + 0.5f) / h, ph = 2 * (float)M_PI * (i + 0.5f) / w;
+            o[0] = sinf(th) * cosf(ph), o[1] = cosf(th), o[2] = sinf(th) * sinf(ph);
+            o[3] = L[0], o[4] = L[1], o[5] = L[2], o[6] = dw;
+        }
+    }
+}
+
+/* The basis: {1, y, z, x, xy, yz, 3z^2 - 1, xz, x^2 - y^2} times these are
+   the real spherical harmonics of bands 0..2. */
+static const float sh_c[9] = {0.282095f, 0.488603f, 0.488603f, 0.488603f, 1.092548f,
+                              1.092548f, 0.315392f, 1.092548f, 0.546274f};
+
+static inline void sh_poly(const float n[3], float p[9])
+{
+    float x = n[0], y = n[1], z = n[2];
+    p[0] = 1, p[1] = y, p[2] = z, p[3] = x;
+    p[4] = x * y, p[5] = y * z, p[6] = 3 * z * z - 1, p[7] = x * z, p[8] = x * x - y * y;
+}
+
+bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
+{
+    float key[VT_IBL_KEY] = {pe->sky_mode, pe->sky[0], pe->sky[1], pe->sky[2], pe->sky_mul[0], pe->sky_mul[1],
+                             pe->sky_mul[2], pe->sky_rot, pe->sun_dir[0], pe->sun_dir[1], pe->sun_dir[2],
+                             pe->zenith[0], pe->zenith[1], pe->zenith[2], pe->perez[0][0], pe->perez[1][0],
+                             pe->ground, pe->amb_down[0], pe->amb_down[1], pe->amb_down[2]};
+    const void *img = pe->sky_img == &pe->sky_tab ? NULL : pe->sky_img; /* the table: its key is above */
+    if (img) {
+        memcpy(&key[20], &pe->sky_img->id, sizeof(float));
+        memcpy(&key[21], &pe->sky_img->gen, sizeof(float));
+    }
+    ibl->dfg = vt_dfg_table();
+    if (ibl->ok && ibl->key_img == img && !memcmp(key, ibl->key, sizeof key)) return false;
+    memcpy(ibl->key, key, sizeof key);
+    ibl->key_img = img;
+    ibl->ok = true;
+    ibl->gen++;
+    grid_make(pe, 64, 32, 4, ibl->src_hi);
+    /* the low grid: 2 x 2 cells of the high one */
+    for (uint32_t j = 0; j < 16; j++)
+        for (uint32_t i = 0; i < 32; i++) {
+            float *o = ibl->src_lo[j * 32 + i], L[3] = {0, 0, 0}, w = 0;
+            for (uint32_t b = 0; b < 2; b++)
+                for (uint32_t a = 0; a < 2; a++) {
+                    const float *s = ibl->src_hi[(2 * j + b) * 64 + 2 * i + a];
+                    for (int c = 0; c < 3; c++) L[c] += s[3 + c] * s[6];
+                    w += s[6];
+                }
+            float th = (float)M_PI * (j + 0.5f) / 16, ph = 2 * (float)M_PI * (i + 0.5f) / 32;
+            o[0] = sinf(th) * cosf(ph), o[1] = cosf(th), o[2] = sinf(th) * sinf(ph);
+            for (int c = 0; c < 3; c++) o[3 + c] = L[c] / w;
+            o[6] = w;
+        }
+    /* irradiance: the projection, times Ramamoorthi and Hanrahan's band
+       factors pi, 2 pi / 3, pi / 4, over pi */
+    static const float band[9] = {1, 2.0f / 3, 2.0f / 3, 2.0f / 3, 0.25f, 0.25f, 0.25f, 0.25f, 0.25f};
+    double acc[9][3] = {{0}};
+    for (uint32_t k = 0; k < 64 * 32; k++) {
+        const float *s = ibl->src_hi[k];
+        float p[9];
+        sh_poly(s, p);
+        for (int i = 0; i < 9; i++)
+            for (int c = 0; c < 3; c++) acc[i][c] += (double)s[3 + c] * s[6] * sh_c[i] * p[i];
+    }
+    for (int i = 0; i < 9; i++)
+        for (int c = 0; c < 3; c++) ibl->sh[i][c] = (float)acc[i][c] * sh_c[i] * band[i];
+    /* level 0: the environment itself, 2 x 2 directions a texel */
+    for (uint32_t j = 0; j < VT_IBL_RES; j++)
+        for (uint32_t i = 0; i < VT_IBL_RES; i++) {
+            float *o = ibl->spec[0] + 4 * (j * VT_IBL_RES + i);
+            o[0] = o[1] = o[2] = 0, o[3] = 1;
+            for (uint32_t b = 0; b < 2; b++)
+                for (uint32_t a = 0; a < 2; a++) {
+                    float uv[2] = {(i + 0.25f + 0.5f * a) / VT_IBL_RES, (j + 0.25f + 0.5f * b) / VT_IBL_RES}, d[3], e[3];
+                    vt_oct_dir(uv, d);
+                    vt_ibl_env(pe, d, e);
+                    for (int c = 0; c < 3; c++) o[c] += 0.25f * e[c];
+                }
+        }
+    /* the rougher levels: the GGX lobe about r (n = v = r, so n.h^2 =
+       (1 + r.l) / 2 and the l-space density is D / 4), weighted by r.l;
+       the narrowest (roughness 0.25: a lobe about 7 degrees wide) from the
+       fine grid (5.6 degree cells), the others from the coarse one (11
+       degrees; 0.5's lobe is 28) */
+    for (uint32_t lv = 1; lv < VT_IBL_LEVELS; lv++) {
+        float r = vt_brdf_rough((float)lv / (VT_IBL_LEVELS - 1)), a2 = r * r * r * r;
+        const float(*g)[7] = lv <= 1 ? ibl->src_hi : ibl->src_lo;
+        uint32_t ng = lv <= 1 ? 64 * 32 : 32 * 16;
+        for (uint32_t j = 0; j < VT_IBL_RES; j++)
+            for (uint32_t i = 0; i < VT_IBL_RES; i++) {
+                float uv[2] = {(i + 0.5f) / VT_IBL_RES, (j + 0.5f) / VT_IBL_RES}, R[3];
+                vt_oct_dir(uv, R);
+                float L[3] = {0, 0, 0}, W = 0;
+                for (uint32_t k = 0; k < ng; k++) {
+                    const float *s = g[k];
+                    float c = R[0] * s[0] + R[1] * s[1] + R[2] * s[2];
+                    if (!(c > 0)) continue;
+                    float nh2 = 0.5f * (1 + c), t = nh2 * (a2 - 1) + 1, w = c * s[6] / (t * t);
+                    L[0] += w * s[3], L[1] += w * s[4], L[2] += w * s[5];
+                    W += w;
+                }
+                float *o = ibl->spec[lv] + 4 * (j * VT_IBL_RES + i);
+                for (int c = 0; c < 3; c++) o[c] = W > 0 ? L[c] / W : 0;
+                o[3] = 1;
+            }
+    }
+    return true;
+}
+
+void vt_ibl_irradiance(const vt_ibl *ibl, const float n[3], float out[3])
+{
+    float p[9];
+    sh_poly(n, p);
+    for (int c = 0; c < 3; c++) {
+        float e = 0;
+        for (int i = 0; i < 9; i++) e += ibl->sh[i][c] * p[i];
+        out[c] = e > 0 ? e : 0;
+    }
+}
+
+void vt_ibl_specular(const vt_ibl *ibl, const float r[3], float roughness, float out[3])
+{
+    float uv[2], f = vt_brdf_rough(roughness) * (VT_IBL_LEVELS - 1);
+    uint32_t k = (uint32_t)f < VT_IBL_LEVELS - 2 ? (uint32_t)f : VT_IBL_LEVELS - 2;
+    float t = f - (float)k;
+    vt_oct_uv(r, uv);
+    if (!(uv[0] >= 0 && uv[0] <= 1 && uv[1] >= 0 && uv[1] <= 1)) uv[0] = uv[1] = 0.5f; /* NaN: straight up */
+    out[0] = out[1] = out[2] = 0;
+    float x = uv[0] * VT_IBL_RES - 0.5f, y = uv[1] * VT_IBL_RES - 0.5f;
+    vt_bilerp_add(ibl->spec[k], VT_IBL_RES, x, y, 1 - t, out);
+    vt_bilerp_add(ibl->spec[k + 1], VT_IBL_RES, x, y, t, out);
+}
