@@ -31,6 +31,7 @@
  */
 #include "vt_gldraw.h"
 #include "vt_gldraw_internal.h"
+#include "vt_glssao.h"
 #include "vt_picture.h"
 
 #include <epoxy/gl.h>
@@ -110,6 +111,7 @@ struct vt_gldraw {
     cull_light *cl;
     size_t cl_cap;
     vt_skytab sky;          /* the analytic sky's table */
+    vt_glssao *ao;          /* the ambient occlusion pass (vt_ssao_gl.c) */
 };
 
 int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
@@ -118,9 +120,13 @@ int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
     vt_gldraw *r = calloc(1, sizeof *r);
     if (!r) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     r->g = g;
-    int rc = vt_gl_program_build(g, vt_gldraw_vs, vt_gldraw_fs, &r->prog, err, errlen);
-    if (!rc && (rc = vt_gl_program_build(g, vt_gldraw_bg_vs, vt_gldraw_bg_fs, &r->bg, err, errlen)))
+    int rc = vt_glssao_program(g, vt_gldraw_vs, vt_gldraw_fs, &r->prog, err, errlen);
+    if (!rc && (rc = vt_glssao_program(g, vt_gldraw_bg_vs, vt_gldraw_bg_fs, &r->bg, err, errlen)))
         glDeleteProgram(r->prog);
+    if (!rc && (rc = vt_glssao_create(g, &r->ao, err, errlen))) {
+        glDeleteProgram(r->prog);
+        glDeleteProgram(r->bg);
+    }
     if (rc) {
         free(r);
         return rc;
@@ -155,6 +161,7 @@ void vt_gldraw_destroy(vt_gldraw *r)
 {
     if (!r) return;
     vt_gl_target_destroy(r->target);
+    vt_glssao_destroy(r->ao);
     vt_gltex_free(&r->tc);
     glDeleteSamplers(4, r->samp);
     glDeleteTextures(5, r->tex);
@@ -553,6 +560,9 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     vt_penv pe;
     vt_penv_make(f->env, v->origin, &r->sky, &pe);
     const bool bg = pe.on; /* a background pass: the ground, the sky */
+    vt_ssao_view sv = {.ok = false};
+    if (bg && !(f->fx_off & VT_FX_SSAO)) vt_ssao_view_make(&vr, width, height, &sv);
+    const bool pre = nl || sv.ok; /* pass 1: nearness for the light tiles and the ambient occlusion */
     float vp[16], d4[4];
     for (int i = 0; i < 16; i++) vp[i] = (float)v->clip[i];
     for (int i = 0; i < 4; i++) d4[i] = (float)vr.d[i];
@@ -579,15 +589,19 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     glDisable(GL_BLEND);
     const float clear[4] = {0, 0, 0, EMPTY};
 
-    /* pass 1, only where there are lights to bin: nearness (and depth) */
+    /* pass 1, only where there are lights to bin or ambient occlusion:
+       nearness (and depth) */
     vt_gl_target_clear(r->target, clear, reversed ? 0.0f : 1.0f);
-    if (nl) {
+    if (pre) {
         glUniform1i(r->loc[0][u_pass], 0);
         if ((rc = draw(r, f, err, errlen))) return rc;
         if (bg && (rc = draw_bg(r, 0, reversed, &pe, err, errlen))) return rc;
-        if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
-        vt_tile_ranges(r->pix + 3, 4, 4 * (size_t)width, width, height, r->range);
+        if (nl && (rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
+        if (nl) vt_tile_ranges(r->pix + 3, 4, 4 * (size_t)width, width, height, r->range);
     }
+    if (sv.ok && (rc = vt_glssao_run(r->ao, vt_gl_target_color_texture(r->target), &sv, err, errlen))) return rc;
+    vt_glssao_use(r->bg, sv.ok);
+    vt_glssao_use(r->prog, sv.ok);
     float *ld = r->ld;
     for (uint32_t i = 0; i < nl; i++) {
         vt_slight sl;
@@ -617,7 +631,7 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     tbo(r->tex[2], r->buf[2], GL_R32UI, r->tiles.index, (size_t)r->tiles.offset[tx * ty] * sizeof(uint32_t));
     glUniform1i(r->loc[0][u_tiles_x], (int)tx);
     glUniform1i(r->loc[0][u_pass], 1);
-    if (nl) {
+    if (pre) {
         /* the depth of pass 1 stays: each pixel is shaded once, by the
            surface pass 1 found there (the same positions: invariant) */
         vt_gl_target_clear(r->target, clear, NAN); /* colour only */

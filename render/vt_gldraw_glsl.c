@@ -19,6 +19,7 @@
     "uniform vec3 u_sun_dir, u_sun, u_amb_up, u_amb_down, u_fog, u_sky;\n"                                     \
     "uniform float u_fog_density, u_fog_falloff, u_fog_y0, u_sky_rot;\n"                                       \
     "uniform sampler2D u_sky_tex;\n"                                                                           \
+    "float ambient_occlusion();\n"                                                                             \
     "uniform int u_mat_on, u_alpha_mask, u_tex_on, u_has_uv, u_has_t;\n"                                       \
     "uniform vec4 u_base;\n"                                                                                   \
     "uniform vec2 u_mr;\n"                                                                                     \
@@ -104,7 +105,8 @@
     "  float fv = 1.0 - max(nv, 0.0), fv2 = fv * fv, wf = fv2 * fv2 * fv * g2;\n"                              \
     "  vec3 d = u_amb_up - u_amb_down, la = ka * d + u_amb_down, lr = kr * d + u_amb_down;\n"                   \
     "  vec3 fr = (1.0 - f0) * wf + f0;\n"                                                                      \
-    "  vec3 c = diffuse * la + (fr * lr + em);\n"                                                              \
+    "  float ao = ambient_occlusion();\n" /* vt_ssao_gl.c: 1 without the pass */                                \
+    "  vec3 c = diffuse * la * ao + (fr * lr * ao + em);\n"                                                    \
     "  if (u_sun_on == 0) return c;\n"                                                                         \
     "  float ndl = dot(n, u_sun_dir);\n"                                                                       \
     "  vec3 h = u_sun_dir + v;\n"                                                                              \
