@@ -756,7 +756,8 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     else job_raster(&jb, 0);
     uint64_t t2 = now_ns();
     /* ambient occlusion from the nearness the raster left (the z-prepass) */
-    if (f->env && !(f->fx_off & VT_FX_SSAO)) {
+    const bool ssao = f->env && !(f->fx_off & VT_FX_SSAO);
+    if (ssao) {
         vt_ssao_view sv;
         vt_ssao_view_make(&fr.vr, width, height, &sv);
         if (vt_ssao_run(&r->ssao, r->pool, nt, &sv, r->near, &jb.ao))
@@ -785,7 +786,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         st->setup_ns = t1 - t0;
         st->raster_ns = t2 - t1;
         st->bin_ns = t3 - t2a;
-        st->ssao_ns = t2a - t2;
+        st->ssao_ns = ssao ? t2a - t2 : 0;
         st->shade_ns = t4 - t3;
         st->exposure_ev = ev;
     }

@@ -122,16 +122,18 @@ static inline float dot3(const float a[3], const float b[3])
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
-/* The step along one screen axis with the smaller length (the other
- * side's neighbour may be across an edge): false if neither exists. */
-static bool side_step(const float *p, const float *lo, const float *hi, float d[3])
+/* The step along one screen axis, to the neighbour on the side where
+ * the surface continues P's plane: nearness is affine in screen space on
+ * a plane, so the side whose two texels extrapolate to P's nearness best
+ * (a crease's other face, or a silhouette's background, does not); a
+ * side with only one texel counts as a perfect fit only when the other
+ * side has none. false if neither neighbour exists. */
+static bool side_step(const float *p, const float *lo, const float *lo2, const float *hi, const float *hi2, float d[3])
 {
-    float a[3], b[3];
-    for (int k = 0; k < 3 && lo; k++) a[k] = p[k] - lo[k];
-    for (int k = 0; k < 3 && hi; k++) b[k] = hi[k] - p[k];
     if (!lo && !hi) return false;
-    const float *s = !lo ? b : !hi ? a : dot3(b, b) < dot3(a, a) ? b : a;
-    memcpy(d, s, 3 * sizeof *d);
+    float el = !lo ? INFINITY : lo2 ? fabsf(2 * lo[3] - lo2[3] - p[3]) : FLT_MAX;
+    float eh = !hi ? INFINITY : hi2 ? fabsf(2 * hi[3] - hi2[3] - p[3]) : FLT_MAX;
+    for (int k = 0; k < 3; k++) d[k] = eh < el || (eh == el && hi) ? hi[k] - p[k] : p[k] - lo[k];
     return true;
 }
 
@@ -146,8 +148,9 @@ static float gtao(const job *jb, uint32_t i, uint32_t j)
     if (!(rpx >= 1)) return 1; /* the radius is below a texel here: nothing to resolve */
     rpx = rpx < VT_SSAO_MAX_PX ? rpx : VT_SSAO_MAX_PX;
     float dx[3], dy[3], n[3], V[3];
-    if (!side_step(P, texel(jb, (int64_t)i - 1, j), texel(jb, (int64_t)i + 1, j), dx) ||
-        !side_step(P, texel(jb, i, (int64_t)j - 1), texel(jb, i, (int64_t)j + 1), dy))
+    const int64_t I = i, J = j;
+    if (!side_step(P, texel(jb, I - 1, J), texel(jb, I - 2, J), texel(jb, I + 1, J), texel(jb, I + 2, J), dx) ||
+        !side_step(P, texel(jb, I, J - 1), texel(jb, I, J - 2), texel(jb, I, J + 1), texel(jb, I, J + 2), dy))
         return 1;
     n[0] = dx[1] * dy[2] - dx[2] * dy[1];
     n[1] = dx[2] * dy[0] - dx[0] * dy[2];

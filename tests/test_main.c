@@ -18,6 +18,7 @@ int main(void)
         {light_tests, light_tests_count},
         {render_tests, render_tests_count},
         {scene_render_tests, scene_render_tests_count},
+        {ssao_tests, ssao_tests_count},
         {alloc_tests, alloc_tests_count},
         {protocol_tests, protocol_tests_count},
         {bytes_tests, bytes_tests_count},
