@@ -26,6 +26,11 @@ struct vt_ssao {
     size_t pos_cap;
     float *hao;             /* half texels' AO */
     size_t hao_cap;
+    float *hnear;           /* half texels' nearness (a copy, packed for the upsample) */
+    size_t hnear_cap;
+    uint32_t *cx;           /* per full column: its 3 taps' half columns, weights */
+    float *cw;
+    size_t cx_cap, cw_cap;
     float *ao;              /* full pixels' AO */
     size_t ao_cap;
 };
@@ -147,6 +152,10 @@ static float gtao(const job *jb, uint32_t i, uint32_t j)
     float rpx = R * (sv->ortho ? 1 : P[3]) / sv->texel1;
     if (!(rpx >= 1)) return 1; /* the radius is below a texel here: nothing to resolve */
     rpx = rpx < VT_SSAO_MAX_PX ? rpx : VT_SSAO_MAX_PX;
+    /* no more steps than texels in the radius (a far surface's steps
+       would fetch the same texels again) */
+    const int nst = rpx < VT_SSAO_STEPS ? (int)rpx : VT_SSAO_STEPS;
+    const float inv_nst = 1.0f / (float)nst;
     float dx[3], dy[3], n[3], V[3];
     const int64_t I = i, J = j;
     if (!side_step(P, texel(jb, I - 1, J), texel(jb, I - 2, J), texel(jb, I + 1, J), texel(jb, I + 2, J), dx) ||
@@ -188,10 +197,12 @@ static float gtao(const job *jb, uint32_t i, uint32_t j)
         bool up[2] = {false, false};
         for (int side = 0; side < 2; side++) {
             const float sg = side ? 1.0f : -1.0f, lo = hc[side];
-            for (int st = 0; st < VT_SSAO_STEPS; st++) {
-                float tt = rpx * ((float)st + 0.5f) * (1.0f / VT_SSAO_STEPS);
-                const float *S = texel(jb, (int64_t)i + (int64_t)floorf(sg * c * tt + 0.5f),
-                                       (int64_t)j + (int64_t)floorf(sg * s * tt + 0.5f));
+            for (int st = 0; st < nst; st++) {
+                /* floor(x + 0.5) as the GLSL has it, without a libm
+                   call: |x| <= MAX_PX */
+                float tt = rpx * ((float)st + 0.5f) * inv_nst;
+                const float *S = texel(jb, (int64_t)i + (int32_t)(sg * c * tt + 1024.5f) - 1024,
+                                       (int64_t)j + (int32_t)(sg * s * tt + 1024.5f) - 1024);
                 if (!S) continue;
                 float d[3] = {S[0] - P[0], S[1] - P[1], S[2] - P[2]};
                 float l2 = dot3(d, d);
@@ -225,27 +236,32 @@ static void job_gtao(void *arg, uint32_t t)
     const uint32_t bands = (sv->hh + BAND - 1) / BAND;
     for (uint32_t b = t; b < bands; b += jb->nt)
         for (uint32_t j = b * BAND; j < sv->hh && j < (b + 1) * BAND; j++)
-            for (uint32_t i = 0; i < sv->hw; i++) jb->s->hao[(size_t)j * sv->hw + i] = gtao(jb, i, j);
+            for (uint32_t i = 0; i < sv->hw; i++) {
+                size_t q = (size_t)j * sv->hw + i;
+                jb->s->hao[q] = gtao(jb, i, j);
+                jb->s->hnear[q] = jb->s->pos[4 * q + 3];
+            }
 }
 
 /* The tent taps along one axis for full coordinate x: the half texels
- * (sample points 2i) within one full pixel's... two pixels' reach, so
- * each of the 2x2 pattern's turns weighs the same. Returns the count. */
-static int taps(uint32_t x, uint32_t hn, uint32_t idx[3], float wt[3])
+ * (sample points 2i) within two pixels, weighted so each of the 2x2
+ * pattern's turns weighs the same; a tap off the image has weight 0
+ * (index clamped). */
+static void taps(uint32_t x, uint32_t hn, uint32_t idx[3], float wt[3])
 {
-    int k = 0;
     if (x & 1) {
-        idx[k] = (x - 1) / 2, wt[k++] = 0.5f;
-        if ((x + 1) / 2 < hn) idx[k] = (x + 1) / 2, wt[k++] = 0.5f;
-        return k;
+        idx[0] = (x - 1) / 2, wt[0] = 0.5f;
+        idx[1] = (x + 1) / 2 < hn ? (x + 1) / 2 : idx[0], wt[1] = (x + 1) / 2 < hn ? 0.5f : 0;
+        idx[2] = idx[0], wt[2] = 0;
+        return;
     }
-    if (x >= 2) idx[k] = x / 2 - 1, wt[k++] = 0.25f;
-    idx[k] = x / 2, wt[k++] = 0.5f;
-    if (x / 2 + 1 < hn) idx[k] = x / 2 + 1, wt[k++] = 0.25f;
-    return k;
+    idx[0] = x >= 2 ? x / 2 - 1 : x / 2, wt[0] = x >= 2 ? 0.25f : 0;
+    idx[1] = x / 2, wt[1] = 0.5f;
+    idx[2] = x / 2 + 1 < hn ? x / 2 + 1 : x / 2, wt[2] = x / 2 + 1 < hn ? 0.25f : 0;
 }
 
-/* Pass 3: the upsample of band rows (16 full rows a band). */
+/* Pass 3: the upsample of band rows (16 full rows a band); the columns'
+ * taps were made once (vt_ssao_run). */
 static void job_up(void *arg, uint32_t t)
 {
     job *jb = arg;
@@ -256,28 +272,29 @@ static void job_up(void *arg, uint32_t t)
         for (uint32_t y = 2 * BAND * b; y < sv->h && y < 2 * BAND * (b + 1); y++) {
             uint32_t jy[3];
             float wy[3];
-            int ny = taps(y, sv->hh, jy, wy);
+            taps(y, sv->hh, jy, wy);
             const float *nrow = jb->near + (size_t)y * sv->w;
             float *o = s->ao + (size_t)y * sv->w;
+            const float *hn[3], *ha[3];
+            for (int a = 0; a < 3; a++) {
+                hn[a] = s->hnear + (size_t)jy[a] * sv->hw;
+                ha[a] = s->hao + (size_t)jy[a] * sv->hw;
+            }
             for (uint32_t x = 0; x < sv->w; x++) {
                 float N = nrow[x];
                 o[x] = 1;
                 float tol = sv->ortho ? sv->ntol : VT_SSAO_DEPTH_TOL * N;
-                if (!(N > VT_EMPTY) || !(tol > 0) || !isfinite(tol)) continue;
+                if (!(N > VT_EMPTY) || !(tol > 0) || !(tol < FLT_MAX)) continue;
                 float k = 1 / tol, sum = 0, acc = 0;
-                uint32_t ix[3];
-                float wx[3];
-                int nx = taps(x, sv->hw, ix, wx);
-                for (int a = 0; a < ny; a++)
-                    for (int c = 0; c < nx; c++) {
-                        size_t q = (size_t)jy[a] * sv->hw + ix[c];
-                        float Nh = s->pos[4 * q + 3];
-                        if (Nh == VT_EMPTY) continue;
-                        float wd = 1 - fabsf(Nh - N) * k;
-                        if (!(wd > 0)) continue;
-                        float wt = wy[a] * wx[c] * wd;
+                const uint32_t *ix = s->cx + 3 * (size_t)x;
+                const float *wx = s->cw + 3 * (size_t)x;
+                for (int a = 0; a < 3; a++)
+                    for (int c = 0; c < 3; c++) {
+                        /* a sky texel's nearness is VT_EMPTY: weight 0 */
+                        float wd = 1 - fabsf(hn[a][ix[c]] - N) * k;
+                        float wt = wd > 0 ? wy[a] * wx[c] * wd : 0;
                         sum += wt;
-                        acc += wt * s->hao[q];
+                        acc += wt * ha[a][ix[c]];
                     }
                 if (sum > 0) {
                     float ao = acc / sum;
@@ -305,7 +322,10 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     size_t npx = (size_t)sv->w * sv->h, nh = (size_t)sv->hw * sv->hh;
     if (!vp_grow((void **)&s->ao, &s->ao_cap, npx ? npx : 1, sizeof *s->ao) ||
         !vp_grow((void **)&s->pos, &s->pos_cap, 4 * (nh ? nh : 1), sizeof *s->pos) ||
-        !vp_grow((void **)&s->hao, &s->hao_cap, nh ? nh : 1, sizeof *s->hao))
+        !vp_grow((void **)&s->hao, &s->hao_cap, nh ? nh : 1, sizeof *s->hao) ||
+        !vp_grow((void **)&s->hnear, &s->hnear_cap, nh ? nh : 1, sizeof *s->hnear) ||
+        !vp_grow((void **)&s->cx, &s->cx_cap, 3 * (size_t)sv->w + 3, sizeof *s->cx) ||
+        !vp_grow((void **)&s->cw, &s->cw_cap, 3 * (size_t)sv->w + 3, sizeof *s->cw))
         return VT_ERR_NOMEM;
     *ao = s->ao;
     if (!sv->ok) {
@@ -314,6 +334,7 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     }
     job jb = {.sv = sv, .near = near, .s = s, .nt = nt && pool ? nt : 1};
     vt_ssao_dirs(jb.dir);
+    for (uint32_t x = 0; x < sv->w; x++) taps(x, sv->hw, s->cx + 3 * (size_t)x, s->cw + 3 * (size_t)x);
     void (*const pass[3])(void *, uint32_t) = {job_pos, job_gtao, job_up};
     for (int p = 0; p < 3; p++) {
         if (jb.nt > 1) cull_pool_run(pool, pass[p], &jb, jb.nt);
@@ -327,6 +348,9 @@ void vt_ssao_destroy(vt_ssao *s)
     if (!s) return;
     free(s->pos);
     free(s->hao);
+    free(s->hnear);
+    free(s->cx);
+    free(s->cw);
     free(s->ao);
     free(s);
 }
