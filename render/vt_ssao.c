@@ -285,9 +285,15 @@ static void job_up(void *arg, uint32_t t)
                 o[x] = 1;
                 float tol = sv->ortho ? sv->ntol : VT_SSAO_DEPTH_TOL * N;
                 if (!(N > VT_EMPTY) || !(tol > 0) || !(tol < FLT_MAX)) continue;
-                float k = 1 / tol, sum = 0, acc = 0;
                 const uint32_t *ix = s->cx + 3 * (size_t)x;
                 const float *wx = s->cw + 3 * (size_t)x;
+                /* most of a frame is unoccluded: the mean of ones is 1
+                   (exactly: acc and sum add the same terms) */
+                float lo = 1;
+                for (int a = 0; a < 3; a++)
+                    for (int c = 0; c < 3; c++) lo = fminf(lo, ha[a][ix[c]]);
+                if (lo == 1) continue;
+                float k = 1 / tol, sum = 0, acc = 0;
                 for (int a = 0; a < 3; a++)
                     for (int c = 0; c < 3; c++) {
                         /* a sky texel's nearness is VT_EMPTY: weight 0 */
