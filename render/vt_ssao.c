@@ -204,11 +204,14 @@ static float gtao(const job *jb, uint32_t i, uint32_t j)
                 const float *S = texel(jb, (int64_t)i + (int32_t)(sg * c * tt + 1024.5f) - 1024,
                                        (int64_t)j + (int32_t)(sg * s * tt + 1024.5f) - 1024);
                 if (!S) continue;
+                /* out of the radius or not above the tangent plane by
+                   the bias: decided on squares (most samples of a city
+                   are on their texel's own plane), the root only for
+                   occluders */
                 float d[3] = {S[0] - P[0], S[1] - P[1], S[2] - P[2]};
-                float l2 = dot3(d, d);
-                if (!(l2 > 0)) continue;
+                float l2 = dot3(d, d), hn = dot3(d, n);
+                if (!(l2 > 0) || !(l2 < R * R) || !(hn > 0) || hn * hn < VT_SSAO_BIAS * VT_SSAO_BIAS * l2) continue;
                 float il = 1 / sqrtf(l2), dist = l2 * il;
-                if (!(dist < R) || dot3(d, n) * il < VT_SSAO_BIAS) continue;
                 float wf = (R - dist) * inv_fade, cv = dot3(d, V) * il;
                 cv = lo + (cv - lo) * (wf < 1 ? wf : 1);
                 if (cv > hc[side]) {
@@ -291,7 +294,7 @@ static void job_up(void *arg, uint32_t t)
                    (exactly: acc and sum add the same terms) */
                 float lo = 1;
                 for (int a = 0; a < 3; a++)
-                    for (int c = 0; c < 3; c++) lo = fminf(lo, ha[a][ix[c]]);
+                    for (int c = 0; c < 3; c++) lo = ha[a][ix[c]] < lo ? ha[a][ix[c]] : lo; /* no libm call */
                 if (lo == 1) continue;
                 float k = 1 / tol, sum = 0, acc = 0;
                 for (int a = 0; a < 3; a++)
