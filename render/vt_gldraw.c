@@ -32,6 +32,7 @@
 #include "vt_brdf.h"
 #include "vt_gldraw.h"
 #include "vt_gldraw_internal.h"
+#include "vt_glssao.h"
 #include "vt_picture.h"
 #include "vt_post.h"
 #include "vt_shadow_gl.h"
@@ -118,24 +119,29 @@ struct vt_gldraw {
     vt_shadow_gl *shadow;   /* the sun's cascades */
     vt_ibl ibl;             /* the image-based ambient (vt_brdf.h) */
     vt_brdf_gl brdf;        /* its textures */
+    vt_glssao *ao;          /* the ambient occlusion pass (vt_ssao_gl.c) */
 };
 
 /* vs + fs + vt_brdf_fs (the shading model's functions) as one program. */
 /* A shading program: vs and fs linked with the fragment-shader objects
  * that define what fs declares (the BRDF and image-based ambient, the
- * shadow cascades' lookup). */
-enum { NSRC = 4 };
+ * shadow cascades' lookup, the ambient occlusion's). */
+enum { NSRC = 5 };
 static int build(vt_gl *g, const char *vs, const char *fs, unsigned *out, char *err, size_t errlen)
 {
-    static const unsigned stage[NSRC] = {GL_VERTEX_SHADER, GL_FRAGMENT_SHADER, GL_FRAGMENT_SHADER, GL_FRAGMENT_SHADER};
-    const char *src[NSRC] = {vs, fs, vt_brdf_fs, vt_shadow_gl_fs};
+    static const unsigned stage[NSRC] = {GL_VERTEX_SHADER, GL_FRAGMENT_SHADER, GL_FRAGMENT_SHADER, GL_FRAGMENT_SHADER,
+                                           GL_FRAGMENT_SHADER};
+    const char *src[NSRC] = {vs, fs, vt_brdf_fs, vt_shadow_gl_fs, vt_glssao_fs};
     unsigned sh[NSRC] = {0};
     int rc = 0;
     for (int k = 0; k < NSRC && !rc; k++) rc = vt_gl_shader_compile(g, stage[k], src[k], &sh[k], err, errlen);
     if (!rc) rc = vt_gl_program_link(g, sh, NSRC, out, err, errlen);
     for (int k = 0; k < NSRC; k++)
         if (sh[k]) glDeleteShader(sh[k]);
-    if (!rc) vt_shadow_gl_program_init(*out);
+    if (!rc) {
+        vt_shadow_gl_program_init(*out);
+        vt_glssao_program_init(*out);
+    }
     return rc;
 }
 
@@ -148,7 +154,12 @@ int vt_gldraw_create(vt_gl *g, vt_gldraw **out, char *err, size_t errlen)
     int rc = build(g, vt_gldraw_vs, vt_gldraw_fs, &r->prog, err, errlen);
     if (!rc && (rc = build(g, vt_gldraw_bg_vs, vt_gldraw_bg_fs, &r->bg, err, errlen)))
         glDeleteProgram(r->prog);
+    if (!rc && (rc = vt_glssao_create(g, &r->ao, err, errlen))) {
+        glDeleteProgram(r->prog);
+        glDeleteProgram(r->bg);
+    }
     if (!rc && (rc = vt_shadow_gl_create(&r->shadow))) {
+        vt_glssao_destroy(r->ao);
         glDeleteProgram(r->prog);
         glDeleteProgram(r->bg);
     }
@@ -187,6 +198,7 @@ void vt_gldraw_destroy(vt_gldraw *r)
 {
     if (!r) return;
     vt_gl_target_destroy(r->target);
+    vt_glssao_destroy(r->ao);
     vt_gltex_free(&r->tc);
     vt_shadow_gl_destroy(r->shadow);
     glDeleteSamplers(4, r->samp);
@@ -599,6 +611,9 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     }
     vt_brdf_gl_frame(&r->brdf, pe.ibl);
     const bool bg = pe.on; /* a background pass: the ground, the sky */
+    vt_ssao_view sv = {.ok = false};
+    if (bg && !(f->fx_off & VT_FX_SSAO)) vt_ssao_view_make(&vr, width, height, &sv);
+    const bool pre = nl || sv.ok; /* pass 1: nearness for the light tiles and the ambient occlusion */
     float vp[16], d4[4];
     for (int i = 0; i < 16; i++) vp[i] = (float)v->clip[i];
     for (int i = 0; i < 4; i++) d4[i] = (float)vr.d[i];
@@ -625,15 +640,19 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     glDisable(GL_BLEND);
     const float clear[4] = {0, 0, 0, EMPTY};
 
-    /* pass 1, only where there are lights to bin: nearness (and depth) */
+    /* pass 1, only where there are lights to bin or ambient occlusion:
+       nearness (and depth) */
     vt_gl_target_clear(r->target, clear, reversed ? 0.0f : 1.0f);
-    if (nl) {
+    if (pre) {
         glUniform1i(r->loc[0][u_pass], 0);
         if ((rc = draw(r, f, err, errlen))) return rc;
         if (bg && (rc = draw_bg(r, 0, reversed, &pe, err, errlen))) return rc;
-        if ((rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
-        vt_tile_ranges(r->pix + 3, 4, 4 * (size_t)width, width, height, r->range);
+        if (nl && (rc = vt_gl_readback(r->target, r->pix, NULL, NULL, err, errlen))) return rc;
+        if (nl) vt_tile_ranges(r->pix + 3, 4, 4 * (size_t)width, width, height, r->range);
     }
+    if (sv.ok && (rc = vt_glssao_run(r->ao, vt_gl_target_color_texture(r->target), &sv, err, errlen))) return rc;
+    vt_glssao_use(r->bg, sv.ok);
+    vt_glssao_use(r->prog, sv.ok);
     float *ld = r->ld;
     for (uint32_t i = 0; i < nl; i++) {
         vt_slight sl;
@@ -663,7 +682,7 @@ int vt_gldraw_draw(vt_gldraw *r, const vt_frame *f, vt_soft_stats *st, char *err
     tbo(r->tex[2], r->buf[2], GL_R32UI, r->tiles.index, (size_t)r->tiles.offset[tx * ty] * sizeof(uint32_t));
     glUniform1i(r->loc[0][u_tiles_x], (int)tx);
     glUniform1i(r->loc[0][u_pass], 1);
-    if (nl) {
+    if (pre) {
         /* the depth of pass 1 stays: each pixel is shaded once, by the
            surface pass 1 found there (the same positions: invariant) */
         vt_gl_target_clear(r->target, clear, NAN); /* colour only */

@@ -19,6 +19,7 @@
     "uniform vec3 u_sun_dir, u_sun, u_amb_up, u_amb_down, u_fog, u_sky;\n"                                     \
     "uniform float u_fog_density, u_fog_falloff, u_fog_y0, u_sky_rot;\n"                                       \
     "uniform sampler2D u_sky_tex;\n"                                                                           \
+    "float ambient_occlusion();\n"                                                                             \
     "uniform int u_mat_on, u_alpha_mask, u_tex_on, u_has_uv, u_has_t;\n"                                       \
     "uniform vec4 u_base;\n"                                                                                   \
     "uniform vec2 u_mr;\n"                                                                                     \
@@ -105,15 +106,16 @@
     "  if (u_env_on == 0) return " STR(VT_AMBIENT) " * diffuse + em;\n"                                        \
     "  float pl = length(p);\n"                                                                                \
     "  vec3 v = pl > 0.0 ? -p / pl : vec3(0.0);\n"                                                             \
+    "  float ao = ambient_occlusion();\n" /* vt_ssao_gl.c: 1 without the pass */                                \
     "  vec3 c;\n"                                                                                              \
-    "  if (u_ibl_on != 0) c = vt_pbr_ambient(n, v, diffuse, f0, ro) + em;\n"                                   \
+    "  if (u_ibl_on != 0) c = vt_pbr_ambient(n, v, diffuse, f0, ro) * ao + em;\n"                              \
     "  else {\n"                                                                                               \
     "    float nv = dot(n, v), ry = 2.0 * nv * n.y - v.y, g = 1.0 - ro;\n"                                     \
     "    float ka = 0.5 * n.y + 0.5, kr = 0.5 * clamp(ry, -1.0, 1.0) + 0.5;\n"                                 \
     "    float fv = 1.0 - max(nv, 0.0), fv2 = fv * fv, wf = fv2 * fv2 * fv * (g * g);\n"                       \
     "    vec3 d = u_amb_up - u_amb_down, la = ka * d + u_amb_down, lr = kr * d + u_amb_down;\n"                 \
     "    vec3 fr = (1.0 - f0) * wf + f0;\n"                                                                    \
-    "    c = diffuse * la + (fr * lr + em);\n"                                                                 \
+    "    c = diffuse * la * ao + (fr * lr * ao + em);\n"                                                       \
     "  }\n"                                                                                                    \
     "  if (u_sun_on == 0) return c;\n"                                                                         \
     "  return c + u_sun * (max(dot(n, u_sun_dir), 0.0) * sun_visibility(p, n)) * vt_pbr_brdf(n, v, u_sun_dir, diffuse, f0, a2);\n" \

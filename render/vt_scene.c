@@ -467,9 +467,7 @@ bool vt_ground_hit(const vt_penv *pe, const cull_view_rows *vr, int depth_mode, 
     return isfinite(*near) && isfinite(q[0]) && isfinite(q[2]);
 }
 
-/* Inverts the 4x4 m (rows) into o; false if singular. Gauss-Jordan with
- * partial pivoting, in double. */
-static bool inv4(const double m[4][4], double o[4][4])
+bool vt_inv4(const double m[4][4], double o[4][4])
 {
     double a[4][8];
     for (int r = 0; r < 4; r++)
@@ -511,7 +509,7 @@ void vt_ground_make(const vt_penv *pe, const cull_view_rows *vr, int depth_mode,
     memcpy(R[1], vr->y, sizeof R[1]);
     memcpy(R[2], vr->d, sizeof R[2]);
     memcpy(R[3], vr->w, sizeof R[3]);
-    if (!inv4(R, Ri)) return;
+    if (!vt_inv4(R, Ri)) return;
     double far_row[4];
     for (int k = 0; k < 4; k++) far_row[k] = depth_mode == CULL_DEPTH_REVERSED ? vr->z[k] : vr->w[k] - vr->z[k];
     const double plane[4] = {0, 1, 0, -(double)pe->ground_y};

@@ -28,6 +28,7 @@
 #include "vt_picture.h"
 #include "vt_post.h"
 #include "vt_shade.h"
+#include "vt_ssao.h"
 
 #include <float.h>
 #include <math.h>
@@ -110,6 +111,7 @@ struct vt_soft {
     vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
     vt_ibl ibl;             /* the image-based ambient, kept while the sky is the same */
+    vt_ssao *ssao;          /* the ambient occlusion's buffers (vt_ssao.h) */
 };
 
 static uint64_t now_ns(void)
@@ -154,6 +156,7 @@ void vt_soft_destroy(vt_soft *r)
     free(r->mk_of);
     vt_shadow_destroy(r->shadow);
     cull_light_tiles_free(&r->tiles);
+    vt_ssao_destroy(r->ssao);
     free(r);
 }
 
@@ -477,6 +480,7 @@ typedef struct job {
     uint32_t nthreads;
     bool ranges;            /* the tile nearness ranges are wanted (there are lights) */
     const vt_shadow *sh;    /* the sun's cascades, or NULL */
+    const float *ao;        /* per pixel ambient occlusion (vt_ssao), or NULL: none */
 } job;
 
 /* Top-left rule, y up, counter-clockwise: an edge going down (dy < 0) is a
@@ -671,6 +675,7 @@ static void job_shade(void *arg, uint32_t t)
                 sp.n = fr->w - sp.x0 < TILE ? fr->w - sp.x0 : TILE;
                 sp.id = r->id + (size_t)y * fr->w + sp.x0;
                 sp.near = r->near + (size_t)y * fr->w + sp.x0;
+                sp.ao = jb->ao ? jb->ao + (size_t)y * fr->w + sp.x0 : NULL;
                 sp.rgba = jb->rgba + ((size_t)y * jb->stride + sp.x0) * 4;
                 sp.depth = jb->depth + (size_t)y * jb->stride + sp.x0;
                 r->k.shade(&sp);
@@ -762,6 +767,15 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (nt > 1) cull_pool_run(r->pool, job_raster, &jb, nt);
     else job_raster(&jb, 0);
     uint64_t t2 = now_ns();
+    /* ambient occlusion from the nearness the raster left (the z-prepass) */
+    const bool ssao = f->env && !(f->fx_off & VT_FX_SSAO);
+    if (ssao) {
+        vt_ssao_view sv;
+        vt_ssao_view_make(&fr.vr, width, height, &sv);
+        if (vt_ssao_run(&r->ssao, r->pool, nt, &sv, r->near, &jb.ao))
+            return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
+    }
+    uint64_t t2a = now_ns();
 
     /* light tiles from the nearness range of what each tile shows (the
        ranges came with the raster) */
@@ -802,7 +816,8 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         st->threads = nt;
         st->setup_ns = t1 - t0;
         st->raster_ns = t2 - t1;
-        st->bin_ns = ts - t2;
+        st->ssao_ns = ssao ? t2a - t2 : 0;
+        st->bin_ns = ts - t2a;
         st->shadow_ns = jb.sh ? t3 - ts : 0;
         st->shadow_triangles = stris;
         st->shade_ns = t4 - t3;

@@ -150,6 +150,10 @@ static inline bool vt_ground_at(const vt_ground *g, double X, double Y, double *
         if (!(g->lim[k][0] * X + g->lim[k][1] * Y + g->lim[k][2] * N + g->lim[k][3] >= 0)) return false;
     return true;
 }
+/* Inverts the 4x4 m (rows) into o; false if singular or not finite.
+ * Gauss-Jordan with partial pivoting, in double (the ground's and the
+ * ambient occlusion's reconstruction from (X, Y, nearness)). */
+bool vt_inv4(const double m[4][4], double o[4][4]);
 /* The camera-relative point of the ground at (X, Y) with nearness N. */
 void vt_ground_point(const vt_ground *g, double X, double Y, double N, double q[3]);
 /* The view ray through NDC (X, Y) away from the eye, unnormalised, as

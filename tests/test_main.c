@@ -21,6 +21,7 @@ int main(void)
         {post_tests, post_tests_count},
         {shadow_tests, shadow_tests_count},
         {brdf_tests, brdf_tests_count},
+        {ssao_tests, ssao_tests_count},
         {alloc_tests, alloc_tests_count},
         {protocol_tests, protocol_tests_count},
         {bytes_tests, bytes_tests_count},
