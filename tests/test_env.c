@@ -392,7 +392,7 @@ static void test_env_cli(void **state)
     assert_int_equal(vantage_run(d, out, sizeof out, "env --exposure bright"), 2);
     assert_non_null(strstr(out, "auto, auto:COMP"));
     assert_int_equal(vantage_run(d, out, sizeof out, "env --night"), 0);
-    assert_non_null(strstr(out, "0.25 lux")); /* the night preset: the full moon as the sun */
+    assert_non_null(strstr(out, "1 lux")); /* the night preset: the full moon as the sun */
     assert_non_null(strstr(out, "sky:      color"));
     assert_int_equal(vantage_run(d, out, sizeof out, "texture rm 7 8"), 0);
     assert_int_equal(vantage_run(d, out, sizeof out, "texture put 9 %s", tdir_file(&t, "missing.png")), 3);
