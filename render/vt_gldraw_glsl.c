@@ -232,7 +232,7 @@ const char *const vt_gldraw_fs =
     "    if (e < 0.0) discard;\n"
     "    if (u_pass == 0) { o_color = vec4(0.0, 0.0, 0.0, v_near); return; }\n"
     "    k = e * ib;\n"
-    "    if (!gl_FrontFacing) { nv = -nv; albedo *= VT_MASK_INTERIOR; }\n"
+    "    if (!gl_FrontFacing) { nv = -nv; if (u_env_on == 0) albedo *= VT_MASK_INTERIOR; }\n"
     "    if (k < 1.0) {\n"
     "      k = max(k, 0.0);\n"
     "      k = VT_MASK_CHAR + (1.0 - VT_MASK_CHAR) * (k * k * (3.0 - 2.0 * k));\n"

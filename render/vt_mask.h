@@ -34,7 +34,11 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#define VT_MASK_INTERIOR 0.35f  /* albedo factor of a damaged instance's inside */
+#define VT_MASK_INTERIOR 0.35f  /* albedo factor of a damaged instance's inside without an
+                                   environment; with one (issue 20) the inside is the same
+                                   surface lit as geometry: its normals turned inwards, the
+                                   sky's ambient occluded by the cavity (SSAO), the sun's
+                                   cascades */
 #define VT_MASK_CHAR 0.08f      /* albedo factor right at a hole's rim */
 
 /* A volume as the renderers sample it, camera-relative. */

@@ -380,7 +380,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                     s->n[k][q] = !xs[k]->has_n ? fn[q] : back ? -xs[k]->n[q] : xs[k]->n[q];
                 }
             }
-            for (int q = 0; q < 3; q++) s->albedo[q] = back && mk ? in->albedo[q] * VT_MASK_INTERIOR : in->albedo[q];
+            for (int q = 0; q < 3; q++) s->albedo[q] = back && mk && !fr->pe.on ? in->albedo[q] * VT_MASK_INTERIOR : in->albedo[q];
             s->mat = mat;
             s->has_uv = m->uv != NULL;
             s->has_tg = m->tan != NULL && mat;

@@ -365,9 +365,60 @@ static void test_mask_clear_is_conservative(void **state)
     assert_true(clear * 20 > tris && clear < tris);
 }
 
+
+/* With an environment (issue 20) a hole's inside is lit as geometry, not
+ * darkened by a constant: under a uniform white sky (image-based ambient,
+ * no sun, no occlusion pass, no FXAA) the back wall's inside seen through
+ * the hole (its back face turned over: normal +z, towards the eye) shows
+ * what the front face beside the hole (normal +z, the same material)
+ * shows, within 2 % (the two pixels' view directions differ by 0.15 rad,
+ * the specular's only change). Before, it was VT_MASK_INTERIOR (0.35)
+ * times that. */
+static void test_mask_inside_lit_with_env(void **state)
+{
+    (void)state;
+    rend rs[2];
+    uint32_t nr = rends_open(rs);
+    const vt_mesh cube = vt_mesh_box;
+    const uint32_t W = 101, H = 101;
+    float *c = malloc(W * H * 16), *d = malloc(W * H * 4);
+    assert_true(c && d);
+    vt_instance in = {.mesh = 0, .bmin = {-2, -2, -2}, .bmax = {2, 2, 2}, .albedo = {0.8f, 0.6f, 0.4f}};
+    cull_dvol dv;
+    assert_int_equal(cull_dvol_init(&dv, in.bmin, in.bmax, 8), CULL_OK);
+    assert_int_equal(cull_dvol_add_sphere(&dv, (double[3]){0, 0, 2}, 1.2), CULL_OK);
+    in.dvol = &dv;
+    cull_view v;
+    look_at(&v, (double[3]){0, 0, 10}, (double[3]){0, 0, 0}, 0.8, W, H, CULL_DEPTH_REVERSED);
+    vt_env env = {.sky_mode = VT_SKY_COLOR, .sky = {1, 1, 1}, .exposure_mode = VT_EXPOSURE_FIXED};
+    for (uint32_t ri = 0; ri < nr; ri++) {
+        vt_frame f = {.view = &v, .width = W, .height = H, .meshes = &cube, .nmesh = 1, .inst = &in, .ninst = 1,
+                      .env = &env, .rgba = c, .depth = d, .stride = W,
+                      .fx_off = VT_FX_SSAO | VT_FX_FXAA | VT_FX_SHADOWS};
+        char err[256];
+        int rc = rs[ri].soft ? vt_soft_draw(rs[ri].soft, &f, NULL, err, sizeof err)
+                             : vt_gldraw_draw(rs[ri].gl, &f, NULL, err, sizeof err);
+        if (rc) fail_msg("%s: %s", rs[ri].name, err);
+        size_t mid = (size_t)(H / 2) * W + W / 2, side = (size_t)(H / 2) * W + W / 2 + 25;
+        assert_true(fabs(d[mid] - 12) < 1e-3 && fabs(d[side] - 8) < 1e-3);
+        for (int a = 0; a < 3; a++) {
+            double ratio = c[4 * mid + a] / c[4 * side + a];
+            fprintf(stderr, "mask inside lit (%s): channel %d inside %g, front face %g, ratio %.4f\n", rs[ri].name, a,
+                    c[4 * mid + a], c[4 * side + a], ratio);
+            assert_true(c[4 * side + a] > 0.05f);
+            assert_true(fabs(ratio - 1) < 0.02);
+        }
+    }
+    cull_dvol_free(&dv);
+    free(c);
+    free(d);
+    rends_close(rs, nr);
+}
+
 const struct CMUnitTest mask_tests[] = {
     cmocka_unit_test(test_mask_clear_is_conservative),
     cmocka_unit_test(test_mask_inside_shows),
+    cmocka_unit_test(test_mask_inside_lit_with_env),
     cmocka_unit_test(test_mask_matches_reference),
 };
 const size_t mask_tests_count = sizeof mask_tests / sizeof mask_tests[0];
