@@ -109,6 +109,7 @@ typedef struct frame_in {
     vt_adapt *adapt;        /* a stream's eye adaptation, NULL: a single picture */
     float dt;
     frame_overlay ov;       /* outline and icons (frame_marks.h) */
+    uint32_t fx_off;        /* VT_FX_* off: --fx-off and the request's VP_RENDER_NO_* */
 } frame_in;
 
 static void frame_in_free(frame_in *fi)
@@ -128,7 +129,7 @@ static vt_frame frame_of(const cull_view *v, const frame_in *fi, float *rgba, fl
                       .nmesh = fi->nmesh, .inst = fi->inst, .ninst = fi->ninst, .lights = fi->lights, .nl = fi->nl,
                       .env = fi->fs.env_ok ? &fi->fs.env : NULL, .rgba = rgba, .depth = depth,
                       .stride = v->viewport_w, .adapt = fi->adapt, .dt = fi->dt, .casters = fi->casters,
-                      .ncasters = fi->ncasters, .overlay = frame_overlay_get(&fi->ov)};
+                      .ncasters = fi->ncasters, .overlay = frame_overlay_get(&fi->ov), .fx_off = fi->fx_off};
 }
 
 /* An entity's transform as the renderers take it (vt_frame_check's
@@ -417,6 +418,11 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     size_t np = (size_t)W * H;
     if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) goto nomem;
     if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto done;
+    /* VP_RENDER_NO_SHADOWS .. NO_FXAA are VT_FX_SHADOWS .. FXAA one bit up */
+    _Static_assert(VP_RENDER_NO_SHADOWS >> 1 == VT_FX_SHADOWS && VP_RENDER_NO_SSAO >> 1 == VT_FX_SSAO &&
+                       VP_RENDER_NO_IBL >> 1 == VT_FX_IBL && VP_RENDER_NO_FXAA >> 1 == VT_FX_FXAA,
+                   "effect bits");
+    fi.fx_off = s->cfg.fx_off | (uint32_t)(m->flags >> 1);
     vt_adapt ad = {.ev = j->adapt_ev, .valid = j->adapt_valid}; /* a stream's eye, out again below */
     fi.adapt = j->stream ? &ad : NULL;
     fi.dt = j->adapt_dt;

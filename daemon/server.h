@@ -25,6 +25,7 @@ typedef struct server_config {
     uint32_t threads;        /* query worker threads, 0 = cores */
     int renderer;            /* VP_RENDERER_SOFT or VP_RENDERER_GL: when a request names none */
     const struct vt_lut3d *lut; /* --lut: JPEG frames' colour grade (vt_lut.h), NULL: none */
+    uint32_t fx_off;         /* --fx-off: the frames' effects turned off for all (VT_FX_*) */
     double cell_size;
     uint32_t destruct_res;   /* samples per axis of a destruction volume */
     const auth_tokens *tokens; /* NULL: every role granted (loopback, or --insecure) */

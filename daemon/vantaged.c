@@ -50,6 +50,8 @@ static void usage(FILE *f)
             "  --destruct-res N     destruction distance volumes: N^3 samples over an entity's box (default 8)\n"
             "  --render soft|gl     renderer for frames that name none (default soft; gl: headless\n"
             "                       OpenGL through EGL, and the daemon will not start without it)\n"
+            "  --fx-off LIST        turn frame effects off for every frame: shadows,ssao,ibl,fxaa\n"
+            "                       (any of them; a request may turn more off, never one back on)\n"
             "  --lut FILE           grade JPEG frames with this 3D LUT (.cube, LUT_3D_SIZE 2..128)\n"
             "                       after the ACES tone map; the daemon will not start on a bad file\n"
             "  --tokens FILE        roles need tokens: lines \"viewer|commander|editor TOKEN\" in a\n"
@@ -154,7 +156,7 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_ENV, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT };
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -171,7 +173,7 @@ int main(int argc, char **argv)
         {"durability", required_argument, 0, O_DURABILITY}, {"compact-mb", required_argument, 0, O_COMPACT},
         {"metrics", required_argument, 0, O_METRICS}, {"out-limit-total", required_argument, 0, O_OUT_TOTAL},
         {"max-texture-size", required_argument, 0, O_TEX_SIZE}, {"max-texture-mem", required_argument, 0, O_TEX_MEM},
-        {"lut", required_argument, 0, O_LUT}, {0, 0, 0, 0},
+        {"lut", required_argument, 0, O_LUT}, {"fx-off", required_argument, 0, O_FX_OFF}, {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
@@ -212,6 +214,14 @@ int main(int argc, char **argv)
             break;
         case O_THREADS: ok = num32(want, sizeof want, optarg, 0, 256, &cfg.threads); break;
         case O_DRES: ok = num32(want, sizeof want, optarg, 2, CULL_DVOL_MAX_RES, &cfg.destruct_res); break;
+        case O_FX_OFF: {
+            uint8_t bits;
+            char bad[80];
+            ok = vp_render_fx_parse(optarg, &bits, bad, sizeof bad) == 0;
+            cfg.fx_off = bits >> 1;
+            snprintf(want, sizeof want, "shadows, ssao, ibl, fxaa, comma-separated");
+            break;
+        }
         case O_RENDER:
             cfg.renderer = !strcmp(optarg, "gl") ? VP_RENDERER_GL : VP_RENDERER_SOFT;
             ok = !strcmp(optarg, "gl") || !strcmp(optarg, "soft");

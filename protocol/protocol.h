@@ -817,6 +817,16 @@ void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_a
 #define VP_FRAME_RAW 0u
 #define VP_FRAME_JPEG 1u
 #define VP_RENDER_NO_OCCLUSION 0x01u
+/* a frame's effects turned off for this request or stream (on by default;
+ * the daemon's --fx-off turns them off for all) */
+#define VP_RENDER_NO_SHADOWS 0x02u   /* the sun's shadow cascades */
+#define VP_RENDER_NO_SSAO 0x04u      /* ambient occlusion */
+#define VP_RENDER_NO_IBL 0x08u       /* image-based ambient (the two-colour sky ambient instead) */
+#define VP_RENDER_NO_FXAA 0x10u      /* anti-aliasing */
+#define VP_RENDER_FLAGS 0x1Fu
+/* "shadows,ssao,ibl,fxaa" (any of them, comma-separated; "none": no bit)
+ * as VP_RENDER_NO_* bits: 0, or -1 naming the unknown word in bad. */
+int vp_render_fx_parse(const char *list, uint8_t *flags, char *bad, size_t badlen);
 /* the entities a frame outlines (a commander's selection): at most this many */
 #define VP_RENDER_MAX_HIGHLIGHT 8u
 #define VP_RENDER_SIZE (VP_VIEW_SIZE + 80u)

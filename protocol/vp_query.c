@@ -7,6 +7,8 @@
 #include "vp_layout.h"
 
 #include <math.h>
+#include <stdio.h>
+#include <string.h>
 
 /* ---- views ---------------------------------------------------------------------- */
 
@@ -178,7 +180,10 @@ void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
     X(count, nhighlight, "highlights", "", 0, VP_RENDER_MAX_HIGHLIGHT)                                     \
     X(max, renderer, "renderer", "0 default, 1 software, 2 OpenGL are defined", 0, VP_RENDERER_GL)         \
     X(max, format, "format", "0 raw, 1 JPEG are defined", 0, VP_FRAME_JPEG)                                \
-    X(mask, flags, "flags", "0x1 no occlusion is defined", 0, VP_RENDER_NO_OCCLUSION)                      \
+    X(mask, flags, "flags",                                                                                \
+      "0x1 no occlusion, 0x2 no shadows, 0x4 no ambient occlusion, 0x8 no image-based ambient, 0x10 no FXAA " \
+      "are defined",                                                                                       \
+      0, VP_RENDER_FLAGS)                                                                                  \
     X(range, exposure_ev, "exposure", "", -64, 64)
 VP_LAYOUT_CHECKED(render_tail, vp_render, RENDER_FIELDS, RENDER_CHECKS)
 
@@ -357,4 +362,26 @@ uint32_t vp_light_tiles_offset(const vp_light_tiles *m, uint32_t t)
 uint64_t vp_light_tiles_id(const vp_light_tiles *m, uint32_t k)
 {
     return k < m->count ? rd64(m->ids + 8 * (size_t)k) : 0;
+}
+
+int vp_render_fx_parse(const char *list, uint8_t *flags, char *bad, size_t badlen)
+{
+    static const struct {
+        const char *name;
+        uint8_t bit;
+    } fx[] = {{"shadows", VP_RENDER_NO_SHADOWS}, {"ssao", VP_RENDER_NO_SSAO}, {"ibl", VP_RENDER_NO_IBL},
+              {"fxaa", VP_RENDER_NO_FXAA}, {"none", 0}};
+    *flags = 0;
+    for (const char *p = list; p && *p;) {
+        size_t n = strcspn(p, ",");
+        size_t k = 0;
+        while (k < sizeof fx / sizeof fx[0] && !(strlen(fx[k].name) == n && !strncmp(p, fx[k].name, n))) k++;
+        if (k == sizeof fx / sizeof fx[0]) {
+            if (bad) snprintf(bad, badlen, "%.*s", (int)(n < 64 ? n : 64), p);
+            return -1;
+        }
+        *flags |= fx[k].bit;
+        p += n + (p[n] == ',');
+    }
+    return 0;
 }

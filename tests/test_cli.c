@@ -519,6 +519,7 @@ static const daemon_usage_case daemon_usage_cases[] = {
     {"--threads 999", "bad value for --threads: 999 (expected an integer, 0..256)"},
     {"--durability sometimes", "(expected always, everysec or off)"},
     {"--render vulkan", "(expected soft or gl)"},
+    {"--fx-off shadows,bloom", "bad value for --fx-off: shadows,bloom (expected shadows, ssao, ibl, fxaa, comma-separated)"},
     {"--cell-size 0", "(expected metres, 0.01..1e5)"},
     {"--log-level loud", "(expected error, warn, info or debug)"},
 };

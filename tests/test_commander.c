@@ -25,6 +25,12 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+/* The commander tests count frames and time the camera's path: their
+ * daemons draw without the two costliest effects (vantaged --fx-off), so
+ * a frame under ASan on a loaded machine still takes well under the
+ * tests' margins; the effects have tests of their own. */
+#define CMDR_FX_OFF "shadows,ssao"
+
 /* ---- shaping ------------------------------------------------------------------------- */
 
 static void test_commander_stick_shape(void **state)
@@ -292,7 +298,7 @@ static void test_commander_reaim_keeps_frames(void **state)
 {
     (void)state;
     daemon_proc d;
-    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "2000", NULL});
+    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "2000", "--fx-off", CMDR_FX_OFF, NULL});
     vtc_client *c = connect_role(&d, VP_ROLE_COMMANDER, false);
     cmdr_camera cam;
     cam.perspective = false;
@@ -375,7 +381,7 @@ static void test_commander_replay_headless(void **state)
 {
     (void)state;
     daemon_proc d;
-    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "2000", NULL});
+    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "2000", "--fx-off", CMDR_FX_OFF, NULL});
     tdir td;
     tdir_make(&td, "vantage_commander");
     const char *dir = td.dir; /* the frames and frames.jsonl go here */
@@ -452,7 +458,7 @@ static void test_commander_reconnects(void **state)
 {
     (void)state;
     daemon_proc d;
-    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "200", NULL});
+    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "200", "--fx-off", CMDR_FX_OFF, NULL});
     tdir td;
     tdir_make(&td, "vantage_commander_rc");
     char cmd[2048], outp[400];
@@ -473,7 +479,7 @@ static void test_commander_reconnects(void **state)
     /* the same port again */
     daemon_proc d2;
     for (int tries = 0;; tries++) {
-        daemon_start_args(&d2, (const char *const[]){"--scene", "demo", "--props", "200", NULL});
+        daemon_start_args(&d2, (const char *const[]){"--scene", "demo", "--props", "200", "--fx-off", CMDR_FX_OFF, NULL});
         if (d2.port == port || tries > 50) break;
         daemon_stop(&d2);
     }
@@ -513,7 +519,7 @@ static void test_commander_window_xvfb(void **state)
     snprintf(lock, sizeof lock, "/tmp/.X11-unix/X%d", disp);
     for (int i = 0; i < 300 && access(lock, F_OK); i++) usleep(10000);
     daemon_proc d;
-    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "2000", NULL});
+    daemon_start_args(&d, (const char *const[]){"--scene", "demo", "--props", "2000", "--fx-off", CMDR_FX_OFF, NULL});
     tdir td;
     tdir_make(&td, "vantage_commander_x");
     char png[400];

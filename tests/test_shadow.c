@@ -534,6 +534,17 @@ static void test_shadow_caster_outside_view(void **state)
                           (double)lo, (double)hi, dark);
             if (!side) assert_true(dark >= 5); /* the 4 m strip: about 10 rows */
             else assert_int_equal(dark, 0);
+            if (side) continue;
+            /* the request turns the shadows off (VP_RENDER_NO_SHADOWS): the
+               strip is lit; a flag past the defined ones is refused */
+            m.flags = VP_RENDER_NO_SHADOWS;
+            assert_int_equal(vtc_render(c, &m, &f), VP_OK);
+            px = (const float *)f.data;
+            dark = 0;
+            for (int y = 0; y < H; y++) dark += px[4 * (y * W + W / 2) + 1] < 0.5f * hi;
+            assert_int_equal(dark, 0);
+            m.flags = VP_RENDER_FLAGS + 1;
+            assert_int_equal(vtc_render(c, &m, &f), VP_ERR_INVALID);
         }
     }
     vtc_close(c);

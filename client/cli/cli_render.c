@@ -62,10 +62,10 @@ typedef struct frame_opts {
 #define FRAME_LONGOPTS                                                                                              \
     {"eye", 1, 0, 'e'}, {"at", 1, 0, 'a'}, {"up", 1, 0, 'u'}, {"fov", 1, 0, 'f'}, {"near", 1, 0, 'n'},          \
         {"far", 1, 0, 'F'}, {"size", 1, 0, 's'}, {"exposure", 1, 0, 'x'}, {"quality", 1, 0, 'q'},               \
-        {"no-occlusion", 0, 0, 'N'}, {"renderer", 1, 0, 'R'}, {"highlight", 1, 0, 'H'}
+        {"no-occlusion", 0, 0, 'N'}, {"renderer", 1, 0, 'R'}, {"highlight", 1, 0, 'H'}, {"fx-off", 1, 0, 'X'}
 #define FRAME_USAGE                                                                                                 \
     "--eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH] [--exposure EV] "          \
-    "[--quality Q] [--no-occlusion] [--renderer soft|gl] [--highlight ID[,ID..]]"
+    "[--quality Q] [--no-occlusion] [--renderer soft|gl] [--highlight ID[,ID..]] [--fx-off LIST]"
 
 /* What each camera/frame option accepts, for the refusal of a bad value
  * (the bounds frame_opt checks). */
@@ -76,6 +76,7 @@ static const cli_opt_doc frame_docs[] = {
     {'s', "--size", "WxH, each 1..4096"},           {'x', "--exposure", "EV, -64..64"},
     {'q', "--quality", "1..100"},                   {'R', "--renderer", "soft or gl"},
     {'H', "--highlight", "1..8 entity ids, comma-separated (decimal or 0x hex)"},
+    {'X', "--fx-off", "effects, comma-separated: shadows, ssao, ibl, fxaa"},
     /* watch --frames */
     {'r', "--fps", "frames a second, 1..240"},      {'c', "--count", "a count of frames"},
     {'O', "--orbit", "degrees a second (a finite number)"}, {'S', "--seconds", "seconds, >= 0"},
@@ -125,6 +126,12 @@ static int frame_opt(frame_opts *f, int o, const char *arg)
     case 'N': f->flags |= VP_RENDER_NO_OCCLUSION; break;
     case 'R': ok = parse_renderer(arg, &f->renderer); break;
     case 'H': ok = parse_highlight(arg, f); break;
+    case 'X': {
+        uint8_t bits;
+        ok = vp_render_fx_parse(arg, &bits, NULL, 0) == 0;
+        f->flags = (uint8_t)((f->flags & VP_RENDER_NO_OCCLUSION) | bits);
+        break;
+    }
     default: return 0;
     }
     return ok ? 1 : -1;

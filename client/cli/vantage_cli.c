@@ -100,7 +100,7 @@ static const cli_form forms[] = {
     {"render",
      "render --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F] [--size WxH]\n"
      "        [--exposure EV] [--quality Q] [--no-occlusion] [--renderer soft|gl] [--highlight ID[,ID..]]\n"
-     "        -o FILE.exr|png|jpg",
+     "        [--fx-off shadows,ssao,ibl,fxaa] -o FILE.exr|png|jpg",
      "one frame from the daemon, written by the file's extension",
      "  -o FILE (required): .exr (half RGBA + float Z), .png (tone mapped here, ACES after --exposure),\n"
      "  .jpg (encoded by the daemon at --quality 1..100, 85). --size WxH 1..4096 each (1280x720);\n"
@@ -140,7 +140,8 @@ static const cli_form forms[] = {
     {"watch",
      "watch --frames DIR --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F]\n"
      "        [--size WxH] [--exposure EV] [--quality Q] [--no-occlusion] [--renderer soft|gl]\n"
-     "        [--highlight ID[,ID..]] [--format jpg|png|exr] [--fps N] [--count N] [--seconds S] [--orbit DEG_PER_S]",
+     "        [--highlight ID[,ID..]] [--fx-off LIST] [--format jpg|png|exr] [--fps N] [--count N] [--seconds S]\n"
+     "        [--orbit DEG_PER_S]",
      "write the frames pushed as the scene changes (latest-frame-wins), one JSON line each",
      "  DIR/frame-NNNNNN.jpg (or .png, .exr); at most --fps N frames a second (1..240, 30).\n"
      "  --orbit D turns the camera D degrees a second around --at, re-aimed after each frame,\n"
