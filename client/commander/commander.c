@@ -84,6 +84,7 @@ typedef struct commander {
     double next_tick;
     bool need_view;          /* send the view at the next chance (reconnects) */
     bool replay_done;
+    bool replay_wait;        /* a replay starts at the first frame shown (opened once to check it) */
     /* the stream */
     uint16_t seq, shown_seq;
     bool shown_any;
@@ -813,6 +814,14 @@ int cmdr_main(cli *k, int argc, char **argv)
         fprintf(stderr, "%s: commander: no pads (%s); keyboard and mouse only\n", g_prog, err);
         m->hub = NULL;
     }
+    /* a replay is checked now (a bad capture is refused, naming its line)
+       and played from the first frame shown: its camera path then starts
+       from the start position whatever the daemon's first frame costs */
+    if (m->hub_opts.replay && !m->hub_opts.record) {
+        pad_hub_close(m->hub);
+        m->hub = NULL;
+        m->replay_wait = true;
+    }
     catch_sigint();
     m->t_start = now_s();
     m->next_tick = m->t_start;
@@ -824,6 +833,14 @@ int cmdr_main(cli *k, int argc, char **argv)
         double now = now_s();
         if (m->seconds > 0 && now - m->t_start >= m->seconds) break;
         if (m->max_frames && m->frames >= m->max_frames) break;
+        if (m->replay_wait && m->frames > 0) {
+            m->replay_wait = false;
+            if (pad_hub_open(&m->hub_opts, &m->hub, err, sizeof err)) {
+                fprintf(stderr, "%s: commander: %s\n", g_prog, err);
+                rc = 1;
+                break;
+            }
+        }
         try_connect(m);
         /* wait for the socket, the pads, or the next tick (and reconnect) */
         double until = m->next_tick;
