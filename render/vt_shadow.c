@@ -350,10 +350,19 @@ typedef struct sbuf {
     int rc;
 } sbuf;
 
+/* Bands a map may hold (2048 / BAND). */
+#define MAX_BANDS (2048u / BAND)
+
 struct vt_shadow {
     vt_shadow_fit fit;
     float *maps;
     size_t maps_cap;
+    /* per cascade and band: written since its last clear (a band nothing
+       was drawn into still holds -FLT_MAX: the raster clears only the
+       dirty ones, most of a far cascade's 4 MB stay as they are); the
+       maps' size and count they were kept for (a new layout: all dirty) */
+    uint8_t dirty[NC][MAX_BANDS];
+    uint32_t dirty_size, dirty_n;
     sbuf tb[MAX_THREADS];
 };
 
@@ -613,8 +622,10 @@ static void job_raster(void *arg, uint32_t t)
     for (uint32_t c = 0; c < sh->fit.n; c++) {
         float *m = sh->maps + (size_t)c * sz * sz;
         for (uint32_t k = t; k < nb; k += nt) {
+            if (k < MAX_BANDS && !sh->dirty[c][k]) continue;
             uint32_t y1 = (k + 1) * BAND < sz ? (k + 1) * BAND : sz;
             for (size_t i = (size_t)k * BAND * sz; i < (size_t)y1 * sz; i++) m[i] = -FLT_MAX;
+            if (k < MAX_BANDS) sh->dirty[c][k] = 0;
         }
         for (uint32_t b = 0; b < nt; b++)
             for (size_t q = 0; q < sh->tb[b].n[c]; q++) {
@@ -630,8 +641,12 @@ static void job_raster(void *arg, uint32_t t)
                 if (far) n = clip_rect(L, sz, x, y, z);
                 else
                     for (int e = 0; e < 3; e++) x[e] = L->x[e], y[e] = L->y[e], z[e] = L->z[e];
-                for (; k <= k1; k += nt)
+                for (; k <= k1; k += nt) {
+                    /* marked whether or not it covers a texel centre: a
+                       clear too many costs less than the test */
+                    if (k < MAX_BANDS) sh->dirty[c][k] = 1;
                     raster_poly(m, sz, x, y, z, n, (int)(k * BAND), (int)((k + 1) * BAND < sz ? (k + 1) * BAND : sz) - 1);
+                }
             }
     }
 }
@@ -645,6 +660,10 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     size_t npx = (size_t)fit->n * fit->size * fit->size;
     if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow maps");
+    if (fit->size != sh->dirty_size || fit->n != sh->dirty_n) {
+        memset(sh->dirty, 1, sizeof sh->dirty);
+        sh->dirty_size = fit->size, sh->dirty_n = fit->n;
+    }
     uint32_t nt = threads ? threads : 1;
     if (nt > MAX_THREADS) nt = MAX_THREADS;
     if (!pool) nt = 1;
