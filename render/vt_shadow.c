@@ -363,14 +363,44 @@ struct vt_shadow {
        maps' size and count they were kept for (a new layout: all dirty) */
     uint8_t dirty[NC][MAX_BANDS];
     uint32_t dirty_size, dirty_n;
+    vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
     sbuf tb[MAX_THREADS];
 };
+
+/* The span lookup one pixel at a time (any CPU; the lane instances' reference). */
+static void lookup_n_scalar(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
+                            const float *pz, const float *nx, const float *ny, const float *nz, float *out)
+{
+    for (unsigned i = 0; i < n; i++) {
+        const float p[3] = {px[i], py[i], pz[i]}, nn[3] = {nx[i], ny[i], nz[i]};
+        out[i] *= vt_shadow_lookup(f, maps, p, nn);
+    }
+}
+
+void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa)
+{
+    switch (isa < CULL_ISA_COUNT && cull_isa_supported(isa) ? isa : cull_isa_default()) {
+#ifndef CULL_SCALAR_ONLY
+    case CULL_ISA_AVX2: sh->lookup_n = vt_shadow_lookup_n_avx2; break;
+    case CULL_ISA_SSE41: sh->lookup_n = vt_shadow_lookup_n_sse41; break;
+#endif
+    default: sh->lookup_n = lookup_n_scalar; break;
+    }
+}
+
+void vt_shadow_sun_n(const vt_shadow *sh, unsigned n, const float *px, const float *py, const float *pz,
+                     const float *nx, const float *ny, const float *nz, float *out)
+{
+    if (sh && sh->fit.n) sh->lookup_n(&sh->fit, sh->maps, n, px, py, pz, nx, ny, nz, out);
+}
 
 int vt_shadow_create(vt_shadow **out)
 {
     if (!out) return VT_ERR_INVALID;
     *out = calloc(1, sizeof **out);
-    return *out ? 0 : VT_ERR_NOMEM;
+    if (!*out) return VT_ERR_NOMEM;
+    vt_shadow_set_isa(*out, CULL_ISA_COUNT);
+    return 0;
 }
 
 void vt_shadow_destroy(vt_shadow *sh)
