@@ -31,6 +31,8 @@ struct vt_ssao {
     int32_t *cx;            /* 3 planes of w + 8 (padded with 0): each full column's taps' half columns, weights */
     float *cw;
     size_t cx_cap, cw_cap;
+    float *colx;            /* hw + 8: each half column's NDC x */
+    size_t colx_cap;
     float *ao;              /* full pixels' AO */
     size_t ao_cap;
     uint32_t isa;           /* vt_ssao_set_isa's + 1; 0: the default */
@@ -45,7 +47,8 @@ typedef struct job {
     vt_ssao_kern kern;
 } job;
 
-/* (p, 1) ~ inv (X, Y, N, 1); false where it is not a finite point. */
+/* (p, 1) ~ inv (X, Y, N, 1); false where it is not a finite point (the
+ * view's set-up; the pass' rows: vt_ssao.inl's pos kernel). */
 static bool unproject(const vt_ssao_view *sv, float X, float Y, float N, float p[3])
 {
     float q[4];
@@ -95,24 +98,14 @@ void vt_ssao_view_make(const cull_view_rows *vr, uint32_t w, uint32_t h, vt_ssao
     sv->ok = true;
 }
 
-/* Pass 1: the half texels' points of band rows. */
+/* Pass 1: the half texels' points of band rows (the lane kernel). */
 static void job_pos(void *arg, uint32_t t)
 {
     job *jb = arg;
     const vt_ssao_view *sv = jb->sv;
     const uint32_t bands = (sv->hh + BAND - 1) / BAND;
     for (uint32_t b = t; b < bands; b += jb->nt)
-        for (uint32_t j = b * BAND; j < sv->hh && j < (b + 1) * BAND; j++) {
-            const float *nrow = jb->near + (size_t)(2 * j) * sv->w;
-            float *o = jb->s->pos + (size_t)4 * j * sv->hw;
-            float Y = (float)((2.0 * (2 * j) + 1) / sv->h - 1);
-            for (uint32_t i = 0; i < sv->hw; i++, o += 4) {
-                float N = nrow[2 * i], X = (float)((2.0 * (2 * i) + 1) / sv->w - 1);
-                o[3] = VT_EMPTY;
-                if (!(N > VT_EMPTY) || !isfinite(N) || !unproject(sv, X, Y, N, o)) continue;
-                o[3] = N;
-            }
-        }
+        for (uint32_t j = b * BAND; j < sv->hh && j < (b + 1) * BAND; j++) jb->kern.pos(&jb->k, j);
 }
 
 /* Pass 2: GTAO over band rows (the lane kernel, vt_ssao.inl). */
@@ -174,7 +167,8 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
         !vp_grow((void **)&s->hao, &s->hao_cap, nh ? nh : 1, sizeof *s->hao) ||
         !vp_grow((void **)&s->hnear, &s->hnear_cap, nh ? nh : 1, sizeof *s->hnear) ||
         !vp_grow((void **)&s->cx, &s->cx_cap, 3 * ((size_t)sv->w + 8), sizeof *s->cx) ||
-        !vp_grow((void **)&s->cw, &s->cw_cap, 3 * ((size_t)sv->w + 8), sizeof *s->cw))
+        !vp_grow((void **)&s->cw, &s->cw_cap, 3 * ((size_t)sv->w + 8), sizeof *s->cw) ||
+        !vp_grow((void **)&s->colx, &s->colx_cap, (size_t)sv->hw + 8, sizeof *s->colx))
         return VT_ERR_NOMEM;
     *ao = s->ao;
     if (!sv->ok) {
@@ -184,7 +178,8 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     job jb = {.sv = sv, .near = near, .s = s, .nt = nt && pool ? nt : 1, .kern = vt_ssao_kern_pick(s->isa ? s->isa - 1 : CULL_ISA_COUNT)};
     const size_t pl = (size_t)sv->w + 8;
     jb.k = (vt_ssao_kjob){.sv = sv, .near = near, .pos = s->pos, .hao = s->hao, .hnear = s->hnear,
-                          .cx = s->cx, .cw = s->cw, .ao = s->ao};
+                          .cx = s->cx, .cw = s->cw, .colx = s->colx, .ao = s->ao};
+    for (uint32_t i = 0; i < sv->hw + 8; i++) s->colx[i] = i < sv->hw ? (float)((2.0 * (2 * i) + 1) / sv->w - 1) : 0;
     vt_ssao_dirs(jb.k.dir);
     memset(s->cx, 0, 3 * pl * sizeof *s->cx);
     memset(s->cw, 0, 3 * pl * sizeof *s->cw);
@@ -216,6 +211,7 @@ void vt_ssao_destroy(vt_ssao *s)
     free(s->hnear);
     free(s->cx);
     free(s->cw);
+    free(s->colx);
     free(s->ao);
     free(s);
 }

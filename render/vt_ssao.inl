@@ -258,6 +258,35 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
     }
 }
 
+void VT_SSAO_POS_NAME(const vt_ssao_kjob *k, uint32_t j)
+{
+    const vt_ssao_view *sv = k->sv;
+    const float *nrow = k->near + (size_t)(2 * j) * sv->w;
+    float *o = k->pos + (size_t)4 * j * sv->hw;
+    const vf Y = vf_set((float)((2.0 * (2 * j) + 1) / sv->h - 1)), inf = vf_set(INFINITY);
+    vf a[4][4];
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++) a[r][c] = vf_set(sv->inv[r][c]);
+    for (uint32_t i0 = 0; i0 < sv->hw; i0 += W) {
+        uint32_t nw = sv->hw - i0 < (uint32_t)W ? sv->hw - i0 : (uint32_t)W;
+        float nb[W], t[4][W];
+        for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[2 * (i0 + l)] : VT_EMPTY;
+        vf N = vf_loadu(nb), X = vf_loadu(k->colx + i0), q[4];
+        /* (p, 1) ~ inv (X, Y, N, 1) (vt_ssao.c's unproject) */
+        for (int r = 0; r < 4; r++) q[r] = vf_add(vf_add(vf_add(vf_mul(a[r][0], X), vf_mul(a[r][1], Y)), vf_mul(a[r][2], N)), a[r][3]);
+        vf iw = vf_div(vf_set(1), q[3]);
+        vm ok = vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(N, inf));
+        for (int c = 0; c < 3; c++) {
+            vf p = vf_mul(q[c], iw);
+            ok = vm_and(ok, vf_lt(vf_abs(p), inf));
+            vf_store(t[c], p);
+        }
+        vf_store(t[3], vf_select(ok, N, vf_set(VT_EMPTY)));
+        for (uint32_t l = 0; l < nw; l++)
+            for (int c = 0; c < 4; c++) o[4 * (i0 + l) + c] = t[c][l];
+    }
+}
+
 void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
 {
     const vt_ssao_view *sv = k->sv;
@@ -285,6 +314,20 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
     for (uint32_t x = 0; x < sv->w; x += W) {
         float nb[W], res[W];
         uint32_t nw = sv->w - x < (uint32_t)W ? sv->w - x : (uint32_t)W;
+#if W > 1
+        /* most of a frame is unoccluded: where the three half rows are 1
+           over the step's taps (half columns x/2 - 1 .. x/2 + W/2 within
+           the W at x/2 - 1), every lane's mean is 1 (the general path's
+           answer too), without the gathers */
+        if (x >= 2 && nw == (uint32_t)W && x / 2 - 1 + W <= sv->hw) {
+            vm all1 = vm_and(vm_and(vf_le(one, vf_loadu(ha[0] + x / 2 - 1)), vf_le(one, vf_loadu(ha[1] + x / 2 - 1))),
+                             vf_le(one, vf_loadu(ha[2] + x / 2 - 1)));
+            if (vm_bits(all1) == (1u << W) - 1) {
+                vf_store(o + x, one);
+                continue;
+            }
+        }
+#endif
         for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[x + l] : VT_EMPTY;
         vf N = vf_loadu(nb);
         vf tol = sv->ortho ? vf_set(sv->ntol) : vf_mul(vf_set(VT_SSAO_DEPTH_TOL), N);

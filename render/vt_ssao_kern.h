@@ -16,10 +16,11 @@
 typedef struct vt_ssao_kjob {
     const vt_ssao_view *sv;
     const float *near;          /* full resolution, w x h */
-    const float *pos;           /* half texels: x, y, z, nearness (VT_EMPTY: sky) */
+    float *pos;                 /* half texels: x, y, z, nearness (VT_EMPTY: sky) */
     float *hao, *hnear;         /* half texels' AO and nearness */
     const int32_t *cx;          /* 3 planes of w + 8 (padded): each full column's tap half columns */
     const float *cw;            /* their weights, likewise */
+    const float *colx;          /* hw + 8 (padded): each half column's NDC x */
     float *ao;                  /* full pixels */
     float dir[4 * VT_SSAO_SLICES][2]; /* vt_ssao_dirs */
 } vt_ssao_kjob;
@@ -27,10 +28,14 @@ typedef struct vt_ssao_kjob {
 typedef void (*vt_ssao_row_fn)(const vt_ssao_kjob *k, uint32_t row);
 
 typedef struct vt_ssao_kern {
+    vt_ssao_row_fn pos;  /* half row j: pos */
     vt_ssao_row_fn gtao; /* half row j: hao, hnear */
     vt_ssao_row_fn up;   /* full row y: ao */
 } vt_ssao_kern;
 
+void vt_ssao_pos_scalar(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_pos_sse41(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_pos_avx2(const vt_ssao_kjob *k, uint32_t j);
 void vt_ssao_gtao_scalar(const vt_ssao_kjob *k, uint32_t j);
 void vt_ssao_up_scalar(const vt_ssao_kjob *k, uint32_t y);
 void vt_ssao_gtao_sse41(const vt_ssao_kjob *k, uint32_t j);
