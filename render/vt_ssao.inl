@@ -230,15 +230,20 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                     }
                 }
                 const vf hp = vf_set(SS_PI / 2);
-                vf h0 = vf_select(up[0], vf_sub(zero, ss_acos(hc[0])), vf_sub(na, hp));
-                vf s0 = vf_select(up[0], vf_sub(zero, vf_sqrt(vf_max(vf_sub(one, vf_mul(hc[0], hc[0])), zero))),
-                                  vf_sub(zero, cn));
-                vf h1 = vf_select(up[1], ss_acos(hc[1]), vf_add(na, hp));
-                vf s1 = vf_select(up[1], vf_sqrt(vf_max(vf_sub(one, vf_mul(hc[1], hc[1])), zero)), cn);
                 vf e0 = ss_arc(vf_sub(na, hp), sn, vf_sub(zero, cn), cn, sn);
                 vf e1 = ss_arc(vf_add(na, hp), vf_sub(zero, sn), cn, cn, sn);
-                vf nu = vf_mul(pl, vf_add(ss_arc(h0, hc[0], s0, cn, sn), ss_arc(h1, hc[1], s1, cn, sn)));
-                vf de = vf_mul(pl, vf_add(e0, e1));
+                vf de = vf_mul(pl, vf_add(e0, e1)), nu = de;
+                /* a side whose horizon was not raised has the same arc as
+                   the open hemisphere's (the same arguments): with no lane
+                   raised, num adds exactly den's term (most of a city) */
+                if (vm_bits(vm_or(up[0], up[1]))) {
+                    vf h0 = vf_select(up[0], vf_sub(zero, ss_acos(hc[0])), vf_sub(na, hp));
+                    vf s0 = vf_select(up[0], vf_sub(zero, vf_sqrt(vf_max(vf_sub(one, vf_mul(hc[0], hc[0])), zero))),
+                                      vf_sub(zero, cn));
+                    vf h1 = vf_select(up[1], ss_acos(hc[1]), vf_add(na, hp));
+                    vf s1 = vf_select(up[1], vf_sqrt(vf_max(vf_sub(one, vf_mul(hc[1], hc[1])), zero)), cn);
+                    nu = vf_mul(pl, vf_add(ss_arc(h0, hc[0], s0, cn, sn), ss_arc(h1, hc[1], s1, cn, sn)));
+                }
                 num = vf_select(sok, vf_add(num, nu), num);
                 den = vf_select(sok, vf_add(den, de), den);
             }
