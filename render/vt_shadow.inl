@@ -42,13 +42,18 @@ static inline vf sh_pick(const float *v, uint32_t n, vf ci)
     return r;
 }
 
+/* Per-cascade constants as sh_pick reads them, once a span. */
+typedef struct sh_cons {
+    float offx[VT_SHADOW_CASCADES], offy[VT_SHADOW_CASCADES], base[VT_SHADOW_CASCADES];
+    float far[VT_SHADOW_CASCADES], band[VT_SHADOW_CASCADES];
+} sh_cons;
+
 /* cascade_vis (vt_shadow.c) for each lane's cascade ci, lanes m. */
-static inline vf sh_vis(const vt_shadow_fit *f, const float *maps, vf ci, vm m, const vf p[3], const vf n[3], vf ndl)
+static inline vf sh_vis(const vt_shadow_fit *f, const sh_cons *kc, const float *maps, vf ci, vm m, const vf p[3],
+                        const vf n[3], vf ndl)
 {
     const vf zero = vf_set(0), one = vf_set(1);
-    float offx[VT_SHADOW_CASCADES], offy[VT_SHADOW_CASCADES], base[VT_SHADOW_CASCADES];
-    for (uint32_t c = 0; c < f->n; c++)
-        offx[c] = f->off[c][0], offy[c] = f->off[c][1], base[c] = (float)((size_t)c * f->size * f->size);
+    const float *offx = kc->offx, *offy = kc->offy, *base = kc->base;
     const vf tx = sh_pick(f->texel, f->n, ci), scale = sh_pick(f->scale, f->n, ci);
     vf sn = vf_sqrt(vf_max(vf_sub(one, vf_mul(ndl, ndl)), zero)), tn = vf_min(vf_div(sn, ndl), vf_set(8.0f));
     vf o = vf_mul(vf_mul(vf_set(VT_SHADOW_NOFS), tx), sn);
@@ -98,19 +103,26 @@ void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, unsigned n, con
 {
     const vf zero = vf_set(0), one = vf_set(1);
     const uint32_t N = f->n;
-    /* the cascades' far ends and blend bands, per cascade */
-    float far[VT_SHADOW_CASCADES], bandv[VT_SHADOW_CASCADES];
+    /* the cascades' map offsets, far ends and blend bands */
+    sh_cons k;
     for (uint32_t c = 0; c < N; c++) {
-        far[c] = f->split[c + 1];
-        bandv[c] = VT_SHADOW_BLEND * (f->split[c + 1] - f->split[c]);
+        k.offx[c] = f->off[c][0], k.offy[c] = f->off[c][1], k.base[c] = (float)((size_t)c * f->size * f->size);
+        k.far[c] = f->split[c + 1];
+        k.band[c] = VT_SHADOW_BLEND * (f->split[c + 1] - f->split[c]);
     }
+    const float *far = k.far, *bandv = k.band;
     for (unsigned i = 0; i < n; i += W) {
         float tp[6][W], res[W];
         unsigned nw = n - i < (unsigned)W ? n - i : (unsigned)W;
         const float *src[6] = {px, py, pz, nx, ny, nz};
-        for (int c = 0; c < 6; c++)
-            for (unsigned l = 0; l < (unsigned)W; l++) tp[c][l] = l < nw ? src[c][i + l] : 0.0f;
-        vf p[3] = {vf_loadu(tp[0]), vf_loadu(tp[1]), vf_loadu(tp[2])}, nn[3] = {vf_loadu(tp[3]), vf_loadu(tp[4]), vf_loadu(tp[5])};
+        vf p[3], nn[3];
+        if (nw == (unsigned)W) { /* a whole step (a span of 16 is two or four) */
+            for (int c = 0; c < 3; c++) p[c] = vf_loadu(src[c] + i), nn[c] = vf_loadu(src[3 + c] + i);
+        } else {
+            for (int c = 0; c < 6; c++)
+                for (unsigned l = 0; l < (unsigned)W; l++) tp[c][l] = l < nw ? src[c][i + l] : 0.0f;
+            for (int c = 0; c < 3; c++) p[c] = vf_loadu(tp[c]), nn[c] = vf_loadu(tp[3 + c]);
+        }
         vf ndl = vf_add(vf_add(vf_mul(vf_set(f->s[0]), nn[0]), vf_mul(vf_set(f->s[1]), nn[1])), vf_mul(vf_set(f->s[2]), nn[2]));
         vf d = vf_add(vf_add(vf_add(vf_mul(vf_set(f->drow[0]), p[0]), vf_mul(vf_set(f->drow[1]), p[1])),
                              vf_mul(vf_set(f->drow[2]), p[2])),
@@ -119,16 +131,20 @@ void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, unsigned n, con
         if (!vm_bits(m)) continue; /* lit: out unchanged (times 1) */
         vf ci = zero;
         for (uint32_t c = 1; c < N; c++) ci = vf_add(ci, vf_select(vf_ge(d, vf_set(f->split[c])), one, zero));
-        vf vis = sh_vis(f, maps, ci, m, p, nn, ndl);
+        vf vis = sh_vis(f, &k, maps, ci, m, p, nn, ndl);
         vf fr = sh_pick(far, N, ci), band = sh_pick(bandv, N, ci);
         vf t = vf_div(vf_sub(d, vf_sub(fr, band)), band);
         vm bl = vm_and(m, vf_lt(zero, t));
         if (vm_bits(bl)) {
             vf cn = vf_add(ci, one);
             vm nx2 = vf_lt(cn, vf_set((float)N));
-            vf v2 = sh_vis(f, maps, vf_select(nx2, cn, ci), vm_and(bl, nx2), p, nn, ndl);
+            vf v2 = sh_vis(f, &k, maps, vf_select(nx2, cn, ci), vm_and(bl, nx2), p, nn, ndl);
             v2 = vf_select(nx2, v2, one);
             vis = vf_select(bl, vf_add(vis, vf_mul(vf_sub(v2, vis), vf_min(t, one))), vis);
+        }
+        if (nw == (unsigned)W) {
+            vf_store(out + i, vf_mul(vf_loadu(out + i), vf_select(m, vis, one)));
+            continue;
         }
         vf_store(res, vf_select(m, vis, one));
         for (unsigned l = 0; l < nw; l++) out[i + l] *= res[l];
