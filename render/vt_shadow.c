@@ -1,7 +1,8 @@
 /*
  * vt_shadow.c — the sun's cascaded shadow maps (see vt_shadow.h for the
  * rules): the cascade fitting both renderers use (and the daemon's caster
- * view), the lookup the shading kernel calls per pixel, and the software
+ * view), the lookup (per pixel here; over a span, 4 or 8 lanes at once,
+ * in vt_shadow.inl, which the shading kernel calls), and the software
  * path's depth-only rasterizer:
  *
  *   1. set-up (threads over contiguous shares of the casters): an
@@ -18,7 +19,7 @@
  *      an orthographic projection needs no division.
  * Cost: one pass over the caster vertices, a few compares per triangle
  * and cascade; the maps (4 x 1024^2 floats at 720p, 16 MB) are cleared by
- * the raster threads as they draw.
+ * the raster threads as they draw, only where the last frames drew.
  */
 #include "vt_shadow.h"
 

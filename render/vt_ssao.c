@@ -7,6 +7,9 @@
  *      nearness (16 multiply-adds and a divide);
  *   2. GTAO per half texel (2 slices x 2 sides x 4 steps);
  *   3. the depth-aware tent upsample to every full pixel.
+ * Each pass' rows run in the lane kernels of vt_ssao.inl (1, 4 or 8
+ * lanes, the same bits: vt_ssao_kern.h); this file owns the view, the
+ * buffers, the bands and the per-frame tables.
  * Memory: 16 + 4 bytes a half texel, 4 a pixel (about 5.5 MB at
  * 1280x720), kept from frame to frame.
  */
