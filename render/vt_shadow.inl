@@ -79,18 +79,20 @@ static inline vf sh_vis(const vt_shadow_fit *f, const sh_cons *kc, const float *
     vf x0 = vf_sub(fx0, one), y0 = vf_sub(fy0, one);
     const vf wx[4] = {vf_sub(one, fx), one, one, fx}, wy[4] = {vf_sub(one, fy), one, one, fy};
     const vf mb = sh_pick(base, f->n, ci);
-    vf lit = zero;
+    vf lit = zero, xs[4];
+    vm xin[4];
+    for (int a = 0; a < 4; a++) { /* the columns, the same for every row */
+        xs[a] = vf_add(x0, vf_set((float)a));
+        xin[a] = vm_and(vf_le(zero, xs[a]), vf_lt(xs[a], sz));
+    }
     for (int b = 0; b < 4; b++) {
         vf y = vf_add(y0, vf_set((float)b));
-        vm yin = vm_and(vf_le(zero, y), vf_lt(y, sz));
+        vm yin = vm_and(vf_le(zero, y), vf_lt(y, sz)), mrow = vm_and(m, yin);
         vf rowq = vf_add(mb, vf_mul(y, sz));
         vf r = zero;
         for (int a = 0; a < 4; a++) {
-            vf x = vf_add(x0, vf_set((float)a));
-            vm xin = vm_and(vf_le(zero, x), vf_lt(x, sz));
-            vm in = vm_and(vm_and(m, yin), xin);
-            vf t = sh_gather(maps, vf_select(in, vf_add(rowq, x), zero));
-            vm pass = vm_or(vm_andnot(vm_ones(), xin), vf_le(t, dref));
+            vf t = sh_gather(maps, vf_select(vm_and(mrow, xin[a]), vf_add(rowq, xs[a]), zero));
+            vm pass = vm_or(vm_andnot(vm_ones(), xin[a]), vf_le(t, dref));
             r = vf_add(r, vf_select(pass, wx[a], zero));
         }
         lit = vf_add(lit, vf_mul(wy[b], vf_select(yin, r, vf_set(3.0f))));
