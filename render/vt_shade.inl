@@ -327,7 +327,7 @@ void VT_SHADE_NAME(const vt_span *sp)
             s.fr[i] = o.f0[0], s.fg[i] = o.f0[1], s.fb[i] = o.f0[2];
             s.er[i] = o.em[0], s.eg[i] = o.em[1], s.eb[i] = o.em[2];
             s.a2[i] = o.a2, s.ro[i] = o.rough;
-            s.sv[i] = sp->sh ? vt_shadow_sun(sp->sh, p, o.n) : 1.0f;
+            s.sv[i] = 1.0f; /* times the sun's visibility below */
             s.ao[i] = sp->ao ? sp->ao[i] : 1.0f;
             /* without an environment: the constant ambient of before */
             s.cr[i] = VT_AMBIENT * o.diffuse[0] + o.em[0];
@@ -359,6 +359,7 @@ void VT_SHADE_NAME(const vt_span *sp)
         s.ro[i] = VT_DEFAULT_ROUGHNESS;
         cov[i] = 1;
     }
+    if (sp->sh) vt_shadow_sun_n(sp->sh, S, s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.sv); /* the span at once */
     const vf zero = vf_set(0), one = vf_set(1), inv_pi = vf_set(1.0f / 3.14159265f);
     for (unsigned i = 0; i < S; i += W) {
         vf nx = vf_load(s.nx + i), ny = vf_load(s.ny + i), nz = vf_load(s.nz + i);

@@ -1,7 +1,8 @@
 /*
  * vt_shadow.c — the sun's cascaded shadow maps (see vt_shadow.h for the
  * rules): the cascade fitting both renderers use (and the daemon's caster
- * view), the lookup the shading kernel calls per pixel, and the software
+ * view), the lookup (per pixel here; over a span, 4 or 8 lanes at once,
+ * in vt_shadow.inl, which the shading kernel calls), and the software
  * path's depth-only rasterizer:
  *
  *   1. set-up (threads over contiguous shares of the casters): an
@@ -18,7 +19,7 @@
  *      an orthographic projection needs no division.
  * Cost: one pass over the caster vertices, a few compares per triangle
  * and cascade; the maps (4 x 1024^2 floats at 720p, 16 MB) are cleared by
- * the raster threads as they draw.
+ * the raster threads as they draw, only where the last frames drew.
  */
 #include "vt_shadow.h"
 
@@ -350,18 +351,58 @@ typedef struct sbuf {
     int rc;
 } sbuf;
 
+/* Bands a map may hold (2048 / BAND). */
+#define MAX_BANDS (2048u / BAND)
+
 struct vt_shadow {
     vt_shadow_fit fit;
     float *maps;
     size_t maps_cap;
+    /* per cascade and band: the columns dlo..dhi may have been written
+       since its last clear (dlo > dhi: none; the rest still holds
+       -FLT_MAX): the raster clears only those, not the whole 16 MB a
+       frame; the maps' size and count they were kept for (a new layout:
+       all dirty) */
+    uint16_t dlo[NC][MAX_BANDS], dhi[NC][MAX_BANDS];
+    uint32_t dirty_size, dirty_n;
+    vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
     sbuf tb[MAX_THREADS];
 };
+
+/* The span lookup one pixel at a time (any CPU; the lane instances' reference). */
+static void lookup_n_scalar(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
+                            const float *pz, const float *nx, const float *ny, const float *nz, float *out)
+{
+    for (unsigned i = 0; i < n; i++) {
+        const float p[3] = {px[i], py[i], pz[i]}, nn[3] = {nx[i], ny[i], nz[i]};
+        out[i] *= vt_shadow_lookup(f, maps, p, nn);
+    }
+}
+
+void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa)
+{
+    switch (isa < CULL_ISA_COUNT && cull_isa_supported(isa) ? isa : cull_isa_default()) {
+#ifndef CULL_SCALAR_ONLY
+    case CULL_ISA_AVX2: sh->lookup_n = vt_shadow_lookup_n_avx2; break;
+    case CULL_ISA_SSE41: sh->lookup_n = vt_shadow_lookup_n_sse41; break;
+#endif
+    default: sh->lookup_n = lookup_n_scalar; break;
+    }
+}
+
+void vt_shadow_sun_n(const vt_shadow *sh, unsigned n, const float *px, const float *py, const float *pz,
+                     const float *nx, const float *ny, const float *nz, float *out)
+{
+    if (sh && sh->fit.n) sh->lookup_n(&sh->fit, sh->maps, n, px, py, pz, nx, ny, nz, out);
+}
 
 int vt_shadow_create(vt_shadow **out)
 {
     if (!out) return VT_ERR_INVALID;
     *out = calloc(1, sizeof **out);
-    return *out ? 0 : VT_ERR_NOMEM;
+    if (!*out) return VT_ERR_NOMEM;
+    vt_shadow_set_isa(*out, CULL_ISA_COUNT);
+    return 0;
 }
 
 void vt_shadow_destroy(vt_shadow *sh)
@@ -610,11 +651,16 @@ static void job_raster(void *arg, uint32_t t)
     sjob *jb = arg;
     vt_shadow *sh = jb->sh;
     const uint32_t sz = sh->fit.size, nb = (sz + BAND - 1) / BAND, nt = jb->nt;
+    const uint32_t tracked = sz <= 2048 ? MAX_BANDS : 0; /* bands with a dirty range (the rest: always cleared) */
     for (uint32_t c = 0; c < sh->fit.n; c++) {
         float *m = sh->maps + (size_t)c * sz * sz;
         for (uint32_t k = t; k < nb; k += nt) {
+            uint32_t x0 = k < tracked ? sh->dlo[c][k] : 0, x1 = k < tracked ? sh->dhi[c][k] : sz - 1;
+            if (x0 > x1) continue;
             uint32_t y1 = (k + 1) * BAND < sz ? (k + 1) * BAND : sz;
-            for (size_t i = (size_t)k * BAND * sz; i < (size_t)y1 * sz; i++) m[i] = -FLT_MAX;
+            for (uint32_t y = k * BAND; y < y1; y++)
+                for (float *r = m + (size_t)y * sz, *e = r + x1 + 1, *i = r + x0; i < e; i++) *i = -FLT_MAX;
+            if (k < tracked) sh->dlo[c][k] = UINT16_MAX, sh->dhi[c][k] = 0;
         }
         for (uint32_t b = 0; b < nt; b++)
             for (size_t q = 0; q < sh->tb[b].n[c]; q++) {
@@ -627,11 +673,25 @@ static void job_raster(void *arg, uint32_t t)
                 int n = 3;
                 bool far = false;
                 for (int e = 0; e < 3; e++) far |= !(fabsf(L->x[e]) < 4.0f * sz && fabsf(L->y[e]) < 4.0f * sz);
-                if (far) n = clip_rect(L, sz, x, y, z);
-                else
+                if (far && (n = clip_rect(L, sz, x, y, z)) < 3) continue;
+                if (!far)
                     for (int e = 0; e < 3; e++) x[e] = L->x[e], y[e] = L->y[e], z[e] = L->z[e];
-                for (; k <= k1; k += nt)
+                /* the columns it may write (raster_poly's, widened to whole
+                   texels), for the next clear */
+                double xl = x[0], xh = x[0];
+                for (int e = 1; e < n; e++) xl = x[e] < xl ? x[e] : xl, xh = x[e] > xh ? x[e] : xh;
+                xl = floor(xl), xh = ceil(xh);
+                uint16_t cl = xl > 0 ? (xl < sz - 1.0 ? (uint16_t)xl : (uint16_t)(sz - 1)) : 0;
+                uint16_t ch = xh > 0 ? (xh < sz - 1.0 ? (uint16_t)xh : (uint16_t)(sz - 1)) : 0;
+                for (; k <= k1; k += nt) {
+                    /* marked whether or not it covers a texel centre: a
+                       clear too many costs less than the test */
+                    if (k < tracked) {
+                        sh->dlo[c][k] = cl < sh->dlo[c][k] ? cl : sh->dlo[c][k];
+                        sh->dhi[c][k] = ch > sh->dhi[c][k] ? ch : sh->dhi[c][k];
+                    }
                     raster_poly(m, sz, x, y, z, n, (int)(k * BAND), (int)((k + 1) * BAND < sz ? (k + 1) * BAND : sz) - 1);
+                }
             }
     }
 }
@@ -645,6 +705,11 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     size_t npx = (size_t)fit->n * fit->size * fit->size;
     if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow maps");
+    if (fit->size != sh->dirty_size || fit->n != sh->dirty_n) {
+        for (int c = 0; c < NC; c++)
+            for (uint32_t k = 0; k < MAX_BANDS; k++) sh->dlo[c][k] = 0, sh->dhi[c][k] = (uint16_t)(fit->size - 1);
+        sh->dirty_size = fit->size, sh->dirty_n = fit->n;
+    }
     uint32_t nt = threads ? threads : 1;
     if (nt > MAX_THREADS) nt = MAX_THREADS;
     if (!pool) nt = 1;

@@ -117,4 +117,22 @@ float vt_shadow_sun(const vt_shadow *sh, const float p[3], const float n[3]);
 /* The same from a fit and its maps (vt_shadow_sun's body). */
 float vt_shadow_lookup(const vt_shadow_fit *fit, const float *maps, const float p[3], const float n[3]);
 
+/* vt_shadow_sun over a span: out[i] *= the visibility of point
+ * (px, py, pz)[i] with normal (nx, ny, nz)[i], i < n; sh NULL: nothing.
+ * The same values as vt_shadow_sun bit for bit, W pixels a step (the
+ * instance cull_isa_default picks, or vt_shadow_set_isa's). */
+void vt_shadow_sun_n(const vt_shadow *sh, unsigned n, const float *px, const float *py, const float *pz,
+                     const float *nx, const float *ny, const float *nz, float *out);
+/* Later lookups of sh use isa's instance (enum cull_isa) where this CPU
+ * has it, else the default (the tests compare them). */
+void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa);
+
+/* The span lookup's instances (vt_shadow.inl); one lane: vt_shadow_lookup. */
+typedef void (*vt_shadow_n_fn)(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
+                               const float *pz, const float *nx, const float *ny, const float *nz, float *out);
+void vt_shadow_lookup_n_sse41(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
+                              const float *pz, const float *nx, const float *ny, const float *nz, float *out);
+void vt_shadow_lookup_n_avx2(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
+                             const float *pz, const float *nx, const float *ny, const float *nz, float *out);
+
 #endif

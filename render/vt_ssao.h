@@ -113,5 +113,9 @@ typedef struct vt_ssao vt_ssao;
 int vt_ssao_run(vt_ssao **s, cull_pool *pool, uint32_t nt, const vt_ssao_view *sv, const float *near,
                 const float **ao);
 void vt_ssao_destroy(vt_ssao *s);
+/* Later runs of *s use the kernels of isa (enum cull_isa: the one-lane
+ * instance is the tests' reference for the 4- and 8-lane ones) where this
+ * CPU has it, else the default; *s made if NULL (out of memory: nothing). */
+void vt_ssao_set_isa(vt_ssao **s, uint32_t isa);
 
 #endif

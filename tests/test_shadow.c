@@ -420,6 +420,84 @@ static void test_shadow_stable(void **state)
     vt_shadow_destroy(sh);
 }
 
+/* ---- the span lookup and the partial clear ---------------------------------------------- */
+
+/* vt_shadow_sun_n's lane instances against vt_shadow_sun, pixel by pixel,
+ * bit for bit (they do its float operations in its order: no tolerance),
+ * on points around a box's shadow (penumbrae, every cascade, past the
+ * last, normals away from the sun, zero and non-finite ones) in spans of
+ * odd lengths; and the maps of a second draw into the same vt_shadow (the
+ * raster clears only the bands drawn into before) equal to a fresh one's. */
+static void test_shadow_lookup_lanes(void **state)
+{
+    (void)state;
+    vt_env env = scene_env(SUN);
+    vt_instance in[2] = {{.mesh = 0, .bmin = {-1, 0, -1.5}, .bmax = {1, 6, 0.5}},
+                         {.mesh = 0, .bmin = {30, 0, -80}, .bmax = {40, 20, -60}}};
+    float mb[1][6] = {{-1, -1, -1, 1, 1, 1}};
+    vt_shadow *sh, *fresh;
+    assert_int_equal(vt_shadow_create(&sh), 0);
+    assert_int_equal(vt_shadow_create(&fresh), 0);
+    cull_view v;
+    look(&v, (const double[3]){3, 5, 9}, (const double[3]){-1, 0, -3}, 320, 180);
+    vt_shadow_fit fit;
+    float s[3];
+    assert_true(vt_shadow_sun_dir(&env, 0, s));
+    assert_true(vt_shadow_fit_make(&v, 320, 180, &env, s, (const float(*)[6])mb, in, 2, &fit));
+    uint32_t tris;
+    char err[128];
+    /* the far box first, then the near one alone: its bands must be clean */
+    assert_int_equal(vt_shadow_draw(sh, NULL, 1, &fit, v.origin, &vt_mesh_box, (const float(*)[6])mb, &in[1], 1, &tris,
+                                    err, sizeof err),
+                     0);
+    assert_int_equal(vt_shadow_draw(sh, NULL, 1, &fit, v.origin, &vt_mesh_box, (const float(*)[6])mb, in, 1, &tris,
+                                    err, sizeof err),
+                     0);
+    assert_int_equal(vt_shadow_draw(fresh, NULL, 1, &fit, v.origin, &vt_mesh_box, (const float(*)[6])mb, in, 1, &tris,
+                                    err, sizeof err),
+                     0);
+    assert_memory_equal(vt_shadow_maps(sh), vt_shadow_maps(fresh), (size_t)fit.n * fit.size * fit.size * sizeof(float));
+    enum { NP = 4000 };
+    static float px[NP], py[NP], pz[NP], nx[NP], ny[NP], nz[NP], ref[NP], got[NP];
+    uint64_t seed = 11;
+    size_t part = 0, dark = 0;
+    for (int i = 0; i < NP; i++) {
+        double r[6];
+        for (int k = 0; k < 6; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
+        /* ground and box faces near the box; every 10th far away */
+        double sc = i % 10 ? 8 : 400;
+        px[i] = (float)(-3 + sc * (r[0] - 0.5) - v.origin[0]);
+        py[i] = (float)((i % 3 ? 0 : 6 * r[1]) - v.origin[1]);
+        pz[i] = (float)(-3 + sc * (r[2] - 0.5) - v.origin[2]);
+        float n3[3] = {(float)(r[3] - 0.5), 1, (float)(r[5] - 0.5)};
+        if (i % 7 == 0) n3[1] = -0.5f;            /* turned from the sun */
+        if (i % 11 == 0) n3[0] = n3[1] = n3[2] = 0; /* degenerate */
+        if (i % 13 == 0) px[i] = NAN;
+        float l = sqrtf(n3[0] * n3[0] + n3[1] * n3[1] + n3[2] * n3[2]);
+        nx[i] = l > 0 ? n3[0] / l : 0, ny[i] = l > 0 ? n3[1] / l : 0, nz[i] = l > 0 ? n3[2] / l : 0;
+        ref[i] = vt_shadow_sun(sh, (const float[3]){px[i], py[i], pz[i]}, (const float[3]){nx[i], ny[i], nz[i]});
+        part += ref[i] > 0 && ref[i] < 1;
+        dark += ref[i] == 0;
+    }
+    assert_true(part > 20 && dark > 100); /* penumbrae and umbrae to compare */
+    for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+        if (!cull_isa_supported(isa)) continue;
+        vt_shadow_set_isa(sh, isa);
+        size_t bad = 0;
+        for (int i0 = 0, n = 1; i0 < NP; i0 += n, n = n % 37 + 5) {
+            int m = i0 + n <= NP ? n : NP - i0;
+            for (int i = i0; i < i0 + m; i++) got[i] = 1;
+            vt_shadow_sun_n(sh, (unsigned)m, px + i0, py + i0, pz + i0, nx + i0, ny + i0, nz + i0, got + i0);
+        }
+        for (int i = 0; i < NP; i++) bad += memcmp(&got[i], &ref[i], sizeof got[i]) != 0;
+        fprintf(stderr, "%s: %zu of %d lookups differ from vt_shadow_sun (%zu in penumbrae, %zu dark)\n",
+                cull_isa_name(isa), bad, NP, part, dark);
+        assert_int_equal(bad, 0);
+    }
+    vt_shadow_destroy(sh);
+    vt_shadow_destroy(fresh);
+}
+
 /* ---- adversarial inputs ---------------------------------------------------------------- */
 
 static void test_shadow_adversarial(void **state)
@@ -551,6 +629,7 @@ static void test_shadow_caster_outside_view(void **state)
 }
 
 const struct CMUnitTest shadow_tests[] = {
+    cmocka_unit_test(test_shadow_lookup_lanes),
     cmocka_unit_test(test_shadow_analytic_box_soft),
     cmocka_unit_test(test_shadow_analytic_box_gl),
     cmocka_unit_test(test_shadow_stable),

@@ -404,6 +404,58 @@ static void test_ssao_adversarial(void **state)
     cull_pool_destroy(pool);
 }
 
+/* ---- (e) the lane kernels ------------------------------------------------------- */
+
+/* The 4- and 8-lane kernels against the one-lane one on a street of boxes
+ * (odd sizes: row tails shorter than a step; perspective and orthographic;
+ * one and two threads): every pixel the same bit for bit. No tolerance is
+ * needed: the instances do the same float operations in the same order
+ * (no FMA, no approximate reciprocals; vt_ssao_kern.h), and any
+ * difference means a lane sampled another texel or mixed up a mask. */
+static void test_ssao_lanes(void **state)
+{
+    (void)state;
+    static const box3 boxes[] = {{{-12, 0, -30}, {-4, 9, -14}}, {{3, 0, -26}, {9, 4, -20}}, {{-2, 0, -12}, {0.5, 1.2, -9}},
+                                 {{6, 0, -60}, {20, 25, -40}}, {{-1, 2, -18}, {1, 3, -16}}};
+    geo g = {.ground = true, .box = boxes, .nbox = 5};
+    static const struct {
+        double eye[3], at[3], oh;
+        uint32_t w, h;
+    } views[] = {{{0, 1.7, 0}, {0, 1.0, -20}, 0, 203, 97}, {{10, 14, 4}, {0, 0, -20}, 0, 160, 90},
+                 {{0, 9, -14}, {0, 0, -20.01}, 0, 99, 67}, {{5, 12, 0}, {0, 0, -20}, 14, 131, 75}};
+    cull_pool *pool = NULL;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    for (size_t v = 0; v < sizeof views / sizeof views[0]; v++) {
+        cam c;
+        cam_make(&c, views[v].eye, views[v].at, views[v].w, views[v].h, views[v].oh);
+        float *nb = near_of(&c, &g, NULL, NULL);
+        size_t n = (size_t)c.w * c.h;
+        vt_ssao *ref = NULL;
+        vt_ssao_set_isa(&ref, CULL_ISA_SCALAR);
+        assert_non_null(ref);
+        const float *r = ao_of(&ref, NULL, &c, nb);
+        size_t dark = 0;
+        for (size_t i = 0; i < n; i++) dark += r[i] < 0.9f;
+        assert_true(dark > n / 200); /* the scene has contact shadows to compare */
+        for (uint32_t isa = CULL_ISA_SSE41; isa < CULL_ISA_COUNT; isa++) {
+            if (!cull_isa_supported(isa)) continue;
+            vt_ssao *s = NULL;
+            vt_ssao_set_isa(&s, isa);
+            assert_non_null(s);
+            const float *ao = ao_of(&s, v & 1 ? pool : NULL, &c, nb);
+            size_t bad = 0;
+            for (size_t i = 0; i < n; i++) bad += memcmp(&ao[i], &r[i], sizeof *ao) != 0;
+            fprintf(stderr, "view %zu %s: %zu of %zu pixels differ from the one-lane kernel (%zu below 0.9)\n", v,
+                    cull_isa_name(isa), bad, n, dark);
+            assert_int_equal(bad, 0);
+            vt_ssao_destroy(s);
+        }
+        vt_ssao_destroy(ref);
+        free(nb);
+    }
+    cull_pool_destroy(pool);
+}
+
 /* ---- both renderers ------------------------------------------------------------- */
 
 static vt_gldraw *gl_open(vt_gl **g)
@@ -693,6 +745,7 @@ const struct CMUnitTest ssao_tests[] = {
     cmocka_unit_test(test_ssao_crease),
     cmocka_unit_test(test_ssao_range_check),
     cmocka_unit_test(test_ssao_adversarial),
+    cmocka_unit_test(test_ssao_lanes),
     cmocka_unit_test(test_ssao_renderers),
     cmocka_unit_test(test_sky_never_black),
     cmocka_unit_test(test_fog_transmittance),

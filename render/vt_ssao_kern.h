@@ -1,0 +1,50 @@
+/*
+ * vt_ssao_kern.h — the SSAO pass' lane kernels (internal to vt_ssao*.c):
+ * vt_ssao.inl compiled once per ISA (vt_ssao_base.c: one lane, and the
+ * choice; vt_ssao_sse41.c: 4; vt_ssao_avx2.c: 8), each doing the same
+ * float operations in the same order as the one-lane instance, so every
+ * instance gives the same AO bit for bit (no FMA contraction: the build
+ * is ISO C, -ffp-contract=off).
+ */
+#ifndef VANTAGE_VT_SSAO_KERN_H
+#define VANTAGE_VT_SSAO_KERN_H
+
+#include "vt_ssao.h"
+#include "vt_shade.h"
+
+/* One frame's pass as the kernels read it. */
+typedef struct vt_ssao_kjob {
+    const vt_ssao_view *sv;
+    const float *near;          /* full resolution, w x h */
+    float *pos;                 /* half texels: x, y, z, nearness (VT_EMPTY: sky) */
+    float *hao, *hnear;         /* half texels' AO and nearness */
+    const int32_t *cx;          /* 3 planes of w + 8 (padded): each full column's tap half columns */
+    const float *cw;            /* their weights, likewise */
+    const float *colx;          /* hw + 8 (padded): each half column's NDC x */
+    float *ao;                  /* full pixels */
+    float dir[4 * VT_SSAO_SLICES][2]; /* vt_ssao_dirs */
+} vt_ssao_kjob;
+
+typedef void (*vt_ssao_row_fn)(const vt_ssao_kjob *k, uint32_t row);
+
+typedef struct vt_ssao_kern {
+    vt_ssao_row_fn pos;  /* half row j: pos */
+    vt_ssao_row_fn gtao; /* half row j: hao, hnear */
+    vt_ssao_row_fn up;   /* full row y: ao */
+} vt_ssao_kern;
+
+void vt_ssao_pos_scalar(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_pos_sse41(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_pos_avx2(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_gtao_scalar(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_up_scalar(const vt_ssao_kjob *k, uint32_t y);
+void vt_ssao_gtao_sse41(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_up_sse41(const vt_ssao_kjob *k, uint32_t y);
+void vt_ssao_gtao_avx2(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_up_avx2(const vt_ssao_kjob *k, uint32_t y);
+
+/* The instance of isa (enum cull_isa) where this build and CPU run it,
+ * else the default one (cull_isa_default: the widest, or VANTAGE_ISA). */
+vt_ssao_kern vt_ssao_kern_pick(uint32_t isa);
+
+#endif
