@@ -23,6 +23,7 @@
  */
 #include "vt_shadow.h"
 
+#include "vt_mask.h"
 #include "vt_picture.h"
 
 #include <float.h>
@@ -341,6 +342,7 @@ float vt_shadow_lookup(const vt_shadow_fit *f, const float *maps, const float p[
  * its depth s.p at the corners. */
 typedef struct ltri {
     float x[3], y[3], z[3];
+    const vt_mask *mk;      /* a damaged caster's destruction mask (its holes let the sun through), or NULL */
 } ltri;
 
 typedef struct sbuf {
@@ -367,6 +369,10 @@ struct vt_shadow {
     uint32_t dirty_size, dirty_n;
     vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
     sbuf tb[MAX_THREADS];
+    vt_mask *mk;            /* this frame's damaged casters' masks */
+    size_t mk_cap;
+    uint32_t *mk_of;        /* per caster: its mask + 1, 0 intact */
+    size_t mk_of_cap;
 };
 
 /* The span lookup one pixel at a time (any CPU; the lane instances' reference). */
@@ -413,6 +419,8 @@ void vt_shadow_destroy(vt_shadow *sh)
         free(sh->tb[t].vx);
     }
     free(sh->maps);
+    free(sh->mk);
+    free(sh->mk_of);
     free(sh);
 }
 
@@ -438,6 +446,7 @@ typedef struct sjob {
     const float (*mb)[6];
     const vt_instance *in;
     uint32_t nin, nt;
+    bool masked;            /* some casters are damaged (sh->mk_of holds them) */
 } sjob;
 
 /* Set-up of casters [i0, i1) into b's lists. */
@@ -492,7 +501,11 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
             for (int a = 0; a < 3; a++) p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
             for (int a = 0; a < 3; a++) b->vx[3 * k + a] = (float)(ax[a][0] * p[0] + ax[a][1] * p[1] + ax[a][2] * p[2]);
         }
-        const bool two = mat && mat->double_sided;
+        /* a damaged caster casts both faces, each where its mask keeps
+           it: through a hole the sun reaches the inside and what is
+           behind (the renderers draw it two-sided too) */
+        const vt_mask *mk = jb->masked && jb->sh->mk_of[ii] ? &jb->sh->mk[jb->sh->mk_of[ii] - 1] : NULL;
+        const bool two = (mat && mat->double_sided) || mk;
         for (uint32_t t = 0; t < m->ni / 3; t++) {
             const float *q0 = b->vx + 3 * m->idx[3 * t], *q1 = b->vx + 3 * m->idx[3 * t + 1],
                         *q2 = b->vx + 3 * m->idx[3 * t + 2];
@@ -505,6 +518,7 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
             for (int k = 0; k < (int)f->n; k++) {
                 if (!(cm >> k & 1)) continue;
                 ltri L;
+                L.mk = mk;
                 const float *qs[3] = {q0, q1, q2};
                 float x0 = FLT_MAX, x1 = -FLT_MAX, y0 = FLT_MAX, y1 = -FLT_MAX;
                 for (int e = 0; e < 3; e++) {
@@ -533,9 +547,27 @@ static void job_setup(void *arg, uint32_t t)
     jb->sh->tb[t].rc = setup(&jb->sh->tb[t], jb, i0, i1);
 }
 
+/* A damaged caster's texels: its mask and the map's light axes (map x
+ * = u.p scale + off[0], y likewise; depth s.p; p camera-relative). */
+typedef struct rmask {
+    const vt_mask *mk;
+    const float *u, *v, *s;
+    float scale, off[2];
+} rmask;
+
+/* Whether the mask keeps the caster's texel centre (cx, cy) at depth zz. */
+static bool rmask_keeps(const rmask *r, float cx, float cy, float zz)
+{
+    float a = (cx - r->off[0]) / r->scale, b = (cy - r->off[1]) / r->scale;
+    float p[3];
+    for (int k = 0; k < 3; k++) p[k] = a * r->u[k] + b * r->v[k] + zz * r->s[k];
+    return vt_mask_eval(r->mk, p[0], p[1], p[2]) >= 0;
+}
+
 /* Rows [r0, r1] of triangle (x, y, z: n corners after clipping, a fan) of
- * map m (size sz), max depth. */
-static void raster_poly(float *m, uint32_t sz, const double *x, const double *y, const double *z, int n, int r0, int r1)
+ * map m (size sz), max depth; rm non-NULL: only the texels its mask keeps. */
+static void raster_poly(float *m, uint32_t sz, const double *x, const double *y, const double *z, int n, int r0, int r1,
+                        const rmask *rm)
 {
     for (int f = 1; f + 1 < n; f++) {
         int id[3] = {0, f, f + 1};
@@ -596,6 +628,13 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
             float *row = m + (size_t)j * sz;
             float zr = (float)(zb * yc + zc), fa = (float)za;
             int i = (int)lo, i1 = (int)hi;
+            if (rm) {
+                for (; i <= i1; i++) {
+                    float zz = fminf(fmaxf(fa * ((float)i + 0.5f) + zr, zlo), zhi);
+                    if (zz > row[i] && rmask_keeps(rm, (float)i + 0.5f, (float)yc, zz)) row[i] = zz;
+                }
+                continue;
+            }
 #ifdef __SSE2__
             /* four texels a step (x86-64's baseline): the same operations */
             const __m128 va = _mm_set1_ps(fa), vr = _mm_set1_ps(zr), vlo = _mm_set1_ps(zlo), vhi = _mm_set1_ps(zhi);
@@ -690,7 +729,10 @@ static void job_raster(void *arg, uint32_t t)
                         sh->dlo[c][k] = cl < sh->dlo[c][k] ? cl : sh->dlo[c][k];
                         sh->dhi[c][k] = ch > sh->dhi[c][k] ? ch : sh->dhi[c][k];
                     }
-                    raster_poly(m, sz, x, y, z, n, (int)(k * BAND), (int)((k + 1) * BAND < sz ? (k + 1) * BAND : sz) - 1);
+                    rmask rm = {.mk = L->mk, .u = sh->fit.u, .v = sh->fit.v, .s = sh->fit.s, .scale = sh->fit.scale[c],
+                                .off = {sh->fit.off[c][0], sh->fit.off[c][1]}};
+                    raster_poly(m, sz, x, y, z, n, (int)(k * BAND), (int)((k + 1) * BAND < sz ? (k + 1) * BAND : sz) - 1,
+                                L->mk ? &rm : NULL);
                 }
             }
     }
@@ -713,7 +755,23 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     uint32_t nt = threads ? threads : 1;
     if (nt > MAX_THREADS) nt = MAX_THREADS;
     if (!pool) nt = 1;
-    sjob jb = {.sh = sh, .origin = origin, .meshes = meshes, .mb = mb, .in = casters, .nin = ncasters, .nt = nt};
+    /* the damaged casters' masks, as the renderers make them */
+    uint32_t nmk = 0;
+    for (uint32_t i = 0; i < ncasters; i++) nmk += vt_dvol_live(casters[i].dvol);
+    if (nmk) {
+        if (!vp_grow((void **)&sh->mk, &sh->mk_cap, nmk, sizeof *sh->mk) ||
+            !vp_grow((void **)&sh->mk_of, &sh->mk_of_cap, ncasters, sizeof *sh->mk_of))
+            return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow casters' masks");
+        nmk = 0;
+        for (uint32_t i = 0; i < ncasters; i++) {
+            sh->mk_of[i] = 0;
+            if (!vt_dvol_live(casters[i].dvol)) continue;
+            vt_mask_make(casters[i].dvol, origin, &sh->mk[nmk]);
+            sh->mk_of[i] = ++nmk;
+        }
+    }
+    sjob jb = {.sh = sh, .origin = origin, .meshes = meshes, .mb = mb, .in = casters, .nin = ncasters, .nt = nt,
+               .masked = nmk > 0};
     if (nt > 1) cull_pool_run(pool, job_setup, &jb, nt);
     else job_setup(&jb, 0);
     for (uint32_t t = 0; t < nt; t++) {
