@@ -4,7 +4,7 @@
  * shows (a triangle's shading record, perspective-correct, or the ground
  * plane), its UVs with their derivatives one pixel over and one up (the
  * mip level), its material (vt_surface_params), and after the lights,
- * fog or the sky.
+ * the sky where nothing is drawn (the kernel fogs the rest in lanes).
  * Scalar: texture fetches and the sky are per pixel anyway.
  */
 #include "vt_mask.h"
@@ -161,17 +161,15 @@ static void sky_uv_at(const vt_span *sp, uint32_t i, const float c0[3], const fl
     vt_sky_uv(sp->pe, d, uv);
 }
 
-void vt_span_finish(const vt_span *sp, const float *px, const float *py, const float *pz, float *cr, float *cg,
-                    float *cb, const float *cov)
+void vt_span_sky(const vt_span *sp, float *cr, float *cg, float *cb, const float *cov)
 {
     float c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0}, ua[2] = {0, 0}, ub[2] = {0, 0};
     bool row = false;
     uint32_t ia = UINT32_MAX, ib = 0;
     for (uint32_t i = 0; i < sp->n; i++) {
-        float c[3] = {cr[i], cg[i], cb[i]};
+        float c[3];
         if (cov[i] > 0) {
-            const float p[3] = {px[i], py[i], pz[i]};
-            vt_fog_apply(sp->pe, p, c);
+            continue; /* drawn: its fog is the kernel's (in lanes) */
         } else {
             if (!row) vt_view_dir_row(sp->vr, sp->Y, c0, c1);
             row = true;
