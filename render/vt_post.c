@@ -325,8 +325,15 @@ static inline float luma_at(const fx_job *j, float px, float py)
     int x0 = ifloor(px), y0 = ifloor(py);
     float fx = px - (float)x0, fy = py - (float)y0;
     const float *L = j->luma;
-    float a = L[clamp_at(j, x0, y0)], b = L[clamp_at(j, x0 + 1, y0)];
-    float c = L[clamp_at(j, x0, y0 + 1)], d = L[clamp_at(j, x0 + 1, y0 + 1)];
+    float a, b, c, d;
+    if (x0 >= 0 && y0 >= 0 && x0 + 1 < (int)j->w && y0 + 1 < (int)j->h) {
+        /* inside (the edge search mostly is): no clamps, the same texels */
+        const float *q = L + (size_t)y0 * j->w + (size_t)x0;
+        a = q[0], b = q[1], c = q[j->w], d = q[j->w + 1];
+    } else {
+        a = L[clamp_at(j, x0, y0)], b = L[clamp_at(j, x0 + 1, y0)];
+        c = L[clamp_at(j, x0, y0 + 1)], d = L[clamp_at(j, x0 + 1, y0 + 1)];
+    }
     float top = a + (b - a) * fx, bot = c + (d - c) * fx;
     return top + (bot - top) * fy;
 }
