@@ -587,8 +587,9 @@ static void test_image_tonemap_rgbx(void **state)
         memcpy(&v, &bits, sizeof v);
         if (i % 101 < sizeof specials / sizeof specials[0]) v = specials[i % 101];
         uint32_t y = i / 3 / w, x = i / 3 % w, c = i % 3;
-        il[((size_t)(h - 1 - y) * w + x) * 4 + c] = v; /* bottom-up, as rendered */
-        if (c == 2 && i / 3 + 1 < n) il[((size_t)(h - 1 - y) * w + x) * 4 + 3] = NAN; /* x: ignored */
+        size_t at = ((size_t)(h - 1 - y) * w + x) * 4; /* bottom-up, as rendered */
+        il[at + c] = v;
+        if (c == 2 && at + 3 < (size_t)n * 4 - 1) il[at + 3] = NAN; /* x: ignored (none after the buffer's last) */
         pl[(size_t)c * n + (size_t)y * w + x] = v;
     }
     const float *top = il + (size_t)(h - 1) * w * 4;
