@@ -306,6 +306,44 @@ static inline void store_rgba(float *dst, vf r, vf g, vf b, vf a)
 #endif
 }
 
+/* The barycentrics of each triangle pixel of the span (vt_stri_bary) at
+ * its centre, one pixel right and one up, into bb (vt_span_surface's
+ * rows), in lanes: the same multiplies and adds in the same order as the
+ * scalar function (no fused ones), so the same bits. Per pixel the three
+ * scalar calls were ~75 instructions; here the records' 9 coefficients
+ * are copied into lanes and each lane's arithmetic is shared by W. Only
+ * pixels vt_span_surface reads them for (all: env; else a material's). */
+static inline void span_bary(const vt_span *sp, float bb[9][S], bool env)
+{
+    A float e[9][S], X[S];
+    bool any = false;
+    for (unsigned i = 0; i < S; i++) {
+        uint32_t id = i < sp->n ? sp->id[i] : 0;
+        const vt_stri *t = id && id != VT_ID_GROUND ? &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK] : NULL;
+        if (t && !env && !t->mat) t = NULL; /* the kernel's own default-material path */
+        for (int k = 0; k < 9; k++) e[k][i] = t ? t->e[k / 3][k % 3] : 0.0f;
+        X[i] = vt_ndc_x(sp->x0 + i, sp->inv_w);
+        any |= t != NULL;
+    }
+    if (!any) return;
+    const vf zero = vf_set(0), one = vf_set(1), Y = vf_set(sp->Y);
+    const vf dX = vf_set((float)sp->inv_w), Yu = vf_set(sp->Y + (float)sp->inv_h);
+    for (unsigned i = 0; i < S; i += W) {
+        vf x = vf_load(X + i);
+        const vf xs[3] = {x, vf_add(x, dX), x}, ys[3] = {Y, Y, Yu};
+        for (int q = 0; q < 3; q++) {
+            vf b[3];
+            for (int k = 0; k < 3; k++)
+                b[k] = vf_add(vf_add(vf_mul(vf_load(e[3 * k] + i), xs[q]), vf_mul(vf_load(e[3 * k + 1] + i), ys[q])),
+                              vf_load(e[3 * k + 2] + i));
+            vf sum = vf_add(vf_add(b[0], b[1]), b[2]);
+            vm z = vm_and(vf_ge(sum, zero), vf_le(sum, zero)); /* sum == 0 (a NaN: not, as the scalar test) */
+            vf is = vf_select(z, one, vf_div(one, sum));
+            for (int k = 0; k < 3; k++) vf_store(bb[3 * q + k] + i, vf_mul(b[k], is));
+        }
+    }
+}
+
 /* One light over the span; spot is a constant at each call site, so each
  * of the two copies is a straight loop. */
 static inline __attribute__((always_inline)) void light(surf *restrict s, const vt_slight *restrict L, int spot)
@@ -378,6 +416,8 @@ void VT_SHADE_NAME(const vt_span *sp)
        the homogeneous edge functions, the interpolated surface; a
        material's, the ground's or any pixel under an environment through
        vt_span_surface (textures, sun, sky ambient, emissive) */
+    A float bb[9][S];
+    span_bary(sp, bb, env);
     for (unsigned i = 0; i < S; i++) {
         uint32_t id = i < sp->n ? sp->id[i] : 0;
         if (!id) {
@@ -395,7 +435,7 @@ void VT_SHADE_NAME(const vt_span *sp)
         if (env || !t || t->mat) {
             float p[3];
             vt_surfout o;
-            vt_span_surface(sp, i, p, &o, &cov[i]);
+            vt_span_surface(sp, i, (const float(*)[S])bb, p, &o, &cov[i]);
             s.px[i] = p[0], s.py[i] = p[1], s.pz[i] = p[2];
             s.nx[i] = o.n[0], s.ny[i] = o.n[1], s.nz[i] = o.n[2];
             s.ar[i] = o.diffuse[0], s.ag[i] = o.diffuse[1], s.ab[i] = o.diffuse[2];
