@@ -316,12 +316,16 @@ static inline void store_rgba(float *dst, vf r, vf g, vf b, vf a)
 static inline void span_bary(const vt_span *sp, float bb[9][S], bool env)
 {
     A float e[9][S], X[S];
+    static const float zero9[9] = {0};
     bool any = false;
     for (unsigned i = 0; i < S; i++) {
         uint32_t id = i < sp->n ? sp->id[i] : 0;
         const vt_stri *t = id && id != VT_ID_GROUND ? &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK] : NULL;
         if (t && !env && !t->mat) t = NULL; /* the kernel's own default-material path */
-        for (int k = 0; k < 9; k++) e[k][i] = t ? t->e[k / 3][k % 3] : 0.0f;
+        const float *te = t ? &t->e[0][0] : zero9; /* 9 stores, written out: a loop over k was 150 instructions */
+        e[0][i] = te[0], e[1][i] = te[1], e[2][i] = te[2];
+        e[3][i] = te[3], e[4][i] = te[4], e[5][i] = te[5];
+        e[6][i] = te[6], e[7][i] = te[7], e[8][i] = te[8];
         X[i] = vt_ndc_x(sp->x0 + i, sp->inv_w);
         any |= t != NULL;
     }
