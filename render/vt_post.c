@@ -86,6 +86,36 @@ static inline uint32_t bin_of(const hist_job *j, float L)
     return b < VT_HIST_BINS ? b : VT_HIST_BINS - 1;
 }
 
+#ifdef __SSE2__
+/* lum and bin_of for 4 pixels at once, the same operations in the same
+ * order (the same bins): the luminance's products summed left to right,
+ * the exponent and the mantissa's quarter in integer lanes, the two
+ * out-of-range cases selected after. 35 instructions a pixel -> ~12. */
+static inline void bin4(const hist_job *j, const float *p, uint32_t *hb)
+{
+    __m128 a = _mm_loadu_ps(p), b = _mm_loadu_ps(p + 4), c = _mm_loadu_ps(p + 8), d = _mm_loadu_ps(p + 12);
+    _MM_TRANSPOSE4_PS(a, b, c, d); /* a, b, c: red, green, blue */
+    __m128 L = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0.2126f), a), _mm_mul_ps(_mm_set1_ps(0.7152f), b)),
+                          _mm_mul_ps(_mm_set1_ps(0.0722f), c));
+    __m128i bits = _mm_castps_si128(L), m = _mm_and_si128(bits, _mm_set1_epi32(0x7fffff));
+    __m128i e4 = _mm_slli_epi32(_mm_sub_epi32(_mm_srli_epi32(bits, 23), _mm_set1_epi32(127 + VT_HIST_LO)), 2);
+    for (int k = 0; k < 3; k++) /* m >= q: m > q - 1 (both < 2^23): -1 a lane, subtracted */
+        e4 = _mm_sub_epi32(e4, _mm_cmpgt_epi32(m, _mm_set1_epi32((int)j->q[k] - 1)));
+    __m128i top = _mm_set1_epi32(VT_HIST_BINS - 1), over = _mm_cmpgt_epi32(e4, top);
+    e4 = _mm_or_si128(_mm_and_si128(over, top), _mm_andnot_si128(over, e4));
+    __m128i hi = _mm_castps_si128(_mm_cmplt_ps(L, _mm_set1_ps(0x1p16f))); /* false for NaN, inf */
+    __m128i lo = _mm_castps_si128(_mm_cmpgt_ps(L, _mm_set1_ps(0x1p-16f)));
+    e4 = _mm_or_si128(_mm_and_si128(hi, e4), _mm_andnot_si128(hi, top));
+    e4 = _mm_and_si128(lo, e4); /* not above 2^-16 (NaN too): 0 */
+    uint32_t o[4];
+    _mm_storeu_si128((__m128i *)o, e4);
+    hb[o[0]]++;
+    hb[o[1]]++;
+    hb[o[2]]++;
+    hb[o[3]]++;
+}
+#endif
+
 static void job_hist(void *arg, uint32_t t)
 {
     hist_job *j = arg;
@@ -94,7 +124,11 @@ static void job_hist(void *arg, uint32_t t)
     memset(hb, 0, sizeof j->hist[t]);
     for (uint32_t y = y0; y < y1; y++) {
         const float *p = j->rgba + 4 * (size_t)y * j->stride;
-        for (uint32_t x = 0; x < j->w; x++, p += 4) hb[bin_of(j, lum(p))]++;
+        uint32_t x = 0;
+#ifdef __SSE2__
+        for (; x + 4 <= j->w; x += 4, p += 16) bin4(j, p, hb);
+#endif
+        for (; x < j->w; x++, p += 4) hb[bin_of(j, lum(p))]++;
     }
 }
 
@@ -291,8 +325,15 @@ static inline float luma_at(const fx_job *j, float px, float py)
     int x0 = ifloor(px), y0 = ifloor(py);
     float fx = px - (float)x0, fy = py - (float)y0;
     const float *L = j->luma;
-    float a = L[clamp_at(j, x0, y0)], b = L[clamp_at(j, x0 + 1, y0)];
-    float c = L[clamp_at(j, x0, y0 + 1)], d = L[clamp_at(j, x0 + 1, y0 + 1)];
+    float a, b, c, d;
+    if (x0 >= 0 && y0 >= 0 && x0 + 1 < (int)j->w && y0 + 1 < (int)j->h) {
+        /* inside (the edge search mostly is): no clamps, the same texels */
+        const float *q = L + (size_t)y0 * j->w + (size_t)x0;
+        a = q[0], b = q[1], c = q[j->w], d = q[j->w + 1];
+    } else {
+        a = L[clamp_at(j, x0, y0)], b = L[clamp_at(j, x0 + 1, y0)];
+        c = L[clamp_at(j, x0, y0 + 1)], d = L[clamp_at(j, x0 + 1, y0 + 1)];
+    }
     float top = a + (b - a) * fx, bot = c + (d - c) * fx;
     return top + (bot - top) * fy;
 }

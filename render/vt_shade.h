@@ -106,15 +106,19 @@ typedef struct vt_span {
 /* The surface a pixel shows (a triangle's record, or the ground plane),
  * its material evaluated: what the kernels gather per pixel before they
  * light it. cov: 0 nothing drawn there, else 1. p: camera-relative
- * position. */
-void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, float *cov);
+ * position. bb: for a triangle's pixel i, its barycentrics (vt_stri_bary)
+ * at the pixel's centre (bb[0..2][i]), one pixel right (X + dX: bb[3..5])
+ * and one up (Y + dY: bb[6..8]), the UVs' differences: the kernel
+ * computes them for the span in lanes with the same operations (the same
+ * bits as three scalar calls). */
+void vt_span_surface(const vt_span *sp, uint32_t i, const float bb[9][VT_SPAN], float p[3], vt_surfout *o, float *cov);
 /* Whether a MASK material's triangle keeps the pixel at NDC (X, Y) (the
  * base alpha >= the cutoff; dX, dY one pixel in NDC). */
 bool vt_stri_alpha_pass(const vt_stri *t, float X, float Y, float dX, float dY);
-/* After the lights, over the span's pixels: fog over drawn ones
- * (positions p*, radiance c*, changed in place), the sky where cov is 0. */
-void vt_span_finish(const vt_span *sp, const float *px, const float *py, const float *pz, float *cr, float *cg,
-                    float *cb, const float *cov);
+/* After the lights and the fog (the kernel's, in lanes: vt_fog_apply's
+ * formula), over the span's pixels: the sky's radiance into c* where cov
+ * is 0 (drawn pixels are left as they are). */
+void vt_span_sky(const vt_span *sp, float *cr, float *cg, float *cb, const float *cov);
 
 typedef void (*vt_shade_fn)(const vt_span *s);
 /* vt_tile_ranges for one row of tiles of a packed nearness image. */

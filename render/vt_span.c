@@ -4,7 +4,7 @@
  * shows (a triangle's shading record, perspective-correct, or the ground
  * plane), its UVs with their derivatives one pixel over and one up (the
  * mip level), its material (vt_surface_params), and after the lights,
- * fog or the sky.
+ * the sky where nothing is drawn (the kernel fogs the rest in lanes).
  * Scalar: texture fetches and the sky are per pixel anyway.
  */
 #include "vt_mask.h"
@@ -78,7 +78,7 @@ static inline void default_params(const float n[3], const float albedo[3], vt_su
     o->alpha = 1;
 }
 
-void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, float *cov)
+void vt_span_surface(const vt_span *sp, uint32_t i, const float bb[9][VT_SPAN], float p[3], vt_surfout *o, float *cov)
 {
     uint32_t id = i < sp->n ? sp->id[i] : 0;
     if (!id) {
@@ -117,8 +117,7 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
     }
     id--;
     const vt_stri *t = &sp->st[id >> VT_ID_BITS][id & VT_ID_MASK];
-    float b[3];
-    vt_stri_bary(t, X, sp->Y, b);
+    const float b[3] = {bb[0][i], bb[1][i], bb[2][i]};
     for (int k = 0; k < 3; k++) {
         p[k] = in.p[k] = b[0] * t->p[0][k] + b[1] * t->p[1][k] + b[2] * t->p[2][k];
         in.n[k] = b[0] * t->n[0][k] + b[1] * t->n[1][k] + b[2] * t->n[2][k];
@@ -136,7 +135,17 @@ void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, f
     const vt_texref *tx = t->mat->tex; /* UVs only for a material with a texture (they read nothing else) */
     if (t->has_uv && (tx[VT_SLOT_BASE].tex || tx[VT_SLOT_MR].tex || tx[VT_SLOT_NORMAL].tex || tx[VT_SLOT_EMISSIVE].tex)) {
         in.has_uv = true;
-        tri_uv_d(t, b, X, sp->Y, dX, dY, in.uv, in.dx, in.dy); /* b: the pixel's, reused */
+        /* the UVs at the pixel, one right and one up (the kernel's
+           barycentrics): their differences */
+        const float br[3] = {bb[3][i], bb[4][i], bb[5][i]}, bu[3] = {bb[6][i], bb[7][i], bb[8][i]};
+        float ux[2], uy[2];
+        tri_uv_b(t, b, in.uv);
+        tri_uv_b(t, br, ux);
+        tri_uv_b(t, bu, uy);
+        for (int c = 0; c < 2; c++) {
+            in.dx[c] = ux[c] - in.uv[c];
+            in.dy[c] = uy[c] - in.uv[c];
+        }
         if (t->has_tg && t->mat->tex[VT_SLOT_NORMAL].tex) { /* only a normal map reads the tangent */
             in.has_t = true;
             for (int c = 0; c < 4; c++) in.t[c] = b[0] * t->tg[0][c] + b[1] * t->tg[1][c] + b[2] * t->tg[2][c];
@@ -161,17 +170,15 @@ static void sky_uv_at(const vt_span *sp, uint32_t i, const float c0[3], const fl
     vt_sky_uv(sp->pe, d, uv);
 }
 
-void vt_span_finish(const vt_span *sp, const float *px, const float *py, const float *pz, float *cr, float *cg,
-                    float *cb, const float *cov)
+void vt_span_sky(const vt_span *sp, float *cr, float *cg, float *cb, const float *cov)
 {
     float c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0}, ua[2] = {0, 0}, ub[2] = {0, 0};
     bool row = false;
     uint32_t ia = UINT32_MAX, ib = 0;
     for (uint32_t i = 0; i < sp->n; i++) {
-        float c[3] = {cr[i], cg[i], cb[i]};
+        float c[3];
         if (cov[i] > 0) {
-            const float p[3] = {px[i], py[i], pz[i]};
-            vt_fog_apply(sp->pe, p, c);
+            continue; /* drawn: its fog is the kernel's (in lanes) */
         } else {
             if (!row) vt_view_dir_row(sp->vr, sp->Y, c0, c1);
             row = true;

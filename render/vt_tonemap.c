@@ -17,8 +17,10 @@
  * Measured on the development machine (one core of a 2-core AMD EPYC VM,
  * gcc 12 -O2, medians of 15), a 1280x720 frame of an HDR ramp with a
  * bright spot, smooth / with 8% grain: ACES tone map of interleaved float
- * RGBA 15 / 16 ms (about 16 ns a pixel, the same for CLAMP; scalar code,
- * the first thing to vectorise if it matters).
+ * RGBA 15 / 16 ms (about 16 ns a pixel, the same for CLAMP). The
+ * daemon's JPEG frames (interleaved RGB, ACES, no LUT) take an SSE2 row
+ * loop with the same codes (aces_row_rgbx): 90 -> 74 M instructions a
+ * 1280x720 city frame (BENCHMARKS.md, issue 20's frame).
  */
 #include "vt_image.h"
 #include "vt_lut.h"
@@ -282,6 +284,43 @@ static inline uint8_t aces8(float x)
     return (uint8_t)k;
 }
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+/* aces8 of an interleaved row of RGB(x) floats (x_stride 4, no alpha: 255),
+ * the daemon's JPEG frame: the exposure's product in double, the clamp
+ * and the bucket index in lanes, 4 channels at a time (the fourth, x,
+ * is computed and dropped: p[3] of the last pixel is never read); a
+ * bucket's first two threshold steps without branches (a bucket spans
+ * up to two thresholds; the loop after them only for safety). The same
+ * codes as aces8, bit for bit. */
+
+static void aces_row_rgbx(const float *p, uint32_t width, double scale, uint8_t *o)
+{
+    const __m128d k = _mm_set1_pd(scale);
+    const __m128 lo = _mm_set1_ps(0x1p-12f), hi = _mm_set1_ps(0x1.fffffep3f);
+    const __m128i base = _mm_set1_epi32((int)ACES_LO_BITS);
+    for (uint32_t x = 0; x < width; x++, p += 4, o += 4) {
+        __m128 v = x + 1 < width ? _mm_loadu_ps(p) : _mm_setr_ps(p[0], p[1], p[2], 0);
+        __m128 e = _mm_movelh_ps(_mm_cvtpd_ps(_mm_mul_pd(_mm_cvtps_pd(v), k)),
+                                 _mm_cvtpd_ps(_mm_mul_pd(_mm_cvtps_pd(_mm_movehl_ps(v, v)), k)));
+        e = _mm_min_ps(_mm_max_ps(e, lo), hi); /* max first: a NaN becomes 2^-12 (code 0), as aces8 */
+        __m128i bi = _mm_srli_epi32(_mm_sub_epi32(_mm_castps_si128(e), base), 15);
+        float c[4];
+        uint32_t b[4];
+        _mm_storeu_ps(c, e);
+        _mm_storeu_si128((__m128i *)b, bi);
+        for (int ch = 0; ch < 3; ch++) {
+            unsigned kk = aces_bucket[b[ch]];
+            kk += c[ch] >= aces_t[kk + 1];
+            kk += c[ch] >= aces_t[kk + 1];
+            while (c[ch] >= aces_t[kk + 1]) kk++;
+            o[ch] = (uint8_t)kk;
+        }
+        o[3] = 255;
+    }
+}
+#endif
+
 /* ACES then sRGB-encoded, as a float for the LUT: code k of aces8 spans
  * the encoded values [k - 1/2, k + 1/2) / 255 between thresholds aces_t[k]
  * and aces_t[k + 1]; where x lies between them, linearly, gives the
@@ -339,8 +378,19 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
     if (d.op == VT_TONEMAP_ACES) pthread_once(&aces_once, aces_init);
     float lk[3] = {0, 0, 0};
     if (d.lut) vt_lut_scale(d.lut, lk);
+#ifdef __SSE2__
+    const bool rgbx = d.op == VT_TONEMAP_ACES && !d.lut && !a && rx == 4 && gx == 4 && bx == 4 &&
+                      g->data == r->data + 1 && b->data == r->data + 2 && g->y_stride == r->y_stride &&
+                      b->y_stride == r->y_stride;
+#endif
     for (uint32_t y = 0; y < height; y++) {
         const float *pr = r->data + (ptrdiff_t)y * r->y_stride;
+#ifdef __SSE2__
+        if (rgbx) {
+            aces_row_rgbx(pr, width, scale, out + (size_t)y * out_stride_bytes);
+            continue;
+        }
+#endif
         const float *pg = g->data + (ptrdiff_t)y * g->y_stride;
         const float *pb = b->data + (ptrdiff_t)y * b->y_stride;
         const float *pa = a ? a->data + (ptrdiff_t)y * a->y_stride : &opaque;

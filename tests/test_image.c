@@ -565,6 +565,50 @@ static void test_image_tonemap_aces_table(void **state)
     free(out);
 }
 
+/* The daemon's layout (interleaved RGB in RGBA floats, no alpha, ACES,
+ * bottom-up rows) has its own lanes path: the same bytes as the planar
+ * path (aces8 per channel, which test_image_tonemap_aces_table checks
+ * against the curve) on a sweep of float bit patterns over every code's
+ * range, specials (NaN, infinities, negatives, 0, the clamp's ends) and
+ * three exposures; the buffer ends at the last pixel's blue (ASan: the
+ * unused fourth float is never read). */
+static void test_image_tonemap_rgbx(void **state)
+{
+    (void)state;
+    const uint32_t w = 97, h = 41, n = w * h;
+    float *il = malloc(((size_t)n * 4 - 1) * sizeof *il), *pl = malloc((size_t)n * 3 * sizeof *pl);
+    uint8_t *a = malloc((size_t)n * 4), *b = malloc((size_t)n * 4);
+    assert_true(il && pl && a && b);
+    const float specials[] = {NAN, INFINITY, -INFINITY, -1.0f, 0.0f, -0.0f, 0x1p-12f, 0x1.fffffep3f, 16.0f, 1e30f};
+    const uint32_t lo = 0x38800000u, hi = 0x42000000u, step = (hi - lo) / (3 * n);
+    for (uint32_t i = 0; i < 3 * n; i++) {
+        uint32_t bits = lo + i * step;
+        float v;
+        memcpy(&v, &bits, sizeof v);
+        if (i % 101 < sizeof specials / sizeof specials[0]) v = specials[i % 101];
+        uint32_t y = i / 3 / w, x = i / 3 % w, c = i % 3;
+        size_t at = ((size_t)(h - 1 - y) * w + x) * 4; /* bottom-up, as rendered */
+        il[at + c] = v;
+        if (c == 2 && at + 3 < (size_t)n * 4 - 1) il[at + 3] = NAN; /* x: ignored (none after the buffer's last) */
+        pl[(size_t)c * n + (size_t)y * w + x] = v;
+    }
+    const float *top = il + (size_t)(h - 1) * w * 4;
+    vt_image_src isrc = {.r = {top, 4, -4 * (ptrdiff_t)w}, .g = {top + 1, 4, -4 * (ptrdiff_t)w},
+                         .b = {top + 2, 4, -4 * (ptrdiff_t)w}};
+    vt_image_src psrc = {.r = {pl, 1, w}, .g = {pl + n, 1, w}, .b = {pl + 2 * (size_t)n, 1, w}};
+    const float evs[] = {0, 3.7f, -5.25f};
+    for (size_t e = 0; e < sizeof evs / sizeof evs[0]; e++) {
+        vt_tonemap_desc d = {.op = VT_TONEMAP_ACES, .exposure_ev = evs[e]};
+        tonemap_ok(w, h, &isrc, &d, a, (size_t)w * 4);
+        tonemap_ok(w, h, &psrc, &d, b, (size_t)w * 4);
+        assert_memory_equal(a, b, (size_t)n * 4);
+    }
+    free(il);
+    free(pl);
+    free(a);
+    free(b);
+}
+
 /* Planar bottom-up source, grey, repeated rows, exposure, ACES and
  * premultiplied alpha give what the per-pixel formula says. */
 static void test_image_tonemap_layouts(void **state)
@@ -1273,6 +1317,7 @@ const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_image_tonemap_exact),
     cmocka_unit_test(test_image_tonemap_aces_table),
     cmocka_unit_test(test_image_tonemap_layouts),
+    cmocka_unit_test(test_image_tonemap_rgbx),
     cmocka_unit_test(test_image_tonemap_bad_args),
     cmocka_unit_test(test_image_png_roundtrip),
     cmocka_unit_test(test_image_png_encode_memory),

@@ -256,6 +256,44 @@ static void test_post_histogram_vs_sort(void **state)
     cull_pool_destroy(pool);
 }
 
+/* The histogram's bins in lanes (4 pixels at once) are those of one
+ * pixel alone (the scalar bin): a uniform picture's EV is its one bin's
+ * centre, so an 8x1 picture (the lanes) and a 1x1 (the scalar path) of
+ * the same colour must give the same EV, for luminances at and either
+ * side of every quarter-EV boundary, the range's ends and specials. */
+static void test_post_histogram_lanes(void **state)
+{
+    (void)state;
+    float c[32];
+    uint32_t bad = 0, n = 0;
+    for (int q = 4 * VT_HIST_LO - 8; q <= 4 * (VT_HIST_LO + 32) + 8; q++) {
+        float b = (float)exp2(q / 4.0);
+        const float vs[] = {nextafterf(b, 0), b, nextafterf(b, INFINITY)};
+        for (int k = 0; k < 3; k++) {
+            for (int i = 0; i < 8; i++) c[4 * i] = c[4 * i + 1] = c[4 * i + 2] = vs[k], c[4 * i + 3] = 1;
+            bad += vt_exposure_auto(c, 8, 1, 8, 0, NULL, 1) != vt_exposure_auto(c, 1, 1, 1, 0, NULL, 1);
+            n++;
+        }
+    }
+    const float sp[] = {NAN, INFINITY, -INFINITY, -1, 0, 0x1p-16f, 0x1p16f, 1e38f, 0x1p-149f};
+    for (size_t k = 0; k < sizeof sp / sizeof sp[0]; k++) {
+        for (int i = 0; i < 8; i++) c[4 * i] = c[4 * i + 1] = c[4 * i + 2] = sp[k], c[4 * i + 3] = 1;
+        bad += vt_exposure_auto(c, 8, 1, 8, 0, NULL, 1) != vt_exposure_auto(c, 1, 1, 1, 0, NULL, 1);
+        n++;
+    }
+    /* mixed colours: luminance from all three channels */
+    rng r = {91};
+    for (int t = 0; t < 2000; t++) {
+        for (int i = 0; i < 8; i++)
+            for (int ch = 0; ch < 3; ch++) c[4 * i + ch] = (float)exp2(rng_range(&r, -18, 18));
+        for (int i = 1; i < 8; i++) memcpy(c + 4 * i, c, 16);
+        bad += vt_exposure_auto(c, 8, 1, 8, 0, NULL, 1) != vt_exposure_auto(c, 1, 1, 1, 0, NULL, 1);
+        n++;
+    }
+    assert_true(n > 400);
+    assert_int_equal(bad, 0);
+}
+
 /* ---- eye adaptation --------------------------------------------------------------------- */
 
 static void test_post_eye_adaptation(void **state)
@@ -742,6 +780,7 @@ const struct CMUnitTest post_tests[] = {
     cmocka_unit_test(test_post_fxaa_edge),
     cmocka_unit_test(test_post_fxaa_flat_and_bad),
     cmocka_unit_test(test_post_histogram_vs_sort),
+    cmocka_unit_test(test_post_histogram_lanes),
     cmocka_unit_test(test_post_eye_adaptation),
     DAEMON_TEST(test_post_stream_adaptation),
     cmocka_unit_test(test_post_city_exposure),

@@ -116,7 +116,7 @@ FUZZ_render_SRC       := $(FUZZ_SOFT_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o) $(FUZZ_CULL_FO
 FUZZ_render_CFLAGS    := -Iculling -Irender
 FUZZ_render_MAX_LEN   := 1024
 FUZZ_render_BUDGET    := 150 256
-FUZZ_GL_SRC           := render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_brdf_glsl.c render/vt_gltex.c
+FUZZ_GL_SRC           := render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_ssao_gl.c render/vt_brdf_glsl.c render/vt_gltex.c
 FUZZ_render_gl_OBJ    := $(FUZZ_GL_SRC:%.c=$(BUILD)/%.o) $(FUZZ_render_OBJ)
 FUZZ_render_gl_SRC    := $(FUZZ_GL_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o) $(FUZZ_render_SRC)
 FUZZ_render_gl_CFLAGS := -Iculling -Irender
