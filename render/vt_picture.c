@@ -310,3 +310,23 @@ bool vt_mask_clear(const vt_mask *m, const float (*p)[3])
     }
     return true;
 }
+
+bool vt_masks_make(const vt_instance *in, uint32_t n, const double origin[3], vt_mask **mk, size_t *mk_cap,
+                   uint32_t **mk_of, size_t *of_cap, uint32_t *count)
+{
+    uint32_t nmk = 0;
+    *count = 0;
+    for (uint32_t i = 0; i < n; i++) nmk += vt_dvol_live(in[i].dvol);
+    if (!nmk) return true;
+    if (!vp_grow((void **)mk, mk_cap, nmk, sizeof **mk) || !vp_grow((void **)mk_of, of_cap, n, sizeof **mk_of))
+        return false;
+    nmk = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        (*mk_of)[i] = 0;
+        if (!vt_dvol_live(in[i].dvol)) continue;
+        vt_mask_make(in[i].dvol, origin, &(*mk)[nmk]);
+        (*mk_of)[i] = ++nmk;
+    }
+    *count = nmk;
+    return true;
+}

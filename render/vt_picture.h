@@ -44,6 +44,14 @@ typedef struct vt_place {
 } vt_place;
 void vt_instance_place(const vt_instance *in, const float b[6], const double origin[3], vt_place *pl);
 
+/* The destruction masks of in[0..n)'s damaged instances for a view at
+ * origin (vt_mask_make), into *mk (grown; *mk_cap entries), and per
+ * instance its mask + 1 (0: intact) into *mk_of (grown, *of_cap): the
+ * software renderer's and the shadow cascades' one table. *count: the
+ * masks made (0: nothing written, most frames). false: out of memory. */
+bool vt_masks_make(const vt_instance *in, uint32_t n, const double origin[3], struct vt_mask **mk, size_t *mk_cap,
+                   uint32_t **mk_of, size_t *of_cap, uint32_t *count);
+
 /* Per 16x16 tile {nearest, farthest} nearness of what the tile shows, from
  * a width x height nearness image (pixel (x, y) at near[y * ys + x * xs],
  * VT_EMPTY where nothing is): the depth_range of cull_lights_bin. */

@@ -756,20 +756,9 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     if (nt > MAX_THREADS) nt = MAX_THREADS;
     if (!pool) nt = 1;
     /* the damaged casters' masks, as the renderers make them */
-    uint32_t nmk = 0;
-    for (uint32_t i = 0; i < ncasters; i++) nmk += vt_dvol_live(casters[i].dvol);
-    if (nmk) {
-        if (!vp_grow((void **)&sh->mk, &sh->mk_cap, nmk, sizeof *sh->mk) ||
-            !vp_grow((void **)&sh->mk_of, &sh->mk_of_cap, ncasters, sizeof *sh->mk_of))
-            return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow casters' masks");
-        nmk = 0;
-        for (uint32_t i = 0; i < ncasters; i++) {
-            sh->mk_of[i] = 0;
-            if (!vt_dvol_live(casters[i].dvol)) continue;
-            vt_mask_make(casters[i].dvol, origin, &sh->mk[nmk]);
-            sh->mk_of[i] = ++nmk;
-        }
-    }
+    uint32_t nmk;
+    if (!vt_masks_make(casters, ncasters, origin, &sh->mk, &sh->mk_cap, &sh->mk_of, &sh->mk_of_cap, &nmk))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow casters' masks");
     sjob jb = {.sh = sh, .origin = origin, .meshes = meshes, .mb = mb, .in = casters, .nin = ncasters, .nt = nt,
                .masked = nmk > 0};
     if (nt > 1) cull_pool_run(pool, job_setup, &jb, nt);

@@ -725,19 +725,10 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
     /* the damaged instances' masks (most frames have none: no table) */
-    uint32_t nmk = 0;
-    for (uint32_t i = 0; i < ninst; i++) nmk += vt_dvol_live(inst[i].dvol);
+    uint32_t nmk;
+    if (!vt_masks_make(inst, ninst, v->origin, &r->mk, &r->mk_cap, &r->mk_of, &r->mk_of_cap, &nmk))
+        return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     if (nmk) {
-        if (!vp_grow((void **)&r->mk, &r->mk_cap, nmk, sizeof *r->mk) ||
-            !vp_grow((void **)&r->mk_of, &r->mk_of_cap, ninst, sizeof *r->mk_of))
-            return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
-        nmk = 0;
-        for (uint32_t i = 0; i < ninst; i++) {
-            r->mk_of[i] = 0;
-            if (!vt_dvol_live(inst[i].dvol)) continue;
-            vt_mask_make(inst[i].dvol, v->origin, &r->mk[nmk]);
-            r->mk_of[i] = ++nmk;
-        }
         fr.mk = r->mk;
         fr.mk_of = r->mk_of;
     }

@@ -246,6 +246,17 @@ static void test_mask_matches_reference(void **state)
     rends_close(rs, nr);
 }
 
+/* A 4 m box (the unit cube stretched) with a 1.2 m hole in its front
+ * face (z = 2), seen head-on from z = 10 (reversed-Z). */
+static void holed_box(vt_instance *in, cull_dvol *dv, cull_view *v, uint32_t W, uint32_t H)
+{
+    *in = (vt_instance){.mesh = 0, .bmin = {-2, -2, -2}, .bmax = {2, 2, 2}, .albedo = {0.8f, 0.6f, 0.4f}};
+    assert_int_equal(cull_dvol_init(dv, in->bmin, in->bmax, 8), CULL_OK);
+    assert_int_equal(cull_dvol_add_sphere(dv, (double[3]){0, 0, 2}, 1.2), CULL_OK);
+    in->dvol = dv;
+    look_at(v, (double[3]){0, 0, 10}, (double[3]){0, 0, 0}, 0.8, W, H, CULL_DEPTH_REVERSED);
+}
+
 /* A 4 m box with a hole in its front face: through it, the back wall's
  * inside (its back face, turned over: depth of the back wall, the albedo
  * times VT_MASK_INTERIOR); beside it, the front face as before. A broken
@@ -259,13 +270,10 @@ static void test_mask_inside_shows(void **state)
     const uint32_t W = 101, H = 101;
     float *c = malloc(W * H * 16), *d = malloc(W * H * 4);
     assert_true(c && d);
-    vt_instance in = {.mesh = 0, .bmin = {-2, -2, -2}, .bmax = {2, 2, 2}, .albedo = {0.8f, 0.6f, 0.4f}};
+    vt_instance in;
     cull_dvol dv;
-    assert_int_equal(cull_dvol_init(&dv, in.bmin, in.bmax, 8), CULL_OK);
-    assert_int_equal(cull_dvol_add_sphere(&dv, (double[3]){0, 0, 2}, 1.2), CULL_OK);
-    in.dvol = &dv;
     cull_view v;
-    look_at(&v, (double[3]){0, 0, 10}, (double[3]){0, 0, 0}, 0.8, W, H, CULL_DEPTH_REVERSED);
+    holed_box(&in, &dv, &v, W, H);
     for (uint32_t ri = 0; ri < nr; ri++) {
         assert_int_equal(rend_draw(&rs[ri], &v, W, H, &cube, &in, 1, c, d), 0);
         size_t mid = (size_t)(H / 2) * W + W / 2, side = (size_t)(H / 2) * W + W / 2 + 25;
@@ -383,13 +391,10 @@ static void test_mask_inside_lit_with_env(void **state)
     const uint32_t W = 101, H = 101;
     float *c = malloc(W * H * 16), *d = malloc(W * H * 4);
     assert_true(c && d);
-    vt_instance in = {.mesh = 0, .bmin = {-2, -2, -2}, .bmax = {2, 2, 2}, .albedo = {0.8f, 0.6f, 0.4f}};
+    vt_instance in;
     cull_dvol dv;
-    assert_int_equal(cull_dvol_init(&dv, in.bmin, in.bmax, 8), CULL_OK);
-    assert_int_equal(cull_dvol_add_sphere(&dv, (double[3]){0, 0, 2}, 1.2), CULL_OK);
-    in.dvol = &dv;
     cull_view v;
-    look_at(&v, (double[3]){0, 0, 10}, (double[3]){0, 0, 0}, 0.8, W, H, CULL_DEPTH_REVERSED);
+    holed_box(&in, &dv, &v, W, H);
     vt_env env = {.sky_mode = VT_SKY_COLOR, .sky = {1, 1, 1}, .exposure_mode = VT_EXPOSURE_FIXED};
     for (uint32_t ri = 0; ri < nr; ri++) {
         vt_frame f = {.view = &v, .width = W, .height = H, .meshes = &cube, .nmesh = 1, .inst = &in, .ninst = 1,
