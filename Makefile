@@ -293,12 +293,16 @@ demo: check-deps
 test-one: check-deps $(TEST_BIN)
 	VANTAGE_BIN_DIR=$(BUILD) $(TEST_BIN)
 
+# make test builds its three configurations with every core (a plain `make
+# test`, as CI runs it, compiled one file at a time); the tests themselves
+# run one binary after another
+BUILD_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 test: check-deps
-	@$(MAKE) --no-print-directory CONFIG=release build/release/vantage_tests build/release/bench_cull \
+	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull \
 	  build/release/bench_occlusion build/release/bench_render
-	@$(MAKE) --no-print-directory CONFIG=scalar build/scalar/vantage_tests
-	@$(MAKE) --no-print-directory CONFIG=asan build/asan/vantage_tests
-	@$(MAKE) --no-print-directory CONFIG=asan fuzz-replay
+	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=scalar build/scalar/vantage_tests
+	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan build/asan/vantage_tests
+	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan fuzz-replay
 	@$(MAKE) --no-print-directory CONFIG=release install-check
 	@$(MAKE) --no-print-directory report-smoke
 	./build/release/bench_cull --smoke
