@@ -101,24 +101,25 @@ void vt_ssao_view_make(const cull_view_rows *vr, uint32_t w, uint32_t h, vt_ssao
     sv->ok = true;
 }
 
-/* Pass 1: the half texels' points of band rows (the lane kernel). */
-static void job_pos(void *arg, uint32_t t)
+/* Rows [0, rows) in bands of band rows, band k to thread k % nt: each
+ * pass's split (the lane kernel fn, vt_ssao.inl, one row at a time). */
+static void band_rows(const job *jb, uint32_t t, uint32_t rows, uint32_t band, vt_ssao_row_fn fn)
 {
-    job *jb = arg;
-    const vt_ssao_view *sv = jb->sv;
-    const uint32_t bands = (sv->hh + BAND - 1) / BAND;
-    for (uint32_t b = t; b < bands; b += jb->nt)
-        for (uint32_t j = b * BAND; j < sv->hh && j < (b + 1) * BAND; j++) jb->kern.pos(&jb->k, j);
+    for (uint32_t b = t; b * band < rows; b += jb->nt)
+        for (uint32_t j = b * band; j < rows && j < (b + 1) * band; j++) fn(&jb->k, j);
 }
 
-/* Pass 2: GTAO over band rows (the lane kernel, vt_ssao.inl). */
+/* Pass 1: the half texels' points; pass 2: GTAO (both over half rows). */
+static void job_pos(void *arg, uint32_t t)
+{
+    const job *jb = arg;
+    band_rows(jb, t, jb->sv->hh, BAND, jb->kern.pos);
+}
+
 static void job_gtao(void *arg, uint32_t t)
 {
-    job *jb = arg;
-    const vt_ssao_view *sv = jb->sv;
-    const uint32_t bands = (sv->hh + BAND - 1) / BAND;
-    for (uint32_t b = t; b < bands; b += jb->nt)
-        for (uint32_t j = b * BAND; j < sv->hh && j < (b + 1) * BAND; j++) jb->kern.gtao(&jb->k, j);
+    const job *jb = arg;
+    band_rows(jb, t, jb->sv->hh, BAND, jb->kern.gtao);
 }
 
 /* The tent taps along one axis for full coordinate x: the half texels
@@ -142,11 +143,8 @@ static void taps(uint32_t x, uint32_t hn, uint32_t idx[3], float wt[3])
  * kernel, vt_ssao.inl); the columns' taps were made once (vt_ssao_run). */
 static void job_up(void *arg, uint32_t t)
 {
-    job *jb = arg;
-    const vt_ssao_view *sv = jb->sv;
-    const uint32_t bands = (sv->h + 2 * BAND - 1) / (2 * BAND);
-    for (uint32_t b = t; b < bands; b += jb->nt)
-        for (uint32_t y = 2 * BAND * b; y < sv->h && y < 2 * BAND * (b + 1); y++) jb->kern.up(&jb->k, y);
+    const job *jb = arg;
+    band_rows(jb, t, jb->sv->h, 2 * BAND, jb->kern.up);
 }
 
 void vt_ssao_dirs(float dir[4 * VT_SSAO_SLICES][2])
