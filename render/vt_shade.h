@@ -106,12 +106,12 @@ typedef struct vt_span {
 /* The surface a pixel shows (a triangle's record, or the ground plane),
  * its material evaluated: what the kernels gather per pixel before they
  * light it. cov: 0 nothing drawn there, else 1. p: camera-relative
- * position. bb: for a triangle's pixel i, its barycentrics (vt_stri_bary)
- * at the pixel's centre (bb[0..2][i]), one pixel right (X + dX: bb[3..5])
- * and one up (Y + dY: bb[6..8]), the UVs' differences: the kernel
- * computes them for the span in lanes with the same operations (the same
- * bits as three scalar calls). */
-void vt_span_surface(const vt_span *sp, uint32_t i, const float bb[9][VT_SPAN], float p[3], vt_surfout *o, float *cov);
+ * position. The scalar reference of the kernels' gather in lanes
+ * (vt_gather.inl) and their path for what the lanes do not cover. */
+void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, float *cov);
+/* Tests: nonzero sends every pixel through vt_span_surface (the
+ * reference) instead of the kernels' gather in lanes. */
+extern int vt_gather_scalar;
 /* Whether a MASK material's triangle keeps the pixel at NDC (X, Y) (the
  * base alpha >= the cutoff; dX, dY one pixel in NDC). */
 bool vt_stri_alpha_pass(const vt_stri *t, float X, float Y, float dX, float dY);

@@ -101,6 +101,14 @@ static inline vf vf_exp(vf x)
     return vf_mul(y, vf_pow2i(vx_of(fx)));
 }
 
+/* All W lanes' bits. */
+static inline uint32_t lanes_all(void)
+{
+    return W == 32 ? ~0u : (1u << W) - 1;
+}
+
+#include "vt_gather.inl"
+
 /* vt_fog_apply (vt_scene.c, the reference; the GLSL mirrors it) on W
  * pixels at i, for those cov says are drawn: the height fog's optical
  * depth from the eye to p, the radiance towards the fog's by e^-depth.
@@ -306,48 +314,6 @@ static inline void store_rgba(float *dst, vf r, vf g, vf b, vf a)
 #endif
 }
 
-/* The barycentrics of each triangle pixel of the span (vt_stri_bary) at
- * its centre, one pixel right and one up, into bb (vt_span_surface's
- * rows), in lanes: the same multiplies and adds in the same order as the
- * scalar function (no fused ones), so the same bits. Per pixel the three
- * scalar calls were ~75 instructions; here the records' 9 coefficients
- * are copied into lanes and each lane's arithmetic is shared by W. Only
- * pixels vt_span_surface reads them for (all: env; else a material's). */
-static inline void span_bary(const vt_span *sp, float bb[9][S], bool env)
-{
-    A float e[9][S], X[S];
-    static const float zero9[9] = {0};
-    bool any = false;
-    for (unsigned i = 0; i < S; i++) {
-        uint32_t id = i < sp->n ? sp->id[i] : 0;
-        const vt_stri *t = id && id != VT_ID_GROUND ? &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK] : NULL;
-        if (t && !env && !t->mat) t = NULL; /* the kernel's own default-material path */
-        const float *te = t ? &t->e[0][0] : zero9; /* 9 stores, written out: a loop over k was 150 instructions */
-        e[0][i] = te[0], e[1][i] = te[1], e[2][i] = te[2];
-        e[3][i] = te[3], e[4][i] = te[4], e[5][i] = te[5];
-        e[6][i] = te[6], e[7][i] = te[7], e[8][i] = te[8];
-        X[i] = vt_ndc_x(sp->x0 + i, sp->inv_w);
-        any |= t != NULL;
-    }
-    if (!any) return;
-    const vf zero = vf_set(0), one = vf_set(1), Y = vf_set(sp->Y);
-    const vf dX = vf_set((float)sp->inv_w), Yu = vf_set(sp->Y + (float)sp->inv_h);
-    for (unsigned i = 0; i < S; i += W) {
-        vf x = vf_load(X + i);
-        const vf xs[3] = {x, vf_add(x, dX), x}, ys[3] = {Y, Y, Yu};
-        for (int q = 0; q < 3; q++) {
-            vf b[3];
-            for (int k = 0; k < 3; k++)
-                b[k] = vf_add(vf_add(vf_mul(vf_load(e[3 * k] + i), xs[q]), vf_mul(vf_load(e[3 * k + 1] + i), ys[q])),
-                              vf_load(e[3 * k + 2] + i));
-            vf sum = vf_add(vf_add(b[0], b[1]), b[2]);
-            vm z = vm_and(vf_ge(sum, zero), vf_le(sum, zero)); /* sum == 0 (a NaN: not, as the scalar test) */
-            vf is = vf_select(z, one, vf_div(one, sum));
-            for (int k = 0; k < 3; k++) vf_store(bb[3 * q + k] + i, vf_mul(b[k], is));
-        }
-    }
-}
-
 /* One light over the span; spot is a constant at each call site, so each
  * of the two copies is a straight loop. */
 static inline __attribute__((always_inline)) void light(surf *restrict s, const vt_slight *restrict L, int spot)
@@ -416,68 +382,111 @@ void VT_SHADE_NAME(const vt_span *sp)
         }
         return;
     }
-    /* gather: each pixel's record, perspective-correct barycentrics from
-       the homogeneous edge functions, the interpolated surface; a
-       material's, the ground's or any pixel under an environment through
-       vt_span_surface (textures, sun, sky ambient, emissive) */
-    A float bb[9][S];
-    span_bary(sp, bb, env);
-    for (unsigned i = 0; i < S; i++) {
-        uint32_t id = i < sp->n ? sp->id[i] : 0;
-        if (!id) {
-            s.px[i] = s.py[i] = s.pz[i] = 0;
-            s.nx[i] = s.ny[i] = s.nz[i] = 0;
-            s.ar[i] = s.ag[i] = s.ab[i] = 0;
-            s.cr[i] = s.cg[i] = s.cb[i] = 0;
-            s.fr[i] = s.fg[i] = s.fb[i] = s.er[i] = s.eg[i] = s.eb[i] = 0;
-            s.a2[i] = s.ro[i] = 1; /* finite V, D in the unlit lanes */
-            s.sv[i] = s.ao[i] = 0;
-            cov[i] = 0;
-            continue;
+    /* gather, W pixels at a time: per record they show (a triangle or
+       the ground) its interpolated inputs in lanes (vt_gather.inl), then
+       per material among them the material in lanes: two triangles of
+       one mesh side by side sample their textures once. What the lanes
+       do not cover goes through vt_span_surface pixel by pixel. */
+    const vf zero0 = vf_set(0), one0 = vf_set(1), amb = vf_set(VT_AMBIENT);
+    static const A float lane_f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    const vf lane_i = vf_load(lane_f); /* the lanes' column offsets */
+    for (unsigned g0 = 0; g0 < S; g0 += W) {
+        uint32_t ids[W], pend = 0, lanes = 0;
+        uintptr_t key[W];
+        for (unsigned j = 0; j < W; j++) {
+            ids[j] = g0 + j < sp->n ? sp->id[g0 + j] : 0;
+            pend |= (uint32_t)(ids[j] != 0) << j;
         }
-        const vt_stri *t = id == VT_ID_GROUND ? NULL : &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
-        if (env || !t || t->mat) {
-            float p[3];
-            vt_surfout o;
-            vt_span_surface(sp, i, (const float(*)[S])bb, p, &o, &cov[i]);
-            s.px[i] = p[0], s.py[i] = p[1], s.pz[i] = p[2];
-            s.nx[i] = o.n[0], s.ny[i] = o.n[1], s.nz[i] = o.n[2];
-            s.ar[i] = o.diffuse[0], s.ag[i] = o.diffuse[1], s.ab[i] = o.diffuse[2];
-            s.fr[i] = o.f0[0], s.fg[i] = o.f0[1], s.fb[i] = o.f0[2];
-            s.er[i] = o.em[0], s.eg[i] = o.em[1], s.eb[i] = o.em[2];
-            s.a2[i] = o.a2, s.ro[i] = o.rough;
-            s.sv[i] = 1.0f; /* times the sun's visibility below */
-            s.ao[i] = sp->ao ? sp->ao[i] : 1.0f;
-            /* without an environment: the constant ambient of before */
-            s.cr[i] = VT_AMBIENT * o.diffuse[0] + o.em[0];
-            s.cg[i] = VT_AMBIENT * o.diffuse[1] + o.em[1];
-            s.cb[i] = VT_AMBIENT * o.diffuse[2] + o.em[2];
-            continue;
+        /* nothing drawn: zeros (finite V, D in the unlit lanes: a2, ro 1) */
+        float *const zs[] = {s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.ar, s.ag, s.ab, s.cr, s.cg, s.cb,
+                             s.fr, s.fg, s.fb, s.er, s.eg, s.eb, s.sv, cov};
+        for (unsigned k = 0; k < sizeof zs / sizeof zs[0]; k++) vf_store(zs[k] + g0, zero0);
+        vf_store(s.a2 + g0, one0);
+        vf_store(s.ro + g0, one0);
+        gin in;
+        while (pend) {
+            const uint32_t id = ids[__builtin_ctz(pend)];
+            uint32_t mb = 0;
+            for (unsigned j = 0; j < W; j++) mb |= (uint32_t)(ids[j] == id) << j;
+            pend &= ~mb;
+            const vt_stri *t = id == VT_ID_GROUND ? NULL : &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
+            const vt_material *m = t ? t->mat : sp->pe->ground_mat;
+            if (!vt_gather_scalar && (t ? tri_lanes_ok(t) : mat_lanes_ok(m))) {
+                const bool uv = mat_reads_uv(m) && (!t || t->has_uv);
+                gin g;
+                if (t) tri_lanes(t, sp, vf_fma(lane_i, vf_set((float)sp->inv_w), vf_set(vt_ndc_x(sp->x0 + g0, sp->inv_w))), uv, &g);
+                else ground_lanes(sp, g0, mb, uv, &g);
+                const vm act = vm_from_bits(mb);
+                if (!lanes) {
+                    in = g; /* the first record: every lane may take it */
+                } else {
+#define SEL(f) in.f = vf_select(act, g.f, in.f)
+                    SEL(px), SEL(py), SEL(pz), SEL(nx), SEL(ny), SEL(nz), SEL(al[0]), SEL(al[1]), SEL(al[2]);
+                    SEL(u), SEL(v), SEL(dxu), SEL(dxv), SEL(dyu), SEL(dyv);
+#undef SEL
+                }
+                for (unsigned j = 0; j < W; j++)
+                    if (mb >> j & 1) key[j] = (uintptr_t)m | uv;
+                lanes |= mb;
+                continue;
+            }
+            for (unsigned j = 0; j < W; j++) {
+                if (!(mb >> j & 1)) continue;
+                const unsigned i = g0 + j;
+                float p[3];
+                vt_surfout o;
+                vt_span_surface(sp, i, p, &o, &cov[i]);
+                s.px[i] = p[0], s.py[i] = p[1], s.pz[i] = p[2];
+                s.nx[i] = o.n[0], s.ny[i] = o.n[1], s.nz[i] = o.n[2];
+                s.ar[i] = o.diffuse[0], s.ag[i] = o.diffuse[1], s.ab[i] = o.diffuse[2];
+                s.fr[i] = o.f0[0], s.fg[i] = o.f0[1], s.fb[i] = o.f0[2];
+                s.er[i] = o.em[0], s.eg[i] = o.em[1], s.eb[i] = o.em[2];
+                s.a2[i] = o.a2, s.ro[i] = o.rough;
+                s.sv[i] = 1.0f; /* times the sun's visibility below */
+                s.cr[i] = VT_AMBIENT * o.diffuse[0] + o.em[0];
+                s.cg[i] = VT_AMBIENT * o.diffuse[1] + o.em[1];
+                s.cb[i] = VT_AMBIENT * o.diffuse[2] + o.em[2];
+            }
         }
-        float b[3];
-        vt_stri_bary(t, vt_ndc_x(sp->x0 + i, sp->inv_w), sp->Y, b);
-        float b0 = b[0], b1 = b[1], b2 = b[2];
-        s.px[i] = b0 * t->p[0][0] + b1 * t->p[1][0] + b2 * t->p[2][0];
-        s.py[i] = b0 * t->p[0][1] + b1 * t->p[1][1] + b2 * t->p[2][1];
-        s.pz[i] = b0 * t->p[0][2] + b1 * t->p[1][2] + b2 * t->p[2][2];
-        s.nx[i] = b0 * t->n[0][0] + b1 * t->n[1][0] + b2 * t->n[2][0];
-        s.ny[i] = b0 * t->n[0][1] + b1 * t->n[1][1] + b2 * t->n[2][1];
-        s.nz[i] = b0 * t->n[0][2] + b1 * t->n[1][2] + b2 * t->n[2][2];
-        /* a damaged instance: charred towards a hole's rim (the raster
-           kept only pixels whose mask is >= 0) */
-        float k = t->mask ? vt_mask_rim(t->mask, vt_mask_eval(t->mask, s.px[i], s.py[i], s.pz[i])) : 1.0f;
-        s.ar[i] = t->albedo[0] * k;
-        s.ag[i] = t->albedo[1] * k;
-        s.ab[i] = t->albedo[2] * k;
-        s.cr[i] = VT_AMBIENT * s.ar[i];
-        s.cg[i] = VT_AMBIENT * s.ag[i];
-        s.cb[i] = VT_AMBIENT * s.ab[i];
-        /* the default material's specular (vt_material_default) */
-        s.fr[i] = s.fg[i] = s.fb[i] = VT_F0_DIELECTRIC;
-        s.a2[i] = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS;
-        s.ro[i] = VT_DEFAULT_ROUGHNESS;
-        cov[i] = 1;
+        if (!lanes) continue;
+        /* the materials over the lanes' pixels */
+        gout go;
+        for (uint32_t todo = lanes, first = 1; todo; first = 0) {
+            const uintptr_t k = key[__builtin_ctz(todo)];
+            uint32_t mb = 0;
+            for (unsigned j = 0; j < W; j++) mb |= (uint32_t)((todo >> j & 1) && key[j] == k) << j;
+            todo &= ~mb;
+            const vm act = vm_from_bits(mb);
+            const vt_material *m = (const vt_material *)(k & ~(uintptr_t)1);
+            if (first) {
+                mat_lanes(m, &in, k & 1, act, &go);
+                continue;
+            }
+            gout g;
+            mat_lanes(m, &in, k & 1, act, &g);
+#define SEL(f) go.f = vf_select(act, g.f, go.f)
+            SEL(dr), SEL(dg), SEL(db), SEL(fr), SEL(fg), SEL(fb), SEL(er), SEL(eg), SEL(eb), SEL(a2), SEL(ro);
+#undef SEL
+        }
+        const vm act = vm_from_bits(lanes);
+#define PUT(arr, v) vf_store((arr) + g0, vf_select(act, (v), vf_load((arr) + g0)))
+        PUT(s.px, in.px), PUT(s.py, in.py), PUT(s.pz, in.pz);
+        PUT(s.nx, in.nx), PUT(s.ny, in.ny), PUT(s.nz, in.nz);
+        PUT(s.ar, go.dr), PUT(s.ag, go.dg), PUT(s.ab, go.db);
+        PUT(s.fr, go.fr), PUT(s.fg, go.fg), PUT(s.fb, go.fb);
+        PUT(s.er, go.er), PUT(s.eg, go.eg), PUT(s.eb, go.eb);
+        PUT(s.a2, go.a2), PUT(s.ro, go.ro);
+        PUT(s.sv, one0), PUT(cov, one0);
+        /* without an environment: the constant ambient of before */
+        PUT(s.cr, vf_fma(amb, go.dr, go.er)), PUT(s.cg, vf_fma(amb, go.dg, go.eg));
+        PUT(s.cb, vf_fma(amb, go.db, go.eb));
+#undef PUT
     }
+    /* the ambient occlusion of what is drawn (sv, ao 0 elsewhere) */
+    if (sp->n == S && sp->ao)
+        for (unsigned i = 0; i < S; i += W) vf_store(s.ao + i, vf_select(vf_lt(zero0, vf_load(cov + i)), vf_loadu(sp->ao + i), zero0));
+    else
+        for (unsigned i = 0; i < S; i++) s.ao[i] = i < sp->n && cov[i] > 0 ? (sp->ao ? sp->ao[i] : 1.0f) : 0.0f;
     if (sp->sh) vt_shadow_sun_n(sp->sh, S, s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.sv); /* the span at once */
     const vf zero = vf_set(0), one = vf_set(1), inv_pi = vf_set(1.0f / 3.14159265f);
     for (unsigned i = 0; i < S; i += W) {

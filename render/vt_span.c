@@ -13,6 +13,8 @@
 #include <math.h>
 #include <string.h>
 
+int vt_gather_scalar;
+
 /* Interpolated UVs of t at barycentrics b. */
 static inline void tri_uv_b(const vt_stri *t, const float b[3], float uv[2])
 {
@@ -78,7 +80,7 @@ static inline void default_params(const float n[3], const float albedo[3], vt_su
     o->alpha = 1;
 }
 
-void vt_span_surface(const vt_span *sp, uint32_t i, const float bb[9][VT_SPAN], float p[3], vt_surfout *o, float *cov)
+void vt_span_surface(const vt_span *sp, uint32_t i, float p[3], vt_surfout *o, float *cov)
 {
     uint32_t id = i < sp->n ? sp->id[i] : 0;
     if (!id) {
@@ -117,7 +119,8 @@ void vt_span_surface(const vt_span *sp, uint32_t i, const float bb[9][VT_SPAN], 
     }
     id--;
     const vt_stri *t = &sp->st[id >> VT_ID_BITS][id & VT_ID_MASK];
-    const float b[3] = {bb[0][i], bb[1][i], bb[2][i]};
+    float b[3];
+    vt_stri_bary(t, X, sp->Y, b);
     for (int k = 0; k < 3; k++) {
         p[k] = in.p[k] = b[0] * t->p[0][k] + b[1] * t->p[1][k] + b[2] * t->p[2][k];
         in.n[k] = b[0] * t->n[0][k] + b[1] * t->n[1][k] + b[2] * t->n[2][k];
@@ -135,17 +138,8 @@ void vt_span_surface(const vt_span *sp, uint32_t i, const float bb[9][VT_SPAN], 
     const vt_texref *tx = t->mat->tex; /* UVs only for a material with a texture (they read nothing else) */
     if (t->has_uv && (tx[VT_SLOT_BASE].tex || tx[VT_SLOT_MR].tex || tx[VT_SLOT_NORMAL].tex || tx[VT_SLOT_EMISSIVE].tex)) {
         in.has_uv = true;
-        /* the UVs at the pixel, one right and one up (the kernel's
-           barycentrics): their differences */
-        const float br[3] = {bb[3][i], bb[4][i], bb[5][i]}, bu[3] = {bb[6][i], bb[7][i], bb[8][i]};
-        float ux[2], uy[2];
-        tri_uv_b(t, b, in.uv);
-        tri_uv_b(t, br, ux);
-        tri_uv_b(t, bu, uy);
-        for (int c = 0; c < 2; c++) {
-            in.dx[c] = ux[c] - in.uv[c];
-            in.dy[c] = uy[c] - in.uv[c];
-        }
+        /* the UVs at the pixel and their differences one right and one up */
+        tri_uv_d(t, b, X, sp->Y, dX, dY, in.uv, in.dx, in.dy);
         if (t->has_tg && t->mat->tex[VT_SLOT_NORMAL].tex) { /* only a normal map reads the tangent */
             in.has_t = true;
             for (int c = 0; c < 4; c++) in.t[c] = b[0] * t->tg[0][c] + b[1] * t->tg[1][c] + b[2] * t->tg[2][c];

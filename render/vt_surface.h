@@ -90,6 +90,8 @@ static inline int32_t vt_wrap_i(int32_t i, int32_t n, int mode)
  * duv/dx, duv/dy per pixel: RGBA, sRGB colour decoded when srgb. */
 void vt_tex_sample(const vt_texref *r, const float uv[2], const float dx[2], const float dy[2], bool srgb,
                    float out[4]);
+/* The sRGB decode of each 8-bit value (256 floats, made once). */
+const float *vt_srgb_table(void);
 /* The transform of slot r applied to uv (a direction when vec: no offset). */
 void vt_tex_xform(const vt_texref *r, const float uv[2], bool vec, float out[2]);
 

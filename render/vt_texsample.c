@@ -76,6 +76,11 @@ static const float *srgb(void)
     return srgb_table;
 }
 
+const float *vt_srgb_table(void)
+{
+    return srgb();
+}
+
 /* floor of a double in -1e9 - 1 .. 1e9 (as an integer: no libm call). */
 static inline int32_t floor_i(double x)
 {

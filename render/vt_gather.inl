@@ -1,0 +1,416 @@
+/*
+ * vt_gather.inl — the shading kernel's gather in lanes (included by
+ * vt_shade.inl after its lane helpers, once per instruction set): what
+ * surface each pixel of a span shows, its material evaluated, W pixels
+ * at a time. vt_span_surface (vt_span.c) is the scalar reference and the
+ * path for what the lanes do not cover (a damaged instance's rim, a
+ * normal map, a mirrored or non-power-of-two texture, a filter other
+ * than GL's trilinear default); tests/test_gather.c compares the two.
+ *
+ * Why: the scalar gather was ~750 M instructions of a 1280x720 city
+ * frame's ~1.5 G (BENCHMARKS.md, issue 20's frame): a call per pixel
+ * through vt_surface_params and two trilinear samples through
+ * vt_tex_sample, each with its own transform, LOD (libm's log2f) and 8
+ * texels decoded one by one. Here a run of pixels showing the same
+ * triangle (most of a span: the city's triangles cover tens to hundreds
+ * of pixels) shares its coefficients as broadcast constants, every
+ * texture slot's transform and level sizes are resolved once per run, and
+ * the 8 texels of a trilinear sample are fetched for W pixels at once
+ * (AVX2 gathers), the sRGB decode by the same table as the scalar
+ * sampler.
+ *
+ * Numbers: the same sampling rules as vt_tex_sample (GL's: the scale
+ * factor from the longer derivative in texels, the level's texel centres,
+ * wraps after flooring, sRGB decoded per texel before filtering), with the
+ * LOD's log2 by a polynomial (|error| < 2e-7 in the level), the texture
+ * coordinates in float (the scalar sampler scales them in double: the same
+ * texels and weights to ~1e-6 of a texel), and fused multiply-adds with
+ * AVX2: a texel value differs from the scalar one by ~1e-6 relative.
+ */
+
+/* ---- integer lanes -------------------------------------------------------------- */
+#if CULL_SIMD_ISA == 3
+static inline vix vi_set(int32_t a) { return _mm256_set1_epi32(a); }
+static inline vix vi_add(vix a, vix b) { return _mm256_add_epi32(a, b); }
+static inline vix vi_and(vix a, vix b) { return _mm256_and_si256(a, b); }
+static inline vix vi_or(vix a, vix b) { return _mm256_or_si256(a, b); }
+static inline vix vi_sll(vix a, int n) { return _mm256_sll_epi32(a, _mm_cvtsi32_si128(n)); }
+static inline vix vi_srl(vix a, int n) { return _mm256_srl_epi32(a, _mm_cvtsi32_si128(n)); }
+static inline vix vi_clamp(vix a, int32_t hi)
+{
+    return _mm256_min_epi32(_mm256_max_epi32(a, _mm256_setzero_si256()), _mm256_set1_epi32(hi));
+}
+static inline vix vi_gather(const uint32_t *b, vix i) { return _mm256_i32gather_epi32((const int *)b, i, 4); }
+static inline vf vi_tof(vix a) { return _mm256_cvtepi32_ps(a); }
+static inline vm vi_eq(vix a, vix b) { return _mm256_castsi256_ps(_mm256_cmpeq_epi32(a, b)); }
+static inline vix vf_bits(vf a) { return _mm256_castps_si256(a); }
+static inline vf vi_asf(vix a) { return _mm256_castsi256_ps(a); }
+static inline void vi_store(int32_t *p, vix a) { _mm256_storeu_si256((__m256i *)p, a); }
+#elif CULL_SIMD_ISA == 2
+static inline vix vi_set(int32_t a) { return _mm_set1_epi32(a); }
+static inline vix vi_add(vix a, vix b) { return _mm_add_epi32(a, b); }
+static inline vix vi_and(vix a, vix b) { return _mm_and_si128(a, b); }
+static inline vix vi_or(vix a, vix b) { return _mm_or_si128(a, b); }
+static inline vix vi_sll(vix a, int n) { return _mm_sll_epi32(a, _mm_cvtsi32_si128(n)); }
+static inline vix vi_srl(vix a, int n) { return _mm_srl_epi32(a, _mm_cvtsi32_si128(n)); }
+static inline vix vi_clamp(vix a, int32_t hi) { return _mm_min_epi32(_mm_max_epi32(a, _mm_setzero_si128()), _mm_set1_epi32(hi)); }
+static inline vix vi_gather(const uint32_t *b, vix i)
+{
+    return _mm_setr_epi32((int)b[_mm_extract_epi32(i, 0)], (int)b[_mm_extract_epi32(i, 1)], (int)b[_mm_extract_epi32(i, 2)],
+                          (int)b[_mm_extract_epi32(i, 3)]);
+}
+static inline vf vi_tof(vix a) { return _mm_cvtepi32_ps(a); }
+static inline vm vi_eq(vix a, vix b) { return _mm_castsi128_ps(_mm_cmpeq_epi32(a, b)); }
+static inline vix vf_bits(vf a) { return _mm_castps_si128(a); }
+static inline vf vi_asf(vix a) { return _mm_castsi128_ps(a); }
+static inline void vi_store(int32_t *p, vix a) { _mm_storeu_si128((__m128i *)p, a); }
+#else
+static inline vix vi_set(int32_t a) { return a; }
+static inline vix vi_add(vix a, vix b) { return (int32_t)((uint32_t)a + (uint32_t)b); }
+static inline vix vi_and(vix a, vix b) { return a & b; }
+static inline vix vi_or(vix a, vix b) { return a | b; }
+static inline vix vi_sll(vix a, int n) { return (int32_t)((uint32_t)a << n); }
+static inline vix vi_srl(vix a, int n) { return (int32_t)((uint32_t)a >> n); }
+static inline vix vi_clamp(vix a, int32_t hi) { return a < 0 ? 0 : a > hi ? hi : a; }
+static inline vix vi_gather(const uint32_t *b, vix i) { return (int32_t)b[i]; }
+static inline vf vi_tof(vix a) { return (float)a; }
+static inline vm vi_eq(vix a, vix b) { return a == b ? ~0u : 0u; }
+static inline vix vf_bits(vf a)
+{
+    int32_t i;
+    memcpy(&i, &a, sizeof i);
+    return i;
+}
+static inline vf vi_asf(vix a)
+{
+    float f;
+    memcpy(&f, &a, sizeof f);
+    return f;
+}
+static inline void vi_store(int32_t *p, vix a) { *p = a; }
+#endif
+
+/* log2 of x > 0 finite (normal or not: subnormals read as their exponent
+ * field's 2^-126 band, a level far below 0 either way): the exponent plus
+ * log2 of the mantissa m in [sqrt(1/2), sqrt(2)) by Cephes' logf
+ * polynomial (relative error ~1e-7). Only the mip level is made from it. */
+static inline vf vf_log2(vf x)
+{
+    const vf one = vf_set(1);
+    vix b = vf_bits(x);
+    vix e = vi_add(vi_srl(b, 23), vi_set(-127));
+    vf m = vi_asf(vi_or(vi_and(b, vi_set(0x007FFFFF)), vi_set(0x3F800000))); /* [1, 2) */
+    vm big = vf_lt(vf_set(1.41421356f), m);
+    m = vf_select(big, vf_mul(m, vf_set(0.5f)), m);
+    vf ef = vf_add(vi_tof(e), vf_select(big, one, vf_set(0)));
+    vf t = vf_sub(m, one), z = vf_mul(t, t);
+    vf y = vf_set(7.0376836292e-2f);
+    y = vf_fma(y, t, vf_set(-1.1514610310e-1f));
+    y = vf_fma(y, t, vf_set(1.1676998740e-1f));
+    y = vf_fma(y, t, vf_set(-1.2420140846e-1f));
+    y = vf_fma(y, t, vf_set(1.4249322787e-1f));
+    y = vf_fma(y, t, vf_set(-1.6668057665e-1f));
+    y = vf_fma(y, t, vf_set(2.0000714765e-1f));
+    y = vf_fma(y, t, vf_set(-2.4999993993e-1f));
+    y = vf_fma(y, t, vf_set(3.3333331174e-1f));
+    y = vf_mul(vf_mul(y, t), z);
+    y = vf_fma(z, vf_set(-0.5f), y);
+    vf ln = vf_add(t, y); /* ln(m) */
+    return vf_fma(ln, vf_set(1.44269504088896341f), ef);
+}
+
+/* ---- textures -------------------------------------------------------------------- */
+
+/* Whether slot r's sampling has a lane path: a power-of-two texture
+ * (every level then is one), REPEAT or CLAMP wraps, linear magnification,
+ * trilinear minification (glTF's usual sampler and the city's) or linear
+ * without mips. Anything else goes through vt_tex_sample per pixel. */
+static inline bool tex_lanes_ok(const vt_texref *r)
+{
+    const vt_texview *t = r->tex;
+    if (!t) return true;
+    if ((t->w & (t->w - 1)) || (t->h & (t->h - 1)) || !t->mip || t->levels < 1 || t->levels > 16) return false;
+    if (r->wrap_s == VT_WRAP_MIRROR || r->wrap_t == VT_WRAP_MIRROR || r->mag_filter != VT_FILTER_LINEAR) return false;
+    return r->min_filter == VT_FILTER_LINEAR_MIP_LINEAR || r->min_filter == VT_FILTER_LINEAR;
+}
+
+/* log2 of a power of two v >= 1 */
+static inline int ilog2u(uint32_t v)
+{
+    return __builtin_ctz(v);
+}
+
+/* The texel coordinate along one axis of a level of size 1 << ls: (x,
+ * the lower texel's index wrapped, the upper's, and the weight of the
+ * upper). u is finite (the caller clamped it). */
+static inline void axis(vf u, int ls, uint8_t wrap, vix *i0, vix *i1, vf *a)
+{
+    const vf half = vf_set(0.5f), n = vf_set((float)(1u << ls));
+    /* REPEAT: the fraction first (u - floor u is exact), so a large u
+       keeps its position inside the texture; CLAMP: past [-1, 2] every
+       texel index clamps the same */
+    vf x = wrap == VT_WRAP_REPEAT ? vf_sub(u, vf_floor(u)) : vf_min(vf_max(u, vf_set(-1)), vf_set(2));
+    x = vf_sub(vf_mul(x, n), half);
+    vf xf = vf_floor(x);
+    *a = vf_sub(x, xf);
+    vix xi = vx_of(xf);
+    vix x1 = vi_add(xi, vi_set(1));
+    if (wrap == VT_WRAP_REPEAT) {
+        vix m = vi_set((int32_t)(1u << ls) - 1);
+        *i0 = vi_and(xi, m), *i1 = vi_and(x1, m);
+    } else {
+        *i0 = vi_clamp(xi, (int32_t)(1u << ls) - 1), *i1 = vi_clamp(x1, (int32_t)(1u << ls) - 1);
+    }
+}
+
+/* Channel k (0..2) of W texels, decoded: sRGB by the table, else / 255. */
+static inline vf chan(vix t, int k, const float *tab)
+{
+    vix c = vi_and(vi_srl(t, 8 * k), vi_set(255));
+    if (tab) return vf_gather(tab, c);
+    return vf_mul(vi_tof(c), vf_set(1 / 255.0f));
+}
+
+/* Level lv of slot r, bilinear at (u, v), RGB into o (ch: the channels
+ * wanted, bits 0..2). */
+static inline void bilinear(const vt_texref *r, uint32_t lv, vf u, vf v, const float *tab, unsigned ch, vf o[3])
+{
+    const vt_texview *t = r->tex;
+    int ws = ilog2u(t->w), hs = ilog2u(t->h);
+    ws = ws > (int)lv ? ws - (int)lv : 0;
+    hs = hs > (int)lv ? hs - (int)lv : 0;
+    const uint32_t *px = (const uint32_t *)(const void *)t->mip[lv];
+    vix i0, i1, j0, j1;
+    vf ax, ay;
+    axis(u, ws, r->wrap_s, &i0, &i1, &ax);
+    axis(v, hs, r->wrap_t, &j0, &j1, &ay);
+    j0 = vi_sll(j0, ws), j1 = vi_sll(j1, ws);
+    vix t00 = vi_gather(px, vi_add(j0, i0)), t10 = vi_gather(px, vi_add(j0, i1));
+    vix t01 = vi_gather(px, vi_add(j1, i0)), t11 = vi_gather(px, vi_add(j1, i1));
+    for (int k = 0; k < 3; k++) {
+        if (!(ch >> k & 1)) continue;
+        vf a = chan(t00, k, tab), b = chan(t10, k, tab), c = chan(t01, k, tab), d = chan(t11, k, tab);
+        vf top = vf_fma(ax, vf_sub(b, a), a), bot = vf_fma(ax, vf_sub(d, c), c);
+        o[k] = vf_fma(ay, vf_sub(bot, top), top);
+    }
+}
+
+/* vt_tex_sample in lanes for a lane-able slot (tex_lanes_ok): uv and its
+ * per-pixel differences (before the slot's transform), the lanes in act
+ * (the others get some finite value); RGB channels ch into o. */
+static inline void tex_lanes(const vt_texref *r, vf u0, vf v0, vf dxu0, vf dxv0, vf dyu0, vf dyv0, vm act, bool srgb_on,
+                             unsigned ch, vf o[3])
+{
+    const vt_texview *t = r->tex;
+    const float *tab = srgb_on ? vt_srgb_table() : NULL;
+    const float c = r->rotation == 0 ? 1.0f : cosf(r->rotation), s = r->rotation == 0 ? 0.0f : sinf(r->rotation);
+    const bool unit = r->scale[0] == 0 && r->scale[1] == 0;
+    const vf sx = vf_set(unit ? 1 : r->scale[0]), sy = vf_set(unit ? 1 : r->scale[1]);
+    const vf vc = vf_set(c), vs = vf_set(s), big = vf_set(1e9f), nbig = vf_set(-1e9f);
+#define XF(a, b, off0, off1, ou, ov)                                                                                   \
+    do {                                                                                                               \
+        vf su_ = vf_mul(a, sx), sv_ = vf_mul(b, sy);                                                                   \
+        ou = vf_add(vf_sub(vf_mul(vc, su_), vf_mul(vs, sv_)), vf_set(off0));                                           \
+        ov = vf_add(vf_add(vf_mul(vs, su_), vf_mul(vc, sv_)), vf_set(off1));                                           \
+    } while (0)
+    vf u, v, dxu, dxv, dyu, dyv;
+    XF(u0, v0, r->offset[0], r->offset[1], u, v);
+    XF(dxu0, dxv0, 0.0f, 0.0f, dxu, dxv);
+    XF(dyu0, dyv0, 0.0f, 0.0f, dyu, dyv);
+#undef XF
+    /* the coordinates kept finite (NaN: -1e9, as the scalar sampler) */
+    u = vf_min(vf_max(u, nbig), big);
+    v = vf_min(vf_max(v, nbig), big);
+    /* GL's scale factor: the longer derivative in texels, squared */
+    const vf fw = vf_set((float)t->w), fh = vf_set((float)t->h);
+    vf ax = vf_mul(dxu, fw), ay = vf_mul(dxv, fh), bx = vf_mul(dyu, fw), by = vf_mul(dyv, fh);
+    vf r2 = vf_max(vf_fma(ax, ax, vf_mul(ay, ay)), vf_fma(bx, bx, vf_mul(by, by)));
+    const float top = (float)(t->levels - 1);
+    const bool mips = r->min_filter == VT_FILTER_LINEAR_MIP_LINEAR && t->levels > 1;
+    vf lod;
+    if (mips) {
+        /* 0.5 log2(rho^2); rho 0 or NaN: magnified; infinite: the last level */
+        vm fin = vm_and(vf_lt(vf_set(0), r2), vf_lt(r2, vf_set(INFINITY)));
+        vf safe = vf_select(fin, r2, vf_set(1));
+        lod = vf_select(fin, vf_mul(vf_log2(safe), vf_set(0.5f)), vf_select(vf_lt(vf_set(0), r2), vf_set(top), vf_set(0)));
+        lod = vf_min(vf_max(lod, vf_set(0)), vf_set(top));
+    } else {
+        lod = vf_set(0);
+    }
+    /* levels l0 and l0 + 1 blended by f (f 0 at level 0 when magnified,
+       1 at the last level: the last level's value) */
+    vf fl = vf_min(vf_floor(lod), vf_set(top > 0 ? top - 1 : 0));
+    vf f = mips ? vf_sub(lod, fl) : vf_set(0);
+    A int32_t lvl[W];
+    vi_store(lvl, vx_of(fl));
+    uint32_t todo = vm_bits(act);
+    const vf zero = vf_set(0);
+    for (int k = 0; k < 3; k++) o[k] = zero;
+    while (todo) {
+        uint32_t L = (uint32_t)lvl[__builtin_ctz(todo)];
+        vm mk = vm_and(act, vi_eq(vx_of(fl), vi_set((int32_t)L)));
+        vf a[3] = {zero, zero, zero}, b[3] = {zero, zero, zero};
+        bilinear(r, L, u, v, tab, ch, a);
+        vf fk = vf_select(mk, f, zero);
+        if (mips && vm_bits(vf_lt(zero, fk))) {
+            bilinear(r, L + 1, u, v, tab, ch, b);
+            for (int k = 0; k < 3; k++) a[k] = vf_fma(fk, vf_sub(b[k], a[k]), a[k]);
+        }
+        for (int k = 0; k < 3; k++) o[k] = vf_select(mk, a[k], o[k]);
+        todo &= ~vm_bits(mk);
+    }
+}
+
+/* ---- the material ---------------------------------------------------------------- */
+
+/* A point's interpolated inputs for W pixels: position, normal (any
+ * length), the default material's colour, UV and its differences one
+ * pixel right and one up. */
+typedef struct gin {
+    vf px, py, pz, nx, ny, nz, al[3];
+    vf u, v, dxu, dxv, dyu, dyv;
+} gin;
+
+/* The material's outputs for W pixels (vt_surfout in lanes). */
+typedef struct gout {
+    vf dr, dg, db, fr, fg, fb, er, eg, eb, a2, ro;
+} gout;
+
+/* Whether material m (NULL: the default) has a lane path. */
+static inline bool mat_lanes_ok(const vt_material *m)
+{
+    if (!m) return true;
+    if (m->tex[VT_SLOT_NORMAL].tex) return false;
+    return tex_lanes_ok(&m->tex[VT_SLOT_BASE]) && tex_lanes_ok(&m->tex[VT_SLOT_MR]) &&
+           tex_lanes_ok(&m->tex[VT_SLOT_EMISSIVE]);
+}
+
+/* Whether m's textures are read (it has one) on a surface with UVs. */
+static inline bool mat_reads_uv(const vt_material *m)
+{
+    return m && (m->tex[VT_SLOT_BASE].tex || m->tex[VT_SLOT_MR].tex || m->tex[VT_SLOT_EMISSIVE].tex);
+}
+
+/* vt_surface_params in lanes (no normal map: mat_lanes_ok) for the lanes
+ * in act: uv says the lanes' UVs are read. The normal stays as
+ * interpolated (the kernel normalises it). */
+static inline void mat_lanes(const vt_material *m, const gin *in, bool uv, vm act, gout *g)
+{
+    const vf zero = vf_set(0), one = vf_set(1);
+    if (!m) {
+        const float a = VT_DEFAULT_ROUGHNESS * VT_DEFAULT_ROUGHNESS;
+        g->dr = in->al[0], g->dg = in->al[1], g->db = in->al[2];
+        g->fr = g->fg = g->fb = vf_set(VT_F0_DIELECTRIC);
+        g->er = g->eg = g->eb = zero;
+        g->a2 = vf_set(a * a), g->ro = vf_set(VT_DEFAULT_ROUGHNESS);
+        return;
+    }
+    vf base[3] = {vf_set(m->base[0]), vf_set(m->base[1]), vf_set(m->base[2])};
+    vf metal = vf_set(m->metallic), rough = vf_set(m->roughness);
+    vf em[3];
+    for (int k = 0; k < 3; k++) em[k] = vf_set(m->emissive[k] * m->emissive_strength);
+    if (uv) {
+        vf t[3];
+        if (m->tex[VT_SLOT_BASE].tex) {
+            tex_lanes(&m->tex[VT_SLOT_BASE], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, true, 7, t);
+            for (int k = 0; k < 3; k++) base[k] = vf_mul(base[k], t[k]);
+        }
+        if (m->tex[VT_SLOT_MR].tex) {
+            tex_lanes(&m->tex[VT_SLOT_MR], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, false, 6, t);
+            rough = vf_mul(rough, t[1]);
+            metal = vf_mul(metal, t[2]);
+        }
+        /* an emission of 0 stays 0 whatever the texture says: no sample */
+        if (m->tex[VT_SLOT_EMISSIVE].tex && (m->emissive[0] != 0 || m->emissive[1] != 0 || m->emissive[2] != 0) &&
+            m->emissive_strength != 0) {
+            tex_lanes(&m->tex[VT_SLOT_EMISSIVE], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, true, 7, t);
+            for (int k = 0; k < 3; k++) em[k] = vf_mul(em[k], t[k]);
+        }
+    }
+    vf im = vf_sub(one, metal), f0d = vf_mul(vf_set(0.04f), im);
+    g->dr = vf_mul(base[0], im), g->dg = vf_mul(base[1], im), g->db = vf_mul(base[2], im);
+    g->fr = vf_fma(base[0], metal, f0d), g->fg = vf_fma(base[1], metal, f0d), g->fb = vf_fma(base[2], metal, f0d);
+    g->er = em[0], g->eg = em[1], g->eb = em[2];
+    /* vt_brdf_rough: clamped to [VT_MIN_ROUGHNESS, 1], NaN 1 */
+    vf rc = vf_select(vf_ge(rough, vf_set(VT_MIN_ROUGHNESS)), vf_min(rough, one),
+                      vf_select(vf_lt(rough, vf_set(VT_MIN_ROUGHNESS)), vf_set(VT_MIN_ROUGHNESS), one));
+    vf a = vf_mul(rc, rc);
+    g->a2 = vf_mul(a, a), g->ro = rc;
+}
+
+/* Whether a triangle record's pixels take the lanes. */
+static inline bool tri_lanes_ok(const vt_stri *t)
+{
+    return !t->mask && mat_lanes_ok(t->mat);
+}
+
+/* vt_stri_bary in lanes at NDC (X, Y), t's coefficients broadcast. */
+static inline void bary_lanes(const vt_stri *t, vf X, vf Y, vf b[3])
+{
+    for (int k = 0; k < 3; k++) b[k] = vf_fma(vf_set(t->e[k][0]), X, vf_fma(vf_set(t->e[k][1]), Y, vf_set(t->e[k][2])));
+    vf sum = vf_add(vf_add(b[0], b[1]), b[2]);
+    vm z = vm_and(vf_ge(sum, vf_set(0)), vf_le(sum, vf_set(0)));
+    vf is = vf_select(z, vf_set(1), vf_div(vf_set(1), sum));
+    for (int k = 0; k < 3; k++) b[k] = vf_mul(b[k], is);
+}
+
+/* Triangle t's inputs at W pixels from column x (X: their NDC x); uv:
+ * its UVs are read. */
+static inline void tri_lanes(const vt_stri *t, const vt_span *sp, vf X, bool uv, gin *g)
+{
+    vf b[3];
+    const vf Y = vf_set(sp->Y);
+    bary_lanes(t, X, Y, b);
+#define IP(c, arr, k) vf_fma(c[0], vf_set(t->arr[0][k]), vf_fma(c[1], vf_set(t->arr[1][k]), vf_mul(c[2], vf_set(t->arr[2][k]))))
+    g->px = IP(b, p, 0), g->py = IP(b, p, 1), g->pz = IP(b, p, 2);
+    g->nx = IP(b, n, 0), g->ny = IP(b, n, 1), g->nz = IP(b, n, 2);
+    for (int k = 0; k < 3; k++) g->al[k] = vf_set(t->albedo[k]);
+    if (uv) {
+        vf br[3], bu[3];
+        bary_lanes(t, vf_add(X, vf_set((float)sp->inv_w)), Y, br);
+        bary_lanes(t, X, vf_set(sp->Y + (float)sp->inv_h), bu);
+        g->u = IP(b, uv, 0), g->v = IP(b, uv, 1);
+        g->dxu = vf_sub(IP(br, uv, 0), g->u), g->dxv = vf_sub(IP(br, uv, 1), g->v);
+        g->dyu = vf_sub(IP(bu, uv, 0), g->u), g->dyv = vf_sub(IP(bu, uv, 1), g->v);
+    } else {
+        g->u = g->v = g->dxu = g->dxv = g->dyu = g->dyv = vf_set(0);
+    }
+#undef IP
+}
+
+/* The ground's inputs at W pixels from column offset i (the lanes in
+ * bits): the point in double per pixel (the plane's far points need it),
+ * its UVs one pixel right and one up where uv. */
+static inline void ground_lanes(const vt_span *sp, unsigned i, uint32_t bits, bool uv, gin *g)
+{
+    const vt_penv *pe = sp->pe;
+    A float P[3][W], U[6][W];
+    const float dX = (float)sp->inv_w, dY = (float)sp->inv_h;
+    for (unsigned j = 0; j < W; j++) {
+        P[0][j] = P[1][j] = P[2][j] = 0;
+        for (int k = 0; k < 6; k++) U[k][j] = 0;
+        if (!(bits >> j & 1)) continue;
+        float X = vt_ndc_x(sp->x0 + i + j, sp->inv_w);
+        double q[3], nz;
+        if (!vt_ground_at(sp->gr, X, sp->Y, &nz)) continue; /* the raster found it there: 0, as vt_span_surface */
+        vt_ground_point(sp->gr, X, sp->Y, nz, q);
+        for (int k = 0; k < 3; k++) P[k][j] = (float)q[k];
+        if (!uv) continue;
+        const float c[2] = {(float)(pe->ground_uv0[0] + q[0]), (float)(pe->ground_uv0[1] + q[2])};
+        U[0][j] = c[0], U[1][j] = c[1];
+        /* its differences, as vt_span_surface's ground_uv (0 where the
+           neighbour misses the plane) */
+        const float xs[2] = {X + dX, X}, ys[2] = {sp->Y, sp->Y + dY};
+        for (int d = 0; d < 2; d++) {
+            if (!vt_ground_at(sp->gr, xs[d], ys[d], &nz)) continue;
+            vt_ground_point(sp->gr, xs[d], ys[d], nz, q);
+            U[2 + 2 * d][j] = (float)(pe->ground_uv0[0] + q[0]) - c[0];
+            U[3 + 2 * d][j] = (float)(pe->ground_uv0[1] + q[2]) - c[1];
+        }
+    }
+    g->px = vf_load(P[0]), g->py = vf_load(P[1]), g->pz = vf_load(P[2]);
+    g->nx = vf_set(0), g->ny = vf_set(1), g->nz = vf_set(0);
+    for (int k = 0; k < 3; k++) g->al[k] = vf_set(pe->ground_albedo[k]);
+    g->u = vf_load(U[0]), g->v = vf_load(U[1]), g->dxu = vf_load(U[2]), g->dxv = vf_load(U[3]);
+    g->dyu = vf_load(U[4]), g->dyv = vf_load(U[5]);
+}
