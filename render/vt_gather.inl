@@ -414,3 +414,126 @@ static inline void ground_lanes(const vt_span *sp, unsigned i, uint32_t bits, bo
     g->u = vf_load(U[0]), g->v = vf_load(U[1]), g->dxu = vf_load(U[2]), g->dxv = vf_load(U[3]);
     g->dyu = vf_load(U[4]), g->dyv = vf_load(U[5]);
 }
+
+/* ---- the sky ------------------------------------------------------------------- */
+
+/* atan(t) for t in [0, 1] (Cephes' atanf: above tan(pi/8), pi/4 + atan((t
+ * - 1) / (t + 1)); a degree-9 odd polynomial; ~1e-7 absolute). */
+static inline vf atan01(vf t)
+{
+    const vf one = vf_set(1);
+    vm hi = vf_lt(vf_set(0.41421356f), t);
+    vf x = vf_select(hi, vf_div(vf_sub(t, one), vf_add(t, one)), t);
+    vf z = vf_mul(x, x);
+    vf y = vf_fma(vf_set(8.05374449538e-2f), z, vf_set(-1.38776856032e-1f));
+    y = vf_fma(y, z, vf_set(1.99777106478e-1f));
+    y = vf_fma(y, z, vf_set(-3.33329491539e-1f));
+    y = vf_fma(vf_mul(y, z), x, x);
+    return vf_add(y, vf_select(hi, vf_set(0.78539816f), vf_set(0)));
+}
+
+/* atan2f(y, x) in lanes (~2e-7 absolute; (0, 0): 0). */
+static inline vf vf_atan2(vf y, vf x)
+{
+    const vf zero = vf_set(0);
+    vf ax = vf_abs(x), ay = vf_abs(y), mx = vf_max(ax, ay), mn = vf_min(ax, ay);
+    vf r = atan01(vf_select(vf_lt(zero, mx), vf_div(mn, mx), zero));
+    r = vf_select(vf_lt(ax, ay), vf_sub(vf_set(1.57079633f), r), r);
+    r = vf_select(vf_lt(x, zero), vf_sub(vf_set(3.14159265f), r), r);
+    return vf_select(vf_lt(y, zero), vf_sub(zero, r), r);
+}
+
+/* acosf(x) in lanes for x in [-1, 1] (Cephes' asinf about 0 and about
+ * +-1; ~3e-7 absolute). */
+static inline vf vf_acos(vf x)
+{
+    const vf half = vf_set(0.5f), one = vf_set(1);
+    vf ax = vf_abs(x);
+    vm big = vf_lt(half, ax);
+    vf z = vf_select(big, vf_mul(half, vf_sub(one, ax)), vf_mul(x, x));
+    vf s = vf_select(big, vf_sqrt(z), ax);
+    vf p = vf_fma(vf_set(4.2163199048e-2f), z, vf_set(2.4181311049e-2f));
+    p = vf_fma(p, z, vf_set(4.5470025998e-2f));
+    p = vf_fma(p, z, vf_set(7.4953002686e-2f));
+    p = vf_fma(p, z, vf_set(1.6666752422e-1f));
+    vf as = vf_fma(vf_mul(p, z), s, s); /* asin(s) */
+    /* |x| <= 1/2: pi/2 - asin(x); x > 1/2: 2 asin(sqrt((1 - x) / 2));
+       x < -1/2: pi - that */
+    vf small = vf_sub(vf_set(1.57079633f), vf_select(vf_lt(x, vf_set(0)), vf_sub(vf_set(0), as), as));
+    vf two = vf_add(as, as);
+    vf large = vf_select(vf_lt(x, vf_set(0)), vf_sub(vf_set(3.14159265f), two), two);
+    return vf_select(big, large, small);
+}
+
+#if CULL_SIMD_ISA == 3
+static inline vix vi_mul(vix a, vix b) { return _mm256_mullo_epi32(a, b); }
+static inline vm vi_lt(vix a, vix b) { return _mm256_castsi256_ps(_mm256_cmpgt_epi32(b, a)); }
+static inline vix vi_select(vm m, vix a, vix b) { return _mm256_castps_si256(vf_select(m, _mm256_castsi256_ps(a), _mm256_castsi256_ps(b))); }
+#elif CULL_SIMD_ISA == 2
+static inline vix vi_mul(vix a, vix b) { return _mm_mullo_epi32(a, b); }
+static inline vm vi_lt(vix a, vix b) { return _mm_castsi128_ps(_mm_cmpgt_epi32(b, a)); }
+static inline vix vi_select(vm m, vix a, vix b) { return _mm_castps_si128(vf_select(m, _mm_castsi128_ps(a), _mm_castsi128_ps(b))); }
+#else
+static inline vix vi_mul(vix a, vix b) { return (int32_t)((uint32_t)a * (uint32_t)b); }
+static inline vm vi_lt(vix a, vix b) { return a < b ? ~0u : 0u; }
+static inline vix vi_select(vm m, vix a, vix b) { return m ? a : b; }
+#endif
+
+/* vt_span_sky in lanes for a sky image (the analytic sky's table or an
+ * environment map): W pixels at column offset i, the view rays of the
+ * row c0 + X c1; the image's radiance where cov is 0. */
+static inline void sky_lanes(const vt_span *sp, const float c0[3], const float c1[3], unsigned i, float *cr, float *cg,
+                             float *cb, const float *cov)
+{
+    const vt_penv *pe = sp->pe;
+    const vt_texview *t = pe->sky_img;
+    static const A float lane_f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    const vf zero = vf_set(0), one = vf_set(1);
+    vf X = vf_fma(vf_load(lane_f), vf_set((float)sp->inv_w), vf_set(vt_ndc_x(sp->x0 + i, sp->inv_w)));
+    vf dx = vf_fma(X, vf_set(c1[0]), vf_set(c0[0])), dy = vf_fma(X, vf_set(c1[1]), vf_set(c0[1]));
+    vf dz = vf_fma(X, vf_set(c1[2]), vf_set(c0[2]));
+    vf l2 = vf_fma(dx, dx, vf_fma(dy, dy, vf_mul(dz, dz)));
+    vf il = vf_select(vf_lt(zero, l2), vf_div(one, vf_sqrt(l2)), zero);
+    dx = vf_mul(dx, il), dy = vf_mul(dy, il), dz = vf_mul(dz, il);
+    /* vt_sky_uv */
+    vf u = vf_fma(vf_add(vf_atan2(dx, vf_sub(zero, dz)), vf_set(pe->sky_rot)), vf_set(0.5f / 3.14159265f), vf_set(0.5f));
+    u = vf_sub(u, vf_floor(u));
+    vf v = vf_mul(vf_acos(vf_min(vf_max(dy, vf_set(-1)), one)), vf_set(1 / 3.14159265f));
+    /* vt_sky_sample: bilinear, REPEAT across, CLAMP down; a NaN direction black */
+    vm ok = vm_and(vm_and(vf_ge(u, zero), vf_le(u, one)), vm_and(vf_ge(v, zero), vf_le(v, one)));
+    u = vf_select(ok, u, zero), v = vf_select(ok, v, zero);
+    const int32_t w = (int32_t)t->w, h = (int32_t)t->h;
+    vf x = vf_sub(vf_mul(u, vf_set((float)w)), vf_set(0.5f)), y = vf_sub(vf_mul(v, vf_set((float)h)), vf_set(0.5f));
+    vf x0 = vf_floor(x), y0 = vf_floor(y), ax = vf_sub(x, x0), ay = vf_sub(y, y0);
+    vix xi = vx_of(x0), yi = vx_of(y0), W1 = vi_set(w - 1);
+    vix i0 = vi_select(vi_lt(xi, vi_set(0)), W1, vi_select(vi_lt(W1, xi), vi_set(0), xi));
+    vix x1 = vi_add(xi, vi_set(1));
+    vix i1 = vi_select(vi_lt(W1, x1), vi_set(0), vi_select(vi_lt(x1, vi_set(0)), W1, x1));
+    vix j0 = vi_mul(vi_clamp(yi, h - 1), vi_set(w)), j1 = vi_mul(vi_clamp(vi_add(yi, vi_set(1)), h - 1), vi_set(w));
+    vix a00 = vi_sll(vi_add(j0, i0), 2), a10 = vi_sll(vi_add(j0, i1), 2);
+    vix a01 = vi_sll(vi_add(j1, i0), 2), a11 = vi_sll(vi_add(j1, i1), 2);
+    vm sky = vm_and(ok, vf_le(vf_load(cov + i), zero));
+    float *const out[3] = {cr, cg, cb};
+    for (int c = 0; c < 3; c++) {
+        const float *p = t->hdr + c;
+        vf a = vf_gather(p, a00), b = vf_gather(p, a10), e = vf_gather(p, a01), f = vf_gather(p, a11);
+        vf top = vf_fma(ax, vf_sub(b, a), a), bot = vf_fma(ax, vf_sub(f, e), e);
+        vf s = vf_fma(ay, vf_sub(bot, top), top);
+        s = vf_select(vf_lt(vf_abs(s), vf_set(INFINITY)), s, zero); /* a NaN or infinite texel: 0 */
+        s = vf_select(ok, vf_mul(s, vf_set(pe->sky_mul[c])), zero);
+        vf_store(out[c] + i, vf_select(sky, s, vf_load(out[c] + i)));
+    }
+}
+
+/* The sky where nothing is drawn over the whole span (vt_span_sky's
+ * job): in lanes with a sky image, else (a colour, or no image) by it. */
+static inline void span_sky(const vt_span *sp, float *cr, float *cg, float *cb, const float *cov)
+{
+    if (vt_gather_scalar || !sp->pe->sky_img || !sp->pe->sky_img->hdr || sp->n != S) {
+        vt_span_sky(sp, cr, cg, cb, cov);
+        return;
+    }
+    float c0[3], c1[3];
+    vt_view_dir_row(sp->vr, sp->Y, c0, c1);
+    for (unsigned i = 0; i < S; i += W) sky_lanes(sp, c0, c1, i, cr, cg, cb, cov);
+}

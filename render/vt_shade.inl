@@ -375,7 +375,12 @@ void VT_SHADE_NAME(const vt_span *sp)
         for (unsigned i = 0; i < sp->n; i++) sp->depth[i] = INFINITY;
         if (!env) return;
         A float zero[S] = {0}, r[S], g[S], b[S];
-        vt_span_sky(sp, r, g, b, zero);
+        span_sky(sp, r, g, b, zero);
+        if (sp->n == S) {
+            for (unsigned i = 0; i < S; i += W)
+                store_rgba(sp->rgba + 4 * i, vf_load(r + i), vf_load(g + i), vf_load(b + i), vf_set(1));
+            return;
+        }
         for (unsigned i = 0; i < sp->n; i++) {
             float *o = sp->rgba + 4 * i;
             o[0] = r[i], o[1] = g[i], o[2] = b[i], o[3] = 1;
@@ -528,7 +533,7 @@ void VT_SHADE_NAME(const vt_span *sp)
             const float e0 = pe->fog_falloff > 0 ? expf(fminf(pe->fog_falloff * pe->fog_y0, 80.0f)) : 1.0f;
             for (unsigned i = 0; i < S; i += W) fog_lanes(&s, pe, e0, cov, i);
         }
-        vt_span_sky(sp, s.cr, s.cg, s.cb, cov);
+        span_sky(sp, s.cr, s.cg, s.cb, cov);
     }
     const vf alpha1 = vf_set(1);
     if (sp->n == S) {
