@@ -101,6 +101,7 @@ typedef struct vt_span {
     double inv_h;               /* 2 / height: one row in NDC */
     const struct vt_shadow *sh; /* the sun's shadow cascades (vt_shadow.h), or NULL: unshadowed */
     const float *ao;            /* per pixel: ambient occlusion 0..1 (the SSAO pass), or NULL: 1 */
+    float ray0[3], ray1[3];     /* with an environment: the row's view rays c0 + X c1 (vt_view_dir_row) */
 } vt_span;
 
 /* The surface a pixel shows (a triangle's record, or the ground plane),

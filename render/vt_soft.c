@@ -667,6 +667,7 @@ static void job_shade(void *arg, uint32_t t)
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
         for (uint32_t y = tr * TILE; y < y1; y++) {
             sp.Y = ndc_y(fr, y);
+            if (fr->pe.on) vt_view_dir_row(&fr->vr, sp.Y, sp.ray0, sp.ray1); /* the sky's, once a row */
             for (uint32_t c = 0; c < tx; c++) {
                 uint32_t tile = tr * tx + c;
                 sp.li = lt->index ? lt->index + lt->offset[tile] : NULL;
