@@ -378,34 +378,107 @@ static inline void tri_lanes(const vt_stri *t, const vt_span *sp, vf X, bool uv,
 #undef IP
 }
 
+/* Doubles in lanes, for the ground plane's points (far points need the
+ * precision): WD lanes a vector. */
+#if CULL_SIMD_ISA == 3
+typedef __m256d vdd;
+#define WD 4
+static inline vdd dd_set(double a) { return _mm256_set1_pd(a); }
+static inline vdd dd_of(const float *p) { return _mm256_cvtps_pd(_mm_loadu_ps(p)); }
+static inline vdd dd_add(vdd a, vdd b) { return _mm256_add_pd(a, b); }
+static inline vdd dd_mul(vdd a, vdd b) { return _mm256_mul_pd(a, b); }
+static inline uint32_t dd_ge(vdd a, vdd b) { return (uint32_t)_mm256_movemask_pd(_mm256_cmp_pd(a, b, _CMP_GE_OQ)); }
+static inline uint32_t dd_gt(vdd a, vdd b) { return (uint32_t)_mm256_movemask_pd(_mm256_cmp_pd(a, b, _CMP_GT_OQ)); }
+static inline void dd_store(double *p, vdd a) { _mm256_storeu_pd(p, a); }
+#elif CULL_SIMD_ISA == 2
+typedef __m128d vdd;
+#define WD 2
+static inline vdd dd_set(double a) { return _mm_set1_pd(a); }
+static inline vdd dd_of(const float *p) { return _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i *)p))); }
+static inline vdd dd_add(vdd a, vdd b) { return _mm_add_pd(a, b); }
+static inline vdd dd_mul(vdd a, vdd b) { return _mm_mul_pd(a, b); }
+static inline uint32_t dd_ge(vdd a, vdd b) { return (uint32_t)_mm_movemask_pd(_mm_cmpge_pd(a, b)); }
+static inline uint32_t dd_gt(vdd a, vdd b) { return (uint32_t)_mm_movemask_pd(_mm_cmpgt_pd(a, b)); }
+static inline void dd_store(double *p, vdd a) { _mm_storeu_pd(p, a); }
+#else
+typedef double vdd;
+#define WD 1
+static inline vdd dd_set(double a) { return a; }
+static inline vdd dd_of(const float *p) { return *p; }
+static inline vdd dd_add(vdd a, vdd b) { return a + b; }
+static inline vdd dd_mul(vdd a, vdd b) { return a * b; }
+static inline uint32_t dd_ge(vdd a, vdd b) { return a >= b; }
+static inline uint32_t dd_gt(vdd a, vdd b) { return a > b; }
+static inline void dd_store(double *p, vdd a) { *p = a; }
+#endif
+
+/* vt_ground_at and vt_ground_point at WD points (X, Y as floats, the
+ * reference's arguments): q (3 x WD) where hit (bits), else untouched. */
+static inline uint32_t ground_pts(const vt_ground *g, const float *X, const float *Y, double q[3][WD])
+{
+    vdd x = dd_of(X), y = dd_of(Y);
+#define AFF(r, N) dd_add(dd_add(dd_mul(dd_set(r[0]), x), dd_mul(dd_set(r[1]), y)), dd_add(dd_mul(dd_set(r[2]), N), dd_set(r[3])))
+    vdd N = dd_add(dd_add(dd_mul(dd_set(g->n[0]), x), dd_mul(dd_set(g->n[1]), y)), dd_set(g->n[2]));
+    uint32_t hit = g->persp ? dd_gt(N, dd_set(0)) : (1u << WD) - 1;
+    hit &= dd_ge(AFF(g->lim[0], N), dd_set(0)) & dd_ge(AFF(g->lim[1], N), dd_set(0));
+    if (!hit) return 0;
+    vdd h3 = AFF(g->inv[3], N);
+    /* 1 / h3, 0 where h3 is 0 (vt_ground_point) */
+    A double hw[WD];
+    dd_store(hw, h3);
+    for (unsigned j = 0; j < WD; j++) hw[j] = hw[j] != 0 ? 1 / hw[j] : 0;
+    vdd iw;
+#if CULL_SIMD_ISA == 3
+    iw = _mm256_loadu_pd(hw);
+#elif CULL_SIMD_ISA == 2
+    iw = _mm_loadu_pd(hw);
+#else
+    iw = hw[0];
+#endif
+    for (int k = 0; k < 3; k++) dd_store(q[k], dd_mul(AFF(g->inv[k], N), iw));
+#undef AFF
+    return hit;
+}
+
 /* The ground's inputs at W pixels from column offset i (the lanes in
- * bits): the point in double per pixel (the plane's far points need it),
- * its UVs one pixel right and one up where uv. */
+ * bits): its points, and where uv its UVs (world x, z from the view's
+ * origin) with their differences one pixel right and one up (0 where
+ * that neighbour misses the plane), as vt_span_surface makes them; the
+ * points in double, WD lanes at a time. */
 static inline void ground_lanes(const vt_span *sp, unsigned i, uint32_t bits, bool uv, gin *g)
 {
     const vt_penv *pe = sp->pe;
     A float P[3][W], U[6][W];
     const float dX = (float)sp->inv_w, dY = (float)sp->inv_h;
-    for (unsigned j = 0; j < W; j++) {
-        P[0][j] = P[1][j] = P[2][j] = 0;
-        for (int k = 0; k < 6; k++) U[k][j] = 0;
-        if (!(bits >> j & 1)) continue;
-        float X = vt_ndc_x(sp->x0 + i + j, sp->inv_w);
-        double q[3], nz;
-        if (!vt_ground_at(sp->gr, X, sp->Y, &nz)) continue; /* the raster found it there: 0, as vt_span_surface */
-        vt_ground_point(sp->gr, X, sp->Y, nz, q);
-        for (int k = 0; k < 3; k++) P[k][j] = (float)q[k];
-        if (!uv) continue;
-        const float c[2] = {(float)(pe->ground_uv0[0] + q[0]), (float)(pe->ground_uv0[1] + q[2])};
-        U[0][j] = c[0], U[1][j] = c[1];
-        /* its differences, as vt_span_surface's ground_uv (0 where the
-           neighbour misses the plane) */
-        const float xs[2] = {X + dX, X}, ys[2] = {sp->Y, sp->Y + dY};
-        for (int d = 0; d < 2; d++) {
-            if (!vt_ground_at(sp->gr, xs[d], ys[d], &nz)) continue;
-            vt_ground_point(sp->gr, xs[d], ys[d], nz, q);
-            U[2 + 2 * d][j] = (float)(pe->ground_uv0[0] + q[0]) - c[0];
-            U[3 + 2 * d][j] = (float)(pe->ground_uv0[1] + q[2]) - c[1];
+    for (int k = 0; k < 3; k++) vf_store(P[k], vf_set(0));
+    for (int k = 0; k < 6; k++) vf_store(U[k], vf_set(0));
+    for (unsigned j0 = 0; j0 < W; j0 += WD) {
+        if (!(bits >> j0 & ((1u << WD) - 1))) continue;
+        A float X[3][WD], Y[3][WD];
+        for (unsigned j = 0; j < WD; j++) {
+            X[0][j] = vt_ndc_x(sp->x0 + i + j0 + j, sp->inv_w), Y[0][j] = sp->Y;
+            X[1][j] = X[0][j] + dX, Y[1][j] = sp->Y;
+            X[2][j] = X[0][j], Y[2][j] = sp->Y + dY;
+        }
+        double q[3][3][WD];
+        uint32_t hit = ground_pts(sp->gr, X[0], Y[0], q[0]);
+        if (!hit) continue; /* the raster found it there: 0, as vt_span_surface */
+        uint32_t hx = uv ? ground_pts(sp->gr, X[1], Y[1], q[1]) & hit : 0;
+        uint32_t hy = uv ? ground_pts(sp->gr, X[2], Y[2], q[2]) & hit : 0;
+        for (unsigned j = 0; j < WD; j++) {
+            if (!(hit >> j & 1)) continue;
+            for (int k = 0; k < 3; k++) P[k][j0 + j] = (float)q[0][k][j];
+            if (!uv) continue;
+            const float c[2] = {(float)(pe->ground_uv0[0] + q[0][0][j]), (float)(pe->ground_uv0[1] + q[0][2][j])};
+            U[0][j0 + j] = c[0], U[1][j0 + j] = c[1];
+            if (hx >> j & 1) {
+                U[2][j0 + j] = (float)(pe->ground_uv0[0] + q[1][0][j]) - c[0];
+                U[3][j0 + j] = (float)(pe->ground_uv0[1] + q[1][2][j]) - c[1];
+            }
+            if (hy >> j & 1) {
+                U[4][j0 + j] = (float)(pe->ground_uv0[0] + q[2][0][j]) - c[0];
+                U[5][j0 + j] = (float)(pe->ground_uv0[1] + q[2][2][j]) - c[1];
+            }
         }
     }
     g->px = vf_load(P[0]), g->py = vf_load(P[1]), g->pz = vf_load(P[2]);
