@@ -46,6 +46,7 @@ static inline vm vi_eq(vix a, vix b) { return _mm256_castsi256_ps(_mm256_cmpeq_e
 static inline vix vf_bits(vf a) { return _mm256_castps_si256(a); }
 static inline vf vi_asf(vix a) { return _mm256_castsi256_ps(a); }
 static inline void vi_store(int32_t *p, vix a) { _mm256_storeu_si256((__m256i *)p, a); }
+static inline vix vi_loadu(const uint32_t *p) { return _mm256_loadu_si256((const __m256i *)(const void *)p); }
 #elif CULL_SIMD_ISA == 2
 static inline vix vi_set(int32_t a) { return _mm_set1_epi32(a); }
 static inline vix vi_add(vix a, vix b) { return _mm_add_epi32(a, b); }
@@ -64,6 +65,7 @@ static inline vm vi_eq(vix a, vix b) { return _mm_castsi128_ps(_mm_cmpeq_epi32(a
 static inline vix vf_bits(vf a) { return _mm_castps_si128(a); }
 static inline vf vi_asf(vix a) { return _mm_castsi128_ps(a); }
 static inline void vi_store(int32_t *p, vix a) { _mm_storeu_si128((__m128i *)p, a); }
+static inline vix vi_loadu(const uint32_t *p) { return _mm_loadu_si128((const __m128i *)(const void *)p); }
 #else
 static inline vix vi_set(int32_t a) { return a; }
 static inline vix vi_add(vix a, vix b) { return (int32_t)((uint32_t)a + (uint32_t)b); }
@@ -88,6 +90,7 @@ static inline vf vi_asf(vix a)
     return f;
 }
 static inline void vi_store(int32_t *p, vix a) { *p = a; }
+static inline vix vi_loadu(const uint32_t *p) { return (int32_t)*p; }
 #endif
 
 /* log2 of x > 0 finite (normal or not: subnormals read as their exponent

@@ -396,12 +396,18 @@ void VT_SHADE_NAME(const vt_span *sp)
     static const A float lane_f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
     const vf lane_i = vf_load(lane_f); /* the lanes' column offsets */
     for (unsigned g0 = 0; g0 < S; g0 += W) {
-        uint32_t ids[W], pend = 0, lanes = 0;
-        uintptr_t key[W];
-        for (unsigned j = 0; j < W; j++) {
-            ids[j] = g0 + j < sp->n ? sp->id[g0 + j] : 0;
-            pend |= (uint32_t)(ids[j] != 0) << j;
+        /* the lanes' records: a vector load from the id buffer (not
+           built from scalar stores: that vector reload stalled on store
+           forwarding, 7 % of the kernel's time) */
+        A uint32_t pad[W];
+        const uint32_t *ids = sp->id + g0;
+        if (g0 + W > sp->n) {
+            for (unsigned j = 0; j < W; j++) pad[j] = g0 + j < sp->n ? sp->id[g0 + j] : 0;
+            ids = pad;
         }
+        const vix idv = vi_loadu(ids);
+        uint32_t pend = lanes_all() & ~vm_bits(vi_eq(idv, vi_set(0))), lanes = 0;
+        uintptr_t key[W];
         /* nothing drawn: zeros (finite V, D in the unlit lanes: a2, ro 1) */
         float *const zs[] = {s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.ar, s.ag, s.ab, s.cr, s.cg, s.cb,
                              s.fr, s.fg, s.fb, s.er, s.eg, s.eb, s.sv, cov};
@@ -411,8 +417,7 @@ void VT_SHADE_NAME(const vt_span *sp)
         gin in;
         while (pend) {
             const uint32_t id = ids[__builtin_ctz(pend)];
-            uint32_t mb = 0;
-            for (unsigned j = 0; j < W; j++) mb |= (uint32_t)(ids[j] == id) << j;
+            const uint32_t mb = vm_bits(vi_eq(idv, vi_set((int32_t)id)));
             pend &= ~mb;
             const vt_stri *t = id == VT_ID_GROUND ? NULL : &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
             const vt_material *m = t ? t->mat : sp->pe->ground_mat;

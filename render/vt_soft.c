@@ -481,6 +481,8 @@ typedef struct job {
     bool ranges;            /* the tile nearness ranges are wanted (there are lights) */
     const vt_shadow *sh;    /* the sun's cascades, or NULL */
     const float *ao;        /* per pixel ambient occlusion (vt_ssao), or NULL: none */
+    uint32_t next_row;      /* shading: the next row of tiles to take (threads take rows as they
+                               finish: sky rows cost a fraction of a street's) */
 } job;
 
 /* Top-left rule, y up, counter-clockwise: an edge going down (dy < 0) is a
@@ -663,7 +665,8 @@ static void job_shade(void *arg, uint32_t t)
     vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .rule = vt_depth_rule_of(fr->v, &fr->vr),
                   .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h, .sh = jb->sh};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
-    for (uint32_t tr = t; tr < trows; tr += jb->nthreads) {
+    (void)t;
+    for (uint32_t tr; (tr = __atomic_fetch_add(&jb->next_row, 1, __ATOMIC_RELAXED)) < trows;) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
         for (uint32_t y = tr * TILE; y < y1; y++) {
             sp.Y = ndc_y(fr, y);
@@ -791,6 +794,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     }
     uint64_t t3 = now_ns();
 
+    jb.next_row = 0;
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
     else job_shade(&jb, 0);
     uint64_t t4 = now_ns();
