@@ -143,6 +143,54 @@ const float *vt_dfg_table(void)
     return dfg;
 }
 
+static uint32_t dfg10[VT_DFG_N * VT_DFG_N];
+static pthread_once_t dfg10_once = PTHREAD_ONCE_INIT;
+
+static uint32_t unorm10(float v)
+{
+    return (uint32_t)(v > 0 ? (v < 1 ? v * 1023 + 0.5f : 1023) : 0);
+}
+
+static void dfg10_make(void)
+{
+    const float *t = vt_dfg_table();
+    for (uint32_t i = 0; i < VT_DFG_N * VT_DFG_N; i++)
+        dfg10[i] = unorm10(t[4 * i]) | unorm10(t[4 * i + 1]) << 10 | unorm10(t[4 * i + 2]) << 20;
+}
+
+const uint32_t *vt_dfg_table10(void)
+{
+    pthread_once(&dfg10_once, dfg10_make);
+    return dfg10;
+}
+
+uint32_t vt_rgb_e5(const float c[3])
+{
+    const float top = 511.0f / 512 * (float)(1u << (31 - VT_E5_BIAS)); /* the largest value */
+    float v[3];
+    for (int k = 0; k < 3; k++) v[k] = c[k] > 0 ? (c[k] < top ? c[k] : top) : 0; /* NaN: 0 */
+    float mx = v[0] > v[1] ? v[0] : v[1];
+    mx = mx > v[2] ? mx : v[2];
+    /* the exponent: 2^(e - bias - 9) a mantissa step, the largest channel's mantissa <= 511 */
+    int e = mx > 0 ? ilogbf(mx) + 1 + VT_E5_BIAS : 0;
+    e = e < 0 ? 0 : e;
+    float step = ldexpf(1, e - VT_E5_BIAS - 9);
+    if (floorf(mx / step + 0.5f) > 511) e++, step *= 2;
+    if (e > 31) e = 31;
+    uint32_t m[3];
+    for (int k = 0; k < 3; k++) {
+        float q = floorf(v[k] / step + 0.5f);
+        m[k] = (uint32_t)(q < 511 ? q : 511);
+    }
+    return m[0] | m[1] << 9 | m[2] << 18 | (uint32_t)e << 27;
+}
+
+void vt_rgb_e5_decode(uint32_t t, float c[3])
+{
+    float step = ldexpf(1, (int)(t >> 27) - VT_E5_BIAS - 9);
+    for (int k = 0; k < 3; k++) c[k] = (float)(t >> (9 * k) & 511) * step;
+}
+
 void vt_dfg(float ndv, float roughness, float out[3])
 {
     /* grid points at 0 .. N - 1: texel units are value x (N - 1) */
@@ -233,6 +281,7 @@ bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
         memcpy(&key[21], &pe->sky_img->gen, sizeof(float));
     }
     ibl->dfg = vt_dfg_table();
+    ibl->dfg10 = vt_dfg_table10();
     if (ibl->ok && ibl->key_img == img && !memcmp(key, ibl->key, sizeof key)) return false;
     memcpy(ibl->key, key, sizeof key);
     ibl->key_img = img;
@@ -307,6 +356,8 @@ bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
                 o[3] = 1;
             }
     }
+    for (uint32_t lv = 0; lv < VT_IBL_LEVELS; lv++)
+        for (uint32_t i = 0; i < VT_IBL_RES * VT_IBL_RES; i++) ibl->spec_e5[lv][i] = vt_rgb_e5(ibl->spec[lv] + 4 * i);
     return true;
 }
 

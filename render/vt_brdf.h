@@ -74,6 +74,11 @@ typedef struct vt_ibl {
     bool ok;
     uint32_t gen;                /* counts remakes: the GL copy follows it */
     const float *dfg;            /* vt_dfg_table(), for the kernels */
+    /* the same tables packed a texel to 32 bits for the software
+       kernels' gathers (one a texel, not three): spec as vt_rgb_e5, the
+       DFG table as vt_unorm10 */
+    uint32_t spec_e5[VT_IBL_LEVELS][VT_IBL_RES * VT_IBL_RES];
+    const uint32_t *dfg10;
     /* scratch of a remake: the environment on 64 x 32 and 32 x 16
        equirectangular grids (direction, radiance, solid angle) */
     float src_hi[64 * 32][7], src_lo[32 * 16][7];
@@ -92,6 +97,16 @@ void vt_ibl_irradiance(const vt_ibl *ibl, const float n[3], float out[3]);
 /* The prefiltered radiance towards unit r for roughness (linear between
  * the levels, bilinear within one). */
 void vt_ibl_specular(const vt_ibl *ibl, const float r[3], float roughness, float out[3]);
+/* RGB radiance >= 0 in 32 bits: 9-bit mantissas under a shared 5-bit
+ * exponent (EXT_texture_shared_exponent's layout, its bias 10 rather
+ * than 15: 2e-6 .. 2e6, above it clamped, NaN 0): each channel within
+ * 1/512 of the largest. vt_shade.inl decodes it in lanes. */
+uint32_t vt_rgb_e5(const float c[3]);
+void vt_rgb_e5_decode(uint32_t t, float c[3]);
+#define VT_E5_BIAS 10
+/* The DFG table's A, B, C (0..1) as 10-bit unorms (bits 0, 10, 20). */
+const uint32_t *vt_dfg_table10(void);
+
 /* Octahedral coordinates (0..1) of unit d, and back. */
 void vt_oct_uv(const float d[3], float uv[2]);
 void vt_oct_dir(const float uv[2], float d[3]);

@@ -147,21 +147,34 @@ static inline void fog_lanes(surf *restrict s, const vt_penv *pe, float e0, cons
     }
 }
 
-/* vt_bilerp_add in lanes: a res x res RGBA table (the first at t, more
- * of them after it: off, in floats, per lane) at texel units (x, y),
- * clamped to the edge texels (a NaN: 0), w x the RGB added to o. */
-static inline void bilerp_lanes(const float *t, int res, vf off, vf x, vf y, vf w, vf o[3])
+/* vt_bilerp_add in lanes over a table packed to 32 bits a texel
+ * (vt_brdf.h: e5 the shared-exponent radiance, else 10-bit unorms): a
+ * res x res table at t, plus off texels per lane (the level), at texel
+ * units (x, y) clamped to the edge texels (a NaN: 0), w x the RGB added
+ * to o. One gather a corner (three with floats). */
+static inline void bilerp_lanes(const uint32_t *t, int res, vix off, vf x, vf y, vf w, vf o[3], bool e5)
 {
     const vf zero = vf_set(0), m = vf_set((float)(res - 1)), m2 = vf_set((float)(res - 2));
     x = vf_min(vf_max(x, zero), m);
     y = vf_min(vf_max(y, zero), m);
     vf fi = vf_min(vf_floor(x), m2), fj = vf_min(vf_floor(y), m2);
     vf ax = vf_sub(x, fi), ay = vf_sub(y, fj);
-    vix i00 = vx_of(vf_fma(vf_fma(fj, vf_set((float)res), fi), vf_set(4), off));
-    vix i10 = vx_add(i00, 4), i01 = vx_add(i00, 4 * res), i11 = vx_add(i00, 4 * res + 4);
+    vix i00 = vi_add(vx_of(vf_fma(fj, vf_set((float)res), fi)), off);
+    vix c[4] = {vi_gather(t, i00), vi_gather(t, vi_add(i00, vi_set(1))), vi_gather(t, vi_add(i00, vi_set(res))),
+                vi_gather(t, vi_add(i00, vi_set(res + 1)))};
+    vf v[4][3];
+    for (int q = 0; q < 4; q++) {
+        if (e5) {
+            /* 2^(e - bias - 9) by the exponent field */
+            vf step = vi_asf(vi_sll(vi_add(vi_srl(c[q], 27), vi_set(127 - VT_E5_BIAS - 9)), 23));
+            for (int k = 0; k < 3; k++) v[q][k] = vf_mul(vi_tof(vi_and(vi_srl(c[q], 9 * k), vi_set(511))), step);
+        } else {
+            for (int k = 0; k < 3; k++)
+                v[q][k] = vf_mul(vi_tof(vi_and(vi_srl(c[q], 10 * k), vi_set(1023))), vf_set(1 / 1023.0f));
+        }
+    }
     for (int k = 0; k < 3; k++) {
-        vf a = vf_gather(t + k, i00), b = vf_gather(t + k, i10), c = vf_gather(t + k, i01), d = vf_gather(t + k, i11);
-        vf top = vf_fma(ax, vf_sub(b, a), a), bot = vf_fma(ax, vf_sub(d, c), c);
+        vf top = vf_fma(ax, vf_sub(v[1][k], v[0][k]), v[0][k]), bot = vf_fma(ax, vf_sub(v[3][k], v[2][k]), v[2][k]);
         o[k] = vf_fma(w, vf_fma(ay, vf_sub(bot, top), top), o[k]);
     }
 }
@@ -189,12 +202,13 @@ static inline void ibl_lanes(const vt_ibl *ibl, vf nx, vf ny, vf nz, vf vx_, vf 
     y = vf_select(ok, y, centre);
     vf f = vf_mul(ro, vf_set((float)(VT_IBL_LEVELS - 1)));
     vf lv = vf_min(vf_floor(f), vf_set((float)(VT_IBL_LEVELS - 2))), t = vf_sub(f, lv);
-    vf off = vf_mul(lv, vf_set((float)(4 * VT_IBL_RES * VT_IBL_RES)));
+    vix off = vx_of(vf_mul(lv, vf_set((float)(VT_IBL_RES * VT_IBL_RES))));
     for (int k = 0; k < 3; k++) sp[k] = g[k] = zero;
-    bilerp_lanes(ibl->spec[0], VT_IBL_RES, off, x, y, vf_sub(one, t), sp);
-    bilerp_lanes(ibl->spec[1], VT_IBL_RES, off, x, y, t, sp);
+    bilerp_lanes(ibl->spec_e5[0], VT_IBL_RES, off, x, y, vf_sub(one, t), sp, true);
+    bilerp_lanes(ibl->spec_e5[1], VT_IBL_RES, off, x, y, t, sp, true);
     const vf dm = vf_set((float)(VT_DFG_N - 1));
-    bilerp_lanes(ibl->dfg, VT_DFG_N, zero, vf_mul(vf_min(vf_abs(nv), one), dm), vf_mul(vf_min(ro, one), dm), one, g);
+    bilerp_lanes(ibl->dfg10, VT_DFG_N, vi_set(0), vf_mul(vf_min(vf_abs(nv), one), dm), vf_mul(vf_min(ro, one), dm), one, g,
+                 false);
 }
 
 /* glTF's D V for one light (Appendix B): n.h, n.l >= 0, alpha^2, and

@@ -637,10 +637,51 @@ static void test_brdf_directional_sky(void **state)
     free(px);
 }
 
+/* The packed tables the software kernels gather (vt_brdf.h): the
+ * shared-exponent radiance against the exact value (each channel within
+ * half a mantissa step, 1/1024 of the largest channel, or 1/512 where the
+ * largest rounds up to the next exponent: EXT_texture_shared_exponent's
+ * rounding; at the bottom of the range the least steps), the ends (0, NaN, above the range, below it) and the 10-bit DFG table against the float one. */
+static void test_brdf_packed_tables(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xE5u};
+    double worst = 0;
+    for (int i = 0; i < 200000; i++) {
+        float c[3], d[3];
+        double e = rng_range(&r, -18, 20);
+        for (int k = 0; k < 3; k++) c[k] = (float)(pow(2, e) * (rng_f(&r) < 0.2 ? rng_log(&r, 1e-4, 1) : rng_f(&r)));
+        vt_rgb_e5_decode(vt_rgb_e5(c), d);
+        double mx = fmax(c[0], fmax(c[1], c[2]));
+        /* below 2^-bias the exponent stays at its least: a fixed step of
+           2^(-bias - 9), half of it at most off */
+        bool low = mx < ldexp(1, -VT_E5_BIAS);
+        for (int k = 0; k < 3; k++) {
+            double err = fabs(d[k] - c[k]);
+            if (low) assert_true(err <= ldexp(1, -VT_E5_BIAS - 9) * 1.0001);
+            else worst = err / mx > worst ? err / mx : worst;
+        }
+    }
+    fprintf(stderr, "shared-exponent RGB: worst error %.3g of the largest channel\n", worst);
+    assert_true(worst <= 1.0 / 512 * 1.0001);
+    float d[3];
+    vt_rgb_e5_decode(vt_rgb_e5((float[3]){0, 0, 0}), d);
+    assert_true(d[0] == 0 && d[1] == 0 && d[2] == 0);
+    vt_rgb_e5_decode(vt_rgb_e5((float[3]){NAN, -1, INFINITY}), d);
+    assert_true(d[0] == 0 && d[1] == 0 && d[2] > 2e6 && isfinite(d[2]));
+    vt_rgb_e5_decode(vt_rgb_e5((float[3]){1e-9f, 1e-9f, 1e-9f}), d);
+    assert_true(d[0] < 3e-6f);
+    const float *t = vt_dfg_table();
+    const uint32_t *t10 = vt_dfg_table10();
+    for (int i = 0; i < VT_DFG_N * VT_DFG_N; i++)
+        for (int k = 0; k < 3; k++) assert_true(fabsf((float)(t10[i] >> (10 * k) & 1023) / 1023 - t[4 * i + k]) <= 0.5f / 1023 + 1e-6f);
+}
+
 const struct CMUnitTest brdf_tests[] = {
     cmocka_unit_test(test_brdf_terms_against_spec),
     cmocka_unit_test(test_brdf_against_spec),
     cmocka_unit_test(test_brdf_dfg_table),
+    cmocka_unit_test(test_brdf_packed_tables),
     cmocka_unit_test(test_brdf_lights_through_renderers),
     cmocka_unit_test(test_brdf_white_furnace),
     cmocka_unit_test(test_brdf_directional_sky),
