@@ -622,6 +622,9 @@ static inline void span_sky(const vt_span *sp, float *cr, float *cg, float *cb, 
     }
     static const A float lane_f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
     const vf zero = vf_set(0), lanes_x = vf_load(lane_f), dX = vf_set((float)sp->inv_w);
+    uint32_t sky = 0; /* the pixels nothing covers */
+    for (unsigned i = 0; i < S; i += W) sky |= vm_bits(vf_le(vf_load(cov + i), zero)) << i;
+    if (!sky) return;
     const float X0 = vt_ndc_x(sp->x0, sp->inv_w);
     float *const out[3] = {cr, cg, cb};
     if (pe->sky_img == &pe->sky_tab && W >= 4 && span_narrow(sp, X0)) {
@@ -641,9 +644,10 @@ static inline void span_sky(const vt_span *sp, float *cr, float *cg, float *cb, 
         return;
     }
     for (unsigned i = 0; i < S; i += W) {
+        if (!(sky >> i & lanes_all())) continue;
         vf o[3];
         sky_lanes(pe, sp->ray0, sp->ray1, vf_fma(lanes_x, dX, vf_set(vt_ndc_x(sp->x0 + i, sp->inv_w))), o);
-        vm sky = vf_le(vf_load(cov + i), zero);
-        for (int c = 0; c < 3; c++) vf_store(out[c] + i, vf_select(sky, o[c], vf_load(out[c] + i)));
+        vm open = vf_le(vf_load(cov + i), zero);
+        for (int c = 0; c < 3; c++) vf_store(out[c] + i, vf_select(open, o[c], vf_load(out[c] + i)));
     }
 }
