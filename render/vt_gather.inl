@@ -341,12 +341,6 @@ static inline void mat_lanes(const vt_material *m, const gin *in, bool uv, vm ac
     g->a2 = vf_mul(a, a), g->ro = rc;
 }
 
-/* Whether a triangle record's pixels take the lanes. */
-static inline bool tri_lanes_ok(const vt_stri *t)
-{
-    return !t->mask && mat_lanes_ok(t->mat);
-}
-
 /* vt_stri_bary in lanes at NDC (X, Y), t's coefficients broadcast. */
 static inline void bary_lanes(const vt_stri *t, vf X, vf Y, vf b[3])
 {
@@ -635,11 +629,20 @@ static inline void span_sky(const vt_span *sp, float *cr, float *cg, float *cb, 
             sky_lanes(pe, sp->ray0, sp->ray1, vf_fma(vf_mul(vf_add(lanes_x, vf_set((float)q)), vf_set(4)), dX, vf_set(X0)), o);
             for (int c = 0; c < 3; c++) vf_store(k[c] + q, o[c]);
         }
-        for (unsigned i = 0; i < S; i++) {
-            if (cov[i] > 0) continue;
-            unsigned q = i / 4;
-            float f = (float)(i % 4) * 0.25f;
-            for (int c = 0; c < 3; c++) out[c][i] = k[c][q] + f * (k[c][q + 1] - k[c][q]);
+        /* pixel i between k[i / 4] and k[i / 4 + 1] at (i % 4) / 4, in
+           lanes (the ends fetched by index from the 5 values) */
+        static const A int32_t q_of[16] = {0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3};
+        static const A float f_of[16] = {0, 0.25f, 0.5f, 0.75f, 0, 0.25f, 0.5f, 0.75f,
+                                          0, 0.25f, 0.5f, 0.75f, 0, 0.25f, 0.5f, 0.75f};
+        for (unsigned i = 0; i < S; i += W) {
+            if (!(sky >> i & lanes_all())) continue;
+            vix q = vi_loadu((const uint32_t *)(const void *)(q_of + i)), q1 = vi_add(q, vi_set(1));
+            vf f = vf_load(f_of + i);
+            vm open = vf_le(vf_load(cov + i), zero);
+            for (int c = 0; c < 3; c++) {
+                vf a = vf_gather(k[c], q), b = vf_gather(k[c], q1);
+                vf_store(out[c] + i, vf_select(open, vf_fma(f, vf_sub(b, a), a), vf_load(out[c] + i)));
+            }
         }
         return;
     }

@@ -409,6 +409,7 @@ void VT_SHADE_NAME(const vt_span *sp)
     const vf zero0 = vf_set(0), one0 = vf_set(1), amb = vf_set(VT_AMBIENT);
     static const A float lane_f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
     const vf lane_i = vf_load(lane_f); /* the lanes' column offsets */
+    const vt_material *lane_mat = NULL; /* the last material found lane-able (NULL: the default, always) */
     for (unsigned g0 = 0; g0 < S; g0 += W) {
         /* the lanes' records: a vector load from the id buffer (not
            built from scalar stores: that vector reload stalled on store
@@ -422,12 +423,16 @@ void VT_SHADE_NAME(const vt_span *sp)
         const vix idv = vi_loadu(ids);
         uint32_t pend = lanes_all() & ~vm_bits(vi_eq(idv, vi_set(0))), lanes = 0;
         uintptr_t key[W];
-        /* nothing drawn: zeros (finite V, D in the unlit lanes: a2, ro 1) */
-        float *const zs[] = {s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.ar, s.ag, s.ab, s.cr, s.cg, s.cb,
-                             s.fr, s.fg, s.fb, s.er, s.eg, s.eb, s.sv, cov};
-        for (unsigned k = 0; k < sizeof zs / sizeof zs[0]; k++) vf_store(zs[k] + g0, zero0);
-        vf_store(s.a2 + g0, one0);
-        vf_store(s.ro + g0, one0);
+        /* nothing drawn: zeros (finite V, D in the unlit lanes: a2, ro 1);
+           a group drawn all over needs none (every lane is written) */
+        const bool full = pend == lanes_all();
+        if (!full) {
+            float *const zs[] = {s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.ar, s.ag, s.ab, s.cr, s.cg, s.cb,
+                                 s.fr, s.fg, s.fb, s.er, s.eg, s.eb, s.sv, cov};
+            for (unsigned k = 0; k < sizeof zs / sizeof zs[0]; k++) vf_store(zs[k] + g0, zero0);
+            vf_store(s.a2 + g0, one0);
+            vf_store(s.ro + g0, one0);
+        }
         gin in;
         while (pend) {
             const uint32_t id = ids[__builtin_ctz(pend)];
@@ -435,7 +440,8 @@ void VT_SHADE_NAME(const vt_span *sp)
             pend &= ~mb;
             const vt_stri *t = id == VT_ID_GROUND ? NULL : &sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
             const vt_material *m = t ? t->mat : sp->pe->ground_mat;
-            if (!vt_gather_scalar && (t ? tri_lanes_ok(t) : mat_lanes_ok(m))) {
+            /* the material's check once a span for the material seen last */
+            if (!vt_gather_scalar && (t ? !t->mask : true) && (m == lane_mat || (mat_lanes_ok(m) && (lane_mat = m, true)))) {
                 const bool uv = mat_reads_uv(m) && (!t || t->has_uv);
                 gin g;
                 if (t) tri_lanes(t, sp, vf_fma(lane_i, vf_set((float)sp->inv_w), vf_set(vt_ndc_x(sp->x0 + g0, sp->inv_w))), uv, &g);
@@ -493,7 +499,7 @@ void VT_SHADE_NAME(const vt_span *sp)
 #undef SEL
         }
         const vm act = vm_from_bits(lanes);
-#define PUT(arr, v) vf_store((arr) + g0, vf_select(act, (v), vf_load((arr) + g0)))
+#define PUT(arr, v) vf_store((arr) + g0, lanes == lanes_all() ? (v) : vf_select(act, (v), vf_load((arr) + g0)))
         PUT(s.px, in.px), PUT(s.py, in.py), PUT(s.pz, in.pz);
         PUT(s.nx, in.nx), PUT(s.ny, in.ny), PUT(s.nz, in.nz);
         PUT(s.ar, go.dr), PUT(s.ag, go.dg), PUT(s.ab, go.db);
