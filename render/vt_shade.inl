@@ -406,6 +406,15 @@ void VT_SHADE_NAME(const vt_span *sp)
        per material among them the material in lanes: two triangles of
        one mesh side by side sample their textures once. What the lanes
        do not cover goes through vt_span_surface pixel by pixel. */
+    /* the span's records fetched together (they are spread over a few MB:
+       one miss after another per group otherwise) */
+    for (unsigned i = 0, prev = 0; i < sp->n; i++) {
+        uint32_t id = sp->id[i];
+        if (id == prev || id == 0 || id == VT_ID_GROUND) continue;
+        prev = id;
+        const char *t = (const char *)&sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
+        __builtin_prefetch(t), __builtin_prefetch(t + 64), __builtin_prefetch(t + 128), __builtin_prefetch(t + 192);
+    }
     const vf zero0 = vf_set(0), one0 = vf_set(1), amb = vf_set(VT_AMBIENT);
     static const A float lane_f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
     const vf lane_i = vf_load(lane_f); /* the lanes' column offsets */
@@ -422,7 +431,9 @@ void VT_SHADE_NAME(const vt_span *sp)
         }
         const vix idv = vi_loadu(ids);
         uint32_t pend = lanes_all() & ~vm_bits(vi_eq(idv, vi_set(0))), lanes = 0;
-        uintptr_t key[W];
+        uintptr_t kl[W]; /* the group's materials (| 1: UVs read) and their lanes */
+        uint32_t kb[W];
+        unsigned nk = 0;
         /* nothing drawn: zeros (finite V, D in the unlit lanes: a2, ro 1);
            a group drawn all over needs none (every lane is written) */
         const bool full = pend == lanes_all();
@@ -455,8 +466,12 @@ void VT_SHADE_NAME(const vt_span *sp)
                     SEL(u), SEL(v), SEL(dxu), SEL(dxv), SEL(dyu), SEL(dyv);
 #undef SEL
                 }
-                for (unsigned j = 0; j < W; j++)
-                    if (mb >> j & 1) key[j] = (uintptr_t)m | uv;
+                /* the lanes of each material (and whether its UVs are read) */
+                const uintptr_t k = (uintptr_t)m | uv;
+                unsigned q = 0;
+                while (q < nk && kl[q] != k) q++;
+                if (q == nk) kl[nk] = k, kb[nk++] = 0;
+                kb[q] |= mb;
                 lanes |= mb;
                 continue;
             }
@@ -481,14 +496,12 @@ void VT_SHADE_NAME(const vt_span *sp)
         if (!lanes) continue;
         /* the materials over the lanes' pixels */
         gout go;
-        for (uint32_t todo = lanes, first = 1; todo; first = 0) {
-            const uintptr_t k = key[__builtin_ctz(todo)];
-            uint32_t mb = 0;
-            for (unsigned j = 0; j < W; j++) mb |= (uint32_t)((todo >> j & 1) && key[j] == k) << j;
-            todo &= ~mb;
+        for (unsigned q = 0; q < nk; q++) {
+            const uintptr_t k = kl[q];
+            const uint32_t mb = kb[q];
             const vm act = vm_from_bits(mb);
             const vt_material *m = (const vt_material *)(k & ~(uintptr_t)1);
-            if (first) {
+            if (q == 0) {
                 mat_lanes(m, &in, k & 1, act, &go);
                 continue;
             }
