@@ -176,7 +176,7 @@ static inline vf chan(vix t, int k, const float *tab)
 
 /* Level lv of slot r, bilinear at (u, v), RGB into o (ch: the channels
  * wanted, bits 0..2). */
-static inline void bilinear(const vt_texref *r, uint32_t lv, vf u, vf v, const float *tab, unsigned ch, vf o[3])
+static inline __attribute__((always_inline)) void bilinear(const vt_texref *r, uint32_t lv, vf u, vf v, const float *tab, unsigned ch, vf o[3])
 {
     const vt_texview *t = r->tex;
     int ws = ilog2u(t->w), hs = ilog2u(t->h);

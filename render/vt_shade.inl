@@ -152,7 +152,7 @@ static inline void fog_lanes(surf *restrict s, const vt_penv *pe, float e0, cons
  * res x res table at t, plus off texels per lane (the level), at texel
  * units (x, y) clamped to the edge texels (a NaN: 0), w x the RGB added
  * to o. One gather a corner (three with floats). */
-static inline void bilerp_lanes(const uint32_t *t, int res, vix off, vf x, vf y, vf w, vf o[3], bool e5)
+static inline __attribute__((always_inline)) void bilerp_lanes(const uint32_t *t, int res, vix off, vf x, vf y, vf w, vf o[3], bool e5)
 {
     const vf zero = vf_set(0), m = vf_set((float)(res - 1)), m2 = vf_set((float)(res - 2));
     x = vf_min(vf_max(x, zero), m);
