@@ -406,9 +406,11 @@ void VT_SHADE_NAME(const vt_span *sp)
        per material among them the material in lanes: two triangles of
        one mesh side by side sample their textures once. What the lanes
        do not cover goes through vt_span_surface pixel by pixel. */
-    /* the span's records fetched together (they are spread over a few MB:
-       one miss after another per group otherwise) */
-    for (unsigned i = 0, prev = 0; i < sp->n; i++) {
+    /* the records of this span (at a row's start) and of the next one
+       in the row fetched ahead (they are spread over a few MB: one miss
+       after another per group otherwise) */
+    const uint32_t width = (uint32_t)(2.0 / sp->inv_w + 0.5);
+    for (unsigned i = sp->x0 ? S : 0, prev = 0, e = sp->x0 + 2 * S <= width ? 2 * S : sp->n; i < e; i++) {
         uint32_t id = sp->id[i];
         if (id == prev || id == 0 || id == VT_ID_GROUND) continue;
         prev = id;
