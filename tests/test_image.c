@@ -571,7 +571,8 @@ static void test_image_tonemap_aces_table(void **state)
  * against the curve) on a sweep of float bit patterns over every code's
  * range, specials (NaN, infinities, negatives, 0, the clamp's ends) and
  * three exposures; the buffer ends at the last pixel's blue (ASan: the
- * unused fourth float is never read). */
+ * unused fourth float is never read). Then every code's first float and
+ * its neighbours in that layout against the curve itself. */
 static void test_image_tonemap_rgbx(void **state)
 {
     (void)state;
@@ -603,6 +604,39 @@ static void test_image_tonemap_rgbx(void **state)
         tonemap_ok(w, h, &psrc, &d, b, (size_t)w * 4);
         assert_memory_equal(a, b, (size_t)n * 4);
     }
+    /* each code's first float and its neighbours (the lanes' one
+       comparison per bucket decides exactly there), in the interleaved
+       layout, against the curve then the sRGB table; 8 a step plus a
+       tail, so both the AVX2 rows and the SSE2 tail see them */
+    const uint32_t nt = 3 * 255, wt = 101;
+    float *t = calloc((size_t)4 * (nt + 2 * wt), sizeof *t);
+    uint8_t *o = malloc((size_t)4 * (nt + 2 * wt));
+    assert_true(t && o);
+    uint32_t bad = 0, m = 0;
+    for (unsigned k = 1; k < 256; k++) {
+        uint32_t x0 = 0x38800000u, x1 = 0x42000000u;
+        while (x0 < x1) {
+            uint32_t mid = x0 + (x1 - x0) / 2;
+            float x;
+            memcpy(&x, &mid, sizeof x);
+            if (vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, x)) >= k) x1 = mid;
+            else x0 = mid + 1;
+        }
+        for (uint32_t dj = 0; dj < 3; dj++, m++) {
+            uint32_t bits = x0 - 1 + dj;
+            memcpy(&t[4 * (m / 3) + m % 3], &bits, sizeof bits);
+        }
+    }
+    uint32_t rows = (nt / 3 + wt - 1) / wt;
+    vt_image_src tsrc = {.r = {t, 4, 4 * (ptrdiff_t)wt}, .g = {t + 1, 4, 4 * (ptrdiff_t)wt}, .b = {t + 2, 4, 4 * (ptrdiff_t)wt}};
+    tonemap_ok(wt, rows, &tsrc, &(vt_tonemap_desc){.op = VT_TONEMAP_ACES}, o, (size_t)wt * 4);
+    for (uint32_t i = 0; i < (size_t)wt * rows; i++)
+        for (int c = 0; c < 3; c++)
+            bad += o[4 * i + c] != vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, t[4 * i + c])) ||
+                   o[4 * i + 3] != 255;
+    assert_int_equal(bad, 0);
+    free(t);
+    free(o);
     free(il);
     free(pl);
     free(a);
