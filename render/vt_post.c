@@ -1,10 +1,13 @@
 /*
  * vt_post.c — the post passes of both renderers (vt_post.h): exposure from
  * a luminance histogram with eye adaptation, then FXAA 3.11. Runs once per
- * frame on the whole picture, in bands of rows on the renderer's pool; at
- * 1280x720 on 2 threads the histogram and exposure cost about 1 ms, FXAA
- * a few (BENCHMARKS.md; FXAA touches only the pixels on edges beyond the
- * early exit, the copy into the scratch is the fixed cost).
+ * frame on the whole picture, in bands of rows on the renderer's pool.
+ * The rows that touch every pixel (histogram, exposure + luma, FXAA's
+ * early exit) run 8 pixels a step where the CPU has AVX2
+ * (vt_post_avx2.c, the same bits as the rows here); on the 1280x720 demo
+ * city they are ~15 M instructions a frame, the edge pixels' FXAA (about
+ * a fifth of the pixels there: texture detail passes the threshold) the
+ * rest.
  *
  * FXAA works in a perceptual space, as it was designed to: Lottes' shader
  * expects gamma-space luma and blends display values. Blending the HDR
@@ -13,15 +16,18 @@
  * colour is blended compressed, c / (1 + max(c)) (invertible, Karis'
  * weighting for HDR resolves), and its luma is sqrt(Y(compressed)) (a
  * Reinhard-compressed luminance, square root for ~gamma 2); the blend is
- * expanded back, c' / (1 - max(c')). The scratch holds the exposed
- * picture compressed (FXAA reads neighbours the pass is overwriting) and,
- * apart, the luma plane (the early exit and the edge search read only it,
- * a quarter of the bytes).
+ * expanded back, c' / (1 - max(c')). The scratch holds the luma plane
+ * (the early exit and the edge search read only it, a quarter of the
+ * picture's bytes) and each band's results: the few texels a blend reads
+ * are compressed where read, and the results go into the picture only
+ * after every band has read it (FXAA reads neighbours it also writes; a
+ * compressed copy of the whole picture was 14 MB written a frame).
  * Pixels FXAA leaves alone are not written: they keep their exact values.
  */
 #include "vt_post.h"
 
 #include "vt_err.h"
+#include "vt_post_kern.h"
 
 #include <math.h>
 #ifdef __SSE2__
@@ -48,6 +54,22 @@ static void run(cull_pool *pool, cull_job_fn fn, void *arg, uint32_t n)
     else fn(arg, 0);
 }
 
+/* The lane kernels of isa (vt_post_set_isa's + 1; 0: cull_isa_default):
+ * the AVX2 rows where picked and present, else none (the SSE2 / scalar
+ * rows below). */
+static vt_post_kern post_kern(uint32_t isa)
+{
+    uint32_t i = isa && isa - 1 < CULL_ISA_COUNT && cull_isa_supported(isa - 1) ? isa - 1 : cull_isa_default();
+    vt_post_kern k = {0};
+    if (i == CULL_ISA_AVX2) k = vt_post_kern_avx2();
+    return k;
+}
+
+void vt_post_set_isa(vt_post *p, uint32_t isa)
+{
+    p->isa = isa < CULL_ISA_COUNT ? isa + 1 : 0;
+}
+
 void vt_post_free(vt_post *p)
 {
     if (!p) return;
@@ -63,7 +85,8 @@ typedef struct hist_job {
     uint32_t w, h, nb;
     size_t stride;
     uint32_t q[3];      /* mantissa bits of the smallest floats >= 2^0.25, 2^0.5, 2^0.75 */
-    uint32_t hist[MAX_BANDS][VT_HIST_BINS];
+    vt_post_hist_fn lanes; /* the AVX2 row, or NULL */
+    uint32_t hist[MAX_BANDS][4][VT_HIST_BINS]; /* 4 a band: vt_post_kern.h */
 } hist_job;
 
 static inline float lum(const float *p)
@@ -120,11 +143,12 @@ static void job_hist(void *arg, uint32_t t)
 {
     hist_job *j = arg;
     uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
-    uint32_t *hb = j->hist[t];
-    memset(hb, 0, sizeof j->hist[t]);
+    uint32_t *hb = j->hist[t][0];
+    memset(j->hist[t], 0, sizeof j->hist[t]);
     for (uint32_t y = y0; y < y1; y++) {
         const float *p = j->rgba + 4 * (size_t)y * j->stride;
-        uint32_t x = 0;
+        uint32_t x = j->lanes ? j->lanes(p, j->w, j->q, j->hist[t]) : 0;
+        p += 4 * (size_t)x;
 #ifdef __SSE2__
         for (; x + 4 <= j->w; x += 4, p += 16) bin4(j, p, hb);
 #endif
@@ -158,11 +182,11 @@ double vt_ev_of_luminance(double L)
     return log2(L * 100.0 / 12.5);
 }
 
-float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
-                       cull_pool *pool, uint32_t threads)
+static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                           cull_pool *pool, uint32_t threads, uint32_t isa)
 {
     static hist_job z;
-    hist_job *j = malloc(sizeof *j); /* 32 KiB of bins: not on a worker's stack */
+    hist_job *j = malloc(sizeof *j); /* 128 KiB of bins: not on a worker's stack */
     if (!j) return 0;
     *j = z;
     j->rgba = rgba;
@@ -178,10 +202,12 @@ float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_
         memcpy(&bits, &f, sizeof bits);
         j->q[k] = bits & 0x7fffffu;
     }
+    j->lanes = post_kern(isa).hist;
     run(pool, job_hist, j, j->nb);
     uint64_t hist[VT_HIST_BINS] = {0}, n = 0;
     for (uint32_t t = 0; t < j->nb; t++)
-        for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += j->hist[t][b];
+        for (int k = 0; k < 4; k++)
+            for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += j->hist[t][k][b];
     free(j);
     for (int b = 0; b < VT_HIST_BINS; b++) n += hist[b];
     /* the mean log2 luminance of the pixels ranked [PLO n, PHI n) (bin
@@ -200,6 +226,12 @@ float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_
     return (float)(ev < VT_EV_MIN ? VT_EV_MIN : ev > VT_EV_MAX ? VT_EV_MAX : ev);
 }
 
+float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                       cull_pool *pool, uint32_t threads)
+{
+    return exposure_auto(rgba, width, height, stride, comp, pool, threads, 0);
+}
+
 float vt_adapt_step(float ev, float target, float dt)
 {
     if (!(dt > 0)) return ev;
@@ -215,16 +247,23 @@ float vt_adapt_step(float ev, float target, float dt)
 static const float fx_step[] = {1.0f, 1.5f, 2.0f, 4.0f, 12.0f};
 #define FX_STEPS 5
 #define FX_SUBPIX 0.75f
-#define FX_EDGE 0.166f
-#define FX_EDGE_MIN 0.0833f
+
+/* An anti-aliased pixel: its index y * w + x and its new colour
+ * (compressed), kept apart until every band has read the picture. */
+typedef struct fx_out {
+    uint32_t i;
+    float c[3];
+} fx_out;
 
 typedef struct fx_job {
-    float *rgba;
-    float *copy;  /* the exposed picture compressed (r, g, b, 0), width x height x 4 packed */
+    float *rgba;  /* exposed by job_prep, read by job_fxaa, written by job_apply */
     float *luma;  /* sqrt(Y(c) / (1 + max c)) per pixel, width x height */
+    fx_out *out;  /* band t's results from out + its first pixel's index */
+    uint32_t n[MAX_BANDS]; /* band t's results */
     uint32_t w, h, nb;
     size_t stride;
     float scale;  /* the exposure, applied on the way (1: none) */
+    vt_post_kern kern;
 } fx_job;
 
 /* NaN-free inputs only (compressed values, luma): plain comparisons, not
@@ -243,12 +282,11 @@ static inline void compress(const float *p, float q[3])
     q[2] = c[2] * k;
 }
 
-/* The exposure (scale), then the compressed copy and the luma plane, a
- * row at a time. */
+/* The exposure (scale) in place and the luma plane, a row at a time. */
 #ifdef __SSE2__
 /* job_prep's row for 4 pixels at once: the same operations in the same
  * order as the scalar loop (so the same bits). */
-static inline void prep4(float *p, float *q, float *l, __m128 sc)
+static inline void prep4(float *p, float *l, __m128 sc)
 {
     __m128 a = _mm_mul_ps(_mm_loadu_ps(p), sc), b = _mm_mul_ps(_mm_loadu_ps(p + 4), sc);
     __m128 c = _mm_mul_ps(_mm_loadu_ps(p + 8), sc), d = _mm_mul_ps(_mm_loadu_ps(p + 12), sc);
@@ -263,18 +301,10 @@ static inline void prep4(float *p, float *q, float *l, __m128 sc)
     b = _mm_min_ps(_mm_max_ps(b, zero), big);
     c = _mm_min_ps(_mm_max_ps(c, zero), big);
     __m128 k = _mm_div_ps(_mm_set1_ps(1), _mm_add_ps(_mm_set1_ps(1), _mm_max_ps(_mm_max_ps(a, b), c)));
-    a = _mm_mul_ps(a, k);
-    b = _mm_mul_ps(b, k);
-    c = _mm_mul_ps(c, k);
-    __m128 y = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0.2126f), a), _mm_mul_ps(_mm_set1_ps(0.7152f), b)),
-                          _mm_mul_ps(_mm_set1_ps(0.0722f), c));
+    __m128 y = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0.2126f), _mm_mul_ps(a, k)),
+                                     _mm_mul_ps(_mm_set1_ps(0.7152f), _mm_mul_ps(b, k))),
+                          _mm_mul_ps(_mm_set1_ps(0.0722f), _mm_mul_ps(c, k)));
     _mm_storeu_ps(l, _mm_sqrt_ps(y));
-    d = zero;
-    _MM_TRANSPOSE4_PS(a, b, c, d);
-    _mm_storeu_ps(q, a);
-    _mm_storeu_ps(q + 4, b);
-    _mm_storeu_ps(q + 8, c);
-    _mm_storeu_ps(q + 12, d);
 }
 #endif
 
@@ -285,20 +315,18 @@ static void job_prep(void *arg, uint32_t t)
     const float s = j->scale;
     for (uint32_t y = y0; y < y1; y++) {
         float *p = j->rgba + 4 * (size_t)y * j->stride, *l = j->luma + (size_t)y * j->w;
-        float *q = j->copy + 4 * (size_t)y * j->w;
-        uint32_t x = 0;
+        uint32_t x = j->kern.prep ? j->kern.prep(p, j->w, s, l) : 0;
 #ifdef __SSE2__
         const __m128 sc = _mm_set_ps(1, s, s, s);
-        for (; x + 4 <= j->w; x += 4) prep4(p + 4 * x, q + 4 * x, l + x, sc);
+        for (; x + 4 <= j->w; x += 4) prep4(p + 4 * x, l + x, sc);
 #endif
         for (; x < j->w; x++) {
-            float *px = p + 4 * x, *qx = q + 4 * x;
+            float *px = p + 4 * x, q[3];
             px[0] *= s;
             px[1] *= s;
             px[2] *= s;
-            compress(px, qx);
-            qx[3] = 0;
-            l[x] = sqrtf(0.2126f * qx[0] + 0.7152f * qx[1] + 0.0722f * qx[2]);
+            compress(px, q);
+            l[x] = sqrtf(0.2126f * q[0] + 0.7152f * q[1] + 0.0722f * q[2]);
         }
     }
 }
@@ -338,12 +366,24 @@ static inline float luma_at(const fx_job *j, float px, float py)
     return top + (bot - top) * fy;
 }
 
+/* The exposed pixel (x, y) clamped to the picture, compressed as FXAA
+ * blends it (the same bits the luma was made from). */
+static inline void texel(const fx_job *j, int x, int y, float q[3])
+{
+    x = x < 0 ? 0 : x >= (int)j->w ? (int)j->w - 1 : x;
+    y = y < 0 ? 0 : y >= (int)j->h ? (int)j->h - 1 : y;
+    compress(j->rgba + 4 * ((size_t)y * j->stride + (size_t)x), q);
+}
+
 static inline void colour_at(const fx_job *j, float px, float py, float out[3])
 {
     int x0 = ifloor(px), y0 = ifloor(py);
     float fx = px - (float)x0, fy = py - (float)y0;
-    const float *a = j->copy + 4 * clamp_at(j, x0, y0), *b = j->copy + 4 * clamp_at(j, x0 + 1, y0);
-    const float *c = j->copy + 4 * clamp_at(j, x0, y0 + 1), *d = j->copy + 4 * clamp_at(j, x0 + 1, y0 + 1);
+    float a[3], b[3], c[3], d[3];
+    texel(j, x0, y0, a);
+    texel(j, x0 + 1, y0, b);
+    texel(j, x0, y0 + 1, c);
+    texel(j, x0 + 1, y0 + 1, d);
     for (int k = 0; k < 3; k++) {
         float top = a[k] + (b[k] - a[k]) * fx, bot = c[k] + (d[k] - c[k]) * fx;
         out[k] = top + (bot - top) * fy;
@@ -367,7 +407,7 @@ static int fxaa_pixel(const fx_job *j, int x, int y, float out[3])
     float maxWN = mx(lumaN, lumaW), minWN = mn(lumaN, lumaW);
     float rangeMax = mx(maxWN, maxESM), rangeMin = mn(minWN, minESM);
     float range = rangeMax - rangeMin;
-    if (range < mx(FX_EDGE_MIN, rangeMax * FX_EDGE)) return 0; /* early exit */
+    if (range < mx(VT_FX_EDGE_MIN, rangeMax * VT_FX_EDGE)) return 0; /* early exit */
     float lumaNW = LUMA(-1, -1), lumaSE = LUMA(1, 1);
     float lumaNE = LUMA(1, -1), lumaSW = LUMA(-1, 1);
 #undef LUMA
@@ -460,7 +500,7 @@ static inline unsigned edge4(const float *L, size_t m, size_t w)
     __m128 E = _mm_loadu_ps(L + m + 1), W = _mm_loadu_ps(L + m - 1);
     __m128 hi = _mm_max_ps(_mm_max_ps(_mm_max_ps(M, N), _mm_max_ps(S, E)), W);
     __m128 lo = _mm_min_ps(_mm_min_ps(_mm_min_ps(M, N), _mm_min_ps(S, E)), W);
-    __m128 th = _mm_max_ps(_mm_set1_ps(FX_EDGE_MIN), _mm_mul_ps(hi, _mm_set1_ps(FX_EDGE)));
+    __m128 th = _mm_max_ps(_mm_set1_ps(VT_FX_EDGE_MIN), _mm_mul_ps(hi, _mm_set1_ps(VT_FX_EDGE)));
     return (unsigned)_mm_movemask_ps(_mm_cmpge_ps(_mm_sub_ps(hi, lo), th));
 }
 #endif
@@ -469,31 +509,51 @@ static void job_fxaa(void *arg, uint32_t t)
 {
     fx_job *j = arg;
     uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
+    fx_out *o = j->out + (size_t)y0 * j->w;
+    uint32_t no = 0;
     for (uint32_t y = y0; y < y1; y++) {
-        float *row = j->rgba + 4 * (size_t)y * j->stride;
+        const bool inner = y > 0 && y + 1 < j->h;
         uint32_t x = 0;
         while (x < j->w) {
             uint32_t n = 1;
             unsigned bits = 1;
+            if (inner && j->kern.edge8 && x > 0 && x + 9 <= j->w) {
+                n = 8;
+                bits = j->kern.edge8(j->luma, (size_t)y * j->w + x, j->w);
+            }
 #ifdef __SSE2__
-            if (y > 0 && y + 1 < j->h && x > 0 && x + 5 <= j->w) {
+            else if (inner && x > 0 && x + 5 <= j->w) {
                 n = 4;
                 bits = edge4(j->luma, (size_t)y * j->w + x, j->w);
             }
 #endif
-            for (uint32_t i = 0; i < n; i++) {
-                float c[3];
-                if (!(bits >> i & 1u) || !fxaa_pixel(j, (int)(x + i), (int)y, c)) continue;
-                float m = mx(mx(c[0], c[1]), c[2]);
-                /* m <= 1e6 / (1 + 1e6) < 1: a blend of compressed colours */
-                float k = 1 / (1 - m);
-                float *p = row + 4 * (size_t)(x + i);
-                p[0] = c[0] * k;
-                p[1] = c[1] * k;
-                p[2] = c[2] * k;
+            for (; bits; bits &= bits - 1) {
+                uint32_t xi = x + (uint32_t)__builtin_ctz(bits);
+                if (fxaa_pixel(j, (int)xi, (int)y, o[no].c)) o[no++].i = y * j->w + xi;
             }
             x += n;
         }
+    }
+    j->n[t] = no;
+}
+
+/* The results into the picture, expanded back: c / (1 - max c). */
+static void job_apply(void *arg, uint32_t t)
+{
+    fx_job *j = arg;
+    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb);
+    const fx_out *o = j->out + (size_t)y0 * j->w;
+    uint32_t y = y0;
+    for (uint32_t k = 0; k < j->n[t]; k++) {
+        while (o[k].i >= (y + 1) * j->w) y++;
+        const float *c = o[k].c;
+        float m = mx(mx(c[0], c[1]), c[2]);
+        /* m <= 1e6 / (1 + 1e6) < 1: a blend of compressed colours */
+        float e = 1 / (1 - m);
+        float *p = j->rgba + 4 * ((size_t)y * j->stride + (o[k].i - y * j->w));
+        p[0] = c[0] * e;
+        p[1] = c[1] * e;
+        p[2] = c[2] * e;
     }
 }
 
@@ -507,10 +567,16 @@ static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, 
         p->scratch = s;
         p->cap = need;
     }
-    fx_job j = {.rgba = rgba, .copy = p->scratch, .luma = p->scratch + 4 * np, .w = width, .h = height,
-                .stride = stride, .nb = bands_of(pool, threads, height), .scale = scale};
-    run(pool, job_prep, &j, j.nb);
-    run(pool, job_fxaa, &j, j.nb);
+    static fx_job z;
+    fx_job *j = malloc(sizeof *j);
+    if (!j) return VT_ERR_NOMEM;
+    *j = z;
+    j->rgba = rgba, j->luma = p->scratch, j->out = (fx_out *)(void *)(p->scratch + np), j->w = width, j->h = height;
+    j->stride = stride, j->nb = bands_of(pool, threads, height), j->scale = scale, j->kern = post_kern(p->isa);
+    run(pool, job_prep, j, j->nb);
+    run(pool, job_fxaa, j, j->nb);
+    run(pool, job_apply, j, j->nb);
+    free(j);
     return 0;
 }
 
@@ -527,7 +593,7 @@ int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame 
     if (!env) return 0;
     double e = env->exposure_ev;
     if (env->exposure_mode == VT_EXPOSURE_AUTO) {
-        float target = vt_exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads);
+        float target = exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads, p->isa);
         e = target;
         if (f->adapt) {
             /* the caller's state: a bad EV (NaN, out of range) starts over */

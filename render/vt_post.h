@@ -8,8 +8,8 @@
  * The buffer is the renderers' output (vt_soft.h): rgba, 4 floats per
  * pixel, linear HDR, rows bottom-up, `stride` pixels apart. The passes run
  * in place, over bands of rows on a cull_pool (NULL: one thread); FXAA
- * needs a copy of the picture, the scratch of a vt_post (owned by the
- * renderer, grown as needed, 20 bytes per pixel).
+ * needs a luma plane and room for its results, the scratch of a vt_post
+ * (owned by the renderer, grown as needed, 20 bytes per pixel).
  */
 #ifndef VANTAGE_VT_POST_H
 #define VANTAGE_VT_POST_H
@@ -50,11 +50,18 @@ extern "C" {
 #define VT_ADAPT_TAU_DOWN 1.5f
 
 typedef struct vt_post {
-    float *scratch; /* FXAA's copy of the picture (4 floats a pixel), then its luma plane */
+    float *scratch; /* FXAA's luma plane (a float a pixel), then its results (4 a pixel at most) */
     size_t cap;     /* in floats */
+    uint32_t isa;   /* vt_post_set_isa's + 1; 0 (zero-initialised): the default */
 } vt_post;
 
 void vt_post_free(vt_post *p);
+/* Later passes of p (and vt_post_apply's histogram) use the lane kernels
+ * of isa (enum cull_isa: scalar and SSE4.1 take the SSE2 / one-lane rows,
+ * AVX2 its own) where the CPU has them, else the default
+ * (cull_isa_default); CULL_ISA_COUNT: the default. For tests comparing
+ * instances; every instance gives the same bits. */
+void vt_post_set_isa(vt_post *p, uint32_t isa);
 
 /* The post passes of a frame with an environment env (NULL: nothing,
  * returns 0 and *ev 0): exposure (env's mode; AUTO: the histogram EV,

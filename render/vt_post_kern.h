@@ -1,0 +1,44 @@
+/*
+ * vt_post_kern.h — the post passes' lane kernels (internal to
+ * vt_post*.c): vt_post.c holds the one-lane / SSE2 rows (the reference),
+ * vt_post_avx2.c the same rows 8 pixels a step. Each instance does the
+ * same float operations in the same order (no FMA, no reciprocal
+ * estimates), so every instance gives the same bins, luma and FXAA
+ * output bit for bit (tests/test_post.c compares them).
+ */
+#ifndef VANTAGE_VT_POST_KERN_H
+#define VANTAGE_VT_POST_KERN_H
+
+#include "vt_post.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* The histogram bins of a row's n pixels (RGBA floats) added to hb[k]
+ * (4 sub-histograms: consecutive increments of one bin in one array
+ * would wait on each other); q: the mantissas of 2^0.25, 2^0.5, 2^0.75
+ * (vt_post.c's bin_of). Returns the pixels done (the rest: the caller). */
+typedef uint32_t (*vt_post_hist_fn)(const float *p, uint32_t n, const uint32_t q[3], uint32_t (*hb)[VT_HIST_BINS]);
+/* A row of n pixels: colour times scale in place (alpha kept), and each
+ * pixel's FXAA luma sqrt(Y(c / (1 + max c))) (c clamped to 0..1e6, NaN 0)
+ * into l. Returns the pixels done. */
+typedef uint32_t (*vt_post_prep_fn)(float *p, uint32_t n, float scale, float *l);
+/* FXAA's early exit for the inner pixels x0 .. x0 + 7 of row m's luma
+ * (w the row length; x0 >= 1, x0 + 8 < w, not the first or last row): a
+ * bit per pixel whose neighbourhood's luma range passes the thresholds. */
+typedef uint32_t (*vt_post_edge_fn)(const float *L, size_t m, size_t w);
+
+typedef struct vt_post_kern {
+    vt_post_hist_fn hist;
+    vt_post_prep_fn prep;
+    vt_post_edge_fn edge8;
+} vt_post_kern;
+
+/* FXAA 3.11's thresholds (quality preset 12), shared by the instances */
+#define VT_FX_EDGE 0.166f
+#define VT_FX_EDGE_MIN 0.0833f
+
+/* The AVX2 instance's kernels, or all NULL where this build has none. */
+vt_post_kern vt_post_kern_avx2(void);
+
+#endif
