@@ -244,9 +244,9 @@ float vt_adapt_step(float ev, float target, float dt)
 
 /* FXAA 3.11's quality settings, preset 12 (its default): the edge search
  * steps in pixels, the thresholds, the sub-pixel amount. */
-static const float fx_step[] = {1.0f, 1.5f, 2.0f, 4.0f, 12.0f};
-#define FX_STEPS 5
-#define FX_SUBPIX 0.75f
+static const float fx_step[] = VT_FX_STEP_LIST;
+#define FX_STEPS VT_FX_STEPS
+#define FX_SUBPIX VT_FX_SUBPIX
 
 /* An anti-aliased pixel: its index y * w + x and its new colour
  * (compressed), kept apart until every band has read the picture. */
@@ -264,6 +264,7 @@ typedef struct fx_job {
     size_t stride;
     float scale;  /* the exposure, applied on the way (1: none) */
     vt_post_kern kern;
+    vt_post_fx fx; /* the lanes' view of luma and rgba */
 } fx_job;
 
 /* NaN-free inputs only (compressed values, luma): plain comparisons, not
@@ -527,6 +528,15 @@ static void job_fxaa(void *arg, uint32_t t)
                 bits = edge4(j->luma, (size_t)y * j->w + x, j->w);
             }
 #endif
+            if (n == 8 && bits && j->kern.fxaa8) {
+                float c[3][8];
+                j->kern.fxaa8(&j->fx, x, y, bits, c);
+                for (; bits; bits &= bits - 1) {
+                    uint32_t k = (uint32_t)__builtin_ctz(bits);
+                    o[no] = (fx_out){.i = y * j->w + x + k, .c = {c[0][k], c[1][k], c[2][k]}};
+                    no++;
+                }
+            }
             for (; bits; bits &= bits - 1) {
                 uint32_t xi = x + (uint32_t)__builtin_ctz(bits);
                 if (fxaa_pixel(j, (int)xi, (int)y, o[no].c)) o[no++].i = y * j->w + xi;
@@ -573,6 +583,9 @@ static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, 
     *j = z;
     j->rgba = rgba, j->luma = p->scratch, j->out = (fx_out *)(void *)(p->scratch + np), j->w = width, j->h = height;
     j->stride = stride, j->nb = bands_of(pool, threads, height), j->scale = scale, j->kern = post_kern(p->isa);
+    j->fx = (vt_post_fx){.luma = j->luma, .rgba = rgba, .w = width, .h = height, .stride = stride};
+    /* the lanes' gathers index floats with 32-bit lanes */
+    if ((uint64_t)stride * height * 4 >= (uint64_t)1 << 31) j->kern.fxaa8 = NULL;
     run(pool, job_prep, j, j->nb);
     run(pool, job_fxaa, j, j->nb);
     run(pool, job_apply, j, j->nb);

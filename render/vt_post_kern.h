@@ -28,11 +28,30 @@ typedef uint32_t (*vt_post_prep_fn)(float *p, uint32_t n, float scale, float *l)
  * bit per pixel whose neighbourhood's luma range passes the thresholds. */
 typedef uint32_t (*vt_post_edge_fn)(const float *L, size_t m, size_t w);
 
+/* What FXAA reads: the luma plane (w x h packed) and the exposed
+ * picture (RGBA floats, rows stride pixels apart). */
+typedef struct vt_post_fx {
+    const float *luma, *rgba;
+    uint32_t w, h;
+    size_t stride;
+} vt_post_fx;
+/* FXAA (vt_post.c's fxaa_pixel, operation for operation) of the pixels
+ * x0 .. x0 + 7 of an inner row y (as edge8's), for the lanes in bits
+ * (edge8's: they passed the early exit); their new colours, compressed,
+ * in out[channel][lane]. */
+typedef void (*vt_post_fxaa_fn)(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t bits, float out[3][8]);
+
 typedef struct vt_post_kern {
     vt_post_hist_fn hist;
     vt_post_prep_fn prep;
     vt_post_edge_fn edge8;
+    vt_post_fxaa_fn fxaa8;
 } vt_post_kern;
+
+/* FXAA 3.11's search steps (quality preset 12) and sub-pixel amount */
+#define VT_FX_STEPS 5
+#define VT_FX_STEP_LIST {1.0f, 1.5f, 2.0f, 4.0f, 12.0f}
+#define VT_FX_SUBPIX 0.75f
 
 /* FXAA 3.11's thresholds (quality preset 12), shared by the instances */
 #define VT_FX_EDGE 0.166f

@@ -6,6 +6,8 @@
  *     values along the edge and no stair step longer than half the
  *     aliased step, where the same frame with FXAA off (fx_off) has the
  *     full steps and no intermediate value at all;
+ *   - the post rows' instances (AVX2, SSE2, one lane) against each other,
+ *     bit for bit, on random pictures with specials;
  *   - the histogram exposure against a slow reference (every luminance
  *     sorted, the pixels between the percentiles averaged in log2) on
  *     random pictures, on one and two threads;
@@ -187,6 +189,75 @@ static void test_post_fxaa_flat_and_bad(void **state)
     vt_post_free(&p);
     free(o);
     free(c);
+}
+
+/* Every instance of the post rows (vt_post_kern.h: the SSE2 / one-lane
+ * rows and, where the CPU has it, AVX2's 8 lanes, FXAA's edge pixels
+ * included) gives the same picture bit for bit: vt_post_apply (fixed
+ * exposure, then FXAA) and vt_fxaa on pictures of random rectangles,
+ * lines and noise over 1e-3..1e3 with NaN, infinities, huge and negative
+ * values sprinkled in, at widths around the lanes' 8 (tails, edges of the
+ * picture where the search and the blend clamp) and a row stride wider
+ * than the picture. */
+static void test_post_fxaa_instances(void **state)
+{
+    (void)state;
+    cull_pool *pool;
+    assert_int_equal(cull_pool_create(2, &pool), 0);
+    rng r = {test_seed() ^ 0xF8A4};
+    uint32_t pixels = 0, cases = 0;
+    for (int round = 0; round < 40; round++) {
+        uint32_t W = 1 + rng_below(&r, round < 20 ? 24 : 140), H = 1 + rng_below(&r, round < 20 ? 12 : 70);
+        size_t S = W + rng_below(&r, 3), n = S * H * 4;
+        float *ref = malloc(n * sizeof *ref), *got = malloc(n * sizeof *got);
+        assert_true(ref && got);
+        for (size_t i = 0; i < n; i++) ref[i] = (float)rng_log(&r, 1e-3, 1e3);
+        /* rectangles and lines of flat colour: edges in every direction */
+        for (int k = 0; k < 12; k++) {
+            uint32_t x0 = rng_below(&r, W), y0 = rng_below(&r, H), x1 = x0 + rng_below(&r, W), y1 = y0 + rng_below(&r, H);
+            bool line = rng_below(&r, 2);
+            float col[3];
+            for (int c = 0; c < 3; c++) col[c] = (float)rng_log(&r, 1e-3, 1e3);
+            for (uint32_t y = y0; y < H && y <= y1; y++)
+                for (uint32_t x = x0; x < W && x <= x1; x++) {
+                    if (line && (x - x0) * (y1 - y0 + 1) / (x1 - x0 + 1) != y - y0) continue;
+                    memcpy(ref + 4 * ((size_t)y * S + x), col, sizeof col);
+                }
+        }
+        for (size_t i = 0; i < n; i++) {
+            uint32_t k = rng_below(&r, 400);
+            if (k < 5) ref[i] = k == 0 ? NAN : k == 1 ? INFINITY : k == 2 ? -INFINITY : k == 3 ? 1e30f : -2.0f;
+        }
+        memcpy(got, ref, n * sizeof *got);
+        vt_post a = {0}, b = {0};
+        vt_post_set_isa(&a, CULL_ISA_SCALAR);
+        vt_post_set_isa(&b, CULL_ISA_COUNT); /* the default: the widest here */
+        if (round % 2) {
+            vt_env env = {.exposure_mode = VT_EXPOSURE_FIXED, .exposure_ev = (float)rng_range(&r, -3, 3)};
+            cull_view v;
+            memset(&v, 0, sizeof v);
+            vt_frame fa = {.view = &v, .width = W, .height = H, .env = &env, .rgba = ref, .stride = S}, fb = fa;
+            fb.rgba = got;
+            float eva, evb;
+            assert_int_equal(vt_post_apply(&a, NULL, 1, &fa, &eva), 0);
+            assert_int_equal(vt_post_apply(&b, pool, 2, &fb, &evb), 0);
+            assert_true(eva == evb);
+        } else {
+            assert_int_equal(vt_fxaa(&a, NULL, 1, ref, W, H, S), 0);
+            assert_int_equal(vt_fxaa(&b, pool, 2, got, W, H, S), 0);
+        }
+        size_t bad = 0;
+        for (size_t i = 0; i < n; i++) bad += memcmp(ref + i, got + i, sizeof *ref) != 0;
+        if (bad) fail_msg("round %d (%ux%u, stride %zu): %zu floats differ between the instances", round, W, H, S, bad);
+        vt_post_free(&a);
+        vt_post_free(&b);
+        free(ref);
+        free(got);
+        cases++;
+        pixels += W * H;
+    }
+    assert_true(cases == 40 && pixels > 10000);
+    cull_pool_destroy(pool);
 }
 
 /* ---- the histogram exposure ------------------------------------------------------------- */
@@ -779,6 +850,7 @@ static void test_post_daemon_lut(void **state)
 const struct CMUnitTest post_tests[] = {
     cmocka_unit_test(test_post_fxaa_edge),
     cmocka_unit_test(test_post_fxaa_flat_and_bad),
+    cmocka_unit_test(test_post_fxaa_instances),
     cmocka_unit_test(test_post_histogram_vs_sort),
     cmocka_unit_test(test_post_histogram_lanes),
     cmocka_unit_test(test_post_eye_adaptation),
