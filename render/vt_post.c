@@ -248,12 +248,7 @@ static const float fx_step[] = VT_FX_STEP_LIST;
 #define FX_STEPS VT_FX_STEPS
 #define FX_SUBPIX VT_FX_SUBPIX
 
-/* An anti-aliased pixel: its index y * w + x and its new colour
- * (compressed), kept apart until every band has read the picture. */
-typedef struct fx_out {
-    uint32_t i;
-    float c[3];
-} fx_out;
+typedef vt_post_fx_out fx_out;
 
 typedef struct fx_job {
     float *rgba;  /* exposed by job_prep, read by job_fxaa, written by job_apply */
@@ -506,6 +501,17 @@ static inline unsigned edge4(const float *L, size_t m, size_t w)
 }
 #endif
 
+/* The blend expanded back: c / (1 - max c), in place. */
+static inline void expand(float c[3])
+{
+    float m = mx(mx(c[0], c[1]), c[2]);
+    /* m <= 1e6 / (1 + 1e6) < 1: a blend of compressed colours */
+    float e = 1 / (1 - m);
+    c[0] *= e;
+    c[1] *= e;
+    c[2] *= e;
+}
+
 static void job_fxaa(void *arg, uint32_t t)
 {
     fx_job *j = arg;
@@ -514,32 +520,25 @@ static void job_fxaa(void *arg, uint32_t t)
     uint32_t no = 0;
     for (uint32_t y = y0; y < y1; y++) {
         const bool inner = y > 0 && y + 1 < j->h;
-        uint32_t x = 0;
+        uint32_t x = 0, lx = 0;
+        if (inner && j->kern.fxaa_row) {
+            /* pixel 0 first (the lanes start at 1), then the lanes */
+            if (fxaa_pixel(j, 0, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w;
+            no += j->kern.fxaa_row(&j->fx, y, o + no, &lx);
+            x = lx;
+        }
         while (x < j->w) {
             uint32_t n = 1;
             unsigned bits = 1;
-            if (inner && j->kern.edge8 && x > 0 && x + 9 <= j->w) {
-                n = 8;
-                bits = j->kern.edge8(j->luma, (size_t)y * j->w + x, j->w);
-            }
 #ifdef __SSE2__
-            else if (inner && x > 0 && x + 5 <= j->w) {
+            if (inner && x > 0 && x + 5 <= j->w) {
                 n = 4;
                 bits = edge4(j->luma, (size_t)y * j->w + x, j->w);
             }
 #endif
-            if (n == 8 && bits && j->kern.fxaa8) {
-                float c[3][8];
-                j->kern.fxaa8(&j->fx, x, y, bits, c);
-                for (; bits; bits &= bits - 1) {
-                    uint32_t k = (uint32_t)__builtin_ctz(bits);
-                    o[no] = (fx_out){.i = y * j->w + x + k, .c = {c[0][k], c[1][k], c[2][k]}};
-                    no++;
-                }
-            }
             for (; bits; bits &= bits - 1) {
                 uint32_t xi = x + (uint32_t)__builtin_ctz(bits);
-                if (fxaa_pixel(j, (int)xi, (int)y, o[no].c)) o[no++].i = y * j->w + xi;
+                if (fxaa_pixel(j, (int)xi, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w + xi;
             }
             x += n;
         }
@@ -547,7 +546,7 @@ static void job_fxaa(void *arg, uint32_t t)
     j->n[t] = no;
 }
 
-/* The results into the picture, expanded back: c / (1 - max c). */
+/* The results into the picture. */
 static void job_apply(void *arg, uint32_t t)
 {
     fx_job *j = arg;
@@ -556,14 +555,7 @@ static void job_apply(void *arg, uint32_t t)
     uint32_t y = y0;
     for (uint32_t k = 0; k < j->n[t]; k++) {
         while (o[k].i >= (y + 1) * j->w) y++;
-        const float *c = o[k].c;
-        float m = mx(mx(c[0], c[1]), c[2]);
-        /* m <= 1e6 / (1 + 1e6) < 1: a blend of compressed colours */
-        float e = 1 / (1 - m);
-        float *p = j->rgba + 4 * ((size_t)y * j->stride + (o[k].i - y * j->w));
-        p[0] = c[0] * e;
-        p[1] = c[1] * e;
-        p[2] = c[2] * e;
+        memcpy(j->rgba + 4 * ((size_t)y * j->stride + (o[k].i - y * j->w)), o[k].c, sizeof o[k].c);
     }
 }
 
@@ -585,7 +577,7 @@ static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, 
     j->stride = stride, j->nb = bands_of(pool, threads, height), j->scale = scale, j->kern = post_kern(p->isa);
     j->fx = (vt_post_fx){.luma = j->luma, .rgba = rgba, .w = width, .h = height, .stride = stride};
     /* the lanes' gathers index floats with 32-bit lanes */
-    if ((uint64_t)stride * height * 4 >= (uint64_t)1 << 31) j->kern.fxaa8 = NULL;
+    if ((uint64_t)stride * height * 4 >= (uint64_t)1 << 31) j->kern.fxaa_row = NULL;
     run(pool, job_prep, j, j->nb);
     run(pool, job_fxaa, j, j->nb);
     run(pool, job_apply, j, j->nb);

@@ -83,7 +83,7 @@ static uint32_t prep_row(float *p, uint32_t n, float s, float *l)
     return x;
 }
 
-static uint32_t edge8(const float *L, size_t m, size_t w)
+static inline uint32_t edge8(const float *L, size_t m, size_t w)
 {
     __m256 M = _mm256_loadu_ps(L + m), N = _mm256_loadu_ps(L + m - w), S = _mm256_loadu_ps(L + m + w);
     __m256 E = _mm256_loadu_ps(L + m + 1), Wl = _mm256_loadu_ps(L + m - 1);
@@ -157,13 +157,17 @@ static inline void colour8(const vt_post_fx *fx, vf px, vf py, float out[3][8])
     texel8(fx->rgba, _mm256_slli_epi32(_mm256_add_epi32(ya, xb), 2), b);
     texel8(fx->rgba, _mm256_slli_epi32(_mm256_add_epi32(yb, xa), 2), c);
     texel8(fx->rgba, _mm256_slli_epi32(_mm256_add_epi32(yb, xb), 2), d);
+    vf o[3];
     for (int k = 0; k < 3; k++) {
         vf top = ADD(a[k], MUL(SUB(b[k], a[k]), fxr)), bot = ADD(c[k], MUL(SUB(d[k], c[k]), fxr));
-        _mm256_storeu_ps(out[k], ADD(top, MUL(SUB(bot, top), fyr)));
+        o[k] = ADD(top, MUL(SUB(bot, top), fyr));
     }
+    /* expanded back: c / (1 - max c) (vt_post.c's expand) */
+    vf e = _mm256_div_ps(S1(1), SUB(S1(1), vmx(vmx(o[0], o[1]), o[2])));
+    for (int k = 0; k < 3; k++) _mm256_storeu_ps(out[k], MUL(o[k], e));
 }
 
-static void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t bits, float out[3][8])
+static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t bits, float out[3][8])
 {
     static const float step[VT_FX_STEPS] = VT_FX_STEP_LIST;
     const float *L = fx->luma;
@@ -255,9 +259,28 @@ static void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t bits, 
     colour8(fx, ux, uy, out);
 }
 
+static uint32_t fxaa_row(const vt_post_fx *fx, uint32_t y, vt_post_fx_out *o, uint32_t *x_end)
+{
+    const size_t w = fx->w;
+    uint32_t no = 0, x = 1;
+    for (; x + 9 <= w; x += 8) {
+        uint32_t bits = edge8(fx->luma, (size_t)y * w + x, w);
+        if (!bits) continue;
+        float c[3][8];
+        fxaa8(fx, x, y, bits, c);
+        for (; bits; bits &= bits - 1) {
+            uint32_t k = (uint32_t)__builtin_ctz(bits);
+            o[no] = (vt_post_fx_out){.i = y * fx->w + x + k, .c = {c[0][k], c[1][k], c[2][k]}};
+            no++;
+        }
+    }
+    *x_end = x;
+    return no;
+}
+
 vt_post_kern vt_post_kern_avx2(void)
 {
-    return (vt_post_kern){hist_row, prep_row, edge8, fxaa8};
+    return (vt_post_kern){hist_row, prep_row, fxaa_row};
 }
 #else
 vt_post_kern vt_post_kern_avx2(void)

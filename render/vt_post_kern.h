@@ -23,10 +23,6 @@ typedef uint32_t (*vt_post_hist_fn)(const float *p, uint32_t n, const uint32_t q
  * pixel's FXAA luma sqrt(Y(c / (1 + max c))) (c clamped to 0..1e6, NaN 0)
  * into l. Returns the pixels done. */
 typedef uint32_t (*vt_post_prep_fn)(float *p, uint32_t n, float scale, float *l);
-/* FXAA's early exit for the inner pixels x0 .. x0 + 7 of row m's luma
- * (w the row length; x0 >= 1, x0 + 8 < w, not the first or last row): a
- * bit per pixel whose neighbourhood's luma range passes the thresholds. */
-typedef uint32_t (*vt_post_edge_fn)(const float *L, size_t m, size_t w);
 
 /* What FXAA reads: the luma plane (w x h packed) and the exposed
  * picture (RGBA floats, rows stride pixels apart). */
@@ -35,17 +31,23 @@ typedef struct vt_post_fx {
     uint32_t w, h;
     size_t stride;
 } vt_post_fx;
-/* FXAA (vt_post.c's fxaa_pixel, operation for operation) of the pixels
- * x0 .. x0 + 7 of an inner row y (as edge8's), for the lanes in bits
- * (edge8's: they passed the early exit); their new colours, compressed,
- * in out[channel][lane]. */
-typedef void (*vt_post_fxaa_fn)(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t bits, float out[3][8]);
+/* An anti-aliased pixel: its index y * w + x and its new colour (the
+ * blend expanded back), kept apart until every band has read the
+ * picture. */
+typedef struct vt_post_fx_out {
+    uint32_t i;
+    float c[3];
+} vt_post_fx_out;
+/* FXAA (vt_post.c's fxaa_pixel, operation for operation) of an inner row
+ * y's pixels from x = 1 while x + 9 <= w, 8 at a time: the early exit in
+ * lanes, the pixels past it in lanes; their results appended to o.
+ * Returns the results written; *x_end: the first pixel not done. */
+typedef uint32_t (*vt_post_fxaa_fn)(const vt_post_fx *fx, uint32_t y, vt_post_fx_out *o, uint32_t *x_end);
 
 typedef struct vt_post_kern {
     vt_post_hist_fn hist;
     vt_post_prep_fn prep;
-    vt_post_edge_fn edge8;
-    vt_post_fxaa_fn fxaa8;
+    vt_post_fxaa_fn fxaa_row;
 } vt_post_kern;
 
 /* FXAA 3.11's search steps (quality preset 12) and sub-pixel amount */
