@@ -543,13 +543,22 @@ static void job_fxaa(void *arg, uint32_t t)
             x += n;
         }
     }
-    j->n[t] = no;
+    /* the band's inner rows are read by no other band (the blend reads
+       rows y - 1 .. y + 1, the search only the luma): written now; its
+       first and last rows, which the bands beside it read, kept for
+       fxaa_run to write once every band is done */
+    uint32_t keep = 0, y = y0;
+    for (uint32_t k = 0; k < no; k++) {
+        while (o[k].i >= (y + 1) * j->w) y++;
+        if (y == y0 || y + 1 == y1) o[keep++] = o[k];
+        else memcpy(j->rgba + 4 * ((size_t)y * j->stride + (o[k].i - y * j->w)), o[k].c, sizeof o[k].c);
+    }
+    j->n[t] = keep;
 }
 
-/* The results into the picture. */
-static void job_apply(void *arg, uint32_t t)
+/* Band t's kept results into the picture. */
+static void band_apply(fx_job *j, uint32_t t)
 {
-    fx_job *j = arg;
     uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb);
     const fx_out *o = j->out + (size_t)y0 * j->w;
     uint32_t y = y0;
@@ -580,7 +589,7 @@ static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, 
     if ((uint64_t)stride * height * 4 >= (uint64_t)1 << 31) j->kern.fxaa_row = NULL;
     run(pool, job_prep, j, j->nb);
     run(pool, job_fxaa, j, j->nb);
-    run(pool, job_apply, j, j->nb);
+    for (uint32_t t = 0; t < j->nb; t++) band_apply(j, t);
     free(j);
     return 0;
 }
