@@ -30,10 +30,6 @@
 #include "vt_post_kern.h"
 
 #include <math.h>
-#ifdef __SSE2__
-#include <xmmintrin.h>
-#include <emmintrin.h>
-#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -55,7 +51,7 @@ static void run(cull_pool *pool, cull_job_fn fn, void *arg, uint32_t n)
 }
 
 /* The lane kernels of isa (vt_post_set_isa's + 1; 0: cull_isa_default):
- * the AVX2 rows where picked and present, else none (the SSE2 / scalar
+ * the AVX2 rows where picked and present, else none (the one-lane
  * rows below). */
 static vt_post_kern post_kern(uint32_t isa)
 {
@@ -109,35 +105,6 @@ static inline uint32_t bin_of(const hist_job *j, float L)
     return b < VT_HIST_BINS ? b : VT_HIST_BINS - 1;
 }
 
-#ifdef __SSE2__
-/* lum and bin_of for 4 pixels at once, the same operations in the same
- * order (the same bins): the luminance's products summed left to right,
- * the exponent and the mantissa's quarter in integer lanes, the two
- * out-of-range cases selected after. 35 instructions a pixel -> ~12. */
-static inline void bin4(const hist_job *j, const float *p, uint32_t *hb)
-{
-    __m128 a = _mm_loadu_ps(p), b = _mm_loadu_ps(p + 4), c = _mm_loadu_ps(p + 8), d = _mm_loadu_ps(p + 12);
-    _MM_TRANSPOSE4_PS(a, b, c, d); /* a, b, c: red, green, blue */
-    __m128 L = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0.2126f), a), _mm_mul_ps(_mm_set1_ps(0.7152f), b)),
-                          _mm_mul_ps(_mm_set1_ps(0.0722f), c));
-    __m128i bits = _mm_castps_si128(L), m = _mm_and_si128(bits, _mm_set1_epi32(0x7fffff));
-    __m128i e4 = _mm_slli_epi32(_mm_sub_epi32(_mm_srli_epi32(bits, 23), _mm_set1_epi32(127 + VT_HIST_LO)), 2);
-    for (int k = 0; k < 3; k++) /* m >= q: m > q - 1 (both < 2^23): -1 a lane, subtracted */
-        e4 = _mm_sub_epi32(e4, _mm_cmpgt_epi32(m, _mm_set1_epi32((int)j->q[k] - 1)));
-    __m128i top = _mm_set1_epi32(VT_HIST_BINS - 1), over = _mm_cmpgt_epi32(e4, top);
-    e4 = _mm_or_si128(_mm_and_si128(over, top), _mm_andnot_si128(over, e4));
-    __m128i hi = _mm_castps_si128(_mm_cmplt_ps(L, _mm_set1_ps(0x1p16f))); /* false for NaN, inf */
-    __m128i lo = _mm_castps_si128(_mm_cmpgt_ps(L, _mm_set1_ps(0x1p-16f)));
-    e4 = _mm_or_si128(_mm_and_si128(hi, e4), _mm_andnot_si128(hi, top));
-    e4 = _mm_and_si128(lo, e4); /* not above 2^-16 (NaN too): 0 */
-    uint32_t o[4];
-    _mm_storeu_si128((__m128i *)o, e4);
-    hb[o[0]]++;
-    hb[o[1]]++;
-    hb[o[2]]++;
-    hb[o[3]]++;
-}
-#endif
 
 static void job_hist(void *arg, uint32_t t)
 {
@@ -149,9 +116,6 @@ static void job_hist(void *arg, uint32_t t)
         const float *p = j->rgba + 4 * (size_t)y * j->stride;
         uint32_t x = j->lanes ? j->lanes(p, j->w, j->q, j->hist[t]) : 0;
         p += 4 * (size_t)x;
-#ifdef __SSE2__
-        for (; x + 4 <= j->w; x += 4, p += 16) bin4(j, p, hb);
-#endif
         for (; x < j->w; x++, p += 4) hb[bin_of(j, lum(p))]++;
     }
 }
@@ -279,30 +243,6 @@ static inline void compress(const float *p, float q[3])
 }
 
 /* The exposure (scale) in place and the luma plane, a row at a time. */
-#ifdef __SSE2__
-/* job_prep's row for 4 pixels at once: the same operations in the same
- * order as the scalar loop (so the same bits). */
-static inline void prep4(float *p, float *l, __m128 sc)
-{
-    __m128 a = _mm_mul_ps(_mm_loadu_ps(p), sc), b = _mm_mul_ps(_mm_loadu_ps(p + 4), sc);
-    __m128 c = _mm_mul_ps(_mm_loadu_ps(p + 8), sc), d = _mm_mul_ps(_mm_loadu_ps(p + 12), sc);
-    _mm_storeu_ps(p, a);
-    _mm_storeu_ps(p + 4, b);
-    _mm_storeu_ps(p + 8, c);
-    _mm_storeu_ps(p + 12, d);
-    _MM_TRANSPOSE4_PS(a, b, c, d); /* a, b, c: red, green, blue of the 4 */
-    const __m128 zero = _mm_setzero_ps(), big = _mm_set1_ps(1e6f);
-    /* max(x, 0) gives 0 for NaN (the second operand), as p > 0 ? .. : 0 */
-    a = _mm_min_ps(_mm_max_ps(a, zero), big);
-    b = _mm_min_ps(_mm_max_ps(b, zero), big);
-    c = _mm_min_ps(_mm_max_ps(c, zero), big);
-    __m128 k = _mm_div_ps(_mm_set1_ps(1), _mm_add_ps(_mm_set1_ps(1), _mm_max_ps(_mm_max_ps(a, b), c)));
-    __m128 y = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0.2126f), _mm_mul_ps(a, k)),
-                                     _mm_mul_ps(_mm_set1_ps(0.7152f), _mm_mul_ps(b, k))),
-                          _mm_mul_ps(_mm_set1_ps(0.0722f), _mm_mul_ps(c, k)));
-    _mm_storeu_ps(l, _mm_sqrt_ps(y));
-}
-#endif
 
 static void job_prep(void *arg, uint32_t t)
 {
@@ -312,10 +252,6 @@ static void job_prep(void *arg, uint32_t t)
     for (uint32_t y = y0; y < y1; y++) {
         float *p = j->rgba + 4 * (size_t)y * j->stride, *l = j->luma + (size_t)y * j->w;
         uint32_t x = j->kern.prep ? j->kern.prep(p, j->w, s, l) : 0;
-#ifdef __SSE2__
-        const __m128 sc = _mm_set_ps(1, s, s, s);
-        for (; x + 4 <= j->w; x += 4) prep4(p + 4 * x, l + x, sc);
-#endif
         for (; x < j->w; x++) {
             float *px = p + 4 * x, q[3];
             px[0] *= s;
@@ -485,21 +421,6 @@ static int fxaa_pixel(const fx_job *j, int x, int y, float out[3])
     return 1;
 }
 
-/* FXAA's early exit for 4 pixels of an inner row at once: a bit per pixel
- * whose neighbourhood's luma range passes the thresholds (the same test
- * fxaa_pixel makes first). Most of a frame is flat: this skips it at
- * about a nanosecond a pixel. */
-#ifdef __SSE2__
-static inline unsigned edge4(const float *L, size_t m, size_t w)
-{
-    __m128 M = _mm_loadu_ps(L + m), N = _mm_loadu_ps(L + m - w), S = _mm_loadu_ps(L + m + w);
-    __m128 E = _mm_loadu_ps(L + m + 1), W = _mm_loadu_ps(L + m - 1);
-    __m128 hi = _mm_max_ps(_mm_max_ps(_mm_max_ps(M, N), _mm_max_ps(S, E)), W);
-    __m128 lo = _mm_min_ps(_mm_min_ps(_mm_min_ps(M, N), _mm_min_ps(S, E)), W);
-    __m128 th = _mm_max_ps(_mm_set1_ps(VT_FX_EDGE_MIN), _mm_mul_ps(hi, _mm_set1_ps(VT_FX_EDGE)));
-    return (unsigned)_mm_movemask_ps(_mm_cmpge_ps(_mm_sub_ps(hi, lo), th));
-}
-#endif
 
 /* The blend expanded back: c / (1 - max c), in place. */
 static inline void expand(float c[3])
@@ -527,21 +448,8 @@ static void job_fxaa(void *arg, uint32_t t)
             no += j->kern.fxaa_row(&j->fx, y, o + no, &lx);
             x = lx;
         }
-        while (x < j->w) {
-            uint32_t n = 1;
-            unsigned bits = 1;
-#ifdef __SSE2__
-            if (inner && x > 0 && x + 5 <= j->w) {
-                n = 4;
-                bits = edge4(j->luma, (size_t)y * j->w + x, j->w);
-            }
-#endif
-            for (; bits; bits &= bits - 1) {
-                uint32_t xi = x + (uint32_t)__builtin_ctz(bits);
-                if (fxaa_pixel(j, (int)xi, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w + xi;
-            }
-            x += n;
-        }
+        for (; x < j->w; x++)
+            if (fxaa_pixel(j, (int)x, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w + x;
     }
     /* the band's inner rows are read by no other band (the blend reads
        rows y - 1 .. y + 1, the search only the luma): written now; its

@@ -57,7 +57,7 @@ typedef struct vt_post {
 
 void vt_post_free(vt_post *p);
 /* Later passes of p (and vt_post_apply's histogram) use the lane kernels
- * of isa (enum cull_isa: scalar and SSE4.1 take the SSE2 / one-lane rows,
+ * of isa (enum cull_isa: scalar and SSE4.1 take the one-lane rows,
  * AVX2 its own) where the CPU has them, else the default
  * (cull_isa_default); CULL_ISA_COUNT: the default. For tests comparing
  * instances; every instance gives the same bits. */

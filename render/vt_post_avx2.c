@@ -36,7 +36,7 @@ static uint32_t hist_row(const float *p, uint32_t n, const uint32_t q[3], uint32
         __m256 L = lum8(_mm256_loadu_ps(p), _mm256_loadu_ps(p + 8), _mm256_loadu_ps(p + 16), _mm256_loadu_ps(p + 24));
         __m256i bits = _mm256_castps_si256(L), m = _mm256_and_si256(bits, mant);
         __m256i e4 = _mm256_slli_epi32(_mm256_sub_epi32(_mm256_srli_epi32(bits, 23), bias), 2);
-        /* m >= q: m > q - 1, -1 a lane, subtracted (vt_post.c's bin4) */
+        /* m >= q: m > q - 1, -1 a lane, subtracted (bin_of's comparisons) */
         e4 = _mm256_sub_epi32(e4, _mm256_cmpgt_epi32(m, q0));
         e4 = _mm256_sub_epi32(e4, _mm256_cmpgt_epi32(m, q1));
         e4 = _mm256_sub_epi32(e4, _mm256_cmpgt_epi32(m, q2));

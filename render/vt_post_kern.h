@@ -1,6 +1,6 @@
 /*
  * vt_post_kern.h — the post passes' lane kernels (internal to
- * vt_post*.c): vt_post.c holds the one-lane / SSE2 rows (the reference),
+ * vt_post*.c): vt_post.c holds the one-lane rows (the reference),
  * vt_post_avx2.c the same rows 8 pixels a step. Each instance does the
  * same float operations in the same order (no FMA, no reciprocal
  * estimates), so every instance gives the same bins, luma and FXAA

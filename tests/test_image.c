@@ -521,6 +521,20 @@ static void test_image_tonemap_exact(void **state)
     free(px);
 }
 
+/* The bits of the first float in [lo, hi) whose ACES code (the curve,
+ * then the exact sRGB table) is >= k, by bisection. */
+static uint32_t aces_first_bits(unsigned k, uint32_t lo, uint32_t hi)
+{
+    while (lo < hi) {
+        uint32_t m = lo + (hi - lo) / 2;
+        float x;
+        memcpy(&x, &m, sizeof x);
+        if (vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, x)) >= k) hi = m;
+        else lo = m + 1;
+    }
+    return lo;
+}
+
 /* ACES at 0 EV through the image path (a threshold table) equals the curve
  * then the sRGB table, code for code, for floats spread over every
  * exponent from 2^-14 to 32 (each threshold's neighbours included). */
@@ -543,14 +557,7 @@ static void test_image_tonemap_aces_table(void **state)
         bad += out[i * 4] != vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, px[i]));
     /* and around each code's first float, found by bisection here */
     for (unsigned k = 1; k < 256; k++) {
-        uint32_t a = lo, b = hi;
-        while (a < b) {
-            uint32_t m = a + (b - a) / 2;
-            float x;
-            memcpy(&x, &m, sizeof x);
-            if (vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, x)) >= k) b = m;
-            else a = m + 1;
-        }
+        uint32_t a = aces_first_bits(k, lo, hi);
         float t[3];
         uint32_t tb[3] = {a - 1, a, a + 1};
         memcpy(t, tb, sizeof t);
@@ -614,14 +621,7 @@ static void test_image_tonemap_rgbx(void **state)
     assert_true(t && o);
     uint32_t bad = 0, m = 0;
     for (unsigned k = 1; k < 256; k++) {
-        uint32_t x0 = 0x38800000u, x1 = 0x42000000u;
-        while (x0 < x1) {
-            uint32_t mid = x0 + (x1 - x0) / 2;
-            float x;
-            memcpy(&x, &mid, sizeof x);
-            if (vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, x)) >= k) x1 = mid;
-            else x0 = mid + 1;
-        }
+        uint32_t x0 = aces_first_bits(k, 0x38800000u, 0x42000000u);
         for (uint32_t dj = 0; dj < 3; dj++, m++) {
             uint32_t bits = x0 - 1 + dj;
             memcpy(&t[4 * (m / 3) + m % 3], &bits, sizeof bits);

@@ -6,7 +6,7 @@
  *     values along the edge and no stair step longer than half the
  *     aliased step, where the same frame with FXAA off (fx_off) has the
  *     full steps and no intermediate value at all;
- *   - the post rows' instances (AVX2, SSE2, one lane) against each other,
+ *   - the post rows' instances (AVX2's 8 lanes, one lane) against each other,
  *     bit for bit, on random pictures with specials;
  *   - the histogram exposure against a slow reference (every luminance
  *     sorted, the pixels between the percentiles averaged in log2) on
@@ -191,7 +191,7 @@ static void test_post_fxaa_flat_and_bad(void **state)
     free(c);
 }
 
-/* Every instance of the post rows (vt_post_kern.h: the SSE2 / one-lane
+/* Every instance of the post rows (vt_post_kern.h: the one-lane
  * rows and, where the CPU has it, AVX2's 8 lanes, FXAA's edge pixels
  * included) gives the same picture bit for bit: vt_post_apply (fixed
  * exposure, then FXAA) and vt_fxaa on pictures of random rectangles,
@@ -327,7 +327,7 @@ static void test_post_histogram_vs_sort(void **state)
     cull_pool_destroy(pool);
 }
 
-/* The histogram's bins in lanes (4 pixels at once) are those of one
+/* The histogram's bins in lanes (8 pixels at once, AVX2) are those of one
  * pixel alone (the scalar bin): a uniform picture's EV is its one bin's
  * centre, so an 8x1 picture (the lanes) and a 1x1 (the scalar path) of
  * the same colour must give the same EV, for luminances at and either
