@@ -82,6 +82,7 @@ typedef struct hist_job {
     size_t stride;
     uint32_t q[3];      /* mantissa bits of the smallest floats >= 2^0.25, 2^0.5, 2^0.75 */
     vt_post_hist_fn lanes; /* the AVX2 row, or NULL */
+    bool sample;        /* count the tiles' subsample (job_hist) */
     uint32_t hist[MAX_BANDS][4][VT_HIST_BINS]; /* 4 a band: vt_post_kern.h */
 } hist_job;
 
@@ -106,17 +107,54 @@ static inline uint32_t bin_of(const hist_job *j, float L)
 }
 
 
+/* The subsample of a large picture's histogram: in each tile of 4 rows
+ * by 64 pixels, one run of 16 pixels from each row, the 4 runs at the 4
+ * column quarters in an order drawn per tile (one of the 24): every row
+ * and every column of a tile is a quarter sampled, so a pattern of rows
+ * alone (stripes, a horizon) or of columns alone is counted exactly, and
+ * a diagonal one without bias; each sampled pixel counts 4 times. The
+ * right and bottom margins past whole tiles count every pixel once. A
+ * quarter of the pixels and of the cache lines (the runs are whole
+ * lines): 14 MB read -> 4 on a 1280x720 frame. */
+static const uint8_t tile_order[24][4] = {
+    {0, 1, 2, 3}, {0, 1, 3, 2}, {0, 2, 1, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {0, 3, 2, 1},
+    {1, 0, 2, 3}, {1, 0, 3, 2}, {1, 2, 0, 3}, {1, 2, 3, 0}, {1, 3, 0, 2}, {1, 3, 2, 0},
+    {2, 0, 1, 3}, {2, 0, 3, 1}, {2, 1, 0, 3}, {2, 1, 3, 0}, {2, 3, 0, 1}, {2, 3, 1, 0},
+    {3, 0, 1, 2}, {3, 0, 2, 1}, {3, 1, 0, 2}, {3, 1, 2, 0}, {3, 2, 0, 1}, {3, 2, 1, 0},
+};
+
+/* tile (g, b)'s order: a fixed hash (the same picture, the same EV) */
+static inline const uint8_t *tile_of(uint32_t g, uint32_t b)
+{
+    uint32_t x = g * 0x9E3779B1u ^ (b + 0x7F4A7C15u) * 0x85EBCA77u;
+    x ^= x >> 15;
+    x *= 0x2C1B3C6Du;
+    x ^= x >> 12;
+    return tile_order[x % 24];
+}
+
+/* n pixels from p into band t's histogram, each counting wgt */
+static void hist_run(hist_job *j, uint32_t t, const float *p, uint32_t n, uint32_t wgt)
+{
+    uint32_t x = j->lanes ? j->lanes(p, n, j->q, j->hist[t], wgt) : 0;
+    for (p += 4 * (size_t)x; x < n; x++, p += 4) j->hist[t][0][bin_of(j, lum(p))] += wgt;
+}
+
 static void job_hist(void *arg, uint32_t t)
 {
     hist_job *j = arg;
     uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
-    uint32_t *hb = j->hist[t][0];
     memset(j->hist[t], 0, sizeof j->hist[t]);
+    const uint32_t tiles_w = j->sample ? j->w / 64 : 0, tiles_h = j->sample ? j->h / 4 : 0;
     for (uint32_t y = y0; y < y1; y++) {
         const float *p = j->rgba + 4 * (size_t)y * j->stride;
-        uint32_t x = j->lanes ? j->lanes(p, j->w, j->q, j->hist[t]) : 0;
-        p += 4 * (size_t)x;
-        for (; x < j->w; x++, p += 4) hb[bin_of(j, lum(p))]++;
+        uint32_t x = 0;
+        if (y / 4 < tiles_h) {
+            for (uint32_t g = 0; g < tiles_w; g++)
+                hist_run(j, t, p + 4 * ((size_t)g * 64 + 16 * tile_of(g, y / 4)[y % 4]), 16, 4);
+            x = tiles_w * 64;
+        }
+        hist_run(j, t, p + 4 * (size_t)x, j->w - x, 1);
     }
 }
 
@@ -147,7 +185,7 @@ double vt_ev_of_luminance(double L)
 }
 
 static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
-                           cull_pool *pool, uint32_t threads, uint32_t isa)
+                           cull_pool *pool, uint32_t threads, uint32_t isa, bool sample)
 {
     static hist_job z;
     hist_job *j = malloc(sizeof *j); /* 128 KiB of bins: not on a worker's stack */
@@ -167,6 +205,7 @@ static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, s
         j->q[k] = bits & 0x7fffffu;
     }
     j->lanes = post_kern(isa).hist;
+    j->sample = sample && (uint64_t)width * height >= VT_HIST_SAMPLE_MIN;
     run(pool, job_hist, j, j->nb);
     uint64_t hist[VT_HIST_BINS] = {0}, n = 0;
     for (uint32_t t = 0; t < j->nb; t++)
@@ -193,7 +232,13 @@ static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, s
 float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
                        cull_pool *pool, uint32_t threads)
 {
-    return exposure_auto(rgba, width, height, stride, comp, pool, threads, 0);
+    return exposure_auto(rgba, width, height, stride, comp, pool, threads, 0, true);
+}
+
+float vt_exposure_auto_all(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                           cull_pool *pool, uint32_t threads)
+{
+    return exposure_auto(rgba, width, height, stride, comp, pool, threads, 0, false);
 }
 
 float vt_adapt_step(float ev, float target, float dt)
@@ -515,7 +560,8 @@ int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame 
     if (!env) return 0;
     double e = env->exposure_ev;
     if (env->exposure_mode == VT_EXPOSURE_AUTO) {
-        float target = exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads, p->isa);
+        float target = exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads, p->isa,
+                                     true);
         e = target;
         if (f->adapt) {
             /* the caller's state: a bad EV (NaN, out of range) starts over */

@@ -71,11 +71,23 @@ void vt_post_set_isa(vt_post *p, uint32_t isa);
  * not anti-aliased). */
 int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame *f, float *ev);
 
+/* Pictures of at least this many pixels meter a quarter of them (tiles
+ * of 4 rows by 64 pixels, a run of 16 from each row, vt_post.c's
+ * job_hist): within a few hundredths of an EV of every pixel's histogram
+ * on the demo city and on adversarial pictures (tests/test_post.c). */
+#define VT_HIST_SAMPLE_MIN (1u << 15)
+
 /* The histogram exposure's EV100 of a picture (before exposure):
  * comp is subtracted (env's exposure_comp: brighter), the result clamped
- * to VT_EV_MIN..VT_EV_MAX. Every pixel counts; pool as vt_post_apply. */
+ * to VT_EV_MIN..VT_EV_MAX. Pictures of VT_HIST_SAMPLE_MIN pixels or more
+ * are metered on the subsample, smaller ones on every pixel; pool as
+ * vt_post_apply. */
 float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
                        cull_pool *pool, uint32_t threads);
+/* The same with every pixel counted whatever the size (the subsample's
+ * reference in the tests). */
+float vt_exposure_auto_all(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                           cull_pool *pool, uint32_t threads);
 /* The EV100 whose exposure maps luminance L (cd/m^2, > 0) to mid grey:
  * log2(L x 100 / 12.5), as a reflected-light meter's calibration K = 12.5. */
 double vt_ev_of_luminance(double L);

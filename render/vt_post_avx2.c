@@ -26,7 +26,7 @@ static inline __m256 lum8(__m256 a, __m256 b, __m256 c, __m256 d)
     return _mm256_hadd_ps(_mm256_hadd_ps(a, b), _mm256_hadd_ps(c, d));
 }
 
-static uint32_t hist_row(const float *p, uint32_t n, const uint32_t q[3], uint32_t (*hb)[VT_HIST_BINS])
+static uint32_t hist_row(const float *p, uint32_t n, const uint32_t q[3], uint32_t (*hb)[VT_HIST_BINS], uint32_t wgt)
 {
     const __m256i top = _mm256_set1_epi32(VT_HIST_BINS - 1), mant = _mm256_set1_epi32(0x7fffff);
     const __m256i q0 = _mm256_set1_epi32((int)q[0] - 1), q1 = _mm256_set1_epi32((int)q[1] - 1);
@@ -47,8 +47,8 @@ static uint32_t hist_row(const float *p, uint32_t n, const uint32_t q[3], uint32
         e4 = _mm256_and_si256(lo, e4); /* not above 2^-16 (NaN too): 0 */
         uint32_t o[8];
         _mm256_storeu_si256((__m256i *)o, e4);
-        hb[0][o[0]]++, hb[1][o[1]]++, hb[2][o[2]]++, hb[3][o[3]]++;
-        hb[0][o[4]]++, hb[1][o[5]]++, hb[2][o[6]]++, hb[3][o[7]]++;
+        hb[0][o[0]] += wgt, hb[1][o[1]] += wgt, hb[2][o[2]] += wgt, hb[3][o[3]] += wgt;
+        hb[0][o[4]] += wgt, hb[1][o[5]] += wgt, hb[2][o[6]] += wgt, hb[3][o[7]] += wgt;
     }
     return x;
 }

@@ -14,11 +14,13 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* The histogram bins of a row's n pixels (RGBA floats) added to hb[k]
- * (4 sub-histograms: consecutive increments of one bin in one array
- * would wait on each other); q: the mantissas of 2^0.25, 2^0.5, 2^0.75
- * (vt_post.c's bin_of). Returns the pixels done (the rest: the caller). */
-typedef uint32_t (*vt_post_hist_fn)(const float *p, uint32_t n, const uint32_t q[3], uint32_t (*hb)[VT_HIST_BINS]);
+/* The histogram bins of a row's n pixels (RGBA floats), each counting
+ * wgt, added to hb[k] (4 sub-histograms: consecutive increments of one
+ * bin in one array would wait on each other); q: the mantissas of
+ * 2^0.25, 2^0.5, 2^0.75 (vt_post.c's bin_of). Returns the pixels done
+ * (the rest: the caller). */
+typedef uint32_t (*vt_post_hist_fn)(const float *p, uint32_t n, const uint32_t q[3], uint32_t (*hb)[VT_HIST_BINS],
+                                    uint32_t wgt);
 /* A row of n pixels: colour times scale in place (alpha kept), and each
  * pixel's FXAA luma sqrt(Y(c / (1 + max c))) (c clamped to 0..1e6, NaN 0)
  * into l. Returns the pixels done. */
