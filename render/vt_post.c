@@ -83,7 +83,7 @@ typedef struct hist_job {
     uint32_t q[3];      /* mantissa bits of the smallest floats >= 2^0.25, 2^0.5, 2^0.75 */
     vt_post_hist_fn lanes; /* the AVX2 row, or NULL */
     bool sample;        /* count the tiles' subsample (job_hist) */
-    uint32_t hist[MAX_BANDS][4][VT_HIST_BINS]; /* 4 a band: vt_post_kern.h */
+    uint32_t hist[][4][VT_HIST_BINS]; /* nb bands of 4 (vt_post_kern.h), 2 KiB each */
 } hist_job;
 
 static inline float lum(const float *p)
@@ -187,15 +187,16 @@ double vt_ev_of_luminance(double L)
 static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
                            cull_pool *pool, uint32_t threads, uint32_t isa, bool sample)
 {
-    static hist_job z;
-    hist_job *j = malloc(sizeof *j); /* 128 KiB of bins: not on a worker's stack */
+    /* the bins of the bands used (not on a worker's stack; a few KiB,
+       not MAX_BANDS' 128 KiB, which malloc would map and unmap a frame) */
+    uint32_t nb = bands_of(pool, threads, height);
+    hist_job *j = calloc(1, sizeof *j + nb * sizeof j->hist[0]);
     if (!j) return 0;
-    *j = z;
     j->rgba = rgba;
     j->w = width;
     j->h = height;
     j->stride = stride;
-    j->nb = bands_of(pool, threads, height);
+    j->nb = nb;
     for (int k = 0; k < 3; k++) {
         double r = exp2((k + 1) / 4.0);
         float f = (float)r;
