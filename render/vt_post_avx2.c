@@ -113,18 +113,29 @@ static inline vi clampi(vi v, vi hi) { return _mm256_min_epi32(_mm256_max_epi32(
 
 /* luma_at: bilinear at pixel coordinates, clamped to the picture (inside
  * the clamps change nothing: the scalar path's two branches agree) */
-static inline vf luma8(const vt_post_fx *fx, vf px, vf py)
+static inline vf luma8(const vt_post_fx *fx, vf px, vf py, int clamp)
 {
     vf fx0 = _mm256_floor_ps(px), fy0 = _mm256_floor_ps(py);
     vf fxr = SUB(px, fx0), fyr = SUB(py, fy0);
-    vi x0 = _mm256_cvttps_epi32(fx0), y0 = _mm256_cvttps_epi32(fy0), one = _mm256_set1_epi32(1);
-    vi wm = _mm256_set1_epi32((int)fx->w - 1), hm = _mm256_set1_epi32((int)fx->h - 1), w = _mm256_set1_epi32((int)fx->w);
-    vi xa = clampi(x0, wm), xb = clampi(_mm256_add_epi32(x0, one), wm);
-    vi ya = _mm256_mullo_epi32(clampi(y0, hm), w), yb = _mm256_mullo_epi32(clampi(_mm256_add_epi32(y0, one), hm), w);
-    vf a = _mm256_i32gather_ps(fx->luma, _mm256_add_epi32(ya, xa), 4);
-    vf b = _mm256_i32gather_ps(fx->luma, _mm256_add_epi32(ya, xb), 4);
-    vf c = _mm256_i32gather_ps(fx->luma, _mm256_add_epi32(yb, xa), 4);
-    vf d = _mm256_i32gather_ps(fx->luma, _mm256_add_epi32(yb, xb), 4);
+    vi x0 = _mm256_cvttps_epi32(fx0), y0 = _mm256_cvttps_epi32(fy0), w = _mm256_set1_epi32((int)fx->w);
+    vf a, b, c, d;
+    if (clamp) {
+        vi one = _mm256_set1_epi32(1), wm = _mm256_set1_epi32((int)fx->w - 1), hm = _mm256_set1_epi32((int)fx->h - 1);
+        vi xa = clampi(x0, wm), xb = clampi(_mm256_add_epi32(x0, one), wm);
+        vi ya = _mm256_mullo_epi32(clampi(y0, hm), w), yb = _mm256_mullo_epi32(clampi(_mm256_add_epi32(y0, one), hm), w);
+        a = _mm256_i32gather_ps(fx->luma, _mm256_add_epi32(ya, xa), 4);
+        b = _mm256_i32gather_ps(fx->luma, _mm256_add_epi32(ya, xb), 4);
+        c = _mm256_i32gather_ps(fx->luma, _mm256_add_epi32(yb, xa), 4);
+        d = _mm256_i32gather_ps(fx->luma, _mm256_add_epi32(yb, xb), 4);
+    } else {
+        /* every tap inside: the 2 x 2 texels at one index, the base
+           pointer moved for the other three */
+        vi i = _mm256_add_epi32(_mm256_mullo_epi32(y0, w), x0);
+        a = _mm256_i32gather_ps(fx->luma, i, 4);
+        b = _mm256_i32gather_ps(fx->luma + 1, i, 4);
+        c = _mm256_i32gather_ps(fx->luma + fx->w, i, 4);
+        d = _mm256_i32gather_ps(fx->luma + fx->w + 1, i, 4);
+    }
     vf top = ADD(a, MUL(SUB(b, a), fxr)), bot = ADD(c, MUL(SUB(d, c), fxr));
     return ADD(top, MUL(SUB(bot, top), fyr));
 }
@@ -167,7 +178,9 @@ static inline void colour8(const vt_post_fx *fx, vf px, vf py, float out[3][8])
     for (int k = 0; k < 3; k++) _mm256_storeu_ps(out[k], MUL(o[k], e));
 }
 
-static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t bits, float out[3][8])
+/* clamp 0: every tap of the search is inside the picture (fxaa_row
+ * checks the margin), the clamps are skipped (they would change nothing) */
+static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t bits, float out[3][8], int clamp)
 {
     static const float step[VT_FX_STEPS] = VT_FX_STEP_LIST;
     const float *L = fx->luma;
@@ -213,7 +226,7 @@ static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t
     vf nx = SUB(bx, MUL(ox, S1(step[0]))), ny = SUB(by, MUL(oy, S1(step[0])));
     vf px = ADD(bx, MUL(ox, S1(step[0]))), py = ADD(by, MUL(oy, S1(step[0])));
     vf subpixD = ADD(MUL(S1(-2), subpixC), S1(3));
-    vf lumaEndN = luma8(fx, nx, ny), lumaEndP = luma8(fx, px, py);
+    vf lumaEndN = luma8(fx, nx, ny, clamp), lumaEndP = luma8(fx, px, py, clamp);
     vf subpixE = MUL(subpixC, subpixC);
     lumaNN = SEL(pairN, lumaNN, lumaSS);
     vf gradientScaled = MUL(gradient, S1(0.25f));
@@ -236,8 +249,8 @@ static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t
         py = SEL(doneP, py, ADD(py, MUL(oy, S1(step[k]))));
         /* the last step is a guess, unsampled */
         if (k == VT_FX_STEPS - 1 || _mm256_movemask_ps(_mm256_or_ps(_mm256_and_ps(doneN, doneP), idle)) == 0xff) break;
-        lumaEndN = SEL(doneN, lumaEndN, SUB(luma8(fx, nx, ny), halfNN));
-        lumaEndP = SEL(doneP, lumaEndP, SUB(luma8(fx, px, py), halfNN));
+        lumaEndN = SEL(doneN, lumaEndN, SUB(luma8(fx, nx, ny, clamp), halfNN));
+        lumaEndP = SEL(doneP, lumaEndP, SUB(luma8(fx, px, py, clamp), halfNN));
         doneN = _mm256_cmp_ps(vabs(lumaEndN), gradientScaled, _CMP_GE_OQ);
         doneP = _mm256_cmp_ps(vabs(lumaEndP), gradientScaled, _CMP_GE_OQ);
     }
@@ -267,7 +280,11 @@ static uint32_t fxaa_row(const vt_post_fx *fx, uint32_t y, vt_post_fx_out *o, ui
         uint32_t bits = edge8(fx->luma, (size_t)y * w + x, w);
         if (!bits) continue;
         float c[3][8];
-        fxaa8(fx, x, y, bits, c);
+        /* the search reaches 8.5 pixels along an edge (its sampled
+           steps), a tap 1 further and half a pixel across: a margin of
+           12 keeps every tap inside */
+        if (x >= 12 && x + 8 + 12 <= w && y >= 12 && y + 12 < fx->h) fxaa8(fx, x, y, bits, c, 0);
+        else fxaa8(fx, x, y, bits, c, 1);
         for (; bits; bits &= bits - 1) {
             uint32_t k = (uint32_t)__builtin_ctz(bits);
             o[no] = (vt_post_fx_out){.i = y * fx->w + x + k, .c = {c[0][k], c[1][k], c[2][k]}};
