@@ -290,22 +290,19 @@ static inline void compress(const float *p, float q[3])
 
 /* The exposure (scale) in place and the luma plane, a row at a time. */
 
-static void job_prep(void *arg, uint32_t t)
+/* Row y: the exposure in place and the luma. */
+static void prep_row(const fx_job *j, uint32_t y)
 {
-    fx_job *j = arg;
-    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
     const float s = j->scale;
-    for (uint32_t y = y0; y < y1; y++) {
-        float *p = j->rgba + 4 * (size_t)y * j->stride, *l = j->luma + (size_t)y * j->w;
-        uint32_t x = j->kern.prep ? j->kern.prep(p, j->w, s, l) : 0;
-        for (; x < j->w; x++) {
-            float *px = p + 4 * x, q[3];
-            px[0] *= s;
-            px[1] *= s;
-            px[2] *= s;
-            compress(px, q);
-            l[x] = sqrtf(0.2126f * q[0] + 0.7152f * q[1] + 0.0722f * q[2]);
-        }
+    float *p = j->rgba + 4 * (size_t)y * j->stride, *l = j->luma + (size_t)y * j->w;
+    uint32_t x = j->kern.prep ? j->kern.prep(p, j->w, s, l) : 0;
+    for (; x < j->w; x++) {
+        float *px = p + 4 * x, q[3];
+        px[0] *= s;
+        px[1] *= s;
+        px[2] *= s;
+        compress(px, q);
+        l[x] = sqrtf(0.2126f * q[0] + 0.7152f * q[1] + 0.0722f * q[2]);
     }
 }
 
@@ -479,47 +476,100 @@ static inline void expand(float c[3])
     c[2] *= e;
 }
 
-static void job_fxaa(void *arg, uint32_t t)
+/* FXAA of row y, its results appended at o; their count. */
+static uint32_t fxaa_row_of(const fx_job *j, uint32_t y, fx_out *o)
 {
-    fx_job *j = arg;
-    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
-    fx_out *o = j->out + (size_t)y0 * j->w;
-    uint32_t no = 0;
-    for (uint32_t y = y0; y < y1; y++) {
-        const bool inner = y > 0 && y + 1 < j->h;
-        uint32_t x = 0, lx = 0;
-        if (inner && j->kern.fxaa_row) {
-            /* pixel 0 first (the lanes start at 1), then the lanes */
-            if (fxaa_pixel(j, 0, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w;
-            no += j->kern.fxaa_row(&j->fx, y, o + no, &lx);
-            x = lx;
-        }
-        for (; x < j->w; x++)
-            if (fxaa_pixel(j, (int)x, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w + x;
+    const bool inner = y > 0 && y + 1 < j->h;
+    uint32_t x = 0, no = 0;
+    if (inner && j->kern.fxaa_row) {
+        /* pixel 0 first (the lanes start at 1), then the lanes */
+        if (fxaa_pixel(j, 0, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w;
+        no += j->kern.fxaa_row(&j->fx, y, o + no, &x);
     }
-    /* the band's inner rows are read by no other band (the blend reads
-       rows y - 1 .. y + 1, the search only the luma): written now; its
-       first and last rows, which the bands beside it read, kept for
-       fxaa_run to write once every band is done */
-    uint32_t keep = 0, y = y0;
-    for (uint32_t k = 0; k < no; k++) {
-        while (o[k].i >= (y + 1) * j->w) y++;
-        if (y == y0 || y + 1 == y1) o[keep++] = o[k];
-        else memcpy(j->rgba + 4 * ((size_t)y * j->stride + (o[k].i - y * j->w)), o[k].c, sizeof o[k].c);
-    }
-    j->n[t] = keep;
+    for (; x < j->w; x++)
+        if (fxaa_pixel(j, (int)x, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w + x;
+    return no;
 }
 
-/* Band t's kept results into the picture. */
-static void band_apply(fx_job *j, uint32_t t)
+/* n results into the picture */
+static void put(const fx_job *j, const fx_out *o, uint32_t n)
 {
-    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb);
-    const fx_out *o = j->out + (size_t)y0 * j->w;
-    uint32_t y = y0;
-    for (uint32_t k = 0; k < j->n[t]; k++) {
-        while (o[k].i >= (y + 1) * j->w) y++;
+    for (uint32_t k = 0; k < n; k++) {
+        uint32_t y = o[k].i / j->w;
         memcpy(j->rgba + 4 * ((size_t)y * j->stride + (o[k].i - y * j->w)), o[k].c, sizeof o[k].c);
     }
+}
+
+/* Rows of luma FXAA reads either side of its own: the search's sampled
+ * steps reach 8.5 pixels along a vertical edge, its bilinear tap one
+ * further. */
+#define FX_REACH 10
+
+/* Band t: its rows [y0, y1) and the rows [a, b) among them FXAA runs in
+ * the band's own pass, a reach behind the exposure + luma (their luma
+ * reach stays in the band: the band's pass needs no other band). The
+ * rest, the reach next to a band beside it, waits for every band. */
+static void band_rows(const fx_job *j, uint32_t t, uint32_t *y0, uint32_t *y1, uint32_t *a, uint32_t *b)
+{
+    *y0 = (uint32_t)((uint64_t)j->h * t / j->nb), *y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
+    uint32_t lo = t == 0 ? *y0 : *y0 + FX_REACH, hi = t + 1 == j->nb ? *y1 : *y1 - FX_REACH;
+    if (lo > *y1) lo = *y1;
+    if (*y1 < *y0 + FX_REACH && t + 1 < j->nb) hi = lo;
+    *a = lo;
+    *b = hi > lo ? hi : lo;
+}
+
+/* FXAA of band row r in [a, b), in order. A row's colours are read by
+ * the blends of its own row and the two beside it: row r - 1 is written
+ * as soon as row r is done, unless a row read after the band's pass
+ * (outside [a, b)) reads it or it was read before r - 2 was done (a,
+ * a + 1); those, and the last, are kept (o[0, *keep)). *no: results. */
+static void band_step(const fx_job *j, uint32_t r, uint32_t a, fx_out *o, uint32_t *no, uint32_t *keep)
+{
+    uint32_t start = *no;
+    *no += fxaa_row_of(j, r, o + start);
+    if (r == a) return; /* o[*keep, start): row r - 1's */
+    if (r >= a + 2) {
+        put(j, o + *keep, start - *keep);
+        memmove(o + *keep, o + start, (*no - start) * sizeof *o);
+        *no = *keep + (*no - start);
+    } else {
+        *keep = start;
+    }
+}
+
+/* The band's pass: exposure + luma row by row, FXAA FX_REACH rows behind
+ * while the rows it reads are still in cache (luma and colour written a
+ * few hundred KiB before). */
+static void job_post(void *arg, uint32_t t)
+{
+    fx_job *j = arg;
+    uint32_t y0, y1, a, b;
+    band_rows(j, t, &y0, &y1, &a, &b);
+    fx_out *o = j->out + (size_t)y0 * j->w;
+    uint32_t no = 0, keep = 0, r = a;
+    for (uint32_t y = y0; y < y1; y++) {
+        prep_row(j, y);
+        for (; r < b && r + FX_REACH <= y; r++) band_step(j, r, a, o, &no, &keep);
+    }
+    for (; r < b; r++) band_step(j, r, a, o, &no, &keep);
+    j->n[t] = no; /* all kept: the last row's too */
+}
+
+/* FXAA of band t's rows next to the bands beside it, once every band's
+ * luma is there; results kept. */
+static void band_rest(fx_job *j, uint32_t t)
+{
+    uint32_t y0, y1, a, b;
+    band_rows(j, t, &y0, &y1, &a, &b);
+    fx_out *o = j->out + (size_t)y0 * j->w;
+    for (uint32_t r = y0; r < y1; r++)
+        if (r < a || r >= b) j->n[t] += fxaa_row_of(j, r, o + j->n[t]);
+}
+
+static void job_rest(void *arg, uint32_t t)
+{
+    band_rest(arg, t);
 }
 
 static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, uint32_t width, uint32_t height,
@@ -541,9 +591,18 @@ static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, 
     j->fx = (vt_post_fx){.luma = j->luma, .rgba = rgba, .w = width, .h = height, .stride = stride};
     /* the lanes' gathers index floats with 32-bit lanes */
     if ((uint64_t)stride * height * 4 >= (uint64_t)1 << 31) j->kern.fxaa_row = NULL;
-    run(pool, job_prep, j, j->nb);
-    run(pool, job_fxaa, j, j->nb);
-    for (uint32_t t = 0; t < j->nb; t++) band_apply(j, t);
+    run(pool, job_post, j, j->nb);
+    /* the rows beside other bands: 2 FX_REACH a boundary; on the calling
+       thread while that is a small part of the picture (2 bands: 20 rows
+       of 720, no third hand-over of the pool), else in bands */
+    if (j->nb > 1) {
+        if ((uint64_t)(j->nb - 1) * 2 * FX_REACH * 16 <= height) {
+            for (uint32_t t = 0; t < j->nb; t++) band_rest(j, t);
+        } else {
+            run(pool, job_rest, j, j->nb);
+        }
+    }
+    for (uint32_t t = 0; t < j->nb; t++) put(j, j->out + (size_t)((uint64_t)height * t / j->nb) * width, j->n[t]);
     free(j);
     return 0;
 }
