@@ -246,7 +246,7 @@ static inline uint8_t alpha8(float a)
 #define ACES_NBUCKETS VT_ACES_NBUCKETS
 static float aces_t[257];
 static float aces_rw[256]; /* 1 / (aces_t[k + 1] - aces_t[k]), 0 for the last */
-static uint32_t aces_tab[ACES_NBUCKETS]; /* vt_tonemap_kern.h: code << 16 | the next threshold's offset */
+static uint32_t aces_tab[ACES_NBUCKETS]; /* vt_tonemap_kern.h: code + 1 << 16 | the next threshold's offset */
 static vt_aces_rgbx_fn aces_lanes;       /* the AVX2 row, where the CPU has it and every bucket is simple */
 static pthread_once_t aces_once = PTHREAD_ONCE_INIT;
 
@@ -306,7 +306,7 @@ static void aces_init(void)
                the lanes (one comparison) would not */
             if (k < 254 && bits_of(aces_t[k + 2]) - bits < 0x8000) simple = false;
         }
-        aces_tab[i] = (uint32_t)k << 16 | off;
+        aces_tab[i] = (uint32_t)(k + 1) << 16 | off;
     }
     aces_lanes = simple ? aces_pick() : NULL;
 }
@@ -318,7 +318,7 @@ static inline uint8_t aces8(float x)
     float c = x >= 0x1p-12f ? x : 0x1p-12f;
     c = c < 0x1.fffffep3f ? c : 0x1.fffffep3f;
     uint32_t d = bits_of(c) - ACES_LO_BITS, e = aces_tab[d >> 15];
-    unsigned k = (e >> 16) + ((d & 0x7fffu) >= (e & 0xffffu));
+    unsigned k = (e >> 16) - 1 + ((d & 0x7fffu) >= (e & 0xffffu));
     while (c >= aces_t[k + 1]) k++; /* never taken while every bucket is simple */
     return (uint8_t)k;
 }
@@ -349,7 +349,7 @@ static void aces_row_rgbx(const float *p, uint32_t width, double scale, uint8_t 
         _mm_storeu_si128((__m128i *)b, bi);
         for (int ch = 0; ch < 3; ch++) {
             uint32_t t = aces_tab[b[ch]];
-            unsigned kk = (t >> 16) + (((bits_of(c[ch]) - ACES_LO_BITS) & 0x7fffu) >= (t & 0xffffu));
+            unsigned kk = (t >> 16) - 1 + (((bits_of(c[ch]) - ACES_LO_BITS) & 0x7fffu) >= (t & 0xffffu));
             while (c[ch] >= aces_t[kk + 1]) kk++;
             o[ch] = (uint8_t)kk;
         }

@@ -29,21 +29,20 @@ static inline __m256i codes8(__m256 v, const uint32_t *tab, __m256d k, int scale
     __m256i e = _mm256_i32gather_epi32((const int *)tab, _mm256_srli_epi32(d, 15), 4);
     __m256i off = _mm256_and_si256(d, _mm256_set1_epi32(0x7fff));
     __m256i before = _mm256_cmpgt_epi32(_mm256_and_si256(e, _mm256_set1_epi32(0xffff)), off); /* -1: below */
-    __m256i c = _mm256_add_epi32(_mm256_srli_epi32(e, 16), _mm256_add_epi32(before, _mm256_set1_epi32(1)));
-    return _mm256_blend_epi32(c, _mm256_set1_epi32(255), 0x88); /* the fourth float: alpha 255 */
+    return _mm256_add_epi32(_mm256_srli_epi32(e, 16), before); /* the fourth float's: alpha, set after */
 }
 
 static void aces_rgbx(const float *p, uint32_t n, double scale, const uint32_t *tab, uint8_t *o)
 {
     const __m256d k = _mm256_set1_pd(scale);
     const int scaled = scale != 1.0; /* x * 1.0 in double is x: skipped */
-    const __m256i order = _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7);
+    const __m256i order = _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7), alpha = _mm256_set1_epi32((int)0xff000000u);
     for (uint32_t x = 0; x < n; x += 8, p += 32, o += 32) {
         __m256i a = codes8(_mm256_loadu_ps(p), tab, k, scaled), b = codes8(_mm256_loadu_ps(p + 8), tab, k, scaled);
         __m256i c = codes8(_mm256_loadu_ps(p + 16), tab, k, scaled), d = codes8(_mm256_loadu_ps(p + 24), tab, k, scaled);
         /* packs work within 128-bit halves: pixels come out 0 2 4 6 1 3 5 7 */
         __m256i q = _mm256_packus_epi16(_mm256_packus_epi32(a, b), _mm256_packus_epi32(c, d));
-        _mm256_storeu_si256((__m256i *)o, _mm256_permutevar8x32_epi32(q, order));
+        _mm256_storeu_si256((__m256i *)o, _mm256_or_si256(_mm256_permutevar8x32_epi32(q, order), alpha));
     }
 }
 

@@ -11,7 +11,8 @@
 
 /* The bucket table both paths read: entry i covers the floats whose bits
  * are ACES_LO_BITS + (i << 15) .. + 0x7fff (2^-8 of an octave over
- * [2^-12, 16)); code (entry >> 16) for the bucket's first float, and in
+ * [2^-12, 16)); 1 + the code of the bucket's first float in the high
+ * 16 bits (the lanes' comparison gives -1 below the threshold), and in
  * the low 16 bits the offset (bits - the bucket's first) of the first
  * float with the next code, 0x8000 if the bucket holds none. Every bucket
  * holds at most one threshold (aces_init checks it): one lookup and one
