@@ -1,10 +1,13 @@
 /*
  * vt_post.c — the post passes of both renderers (vt_post.h): exposure from
  * a luminance histogram with eye adaptation, then FXAA 3.11. Runs once per
- * frame on the whole picture, in bands of rows on the renderer's pool; at
- * 1280x720 on 2 threads the histogram and exposure cost about 1 ms, FXAA
- * a few (BENCHMARKS.md; FXAA touches only the pixels on edges beyond the
- * early exit, the copy into the scratch is the fixed cost).
+ * frame on the whole picture, in bands of rows on the renderer's pool.
+ * The rows that touch every pixel (histogram, exposure + luma, FXAA's
+ * early exit) run 8 pixels a step where the CPU has AVX2
+ * (vt_post_avx2.c, the same bits as the rows here); on the 1280x720 demo
+ * city they are ~15 M instructions a frame, the edge pixels' FXAA (about
+ * a fifth of the pixels there: texture detail passes the threshold) the
+ * rest.
  *
  * FXAA works in a perceptual space, as it was designed to: Lottes' shader
  * expects gamma-space luma and blends display values. Blending the HDR
@@ -13,21 +16,20 @@
  * colour is blended compressed, c / (1 + max(c)) (invertible, Karis'
  * weighting for HDR resolves), and its luma is sqrt(Y(compressed)) (a
  * Reinhard-compressed luminance, square root for ~gamma 2); the blend is
- * expanded back, c' / (1 - max(c')). The scratch holds the exposed
- * picture compressed (FXAA reads neighbours the pass is overwriting) and,
- * apart, the luma plane (the early exit and the edge search read only it,
- * a quarter of the bytes).
+ * expanded back, c' / (1 - max(c')). The scratch holds the luma plane
+ * (the early exit and the edge search read only it, a quarter of the
+ * picture's bytes) and each band's results: the few texels a blend reads
+ * are compressed where read, and the results go into the picture only
+ * after every band has read it (FXAA reads neighbours it also writes; a
+ * compressed copy of the whole picture was 14 MB written a frame).
  * Pixels FXAA leaves alone are not written: they keep their exact values.
  */
 #include "vt_post.h"
 
 #include "vt_err.h"
+#include "vt_post_kern.h"
 
 #include <math.h>
-#ifdef __SSE2__
-#include <xmmintrin.h>
-#include <emmintrin.h>
-#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -48,6 +50,22 @@ static void run(cull_pool *pool, cull_job_fn fn, void *arg, uint32_t n)
     else fn(arg, 0);
 }
 
+/* The lane kernels of isa (vt_post_set_isa's + 1; 0: cull_isa_default):
+ * the AVX2 rows where picked and present, else none (the one-lane
+ * rows below). */
+static vt_post_kern post_kern(uint32_t isa)
+{
+    uint32_t i = isa && isa - 1 < CULL_ISA_COUNT && cull_isa_supported(isa - 1) ? isa - 1 : cull_isa_default();
+    vt_post_kern k = {0};
+    if (i == CULL_ISA_AVX2) k = vt_post_kern_avx2();
+    return k;
+}
+
+void vt_post_set_isa(vt_post *p, uint32_t isa)
+{
+    p->isa = isa < CULL_ISA_COUNT ? isa + 1 : 0;
+}
+
 void vt_post_free(vt_post *p)
 {
     if (!p) return;
@@ -63,7 +81,9 @@ typedef struct hist_job {
     uint32_t w, h, nb;
     size_t stride;
     uint32_t q[3];      /* mantissa bits of the smallest floats >= 2^0.25, 2^0.5, 2^0.75 */
-    uint32_t hist[MAX_BANDS][VT_HIST_BINS];
+    vt_post_hist_fn lanes; /* the AVX2 row, or NULL */
+    bool sample;        /* count the tiles' subsample (job_hist) */
+    uint32_t hist[][4][VT_HIST_BINS]; /* nb bands of 4 (vt_post_kern.h), 2 KiB each */
 } hist_job;
 
 static inline float lum(const float *p)
@@ -86,49 +106,55 @@ static inline uint32_t bin_of(const hist_job *j, float L)
     return b < VT_HIST_BINS ? b : VT_HIST_BINS - 1;
 }
 
-#ifdef __SSE2__
-/* lum and bin_of for 4 pixels at once, the same operations in the same
- * order (the same bins): the luminance's products summed left to right,
- * the exponent and the mantissa's quarter in integer lanes, the two
- * out-of-range cases selected after. 35 instructions a pixel -> ~12. */
-static inline void bin4(const hist_job *j, const float *p, uint32_t *hb)
+
+/* The subsample of a large picture's histogram: in each tile of 4 rows
+ * by 64 pixels, one run of 16 pixels from each row, the 4 runs at the 4
+ * column quarters in an order drawn per tile (one of the 24): every row
+ * and every column of a tile is a quarter sampled, so a pattern of rows
+ * alone (stripes, a horizon) or of columns alone is counted exactly, and
+ * a diagonal one without bias; each sampled pixel counts 4 times. The
+ * right and bottom margins past whole tiles count every pixel once. A
+ * quarter of the pixels and of the cache lines (the runs are whole
+ * lines): 14 MB read -> 4 on a 1280x720 frame. */
+static const uint8_t tile_order[24][4] = {
+    {0, 1, 2, 3}, {0, 1, 3, 2}, {0, 2, 1, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {0, 3, 2, 1},
+    {1, 0, 2, 3}, {1, 0, 3, 2}, {1, 2, 0, 3}, {1, 2, 3, 0}, {1, 3, 0, 2}, {1, 3, 2, 0},
+    {2, 0, 1, 3}, {2, 0, 3, 1}, {2, 1, 0, 3}, {2, 1, 3, 0}, {2, 3, 0, 1}, {2, 3, 1, 0},
+    {3, 0, 1, 2}, {3, 0, 2, 1}, {3, 1, 0, 2}, {3, 1, 2, 0}, {3, 2, 0, 1}, {3, 2, 1, 0},
+};
+
+/* tile (g, b)'s order: a fixed hash (the same picture, the same EV) */
+static inline const uint8_t *tile_of(uint32_t g, uint32_t b)
 {
-    __m128 a = _mm_loadu_ps(p), b = _mm_loadu_ps(p + 4), c = _mm_loadu_ps(p + 8), d = _mm_loadu_ps(p + 12);
-    _MM_TRANSPOSE4_PS(a, b, c, d); /* a, b, c: red, green, blue */
-    __m128 L = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0.2126f), a), _mm_mul_ps(_mm_set1_ps(0.7152f), b)),
-                          _mm_mul_ps(_mm_set1_ps(0.0722f), c));
-    __m128i bits = _mm_castps_si128(L), m = _mm_and_si128(bits, _mm_set1_epi32(0x7fffff));
-    __m128i e4 = _mm_slli_epi32(_mm_sub_epi32(_mm_srli_epi32(bits, 23), _mm_set1_epi32(127 + VT_HIST_LO)), 2);
-    for (int k = 0; k < 3; k++) /* m >= q: m > q - 1 (both < 2^23): -1 a lane, subtracted */
-        e4 = _mm_sub_epi32(e4, _mm_cmpgt_epi32(m, _mm_set1_epi32((int)j->q[k] - 1)));
-    __m128i top = _mm_set1_epi32(VT_HIST_BINS - 1), over = _mm_cmpgt_epi32(e4, top);
-    e4 = _mm_or_si128(_mm_and_si128(over, top), _mm_andnot_si128(over, e4));
-    __m128i hi = _mm_castps_si128(_mm_cmplt_ps(L, _mm_set1_ps(0x1p16f))); /* false for NaN, inf */
-    __m128i lo = _mm_castps_si128(_mm_cmpgt_ps(L, _mm_set1_ps(0x1p-16f)));
-    e4 = _mm_or_si128(_mm_and_si128(hi, e4), _mm_andnot_si128(hi, top));
-    e4 = _mm_and_si128(lo, e4); /* not above 2^-16 (NaN too): 0 */
-    uint32_t o[4];
-    _mm_storeu_si128((__m128i *)o, e4);
-    hb[o[0]]++;
-    hb[o[1]]++;
-    hb[o[2]]++;
-    hb[o[3]]++;
+    uint32_t x = g * 0x9E3779B1u ^ (b + 0x7F4A7C15u) * 0x85EBCA77u;
+    x ^= x >> 15;
+    x *= 0x2C1B3C6Du;
+    x ^= x >> 12;
+    return tile_order[x % 24];
 }
-#endif
+
+/* n pixels from p into band t's histogram, each counting wgt */
+static void hist_run(hist_job *j, uint32_t t, const float *p, uint32_t n, uint32_t wgt)
+{
+    uint32_t x = j->lanes ? j->lanes(p, n, j->q, j->hist[t], wgt) : 0;
+    for (p += 4 * (size_t)x; x < n; x++, p += 4) j->hist[t][0][bin_of(j, lum(p))] += wgt;
+}
 
 static void job_hist(void *arg, uint32_t t)
 {
     hist_job *j = arg;
     uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
-    uint32_t *hb = j->hist[t];
-    memset(hb, 0, sizeof j->hist[t]);
+    memset(j->hist[t], 0, sizeof j->hist[t]);
+    const uint32_t tiles_w = j->sample ? j->w / 64 : 0, tiles_h = j->sample ? j->h / 4 : 0;
     for (uint32_t y = y0; y < y1; y++) {
         const float *p = j->rgba + 4 * (size_t)y * j->stride;
         uint32_t x = 0;
-#ifdef __SSE2__
-        for (; x + 4 <= j->w; x += 4, p += 16) bin4(j, p, hb);
-#endif
-        for (; x < j->w; x++, p += 4) hb[bin_of(j, lum(p))]++;
+        if (y / 4 < tiles_h) {
+            for (uint32_t g = 0; g < tiles_w; g++)
+                hist_run(j, t, p + 4 * ((size_t)g * 64 + 16 * tile_of(g, y / 4)[y % 4]), 16, 4);
+            x = tiles_w * 64;
+        }
+        hist_run(j, t, p + 4 * (size_t)x, j->w - x, 1);
     }
 }
 
@@ -158,18 +184,19 @@ double vt_ev_of_luminance(double L)
     return log2(L * 100.0 / 12.5);
 }
 
-float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
-                       cull_pool *pool, uint32_t threads)
+static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                           cull_pool *pool, uint32_t threads, uint32_t isa, bool sample)
 {
-    static hist_job z;
-    hist_job *j = malloc(sizeof *j); /* 32 KiB of bins: not on a worker's stack */
+    /* the bins of the bands used (not on a worker's stack; a few KiB,
+       not MAX_BANDS' 128 KiB, which malloc would map and unmap a frame) */
+    uint32_t nb = bands_of(pool, threads, height);
+    hist_job *j = calloc(1, sizeof *j + nb * sizeof j->hist[0]);
     if (!j) return 0;
-    *j = z;
     j->rgba = rgba;
     j->w = width;
     j->h = height;
     j->stride = stride;
-    j->nb = bands_of(pool, threads, height);
+    j->nb = nb;
     for (int k = 0; k < 3; k++) {
         double r = exp2((k + 1) / 4.0);
         float f = (float)r;
@@ -178,10 +205,13 @@ float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_
         memcpy(&bits, &f, sizeof bits);
         j->q[k] = bits & 0x7fffffu;
     }
+    j->lanes = post_kern(isa).hist;
+    j->sample = sample && (uint64_t)width * height >= VT_HIST_SAMPLE_MIN;
     run(pool, job_hist, j, j->nb);
     uint64_t hist[VT_HIST_BINS] = {0}, n = 0;
     for (uint32_t t = 0; t < j->nb; t++)
-        for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += j->hist[t][b];
+        for (int k = 0; k < 4; k++)
+            for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += j->hist[t][k][b];
     free(j);
     for (int b = 0; b < VT_HIST_BINS; b++) n += hist[b];
     /* the mean log2 luminance of the pixels ranked [PLO n, PHI n) (bin
@@ -200,6 +230,18 @@ float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_
     return (float)(ev < VT_EV_MIN ? VT_EV_MIN : ev > VT_EV_MAX ? VT_EV_MAX : ev);
 }
 
+float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                       cull_pool *pool, uint32_t threads)
+{
+    return exposure_auto(rgba, width, height, stride, comp, pool, threads, 0, true);
+}
+
+float vt_exposure_auto_all(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                           cull_pool *pool, uint32_t threads)
+{
+    return exposure_auto(rgba, width, height, stride, comp, pool, threads, 0, false);
+}
+
 float vt_adapt_step(float ev, float target, float dt)
 {
     if (!(dt > 0)) return ev;
@@ -212,19 +254,22 @@ float vt_adapt_step(float ev, float target, float dt)
 
 /* FXAA 3.11's quality settings, preset 12 (its default): the edge search
  * steps in pixels, the thresholds, the sub-pixel amount. */
-static const float fx_step[] = {1.0f, 1.5f, 2.0f, 4.0f, 12.0f};
-#define FX_STEPS 5
-#define FX_SUBPIX 0.75f
-#define FX_EDGE 0.166f
-#define FX_EDGE_MIN 0.0833f
+static const float fx_step[] = VT_FX_STEP_LIST;
+#define FX_STEPS VT_FX_STEPS
+#define FX_SUBPIX VT_FX_SUBPIX
+
+typedef vt_post_fx_out fx_out;
 
 typedef struct fx_job {
-    float *rgba;
-    float *copy;  /* the exposed picture compressed (r, g, b, 0), width x height x 4 packed */
+    float *rgba;  /* exposed by job_prep, read by job_fxaa, written by job_apply */
     float *luma;  /* sqrt(Y(c) / (1 + max c)) per pixel, width x height */
+    fx_out *out;  /* band t's results from out + its first pixel's index */
+    uint32_t n[MAX_BANDS]; /* band t's results */
     uint32_t w, h, nb;
     size_t stride;
     float scale;  /* the exposure, applied on the way (1: none) */
+    vt_post_kern kern;
+    vt_post_fx fx; /* the lanes' view of luma and rgba */
 } fx_job;
 
 /* NaN-free inputs only (compressed values, luma): plain comparisons, not
@@ -243,63 +288,21 @@ static inline void compress(const float *p, float q[3])
     q[2] = c[2] * k;
 }
 
-/* The exposure (scale), then the compressed copy and the luma plane, a
- * row at a time. */
-#ifdef __SSE2__
-/* job_prep's row for 4 pixels at once: the same operations in the same
- * order as the scalar loop (so the same bits). */
-static inline void prep4(float *p, float *q, float *l, __m128 sc)
-{
-    __m128 a = _mm_mul_ps(_mm_loadu_ps(p), sc), b = _mm_mul_ps(_mm_loadu_ps(p + 4), sc);
-    __m128 c = _mm_mul_ps(_mm_loadu_ps(p + 8), sc), d = _mm_mul_ps(_mm_loadu_ps(p + 12), sc);
-    _mm_storeu_ps(p, a);
-    _mm_storeu_ps(p + 4, b);
-    _mm_storeu_ps(p + 8, c);
-    _mm_storeu_ps(p + 12, d);
-    _MM_TRANSPOSE4_PS(a, b, c, d); /* a, b, c: red, green, blue of the 4 */
-    const __m128 zero = _mm_setzero_ps(), big = _mm_set1_ps(1e6f);
-    /* max(x, 0) gives 0 for NaN (the second operand), as p > 0 ? .. : 0 */
-    a = _mm_min_ps(_mm_max_ps(a, zero), big);
-    b = _mm_min_ps(_mm_max_ps(b, zero), big);
-    c = _mm_min_ps(_mm_max_ps(c, zero), big);
-    __m128 k = _mm_div_ps(_mm_set1_ps(1), _mm_add_ps(_mm_set1_ps(1), _mm_max_ps(_mm_max_ps(a, b), c)));
-    a = _mm_mul_ps(a, k);
-    b = _mm_mul_ps(b, k);
-    c = _mm_mul_ps(c, k);
-    __m128 y = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0.2126f), a), _mm_mul_ps(_mm_set1_ps(0.7152f), b)),
-                          _mm_mul_ps(_mm_set1_ps(0.0722f), c));
-    _mm_storeu_ps(l, _mm_sqrt_ps(y));
-    d = zero;
-    _MM_TRANSPOSE4_PS(a, b, c, d);
-    _mm_storeu_ps(q, a);
-    _mm_storeu_ps(q + 4, b);
-    _mm_storeu_ps(q + 8, c);
-    _mm_storeu_ps(q + 12, d);
-}
-#endif
+/* The exposure (scale) in place and the luma plane, a row at a time. */
 
-static void job_prep(void *arg, uint32_t t)
+/* Row y: the exposure in place and the luma. */
+static void prep_row(const fx_job *j, uint32_t y)
 {
-    fx_job *j = arg;
-    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
     const float s = j->scale;
-    for (uint32_t y = y0; y < y1; y++) {
-        float *p = j->rgba + 4 * (size_t)y * j->stride, *l = j->luma + (size_t)y * j->w;
-        float *q = j->copy + 4 * (size_t)y * j->w;
-        uint32_t x = 0;
-#ifdef __SSE2__
-        const __m128 sc = _mm_set_ps(1, s, s, s);
-        for (; x + 4 <= j->w; x += 4) prep4(p + 4 * x, q + 4 * x, l + x, sc);
-#endif
-        for (; x < j->w; x++) {
-            float *px = p + 4 * x, *qx = q + 4 * x;
-            px[0] *= s;
-            px[1] *= s;
-            px[2] *= s;
-            compress(px, qx);
-            qx[3] = 0;
-            l[x] = sqrtf(0.2126f * qx[0] + 0.7152f * qx[1] + 0.0722f * qx[2]);
-        }
+    float *p = j->rgba + 4 * (size_t)y * j->stride, *l = j->luma + (size_t)y * j->w;
+    uint32_t x = j->kern.prep ? j->kern.prep(p, j->w, s, l) : 0;
+    for (; x < j->w; x++) {
+        float *px = p + 4 * x, q[3];
+        px[0] *= s;
+        px[1] *= s;
+        px[2] *= s;
+        compress(px, q);
+        l[x] = sqrtf(0.2126f * q[0] + 0.7152f * q[1] + 0.0722f * q[2]);
     }
 }
 
@@ -338,12 +341,24 @@ static inline float luma_at(const fx_job *j, float px, float py)
     return top + (bot - top) * fy;
 }
 
+/* The exposed pixel (x, y) clamped to the picture, compressed as FXAA
+ * blends it (the same bits the luma was made from). */
+static inline void texel(const fx_job *j, int x, int y, float q[3])
+{
+    x = x < 0 ? 0 : x >= (int)j->w ? (int)j->w - 1 : x;
+    y = y < 0 ? 0 : y >= (int)j->h ? (int)j->h - 1 : y;
+    compress(j->rgba + 4 * ((size_t)y * j->stride + (size_t)x), q);
+}
+
 static inline void colour_at(const fx_job *j, float px, float py, float out[3])
 {
     int x0 = ifloor(px), y0 = ifloor(py);
     float fx = px - (float)x0, fy = py - (float)y0;
-    const float *a = j->copy + 4 * clamp_at(j, x0, y0), *b = j->copy + 4 * clamp_at(j, x0 + 1, y0);
-    const float *c = j->copy + 4 * clamp_at(j, x0, y0 + 1), *d = j->copy + 4 * clamp_at(j, x0 + 1, y0 + 1);
+    float a[3], b[3], c[3], d[3];
+    texel(j, x0, y0, a);
+    texel(j, x0 + 1, y0, b);
+    texel(j, x0, y0 + 1, c);
+    texel(j, x0 + 1, y0 + 1, d);
     for (int k = 0; k < 3; k++) {
         float top = a[k] + (b[k] - a[k]) * fx, bot = c[k] + (d[k] - c[k]) * fx;
         out[k] = top + (bot - top) * fy;
@@ -367,7 +382,7 @@ static int fxaa_pixel(const fx_job *j, int x, int y, float out[3])
     float maxWN = mx(lumaN, lumaW), minWN = mn(lumaN, lumaW);
     float rangeMax = mx(maxWN, maxESM), rangeMin = mn(minWN, minESM);
     float range = rangeMax - rangeMin;
-    if (range < mx(FX_EDGE_MIN, rangeMax * FX_EDGE)) return 0; /* early exit */
+    if (range < mx(VT_FX_EDGE_MIN, rangeMax * VT_FX_EDGE)) return 0; /* early exit */
     float lumaNW = LUMA(-1, -1), lumaSE = LUMA(1, 1);
     float lumaNE = LUMA(1, -1), lumaSW = LUMA(-1, 1);
 #undef LUMA
@@ -449,52 +464,112 @@ static int fxaa_pixel(const fx_job *j, int x, int y, float out[3])
     return 1;
 }
 
-/* FXAA's early exit for 4 pixels of an inner row at once: a bit per pixel
- * whose neighbourhood's luma range passes the thresholds (the same test
- * fxaa_pixel makes first). Most of a frame is flat: this skips it at
- * about a nanosecond a pixel. */
-#ifdef __SSE2__
-static inline unsigned edge4(const float *L, size_t m, size_t w)
-{
-    __m128 M = _mm_loadu_ps(L + m), N = _mm_loadu_ps(L + m - w), S = _mm_loadu_ps(L + m + w);
-    __m128 E = _mm_loadu_ps(L + m + 1), W = _mm_loadu_ps(L + m - 1);
-    __m128 hi = _mm_max_ps(_mm_max_ps(_mm_max_ps(M, N), _mm_max_ps(S, E)), W);
-    __m128 lo = _mm_min_ps(_mm_min_ps(_mm_min_ps(M, N), _mm_min_ps(S, E)), W);
-    __m128 th = _mm_max_ps(_mm_set1_ps(FX_EDGE_MIN), _mm_mul_ps(hi, _mm_set1_ps(FX_EDGE)));
-    return (unsigned)_mm_movemask_ps(_mm_cmpge_ps(_mm_sub_ps(hi, lo), th));
-}
-#endif
 
-static void job_fxaa(void *arg, uint32_t t)
+/* The blend expanded back: c / (1 - max c), in place. */
+static inline void expand(float c[3])
+{
+    float m = mx(mx(c[0], c[1]), c[2]);
+    /* m <= 1e6 / (1 + 1e6) < 1: a blend of compressed colours */
+    float e = 1 / (1 - m);
+    c[0] *= e;
+    c[1] *= e;
+    c[2] *= e;
+}
+
+/* FXAA of row y, its results appended at o; their count. */
+static uint32_t fxaa_row_of(const fx_job *j, uint32_t y, fx_out *o)
+{
+    const bool inner = y > 0 && y + 1 < j->h;
+    uint32_t x = 0, no = 0;
+    if (inner && j->kern.fxaa_row) {
+        /* pixel 0 first (the lanes start at 1), then the lanes */
+        if (fxaa_pixel(j, 0, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w;
+        no += j->kern.fxaa_row(&j->fx, y, o + no, &x);
+    }
+    for (; x < j->w; x++)
+        if (fxaa_pixel(j, (int)x, (int)y, o[no].c)) expand(o[no].c), o[no++].i = y * j->w + x;
+    return no;
+}
+
+/* n results into the picture */
+static void put(const fx_job *j, const fx_out *o, uint32_t n)
+{
+    for (uint32_t k = 0; k < n; k++) {
+        uint32_t y = o[k].i / j->w;
+        memcpy(j->rgba + 4 * ((size_t)y * j->stride + (o[k].i - y * j->w)), o[k].c, sizeof o[k].c);
+    }
+}
+
+/* Rows of luma FXAA reads either side of its own: the search's sampled
+ * steps reach 8.5 pixels along a vertical edge, its bilinear tap one
+ * further. */
+#define FX_REACH 10
+
+/* Band t: its rows [y0, y1) and the rows [a, b) among them FXAA runs in
+ * the band's own pass, a reach behind the exposure + luma (their luma
+ * reach stays in the band: the band's pass needs no other band). The
+ * rest, the reach next to a band beside it, waits for every band. */
+static void band_rows(const fx_job *j, uint32_t t, uint32_t *y0, uint32_t *y1, uint32_t *a, uint32_t *b)
+{
+    *y0 = (uint32_t)((uint64_t)j->h * t / j->nb), *y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
+    uint32_t lo = t == 0 ? *y0 : *y0 + FX_REACH, hi = t + 1 == j->nb ? *y1 : *y1 - FX_REACH;
+    if (lo > *y1) lo = *y1;
+    if (*y1 < *y0 + FX_REACH && t + 1 < j->nb) hi = lo;
+    *a = lo;
+    *b = hi > lo ? hi : lo;
+}
+
+/* FXAA of band row r in [a, b), in order. A row's colours are read by
+ * the blends of its own row and the two beside it: row r - 1 is written
+ * as soon as row r is done, unless a row read after the band's pass
+ * (outside [a, b)) reads it or it was read before r - 2 was done (a,
+ * a + 1); those, and the last, are kept (o[0, *keep)). *no: results. */
+static void band_step(const fx_job *j, uint32_t r, uint32_t a, fx_out *o, uint32_t *no, uint32_t *keep)
+{
+    uint32_t start = *no;
+    *no += fxaa_row_of(j, r, o + start);
+    if (r == a) return; /* o[*keep, start): row r - 1's */
+    if (r >= a + 2) {
+        put(j, o + *keep, start - *keep);
+        memmove(o + *keep, o + start, (*no - start) * sizeof *o);
+        *no = *keep + (*no - start);
+    } else {
+        *keep = start;
+    }
+}
+
+/* The band's pass: exposure + luma row by row, FXAA FX_REACH rows behind
+ * while the rows it reads are still in cache (luma and colour written a
+ * few hundred KiB before). */
+static void job_post(void *arg, uint32_t t)
 {
     fx_job *j = arg;
-    uint32_t y0 = (uint32_t)((uint64_t)j->h * t / j->nb), y1 = (uint32_t)((uint64_t)j->h * (t + 1) / j->nb);
+    uint32_t y0, y1, a, b;
+    band_rows(j, t, &y0, &y1, &a, &b);
+    fx_out *o = j->out + (size_t)y0 * j->w;
+    uint32_t no = 0, keep = 0, r = a;
     for (uint32_t y = y0; y < y1; y++) {
-        float *row = j->rgba + 4 * (size_t)y * j->stride;
-        uint32_t x = 0;
-        while (x < j->w) {
-            uint32_t n = 1;
-            unsigned bits = 1;
-#ifdef __SSE2__
-            if (y > 0 && y + 1 < j->h && x > 0 && x + 5 <= j->w) {
-                n = 4;
-                bits = edge4(j->luma, (size_t)y * j->w + x, j->w);
-            }
-#endif
-            for (uint32_t i = 0; i < n; i++) {
-                float c[3];
-                if (!(bits >> i & 1u) || !fxaa_pixel(j, (int)(x + i), (int)y, c)) continue;
-                float m = mx(mx(c[0], c[1]), c[2]);
-                /* m <= 1e6 / (1 + 1e6) < 1: a blend of compressed colours */
-                float k = 1 / (1 - m);
-                float *p = row + 4 * (size_t)(x + i);
-                p[0] = c[0] * k;
-                p[1] = c[1] * k;
-                p[2] = c[2] * k;
-            }
-            x += n;
-        }
+        prep_row(j, y);
+        for (; r < b && r + FX_REACH <= y; r++) band_step(j, r, a, o, &no, &keep);
     }
+    for (; r < b; r++) band_step(j, r, a, o, &no, &keep);
+    j->n[t] = no; /* all kept: the last row's too */
+}
+
+/* FXAA of band t's rows next to the bands beside it, once every band's
+ * luma is there; results kept. */
+static void band_rest(fx_job *j, uint32_t t)
+{
+    uint32_t y0, y1, a, b;
+    band_rows(j, t, &y0, &y1, &a, &b);
+    fx_out *o = j->out + (size_t)y0 * j->w;
+    for (uint32_t r = y0; r < y1; r++)
+        if (r < a || r >= b) j->n[t] += fxaa_row_of(j, r, o + j->n[t]);
+}
+
+static void job_rest(void *arg, uint32_t t)
+{
+    band_rest(arg, t);
 }
 
 static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, uint32_t width, uint32_t height,
@@ -507,10 +582,28 @@ static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, 
         p->scratch = s;
         p->cap = need;
     }
-    fx_job j = {.rgba = rgba, .copy = p->scratch, .luma = p->scratch + 4 * np, .w = width, .h = height,
-                .stride = stride, .nb = bands_of(pool, threads, height), .scale = scale};
-    run(pool, job_prep, &j, j.nb);
-    run(pool, job_fxaa, &j, j.nb);
+    static fx_job z;
+    fx_job *j = malloc(sizeof *j);
+    if (!j) return VT_ERR_NOMEM;
+    *j = z;
+    j->rgba = rgba, j->luma = p->scratch, j->out = (fx_out *)(void *)(p->scratch + np), j->w = width, j->h = height;
+    j->stride = stride, j->nb = bands_of(pool, threads, height), j->scale = scale, j->kern = post_kern(p->isa);
+    j->fx = (vt_post_fx){.luma = j->luma, .rgba = rgba, .w = width, .h = height, .stride = stride};
+    /* the lanes' gathers index floats with 32-bit lanes */
+    if ((uint64_t)stride * height * 4 >= (uint64_t)1 << 31) j->kern.fxaa_row = NULL;
+    run(pool, job_post, j, j->nb);
+    /* the rows beside other bands: 2 FX_REACH a boundary; on the calling
+       thread while that is a small part of the picture (2 bands: 20 rows
+       of 720, no third hand-over of the pool), else in bands */
+    if (j->nb > 1) {
+        if ((uint64_t)(j->nb - 1) * 2 * FX_REACH * 16 <= height) {
+            for (uint32_t t = 0; t < j->nb; t++) band_rest(j, t);
+        } else {
+            run(pool, job_rest, j, j->nb);
+        }
+    }
+    for (uint32_t t = 0; t < j->nb; t++) put(j, j->out + (size_t)((uint64_t)height * t / j->nb) * width, j->n[t]);
+    free(j);
     return 0;
 }
 
@@ -527,7 +620,8 @@ int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame 
     if (!env) return 0;
     double e = env->exposure_ev;
     if (env->exposure_mode == VT_EXPOSURE_AUTO) {
-        float target = vt_exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads);
+        float target = exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads, p->isa,
+                                     true);
         e = target;
         if (f->adapt) {
             /* the caller's state: a bad EV (NaN, out of range) starts over */

@@ -8,8 +8,8 @@
  * The buffer is the renderers' output (vt_soft.h): rgba, 4 floats per
  * pixel, linear HDR, rows bottom-up, `stride` pixels apart. The passes run
  * in place, over bands of rows on a cull_pool (NULL: one thread); FXAA
- * needs a copy of the picture, the scratch of a vt_post (owned by the
- * renderer, grown as needed, 20 bytes per pixel).
+ * needs a luma plane and room for its results, the scratch of a vt_post
+ * (owned by the renderer, grown as needed, 20 bytes per pixel).
  */
 #ifndef VANTAGE_VT_POST_H
 #define VANTAGE_VT_POST_H
@@ -50,11 +50,18 @@ extern "C" {
 #define VT_ADAPT_TAU_DOWN 1.5f
 
 typedef struct vt_post {
-    float *scratch; /* FXAA's copy of the picture (4 floats a pixel), then its luma plane */
+    float *scratch; /* FXAA's luma plane (a float a pixel), then its results (4 a pixel at most) */
     size_t cap;     /* in floats */
+    uint32_t isa;   /* vt_post_set_isa's + 1; 0 (zero-initialised): the default */
 } vt_post;
 
 void vt_post_free(vt_post *p);
+/* Later passes of p (and vt_post_apply's histogram) use the lane kernels
+ * of isa (enum cull_isa: scalar and SSE4.1 take the one-lane rows,
+ * AVX2 its own) where the CPU has them, else the default
+ * (cull_isa_default); CULL_ISA_COUNT: the default. For tests comparing
+ * instances; every instance gives the same bits. */
+void vt_post_set_isa(vt_post *p, uint32_t isa);
 
 /* The post passes of a frame with an environment env (NULL: nothing,
  * returns 0 and *ev 0): exposure (env's mode; AUTO: the histogram EV,
@@ -64,11 +71,23 @@ void vt_post_free(vt_post *p);
  * not anti-aliased). */
 int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame *f, float *ev);
 
+/* Pictures of at least this many pixels meter a quarter of them (tiles
+ * of 4 rows by 64 pixels, a run of 16 from each row, vt_post.c's
+ * job_hist): within a few hundredths of an EV of every pixel's histogram
+ * on the demo city and on adversarial pictures (tests/test_post.c). */
+#define VT_HIST_SAMPLE_MIN (1u << 15)
+
 /* The histogram exposure's EV100 of a picture (before exposure):
  * comp is subtracted (env's exposure_comp: brighter), the result clamped
- * to VT_EV_MIN..VT_EV_MAX. Every pixel counts; pool as vt_post_apply. */
+ * to VT_EV_MIN..VT_EV_MAX. Pictures of VT_HIST_SAMPLE_MIN pixels or more
+ * are metered on the subsample, smaller ones on every pixel; pool as
+ * vt_post_apply. */
 float vt_exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
                        cull_pool *pool, uint32_t threads);
+/* The same with every pixel counted whatever the size (the subsample's
+ * reference in the tests). */
+float vt_exposure_auto_all(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
+                           cull_pool *pool, uint32_t threads);
 /* The EV100 whose exposure maps luminance L (cd/m^2, > 0) to mid grey:
  * log2(L x 100 / 12.5), as a reflected-light meter's calibration K = 12.5. */
 double vt_ev_of_luminance(double L);

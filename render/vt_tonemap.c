@@ -18,15 +18,20 @@
  * gcc 12 -O2, medians of 15), a 1280x720 frame of an HDR ramp with a
  * bright spot, smooth / with 8% grain: ACES tone map of interleaved float
  * RGBA 15 / 16 ms (about 16 ns a pixel, the same for CLAMP). The
- * daemon's JPEG frames (interleaved RGB, ACES, no LUT) take an SSE2 row
- * loop with the same codes (aces_row_rgbx): 90 -> 74 M instructions a
- * 1280x720 city frame (BENCHMARKS.md, issue 20's frame).
+ * daemon's JPEG frames (interleaved RGB, ACES, no LUT) take a lanes row
+ * with the same codes: AVX2, 8 pixels a step, one gathered bucket entry
+ * per channel (vt_tonemap_avx2.c), the SSE2 row (aces_row_rgbx) for the
+ * row's last pixels and CPUs without AVX2: 74 -> 10 M instructions a
+ * 1280x720 city frame (callgrind), 6.4 -> ~2 ms on 2 threads.
  */
 #include "vt_image.h"
 #include "vt_lut.h"
+#include "vt_tonemap_kern.h"
 
 #include <math.h>
 #include <pthread.h>
+#include <stdbool.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* ---- sRGB8 ----------------------------------------------------------------- */
@@ -229,21 +234,46 @@ static inline uint8_t alpha8(float a)
  * found once by binary search over float bit patterns (so it agrees with
  * the two-step path for every float x, not within a code). Finding k:
  * buckets of 2^-8 octave over [2^-12, 16) hold the code of their lowest
- * float; a bucket may span a threshold or two, hence the loop. It replaces
+ * float and where in the bucket the next code starts (aces_tab,
+ * vt_tonemap_kern.h): no bucket holds two thresholds (the steepest part
+ * of the curve is ~0.6 code a bucket; aces_init checks it, and the loop
+ * in aces8 keeps the scalar path exact were it ever not so). It replaces
  * a double division per channel: a 1280x720 frame of random HDR values
  * (1e-3..10) went from 17.7 to 8.3 ms (medians of 21, one run),
  * bench_render's coherent frame from 7.6 to 5.4 ms. */
-#define ACES_LO_BITS 0x39800000u /* 2^-12 */
-#define ACES_HI_BITS 0x41800000u /* 16 */
-#define ACES_NBUCKETS ((ACES_HI_BITS - ACES_LO_BITS) >> 15)
+#define ACES_LO_BITS VT_ACES_LO_BITS
+#define ACES_HI_BITS VT_ACES_HI_BITS
+#define ACES_NBUCKETS VT_ACES_NBUCKETS
 static float aces_t[257];
 static float aces_rw[256]; /* 1 / (aces_t[k + 1] - aces_t[k]), 0 for the last */
-static uint8_t aces_bucket[ACES_NBUCKETS];
+static uint32_t aces_tab[ACES_NBUCKETS]; /* vt_tonemap_kern.h: code + 1 << 16 | the next threshold's offset */
+static vt_aces_rgbx_fn aces_lanes;       /* the AVX2 row, where the CPU has it and every bucket is simple */
 static pthread_once_t aces_once = PTHREAD_ONCE_INIT;
 
 static inline unsigned aces_code_slow(float x)
 {
     return srgb8(tonemap_curve(VT_TONEMAP_ACES, (double)x));
+}
+
+static inline uint32_t bits_of(float x)
+{
+    uint32_t b;
+    memcpy(&b, &x, sizeof b);
+    return b;
+}
+
+/* The lanes instance unless VANTAGE_ISA names a narrower one (the image
+ * files do not link culling/'s cull_isa_default; the same variable). */
+static vt_aces_rgbx_fn aces_pick(void)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    const char *isa = getenv("VANTAGE_ISA");
+    if (isa && (!strcmp(isa, "scalar") || !strcmp(isa, "sse41"))) return NULL;
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") ? vt_aces_rgbx_avx2() : NULL;
+#else
+    return NULL;
+#endif
 }
 
 static void aces_init(void)
@@ -263,12 +293,22 @@ static void aces_init(void)
     }
     aces_t[256] = INFINITY;
     for (unsigned k = 0; k < 256; k++) aces_rw[k] = k < 255 ? 1 / (aces_t[k + 1] - aces_t[k]) : 0;
+    bool simple = true;
     for (uint32_t i = 0; i < ACES_NBUCKETS; i++) {
         uint32_t bits = ACES_LO_BITS + (i << 15);
         float x;
         memcpy(&x, &bits, sizeof x);
-        aces_bucket[i] = (uint8_t)aces_code_slow(x);
+        unsigned k = aces_code_slow(x);
+        uint32_t off = 0x8000;
+        if (k < 255 && bits_of(aces_t[k + 1]) - bits < 0x8000) {
+            off = bits_of(aces_t[k + 1]) - bits;
+            /* two thresholds in one bucket: aces8's loop finds the code,
+               the lanes (one comparison) would not */
+            if (k < 254 && bits_of(aces_t[k + 2]) - bits < 0x8000) simple = false;
+        }
+        aces_tab[i] = (uint32_t)(k + 1) << 16 | off;
     }
+    aces_lanes = simple ? aces_pick() : NULL;
 }
 
 /* x already scaled by the exposure; NaN and anything below 2^-12 is code
@@ -277,10 +317,9 @@ static inline uint8_t aces8(float x)
 {
     float c = x >= 0x1p-12f ? x : 0x1p-12f;
     c = c < 0x1.fffffep3f ? c : 0x1.fffffep3f;
-    uint32_t bits;
-    memcpy(&bits, &c, sizeof bits);
-    unsigned k = aces_bucket[(bits - ACES_LO_BITS) >> 15];
-    while (c >= aces_t[k + 1]) k++;
+    uint32_t d = bits_of(c) - ACES_LO_BITS, e = aces_tab[d >> 15];
+    unsigned k = (e >> 16) - 1 + ((d & 0x7fffu) >= (e & 0xffffu));
+    while (c >= aces_t[k + 1]) k++; /* never taken while every bucket is simple */
     return (uint8_t)k;
 }
 
@@ -289,10 +328,9 @@ static inline uint8_t aces8(float x)
 /* aces8 of an interleaved row of RGB(x) floats (x_stride 4, no alpha: 255),
  * the daemon's JPEG frame: the exposure's product in double, the clamp
  * and the bucket index in lanes, 4 channels at a time (the fourth, x,
- * is computed and dropped: p[3] of the last pixel is never read); a
- * bucket's first two threshold steps without branches (a bucket spans
- * up to two thresholds; the loop after them only for safety). The same
- * codes as aces8, bit for bit. */
+ * is computed and dropped: p[3] of the last pixel is never read); the
+ * bucket's entry and its one comparison (the loop after it only for
+ * safety). The same codes as aces8, bit for bit. */
 
 static void aces_row_rgbx(const float *p, uint32_t width, double scale, uint8_t *o)
 {
@@ -310,9 +348,8 @@ static void aces_row_rgbx(const float *p, uint32_t width, double scale, uint8_t 
         _mm_storeu_ps(c, e);
         _mm_storeu_si128((__m128i *)b, bi);
         for (int ch = 0; ch < 3; ch++) {
-            unsigned kk = aces_bucket[b[ch]];
-            kk += c[ch] >= aces_t[kk + 1];
-            kk += c[ch] >= aces_t[kk + 1];
+            uint32_t t = aces_tab[b[ch]];
+            unsigned kk = (t >> 16) - 1 + (((bits_of(c[ch]) - ACES_LO_BITS) & 0x7fffu) >= (t & 0xffffu));
             while (c[ch] >= aces_t[kk + 1]) kk++;
             o[ch] = (uint8_t)kk;
         }
@@ -387,7 +424,12 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
         const float *pr = r->data + (ptrdiff_t)y * r->y_stride;
 #ifdef __SSE2__
         if (rgbx) {
-            aces_row_rgbx(pr, width, scale, out + (size_t)y * out_stride_bytes);
+            /* the lanes up to the last pixel (whose fourth float may be
+               past the buffer), the SSE2 row for the rest */
+            uint32_t n = aces_lanes ? (width - 1) / 8 * 8 : 0;
+            uint8_t *o = out + (size_t)y * out_stride_bytes;
+            if (n) aces_lanes(pr, n, scale, aces_tab, o);
+            aces_row_rgbx(pr + 4 * (size_t)n, width - n, scale, o + 4 * (size_t)n);
             continue;
         }
 #endif

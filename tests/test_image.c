@@ -521,6 +521,20 @@ static void test_image_tonemap_exact(void **state)
     free(px);
 }
 
+/* The bits of the first float in [lo, hi) whose ACES code (the curve,
+ * then the exact sRGB table) is >= k, by bisection. */
+static uint32_t aces_first_bits(unsigned k, uint32_t lo, uint32_t hi)
+{
+    while (lo < hi) {
+        uint32_t m = lo + (hi - lo) / 2;
+        float x;
+        memcpy(&x, &m, sizeof x);
+        if (vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, x)) >= k) hi = m;
+        else lo = m + 1;
+    }
+    return lo;
+}
+
 /* ACES at 0 EV through the image path (a threshold table) equals the curve
  * then the sRGB table, code for code, for floats spread over every
  * exponent from 2^-14 to 32 (each threshold's neighbours included). */
@@ -543,14 +557,7 @@ static void test_image_tonemap_aces_table(void **state)
         bad += out[i * 4] != vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, px[i]));
     /* and around each code's first float, found by bisection here */
     for (unsigned k = 1; k < 256; k++) {
-        uint32_t a = lo, b = hi;
-        while (a < b) {
-            uint32_t m = a + (b - a) / 2;
-            float x;
-            memcpy(&x, &m, sizeof x);
-            if (vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, x)) >= k) b = m;
-            else a = m + 1;
-        }
+        uint32_t a = aces_first_bits(k, lo, hi);
         float t[3];
         uint32_t tb[3] = {a - 1, a, a + 1};
         memcpy(t, tb, sizeof t);
@@ -571,7 +578,8 @@ static void test_image_tonemap_aces_table(void **state)
  * against the curve) on a sweep of float bit patterns over every code's
  * range, specials (NaN, infinities, negatives, 0, the clamp's ends) and
  * three exposures; the buffer ends at the last pixel's blue (ASan: the
- * unused fourth float is never read). */
+ * unused fourth float is never read). Then every code's first float and
+ * its neighbours in that layout against the curve itself. */
 static void test_image_tonemap_rgbx(void **state)
 {
     (void)state;
@@ -603,6 +611,32 @@ static void test_image_tonemap_rgbx(void **state)
         tonemap_ok(w, h, &psrc, &d, b, (size_t)w * 4);
         assert_memory_equal(a, b, (size_t)n * 4);
     }
+    /* each code's first float and its neighbours (the lanes' one
+       comparison per bucket decides exactly there), in the interleaved
+       layout, against the curve then the sRGB table; 8 a step plus a
+       tail, so both the AVX2 rows and the SSE2 tail see them */
+    const uint32_t nt = 3 * 255, wt = 101;
+    float *t = calloc((size_t)4 * (nt + 2 * wt), sizeof *t);
+    uint8_t *o = malloc((size_t)4 * (nt + 2 * wt));
+    assert_true(t && o);
+    uint32_t bad = 0, m = 0;
+    for (unsigned k = 1; k < 256; k++) {
+        uint32_t x0 = aces_first_bits(k, 0x38800000u, 0x42000000u);
+        for (uint32_t dj = 0; dj < 3; dj++, m++) {
+            uint32_t bits = x0 - 1 + dj;
+            memcpy(&t[4 * (m / 3) + m % 3], &bits, sizeof bits);
+        }
+    }
+    uint32_t rows = (nt / 3 + wt - 1) / wt;
+    vt_image_src tsrc = {.r = {t, 4, 4 * (ptrdiff_t)wt}, .g = {t + 1, 4, 4 * (ptrdiff_t)wt}, .b = {t + 2, 4, 4 * (ptrdiff_t)wt}};
+    tonemap_ok(wt, rows, &tsrc, &(vt_tonemap_desc){.op = VT_TONEMAP_ACES}, o, (size_t)wt * 4);
+    for (uint32_t i = 0; i < (size_t)wt * rows; i++)
+        for (int c = 0; c < 3; c++)
+            bad += o[4 * i + c] != vt_srgb8_from_linear(vt_tonemap_curve(VT_TONEMAP_ACES, t[4 * i + c])) ||
+                   o[4 * i + 3] != 255;
+    assert_int_equal(bad, 0);
+    free(t);
+    free(o);
     free(il);
     free(pl);
     free(a);
