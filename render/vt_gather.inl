@@ -559,7 +559,7 @@ static inline void sky_lanes(const vt_penv *pe, const float c0[3], const float c
     vf dx = vf_fma(X, vf_set(c1[0]), vf_set(c0[0])), dy = vf_fma(X, vf_set(c1[1]), vf_set(c0[1]));
     vf dz = vf_fma(X, vf_set(c1[2]), vf_set(c0[2]));
     vf l2 = vf_fma(dx, dx, vf_fma(dy, dy, vf_mul(dz, dz)));
-    vf il = vf_select(vf_lt(zero, l2), vf_div(one, vf_sqrt(l2)), zero);
+    vf il = vf_rsqrt0(l2);
     dx = vf_mul(dx, il), dy = vf_mul(dy, il), dz = vf_mul(dz, il);
     /* vt_sky_uv */
     vf u = vf_fma(vf_add(vf_atan2(dx, vf_sub(zero, dz)), vf_set(pe->sky_rot)), vf_set(0.5f / 3.14159265f), vf_set(0.5f));
