@@ -27,6 +27,7 @@
 #include "vt_brdf.h"
 #include "vt_picture.h"
 #include "vt_post.h"
+#include "vt_raster.h"
 #include "vt_shade.h"
 #include "vt_ssao.h"
 
@@ -107,6 +108,7 @@ struct vt_soft {
     uint32_t *mk_of;        /* per instance: mask + 1 */
     size_t mk_of_cap;
     vt_kern k;              /* the kernels for this CPU */
+    vt_rkern rk;            /* the raster's row kernels for this CPU */
     vt_skytab sky;          /* the analytic sky's table */
     vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
@@ -129,6 +131,7 @@ int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
     if (!r) return VT_ERR_NOMEM;
     r->pool = pool;
     r->k = vt_kern_pick();
+    r->rk = vt_rkern_pick();
     uint32_t pt = cull_pool_threads(pool);
     r->threads = threads && threads < pt ? threads : pt;
     if (r->threads > MAX_THREADS) r->threads = MAX_THREADS;
@@ -572,14 +575,7 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
             raster_masked(r, fr, rt, j, rt->bx0 + lo, rt->bx0 + hi, nrow, irow, nz);
             continue;
         }
-        uint32_t id = rt->shade + 1;
-        for (int i = rt->bx0 + lo, i1 = rt->bx0 + hi; i <= i1; i++) {
-            float z = (float)(rt->na * (i + 0.5) + nz);
-            if (z > nrow[i]) {
-                nrow[i] = z;
-                irow[i] = id;
-            }
-        }
+        r->rk.span(nrow, irow, rt->bx0 + lo, rt->bx0 + hi, fr->w, rt->na, nz, rt->shade + 1);
     }
 }
 
@@ -605,11 +601,8 @@ static void job_raster(void *arg, uint32_t t)
     uint32_t trows = (fr->h + TILE - 1) / TILE, nt = jb->nthreads;
     for (uint32_t tr = t; tr < trows; tr += nt) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
-        for (uint32_t y = tr * TILE; y < y1; y++) {
-            float *nrow = r->near + (size_t)y * fr->w;
-            for (uint32_t x = 0; x < fr->w; x++) nrow[x] = EMPTY;
-            memset(r->id + (size_t)y * fr->w, 0, fr->w * sizeof(uint32_t));
-        }
+        r->rk.clear(r->near + (size_t)tr * TILE * fr->w, r->id + (size_t)tr * TILE * fr->w,
+                    (size_t)(y1 - tr * TILE) * fr->w);
     }
     for (uint32_t b = 0; b < jb->nthreads; b++)
         for (size_t k = 0; k < r->tb[b].nrt; k++) {
@@ -620,22 +613,17 @@ static void job_raster(void *arg, uint32_t t)
             for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
         }
     /* the ground plane, depth-tested against the triangles: its nearness
-       plane per pixel (vt_ground_at, double) */
+       plane per pixel (vt_ground_at, double), over the columns of each
+       row where it can hit */
     if (fr->gr.on)
         for (uint32_t tr = t; tr < trows; tr += nt) {
             uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
             for (uint32_t y = tr * TILE; y < y1; y++) {
-                float *nrow = r->near + (size_t)y * fr->w;
-                uint32_t *irow = r->id + (size_t)y * fr->w;
-                double Y = ndc_y(fr, y), inv_w = 2.0 / fr->w, nz;
-                for (uint32_t x = 0; x < fr->w; x++) {
-                    if (!vt_ground_at(&fr->gr, vt_ndc_x(x, inv_w), Y, &nz)) continue;
-                    float z = (float)nz;
-                    if (z > nrow[x]) {
-                        nrow[x] = z;
-                        irow[x] = VT_ID_GROUND;
-                    }
-                }
+                double Y = ndc_y(fr, y);
+                int32_t i0, i1;
+                if (vt_ground_row(&fr->gr, Y, fr->w, &i0, &i1))
+                    r->rk.ground(r->near + (size_t)y * fr->w, r->id + (size_t)y * fr->w, i0, i1, fr->w, &fr->gr, Y,
+                                 2.0 / fr->w);
             }
         }
     /* the light tiles' nearness ranges of this thread's rows, while they

@@ -13,6 +13,7 @@
 #include "vt_gldraw.h"
 #include "vt_soft.h"
 #include "vt_picture.h"
+#include "vt_raster.h"
 #include "vt_shade.h"
 #include <errno.h>
 #include <stdio.h>
@@ -599,7 +600,183 @@ static void test_soft_and_gl_agree(void **state)
     vt_gl_close(g);
 }
 
+/* A row's nearness or record as the depth test leaves them, one pixel at
+ * a time, written out here (the rule the row kernels must follow): the
+ * plane in double, rounded once to float, kept where strictly nearer. */
+static void span_ref(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, double na, double nz, uint32_t id)
+{
+    for (int32_t i = i0; i <= i1; i++) {
+        double x = (double)i + 0.5, zd = na * x;
+        zd += nz;
+        float z = (float)zd;
+        if (z > nrow[i]) {
+            nrow[i] = z;
+            irow[i] = id;
+        }
+    }
+}
+
+/* An adversarial double: NaN, infinities, huge, tiny, or ordinary. */
+static double odd_double(rng *r)
+{
+    switch (rng_below(r, 8)) {
+    case 0: return NAN;
+    case 1: return rng_below(r, 2) ? INFINITY : -INFINITY;
+    case 2: return rng_range(r, -1, 1) * 1e300;
+    case 3: return rng_range(r, -1, 1) * 1e-300;
+    default: return rng_range(r, -1, 1) * rng_log(r, 1e-6, 10);
+    }
+}
+
+/* The raster's row kernels (vt_raster.h; scalar and AVX2 where the CPU
+ * has it) against the one-pixel rule: runs of every length at every
+ * offset of rows of 1..100 pixels (shorter than a vector too), rows
+ * holding empty pixels, NaN, and values equal to the plane's (ties keep
+ * what is there), planes with NaN, infinite and huge coefficients; bit for
+ * bit, and nothing outside the run touched. The ground's row: random views
+ * (perspective and orthographic, every depth mode, looking up, down and
+ * level) and ground heights: the kernel over vt_ground_row's columns
+ * equals vt_ground_at over the whole row, pixel by pixel. */
+static void test_raster_row_kernels(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x5A57u};
+    vt_rkern ks[2] = {vt_rkern_scalar(), vt_rkern_pick()};
+    enum { W = 100 };
+    float n0[W], n1[W];
+    uint32_t i0s[W], i1s[W];
+    uint64_t kept = 0, ties = 0;
+    for (int it = 0; it < 4000; it++) {
+        uint32_t w = 1 + rng_below(&r, W);
+        int32_t a = (int32_t)rng_below(&r, w), b = (int32_t)rng_below(&r, w);
+        if (a > b) {
+            int32_t t = a;
+            a = b;
+            b = t;
+        }
+        double na = rng_below(&r, 4) ? rng_range(&r, -1e-2, 1e-2) : odd_double(&r);
+        double nz = rng_below(&r, 4) ? rng_range(&r, -0.5, 1.5) : odd_double(&r);
+        for (uint32_t i = 0; i < w; i++) {
+            uint32_t c = rng_below(&r, 6);
+            n0[i] = c == 0 ? VT_EMPTY : c == 1 ? NAN : c == 2 ? (float)(na * (i + 0.5) + nz) /* a tie */
+                                                              : (float)rng_range(&r, -0.5, 1.5);
+            i0s[i] = (uint32_t)rng_u64(&r);
+        }
+        for (int k = 0; k < 2; k++) {
+            memcpy(n1, n0, sizeof n1);
+            memcpy(i1s, i0s, sizeof i1s);
+            float nr[W];
+            uint32_t ir[W];
+            memcpy(nr, n0, sizeof nr);
+            memcpy(ir, i0s, sizeof ir);
+            span_ref(nr, ir, a, b, na, nz, 77);
+            ks[k].span(n1, i1s, a, b, w, na, nz, 77);
+            assert_memory_equal(n1, nr, w * sizeof *nr);
+            assert_memory_equal(i1s, ir, w * sizeof *ir);
+            if (k) continue;
+            for (uint32_t i = 0; i < w; i++) {
+                kept += ir[i] == 77 && i0s[i] != 77;
+                ties += (int32_t)i >= a && (int32_t)i <= b && nr[i] == (float)(na * (i + 0.5) + nz) && ir[i] != 77;
+            }
+        }
+    }
+    assert_true(kept > 10000 && ties > 1000); /* not vacuous */
+    /* the clear */
+    for (int k = 0; k < 2; k++) {
+        for (size_t n = 0; n < W; n += 1 + n / 3) {
+            for (uint32_t i = 0; i < W; i++) n1[i] = 3, i1s[i] = 5;
+            ks[k].clear(n1, i1s, n);
+            for (uint32_t i = 0; i < W; i++) {
+                assert_true(i < n ? n1[i] == VT_EMPTY && i1s[i] == 0 : n1[i] == 3 && i1s[i] == 5);
+            }
+        }
+    }
+    /* the ground */
+    uint64_t hits = 0, rows = 0, skipped = 0;
+    for (int f = 0; f < 300; f++) {
+        uint32_t w = 1 + rng_below(&r, 300), h = 1 + rng_below(&r, 60);
+        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
+        double proj[16], view[16], dir[3] = {rng_range(&r, -1, 1), rng_range(&r, -1, 1), rng_range(&r, -1, 1)};
+        double up[3] = {0, 1, 0};
+        if (rng_below(&r, 4) == 0) dir[1] = 0; /* level: the horizon in view */
+        if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
+        if (rng_below(&r, 4)) {
+            cull_mat_perspective(proj, rng_range(&r, 0.3, 2.5), (double)w / h, rng_log(&r, 1e-3, 1), rng_log(&r, 10, 1e6),
+                                 d.depth_mode);
+        } else {
+            double e = rng_log(&r, 1, 1000);
+            cull_mat_ortho(proj, -e, e, -e * h / w, e * h / w, rng_range(&r, -100, 0), rng_log(&r, 10, 1e4), d.depth_mode);
+        }
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        cull_view v;
+        if (cull_view_init(&v, &d) != CULL_OK) continue;
+        cull_view_rows vr;
+        cull_view_rows_get(&v, &vr);
+        vt_penv pe;
+        memset(&pe, 0, sizeof pe);
+        pe.ground = true;
+        pe.ground_y = (float)(rng_below(&r, 2) ? -rng_log(&r, 1e-3, 1e3) : rng_range(&r, -2, 2));
+        vt_ground g;
+        vt_ground_make(&pe, &vr, (int)d.depth_mode, &g);
+        if (!g.on) continue;
+        double inv_w = 2.0 / w;
+        float *gz0 = malloc(w * sizeof *gz0), *gz1 = malloc(w * sizeof *gz1);
+        uint32_t *gi0 = malloc(w * sizeof *gi0), *gi1 = malloc(w * sizeof *gi1);
+        assert_true(gz0 && gz1 && gi0 && gi1);
+        for (uint32_t y = 0; y < h; y++) {
+            double Y = (float)((2.0 * y + 1) / h - 1);
+            for (uint32_t x = 0; x < w; x++) {
+                gz0[x] = rng_below(&r, 3) ? VT_EMPTY : (float)rng_log(&r, 1e-6, 10);
+                gi0[x] = 1;
+            }
+            memcpy(gz1, gz0, w * sizeof *gz0);
+            memcpy(gi1, gi0, w * sizeof *gi0);
+            for (uint32_t x = 0; x < w; x++) { /* the reference: every pixel */
+                double nz;
+                if (!vt_ground_at(&g, vt_ndc_x(x, inv_w), Y, &nz) || !((float)nz > gz0[x])) continue;
+                gz0[x] = (float)nz;
+                gi0[x] = VT_ID_GROUND;
+                hits++;
+            }
+            rows++;
+            for (int k = 0; k < 2; k++) {
+                float *zk = k ? gz1 : malloc(w * sizeof *zk);
+                uint32_t *ik = k ? gi1 : malloc(w * sizeof *ik);
+                assert_true(zk && ik);
+                if (!k) {
+                    memcpy(zk, gz1, w * sizeof *zk);
+                    memcpy(ik, gi1, w * sizeof *ik);
+                }
+                int32_t c0, c1;
+                if (vt_ground_row(&g, Y, w, &c0, &c1)) {
+                    assert_true(c0 >= 0 && c0 <= c1 && c1 < (int32_t)w);
+                    ks[k].ground(zk, ik, c0, c1, w, &g, Y, inv_w);
+                } else {
+                    skipped += k;
+                }
+                assert_memory_equal(zk, gz0, w * sizeof *zk);
+                assert_memory_equal(ik, gi0, w * sizeof *ik);
+                if (!k) {
+                    free(zk);
+                    free(ik);
+                }
+            }
+        }
+        free(gz0);
+        free(gz1);
+        free(gi0);
+        free(gi1);
+    }
+    fprintf(stderr, "raster row kernels: %llu pixels kept, %llu ties held; ground: %llu rows (%llu skipped whole), %llu "
+                    "pixels hit\n",
+            (unsigned long long)kept, (unsigned long long)ties, (unsigned long long)rows, (unsigned long long)skipped,
+            (unsigned long long)hits);
+    assert_true(hits > 10000 && skipped > 100 && skipped < rows);
+}
+
 const struct CMUnitTest render_tests[] = {
+    cmocka_unit_test(test_raster_row_kernels),
     cmocka_unit_test(test_soft_and_gl_agree),
     cmocka_unit_test(test_soft_bad_input),
     cmocka_unit_test(test_soft_matches_ray_caster),

@@ -1,0 +1,52 @@
+/*
+ * vt_raster.h — the software renderer's row kernels for the visibility
+ * buffer (internal to render/): a triangle's covered run of one row, the
+ * ground plane's row, the clear. vt_soft.c decides what is covered; these
+ * write the nearness and the record where the pixel is nearer.
+ *
+ * Each kernel computes a pixel's nearness with the same double operations
+ * in the same order as the one-pixel reference (vt_raster_span_ref, the
+ * ground's vt_ground_at), rounded once to float, and keeps it under the
+ * same test (strictly nearer; NaN never): the instances agree bit for bit
+ * (tests/test_raster.c checks them against the references). The AVX2
+ * instance runs 8 pixels a step, 4 doubles per vector, in functions
+ * compiled for AVX2 by a target attribute (no file of its own: nothing else
+ * here needs the flag), picked at run time as vt_kern_pick picks.
+ */
+#ifndef VANTAGE_VT_RASTER_H
+#define VANTAGE_VT_RASTER_H
+
+#include "vt_surface.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Columns [i0, i1] of a row of width w (0 <= i0 <= i1 < w): where
+ * (float)(na (i + 0.5) + nz) > nrow[i], that nearness and id. */
+typedef void (*vt_span_fn)(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, uint32_t w, double na, double nz,
+                           uint32_t id);
+/* Columns [i0, i1] of the row at NDC Y of the ground plane g (inv_w = 2 /
+ * width): where vt_ground_at hits and (float) of its nearness is nearer,
+ * that nearness and VT_ID_GROUND. */
+typedef void (*vt_gspan_fn)(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, uint32_t w, const vt_ground *g,
+                            double Y, double inv_w);
+/* n pixels: nearness VT_EMPTY, record 0. */
+typedef void (*vt_clear_fn)(float *near, uint32_t *id, size_t n);
+
+typedef struct vt_rkern {
+    vt_span_fn span;
+    vt_gspan_fn ground;
+    vt_clear_fn clear;
+} vt_rkern;
+
+/* The instances for this CPU and VANTAGE_ISA (cull_isa_default). */
+vt_rkern vt_rkern_pick(void);
+/* The one-pixel instances (the reference). */
+vt_rkern vt_rkern_scalar(void);
+
+/* The columns of the ground's row at NDC Y that can hit (a superset of
+ * those vt_ground_at accepts, by a margin far above the rounding of its
+ * double evaluation), as [*i0, *i1]; false: none. */
+bool vt_ground_row(const vt_ground *g, double Y, uint32_t w, int32_t *i0, int32_t *i1);
+
+#endif
