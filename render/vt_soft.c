@@ -69,6 +69,8 @@ typedef struct xv {
     unsigned out;           /* bit p: outside clip plane p */
     float n[3];             /* its normal under the instance's scale (unit) */
     bool has_n;             /* false: no normal, or it collapsed: the face's */
+    bool attr;              /* n, has_n and tg are made (only for the vertices of
+                               triangles that get a shading record) */
     float tg[4];            /* its tangent under the placement (unit), handedness */
 } xv;
 
@@ -292,13 +294,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             x->v.d = dot4(vr->d, q);
             x->out = 0;
             for (int pp = 0; pp < 6; pp++) x->out |= (unsigned)(dot4(cpl[pp], x->v.c) < 0) << pp;
-            /* normals under a scale: by the inverse scale; tangents
-               with the placement */
-            x->has_n = m->nrm && xform_unit(pl.n, m->nrm + 3 * k, x->n);
-            if (m->tan && mat) {
-                xform_unit(pl.m, m->tan + 4 * k, x->tg);
-                x->tg[3] = (m->tan[4 * k + 3] < 0) != pl.mirror ? -1.0f : 1.0f;
-            }
+            x->attr = false;
         }
         /* a damaged instance: its front faces first, then its back faces,
            so most of the inside fails the depth test before any mask is
@@ -360,10 +356,25 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                scaled by 1/det (homogeneous barycentrics: the kernel divides
                by their sum) */
             stri *s = &r->st[r->nst];
+            /* the corners' normals under a scale (by the inverse scale) and
+               tangents with the placement, once a vertex (most vertices of
+               a mesh belong to faces culled above) */
+            for (int k = 0; k < 3; k++) {
+                xv *x = &r->vx[xs[k] - r->vx];
+                if (x->attr) continue;
+                uint32_t vi = (uint32_t)(xs[k] - r->vx);
+                x->has_n = m->nrm && xform_unit(pl.n, m->nrm + 3 * (size_t)vi, x->n);
+                if (m->tan && mat) {
+                    xform_unit(pl.m, m->tan + 4 * (size_t)vi, x->tg);
+                    x->tg[3] = (m->tan[4 * (size_t)vi + 3] < 0) != pl.mirror ? -1.0f : 1.0f;
+                }
+                x->attr = true;
+            }
             adj_row(&src[2], &src[0], rows[1]);
             adj_row(&src[0], &src[1], rows[2]);
+            const double idet = 1 / det;
             for (int i = 0; i < 3; i++)
-                for (int k = 0; k < 3; k++) s->e[i][k] = (float)(rows[i][k] / det);
+                for (int k = 0; k < 3; k++) s->e[i][k] = (float)(rows[i][k] * idet);
             /* the face normal, only where a corner has none of its own
                (turned over with the face: inwards for a back face) */
             float fn[3] = {0, 0, 0};
