@@ -39,13 +39,13 @@ static void span_scalar(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, uin
     }
 }
 
-static void ground_scalar(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, uint32_t w, const vt_ground *g,
-                          double Y, double inv_w)
+static void ground_scalar(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, const double *X, const vt_ground *g,
+                          double Y, bool sure)
 {
-    (void)w;
+    (void)sure; /* the full test gives the same answer there */
     for (int32_t x = i0; x <= i1; x++) {
         double nz;
-        if (!vt_ground_at(g, vt_ndc_x((uint32_t)x, inv_w), Y, &nz)) continue;
+        if (!vt_ground_at(g, X[x], Y, &nz)) continue;
         float z = (float)nz;
         if (z > nrow[x]) {
             nrow[x] = z;
@@ -118,54 +118,55 @@ AVX2_FN static void span_avx2(float *nrow, uint32_t *irow, int32_t i0, int32_t i
     keep8(nrow, irow, s, plane8(s, vna, vnz), lanes_in(s, i, i1), vid);
 }
 
-/* vt_ground_at and vt_ndc_x over the 8 pixels from column s, the same
- * operations in the same order: the hit mask and the nearness. */
-AVX2_FN static inline __m256 ground8(int32_t s, const vt_ground *g, double Y, double inv_w, __m256 *hit)
+/* vt_ground_at over columns [i0, i1], 8 at a time: the same operations in
+ * the same order (n1 Y and l1 Y are the same products for the whole row).
+ * sure: every column hits (vt_ground_row's inner run): only the nearness. */
+AVX2_FN static void ground_avx2(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, const double *X, const vt_ground *g,
+                                double Y, bool sure)
 {
-    __m256d N[2], ok[2];
-    for (int h = 0; h < 2; h++) {
-        __m256d c = _mm256_add_pd(_mm256_set1_pd((double)(s + 4 * h)), _mm256_setr_pd(0.5, 1.5, 2.5, 3.5));
-        /* X = (float)((x + 0.5) inv_w - 1), as a double */
-        __m256d X = _mm256_cvtps_pd(
-            _mm256_cvtpd_ps(_mm256_sub_pd(_mm256_mul_pd(c, _mm256_set1_pd(inv_w)), _mm256_set1_pd(1.0))));
-        __m256d n = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(g->n[0]), X), _mm256_set1_pd(g->n[1] * Y)),
-                                  _mm256_set1_pd(g->n[2]));
-        __m256d m = g->persp ? _mm256_cmp_pd(n, _mm256_setzero_pd(), _CMP_GT_OQ) : _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
-        for (int k = 0; k < 2; k++) {
-            const double *l = g->lim[k];
-            __m256d f = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(l[0]), X), _mm256_set1_pd(l[1] * Y));
-            f = _mm256_add_pd(_mm256_add_pd(f, _mm256_mul_pd(_mm256_set1_pd(l[2]), n)), _mm256_set1_pd(l[3]));
-            m = _mm256_and_pd(m, _mm256_cmp_pd(f, _mm256_setzero_pd(), _CMP_GE_OQ));
-        }
-        N[h] = n;
-        ok[h] = m;
-    }
-    /* the two 4-lane double masks as one 8-lane float mask (each 64-bit
-       all-ones or zero: its low halves) */
-    __m128 m0 = _mm256_cvtpd_ps(ok[0]), m1 = _mm256_cvtpd_ps(ok[1]); /* NaN for all-ones lanes */
-    __m256 mm = _mm256_set_m128(m1, m0);
-    *hit = _mm256_cmp_ps(mm, mm, _CMP_UNORD_Q);
-    return _mm256_set_m128(_mm256_cvtpd_ps(N[1]), _mm256_cvtpd_ps(N[0]));
-}
-
-AVX2_FN static void ground_avx2(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, uint32_t w, const vt_ground *g,
-                                double Y, double inv_w)
-{
-    if (w < 8 || !g->on) {
-        ground_scalar(nrow, irow, i0, i1, w, g, Y, inv_w);
+    if (i1 - i0 < 7 || !g->on) { /* the scalar loop needs no vector of 8 inside the row */
+        ground_scalar(nrow, irow, i0, i1, X, g, Y, sure);
         return;
     }
     const __m256 vid = _mm256_castsi256_ps(_mm256_set1_epi32((int)VT_ID_GROUND));
-    __m256 hit;
-    int32_t i = i0;
-    for (; i + 7 <= i1; i += 8) {
-        __m256 z = ground8(i, g, Y, inv_w, &hit);
-        keep8(nrow, irow, i, z, hit, vid);
+    const __m256d n0 = _mm256_set1_pd(g->n[0]), n1y = _mm256_set1_pd(g->n[1] * Y), n2 = _mm256_set1_pd(g->n[2]);
+    const __m256d zero = _mm256_setzero_pd();
+    const __m256d pm = g->persp ? zero : _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    __m256d l0[2], l1y[2], l2[2], l3[2];
+    for (int k = 0; k < 2; k++) {
+        l0[k] = _mm256_set1_pd(g->lim[k][0]);
+        l1y[k] = _mm256_set1_pd(g->lim[k][1] * Y);
+        l2[k] = _mm256_set1_pd(g->lim[k][2]);
+        l3[k] = _mm256_set1_pd(g->lim[k][3]);
     }
-    if (i > i1) return;
-    int32_t s = i1 - 7 < 0 ? 0 : i1 - 7;
-    __m256 z = ground8(s, g, Y, inv_w, &hit);
-    keep8(nrow, irow, s, z, _mm256_and_ps(hit, lanes_in(s, i, i1)), vid);
+    for (int32_t i = i0;; i += 8) {
+        /* the last step: the 8 columns ending at i1, those before i masked */
+        int32_t s = i + 7 <= i1 ? i : i1 - 7;
+        __m256d N[2], ok[2];
+        for (int h = 0; h < 2; h++) {
+            __m256d x = _mm256_loadu_pd(X + s + 4 * h);
+            __m256d n = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(n0, x), n1y), n2);
+            N[h] = n;
+            if (sure) continue;
+            __m256d m = _mm256_or_pd(pm, _mm256_cmp_pd(n, zero, _CMP_GT_OQ));
+            for (int k = 0; k < 2; k++) {
+                __m256d f = _mm256_add_pd(_mm256_mul_pd(l0[k], x), l1y[k]);
+                f = _mm256_add_pd(_mm256_add_pd(f, _mm256_mul_pd(l2[k], n)), l3[k]);
+                m = _mm256_and_pd(m, _mm256_cmp_pd(f, zero, _CMP_GE_OQ));
+            }
+            ok[h] = m;
+        }
+        __m256 z = _mm256_set_m128(_mm256_cvtpd_ps(N[1]), _mm256_cvtpd_ps(N[0]));
+        __m256 m = s == i ? _mm256_castsi256_ps(_mm256_set1_epi32(-1)) : lanes_in(s, i, i1);
+        if (!sure) {
+            /* the two 4-lane double masks as one 8-lane float mask: an
+               all-ones double is a NaN, and converts to a NaN float */
+            __m256 mm = _mm256_set_m128(_mm256_cvtpd_ps(ok[1]), _mm256_cvtpd_ps(ok[0]));
+            m = _mm256_and_ps(m, _mm256_cmp_ps(mm, mm, _CMP_UNORD_Q));
+        }
+        keep8(nrow, irow, s, z, m, vid);
+        if (s + 7 >= i1) return;
+    }
 }
 
 AVX2_FN static void clear_avx2(float *near, uint32_t *id, size_t n)
@@ -191,37 +192,63 @@ vt_rkern vt_rkern_pick(void)
 
 /* ---- the ground's row ------------------------------------------------------------- */
 
-/* Narrows [*lo, *hi] (in NDC X) to where f(X) = a X + b >= -tol can hold. */
-static bool narrow(double a, double b, double tol, double *lo, double *hi)
+/* Narrows [*lo, *hi] (in NDC X) to where f(X) = a X + b >= t can hold
+ * (unknown: kept, or emptied when sure). */
+static bool narrow(double a, double b, double t, bool sure, double *lo, double *hi)
 {
-    if (!isfinite(a) || !isfinite(b) || !isfinite(tol)) return true; /* unknown: keep all */
-    if (a == 0) return b >= -tol;
-    double x = (-tol - b) / a;
+    if (!isfinite(a) || !isfinite(b) || !isfinite(t)) return !sure;
+    if (a == 0) return b >= t;
+    double x = (t - b) / a;
     if (a > 0) *lo = x > *lo ? x : *lo;
     else *hi = x < *hi ? x : *hi;
     return *lo <= *hi;
 }
 
-bool vt_ground_row(const vt_ground *g, double Y, uint32_t w, int32_t *i0, int32_t *i1)
+bool vt_ground_row(const vt_ground *g, double Y, uint32_t w, int32_t c[4])
 {
     if (!g->on || !w) return false;
-    /* along the row, N = n0 X + c and lim_k = (l0 + l2 n0) X + (l1 Y + l2 c
-       + l3): affine in X. A pixel vt_ground_at accepts has each computed
-       value >= 0, so its exact value >= minus a few ulps of the terms'
-       magnitude (|X| <= 1 on the view); tol is 1e-9 of that magnitude. */
-    double c = g->n[1] * Y + g->n[2];
+    /* along the row, N = n0 X + k and lim_j = (l0 + l2 n0) X + (l1 Y + l2 k
+       + l3): affine in X. A pixel's computed values differ from these by
+       a few ulps of the terms' magnitude (|X| <= 1 on the view), far below
+       tol, 1e-9 of it; its X, rounded to float, is within 1e-7 of the
+       column's, far below the column added on each side. */
+    double k = g->n[1] * Y + g->n[2];
     double magN = fabs(g->n[0]) + fabs(g->n[1] * Y) + fabs(g->n[2]);
-    double lo = -1, hi = 1;
-    if (g->persp && !narrow(g->n[0], c, 1e-9 * magN, &lo, &hi)) return false;
-    for (int k = 0; k < 2; k++) {
-        const double *l = g->lim[k];
-        double mag = fabs(l[0]) + fabs(l[1] * Y) + fabs(l[2]) * magN + fabs(l[3]);
-        if (!narrow(l[0] + l[2] * g->n[0], l[1] * Y + l[2] * c + l[3], 1e-9 * mag, &lo, &hi)) return false;
+    double a[3], b[3], tol[3];
+    int nf = 0;
+    if (g->persp) {
+        a[nf] = g->n[0], b[nf] = k, tol[nf++] = 1e-9 * magN;
     }
-    /* NDC X to columns (X = (i + 0.5) 2 / w - 1), a column's margin */
-    double c0 = floor((lo + 1) * 0.5 * w - 0.5) - 1, c1 = ceil((hi + 1) * 0.5 * w - 0.5) + 1;
-    if (!(c0 <= c1) || c1 < 0 || c0 > (double)w - 1) return false;
-    *i0 = c0 < 0 ? 0 : (int32_t)c0;
-    *i1 = c1 > (double)w - 1 ? (int32_t)w - 1 : (int32_t)c1;
+    for (int j = 0; j < 2; j++) {
+        const double *l = g->lim[j];
+        a[nf] = l[0] + l[2] * g->n[0], b[nf] = l[1] * Y + l[2] * k + l[3];
+        tol[nf++] = 1e-9 * (fabs(l[0]) + fabs(l[1] * Y) + fabs(l[2]) * magN + fabs(l[3]));
+    }
+    double lo = -1, hi = 1, slo = -1, shi = 1;
+    bool in = true;
+    for (int f = 0; f < nf; f++) {
+        if (!narrow(a[f], b[f], -tol[f], false, &lo, &hi)) return false;
+        in = in && narrow(a[f], b[f], tol[f], true, &slo, &shi);
+    }
+    /* NDC X to columns (X = (i + 0.5) 2 / w - 1) */
+    double c0 = floor((lo + 1) * 0.5 * w - 0.5) - 1, c3 = ceil((hi + 1) * 0.5 * w - 0.5) + 1;
+    if (!(c0 <= c3) || c3 < 0 || c0 > (double)w - 1) return false;
+    c[0] = c0 < 0 ? 0 : (int32_t)c0;
+    c[3] = c3 > (double)w - 1 ? (int32_t)w - 1 : (int32_t)c3;
+    double c1 = ceil((slo + 1) * 0.5 * w - 0.5) + 1, c2 = floor((shi + 1) * 0.5 * w - 0.5) - 1;
+    if (!in || !(c1 <= c2) || c2 < c[0] || c1 > c[3]) { /* no sure run */
+        c[1] = c[3] + 1;
+        c[2] = c[3];
+        return true;
+    }
+    c[1] = c1 < c[0] ? c[0] : (int32_t)c1;
+    c[2] = c2 > c[3] ? c[3] : (int32_t)c2;
     return true;
+}
+
+/* The NDC x of each column (vt_ndc_x, as a double). */
+void vt_ndc_row(uint32_t w, double *X)
+{
+    double inv_w = 2.0 / w;
+    for (uint32_t x = 0; x < w; x++) X[x] = vt_ndc_x(x, inv_w);
 }

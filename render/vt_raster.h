@@ -18,6 +18,7 @@
 
 #include "vt_surface.h"
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -25,11 +26,13 @@
  * (float)(na (i + 0.5) + nz) > nrow[i], that nearness and id. */
 typedef void (*vt_span_fn)(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, uint32_t w, double na, double nz,
                            uint32_t id);
-/* Columns [i0, i1] of the row at NDC Y of the ground plane g (inv_w = 2 /
- * width): where vt_ground_at hits and (float) of its nearness is nearer,
- * that nearness and VT_ID_GROUND. */
-typedef void (*vt_gspan_fn)(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, uint32_t w, const vt_ground *g,
-                            double Y, double inv_w);
+/* Columns [i0, i1] of the row at NDC Y of the ground plane g (X: each
+ * column's NDC x, vt_ndc_row): where vt_ground_at hits and (float) of its
+ * nearness is nearer, that nearness and VT_ID_GROUND. sure: the ground
+ * hits every one of the columns (vt_ground_row's inner run): only the
+ * depth test runs. */
+typedef void (*vt_gspan_fn)(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, const double *X, const vt_ground *g,
+                            double Y, bool sure);
 /* n pixels: nearness VT_EMPTY, record 0. */
 typedef void (*vt_clear_fn)(float *near, uint32_t *id, size_t n);
 
@@ -44,9 +47,12 @@ vt_rkern vt_rkern_pick(void);
 /* The one-pixel instances (the reference). */
 vt_rkern vt_rkern_scalar(void);
 
-/* The columns of the ground's row at NDC Y that can hit (a superset of
- * those vt_ground_at accepts, by a margin far above the rounding of its
- * double evaluation), as [*i0, *i1]; false: none. */
-bool vt_ground_row(const vt_ground *g, double Y, uint32_t w, int32_t *i0, int32_t *i1);
+/* The columns of the ground's row at NDC Y of a view w wide that can
+ * hit, [c[0], c[3]] (a superset of those vt_ground_at accepts, by a margin
+ * far above the rounding of its double evaluation), and within them those
+ * that surely hit, [c[1], c[2]] (empty: c[1] > c[2]); false: none can. */
+bool vt_ground_row(const vt_ground *g, double Y, uint32_t w, int32_t c[4]);
+/* X[x] = vt_ndc_x(x, 2 / w) for the w columns. */
+void vt_ndc_row(uint32_t w, double *X);
 
 #endif

@@ -111,6 +111,8 @@ struct vt_soft {
     size_t mk_of_cap;
     vt_kern k;              /* the kernels for this CPU */
     vt_rkern rk;            /* the raster's row kernels for this CPU */
+    double *xtab;           /* each column's NDC x (vt_ndc_row) */
+    size_t xtab_cap;
     vt_skytab sky;          /* the analytic sky's table */
     vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
@@ -147,6 +149,7 @@ void vt_soft_destroy(vt_soft *r)
     vt_post_free(&r->post);
     free(r->near);
     free(r->id);
+    free(r->xtab);
     free(r->mb);
     for (uint32_t t = 0; r->tb && t < MAX_THREADS; t++) {
         free(r->tb[t].rt);
@@ -625,16 +628,19 @@ static void job_raster(void *arg, uint32_t t)
         }
     /* the ground plane, depth-tested against the triangles: its nearness
        plane per pixel (vt_ground_at, double), over the columns of each
-       row where it can hit */
+       row where it can hit, only the depth test where it surely does */
     if (fr->gr.on)
         for (uint32_t tr = t; tr < trows; tr += nt) {
             uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
             for (uint32_t y = tr * TILE; y < y1; y++) {
                 double Y = ndc_y(fr, y);
-                int32_t i0, i1;
-                if (vt_ground_row(&fr->gr, Y, fr->w, &i0, &i1))
-                    r->rk.ground(r->near + (size_t)y * fr->w, r->id + (size_t)y * fr->w, i0, i1, fr->w, &fr->gr, Y,
-                                 2.0 / fr->w);
+                int32_t c[4];
+                if (!vt_ground_row(&fr->gr, Y, fr->w, c)) continue;
+                float *nrow = r->near + (size_t)y * fr->w;
+                uint32_t *irow = r->id + (size_t)y * fr->w;
+                if (c[0] < c[1]) r->rk.ground(nrow, irow, c[0], c[1] - 1, r->xtab, &fr->gr, Y, false);
+                if (c[1] <= c[2]) r->rk.ground(nrow, irow, c[1], c[2], r->xtab, &fr->gr, Y, true);
+                if (c[2] < c[3]) r->rk.ground(nrow, irow, c[2] + 1, c[3], r->xtab, &fr->gr, Y, false);
             }
         }
     /* the light tiles' nearness ranges of this thread's rows, while they
@@ -720,8 +726,10 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     size_t npx = (size_t)width * height;
     if (!vp_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
         !vp_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
-        !vp_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
+        !vp_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb) ||
+        !vp_grow((void **)&r->xtab, &r->xtab_cap, width, sizeof *r->xtab))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
+    vt_ndc_row(width, r->xtab);
     for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
     /* the damaged instances' masks (most frames have none: no table) */
     uint32_t nmk;

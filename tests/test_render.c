@@ -692,12 +692,14 @@ static void test_raster_row_kernels(void **state)
         }
     }
     /* the ground */
-    uint64_t hits = 0, rows = 0, skipped = 0;
+    uint64_t hits = 0, rows = 0, skipped = 0, sure = 0;
     for (int f = 0; f < 300; f++) {
         uint32_t w = 1 + rng_below(&r, 300), h = 1 + rng_below(&r, 60);
         cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
         double proj[16], view[16], dir[3] = {rng_range(&r, -1, 1), rng_range(&r, -1, 1), rng_range(&r, -1, 1)};
-        double up[3] = {0, 1, 0};
+        /* rolled in half the views: the horizon and the far plane's edge
+           cross the rows */
+        double up[3] = {rng_below(&r, 2) ? rng_range(&r, -1, 1) : 0, 1, 0};
         if (rng_below(&r, 4) == 0) dir[1] = 0; /* level: the horizon in view */
         if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
         if (rng_below(&r, 4)) {
@@ -720,7 +722,9 @@ static void test_raster_row_kernels(void **state)
         vt_ground g;
         vt_ground_make(&pe, &vr, (int)d.depth_mode, &g);
         if (!g.on) continue;
-        double inv_w = 2.0 / w;
+        double inv_w = 2.0 / w, *X = malloc(w * sizeof *X);
+        assert_non_null(X);
+        vt_ndc_row(w, X);
         float *gz0 = malloc(w * sizeof *gz0), *gz1 = malloc(w * sizeof *gz1);
         uint32_t *gi0 = malloc(w * sizeof *gi0), *gi1 = malloc(w * sizeof *gi1);
         assert_true(gz0 && gz1 && gi0 && gi1);
@@ -748,10 +752,20 @@ static void test_raster_row_kernels(void **state)
                     memcpy(zk, gz1, w * sizeof *zk);
                     memcpy(ik, gi1, w * sizeof *ik);
                 }
-                int32_t c0, c1;
-                if (vt_ground_row(&g, Y, w, &c0, &c1)) {
-                    assert_true(c0 >= 0 && c0 <= c1 && c1 < (int32_t)w);
-                    ks[k].ground(zk, ik, c0, c1, w, &g, Y, inv_w);
+                int32_t c[4];
+                if (vt_ground_row(&g, Y, w, c)) {
+                    /* as vt_soft draws a row: the sure run without the
+                       ground's test, the rest with it */
+                    assert_true(c[0] >= 0 && c[0] <= c[3] && c[3] < (int32_t)w);
+                    assert_true(c[1] > c[2] ? c[1] == c[3] + 1 : c[0] <= c[1] && c[2] <= c[3]);
+                    if (c[0] < c[1]) ks[k].ground(zk, ik, c[0], c[1] - 1, X, &g, Y, false);
+                    if (c[1] <= c[2]) ks[k].ground(zk, ik, c[1], c[2], X, &g, Y, true);
+                    if (c[2] < c[3]) ks[k].ground(zk, ik, c[2] + 1, c[3], X, &g, Y, false);
+                    sure += k && c[1] <= c[2] ? (uint64_t)(c[2] - c[1] + 1) : 0;
+                    for (int32_t x = c[1]; k && x <= c[2]; x++) {
+                        double nz;
+                        assert_true(vt_ground_at(&g, X[x], Y, &nz));
+                    }
                 } else {
                     skipped += k;
                 }
@@ -767,12 +781,13 @@ static void test_raster_row_kernels(void **state)
         free(gz1);
         free(gi0);
         free(gi1);
+        free(X);
     }
     fprintf(stderr, "raster row kernels: %llu pixels kept, %llu ties held; ground: %llu rows (%llu skipped whole), %llu "
-                    "pixels hit\n",
+                    "pixels hit (%llu in sure runs)\n",
             (unsigned long long)kept, (unsigned long long)ties, (unsigned long long)rows, (unsigned long long)skipped,
-            (unsigned long long)hits);
-    assert_true(hits > 10000 && skipped > 100 && skipped < rows);
+            (unsigned long long)hits, (unsigned long long)sure);
+    assert_true(hits > 10000 && skipped > 100 && skipped < rows && sure > hits / 2);
 }
 
 const struct CMUnitTest render_tests[] = {
