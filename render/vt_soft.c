@@ -186,6 +186,21 @@ static double dot4(const double f[4], const double c[4])
     return f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[3] * c[3];
 }
 
+/* The clip planes a vertex is outside of, as bits (clip_planes' order):
+ * their functions without their zero terms. */
+static unsigned outcode(const cv *v, uint32_t depth_mode)
+{
+    const double x = v->c[0], y = v->c[1], z = v->c[2], w = v->c[3], g = GUARD * w;
+    double nf, ff; /* near, far */
+    switch (depth_mode) {
+    case CULL_DEPTH_GL: nf = z + w, ff = -z + w; break;
+    case CULL_DEPTH_ZERO_ONE: nf = z, ff = -z + w; break;
+    default: nf = -z + w, ff = z; break;
+    }
+    return (unsigned)(nf < 0) | (unsigned)(ff < 0) << 1 | (unsigned)(x + g < 0) << 2 | (unsigned)(-x + g < 0) << 3 |
+           (unsigned)(y + g < 0) << 4 | (unsigned)(-y + g < 0) << 5;
+}
+
 /* The clip planes a triangle is cut by, as functions of clip (x, y, z, w). */
 static void clip_planes(const frame *fr, double pl[6][4])
 {
@@ -295,8 +310,7 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
             x->v.c[2] = dot4(vr->z, q);
             x->v.c[3] = dot4(vr->w, q);
             x->v.d = dot4(vr->d, q);
-            x->out = 0;
-            for (int pp = 0; pp < 6; pp++) x->out |= (unsigned)(dot4(cpl[pp], x->v.c) < 0) << pp;
+            x->out = outcode(&x->v, fr->v->depth_mode);
             x->attr = false;
         }
         /* a damaged instance: its front faces first, then its back faces,
@@ -305,49 +319,45 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         const uint32_t ntri = m->ni / 3;
         for (uint32_t step = 0; step < (mk ? 2 * ntri : ntri); step++) {
             const uint32_t pass = step >= ntri, t = pass ? step - ntri : step;
-            cv v[12];
-            double p[3][3];
             const xv *xs[3];
             unsigned out_and = ~0u, out_or = 0;
             for (int k = 0; k < 3; k++) {
                 /* a mirrored placement turns the winding over: read the
                    triangle backwards so its front stays its front */
                 const xv *x = xs[k] = &r->vx[m->idx[3 * t + (pl.mirror && k ? 3 - k : k)]];
-                memcpy(p[k], x->p, sizeof p[k]);
-                v[k] = x->v;
                 out_and &= x->out;
                 out_or |= x->out;
             }
+            /* all outside one clip plane: nothing to draw */
+            if (out_and) continue;
             /* back faces: the sign of the homogeneous determinant (its first
                adjugate row is the shading record's too) */
             double rows[3][3];
-            adj_row(&v[1], &v[2], rows[0]);
-            double det = rows[0][0] * v[0].c[0] + rows[0][1] * v[0].c[1] + rows[0][2] * v[0].c[3];
+            adj_row(&xs[1]->v, &xs[2]->v, rows[0]);
+            double det = rows[0][0] * xs[0]->v.c[0] + rows[0][1] * xs[0]->v.c[1] + rows[0][2] * xs[0]->v.c[3];
             bool back = false;
             if (!(det > 0)) {
                 /* a damaged instance is two-sided: its inside shows
                    through its holes, drawn as the face turned over */
                 if (!(det < 0) || (!mk && !two_sided) || (mk && pass == 0)) continue;
-                cv tv = v[1];
-                v[1] = v[2];
-                v[2] = tv;
                 const xv *tx = xs[1];
                 xs[1] = xs[2];
                 xs[2] = tx;
-                double tp[3];
-                memcpy(tp, p[1], sizeof tp);
-                memcpy(p[1], p[2], sizeof tp);
-                memcpy(p[2], tp, sizeof tp);
-                adj_row(&v[1], &v[2], rows[0]);
+                adj_row(&xs[1]->v, &xs[2]->v, rows[0]);
                 det = -det;
                 back = true;
             } else if (pass == 1) {
                 continue;
             }
-            /* all outside one clip plane: nothing to draw; all inside
-               every plane: nothing to clip */
-            if (out_and) continue;
-            cv src[3] = {v[0], v[1], v[2]};
+            /* all inside every plane: nothing to clip */
+            cv v[12] = {xs[0]->v, xs[1]->v, xs[2]->v};
+            const double *p[3] = {xs[0]->p, xs[1]->p, xs[2]->p};
+            const cv *src = v;
+            cv srcc[3];
+            if (out_or) { /* clipping rewrites v: the source triangle kept apart */
+                memcpy(srcc, v, sizeof srcc);
+                src = srcc;
+            }
             int n = out_or ? clip_poly(v, 3, cpl) : 3;
             if (n < 3) continue;
             if (r->nst + 2 >= (1u << ID_BITS)) /* record + 1 stays below VT_ID_GROUND */
