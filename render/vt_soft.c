@@ -554,41 +554,56 @@ static void raster_masked(vt_soft *r, const frame *fr, const rtri *rt, int j, in
     }
 }
 
+/* floor(a / b), b > 0. */
+static inline int64_t floor_div(int64_t a, int64_t b)
+{
+    int64_t q = a / b;
+    return q - (a % b < 0);
+}
+
 /* Rows [y0, y1] of one triangle. */
 static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int y1)
 {
     int by0 = rt->by0 > y0 ? rt->by0 : y0, by1 = rt->by1 < y1 ? rt->by1 : y1;
     if (by0 > by1) return;
-    int64_t A[3], B[3], C[3];
+    /* The covered run of each row, solved exactly from the three edge
+       functions (integer, linear in the column d from bx0 and in the row):
+       column bx0 + d is inside iff e_k + d s_k >= 0 for every edge k, s_k
+       = 256 A_k: d >= ceil(-e_k / s_k) = -floor(e_k / s_k) for s_k > 0, d
+       <= floor(e_k / -s_k) for s_k < 0, e_k >= 0 for s_k = 0. Each
+       quotient floor(e_k / |s_k|) is stepped from row to row with its
+       remainder (e_k grows by 256 B_k a row): two divisions an edge a
+       call instead of one an edge a row. */
+    int64_t e[3], D[3], f[3], rem[3], qs[3], rs[3], es[3];
+    int sgn[3];
+    const int64_t px = (int64_t)rt->bx0 * 256 + 128, py = (int64_t)by0 * 256 + 128;
     for (int k = 0; k < 3; k++) {
-        int a = k, b = (k + 1) % 3;
+        int a = k, b = k == 2 ? 0 : k + 1;
         /* E(p) = (x_b - x_a)(p_y - y_a) - (y_b - y_a)(p_x - x_a), > 0 inside */
-        A[k] = -(int64_t)(rt->y[b] - rt->y[a]);
-        B[k] = (int64_t)(rt->x[b] - rt->x[a]);
-        C[k] = -A[k] * rt->x[a] - B[k] * rt->y[a] + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
+        int64_t A = -(int64_t)(rt->y[b] - rt->y[a]), B = (int64_t)(rt->x[b] - rt->x[a]);
+        e[k] = A * (px - rt->x[a]) + B * (py - rt->y[a]) + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
+        es[k] = B * 256;
+        sgn[k] = A > 0 ? 1 : A < 0 ? -1 : 0;
+        D[k] = (A < 0 ? -A : A) * 256;
+        if (!sgn[k]) continue;
+        f[k] = floor_div(e[k], D[k]);
+        rem[k] = e[k] - f[k] * D[k];
+        qs[k] = floor_div(es[k], D[k]);
+        rs[k] = es[k] - qs[k] * D[k];
     }
-    int32_t nx = rt->bx1 - rt->bx0 + 1;
+    const int64_t nx = rt->bx1 - rt->bx0 + 1;
     for (int j = by0; j <= by1; j++) {
-        /* the covered run of this row, solved exactly from the three edge
-           functions (linear in the column, integer): column bx0 + d is
-           inside iff e_k + d s_k >= 0 for every edge k */
-        int64_t py = (int64_t)j * 256 + 128, px = (int64_t)rt->bx0 * 256 + 128;
-        int32_t lo = 0, hi = nx - 1;
-        for (int k = 0; k < 3 && lo <= hi; k++) {
-            int64_t e = A[k] * px + B[k] * py + C[k], sk = A[k] * 256;
-            if (sk > 0) {
-                if (e < 0) {
-                    int64_t d = (-e + sk - 1) / sk;
-                    if (d > lo) lo = d > nx ? nx : (int32_t)d;
-                }
-            } else if (sk < 0) {
-                if (e < 0) hi = -1;
-                else {
-                    int64_t d = e / -sk;
-                    if (d < hi) hi = (int32_t)d;
-                }
-            } else if (e < 0) {
-                hi = -1;
+        int64_t lo = 0, hi = nx - 1;
+        for (int k = 0; k < 3; k++) {
+            if (sgn[k] > 0) lo = -f[k] > lo ? -f[k] : lo;
+            else if (sgn[k] < 0) hi = f[k] < hi ? f[k] : hi;
+            else if (e[k] < 0) hi = -1;
+            e[k] += es[k];
+            f[k] += qs[k];
+            rem[k] += rs[k];
+            if (rem[k] >= D[k]) {
+                rem[k] -= D[k];
+                f[k]++;
             }
         }
         if (lo > hi) continue;
@@ -596,10 +611,10 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
         uint32_t *irow = r->id + (size_t)j * fr->w;
         double nz = rt->nb * (j + 0.5) + rt->nc;
         if (rt->masked) {
-            raster_masked(r, fr, rt, j, rt->bx0 + lo, rt->bx0 + hi, nrow, irow, nz);
+            raster_masked(r, fr, rt, j, rt->bx0 + (int)lo, rt->bx0 + (int)hi, nrow, irow, nz);
             continue;
         }
-        r->rk.span(nrow, irow, rt->bx0 + lo, rt->bx0 + hi, fr->w, rt->na, nz, rt->shade + 1);
+        r->rk.span(nrow, irow, rt->bx0 + (int32_t)lo, rt->bx0 + (int32_t)hi, fr->w, rt->na, nz, rt->shade + 1);
     }
 }
 
