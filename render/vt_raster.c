@@ -60,9 +60,17 @@ static void clear_scalar(float *near, uint32_t *id, size_t n)
     memset(id, 0, n * sizeof *id);
 }
 
+static float tmin_scalar(const float *near, size_t ys, uint32_t cols, uint32_t rows)
+{
+    float m = INFINITY;
+    for (uint32_t y = 0; y < rows; y++)
+        for (uint32_t x = 0; x < cols; x++) m = near[y * ys + x] < m ? near[y * ys + x] : m;
+    return m;
+}
+
 vt_rkern vt_rkern_scalar(void)
 {
-    return (vt_rkern){span_scalar, ground_scalar, clear_scalar};
+    return (vt_rkern){span_scalar, ground_scalar, clear_scalar, tmin_scalar};
 }
 
 /* ---- AVX2: 8 pixels a step ---------------------------------------------------------- */
@@ -169,6 +177,21 @@ AVX2_FN static void ground_avx2(float *nrow, uint32_t *irow, int32_t i0, int32_t
     }
 }
 
+AVX2_FN static float tmin_avx2(const float *near, size_t ys, uint32_t cols, uint32_t rows)
+{
+    if (cols != 16) return tmin_scalar(near, ys, cols, rows);
+    __m256 a = _mm256_set1_ps(INFINITY), b = a;
+    for (uint32_t y = 0; y < rows; y++) {
+        a = _mm256_min_ps(a, _mm256_loadu_ps(near + y * ys));
+        b = _mm256_min_ps(b, _mm256_loadu_ps(near + y * ys + 8));
+    }
+    a = _mm256_min_ps(a, b);
+    __m128 m = _mm_min_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1));
+    m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+    m = _mm_min_ss(m, _mm_shuffle_ps(m, m, 1));
+    return _mm_cvtss_f32(m);
+}
+
 AVX2_FN static void clear_avx2(float *near, uint32_t *id, size_t n)
 {
     const __m256 e = _mm256_set1_ps(VT_EMPTY);
@@ -185,7 +208,7 @@ AVX2_FN static void clear_avx2(float *near, uint32_t *id, size_t n)
 vt_rkern vt_rkern_pick(void)
 {
 #ifdef VT_RASTER_AVX2
-    if (cull_isa_default() == CULL_ISA_AVX2) return (vt_rkern){span_avx2, ground_avx2, clear_avx2};
+    if (cull_isa_default() == CULL_ISA_AVX2) return (vt_rkern){span_avx2, ground_avx2, clear_avx2, tmin_avx2};
 #endif
     return vt_rkern_scalar();
 }

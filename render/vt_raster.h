@@ -36,10 +36,14 @@ typedef void (*vt_gspan_fn)(float *nrow, uint32_t *irow, int32_t i0, int32_t i1,
 /* n pixels: nearness VT_EMPTY, record 0. */
 typedef void (*vt_clear_fn)(float *near, uint32_t *id, size_t n);
 
+/* The least of rows x cols nearness values (rows ys apart). */
+typedef float (*vt_tmin_fn)(const float *near, size_t ys, uint32_t cols, uint32_t rows);
+
 typedef struct vt_rkern {
     vt_span_fn span;
     vt_gspan_fn ground;
     vt_clear_fn clear;
+    vt_tmin_fn tmin;
 } vt_rkern;
 
 /* The instances for this CPU and VANTAGE_ISA (cull_isa_default). */

@@ -51,6 +51,7 @@ _Static_assert(VT_SPAN == TILE, "a shading span is one light tile's row");
 typedef struct rtri {
     int32_t x[3], y[3];     /* fixed point, 1/256 pixel, y up */
     double  na, nb, nc;     /* nearness = na px + nb py + nc over pixel coordinates */
+    float   zmax;           /* no pixel it covers gets a nearness above this (+inf: unknown) */
     int32_t bx0, by0, bx1, by1; /* pixel bounds */
     uint32_t shade;         /* shading record */
     uint32_t masked;        /* its instance is damaged: each pixel tests the mask */
@@ -113,6 +114,11 @@ struct vt_soft {
     vt_rkern rk;            /* the raster's row kernels for this CPU */
     double *xtab;           /* each column's NDC x (vt_ndc_row) */
     size_t xtab_cap;
+    float *hz;              /* per 16 x 16 tile: <= its pixels' least nearness (the coarse depth) */
+    size_t hz_cap;
+    uint8_t *hz_old;        /* per tile: drawn into since hz was last made */
+    size_t hz_old_cap;
+    bool coarse;            /* the coarse depth test is on (vt_soft_coarse_depth) */
     vt_skytab sky;          /* the analytic sky's table */
     vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
@@ -136,11 +142,17 @@ int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
     r->pool = pool;
     r->k = vt_kern_pick();
     r->rk = vt_rkern_pick();
+    r->coarse = true;
     uint32_t pt = cull_pool_threads(pool);
     r->threads = threads && threads < pt ? threads : pt;
     if (r->threads > MAX_THREADS) r->threads = MAX_THREADS;
     *out = r;
     return 0;
+}
+
+void vt_soft_coarse_depth(vt_soft *r, bool on)
+{
+    if (r) r->coarse = on;
 }
 
 void vt_soft_destroy(vt_soft *r)
@@ -150,6 +162,8 @@ void vt_soft_destroy(vt_soft *r)
     free(r->near);
     free(r->id);
     free(r->xtab);
+    free(r->hz);
+    free(r->hz_old);
     free(r->mb);
     for (uint32_t t = 0; r->tb && t < MAX_THREADS; t++) {
         free(r->tb[t].rt);
@@ -272,6 +286,29 @@ static bool xform_unit(const double m[3][3], const float *v, float o[3])
     l = sqrt(l);
     for (int a = 0; a < 3; a++) o[a] = l > 0 ? (float)(t[a] / l) : 0;
     return l > 0;
+}
+
+/* An upper bound of the nearness the raster computes at any pixel centre
+ * a triangle of a w x h view covers (for the coarse depth test): its
+ * plane (as computed: affine) is highest at a vertex (x, y: unsnapped), a
+ * covered centre lies within the snapped triangle (vertices moved by <=
+ * 1/512 pixel on each axis: the plane by <= (|na| + |nb|) / 512 more),
+ * and the raster's evaluation of the plane at a pixel rounds by far less
+ * than 1e-9 of its terms' magnitude; rounded up to a float. +inf where
+ * anything is not finite: such a triangle is never rejected. */
+static float near_bound(const rtri *rt, const double x[3], const double y[3], uint32_t w, uint32_t h)
+{
+    double zm = -INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double z = rt->na * x[k] + rt->nb * y[k] + rt->nc;
+        zm = z > zm ? z : zm;
+    }
+    double an = fabs(rt->na), bn = fabs(rt->nb);
+    double mag = an * (w + 1.0) + bn * (h + 1.0) + fabs(rt->nc) + fabs(zm);
+    double b = zm + (an + bn) / (SUB / 2) + 1e-9 * mag;
+    if (!(b < FLT_MAX)) return INFINITY; /* NaN too */
+    float f = (float)b;
+    return (double)f < b ? nextafterf(f, INFINITY) : f;
 }
 
 static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const float (*mb)[6],
@@ -466,6 +503,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 rt->na = (un * vy - uy * vn) / den;
                 rt->nb = (ux * vn - un * vx) / den;
                 rt->nc = pn[id[0]] - rt->na * px[id[0]] - rt->nb * py[id[0]];
+                rt->zmax = near_bound(rt, (double[3]){px[id[0]], px[id[1]], px[id[2]]},
+                                      (double[3]){py[id[0]], py[id[1]], py[id[2]]}, fr->w, fr->h);
                 int32_t xmin = rt->x[0], xmax = rt->x[0], ymin = rt->y[0], ymax = rt->y[0];
                 for (int q = 1; q < 3; q++) {
                     xmin = rt->x[q] < xmin ? rt->x[q] : xmin;
@@ -508,6 +547,7 @@ typedef struct job {
     bool ranges;            /* the tile nearness ranges are wanted (there are lights) */
     const vt_shadow *sh;    /* the sun's cascades, or NULL */
     const float *ao;        /* per pixel ambient occlusion (vt_ssao), or NULL: none */
+    uint32_t skips[MAX_THREADS]; /* per raster thread: the parts the coarse depth test skipped */
 } job;
 
 /* Top-left rule, y up, counter-clockwise: an edge going down (dy < 0) is a
@@ -618,6 +658,27 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
     }
 }
 
+/* The coarse depth test: whether nothing of a triangle whose nearness
+ * stays <= zmax can show in tiles c0..c1 of tile row tr (every pixel
+ * there is at least as near already). A tile's bound hz is remade from
+ * its pixels only when it fails and something was drawn into the tile
+ * since: a 16 x 16 minimum, far cheaper than the rows it spares. */
+static bool hidden(vt_soft *r, const frame *fr, uint32_t tr, uint32_t c0, uint32_t c1, float zmax)
+{
+    const uint32_t tx = (fr->w + TILE - 1) / TILE;
+    for (uint32_t c = c0; c <= c1; c++) {
+        size_t ti = (size_t)tr * tx + c;
+        if (zmax < r->hz[ti]) continue;
+        if (!r->hz_old[ti]) return false;
+        uint32_t x0 = c * TILE, y0 = tr * TILE;
+        uint32_t cols = fr->w - x0 < TILE ? fr->w - x0 : TILE, rows = fr->h - y0 < TILE ? fr->h - y0 : TILE;
+        r->hz[ti] = r->rk.tmin(r->near + (size_t)y0 * fr->w + x0, fr->w, cols, rows);
+        r->hz_old[ti] = 0;
+        if (!(zmax < r->hz[ti])) return false;
+    }
+    return true;
+}
+
 /* Set-up, thread t: a contiguous share of the instances, so the triangles
  * of threads 0, 1, ... in turn are in instance order. */
 static void job_setup(void *arg, uint32_t t)
@@ -638,19 +699,32 @@ static void job_raster(void *arg, uint32_t t)
     const frame *fr = jb->fr;
     vt_soft *r = jb->r;
     uint32_t trows = (fr->h + TILE - 1) / TILE, nt = jb->nthreads;
+    const uint32_t tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += nt) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
         r->rk.clear(r->near + (size_t)tr * TILE * fr->w, r->id + (size_t)tr * TILE * fr->w,
                     (size_t)(y1 - tr * TILE) * fr->w);
+        for (uint32_t c = 0; c < tx; c++) r->hz[tr * tx + c] = EMPTY;
+        memset(r->hz_old + (size_t)tr * tx, 0, tx);
     }
+    uint32_t skips = 0;
     for (uint32_t b = 0; b < jb->nthreads; b++)
         for (size_t k = 0; k < r->tb[b].nrt; k++) {
             const rtri *rt = &r->tb[b].rt[k];
             uint32_t t0 = (uint32_t)rt->by0 / TILE, t1 = (uint32_t)rt->by1 / TILE;
+            uint32_t c0 = (uint32_t)rt->bx0 / TILE, c1 = (uint32_t)rt->bx1 / TILE;
             /* the first tile row of this thread at or after t0 */
             uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
-            for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
+            for (; tr <= t1; tr += nt) {
+                if (r->coarse && hidden(r, fr, tr, c0, c1, rt->zmax)) {
+                    skips++;
+                    continue;
+                }
+                raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
+                memset(r->hz_old + (size_t)tr * tx + c0, 1, c1 - c0 + 1);
+            }
         }
+    jb->skips[t] = skips;
     /* the ground plane, depth-tested against the triangles: its nearness
        plane per pixel (vt_ground_at, double), over the columns of each
        row where it can hit, only the depth test where it surely does */
@@ -671,7 +745,6 @@ static void job_raster(void *arg, uint32_t t)
     /* the light tiles' nearness ranges of this thread's rows, while they
        are in its cache */
     if (!jb->ranges) return;
-    uint32_t tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += nt) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
         r->k.ranges(r->near + (size_t)tr * TILE * fr->w, fr->w, fr->w, y1 - tr * TILE, r->range + (size_t)tr * tx);
@@ -773,7 +846,9 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     uint32_t tx = (width + TILE - 1) / TILE;
     if (!vp_grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
         !vp_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
-        !vp_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
+        !vp_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl) ||
+        !vp_grow((void **)&r->hz, &r->hz_cap, (size_t)tx * trows, sizeof *r->hz) ||
+        !vp_grow((void **)&r->hz_old, &r->hz_old_cap, (size_t)tx * trows, sizeof *r->hz_old))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     /* no lights: no ranges, no binning */
     job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst,
@@ -834,6 +909,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (st) st->overlay_ns = now_ns() - t5;
     if (st) {
         st->triangles = (uint32_t)ntri;
+        for (uint32_t t = 0; t < nt; t++) st->coarse_skips += jb.skips[t];
         st->lights_in_view = r->tiles.in_view;
         st->max_lights_per_tile = r->tiles.max_per_tile;
         st->threads = nt;

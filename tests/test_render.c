@@ -790,7 +790,131 @@ static void test_raster_row_kernels(void **state)
     assert_true(hits > 10000 && skipped > 100 && skipped < rows && sure > hits / 2);
 }
 
+static const double *sort_eye;
+static int by_distance(const void *a, const void *b)
+{
+    const vt_instance *p = a, *q = b;
+    double dp = 0, dq = 0;
+    for (int k = 0; k < 3; k++) {
+        double u = (p->bmin[k] + p->bmax[k]) / 2 - sort_eye[k], v = (q->bmin[k] + q->bmax[k]) / 2 - sort_eye[k];
+        dp += u * u;
+        dq += v * v;
+    }
+    return dp < dq ? -1 : dp > dq;
+}
+
+/* The raster's coarse depth test (vt_soft_coarse_depth) skips only what
+ * could not show: random frames of lit boxes (damaged ones among them,
+ * drawn masked and two-sided), drawn nearest first so that much is
+ * skipped, and the same with a cluster of 300 boxes; the colour and depth
+ * with the test on are those with it off, bit for bit. */
+static void test_soft_coarse_depth_exact(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xC0A5u};
+    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    char err[256];
+    vt_soft *sr;
+    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    uint64_t skips = 0, parts = 0;
+    for (int f = 0; f < 8; f++) {
+        lit_frame lf;
+        lit_frame_make(&r, &lf);
+        uint32_t n0 = lf.n;
+        if (f & 1) { /* a dense cluster in front of the camera */
+            vt_instance *in = realloc(lf.in, 300 * sizeof *in);
+            assert_non_null(in);
+            memset(in + lf.n, 0, (300 - lf.n) * sizeof *in);
+            double dir[3] = {lf.v.clip[3], lf.v.clip[7], lf.v.clip[11]}; /* the w row: the view direction */
+            double l = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+            for (uint32_t i = lf.n; i < 300; i++) {
+                double d = rng_range(&r, 2, 60);
+                for (int a = 0; a < 3; a++) {
+                    double c = lf.v.origin[a] + dir[a] / l * d + rng_range(&r, -d / 2, d / 2), e = rng_log(&r, 0.2, 3);
+                    in[i].bmin[a] = c - e;
+                    in[i].bmax[a] = c + e;
+                    in[i].albedo[a] = (float)rng_range(&r, 0.2, 0.9);
+                }
+            }
+            lf.in = in;
+            lf.n = 300;
+        }
+        sort_eye = lf.v.origin;
+        qsort(lf.in, lf.n, sizeof *lf.in, by_distance);
+        size_t np = (size_t)lf.w * lf.h;
+        float *c0 = malloc(np * 16), *d0 = malloc(np * 4), *c1 = malloc(np * 16), *d1 = malloc(np * 4);
+        assert_true(c0 && d0 && c1 && d1);
+        vt_soft_stats st;
+        vt_soft_coarse_depth(sr, false);
+        assert_int_equal(vt_soft_render(sr, &lf.v, lf.w, lf.h, &cube, 1, lf.in, lf.n, lf.L, lf.nl, c0, d0, lf.w, &st,
+                                        err, sizeof err),
+                         0);
+        assert_int_equal(st.coarse_skips, 0);
+        vt_soft_coarse_depth(sr, true);
+        assert_int_equal(vt_soft_render(sr, &lf.v, lf.w, lf.h, &cube, 1, lf.in, lf.n, lf.L, lf.nl, c1, d1, lf.w, &st,
+                                        err, sizeof err),
+                         0);
+        assert_memory_equal(d0, d1, np * 4);
+        assert_memory_equal(c0, c1, np * 16);
+        skips += st.coarse_skips;
+        parts += st.triangles;
+        free(c0);
+        free(d0);
+        free(c1);
+        free(d1);
+        lf.n = n0; /* lit_frame_free frees the first n0's volumes */
+        lit_frame_free(&lf);
+    }
+    /* a wall drawn first, then boxes poking out of it by 1e-6..1e-2 of
+       their distance (their fronts just nearer than the wall): a bound
+       too low by a fraction of that would drop them */
+    uint64_t poke_skips = 0;
+    for (int f = 0; f < 6; f++) {
+        uint32_t w = 64 + rng_below(&r, 100), h = 48 + rng_below(&r, 80), n = 200;
+        cull_view v;
+        cull_view_desc d = {.depth_mode = (uint32_t)f % 3, .viewport_w = w, .viewport_h = h};
+        double proj[16], view[16], dir[3] = {0, 0, 1}, up[3] = {0, 1, 0}; /* the wall's nearness the same all over */
+        cull_mat_perspective(proj, 1.0, (double)w / h, 0.1, 1e4, d.depth_mode);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        vt_instance *in = calloc(n, sizeof *in);
+        assert_non_null(in);
+        double D = rng_log(&r, 2, 200);
+        for (uint32_t i = 0; i < n; i++) {
+            double p = i ? D * rng_log(&r, 1e-6, 1e-2) : 0, e = i ? D * rng_log(&r, 0.01, 0.2) : 10 * D;
+            double cx = i ? rng_range(&r, -0.6, 0.6) * D : 0, cy = i ? rng_range(&r, -0.4, 0.4) * D : 0;
+            in[i].bmin[0] = cx - e, in[i].bmax[0] = cx + e;
+            in[i].bmin[1] = cy - e, in[i].bmax[1] = cy + e;
+            in[i].bmin[2] = D - p, in[i].bmax[2] = D + 1;
+            for (int a = 0; a < 3; a++) in[i].albedo[a] = (float)rng_range(&r, 0.2, 0.9);
+        }
+        size_t np = (size_t)w * h;
+        float *c0 = malloc(np * 16), *d0 = malloc(np * 4), *c1 = malloc(np * 16), *d1 = malloc(np * 4);
+        assert_true(c0 && d0 && c1 && d1);
+        vt_soft_stats st;
+        vt_soft_coarse_depth(sr, false);
+        assert_int_equal(vt_soft_render(sr, &v, w, h, &cube, 1, in, n, NULL, 0, c0, d0, w, &st, err, sizeof err), 0);
+        vt_soft_coarse_depth(sr, true);
+        assert_int_equal(vt_soft_render(sr, &v, w, h, &cube, 1, in, n, NULL, 0, c1, d1, w, &st, err, sizeof err), 0);
+        assert_memory_equal(d0, d1, np * 4);
+        assert_memory_equal(c0, c1, np * 16);
+        poke_skips += st.coarse_skips;
+        free(c0);
+        free(d0);
+        free(c1);
+        free(d1);
+        free(in);
+    }
+    fprintf(stderr, "coarse depth test: %llu triangle parts skipped (%llu triangles drawn), %llu behind a wall; pictures "
+                    "the same\n",
+            (unsigned long long)skips, (unsigned long long)parts, (unsigned long long)poke_skips);
+    assert_true(skips > 100 && poke_skips > 100);
+    vt_soft_destroy(sr);
+}
+
 const struct CMUnitTest render_tests[] = {
+    cmocka_unit_test(test_soft_coarse_depth_exact),
     cmocka_unit_test(test_raster_row_kernels),
     cmocka_unit_test(test_soft_and_gl_agree),
     cmocka_unit_test(test_soft_bad_input),
