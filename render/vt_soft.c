@@ -601,6 +601,27 @@ static inline int64_t floor_div(int64_t a, int64_t b)
     return q - (a % b < 0);
 }
 
+/* One edge of a triangle, row by row (raster_tri): f = floor(e / D) and
+ * its remainder r, stepped by qs and rs a row; a horizontal edge (sg 0)
+ * keeps e itself in f (stepped by qs; D never reached). */
+typedef struct edge_dda {
+    int64_t f, r, qs, rs, D;
+    int sg;                 /* the sign of s: 1 bounds the run's start, -1 its end */
+} edge_dda;
+
+/* This row's bound of the edge on the run [lo, hi], then the next row. */
+static inline void edge_row(edge_dda *d, int64_t *lo, int64_t *hi)
+{
+    if (d->sg > 0) *lo = -d->f > *lo ? -d->f : *lo;
+    else if (d->sg < 0) *hi = d->f < *hi ? d->f : *hi;
+    else if (d->f < 0) *hi = -1;
+    d->f += d->qs;
+    d->r += d->rs;
+    int64_t c = d->r >= d->D;
+    d->r -= c ? d->D : 0;
+    d->f += c;
+}
+
 /* Rows [y0, y1] of one triangle. */
 static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int y1)
 {
@@ -614,38 +635,31 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
        quotient floor(e_k / |s_k|) is stepped from row to row with its
        remainder (e_k grows by 256 B_k a row): two divisions an edge a
        call instead of one an edge a row. */
-    int64_t e[3], D[3], f[3], rem[3], qs[3], rs[3], es[3];
-    int sgn[3];
+    edge_dda E[3];
     const int64_t px = (int64_t)rt->bx0 * 256 + 128, py = (int64_t)by0 * 256 + 128;
     for (int k = 0; k < 3; k++) {
         int a = k, b = k == 2 ? 0 : k + 1;
         /* E(p) = (x_b - x_a)(p_y - y_a) - (y_b - y_a)(p_x - x_a), > 0 inside */
         int64_t A = -(int64_t)(rt->y[b] - rt->y[a]), B = (int64_t)(rt->x[b] - rt->x[a]);
-        e[k] = A * (px - rt->x[a]) + B * (py - rt->y[a]) + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
-        es[k] = B * 256;
-        sgn[k] = A > 0 ? 1 : A < 0 ? -1 : 0;
-        D[k] = (A < 0 ? -A : A) * 256;
-        if (!sgn[k]) continue;
-        f[k] = floor_div(e[k], D[k]);
-        rem[k] = e[k] - f[k] * D[k];
-        qs[k] = floor_div(es[k], D[k]);
-        rs[k] = es[k] - qs[k] * D[k];
+        int64_t e = A * (px - rt->x[a]) + B * (py - rt->y[a]) + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
+        edge_dda *d = &E[k];
+        d->sg = A > 0 ? 1 : A < 0 ? -1 : 0;
+        if (!d->sg) { /* a horizontal edge: e itself, stepped; no remainder */
+            *d = (edge_dda){.f = e, .qs = B * 256, .D = INT64_MAX};
+            continue;
+        }
+        d->D = (A < 0 ? -A : A) * 256;
+        d->f = floor_div(e, d->D);
+        d->r = e - d->f * d->D;
+        d->qs = floor_div(B * 256, d->D);
+        d->rs = B * 256 - d->qs * d->D;
     }
     const int64_t nx = rt->bx1 - rt->bx0 + 1;
     for (int j = by0; j <= by1; j++) {
         int64_t lo = 0, hi = nx - 1;
-        for (int k = 0; k < 3; k++) {
-            if (sgn[k] > 0) lo = -f[k] > lo ? -f[k] : lo;
-            else if (sgn[k] < 0) hi = f[k] < hi ? f[k] : hi;
-            else if (e[k] < 0) hi = -1;
-            e[k] += es[k];
-            f[k] += qs[k];
-            rem[k] += rs[k];
-            if (rem[k] >= D[k]) {
-                rem[k] -= D[k];
-                f[k]++;
-            }
-        }
+        edge_row(&E[0], &lo, &hi);
+        edge_row(&E[1], &lo, &hi);
+        edge_row(&E[2], &lo, &hi);
         if (lo > hi) continue;
         float *nrow = r->near + (size_t)j * fr->w;
         uint32_t *irow = r->id + (size_t)j * fr->w;

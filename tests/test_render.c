@@ -913,7 +913,138 @@ static void test_soft_coarse_depth_exact(void **state)
     vt_soft_destroy(sr);
 }
 
+/* The fill rule, written out: pixel centre (cx, cy) (1/256 pixel, y up)
+ * is inside the counter-clockwise triangle (x, y) iff every edge function
+ * is > 0 there, or = 0 on a left edge (going down) or a top edge
+ * (horizontal, going left). */
+static bool fill_rule_inside(const int64_t x[3], const int64_t y[3], int64_t cx, int64_t cy)
+{
+    for (int k = 0; k < 3; k++) {
+        int64_t ax = x[k], ay = y[k], bx = x[(k + 1) % 3], by = y[(k + 1) % 3];
+        int64_t e = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
+        bool top_left = by - ay < 0 || (by == ay && bx - ax < 0);
+        if (e < 0 || (e == 0 && !top_left)) return false;
+    }
+    return true;
+}
+
+/* The raster against that rule, pixel for pixel: an orthographic view
+ * that maps world x, y to pixels exactly, flat triangles with vertices on
+ * the 1/256 pixel grid (so snapping moves nothing): many with edges
+ * through pixel centres (x or y = i + 0.5), thin and tiny ones, shared
+ * edges between neighbours, several at the same depth (the first drawn
+ * keeps a tie), zero-area ones (nothing drawn), and huge ones reaching
+ * thousands of pixels past the view (clipped by the guard band: their
+ * edges are axis-aligned or at 45 degrees, so the cut points are on the
+ * grid too). Which triangle each pixel shows (from its colour) must be
+ * the nearest covering one, the first of equals. */
+static void test_soft_fill_rule_exact(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xF111u};
+    vt_soft *sr;
+    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    char err[256];
+    uint64_t pixels = 0, covered = 0, ties = 0;
+    for (int f = 0; f < 12; f++) {
+        const uint32_t W = 40 + rng_below(&r, 60), H = 24 + rng_below(&r, 50), n = 60;
+        cull_view_desc d = {.viewport_w = W, .viewport_h = H, .depth_mode = CULL_DEPTH_GL};
+        cull_mat_ortho(d.view_proj, 0, W, 0, H, -10, 10, CULL_DEPTH_GL);
+        cull_view v;
+        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        float *pos = malloc((size_t)n * 9 * sizeof *pos);
+        uint32_t idx[3] = {0, 1, 2};
+        vt_mesh *ms = calloc(n, sizeof *ms);
+        vt_instance *in = calloc(n, sizeof *in);
+        int64_t(*tx)[3] = malloc(n * sizeof *tx), (*ty)[3] = malloc(n * sizeof *ty);
+        int *lvl = malloc(n * sizeof *lvl);
+        assert_true(pos && ms && in && tx && ty && lvl);
+        for (uint32_t t = 0; t < n; t++) {
+            int64_t *x = tx[t], *y = ty[t];
+            uint32_t kind = rng_below(&r, 10);
+            if (kind < 2) { /* huge: a right triangle, legs on the axes, 45-degree hypotenuse */
+                int64_t L = 256 * (int64_t)(2000 + rng_below(&r, 20000));
+                int64_t x0 = 256 * (int64_t)rng_below(&r, W) + 128 * rng_below(&r, 2);
+                int64_t y0 = 256 * (int64_t)rng_below(&r, H) + 128 * rng_below(&r, 2);
+                int64_t sx = rng_below(&r, 2) ? 1 : -1, sy = rng_below(&r, 2) ? 1 : -1;
+                x[0] = x0, y[0] = y0, x[1] = x0 + sx * L, y[1] = y0, x[2] = x0, y[2] = y0 + sy * L;
+            } else if (kind < 3 && t > 0) { /* sharing an edge with the previous one */
+                int64_t *px = tx[t - 1], *py = ty[t - 1];
+                x[0] = px[1], y[0] = py[1], x[1] = px[0], y[1] = py[0];
+                x[2] = 256 * (int64_t)rng_below(&r, W + 8) - 1024 + rng_below(&r, 256);
+                y[2] = 256 * (int64_t)rng_below(&r, H + 8) - 1024 + rng_below(&r, 256);
+            } else if (kind < 4) { /* zero area: on one line */
+                int64_t x0 = 256 * (int64_t)rng_below(&r, W), y0 = 256 * (int64_t)rng_below(&r, H);
+                int64_t dx = (int64_t)rng_below(&r, 2000) - 1000, dy = (int64_t)rng_below(&r, 2000) - 1000;
+                x[0] = x0, y[0] = y0, x[1] = x0 + dx, y[1] = y0 + dy, x[2] = x0 + 2 * dx, y[2] = y0 + 2 * dy;
+            } else { /* vertices on pixel centres, corners, or anywhere on the grid */
+                for (int k = 0; k < 3; k++) {
+                    uint32_t snap = rng_below(&r, 3);
+                    int64_t sub = snap == 0 ? 128 : snap == 1 ? 0 : (int64_t)rng_below(&r, 256);
+                    int64_t span = kind < 6 ? 6 : (int64_t)W + 10; /* small ones near each other */
+                    x[k] = 256 * ((int64_t)rng_below(&r, (uint32_t)span) + (kind < 6 ? (int64_t)rng_below(&r, W) : -5)) + sub;
+                    sub = snap == 0 ? 128 : snap == 1 ? 0 : (int64_t)rng_below(&r, 256);
+                    span = kind < 6 ? 6 : (int64_t)H + 10;
+                    y[k] = 256 * ((int64_t)rng_below(&r, (uint32_t)span) + (kind < 6 ? (int64_t)rng_below(&r, H) : -5)) + sub;
+                }
+            }
+            /* counter-clockwise (front facing) */
+            int64_t area = (x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0]);
+            if (area < 0) {
+                int64_t a = x[1], b = y[1];
+                x[1] = x[2], y[1] = y[2], x[2] = a, y[2] = b;
+            }
+            lvl[t] = kind < 2 ? 0 : (int)rng_below(&r, 4); /* the huge ones behind (most of the view) */
+            for (int k = 0; k < 3; k++) {
+                pos[9 * t + 3 * k] = (float)(x[k] / 256.0);
+                pos[9 * t + 3 * k + 1] = (float)(y[k] / 256.0);
+                pos[9 * t + 3 * k + 2] = (float)lvl[t];
+                assert_true(pos[9 * t + 3 * k] * 256.0 == (double)x[k]); /* exact in float */
+            }
+            ms[t] = (vt_mesh){.pos = pos + 9 * t, .idx = idx, .nv = 3, .ni = 3};
+            in[t] = (vt_instance){.mesh = t, .place = VT_PLACE_TRS, .rot = {0, 0, 0, 1}, .scale = {1, 1, 1},
+                                  .albedo = {(float)(t + 1) / (n + 1), 0.5f, 0.5f}};
+        }
+        size_t np = (size_t)W * H;
+        float *rgba = malloc(np * 16), *depth = malloc(np * 4);
+        assert_true(rgba && depth);
+        assert_int_equal(vt_soft_render(sr, &v, W, H, ms, n, in, n, NULL, 0, rgba, depth, W, NULL, err, sizeof err), 0);
+        for (uint32_t j = 0; j < H; j++)
+            for (uint32_t i = 0; i < W; i++) {
+                int want = -1, nties = 0;
+                for (uint32_t t = 0; t < n; t++) {
+                    int64_t *x = tx[t], *y = ty[t];
+                    if ((x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0]) == 0) continue;
+                    if (!fill_rule_inside(x, y, 256 * (int64_t)i + 128, 256 * (int64_t)j + 128)) continue;
+                    if (want >= 0 && lvl[t] == lvl[want]) nties++;
+                    if (want < 0 || lvl[t] > lvl[want]) want = (int)t;
+                }
+                const float *c = rgba + 4 * ((size_t)j * W + i);
+                int got = c[3] == 0 ? -1 : (int)lrint(c[0] / c[1] * 0.5 * (n + 1)) - 1;
+                if (got != want)
+                    fprintf(stderr, "frame %d pixel %u,%u: shows %d, the rule says %d\n", f, i, j, got, want);
+                assert_int_equal(got, want);
+                pixels++;
+                covered += want >= 0;
+                ties += nties > 0;
+            }
+        free(rgba);
+        free(depth);
+        free(pos);
+        free(ms);
+        free(in);
+        free(tx);
+        free(ty);
+        free(lvl);
+    }
+    fprintf(stderr, "fill rule: %llu pixels, %llu covered, %llu with a tie, all as the rule says\n",
+            (unsigned long long)pixels, (unsigned long long)covered, (unsigned long long)ties);
+    assert_true(covered * 2 > pixels && ties > 100);
+    vt_soft_destroy(sr);
+}
+
 const struct CMUnitTest render_tests[] = {
+    cmocka_unit_test(test_soft_fill_rule_exact),
     cmocka_unit_test(test_soft_coarse_depth_exact),
     cmocka_unit_test(test_raster_row_kernels),
     cmocka_unit_test(test_soft_and_gl_agree),
