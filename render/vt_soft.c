@@ -677,19 +677,33 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
  * there is at least as near already). A tile's bound hz is remade from
  * its pixels only when it fails and something was drawn into the tile
  * since: a 16 x 16 minimum, far cheaper than the rows it spares. */
-static bool hidden(vt_soft *r, const frame *fr, uint32_t tr, uint32_t c0, uint32_t c1, float zmax)
+/* A raster thread's coarse test: remaking a tile's bound costs about a
+ * sixth of the rows a skip spares, so it runs while it pays: credit
+ * starts at 64, a remake spends 1, a skip it brings earns 8; out of
+ * credit, every 32nd failed test still remakes (to notice when the
+ * triangles start coming near to far). */
+typedef struct coarse {
+    int32_t credit;
+    uint32_t probe;
+    uint32_t skips;         /* the parts skipped */
+} coarse;
+
+static bool hidden(vt_soft *r, const frame *fr, uint32_t tr, uint32_t c0, uint32_t c1, float zmax, coarse *cs)
 {
     const uint32_t tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t c = c0; c <= c1; c++) {
         size_t ti = (size_t)tr * tx + c;
         if (zmax < r->hz[ti]) continue;
-        if (!r->hz_old[ti]) return false;
+        if (!r->hz_old[ti] || (cs->credit <= 0 && (++cs->probe & 31))) return false;
         uint32_t x0 = c * TILE, y0 = tr * TILE;
         uint32_t cols = fr->w - x0 < TILE ? fr->w - x0 : TILE, rows = fr->h - y0 < TILE ? fr->h - y0 : TILE;
         r->hz[ti] = r->rk.tmin(r->near + (size_t)y0 * fr->w + x0, fr->w, cols, rows);
         r->hz_old[ti] = 0;
+        cs->credit--;
         if (!(zmax < r->hz[ti])) return false;
     }
+    cs->credit = cs->credit + 8 < 256 ? cs->credit + 8 : 256;
+    cs->skips++;
     return true;
 }
 
@@ -721,7 +735,7 @@ static void job_raster(void *arg, uint32_t t)
         for (uint32_t c = 0; c < tx; c++) r->hz[tr * tx + c] = EMPTY;
         memset(r->hz_old + (size_t)tr * tx, 0, tx);
     }
-    uint32_t skips = 0;
+    coarse cs = {64, 0, 0};
     for (uint32_t b = 0; b < jb->nthreads; b++)
         for (size_t k = 0; k < r->tb[b].nrt; k++) {
             const rtri *rt = &r->tb[b].rt[k];
@@ -730,15 +744,12 @@ static void job_raster(void *arg, uint32_t t)
             /* the first tile row of this thread at or after t0 */
             uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
             for (; tr <= t1; tr += nt) {
-                if (r->coarse && hidden(r, fr, tr, c0, c1, rt->zmax)) {
-                    skips++;
-                    continue;
-                }
+                if (r->coarse && hidden(r, fr, tr, c0, c1, rt->zmax, &cs)) continue;
                 raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
                 memset(r->hz_old + (size_t)tr * tx + c0, 1, c1 - c0 + 1);
             }
         }
-    jb->skips[t] = skips;
+    jb->skips[t] = cs.skips;
     /* the ground plane, depth-tested against the triangles: its nearness
        plane per pixel (vt_ground_at, double), over the columns of each
        row where it can hit, only the depth test where it surely does */
