@@ -387,7 +387,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 continue;
             }
             /* all inside every plane: nothing to clip */
-            cv v[12] = {xs[0]->v, xs[1]->v, xs[2]->v};
+            cv v[12]; /* not initialised: clip_poly writes what it reads */
+            v[0] = xs[0]->v, v[1] = xs[1]->v, v[2] = xs[2]->v;
             const double *p[3] = {xs[0]->p, xs[1]->p, xs[2]->p};
             const cv *src = v;
             cv srcc[3];
