@@ -70,8 +70,8 @@ typedef struct xv {
     unsigned out;           /* bit p: outside clip plane p */
     float n[3];             /* its normal under the instance's scale (unit) */
     bool has_n;             /* false: no normal, or it collapsed: the face's */
-    bool attr;              /* n, has_n and tg are made (only for the vertices of
-                               triangles that get a shading record) */
+    bool attr;              /* p, n, has_n and tg are made (only for the vertices
+                               of triangles that get a shading record) */
     float tg[4];            /* its tangent under the placement (unit), handedness */
 } xv;
 
@@ -333,20 +333,23 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         /* a MASK material whose alpha is a constant below its cutoff:
            nothing of it is drawn */
         if (mat && mat->alpha_mode == VT_ALPHA_MASK && !alpha_test && mat->base[3] < mat->alpha_cutoff) continue;
-        /* every vertex once: camera-relative position and clip coordinates */
+        /* every vertex once: its clip coordinates, by the view's rows and
+           the placement composed once an instance (the camera-relative
+           position only for the vertices of drawn triangles, below) */
         if (!vp_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
             return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for %u vertices", m->nv);
+        double cm[5][4];
+        const double *vrow[5] = {vr->x, vr->y, vr->z, vr->w, vr->d};
+        for (int q = 0; q < 5; q++) {
+            const double *f = vrow[q];
+            for (int c = 0; c < 3; c++) cm[q][c] = f[0] * pl.m[0][c] + f[1] * pl.m[1][c] + f[2] * pl.m[2][c];
+            cm[q][3] = f[0] * pl.t[0] + f[1] * pl.t[1] + f[2] * pl.t[2] + f[3];
+        }
         for (uint32_t k = 0; k < m->nv; k++) {
             xv *x = &r->vx[k];
-            const float *mp = m->pos + 3 * k;
-            for (int a = 0; a < 3; a++)
-                x->p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
-            double q[4] = {x->p[0], x->p[1], x->p[2], 1};
-            x->v.c[0] = dot4(vr->x, q);
-            x->v.c[1] = dot4(vr->y, q);
-            x->v.c[2] = dot4(vr->z, q);
-            x->v.c[3] = dot4(vr->w, q);
-            x->v.d = dot4(vr->d, q);
+            const double p0 = m->pos[3 * k], p1 = m->pos[3 * k + 1], p2 = m->pos[3 * k + 2];
+            for (int q = 0; q < 4; q++) x->v.c[q] = cm[q][0] * p0 + cm[q][1] * p1 + cm[q][2] * p2 + cm[q][3];
+            x->v.d = cm[4][0] * p0 + cm[4][1] * p1 + cm[4][2] * p2 + cm[4][3];
             x->out = outcode(&x->v, fr->v->depth_mode);
             x->attr = false;
         }
@@ -414,6 +417,9 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 xv *x = &r->vx[xs[k] - r->vx];
                 if (x->attr) continue;
                 uint32_t vi = (uint32_t)(xs[k] - r->vx);
+                const float *mp = m->pos + 3 * (size_t)vi;
+                for (int a = 0; a < 3; a++)
+                    x->p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
                 x->has_n = m->nrm && xform_unit(pl.n, m->nrm + 3 * (size_t)vi, x->n);
                 if (m->tan && mat) {
                     xform_unit(pl.m, m->tan + 4 * (size_t)vi, x->tg);
