@@ -702,6 +702,9 @@ static void test_raster_row_kernels(void **state)
         double up[3] = {rng_below(&r, 2) ? rng_range(&r, -1, 1) : 0, 1, 0};
         if (rng_below(&r, 4) == 0) dir[1] = 0; /* level: the horizon in view */
         if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
+        cull_view v;
+        cull_view_rows vr;
+        cull_mat_look_dir(view, dir, up);
         if (rng_below(&r, 4)) {
             cull_mat_perspective(proj, rng_range(&r, 0.3, 2.5), (double)w / h, rng_log(&r, 1e-3, 1), rng_log(&r, 10, 1e6),
                                  d.depth_mode);
@@ -709,11 +712,8 @@ static void test_raster_row_kernels(void **state)
             double e = rng_log(&r, 1, 1000);
             cull_mat_ortho(proj, -e, e, -e * h / w, e * h / w, rng_range(&r, -100, 0), rng_log(&r, 10, 1e4), d.depth_mode);
         }
-        cull_mat_look_dir(view, dir, up);
         cull_mat_mul(d.view_proj, proj, view);
-        cull_view v;
         if (cull_view_init(&v, &d) != CULL_OK) continue;
-        cull_view_rows vr;
         cull_view_rows_get(&v, &vr);
         vt_penv pe;
         memset(&pe, 0, sizeof pe);
