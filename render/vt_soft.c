@@ -200,6 +200,12 @@ static double dot4(const double f[4], const double c[4])
     return f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[3] * c[3];
 }
 
+/* floor(v / SUB) for v within the guard band's fixed point (integer). */
+static inline int32_t floor_sub(int32_t v)
+{
+    return (v >= 0 ? v : v - ((int32_t)SUB - 1)) / (int32_t)SUB;
+}
+
 /* The clip planes a vertex is outside of, as bits (clip_planes' order):
  * their functions without their zero terms. */
 static unsigned outcode(const cv *v, uint32_t depth_mode)
@@ -520,10 +526,11 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                     ymax = rt->y[q] > ymax ? rt->y[q] : ymax;
                 }
                 /* pixels whose centre (i + 0.5) can be inside */
-                rt->bx0 = (int32_t)floor((xmin - SUB / 2) / SUB);
-                rt->bx1 = (int32_t)ceil((xmax - SUB / 2) / SUB);
-                rt->by0 = (int32_t)floor((ymin - SUB / 2) / SUB);
-                rt->by1 = (int32_t)ceil((ymax - SUB / 2) / SUB);
+                const int32_t half = (int32_t)SUB / 2;
+                rt->bx0 = floor_sub(xmin - half);
+                rt->bx1 = -floor_sub(half - xmax);
+                rt->by0 = floor_sub(ymin - half);
+                rt->by1 = -floor_sub(half - ymax);
                 if (rt->bx0 < 0) rt->bx0 = 0;
                 if (rt->by0 < 0) rt->by0 = 0;
                 if (rt->bx1 > (int32_t)fr->w - 1) rt->bx1 = (int32_t)fr->w - 1;
