@@ -200,6 +200,15 @@ static double dot4(const double f[4], const double c[4])
     return f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[3] * c[3];
 }
 
+/* lrint (nearest, ties to even) for |v| < 2^31, without the call: adding
+ * and taking away 1.5 2^52 leaves v rounded to an integer in the
+ * default rounding mode. */
+static inline int32_t round_even(double v)
+{
+    const double big = 0x1.8p52; /* IEEE arithmetic: not folded away (no -ffast-math) */
+    return (int32_t)((v + big) - big);
+}
+
 /* floor(v / SUB) for v within the guard band's fixed point (integer). */
 static inline int32_t floor_sub(int32_t v)
 {
@@ -314,7 +323,15 @@ static float near_bound(const rtri *rt, const double x[3], const double y[3], ui
     double b = zm + (an + bn) / (SUB / 2) + 1e-9 * mag;
     if (!(b < FLT_MAX)) return INFINITY; /* NaN too */
     float f = (float)b;
-    return (double)f < b ? nextafterf(f, INFINITY) : f;
+    if (!((double)f < b)) return f;
+    /* the next float up (f is finite: b < FLT_MAX): one step of its bits
+       away from zero when positive, towards zero when negative */
+    if (f == 0) return FLT_MIN; /* a bound: above the smallest subnormal, fine */
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    u = f > 0 ? u + 1 : u - 1;
+    memcpy(&f, &u, sizeof f);
+    return f;
 }
 
 static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const float (*mb)[6],
@@ -494,8 +511,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 if (px[k] != px[k] || py[k] != py[k] || pn[k] - pn[k] != 0) bad = true;
                 px[k] = px[k] < gx0 ? gx0 : px[k] > gx1 ? gx1 : px[k];
                 py[k] = py[k] < gy0 ? gy0 : py[k] > gy1 ? gy1 : py[k];
-                ix[k] = bad ? 0 : (int32_t)lrint(px[k] * SUB);
-                iy[k] = bad ? 0 : (int32_t)lrint(py[k] * SUB);
+                ix[k] = bad ? 0 : round_even(px[k] * SUB);
+                iy[k] = bad ? 0 : round_even(py[k] * SUB);
             }
             if (bad) continue; /* its shading record is not kept either */
             for (int k = 1; k + 1 < n; k++) {
