@@ -59,4 +59,33 @@ bool vt_ground_row(const vt_ground *g, double Y, uint32_t w, int32_t c[4]);
 /* X[x] = vt_ndc_x(x, 2 / w) for the w columns. */
 void vt_ndc_row(uint32_t w, double *X);
 
+/* floor(a / b), b > 0. */
+static inline int64_t vt_floor_div(int64_t a, int64_t b)
+{
+    int64_t q = a / b;
+    return q - (a % b < 0);
+}
+
+/* One edge of a triangle, row by row (vt_soft.c's raster_tri): f =
+ * floor(e / D) and its remainder r, stepped by qs and rs a row; a
+ * horizontal edge (sg 0) keeps e itself in f (stepped by qs; D never
+ * reached). */
+typedef struct vt_edge {
+    int64_t f, r, qs, rs, D;
+    int sg;                 /* the sign of s: 1 bounds the run's start, -1 its end */
+} vt_edge;
+
+/* This row's bound of the edge on the run [lo, hi], then the next row. */
+static inline void vt_edge_row(vt_edge *d, int64_t *lo, int64_t *hi)
+{
+    if (d->sg > 0) *lo = -d->f > *lo ? -d->f : *lo;
+    else if (d->sg < 0) *hi = d->f < *hi ? d->f : *hi;
+    else if (d->f < 0) *hi = -1;
+    d->f += d->qs;
+    d->r += d->rs;
+    int64_t c = d->r >= d->D;
+    d->r -= c ? d->D : 0;
+    d->f += c;
+}
+
 #endif

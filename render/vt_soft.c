@@ -579,7 +579,29 @@ typedef struct job {
     const vt_shadow *sh;    /* the sun's cascades, or NULL */
     const float *ao;        /* per pixel ambient occlusion (vt_ssao), or NULL: none */
     uint32_t skips[MAX_THREADS]; /* per raster thread: the parts the coarse depth test skipped */
+    uint32_t split[MAX_THREADS + 1]; /* set-up thread t takes instances [split[t], split[t + 1]) */
 } job;
+
+/* Splits the instances into nt contiguous shares of about the same work
+ * (a mesh's vertices and indices, twice the indices for a damaged one: a
+ * city's instances differ by tens of times). */
+static void split_setup(job *jb, const frame *fr)
+{
+    uint64_t total = 0;
+    for (uint32_t i = 0; i < jb->ninst; i++) {
+        const vt_mesh *m = &jb->meshes[jb->inst[i].mesh];
+        total += 16 + m->nv + (uint64_t)m->ni * (fr->mk_of && fr->mk_of[i] ? 2 : 1);
+    }
+    uint64_t acc = 0;
+    uint32_t t = 1;
+    jb->split[0] = 0;
+    for (uint32_t i = 0; i < jb->ninst && t < jb->nthreads; i++) {
+        const vt_mesh *m = &jb->meshes[jb->inst[i].mesh];
+        acc += 16 + m->nv + (uint64_t)m->ni * (fr->mk_of && fr->mk_of[i] ? 2 : 1);
+        while (t < jb->nthreads && acc * jb->nthreads >= total * t) jb->split[t++] = i + 1;
+    }
+    while (t <= jb->nthreads) jb->split[t++] = jb->ninst;
+}
 
 /* Top-left rule, y up, counter-clockwise: an edge going down (dy < 0) is a
  * left edge, a horizontal one going left (dx < 0) a top edge; a pixel
@@ -625,34 +647,6 @@ static void raster_masked(vt_soft *r, const frame *fr, const rtri *rt, int j, in
     }
 }
 
-/* floor(a / b), b > 0. */
-static inline int64_t floor_div(int64_t a, int64_t b)
-{
-    int64_t q = a / b;
-    return q - (a % b < 0);
-}
-
-/* One edge of a triangle, row by row (raster_tri): f = floor(e / D) and
- * its remainder r, stepped by qs and rs a row; a horizontal edge (sg 0)
- * keeps e itself in f (stepped by qs; D never reached). */
-typedef struct edge_dda {
-    int64_t f, r, qs, rs, D;
-    int sg;                 /* the sign of s: 1 bounds the run's start, -1 its end */
-} edge_dda;
-
-/* This row's bound of the edge on the run [lo, hi], then the next row. */
-static inline void edge_row(edge_dda *d, int64_t *lo, int64_t *hi)
-{
-    if (d->sg > 0) *lo = -d->f > *lo ? -d->f : *lo;
-    else if (d->sg < 0) *hi = d->f < *hi ? d->f : *hi;
-    else if (d->f < 0) *hi = -1;
-    d->f += d->qs;
-    d->r += d->rs;
-    int64_t c = d->r >= d->D;
-    d->r -= c ? d->D : 0;
-    d->f += c;
-}
-
 /* Rows [y0, y1] of one triangle. */
 static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int y1)
 {
@@ -666,31 +660,31 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
        quotient floor(e_k / |s_k|) is stepped from row to row with its
        remainder (e_k grows by 256 B_k a row): two divisions an edge a
        call instead of one an edge a row. */
-    edge_dda E[3];
+    vt_edge E[3];
     const int64_t px = (int64_t)rt->bx0 * 256 + 128, py = (int64_t)by0 * 256 + 128;
     for (int k = 0; k < 3; k++) {
         int a = k, b = k == 2 ? 0 : k + 1;
         /* E(p) = (x_b - x_a)(p_y - y_a) - (y_b - y_a)(p_x - x_a), > 0 inside */
         int64_t A = -(int64_t)(rt->y[b] - rt->y[a]), B = (int64_t)(rt->x[b] - rt->x[a]);
         int64_t e = A * (px - rt->x[a]) + B * (py - rt->y[a]) + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
-        edge_dda *d = &E[k];
+        vt_edge *d = &E[k];
         d->sg = A > 0 ? 1 : A < 0 ? -1 : 0;
         if (!d->sg) { /* a horizontal edge: e itself, stepped; no remainder */
-            *d = (edge_dda){.f = e, .qs = B * 256, .D = INT64_MAX};
+            *d = (vt_edge){.f = e, .qs = B * 256, .D = INT64_MAX};
             continue;
         }
         d->D = (A < 0 ? -A : A) * 256;
-        d->f = floor_div(e, d->D);
+        d->f = vt_floor_div(e, d->D);
         d->r = e - d->f * d->D;
-        d->qs = floor_div(B * 256, d->D);
+        d->qs = vt_floor_div(B * 256, d->D);
         d->rs = B * 256 - d->qs * d->D;
     }
     const int64_t nx = rt->bx1 - rt->bx0 + 1;
     for (int j = by0; j <= by1; j++) {
         int64_t lo = 0, hi = nx - 1;
-        edge_row(&E[0], &lo, &hi);
-        edge_row(&E[1], &lo, &hi);
-        edge_row(&E[2], &lo, &hi);
+        vt_edge_row(&E[0], &lo, &hi);
+        vt_edge_row(&E[1], &lo, &hi);
+        vt_edge_row(&E[2], &lo, &hi);
         if (lo > hi) continue;
         float *nrow = r->near + (size_t)j * fr->w;
         uint32_t *irow = r->id + (size_t)j * fr->w;
@@ -738,15 +732,13 @@ static bool hidden(vt_soft *r, const frame *fr, uint32_t tr, uint32_t c0, uint32
     return true;
 }
 
-/* Set-up, thread t: a contiguous share of the instances, so the triangles
- * of threads 0, 1, ... in turn are in instance order. */
+/* Set-up, thread t: a contiguous share of the instances (split), so the
+ * triangles of threads 0, 1, ... in turn are in instance order. */
 static void job_setup(void *arg, uint32_t t)
 {
     job *jb = arg;
     tbuf *b = &jb->r->tb[t];
-    uint32_t i0 = (uint32_t)((uint64_t)jb->ninst * t / jb->nthreads);
-    uint32_t i1 = (uint32_t)((uint64_t)jb->ninst * (t + 1) / jb->nthreads);
-    b->rc = setup(b, t, jb->fr, jb->meshes, jb->mb, jb->inst, i0, i1, b->err, sizeof b->err);
+    b->rc = setup(b, t, jb->fr, jb->meshes, jb->mb, jb->inst, jb->split[t], jb->split[t + 1], b->err, sizeof b->err);
 }
 
 /* Thread t owns the 16-row tile rows tr with tr % nthreads == t: it clears
@@ -910,6 +902,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst,
               .rgba = f->rgba, .depth = f->depth, .stride = f->stride, .nthreads = nt, .ranges = nl > 0};
     uint64_t t0 = now_ns();
+    split_setup(&jb, &fr);
     if (nt > 1) cull_pool_run(r->pool, job_setup, &jb, nt);
     else job_setup(&jb, 0);
     size_t ntri = 0;
