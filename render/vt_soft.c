@@ -27,6 +27,7 @@
 #include "vt_brdf.h"
 #include "vt_picture.h"
 #include "vt_post.h"
+#include "vt_raster.h"
 #include "vt_shade.h"
 #include "vt_ssao.h"
 
@@ -50,6 +51,7 @@ _Static_assert(VT_SPAN == TILE, "a shading span is one light tile's row");
 typedef struct rtri {
     int32_t x[3], y[3];     /* fixed point, 1/256 pixel, y up */
     double  na, nb, nc;     /* nearness = na px + nb py + nc over pixel coordinates */
+    float   zmax;           /* no pixel it covers gets a nearness above this (+inf: unknown) */
     int32_t bx0, by0, bx1, by1; /* pixel bounds */
     uint32_t shade;         /* shading record */
     uint32_t masked;        /* its instance is damaged: each pixel tests the mask */
@@ -68,6 +70,8 @@ typedef struct xv {
     unsigned out;           /* bit p: outside clip plane p */
     float n[3];             /* its normal under the instance's scale (unit) */
     bool has_n;             /* false: no normal, or it collapsed: the face's */
+    bool attr;              /* p, n, has_n and tg are made (only for the vertices
+                               of triangles that get a shading record) */
     float tg[4];            /* its tangent under the placement (unit), handedness */
 } xv;
 
@@ -107,6 +111,14 @@ struct vt_soft {
     uint32_t *mk_of;        /* per instance: mask + 1 */
     size_t mk_of_cap;
     vt_kern k;              /* the kernels for this CPU */
+    vt_rkern rk;            /* the raster's row kernels for this CPU */
+    double *xtab;           /* each column's NDC x (vt_ndc_row) */
+    size_t xtab_cap;
+    float *hz;              /* per 16 x 16 tile: <= its pixels' least nearness (the coarse depth) */
+    size_t hz_cap;
+    uint8_t *hz_old;        /* per tile: drawn into since hz was last made */
+    size_t hz_old_cap;
+    bool coarse;            /* the coarse depth test is on (vt_soft_coarse_depth) */
     vt_skytab sky;          /* the analytic sky's table */
     vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
@@ -129,11 +141,18 @@ int vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out)
     if (!r) return VT_ERR_NOMEM;
     r->pool = pool;
     r->k = vt_kern_pick();
+    r->rk = vt_rkern_pick();
+    r->coarse = true;
     uint32_t pt = cull_pool_threads(pool);
     r->threads = threads && threads < pt ? threads : pt;
     if (r->threads > MAX_THREADS) r->threads = MAX_THREADS;
     *out = r;
     return 0;
+}
+
+void vt_soft_coarse_depth(vt_soft *r, bool on)
+{
+    if (r) r->coarse = on;
 }
 
 void vt_soft_destroy(vt_soft *r)
@@ -142,6 +161,9 @@ void vt_soft_destroy(vt_soft *r)
     vt_post_free(&r->post);
     free(r->near);
     free(r->id);
+    free(r->xtab);
+    free(r->hz);
+    free(r->hz_old);
     free(r->mb);
     for (uint32_t t = 0; r->tb && t < MAX_THREADS; t++) {
         free(r->tb[t].rt);
@@ -176,6 +198,36 @@ typedef struct frame {
 static double dot4(const double f[4], const double c[4])
 {
     return f[0] * c[0] + f[1] * c[1] + f[2] * c[2] + f[3] * c[3];
+}
+
+/* lrint (nearest, ties to even) for |v| < 2^31, without the call: adding
+ * and taking away 1.5 2^52 leaves v rounded to an integer in the
+ * default rounding mode. */
+static inline int32_t round_even(double v)
+{
+    const double big = 0x1.8p52; /* IEEE arithmetic: not folded away (no -ffast-math) */
+    return (int32_t)((v + big) - big);
+}
+
+/* floor(v / SUB) for v within the guard band's fixed point (integer). */
+static inline int32_t floor_sub(int32_t v)
+{
+    return (v >= 0 ? v : v - ((int32_t)SUB - 1)) / (int32_t)SUB;
+}
+
+/* The clip planes a vertex is outside of, as bits (clip_planes' order):
+ * their functions without their zero terms. */
+static unsigned outcode(const cv *v, uint32_t depth_mode)
+{
+    const double x = v->c[0], y = v->c[1], z = v->c[2], w = v->c[3], g = GUARD * w;
+    double nf, ff; /* near, far */
+    switch (depth_mode) {
+    case CULL_DEPTH_GL: nf = z + w, ff = -z + w; break;
+    case CULL_DEPTH_ZERO_ONE: nf = z, ff = -z + w; break;
+    default: nf = -z + w, ff = z; break;
+    }
+    return (unsigned)(nf < 0) | (unsigned)(ff < 0) << 1 | (unsigned)(x + g < 0) << 2 | (unsigned)(-x + g < 0) << 3 |
+           (unsigned)(y + g < 0) << 4 | (unsigned)(-y + g < 0) << 5;
 }
 
 /* The clip planes a triangle is cut by, as functions of clip (x, y, z, w). */
@@ -251,6 +303,37 @@ static bool xform_unit(const double m[3][3], const float *v, float o[3])
     return l > 0;
 }
 
+/* An upper bound of the nearness the raster computes at any pixel centre
+ * a triangle of a w x h view covers (for the coarse depth test): its
+ * plane (as computed: affine) is highest at a vertex (x, y: unsnapped), a
+ * covered centre lies within the snapped triangle (vertices moved by <=
+ * 1/512 pixel on each axis: the plane by <= (|na| + |nb|) / 512 more),
+ * and the raster's evaluation of the plane at a pixel rounds by far less
+ * than 1e-9 of its terms' magnitude; rounded up to a float. +inf where
+ * anything is not finite: such a triangle is never rejected. */
+static float near_bound(const rtri *rt, const double x[3], const double y[3], uint32_t w, uint32_t h)
+{
+    double zm = -INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double z = rt->na * x[k] + rt->nb * y[k] + rt->nc;
+        zm = z > zm ? z : zm;
+    }
+    double an = fabs(rt->na), bn = fabs(rt->nb);
+    double mag = an * (w + 1.0) + bn * (h + 1.0) + fabs(rt->nc) + fabs(zm);
+    double b = zm + (an + bn) / (SUB / 2) + 1e-9 * mag;
+    if (!(b < FLT_MAX)) return INFINITY; /* NaN too */
+    float f = (float)b;
+    if (!((double)f < b)) return f;
+    /* the next float up (f is finite: b < FLT_MAX): one step of its bits
+       away from zero when positive, towards zero when negative */
+    if (f == 0) return FLT_MIN; /* a bound: above the smallest subnormal, fine */
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    u = f > 0 ? u + 1 : u - 1;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
 static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, const float (*mb)[6],
                  const vt_instance *inst, uint32_t i0, uint32_t i1, char *err, size_t errlen)
 {
@@ -273,29 +356,25 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         /* a MASK material whose alpha is a constant below its cutoff:
            nothing of it is drawn */
         if (mat && mat->alpha_mode == VT_ALPHA_MASK && !alpha_test && mat->base[3] < mat->alpha_cutoff) continue;
-        /* every vertex once: camera-relative position and clip coordinates */
+        /* every vertex once: its clip coordinates, by the view's rows and
+           the placement composed once an instance (the camera-relative
+           position only for the vertices of drawn triangles, below) */
         if (!vp_grow((void **)&r->vx, &r->vx_cap, m->nv, sizeof *r->vx))
             return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for %u vertices", m->nv);
+        double cm[5][4];
+        const double *vrow[5] = {vr->x, vr->y, vr->z, vr->w, vr->d};
+        for (int q = 0; q < 5; q++) {
+            const double *f = vrow[q];
+            for (int c = 0; c < 3; c++) cm[q][c] = f[0] * pl.m[0][c] + f[1] * pl.m[1][c] + f[2] * pl.m[2][c];
+            cm[q][3] = f[0] * pl.t[0] + f[1] * pl.t[1] + f[2] * pl.t[2] + f[3];
+        }
         for (uint32_t k = 0; k < m->nv; k++) {
             xv *x = &r->vx[k];
-            const float *mp = m->pos + 3 * k;
-            for (int a = 0; a < 3; a++)
-                x->p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
-            double q[4] = {x->p[0], x->p[1], x->p[2], 1};
-            x->v.c[0] = dot4(vr->x, q);
-            x->v.c[1] = dot4(vr->y, q);
-            x->v.c[2] = dot4(vr->z, q);
-            x->v.c[3] = dot4(vr->w, q);
-            x->v.d = dot4(vr->d, q);
-            x->out = 0;
-            for (int pp = 0; pp < 6; pp++) x->out |= (unsigned)(dot4(cpl[pp], x->v.c) < 0) << pp;
-            /* normals under a scale: by the inverse scale; tangents
-               with the placement */
-            x->has_n = m->nrm && xform_unit(pl.n, m->nrm + 3 * k, x->n);
-            if (m->tan && mat) {
-                xform_unit(pl.m, m->tan + 4 * k, x->tg);
-                x->tg[3] = (m->tan[4 * k + 3] < 0) != pl.mirror ? -1.0f : 1.0f;
-            }
+            const double p0 = m->pos[3 * k], p1 = m->pos[3 * k + 1], p2 = m->pos[3 * k + 2];
+            for (int q = 0; q < 4; q++) x->v.c[q] = cm[q][0] * p0 + cm[q][1] * p1 + cm[q][2] * p2 + cm[q][3];
+            x->v.d = cm[4][0] * p0 + cm[4][1] * p1 + cm[4][2] * p2 + cm[4][3];
+            x->out = outcode(&x->v, fr->v->depth_mode);
+            x->attr = false;
         }
         /* a damaged instance: its front faces first, then its back faces,
            so most of the inside fails the depth test before any mask is
@@ -303,49 +382,46 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
         const uint32_t ntri = m->ni / 3;
         for (uint32_t step = 0; step < (mk ? 2 * ntri : ntri); step++) {
             const uint32_t pass = step >= ntri, t = pass ? step - ntri : step;
-            cv v[12];
-            double p[3][3];
             const xv *xs[3];
             unsigned out_and = ~0u, out_or = 0;
             for (int k = 0; k < 3; k++) {
                 /* a mirrored placement turns the winding over: read the
                    triangle backwards so its front stays its front */
                 const xv *x = xs[k] = &r->vx[m->idx[3 * t + (pl.mirror && k ? 3 - k : k)]];
-                memcpy(p[k], x->p, sizeof p[k]);
-                v[k] = x->v;
                 out_and &= x->out;
                 out_or |= x->out;
             }
+            /* all outside one clip plane: nothing to draw */
+            if (out_and) continue;
             /* back faces: the sign of the homogeneous determinant (its first
                adjugate row is the shading record's too) */
             double rows[3][3];
-            adj_row(&v[1], &v[2], rows[0]);
-            double det = rows[0][0] * v[0].c[0] + rows[0][1] * v[0].c[1] + rows[0][2] * v[0].c[3];
+            adj_row(&xs[1]->v, &xs[2]->v, rows[0]);
+            double det = rows[0][0] * xs[0]->v.c[0] + rows[0][1] * xs[0]->v.c[1] + rows[0][2] * xs[0]->v.c[3];
             bool back = false;
             if (!(det > 0)) {
                 /* a damaged instance is two-sided: its inside shows
                    through its holes, drawn as the face turned over */
                 if (!(det < 0) || (!mk && !two_sided) || (mk && pass == 0)) continue;
-                cv tv = v[1];
-                v[1] = v[2];
-                v[2] = tv;
                 const xv *tx = xs[1];
                 xs[1] = xs[2];
                 xs[2] = tx;
-                double tp[3];
-                memcpy(tp, p[1], sizeof tp);
-                memcpy(p[1], p[2], sizeof tp);
-                memcpy(p[2], tp, sizeof tp);
-                adj_row(&v[1], &v[2], rows[0]);
+                adj_row(&xs[1]->v, &xs[2]->v, rows[0]);
                 det = -det;
                 back = true;
             } else if (pass == 1) {
                 continue;
             }
-            /* all outside one clip plane: nothing to draw; all inside
-               every plane: nothing to clip */
-            if (out_and) continue;
-            cv src[3] = {v[0], v[1], v[2]};
+            /* all inside every plane: nothing to clip */
+            cv v[12]; /* not initialised: clip_poly writes what it reads */
+            v[0] = xs[0]->v, v[1] = xs[1]->v, v[2] = xs[2]->v;
+            const double *p[3] = {xs[0]->p, xs[1]->p, xs[2]->p};
+            const cv *src = v;
+            cv srcc[3];
+            if (out_or) { /* clipping rewrites v: the source triangle kept apart */
+                memcpy(srcc, v, sizeof srcc);
+                src = srcc;
+            }
             int n = out_or ? clip_poly(v, 3, cpl) : 3;
             if (n < 3) continue;
             if (r->nst + 2 >= (1u << ID_BITS)) /* record + 1 stays below VT_ID_GROUND */
@@ -357,10 +433,28 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                scaled by 1/det (homogeneous barycentrics: the kernel divides
                by their sum) */
             stri *s = &r->st[r->nst];
+            /* the corners' normals under a scale (by the inverse scale) and
+               tangents with the placement, once a vertex (most vertices of
+               a mesh belong to faces culled above) */
+            for (int k = 0; k < 3; k++) {
+                xv *x = &r->vx[xs[k] - r->vx];
+                if (x->attr) continue;
+                uint32_t vi = (uint32_t)(xs[k] - r->vx);
+                const float *mp = m->pos + 3 * (size_t)vi;
+                for (int a = 0; a < 3; a++)
+                    x->p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
+                x->has_n = m->nrm && xform_unit(pl.n, m->nrm + 3 * (size_t)vi, x->n);
+                if (m->tan && mat) {
+                    xform_unit(pl.m, m->tan + 4 * (size_t)vi, x->tg);
+                    x->tg[3] = (m->tan[4 * (size_t)vi + 3] < 0) != pl.mirror ? -1.0f : 1.0f;
+                }
+                x->attr = true;
+            }
             adj_row(&src[2], &src[0], rows[1]);
             adj_row(&src[0], &src[1], rows[2]);
+            const double idet = 1 / det;
             for (int i = 0; i < 3; i++)
-                for (int k = 0; k < 3; k++) s->e[i][k] = (float)(rows[i][k] / det);
+                for (int k = 0; k < 3; k++) s->e[i][k] = (float)(rows[i][k] * idet);
             /* the face normal, only where a corner has none of its own
                (turned over with the face: inwards for a back face) */
             float fn[3] = {0, 0, 0};
@@ -417,8 +511,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 if (px[k] != px[k] || py[k] != py[k] || pn[k] - pn[k] != 0) bad = true;
                 px[k] = px[k] < gx0 ? gx0 : px[k] > gx1 ? gx1 : px[k];
                 py[k] = py[k] < gy0 ? gy0 : py[k] > gy1 ? gy1 : py[k];
-                ix[k] = bad ? 0 : (int32_t)lrint(px[k] * SUB);
-                iy[k] = bad ? 0 : (int32_t)lrint(py[k] * SUB);
+                ix[k] = bad ? 0 : round_even(px[k] * SUB);
+                iy[k] = bad ? 0 : round_even(py[k] * SUB);
             }
             if (bad) continue; /* its shading record is not kept either */
             for (int k = 1; k + 1 < n; k++) {
@@ -439,6 +533,8 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                 rt->na = (un * vy - uy * vn) / den;
                 rt->nb = (ux * vn - un * vx) / den;
                 rt->nc = pn[id[0]] - rt->na * px[id[0]] - rt->nb * py[id[0]];
+                rt->zmax = near_bound(rt, (double[3]){px[id[0]], px[id[1]], px[id[2]]},
+                                      (double[3]){py[id[0]], py[id[1]], py[id[2]]}, fr->w, fr->h);
                 int32_t xmin = rt->x[0], xmax = rt->x[0], ymin = rt->y[0], ymax = rt->y[0];
                 for (int q = 1; q < 3; q++) {
                     xmin = rt->x[q] < xmin ? rt->x[q] : xmin;
@@ -447,10 +543,11 @@ static int setup(tbuf *r, uint32_t tid, const frame *fr, const vt_mesh *meshes, 
                     ymax = rt->y[q] > ymax ? rt->y[q] : ymax;
                 }
                 /* pixels whose centre (i + 0.5) can be inside */
-                rt->bx0 = (int32_t)floor((xmin - SUB / 2) / SUB);
-                rt->bx1 = (int32_t)ceil((xmax - SUB / 2) / SUB);
-                rt->by0 = (int32_t)floor((ymin - SUB / 2) / SUB);
-                rt->by1 = (int32_t)ceil((ymax - SUB / 2) / SUB);
+                const int32_t half = (int32_t)SUB / 2;
+                rt->bx0 = floor_sub(xmin - half);
+                rt->bx1 = -floor_sub(half - xmax);
+                rt->by0 = floor_sub(ymin - half);
+                rt->by1 = -floor_sub(half - ymax);
                 if (rt->bx0 < 0) rt->bx0 = 0;
                 if (rt->by0 < 0) rt->by0 = 0;
                 if (rt->bx1 > (int32_t)fr->w - 1) rt->bx1 = (int32_t)fr->w - 1;
@@ -483,7 +580,30 @@ typedef struct job {
     const float *ao;        /* per pixel ambient occlusion (vt_ssao), or NULL: none */
     uint32_t next_row;      /* shading: the next row of tiles to take (threads take rows as they
                                finish: sky rows cost a fraction of a street's) */
+    uint32_t skips[MAX_THREADS]; /* per raster thread: the parts the coarse depth test skipped */
+    uint32_t split[MAX_THREADS + 1]; /* set-up thread t takes instances [split[t], split[t + 1]) */
 } job;
+
+/* Splits the instances into nt contiguous shares of about the same work
+ * (a mesh's vertices and indices, twice the indices for a damaged one: a
+ * city's instances differ by tens of times). */
+static void split_setup(job *jb, const frame *fr)
+{
+    uint64_t total = 0;
+    for (uint32_t i = 0; i < jb->ninst; i++) {
+        const vt_mesh *m = &jb->meshes[jb->inst[i].mesh];
+        total += 16 + m->nv + (uint64_t)m->ni * (fr->mk_of && fr->mk_of[i] ? 2 : 1);
+    }
+    uint64_t acc = 0;
+    uint32_t t = 1;
+    jb->split[0] = 0;
+    for (uint32_t i = 0; i < jb->ninst && t < jb->nthreads; i++) {
+        const vt_mesh *m = &jb->meshes[jb->inst[i].mesh];
+        acc += 16 + m->nv + (uint64_t)m->ni * (fr->mk_of && fr->mk_of[i] ? 2 : 1);
+        while (t < jb->nthreads && acc * jb->nthreads >= total * t) jb->split[t++] = i + 1;
+    }
+    while (t <= jb->nthreads) jb->split[t++] = jb->ninst;
+}
 
 /* Top-left rule, y up, counter-clockwise: an edge going down (dy < 0) is a
  * left edge, a horizontal one going left (dx < 0) a top edge; a pixel
@@ -534,66 +654,93 @@ static void raster_tri(vt_soft *r, const frame *fr, const rtri *rt, int y0, int 
 {
     int by0 = rt->by0 > y0 ? rt->by0 : y0, by1 = rt->by1 < y1 ? rt->by1 : y1;
     if (by0 > by1) return;
-    int64_t A[3], B[3], C[3];
+    /* The covered run of each row, solved exactly from the three edge
+       functions (integer, linear in the column d from bx0 and in the row):
+       column bx0 + d is inside iff e_k + d s_k >= 0 for every edge k, s_k
+       = 256 A_k: d >= ceil(-e_k / s_k) = -floor(e_k / s_k) for s_k > 0, d
+       <= floor(e_k / -s_k) for s_k < 0, e_k >= 0 for s_k = 0. Each
+       quotient floor(e_k / |s_k|) is stepped from row to row with its
+       remainder (e_k grows by 256 B_k a row): two divisions an edge a
+       call instead of one an edge a row. */
+    vt_edge E[3];
+    const int64_t px = (int64_t)rt->bx0 * 256 + 128, py = (int64_t)by0 * 256 + 128;
     for (int k = 0; k < 3; k++) {
-        int a = k, b = (k + 1) % 3;
+        int a = k, b = k == 2 ? 0 : k + 1;
         /* E(p) = (x_b - x_a)(p_y - y_a) - (y_b - y_a)(p_x - x_a), > 0 inside */
-        A[k] = -(int64_t)(rt->y[b] - rt->y[a]);
-        B[k] = (int64_t)(rt->x[b] - rt->x[a]);
-        C[k] = -A[k] * rt->x[a] - B[k] * rt->y[a] + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
-    }
-    int32_t nx = rt->bx1 - rt->bx0 + 1;
-    for (int j = by0; j <= by1; j++) {
-        /* the covered run of this row, solved exactly from the three edge
-           functions (linear in the column, integer): column bx0 + d is
-           inside iff e_k + d s_k >= 0 for every edge k */
-        int64_t py = (int64_t)j * 256 + 128, px = (int64_t)rt->bx0 * 256 + 128;
-        int32_t lo = 0, hi = nx - 1;
-        for (int k = 0; k < 3 && lo <= hi; k++) {
-            int64_t e = A[k] * px + B[k] * py + C[k], sk = A[k] * 256;
-            if (sk > 0) {
-                if (e < 0) {
-                    int64_t d = (-e + sk - 1) / sk;
-                    if (d > lo) lo = d > nx ? nx : (int32_t)d;
-                }
-            } else if (sk < 0) {
-                if (e < 0) hi = -1;
-                else {
-                    int64_t d = e / -sk;
-                    if (d < hi) hi = (int32_t)d;
-                }
-            } else if (e < 0) {
-                hi = -1;
-            }
+        int64_t A = -(int64_t)(rt->y[b] - rt->y[a]), B = (int64_t)(rt->x[b] - rt->x[a]);
+        int64_t e = A * (px - rt->x[a]) + B * (py - rt->y[a]) + edge_bias(rt->x[a], rt->y[a], rt->x[b], rt->y[b]);
+        vt_edge *d = &E[k];
+        d->sg = A > 0 ? 1 : A < 0 ? -1 : 0;
+        if (!d->sg) { /* a horizontal edge: e itself, stepped; no remainder */
+            *d = (vt_edge){.f = e, .qs = B * 256, .D = INT64_MAX};
+            continue;
         }
+        d->D = (A < 0 ? -A : A) * 256;
+        d->f = vt_floor_div(e, d->D);
+        d->r = e - d->f * d->D;
+        d->qs = vt_floor_div(B * 256, d->D);
+        d->rs = B * 256 - d->qs * d->D;
+    }
+    const int64_t nx = rt->bx1 - rt->bx0 + 1;
+    for (int j = by0; j <= by1; j++) {
+        int64_t lo = 0, hi = nx - 1;
+        vt_edge_row(&E[0], &lo, &hi);
+        vt_edge_row(&E[1], &lo, &hi);
+        vt_edge_row(&E[2], &lo, &hi);
         if (lo > hi) continue;
         float *nrow = r->near + (size_t)j * fr->w;
         uint32_t *irow = r->id + (size_t)j * fr->w;
         double nz = rt->nb * (j + 0.5) + rt->nc;
         if (rt->masked) {
-            raster_masked(r, fr, rt, j, rt->bx0 + lo, rt->bx0 + hi, nrow, irow, nz);
+            raster_masked(r, fr, rt, j, rt->bx0 + (int)lo, rt->bx0 + (int)hi, nrow, irow, nz);
             continue;
         }
-        uint32_t id = rt->shade + 1;
-        for (int i = rt->bx0 + lo, i1 = rt->bx0 + hi; i <= i1; i++) {
-            float z = (float)(rt->na * (i + 0.5) + nz);
-            if (z > nrow[i]) {
-                nrow[i] = z;
-                irow[i] = id;
-            }
-        }
+        r->rk.span(nrow, irow, rt->bx0 + (int32_t)lo, rt->bx0 + (int32_t)hi, fr->w, rt->na, nz, rt->shade + 1);
     }
 }
 
-/* Set-up, thread t: a contiguous share of the instances, so the triangles
- * of threads 0, 1, ... in turn are in instance order. */
+/* The coarse depth test: whether nothing of a triangle whose nearness
+ * stays <= zmax can show in tiles c0..c1 of tile row tr (every pixel
+ * there is at least as near already). A tile's bound hz is remade from
+ * its pixels only when it fails and something was drawn into the tile
+ * since: a 16 x 16 minimum, far cheaper than the rows it spares. */
+/* A raster thread's coarse test: remaking a tile's bound costs about a
+ * sixth of the rows a skip spares, so it runs while it pays: credit
+ * starts at 64, a remake spends 1, a skip it brings earns 8; out of
+ * credit, every 32nd failed test still remakes (to notice when the
+ * triangles start coming near to far). */
+typedef struct coarse {
+    int32_t credit;
+    uint32_t probe;
+    uint32_t skips;         /* the parts skipped */
+} coarse;
+
+static bool hidden(vt_soft *r, const frame *fr, uint32_t tr, uint32_t c0, uint32_t c1, float zmax, coarse *cs)
+{
+    const uint32_t tx = (fr->w + TILE - 1) / TILE;
+    for (uint32_t c = c0; c <= c1; c++) {
+        size_t ti = (size_t)tr * tx + c;
+        if (zmax < r->hz[ti]) continue;
+        if (!r->hz_old[ti] || (cs->credit <= 0 && (++cs->probe & 31))) return false;
+        uint32_t x0 = c * TILE, y0 = tr * TILE;
+        uint32_t cols = fr->w - x0 < TILE ? fr->w - x0 : TILE, rows = fr->h - y0 < TILE ? fr->h - y0 : TILE;
+        r->hz[ti] = r->rk.tmin(r->near + (size_t)y0 * fr->w + x0, fr->w, cols, rows);
+        r->hz_old[ti] = 0;
+        cs->credit--;
+        if (!(zmax < r->hz[ti])) return false;
+    }
+    cs->credit = cs->credit + 8 < 256 ? cs->credit + 8 : 256;
+    cs->skips++;
+    return true;
+}
+
+/* Set-up, thread t: a contiguous share of the instances (split), so the
+ * triangles of threads 0, 1, ... in turn are in instance order. */
 static void job_setup(void *arg, uint32_t t)
 {
     job *jb = arg;
     tbuf *b = &jb->r->tb[t];
-    uint32_t i0 = (uint32_t)((uint64_t)jb->ninst * t / jb->nthreads);
-    uint32_t i1 = (uint32_t)((uint64_t)jb->ninst * (t + 1) / jb->nthreads);
-    b->rc = setup(b, t, jb->fr, jb->meshes, jb->mb, jb->inst, i0, i1, b->err, sizeof b->err);
+    b->rc = setup(b, t, jb->fr, jb->meshes, jb->mb, jb->inst, jb->split[t], jb->split[t + 1], b->err, sizeof b->err);
 }
 
 /* Thread t owns the 16-row tile rows tr with tr % nthreads == t: it clears
@@ -605,45 +752,49 @@ static void job_raster(void *arg, uint32_t t)
     const frame *fr = jb->fr;
     vt_soft *r = jb->r;
     uint32_t trows = (fr->h + TILE - 1) / TILE, nt = jb->nthreads;
+    const uint32_t tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += nt) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
-        for (uint32_t y = tr * TILE; y < y1; y++) {
-            float *nrow = r->near + (size_t)y * fr->w;
-            for (uint32_t x = 0; x < fr->w; x++) nrow[x] = EMPTY;
-            memset(r->id + (size_t)y * fr->w, 0, fr->w * sizeof(uint32_t));
-        }
+        r->rk.clear(r->near + (size_t)tr * TILE * fr->w, r->id + (size_t)tr * TILE * fr->w,
+                    (size_t)(y1 - tr * TILE) * fr->w);
+        for (uint32_t c = 0; c < tx; c++) r->hz[tr * tx + c] = EMPTY;
+        memset(r->hz_old + (size_t)tr * tx, 0, tx);
     }
+    coarse cs = {64, 0, 0};
     for (uint32_t b = 0; b < jb->nthreads; b++)
         for (size_t k = 0; k < r->tb[b].nrt; k++) {
             const rtri *rt = &r->tb[b].rt[k];
             uint32_t t0 = (uint32_t)rt->by0 / TILE, t1 = (uint32_t)rt->by1 / TILE;
+            uint32_t c0 = (uint32_t)rt->bx0 / TILE, c1 = (uint32_t)rt->bx1 / TILE;
             /* the first tile row of this thread at or after t0 */
             uint32_t tr = t0 + (t + nt - t0 % nt) % nt;
-            for (; tr <= t1; tr += nt) raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
+            for (; tr <= t1; tr += nt) {
+                if (r->coarse && hidden(r, fr, tr, c0, c1, rt->zmax, &cs)) continue;
+                raster_tri(r, fr, rt, (int)(tr * TILE), (int)((tr + 1) * TILE) - 1);
+                memset(r->hz_old + (size_t)tr * tx + c0, 1, c1 - c0 + 1);
+            }
         }
+    jb->skips[t] = cs.skips;
     /* the ground plane, depth-tested against the triangles: its nearness
-       plane per pixel (vt_ground_at, double) */
+       plane per pixel (vt_ground_at, double), over the columns of each
+       row where it can hit, only the depth test where it surely does */
     if (fr->gr.on)
         for (uint32_t tr = t; tr < trows; tr += nt) {
             uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
             for (uint32_t y = tr * TILE; y < y1; y++) {
+                double Y = ndc_y(fr, y);
+                int32_t c[4];
+                if (!vt_ground_row(&fr->gr, Y, fr->w, c)) continue;
                 float *nrow = r->near + (size_t)y * fr->w;
                 uint32_t *irow = r->id + (size_t)y * fr->w;
-                double Y = ndc_y(fr, y), inv_w = 2.0 / fr->w, nz;
-                for (uint32_t x = 0; x < fr->w; x++) {
-                    if (!vt_ground_at(&fr->gr, vt_ndc_x(x, inv_w), Y, &nz)) continue;
-                    float z = (float)nz;
-                    if (z > nrow[x]) {
-                        nrow[x] = z;
-                        irow[x] = VT_ID_GROUND;
-                    }
-                }
+                if (c[0] < c[1]) r->rk.ground(nrow, irow, c[0], c[1] - 1, r->xtab, &fr->gr, Y, false);
+                if (c[1] <= c[2]) r->rk.ground(nrow, irow, c[1], c[2], r->xtab, &fr->gr, Y, true);
+                if (c[2] < c[3]) r->rk.ground(nrow, irow, c[2] + 1, c[3], r->xtab, &fr->gr, Y, false);
             }
         }
     /* the light tiles' nearness ranges of this thread's rows, while they
        are in its cache */
     if (!jb->ranges) return;
-    uint32_t tx = (fr->w + TILE - 1) / TILE;
     for (uint32_t tr = t; tr < trows; tr += nt) {
         uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
         r->k.ranges(r->near + (size_t)tr * TILE * fr->w, fr->w, fr->w, y1 - tr * TILE, r->range + (size_t)tr * tx);
@@ -725,8 +876,10 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     size_t npx = (size_t)width * height;
     if (!vp_grow((void **)&r->near, &r->near_cap, npx, sizeof *r->near) ||
         !vp_grow((void **)&r->id, &r->id_cap, npx, sizeof *r->id) ||
-        !vp_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb))
+        !vp_grow((void **)&r->mb, &r->mb_cap, (size_t)nmesh + 1, sizeof *r->mb) ||
+        !vp_grow((void **)&r->xtab, &r->xtab_cap, width, sizeof *r->xtab))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
+    vt_ndc_row(width, r->xtab);
     for (uint32_t i = 0; i < nmesh; i++) vt_mesh_bounds(&meshes[i], r->mb[i]);
     /* the damaged instances' masks (most frames have none: no table) */
     uint32_t nmk;
@@ -745,12 +898,15 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     uint32_t tx = (width + TILE - 1) / TILE;
     if (!vp_grow((void **)&r->range, &r->range_cap, (size_t)tx * trows, sizeof *r->range) ||
         !vp_grow((void **)&r->cl, &r->cl_cap, (size_t)nl + 1, sizeof *r->cl) ||
-        !vp_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl))
+        !vp_grow((void **)&r->sl, &r->sl_cap, (size_t)nl + 1, sizeof *r->sl) ||
+        !vp_grow((void **)&r->hz, &r->hz_cap, (size_t)tx * trows, sizeof *r->hz) ||
+        !vp_grow((void **)&r->hz_old, &r->hz_old_cap, (size_t)tx * trows, sizeof *r->hz_old))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     /* no lights: no ranges, no binning */
     job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst,
               .rgba = f->rgba, .depth = f->depth, .stride = f->stride, .nthreads = nt, .ranges = nl > 0};
     uint64_t t0 = now_ns();
+    split_setup(&jb, &fr);
     if (nt > 1) cull_pool_run(r->pool, job_setup, &jb, nt);
     else job_setup(&jb, 0);
     size_t ntri = 0;
@@ -807,6 +963,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (st) st->overlay_ns = now_ns() - t5;
     if (st) {
         st->triangles = (uint32_t)ntri;
+        for (uint32_t t = 0; t < nt; t++) st->coarse_skips += jb.skips[t];
         st->lights_in_view = r->tiles.in_view;
         st->max_lights_per_tile = r->tiles.max_per_tile;
         st->threads = nt;

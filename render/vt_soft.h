@@ -25,6 +25,7 @@
 #include "vt_err.h"
 #include "vt_scene.h"
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -80,6 +81,8 @@ typedef struct vt_soft_stats {
     uint32_t shadow_triangles; /* drawn into the cascades, all together */
     uint64_t overlay_ns;    /* the overlay (vt_overlay.h: outline, icons); 0 without one */
     float exposure_ev;      /* the EV100 the frame was exposed with (0 without an environment) */
+    uint32_t coarse_skips;  /* a triangle's part in one 16-row tile row, skipped by the
+                               coarse depth test (nothing of it could show) */
 } vt_soft_stats;
 
 /* The effects of a frame with an environment (issue 20), as bits of
@@ -140,6 +143,11 @@ int  vt_soft_create(cull_pool *pool, uint32_t threads, vt_soft **out);
  * its light array); valid until the next render or destroy. */
 const cull_light_tiles *vt_soft_light_tiles(const vt_soft *r);
 void vt_soft_destroy(vt_soft *r);
+/* The raster's coarse depth test (per 16 x 16 tile, a bound of the
+ * farthest nearness drawn there; a triangle's part wholly behind it is
+ * skipped): on by default. It never changes a pixel; off is for the test
+ * that checks that, and for measuring what it saves. */
+void vt_soft_coarse_depth(vt_soft *r, bool on);
 
 /* Checks a mesh: counts, indices in range, finite positions and normals.
  * 0, or VT_ERR_INVALID with a reason in err. Both renderers check every mesh

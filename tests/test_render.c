@@ -13,6 +13,7 @@
 #include "vt_gldraw.h"
 #include "vt_soft.h"
 #include "vt_picture.h"
+#include "vt_raster.h"
 #include "vt_shade.h"
 #include <errno.h>
 #include <stdio.h>
@@ -599,7 +600,454 @@ static void test_soft_and_gl_agree(void **state)
     vt_gl_close(g);
 }
 
+/* A row's nearness or record as the depth test leaves them, one pixel at
+ * a time, written out here (the rule the row kernels must follow): the
+ * plane in double, rounded once to float, kept where strictly nearer. */
+static void span_ref(float *nrow, uint32_t *irow, int32_t i0, int32_t i1, double na, double nz, uint32_t id)
+{
+    for (int32_t i = i0; i <= i1; i++) {
+        double x = (double)i + 0.5, zd = na * x;
+        zd += nz;
+        float z = (float)zd;
+        if (z > nrow[i]) {
+            nrow[i] = z;
+            irow[i] = id;
+        }
+    }
+}
+
+/* An adversarial double: NaN, infinities, huge, tiny, or ordinary. */
+static double odd_double(rng *r)
+{
+    switch (rng_below(r, 8)) {
+    case 0: return NAN;
+    case 1: return rng_below(r, 2) ? INFINITY : -INFINITY;
+    case 2: return rng_range(r, -1, 1) * 1e300;
+    case 3: return rng_range(r, -1, 1) * 1e-300;
+    default: return rng_range(r, -1, 1) * rng_log(r, 1e-6, 10);
+    }
+}
+
+/* The raster's row kernels (vt_raster.h; scalar and AVX2 where the CPU
+ * has it) against the one-pixel rule: runs of every length at every
+ * offset of rows of 1..100 pixels (shorter than a vector too), rows
+ * holding empty pixels, NaN, and values equal to the plane's (ties keep
+ * what is there), planes with NaN, infinite and huge coefficients; bit for
+ * bit, and nothing outside the run touched. The ground's row: random views
+ * (perspective and orthographic, every depth mode, looking up, down and
+ * level) and ground heights: the kernel over vt_ground_row's columns
+ * equals vt_ground_at over the whole row, pixel by pixel. */
+static void test_raster_row_kernels(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x5A57u};
+    vt_rkern ks[2] = {vt_rkern_scalar(), vt_rkern_pick()};
+    enum { W = 100 };
+    float n0[W], n1[W];
+    uint32_t i0s[W], i1s[W];
+    uint64_t kept = 0, ties = 0;
+    for (int it = 0; it < 4000; it++) {
+        uint32_t w = 1 + rng_below(&r, W);
+        int32_t a = (int32_t)rng_below(&r, w), b = (int32_t)rng_below(&r, w);
+        if (a > b) {
+            int32_t t = a;
+            a = b;
+            b = t;
+        }
+        double na = rng_below(&r, 4) ? rng_range(&r, -1e-2, 1e-2) : odd_double(&r);
+        double nz = rng_below(&r, 4) ? rng_range(&r, -0.5, 1.5) : odd_double(&r);
+        for (uint32_t i = 0; i < w; i++) {
+            uint32_t c = rng_below(&r, 6);
+            n0[i] = c == 0 ? VT_EMPTY : c == 1 ? NAN : c == 2 ? (float)(na * (i + 0.5) + nz) /* a tie */
+                                                              : (float)rng_range(&r, -0.5, 1.5);
+            i0s[i] = (uint32_t)rng_u64(&r);
+        }
+        for (int k = 0; k < 2; k++) {
+            memcpy(n1, n0, sizeof n1);
+            memcpy(i1s, i0s, sizeof i1s);
+            float nr[W];
+            uint32_t ir[W];
+            memcpy(nr, n0, sizeof nr);
+            memcpy(ir, i0s, sizeof ir);
+            span_ref(nr, ir, a, b, na, nz, 77);
+            ks[k].span(n1, i1s, a, b, w, na, nz, 77);
+            assert_memory_equal(n1, nr, w * sizeof *nr);
+            assert_memory_equal(i1s, ir, w * sizeof *ir);
+            if (k) continue;
+            for (uint32_t i = 0; i < w; i++) {
+                kept += ir[i] == 77 && i0s[i] != 77;
+                ties += (int32_t)i >= a && (int32_t)i <= b && nr[i] == (float)(na * (i + 0.5) + nz) && ir[i] != 77;
+            }
+        }
+    }
+    assert_true(kept > 10000 && ties > 1000); /* not vacuous */
+    /* the clear */
+    for (int k = 0; k < 2; k++) {
+        for (size_t n = 0; n < W; n += 1 + n / 3) {
+            for (uint32_t i = 0; i < W; i++) n1[i] = 3, i1s[i] = 5;
+            ks[k].clear(n1, i1s, n);
+            for (uint32_t i = 0; i < W; i++) {
+                assert_true(i < n ? n1[i] == VT_EMPTY && i1s[i] == 0 : n1[i] == 3 && i1s[i] == 5);
+            }
+        }
+    }
+    /* the ground */
+    uint64_t hits = 0, rows = 0, skipped = 0, sure = 0;
+    for (int f = 0; f < 300; f++) {
+        uint32_t w = 1 + rng_below(&r, 300), h = 1 + rng_below(&r, 60);
+        cull_view_desc d = {.depth_mode = rng_below(&r, 3), .viewport_w = w, .viewport_h = h};
+        double proj[16], view[16], dir[3] = {rng_range(&r, -1, 1), rng_range(&r, -1, 1), rng_range(&r, -1, 1)};
+        /* rolled in half the views: the horizon and the far plane's edge
+           cross the rows */
+        double up[3] = {rng_below(&r, 2) ? rng_range(&r, -1, 1) : 0, 1, 0};
+        if (rng_below(&r, 4) == 0) dir[1] = 0; /* level: the horizon in view */
+        if (fabs(dir[0]) + fabs(dir[2]) < 1e-2) dir[0] = 1;
+        cull_view v;
+        cull_view_rows vr;
+        cull_mat_look_dir(view, dir, up);
+        if (rng_below(&r, 4)) {
+            cull_mat_perspective(proj, rng_range(&r, 0.3, 2.5), (double)w / h, rng_log(&r, 1e-3, 1), rng_log(&r, 10, 1e6),
+                                 d.depth_mode);
+        } else {
+            double e = rng_log(&r, 1, 1000);
+            cull_mat_ortho(proj, -e, e, -e * h / w, e * h / w, rng_range(&r, -100, 0), rng_log(&r, 10, 1e4), d.depth_mode);
+        }
+        cull_mat_mul(d.view_proj, proj, view);
+        if (cull_view_init(&v, &d) != CULL_OK) continue;
+        cull_view_rows_get(&v, &vr);
+        vt_penv pe;
+        memset(&pe, 0, sizeof pe);
+        pe.ground = true;
+        pe.ground_y = (float)(rng_below(&r, 2) ? -rng_log(&r, 1e-3, 1e3) : rng_range(&r, -2, 2));
+        vt_ground g;
+        vt_ground_make(&pe, &vr, (int)d.depth_mode, &g);
+        if (!g.on) continue;
+        double inv_w = 2.0 / w, *X = malloc(w * sizeof *X);
+        assert_non_null(X);
+        vt_ndc_row(w, X);
+        float *gz0 = malloc(w * sizeof *gz0), *gz1 = malloc(w * sizeof *gz1);
+        uint32_t *gi0 = malloc(w * sizeof *gi0), *gi1 = malloc(w * sizeof *gi1);
+        assert_true(gz0 && gz1 && gi0 && gi1);
+        for (uint32_t y = 0; y < h; y++) {
+            double Y = (float)((2.0 * y + 1) / h - 1);
+            for (uint32_t x = 0; x < w; x++) {
+                gz0[x] = rng_below(&r, 3) ? VT_EMPTY : (float)rng_log(&r, 1e-6, 10);
+                gi0[x] = 1;
+            }
+            memcpy(gz1, gz0, w * sizeof *gz0);
+            memcpy(gi1, gi0, w * sizeof *gi0);
+            for (uint32_t x = 0; x < w; x++) { /* the reference: every pixel */
+                double nz;
+                if (!vt_ground_at(&g, vt_ndc_x(x, inv_w), Y, &nz) || !((float)nz > gz0[x])) continue;
+                gz0[x] = (float)nz;
+                gi0[x] = VT_ID_GROUND;
+                hits++;
+            }
+            rows++;
+            for (int k = 0; k < 2; k++) {
+                float *zk = k ? gz1 : malloc(w * sizeof *zk);
+                uint32_t *ik = k ? gi1 : malloc(w * sizeof *ik);
+                assert_true(zk && ik);
+                if (!k) {
+                    memcpy(zk, gz1, w * sizeof *zk);
+                    memcpy(ik, gi1, w * sizeof *ik);
+                }
+                int32_t c[4];
+                if (vt_ground_row(&g, Y, w, c)) {
+                    /* as vt_soft draws a row: the sure run without the
+                       ground's test, the rest with it */
+                    assert_true(c[0] >= 0 && c[0] <= c[3] && c[3] < (int32_t)w);
+                    assert_true(c[1] > c[2] ? c[1] == c[3] + 1 : c[0] <= c[1] && c[2] <= c[3]);
+                    if (c[0] < c[1]) ks[k].ground(zk, ik, c[0], c[1] - 1, X, &g, Y, false);
+                    if (c[1] <= c[2]) ks[k].ground(zk, ik, c[1], c[2], X, &g, Y, true);
+                    if (c[2] < c[3]) ks[k].ground(zk, ik, c[2] + 1, c[3], X, &g, Y, false);
+                    sure += k && c[1] <= c[2] ? (uint64_t)(c[2] - c[1] + 1) : 0;
+                    for (int32_t x = c[1]; k && x <= c[2]; x++) {
+                        double nz;
+                        assert_true(vt_ground_at(&g, X[x], Y, &nz));
+                    }
+                } else {
+                    skipped += k;
+                }
+                assert_memory_equal(zk, gz0, w * sizeof *zk);
+                assert_memory_equal(ik, gi0, w * sizeof *ik);
+                if (!k) {
+                    free(zk);
+                    free(ik);
+                }
+            }
+        }
+        free(gz0);
+        free(gz1);
+        free(gi0);
+        free(gi1);
+        free(X);
+    }
+    fprintf(stderr, "raster row kernels: %llu pixels kept, %llu ties held; ground: %llu rows (%llu skipped whole), %llu "
+                    "pixels hit (%llu in sure runs)\n",
+            (unsigned long long)kept, (unsigned long long)ties, (unsigned long long)rows, (unsigned long long)skipped,
+            (unsigned long long)hits, (unsigned long long)sure);
+    assert_true(hits > 10000 && skipped > 100 && skipped < rows && sure > hits / 2);
+}
+
+static const double *sort_eye;
+static int by_distance(const void *a, const void *b)
+{
+    const vt_instance *p = a, *q = b;
+    double dp = 0, dq = 0;
+    for (int k = 0; k < 3; k++) {
+        double u = (p->bmin[k] + p->bmax[k]) / 2 - sort_eye[k], v = (q->bmin[k] + q->bmax[k]) / 2 - sort_eye[k];
+        dp += u * u;
+        dq += v * v;
+    }
+    return dp < dq ? -1 : dp > dq;
+}
+
+/* The raster's coarse depth test (vt_soft_coarse_depth) skips only what
+ * could not show: random frames of lit boxes (damaged ones among them,
+ * drawn masked and two-sided), drawn nearest first so that much is
+ * skipped, and the same with a cluster of 300 boxes; the colour and depth
+ * with the test on are those with it off, bit for bit. */
+static void test_soft_coarse_depth_exact(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xC0A5u};
+    vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
+    char err[256];
+    vt_soft *sr;
+    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    uint64_t skips = 0, parts = 0;
+    for (int f = 0; f < 8; f++) {
+        lit_frame lf;
+        lit_frame_make(&r, &lf);
+        uint32_t n0 = lf.n;
+        if (f & 1) { /* a dense cluster in front of the camera */
+            vt_instance *in = realloc(lf.in, 300 * sizeof *in);
+            assert_non_null(in);
+            memset(in + lf.n, 0, (300 - lf.n) * sizeof *in);
+            double dir[3] = {lf.v.clip[3], lf.v.clip[7], lf.v.clip[11]}; /* the w row: the view direction */
+            double l = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+            for (uint32_t i = lf.n; i < 300; i++) {
+                double d = rng_range(&r, 2, 60);
+                for (int a = 0; a < 3; a++) {
+                    double c = lf.v.origin[a] + dir[a] / l * d + rng_range(&r, -d / 2, d / 2), e = rng_log(&r, 0.2, 3);
+                    in[i].bmin[a] = c - e;
+                    in[i].bmax[a] = c + e;
+                    in[i].albedo[a] = (float)rng_range(&r, 0.2, 0.9);
+                }
+            }
+            lf.in = in;
+            lf.n = 300;
+        }
+        sort_eye = lf.v.origin;
+        qsort(lf.in, lf.n, sizeof *lf.in, by_distance);
+        size_t np = (size_t)lf.w * lf.h;
+        float *c0 = malloc(np * 16), *d0 = malloc(np * 4), *c1 = malloc(np * 16), *d1 = malloc(np * 4);
+        assert_true(c0 && d0 && c1 && d1);
+        vt_soft_stats st;
+        vt_soft_coarse_depth(sr, false);
+        assert_int_equal(vt_soft_render(sr, &lf.v, lf.w, lf.h, &cube, 1, lf.in, lf.n, lf.L, lf.nl, c0, d0, lf.w, &st,
+                                        err, sizeof err),
+                         0);
+        assert_int_equal(st.coarse_skips, 0);
+        vt_soft_coarse_depth(sr, true);
+        assert_int_equal(vt_soft_render(sr, &lf.v, lf.w, lf.h, &cube, 1, lf.in, lf.n, lf.L, lf.nl, c1, d1, lf.w, &st,
+                                        err, sizeof err),
+                         0);
+        assert_memory_equal(d0, d1, np * 4);
+        assert_memory_equal(c0, c1, np * 16);
+        skips += st.coarse_skips;
+        parts += st.triangles;
+        free(c0);
+        free(d0);
+        free(c1);
+        free(d1);
+        lf.n = n0; /* lit_frame_free frees the first n0's volumes */
+        lit_frame_free(&lf);
+    }
+    /* a wall drawn first, then boxes poking out of it by 1e-2..1e-6 of
+       their distance (their fronts just nearer than the wall): a bound
+       too low by a fraction of that would drop them */
+    uint64_t poke_skips = 0;
+    for (int f = 0; f < 6; f++) {
+        uint32_t w = 64 + rng_below(&r, 100), h = 48 + rng_below(&r, 80), n = 200;
+        cull_view v;
+        cull_view_desc d = {.depth_mode = (uint32_t)f % 3, .viewport_w = w, .viewport_h = h};
+        double proj[16], view[16], dir[3] = {0, 0, 1}, up[3] = {0, 1, 0}; /* the wall's nearness the same all over */
+        cull_mat_perspective(proj, 1.0, (double)w / h, 0.1, 1e4, d.depth_mode);
+        cull_mat_look_dir(view, dir, up);
+        cull_mat_mul(d.view_proj, proj, view);
+        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        vt_instance *in = calloc(n, sizeof *in);
+        assert_non_null(in);
+        double D = rng_log(&r, 2, 200);
+        for (uint32_t i = 0; i < n; i++) {
+            /* nearest first (so the coarse test keeps paying, and stays on) */
+            double p = i ? D * 1e-2 * pow(1e-4, (double)i / n) : 0, e = i ? D * rng_log(&r, 0.01, 0.2) : 10 * D;
+            double cx = i ? rng_range(&r, -0.6, 0.6) * D : 0, cy = i ? rng_range(&r, -0.4, 0.4) * D : 0;
+            in[i].bmin[0] = cx - e, in[i].bmax[0] = cx + e;
+            in[i].bmin[1] = cy - e, in[i].bmax[1] = cy + e;
+            in[i].bmin[2] = D - p, in[i].bmax[2] = D + 1;
+            for (int a = 0; a < 3; a++) in[i].albedo[a] = (float)rng_range(&r, 0.2, 0.9);
+        }
+        size_t np = (size_t)w * h;
+        float *c0 = malloc(np * 16), *d0 = malloc(np * 4), *c1 = malloc(np * 16), *d1 = malloc(np * 4);
+        assert_true(c0 && d0 && c1 && d1);
+        vt_soft_stats st;
+        vt_soft_coarse_depth(sr, false);
+        assert_int_equal(vt_soft_render(sr, &v, w, h, &cube, 1, in, n, NULL, 0, c0, d0, w, &st, err, sizeof err), 0);
+        vt_soft_coarse_depth(sr, true);
+        assert_int_equal(vt_soft_render(sr, &v, w, h, &cube, 1, in, n, NULL, 0, c1, d1, w, &st, err, sizeof err), 0);
+        assert_memory_equal(d0, d1, np * 4);
+        assert_memory_equal(c0, c1, np * 16);
+        poke_skips += st.coarse_skips;
+        free(c0);
+        free(d0);
+        free(c1);
+        free(d1);
+        free(in);
+    }
+    fprintf(stderr, "coarse depth test: %llu triangle parts skipped (%llu triangles drawn), %llu behind a wall; pictures "
+                    "the same\n",
+            (unsigned long long)skips, (unsigned long long)parts, (unsigned long long)poke_skips);
+    assert_true(skips > 100 && poke_skips > 100);
+    vt_soft_destroy(sr);
+}
+
+/* The fill rule, written out: pixel centre (cx, cy) (1/256 pixel, y up)
+ * is inside the counter-clockwise triangle (x, y) iff every edge function
+ * is > 0 there, or = 0 on a left edge (going down) or a top edge
+ * (horizontal, going left). */
+static bool fill_rule_inside(const int64_t x[3], const int64_t y[3], int64_t cx, int64_t cy)
+{
+    for (int k = 0; k < 3; k++) {
+        int64_t ax = x[k], ay = y[k], bx = x[(k + 1) % 3], by = y[(k + 1) % 3];
+        int64_t e = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
+        bool top_left = by - ay < 0 || (by == ay && bx - ax < 0);
+        if (e < 0 || (e == 0 && !top_left)) return false;
+    }
+    return true;
+}
+
+/* The raster against that rule, pixel for pixel: an orthographic view
+ * that maps world x, y to pixels exactly, flat triangles with vertices on
+ * the 1/256 pixel grid (so snapping moves nothing): many with edges
+ * through pixel centres (x or y = i + 0.5), thin and tiny ones, shared
+ * edges between neighbours, several at the same depth (the first drawn
+ * keeps a tie), zero-area ones (nothing drawn), and huge ones reaching
+ * thousands of pixels past the view (clipped by the guard band: their
+ * edges are axis-aligned or at 45 degrees, so the cut points are on the
+ * grid too). Which triangle each pixel shows (from its colour) must be
+ * the nearest covering one, the first of equals. */
+static void test_soft_fill_rule_exact(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0xF111u};
+    vt_soft *sr;
+    assert_int_equal(vt_soft_create(NULL, 0, &sr), 0);
+    char err[256];
+    uint64_t pixels = 0, covered = 0, ties = 0;
+    for (int f = 0; f < 12; f++) {
+        const uint32_t W = 40 + rng_below(&r, 60), H = 24 + rng_below(&r, 50), n = 60;
+        cull_view_desc d = {.viewport_w = W, .viewport_h = H, .depth_mode = CULL_DEPTH_GL};
+        cull_mat_ortho(d.view_proj, 0, W, 0, H, -10, 10, CULL_DEPTH_GL);
+        cull_view v;
+        assert_int_equal(cull_view_init(&v, &d), CULL_OK);
+        float *pos = malloc((size_t)n * 9 * sizeof *pos);
+        uint32_t idx[3] = {0, 1, 2};
+        vt_mesh *ms = calloc(n, sizeof *ms);
+        vt_instance *in = calloc(n, sizeof *in);
+        int64_t(*tx)[3] = malloc(n * sizeof *tx), (*ty)[3] = malloc(n * sizeof *ty);
+        int *lvl = malloc(n * sizeof *lvl);
+        assert_true(pos && ms && in && tx && ty && lvl);
+        for (uint32_t t = 0; t < n; t++) {
+            int64_t *x = tx[t], *y = ty[t];
+            uint32_t kind = rng_below(&r, 10);
+            if (kind < 2) { /* huge: a right triangle, legs on the axes, 45-degree hypotenuse */
+                int64_t L = 256 * (int64_t)(2000 + rng_below(&r, 20000));
+                int64_t x0 = 256 * (int64_t)rng_below(&r, W) + 128 * rng_below(&r, 2);
+                int64_t y0 = 256 * (int64_t)rng_below(&r, H) + 128 * rng_below(&r, 2);
+                int64_t sx = rng_below(&r, 2) ? 1 : -1, sy = rng_below(&r, 2) ? 1 : -1;
+                x[0] = x0, y[0] = y0, x[1] = x0 + sx * L, y[1] = y0, x[2] = x0, y[2] = y0 + sy * L;
+            } else if (kind < 3 && t > 0) { /* sharing an edge with the previous one */
+                int64_t *px = tx[t - 1], *py = ty[t - 1];
+                x[0] = px[1], y[0] = py[1], x[1] = px[0], y[1] = py[0];
+                x[2] = 256 * (int64_t)rng_below(&r, W + 8) - 1024 + rng_below(&r, 256);
+                y[2] = 256 * (int64_t)rng_below(&r, H + 8) - 1024 + rng_below(&r, 256);
+            } else if (kind < 4) { /* zero area: on one line */
+                int64_t x0 = 256 * (int64_t)rng_below(&r, W), y0 = 256 * (int64_t)rng_below(&r, H);
+                int64_t dx = (int64_t)rng_below(&r, 2000) - 1000, dy = (int64_t)rng_below(&r, 2000) - 1000;
+                x[0] = x0, y[0] = y0, x[1] = x0 + dx, y[1] = y0 + dy, x[2] = x0 + 2 * dx, y[2] = y0 + 2 * dy;
+            } else { /* vertices on pixel centres, corners, or anywhere on the grid */
+                for (int k = 0; k < 3; k++) {
+                    uint32_t snap = rng_below(&r, 3);
+                    int64_t sub = snap == 0 ? 128 : snap == 1 ? 0 : (int64_t)rng_below(&r, 256);
+                    int64_t span = kind < 6 ? 6 : (int64_t)W + 10; /* small ones near each other */
+                    x[k] = 256 * ((int64_t)rng_below(&r, (uint32_t)span) + (kind < 6 ? (int64_t)rng_below(&r, W) : -5)) + sub;
+                    sub = snap == 0 ? 128 : snap == 1 ? 0 : (int64_t)rng_below(&r, 256);
+                    span = kind < 6 ? 6 : (int64_t)H + 10;
+                    y[k] = 256 * ((int64_t)rng_below(&r, (uint32_t)span) + (kind < 6 ? (int64_t)rng_below(&r, H) : -5)) + sub;
+                }
+            }
+            /* counter-clockwise (front facing) */
+            int64_t area = (x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0]);
+            if (area < 0) {
+                int64_t a = x[1], b = y[1];
+                x[1] = x[2], y[1] = y[2], x[2] = a, y[2] = b;
+            }
+            lvl[t] = kind < 2 ? 0 : (int)rng_below(&r, 4); /* the huge ones behind (most of the view) */
+            for (int k = 0; k < 3; k++) {
+                pos[9 * t + 3 * k] = (float)(x[k] / 256.0);
+                pos[9 * t + 3 * k + 1] = (float)(y[k] / 256.0);
+                pos[9 * t + 3 * k + 2] = (float)lvl[t];
+                assert_true(pos[9 * t + 3 * k] * 256.0 == (double)x[k]); /* exact in float */
+            }
+            ms[t] = (vt_mesh){.pos = pos + 9 * t, .idx = idx, .nv = 3, .ni = 3};
+            in[t] = (vt_instance){.mesh = t, .place = VT_PLACE_TRS, .rot = {0, 0, 0, 1}, .scale = {1, 1, 1},
+                                  .albedo = {(float)(t + 1) / (n + 1), 0.5f, 0.5f}};
+        }
+        size_t np = (size_t)W * H;
+        float *rgba = malloc(np * 16), *depth = malloc(np * 4);
+        assert_true(rgba && depth);
+        assert_int_equal(vt_soft_render(sr, &v, W, H, ms, n, in, n, NULL, 0, rgba, depth, W, NULL, err, sizeof err), 0);
+        for (uint32_t j = 0; j < H; j++)
+            for (uint32_t i = 0; i < W; i++) {
+                int want = -1, nties = 0;
+                for (uint32_t t = 0; t < n; t++) {
+                    int64_t *x = tx[t], *y = ty[t];
+                    if ((x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0]) == 0) continue;
+                    if (!fill_rule_inside(x, y, 256 * (int64_t)i + 128, 256 * (int64_t)j + 128)) continue;
+                    if (want >= 0 && lvl[t] == lvl[want]) nties++;
+                    if (want < 0 || lvl[t] > lvl[want]) want = (int)t;
+                }
+                const float *c = rgba + 4 * ((size_t)j * W + i);
+                int got = c[3] == 0 ? -1 : (int)lrint(c[0] / c[1] * 0.5 * (n + 1)) - 1;
+                if (got != want)
+                    fprintf(stderr, "frame %d pixel %u,%u: shows %d, the rule says %d\n", f, i, j, got, want);
+                assert_int_equal(got, want);
+                pixels++;
+                covered += want >= 0;
+                ties += nties > 0;
+            }
+        free(rgba);
+        free(depth);
+        free(pos);
+        free(ms);
+        free(in);
+        free(tx);
+        free(ty);
+        free(lvl);
+    }
+    fprintf(stderr, "fill rule: %llu pixels, %llu covered, %llu with a tie, all as the rule says\n",
+            (unsigned long long)pixels, (unsigned long long)covered, (unsigned long long)ties);
+    assert_true(covered * 2 > pixels && ties > 100);
+    vt_soft_destroy(sr);
+}
+
 const struct CMUnitTest render_tests[] = {
+    cmocka_unit_test(test_soft_fill_rule_exact),
+    cmocka_unit_test(test_soft_coarse_depth_exact),
+    cmocka_unit_test(test_raster_row_kernels),
     cmocka_unit_test(test_soft_and_gl_agree),
     cmocka_unit_test(test_soft_bad_input),
     cmocka_unit_test(test_soft_matches_ray_caster),
