@@ -128,11 +128,16 @@ void vt_shadow_sun_n(const vt_shadow *sh, unsigned n, const float *px, const flo
 void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa);
 
 /* The span lookup's instances (vt_shadow.inl); one lane: vt_shadow_lookup. */
-typedef void (*vt_shadow_n_fn)(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
-                               const float *pz, const float *nx, const float *ny, const float *nz, float *out);
-void vt_shadow_lookup_n_sse41(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
-                              const float *pz, const float *nx, const float *ny, const float *nz, float *out);
-void vt_shadow_lookup_n_avx2(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
-                             const float *pz, const float *nx, const float *ny, const float *nz, float *out);
+/* tiles: the maps' footprint tiles (vt_shadow.c's tiles_make; NULL:
+ * every lookup takes its 16 taps). */
+typedef void (*vt_shadow_n_fn)(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n,
+                               const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                               const float *nz, float *out);
+void vt_shadow_lookup_n_sse41(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n,
+                              const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                              const float *nz, float *out);
+void vt_shadow_lookup_n_avx2(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n,
+                             const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                             const float *nz, float *out);
 
 #endif

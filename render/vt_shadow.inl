@@ -10,6 +10,15 @@
  * value bit for bit (test_shadow_lookup_lanes). A lane's cascade is picked
  * by selects over the (at most 4) cascades, its 16 PCF taps fetched by
  * index (AVX2: gathers; SSE4.1: four loads), off-map taps masked to 0.
+ *
+ * Most lookups are decided before the taps by the cascade's footprint
+ * tiles (vt_shadow.c, tiles_make): a lane whose 4x4 footprint lies in the
+ * map and whose tile's depth range is wholly at or below its reference
+ * passes every tap, wholly above it fails every one; when every lane of
+ * a step is so decided, its value is the PCF's for that case computed
+ * with the same operations (all pass: the weights' sums in the taps'
+ * order; all fail: 0), so the answer is the same bit for bit, for two
+ * gathers instead of sixteen.
  */
 #include <math.h>
 
@@ -46,6 +55,9 @@ static inline vf sh_pick(const float *v, uint32_t n, vf ci)
 typedef struct sh_cons {
     float offx[VT_SHADOW_CASCADES], offy[VT_SHADOW_CASCADES], base[VT_SHADOW_CASCADES];
     float far[VT_SHADOW_CASCADES], band[VT_SHADOW_CASCADES];
+    float tbase[VT_SHADOW_CASCADES]; /* each cascade's first tile */
+    const float *tmin, *tmax;        /* the footprint tiles (NULL: none) */
+    float g;                         /* tiles a side */
 } sh_cons;
 
 /* cascade_vis (vt_shadow.c) for each lane's cascade ci, lanes m. */
@@ -78,6 +90,24 @@ static inline vf sh_vis(const vt_shadow_fit *f, const sh_cons *kc, const float *
     vf fx0 = sh_floor(X), fy0 = sh_floor(Y), fx = vf_sub(X, fx0), fy = vf_sub(Y, fy0);
     vf x0 = vf_sub(fx0, one), y0 = vf_sub(fy0, one);
     const vf wx[4] = {vf_sub(one, fx), one, one, fx}, wy[4] = {vf_sub(one, fy), one, one, fy};
+    if (kc->tmin) {
+        /* the footprint x0..x0 + 3 lies in tile floor((x0 + 2) / 4)'s
+           range (texels 4t - 4 .. 4t + 7): tiles_make's rule */
+        const vf lim = vf_set(szf - 4.0f), two = vf_set(2.0f), qu = vf_set(0.25f);
+        vm fin = vm_and(vm_and(vf_le(zero, x0), vf_le(x0, lim)), vm_and(vf_le(zero, y0), vf_le(y0, lim)));
+        const uint32_t mbits = vm_bits(m);
+        if ((vm_bits(vm_and(m, fin)) & mbits) == mbits) {
+            vf tix = sh_floor(vf_mul(vf_add(x0, two), qu)), tiy = sh_floor(vf_mul(vf_add(y0, two), qu));
+            vf ti = vf_select(m, vf_add(sh_pick(kc->tbase, f->n, ci), vf_add(vf_mul(tiy, vf_set(kc->g)), tix)), zero);
+            vm all = vf_le(sh_gather(kc->tmax, ti), dref), none = vf_lt(dref, sh_gather(kc->tmin, ti));
+            if ((vm_bits(vm_or(all, none)) & mbits) == mbits) {
+                /* the taps' sums when every tap passes, in their order */
+                vf r = vf_add(vf_add(vf_add(vf_add(zero, wx[0]), wx[1]), wx[2]), wx[3]), lit = zero;
+                for (int b = 0; b < 4; b++) lit = vf_add(lit, vf_mul(wy[b], r));
+                return vf_select(m, vf_select(all, vf_mul(lit, vf_set(1.0f / 9.0f)), zero), one);
+            }
+        }
+    }
     const vf mb = sh_pick(base, f->n, ci);
     vf lit = zero, xs[4];
     vm xin[4];
@@ -100,14 +130,17 @@ static inline vf sh_vis(const vt_shadow_fit *f, const sh_cons *kc, const float *
     return vf_select(m, vf_mul(lit, vf_set(1.0f / 9.0f)), one);
 }
 
-void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
-                      const float *pz, const float *nx, const float *ny, const float *nz, float *out)
+void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n, const float *px,
+                      const float *py, const float *pz, const float *nx, const float *ny, const float *nz, float *out)
 {
     const vf zero = vf_set(0), one = vf_set(1);
     const uint32_t N = f->n;
     /* the cascades' map offsets, far ends and blend bands */
     sh_cons k;
+    const uint32_t g = f->size / 4;
+    k.tmin = tiles, k.tmax = tiles ? tiles + (size_t)N * g * g : NULL, k.g = (float)g;
     for (uint32_t c = 0; c < N; c++) {
+        k.tbase[c] = (float)((size_t)c * g * g);
         k.offx[c] = f->off[c][0], k.offy[c] = f->off[c][1], k.base[c] = (float)((size_t)c * f->size * f->size);
         k.far[c] = f->split[c + 1];
         k.band[c] = VT_SHADOW_BLEND * (f->split[c + 1] - f->split[c]);

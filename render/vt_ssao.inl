@@ -36,26 +36,26 @@ static inline vm ss_ne(vf a, vf b)
     return vm_or(vf_lt(a, b), vf_lt(b, a));
 }
 
-/* The 4 floats of the texels pos[4 q] (q: exact integral floats). */
-static inline void ss_fetch4(const float *pos, vf q, vf *x, vf *y, vf *z, vf *n)
+/* The planes' texels q (exact integral floats, >= 0). */
+static inline void ss_fetch4(const vt_ssao_kjob *k, vf q, vf *x, vf *y, vf *z, vf *n)
 {
 #if CULL_SIMD_ISA == 3
-    __m256i i = _mm256_slli_epi32(_mm256_cvttps_epi32(q), 2);
-    *x = _mm256_i32gather_ps(pos, i, 4);
-    *y = _mm256_i32gather_ps(pos + 1, i, 4);
-    *z = _mm256_i32gather_ps(pos + 2, i, 4);
-    *n = _mm256_i32gather_ps(pos + 3, i, 4);
+    __m256i i = _mm256_cvttps_epi32(q);
+    *x = _mm256_i32gather_ps(k->px, i, 4);
+    *y = _mm256_i32gather_ps(k->py, i, 4);
+    *z = _mm256_i32gather_ps(k->pz, i, 4);
+    *n = _mm256_i32gather_ps(k->pn, i, 4);
 #elif CULL_SIMD_ISA == 2
     __m128i i = _mm_cvttps_epi32(q);
-    __m128 a = _mm_loadu_ps(pos + 4 * (size_t)(uint32_t)_mm_cvtsi128_si32(i));
-    __m128 b = _mm_loadu_ps(pos + 4 * (size_t)(uint32_t)_mm_extract_epi32(i, 1));
-    __m128 c = _mm_loadu_ps(pos + 4 * (size_t)(uint32_t)_mm_extract_epi32(i, 2));
-    __m128 d = _mm_loadu_ps(pos + 4 * (size_t)(uint32_t)_mm_extract_epi32(i, 3));
-    _MM_TRANSPOSE4_PS(a, b, c, d);
-    *x = a, *y = b, *z = c, *n = d;
+    const size_t a = (uint32_t)_mm_cvtsi128_si32(i), b = (uint32_t)_mm_extract_epi32(i, 1),
+                 c = (uint32_t)_mm_extract_epi32(i, 2), d = (uint32_t)_mm_extract_epi32(i, 3);
+    *x = _mm_setr_ps(k->px[a], k->px[b], k->px[c], k->px[d]);
+    *y = _mm_setr_ps(k->py[a], k->py[b], k->py[c], k->py[d]);
+    *z = _mm_setr_ps(k->pz[a], k->pz[b], k->pz[c], k->pz[d]);
+    *n = _mm_setr_ps(k->pn[a], k->pn[b], k->pn[c], k->pn[d]);
 #else
-    const float *p = pos + 4 * (size_t)(uint32_t)q;
-    *x = p[0], *y = p[1], *z = p[2], *n = p[3];
+    const size_t i = (uint32_t)q;
+    *x = k->px[i], *y = k->py[i], *z = k->pz[i], *n = k->pn[i];
 #endif
 }
 
@@ -80,7 +80,21 @@ static inline void ss_texel(const vt_ssao_kjob *k, vf X, vf Y, vm m, vf *x, vf *
     m = vm_and(m, vm_and(vm_and(vf_ge(X, vf_set(0)), vf_lt(X, vf_set((float)sv->hw))),
                          vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
     vf q = vf_select(m, vf_add(vf_mul(Y, vf_set((float)sv->hw)), X), vf_set(0));
-    ss_fetch4(k->pos, q, x, y, z, n);
+    ss_fetch4(k, q, x, y, z, n);
+    *ok = vm_and(m, ss_ne(*n, vf_set(VT_EMPTY)));
+}
+
+/* ss_texel for texels (X, Y) that are the planes' consecutive texels
+ * q .. q + W - 1 (a step's own row, or one a fixed step away): loads, not
+ * gathers (the pads keep them in the buffer; the lanes off the image are
+ * masked as ss_texel's). */
+static inline void ss_texel_at(const vt_ssao_kjob *k, vf X, vf Y, vm m, ptrdiff_t q, vf *x, vf *y, vf *z, vf *n,
+                               vm *ok)
+{
+    const vt_ssao_view *sv = k->sv;
+    m = vm_and(m, vm_and(vm_and(vf_ge(X, vf_set(0)), vf_lt(X, vf_set((float)sv->hw))),
+                         vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
+    *x = vf_loadu(k->px + q), *y = vf_loadu(k->py + q), *z = vf_loadu(k->pz + q), *n = vf_loadu(k->pn + q);
     *ok = vm_and(m, ss_ne(*n, vf_set(VT_EMPTY)));
 }
 
@@ -113,14 +127,18 @@ static inline vf ss_arc(vf h, vf ch, vf sh, vf cn, vf sn)
 /* The step along one screen axis (vt_ssao.c's side_step): the side whose
  * two texels extrapolate to P's nearness best; *ok false where neither
  * neighbour exists. */
-static inline void ss_side(const vt_ssao_kjob *k, vf X, vf Y, vf ux, vf uy, vm m, const vf P[4], vf d[3], vm *ok)
+static inline void ss_side(const vt_ssao_kjob *k, vf X, vf Y, vf ux, vf uy, ptrdiff_t q, ptrdiff_t du, vm m,
+                           const vf P[4], vf d[3], vm *ok)
 {
     vf lo[4], lo2[4], hi[4], hi2[4];
     vm mlo, mlo2, mhi, mhi2;
-    ss_texel(k, vf_sub(X, ux), vf_sub(Y, uy), m, &lo[0], &lo[1], &lo[2], &lo[3], &mlo);
-    ss_texel(k, vf_sub(X, vf_add(ux, ux)), vf_sub(Y, vf_add(uy, uy)), m, &lo2[0], &lo2[1], &lo2[2], &lo2[3], &mlo2);
-    ss_texel(k, vf_add(X, ux), vf_add(Y, uy), m, &hi[0], &hi[1], &hi[2], &hi[3], &mhi);
-    ss_texel(k, vf_add(X, vf_add(ux, ux)), vf_add(Y, vf_add(uy, uy)), m, &hi2[0], &hi2[1], &hi2[2], &hi2[3], &mhi2);
+    /* texel q is (X, Y); one step along the axis is du texels */
+    ss_texel_at(k, vf_sub(X, ux), vf_sub(Y, uy), m, q - du, &lo[0], &lo[1], &lo[2], &lo[3], &mlo);
+    ss_texel_at(k, vf_sub(X, vf_add(ux, ux)), vf_sub(Y, vf_add(uy, uy)), m, q - 2 * du, &lo2[0], &lo2[1], &lo2[2],
+                &lo2[3], &mlo2);
+    ss_texel_at(k, vf_add(X, ux), vf_add(Y, uy), m, q + du, &hi[0], &hi[1], &hi[2], &hi[3], &mhi);
+    ss_texel_at(k, vf_add(X, vf_add(ux, ux)), vf_add(Y, vf_add(uy, uy)), m, q + 2 * du, &hi2[0], &hi2[1], &hi2[2],
+                &hi2[3], &mhi2);
     const vf two = vf_set(2);
     vf el = vf_select(mlo, vf_select(mlo2, vf_abs(vf_sub(vf_sub(vf_mul(two, lo[3]), lo2[3]), P[3])), vf_set(FLT_MAX)),
                       vf_set(INFINITY));
@@ -149,7 +167,8 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
         vf X = vf_add(vf_set((float)i0), vf_loadu(lane));
         vf P[4];
         vm ok;
-        ss_texel(k, X, Y, vm_ones(), &P[0], &P[1], &P[2], &P[3], &ok);
+        const ptrdiff_t qc = (ptrdiff_t)j * sv->hw + i0;
+        ss_texel_at(k, X, Y, vm_ones(), qc, &P[0], &P[1], &P[2], &P[3], &ok);
         float res[W];
         if (!vm_bits(ok)) {
             vf_store(res, one);
@@ -164,8 +183,8 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
             vf inv_nst = vf_div(one, nst);
             vf dx[3], dy[3], n[3], V[3];
             vm okx, oky;
-            ss_side(k, X, Y, one, zero, ok, P, dx, &okx);
-            ss_side(k, X, Y, zero, one, ok, P, dy, &oky);
+            ss_side(k, X, Y, one, zero, qc, 1, ok, P, dx, &okx);
+            ss_side(k, X, Y, zero, one, qc, (ptrdiff_t)sv->hw, ok, P, dy, &oky);
             ok = vm_and(ok, vm_and(okx, oky));
             n[0] = vf_sub(vf_mul(dx[1], dy[2]), vf_mul(dx[2], dy[1]));
             n[1] = vf_sub(vf_mul(dx[2], dy[0]), vf_mul(dx[0], dy[2]));
@@ -256,39 +275,65 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
     out:;
         uint32_t nw = sv->hw - i0 < (uint32_t)W ? sv->hw - i0 : (uint32_t)W;
         size_t q0 = (size_t)j * sv->hw + i0;
-        for (uint32_t l = 0; l < nw; l++) {
-            k->hao[q0 + l] = res[l];
-            k->hnear[q0 + l] = k->pos[4 * (q0 + l) + 3];
-        }
+        for (uint32_t l = 0; l < nw; l++) k->hao[q0 + l] = res[l];
     }
+}
+
+/* p[0], p[2], .. p[2 W - 2]: the even full columns of a step. */
+static inline vf ss_even(const float *p)
+{
+#if CULL_SIMD_ISA == 3
+    __m256 a = _mm256_loadu_ps(p), b = _mm256_loadu_ps(p + 8);
+    __m256 e = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0)); /* a0 a2 b0 b2 | a4 a6 b4 b6 */
+    return _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(e), _MM_SHUFFLE(3, 1, 2, 0)));
+#elif CULL_SIMD_ISA == 2
+    return _mm_shuffle_ps(_mm_loadu_ps(p), _mm_loadu_ps(p + 4), _MM_SHUFFLE(2, 0, 2, 0));
+#else
+    return p[0];
+#endif
 }
 
 void VT_SSAO_POS_NAME(const vt_ssao_kjob *k, uint32_t j)
 {
     const vt_ssao_view *sv = k->sv;
     const float *nrow = k->near + (size_t)(2 * j) * sv->w;
-    float *o = k->pos + (size_t)4 * j * sv->hw;
+    const size_t q0 = (size_t)j * sv->hw;
+    float *const o[4] = {k->px + q0, k->py + q0, k->pz + q0, k->pn + q0};
     const vf Y = vf_set((float)((2.0 * (2 * j) + 1) / sv->h - 1)), inf = vf_set(INFINITY);
     vf a[4][4];
     for (int r = 0; r < 4; r++)
         for (int c = 0; c < 4; c++) a[r][c] = vf_set(sv->inv[r][c]);
     for (uint32_t i0 = 0; i0 < sv->hw; i0 += W) {
         uint32_t nw = sv->hw - i0 < (uint32_t)W ? sv->hw - i0 : (uint32_t)W;
+        /* a whole step's 2 W full columns are in the row (w >= 2 hw - 1) */
+        const bool whole = nw == (uint32_t)W && 2 * (i0 + W) <= sv->w;
         float nb[W], t[4][W];
-        for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[2 * (i0 + l)] : VT_EMPTY;
-        vf N = vf_loadu(nb), X = vf_loadu(k->colx + i0), q[4];
+        vf N;
+        if (whole) {
+            N = ss_even(nrow + 2 * (size_t)i0);
+        } else {
+            for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[2 * (i0 + l)] : VT_EMPTY;
+            N = vf_loadu(nb);
+        }
+        vf X = vf_loadu(k->colx + i0), q[4];
         /* (p, 1) ~ inv (X, Y, N, 1) (vt_ssao.c's unproject) */
         for (int r = 0; r < 4; r++) q[r] = vf_add(vf_add(vf_add(vf_mul(a[r][0], X), vf_mul(a[r][1], Y)), vf_mul(a[r][2], N)), a[r][3]);
-        vf iw = vf_div(vf_set(1), q[3]);
+        vf iw = vf_div(vf_set(1), q[3]), p[3];
         vm ok = vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(N, inf));
         for (int c = 0; c < 3; c++) {
-            vf p = vf_mul(q[c], iw);
-            ok = vm_and(ok, vf_lt(vf_abs(p), inf));
-            vf_store(t[c], p);
+            p[c] = vf_mul(q[c], iw);
+            ok = vm_and(ok, vf_lt(vf_abs(p[c]), inf));
         }
-        vf_store(t[3], vf_select(ok, N, vf_set(VT_EMPTY)));
+        const vf nn = vf_select(ok, N, vf_set(VT_EMPTY));
+        if (nw == (uint32_t)W) { /* the row's own texels: no other thread's */
+            for (int c = 0; c < 3; c++) vf_store(o[c] + i0, p[c]);
+            vf_store(o[3] + i0, nn);
+            continue;
+        }
+        for (int c = 0; c < 3; c++) vf_store(t[c], p[c]);
+        vf_store(t[3], nn);
         for (uint32_t l = 0; l < nw; l++)
-            for (int c = 0; c < 4; c++) o[4 * (i0 + l) + c] = t[c][l];
+            for (int c = 0; c < 4; c++) o[c][i0 + l] = t[c][l];
     }
 }
 
@@ -311,7 +356,7 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
     float *o = k->ao + (size_t)y * sv->w;
     const float *hn[3], *ha[3];
     for (int a = 0; a < 3; a++) {
-        hn[a] = k->hnear + (size_t)jy[a] * sv->hw;
+        hn[a] = k->pn + (size_t)jy[a] * sv->hw;
         ha[a] = k->hao + (size_t)jy[a] * sv->hw;
     }
     const size_t pl = (size_t)sv->w + 8;
