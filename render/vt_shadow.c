@@ -368,8 +368,8 @@ struct vt_shadow {
     uint16_t dlo[NC][MAX_BANDS], dhi[NC][MAX_BANDS];
     uint32_t dirty_size, dirty_n;
     /* the footprint tiles the span lookup decides most pixels by
-       (tiles_make): per cascade, (size / 4)^2 minima, then as many
-       maxima, of the maps over 12 x 12 texels; raw: the 4 x 4 tiles'
+       (the footprint tiles): per cascade, (size / TS)^2 minima, then as
+       many maxima, of the maps over 3 TS x 3 TS texels; raw: the TS x TS tiles'
        own, before the dilation */
     float *tiles, *raw;
     size_t tiles_cap, raw_cap;
@@ -442,6 +442,11 @@ const vt_shadow_fit *vt_shadow_fit_of(const vt_shadow *sh)
 const float *vt_shadow_maps(const vt_shadow *sh)
 {
     return sh->maps;
+}
+
+const float *vt_shadow_tiles(const vt_shadow *sh)
+{
+    return sh->tiles;
 }
 
 float vt_shadow_sun(const vt_shadow *sh, const float p[3], const float n[3])
@@ -706,13 +711,16 @@ static int clip_rect(const ltri *t, double sz, double x[9], double y[9], double 
 /* ---- the footprint tiles ------------------------------------------------------------ */
 /* The span lookup (vt_shadow.inl) decides a pixel without its 16 taps
  * where its footprint's depth range is wholly below or above its
- * reference: each cascade's (size / 4)^2 tiles t hold the least and the
- * greatest depth of the map over texels 4t - 4 .. 4t + 7 (both axes; a
- * 4 x 4 footprint starting at x0 lies in tile floor((x0 + 2) / 4)'s).
- * Made in two steps: each raster thread its bands' 4 x 4 tiles (the
- * dirty columns read, the rest -FLT_MAX), then the 3 x 3 dilation.
- * Cost: one more read of the drawn texels (about 1 instruction a texel)
- * and 6 of each tile; 4 MB at 720p. */
+ * reference: each cascade's (size / TS)^2 tiles t hold the least and the
+ * greatest depth of the map over texels TS (t - 1) .. TS (t + 2) - 1 (both
+ * axes; a 4 x 4 footprint starting at x0 lies in tile floor((x0 + 1) / 2)'s:
+ * 6 x 6 texels, tight enough for the far cascades' texels of metres,
+ * where 12 x 12 left most lookups undecided). Made in two steps: each
+ * raster thread its bands' TS x TS tiles (the dirty columns read, the
+ * rest -FLT_MAX), then the 3 x 3 dilation. Cost: one more read of the
+ * drawn texels (about 1 instruction a texel) and about 3 a tile; 8 MB at
+ * 720p (16 with the raw tiles). */
+#define TS ((uint32_t)VT_SHADOW_TILE)
 
 static inline float min2(float a, float b)
 {
@@ -724,29 +732,33 @@ static inline float max2(float a, float b)
     return a > b ? a : b;
 }
 
-/* Band k's 4 x 4 tiles of map m (size sz; texels outside columns
+/* Band k's TS x TS tiles of map m (size sz; texels outside columns
  * x0..x1 are -FLT_MAX) into the raw minima lo and maxima hi. */
 static void tiles_raw(float *lo, float *hi, const float *m, uint32_t sz, uint32_t k, uint32_t x0, uint32_t x1)
 {
-    const uint32_t g = sz / 4, t0 = x0 <= x1 ? x0 / 4 : g, t1 = x0 <= x1 ? x1 / 4 : 0;
-    for (uint32_t ty = k * (BAND / 4); ty < (k + 1) * (BAND / 4) && ty < g; ty++) {
+    /* whole groups of 4 tiles (g = sz / 2 is a multiple of 32) */
+    const uint32_t g = sz / TS, t0 = x0 <= x1 ? x0 / TS / 4 * 4 : g, t1 = x0 <= x1 ? (x1 / TS) | 3u : 0;
+    for (uint32_t ty = k * (BAND / TS); ty < (k + 1) * (BAND / TS) && ty < g; ty++) {
         float *l = lo + (size_t)ty * g, *h = hi + (size_t)ty * g;
         for (uint32_t t = 0; t < g; t++)
             if (t < t0 || t > t1) l[t] = h[t] = -FLT_MAX;
-        for (uint32_t t = t0; t <= t1 && t < g; t++) {
-            const float *r = m + (size_t)4 * ty * sz + 4 * t;
+        const float *r0 = m + (size_t)TS * ty * sz, *r1 = r0 + sz;
+        for (uint32_t t = t0; t <= t1 && t < g; t += 4) {
 #ifdef __SSE2__
-            __m128 a = _mm_loadu_ps(r), b = _mm_loadu_ps(r + sz), c = _mm_loadu_ps(r + 2 * sz), d = _mm_loadu_ps(r + 3 * sz);
-            __m128 vl = _mm_min_ps(_mm_min_ps(a, b), _mm_min_ps(c, d)), vh = _mm_max_ps(_mm_max_ps(a, b), _mm_max_ps(c, d));
-            vl = _mm_min_ps(vl, _mm_shuffle_ps(vl, vl, _MM_SHUFFLE(1, 0, 3, 2)));
-            vh = _mm_max_ps(vh, _mm_shuffle_ps(vh, vh, _MM_SHUFFLE(1, 0, 3, 2)));
-            l[t] = _mm_cvtss_f32(_mm_min_ps(vl, _mm_shuffle_ps(vl, vl, _MM_SHUFFLE(2, 3, 0, 1))));
-            h[t] = _mm_cvtss_f32(_mm_max_ps(vh, _mm_shuffle_ps(vh, vh, _MM_SHUFFLE(2, 3, 0, 1))));
+            const uint32_t x = TS * t;
+            __m128 a = _mm_loadu_ps(r0 + x), b = _mm_loadu_ps(r1 + x), c = _mm_loadu_ps(r0 + x + 4),
+                   d = _mm_loadu_ps(r1 + x + 4);
+            __m128 l1 = _mm_min_ps(a, b), l2 = _mm_min_ps(c, d), h1 = _mm_max_ps(a, b), h2 = _mm_max_ps(c, d);
+            _mm_storeu_ps(l + t, _mm_min_ps(_mm_shuffle_ps(l1, l2, _MM_SHUFFLE(2, 0, 2, 0)),
+                                            _mm_shuffle_ps(l1, l2, _MM_SHUFFLE(3, 1, 3, 1))));
+            _mm_storeu_ps(h + t, _mm_max_ps(_mm_shuffle_ps(h1, h2, _MM_SHUFFLE(2, 0, 2, 0)),
+                                            _mm_shuffle_ps(h1, h2, _MM_SHUFFLE(3, 1, 3, 1))));
 #else
-            float a = r[0], b = r[0];
-            for (uint32_t y = 0; y < 4; y++)
-                for (uint32_t x = 0; x < 4; x++) a = min2(a, r[y * sz + x]), b = max2(b, r[y * sz + x]);
-            l[t] = a, h[t] = b;
+            for (uint32_t u = t; u < t + 4; u++) {
+                const uint32_t x = TS * u;
+                l[u] = min2(min2(r0[x], r0[x + 1]), min2(r1[x], r1[x + 1]));
+                h[u] = max2(max2(r0[x], r0[x + 1]), max2(r1[x], r1[x + 1]));
+            }
 #endif
         }
     }
@@ -758,9 +770,9 @@ static void job_tiles(void *arg, uint32_t t)
 {
     sjob *jb = arg;
     vt_shadow *sh = jb->sh;
-    const uint32_t g = sh->fit.size / 4;
+    const uint32_t g = sh->fit.size / TS;
     const size_t plane = (size_t)sh->fit.n * g * g;
-    float w[2048 / 4 + 2];
+    float w[2048 / TS + 2];
     for (uint32_t c = 0; c < sh->fit.n; c++)
         for (uint32_t ty = t; ty < g; ty += jb->nt)
             for (int mx = 0; mx < 2; mx++) {
@@ -867,7 +879,7 @@ static void job_raster(void *arg, uint32_t t)
                                 L->mk ? &rm : NULL);
                 }
             }
-        const size_t g2 = (size_t)(sz / 4) * (sz / 4), plane = sh->fit.n * g2;
+        const size_t g2 = (size_t)(sz / TS) * (sz / TS), plane = sh->fit.n * g2;
         for (uint32_t k = t; k < nb; k += nt)
             tiles_raw(sh->raw + c * g2, sh->raw + plane + c * g2, m, sz, k, k < tracked ? sh->dlo[c][k] : 0,
                       k < tracked ? sh->dhi[c][k] : sz - 1);
@@ -882,8 +894,8 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     sh->fit = *fit;
     size_t npx = (size_t)fit->n * fit->size * fit->size;
     if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps) ||
-        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, npx / 8, sizeof *sh->tiles) ||
-        !vp_grow((void **)&sh->raw, &sh->raw_cap, npx / 8, sizeof *sh->raw))
+        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, 2 * npx / (TS * TS), sizeof *sh->tiles) ||
+        !vp_grow((void **)&sh->raw, &sh->raw_cap, 2 * npx / (TS * TS), sizeof *sh->raw))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow maps");
     if (fit->size != sh->dirty_size || fit->n != sh->dirty_n) {
         for (int c = 0; c < NC; c++)

@@ -110,6 +110,12 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
  * rows by v (what the tests inspect). */
 const vt_shadow_fit *vt_shadow_fit_of(const vt_shadow *sh);
 const float *vt_shadow_maps(const vt_shadow *sh);
+/* The last draw's footprint tiles, the span lookup's shortcut (vt_shadow.c):
+ * per cascade g x g (g = size / VT_SHADOW_TILE) minima, then as many
+ * maxima; tile (tx, ty) of the map over texels VT_SHADOW_TILE (t - 1) ..
+ * VT_SHADOW_TILE (t + 2) - 1 on both axes, clipped to the map. */
+#define VT_SHADOW_TILE 2
+const float *vt_shadow_tiles(const vt_shadow *sh);
 
 /* The fraction of the sun that reaches camera-relative point p with unit
  * normal n, 0 (in shadow) .. 1 (lit), PCF-filtered. sh NULL: 1. */
