@@ -275,7 +275,9 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
     out:;
         uint32_t nw = sv->hw - i0 < (uint32_t)W ? sv->hw - i0 : (uint32_t)W;
         size_t q0 = (size_t)j * sv->hw + i0;
-        for (uint32_t l = 0; l < nw; l++) k->hao[q0 + l] = res[l];
+        if (nw == (uint32_t)W) vf_store(k->hao + q0, vf_loadu(res)); /* the row's own texels */
+        else
+            for (uint32_t l = 0; l < nw; l++) k->hao[q0 + l] = res[l];
     }
 }
 
@@ -378,8 +380,13 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
             }
         }
 #endif
-        for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[x + l] : VT_EMPTY;
-        vf N = vf_loadu(nb);
+        vf N;
+        if (nw == (uint32_t)W) {
+            N = vf_loadu(nrow + x);
+        } else {
+            for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[x + l] : VT_EMPTY;
+            N = vf_loadu(nb);
+        }
         vf tol = sv->ortho ? vf_set(sv->ntol) : vf_mul(vf_set(VT_SSAO_DEPTH_TOL), N);
         vm ok = vm_and(vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(zero, tol)), vf_lt(tol, vf_set(FLT_MAX)));
         vf av[3][3];
@@ -409,6 +416,8 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
             ao = vf_select(vf_ge(ao, zero), vf_select(vf_le(ao, one), ao, one), vf_select(vf_lt(ao, zero), zero, one));
             vf_store(res, vf_select(vm_and(ok, sp), ao, one));
         }
-        for (uint32_t l = 0; l < nw; l++) o[x + l] = res[l];
+        if (nw == (uint32_t)W) vf_store(o + x, vf_loadu(res));
+        else
+            for (uint32_t l = 0; l < nw; l++) o[x + l] = res[l];
     }
 }
