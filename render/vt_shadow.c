@@ -510,11 +510,16 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
         }
         if (!cm) continue;
         if (!vp_grow((void **)&b->vx, &b->vx_cap, (size_t)m->nv * 3, sizeof *b->vx)) return VT_ERR_NOMEM;
+        /* the placement and the light axes in one matrix (light = A mp + a):
+           half the operations a vertex of applying them in turn */
+        double A[3][3], a0[3];
+        for (int a = 0; a < 3; a++) {
+            a0[a] = ax[a][0] * pl.t[0] + ax[a][1] * pl.t[1] + ax[a][2] * pl.t[2];
+            for (int q = 0; q < 3; q++) A[a][q] = ax[a][0] * pl.m[0][q] + ax[a][1] * pl.m[1][q] + ax[a][2] * pl.m[2][q];
+        }
         for (uint32_t k = 0; k < m->nv; k++) {
-            const float *mp = m->pos + 3 * k;
-            double p[3];
-            for (int a = 0; a < 3; a++) p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
-            for (int a = 0; a < 3; a++) b->vx[3 * k + a] = (float)(ax[a][0] * p[0] + ax[a][1] * p[1] + ax[a][2] * p[2]);
+            const double p[3] = {m->pos[3 * k], m->pos[3 * k + 1], m->pos[3 * k + 2]};
+            for (int a = 0; a < 3; a++) b->vx[3 * k + a] = (float)(A[a][0] * p[0] + A[a][1] * p[1] + A[a][2] * p[2] + a0[a]);
         }
         /* a damaged caster casts both faces, each where its mask keeps
            it: through a hole the sun reaches the inside and what is
@@ -547,7 +552,8 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
                 /* no texel centre in its box: it covers none (most of a far
                    cascade's small casters' triangles) */
                 if (ceilf(x0 - 0.5f) > floorf(x1 - 0.5f) || ceilf(y0 - 0.5f) > floorf(y1 - 0.5f)) continue;
-                if (!vp_grow((void **)&b->t[k], &b->cap[k], b->n[k] + 1, sizeof *b->t[k])) return VT_ERR_NOMEM;
+                if (b->n[k] == b->cap[k] && !vp_grow((void **)&b->t[k], &b->cap[k], b->n[k] + 1, sizeof *b->t[k]))
+                    return VT_ERR_NOMEM;
                 b->t[k][b->n[k]++] = L;
             }
         }
@@ -579,6 +585,17 @@ static bool rmask_keeps(const rmask *r, float cx, float cy, float zz)
     return vt_mask_eval(r->mk, p[0], p[1], p[2]) >= 0;
 }
 
+/* fmin and fmax for finite operands (x86-64's are library calls) */
+static inline double dmin(double a, double b)
+{
+    return a < b ? a : b;
+}
+
+static inline double dmax(double a, double b)
+{
+    return a > b ? a : b;
+}
+
 /* Rows [r0, r1] of triangle (x, y, z: n corners after clipping, a fan) of
  * map m (size sz), max depth; rm non-NULL: only the texels its mask keeps. */
 static void raster_poly(float *m, uint32_t sz, const double *x, const double *y, const double *z, int n, int r0, int r1,
@@ -600,8 +617,8 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
         /* rows and columns whose centre (j + 0.5) can be inside: most
            far-cascade triangles cover no texel centre and stop here,
            before the divisions below */
-        double ylo = fmin(Y[0], fmin(Y[1], Y[2])), yhi = fmax(Y[0], fmax(Y[1], Y[2]));
-        double xlo = fmin(X[0], fmin(X[1], X[2])), xhi = fmax(X[0], fmax(X[1], X[2]));
+        double ylo = dmin(Y[0], dmin(Y[1], Y[2])), yhi = dmax(Y[0], dmax(Y[1], Y[2]));
+        double xlo = dmin(X[0], dmin(X[1], X[2])), xhi = dmax(X[0], dmax(X[1], X[2]));
         double jl = ceil(ylo - 0.5), jh = floor(yhi - 0.5);
         int j0 = jl > r0 ? (int)jl : r0, j1 = jh < r1 ? (int)jh : r1;
         double il = ceil(xlo - 0.5), ih = floor(xhi - 0.5);
@@ -611,7 +628,7 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
         double za = ((Z[1] - Z[0]) * (Y[2] - Y[0]) - (Y[1] - Y[0]) * (Z[2] - Z[0])) / area;
         double zb = ((X[1] - X[0]) * (Z[2] - Z[0]) - (Z[1] - Z[0]) * (X[2] - X[0])) / area;
         double zc = Z[0] - za * X[0] - zb * Y[0];
-        float zlo = (float)fmin(Z[0], fmin(Z[1], Z[2])), zhi = (float)fmax(Z[0], fmax(Z[1], Z[2]));
+        float zlo = (float)dmin(Z[0], dmin(Z[1], Z[2])), zhi = (float)dmax(Z[0], dmax(Z[1], Z[2]));
         /* each edge's crossing of a row as x = m yc + c (E(x, yc) >= 0 is
            x >= it where the edge rises to the left, <= where it falls):
            once per triangle, so a row costs three multiply-adds */
@@ -661,16 +678,29 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
                 continue;
             }
 #ifdef __SSE2__
-            /* four texels a step (x86-64's baseline): the same operations */
+            /* four texels a step (x86-64's baseline): the same operations,
+               the centres counted up (exact: halves below 2^23) */
             const __m128 va = _mm_set1_ps(fa), vr = _mm_set1_ps(zr), vlo = _mm_set1_ps(zlo), vhi = _mm_set1_ps(zhi);
+            const __m128 four = _mm_set1_ps(4.0f);
+            __m128 cx = _mm_add_ps(_mm_set1_ps((float)i + 0.5f), _mm_set_ps(3, 2, 1, 0));
+            for (; i + 7 <= i1; i += 8) {
+                __m128 cx2 = _mm_add_ps(cx, four);
+                __m128 z0 = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
+                __m128 z1 = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx2), vr), vlo), vhi);
+                _mm_storeu_ps(row + i, _mm_max_ps(z0, _mm_loadu_ps(row + i)));
+                _mm_storeu_ps(row + i + 4, _mm_max_ps(z1, _mm_loadu_ps(row + i + 4)));
+                cx = _mm_add_ps(cx2, four);
+            }
             for (; i + 3 <= i1; i += 4) {
-                __m128 cx = _mm_add_ps(_mm_set1_ps((float)i + 0.5f), _mm_set_ps(3, 2, 1, 0));
                 __m128 zz = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
                 _mm_storeu_ps(row + i, _mm_max_ps(zz, _mm_loadu_ps(row + i)));
+                cx = _mm_add_ps(cx, four);
             }
 #endif
             for (; i <= i1; i++) {
-                float zz = fminf(fmaxf(fa * ((float)i + 0.5f) + zr, zlo), zhi);
+                float zz = fa * ((float)i + 0.5f) + zr;
+                zz = zz > zlo ? zz : zlo; /* fmaxf, fminf without the calls (NaN: zlo) */
+                zz = zz < zhi ? zz : zhi;
                 row[i] = zz > row[i] ? zz : row[i];
             }
         }
@@ -720,6 +750,24 @@ static int clip_rect(const ltri *t, double sz, double x[9], double y[9], double 
  * rest -FLT_MAX), then the 3 x 3 dilation. Cost: one more read of the
  * drawn texels (about 1 instruction a texel) and about 3 a tile; 8 MB at
  * 720p (16 with the raw tiles). */
+/* n floats at r to -FLT_MAX (the clear: GCC -O2 leaves the plain loop
+ * one store a texel, 16 M instructions a city frame). */
+static void fill_lowest(float *r, uint32_t n)
+{
+    uint32_t i = 0;
+#ifdef __SSE2__
+    const __m128 v = _mm_set1_ps(-FLT_MAX);
+    for (; i + 16 <= n; i += 16) {
+        _mm_storeu_ps(r + i, v);
+        _mm_storeu_ps(r + i + 4, v);
+        _mm_storeu_ps(r + i + 8, v);
+        _mm_storeu_ps(r + i + 12, v);
+    }
+    for (; i + 4 <= n; i += 4) _mm_storeu_ps(r + i, v);
+#endif
+    for (; i < n; i++) r[i] = -FLT_MAX;
+}
+
 #define TS ((uint32_t)VT_SHADOW_TILE)
 
 static inline float min2(float a, float b)
@@ -740,8 +788,9 @@ static void tiles_raw(float *lo, float *hi, const float *m, uint32_t sz, uint32_
     const uint32_t g = sz / TS, t0 = x0 <= x1 ? x0 / TS / 4 * 4 : g, t1 = x0 <= x1 ? (x1 / TS) | 3u : 0;
     for (uint32_t ty = k * (BAND / TS); ty < (k + 1) * (BAND / TS) && ty < g; ty++) {
         float *l = lo + (size_t)ty * g, *h = hi + (size_t)ty * g;
-        for (uint32_t t = 0; t < g; t++)
-            if (t < t0 || t > t1) l[t] = h[t] = -FLT_MAX;
+        const uint32_t e0 = t0 < g ? t0 : g, e1 = t1 + 1 < g ? t1 + 1 : g;
+        fill_lowest(l, e0), fill_lowest(h, e0);
+        if (e1 > e0) fill_lowest(l + e1, g - e1), fill_lowest(h + e1, g - e1);
         const float *r0 = m + (size_t)TS * ty * sz, *r1 = r0 + sz;
         for (uint32_t t = t0; t <= t1 && t < g; t += 4) {
 #ifdef __SSE2__
@@ -765,67 +814,69 @@ static void tiles_raw(float *lo, float *hi, const float *m, uint32_t sz, uint32_
 }
 
 /* Thread t: tile rows ty % nt == t of every cascade, the raw tiles'
- * 3 x 3 minima and maxima (clipped at the map's sides). */
+ * 3 x 3 minima and maxima (clipped at the map's sides), over the columns
+ * the raster wrote in the rows' bands (elsewhere every raw tile is
+ * -FLT_MAX, and so the result). */
 static void job_tiles(void *arg, uint32_t t)
 {
     sjob *jb = arg;
     vt_shadow *sh = jb->sh;
-    const uint32_t g = sh->fit.size / TS;
+    const uint32_t sz = sh->fit.size, g = sz / TS;
     const size_t plane = (size_t)sh->fit.n * g * g;
     float w[2048 / TS + 2];
     for (uint32_t c = 0; c < sh->fit.n; c++)
-        for (uint32_t ty = t; ty < g; ty += jb->nt)
+        for (uint32_t ty = t; ty < g; ty += jb->nt) {
+            /* the texel rows of raw rows ty - 1 .. ty + 1, and their bands' written columns */
+            const uint32_t y0 = ty ? TS * (ty - 1) : 0, y1 = TS * (ty + 2) < sz ? TS * (ty + 2) - 1 : sz - 1;
+            uint32_t lo = UINT32_MAX, hi = 0;
+            for (uint32_t k = y0 / BAND; k <= y1 / BAND; k++)
+                if (sh->dlo[c][k] <= sh->dhi[c][k])
+                    lo = sh->dlo[c][k] < lo ? sh->dlo[c][k] : lo, hi = sh->dhi[c][k] > hi ? sh->dhi[c][k] : hi;
+            float *o0 = sh->tiles + (size_t)c * g * g + (size_t)ty * g, *o1 = o0 + plane;
+            if (lo > hi) {
+                fill_lowest(o0, g), fill_lowest(o1, g);
+                continue;
+            }
+            /* tiles x0..x1 (whole 4s) see raw tiles x0 - 1 .. x1 + 1 */
+            const uint32_t x0 = lo / TS >= 1 ? (lo / TS - 1) / 4 * 4 : 0, x1 = (hi / TS + 1) / 4 * 4 + 3 < g ? (hi / TS + 1) / 4 * 4 + 3 : g - 1;
             for (int mx = 0; mx < 2; mx++) {
                 const float *raw = sh->raw + mx * plane + (size_t)c * g * g;
                 const float *r0 = raw + (size_t)(ty ? ty - 1 : ty) * g, *r1 = raw + (size_t)ty * g,
                             *r2 = raw + (size_t)(ty + 1 < g ? ty + 1 : ty) * g;
-                float *o = sh->tiles + mx * plane + (size_t)c * g * g + (size_t)ty * g, *v = w + 1;
-                uint32_t x = 0;
+                float *o = mx ? o1 : o0, *v = w + 1;
+                uint32_t x = x0;
 #ifdef __SSE2__
-                /* g is a multiple of 16 (the map's size of 64) */
+                /* x0 and x1 + 1 are multiples of 4 */
                 if (mx)
-                    for (; x + 4 <= g; x += 4)
+                    for (; x + 4 <= x1 + 1; x += 4)
                         _mm_storeu_ps(v + x, _mm_max_ps(_mm_max_ps(_mm_loadu_ps(r0 + x), _mm_loadu_ps(r1 + x)),
                                                         _mm_loadu_ps(r2 + x)));
                 else
-                    for (; x + 4 <= g; x += 4)
+                    for (; x + 4 <= x1 + 1; x += 4)
                         _mm_storeu_ps(v + x, _mm_min_ps(_mm_min_ps(_mm_loadu_ps(r0 + x), _mm_loadu_ps(r1 + x)),
                                                         _mm_loadu_ps(r2 + x)));
 #endif
-                for (; x < g; x++) v[x] = mx ? max2(max2(r0[x], r1[x]), r2[x]) : min2(min2(r0[x], r1[x]), r2[x]);
-                v[-1] = v[0], v[g] = v[g - 1];
-                x = 0;
+                for (; x <= x1; x++) v[x] = mx ? max2(max2(r0[x], r1[x]), r2[x]) : min2(min2(r0[x], r1[x]), r2[x]);
+                /* the map's sides clip; inside, what lies beyond x0..x1 is empty */
+                v[(int)x0 - 1] = x0 ? -FLT_MAX : v[0];
+                v[x1 + 1] = x1 + 1 < g ? -FLT_MAX : v[g - 1];
+                x = x0;
 #ifdef __SSE2__
                 if (mx)
-                    for (; x + 4 <= g; x += 4)
+                    for (; x + 4 <= x1 + 1; x += 4)
                         _mm_storeu_ps(o + x, _mm_max_ps(_mm_max_ps(_mm_loadu_ps(v + x - 1), _mm_loadu_ps(v + x)),
                                                         _mm_loadu_ps(v + x + 1)));
                 else
-                    for (; x + 4 <= g; x += 4)
+                    for (; x + 4 <= x1 + 1; x += 4)
                         _mm_storeu_ps(o + x, _mm_min_ps(_mm_min_ps(_mm_loadu_ps(v + x - 1), _mm_loadu_ps(v + x)),
                                                         _mm_loadu_ps(v + x + 1)));
 #endif
-                for (; x < g; x++)
+                for (; x <= x1; x++)
                     o[x] = mx ? max2(max2(v[x - 1], v[x]), v[x + 1]) : min2(min2(v[x - 1], v[x]), v[x + 1]);
+                fill_lowest(o, x0);
+                fill_lowest(o + x1 + 1, g - 1 - x1);
             }
-}
-
-/* n floats at r to -FLT_MAX (the clear: GCC -O2 leaves the plain loop
- * one store a texel, 16 M instructions a city frame). */
-static void fill_lowest(float *r, uint32_t n)
-{
-    uint32_t i = 0;
-#ifdef __SSE2__
-    const __m128 v = _mm_set1_ps(-FLT_MAX);
-    for (; i + 16 <= n; i += 16) {
-        _mm_storeu_ps(r + i, v);
-        _mm_storeu_ps(r + i + 4, v);
-        _mm_storeu_ps(r + i + 8, v);
-        _mm_storeu_ps(r + i + 12, v);
-    }
-    for (; i + 4 <= n; i += 4) _mm_storeu_ps(r + i, v);
-#endif
-    for (; i < n; i++) r[i] = -FLT_MAX;
+        }
 }
 
 /* Thread t: bands k of every cascade with k % nt == t, cleared, then
@@ -848,7 +899,7 @@ static void job_raster(void *arg, uint32_t t)
         for (uint32_t b = 0; b < nt; b++)
             for (size_t q = 0; q < sh->tb[b].n[c]; q++) {
                 const ltri *L = &sh->tb[b].t[c][q];
-                float y0 = fminf(L->y[0], fminf(L->y[1], L->y[2])), y1 = fmaxf(L->y[0], fmaxf(L->y[1], L->y[2]));
+                float y0 = min2(L->y[0], min2(L->y[1], L->y[2])), y1 = max2(L->y[0], max2(L->y[1], L->y[2]));
                 uint32_t k0 = y0 > 0 ? (uint32_t)y0 / BAND : 0, k1 = y1 < (float)sz ? (uint32_t)y1 / BAND : nb - 1;
                 uint32_t k = k0 + (t + nt - k0 % nt) % nt;
                 if (k > k1) continue;
