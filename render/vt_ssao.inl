@@ -71,6 +71,28 @@ static inline vf ss_gather(const float *base, const int32_t *idx)
 #endif
 }
 
+#if CULL_SIMD_ISA >= 2
+/* The upsample's tap c of a whole step at an even full column x, from the
+ * half row's texels p = x / 2 - 1 ..: lane l (column x + l) reads the
+ * texel vt_ssao.c's taps() gives it (even l: l / 2 + c; odd: (l + 1) / 2,
+ * (l + 3) / 2, and (l + 1) / 2 again at weight 0): a load and a permute,
+ * not a gather. */
+static inline vf ss_tap(const float *p, int c)
+{
+#if CULL_SIMD_ISA == 3
+    const __m256i perm = c == 0   ? _mm256_setr_epi32(0, 1, 1, 2, 2, 3, 3, 4)
+                         : c == 1 ? _mm256_setr_epi32(1, 2, 2, 3, 3, 4, 4, 5)
+                                  : _mm256_setr_epi32(2, 1, 3, 2, 4, 3, 5, 4);
+    return _mm256_permutevar8x32_ps(_mm256_loadu_ps(p), perm);
+#else
+    const __m128 v = _mm_loadu_ps(p);
+    return c == 0 ? _mm_shuffle_ps(v, v, _MM_SHUFFLE(2, 1, 1, 0))
+           : c == 1 ? _mm_shuffle_ps(v, v, _MM_SHUFFLE(3, 2, 2, 1))
+                    : _mm_shuffle_ps(v, v, _MM_SHUFFLE(2, 3, 1, 2));
+#endif
+}
+#endif
+
 /* A texel of the half image at (X, Y) (integral floats) where mask m:
  * its point and nearness; *ok narrowed to the lanes on the image and not
  * on the sky. */
@@ -205,6 +227,9 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                 V[c] = vf_div(V[c], vl);
             }
             vf num = zero, den = zero;
+            /* the steps' distances, the same for every slice and side */
+            vf tts[VT_SSAO_STEPS];
+            for (int st = 0; st < VT_SSAO_STEPS; st++) tts[st] = vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst);
             for (int sl = 0; sl < VT_SSAO_SLICES; sl++) {
                 const vf c = vf_loadu(dc[i0 & 1][sl]), s = vf_loadu(ds[i0 & 1][sl]);
                 vf T[3];
@@ -227,7 +252,7 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                     for (int st = 0; st < VT_SSAO_STEPS; st++) {
                         vm m = vm_and(sok, vf_lt(vf_set((float)st), nst));
                         if (!vm_bits(m)) break;
-                        vf tt = vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst);
+                        const vf tt = tts[st];
                         const vf h = vf_set(1024.5f), kk = vf_set(1024);
                         vf SX = vf_add(X, vf_sub(ss_floor(vf_select(m, vf_add(vf_mul(sgc, tt), h), h)), kk));
                         vf SY = vf_add(Y, vf_sub(ss_floor(vf_select(m, vf_add(vf_mul(sgs, tt), h), h)), kk));
@@ -367,11 +392,13 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
         float nb[W], res[W];
         uint32_t nw = sv->w - x < (uint32_t)W ? sv->w - x : (uint32_t)W;
 #if W > 1
+        bool cont = false; /* a whole step whose taps ss_tap reads */
         /* most of a frame is unoccluded: where the three half rows are 1
            over the step's taps (half columns x/2 - 1 .. x/2 + W/2 within
            the W at x/2 - 1), every lane's mean is 1 (the general path's
            answer too), without the gathers */
         if (x >= 2 && nw == (uint32_t)W && x / 2 - 1 + W <= sv->hw) {
+            cont = true;
             vm all1 = vm_and(vm_and(vf_le(one, vf_loadu(ha[0] + x / 2 - 1)), vf_le(one, vf_loadu(ha[1] + x / 2 - 1))),
                              vf_le(one, vf_loadu(ha[2] + x / 2 - 1)));
             if (vm_bits(all1) == (1u << W) - 1) {
@@ -393,7 +420,11 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
         vf lo = one;
         for (int a = 0; a < 3; a++)
             for (int c = 0; c < 3; c++) {
+#if W > 1
+                av[a][c] = cont ? ss_tap(ha[a] + x / 2 - 1, c) : ss_gather(ha[a], k->cx + c * pl + x);
+#else
                 av[a][c] = ss_gather(ha[a], k->cx + c * pl + x);
+#endif
                 lo = vf_select(vf_lt(av[a][c], lo), av[a][c], lo);
             }
         /* most of a frame is unoccluded: the mean of ones is 1 */
@@ -404,7 +435,11 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
             vf kk = vf_div(one, tol), sum = zero, acc = zero;
             for (int a = 0; a < 3; a++)
                 for (int c = 0; c < 3; c++) {
+#if W > 1
+                    vf hv = cont ? ss_tap(hn[a] + x / 2 - 1, c) : ss_gather(hn[a], k->cx + c * pl + x);
+#else
                     vf hv = ss_gather(hn[a], k->cx + c * pl + x);
+#endif
                     vf wd = vf_sub(one, vf_mul(vf_abs(vf_sub(hv, N)), kk));
                     vf wt = vf_mul(vf_mul(vf_set(wy[a]), vf_loadu(k->cw + c * pl + x)), wd);
                     wt = vf_select(vf_lt(zero, wd), wt, zero);
