@@ -596,10 +596,12 @@ static inline double dmax(double a, double b)
     return a > b ? a : b;
 }
 
-/* Rows [r0, r1] of triangle (x, y, z: n corners after clipping, a fan) of
- * map m (size sz), max depth; rm non-NULL: only the texels its mask keeps. */
+/* Triangle (x, y, z: n corners after clipping, a fan) into map m (size
+ * sz), max depth, in the bands of BAND rows starting at rows r0, r0 +
+ * step, .. up to row r1 (a thread's: the set-up once for all of them);
+ * rm non-NULL: only the texels its mask keeps. */
 static void raster_poly(float *m, uint32_t sz, const double *x, const double *y, const double *z, int n, int r0, int r1,
-                        const rmask *rm)
+                        int step, const rmask *rm)
 {
     for (int f = 1; f + 1 < n; f++) {
         int id[3] = {0, f, f + 1};
@@ -647,61 +649,64 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
            inline ceil is a dozen instructions); a horizontal edge that
            excludes the row empties it (E = Bs yc + B0 < 0) */
         const double cl = bx0 - 1.0, ch = bx1 + 1.0;
-        for (int j = j0; j <= j1; j++) {
-            double yc = j + 0.5;
-            int lo = bx0, hi = bx1;
-            for (int k = 0; k < 3; k++) {
-                double xm = em[k] * yc + ec[k] - 0.5;
-                if (!kind[k]) {
-                    if (xm + 0.5 < 0) hi = -1;
+        for (int b0 = r0; b0 <= j1; b0 += step) { /* the bands' rows */
+            const int ja = j0 > b0 ? j0 : b0, jb = b0 + (int)BAND - 1 < j1 ? b0 + (int)BAND - 1 : j1;
+            for (int j = ja; j <= jb; j++) {
+                double yc = j + 0.5;
+                int lo = bx0, hi = bx1;
+                for (int k = 0; k < 3; k++) {
+                    double xm = em[k] * yc + ec[k] - 0.5;
+                    if (!kind[k]) {
+                        if (xm + 0.5 < 0) hi = -1;
+                        continue;
+                    }
+                    xm = xm > cl ? (xm < ch ? xm : ch) : cl;
+                    int ti = (int)xm;
+                    if (kind[k] > 0) {
+                        int c = ti + ((double)ti < xm);
+                        lo = c > lo ? c : lo;
+                    } else {
+                        int fl = ti - (xm < (double)ti);
+                        hi = fl < hi ? fl : hi;
+                    }
+                }
+                if (lo > hi) continue;
+                float *row = m + (size_t)j * sz;
+                float zr = (float)(zb * yc + zc), fa = (float)za;
+                int i = lo, i1 = hi;
+                if (rm) {
+                    for (; i <= i1; i++) {
+                        float zz = fminf(fmaxf(fa * ((float)i + 0.5f) + zr, zlo), zhi);
+                        if (zz > row[i] && rmask_keeps(rm, (float)i + 0.5f, (float)yc, zz)) row[i] = zz;
+                    }
                     continue;
                 }
-                xm = xm > cl ? (xm < ch ? xm : ch) : cl;
-                int ti = (int)xm;
-                if (kind[k] > 0) {
-                    int c = ti + ((double)ti < xm);
-                    lo = c > lo ? c : lo;
-                } else {
-                    int fl = ti - (xm < (double)ti);
-                    hi = fl < hi ? fl : hi;
+    #ifdef __SSE2__
+                /* four texels a step (x86-64's baseline): the same operations,
+                   the centres counted up (exact: halves below 2^23) */
+                const __m128 va = _mm_set1_ps(fa), vr = _mm_set1_ps(zr), vlo = _mm_set1_ps(zlo), vhi = _mm_set1_ps(zhi);
+                const __m128 four = _mm_set1_ps(4.0f);
+                __m128 cx = _mm_add_ps(_mm_set1_ps((float)i + 0.5f), _mm_set_ps(3, 2, 1, 0));
+                for (; i + 7 <= i1; i += 8) {
+                    __m128 cx2 = _mm_add_ps(cx, four);
+                    __m128 z0 = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
+                    __m128 z1 = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx2), vr), vlo), vhi);
+                    _mm_storeu_ps(row + i, _mm_max_ps(z0, _mm_loadu_ps(row + i)));
+                    _mm_storeu_ps(row + i + 4, _mm_max_ps(z1, _mm_loadu_ps(row + i + 4)));
+                    cx = _mm_add_ps(cx2, four);
                 }
-            }
-            if (lo > hi) continue;
-            float *row = m + (size_t)j * sz;
-            float zr = (float)(zb * yc + zc), fa = (float)za;
-            int i = lo, i1 = hi;
-            if (rm) {
+                for (; i + 3 <= i1; i += 4) {
+                    __m128 zz = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
+                    _mm_storeu_ps(row + i, _mm_max_ps(zz, _mm_loadu_ps(row + i)));
+                    cx = _mm_add_ps(cx, four);
+                }
+    #endif
                 for (; i <= i1; i++) {
-                    float zz = fminf(fmaxf(fa * ((float)i + 0.5f) + zr, zlo), zhi);
-                    if (zz > row[i] && rmask_keeps(rm, (float)i + 0.5f, (float)yc, zz)) row[i] = zz;
+                    float zz = fa * ((float)i + 0.5f) + zr;
+                    zz = zz > zlo ? zz : zlo; /* fmaxf, fminf without the calls (NaN: zlo) */
+                    zz = zz < zhi ? zz : zhi;
+                    row[i] = zz > row[i] ? zz : row[i];
                 }
-                continue;
-            }
-#ifdef __SSE2__
-            /* four texels a step (x86-64's baseline): the same operations,
-               the centres counted up (exact: halves below 2^23) */
-            const __m128 va = _mm_set1_ps(fa), vr = _mm_set1_ps(zr), vlo = _mm_set1_ps(zlo), vhi = _mm_set1_ps(zhi);
-            const __m128 four = _mm_set1_ps(4.0f);
-            __m128 cx = _mm_add_ps(_mm_set1_ps((float)i + 0.5f), _mm_set_ps(3, 2, 1, 0));
-            for (; i + 7 <= i1; i += 8) {
-                __m128 cx2 = _mm_add_ps(cx, four);
-                __m128 z0 = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
-                __m128 z1 = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx2), vr), vlo), vhi);
-                _mm_storeu_ps(row + i, _mm_max_ps(z0, _mm_loadu_ps(row + i)));
-                _mm_storeu_ps(row + i + 4, _mm_max_ps(z1, _mm_loadu_ps(row + i + 4)));
-                cx = _mm_add_ps(cx2, four);
-            }
-            for (; i + 3 <= i1; i += 4) {
-                __m128 zz = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
-                _mm_storeu_ps(row + i, _mm_max_ps(zz, _mm_loadu_ps(row + i)));
-                cx = _mm_add_ps(cx, four);
-            }
-#endif
-            for (; i <= i1; i++) {
-                float zz = fa * ((float)i + 0.5f) + zr;
-                zz = zz > zlo ? zz : zlo; /* fmaxf, fminf without the calls (NaN: zlo) */
-                zz = zz < zhi ? zz : zhi;
-                row[i] = zz > row[i] ? zz : row[i];
             }
         }
     }
@@ -917,18 +922,19 @@ static void job_raster(void *arg, uint32_t t)
                 xl = floor(xl), xh = ceil(xh);
                 uint16_t cl = xl > 0 ? (xl < sz - 1.0 ? (uint16_t)xl : (uint16_t)(sz - 1)) : 0;
                 uint16_t ch = xh > 0 ? (xh < sz - 1.0 ? (uint16_t)xh : (uint16_t)(sz - 1)) : 0;
-                for (; k <= k1; k += nt) {
+                const uint32_t kf = k;
+                for (; k <= k1; k += nt)
                     /* marked whether or not it covers a texel centre: a
                        clear too many costs less than the test */
                     if (k < tracked) {
                         sh->dlo[c][k] = cl < sh->dlo[c][k] ? cl : sh->dlo[c][k];
                         sh->dhi[c][k] = ch > sh->dhi[c][k] ? ch : sh->dhi[c][k];
                     }
-                    rmask rm = {.mk = L->mk, .u = sh->fit.u, .v = sh->fit.v, .s = sh->fit.s, .scale = sh->fit.scale[c],
-                                .off = {sh->fit.off[c][0], sh->fit.off[c][1]}};
-                    raster_poly(m, sz, x, y, z, n, (int)(k * BAND), (int)((k + 1) * BAND < sz ? (k + 1) * BAND : sz) - 1,
-                                L->mk ? &rm : NULL);
-                }
+                rmask rm = {.mk = L->mk, .u = sh->fit.u, .v = sh->fit.v, .s = sh->fit.s, .scale = sh->fit.scale[c],
+                            .off = {sh->fit.off[c][0], sh->fit.off[c][1]}};
+                /* set up once, drawn into each of this thread's bands k1..k1 */
+                raster_poly(m, sz, x, y, z, n, (int)(kf * BAND), (int)((k1 + 1) * BAND < sz ? (k1 + 1) * BAND : sz) - 1,
+                            (int)(nt * BAND), L->mk ? &rm : NULL);
             }
         const size_t g2 = (size_t)(sz / TS) * (sz / TS), plane = sh->fit.n * g2;
         for (uint32_t k = t; k < nb; k += nt)
