@@ -464,6 +464,33 @@ typedef struct sjob {
     bool masked;            /* some casters are damaged (sh->mk_of holds them) */
 } sjob;
 
+/* fminf and fmaxf where no operand is NaN or a NaN may go either way
+ * (x86-64's are library calls) */
+static inline float min2(float a, float b)
+{
+    return a < b ? a : b;
+}
+
+static inline float max2(float a, float b)
+{
+    return a > b ? a : b;
+}
+
+/* Whether [a, b] (within the map's -1 .. size + 1 after clamping) holds
+ * no texel centre j + 0.5: ceil(a - 0.5) > floor(b - 0.5), by truncation
+ * of the clamped values (SSE2 has no rounding instruction). */
+static inline bool no_centre(float a, float b, float sz)
+{
+    a = a > -1.0f ? (a < sz + 1.0f ? a : sz + 1.0f) : -1.0f;
+    b = b > -1.0f ? (b < sz + 1.0f ? b : sz + 1.0f) : -1.0f;
+    /* ceil(a - 0.5) = ceil(a + 1.5) - 2, floor likewise: a + 1.5 > 0, where
+       truncation is floor */
+    float fa = a + 1.5f, fb = b + 1.5f;
+    int ca = (int)fa, cb = (int)fb;
+    ca += (float)ca < fa;
+    return ca > cb;
+}
+
 /* Set-up of casters [i0, i1) into b's lists. */
 static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
 {
@@ -545,13 +572,13 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
                     L.x[e] = qs[e][0] * f->scale[k] + f->off[k][0];
                     L.y[e] = qs[e][1] * f->scale[k] + f->off[k][1];
                     L.z[e] = qs[e][2];
-                    x0 = fminf(x0, L.x[e]), x1 = fmaxf(x1, L.x[e]);
-                    y0 = fminf(y0, L.y[e]), y1 = fmaxf(y1, L.y[e]);
+                    x0 = min2(x0, L.x[e]), x1 = max2(x1, L.x[e]);
+                    y0 = min2(y0, L.y[e]), y1 = max2(y1, L.y[e]);
                 }
                 if (!(x1 > 0 && y1 > 0 && x0 < (float)f->size && y0 < (float)f->size)) continue;
                 /* no texel centre in its box: it covers none (most of a far
                    cascade's small casters' triangles) */
-                if (ceilf(x0 - 0.5f) > floorf(x1 - 0.5f) || ceilf(y0 - 0.5f) > floorf(y1 - 0.5f)) continue;
+                if (no_centre(x0, x1, (float)f->size) || no_centre(y0, y1, (float)f->size)) continue;
                 if (b->n[k] == b->cap[k] && !vp_grow((void **)&b->t[k], &b->cap[k], b->n[k] + 1, sizeof *b->t[k]))
                     return VT_ERR_NOMEM;
                 b->t[k][b->n[k]++] = L;
@@ -774,16 +801,6 @@ static void fill_lowest(float *r, uint32_t n)
 }
 
 #define TS ((uint32_t)VT_SHADOW_TILE)
-
-static inline float min2(float a, float b)
-{
-    return a < b ? a : b;
-}
-
-static inline float max2(float a, float b)
-{
-    return a > b ? a : b;
-}
 
 /* Band k's TS x TS tiles of map m (size sz; texels outside columns
  * x0..x1 are -FLT_MAX) into the raw minima lo and maxima hi. */
