@@ -331,17 +331,15 @@ void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const float *ti
         }
         if (!any) continue;
         /* the packed lookups' taps, W at a time (the last step's spare
-           lanes repeat its first lookup, stored once) */
+           lanes masked: zeros, their fetches texel 0, their values unused) */
         for (unsigned e = 0; e < pk.n; e += W) {
             unsigned ne = pk.n - e < (unsigned)W ? pk.n - e : (unsigned)W;
-            for (unsigned l = ne; l < (unsigned)W; l++) {
-                pk.x0[e + l] = pk.x0[e], pk.y0[e + l] = pk.y0[e], pk.fx[e + l] = pk.fx[e];
-                pk.fy[e + l] = pk.fy[e], pk.dref[e + l] = pk.dref[e], pk.mb[e + l] = pk.mb[e];
-            }
-            sh_tap t = {vf_loadu(pk.x0 + e), vf_loadu(pk.y0 + e), vf_loadu(pk.fx + e), vf_loadu(pk.fy + e),
-                        vf_loadu(pk.dref + e), vf_loadu(pk.mb + e)};
+            const vm me = vm_from_bits((1u << ne) - 1);
+            sh_tap t = {vf_select(me, vf_loadu(pk.x0 + e), zero), vf_select(me, vf_loadu(pk.y0 + e), zero),
+                        vf_select(me, vf_loadu(pk.fx + e), zero), vf_select(me, vf_loadu(pk.fy + e), zero),
+                        vf_select(me, vf_loadu(pk.dref + e), zero), vf_select(me, vf_loadu(pk.mb + e), zero)};
             float r[W];
-            vf_store(r, sh_taps(f, maps, &t, vm_ones()));
+            vf_store(r, sh_taps(f, maps, &t, me));
             for (unsigned l = 0; l < ne; l++) vals[pk.dst[e + l]] = r[l];
         }
         for (unsigned i = 0; i < cn; i += W) {
