@@ -101,7 +101,7 @@ typedef struct sh_tap {
 /* The first half of cascade_vis (vt_shadow.c) for each lane's cascade ci,
  * lanes m: the value where the tiles decide it (or the point is off the
  * map: 1), *und the lanes that need their taps (whose inputs *t gets). */
-static inline vf sh_prep(const vt_shadow_fit *f, const sh_cons *kc, const sh_ci *ci, vm m, const vf p[3], const vf n[3],
+static inline __attribute__((always_inline)) vf sh_prep(const vt_shadow_fit *f, const sh_cons *kc, const sh_ci *ci, vm m, const vf p[3], const vf n[3],
                          vf ndl, sh_tap *t, vm *und)
 {
     const vf zero = vf_set(0), one = vf_set(1);
