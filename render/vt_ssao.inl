@@ -31,11 +31,6 @@ static inline vf ss_floor(vf a)
 #endif
 }
 
-static inline vm ss_ne(vf a, vf b)
-{
-    return vm_or(vf_lt(a, b), vf_lt(b, a));
-}
-
 /* The planes' texels q (exact integral floats, >= 0). */
 static inline void ss_fetch4(const vt_ssao_kjob *k, vf q, vf *x, vf *y, vf *z, vf *n)
 {
@@ -103,7 +98,17 @@ static inline void ss_texel(const vt_ssao_kjob *k, vf X, vf Y, vm m, vf *x, vf *
                          vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
     vf q = vf_select(m, vf_add(vf_mul(Y, vf_set((float)sv->hw)), X), vf_set(0));
     ss_fetch4(k, q, x, y, z, n);
-    *ok = vm_and(m, ss_ne(*n, vf_set(VT_EMPTY)));
+    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n)); /* not the sky (nearness is never NaN) */
+}
+
+/* ss_texel for (X, Y) known to be on the image where m (a step whose
+ * samples all stay inside): no bounds. (The planes' nearness is never
+ * NaN: the sky is VT_EMPTY, the least float, so one compare tells it.) */
+static inline void ss_texel_in(const vt_ssao_kjob *k, vf X, vf Y, vm m, vf *x, vf *y, vf *z, vf *n, vm *ok)
+{
+    vf q = vf_select(m, vf_add(vf_mul(Y, vf_set((float)k->sv->hw)), X), vf_set(0));
+    ss_fetch4(k, q, x, y, z, n);
+    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n));
 }
 
 /* ss_texel for texels (X, Y) that are the planes' consecutive texels
@@ -117,7 +122,7 @@ static inline void ss_texel_at(const vt_ssao_kjob *k, vf X, vf Y, vm m, ptrdiff_
     m = vm_and(m, vm_and(vm_and(vf_ge(X, vf_set(0)), vf_lt(X, vf_set((float)sv->hw))),
                          vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
     *x = vf_loadu(k->px + q), *y = vf_loadu(k->py + q), *z = vf_loadu(k->pz + q), *n = vf_loadu(k->pn + q);
-    *ok = vm_and(m, ss_ne(*n, vf_set(VT_EMPTY)));
+    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n)); /* not the sky (nearness is never NaN) */
 }
 
 static inline vf ss_dot(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
@@ -230,6 +235,17 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
             /* the steps' distances, the same for every slice and side */
             vf tts[VT_SSAO_STEPS];
             for (int st = 0; st < VT_SSAO_STEPS; st++) tts[st] = vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst);
+            /* a sample is at most rpx (< B) texels away on either axis
+               (|cos|, |sin| <= 1, the steps' distances below rpx): a step
+               at least B from every side needs no bounds on its samples */
+            bool inner;
+            {
+                float rr[W], rmax = 0;
+                vf_store(rr, vf_select(ok, rpx, zero));
+                for (int l = 0; l < W; l++) rmax = rr[l] > rmax ? rr[l] : rmax;
+                const uint32_t B = (uint32_t)rmax + 2;
+                inner = i0 >= B && i0 + W - 1 + B < sv->hw && j >= B && j + B < sv->hh;
+            }
             for (int sl = 0; sl < VT_SSAO_SLICES; sl++) {
                 const vf c = vf_loadu(dc[i0 & 1][sl]), s = vf_loadu(ds[i0 & 1][sl]);
                 vf T[3];
@@ -257,7 +273,8 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                         vf SX = vf_add(X, vf_sub(ss_floor(vf_select(m, vf_add(vf_mul(sgc, tt), h), h)), kk));
                         vf SY = vf_add(Y, vf_sub(ss_floor(vf_select(m, vf_add(vf_mul(sgs, tt), h), h)), kk));
                         vf S[4];
-                        ss_texel(k, SX, SY, m, &S[0], &S[1], &S[2], &S[3], &m);
+                        if (inner) ss_texel_in(k, SX, SY, m, &S[0], &S[1], &S[2], &S[3], &m);
+                        else ss_texel(k, SX, SY, m, &S[0], &S[1], &S[2], &S[3], &m);
                         if (!vm_bits(m)) continue;
                         vf d[3] = {vf_sub(S[0], P[0]), vf_sub(S[1], P[1]), vf_sub(S[2], P[2])};
                         vf l2 = ss_dot(d[0], d[1], d[2], d[0], d[1], d[2]), hn = ss_dot(d[0], d[1], d[2], n[0], n[1], n[2]);
