@@ -16,12 +16,15 @@
  *      depth plane clamped to the triangle's depth range (no spikes from
  *      a face seen edge-on), max into the band. No depth clipping: a
  *      face farther from the sun than a receiver never darkens it, and
- *      an orthographic projection needs no division.
+ *      an orthographic projection needs no division; then each band's
+ *      2 x 2 tiles' depth range;
+ *   3. the footprint tiles (vt_shadow_tiles.c: their 3 x 3 dilation) the
+ *      span lookup decides most pixels by without its 16 taps.
  * Cost: one pass over the caster vertices, a few compares per triangle
  * and cascade; the maps (4 x 1024^2 floats at 720p, 16 MB) are cleared by
- * the raster threads as they draw, only where the last frames drew.
- */
+ * the raster threads as they draw, only where the last frames drew. */
 #include "vt_shadow.h"
+#include "vt_shadow_tiles.h"
 
 #include "vt_mask.h"
 #include "vt_picture.h"
@@ -34,7 +37,7 @@
 #include <emmintrin.h>
 #endif
 
-#define BAND 32u           /* rows a raster band */
+#define BAND VT_SHADOW_BAND
 #define MAX_THREADS 32u
 #define NC VT_SHADOW_CASCADES
 
@@ -368,9 +371,8 @@ struct vt_shadow {
     uint16_t dlo[NC][MAX_BANDS], dhi[NC][MAX_BANDS];
     uint32_t dirty_size, dirty_n;
     /* the footprint tiles the span lookup decides most pixels by
-       (the footprint tiles): per cascade, (size / TS)^2 minima, then as
-       many maxima, of the maps over 3 TS x 3 TS texels; raw: the TS x TS tiles'
-       own, before the dilation */
+       (vt_shadow_tiles.h): per cascade (size / VT_SHADOW_TILE)^2 minima,
+       then as many maxima; raw: the undilated tiles' */
     float *tiles, *raw;
     size_t tiles_cap, raw_cap;
     vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
@@ -463,18 +465,6 @@ typedef struct sjob {
     uint32_t nin, nt;
     bool masked;            /* some casters are damaged (sh->mk_of holds them) */
 } sjob;
-
-/* fminf and fmaxf where no operand is NaN or a NaN may go either way
- * (x86-64's are library calls) */
-static inline float min2(float a, float b)
-{
-    return a < b ? a : b;
-}
-
-static inline float max2(float a, float b)
-{
-    return a > b ? a : b;
-}
 
 /* Whether [a, b] (within the map's -1 .. size + 1 after clamping) holds
  * no texel centre j + 0.5: ceil(a - 0.5) > floor(b - 0.5), by truncation
@@ -770,134 +760,27 @@ static int clip_rect(const ltri *t, double sz, double x[9], double y[9], double 
     return n;
 }
 
-/* ---- the footprint tiles ------------------------------------------------------------ */
-/* The span lookup (vt_shadow.inl) decides a pixel without its 16 taps
- * where its footprint's depth range is wholly below or above its
- * reference: each cascade's (size / TS)^2 tiles t hold the least and the
- * greatest depth of the map over texels TS (t - 1) .. TS (t + 2) - 1 (both
- * axes; a 4 x 4 footprint starting at x0 lies in tile floor((x0 + 1) / 2)'s:
- * 6 x 6 texels, tight enough for the far cascades' texels of metres,
- * where 12 x 12 left most lookups undecided). Made in two steps: each
- * raster thread its bands' TS x TS tiles (the dirty columns read, the
- * rest -FLT_MAX), then the 3 x 3 dilation. Cost: one more read of the
- * drawn texels (about 1 instruction a texel) and about 3 a tile; 8 MB at
- * 720p (16 with the raw tiles). */
-/* n floats at r to -FLT_MAX (the clear: GCC -O2 leaves the plain loop
- * one store a texel, 16 M instructions a city frame). */
-static void fill_lowest(float *r, uint32_t n)
-{
-    uint32_t i = 0;
-#ifdef __SSE2__
-    const __m128 v = _mm_set1_ps(-FLT_MAX);
-    for (; i + 16 <= n; i += 16) {
-        _mm_storeu_ps(r + i, v);
-        _mm_storeu_ps(r + i + 4, v);
-        _mm_storeu_ps(r + i + 8, v);
-        _mm_storeu_ps(r + i + 12, v);
-    }
-    for (; i + 4 <= n; i += 4) _mm_storeu_ps(r + i, v);
-#endif
-    for (; i < n; i++) r[i] = -FLT_MAX;
-}
+/* ---- the footprint tiles (vt_shadow_tiles.c) --------------------------------------- */
 
-#define TS ((uint32_t)VT_SHADOW_TILE)
-
-/* Band k's TS x TS tiles of map m (size sz; texels outside columns
- * x0..x1 are -FLT_MAX) into the raw minima lo and maxima hi. */
-static void tiles_raw(float *lo, float *hi, const float *m, uint32_t sz, uint32_t k, uint32_t x0, uint32_t x1)
-{
-    /* whole groups of 4 tiles (g = sz / 2 is a multiple of 32) */
-    const uint32_t g = sz / TS, t0 = x0 <= x1 ? x0 / TS / 4 * 4 : g, t1 = x0 <= x1 ? (x1 / TS) | 3u : 0;
-    for (uint32_t ty = k * (BAND / TS); ty < (k + 1) * (BAND / TS) && ty < g; ty++) {
-        float *l = lo + (size_t)ty * g, *h = hi + (size_t)ty * g;
-        const uint32_t e0 = t0 < g ? t0 : g, e1 = t1 + 1 < g ? t1 + 1 : g;
-        fill_lowest(l, e0), fill_lowest(h, e0);
-        if (e1 > e0) fill_lowest(l + e1, g - e1), fill_lowest(h + e1, g - e1);
-        const float *r0 = m + (size_t)TS * ty * sz, *r1 = r0 + sz;
-        for (uint32_t t = t0; t <= t1 && t < g; t += 4) {
-#ifdef __SSE2__
-            const uint32_t x = TS * t;
-            __m128 a = _mm_loadu_ps(r0 + x), b = _mm_loadu_ps(r1 + x), c = _mm_loadu_ps(r0 + x + 4),
-                   d = _mm_loadu_ps(r1 + x + 4);
-            __m128 l1 = _mm_min_ps(a, b), l2 = _mm_min_ps(c, d), h1 = _mm_max_ps(a, b), h2 = _mm_max_ps(c, d);
-            _mm_storeu_ps(l + t, _mm_min_ps(_mm_shuffle_ps(l1, l2, _MM_SHUFFLE(2, 0, 2, 0)),
-                                            _mm_shuffle_ps(l1, l2, _MM_SHUFFLE(3, 1, 3, 1))));
-            _mm_storeu_ps(h + t, _mm_max_ps(_mm_shuffle_ps(h1, h2, _MM_SHUFFLE(2, 0, 2, 0)),
-                                            _mm_shuffle_ps(h1, h2, _MM_SHUFFLE(3, 1, 3, 1))));
-#else
-            for (uint32_t u = t; u < t + 4; u++) {
-                const uint32_t x = TS * u;
-                l[u] = min2(min2(r0[x], r0[x + 1]), min2(r1[x], r1[x + 1]));
-                h[u] = max2(max2(r0[x], r0[x + 1]), max2(r1[x], r1[x + 1]));
-            }
-#endif
-        }
-    }
-}
-
-/* Thread t: tile rows ty % nt == t of every cascade, the raw tiles'
- * 3 x 3 minima and maxima (clipped at the map's sides), over the columns
- * the raster wrote in the rows' bands (elsewhere every raw tile is
- * -FLT_MAX, and so the result). */
+/* Thread t: tile rows ty % nt == t of every cascade, over the columns the
+ * raster wrote in the rows' bands (elsewhere every raw tile is -FLT_MAX,
+ * and so the result). */
 static void job_tiles(void *arg, uint32_t t)
 {
     sjob *jb = arg;
     vt_shadow *sh = jb->sh;
-    const uint32_t sz = sh->fit.size, g = sz / TS;
+    const uint32_t sz = sh->fit.size, g = sz / VT_SHADOW_TILE;
     const size_t plane = (size_t)sh->fit.n * g * g;
-    float w[2048 / TS + 2];
     for (uint32_t c = 0; c < sh->fit.n; c++)
         for (uint32_t ty = t; ty < g; ty += jb->nt) {
             /* the texel rows of raw rows ty - 1 .. ty + 1, and their bands' written columns */
-            const uint32_t y0 = ty ? TS * (ty - 1) : 0, y1 = TS * (ty + 2) < sz ? TS * (ty + 2) - 1 : sz - 1;
+            const uint32_t y0 = ty ? VT_SHADOW_TILE * (ty - 1) : 0,
+                           y1 = VT_SHADOW_TILE * (ty + 2) < sz ? VT_SHADOW_TILE * (ty + 2) - 1 : sz - 1;
             uint32_t lo = UINT32_MAX, hi = 0;
             for (uint32_t k = y0 / BAND; k <= y1 / BAND; k++)
                 if (sh->dlo[c][k] <= sh->dhi[c][k])
                     lo = sh->dlo[c][k] < lo ? sh->dlo[c][k] : lo, hi = sh->dhi[c][k] > hi ? sh->dhi[c][k] : hi;
-            float *o0 = sh->tiles + (size_t)c * g * g + (size_t)ty * g, *o1 = o0 + plane;
-            if (lo > hi) {
-                fill_lowest(o0, g), fill_lowest(o1, g);
-                continue;
-            }
-            /* tiles x0..x1 (whole 4s) see raw tiles x0 - 1 .. x1 + 1 */
-            const uint32_t x0 = lo / TS >= 1 ? (lo / TS - 1) / 4 * 4 : 0, x1 = (hi / TS + 1) / 4 * 4 + 3 < g ? (hi / TS + 1) / 4 * 4 + 3 : g - 1;
-            for (int mx = 0; mx < 2; mx++) {
-                const float *raw = sh->raw + mx * plane + (size_t)c * g * g;
-                const float *r0 = raw + (size_t)(ty ? ty - 1 : ty) * g, *r1 = raw + (size_t)ty * g,
-                            *r2 = raw + (size_t)(ty + 1 < g ? ty + 1 : ty) * g;
-                float *o = mx ? o1 : o0, *v = w + 1;
-                uint32_t x = x0;
-#ifdef __SSE2__
-                /* x0 and x1 + 1 are multiples of 4 */
-                if (mx)
-                    for (; x + 4 <= x1 + 1; x += 4)
-                        _mm_storeu_ps(v + x, _mm_max_ps(_mm_max_ps(_mm_loadu_ps(r0 + x), _mm_loadu_ps(r1 + x)),
-                                                        _mm_loadu_ps(r2 + x)));
-                else
-                    for (; x + 4 <= x1 + 1; x += 4)
-                        _mm_storeu_ps(v + x, _mm_min_ps(_mm_min_ps(_mm_loadu_ps(r0 + x), _mm_loadu_ps(r1 + x)),
-                                                        _mm_loadu_ps(r2 + x)));
-#endif
-                for (; x <= x1; x++) v[x] = mx ? max2(max2(r0[x], r1[x]), r2[x]) : min2(min2(r0[x], r1[x]), r2[x]);
-                /* the map's sides clip; inside, what lies beyond x0..x1 is empty */
-                v[(int)x0 - 1] = x0 ? -FLT_MAX : v[0];
-                v[x1 + 1] = x1 + 1 < g ? -FLT_MAX : v[g - 1];
-                x = x0;
-#ifdef __SSE2__
-                if (mx)
-                    for (; x + 4 <= x1 + 1; x += 4)
-                        _mm_storeu_ps(o + x, _mm_max_ps(_mm_max_ps(_mm_loadu_ps(v + x - 1), _mm_loadu_ps(v + x)),
-                                                        _mm_loadu_ps(v + x + 1)));
-                else
-                    for (; x + 4 <= x1 + 1; x += 4)
-                        _mm_storeu_ps(o + x, _mm_min_ps(_mm_min_ps(_mm_loadu_ps(v + x - 1), _mm_loadu_ps(v + x)),
-                                                        _mm_loadu_ps(v + x + 1)));
-#endif
-                for (; x <= x1; x++)
-                    o[x] = mx ? max2(max2(v[x - 1], v[x]), v[x + 1]) : min2(min2(v[x - 1], v[x]), v[x + 1]);
-                fill_lowest(o, x0);
-                fill_lowest(o + x1 + 1, g - 1 - x1);
-            }
+            vt_shadow_tiles_row(sh->raw, sh->tiles, plane, sz, c, ty, lo, hi);
         }
 }
 
@@ -915,7 +798,7 @@ static void job_raster(void *arg, uint32_t t)
             uint32_t x0 = k < tracked ? sh->dlo[c][k] : 0, x1 = k < tracked ? sh->dhi[c][k] : sz - 1;
             if (x0 > x1) continue;
             uint32_t y1 = (k + 1) * BAND < sz ? (k + 1) * BAND : sz;
-            for (uint32_t y = k * BAND; y < y1; y++) fill_lowest(m + (size_t)y * sz + x0, x1 + 1 - x0);
+            for (uint32_t y = k * BAND; y < y1; y++) vt_shadow_fill_lowest(m + (size_t)y * sz + x0, x1 + 1 - x0);
             if (k < tracked) sh->dlo[c][k] = UINT16_MAX, sh->dhi[c][k] = 0;
         }
         for (uint32_t b = 0; b < nt; b++)
@@ -953,9 +836,9 @@ static void job_raster(void *arg, uint32_t t)
                 raster_poly(m, sz, x, y, z, n, (int)(kf * BAND), (int)((k1 + 1) * BAND < sz ? (k1 + 1) * BAND : sz) - 1,
                             (int)(nt * BAND), L->mk ? &rm : NULL);
             }
-        const size_t g2 = (size_t)(sz / TS) * (sz / TS), plane = sh->fit.n * g2;
+        const size_t g2 = (size_t)(sz / VT_SHADOW_TILE) * (sz / VT_SHADOW_TILE), plane = sh->fit.n * g2;
         for (uint32_t k = t; k < nb; k += nt)
-            tiles_raw(sh->raw + c * g2, sh->raw + plane + c * g2, m, sz, k, k < tracked ? sh->dlo[c][k] : 0,
+            vt_shadow_tiles_band(sh->raw + c * g2, sh->raw + plane + c * g2, m, sz, k, k < tracked ? sh->dlo[c][k] : 0,
                       k < tracked ? sh->dhi[c][k] : sz - 1);
     }
 }
@@ -968,8 +851,8 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     sh->fit = *fit;
     size_t npx = (size_t)fit->n * fit->size * fit->size;
     if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps) ||
-        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, 2 * npx / (TS * TS), sizeof *sh->tiles) ||
-        !vp_grow((void **)&sh->raw, &sh->raw_cap, 2 * npx / (TS * TS), sizeof *sh->raw))
+        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, 2 * npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->tiles) ||
+        !vp_grow((void **)&sh->raw, &sh->raw_cap, 2 * npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->raw))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow maps");
     if (fit->size != sh->dirty_size || fit->n != sh->dirty_n) {
         for (int c = 0; c < NC; c++)
