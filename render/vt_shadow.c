@@ -375,6 +375,7 @@ struct vt_shadow {
        then as many maxima; raw: the undilated tiles' */
     float *tiles, *raw;
     size_t tiles_cap, raw_cap;
+    vt_shadow_cons cons;    /* the span lookup's constants of the last draw */
     vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
     sbuf tb[MAX_THREADS];
     vt_mask *mk;            /* this frame's damaged casters' masks */
@@ -384,11 +385,11 @@ struct vt_shadow {
 };
 
 /* The span lookup one pixel at a time (any CPU; the lane instances' reference). */
-static void lookup_n_scalar(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n, const float *px,
-                            const float *py, const float *pz, const float *nx, const float *ny, const float *nz,
-                            float *out)
+static void lookup_n_scalar(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,
+                            const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                            const float *nz, float *out)
 {
-    (void)tiles;
+    (void)k;
     for (unsigned i = 0; i < n; i++) {
         const float p[3] = {px[i], py[i], pz[i]}, nn[3] = {nx[i], ny[i], nz[i]};
         out[i] *= vt_shadow_lookup(f, maps, p, nn);
@@ -409,7 +410,7 @@ void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa)
 void vt_shadow_sun_n(const vt_shadow *sh, unsigned n, const float *px, const float *py, const float *pz,
                      const float *nx, const float *ny, const float *nz, float *out)
 {
-    if (sh && sh->fit.n) sh->lookup_n(&sh->fit, sh->maps, sh->tiles, n, px, py, pz, nx, ny, nz, out);
+    if (sh && sh->fit.n) sh->lookup_n(&sh->fit, sh->maps, &sh->cons, n, px, py, pz, nx, ny, nz, out);
 }
 
 int vt_shadow_create(vt_shadow **out)
@@ -876,5 +877,16 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     }
     if (nt > 1) cull_pool_run(pool, job_raster, &jb, nt), cull_pool_run(pool, job_tiles, &jb, nt);
     else job_raster(&jb, 0), job_tiles(&jb, 0);
+    /* the span lookup's constants (vt_shadow.inl), once a draw */
+    vt_shadow_cons *k = &sh->cons;
+    const uint32_t g = fit->size / VT_SHADOW_TILE;
+    memset(k, 0, sizeof *k);
+    k->tmin = sh->tiles, k->tmax = sh->tiles + (size_t)fit->n * g * g, k->g = (float)g;
+    for (uint32_t c = 0; c < fit->n; c++) {
+        k->tbase[c] = (float)((size_t)c * g * g);
+        k->offx[c] = fit->off[c][0], k->offy[c] = fit->off[c][1], k->base[c] = (float)((size_t)c * fit->size * fit->size);
+        k->far[c] = fit->split[c + 1];
+        k->band[c] = VT_SHADOW_BLEND * (fit->split[c + 1] - fit->split[c]);
+    }
     return 0;
 }

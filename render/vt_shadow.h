@@ -134,15 +134,23 @@ void vt_shadow_sun_n(const vt_shadow *sh, unsigned n, const float *px, const flo
 void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa);
 
 /* The span lookup's instances (vt_shadow.inl); one lane: vt_shadow_lookup. */
-/* tiles: the maps' footprint tiles (vt_shadow.c's tiles_make; NULL:
- * every lookup takes its 16 taps). */
-typedef void (*vt_shadow_n_fn)(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n,
+/* The span lookup's constants of a draw (vt_shadow.c makes them with its
+ * maps): per cascade its map offsets, first texel and first tile, far end
+ * and blend band; the footprint tiles (tmin NULL: every lookup takes its
+ * 16 taps) and their count a side. */
+typedef struct vt_shadow_cons {
+    float offx[VT_SHADOW_CASCADES], offy[VT_SHADOW_CASCADES], base[VT_SHADOW_CASCADES];
+    float far[VT_SHADOW_CASCADES], band[VT_SHADOW_CASCADES], tbase[VT_SHADOW_CASCADES];
+    const float *tmin, *tmax;
+    float g;
+} vt_shadow_cons;
+typedef void (*vt_shadow_n_fn)(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,
                                const float *px, const float *py, const float *pz, const float *nx, const float *ny,
                                const float *nz, float *out);
-void vt_shadow_lookup_n_sse41(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n,
+void vt_shadow_lookup_n_sse41(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,
                               const float *px, const float *py, const float *pz, const float *nx, const float *ny,
                               const float *nz, float *out);
-void vt_shadow_lookup_n_avx2(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n,
+void vt_shadow_lookup_n_avx2(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,
                              const float *px, const float *py, const float *pz, const float *nx, const float *ny,
                              const float *nz, float *out);
 

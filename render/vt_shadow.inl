@@ -84,14 +84,8 @@ static inline vf sh_pick(const float *v, uint32_t n, const sh_ci *c)
 #endif
 }
 
-/* Per-cascade constants as sh_pick reads them, once a span. */
-typedef struct sh_cons {
-    float offx[VT_SHADOW_CASCADES], offy[VT_SHADOW_CASCADES], base[VT_SHADOW_CASCADES];
-    float far[VT_SHADOW_CASCADES], band[VT_SHADOW_CASCADES];
-    float tbase[VT_SHADOW_CASCADES]; /* each cascade's first tile */
-    const float *tmin, *tmax;        /* the footprint tiles (NULL: none) */
-    float g;                         /* tiles a side */
-} sh_cons;
+/* Per-cascade constants as sh_pick reads them (vt_shadow.h). */
+typedef vt_shadow_cons sh_cons;
 
 /* What one lookup of one cascade needs for its taps (a lane of a step). */
 typedef struct sh_tap {
@@ -261,23 +255,15 @@ static inline void sh_push(sh_pack *pk, const sh_tap *t, vm und, int32_t dst)
 #endif
 }
 
-void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const float *tiles, unsigned n, const float *px,
-                      const float *py, const float *pz, const float *nx, const float *ny, const float *nz, float *out)
+void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *kp, unsigned n,
+                      const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                      const float *nz, float *out)
 {
     const vf zero = vf_set(0), one = vf_set(1);
     const uint32_t N = f->n;
-    /* the cascades' map offsets, far ends and blend bands */
-    sh_cons k;
     _Static_assert(VT_SHADOW_TILE == 2, "sh_prep's tile rule is for tiles of 2 texels");
-    const uint32_t g = f->size / VT_SHADOW_TILE;
-    k.tmin = tiles, k.tmax = tiles ? tiles + (size_t)N * g * g : NULL, k.g = (float)g;
-    for (uint32_t c = 0; c < N; c++) {
-        k.tbase[c] = (float)((size_t)c * g * g);
-        k.offx[c] = f->off[c][0], k.offy[c] = f->off[c][1], k.base[c] = (float)((size_t)c * f->size * f->size);
-        k.far[c] = f->split[c + 1];
-        k.band[c] = VT_SHADOW_BLEND * (f->split[c + 1] - f->split[c]);
-    }
-    const float *far = k.far, *bandv = k.band;
+    const sh_cons *const kc = kp;
+    const float *far = kc->far, *bandv = kc->band;
     sh_pack pk;
     /* per pixel of a pass: the first and the second cascade's value, the
        blend's weight (and masks as floats: looked up, blended, the
@@ -288,10 +274,10 @@ void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const float *ti
         const unsigned cn = n - c0 < CH ? n - c0 : CH;
         pk.n = 0;
         bool any = false;
+        const float *const src[6] = {px + c0, py + c0, pz + c0, nx + c0, ny + c0, nz + c0};
         for (unsigned i = 0; i < cn; i += W) {
             float tp[6][W];
             unsigned nw = cn - i < (unsigned)W ? cn - i : (unsigned)W;
-            const float *src[6] = {px + c0, py + c0, pz + c0, nx + c0, ny + c0, nz + c0};
             vf p[3], nn[3];
             if (nw == (unsigned)W) { /* a whole step (a span of 16 is two or four) */
                 for (int c = 0; c < 3; c++) p[c] = vf_loadu(src[c] + i), nn[c] = vf_loadu(src[3 + c] + i);
@@ -313,7 +299,7 @@ void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const float *ti
             sh_tap t;
             vm und;
             const sh_ci cs = sh_ci_make(ci, N);
-            vf_store(v1 + i, sh_prep(f, &k, &cs, m, p, nn, ndl, &t, &und));
+            vf_store(v1 + i, sh_prep(f, kc, &cs, m, p, nn, ndl, &t, &und));
             sh_push(&pk, &t, und, (int32_t)i);
             vf fr = sh_pick(far, N, &cs), band = sh_pick(bandv, N, &cs);
             vf tt = vf_div(vf_sub(d, vf_sub(fr, band)), band);
@@ -325,7 +311,7 @@ void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const float *ti
                 vm nx2 = vf_lt(cn2, vf_set((float)N));
                 vf_store(fnx + i, vf_select(nx2, one, zero));
                 const sh_ci cs2 = sh_ci_make(vf_select(nx2, cn2, ci), N);
-                vf_store(v2 + i, sh_prep(f, &k, &cs2, vm_and(bl, nx2), p, nn, ndl, &t, &und));
+                vf_store(v2 + i, sh_prep(f, kc, &cs2, vm_and(bl, nx2), p, nn, ndl, &t, &und));
                 sh_push(&pk, &t, und, (int32_t)(CH + i));
             }
         }
