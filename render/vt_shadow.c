@@ -16,12 +16,15 @@
  *      depth plane clamped to the triangle's depth range (no spikes from
  *      a face seen edge-on), max into the band. No depth clipping: a
  *      face farther from the sun than a receiver never darkens it, and
- *      an orthographic projection needs no division.
+ *      an orthographic projection needs no division; then each band's
+ *      2 x 2 tiles' depth range;
+ *   3. the footprint tiles (vt_shadow_tiles.c: their 3 x 3 dilation) the
+ *      span lookup decides most pixels by without its 16 taps.
  * Cost: one pass over the caster vertices, a few compares per triangle
  * and cascade; the maps (4 x 1024^2 floats at 720p, 16 MB) are cleared by
- * the raster threads as they draw, only where the last frames drew.
- */
+ * the raster threads as they draw, only where the last frames drew. */
 #include "vt_shadow.h"
+#include "vt_shadow_tiles.h"
 
 #include "vt_mask.h"
 #include "vt_picture.h"
@@ -34,7 +37,7 @@
 #include <emmintrin.h>
 #endif
 
-#define BAND 32u           /* rows a raster band */
+#define BAND VT_SHADOW_BAND
 #define MAX_THREADS 32u
 #define NC VT_SHADOW_CASCADES
 
@@ -367,6 +370,12 @@ struct vt_shadow {
        all dirty) */
     uint16_t dlo[NC][MAX_BANDS], dhi[NC][MAX_BANDS];
     uint32_t dirty_size, dirty_n;
+    /* the footprint tiles the span lookup decides most pixels by
+       (vt_shadow_tiles.h): per cascade (size / VT_SHADOW_TILE)^2 minima,
+       then as many maxima; raw: the undilated tiles' */
+    float *tiles, *raw;
+    size_t tiles_cap, raw_cap;
+    vt_shadow_cons cons;    /* the span lookup's constants of the last draw */
     vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
     sbuf tb[MAX_THREADS];
     vt_mask *mk;            /* this frame's damaged casters' masks */
@@ -376,9 +385,11 @@ struct vt_shadow {
 };
 
 /* The span lookup one pixel at a time (any CPU; the lane instances' reference). */
-static void lookup_n_scalar(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
-                            const float *pz, const float *nx, const float *ny, const float *nz, float *out)
+static void lookup_n_scalar(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,
+                            const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                            const float *nz, float *out)
 {
+    (void)k;
     for (unsigned i = 0; i < n; i++) {
         const float p[3] = {px[i], py[i], pz[i]}, nn[3] = {nx[i], ny[i], nz[i]};
         out[i] *= vt_shadow_lookup(f, maps, p, nn);
@@ -399,7 +410,7 @@ void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa)
 void vt_shadow_sun_n(const vt_shadow *sh, unsigned n, const float *px, const float *py, const float *pz,
                      const float *nx, const float *ny, const float *nz, float *out)
 {
-    if (sh && sh->fit.n) sh->lookup_n(&sh->fit, sh->maps, n, px, py, pz, nx, ny, nz, out);
+    if (sh && sh->fit.n) sh->lookup_n(&sh->fit, sh->maps, &sh->cons, n, px, py, pz, nx, ny, nz, out);
 }
 
 int vt_shadow_create(vt_shadow **out)
@@ -419,6 +430,8 @@ void vt_shadow_destroy(vt_shadow *sh)
         free(sh->tb[t].vx);
     }
     free(sh->maps);
+    free(sh->tiles);
+    free(sh->raw);
     free(sh->mk);
     free(sh->mk_of);
     free(sh);
@@ -432,6 +445,11 @@ const vt_shadow_fit *vt_shadow_fit_of(const vt_shadow *sh)
 const float *vt_shadow_maps(const vt_shadow *sh)
 {
     return sh->maps;
+}
+
+const float *vt_shadow_tiles(const vt_shadow *sh)
+{
+    return sh->tiles;
 }
 
 float vt_shadow_sun(const vt_shadow *sh, const float p[3], const float n[3])
@@ -448,6 +466,21 @@ typedef struct sjob {
     uint32_t nin, nt;
     bool masked;            /* some casters are damaged (sh->mk_of holds them) */
 } sjob;
+
+/* Whether [a, b] (within the map's -1 .. size + 1 after clamping) holds
+ * no texel centre j + 0.5: ceil(a - 0.5) > floor(b - 0.5), by truncation
+ * of the clamped values (SSE2 has no rounding instruction). */
+static inline bool no_centre(float a, float b, float sz)
+{
+    a = a > -1.0f ? (a < sz + 1.0f ? a : sz + 1.0f) : -1.0f;
+    b = b > -1.0f ? (b < sz + 1.0f ? b : sz + 1.0f) : -1.0f;
+    /* ceil(a - 0.5) = ceil(a + 1.5) - 2, floor likewise: a + 1.5 > 0, where
+       truncation is floor */
+    float fa = a + 1.5f, fb = b + 1.5f;
+    int ca = (int)fa, cb = (int)fb;
+    ca += (float)ca < fa;
+    return ca > cb;
+}
 
 /* Set-up of casters [i0, i1) into b's lists. */
 static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
@@ -495,11 +528,16 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
         }
         if (!cm) continue;
         if (!vp_grow((void **)&b->vx, &b->vx_cap, (size_t)m->nv * 3, sizeof *b->vx)) return VT_ERR_NOMEM;
+        /* the placement and the light axes in one matrix (light = A mp + a):
+           half the operations a vertex of applying them in turn */
+        double A[3][3], a0[3];
+        for (int a = 0; a < 3; a++) {
+            a0[a] = ax[a][0] * pl.t[0] + ax[a][1] * pl.t[1] + ax[a][2] * pl.t[2];
+            for (int q = 0; q < 3; q++) A[a][q] = ax[a][0] * pl.m[0][q] + ax[a][1] * pl.m[1][q] + ax[a][2] * pl.m[2][q];
+        }
         for (uint32_t k = 0; k < m->nv; k++) {
-            const float *mp = m->pos + 3 * k;
-            double p[3];
-            for (int a = 0; a < 3; a++) p[a] = pl.m[a][0] * mp[0] + pl.m[a][1] * mp[1] + pl.m[a][2] * mp[2] + pl.t[a];
-            for (int a = 0; a < 3; a++) b->vx[3 * k + a] = (float)(ax[a][0] * p[0] + ax[a][1] * p[1] + ax[a][2] * p[2]);
+            const double p[3] = {m->pos[3 * k], m->pos[3 * k + 1], m->pos[3 * k + 2]};
+            for (int a = 0; a < 3; a++) b->vx[3 * k + a] = (float)(A[a][0] * p[0] + A[a][1] * p[1] + A[a][2] * p[2] + a0[a]);
         }
         /* a damaged caster casts both faces, each where its mask keeps
            it: through a hole the sun reaches the inside and what is
@@ -525,14 +563,15 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
                     L.x[e] = qs[e][0] * f->scale[k] + f->off[k][0];
                     L.y[e] = qs[e][1] * f->scale[k] + f->off[k][1];
                     L.z[e] = qs[e][2];
-                    x0 = fminf(x0, L.x[e]), x1 = fmaxf(x1, L.x[e]);
-                    y0 = fminf(y0, L.y[e]), y1 = fmaxf(y1, L.y[e]);
+                    x0 = min2(x0, L.x[e]), x1 = max2(x1, L.x[e]);
+                    y0 = min2(y0, L.y[e]), y1 = max2(y1, L.y[e]);
                 }
                 if (!(x1 > 0 && y1 > 0 && x0 < (float)f->size && y0 < (float)f->size)) continue;
                 /* no texel centre in its box: it covers none (most of a far
                    cascade's small casters' triangles) */
-                if (ceilf(x0 - 0.5f) > floorf(x1 - 0.5f) || ceilf(y0 - 0.5f) > floorf(y1 - 0.5f)) continue;
-                if (!vp_grow((void **)&b->t[k], &b->cap[k], b->n[k] + 1, sizeof *b->t[k])) return VT_ERR_NOMEM;
+                if (no_centre(x0, x1, (float)f->size) || no_centre(y0, y1, (float)f->size)) continue;
+                if (b->n[k] == b->cap[k] && !vp_grow((void **)&b->t[k], &b->cap[k], b->n[k] + 1, sizeof *b->t[k]))
+                    return VT_ERR_NOMEM;
                 b->t[k][b->n[k]++] = L;
             }
         }
@@ -564,10 +603,23 @@ static bool rmask_keeps(const rmask *r, float cx, float cy, float zz)
     return vt_mask_eval(r->mk, p[0], p[1], p[2]) >= 0;
 }
 
-/* Rows [r0, r1] of triangle (x, y, z: n corners after clipping, a fan) of
- * map m (size sz), max depth; rm non-NULL: only the texels its mask keeps. */
+/* fmin and fmax for finite operands (x86-64's are library calls) */
+static inline double dmin(double a, double b)
+{
+    return a < b ? a : b;
+}
+
+static inline double dmax(double a, double b)
+{
+    return a > b ? a : b;
+}
+
+/* Triangle (x, y, z: n corners after clipping, a fan) into map m (size
+ * sz), max depth, in the bands of BAND rows starting at rows r0, r0 +
+ * step, .. up to row r1 (a thread's: the set-up once for all of them);
+ * rm non-NULL: only the texels its mask keeps. */
 static void raster_poly(float *m, uint32_t sz, const double *x, const double *y, const double *z, int n, int r0, int r1,
-                        const rmask *rm)
+                        int step, const rmask *rm)
 {
     for (int f = 1; f + 1 < n; f++) {
         int id[3] = {0, f, f + 1};
@@ -585,8 +637,8 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
         /* rows and columns whose centre (j + 0.5) can be inside: most
            far-cascade triangles cover no texel centre and stop here,
            before the divisions below */
-        double ylo = fmin(Y[0], fmin(Y[1], Y[2])), yhi = fmax(Y[0], fmax(Y[1], Y[2]));
-        double xlo = fmin(X[0], fmin(X[1], X[2])), xhi = fmax(X[0], fmax(X[1], X[2]));
+        double ylo = dmin(Y[0], dmin(Y[1], Y[2])), yhi = dmax(Y[0], dmax(Y[1], Y[2]));
+        double xlo = dmin(X[0], dmin(X[1], X[2])), xhi = dmax(X[0], dmax(X[1], X[2]));
         double jl = ceil(ylo - 0.5), jh = floor(yhi - 0.5);
         int j0 = jl > r0 ? (int)jl : r0, j1 = jh < r1 ? (int)jh : r1;
         double il = ceil(xlo - 0.5), ih = floor(xhi - 0.5);
@@ -596,7 +648,7 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
         double za = ((Z[1] - Z[0]) * (Y[2] - Y[0]) - (Y[1] - Y[0]) * (Z[2] - Z[0])) / area;
         double zb = ((X[1] - X[0]) * (Z[2] - Z[0]) - (Z[1] - Z[0]) * (X[2] - X[0])) / area;
         double zc = Z[0] - za * X[0] - zb * Y[0];
-        float zlo = (float)fmin(Z[0], fmin(Z[1], Z[2])), zhi = (float)fmax(Z[0], fmax(Z[1], Z[2]));
+        float zlo = (float)dmin(Z[0], dmin(Z[1], Z[2])), zhi = (float)dmax(Z[0], dmax(Z[1], Z[2]));
         /* each edge's crossing of a row as x = m yc + c (E(x, yc) >= 0 is
            x >= it where the edge rises to the left, <= where it falls):
            once per triangle, so a row costs three multiply-adds */
@@ -610,43 +662,69 @@ static void raster_poly(float *m, uint32_t sz, const double *x, const double *y,
             em[k] = A != 0 ? -Bs / A : Bs;
             ec[k] = A != 0 ? -B0 / A : B0;
         }
-        for (int j = j0; j <= j1; j++) {
-            double yc = j + 0.5, lo = bx0, hi = bx1;
-            for (int k = 0; k < 3; k++) {
-                double xm = em[k] * yc + ec[k] - 0.5;
-                if (kind[k] > 0) {
-                    double c = ceil(xm);
-                    lo = c > lo ? c : lo;
-                } else if (kind[k] < 0) {
-                    double fl = floor(xm);
-                    hi = fl < hi ? fl : hi;
-                } else if (xm + 0.5 < 0) { /* a horizontal edge: E = Bs yc + B0 */
-                    hi = -1;
+        /* a crossing clamped to the box's columns widened by one: ceil and
+           floor by truncation (SSE2 has no rounding instruction; x86-64's
+           inline ceil is a dozen instructions); a horizontal edge that
+           excludes the row empties it (E = Bs yc + B0 < 0) */
+        const double cl = bx0 - 1.0, ch = bx1 + 1.0;
+        for (int b0 = r0; b0 <= j1; b0 += step) { /* the bands' rows */
+            const int ja = j0 > b0 ? j0 : b0, jb = b0 + (int)BAND - 1 < j1 ? b0 + (int)BAND - 1 : j1;
+            for (int j = ja; j <= jb; j++) {
+                double yc = j + 0.5;
+                int lo = bx0, hi = bx1;
+                for (int k = 0; k < 3; k++) {
+                    double xm = em[k] * yc + ec[k] - 0.5;
+                    if (!kind[k]) {
+                        if (xm + 0.5 < 0) hi = -1;
+                        continue;
+                    }
+                    xm = xm > cl ? (xm < ch ? xm : ch) : cl;
+                    int ti = (int)xm;
+                    if (kind[k] > 0) {
+                        int c = ti + ((double)ti < xm);
+                        lo = c > lo ? c : lo;
+                    } else {
+                        int fl = ti - (xm < (double)ti);
+                        hi = fl < hi ? fl : hi;
+                    }
                 }
-            }
-            if (!(lo <= hi)) continue;
-            float *row = m + (size_t)j * sz;
-            float zr = (float)(zb * yc + zc), fa = (float)za;
-            int i = (int)lo, i1 = (int)hi;
-            if (rm) {
-                for (; i <= i1; i++) {
-                    float zz = fminf(fmaxf(fa * ((float)i + 0.5f) + zr, zlo), zhi);
-                    if (zz > row[i] && rmask_keeps(rm, (float)i + 0.5f, (float)yc, zz)) row[i] = zz;
+                if (lo > hi) continue;
+                float *row = m + (size_t)j * sz;
+                float zr = (float)(zb * yc + zc), fa = (float)za;
+                int i = lo, i1 = hi;
+                if (rm) {
+                    for (; i <= i1; i++) {
+                        float zz = fminf(fmaxf(fa * ((float)i + 0.5f) + zr, zlo), zhi);
+                        if (zz > row[i] && rmask_keeps(rm, (float)i + 0.5f, (float)yc, zz)) row[i] = zz;
+                    }
+                    continue;
                 }
-                continue;
-            }
-#ifdef __SSE2__
-            /* four texels a step (x86-64's baseline): the same operations */
-            const __m128 va = _mm_set1_ps(fa), vr = _mm_set1_ps(zr), vlo = _mm_set1_ps(zlo), vhi = _mm_set1_ps(zhi);
-            for (; i + 3 <= i1; i += 4) {
+    #ifdef __SSE2__
+                /* four texels a step (x86-64's baseline): the same operations,
+                   the centres counted up (exact: halves below 2^23) */
+                const __m128 va = _mm_set1_ps(fa), vr = _mm_set1_ps(zr), vlo = _mm_set1_ps(zlo), vhi = _mm_set1_ps(zhi);
+                const __m128 four = _mm_set1_ps(4.0f);
                 __m128 cx = _mm_add_ps(_mm_set1_ps((float)i + 0.5f), _mm_set_ps(3, 2, 1, 0));
-                __m128 zz = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
-                _mm_storeu_ps(row + i, _mm_max_ps(zz, _mm_loadu_ps(row + i)));
-            }
-#endif
-            for (; i <= i1; i++) {
-                float zz = fminf(fmaxf(fa * ((float)i + 0.5f) + zr, zlo), zhi);
-                row[i] = zz > row[i] ? zz : row[i];
+                for (; i + 7 <= i1; i += 8) {
+                    __m128 cx2 = _mm_add_ps(cx, four);
+                    __m128 z0 = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
+                    __m128 z1 = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx2), vr), vlo), vhi);
+                    _mm_storeu_ps(row + i, _mm_max_ps(z0, _mm_loadu_ps(row + i)));
+                    _mm_storeu_ps(row + i + 4, _mm_max_ps(z1, _mm_loadu_ps(row + i + 4)));
+                    cx = _mm_add_ps(cx2, four);
+                }
+                for (; i + 3 <= i1; i += 4) {
+                    __m128 zz = _mm_min_ps(_mm_max_ps(_mm_add_ps(_mm_mul_ps(va, cx), vr), vlo), vhi);
+                    _mm_storeu_ps(row + i, _mm_max_ps(zz, _mm_loadu_ps(row + i)));
+                    cx = _mm_add_ps(cx, four);
+                }
+    #endif
+                for (; i <= i1; i++) {
+                    float zz = fa * ((float)i + 0.5f) + zr;
+                    zz = zz > zlo ? zz : zlo; /* fmaxf, fminf without the calls (NaN: zlo) */
+                    zz = zz < zhi ? zz : zhi;
+                    row[i] = zz > row[i] ? zz : row[i];
+                }
             }
         }
     }
@@ -683,8 +761,32 @@ static int clip_rect(const ltri *t, double sz, double x[9], double y[9], double 
     return n;
 }
 
+/* ---- the footprint tiles (vt_shadow_tiles.c) --------------------------------------- */
+
+/* Thread t: tile rows ty % nt == t of every cascade, over the columns the
+ * raster wrote in the rows' bands (elsewhere every raw tile is -FLT_MAX,
+ * and so the result). */
+static void job_tiles(void *arg, uint32_t t)
+{
+    sjob *jb = arg;
+    vt_shadow *sh = jb->sh;
+    const uint32_t sz = sh->fit.size, g = sz / VT_SHADOW_TILE;
+    const size_t plane = (size_t)sh->fit.n * g * g;
+    for (uint32_t c = 0; c < sh->fit.n; c++)
+        for (uint32_t ty = t; ty < g; ty += jb->nt) {
+            /* the texel rows of raw rows ty - 1 .. ty + 1, and their bands' written columns */
+            const uint32_t y0 = ty ? VT_SHADOW_TILE * (ty - 1) : 0,
+                           y1 = VT_SHADOW_TILE * (ty + 2) < sz ? VT_SHADOW_TILE * (ty + 2) - 1 : sz - 1;
+            uint32_t lo = UINT32_MAX, hi = 0;
+            for (uint32_t k = y0 / BAND; k <= y1 / BAND; k++)
+                if (sh->dlo[c][k] <= sh->dhi[c][k])
+                    lo = sh->dlo[c][k] < lo ? sh->dlo[c][k] : lo, hi = sh->dhi[c][k] > hi ? sh->dhi[c][k] : hi;
+            vt_shadow_tiles_row(sh->raw, sh->tiles, plane, sz, c, ty, lo, hi);
+        }
+}
+
 /* Thread t: bands k of every cascade with k % nt == t, cleared, then
- * every list walked once. */
+ * every list walked once, then their raw tiles made. */
 static void job_raster(void *arg, uint32_t t)
 {
     sjob *jb = arg;
@@ -697,14 +799,13 @@ static void job_raster(void *arg, uint32_t t)
             uint32_t x0 = k < tracked ? sh->dlo[c][k] : 0, x1 = k < tracked ? sh->dhi[c][k] : sz - 1;
             if (x0 > x1) continue;
             uint32_t y1 = (k + 1) * BAND < sz ? (k + 1) * BAND : sz;
-            for (uint32_t y = k * BAND; y < y1; y++)
-                for (float *r = m + (size_t)y * sz, *e = r + x1 + 1, *i = r + x0; i < e; i++) *i = -FLT_MAX;
+            for (uint32_t y = k * BAND; y < y1; y++) vt_shadow_fill_lowest(m + (size_t)y * sz + x0, x1 + 1 - x0);
             if (k < tracked) sh->dlo[c][k] = UINT16_MAX, sh->dhi[c][k] = 0;
         }
         for (uint32_t b = 0; b < nt; b++)
             for (size_t q = 0; q < sh->tb[b].n[c]; q++) {
                 const ltri *L = &sh->tb[b].t[c][q];
-                float y0 = fminf(L->y[0], fminf(L->y[1], L->y[2])), y1 = fmaxf(L->y[0], fmaxf(L->y[1], L->y[2]));
+                float y0 = min2(L->y[0], min2(L->y[1], L->y[2])), y1 = max2(L->y[0], max2(L->y[1], L->y[2]));
                 uint32_t k0 = y0 > 0 ? (uint32_t)y0 / BAND : 0, k1 = y1 < (float)sz ? (uint32_t)y1 / BAND : nb - 1;
                 uint32_t k = k0 + (t + nt - k0 % nt) % nt;
                 if (k > k1) continue;
@@ -722,19 +823,24 @@ static void job_raster(void *arg, uint32_t t)
                 xl = floor(xl), xh = ceil(xh);
                 uint16_t cl = xl > 0 ? (xl < sz - 1.0 ? (uint16_t)xl : (uint16_t)(sz - 1)) : 0;
                 uint16_t ch = xh > 0 ? (xh < sz - 1.0 ? (uint16_t)xh : (uint16_t)(sz - 1)) : 0;
-                for (; k <= k1; k += nt) {
+                const uint32_t kf = k;
+                for (; k <= k1; k += nt)
                     /* marked whether or not it covers a texel centre: a
                        clear too many costs less than the test */
                     if (k < tracked) {
                         sh->dlo[c][k] = cl < sh->dlo[c][k] ? cl : sh->dlo[c][k];
                         sh->dhi[c][k] = ch > sh->dhi[c][k] ? ch : sh->dhi[c][k];
                     }
-                    rmask rm = {.mk = L->mk, .u = sh->fit.u, .v = sh->fit.v, .s = sh->fit.s, .scale = sh->fit.scale[c],
-                                .off = {sh->fit.off[c][0], sh->fit.off[c][1]}};
-                    raster_poly(m, sz, x, y, z, n, (int)(k * BAND), (int)((k + 1) * BAND < sz ? (k + 1) * BAND : sz) - 1,
-                                L->mk ? &rm : NULL);
-                }
+                rmask rm = {.mk = L->mk, .u = sh->fit.u, .v = sh->fit.v, .s = sh->fit.s, .scale = sh->fit.scale[c],
+                            .off = {sh->fit.off[c][0], sh->fit.off[c][1]}};
+                /* set up once, drawn into each of this thread's bands k1..k1 */
+                raster_poly(m, sz, x, y, z, n, (int)(kf * BAND), (int)((k1 + 1) * BAND < sz ? (k1 + 1) * BAND : sz) - 1,
+                            (int)(nt * BAND), L->mk ? &rm : NULL);
             }
+        const size_t g2 = (size_t)(sz / VT_SHADOW_TILE) * (sz / VT_SHADOW_TILE), plane = sh->fit.n * g2;
+        for (uint32_t k = t; k < nb; k += nt)
+            vt_shadow_tiles_band(sh->raw + c * g2, sh->raw + plane + c * g2, m, sz, k, k < tracked ? sh->dlo[c][k] : 0,
+                      k < tracked ? sh->dhi[c][k] : sz - 1);
     }
 }
 
@@ -745,7 +851,9 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     *tris = 0;
     sh->fit = *fit;
     size_t npx = (size_t)fit->n * fit->size * fit->size;
-    if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps))
+    if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps) ||
+        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, 2 * npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->tiles) ||
+        !vp_grow((void **)&sh->raw, &sh->raw_cap, 2 * npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->raw))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow maps");
     if (fit->size != sh->dirty_size || fit->n != sh->dirty_n) {
         for (int c = 0; c < NC; c++)
@@ -767,7 +875,18 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
         if (sh->tb[t].rc) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow casters");
         for (uint32_t c = 0; c < fit->n; c++) *tris += (uint32_t)sh->tb[t].n[c];
     }
-    if (nt > 1) cull_pool_run(pool, job_raster, &jb, nt);
-    else job_raster(&jb, 0);
+    if (nt > 1) cull_pool_run(pool, job_raster, &jb, nt), cull_pool_run(pool, job_tiles, &jb, nt);
+    else job_raster(&jb, 0), job_tiles(&jb, 0);
+    /* the span lookup's constants (vt_shadow.inl), once a draw */
+    vt_shadow_cons *k = &sh->cons;
+    const uint32_t g = fit->size / VT_SHADOW_TILE;
+    memset(k, 0, sizeof *k);
+    k->tmin = sh->tiles, k->tmax = sh->tiles + (size_t)fit->n * g * g, k->g = (float)g;
+    for (uint32_t c = 0; c < fit->n; c++) {
+        k->tbase[c] = (float)((size_t)c * g * g);
+        k->offx[c] = fit->off[c][0], k->offy[c] = fit->off[c][1], k->base[c] = (float)((size_t)c * fit->size * fit->size);
+        k->far[c] = fit->split[c + 1];
+        k->band[c] = VT_SHADOW_BLEND * (fit->split[c + 1] - fit->split[c]);
+    }
     return 0;
 }

@@ -110,6 +110,12 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
  * rows by v (what the tests inspect). */
 const vt_shadow_fit *vt_shadow_fit_of(const vt_shadow *sh);
 const float *vt_shadow_maps(const vt_shadow *sh);
+/* The last draw's footprint tiles, the span lookup's shortcut (vt_shadow.c):
+ * per cascade g x g (g = size / VT_SHADOW_TILE) minima, then as many
+ * maxima; tile (tx, ty) of the map over texels VT_SHADOW_TILE (t - 1) ..
+ * VT_SHADOW_TILE (t + 2) - 1 on both axes, clipped to the map. */
+#define VT_SHADOW_TILE 2
+const float *vt_shadow_tiles(const vt_shadow *sh);
 
 /* The fraction of the sun that reaches camera-relative point p with unit
  * normal n, 0 (in shadow) .. 1 (lit), PCF-filtered. sh NULL: 1. */
@@ -128,11 +134,24 @@ void vt_shadow_sun_n(const vt_shadow *sh, unsigned n, const float *px, const flo
 void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa);
 
 /* The span lookup's instances (vt_shadow.inl); one lane: vt_shadow_lookup. */
-typedef void (*vt_shadow_n_fn)(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
-                               const float *pz, const float *nx, const float *ny, const float *nz, float *out);
-void vt_shadow_lookup_n_sse41(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
-                              const float *pz, const float *nx, const float *ny, const float *nz, float *out);
-void vt_shadow_lookup_n_avx2(const vt_shadow_fit *f, const float *maps, unsigned n, const float *px, const float *py,
-                             const float *pz, const float *nx, const float *ny, const float *nz, float *out);
+/* The span lookup's constants of a draw (vt_shadow.c makes them with its
+ * maps): per cascade its map offsets, first texel and first tile, far end
+ * and blend band; the footprint tiles (tmin NULL: every lookup takes its
+ * 16 taps) and their count a side. */
+typedef struct vt_shadow_cons {
+    float offx[VT_SHADOW_CASCADES], offy[VT_SHADOW_CASCADES], base[VT_SHADOW_CASCADES];
+    float far[VT_SHADOW_CASCADES], band[VT_SHADOW_CASCADES], tbase[VT_SHADOW_CASCADES];
+    const float *tmin, *tmax;
+    float g;
+} vt_shadow_cons;
+typedef void (*vt_shadow_n_fn)(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,
+                               const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                               const float *nz, float *out);
+void vt_shadow_lookup_n_sse41(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,
+                              const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                              const float *nz, float *out);
+void vt_shadow_lookup_n_avx2(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,
+                             const float *px, const float *py, const float *pz, const float *nx, const float *ny,
+                             const float *nz, float *out);
 
 #endif

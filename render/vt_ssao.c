@@ -10,7 +10,7 @@
  * Each pass' rows run in the lane kernels of vt_ssao.inl (1, 4 or 8
  * lanes, the same bits: vt_ssao_kern.h); this file owns the view, the
  * buffers, the bands and the per-frame tables.
- * Memory: 16 + 4 bytes a half texel, 4 a pixel (about 5.5 MB at
+ * Memory: 16 + 4 bytes a half texel, 4 a pixel (about 5 MB at
  * 1280x720), kept from frame to frame.
  */
 #include "vt_picture.h"
@@ -25,12 +25,10 @@
 #define PI_F 3.14159265f
 
 struct vt_ssao {
-    float *pos;             /* half texels: x, y, z camera-relative, nearness (VT_EMPTY: sky) */
+    float *pos;             /* half texels: 4 padded planes x, y, z camera-relative, nearness (vt_ssao_kjob) */
     size_t pos_cap;
     float *hao;             /* half texels' AO */
     size_t hao_cap;
-    float *hnear;           /* half texels' nearness (a copy, packed for the upsample) */
-    size_t hnear_cap;
     int32_t *cx;            /* 3 planes of w + 8 (padded with 0): each full column's taps' half columns, weights */
     float *cw;
     size_t cx_cap, cw_cap;
@@ -164,9 +162,8 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     vt_ssao *s = *sp;
     size_t npx = (size_t)sv->w * sv->h, nh = (size_t)sv->hw * sv->hh;
     if (!vp_grow((void **)&s->ao, &s->ao_cap, npx ? npx : 1, sizeof *s->ao) ||
-        !vp_grow((void **)&s->pos, &s->pos_cap, 4 * (nh ? nh : 1), sizeof *s->pos) ||
+        !vp_grow((void **)&s->pos, &s->pos_cap, 4 * (nh + 2 * VT_SSAO_PAD(sv->hw)), sizeof *s->pos) ||
         !vp_grow((void **)&s->hao, &s->hao_cap, nh ? nh : 1, sizeof *s->hao) ||
-        !vp_grow((void **)&s->hnear, &s->hnear_cap, nh ? nh : 1, sizeof *s->hnear) ||
         !vp_grow((void **)&s->cx, &s->cx_cap, 3 * ((size_t)sv->w + 8), sizeof *s->cx) ||
         !vp_grow((void **)&s->cw, &s->cw_cap, 3 * ((size_t)sv->w + 8), sizeof *s->cw) ||
         !vp_grow((void **)&s->colx, &s->colx_cap, (size_t)sv->hw + 8, sizeof *s->colx))
@@ -178,8 +175,16 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     }
     job jb = {.sv = sv, .near = near, .s = s, .nt = nt && pool ? nt : 1, .kern = vt_ssao_kern_pick(s->isa ? s->isa - 1 : CULL_ISA_COUNT)};
     const size_t pl = (size_t)sv->w + 8;
-    jb.k = (vt_ssao_kjob){.sv = sv, .near = near, .pos = s->pos, .hao = s->hao, .hnear = s->hnear,
-                          .cx = s->cx, .cw = s->cw, .colx = s->colx, .ao = s->ao};
+    jb.k = (vt_ssao_kjob){.sv = sv, .near = near, .hao = s->hao, .cx = s->cx, .cw = s->cw, .colx = s->colx, .ao = s->ao};
+    /* the planes and their pads (read by the masked lanes of steps at the
+       image's sides: set, so no uninitialised memory is read) */
+    const size_t pad = VT_SSAO_PAD(sv->hw), stride = nh + 2 * pad;
+    float **pl4[4] = {&jb.k.px, &jb.k.py, &jb.k.pz, &jb.k.pn};
+    for (int c = 0; c < 4; c++) {
+        float *base = s->pos + (size_t)c * stride;
+        *pl4[c] = base + pad;
+        for (size_t i = 0; i < pad; i++) base[i] = base[pad + nh + i] = c == 3 ? VT_EMPTY : 0;
+    }
     for (uint32_t i = 0; i < sv->hw + 8; i++) s->colx[i] = i < sv->hw ? (float)((2.0 * (2 * i) + 1) / sv->w - 1) : 0;
     vt_ssao_dirs(jb.k.dir);
     memset(s->cx, 0, 3 * pl * sizeof *s->cx);
@@ -209,7 +214,6 @@ void vt_ssao_destroy(vt_ssao *s)
     if (!s) return;
     free(s->pos);
     free(s->hao);
-    free(s->hnear);
     free(s->cx);
     free(s->cw);
     free(s->colx);

@@ -31,31 +31,26 @@ static inline vf ss_floor(vf a)
 #endif
 }
 
-static inline vm ss_ne(vf a, vf b)
-{
-    return vm_or(vf_lt(a, b), vf_lt(b, a));
-}
-
-/* The 4 floats of the texels pos[4 q] (q: exact integral floats). */
-static inline void ss_fetch4(const float *pos, vf q, vf *x, vf *y, vf *z, vf *n)
+/* The planes' texels q (exact integral floats, >= 0). */
+static inline void ss_fetch4(const vt_ssao_kjob *k, vf q, vf *x, vf *y, vf *z, vf *n)
 {
 #if CULL_SIMD_ISA == 3
-    __m256i i = _mm256_slli_epi32(_mm256_cvttps_epi32(q), 2);
-    *x = _mm256_i32gather_ps(pos, i, 4);
-    *y = _mm256_i32gather_ps(pos + 1, i, 4);
-    *z = _mm256_i32gather_ps(pos + 2, i, 4);
-    *n = _mm256_i32gather_ps(pos + 3, i, 4);
+    __m256i i = _mm256_cvttps_epi32(q);
+    *x = _mm256_i32gather_ps(k->px, i, 4);
+    *y = _mm256_i32gather_ps(k->py, i, 4);
+    *z = _mm256_i32gather_ps(k->pz, i, 4);
+    *n = _mm256_i32gather_ps(k->pn, i, 4);
 #elif CULL_SIMD_ISA == 2
     __m128i i = _mm_cvttps_epi32(q);
-    __m128 a = _mm_loadu_ps(pos + 4 * (size_t)(uint32_t)_mm_cvtsi128_si32(i));
-    __m128 b = _mm_loadu_ps(pos + 4 * (size_t)(uint32_t)_mm_extract_epi32(i, 1));
-    __m128 c = _mm_loadu_ps(pos + 4 * (size_t)(uint32_t)_mm_extract_epi32(i, 2));
-    __m128 d = _mm_loadu_ps(pos + 4 * (size_t)(uint32_t)_mm_extract_epi32(i, 3));
-    _MM_TRANSPOSE4_PS(a, b, c, d);
-    *x = a, *y = b, *z = c, *n = d;
+    const size_t a = (uint32_t)_mm_cvtsi128_si32(i), b = (uint32_t)_mm_extract_epi32(i, 1),
+                 c = (uint32_t)_mm_extract_epi32(i, 2), d = (uint32_t)_mm_extract_epi32(i, 3);
+    *x = _mm_setr_ps(k->px[a], k->px[b], k->px[c], k->px[d]);
+    *y = _mm_setr_ps(k->py[a], k->py[b], k->py[c], k->py[d]);
+    *z = _mm_setr_ps(k->pz[a], k->pz[b], k->pz[c], k->pz[d]);
+    *n = _mm_setr_ps(k->pn[a], k->pn[b], k->pn[c], k->pn[d]);
 #else
-    const float *p = pos + 4 * (size_t)(uint32_t)q;
-    *x = p[0], *y = p[1], *z = p[2], *n = p[3];
+    const size_t i = (uint32_t)q;
+    *x = k->px[i], *y = k->py[i], *z = k->pz[i], *n = k->pn[i];
 #endif
 }
 
@@ -71,6 +66,28 @@ static inline vf ss_gather(const float *base, const int32_t *idx)
 #endif
 }
 
+#if CULL_SIMD_ISA >= 2
+/* The upsample's tap c of a whole step at an even full column x, from the
+ * half row's texels p = x / 2 - 1 ..: lane l (column x + l) reads the
+ * texel vt_ssao.c's taps() gives it (even l: l / 2 + c; odd: (l + 1) / 2,
+ * (l + 3) / 2, and (l + 1) / 2 again at weight 0): a load and a permute,
+ * not a gather. */
+static inline vf ss_tap(const float *p, int c)
+{
+#if CULL_SIMD_ISA == 3
+    const __m256i perm = c == 0   ? _mm256_setr_epi32(0, 1, 1, 2, 2, 3, 3, 4)
+                         : c == 1 ? _mm256_setr_epi32(1, 2, 2, 3, 3, 4, 4, 5)
+                                  : _mm256_setr_epi32(2, 1, 3, 2, 4, 3, 5, 4);
+    return _mm256_permutevar8x32_ps(_mm256_loadu_ps(p), perm);
+#else
+    const __m128 v = _mm_loadu_ps(p);
+    return c == 0 ? _mm_shuffle_ps(v, v, _MM_SHUFFLE(2, 1, 1, 0))
+           : c == 1 ? _mm_shuffle_ps(v, v, _MM_SHUFFLE(3, 2, 2, 1))
+                    : _mm_shuffle_ps(v, v, _MM_SHUFFLE(2, 3, 1, 2));
+#endif
+}
+#endif
+
 /* A texel of the half image at (X, Y) (integral floats) where mask m:
  * its point and nearness; *ok narrowed to the lanes on the image and not
  * on the sky. */
@@ -80,8 +97,32 @@ static inline void ss_texel(const vt_ssao_kjob *k, vf X, vf Y, vm m, vf *x, vf *
     m = vm_and(m, vm_and(vm_and(vf_ge(X, vf_set(0)), vf_lt(X, vf_set((float)sv->hw))),
                          vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
     vf q = vf_select(m, vf_add(vf_mul(Y, vf_set((float)sv->hw)), X), vf_set(0));
-    ss_fetch4(k->pos, q, x, y, z, n);
-    *ok = vm_and(m, ss_ne(*n, vf_set(VT_EMPTY)));
+    ss_fetch4(k, q, x, y, z, n);
+    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n)); /* not the sky (nearness is never NaN) */
+}
+
+/* ss_texel for (X, Y) known to be on the image where m (a step whose
+ * samples all stay inside): no bounds. (The planes' nearness is never
+ * NaN: the sky is VT_EMPTY, the least float, so one compare tells it.) */
+static inline void ss_texel_in(const vt_ssao_kjob *k, vf X, vf Y, vm m, vf *x, vf *y, vf *z, vf *n, vm *ok)
+{
+    vf q = vf_select(m, vf_add(vf_mul(Y, vf_set((float)k->sv->hw)), X), vf_set(0));
+    ss_fetch4(k, q, x, y, z, n);
+    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n));
+}
+
+/* ss_texel for texels (X, Y) that are the planes' consecutive texels
+ * q .. q + W - 1 (a step's own row, or one a fixed step away): loads, not
+ * gathers (the pads keep them in the buffer; the lanes off the image are
+ * masked as ss_texel's). */
+static inline void ss_texel_at(const vt_ssao_kjob *k, vf X, vf Y, vm m, ptrdiff_t q, vf *x, vf *y, vf *z, vf *n,
+                               vm *ok)
+{
+    const vt_ssao_view *sv = k->sv;
+    m = vm_and(m, vm_and(vm_and(vf_ge(X, vf_set(0)), vf_lt(X, vf_set((float)sv->hw))),
+                         vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
+    *x = vf_loadu(k->px + q), *y = vf_loadu(k->py + q), *z = vf_loadu(k->pz + q), *n = vf_loadu(k->pn + q);
+    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n)); /* not the sky (nearness is never NaN) */
 }
 
 static inline vf ss_dot(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
@@ -113,14 +154,18 @@ static inline vf ss_arc(vf h, vf ch, vf sh, vf cn, vf sn)
 /* The step along one screen axis (vt_ssao.c's side_step): the side whose
  * two texels extrapolate to P's nearness best; *ok false where neither
  * neighbour exists. */
-static inline void ss_side(const vt_ssao_kjob *k, vf X, vf Y, vf ux, vf uy, vm m, const vf P[4], vf d[3], vm *ok)
+static inline void ss_side(const vt_ssao_kjob *k, vf X, vf Y, vf ux, vf uy, ptrdiff_t q, ptrdiff_t du, vm m,
+                           const vf P[4], vf d[3], vm *ok)
 {
     vf lo[4], lo2[4], hi[4], hi2[4];
     vm mlo, mlo2, mhi, mhi2;
-    ss_texel(k, vf_sub(X, ux), vf_sub(Y, uy), m, &lo[0], &lo[1], &lo[2], &lo[3], &mlo);
-    ss_texel(k, vf_sub(X, vf_add(ux, ux)), vf_sub(Y, vf_add(uy, uy)), m, &lo2[0], &lo2[1], &lo2[2], &lo2[3], &mlo2);
-    ss_texel(k, vf_add(X, ux), vf_add(Y, uy), m, &hi[0], &hi[1], &hi[2], &hi[3], &mhi);
-    ss_texel(k, vf_add(X, vf_add(ux, ux)), vf_add(Y, vf_add(uy, uy)), m, &hi2[0], &hi2[1], &hi2[2], &hi2[3], &mhi2);
+    /* texel q is (X, Y); one step along the axis is du texels */
+    ss_texel_at(k, vf_sub(X, ux), vf_sub(Y, uy), m, q - du, &lo[0], &lo[1], &lo[2], &lo[3], &mlo);
+    ss_texel_at(k, vf_sub(X, vf_add(ux, ux)), vf_sub(Y, vf_add(uy, uy)), m, q - 2 * du, &lo2[0], &lo2[1], &lo2[2],
+                &lo2[3], &mlo2);
+    ss_texel_at(k, vf_add(X, ux), vf_add(Y, uy), m, q + du, &hi[0], &hi[1], &hi[2], &hi[3], &mhi);
+    ss_texel_at(k, vf_add(X, vf_add(ux, ux)), vf_add(Y, vf_add(uy, uy)), m, q + 2 * du, &hi2[0], &hi2[1], &hi2[2],
+                &hi2[3], &mhi2);
     const vf two = vf_set(2);
     vf el = vf_select(mlo, vf_select(mlo2, vf_abs(vf_sub(vf_sub(vf_mul(two, lo[3]), lo2[3]), P[3])), vf_set(FLT_MAX)),
                       vf_set(INFINITY));
@@ -149,7 +194,8 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
         vf X = vf_add(vf_set((float)i0), vf_loadu(lane));
         vf P[4];
         vm ok;
-        ss_texel(k, X, Y, vm_ones(), &P[0], &P[1], &P[2], &P[3], &ok);
+        const ptrdiff_t qc = (ptrdiff_t)j * sv->hw + i0;
+        ss_texel_at(k, X, Y, vm_ones(), qc, &P[0], &P[1], &P[2], &P[3], &ok);
         float res[W];
         if (!vm_bits(ok)) {
             vf_store(res, one);
@@ -164,8 +210,8 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
             vf inv_nst = vf_div(one, nst);
             vf dx[3], dy[3], n[3], V[3];
             vm okx, oky;
-            ss_side(k, X, Y, one, zero, ok, P, dx, &okx);
-            ss_side(k, X, Y, zero, one, ok, P, dy, &oky);
+            ss_side(k, X, Y, one, zero, qc, 1, ok, P, dx, &okx);
+            ss_side(k, X, Y, zero, one, qc, (ptrdiff_t)sv->hw, ok, P, dy, &oky);
             ok = vm_and(ok, vm_and(okx, oky));
             n[0] = vf_sub(vf_mul(dx[1], dy[2]), vf_mul(dx[2], dy[1]));
             n[1] = vf_sub(vf_mul(dx[2], dy[0]), vf_mul(dx[0], dy[2]));
@@ -186,6 +232,20 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                 V[c] = vf_div(V[c], vl);
             }
             vf num = zero, den = zero;
+            /* the steps' distances, the same for every slice and side */
+            vf tts[VT_SSAO_STEPS];
+            for (int st = 0; st < VT_SSAO_STEPS; st++) tts[st] = vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst);
+            /* a sample is at most rpx (< B) texels away on either axis
+               (|cos|, |sin| <= 1, the steps' distances below rpx): a step
+               at least B from every side needs no bounds on its samples */
+            bool inner;
+            {
+                float rr[W], rmax = 0;
+                vf_store(rr, vf_select(ok, rpx, zero));
+                for (int l = 0; l < W; l++) rmax = rr[l] > rmax ? rr[l] : rmax;
+                const uint32_t B = (uint32_t)rmax + 2;
+                inner = i0 >= B && i0 + W - 1 + B < sv->hw && j >= B && j + B < sv->hh;
+            }
             for (int sl = 0; sl < VT_SSAO_SLICES; sl++) {
                 const vf c = vf_loadu(dc[i0 & 1][sl]), s = vf_loadu(ds[i0 & 1][sl]);
                 vf T[3];
@@ -208,12 +268,13 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                     for (int st = 0; st < VT_SSAO_STEPS; st++) {
                         vm m = vm_and(sok, vf_lt(vf_set((float)st), nst));
                         if (!vm_bits(m)) break;
-                        vf tt = vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst);
+                        const vf tt = tts[st];
                         const vf h = vf_set(1024.5f), kk = vf_set(1024);
                         vf SX = vf_add(X, vf_sub(ss_floor(vf_select(m, vf_add(vf_mul(sgc, tt), h), h)), kk));
                         vf SY = vf_add(Y, vf_sub(ss_floor(vf_select(m, vf_add(vf_mul(sgs, tt), h), h)), kk));
                         vf S[4];
-                        ss_texel(k, SX, SY, m, &S[0], &S[1], &S[2], &S[3], &m);
+                        if (inner) ss_texel_in(k, SX, SY, m, &S[0], &S[1], &S[2], &S[3], &m);
+                        else ss_texel(k, SX, SY, m, &S[0], &S[1], &S[2], &S[3], &m);
                         if (!vm_bits(m)) continue;
                         vf d[3] = {vf_sub(S[0], P[0]), vf_sub(S[1], P[1]), vf_sub(S[2], P[2])};
                         vf l2 = ss_dot(d[0], d[1], d[2], d[0], d[1], d[2]), hn = ss_dot(d[0], d[1], d[2], n[0], n[1], n[2]);
@@ -256,39 +317,67 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
     out:;
         uint32_t nw = sv->hw - i0 < (uint32_t)W ? sv->hw - i0 : (uint32_t)W;
         size_t q0 = (size_t)j * sv->hw + i0;
-        for (uint32_t l = 0; l < nw; l++) {
-            k->hao[q0 + l] = res[l];
-            k->hnear[q0 + l] = k->pos[4 * (q0 + l) + 3];
-        }
+        if (nw == (uint32_t)W) vf_store(k->hao + q0, vf_loadu(res)); /* the row's own texels */
+        else
+            for (uint32_t l = 0; l < nw; l++) k->hao[q0 + l] = res[l];
     }
+}
+
+/* p[0], p[2], .. p[2 W - 2]: the even full columns of a step. */
+static inline vf ss_even(const float *p)
+{
+#if CULL_SIMD_ISA == 3
+    __m256 a = _mm256_loadu_ps(p), b = _mm256_loadu_ps(p + 8);
+    __m256 e = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0)); /* a0 a2 b0 b2 | a4 a6 b4 b6 */
+    return _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(e), _MM_SHUFFLE(3, 1, 2, 0)));
+#elif CULL_SIMD_ISA == 2
+    return _mm_shuffle_ps(_mm_loadu_ps(p), _mm_loadu_ps(p + 4), _MM_SHUFFLE(2, 0, 2, 0));
+#else
+    return p[0];
+#endif
 }
 
 void VT_SSAO_POS_NAME(const vt_ssao_kjob *k, uint32_t j)
 {
     const vt_ssao_view *sv = k->sv;
     const float *nrow = k->near + (size_t)(2 * j) * sv->w;
-    float *o = k->pos + (size_t)4 * j * sv->hw;
+    const size_t q0 = (size_t)j * sv->hw;
+    float *const o[4] = {k->px + q0, k->py + q0, k->pz + q0, k->pn + q0};
     const vf Y = vf_set((float)((2.0 * (2 * j) + 1) / sv->h - 1)), inf = vf_set(INFINITY);
     vf a[4][4];
     for (int r = 0; r < 4; r++)
         for (int c = 0; c < 4; c++) a[r][c] = vf_set(sv->inv[r][c]);
     for (uint32_t i0 = 0; i0 < sv->hw; i0 += W) {
         uint32_t nw = sv->hw - i0 < (uint32_t)W ? sv->hw - i0 : (uint32_t)W;
+        /* a whole step's 2 W full columns are in the row (w >= 2 hw - 1) */
+        const bool whole = nw == (uint32_t)W && 2 * (i0 + W) <= sv->w;
         float nb[W], t[4][W];
-        for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[2 * (i0 + l)] : VT_EMPTY;
-        vf N = vf_loadu(nb), X = vf_loadu(k->colx + i0), q[4];
+        vf N;
+        if (whole) {
+            N = ss_even(nrow + 2 * (size_t)i0);
+        } else {
+            for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[2 * (i0 + l)] : VT_EMPTY;
+            N = vf_loadu(nb);
+        }
+        vf X = vf_loadu(k->colx + i0), q[4];
         /* (p, 1) ~ inv (X, Y, N, 1) (vt_ssao.c's unproject) */
         for (int r = 0; r < 4; r++) q[r] = vf_add(vf_add(vf_add(vf_mul(a[r][0], X), vf_mul(a[r][1], Y)), vf_mul(a[r][2], N)), a[r][3]);
-        vf iw = vf_div(vf_set(1), q[3]);
+        vf iw = vf_div(vf_set(1), q[3]), p[3];
         vm ok = vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(N, inf));
         for (int c = 0; c < 3; c++) {
-            vf p = vf_mul(q[c], iw);
-            ok = vm_and(ok, vf_lt(vf_abs(p), inf));
-            vf_store(t[c], p);
+            p[c] = vf_mul(q[c], iw);
+            ok = vm_and(ok, vf_lt(vf_abs(p[c]), inf));
         }
-        vf_store(t[3], vf_select(ok, N, vf_set(VT_EMPTY)));
+        const vf nn = vf_select(ok, N, vf_set(VT_EMPTY));
+        if (nw == (uint32_t)W) { /* the row's own texels: no other thread's */
+            for (int c = 0; c < 3; c++) vf_store(o[c] + i0, p[c]);
+            vf_store(o[3] + i0, nn);
+            continue;
+        }
+        for (int c = 0; c < 3; c++) vf_store(t[c], p[c]);
+        vf_store(t[3], nn);
         for (uint32_t l = 0; l < nw; l++)
-            for (int c = 0; c < 4; c++) o[4 * (i0 + l) + c] = t[c][l];
+            for (int c = 0; c < 4; c++) o[c][i0 + l] = t[c][l];
     }
 }
 
@@ -311,7 +400,7 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
     float *o = k->ao + (size_t)y * sv->w;
     const float *hn[3], *ha[3];
     for (int a = 0; a < 3; a++) {
-        hn[a] = k->hnear + (size_t)jy[a] * sv->hw;
+        hn[a] = k->pn + (size_t)jy[a] * sv->hw;
         ha[a] = k->hao + (size_t)jy[a] * sv->hw;
     }
     const size_t pl = (size_t)sv->w + 8;
@@ -320,11 +409,13 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
         float nb[W], res[W];
         uint32_t nw = sv->w - x < (uint32_t)W ? sv->w - x : (uint32_t)W;
 #if W > 1
+        bool cont = false; /* a whole step whose taps ss_tap reads */
         /* most of a frame is unoccluded: where the three half rows are 1
            over the step's taps (half columns x/2 - 1 .. x/2 + W/2 within
            the W at x/2 - 1), every lane's mean is 1 (the general path's
            answer too), without the gathers */
         if (x >= 2 && nw == (uint32_t)W && x / 2 - 1 + W <= sv->hw) {
+            cont = true;
             vm all1 = vm_and(vm_and(vf_le(one, vf_loadu(ha[0] + x / 2 - 1)), vf_le(one, vf_loadu(ha[1] + x / 2 - 1))),
                              vf_le(one, vf_loadu(ha[2] + x / 2 - 1)));
             if (vm_bits(all1) == (1u << W) - 1) {
@@ -333,15 +424,24 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
             }
         }
 #endif
-        for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[x + l] : VT_EMPTY;
-        vf N = vf_loadu(nb);
+        vf N;
+        if (nw == (uint32_t)W) {
+            N = vf_loadu(nrow + x);
+        } else {
+            for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[x + l] : VT_EMPTY;
+            N = vf_loadu(nb);
+        }
         vf tol = sv->ortho ? vf_set(sv->ntol) : vf_mul(vf_set(VT_SSAO_DEPTH_TOL), N);
         vm ok = vm_and(vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(zero, tol)), vf_lt(tol, vf_set(FLT_MAX)));
         vf av[3][3];
         vf lo = one;
         for (int a = 0; a < 3; a++)
             for (int c = 0; c < 3; c++) {
+#if W > 1
+                av[a][c] = cont ? ss_tap(ha[a] + x / 2 - 1, c) : ss_gather(ha[a], k->cx + c * pl + x);
+#else
                 av[a][c] = ss_gather(ha[a], k->cx + c * pl + x);
+#endif
                 lo = vf_select(vf_lt(av[a][c], lo), av[a][c], lo);
             }
         /* most of a frame is unoccluded: the mean of ones is 1 */
@@ -352,7 +452,11 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
             vf kk = vf_div(one, tol), sum = zero, acc = zero;
             for (int a = 0; a < 3; a++)
                 for (int c = 0; c < 3; c++) {
+#if W > 1
+                    vf hv = cont ? ss_tap(hn[a] + x / 2 - 1, c) : ss_gather(hn[a], k->cx + c * pl + x);
+#else
                     vf hv = ss_gather(hn[a], k->cx + c * pl + x);
+#endif
                     vf wd = vf_sub(one, vf_mul(vf_abs(vf_sub(hv, N)), kk));
                     vf wt = vf_mul(vf_mul(vf_set(wy[a]), vf_loadu(k->cw + c * pl + x)), wd);
                     wt = vf_select(vf_lt(zero, wd), wt, zero);
@@ -364,6 +468,8 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
             ao = vf_select(vf_ge(ao, zero), vf_select(vf_le(ao, one), ao, one), vf_select(vf_lt(ao, zero), zero, one));
             vf_store(res, vf_select(vm_and(ok, sp), ao, one));
         }
-        for (uint32_t l = 0; l < nw; l++) o[x + l] = res[l];
+        if (nw == (uint32_t)W) vf_store(o + x, vf_loadu(res));
+        else
+            for (uint32_t l = 0; l < nw; l++) o[x + l] = res[l];
     }
 }

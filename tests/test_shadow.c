@@ -24,6 +24,7 @@
 #include "vt_shadow.h"
 #include "vt_soft.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -498,6 +499,96 @@ static void test_shadow_lookup_lanes(void **state)
     vt_shadow_destroy(fresh);
 }
 
+/* The footprint tiles the span lookup decides most pixels by, against
+ * the maps themselves: every tile's least and greatest depth over its
+ * texels (vt_shadow.h's rule, by brute force here), on a field of boxes
+ * of random heights drawn twice into the same vt_shadow (the tiles of
+ * the cleared bands too); then lookups at random points over the field,
+ * where most footprints are decided by a tile, equal to vt_shadow_sun
+ * (the 16 taps) bit for bit in every instance. */
+static void test_shadow_tiles(void **state)
+{
+    (void)state;
+    vt_env env = scene_env(SUN);
+    enum { NB = 60, NP = 6000 };
+    static vt_instance in[NB];
+    uint64_t seed = 5;
+    for (int i = 0; i < NB; i++) {
+        double r[3];
+        for (int k = 0; k < 3; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
+        float x = (float)(-60 + 120 * r[0]), z = (float)(-120 + 110 * r[1]), hgt = (float)(2 + 30 * r[2]);
+        in[i] = (vt_instance){.mesh = 0, .bmin = {x, 0, z}, .bmax = {x + 6, hgt, z + 8}};
+    }
+    float mb[1][6] = {{-1, -1, -1, 1, 1, 1}};
+    vt_shadow *sh;
+    assert_int_equal(vt_shadow_create(&sh), 0);
+    cull_view v;
+    look(&v, (const double[3]){0, 40, 30}, (const double[3]){0, 0, -50}, 320, 180);
+    vt_shadow_fit fit;
+    float s[3];
+    assert_true(vt_shadow_sun_dir(&env, 0, s));
+    assert_true(vt_shadow_fit_make(&v, 320, 180, &env, s, (const float(*)[6])mb, in, NB, &fit));
+    uint32_t tris;
+    char err[128];
+    for (int pass = 0; pass < 2; pass++)
+        assert_int_equal(vt_shadow_draw(sh, NULL, 1, &fit, v.origin, &vt_mesh_box, (const float(*)[6])mb, in,
+                                        pass ? NB : NB / 2, &tris, err, sizeof err),
+                         0);
+    const float *maps = vt_shadow_maps(sh), *tl = vt_shadow_tiles(sh);
+    const int S = (int)fit.size, T = VT_SHADOW_TILE, g = S / T;
+    const size_t plane = (size_t)fit.n * g * g;
+    size_t bad = 0, drawn = 0;
+    for (uint32_t c = 0; c < fit.n; c++)
+        for (int ty = 0; ty < g; ty++)
+            for (int tx = 0; tx < g; tx++) {
+                float lo = INFINITY, hi = -INFINITY;
+                for (int y = T * (ty - 1); y < T * (ty + 2); y++)
+                    for (int x = T * (tx - 1); x < T * (tx + 2); x++) {
+                        if (x < 0 || y < 0 || x >= S || y >= S) continue;
+                        float d = maps[((size_t)c * S + y) * S + x];
+                        lo = d < lo ? d : lo, hi = d > hi ? d : hi;
+                    }
+                size_t q = ((size_t)c * g + ty) * g + tx;
+                bad += tl[q] != lo || tl[plane + q] != hi;
+                drawn += hi > -FLT_MAX;
+            }
+    fprintf(stderr, "tiles: %zu of %zu differ from the maps' (%zu with a caster)\n", bad, plane, drawn);
+    assert_int_equal(bad, 0);
+    assert_true(drawn > plane / 50);
+    static float px[NP], py[NP], pz[NP], nx[NP], ny[NP], nz[NP], ref[NP], got[NP];
+    size_t part = 0, dark = 0;
+    for (int i = 0; i < NP; i++) {
+        double r[4];
+        for (int k = 0; k < 4; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
+        /* the ground, and every third point on a roof or a box's face */
+        const vt_instance *b = &in[i % NB];
+        float n3[3] = {0, 1, 0};
+        double w[3] = {-70 + 140 * r[0], 0, -130 + 130 * r[1]};
+        if (i % 3 == 1) w[0] = b->bmin[0] + 6 * r[2], w[1] = b->bmax[1], w[2] = b->bmin[2] + 8 * r[3];
+        if (i % 3 == 2) w[0] = b->bmax[0], w[1] = b->bmax[1] * r[2], w[2] = b->bmin[2] + 8 * r[3], n3[0] = 1, n3[1] = 0;
+        px[i] = (float)(w[0] - v.origin[0]), py[i] = (float)(w[1] - v.origin[1]), pz[i] = (float)(w[2] - v.origin[2]);
+        nx[i] = n3[0], ny[i] = n3[1], nz[i] = n3[2];
+        ref[i] = vt_shadow_sun(sh, (const float[3]){px[i], py[i], pz[i]}, n3);
+        part += ref[i] > 0 && ref[i] < 1;
+        dark += ref[i] == 0;
+    }
+    fprintf(stderr, "points: %zu in penumbrae, %zu dark of %d\n", part, dark, NP);
+    assert_true(part > 50 && dark > 200); /* umbrae, penumbrae and lit ground to compare */
+    for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+        if (!cull_isa_supported(isa)) continue;
+        vt_shadow_set_isa(sh, isa);
+        for (int i = 0; i < NP; i++) got[i] = 1;
+        for (int i0 = 0; i0 < NP; i0 += 16)
+            vt_shadow_sun_n(sh, 16, px + i0, py + i0, pz + i0, nx + i0, ny + i0, nz + i0, got + i0);
+        size_t nb = 0;
+        for (int i = 0; i < NP; i++) nb += memcmp(&got[i], &ref[i], sizeof got[i]) != 0;
+        fprintf(stderr, "%s: %zu of %d lookups differ (%zu in penumbrae, %zu dark)\n", cull_isa_name(isa), nb, NP, part,
+                dark);
+        assert_int_equal(nb, 0);
+    }
+    vt_shadow_destroy(sh);
+}
+
 /* ---- adversarial inputs ---------------------------------------------------------------- */
 
 static void test_shadow_adversarial(void **state)
@@ -685,6 +776,7 @@ static void test_shadow_through_hole(void **state)
 
 const struct CMUnitTest shadow_tests[] = {
     cmocka_unit_test(test_shadow_lookup_lanes),
+    cmocka_unit_test(test_shadow_tiles),
     cmocka_unit_test(test_shadow_analytic_box_soft),
     cmocka_unit_test(test_shadow_analytic_box_gl),
     cmocka_unit_test(test_shadow_stable),
