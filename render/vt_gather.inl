@@ -198,12 +198,62 @@ static inline __attribute__((always_inline)) void bilinear(const vt_texref *r, u
     }
 }
 
+#if CULL_SIMD_ISA == 3
+/* Channels 0..2 of 8 texels of a half-float copy (vt_texlin.h) at
+ * texel index i: two 64-bit gathers, the low and high halves' words in
+ * lane order, each half widened exactly (its bits moved to a float's
+ * place and rescaled by 2^112: normal and subnormal halves alike). */
+static inline void texels_h(const uint64_t *px, vix i, vf c[3])
+{
+    const long long *p = (const long long *)(const void *)px;
+    __m256i lo = _mm256_i32gather_epi64(p, _mm256_castsi256_si128(i), 8);
+    __m256i hi = _mm256_i32gather_epi64(p, _mm256_extracti128_si256(i, 1), 8);
+    __m256 lf = _mm256_castsi256_ps(lo), hf = _mm256_castsi256_ps(hi);
+    __m256i rg = _mm256_castpd_si256(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lf, hf, 0x88)), 0xD8));
+    __m256i ba = _mm256_castpd_si256(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lf, hf, 0xDD)), 0xD8));
+    const __m256i m = _mm256_set1_epi32(0x7FFF);
+    const __m256 k = _mm256_set1_ps(0x1p112f);
+    c[0] = _mm256_mul_ps(_mm256_castsi256_ps(_mm256_slli_epi32(_mm256_and_si256(rg, m), 13)), k);
+    c[1] = _mm256_mul_ps(_mm256_castsi256_ps(_mm256_slli_epi32(_mm256_and_si256(_mm256_srli_epi32(rg, 16), m), 13)), k);
+    c[2] = _mm256_mul_ps(_mm256_castsi256_ps(_mm256_slli_epi32(_mm256_and_si256(ba, m), 13)), k);
+}
+
+/* bilinear() on the half-float copy of the slot's texture. */
+static inline __attribute__((always_inline)) void bilinear_h(const vt_texref *r, const vt_texlin *tl, uint32_t lv, vf u,
+                                                             vf v, vf o[3])
+{
+    int ws = ilog2u(tl->w), hs = ilog2u(tl->h);
+    ws = ws > (int)lv ? ws - (int)lv : 0;
+    hs = hs > (int)lv ? hs - (int)lv : 0;
+    vix i0, i1, j0, j1;
+    vf ax, ay;
+    axis(u, ws, r->wrap_s, &i0, &i1, &ax);
+    axis(v, hs, r->wrap_t, &j0, &j1, &ay);
+    j0 = vi_sll(j0, ws), j1 = vi_sll(j1, ws);
+    vf a[3], b[3], c[3], d[3];
+    texels_h(tl->lv[lv], vi_add(j0, i0), a);
+    texels_h(tl->lv[lv], vi_add(j0, i1), b);
+    texels_h(tl->lv[lv], vi_add(j1, i0), c);
+    texels_h(tl->lv[lv], vi_add(j1, i1), d);
+    for (int k = 0; k < 3; k++) {
+        vf top = vf_fma(ax, vf_sub(b[k], a[k]), a[k]), bot = vf_fma(ax, vf_sub(d[k], c[k]), c[k]);
+        o[k] = vf_fma(ay, vf_sub(bot, top), top);
+    }
+}
+#endif
+
 /* vt_tex_sample in lanes for a lane-able slot (tex_lanes_ok): uv and its
  * per-pixel differences (before the slot's transform), the lanes in act
  * (the others get some finite value); RGB channels ch into o. */
 static inline void tex_lanes(const vt_texref *r, vf u0, vf v0, vf dxu0, vf dxv0, vf dyu0, vf dyv0, vm act, bool srgb_on,
-                             unsigned ch, vf o[3])
+                             unsigned ch, const vt_texcache *tc, vf o[3])
 {
+#if CULL_SIMD_ISA == 3
+    /* an sRGB slot with a decoded copy: halves, no table */
+    const vt_texlin *tl = srgb_on ? vt_texcache_find(tc, r->tex) : NULL;
+#else
+    (void)tc;
+#endif
     const vt_texview *t = r->tex;
     const float *tab = srgb_on ? vt_srgb_table() : NULL;
     const float c = r->rotation == 0 ? 1.0f : cosf(r->rotation), s = r->rotation == 0 ? 0.0f : sinf(r->rotation);
@@ -253,9 +303,22 @@ static inline void tex_lanes(const vt_texref *r, vf u0, vf v0, vf dxu0, vf dxv0,
         uint32_t L = (uint32_t)lvl[__builtin_ctz(todo)];
         vm mk = vm_and(act, vi_eq(vx_of(fl), vi_set((int32_t)L)));
         vf a[3] = {zero, zero, zero}, b[3] = {zero, zero, zero};
-        bilinear(r, L, u, v, tab, ch, a);
         vf fk = vf_select(mk, f, zero);
-        if (mips && vm_bits(vf_lt(zero, fk))) {
+        const bool two = mips && vm_bits(vf_lt(zero, fk));
+#if CULL_SIMD_ISA == 3
+        if (tl) {
+            bilinear_h(r, tl, L, u, v, a);
+            if (two) {
+                bilinear_h(r, tl, L + 1, u, v, b);
+                for (int k = 0; k < 3; k++) a[k] = vf_fma(fk, vf_sub(b[k], a[k]), a[k]);
+            }
+            for (int k = 0; k < 3; k++) o[k] = vf_select(mk, a[k], o[k]);
+            todo &= ~vm_bits(mk);
+            continue;
+        }
+#endif
+        bilinear(r, L, u, v, tab, ch, a);
+        if (two) {
             bilinear(r, L + 1, u, v, tab, ch, b);
             for (int k = 0; k < 3; k++) a[k] = vf_fma(fk, vf_sub(b[k], a[k]), a[k]);
         }
@@ -297,7 +360,7 @@ static inline bool mat_reads_uv(const vt_material *m)
 /* vt_surface_params in lanes (no normal map: mat_lanes_ok) for the lanes
  * in act: uv says the lanes' UVs are read. The normal stays as
  * interpolated (the kernel normalises it). */
-static inline void mat_lanes(const vt_material *m, const gin *in, bool uv, vm act, gout *g)
+static inline void mat_lanes(const vt_material *m, const gin *in, bool uv, vm act, const vt_texcache *tc, gout *g)
 {
     const vf zero = vf_set(0), one = vf_set(1);
     if (!m) {
@@ -315,18 +378,18 @@ static inline void mat_lanes(const vt_material *m, const gin *in, bool uv, vm ac
     if (uv) {
         vf t[3];
         if (m->tex[VT_SLOT_BASE].tex) {
-            tex_lanes(&m->tex[VT_SLOT_BASE], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, true, 7, t);
+            tex_lanes(&m->tex[VT_SLOT_BASE], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, true, 7, tc, t);
             for (int k = 0; k < 3; k++) base[k] = vf_mul(base[k], t[k]);
         }
         if (m->tex[VT_SLOT_MR].tex) {
-            tex_lanes(&m->tex[VT_SLOT_MR], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, false, 6, t);
+            tex_lanes(&m->tex[VT_SLOT_MR], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, false, 6, tc, t);
             rough = vf_mul(rough, t[1]);
             metal = vf_mul(metal, t[2]);
         }
         /* an emission of 0 stays 0 whatever the texture says: no sample */
         if (m->tex[VT_SLOT_EMISSIVE].tex && (m->emissive[0] != 0 || m->emissive[1] != 0 || m->emissive[2] != 0) &&
             m->emissive_strength != 0) {
-            tex_lanes(&m->tex[VT_SLOT_EMISSIVE], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, true, 7, t);
+            tex_lanes(&m->tex[VT_SLOT_EMISSIVE], in->u, in->v, in->dxu, in->dxv, in->dyu, in->dyv, act, true, 7, tc, t);
             for (int k = 0; k < 3; k++) em[k] = vf_mul(em[k], t[k]);
         }
     }

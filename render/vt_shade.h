@@ -102,6 +102,7 @@ typedef struct vt_span {
     const struct vt_shadow *sh; /* the sun's shadow cascades (vt_shadow.h), or NULL: unshadowed */
     const float *ao;            /* per pixel: ambient occlusion 0..1 (the SSAO pass), or NULL: 1 */
     float ray0[3], ray1[3];     /* with an environment: the row's view rays c0 + X c1 (vt_view_dir_row) */
+    const struct vt_texcache *tc; /* decoded sRGB textures (vt_texlin.h), or NULL */
 } vt_span;
 
 /* The surface a pixel shows (a triangle's record, or the ground plane),

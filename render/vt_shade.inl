@@ -10,6 +10,7 @@
  */
 #include "vt_brdf.h"
 #include "vt_mask.h"
+#include "vt_texlin.h"
 
 #include <float.h>
 #include <math.h>
@@ -530,11 +531,11 @@ void VT_SHADE_NAME(const vt_span *sp)
             const vm act = vm_from_bits(mb);
             const vt_material *m = (const vt_material *)(k & ~(uintptr_t)1);
             if (q == 0) {
-                mat_lanes(m, &in, k & 1, act, &go);
+                mat_lanes(m, &in, k & 1, act, sp->tc, &go);
                 continue;
             }
             gout g;
-            mat_lanes(m, &in, k & 1, act, &g);
+            mat_lanes(m, &in, k & 1, act, sp->tc, &g);
 #define SEL(f) go.f = vf_select(act, g.f, go.f)
             SEL(dr), SEL(dg), SEL(db), SEL(fr), SEL(fg), SEL(fb), SEL(er), SEL(eg), SEL(eb), SEL(a2), SEL(ro);
 #undef SEL

@@ -30,6 +30,7 @@
 #include "vt_raster.h"
 #include "vt_shade.h"
 #include "vt_ssao.h"
+#include "vt_texlin.h"
 
 #include <float.h>
 #include <math.h>
@@ -120,6 +121,7 @@ struct vt_soft {
     size_t hz_old_cap;
     bool coarse;            /* the coarse depth test is on (vt_soft_coarse_depth) */
     vt_skytab sky;          /* the analytic sky's table */
+    vt_texcache tc;         /* decoded copies of the sRGB textures (vt_texlin.h) */
     vt_post post;           /* exposure and FXAA's scratch (vt_post.h) */
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
     vt_ibl ibl;             /* the image-based ambient, kept while the sky is the same */
@@ -159,6 +161,7 @@ void vt_soft_destroy(vt_soft *r)
 {
     if (!r) return;
     vt_post_free(&r->post);
+    vt_texcache_free(&r->tc);
     free(r->near);
     free(r->id);
     free(r->xtab);
@@ -814,7 +817,7 @@ static void job_shade(void *arg, uint32_t t)
     const stri *st[MAX_THREADS];
     for (uint32_t b = 0; b < jb->nthreads; b++) st[b] = r->tb[b].st;
     vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .rule = vt_depth_rule_of(fr->v, &fr->vr),
-                  .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h, .sh = jb->sh};
+                  .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h, .sh = jb->sh, .tc = &r->tc};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
     (void)t;
     for (uint32_t tr; (tr = __atomic_fetch_add(&jb->next_row, 1, __ATOMIC_RELAXED)) < trows;) {
@@ -950,6 +953,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     }
     uint64_t t3 = now_ns();
 
+    vt_texcache_prepare(&r->tc, inst, ninst, f->env ? f->env->ground_mat : NULL);
     jb.next_row = 0;
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
     else job_shade(&jb, 0);

@@ -13,6 +13,7 @@
  */
 #include "test_util.h"
 #include "vt_surface.h"
+#include "vt_texlin.h"
 
 #include <math.h>
 #include <string.h>
@@ -196,7 +197,38 @@ static void test_texture_sample_matches_reference(void **state)
     printf("texture sampler: %u samples equal to the reference\n", cases);
 }
 
+/* Half floats for the sampler's decoded copies (vt_texlin.h) against a
+ * reference made from the definition: every one of the 31,744 finite
+ * non-negative halves decoded by ldexp (exact in double), and the
+ * encoder's choice for the 256 sRGB decodes and 200,000 random values of
+ * 0..1 checked to be a nearest half (ties to the even one). */
+static void test_texture_half_floats(void **state)
+{
+    (void)state;
+    static double val[0x7C00];
+    for (uint32_t h = 0; h < 0x7C00; h++) {
+        uint32_t e = h >> 10, m = h & 1023;
+        val[h] = e ? ldexp(1024 + m, (int)e - 25) : ldexp(m, -24);
+        assert_true((double)vt_half_to_float((uint16_t)h) == val[h]);
+    }
+    rng r = {test_seed() ^ 0x4A1Fu};
+    const float *tab = vt_srgb_table();
+    for (int i = 0; i < 200256; i++) {
+        float v = i < 256 ? tab[i] : i % 3 ? (float)rng_f(&r) : (float)rng_log(&r, 1e-9, 1);
+        uint16_t h = vt_half_of(v);
+        assert_true(h < 0x7C00);
+        double d = fabs(val[h] - v), lo = h ? fabs(val[h - 1] - v) : INFINITY, hi = fabs(val[h + 1] - v);
+        assert_true(d <= lo && d <= hi);
+        if (d == lo || d == hi) assert_true((h & 1) == 0); /* a tie goes to the even half */
+    }
+    assert_int_equal(vt_half_of(0), 0);
+    assert_int_equal(vt_half_of(-1), 0);
+    assert_int_equal(vt_half_of(NAN), 0);
+    assert_int_equal(vt_half_of(1), 0x3C00);
+}
+
 const struct CMUnitTest texsample_tests[] = {
     cmocka_unit_test(test_texture_sample_matches_reference),
+    cmocka_unit_test(test_texture_half_floats),
 };
 const size_t texsample_tests_count = sizeof texsample_tests / sizeof texsample_tests[0];

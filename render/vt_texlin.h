@@ -1,0 +1,52 @@
+/*
+ * vt_texlin.h — the software renderer's decoded copies of its sRGB
+ * textures (internal to render/): each level as linear-light RGBA in
+ * IEEE half floats, 64 bits a texel, so the shading kernel's sampler
+ * (vt_gather.inl, AVX2) fetches a texel's decoded colour with two 64-bit
+ * gathers a corner for 8 pixels instead of its bytes and three sRGB
+ * table gathers. A half keeps 11 significant bits: a decoded value
+ * within 2^-11 relative of the table's (tests/test_scene_render.c's
+ * gather test holds the sampler to 1e-3).
+ *
+ * The cache is keyed by texture id and generation (a replaced texture
+ * has a new generation), made at the start of a frame for the sRGB slots
+ * the frame's materials sample, and forgets what a frame no longer uses
+ * after a few frames; textures above a size budget are left to the table
+ * path.
+ */
+#ifndef VANTAGE_VT_TEXLIN_H
+#define VANTAGE_VT_TEXLIN_H
+
+#include "vt_soft.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct vt_texlin {
+    uint32_t id, gen, w, h, levels;
+    uint64_t *lv[16];       /* level k: (w >> k) x (h >> k) texels, R G B A halves from bit 0 */
+    uint64_t used;          /* the frame that last used it */
+    size_t bytes;
+} vt_texlin;
+
+typedef struct vt_texcache {
+    vt_texlin *e;
+    uint32_t n, cap;
+    uint64_t frame;
+    size_t bytes;
+} vt_texcache;
+
+/* The frame's sRGB texture slots (instances' materials and the ground's)
+ * made ready where memory and the budget allow (the rest is sampled by
+ * table). */
+void vt_texcache_prepare(vt_texcache *c, const vt_instance *inst, uint32_t ninst, const vt_material *ground);
+/* The decoded copy of view t, or NULL. */
+const vt_texlin *vt_texcache_find(const vt_texcache *c, const vt_texview *t);
+void vt_texcache_free(vt_texcache *c);
+
+/* A float in [0, 1] as an IEEE half (round to nearest even; below the
+ * smallest normal half, 2^-14, a subnormal), and back. */
+uint16_t vt_half_of(float v);
+float vt_half_to_float(uint16_t h);
+
+#endif
