@@ -2,30 +2,34 @@
  * vt_gather.inl — the shading kernel's gather in lanes (included by
  * vt_shade.inl after its lane helpers, once per instruction set): what
  * surface each pixel of a span shows, its material evaluated, W pixels
- * at a time. vt_span_surface (vt_span.c) is the scalar reference and the
- * path for what the lanes do not cover (a damaged instance's rim, a
- * normal map, a mirrored or non-power-of-two texture, a filter other
- * than GL's trilinear default); tests/test_gather.c compares the two.
+ * at a time; and the sky where nothing is drawn. vt_span_surface and
+ * vt_span_sky (vt_span.c) are the scalar reference and the path for what
+ * the lanes do not cover (a damaged instance's rim, a normal map, a
+ * mirrored or non-power-of-two texture, a filter other than GL's
+ * trilinear default); tests/test_scene_render.c's test_scene_gather_lanes
+ * compares the two on every instruction set.
  *
  * Why: the scalar gather was ~750 M instructions of a 1280x720 city
- * frame's ~1.5 G (BENCHMARKS.md, issue 20's frame): a call per pixel
+ * frame's ~1.75 G (BENCHMARKS.md, issue 20's frame): a call per pixel
  * through vt_surface_params and two trilinear samples through
  * vt_tex_sample, each with its own transform, LOD (libm's log2f) and 8
- * texels decoded one by one. Here a run of pixels showing the same
- * triangle (most of a span: the city's triangles cover tens to hundreds
- * of pixels) shares its coefficients as broadcast constants, every
- * texture slot's transform and level sizes are resolved once per run, and
- * the 8 texels of a trilinear sample are fetched for W pixels at once
- * (AVX2 gathers), the sRGB decode by the same table as the scalar
- * sampler.
+ * texels decoded one by one. Here the pixels of a group showing the same
+ * triangle (most of a group: the city's triangles cover tens to hundreds
+ * of pixels) share its coefficients as broadcast constants, the pixels
+ * of one material sample its textures together, every slot's transform
+ * and level sizes are resolved once a call, and the 8 texels of a
+ * trilinear sample are fetched for W pixels at once (AVX2 gathers; sRGB
+ * slots from vt_texlin's half-float copies where there is one, else
+ * decoded by the scalar sampler's table).
  *
  * Numbers: the same sampling rules as vt_tex_sample (GL's: the scale
  * factor from the longer derivative in texels, the level's texel centres,
  * wraps after flooring, sRGB decoded per texel before filtering), with the
  * LOD's log2 by a polynomial (|error| < 2e-7 in the level), the texture
  * coordinates in float (the scalar sampler scales them in double: the same
- * texels and weights to ~1e-6 of a texel), and fused multiply-adds with
- * AVX2: a texel value differs from the scalar one by ~1e-6 relative.
+ * texels and weights to ~1e-6 of a texel), fused multiply-adds with AVX2
+ * and the half-float copies (2^-11 relative a texel): a pixel's radiance
+ * agrees with the reference's to ~2e-4.
  */
 
 /* ---- integer lanes -------------------------------------------------------------- */
