@@ -41,7 +41,7 @@ float vt_half_to_float(uint16_t h)
 
 const vt_texlin *vt_texcache_find(const vt_texcache *c, const vt_texview *t)
 {
-    if (!c || !t) return NULL;
+    if (!c || !t || !t->id) return NULL; /* id 0: pixels of this frame only (vt_scene.h) */
     for (uint32_t i = 0; i < c->n; i++) {
         const vt_texlin *e = &c->e[i];
         if (e->id == t->id && e->gen == t->gen && e->w == t->w && e->h == t->h && e->levels == t->levels) return e;
@@ -97,7 +97,7 @@ static bool entry_make(vt_texcache *c, const vt_texview *t)
  * where it can be (else it is sampled by table). */
 static void slot_ready(vt_texcache *c, const vt_texref *r)
 {
-    if (!r->tex || !r->tex->mip) return;
+    if (!r->tex || !r->tex->mip || !r->tex->id) return; /* id 0 names no pixels across frames */
     for (uint32_t i = 0; i < c->n; i++) {
         vt_texlin *e = &c->e[i];
         if (e->id == r->tex->id && e->gen == r->tex->gen && e->w == r->tex->w && e->h == r->tex->h &&

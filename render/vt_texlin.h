@@ -9,7 +9,8 @@
  * gather test holds the sampler to 1e-3).
  *
  * The cache is keyed by texture id and generation (a replaced texture
- * has a new generation), made at the start of a frame for the sRGB slots
+ * has a new generation; id 0, pixels named for one frame only, is never
+ * kept), made at the start of a frame for the sRGB slots
  * the frame's materials sample, and forgets what a frame no longer uses
  * after a few frames; textures above a size budget are left to the table
  * path.

@@ -1512,6 +1512,23 @@ static void *stall_drain_main(void *p)
     return NULL;
 }
 
+/* One client's two RAW renders of the stalled viewers' size (a thread:
+ * two at once reach both render workers). */
+typedef struct warm_big {
+    vtc_client *c;
+    vp_render m;
+    int rc;
+} warm_big;
+
+static void *warm_big_render(void *arg)
+{
+    warm_big *w = arg;
+    vp_frame f;
+    w->rc = vtc_render(w->c, &w->m, &f);
+    if (w->rc == VP_OK) w->rc = vtc_render(w->c, &w->m, &f);
+    return NULL;
+}
+
 /* The reliability fault "a viewer that stops reading while others stream":
  * on the demo city, with an editor moving an entity ~60 times a second, a
  * healthy viewer streams 320x180 JPEG frames (at most 30/s) and a query
@@ -1528,8 +1545,9 @@ static void *stall_drain_main(void *p)
  * as it is now (no queue; or the daemon dropped it at its output limit),
  * and the daemon's RSS grew by at most 2 x 4 frames + 16 MB: the 4 frames
  * waiting in the stalled viewers' buffers, and on each of the 2 workers
- * the reply being drawn and the renderer's per-pixel scratch (under a
- * frame) kept at the largest size drawn; 16 MB for the allocator. A
+ * the reply being drawn; 16 MB for the allocator. The renderers' scratch
+ * at the stalled viewers' size is made before the baseline (each worker
+ * draws that size once first). A
  * daemon that drew or queued frames for them grows without bound (one
  * that skipped the latest-frame-wins checks reached 750 MB here, with the
  * healthy viewer at 12 fps and the query p99 at 240 ms). */
@@ -1563,6 +1581,22 @@ static void test_stalled_viewer_isolated(void **state)
     assert_int_equal(pthread_create(&th[0], NULL, stall_querier, &r), 0);
     assert_int_equal(pthread_create(&th[1], NULL, stall_viewer, &r), 0);
     assert_int_equal(pthread_create(&th[2], NULL, stall_editor, &r), 0);
+    /* each render worker draws the stalled viewers' size before the
+       baseline: its scratch at that size (per-pixel buffers, SSAO planes,
+       the shadow cascades and their tiles, the texture copies: more than
+       a frame since issue 20) is the baseline's, not the stall's */
+    warm_big wb[2];
+    pthread_t wt[2];
+    for (int k = 0; k < 2; k++) {
+        wb[k] = (warm_big){.c = connect_role(&d, VP_ROLE_VIEWER, k == 0), .m = {.format = VP_FRAME_RAW}};
+        assert_true(vtc_view_perspective(&wb[k].m.view, eye, at, NULL, 60, SW, SH, 0.5, 1500));
+        assert_int_equal(pthread_create(&wt[k], NULL, warm_big_render, &wb[k]), 0);
+    }
+    for (int k = 0; k < 2; k++) {
+        pthread_join(wt[k], NULL);
+        assert_int_equal(wb[k].rc, VP_OK);
+        vtc_close(wb[k].c);
+    }
     long rss_warm = 0, rss_a = 0, rss_b = 0; /* the daemon's largest RSS (kB) in each phase */
     stall_sleep(d.pid, 300, &rss_warm); /* warm up: the workers' renderers, the caches */
 
