@@ -97,6 +97,19 @@ static inline void vi_store(int32_t *p, vix a) { *p = a; }
 static inline vix vi_loadu(const uint32_t *p) { return (int32_t)*p; }
 #endif
 
+/* The lanes' indices 0 .. W - 1, as floats. */
+static inline vf lane_index(void)
+{
+    static const A float k[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    return vf_load(k);
+}
+
+/* The NDC x of the span's columns i .. i + W - 1. */
+static inline vf lanes_ndc_x(const vt_span *sp, unsigned i)
+{
+    return vf_fma(lane_index(), vf_set((float)sp->inv_w), vf_set(vt_ndc_x(sp->x0 + i, sp->inv_w)));
+}
+
 /* log2 of x > 0 finite (normal or not: subnormals read as their exponent
  * field's 2^-126 band, a level far below 0 either way): the exponent plus
  * log2 of the mantissa m in [sqrt(1/2), sqrt(2)) by Cephes' logf
@@ -681,8 +694,7 @@ static inline void span_sky(const vt_span *sp, float *cr, float *cg, float *cb, 
         vt_span_sky(sp, cr, cg, cb, cov);
         return;
     }
-    static const A float lane_f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-    const vf zero = vf_set(0), lanes_x = vf_load(lane_f), dX = vf_set((float)sp->inv_w);
+    const vf zero = vf_set(0), lanes_x = lane_index(), dX = vf_set((float)sp->inv_w);
     uint32_t sky = 0; /* the pixels nothing covers */
     for (unsigned i = 0; i < S; i += W) sky |= vm_bits(vf_le(vf_load(cov + i), zero)) << i;
     if (!sky) return;
@@ -716,7 +728,7 @@ static inline void span_sky(const vt_span *sp, float *cr, float *cg, float *cb, 
     for (unsigned i = 0; i < S; i += W) {
         if (!(sky >> i & lanes_all())) continue;
         vf o[3];
-        sky_lanes(pe, sp->ray0, sp->ray1, vf_fma(lanes_x, dX, vf_set(vt_ndc_x(sp->x0 + i, sp->inv_w))), o);
+        sky_lanes(pe, sp->ray0, sp->ray1, lanes_ndc_x(sp, i), o);
         vm open = vf_le(vf_load(cov + i), zero);
         for (int c = 0; c < 3; c++) vf_store(out[c] + i, vf_select(open, o[c], vf_load(out[c] + i)));
     }

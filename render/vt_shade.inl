@@ -45,13 +45,11 @@ static inline vf dot3(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
 typedef __m256i vix;
 static inline vf vf_floor(vf a) { return _mm256_floor_ps(a); }
 static inline vix vx_of(vf a) { return _mm256_cvttps_epi32(a); }
-static inline vix vx_add(vix a, int k) { return _mm256_add_epi32(a, _mm256_set1_epi32(k)); }
 static inline vf vf_gather(const float *b, vix i) { return _mm256_i32gather_ps(b, i, 4); }
 #elif CULL_SIMD_ISA == 2
 typedef __m128i vix;
 static inline vf vf_floor(vf a) { return _mm_floor_ps(a); }
 static inline vix vx_of(vf a) { return _mm_cvttps_epi32(a); }
-static inline vix vx_add(vix a, int k) { return _mm_add_epi32(a, _mm_set1_epi32(k)); }
 static inline vf vf_gather(const float *b, vix i)
 {
     return _mm_setr_ps(b[_mm_extract_epi32(i, 0)], b[_mm_extract_epi32(i, 1)], b[_mm_extract_epi32(i, 2)],
@@ -61,7 +59,6 @@ static inline vf vf_gather(const float *b, vix i)
 typedef int32_t vix;
 static inline vf vf_floor(vf a) { return floorf(a); }
 static inline vix vx_of(vf a) { return (int32_t)a; }
-static inline vix vx_add(vix a, int k) { return a + k; }
 static inline vf vf_gather(const float *b, vix i) { return b[i]; }
 #endif
 
@@ -131,7 +128,7 @@ static inline vf vf_exp(vf x)
 /* All W lanes' bits. */
 static inline uint32_t lanes_all(void)
 {
-    return W == 32 ? ~0u : (1u << W) - 1;
+    return (1u << W) - 1;
 }
 
 #include "vt_gather.inl"
@@ -445,8 +442,6 @@ void VT_SHADE_NAME(const vt_span *sp)
         __builtin_prefetch(t), __builtin_prefetch(t + 64), __builtin_prefetch(t + 128), __builtin_prefetch(t + 192);
     }
     const vf zero0 = vf_set(0), one0 = vf_set(1), amb = vf_set(VT_AMBIENT);
-    static const A float lane_f[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-    const vf lane_i = vf_load(lane_f); /* the lanes' column offsets */
     const vt_material *lane_mat = NULL; /* the last material found lane-able (NULL: the default, always) */
     for (unsigned g0 = 0; g0 < S; g0 += W) {
         /* the lanes' records: a vector load from the id buffer (not
@@ -484,7 +479,7 @@ void VT_SHADE_NAME(const vt_span *sp)
             if (!vt_gather_scalar && (t ? !t->mask : true) && (m == lane_mat || (mat_lanes_ok(m) && (lane_mat = m, true)))) {
                 const bool uv = mat_reads_uv(m) && (!t || t->has_uv);
                 gin g;
-                if (t) tri_lanes(t, sp, vf_fma(lane_i, vf_set((float)sp->inv_w), vf_set(vt_ndc_x(sp->x0 + g0, sp->inv_w))), uv, &g);
+                if (t) tri_lanes(t, sp, lanes_ndc_x(sp, g0), uv, &g);
                 else ground_lanes(sp, g0, mb, uv, &g);
                 const vm act = vm_from_bits(mb);
                 if (!lanes) {

@@ -39,14 +39,20 @@ float vt_half_to_float(uint16_t h)
     return f * 0x1p112f;
 }
 
-const vt_texlin *vt_texcache_find(const vt_texcache *c, const vt_texview *t)
+/* The copy of view t (its pixels named by id and generation), or NULL. */
+static vt_texlin *entry_of(const vt_texcache *c, const vt_texview *t)
 {
     if (!c || !t || !t->id) return NULL; /* id 0: pixels of this frame only (vt_scene.h) */
     for (uint32_t i = 0; i < c->n; i++) {
-        const vt_texlin *e = &c->e[i];
+        vt_texlin *e = &c->e[i];
         if (e->id == t->id && e->gen == t->gen && e->w == t->w && e->h == t->h && e->levels == t->levels) return e;
     }
     return NULL;
+}
+
+const vt_texlin *vt_texcache_find(const vt_texcache *c, const vt_texview *t)
+{
+    return entry_of(c, t);
 }
 
 static void entry_free(vt_texcache *c, uint32_t i)
@@ -98,15 +104,9 @@ static bool entry_make(vt_texcache *c, const vt_texview *t)
 static void slot_ready(vt_texcache *c, const vt_texref *r)
 {
     if (!r->tex || !r->tex->mip || !r->tex->id) return; /* id 0 names no pixels across frames */
-    for (uint32_t i = 0; i < c->n; i++) {
-        vt_texlin *e = &c->e[i];
-        if (e->id == r->tex->id && e->gen == r->tex->gen && e->w == r->tex->w && e->h == r->tex->h &&
-            e->levels == r->tex->levels) {
-            e->used = c->frame;
-            return;
-        }
-    }
-    (void)entry_make(c, r->tex);
+    vt_texlin *e = entry_of(c, r->tex);
+    if (e) e->used = c->frame;
+    else (void)entry_make(c, r->tex);
 }
 
 void vt_texcache_prepare(vt_texcache *c, const vt_instance *inst, uint32_t ninst, const vt_material *ground)
