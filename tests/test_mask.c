@@ -247,14 +247,38 @@ static void test_mask_matches_reference(void **state)
 }
 
 /* A 4 m box (the unit cube stretched) with a 1.2 m hole in its front
- * face (z = 2), seen head-on from z = 10 (reversed-Z). */
-static void holed_box(vt_instance *in, cull_dvol *dv, cull_view *v, uint32_t W, uint32_t H)
+ * face (z = 2), seen head-on from z = 10 (reversed-Z) at 101 x 101, with
+ * the renderers and the pictures' buffers. */
+enum { HW = 101, HH = 101 };
+typedef struct holed {
+    rend rs[2];
+    uint32_t nr;
+    vt_mesh cube;           /* the unit cube, flat normals */
+    float *c, *d;           /* colour and depth, HW x HH */
+    vt_instance in;
+    cull_dvol dv;
+    cull_view v;
+} holed;
+
+static void holed_open(holed *h)
 {
-    *in = (vt_instance){.mesh = 0, .bmin = {-2, -2, -2}, .bmax = {2, 2, 2}, .albedo = {0.8f, 0.6f, 0.4f}};
-    assert_int_equal(cull_dvol_init(dv, in->bmin, in->bmax, 8), CULL_OK);
-    assert_int_equal(cull_dvol_add_sphere(dv, (double[3]){0, 0, 2}, 1.2), CULL_OK);
-    in->dvol = dv;
-    look_at(v, (double[3]){0, 0, 10}, (double[3]){0, 0, 0}, 0.8, W, H, CULL_DEPTH_REVERSED);
+    h->nr = rends_open(h->rs);
+    h->cube = vt_mesh_box;
+    h->c = malloc(HW * HH * 16), h->d = malloc(HW * HH * 4);
+    assert_true(h->c && h->d);
+    h->in = (vt_instance){.mesh = 0, .bmin = {-2, -2, -2}, .bmax = {2, 2, 2}, .albedo = {0.8f, 0.6f, 0.4f}};
+    assert_int_equal(cull_dvol_init(&h->dv, h->in.bmin, h->in.bmax, 8), CULL_OK);
+    assert_int_equal(cull_dvol_add_sphere(&h->dv, (double[3]){0, 0, 2}, 1.2), CULL_OK);
+    h->in.dvol = &h->dv;
+    look_at(&h->v, (double[3]){0, 0, 10}, (double[3]){0, 0, 0}, 0.8, HW, HH, CULL_DEPTH_REVERSED);
+}
+
+static void holed_close(holed *h)
+{
+    cull_dvol_free(&h->dv);
+    free(h->c);
+    free(h->d);
+    rends_close(h->rs, h->nr);
 }
 
 /* A 4 m box with a hole in its front face: through it, the back wall's
@@ -264,52 +288,41 @@ static void holed_box(vt_instance *in, cull_dvol *dv, cull_view *v, uint32_t W, 
 static void test_mask_inside_shows(void **state)
 {
     (void)state;
-    rend rs[2];
-    uint32_t nr = rends_open(rs);
-    const vt_mesh cube = vt_mesh_box; /* the unit cube, flat normals */
-    const uint32_t W = 101, H = 101;
-    float *c = malloc(W * H * 16), *d = malloc(W * H * 4);
-    assert_true(c && d);
-    vt_instance in;
-    cull_dvol dv;
-    cull_view v;
-    holed_box(&in, &dv, &v, W, H);
-    for (uint32_t ri = 0; ri < nr; ri++) {
-        assert_int_equal(rend_draw(&rs[ri], &v, W, H, &cube, &in, 1, c, d), 0);
-        size_t mid = (size_t)(H / 2) * W + W / 2, side = (size_t)(H / 2) * W + W / 2 + 25;
+    holed h;
+    holed_open(&h);
+    for (uint32_t ri = 0; ri < h.nr; ri++) {
+        assert_int_equal(rend_draw(&h.rs[ri], &h.v, HW, HH, &h.cube, &h.in, 1, h.c, h.d), 0);
+        size_t mid = (size_t)(HH / 2) * HW + HW / 2, side = (size_t)(HH / 2) * HW + HW / 2 + 25;
         fprintf(stderr, "mask (%s): through the hole depth %g (back wall 12), colour %g; beside it depth %g\n",
-                rs[ri].name, d[mid], c[4 * mid], d[side]);
-        assert_true(fabs(d[mid] - 12) < 1e-3);
-        assert_true(fabs(d[side] - 8) < 1e-3);
+                h.rs[ri].name, h.d[mid], h.c[4 * mid], h.d[side]);
+        assert_true(fabs(h.d[mid] - 12) < 1e-3);
+        assert_true(fabs(h.d[side] - 8) < 1e-3);
         for (int a = 0; a < 3; a++) {
-            assert_true(fabs(c[4 * mid + a] - VT_AMBIENT * in.albedo[a] * VT_MASK_INTERIOR) < 1e-6);
-            assert_true(fabs(c[4 * side + a] - VT_AMBIENT * in.albedo[a]) < 1e-6);
+            assert_true(fabs(h.c[4 * mid + a] - VT_AMBIENT * h.in.albedo[a] * VT_MASK_INTERIOR) < 1e-6);
+            assert_true(fabs(h.c[4 * side + a] - VT_AMBIENT * h.in.albedo[a]) < 1e-6);
         }
     }
     /* a broken volume (one sample on an axis; no field) is refused before
        anything is drawn: the buffers keep what they held */
-    cull_dvol bad = dv;
+    cull_dvol bad = h.dv;
     bad.n[0] = 1;
-    cull_dvol nofield = dv;
+    cull_dvol nofield = h.dv;
     nofield.d = NULL;
     const cull_dvol *broken[2] = {&bad, &nofield};
-    for (uint32_t ri = 0; ri < nr; ri++)
+    for (uint32_t ri = 0; ri < h.nr; ri++)
         for (int k = 0; k < 2; k++) {
-            for (size_t q = 0; q < (size_t)W * H; q++) d[q] = -7.0f;
-            in.dvol = broken[k];
+            for (size_t q = 0; q < (size_t)HW * HH; q++) h.d[q] = -7.0f;
+            h.in.dvol = broken[k];
             char err[256] = "";
-            int rc = rs[ri].soft ? vt_soft_render(rs[ri].soft, &v, W, H, &cube, 1, &in, 1, NULL, 0, c, d, W, NULL, err,
-                                                  sizeof err)
-                                 : vt_gldraw_render(rs[ri].gl, &v, W, H, &cube, 1, &in, 1, NULL, 0, c, d, W, NULL, err,
-                                                    sizeof err);
+            int rc = h.rs[ri].soft ? vt_soft_render(h.rs[ri].soft, &h.v, HW, HH, &h.cube, 1, &h.in, 1, NULL, 0, h.c,
+                                                    h.d, HW, NULL, err, sizeof err)
+                                   : vt_gldraw_render(h.rs[ri].gl, &h.v, HW, HH, &h.cube, 1, &h.in, 1, NULL, 0, h.c, h.d,
+                                                      HW, NULL, err, sizeof err);
             assert_int_equal(rc, VT_ERR_INVALID);
             assert_non_null(strstr(err, "bad destruction volume"));
-            for (size_t q = 0; q < (size_t)W * H; q++) assert_true(d[q] == -7.0f);
+            for (size_t q = 0; q < (size_t)HW * HH; q++) assert_true(h.d[q] == -7.0f);
         }
-    cull_dvol_free(&dv);
-    free(c);
-    free(d);
-    rends_close(rs, nr);
+    holed_close(&h);
 }
 
 /* vt_mask_clear is conservative: wherever it calls a triangle clear, the
@@ -385,39 +398,28 @@ static void test_mask_clear_is_conservative(void **state)
 static void test_mask_inside_lit_with_env(void **state)
 {
     (void)state;
-    rend rs[2];
-    uint32_t nr = rends_open(rs);
-    const vt_mesh cube = vt_mesh_box;
-    const uint32_t W = 101, H = 101;
-    float *c = malloc(W * H * 16), *d = malloc(W * H * 4);
-    assert_true(c && d);
-    vt_instance in;
-    cull_dvol dv;
-    cull_view v;
-    holed_box(&in, &dv, &v, W, H);
+    holed h;
+    holed_open(&h);
     vt_env env = {.sky_mode = VT_SKY_COLOR, .sky = {1, 1, 1}, .exposure_mode = VT_EXPOSURE_FIXED};
-    for (uint32_t ri = 0; ri < nr; ri++) {
-        vt_frame f = {.view = &v, .width = W, .height = H, .meshes = &cube, .nmesh = 1, .inst = &in, .ninst = 1,
-                      .env = &env, .rgba = c, .depth = d, .stride = W,
+    for (uint32_t ri = 0; ri < h.nr; ri++) {
+        vt_frame f = {.view = &h.v, .width = HW, .height = HH, .meshes = &h.cube, .nmesh = 1, .inst = &h.in, .ninst = 1,
+                      .env = &env, .rgba = h.c, .depth = h.d, .stride = HW,
                       .fx_off = VT_FX_SSAO | VT_FX_FXAA | VT_FX_SHADOWS};
         char err[256];
-        int rc = rs[ri].soft ? vt_soft_draw(rs[ri].soft, &f, NULL, err, sizeof err)
-                             : vt_gldraw_draw(rs[ri].gl, &f, NULL, err, sizeof err);
-        if (rc) fail_msg("%s: %s", rs[ri].name, err);
-        size_t mid = (size_t)(H / 2) * W + W / 2, side = (size_t)(H / 2) * W + W / 2 + 25;
-        assert_true(fabs(d[mid] - 12) < 1e-3 && fabs(d[side] - 8) < 1e-3);
+        int rc = h.rs[ri].soft ? vt_soft_draw(h.rs[ri].soft, &f, NULL, err, sizeof err)
+                             : vt_gldraw_draw(h.rs[ri].gl, &f, NULL, err, sizeof err);
+        if (rc) fail_msg("%s: %s", h.rs[ri].name, err);
+        size_t mid = (size_t)(HH / 2) * HW + HW / 2, side = (size_t)(HH / 2) * HW + HW / 2 + 25;
+        assert_true(fabs(h.d[mid] - 12) < 1e-3 && fabs(h.d[side] - 8) < 1e-3);
         for (int a = 0; a < 3; a++) {
-            double ratio = c[4 * mid + a] / c[4 * side + a];
-            fprintf(stderr, "mask inside lit (%s): channel %d inside %g, front face %g, ratio %.4f\n", rs[ri].name, a,
-                    c[4 * mid + a], c[4 * side + a], ratio);
-            assert_true(c[4 * side + a] > 0.05f);
+            double ratio = h.c[4 * mid + a] / h.c[4 * side + a];
+            fprintf(stderr, "mask inside lit (%s): channel %d inside %g, front face %g, ratio %.4f\n", h.rs[ri].name, a,
+                    h.c[4 * mid + a], h.c[4 * side + a], ratio);
+            assert_true(h.c[4 * side + a] > 0.05f);
             assert_true(fabs(ratio - 1) < 0.02);
         }
     }
-    cull_dvol_free(&dv);
-    free(c);
-    free(d);
-    rends_close(rs, nr);
+    holed_close(&h);
 }
 
 const struct CMUnitTest mask_tests[] = {
