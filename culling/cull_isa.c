@@ -28,8 +28,9 @@ static uint32_t cpu_probe(void)
     if (!__get_cpuid(1, &a, &b, &c, &d)) return CULL_ISA_SCALAR;
     bool sse41 = c & bit_SSE4_1;
     bool fma = c & bit_FMA, osxsave = c & bit_OSXSAVE, avx = c & bit_AVX;
+    bool f16c = c & bit_F16C; /* the AVX2 kernels widen half floats (every AVX2 CPU has it) */
     bool avx2 = false;
-    if (osxsave && avx && fma) {
+    if (osxsave && avx && fma && f16c) {
         unsigned lo, hi;
         __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
         if ((lo & 6u) == 6u && __get_cpuid_count(7, 0, &a, &b, &c, &d))

@@ -217,25 +217,31 @@ static inline __attribute__((always_inline)) void bilinear(const vt_texref *r, u
 
 #if CULL_SIMD_ISA == 3
 /* Channels 0..2 of 8 texels of a half-float copy (vt_texlin.h) at
- * texel index i: two 64-bit gathers, the low and high halves' words in
- * lane order, each half widened exactly (its bits moved to a float's
- * place and rescaled by 2^112: normal and subnormal halves alike). */
+ * texel index i: two 64-bit gathers (texels 0-3, 4-7), each 128-bit half
+ * of them byte-shuffled to R R G G B B A A (two texels), the R and G
+ * words and the B words put in lane order by one vpermd each, widened
+ * by F16C (exact). */
 static inline void texels_h(const uint64_t *px, vix i, vf c[3])
 {
     const long long *p = (const long long *)(const void *)px;
     __m256i lo = _mm256_i32gather_epi64(p, _mm256_castsi256_si128(i), 8);
     __m256i hi = _mm256_i32gather_epi64(p, _mm256_extracti128_si256(i, 1), 8);
-    __m256 lf = _mm256_castsi256_ps(lo), hf = _mm256_castsi256_ps(hi);
-    __m256i rg = _mm256_castpd_si256(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lf, hf, 0x88)), 0xD8));
-    __m256i ba = _mm256_castpd_si256(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lf, hf, 0xDD)), 0xD8));
-    const __m256i m = _mm256_set1_epi32(0x7FFF);
-    const __m256 k = _mm256_set1_ps(0x1p112f);
-    c[0] = _mm256_mul_ps(_mm256_castsi256_ps(_mm256_slli_epi32(_mm256_and_si256(rg, m), 13)), k);
-    c[1] = _mm256_mul_ps(_mm256_castsi256_ps(_mm256_slli_epi32(_mm256_and_si256(_mm256_srli_epi32(rg, 16), m), 13)), k);
-    c[2] = _mm256_mul_ps(_mm256_castsi256_ps(_mm256_slli_epi32(_mm256_and_si256(ba, m), 13)), k);
+    const __m256i by = _mm256_setr_epi8(0, 1, 8, 9, 2, 3, 10, 11, 4, 5, 12, 13, 6, 7, 14, 15,
+                                        0, 1, 8, 9, 2, 3, 10, 11, 4, 5, 12, 13, 6, 7, 14, 15);
+    lo = _mm256_shuffle_epi8(lo, by); /* R01 G01 B01 A01 | R23 G23 B23 A23 (32-bit words) */
+    hi = _mm256_shuffle_epi8(hi, by); /* R45 G45 B45 A45 | R67 G67 B67 A67 */
+    __m256i rg = _mm256_unpacklo_epi64(lo, hi); /* R01 G01 R45 G45 | R23 G23 R67 G67 */
+    __m256i ba = _mm256_unpackhi_epi64(lo, hi); /* B01 A01 B45 A45 | B23 A23 B67 A67 */
+    const __m256i q = _mm256_setr_epi32(0, 4, 2, 6, 1, 5, 3, 7);
+    rg = _mm256_permutevar8x32_epi32(rg, q); /* R01 R23 R45 R67 | G01 G23 G45 G67 */
+    ba = _mm256_permutevar8x32_epi32(ba, q);
+    c[0] = _mm256_cvtph_ps(_mm256_castsi256_si128(rg));
+    c[1] = _mm256_cvtph_ps(_mm256_extracti128_si256(rg, 1));
+    c[2] = _mm256_cvtph_ps(_mm256_castsi256_si128(ba));
 }
 
-/* bilinear() on the half-float copy of the slot's texture. */
+/* bilinear() on the half-float copy of the slot's texture: the two
+ * texel rows blended along x as they come (fewer live registers). */
 static inline __attribute__((always_inline)) void bilinear_h(const vt_texref *r, const vt_texlin *tl, uint32_t lv, vf u,
                                                              vf v, vf o[3])
 {
@@ -247,14 +253,15 @@ static inline __attribute__((always_inline)) void bilinear_h(const vt_texref *r,
     axis(u, ws, r->wrap_s, &i0, &i1, &ax);
     axis(v, hs, r->wrap_t, &j0, &j1, &ay);
     j0 = vi_sll(j0, ws), j1 = vi_sll(j1, ws);
-    vf a[3], b[3], c[3], d[3];
+    vf a[3], b[3], top[3];
     texels_h(tl->lv[lv], vi_add(j0, i0), a);
     texels_h(tl->lv[lv], vi_add(j0, i1), b);
-    texels_h(tl->lv[lv], vi_add(j1, i0), c);
-    texels_h(tl->lv[lv], vi_add(j1, i1), d);
+    for (int k = 0; k < 3; k++) top[k] = vf_fma(ax, vf_sub(b[k], a[k]), a[k]);
+    texels_h(tl->lv[lv], vi_add(j1, i0), a);
+    texels_h(tl->lv[lv], vi_add(j1, i1), b);
     for (int k = 0; k < 3; k++) {
-        vf top = vf_fma(ax, vf_sub(b[k], a[k]), a[k]), bot = vf_fma(ax, vf_sub(d[k], c[k]), c[k]);
-        o[k] = vf_fma(ay, vf_sub(bot, top), top);
+        vf bot = vf_fma(ax, vf_sub(b[k], a[k]), a[k]);
+        o[k] = vf_fma(ay, vf_sub(bot, top[k]), top[k]);
     }
 }
 #endif

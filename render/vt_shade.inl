@@ -468,7 +468,7 @@ void VT_SHADE_NAME(const vt_span *sp)
             vf_store(s.a2 + g0, one0);
             vf_store(s.ro + g0, one0);
         }
-        gin in;
+        gin in = {0}; /* every field set by the first lane-able record (zeroed: gcc -O3 cannot tell) */
         while (pend) {
             const uint32_t id = ids[__builtin_ctz(pend)];
             const uint32_t mb = vm_bits(vi_eq(idv, vi_set((int32_t)id)));
@@ -519,7 +519,7 @@ void VT_SHADE_NAME(const vt_span *sp)
         }
         if (!lanes) continue;
         /* the materials over the lanes' pixels */
-        gout go;
+        gout go = {0};
         for (unsigned q = 0; q < nk; q++) {
             const uintptr_t k = kl[q];
             const uint32_t mb = kb[q];
