@@ -309,13 +309,15 @@ static inline void env_light(surf *restrict s, const vt_penv *pe, unsigned i)
             c[k] = vf_fma(vf_mul(vf_load(dif[k] + i), la), ao, vf_fma(vf_mul(fr, lr), ao, vf_load(em[k] + i)));
         }
     }
-    if (pe->sun_on) {
-        const vf lx = vf_set(pe->sun_dir[0]), ly = vf_set(pe->sun_dir[1]), lz = vf_set(pe->sun_dir[2]);
-        vf ndl = vf_max(dot3(nx, ny, nz, lx, ly, lz), zero), ndh;
-        vf f5 = half_terms(nx, ny, nz, vx, vy, vz, lx, ly, lz, &ndh);
+    const vf lx = vf_set(pe->sun_dir[0]), ly = vf_set(pe->sun_dir[1]), lz = vf_set(pe->sun_dir[2]);
+    vf ndl = vf_max(dot3(nx, ny, nz, lx, ly, lz), zero);
+    /* n.l, times the sun's visibility (the shadow cascades) */
+    vf kl = vf_mul(ndl, vf_load(s->sv + i));
+    /* the sun's BRDF only where some lane sees it (a group in shadow or
+       facing away adds nothing: 0 x a finite BRDF) */
+    if (pe->sun_on && vm_bits(vf_lt(zero, kl))) {
+        vf ndh, f5 = half_terms(nx, ny, nz, vx, vy, vz, lx, ly, lz, &ndh);
         vf dv = ggx_dv(ndh, ndl, vf_load(s->a2 + i), vf_load(s->vv + i));
-        /* n.l, times the sun's visibility (the shadow cascades) */
-        vf kl = vf_mul(ndl, vf_load(s->sv + i));
         for (int k = 0; k < 3; k++) {
             vf F0 = vf_load(f0[k] + i), F = vf_fma(vf_sub(one, F0), f5, F0);
             vf cd = vf_mul(vf_load(dif[k] + i), vf_set(1.0f / 3.14159265f));
