@@ -5,14 +5,20 @@
  * cull_simd.h with VT_SSAO_GTAO_NAME and VT_SSAO_UP_NAME defined.
  *
  * Every lane does the one-lane instance's float operations in its order
- * (plain multiplies and adds, true divisions and square roots: no rcp,
- * no FMA), so the instances agree bit for bit and the GLSL's mirror of
- * the rules stays the reference. A texel's samples are fetched by index
- * (AVX2: gathers; SSE4.1: four 16-byte loads turned over; one lane: the
- * load), lanes off the image or on the sky masked to texel 0.
+ * (plain multiplies and adds, true divisions and square roots, no FMA;
+ * the one estimate, ss_rsqrt's, is the same instruction in every
+ * instance), so the instances agree bit for bit and the GLSL's mirror of
+ * the rules stays the reference. A sample is its texel's nearness fetched
+ * by index (AVX2: a gather; SSE4.1: four loads; one lane: the load),
+ * lanes off the image or on the sky masked to texel 0, its point made
+ * only where the tangent-plane test (ss_tan) leaves it a candidate.
  */
 #include <float.h>
+#include <math.h>
 #include <stdint.h>
+#if CULL_SIMD_ISA == 1 && defined(__SSE__)
+#include <xmmintrin.h>
+#endif
 
 #ifndef VT_SSAO_INL_ONCE
 #define VT_SSAO_INL_ONCE
@@ -31,26 +37,34 @@ static inline vf ss_floor(vf a)
 #endif
 }
 
-/* The planes' texels q (exact integral floats, >= 0). */
-static inline void ss_fetch4(const vt_ssao_kjob *k, vf q, vf *x, vf *y, vf *z, vf *n)
+/* The greatest lane of a (no NaN lanes). */
+static inline float ss_hmax(vf a)
 {
 #if CULL_SIMD_ISA == 3
-    __m256i i = _mm256_cvttps_epi32(q);
-    *x = _mm256_i32gather_ps(k->px, i, 4);
-    *y = _mm256_i32gather_ps(k->py, i, 4);
-    *z = _mm256_i32gather_ps(k->pz, i, 4);
-    *n = _mm256_i32gather_ps(k->pn, i, 4);
+    __m128 m = _mm_max_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1));
+#elif CULL_SIMD_ISA == 2
+    __m128 m = a;
+#endif
+#if CULL_SIMD_ISA >= 2
+    m = _mm_max_ps(m, _mm_movehl_ps(m, m));
+    m = _mm_max_ss(m, _mm_shuffle_ps(m, m, 1));
+    return _mm_cvtss_f32(m);
+#else
+    return a;
+#endif
+}
+
+/* The half texels' nearness at q (exact integral floats, >= 0). */
+static inline vf ss_fetchn(const vt_ssao_kjob *k, vf q)
+{
+#if CULL_SIMD_ISA == 3
+    return _mm256_i32gather_ps(k->pn, _mm256_cvttps_epi32(q), 4);
 #elif CULL_SIMD_ISA == 2
     __m128i i = _mm_cvttps_epi32(q);
-    const size_t a = (uint32_t)_mm_cvtsi128_si32(i), b = (uint32_t)_mm_extract_epi32(i, 1),
-                 c = (uint32_t)_mm_extract_epi32(i, 2), d = (uint32_t)_mm_extract_epi32(i, 3);
-    *x = _mm_setr_ps(k->px[a], k->px[b], k->px[c], k->px[d]);
-    *y = _mm_setr_ps(k->py[a], k->py[b], k->py[c], k->py[d]);
-    *z = _mm_setr_ps(k->pz[a], k->pz[b], k->pz[c], k->pz[d]);
-    *n = _mm_setr_ps(k->pn[a], k->pn[b], k->pn[c], k->pn[d]);
+    return _mm_setr_ps(k->pn[(uint32_t)_mm_cvtsi128_si32(i)], k->pn[(uint32_t)_mm_extract_epi32(i, 1)],
+                       k->pn[(uint32_t)_mm_extract_epi32(i, 2)], k->pn[(uint32_t)_mm_extract_epi32(i, 3)]);
 #else
-    const size_t i = (uint32_t)q;
-    *x = k->px[i], *y = k->py[i], *z = k->pz[i], *n = k->pn[i];
+    return k->pn[(uint32_t)q];
 #endif
 }
 
@@ -88,41 +102,31 @@ static inline vf ss_tap(const float *p, int c)
 }
 #endif
 
-/* A texel of the half image at (X, Y) (integral floats) where mask m:
- * its point and nearness; *ok narrowed to the lanes on the image and not
- * on the sky. */
-static inline void ss_texel(const vt_ssao_kjob *k, vf X, vf Y, vm m, vf *x, vf *y, vf *z, vf *n, vm *ok)
+/* The point of half texel (X, Y) at nearness N (vt_ssao.h: B / N or
+ * B + N bn, B = b0 + X bi + Y bj): garbage where N is not a drawn
+ * texel's (the callers' masks). */
+static inline void ss_point(const vt_ssao_view *sv, vf X, vf Y, vf N, vf p[3])
 {
-    const vt_ssao_view *sv = k->sv;
-    m = vm_and(m, vm_and(vm_and(vf_ge(X, vf_set(0)), vf_lt(X, vf_set((float)sv->hw))),
-                         vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
-    vf q = vf_select(m, vf_add(vf_mul(Y, vf_set((float)sv->hw)), X), vf_set(0));
-    ss_fetch4(k, q, x, y, z, n);
-    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n)); /* not the sky (nearness is never NaN) */
+    const vf r = sv->ortho ? N : vf_div(vf_set(1), N);
+    for (int c = 0; c < 3; c++) {
+        vf B = vf_add(vf_add(vf_set(sv->b0[c]), vf_mul(X, vf_set(sv->bi[c]))), vf_mul(Y, vf_set(sv->bj[c])));
+        p[c] = sv->ortho ? vf_add(B, vf_mul(r, vf_set(sv->bn[c]))) : vf_mul(B, r);
+    }
 }
 
-/* ss_texel for (X, Y) known to be on the image where m (a step whose
- * samples all stay inside): no bounds. (The planes' nearness is never
- * NaN: the sky is VT_EMPTY, the least float, so one compare tells it.) */
-static inline void ss_texel_in(const vt_ssao_kjob *k, vf X, vf Y, vm m, vf *x, vf *y, vf *z, vf *n, vm *ok)
-{
-    vf q = vf_select(m, vf_add(vf_mul(Y, vf_set((float)k->sv->hw)), X), vf_set(0));
-    ss_fetch4(k, q, x, y, z, n);
-    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n));
-}
-
-/* ss_texel for texels (X, Y) that are the planes' consecutive texels
- * q .. q + W - 1 (a step's own row, or one a fixed step away): loads, not
- * gathers (the pads keep them in the buffer; the lanes off the image are
- * masked as ss_texel's). */
-static inline void ss_texel_at(const vt_ssao_kjob *k, vf X, vf Y, vm m, ptrdiff_t q, vf *x, vf *y, vf *z, vf *n,
-                               vm *ok)
+/* The half texels (X, Y) (integral floats) that are the consecutive
+ * texels q .. q + W - 1 (a step's own row, or one a fixed step away):
+ * their nearness (a load: the pads keep it in the buffer); *ok: the
+ * lanes of m on the image (bounds: else known to be) and drawn. */
+static inline vf ss_near_at(const vt_ssao_kjob *k, vf X, vf Y, vm m, ptrdiff_t q, bool bounds, vm *ok)
 {
     const vt_ssao_view *sv = k->sv;
-    m = vm_and(m, vm_and(vm_and(vf_ge(X, vf_set(0)), vf_lt(X, vf_set((float)sv->hw))),
-                         vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
-    *x = vf_loadu(k->px + q), *y = vf_loadu(k->py + q), *z = vf_loadu(k->pz + q), *n = vf_loadu(k->pn + q);
-    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), *n)); /* not the sky (nearness is never NaN) */
+    if (bounds)
+        m = vm_and(m, vm_and(vm_and(vf_ge(X, vf_set(0)), vf_lt(X, vf_set((float)sv->hw))),
+                             vm_and(vf_ge(Y, vf_set(0)), vf_lt(Y, vf_set((float)sv->hh)))));
+    vf N = vf_loadu(k->pn + q);
+    *ok = vm_and(m, vf_lt(vf_set(VT_EMPTY), N)); /* not the sky (nearness is never NaN) */
+    return N;
 }
 
 static inline vf ss_dot(vf ax, vf ay, vf az, vf bx, vf by, vf bz)
@@ -154,32 +158,110 @@ static inline vf ss_arc(vf h, vf ch, vf sh, vf cn, vf sn)
 /* The step along one screen axis (vt_ssao.c's side_step): the side whose
  * two texels extrapolate to P's nearness best; *ok false where neither
  * neighbour exists. */
-static inline void ss_side(const vt_ssao_kjob *k, vf X, vf Y, vf ux, vf uy, ptrdiff_t q, ptrdiff_t du, vm m,
+static inline void ss_side(const vt_ssao_kjob *k, vf X, vf Y, vf ux, vf uy, ptrdiff_t q, ptrdiff_t du, vm m, bool bounds,
                            const vf P[4], vf d[3], vm *ok)
 {
-    vf lo[4], lo2[4], hi[4], hi2[4];
     vm mlo, mlo2, mhi, mhi2;
     /* texel q is (X, Y); one step along the axis is du texels */
-    ss_texel_at(k, vf_sub(X, ux), vf_sub(Y, uy), m, q - du, &lo[0], &lo[1], &lo[2], &lo[3], &mlo);
-    ss_texel_at(k, vf_sub(X, vf_add(ux, ux)), vf_sub(Y, vf_add(uy, uy)), m, q - 2 * du, &lo2[0], &lo2[1], &lo2[2],
-                &lo2[3], &mlo2);
-    ss_texel_at(k, vf_add(X, ux), vf_add(Y, uy), m, q + du, &hi[0], &hi[1], &hi[2], &hi[3], &mhi);
-    ss_texel_at(k, vf_add(X, vf_add(ux, ux)), vf_add(Y, vf_add(uy, uy)), m, q + 2 * du, &hi2[0], &hi2[1], &hi2[2],
-                &hi2[3], &mhi2);
+    const vf lo = ss_near_at(k, vf_sub(X, ux), vf_sub(Y, uy), m, q - du, bounds, &mlo);
+    const vf lo2 = ss_near_at(k, vf_sub(X, vf_add(ux, ux)), vf_sub(Y, vf_add(uy, uy)), m, q - 2 * du, bounds, &mlo2);
+    const vf hi = ss_near_at(k, vf_add(X, ux), vf_add(Y, uy), m, q + du, bounds, &mhi);
+    const vf hi2 = ss_near_at(k, vf_add(X, vf_add(ux, ux)), vf_add(Y, vf_add(uy, uy)), m, q + 2 * du, bounds, &mhi2);
     const vf two = vf_set(2);
-    vf el = vf_select(mlo, vf_select(mlo2, vf_abs(vf_sub(vf_sub(vf_mul(two, lo[3]), lo2[3]), P[3])), vf_set(FLT_MAX)),
+    vf el = vf_select(mlo, vf_select(mlo2, vf_abs(vf_sub(vf_sub(vf_mul(two, lo), lo2), P[3])), vf_set(FLT_MAX)),
                       vf_set(INFINITY));
-    vf eh = vf_select(mhi, vf_select(mhi2, vf_abs(vf_sub(vf_sub(vf_mul(two, hi[3]), hi2[3]), P[3])), vf_set(FLT_MAX)),
+    vf eh = vf_select(mhi, vf_select(mhi2, vf_abs(vf_sub(vf_sub(vf_mul(two, hi), hi2), P[3])), vf_set(FLT_MAX)),
                       vf_set(INFINITY));
     vm usehi = vm_or(vf_lt(eh, el), vm_and(vm_and(vf_le(eh, el), vf_le(el, eh)), mhi));
-    for (int c = 0; c < 3; c++) d[c] = vf_select(usehi, vf_sub(hi[c], P[c]), vf_sub(P[c], lo[c]));
+    /* the chosen neighbour's point only */
+    vf Q[3];
+    ss_point(k->sv, vf_select(usehi, vf_add(X, ux), vf_sub(X, ux)), vf_select(usehi, vf_add(Y, uy), vf_sub(Y, uy)),
+             vf_select(usehi, hi, lo), Q);
+    for (int c = 0; c < 3; c++) d[c] = vf_select(usehi, vf_sub(Q[c], P[c]), vf_sub(P[c], Q[c]));
     *ok = vm_or(mlo, mhi);
+}
+
+/* One side's horizon in a slice: the highest faded cosine so far (from
+ * lo, the tangent plane's), and the lanes where a sample raised it. */
+typedef struct ss_hor {
+    vf h, lo;
+    vm up;
+} ss_hor;
+
+/* 1 / sqrt(a) for a > 0: the estimate and one Newton step (about 2e-7
+ * relative: the horizon cosines' float noise). Every instance uses the
+ * same estimate instruction (rsqrtps / rsqrtss give the same bits on one
+ * CPU), so the instances agree bit for bit; without SSE, the division. */
+static inline vf ss_rsqrt(vf a)
+{
+#if CULL_SIMD_ISA == 3
+    vf y = _mm256_rsqrt_ps(a);
+#elif CULL_SIMD_ISA == 2
+    vf y = _mm_rsqrt_ps(a);
+#elif defined(__SSE__)
+    vf y = _mm_cvtss_f32(_mm_rsqrt_ss(_mm_set_ss(a)));
+#else
+    vf y = 1 / sqrtf(a);
+#endif
+    return vf_mul(y, vf_sub(vf_set(1.5f), vf_mul(vf_mul(vf_set(0.5f), a), vf_mul(y, y))));
+}
+
+/* The tangent plane's nearness at the texel ox, oy from P: c0 + ox ax +
+ * oy ay (nearness is affine in the texels over a plane: perspective
+ * 1 / w, orthographic depth). A sample the full test takes is above the
+ * plane by the bias, at least BIAS |d| along n, which is a nearness
+ * above the plane's by more than VT_SSAO_BIAS / 4 of the least angle
+ * between two texels' rays (vt_ssao_view's kappa) times the texels
+ * between them (at least tt - 0.71 for a step tt texels out: the angle,
+ * or the distance, grows with it): so a sample whose nearness N has
+ * N al - be <= the plane's (al = 1 - k, be = 0; orthographic al = 1,
+ * be = k; k = kappa max(1, tt - 0.71)) is not one, and costs a load and
+ * 6 operations instead of its point. Lanes whose plane is seen nearly
+ * edge on (n.V < 0.05: the prediction's rounding grows as 1 / n.V) have
+ * NaN coefficients: nothing is rejected there. */
+typedef struct ss_tan {
+    vf c0, ax, ay, al[VT_SSAO_STEPS], be[VT_SSAO_STEPS];
+} ss_tan;
+
+/* The sample ox, oy texels from the step's texels (X, Y) (qcf: its index)
+ * in lanes m: raises hs where it is an occluder (vt_ssao.h: within the
+ * radius, above the tangent plane by the bias, faded over the radius'
+ * last quarter). inner: every sample is on the image. */
+static inline __attribute__((always_inline)) void ss_sample(const vt_ssao_kjob *k, vf X, vf Y, vf qcf, vf ox, vf oy, vm m,
+                                                            bool inner, const ss_tan *tp, int st, const vf P[4], const vf n[3],
+                                                            const vf V[3], ss_hor *hs)
+{
+    const vt_ssao_view *sv = k->sv;
+    const vf zero = vf_set(0), one = vf_set(1), R = vf_set(VT_SSAO_RADIUS);
+    const vf SX = vf_add(X, ox), SY = vf_add(Y, oy);
+    if (!inner)
+        m = vm_and(m, vm_and(vm_and(vf_ge(SX, zero), vf_lt(SX, vf_set((float)sv->hw))),
+                             vm_and(vf_ge(SY, zero), vf_lt(SY, vf_set((float)sv->hh)))));
+    vf S[3], N = ss_fetchn(k, vf_select(m, vf_add(qcf, vf_add(vf_mul(oy, vf_set((float)sv->hw)), ox)), zero));
+    /* not the sky (nearness is never NaN), and not surely below the
+       tangent plane (ss_tan): most samples, a plane's, end here */
+    m = vm_andnot(vm_and(m, vf_lt(vf_set(VT_EMPTY), N)),
+                  vf_le(vf_sub(vf_mul(N, tp->al[st]), tp->be[st]), vf_add(vf_add(tp->c0, vf_mul(ox, tp->ax)), vf_mul(oy, tp->ay))));
+    if (!vm_bits(m)) return;
+    ss_point(sv, SX, SY, N, S);
+    vf d[3] = {vf_sub(S[0], P[0]), vf_sub(S[1], P[1]), vf_sub(S[2], P[2])};
+    vf l2 = ss_dot(d[0], d[1], d[2], d[0], d[1], d[2]), hn = ss_dot(d[0], d[1], d[2], n[0], n[1], n[2]);
+    m = vm_and(m, vm_and(vm_and(vf_lt(zero, l2), vf_lt(l2, vf_mul(R, R))), vf_lt(zero, hn)));
+    m = vm_and(m, vf_ge(vf_mul(hn, hn), vf_mul(vf_set(VT_SSAO_BIAS * VT_SSAO_BIAS), l2)));
+    if (!vm_bits(m)) return;
+    vf il = ss_rsqrt(vf_select(m, l2, one)), dist = vf_mul(l2, il);
+    vf wf = vf_mul(vf_sub(R, dist), vf_set(1 / (VT_SSAO_FADE * VT_SSAO_RADIUS)));
+    vf cv = vf_mul(ss_dot(d[0], d[1], d[2], V[0], V[1], V[2]), il);
+    cv = vf_add(hs->lo, vf_mul(vf_sub(cv, hs->lo), vf_select(vf_lt(wf, one), wf, one)));
+    vm raise = vm_and(m, vf_lt(hs->h, cv));
+    hs->h = vf_select(raise, cv, hs->h);
+    hs->up = vm_or(hs->up, raise);
 }
 
 void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
 {
     const vt_ssao_view *sv = k->sv;
-    const float R = VT_SSAO_RADIUS, inv_fade = 1 / (VT_SSAO_FADE * VT_SSAO_RADIUS);
+    const float R = VT_SSAO_RADIUS;
     /* the 2x2 pattern's turns: lane l of a step starting at column i0 has
        column parity (i0 + l) & 1 (W > 1: i0 is even) */
     float dc[2][VT_SSAO_SLICES][W], ds[2][VT_SSAO_SLICES][W], lane[W];
@@ -195,7 +277,7 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
         vf P[4];
         vm ok;
         const ptrdiff_t qc = (ptrdiff_t)j * sv->hw + i0;
-        ss_texel_at(k, X, Y, vm_ones(), qc, &P[0], &P[1], &P[2], &P[3], &ok);
+        P[3] = ss_near_at(k, X, Y, vm_ones(), qc, true, &ok);
         float res[W];
         if (!vm_bits(ok)) {
             vf_store(res, one);
@@ -204,14 +286,21 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
         {
             vf rpx = vf_div(vf_mul(vf_set(R), sv->ortho ? one : P[3]), vf_set(sv->texel1));
             ok = vm_and(ok, vf_ge(rpx, one));
+            if (!vm_bits(ok)) { /* all beyond the distance where the radius is a texel */
+                vf_store(res, one);
+                goto out;
+            }
             rpx = vf_select(vf_lt(rpx, vf_set(VT_SSAO_MAX_PX)), rpx, vf_set(VT_SSAO_MAX_PX));
             vf nst = vf_select(vf_lt(rpx, vf_set((float)VT_SSAO_STEPS)), ss_floor(vf_select(ok, rpx, one)),
                                vf_set((float)VT_SSAO_STEPS));
             vf inv_nst = vf_div(one, nst);
+            ss_point(sv, X, Y, P[3], P);
             vf dx[3], dy[3], n[3], V[3];
             vm okx, oky;
-            ss_side(k, X, Y, one, zero, qc, 1, ok, P, dx, &okx);
-            ss_side(k, X, Y, zero, one, qc, (ptrdiff_t)sv->hw, ok, P, dy, &oky);
+            /* the neighbours two texels out are on the image */
+            const bool bounds = !(i0 >= 2 && i0 + W + 2 <= sv->hw && j >= 2 && j + 2 < sv->hh);
+            ss_side(k, X, Y, one, zero, qc, 1, ok, bounds, P, dx, &okx);
+            ss_side(k, X, Y, zero, one, qc, (ptrdiff_t)sv->hw, ok, bounds, P, dy, &oky);
             ok = vm_and(ok, vm_and(okx, oky));
             n[0] = vf_sub(vf_mul(dx[1], dy[2]), vf_mul(dx[2], dy[1]));
             n[1] = vf_sub(vf_mul(dx[2], dy[0]), vf_mul(dx[0], dy[2]));
@@ -232,19 +321,48 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                 V[c] = vf_div(V[c], vl);
             }
             vf num = zero, den = zero;
-            /* the steps' distances, the same for every slice and side */
+            /* the steps' distances and lanes, the same for every slice and
+               side; the steps past every lane's count are not looked at */
             vf tts[VT_SSAO_STEPS];
-            for (int st = 0; st < VT_SSAO_STEPS; st++) tts[st] = vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst);
+            vm mst[VT_SSAO_STEPS];
+            int nmax = 0;
+            for (int st = 0; st < VT_SSAO_STEPS; st++) {
+                tts[st] = vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst);
+                mst[st] = vm_and(ok, vf_lt(vf_set((float)st), nst));
+                nmax = vm_bits(mst[st]) ? st + 1 : nmax;
+            }
             /* a sample is at most rpx (< B) texels away on either axis
                (|cos|, |sin| <= 1, the steps' distances below rpx): a step
                at least B from every side needs no bounds on its samples */
             bool inner;
             {
-                float rr[W], rmax = 0;
-                vf_store(rr, vf_select(ok, rpx, zero));
-                for (int l = 0; l < W; l++) rmax = rr[l] > rmax ? rr[l] : rmax;
-                const uint32_t B = (uint32_t)rmax + 2;
+                const uint32_t B = (uint32_t)ss_hmax(vf_select(ok, rpx, zero)) + 2;
                 inner = i0 >= B && i0 + W - 1 + B < sv->hw && j >= B && j + B < sv->hh;
+            }
+            const vf qcf = vf_add(vf_mul(Y, vf_set((float)sv->hw)), X);
+            ss_tan tp;
+            {
+                /* perspective: the plane's nearness at texel s is n.B(s) / n.(B / N)
+                   (P = B / N); orthographic: N + (n.(B(s) - B)) / -n.bn */
+                vf nbi = ss_dot(n[0], n[1], n[2], vf_set(sv->bi[0]), vf_set(sv->bi[1]), vf_set(sv->bi[2]));
+                vf nbj = ss_dot(n[0], n[1], n[2], vf_set(sv->bj[0]), vf_set(sv->bj[1]), vf_set(sv->bj[2]));
+                vf tden;
+                if (sv->ortho) {
+                    tden = vf_sub(zero, ss_dot(n[0], n[1], n[2], vf_set(sv->bn[0]), vf_set(sv->bn[1]), vf_set(sv->bn[2])));
+                } else {
+                    vf Bp[3];
+                    for (int c = 0; c < 3; c++)
+                        Bp[c] = vf_add(vf_add(vf_set(sv->b0[c]), vf_mul(X, vf_set(sv->bi[c]))), vf_mul(Y, vf_set(sv->bj[c])));
+                    tden = vf_div(ss_dot(n[0], n[1], n[2], Bp[0], Bp[1], Bp[2]), P[3]);
+                }
+                vm edge = vf_lt(ss_dot(n[0], n[1], n[2], V[0], V[1], V[2]), vf_set(0.05f));
+                tp.c0 = vf_select(edge, vf_set(NAN), P[3]);
+                tp.ax = vf_div(nbi, tden), tp.ay = vf_div(nbj, tden);
+                for (int st = 0; st < VT_SSAO_STEPS; st++) {
+                    vf kt = vf_mul(vf_set(sv->kappa), vf_max(vf_sub(tts[st], vf_set(0.71f)), one));
+                    tp.al[st] = sv->ortho ? one : vf_sub(one, kt);
+                    tp.be[st] = sv->ortho ? kt : zero;
+                }
             }
             for (int sl = 0; sl < VT_SSAO_SLICES; sl++) {
                 const vf c = vf_loadu(dc[i0 & 1][sl]), s = vf_loadu(ds[i0 & 1][sl]);
@@ -260,36 +378,21 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                 if (!vm_bits(sok)) continue;
                 vf cn = vf_div(a, pl), sn = vf_div(b, pl), na = ss_acos(cn);
                 na = vf_select(vf_lt(sn, zero), vf_sub(zero, na), na);
-                vf hc[2] = {sn, vf_sub(zero, sn)};
-                vm up[2] = {vm_andnot(sok, sok), vm_andnot(sok, sok)};
-                for (int side = 0; side < 2; side++) {
-                    const vf sgc = vf_mul(vf_set(side ? 1.0f : -1.0f), c), sgs = vf_mul(vf_set(side ? 1.0f : -1.0f), s);
-                    const vf lo = hc[side];
-                    for (int st = 0; st < VT_SSAO_STEPS; st++) {
-                        vm m = vm_and(sok, vf_lt(vf_set((float)st), nst));
-                        if (!vm_bits(m)) break;
-                        const vf tt = tts[st];
-                        const vf h = vf_set(1024.5f), kk = vf_set(1024);
-                        vf SX = vf_add(X, vf_sub(ss_floor(vf_select(m, vf_add(vf_mul(sgc, tt), h), h)), kk));
-                        vf SY = vf_add(Y, vf_sub(ss_floor(vf_select(m, vf_add(vf_mul(sgs, tt), h), h)), kk));
-                        vf S[4];
-                        if (inner) ss_texel_in(k, SX, SY, m, &S[0], &S[1], &S[2], &S[3], &m);
-                        else ss_texel(k, SX, SY, m, &S[0], &S[1], &S[2], &S[3], &m);
-                        if (!vm_bits(m)) continue;
-                        vf d[3] = {vf_sub(S[0], P[0]), vf_sub(S[1], P[1]), vf_sub(S[2], P[2])};
-                        vf l2 = ss_dot(d[0], d[1], d[2], d[0], d[1], d[2]), hn = ss_dot(d[0], d[1], d[2], n[0], n[1], n[2]);
-                        m = vm_and(m, vm_and(vm_and(vf_lt(zero, l2), vf_lt(l2, vf_set(R * R))), vf_lt(zero, hn)));
-                        m = vm_and(m, vf_ge(vf_mul(hn, hn), vf_mul(vf_set(VT_SSAO_BIAS * VT_SSAO_BIAS), l2)));
-                        if (!vm_bits(m)) continue;
-                        vf il = vf_div(one, vf_sqrt(l2)), dist = vf_mul(l2, il);
-                        vf wf = vf_mul(vf_sub(vf_set(R), dist), vf_set(inv_fade));
-                        vf cv = vf_mul(ss_dot(d[0], d[1], d[2], V[0], V[1], V[2]), il);
-                        cv = vf_add(lo, vf_mul(vf_sub(cv, lo), vf_select(vf_lt(wf, one), wf, one)));
-                        vm raise = vm_and(m, vf_lt(hc[side], cv));
-                        hc[side] = vf_select(raise, cv, hc[side]);
-                        up[side] = vm_or(up[side], raise);
-                    }
+                ss_hor hs[2] = {{sn, sn, vm_andnot(sok, sok)}, {vf_sub(zero, sn), vf_sub(zero, sn), vm_andnot(sok, sok)}};
+                for (int st = 0; st < nmax; st++) {
+                    const vm m = vm_and(sok, mst[st]);
+                    const vf ct = vf_mul(c, tts[st]), stt = vf_mul(s, tts[st]);
+                    /* the two sides' texels: floor(+-(c, s) tt + 0.5), the
+                       1024 keeping the one-lane floor (a truncation) on
+                       positive values */
+                    const vf h = vf_set(1024.5f), kk = vf_set(1024);
+                    ss_sample(k, X, Y, qcf, vf_sub(ss_floor(vf_sub(h, ct)), kk), vf_sub(ss_floor(vf_sub(h, stt)), kk), m,
+                              inner, &tp, st, P, n, V, &hs[0]);
+                    ss_sample(k, X, Y, qcf, vf_sub(ss_floor(vf_add(ct, h)), kk), vf_sub(ss_floor(vf_add(stt, h)), kk), m,
+                              inner, &tp, st, P, n, V, &hs[1]);
                 }
+                vf hc[2] = {hs[0].h, hs[1].h};
+                vm up[2] = {hs[0].up, hs[1].up};
                 const vf hp = vf_set(SS_PI / 2);
                 vf e0 = ss_arc(vf_sub(na, hp), sn, vf_sub(zero, cn), cn, sn);
                 vf e1 = ss_arc(vf_add(na, hp), vf_sub(zero, sn), cn, cn, sn);
@@ -341,17 +444,15 @@ void VT_SSAO_POS_NAME(const vt_ssao_kjob *k, uint32_t j)
 {
     const vt_ssao_view *sv = k->sv;
     const float *nrow = k->near + (size_t)(2 * j) * sv->w;
-    const size_t q0 = (size_t)j * sv->hw;
-    float *const o[4] = {k->px + q0, k->py + q0, k->pz + q0, k->pn + q0};
-    const vf Y = vf_set((float)((2.0 * (2 * j) + 1) / sv->h - 1)), inf = vf_set(INFINITY);
-    vf a[4][4];
-    for (int r = 0; r < 4; r++)
-        for (int c = 0; c < 4; c++) a[r][c] = vf_set(sv->inv[r][c]);
+    float *const o = k->pn + (size_t)j * sv->hw;
+    const vf Y = vf_set((float)j), inf = vf_set(INFINITY);
+    float lane[W];
+    for (int l = 0; l < W; l++) lane[l] = (float)l;
     for (uint32_t i0 = 0; i0 < sv->hw; i0 += W) {
         uint32_t nw = sv->hw - i0 < (uint32_t)W ? sv->hw - i0 : (uint32_t)W;
         /* a whole step's 2 W full columns are in the row (w >= 2 hw - 1) */
         const bool whole = nw == (uint32_t)W && 2 * (i0 + W) <= sv->w;
-        float nb[W], t[4][W];
+        float nb[W];
         vf N;
         if (whole) {
             N = ss_even(nrow + 2 * (size_t)i0);
@@ -359,25 +460,18 @@ void VT_SSAO_POS_NAME(const vt_ssao_kjob *k, uint32_t j)
             for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[2 * (i0 + l)] : VT_EMPTY;
             N = vf_loadu(nb);
         }
-        vf X = vf_loadu(k->colx + i0), q[4];
-        /* (p, 1) ~ inv (X, Y, N, 1) (vt_ssao.c's unproject) */
-        for (int r = 0; r < 4; r++) q[r] = vf_add(vf_add(vf_add(vf_mul(a[r][0], X), vf_mul(a[r][1], Y)), vf_mul(a[r][2], N)), a[r][3]);
-        vf iw = vf_div(vf_set(1), q[3]), p[3];
+        /* a texel is drawn where its point is finite (ss_point) */
+        vf p[3];
+        ss_point(sv, vf_add(vf_set((float)i0), vf_loadu(lane)), Y, N, p);
         vm ok = vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(N, inf));
-        for (int c = 0; c < 3; c++) {
-            p[c] = vf_mul(q[c], iw);
-            ok = vm_and(ok, vf_lt(vf_abs(p[c]), inf));
-        }
+        for (int c = 0; c < 3; c++) ok = vm_and(ok, vf_lt(vf_abs(p[c]), inf));
         const vf nn = vf_select(ok, N, vf_set(VT_EMPTY));
         if (nw == (uint32_t)W) { /* the row's own texels: no other thread's */
-            for (int c = 0; c < 3; c++) vf_store(o[c] + i0, p[c]);
-            vf_store(o[3] + i0, nn);
+            vf_store(o + i0, nn);
             continue;
         }
-        for (int c = 0; c < 3; c++) vf_store(t[c], p[c]);
-        vf_store(t[3], nn);
-        for (uint32_t l = 0; l < nw; l++)
-            for (int c = 0; c < 4; c++) o[c][i0 + l] = t[c][l];
+        vf_store(nb, nn);
+        for (uint32_t l = 0; l < nw; l++) o[i0 + l] = nb[l];
     }
 }
 

@@ -16,15 +16,14 @@
 typedef struct vt_ssao_kjob {
     const vt_ssao_view *sv;
     const float *near;          /* full resolution, w x h */
-    /* half texels, one plane each (texel j hw + i): x, y, z camera-relative,
-       nearness (VT_EMPTY: sky); each plane has VT_SSAO_PAD (hw) floats before
-       and after it, so a step's neighbours two rows or columns away are
-       contiguous loads wherever it is (the lanes off the image masked) */
-    float *px, *py, *pz, *pn;
+    /* half texels' nearness (texel j hw + i; VT_EMPTY: sky or a point that
+       is not finite), with VT_SSAO_PAD (hw) floats before and after it, so
+       a step's neighbours two rows or columns away are contiguous loads
+       wherever it is (the lanes off the image masked) */
+    float *pn;
     float *hao;                 /* half texels' AO */
     const int32_t *cx;          /* 3 planes of w + 8 (padded): each full column's tap half columns */
     const float *cw;            /* their weights, likewise */
-    const float *colx;          /* hw + 8 (padded): each half column's NDC x */
     float *ao;                  /* full pixels */
     float dir[4 * VT_SSAO_SLICES][2]; /* vt_ssao_dirs */
 } vt_ssao_kjob;
@@ -34,7 +33,7 @@ typedef struct vt_ssao_kjob {
 typedef void (*vt_ssao_row_fn)(const vt_ssao_kjob *k, uint32_t row);
 
 typedef struct vt_ssao_kern {
-    vt_ssao_row_fn pos;  /* half row j: pos */
+    vt_ssao_row_fn pos;  /* half row j: pn */
     vt_ssao_row_fn gtao; /* half row j: hao, hnear */
     vt_ssao_row_fn up;   /* full row y: ao */
 } vt_ssao_kern;
