@@ -1,8 +1,7 @@
 /*
  * vt_ssao.c — the software renderer's ambient occlusion (see vt_ssao.h):
- * three passes over bands of 8 half-resolution rows (16 full rows: one
- * light-tile row), interleaved over the threads as vt_soft's raster and
- * shading split tile rows:
+ * three passes over bands of rows, each thread taking the next band as
+ * it finishes one (as vt_soft's shading takes tile rows):
  *   1. the half texels' nearness (every other pixel of every other
  *      row; VT_EMPTY where the point is not finite);
  *   2. GTAO per half texel (2 slices x 2 sides x 4 steps), each point
@@ -24,7 +23,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define BAND 8u             /* half rows a band */
+/* rows a band, each pass' (the threads take the next band as they
+   finish one: a frame's sky rows cost nothing, its ground near the eye
+   the most, and a thread the shared machine holds back leaves its bands
+   to the others; 4 half rows of GTAO are about 90 bands a frame) */
+#define BAND_POS 16u        /* half rows */
+#define BAND_GTAO 4u        /* half rows */
+#define BAND_UP 8u          /* full rows */
 #define PI_F 3.14159265f
 
 struct vt_ssao {
@@ -45,12 +50,13 @@ typedef struct job {
     const float *near;
     vt_ssao *s;
     uint32_t nt;
+    uint32_t next[3];       /* each pass' next band (atomic) */
     vt_ssao_kjob k;
     vt_ssao_kern kern;
 } job;
 
 /* (p, 1) ~ inv (X, Y, N, 1); false where it is not a finite point (the
- * view's set-up; the pass' rows: vt_ssao.inl's pos kernel). */
+ * view's set-up). */
 static bool unproject(const vt_ssao_view *sv, float X, float Y, float N, float p[3])
 {
     float q[4];
@@ -139,25 +145,28 @@ void vt_ssao_view_make(const cull_view_rows *vr, uint32_t w, uint32_t h, vt_ssao
     sv->ok = true;
 }
 
-/* Rows [0, rows) in bands of band rows, band k to thread k % nt: each
- * pass's split (the lane kernel fn, vt_ssao.inl, one row at a time). */
-static void band_rows(const job *jb, uint32_t t, uint32_t rows, uint32_t band, vt_ssao_row_fn fn)
+/* Rows [0, rows) in bands of band rows, each thread taking the next band
+ * of pass p (*next) until none is left: each pass's split (the lane
+ * kernel fn, vt_ssao.inl, one row at a time). */
+static void band_rows(job *jb, int p, uint32_t rows, uint32_t band, vt_ssao_row_fn fn)
 {
-    for (uint32_t b = t; b * band < rows; b += jb->nt)
+    for (uint32_t b; (b = __atomic_fetch_add(&jb->next[p], 1, __ATOMIC_RELAXED)) < (rows + band - 1) / band;)
         for (uint32_t j = b * band; j < rows && j < (b + 1) * band; j++) fn(&jb->k, j);
 }
 
-/* Pass 1: the half texels' points; pass 2: GTAO (both over half rows). */
+/* Pass 1: the half texels' nearness; pass 2: GTAO (both over half rows). */
 static void job_pos(void *arg, uint32_t t)
 {
-    const job *jb = arg;
-    band_rows(jb, t, jb->sv->hh, BAND, jb->kern.pos);
+    job *jb = arg;
+    (void)t;
+    band_rows(jb, 0, jb->sv->hh, BAND_POS, jb->kern.pos);
 }
 
 static void job_gtao(void *arg, uint32_t t)
 {
-    const job *jb = arg;
-    band_rows(jb, t, jb->sv->hh, BAND, jb->kern.gtao);
+    job *jb = arg;
+    (void)t;
+    band_rows(jb, 1, jb->sv->hh, BAND_GTAO, jb->kern.gtao);
 }
 
 /* The tent taps along one axis for full coordinate x: the half texels
@@ -177,12 +186,13 @@ static void taps(uint32_t x, uint32_t hn, uint32_t idx[3], float wt[3])
     idx[2] = x / 2 + 1 < hn ? x / 2 + 1 : x / 2, wt[2] = x / 2 + 1 < hn ? 0.25f : 0;
 }
 
-/* Pass 3: the upsample of band rows (16 full rows a band; the lane
- * kernel, vt_ssao.inl); the columns' taps were made once (vt_ssao_run). */
+/* Pass 3: the upsample of full rows (the lane kernel, vt_ssao.inl); the
+ * columns' taps were made once (vt_ssao_run). */
 static void job_up(void *arg, uint32_t t)
 {
-    const job *jb = arg;
-    band_rows(jb, t, jb->sv->h, 2 * BAND, jb->kern.up);
+    job *jb = arg;
+    (void)t;
+    band_rows(jb, 2, jb->sv->h, BAND_UP, jb->kern.up);
 }
 
 void vt_ssao_dirs(float dir[4 * VT_SSAO_SLICES][2])
