@@ -158,7 +158,7 @@ static inline vf ss_arc(vf h, vf ch, vf sh, vf cn, vf sn)
 /* The step along one screen axis (vt_ssao.c's side_step): the side whose
  * two texels extrapolate to P's nearness best; *ok false where neither
  * neighbour exists. */
-static inline void ss_side(const vt_ssao_kjob *k, vf X, vf Y, vf ux, vf uy, ptrdiff_t q, ptrdiff_t du, vm m, bool bounds,
+static inline __attribute__((always_inline)) void ss_side(const vt_ssao_kjob *k, vf X, vf Y, vf ux, vf uy, ptrdiff_t q, ptrdiff_t du, vm m, bool bounds,
                            const vf P[4], vf d[3], vm *ok)
 {
     vm mlo, mlo2, mhi, mhi2;
@@ -264,11 +264,19 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
     const float R = VT_SSAO_RADIUS;
     /* the 2x2 pattern's turns: lane l of a step starting at column i0 has
        column parity (i0 + l) & 1 (W > 1: i0 is even) */
-    float dc[2][VT_SSAO_SLICES][W], ds[2][VT_SSAO_SLICES][W], lane[W];
+    float dc[2][VT_SSAO_SLICES][W], ds[2][VT_SSAO_SLICES][W], dt2[2][VT_SSAO_SLICES][W], lane[W];
+    /* |c ex + s ey|^2 of each direction (the slice's screen direction in the world) */
+    const float exx = sv->ex[0] * sv->ex[0] + sv->ex[1] * sv->ex[1] + sv->ex[2] * sv->ex[2];
+    const float exy = sv->ex[0] * sv->ey[0] + sv->ex[1] * sv->ey[1] + sv->ex[2] * sv->ey[2];
+    const float eyy = sv->ey[0] * sv->ey[0] + sv->ey[1] * sv->ey[1] + sv->ey[2] * sv->ey[2];
     for (int ph = 0; ph < 2; ph++)
         for (int l = 0; l < W; l++) {
             const float(*dir)[2] = k->dir + (((ph + l) & 1) + 2 * (j & 1)) * VT_SSAO_SLICES;
-            for (int sl = 0; sl < VT_SSAO_SLICES; sl++) dc[ph][sl][l] = dir[sl][0], ds[ph][sl][l] = dir[sl][1];
+            for (int sl = 0; sl < VT_SSAO_SLICES; sl++) {
+                const float c = dir[sl][0], s = dir[sl][1];
+                dc[ph][sl][l] = c, ds[ph][sl][l] = s;
+                dt2[ph][sl][l] = c * c * exx + 2 * c * s * exy + s * s * eyy;
+            }
             lane[l] = (float)l;
         }
     const vf Y = vf_set((float)j), zero = vf_set(0), one = vf_set(1);
@@ -316,10 +324,19 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
             }
             vf inl = vf_div(one, nl);
             vf ns = vf_select(vf_lt(ss_dot(n[0], n[1], n[2], V[0], V[1], V[2]), zero), vf_sub(zero, inl), inl);
+            const vf ivl = vf_div(one, vl);
             for (int c = 0; c < 3; c++) {
                 n[c] = vf_mul(n[c], ns);
-                V[c] = vf_div(V[c], vl);
+                V[c] = vf_mul(V[c], ivl);
             }
+            /* the slices' terms: T = c ex + s ey less its part along V, the
+               normal's angle in the slice from a = n.V and b = n.T / |T|
+               (n.T = c n.ex + s n.ey - (T.V) a, |T|^2 = dt2 - (T.V)^2) */
+            const vf a = ss_dot(n[0], n[1], n[2], V[0], V[1], V[2]);
+            const vf exV = ss_dot(vf_set(sv->ex[0]), vf_set(sv->ex[1]), vf_set(sv->ex[2]), V[0], V[1], V[2]);
+            const vf eyV = ss_dot(vf_set(sv->ey[0]), vf_set(sv->ey[1]), vf_set(sv->ey[2]), V[0], V[1], V[2]);
+            const vf nex = ss_dot(vf_set(sv->ex[0]), vf_set(sv->ex[1]), vf_set(sv->ex[2]), n[0], n[1], n[2]);
+            const vf ney = ss_dot(vf_set(sv->ey[0]), vf_set(sv->ey[1]), vf_set(sv->ey[2]), n[0], n[1], n[2]);
             vf num = zero, den = zero;
             /* the steps' distances and lanes, the same for every slice and
                side; the steps past every lane's count are not looked at */
@@ -366,13 +383,9 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
             }
             for (int sl = 0; sl < VT_SSAO_SLICES; sl++) {
                 const vf c = vf_loadu(dc[i0 & 1][sl]), s = vf_loadu(ds[i0 & 1][sl]);
-                vf T[3];
-                for (int q = 0; q < 3; q++) T[q] = vf_add(vf_mul(c, vf_set(sv->ex[q])), vf_mul(s, vf_set(sv->ey[q])));
-                vf tv = ss_dot(T[0], T[1], T[2], V[0], V[1], V[2]);
-                for (int q = 0; q < 3; q++) T[q] = vf_sub(T[q], vf_mul(tv, V[q]));
-                vf tl = vf_sqrt(ss_dot(T[0], T[1], T[2], T[0], T[1], T[2]));
-                vf a = ss_dot(n[0], n[1], n[2], V[0], V[1], V[2]);
-                vf b = vf_div(ss_dot(n[0], n[1], n[2], T[0], T[1], T[2]), tl);
+                const vf tv = vf_add(vf_mul(c, exV), vf_mul(s, eyV));
+                vf tl = vf_sqrt(vf_max(vf_sub(vf_loadu(dt2[i0 & 1][sl]), vf_mul(tv, tv)), zero));
+                vf b = vf_div(vf_sub(vf_add(vf_mul(c, nex), vf_mul(s, ney)), vf_mul(tv, a)), tl);
                 vf pl = vf_sqrt(vf_add(vf_mul(a, a), vf_mul(b, b)));
                 vm sok = vm_and(ok, vm_and(vf_lt(zero, tl), vf_lt(zero, pl)));
                 if (!vm_bits(sok)) continue;
@@ -475,6 +488,54 @@ void VT_SSAO_POS_NAME(const vt_ssao_kjob *k, uint32_t j)
     }
 }
 
+/* The upsample of the step at full column x of a row (N: its nearness;
+ * ha, hn: its three half rows' AO and nearness, weights wy): the tent's
+ * depth-weighted mean. cont: a whole step whose taps ss_tap reads (W > 1),
+ * else the columns' tap tables. */
+static inline __attribute__((always_inline)) vf ss_up_step(const vt_ssao_kjob *k, vf N, const float *const ha[3],
+                                                           const float *const hn[3], const float wy[3], uint32_t x,
+                                                           bool cont)
+{
+    const vt_ssao_view *sv = k->sv;
+    const size_t pl = (size_t)sv->w + 8;
+    const vf zero = vf_set(0), one = vf_set(1);
+    vf tol = sv->ortho ? vf_set(sv->ntol) : vf_mul(vf_set(VT_SSAO_DEPTH_TOL), N);
+    vm ok = vm_and(vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(zero, tol)), vf_lt(tol, vf_set(FLT_MAX)));
+    vf av[3][3];
+    vf lo = one;
+    (void)cont;
+    for (int a = 0; a < 3; a++)
+        for (int c = 0; c < 3; c++) {
+#if W > 1
+            av[a][c] = cont ? ss_tap(ha[a] + x / 2 - 1, c) : ss_gather(ha[a], k->cx + c * pl + x);
+#else
+            av[a][c] = ss_gather(ha[a], k->cx + c * pl + x);
+#endif
+            lo = vf_select(vf_lt(av[a][c], lo), av[a][c], lo);
+        }
+    /* most of a frame is unoccluded: the mean of ones is 1 */
+    ok = vm_and(ok, vf_lt(lo, one));
+    if (!vm_bits(ok)) return one;
+    vf kk = vf_div(one, tol), sum = zero, acc = zero;
+    for (int a = 0; a < 3; a++)
+        for (int c = 0; c < 3; c++) {
+#if W > 1
+            vf hv = cont ? ss_tap(hn[a] + x / 2 - 1, c) : ss_gather(hn[a], k->cx + c * pl + x);
+#else
+            vf hv = ss_gather(hn[a], k->cx + c * pl + x);
+#endif
+            vf wd = vf_sub(one, vf_mul(vf_abs(vf_sub(hv, N)), kk));
+            vf wt = vf_mul(vf_mul(vf_set(wy[a]), vf_loadu(k->cw + c * pl + x)), wd);
+            wt = vf_select(vf_lt(zero, wd), wt, zero);
+            sum = vf_add(sum, wt);
+            acc = vf_add(acc, vf_mul(wt, av[a][c]));
+        }
+    vm sp = vf_lt(zero, sum);
+    vf ao = vf_div(acc, vf_select(sp, sum, one));
+    ao = vf_select(vf_ge(ao, zero), vf_select(vf_le(ao, one), ao, one), vf_select(vf_lt(ao, zero), zero, one));
+    return vf_select(vm_and(ok, sp), ao, one);
+}
+
 void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
 {
     const vt_ssao_view *sv = k->sv;
@@ -497,8 +558,9 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
         hn[a] = k->pn + (size_t)jy[a] * sv->hw;
         ha[a] = k->hao + (size_t)jy[a] * sv->hw;
     }
-    const size_t pl = (size_t)sv->w + 8;
-    const vf zero = vf_set(0), one = vf_set(1);
+#if W > 1
+    const vf one = vf_set(1);
+#endif
     for (uint32_t x = 0; x < sv->w; x += W) {
         float nb[W], res[W];
         uint32_t nw = sv->w - x < (uint32_t)W ? sv->w - x : (uint32_t)W;
@@ -525,43 +587,11 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
             for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[x + l] : VT_EMPTY;
             N = vf_loadu(nb);
         }
-        vf tol = sv->ortho ? vf_set(sv->ntol) : vf_mul(vf_set(VT_SSAO_DEPTH_TOL), N);
-        vm ok = vm_and(vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(zero, tol)), vf_lt(tol, vf_set(FLT_MAX)));
-        vf av[3][3];
-        vf lo = one;
-        for (int a = 0; a < 3; a++)
-            for (int c = 0; c < 3; c++) {
 #if W > 1
-                av[a][c] = cont ? ss_tap(ha[a] + x / 2 - 1, c) : ss_gather(ha[a], k->cx + c * pl + x);
-#else
-                av[a][c] = ss_gather(ha[a], k->cx + c * pl + x);
+        if (cont) vf_store(res, ss_up_step(k, N, ha, hn, wy, x, true));
+        else
 #endif
-                lo = vf_select(vf_lt(av[a][c], lo), av[a][c], lo);
-            }
-        /* most of a frame is unoccluded: the mean of ones is 1 */
-        ok = vm_and(ok, vf_lt(lo, one));
-        if (!vm_bits(ok)) {
-            vf_store(res, one);
-        } else {
-            vf kk = vf_div(one, tol), sum = zero, acc = zero;
-            for (int a = 0; a < 3; a++)
-                for (int c = 0; c < 3; c++) {
-#if W > 1
-                    vf hv = cont ? ss_tap(hn[a] + x / 2 - 1, c) : ss_gather(hn[a], k->cx + c * pl + x);
-#else
-                    vf hv = ss_gather(hn[a], k->cx + c * pl + x);
-#endif
-                    vf wd = vf_sub(one, vf_mul(vf_abs(vf_sub(hv, N)), kk));
-                    vf wt = vf_mul(vf_mul(vf_set(wy[a]), vf_loadu(k->cw + c * pl + x)), wd);
-                    wt = vf_select(vf_lt(zero, wd), wt, zero);
-                    sum = vf_add(sum, wt);
-                    acc = vf_add(acc, vf_mul(wt, av[a][c]));
-                }
-            vm sp = vf_lt(zero, sum);
-            vf ao = vf_div(acc, vf_select(sp, sum, one));
-            ao = vf_select(vf_ge(ao, zero), vf_select(vf_le(ao, one), ao, one), vf_select(vf_lt(ao, zero), zero, one));
-            vf_store(res, vf_select(vm_and(ok, sp), ao, one));
-        }
+            vf_store(res, ss_up_step(k, N, ha, hn, wy, x, false));
         if (nw == (uint32_t)W) vf_store(o + x, vf_loadu(res));
         else
             for (uint32_t l = 0; l < nw; l++) o[x + l] = res[l];
