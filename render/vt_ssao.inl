@@ -233,17 +233,23 @@ static inline __attribute__((always_inline)) void ss_sample(const vt_ssao_kjob *
 {
     const vt_ssao_view *sv = k->sv;
     const vf zero = vf_set(0), one = vf_set(1), R = vf_set(VT_SSAO_RADIUS);
-    const vf SX = vf_add(X, ox), SY = vf_add(Y, oy);
-    if (!inner)
+    vf q = vf_add(qcf, vf_add(vf_mul(oy, vf_set((float)sv->hw)), ox));
+    if (!inner) {
+        /* the lanes whose sample is off the image read texel 0 */
+        const vf SX = vf_add(X, ox), SY = vf_add(Y, oy);
         m = vm_and(m, vm_and(vm_and(vf_ge(SX, zero), vf_lt(SX, vf_set((float)sv->hw))),
                              vm_and(vf_ge(SY, zero), vf_lt(SY, vf_set((float)sv->hh)))));
-    vf S[3], N = ss_fetchn(k, vf_select(m, vf_add(qcf, vf_add(vf_mul(oy, vf_set((float)sv->hw)), ox)), zero));
-    /* not the sky (nearness is never NaN), and not surely below the
-       tangent plane (ss_tan): most samples, a plane's, end here */
-    m = vm_andnot(vm_and(m, vf_lt(vf_set(VT_EMPTY), N)),
-                  vf_le(vf_sub(vf_mul(N, tp->al[st]), tp->be[st]), vf_add(vf_add(tp->c0, vf_mul(ox, tp->ax)), vf_mul(oy, tp->ay))));
+        q = vf_select(m, q, zero);
+    }
+    /* not surely below the tangent plane (ss_tan): most samples, a
+       plane's, end here (so does the sky's nearness, the least float,
+       but where the plane's is NaN) */
+    vf S[3], N = ss_fetchn(k, q);
+    m = vm_andnot(m, vf_le(vf_sub(vf_mul(N, tp->al[st]), tp->be[st]),
+                           vf_add(vf_add(tp->c0, vf_mul(ox, tp->ax)), vf_mul(oy, tp->ay))));
     if (!vm_bits(m)) return;
-    ss_point(sv, SX, SY, N, S);
+    m = vm_and(m, vf_lt(vf_set(VT_EMPTY), N)); /* not the sky (nearness is never NaN) */
+    ss_point(sv, vf_add(X, ox), vf_add(Y, oy), N, S);
     vf d[3] = {vf_sub(S[0], P[0]), vf_sub(S[1], P[1]), vf_sub(S[2], P[2])};
     vf l2 = ss_dot(d[0], d[1], d[2], d[0], d[1], d[2]), hn = ss_dot(d[0], d[1], d[2], n[0], n[1], n[2]);
     m = vm_and(m, vm_and(vm_and(vf_lt(zero, l2), vf_lt(l2, vf_mul(R, R))), vf_lt(zero, hn)));
@@ -344,8 +350,11 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
             vm mst[VT_SSAO_STEPS];
             int nmax = 0;
             for (int st = 0; st < VT_SSAO_STEPS; st++) {
-                tts[st] = vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst);
                 mst[st] = vm_and(ok, vf_lt(vf_set((float)st), nst));
+                /* 0 in the lanes that take no sample at this step: their
+                   index is their own texel (ss_sample reads it unmasked
+                   inside the image) */
+                tts[st] = vf_select(mst[st], vf_mul(vf_mul(rpx, vf_set((float)st + 0.5f)), inv_nst), zero);
                 nmax = vm_bits(mst[st]) ? st + 1 : nmax;
             }
             /* a sample is at most rpx (< B) texels away on either axis
