@@ -304,6 +304,24 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                 vf_store(res, one);
                 goto out;
             }
+            /* a sample is at most rpx (< B - 1) texels away on either axis
+               (|cos|, |sin| <= 1, the steps' distances below rpx), the
+               normal's neighbours 2: no crease texel in the box B around
+               the step's texels (cs: 4 reads) means one plane there, no
+               sample above it by the bias (vt_ssao.c): AO 1 */
+            const uint32_t B = (uint32_t)ss_hmax(vf_select(ok, vf_min(rpx, vf_set(VT_SSAO_MAX_PX)), zero)) + 2;
+            {
+                /* the box [a0, a1) x [b0, b1) widened to whole blocks */
+                const size_t cw = VT_SSAO_CBLKS(sv->hw);
+                const uint32_t a0 = (i0 >= B ? i0 - B : 0) / VT_SSAO_CBLK;
+                const uint32_t a1 = ((i0 + W + B < sv->hw ? i0 + W + B : sv->hw) + VT_SSAO_CBLK - 1) / VT_SSAO_CBLK;
+                const uint32_t b0 = j >= B ? j - B : 0, b1 = j + 1 + B < sv->hh ? j + 1 + B : sv->hh;
+                const int32_t *c0 = k->cs + b0 * cw, *c1 = k->cs + b1 * cw;
+                if (c1[a1] - c1[a0] - c0[a1] + c0[a0] == 0) {
+                    vf_store(res, one);
+                    goto out;
+                }
+            }
             rpx = vf_select(vf_lt(rpx, vf_set(VT_SSAO_MAX_PX)), rpx, vf_set(VT_SSAO_MAX_PX));
             vf nst = vf_select(vf_lt(rpx, vf_set((float)VT_SSAO_STEPS)), ss_floor(vf_select(ok, rpx, one)),
                                vf_set((float)VT_SSAO_STEPS));
@@ -360,11 +378,7 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
             /* a sample is at most rpx (< B) texels away on either axis
                (|cos|, |sin| <= 1, the steps' distances below rpx): a step
                at least B from every side needs no bounds on its samples */
-            bool inner;
-            {
-                const uint32_t B = (uint32_t)ss_hmax(vf_select(ok, rpx, zero)) + 2;
-                inner = i0 >= B && i0 + W - 1 + B < sv->hw && j >= B && j + B < sv->hh;
-            }
+            const bool inner = i0 >= B && i0 + W - 1 + B < sv->hw && j >= B && j + B < sv->hh;
             const vf qcf = vf_add(vf_mul(Y, vf_set((float)sv->hw)), X);
             ss_tan tp;
             {
@@ -445,6 +459,51 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
         if (nw == (uint32_t)W) vf_store(k->hao + q0, vf_loadu(res)); /* the row's own texels */
         else
             for (uint32_t l = 0; l < nw; l++) k->hao[q0 + l] = res[l];
+    }
+}
+
+/* The crease texels of half row j (the skip of vt_ssao.c's header): a
+ * drawn texel with a neighbour (4-connected, on the image) that is not,
+ * or the reverse, or a drawn one whose second difference along a row or
+ * a column, or whose 2x2 cell's mixed one, exceeds crease_tol (times its
+ * nearness, perspective) where those texels are drawn. Writes the
+ * running count over the row's blocks of 8 texels (VT_SSAO_CBLK, every
+ * instance's) into cs's row j + 1 (vt_ssao.c adds the rows up). */
+void VT_SSAO_CREASE_NAME(const vt_ssao_kjob *k, uint32_t j)
+{
+    const vt_ssao_view *sv = k->sv;
+    const ptrdiff_t hw = sv->hw;
+    const float *p = k->pn + (size_t)j * sv->hw; /* the pads make rows -1 and hh readable */
+    const vf E = vf_set(VT_EMPTY), tol = vf_set(k->crease_tol);
+    const vm none = vm_andnot(vm_ones(), vm_ones()), hu = j + 1 < sv->hh ? vm_ones() : none,
+             hd = j > 0 ? vm_ones() : none;
+    float lane[W];
+    for (int l = 0; l < W; l++) lane[l] = (float)l;
+    int32_t *o = k->cs + (size_t)(j + 1) * VT_SSAO_CBLKS(sv->hw), run = 0;
+    o[0] = 0;
+    for (uint32_t i0 = 0; i0 < sv->hw; i0 += W) {
+        const vf X = vf_add(vf_set((float)i0), vf_loadu(lane));
+        const vm hl = vf_ge(X, vf_set(1)), hr = vf_lt(X, vf_set((float)sv->hw - 1));
+        const float *q = p + i0;
+        const vf t = vf_loadu(q), l = vf_loadu(q - 1), r = vf_loadu(q + 1), u = vf_loadu(q + hw), d = vf_loadu(q - hw),
+                 ur = vf_loadu(q + hw + 1);
+        const vm mt = vm_and(vf_lt(X, vf_set((float)sv->hw)), vf_lt(E, t)), ml = vm_and(hl, vf_lt(E, l)),
+                 mr = vm_and(hr, vf_lt(E, r)), mu = vm_and(hu, vf_lt(E, u)), md = vm_and(hd, vf_lt(E, d)),
+                 mur = vm_and(vm_and(hr, hu), vf_lt(E, ur));
+        /* drawn next to not drawn (either way; off the image is neither) */
+        vm cr = vm_or(vm_or(vm_and(hl, vm_andnot(vm_or(mt, ml), vm_and(mt, ml))),
+                            vm_and(hr, vm_andnot(vm_or(mt, mr), vm_and(mt, mr)))),
+                      vm_or(vm_and(hu, vm_andnot(vm_or(mt, mu), vm_and(mt, mu))),
+                            vm_and(hd, vm_andnot(vm_or(mt, md), vm_and(mt, md)))));
+        const vf tt = sv->ortho ? tol : vf_mul(tol, t), t2 = vf_add(t, t);
+        cr = vm_or(cr, vm_and(vm_and(mt, vm_and(ml, mr)), vf_lt(tt, vf_abs(vf_add(vf_sub(l, t2), r)))));
+        cr = vm_or(cr, vm_and(vm_and(mt, vm_and(md, mu)), vf_lt(tt, vf_abs(vf_add(vf_sub(d, t2), u)))));
+        cr = vm_or(cr, vm_and(vm_and(vm_and(mt, mr), vm_and(mu, mur)),
+                              vf_lt(tt, vf_abs(vf_add(vf_sub(vf_sub(ur, r), u), t)))));
+        cr = vm_and(cr, vf_lt(X, vf_set((float)sv->hw)));
+        run += __builtin_popcount(vm_bits(cr));
+        /* a block's count once its last lane is in (W divides the block) */
+        if ((i0 + W) % VT_SSAO_CBLK == 0 || i0 + W >= sv->hw) o[(i0 + W - 1) / VT_SSAO_CBLK + 1] = run;
     }
 }
 
