@@ -559,10 +559,11 @@ void VT_SSAO_POS_NAME(const vt_ssao_kjob *k, uint32_t j)
 /* The upsample of the step at full column x of a row (N: its nearness;
  * ha, hn: its three half rows' AO and nearness, weights wy): the tent's
  * depth-weighted mean. cont: a whole step whose taps ss_tap reads (W > 1),
- * else the columns' tap tables. */
+ * else the columns' tap tables; na: the half rows that weigh (2: the
+ * third's weight is 0, odd rows). */
 static inline __attribute__((always_inline)) vf ss_up_step(const vt_ssao_kjob *k, vf N, const float *const ha[3],
                                                            const float *const hn[3], const float wy[3], uint32_t x,
-                                                           bool cont)
+                                                           bool cont, int na)
 {
     const vt_ssao_view *sv = k->sv;
     const size_t pl = (size_t)sv->w + 8;
@@ -572,7 +573,7 @@ static inline __attribute__((always_inline)) vf ss_up_step(const vt_ssao_kjob *k
     vf av[3][3];
     vf lo = one;
     (void)cont;
-    for (int a = 0; a < 3; a++)
+    for (int a = 0; a < na; a++)
         for (int c = 0; c < 3; c++) {
 #if W > 1
             av[a][c] = cont ? ss_tap(ha[a] + x / 2 - 1, c) : ss_gather(ha[a], k->cx + c * pl + x);
@@ -585,16 +586,16 @@ static inline __attribute__((always_inline)) vf ss_up_step(const vt_ssao_kjob *k
     ok = vm_and(ok, vf_lt(lo, one));
     if (!vm_bits(ok)) return one;
     vf kk = vf_div(one, tol), sum = zero, acc = zero;
-    for (int a = 0; a < 3; a++)
+    for (int a = 0; a < na; a++)
         for (int c = 0; c < 3; c++) {
 #if W > 1
             vf hv = cont ? ss_tap(hn[a] + x / 2 - 1, c) : ss_gather(hn[a], k->cx + c * pl + x);
 #else
             vf hv = ss_gather(hn[a], k->cx + c * pl + x);
 #endif
-            vf wd = vf_sub(one, vf_mul(vf_abs(vf_sub(hv, N)), kk));
+            /* max: a NaN or negative depth weight is 0 */
+            vf wd = vf_max(vf_sub(one, vf_mul(vf_abs(vf_sub(hv, N)), kk)), zero);
             vf wt = vf_mul(vf_mul(vf_set(wy[a]), vf_loadu(k->cw + c * pl + x)), wd);
-            wt = vf_select(vf_lt(zero, wd), wt, zero);
             sum = vf_add(sum, wt);
             acc = vf_add(acc, vf_mul(wt, av[a][c]));
         }
@@ -621,6 +622,7 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
     }
     const float *nrow = k->near + (size_t)y * sv->w;
     float *o = k->ao + (size_t)y * sv->w;
+    const bool odd = wy[2] == 0; /* the third half row weighs 0 (odd rows, the last even one) */
     const float *hn[3], *ha[3];
     for (int a = 0; a < 3; a++) {
         hn[a] = k->pn + (size_t)jy[a] * sv->hw;
@@ -655,11 +657,12 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
             for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[x + l] : VT_EMPTY;
             N = vf_loadu(nb);
         }
+        /* (the calls with constant cont and row count unroll their taps) */
 #if W > 1
-        if (cont) vf_store(res, ss_up_step(k, N, ha, hn, wy, x, true));
+        if (cont) vf_store(res, odd ? ss_up_step(k, N, ha, hn, wy, x, true, 2) : ss_up_step(k, N, ha, hn, wy, x, true, 3));
         else
 #endif
-            vf_store(res, ss_up_step(k, N, ha, hn, wy, x, false));
+            vf_store(res, odd ? ss_up_step(k, N, ha, hn, wy, x, false, 2) : ss_up_step(k, N, ha, hn, wy, x, false, 3));
         if (nw == (uint32_t)W) vf_store(o + x, vf_loadu(res));
         else
             for (uint32_t l = 0; l < nw; l++) o[x + l] = res[l];
