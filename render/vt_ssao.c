@@ -55,6 +55,7 @@ struct vt_ssao {
     float *ao;              /* full pixels' AO */
     size_t ao_cap;
     uint32_t isa;           /* vt_ssao_set_isa's + 1; 0: the default */
+    bool no_skip;           /* vt_ssao_no_skip */
 };
 
 typedef struct job {
@@ -266,6 +267,7 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
        within that margin of the plane over the whole reach (perspective:
        relative to the texel's nearness, which is the larger near the eye) */
     jb.k.crease_tol = sv->kappa / 32;
+    jb.k.no_skip = s->no_skip;
     memset(s->cs, 0, VT_SSAO_CBLKS(sv->hw) * sizeof *s->cs);
     void (*const pass[4])(void *, uint32_t) = {job_pos, job_crease, job_gtao, job_up};
     for (int p = 0; p < 4; p++) {
@@ -284,6 +286,12 @@ void vt_ssao_set_isa(vt_ssao **sp, uint32_t isa)
 {
     if (!*sp) *sp = calloc(1, sizeof **sp);
     if (*sp) (*sp)->isa = isa < CULL_ISA_COUNT ? isa + 1 : 0;
+}
+
+void vt_ssao_no_skip(vt_ssao **sp)
+{
+    if (!*sp) *sp = calloc(1, sizeof **sp);
+    if (*sp) (*sp)->no_skip = true;
 }
 
 void vt_ssao_destroy(vt_ssao *s)

@@ -130,5 +130,8 @@ void vt_ssao_destroy(vt_ssao *s);
  * instance is the tests' reference for the 4- and 8-lane ones) where this
  * CPU has it, else the default; *s made if NULL (out of memory: nothing). */
 void vt_ssao_set_isa(vt_ssao **s, uint32_t isa);
+/* Later runs of *s skip no step (vt_ssao.c's skip off: the tests'
+ * reference for it); *s made if NULL (out of memory: nothing). */
+void vt_ssao_no_skip(vt_ssao **s);
 
 #endif

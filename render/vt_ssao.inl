@@ -317,7 +317,7 @@ void VT_SSAO_GTAO_NAME(const vt_ssao_kjob *k, uint32_t j)
                 const uint32_t a1 = ((i0 + W + B < sv->hw ? i0 + W + B : sv->hw) + VT_SSAO_CBLK - 1) / VT_SSAO_CBLK;
                 const uint32_t b0 = j >= B ? j - B : 0, b1 = j + 1 + B < sv->hh ? j + 1 + B : sv->hh;
                 const int32_t *c0 = k->cs + b0 * cw, *c1 = k->cs + b1 * cw;
-                if (c1[a1] - c1[a0] - c0[a1] + c0[a0] == 0) {
+                if (c1[a1] - c1[a0] - c0[a1] + c0[a0] == 0 && !k->no_skip) {
                     vf_store(res, one);
                     goto out;
                 }

@@ -25,6 +25,7 @@ typedef struct vt_ssao_kjob {
                                    (vt_ssao.inl's crease kernel) in texels [0, 8 b) x [0, j) at
                                    j VT_SSAO_CBLKS (hw) + b */
     float crease_tol;           /* the crease test's tolerance (vt_ssao.c) */
+    bool no_skip;               /* vt_ssao_no_skip */
     float *hao;                 /* half texels' AO */
     const int32_t *cx;          /* 3 planes of w + 8 (padded): each full column's tap half columns */
     const float *cw;            /* their weights, likewise */
