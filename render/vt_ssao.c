@@ -39,7 +39,7 @@
    to the others; 4 half rows of GTAO are about 90 bands a frame) */
 #define BAND_POS 16u        /* half rows */
 #define BAND_GTAO 4u        /* half rows */
-#define BAND_UP 8u          /* full rows */
+#define BAND_UP 4u          /* pairs of full rows */
 #define PI_F 3.14159265f
 
 struct vt_ssao {
@@ -206,13 +206,14 @@ static void taps(uint32_t x, uint32_t hn, uint32_t idx[3], float wt[3])
     idx[2] = x / 2 + 1 < hn ? x / 2 + 1 : x / 2, wt[2] = x / 2 + 1 < hn ? 0.25f : 0;
 }
 
-/* Pass 3: the upsample of full rows (the lane kernel, vt_ssao.inl); the
- * columns' taps were made once (vt_ssao_run). */
+/* Pass 4: the upsample of full rows, two at a time (the lane kernel,
+ * vt_ssao.inl: the pair's half-row taps read once); the columns' taps
+ * were made once (vt_ssao_run). */
 static void job_up(void *arg, uint32_t t)
 {
     job *jb = arg;
     (void)t;
-    band_rows(jb, 2, jb->sv->h, BAND_UP, jb->kern.up);
+    band_rows(jb, 2, (jb->sv->h + 1) / 2, BAND_UP, jb->kern.up);
 }
 
 void vt_ssao_dirs(float dir[4 * VT_SSAO_SLICES][2])

@@ -556,45 +556,52 @@ void VT_SSAO_POS_NAME(const vt_ssao_kjob *k, uint32_t j)
     }
 }
 
-/* The upsample of the step at full column x of a row (N: its nearness;
- * ha, hn: its three half rows' AO and nearness, weights wy): the tent's
- * depth-weighted mean. cont: a whole step whose taps ss_tap reads (W > 1),
- * else the columns' tap tables; na: the half rows that weigh (2: the
- * third's weight is 0, odd rows). */
-static inline __attribute__((always_inline)) vf ss_up_step(const vt_ssao_kjob *k, vf N, const float *const ha[3],
-                                                           const float *const hn[3], const float wy[3], uint32_t x,
-                                                           bool cont, int na)
+/* The upsample's taps of the step at full column x from three half rows
+ * (h: ha's AO or hn's nearness): tap c of row a at t[a][c]. cont: a
+ * whole step whose taps ss_tap reads (W > 1), else the columns' tables. */
+static inline __attribute__((always_inline)) void ss_up_taps(const vt_ssao_kjob *k, const float *const h[3], uint32_t x,
+                                                             bool cont, vf t[3][3])
 {
-    const vt_ssao_view *sv = k->sv;
-    const size_t pl = (size_t)sv->w + 8;
-    const vf zero = vf_set(0), one = vf_set(1);
-    vf tol = sv->ortho ? vf_set(sv->ntol) : vf_mul(vf_set(VT_SSAO_DEPTH_TOL), N);
-    vm ok = vm_and(vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(zero, tol)), vf_lt(tol, vf_set(FLT_MAX)));
-    vf av[3][3];
-    vf lo = one;
-    (void)cont;
-    for (int a = 0; a < na; a++)
+    const size_t pl = (size_t)k->sv->w + 8;
+    (void)cont, (void)pl;
+    for (int a = 0; a < 3; a++)
         for (int c = 0; c < 3; c++) {
 #if W > 1
-            av[a][c] = cont ? ss_tap(ha[a] + x / 2 - 1, c) : ss_gather(ha[a], k->cx + c * pl + x);
+            t[a][c] = cont ? ss_tap(h[a] + x / 2 - 1, c) : ss_gather(h[a], k->cx + c * pl + x);
 #else
-            av[a][c] = ss_gather(ha[a], k->cx + c * pl + x);
+            t[a][c] = ss_gather(h[a], k->cx + c * pl + x);
 #endif
-            lo = vf_select(vf_lt(av[a][c], lo), av[a][c], lo);
         }
-    /* most of a frame is unoccluded: the mean of ones is 1 */
-    ok = vm_and(ok, vf_lt(lo, one));
-    if (!vm_bits(ok)) return one;
+}
+
+/* The lanes of a full row's step (nearness N) that need the mean: drawn,
+ * a usable tolerance (*tol), and some tap below 1 among the half rows
+ * a0 .. a0 + na - 1 of av (most of a frame is unoccluded: the mean of
+ * ones is 1). */
+static inline __attribute__((always_inline)) vm ss_up_need(const vt_ssao_view *sv, vf N, const vf av[3][3], int a0, int na,
+                                                           vf *tol)
+{
+    const vf zero = vf_set(0), one = vf_set(1);
+    *tol = sv->ortho ? vf_set(sv->ntol) : vf_mul(vf_set(VT_SSAO_DEPTH_TOL), N);
+    vm ok = vm_and(vm_and(vf_lt(vf_set(VT_EMPTY), N), vf_lt(zero, *tol)), vf_lt(*tol, vf_set(FLT_MAX)));
+    vf lo = one;
+    for (int a = a0; a < a0 + na; a++)
+        for (int c = 0; c < 3; c++) lo = vf_select(vf_lt(av[a][c], lo), av[a][c], lo);
+    return vm_and(ok, vf_lt(lo, one));
+}
+
+/* The tent's depth-weighted mean over the half rows a0 .. a0 + na - 1
+ * (weights wy[a]) where ok, 1 elsewhere. */
+static inline __attribute__((always_inline)) vf ss_up_mean(const vt_ssao_kjob *k, vf N, vf tol, vm ok, const vf av[3][3],
+                                                           const vf hv[3][3], const float wy[3], int a0, int na, uint32_t x)
+{
+    const size_t pl = (size_t)k->sv->w + 8;
+    const vf zero = vf_set(0), one = vf_set(1);
     vf kk = vf_div(one, tol), sum = zero, acc = zero;
-    for (int a = 0; a < na; a++)
+    for (int a = a0; a < a0 + na; a++)
         for (int c = 0; c < 3; c++) {
-#if W > 1
-            vf hv = cont ? ss_tap(hn[a] + x / 2 - 1, c) : ss_gather(hn[a], k->cx + c * pl + x);
-#else
-            vf hv = ss_gather(hn[a], k->cx + c * pl + x);
-#endif
             /* max: a NaN or negative depth weight is 0 */
-            vf wd = vf_max(vf_sub(one, vf_mul(vf_abs(vf_sub(hv, N)), kk)), zero);
+            vf wd = vf_max(vf_sub(one, vf_mul(vf_abs(vf_sub(hv[a][c], N)), kk)), zero);
             vf wt = vf_mul(vf_mul(vf_set(wy[a]), vf_loadu(k->cw + c * pl + x)), wd);
             sum = vf_add(sum, wt);
             acc = vf_add(acc, vf_mul(wt, av[a][c]));
@@ -605,24 +612,40 @@ static inline __attribute__((always_inline)) vf ss_up_step(const vt_ssao_kjob *k
     return vf_select(vm_and(ok, sp), ao, one);
 }
 
-void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
+/* The step at full column x of the row pair: row 2m (nearness N0) from
+ * the half rows 0, 1, 2 of ha / hn (m - 1, m, m + 1, clamped, weights
+ * w0; na0 of them weigh), row 2m + 1 (N1, when two) from rows 1, 2
+ * (weights w1; na1). The taps are read once for both rows. */
+static inline __attribute__((always_inline)) void ss_up_pair(const vt_ssao_kjob *k, const float *const ha[3],
+                                                             const float *const hn[3], const float w0[3], const float w1[3],
+                                                             uint32_t x, bool cont, int na0, int na1, bool two, vf N0, vf N1,
+                                                             vf r[2])
+{
+    vf av[3][3], hv[3][3], tol0, tol1 = N1;
+    ss_up_taps(k, ha, x, cont, av);
+    vm ok0 = ss_up_need(k->sv, N0, av, 0, na0, &tol0), ok1 = two ? ss_up_need(k->sv, N1, av, 1, na1, &tol1) : ok0;
+    r[0] = r[1] = vf_set(1);
+    if (!vm_bits(vm_or(ok0, ok1))) return;
+    ss_up_taps(k, hn, x, cont, hv);
+    if (vm_bits(ok0)) r[0] = ss_up_mean(k, N0, tol0, ok0, av, hv, w0, 0, na0, x);
+    if (two && vm_bits(ok1)) r[1] = ss_up_mean(k, N1, tol1, ok1, av, hv, w1, 1, na1, x);
+}
+
+/* Full rows 2 m and 2 m + 1 (where there is one; vt_ssao.c's taps(),
+ * rows: 2 m from the half rows m - 1, m, m + 1 at 1/4, 1/2, 1/4, 2 m + 1
+ * from m, m + 1 at 1/2 each, weight 0 off the image). */
+void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t m)
 {
     const vt_ssao_view *sv = k->sv;
-    /* the rows' taps (vt_ssao.c's taps(), rows) */
-    uint32_t jy[3];
-    float wy[3];
-    if (y & 1) {
-        jy[0] = (y - 1) / 2, wy[0] = 0.5f;
-        jy[1] = (y + 1) / 2 < sv->hh ? (y + 1) / 2 : jy[0], wy[1] = (y + 1) / 2 < sv->hh ? 0.5f : 0;
-        jy[2] = jy[0], wy[2] = 0;
-    } else {
-        jy[0] = y >= 2 ? y / 2 - 1 : y / 2, wy[0] = y >= 2 ? 0.25f : 0;
-        jy[1] = y / 2, wy[1] = 0.5f;
-        jy[2] = y / 2 + 1 < sv->hh ? y / 2 + 1 : y / 2, wy[2] = y / 2 + 1 < sv->hh ? 0.25f : 0;
-    }
+    const uint32_t y = 2 * m;
+    const bool two = y + 1 < sv->h, below = m + 1 < sv->hh;
+    const uint32_t jy[3] = {m >= 1 ? m - 1 : m, m, below ? m + 1 : m};
+    const float w0[3] = {m >= 1 ? 0.25f : 0, 0.5f, below ? 0.25f : 0}, w1[3] = {0, 0.5f, below ? 0.5f : 0};
+    /* the half rows that weigh: row 2 m's third and row 2 m + 1's second
+       (half row m + 1) not below the image */
+    const int na = below ? 3 : 2;
     const float *nrow = k->near + (size_t)y * sv->w;
     float *o = k->ao + (size_t)y * sv->w;
-    const bool odd = wy[2] == 0; /* the third half row weighs 0 (odd rows, the last even one) */
     const float *hn[3], *ha[3];
     for (int a = 0; a < 3; a++) {
         hn[a] = k->pn + (size_t)jy[a] * sv->hw;
@@ -632,39 +655,51 @@ void VT_SSAO_UP_NAME(const vt_ssao_kjob *k, uint32_t y)
     const vf one = vf_set(1);
 #endif
     for (uint32_t x = 0; x < sv->w; x += W) {
-        float nb[W], res[W];
+        float nb[2][W], res[2][W];
         uint32_t nw = sv->w - x < (uint32_t)W ? sv->w - x : (uint32_t)W;
-#if W > 1
         bool cont = false; /* a whole step whose taps ss_tap reads */
+#if W > 1
         /* most of a frame is unoccluded: where the three half rows are 1
            over the step's taps (half columns x/2 - 1 .. x/2 + W/2 within
-           the W at x/2 - 1), every lane's mean is 1 (the general path's
-           answer too), without the gathers */
+           the W at x/2 - 1), every lane's mean is 1 in both rows (the
+           general path's answer too), without the taps */
         if (x >= 2 && nw == (uint32_t)W && x / 2 - 1 + W <= sv->hw) {
             cont = true;
             vm all1 = vm_and(vm_and(vf_le(one, vf_loadu(ha[0] + x / 2 - 1)), vf_le(one, vf_loadu(ha[1] + x / 2 - 1))),
                              vf_le(one, vf_loadu(ha[2] + x / 2 - 1)));
             if (vm_bits(all1) == (1u << W) - 1) {
                 vf_store(o + x, one);
+                if (two) vf_store(o + sv->w + x, one);
                 continue;
             }
         }
 #endif
-        vf N;
-        if (nw == (uint32_t)W) {
-            N = vf_loadu(nrow + x);
-        } else {
-            for (uint32_t l = 0; l < (uint32_t)W; l++) nb[l] = l < nw ? nrow[x + l] : VT_EMPTY;
-            N = vf_loadu(nb);
+        vf N[2];
+        for (int r = 0; r < 2; r++) {
+            const float *row = nrow + (size_t)r * sv->w;
+            if (r && !two) N[r] = vf_set(VT_EMPTY);
+            else if (nw == (uint32_t)W) N[r] = vf_loadu(row + x);
+            else {
+                for (uint32_t l = 0; l < (uint32_t)W; l++) nb[r][l] = l < nw ? row[x + l] : VT_EMPTY;
+                N[r] = vf_loadu(nb[r]);
+            }
         }
-        /* (the calls with constant cont and row count unroll their taps) */
-#if W > 1
-        if (cont) vf_store(res, odd ? ss_up_step(k, N, ha, hn, wy, x, true, 2) : ss_up_step(k, N, ha, hn, wy, x, true, 3));
-        else
-#endif
-            vf_store(res, odd ? ss_up_step(k, N, ha, hn, wy, x, false, 2) : ss_up_step(k, N, ha, hn, wy, x, false, 3));
-        if (nw == (uint32_t)W) vf_store(o + x, vf_loadu(res));
-        else
-            for (uint32_t l = 0; l < nw; l++) o[x + l] = res[l];
+        vf rv[2];
+        /* (the calls with constant cont and row counts unroll their taps) */
+        if (cont) {
+            if (na == 3) ss_up_pair(k, ha, hn, w0, w1, x, true, 3, 2, two, N[0], N[1], rv);
+            else ss_up_pair(k, ha, hn, w0, w1, x, true, 2, 1, two, N[0], N[1], rv);
+        } else {
+            if (na == 3) ss_up_pair(k, ha, hn, w0, w1, x, false, 3, 2, two, N[0], N[1], rv);
+            else ss_up_pair(k, ha, hn, w0, w1, x, false, 2, 1, two, N[0], N[1], rv);
+        }
+        for (int r = 0; r < 1 + two; r++) {
+            float *orow = o + (size_t)r * sv->w;
+            if (nw == (uint32_t)W) vf_store(orow + x, rv[r]);
+            else {
+                vf_store(res[r], rv[r]);
+                for (uint32_t l = 0; l < nw; l++) orow[x + l] = res[r][l];
+            }
+        }
     }
 }

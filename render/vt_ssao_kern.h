@@ -45,7 +45,7 @@ typedef struct vt_ssao_kern {
     vt_ssao_row_fn pos;  /* half row j: pn */
     vt_ssao_row_fn crease; /* half row j: cs's row j + 1, counted along the row only */
     vt_ssao_row_fn gtao; /* half row j: hao, hnear */
-    vt_ssao_row_fn up;   /* full row y: ao */
+    vt_ssao_row_fn up;   /* full rows 2 m, 2 m + 1: ao */
 } vt_ssao_kern;
 
 void vt_ssao_pos_scalar(const vt_ssao_kjob *k, uint32_t j);
