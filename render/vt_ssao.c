@@ -1,16 +1,28 @@
 /*
  * vt_ssao.c — the software renderer's ambient occlusion (see vt_ssao.h):
- * three passes over bands of 8 half-resolution rows (16 full rows: one
- * light-tile row), interleaved over the threads as vt_soft's raster and
- * shading split tile rows:
- *   1. positions: each half texel's camera-relative point from its
- *      nearness (16 multiply-adds and a divide);
- *   2. GTAO per half texel (2 slices x 2 sides x 4 steps);
- *   3. the depth-aware tent upsample to every full pixel.
+ * four passes over bands of rows, each thread taking the next band as it
+ * finishes one (as vt_soft's shading takes tile rows):
+ *   1. the half texels' nearness (every other pixel of every other
+ *      row; VT_EMPTY where the point is not finite);
+ *   2. the crease texels (vt_ssao.inl's crease kernel), counted into an
+ *      integral image over blocks of 8 texels along the rows;
+ *   3. GTAO per half texel (2 slices x 2 sides x 4 steps), each point
+ *      made from its nearness where it is used (vt_ssao.h: a load, 9
+ *      multiply-adds and a divide; the 4 planes of points this replaced
+ *      cost 4 gathers a sample and 4 times the memory);
+ *   4. the depth-aware tent upsample to every full pixel.
+ * The skip: nearness is affine in the texels over a plane, so where no
+ * crease texel (a second difference above crease_tol, or drawn next to
+ * nothing) is within a step's reach (its samples and the normal's
+ * neighbours), all it samples is one plane, none is above P's tangent
+ * plane by the bias (a nearness that bends by less than crease_tol a
+ * texel stays within a quarter of that margin over 128 texels), and its
+ * AO is 1 without a sample: 4 reads of the integral image. A street
+ * view's open ground and walls (about 44 % of its steps) end there.
  * Each pass' rows run in the lane kernels of vt_ssao.inl (1, 4 or 8
  * lanes, the same bits: vt_ssao_kern.h); this file owns the view, the
  * buffers, the bands and the per-frame tables.
- * Memory: 16 + 4 bytes a half texel, 4 a pixel (about 5 MB at
+ * Memory: 4 + 4 bytes a half texel, 4 a pixel (about 5.5 MB at
  * 1280x720), kept from frame to frame.
  */
 #include "vt_picture.h"
@@ -21,22 +33,29 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define BAND 8u             /* half rows a band */
+/* rows a band, each pass' (the threads take the next band as they
+   finish one: a frame's sky rows cost nothing, its ground near the eye
+   the most, and a thread the shared machine holds back leaves its bands
+   to the others; 4 half rows of GTAO are about 90 bands a frame) */
+#define BAND_POS 16u        /* half rows */
+#define BAND_GTAO 4u        /* half rows */
+#define BAND_UP 4u          /* pairs of full rows */
 #define PI_F 3.14159265f
 
 struct vt_ssao {
-    float *pos;             /* half texels: 4 padded planes x, y, z camera-relative, nearness (vt_ssao_kjob) */
+    float *pos;             /* half texels' nearness, padded (vt_ssao_kjob's pn) */
     size_t pos_cap;
     float *hao;             /* half texels' AO */
     size_t hao_cap;
+    int32_t *cs;            /* the crease texels' counts (vt_ssao_kjob) */
+    size_t cs_cap;
     int32_t *cx;            /* 3 planes of w + 8 (padded with 0): each full column's taps' half columns, weights */
     float *cw;
     size_t cx_cap, cw_cap;
-    float *colx;            /* hw + 8: each half column's NDC x */
-    size_t colx_cap;
     float *ao;              /* full pixels' AO */
     size_t ao_cap;
     uint32_t isa;           /* vt_ssao_set_isa's + 1; 0: the default */
+    bool no_skip;           /* vt_ssao_no_skip */
 };
 
 typedef struct job {
@@ -44,12 +63,13 @@ typedef struct job {
     const float *near;
     vt_ssao *s;
     uint32_t nt;
+    uint32_t next[4];       /* each pass' next band (atomic) */
     vt_ssao_kjob k;
     vt_ssao_kern kern;
 } job;
 
 /* (p, 1) ~ inv (X, Y, N, 1); false where it is not a finite point (the
- * view's set-up; the pass' rows: vt_ssao.inl's pos kernel). */
+ * view's set-up). */
 static bool unproject(const vt_ssao_view *sv, float X, float Y, float N, float p[3])
 {
     float q[4];
@@ -86,6 +106,45 @@ void vt_ssao_view_make(const cull_view_rows *vr, uint32_t w, uint32_t h, vt_ssao
         l2 += sv->ex[k] * sv->ex[k];
         n2 += sv->vdir[k] * sv->vdir[k];
     }
+    /* the rows' (X, Y, N, 1) is the clip vector over w, and perspective
+       nearness is 1 / w (cull_view_rows' d): (p, 1) = Ri (X, Y, N, 1) / N,
+       p = Ri (X, Y, 0, 1) / N plus the eye Ri's column 2; orthographic, w
+       is the constant w[3]: p = w[3] Ri (X, Y, N, 1). Half texel i is at
+       X = (4 i + 1) / w - 1. */
+    const double ws = sv->ortho ? vr->w[3] : 1, X0 = 1.0 / w - 1, Y0 = 1.0 / h - 1;
+    for (int k = 0; k < 3; k++) {
+        double b0 = ws * (Ri[k][0] * X0 + Ri[k][1] * Y0 + Ri[k][3]), bi = ws * Ri[k][0] * 4 / w,
+               bj = ws * Ri[k][1] * 4 / h, bn = sv->ortho ? ws * Ri[k][2] : 0;
+        sv->b0[k] = (float)b0, sv->bi[k] = (float)bi, sv->bj[k] = (float)bj, sv->bn[k] = (float)bn;
+        if (!isfinite(sv->b0[k]) || !isfinite(sv->bi[k]) || !isfinite(sv->bj[k]) || !isfinite(sv->bn[k])) return;
+    }
+    /* kappa (vt_ssao.inl's ss_tan): the least over the image's corners
+       and the steps to a neighbour of the sine between the two texels'
+       rays (perspective: along b0 + i bi + j bj) or of their distance
+       (orthographic: the rays along bn), over 8 (the quarter, and half for
+       a step of more than one texel that is not the sum of these) */
+    {
+        double lo = INFINITY, bn[3], bl = 0;
+        for (int k = 0; k < 3; k++) bn[k] = sv->bn[k], bl += bn[k] * bn[k];
+        bl = sqrt(bl);
+        static const int off[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
+        for (int c = 0; c < 4; c++)
+            for (int o = 0; o < 4; o++) {
+                double i = c & 1 ? sv->hw - 1.0 : 0, jj = c & 2 ? sv->hh - 1.0 : 0, a[3], b[3], x[3];
+                double di = c & 1 ? -off[o][0] : off[o][0], dj = c & 2 ? -off[o][1] : off[o][1];
+                for (int k = 0; k < 3; k++) {
+                    a[k] = sv->ortho ? 0 : (double)sv->b0[k] + i * sv->bi[k] + jj * sv->bj[k];
+                    b[k] = a[k] + di * sv->bi[k] + dj * sv->bj[k];
+                }
+                const double *u = sv->ortho ? bn : a;
+                x[0] = u[1] * b[2] - u[2] * b[1], x[1] = u[2] * b[0] - u[0] * b[2], x[2] = u[0] * b[1] - u[1] * b[0];
+                double ul = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]), vl = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+                double q = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) / (sv->ortho ? ul * ul : ul * vl);
+                lo = q < lo ? q : lo;
+            }
+        sv->kappa = (float)(VT_SSAO_BIAS * lo / 8);
+        if (!(sv->kappa >= 0) || !isfinite(sv->kappa)) sv->kappa = 0;
+    }
     sv->texel1 = sqrtf(l2);
     if (!(sv->texel1 > 0) || !isfinite(sv->texel1)) return;
     if (sv->ortho) {
@@ -99,25 +158,35 @@ void vt_ssao_view_make(const cull_view_rows *vr, uint32_t w, uint32_t h, vt_ssao
     sv->ok = true;
 }
 
-/* Rows [0, rows) in bands of band rows, band k to thread k % nt: each
- * pass's split (the lane kernel fn, vt_ssao.inl, one row at a time). */
-static void band_rows(const job *jb, uint32_t t, uint32_t rows, uint32_t band, vt_ssao_row_fn fn)
+/* Rows [0, rows) in bands of band rows, each thread taking the next band
+ * of pass p (*next) until none is left: each pass's split (the lane
+ * kernel fn, vt_ssao.inl, one row at a time). */
+static void band_rows(job *jb, int p, uint32_t rows, uint32_t band, vt_ssao_row_fn fn)
 {
-    for (uint32_t b = t; b * band < rows; b += jb->nt)
+    for (uint32_t b; (b = __atomic_fetch_add(&jb->next[p], 1, __ATOMIC_RELAXED)) < (rows + band - 1) / band;)
         for (uint32_t j = b * band; j < rows && j < (b + 1) * band; j++) fn(&jb->k, j);
 }
 
-/* Pass 1: the half texels' points; pass 2: GTAO (both over half rows). */
+/* Pass 1: the half texels' nearness; pass 2: GTAO (both over half rows). */
 static void job_pos(void *arg, uint32_t t)
 {
-    const job *jb = arg;
-    band_rows(jb, t, jb->sv->hh, BAND, jb->kern.pos);
+    job *jb = arg;
+    (void)t;
+    band_rows(jb, 0, jb->sv->hh, BAND_POS, jb->kern.pos);
+}
+
+static void job_crease(void *arg, uint32_t t)
+{
+    job *jb = arg;
+    (void)t;
+    band_rows(jb, 3, jb->sv->hh, BAND_POS, jb->kern.crease);
 }
 
 static void job_gtao(void *arg, uint32_t t)
 {
-    const job *jb = arg;
-    band_rows(jb, t, jb->sv->hh, BAND, jb->kern.gtao);
+    job *jb = arg;
+    (void)t;
+    band_rows(jb, 1, jb->sv->hh, BAND_GTAO, jb->kern.gtao);
 }
 
 /* The tent taps along one axis for full coordinate x: the half texels
@@ -137,12 +206,14 @@ static void taps(uint32_t x, uint32_t hn, uint32_t idx[3], float wt[3])
     idx[2] = x / 2 + 1 < hn ? x / 2 + 1 : x / 2, wt[2] = x / 2 + 1 < hn ? 0.25f : 0;
 }
 
-/* Pass 3: the upsample of band rows (16 full rows a band; the lane
- * kernel, vt_ssao.inl); the columns' taps were made once (vt_ssao_run). */
+/* Pass 4: the upsample of full rows, two at a time (the lane kernel,
+ * vt_ssao.inl: the pair's half-row taps read once); the columns' taps
+ * were made once (vt_ssao_run). */
 static void job_up(void *arg, uint32_t t)
 {
-    const job *jb = arg;
-    band_rows(jb, t, jb->sv->h, 2 * BAND, jb->kern.up);
+    job *jb = arg;
+    (void)t;
+    band_rows(jb, 2, (jb->sv->h + 1) / 2, BAND_UP, jb->kern.up);
 }
 
 void vt_ssao_dirs(float dir[4 * VT_SSAO_SLICES][2])
@@ -162,11 +233,11 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     vt_ssao *s = *sp;
     size_t npx = (size_t)sv->w * sv->h, nh = (size_t)sv->hw * sv->hh;
     if (!vp_grow((void **)&s->ao, &s->ao_cap, npx ? npx : 1, sizeof *s->ao) ||
-        !vp_grow((void **)&s->pos, &s->pos_cap, 4 * (nh + 2 * VT_SSAO_PAD(sv->hw)), sizeof *s->pos) ||
+        !vp_grow((void **)&s->pos, &s->pos_cap, nh + 2 * VT_SSAO_PAD(sv->hw), sizeof *s->pos) ||
         !vp_grow((void **)&s->hao, &s->hao_cap, nh ? nh : 1, sizeof *s->hao) ||
+        !vp_grow((void **)&s->cs, &s->cs_cap, VT_SSAO_CBLKS(sv->hw) * (sv->hh + 1), sizeof *s->cs) ||
         !vp_grow((void **)&s->cx, &s->cx_cap, 3 * ((size_t)sv->w + 8), sizeof *s->cx) ||
-        !vp_grow((void **)&s->cw, &s->cw_cap, 3 * ((size_t)sv->w + 8), sizeof *s->cw) ||
-        !vp_grow((void **)&s->colx, &s->colx_cap, (size_t)sv->hw + 8, sizeof *s->colx))
+        !vp_grow((void **)&s->cw, &s->cw_cap, 3 * ((size_t)sv->w + 8), sizeof *s->cw))
         return VT_ERR_NOMEM;
     *ao = s->ao;
     if (!sv->ok) {
@@ -175,17 +246,12 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     }
     job jb = {.sv = sv, .near = near, .s = s, .nt = nt && pool ? nt : 1, .kern = vt_ssao_kern_pick(s->isa ? s->isa - 1 : CULL_ISA_COUNT)};
     const size_t pl = (size_t)sv->w + 8;
-    jb.k = (vt_ssao_kjob){.sv = sv, .near = near, .hao = s->hao, .cx = s->cx, .cw = s->cw, .colx = s->colx, .ao = s->ao};
-    /* the planes and their pads (read by the masked lanes of steps at the
-       image's sides: set, so no uninitialised memory is read) */
-    const size_t pad = VT_SSAO_PAD(sv->hw), stride = nh + 2 * pad;
-    float **pl4[4] = {&jb.k.px, &jb.k.py, &jb.k.pz, &jb.k.pn};
-    for (int c = 0; c < 4; c++) {
-        float *base = s->pos + (size_t)c * stride;
-        *pl4[c] = base + pad;
-        for (size_t i = 0; i < pad; i++) base[i] = base[pad + nh + i] = c == 3 ? VT_EMPTY : 0;
-    }
-    for (uint32_t i = 0; i < sv->hw + 8; i++) s->colx[i] = i < sv->hw ? (float)((2.0 * (2 * i) + 1) / sv->w - 1) : 0;
+    jb.k = (vt_ssao_kjob){.sv = sv, .near = near, .hao = s->hao, .cs = s->cs, .cx = s->cx, .cw = s->cw, .ao = s->ao};
+    /* the plane's pads (read by the masked lanes of steps at the image's
+       sides: set, so no uninitialised memory is read) */
+    const size_t pad = VT_SSAO_PAD(sv->hw);
+    jb.k.pn = s->pos + pad;
+    for (size_t i = 0; i < pad; i++) s->pos[i] = s->pos[pad + nh + i] = VT_EMPTY;
     vt_ssao_dirs(jb.k.dir);
     memset(s->cx, 0, 3 * pl * sizeof *s->cx);
     memset(s->cw, 0, 3 * pl * sizeof *s->cw);
@@ -195,10 +261,24 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
         taps(x, sv->hw, idx, wt);
         for (int c = 0; c < 3; c++) s->cx[c * pl + x] = (int32_t)idx[c], s->cw[c * pl + x] = wt[c];
     }
-    void (*const pass[3])(void *, uint32_t) = {job_pos, job_gtao, job_up};
-    for (int p = 0; p < 3; p++) {
+    /* the crease test's tolerance: a quarter of the least margin by which
+       a sample the test takes is above the tangent plane (kappa over 8
+       texels out, ss_tan) over the most texels a sample is out (64 sqrt
+       2 < 128): nearness that bends less than this between texels stays
+       within that margin of the plane over the whole reach (perspective:
+       relative to the texel's nearness, which is the larger near the eye) */
+    jb.k.crease_tol = sv->kappa / 32;
+    jb.k.no_skip = s->no_skip;
+    memset(s->cs, 0, VT_SSAO_CBLKS(sv->hw) * sizeof *s->cs);
+    void (*const pass[4])(void *, uint32_t) = {job_pos, job_crease, job_gtao, job_up};
+    for (int p = 0; p < 4; p++) {
         if (jb.nt > 1) cull_pool_run(pool, pass[p], &jb, jb.nt);
         else pass[p](&jb, 0);
+        if (p == 1) { /* the rows' counts into the integral image (29 k additions) */
+            const size_t cw = VT_SSAO_CBLKS(sv->hw);
+            for (uint32_t j = 1; j <= sv->hh; j++)
+                for (size_t i = 0; i < cw; i++) s->cs[j * cw + i] += s->cs[(j - 1) * cw + i];
+        }
     }
     return 0;
 }
@@ -209,14 +289,20 @@ void vt_ssao_set_isa(vt_ssao **sp, uint32_t isa)
     if (*sp) (*sp)->isa = isa < CULL_ISA_COUNT ? isa + 1 : 0;
 }
 
+void vt_ssao_no_skip(vt_ssao **sp)
+{
+    if (!*sp) *sp = calloc(1, sizeof **sp);
+    if (*sp) (*sp)->no_skip = true;
+}
+
 void vt_ssao_destroy(vt_ssao *s)
 {
     if (!s) return;
     free(s->pos);
     free(s->hao);
+    free(s->cs);
     free(s->cx);
     free(s->cw);
-    free(s->colx);
     free(s->ao);
     free(s);
 }

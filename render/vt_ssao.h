@@ -21,11 +21,15 @@
  * block), then a depth-aware tent upsample whose taps weigh the four
  * turns equally at every full-resolution pixel.
  *
- * Positions are reconstructed from nearness in float, camera-relative:
- * (p, 1) ~ inv (X, Y, N, 1), inv the inverse of the clip rows x, y, d, w
- * (vt_inv4); normals from the position differences to the neighbour on
- * the side with the smaller step (a crease or silhouette does not bend
- * them). Sky texels (nothing drawn) have AO 1 and never occlude.
+ * Positions are reconstructed from nearness in float: (p, 1) ~ inv (X,
+ * Y, N, 1), inv the inverse of the clip rows x, y, d, w (vt_inv4), which
+ * is, the rows being a camera's, p = B (i, j) / N relative to the eye
+ * (perspective: N is 1 / w) or p = B (i, j) + N bn (orthographic), B
+ * affine in the half texel (i, j): the software pass keeps only the half
+ * texels' nearness and a sample costs one load of it; normals from the
+ * position differences to the neighbour on the side with the smaller
+ * step (a crease or silhouette does not bend them). Sky texels (nothing
+ * drawn) have AO 1 and never occlude.
  */
 #ifndef VANTAGE_VT_SSAO_H
 #define VANTAGE_VT_SSAO_H
@@ -69,6 +73,15 @@ typedef struct vt_ssao_view {
                                any N): the screen's directions in the world */
     float texel1;           /* |ex| (the radius in texels is RADIUS N / texel1; orthographic: / texel1) */
     float vdir[3];          /* orthographic: unit, towards the eye */
+    /* half texel (i, j) at nearness N: the point B / N relative to the eye
+       (perspective), B + N bn camera-relative (orthographic), B = b0 + i bi
+       + j bj (vt_ssao.c's kernels) */
+    float b0[3], bi[3], bj[3], bn[3];
+    /* perspective: a quarter of VT_SSAO_BIAS times the least sine of the
+       angle between two neighbouring half texels' rays; orthographic: of
+       BIAS times the least distance between them over |bn| (vt_ssao.inl's
+       ss_tan) */
+    float kappa;
     float ntol;             /* orthographic: the upsample's tolerance in nearness units */
 } vt_ssao_view;
 
@@ -117,5 +130,8 @@ void vt_ssao_destroy(vt_ssao *s);
  * instance is the tests' reference for the 4- and 8-lane ones) where this
  * CPU has it, else the default; *s made if NULL (out of memory: nothing). */
 void vt_ssao_set_isa(vt_ssao **s, uint32_t isa);
+/* Later runs of *s skip no step (vt_ssao.c's skip off: the tests'
+ * reference for it); *s made if NULL (out of memory: nothing). */
+void vt_ssao_no_skip(vt_ssao **s);
 
 #endif

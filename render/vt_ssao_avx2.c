@@ -8,6 +8,7 @@
 #include "cull_simd.h"
 #define VT_SSAO_GTAO_NAME vt_ssao_gtao_avx2
 #define VT_SSAO_POS_NAME vt_ssao_pos_avx2
+#define VT_SSAO_CREASE_NAME vt_ssao_crease_avx2
 #define VT_SSAO_UP_NAME vt_ssao_up_avx2
 #include "vt_ssao.inl"
 #endif

@@ -16,32 +16,44 @@
 typedef struct vt_ssao_kjob {
     const vt_ssao_view *sv;
     const float *near;          /* full resolution, w x h */
-    /* half texels, one plane each (texel j hw + i): x, y, z camera-relative,
-       nearness (VT_EMPTY: sky); each plane has VT_SSAO_PAD (hw) floats before
-       and after it, so a step's neighbours two rows or columns away are
-       contiguous loads wherever it is (the lanes off the image masked) */
-    float *px, *py, *pz, *pn;
+    /* half texels' nearness (texel j hw + i; VT_EMPTY: sky or a point that
+       is not finite), with VT_SSAO_PAD (hw) floats before and after it, so
+       a step's neighbours two rows or columns away are contiguous loads
+       wherever it is (the lanes off the image masked) */
+    float *pn;
+    int32_t *cs;                /* VT_SSAO_CBLKS (hw) x (hh + 1): the count of crease texels
+                                   (vt_ssao.inl's crease kernel) in texels [0, 8 b) x [0, j) at
+                                   j VT_SSAO_CBLKS (hw) + b */
+    float crease_tol;           /* the crease test's tolerance (vt_ssao.c) */
+    bool no_skip;               /* vt_ssao_no_skip */
     float *hao;                 /* half texels' AO */
     const int32_t *cx;          /* 3 planes of w + 8 (padded): each full column's tap half columns */
     const float *cw;            /* their weights, likewise */
-    const float *colx;          /* hw + 8 (padded): each half column's NDC x */
     float *ao;                  /* full pixels */
     float dir[4 * VT_SSAO_SLICES][2]; /* vt_ssao_dirs */
 } vt_ssao_kjob;
 
 #define VT_SSAO_PAD(hw) (2 * (size_t)(hw) + 16)
+/* the crease counts' blocks of texels along a row, and their count + 1
+   (the same in every instance: the skip must be, for the same bits) */
+#define VT_SSAO_CBLK 8u
+#define VT_SSAO_CBLKS(hw) (((size_t)(hw) + VT_SSAO_CBLK - 1) / VT_SSAO_CBLK + 1)
 
 typedef void (*vt_ssao_row_fn)(const vt_ssao_kjob *k, uint32_t row);
 
 typedef struct vt_ssao_kern {
-    vt_ssao_row_fn pos;  /* half row j: pos */
+    vt_ssao_row_fn pos;  /* half row j: pn */
+    vt_ssao_row_fn crease; /* half row j: cs's row j + 1, counted along the row only */
     vt_ssao_row_fn gtao; /* half row j: hao, hnear */
-    vt_ssao_row_fn up;   /* full row y: ao */
+    vt_ssao_row_fn up;   /* full rows 2 m, 2 m + 1: ao */
 } vt_ssao_kern;
 
 void vt_ssao_pos_scalar(const vt_ssao_kjob *k, uint32_t j);
 void vt_ssao_pos_sse41(const vt_ssao_kjob *k, uint32_t j);
 void vt_ssao_pos_avx2(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_crease_scalar(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_crease_sse41(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_crease_avx2(const vt_ssao_kjob *k, uint32_t j);
 void vt_ssao_gtao_scalar(const vt_ssao_kjob *k, uint32_t j);
 void vt_ssao_up_scalar(const vt_ssao_kjob *k, uint32_t y);
 void vt_ssao_gtao_sse41(const vt_ssao_kjob *k, uint32_t j);

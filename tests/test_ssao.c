@@ -410,8 +410,9 @@ static void test_ssao_adversarial(void **state)
  * (odd sizes: row tails shorter than a step; perspective and orthographic;
  * one and two threads): every pixel the same bit for bit. No tolerance is
  * needed: the instances do the same float operations in the same order
- * (no FMA, no approximate reciprocals; vt_ssao_kern.h), and any
- * difference means a lane sampled another texel or mixed up a mask. */
+ * (no FMA; the one estimate, the horizon's rsqrt, is the same instruction
+ * in every instance; vt_ssao_kern.h), and any difference means a lane
+ * sampled another texel or mixed up a mask. */
 static void test_ssao_lanes(void **state)
 {
     (void)state;
@@ -451,6 +452,61 @@ static void test_ssao_lanes(void **state)
             vt_ssao_destroy(s);
         }
         vt_ssao_destroy(ref);
+        free(nb);
+    }
+    cull_pool_destroy(pool);
+}
+
+/* ---- (e) the skip of steps with no crease in reach ---------------------------- */
+
+/* The pass with its skip (vt_ssao.c: a step with no crease texel within
+ * its reach has AO 1 without a sample) against the same pass skipping
+ * nothing, on the lanes' street of boxes plus a box on open ground
+ * (most steps skip there), perspective and orthographic, odd sizes, one
+ * and two threads: every pixel the same bit for bit (a skipped step is
+ * one where no sample would have raised a horizon, whose AO the full
+ * pass makes exactly 1: num is den). */
+static void test_ssao_skip(void **state)
+{
+    (void)state;
+    static const box3 boxes[] = {{{-12, 0, -30}, {-4, 9, -14}}, {{3, 0, -26}, {9, 4, -20}}, {{-2, 0, -12}, {0.5, 1.2, -9}},
+                                 {{6, 0, -60}, {20, 25, -40}}, {{-1, 2, -18}, {1, 3, -16}}};
+    static const box3 far_box = {{-2, 0, -22}, {2, 3, -18}};
+    const geo street = {.ground = true, .box = boxes, .nbox = 5}, open = {.ground = true, .box = &far_box, .nbox = 1};
+    static const struct {
+        int scene;
+        double eye[3], at[3], oh;
+        uint32_t w, h;
+    } views[] = {{0, {0, 1.7, 0}, {0, 1.0, -20}, 0, 203, 97}, {0, {10, 14, 4}, {0, 0, -20}, 0, 160, 90},
+                 {0, {5, 12, 0}, {0, 0, -20}, 14, 131, 75}, {1, {0, 2.5, -8}, {0, 0, -40}, 0, 177, 101},
+                 {1, {0, 20, -5}, {0, 0, -20}, 12, 120, 80}};
+    cull_pool *pool = NULL;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    for (size_t v = 0; v < sizeof views / sizeof views[0]; v++) {
+        cam c;
+        cam_make(&c, views[v].eye, views[v].at, views[v].w, views[v].h, views[v].oh);
+        float *nb = near_of(&c, views[v].scene ? &open : &street, NULL, NULL);
+        size_t n = (size_t)c.w * c.h;
+        for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) { /* each instance's steps (W) */
+            if (!cull_isa_supported(isa)) continue;
+            vt_ssao *ref = NULL, *s = NULL;
+            vt_ssao_set_isa(&ref, isa);
+            vt_ssao_no_skip(&ref);
+            vt_ssao_set_isa(&s, isa);
+            assert_true(ref && s);
+            const float *r = ao_of(&ref, NULL, &c, nb), *ao = ao_of(&s, v & 1 ? pool : NULL, &c, nb);
+            size_t bad = 0, dark = 0;
+            for (size_t i = 0; i < n; i++) {
+                bad += memcmp(&ao[i], &r[i], sizeof *ao) != 0;
+                dark += r[i] < 0.9f;
+            }
+            fprintf(stderr, "view %zu %s: %zu of %zu pixels differ from the pass without the skip (%zu below 0.9)\n", v,
+                    cull_isa_name(isa), bad, n, dark);
+            assert_true(dark > n / 1000); /* contact shadows to keep */
+            assert_int_equal(bad, 0);
+            vt_ssao_destroy(ref);
+            vt_ssao_destroy(s);
+        }
         free(nb);
     }
     cull_pool_destroy(pool);
@@ -746,6 +802,7 @@ const struct CMUnitTest ssao_tests[] = {
     cmocka_unit_test(test_ssao_range_check),
     cmocka_unit_test(test_ssao_adversarial),
     cmocka_unit_test(test_ssao_lanes),
+    cmocka_unit_test(test_ssao_skip),
     cmocka_unit_test(test_ssao_renderers),
     cmocka_unit_test(test_sky_never_black),
     cmocka_unit_test(test_fog_transmittance),
