@@ -319,11 +319,13 @@ static void pool_run(void *pool, vt_jpeg_job_fn fn, void *arg, uint32_t n)
     cull_pool_run(pool, fn, arg, n);
 }
 
-/* rgba (bottom row first, as rendered) tone-mapped into rgb8 and encoded. */
+/* rgba (bottom row first, as rendered) tone-mapped into rgb8 and encoded:
+ * two bands a thread, taken in turn, so a band of sky (fast) and one of
+ * street (slow) do not leave a core waiting for the other. */
 static int jpeg_frame(worker *wk, uint32_t w, uint32_t h, const float *rgba, const vt_tonemap_desc *td,
                       uint8_t *rgb8, int quality, uint8_t **jpeg, size_t *len, char *err, size_t errlen)
 {
-    return vt_jpeg_encode_frame(w, h, rgba, w, td, rgb8, quality, wk->pool ? cull_pool_threads(wk->pool) : 1,
+    return vt_jpeg_encode_frame(w, h, rgba, w, td, rgb8, quality, wk->pool ? 2 * cull_pool_threads(wk->pool) : 1,
                                 wk->pool ? pool_run : NULL, wk->pool, jpeg, len, err, errlen);
 }
 

@@ -205,8 +205,11 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
  * bytes a band and at most a byte of padding.
  *
  * run(run_ctx, job, arg, n) runs job(arg, t) for t in [0, n) and returns
- * when all are done (a cull_pool's cull_pool_run fits); NULL or bands <= 1:
- * one band on the calling thread. rows_hook, when set, is called on the
+ * when all are done (a cull_pool's cull_pool_run fits; NULL or bands <= 1:
+ * one band on the calling thread). Each job takes bands in order until
+ * none is left, so bands may be more than the runner's threads (the load
+ * balances) and a runner may run fewer jobs than n (a pool clamps n to
+ * its threads): the calling thread encodes what is left. rows_hook, when set, is called on the
  * band's own thread before the band is encoded, to fill rows [y0, y1) of
  * pix (a tone map: the band's bytes are then still in that core's cache);
  * a nonzero return fails the call with that code (a vt_err.h code).

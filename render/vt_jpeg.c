@@ -27,6 +27,7 @@
 #include <limits.h>
 #include <setjmp.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stdio.h> /* before jpeglib.h, which uses FILE */
 #include <stdlib.h>
 #include <string.h>
@@ -299,6 +300,7 @@ typedef struct jpg_band {
 } jpg_band;
 
 typedef struct jpg_par_job {
+    atomic_uint        next; /* the next band to take */
     const uint8_t     *px;
     size_t             stride;
     uint32_t           pixel_bytes, w, h, rows, n;
@@ -308,9 +310,8 @@ typedef struct jpg_par_job {
     jpg_band           band[VT_JPEG_MAX_BANDS];
 } jpg_par_job;
 
-static void jpg_band_run(void *arg, uint32_t t)
+static void jpg_band_one(jpg_par_job *p, uint32_t t)
 {
-    jpg_par_job *p = arg;
     jpg_band *b = &p->band[t];
     uint32_t y0 = t * p->rows, y1 = p->h - y0 > p->rows ? y0 + p->rows : p->h;
     vt_call c = vt_call_begin("band", b->err, sizeof b->err);
@@ -320,6 +321,17 @@ static void jpg_band_run(void *arg, uint32_t t)
     }
     b->rc = jpg_encode_mem(&c, p->w, y1 - y0, p->px + (size_t)y0 * p->stride, p->stride, p->pixel_bytes,
                            p->quality, p->restart, &b->buf, &b->len);
+}
+
+/* A runner's job: bands taken in order until none is left, whichever t
+ * (more bands than threads balance the load; a runner that runs fewer
+ * jobs than asked, as a pool clamps n to its threads, leaves the rest to
+ * the caller's own loop). */
+static void jpg_band_run(void *arg, uint32_t t)
+{
+    jpg_par_job *p = arg;
+    (void)t;
+    for (uint32_t k; (k = atomic_fetch_add(&p->next, 1)) < p->n;) jpg_band_one(p, k);
 }
 
 /* Where a libjpeg stream's entropy-coded data begins (past the SOS
@@ -389,7 +401,8 @@ int vt_jpeg_encode_par(uint32_t width, uint32_t height, const uint8_t *pix, size
         /* one band: JPEG's restart interval is 16 bits */
         if (par && par->rows_hook && (rc = par->rows_hook(par->hook_ctx, 0, height)))
             vt_call_msg(&c, "rows 0..%u: %s", height, vt_strerror(rc));
-        if (rc == 0) rc = jpg_encode_mem(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality, 0, out, out_len);
+        if (rc == 0)
+            rc = jpg_encode_mem(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality, 0, out, out_len);
         return vt_call_end(&c, rc);
     }
     jpg_par_job *p = calloc(1, sizeof *p);
@@ -399,7 +412,9 @@ int vt_jpeg_encode_par(uint32_t width, uint32_t height, const uint8_t *pix, size
     }
     *p = (jpg_par_job){.px = pix, .stride = row_stride_bytes, .pixel_bytes = pixel_bytes, .w = width, .h = height,
                        .rows = rows, .n = n, .quality = quality, .restart = (unsigned)restart, .par = par};
+    atomic_init(&p->next, 0);
     par->run(par->run_ctx, jpg_band_run, p, n);
+    jpg_band_run(p, 0); /* any band left */
     for (uint32_t t = 0; t < n && rc == 0; t++)
         if ((rc = p->band[t].rc)) vt_call_msg(&c, "%s", p->band[t].err);
     if (rc == 0) rc = jpg_splice(&c, p, out, out_len);

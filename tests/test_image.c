@@ -1069,6 +1069,15 @@ static void threads_run(void *ctx, vt_jpeg_job_fn fn, void *arg, uint32_t n)
     for (uint32_t t = 0; t < n; t++) pthread_join(b[t].th, NULL);
 }
 
+/* A runner that runs one job whatever n, as a pool of one thread clamps
+ * n: the bands left are the caller's. */
+static void one_job_run(void *ctx, vt_jpeg_job_fn fn, void *arg, uint32_t n)
+{
+    (void)n;
+    (*(int *)ctx)++;
+    fn(arg, 0);
+}
+
 /* The rows hook: copies rows [y0, y1) of src into dst and marks them. */
 typedef struct band_fill {
     const uint8_t *src;
@@ -1201,7 +1210,20 @@ static void test_image_jpeg_frame(void **state)
     assert_int_equal(vt_jpeg_decode(one, n1, &d1, &rw, &rh, err, sizeof err), 0);
     assert_int_equal(vt_jpeg_decode(par, n2, &d2, &rw, &rh, err, sizeof err), 0);
     assert_memory_equal(d1, d2, (size_t)w * h * 3);
-    free(one), free(par), free(d1), free(d2);
+    free(par), free(d2);
+    /* more bands than the runner runs jobs: the same stream */
+    memset(b, 0, (size_t)w * h * 4);
+    calls = 0;
+    uint8_t *par3 = NULL;
+    size_t n3;
+    assert_int_equal(vt_jpeg_encode_frame(w, h, f, stride, &td, b, 85, 3, threads_run, &calls, &par, &n2, err,
+                                          sizeof err), 0);
+    assert_int_equal(vt_jpeg_encode_frame(w, h, f, stride, &td, b, 85, 3, one_job_run, &calls, &par3, &n3, err,
+                                          sizeof err), 0);
+    assert_int_equal(calls, 2);
+    assert_memory_equal(a, b, (size_t)w * h * 4);
+    assert_true(n2 == n3 && memcmp(par, par3, n2) == 0);
+    free(one), free(par), free(par3), free(d1);
     /* no frame: refused */
     assert_int_equal(vt_jpeg_encode_frame(w, h, NULL, stride, &td, b, 85, 3, threads_run, &calls, &par, &n2, err,
                                           sizeof err), VT_ERR_INVALID);

@@ -10,10 +10,10 @@
  * visible entities turned into instances of their class meshes with their
  * materials and transforms (frame_scene.c), all the scene's lights, the
  * software renderer on 2 threads, then the ACES tone map and the JPEG at
- * quality 85 in 2 bands (vt_jpeg_encode_frame, frames.c's jpeg_frame).
- * Timed apart: the gather (cull + instances), each pass of vt_soft_draw
- * (its stats), and the tone map + JPEG ("encode"); the frame is their
- * sum. The GL path (llvmpipe) draws the
+ * quality 85 in 4 bands on the 2 threads (vt_jpeg_encode_frame, as
+ * frames.c's jpeg_frame). Timed apart: the gather (cull + instances),
+ * each pass of vt_soft_draw (its stats), and the tone map + JPEG
+ * ("encode"); the frame is their sum. The GL path (llvmpipe) draws the
  * same vt_frame in the same run.
  *
  * Two cameras (60 degrees, 0.1..10000 m, as `vantage render`): down a
@@ -187,10 +187,18 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
         double t2 = bench_now_ns();
         vt_tonemap_desc td = {.op = VT_TONEMAP_ACES};
         uint8_t *jpeg = NULL;
-        if (vt_jpeg_encode_frame(W, H, rgba, W, &td, rgb8, 85, 2, pool_run, cr->pool, &jpeg, &jbytes, err,
+        if (vt_jpeg_encode_frame(W, H, rgba, W, &td, rgb8, 85, 4, pool_run, cr->pool, &jpeg, &jbytes, err,
                                  sizeof err)) {
             fprintf(stderr, "bench_render: city: jpeg: %s\n", err);
             goto out;
+        }
+        if (r == reps - 1 && o->png_dir) {
+            /* the stream as the daemon sends it (spliced bands) */
+            char path[512];
+            snprintf(path, sizeof path, "%s/city-%s.jpg", o->png_dir, name);
+            FILE *jf = fopen(path, "wb");
+            if (!jf || fwrite(jpeg, 1, jbytes, jf) != jbytes) fprintf(stderr, "bench_render: %s: write failed\n", path);
+            if (jf) fclose(jf);
         }
         free(jpeg);
         double t4 = bench_now_ns();
