@@ -269,6 +269,8 @@ typedef struct fx_job {
     uint32_t n[MAX_BANDS]; /* band t's results */
     uint32_t w, h, nb;     /* nb bands (more than the threads: fx_bands) */
     atomic_uint next, next_rest; /* the next band to take, in job_post and job_rest */
+    bool eager;            /* each band's rest run as soon as it and the bands beside it are done */
+    atomic_uint left[MAX_BANDS]; /* eager: of bands t - 1, t, t + 1, those not done */
     size_t stride;
     float scale;  /* the exposure, applied on the way (1: none) */
     vt_post_kern kern;
@@ -577,7 +579,17 @@ static void job_post(void *arg, uint32_t t)
 {
     fx_job *j = arg;
     (void)t;
-    for (uint32_t k; (k = atomic_fetch_add(&j->next, 1)) < j->nb;) band_post(j, k);
+    for (uint32_t k; (k = atomic_fetch_add(&j->next, 1)) < j->nb;) {
+        band_post(j, k);
+        if (!j->eager) continue;
+        /* band u's rest reads the luma of bands u - 1 .. u + 1 (every
+           band is 2 FX_REACH rows or more: no further) and colours
+           nobody writes before the end (fxaa_run's put): whoever
+           finishes the last of the three runs it, while its rows are
+           still in cache and without another hand-over of the pool */
+        for (uint32_t u = k ? k - 1 : 0; u <= k + 1 && u < j->nb; u++)
+            if (atomic_fetch_sub(&j->left[u], 1) == 1) band_rest(j, u);
+    }
 }
 
 static void job_rest(void *arg, uint32_t t)
@@ -588,10 +600,9 @@ static void job_rest(void *arg, uint32_t t)
 }
 
 /* FXAA's bands on nt threads: 2 a thread, each at least 4 FX_REACH rows
- * (half of it or more FXAA'd in the band's own pass, while in cache).
- * The rows next to a boundary (2 FX_REACH) wait for job_rest, out of
- * cache: 8 bands of the 720-row street balanced better, but their 140
- * rows of rest cost ~2 ms of CPU, 4 bands' 60 rows less than 1. */
+ * (half of it or more FXAA'd in the band's own pass, while in cache;
+ * the rows next to a boundary, 2 FX_REACH, wait for the band beside it:
+ * more bands balance better but leave more of those). */
 static uint32_t fx_bands(uint32_t nt, uint32_t height)
 {
     if (nt <= 1) return 1;
@@ -620,13 +631,16 @@ static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, 
     j->stride = stride, j->nb = fx_bands(nt, height), j->scale = scale, j->kern = post_kern(p->isa);
     atomic_init(&j->next, 0);
     atomic_init(&j->next_rest, 0);
+    j->eager = j->nb > 1 && height >= j->nb * 2 * FX_REACH;
+    for (uint32_t t = 0; t < j->nb; t++) atomic_init(&j->left[t], 1 + (t > 0) + (t + 1 < j->nb));
     j->fx = (vt_post_fx){.luma = j->luma, .rgba = rgba, .w = width, .h = height, .stride = stride};
     /* the lanes' gathers index floats with 32-bit lanes */
     if ((uint64_t)stride * height * 4 >= (uint64_t)1 << 31) j->kern.fxaa_row = NULL;
     run(pool, job_post, j, nt);
     job_post(j, 0); /* none left: run ran every job */
-    /* the rows beside other bands: 2 FX_REACH a boundary, shared the same way */
-    if (j->nb > 1) {
+    /* the rows beside other bands (2 FX_REACH a boundary) of bands too
+       short to run them eagerly: after every band, shared the same way */
+    if (j->nb > 1 && !j->eager) {
         run(pool, job_rest, j, nt);
         job_rest(j, 0);
     }
