@@ -1,8 +1,7 @@
 /*
  * vt_post.c — the post passes of both renderers (vt_post.h): exposure from
  * a luminance histogram with eye adaptation, then FXAA 3.11. Runs once per
- * frame on the whole picture, in bands of rows on the renderer's pool
- * (FXAA's: two a thread, taken in turn, as its work is uneven).
+ * frame on the whole picture, in bands of rows on the renderer's pool.
  * The rows that touch every pixel (histogram, exposure + luma, FXAA's
  * early exit) run 8 pixels a step where the CPU has AVX2
  * (vt_post_avx2.c, the same bits as the rows here); on the 1280x720 demo
@@ -31,7 +30,6 @@
 #include "vt_post_kern.h"
 
 #include <math.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -267,10 +265,7 @@ typedef struct fx_job {
     float *luma;  /* sqrt(Y(c) / (1 + max c)) per pixel, width x height */
     fx_out *out;  /* band t's results from out + its first pixel's index */
     uint32_t n[MAX_BANDS]; /* band t's results */
-    uint32_t w, h, nb;     /* nb bands (more than the threads: fx_bands) */
-    atomic_uint next, next_rest; /* the next band to take, in job_post and job_rest */
-    bool eager;            /* each band's rest run as soon as it and the bands beside it are done */
-    atomic_uint left[MAX_BANDS]; /* eager: of bands t - 1, t, t + 1, those not done */
+    uint32_t w, h, nb;
     size_t stride;
     float scale;  /* the exposure, applied on the way (1: none) */
     vt_post_kern kern;
@@ -546,8 +541,9 @@ static void band_step(const fx_job *j, uint32_t r, uint32_t a, fx_out *o, uint32
 /* The band's pass: exposure + luma row by row, FXAA FX_REACH rows behind
  * while the rows it reads are still in cache (luma and colour written a
  * few hundred KiB before). */
-static void band_post(fx_job *j, uint32_t t)
+static void job_post(void *arg, uint32_t t)
 {
+    fx_job *j = arg;
     uint32_t y0, y1, a, b;
     band_rows(j, t, &y0, &y1, &a, &b);
     fx_out *o = j->out + (size_t)y0 * j->w;
@@ -571,45 +567,9 @@ static void band_rest(fx_job *j, uint32_t t)
         if (r < a || r >= b) j->n[t] += fxaa_row_of(j, r, o + j->n[t]);
 }
 
-/* A thread's share: bands taken in turn until none is left (whichever t:
- * the bands' work differs, a sky's rows leave FXAA early, a street's do
- * not, so fixed halves left one core waiting for the other: 4.5 against
- * 6.7 ms of CPU on the city street). */
-static void job_post(void *arg, uint32_t t)
-{
-    fx_job *j = arg;
-    (void)t;
-    for (uint32_t k; (k = atomic_fetch_add(&j->next, 1)) < j->nb;) {
-        band_post(j, k);
-        if (!j->eager) continue;
-        /* band u's rest reads the luma of bands u - 1 .. u + 1 (every
-           band is 2 FX_REACH rows or more: no further) and colours
-           nobody writes before the end (fxaa_run's put): whoever
-           finishes the last of the three runs it, while its rows are
-           still in cache and without another hand-over of the pool */
-        for (uint32_t u = k ? k - 1 : 0; u <= k + 1 && u < j->nb; u++)
-            if (atomic_fetch_sub(&j->left[u], 1) == 1) band_rest(j, u);
-    }
-}
-
 static void job_rest(void *arg, uint32_t t)
 {
-    fx_job *j = arg;
-    (void)t;
-    for (uint32_t k; (k = atomic_fetch_add(&j->next_rest, 1)) < j->nb;) band_rest(j, k);
-}
-
-/* FXAA's bands on nt threads: 2 a thread, each at least 4 FX_REACH rows
- * (half of it or more FXAA'd in the band's own pass, while in cache;
- * the rows next to a boundary, 2 FX_REACH, wait for the band beside it:
- * more bands balance better but leave more of those). */
-static uint32_t fx_bands(uint32_t nt, uint32_t height)
-{
-    if (nt <= 1) return 1;
-    uint32_t n = nt * 2, most = height / (4 * FX_REACH);
-    if (n > most) n = most;
-    if (n > MAX_BANDS) n = MAX_BANDS;
-    return n > nt ? n : nt;
+    band_rest(arg, t);
 }
 
 static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, uint32_t width, uint32_t height,
@@ -627,22 +587,20 @@ static int fxaa_run(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, 
     if (!j) return VT_ERR_NOMEM;
     *j = z;
     j->rgba = rgba, j->luma = p->scratch, j->out = (fx_out *)(void *)(p->scratch + np), j->w = width, j->h = height;
-    uint32_t nt = bands_of(pool, threads, height);
-    j->stride = stride, j->nb = fx_bands(nt, height), j->scale = scale, j->kern = post_kern(p->isa);
-    atomic_init(&j->next, 0);
-    atomic_init(&j->next_rest, 0);
-    j->eager = j->nb > 1 && height >= j->nb * 2 * FX_REACH;
-    for (uint32_t t = 0; t < j->nb; t++) atomic_init(&j->left[t], 1 + (t > 0) + (t + 1 < j->nb));
+    j->stride = stride, j->nb = bands_of(pool, threads, height), j->scale = scale, j->kern = post_kern(p->isa);
     j->fx = (vt_post_fx){.luma = j->luma, .rgba = rgba, .w = width, .h = height, .stride = stride};
     /* the lanes' gathers index floats with 32-bit lanes */
     if ((uint64_t)stride * height * 4 >= (uint64_t)1 << 31) j->kern.fxaa_row = NULL;
-    run(pool, job_post, j, nt);
-    job_post(j, 0); /* none left: run ran every job */
-    /* the rows beside other bands (2 FX_REACH a boundary) of bands too
-       short to run them eagerly: after every band, shared the same way */
-    if (j->nb > 1 && !j->eager) {
-        run(pool, job_rest, j, nt);
-        job_rest(j, 0);
+    run(pool, job_post, j, j->nb);
+    /* the rows beside other bands: 2 FX_REACH a boundary; on the calling
+       thread while that is a small part of the picture (2 bands: 20 rows
+       of 720, no third hand-over of the pool), else in bands */
+    if (j->nb > 1) {
+        if ((uint64_t)(j->nb - 1) * 2 * FX_REACH * 16 <= height) {
+            for (uint32_t t = 0; t < j->nb; t++) band_rest(j, t);
+        } else {
+            run(pool, job_rest, j, j->nb);
+        }
     }
     for (uint32_t t = 0; t < j->nb; t++) put(j, j->out + (size_t)((uint64_t)height * t / j->nb) * width, j->n[t]);
     free(j);

@@ -200,8 +200,8 @@ static void test_post_fxaa_flat_and_bad(void **state)
  * lines and noise over 1e-3..1e3 with NaN, infinities, huge and negative
  * values sprinkled in, at widths around the lanes' 8 (tails, edges of the
  * picture where the search and the blend clamp), a row stride wider
- * than the picture, and heights of 2 bands (one a thread) and of 4
- * (2 a thread, taken in turn; their rows next to another band after). */
+ * than the picture, and heights where the rows next to another band
+ * are done in bands and where on the calling thread. */
 static void test_post_fxaa_instances(void **state)
 {
     (void)state;
@@ -211,7 +211,7 @@ static void test_post_fxaa_instances(void **state)
     uint32_t pixels = 0, cases = 0;
     for (int round = 0; round < 40; round++) {
         uint32_t W = 1 + rng_below(&r, round < 20 ? 24 : 140), H = 1 + rng_below(&r, round < 20 ? 12 : 70);
-        if (round >= 36) /* tall: 4 bands on the 2 threads (vt_post.c's fx_bands) */
+        if (round >= 36) /* tall: the bands' edge rows done on the calling thread (vt_post.c's fxaa_run) */
             W = 20 + rng_below(&r, 40), H = 330 + rng_below(&r, 60);
         size_t S = W + rng_below(&r, 3), n = S * H * 4;
         float *ref = malloc(n * sizeof *ref), *got = malloc(n * sizeof *got);
