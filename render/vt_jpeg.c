@@ -15,6 +15,13 @@
  * gcc 12 -O2, medians of 15), a 1280x720 tone-mapped frame: q85 2-3 ms,
  * smooth or with 8% grain (31 / 39 KB), memory or file; decode 2 ms.
  * 16384x16384 q85: 0.6 s.
+ *
+ * vt_jpeg_encode_par encodes bands of MCU rows on several threads and
+ * splices their scans with RSTn markers (vt_image.h); vt_jpeg_encode_frame
+ * is the daemon's JPEG frame on it, each band tone-mapping its own rows.
+ * The city frames' tone map + JPEG, as the thread CPU of the longest of 2
+ * threads (a loaded 2-core Xeon): street 5.4 -> 3.5 ms, aerial 5.9 -> 3.1
+ * (4 bands; libjpeg-turbo alone: 3.45 -> 1.63, 4.10 -> 1.81).
  */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE
