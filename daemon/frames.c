@@ -308,39 +308,25 @@ static vt_soft *worker_soft(worker *wk)
     return wk->soft;
 }
 
-/* The tone map of a JPEG frame, in bands of rows over the worker's pool
- * (it is per pixel, so the bands are independent and the bytes are those
- * of one call): a 1280x720 frame's ACES map was 5-8 ms on one thread,
- * the largest part of a streamed frame after the render itself. */
-typedef struct tonemap_job {
-    uint32_t w, h, bands;
-    const float *top; /* the image's top row, RGBA floats */
-    ptrdiff_t ys;     /* floats from one row to the one below it */
-    const vt_tonemap_desc *td;
-    uint8_t *out;
-    int rc[64];
-} tonemap_job;
-
-static void tonemap_band(void *arg, uint32_t t)
+/* A JPEG frame: the tone map and the encode in bands of rows over the
+ * worker's pool (vt_jpeg_encode_par): each band tone-maps the rows it then
+ * encodes, on its own thread, while they are in that core's cache. The
+ * tone map is per pixel, so the bands' bytes are those of one call; the
+ * spliced JPEG decodes to the pixels of one encode. A 1280x720 city
+ * frame: tone map 1.3 ms on 2 threads + encode 2.7 ms on one before. */
+static void pool_run(void *pool, vt_jpeg_job_fn fn, void *arg, uint32_t n)
 {
-    tonemap_job *tj = arg;
-    uint32_t y0 = (uint32_t)((uint64_t)tj->h * t / tj->bands), y1 = (uint32_t)((uint64_t)tj->h * (t + 1) / tj->bands);
-    if (y1 <= y0) return;
-    const float *row = tj->top + (ptrdiff_t)y0 * tj->ys;
-    vt_image_src src = {.r = {row, 4, tj->ys}, .g = {row + 1, 4, tj->ys}, .b = {row + 2, 4, tj->ys}};
-    tj->rc[t] = vt_image_tonemap(tj->w, y1 - y0, &src, tj->td, tj->out + (size_t)y0 * 4 * tj->w, 4 * (size_t)tj->w);
+    cull_pool_run(pool, fn, arg, n);
 }
 
-/* rgba bottom row first (as rendered) to rgb8 top row first, as JPEG wants. */
-static int tonemap_frame(worker *wk, uint32_t w, uint32_t h, const float *rgba, const vt_tonemap_desc *td, uint8_t *rgb8)
+/* rgba (bottom row first, as rendered) tone-mapped into rgb8 and encoded:
+ * two bands a thread, taken in turn, so a band of sky (fast) and one of
+ * street (slow) do not leave a core waiting for the other. */
+static int jpeg_frame(worker *wk, uint32_t w, uint32_t h, const float *rgba, const vt_tonemap_desc *td,
+                      uint8_t *rgb8, int quality, uint8_t **jpeg, size_t *len, char *err, size_t errlen)
 {
-    uint32_t n = wk->pool ? cull_pool_threads(wk->pool) : 1;
-    tonemap_job tj = {.w = w, .h = h, .bands = n < 64 ? n : 64, .top = rgba + (size_t)(h - 1) * w * 4,
-                      .ys = -(ptrdiff_t)w * 4, .td = td, .out = rgb8};
-    cull_pool_run(wk->pool, tonemap_band, &tj, tj.bands);
-    for (uint32_t t = 0; t < tj.bands; t++)
-        if (tj.rc[t]) return tj.rc[t];
-    return 0;
+    return vt_jpeg_encode_frame(w, h, rgba, w, td, rgb8, quality, wk->pool ? 2 * cull_pool_threads(wk->pool) : 1,
+                                wk->pool ? pool_run : NULL, wk->pool, jpeg, len, err, errlen);
 }
 
 /* The software renderer's picture of fi from v into rgba and depth (the
@@ -470,8 +456,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         rgb8 = malloc(vt_image_rgba8_size(W, H));
         if (!rgb8) goto nomem;
         vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES, .lut = s->cfg.lut};
-        if ((rc = tonemap_frame(wk, W, H, rgba, &td, rgb8)) ||
-            (rc = vt_jpeg_encode(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &jpeg, &jpeg_len, err, sizeof err))) {
+        if ((rc = jpeg_frame(wk, W, H, rgba, &td, rgb8, m->quality, &jpeg, &jpeg_len, err, sizeof err))) {
             code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "jpeg: %s", err);
             goto done;

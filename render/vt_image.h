@@ -192,6 +192,55 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
                    uint32_t pixel_bytes, int quality, uint8_t **out, size_t *out_len, char *err,
                    size_t errlen);
 
+/* vt_jpeg_encode in horizontal bands on several threads (libjpeg-turbo
+ * encodes on one). Each band of `rows` rows (a multiple of the 16-row
+ * MCU; the last band takes the rest) is encoded as a JPEG of its own with
+ * a restart interval of one band's MCUs, so the band ends exactly on a
+ * restart boundary, and the bands' entropy-coded segments are spliced
+ * into one stream behind band 0's headers (its frame height set to the
+ * whole), RSTn markers between them. A restart only resets the DC
+ * prediction: every DCT coefficient is the one a single encode gives, so
+ * the stream decodes to exactly vt_jpeg_encode's pixels (4:2:0's chroma
+ * averages pairs of rows inside one MCU, never across two). Costs 2
+ * bytes a band and at most a byte of padding.
+ *
+ * run(run_ctx, job, arg, n) runs job(arg, t) for t in [0, n) and returns
+ * when all are done (a cull_pool's cull_pool_run fits; NULL or bands <= 1:
+ * one band on the calling thread). Each job takes bands in order until
+ * none is left, so bands may be more than the runner's threads (the load
+ * balances) and a runner may run fewer jobs than n (a pool clamps n to
+ * its threads): the calling thread encodes what is left. rows_hook, when set, is called on the
+ * band's own thread before the band is encoded, to fill rows [y0, y1) of
+ * pix (a tone map: the band's bytes are then still in that core's cache);
+ * a nonzero return fails the call with that code (a vt_err.h code).
+ * Falls back to one band when a band's MCUs would not fit the 16-bit
+ * restart interval (images over ~4096 wide). Arguments, result and errors
+ * as vt_jpeg_encode; the bands' messages come back through err. */
+typedef void (*vt_jpeg_job_fn)(void *arg, uint32_t t);
+typedef struct vt_jpeg_par {
+    uint32_t bands; /* at most VT_JPEG_MAX_BANDS */
+    void (*run)(void *run_ctx, vt_jpeg_job_fn job, void *arg, uint32_t n);
+    void *run_ctx;
+    int (*rows_hook)(void *hook_ctx, uint32_t y0, uint32_t y1);
+    void *hook_ctx;
+} vt_jpeg_par;
+#define VT_JPEG_MAX_BANDS 16u
+int vt_jpeg_encode_par(uint32_t width, uint32_t height, const uint8_t *pix, size_t row_stride_bytes,
+                       uint32_t pixel_bytes, int quality, const vt_jpeg_par *par, uint8_t **out, size_t *out_len,
+                       char *err, size_t errlen);
+
+/* A renderer's frame as the daemon sends it: rgba (linear floats, 4 a
+ * pixel, rows bottom-up, `stride` pixels apart, as vt_soft.h's buffer)
+ * tone-mapped by desc into rgba8 (width x 4 bytes a row, top row first,
+ * the caller's) and encoded, with vt_jpeg_encode_par's bands: each band
+ * tone-maps the rows it then encodes, on its own thread, while they are
+ * in that core's cache. The tone map is per pixel, so the bytes are those
+ * of one vt_image_tonemap and one vt_jpeg_encode. */
+int vt_jpeg_encode_frame(uint32_t width, uint32_t height, const float *rgba, size_t stride,
+                         const vt_tonemap_desc *desc, uint8_t *rgba8, int quality, uint32_t bands,
+                         void (*run)(void *run_ctx, vt_jpeg_job_fn job, void *arg, uint32_t n), void *run_ctx,
+                         uint8_t **out, size_t *out_len, char *err, size_t errlen);
+
 /* Decodes a JPEG stream (baseline or progressive, grey, YCbCr or RGB) of
  * len bytes into *rgb8, malloc'ed by this call (caller frees with free()),
  * packed RGB rows (3 * width bytes each), top row first; grey is

@@ -53,6 +53,8 @@ typedef struct vt_post {
     float *scratch; /* FXAA's luma plane (a float a pixel), then its results (4 a pixel at most) */
     size_t cap;     /* in floats */
     uint32_t isa;   /* vt_post_set_isa's + 1; 0 (zero-initialised): the default */
+    uint32_t *cost; /* the last FXAA's edge pixels a row (its bands' split for the next) */
+    uint32_t cost_w, cost_h, cost_cap; /* the picture they were counted on; rows allocated */
 } vt_post;
 
 void vt_post_free(vt_post *p);

@@ -17,6 +17,7 @@
 #include "test_util.h"
 #include "vt_image.h"
 
+#include <limits.h>
 #include <stdlib.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -388,8 +389,63 @@ static void test_textures_under_failing_allocations(void **state)
     tdir_remove(&t);
 }
 
+/* vt_jpeg_encode_par's runner here: the bands one after another on this
+ * thread (the failing allocator counts calls without locks). */
+static void serial_run(void *ctx, vt_jpeg_job_fn fn, void *arg, uint32_t n)
+{
+    (void)ctx;
+    for (uint32_t t = 0; t < n; t++) fn(arg, t);
+}
+
+/* The banded JPEG under failing allocations (its job, each band's
+ * stream, the splice): every failure is VT_ERR_NOMEM with nothing
+ * returned (and, under ASan, nothing leaked), or one the call does
+ * without, its stream decoding as one vt_jpeg_encode's. */
+static void test_jpeg_bands_under_failing_allocations(void **state)
+{
+    (void)state;
+    enum { W = 40, H = 50 };
+    static uint8_t px[W * H * 4];
+    for (size_t i = 0; i < sizeof px; i++) px[i] = (uint8_t)(i * 31 + i / 97);
+    char err[256];
+    uint8_t *one = NULL, *d1 = NULL, *d2 = NULL, *out = NULL;
+    size_t n1, n;
+    uint32_t w, h;
+    assert_int_equal(vt_jpeg_encode(W, H, px, W * 4, 4, 80, &one, &n1, err, sizeof err), 0);
+    vt_jpeg_par par = {.bands = 3, .run = serial_run};
+    assert_int_equal(vt_jpeg_decode(one, n1, &d1, &w, &h, err, sizeof err), 0);
+    /* the allocations of a run (armed past them all), then each failing
+       in turn: a failure either fails the call or is one it can do
+       without (a stream's slack not given back) */
+    arm(LONG_MAX);
+    assert_int_equal(vt_jpeg_encode_par(W, H, px, W * 4, 4, 80, &par, &out, &n, err, sizeof err), 0);
+    long calls = g_calls;
+    disarm();
+    free(out);
+    long failures = 0;
+    for (long k = 0; k < calls; k++) {
+        arm(k);
+        int rc = vt_jpeg_encode_par(W, H, px, W * 4, 4, 80, &par, &out, &n, err, sizeof err);
+        disarm();
+        if (rc == 0) {
+            assert_int_equal(vt_jpeg_decode(out, n, &d2, &w, &h, err, sizeof err), 0);
+            assert_memory_equal(d1, d2, (size_t)W * H * 3);
+            free(out), free(d2);
+            continue;
+        }
+        if (rc != VT_ERR_NOMEM) fail_msg("allocation %ld failing: %d '%s', want VT_ERR_NOMEM", k, rc, err);
+        assert_null(out);
+        assert_int_equal(n, 0);
+        failures++;
+    }
+    /* the job; each of the 2 bands' job and stream; the splice */
+    if (failures < 6) fail_msg("%ld of %ld allocations failed the call, want 6 or more", failures, calls);
+    free(one), free(d1);
+}
+
 const struct CMUnitTest alloc_tests[] = {
     cmocka_unit_test(test_textures_under_failing_allocations),
+    cmocka_unit_test(test_jpeg_bands_under_failing_allocations),
     cmocka_unit_test(test_occluders_under_failing_allocations),
     cmocka_unit_test(test_edits_under_failing_allocations),
     cmocka_unit_test(test_scene_edits_out_of_memory_are_busy),

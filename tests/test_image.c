@@ -33,6 +33,7 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <pthread.h>
 #include <float.h>
 #include <signal.h>
 #include <stdbool.h>
@@ -1038,6 +1039,198 @@ static void test_image_jpeg_details(void **state)
     free(padded);
 }
 
+/* ---- JPEG in bands (vt_jpeg_encode_par) ---- */
+
+/* A runner on real threads, one a job (the daemon's is its cull_pool). */
+typedef struct band_thread {
+    pthread_t th;
+    vt_jpeg_job_fn fn;
+    void *arg;
+    uint32_t t;
+} band_thread;
+
+static void *band_thread_main(void *p)
+{
+    band_thread *b = p;
+    b->fn(b->arg, b->t);
+    return NULL;
+}
+
+static void threads_run(void *ctx, vt_jpeg_job_fn fn, void *arg, uint32_t n)
+{
+    int *calls = ctx;
+    band_thread b[VT_JPEG_MAX_BANDS];
+    assert_true(n >= 2 && n <= VT_JPEG_MAX_BANDS);
+    (*calls)++;
+    for (uint32_t t = 0; t < n; t++) {
+        b[t] = (band_thread){.fn = fn, .arg = arg, .t = t};
+        assert_int_equal(pthread_create(&b[t].th, NULL, band_thread_main, &b[t]), 0);
+    }
+    for (uint32_t t = 0; t < n; t++) pthread_join(b[t].th, NULL);
+}
+
+/* A runner that runs one job whatever n, as a pool of one thread clamps
+ * n: the bands left are the caller's. */
+static void one_job_run(void *ctx, vt_jpeg_job_fn fn, void *arg, uint32_t n)
+{
+    (void)n;
+    (*(int *)ctx)++;
+    fn(arg, 0);
+}
+
+/* The rows hook: copies rows [y0, y1) of src into dst and marks them. */
+typedef struct band_fill {
+    const uint8_t *src;
+    uint8_t *dst;
+    size_t stride;
+    uint8_t seen[300]; /* rows filled (each once), for h <= 300 */
+    int fail_at;       /* a band starting at this row fails, -1 none */
+} band_fill;
+
+static int band_fill_rows(void *ctx, uint32_t y0, uint32_t y1)
+{
+    band_fill *f = ctx;
+    if ((int)y0 == f->fail_at) return VT_ERR_NOMEM;
+    for (uint32_t y = y0; y < y1; y++) {
+        f->seen[y]++;
+        memcpy(f->dst + y * f->stride, f->src + y * f->stride, f->stride);
+    }
+    return 0;
+}
+
+/* The banded stream decodes (libjpeg, which treats a wrong or missing
+ * restart marker as corrupt) to exactly the pixels of one vt_jpeg_encode
+ * of the picture: a restart resets only the DC prediction. Sizes with a
+ * last band short (17, 250 rows), bands past 8 (the RSTn numbers wrap),
+ * more bands asked than MCU rows, odd widths (partial MCUs at the right). */
+static void test_image_jpeg_bands(void **state)
+{
+    (void)state;
+    static const struct { uint32_t w, h, bands, n; } cases[] = {
+        {333, 250, 2, 2}, {40, 17, 2, 2}, {64, 32, 2, 2}, {333, 250, 3, 3},
+        {97, 250, 16, 16}, {50, 40, 16, 3}, {21, 16, 2, 1}, {1, 1, 4, 1},
+    };
+    rng r = {test_seed() ^ 0xBA4D};
+    char err[512];
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        uint32_t w = cases[c].w, h = cases[c].h;
+        size_t stride = (size_t)w * 4;
+        /* a gradient with noisy blocks: DC differences between blocks matter */
+        uint8_t *px = gradient(w, h, 4), *dst = malloc(stride * h);
+        assert_non_null(dst);
+        for (size_t i = 0; i < stride * h; i++)
+            if ((i / 4 / 24 + i / stride / 24) % 3 == 0) px[i] = (uint8_t)rng_u64(&r);
+        memset(dst, 0, stride * h);
+        for (int q = 50; q <= 95; q += 45) {
+            uint8_t *one = NULL, *par = NULL, *d1 = NULL, *d2 = NULL;
+            size_t n1, n2;
+            uint32_t rw, rh;
+            assert_int_equal(vt_jpeg_encode(w, h, px, stride, 4, q, &one, &n1, err, sizeof err), 0);
+            int calls = 0;
+            band_fill f = {.src = px, .dst = dst, .stride = stride, .fail_at = -1};
+            vt_jpeg_par pp = {.bands = cases[c].bands, .run = threads_run, .run_ctx = &calls,
+                              .rows_hook = band_fill_rows, .hook_ctx = &f};
+            assert_int_equal(vt_jpeg_encode_par(w, h, dst, stride, 4, q, &pp, &par, &n2, err, sizeof err), 0);
+            assert_int_equal(calls, cases[c].n > 1);
+            for (uint32_t y = 0; y < h; y++) assert_int_equal(f.seen[y], 1);
+            /* the restart markers: n - 1 of them, RST0.. in order (the
+               scan's own FF bytes are stuffed, FF 00) */
+            uint32_t rst = 0;
+            for (size_t i = 2; i + 1 < n2; i++)
+                if (par[i] == 0xFF && par[i + 1] >= 0xD0 && par[i + 1] <= 0xD7) {
+                    assert_int_equal(par[i + 1], 0xD0 + rst % 8);
+                    rst++;
+                }
+            assert_int_equal(rst, cases[c].n - 1);
+            /* the same size within what a band costs: the DRI segment
+               (6 bytes), then a band's marker (2), padding (< 1) and its
+               first MCU's DC differences coded from 0, not from the MCU
+               above (3 components, each a code of <= 9 bits and <= 11
+               bits of value: < 8 bytes either way) */
+            size_t slack = 6 + 11 * (size_t)(cases[c].n - 1);
+            assert_true(n2 <= n1 + slack && n2 + slack >= n1);
+            assert_int_equal(vt_jpeg_decode(one, n1, &d1, &rw, &rh, err, sizeof err), 0);
+            assert_int_equal(vt_jpeg_decode(par, n2, &d2, &rw, &rh, err, sizeof err), 0);
+            assert_int_equal(rw, w);
+            assert_int_equal(rh, h);
+            assert_memory_equal(d1, d2, (size_t)w * h * 3);
+            /* a stream whose RSTn is wrong is refused (the check above has teeth) */
+            if (rst) {
+                for (size_t i = 2; i + 1 < n2; i++)
+                    if (par[i] == 0xFF && par[i + 1] == 0xD0) par[i + 1] = 0xD3;
+                free(d2);
+                d2 = (uint8_t *)1;
+                assert_int_equal(vt_jpeg_decode(par, n2, &d2, &rw, &rh, err, sizeof err), VT_ERR_CORRUPT);
+                assert_null(d2);
+            }
+            free(one), free(par), free(d1), free(d2);
+        }
+        /* a band's hook failing fails the call, nothing returned */
+        int calls = 0;
+        band_fill f = {.src = px, .dst = dst, .stride = stride, .fail_at = 0};
+        vt_jpeg_par pp = {.bands = cases[c].bands, .run = threads_run, .run_ctx = &calls,
+                          .rows_hook = band_fill_rows, .hook_ctx = &f};
+        uint8_t *out = (uint8_t *)1;
+        size_t n = 7;
+        assert_int_equal(vt_jpeg_encode_par(w, h, dst, stride, 4, 85, &pp, &out, &n, err, sizeof err), VT_ERR_NOMEM);
+        assert_null(out);
+        assert_int_equal(n, 0);
+        assert_true(strstr(err, "rows 0..") != NULL);
+        free(px), free(dst);
+    }
+}
+
+/* vt_jpeg_encode_frame: the frame (floats, bottom-up, a wider stride)
+ * tone-mapped in bands gives the bytes of one vt_image_tonemap of the
+ * whole and a stream that decodes as one vt_jpeg_encode of them. */
+static void test_image_jpeg_frame(void **state)
+{
+    (void)state;
+    uint32_t w = 75, h = 70, stride = 80;
+    rng r = {test_seed() ^ 0xF4A3E};
+    float *f = malloc((size_t)stride * h * 4 * sizeof *f);
+    uint8_t *a = malloc((size_t)w * h * 4), *b = malloc((size_t)w * h * 4);
+    assert_true(f && a && b);
+    for (size_t i = 0; i < (size_t)stride * h * 4; i++) f[i] = (float)rng_log(&r, 1e-3, 40.0);
+    const float *top = f + (size_t)(h - 1) * stride * 4;
+    vt_image_src src = {.r = {top, 4, -(ptrdiff_t)stride * 4}, .g = {top + 1, 4, -(ptrdiff_t)stride * 4},
+                        .b = {top + 2, 4, -(ptrdiff_t)stride * 4}};
+    vt_tonemap_desc td = {.op = VT_TONEMAP_ACES, .exposure_ev = -1.5f};
+    assert_int_equal(vt_image_tonemap(w, h, &src, &td, a, (size_t)w * 4), 0);
+    uint8_t *one = NULL, *par = NULL, *d1 = NULL, *d2 = NULL;
+    size_t n1, n2;
+    uint32_t rw, rh;
+    char err[512];
+    assert_int_equal(vt_jpeg_encode(w, h, a, (size_t)w * 4, 4, 85, &one, &n1, err, sizeof err), 0);
+    int calls = 0;
+    assert_int_equal(vt_jpeg_encode_frame(w, h, f, stride, &td, b, 85, 3, threads_run, &calls, &par, &n2, err,
+                                          sizeof err), 0);
+    assert_int_equal(calls, 1);
+    assert_memory_equal(a, b, (size_t)w * h * 4);
+    assert_int_equal(vt_jpeg_decode(one, n1, &d1, &rw, &rh, err, sizeof err), 0);
+    assert_int_equal(vt_jpeg_decode(par, n2, &d2, &rw, &rh, err, sizeof err), 0);
+    assert_memory_equal(d1, d2, (size_t)w * h * 3);
+    free(par), free(d2);
+    /* more bands than the runner runs jobs: the same stream */
+    memset(b, 0, (size_t)w * h * 4);
+    calls = 0;
+    uint8_t *par3 = NULL;
+    size_t n3;
+    assert_int_equal(vt_jpeg_encode_frame(w, h, f, stride, &td, b, 85, 3, threads_run, &calls, &par, &n2, err,
+                                          sizeof err), 0);
+    assert_int_equal(vt_jpeg_encode_frame(w, h, f, stride, &td, b, 85, 3, one_job_run, &calls, &par3, &n3, err,
+                                          sizeof err), 0);
+    assert_int_equal(calls, 2);
+    assert_memory_equal(a, b, (size_t)w * h * 4);
+    assert_true(n2 == n3 && memcmp(par, par3, n2) == 0);
+    free(one), free(par), free(par3), free(d1);
+    /* no frame: refused */
+    assert_int_equal(vt_jpeg_encode_frame(w, h, NULL, stride, &td, b, 85, 3, threads_run, &calls, &par, &n2, err,
+                                          sizeof err), VT_ERR_INVALID);
+    assert_null(par);
+    free(f), free(a), free(b);
+}
+
 /* 16384 wide and tall (the largest size), from one row repeated. */
 static void test_image_large(void **state)
 {
@@ -1359,6 +1552,8 @@ const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_image_png_reader_formats),
     cmocka_unit_test(test_image_jpeg_roundtrip),
     cmocka_unit_test(test_image_jpeg_details),
+    cmocka_unit_test(test_image_jpeg_bands),
+    cmocka_unit_test(test_image_jpeg_frame),
     cmocka_unit_test(test_image_large),
     TEST_ROWS(test_image_png_bad_args, bad_png_rows),
     TEST_ROWS(test_image_jpeg_bad_args, bad_jpeg_rows),

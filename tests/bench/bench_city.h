@@ -21,7 +21,7 @@ typedef struct bench_city_opts {
     vt_gldraw *gl;          /* NULL: no GL path */
     const char *gl_name;
     unsigned lp_threads;
-    const char *png_dir;    /* non-NULL: the last frame of each view as city-VIEW.png there */
+    const char *png_dir;    /* non-NULL: the last frame of each view as city-VIEW.png there (and .jpg) */
 } bench_city_opts;
 
 /* 0, or -1 with a line on stderr. */
