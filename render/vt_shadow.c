@@ -124,6 +124,42 @@ static double inst_reach(const vt_instance *in, const float b[6], const double o
     return isfinite(far) ? far : -INFINITY;
 }
 
+/* The convex outline of points p (counter-clockwise: Andrew's monotone
+ * chain), widened by m, as edges (a, b, h): a x + b y <= h inside, (a, b)
+ * a unit normal. *n 0: the points are (nearly) on a line, or not finite. */
+static void outline(double p[8][2], double m, float e[8][3], uint32_t *n)
+{
+    *n = 0;
+    for (int i = 1; i < 8; i++) /* sorted by x, then y (insertion: 8 points) */
+        for (int j = i; j > 0 && (p[j][0] < p[j - 1][0] || (p[j][0] == p[j - 1][0] && p[j][1] < p[j - 1][1])); j--) {
+            double t0 = p[j][0], t1 = p[j][1];
+            p[j][0] = p[j - 1][0], p[j][1] = p[j - 1][1], p[j - 1][0] = t0, p[j - 1][1] = t1;
+        }
+    int h[17], k = 0;
+    for (int pass = 0; pass < 2; pass++) { /* the lower chain, then the upper */
+        const int k0 = k;
+        for (int t = 0; t < 8; t++) {
+            const int i = pass ? 7 - t : t;
+            while (k >= k0 + 2) {
+                const double *a = p[h[k - 2]], *b = p[h[k - 1]];
+                if ((b[0] - a[0]) * (p[i][1] - a[1]) - (b[1] - a[1]) * (p[i][0] - a[0]) > 0) break;
+                k--;
+            }
+            h[k++] = i;
+        }
+        k--; /* the chain's last point starts the other one */
+    }
+    if (k < 3) return;
+    for (int j = 0; j < k; j++) {
+        const double *a = p[h[j]], *b = p[h[(j + 1) % k]];
+        double nx = b[1] - a[1], ny = a[0] - b[0], l = sqrt(nx * nx + ny * ny);
+        if (!(l > 0) || !isfinite(l)) return (void)(*n = 0);
+        nx /= l, ny /= l;
+        e[*n][0] = (float)nx, e[*n][1] = (float)ny, e[*n][2] = (float)(nx * a[0] + ny * a[1] + m);
+        (*n)++;
+    }
+}
+
 bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, const vt_env *env, const float s[3],
                         const float (*mb)[6], const vt_instance *inst, uint32_t ninst, vt_shadow_fit *fit)
 {
@@ -234,6 +270,17 @@ bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, con
         fit->off[i][1] = (float)((vo - sv) / tx + fit->size / 2);
         for (int q2 = 0; q2 < 3; q2++) fit->cen[i][q2] = (float)c[q2];
         fit->rad[i] = (float)r;
+        /* what its lookups read: the slice from the previous cascade's
+           blend band on, seen from the sun */
+        double a2 = i ? fit->split[i] - VT_SHADOW_BLEND * (fit->split[i] - fit->split[i - 1]) : nearv, hp[8][2];
+        bool ok = true;
+        for (int k = 0; k < 8 && ok; k++) {
+            double pk[3];
+            ok = corner(&vr, dr, k & 1 ? 1 : -1, k & 2 ? 1 : -1, k & 4 ? b : a2, pk);
+            hp[k][0] = u[0] * pk[0] + u[1] * pk[1] + u[2] * pk[2];
+            hp[k][1] = w[0] * pk[0] + w[1] * pk[1] + w[2] * pk[2];
+        }
+        if (ok) outline(hp, VT_SHADOW_REACH * tx + 1e-4 * r, fit->hull[i], &fit->nhull[i]);
     }
     return true;
 }
@@ -371,9 +418,10 @@ struct vt_shadow {
     uint16_t dlo[NC][MAX_BANDS], dhi[NC][MAX_BANDS];
     uint32_t dirty_size, dirty_n;
     /* the footprint tiles the span lookup decides most pixels by
-       (vt_shadow_tiles.h): per cascade (size / VT_SHADOW_TILE)^2 minima,
-       then as many maxima; raw: the undilated tiles' */
-    float *tiles, *raw;
+       (vt_shadow_tiles.h): per cascade (size / VT_SHADOW_TILE)^2 packed
+       ranges; raw: the undilated tiles' minima, then as many maxima */
+    uint32_t *tiles;
+    float *raw;
     size_t tiles_cap, raw_cap;
     vt_shadow_cons cons;    /* the span lookup's constants of the last draw */
     vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
@@ -447,8 +495,10 @@ const float *vt_shadow_maps(const vt_shadow *sh)
     return sh->maps;
 }
 
-const float *vt_shadow_tiles(const vt_shadow *sh)
+const uint32_t *vt_shadow_tiles(const vt_shadow *sh, float qlo[VT_SHADOW_CASCADES], float qinv[VT_SHADOW_CASCADES])
 {
+    memcpy(qlo, sh->cons.qlo, sizeof sh->cons.qlo);
+    memcpy(qinv, sh->cons.qinv, sizeof sh->cons.qinv);
     return sh->tiles;
 }
 
@@ -523,8 +573,16 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
         unsigned cm = 0;
         for (int k = 0; k < (int)f->n; k++) {
             double r = f->rad[k] + 2.0 * f->texel[k];
-            if (fabs(lc[0] - cu[k]) <= lh[0] + r && fabs(lc[1] - cv[k]) <= lh[1] + r && lc[2] + lh[2] >= cs[k] - r)
-                cm |= 1u << k;
+            if (!(fabs(lc[0] - cu[k]) <= lh[0] + r && fabs(lc[1] - cv[k]) <= lh[1] + r && lc[2] + lh[2] >= cs[k] - r))
+                continue;
+            /* and its box, seen from the sun, meets the outline of what the
+               cascade's lookups read (the sun's rays keep u and v) */
+            bool meets = true;
+            for (uint32_t j = 0; j < f->nhull[k] && meets; j++) {
+                const float *e = f->hull[k][j];
+                meets = e[0] * lc[0] + e[1] * lc[1] - (fabs(e[0]) * lh[0] + fabs(e[1]) * lh[1]) <= e[2];
+            }
+            cm |= (unsigned)meets << k;
         }
         if (!cm) continue;
         if (!vp_grow((void **)&b->vx, &b->vx_cap, (size_t)m->nv * 3, sizeof *b->vx)) return VT_ERR_NOMEM;
@@ -781,7 +839,7 @@ static void job_tiles(void *arg, uint32_t t)
             for (uint32_t k = y0 / BAND; k <= y1 / BAND; k++)
                 if (sh->dlo[c][k] <= sh->dhi[c][k])
                     lo = sh->dlo[c][k] < lo ? sh->dlo[c][k] : lo, hi = sh->dhi[c][k] > hi ? sh->dhi[c][k] : hi;
-            vt_shadow_tiles_row(sh->raw, sh->tiles, plane, sz, c, ty, lo, hi);
+            vt_shadow_tiles_row(sh->raw, sh->tiles, plane, sz, c, ty, lo, hi, sh->cons.qlo[c], sh->cons.qinv[c]);
         }
 }
 
@@ -852,7 +910,7 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     sh->fit = *fit;
     size_t npx = (size_t)fit->n * fit->size * fit->size;
     if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps) ||
-        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, 2 * npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->tiles) ||
+        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->tiles) ||
         !vp_grow((void **)&sh->raw, &sh->raw_cap, 2 * npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->raw))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow maps");
     if (fit->size != sh->dirty_size || fit->n != sh->dirty_n) {
@@ -875,18 +933,25 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
         if (sh->tb[t].rc) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow casters");
         for (uint32_t c = 0; c < fit->n; c++) *tris += (uint32_t)sh->tb[t].n[c];
     }
-    if (nt > 1) cull_pool_run(pool, job_raster, &jb, nt), cull_pool_run(pool, job_tiles, &jb, nt);
-    else job_raster(&jb, 0), job_tiles(&jb, 0);
-    /* the span lookup's constants (vt_shadow.inl), once a draw */
+    /* the span lookup's constants (vt_shadow.inl), once a draw; the
+       tiles' quantisation first (job_tiles packs with it): 65532 steps
+       over the sphere's depth +- 3 radii (a step about 1/11 of a
+       texel), which holds every receiver's reference with room */
     vt_shadow_cons *k = &sh->cons;
     const uint32_t g = fit->size / VT_SHADOW_TILE;
     memset(k, 0, sizeof *k);
-    k->tmin = sh->tiles, k->tmax = sh->tiles + (size_t)fit->n * g * g, k->g = (float)g;
+    k->tq = sh->tiles, k->g = (float)g;
     for (uint32_t c = 0; c < fit->n; c++) {
+        const double cs = (double)fit->s[0] * fit->cen[c][0] + (double)fit->s[1] * fit->cen[c][1] +
+                          (double)fit->s[2] * fit->cen[c][2];
+        k->qlo[c] = (float)(cs - 3.0 * fit->rad[c]);
+        k->qinv[c] = (float)(65532.0 / (6.0 * fit->rad[c]));
         k->tbase[c] = (float)((size_t)c * g * g);
         k->offx[c] = fit->off[c][0], k->offy[c] = fit->off[c][1], k->base[c] = (float)((size_t)c * fit->size * fit->size);
         k->far[c] = fit->split[c + 1];
         k->band[c] = VT_SHADOW_BLEND * (fit->split[c + 1] - fit->split[c]);
     }
+    if (nt > 1) cull_pool_run(pool, job_raster, &jb, nt), cull_pool_run(pool, job_tiles, &jb, nt);
+    else job_raster(&jb, 0), job_tiles(&jb, 0);
     return 0;
 }

@@ -44,6 +44,23 @@ static inline vf sh_gather(const float *base, vf q)
 #endif
 }
 
+/* The packed tiles base[q] for exact integral float indices q (masked
+ * lanes: 0) as their bounds' steps: *a the lower, *b the upper. */
+static inline void sh_gather_q(const uint32_t *base, vf q, vf *a, vf *b)
+{
+#if CULL_SIMD_ISA == 3
+    const __m256i t = _mm256_i32gather_epi32((const int *)base, _mm256_cvttps_epi32(q), 4);
+    *a = _mm256_cvtepi32_ps(_mm256_and_si256(t, _mm256_set1_epi32(0xffff)));
+    *b = _mm256_cvtepi32_ps(_mm256_srli_epi32(t, 16));
+#else
+    __m128i i = _mm_cvttps_epi32(q);
+    const __m128i t = _mm_setr_epi32((int)base[_mm_cvtsi128_si32(i)], (int)base[_mm_extract_epi32(i, 1)],
+                                     (int)base[_mm_extract_epi32(i, 2)], (int)base[_mm_extract_epi32(i, 3)]);
+    *a = _mm_cvtepi32_ps(_mm_and_si128(t, _mm_set1_epi32(0xffff)));
+    *b = _mm_cvtepi32_ps(_mm_srli_epi32(t, 16));
+#endif
+}
+
 /* Each lane's cascade (0..n-1), as sh_pick reads it: AVX2 a variable
  * permute of the (at most 4) cascades' constants; else selects over
  * "ci >= c" masks made once. */
@@ -127,7 +144,7 @@ static inline __attribute__((always_inline)) vf sh_prep(const vt_shadow_fit *f, 
     t->x0 = vf_sub(fx0, one), t->y0 = vf_sub(fy0, one);
     t->dref = dref;
     t->mb = sh_pick(kc->base, f->n, ci);
-    if (!kc->tmin) return one;
+    if (!kc->tq) return one;
     /* the footprint x0..x0 + 3 lies in tile floor((x0 + 1) / 2)'s range
        (texels 2t - 2 .. 2t + 3): the tiles' rule */
     const vf lim = vf_set(szf - 4.0f), half = vf_set(0.5f);
@@ -135,7 +152,12 @@ static inline __attribute__((always_inline)) vf sh_prep(const vt_shadow_fit *f, 
     if (!vm_bits(fin)) return one;
     vf tix = sh_floor(vf_mul(vf_add(t->x0, one), half)), tiy = sh_floor(vf_mul(vf_add(t->y0, one), half));
     vf ti = vf_select(fin, vf_add(sh_pick(kc->tbase, f->n, ci), vf_add(vf_mul(tiy, vf_set(kc->g)), tix)), zero);
-    vm all = vm_and(fin, vf_le(sh_gather(kc->tmax, ti), dref)), none = vm_and(fin, vf_lt(dref, sh_gather(kc->tmin, ti)));
+    /* the reference in the tiles' steps; decided only within 0 .. 65535
+       (the bounds 0 and 65535 stand for "unbounded") */
+    vf qa, qb, dq = vf_mul(vf_sub(dref, sh_pick(kc->qlo, f->n, ci)), sh_pick(kc->qinv, f->n, ci));
+    sh_gather_q(kc->tq, ti, &qa, &qb);
+    fin = vm_and(fin, vm_and(vf_le(zero, dq), vf_lt(dq, vf_set(65535.0f))));
+    vm all = vm_and(fin, vf_le(qb, dq)), none = vm_and(fin, vf_lt(dq, qa));
     *und = vm_andnot(m, vm_or(all, none));
     /* the taps' sums when every tap passes, in their order */
     vf wx0 = vf_sub(one, t->fx), wy0 = vf_sub(one, t->fy);
