@@ -543,6 +543,15 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
         cv[c] = (double)f->v[0] * f->cen[c][0] + (double)f->v[1] * f->cen[c][1] + (double)f->v[2] * f->cen[c][2];
         cs[c] = (double)f->s[0] * f->cen[c][0] + (double)f->s[1] * f->cen[c][1] + (double)f->s[2] * f->cen[c][2];
     }
+    /* the outlines in map coordinates (x = u.p scale + off[0], y likewise):
+       a x + b y <= h inside, for the triangles of a caster that straddles one */
+    float me[NC][8][3];
+    for (int c = 0; c < (int)f->n; c++)
+        for (uint32_t j = 0; j < f->nhull[c]; j++) {
+            const float *e = f->hull[c][j];
+            me[c][j][0] = e[0], me[c][j][1] = e[1];
+            me[c][j][2] = e[2] * f->scale[c] + e[0] * f->off[c][0] + e[1] * f->off[c][1];
+        }
     for (uint32_t ii = i0; ii < i1; ii++) {
         const vt_instance *in = &jb->in[ii];
         const vt_mesh *m = &jb->meshes[in->mesh];
@@ -570,19 +579,22 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
                 lc[a] += ax[a][k] * c[k];
                 lh[a] += fabs(ax[a][k]) * h[k];
             }
-        unsigned cm = 0;
+        unsigned cm = 0, straddle = 0;
         for (int k = 0; k < (int)f->n; k++) {
             double r = f->rad[k] + 2.0 * f->texel[k];
             if (!(fabs(lc[0] - cu[k]) <= lh[0] + r && fabs(lc[1] - cv[k]) <= lh[1] + r && lc[2] + lh[2] >= cs[k] - r))
                 continue;
             /* and its box, seen from the sun, meets the outline of what the
                cascade's lookups read (the sun's rays keep u and v) */
-            bool meets = true;
+            bool meets = true, inside = true;
             for (uint32_t j = 0; j < f->nhull[k] && meets; j++) {
                 const float *e = f->hull[k][j];
-                meets = e[0] * lc[0] + e[1] * lc[1] - (fabs(e[0]) * lh[0] + fabs(e[1]) * lh[1]) <= e[2];
+                double pc = e[0] * lc[0] + e[1] * lc[1], pr = fabs(e[0]) * lh[0] + fabs(e[1]) * lh[1];
+                meets = pc - pr <= e[2];
+                inside = inside && pc + pr <= e[2];
             }
             cm |= (unsigned)meets << k;
+            straddle |= (unsigned)(meets && !inside) << k;
         }
         if (!cm) continue;
         if (!vp_grow((void **)&b->vx, &b->vx_cap, (size_t)m->nv * 3, sizeof *b->vx)) return VT_ERR_NOMEM;
@@ -628,6 +640,15 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
                 /* no texel centre in its box: it covers none (most of a far
                    cascade's small casters' triangles) */
                 if (no_centre(x0, x1, (float)f->size) || no_centre(y0, y1, (float)f->size)) continue;
+                /* a caster across the outline: its triangles' boxes against it */
+                bool meets = true;
+                if (straddle >> k & 1) {
+                    const float xc = 0.5f * (x0 + x1), yc = 0.5f * (y0 + y1), hx = 0.5f * (x1 - x0), hy = 0.5f * (y1 - y0);
+                    for (uint32_t j = 0; j < f->nhull[k] && meets; j++)
+                        meets = me[k][j][0] * xc + me[k][j][1] * yc - (fabsf(me[k][j][0]) * hx + fabsf(me[k][j][1]) * hy) <=
+                                me[k][j][2];
+                }
+                if (!meets) continue;
                 if (b->n[k] == b->cap[k] && !vp_grow((void **)&b->t[k], &b->cap[k], b->n[k] + 1, sizeof *b->t[k]))
                     return VT_ERR_NOMEM;
                 b->t[k][b->n[k]++] = L;

@@ -166,6 +166,20 @@ static inline __attribute__((always_inline)) vf sh_prep(const vt_shadow_fit *f, 
     return vf_select(all, vf_mul(lit, vf_set(1.0f / 9.0f)), vf_select(none, zero, one));
 }
 
+/* base[i] for integer indices i (every lane read: in bounds). */
+static inline vf sh_gather_i(const float *base,
+#if CULL_SIMD_ISA == 3
+                             __m256i i)
+{
+    return _mm256_i32gather_ps(base, i, 4);
+#else
+                             __m128i i)
+{
+    return _mm_setr_ps(base[_mm_cvtsi128_si32(i)], base[_mm_extract_epi32(i, 1)], base[_mm_extract_epi32(i, 2)],
+                       base[_mm_extract_epi32(i, 3)]);
+#endif
+}
+
 /* The second half of cascade_vis: the 16 taps of lanes m. */
 static inline vf sh_taps(const vt_shadow_fit *f, const float *maps, const sh_tap *t, vm m)
 {
@@ -174,6 +188,26 @@ static inline vf sh_taps(const vt_shadow_fit *f, const float *maps, const sh_tap
     const vf sz = vf_set(szf);
     const vf wx[4] = {vf_sub(one, t->fx), one, one, t->fx}, wy[4] = {vf_sub(one, t->fy), one, one, t->fy};
     vf lit = zero, xs[4];
+    /* every lane's footprint in the map (most): one index, the 16 taps at
+       constant offsets from it (no per-tap index or bounds), the sums in
+       the same order */
+    const vf lim = vf_set(szf - 4.0f);
+    vm fin = vm_and(vm_and(vf_le(zero, t->x0), vf_le(t->x0, lim)), vm_and(vf_le(zero, t->y0), vf_le(t->y0, lim)));
+    if (vm_bits(vm_andnot(m, fin)) == 0) {
+        const vf q = vf_select(m, vf_add(t->mb, vf_add(vf_mul(t->y0, sz), t->x0)), zero);
+#if CULL_SIMD_ISA == 3
+        const __m256i qi = _mm256_cvttps_epi32(q);
+#else
+        const __m128i qi = _mm_cvttps_epi32(q);
+#endif
+        for (int b = 0; b < 4; b++) {
+            const float *row = maps + (size_t)b * f->size;
+            vf r = zero;
+            for (int a = 0; a < 4; a++) r = vf_add(r, vm_and(vf_le(sh_gather_i(row + a, qi), t->dref), wx[a]));
+            lit = vf_add(lit, vf_mul(wy[b], r));
+        }
+        return vf_mul(lit, vf_set(1.0f / 9.0f));
+    }
     vm xin[4];
     for (int a = 0; a < 4; a++) { /* the columns, the same for every row */
         xs[a] = vf_add(t->x0, vf_set((float)a));
@@ -292,20 +326,26 @@ void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const vt_shadow
        second cascade exists) */
     float vals[2 * CH], tb[CH], fm[CH], fbl[CH], fnx[CH];
     float *const v1 = vals, *const v2 = vals + CH;
+    /* the cascades' starts, those past the last never reached (a loop of
+       constant length, unrolled) */
+    float splits[VT_SHADOW_CASCADES];
+    for (uint32_t c = 0; c < VT_SHADOW_CASCADES; c++) splits[c] = c < N ? f->split[c] : INFINITY;
     for (unsigned c0 = 0; c0 < n; c0 += CH) {
         const unsigned cn = n - c0 < CH ? n - c0 : CH;
         pk.n = 0;
         bool any = false;
-        const float *const src[6] = {px + c0, py + c0, pz + c0, nx + c0, ny + c0, nz + c0};
         for (unsigned i = 0; i < cn; i += W) {
-            float tp[6][W];
             unsigned nw = cn - i < (unsigned)W ? cn - i : (unsigned)W;
+            const unsigned o = c0 + i;
             vf p[3], nn[3];
             if (nw == (unsigned)W) { /* a whole step (a span of 16 is two or four) */
-                for (int c = 0; c < 3; c++) p[c] = vf_loadu(src[c] + i), nn[c] = vf_loadu(src[3 + c] + i);
+                p[0] = vf_loadu(px + o), p[1] = vf_loadu(py + o), p[2] = vf_loadu(pz + o);
+                nn[0] = vf_loadu(nx + o), nn[1] = vf_loadu(ny + o), nn[2] = vf_loadu(nz + o);
             } else {
+                const float *const src[6] = {px + o, py + o, pz + o, nx + o, ny + o, nz + o};
+                float tp[6][W];
                 for (int c = 0; c < 6; c++)
-                    for (unsigned l = 0; l < (unsigned)W; l++) tp[c][l] = l < nw ? src[c][i + l] : 0.0f;
+                    for (unsigned l = 0; l < (unsigned)W; l++) tp[c][l] = l < nw ? src[c][l] : 0.0f;
                 for (int c = 0; c < 3; c++) p[c] = vf_loadu(tp[c]), nn[c] = vf_loadu(tp[3 + c]);
             }
             vf ndl = vf_add(vf_add(vf_mul(vf_set(f->s[0]), nn[0]), vf_mul(vf_set(f->s[1]), nn[1])), vf_mul(vf_set(f->s[2]), nn[2]));
@@ -317,18 +357,20 @@ void VT_SHADOW_N_NAME(const vt_shadow_fit *f, const float *maps, const vt_shadow
             if (!vm_bits(m)) continue; /* lit: out unchanged (times 1) */
             any = true;
             vf ci = zero;
-            for (uint32_t c = 1; c < N; c++) ci = vf_add(ci, vf_select(vf_ge(d, vf_set(f->split[c])), one, zero));
+            for (uint32_t c = 1; c < VT_SHADOW_CASCADES; c++) ci = vf_add(ci, vm_and(vf_ge(d, vf_set(splits[c])), one));
             sh_tap t;
             vm und;
             const sh_ci cs = sh_ci_make(ci, N);
             vf_store(v1 + i, sh_prep(f, kc, &cs, m, p, nn, ndl, &t, &und));
             sh_push(&pk, &t, und, (int32_t)i);
             vf fr = sh_pick(far, N, &cs), band = sh_pick(bandv, N, &cs);
-            vf tt = vf_div(vf_sub(d, vf_sub(fr, band)), band);
-            vm bl = vm_and(m, vf_lt(zero, tt));
-            vf_store(tb + i, tt);
-            vf_store(fbl + i, vf_select(bl, one, zero));
+            /* the blend's weight where a lane is in its band (band > 0:
+               the sign of the division's; one it rounds to 0 blends by 0) */
+            vf tn = vf_sub(d, vf_sub(fr, band));
+            vm bl = vm_and(m, vf_lt(zero, tn));
+            vf_store(fbl + i, vm_and(bl, one));
             if (vm_bits(bl)) {
+                vf_store(tb + i, vf_div(tn, band));
                 vf cn2 = vf_add(ci, one);
                 vm nx2 = vf_lt(cn2, vf_set((float)N));
                 vf_store(fnx + i, vf_select(nx2, one, zero));
