@@ -166,17 +166,25 @@ static inline __attribute__((always_inline)) vf sh_prep(const vt_shadow_fit *f, 
     return vf_select(all, vf_mul(lit, vf_set(1.0f / 9.0f)), vf_select(none, zero, one));
 }
 
-/* base[i] for integer indices i (every lane read: in bounds). */
-static inline vf sh_gather_i(const float *base,
+/* The 4 texels base[id[l]] .. base[id[l] + 3] of each lane l as 4 columns
+ * (c[a]: texel a of every lane): a contiguous load a lane and a
+ * transpose, cheaper than 4 gathers (8 loads each on Zen 3). */
+static inline void sh_row4(const float *base, const int32_t *id, vf c[4])
+{
 #if CULL_SIMD_ISA == 3
-                             __m256i i)
-{
-    return _mm256_i32gather_ps(base, i, 4);
+    __m256 a0 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(base + id[0])), _mm_loadu_ps(base + id[4]), 1);
+    __m256 a1 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(base + id[1])), _mm_loadu_ps(base + id[5]), 1);
+    __m256 a2 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(base + id[2])), _mm_loadu_ps(base + id[6]), 1);
+    __m256 a3 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(base + id[3])), _mm_loadu_ps(base + id[7]), 1);
+    __m256 t0 = _mm256_unpacklo_ps(a0, a1), t1 = _mm256_unpackhi_ps(a0, a1);
+    __m256 t2 = _mm256_unpacklo_ps(a2, a3), t3 = _mm256_unpackhi_ps(a2, a3);
+    c[0] = _mm256_shuffle_ps(t0, t2, 0x44), c[1] = _mm256_shuffle_ps(t0, t2, 0xee);
+    c[2] = _mm256_shuffle_ps(t1, t3, 0x44), c[3] = _mm256_shuffle_ps(t1, t3, 0xee);
 #else
-                             __m128i i)
-{
-    return _mm_setr_ps(base[_mm_cvtsi128_si32(i)], base[_mm_extract_epi32(i, 1)], base[_mm_extract_epi32(i, 2)],
-                       base[_mm_extract_epi32(i, 3)]);
+    __m128 a0 = _mm_loadu_ps(base + id[0]), a1 = _mm_loadu_ps(base + id[1]), a2 = _mm_loadu_ps(base + id[2]),
+           a3 = _mm_loadu_ps(base + id[3]);
+    _MM_TRANSPOSE4_PS(a0, a1, a2, a3);
+    c[0] = a0, c[1] = a1, c[2] = a2, c[3] = a3;
 #endif
 }
 
@@ -195,15 +203,16 @@ static inline vf sh_taps(const vt_shadow_fit *f, const float *maps, const sh_tap
     vm fin = vm_and(vm_and(vf_le(zero, t->x0), vf_le(t->x0, lim)), vm_and(vf_le(zero, t->y0), vf_le(t->y0, lim)));
     if (vm_bits(vm_andnot(m, fin)) == 0) {
         const vf q = vf_select(m, vf_add(t->mb, vf_add(vf_mul(t->y0, sz), t->x0)), zero);
+        int32_t id[W];
 #if CULL_SIMD_ISA == 3
-        const __m256i qi = _mm256_cvttps_epi32(q);
+        _mm256_storeu_si256((__m256i *)id, _mm256_cvttps_epi32(q));
 #else
-        const __m128i qi = _mm_cvttps_epi32(q);
+        _mm_storeu_si128((__m128i *)id, _mm_cvttps_epi32(q));
 #endif
         for (int b = 0; b < 4; b++) {
-            const float *row = maps + (size_t)b * f->size;
-            vf r = zero;
-            for (int a = 0; a < 4; a++) r = vf_add(r, vm_and(vf_le(sh_gather_i(row + a, qi), t->dref), wx[a]));
+            vf c[4], r = zero;
+            sh_row4(maps + (size_t)b * f->size, id, c);
+            for (int a = 0; a < 4; a++) r = vf_add(r, vm_and(vf_le(c[a], t->dref), wx[a]));
             lit = vf_add(lit, vf_mul(wy[b], r));
         }
         return vf_mul(lit, vf_set(1.0f / 9.0f));
