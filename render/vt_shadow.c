@@ -7,7 +7,13 @@
  *
  *   1. set-up (threads over contiguous shares of the casters): an
  *      instance's world box in light coordinates says which cascades it
- *      can reach; its vertices go to (u.p, v.p, s.p) once, its faces
+ *      can reach: those whose sphere it touches and whose outline (the
+ *      slice of the view the cascade's lookups come from, seen from the
+ *      sun: vt_shadow_fit's hull) it meets, as u and v are what a
+ *      shadow keeps along the sun's rays; a caster across an outline,
+ *      its triangles' boxes each (a caster outside darkens nothing the
+ *      view shows: a quarter to a half of the city's triangles); its
+ *      vertices go to (u.p, v.p, s.p) once, its faces
  *      turned away from the sun (all faces of a double-sided material)
  *      to each of those cascades' lists in map coordinates;
  *   2. raster (threads over interleaved 32-row bands of every cascade,

@@ -18,7 +18,9 @@
  *  * the maps hold, per texel, the largest s.p (s: towards the sun) of the
  *    casters' faces turned away from the sun (back faces: the lit front
  *    faces of closed meshes then never compare against themselves, so
- *    there is no acne on them; double-sided materials cast both faces);
+ *    there is no acne on them; double-sided materials cast both faces),
+ *    of the casters whose shadow can reach what the view shows in that
+ *    cascade (vt_shadow_fit's hull; elsewhere a map may miss casters);
  *  * lookup: the cascade by the point's view depth, a band over the last
  *    VT_SHADOW_BLEND of each cascade blended into the next (the last one
  *    fades to lit), the point moved along its normal by

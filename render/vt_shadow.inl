@@ -8,8 +8,10 @@
  * multiplies and adds, true divisions and square roots, no FMA: the build
  * is ISO C, -ffp-contract=off), so the span gives the per-pixel lookup's
  * value bit for bit (test_shadow_lookup_lanes). A lane's cascade is picked
- * by selects over the (at most 4) cascades, its 16 PCF taps fetched by
- * index (AVX2: gathers; SSE4.1: four loads), off-map taps masked to 0.
+ * by selects over the (at most 4) cascades; its 16 PCF taps: where every
+ * lane's 4x4 footprint is in the map (most), a row of 4 texels a lane by
+ * one contiguous load, transposed into columns; else fetched by index
+ * (AVX2: gathers; SSE4.1: four loads), off-map taps masked to 0.
  *
  * Most lookups are decided before the taps by the cascade's footprint
  * tiles (vt_shadow.c, the footprint tiles): a lane whose 4x4 footprint
@@ -17,7 +19,9 @@
  * reference passes every tap, wholly above it fails every one; its value
  * is the PCF's for that case computed with the same operations (all
  * pass: the weights' sums in the taps' order; all fail: 0), so the answer
- * is the same bit for bit, for two gathers instead of sixteen. The lanes
+ * is the same bit for bit, for one gather of the packed tiles (a
+ * quantised range in 32 bits, conservative by more than a step: a range
+ * it calls decided is) instead of the taps. The lanes
  * left undecided (penumbrae, and footprints whose tile straddles a
  * depth) are packed, from up to CH pixels, into whole steps of taps.
  */

@@ -499,6 +499,19 @@ static void test_shadow_lookup_lanes(void **state)
     vt_shadow_destroy(fresh);
 }
 
+/* n boxes on the ground (mesh 0), corners x at r[0] + r[1] u, z at r[2] +
+ * r[3] u, heights r[4] + r[5] u (u uniform in 0..1 from *seed), w x d
+ * metres. */
+static void box_field(vt_instance *in, int n, uint64_t *seed, const float r[6], float w, float d)
+{
+    for (int i = 0; i < n; i++) {
+        double u[3];
+        for (int k = 0; k < 3; k++) u[k] = (double)(splitmix64(seed) >> 11) * 0x1p-53;
+        float x = (float)(r[0] + r[1] * u[0]), z = (float)(r[2] + r[3] * u[1]), hgt = (float)(r[4] + r[5] * u[2]);
+        in[i] = (vt_instance){.mesh = 0, .bmin = {x, 0, z}, .bmax = {x + w, hgt, z + d}};
+    }
+}
+
 /* The footprint tiles the span lookup decides most pixels by, against
  * the maps themselves: every tile's packed bounds against the least and greatest depth over its
  * texels (vt_shadow.h's rule, by brute force here), on a field of boxes
@@ -513,12 +526,7 @@ static void test_shadow_tiles(void **state)
     enum { NB = 60, NP = 6000 };
     static vt_instance in[NB];
     uint64_t seed = 5;
-    for (int i = 0; i < NB; i++) {
-        double r[3];
-        for (int k = 0; k < 3; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
-        float x = (float)(-60 + 120 * r[0]), z = (float)(-120 + 110 * r[1]), hgt = (float)(2 + 30 * r[2]);
-        in[i] = (vt_instance){.mesh = 0, .bmin = {x, 0, z}, .bmax = {x + 6, hgt, z + 8}};
-    }
+    box_field(in, NB, &seed, (const float[6]){-60, 120, -120, 110, 2, 30}, 6, 8);
     float mb[1][6] = {{-1, -1, -1, 1, 1, 1}};
     vt_shadow *sh;
     assert_int_equal(vt_shadow_create(&sh), 0);
@@ -616,12 +624,7 @@ static void test_shadow_outline(void **state)
     enum { NB = 3000, NP = 40000 };
     static vt_instance in[NB];
     uint64_t seed = 17;
-    for (int i = 0; i < NB; i++) {
-        double r[3];
-        for (int k = 0; k < 3; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
-        float x = (float)(-150 + 300 * r[0]), z = (float)(-150 + 300 * r[1]), hgt = (float)(1 + 20 * r[2]);
-        in[i] = (vt_instance){.mesh = 0, .bmin = {x, 0, z}, .bmax = {x + 0.4f, hgt, z + 0.4f}};
-    }
+    box_field(in, NB, &seed, (const float[6]){-150, 300, -150, 300, 1, 20}, 0.4f, 0.4f);
     float mb[1][6] = {{-1, -1, -1, 1, 1, 1}};
     cull_view v;
     look(&v, (const double[3]){0, 12, 0}, (const double[3]){-40, 0, -60}, 320, 180);
