@@ -7,7 +7,13 @@
  *
  *   1. set-up (threads over contiguous shares of the casters): an
  *      instance's world box in light coordinates says which cascades it
- *      can reach; its vertices go to (u.p, v.p, s.p) once, its faces
+ *      can reach: those whose sphere it touches and whose outline (the
+ *      slice of the view the cascade's lookups come from, seen from the
+ *      sun: vt_shadow_fit's hull) it meets, as u and v are what a
+ *      shadow keeps along the sun's rays; a caster across an outline,
+ *      its triangles' boxes each (a caster outside darkens nothing the
+ *      view shows: a quarter to a half of the city's triangles); its
+ *      vertices go to (u.p, v.p, s.p) once, its faces
  *      turned away from the sun (all faces of a double-sided material)
  *      to each of those cascades' lists in map coordinates;
  *   2. raster (threads over interleaved 32-row bands of every cascade,
@@ -124,6 +130,42 @@ static double inst_reach(const vt_instance *in, const float b[6], const double o
     return isfinite(far) ? far : -INFINITY;
 }
 
+/* The convex outline of points p (counter-clockwise: Andrew's monotone
+ * chain), widened by m, as edges (a, b, h): a x + b y <= h inside, (a, b)
+ * a unit normal. *n 0: the points are (nearly) on a line, or not finite. */
+static void outline(double p[8][2], double m, float e[8][3], uint32_t *n)
+{
+    *n = 0;
+    for (int i = 1; i < 8; i++) /* sorted by x, then y (insertion: 8 points) */
+        for (int j = i; j > 0 && (p[j][0] < p[j - 1][0] || (p[j][0] == p[j - 1][0] && p[j][1] < p[j - 1][1])); j--) {
+            double t0 = p[j][0], t1 = p[j][1];
+            p[j][0] = p[j - 1][0], p[j][1] = p[j - 1][1], p[j - 1][0] = t0, p[j - 1][1] = t1;
+        }
+    int h[17], k = 0;
+    for (int pass = 0; pass < 2; pass++) { /* the lower chain, then the upper */
+        const int k0 = k;
+        for (int t = 0; t < 8; t++) {
+            const int i = pass ? 7 - t : t;
+            while (k >= k0 + 2) {
+                const double *a = p[h[k - 2]], *b = p[h[k - 1]];
+                if ((b[0] - a[0]) * (p[i][1] - a[1]) - (b[1] - a[1]) * (p[i][0] - a[0]) > 0) break;
+                k--;
+            }
+            h[k++] = i;
+        }
+        k--; /* the chain's last point starts the other one */
+    }
+    if (k < 3) return;
+    for (int j = 0; j < k; j++) {
+        const double *a = p[h[j]], *b = p[h[(j + 1) % k]];
+        double nx = b[1] - a[1], ny = a[0] - b[0], l = sqrt(nx * nx + ny * ny);
+        if (!(l > 0) || !isfinite(l)) return (void)(*n = 0);
+        nx /= l, ny /= l;
+        e[*n][0] = (float)nx, e[*n][1] = (float)ny, e[*n][2] = (float)(nx * a[0] + ny * a[1] + m);
+        (*n)++;
+    }
+}
+
 bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, const vt_env *env, const float s[3],
                         const float (*mb)[6], const vt_instance *inst, uint32_t ninst, vt_shadow_fit *fit)
 {
@@ -234,6 +276,17 @@ bool vt_shadow_fit_make(const cull_view *v, uint32_t width, uint32_t height, con
         fit->off[i][1] = (float)((vo - sv) / tx + fit->size / 2);
         for (int q2 = 0; q2 < 3; q2++) fit->cen[i][q2] = (float)c[q2];
         fit->rad[i] = (float)r;
+        /* what its lookups read: the slice from the previous cascade's
+           blend band on, seen from the sun */
+        double a2 = i ? fit->split[i] - VT_SHADOW_BLEND * (fit->split[i] - fit->split[i - 1]) : nearv, hp[8][2];
+        bool ok = true;
+        for (int k = 0; k < 8 && ok; k++) {
+            double pk[3];
+            ok = corner(&vr, dr, k & 1 ? 1 : -1, k & 2 ? 1 : -1, k & 4 ? b : a2, pk);
+            hp[k][0] = u[0] * pk[0] + u[1] * pk[1] + u[2] * pk[2];
+            hp[k][1] = w[0] * pk[0] + w[1] * pk[1] + w[2] * pk[2];
+        }
+        if (ok) outline(hp, VT_SHADOW_REACH * tx + 1e-4 * r, fit->hull[i], &fit->nhull[i]);
     }
     return true;
 }
@@ -371,9 +424,10 @@ struct vt_shadow {
     uint16_t dlo[NC][MAX_BANDS], dhi[NC][MAX_BANDS];
     uint32_t dirty_size, dirty_n;
     /* the footprint tiles the span lookup decides most pixels by
-       (vt_shadow_tiles.h): per cascade (size / VT_SHADOW_TILE)^2 minima,
-       then as many maxima; raw: the undilated tiles' */
-    float *tiles, *raw;
+       (vt_shadow_tiles.h): per cascade (size / VT_SHADOW_TILE)^2 packed
+       ranges; raw: the undilated tiles' minima, then as many maxima */
+    uint32_t *tiles;
+    float *raw;
     size_t tiles_cap, raw_cap;
     vt_shadow_cons cons;    /* the span lookup's constants of the last draw */
     vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
@@ -447,8 +501,10 @@ const float *vt_shadow_maps(const vt_shadow *sh)
     return sh->maps;
 }
 
-const float *vt_shadow_tiles(const vt_shadow *sh)
+const uint32_t *vt_shadow_tiles(const vt_shadow *sh, float qlo[VT_SHADOW_CASCADES], float qinv[VT_SHADOW_CASCADES])
 {
+    memcpy(qlo, sh->cons.qlo, sizeof sh->cons.qlo);
+    memcpy(qinv, sh->cons.qinv, sizeof sh->cons.qinv);
     return sh->tiles;
 }
 
@@ -493,6 +549,15 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
         cv[c] = (double)f->v[0] * f->cen[c][0] + (double)f->v[1] * f->cen[c][1] + (double)f->v[2] * f->cen[c][2];
         cs[c] = (double)f->s[0] * f->cen[c][0] + (double)f->s[1] * f->cen[c][1] + (double)f->s[2] * f->cen[c][2];
     }
+    /* the outlines in map coordinates (x = u.p scale + off[0], y likewise):
+       a x + b y <= h inside, for the triangles of a caster that straddles one */
+    float me[NC][8][3];
+    for (int c = 0; c < (int)f->n; c++)
+        for (uint32_t j = 0; j < f->nhull[c]; j++) {
+            const float *e = f->hull[c][j];
+            me[c][j][0] = e[0], me[c][j][1] = e[1];
+            me[c][j][2] = e[2] * f->scale[c] + e[0] * f->off[c][0] + e[1] * f->off[c][1];
+        }
     for (uint32_t ii = i0; ii < i1; ii++) {
         const vt_instance *in = &jb->in[ii];
         const vt_mesh *m = &jb->meshes[in->mesh];
@@ -520,11 +585,22 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
                 lc[a] += ax[a][k] * c[k];
                 lh[a] += fabs(ax[a][k]) * h[k];
             }
-        unsigned cm = 0;
+        unsigned cm = 0, straddle = 0;
         for (int k = 0; k < (int)f->n; k++) {
             double r = f->rad[k] + 2.0 * f->texel[k];
-            if (fabs(lc[0] - cu[k]) <= lh[0] + r && fabs(lc[1] - cv[k]) <= lh[1] + r && lc[2] + lh[2] >= cs[k] - r)
-                cm |= 1u << k;
+            if (!(fabs(lc[0] - cu[k]) <= lh[0] + r && fabs(lc[1] - cv[k]) <= lh[1] + r && lc[2] + lh[2] >= cs[k] - r))
+                continue;
+            /* and its box, seen from the sun, meets the outline of what the
+               cascade's lookups read (the sun's rays keep u and v) */
+            bool meets = true, inside = true;
+            for (uint32_t j = 0; j < f->nhull[k] && meets; j++) {
+                const float *e = f->hull[k][j];
+                double pc = e[0] * lc[0] + e[1] * lc[1], pr = fabs(e[0]) * lh[0] + fabs(e[1]) * lh[1];
+                meets = pc - pr <= e[2];
+                inside = inside && pc + pr <= e[2];
+            }
+            cm |= (unsigned)meets << k;
+            straddle |= (unsigned)(meets && !inside) << k;
         }
         if (!cm) continue;
         if (!vp_grow((void **)&b->vx, &b->vx_cap, (size_t)m->nv * 3, sizeof *b->vx)) return VT_ERR_NOMEM;
@@ -570,6 +646,15 @@ static int setup(sbuf *b, const sjob *jb, uint32_t i0, uint32_t i1)
                 /* no texel centre in its box: it covers none (most of a far
                    cascade's small casters' triangles) */
                 if (no_centre(x0, x1, (float)f->size) || no_centre(y0, y1, (float)f->size)) continue;
+                /* a caster across the outline: its triangles' boxes against it */
+                bool meets = true;
+                if (straddle >> k & 1) {
+                    const float xc = 0.5f * (x0 + x1), yc = 0.5f * (y0 + y1), hx = 0.5f * (x1 - x0), hy = 0.5f * (y1 - y0);
+                    for (uint32_t j = 0; j < f->nhull[k] && meets; j++)
+                        meets = me[k][j][0] * xc + me[k][j][1] * yc - (fabsf(me[k][j][0]) * hx + fabsf(me[k][j][1]) * hy) <=
+                                me[k][j][2];
+                }
+                if (!meets) continue;
                 if (b->n[k] == b->cap[k] && !vp_grow((void **)&b->t[k], &b->cap[k], b->n[k] + 1, sizeof *b->t[k]))
                     return VT_ERR_NOMEM;
                 b->t[k][b->n[k]++] = L;
@@ -781,7 +866,7 @@ static void job_tiles(void *arg, uint32_t t)
             for (uint32_t k = y0 / BAND; k <= y1 / BAND; k++)
                 if (sh->dlo[c][k] <= sh->dhi[c][k])
                     lo = sh->dlo[c][k] < lo ? sh->dlo[c][k] : lo, hi = sh->dhi[c][k] > hi ? sh->dhi[c][k] : hi;
-            vt_shadow_tiles_row(sh->raw, sh->tiles, plane, sz, c, ty, lo, hi);
+            vt_shadow_tiles_row(sh->raw, sh->tiles, plane, sz, c, ty, lo, hi, sh->cons.qlo[c], sh->cons.qinv[c]);
         }
 }
 
@@ -852,7 +937,7 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
     sh->fit = *fit;
     size_t npx = (size_t)fit->n * fit->size * fit->size;
     if (!vp_grow((void **)&sh->maps, &sh->maps_cap, npx, sizeof *sh->maps) ||
-        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, 2 * npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->tiles) ||
+        !vp_grow((void **)&sh->tiles, &sh->tiles_cap, npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->tiles) ||
         !vp_grow((void **)&sh->raw, &sh->raw_cap, 2 * npx / (VT_SHADOW_TILE * VT_SHADOW_TILE), sizeof *sh->raw))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow maps");
     if (fit->size != sh->dirty_size || fit->n != sh->dirty_n) {
@@ -875,18 +960,25 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
         if (sh->tb[t].rc) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory for the shadow casters");
         for (uint32_t c = 0; c < fit->n; c++) *tris += (uint32_t)sh->tb[t].n[c];
     }
-    if (nt > 1) cull_pool_run(pool, job_raster, &jb, nt), cull_pool_run(pool, job_tiles, &jb, nt);
-    else job_raster(&jb, 0), job_tiles(&jb, 0);
-    /* the span lookup's constants (vt_shadow.inl), once a draw */
+    /* the span lookup's constants (vt_shadow.inl), once a draw; the
+       tiles' quantisation first (job_tiles packs with it): 65532 steps
+       over the sphere's depth +- 3 radii (a step about 1/11 of a
+       texel), which holds every receiver's reference with room */
     vt_shadow_cons *k = &sh->cons;
     const uint32_t g = fit->size / VT_SHADOW_TILE;
     memset(k, 0, sizeof *k);
-    k->tmin = sh->tiles, k->tmax = sh->tiles + (size_t)fit->n * g * g, k->g = (float)g;
+    k->tq = sh->tiles, k->g = (float)g;
     for (uint32_t c = 0; c < fit->n; c++) {
+        const double cs = (double)fit->s[0] * fit->cen[c][0] + (double)fit->s[1] * fit->cen[c][1] +
+                          (double)fit->s[2] * fit->cen[c][2];
+        k->qlo[c] = (float)(cs - 3.0 * fit->rad[c]);
+        k->qinv[c] = (float)(65532.0 / (6.0 * fit->rad[c]));
         k->tbase[c] = (float)((size_t)c * g * g);
         k->offx[c] = fit->off[c][0], k->offy[c] = fit->off[c][1], k->base[c] = (float)((size_t)c * fit->size * fit->size);
         k->far[c] = fit->split[c + 1];
         k->band[c] = VT_SHADOW_BLEND * (fit->split[c + 1] - fit->split[c]);
     }
+    if (nt > 1) cull_pool_run(pool, job_raster, &jb, nt), cull_pool_run(pool, job_tiles, &jb, nt);
+    else job_raster(&jb, 0), job_tiles(&jb, 0);
     return 0;
 }

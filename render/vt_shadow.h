@@ -18,7 +18,9 @@
  *  * the maps hold, per texel, the largest s.p (s: towards the sun) of the
  *    casters' faces turned away from the sun (back faces: the lit front
  *    faces of closed meshes then never compare against themselves, so
- *    there is no acne on them; double-sided materials cast both faces);
+ *    there is no acne on them; double-sided materials cast both faces),
+ *    of the casters whose shadow can reach what the view shows in that
+ *    cascade (vt_shadow_fit's hull; elsewhere a map may miss casters);
  *  * lookup: the cascade by the point's view depth, a band over the last
  *    VT_SHADOW_BLEND of each cascade blended into the next (the last one
  *    fades to lit), the point moved along its normal by
@@ -50,6 +52,7 @@
 #define VT_SHADOW_BIAS_C 0.5f     /* texels */
 #define VT_SHADOW_BIAS_S 1.0f     /* texels per unit tan theta, tan clamped to 8 */
 #define VT_SHADOW_MIN_SUN 0.02f   /* sun's y: lower is "at the horizon", no shadows */
+#define VT_SHADOW_REACH 4.0f      /* texels: how far from a receiver its lookup reads (1 normal offset + 2.5 taps, rounded up) */
 
 typedef struct vt_shadow vt_shadow;
 struct vt_mesh;
@@ -69,6 +72,15 @@ typedef struct vt_shadow_fit {
     float texel[VT_SHADOW_CASCADES];     /* metres a texel */
     float cen[VT_SHADOW_CASCADES][3];    /* the slice's bounding sphere */
     float rad[VT_SHADOW_CASCADES];
+    /* what cascade i's lookups can read: the outline, seen from the sun,
+       of the view's slice its lookups come from (split[i] less the
+       previous cascade's blend band .. split[i + 1]), as nhull[i] edges
+       (a, b, h): u.p a + v.p b <= h inside, widened by VT_SHADOW_REACH
+       texels (the normal offset and the PCF's footprint). A caster
+       wholly outside darkens none of them: vt_shadow_draw leaves it out
+       of that map. nhull[i] 0: no outline (every caster of the sphere) */
+    float hull[VT_SHADOW_CASCADES][8][3];
+    uint32_t nhull[VT_SHADOW_CASCADES];
 } vt_shadow_fit;
 
 /* The unit direction towards env's sun, normalised as vt_penv_make does;
@@ -111,11 +123,17 @@ int vt_shadow_draw(vt_shadow *sh, cull_pool *pool, uint32_t threads, const vt_sh
 const vt_shadow_fit *vt_shadow_fit_of(const vt_shadow *sh);
 const float *vt_shadow_maps(const vt_shadow *sh);
 /* The last draw's footprint tiles, the span lookup's shortcut (vt_shadow.c):
- * per cascade g x g (g = size / VT_SHADOW_TILE) minima, then as many
- * maxima; tile (tx, ty) of the map over texels VT_SHADOW_TILE (t - 1) ..
- * VT_SHADOW_TILE (t + 2) - 1 on both axes, clipped to the map. */
+ * per cascade g x g (g = size / VT_SHADOW_TILE); tile (tx, ty) bounds the
+ * map's depth over texels VT_SHADOW_TILE (t - 1) .. VT_SHADOW_TILE (t + 2)
+ * - 1 on both axes, clipped to the map, packed in 32 bits (half the
+ * memory of two floats, one gather): bits 0..15 a and 16..31 b, the
+ * depth range within qlo[c] + a / qinv[c] .. qlo[c] + b / qinv[c] of
+ * cascade c; a 0 or b 65535: not bounded on that side (beyond the
+ * quantised range, or NaN). The bounds are conservative by more than a
+ * step (vt_shadow_tiles.c, pack1), so a lookup decided by them is the
+ * taps' answer bit for bit. qlo, qinv: filled, VT_SHADOW_CASCADES each. */
 #define VT_SHADOW_TILE 2
-const float *vt_shadow_tiles(const vt_shadow *sh);
+const uint32_t *vt_shadow_tiles(const vt_shadow *sh, float qlo[VT_SHADOW_CASCADES], float qinv[VT_SHADOW_CASCADES]);
 
 /* The fraction of the sun that reaches camera-relative point p with unit
  * normal n, 0 (in shadow) .. 1 (lit), PCF-filtered. sh NULL: 1. */
@@ -136,12 +154,14 @@ void vt_shadow_set_isa(vt_shadow *sh, uint32_t isa);
 /* The span lookup's instances (vt_shadow.inl); one lane: vt_shadow_lookup. */
 /* The span lookup's constants of a draw (vt_shadow.c makes them with its
  * maps): per cascade its map offsets, first texel and first tile, far end
- * and blend band; the footprint tiles (tmin NULL: every lookup takes its
- * 16 taps) and their count a side. */
+ * and blend band, the tiles' quantisation (vt_shadow_tiles); the packed
+ * footprint tiles (tq NULL: every lookup takes its 16 taps) and their
+ * count a side. */
 typedef struct vt_shadow_cons {
     float offx[VT_SHADOW_CASCADES], offy[VT_SHADOW_CASCADES], base[VT_SHADOW_CASCADES];
     float far[VT_SHADOW_CASCADES], band[VT_SHADOW_CASCADES], tbase[VT_SHADOW_CASCADES];
-    const float *tmin, *tmax;
+    float qlo[VT_SHADOW_CASCADES], qinv[VT_SHADOW_CASCADES];
+    const uint32_t *tq;
     float g;
 } vt_shadow_cons;
 typedef void (*vt_shadow_n_fn)(const vt_shadow_fit *f, const float *maps, const vt_shadow_cons *k, unsigned n,

@@ -45,6 +45,23 @@ void vt_shadow_fill_lowest(float *r, uint32_t n)
     for (; i < n; i++) r[i] = -FLT_MAX;
 }
 
+/* n packed tiles at o to v (SSE2: four stores a step, as vt_shadow_fill_lowest). */
+static void fill_u32(uint32_t *o, uint32_t n, uint32_t v)
+{
+    uint32_t i = 0;
+#ifdef __SSE2__
+    const __m128i q = _mm_set1_epi32((int)v);
+    for (; i + 16 <= n; i += 16) {
+        _mm_storeu_si128((__m128i *)(o + i), q);
+        _mm_storeu_si128((__m128i *)(o + i + 4), q);
+        _mm_storeu_si128((__m128i *)(o + i + 8), q);
+        _mm_storeu_si128((__m128i *)(o + i + 12), q);
+    }
+    for (; i + 4 <= n; i += 4) _mm_storeu_si128((__m128i *)(o + i), q);
+#endif
+    for (; i < n; i++) o[i] = v;
+}
+
 /* Band k's TS x TS tiles of map m (size sz; texels outside columns
  * x0..x1 are -FLT_MAX) into the raw minima lo and maxima hi. */
 void vt_shadow_tiles_band(float *lo, float *hi, const float *m, uint32_t sz, uint32_t k, uint32_t x0, uint32_t x1)
@@ -79,16 +96,31 @@ void vt_shadow_tiles_band(float *lo, float *hi, const float *m, uint32_t sz, uin
 }
 
 
+/* The packed tile of depth range lo..hi (vt_shadow_tiles.h): the range
+ * widened to whole steps and one more each side, so that the float
+ * rounding of this and of the lookup's (dref - qlo) qinv (each well
+ * under 0.1 of a step at 65536) never narrows it; a NaN gives the
+ * unknown range (0, 65535). */
+static inline uint32_t pack1(float lo, float hi, float qlo, float qinv)
+{
+    float a = (lo - qlo) * qinv, b = (hi - qlo) * qinv;
+    a = a > 1.0f ? a : 1.0f, a = a < 65535.0f ? a : 65535.0f;   /* NaN: 1 */
+    b = b < 65533.0f ? b : 65533.0f, b = b > -1.0f ? b : -1.0f; /* NaN: 65533 */
+    return (uint32_t)((int32_t)a - 1) | (uint32_t)((int32_t)b + 2) << 16;
+}
+
 /* Tile row ty of cascade c: the raw tiles' 3 x 3 minima and maxima
- * (clipped at the map's sides) over the columns the rows' bands wrote. */
-void vt_shadow_tiles_row(const float *raw_all, float *tiles, size_t plane, uint32_t sz, uint32_t c, uint32_t ty,
-                         uint32_t lo, uint32_t hi)
+ * (clipped at the map's sides) over the columns the rows' bands wrote,
+ * packed. */
+void vt_shadow_tiles_row(const float *raw_all, uint32_t *tiles, size_t plane, uint32_t sz, uint32_t c, uint32_t ty,
+                         uint32_t lo, uint32_t hi, float qlo, float qinv)
 {
     const uint32_t g = sz / TS;
-    float w[2048 / TS + 2];
-    float *o0 = tiles + (size_t)c * g * g + (size_t)ty * g, *o1 = o0 + plane;
+    float w[2048 / TS + 2], res[2][2048 / TS];
+    uint32_t *o = tiles + (size_t)c * g * g + (size_t)ty * g;
+    const uint32_t empty = pack1(-FLT_MAX, -FLT_MAX, qlo, qinv);
     if (lo > hi) {
-        vt_shadow_fill_lowest(o0, g), vt_shadow_fill_lowest(o1, g);
+        fill_u32(o, g, empty);
         return;
     }
     /* tiles x0..x1 (whole 4s) see raw tiles x0 - 1 .. x1 + 1 */
@@ -98,7 +130,7 @@ void vt_shadow_tiles_row(const float *raw_all, float *tiles, size_t plane, uint3
         const float *raw = raw_all + mx * plane + (size_t)c * g * g;
         const float *r0 = raw + (size_t)(ty ? ty - 1 : ty) * g, *r1 = raw + (size_t)ty * g,
                     *r2 = raw + (size_t)(ty + 1 < g ? ty + 1 : ty) * g;
-        float *o = mx ? o1 : o0, *v = w + 1;
+        float *v = w + 1, *oo = res[mx];
         uint32_t x = x0;
 #ifdef __SSE2__
         /* x0 and x1 + 1 are multiples of 4 */
@@ -119,16 +151,33 @@ void vt_shadow_tiles_row(const float *raw_all, float *tiles, size_t plane, uint3
 #ifdef __SSE2__
         if (mx)
             for (; x + 4 <= x1 + 1; x += 4)
-                _mm_storeu_ps(o + x, _mm_max_ps(_mm_max_ps(_mm_loadu_ps(v + x - 1), _mm_loadu_ps(v + x)),
-                                                _mm_loadu_ps(v + x + 1)));
+                _mm_storeu_ps(oo + x, _mm_max_ps(_mm_max_ps(_mm_loadu_ps(v + x - 1), _mm_loadu_ps(v + x)),
+                                                 _mm_loadu_ps(v + x + 1)));
         else
             for (; x + 4 <= x1 + 1; x += 4)
-                _mm_storeu_ps(o + x, _mm_min_ps(_mm_min_ps(_mm_loadu_ps(v + x - 1), _mm_loadu_ps(v + x)),
-                                                _mm_loadu_ps(v + x + 1)));
+                _mm_storeu_ps(oo + x, _mm_min_ps(_mm_min_ps(_mm_loadu_ps(v + x - 1), _mm_loadu_ps(v + x)),
+                                                 _mm_loadu_ps(v + x + 1)));
 #endif
         for (; x <= x1; x++)
-            o[x] = mx ? max2(max2(v[x - 1], v[x]), v[x + 1]) : min2(min2(v[x - 1], v[x]), v[x + 1]);
-        vt_shadow_fill_lowest(o, x0);
-        vt_shadow_fill_lowest(o + x1 + 1, g - 1 - x1);
+            oo[x] = mx ? max2(max2(v[x - 1], v[x]), v[x + 1]) : min2(min2(v[x - 1], v[x]), v[x + 1]);
     }
+    fill_u32(o, x0, empty);
+    fill_u32(o + x1 + 1, g - 1 - x1, empty);
+    uint32_t x = x0;
+#ifdef __SSE2__
+    /* pack1, four tiles a step (the same float operations; min and max
+       order their operands so a NaN takes pack1's way) */
+    const __m128 vlo = _mm_set1_ps(qlo), vinv = _mm_set1_ps(qinv), amax = _mm_set1_ps(65535.0f),
+                 one = _mm_set1_ps(1.0f), bmin = _mm_set1_ps(-1.0f), bmax = _mm_set1_ps(65533.0f);
+    for (; x + 4 <= x1 + 1; x += 4) {
+        __m128 a = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(res[0] + x), vlo), vinv);
+        __m128 b = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(res[1] + x), vlo), vinv);
+        a = _mm_max_ps(_mm_min_ps(amax, a), one);  /* minps(amax, NaN): NaN; maxps(NaN, one): 1 */
+        b = _mm_min_ps(_mm_max_ps(bmin, b), bmax); /* maxps(bmin, NaN): NaN; minps(NaN, bmax): 65533 */
+        __m128i qa = _mm_sub_epi32(_mm_cvttps_epi32(a), _mm_set1_epi32(1));
+        __m128i qb = _mm_add_epi32(_mm_cvttps_epi32(b), _mm_set1_epi32(2));
+        _mm_storeu_si128((__m128i *)(o + x), _mm_or_si128(qa, _mm_slli_epi32(qb, 16)));
+    }
+#endif
+    for (; x <= x1; x++) o[x] = pack1(res[0][x], res[1][x], qlo, qinv);
 }

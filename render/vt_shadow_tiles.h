@@ -34,9 +34,10 @@ void vt_shadow_fill_lowest(float *r, uint32_t n);
 void vt_shadow_tiles_band(float *lo, float *hi, const float *m, uint32_t sz, uint32_t k, uint32_t x0, uint32_t x1);
 
 /* Tile row ty of cascade c from the raw tiles raw (minima, then maxima
- * plane floats on) into tiles (likewise); lo..hi: the texel columns the
- * raster wrote in the rows the row sees (lo > hi: none). */
-void vt_shadow_tiles_row(const float *raw, float *tiles, size_t plane, uint32_t sz, uint32_t c, uint32_t ty, uint32_t lo,
-                         uint32_t hi);
+ * plane floats on) into the packed tiles (vt_shadow.h, vt_shadow_tiles:
+ * quantised by qlo, qinv); lo..hi: the texel columns the raster wrote in
+ * the rows the row sees (lo > hi: none). */
+void vt_shadow_tiles_row(const float *raw, uint32_t *tiles, size_t plane, uint32_t sz, uint32_t c, uint32_t ty, uint32_t lo,
+                         uint32_t hi, float qlo, float qinv);
 
 #endif

@@ -499,8 +499,21 @@ static void test_shadow_lookup_lanes(void **state)
     vt_shadow_destroy(fresh);
 }
 
+/* n boxes on the ground (mesh 0), corners x at r[0] + r[1] u, z at r[2] +
+ * r[3] u, heights r[4] + r[5] u (u uniform in 0..1 from *seed), w x d
+ * metres. */
+static void box_field(vt_instance *in, int n, uint64_t *seed, const float r[6], float w, float d)
+{
+    for (int i = 0; i < n; i++) {
+        double u[3];
+        for (int k = 0; k < 3; k++) u[k] = (double)(splitmix64(seed) >> 11) * 0x1p-53;
+        float x = (float)(r[0] + r[1] * u[0]), z = (float)(r[2] + r[3] * u[1]), hgt = (float)(r[4] + r[5] * u[2]);
+        in[i] = (vt_instance){.mesh = 0, .bmin = {x, 0, z}, .bmax = {x + w, hgt, z + d}};
+    }
+}
+
 /* The footprint tiles the span lookup decides most pixels by, against
- * the maps themselves: every tile's least and greatest depth over its
+ * the maps themselves: every tile's packed bounds against the least and greatest depth over its
  * texels (vt_shadow.h's rule, by brute force here), on a field of boxes
  * of random heights drawn twice into the same vt_shadow (the tiles of
  * the cleared bands too); then lookups at random points over the field,
@@ -513,12 +526,7 @@ static void test_shadow_tiles(void **state)
     enum { NB = 60, NP = 6000 };
     static vt_instance in[NB];
     uint64_t seed = 5;
-    for (int i = 0; i < NB; i++) {
-        double r[3];
-        for (int k = 0; k < 3; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
-        float x = (float)(-60 + 120 * r[0]), z = (float)(-120 + 110 * r[1]), hgt = (float)(2 + 30 * r[2]);
-        in[i] = (vt_instance){.mesh = 0, .bmin = {x, 0, z}, .bmax = {x + 6, hgt, z + 8}};
-    }
+    box_field(in, NB, &seed, (const float[6]){-60, 120, -120, 110, 2, 30}, 6, 8);
     float mb[1][6] = {{-1, -1, -1, 1, 1, 1}};
     vt_shadow *sh;
     assert_int_equal(vt_shadow_create(&sh), 0);
@@ -534,10 +542,12 @@ static void test_shadow_tiles(void **state)
         assert_int_equal(vt_shadow_draw(sh, NULL, 1, &fit, v.origin, &vt_mesh_box, (const float(*)[6])mb, in,
                                         pass ? NB : NB / 2, &tris, err, sizeof err),
                          0);
-    const float *maps = vt_shadow_maps(sh), *tl = vt_shadow_tiles(sh);
+    float qlo[VT_SHADOW_CASCADES], qinv[VT_SHADOW_CASCADES];
+    const float *maps = vt_shadow_maps(sh);
+    const uint32_t *tl = vt_shadow_tiles(sh, qlo, qinv);
     const int S = (int)fit.size, T = VT_SHADOW_TILE, g = S / T;
     const size_t plane = (size_t)fit.n * g * g;
-    size_t bad = 0, drawn = 0;
+    size_t bad = 0, drawn = 0, loose = 0;
     for (uint32_t c = 0; c < fit.n; c++)
         for (int ty = 0; ty < g; ty++)
             for (int tx = 0; tx < g; tx++) {
@@ -548,12 +558,24 @@ static void test_shadow_tiles(void **state)
                         float d = maps[((size_t)c * S + y) * S + x];
                         lo = d < lo ? d : lo, hi = d > hi ? d : hi;
                     }
+                /* the packed bounds hold the range with a step to spare
+                   (half of it kept here: float rounding of the
+                   quantisation, under 0.1 step at 65536), except where
+                   they say "unbounded" (0, 65535); and they are tight:
+                   at most 3 steps wider (1 + 1 for the margin, 1 for
+                   whole steps) where the range lies within them */
                 size_t q = ((size_t)c * g + ty) * g + tx;
-                bad += tl[q] != lo || tl[plane + q] != hi;
+                double a = tl[q] & 0xffff, b = tl[q] >> 16;
+                double ta = ((double)lo - qlo[c]) * qinv[c], tb = ((double)hi - qlo[c]) * qinv[c];
+                bad += (a > 0 && !(ta >= a + 0.5)) || (b < 65535 && !(tb <= b - 0.5));
+                loose += (ta >= 2 && ta <= 65533 && ta > a + 3) || (tb >= -1 && tb <= 65531 && tb < b - 3) ||
+                         (hi == -FLT_MAX && b > 1);
                 drawn += hi > -FLT_MAX;
             }
-    fprintf(stderr, "tiles: %zu of %zu differ from the maps' (%zu with a caster)\n", bad, plane, drawn);
+    fprintf(stderr, "tiles: %zu of %zu do not bound the maps' range, %zu loosely (%zu with a caster)\n", bad, plane,
+            loose, drawn);
     assert_int_equal(bad, 0);
+    assert_int_equal(loose, 0);
     assert_true(drawn > plane / 50);
     static float px[NP], py[NP], pz[NP], nx[NP], ny[NP], nz[NP], ref[NP], got[NP];
     size_t part = 0, dark = 0;
@@ -587,6 +609,89 @@ static void test_shadow_tiles(void **state)
         assert_int_equal(nb, 0);
     }
     vt_shadow_destroy(sh);
+}
+
+/* The casters each cascade leaves out (vt_shadow_fit's outlines: those
+ * whose box, seen from the sun, misses the slice its lookups come from)
+ * against a draw of every caster of the cascades' spheres: fewer
+ * triangles, and every lookup at a point the view shows (every cascade,
+ * the blend bands, faces turned any way) the same bit for bit. A field
+ * of towers around a camera that sees a quarter of it. */
+static void test_shadow_outline(void **state)
+{
+    (void)state;
+    vt_env env = scene_env(SUN);
+    enum { NB = 3000, NP = 40000 };
+    static vt_instance in[NB];
+    uint64_t seed = 17;
+    box_field(in, NB, &seed, (const float[6]){-150, 300, -150, 300, 1, 20}, 0.4f, 0.4f);
+    float mb[1][6] = {{-1, -1, -1, 1, 1, 1}};
+    cull_view v;
+    look(&v, (const double[3]){0, 12, 0}, (const double[3]){-40, 0, -60}, 320, 180);
+    vt_shadow_fit fit, all;
+    float s[3];
+    assert_true(vt_shadow_sun_dir(&env, 0, s));
+    assert_true(vt_shadow_fit_make(&v, 320, 180, &env, s, (const float(*)[6])mb, in, NB, &fit));
+    all = fit;
+    for (uint32_t c = 0; c < fit.n; c++) {
+        assert_true(fit.nhull[c] >= 3);
+        all.nhull[c] = 0;
+    }
+    vt_shadow *sh, *ref;
+    assert_int_equal(vt_shadow_create(&sh), 0);
+    assert_int_equal(vt_shadow_create(&ref), 0);
+    uint32_t tris, tris_all;
+    char err[128];
+    assert_int_equal(vt_shadow_draw(sh, NULL, 1, &fit, v.origin, &vt_mesh_box, (const float(*)[6])mb, in, NB, &tris,
+                                    err, sizeof err),
+                     0);
+    assert_int_equal(vt_shadow_draw(ref, NULL, 1, &all, v.origin, &vt_mesh_box, (const float(*)[6])mb, in, NB,
+                                    &tris_all, err, sizeof err),
+                     0);
+    cull_view_rows vr;
+    cull_view_rows_get(&v, &vr);
+    size_t bad = 0, part = 0, dark = 0, blend = 0;
+    for (int i = 0; i < NP; i++) {
+        double r[6];
+        for (int k = 0; k < 6; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
+        /* a point the view shows: clip x = X w, y = Y w at view depth w =
+           d (every cascade; half of them at the picture's sides, where
+           the outlines are tight) */
+        double X = 2 * r[0] - 1, Y = 2 * r[1] - 1, d = fit.split[0] + (fit.split[fit.n] - fit.split[0]) * r[2] * r[2];
+        if (i % 2) X = X < 0 ? -1 + 0.01 * r[3] : 1 - 0.01 * r[3];
+        if (i % 4 == 1) Y = Y < 0 ? -1 + 0.01 * r[4] : 1 - 0.01 * r[4];
+        double m[3][3], rhs[3], p3[3];
+        for (int k = 0; k < 3; k++) m[0][k] = vr.x[k] - X * vr.w[k], m[1][k] = vr.y[k] - Y * vr.w[k], m[2][k] = vr.w[k];
+        rhs[0] = X * vr.w[3] - vr.x[3], rhs[1] = Y * vr.w[3] - vr.y[3], rhs[2] = d - vr.w[3];
+        double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+        for (int k = 0; k < 3; k++) { /* Cramer */
+            double q[3][3];
+            memcpy(q, m, sizeof q);
+            for (int j = 0; j < 3; j++) q[j][k] = rhs[j];
+            p3[k] = (q[0][0] * (q[1][1] * q[2][2] - q[1][2] * q[2][1]) - q[0][1] * (q[1][0] * q[2][2] - q[1][2] * q[2][0]) +
+                     q[0][2] * (q[1][0] * q[2][1] - q[1][1] * q[2][0])) /
+                    det;
+        }
+        float p[3] = {(float)p3[0], (float)p3[1], (float)p3[2]};
+        float n3[3] = {(float)(r[3] - 0.5), (float)(r[4] - 0.2), (float)(r[5] - 0.5)};
+        float l = sqrtf(n3[0] * n3[0] + n3[1] * n3[1] + n3[2] * n3[2]);
+        for (int k = 0; k < 3; k++) n3[k] /= l;
+        float a = vt_shadow_sun(sh, p, n3), b = vt_shadow_sun(ref, p, n3);
+        for (uint32_t c = 0; c + 1 < fit.n; c++)
+            blend += d < fit.split[c + 1] && d > fit.split[c + 1] - VT_SHADOW_BLEND * (fit.split[c + 1] - fit.split[c]);
+        bad += memcmp(&a, &b, sizeof a) != 0;
+        part += b > 0 && b < 1;
+        dark += b == 0;
+    }
+    fprintf(stderr, "outline: %u of %u triangles drawn; %zu of %d lookups in view differ (%zu in penumbrae, %zu dark, "
+                    "%zu in blend bands)\n",
+            tris, tris_all, bad, NP, part, dark, blend);
+    assert_true(part > 2000 && blend > 500); /* thin posts: penumbrae, hardly any umbra */
+    assert_int_equal(bad, 0);
+    assert_true(tris < tris_all * 3 / 4); /* the posts behind the camera cast into none */
+    vt_shadow_destroy(sh);
+    vt_shadow_destroy(ref);
 }
 
 /* ---- adversarial inputs ---------------------------------------------------------------- */
@@ -777,6 +882,7 @@ static void test_shadow_through_hole(void **state)
 const struct CMUnitTest shadow_tests[] = {
     cmocka_unit_test(test_shadow_lookup_lanes),
     cmocka_unit_test(test_shadow_tiles),
+    cmocka_unit_test(test_shadow_outline),
     cmocka_unit_test(test_shadow_analytic_box_soft),
     cmocka_unit_test(test_shadow_analytic_box_gl),
     cmocka_unit_test(test_shadow_stable),
