@@ -556,15 +556,18 @@ void VT_SHADE_NAME(const vt_span *sp)
         for (unsigned i = 0; i < S; i += W) vf_store(s.ao + i, vf_select(vf_lt(zero0, vf_load(cov + i)), vf_loadu(sp->ao + i), zero0));
     else
         for (unsigned i = 0; i < S; i++) s.ao[i] = i < sp->n && cov[i] > 0 ? (sp->ao ? sp->ao[i] : 1.0f) : 0.0f;
-    if (sp->sh) vt_shadow_sun_n(sp->sh, S, s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.sv); /* the span at once */
-    const vf zero = vf_set(0), one = vf_set(1), inv_pi = vf_set(1.0f / 3.14159265f);
+    /* unit normals (interpolated ones are shorter inside a triangle),
+       before the shadow lookup: its normal offset and n.l take them so */
     for (unsigned i = 0; i < S; i += W) {
         vf nx = vf_load(s.nx + i), ny = vf_load(s.ny + i), nz = vf_load(s.nz + i);
-        vf l2 = dot3(nx, ny, nz, nx, ny, nz);
-        vf in = vf_rsqrt0(l2);
+        vf in = vf_rsqrt0(dot3(nx, ny, nz, nx, ny, nz));
         vf_store(s.nx + i, vf_mul(nx, in));
         vf_store(s.ny + i, vf_mul(ny, in));
         vf_store(s.nz + i, vf_mul(nz, in));
+    }
+    if (sp->sh) vt_shadow_sun_n(sp->sh, S, s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.sv); /* the span at once */
+    const vf zero = vf_set(0), one = vf_set(1), inv_pi = vf_set(1.0f / 3.14159265f);
+    for (unsigned i = 0; i < S; i += W) {
         /* towards the eye (the camera-relative origin); for orthographic
            views the same formula is close enough at a distance */
         vf px = vf_load(s.px + i), py = vf_load(s.py + i), pz = vf_load(s.pz + i);
