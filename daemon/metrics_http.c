@@ -1,7 +1,8 @@
 /*
  * metrics_http.c — `vantaged --metrics [ADDR:]PORT`: the metrics (see
  * metrics.h) over HTTP/1.x for Prometheus, served from the daemon's own
- * loop by a small responder written for this one job.
+ * loop by a small responder written for this one job (the request head
+ * parsed by http.c, the daemon's one HTTP parser).
  *
  *   GET /metrics (or HEAD)  200, text/plain; version=0.0.4
  *   another path            404
@@ -24,6 +25,7 @@
  * protocol clients wait for nothing else: a metrics client's bytes are read
  * and written without blocking, like theirs.
  */
+#include "http.h"
 #include "server_internal.h"
 
 #include <errno.h>
@@ -160,128 +162,24 @@ static bool answer_text(hconn *h, int slot, const char *extra, const char *msg, 
     return flush(h);
 }
 
-/* ---- parsing ------------------------------------------------------------------------- */
-
-static bool tchar(unsigned char c)
-{
-    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-           (c && strchr("!#$%&'*+-.^_`|~", c));
-}
-
-/* One line of the head: [p, p + n) without its LF (a CR before it already
- * taken off). */
-typedef struct line {
-    const char *p;
-    size_t n;
-} line;
-
-/* The next line from *pos; false at the end of the buffer (no LF). A CR
- * that does not end the line makes *bad_cr true. */
-static bool next_line(const char *buf, size_t len, size_t *pos, line *out, bool *bad_cr)
-{
-    const char *lf = memchr(buf + *pos, '\n', len - *pos);
-    if (!lf) return false;
-    out->p = buf + *pos;
-    out->n = (size_t)(lf - out->p);
-    if (out->n && out->p[out->n - 1] == '\r') out->n--;
-    if (memchr(out->p, '\r', out->n)) *bad_cr = true;
-    *pos = (size_t)(lf - buf) + 1;
-    return true;
-}
-
-/* Where the head ends (just past its empty line), after any empty lines
- * before the request line; 0 if it has not ended yet. */
-static size_t head_end(const char *buf, size_t len, size_t *start)
-{
-    size_t pos = 0;
-    while (pos < len && (buf[pos] == '\r' || buf[pos] == '\n')) pos++;
-    *start = pos;
-    line l;
-    bool cr = false;
-    while (next_line(buf, len, &pos, &l, &cr))
-        if (l.n == 0) return pos;
-    return 0;
-}
-
-static bool lower_eq(const line *l, size_t off, size_t n, const char *s)
-{
-    return n == strlen(s) && !strncasecmp(l->p + off, s, n);
-}
-
-/* Parses and answers a whole head in h->in[start, end). */
+/* Parses (http.h) and answers a whole head in h->in[start, end). */
 static bool respond(hconn *h, size_t start, size_t end)
 {
     server *s = h->s;
-    size_t pos = start;
-    line rl, l;
-    bool cr = false;
-    next_line(h->in, end, &pos, &rl, &cr);
-    /* request line: METHOD SP TARGET SP HTTP/x.y */
-    const char *sp1 = memchr(rl.p, ' ', rl.n);
-    const char *sp2 = sp1 ? memchr(sp1 + 1, ' ', (size_t)(rl.p + rl.n - sp1 - 1)) : NULL;
-    if (!sp1 || !sp2 || sp1 == rl.p || sp2 == sp1 + 1 || memchr(sp2 + 1, ' ', (size_t)(rl.p + rl.n - sp2 - 1)) || cr)
-        return answer_text(h, MH_400, NULL, "malformed request line\n", false);
-    size_t mlen = (size_t)(sp1 - rl.p), tlen = (size_t)(sp2 - sp1 - 1), vlen = (size_t)(rl.p + rl.n - sp2 - 1);
-    const char *target = sp1 + 1, *version = sp2 + 1;
-    for (size_t i = 0; i < mlen; i++)
-        if (!tchar((unsigned char)rl.p[i])) return answer_text(h, MH_400, NULL, "malformed method\n", false);
-    for (size_t i = 0; i < tlen; i++)
-        if ((unsigned char)target[i] <= 32 || (unsigned char)target[i] >= 127)
-            return answer_text(h, MH_400, NULL, "malformed request target\n", false);
-    bool http11;
-    if (vlen == 8 && !memcmp(version, "HTTP/1.1", 8)) {
-        http11 = true;
-    } else if (vlen == 8 && !memcmp(version, "HTTP/1.0", 8)) {
-        http11 = false;
-    } else if (vlen == 8 && !memcmp(version, "HTTP/", 5) && version[5] >= '0' && version[5] <= '9' &&
-               version[6] == '.' && version[7] >= '0' && version[7] <= '9') {
-        return answer_text(h, MH_505, NULL, "only HTTP/1.0 and HTTP/1.1 are spoken here\n", false);
-    } else {
-        return answer_text(h, MH_400, NULL, "malformed HTTP version\n", false);
-    }
-    bool head_only = mlen == 4 && !memcmp(rl.p, "HEAD", 4);
-    /* headers: NAME ":" OWS VALUE OWS; no folding, no control bytes */
-    bool host = false;
-    const char *tok = NULL;
-    size_t tok_len = 0;
-    while (next_line(h->in, end, &pos, &l, &cr) && l.n) {
-        const char *colon = memchr(l.p, ':', l.n);
-        if (cr || !colon || colon == l.p) return answer_text(h, MH_400, NULL, "malformed header line\n", head_only);
-        size_t nlen = (size_t)(colon - l.p);
-        for (size_t i = 0; i < nlen; i++)
-            if (!tchar((unsigned char)l.p[i]))
-                return answer_text(h, MH_400, NULL, "malformed header name\n", head_only);
-        size_t v = nlen + 1, ve = l.n;
-        for (size_t i = v; i < ve; i++) {
-            unsigned char c = (unsigned char)l.p[i];
-            if ((c < 32 && c != '\t') || c == 127)
-                return answer_text(h, MH_400, NULL, "control byte in a header value\n", head_only);
-        }
-        while (v < ve && (l.p[v] == ' ' || l.p[v] == '\t')) v++;
-        while (ve > v && (l.p[ve - 1] == ' ' || l.p[ve - 1] == '\t')) ve--;
-        if (lower_eq(&l, 0, nlen, "host")) {
-            host = true;
-        } else if (lower_eq(&l, 0, nlen, "authorization") && !tok) {
-            /* "Bearer" 1*SP token */
-            size_t t = v;
-            while (t < ve && l.p[t] != ' ') t++;
-            if (lower_eq(&l, v, t - v, "bearer")) {
-                while (t < ve && l.p[t] == ' ') t++;
-                tok = l.p + t;
-                tok_len = ve - t;
-            }
-        }
-    }
-    if (http11 && !host) return answer_text(h, MH_400, NULL, "HTTP/1.1 needs a Host header\n", head_only);
+    http_req rq;
+    const char *why;
+    int st = http_parse(h->in, start, end, &rq, &why);
+    if (st) return answer_text(h, st == 505 ? MH_505 : MH_400, NULL, why, rq.head);
+    bool head_only = rq.head;
+    const char *tok = rq.bearer.p;
+    size_t tok_len = rq.bearer.n;
     if (s->cfg.tokens && !auth_grants(s->cfg.tokens, VP_ROLE_VIEWER, (const uint8_t *)tok, tok ? tok_len : 0))
         return answer_text(h, MH_401, "WWW-Authenticate: Bearer realm=\"vantaged\"\r\n",
                            "this daemon needs a token that grants the viewer role: Authorization: Bearer TOKEN\n",
                            head_only);
-    const char *q = memchr(target, '?', tlen);
-    size_t plen = q ? (size_t)(q - target) : tlen;
-    if (plen != 8 || memcmp(target, "/metrics", 8))
+    if (rq.path.n != 8 || memcmp(rq.path.p, "/metrics", 8))
         return answer_text(h, MH_404, NULL, "not found: the metrics are at /metrics\n", head_only);
-    if (!head_only && !(mlen == 3 && !memcmp(rl.p, "GET", 3)))
+    if (!head_only && !(rq.method.n == 3 && !memcmp(rq.method.p, "GET", 3)))
         return answer_text(h, MH_405, "Allow: GET, HEAD\r\n", "only GET and HEAD are allowed\n", false);
     if (!metrics_expose(s, &s->mtext)) return answer_text(h, MH_500, NULL, "out of memory\n", head_only);
     h->answered = true;
@@ -318,7 +216,7 @@ static void on_read(hconn *h)
         return;
     }
     h->in_len += (size_t)n;
-    size_t start, end = head_end(h->in, h->in_len, &start);
+    size_t start, end = http_head_end(h->in, h->in_len, &start);
     if (end) {
         respond(h, start, end);
         return;

@@ -39,6 +39,7 @@ int main(void)
         {env_tests, env_tests_count},
         {mask_tests, mask_tests_count},
         {auth_tests, auth_tests_count},
+        {http_tests, http_tests_count},
         {persist_tests, persist_tests_count},
         {transform_tests, transform_tests_count},
         {material_tests, material_tests_count},

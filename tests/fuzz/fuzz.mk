@@ -14,6 +14,8 @@
 #   render     the software renderer (render/vt_soft.c) on small frames
 #   render_gl  the same inputs through the GL path (render/vt_gldraw.c; skips
 #              every input where no EGL context can be made)
+#   http       the daemon's HTTP/1.x head parser (daemon/http.c: --metrics,
+#              the web viewer)
 #
 #   make fuzz-replay     replay every target's corpus + saved crashes through
 #                        the plain driver built with $(CC) in this CONFIG
@@ -32,7 +34,7 @@ FUZZ_SAVED_GOAL := $(.DEFAULT_GOAL)
 
 FUZZ_DIR        := tests/fuzz
 FUZZ_OUT        := build/fuzz
-FUZZ_ALL        := protocol jsonl gltf pad replay query render render_gl
+FUZZ_ALL        := protocol jsonl gltf pad replay query render render_gl http
 FUZZ_TARGETS    ?= $(FUZZ_ALL)
 FUZZ_CRASH_DIR  ?= $(FUZZ_DIR)/crashes
 FUZZ_SECONDS    ?= 60
@@ -123,6 +125,14 @@ FUZZ_render_gl_CFLAGS := -Iculling -Irender
 FUZZ_render_gl_LIBS   := $(GL_LIBS)
 FUZZ_render_gl_MAX_LEN := 1024
 FUZZ_render_gl_BUDGET := 150 256
+
+# the HTTP head parser: pure C over bytes; one input is what a connection
+# sends (a head and whatever follows it)
+FUZZ_http_OBJ         := $(BUILD)/daemon/http.o
+FUZZ_http_SRC         := daemon/http.c
+FUZZ_http_CFLAGS      := -Idaemon
+FUZZ_http_MAX_LEN     := 4096
+FUZZ_http_BUDGET      := 150 256
 
 $(FUZZ_OBJ_DIR)/%.o: %.c $(wildcard culling/*.h culling/*.inl render/*.h render/*.inl)
 	@mkdir -p $(@D)
