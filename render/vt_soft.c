@@ -581,8 +581,8 @@ typedef struct job {
     bool ranges;            /* the tile nearness ranges are wanted (there are lights) */
     const vt_shadow *sh;    /* the sun's cascades, or NULL */
     const float *ao;        /* per pixel ambient occlusion (vt_ssao), or NULL: none */
-    uint32_t next_row;      /* shading: the next row of tiles to take (threads take rows as they
-                               finish: sky rows cost a fraction of a street's) */
+    uint32_t next_row;      /* shading: the next half row of tiles to take (threads take them as
+                               they finish: sky rows cost a fraction of a street's) */
     uint32_t skips[MAX_THREADS]; /* per raster thread: the parts the coarse depth test skipped */
     uint32_t split[MAX_THREADS + 1]; /* set-up thread t takes instances [split[t], split[t + 1]) */
 } job;
@@ -806,8 +806,8 @@ static void job_raster(void *arg, uint32_t t)
 
 /* ---- shading ------------------------------------------------------------------------ */
 
-/* Thread t shades the tile rows it rasterised, one span (a row of one
- * tile: one light list) at a time. */
+/* The threads shade half rows of tiles as they take them (next_row), one
+ * span (a row of one tile: one light list) at a time. */
 static void job_shade(void *arg, uint32_t t)
 {
     job *jb = arg;
@@ -820,9 +820,12 @@ static void job_shade(void *arg, uint32_t t)
                   .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h, .sh = jb->sh, .tc = &r->tc};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
     (void)t;
-    for (uint32_t tr; (tr = __atomic_fetch_add(&jb->next_row, 1, __ATOMIC_RELAXED)) < trows;) {
-        uint32_t y1 = (tr + 1) * TILE < fr->h ? (tr + 1) * TILE : fr->h;
-        for (uint32_t y = tr * TILE; y < y1; y++) {
+    /* half a row of tiles at a time (8 pixel rows): the thread that
+       finishes first waits half as long for the other's last piece */
+    for (uint32_t u; (u = __atomic_fetch_add(&jb->next_row, 1, __ATOMIC_RELAXED)) < 2 * trows;) {
+        const uint32_t tr = u / 2, ya = tr * TILE + (u & 1) * (TILE / 2);
+        uint32_t y1 = ya + TILE / 2 < fr->h ? ya + TILE / 2 : fr->h;
+        for (uint32_t y = ya; y < y1; y++) {
             sp.Y = ndc_y(fr, y);
             if (fr->pe.on) vt_view_dir_row(&fr->vr, sp.Y, sp.ray0, sp.ray1); /* the sky's, once a row */
             for (uint32_t c = 0; c < tx; c++) {
