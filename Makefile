@@ -44,7 +44,7 @@ ISA_SSE41:= -msse4.1
 ifeq ($(CONFIG),release)
 CFLAGS   += -O2
 # the renderer: -O3 unrolls the kernels' per-channel and per-corner loops
-# (the city frame 9 % fewer instructions than -O2, shading 13 %, set-up
+# (the city frame 7 % fewer instructions than -O2, shading 13 %, set-up
 # 26 %, SSAO 18 %: callgrind). Floats unchanged: -std=c11 keeps
 # contraction off and nothing here reassociates.
 RENDER_O := -O3
