@@ -629,72 +629,73 @@ static void test_shadow_outline(void **state)
     /* views every way round: with the sun across the view (the last two)
        the cascades' slices lie side by side seen from the sun, and a
        blend band reaches past the next cascade's own slice */
-    static const double at[][3] = {{-40, 0, -60}, {60, 0, 0}, {-60, 0, 0}, {0, 0, 60}, {0, 0, -60}, {-21, 0, 30}, {21, 0, -30}};
+    static const double at[][3] = {{-40, 0, -60}, {60, 0, 0},   {-60, 0, 0},  {0, 0, 60},
+                                   {0, 0, -60},   {-21, 0, 30}, {21, 0, -30}};
     size_t bad = 0, part = 0, dark = 0, blend = 0;
     for (size_t vi = 0; vi < sizeof at / sizeof at[0]; vi++) {
-    cull_view v;
-    look(&v, (const double[3]){0, 12, 0}, at[vi], 320, 180);
-    vt_shadow_fit fit, all;
-    float s[3];
-    assert_true(vt_shadow_sun_dir(&env, 0, s));
-    assert_true(vt_shadow_fit_make(&v, 320, 180, &env, s, (const float(*)[6])mb, in, NB, &fit));
-    all = fit;
-    for (uint32_t c = 0; c < fit.n; c++) {
-        assert_true(fit.nhull[c] >= 3);
-        all.nhull[c] = 0;
-    }
-    vt_shadow *sh, *ref;
-    assert_int_equal(vt_shadow_create(&sh), 0);
-    assert_int_equal(vt_shadow_create(&ref), 0);
-    uint32_t tris, tris_all;
-    char err[128];
-    assert_int_equal(vt_shadow_draw(sh, NULL, 1, &fit, v.origin, &vt_mesh_box, (const float(*)[6])mb, in, NB, &tris,
-                                    err, sizeof err),
-                     0);
-    assert_int_equal(vt_shadow_draw(ref, NULL, 1, &all, v.origin, &vt_mesh_box, (const float(*)[6])mb, in, NB,
-                                    &tris_all, err, sizeof err),
-                     0);
-    cull_view_rows vr;
-    cull_view_rows_get(&v, &vr);
-    size_t bad0 = bad;
-    for (int i = 0; i < NP; i++) {
-        double r[6];
-        for (int k = 0; k < 6; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
-        /* a point the view shows: clip x = X w, y = Y w at view depth w =
-           d (every cascade; half of them at the picture's sides, where
-           the outlines are tight) */
-        double X = 2 * r[0] - 1, Y = 2 * r[1] - 1, d = fit.split[0] + (fit.split[fit.n] - fit.split[0]) * r[2] * r[2];
-        if (i % 2) X = X < 0 ? -1 + 0.01 * r[3] : 1 - 0.01 * r[3];
-        if (i % 4 == 1) Y = Y < 0 ? -1 + 0.01 * r[4] : 1 - 0.01 * r[4];
-        double m[3][3], rhs[3], p3[3];
-        for (int k = 0; k < 3; k++) m[0][k] = vr.x[k] - X * vr.w[k], m[1][k] = vr.y[k] - Y * vr.w[k], m[2][k] = vr.w[k];
-        rhs[0] = X * vr.w[3] - vr.x[3], rhs[1] = Y * vr.w[3] - vr.y[3], rhs[2] = d - vr.w[3];
-        double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-        for (int k = 0; k < 3; k++) { /* Cramer */
-            double q[3][3];
-            memcpy(q, m, sizeof q);
-            for (int j = 0; j < 3; j++) q[j][k] = rhs[j];
-            p3[k] = (q[0][0] * (q[1][1] * q[2][2] - q[1][2] * q[2][1]) - q[0][1] * (q[1][0] * q[2][2] - q[1][2] * q[2][0]) +
-                     q[0][2] * (q[1][0] * q[2][1] - q[1][1] * q[2][0])) /
-                    det;
+        cull_view v;
+        look(&v, (const double[3]){0, 12, 0}, at[vi], 320, 180);
+        vt_shadow_fit fit, all;
+        float s[3];
+        assert_true(vt_shadow_sun_dir(&env, 0, s));
+        assert_true(vt_shadow_fit_make(&v, 320, 180, &env, s, (const float(*)[6])mb, in, NB, &fit));
+        all = fit;
+        for (uint32_t c = 0; c < fit.n; c++) {
+            assert_true(fit.nhull[c] >= 3);
+            all.nhull[c] = 0;
         }
-        float p[3] = {(float)p3[0], (float)p3[1], (float)p3[2]};
-        float n3[3] = {(float)(r[3] - 0.5), (float)(r[4] - 0.2), (float)(r[5] - 0.5)};
-        float l = sqrtf(n3[0] * n3[0] + n3[1] * n3[1] + n3[2] * n3[2]);
-        for (int k = 0; k < 3; k++) n3[k] /= l;
-        float a = vt_shadow_sun(sh, p, n3), b = vt_shadow_sun(ref, p, n3);
-        for (uint32_t c = 0; c + 1 < fit.n; c++)
-            blend += d < fit.split[c + 1] && d > fit.split[c + 1] - VT_SHADOW_BLEND * (fit.split[c + 1] - fit.split[c]);
-        bad += memcmp(&a, &b, sizeof a) != 0;
-        part += b > 0 && b < 1;
-        dark += b == 0;
-    }
-    fprintf(stderr, "outline, view %zu: %u of %u triangles drawn; %zu of %d lookups in view differ\n", vi, tris,
-            tris_all, bad - bad0, NP);
-    assert_true(tris < tris_all * 3 / 4); /* the posts behind the camera cast into none */
-    vt_shadow_destroy(sh);
-    vt_shadow_destroy(ref);
+        vt_shadow *sh, *ref;
+        assert_int_equal(vt_shadow_create(&sh), 0);
+        assert_int_equal(vt_shadow_create(&ref), 0);
+        uint32_t tris, tris_all;
+        char err[128];
+        assert_int_equal(vt_shadow_draw(sh, NULL, 1, &fit, v.origin, &vt_mesh_box, (const float(*)[6])mb, in, NB, &tris,
+                                        err, sizeof err),
+                         0);
+        assert_int_equal(vt_shadow_draw(ref, NULL, 1, &all, v.origin, &vt_mesh_box, (const float(*)[6])mb, in, NB,
+                                        &tris_all, err, sizeof err),
+                         0);
+        cull_view_rows vr;
+        cull_view_rows_get(&v, &vr);
+        size_t bad0 = bad;
+        for (int i = 0; i < NP; i++) {
+            double r[6];
+            for (int k = 0; k < 6; k++) r[k] = (double)(splitmix64(&seed) >> 11) * 0x1p-53;
+            /* a point the view shows: clip x = X w, y = Y w at view depth w =
+               d (every cascade; half of them at the picture's sides, where
+               the outlines are tight) */
+            double X = 2 * r[0] - 1, Y = 2 * r[1] - 1, d = fit.split[0] + (fit.split[fit.n] - fit.split[0]) * r[2] * r[2];
+            if (i % 2) X = X < 0 ? -1 + 0.01 * r[3] : 1 - 0.01 * r[3];
+            if (i % 4 == 1) Y = Y < 0 ? -1 + 0.01 * r[4] : 1 - 0.01 * r[4];
+            double m[3][3], rhs[3], p3[3];
+            for (int k = 0; k < 3; k++) m[0][k] = vr.x[k] - X * vr.w[k], m[1][k] = vr.y[k] - Y * vr.w[k], m[2][k] = vr.w[k];
+            rhs[0] = X * vr.w[3] - vr.x[3], rhs[1] = Y * vr.w[3] - vr.y[3], rhs[2] = d - vr.w[3];
+            double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                         m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+            for (int k = 0; k < 3; k++) { /* Cramer */
+                double q[3][3];
+                memcpy(q, m, sizeof q);
+                for (int j = 0; j < 3; j++) q[j][k] = rhs[j];
+                p3[k] = (q[0][0] * (q[1][1] * q[2][2] - q[1][2] * q[2][1]) - q[0][1] * (q[1][0] * q[2][2] - q[1][2] * q[2][0]) +
+                         q[0][2] * (q[1][0] * q[2][1] - q[1][1] * q[2][0])) /
+                        det;
+            }
+            float p[3] = {(float)p3[0], (float)p3[1], (float)p3[2]};
+            float n3[3] = {(float)(r[3] - 0.5), (float)(r[4] - 0.2), (float)(r[5] - 0.5)};
+            float l = sqrtf(n3[0] * n3[0] + n3[1] * n3[1] + n3[2] * n3[2]);
+            for (int k = 0; k < 3; k++) n3[k] /= l;
+            float a = vt_shadow_sun(sh, p, n3), b = vt_shadow_sun(ref, p, n3);
+            for (uint32_t c = 0; c + 1 < fit.n; c++)
+                blend += d < fit.split[c + 1] && d > fit.split[c + 1] - VT_SHADOW_BLEND * (fit.split[c + 1] - fit.split[c]);
+            bad += memcmp(&a, &b, sizeof a) != 0;
+            part += b > 0 && b < 1;
+            dark += b == 0;
+        }
+        fprintf(stderr, "outline, view %zu: %u of %u triangles drawn; %zu of %d lookups in view differ\n", vi, tris,
+                tris_all, bad - bad0, NP);
+        assert_true(tris < tris_all * 3 / 4); /* the posts behind the camera cast into none */
+        vt_shadow_destroy(sh);
+        vt_shadow_destroy(ref);
     }
     fprintf(stderr, "outline: %zu lookups differ (%zu in penumbrae, %zu dark, %zu in blend bands)\n", bad, part, dark,
             blend);
