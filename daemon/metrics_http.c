@@ -32,7 +32,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -171,9 +170,7 @@ static bool respond(hconn *h, size_t start, size_t end)
     int st = http_parse(h->in, start, end, &rq, &why);
     if (st) return answer_text(h, st == 505 ? MH_505 : MH_400, NULL, why, rq.head);
     bool head_only = rq.head;
-    const char *tok = rq.bearer.p;
-    size_t tok_len = rq.bearer.n;
-    if (s->cfg.tokens && !auth_grants(s->cfg.tokens, VP_ROLE_VIEWER, (const uint8_t *)tok, tok ? tok_len : 0))
+    if (s->cfg.tokens && !auth_grants(s->cfg.tokens, VP_ROLE_VIEWER, (const uint8_t *)rq.bearer.p, rq.bearer.n))
         return answer_text(h, MH_401, "WWW-Authenticate: Bearer realm=\"vantaged\"\r\n",
                            "this daemon needs a token that grants the viewer role: Authorization: Bearer TOKEN\n",
                            head_only);

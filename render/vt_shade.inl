@@ -310,12 +310,14 @@ static inline void env_light(surf *restrict s, const vt_penv *pe, unsigned i)
         }
     }
     const vf lx = vf_set(pe->sun_dir[0]), ly = vf_set(pe->sun_dir[1]), lz = vf_set(pe->sun_dir[2]);
-    vf ndl = vf_max(dot3(nx, ny, nz, lx, ly, lz), zero);
-    /* n.l, times the sun's visibility (the shadow cascades) */
-    vf kl = vf_mul(ndl, vf_load(s->sv + i));
+    vf ndl = zero, kl = zero;
+    if (pe->sun_on) {
+        ndl = vf_max(dot3(nx, ny, nz, lx, ly, lz), zero);
+        kl = vf_mul(ndl, vf_load(s->sv + i)); /* n.l, times the sun's visibility (the shadow cascades) */
+    }
     /* the sun's BRDF only where some lane sees it (a group in shadow or
-       facing away adds nothing: 0 x a finite BRDF) */
-    if (pe->sun_on && vm_bits(vf_lt(zero, kl))) {
+       facing away, or no sun, adds nothing: 0 x a finite BRDF) */
+    if (vm_bits(vf_lt(zero, kl))) {
         vf ndh, f5 = half_terms(nx, ny, nz, vx, vy, vz, lx, ly, lz, &ndh);
         vf dv = ggx_dv(ndh, ndl, vf_load(s->a2 + i), vf_load(s->vv + i));
         for (int k = 0; k < 3; k++) {
