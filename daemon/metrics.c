@@ -449,11 +449,11 @@ bool metrics_expose(server *s, mbuf *b)
     family(b, "vantage_metrics_http_responses_total", "counter",
            "Answers of the --metrics HTTP endpoint, by status code.");
     {
-        static const char *const hc[MH_COUNT] = {"200", "400", "401", "404", "405", "408", "431", "500", "503", "505"};
-        for (int i = 0; i < MH_COUNT; i++) sample(b, "vantage_metrics_http_responses_total", "code", hc[i], m->http[i]);
+        for (int i = 0; i < HS_COUNT; i++)
+            sample(b, "vantage_metrics_http_responses_total", "code", httpd_codes[i], m->http[i]);
     }
     family(b, "vantage_metrics_http_connections", "gauge",
            "Connections to the --metrics HTTP endpoint open now (this scrape's included).");
-    sample(b, "vantage_metrics_http_connections", NULL, NULL, metrics_http_conns(s));
+    sample(b, "vantage_metrics_http_connections", NULL, NULL, httpd_conns(s->http));
     return !b->oom;
 }

@@ -18,6 +18,7 @@
 #ifndef VANTAGE_METRICS_H
 #define VANTAGE_METRICS_H
 
+#include "httpd.h"
 #include "protocol.h"
 
 #include <stdbool.h>
@@ -70,8 +71,6 @@ enum { MC_SEARCHED, MC_FRUSTUM, MC_SUBLEVEL, MC_OCCLUDED, MC_COUNT };
 /* Why a connection ended. MD_NONE: it did not. */
 enum { MD_NONE, MD_PEER, MD_ERROR, MD_HELLO_TIMEOUT, MD_FRAME_TIMEOUT, MD_OUTPUT_LIMIT, MD_SYNC_FAILED, MD_OUTPUT_TOTAL,
        MD_SHUTDOWN, MD_COUNT };
-/* The metrics endpoint's answers. */
-enum { MH_200, MH_400, MH_401, MH_404, MH_405, MH_408, MH_431, MH_500, MH_503, MH_505, MH_COUNT };
 
 /* One error code a slot: -1 .. -23 (VP_ERRORS), then the rest. */
 #define METRICS_ERR_SLOTS 24u
@@ -99,7 +98,8 @@ typedef struct metrics {
     /* workers' reply bytes queued to clients: linked into the reply queue
        by pointer, or copied into its tail block (small ones only) */
     uint64_t out_linked, out_copied;
-    uint64_t http[MH_COUNT];
+    uint64_t http[HS_COUNT];     /* --metrics answers by status (httpd.h) */
+    uint64_t web_http[HS_COUNT]; /* --web answers by status */
     /* the request being handled (dispatch): whose error send_error counts,
        and when it was taken (a job started now carries it) */
     int      cur;
@@ -128,17 +128,9 @@ bool metrics_expose(struct server *s, mbuf *b);
 
 /* ---- metrics_http.c: `vantaged --metrics` -------------------------------------------- */
 #define METRICS_HTTP_MAX_CONNS 16u   /* at once; more get 503 */
-#define METRICS_HTTP_HEAD_MAX 8192u  /* request line + headers; more get 431 */
 
 /* Listens on cfg.metrics_bind:metrics_port and serves GET /metrics from the
  * loop. 0, or -1 (logged). */
 int  metrics_http_open(struct server *s);
-/* Ends the connections past their time (the loop's sweep). */
-void metrics_http_sweep(struct server *s, uint64_t now_ms);
-/* Whether any connection is open (the loop must wake for the next sweep). */
-bool metrics_http_busy(const struct server *s);
-/* Connections open now. */
-uint32_t metrics_http_conns(const struct server *s);
-void metrics_http_close(struct server *s);
 
 #endif

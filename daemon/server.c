@@ -702,8 +702,11 @@ static void before_sleep(ae_loop *l, void *data)
         else if (!c->out_bytes && !c->ev_pending) pend_del(s, c);
     }
     /* the metrics endpoint's connections have a deadline too */
-    if (sweep) metrics_http_sweep(s, now_ms);
-    bool clocks = s->clocks || metrics_http_busy(s);
+    if (sweep) {
+        httpd_sweep(s->http, now_ms);
+        httpd_sweep(s->web, now_ms);
+    }
+    bool clocks = s->clocks || httpd_conns(s->http) || httpd_conns(s->web);
     sc->ev_added = sc->ev_updated = sc->ev_removed = 0;
     /* one timer wakes the loop: for the next rate-capped frame, or for the
        next sweep while a client is on a clock (an idle loop sleeps) */
@@ -913,7 +916,8 @@ int server_destroy(server *s)
     if (!s) return 0;
     for (uint32_t i = 0; i < s->nconns; i++) conn_kill(s, s->live[i], MD_SHUTDOWN);
     if (s->nconns) conns_free_dead(s);
-    metrics_http_close(s);
+    httpd_close(s->http);
+    httpd_close(s->web);
     if (s->tcp_fd >= 0) close(s->tcp_fd);
     if (s->unix_fd >= 0) {
         close(s->unix_fd);

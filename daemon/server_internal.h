@@ -143,7 +143,8 @@ struct server {
     metrics m;
     mbuf mtext;             /* the exposition, rebuilt at each scrape */
     uint64_t start_unix_ns; /* CLOCK_REALTIME when it started serving */
-    struct mhttp *http;     /* --metrics: the HTTP endpoint; NULL = none */
+    struct httpd *http;     /* --metrics: the HTTP endpoint; NULL = none */
+    struct httpd *web;      /* --web: the browser viewer's endpoint (web.c); NULL = none */
 };
 
 /* A query handed to a worker, and its reply coming back. */

@@ -1,0 +1,295 @@
+/*
+ * httpd.c — the daemon's HTTP/1.x connections on its own loop (httpd.h):
+ * accepting, reading a head (parsed by http.c), answering from an
+ * endpoint's serve callback, the deadlines, and handing a connection over
+ * for a WebSocket. A client's bytes are read and written without
+ * blocking, as protocol clients' are; no endpoint makes the loop wait.
+ */
+#include "httpd.h"
+#include "server_internal.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#define LINGER_MS 2000u
+
+struct hconn {
+    httpd *d;
+    int fd;
+    uint64_t deadline_ms;
+    bool answered;       /* an answer is queued or sent: input is drained and dropped */
+    bool peer_done;      /* the client has shut its side: free once the answer is out */
+    char *out;
+    size_t out_len, out_pos;
+    size_t in_len, head_end; /* head_end: where the head ended (while serve runs) */
+    char in[HTTPD_HEAD_MAX];
+};
+
+struct httpd {
+    server *s;
+    const httpd_ops *ops;
+    uint64_t *counts;
+    int lfd;
+    uint32_t n, max;
+    hconn **c;
+};
+
+const char *const httpd_codes[HS_COUNT] = {"101", "200", "400", "401", "403", "404", "405",
+                                           "408", "426", "431", "500", "503", "505"};
+static const char *const reasons[HS_COUNT] = {
+    "Switching Protocols", "OK", "Bad Request", "Unauthorized", "Forbidden", "Not Found", "Method Not Allowed",
+    "Request Timeout", "Upgrade Required", "Request Header Fields Too Large", "Internal Server Error",
+    "Service Unavailable", "HTTP Version Not Supported",
+};
+
+/* Out of the table and the loop; the fd stays open (the caller's). */
+static void hconn_unlink(hconn *h)
+{
+    httpd *d = h->d;
+    ae_del(d->s->loop, h->fd, AE_READABLE | AE_WRITABLE);
+    for (uint32_t i = 0; i < d->n; i++)
+        if (d->c[i] == h) {
+            d->c[i] = d->c[--d->n];
+            break;
+        }
+    free(h->out);
+    free(h);
+}
+
+static void hconn_free(hconn *h)
+{
+    int fd = h->fd;
+    hconn_unlink(h);
+    close(fd);
+}
+
+static void on_conn(ae_loop *l, int fd, void *data, int mask);
+
+/* An answer in one write, best effort, for a connection about to be closed
+ * (503 at the accept, 408 at the deadline): no buffer, no waiting. */
+static void say_now(int fd, int slot, const char *extra, const char *msg)
+{
+    char buf[512];
+    int n = snprintf(buf, sizeof buf,
+                     "HTTP/1.1 %s %s\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: %zu\r\n"
+                     "Connection: close\r\n%s\r\n%s",
+                     httpd_codes[slot], reasons[slot], strlen(msg), extra ? extra : "", msg);
+    if (n > 0 && (size_t)n < sizeof buf) {
+        ssize_t ignored = write(fd, buf, (size_t)n);
+        (void)ignored;
+    }
+}
+
+/* Writes what the socket takes; when all is out, shuts the sending side and
+ * waits (reading) for the client to close. false: h was freed. */
+static bool flush(hconn *h)
+{
+    ae_loop *l = h->d->s->loop;
+    while (h->out_pos < h->out_len) {
+        ssize_t n = write(h->fd, h->out + h->out_pos, h->out_len - h->out_pos);
+        if (n > 0) {
+            h->out_pos += (size_t)n;
+            continue;
+        }
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            if (!(ae_mask(l, h->fd) & AE_WRITABLE)) ae_add(l, h->fd, AE_WRITABLE, on_conn, h);
+            return true;
+        }
+        hconn_free(h);
+        return false;
+    }
+    if (ae_mask(l, h->fd) & AE_WRITABLE) ae_del(l, h->fd, AE_WRITABLE);
+    if (h->peer_done) {
+        hconn_free(h);
+        return false;
+    }
+    shutdown(h->fd, SHUT_WR);
+    uint64_t linger = ae_now_ms() + LINGER_MS;
+    if (linger < h->deadline_ms) h->deadline_ms = linger;
+    return true;
+}
+
+bool httpd_answer(hconn *h, int slot, const char *type, const char *extra, const void *body, size_t len,
+                  bool head_only)
+{
+    char hd[768];
+    h->answered = true;
+    h->d->counts[slot]++;
+    int n = snprintf(hd, sizeof hd,
+                     "HTTP/1.1 %s %s\r\nContent-Type: %s\r\nContent-Length: %zu\r\nCache-Control: no-store\r\n"
+                     "Connection: close\r\n%s\r\n",
+                     httpd_codes[slot], reasons[slot], type, len, extra ? extra : "");
+    size_t all = n > 0 && (size_t)n < sizeof hd ? (size_t)n + (head_only ? 0 : len) : 0;
+    if (all) h->out = malloc(all);
+    if (!all || !h->out) {
+        hconn_free(h);
+        return false;
+    }
+    memcpy(h->out, hd, (size_t)n);
+    if (!head_only && len) memcpy(h->out + n, body, len);
+    h->out_len = all;
+    h->out_pos = 0;
+    return flush(h);
+}
+
+bool httpd_error(hconn *h, int slot, const char *extra, const char *msg, bool head_only)
+{
+    return httpd_answer(h, slot, "text/plain; charset=utf-8", extra, msg, strlen(msg), head_only);
+}
+
+int httpd_take(hconn *h, uint8_t *rest, size_t *rest_len)
+{
+    int fd = h->fd;
+    size_t n = h->in_len - h->head_end;
+    memcpy(rest, h->in + h->head_end, n);
+    *rest_len = n;
+    hconn_unlink(h);
+    return fd;
+}
+
+/* Parses (http.h) and answers a whole head in h->in[start, end). */
+static void respond(hconn *h, size_t start, size_t end)
+{
+    http_req rq;
+    const char *why;
+    int st = http_parse(h->in, start, end, &rq, &why);
+    if (st) {
+        httpd_error(h, st == 505 ? HS_505 : HS_400, NULL, why, rq.head);
+        return;
+    }
+    h->head_end = end;
+    h->d->ops->serve(h->d->s, h, &rq);
+}
+
+/* ---- events ---------------------------------------------------------------------------- */
+
+static void on_read(hconn *h)
+{
+    if (h->answered) {
+        /* after the answer: drop what comes until the client closes */
+        char junk[4096];
+        ssize_t n = read(h->fd, junk, sizeof junk);
+        if (n == 0 && h->out_pos < h->out_len) {
+            /* a client that shut its side after the request (nc -N): the
+               answer still goes out, then the connection is freed */
+            h->peer_done = true;
+            ae_del(h->d->s->loop, h->fd, AE_READABLE);
+        } else if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+            hconn_free(h);
+        }
+        return;
+    }
+    ssize_t n = read(h->fd, h->in + h->in_len, sizeof h->in - h->in_len);
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) return;
+    if (n <= 0) { /* gone before its request was whole: nothing to answer */
+        hconn_free(h);
+        return;
+    }
+    h->in_len += (size_t)n;
+    size_t start, end = http_head_end(h->in, h->in_len, &start);
+    if (end) {
+        respond(h, start, end);
+        return;
+    }
+    if (h->in_len == sizeof h->in) httpd_error(h, HS_431, NULL, "request head over 8 KiB\n", false);
+}
+
+static void on_conn(ae_loop *l, int fd, void *data, int mask)
+{
+    (void)l;
+    (void)fd;
+    hconn *h = data;
+    if (mask & AE_READABLE) on_read(h);
+    else if (mask & AE_WRITABLE) flush(h);
+}
+
+static void on_accept(ae_loop *l, int lfd, void *data, int mask)
+{
+    (void)mask;
+    httpd *d = data;
+    server *s = d->s;
+    for (;;) {
+        int fd = accept4(lfd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd < 0) {
+            if (errno == EINTR) continue;
+            if (errno != EAGAIN && errno != EWOULDBLOCK) LOGW("%s: accept: %s", d->ops->name, strerror(errno));
+            return;
+        }
+        hconn *h = NULL;
+        if (d->n < d->max && fd < s->conns_cap) h = calloc(1, sizeof *h);
+        if (!h || ae_add(l, fd, AE_READABLE, on_conn, h) < 0) {
+            /* too many at once (or no memory): say so, best effort; what
+               the client already sent is read first (closing with unread
+               input would reset the connection, the answer lost) */
+            char junk[4096];
+            for (int k = 0; k < 4 && read(fd, junk, sizeof junk) > 0; k++) {
+            }
+            say_now(fd, HS_503, "Retry-After: 1\r\n", "too many connections now\n");
+            close(fd);
+            free(h);
+            d->counts[HS_503]++;
+            continue;
+        }
+        *h = (hconn){.d = d, .fd = fd, .deadline_ms = ae_now_ms() + s->cfg.hello_timeout_ms};
+        d->c[d->n++] = h;
+    }
+}
+
+uint32_t httpd_conns(const httpd *d)
+{
+    return d ? d->n : 0;
+}
+
+void httpd_sweep(httpd *d, uint64_t now_ms)
+{
+    if (!d) return;
+    for (uint32_t i = d->n; i-- > 0;) {
+        hconn *h = d->c[i];
+        if (now_ms < h->deadline_ms) continue;
+        if (!h->answered) {
+            /* slow-loris: tell it, without waiting for it to read */
+            say_now(h->fd, HS_408, NULL, "request head not sent in time\n");
+            d->counts[HS_408]++;
+        }
+        hconn_free(h);
+    }
+}
+
+httpd *httpd_open(server *s, const char *addr, int port, uint32_t max_conns, const httpd_ops *ops,
+                  uint64_t *counts)
+{
+    httpd *d = calloc(1, sizeof *d);
+    if (!d || !(d->c = calloc(max_conns, sizeof *d->c))) {
+        free(d);
+        LOGE("%s: out of memory", ops->name);
+        return NULL;
+    }
+    *d = (httpd){.s = s, .ops = ops, .counts = counts, .max = max_conns, .c = d->c};
+    d->lfd = listen_tcp(addr, port);
+    if (d->lfd < 0) goto fail; /* said why */
+    if (d->lfd >= s->conns_cap || ae_add(s->loop, d->lfd, AE_READABLE, on_accept, d) < 0) {
+        LOGE("%s: cannot listen on %s:%d: %s", ops->name, addr, port, strerror(errno));
+        goto fail;
+    }
+    return d;
+fail:
+    httpd_close(d);
+    return NULL;
+}
+
+void httpd_close(httpd *d)
+{
+    if (!d) return;
+    while (d->n) hconn_free(d->c[0]);
+    if (d->lfd >= 0) {
+        ae_del(d->s->loop, d->lfd, AE_READABLE);
+        close(d->lfd);
+    }
+    free(d->c);
+    free(d);
+}
