@@ -25,9 +25,10 @@ SHELL  := /bin/bash
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
             zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
-            gnuplot-nox blender python3-numpy
+            gnuplot-nox blender python3-numpy libwslay-dev libssl-dev chromium nodejs npm
 # (blender and python3-numpy: make bench-cycles, the renderer against Cycles; not needed by make test)
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf libcrypto
+# (libwslay-dev ships no pkg-config file: check-deps looks for its header)
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -119,6 +120,9 @@ EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 # PNG and JPEG (vt_png.c, vt_jpeg.c): libpng 1.6 and the libjpeg API of libjpeg-turbo
 # (libjpeg.so.62); every binary that links RENDER_OBJ needs both
 IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
+# the daemon's --web (daemon/web.c): WebSocket framing by libwslay (Debian's
+# libwslay-dev has no .pc file), SHA-1 and base64 of the handshake by libcrypto
+WEB_LIBS := -lwslay $$(pkg-config --libs libcrypto)
 # headless OpenGL (vt_egl.c, vt_gl_*.c): libglvnd's libEGL and libepoxy; at run time
 # Mesa's EGL vendor library and drivers (libegl-mesa0, libgl1-mesa-dri:
 # llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
@@ -167,7 +171,8 @@ all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(
 # a pkg-config module is missing, so a provisioned machine never touches apt.
 check-deps:
 	@if ! command -v $(CC) >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1 || \
-	    ! pkg-config --exists $(PC_MODS) || ! command -v Xvfb >/dev/null 2>&1 || \
+	    ! pkg-config --exists $(PC_MODS) || ! command -v Xvfb >/dev/null 2>&1 || [ ! -f /usr/include/wslay/wslay.h ] || \
+	    ! command -v chromium >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1 || \
 	    [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf ]; then $(MAKE) --no-print-directory deps; fi
 
 deps:
@@ -186,6 +191,9 @@ $(BUILD)/%.o: %.c
 # `bench --scenario NAME` finds the shipped scenarios here when run from the
 # source tree (installed: PREFIX/share/vantage/scenarios, next to bin/)
 $(BUILD)/client/loadgen/cli_scenario.o: CPPFLAGS += -DVANTAGE_SCENARIO_DIR='"$(CURDIR)/client/loadgen/scenarios"'
+# `vantaged --web` serves the pages from here when run from the source tree
+# (installed: PREFIX/share/vantage/web)
+$(BUILD)/daemon/vantaged.o: CPPFLAGS += -DVANTAGE_WEB_DIR='"$(CURDIR)/web"'
 
 $(BUILD)/culling/cull_kernels_avx2.o:   CFLAGS += $(ISA_AVX2)
 $(BUILD)/culling/cull_kernels_sse41.o:  CFLAGS += $(ISA_SSE41)
@@ -222,7 +230,7 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 # every daemon module but the server's (the tests drive scenes, journals and edits in-process)
-PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o auth.o upload.o readback.o),$(DAEMON_OBJ))
+PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o auth.o upload.o readback.o),$(DAEMON_OBJ))
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
@@ -237,7 +245,7 @@ DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD
                  $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(WEB_LIBS) $(LDLIBS)
 
 # libvantage carries the protocol; its matrix helpers are culling/cull_mat.h
 # (header-only), so the culling core is not in it
@@ -371,6 +379,9 @@ install: check-deps
 	install -m 644 client/lib/vantage.h protocol/protocol.h protocol/vp_err.h protocol/vp_bytes.h protocol/vp_grow.h $(DESTDIR)$(PREFIX)/include/vantage/
 	install -d $(DESTDIR)$(PREFIX)/share/vantage/scenarios
 	install -m 644 client/loadgen/scenarios/*.scn $(DESTDIR)$(PREFIX)/share/vantage/scenarios/
+	install -d $(DESTDIR)$(PREFIX)/share/vantage/web/js
+	install -m 644 web/*.html web/*.css $(DESTDIR)$(PREFIX)/share/vantage/web/
+	install -m 644 web/js/*.js $(DESTDIR)$(PREFIX)/share/vantage/web/js/
 	sed 's|@PREFIX@|$(PREFIX)|' client/lib/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
 
 # installs into build/<config>/stage and builds a program with pkg-config

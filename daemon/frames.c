@@ -23,6 +23,7 @@
 #include "vt_image.h"
 #include "vt_shadow.h"
 #include "vt_soft.h"
+#include "web.h"
 
 #include <linux/sockios.h>
 #include <math.h>
@@ -677,7 +678,7 @@ int frames_schedule(server *s)
         if (!f->active || f->inflight || c->closing) continue;
         if (!f->dirty && f->shown_epoch == s->sc->epoch && f->shown_marks == s->marks.gen)
             continue; /* nothing new to show */
-        if (c->out_bytes) { /* the last frame is still leaving: it wins */
+        if (c->out_bytes || (c->ws && !web_ws_idle(c))) { /* the last frame is still leaving: it wins */
             frame_held(s, f, now);
             continue;
         }

@@ -115,7 +115,11 @@ static int header(http_span l, bool cr, http_req *r, const char **why)
     while (ve > v && (l.p[ve - 1] == ' ' || l.p[ve - 1] == '\t')) ve--;
     http_span val = {l.p + v, ve - v};
     if (span_is(name, "host")) {
+        if (r->host) return fail(why, 400, "more than one Host header\n"); /* RFC 9112 3.2 */
         r->host = true;
+        r->host_value = val;
+    } else if (span_is(name, "origin")) {
+        r->origin = val;
     } else if (span_is(name, "authorization") && !r->bearer.p) {
         /* "Bearer" 1*SP token */
         size_t t = 0;

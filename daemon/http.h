@@ -34,7 +34,9 @@ typedef struct http_req {
     http_span path;            /* the target up to its '?' */
     bool http11;               /* HTTP/1.1 (else 1.0) */
     bool head;                 /* the method is HEAD: answers carry no body */
-    bool host;                 /* a Host header came */
+    bool host;                 /* a Host header came (a second one is refused) */
+    http_span host_value;      /* its value, trimmed */
+    http_span origin;          /* Origin, trimmed (browsers send it with a WebSocket upgrade) */
     http_span bearer;          /* the first `Authorization: Bearer TOKEN`'s token */
     bool upgrade_websocket;    /* Upgrade lists the token "websocket" */
     bool connection_upgrade;   /* Connection lists the token "upgrade" */

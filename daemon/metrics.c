@@ -455,5 +455,17 @@ bool metrics_expose(server *s, mbuf *b)
     family(b, "vantage_metrics_http_connections", "gauge",
            "Connections to the --metrics HTTP endpoint open now (this scrape's included).");
     sample(b, "vantage_metrics_http_connections", NULL, NULL, httpd_conns(s->http));
+    if (s->web) {
+        family(b, "vantage_web_http_responses_total", "counter",
+               "Answers of the --web HTTP endpoint (pages, WebSocket upgrades: 101), by status code.");
+        for (int i = 0; i < HS_COUNT; i++)
+            sample(b, "vantage_web_http_responses_total", "code", httpd_codes[i], m->web_http[i]);
+        family(b, "vantage_web_http_connections", "gauge",
+               "HTTP connections to the --web endpoint open now (upgraded WebSockets are clients).");
+        sample(b, "vantage_web_http_connections", NULL, NULL, httpd_conns(s->web));
+        family(b, "vantage_web_ws_text_refused_total", "counter",
+               "WebSocket text messages refused with a close (1003, or 1007 when not UTF-8).");
+        sample(b, "vantage_web_ws_text_refused_total", NULL, NULL, m->ws_bad);
+    }
     return !b->oom;
 }

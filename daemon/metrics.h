@@ -100,6 +100,7 @@ typedef struct metrics {
     uint64_t out_linked, out_copied;
     uint64_t http[HS_COUNT];     /* --metrics answers by status (httpd.h) */
     uint64_t web_http[HS_COUNT]; /* --web answers by status */
+    uint64_t ws_bad;             /* WebSocket text messages refused (the protocol is binary) */
     /* the request being handled (dispatch): whose error send_error counts,
        and when it was taken (a job started now carries it) */
     int      cur;

@@ -18,6 +18,7 @@
  */
 #include "server_internal.h"
 #include "vp_grow.h"
+#include "web.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -267,6 +268,7 @@ static void conns_free_dead(server *s)
         last->live_pos = c->live_pos;
         LOGD("client %u (%s) disconnected, %u connected; %llu frames streamed", c->id, c->name, s->nconns,
              (unsigned long long)c->fsub.frames);
+        web_ws_free(c);
         free(c->in);
         free(c);
     }
@@ -315,6 +317,39 @@ static bool out_total_enforce(server *s, conn *cur)
 
 static void conn_event(ae_loop *l, int fd, void *data, int mask);
 
+/* conn_flush for a WebSocket (web.c): the reply queue leaves a block at a
+ * time, each block one binary message, handed to wslay only when it holds
+ * nothing else (so the queue stays the one backlog the limits and the
+ * frames' drain rule look at). */
+static int ws_flush(server *s, conn *c)
+{
+    int why;
+    for (;;) {
+        if (c->out_bytes && web_ws_idle(c)) {
+            size_t at = c->out_pos;
+            out_block *b = c->out_head;
+            while (b->len <= at) b = b->next, at = 0; /* an emptied tail block kept at the head */
+            if (web_ws_queue(c, b->p + at, b->len - at)) return MD_ERROR;
+            out_consume(c, b->len - at);
+        }
+        if ((why = web_ws_send(c))) return why;
+        if (!c->out_bytes || !web_ws_idle(c)) break;
+    }
+    if (!c->out_bytes && web_ws_idle(c)) {
+        if (ae_mask(s->loop, c->fd) & AE_WRITABLE) ae_del(s->loop, c->fd, AE_WRITABLE);
+        if (!c->closing) return MD_NONE;
+        /* the ERROR that ended it has left: the close says the same */
+        why = web_ws_end(c, 1008, "protocol error: see the ERROR message");
+        return why ? why : MD_ERROR;
+    }
+    if (c->out_bytes > s->cfg.out_limit) {
+        LOGW("client %u: %zu bytes unread, over the output limit: disconnecting", c->id, c->out_bytes);
+        return MD_OUTPUT_LIMIT;
+    }
+    if (!(ae_mask(s->loop, c->fd) & AE_WRITABLE)) ae_add(s->loop, c->fd, AE_WRITABLE, conn_event, s);
+    return MD_NONE;
+}
+
 /* Writes what the socket takes now. MD_NONE, or why the connection is
  * over (the caller ends it). */
 static int conn_flush(server *s, conn *c)
@@ -323,6 +358,7 @@ static int conn_flush(server *s, conn *c)
     /* always: no reply leaves while the journal holds unsynced records (a
        query's answer may show them): before_sleep syncs, then flushes */
     if (s->journal && journal_policy(s->journal) == JOURNAL_ALWAYS && journal_dirty(s->journal)) return MD_NONE;
+    if (c->ws) return ws_flush(s, c);
     while (c->out_bytes) {
         struct iovec iov[OUT_IOV];
         int k = 0;
@@ -411,7 +447,7 @@ static void conn_process(server *s, conn *c)
         if (!c->busy) mhist_add(&s->m.latency[mt], now_ns() - t0);
         pos += fs;
     }
-    memmove(c->in, c->in + pos, c->in_len - pos);
+    if (pos) memmove(c->in, c->in + pos, c->in_len - pos); /* a WebSocket's buffer may not be yet */
     c->in_len -= pos;
     /* a frame begun and not finished: its clock (the timer drops clients
        that trickle one in too slowly) */
@@ -485,6 +521,24 @@ static void conn_read(server *s, int fd)
     conn *c = s->conns[fd];
     if (!c || c->dead) return;
     uint32_t limit = c->hello ? s->cfg.max_payload : VANTAGED_PREHELLO_MAX;
+    if (c->ws) {
+        int why;
+        if (c->busy && c->in_len >= (size_t)limit + VP_HEADER_SIZE) {
+            ae_del(s->loop, fd, AE_READABLE); /* as below: the query's reply first */
+            return;
+        }
+        if ((why = web_ws_recv(c))) {
+            conn_kill(s, c, why);
+            return;
+        }
+        /* a pong or a close wslay queued goes out; the protocol's bytes on */
+        if (!web_ws_idle(c) && (why = web_ws_send(c))) {
+            conn_kill(s, c, why);
+            return;
+        }
+        conn_process(s, c);
+        return;
+    }
     for (;;) {
         if (c->busy && c->in_len >= (size_t)limit + VP_HEADER_SIZE) {
             /* a query is out and a whole frame waits behind it: stop
@@ -522,6 +576,23 @@ static void conn_read(server *s, int fd)
     conn_process(s, c);
 }
 
+/* A new connection on fd, registered and counted. */
+static void conn_init(server *s, conn *c, int fd)
+{
+    s->m.accepted++;
+    c->srv = s;
+    c->fd = fd;
+    c->id = ++s->next_id;
+    c->born_ms = ae_now_ms();
+    c->pend_pos = UINT32_MAX;
+    s->clocks = true; /* its HELLO clock */
+    strcpy(c->name, "?");
+    s->conns[fd] = c;
+    c->live_pos = s->nconns;
+    s->live[s->nconns++] = c;
+    LOGD("client %u connected (fd %d%s), %u connected", c->id, fd, c->ws ? ", WebSocket" : "", s->nconns);
+}
+
 static void on_accept(ae_loop *l, int lfd, void *data, int mask)
 {
     (void)mask;
@@ -554,19 +625,36 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
             close(fd);
             continue;
         }
-        s->m.accepted++;
-        c->srv = s;
-        c->fd = fd;
-        c->id = ++s->next_id;
-        c->born_ms = ae_now_ms();
-        c->pend_pos = UINT32_MAX;
-        s->clocks = true; /* its HELLO clock */
-        strcpy(c->name, "?");
-        s->conns[fd] = c;
-        c->live_pos = s->nconns;
-        s->live[s->nconns++] = c;
-        LOGD("client %u connected (fd %d), %u connected", c->id, fd, s->nconns);
+        conn_init(s, c, fd);
     }
+}
+
+bool server_has_room(const server *s)
+{
+    return s->nconns < s->cfg.max_clients;
+}
+
+int server_adopt_ws(server *s, int fd, struct wsio *w)
+{
+    conn *c = NULL;
+    if (!server_has_room(s) || fd >= s->conns_cap || !(c = calloc(1, sizeof *c)) || web_ws_init(s, c, w)) {
+        free(w);
+        goto fail;
+    }
+    if (ae_add(s->loop, fd, AE_READABLE, conn_event, s) < 0) {
+        web_ws_free(c); /* w with it */
+        goto fail;
+    }
+    int one = 1;
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    conn_init(s, c, fd);
+    snprintf(c->name, sizeof c->name, "?(ws)");
+    conn_read(s, fd); /* bytes that came with the head: the socket may stay quiet */
+    return 0;
+fail:
+    free(c);
+    close(fd);
+    return -1;
 }
 
 /* ---- slow clients --------------------------------------------------------------- */
@@ -828,7 +916,7 @@ server *server_create(const server_config *cfg, scene *sc)
     s->sc = sc;
     s->journal = cfg->journal;
     s->ev_epoch = sc->epoch;
-    s->tcp_fd = s->unix_fd = s->unix_lock_fd = s->sig_fd = s->done_fd = -1;
+    s->tcp_fd = s->unix_fd = s->unix_lock_fd = s->sig_fd = s->done_fd = s->web_root_fd = -1;
     /* SIGINT and SIGTERM arrive through a signalfd on the loop: block them
        before any thread starts, so no worker inherits them unblocked.
        SIGCHLD too: a snapshot child that ends while the loop sleeps wakes
@@ -885,6 +973,7 @@ server *server_create(const server_config *cfg, scene *sc)
     s->sig_fd = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
     if (s->sig_fd < 0 || s->sig_fd >= s->conns_cap || ae_add(s->loop, s->sig_fd, AE_READABLE, on_signal, s)) goto fail;
     if (cfg->metrics_port && metrics_http_open(s)) goto fail;
+    if (cfg->web_port && web_open(s)) goto said;
     s->m.cur = MT_NONE;
     ae_set_before_sleep(s->loop, before_sleep, s);
     s->start_ms = ae_now_ms();
@@ -917,7 +1006,7 @@ int server_destroy(server *s)
     for (uint32_t i = 0; i < s->nconns; i++) conn_kill(s, s->live[i], MD_SHUTDOWN);
     if (s->nconns) conns_free_dead(s);
     httpd_close(s->http);
-    httpd_close(s->web);
+    web_close(s);
     if (s->tcp_fd >= 0) close(s->tcp_fd);
     if (s->unix_fd >= 0) {
         close(s->unix_fd);

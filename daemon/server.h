@@ -35,6 +35,9 @@ typedef struct server_config {
     journal *journal;        /* --data-dir: opened (and the scene restored) by the caller; the server closes it */
     const char *metrics_bind; /* --metrics: the HTTP endpoint's IPv4 address */
     int metrics_port;        /* its port; 0 = no endpoint */
+    const char *web_bind;    /* --web: the browser endpoint's IPv4 address */
+    int web_port;            /* its port; 0 = none */
+    const char *web_root;    /* --web-root: the pages served */
 } server_config;
 
 #define VANTAGED_PREHELLO_MAX 4096u /* frame limit before the handshake */

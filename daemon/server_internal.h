@@ -90,6 +90,7 @@ typedef struct conn {
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */
     frame_sub fsub;
     tex_upload *upload; /* a chunked TEXTURE_PUT under way, or NULL (one per connection) */
+    struct wsio *ws;    /* a WebSocket's framing (web.c), NULL: the socket carries the protocol as it is */
     char name[64];
 } conn;
 
@@ -145,6 +146,7 @@ struct server {
     uint64_t start_unix_ns; /* CLOCK_REALTIME when it started serving */
     struct httpd *http;     /* --metrics: the HTTP endpoint; NULL = none */
     struct httpd *web;      /* --web: the browser viewer's endpoint (web.c); NULL = none */
+    int web_root_fd;        /* --web-root, opened; -1 = none */
 };
 
 /* A query handed to a worker, and its reply coming back. */
@@ -200,6 +202,12 @@ static inline uint64_t now_ns(void)
 /* ---- server.c: output to a connection ---- */
 /* A TCP listener on an IPv4 address (logged on failure: -1). */
 int listen_tcp(const char *addr, int port);
+/* Whether a connection more may be taken now (--max-clients). */
+bool server_has_room(const server *s);
+/* Takes the upgraded WebSocket fd as a protocol connection (web.c's w
+ * becomes its framing). fd and w are its from the call on: 0, or -1 when
+ * it could not (both given back). */
+int server_adopt_ws(server *s, int fd, struct wsio *w);
 /* A writer over c's tail block with room for need bytes (a new block when
  * the tail has less; false: out of memory). out_commit queues what the
  * writer wrote (nothing when it overflowed); nothing else may be queued

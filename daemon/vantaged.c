@@ -63,6 +63,11 @@ static void usage(FILE *f)
             "                       serve Prometheus metrics over HTTP at /metrics (off by default;\n"
             "                       ADDR 127.0.0.1 unless given; with --tokens a request needs\n"
             "                       \"Authorization: Bearer TOKEN\" of a viewer, as HELLO does)\n"
+            "  --web [ADDR:]PORT    serve the browser viewer and commander at http://ADDR:PORT/ and\n"
+            "                       the protocol over a WebSocket at /ws (off by default; ADDR\n"
+            "                       127.0.0.1 unless given; other addresses need --tokens or --insecure)\n"
+            "  --web-root DIR       the pages served (default: PREFIX/share/vantage/web when\n"
+            "                       installed, else the source tree's web/)\n"
             "  --hello-timeout MS   a client must finish HELLO this soon after connecting (10000);\n"
             "                       a metrics scraper its request head\n"
             "  --frame-timeout MS   a frame begun must arrive whole this soon (30000; slow-loris)\n"
@@ -111,9 +116,24 @@ static uint64_t default_out_limit_total(void)
     return phys / 8 > (64u << 20) ? phys / 8 : 64u << 20;
 }
 
-/* --metrics [ADDR:]PORT: ADDR an IPv4 address or localhost (default
- * 127.0.0.1), PORT 1..65535. */
-static bool parse_metrics(const char *arg, char *addr, size_t addrlen, int *port)
+/* The pages --web serves when --web-root is not given: installed, next
+ * to bin/ (PREFIX/share/vantage/web), else the source tree's. */
+static const char *default_web_root(void)
+{
+    static char share[1024];
+    ssize_t n = readlink("/proc/self/exe", share, sizeof share - 40);
+    if (n > 0) {
+        share[n] = 0;
+        char *slash = strrchr(share, '/');
+        if (slash) strcpy(slash, "/../share/vantage/web");
+        if (access(share, F_OK) == 0) return share;
+    }
+    return VANTAGE_WEB_DIR;
+}
+
+/* --metrics and --web [ADDR:]PORT: ADDR an IPv4 address or localhost
+ * (default 127.0.0.1), PORT 1..65535. */
+static bool parse_addr_port(const char *arg, char *addr, size_t addrlen, int *port)
 {
     const char *colon = strrchr(arg, ':');
     const char *p = colon ? colon + 1 : arg;
@@ -156,7 +176,7 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_ENV, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF };
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF, O_WEB, O_WEB_ROOT };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -173,14 +193,15 @@ int main(int argc, char **argv)
         {"durability", required_argument, 0, O_DURABILITY}, {"compact-mb", required_argument, 0, O_COMPACT},
         {"metrics", required_argument, 0, O_METRICS}, {"out-limit-total", required_argument, 0, O_OUT_TOTAL},
         {"max-texture-size", required_argument, 0, O_TEX_SIZE}, {"max-texture-mem", required_argument, 0, O_TEX_MEM},
-        {"lut", required_argument, 0, O_LUT}, {"fx-off", required_argument, 0, O_FX_OFF}, {0, 0, 0, 0},
+        {"lut", required_argument, 0, O_LUT}, {"fx-off", required_argument, 0, O_FX_OFF},
+        {"web", required_argument, 0, O_WEB}, {"web-root", required_argument, 0, O_WEB_ROOT}, {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
     char want[96] = ""; /* what the option being parsed accepts, for its error */
     const char *tokens_path = NULL, *data_dir = NULL, *lut_path = NULL;
     int durability = JOURNAL_EVERYSEC;
-    static char metrics_addr[64];
+    static char metrics_addr[64], web_addr[64];
     uint32_t compact_mb = 64;
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (o) {
@@ -244,9 +265,14 @@ int main(int argc, char **argv)
             break;
         case O_COMPACT: ok = num32(want, sizeof want, optarg, 1, 1u << 20, &compact_mb); break;
         case O_METRICS:
-            ok = parse_metrics(optarg, metrics_addr, sizeof metrics_addr, &cfg.metrics_port);
+            ok = parse_addr_port(optarg, metrics_addr, sizeof metrics_addr, &cfg.metrics_port);
             snprintf(want, sizeof want, "[ADDR:]PORT, ADDR an IPv4 address or localhost, PORT 1..65535");
             break;
+        case O_WEB:
+            ok = parse_addr_port(optarg, web_addr, sizeof web_addr, &cfg.web_port);
+            snprintf(want, sizeof want, "[ADDR:]PORT, ADDR an IPv4 address or localhost, PORT 1..65535");
+            break;
+        case O_WEB_ROOT: cfg.web_root = optarg; break;
         case O_INSECURE: insecure = true; break;
         case O_HELLO_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
         case O_FRAME_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.frame_timeout_ms); break;
@@ -312,6 +338,19 @@ int main(int argc, char **argv)
         }
         if (!cfg.tokens && !auth_loopback(metrics_addr))
             LOGW("--insecure: metrics on %s served without tokens", metrics_addr);
+    }
+    if (cfg.web_port) {
+        /* the WebSocket speaks the protocol: the same rule as --bind */
+        cfg.web_bind = web_addr;
+        if (!cfg.web_root) cfg.web_root = default_web_root();
+        if (!cfg.tokens && !auth_loopback(web_addr) && !insecure) {
+            fprintf(stderr,
+                    "vantaged: --web %s:%d reaches other machines and there is no --tokens file: anyone who can "
+                    "connect could edit the scene. Give --tokens FILE, or --insecure if that is what you want.\n",
+                    web_addr, cfg.web_port);
+            return 2;
+        }
+        if (!cfg.tokens && !auth_loopback(web_addr)) LOGW("--insecure: the web viewer on %s served without tokens", web_addr);
     }
 
     scene *sc = calloc(1, sizeof *sc);

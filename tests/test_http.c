@@ -111,6 +111,9 @@ static const bad_row bad[] = {
     {"nul_in_value", "GET / HTTP/1.1\r\nHost: h\r\nX: a\0b\r\n\r\n", 400, "control byte",
      sizeof "GET / HTTP/1.1\r\nHost: h\r\nX: a\0b\r\n\r\n" - 1},
     {"cr_in_header", "GET / HTTP/1.1\r\nHost: h\rX: y\r\n\r\n", 400, "header line", 0},
+    /* RFC 9112 3.2: a request with more than one Host is refused (which
+       one names the origin would be a guess) */
+    {"two_hosts", "GET / HTTP/1.1\r\nHost: a\r\nHost: b\r\n\r\n", 400, "more than one Host", 0},
 };
 
 static void test_http_parse_refused(void **state)
@@ -173,7 +176,25 @@ static void test_http_list_has(void **state)
     assert_false(http_list_has((http_span){NULL, 0}, "upgrade"));
 }
 
+/* The Host and Origin values a WebSocket upgrade is checked with (web.c:
+ * a page from another site may not open the daemon's WebSocket). */
+static void test_http_host_origin(void **state)
+{
+    (void)state;
+    http_req r;
+    const char *why;
+    assert_int_equal(parse("GET /ws HTTP/1.1\r\nHost:  localhost:8080 \r\nOrigin: http://localhost:8080\r\n\r\n", &r,
+                           &why),
+                     0);
+    assert_true(span_eq(r.host_value, "localhost:8080"));
+    assert_true(span_eq(r.origin, "http://localhost:8080"));
+    assert_int_equal(parse("GET / HTTP/1.0\r\n\r\n", &r, &why), 0);
+    assert_false(r.host);
+    assert_null(r.origin.p);
+}
+
 const struct CMUnitTest http_tests[] = {
+    cmocka_unit_test(test_http_host_origin),
     cmocka_unit_test(test_http_parse_good),
     TEST_ROWS(test_http_parse_refused, bad),
     cmocka_unit_test(test_http_head_end_bytewise),

@@ -40,6 +40,7 @@ int main(void)
         {mask_tests, mask_tests_count},
         {auth_tests, auth_tests_count},
         {http_tests, http_tests_count},
+        {web_tests, web_tests_count},
         {persist_tests, persist_tests_count},
         {transform_tests, transform_tests_count},
         {material_tests, material_tests_count},

@@ -1,0 +1,708 @@
+/*
+ * test_web.c — `vantaged --web` (daemon/web.c, issue 21) against a real
+ * daemon, with this file's own WebSocket client: RFC 6455 frames built and
+ * read here byte by byte (masking, lengths, opcodes), so the daemon's
+ * framing (libwslay) and upgrade are checked against the RFC, not against
+ * themselves. The pages come from a web root made here, holding what an
+ * attacker would reach for (a dotfile, a symlink out of the root).
+ *
+ * What the browser tests (tests/web, headless Chromium) cover is the
+ * pages; this is the endpoint: static files, the upgrade's refusals, the
+ * protocol's stream over WebSocket messages, bad frames and floods, and
+ * many viewers at once.
+ */
+#include "test_daemon.h"
+#include "test_util.h"
+
+#include "protocol.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ---- the web root and the daemon ------------------------------------------------------- */
+
+static char root[128];
+static int web_port;
+
+static void write_file(const char *dir, const char *name, const char *text)
+{
+    char p[256];
+    snprintf(p, sizeof p, "%s/%s", dir, name);
+    FILE *f = fopen(p, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+static void make_root(void)
+{
+    snprintf(root, sizeof root, "/tmp/vantage-web-%d", (int)getpid());
+    char p[256];
+    mkdir(root, 0700);
+    snprintf(p, sizeof p, "%s/js", root);
+    mkdir(p, 0700);
+    write_file(root, "index.html", "<!doctype html><title>vantage</title>\n");
+    write_file(root, "js/a.js", "export const a = 1;\n");
+    write_file(root, ".secret.txt", "hidden\n");
+    snprintf(p, sizeof p, "%s/passwd.txt", root);
+    unlink(p);
+    assert_int_equal(symlink("/etc/passwd", p), 0);
+}
+
+static void drop_root(void)
+{
+    const char *names[] = {"index.html", "js/a.js", ".secret.txt", "passwd.txt", "js", ""};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+        char p[256];
+        snprintf(p, sizeof p, "%s/%s", root, names[i]);
+        if (remove(p)) rmdir(p);
+    }
+}
+
+/* A daemon with --web on a free port (and more arguments, NULL-ended). */
+static void web_start(daemon_proc *d, const char *const *more)
+{
+    make_root();
+    web_port = free_port();
+    static char port[16];
+    snprintf(port, sizeof port, "%d", web_port);
+    const char *extra[16] = {"--web", port, "--web-root", root};
+    int n = 4;
+    for (int i = 0; more && more[i]; i++) extra[n++] = more[i];
+    daemon_start_args(d, extra);
+}
+
+static void web_stop(daemon_proc *d)
+{
+    daemon_stop(d);
+    drop_root();
+}
+
+static int web_connect(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)web_port)};
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    assert_int_equal(connect(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    struct timeval tv = {.tv_sec = 10};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    return fd;
+}
+
+static void send_all(int fd, const void *p, size_t n)
+{
+    assert_int_equal(send(fd, p, n, MSG_NOSIGNAL), (ssize_t)n);
+}
+
+/* One HTTP exchange: the whole answer (to the daemon's close) in out. */
+static size_t http_get(const char *req, char *out, size_t cap)
+{
+    int fd = web_connect();
+    send_all(fd, req, strlen(req));
+    size_t have = 0;
+    ssize_t n;
+    while (have < cap - 1 && (n = read(fd, out + have, cap - 1 - have)) > 0) have += (size_t)n;
+    out[have] = 0;
+    close(fd);
+    return have;
+}
+
+/* ---- static files ------------------------------------------------------------------------ */
+
+typedef struct file_row {
+    const char *name, *req;
+    const char *status; /* the status line's start */
+    const char *has;    /* in the answer */
+} file_row;
+
+#define GET(path) "GET " path " HTTP/1.1\r\nHost: x\r\n\r\n"
+static const file_row files[] = {
+    {"index", GET("/"), "HTTP/1.1 200 ", "<title>vantage</title>"},
+    {"index_by_name", GET("/index.html"), "HTTP/1.1 200 ", "Content-Type: text/html"},
+    {"script", GET("/js/a.js"), "HTTP/1.1 200 ", "Content-Type: text/javascript"},
+    {"nosniff", GET("/js/a.js"), "HTTP/1.1 200 ", "X-Content-Type-Options: nosniff"},
+    {"head", "HEAD /js/a.js HTTP/1.1\r\nHost: x\r\n\r\n", "HTTP/1.1 200 ", "Content-Length: 20\r\n"},
+    {"query_ignored", GET("/js/a.js?v=2"), "HTTP/1.1 200 ", "export const a"},
+    {"missing", GET("/nope.html"), "HTTP/1.1 404 ", "not found"},
+    {"dot_dot", GET("/../etc/passwd"), "HTTP/1.1 404 ", "not found"},
+    {"dot_dot_inside", GET("/js/../index.html"), "HTTP/1.1 404 ", "not found"},
+    {"dotfile", GET("/.secret.txt"), "HTTP/1.1 404 ", "not found"},
+    {"symlink_out", GET("/passwd.txt"), "HTTP/1.1 404 ", "not found"},
+    {"double_slash", GET("//index.html"), "HTTP/1.1 404 ", "not found"},
+    {"percent", GET("/%2e%2e/x.html"), "HTTP/1.1 404 ", "not found"},
+    {"directory", GET("/js"), "HTTP/1.1 404 ", "not found"},
+    {"type_not_served", GET("/index.exe"), "HTTP/1.1 404 ", "not found"},
+    {"post", "POST /index.html HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n", "HTTP/1.1 405 ", "Allow: GET, HEAD"},
+    {"garbage", "\x16\x03\x01\x02\x01\x01\x01\x01\xfc\x03\x03\r\n\r\n", "HTTP/1.1 400 ", "malformed"},
+    {"http2", "GET / HTTP/2.0\r\nHost: x\r\n\r\n", "HTTP/1.1 505 ", "HTTP/1.1"},
+};
+
+static void test_web_files(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    web_start(&d, NULL);
+    char out[8192];
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        http_get(files[i].req, out, sizeof out);
+        if (strncmp(out, files[i].status, strlen(files[i].status)) || !strstr(out, files[i].has))
+            fail_msg("%s: wanted '%s' with '%s', got:\n%s", files[i].name, files[i].status, files[i].has, out);
+    }
+    http_get("HEAD / HTTP/1.1\r\nHost: x\r\n\r\n", out, sizeof out);
+    assert_null(strstr(out, "<title>")); /* HEAD: no body */
+    web_stop(&d);
+}
+
+/* ---- the upgrade ---------------------------------------------------------------------------- */
+
+/* RFC 6455 1.3's example key and its accept value (from the RFC, not
+ * computed here). */
+#define RFC_KEY "dGhlIHNhbXBsZSBub25jZQ=="
+#define RFC_ACCEPT "s3pPLMBiTxaQ9kYGzzhZRbK+xOo="
+
+static int ws_open_with(const char *extra_headers, char *answer, size_t cap)
+{
+    int fd = web_connect();
+    char req[1024];
+    int n = snprintf(req, sizeof req,
+                     "GET /ws HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                     "Sec-WebSocket-Key: " RFC_KEY "\r\nSec-WebSocket-Version: 13\r\n%s\r\n",
+                     web_port, extra_headers);
+    send_all(fd, req, (size_t)n);
+    /* the answer's head, byte by byte (WebSocket frames follow it) */
+    size_t have = 0;
+    while (have < cap - 1 && (have < 4 || memcmp(answer + have - 4, "\r\n\r\n", 4))) {
+        ssize_t r = read(fd, answer + have, 1);
+        if (r <= 0) break;
+        have++;
+    }
+    answer[have] = 0;
+    return fd;
+}
+
+/* An open WebSocket (asserts the 101 and the accept value). */
+static int ws_open(void)
+{
+    char ans[1024], origin[128];
+    snprintf(origin, sizeof origin, "Origin: http://127.0.0.1:%d\r\n", web_port);
+    int fd = ws_open_with(origin, ans, sizeof ans);
+    if (strncmp(ans, "HTTP/1.1 101 ", 13)) fail_msg("no upgrade: %s", ans);
+    return fd;
+}
+
+static void test_web_upgrade(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    web_start(&d, NULL);
+    char ans[1024], origin[128];
+    snprintf(origin, sizeof origin, "Origin: http://127.0.0.1:%d\r\n", web_port);
+    int fd = ws_open_with(origin, ans, sizeof ans);
+    if (strncmp(ans, "HTTP/1.1 101 ", 13) || !strstr(ans, "Sec-WebSocket-Accept: " RFC_ACCEPT "\r\n"))
+        fail_msg("no upgrade: %s", ans);
+    close(fd);
+    fd = ws_open_with("", ans, sizeof ans); /* a script: no Origin */
+    assert_int_equal(strncmp(ans, "HTTP/1.1 101 ", 13), 0);
+    close(fd);
+    web_stop(&d);
+}
+
+typedef struct up_row {
+    const char *name, *req, *status, *has;
+} up_row;
+
+#define UP_HEAD "Host: 127.0.0.1\r\nSec-WebSocket-Key: " RFC_KEY "\r\n"
+static const up_row refusals[] = {
+    {"no_upgrade", "GET /ws HTTP/1.1\r\n" UP_HEAD "Sec-WebSocket-Version: 13\r\n\r\n", "HTTP/1.1 426 ",
+     "Upgrade: websocket"},
+    {"version_8",
+     "GET /ws HTTP/1.1\r\n" UP_HEAD "Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 8\r\n\r\n",
+     "HTTP/1.1 426 ", "Sec-WebSocket-Version: 13"},
+    {"short_key",
+     "GET /ws HTTP/1.1\r\nHost: h\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: abc==\r\n"
+     "Sec-WebSocket-Version: 13\r\n\r\n",
+     "HTTP/1.1 400 ", "16 bytes"},
+    {"no_key", "GET /ws HTTP/1.1\r\nHost: h\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\n\r\n",
+     "HTTP/1.1 400 ", "16 bytes"},
+    /* cross-site WebSocket hijacking: a page elsewhere may not drive the daemon */
+    {"other_origin",
+     "GET /ws HTTP/1.1\r\n" UP_HEAD "Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\n"
+     "Origin: https://evil.example\r\n\r\n",
+     "HTTP/1.1 403 ", "another origin"},
+    {"origin_other_port",
+     "GET /ws HTTP/1.1\r\nHost: 127.0.0.1:1\r\nSec-WebSocket-Key: " RFC_KEY "\r\nUpgrade: websocket\r\n"
+     "Connection: Upgrade\r\nSec-WebSocket-Version: 13\r\nOrigin: http://127.0.0.1:2\r\n\r\n",
+     "HTTP/1.1 403 ", "another origin"},
+    {"post", "POST /ws HTTP/1.1\r\n" UP_HEAD "Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\n\r\n",
+     "HTTP/1.1 405 ", "GET"},
+};
+
+static void test_web_upgrade_refused(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    web_start(&d, NULL);
+    char out[4096];
+    for (size_t i = 0; i < sizeof refusals / sizeof refusals[0]; i++) {
+        http_get(refusals[i].req, out, sizeof out);
+        if (strncmp(out, refusals[i].status, strlen(refusals[i].status)) || !strstr(out, refusals[i].has))
+            fail_msg("%s: wanted '%s' with '%s', got:\n%s", refusals[i].name, refusals[i].status, refusals[i].has, out);
+    }
+    web_stop(&d);
+}
+
+/* ---- frames of RFC 6455, this side's ------------------------------------------------------ */
+
+/* A client frame: FIN as fin, opcode op, masked (unless !mask) with a
+ * fixed key, rsv bits as given. */
+static void ws_send_frame(int fd, int op, const void *p, size_t n, bool fin, bool mask, int rsv)
+{
+    uint8_t *f = malloc(n + 14);
+    size_t h = 0;
+    f[h++] = (uint8_t)((fin ? 0x80 : 0) | (rsv << 4) | op);
+    uint8_t mb = mask ? 0x80 : 0;
+    if (n < 126) {
+        f[h++] = (uint8_t)(mb | n);
+    } else if (n < 65536) {
+        f[h++] = mb | 126;
+        f[h++] = (uint8_t)(n >> 8);
+        f[h++] = (uint8_t)n;
+    } else {
+        f[h++] = mb | 127;
+        for (int i = 7; i >= 0; i--) f[h++] = (uint8_t)((uint64_t)n >> (8 * i));
+    }
+    static const uint8_t key[4] = {0x37, 0xfa, 0x21, 0x3d};
+    if (mask) memcpy(f + h, key, 4), h += 4;
+    for (size_t i = 0; i < n; i++) f[h + i] = ((const uint8_t *)p)[i] ^ (mask ? key[i & 3] : 0);
+    send_all(fd, f, h + n);
+    free(f);
+}
+
+static void ws_send(int fd, const void *p, size_t n)
+{
+    ws_send_frame(fd, 2, p, n, true, true, 0);
+}
+
+static bool read_n(int fd, uint8_t *p, size_t n)
+{
+    for (size_t got = 0; got < n;) {
+        ssize_t r = read(fd, p + got, n - got);
+        if (r <= 0) return false;
+        got += (size_t)r;
+    }
+    return true;
+}
+
+/* The next server frame: its opcode (-1 at the end of the stream), its
+ * payload in *p (malloc'ed, the caller frees), its length in *n. A server
+ * frame must not be masked (RFC 6455 5.1): asserted. */
+static int ws_recv(int fd, uint8_t **p, size_t *n)
+{
+    uint8_t h[10];
+    *p = NULL;
+    *n = 0;
+    if (!read_n(fd, h, 2)) return -1;
+    assert_int_equal(h[1] & 0x80, 0);
+    uint64_t len = h[1] & 127;
+    if (len == 126) {
+        if (!read_n(fd, h + 2, 2)) return -1;
+        len = (uint64_t)h[2] << 8 | h[3];
+    } else if (len == 127) {
+        if (!read_n(fd, h + 2, 8)) return -1;
+        len = 0;
+        for (int i = 0; i < 8; i++) len = len << 8 | h[2 + i];
+    }
+    assert_true(len < (64u << 20));
+    *p = malloc(len + 1);
+    if (!read_n(fd, *p, (size_t)len)) {
+        free(*p);
+        *p = NULL;
+        return -1;
+    }
+    *n = (size_t)len;
+    return h[0] & 15;
+}
+
+/* Reads to the close: its status code (1005, RFC 6455 7.1.5: a close
+ * with none; -1: the stream ended without a close). */
+static int ws_close_code(int fd)
+{
+    for (;;) {
+        uint8_t *p;
+        size_t n;
+        int op = ws_recv(fd, &p, &n);
+        int code = op == 8 ? (n >= 2 ? p[0] << 8 | p[1] : 1005) : -1;
+        free(p);
+        if (op == 8 || op < 0) return code;
+    }
+}
+
+/* The protocol's bytes over the WebSocket: a stream, whatever the messages. */
+typedef struct pstream {
+    uint8_t *b;
+    size_t n;
+} pstream;
+
+/* The next protocol frame from the WebSocket's binary messages: its type
+ * (or -1), its payload copied to pl (at most cap bytes) with *len. */
+static int proto_next(int fd, pstream *s, uint8_t *pl, size_t cap, uint32_t *len)
+{
+    for (;;) {
+        vp_header h;
+        size_t fs;
+        if (s->n >= VP_HEADER_SIZE && vp_frame_check(s->b, s->n, 64u << 20, &h, &fs) == VP_OK) {
+            size_t k = h.len < cap ? h.len : cap;
+            if (pl) memcpy(pl, s->b + VP_HEADER_SIZE, k);
+            if (len) *len = h.len;
+            memmove(s->b, s->b + fs, s->n - fs);
+            s->n -= fs;
+            return h.type;
+        }
+        uint8_t *p;
+        size_t n;
+        int op = ws_recv(fd, &p, &n);
+        if (op < 0 || op == 8) {
+            free(p);
+            return -1;
+        }
+        if (op == 2) {
+            s->b = realloc(s->b, s->n + n);
+            memcpy(s->b + s->n, p, n);
+            s->n += n;
+        }
+        free(p);
+    }
+}
+
+static size_t enc_hello(uint8_t *buf, size_t cap, int role, const char *token)
+{
+    vp_writer w;
+    vp_writer_init(&w, buf, cap);
+    vp_hello h = {.magic = VP_MAGIC, .version = VP_VERSION, .role = (uint8_t)role,
+                  .token_len = (uint8_t)(token ? strlen(token) : 0), .token = (const uint8_t *)token,
+                  .name_len = 4, .name = (const uint8_t *)"test"};
+    vp_enc_hello(&w, 1, &h);
+    return w.len;
+}
+
+/* ---- the protocol over WebSocket ---------------------------------------------------------- */
+
+/* HELLO cut into three messages at odd places, then two PINGs in one
+ * message: the replies as over TCP (the messages are a byte stream). */
+static void test_web_protocol_stream(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    web_start(&d, NULL);
+    int fd = ws_open();
+    uint8_t hb[128], pl[256];
+    size_t hn = enc_hello(hb, sizeof hb, VP_ROLE_VIEWER, NULL);
+    ws_send(fd, hb, 3);
+    ws_send(fd, hb + 3, 9);
+    ws_send(fd, hb + 12, hn - 12);
+    pstream s = {0};
+    uint32_t len;
+    assert_int_equal(proto_next(fd, &s, pl, sizeof pl, &len), VP_HELLO_OK);
+    vp_hello_ok ok;
+    assert_int_equal(vp_dec_hello_ok(pl, len, &ok), VP_OK);
+    assert_int_equal(ok.role, VP_ROLE_VIEWER);
+    uint8_t two[2 * VP_HEADER_SIZE];
+    vp_writer w;
+    vp_writer_init(&w, two, sizeof two);
+    vp_enc_empty(&w, VP_PING, 7);
+    vp_enc_empty(&w, VP_PING, 8);
+    ws_send(fd, two, w.len);
+    assert_int_equal(proto_next(fd, &s, NULL, 0, NULL), VP_PONG);
+    assert_int_equal(proto_next(fd, &s, NULL, 0, NULL), VP_PONG);
+    /* a WebSocket ping is answered with a pong carrying its bytes */
+    ws_send_frame(fd, 9, "abc", 3, true, true, 0);
+    uint8_t *p;
+    size_t n;
+    assert_int_equal(ws_recv(fd, &p, &n), 10);
+    assert_int_equal(n, 3);
+    assert_memory_equal(p, "abc", 3);
+    free(p);
+    /* a normal close is answered with a close */
+    uint8_t bye[2] = {0x03, 0xe8};
+    ws_send_frame(fd, 8, bye, 2, true, true, 0);
+    assert_int_equal(ws_close_code(fd), 1000);
+    close(fd);
+    free(s.b);
+    web_stop(&d);
+}
+
+/* A bad token is refused as over TCP: ERROR AUTH, then a close. */
+static void test_web_bad_token(void **state)
+{
+    (void)state;
+    char tok[] = "/tmp/vantage-web-tokens-XXXXXX";
+    int tfd = mkstemp(tok);
+    const char *lines = "viewer good-viewer-token\neditor good-editor-token\n";
+    assert_int_equal(write(tfd, lines, strlen(lines)), (ssize_t)strlen(lines));
+    close(tfd);
+    daemon_proc d;
+    const char *more[] = {"--tokens", tok, NULL};
+    web_start(&d, more);
+    int fd = ws_open();
+    uint8_t hb[128], pl[512];
+    ws_send(fd, hb, enc_hello(hb, sizeof hb, VP_ROLE_VIEWER, "wrong-token"));
+    pstream s = {0};
+    uint32_t len;
+    assert_int_equal(proto_next(fd, &s, pl, sizeof pl, &len), VP_ERROR);
+    vp_error e;
+    assert_int_equal(vp_dec_error(pl, len, &e), VP_OK);
+    assert_int_equal(e.code, VP_ERR_AUTH);
+    assert_int_equal(ws_close_code(fd), 1008);
+    close(fd);
+    fd = ws_open();
+    ws_send(fd, hb, enc_hello(hb, sizeof hb, VP_ROLE_VIEWER, "good-viewer-token"));
+    assert_int_equal(proto_next(fd, &s, pl, sizeof pl, &len), VP_HELLO_OK);
+    close(fd);
+    free(s.b);
+    web_stop(&d);
+    unlink(tok);
+}
+
+/* ---- bad frames --------------------------------------------------------------------------- */
+
+typedef struct frame_row {
+    const char *name;
+    int op;
+    const char *payload;
+    size_t n;
+    bool fin, mask;
+    int rsv;
+    int code; /* the close code the daemon must answer with */
+} frame_row;
+
+static const frame_row bad_frames[] = {
+    /* RFC 6455 5.1: a client's frames are masked; the server closes (1002) */
+    {"unmasked", 2, "abcd", 4, true, false, 0, 1002},
+    {"reserved_bit", 2, "abcd", 4, true, true, 4, 1002},
+    {"reserved_opcode", 3, "abcd", 4, true, true, 0, 1002},
+    /* refused by wslay's frame parser itself: a close without a code */
+    {"fragmented_ping", 9, "ab", 2, false, true, 0, 1005},
+    {"continuation_first", 0, "ab", 2, true, true, 0, 1002},
+    {"bad_utf8_text", 1, "a\xc3\x28z", 4, true, true, 0, 1007},
+    {"overlong_utf8", 1, "\xc0\xaf", 2, true, true, 0, 1007},
+    {"surrogate_utf8", 1, "\xed\xa0\x80", 3, true, true, 0, 1007},
+    {"text_not_binary", 1, "{\"hello\":1}", 11, true, true, 0, 1003},
+};
+
+static void test_web_bad_frames(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    web_start(&d, NULL);
+    /* a good client beside the bad ones is served throughout */
+    int good = ws_open();
+    uint8_t hb[128];
+    ws_send(good, hb, enc_hello(hb, sizeof hb, VP_ROLE_VIEWER, NULL));
+    pstream s = {0};
+    assert_int_equal(proto_next(good, &s, NULL, 0, NULL), VP_HELLO_OK);
+    for (size_t i = 0; i < sizeof bad_frames / sizeof bad_frames[0]; i++) {
+        const frame_row *r = &bad_frames[i];
+        int fd = ws_open();
+        ws_send_frame(fd, r->op, r->payload, r->n, r->fin, r->mask, r->rsv);
+        int code = ws_close_code(fd);
+        if (code != r->code) fail_msg("%s: close %d, wanted %d", r->name, code, r->code);
+        close(fd);
+        uint8_t ping[VP_HEADER_SIZE];
+        vp_writer w;
+        vp_writer_init(&w, ping, sizeof ping);
+        vp_enc_empty(&w, VP_PING, (uint32_t)i);
+        ws_send(good, ping, w.len);
+        assert_int_equal(proto_next(good, &s, NULL, 0, NULL), VP_PONG);
+    }
+    close(good);
+    free(s.b);
+    web_stop(&d);
+}
+
+/* A message over --max-payload + a header is closed with 1009 (too big)
+ * before the daemon holds it; one under it reaches the protocol, which
+ * refuses an oversized frame with ERROR TOO_LARGE as over TCP. */
+static void test_web_oversized(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    const char *more[] = {"--max-payload", "65536", NULL};
+    web_start(&d, more);
+    int fd = ws_open();
+    size_t big = 65536 + VP_HEADER_SIZE + 1;
+    uint8_t *junk = calloc(1, big);
+    ws_send(fd, junk, big);
+    assert_int_equal(ws_close_code(fd), 1009);
+    close(fd);
+    fd = ws_open();
+    uint8_t hb[128], pl[512];
+    ws_send(fd, hb, enc_hello(hb, sizeof hb, VP_ROLE_EDITOR, NULL));
+    pstream s = {0};
+    assert_int_equal(proto_next(fd, &s, NULL, 0, NULL), VP_HELLO_OK);
+    /* a frame header claiming 1 MiB (len, type, flags, req; little-endian) */
+    uint8_t fh[VP_HEADER_SIZE] = {0, 0, 0x10, 0, (uint8_t)VP_ENTITY_ADD, (uint8_t)(VP_ENTITY_ADD >> 8), 0, 0, 5, 0, 0, 0};
+    ws_send(fd, fh, sizeof fh);
+    uint32_t len;
+    assert_int_equal(proto_next(fd, &s, pl, sizeof pl, &len), VP_ERROR);
+    vp_error e;
+    assert_int_equal(vp_dec_error(pl, len, &e), VP_OK);
+    assert_int_equal(e.code, VP_ERR_TOO_LARGE);
+    assert_int_equal(ws_close_code(fd), 1008);
+    close(fd);
+    free(junk);
+    free(s.b);
+    web_stop(&d);
+}
+
+/* A client that floods pings and never reads is dropped (its pongs pile
+ * up); another client is served meanwhile. */
+static void test_web_ping_flood(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    web_start(&d, NULL);
+    int flood = ws_open();
+    int rcv = 4096;
+    setsockopt(flood, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv);
+    uint8_t payload[125];
+    memset(payload, 'p', sizeof payload);
+    int fl = fcntl(flood, F_GETFL);
+    fcntl(flood, F_SETFL, fl | O_NONBLOCK);
+    bool dropped = false;
+    for (int i = 0; i < 200000 && !dropped; i++) {
+        uint8_t f[6 + 125] = {0x89, 0x80 | 125, 0, 0, 0, 0};
+        memcpy(f + 6, payload, 125);
+        ssize_t n = send(flood, f, sizeof f, MSG_NOSIGNAL);
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            struct pollfd p = {.fd = flood, .events = POLLOUT};
+            if (poll(&p, 1, 2000) <= 0) break;
+            continue;
+        }
+        dropped = n < 0; /* EPIPE / ECONNRESET: the daemon hung up */
+    }
+    assert_true(dropped);
+    close(flood);
+    int fd = ws_open();
+    uint8_t hb[128];
+    ws_send(fd, hb, enc_hello(hb, sizeof hb, VP_ROLE_VIEWER, NULL));
+    pstream s = {0};
+    assert_int_equal(proto_next(fd, &s, NULL, 0, NULL), VP_HELLO_OK);
+    close(fd);
+    free(s.b);
+    web_stop(&d);
+}
+
+/* Slow-loris on the web port: a head not sent within --hello-timeout gets 408. */
+static void test_web_slowloris(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    const char *more[] = {"--hello-timeout", "300", NULL};
+    web_start(&d, more);
+    int fd = web_connect();
+    send_all(fd, "GET / HTTP/1.1\r\nHo", 18);
+    char out[1024];
+    size_t have = 0;
+    ssize_t n;
+    while ((n = read(fd, out + have, sizeof out - 1 - have)) > 0) have += (size_t)n;
+    out[have] = 0;
+    assert_int_equal(strncmp(out, "HTTP/1.1 408 ", 13), 0);
+    close(fd);
+    web_stop(&d);
+}
+
+/* ---- frames to many viewers ---------------------------------------------------------------- */
+
+/* 50 WebSocket viewers at once, each with a stream of small JPEG frames:
+ * every one gets frames, and the daemon's memory stays bounded. */
+static void test_web_many_viewers(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    web_start(&d, NULL);
+    enum { N = 50 };
+    int fds[N];
+    pstream s[N];
+    memset(s, 0, sizeof s);
+    for (int i = 0; i < N; i++) {
+        fds[i] = ws_open();
+        uint8_t buf[1024];
+        size_t hn = enc_hello(buf, sizeof buf, VP_ROLE_VIEWER, NULL);
+        vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = 60}, .max_fps = 30, .view_seq = (uint16_t)i};
+        double eye[3] = {0.1 * i, 2, -10}, at[3] = {0, 0, 0};
+        assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 60, 96, 64, 0.1, 100));
+        vp_writer w;
+        vp_writer_init(&w, buf + hn, sizeof buf - hn);
+        vp_enc_frame_sub(&w, 2, &sub);
+        ws_send(fds[i], buf, hn + w.len); /* HELLO and the subscription in one message */
+    }
+    for (int i = 0; i < N; i++) {
+        uint8_t pl[64];
+        uint32_t len;
+        int t;
+        while ((t = proto_next(fds[i], &s[i], pl, sizeof pl, &len)) == VP_HELLO_OK || t == VP_ACK) {
+        }
+        if (t != VP_FRAME) fail_msg("viewer %d: message %d, no frame", i, t);
+        vp_frame f;
+        assert_int_equal(vp_dec_frame(pl, len, &f), VP_OK);
+        assert_int_equal(f.view_seq, i);
+        assert_int_equal(f.width, 96);
+    }
+    char path[64], line[256];
+    snprintf(path, sizeof path, "/proc/%d/status", (int)d.pid);
+    FILE *st = fopen(path, "r");
+    long rss_kb = 0;
+    while (st && fgets(line, sizeof line, st))
+        if (!strncmp(line, "VmRSS:", 6)) rss_kb = strtol(line + 6, NULL, 10);
+    if (st) fclose(st);
+    print_message("50 WebSocket viewers of 96x64 JPEG frames: daemon RSS %ld KiB\n", rss_kb);
+    /* bound: the empty scene's daemon is ~40 MB (renderers' tables, two
+       workers); 50 viewers' buffers (64 KiB input, 16 KiB output tail,
+       wslay's context) add ~5 MB. 256 MB says "bounded", not a tuning */
+    assert_true(rss_kb > 0 && rss_kb < 256 * 1024);
+    for (int i = 0; i < N; i++) {
+        close(fds[i]);
+        free(s[i].b);
+    }
+    web_stop(&d);
+}
+
+/* --web on another address needs --tokens (or --insecure), as --bind does. */
+static void test_web_refuses_open_address(void **state)
+{
+    (void)state;
+    char out[2048], args[128];
+    snprintf(args, sizeof args, "--port %d --web 0.0.0.0:%d", free_port(), free_port());
+    assert_int_equal(daemon_run_to_exit(args, out, sizeof out), 2);
+    assert_non_null(strstr(out, "--web 0.0.0.0"));
+    assert_non_null(strstr(out, "--tokens"));
+    assert_int_equal(daemon_run_to_exit("--web 70000", out, sizeof out), 2);
+    assert_non_null(strstr(out, "bad value for --web"));
+    snprintf(args, sizeof args, "--port %d --web %d --web-root /nonexistent-vantage", free_port(), free_port());
+    assert_int_not_equal(daemon_run_to_exit(args, out, sizeof out), 0);
+    assert_non_null(strstr(out, "/nonexistent-vantage"));
+}
+
+const struct CMUnitTest web_tests[] = {
+    cmocka_unit_test(test_web_files),
+    cmocka_unit_test(test_web_upgrade),
+    cmocka_unit_test(test_web_upgrade_refused),
+    cmocka_unit_test(test_web_protocol_stream),
+    cmocka_unit_test(test_web_bad_token),
+    cmocka_unit_test(test_web_bad_frames),
+    cmocka_unit_test(test_web_oversized),
+    cmocka_unit_test(test_web_ping_flood),
+    cmocka_unit_test(test_web_slowloris),
+    cmocka_unit_test(test_web_many_viewers),
+    cmocka_unit_test(test_web_refuses_open_address),
+};
+const size_t web_tests_count = sizeof web_tests / sizeof web_tests[0];
