@@ -25,9 +25,9 @@ SHELL  := /bin/bash
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
             zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
-            gnuplot-nox blender python3-numpy libwslay-dev libssl-dev chromium nodejs npm
+            gnuplot-nox blender python3-numpy libwslay-dev libssl-dev openssl chromium nodejs npm
 # (blender and python3-numpy: make bench-cycles, the renderer against Cycles; not needed by make test)
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf libcrypto
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf libcrypto libssl
 # (libwslay-dev ships no pkg-config file: check-deps looks for its header)
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
@@ -122,7 +122,7 @@ EXR_LIBS := -lOpenEXRCore$$(pkg-config --variable=libsuffix OpenEXR)
 IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
 # the daemon's --web (daemon/web.c): WebSocket framing by libwslay (Debian's
 # libwslay-dev has no .pc file), SHA-1 and base64 of the handshake by libcrypto
-WEB_LIBS := -lwslay $$(pkg-config --libs libcrypto)
+WEB_LIBS := -lwslay $$(pkg-config --libs libssl libcrypto)
 # headless OpenGL (vt_egl.c, vt_gl_*.c): libglvnd's libEGL and libepoxy; at run time
 # Mesa's EGL vendor library and drivers (libegl-mesa0, libgl1-mesa-dri:
 # llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
@@ -230,9 +230,9 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 # every daemon module but the server's (the tests drive scenes, journals and edits in-process)
-PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o auth.o upload.o readback.o),$(DAEMON_OBJ))
+PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o tls.o auth.o upload.o readback.o),$(DAEMON_OBJ))
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c libssl libcrypto) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG; it
 # decodes uploaded textures (vt_texture: PNG, JPEG, and EXR through OpenEXRCore)

@@ -7,6 +7,7 @@
  */
 #include "httpd.h"
 #include "server_internal.h"
+#include "tls.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -20,6 +21,8 @@
 struct hconn {
     httpd *d;
     int fd;
+    SSL *ssl;            /* TLS (--web-cert), NULL: plain */
+    bool handshaking;    /* TLS: the handshake is not done yet */
     uint64_t deadline_ms;
     bool answered;       /* an answer is queued or sent: input is drained and dropped */
     bool peer_done;      /* the client has shut its side: free once the answer is out */
@@ -33,6 +36,7 @@ struct httpd {
     server *s;
     const httpd_ops *ops;
     uint64_t *counts;
+    SSL_CTX *tls;        /* NULL: plain HTTP */
     int lfd;
     uint32_t n, max;
     hconn **c;
@@ -63,25 +67,34 @@ static void hconn_unlink(hconn *h)
 static void hconn_free(hconn *h)
 {
     int fd = h->fd;
+    tls_free(h->ssl);
     hconn_unlink(h);
     close(fd);
 }
 
 static void on_conn(ae_loop *l, int fd, void *data, int mask);
 
+/* Whether the connection waits for the socket to be writable (an answer
+ * being written, or a TLS step that must write first). */
+static void want_write(hconn *h, bool on)
+{
+    ae_loop *l = h->d->s->loop;
+    bool has = ae_mask(l, h->fd) & AE_WRITABLE;
+    if (on && !has) ae_add(l, h->fd, AE_WRITABLE, on_conn, h);
+    else if (!on && has && !(h->out && h->out_pos < h->out_len)) ae_del(l, h->fd, AE_WRITABLE);
+}
+
 /* An answer in one write, best effort, for a connection about to be closed
  * (503 at the accept, 408 at the deadline): no buffer, no waiting. */
-static void say_now(int fd, int slot, const char *extra, const char *msg)
+static void say_now(SSL *ssl, int fd, int slot, const char *extra, const char *msg)
 {
     char buf[512];
     int n = snprintf(buf, sizeof buf,
                      "HTTP/1.1 %s %s\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: %zu\r\n"
                      "Connection: close\r\n%s\r\n%s",
                      httpd_codes[slot], reasons[slot], strlen(msg), extra ? extra : "", msg);
-    if (n > 0 && (size_t)n < sizeof buf) {
-        ssize_t ignored = write(fd, buf, (size_t)n);
-        (void)ignored;
-    }
+    bool ww;
+    if (n > 0 && (size_t)n < sizeof buf) (void)tls_write(ssl, fd, buf, (size_t)n, &ww);
 }
 
 /* Writes what the socket takes; when all is out, shuts the sending side and
@@ -90,7 +103,8 @@ static bool flush(hconn *h)
 {
     ae_loop *l = h->d->s->loop;
     while (h->out_pos < h->out_len) {
-        ssize_t n = write(h->fd, h->out + h->out_pos, h->out_len - h->out_pos);
+        bool ww;
+        ssize_t n = tls_write(h->ssl, h->fd, h->out + h->out_pos, h->out_len - h->out_pos, &ww);
         if (n > 0) {
             h->out_pos += (size_t)n;
             continue;
@@ -108,6 +122,7 @@ static bool flush(hconn *h)
         hconn_free(h);
         return false;
     }
+    tls_close_notify(h->ssl);
     shutdown(h->fd, SHUT_WR);
     uint64_t linger = ae_now_ms() + LINGER_MS;
     if (linger < h->deadline_ms) h->deadline_ms = linger;
@@ -142,9 +157,11 @@ bool httpd_error(hconn *h, int slot, const char *extra, const char *msg, bool he
     return httpd_answer(h, slot, "text/plain; charset=utf-8", extra, msg, strlen(msg), head_only);
 }
 
-int httpd_take(hconn *h, uint8_t *rest, size_t *rest_len)
+int httpd_take(hconn *h, uint8_t *rest, size_t *rest_len, SSL **ssl)
 {
     int fd = h->fd;
+    *ssl = h->ssl;
+    h->ssl = NULL;
     size_t n = h->in_len - h->head_end;
     memcpy(rest, h->in + h->head_end, n);
     *rest_len = n;
@@ -173,7 +190,8 @@ static void on_read(hconn *h)
     if (h->answered) {
         /* after the answer: drop what comes until the client closes */
         char junk[4096];
-        ssize_t n = read(h->fd, junk, sizeof junk);
+        bool ww;
+        ssize_t n = tls_read(h->ssl, h->fd, junk, sizeof junk, &ww);
         if (n == 0 && h->out_pos < h->out_len) {
             /* a client that shut its side after the request (nc -N): the
                answer still goes out, then the connection is freed */
@@ -184,19 +202,46 @@ static void on_read(hconn *h)
         }
         return;
     }
-    ssize_t n = read(h->fd, h->in + h->in_len, sizeof h->in - h->in_len);
-    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) return;
-    if (n <= 0) { /* gone before its request was whole: nothing to answer */
+    /* to EAGAIN: TLS may hold decrypted bytes the socket no longer signals */
+    for (;;) {
+        bool ww;
+        ssize_t n = tls_read(h->ssl, h->fd, h->in + h->in_len, sizeof h->in - h->in_len, &ww);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            want_write(h, ww);
+            return;
+        }
+        if (n <= 0) { /* gone before its request was whole: nothing to answer */
+            hconn_free(h);
+            return;
+        }
+        h->in_len += (size_t)n;
+        size_t start, end = http_head_end(h->in, h->in_len, &start);
+        if (end) {
+            respond(h, start, end);
+            return;
+        }
+        if (h->in_len == sizeof h->in) {
+            httpd_error(h, HS_431, NULL, "request head over 8 KiB\n", false);
+            return;
+        }
+    }
+}
+
+/* TLS: the handshake a step at a time; the request head after it. */
+static void handshake(hconn *h)
+{
+    bool ww;
+    int rc = tls_handshake(h->ssl, &ww);
+    if (rc < 0) { /* not TLS (plain HTTP to the TLS port), or a bad client hello */
+        LOGD("%s: TLS handshake failed", h->d->ops->name);
         hconn_free(h);
         return;
     }
-    h->in_len += (size_t)n;
-    size_t start, end = http_head_end(h->in, h->in_len, &start);
-    if (end) {
-        respond(h, start, end);
-        return;
-    }
-    if (h->in_len == sizeof h->in) httpd_error(h, HS_431, NULL, "request head over 8 KiB\n", false);
+    want_write(h, rc == 0 && ww);
+    if (rc == 0) return;
+    h->handshaking = false;
+    on_read(h); /* the request may have come with the handshake's last flight */
 }
 
 static void on_conn(ae_loop *l, int fd, void *data, int mask)
@@ -204,8 +249,14 @@ static void on_conn(ae_loop *l, int fd, void *data, int mask)
     (void)l;
     (void)fd;
     hconn *h = data;
-    if (mask & AE_READABLE) on_read(h);
-    else if (mask & AE_WRITABLE) flush(h);
+    if (h->handshaking) {
+        handshake(h);
+        return;
+    }
+    bool pending = h->out && h->out_pos < h->out_len;
+    if ((mask & AE_WRITABLE) && pending && !flush(h)) return; /* freed */
+    /* readable, or writable for a TLS read that had to write first */
+    if ((mask & AE_READABLE) || ((mask & AE_WRITABLE) && !pending)) on_read(h);
 }
 
 static void on_accept(ae_loop *l, int lfd, void *data, int mask)
@@ -229,14 +280,18 @@ static void on_accept(ae_loop *l, int lfd, void *data, int mask)
             char junk[4096];
             for (int k = 0; k < 4 && read(fd, junk, sizeof junk) > 0; k++) {
             }
-            say_now(fd, HS_503, "Retry-After: 1\r\n", "too many connections now\n");
-            close(fd);
+            if (!d->tls) say_now(NULL, fd, HS_503, "Retry-After: 1\r\n", "too many connections now\n");
+            close(fd); /* (TLS: no handshake made, nothing can be said) */
             free(h);
             d->counts[HS_503]++;
             continue;
         }
         *h = (hconn){.d = d, .fd = fd, .deadline_ms = ae_now_ms() + s->cfg.hello_timeout_ms};
         d->c[d->n++] = h;
+        if (d->tls) {
+            h->handshaking = true;
+            if (!(h->ssl = tls_new(d->tls, fd))) hconn_free(h);
+        }
     }
 }
 
@@ -251,9 +306,9 @@ void httpd_sweep(httpd *d, uint64_t now_ms)
     for (uint32_t i = d->n; i-- > 0;) {
         hconn *h = d->c[i];
         if (now_ms < h->deadline_ms) continue;
-        if (!h->answered) {
+        if (!h->answered && !h->handshaking) {
             /* slow-loris: tell it, without waiting for it to read */
-            say_now(h->fd, HS_408, NULL, "request head not sent in time\n");
+            say_now(h->ssl, h->fd, HS_408, NULL, "request head not sent in time\n");
             d->counts[HS_408]++;
         }
         hconn_free(h);
@@ -261,7 +316,7 @@ void httpd_sweep(httpd *d, uint64_t now_ms)
 }
 
 httpd *httpd_open(server *s, const char *addr, int port, uint32_t max_conns, const httpd_ops *ops,
-                  uint64_t *counts)
+                  uint64_t *counts, SSL_CTX *tls)
 {
     httpd *d = calloc(1, sizeof *d);
     if (!d || !(d->c = calloc(max_conns, sizeof *d->c))) {
@@ -269,7 +324,7 @@ httpd *httpd_open(server *s, const char *addr, int port, uint32_t max_conns, con
         LOGE("%s: out of memory", ops->name);
         return NULL;
     }
-    *d = (httpd){.s = s, .ops = ops, .counts = counts, .max = max_conns, .c = d->c};
+    *d = (httpd){.s = s, .ops = ops, .counts = counts, .tls = tls, .max = max_conns, .c = d->c};
     d->lfd = listen_tcp(addr, port);
     if (d->lfd < 0) goto fail; /* said why */
     if (d->lfd >= s->conns_cap || ae_add(s->loop, d->lfd, AE_READABLE, on_accept, d) < 0) {

@@ -23,6 +23,8 @@
 #include <stdint.h>
 
 struct server;
+typedef struct ssl_st SSL;
+typedef struct ssl_ctx_st SSL_CTX;
 typedef struct httpd httpd;
 typedef struct hconn hconn;
 
@@ -41,10 +43,11 @@ typedef struct httpd_ops {
     void (*serve)(struct server *s, hconn *h, const http_req *rq);
 } httpd_ops;
 
-/* Listens on addr:port and serves from the server's loop; counts answers
- * into counts[HS_COUNT]. NULL: it could not (logged). */
+/* Listens on addr:port and serves from the server's loop, over TLS when
+ * tls is not NULL (the caller's, kept); counts answers into
+ * counts[HS_COUNT]. NULL: it could not (logged). */
 httpd *httpd_open(struct server *s, const char *addr, int port, uint32_t max_conns, const httpd_ops *ops,
-                  uint64_t *counts);
+                  uint64_t *counts, SSL_CTX *tls);
 /* Ends every connection and the listener. NULL: nothing. */
 void httpd_close(httpd *d);
 /* Ends the connections past their time (the loop's sweep). */
@@ -60,10 +63,10 @@ bool httpd_answer(hconn *h, int slot, const char *type, const char *extra, const
 /* An answer with a one-line text body (errors). */
 bool httpd_error(hconn *h, int slot, const char *extra, const char *msg, bool head_only);
 /* Takes the connection out of HTTP (a WebSocket upgrade): its events
- * stop, h is freed, and its fd is returned, the caller's to close. The
- * bytes that came after the head (a client may send before it is
- * answered) are copied to rest (at most HTTPD_HEAD_MAX), *rest_len says
- * how many. */
-int httpd_take(hconn *h, uint8_t *rest, size_t *rest_len);
+ * stop, h is freed, and its fd is returned, the caller's to close, with
+ * its TLS session in *ssl (NULL: plain; the caller's to free). The bytes
+ * that came after the head (a client may send before it is answered) are
+ * copied to rest (at most HTTPD_HEAD_MAX), *rest_len says how many. */
+int httpd_take(hconn *h, uint8_t *rest, size_t *rest_len, SSL **ssl);
 
 #endif

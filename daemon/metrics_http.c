@@ -51,7 +51,7 @@ static const httpd_ops metrics_ops = {.name = "metrics", .serve = serve};
 int metrics_http_open(server *s)
 {
     s->http = httpd_open(s, s->cfg.metrics_bind, s->cfg.metrics_port, METRICS_HTTP_MAX_CONNS, &metrics_ops,
-                         s->m.http);
+                         s->m.http, NULL);
     if (!s->http) return -1;
     LOGI("metrics on http://%s:%d/metrics", s->cfg.metrics_bind, s->cfg.metrics_port);
     return 0;

@@ -38,6 +38,7 @@ typedef struct server_config {
     const char *web_bind;    /* --web: the browser endpoint's IPv4 address */
     int web_port;            /* its port; 0 = none */
     const char *web_root;    /* --web-root: the pages served */
+    const char *web_cert, *web_key; /* --web-cert/--web-key: PEM files for TLS; NULL = plain HTTP */
 } server_config;
 
 #define VANTAGED_PREHELLO_MAX 4096u /* frame limit before the handshake */

@@ -147,6 +147,7 @@ struct server {
     struct httpd *http;     /* --metrics: the HTTP endpoint; NULL = none */
     struct httpd *web;      /* --web: the browser viewer's endpoint (web.c); NULL = none */
     int web_root_fd;        /* --web-root, opened; -1 = none */
+    struct ssl_ctx_st *web_tls; /* --web-cert/--web-key: TLS for --web; NULL = plain HTTP */
 };
 
 /* A query handed to a worker, and its reply coming back. */

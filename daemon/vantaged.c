@@ -68,6 +68,9 @@ static void usage(FILE *f)
             "                       127.0.0.1 unless given; other addresses need --tokens or --insecure)\n"
             "  --web-root DIR       the pages served (default: PREFIX/share/vantage/web when\n"
             "                       installed, else the source tree's web/)\n"
+            "  --web-cert FILE, --web-key FILE\n"
+            "                       serve --web over TLS (https://, wss://) with this PEM certificate\n"
+            "                       chain and key: browsers decode video only on https or localhost\n"
             "  --hello-timeout MS   a client must finish HELLO this soon after connecting (10000);\n"
             "                       a metrics scraper its request head\n"
             "  --frame-timeout MS   a frame begun must arrive whole this soon (30000; slow-loris)\n"
@@ -176,7 +179,7 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_ENV, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF, O_WEB, O_WEB_ROOT };
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF, O_WEB, O_WEB_ROOT, O_WEB_CERT, O_WEB_KEY };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -194,7 +197,8 @@ int main(int argc, char **argv)
         {"metrics", required_argument, 0, O_METRICS}, {"out-limit-total", required_argument, 0, O_OUT_TOTAL},
         {"max-texture-size", required_argument, 0, O_TEX_SIZE}, {"max-texture-mem", required_argument, 0, O_TEX_MEM},
         {"lut", required_argument, 0, O_LUT}, {"fx-off", required_argument, 0, O_FX_OFF},
-        {"web", required_argument, 0, O_WEB}, {"web-root", required_argument, 0, O_WEB_ROOT}, {0, 0, 0, 0},
+        {"web", required_argument, 0, O_WEB}, {"web-root", required_argument, 0, O_WEB_ROOT},
+        {"web-cert", required_argument, 0, O_WEB_CERT}, {"web-key", required_argument, 0, O_WEB_KEY}, {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
@@ -273,6 +277,8 @@ int main(int argc, char **argv)
             snprintf(want, sizeof want, "[ADDR:]PORT, ADDR an IPv4 address or localhost, PORT 1..65535");
             break;
         case O_WEB_ROOT: cfg.web_root = optarg; break;
+        case O_WEB_CERT: cfg.web_cert = optarg; break;
+        case O_WEB_KEY: cfg.web_key = optarg; break;
         case O_INSECURE: insecure = true; break;
         case O_HELLO_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
         case O_FRAME_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.frame_timeout_ms); break;
@@ -338,6 +344,10 @@ int main(int argc, char **argv)
         }
         if (!cfg.tokens && !auth_loopback(metrics_addr))
             LOGW("--insecure: metrics on %s served without tokens", metrics_addr);
+    }
+    if (!cfg.web_cert != !cfg.web_key || (cfg.web_cert && !cfg.web_port)) {
+        fprintf(stderr, "vantaged: --web-cert and --web-key go together, with --web\n");
+        return 2;
     }
     if (cfg.web_port) {
         /* the WebSocket speaks the protocol: the same rule as --bind */

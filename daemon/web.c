@@ -40,6 +40,7 @@
  */
 #include "httpd.h"
 #include "server_internal.h"
+#include "tls.h"
 #include "web.h"
 
 #include <wslay/wslay.h>
@@ -65,6 +66,7 @@ struct wsio {
     wslay_event_context_ptr ctx;
     server *s;
     conn *c;
+    SSL *ssl;                    /* TLS (--web-cert), NULL: plain */
     uint8_t pre[HTTPD_HEAD_MAX]; /* bytes read with the HTTP head, handed to wslay first */
     size_t pre_len, pre_pos;
     bool failed;                 /* a callback could not go on (no memory): end the connection */
@@ -237,7 +239,7 @@ static void upgrade(server *s, hconn *h, const http_req *rq)
         return;
     }
     s->m.web_http[HS_101]++;
-    int fd = httpd_take(h, w->pre, &w->pre_len);
+    int fd = httpd_take(h, w->pre, &w->pre_len, &w->ssl);
     char hd[256];
     int n = snprintf(hd, sizeof hd,
                      "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
@@ -245,7 +247,9 @@ static void upgrade(server *s, hconn *h, const http_req *rq)
                      acc);
     /* a fresh socket takes these ~130 bytes at once; if not, the client is
        not worth a queue for them */
-    if (write(fd, hd, (size_t)n) != n) {
+    bool ww;
+    if (tls_write(w->ssl, fd, hd, (size_t)n, &ww) != n) {
+        tls_free(w->ssl);
         close(fd);
         free(w);
         return;
@@ -268,9 +272,17 @@ int web_open(server *s)
         LOGE("--web-root %s: %s", s->cfg.web_root, strerror(errno));
         return -1;
     }
-    s->web = httpd_open(s, s->cfg.web_bind, s->cfg.web_port, WEB_MAX_CONNS, &web_ops, s->m.web_http);
+    if (s->cfg.web_cert) {
+        char err[400];
+        if (!(s->web_tls = tls_server_ctx(s->cfg.web_cert, s->cfg.web_key, err, sizeof err))) {
+            LOGE("%s", err);
+            return -1;
+        }
+    }
+    s->web = httpd_open(s, s->cfg.web_bind, s->cfg.web_port, WEB_MAX_CONNS, &web_ops, s->m.web_http, s->web_tls);
     if (!s->web) return -1;
-    LOGI("web viewer on http://%s:%d/ (pages from %s)", s->cfg.web_bind, s->cfg.web_port, s->cfg.web_root);
+    LOGI("web viewer on %s://%s:%d/ (pages from %s)", s->web_tls ? "https" : "http", s->cfg.web_bind,
+         s->cfg.web_port, s->cfg.web_root);
     return 0;
 }
 
@@ -280,6 +292,8 @@ void web_close(server *s)
     s->web = NULL;
     if (s->web_root_fd >= 0) close(s->web_root_fd);
     s->web_root_fd = -1;
+    tls_ctx_free(s->web_tls);
+    s->web_tls = NULL;
 }
 
 /* ---- the WebSocket transport --------------------------------------------------------------- */
@@ -295,7 +309,8 @@ static ssize_t recv_cb(wslay_event_context_ptr ctx, uint8_t *buf, size_t len, in
         return (ssize_t)n;
     }
     for (;;) {
-        ssize_t n = read(w->c->fd, buf, len);
+        bool ww;
+        ssize_t n = tls_read(w->ssl, w->c->fd, buf, len, &ww);
         if (n > 0) {
             w->s->bytes_in += (uint64_t)n;
             return n;
@@ -310,9 +325,11 @@ static ssize_t recv_cb(wslay_event_context_ptr ctx, uint8_t *buf, size_t len, in
 
 static ssize_t send_cb(wslay_event_context_ptr ctx, const uint8_t *data, size_t len, int flags, void *ud)
 {
+    (void)flags;
     struct wsio *w = ud;
     for (;;) {
-        ssize_t n = send(w->c->fd, data, len, MSG_NOSIGNAL | ((flags & WSLAY_MSG_MORE) ? MSG_MORE : 0));
+        bool ww;
+        ssize_t n = tls_write(w->ssl, w->c->fd, data, len, &ww);
         if (n >= 0) {
             w->s->bytes_out += (uint64_t)n;
             return n;
@@ -413,6 +430,7 @@ void web_ws_free(conn *c)
 {
     if (!c->ws) return;
     wslay_event_context_free(c->ws->ctx);
+    tls_free(c->ws->ssl);
     free(c->ws);
     c->ws = NULL;
 }

@@ -16,6 +16,9 @@
 
 #include "protocol.h"
 
+#include <openssl/err.h>
+#include <openssl/ssl.h>
+
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -264,9 +267,8 @@ static void test_web_upgrade_refused(void **state)
 
 /* A client frame: FIN as fin, opcode op, masked (unless !mask) with a
  * fixed key, rsv bits as given. */
-static void ws_send_frame(int fd, int op, const void *p, size_t n, bool fin, bool mask, int rsv)
+static size_t ws_build_frame(uint8_t *f, int op, const void *p, size_t n, bool fin, bool mask, int rsv)
 {
-    uint8_t *f = malloc(n + 14);
     size_t h = 0;
     f[h++] = (uint8_t)((fin ? 0x80 : 0) | (rsv << 4) | op);
     uint8_t mb = mask ? 0x80 : 0;
@@ -283,7 +285,13 @@ static void ws_send_frame(int fd, int op, const void *p, size_t n, bool fin, boo
     static const uint8_t key[4] = {0x37, 0xfa, 0x21, 0x3d};
     if (mask) memcpy(f + h, key, 4), h += 4;
     for (size_t i = 0; i < n; i++) f[h + i] = ((const uint8_t *)p)[i] ^ (mask ? key[i & 3] : 0);
-    send_all(fd, f, h + n);
+    return h + n;
+}
+
+static void ws_send_frame(int fd, int op, const void *p, size_t n, bool fin, bool mask, int rsv)
+{
+    uint8_t *f = malloc(n + 14);
+    send_all(fd, f, ws_build_frame(f, op, p, n, fin, mask, rsv));
     free(f);
 }
 
@@ -692,7 +700,119 @@ static void test_web_refuses_open_address(void **state)
     assert_non_null(strstr(out, "/nonexistent-vantage"));
 }
 
+/* ---- TLS ------------------------------------------------------------------------------------- */
+
+/* --web-cert/--web-key: a certificate made by the command docs/WEB.md
+ * gives, checked by an OpenSSL client that trusts it (name and chain
+ * verified); a page over https and the protocol over wss; plain HTTP to
+ * the TLS port gets no answer (the handshake fails), and the plain
+ * clients of the same daemon are not disturbed. */
+static void test_web_tls(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/vantage-tls-XXXXXX", cmd[1024], cert[128], key[128];
+    assert_non_null(mkdtemp(dir));
+    snprintf(cert, sizeof cert, "%s/cert.pem", dir);
+    snprintf(key, sizeof key, "%s/key.pem", dir);
+    snprintf(cmd, sizeof cmd,
+             "openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -days 1 -subj /CN=localhost "
+             "-addext subjectAltName=DNS:localhost,IP:127.0.0.1 -keyout %s -out %s 2>/dev/null",
+             key, cert);
+    assert_int_equal(system(cmd), 0);
+    daemon_proc d;
+    const char *more[] = {"--web-cert", cert, "--web-key", key, NULL};
+    web_start(&d, more);
+
+    SSL_CTX *ctx = SSL_CTX_new(TLS_client_method());
+    assert_int_equal(SSL_CTX_load_verify_locations(ctx, cert, NULL), 1);
+    SSL_CTX_set_verify(ctx, SSL_VERIFY_PEER, NULL);
+    for (int round = 0; round < 2; round++) {
+        int fd = web_connect();
+        SSL *ssl = SSL_new(ctx);
+        SSL_set_fd(ssl, fd);
+        SSL_set_tlsext_host_name(ssl, "localhost");
+        SSL_set1_host(ssl, "localhost");
+        if (SSL_connect(ssl) != 1) fail_msg("TLS handshake: %s", ERR_error_string(ERR_get_error(), NULL));
+        assert_int_equal(SSL_get_verify_result(ssl), X509_V_OK);
+        char buf[4096];
+        int n;
+        if (round == 0) { /* a page */
+            const char *req = "GET / HTTP/1.1\r\nHost: localhost\r\n\r\n";
+            assert_int_equal(SSL_write(ssl, req, (int)strlen(req)), (int)strlen(req));
+            size_t have = 0;
+            while (have < sizeof buf - 1 && (n = SSL_read(ssl, buf + have, (int)(sizeof buf - 1 - have))) > 0)
+                have += (size_t)n;
+            buf[have] = 0;
+            assert_int_equal(strncmp(buf, "HTTP/1.1 200 ", 13), 0);
+            assert_non_null(strstr(buf, "<title>vantage</title>"));
+        } else { /* the protocol over wss: upgrade, HELLO, HELLO_OK */
+            int rn = snprintf(buf, sizeof buf,
+                              "GET /ws HTTP/1.1\r\nHost: localhost:%d\r\nOrigin: https://localhost:%d\r\n"
+                              "Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: " RFC_KEY "\r\n"
+                              "Sec-WebSocket-Version: 13\r\n\r\n",
+                              web_port, web_port);
+            assert_int_equal(SSL_write(ssl, buf, rn), rn);
+            uint8_t hb[128], fr[160];
+            size_t fn = ws_build_frame(fr, 2, hb, enc_hello(hb, sizeof hb, VP_ROLE_VIEWER, NULL), true, true, 0);
+            assert_int_equal(SSL_write(ssl, fr, (int)fn), (int)fn);
+            /* the 101's head, then one binary frame: HELLO_OK's 40 bytes */
+            size_t have = 0;
+            char *end = NULL;
+            while (have < sizeof buf - 1 && (n = SSL_read(ssl, buf + have, (int)(sizeof buf - 1 - have))) > 0) {
+                have += (size_t)n;
+                buf[have] = 0;
+                end = strstr(buf, "\r\n\r\n");
+                if (end && (size_t)(end + 4 - buf) + 2 + 40 <= have) break;
+            }
+            assert_non_null(end);
+            assert_int_equal(strncmp(buf, "HTTP/1.1 101 ", 13), 0);
+            assert_non_null(strstr(buf, "Sec-WebSocket-Accept: " RFC_ACCEPT));
+            const uint8_t *f = (const uint8_t *)end + 4;
+            assert_int_equal(f[0], 0x82); /* FIN, binary */
+            assert_int_equal(f[1], VP_HEADER_SIZE + 28);
+            vp_header h;
+            size_t fs;
+            assert_int_equal(vp_frame_check(f + 2, f[1], 4096, &h, &fs), VP_OK);
+            assert_int_equal(h.type, VP_HELLO_OK);
+        }
+        SSL_free(ssl);
+        close(fd);
+    }
+    SSL_CTX_free(ctx);
+    /* plain HTTP to the TLS port: no HTTP answer, the connection ends */
+    char out[256];
+    size_t got = http_get("GET / HTTP/1.1\r\nHost: x\r\n\r\n", out, sizeof out);
+    assert_true(got == 0 || strncmp(out, "HTTP/1.1", 8));
+    /* the protocol's own port is as it was */
+    vtc_client *c = connect_role(&d, VP_ROLE_VIEWER, false);
+    vtc_close(c);
+    web_stop(&d);
+    /* a key that does not match the certificate, a missing file: the
+       daemon does not start, and says which */
+    char other[128], args[1024], msg[2048];
+    snprintf(other, sizeof other, "%s/other.pem", dir);
+    snprintf(cmd, sizeof cmd, "openssl genpkey -algorithm ec -pkeyopt ec_paramgen_curve:prime256v1 -out %s 2>/dev/null",
+             other);
+    assert_int_equal(system(cmd), 0);
+    snprintf(args, sizeof args, "--port %d --web %d --web-root %s --web-cert %s --web-key %s", free_port(), free_port(),
+             dir, cert, other);
+    assert_int_not_equal(daemon_run_to_exit(args, msg, sizeof msg), 0);
+    assert_non_null(strstr(msg, "--web-key")); /* OpenSSL: "key values mismatch" */
+    assert_non_null(strstr(msg, "mismatch"));
+    snprintf(args, sizeof args, "--port %d --web %d --web-root %s --web-cert %s/none.pem --web-key %s", free_port(),
+             free_port(), dir, dir, key);
+    assert_int_not_equal(daemon_run_to_exit(args, msg, sizeof msg), 0);
+    assert_non_null(strstr(msg, "none.pem"));
+    assert_int_equal(daemon_run_to_exit("--web-cert x.pem", msg, sizeof msg), 2);
+    assert_non_null(strstr(msg, "go together"));
+    unlink(cert);
+    unlink(key);
+    unlink(other);
+    rmdir(dir);
+}
+
 const struct CMUnitTest web_tests[] = {
+    cmocka_unit_test(test_web_tls),
     cmocka_unit_test(test_web_files),
     cmocka_unit_test(test_web_upgrade),
     cmocka_unit_test(test_web_upgrade_refused),
