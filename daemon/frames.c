@@ -366,6 +366,10 @@ static int render_check(const server *s, const vp_render *m, cull_view *v, char 
 {
     int code = view_from(&m->view, UINT32_MAX, v, msg, msglen);
     if (code) return code;
+    if (m->format == VP_FRAME_H264) { /* until the encoder is wired */
+        snprintf(msg, msglen, "H.264 frames are not served yet");
+        return VP_ERR_UNSUPPORTED;
+    }
     size_t np = (size_t)v->viewport_w * v->viewport_h;
     size_t bytes = vp_size_frame((uint32_t)(np * 20));
     if (m->format == VP_FRAME_RAW && bytes > s->cfg.out_limit) {

@@ -813,9 +813,14 @@ void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_a
 /* RENDER: one frame of one view (its viewport is the frame's size; 0 x 0 =
  * 1920 x 1080), answered with FRAME. Formats: RAW = float32 linear RGBA
  * (alpha = coverage) then float32 depth (view depth w; +inf where nothing),
- * rows bottom-up; JPEG = tone mapped (ACES, exposure_ev), quality 1..100. */
+ * rows bottom-up; JPEG = tone mapped (ACES, exposure_ev), quality 1..100;
+ * H264 = tone mapped as JPEG, one H.264 access unit (Annex B, Constrained
+ * Baseline) a FRAME, a stream's frames one chain (the first, and the first
+ * after any frame not sent, a key frame), quality the CRF (1..51; 0: 23),
+ * max_kbps a rate cap (0: none). */
 #define VP_FRAME_RAW 0u
 #define VP_FRAME_JPEG 1u
+#define VP_FRAME_H264 2u
 #define VP_RENDER_NO_OCCLUSION 0x01u
 /* a frame's effects turned off for this request or stream (on by default;
  * the daemon's --fx-off turns them off for all) */
@@ -838,11 +843,12 @@ int vp_render_fx_parse(const char *list, uint8_t *flags, char *bad, size_t badle
 typedef struct vp_render {
     vp_view  view;
     uint8_t  format;        /* VP_FRAME_* */
-    uint8_t  quality;       /* JPEG 1..100; RAW 0 */
+    uint8_t  quality;       /* JPEG 1..100; RAW 0; H264 the CRF 1..51, 0 = 23 */
     uint8_t  flags;         /* VP_RENDER_* */
     uint8_t  renderer;      /* VP_RENDERER_* */
     float    exposure_ev;   /* JPEG: -64..64 */
     uint8_t  nhighlight;    /* 0..VP_RENDER_MAX_HIGHLIGHT: entities outlined */
+    uint32_t max_kbps;      /* H264: the bit rate's cap, kbit/s (0: the CRF alone); others 0 */
     uint64_t highlight[VP_RENDER_MAX_HIGHLIGHT]; /* their ids (0 and unknown ids: nothing drawn);
                                past nhighlight: 0 */
 } vp_render;
@@ -909,6 +915,7 @@ typedef struct vp_frame {
     uint64_t epoch;
     uint16_t width, height;
     uint8_t  format;
+    uint8_t  key;           /* H264: 1 a key frame (IDR, SPS and PPS first: decodable alone); others 0 */
     uint16_t view_seq;      /* the subscription's view_seq it was drawn for (RENDER: 0) */
     uint32_t visible;       /* entities drawn */
     uint32_t render_ns, encode_ns;

@@ -175,11 +175,11 @@ void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
 /* RENDER's fields after its view */
 #define RENDER_FIELDS(X)                                                                                    \
     X(u8, format) X(u8, quality) X(u8, flags) X(u8, renderer) X(f32, exposure_ev) X(u8, nhighlight)        \
-    X(pad8, pad1) X(pad16, pad2) X(pad32, pad3) X(u64a, highlight)
+    X(pad8, pad1) X(pad16, pad2) X(u32, max_kbps) X(u64a, highlight)
 #define RENDER_CHECKS(X)                                                                                    \
     X(count, nhighlight, "highlights", "", 0, VP_RENDER_MAX_HIGHLIGHT)                                     \
     X(max, renderer, "renderer", "0 default, 1 software, 2 OpenGL are defined", 0, VP_RENDERER_GL)         \
-    X(max, format, "format", "0 raw, 1 JPEG are defined", 0, VP_FRAME_JPEG)                                \
+    X(max, format, "format", "0 raw, 1 JPEG, 2 H.264 are defined", 0, VP_FRAME_H264)                      \
     X(mask, flags, "flags",                                                                                \
       "0x1 no occlusion, 0x2 no shadows, 0x4 no ambient occlusion, 0x8 no image-based ambient, 0x10 no FXAA " \
       "are defined",                                                                                       \
@@ -202,6 +202,8 @@ static int render_read(const uint8_t *p, vp_render *m)
     if (rc) return rc;
     if (m->format == VP_FRAME_JPEG && (m->quality < 1 || m->quality > 100)) return VP_ERR_INVALID;
     if (m->format == VP_FRAME_RAW && m->quality) return VP_ERR_INVALID;
+    if (m->format == VP_FRAME_H264 && m->quality > 51) return VP_ERR_INVALID; /* x264's CRF scale */
+    if (m->format != VP_FRAME_H264 && m->max_kbps) return VP_ERR_INVALID;
     for (uint32_t i = m->nhighlight; i < VP_RENDER_MAX_HIGHLIGHT; i++)
         if (m->highlight[i]) return VP_ERR_INVALID; /* past the count: 0, so a list has one reading */
     return picture_view_take(p, &m->view);
@@ -256,7 +258,7 @@ int vp_dec_frame_sub(const uint8_t *p, size_t len, vp_frame_sub *m)
 }
 
 #define FRAME_FIELDS(X)                                                                                     \
-    X(u64, epoch) X(u16, width) X(u16, height) X(u8, format) X(pad8, pad1) X(u16, view_seq) X(u32, visible) \
+    X(u64, epoch) X(u16, width) X(u16, height) X(u8, format) X(u8, key) X(u16, view_seq) X(u32, visible)     \
     X(u32, render_ns) X(u32, encode_ns) X(u32, data_len)
 VP_LAYOUT(frame, vp_frame, FRAME_FIELDS)
 
@@ -281,7 +283,8 @@ int vp_dec_frame(const uint8_t *p, size_t len, vp_frame *m)
     int rc = frame_head(&r, p, len, m);
     if (rc) return rc;
     m->data = p + VP_FRAME_HEADER;
-    if (m->format > VP_FRAME_JPEG || !m->width || !m->height) return VP_ERR_INVALID;
+    if (m->format > VP_FRAME_H264 || !m->width || !m->height || m->key > 1 || (m->key && m->format != VP_FRAME_H264))
+        return VP_ERR_INVALID;
     if (len - VP_FRAME_HEADER < m->data_len) return VP_ERR_TRUNCATED;
     if (len - VP_FRAME_HEADER > m->data_len) return VP_ERR_TRAILING;
     if (m->format == VP_FRAME_RAW && (uint64_t)m->data_len != (uint64_t)m->width * m->height * 20) return VP_ERR_COUNT;

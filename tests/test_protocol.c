@@ -543,6 +543,17 @@ static void test_render_messages(void **state)
     assert_int_equal(g.visible, 4);
     assert_int_equal(g.view_seq, 65535);
     assert_int_equal(g.data_len, 40);
+    /* the key flag: H.264's, 0 or 1 */
+    static const uint8_t au[6] = {0, 0, 0, 1, 0x65, 0x88};
+    vp_frame k = {.width = 2, .height = 2, .format = VP_FRAME_H264, .key = 1, .data_len = 6, .data = au};
+    for (int bad = 0; bad < 3; bad++) {
+        k.key = bad == 1 ? 2 : 1;
+        k.format = bad == 2 ? VP_FRAME_JPEG : VP_FRAME_H264;
+        vp_writer_init(&w, g_buf, sizeof g_buf);
+        vp_enc_frame(&w, 1, &k);
+        assert_int_equal(vp_dec_frame(g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE, &g), bad ? VP_ERR_INVALID : VP_OK);
+    }
+    assert_int_equal(g.key, 1);
 }
 
 /* ---- malformed payloads, one named test each ---------------------------------- */
@@ -992,7 +1003,10 @@ typedef struct bad_render {
 } bad_render;
 
 static const bad_render bad_renders[] = {
-    {"format 2", {.view = IDENT_VIEW, .format = 2}, VP_ERR_INVALID},
+    {"format 3", {.view = IDENT_VIEW, .format = 3}, VP_ERR_INVALID},
+    {"h264 crf 52", {.view = IDENT_VIEW, .format = VP_FRAME_H264, .quality = 52}, VP_ERR_INVALID},
+    {"jpeg with a rate cap", {.view = IDENT_VIEW, .format = VP_FRAME_JPEG, .quality = 80, .max_kbps = 1000},
+     VP_ERR_INVALID},
     {"jpeg quality 0", {.view = IDENT_VIEW, .format = VP_FRAME_JPEG, .quality = 0}, VP_ERR_INVALID},
     {"jpeg quality 101", {.view = IDENT_VIEW, .format = VP_FRAME_JPEG, .quality = 101}, VP_ERR_INVALID},
     {"raw with a quality", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .quality = 5}, VP_ERR_INVALID},
