@@ -74,13 +74,14 @@ export async function connect(d, role = ROLE.VIEWER, token, opts = {}) {
   return c;
 }
 
-/* vantage -p PORT args..., with VANTAGE_TOKEN (default the editor's):
- * { code, stdout, stderr }. */
-export function cli(d, args, { token = TOKENS.editor } = {}) {
+/* vantage -p PORT args..., with VANTAGE_TOKEN (default the editor's) and
+ * input on its stdin (closed at once without): { code, stdout, stderr }. */
+export function cli(d, args, { token = TOKENS.editor, input = '' } = {}) {
   return new Promise((resolve) => {
-    execFile(path.join(BIN_DIR, 'vantage'), ['-p', String(d.port), ...args],
+    const child = execFile(path.join(BIN_DIR, 'vantage'), ['-p', String(d.port), ...args],
       { env: { ...process.env, VANTAGE_TOKEN: token }, timeout: 10000, encoding: 'buffer' },
       (err, stdout, stderr) => resolve({ code: err ? (err.code ?? -1) : 0, stdout: stdout.toString(), stderr: stderr.toString(), out: stdout }));
+    child.stdin.end(input);
   });
 }
 
