@@ -169,3 +169,23 @@ test('DESTROY from a commander: DESTROYED, and the CLI sees the sphere and the d
   assert.match(miss.message, /does not touch entity 301/);
   c.close();
 });
+
+test('ENV_GET: the environment the CLI set and prints', async () => {
+  const r = await cli(d, ['env', '--night']);
+  assert.equal(r.code, 0, r.stderr);
+  const c = await connect(d, ROLE.VIEWER);
+  const e = await c.envGet();
+  // the CLI prints with %g: 6 significant digits of the f32 values
+  const g = (x) => Number(x.toPrecision(6));
+  const nums = (line) => line.match(/-?[\d.]+(?:e[-+]?\d+)?/g).map(Number);
+  const lines = Object.fromEntries(r.stdout.trim().split('\n').map((l) => [l.split(':')[0], l.slice(l.indexOf(':') + 1)]));
+  assert.deepEqual(nums(lines.sky), [...e.sky_color, e.sky_intensity].map(g), 'sky: color:R,G,B, intensity');
+  assert.equal(e.sky_mode, 0);
+  assert.deepEqual(nums(lines.ground), [e.ground_height, ...e.ground_color].map(g));
+  assert.deepEqual(nums(lines.fog), [e.fog_density, ...e.fog_color, e.fog_height_falloff].map(g));
+  assert.equal(e.exposure_mode, 1);
+  assert.deepEqual(nums(lines.exposure), [e.exposure_comp].map(g));
+  assert.equal(nums(lines.sun)[2], g(e.sun_lux));
+  assert.deepEqual(nums(lines.sun).slice(3), e.sun_color.map(g));
+  c.close();
+});

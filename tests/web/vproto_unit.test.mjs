@@ -164,6 +164,8 @@ test('the writer refuses what it cannot encode, naming the field', () => {
     [() => enc.render(1, { view: {}, highlight: new Array(9).fill(1) }), /9 highlights; at most 8/],
     [() => enc.frameSubscribe(1, { view: {}, maxFps: 70000 }), /max_fps 70000/],
     [() => viewPerspective({ eye: [0, 0, 0], target: [0, 0, -1], width: 1e6, height: 10 }), /width 1000000 is not a viewport side/],
+    [() => viewPerspective({ eye: [0, 0, 0], target: [0, 0, -1], width: 8, height: 8, near: '0.5' }), /near is not a number/],
+    [() => viewPerspective({ eye: [0, 0], target: [0, 0, -1], width: 8, height: 8 }), /eye is not 3 numbers/],
   ];
   for (const [f, re] of cases) {
     const e = throwsVp(f, VpError);
@@ -263,15 +265,18 @@ test('Client: requests by req, timeouts, pushes, throwing callbacks, close', asy
 
   // an ERROR rejects with the server's code name and index
   const p3 = c.entityGet([5n]);
-  t.onbytes(reply(T.ERROR, sentReq(t.sent[2]), (w) => { w.i32(ERR.UNKNOWN_ID); w.u32(0); w.u16(3); w.bytes(new TextEncoder().encode('no!')); }));
+  t.onbytes(reply(T.ERROR, sentReq(t.sent.at(-1)), (w) => { w.i32(ERR.UNKNOWN_ID); w.u32(0); w.u16(3); w.bytes(new TextEncoder().encode('no!')); }));
   await assert.rejects(p3, (e) => e.codeName === 'UNKNOWN_ID' && e.index === 0 && !e.local && /no!/.test(e.message));
+  const p3b = c.stats();
+  t.onbytes(reply(T.ERROR, sentReq(t.sent.at(-1)), (w) => { w.i32(-99); w.u32(0xffffffff); w.u16(0); }));
+  await assert.rejects(p3b, (e) => e.codeName === 'CODE_-99' && e.code === -99);
 
   // a reply of the wrong type rejects; so does one that does not decode
   const p4 = c.stats();
-  t.onbytes(reply(T.ACK, sentReq(t.sent[3]), (w) => w.zeros(12)));
+  t.onbytes(reply(T.ACK, sentReq(t.sent.at(-1)), (w) => w.zeros(12)));
   await assert.rejects(p4, (e) => e.codeName === 'TYPE' && e.local);
   const p5 = c.subscribe(1);
-  t.onbytes(reply(T.ACK, sentReq(t.sent[4]), (w) => w.zeros(11)));
+  t.onbytes(reply(T.ACK, sentReq(t.sent.at(-1)), (w) => w.zeros(11)));
   await assert.rejects(p5, (e) => e.codeName === 'TRUNCATED' && e.local);
 
   // a timeout rejects; the late reply is dropped (not taken for a push)
@@ -279,7 +284,7 @@ test('Client: requests by req, timeouts, pushes, throwing callbacks, close', asy
   await assert.rejects(p6, (e) => e.codeName === 'TIMEOUT');
   const errs = [];
   c.onerror = (e) => errs.push(e);
-  t.onbytes(reply(T.PONG, sentReq(t.sent[5])));
+  t.onbytes(reply(T.PONG, sentReq(t.sent.at(-1))));
   assert.equal(errs.length, 1);
   assert.match(errs[0].message, /unexpected PONG/);
 

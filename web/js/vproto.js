@@ -120,19 +120,20 @@ export function errName(code) {
 }
 
 /*
- * The one error type of the module. `code` is the protocol's (ERR.*), or
- * null for CLOSED (the connection ended before the reply); `codeName` is
- * its name ("AUTH", "TRUNCATED", ... "CLOSED"); `index` the record a batch
+ * The one error type of the module. `code` is the protocol's number (ERR.*;
+ * a server's code no row names keeps its number, named "CODE_<n>"), null
+ * for CLOSED (the connection ended before the reply); `codeName` is its
+ * name ("AUTH", "TRUNCATED", ... "CLOSED"); `index` the record a batch
  * error names (0xFFFFFFFF for none); `local` is true when this side found
  * the fault (bytes it could not decode, a value it cannot encode, a
  * request that timed out) rather than the server's ERROR; `req` the
  * request it answers (0 when none).
  */
 export class VpError extends Error {
-  constructor(codeName, message, { index = 0xffffffff, local = true, req = 0 } = {}) {
+  constructor(codeName, message, { index = 0xffffffff, local = true, req = 0, code = ERR[codeName] ?? null } = {}) {
     super(`${codeName}: ${message}`);
     this.name = 'VpError';
-    this.code = codeName === 'CLOSED' ? null : ERR[codeName] ?? null;
+    this.code = code;
     this.codeName = codeName;
     this.index = index;
     this.local = local;
@@ -318,7 +319,10 @@ export class FrameParser {
     return { len, type, flags, req };
   }
   push(chunk) {
-    if (this.error) throw this.error;
+    if (this.error) {
+      this.error.frames = []; // those were handed on by the push that failed
+      throw this.error;
+    }
     const b = asBytes(chunk);
     const out = [];
     let i = 0;
@@ -745,6 +749,11 @@ function ortho(l, r, b, t, n, f) { // cull_mat_ortho, OpenGL depth
   return m;
 }
 
+function num(v, what) {
+  if (typeof v !== 'number') fail('INVALID', `${what} is not a number (${typeof v})`);
+  return v;
+}
+
 function vec3(v, what) {
   if (!Array.isArray(v) && !ArrayBuffer.isView(v)) fail('INVALID', `${what} is not an array of 3 numbers`);
   if (v.length !== 3 || ![0, 1, 2].every((i) => typeof v[i] === 'number')) fail('INVALID', `${what} is not 3 numbers`);
@@ -774,6 +783,7 @@ function camera(eye, target, up, proj, w, h) { // libvantage.c camera()
 export function viewPerspective({ eye, target, up = [0, 1, 0], fovDeg = 60, width, height, near = 0.1, far = 10000 }) {
   const e = vec3(eye, 'eye'), t = vec3(target, 'target'), u = vec3(up, 'up');
   const w = viewportSide(width, 'width'), h = viewportSide(height, 'height');
+  [fovDeg, near, far].forEach((v, i) => num(v, ['fovDeg', 'near', 'far'][i]));
   if (!(fovDeg > 0 && fovDeg < 180) || !w || !h || !(near > 0) || !(far > near)) return null;
   return camera(e, t, u, perspective(fovDeg * Math.PI / 180, w / h, near, far), w, h);
 }
@@ -784,6 +794,7 @@ export function viewPerspective({ eye, target, up = [0, 1, 0], fovDeg = 60, widt
 export function viewOrtho({ eye, target, up = [0, 1, 0], widthM, heightM, width, height, near = 0.1, far = 10000 }) {
   const e = vec3(eye, 'eye'), t = vec3(target, 'target'), u = vec3(up, 'up');
   const w = viewportSide(width, 'width'), h = viewportSide(height, 'height');
+  [widthM, heightM, near, far].forEach((v, i) => num(v, ['widthM', 'heightM', 'near', 'far'][i]));
   if (!(widthM > 0) || !(heightM > 0) || !w || !h || !(far > near)) return null;
   return camera(e, t, u, ortho(-widthM / 2, widthM / 2, -heightM / 2, heightM / 2, near, far), w, h);
 }
@@ -933,6 +944,7 @@ export class Client {
   }
 
   bytes(chunk) {
+    if (this.closed) return; // bytes a transport delivers after the end
     let frames;
     try {
       frames = this.parser.push(chunk);
@@ -953,7 +965,7 @@ export class Client {
       try {
         if (f.type === T.ERROR) {
           const e = decError(f.payload);
-          err = new VpError(e.codeName, e.msg, { index: e.index, local: false, req: f.req });
+          err = new VpError(e.codeName, e.msg, { index: e.index, local: false, req: f.req, code: e.code });
         } else v = p.replyType === null ? f : decode(f.type, f.payload);
       } catch (e) {
         err = e;
@@ -972,7 +984,7 @@ export class Client {
       case T.FRAME: return this.emit('onframe', decode(T.FRAME, f.payload), f.req);
       case T.ERROR: {
         const e = decError(f.payload);
-        return this.emit('onerror', new VpError(e.codeName, e.msg, { index: e.index, local: false, req: f.req }));
+        return this.emit('onerror', new VpError(e.codeName, e.msg, { index: e.index, local: false, req: f.req, code: e.code }));
       }
       default:
         return this.emit('onerror', new VpError('TYPE', `unexpected ${typeName(f.type)} (req ${f.req})`, { req: f.req }));
