@@ -13,7 +13,7 @@ import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import {
   LAYOUTS, FrameParser, Writer, Reader, VpError, enc, dec, decode, T, Client, VP_HEADER_SIZE,
-  VP_FRAME_H264, VP_FRAME_JPEG, putLayout, viewPerspective, viewOrtho, errName, typeName, ERR,
+  VP_FRAME_H264, VP_FRAME_JPEG, putLayout, encodeFrame, viewPerspective, viewOrtho, errName, typeName, ERR,
 } from '../../web/js/vproto.js';
 
 /* assert.throws that returns the VpError thrown (the node:assert one returns nothing) */
@@ -62,6 +62,15 @@ test('every layout is PROTOCOL.md\'s table: offsets, sizes, types, names', () =>
     const mine = L.fields.map((f) => ({ offset: f.offset, size: f.size, type: f.count ? `${f.type}[${f.count}]` : f.type, name: f.name }));
     assert.deepEqual(mine, doc.get(name), `layout ${name}`);
   }
+});
+
+test('message types and error codes are protocol.h\'s (enum vp_type, VP_ERRORS)', () => {
+  const h = readFileSync(path.join(ROOT, 'protocol/protocol.h'), 'utf8');
+  const types = Object.fromEntries([...h.matchAll(/^\s*VP_(\w+) = (0x[0-9a-fA-F]+),/gm)].map((m) => [m[1], Number(m[2])]));
+  assert.deepEqual(T, types);
+  const errs = Object.fromEntries([...h.matchAll(/X\(VP_ERR_(\w+),\s*(-\d+),/g)].map((m) => [m[1], Number(m[2])]));
+  assert.deepEqual(ERR, errs);
+  assert.equal(Object.keys(ERR).length, 23);
 });
 
 /* A deterministic PRNG (mulberry32): the same cases every run. */
@@ -235,13 +244,7 @@ function memTransport() {
   t.close = () => { t.closed = true; t.onclose && t.onclose({ reason: 'closed by the client' }); };
   return t;
 }
-function reply(type, req, fill) {
-  const w = new Writer();
-  w.begin(type, req);
-  if (fill) fill(w);
-  w.end();
-  return w.view().slice();
-}
+const reply = encodeFrame;
 const sentReq = (b) => new Reader(b.subarray(8, 12)).u32();
 
 test('Client: requests by req, timeouts, pushes, throwing callbacks, close', async () => {

@@ -470,7 +470,9 @@ function exact(payload, L, what) {
 
 // ---- encoders: each returns one whole frame (header + payload) --------------------------
 
-function frame(type, req, fill) {
+/* One frame: the header of type and req, the payload fill(writer) writes
+ * (none without fill), the length patched. */
+export function encodeFrame(type, req, fill) {
   const w = new Writer();
   w.begin(type, req);
   if (fill) fill(w);
@@ -523,7 +525,7 @@ function putRender(w, m) {
 export const enc = Object.freeze({
   /* { role (ROLE.*), token (string or bytes, 0..255), name (0..255) } */
   hello(req, { role = ROLE.VIEWER, token = '', name = 'vproto.js' } = {}) {
-    return frame(T.HELLO, req, (w) => {
+    return encodeFrame(T.HELLO, req, (w) => {
       const tok = utf8(token, 255, 'token'), nm = utf8(name, 255, 'name');
       w.u32(VP_MAGIC);
       w.u16(VP_VERSION);
@@ -534,14 +536,14 @@ export const enc = Object.freeze({
       w.bytes(nm);
     });
   },
-  ping: (req, data = new Uint8Array(0)) => frame(T.PING, req, (w) => w.bytes(utf8(data, VP_MAX_PING, 'ping data'))),
-  empty: (type, req) => frame(type, req), // STATS, SUBLEVEL_LIST, SUBLEVEL_INFO, ENV_GET, FRAME_UNSUBSCRIBE
-  subscribe: (req, kinds) => frame(T.SUBSCRIBE, req, (w) => w.u32(kinds, 'kinds')),
-  entityGet: (req, ids) => frame(T.ENTITY_GET, req, (w) => putIds(w, ids)),
+  ping: (req, data = new Uint8Array(0)) => encodeFrame(T.PING, req, (w) => w.bytes(utf8(data, VP_MAX_PING, 'ping data'))),
+  empty: (type, req) => encodeFrame(type, req), // STATS, SUBLEVEL_LIST, SUBLEVEL_INFO, ENV_GET, FRAME_UNSUBSCRIBE
+  subscribe: (req, kinds) => encodeFrame(T.SUBSCRIBE, req, (w) => w.u32(kinds, 'kinds')),
+  entityGet: (req, ids) => encodeFrame(T.ENTITY_GET, req, (w) => putIds(w, ids)),
   /* views: 1..32 views; { flags (VP_Q_*, VP_Q_SUBLEVELS set by sublevels),
    * minArea (pixels), sublevels: [ids] (only these are seen) } */
   visQuery(req, views, { flags = 0, minArea = 0, sublevels = null } = {}) {
-    return frame(T.VIS_QUERY, req, (w) => {
+    return encodeFrame(T.VIS_QUERY, req, (w) => {
       const f = sublevels ? flags | VP_Q_SUBLEVELS : flags & ~VP_Q_SUBLEVELS;
       putLayout(w, LAYOUTS.vis_query, { view_count: views.length, flags: f, min_area: minArea });
       views.forEach((v, i) => putView(w, v, `view ${i}`));
@@ -551,17 +553,17 @@ export const enc = Object.freeze({
       }
     });
   },
-  sublevelNames: (req, names) => frame(T.SUBLEVEL_NAMES, req, (w) => putNames(w, names)),
+  sublevelNames: (req, names) => encodeFrame(T.SUBLEVEL_NAMES, req, (w) => putNames(w, names)),
   /* { pos[3], entity (id, 0 = a place), kind (0 ping, 1 select), ttl_ms } */
-  mark: (req, m) => frame(T.MARK, req, (w) => putLayout(w, LAYOUTS.mark, { ttl_ms: 10000, ...m }, 'mark')),
+  mark: (req, m) => encodeFrame(T.MARK, req, (w) => putLayout(w, LAYOUTS.mark, { ttl_ms: 10000, ...m }, 'mark')),
   /* { id, handle (0 = any), debris (0..64), center[3], radius } */
-  destroy: (req, m) => frame(T.DESTROY, req, (w) => putLayout(w, LAYOUTS.destroy, m, 'destroy')),
-  render: (req, m) => frame(T.RENDER, req, (w) => putRender(w, m)),
+  destroy: (req, m) => encodeFrame(T.DESTROY, req, (w) => putLayout(w, LAYOUTS.destroy, m, 'destroy')),
+  render: (req, m) => encodeFrame(T.RENDER, req, (w) => putRender(w, m)),
   /* any type with any payload bytes, as they are (tests send bad frames) */
-  raw: (type, req, payload = new Uint8Array(0)) => frame(type, req, (w) => w.bytes(payload)),
+  raw: (type, req, payload = new Uint8Array(0)) => encodeFrame(type, req, (w) => w.bytes(payload)),
   /* RENDER's fields and { maxFps (1..240), viewSeq (u16) } */
   frameSubscribe(req, m) {
-    return frame(T.FRAME_SUBSCRIBE, req, (w) => {
+    return encodeFrame(T.FRAME_SUBSCRIBE, req, (w) => {
       putRender(w, m);
       putLayout(w, LAYOUTS.frame_sub_tail, { max_fps: m.maxFps ?? 30, view_seq: m.viewSeq ?? 0 });
     });
