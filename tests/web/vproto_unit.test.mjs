@@ -309,3 +309,75 @@ test('Client: requests by req, timeouts, pushes, throwing callbacks, close', asy
   await assert.rejects(c.ping(), (e) => e.codeName === 'CLOSED');
   assert.equal(errs.at(-1).codeName, 'INVALID');
 });
+
+/* A valid payload of each type the module decodes (built with its own
+ * writer: the shapes, not the values, matter here). */
+function validPayloads() {
+  const w = (fill) => { const x = new Writer(); fill(x); return x.view().slice(); };
+  const te = new TextEncoder();
+  return {
+    [T.HELLO_OK]: w((x) => putLayout(x, LAYOUTS.hello_ok, { version: 2 })),
+    [T.ERROR]: w((x) => { x.i32(-9); x.u32(1); x.u16(5); x.bytes(te.encode('bad x')); }),
+    [T.PONG]: w((x) => x.bytes(new Uint8Array([1, 2]))),
+    [T.STATS_REPLY]: w((x) => putLayout(x, LAYOUTS.stats_reply, {})),
+    [T.EVENT]: w((x) => putLayout(x, LAYOUTS.event, { kind: 1 })),
+    [T.ACK]: w((x) => putLayout(x, LAYOUTS.ack, {})),
+    [T.ENTITY_LIST_REPLY]: w((x) => { putLayout(x, LAYOUTS.list_reply, { count: 2 }); x.zeros(320); }),
+    [T.VIS_RESULT]: w((x) => { putLayout(x, LAYOUTS.vis_result, { count: 3 }); x.zeros(72); }),
+    [T.SUBLEVEL_IDS]: w((x) => { x.u32(2); x.u16(1); x.u16(2); }),
+    [T.SUBLEVEL_LIST_REPLY]: w((x) => { x.u32(2); x.u16(1); x.u8(1); x.bytes(te.encode('a')); x.u16(2); x.u8(2); x.bytes(te.encode('bb')); }),
+    [T.SUBLEVEL_INFO_REPLY]: w((x) => { x.u64(1n); x.u32(1); x.zeros(19); x.u8(3); x.bytes(te.encode('abc')); }),
+    [T.DESTROYED]: w((x) => putLayout(x, LAYOUTS.destroyed, {})),
+    [T.MARKED]: w((x) => { putLayout(x, LAYOUTS.marked_head, {}); putLayout(x, LAYOUTS.mark, {}); }),
+    [T.FRAME]: w((x) => { putLayout(x, LAYOUTS.frame, { width: 2, height: 1, format: 1, data_len: 4 }); x.bytes(new Uint8Array([0xff, 0xd8, 0xff, 0xd9])); }),
+    [T.ENV_REPLY]: w((x) => putLayout(x, LAYOUTS.env, {})),
+  };
+}
+
+test('hostile replies: every mutation of every decoded message decodes or throws VpError, nothing else', () => {
+  const rand = rng(2121);
+  const payloads = validPayloads();
+  assert.deepEqual(Object.keys(payloads).map(Number).sort(), Object.keys(dec).map(Number).sort(), 'a payload per decoder');
+  let refused = 0, total = 0;
+  for (const [type, good] of Object.entries(payloads)) {
+    assert.doesNotThrow(() => decode(Number(type), good), `the valid ${typeName(Number(type))}`);
+    for (let k = 0; k < 400; k++) {
+      let p = good.slice();
+      const op = k % 4;
+      if (op === 0) p = p.subarray(0, Math.floor(rand() * p.length)); // cut short
+      else if (op === 1) p = new Uint8Array([...p, ...new Uint8Array(1 + Math.floor(rand() * 40)).map(() => rand() * 256)]);
+      else if (op === 2) for (let n = 0; n < 3; n++) p[Math.floor(rand() * p.length)] = Math.floor(rand() * 256);
+      else if (p.length >= 4) new DataView(p.buffer).setUint32(Math.floor(rand() * (p.length - 3)), [0xffffffff, 0x80000000, 0x10000][k % 3], true);
+      total++;
+      try {
+        decode(Number(type), p);
+      } catch (e) {
+        assert.ok(e instanceof VpError, `${typeName(Number(type))}: ${e}`);
+        assert.ok(['TRUNCATED', 'TRAILING', 'COUNT', 'INVALID'].includes(e.codeName), e.message);
+        refused++;
+      }
+    }
+  }
+  assert.ok(refused > total / 3, `${refused} of ${total} refused`);
+});
+
+test('hostile streams: a Client fed mutated replies reports errors and never throws', () => {
+  const rand = rng(77);
+  const good = new Uint8Array(Object.entries(validPayloads()).flatMap(([type, p]) => [...encodeFrame(Number(type), 0, (x) => x.bytes(p))]));
+  for (let k = 0; k < 200; k++) {
+    const s = good.slice();
+    for (let n = 0; n < 1 + (k % 5); n++) s[Math.floor(rand() * s.length)] = Math.floor(rand() * 256);
+    const t = memTransport();
+    const c = new Client(t, { maxPayload: 1 << 20 });
+    const errors = [];
+    c.onerror = (e) => errors.push(e);
+    c.onevent = c.onmarked = c.onframe = () => {};
+    c.callbackFailed = (e) => assert.fail(`a callback failed: ${e}`);
+    for (let at = 0; at < s.length && !c.closed;) {
+      const n = 1 + Math.floor(rand() * 64);
+      t.onbytes(s.subarray(at, at + n));
+      at += n;
+    }
+    assert.ok(errors.every((e) => e instanceof VpError), String(errors.find((e) => !(e instanceof VpError))));
+  }
+});
