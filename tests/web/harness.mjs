@@ -112,6 +112,10 @@ export async function startDaemon({ tokens = true, extra = [] } = {}) {
     args.push('--tokens', f);
   }
   const proc = spawn(bin, args, { stdio: ['ignore', 'ignore', 'pipe'] });
+  // a test file that dies without its after hook takes its daemon along
+  const reap = () => proc.kill('SIGKILL');
+  process.once('exit', reap);
+  proc.once('exit', () => process.off('exit', reap));
   let stderr = '';
   proc.stderr.on('data', (b) => { stderr += b; });
   const exited = new Promise((resolve) => proc.on('exit', (code, signal) => resolve({ code, signal })));

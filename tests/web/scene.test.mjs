@@ -11,7 +11,7 @@ import test from 'node:test';
 import assert from 'node:assert/strict';
 import { startDaemon, connect, cli, jsonLines, recordingProxy, waitFor } from './harness.mjs';
 import {
-  ROLE, T, enc, FrameParser, viewPerspective, viewBytes, VP_EVENT_SCENE, VP_EVENT_MARKS, VP_ENT_DYNAMIC,
+  ROLE, T, enc, FrameParser, viewPerspective, viewOrtho, viewBytes, VP_EVENT_SCENE, VP_EVENT_MARKS, VP_ENT_DYNAMIC,
 } from '../../web/js/vproto.js';
 
 let d;
@@ -92,6 +92,25 @@ test('VIS_QUERY: the camera is the CLI\'s bytes, and the visible ids are the CLI
   // what the scene was built to show: in front (201, 202, 205) seen; behind (203) and far aside (204) not
   for (const id of [201n, 202n, 205n]) assert.ok(seen.has(id), `${id} visible`);
   for (const id of [203n, 204n]) assert.ok(!seen.has(id), `${id} not visible`);
+  c.close();
+});
+
+test('VIS_QUERY of an orthographic (top-down) camera: the CLI\'s --ortho bytes and ids', async () => {
+  const cam = { eye: [1, 80, -15], target: [1, 0, -15], up: [0, 0, -1], widthM: 60, heightM: 40, width: 300, height: 200, near: 1, far: 200 };
+  const proxy = await recordingProxy(d);
+  const r = await cli({ port: proxy.port }, ['query', '--eye', cam.eye.join(','), '--at', cam.target.join(','), '--up', '0,0,-1',
+    '--ortho', '60,40', '--size', '300x200', '--near', '1', '--far', '200', '--json']);
+  await proxy.close();
+  assert.equal(r.code, 0, r.stderr);
+  const q = new FrameParser().push(Buffer.concat(proxy.conns[0].up)).find((f) => f.type === T.VIS_QUERY);
+  const view = viewOrtho(cam);
+  assert.equal(Buffer.from(enc.visQuery(q.req, [view]).subarray(12)).toString('hex'), Buffer.from(q.payload).toString('hex'));
+  const c = await connect(d, ROLE.VIEWER);
+  const res = await c.visQuery([view]);
+  const lines = jsonLines(r.stdout);
+  lines.pop();
+  assert.deepEqual(res.records.map((x) => x.id).sort(), lines.map((x) => x.id).sort());
+  assert.ok(res.records.length >= 2, 'the top-down box covers entities 201 and 205 at least');
   c.close();
 });
 
