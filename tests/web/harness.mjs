@@ -95,17 +95,19 @@ export function jsonLines(text) {
 /*
  * Starts vantaged: the empty scene, TCP on a free loopback port, no Unix
  * socket, a temporary --data-dir and a --tokens file (viewer, commander,
- * editor: TOKENS) unless tokens is false. Waits until a HELLO is answered.
- * Returns { port, dataDir, stop() }; stop() sends SIGTERM and rejects
+ * editor: TOKENS) unless tokens is false; with web, --web on another free
+ * port (webPort). Waits until a HELLO is answered.
+ * Returns { port, webPort, dataDir, stop() }; stop() sends SIGTERM and rejects
  * unless the daemon exits with status 0.
  */
-export async function startDaemon({ tokens = true, extra = [] } = {}) {
+export async function startDaemon({ tokens = true, web = false, extra = [] } = {}) {
   const bin = path.join(BIN_DIR, 'vantaged');
   if (!existsSync(bin)) throw new Error(`${bin} is missing: build it (make CONFIG=release all) or set VANTAGE_BIN_DIR`);
   const dataDir = mkdtempSync(path.join(os.tmpdir(), 'vantage-web-'));
   const port = await freePort();
+  const webPort = web ? await freePort() : 0;
   const args = ['--scene', 'empty', '--port', String(port), '--unix', '', '--data-dir', path.join(dataDir, 'data'),
-    '--log-level', 'warn', '--threads', '1', ...extra];
+    '--log-level', 'warn', '--threads', '1', ...(web ? ['--web', `127.0.0.1:${webPort}`] : []), ...extra];
   if (tokens) {
     const f = path.join(dataDir, 'tokens');
     writeFileSync(f, `viewer ${TOKENS.viewer}\ncommander ${TOKENS.commander}\neditor ${TOKENS.editor}\n`, { mode: 0o600 });
@@ -119,7 +121,7 @@ export async function startDaemon({ tokens = true, extra = [] } = {}) {
   let stderr = '';
   proc.stderr.on('data', (b) => { stderr += b; });
   const exited = new Promise((resolve) => proc.on('exit', (code, signal) => resolve({ code, signal })));
-  const d = { port, dataDir, proc, get stderr() { return stderr; } };
+  const d = { port, webPort, dataDir, proc, get stderr() { return stderr; } };
   d.stop = async () => {
     if (proc.exitCode === null && proc.signalCode === null) proc.kill('SIGTERM');
     const { code, signal } = await exited;
