@@ -162,7 +162,7 @@ DESB_BIN := $(BUILD)/bench_destruct
 
 SCENE    ?= tests/data/scenes/city_scene.txt
 
-.PHONY: all run demo test test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-web test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN)
 
@@ -328,8 +328,15 @@ test: check-deps
 	./build/release/bench_render --smoke
 	VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
+	VANTAGE_BIN_DIR=build/release tests/web/run.sh
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/asan ./build/asan/vantage_tests
+
+# the browser client (web/js/vproto.js) against this configuration's vantaged and vantage
+# (tests/web/run.sh: Node's test runner, each file with its own daemon; about 3 s)
+test-web: check-deps
+	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN)
+	VANTAGE_BIN_DIR=$(BUILD) tests/web/run.sh
 
 # make test runs the randomized tests and the damage campaigns whole in the
 # release build and at half size in the scalar and ASan builds (every 5th
