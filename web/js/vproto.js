@@ -410,9 +410,9 @@ export const LAYOUTS = Object.freeze({
   vis_query: layout('view_count u8, flags u8, pad(2), min_area f32'),
   vis_result: layout('epoch u64, tested u32, visible u32, stage_ns u32[6], count u32'),
   vis_rec: layout('id u64, handle u32, view_mask u32, class_id u16, sublevel u16, area f32'),
-  render_tail: layout('format u8, quality u8, flags u8, renderer u8, exposure_ev f32, nhighlight u8, pad(7), highlight u64[8]'),
+  render_tail: layout('format u8, quality u8, flags u8, renderer u8, exposure_ev f32, nhighlight u8, pad(3), max_kbps u32, highlight u64[8]'),
   frame_sub_tail: layout('max_fps u16, view_seq u16'),
-  frame: layout('epoch u64, width u16, height u16, format u8, pad(1), view_seq u16, visible u32, render_ns u32, ' +
+  frame: layout('epoch u64, width u16, height u16, format u8, key u8, view_seq u16, visible u32, render_ns u32, ' +
     'encode_ns u32, data_len u32'),
   mark: layout('pos f64[3], entity u64, kind u8, pad(3), ttl_ms u32'),
   marked_head: layout('client_id u32, pad(4)'),
@@ -510,7 +510,8 @@ function putView(w, v, what = 'view') {
 }
 
 /* RENDER's 240 bytes: { view, format (VP_FRAME_*), quality (JPEG 1..100,
- * RAW 0), flags (VP_RENDER_NO_*), renderer, exposure_ev, highlight: [ids]
+ * RAW 0, H264 the CRF 1..51 or 0: 23), flags (VP_RENDER_NO_*), renderer,
+ * exposure_ev, max_kbps (H264's rate cap, 0: none), highlight: [ids]
  * (at most 8) }. */
 function putRender(w, m) {
   putView(w, m.view);
@@ -518,7 +519,8 @@ function putRender(w, m) {
   if (hl.length > VP_RENDER_MAX_HIGHLIGHT) fail('COUNT', `${hl.length} highlights; at most ${VP_RENDER_MAX_HIGHLIGHT}`);
   const highlight = Array.from({ length: VP_RENDER_MAX_HIGHLIGHT }, (_, i) => (i < hl.length ? hl[i] : 0n));
   putLayout(w, LAYOUTS.render_tail, {
-    format: VP_FRAME_JPEG, quality: m.format === VP_FRAME_RAW ? 0 : 85, ...m, nhighlight: hl.length, highlight,
+    format: VP_FRAME_JPEG, quality: m.format === VP_FRAME_RAW || m.format === VP_FRAME_H264 ? 0 : 85, ...m,
+    nhighlight: hl.length, highlight,
   });
 }
 
