@@ -173,6 +173,7 @@ check-deps:
 	@if ! command -v $(CC) >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1 || \
 	    ! pkg-config --exists $(PC_MODS) || ! command -v Xvfb >/dev/null 2>&1 || [ ! -f /usr/include/wslay/wslay.h ] || \
 	    ! command -v chromium >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1 || \
+	    [ ! -d tests/web/node_modules/puppeteer-core ] || \
 	    [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf ]; then $(MAKE) --no-print-directory deps; fi
 
 deps:
@@ -181,7 +182,10 @@ deps:
 	export DEBIAN_FRONTEND=noninteractive; \
 	$$SUDO apt-get update -qq && \
 	$$SUDO apt-get install -y -qq --no-install-recommends $(DEB_PKGS) >/dev/null && \
-	pkg-config --exists $(PC_MODS) && echo "make deps: done"
+	pkg-config --exists $(PC_MODS) && \
+	npm ci --prefix tests/web --no-audit --no-fund --loglevel=error && echo "make deps: done"
+# (npm ci: puppeteer-core, pinned in tests/web/package-lock.json, drives Debian's
+# /usr/bin/chromium in tests/web/browser.test.mjs; it downloads no browser)
 
 # ---- build --------------------------------------------------------------------
 $(BUILD)/%.o: %.c

@@ -1,0 +1,176 @@
+/*
+ * browser.test.mjs — the pages in headless Chromium (Debian's
+ * /usr/bin/chromium, driven by puppeteer-core pinned in package.json; no
+ * browser is downloaded): the viewer against a real vantaged --web.
+ *
+ * The independent model of a frame is the CLI's: `vantage render -o x.png`
+ * asks the daemon for the RAW float frame of the same camera and tone-maps
+ * it on its own side; the page's canvas (JPEG or H.264 decoded by the
+ * browser) must match it within a mean absolute error per channel.
+ */
+import test from 'node:test';
+import assert from 'node:assert/strict';
+import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { startDaemon, cli, TOKENS } from './harness.mjs';
+
+const CHROMIUM = process.env.VANTAGE_CHROMIUM ?? '/usr/bin/chromium';
+let puppeteer = null;
+try {
+  puppeteer = (await import('puppeteer-core')).default;
+} catch {
+  /* make deps runs npm ci in tests/web */
+}
+const skip = !puppeteer ? 'puppeteer-core is not installed (make deps: npm ci in tests/web)'
+  : !existsSync(CHROMIUM) ? `no ${CHROMIUM} (make deps installs Debian's chromium)` : false;
+
+let d, browser, tmp;
+test.before(async () => {
+  if (skip) return;
+  d = await startDaemon({ web: true, extra: ['--threads', '2'] });
+  tmp = mkdtempSync(path.join(os.tmpdir(), 'vantage-browser-'));
+  /* a row of boxes of three sizes in front of the first camera, on the ground */
+  for (const [id, pos, r] of [[1, '0,2,0', 2], [2, '-6,1.5,-4', 1.5], [3, '7,3,2', 3], [4, '0,1,-12', 1]]) {
+    const a = await cli(d, ['add', String(id), pos, String(r)]);
+    assert.equal(a.code, 0, a.stderr);
+  }
+  browser = await puppeteer.launch({ executablePath: CHROMIUM, headless: true,
+    args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage'] });
+});
+test.after(async () => {
+  await browser?.close();
+  if (d) await d.stop();
+  if (tmp) rmSync(tmp, { recursive: true, force: true });
+});
+
+const W = 320, H = 180;
+const EYE = '14,9,22', AT = '0,1,0';
+
+/* A page of the viewer with the query string q; console errors fail the test. */
+async function open(q, { token = TOKENS.viewer, before = null } = {}) {
+  const page = await browser.newPage();
+  await page.setViewport({ width: 900, height: 520 });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  if (before) await page.evaluateOnNewDocument(before);
+  const t0 = Date.now();
+  await page.goto(`http://127.0.0.1:${d.webPort}/?size=${W}x${H}&eye=${EYE}&at=${AT}&${q}#token=${token}`);
+  return { page, errors, t0 };
+}
+
+/* Waits until the page has drawn a frame satisfying pred (its stats' last). */
+async function drawn(page, pred = () => true, ms = 5000) {
+  const t0 = Date.now();
+  for (;;) {
+    const s = await page.evaluate(() => window.vantage?.stats());
+    if (s?.last && pred(s)) return s;
+    if (Date.now() - t0 > ms) throw new Error(`no frame drawn in ${ms} ms: ${JSON.stringify(s)}`);
+    await new Promise((r) => setTimeout(r, 25));
+  }
+}
+
+/* The CLI's picture of the page's camera, as a PNG's bytes. */
+async function reference(page) {
+  const cam = await page.evaluate(() => ({ eye: window.vantage.eye(), at: window.vantage.camera.target,
+    fov: window.vantage.camera.fov, near: window.vantage.near, far: window.vantage.far }));
+  const out = path.join(tmp, `ref-${Date.now()}.png`);
+  const r = await cli(d, ['render', '--eye', cam.eye.join(','), '--at', cam.at.join(','), '--fov', String(cam.fov),
+    '--near', String(cam.near), '--far', String(cam.far), '--size', `${W}x${H}`, '-o', out], { token: TOKENS.viewer });
+  assert.equal(r.code, 0, r.stderr);
+  return readFileSync(out);
+}
+
+/* Mean absolute error per channel (RGB, 0..255) of the page's canvas
+ * against the PNG, and the share of pixels off by more than 24. */
+function compare(page, png) {
+  return page.evaluate(async (b64, w, h) => {
+    const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+    const bmp = await createImageBitmap(new Blob([bytes], { type: 'image/png' }));
+    const ref = new OffscreenCanvas(w, h).getContext('2d');
+    ref.drawImage(bmp, 0, 0);
+    const a = ref.getImageData(0, 0, w, h).data;
+    const b = document.getElementById('stream').getContext('2d').getImageData(0, 0, w, h).data;
+    let sum = 0, far = 0;
+    for (let i = 0; i < a.length; i += 4) {
+      let px = 0;
+      for (let c = 0; c < 3; c++) {
+        const e = Math.abs(a[i + c] - b[i + c]);
+        sum += e;
+        px = Math.max(px, e);
+      }
+      far += px > 24;
+    }
+    return { mae: sum / (w * h * 3), far: far / (w * h) };
+  }, png.toString('base64'), W, H);
+}
+
+test('the viewer draws its first JPEG frame within 2 s, matching the daemon\'s raw frame', { skip }, async (t) => {
+  const { page, errors, t0 } = await open('format=jpeg');
+  const s = await drawn(page, () => true, 5000);
+  const ms = Date.now() - t0;
+  assert.equal(s.format, 'jpeg');
+  assert.equal(s.last.width, W);
+  assert.ok(ms < 2000, `the first frame took ${ms} ms`);
+  const c = await compare(page, await reference(page));
+  t.diagnostic(`first frame ${ms} ms after navigation; JPEG against the raw frame: MAE ${c.mae.toFixed(2)}, ` +
+    `${(c.far * 100).toFixed(2)} % off by > 24`);
+  /* JPEG q80 of a smooth render: a mean error of 1-2 codes; 4 leaves room
+     for the 4:2:0 chroma at box edges, not for a wrong view (a camera off
+     by one degree gives > 10) */
+  assert.ok(c.mae < 4, `mean absolute error ${c.mae.toFixed(2)}`);
+  assert.ok(c.far < 0.02, `${(c.far * 100).toFixed(1)} % of the pixels off by more than 24`);
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test('an edit by another client shows in the next frames', { skip }, async () => {
+  const { page } = await open('format=jpeg');
+  const first = await drawn(page);
+  const a = await cli(d, ['add', '9', '0,2,6', '2.5']); /* between the camera and the first box */
+  assert.equal(a.code, 0, a.stderr);
+  const next = await drawn(page, (s) => s.last.epoch > first.last.epoch);
+  assert.ok(next.last.visible > first.last.visible, `${first.last.visible} -> ${next.last.visible} drawn`);
+  const c = await compare(page, await reference(page));
+  assert.ok(c.mae < 4, `after the edit: mean absolute error ${c.mae.toFixed(2)}`);
+  assert.equal((await cli(d, ['remove', '9'])).code, 0);
+  await page.close();
+});
+
+test('a click selects the entity under it, and shows its fields', { skip }, async () => {
+  const { page } = await open('format=jpeg');
+  await drawn(page);
+  /* where the page's camera puts box 1's centre (0, 2, 0): the same
+     projection the daemon drew with */
+  const at = await page.evaluate(() => {
+    const r = document.getElementById('stream').getBoundingClientRect();
+    return { x: r.left + r.width / 2, y: r.top + r.height / 2 };
+  });
+  await page.mouse.click(at.x, at.y);
+  await page.waitForFunction(() => window.vantage.selected !== null, { timeout: 5000 });
+  assert.equal(await page.evaluate(() => window.vantage.selected), '1');
+  const text = await page.$eval('#entity', (e) => e.textContent);
+  assert.match(text, /box min/);
+  /* the next frames outline it: a frame drawn after the selection */
+  await page.close();
+});
+
+test('without WebCodecs the page falls back to JPEG frames by itself', { skip }, async () => {
+  const { page, errors } = await open('', { before: () => { delete window.VideoDecoder; } });
+  const s = await drawn(page);
+  assert.equal(s.format, 'jpeg');
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test('a bad token is refused: the login field asks, a good one connects', { skip }, async () => {
+  const { page } = await open('format=jpeg', { token: 'not-a-token' });
+  await page.waitForSelector('#login:not([hidden])', { timeout: 5000 });
+  assert.match(await page.$eval('#login-why', (e) => e.textContent), /token/);
+  assert.equal(await page.evaluate(() => window.vantage.stats()), null);
+  await page.type('#token', TOKENS.viewer);
+  await page.click('#login button');
+  const s = await drawn(page);
+  assert.equal(s.last.width, W);
+  await page.close();
+});
