@@ -25,9 +25,12 @@ SHELL  := /bin/bash
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
             zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
-            gnuplot-nox blender python3-numpy
+            gnuplot-nox blender python3-numpy libx264-dev libavcodec-dev libavutil-dev
 # (blender and python3-numpy: make bench-cycles, the renderer against Cycles; not needed by make test)
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf
+# (libx264-dev: H.264 browser frames, render/vt_h264.c; libavcodec-dev and libavutil-dev: the
+# tests' and bench_h264's independent H.264 decoder, linked into nothing else)
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf \
+            x264 libavcodec libavutil
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -124,6 +127,12 @@ IMG_LIBS := $$(pkg-config --libs libpng libjpeg)
 # llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
 # RENDER_OBJ needs these; the GL tests skip when no context can be made
 GL_LIBS  := $$(pkg-config --libs egl epoxy)
+# H.264 for browser frames (issue 21): vt_h264.c on libx264 (GPL-2+), apart from
+# RENDER_OBJ so that only what encodes video links it; the tests and bench_h264
+# check it with libavcodec's decoder (never linked into the daemon)
+H264_OBJ := $(BUILD)/render/vt_h264.o
+X264_LIBS := $$(pkg-config --libs x264)
+AVCODEC_LIBS := $$(pkg-config --libs libavcodec libavutil)
 # level import (client/import/import_*.c, the CLI and the tests): assimp's C API
 ASSIMP_LIBS := $$(pkg-config --libs assimp)
 # the daemon's journal and snapshots (daemon/journal.c, snapshot.c): zlib's CRC-32
@@ -223,8 +232,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 # every daemon module but the server's (the tests drive scenes, journals and edits in-process)
 PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o auth.o upload.o readback.o),$(DAEMON_OBJ))
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(X264_LIBS) $(AVCODEC_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG; it
 # decodes uploaded textures (vt_texture: PNG, JPEG, and EXR through OpenEXRCore)
@@ -276,6 +285,8 @@ $(DESB_BIN): $(DESB_OBJ) $(CLIENT_LIB) $(CULL_LIB)
 
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)
+$(BUILD)/render/vt_h264.o: CPPFLAGS += $$(pkg-config --cflags x264)
+$(BUILD)/tests/test_h264.o $(BUILD)/tests/bench/bench_h264.o: CPPFLAGS += $$(pkg-config --cflags x264 libavcodec libavutil)
 
 # ---- the two commands ---------------------------------------------------------
 run: check-deps
