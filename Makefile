@@ -5,8 +5,8 @@
 #   make demo              the culling core on the city scene (tests/data/scenes) + a short benchmark
 #   make test              unit + property tests (release, then ASan+UBSan),
 #                          the scalar-only build, and a bench smoke run
-#   make bench             the full culling, occlusion, render and pad-parser benchmarks
-#                          (bench_cull, bench_occlusion, bench_render, bench_pad)
+#   make bench             the full culling, occlusion, render, pad-parser and H.264 benchmarks
+#                          (bench_cull, bench_occlusion, bench_render, bench_pad, bench_h264)
 #   make bench-cycles      the renderer against Blender Cycles (SSIM per scene, minutes)
 #   make docs-renders      the demo city pictures in docs/ (day, night, street, aerial, ...)
 #   make report            run time against error of the culling configurations and a
@@ -130,7 +130,7 @@ GL_LIBS  := $$(pkg-config --libs egl epoxy)
 # H.264 for browser frames (issue 21): vt_h264.c on libx264 (GPL-2+), apart from
 # RENDER_OBJ so that only what encodes video links it; the tests and bench_h264
 # check it with libavcodec's decoder (never linked into the daemon)
-H264_OBJ := $(BUILD)/render/vt_h264.o
+H264_OBJ := $(BUILD)/render/vt_h264.o $(BUILD)/render/vt_h264_avx2.o
 X264_LIBS := $$(pkg-config --libs x264)
 AVCODEC_LIBS := $$(pkg-config --libs libavcodec libavutil)
 # level import (client/import/import_*.c, the CLI and the tests): assimp's C API
@@ -138,7 +138,7 @@ ASSIMP_LIBS := $$(pkg-config --libs assimp)
 # the daemon's journal and snapshots (daemon/journal.c, snapshot.c): zlib's CRC-32
 ZLIB_LIBS := $$(pkg-config --libs zlib)
 
-TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c tests/pad_fake.c
+TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c tests/pad_fake.c tests/h264_ref.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN := $(BUILD)/vantage_tests
 
@@ -153,6 +153,11 @@ OCCB_BIN := $(BUILD)/bench_occlusion
 RENDB_SRC:= tests/bench/bench_render.c tests/bench/bench_city.c
 RENDB_OBJ:= $(RENDB_SRC:%.c=$(BUILD)/%.o)
 RENDB_BIN:= $(BUILD)/bench_render
+
+# H.264 against JPEG on the demo city (issue 21): bytes, PSNR, encode ms
+H264B_SRC:= tests/bench/bench_h264.c tests/bench/bench_city.c tests/h264_ref.c
+H264B_OBJ:= $(H264B_SRC:%.c=$(BUILD)/%.o)
+H264B_BIN:= $(BUILD)/bench_h264
 
 # the pad parsers alone (pure C: the parsers and their tables, no hidapi/libusb)
 PADB_OBJ := $(BUILD)/tests/bench/bench_pad.o
@@ -169,7 +174,7 @@ SCENE    ?= tests/data/scenes/city_scene.txt
 
 .PHONY: all run demo test test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
-all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN)
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -209,6 +214,7 @@ $(BUILD)/render/vt_shade_sse41.o: CFLAGS += $(ISA_SSE41)
 $(BUILD)/render/vt_ssao_avx2.o:   CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_tonemap_avx2.o: CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_post_avx2.o:    CFLAGS += $(ISA_AVX2)
+$(BUILD)/render/vt_h264_avx2.o:    CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_shadow_avx2.o: CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_shadow_sse41.o: CFLAGS += $(ISA_SSE41)
 $(BUILD)/render/vt_ssao_sse41.o:  CFLAGS += $(ISA_SSE41)
@@ -274,6 +280,9 @@ $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 $(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
+$(H264B_BIN): $(H264B_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(H264B_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(X264_LIBS) $(AVCODEC_LIBS) $(LDLIBS)
+
 $(PADB_BIN): $(PADB_OBJ) $(PADB_PAD)
 	$(CC) $(LDFLAGS) -o $@ $(PADB_OBJ) $(PADB_PAD) $(LDLIBS)
 
@@ -286,7 +295,7 @@ $(DESB_BIN): $(DESB_OBJ) $(CLIENT_LIB) $(CULL_LIB)
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)
 $(BUILD)/render/vt_h264.o: CPPFLAGS += $$(pkg-config --cflags x264)
-$(BUILD)/tests/test_h264.o $(BUILD)/tests/bench/bench_h264.o: CPPFLAGS += $$(pkg-config --cflags x264 libavcodec libavutil)
+$(BUILD)/tests/test_h264.o $(BUILD)/tests/h264_ref.o $(BUILD)/tests/bench/bench_h264.o: CPPFLAGS += $$(pkg-config --cflags x264 libavcodec libavutil)
 
 # ---- the two commands ---------------------------------------------------------
 run: check-deps
@@ -344,11 +353,12 @@ test-full:
 
 bench: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion \
-	  build/release/bench_render build/release/bench_pad
+	  build/release/bench_render build/release/bench_pad build/release/bench_h264
 	./build/release/bench_cull --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_occlusion --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_render $(BENCH_ARGS)
 	./build/release/bench_pad $(BENCH_ARGS)
+	./build/release/bench_h264 $(H264_BENCH_ARGS)
 
 # recovery time and edit throughput per durability policy (a few minutes)
 bench-persist: check-deps
@@ -399,4 +409,4 @@ clean:
 include tests/fuzz/fuzz.mk
 include tests/bench/report.mk
 
--include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(PADB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d)
+-include $(RENDER_OBJ:.o=.d) $(H264_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(H264B_OBJ:.o=.d) $(PADB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d)

@@ -3,24 +3,26 @@
  * I420 conversion that feeds it (BT.709, limited range, chroma sited as
  * H.264 assumes by default).
  *
- * The conversion, two rows at a time: each row's pixels are copied into
- * planar R, G, B byte rows with one repeated pixel on either side (the
- * filter's edge and the odd sizes' padding in one place, and RGB or RGBA
- * alike), then luma and chroma are fixed-point sums over those planes:
- * loops without branches or strides, which gcc -O3 vectorises with the
- * baseline SSE2. Coefficients are 16-bit fractions (2^-16; chroma 2^-19,
- * the filter's weights summing to 8), each within 2^-17 of the exact
- * value, so a result is at most 1.5 * 255 / 65536 = 0.006 codes from the
- * exact one before rounding: it rounds the other way only within 0.006 of
- * a half, never by more than 1 code (test_h264_convert checks every code
- * against a double-precision reference).
+ * The conversion, two rows at a time: each row is copied into a padded
+ * RGBA row with its edge pixel repeated on either side (the chroma
+ * filter's border and the odd sizes' padding in one place, RGB and RGBA
+ * alike), then luma and chroma are fixed-point sums over the two rows
+ * (vt_h264_kern.h): the AVX2 lanes (vt_h264_avx2.c) 16 columns a step
+ * where the CPU has them, the scalar rows for the rest and everywhere
+ * else, the same sums bit for bit. Coefficients are 2^-16 fractions, each
+ * within 2^-17 of the exact value, so a result is at most 1.5 * 255 /
+ * 65536 = 0.006 codes from the exact one before rounding: it rounds the
+ * other way only within 0.006 of a half, never by more than 1 code
+ * (test_h264_convert checks every sample against a double reference).
  *
  * Measured (the development machine, 2 cores shared with two other
- * builds, load ~2; medians of 60 frames, gcc 12 -O3; tests/bench/bench_h264.c):
- * the conversion of 1280x720 RGBA about 1 ms (see the report for the
- * AVX2 question), the x264 encode of a demo-city frame 4-8 ms.
+ * builds, load 4.5; medians of 41 runs of random 1280x720 RGBA): the
+ * conversion 0.68 ms with the lanes, 1.83 ms scalar (1920x1080: 1.74
+ * against 5.77 ms). x264's encode of a demo-city frame is 5-20 ms on the
+ * same machine (BENCHMARKS.md, bench_h264), so the lanes save 5-20 %.
  */
 #include "vt_h264.h"
+#include "vt_h264_kern.h"
 
 #include <limits.h>
 #include <stdarg.h>
@@ -32,71 +34,76 @@
 
 /* ---- RGB8 -> I420 -------------------------------------------------------- */
 
-/* BT.709: Kr 0.2126, Kb 0.0722. Limited range: luma 219 codes over 255,
- * chroma 224 over the span of B - Y (2 (1 - Kb)) and R - Y (2 (1 - Kr)). */
-#define KR 0.2126
-#define KB 0.0722
-#define KG (1.0 - KR - KB)
-#define YS (219.0 / 255.0)
-#define US (224.0 / 255.0 / (2.0 * (1.0 - KB)))
-#define VS (224.0 / 255.0 / (2.0 * (1.0 - KR)))
-#define FIX(x) ((int32_t)((x) * 65536.0 + ((x) < 0 ? -0.5 : 0.5)))
-static const int32_t CY_R = FIX(YS * KR), CY_G = FIX(YS * KG), CY_B = FIX(YS * KB);
-static const int32_t CU_R = FIX(-US * KR), CU_G = FIX(-US * KG), CU_B = FIX(US * (1.0 - KB));
-static const int32_t CV_R = FIX(VS * (1.0 - KR)), CV_G = FIX(-VS * KG), CV_B = FIX(-VS * KB);
-/* 16 (128) and the rounding half, at the sums' scale */
-#define Y_ADD ((16 << 16) + (1 << 15))
-#define C_ADD ((128 << 19) + (1 << 18))
+static const int32_t CY_R = VT_H264_CY_R, CY_G = VT_H264_CY_G, CY_B = VT_H264_CY_B;
+static const int32_t CU_R = VT_H264_CU_R, CU_G = VT_H264_CU_G, CU_B = VT_H264_CU_B;
+static const int32_t CV_R = VT_H264_CV_R, CV_G = VT_H264_CV_G, CV_B = VT_H264_CV_B;
 
-/* Row `p` (w pixels of pb bytes) into planar rows r/g/b of cw + 2 bytes:
- * index i + 1 holds pixel min(i, w - 1), index 0 pixel 0 (the chroma
- * filter's left neighbour of column 0). */
-static void planar_row(const uint8_t *p, uint32_t w, uint32_t cw, uint32_t pb, uint8_t *r, uint8_t *g, uint8_t *b)
+/* Bytes of one padded row: columns -1 .. cw (cw + 2 pixels), 4 bytes each. */
+static size_t pad_bytes(uint32_t cw)
+{
+    return 4 * ((size_t)cw + 2);
+}
+
+/* Row p (w pixels of pb bytes) into the padded RGBA row t: column i at
+ * t + 4 (i + 1) for -1 <= i <= cw, the edges repeated (column -1 is
+ * column 0, columns w.. are column w - 1). The fourth byte is junk. */
+static void pad_row(const uint8_t *p, uint32_t w, uint32_t cw, uint32_t pb, uint8_t *t)
 {
     if (pb == 4) {
-        for (uint32_t x = 0; x < w; x++) r[x + 1] = p[4 * x], g[x + 1] = p[4 * x + 1], b[x + 1] = p[4 * x + 2];
+        memcpy(t + 4, p, 4 * (size_t)w);
     } else {
-        for (uint32_t x = 0; x < w; x++) r[x + 1] = p[3 * x], g[x + 1] = p[3 * x + 1], b[x + 1] = p[3 * x + 2];
+        for (uint32_t x = 0; x < w; x++) memcpy(t + 4 * ((size_t)x + 1), p + 3 * (size_t)x, 3);
     }
-    for (uint32_t x = w; x <= cw; x++) r[x + 1] = r[w], g[x + 1] = g[w], b[x + 1] = b[w];
-    r[0] = r[1], g[0] = g[1], b[0] = b[1];
+    for (uint32_t x = w; x <= cw; x++) memcpy(t + 4 * ((size_t)x + 1), t + 4 * (size_t)w, 4);
+    memcpy(t, t + 4, 4);
 }
 
-static void luma_row(const uint8_t *r, const uint8_t *g, const uint8_t *b, uint32_t cw, uint8_t *y)
+/* The rows of vt_h264_kern.h's contract, columns [x0, cw) (x0 even), one
+ * pixel at a time: the reference the lanes match and the tail they leave. */
+static void rows_scalar(const uint8_t *t0, const uint8_t *t1, uint32_t x0, uint32_t cw, uint8_t *y0, uint8_t *y1,
+                        uint8_t *u, uint8_t *v)
 {
-    for (uint32_t x = 0; x < cw; x++)
-        y[x] = (uint8_t)((CY_R * r[x + 1] + CY_G * g[x + 1] + CY_B * b[x + 1] + Y_ADD) >> 16);
-}
-
-/* The chroma of a row pair: at column 2x, [1 2 1] over columns 2x-1..2x+1
- * of both rows (weights summing to 8, hence 2^-19). */
-static void chroma_row(const uint8_t *t, uint32_t cw, uint8_t *u, uint8_t *v)
-{
-    const size_t n = (size_t)cw + 2;
-    const uint8_t *r0 = t, *g0 = t + n, *b0 = t + 2 * n, *r1 = t + 3 * n, *g1 = t + 4 * n, *b1 = t + 5 * n;
-    for (uint32_t x = 0; x < cw / 2; x++) {
-        uint32_t c = 2 * x + 1; /* column 2x's index */
-        int32_t sr = r0[c - 1] + 2 * r0[c] + r0[c + 1] + r1[c - 1] + 2 * r1[c] + r1[c + 1];
-        int32_t sg = g0[c - 1] + 2 * g0[c] + g0[c + 1] + g1[c - 1] + 2 * g1[c] + g1[c + 1];
-        int32_t sb = b0[c - 1] + 2 * b0[c] + b0[c + 1] + b1[c - 1] + 2 * b1[c] + b1[c + 1];
-        u[x] = (uint8_t)((CU_R * sr + CU_G * sg + CU_B * sb + C_ADD) >> 19);
-        v[x] = (uint8_t)((CV_R * sr + CV_G * sg + CV_B * sb + C_ADD) >> 19);
+    for (uint32_t x = x0; x < cw; x++) {
+        const uint8_t *a = t0 + 4 * (size_t)x, *b = t1 + 4 * (size_t)x;
+        y0[x] = (uint8_t)((CY_R * a[0] + CY_G * a[1] + CY_B * a[2] + VT_H264_Y_ADD) >> 16);
+        y1[x] = (uint8_t)((CY_R * b[0] + CY_G * b[1] + CY_B * b[2] + VT_H264_Y_ADD) >> 16);
+    }
+    for (uint32_t i = x0 / 2; i < cw / 2; i++) {
+        const uint8_t *a = t0 + 8 * (size_t)i, *b = t1 + 8 * (size_t)i; /* column 2i */
+        int32_t s[3];
+        for (int k = 0; k < 3; k++) s[k] = a[k - 4] + 2 * a[k] + a[k + 4] + b[k - 4] + 2 * b[k] + b[k + 4];
+        u[i] = (uint8_t)((CU_R * s[0] + CU_G * s[1] + CU_B * s[2] + VT_H264_C_ADD) >> 19);
+        v[i] = (uint8_t)((CV_R * s[0] + CV_G * s[1] + CV_B * s[2] + VT_H264_C_ADD) >> 19);
     }
 }
 
-/* The conversion into planes already checked; t: 6 (cw + 2) bytes. */
-static void to_i420(uint32_t w, uint32_t h, const uint8_t *pix, size_t stride, uint32_t pb, uint8_t *t, uint8_t *y,
-                    size_t ys, uint8_t *u, size_t us, uint8_t *v, size_t vs)
+/* The lanes unless VANTAGE_ISA names a narrower set (as vt_tonemap.c's pick). */
+static vt_i420_rows_fn rows_pick(void)
 {
-    uint32_t cw = (w + 1) & ~1u, ch = (h + 1) & ~1u;
-    const size_t n = (size_t)cw + 2;
+#if defined(__x86_64__) || defined(__i386__)
+    const char *isa = getenv("VANTAGE_ISA");
+    if (isa && (!strcmp(isa, "scalar") || !strcmp(isa, "sse41"))) return NULL;
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") ? vt_i420_rows_avx2() : NULL;
+#else
+    return NULL;
+#endif
+}
+
+/* The conversion into planes already checked; t: 2 pad_bytes(cw) of
+ * scratch; lanes: rows_pick's. */
+static void to_i420(uint32_t w, uint32_t h, const uint8_t *pix, size_t stride, uint32_t pb, uint8_t *t,
+                    vt_i420_rows_fn lanes, uint8_t *y, size_t ys, uint8_t *u, size_t us, uint8_t *v, size_t vs)
+{
+    uint32_t cw = (w + 1) & ~1u, ch = (h + 1) & ~1u, n = lanes ? cw & ~15u : 0;
+    uint8_t *t0 = t, *t1 = t + pad_bytes(cw);
     for (uint32_t j = 0; j < ch / 2; j++) {
-        uint32_t y0 = 2 * j, y1 = 2 * j + 1 < h ? 2 * j + 1 : h - 1;
-        planar_row(pix + y0 * stride, w, cw, pb, t, t + n, t + 2 * n);
-        planar_row(pix + y1 * stride, w, cw, pb, t + 3 * n, t + 4 * n, t + 5 * n);
-        luma_row(t, t + n, t + 2 * n, cw, y + y0 * ys);
-        luma_row(t + 3 * n, t + 4 * n, t + 5 * n, cw, y + (y0 + 1) * ys);
-        chroma_row(t, cw, u + j * us, v + j * vs);
+        uint32_t r0 = 2 * j, r1 = 2 * j + 1 < h ? 2 * j + 1 : h - 1;
+        uint8_t *yr0 = y + r0 * ys, *yr1 = yr0 + ys, *ur = u + j * us, *vr = v + j * vs;
+        pad_row(pix + r0 * stride, w, cw, pb, t0);
+        pad_row(pix + r1 * stride, w, cw, pb, t1);
+        if (n) lanes(t0 + 4, t1 + 4, n, yr0, yr1, ur, vr);
+        rows_scalar(t0 + 4, t1 + 4, n, cw, yr0, yr1, ur, vr);
     }
 }
 
@@ -137,9 +144,9 @@ int vt_h264_rgb_to_i420(uint32_t w, uint32_t h, const uint8_t *pix, size_t strid
         return rc;
     uint32_t cw = (w + 1) & ~1u;
     if (!y || !u || !v || ys < cw || us < cw / 2 || vs < cw / 2) return VT_ERR_INVALID;
-    uint8_t *t = malloc(6 * ((size_t)cw + 2));
+    uint8_t *t = malloc(2 * pad_bytes(cw));
     if (!t) return VT_ERR_NOMEM;
-    to_i420(w, h, pix, stride, pixel_bytes, t, y, ys, u, us, v, vs);
+    to_i420(w, h, pix, stride, pixel_bytes, t, rows_pick(), y, ys, u, us, v, vs);
     free(t);
     return 0;
 }
@@ -152,7 +159,8 @@ struct vt_h264 {
     bool           pic_ok;
     uint32_t       w, h;     /* the picture's size; the coded size is pic's */
     int64_t        pts;      /* frames encoded: x264 wants rising timestamps */
-    uint8_t       *rows;     /* conversion scratch, 6 (cw + 2) bytes */
+    uint8_t       *rows;     /* conversion scratch, 2 pad_bytes(cw) */
+    vt_i420_rows_fn lanes;   /* the conversion's AVX2 rows, or NULL */
     char           msg[256]; /* x264's last error, from its log callback */
 };
 
@@ -227,7 +235,8 @@ int vt_h264_open(vt_h264 **out, const vt_h264_cfg *c, char *err, size_t errlen)
     if (rc) goto fail;
     e->w = c->width;
     e->h = c->height;
-    if (!(e->rows = malloc(6 * ((size_t)p.i_width + 2)))) {
+    e->lanes = rows_pick();
+    if (!(e->rows = malloc(2 * pad_bytes((uint32_t)p.i_width)))) {
         rc = vp_errf(err, errlen, VT_ERR_NOMEM, "h264: out of memory");
         goto fail;
     }
@@ -258,7 +267,7 @@ int vt_h264_encode(vt_h264 *e, const uint8_t *pix, size_t stride, uint32_t pixel
     int rc = check_pix(e->w, pix, stride, pixel_bytes, err, errlen);
     if (rc) return rc;
     x264_image_t *im = &e->pic.img;
-    to_i420(e->w, e->h, pix, stride, pixel_bytes, e->rows, im->plane[0], (size_t)im->i_stride[0], im->plane[1],
+    to_i420(e->w, e->h, pix, stride, pixel_bytes, e->rows, e->lanes, im->plane[0], (size_t)im->i_stride[0], im->plane[1],
             (size_t)im->i_stride[1], im->plane[2], (size_t)im->i_stride[2]);
     e->pic.i_type = force_idr ? X264_TYPE_IDR : X264_TYPE_AUTO;
     e->pic.i_pts = e->pts;

@@ -121,7 +121,7 @@ void vt_h264_coded_size(uint32_t w, uint32_t h, uint32_t *coded_w, uint32_t *cod
  * two rows' average (the edge column repeated), not a 2x2 box (which would
  * shift colour half a pixel right). Integer arithmetic, within 1 code of
  * the exact result. Planes at y/u/v with strides ys/us/vs bytes (>= cw,
- * cw/2). Allocates 6 (cw + 2) bytes of scratch. Returns 0, VT_ERR_INVALID,
+ * cw/2). Allocates 8 (cw + 2) bytes of scratch. Returns 0, VT_ERR_INVALID,
  * VT_ERR_TOO_LARGE or VT_ERR_NOMEM. */
 int vt_h264_rgb_to_i420(uint32_t w, uint32_t h, const uint8_t *pix, size_t stride, uint32_t pixel_bytes,
                         uint8_t *y, size_t ys, uint8_t *u, size_t us, uint8_t *v, size_t vs);

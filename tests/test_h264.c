@@ -4,7 +4,7 @@
  * decoder, linked into the tests only), and the RGB -> I420 conversion
  * against a slow double-precision reference.
  *
- * Decoded pictures go back to RGB with this file's own inverse (double,
+ * Decoded pictures go back to RGB with h264_ref.c's inverse (double,
  * BT.709 limited range, chroma interpolated from where H.264 sites it), so
  * a PSNR here measures the whole path: conversion, x264, decoder, inverse.
  * Sizes are small (the whole file runs in about a second in the release
@@ -16,129 +16,34 @@
 #include <stdio.h>
 #include <string.h>
 
-#include <libavcodec/avcodec.h>
-#include <libavutil/frame.h>
-#include <libavutil/pixfmt.h>
+#include "h264_ref.h"
 
-/* ---- the decoder and the inverse ---------------------------------------- */
+/* ---- the decoder (h264_ref.h), asserted --------------------------------- */
 
-typedef struct dec {
-    AVCodecContext *c;
-    AVPacket *pkt;
-    AVFrame *f;
-} dec;
+typedef h264_dec dec;
 
 static void dec_open(dec *d)
 {
-    const AVCodec *codec = avcodec_find_decoder(AV_CODEC_ID_H264);
-    assert_non_null(codec);
-    d->c = avcodec_alloc_context3(codec);
-    assert_non_null(d->c);
-    d->c->thread_count = 1;
-    d->c->flags |= AV_CODEC_FLAG_LOW_DELAY; /* a picture out per access unit, as WebCodecs' optimizeForLatency */
-    assert_int_equal(avcodec_open2(d->c, codec, NULL), 0);
-    d->pkt = av_packet_alloc();
-    d->f = av_frame_alloc();
-    assert_true(d->pkt && d->f);
+    assert_int_equal(h264_dec_open(d), 0);
 }
 
 static void dec_close(dec *d)
 {
-    av_frame_free(&d->f);
-    av_packet_free(&d->pkt);
-    avcodec_free_context(&d->c);
+    h264_dec_close(d);
 }
 
-/* Decodes one access unit; the picture it gives is d->f (asserted: one
- * picture per access unit, nothing held back). */
+/* Decodes one access unit; the picture it gives is d->f (one picture per
+ * access unit, nothing held back). */
 static void dec_au(dec *d, const uint8_t *au, size_t len)
 {
-    /* the decoder reads up to AV_INPUT_BUFFER_PADDING_SIZE past the end */
-    assert_int_equal(av_new_packet(d->pkt, (int)len), 0);
-    memcpy(d->pkt->data, au, len);
-    assert_int_equal(avcodec_send_packet(d->c, d->pkt), 0);
-    av_packet_unref(d->pkt);
-    assert_int_equal(avcodec_receive_frame(d->c, d->f), 0);
-    assert_int_equal(d->f->format, AV_PIX_FMT_YUV420P);
+    assert_int_equal(h264_dec_au(d, au, len), 0);
 }
 
-/* The exact BT.709 limited-range inverse of one sample triple, unrounded. */
-static void ycc_to_rgb(double y, double cb, double cr, double rgb[3])
-{
-    const double kr = 0.2126, kb = 0.0722, kg = 1 - kr - kb;
-    double yy = (y - 16) / 219, pb = (cb - 128) / 224, pr = (cr - 128) / 224;
-    double r = yy + 2 * (1 - kr) * pr, b = yy + 2 * (1 - kb) * pb;
-    double g = (yy - kr * r - kb * b) / kg;
-    rgb[0] = 255 * r, rgb[1] = 255 * g, rgb[2] = 255 * b;
-}
-
-/* Chroma of plane p (cw2 x ch2, stride s) at luma (x, y): sample (i, j)
- * sits at luma (2i, 2j + 0.5) (H.264's default siting), bilinear between
- * the nearest four, edges held. */
-static double chroma_at(const uint8_t *p, int s, int cw2, int ch2, int x, int y)
-{
-    double fx = x / 2.0, fy = (y - 0.5) / 2.0;
-    if (fy < 0) fy = 0;
-    int i0 = (int)fx, j0 = (int)fy;
-    int i1 = i0 + 1 < cw2 ? i0 + 1 : cw2 - 1, j1 = j0 + 1 < ch2 ? j0 + 1 : ch2 - 1;
-    if (i0 >= cw2) i0 = i1 = cw2 - 1;
-    if (j0 >= ch2) j0 = j1 = ch2 - 1;
-    double ax = fx - (int)fx, ay = fy - (int)fy;
-    double top = p[j0 * s + i0] * (1 - ax) + p[j0 * s + i1] * ax;
-    double bot = p[j1 * s + i0] * (1 - ax) + p[j1 * s + i1] * ax;
-    return top * (1 - ay) + bot * ay;
-}
-
-/* Pixel (x, y) of planes (cw x ch luma) as RGB8, rounded and clamped. */
-static void i420_px(const uint8_t *const pl[3], const int st[3], int cw, int ch, int x, int y, uint8_t *o)
-{
-    double c[3];
-    ycc_to_rgb(pl[0][y * st[0] + x], chroma_at(pl[1], st[1], cw / 2, ch / 2, x, y),
-               chroma_at(pl[2], st[2], cw / 2, ch / 2, x, y), c);
-    for (int k = 0; k < 3; k++) o[k] = (uint8_t)(c[k] < 0 ? 0 : c[k] > 255 ? 255 : lround(c[k]));
-}
-
-/* Planes (cw x ch luma) to packed RGB8 of the top-left w x h. */
-static void i420_to_rgb(const uint8_t *const pl[3], const int st[3], int cw, int ch, int w, int h, uint8_t *rgb)
-{
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) i420_px(pl, st, cw, ch, x, y, rgb + 3 * ((size_t)y * w + x));
-}
-
-static void frame_to_rgb(const AVFrame *f, int w, int h, uint8_t *rgb)
-{
-    const uint8_t *pl[3] = {f->data[0], f->data[1], f->data[2]};
-    const int st[3] = {f->linesize[0], f->linesize[1], f->linesize[2]};
-    i420_to_rgb(pl, st, f->width, f->height, w, h, rgb);
-}
-
-/* PSNR in dB of packed RGB8 a against pixels b (pb bytes each, stride
- * bytes a row), over w x h x 3; 99 for equal pictures. */
-static double psnr(const uint8_t *a, const uint8_t *b, size_t stride, uint32_t pb, uint32_t w, uint32_t h)
-{
-    double se = 0;
-    for (uint32_t y = 0; y < h; y++)
-        for (uint32_t x = 0; x < w; x++)
-            for (int k = 0; k < 3; k++) {
-                double d = (double)a[3 * ((size_t)y * w + x) + k] - b[y * stride + x * pb + (uint32_t)k];
-                se += d * d;
-            }
-    double mse = se / (3.0 * w * h);
-    return mse > 0 ? 10 * log10(255.0 * 255.0 / mse) : 99;
-}
-
-/* NAL unit types of an Annex B access unit, in order (at most cap). */
-static int nal_types(const uint8_t *au, size_t len, int *types, int cap)
-{
-    int n = 0;
-    for (size_t i = 0; i + 3 < len; i++)
-        if (au[i] == 0 && au[i + 1] == 0 && au[i + 2] == 1) {
-            if (n < cap) types[n] = au[i + 3] & 31;
-            n++;
-            i += 3;
-        }
-    return n;
-}
+#define frame_to_rgb h264_ref_frame_rgb
+#define i420_px h264_ref_px
+#define i420_to_rgb h264_ref_to_rgb
+#define psnr h264_ref_psnr
+#define nal_types h264_ref_nal_types
 
 static bool has_type(const int *t, int n, int type)
 {
@@ -469,6 +374,42 @@ static void test_h264_convert(void **state)
     assert_true(exact >= total - total / 100); /* off by one only within 0.006 of a half */
 }
 
+/* The AVX2 rows (vt_h264_avx2.c) against the scalar rows (VANTAGE_ISA=
+ * scalar), byte for byte: the same integer sums, so the same planes, for
+ * widths around the 16-column step (the lanes' blocks, then the scalar
+ * tail) and odd sizes, RGB and RGBA. Where the CPU has no AVX2 both runs
+ * are scalar and the test says so. */
+static void test_h264_convert_isa(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x1a};
+    static const uint32_t sz[][3] = {{16, 2, 4}, {17, 3, 4}, {31, 4, 3}, {32, 5, 4}, {33, 6, 3}, {48, 7, 4},
+                                     {250, 9, 4}, {1280, 4, 4}, {1279, 3, 3}};
+    const char *old = getenv("VANTAGE_ISA");
+    char *saved = old ? strdup(old) : NULL;
+    for (size_t k = 0; k < sizeof sz / sizeof sz[0]; k++) {
+        uint32_t w = sz[k][0], h = sz[k][1], pb = sz[k][2], cw, ch;
+        size_t stride = (size_t)w * pb + 3;
+        vt_h264_coded_size(w, h, &cw, &ch);
+        uint8_t *p = alloc_pic(h, stride);
+        for (size_t i = 0; i < stride * h; i++) p[i] = (uint8_t)rng_below(&r, 256);
+        size_t ny = (size_t)cw * ch, nc = ny / 4;
+        uint8_t *a = malloc(ny + 2 * nc), *b = malloc(ny + 2 * nc);
+        assert_true(a && b);
+        setenv("VANTAGE_ISA", "scalar", 1);
+        assert_int_equal(vt_h264_rgb_to_i420(w, h, p, stride, pb, a, cw, a + ny, cw / 2, a + ny + nc, cw / 2), 0);
+        unsetenv("VANTAGE_ISA");
+        assert_int_equal(vt_h264_rgb_to_i420(w, h, p, stride, pb, b, cw, b + ny, cw / 2, b + ny + nc, cw / 2), 0);
+        for (size_t i = 0; i < ny + 2 * nc; i++)
+            if (a[i] != b[i]) fail_msg("%ux%u (%u bytes a pixel): byte %zu of the planes: scalar %d, lanes %d", w, h, pb, i, a[i], b[i]);
+        free(a), free(b), free(p);
+    }
+    if (saved) setenv("VANTAGE_ISA", saved, 1);
+    free(saved);
+    __builtin_cpu_init();
+    if (!__builtin_cpu_supports("avx2")) print_message("h264 convert isa: no AVX2 here, scalar against scalar\n");
+}
+
 /* Flat colour patches (a cube of 9^3 colours, edges included) through the
  * conversion and the inverse back to RGB8: quantising Y to 1/219 and
  * Cb/Cr to 1/224 of the range leaves at most 0.5 * 255/219 = 0.58 of a
@@ -671,6 +612,7 @@ const struct CMUnitTest h264_tests[] = {
     cmocka_unit_test(test_h264_force_idr),
     cmocka_unit_test(test_h264_odd_sizes),
     cmocka_unit_test(test_h264_convert),
+    cmocka_unit_test(test_h264_convert_isa),
     cmocka_unit_test(test_h264_roundtrip_flat),
     cmocka_unit_test(test_h264_adversarial),
     cmocka_unit_test(test_h264_vbv_cap),
