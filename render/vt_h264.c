@@ -191,8 +191,12 @@ static int make_param(const vt_h264_cfg *c, vt_h264 *e, x264_param_t *p, char *e
     if (c->keyint > 65535) return vp_errf(err, errlen, VT_ERR_INVALID, "h264: keyint %u outside 0..65535", c->keyint);
     if (threads < 1 || threads > 16)
         return vp_errf(err, errlen, VT_ERR_INVALID, "h264: threads %d outside 1..16", c->threads);
-    if (x264_param_default_preset(p, "ultrafast", "zerolatency"))
-        return vp_errf(err, errlen, VT_ERR_CODEC, "h264: x264 has no ultrafast/zerolatency preset");
+    static const char *const presets[] = {"ultrafast", "superfast", "veryfast"};
+    if ((unsigned)c->speed >= sizeof presets / sizeof presets[0])
+        return vp_errf(err, errlen, VT_ERR_INVALID, "h264: speed %d outside 0..2 (ultrafast, superfast, veryfast)",
+                       (int)c->speed);
+    if (x264_param_default_preset(p, presets[c->speed], "zerolatency"))
+        return vp_errf(err, errlen, VT_ERR_CODEC, "h264: x264 has no %s/zerolatency preset", presets[c->speed]);
     p->i_csp = X264_CSP_I420;
     p->i_width = (int)((c->width + 1) & ~1u);
     p->i_height = (int)((c->height + 1) & ~1u);
@@ -267,8 +271,8 @@ int vt_h264_encode(vt_h264 *e, const uint8_t *pix, size_t stride, uint32_t pixel
     int rc = check_pix(e->w, pix, stride, pixel_bytes, err, errlen);
     if (rc) return rc;
     x264_image_t *im = &e->pic.img;
-    to_i420(e->w, e->h, pix, stride, pixel_bytes, e->rows, e->lanes, im->plane[0], (size_t)im->i_stride[0], im->plane[1],
-            (size_t)im->i_stride[1], im->plane[2], (size_t)im->i_stride[2]);
+    to_i420(e->w, e->h, pix, stride, pixel_bytes, e->rows, e->lanes, im->plane[0], (size_t)im->i_stride[0],
+            im->plane[1], (size_t)im->i_stride[1], im->plane[2], (size_t)im->i_stride[2]);
     e->pic.i_type = force_idr ? X264_TYPE_IDR : X264_TYPE_AUTO;
     e->pic.i_pts = e->pts;
     x264_nal_t *nal;

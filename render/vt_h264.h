@@ -7,8 +7,9 @@
  *
  * The stream: Constrained Baseline (WebCodecs' `avc1.42E0xx`; the level is
  * x264's pick from the size, 3.1 at 1280x720), x264's ultrafast preset
- * tuned zerolatency (no B-frames, no lookahead: one picture in, its access
- * unit out at once), CAVLC, one reference frame, Annex B start codes,
+ * (or superfast, veryfast: vt_h264_cfg.speed) tuned zerolatency (no
+ * B-frames, no lookahead: one picture in, its access unit out at once),
+ * CAVLC, Annex B start codes,
  * SPS and PPS before every IDR, so any key frame decodes alone (a browser
  * joining late, a decoder reset after a dropped frame). The first IDR also
  * carries x264's version SEI (about 600 bytes, once per encoder). VUI:
@@ -37,8 +38,8 @@
  * first open).
  *
  * Errors: 0 or a negative code from vt_err.h: VT_ERR_INVALID bad
- * arguments or configuration (a size of 0 or 1, a CRF, fps or thread count
- * out of range, a NULL pointer, a stride too small), VT_ERR_TOO_LARGE a
+ * arguments or configuration (a size of 0 or 1, a CRF, fps, thread count
+ * or speed out of range, a NULL pointer, a stride too small), VT_ERR_TOO_LARGE a
  * width or height over VT_H264_MAX_DIM, VT_ERR_NOMEM, VT_ERR_CODEC x264
  * refused or failed (its own message in err). `err` (may be NULL, any
  * errlen) receives a NUL-terminated message; "" on success.
@@ -74,7 +75,14 @@ typedef struct vt_h264 vt_h264;
  *   keyint         a key frame (IDR) at least every keyint frames, 1..65535;
  *                  0: only when asked (vt_h264_encode's force_idr) and first
  *   threads        x264 threads (sliced: one slice each, one access unit
- *                  per picture still), 1..16; 0: 1 */
+ *                  per picture still), 1..16; 0: 1
+ *   speed          x264's preset, all tuned zerolatency and held to
+ *                  constrained baseline: VT_H264_ULTRAFAST (0, the default),
+ *                  VT_H264_SUPERFAST, VT_H264_VERYFAST. On the demo city's
+ *                  moving street view at equal PSNR, superfast is about
+ *                  25 % smaller than ultrafast for 1.3-1.8x its time, veryfast
+ *                  about 33 % smaller for 1.8-2.4x (BENCHMARKS.md, bench_h264) */
+typedef enum vt_h264_speed { VT_H264_ULTRAFAST = 0, VT_H264_SUPERFAST = 1, VT_H264_VERYFAST = 2 } vt_h264_speed;
 typedef struct vt_h264_cfg {
     uint32_t width, height;
     int      crf_x10;
@@ -82,6 +90,7 @@ typedef struct vt_h264_cfg {
     uint32_t fps;
     uint32_t keyint;
     int      threads;
+    vt_h264_speed speed;
 } vt_h264_cfg;
 
 /* Opens an encoder for cfg in *e (NULL on error). Returns 0,

@@ -57,14 +57,13 @@ static inline void chroma8(const uint8_t *r0, const uint8_t *r1, __m256i *u, __m
     sums8(r0, &rb, &ga);
     sums8(r1, &rb, &ga);
     const __m256i add = _mm256_set1_epi32(VT_H264_C_ADD);
-    *u = _mm256_srai_epi32(_mm256_add_epi32(_mm256_add_epi32(_mm256_madd_epi16(rb, _mm256_set1_epi32(PAIR(VT_H264_CU_R, VT_H264_CU_B))),
-                                                             _mm256_madd_epi16(ga, _mm256_set1_epi32(PAIR(VT_H264_CU_G, 0)))),
-                                            add),
-                           19);
-    *v = _mm256_srai_epi32(_mm256_add_epi32(_mm256_add_epi32(_mm256_madd_epi16(rb, _mm256_set1_epi32(PAIR(VT_H264_CV_R, VT_H264_CV_B))),
-                                                             _mm256_madd_epi16(ga, _mm256_set1_epi32(PAIR(VT_H264_CV_G, 0)))),
-                                            add),
-                           19);
+    const __m256i ku_rb = _mm256_set1_epi32(PAIR(VT_H264_CU_R, VT_H264_CU_B));
+    const __m256i kv_rb = _mm256_set1_epi32(PAIR(VT_H264_CV_R, VT_H264_CV_B));
+    const __m256i ku_g = _mm256_set1_epi32(PAIR(VT_H264_CU_G, 0)), kv_g = _mm256_set1_epi32(PAIR(VT_H264_CV_G, 0));
+    __m256i su = _mm256_add_epi32(_mm256_madd_epi16(rb, ku_rb), _mm256_madd_epi16(ga, ku_g));
+    __m256i sv = _mm256_add_epi32(_mm256_madd_epi16(rb, kv_rb), _mm256_madd_epi16(ga, kv_g));
+    *u = _mm256_srai_epi32(_mm256_add_epi32(su, add), 19);
+    *v = _mm256_srai_epi32(_mm256_add_epi32(sv, add), 19);
 }
 
 static void rows(const uint8_t *r0, const uint8_t *r1, uint32_t n, uint8_t *y0, uint8_t *y1, uint8_t *u, uint8_t *v)

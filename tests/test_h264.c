@@ -155,20 +155,19 @@ static void test_h264_first_frame(void **state)
 }
 
 /* 30 moving frames (RGBA rows with padding, as the daemon's buffer could
- * be) decode frame for frame: one IDR, then P-frames well under its size
+ * be) decode frame for frame, at each speed (x264 preset): one IDR, then P-frames well under its size
  * (the disc and the wave move 2-3 pixels a frame over a still gradient:
  * x264 predicts most of it; measured 10-20 % of the IDR, bound 50 %),
  * each decoded picture within 40 dB of its own source (the first
  * frame's bound) and closer to it than to the source before (it follows
  * the motion rather than repeating a picture). */
-static void test_h264_sequence(void **state)
+static void sequence_at(vt_h264_speed speed)
 {
-    (void)state;
     const uint32_t w = 256, h = 144, pb = 4;
     const size_t stride = 4 * w + 12;
     uint8_t *p = alloc_pic(h, stride), *prev = alloc_pic(h, stride), *rgb = malloc(3 * (size_t)w * h);
     assert_non_null(rgb);
-    vt_h264 *e = open_enc(&(vt_h264_cfg){.width = w, .height = h, .fps = 60});
+    vt_h264 *e = open_enc(&(vt_h264_cfg){.width = w, .height = h, .fps = 60, .speed = speed});
     dec d;
     dec_open(&d);
     size_t key_len = 0;
@@ -196,12 +195,18 @@ static void test_h264_sequence(void **state)
         worst = q < worst ? q : worst;
         memcpy(prev, p, stride * h);
     }
-    print_message("h264 sequence: worst PSNR %.2f dB, IDR %zu bytes\n", worst, key_len);
+    print_message("h264 sequence, speed %d: worst PSNR %.2f dB, IDR %zu bytes\n", speed, worst, key_len);
     dec_close(&d);
     vt_h264_close(e);
     free(p);
     free(prev);
     free(rgb);
+}
+
+static void test_h264_sequence(void **state)
+{
+    (void)state;
+    for (int speed = VT_H264_ULTRAFAST; speed <= VT_H264_VERYFAST; speed++) sequence_at((vt_h264_speed)speed);
 }
 
 /* force_idr mid-stream: that frame is an IDR carrying SPS and PPS, and it
@@ -323,7 +328,8 @@ static void ref_i420(const uint8_t *pix, size_t stride, uint32_t pb, uint32_t w,
         static const double wt[3] = {0.25, 0.5, 0.25};
         for (int dy = 0; dy < 2; dy++)
             for (int dx = -1; dx <= 1; dx++)
-                for (int c = 0; c < 3; c++) a[c] += 0.5 * wt[dx + 1] * ref_px(pix, stride, pb, w, h, x + dx, y + dy, c) / 255;
+                for (int c = 0; c < 3; c++)
+                    a[c] += 0.5 * wt[dx + 1] * ref_px(pix, stride, pb, w, h, x + dx, y + dy, c) / 255;
         double ya = kr * a[0] + kg * a[1] + kb * a[2];
         *cb = 128 + 224 * (a[2] - ya) / (2 * (1 - kb));
         *cr = 128 + 224 * (a[0] - ya) / (2 * (1 - kr));
@@ -350,9 +356,11 @@ static void test_h264_convert(void **state)
                 for (uint32_t c = 0; c < pb; c++) {
                     /* corners: black, white and the primaries; else noise */
                     uint32_t m = (x + y) % 8;
-                    p[y * stride + x * pb + c] = (uint8_t)(x < 2 && y < 2 ? (m & (1u << c) ? 255 : 0) : rng_below(&r, 256));
+                    p[y * stride + x * pb + c] =
+                        (uint8_t)(x < 2 && y < 2 ? (m & (1u << c) ? 255 : 0) : rng_below(&r, 256));
                 }
-        uint8_t *yp = malloc((size_t)cw * ch), *up = malloc((size_t)cw * ch / 4 + 1), *vp = malloc((size_t)cw * ch / 4 + 1);
+        uint8_t *yp = malloc((size_t)cw * ch), *up = malloc((size_t)cw * ch / 4 + 1);
+        uint8_t *vp = malloc((size_t)cw * ch / 4 + 1);
         assert_true(yp && up && vp);
         assert_int_equal(vt_h264_rgb_to_i420(w, h, p, stride, pb, yp, cw, up, cw / 2, vp, cw / 2), 0);
         for (uint32_t y = 0; y < ch; y++)
@@ -360,7 +368,8 @@ static void test_h264_convert(void **state)
                 double yy, cb, cr;
                 bool c = x % 2 == 0 && y % 2 == 0;
                 ref_i420(p, stride, pb, w, h, (int)x, (int)y, &yy, c ? &cb : NULL, c ? &cr : NULL);
-                double got[3] = {yp[y * cw + x], c ? up[y / 2 * (cw / 2) + x / 2] : 0, c ? vp[y / 2 * (cw / 2) + x / 2] : 0};
+                size_t ci = y / 2 * (cw / 2) + x / 2;
+                double got[3] = {yp[y * cw + x], c ? up[ci] : 0, c ? vp[ci] : 0};
                 double want[3] = {yy, c ? cb : 0, c ? cr : 0};
                 for (int s = 0; s < (c ? 3 : 1); s++) {
                     double d = fabs(got[s] - floor(want[s] + 0.5));
@@ -401,7 +410,8 @@ static void test_h264_convert_isa(void **state)
         unsetenv("VANTAGE_ISA");
         assert_int_equal(vt_h264_rgb_to_i420(w, h, p, stride, pb, b, cw, b + ny, cw / 2, b + ny + nc, cw / 2), 0);
         for (size_t i = 0; i < ny + 2 * nc; i++)
-            if (a[i] != b[i]) fail_msg("%ux%u (%u bytes a pixel): byte %zu of the planes: scalar %d, lanes %d", w, h, pb, i, a[i], b[i]);
+            if (a[i] != b[i])
+                fail_msg("%ux%u (%u bytes a pixel): plane byte %zu: scalar %d, lanes %d", w, h, pb, i, a[i], b[i]);
         free(a), free(b), free(p);
     }
     if (saved) setenv("VANTAGE_ISA", saved, 1);
@@ -555,6 +565,8 @@ static const bad_cfg_row bad_cfgs[] = {
     {"keyint 65536", {.width = 16, .height = 16, .keyint = 65536}, VT_ERR_INVALID},
     {"threads 17", {.width = 16, .height = 16, .threads = 17}, VT_ERR_INVALID},
     {"threads -1", {.width = 16, .height = 16, .threads = -1}, VT_ERR_INVALID},
+    {"speed 3", {.width = 16, .height = 16, .speed = (vt_h264_speed)3}, VT_ERR_INVALID},
+    {"speed -1", {.width = 16, .height = 16, .speed = (vt_h264_speed)-1}, VT_ERR_INVALID},
 };
 
 static void test_h264_bad_cfg(void **state)

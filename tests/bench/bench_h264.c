@@ -4,7 +4,7 @@
  * encoder's time a frame (a benchmark: it fails on nothing but errors).
  *
  *   bench_h264 [--size WxH] [--frames N] [--orbit DEG] [--crf A,B,..] [--quality A,B,..]
- *              [--big WxH] [--big-frames N] [--json] [--smoke]
+ *              [--big WxH] [--big-frames N] [--speed 0|1|2] [--json] [--smoke]
  *
  * The frames: the demo city as bench_render draws it (bench_city.c: the
  * daemon's scene and software renderer, 2 threads) from a street camera
@@ -25,8 +25,9 @@
  * Last the encoder's time alone at --size and at --big (1920x1080),
  * --big-frames frames of the same orbit each, CRF 23, no decoding.
  *
- * --json: one object a line ({codec, ...}); --smoke: 320x180, 4 frames,
- * 2 big frames at 640x360.
+ * --speed: vt_h264_cfg.speed (0 ultrafast, the default; 1 superfast; 2
+ * veryfast). --json: one object a line ({codec, ...}); --smoke: 320x180,
+ * 4 frames, 2 big frames at 640x360.
  */
 #include "bench_city.h"
 #include "bench_util.h"
@@ -197,11 +198,13 @@ static void equal_quality(const codec *cs, int nc, int n, bool json)
 }
 
 /* The encoder alone at W x H: n frames of the orbit at CRF 23. */
-static int time_big(bench_city_scene *city, vt_soft *sr, uint32_t W, uint32_t H, int n, double deg, bool json)
+static int time_big(bench_city_scene *city, vt_soft *sr, uint32_t W, uint32_t H, int n, double deg, int speed,
+                    bool json)
 {
     float *rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = malloc((size_t)W * H * sizeof *depth);
     uint8_t *rgba8 = malloc(vt_image_rgba8_size(W, H));
-    double *ms = calloc((size_t)n, sizeof *ms), *cv = calloc((size_t)n, sizeof *cv), *bytes = calloc((size_t)n, sizeof *bytes);
+    double *ms = calloc((size_t)n, sizeof *ms), *cv = calloc((size_t)n, sizeof *cv);
+    double *bytes = calloc((size_t)n, sizeof *bytes);
     uint32_t cw, ch;
     vt_h264_coded_size(W, H, &cw, &ch);
     uint8_t *planes = malloc((size_t)cw * ch * 3 / 2);
@@ -209,7 +212,7 @@ static int time_big(bench_city_scene *city, vt_soft *sr, uint32_t W, uint32_t H,
     char err[512];
     int rc = -1;
     if (!rgba || !depth || !rgba8 || !ms || !cv || !bytes || !planes) goto out;
-    if (vt_h264_open(&e, &(vt_h264_cfg){.width = W, .height = H}, err, sizeof err)) {
+    if (vt_h264_open(&e, &(vt_h264_cfg){.width = W, .height = H, .speed = (vt_h264_speed)speed}, err, sizeof err)) {
         fprintf(stderr, "bench_h264: %s\n", err);
         goto out;
     }
@@ -251,7 +254,8 @@ out:
 int main(int argc, char **argv)
 {
     uint32_t W = 1280, H = 720, BW = 1920, BH = 1080;
-    int n = 60, big_n = 30, crfs[MAX_CODECS] = {180, 200, 230, 260, 280}, ncrf = 5, qs[MAX_CODECS] = {80, 85}, nq = 2;
+    int n = 60, big_n = 30, speed = 0, ncrf = 5, nq = 2;
+    int crfs[MAX_CODECS] = {180, 200, 230, 260, 280}, qs[MAX_CODECS] = {80, 85};
     double deg = 0.5;
     bool json = false, smoke = false;
     for (int i = 1; i < argc; i++) {
@@ -265,12 +269,13 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--frames")) n = atoi(v), i++;
         else if (!strcmp(a, "--big-frames")) big_n = atoi(v), i++;
         else if (!strcmp(a, "--orbit")) deg = atof(v), i++;
+        else if (!strcmp(a, "--speed")) speed = atoi(v), i++;
         else if (!strcmp(a, "--crf")) ok = (ncrf = parse_list(v, crfs, MAX_CODECS / 2, 10)) > 0, i++;
         else if (!strcmp(a, "--quality")) ok = (nq = parse_list(v, qs, MAX_CODECS / 2, 1)) > 0, i++;
         else ok = false;
         if (!ok) {
             fprintf(stderr, "usage: bench_h264 [--size WxH] [--frames N] [--orbit DEG] [--crf A,B,..] "
-                            "[--quality A,B,..] [--big WxH] [--big-frames N] [--json] [--smoke]\n");
+                            "[--quality A,B,..] [--big WxH] [--big-frames N] [--speed 0|1|2] [--json] [--smoke]\n");
             return 2;
         }
     }
@@ -293,8 +298,8 @@ int main(int argc, char **argv)
     for (int i = 0; i < ncrf; i++, nc++) {
         cs[nc].crf_x10 = crfs[i];
         snprintf(cs[nc].name, sizeof cs[nc].name, "h264-crf%g", crfs[i] / 10.0);
-        if (vt_h264_open(&cs[nc].enc, &(vt_h264_cfg){.width = W, .height = H, .crf_x10 = crfs[i]}, err, sizeof err) ||
-            h264_dec_open(&cs[nc].dec)) {
+        vt_h264_cfg cfg = {.width = W, .height = H, .crf_x10 = crfs[i], .speed = (vt_h264_speed)speed};
+        if (vt_h264_open(&cs[nc].enc, &cfg, err, sizeof err) || h264_dec_open(&cs[nc].dec)) {
             fprintf(stderr, "bench_h264: %s: %s\n", cs[nc].name, err);
             return 1;
         }
@@ -321,7 +326,8 @@ int main(int argc, char **argv)
     for (int i = 0; i < nc; i++) report_codec(&cs[i], n, W, H, json);
     equal_quality(cs, nc, n, json);
     fflush(stdout);
-    if (time_big(city, sr, W, H, big_n, deg, json) || time_big(city, sr, BW, BH, big_n, deg, json)) return 1;
+    if (time_big(city, sr, W, H, big_n, deg, speed, json) || time_big(city, sr, BW, BH, big_n, deg, speed, json))
+        return 1;
     for (int i = 0; i < nc; i++) {
         vt_h264_close(cs[i].enc);
         h264_dec_close(&cs[i].dec);
