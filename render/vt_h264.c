@@ -23,6 +23,7 @@
  */
 #include "vt_h264.h"
 #include "vt_h264_kern.h"
+#include "culling.h"
 
 #include <limits.h>
 #include <stdarg.h>
@@ -77,17 +78,11 @@ static void rows_scalar(const uint8_t *t0, const uint8_t *t1, uint32_t x0, uint3
     }
 }
 
-/* The lanes unless VANTAGE_ISA names a narrower set (as vt_tonemap.c's pick). */
+/* The lanes where the culling core's pick is AVX2 (CPUID, VANTAGE_ISA), as
+ * vt_raster.c's; the scalar rows otherwise. */
 static vt_i420_rows_fn rows_pick(void)
 {
-#if defined(__x86_64__) || defined(__i386__)
-    const char *isa = getenv("VANTAGE_ISA");
-    if (isa && (!strcmp(isa, "scalar") || !strcmp(isa, "sse41"))) return NULL;
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") ? vt_i420_rows_avx2() : NULL;
-#else
-    return NULL;
-#endif
+    return cull_isa_default() == CULL_ISA_AVX2 ? vt_i420_rows_avx2() : NULL;
 }
 
 /* The conversion into planes already checked; t: 2 pad_bytes(cw) of

@@ -33,6 +33,10 @@
  * about 1.5 MB of memory a 720p encoder (x264's frames, one padded I420
  * picture). The encode call does not allocate beyond what x264 does inside.
  *
+ * The conversion's AVX2 rows are picked as the renderer's kernels are, by
+ * culling/'s cull_isa_default (CPUID; VANTAGE_ISA=scalar forces the
+ * scalar rows), so a binary linking vt_h264 links libvculling too.
+ *
  * Threading: an encoder is used by one thread at a time; different
  * encoders are independent (x264 keeps no global mutable state after its
  * first open).
