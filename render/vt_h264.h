@@ -28,10 +28,15 @@
  * rectangle, or VideoFrame's visibleRect).
  *
  * Load it expects: one encoder per viewer stream, a frame at a time, 1
- * thread each. Costs at 1280x720 on one core of the loaded development
- * machine (vt_h264.c has the numbers): conversion about 1 ms, encode 4-8 ms;
- * about 1.5 MB of memory a 720p encoder (x264's frames, one padded I420
- * picture). The encode call does not allocate beyond what x264 does inside.
+ * thread each. Costs on one core of the loaded development machine
+ * (BENCHMARKS.md, bench_h264), a demo-city frame under motion, ultrafast:
+ * 5.9 ms at 1280x720 (the conversion 0.8 of it), 13.7 ms at 1920x1080.
+ * Memory: about 15 MB resident a 1280x720 encoder once it has encoded (29 MB
+ * at 1920x1080, 4.3 MB at 640x360): x264's frame pool (the picture, its
+ * reference and reconstruction with 32-pixel borders, and the half-size
+ * copies its CRF rate control measures), so a daemon caps its H.264
+ * streams, not only their bytes. The encode call does not allocate
+ * beyond what x264 does inside.
  *
  * The conversion's AVX2 rows are picked as the renderer's kernels are, by
  * culling/'s cull_isa_default (CPUID; VANTAGE_ISA=scalar forces the
