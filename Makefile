@@ -329,7 +329,7 @@ test-one: check-deps $(TEST_BIN)
 BUILD_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 test: check-deps
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull \
-	  build/release/bench_occlusion build/release/bench_render
+	  build/release/bench_occlusion build/release/bench_render build/release/bench_h264
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan fuzz-replay
@@ -338,6 +338,7 @@ test: check-deps
 	./build/release/bench_cull --smoke
 	./build/release/bench_occlusion --smoke --scene $(SCENE)
 	./build/release/bench_render --smoke
+	./build/release/bench_h264 --smoke
 	VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
