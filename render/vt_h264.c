@@ -25,7 +25,6 @@
 #include "vt_h264_kern.h"
 #include "culling.h"
 
-#include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -170,7 +169,8 @@ static void x264_log(void *priv, int level, const char *fmt, va_list ap)
     while (n && (e->msg[n - 1] == '\n' || e->msg[n - 1] == ' ')) e->msg[--n] = 0;
 }
 
-/* cfg -> x264's parameters; 0 or VT_ERR_INVALID with the reason. */
+/* cfg -> x264's parameters: 0, or VT_ERR_INVALID / VT_ERR_TOO_LARGE / VT_ERR_CODEC
+ * with the reason in err. */
 static int make_param(const vt_h264_cfg *c, vt_h264 *e, x264_param_t *p, char *err, size_t errlen)
 {
     int rc;
