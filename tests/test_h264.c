@@ -513,6 +513,42 @@ static void test_h264_adversarial(void **state)
     }
 }
 
+/* Random sizes (2..300 each way), layouts (RGB or RGBA, row padding) and
+ * settings (CRF, cap, fps, keyint, threads, speed) across their ranges:
+ * every stream opens, its two pictures decode to the coded size, the
+ * first is the IDR and the second follows keyint (1: an IDR too). */
+static void test_h264_random_configs(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x7a};
+    int n = (int)(24 * test_scale());
+    for (int k = 0; k < (n > 4 ? n : 4); k++) {
+        uint32_t w = 2 + rng_below(&r, 299), h = 2 + rng_below(&r, 299), pb = 3 + rng_below(&r, 2), cw, ch;
+        size_t stride = (size_t)w * pb + rng_below(&r, 9);
+        vt_h264_cfg c = {.width = w, .height = h, .crf_x10 = (int)(10 + rng_below(&r, 501)),
+                         .max_kbps = rng_below(&r, 2) ? 1 + rng_below(&r, 20000) : 0, .fps = 1 + rng_below(&r, 240),
+                         .keyint = rng_below(&r, 3), .threads = 1 + (int)rng_below(&r, 3),
+                         .speed = (vt_h264_speed)rng_below(&r, 3)};
+        vt_h264_coded_size(w, h, &cw, &ch);
+        uint8_t *p = alloc_pic(h, stride);
+        smooth_pic(p, w, h, stride, pb, k);
+        vt_h264 *e = open_enc(&c);
+        dec d;
+        dec_open(&d);
+        for (int t = 0; t < 2; t++) {
+            au_out a = enc(e, p, stride, pb, false);
+            if (a.key != (t == 0 || c.keyint == 1))
+                fail_msg("%ux%u crf %d keyint %u: frame %d key %d", w, h, c.crf_x10, c.keyint, t, a.key);
+            dec_au(&d, a.p, a.len);
+            assert_int_equal(d.f->width, cw);
+            assert_int_equal(d.f->height, ch);
+        }
+        dec_close(&d);
+        vt_h264_close(e);
+        free(p);
+    }
+}
+
 /* A VBV cap holds noise (the worst case: CRF 23 gives it tens of kB a
  * frame) to about its share: 2000 kbit/s at 30 fps is 8.3 kB a frame.
  * x264 aims the buffer, not each frame, and an IDR at the start may
@@ -626,6 +662,7 @@ const struct CMUnitTest h264_tests[] = {
     cmocka_unit_test(test_h264_convert_isa),
     cmocka_unit_test(test_h264_roundtrip_flat),
     cmocka_unit_test(test_h264_adversarial),
+    cmocka_unit_test(test_h264_random_configs),
     cmocka_unit_test(test_h264_vbv_cap),
     TEST_ROWS(test_h264_bad_cfg, bad_cfgs),
     cmocka_unit_test(test_h264_bad_args),
