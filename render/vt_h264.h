@@ -102,8 +102,10 @@ typedef struct vt_h264_cfg {
     vt_h264_speed speed;
 } vt_h264_cfg;
 
-/* Opens an encoder for cfg in *e (NULL on error). Returns 0,
- * VT_ERR_INVALID, VT_ERR_TOO_LARGE, VT_ERR_NOMEM or VT_ERR_CODEC. */
+/* Opens an encoder for cfg in *e (NULL on error). The settings are fixed
+ * for its life: a new size, CRF, cap or speed is a new encoder (whose
+ * first picture is an IDR). Returns 0, VT_ERR_INVALID, VT_ERR_TOO_LARGE,
+ * VT_ERR_NOMEM or VT_ERR_CODEC. */
 int vt_h264_open(vt_h264 **e, const vt_h264_cfg *cfg, char *err, size_t errlen);
 
 /* Encodes one picture: height rows of width pixels (the cfg's size), top
