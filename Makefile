@@ -5,8 +5,8 @@
 #   make demo              the culling core on the city scene (tests/data/scenes) + a short benchmark
 #   make test              unit + property tests (release, then ASan+UBSan),
 #                          the scalar-only build, and a bench smoke run
-#   make bench             the full culling, occlusion, render and pad-parser benchmarks
-#                          (bench_cull, bench_occlusion, bench_render, bench_pad)
+#   make bench             the full culling, occlusion, render, pad-parser and H.264 benchmarks
+#                          (bench_cull, bench_occlusion, bench_render, bench_pad, bench_h264)
 #   make bench-cycles      the renderer against Blender Cycles (SSIM per scene, minutes)
 #   make docs-renders      the demo city pictures in docs/ (day, night, street, aerial, ...)
 #   make report            run time against error of the culling configurations and a
@@ -25,9 +25,13 @@ SHELL  := /bin/bash
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
             zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
-            gnuplot-nox blender python3-numpy libwslay-dev libssl-dev openssl chromium nodejs npm
+            gnuplot-nox blender python3-numpy libwslay-dev libssl-dev openssl chromium nodejs npm \
+            libx264-dev libavcodec-dev libavutil-dev
 # (blender and python3-numpy: make bench-cycles, the renderer against Cycles; not needed by make test)
-PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf libcrypto libssl
+# (libx264-dev: H.264 browser frames, render/vt_h264.c; libavcodec-dev and libavutil-dev: the
+# tests' and bench_h264's independent H.264 decoder, linked into nothing else)
+PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf \
+            libcrypto libssl x264 libavcodec libavutil
 # (libwslay-dev ships no pkg-config file: check-deps looks for its header)
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
@@ -128,12 +132,18 @@ WEB_LIBS := -lwslay $$(pkg-config --libs libssl libcrypto)
 # llvmpipe where there is no GPU) or NVIDIA's. Every binary that links
 # RENDER_OBJ needs these; the GL tests skip when no context can be made
 GL_LIBS  := $$(pkg-config --libs egl epoxy)
+# H.264 for browser frames (issue 21): vt_h264.c on libx264 (GPL-2+), apart from
+# RENDER_OBJ so that only what encodes video links it; the tests and bench_h264
+# check it with libavcodec's decoder (never linked into the daemon)
+H264_OBJ := $(BUILD)/render/vt_h264.o $(BUILD)/render/vt_h264_avx2.o
+X264_LIBS := $$(pkg-config --libs x264)
+AVCODEC_LIBS := $$(pkg-config --libs libavcodec libavutil)
 # level import (client/import/import_*.c, the CLI and the tests): assimp's C API
 ASSIMP_LIBS := $$(pkg-config --libs assimp)
 # the daemon's journal and snapshots (daemon/journal.c, snapshot.c): zlib's CRC-32
 ZLIB_LIBS := $$(pkg-config --libs zlib)
 
-TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c tests/pad_fake.c
+TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c tests/pad_fake.c tests/h264_ref.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 TEST_BIN := $(BUILD)/vantage_tests
 
@@ -148,6 +158,11 @@ OCCB_BIN := $(BUILD)/bench_occlusion
 RENDB_SRC:= tests/bench/bench_render.c tests/bench/bench_city.c
 RENDB_OBJ:= $(RENDB_SRC:%.c=$(BUILD)/%.o)
 RENDB_BIN:= $(BUILD)/bench_render
+
+# H.264 against JPEG on the demo city (issue 21): bytes, PSNR, encode ms
+H264B_SRC:= tests/bench/bench_h264.c tests/bench/bench_city.c tests/h264_ref.c
+H264B_OBJ:= $(H264B_SRC:%.c=$(BUILD)/%.o)
+H264B_BIN:= $(BUILD)/bench_h264
 
 # the pad parsers alone (pure C: the parsers and their tables, no hidapi/libusb)
 PADB_OBJ := $(BUILD)/tests/bench/bench_pad.o
@@ -164,7 +179,7 @@ SCENE    ?= tests/data/scenes/city_scene.txt
 
 .PHONY: all run demo test test-web test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
-all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN)
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -212,6 +227,7 @@ $(BUILD)/render/vt_shade_sse41.o: CFLAGS += $(ISA_SSE41)
 $(BUILD)/render/vt_ssao_avx2.o:   CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_tonemap_avx2.o: CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_post_avx2.o:    CFLAGS += $(ISA_AVX2)
+$(BUILD)/render/vt_h264_avx2.o:    CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_shadow_avx2.o: CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_shadow_sse41.o: CFLAGS += $(ISA_SSE41)
 $(BUILD)/render/vt_ssao_sse41.o:  CFLAGS += $(ISA_SSE41)
@@ -235,8 +251,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 # every daemon module but the server's (the tests drive scenes, journals and edits in-process)
 PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o tls.o auth.o upload.o readback.o),$(DAEMON_OBJ))
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
-	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c libssl libcrypto) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(LDLIBS)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
+	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c libssl libcrypto) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(X264_LIBS) $(AVCODEC_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG; it
 # decodes uploaded textures (vt_texture: PNG, JPEG, and EXR through OpenEXRCore)
@@ -248,8 +264,8 @@ DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD
                  $(BUILD)/render/vt_gldraw.o $(BUILD)/render/vt_gldraw_glsl.o $(BUILD)/render/vt_shadow_gl.o $(BUILD)/render/vt_ssao_gl.o $(BUILD)/render/vt_gltex.o \
                  $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
-$(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(WEB_LIBS) $(LDLIBS)
+$(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(H264_OBJ) $(CULL_LIB) $(PROTO_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(H264_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(WEB_LIBS) $(X264_LIBS) $(LDLIBS)
 
 # libvantage carries the protocol; its matrix helpers are culling/cull_mat.h
 # (header-only), so the culling core is not in it
@@ -277,6 +293,9 @@ $(OCCB_BIN): $(OCCB_OBJ) $(RENDER_OBJ) $(CULL_LIB)
 $(RENDB_BIN): $(RENDB_OBJ) $(RENDER_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(RENDB_OBJ) $(RENDER_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(LDLIBS)
 
+$(H264B_BIN): $(H264B_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(H264B_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(PERSIST_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(X264_LIBS) $(AVCODEC_LIBS) $(LDLIBS)
+
 $(PADB_BIN): $(PADB_OBJ) $(PADB_PAD)
 	$(CC) $(LDFLAGS) -o $@ $(PADB_OBJ) $(PADB_PAD) $(LDLIBS)
 
@@ -288,6 +307,8 @@ $(DESB_BIN): $(DESB_OBJ) $(CLIENT_LIB) $(CULL_LIB)
 
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)
+$(BUILD)/render/vt_h264.o: CPPFLAGS += $$(pkg-config --cflags x264)
+$(BUILD)/tests/test_h264.o $(BUILD)/tests/h264_ref.o $(BUILD)/tests/bench/bench_h264.o: CPPFLAGS += $$(pkg-config --cflags x264 libavcodec libavutil)
 
 # ---- the two commands ---------------------------------------------------------
 run: check-deps
@@ -321,7 +342,7 @@ test-one: check-deps $(TEST_BIN)
 BUILD_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 test: check-deps
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull \
-	  build/release/bench_occlusion build/release/bench_render
+	  build/release/bench_occlusion build/release/bench_render build/release/bench_h264
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan fuzz-replay
@@ -330,6 +351,7 @@ test: check-deps
 	./build/release/bench_cull --smoke
 	./build/release/bench_occlusion --smoke --scene $(SCENE)
 	./build/release/bench_render --smoke
+	./build/release/bench_h264 --smoke
 	VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
 	VANTAGE_BIN_DIR=build/release tests/web/run.sh
@@ -352,11 +374,12 @@ test-full:
 
 bench: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/bench_cull build/release/bench_occlusion \
-	  build/release/bench_render build/release/bench_pad
+	  build/release/bench_render build/release/bench_pad build/release/bench_h264
 	./build/release/bench_cull --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_occlusion --scene $(SCENE) $(BENCH_ARGS)
 	./build/release/bench_render $(BENCH_ARGS)
 	./build/release/bench_pad $(BENCH_ARGS)
+	./build/release/bench_h264 $(H264_BENCH_ARGS)
 
 # recovery time and edit throughput per durability policy (a few minutes)
 bench-persist: check-deps
@@ -410,4 +433,4 @@ clean:
 include tests/fuzz/fuzz.mk
 include tests/bench/report.mk
 
--include $(RENDER_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(PADB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d)
+-include $(RENDER_OBJ:.o=.d) $(H264_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(H264B_OBJ:.o=.d) $(PADB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d)

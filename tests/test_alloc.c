@@ -15,6 +15,7 @@
 #include "protocol.h"
 #include "scene.h"
 #include "test_util.h"
+#include "vt_h264.h"
 #include "vt_image.h"
 
 #include <limits.h>
@@ -443,7 +444,45 @@ static void test_jpeg_bands_under_failing_allocations(void **state)
     free(one), free(d1);
 }
 
+/* The H.264 encoder under failing allocations: its own (the encoder, the
+ * conversion's rows; x264 allocates through libx264's own malloc, which
+ * the wrappers do not reach) each fail vt_h264_open with VT_ERR_NOMEM,
+ * nothing returned and, under ASan, nothing leaked; then an encoder opens
+ * and encodes. The conversion alone likewise. */
+static void test_h264_under_failing_allocations(void **state)
+{
+    (void)state;
+    char err[256];
+    vt_h264_cfg cfg = {.width = 34, .height = 18};
+    static uint8_t px[34 * 18 * 3], planes[34 * 18 * 2];
+    long failures = 0;
+    for (long k = 0;; k++) {
+        vt_h264 *e = (vt_h264 *)(uintptr_t)1;
+        arm(k);
+        int rc = vt_h264_open(&e, &cfg, err, sizeof err);
+        disarm();
+        if (rc == 0) {
+            const uint8_t *au;
+            size_t len;
+            bool key;
+            assert_int_equal(vt_h264_encode(e, px, 34 * 3, 3, false, &au, &len, &key, err, sizeof err), 0);
+            assert_true(key && len > 0);
+            vt_h264_close(e);
+            break;
+        }
+        if (rc != VT_ERR_NOMEM) fail_msg("allocation %ld failing: %d '%s', want VT_ERR_NOMEM", k, rc, err);
+        assert_null(e);
+        failures++;
+    }
+    assert_int_equal(failures, 2);
+    arm(0);
+    int rc = vt_h264_rgb_to_i420(34, 18, px, 34 * 3, 3, planes, 34, planes + 34 * 18, 17, planes + 34 * 18 * 5 / 4, 17);
+    disarm();
+    assert_int_equal(rc, VT_ERR_NOMEM);
+}
+
 const struct CMUnitTest alloc_tests[] = {
+    cmocka_unit_test(test_h264_under_failing_allocations),
     cmocka_unit_test(test_textures_under_failing_allocations),
     cmocka_unit_test(test_jpeg_bands_under_failing_allocations),
     cmocka_unit_test(test_occluders_under_failing_allocations),

@@ -30,6 +30,7 @@ int main(void)
         {e2e_tests, e2e_tests_count},
         {exr_tests, exr_tests_count},
         {image_tests, image_tests_count},
+        {h264_tests, h264_tests_count},
         {gl_tests, gl_tests_count},
         {overlay_tests, overlay_tests_count},
         {sublevel_tests, sublevel_tests_count},

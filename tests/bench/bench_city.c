@@ -136,6 +136,45 @@ static int cmp_d(const void *a, const void *b)
     return bench_cmp_d(a, b);
 }
 
+/* The camera of `vantage render`: 60 degrees, 0.1..10000 m, from eye to at. */
+static int city_make_view(uint32_t W, uint32_t H, const double eye[3], const double at[3], cull_view *v)
+{
+    double proj[16], view[16], dir[3] = {at[0] - eye[0], at[1] - eye[1], at[2] - eye[2]}, up[3] = {0, 1, 0};
+    cull_mat_perspective(proj, 60 * M_PI / 180, (double)W / H, 0.1, 10000, CULL_DEPTH_GL);
+    cull_mat_look_dir(view, dir, up);
+    cull_view_desc d = {.viewport_w = W, .viewport_h = H, .depth_mode = CULL_DEPTH_GL};
+    memcpy(d.origin, eye, sizeof d.origin);
+    cull_mat_mul(d.view_proj, proj, view);
+    return cull_view_init(v, &d) ? -1 : 0;
+}
+
+/* One software frame of view v: the gather, then vt_soft_draw into
+ * rgba / depth (W x H, rows bottom-up); *st its passes, *gather_ms the
+ * gather's time, the counts out (each may be NULL but st). */
+static int city_draw(city_run *cr, vt_soft *sr, const cull_view *v, uint32_t W, uint32_t H, float *rgba,
+                     float *depth, vt_soft_stats *st, double *gather_ms, uint32_t *ninst, uint32_t *nl)
+{
+    city_frame cf;
+    char err[512];
+    double t0 = bench_now_ns();
+    int grc = city_gather(cr, v, &cf);
+    if (gather_ms) *gather_ms = (bench_now_ns() - t0) / 1e6;
+    if (grc) {
+        city_frame_free(&cf);
+        fprintf(stderr, "bench_render: city: gather failed (out of memory)\n");
+        return -1;
+    }
+    vt_frame f = {.view = v, .width = W, .height = H, .meshes = cf.meshes, .nmesh = cf.nmesh, .inst = cf.inst,
+                  .ninst = cf.ninst, .lights = cf.lights, .nl = cf.nl, .env = cf.fs.env_ok ? &cf.fs.env : NULL,
+                  .rgba = rgba, .depth = depth, .stride = W};
+    int rc = vt_soft_draw(sr, &f, st, err, sizeof err);
+    if (rc) fprintf(stderr, "bench_render: city: %s\n", err);
+    if (ninst) *ninst = cf.ninst;
+    if (nl) *nl = cf.nl;
+    city_frame_free(&cf);
+    return rc ? -1 : 0;
+}
+
 /* One camera: the software frame reps times (median per pass), then the
  * GL path's draw of the same frames. */
 static int city_view(city_run *cr, const bench_city_opts *o, const char *name, const double eye[3],
@@ -143,15 +182,7 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
 {
     uint32_t W = o->width, H = o->height;
     cull_view v;
-    {
-        double proj[16], view[16], dir[3] = {at[0] - eye[0], at[1] - eye[1], at[2] - eye[2]}, up[3] = {0, 1, 0};
-        cull_mat_perspective(proj, 60 * M_PI / 180, (double)W / H, 0.1, 10000, CULL_DEPTH_GL);
-        cull_mat_look_dir(view, dir, up);
-        cull_view_desc d = {.viewport_w = W, .viewport_h = H, .depth_mode = CULL_DEPTH_GL};
-        memcpy(d.origin, eye, sizeof d.origin);
-        cull_mat_mul(d.view_proj, proj, view);
-        if (cull_view_init(&v, &d)) return -1;
-    }
+    if (city_make_view(W, H, eye, at, &v)) return -1;
     int reps = o->reps;
     float *rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = malloc((size_t)W * H * sizeof *depth);
     uint8_t *rgb8 = malloc(vt_image_rgba8_size(W, H));
@@ -166,24 +197,10 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
     for (int r = -1; r < reps; r++) {
         double *row = t + (size_t)NP * (size_t)(r + 1);
         double t0 = bench_now_ns();
-        city_frame cf;
-        if (city_gather(cr, &v, &cf)) {
-            city_frame_free(&cf);
-            fprintf(stderr, "bench_render: city: gather failed (out of memory)\n");
-            goto out;
-        }
-        double t1 = bench_now_ns();
-        vt_frame f = {.view = &v, .width = W, .height = H, .meshes = cf.meshes, .nmesh = cf.nmesh, .inst = cf.inst,
-                      .ninst = cf.ninst, .lights = cf.lights, .nl = cf.nl, .env = cf.fs.env_ok ? &cf.fs.env : NULL,
-                      .rgba = rgba, .depth = depth, .stride = W};
         vt_soft_stats st = {0};
-        if (vt_soft_draw(sr, &f, &st, err, sizeof err)) {
-            fprintf(stderr, "bench_render: city: %s\n", err);
-            city_frame_free(&cf);
-            goto out;
-        }
-        ninst = cf.ninst, nl = cf.nl, tris = st.triangles, shadow_tris = st.shadow_triangles;
-        city_frame_free(&cf);
+        double gather_ms;
+        if (city_draw(cr, sr, &v, W, H, rgba, depth, &st, &gather_ms, &ninst, &nl)) goto out;
+        tris = st.triangles, shadow_tris = st.shadow_triangles;
         double t2 = bench_now_ns();
         vt_tonemap_desc td = {.op = VT_TONEMAP_ACES};
         uint8_t *jpeg = NULL;
@@ -202,7 +219,7 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
         }
         free(jpeg);
         double t4 = bench_now_ns();
-        row[P_GATHER] = (t1 - t0) / 1e6;
+        row[P_GATHER] = gather_ms;
         row[P_SETUP] = st.setup_ns / 1e6;
         row[P_RASTER] = st.raster_ns / 1e6;
         row[P_BIN] = st.bin_ns / 1e6;
@@ -291,39 +308,79 @@ out:
     return rc;
 }
 
-int bench_city(const bench_city_opts *o)
+/* The city run: vantaged's scene with the city edit, the query's buffers. */
+static void city_close(city_run *cr)
+{
+    if (!cr) return;
+    cull_ctx_destroy(cr->ctx);
+    free(cr->res);
+    free(cr->mesh_of);
+    if (cr->sc) scene_free(cr->sc);
+    free(cr->sc);
+    free(cr);
+}
+
+static city_run *city_open(cull_pool *pool, bool quiet)
 {
     /* vantaged's defaults (daemon/vantaged.c: cell 64 m, its limits, 3000 props) */
     const scene_limits lim = {.max_entities = CULL_MAX_ENTITIES, .max_lights = 65536, .max_occluders = 1u << 20,
                               .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 22, .max_materials = 1u << 20,
                               .max_texture_size = 8192, .max_texture_mem = 1ull << 30};
-    city_run cr = {.pool = o->pool};
-    int rc = -1;
+    city_run *cr = calloc(1, sizeof *cr);
     scene_err serr = {0};
     edit_result er;
     double t0 = bench_now_ns();
-    if (!(cr.sc = calloc(1, sizeof *cr.sc)) || scene_init(cr.sc, 64, &lim)) return -1;
-    if (edit_apply(cr.sc, &(edit){.type = EDIT_CITY, .aux = 3000}, &er, &serr)) {
+    if (!cr) return NULL;
+    cr->pool = pool;
+    if (!(cr->sc = calloc(1, sizeof *cr->sc)) || scene_init(cr->sc, 64, &lim)) {
+        free(cr->sc);
+        cr->sc = NULL;
+        goto fail;
+    }
+    if (edit_apply(cr->sc, &(edit){.type = EDIT_CITY, .aux = 3000}, &er, &serr)) {
         fprintf(stderr, "bench_render: city: %s\n", serr.msg);
-        goto out;
+        goto fail;
     }
     edit_result_free(&er);
-    if (!o->json)
-        printf("demo city built in %.0f ms (%zu entities, %zu lights)\n", (bench_now_ns() - t0) / 1e6, cr.sc->ids.count,
-               cr.sc->lights.count);
-    cr.cap = cull_query_bound(cr.sc->world);
-    cr.res = malloc(cr.cap * sizeof *cr.res);
-    cr.mesh_of = calloc(65536, sizeof *cr.mesh_of);
-    if (!cr.res || !cr.mesh_of || cull_ctx_create(o->pool, &cr.ctx)) goto out;
+    if (!quiet)
+        printf("demo city built in %.0f ms (%zu entities, %zu lights)\n", (bench_now_ns() - t0) / 1e6,
+               cr->sc->ids.count, cr->sc->lights.count);
+    cr->cap = cull_query_bound(cr->sc->world);
+    cr->res = malloc(cr->cap * sizeof *cr->res);
+    cr->mesh_of = calloc(65536, sizeof *cr->mesh_of);
+    if (!cr->res || !cr->mesh_of || cull_ctx_create(pool, &cr->ctx)) goto fail;
+    return cr;
+fail:
+    city_close(cr);
+    return NULL;
+}
+
+int bench_city_open(cull_pool *pool, bool quiet, bench_city_scene **out)
+{
+    return (*out = city_open(pool, quiet)) ? 0 : -1;
+}
+
+void bench_city_close(bench_city_scene *c)
+{
+    city_close(c);
+}
+
+int bench_city_draw(bench_city_scene *c, struct vt_soft *sr, const double eye[3], const double at[3], uint32_t W,
+                    uint32_t H, float *rgba, float *depth)
+{
+    cull_view v;
+    vt_soft_stats st = {0};
+    if (city_make_view(W, H, eye, at, &v)) return -1;
+    return city_draw(c, sr, &v, W, H, rgba, depth, &st, NULL, NULL, NULL);
+}
+
+int bench_city(const bench_city_opts *o)
+{
+    city_run *cr = city_open(o->pool, o->json);
+    if (!cr) return -1;
     static const double street_eye[3] = {0, 20, -300}, street_at[3] = {0, 2, 0};
     static const double air_eye[3] = {150, 200, 150}, air_at[3] = {0, 0, 0};
-    if (city_view(&cr, o, "street", street_eye, street_at) || city_view(&cr, o, "aerial", air_eye, air_at)) goto out;
-    rc = 0;
-out:
-    cull_ctx_destroy(cr.ctx);
-    free(cr.res);
-    free(cr.mesh_of);
-    if (cr.sc) scene_free(cr.sc);
-    free(cr.sc);
+    int rc = city_view(cr, o, "street", street_eye, street_at) || city_view(cr, o, "aerial", air_eye, air_at) ? -1 : 0;
+    city_close(cr);
     return rc;
 }

@@ -27,4 +27,16 @@ typedef struct bench_city_opts {
 /* 0, or -1 with a line on stderr. */
 int bench_city(const bench_city_opts *o);
 
+/* The demo city alone, for the other benchmarks (bench_h264.c): the scene
+ * bench_city builds (quiet: no line on stdout), and the software frame of
+ * a camera from eye to at (60 degrees, as `vantage render`) into rgba and
+ * depth (W x H, rows bottom-up, vt_soft's layout) with sr. 0, or -1 with a
+ * line on stderr. */
+typedef struct city_run bench_city_scene;
+struct vt_soft;
+int bench_city_open(cull_pool *pool, bool quiet, bench_city_scene **out);
+int bench_city_draw(bench_city_scene *c, struct vt_soft *sr, const double eye[3], const double at[3], uint32_t W,
+                    uint32_t H, float *rgba, float *depth);
+void bench_city_close(bench_city_scene *c);
+
 #endif
