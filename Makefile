@@ -250,7 +250,7 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 # every daemon module but the server's (the tests drive scenes, journals and edits in-process)
-PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o tls.o auth.o upload.o readback.o),$(DAEMON_OBJ))
+PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o tls.o video.o auth.o upload.o readback.o),$(DAEMON_OBJ))
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c libssl libcrypto) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(X264_LIBS) $(AVCODEC_LIBS) $(LDLIBS)
 
@@ -308,7 +308,7 @@ $(DESB_BIN): $(DESB_OBJ) $(CLIENT_LIB) $(CULL_LIB)
 $(BUILD)/tests/%.o: CPPFLAGS += $$(pkg-config --cflags cmocka epoxy) -Itests
 $(BUILD)/render/%.o: CPPFLAGS += $$(pkg-config --cflags OpenEXR libpng libjpeg egl epoxy)
 $(BUILD)/render/vt_h264.o: CPPFLAGS += $$(pkg-config --cflags x264)
-$(BUILD)/tests/test_h264.o $(BUILD)/tests/h264_ref.o $(BUILD)/tests/bench/bench_h264.o: CPPFLAGS += $$(pkg-config --cflags x264 libavcodec libavutil)
+$(BUILD)/tests/test_h264.o $(BUILD)/tests/test_web.o $(BUILD)/tests/h264_ref.o $(BUILD)/tests/bench/bench_h264.o: CPPFLAGS += $$(pkg-config --cflags x264 libavcodec libavutil)
 
 # ---- the two commands ---------------------------------------------------------
 run: check-deps

@@ -22,6 +22,7 @@
 #include "vt_gldraw.h"
 #include "vt_image.h"
 #include "vt_shadow.h"
+#include "video.h"
 #include "vt_soft.h"
 #include "web.h"
 
@@ -366,10 +367,6 @@ static int render_check(const server *s, const vp_render *m, cull_view *v, char 
 {
     int code = view_from(&m->view, UINT32_MAX, v, msg, msglen);
     if (code) return code;
-    if (m->format == VP_FRAME_H264) { /* until the encoder is wired */
-        snprintf(msg, msglen, "H.264 frames are not served yet");
-        return VP_ERR_UNSUPPORTED;
-    }
     size_t np = (size_t)v->viewport_w * v->viewport_h;
     size_t bytes = vp_size_frame((uint32_t)(np * 20));
     if (m->format == VP_FRAME_RAW && bytes > s->cfg.out_limit) {
@@ -457,7 +454,27 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
        unlock again) */
     pthread_rwlock_unlock(&s->scene_lock);
     wk->scene_released = true;
-    if (m->format == VP_FRAME_JPEG) {
+    if (m->format == VP_FRAME_H264) {
+        /* tone-mapped as JPEG's, in bands over the pool, then the stream's
+           encoder (video.h): a RENDER's is its own, freed with the job */
+        rgb8 = malloc(vt_image_rgba8_size(W, H));
+        if (!rgb8) goto nomem;
+        vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES, .lut = s->cfg.lut};
+        const uint8_t *au;
+        size_t au_len;
+        bool key = false;
+        if ((rc = vt_tonemap_frame(W, H, rgba, W, &td, rgb8, wk->pool ? 2 * cull_pool_threads(wk->pool) : 1,
+                                   wk->pool ? pool_run : NULL, wk->pool)) ||
+            (rc = video_encode(&j->venc, W, H, m, j->stream ? j->fps : 30, j->vkey || !j->stream, rgb8, &au,
+                               &au_len, &key, err, sizeof err))) {
+            code = vp_code_from_vt(rc);
+            snprintf(msg, sizeof msg, "h264: %s", err);
+            goto done;
+        }
+        f.data = au;
+        f.data_len = (uint32_t)au_len;
+        f.key = key;
+    } else if (m->format == VP_FRAME_JPEG) {
         rgb8 = malloc(vt_image_rgba8_size(W, H));
         if (!rgb8) goto nomem;
         vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES, .lut = s->cfg.lut};
@@ -605,6 +622,15 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
         return;
     }
     frame_sub *f = &c->fsub;
+    bool was_video = f->active && f->m.r.format == VP_FRAME_H264, video = m.r.format == VP_FRAME_H264;
+    if (video && !was_video && s->nvideo >= s->cfg.max_video) {
+        snprintf(msg, sizeof msg,
+                 "%u H.264 streams are open, the most this daemon serves at once (--max-video): ask for JPEG frames",
+                 s->nvideo);
+        send_error(s, c, h->req, VP_ERR_LIMIT, UINT32_MAX, msg);
+        return;
+    }
+    s->nvideo += (uint32_t)video - (uint32_t)was_video;
     /* a new view of the same stream (a camera that moves: size, format,
        quality and renderer unchanged) keeps the frame being drawn, which
        carries its own view_seq, and the new view's frame starts as soon
@@ -625,16 +651,20 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
     f->req = h->req;
     f->m = m;
     if (!same) f->gen++; /* a frame still being drawn for the old stream is dropped */
+    if (!same || !was_video) f->vkey = true; /* a new chain (or a new viewer of it) starts with a key frame */
     f->dirty = true;     /* the new view's frame as soon as the cap allows */
     reply_ack(c, h->req, s->sc->epoch, 0);
     LOGD("client %u: frames %ux%u %s, %s, at most %u/s", c->id, m.r.view.viewport_w, m.r.view.viewport_h,
-         m.r.format == VP_FRAME_JPEG ? "jpeg" : "raw", renderer_name(m.r.renderer ? m.r.renderer : s->cfg.renderer),
+         m.r.format == VP_FRAME_JPEG ? "jpeg" : m.r.format == VP_FRAME_H264 ? "h264" : "raw", renderer_name(m.r.renderer ? m.r.renderer : s->cfg.renderer),
          m.max_fps);
 }
 
 static void sub_end(server *s, conn *c)
 {
     if (c->fsub.active) s->nsubs--;
+    if (c->fsub.active && c->fsub.m.r.format == VP_FRAME_H264) s->nvideo--;
+    video_enc_free(c->fsub.venc); /* (one with a worker comes back to frames_done, and is freed there) */
+    c->fsub.venc = NULL;
     c->fsub.active = false;
     c->fsub.gen++;
     c->fsub.held_ns = 0;
@@ -715,7 +745,10 @@ int frames_schedule(server *s)
         *j = (job){.fd = c->fd, .conn_id = c->id, .h = {.type = VP_RENDER, .req = f->req}, .stream = true,
                    .gen = f->gen, .view_seq = f->m.view_seq, .stream_req = f->m.r, .start_ns = now,
                    .adapt_ev = f->adapt_ev, .adapt_valid = f->adapt_valid,
-                   .adapt_dt = f->adapt_valid ? (float)((double)(now - f->adapt_ns) * 1e-9) : 0};
+                   .adapt_dt = f->adapt_valid ? (float)((double)(now - f->adapt_ns) * 1e-9) : 0,
+                   .venc = f->venc, .vkey = f->vkey, .fps = f->m.max_fps};
+        f->venc = NULL; /* the worker's until the job is back */
+        f->vkey = false;
         f->inflight = true;
         f->dirty = false;
         f->shown_marks = s->marks.gen;
@@ -733,14 +766,36 @@ int frames_schedule(server *s)
 }
 
 /* A stream's frame is back: sent if the subscription still wants it. */
+/* The encoder a stream's job brings back: the stream's again while it is
+ * H.264, with a key frame next unless this frame goes out (sent: true). */
+static void video_back(frame_sub *f, job *j, bool sent)
+{
+    if (!j->venc) return;
+    if (f->active && f->m.r.format == VP_FRAME_H264 && !f->venc) {
+        f->venc = j->venc;
+        if (!sent) f->vkey = true;
+    } else {
+        video_enc_free(j->venc);
+    }
+    j->venc = NULL;
+}
+
+void frames_job_free(job *j)
+{
+    video_enc_free(j->venc);
+    j->venc = NULL;
+}
+
 void frames_done(server *s, conn *c, job *j)
 {
     frame_sub *f = &c->fsub;
     f->inflight = false;
     if (!f->active || f->gen != j->gen) { /* unsubscribed or re-aimed meanwhile */
         if (j->ok) s->m.frames_discarded++;
+        video_back(f, j, false);
         return;
     }
+    video_back(f, j, j->ok);
     uint32_t bytes = (uint32_t)j->reply_len;
     if (!j->reply || !out_take_reply(c, j)) { /* linked into the queue, not copied */
         c->closing = true;

@@ -509,6 +509,7 @@ static void on_done(ae_loop *l, int fd, void *data, int mask)
         } else if (j->stream && j->ok) {
             s->m.frames_discarded++; /* drawn for a connection now gone */
         }
+        frames_job_free(j);
         free(j->payload);
         free(j->reply);
         free(j);
@@ -1035,6 +1036,7 @@ int server_destroy(server *s)
     for (job *lists[3] = {s->jobs_head, s->fast_head, s->done_head}, **l = lists; l < lists + 3; l++) {
         for (job *j = *l, *n; j; j = n) {
             n = j->next;
+            frames_job_free(j);
             free(j->payload);
             free(j->reply);
             free(j);

@@ -39,6 +39,7 @@ typedef struct server_config {
     int web_port;            /* its port; 0 = none */
     const char *web_root;    /* --web-root: the pages served */
     const char *web_cert, *web_key; /* --web-cert/--web-key: PEM files for TLS; NULL = plain HTTP */
+    uint32_t max_video;      /* H.264 frame streams at once (an encoder holds ~15 MB at 720p) */
 } server_config;
 
 #define VANTAGED_PREHELLO_MAX 4096u /* frame limit before the handshake */

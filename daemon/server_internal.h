@@ -42,6 +42,11 @@ typedef struct frame_sub {
     float adapt_ev;
     bool adapt_valid;
     uint64_t adapt_ns;
+    /* H.264 (video.h): the stream's encoder between frames (NULL while a
+       worker has it, or before the first), and whether the next frame
+       must be a key frame (a new viewer or chain, a frame not sent) */
+    struct video_enc *venc;
+    bool vkey;
 } frame_sub;
 
 /* One block of a connection's reply queue (server.c). Small replies are
@@ -135,6 +140,7 @@ struct server {
     bool gl_failed;
     char gl_err[400];
     uint32_t nsubs;         /* connections with a frame stream */
+    uint32_t nvideo;        /* of them, H.264 streams (--max-video) */
     mark_store marks;       /* the recent MARKs, drawn into frames (frame_marks.h) */
     uint64_t ev_epoch;      /* the epoch the last tick's events reported */
     uint64_t upload_bytes;  /* the connections' unfinished texture uploads (total sizes): held
@@ -167,6 +173,9 @@ typedef struct job {
     vp_render stream_req;
     uint64_t start_ns;      /* a stream's frame: when it was started (now_ns) */
     float adapt_ev, adapt_dt; /* its eye adaptation in (and out: the EV used) */
+    struct video_enc *venc; /* H.264: the stream's encoder, with the job until it is back */
+    bool vkey;              /* H.264: this frame is a key frame */
+    uint16_t fps;           /* a stream's max_fps (H.264's rate control) */
     bool adapt_valid;
     uint64_t epoch;     /* the scene epoch it was drawn from */
     /* metrics: when the request was taken (loop clock, ns), the error code
@@ -272,6 +281,8 @@ void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t 
  * next one a rate cap holds back is due (-1: none). */
 int frames_schedule(server *s);
 void frames_done(server *s, conn *c, job *j);
+/* Frees what a job of frames holds besides its reply (an H.264 encoder whose stream is gone). */
+void frames_job_free(job *j);
 void frames_conn_gone(server *s, conn *c);
 
 #endif

@@ -241,6 +241,13 @@ int vt_jpeg_encode_frame(uint32_t width, uint32_t height, const float *rgba, siz
                          void (*run)(void *run_ctx, vt_jpeg_job_fn job, void *arg, uint32_t n), void *run_ctx,
                          uint8_t **out, size_t *out_len, char *err, size_t errlen);
 
+/* The tone map of vt_jpeg_encode_frame alone (a frame another encoder
+ * takes: H.264), in bands of rows run by run (NULL or bands 1: here, in
+ * one pass). Returns 0 or vt_image_tonemap's error. */
+int vt_tonemap_frame(uint32_t width, uint32_t height, const float *rgba, size_t stride, const vt_tonemap_desc *desc,
+                     uint8_t *rgba8, uint32_t bands, void (*run)(void *run_ctx, vt_jpeg_job_fn job, void *arg, uint32_t n),
+                     void *run_ctx);
+
 /* Decodes a JPEG stream (baseline or progressive, grey, YCbCr or RGB) of
  * len bytes into *rgb8, malloc'ed by this call (caller frees with free()),
  * packed RGB rows (3 * width bytes each), top row first; grey is

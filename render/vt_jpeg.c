@@ -464,6 +464,41 @@ int vt_jpeg_encode_frame(uint32_t width, uint32_t height, const float *rgba, siz
     return vt_jpeg_encode_par(width, height, rgba8, 4 * (size_t)width, 4, quality, &par, out, out_len, err, errlen);
 }
 
+/* vt_tonemap_frame's bands: band t of n tone-maps its share of the rows. */
+typedef struct tm_bands {
+    jpg_frame f;
+    uint32_t height, n;
+    atomic_uint next; /* the next band to take: a runner may start fewer jobs than bands */
+    int rc[VT_JPEG_MAX_BANDS];
+} tm_bands;
+
+static void tm_band(void *arg, uint32_t t)
+{
+    tm_bands *b = arg;
+    (void)t;
+    for (uint32_t k; (k = atomic_fetch_add(&b->next, 1)) < b->n;) {
+        uint32_t y0 = (uint32_t)((uint64_t)b->height * k / b->n), y1 = (uint32_t)((uint64_t)b->height * (k + 1) / b->n);
+        b->rc[k] = y1 > y0 ? jpg_frame_rows(&b->f, y0, y1) : 0;
+    }
+}
+
+int vt_tonemap_frame(uint32_t width, uint32_t height, const float *rgba, size_t stride, const vt_tonemap_desc *desc,
+                     uint8_t *rgba8, uint32_t bands, void (*run)(void *run_ctx, vt_jpeg_job_fn job, void *arg, uint32_t n),
+                     void *run_ctx)
+{
+    if (!rgba || !rgba8 || !width || !height || stride < width) return VT_ERR_INVALID;
+    tm_bands b = {.f = {.w = width, .top = rgba + (size_t)(height - 1) * stride * 4, .ys = -(ptrdiff_t)stride * 4,
+                        .td = desc, .out = rgba8},
+                  .height = height,
+                  .n = bands < 1 ? 1 : bands > VT_JPEG_MAX_BANDS ? VT_JPEG_MAX_BANDS : bands};
+    if (!run || b.n == 1) return jpg_frame_rows(&b.f, 0, height);
+    atomic_init(&b.next, 0);
+    run(run_ctx, tm_band, &b, b.n);
+    for (uint32_t t = 0; t < b.n; t++)
+        if (b.rc[t]) return b.rc[t];
+    return 0;
+}
+
 static void jpg_decompress_body(jpg_job *j)
 {
     struct jpeg_decompress_struct *di = &j->di;

@@ -1078,6 +1078,39 @@ static void one_job_run(void *ctx, vt_jpeg_job_fn fn, void *arg, uint32_t n)
     fn(arg, 0);
 }
 
+/* vt_tonemap_frame (H.264 frames' tone map) in bands is one
+ * vt_image_tonemap of the bottom-up frame, whatever the bands and however
+ * many jobs the runner starts: one (a pool of one thread clamps n), or one
+ * thread a band. The runner starting fewer jobs than bands once left the
+ * bottom half of every H.264 frame black. */
+static void test_image_tonemap_frame_bands(void **state)
+{
+    (void)state;
+    enum { W = 37, H = 29 };
+    static float rgba[W * H * 4];
+    rng r = {test_seed() ^ 0x70E};
+    for (size_t i = 0; i < sizeof rgba / sizeof rgba[0]; i++) rgba[i] = (float)rng_range(&r, -0.5, 8);
+    rgba[5] = NAN, rgba[6] = INFINITY, rgba[9] = -INFINITY;
+    vt_tonemap_desc td = {.exposure_ev = -0.5f, .op = VT_TONEMAP_ACES};
+    static uint8_t ref[W * H * 4], got[W * H * 4];
+    const float *top = rgba + (size_t)(H - 1) * W * 4;
+    vt_image_src src = {.r = {top, 4, -W * 4}, .g = {top + 1, 4, -W * 4}, .b = {top + 2, 4, -W * 4}};
+    assert_int_equal(vt_image_tonemap(W, H, &src, &td, ref, 4 * W), 0);
+    static const uint32_t bands[] = {1, 2, 3, 4, 16};
+    for (size_t b = 0; b < sizeof bands / sizeof bands[0]; b++)
+        for (int runner = 0; runner < 3; runner++) {
+            int calls = 0;
+            memset(got, 0xAB, sizeof got);
+            void (*run)(void *, vt_jpeg_job_fn, void *, uint32_t) =
+                runner == 0 ? NULL : runner == 1 ? one_job_run : threads_run;
+            if (runner == 2 && bands[b] < 2) continue; /* threads_run wants 2 or more */
+            assert_int_equal(vt_tonemap_frame(W, H, rgba, W, &td, got, bands[b], run, &calls), 0);
+            if (memcmp(got, ref, sizeof ref)) fail_msg("bands %u, runner %d: not the one-pass tone map", bands[b], runner);
+        }
+    assert_int_equal(vt_tonemap_frame(W, H, NULL, W, &td, got, 2, NULL, NULL), VT_ERR_INVALID);
+    assert_int_equal(vt_tonemap_frame(W, H, rgba, W - 1, &td, got, 2, NULL, NULL), VT_ERR_INVALID);
+}
+
 /* The rows hook: copies rows [y0, y1) of src into dst and marks them. */
 typedef struct band_fill {
     const uint8_t *src;
@@ -1553,6 +1586,7 @@ const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_image_jpeg_roundtrip),
     cmocka_unit_test(test_image_jpeg_details),
     cmocka_unit_test(test_image_jpeg_bands),
+    cmocka_unit_test(test_image_tonemap_frame_bands),
     cmocka_unit_test(test_image_jpeg_frame),
     cmocka_unit_test(test_image_large),
     TEST_ROWS(test_image_png_bad_args, bad_png_rows),

@@ -14,7 +14,9 @@
 #include "test_daemon.h"
 #include "test_util.h"
 
+#include "h264_ref.h"
 #include "protocol.h"
+#include "vt_image.h"
 
 #include <openssl/err.h>
 #include <openssl/ssl.h>
@@ -780,6 +782,104 @@ static void test_web_stalled_viewer(void **state)
     web_stop(&d);
 }
 
+/* ---- H.264 frames ----------------------------------------------------------------------------- */
+
+/* A frame stream of H.264 (what a browser with WebCodecs asks for) decoded
+ * by libavcodec (the tests' independent decoder, tests/h264_ref.c), frame
+ * after frame in one decoder as a browser does: the first frame is a key
+ * frame with SPS and PPS; a re-aim of the same size continues the chain
+ * (delta frames that decode after it); a new size, and a new
+ * subscription, start with a key frame; the pictures are the daemon's
+ * JPEG of the same view within what the two codecs lose; --max-video
+ * refuses one stream too many (LIMIT), which the page answers with JPEG. */
+static void test_web_h264_stream(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    const char *more[] = {"--max-video", "1", NULL};
+    web_start(&d, more);
+    vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_entity es[3] = {{.id = 1, .sphere = {0, 1, 0, 1}}, {.id = 2, .sphere = {3, 2, -2, 2}}, {.id = 3, .sphere = {-3, 1, 1, 1}}};
+    assert_int_equal(vtc_add(ed, es, 3, NULL, NULL), VP_OK);
+    vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+    h264_dec dec = {0};
+    assert_int_equal(h264_dec_open(&dec), 0);
+    enum { W = 160, H = 90 };
+    vp_frame_sub sub = {.r = {.format = VP_FRAME_H264}, .max_fps = 60};
+    double eye[3] = {8, 5, 10}, at[3] = {0, 1, 0};
+    static uint8_t rgb[W * H * 3];
+    for (int step = 0; step < 6; step++) {
+        uint32_t w = step == 3 ? 96 : W, h = step == 3 ? 64 : H; /* step 3: another size */
+        if (step == 4) assert_int_equal(vtc_frame_unsubscribe(v), VP_OK); /* step 4: a new subscription */
+        eye[0] = 8 + 0.3 * step;
+        assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 60, w, h, 0.1, 100));
+        sub.view_seq = (uint16_t)step;
+        assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
+        vp_frame f;
+        do assert_int_equal(vtc_wait_frame(v, &f, 10000), VP_OK);
+        while (f.view_seq != step);
+        assert_int_equal(f.format, VP_FRAME_H264);
+        bool want_key = step == 0 || step == 3 || step == 4 || step == 5;
+        if (f.key != want_key) fail_msg("step %d: key %d, wanted %d", step, f.key, want_key);
+        int types[32], nt = h264_ref_nal_types(f.data, f.data_len, types, 32);
+        bool idr = false, sps = false;
+        for (int i = 0; i < nt; i++) idr |= types[i] == 5, sps |= types[i] == 7;
+        assert_int_equal(idr, f.key);
+        assert_int_equal(sps, f.key);
+        if (step == 3) { /* a new size: a new decoder, as the page's reset */
+            h264_dec_close(&dec);
+            assert_int_equal(h264_dec_open(&dec), 0);
+        }
+        if (h264_dec_au(&dec, f.data, f.data_len)) fail_msg("step %d: libavcodec refused the frame", step);
+        if (step == 5) break;
+        if (step == 4) { /* step 5: the size of step 3 again, but of a stream that ended: a key */
+            assert_int_equal(vtc_frame_unsubscribe(v), VP_OK);
+            continue;
+        }
+        if (w != W) continue;
+        /* against the daemon's JPEG (q95) of the same view */
+        h264_ref_frame_rgb(dec.f, (int)w, (int)h, rgb);
+        vp_render jr = {.view = sub.r.view, .format = VP_FRAME_JPEG, .quality = 95};
+        vp_frame jf;
+        vtc_client *v2 = connect_role(&d, VP_ROLE_VIEWER, false);
+        assert_int_equal(vtc_render(v2, &jr, &jf), VP_OK);
+        uint8_t *jpx = NULL;
+        uint32_t jw, jh;
+        char err[256];
+        assert_int_equal(vt_jpeg_decode(jf.data, jf.data_len, &jpx, &jw, &jh, err, sizeof err), 0);
+        double psnr = h264_ref_psnr(rgb, jpx, (size_t)w * 3, 3, w, h);
+        print_message("H.264 frame %d (%s, %u bytes) against the JPEG q95 of its view: %.1f dB\n", step,
+                      f.key ? "key" : "delta", f.data_len, psnr);
+        /* CRF 23 and q95 of a small render: each ~40+ dB from the source;
+           30 dB says the same picture, a wrong view or colour falls to ~15 */
+        assert_true(psnr > 30);
+        free(jpx);
+        vtc_close(v2);
+    }
+    /* one H.264 stream at most here: a second is refused, JPEG is not */
+    vtc_client *v3 = connect_role(&d, VP_ROLE_VIEWER, false);
+    assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
+    assert_int_equal(vtc_frame_subscribe(v3, &sub), VP_ERR_LIMIT);
+    assert_non_null(strstr(vtc_last_error(v3)->msg, "--max-video"));
+    sub.r.format = VP_FRAME_JPEG;
+    sub.r.quality = 80;
+    assert_int_equal(vtc_frame_subscribe(v3, &sub), VP_OK);
+    assert_int_equal(vtc_frame_unsubscribe(v), VP_OK);
+    sub.r.format = VP_FRAME_H264;
+    sub.r.quality = 0;
+    assert_int_equal(vtc_frame_subscribe(v3, &sub), VP_OK); /* the slot is free again */
+    /* a RENDER in H.264 is one key frame */
+    vp_render one = {.view = sub.r.view, .format = VP_FRAME_H264, .quality = 30};
+    vp_frame kf;
+    assert_int_equal(vtc_render(v, &one, &kf), VP_OK);
+    assert_int_equal(kf.key, 1);
+    h264_dec_close(&dec);
+    vtc_close(v3);
+    vtc_close(v);
+    vtc_close(ed);
+    web_stop(&d);
+}
+
 /* --web on another address needs --tokens (or --insecure), as --bind does. */
 static void test_web_refuses_open_address(void **state)
 {
@@ -920,6 +1020,7 @@ const struct CMUnitTest web_tests[] = {
     cmocka_unit_test(test_web_slowloris),
     cmocka_unit_test(test_web_many_viewers),
     cmocka_unit_test(test_web_stalled_viewer),
+    cmocka_unit_test(test_web_h264_stream),
     cmocka_unit_test(test_web_refuses_open_address),
 };
 const size_t web_tests_count = sizeof web_tests / sizeof web_tests[0];

@@ -124,6 +124,25 @@ test('the viewer draws its first JPEG frame within 2 s, matching the daemon\'s r
   await page.close();
 });
 
+test('H.264 through WebCodecs: the first frame is a key frame, drawn within 2 s, matching the raw frame', { skip }, async (t) => {
+  const { page, errors, t0 } = await open('');
+  const s = await drawn(page, () => true, 5000);
+  const ms = Date.now() - t0;
+  assert.equal(s.format, 'h264', 'headless Chromium on localhost decodes H.264 (a secure context)');
+  assert.equal(s.key_waits, 0, 'the stream starts with a key frame');
+  assert.ok(ms < 2000, `the first frame took ${ms} ms`);
+  const c = await compare(page, await reference(page));
+  t.diagnostic(`first H.264 frame ${ms} ms after navigation; against the raw frame: MAE ${c.mae.toFixed(2)}, ` +
+    `${(c.far * 100).toFixed(2)} % off by > 24`);
+  /* CRF 23 of a smooth render: ~37-45 dB, a mean error of 1-2 codes; the
+     browser's own YUV -> RGB moves saturated colours by up to 12 codes
+     (measured on patches), so 5 */
+  assert.ok(c.mae < 5, `mean absolute error ${c.mae.toFixed(2)}`);
+  assert.ok(c.far < 0.03, `${(c.far * 100).toFixed(1)} % of the pixels off by more than 24`);
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
 test('an edit by another client shows in the next frames', { skip }, async () => {
   const { page } = await open('format=jpeg');
   const first = await drawn(page);

@@ -176,8 +176,10 @@ export class Stream {
     this.needKey = true;
   }
 
-  /* A decoded picture (ImageBitmap or VideoFrame) onto the canvas, its
-   * top-left width x height (an odd size is coded one pixel larger). */
+  /* A decoded picture (ImageBitmap or VideoFrame) onto the canvas of the
+   * frame's size: an odd size is coded one pixel larger, and that column
+   * or row falls outside the canvas. (The nine-argument drawImage with a
+   * VideoFrame drew half the picture squeezed in Chromium 156.) */
   draw(img, info, release) {
     const t = performance.now();
     info.decoded = t;
@@ -186,7 +188,7 @@ export class Stream {
       canvas.width = info.width;
       canvas.height = info.height;
     }
-    ctx.drawImage(img, 0, 0, info.width, info.height, 0, 0, info.width, info.height);
+    ctx.drawImage(img, 0, 0);
     release();
     this.last = info;
     this.drawn.push(t);
