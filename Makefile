@@ -177,7 +177,7 @@ DESB_BIN := $(BUILD)/bench_destruct
 
 SCENE    ?= tests/data/scenes/city_scene.txt
 
-.PHONY: all run demo test test-web test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-web bench-web test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN)
 
@@ -390,6 +390,14 @@ bench-persist: check-deps
 bench-commander: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
 	tests/bench/bench_commander.sh build/release $(or $(BENCH_SECONDS),15)
+
+# the browser viewer in headless Chromium on the demo city: frames a second
+# and input-to-photon for 1, 4 and 16 viewers (tests/web/bench_viewer.mjs;
+# about a minute; not part of make test)
+bench-web: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged
+	for n in 1 4 16; do VANTAGE_BIN_DIR=build/release node tests/web/bench_viewer.mjs --viewers $$n \
+	    --seconds $(or $(BENCH_SECONDS),10) --size $(or $(BENCH_SIZE),1280x720) || exit 1; done
 
 # the renderer against Blender Cycles on three scenes: SSIM and luminance
 # differences, side-by-side pictures in build/bench-cycles (minutes; needs

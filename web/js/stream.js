@@ -191,6 +191,7 @@ export class Stream {
     ctx.drawImage(img, 0, 0);
     release();
     this.last = info;
+    this.drawnTotal = (this.drawnTotal ?? 0) + 1;
     this.drawn.push(t);
     requestAnimationFrame(() => this.presented(info, performance.now()));
     this.onDrawn?.(info);
@@ -226,7 +227,8 @@ export class Stream {
     for (const k of ['wait', 'net', 'render', 'encode', 'decode', 'present']) parts[k] = pct(part(k), 50);
     return {
       format: this.format, fps: this.drawn.length, kbps: this.bytes.reduce((a, b) => a + b[1], 0) * 8 / 1000,
-      decode_ms: this.decodeMs, frames: this.frames, key_waits: this.keyWaits, samples: totals.length,
+      decode_ms: this.decodeMs, frames: this.frames, drawn_total: this.drawnTotal ?? 0, key_waits: this.keyWaits,
+      samples: totals.length,
       p50: pct(totals, 50), p95: pct(totals, 95), parts_p50: parts, hist, last: this.last,
     };
   }

@@ -1,0 +1,74 @@
+/*
+ * bench_viewer.mjs — the browser viewer's numbers for BENCHMARKS.md (make
+ * bench-web; not part of make test): vantaged with the demo city and --web,
+ * N viewer pages in headless Chromium (Debian's), each dragging its camera
+ * with real mouse events (CDP input: the page's event times) for S
+ * seconds; per page: frames drawn a second, and input-to-photon p50/p95
+ * with its parts (the page's own measure: stream.js).
+ *
+ *   node tests/web/bench_viewer.mjs [--viewers N] [--seconds S] [--size WxH] [--format h264|jpeg]
+ *                                   [--scene demo|empty] [--fps N] [--json FILE]
+ */
+import { spawn } from 'node:child_process';
+import { writeFileSync } from 'node:fs';
+import path from 'node:path';
+import puppeteer from 'puppeteer-core';
+import { freePort, BIN_DIR } from './harness.mjs';
+
+const arg = (name, def) => {
+  const i = process.argv.indexOf(`--${name}`);
+  return i > 0 ? process.argv[i + 1] : def;
+};
+const N = +arg('viewers', 1), S = +arg('seconds', 10), size = arg('size', '1280x720'), format = arg('format', 'h264');
+const scene = arg('scene', 'demo'), fps = +arg('fps', 30), jsonOut = arg('json', '');
+
+const port = await freePort(), webPort = await freePort();
+const d = spawn(path.join(BIN_DIR, 'vantaged'), ['--scene', scene, '--port', String(port), '--unix', '', '--web',
+  String(webPort), '--log-level', 'warn', '--max-video', String(Math.max(16, N))], { stdio: 'inherit' });
+await new Promise((r) => setTimeout(r, 1500));
+const browser = await puppeteer.launch({ executablePath: '/usr/bin/chromium', headless: true,
+  args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage'] });
+try {
+  const pages = [];
+  for (let i = 0; i < N; i++) {
+    const p = await browser.newPage();
+    await p.setViewport({ width: 1400, height: 860 });
+    await p.goto(`http://127.0.0.1:${webPort}/?size=${size}&fps=${fps}${format === 'jpeg' ? '&format=jpeg' : ''}`);
+    pages.push(p);
+  }
+  for (const p of pages) await p.waitForFunction(() => window.vantage?.stats()?.last, { timeout: 30000 });
+  /* the first frames (the IBL tables, cold caches) out of the way */
+  await new Promise((r) => setTimeout(r, 1000));
+  const start = await Promise.all(pages.map((p) => p.evaluate(() => window.vantage.stats().drawn_total)));
+  const t0 = Date.now();
+  /* each page drags: 8 px every 33 ms (a 30 Hz input device), back and forth */
+  await Promise.all(pages.map(async (p, i) => {
+    const box = await p.$eval('#stream', (e) => { const r = e.getBoundingClientRect(); return [r.left, r.top, r.width, r.height]; });
+    let x = box[0] + box[2] / 2, y = box[1] + box[3] / 2, dir = i % 2 ? -1 : 1;
+    await p.mouse.move(x, y);
+    await p.mouse.down();
+    for (let k = 0; Date.now() - t0 < S * 1000; k++) {
+      if (k % 60 === 59) dir = -dir;
+      x += 8 * dir;
+      await p.mouse.move(x, y);
+      await new Promise((r) => setTimeout(r, 33));
+    }
+    await p.mouse.up();
+  }));
+  const secs = (Date.now() - t0) / 1000;
+  const res = await Promise.all(pages.map((p) => p.evaluate(() => window.vantage.stats())));
+  const rows = res.map((s, i) => ({ viewer: i, fps: (s.drawn_total - start[i]) / secs, p50: s.p50, p95: s.p95,
+    parts_p50: s.parts_p50, kbps: s.kbps, decode_ms: s.decode_ms, samples: s.samples, format: s.format }));
+  const f = (v) => (Number.isFinite(v) ? v.toFixed(1) : '-');
+  console.log(`${N} viewer(s), ${size} ${format}, demo city, ${secs.toFixed(1)} s of dragging`);
+  for (const r of rows) {
+    const p = r.parts_p50;
+    console.log(`  viewer ${r.viewer}: ${f(r.fps)} fps, input->photon p50 ${f(r.p50)} p95 ${f(r.p95)} ms (${r.samples}); ` +
+      `parts p50: wait ${f(p.wait)} net ${f(p.net)} render ${f(p.render)} encode ${f(p.encode)} decode ${f(p.decode)} present ${f(p.present)}; ` +
+      `${f(r.kbps / 1000)} Mbit/s`);
+  }
+  if (jsonOut) writeFileSync(jsonOut, JSON.stringify({ viewers: N, size, format, seconds: secs, rows }, null, 1));
+} finally {
+  await browser.close();
+  d.kill('SIGTERM');
+}
