@@ -83,7 +83,7 @@ static const struct {
     {".mjs", "text/javascript; charset=utf-8"}, {".css", "text/css; charset=utf-8"},
     {".json", "application/json"}, {".png", "image/png"}, {".jpg", "image/jpeg"},
     {".svg", "image/svg+xml"}, {".ico", "image/x-icon"}, {".txt", "text/plain; charset=utf-8"},
-    {".wasm", "application/wasm"},
+    {".wasm", "application/wasm"}, /* the commander's rules (cmdr.wasm: the C of pad_map.c) */
 };
 
 /* The file's type by its extension; NULL: not one served. */
@@ -157,10 +157,11 @@ static void serve_file(server *s, hconn *h, const http_req *rq)
         httpd_error(h, HS_500, NULL, "the file could not be read\n", head_only);
         return;
     }
-    /* the pages load only their own scripts and talk only to this daemon */
+    /* the pages load only their own scripts (and the commander's WebAssembly) and talk only to this daemon */
     httpd_answer(h, HS_200, type,
                  "X-Content-Type-Options: nosniff\r\n"
-                 "Content-Security-Policy: default-src 'self'; img-src 'self' blob: data:; connect-src 'self'\r\n",
+                 "Content-Security-Policy: default-src 'self'; script-src 'self' 'wasm-unsafe-eval'; "
+                 "img-src 'self' blob: data:; connect-src 'self'\r\n",
                  body, len, head_only);
     free(body);
 }
