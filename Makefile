@@ -80,7 +80,7 @@ DAEMON_OBJ:= $(DAEMON_SRC:%.c=$(BUILD)/%.o)
 DAEMON_BIN:= $(BUILD)/vantaged
 
 CLIENT_LIB:= $(BUILD)/libvantage.a
-CLIENT_OBJ:= $(BUILD)/client/lib/libvantage.o
+CLIENT_OBJ:= $(BUILD)/client/lib/libvantage.o $(BUILD)/client/lib/vtc_view.o
 # game pads (issue 8): pure parsers and the hid-recorder format (pad.h), the
 # devices through hidapi (hidraw flavour) and libusb (pad_io.h), the
 # commander's input mapping; linked into the CLI and the tests

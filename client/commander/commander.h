@@ -93,6 +93,9 @@ typedef struct cmdr_camera {
 #define CMDR_FOVY_DEG 50.0   /* the perspective mode's vertical field of view */
 
 void cmdr_camera_reset(cmdr_camera *cam, double aspect);
+/* Top-down orthographic <-> tilted perspective (CMDR_TOGGLE_PERSPECTIVE):
+ * a perspective view tilted less than 0.3 rad is tilted to 0.6. */
+void cmdr_camera_toggle(cmdr_camera *cam);
 
 /* What one fixed step produced: the actions whose bindings went down this
  * step (edges, not levels). */
@@ -111,6 +114,15 @@ typedef struct cmdr_input {
  * held). Pure. */
 void cmdr_step(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pad_state *s, double dt,
               cmdr_step_out *out);
+
+/* The mouse (the keyboard-and-mouse fallback; the browser's page uses
+ * these too): the wheel zooms by 0.85 a notch (notches > 0: away from the
+ * user, in), within CMDR_MIN_ZOOM..CMDR_MAX_ZOOM; a click at pixel (x, y)
+ * (x right, y down) of a w x h frame pans the target by the click's offset
+ * from the centre at the target's scale (exact top-down orthographic, the
+ * footprint at the target otherwise). w and h >= 1. */
+void cmdr_camera_wheel(cmdr_camera *cam, int notches);
+void cmdr_camera_click(cmdr_camera *cam, uint32_t w, uint32_t h, double x, double y);
 
 /* The camera as a query/render view of w x h pixels. */
 bool cmdr_camera_view(const cmdr_camera *cam, uint32_t w, uint32_t h, vp_view *out);

@@ -204,6 +204,12 @@ void cmdr_camera_reset(cmdr_camera *cam, double aspect)
     if (persp) cam->pitch = 0.6;
 }
 
+void cmdr_camera_toggle(cmdr_camera *cam)
+{
+    cam->perspective = !cam->perspective;
+    if (cam->perspective && cam->pitch < 0.3) cam->pitch = 0.6; /* a tilted view, as the name says */
+}
+
 void cmdr_step(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pad_state *s, double dt,
               cmdr_step_out *out)
 {
@@ -243,12 +249,21 @@ void cmdr_step(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pa
         if (b && (held & b) == b && (in->held & b) != b) out->fired |= 1u << a;
     }
     in->held = held;
-    if (out->fired & (1u << CMDR_TOGGLE_PERSPECTIVE)) {
-        cam->perspective = !cam->perspective;
-        if (cam->perspective && cam->pitch < 0.3) cam->pitch = 0.6; /* a tilted view, as the name says */
-    }
+    if (out->fired & (1u << CMDR_TOGGLE_PERSPECTIVE)) cmdr_camera_toggle(cam);
     if (out->fired & (1u << CMDR_RESET_VIEW)) cmdr_camera_reset(cam, cam->aspect);
     out->moved = memcmp(&before, cam, sizeof before) != 0;
+}
+
+void cmdr_camera_wheel(cmdr_camera *cam, int notches)
+{
+    cam->half_h = fmin(CMDR_MAX_ZOOM, fmax(CMDR_MIN_ZOOM, cam->half_h * pow(0.85, notches)));
+}
+
+void cmdr_camera_click(cmdr_camera *cam, uint32_t w, uint32_t h, double x, double y)
+{
+    double dx = (x / w - 0.5) * 2 * cam->half_h * w / h, dy = (0.5 - y / h) * 2 * cam->half_h;
+    double right[3] = {-cos(cam->yaw), 0, sin(cam->yaw)}, fwd[3] = {sin(cam->yaw), 0, cos(cam->yaw)};
+    for (int a = 0; a < 3; a += 2) cam->target[a] += dx * right[a] + dy * fwd[a];
 }
 
 /* The view direction (unit, from the eye to the target) and the eye's
