@@ -60,6 +60,11 @@ for (const line of readFileSync(inPath, 'utf8').split('\n')) {
       out.push(`S ${r.fired} ${r.moved ? 1 : 0} ${cam(c)}`);
       break;
     }
+    case 'Y': {
+      const r = c.step(c.padFromKeys(a.slice(1)), f64(a[0]));
+      out.push(`S ${r.fired} ${r.moved ? 1 : 0} ${cam(c)}`);
+      break;
+    }
     case 'N': { const r = c.step(null, f64(a[0])); out.push(`S ${r.fired} ${r.moved ? 1 : 0} ${cam(c)}`); break; }
     case 'V': out.push(`V ${view(c.view(+a[0], +a[1]))}`); break;
     case 'P': out.push(`V ${view(c.pickView(f64(a[0])))}`); break;

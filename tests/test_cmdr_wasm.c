@@ -15,6 +15,9 @@
  * PROTOCOL.md's view record (not the protocol's encoder, which the wasm
  * uses). The gamepad ops give a standard-mapping Gamepad object to
  * cmdr.js's adapter; the model maps it with the W3C table written here.
+ * The key ops give KeyboardEvent.code names to cmdr.js; the model steps
+ * what the SDL window's keys make of them (cmdr_key_table, checked against
+ * the HID usage numbers in test_cmdr_wasm_keys_table).
  *
  * Skips when node or cmdr.wasm is missing (make deps, make all). About
  * 4,000 ops: ~0.2 s (node's start and the compile of the module dominate).
@@ -178,6 +181,22 @@ static void op_gamepad(model *m, uint32_t pressed, const float ax[4], float v6, 
         if (pressed & (1u << i)) s.buttons |= w3c_standard[i];
     s.lx = ax[0], s.ly = -ax[1], s.rx = ax[2], s.ry = -ax[3], s.lt = v6, s.rt = v7;
     step_model(m, &s, dt);
+}
+
+/* Held keys by their KeyboardEvent.code through cmdr.js's padFromKeys;
+ * the model as commander.c steps the SDL window's keys (NULL: none held). */
+static void op_keys(model *m, uint32_t down, double dt)
+{
+    fprintf(m->ops, "Y %016" PRIx64, bits64(dt));
+    bool d[CMDR_KEYS];
+    for (int i = 0; i < CMDR_KEYS; i++) {
+        d[i] = (down >> i) & 1;
+        if (d[i]) fprintf(m->ops, " %s", cmdr_key_table[i].code);
+    }
+    fprintf(m->ops, "\n");
+    pad_state s;
+    bool any = cmdr_keys_pad(d, &s);
+    step_model(m, any ? &s : NULL, dt);
 }
 
 static void op_none(model *m, double dt)
@@ -383,7 +402,9 @@ static void random_session(model *m, int n, double dt)
         if (rng_below(r, 6) == 0) lt = (float)rng_f(r), rt = rng_below(r, 2) ? (float)rng_f(r) : 0;
         if (rng_below(r, 8) == 0) held ^= 1u << rng_below(r, PAD_BUTTON_COUNT);
         double d = rng_below(r, 10) ? dt : rng_range(r, 0, 0.05); /* a late tick, a short one */
-        if (rng_below(r, 3) == 0) {
+        if (rng_below(r, 8) == 0) {
+            op_keys(m, (uint32_t)rng_u64(r) & (uint32_t)rng_u64(r) & ((1u << CMDR_KEYS) - 1), d); /* a few keys */
+        } else if (rng_below(r, 3) == 0) {
             float ax[4] = {axis(r), axis(r), axis(r), axis(r)};
             op_gamepad(m, (uint32_t)rng_below(r, 1u << 18), ax, (float)rng_f(r), (float)rng_f(r), d);
         } else if (rng_below(r, 40) == 0) {
@@ -532,7 +553,59 @@ static void test_cmdr_wasm_same_rules(void **state)
     tdir_remove(&td);
 }
 
+/* The keyboard table both windows read: each usage is the HID Usage
+ * Tables' number for the key its KeyboardEvent.code names (letters are
+ * 4 + their place in the alphabet; the others from the tables), and the
+ * pad state follows commander_sdl.c's old rules: + and - cancel, any one
+ * of two keys is enough, the buttons OR. */
+static void test_cmdr_wasm_keys_table(void **state)
+{
+    (void)state;
+    static const struct { const char *code; uint16_t usage; } hid[] = {
+        {"Enter", 40},     {"Tab", 43},       {"Space", 44},     {"BracketLeft", 47}, {"BracketRight", 48},
+        {"Home", 74},      {"PageUp", 75},    {"Delete", 76},    {"PageDown", 78},    {"ArrowRight", 79},
+        {"ArrowLeft", 80}, {"ArrowDown", 81}, {"ArrowUp", 82},
+    };
+    for (int i = 0; i < CMDR_KEYS; i++) {
+        const cmdr_key *k = &cmdr_key_table[i];
+        int want = -1;
+        if (!strncmp(k->code, "Key", 3) && strlen(k->code) == 4) want = 4 + (k->code[3] - 'A');
+        for (size_t j = 0; j < sizeof hid / sizeof hid[0]; j++)
+            if (!strcmp(k->code, hid[j].code)) want = hid[j].usage;
+        if (want != k->usage) fail_msg("%s: usage %u, the HID tables say %d", k->code, k->usage, want);
+        for (int j = 0; j < i; j++) assert_string_not_equal(k->code, cmdr_key_table[j].code);
+    }
+    struct { const char *keys; float lx, ly, rx, ry, lt, rt; uint32_t buttons; bool any; } cases[] = {
+        {"", 0, 0, 0, 0, 0, 0, 0, false},
+        {"KeyW", 0, 1, 0, 0, 0, 0, 0, true},
+        {"KeyW ArrowUp", 0, 1, 0, 0, 0, 0, 0, true},
+        {"KeyW KeyS", 0, 0, 0, 0, 0, 0, 0, false},
+        {"KeyA ArrowRight", 0, 0, 0, 0, 0, 0, 0, false},
+        {"ArrowLeft ArrowDown KeyE KeyF", -1, -1, 1, -1, 0, 0, 0, true},
+        {"KeyQ KeyR PageDown KeyX", 0, 0, -1, 1, 1, 1, 0, true},
+        {"Space Enter", 0, 0, 0, 0, 0, 0, PAD_SOUTH, true},
+        {"KeyP KeyC Delete BracketLeft BracketRight Tab Home", 0, 0, 0, 0, 0, 0,
+         PAD_WEST | PAD_EAST | PAD_NORTH | PAD_LSHOULDER | PAD_RSHOULDER | PAD_BACK | PAD_RSTICK, true},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        bool down[CMDR_KEYS] = {false};
+        for (int i = 0; i < CMDR_KEYS; i++) {
+            const char *p = strstr(cases[c].keys, cmdr_key_table[i].code);
+            size_t n = strlen(cmdr_key_table[i].code);
+            down[i] = p && (p[n] == ' ' || !p[n]) && (p == cases[c].keys || p[-1] == ' ');
+        }
+        pad_state s;
+        bool any = cmdr_keys_pad(down, &s);
+        if (any != cases[c].any || s.lx != cases[c].lx || s.ly != cases[c].ly || s.rx != cases[c].rx ||
+            s.ry != cases[c].ry || s.lt != cases[c].lt || s.rt != cases[c].rt || s.buttons != cases[c].buttons)
+            fail_msg("\"%s\": any %d lx %g ly %g rx %g ry %g lt %g rt %g buttons %#x", cases[c].keys, any, (double)s.lx,
+                     (double)s.ly, (double)s.rx, (double)s.ry, (double)s.lt, (double)s.rt, s.buttons);
+        assert_int_equal(s.battery, -1); /* a pad state as pad_state_init makes it */
+    }
+}
+
 const struct CMUnitTest cmdr_wasm_tests[] = {
+    cmocka_unit_test(test_cmdr_wasm_keys_table),
     cmocka_unit_test(test_cmdr_wasm_same_rules),
 };
 const size_t cmdr_wasm_tests_count = sizeof cmdr_wasm_tests / sizeof cmdr_wasm_tests[0];

@@ -52,6 +52,12 @@ EXPORT(cmdr_w_binding) uint32_t cmdr_w_binding(uint32_t action);
 EXPORT(cmdr_w_action_name) const char *cmdr_w_action_name(uint32_t action);
 EXPORT(cmdr_w_button_name) const char *cmdr_w_button_name(uint32_t bit);
 
+/* The keyboard (cmdr_key_table): key i's KeyboardEvent.code (NULL past
+ * the end), and the pad state of the keys held (bit i of down: key i) as
+ * 8 doubles: any (0 or 1), buttons, lx, ly, rx, ry, lt, rt. */
+EXPORT(cmdr_w_key_code) const char *cmdr_w_key_code(uint32_t i);
+EXPORT(cmdr_w_keys_pad) const double *cmdr_w_keys_pad(uint32_t down);
+
 /* One fixed step of dt seconds (cmdr_step) with the pad state: buttons
  * (enum pad_button bits; others dropped), sticks -1..1 (+y up), triggers
  * 0..1 (clamped there, NaN as 0, as the pad parsers give them). Returns the
@@ -133,6 +139,19 @@ double cmdr_w_tick_hz(void) { return g_cfg.tick_hz; }
 uint32_t cmdr_w_binding(uint32_t action) { return action < CMDR_ACTION_COUNT ? g_cfg.bind[action] : 0; }
 const char *cmdr_w_action_name(uint32_t action) { return action < CMDR_ACTION_COUNT ? cmdr_action_names[action] : NULL; }
 const char *cmdr_w_button_name(uint32_t bit) { return bit < PAD_BUTTON_COUNT ? pad_button_names[bit] : NULL; }
+
+const char *cmdr_w_key_code(uint32_t i) { return i < CMDR_KEYS ? cmdr_key_table[i].code : NULL; }
+
+const double *cmdr_w_keys_pad(uint32_t down)
+{
+    bool d[CMDR_KEYS];
+    for (int i = 0; i < CMDR_KEYS; i++) d[i] = (down >> i) & 1;
+    pad_state s;
+    bool any = cmdr_keys_pad(d, &s);
+    double v[8] = {any, s.buttons, s.lx, s.ly, s.rx, s.ry, s.lt, s.rt};
+    memcpy(g_out, v, sizeof v);
+    return g_out;
+}
 
 /* v within lo..hi, NaN as 0: what a pad parser guarantees (pad.h), so a
  * page's bad number never reaches the camera as a NaN or an infinity. */

@@ -140,6 +140,32 @@ bool cmdr_camera_project(const cmdr_camera *cam, uint32_t w, uint32_t h, const d
  * when o + t dir enters [lo, hi]. */
 bool cmdr_ray_box(const double o[3], const double dir[3], const double lo[3], const double hi[3], double *t);
 
+/* ---- the keyboard ----------------------------------------------------------------------- */
+
+/* The keyboard fallback's keys, one table for the SDL window and the
+ * browser's page: each key by its USB HID usage (keyboard page 7, which
+ * SDL's scancodes number alike) and by its KeyboardEvent.code (the UI
+ * Events name of the same physical key), and what it drives: an axis of
+ * the pad state at +1 or -1 (a trigger at 1), or buttons. */
+typedef enum cmdr_key_to {
+    CMDR_KEY_LX = 0, CMDR_KEY_LY, CMDR_KEY_RX, CMDR_KEY_RY, CMDR_KEY_LT, CMDR_KEY_RT, CMDR_KEY_BUTTON,
+} cmdr_key_to;
+typedef struct cmdr_key {
+    uint16_t usage;          /* USB HID usage = SDL_Scancode */
+    const char *code;        /* KeyboardEvent.code: "KeyW", "ArrowUp", ... */
+    uint8_t to;              /* cmdr_key_to */
+    int8_t sign;             /* an axis: +1 or -1 */
+    uint32_t button;         /* CMDR_KEY_BUTTON: enum pad_button bits */
+} cmdr_key;
+#define CMDR_KEYS 25
+extern const cmdr_key cmdr_key_table[CMDR_KEYS];
+
+/* The pad state of the keys held (down[i] for cmdr_key_table[i]): an axis
+ * is 1 when one of its + keys is held, minus 1 when one of its - keys is
+ * (both: 0), a trigger 1 when one of its keys is, the buttons OR'ed. s is
+ * reset first (pad_state_init). Returns whether anything is non-zero. */
+bool cmdr_keys_pad(const bool down[CMDR_KEYS], pad_state *s);
+
 /* ---- the window (commander_sdl.c: SDL2 + SDL_ttf) ------------------------------------- */
 
 typedef struct cmdr_display cmdr_display;
@@ -158,9 +184,7 @@ typedef struct cmdr_overlay {
 } cmdr_overlay;
 
 /* What the keyboard and mouse did since the last call (the fallback when
- * no pad is present): a pad state from the held keys (WASD / arrows pan,
- * Q/E rotate, R/F tilt, Z/X or PageDown/PageUp zoom, Space select, P ping,
- * C cancel, Delete destroy, [ ] groups, Tab perspective, Home reset), the
+ * no pad is present): a pad state from the held keys (cmdr_keys_pad), the
  * wheel, a left click. */
 typedef struct cmdr_keys {
     bool any;                /* a key is held: state below is the input */

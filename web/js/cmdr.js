@@ -3,8 +3,8 @@
  * (the mapping, dead zones, response curve, trigger hysteresis, config file,
  * fixed-tick camera and actions, views, picking, latency rings) compiled to
  * WebAssembly (cmdr.wasm, from cmdr_wasm.c, `make all`), wrapped in a class,
- * and the browser's inputs (the Gamepad API's "standard" layout, the keyboard)
- * as the C pad state. One ES module, no dependencies; the pages import it,
+ * and the browser's inputs as the C pad state: the Gamepad API's "standard"
+ * layout by the table below, the keyboard by the C's own key table. One ES module, no dependencies; the pages import it,
  * and Node 20 imports the same file (tests/cmdr_wasm.mjs).
  *
  *   import { Commander } from './js/cmdr.js';
@@ -82,26 +82,6 @@ export const STANDARD_BUTTONS = Object.freeze([
 export const STANDARD_AXES = Object.freeze({ lx: [0, 1], ly: [1, -1], rx: [2, 1], ry: [3, -1] });
 export const STANDARD_TRIGGERS = Object.freeze({ lt: 6, rt: 7 });
 
-/*
- * The keyboard fallback, as commander_sdl.c's keys_state reads SDL's
- * scancodes (KeyboardEvent.code names the same physical keys): WASD /
- * arrows pan, Q/E rotate, R/F tilt, Z/X or PageDown/PageUp zoom, Space or
- * Enter select, P ping, C cancel, Delete destroy, [ ] groups, Tab
- * perspective, Home reset.
- */
-export const KEY_AXES = Object.freeze({
-  lx: [['KeyD', 'ArrowRight'], ['KeyA', 'ArrowLeft']], // [+1 keys, -1 keys]
-  ly: [['KeyW', 'ArrowUp'], ['KeyS', 'ArrowDown']],
-  rx: [['KeyE'], ['KeyQ']],
-  ry: [['KeyR'], ['KeyF']],
-  lt: [['KeyZ', 'PageDown'], []],
-  rt: [['KeyX', 'PageUp'], []],
-});
-export const KEY_BUTTONS = Object.freeze({
-  Space: 'south', Enter: 'south', KeyP: 'west', KeyC: 'east', Delete: 'north',
-  BracketLeft: 'lshoulder', BracketRight: 'rshoulder', Tab: 'back', Home: 'rstick',
-});
-
 function num(v) {
   return typeof v === 'number' && Number.isFinite(v) ? v : 0;
 }
@@ -132,6 +112,7 @@ export class Commander {
     this.x.cmdr_w_init(aspect);
     this.actionNames = this.#names(this.x.cmdr_w_action_name);
     this.buttonNames = this.#names(this.x.cmdr_w_button_name);
+    this.keyCodes = this.#names(this.x.cmdr_w_key_code); // KeyboardEvent.code of the keys padFromKeys reads
     this.buttonBit = Object.fromEntries(this.buttonNames.map((n, i) => [n, 2 ** i]));
     if (configText) {
       const e = this.configure(configText);
@@ -252,17 +233,17 @@ export class Commander {
     return pad;
   }
 
-  /* Held keys (a Set or array of KeyboardEvent.code) as the C pad state; null when none of ours is held. */
+  /* Held keys (a Set or array of KeyboardEvent.code) as the C pad state,
+   * by pad_map.c's cmdr_key_table (the SDL window's keys: WASD / arrows
+   * pan, Q/E rotate, R/F tilt, Z/X or PageDown/PageUp zoom, Space or Enter
+   * select, P ping, C cancel, Delete destroy, [ ] groups, Tab perspective,
+   * Home reset); null when none of them is held. */
   padFromKeys(codes) {
     const held = codes instanceof Set ? codes : new Set(codes ?? []);
-    const pad = { buttons: 0, lx: 0, ly: 0, rx: 0, ry: 0, lt: 0, rt: 0 };
-    let any = false;
-    for (const [k, [plus, minus]] of Object.entries(KEY_AXES)) {
-      pad[k] = plus.some((c) => held.has(c)) - minus.some((c) => held.has(c));
-      any ||= pad[k] !== 0;
-    }
-    for (const [code, name] of Object.entries(KEY_BUTTONS)) if (held.has(code)) pad.buttons |= this.buttonBit[name];
-    return any || pad.buttons ? pad : null;
+    let down = 0;
+    this.keyCodes.forEach((c, i) => { if (held.has(c)) down |= 2 ** i; });
+    const v = this.#doubles(this.x.cmdr_w_keys_pad(down >>> 0), 8);
+    return v[0] ? { buttons: v[1] >>> 0, lx: v[2], ly: v[3], rx: v[4], ry: v[5], lt: v[6], rt: v[7] } : null;
   }
 }
 
