@@ -7,6 +7,7 @@
 // nothing is lost to decimal printing and the C compares bit patterns.
 import { readFileSync, writeFileSync } from 'node:fs';
 import { Commander } from '../web/js/cmdr.js';
+import { Reader, getLayout, LAYOUTS, viewBytes } from '../web/js/vproto.js';
 
 const [inPath, outPath] = process.argv.slice(2);
 const dv = new DataView(new ArrayBuffer(8));
@@ -21,6 +22,9 @@ const cam = (c) => {
 // a view's 160 bytes: 19 little-endian doubles (origin, view_proj), then the 8 bytes of the rest
 const view = (b) => {
   if (!b) return '-';
+  // the page's protocol module reads the bytes as a view and writes them back the same
+  const again = viewBytes(getLayout(new Reader(b), LAYOUTS.view, 'view'));
+  if (Buffer.compare(Buffer.from(again), Buffer.from(b))) throw new Error('vproto.js does not write the view back as cmdr.js gave it');
   const d = new DataView(b.buffer, b.byteOffset, b.byteLength);
   const out = [];
   for (let i = 0; i < 19; i++) out.push(d.getBigUint64(8 * i, true).toString(16).padStart(16, '0'));

@@ -24,6 +24,7 @@
  */
 #include "test_util.h"
 #include "commander.h"
+#include "vp_bytes.h"
 
 #include <inttypes.h>
 #include <stdio.h>
@@ -76,18 +77,19 @@ static void want(model *m, const char *fmt, ...)
     }
 }
 
+/* A number's bits, through the protocol's little-endian byte writer */
 static uint64_t bits64(double d)
 {
-    uint64_t u;
-    memcpy(&u, &d, sizeof u);
-    return u;
+    uint8_t b[8];
+    vp_st_f64(b, d);
+    return vp_ld_u64(b);
 }
 
 static uint32_t bits32(float f)
 {
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    return u;
+    uint8_t b[4];
+    vp_st_f32(b, f);
+    return vp_ld_u32(b);
 }
 
 static void want_cam(model *m)
