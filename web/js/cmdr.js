@@ -15,7 +15,7 @@
  *   if (moved) subscribe(cmdr.view(1280, 720));          // 160 bytes, the protocol's vp_view
  *
  * One Commander is one WebAssembly instance (the C keeps its state in
- * statics): about 0.3 MiB of memory each. Loading: fetch in a browser
+ * statics): 0.25 MiB of memory each. Loading: fetch in a browser
  * (compiled from the bytes, so the server's Content-Type does not matter),
  * fs in Node. The module's WASI imports (fd_write, fd_seek, fd_close) come
  * from wasi-libc's stdio: its printf and strtod reach stderr only to report
@@ -99,8 +99,10 @@ export class Commander {
   }
 
   /* Synchronous, given an instance (Commander.create makes one) or a
-   * compiled module (loadModule's; a browser may refuse to instantiate a
-   * module this size synchronously on its main thread, so prefer create).
+   * compiled module (loadModule's; instantiating synchronously on a page's
+   * main thread works in Chromium 156 for this 77 KB module, but browsers
+   * have limited it for larger ones: prefer create). A page's CSP must
+   * allow 'wasm-unsafe-eval' in script-src for either.
    * aspect: the frames' width / height for the camera's reset (16/9). */
   constructor(configText = '', { instance, module, aspect = 16 / 9 } = {}) {
     if (!instance) {
