@@ -31,6 +31,40 @@ const view = (b) => {
   return out.join(' ') + ' t' + hexBytes(b.subarray(152));
 };
 
+// Bad values from a page, on an instance of their own: answers, never a
+// trap, and the camera stays finite (the pad's numbers are clamped as the
+// parsers give them).
+async function hostile() {
+  const h = await Commander.create();
+  const check = (ok, what) => { if (!ok) throw new Error(`hostile: ${what}`); };
+  const finite = () => {
+    const k = h.camera;
+    return [...k.target, k.yaw, k.pitch, k.halfH, k.aspect].every(Number.isFinite);
+  };
+  h.step({ buttons: -1, lx: NaN, ly: Infinity, rx: -Infinity, ry: 1e300, lt: -1, rt: NaN }, NaN);
+  h.step({ buttons: 2 ** 40, lx: '1', ly: {}, rx: null }, 1e9);
+  h.step(undefined, -5);
+  check(finite(), 'non-finite pad values reached the camera');
+  for (const [w, hh] of [[0, 0], [-1, 5], [NaN, 720], [5000, 10], [1.5e10, 1]]) check(h.view(w, hh) === null, `view(${w}, ${hh})`);
+  for (const s of [-1, 0, NaN, Infinity]) check(h.pickView(s) === null, `pickView(${s})`);
+  check(h.project([NaN, 0, 0], 1280, 720) === null, 'project(NaN)');
+  check(h.project([0, 0, 0], 0, 0) === null, 'project at 0 x 0');
+  check(h.rayBox([0, 0, 0], [NaN, 1, 0], [-1, -1, -1], [1, 1, 1]) === null, 'rayBox(NaN)');
+  check(h.rayBox([0, 0, 0], [0, 1, 0], [-1, -1, -1], [1, Infinity, 1]) === null, 'rayBox(Infinity)');
+  h.click(NaN, 5, 1280, 720), h.click(5, 5, 0, 0), h.wheel(Infinity), h.wheel(NaN), h.reset(NaN), h.reset(-3);
+  check(finite(), 'the mouse made the camera non-finite');
+  h.latAdd(99, 5), h.latAdd(0, NaN), h.latAdd(0, Infinity);
+  check(Number.isNaN(h.latPct(99, 50)) && h.latCount(0) === 0 && Number.isNaN(h.latPct(0, 50)), 'latency rings');
+  check(h.configure('x'.repeat(20000)) === 'larger than 16 KiB', 'a config over 16 KiB');
+  check(/^line 1: /.test(h.configure(new Uint8Array([0xff, 0xfe, 0x3d]))), 'bytes that are not UTF-8');
+  check(h.padFromGamepad(null) === null && h.padFromGamepad({ connected: false }) === null, 'no pad');
+  const p = h.padFromGamepad({ buttons: [1, 0, { pressed: true }], axes: [NaN, 'x'] });
+  check(p.buttons === (h.buttonBit.south | h.buttonBit.west) && p.lx === 0 && p.ly === 0 && !p.standard, 'a pad of numbers');
+  check(h.padFromKeys(null) === null && h.padFromKeys(['NoSuchKey']) === null, 'no keys');
+  check(h.binding('nosuch').length === 0 && h.binding(99).length === 0, 'unknown actions');
+  return 'ok';
+}
+
 let c = null;
 const out = [];
 for (const line of readFileSync(inPath, 'utf8').split('\n')) {
@@ -90,6 +124,7 @@ for (const line of readFileSync(inPath, 'utf8').split('\n')) {
     case 'Z': c.reset(f64(a[0])); out.push(`K ${cam(c)}`); break;
     case 'L': c.latAdd(+a[0], f64(a[1])); break;
     case 'Q': out.push(`Q ${hex64(c.latPct(+a[0], f64(a[1])))} ${c.latCount(+a[0])}`); break;
+    case 'X': out.push(`X ${await hostile()}`); break;
     default: throw new Error(`cmdr_wasm.mjs: unknown op ${op}`);
   }
 }

@@ -17,7 +17,9 @@
  * cmdr.js's adapter; the model maps it with the W3C table written here.
  * The key ops give KeyboardEvent.code names to cmdr.js; the model steps
  * what the SDL window's keys make of them (cmdr_key_table, checked against
- * the HID usage numbers in test_cmdr_wasm_keys_table).
+ * the HID usage numbers in test_cmdr_wasm_keys_table). Bad values (NaN,
+ * infinities, sizes out of range, a config over 16 KiB, hostile Gamepad
+ * objects) get null or an error, never a trap or a non-finite camera.
  *
  * Skips when node or cmdr.wasm is missing (make deps, make all). About
  * 4,000 ops: ~0.2 s (node's start and the compile of the module dominate).
@@ -301,6 +303,13 @@ static void op_pct(model *m, uint32_t ring, double p)
     want(m, "Q %016" PRIx64 " %" PRIu32 "\n", bits64(v), ring < 8 ? m->lat[ring].n : 0);
 }
 
+/* Bad values on an instance of their own (cmdr_wasm.mjs's hostile()). */
+static void op_hostile(model *m)
+{
+    fprintf(m->ops, "X\n");
+    want(m, "X ok\n");
+}
+
 /* ---- the script ----------------------------------------------------------------------------- */
 
 /* After a step now and then: the queries a page makes. */
@@ -494,6 +503,7 @@ static void test_cmdr_wasm_same_rules(void **state)
     press_chords(&m, 1.0 / 60);
     hold_extremes(&m, 1.0 / 60);
     random_session(&m, 1200, 1.0 / 60);
+    op_hostile(&m);
     op_init(&m, 4.0 / 3); /* a fresh instance: back to the defaults */
     op_view(&m, 0, 720), op_view(&m, 4097, 1), op_view(&m, 1, 4096), op_pick(&m, 0), op_pick(&m, -1);
     for (int i = 0; i < 30; i++) op_lat(&m, (uint32_t)i % 3, 1 + i * 0.5);

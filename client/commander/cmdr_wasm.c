@@ -87,7 +87,8 @@ EXPORT(cmdr_w_ray) const double *cmdr_w_ray(void);
 /* World point -> pixel of a w x h frame as 2 doubles (x right, y down);
  * NULL when behind the eye or the size is refused. */
 EXPORT(cmdr_w_project) const double *cmdr_w_project(double x, double y, double z, uint32_t w, uint32_t h);
-/* cmdr_ray_box: the entry distance t >= 0, or -1 when the ray misses. */
+/* cmdr_ray_box: the entry distance t >= 0, or -1 when the ray misses or
+ * a number is not finite. */
 EXPORT(cmdr_w_ray_box) double cmdr_w_ray_box(double ox, double oy, double oz, double dx, double dy, double dz,
                                              double lox, double loy, double loz, double hix, double hiy, double hiz);
 
@@ -236,6 +237,8 @@ double cmdr_w_ray_box(double ox, double oy, double oz, double dx, double dy, dou
                       double loz, double hix, double hiy, double hiz)
 {
     double o[3] = {ox, oy, oz}, d[3] = {dx, dy, dz}, lo[3] = {lox, loy, loz}, hi[3] = {hix, hiy, hiz}, t;
+    for (int i = 0; i < 3; i++) /* a NaN would skip its axis's test in cmdr_ray_box */
+        if (!isfinite(o[i]) || !isfinite(d[i]) || !isfinite(lo[i]) || !isfinite(hi[i])) return -1;
     return cmdr_ray_box(o, d, lo, hi, &t) ? t : -1;
 }
 

@@ -203,9 +203,9 @@ export class Commander {
     const r = this.#doubles(this.x.cmdr_w_ray(), 6);
     return { eye: r.slice(0, 3), dir: r.slice(3) };
   }
-  /* World point p -> [x, y] pixels of a w x h frame (y down), or null (behind the eye). */
-  project(p, w, h) { return this.#doubles(this.x.cmdr_w_project(num(p[0]), num(p[1]), num(p[2]), w >>> 0, h >>> 0), 2); }
-  /* The ray o + t d against the box lo..hi: the entry t >= 0, or null. */
+  /* World point p -> [x, y] pixels of a w x h frame (y down), or null (behind the eye, not finite). */
+  project(p, w, h) { return this.#doubles(this.x.cmdr_w_project(+p[0], +p[1], +p[2], w >>> 0, h >>> 0), 2); }
+  /* The ray o + t d against the box lo..hi: the entry t >= 0, or null (a miss, a number not finite). */
   rayBox(o, d, lo, hi) {
     const t = this.x.cmdr_w_ray_box(...[o, d, lo, hi].flatMap((v) => [0, 1, 2].map((i) => +v[i])));
     return t >= 0 ? t : null;
