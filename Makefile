@@ -26,13 +26,15 @@ DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-de
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
             zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
             gnuplot-nox blender python3-numpy libwslay-dev libssl-dev openssl chromium nodejs npm \
-            libx264-dev libavcodec-dev libavutil-dev
+            libx264-dev libavcodec-dev libavutil-dev clang lld wasi-libc libclang-rt-14-dev-wasm32
 # (blender and python3-numpy: make bench-cycles, the renderer against Cycles; not needed by make test)
 # (libx264-dev: H.264 browser frames, render/vt_h264.c; libavcodec-dev and libavutil-dev: the
 # tests' and bench_h264's independent H.264 decoder, linked into nothing else)
 PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf \
             libcrypto libssl x264 libavcodec libavutil
-# (libwslay-dev ships no pkg-config file: check-deps looks for its header)
+# (libwslay-dev ships no pkg-config file: check-deps looks for its header;
+# clang, lld, wasi-libc and libclang-rt-14-dev-wasm32 build web/js/cmdr.wasm:
+# check-deps looks for wasm-ld and wasi-libc's libc.a)
 
 WARN     := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 ifeq ($(CI),true)
@@ -80,7 +82,7 @@ DAEMON_OBJ:= $(DAEMON_SRC:%.c=$(BUILD)/%.o)
 DAEMON_BIN:= $(BUILD)/vantaged
 
 CLIENT_LIB:= $(BUILD)/libvantage.a
-CLIENT_OBJ:= $(BUILD)/client/lib/libvantage.o
+CLIENT_OBJ:= $(BUILD)/client/lib/libvantage.o $(BUILD)/client/lib/vtc_view.o
 # game pads (issue 8): pure parsers and the hid-recorder format (pad.h), the
 # devices through hidapi (hidraw flavour) and libusb (pad_io.h), the
 # commander's input mapping; linked into the CLI and the tests
@@ -175,11 +177,26 @@ SUBB_BIN := $(BUILD)/bench_sublevel
 DESB_OBJ := $(BUILD)/tests/bench/bench_destruct.o
 DESB_BIN := $(BUILD)/bench_destruct
 
+# the commander's rules in the browser (client/commander/cmdr_wasm.c, web/js/cmdr.js):
+# the same pad_map.c, view builders, protocol encoder and button names as the
+# native client, compiled to WebAssembly by Debian's clang (--target=wasm32-wasi),
+# linked by wasm-ld against wasi-libc (snprintf, strtod, libm) as a reactor
+# (no main; _initialize runs the constructors). One build for every CONFIG:
+# build/wasm/, and the module in web/js/ where the pages load it (gitignored).
+WASM_CC  ?= clang
+WASM_SRC := client/commander/cmdr_wasm.c client/commander/pad_map.c client/pad/pad.c client/lib/vtc_view.c \
+            protocol/protocol.c protocol/vp_query.c
+WASM_OBJ := $(WASM_SRC:%.c=build/wasm/%.o)
+WASM_BIN := web/js/cmdr.wasm
+WASM_FLAGS := --target=wasm32-wasi -std=c11 $(WARN) -O2 -D_GNU_SOURCE -Iculling -Iprotocol -Iclient/lib \
+            -Iclient/pad -Iclient/commander -MMD -MP
+
 SCENE    ?= tests/data/scenes/city_scene.txt
 
 .PHONY: all run demo test test-web bench-web test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
-all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN)
+all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN) \
+     $(WASM_BIN)
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -189,7 +206,8 @@ check-deps:
 	    ! pkg-config --exists $(PC_MODS) || ! command -v Xvfb >/dev/null 2>&1 || [ ! -f /usr/include/wslay/wslay.h ] || \
 	    ! command -v chromium >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1 || \
 	    [ ! -d tests/web/node_modules/puppeteer-core ] || \
-	    [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf ]; then $(MAKE) --no-print-directory deps; fi
+	    [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf ] || ! command -v $(WASM_CC) >/dev/null 2>&1 || \
+	    ! command -v wasm-ld >/dev/null 2>&1 || [ ! -f /usr/lib/wasm32-wasi/libc.a ]; then $(MAKE) --no-print-directory deps; fi
 
 deps:
 	@echo "make deps: installing $(DEB_PKGS)"
@@ -236,6 +254,16 @@ $(BUILD)/render/vt_shade_base.o:  CFLAGS += -fno-tree-vectorize -fno-math-errno
 # per-pixel shading of the scene model: sqrtf inline, no errno
 $(BUILD)/render/vt_scene.o $(BUILD)/render/vt_texsample.o $(BUILD)/render/vt_texlin.o $(BUILD)/render/vt_span.o: CFLAGS += -fno-math-errno
 
+build/wasm/%.o: %.c
+	@mkdir -p $(@D)
+	$(WASM_CC) $(WASM_FLAGS) -c $< -o $@
+
+# exports are cmdr_wasm.c's export_name functions and the memory; wasm-ld
+# drops what they do not reach (cmdr_map_load's fopen, the protocol's other
+# messages); -s: no names section (the page needs none)
+$(WASM_BIN): $(WASM_OBJ)
+	$(WASM_CC) --target=wasm32-wasi -mexec-model=reactor -O2 -s -o $@ $(WASM_OBJ) -lm
+
 $(CULL_LIB): $(CULL_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
@@ -251,7 +279,8 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 # every daemon module but the server's (the tests drive scenes, journals and edits in-process)
 PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o tls.o video.o auth.o upload.o readback.o),$(DAEMON_OBJ))
-$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN)
+# (the wasm: test_cmdr_wasm.c runs it through node; order-only, it is not linked)
+$(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) | $(WASM_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c libssl libcrypto) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(X264_LIBS) $(AVCODEC_LIBS) $(LDLIBS)
 
 # the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG; it
@@ -414,7 +443,7 @@ docs-renders: check-deps
 # ---- install: the binaries, libvantage, its headers and pkg-config file ----------
 PREFIX ?= /usr/local
 install: check-deps
-	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN) $(CLIENT_LIB)
+	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN) $(CLIENT_LIB) $(WASM_BIN)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include/vantage
 	install -m 755 $(DAEMON_BIN) $(CLI_BIN) $(DESTDIR)$(PREFIX)/bin/
 	install -m 644 $(CLIENT_LIB) $(DESTDIR)$(PREFIX)/lib/
@@ -423,7 +452,7 @@ install: check-deps
 	install -m 644 client/loadgen/scenarios/*.scn $(DESTDIR)$(PREFIX)/share/vantage/scenarios/
 	install -d $(DESTDIR)$(PREFIX)/share/vantage/web/js
 	install -m 644 web/*.html web/*.css $(DESTDIR)$(PREFIX)/share/vantage/web/
-	install -m 644 web/js/*.js $(DESTDIR)$(PREFIX)/share/vantage/web/js/
+	install -m 644 web/js/*.js $(WASM_BIN) $(DESTDIR)$(PREFIX)/share/vantage/web/js/
 	sed 's|@PREFIX@|$(PREFIX)|' client/lib/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
 
 # installs into build/<config>/stage and builds a program with pkg-config
@@ -436,9 +465,10 @@ install-check:
 	@! nm $(BUILD)/stage/lib/libvantage.a | grep ' [TDB] cull_' || { echo "install-check: libvantage.a carries culling symbols"; exit 1; }
 
 clean:
-	rm -rf build
+	rm -rf build $(WASM_BIN)
 
 include tests/fuzz/fuzz.mk
 include tests/bench/report.mk
 
--include $(RENDER_OBJ:.o=.d) $(H264_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(H264B_OBJ:.o=.d) $(PADB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d)
+-include $(RENDER_OBJ:.o=.d) $(H264_OBJ:.o=.d) $(CULL_OBJ:.o=.d) $(PROTO_OBJ:.o=.d) $(DAEMON_OBJ:.o=.d) $(CLIENT_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_OBJ:.o=.d) $(BENCH_OBJ:.o=.d) $(OCCB_OBJ:.o=.d) $(RENDB_OBJ:.o=.d) $(H264B_OBJ:.o=.d) $(PADB_OBJ:.o=.d) $(SUBB_OBJ:.o=.d) $(DESB_OBJ:.o=.d) \
+         $(WASM_OBJ:.o=.d)

@@ -50,6 +50,7 @@ int main(void)
         {pad_tests, pad_tests_count},
         {pad_io_tests, pad_io_tests_count},
         {commander_tests, commander_tests_count},
+        {cmdr_wasm_tests, cmdr_wasm_tests_count},
         {metrics_tests, metrics_tests_count},
         {sched_tests, sched_tests_count},
         {bench_tests, bench_tests_count},

@@ -634,7 +634,7 @@ static void tick(commander *m, const cmdr_keys *keys)
     }
     if (now >= m->next_tick) m->next_tick = now + dt; /* far behind (a stall): do not catch up in a burst */
     if (keys && keys->wheel) {
-        m->cam.half_h = fmin(CMDR_MAX_ZOOM, fmax(CMDR_MIN_ZOOM, m->cam.half_h * pow(0.85, keys->wheel)));
+        cmdr_camera_wheel(&m->cam, keys->wheel);
         moved = true;
     }
     run_actions(m, fired);
@@ -864,12 +864,7 @@ int cmdr_main(cli *k, int argc, char **argv)
             if (keys.quit) break;
             if (keys.changed && keys.any && !(m->pending_input > 0)) m->pending_input = now_s();
             if (keys.click) { /* pan to the clicked point of the ground */
-                double eye[3], dir[3];
-                cmdr_camera_ray(&m->cam, eye, dir);
-                double dx = (keys.click_x / m->w - 0.5) * 2 * m->cam.half_h * m->w / m->h,
-                       dy = (0.5 - keys.click_y / m->h) * 2 * m->cam.half_h;
-                double right[3] = {-cos(m->cam.yaw), 0, sin(m->cam.yaw)}, fwd[3] = {sin(m->cam.yaw), 0, cos(m->cam.yaw)};
-                for (int a = 0; a < 3; a += 2) m->cam.target[a] += dx * right[a] + dy * fwd[a];
+                cmdr_camera_click(&m->cam, m->w, m->h, keys.click_x, keys.click_y);
                 m->need_view = true;
             }
         }

@@ -93,6 +93,9 @@ typedef struct cmdr_camera {
 #define CMDR_FOVY_DEG 50.0   /* the perspective mode's vertical field of view */
 
 void cmdr_camera_reset(cmdr_camera *cam, double aspect);
+/* Top-down orthographic <-> tilted perspective (CMDR_TOGGLE_PERSPECTIVE):
+ * a perspective view tilted less than 0.3 rad is tilted to 0.6. */
+void cmdr_camera_toggle(cmdr_camera *cam);
 
 /* What one fixed step produced: the actions whose bindings went down this
  * step (edges, not levels). */
@@ -112,6 +115,15 @@ typedef struct cmdr_input {
 void cmdr_step(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pad_state *s, double dt,
               cmdr_step_out *out);
 
+/* The mouse (the keyboard-and-mouse fallback; the browser's page uses
+ * these too): the wheel zooms by 0.85 a notch (notches > 0: away from the
+ * user, in), within CMDR_MIN_ZOOM..CMDR_MAX_ZOOM; a click at pixel (x, y)
+ * (x right, y down) of a w x h frame pans the target by the click's offset
+ * from the centre at the target's scale (exact top-down orthographic, the
+ * footprint at the target otherwise). w and h >= 1. */
+void cmdr_camera_wheel(cmdr_camera *cam, int notches);
+void cmdr_camera_click(cmdr_camera *cam, uint32_t w, uint32_t h, double x, double y);
+
 /* The camera as a query/render view of w x h pixels. */
 bool cmdr_camera_view(const cmdr_camera *cam, uint32_t w, uint32_t h, vp_view *out);
 /* The eye and the direction the screen's centre looks along (unit). */
@@ -127,6 +139,32 @@ bool cmdr_camera_project(const cmdr_camera *cam, uint32_t w, uint32_t h, const d
 /* Ray against a box: true and *t (>= 0, the entry distance along dir)
  * when o + t dir enters [lo, hi]. */
 bool cmdr_ray_box(const double o[3], const double dir[3], const double lo[3], const double hi[3], double *t);
+
+/* ---- the keyboard ----------------------------------------------------------------------- */
+
+/* The keyboard fallback's keys, one table for the SDL window and the
+ * browser's page: each key by its USB HID usage (keyboard page 7, which
+ * SDL's scancodes number alike) and by its KeyboardEvent.code (the UI
+ * Events name of the same physical key), and what it drives: an axis of
+ * the pad state at +1 or -1 (a trigger at 1), or buttons. */
+typedef enum cmdr_key_to {
+    CMDR_KEY_LX = 0, CMDR_KEY_LY, CMDR_KEY_RX, CMDR_KEY_RY, CMDR_KEY_LT, CMDR_KEY_RT, CMDR_KEY_BUTTON,
+} cmdr_key_to;
+typedef struct cmdr_key {
+    uint16_t usage;          /* USB HID usage = SDL_Scancode */
+    const char *code;        /* KeyboardEvent.code: "KeyW", "ArrowUp", ... */
+    uint8_t to;              /* cmdr_key_to */
+    int8_t sign;             /* an axis: +1 or -1 */
+    uint32_t button;         /* CMDR_KEY_BUTTON: enum pad_button bits */
+} cmdr_key;
+#define CMDR_KEYS 25
+extern const cmdr_key cmdr_key_table[CMDR_KEYS];
+
+/* The pad state of the keys held (down[i] for cmdr_key_table[i]): an axis
+ * is 1 when one of its + keys is held, minus 1 when one of its - keys is
+ * (both: 0), a trigger 1 when one of its keys is, the buttons OR'ed. s is
+ * reset first (pad_state_init). Returns whether anything is non-zero. */
+bool cmdr_keys_pad(const bool down[CMDR_KEYS], pad_state *s);
 
 /* ---- the window (commander_sdl.c: SDL2 + SDL_ttf) ------------------------------------- */
 
@@ -146,9 +184,7 @@ typedef struct cmdr_overlay {
 } cmdr_overlay;
 
 /* What the keyboard and mouse did since the last call (the fallback when
- * no pad is present): a pad state from the held keys (WASD / arrows pan,
- * Q/E rotate, R/F tilt, Z/X or PageDown/PageUp zoom, Space select, P ping,
- * C cancel, Delete destroy, [ ] groups, Tab perspective, Home reset), the
+ * no pad is present): a pad state from the held keys (cmdr_keys_pad), the
  * wheel, a left click. */
 typedef struct cmdr_keys {
     bool any;                /* a key is held: state below is the input */

@@ -193,27 +193,19 @@ void cmdr_display_present(cmdr_display *d, const cmdr_overlay *ov)
     SDL_RenderPresent(d->ren);
 }
 
-/* Held keys -> a pad state. */
+/* SDL's scancodes are the USB HID usages cmdr_key_table lists. */
+_Static_assert(SDL_SCANCODE_A == 4 && SDL_SCANCODE_W == 26 && SDL_SCANCODE_RETURN == 40 &&
+                   SDL_SCANCODE_LEFTBRACKET == 47 && SDL_SCANCODE_HOME == 74 && SDL_SCANCODE_UP == 82,
+               "SDL scancodes are USB HID usages");
+
+/* Held keys -> a pad state (pad_map.c's table, which the browser's page reads too). */
 static void keys_state(cmdr_keys *k)
 {
     const Uint8 *ks = SDL_GetKeyboardState(NULL);
-    pad_state s = {.battery = -1, .connected = true};
-    s.lx = (float)((ks[SDL_SCANCODE_D] || ks[SDL_SCANCODE_RIGHT]) - (ks[SDL_SCANCODE_A] || ks[SDL_SCANCODE_LEFT]));
-    s.ly = (float)((ks[SDL_SCANCODE_W] || ks[SDL_SCANCODE_UP]) - (ks[SDL_SCANCODE_S] || ks[SDL_SCANCODE_DOWN]));
-    s.rx = (float)(ks[SDL_SCANCODE_E] - ks[SDL_SCANCODE_Q]);
-    s.ry = (float)(ks[SDL_SCANCODE_R] - ks[SDL_SCANCODE_F]);
-    s.lt = (float)(ks[SDL_SCANCODE_Z] || ks[SDL_SCANCODE_PAGEDOWN]);
-    s.rt = (float)(ks[SDL_SCANCODE_X] || ks[SDL_SCANCODE_PAGEUP]);
-    static const struct { SDL_Scancode sc; uint32_t b; } map[] = {
-        {SDL_SCANCODE_SPACE, PAD_SOUTH},        {SDL_SCANCODE_RETURN, PAD_SOUTH},
-        {SDL_SCANCODE_P, PAD_WEST},             {SDL_SCANCODE_C, PAD_EAST},
-        {SDL_SCANCODE_DELETE, PAD_NORTH},       {SDL_SCANCODE_LEFTBRACKET, PAD_LSHOULDER},
-        {SDL_SCANCODE_RIGHTBRACKET, PAD_RSHOULDER}, {SDL_SCANCODE_TAB, PAD_BACK},
-        {SDL_SCANCODE_HOME, PAD_RSTICK},
-    };
-    for (size_t i = 0; i < sizeof map / sizeof map[0]; i++)
-        if (ks[map[i].sc]) s.buttons |= map[i].b;
-    bool any = s.lx || s.ly || s.rx || s.ry || s.lt || s.rt || s.buttons;
+    bool down[CMDR_KEYS];
+    for (int i = 0; i < CMDR_KEYS; i++) down[i] = ks[cmdr_key_table[i].usage] != 0;
+    pad_state s;
+    bool any = cmdr_keys_pad(down, &s);
     if (any != k->any || memcmp(&s, &k->state, sizeof s)) k->changed = true;
     k->any = any;
     k->state = s;

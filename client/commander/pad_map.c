@@ -204,6 +204,12 @@ void cmdr_camera_reset(cmdr_camera *cam, double aspect)
     if (persp) cam->pitch = 0.6;
 }
 
+void cmdr_camera_toggle(cmdr_camera *cam)
+{
+    cam->perspective = !cam->perspective;
+    if (cam->perspective && cam->pitch < 0.3) cam->pitch = 0.6; /* a tilted view, as the name says */
+}
+
 void cmdr_step(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pad_state *s, double dt,
               cmdr_step_out *out)
 {
@@ -243,12 +249,21 @@ void cmdr_step(const cmdr_map_cfg *c, cmdr_camera *cam, cmdr_input *in, const pa
         if (b && (held & b) == b && (in->held & b) != b) out->fired |= 1u << a;
     }
     in->held = held;
-    if (out->fired & (1u << CMDR_TOGGLE_PERSPECTIVE)) {
-        cam->perspective = !cam->perspective;
-        if (cam->perspective && cam->pitch < 0.3) cam->pitch = 0.6; /* a tilted view, as the name says */
-    }
+    if (out->fired & (1u << CMDR_TOGGLE_PERSPECTIVE)) cmdr_camera_toggle(cam);
     if (out->fired & (1u << CMDR_RESET_VIEW)) cmdr_camera_reset(cam, cam->aspect);
     out->moved = memcmp(&before, cam, sizeof before) != 0;
+}
+
+void cmdr_camera_wheel(cmdr_camera *cam, int notches)
+{
+    cam->half_h = fmin(CMDR_MAX_ZOOM, fmax(CMDR_MIN_ZOOM, cam->half_h * pow(0.85, notches)));
+}
+
+void cmdr_camera_click(cmdr_camera *cam, uint32_t w, uint32_t h, double x, double y)
+{
+    double dx = (x / w - 0.5) * 2 * cam->half_h * w / h, dy = (0.5 - y / h) * 2 * cam->half_h;
+    double right[3] = {-cos(cam->yaw), 0, sin(cam->yaw)}, fwd[3] = {sin(cam->yaw), 0, cos(cam->yaw)};
+    for (int a = 0; a < 3; a += 2) cam->target[a] += dx * right[a] + dy * fwd[a];
 }
 
 /* The view direction (unit, from the eye to the target) and the eye's
@@ -329,6 +344,52 @@ bool cmdr_ray_box(const double o[3], const double dir[3], const double lo[3], co
     *t = t0;
     return true;
 }
+
+/* ---- the keyboard ----------------------------------------------------------------------- */
+
+/* WASD / arrows pan, Q/E rotate, R/F tilt, Z/X or PageDown/PageUp zoom,
+ * Space or Enter select, P ping, C cancel, Delete destroy, [ ] groups, Tab
+ * perspective, Home reset (the default bindings of the pad buttons they
+ * press). Usages: the HID Usage Tables' keyboard page. */
+#define AXIS(u, c, to, sg) {u, c, to, sg, 0}
+#define BUTTON(u, c, b) {u, c, CMDR_KEY_BUTTON, 0, b}
+const cmdr_key cmdr_key_table[CMDR_KEYS] = {
+    AXIS(7, "KeyD", CMDR_KEY_LX, 1),        AXIS(79, "ArrowRight", CMDR_KEY_LX, 1),
+    AXIS(4, "KeyA", CMDR_KEY_LX, -1),       AXIS(80, "ArrowLeft", CMDR_KEY_LX, -1),
+    AXIS(26, "KeyW", CMDR_KEY_LY, 1),       AXIS(82, "ArrowUp", CMDR_KEY_LY, 1),
+    AXIS(22, "KeyS", CMDR_KEY_LY, -1),      AXIS(81, "ArrowDown", CMDR_KEY_LY, -1),
+    AXIS(8, "KeyE", CMDR_KEY_RX, 1),        AXIS(20, "KeyQ", CMDR_KEY_RX, -1),
+    AXIS(21, "KeyR", CMDR_KEY_RY, 1),       AXIS(9, "KeyF", CMDR_KEY_RY, -1),
+    AXIS(29, "KeyZ", CMDR_KEY_LT, 1),       AXIS(78, "PageDown", CMDR_KEY_LT, 1),
+    AXIS(27, "KeyX", CMDR_KEY_RT, 1),       AXIS(75, "PageUp", CMDR_KEY_RT, 1),
+    BUTTON(44, "Space", PAD_SOUTH),         BUTTON(40, "Enter", PAD_SOUTH),
+    BUTTON(19, "KeyP", PAD_WEST),           BUTTON(6, "KeyC", PAD_EAST),
+    BUTTON(76, "Delete", PAD_NORTH),        BUTTON(47, "BracketLeft", PAD_LSHOULDER),
+    BUTTON(48, "BracketRight", PAD_RSHOULDER), BUTTON(43, "Tab", PAD_BACK),
+    BUTTON(74, "Home", PAD_RSTICK),
+};
+
+bool cmdr_keys_pad(const bool down[CMDR_KEYS], pad_state *s)
+{
+    pad_state_init(s);
+    bool plus[CMDR_KEY_BUTTON] = {false}, minus[CMDR_KEY_BUTTON] = {false};
+    for (int i = 0; i < CMDR_KEYS; i++) {
+        const cmdr_key *k = &cmdr_key_table[i];
+        if (!down[i]) continue;
+        if (k->to == CMDR_KEY_BUTTON) s->buttons |= k->button;
+        else if (k->sign > 0) plus[k->to] = true;
+        else minus[k->to] = true;
+    }
+    float *axis[CMDR_KEY_BUTTON] = {&s->lx, &s->ly, &s->rx, &s->ry, &s->lt, &s->rt};
+    bool any = s->buttons != 0;
+    for (int a = 0; a < CMDR_KEY_BUTTON; a++) {
+        *axis[a] = (float)(plus[a] - minus[a]);
+        any |= *axis[a] != 0;
+    }
+    return any;
+}
+#undef AXIS
+#undef BUTTON
 
 /* ---- latency samples ------------------------------------------------------------------ */
 
