@@ -25,9 +25,12 @@ SHELL  := /bin/bash
 DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-dev openexr \
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
             zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
-            gnuplot-nox blender python3-numpy libwslay-dev libssl-dev openssl chromium nodejs npm \
+            gnuplot-nox blender python3-numpy libwslay-dev libssl-dev openssl chromium \
             libx264-dev libavcodec-dev libavutil-dev clang lld wasi-libc libclang-rt-14-dev-wasm32
 # (blender and python3-numpy: make bench-cycles, the renderer against Cycles; not needed by make test)
+# Node.js and npm (the browser tests, tests/web): Debian's nodejs and npm, unless a node and an npm
+# are there already (a NodeSource nodejs carries its own npm and conflicts with Debian's)
+NODE_PKGS := nodejs npm
 # (libx264-dev: H.264 browser frames, render/vt_h264.c; libavcodec-dev and libavutil-dev: the
 # tests' and bench_h264's independent H.264 decoder, linked into nothing else)
 PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf \
@@ -193,7 +196,7 @@ WASM_FLAGS := --target=wasm32-wasi -std=c11 $(WARN) -O2 -D_GNU_SOURCE -Iculling 
 
 SCENE    ?= tests/data/scenes/city_scene.txt
 
-.PHONY: all run demo test test-web bench-web test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-web bench-web deps-npm test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN) \
      $(WASM_BIN)
@@ -204,19 +207,23 @@ all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(
 check-deps:
 	@if ! command -v $(CC) >/dev/null 2>&1 || ! command -v pkg-config >/dev/null 2>&1 || \
 	    ! pkg-config --exists $(PC_MODS) || ! command -v Xvfb >/dev/null 2>&1 || [ ! -f /usr/include/wslay/wslay.h ] || \
-	    ! command -v chromium >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1 || \
-	    [ ! -d tests/web/node_modules/puppeteer-core ] || \
+	    ! command -v chromium >/dev/null 2>&1 || ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1 || \
 	    [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf ] || ! command -v $(WASM_CC) >/dev/null 2>&1 || \
-	    ! command -v wasm-ld >/dev/null 2>&1 || [ ! -f /usr/lib/wasm32-wasi/libc.a ]; then $(MAKE) --no-print-directory deps; fi
+	    ! command -v wasm-ld >/dev/null 2>&1 || [ ! -f /usr/lib/wasm32-wasi/libc.a ]; then $(MAKE) --no-print-directory deps; \
+	elif [ ! -d tests/web/node_modules/puppeteer-core ]; then $(MAKE) --no-print-directory deps-npm; fi
 
 deps:
-	@echo "make deps: installing $(DEB_PKGS)"
-	@SUDO=; [ "$$(id -u)" = 0 ] || SUDO=sudo; \
+	@node=; command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1 || node="$(NODE_PKGS)"; \
+	echo "make deps: installing $(DEB_PKGS) $$node"; \
+	SUDO=; [ "$$(id -u)" = 0 ] || SUDO=sudo; \
 	export DEBIAN_FRONTEND=noninteractive; \
 	$$SUDO apt-get update -qq && \
-	$$SUDO apt-get install -y -qq --no-install-recommends $(DEB_PKGS) >/dev/null && \
-	pkg-config --exists $(PC_MODS) && \
-	npm ci --prefix tests/web --no-audit --no-fund --loglevel=error && echo "make deps: done"
+	$$SUDO apt-get install -y -qq --no-install-recommends $(DEB_PKGS) $$node >/dev/null && \
+	pkg-config --exists $(PC_MODS) && echo "make deps: Debian packages done"
+	@$(MAKE) --no-print-directory deps-npm
+
+deps-npm:
+	npm ci --prefix tests/web --no-audit --no-fund --loglevel=error
 # (npm ci: puppeteer-core, pinned in tests/web/package-lock.json, drives Debian's
 # /usr/bin/chromium in tests/web/browser.test.mjs; it downloads no browser)
 
