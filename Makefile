@@ -196,7 +196,7 @@ WASM_FLAGS := --target=wasm32-wasi -std=c11 $(WARN) -O2 -D_GNU_SOURCE -Iculling 
 
 SCENE    ?= tests/data/scenes/city_scene.txt
 
-.PHONY: all run demo test test-web bench-web deps-npm test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-web bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN) \
      $(WASM_BIN)
@@ -434,6 +434,12 @@ bench-web: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged
 	for n in 1 4 16; do VANTAGE_BIN_DIR=build/release node tests/web/bench_viewer.mjs --viewers $$n \
 	    --seconds $(or $(BENCH_SECONDS),10) --size $(or $(BENCH_SIZE),1280x720) || exit 1; done
+
+# the browser pages' screenshots in docs/ (tests/web/screenshots.mjs: the
+# demo city, headless Chromium)
+docs-web-shots: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged
+	VANTAGE_BIN_DIR=build/release node tests/web/screenshots.mjs docs
 
 # the renderer against Blender Cycles on three scenes: SSIM and luminance
 # differences, side-by-side pictures in build/bench-cycles (minutes; needs
