@@ -639,7 +639,7 @@ int server_adopt_ws(server *s, int fd, struct wsio *w)
 {
     conn *c = NULL;
     if (!server_has_room(s) || fd >= s->conns_cap || !(c = calloc(1, sizeof *c)) || web_ws_init(s, c, w)) {
-        free(w);
+        web_wsio_free(w); /* its TLS session too */
         goto fail;
     }
     if (ae_add(s->loop, fd, AE_READABLE, conn_event, s) < 0) {

@@ -250,9 +250,8 @@ static void upgrade(server *s, hconn *h, const http_req *rq)
        not worth a queue for them */
     bool ww;
     if (tls_write(w->ssl, fd, hd, (size_t)n, &ww) != n) {
-        tls_free(w->ssl);
+        web_wsio_free(w);
         close(fd);
-        free(w);
         return;
     }
     (void)server_adopt_ws(s, fd, w);
@@ -421,18 +420,26 @@ int web_ws_init(server *s, conn *c, struct wsio *w)
 {
     w->s = s;
     w->c = c;
-    if (wslay_event_context_server_init(&w->ctx, &callbacks, w)) return -1;
+    if (wslay_event_context_server_init(&w->ctx, &callbacks, w)) {
+        w->ctx = NULL;
+        return -1;
+    }
     wslay_event_config_set_max_recv_msg_length(w->ctx, (uint64_t)s->cfg.max_payload + VP_HEADER_SIZE);
     c->ws = w;
     return 0;
 }
 
+void web_wsio_free(struct wsio *w)
+{
+    if (!w) return;
+    if (w->ctx) wslay_event_context_free(w->ctx);
+    tls_free(w->ssl);
+    free(w);
+}
+
 void web_ws_free(conn *c)
 {
-    if (!c->ws) return;
-    wslay_event_context_free(c->ws->ctx);
-    tls_free(c->ws->ssl);
-    free(c->ws);
+    web_wsio_free(c->ws);
     c->ws = NULL;
 }
 

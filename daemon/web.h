@@ -25,6 +25,9 @@ void web_accept_key(const char *key, size_t n, char out[29]);
  * return MD_NONE, or why the connection is over (metrics.h MD_*). */
 int  web_ws_init(struct server *s, struct conn *c, struct wsio *w);
 void web_ws_free(struct conn *c);
+/* Frees a framing not (or no longer) a connection's: its wslay context
+ * and TLS session. NULL is fine. */
+void web_wsio_free(struct wsio *w);
 /* Reads what the socket has: binary messages' bytes appended to c->in. */
 int  web_ws_recv(struct conn *c);
 /* Whether wslay holds no message to send (the next block may go). */
