@@ -38,8 +38,12 @@ try {
   await c.setViewport({ width: 1600, height: 900 });
   await c.goto(`http://127.0.0.1:${webPort}/commander.html`);
   await c.waitForFunction(() => window.vantage?.stats()?.last, { timeout: 30000 });
-  await c.keyboard.press('Tab'); /* the tilted view */
-  await sleep(400);
+  /* keys held over a few of the commander's fixed ticks (a press shorter
+     than a tick may fall between two) */
+  const hold = async (key, ms) => { await c.keyboard.down(key); await sleep(ms); await c.keyboard.up(key); await sleep(200); };
+  await hold('Tab', 150);  /* the tilted view */
+  await hold('KeyD', 260); /* the reticle off the crossroads, onto a block */
+  await hold('KeyW', 200);
   await c.evaluate(() => window.vantage.order('select'));
   await c.evaluate(() => window.vantage.order('ping'));
   await sleep(2500);

@@ -193,7 +193,10 @@ export class Stream {
     this.last = info;
     this.drawnTotal = (this.drawnTotal ?? 0) + 1;
     this.drawn.push(t);
-    requestAnimationFrame(() => this.presented(info, performance.now()));
+    /* presented with the next animation frame; a page not in front runs
+       none, and shows nothing: its frames count as presented when drawn */
+    if (document.visibilityState === 'visible') requestAnimationFrame(() => this.presented(info, performance.now()));
+    else this.presented(info, t);
     this.onDrawn?.(info);
   }
 
