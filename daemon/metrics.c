@@ -237,6 +237,22 @@ static uint64_t hist_count(const mhist *h)
 
 /* ---- the exposition ------------------------------------------------------------------ */
 
+/* An HTTP endpoint's two families: PREFIX_responses_total by status code
+ * and PREFIX_connections open now. */
+static void http_families(mbuf *b, const char *prefix, const char *flag, const char *note, const uint64_t *counts,
+                          uint32_t conns)
+{
+    char name[64], help[160];
+    snprintf(name, sizeof name, "%s_responses_total", prefix);
+    snprintf(help, sizeof help, "Answers of the %s HTTP endpoint, by status code.", flag);
+    family(b, name, "counter", help);
+    for (int i = 0; i < HS_COUNT; i++) sample(b, name, "code", httpd_codes[i], counts[i]);
+    snprintf(name, sizeof name, "%s_connections", prefix);
+    snprintf(help, sizeof help, "HTTP connections to the %s endpoint open now (%s).", flag, note);
+    family(b, name, "gauge", help);
+    sample(b, name, NULL, NULL, conns);
+}
+
 bool metrics_expose(server *s, mbuf *b)
 {
     metrics *m = &s->m;
@@ -446,23 +462,10 @@ bool metrics_expose(server *s, mbuf *b)
     family(b, "vantage_worker_jobs", "gauge",
            "Jobs (queries, frames, light lists) handed to the workers and not yet back: waiting or running.");
     sample(b, "vantage_worker_jobs", NULL, NULL, m->jobs_submitted - m->jobs_done);
-    family(b, "vantage_metrics_http_responses_total", "counter",
-           "Answers of the --metrics HTTP endpoint, by status code.");
-    {
-        for (int i = 0; i < HS_COUNT; i++)
-            sample(b, "vantage_metrics_http_responses_total", "code", httpd_codes[i], m->http[i]);
-    }
-    family(b, "vantage_metrics_http_connections", "gauge",
-           "Connections to the --metrics HTTP endpoint open now (this scrape's included).");
-    sample(b, "vantage_metrics_http_connections", NULL, NULL, httpd_conns(s->http));
+    http_families(b, "vantage_metrics_http", "--metrics", "this scrape's included", m->http, httpd_conns(s->http));
     if (s->web) {
-        family(b, "vantage_web_http_responses_total", "counter",
-               "Answers of the --web HTTP endpoint (pages, WebSocket upgrades: 101), by status code.");
-        for (int i = 0; i < HS_COUNT; i++)
-            sample(b, "vantage_web_http_responses_total", "code", httpd_codes[i], m->web_http[i]);
-        family(b, "vantage_web_http_connections", "gauge",
-               "HTTP connections to the --web endpoint open now (upgraded WebSockets are clients).");
-        sample(b, "vantage_web_http_connections", NULL, NULL, httpd_conns(s->web));
+        http_families(b, "vantage_web_http", "--web", "upgraded WebSockets are clients", m->web_http,
+                      httpd_conns(s->web));
         family(b, "vantage_web_ws_text_refused_total", "counter",
                "WebSocket text messages refused with a close (1003, or 1007 when not UTF-8).");
         sample(b, "vantage_web_ws_text_refused_total", NULL, NULL, m->ws_bad);

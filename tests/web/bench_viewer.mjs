@@ -12,7 +12,7 @@
 import { spawn } from 'node:child_process';
 import { writeFileSync } from 'node:fs';
 import path from 'node:path';
-import puppeteer from 'puppeteer-core';
+import { launch } from './chromium.mjs';
 import { freePort, BIN_DIR } from './harness.mjs';
 
 const arg = (name, def) => {
@@ -26,10 +26,7 @@ const port = await freePort(), webPort = await freePort();
 const d = spawn(path.join(BIN_DIR, 'vantaged'), ['--scene', scene, '--port', String(port), '--unix', '', '--web',
   String(webPort), '--log-level', 'warn', '--max-video', String(Math.max(16, N))], { stdio: 'inherit' });
 await new Promise((r) => setTimeout(r, 1500));
-const browser = await puppeteer.launch({ executablePath: '/usr/bin/chromium', headless: true,
-  args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage',
-    /* every page is a tab, and only one is in front: the others must not be throttled */
-    '--disable-background-timer-throttling', '--disable-backgrounding-occluded-windows', '--disable-renderer-backgrounding'] });
+const browser = await launch();
 try {
   const pages = [];
   for (let i = 0; i < N; i++) {

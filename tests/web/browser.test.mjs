@@ -10,20 +10,13 @@
  */
 import test from 'node:test';
 import assert from 'node:assert/strict';
-import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
+import { mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
+import { skipReason, launch } from './chromium.mjs';
 import { startDaemon, cli, TOKENS } from './harness.mjs';
 
-const CHROMIUM = process.env.VANTAGE_CHROMIUM ?? '/usr/bin/chromium';
-let puppeteer = null;
-try {
-  puppeteer = (await import('puppeteer-core')).default;
-} catch {
-  /* make deps runs npm ci in tests/web */
-}
-const skip = !puppeteer ? 'puppeteer-core is not installed (make deps: npm ci in tests/web)'
-  : !existsSync(CHROMIUM) ? `no ${CHROMIUM} (make deps installs Debian's chromium)` : false;
+const skip = skipReason;
 
 let d, browser, tmp;
 test.before(async () => {
@@ -35,8 +28,7 @@ test.before(async () => {
     const a = await cli(d, ['add', String(id), pos, String(r)]);
     assert.equal(a.code, 0, a.stderr);
   }
-  browser = await puppeteer.launch({ executablePath: CHROMIUM, headless: true,
-    args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage'] });
+  browser = await launch();
 });
 test.after(async () => {
   await browser?.close();

@@ -8,19 +8,11 @@
 import test from 'node:test';
 import assert from 'node:assert/strict';
 import { existsSync } from 'node:fs';
+import { skipReason, launch } from './chromium.mjs';
 import { startDaemon, cli, connect, jsonLines, TOKENS } from './harness.mjs';
 import { ROLE, VP_EVENT_MARKS } from '../../web/js/vproto.js';
 
-const CHROMIUM = process.env.VANTAGE_CHROMIUM ?? '/usr/bin/chromium';
-let puppeteer = null;
-try {
-  puppeteer = (await import('puppeteer-core')).default;
-} catch {
-  /* make deps runs npm ci in tests/web */
-}
-const skip = !puppeteer ? 'puppeteer-core is not installed (make deps: npm ci in tests/web)'
-  : !existsSync(CHROMIUM) ? `no ${CHROMIUM} (make deps installs Debian's chromium)`
-  : !existsSync(new URL('../../web/js/cmdr.wasm', import.meta.url)) ? 'web/js/cmdr.wasm is not built (make all)' : false;
+const skip = skipReason || (!existsSync(new URL('../../web/js/cmdr.wasm', import.meta.url)) ? 'web/js/cmdr.wasm is not built (make all)' : false);
 
 /* A standard-mapping pad the test moves: window.__pad.set({ buttons: {0: 1}, axes: {0: 0.8} }). */
 const PAD_SHIM = () => {
@@ -48,8 +40,7 @@ test.before(async () => {
     const a = await cli(d, ['add', String(id), pos, String(r)]);
     assert.equal(a.code, 0, a.stderr);
   }
-  browser = await puppeteer.launch({ executablePath: CHROMIUM, headless: true,
-    args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage'] });
+  browser = await launch();
 });
 test.after(async () => {
   await browser?.close();

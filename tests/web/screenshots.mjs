@@ -9,7 +9,7 @@
 import { spawn } from 'node:child_process';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import puppeteer from 'puppeteer-core';
+import { launch } from './chromium.mjs';
 import { freePort, BIN_DIR } from './harness.mjs';
 
 const ROOT = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
@@ -20,8 +20,7 @@ const port = await freePort(), webPort = await freePort();
 const d = spawn(path.join(BIN_DIR, 'vantaged'), ['--scene', 'demo', '--port', String(port), '--unix', '', '--web',
   String(webPort), '--log-level', 'warn'], { stdio: 'inherit' });
 await sleep(1500);
-const browser = await puppeteer.launch({ executablePath: '/usr/bin/chromium', headless: true,
-  args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage'] });
+const browser = await launch();
 try {
   const page = await browser.newPage();
   await page.setViewport({ width: 1600, height: 900 });

@@ -17,7 +17,7 @@
  */
 import { Commander } from './cmdr.js';
 import { Reader, LAYOUTS, getLayout } from './vproto.js';
-import { pageToken, pageOptions, connect, videoFormat, Stream, statsText, drawHist, askToken, ROLE,
+import { pageOptions, connectAsking, videoFormat, Stream, statsText, drawHist, ROLE,
          VP_EVENT_SCENE, VP_EVENT_MARKS } from './stream.js';
 
 const $ = (id) => document.getElementById(id);
@@ -224,20 +224,10 @@ function renderBindings() {
 /* ---- start ------------------------------------------------------------------------------------- */
 
 async function start() {
-  let token = pageToken();
-  for (;;) {
-    try {
-      say('connecting');
-      ({ client } = await connect({ role: ROLE.COMMANDER, token, name: 'web commander' }));
-      break;
-    } catch (e) {
-      if (e.codeName !== 'AUTH') {
-        say(`cannot connect: ${e.message}`);
-        setTimeout(start, 2000);
-        return;
-      }
-      token = await askToken($('login'), $('token'), $('login-why'), 'This daemon needs a commander token.');
-    }
+  client = await connectAsking({ role: ROLE.COMMANDER, name: 'web commander', roleName: 'commander' }, say);
+  if (!client) {
+    setTimeout(start, 2000);
+    return;
   }
   const format = await videoFormat(opts.forceJpeg);
   stream = new Stream(client, canvas, { format, maxFps: opts.maxFps });

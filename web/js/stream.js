@@ -259,8 +259,29 @@ export function drawHist(canvas, hist) {
   });
 }
 
+/* Connects as role, asking for a token in the page's login form (#login,
+ * #token, #login-why) while the daemon refuses it: resolves with the
+ * client, or null after another failure (say() told why; the caller
+ * retries). */
+export async function connectAsking({ role, name, roleName }, say) {
+  const $ = (id) => document.getElementById(id);
+  let token = pageToken();
+  for (;;) {
+    try {
+      say('connecting');
+      return (await connect({ role, token, name })).client;
+    } catch (e) {
+      if (e.codeName !== 'AUTH') {
+        say(`cannot connect: ${e.message}`);
+        return null;
+      }
+      token = await askToken($('login'), $('token'), $('login-why'), `This daemon needs a ${roleName} token.`);
+    }
+  }
+}
+
 /* A login prompt when the token is refused: resolves with the new token. */
-export function askToken(form, input, message, why) {
+function askToken(form, input, message, why) {
   message.textContent = why;
   form.hidden = false;
   input.focus();

@@ -10,7 +10,7 @@
  * the orbit at the clicked entity.
  */
 import { viewPerspective, VP_Q_COUNT_ONLY, VP_EVENT_SCENE } from './vproto.js';
-import { pageToken, pageOptions, connect, videoFormat, Stream, statsText, drawHist, askToken, ROLE } from './stream.js';
+import { pageOptions, connectAsking, videoFormat, Stream, statsText, drawHist, ROLE } from './stream.js';
 
 const $ = (id) => document.getElementById(id);
 const canvas = $('stream');
@@ -252,20 +252,10 @@ function overlay() {
 }
 
 async function start() {
-  let token = pageToken();
-  for (;;) {
-    try {
-      status('connecting');
-      ({ client } = await connect({ role: ROLE.VIEWER, token, name: 'web viewer' }));
-      break;
-    } catch (e) {
-      if (e.codeName !== 'AUTH') {
-        status(`cannot connect: ${e.message}`);
-        setTimeout(start, 2000);
-        return;
-      }
-      token = await askToken($('login'), $('token'), $('login-why'), 'This daemon needs a viewer token.');
-    }
+  client = await connectAsking({ role: ROLE.VIEWER, name: 'web viewer', roleName: 'viewer' }, status);
+  if (!client) {
+    setTimeout(start, 2000);
+    return;
   }
   const format = await videoFormat(opts.forceJpeg);
   status(`connected: ${format === 'h264' ? 'H.264 video (WebCodecs)' : 'JPEG frames'}`);

@@ -1,0 +1,28 @@
+/*
+ * chromium.mjs — headless Chromium for the browser tests, the bench and
+ * the screenshots: Debian's /usr/bin/chromium (VANTAGE_CHROMIUM to name
+ * another) driven by puppeteer-core, pinned in package.json (npm ci in
+ * make deps; it downloads no browser).
+ */
+import { existsSync } from 'node:fs';
+
+export const CHROMIUM = process.env.VANTAGE_CHROMIUM ?? '/usr/bin/chromium';
+let puppeteer = null;
+try {
+  puppeteer = (await import('puppeteer-core')).default;
+} catch {
+  /* make deps runs npm ci in tests/web */
+}
+
+/* Why a browser test cannot run here (node:test's skip), or false. */
+export const skipReason = !puppeteer ? 'puppeteer-core is not installed (make deps: npm ci in tests/web)'
+  : !existsSync(CHROMIUM) ? `no ${CHROMIUM} (make deps installs Debian's chromium)` : false;
+
+/* The browser: headless, no sandbox (tests run as root), software
+ * rendering, and no throttling of the tabs behind the front one (each page
+ * is a tab; a bench runs several at once). */
+export function launch() {
+  return puppeteer.launch({ executablePath: CHROMIUM, headless: true,
+    args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--disable-background-timer-throttling',
+      '--disable-backgrounding-occluded-windows', '--disable-renderer-backgrounding'] });
+}
