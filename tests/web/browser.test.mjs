@@ -13,26 +13,21 @@ import assert from 'node:assert/strict';
 import { mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { skipReason, launch } from './chromium.mjs';
-import { startDaemon, cli, TOKENS } from './harness.mjs';
+import { skipReason, webDaemonAndBrowser } from './chromium.mjs';
+import { cli, TOKENS } from './harness.mjs';
 
 const skip = skipReason;
 
-let d, browser, tmp;
+let d, browser, tmp, env;
 test.before(async () => {
   if (skip) return;
-  d = await startDaemon({ web: true, extra: ['--threads', '2'] });
   tmp = mkdtempSync(path.join(os.tmpdir(), 'vantage-browser-'));
   /* a row of boxes of three sizes in front of the first camera, on the ground */
-  for (const [id, pos, r] of [[1, '0,2,0', 2], [2, '-6,1.5,-4', 1.5], [3, '7,3,2', 3], [4, '0,1,-12', 1]]) {
-    const a = await cli(d, ['add', String(id), pos, String(r)]);
-    assert.equal(a.code, 0, a.stderr);
-  }
-  browser = await launch();
+  env = await webDaemonAndBrowser([[1, '0,2,0', 2], [2, '-6,1.5,-4', 1.5], [3, '7,3,2', 3], [4, '0,1,-12', 1]]);
+  ({ d, browser } = env);
 });
 test.after(async () => {
-  await browser?.close();
-  if (d) await d.stop();
+  await env?.stop();
   if (tmp) rmSync(tmp, { recursive: true, force: true });
 });
 

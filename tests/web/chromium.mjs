@@ -26,3 +26,16 @@ export function launch() {
     args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--disable-background-timer-throttling',
       '--disable-backgrounding-occluded-windows', '--disable-renderer-backgrounding'] });
 }
+
+/* A --web daemon (two workers) holding bounds entities [id, 'x,y,z', r]
+ * added by the CLI, and a browser: { d, browser, stop() }. */
+export async function webDaemonAndBrowser(boxes) {
+  const { startDaemon, cli } = await import('./harness.mjs');
+  const d = await startDaemon({ web: true, extra: ['--threads', '2'] });
+  for (const [id, pos, r] of boxes) {
+    const a = await cli(d, ['add', String(id), pos, String(r)]);
+    if (a.code !== 0) throw new Error(`vantage add ${id}: ${a.stderr}`);
+  }
+  const browser = await launch();
+  return { d, browser, async stop() { await browser.close(); await d.stop(); } };
+}

@@ -8,8 +8,8 @@
 import test from 'node:test';
 import assert from 'node:assert/strict';
 import { existsSync } from 'node:fs';
-import { skipReason, launch } from './chromium.mjs';
-import { startDaemon, cli, connect, jsonLines, TOKENS } from './harness.mjs';
+import { skipReason, webDaemonAndBrowser } from './chromium.mjs';
+import { cli, connect, jsonLines, TOKENS } from './harness.mjs';
 import { ROLE, VP_EVENT_MARKS } from '../../web/js/vproto.js';
 
 const skip = skipReason || (!existsSync(new URL('../../web/js/cmdr.wasm', import.meta.url)) ? 'web/js/cmdr.wasm is not built (make all)' : false);
@@ -31,20 +31,15 @@ const PAD_SHIM = () => {
   };
 };
 
-let d, browser;
+let d, browser, env;
 test.before(async () => {
   if (skip) return;
-  d = await startDaemon({ web: true, extra: ['--threads', '2'] });
   /* one big box under the reticle (the camera starts over the origin), others around */
-  for (const [id, pos, r] of [[1, '0,3,0', 4], [2, '30,2,10', 3], [3, '-25,2,-20', 3]]) {
-    const a = await cli(d, ['add', String(id), pos, String(r)]);
-    assert.equal(a.code, 0, a.stderr);
-  }
-  browser = await launch();
+  env = await webDaemonAndBrowser([[1, '0,3,0', 4], [2, '30,2,10', 3], [3, '-25,2,-20', 3]]);
+  ({ d, browser } = env);
 });
 test.after(async () => {
-  await browser?.close();
-  if (d) await d.stop();
+  await env?.stop();
 });
 
 async function open() {
