@@ -212,6 +212,9 @@ static inline uint64_t now_ns(void)
 /* ---- server.c: output to a connection ---- */
 /* A TCP listener on an IPv4 address (logged on failure: -1). */
 int listen_tcp(const char *addr, int port);
+/* The Unix socket at path, under its lock file PATH.lock (*lock_fd, held
+ * for the daemon's life): -1 (logged) when it cannot be had (listen.c). */
+int listen_unix(const char *path, int *lock_fd);
 /* Whether a connection more may be taken now (--max-clients). */
 bool server_has_room(const server *s);
 /* Takes the upgraded WebSocket fd as a protocol connection (web.c's w
