@@ -37,6 +37,9 @@
  * itself refuses (a fragmented or over-125-byte control frame, a length
  * not in its shortest form) gets a close with no status code (1005 to the
  * peer), then the hang-up.
+ *
+ * TLS (--web-cert/--web-key): tls.c, under both the HTTP connections
+ * (httpd.c) and the WebSocket's reads and writes here.
  */
 #include "httpd.h"
 #include "server_internal.h"

@@ -13,8 +13,9 @@ import assert from 'node:assert/strict';
 import { mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { skipReason, webDaemonAndBrowser } from './chromium.mjs';
-import { cli, TOKENS } from './harness.mjs';
+import { execFileSync } from 'node:child_process';
+import { skipReason, webDaemonAndBrowser, launch } from './chromium.mjs';
+import { startDaemon, cli, TOKENS } from './harness.mjs';
 
 const skip = skipReason;
 
@@ -161,12 +162,61 @@ test('a click selects the entity under it, and shows its fields', { skip }, asyn
   await page.close();
 });
 
+test('touch: one finger orbits, two fingers spread zoom in', { skip }, async () => {
+  const { page } = await open('format=jpeg');
+  await drawn(page);
+  const r = await page.$eval('#stream', (e) => { const b = e.getBoundingClientRect(); return [b.left + b.width / 2, b.top + b.height / 2]; });
+  const cam0 = await page.evaluate(() => ({ ...window.vantage.camera }));
+  /* one finger, 60 px to the left: the orbit turns */
+  const f = await page.touchscreen.touchStart(r[0], r[1]);
+  for (let i = 1; i <= 6; i++) await f.move(r[0] - 10 * i, r[1]);
+  await f.end();
+  const cam1 = await page.evaluate(() => ({ ...window.vantage.camera }));
+  assert.ok(Math.abs(cam1.yaw - cam0.yaw) > 0.1, `yaw ${cam0.yaw} -> ${cam1.yaw}`);
+  assert.equal(cam1.dist, cam0.dist);
+  /* two fingers spread from 40 to 200 px apart: closer */
+  const a = await page.touchscreen.touchStart(r[0] - 20, r[1]);
+  const b = await page.touchscreen.touchStart(r[0] + 20, r[1]);
+  for (let i = 1; i <= 8; i++) {
+    await a.move(r[0] - 20 - 10 * i, r[1]);
+    await b.move(r[0] + 20 + 10 * i, r[1]);
+  }
+  await a.end();
+  await b.end();
+  const cam2 = await page.evaluate(() => ({ ...window.vantage.camera }));
+  assert.ok(cam2.dist < cam1.dist * 0.5, `a spread of 5x zooms in: dist ${cam1.dist} -> ${cam2.dist}`);
+  await page.close();
+});
+
 test('without WebCodecs the page falls back to JPEG frames by itself', { skip }, async () => {
   const { page, errors } = await open('', { before: () => { delete window.VideoDecoder; } });
   const s = await drawn(page);
   assert.equal(s.format, 'jpeg');
   assert.deepEqual(errors, []);
   await page.close();
+});
+
+test('over TLS (--web-cert): the page over https and the protocol over wss, H.264 decoded', { skip }, async (t) => {
+  /* the certificate docs/WEB.md says to make, for 127.0.0.1 */
+  const key = path.join(tmp, 'key.pem'), cert = path.join(tmp, 'cert.pem');
+  execFileSync('openssl', ['req', '-x509', '-newkey', 'ec', '-pkeyopt', 'ec_paramgen_curve:prime256v1', '-nodes', '-days', '1',
+    '-subj', '/CN=vantage', '-addext', 'subjectAltName=IP:127.0.0.1', '-keyout', key, '-out', cert], { stdio: 'ignore' });
+  const td = await startDaemon({ web: true, extra: ['--web-cert', cert, '--web-key', key] });
+  /* a browser that was told to accept the self-signed certificate, as a
+     user does once */
+  const b = await launch({ acceptInsecureCerts: true });
+  try {
+    const page = await b.newPage();
+    await page.goto(`https://127.0.0.1:${td.webPort}/?size=${W}x${H}#token=${TOKENS.viewer}`);
+    assert.equal(await page.evaluate(() => window.isSecureContext), true);
+    const s = await drawn(page);
+    assert.equal(s.format, 'h264', 'WebCodecs over https');
+    assert.equal(s.last.width, W);
+    t.diagnostic(`over TLS: the first H.264 frame drawn, ${s.frames} decoded`);
+  } finally {
+    await b.close();
+    await td.stop();
+  }
 });
 
 test('a bad token is refused: the login field asks, a good one connects', { skip }, async () => {

@@ -21,8 +21,8 @@ export const skipReason = !puppeteer ? 'puppeteer-core is not installed (make de
 /* The browser: headless, no sandbox (tests run as root), software
  * rendering, and no throttling of the tabs behind the front one (each page
  * is a tab; a bench runs several at once). */
-export function launch() {
-  return puppeteer.launch({ executablePath: CHROMIUM, headless: true,
+export function launch(more = {}) {
+  return puppeteer.launch({ ...more, executablePath: CHROMIUM, headless: true,
     args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--disable-background-timer-throttling',
       '--disable-backgrounding-occluded-windows', '--disable-renderer-backgrounding'] });
 }
