@@ -310,25 +310,17 @@ static vt_soft *worker_soft(worker *wk)
     return wk->soft;
 }
 
-/* A JPEG frame: the tone map and the encode in bands of rows over the
- * worker's pool (vt_jpeg_encode_par): each band tone-maps the rows it then
- * encodes, on its own thread, while they are in that core's cache. The
- * tone map is per pixel, so the bands' bytes are those of one call; the
- * spliced JPEG decodes to the pixels of one encode. A 1280x720 city
- * frame: tone map 1.3 ms on 2 threads + encode 2.7 ms on one before. */
+/* The tone map and the JPEG encode in bands of rows over the worker's pool
+ * (vt_jpeg_encode_par, vt_tonemap_frame), two bands a thread taken in turn
+ * so a band of sky (fast) and one of street (slow) do not leave a core
+ * waiting: a JPEG band tone-maps the rows it then encodes, on its own
+ * thread, while they are in that core's cache. The tone map is per pixel,
+ * so the bands' bytes are those of one call; the spliced JPEG decodes to
+ * the pixels of one encode. A 1280x720 city frame: tone map 1.3 ms on 2
+ * threads + encode 2.7 ms on one before. */
 static void pool_run(void *pool, vt_jpeg_job_fn fn, void *arg, uint32_t n)
 {
     cull_pool_run(pool, fn, arg, n);
-}
-
-/* rgba (bottom row first, as rendered) tone-mapped into rgb8 and encoded:
- * two bands a thread, taken in turn, so a band of sky (fast) and one of
- * street (slow) do not leave a core waiting for the other. */
-static int jpeg_frame(worker *wk, uint32_t w, uint32_t h, const float *rgba, const vt_tonemap_desc *td,
-                      uint8_t *rgb8, int quality, uint8_t **jpeg, size_t *len, char *err, size_t errlen)
-{
-    return vt_jpeg_encode_frame(w, h, rgba, w, td, rgb8, quality, wk->pool ? 2 * cull_pool_threads(wk->pool) : 1,
-                                wk->pool ? pool_run : NULL, wk->pool, jpeg, len, err, errlen);
 }
 
 /* The software renderer's picture of fi from v into rgba and depth (the
@@ -454,17 +446,17 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
        unlock again) */
     pthread_rwlock_unlock(&s->scene_lock);
     wk->scene_released = true;
+    /* JPEG and H.264: tone-mapped into rgb8 (bottom row first, as rendered,
+       to top row first), in bands over the worker's pool */
+    vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES, .lut = s->cfg.lut};
+    uint32_t bands = wk->pool ? 2 * cull_pool_threads(wk->pool) : 1;
+    if (m->format != VP_FRAME_RAW && !(rgb8 = malloc(vt_image_rgba8_size(W, H)))) goto nomem;
     if (m->format == VP_FRAME_H264) {
-        /* tone-mapped as JPEG's, in bands over the pool, then the stream's
-           encoder (video.h): a RENDER's is its own, freed with the job */
-        rgb8 = malloc(vt_image_rgba8_size(W, H));
-        if (!rgb8) goto nomem;
-        vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES, .lut = s->cfg.lut};
+        /* then the stream's encoder (video.h): a RENDER's is its own, freed with the job */
         const uint8_t *au;
         size_t au_len;
         bool key = false;
-        if ((rc = vt_tonemap_frame(W, H, rgba, W, &td, rgb8, wk->pool ? 2 * cull_pool_threads(wk->pool) : 1,
-                                   wk->pool ? pool_run : NULL, wk->pool)) ||
+        if ((rc = vt_tonemap_frame(W, H, rgba, W, &td, rgb8, bands, wk->pool ? pool_run : NULL, wk->pool)) ||
             (rc = video_encode(&j->venc, W, H, m, j->stream ? j->fps : 30, j->vkey || !j->stream, rgb8, &au,
                                &au_len, &key, err, sizeof err))) {
             code = vp_code_from_vt(rc);
@@ -475,10 +467,9 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         f.data_len = (uint32_t)au_len;
         f.key = key;
     } else if (m->format == VP_FRAME_JPEG) {
-        rgb8 = malloc(vt_image_rgba8_size(W, H));
-        if (!rgb8) goto nomem;
-        vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES, .lut = s->cfg.lut};
-        if ((rc = jpeg_frame(wk, W, H, rgba, &td, rgb8, m->quality, &jpeg, &jpeg_len, err, sizeof err))) {
+        /* each band tone-maps the rows it then encodes (vt_jpeg_encode_frame) */
+        if ((rc = vt_jpeg_encode_frame(W, H, rgba, W, &td, rgb8, m->quality, bands, wk->pool ? pool_run : NULL,
+                                       wk->pool, &jpeg, &jpeg_len, err, sizeof err))) {
             code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "jpeg: %s", err);
             goto done;
@@ -765,7 +756,6 @@ int frames_schedule(server *s)
     return ms < 1 ? 1 : ms > INT32_MAX ? INT32_MAX : (int)ms;
 }
 
-/* A stream's frame is back: sent if the subscription still wants it. */
 /* The encoder a stream's job brings back: the stream's again while it is
  * H.264, with a key frame next unless this frame goes out (sent: true). */
 static void video_back(frame_sub *f, job *j, bool sent)
@@ -786,6 +776,7 @@ void frames_job_free(job *j)
     j->venc = NULL;
 }
 
+/* A stream's frame is back: sent if the subscription still wants it. */
 void frames_done(server *s, conn *c, job *j)
 {
     frame_sub *f = &c->fsub;

@@ -317,12 +317,13 @@ static bool out_total_enforce(server *s, conn *cur)
 
 static void conn_event(ae_loop *l, int fd, void *data, int mask);
 
-/* conn_flush for a WebSocket (web.c): the reply queue leaves a block at a
- * time, each block one binary message, handed to wslay only when it holds
- * nothing else (so the queue stays the one backlog the limits and the
- * frames' drain rule look at). */
-static int ws_flush(server *s, conn *c)
+/* conn_flush's writer for a WebSocket (web.c): the reply queue leaves a
+ * block at a time, each block one binary message, handed to wslay only
+ * when it holds nothing else (so the queue stays the one backlog the
+ * limits and the frames' drain rule look at). */
+static int ws_write(server *s, conn *c)
 {
+    (void)s;
     int why;
     for (;;) {
         if (c->out_bytes && web_ws_idle(c)) {
@@ -333,32 +334,13 @@ static int ws_flush(server *s, conn *c)
             out_consume(c, b->len - at);
         }
         if ((why = web_ws_send(c))) return why;
-        if (!c->out_bytes || !web_ws_idle(c)) break;
+        if (!c->out_bytes || !web_ws_idle(c)) return MD_NONE;
     }
-    if (!c->out_bytes && web_ws_idle(c)) {
-        if (ae_mask(s->loop, c->fd) & AE_WRITABLE) ae_del(s->loop, c->fd, AE_WRITABLE);
-        if (!c->closing) return MD_NONE;
-        /* the ERROR that ended it has left: the close says the same */
-        why = web_ws_end(c, 1008, "protocol error: see the ERROR message");
-        return why ? why : MD_ERROR;
-    }
-    if (c->out_bytes > s->cfg.out_limit) {
-        LOGW("client %u: %zu bytes unread, over the output limit: disconnecting", c->id, c->out_bytes);
-        return MD_OUTPUT_LIMIT;
-    }
-    if (!(ae_mask(s->loop, c->fd) & AE_WRITABLE)) ae_add(s->loop, c->fd, AE_WRITABLE, conn_event, s);
-    return MD_NONE;
 }
 
-/* Writes what the socket takes now. MD_NONE, or why the connection is
- * over (the caller ends it). */
-static int conn_flush(server *s, conn *c)
+/* conn_flush's writer for a socket: the queue's blocks through writev. */
+static int sock_write(server *s, conn *c)
 {
-    if (c->held) return MD_NONE; /* an edit's answer waits for the journal's sync */
-    /* always: no reply leaves while the journal holds unsynced records (a
-       query's answer may show them): before_sleep syncs, then flushes */
-    if (s->journal && journal_policy(s->journal) == JOURNAL_ALWAYS && journal_dirty(s->journal)) return MD_NONE;
-    if (c->ws) return ws_flush(s, c);
     while (c->out_bytes) {
         struct iovec iov[OUT_IOV];
         int k = 0;
@@ -375,9 +357,25 @@ static int conn_flush(server *s, conn *c)
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
         return MD_PEER;
     }
-    if (!c->out_bytes) {
+    return MD_NONE;
+}
+
+/* Writes what the socket takes now. MD_NONE, or why the connection is
+ * over (the caller ends it). */
+static int conn_flush(server *s, conn *c)
+{
+    if (c->held) return MD_NONE; /* an edit's answer waits for the journal's sync */
+    /* always: no reply leaves while the journal holds unsynced records (a
+       query's answer may show them): before_sleep syncs, then flushes */
+    if (s->journal && journal_policy(s->journal) == JOURNAL_ALWAYS && journal_dirty(s->journal)) return MD_NONE;
+    int why = c->ws ? ws_write(s, c) : sock_write(s, c);
+    if (why) return why;
+    if (!c->out_bytes && (!c->ws || web_ws_idle(c))) { /* all out, wslay's framing included */
         if (ae_mask(s->loop, c->fd) & AE_WRITABLE) ae_del(s->loop, c->fd, AE_WRITABLE);
-        return c->closing ? MD_ERROR : MD_NONE;
+        if (!c->closing) return MD_NONE;
+        /* the ERROR that ended it has left; a WebSocket's close says the same */
+        if (c->ws && (why = web_ws_end(c, 1008, "protocol error: see the ERROR message"))) return why;
+        return MD_ERROR;
     }
     if (c->out_bytes > s->cfg.out_limit) {
         LOGW("client %u: %zu bytes unread, over the output limit: disconnecting", c->id, c->out_bytes);
