@@ -101,7 +101,6 @@ static void say_now(SSL *ssl, int fd, int slot, const char *extra, const char *m
  * waits (reading) for the client to close. false: h was freed. */
 static bool flush(hconn *h)
 {
-    ae_loop *l = h->d->s->loop;
     while (h->out_pos < h->out_len) {
         bool ww;
         ssize_t n = tls_write(h->ssl, h->fd, h->out + h->out_pos, h->out_len - h->out_pos, &ww);
@@ -111,13 +110,13 @@ static bool flush(hconn *h)
         }
         if (n < 0 && errno == EINTR) continue;
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-            if (!(ae_mask(l, h->fd) & AE_WRITABLE)) ae_add(l, h->fd, AE_WRITABLE, on_conn, h);
+            want_write(h, true);
             return true;
         }
         hconn_free(h);
         return false;
     }
-    if (ae_mask(l, h->fd) & AE_WRITABLE) ae_del(l, h->fd, AE_WRITABLE);
+    want_write(h, false);
     if (h->peer_done) {
         hconn_free(h);
         return false;

@@ -17,7 +17,7 @@
  */
 import { Commander } from './cmdr.js';
 import { Reader, LAYOUTS, getLayout } from './vproto.js';
-import { pageOptions, connectAsking, videoFormat, Stream, statsText, drawHist, ROLE,
+import { pageOptions, connectAsking, videoFormat, Stream, showStats, ROLE,
          VP_EVENT_SCENE, VP_EVENT_MARKS } from './stream.js';
 
 const $ = (id) => document.getElementById(id);
@@ -166,13 +166,8 @@ function tick(now) {
 /* ---- the overlay ------------------------------------------------------------------------------ */
 
 function overlay() {
-  if (stream) {
-    const s = stream.stats();
-    const cam = cmdr.camera;
-    $('stats').textContent = statsText(s, `${cam.perspective ? 'tilted' : 'top-down'}  group ${group + 1}  ` +
-      `${padName}${selected ? `  selected #${selected.id}` : ''}`);
-    drawHist($('hist'), s.hist);
-  }
+  showStats(stream, () => `${cmdr.camera.perspective ? 'tilted' : 'top-down'}  group ${group + 1}  ` +
+    `${padName}${selected ? `  selected #${selected.id}` : ''}`);
   /* the marks, listed (the frames draw them as icons too) */
   const now = performance.now();
   while (marks.length && marks[0].until < now) marks.shift();

@@ -237,8 +237,21 @@ export class Stream {
   }
 }
 
+/* The overlay (#stats, #hist) from the stream's stats, with the page's own
+ * line: a page calls it every animation frame, it redraws four times a
+ * second (stats() sorts the latency samples). */
+let shownAt = 0;
+export function showStats(stream, extra = (s) => '') {
+  const now = performance.now();
+  if (!stream || now - shownAt < 250) return;
+  shownAt = now;
+  const s = stream.stats();
+  document.getElementById('stats').textContent = statsText(s, extra(s));
+  drawHist(document.getElementById('hist'), s.hist);
+}
+
 /* A small overlay text block for the stats (the pages' corner). */
-export function statsText(s, extra = '') {
+function statsText(s, extra = '') {
   const f = (v, d = 1) => (Number.isFinite(v) ? v.toFixed(d) : '-');
   const p = s.parts_p50;
   return `${s.format.toUpperCase()}  ${s.fps} fps  ${f(s.kbps / 1000, 2)} Mbit/s  decode ${f(s.decode_ms)} ms\n` +
@@ -248,7 +261,7 @@ export function statsText(s, extra = '') {
 }
 
 /* The histogram as bars on a small canvas. */
-export function drawHist(canvas, hist) {
+function drawHist(canvas, hist) {
   const g = canvas.getContext('2d');
   const w = canvas.width, h = canvas.height, n = hist.length, top = Math.max(1, ...hist);
   g.clearRect(0, 0, w, h);

@@ -10,7 +10,7 @@
  * the orbit at the clicked entity.
  */
 import { viewPerspective, VP_Q_COUNT_ONLY, VP_EVENT_SCENE } from './vproto.js';
-import { pageOptions, connectAsking, videoFormat, Stream, statsText, drawHist, ROLE } from './stream.js';
+import { pageOptions, connectAsking, videoFormat, Stream, showStats, ROLE } from './stream.js';
 
 const $ = (id) => document.getElementById(id);
 const canvas = $('stream');
@@ -241,13 +241,8 @@ function pan(dx, dy) {
 /* ---- start -------------------------------------------------------------------------------- */
 
 function overlay() {
-  if (stream) {
-    const s = stream.stats();
-    const last = s.last ? `epoch ${s.last.epoch}  view ${s.last.view_seq}  ${s.last.width}x${s.last.height}  ` +
-      `${s.last.visible} drawn` : 'waiting for the first frame';
-    $('stats').textContent = statsText(s, last);
-    drawHist($('hist'), s.hist);
-  }
+  showStats(stream, (s) => (s.last ? `epoch ${s.last.epoch}  view ${s.last.view_seq}  ${s.last.width}x${s.last.height}  ` +
+    `${s.last.visible} drawn` : 'waiting for the first frame'));
   requestAnimationFrame(overlay);
 }
 
