@@ -520,30 +520,22 @@ static void conn_read(server *s, int fd)
     conn *c = s->conns[fd];
     if (!c || c->dead) return;
     uint32_t limit = c->hello ? s->cfg.max_payload : VANTAGED_PREHELLO_MAX;
-    if (c->ws) {
-        int why;
-        if (c->busy && c->in_len >= (size_t)limit + VP_HEADER_SIZE) {
-            ae_del(s->loop, fd, AE_READABLE); /* as below: the query's reply first */
-            return;
-        }
-        if ((why = web_ws_recv(c))) {
-            conn_kill(s, c, why);
-            return;
-        }
-        /* a pong or a close wslay queued goes out; the protocol's bytes on */
-        if (!web_ws_idle(c) && (why = web_ws_send(c))) {
-            conn_kill(s, c, why);
-            return;
-        }
-        conn_process(s, c);
-        return;
-    }
     for (;;) {
         if (c->busy && c->in_len >= (size_t)limit + VP_HEADER_SIZE) {
             /* a query is out and a whole frame waits behind it: stop
                reading this client until the reply is back */
             ae_del(s->loop, fd, AE_READABLE);
             return;
+        }
+        if (c->ws) { /* wslay reads what the socket has, its messages' bytes into c->in */
+            int why = web_ws_recv(c);
+            /* a pong or a close wslay queued goes out; the protocol's bytes on */
+            if (!why && !web_ws_idle(c)) why = web_ws_send(c);
+            if (why) {
+                conn_kill(s, c, why);
+                return;
+            }
+            break;
         }
         if (c->in_cap - c->in_len < 65536) {
             size_t cap = vp_grow_cap(c->in_cap, c->in_len + 65536, 65536, 1, SIZE_MAX);

@@ -44,6 +44,7 @@
 #include "httpd.h"
 #include "server_internal.h"
 #include "tls.h"
+#include "vp_grow.h"
 #include "web.h"
 
 #include <wslay/wslay.h>
@@ -398,14 +399,15 @@ static void on_msg(wslay_event_context_ptr ctx, const struct wslay_event_on_msg_
     }
     if (a->opcode != WSLAY_BINARY_FRAME || c->dead || w->close_queued) return; /* pings are wslay's */
     size_t need = c->in_len + a->msg_length;
-    if (need > c->in_cap) {
-        uint8_t *p = realloc(c->in, need);
+    if (need > c->in_cap) { /* grown as conn_read grows a socket's: geometrically, not per message */
+        size_t cap = vp_grow_cap(c->in_cap, need, 65536, 1, SIZE_MAX);
+        uint8_t *p = cap >= need ? realloc(c->in, cap) : NULL;
         if (!p) {
             w->failed = true;
             return;
         }
         c->in = p;
-        c->in_cap = need;
+        c->in_cap = cap;
         w->s->clocks = true; /* the sweeps that give a big buffer back */
     }
     memcpy(c->in + c->in_len, a->msg, a->msg_length);
