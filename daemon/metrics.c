@@ -467,7 +467,7 @@ bool metrics_expose(server *s, mbuf *b)
         http_families(b, "vantage_web_http", "--web", "upgraded WebSockets are clients", m->web_http,
                       httpd_conns(s->web));
         family(b, "vantage_web_ws_text_refused_total", "counter",
-               "WebSocket text messages refused with a close (1003, or 1007 when not UTF-8).");
+               "WebSocket text messages refused with a close 1003 (ones that are not UTF-8 wslay closes with 1007, uncounted).");
         sample(b, "vantage_web_ws_text_refused_total", NULL, NULL, m->ws_bad);
     }
     return !b->oom;

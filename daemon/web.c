@@ -31,8 +31,8 @@
  * the frames' drain rule see every unsent byte (wslay holds one message
  * at most). Incoming: whole messages (wslay reassembles fragments), at
  * most --max-payload + a frame header each (1009 past it); a text message
- * is closed with 1007 when it is not UTF-8, else 1003 (the protocol is
- * binary). Bad framing is wslay's: an unmasked client frame, a reserved
+ * is closed with 1003 (the protocol is binary), or by wslay with 1007 when
+ * it is not UTF-8. Bad framing is wslay's: an unmasked client frame, a reserved
  * bit or opcode, a stray continuation get 1002; what its frame parser
  * itself refuses (a fragmented or over-125-byte control frame, a length
  * not in its shortest form) gets a close with no status code (1005 to the
@@ -345,37 +345,6 @@ static ssize_t send_cb(wslay_event_context_ptr ctx, const uint8_t *data, size_t 
     }
 }
 
-/* Whether p[0, n) is UTF-8 (RFC 3629: no overlongs, no surrogates, at most
- * U+10FFFF). */
-static bool utf8_ok(const uint8_t *p, size_t n)
-{
-    for (size_t i = 0; i < n;) {
-        uint8_t b = p[i];
-        size_t k;
-        uint32_t cp, min;
-        if (b < 0x80) {
-            i++;
-            continue;
-        } else if ((b & 0xe0) == 0xc0) {
-            k = 1, cp = b & 0x1f, min = 0x80;
-        } else if ((b & 0xf0) == 0xe0) {
-            k = 2, cp = b & 0x0f, min = 0x800;
-        } else if ((b & 0xf8) == 0xf0) {
-            k = 3, cp = b & 0x07, min = 0x10000;
-        } else {
-            return false;
-        }
-        if (n - i <= k) return false;
-        for (size_t j = 1; j <= k; j++) {
-            if ((p[i + j] & 0xc0) != 0x80) return false;
-            cp = cp << 6 | (p[i + j] & 0x3f);
-        }
-        if (cp < min || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff)) return false;
-        i += k + 1;
-    }
-    return true;
-}
-
 static void close_with(struct wsio *w, uint16_t code, const char *why)
 {
     if (w->close_queued) return;
@@ -387,10 +356,9 @@ static void on_msg(wslay_event_context_ptr ctx, const struct wslay_event_on_msg_
 {
     struct wsio *w = ud;
     conn *c = w->c;
-    if (a->opcode == WSLAY_TEXT_FRAME) {
+    if (a->opcode == WSLAY_TEXT_FRAME) { /* (one that is not UTF-8 wslay closes itself: 1007) */
         w->s->m.ws_bad++;
-        if (!utf8_ok(a->msg, a->msg_length)) close_with(w, 1007, "a text message that is not UTF-8");
-        else close_with(w, 1003, "the protocol is binary: send binary messages");
+        close_with(w, 1003, "the protocol is binary: send binary messages");
         return;
     }
     if (a->opcode == WSLAY_PING && wslay_event_get_queued_msg_count(ctx) > WS_QUEUE_MAX) {
