@@ -174,12 +174,18 @@ static void *syncer_main(void *arg)
 /* ---- writing -------------------------------------------------------------------------- */
 
 /* Creates journal.<gen> (first record seq) with its header, synced, and makes
- * it the one written. */
+ * it the one written. The header goes to journal.tmp.<gen> first, which is
+ * renamed into place once synced: a crash at any point leaves either no
+ * journal.<gen> or one whose header is whole (recovery removes the tmp). */
 static int start_file(journal *j, uint64_t gen, uint64_t seq)
 {
-    char *p = path_of(j, "journal", gen);
-    if (!p) return -ENOMEM;
-    int fd = open(p, O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0600);
+    char *p = path_of(j, "journal", gen), *tmp = path_of(j, "journal.tmp", gen);
+    if (!p || !tmp) {
+        free(p);
+        free(tmp);
+        return -ENOMEM;
+    }
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0600);
     int rc = fd < 0 ? -errno : 0;
     if (!rc) {
         uint8_t h[HDR_SIZE] = {0};
@@ -187,15 +193,19 @@ static int start_file(journal *j, uint64_t gen, uint64_t seq)
         vp_st_u64(h + 8, gen);
         vp_st_u64(h + 16, seq);
         vp_st_u32(h + 28, crc(h, 28, NULL, 0));
+        errno = 0;
         if (write(fd, h, HDR_SIZE) != (ssize_t)HDR_SIZE || fdatasync(fd)) rc = errno ? -errno : -EIO;
     }
+    if (!rc && rename(tmp, p)) rc = -errno;
     if (!rc) rc = sync_dir(j->dir);
     if (rc) {
         if (fd >= 0) close(fd);
-        unlink(p);
+        unlink(tmp);
+        free(tmp);
         free(p);
         return rc;
     }
+    free(tmp);
     free(p);
     pthread_mutex_lock(&j->mu);
     int old = j->fd;
@@ -674,6 +684,17 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
     else if (vp_ld_u32(m.p + 28) != crc(m.p, 28, NULL, 0)) why = "header CRC mismatch";
     else if (vp_ld_u64(m.p + 8) != gen) why = "header names another generation";
     else if (vp_ld_u64(m.p + 16) != *seq) why = "its first record does not follow the one before";
+    if (why && last && m.n < HDR_SIZE) {
+        /* the last file's creation was cut short (daemons before the
+           header went through journal.tmp.<gen> could leave this after a
+           kill): it holds no record, so nothing is lost; written anew */
+        snprintf(rep->cut, sizeof rep->cut, "%s: %s (%zu bytes, no record): its header is written anew", path, why,
+                 m.n);
+        rep->cut_bytes = m.n;
+        unmap_file(&m);
+        free(path);
+        return 1;
+    }
     if (why) {
         /* a header is written and synced before any record: a bad one
            means the file is not ours or the disk lied */
@@ -784,6 +805,7 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
     pthread_mutex_init(&j->mu, NULL);
     pthread_cond_init(&j->cv, NULL);
     gens snaps = {0}, jrns = {0};
+    bool torn_header = false; /* the last journal's header was cut short: written anew */
     int rc = 0;
     char *lock = NULL;
     if (mkdir(dir, 0700) && errno != EEXIST) {
@@ -844,7 +866,9 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
                      gen + (i - first), jrns.v[i]);
             goto fail;
         }
-        if (replay_file(j, jrns.v[i], i + 1 == jrns.n, sc, &seq, &jr_format, rep, err, errlen)) goto fail;
+        int rrc = replay_file(j, jrns.v[i], i + 1 == jrns.n, sc, &seq, &jr_format, rep, err, errlen);
+        if (rrc < 0) goto fail;
+        torn_header = rrc > 0;
     }
     if ((first < jrns.n && jr_format == 1) || snap_format < SNAPSHOT_FORMAT) {
         /* an older daemon's directory: written anew in the current formats */
@@ -856,7 +880,7 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
         int urc = upgrade(j, sc, next, seq, what, err, errlen);
         if (urc < 0) goto fail;
         if (urc == 0) rep->upgrade_gen = next;
-    } else if (first < jrns.n) {
+    } else if (first < jrns.n && !torn_header) {
         /* go on writing the last file */
         uint64_t last = jrns.v[jrns.n - 1];
         char *p = path_of(j, "journal", last);
@@ -870,8 +894,9 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
         j->gen = last;
         j->seq = seq;
         j->last_start = j->size;
-    } else if ((rc = start_file(j, gen, seq))) {
-        snprintf(err, errlen, "%s/journal.%06" PRIu64 ": %s", dir, gen, strerror(-rc));
+    } else if ((rc = start_file(j, torn_header ? jrns.v[jrns.n - 1] : gen, seq))) {
+        snprintf(err, errlen, "%s/journal.%06" PRIu64 ": %s", dir, torn_header ? jrns.v[jrns.n - 1] : gen,
+                 strerror(-rc));
         goto fail;
     }
     /* loads open at the crash: their connections are gone, so they go as
@@ -888,11 +913,13 @@ int journal_open(const char *dir, int policy, scene *sc, journal **out, journal_
         edit_result_free(&res);
         rep->loads_dropped++;
     }
-    /* leftovers of a snapshot that did not finish */
+    /* leftovers of a snapshot or a journal file's creation that did not finish */
     for (uint64_t g = gen; g <= j->gen + 1; g++) {
-        char *p = path_of(j, "snapshot.tmp", g);
-        if (p) unlink(p);
-        free(p);
+        for (int k = 0; k < 2; k++) {
+            char *p = path_of(j, k ? "journal.tmp" : "snapshot.tmp", g);
+            if (p) unlink(p);
+            free(p);
+        }
     }
     if (policy == JOURNAL_EVERYSEC) {
         /* signals are the loop's (it reads SIGTERM from a signalfd): the

@@ -397,7 +397,7 @@ int main(int argc, char **argv)
             return 1;
         }
         journal_set_limit(cfg.journal, (uint64_t)compact_mb << 20);
-        if (rep.cut_bytes) LOGW("journal: a damaged end was cut, not replayed: %s", rep.cut);
+        if (rep.cut[0]) LOGW("journal: a damaged end was cut, not replayed: %s", rep.cut);
         if (rep.fresh) {
             LOGI("%s: new data directory, durability %s", data_dir, pol[durability]);
         } else {

@@ -841,6 +841,65 @@ static void test_persist_torn_tail_cut(void **state)
     tdir_remove(&td);
 }
 
+/* A kill between a new journal file's creation and its header's write
+ * left journal.<gen> shorter than its header, and the daemon refused to
+ * start (seen once in CI's kill -9 test). The header now goes through
+ * journal.tmp.<gen> and a rename; a torn header that an older daemon left
+ * on the last file (it holds no record) is written anew, and a leftover
+ * journal.tmp is removed. */
+static void test_persist_torn_header_rewritten(void **state)
+{
+    (void)state;
+    tdir td;
+    char dir[320], p[400];
+    data_dir_make(&td, "persist-hdr", dir);
+    daemon_proc d;
+    start_dd(&d, dir, "always", "64");
+    vtc_client *c = connect_role(&d, VP_ROLE_EDITOR, true);
+    add_many(c, 1, 100, 0, NULL);
+    dump before, after;
+    take_dump(c, &before);
+    vtc_close(c);
+    daemon_stop(&d);
+    snprintf(p, sizeof p, "%s/journal.000001", dir);
+    assert_int_equal(access(p, F_OK), 0);
+    static const size_t torn[] = {0, 17};
+    for (int k = 0; k < 2; k++) {
+        snprintf(p, sizeof p, "%s/journal.%06d", dir, 2 + k);
+        int fd = open(p, O_WRONLY | O_CREAT | O_TRUNC, 0600);
+        uint8_t junk[32] = "VNTJRNL";
+        assert_int_equal(write(fd, junk, torn[k]), (ssize_t)torn[k]);
+        close(fd);
+        snprintf(p, sizeof p, "%s/journal.tmp.%06d", dir, 3 + k);
+        fd = open(p, O_WRONLY | O_CREAT | O_TRUNC, 0600);
+        close(fd);
+        start_dd(&d, dir, "always", "64");
+        c = connect_role(&d, VP_ROLE_EDITOR, true);
+        take_dump(c, &after);
+        assert_same(&before, &after);
+        free(after.e);
+        assert_false(has_file(dir, "journal.tmp."));
+        /* edits go on into the file whose header was written anew, and
+           come back after a restart */
+        add_many(c, 1000 + 100 * (uint64_t)k, 10, 0, NULL);
+        free(before.e);
+        take_dump(c, &before);
+        vtc_close(c);
+        daemon_stop(&d);
+        start_dd(&d, dir, "always", "64");
+        c = connect_role(&d, VP_ROLE_EDITOR, true);
+        take_dump(c, &after);
+        assert_same(&before, &after);
+        free(after.e);
+        vtc_close(c);
+        daemon_stop(&d);
+    }
+    assert_int_equal(before.n, 120);
+    free(before.e);
+    rm_data(dir);
+    tdir_remove(&td);
+}
+
 /* Issue 18, item 3, as it was found: 1,000 one-entity adds, one bit
  * flipped in record 10 (0-based). The daemon started with 10 entities,
  * cut the 989 acknowledged records after it as "a damaged end", and
@@ -1174,6 +1233,7 @@ const struct CMUnitTest persist_tests[] = {
     cmocka_unit_test(test_persist_snapshot_child_dies_with_daemon),
     cmocka_unit_test(test_persist_kill9_keeps_acked),
     cmocka_unit_test(test_persist_torn_tail_cut),
+    cmocka_unit_test(test_persist_torn_header_rewritten),
     cmocka_unit_test(test_persist_mid_journal_flip_refused),
     cmocka_unit_test(test_persist_write_error),
     cmocka_unit_test(test_persist_sync_failure_stops),
