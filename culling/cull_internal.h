@@ -176,6 +176,11 @@ struct cull_world {
     cull_occ_cluster **ocl;
     uint32_t   nclusters, cap_ocl;
     cull_bounds_soa ocl_soa;
+    /* one more with every occluder added, replaced or removed; starts at
+       a value no other world of the process starts at, so (world,
+       version) names what cull_occ_render draws (a query context's reuse
+       of a view's occlusion buffer, cull_query.c) */
+    uint64_t   occ_version;
 };
 
 void cull_occluders_free(cull_world *w);

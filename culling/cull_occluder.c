@@ -681,6 +681,7 @@ static int insert(cull_world *w, cull_occ_mesh *m, cull_occluder *out)
     m->dense = w->nocc;
     w->occ[w->nocc++] = m;
     link_clusters(w, m);
+    w->occ_version++;
     *out = slot | s->gen << CULL_HANDLE_SLOT_BITS;
     return CULL_OK;
 }
@@ -724,6 +725,7 @@ static int replace(cull_world *w, cull_occ_mesh *old, int rc, cull_occ_mesh *m)
     unlink_clusters(w, old);
     link_clusters(w, m);
     free(old);
+    w->occ_version++;
     return CULL_OK;
 }
 
@@ -758,6 +760,7 @@ int cull_occluder_remove(cull_world *w, cull_occluder h)
     last->dense = m->dense;
     unlink_clusters(w, m);
     free(m);
+    w->occ_version++;
     return CULL_OK;
 }
 

@@ -39,6 +39,20 @@ typedef struct cull_chunk {
     uint32_t thread, off, count, dst;
 } cull_chunk;
 
+/* What a context's occlusion buffer for one view index was rendered
+ * from: when a query asks for the same again, the buffer is kept (a still
+ * camera of a stream or a commander re-queries many times a second). */
+typedef struct occ_key {
+    bool valid;
+    const cull_world *w;
+    uint64_t version;           /* w->occ_version */
+    cull_view view;             /* compared field by field (it has padding) */
+    uint32_t inner, isa;
+    uint32_t nsub;              /* UINT32_MAX: every sub-level; else the set's words to its last non-zero one */
+    uint64_t *sub;
+    uint32_t sub_cap;
+} occ_key;
+
 struct cull_ctx {
     cull_pool *pool;
     uint32_t isa;
@@ -55,6 +69,7 @@ struct cull_ctx {
     cull_result *tres[MAX_THREADS];
     uint32_t tres_cap[MAX_THREADS];
     cull_occ_buffer *occ[CULL_MAX_VIEWS]; /* per view index, made on demand */
+    occ_key occ_key[CULL_MAX_VIEWS];      /* what each was rendered from */
 };
 
 int cull_ctx_create(cull_pool *pool, cull_ctx **out)
@@ -78,7 +93,10 @@ void cull_ctx_destroy(cull_ctx *c)
     free(c->items);
     free(c->chunks);
     for (uint32_t i = 0; i < MAX_THREADS; i++) free(c->tres[i]);
-    for (uint32_t i = 0; i < CULL_MAX_VIEWS; i++) cull_occ_buffer_destroy(c->occ[i]);
+    for (uint32_t i = 0; i < CULL_MAX_VIEWS; i++) {
+        cull_occ_buffer_destroy(c->occ[i]);
+        free(c->occ_key[i].sub);
+    }
     free(c);
 }
 
@@ -94,6 +112,55 @@ int cull_ctx_set_isa(cull_ctx *c, uint32_t isa)
 uint32_t cull_ctx_isa(const cull_ctx *c)
 {
     return c ? c->isa : CULL_ISA_SCALAR;
+}
+
+/* The words of a sub-level set up to its last non-zero one (UINT32_MAX:
+ * no set, every sub-level). */
+static uint32_t sub_words(const uint64_t *subs)
+{
+    if (!subs) return UINT32_MAX;
+    uint32_t n = CULL_SUBLEVEL_WORDS;
+    while (n && !subs[n - 1]) n--;
+    return n;
+}
+
+static bool view_same(const cull_view *a, const cull_view *b)
+{
+    return a->plane_count == b->plane_count && a->depth_mode == b->depth_mode && a->viewport_w == b->viewport_w &&
+           a->viewport_h == b->viewport_h && !memcmp(a->plane, b->plane, sizeof a->plane) &&
+           !memcmp(a->clip, b->clip, sizeof a->clip) && !memcmp(a->origin, b->origin, sizeof a->origin);
+}
+
+/* Whether k says buffer b holds what rendering v of w now would give. */
+static bool occ_key_same(const occ_key *k, const cull_world *w, const cull_view *v, uint32_t inner, uint32_t isa,
+                         const uint64_t *subs, uint32_t nsub)
+{
+    return k->valid && k->w == w && k->version == w->occ_version && k->inner == inner && k->isa == isa &&
+           k->nsub == nsub && view_same(&k->view, v) &&
+           (nsub == UINT32_MAX || !memcmp(k->sub, subs, (size_t)nsub * sizeof *subs));
+}
+
+/* Records what the buffer was just rendered from; false (the key left
+ * invalid: the next query renders again) without memory for the set. */
+static bool occ_key_set(occ_key *k, const cull_world *w, const cull_view *v, uint32_t inner, uint32_t isa,
+                        const uint64_t *subs, uint32_t nsub)
+{
+    k->valid = false;
+    if (nsub != UINT32_MAX && nsub > k->sub_cap) {
+        uint64_t *p = realloc(k->sub, (size_t)nsub * sizeof *p);
+        if (!p) return false;
+        k->sub = p;
+        k->sub_cap = nsub;
+    }
+    if (nsub != UINT32_MAX && nsub) memcpy(k->sub, subs, (size_t)nsub * sizeof *subs);
+    k->w = w;
+    k->version = w->occ_version;
+    k->view = *v;
+    k->inner = inner;
+    k->isa = isa;
+    k->nsub = nsub;
+    k->valid = true;
+    return true;
 }
 
 /* What the region stage leaves for one view: the planes the region
@@ -289,10 +356,11 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
 
     /* the occlusion stage: a buffer per view, given or rendered here */
     const cull_occ_buffer *ob[CULL_MAX_VIEWS] = {0};
-    uint32_t occ_views = 0, occ_drawn = 0;
+    uint32_t occ_views = 0, occ_drawn = 0, occ_reused = 0, occ_rendered = 0;
     uint64_t occ_ns = 0;
     if (!(q->flags & CULL_Q_NO_OCCLUSION) && (q->occ_buffers || w->nocc)) {
         uint32_t ow = q->occ_w ? q->occ_w : CULL_OCC_DEFAULT_W, oh = q->occ_h ? q->occ_h : CULL_OCC_DEFAULT_H;
+        uint32_t inner = !(q->flags & CULL_Q_OCC_CENTRE), nsub = q->occ_buffers ? 0 : sub_words(q->sublevels);
         for (uint32_t v = 0; v < q->view_count; v++) {
             cull_occ_buffer *b;
             if (q->occ_buffers) {
@@ -300,19 +368,28 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 if (!b) continue;
             } else {
                 b = c->occ[v];
+                occ_key *k = &c->occ_key[v];
                 if (!b || b->w != ow || b->h != oh) {
                     cull_occ_buffer *nb;
                     int rc = cull_occ_buffer_create(ow, oh, &nb);
                     if (rc != CULL_OK) return rc;
                     cull_occ_buffer_destroy(c->occ[v]);
                     c->occ[v] = b = nb;
+                    k->valid = false;
                 }
-                b->inner = !(q->flags & CULL_Q_OCC_CENTRE);
-                cull_occ_stats st;
-                int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, q->sublevels, &st);
-                if (rc != CULL_OK) return rc;
-                occ_ns += st.raster_ns;
-                occ_drawn += st.clusters_drawn;
+                if (!(q->flags & CULL_Q_OCC_FRESH) && occ_key_same(k, w, &q->views[v], inner, c->isa, q->sublevels, nsub)) {
+                    occ_reused++;
+                } else {
+                    k->valid = false; /* a failed render leaves the buffer half drawn */
+                    b->inner = inner;
+                    cull_occ_stats st;
+                    int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, q->sublevels, &st);
+                    if (rc != CULL_OK) return rc;
+                    occ_ns += st.raster_ns;
+                    occ_drawn += st.clusters_drawn;
+                    occ_rendered++;
+                    occ_key_set(k, w, &q->views[v], inner, c->isa, q->sublevels, nsub);
+                }
             }
             if (b->drawn && b->usable) {
                 ob[v] = b;
@@ -480,6 +557,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         stats->after_area = total.after_area;
         stats->after_occlusion = total.after_occ;
         stats->occ_views = occ_views;
+        stats->occ_reused = occ_reused;
+        stats->occ_rendered = occ_rendered;
         stats->occ_clusters_drawn = occ_drawn;
         stats->cells_occluded = cells_occluded;
         stats->occ_raster_ns = occ_ns;

@@ -11,6 +11,7 @@
 #include "cull_internal.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -46,6 +47,8 @@ int cull_world_create(const cull_world_desc *desc, cull_world **out)
     w->max_entities = d.max_entities;
     w->free_head = UINT32_MAX;
     w->ofree_head = UINT32_MAX;
+    static _Atomic uint64_t worlds;
+    w->occ_version = (atomic_fetch_add(&worlds, 1) + 1) << 40; /* 2^40 edits a world before two could meet */
     *out = w;
     return CULL_OK;
 }

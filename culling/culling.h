@@ -369,6 +369,10 @@ static inline int cull_sublevel_in(const uint64_t *set, uint32_t s)
                                      only at the buffer's own resolution
                                      (see "occlusion buffers" below) */
 
+#define CULL_Q_OCC_FRESH    0x80u /* render the occluders again even where
+                                     the context's buffer for the view is
+                                     still right (a bench's "before") */
+
 typedef struct cull_occ_buffer cull_occ_buffer;
 
 typedef struct cull_query_desc {
@@ -384,7 +388,12 @@ typedef struct cull_query_desc {
                                    N = up to N of the pool's threads, always */
     uint32_t occ_w, occ_h;      /* occlusion buffer, pixels; 0 = 256 x 114 */
     cull_occ_buffer *const *occ_buffers; /* NULL: the context renders the
-                                   occluders for each view; else one buffer
+                                   occluders for each view, or keeps the
+                                   buffer it rendered for view index i last
+                                   time when nothing it depends on changed
+                                   (the view, buffer size, cover mode,
+                                   sub-level set, the world's occluders:
+                                   exact, the same bits); else one buffer
                                    per view already rendered for it with
                                    cull_occ_render (NULL entries: no
                                    occlusion for that view) */
@@ -417,6 +426,10 @@ typedef struct cull_query_stats {
     uint32_t visible;               /* results written */
     uint32_t threads_used;
     uint32_t occ_views;             /* views the occlusion stage ran for */
+    uint32_t occ_reused;            /* views whose buffer the context kept from
+                                       its last query (the same view, buffer,
+                                       cover, sub-levels and occluders) */
+    uint32_t occ_rendered;          /* views whose occluders were drawn now */
     uint32_t occ_clusters_drawn;    /* occluder clusters rasterised, all views */
     uint32_t cells_occluded;        /* (cell, view) pairs dropped whole by occlusion */
     uint64_t occ_raster_ns;         /* wall time spent rendering occluders */

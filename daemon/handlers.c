@@ -318,7 +318,9 @@ static void run_query(const scene *sc, worker *wk, job *j)
         .total_ns = total,
         .entities = {st.entities_tested, st.after_spheres, st.after_aabb, st.after_area, st.after_occlusion,
                      (uint32_t)n},
-        .cells = {st.cells, st.cells_culled, st.cells_filtered, st.cells_occluded}};
+        .cells = {st.cells, st.cells_culled, st.cells_filtered, st.cells_occluded},
+        .occ_kept = st.occ_reused,
+        .occ_rendered = st.occ_rendered};
     j->ok = true;
     return;
 error:

@@ -88,6 +88,8 @@ void metrics_query_add(metrics *m, const metrics_query *q)
     for (int i = 0; i < MS_COUNT; i++) mhist_add(&m->stage[i], q->stage_ns[i]);
     for (int i = 0; i < ME_COUNT; i++) m->entities[i] += q->entities[i];
     for (int i = 0; i < MC_COUNT; i++) m->cells[i] += q->cells[i];
+    m->occ_buffers[0] += q->occ_kept;
+    m->occ_buffers[1] += q->occ_rendered;
 }
 
 /* ---- text ---------------------------------------------------------------------------- */
@@ -321,6 +323,13 @@ bool metrics_expose(server *s, mbuf *b)
     {
         static const char *const st[MC_COUNT] = {"searched", "frustum_culled", "sublevel_skipped", "occluded"};
         for (int i = 0; i < MC_COUNT; i++) sample(b, "vantage_query_cells_total", "result", st[i], m->cells[i]);
+    }
+    family(b, "vantage_query_occlusion_buffers_total", "counter",
+           "Views' occlusion buffers in the visibility queries: kept (the worker drew the same view of the same "
+           "occluders last time: a still camera's re-query) or rendered.");
+    {
+        static const char *const how[2] = {"kept", "rendered"};
+        for (int i = 0; i < 2; i++) sample(b, "vantage_query_occlusion_buffers_total", "how", how[i], m->occ_buffers[i]);
     }
 
     /* ---- clients ---- */

@@ -81,6 +81,7 @@ typedef struct metrics_query {
     uint32_t total_ns;        /* on the worker: decode to reply encoded */
     uint32_t entities[ME_COUNT];
     uint32_t cells[MC_COUNT];
+    uint32_t occ_kept, occ_rendered; /* views' occlusion buffers kept from the worker's last query / drawn */
 } metrics_query;
 
 typedef struct metrics {
@@ -90,6 +91,7 @@ typedef struct metrics {
     mhist    query;                 /* a query on its worker */
     mhist    stage[MS_COUNT];
     uint64_t entities[ME_COUNT], cells[MC_COUNT];
+    uint64_t occ_buffers[2];        /* kept, rendered */
     mhist    frame_render, frame_encode;
     uint64_t frames_sent, frames_dropped, frames_discarded;
     uint64_t accepted, rejected, auth_failures;

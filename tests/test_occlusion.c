@@ -1097,7 +1097,132 @@ static void test_occluder_cut_bound(void **state)
     free(tri);
 }
 
+/* ---- a context keeps a view's occlusion buffer (issue 24) ---------------------------------- */
+
+/* The visible set of a query, sorted (handles and view masks). */
+static size_t sorted_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q, cull_result *r, size_t cap,
+                           cull_query_stats *st)
+{
+    size_t n;
+    assert_int_equal(cull_query(w, c, q, r, cap, &n, st), CULL_OK);
+    for (size_t i = 1; i < n; i++) /* insertion sort: a few hundred */
+        for (size_t j = i; j > 0 && r[j - 1].handle > r[j].handle; j--) {
+            cull_result t = r[j];
+            r[j] = r[j - 1];
+            r[j - 1] = t;
+        }
+    return n;
+}
+
+/* A long-lived context answers exactly as a new one (no history at all)
+ * through 600 random steps: the same view again, a new view, a view moved
+ * by one ulp, occluders added, replaced and removed, sub-level sets and
+ * cover modes changed. It keeps the buffer exactly when nothing the
+ * render reads changed since its last query of that view, and renders
+ * again otherwise (st.occ_reused says which). */
+static void test_occ_buffer_reuse(void **state)
+{
+    (void)state;
+    rng r = {0x0cc5eed};
+    oscene s;
+    build_scene(&r, &s);
+    float v[108];
+    unit_cube(v);
+    cull_occluder mine[64];
+    uint32_t nmine = 0;
+    cull_ctx *kept;
+    assert_int_equal(cull_ctx_create(NULL, &kept), CULL_OK);
+    size_t cap = cull_query_bound(s.w) + 64;
+    cull_result *a = malloc(cap * sizeof *a), *b = malloc(cap * sizeof *b);
+    assert_non_null(a);
+    assert_non_null(b);
+    static uint64_t subs[CULL_SUBLEVEL_WORDS];
+    bool use_subs = false, changed = true;
+    uint32_t flags = 0, reused = 0, rendered = 0;
+    cull_view view;
+    random_view(&r, &s, &view, 256, 114);
+    int steps = (int)(600 * test_scale());
+    for (int step = 0; step < steps; step++) {
+        uint32_t op = rng_below(&r, 10);
+        if (op == 0 || op == 1) {
+            random_view(&r, &s, &view, 256, 114);
+            changed = true;
+        } else if (op == 2) { /* one ulp: a different view, drawn again */
+            view.origin[0] = nextafter(view.origin[0], INFINITY);
+            changed = true;
+        } else if (op == 3 && nmine < 64) {
+            double m[16] = {0};
+            for (int k = 0; k < 3; k++) {
+                m[k * 5] = rng_log(&r, 0.5, 20);
+                m[12 + k] = s.base[k] + rng_range(&r, -50, 50);
+            }
+            m[15] = 1;
+            cull_occluder_desc d = {.vertices = v, .vertex_count = 36, .sublevel = (uint16_t)rng_below(&r, 3)};
+            memcpy(d.transform, m, sizeof m);
+            assert_int_equal(cull_occluder_add(s.w, &d, &mine[nmine++]), CULL_OK);
+            changed = true;
+        } else if (op == 4 && nmine) { /* replaced: moved by a metre */
+            double m[16] = {0};
+            for (int k = 0; k < 3; k++) {
+                m[k * 5] = rng_log(&r, 0.5, 20);
+                m[12 + k] = s.base[k] + rng_range(&r, -50, 50);
+            }
+            m[15] = 1;
+            cull_occluder_desc d = {.vertices = v, .vertex_count = 36, .sublevel = (uint16_t)rng_below(&r, 3)};
+            memcpy(d.transform, m, sizeof m);
+            assert_int_equal(cull_occluder_update(s.w, mine[rng_below(&r, nmine)], &d), CULL_OK);
+            changed = true;
+        } else if (op == 5 && nmine) {
+            uint32_t k = rng_below(&r, nmine);
+            assert_int_equal(cull_occluder_remove(s.w, mine[k]), CULL_OK);
+            mine[k] = mine[--nmine];
+            changed = true;
+        } else if (op == 6) { /* a sub-level set, or every sub-level */
+            bool was = use_subs;
+            uint64_t w0 = subs[0], w1 = subs[1];
+            use_subs = rng_below(&r, 2);
+            subs[0] = rng_below(&r, 8);
+            subs[1] = rng_below(&r, 2) ? 1 : 0; /* sub-level 64: the set's length changes */
+            changed |= use_subs != was || (use_subs && (subs[0] != w0 || subs[1] != w1));
+        } else if (op == 7) {
+            flags ^= CULL_Q_OCC_CENTRE;
+            changed = true;
+        } /* else: the same query again */
+        cull_query_desc q = {.views = &view, .view_count = 1, .flags = flags, .sublevels = use_subs ? subs : NULL};
+        cull_query_stats st;
+        size_t na = sorted_query(s.w, kept, &q, a, cap, &st);
+        cull_ctx *fresh;
+        assert_int_equal(cull_ctx_create(NULL, &fresh), CULL_OK);
+        size_t nb = sorted_query(s.w, fresh, &q, b, cap, NULL);
+        cull_ctx_destroy(fresh);
+        if (na != nb || memcmp(a, b, na * sizeof *a))
+            fail_msg("step %d (op %u): the kept context answered %zu entities, a new one %zu", step, op, na, nb);
+        /* (the world always has occluders: the stage runs every time) */
+        if (st.occ_reused != (changed ? 0u : 1u))
+            fail_msg("step %d (op %u): reused %u, changed %d, occ_views %u", step, op, st.occ_reused, changed, st.occ_views);
+        assert_int_equal(st.occ_reused + st.occ_rendered, 1);
+        reused += st.occ_reused;
+        rendered += !st.occ_reused;
+        changed = false;
+        /* the kept context's buffer, asked to render again, gives the same */
+        if (step % 50 == 0) {
+            q.flags |= CULL_Q_OCC_FRESH;
+            size_t nf = sorted_query(s.w, kept, &q, b, cap, &st);
+            assert_int_equal(st.occ_reused, 0);
+            assert_true(nf == na && !memcmp(a, b, na * sizeof *a));
+        }
+    }
+    assert_true(reused > (uint32_t)steps / 10 && rendered > (uint32_t)steps / 10);
+    fprintf(stderr, "occlusion buffer reuse: %d queries, %u kept, %u rendered, all as a new context's\n", steps,
+            reused, rendered);
+    free(a);
+    free(b);
+    cull_ctx_destroy(kept);
+    free_scene(&s);
+}
+
 const struct CMUnitTest occlusion_tests[] = {
+    cmocka_unit_test(test_occ_buffer_reuse),
     cmocka_unit_test(test_occluder_cut_bound),
     cmocka_unit_test(test_occluder_build_bound),
     cmocka_unit_test(test_bad_occluders),
