@@ -1,0 +1,146 @@
+"""convert.py — Blender's numbers in Vantage's terms, with no bpy: axes,
+transforms, units. The tests check these against Blender's own matrices.
+
+Axes (glTF's convention, which Blender's glTF exporter and Vantage's
+importer use): Blender is Z-up, right-handed, -Y forward; Vantage is Y-up,
+right-handed. A Blender point (x, y, z) is the Vantage point (x, z, -y):
+the rotation C = [[1,0,0],[0,0,1],[0,-1,0]] (det +1, so windings and
+handedness are kept). A world matrix M becomes C M C^T; mesh vertices and
+normals are mapped by C; UVs get v' = 1 - v (glTF's v runs down the image).
+
+Transforms: Vantage places a mesh by pos + R(rot) (scale ⊙ local). A
+Blender world matrix is decomposed in double: scale = the column lengths,
+the rotation their directions; a mirror (negative determinant) becomes a
+negative x scale, as Vantage's importer does. A matrix with shear (a
+non-uniformly scaled parent of a rotated child) has no exact pos/rot/scale:
+the nearest is sent: R from the polar decomposition (the rotation closest
+to the matrix, SVD), scale = diag(R^T A); `decompose` says how far off
+that is (the largest element of A - R diag(scale), relative), so the
+caller can log it.
+
+Units: Blender lamps are radiometric (W, W/m^2), Vantage's photometric
+(candela, lux, cd/m^2). 683 lm/W (the luminous efficacy at 555 nm, which
+Blender's glTF exporter also uses): a point or spot lamp of P watts is
+P * 683 / (4 pi) cd; a sun of S W/m^2 is S * 683 lux (capped at the
+daemon's 200,000); a world of strength k is a sky of k * 683 cd/m^2. The
+ratios between lamps, sun and sky are Blender's, so the daemon's auto
+exposure shows what Cycles shows.
+"""
+import math
+import struct
+
+import numpy as np
+
+EFFICACY = 683.0
+C3 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+C4 = np.eye(4)
+C4[:3, :3] = C3
+_F32 = struct.Struct("<f")
+
+
+def f32(x):
+    return _F32.unpack(_F32.pack(x))[0]
+
+
+def point(p):
+    """a Blender point or direction -> Vantage (x, z, -y)"""
+    return (p[0], p[2], -p[1])
+
+
+def matrix_to_y_up(m):
+    """a Blender 4x4 world matrix (rows) -> the Vantage one, C M C^T"""
+    m = np.asarray(m, dtype=np.float64)
+    return C4 @ m @ C4.T
+
+
+def quat_from_rot(r):
+    """a 3x3 rotation (double) -> unit quaternion (x, y, z, w), w >= 0"""
+    t = r[0, 0] + r[1, 1] + r[2, 2]
+    if t > 0:
+        s = math.sqrt(t + 1.0) * 2
+        w, x, y, z = 0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s
+    elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
+        s = math.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2]) * 2
+        w, x, y, z = (r[2, 1] - r[1, 2]) / s, 0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s
+    elif r[1, 1] > r[2, 2]:
+        s = math.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2]) * 2
+        w, x, y, z = (r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s
+    else:
+        s = math.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1]) * 2
+        w, x, y, z = (r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    q = (x / n, y / n, z / n, w / n)
+    return q if q[3] >= 0 else tuple(-c for c in q)
+
+
+def decompose(m_blender):
+    """a Blender world matrix -> (pos, rot, scale, err, why): pos in f64,
+    rot and scale rounded to f32 (what the daemon stores), err the relative
+    size of what pos/rot/scale cannot hold (0 for an ordinary matrix; > 0
+    with shear), why None or the reason it cannot be sent (two zero scale
+    axes, a non-finite number)."""
+    m = matrix_to_y_up(m_blender)
+    if not np.all(np.isfinite(m)):
+        return None, None, None, 0.0, "its world matrix has a NaN or infinite number"
+    a = m[:3, :3]
+    pos = tuple(float(v) for v in m[:3, 3])
+    det = np.linalg.det(a)
+    flip = det < 0
+    a2 = a @ np.diag([-1.0, 1.0, 1.0]) if flip else a
+    s = np.linalg.norm(a2, axis=0)
+    if np.count_nonzero(s < 1e-30) >= 2:
+        return None, None, None, 0.0, "its scale is 0 on two axes (Vantage allows one)"
+    err = 0.0
+    if np.any(s < 1e-30):
+        # one flat axis: its direction from the other two (the daemon allows one 0 scale)
+        k = int(np.argmin(s))
+        r = a2 / np.where(s < 1e-30, 1.0, s)
+        i, j = [x for x in range(3) if x != k]
+        c = np.cross(r[:, (k + 1) % 3], r[:, (k + 2) % 3])
+        r[:, k] = c / np.linalg.norm(c)
+        s[k] = 0.0
+    else:
+        r = a2 / s
+    if np.max(np.abs(r.T @ r - np.eye(3))) > 1e-9:
+        # shear: the nearest rotation (polar decomposition) and the scale that
+        # best fits along its axes
+        u, _, vt = np.linalg.svd(a2)
+        r = u @ vt
+        if np.linalg.det(r) < 0:
+            u[:, -1] = -u[:, -1]
+            r = u @ vt
+        s = np.diag(r.T @ a2).copy()
+        err = float(np.max(np.abs(a2 - r @ np.diag(s))) / max(1e-30, float(np.max(np.abs(a2)))))
+    q = quat_from_rot(r)
+    scale = [float(v) for v in s]
+    if flip:
+        scale[0] = -scale[0]
+    return pos, tuple(f32(c) for c in q), tuple(f32(c) for c in scale), err, None
+
+
+def trs_matrix(pos, rot, scale):
+    """Vantage pos/rot/scale -> 4x4 (double): pos + R(rot) (scale ⊙ v); the tests' reference"""
+    x, y, z, w = rot
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    m = np.eye(4)
+    m[:3, :3] = r @ np.diag(scale)
+    m[:3, 3] = pos
+    return m
+
+
+def lamp_candela(watts):
+    return watts * EFFICACY / (4.0 * math.pi)
+
+
+def sun_lux(strength):
+    return min(strength * EFFICACY, 200000.0)
+
+
+def light_range(candela):
+    """where the lamp's illuminance falls to 1/20 lux, as the importer's
+    rule for a glTF light without a range: I / d^2 = 1/20"""
+    return min(max(math.sqrt(20.0 * max(candela, 0.0)), 1e-3), 1e9)

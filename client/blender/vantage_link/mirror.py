@@ -1,0 +1,269 @@
+"""mirror.py — Blender's edits to the link: depsgraph and undo handlers
+mark what changed (dirty sets), a timer on the main thread flushes them at
+up to 60 Hz (transforms as one pending value per object; anything
+structural as a full snapshot the link diffs), and the link's events
+(status, errors, other clients' selections) come back to the UI here.
+
+Load: a handler call costs O(updates in it) (a name and a time into a
+dict); a flush of k moved objects O(k) matrix decompositions; a full
+snapshot O(objects) plus the meshes that changed. A drag of 1,000 objects
+is 1,000 dict entries, whatever the frame rate.
+
+Timers do not run while a background (`blender -b --python`) script runs:
+scripts and tests call `tick()` (or `wait_synced`) themselves.
+"""
+import time
+
+import bpy
+
+from . import codec, link as lk, scene as sc
+
+TICK = 1.0 / 60.0          # flush period: at most 60 Hz
+FULL_MIN_INTERVAL = 0.1    # seconds between full snapshots (an edit storm gives 10 a second)
+SELECT_DEBOUNCE = 0.05     # a selection stable this long is sent
+LOG_LINES = 50
+
+
+class Mirror:
+    def __init__(self, host, port, unix, token, role=codec.ROLE_EDITOR, name="blender"):
+        self.log_lines = []
+        self.status = "connecting"
+        self.last_error = ""
+        self.link = lk.Link(host=host, port=port, unix=unix, token=token, name=name, role=role, log=self._log_thread)
+        self.builder = sc.Builder(self.log, dict(max_payload=16 << 20, max_batch=65536))
+        self.dirty_xf = {}         # object name -> time of the first handler call that moved it
+        self.structural = True     # a full snapshot is due
+        self.need_full = False     # the link asked for one (after a (re)connect)
+        self.full_later = 0.0
+        self.last_full = 0.0
+        self.sig = None
+        self.sel_sent = None
+        self.sel_seen = (None, 0.0)
+        self.applying_selection = False
+        self.remote_selection = None  # the last SELECTED from another client: (client_id, ids)
+        self.marks = []
+        self.running = False
+
+    # ---- logging: the panel's last lines and Blender's console ---------------------
+    def log(self, msg, error=False):
+        line = ("error: " if error else "") + msg
+        print("vantage:", line)
+        self.log_lines.append(line)
+        del self.log_lines[:-LOG_LINES]
+        if error:
+            self.last_error = msg
+
+    def _log_thread(self, msg):
+        # from the link's thread: through its event queue, not the UI
+        self.link._event("log", msg)
+
+    # ---- life ----------------------------------------------------------------------
+    def start(self):
+        self.running = True
+        self.link.start()
+        for h, f in self._handlers():
+            if f not in h:
+                h.append(f)
+        if not bpy.app.background:
+            bpy.app.timers.register(self._timer, first_interval=TICK, persistent=True)
+
+    def stop(self):
+        self.running = False
+        for h, f in self._handlers():
+            if f in h:
+                h.remove(f)
+        if bpy.app.timers.is_registered(self._timer):
+            bpy.app.timers.unregister(self._timer)
+        self.link.stop()
+        self.status = "disconnected"
+
+    def _handlers(self):
+        H = bpy.app.handlers
+        return [(H.depsgraph_update_post, self.on_depsgraph), (H.undo_post, self.on_undo),
+                (H.redo_post, self.on_undo), (H.load_post, self.on_undo)]
+
+    # ---- handlers (main thread) ------------------------------------------------------
+    def on_depsgraph(self, scene, depsgraph):
+        if self.applying_selection:
+            return
+        t = time.monotonic()
+        for u in depsgraph.updates:
+            idb = u.id.original if u.id is not None else None
+            if isinstance(idb, bpy.types.Object):
+                if u.is_updated_transform:
+                    self.dirty_xf.setdefault(idb.name, t)
+                if u.is_updated_geometry:
+                    self.builder.mesh_dirty.add(("obj", idb.name))
+                    if idb.type == 'MESH' and idb.data is not None:
+                        self.builder.mesh_dirty.add(("mesh", idb.data.name))
+                    self.structural = True
+                if u.is_updated_shading:
+                    self.structural = True
+            elif isinstance(idb, bpy.types.Mesh):
+                self.builder.mesh_dirty.add(("mesh", idb.name))
+                self.structural = True
+            elif isinstance(idb, (bpy.types.Material, bpy.types.Image, bpy.types.Light, bpy.types.World,
+                                  bpy.types.Collection, bpy.types.NodeTree)):
+                self.structural = True
+        # additions, deletions, exclusions show as a changed signature
+        vl = bpy.context.view_layer
+        sig = (len(scene.objects), len(vl.objects), _exclusions(vl.layer_collection), scene.world)
+        if sig != self.sig:
+            self.sig = sig
+            self.structural = True
+
+    def on_undo(self, *args):
+        # undo/redo: the main database was reloaded; a diff against the
+        # daemon's state puts back exactly what changed
+        self.structural = True
+        for v in self.builder.meshes.values():
+            self.builder.mesh_dirty.add(v[1])
+        self.sig = None
+
+    # ---- the flush ------------------------------------------------------------------
+    def _timer(self):
+        if not self.running:
+            return None
+        try:
+            self.tick()
+        except Exception as e:  # a bug here must not kill the timer and stop the link
+            self.log("internal error in the flush: %r" % (e,), error=True)
+        return TICK
+
+    def tick(self):
+        now = time.monotonic()
+        for kind, data in self.link.poll_events():
+            if kind == "state":
+                s, err = data
+                self.status = s
+                if s == "refused":
+                    self.log(err, error=True)
+                elif err and s == "disconnected":
+                    self.log("disconnected: %s (reconnecting)" % err)
+                elif s == "live":
+                    self.log("live: the daemon mirrors this scene")
+                if s == "connecting" or s == "syncing":
+                    h = self.link.hello
+                    if h:
+                        self.builder.limits = dict(max_payload=h["max_payload"], max_batch=h["max_batch"])
+            elif kind == "need_full":
+                self.need_full = True
+                self.sel_sent = None
+            elif kind == "need_full_later":
+                self.full_later = now + 0.2
+            elif kind == "error":
+                self.log(data, error=True)
+            elif kind == "log":
+                self.log(data)
+            elif kind == "selected":
+                self.apply_selection(data)
+            elif kind == "marked":
+                self.marks.append(data)
+                del self.marks[:-16]
+        if self.status not in ("syncing", "live"):
+            return
+        if self.full_later and now >= self.full_later:
+            self.full_later = 0.0
+            self.structural = True
+        if (self.need_full or self.structural) and now - self.last_full >= FULL_MIN_INTERVAL:
+            ctx = bpy.context
+            dg = ctx.evaluated_depsgraph_get()
+            d = self.builder.build(ctx.scene, ctx.view_layer, dg)
+            self.link.offer_full(d)
+            self.need_full = self.structural = False
+            self.dirty_xf.clear()
+            self.last_full = now
+        elif self.dirty_xf and not self.need_full and not self.structural:
+            self.flush_transforms()
+        self.share_selection(now)
+
+    def flush_transforms(self):
+        trs = {}
+        objs = bpy.data.objects
+        todo = dict(self.dirty_xf)
+        self.dirty_xf.clear()
+        # a moved parent moves its children: their world matrices changed too
+        for name, t0 in list(todo.items()):
+            o = objs.get(name)
+            if o is not None and o.children:
+                for c in o.children_recursive:
+                    todo.setdefault(c.name, t0)
+        for name, t0 in todo.items():
+            i = self.builder.obj_ids.get(name)
+            o = objs.get(name)
+            if i is None or o is None:
+                continue
+            if o.type == 'LIGHT' or o.name.upper().startswith("OCC_"):
+                self.structural = True  # lights and world-space occluders go in the snapshot
+                continue
+            t = self.builder.trs(o)
+            if t is not None:
+                trs[i] = (t[0], t[1], t[2], t0)
+        if trs:
+            self.link.offer_transforms(trs)
+
+    # ---- selection both ways ------------------------------------------------------------
+    def share_selection(self, now):
+        ids = self.builder.selected_ids(bpy.context.view_layer)
+        if ids == self.sel_sent:
+            self.sel_seen = (None, 0.0)
+            return
+        if self.sel_seen[0] != ids:
+            self.sel_seen = (ids, now)
+            return
+        if now - self.sel_seen[1] >= SELECT_DEBOUNCE:
+            self.sel_sent = ids
+            self.link.offer_selection(ids)
+
+    def apply_selection(self, s):
+        """SELECTED from another client: Blender's selection becomes it"""
+        self.remote_selection = (s["client_id"], s["ids"])
+        want = set(s["ids"])
+        names = self.builder.names
+        vl = bpy.context.view_layer
+        self.applying_selection = True
+        try:
+            for o in vl.objects:
+                i = self.builder.obj_ids.get(o.name)
+                sel = i in want
+                if o.select_get() != sel:
+                    o.select_set(sel)
+            act = next((names[i] for i in s["ids"] if i in names), None)
+            if act is not None and act in vl.objects:
+                vl.objects.active = vl.objects[act]
+        finally:
+            self.applying_selection = False
+        # not echoed back: this is now what we have sent
+        self.sel_sent = self.builder.selected_ids(vl)
+
+    # ---- scripts and tests ------------------------------------------------------------
+    def synced(self):
+        return (self.status == "live" and not self.structural and not self.need_full and not self.dirty_xf
+                and not self.full_later and self.link.idle())
+
+    def wait_synced(self, timeout=30.0, update=True):
+        """pump the flush until everything Blender has is acknowledged by the
+        daemon (a background script's stand-in for the timer); False on timeout"""
+        if update:
+            bpy.context.view_layer.update()
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            self.tick()
+            if self.synced():
+                return True
+            if self.status == "refused":
+                return False
+            time.sleep(0.002)
+        return False
+
+
+def _exclusions(lc):
+    out = []
+
+    def walk(c):
+        if c.exclude:
+            out.append(c.name)
+        for ch in c.children:
+            walk(ch)
+    walk(lc)
+    return tuple(out)
