@@ -224,7 +224,6 @@ class Link:
                 self._session()
             except AuthRefused as e:
                 self._set_state("refused", str(e))
-                self.log("vantage: %s" % e)
                 return
             except (OSError, codec.ProtocolError, struct.error) as e:
                 if self._stop.is_set():
@@ -482,6 +481,15 @@ class Link:
         r = yield Req(T["ENV_GET"], b"", wait=True)
         if r[0] == T["ENV_REPLY"]:
             self.h_env = codec.unpack("env", r[1])
+        # selections (SELECTED) and marks (MARKED) pushed to us; a daemon
+        # older than SELECT refuses bit 2 (INVALID): marks alone then
+        r = yield Req(T["SUBSCRIBE"], struct.pack("<I", codec.SUB_MARKS | codec.SUB_SELECTION), wait=True)
+        if r[0] == "ERROR":
+            self.has_select = False
+            self._event("log", "this daemon has no SELECT/SELECTED: the selection is not shared")
+            yield Req(T["SUBSCRIBE"], struct.pack("<I", codec.SUB_MARKS), wait=True)
+        else:
+            self.has_select = True
         # meshes and textures are compared when a snapshot names them (_probe)
         self._probe_classes = None
         self._event("need_full")
@@ -708,6 +716,8 @@ class Link:
         yield from self._send_moves(items)
 
     def _plan_select(self, s):
+        if not getattr(self, "has_select", False):
+            return
         r = yield Req(T["SELECT"], codec.select(s), wait=True)
         if r[0] == "ERROR":
             if r[1] == codec.ERR["TYPE"]:

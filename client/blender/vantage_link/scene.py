@@ -266,11 +266,13 @@ class Builder:
         maxp = self.limits["max_payload"]
         src = o.data
         # cheap refusal first: a mesh over the daemon's limits is not evaluated
-        nv, nt = len(src.vertices), sum(max(len(p.vertices) - 2, 0) for p in src.polygons) if len(src.polygons) < 200000 else -1
-        if nv > mb or nt > mb or nt < 0:
-            self.say(o.name, "its mesh '%s' has %d vertices and %s triangles: over the daemon's limits (%d vertices, "
-                     "%d triangles a mesh class, %d bytes a message): not sent" %
-                     (src.name, nv, "over 200,000" if nt < 0 else "%d" % nt, mb, mb, maxp))
+        nv = len(src.vertices)
+        lt = np.empty(len(src.polygons), np.int32)
+        src.polygons.foreach_get("loop_total", lt)
+        nt = int(np.sum(lt - 2)) if len(lt) else 0
+        if nv > mb or nt > mb:
+            self.say(o.name, "its mesh '%s' has %d vertices and %d triangles: over the daemon's limits (%d vertices "
+                     "and %d triangles a mesh class, %d bytes a message): not sent" % (src.name, nv, nt, mb, mb, maxp))
             return None
         ev = o.evaluated_get(depsgraph)
         me = ev.to_mesh()

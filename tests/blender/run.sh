@@ -1,0 +1,46 @@
+#!/bin/sh
+# tests/blender/run.sh — the Blender live-link's tests (client/blender), as
+# `make test` and `make test-blender` run them: headless Blender
+# (`blender -b --factory-startup --python FILE`) drives the add-on against a
+# real vantaged of VANTAGE_BIN_DIR (default build/release), each test file
+# with its own daemon (--data-dir and --tokens in a temporary directory),
+# and reads the daemon's state back with that build's `vantage` CLI.
+# Two Blender processes, about 15 s in all on an idle 2-core machine.
+# Exit status: 0 all passed (or blender is not installed: skipped, said on
+# stderr), 1 a test failed, 2 a binary is missing.
+set -eu
+cd "$(dirname "$0")/../.."
+: "${VANTAGE_BIN_DIR:=build/release}"
+export VANTAGE_BIN_DIR
+for b in vantaged vantage; do
+    if [ ! -x "$VANTAGE_BIN_DIR/$b" ]; then
+        echo "tests/blender: $VANTAGE_BIN_DIR/$b is missing (make CONFIG=release all, or set VANTAGE_BIN_DIR)" >&2
+        exit 2
+    fi
+done
+if ! command -v blender >/dev/null 2>&1; then
+    echo "tests/blender: SKIPPED: blender is not installed (make deps installs it)" >&2
+    exit 0
+fi
+if [ ! -f build/vantage_link.zip ]; then
+    echo "tests/blender: build/vantage_link.zip is missing (make build/vantage_link.zip)" >&2
+    exit 2
+fi
+status=0
+log=$(mktemp)
+scripts=$(mktemp -d)
+trap 'rm -rf "$log" "$scripts"' EXIT
+# test_errors.py installs the zip as a user does, into a scripts folder of its own
+export VANTAGE_ADDON_ZIP="$PWD/build/vantage_link.zip" BLENDER_USER_SCRIPTS="$scripts"
+for t in tests/blender/test_link.py tests/blender/test_errors.py; do
+    echo "tests/blender: $t"
+    rc=0
+    blender -b --factory-startup --python-exit-code 1 --python "$t" >"$log" 2>&1 || rc=$?
+    # Blender's own start-up lines are noise; the test prints its steps
+    grep -v -e '^Blender [34]' -e '^Read prefs' -e '^$' -e '^Blender quit' "$log" || true
+    if [ "$rc" -ne 0 ]; then
+        echo "tests/blender: $t FAILED (exit $rc)" >&2
+        status=1
+    fi
+done
+exit $status
