@@ -178,25 +178,40 @@ class Mirror:
         self.share_selection(now)
 
     def flush_transforms(self):
-        trs = {}
-        objs = bpy.data.objects
         todo = dict(self.dirty_xf)
         self.dirty_xf.clear()
+        # one pass over the objects: names (bpy.data.objects.get is a linear
+        # search) and parents (Object.children is a scan of its own)
+        by_name, kids = {}, {}
+        for k, o in enumerate(bpy.data.objects):
+            by_name[o.name] = (o, k)
+            if o.parent is not None:
+                kids.setdefault(o.parent.name, []).append(o.name)
         # a moved parent moves its children: their world matrices changed too
-        for name, t0 in list(todo.items()):
-            o = objs.get(name)
-            if o is not None and o.children:
-                for c in o.children_recursive:
-                    todo.setdefault(c.name, t0)
+        stack = [n for n in todo if n in kids]
+        while stack:
+            p = stack.pop()
+            for c in kids.get(p, ()):
+                if c not in todo:
+                    todo[c] = todo[p]
+                    stack.append(c)
+        batch, idx, ids, t0s = [], [], [], []
         for name, t0 in todo.items():
             i = self.builder.obj_ids.get(name)
-            o = objs.get(name)
+            o, k = by_name.get(name, (None, 0))
             if i is None or o is None:
                 continue
-            if o.type == 'LIGHT' or o.name.upper().startswith("OCC_"):
+            if o.type == 'LIGHT' or name.upper().startswith("OCC_"):
                 self.structural = True  # lights and world-space occluders go in the snapshot
                 continue
-            t = self.builder.trs(o)
+            batch.append(o)
+            idx.append(k)
+            ids.append(i)
+            t0s.append(t0)
+        if not batch:
+            return
+        trs = {}
+        for i, t0, t in zip(ids, t0s, self.builder.trs_many(batch, sc.all_world_matrices()[idx])):
             if t is not None:
                 trs[i] = (t[0], t[1], t[2], t0)
         if trs:

@@ -123,6 +123,17 @@ class ClassIds(Ids):
         return lk.owned_class(i) and i != lk.CLASS_BASE
 
 
+def all_world_matrices():
+    """(n, 4, 4) world matrices of bpy.data.objects, in its order, rows as
+    mathutils gives them: one foreach_get for all objects (Blender keeps
+    them as float32, column by column) instead of ~20 us an object
+    converting Matrix objects"""
+    objs = bpy.data.objects
+    buf = np.empty(len(objs) * 16, np.float32)
+    objs.foreach_get("matrix_world", buf)
+    return buf.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)
+
+
 class Builder:
     """the state that outlives one snapshot: ids, encoded meshes, image bytes,
     what was already reported"""
@@ -156,6 +167,22 @@ class Builder:
                      "position, rotation and scale (%.2g relative off)" % (obj.name, err))
         return pos, rot, scale
 
+    def trs_many(self, objs, mats):
+        """trs for many objects at once (convert.decompose_many), mats their
+        world matrices (all_world_matrices()[indices]): a drag"""
+        out = []
+        for o, (pos, rot, scale, err, why) in zip(objs, convert.decompose_many(mats)):
+            if why:
+                self.say(o.name, why + ": not sent")
+                out.append(None)
+                continue
+            if err > 1e-6 and o.name not in self.shear_said:
+                self.shear_said.add(o.name)
+                self.log("'%s': its world matrix has shear (a non-uniformly scaled parent): sent the nearest "
+                         "position, rotation and scale (%.2g relative off)" % (o.name, err))
+            out.append((pos, rot, scale))
+        return out
+
     # ---- the full snapshot --------------------------------------------------------
     def build(self, scene, view_layer, depsgraph):
         d = lk.Desired()
@@ -171,6 +198,18 @@ class Builder:
         d.excluded = {lk.SUBLEVEL_PREFIX + n for n in excluded_colls}
 
         all_objs = list(scene.objects)
+        # each object's collection, in one pass (Object.users_collection
+        # scans every collection per call); the scene's own first
+        coll_of = {}
+        for c in [scene.collection] + list(scene.collection.children_recursive):
+            for o in c.objects:
+                coll_of.setdefault(o.name, c)
+        # world transforms of all mesh objects at once
+        index = {o.name: k for k, o in enumerate(bpy.data.objects)}
+        mesh_objs = [o for o in all_objs if o.type == 'MESH']
+        mats = all_world_matrices()
+        trs_of = dict(zip((o.name for o in mesh_objs),
+                          self.trs_many(mesh_objs, mats[[index[o.name] for o in mesh_objs]]) if mesh_objs else []))
         ids = self.ent_ids.assign(all_objs, self.log)
         self.obj_ids = {o.name: i for i, o in ids.items()}
         self.names = {i: o.name for i, o in ids.items()}
@@ -189,7 +228,7 @@ class Builder:
         for i, o in ids.items():
             if o.name not in live:
                 continue
-            coll = o.users_collection[0] if o.users_collection else scene.collection
+            coll = coll_of.get(o.name, scene.collection)
             sub = "" if coll is scene.collection else lk.SUBLEVEL_PREFIX + coll.name
             if o.type == 'LIGHT':
                 if o.data.type == 'SUN':
@@ -210,7 +249,7 @@ class Builder:
             cls = self.mesh_class(o, cls_of[(o if len(o.modifiers) else o.data).as_pointer()], depsgraph)
             if cls is None:
                 continue
-            t = self.trs(o)
+            t = trs_of.get(o.name)
             if t is None:
                 continue
             mat = 0
