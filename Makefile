@@ -202,7 +202,7 @@ SCENE    ?= tests/data/scenes/city_scene.txt
 BLENDER_ZIP := build/vantage_link.zip
 BLENDER_SRC := $(wildcard client/blender/vantage_link/*.py)
 
-.PHONY: all run demo test test-web test-blender bench-blender bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-web test-blender bench-blender docs-blender-shot bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN) \
      $(WASM_BIN) $(BLENDER_ZIP)
@@ -426,6 +426,13 @@ bench-blender: check-deps
 	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
 	VANTAGE_BIN_DIR=build/release blender -b --factory-startup --python-exit-code 1 \
 	  --python tests/blender/bench_link.py -- --edits $(or $(BENCH_EDITS),1000)
+
+# docs/blender_link.png: a scene in headless Blender, Cycles (CPU) beside vantaged's frame of the
+# same camera, mirrored by the live-link (tests/blender/screenshot.py; about 15 s)
+docs-blender-shot: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	VANTAGE_BIN_DIR=build/release blender -b --factory-startup --python-exit-code 1 \
+	  --python tests/blender/screenshot.py -- $(CURDIR)/docs/blender_link.png
 
 # make test runs the randomized tests and the damage campaigns whole in the
 # release build and at half size in the scalar and ASan builds (every 5th
