@@ -390,7 +390,7 @@ test-one: check-deps $(TEST_BIN)
 # run one binary after another
 BUILD_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 test: check-deps
-	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull \
+	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull $(BLENDER_ZIP) \
 	  build/release/bench_occlusion build/release/bench_render build/release/bench_h264
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan build/asan/vantage_tests

@@ -238,3 +238,15 @@ def finish(d, tmp):
     print("ok")
     sys.stdout.flush()
     os._exit(0)
+
+
+def run(main):
+    """runs a test's main; an exception is a failure with its traceback
+    (Blender would otherwise print it and exit 0)"""
+    try:
+        main()
+    except Exception:
+        import traceback
+        traceback.print_exc()
+        sys.stdout.flush()
+        os._exit(1)

@@ -12,19 +12,12 @@ set -eu
 cd "$(dirname "$0")/../.."
 : "${VANTAGE_BIN_DIR:=build/release}"
 export VANTAGE_BIN_DIR
-for b in vantaged vantage; do
-    if [ ! -x "$VANTAGE_BIN_DIR/$b" ]; then
-        echo "tests/blender: $VANTAGE_BIN_DIR/$b is missing (make CONFIG=release all, or set VANTAGE_BIN_DIR)" >&2
-        exit 2
-    fi
+for f in "$VANTAGE_BIN_DIR/vantaged" "$VANTAGE_BIN_DIR/vantage" build/vantage_link.zip; do
+    [ -e "$f" ] || { echo "tests/blender: $f is missing (make CONFIG=release all)" >&2; exit 2; }
 done
 if ! command -v blender >/dev/null 2>&1; then
     echo "tests/blender: SKIPPED: blender is not installed (make deps installs it)" >&2
     exit 0
-fi
-if [ ! -f build/vantage_link.zip ]; then
-    echo "tests/blender: build/vantage_link.zip is missing (make build/vantage_link.zip)" >&2
-    exit 2
 fi
 status=0
 log=$(mktemp)

@@ -177,10 +177,4 @@ def check_selection(d, m):
     s.close()
 
 
-try:
-    main()
-except Exception:
-    import traceback
-    traceback.print_exc()
-    sys.stdout.flush()
-    os._exit(1)
+H.run(main)

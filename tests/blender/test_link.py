@@ -256,10 +256,4 @@ def main():
     H.finish(d, tmp)
 
 
-try:
-    main()
-except Exception:
-    import traceback
-    traceback.print_exc()
-    sys.stdout.flush()
-    os._exit(1)
+H.run(main)

@@ -118,20 +118,6 @@ def decompose(m_blender):
     return pos, tuple(f32(c) for c in q), tuple(f32(c) for c in scale), err, None
 
 
-def trs_matrix(pos, rot, scale):
-    """Vantage pos/rot/scale -> 4x4 (double): pos + R(rot) (scale ⊙ v); the tests' reference"""
-    x, y, z, w = rot
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    x, y, z, w = x / n, y / n, z / n, w / n
-    r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-    m = np.eye(4)
-    m[:3, :3] = r @ np.diag(scale)
-    m[:3, 3] = pos
-    return m
-
-
 def lamp_candela(watts):
     return watts * EFFICACY / (4.0 * math.pi)
 

@@ -449,33 +449,10 @@ class Link:
             cursor = h["next_cursor"]
             if not cursor:
                 break
-        cursor = 0
-        while True:
-            r = yield Req(T["LIGHT_LIST"], struct.pack("<QI", cursor, mb), wait=True)
-            if r[0] != T["LIGHT_LIST_REPLY"]:
-                raise codec.ProtocolError("LIGHT_LIST answered %r" % (r[:3],))
-            cursor, n = struct.unpack_from("<QI", r[1])
-            for i in range(n):
-                rec = r[1][12 + 80 * i:12 + 80 * (i + 1)]
-                (lid,) = struct.unpack_from("<Q", rec)
-                if owned_entity(lid):
-                    self.h_lights[lid] = (None, bytes(rec))
-            if not cursor:
-                break
-        mcur = MATERIAL_BASE - 1
-        while True:
-            r = yield Req(T["MATERIAL_LIST"], struct.pack("<II", mcur, mb), wait=True)
-            if r[0] != T["MATERIAL_LIST_REPLY"]:
-                raise codec.ProtocolError("MATERIAL_LIST answered %r" % (r[:3],))
-            nxt, n = struct.unpack_from("<II", r[1])
-            for i in range(n):
-                rec = bytes(r[1][8 + 188 * i:8 + 188 * (i + 1)])
-                (mid,) = struct.unpack_from("<I", rec)
-                if owned_material(mid):
-                    self.h_materials[mid] = rec
-            if not nxt or nxt >= MATERIAL_BASE + MATERIAL_SPAN:
-                break
-            mcur = nxt
+        lights = yield from self._pages("LIGHT_LIST", "Q", 0, codec.LIGHT_SIZE, "<Q", owned_entity, None)
+        self.h_lights.update((i, (None, rec)) for i, rec in lights.items())
+        self.h_materials.update((yield from self._pages("MATERIAL_LIST", "I", MATERIAL_BASE - 1, codec.MATERIAL_SIZE,
+                                                        "<I", owned_material, MATERIAL_BASE + MATERIAL_SPAN)))
         r = yield Req(T["SUBLEVEL_LIST"], b"", wait=True)
         self.sub_ids = {name: sid for sid, name in codec.decode_sublevel_list(r[1]).items()}
         r = yield Req(T["ENV_GET"], b"", wait=True)
@@ -494,6 +471,25 @@ class Link:
         self._probe_classes = None
         self._event("need_full")
         self._set_state("syncing")
+
+    def _pages(self, name, cfmt, cursor, size, ifmt, owned, end):
+        """a plan step: every page of LIGHT_LIST or MATERIAL_LIST (cursor
+        `cfmt` Q or I, records of `size` bytes whose id is `ifmt`), returning
+        {id: record} of the ids `owned` accepts; stops at a cursor >= end"""
+        head = struct.Struct("<%sI" % cfmt)
+        out = {}
+        while True:
+            r = yield Req(T[name], head.pack(cursor, min(self.hello["max_batch"], LIST_PAGE)), wait=True)
+            if r[0] != T[name + "_REPLY"]:
+                raise codec.ProtocolError("%s answered %r" % (name, r[:3]))
+            cursor, n = head.unpack_from(r[1])
+            for i in range(n):
+                rec = bytes(r[1][head.size + size * i:head.size + size * (i + 1)])
+                (rid,) = struct.unpack_from(ifmt, rec)
+                if owned(rid):
+                    out[rid] = rec
+            if not cursor or (end is not None and cursor >= end):
+                return out
 
     def _plan_full(self, d):
         # 1. what the daemon holds of the meshes and textures the snapshot
