@@ -102,7 +102,13 @@ class Daemon:
         magic, ver, total = struct.unpack_from("<III", b)
         assert magic == 0x46546C67, "not a GLB"
         ln, kind = struct.unpack_from("<II", b, 12)
-        return json.loads(b[20:20 + ln].decode())
+        g = json.loads(b[20:20 + ln].decode())
+        off = 20 + ln
+        g["_bin"] = b[off + 8:off + 8 + struct.unpack_from("<I", b, off)[0]] if off < len(b) else b""
+        return g
+
+    def stats(self):
+        return json.loads(self.cli("stats", "--json")[1])
 
     def sublevels(self):
         out = self.cli("sublevel", "list", "--json")[1]
@@ -160,7 +166,10 @@ def blender_entities(bpy):
 
 def principled(m):
     b = next(n for n in m.node_tree.nodes if n.type == 'BSDF_PRINCIPLED')
-    return (tuple(b.inputs["Base Color"].default_value), b.inputs["Metallic"].default_value,
+    base = tuple(b.inputs["Base Color"].default_value)
+    if b.inputs["Base Color"].is_linked:  # a texture is the colour: glTF's factor is 1 (it multiplies the texture)
+        base = (1.0, 1.0, 1.0, base[3])
+    return (base, b.inputs["Metallic"].default_value,
             b.inputs["Roughness"].default_value)
 
 
@@ -176,7 +185,7 @@ def check_converged(bpy, d, label, glb=False, refused=()):
     ok = check(len(ids) == len(set(ids)), "%s: the export lists an id twice" % label)
     ok &= check(set(ids) == set(want), "%s: daemon has %d of ours, Blender %d (missing %d, extra %d)" %
                 (label, len(set(ids)), len(want), len(set(want) - set(ids)), len(set(ids) - set(want))))
-    worst = 0.0
+    worst = worst_box = 0.0
     for e in ours:
         o = want.get(e["id"])
         if o is None:
@@ -189,6 +198,21 @@ def check_converged(bpy, d, label, glb=False, refused=()):
         err = float(np.max(np.abs(got - ref))) / max(1.0, float(np.max(np.abs(ref))))
         worst = max(worst, err)
         if not check(err <= 1e-5, "%s: '%s' world transform off by %.3g relative" % (label, o.name, err)):
+            ok = False
+            break
+        # the daemon's bounds, derived from the mesh the add-on sent and the
+        # transform, against Blender's own box of the evaluated mesh (its
+        # 8 corners through the world matrix): checks the vertices' axes and
+        # the modifiers too. 1e-4 relative: the mesh is f32 and the daemon
+        # rounds its bounds outward
+        ev = o.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        corners = np.array([list(c) + [1.0] for c in ev.bound_box])
+        w = (nearest_trs(y_up(o.matrix_world)) @ C @ corners.T).T[:, :3]  # corners to Y-up, then placed
+        box = np.concatenate([w.min(0), w.max(0)])
+        size = max(1.0, float(np.max(np.abs(box))))
+        berr = float(np.max(np.abs(np.array(e["aabb"]) - box))) / size
+        worst_box = max(worst_box, berr)
+        if not check(berr <= 1e-4, "%s: '%s' bounds %s, Blender's %s" % (label, o.name, e["aabb"], box.tolist())):
             ok = False
             break
     if glb:
@@ -218,8 +242,8 @@ def check_converged(bpy, d, label, glb=False, refused=()):
                 break
             nm += 1
         print("  %s: %d materials checked in the glb" % (label, nm))
-    print("  %s: %d entities, worst transform error %.2g, checked in %.2f s" %
-          (label, len(ids), worst, time.monotonic() - t0), flush=True)
+    print("  %s: %d entities, worst transform error %.2g, bounds %.2g, checked in %.2f s" %
+          (label, len(ids), worst, worst_box, time.monotonic() - t0), flush=True)
     return ok
 
 

@@ -125,6 +125,78 @@ def check_lights(d, label):
     H.check(sun is not None and abs(sun["intensity"] - 4.0 * 683.0) < 1e-2, "%s: sun %s, want 2732 lux" % (label, sun))
 
 
+def glb_image_bytes(g, tex_index):
+    img = g["images"][g["textures"][tex_index]["source"]]
+    bv = g["bufferViews"][img["bufferView"]]
+    return g["_bin"][bv.get("byteOffset", 0):bv.get("byteOffset", 0) + bv["byteLength"]]
+
+
+def assets(m, d, tmp):
+    step("an image texture, a mesh edit, a modifier, occluders (property and OCC_ name), a spot cone, an HDRI")
+    # a PNG on disk as a material's base colour: the daemon holds its bytes
+    im = bpy.data.images.new("Checker", 16, 16)
+    im.pixels[:] = [((x // 4 + y // 4) % 2) * 0.9 if c < 3 else 1.0 for y in range(16) for x in range(16)
+                    for c in range(4)]
+    png = os.path.join(tmp, "checker.png")
+    im.filepath_raw = png
+    im.file_format = 'PNG'
+    im.save()
+    mt = bpy.data.materials["Mat0"]
+    node = mt.node_tree.nodes.new("ShaderNodeTexImage")
+    node.image = im
+    bsdf = mt.node_tree.nodes["Principled BSDF"]
+    mt.node_tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+    # a mesh edit (the cube mesh, shared by a fifth of the objects) and a modifier
+    cube = next(o for o in bpy.context.view_layer.objects if o.type == 'MESH' and o.data.name.startswith("Cube"))
+    cube.data.vertices[0].co.x -= 0.75
+    cube.data.update()
+    sub = next(o for o in bpy.context.view_layer.objects if o.type == 'MESH' and o.data.name.startswith("Cylinder"))
+    sub.modifiers.new("sub", 'SUBSURF').levels = 1
+    # occluders: a property, and an OCC_<name> box belonging to <name>
+    occ_owner = next(o for o in bpy.context.view_layer.objects if o.type == 'MESH' and o is not cube and o is not sub)
+    occ_owner["vantage_occluder"] = True
+    wall = next(o for o in bpy.context.view_layer.objects if o.type == 'MESH' and o not in (cube, sub, occ_owner))
+    bpy.ops.mesh.primitive_cube_add(location=wall.location, size=0.9)
+    ob = bpy.context.active_object
+    ob.name = "OCC_" + wall.name
+    # the spot's cone
+    sp = bpy.data.objects["LSPOT"].data
+    sp.spot_size, sp.spot_blend = 1.0, 0.25
+    # an HDRI world: an EXR environment texture
+    hd = bpy.data.images.new("Sky", 32, 16, float_buffer=True)
+    hd.pixels[:] = [0.5 + 0.5 * (c == 2) if c < 3 else 1.0 for _ in range(32 * 16) for c in range(4)]
+    exr = os.path.join(tmp, "sky.exr")
+    hd.filepath_raw = exr
+    hd.file_format = 'OPEN_EXR'
+    hd.save()
+    w = bpy.context.scene.world
+    env = w.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = hd
+    w.node_tree.links.new(env.outputs["Color"], w.node_tree.nodes["Background"].inputs["Color"])
+    synced(m, "assets")
+    H.check_converged(bpy, d, "assets", glb=True)
+    g = d.export_glb()
+    gm = next(x for x in g["materials"] if x["name"] == "material_%d" % int(mt["vantage_id"], 16))
+    ti = gm["pbrMetallicRoughness"].get("baseColorTexture", {}).get("index")
+    with open(png, "rb") as f:
+        want = f.read()
+    H.check(ti is not None and glb_image_bytes(g, ti) == want,
+            "assets: the daemon's base colour texture is not the PNG's bytes (%s)" % ti)
+    st = d.stats()
+    H.check(st["occluders"] == 2, "assets: the daemon holds %d occluders, want 2 (property, OCC_ name)" %
+            st["occluders"])
+    H.check(int(ob["vantage_id"], 16) not in {e["id"] for e in d.export_lines()},
+            "assets: the OCC_ object became an entity (it is an occluder only)")
+    lights = {l["name"]: l for l in g["extensions"]["KHR_lights_punctual"]["lights"]}
+    L = lights["light_%d" % int(bpy.data.objects["LSPOT"]["vantage_id"], 16)]
+    # glTF's spot: outer = spot_size / 2, inner = outer * (1 - blend); 1e-5: f32 cosines back through acos
+    H.check(abs(L["spot"]["outerConeAngle"] - 0.5) < 1e-5 and abs(L["spot"]["innerConeAngle"] - 0.375) < 1e-5,
+            "assets: spot cone %s, want outer 0.5 inner 0.375" % L.get("spot"))
+    rc, out, _ = d.cli("env", check_rc=False)
+    H.check(rc == 0 and "exr:%d" % int(hd["vantage_id"], 16) in out, "assets: the sky is not the EXR texture: %s" % out)
+    print("  env: %s" % " ".join(out.split())[:160])
+
+
 def main():
     rng = random.Random(22)
     tmp = H.tmpdir()
@@ -222,6 +294,7 @@ def main():
     check_sublevels(d, colls, "include")
 
     step("the daemon killed (-9) and restarted on its --data-dir, edits made while it is down")
+    puts = m.link.counters["sent_MESH_PUT"]
     d.kill9()
     objs = [o for o in bpy.context.view_layer.objects if o.type == 'MESH']
     for o in objs[:20]:
@@ -242,6 +315,9 @@ def main():
     check_sublevels(d, colls, "restart")
     check_lights(d, "restart")
     H.check(m.link.counters["disconnects"] >= 1, "restart: the link saw no disconnect")
+    # the meshes survived on the daemon's --data-dir: read back (MESH_GET) and not sent again
+    H.check(m.link.counters["sent_MESH_PUT"] == puts, "restart: %d meshes re-sent that the daemon still held" %
+            (m.link.counters["sent_MESH_PUT"] - puts))
 
     step("a light moved, a material changed")
     bpy.data.objects["LPOINT"].data.energy = 800.0
@@ -250,6 +326,8 @@ def main():
     synced(m, "light and material")
     check_lights(d, "light and material")
     H.check_converged(bpy, d, "light and material", glb=True)
+
+    assets(m, d, tmp)
 
     vl.disconnect()
     print("test_link: %.1f s" % (time.monotonic() - T0))
