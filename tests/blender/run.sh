@@ -5,7 +5,8 @@
 # real vantaged of VANTAGE_BIN_DIR (default build/release), each test file
 # with its own daemon (--data-dir and --tokens in a temporary directory),
 # and reads the daemon's state back with that build's `vantage` CLI.
-# Two Blender processes, about 15 s in all on an idle 2-core machine.
+# test_codec.py (plain python3: the codec against PROTOCOL.md's tables), then two
+# Blender processes; about 12 s in all on an idle 2-core machine.
 # Exit status: 0 all passed (or blender is not installed: skipped, said on
 # stderr), 1 a test failed, 2 a binary is missing.
 set -eu
@@ -15,6 +16,8 @@ export VANTAGE_BIN_DIR
 for f in "$VANTAGE_BIN_DIR/vantaged" "$VANTAGE_BIN_DIR/vantage" build/vantage_link.zip; do
     [ -e "$f" ] || { echo "tests/blender: $f is missing (make CONFIG=release all)" >&2; exit 2; }
 done
+# the codec against PROTOCOL.md's tables: plain python3, no Blender needed
+python3 tests/blender/test_codec.py || exit 1
 if ! command -v blender >/dev/null 2>&1; then
     echo "tests/blender: SKIPPED: blender is not installed (make deps installs it)" >&2
     exit 0

@@ -116,64 +116,82 @@ def main():
     H.check_converged(bpy, d, "big mesh", refused=("BigGrid",))
 
     print("selection both ways")
-    sel_supported = m.link.has_select
-    if sel_supported:
-        check_selection(d, m)
-    else:
-        print("  SKIPPED: this daemon has no SELECT")
+    check_selection(d, m)
     vl.disconnect()
     H.finish(d, tmp)
 
 
 def check_selection(d, m):
+    """another client, written from PROTOCOL.md with its own bytes (not the
+    add-on's codec): a commander's select (MARK kind 1 naming an entity)
+    and, on a daemon with SELECT/SELECTED, the shared selection both ways"""
     import socket
     import struct
-    from vantage_link import codec
     cube = bpy.data.objects["Cube"]
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o is cube)
-    H.check(m.wait_synced(10), "select: not flushed")
-    cid = int(cube["vantage_id"], 16)
-    # another client, written from PROTOCOL.md with its own bytes: it
-    # subscribes to selections, must see Blender's, then selects the big
-    # grid's neighbour (the light) and Blender must follow
+    others = [o for o in bpy.context.view_layer.objects if o.type == 'MESH' and o is not cube and
+              isinstance(o.get("vantage_id"), str)]
     s = socket.socket(socket.AF_UNIX)
     s.connect(d.sock)
     s.settimeout(5)
-    rd = codec.FrameReader()
+    buf = bytearray()
 
     def send(t, req, p):
         s.sendall(struct.pack("<IHHI", len(p), t, 0, req) + p)
 
-    def recv_until(pred):
+    def recv_until(t):
         end = time.monotonic() + 5
         while time.monotonic() < end:
-            for f in rd.frames():
-                if pred(f):
-                    return f
-            rd.feed(s.recv(65536))
+            while len(buf) >= 12:
+                ln, typ, _, req = struct.unpack_from("<IHHI", buf)
+                if len(buf) < 12 + ln:
+                    break
+                p = bytes(buf[12:12 + ln])
+                del buf[:12 + ln]
+                if typ == t:
+                    return p
+            buf.extend(s.recv(65536))
         return None
+
+    def follows(o, label):
+        end = time.monotonic() + 5
+        while time.monotonic() < end and not o.select_get():
+            m.tick()
+            time.sleep(0.01)
+        H.check(o.select_get() and not cube.select_get(),
+                "%s: Blender did not follow another client's selection (%s selected: %s, Cube: %s)" %
+                (label, o.name, o.select_get(), cube.select_get()))
+
     tok = H.EDITOR_TOKEN.encode()
-    send(1, 1, struct.pack("<IHBB", 0x47544E56, 2, 2, len(tok)) + tok + b"\x04test")
-    recv_until(lambda f: f[0] == 2)
-    send(8, 2, struct.pack("<I", 4))
-    f = recv_until(lambda f: f[0] == 0x0603)
-    H.check(f is not None, "select: no SELECTED at subscription")
-    if f is not None:
-        n = struct.unpack_from("<I", f[2], 4)[0]
-        got = struct.unpack_from("<%dQ" % n, f[2], 16)
-        H.check(list(got) == [cid], "select: the daemon's selection is %s, Blender selected %x" % (got, cid))
-    other = next(o for o in bpy.context.view_layer.objects if o.type == 'MESH' and o is not cube)
-    oid = int(other["vantage_id"], 16)
-    send(0x0602, 3, struct.pack("<IIQ", 1, 0, oid))
-    recv_until(lambda f: f[0] == 0x000A)
-    end = time.monotonic() + 5
-    while time.monotonic() < end and not other.select_get():
-        m.tick()
-        time.sleep(0.01)
-    H.check(other.select_get() and not cube.select_get(),
-            "select: Blender did not follow another client's selection (%s %s)" % (other.select_get(),
-                                                                                 cube.select_get()))
+    send(0x0001, 1, struct.pack("<IHBB", 0x47544E56, 2, 1, len(tok)) + tok + b"\x09commander")  # role 1
+    H.check(recv_until(0x0002) is not None, "select: the commander's HELLO was not answered")
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o is cube)
+    H.check(m.wait_synced(10), "select: not flushed")
+    # a commander's select: MARK (pos, entity, kind 1, ttl)
+    send(0x0600, 2, struct.pack("<3dQB3xI", 0.0, 0.0, 0.0, int(others[0]["vantage_id"], 16), 1, 2000))
+    H.check(recv_until(0x000A) is not None, "mark: not acknowledged")
+    follows(others[0], "commander's MARK select")
+    if not m.link.has_select:
+        print("  SELECT/SELECTED: SKIPPED: this daemon has neither")
+        s.close()
+        return
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o is cube)
+    H.check(m.wait_synced(10), "select: not flushed")
+    # Blender's selection as the daemon holds it: SELECTED at subscription (bit 2)
+    send(0x0008, 3, struct.pack("<I", 4))
+    p = recv_until(0x0603)
+    H.check(p is not None, "select: no SELECTED at subscription")
+    if p is not None:
+        client, n, serial = struct.unpack_from("<IIQ", p)
+        got = list(struct.unpack_from("<%dQ" % n, p, 16))
+        H.check(got == [int(cube["vantage_id"], 16)] and client == m.link.client_id,
+                "select: the daemon's selection is %s from client %d; Blender (client %d) selected %s" %
+                (got, client, m.link.client_id, cube["vantage_id"]))
+    # another client's SELECT: Blender follows
+    send(0x0602, 4, struct.pack("<IIQ", 1, 0, int(others[1]["vantage_id"], 16)))
+    H.check(recv_until(0x000A) is not None, "select: SELECT not acknowledged")
+    follows(others[1], "SELECT")
     s.close()
 
 

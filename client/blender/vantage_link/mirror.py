@@ -136,6 +136,7 @@ class Mirror:
             if kind == "state":
                 s, err = data
                 self.status = s
+                _redraw()
                 if s == "refused":
                     self.log(err, error=True)
                 elif err and s == "disconnected":
@@ -160,6 +161,12 @@ class Mirror:
             elif kind == "marked":
                 self.marks.append(data)
                 del self.marks[:-16]
+                # a commander's select is a MARK of kind 1 naming an entity
+                # (vantage commander, the browser's): shown as Blender's
+                # selection when the entity is one of ours
+                if data["kind"] == 1 and data["entity"] in self.builder.names and \
+                        data["client_id"] != self.link.client_id:
+                    self.apply_selection(dict(client_id=data["client_id"], ids=[data["entity"]]))
         if self.status not in ("syncing", "live"):
             return
         if self.full_later and now >= self.full_later:
@@ -270,6 +277,16 @@ class Mirror:
                 return False
             time.sleep(0.002)
         return False
+
+
+def _redraw():
+    """the sidebar panel shows the new status (no UI in background mode)"""
+    if bpy.app.background:
+        return
+    for win in bpy.context.window_manager.windows:
+        for area in win.screen.areas:
+            if area.type == 'VIEW_3D':
+                area.tag_redraw()
 
 
 def _exclusions(lc):

@@ -201,9 +201,12 @@ class Builder:
         # each object's collection, in one pass (Object.users_collection
         # scans every collection per call); the scene's own first
         coll_of = {}
-        for c in [scene.collection] + list(scene.collection.children_recursive):
+        stack = [scene.collection]
+        while stack:  # (Collection.children_recursive is Blender 3.1 on)
+            c = stack.pop(0)
             for o in c.objects:
                 coll_of.setdefault(o.name, c)
+            stack.extend(c.children)
         # world transforms of all mesh objects at once
         index = {o.name: k for k, o in enumerate(bpy.data.objects)}
         mesh_objs = [o for o in all_objs if o.type == 'MESH']
