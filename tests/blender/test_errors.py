@@ -115,6 +115,26 @@ def main():
     H.check(m.wait_synced(10), "big mesh: moves did not flush")
     H.check_converged(bpy, d, "big mesh", refused=("BigGrid",))
 
+    print("a refused edit: a material another client's entity still uses")
+    cube = bpy.data.objects["Cube"]
+    mid = int(cube.active_material["vantage_id"], 16)
+    cls = next(e["class"] for e in ours(d) if e["id"] == int(cube["vantage_id"], 16))
+    d.cli("add", "77", "--mesh", str(cls), "--material", str(mid), token=H.EDITOR_TOKEN)
+    cube.data.materials.clear()
+    H.check(m.wait_synced(10), "refused edit: not flushed")
+    said = [l for l in m.log_lines if "MATERIAL_REMOVE" in l]
+    H.check(len(said) == 1 and "STATE" in said[0], "refused edit: the panel/log says %s" % said)
+    print("  said: %s" % (said[0] if said else None))
+    errs = m.link.counters["errors"]
+    for k in range(5):  # more snapshots: the refused removal is not retried (no error storm)
+        cube.location.z += 1
+        bpy.data.objects["BigGrid"].data.materials.clear()
+        m.structural = True
+        H.check(m.wait_synced(10), "refused edit: not flushed")
+    H.check(m.link.counters["errors"] == errs, "refused edit: retried, %d more errors" %
+            (m.link.counters["errors"] - errs))
+    H.check_converged(bpy, d, "refused edit", refused=("BigGrid",))
+
     print("selection both ways")
     check_selection(d, m)
     vl.disconnect()

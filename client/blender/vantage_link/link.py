@@ -211,6 +211,8 @@ class Link:
         self.h_env = None      # the daemon's env record (dict)
         self.h_env_sent = None
         self.sub_ids = {}      # name -> id
+        self.h_synced = False  # the last snapshot has been diffed and sent
+        self.probed = False    # meshes and textures compared with MESH_GET / TEXTURE_GET this connection
         self.failed = {}       # (kind, id) -> digest of the value the daemon refused: not resent
         self.reread = False
 
@@ -292,7 +294,7 @@ class Link:
         sel.register(self.sock, selectors.EVENT_READ, "sock")
         sel.register(self._wake_r, selectors.EVENT_READ, "wake")
         self.outbuf = bytearray()
-        plan = self._plan_read()
+        plan = self._plan_connect()
         reply = None
         blocked = False
         self._set_state("syncing")
@@ -424,6 +426,19 @@ class Link:
         return None
 
     # ---- plans ---------------------------------------------------------------------
+    def _plan_connect(self):
+        """once a connection: the subscriptions, then the read-back"""
+        # selections (SELECTED) and marks (MARKED) pushed to us; a daemon
+        # older than SELECT refuses bit 2 (INVALID): marks alone then
+        r = yield Req(T["SUBSCRIBE"], struct.pack("<I", codec.SUB_MARKS | codec.SUB_SELECTION), wait=True)
+        if r[0] == "ERROR":
+            self.has_select = False
+            self._event("log", "this daemon has no SELECT/SELECTED: the selection is not shared")
+            yield Req(T["SUBSCRIBE"], struct.pack("<I", codec.SUB_MARKS), wait=True)
+        else:
+            self.has_select = True
+        yield from self._plan_read()
+
     def _plan_read(self):
         """read what the daemon holds of the add-on's ranges, then ask the
         main thread for a full snapshot to diff against it"""
@@ -458,17 +473,8 @@ class Link:
         r = yield Req(T["ENV_GET"], b"", wait=True)
         if r[0] == T["ENV_REPLY"]:
             self.h_env = codec.unpack("env", r[1])
-        # selections (SELECTED) and marks (MARKED) pushed to us; a daemon
-        # older than SELECT refuses bit 2 (INVALID): marks alone then
-        r = yield Req(T["SUBSCRIBE"], struct.pack("<I", codec.SUB_MARKS | codec.SUB_SELECTION), wait=True)
-        if r[0] == "ERROR":
-            self.has_select = False
-            self._event("log", "this daemon has no SELECT/SELECTED: the selection is not shared")
-            yield Req(T["SUBSCRIBE"], struct.pack("<I", codec.SUB_MARKS), wait=True)
-        else:
-            self.has_select = True
-        # meshes and textures are compared when a snapshot names them (_probe)
-        self._probe_classes = None
+        # meshes and textures are compared when a snapshot names them
+        self.probed = False
         self._event("need_full")
         self._set_state("syncing")
 
@@ -495,8 +501,8 @@ class Link:
         # 1. what the daemon holds of the meshes and textures the snapshot
         #    names, once per connection (MESH_GET / TEXTURE_GET), so a
         #    reconnect re-sends only the ones that differ
-        if self._probe_classes is None:
-            self._probe_classes = True
+        if not self.probed:
+            self.probed = True
             for c, payload in d.meshes.items():
                 r = yield Req(T["MESH_GET"], struct.pack("<H", c), wait=True)
                 if r[0] == T["MESH_REPLY"]:
@@ -572,18 +578,18 @@ class Link:
         # 5. entities: removes, then adds (a sub-level that holds nothing
         #    of ours is loaded whole: BEGIN, ADD, LIGHT_PUT, COMMIT), updates,
         #    transforms
-        gone = [i for i in self.h_ents if i not in d.ents]
+        gone = self._gone(self.h_ents, d.ents, "ent")
         for i in range(0, len(gone), mb):
             part = gone[i:i + mb]
             for x in part:
                 del self.h_ents[x]
                 self.h_occluders.pop(x, None)
-            yield Req(T["ENTITY_REMOVE"], codec.ids(part), what="removing %d entities" % len(part))
-        gone_l = [i for i in self.h_lights if i not in d.lights]
+            yield self._remove("ENTITY_REMOVE", "ent", part)
+        gone_l = self._gone(self.h_lights, d.lights, "light")
         if gone_l:
             for x in gone_l:
                 del self.h_lights[x]
-            yield Req(T["LIGHT_REMOVE"], codec.ids(gone_l), what="removing %d lights" % len(gone_l))
+            yield self._remove("LIGHT_REMOVE", "light", gone_l)
         adds, updates, moves = {}, [], []
         for i, e in d.ents.items():
             if self.failed and self.failed.get(("ent", i)) == _ekey(e):
@@ -650,11 +656,11 @@ class Link:
                       fails=[(("occ", oid), dg)])
         # (an attached occluder of a removed entity went with it and left
         # h_occluders then; the others Blender no longer has go here)
-        gone_o = [i for i in self.h_occluders if i not in d.occluders]
+        gone_o = self._gone(self.h_occluders, d.occluders, "occ")
         if gone_o:
             for x in gone_o:
                 del self.h_occluders[x]
-            yield Req(T["OCCLUDER_REMOVE"], codec.ids(gone_o), what="removing occluders")
+            yield self._remove("OCCLUDER_REMOVE", "occ", gone_o)
         lrecs = []
         for lid, (s, rec) in d.lights.items():
             sid = self.sub_ids.get(s, 0) if s else 0
@@ -677,17 +683,27 @@ class Link:
                 yield Req(T["ENV_SET"], rec, what="environment", fails=[(("env", 0), rec)])
         # 7. materials and textures Blender no longer has (after the
         #    entities stopped using them)
-        gone_m = [m for m in self.h_materials if m not in d.materials]
+        gone_m = self._gone(self.h_materials, d.materials, "mat")
         if gone_m:
             for m in gone_m:
                 del self.h_materials[m]
-            yield Req(T["MATERIAL_REMOVE"], codec.ids(gone_m), what="removing materials")
-        gone_t = [t for t in self.h_textures if t not in d.textures]
+            yield self._remove("MATERIAL_REMOVE", "mat", gone_m)
+        gone_t = self._gone(self.h_textures, d.textures, "tex")
         if gone_t:
             for t in gone_t:
                 del self.h_textures[t]
-            yield Req(T["TEXTURE_REMOVE"], codec.ids(gone_t), what="removing textures")
+            yield self._remove("TEXTURE_REMOVE", "tex", gone_t)
         self.h_synced = True
+
+    def _gone(self, held, desired, kind):
+        """ids held and no longer desired, but for those whose removal the
+        daemon refused (an entity another connection is loading, a material
+        another editor's entity uses): said once, not retried"""
+        return [i for i in held if i not in desired and ("rm", kind, i) not in self.failed]
+
+    def _remove(self, name, kind, part):
+        return Req(T[name], codec.ids(part), what="%s of %d" % (name, len(part)),
+                   fails=[(("rm", kind, i), True) for i in part])
 
     def _send_moves(self, items):
         mb = min(self.hello["max_batch"], 4096)
@@ -721,13 +737,6 @@ class Link:
             else:
                 self._event("error", "SELECT refused: %s" % r[2])
 
-    @property
-    def h_synced(self):
-        return getattr(self, "_h_synced", False)
-
-    @h_synced.setter
-    def h_synced(self, v):
-        self._h_synced = v
 
 
 class _Ok:

@@ -156,17 +156,6 @@ class Builder:
             self.log("'%s': %s" % (name, why), error=True)
 
     # ---- transforms -------------------------------------------------------------
-    def trs(self, obj):
-        pos, rot, scale, err, why = convert.decompose(obj.matrix_world)
-        if why:
-            self.say(obj.name, why + ": not sent")
-            return None
-        if err > 1e-6 and obj.name not in self.shear_said:
-            self.shear_said.add(obj.name)
-            self.log("'%s': its world matrix has shear (a non-uniformly scaled parent): sent the nearest "
-                     "position, rotation and scale (%.2g relative off)" % (obj.name, err))
-        return pos, rot, scale
-
     def trs_many(self, objs, mats):
         """trs for many objects at once (convert.decompose_many), mats their
         world matrices (all_world_matrices()[indices]): a drag"""
