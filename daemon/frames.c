@@ -402,7 +402,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     _Static_assert(VP_RENDER_NO_SHADOWS >> 1 == VT_FX_SHADOWS && VP_RENDER_NO_SSAO >> 1 == VT_FX_SSAO &&
                        VP_RENDER_NO_IBL >> 1 == VT_FX_IBL && VP_RENDER_NO_FXAA >> 1 == VT_FX_FXAA,
                    "effect bits");
-    fi.fx_off = s->cfg.fx_off | (uint32_t)(m->flags >> 1);
+    fi.fx_off = s->cfg.fx_off | (uint32_t)((m->flags & VP_RENDER_FX) >> 1);
     vt_adapt ad = {.ev = j->adapt_ev, .valid = j->adapt_valid}; /* a stream's eye, out again below */
     fi.adapt = j->stream ? &ad : NULL;
     fi.dt = j->adapt_dt;

@@ -61,6 +61,42 @@ static void on_mark(server *s, conn *c, const vp_header *h, const uint8_t *p)
     reply_ack(c, h->req, s->sc->epoch, sent);
 }
 
+/* The shared selection as SELECTED to o (subscribed to it): false when
+ * o's output limit drops it. Loop thread (the selection's only writer). */
+static bool push_selected(server *s, conn *o)
+{
+    vp_writer w;
+    if (!out_reserve(o, vp_size_selected(s->marks.selected.count), &w)) {
+        o->closing = true;
+        return false;
+    }
+    vp_enc_selected(&w, &s->marks.selected, s->marks.sel);
+    out_commit(o, &w);
+    return true;
+}
+
+/* SELECT: the scene's shared selection replaced, pushed as SELECTED to
+ * every connection subscribed to it (the sender's too: every client shows
+ * the same), and outlined in frames (frame_marks.h). */
+static void on_select(server *s, conn *c, const vp_header *h, const uint8_t *p)
+{
+    if (!commander(s, c, h->req)) return;
+    vp_select sel;
+    char why[160];
+    int rc = vp_dec_select(p, h->len, &sel, why, sizeof why);
+    if (rc) {
+        send_error(s, c, h->req, rc, UINT32_MAX, why[0] ? why : vp_strerror(rc));
+        return;
+    }
+    mark_store_select(&s->marks, c->id, &sel);
+    uint32_t sent = 0;
+    for (uint32_t i = 0; i < s->nconns; i++) {
+        conn *o = s->live[i];
+        if ((o->sub_kinds & VP_EVENT_SELECTION) && !o->closing) sent += push_selected(s, o);
+    }
+    reply_ack(c, h->req, s->sc->epoch, sent);
+}
+
 void reply_ack(conn *c, uint32_t req, uint64_t epoch, uint32_t count)
 {
     vp_writer w;
@@ -684,6 +720,7 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         s->nev_subs += (kinds & VP_EVENT_SCENE ? 1u : 0u) - (c->sub_kinds & VP_EVENT_SCENE ? 1u : 0u);
         c->sub_kinds = kinds;
         reply_ack(c, h->req, s->sc->epoch, 0);
+        if (kinds & VP_EVENT_SELECTION) push_selected(s, c); /* where it stands now */
         return;
     }
     case VP_VIS_QUERY:
@@ -699,6 +736,9 @@ void dispatch(server *s, conn *c, const vp_header *h, const uint8_t *p)
         return;
     case VP_MARK:
         on_mark(s, c, h, p);
+        return;
+    case VP_SELECT:
+        on_select(s, c, h, p);
         return;
     case VP_ENTITY_LIST:
         on_list(s, c, h, p);

@@ -71,6 +71,8 @@ static const struct { uint16_t type; const char *name; } type_names[] = {
     {VP_DESTROYED, "destroyed"},
     {VP_MARK, "mark"},
     {VP_MARKED, "marked"},
+    {VP_SELECT, "select"},
+    {VP_SELECTED, "selected"},
     {VP_VIS_QUERY, "vis_query"},
     {VP_VIS_RESULT, "vis_result"},
     {VP_RENDER, "render"},
@@ -454,7 +456,7 @@ int vp_dec_subscribe(const uint8_t *p, size_t len, uint32_t *kinds)
     *kinds = vp_get_u32(&r);
     int rc = vp_reader_finish(&r);
     if (rc) return rc;
-    return (*kinds & ~(VP_EVENT_SCENE | VP_EVENT_MARKS)) ? VP_ERR_INVALID : VP_OK;
+    return (*kinds & ~VP_EVENT_ALL) ? VP_ERR_INVALID : VP_OK;
 }
 
 #define EVENT_FIELDS(X) X(u32, kind) X(rsv32, pad1) X(u64, epoch) X(u32, added) X(u32, updated) X(u32, removed)

@@ -150,6 +150,8 @@ enum vp_type {
 
     VP_MARK = 0x0600,
     VP_MARKED = 0x0601,
+    VP_SELECT = 0x0602,
+    VP_SELECTED = 0x0603,
     /* 0x0700..0x07ff administration (and persistence, later) */
     VP_METRICS = 0x0700,
     VP_METRICS_REPLY = 0x0701,
@@ -337,6 +339,8 @@ typedef struct vp_stats_reply {
 
 #define VP_EVENT_SCENE 0x1u
 #define VP_EVENT_MARKS 0x2u   /* SUBSCRIBE: MARKED pushes */
+#define VP_EVENT_SELECTION 0x4u /* SUBSCRIBE: SELECTED pushes */
+#define VP_EVENT_ALL (VP_EVENT_SCENE | VP_EVENT_MARKS | VP_EVENT_SELECTION)
 typedef struct vp_event {
     uint32_t kind;        /* VP_EVENT_* */
     uint64_t epoch;
@@ -528,6 +532,37 @@ void vp_enc_mark(vp_writer *w, uint32_t req, const vp_mark *m);
 int  vp_dec_mark(const uint8_t *p, size_t len, vp_mark *m);
 void vp_enc_marked(vp_writer *w, const vp_marked *m);
 int  vp_dec_marked(const uint8_t *p, size_t len, vp_marked *m);
+
+/* SELECT (commander or editor role): replaces the scene's one shared
+ * selection (an editor's, a commander's: the last SELECT wins), pushed as
+ * SELECTED to every connection subscribed with VP_EVENT_SELECTION, the
+ * sender's included, and once at subscription; answered with ACK (count =
+ * connections it went to). Not scene state: not journaled, no epoch.
+ * Frames outline it (PROTOCOL.md). Ids: u64 each, none 0, none twice;
+ * ids not in the scene are kept (they outline nothing). */
+#define VP_SELECT_MAX 256u
+#define VP_SELECT_HEAD 8u
+#define VP_SELECTED_HEAD 16u
+typedef struct vp_select {
+    uint32_t count;           /* 0..VP_SELECT_MAX; 0 clears */
+    uint32_t flags;           /* none defined: 0 */
+    const uint8_t *ids;       /* count u64 (vp_id_at) */
+} vp_select;
+
+typedef struct vp_selected {
+    uint32_t client_id;       /* the sender's (HELLO_OK), 0: none yet */
+    uint32_t count;
+    uint64_t serial;          /* one more per SELECT since the daemon started */
+    const uint8_t *ids;       /* count u64 (vp_id_at) */
+} vp_selected;
+
+void vp_enc_select(vp_writer *w, uint32_t req, const uint64_t *ids, uint32_t n);
+/* why (may be NULL) names the id at fault: 0, or twice. */
+int  vp_dec_select(const uint8_t *p, size_t len, vp_select *m, char *why, size_t whylen);
+void vp_enc_selected(vp_writer *w, const vp_selected *m, const uint64_t *ids);
+int  vp_dec_selected(const uint8_t *p, size_t len, vp_selected *m);
+/* The i-th u64 of an id array on the wire (0 past n). */
+uint64_t vp_id_at(const uint8_t *ids, uint32_t n, uint32_t i);
 
 /* ---- materials, textures, environment (version 2) ------------------------- */
 
@@ -828,7 +863,9 @@ void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_a
 #define VP_RENDER_NO_SSAO 0x04u      /* ambient occlusion */
 #define VP_RENDER_NO_IBL 0x08u       /* image-based ambient (the two-colour sky ambient instead) */
 #define VP_RENDER_NO_FXAA 0x10u      /* anti-aliasing */
-#define VP_RENDER_FLAGS 0x1Fu
+#define VP_RENDER_FX 0x1Eu           /* the effect bits above */
+#define VP_RENDER_NO_SELECTION 0x20u /* the scene's shared selection (SELECT) not outlined */
+#define VP_RENDER_FLAGS 0x3Fu
 /* "shadows,ssao,ibl,fxaa" (any of them, comma-separated; "none": no bit)
  * as VP_RENDER_NO_* bits: 0, or -1 naming the unknown word in bad. */
 int vp_render_fx_parse(const char *list, uint8_t *flags, char *bad, size_t badlen);
@@ -987,6 +1024,8 @@ size_t vp_size_destroy(void);
 size_t vp_size_destroyed(void);
 size_t vp_size_mark(void);
 size_t vp_size_marked(void);
+size_t vp_size_select(uint32_t n);
+size_t vp_size_selected(uint32_t n);
 size_t vp_size_render(void);
 size_t vp_size_light_query(void);
 size_t vp_size_frame_sub(void);

@@ -263,7 +263,7 @@ int vp_dec_ids(const uint8_t *p, size_t len, uint32_t max_batch, vp_id_batch *m)
 
 uint64_t vp_id_get(const vp_id_batch *b, uint32_t i)
 {
-    return i < b->count ? rd64(b->ids + (size_t)i * 8) : 0;
+    return vp_id_at(b->ids, b->count, i);
 }
 
 size_t vp_size_add_reply(uint32_t n)

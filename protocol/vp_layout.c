@@ -15,7 +15,7 @@
  * reads the sources and fails for one missing here). */
 #define VP_LAYOUT_NAMES(X)                                                                                      \
     X(hello_ok) X(ack) X(stats_reply) X(metrics_head) X(event) X(mesh) X(occluder) X(occluder_v1) X(light)    \
-    X(entity) X(entity_v1) X(transform) X(list) X(list_reply) X(add_reply) X(mark) X(marked_head) X(destroy)  \
+    X(entity) X(entity_v1) X(transform) X(list) X(list_reply) X(add_reply) X(mark) X(marked_head) X(select_head) X(selected_head) X(destroy)  \
     X(destroyed) X(view) X(vis_query) X(vis_result) X(vis_rec) X(render_tail) X(frame) X(light_query_tail)    \
     X(light_tiles) X(texref) X(material) X(texture_put) X(env) X(sublevel_begin) X(sublevel_begun) X(info)     \
     X(infos) X(mesh_get) X(material_list) X(texture_get) X(light_list)

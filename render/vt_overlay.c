@@ -16,8 +16,8 @@
    0.97, 0.6 to 0.67 and 0.15 to 0.22 (sRGB 0.99, 0.84, 0.5): a golden
    outline, an orange ping, a cyan select, a white unit, each saturated
    (the curve is steep: 2.0 would already read as 0.92, nearly white) */
-static const float hl_default[3] = {4.0f, 0.6f, 0.0f};
 static const float icon_default[3][3] = {{4.0f, 0.15f, 0.0f}, {0.0f, 0.6f, 4.0f}, {3.0f, 3.0f, 3.0f}};
+static const float outline_default[VT_OUTLINES][3] = {{4.0f, 0.6f, 0.0f}, {0.0f, 0.6f, 4.0f}};
 #define HIDDEN_WEIGHT 0.45f /* an edge behind something: blended this much */
 #define HALO_WEIGHT 0.8f    /* an icon's halo darkens what is under it this much */
 
@@ -34,30 +34,42 @@ static bool color_ok(const float c[3])
     return true;
 }
 
-int vt_overlay_check(const vt_frame *f, char *err, size_t errlen)
+static int outline_check(const vt_frame *f, const vt_outline *o, int g, char *err, size_t errlen)
 {
-    const vt_overlay *o = f->overlay;
-    if (!o) return 0;
-    if ((o->nhl && !o->hl) || (o->nicons && !o->icons))
-        return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: missing argument");
-    if ((o->nextra && !o->extra) || o->nextra > VT_OVERLAY_MAX_HL)
-        return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: %u extra instances (at most %u)", o->nextra,
-                       VT_OVERLAY_MAX_HL);
-    if (o->nhl > VT_OVERLAY_MAX_HL || o->nicons > VT_OVERLAY_MAX_ICONS)
-        return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: %u highlights, %u icons (at most %u, %u)", o->nhl,
-                       o->nicons, VT_OVERLAY_MAX_HL, VT_OVERLAY_MAX_ICONS);
+    if ((o->nhl && !o->hl) || (o->nextra && !o->extra))
+        return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: outline %d: missing argument", g);
+    if (o->nhl > VT_OVERLAY_MAX_HL || o->nextra > VT_OVERLAY_MAX_HL)
+        return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: outline %d: %u highlights, %u extra instances (at most %u)",
+                       g, o->nhl, o->nextra, VT_OVERLAY_MAX_HL);
     for (uint32_t i = 0; i < o->nextra; i++) {
         const vt_instance *in = &o->extra[i];
         bool ok = in->place == VT_PLACE_BOUNDS && in->mesh < f->nmesh;
         for (int a = 0; a < 3; a++)
             ok = ok && fabs(in->bmin[a]) <= 1e15 && fabs(in->bmax[a]) <= 1e15 && in->bmin[a] <= in->bmax[a];
-        if (!ok) return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: extra instance %u: bad mesh or bounds", i);
+        if (!ok)
+            return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: outline %d: extra instance %u: bad mesh or bounds",
+                           g, i);
     }
     for (uint32_t i = 0; i < o->nhl; i++)
         if (o->hl[i] >= f->ninst)
-            return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: highlight %u is instance %u, past %u", i, o->hl[i],
-                           f->ninst);
-    if (!color_ok(o->hl_color)) return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: outline colour outside 0..1e6");
+            return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: outline %d: highlight %u is instance %u, past %u", g,
+                           i, o->hl[i], f->ninst);
+    if (!color_ok(o->color))
+        return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: outline %d: colour outside 0..1e6", g);
+    return 0;
+}
+
+int vt_overlay_check(const vt_frame *f, char *err, size_t errlen)
+{
+    const vt_overlay *o = f->overlay;
+    if (!o) return 0;
+    if (o->nicons && !o->icons) return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: missing argument");
+    if (o->nicons > VT_OVERLAY_MAX_ICONS)
+        return vp_errf(err, errlen, VT_ERR_INVALID, "overlay: %u icons (at most %u)", o->nicons, VT_OVERLAY_MAX_ICONS);
+    for (int g = 0; g < VT_OUTLINES; g++) {
+        int rc = outline_check(f, &o->outline[g], g, err, errlen);
+        if (rc) return rc;
+    }
     for (uint32_t i = 0; i < o->nicons; i++) {
         const vt_icon *ic = &o->icons[i];
         for (int a = 0; a < 3; a++)
@@ -221,9 +233,9 @@ static void window_sum(const uint16_t *in, uint16_t *out, int n, size_t stride, 
     }
 }
 
-static int draw_outline(const vt_frame *f, const cull_view_rows *vr, char *err, size_t errlen)
+static int draw_outline(const vt_frame *f, const cull_view_rows *vr, const vt_outline *o, const float dflt[3],
+                        char *err, size_t errlen)
 {
-    const vt_overlay *o = f->overlay;
     const uint32_t W = f->width, H = f->height;
     const int hw = (int)vt_overlay_half_width(H);
     cover c = {.measure = true, .w = W, .h = H, .x0 = (int)W, .y0 = (int)H, .x1 = -1, .y1 = -1};
@@ -277,7 +289,7 @@ static int draw_outline(const vt_frame *f, const cull_view_rows *vr, char *err, 
         for (int y = 0; y < c.bh; y++) window_sum(cnt[k] + (size_t)y * c.bw, tmp + (size_t)y * c.bw, c.bw, 1, hw);
         for (int x = 0; x < c.bw; x++) window_sum(tmp + x, cnt[k] + x, c.bh, (size_t)c.bw, hw);
     }
-    const float *col = o->hl_color[0] + o->hl_color[1] + o->hl_color[2] > 0 ? o->hl_color : hl_default;
+    const float *col = o->color[0] + o->color[1] + o->color[2] > 0 ? o->color : dflt;
     for (int y = 0; y < c.bh; y++) {
         int gy = y + c.oy, wy = (gy + hw < (int)H ? gy + hw : (int)H - 1) - (gy - hw > 0 ? gy - hw : 0) + 1;
         for (int x = 0; x < c.bw; x++) {
@@ -339,8 +351,10 @@ int vt_overlay_draw(const vt_frame *f, const cull_view_rows *vr, char *err, size
 {
     const vt_overlay *o = f->overlay;
     if (!o) return 0;
-    if (o->nhl || o->nextra) {
-        int rc = draw_outline(f, vr, err, errlen);
+    for (int g = 0; g < VT_OUTLINES; g++) {
+        const vt_outline *l = &o->outline[g];
+        if (!l->nhl && !l->nextra) continue;
+        int rc = draw_outline(f, vr, l, outline_default[g], err, errlen);
         if (rc) return rc;
     }
     for (uint32_t i = 0; i < o->nicons; i++) draw_icon(f, vr, &o->icons[i]);

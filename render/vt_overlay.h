@@ -7,7 +7,7 @@
  * the picture they return (the GL path on its readback): one set of rules,
  * and the overlay stays crisp (nothing filters or re-exposes it after).
  *
- * The outline is the silhouette of the highlighted instances' pixel
+ * An outline is the silhouette of the highlighted instances' pixel
  * coverage, which this file rasterises itself (their meshes under their
  * placement, every triangle, both windings; destruction masks ignored:
  * a damaged building's outline is its intact one). Each covered pixel is
@@ -58,8 +58,8 @@ typedef struct vt_icon {
 #define VT_OVERLAY_MAX_HL 64u
 #define VT_OVERLAY_MAX_ICONS 4096u
 
-/* Zero fields default: no outline, no icons, the default outline colour. */
-typedef struct vt_overlay {
+/* One outline: a set of instances outlined together in one colour. */
+typedef struct vt_outline {
     const uint32_t *hl;     /* indices into the frame's inst, < ninst */
     uint32_t nhl;           /* <= VT_OVERLAY_MAX_HL */
     const vt_instance *extra; /* outlined but not drawn: highlighted things the
@@ -67,9 +67,20 @@ typedef struct vt_overlay {
                                dim one where the picture covers them); BOUNDS
                                placement, mesh an index into the frame's */
     uint32_t nextra;        /* <= VT_OVERLAY_MAX_HL */
+    float color[3];         /* linear, after exposure; all 0: the outline's default */
+} vt_outline;
+
+/* The outlines, drawn in this order (a later one over an earlier one):
+ * a viewer's own highlight (RENDER's, golden (4, 0.6, 0) by default) and
+ * the scene's shared selection (SELECT's, cyan (0, 0.6, 4): the select
+ * mark's colour). */
+enum { VT_OUTLINE_HIGHLIGHT = 0, VT_OUTLINE_SELECTION = 1, VT_OUTLINES = 2 };
+
+/* Zero fields default: no outline, no icons, the default outline colours. */
+typedef struct vt_overlay {
+    vt_outline outline[VT_OUTLINES];
     const vt_icon *icons;
     uint32_t nicons;        /* <= VT_OVERLAY_MAX_ICONS */
-    float hl_color[3];      /* linear, after exposure; all 0: golden (4, 0.6, 0) */
 } vt_overlay;
 
 /* The checks of f->overlay (NULL passes): counts, indices, positions,

@@ -89,15 +89,18 @@ static bool px_differs(const float *a, const float *b)
     return false;
 }
 
-static const float amber[3] = {4.0f, 0.6f, 0.0f}; /* vt_overlay.c's default outline colour */
+/* vt_overlay.c's default outline colours: a viewer's highlight, the
+   shared selection */
+static const float outline_col[VT_OUTLINES][3] = {{4.0f, 0.6f, 0.0f}, {0.0f, 0.6f, 4.0f}};
 
 /* The outline pixels (those the highlight changed) lie within 1 px of the
  * box's projected silhouette, and every pixel whose centre is within
  * 0.5 px of it is one (a 2 px band: 1 px each side, vt_overlay.h). Where
  * the box is seen they are amber; under the plate, 45 % amber over the
  * picture (the hidden weight). */
-static void check_outline(const drawer *dr, const char *name, bool as_extra)
+static void check_outline(const drawer *dr, const char *name, bool as_extra, int group)
 {
+    const float *amber = outline_col[group];
     static float base[OW * OH * 4], hl[OW * OH * 4];
     draw_scene(dr, NULL, NULL, 0, base);
     uint32_t idx = 0;
@@ -106,7 +109,8 @@ static void check_outline(const drawer *dr, const char *name, bool as_extra)
     vt_instance box = {.place = VT_PLACE_BOUNDS};
     memcpy(box.bmin, box_lo, sizeof box_lo);
     memcpy(box.bmax, box_hi, sizeof box_hi);
-    vt_overlay ov = as_extra ? (vt_overlay){.extra = &box, .nextra = 1} : (vt_overlay){.hl = &idx, .nhl = 1};
+    vt_overlay ov = {0};
+    ov.outline[group] = as_extra ? (vt_outline){.extra = &box, .nextra = 1} : (vt_outline){.hl = &idx, .nhl = 1};
     draw_scene(dr, &ov, NULL, 0, hl);
     uint32_t band = 0, bright = 0, dim = 0;
     /* the plate's left edge x = 1 on screen; 2 px either side of it a
@@ -145,8 +149,9 @@ static void test_outline_soft(void **state)
     (void)state;
     drawer dr = {0};
     assert_int_equal(vt_soft_create(NULL, 1, &dr.soft), 0);
-    check_outline(&dr, "soft", false);
-    check_outline(&dr, "soft (extra)", true);
+    check_outline(&dr, "soft", false, VT_OUTLINE_HIGHLIGHT);
+    check_outline(&dr, "soft (extra)", true, VT_OUTLINE_HIGHLIGHT);
+    check_outline(&dr, "soft (shared selection)", false, VT_OUTLINE_SELECTION);
     vt_soft_destroy(dr.soft);
 }
 
@@ -161,7 +166,8 @@ static void test_outline_gl(void **state)
     }
     drawer dr = {0};
     assert_int_equal(vt_gldraw_create(g, &dr.gl, err, sizeof err), 0);
-    check_outline(&dr, "gl", false);
+    check_outline(&dr, "gl", false, VT_OUTLINE_HIGHLIGHT);
+    check_outline(&dr, "gl (shared selection, extra)", true, VT_OUTLINE_SELECTION);
     vt_gldraw_destroy(dr.gl);
     vt_gl_close(g);
 }
@@ -201,8 +207,11 @@ static void test_icons_soft(void **state)
     float rgba[4], depth[1];
     uint32_t past = 1;
     vt_icon nan_icon = {.pos = {NAN, 0, 0}};
-    vt_overlay bad[3] = {{.hl = &past, .nhl = 1}, {.icons = &nan_icon, .nicons = 1}, {.hl_color = {-1, 0, 0}}};
-    for (int i = 0; i < 3; i++) {
+    vt_overlay bad[4] = {{.outline[0] = {.hl = &past, .nhl = 1}},
+                         {.icons = &nan_icon, .nicons = 1},
+                         {.outline[0] = {.color = {-1, 0, 0}}},
+                         {.outline[1] = {.hl = &past, .nhl = 1}}};
+    for (int i = 0; i < 4; i++) {
         vt_frame f = {.view = &v, .width = 1, .height = 1, .meshes = &vt_mesh_box, .nmesh = 1,
                       .inst = &(vt_instance){.bmax = {1, 1, 1}}, .ninst = 1, .rgba = rgba, .depth = depth,
                       .stride = 1, .overlay = &bad[i]};
@@ -380,7 +389,7 @@ static void test_highlight_hidden(void **state)
             /* within the band's 1 px of the projected box */
             assert_true(x + 0.5 >= x0 - 1 && x + 0.5 <= x1 + 1 && y + 0.5 >= y0 - 1 && y + 0.5 <= y1 + 1);
             for (int k = 0; k < 3; k++)
-                assert_float_equal(hl[i + k], 0.55f * base[i + k] + 0.45f * amber[k], 1e-4 * (1 + amber[k]));
+                assert_float_equal(hl[i + k], 0.55f * base[i + k] + 0.45f * outline_col[0][k], 1e-4 * (1 + outline_col[0][k]));
         }
     /* the box is about 4.6 x 4.6 px (2 m at 35 m): its band, a ring 2 px wide */
     assert_true(changed >= 12);
@@ -427,6 +436,83 @@ static void test_mark_redraws_stream(void **state)
     vtc_close(viewer);
 }
 
+/* The shared selection (SELECT / SELECTED): an editor's selection
+ * reaches every selection subscriber (the current one at once on
+ * subscribing), a viewer cannot set it, a bad one changes nothing, and
+ * frames outline it in cyan (not with VP_RENDER_NO_SELECTION); a stream
+ * redraws when it changes. */
+static uint32_t cyan_px(const float *rgba)
+{
+    uint32_t n = 0;
+    for (size_t i = 0; i < (size_t)DW * DH; i++)
+        n += fabsf(rgba[4 * i + 2] - 4.0f) < 1e-4f && fabsf(rgba[4 * i + 1] - 0.6f) < 1e-4f && rgba[4 * i] < 1e-4f;
+    return n;
+}
+
+static void expect_selected(vtc_client *c, uint64_t serial, uint32_t client, const uint64_t *ids, uint32_t n)
+{
+    vp_selected sel;
+    assert_int_equal(vtc_wait_selected(c, &sel, 5000), VP_OK);
+    assert_int_equal(sel.serial, serial);
+    assert_int_equal(sel.client_id, client);
+    assert_int_equal(sel.count, n);
+    for (uint32_t i = 0; i < n; i++) assert_true(vp_id_at(sel.ids, sel.count, i) == ids[i]);
+}
+
+static void test_selection_shared(void **state)
+{
+    daemon_proc *d = *state;
+    vtc_client *ed = connect_role(d, VP_ROLE_EDITOR, false), *viewer = connect_role(d, VP_ROLE_VIEWER, true);
+    vp_entity e = {.id = 42, .aabb = {-2, 0, -2, 2, 3, 2}};
+    uint32_t hnd;
+    assert_int_equal(vtc_add(ed, &e, 1, &hnd, NULL), VP_OK);
+    /* subscribing: the selection as it stands (none yet) */
+    assert_int_equal(vtc_subscribe(viewer, VP_EVENT_SELECTION), VP_OK);
+    expect_selected(viewer, 0, 0, NULL, 0);
+    /* a viewer may not set it */
+    uint64_t ids[2] = {42, 7777}; /* 7777 names nothing: kept, outlines nothing */
+    assert_int_equal(vtc_select(viewer, ids, 2, NULL), VP_ERR_AUTH);
+    uint32_t sent = 0;
+    assert_int_equal(vtc_select(ed, ids, 2, &sent), VP_OK);
+    assert_int_equal(sent, 1);
+    expect_selected(viewer, 1, vtc_server(ed)->client_id, ids, 2);
+    /* refused ones change nothing: a 0, an id twice */
+    uint64_t zero[2] = {42, 0}, twice[3] = {5, 42, 5};
+    assert_int_equal(vtc_select(ed, zero, 2, NULL), VP_ERR_INVALID);
+    assert_non_null(strstr(vtc_last_error(ed)->msg, "id 1 is 0"));
+    assert_int_equal(vtc_select(ed, twice, 3, NULL), VP_ERR_DUPLICATE);
+    assert_non_null(strstr(vtc_last_error(ed)->msg, "id 5 is selected twice"));
+    vtc_client *late = connect_role(d, VP_ROLE_COMMANDER, true);
+    assert_int_equal(vtc_subscribe(late, VP_EVENT_SELECTION), VP_OK);
+    expect_selected(late, 1, vtc_server(ed)->client_id, ids, 2);
+    /* frames: the block outlined in cyan; not when the request opts out */
+    vp_render m = {.format = VP_FRAME_RAW, .renderer = VP_RENDERER_SOFT};
+    double eye[3] = {0, 40, 0}, at[3] = {0, 0, 0}, up[3] = {0, 0, -1};
+    assert_true(vtc_view_perspective(&m.view, eye, at, up, 60, DW, DH, 1, 200));
+    static float now[DW * DH * 4];
+    raw_frame(late, &m, now);
+    uint32_t outlined = cyan_px(now);
+    assert_true(outlined > 20);
+    m.flags = VP_RENDER_NO_SELECTION;
+    raw_frame(late, &m, now);
+    assert_int_equal(cyan_px(now), 0);
+    /* a stream redraws when the selection changes (cleared here) */
+    vp_frame_sub sub = {.r = m, .max_fps = 60};
+    sub.r.flags = 0;
+    assert_int_equal(vtc_frame_subscribe(late, &sub), VP_OK);
+    vp_frame f;
+    assert_int_equal(vtc_wait_frame(late, &f, 10000), VP_OK);
+    assert_int_equal(cyan_px((const float *)(const void *)f.data), outlined);
+    assert_int_equal(vtc_select(ed, NULL, 0, &sent), VP_OK);
+    assert_int_equal(sent, 2);
+    assert_int_equal(vtc_wait_frame(late, &f, 10000), VP_OK);
+    assert_int_equal(cyan_px((const float *)(const void *)f.data), 0);
+    expect_selected(viewer, 2, vtc_server(ed)->client_id, NULL, 0);
+    vtc_close(ed);
+    vtc_close(viewer);
+    vtc_close(late);
+}
+
 const struct CMUnitTest overlay_tests[] = {
     cmocka_unit_test(test_outline_soft),
     cmocka_unit_test(test_outline_gl),
@@ -435,5 +521,6 @@ const struct CMUnitTest overlay_tests[] = {
     DAEMON_TEST(test_marks_in_frames),
     DAEMON_TEST(test_mark_redraws_stream),
     DAEMON_TEST(test_highlight_hidden),
+    DAEMON_TEST(test_selection_shared),
 };
 const size_t overlay_tests_count = sizeof overlay_tests / sizeof overlay_tests[0];

@@ -346,6 +346,8 @@ static int d_frame(const uint8_t *p, size_t len) { vp_frame f; return vp_dec_fra
 static int d_hello(const uint8_t *p, size_t len) { vp_hello h; return vp_dec_hello(p, len, &h); }
 static int d_mark(const uint8_t *p, size_t len) { vp_mark m; return vp_dec_mark(p, len, &m); }
 static int d_marked(const uint8_t *p, size_t len) { vp_marked m; return vp_dec_marked(p, len, &m); }
+static int d_select(const uint8_t *p, size_t len) { vp_select m; return vp_dec_select(p, len, &m, NULL, 0); }
+static int d_selected(const uint8_t *p, size_t len) { vp_selected m; return vp_dec_selected(p, len, &m); }
 static int d_mesh(const uint8_t *p, size_t len) { vp_mesh m; return vp_dec_mesh(p, len, 0, &m); }
 static int d_occ(const uint8_t *p, size_t len) { vp_occluder o; return vp_dec_occluder(p, len, 0, &o); }
 static int d_lights(const uint8_t *p, size_t len)
@@ -442,6 +444,47 @@ static void test_prefixes_and_extensions(void **state)
     assert_int_equal(vp_dec_marked(g_buf + VP_HEADER_SIZE, VP_MARKED_SIZE, &mdg), VP_OK);
     assert_true(mdg.client_id == 77 && mdg.m.entity == mk.entity);
     check_prefixes(d_marked, g_buf + VP_HEADER_SIZE, w.len - VP_HEADER_SIZE);
+    /* SELECT and SELECTED: the same, then SELECT's checks, each naming
+       what is wrong */
+    const uint64_t sel[3] = {9, 0xfedcba9876543210ull, 1};
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_select(&w, 1, sel, 3);
+    assert_int_equal(w.len, VP_HEADER_SIZE + VP_SELECT_HEAD + 24);
+    uint8_t *sp = g_buf + VP_HEADER_SIZE;
+    size_t sn = w.len - VP_HEADER_SIZE;
+    vp_select sg;
+    char why[160];
+    assert_int_equal(vp_dec_select(sp, sn, &sg, why, sizeof why), VP_OK);
+    assert_true(sg.count == 3 && vp_id_at(sg.ids, 3, 1) == sel[1] && vp_id_at(sg.ids, 3, 3) == 0);
+    check_prefixes(d_select, sp, sn);
+    sp[0] = 2; /* a count that disagrees with the bytes */
+    assert_int_equal(vp_dec_select(sp, sn, &sg, why, sizeof why), VP_ERR_COUNT);
+    assert_non_null(strstr(why, "count 2"));
+    sp[0] = 3, sp[4] = 1; /* a flag: none defined */
+    assert_int_equal(vp_dec_select(sp, sn, &sg, why, sizeof why), VP_ERR_INVALID);
+    assert_non_null(strstr(why, "flags"));
+    sp[4] = 0;
+    memset(sp + 8 + 16, 0, 8); /* id 2 is 0 */
+    assert_int_equal(vp_dec_select(sp, sn, &sg, why, sizeof why), VP_ERR_INVALID);
+    assert_non_null(strstr(why, "id 2 is 0"));
+    sp[8 + 16] = 9; /* id 2 = id 0 */
+    assert_int_equal(vp_dec_select(sp, sn, &sg, why, sizeof why), VP_ERR_DUPLICATE);
+    assert_non_null(strstr(why, "id 9 is selected twice"));
+    static uint64_t many[VP_SELECT_MAX + 1];
+    for (uint32_t i = 0; i <= VP_SELECT_MAX; i++) many[i] = i + 1;
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_select(&w, 1, many, VP_SELECT_MAX + 1);
+    assert_int_equal(vp_dec_select(sp, w.len - VP_HEADER_SIZE, &sg, why, sizeof why), VP_ERR_COUNT);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_select(&w, 1, many, VP_SELECT_MAX);
+    assert_int_equal(vp_dec_select(sp, w.len - VP_HEADER_SIZE, &sg, why, sizeof why), VP_OK);
+    vp_writer_init(&w, g_buf, sizeof g_buf);
+    vp_enc_selected(&w, &(vp_selected){.client_id = 5, .count = 3, .serial = 1ull << 40}, sel);
+    assert_int_equal(w.len, VP_HEADER_SIZE + VP_SELECTED_HEAD + 24);
+    vp_selected sdg;
+    assert_int_equal(vp_dec_selected(sp, w.len - VP_HEADER_SIZE, &sdg), VP_OK);
+    assert_true(sdg.client_id == 5 && sdg.serial == 1ull << 40 && vp_id_at(sdg.ids, sdg.count, 2) == 1);
+    check_prefixes(d_selected, sp, w.len - VP_HEADER_SIZE);
 }
 
 /* LIGHT_QUERY and LIGHT_TILES: round trip, bad fields, malformed lists */

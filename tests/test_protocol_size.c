@@ -537,6 +537,24 @@ static size_t case_light_list(vp_writer *w, int v)
     return vp_size_light_list();
 }
 
+static size_t case_select(vp_writer *w, int v)
+{
+    static const uint64_t ids[3] = {1, 2, 3};
+    if (v >= 4) return SIZE_MAX;
+    vp_enc_select(w, 1, ids, (uint32_t)v);
+    assert_int_equal(vp_size_select(1) - vp_size_select(0), 8);
+    return vp_size_select((uint32_t)v);
+}
+
+static size_t case_selected(vp_writer *w, int v)
+{
+    static const uint64_t ids[3] = {1, 2, 3};
+    if (v >= 4) return SIZE_MAX;
+    vp_enc_selected(w, &(vp_selected){.client_id = 1, .count = (uint32_t)v, .serial = 2}, ids);
+    assert_int_equal(vp_size_selected(0), VP_HEADER_SIZE + VP_SELECTED_HEAD);
+    return vp_size_selected((uint32_t)v);
+}
+
 static size_t case_light_list_reply(vp_writer *w, int v)
 {
     static const vp_light l[2] = {{.id = 1, .range = 1}, {.id = 2, .range = 1}};
@@ -553,7 +571,7 @@ static size_t case_light_list_reply(vp_writer *w, int v)
     X(sublevel_infos) X(destroy) X(destroyed) X(mark) X(marked) X(metrics_reply) X(render) X(light_query) \
     X(light_tiles) X(frame_sub) X(frame) X(mesh_uv) X(occluder_flags) X(transforms) X(materials)  \
     X(texture_put) X(env) X(mesh_get) X(material_list) X(material_list_reply) X(texture_get) X(light_list)  \
-    X(light_list_reply)
+    X(light_list_reply) X(select) X(selected)
 
 #define SIZE_TEST(name)                                                                                    \
     static void test_size_##name(void **state)                                                             \

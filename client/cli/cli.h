@@ -63,6 +63,7 @@ int cmd_export(cli *k, int argc, char **argv);
 /* cli_render.c */
 int cmd_render(cli *k, int argc, char **argv);
 int cmd_mark(cli *k, int argc, char **argv);
+int cmd_select(cli *k, int argc, char **argv);
 int cmd_watch_frames(cli *k, int argc, char **argv);
 int cmd_lights(cli *k, int argc, char **argv);
 

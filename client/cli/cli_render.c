@@ -448,3 +448,31 @@ int cmd_mark(cli *k, int argc, char **argv)
            m.ttl_ms, sent, sent == 1 ? "" : "s");
     return 0;
 }
+
+/* SELECT: the scene's shared selection (an editor's, a commander's),
+ * pushed as SELECTED to its subscribers and outlined in every frame. */
+int cmd_select(cli *k, int argc, char **argv)
+{
+    const char *use = "select ID[,ID..] [ID...], or select --clear";
+    uint64_t ids[VP_SELECT_MAX];
+    uint32_t n = 0;
+    bool clear = argc == 2 && !strcmp(argv[1], "--clear");
+    if (argc < 2) return die_usage("%s", use);
+    for (int i = 1; i < argc && !clear; i++) {
+        char buf[4096];
+        snprintf(buf, sizeof buf, "%s", argv[i]);
+        for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+            if (n == VP_SELECT_MAX) return die_usage("select: more than %u ids", VP_SELECT_MAX);
+            if (!parse_u64(t, &ids[n]) || !ids[n])
+                return die_bad_value("select", "ID", t, "an entity id (decimal or 0x hex), not 0");
+            n++;
+        }
+    }
+    int rc = connect_cli(k, VP_ROLE_COMMANDER);
+    if (rc) return rc;
+    uint32_t sent = 0;
+    if ((rc = vtc_select(k->c, ids, n, &sent))) return server_fail(k, "select", rc);
+    printf("%s %u entit%s: sent to %u subscriber%s\n", n ? "selected" : "cleared the selection of", n,
+           n == 1 ? "y" : "ies", sent, sent == 1 ? "" : "s");
+    return 0;
+}

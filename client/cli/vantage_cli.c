@@ -135,8 +135,15 @@ static const cli_form forms[] = {
      "a commander's mark: pushed to mark subscribers, drawn as an icon in frames while it lives",
      "  --kind 0 ping (a diamond, the default), 1 select (a square), others a disc; --ttl 1..600000 ms\n"
      "  (10000). Needs the commander role.\n"},
-    {"watch", "watch [--count N]", "print scene-changed events as they happen",
-     "  One JSON line per coalesced scene change (epoch, added, updated, removed); Ctrl-C stops.\n"},
+    {"select", "select ID[,ID..] [ID...]",
+     "set the scene's shared selection: pushed to selection subscribers, outlined in every frame",
+     "  At most 256 ids (an editor's selection, e.g. Blender's through the live-link; the last SELECT\n"
+     "  wins). Frames outline the first 64 in cyan. Needs the commander role.\n"},
+    {"select", "select --clear", "clear the scene's shared selection", "  Needs the commander role.\n"},
+    {"watch", "watch [--count N] [--selection]", "print scene-changed events as they happen",
+     "  One JSON line per coalesced scene change (epoch, added, updated, removed); Ctrl-C stops.\n"
+     "  --selection: the shared selection instead, one line per change (serial, client, ids), the\n"
+     "  first where it stands now.\n"},
     {"watch",
      "watch --frames DIR --eye X,Y,Z --at X,Y,Z [--up X,Y,Z] [--fov DEG] [--near N] [--far F]\n"
      "        [--size WxH] [--exposure EV] [--quality Q] [--no-occlusion] [--renderer soft|gl]\n"
@@ -889,23 +896,37 @@ static int cmd_watch(cli *k, int argc, char **argv)
     uint64_t count = UINT64_MAX;
     for (int i = 1; i < argc; i++)
         if (!strncmp(argv[i], "--frames", 8)) return cmd_watch_frames(k, argc, argv);
-    if (argc == 3 && !strcmp(argv[1], "--count")) {
-        if (!parse_u64(argv[2], &count) || !count) return die_usage("watch: --count needs a positive count");
-    } else if (argc != 1) {
-        return die_usage("watch [--count N] | watch --frames DIR ... (watch --frames x --help)");
+    bool selection = false;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--selection")) {
+            selection = true;
+        } else if (!strcmp(argv[i], "--count") && i + 1 < argc) {
+            if (!parse_u64(argv[++i], &count) || !count) return die_usage("watch: --count needs a positive count");
+        } else {
+            return die_usage("watch [--count N] [--selection] | watch --frames DIR ... (watch --frames x --help)");
+        }
     }
     int rc = connect_cli(k, VP_ROLE_VIEWER);
     if (rc) return rc;
-    if ((rc = vtc_subscribe(k->c, VP_EVENT_SCENE))) return server_fail(k, "watch", rc);
+    if ((rc = vtc_subscribe(k->c, selection ? VP_EVENT_SELECTION : VP_EVENT_SCENE))) return server_fail(k, "watch", rc);
     catch_sigint();
-    fprintf(stderr, "watching scene changes (Ctrl-C to stop)\n");
+    fprintf(stderr, "watching %s (Ctrl-C to stop)\n", selection ? "the shared selection" : "scene changes");
     for (uint64_t n = 0; !g_stop && n < count;) {
         vp_event ev;
-        rc = vtc_wait_event(k->c, &ev, 500);
+        vp_selected sel;
+        rc = selection ? vtc_wait_selected(k->c, &sel, 500) : vtc_wait_event(k->c, &ev, 500);
         if (rc == VTC_ERR_IO && vtc_last_error(k->c)->timed_out) continue;
         if (rc) return server_fail(k, "watch", rc);
-        printf("{\"epoch\": %llu, \"added\": %u, \"updated\": %u, \"removed\": %u}\n", (unsigned long long)ev.epoch,
-               ev.added, ev.updated, ev.removed);
+        if (selection) {
+            /* the first: where it stands when watching starts */
+            printf("{\"serial\": %llu, \"client\": %u, \"ids\": [", (unsigned long long)sel.serial, sel.client_id);
+            for (uint32_t i = 0; i < sel.count; i++)
+                printf("%s%llu", i ? ", " : "", (unsigned long long)vp_id_at(sel.ids, sel.count, i));
+            printf("]}\n");
+        } else {
+            printf("{\"epoch\": %llu, \"added\": %u, \"updated\": %u, \"removed\": %u}\n",
+                   (unsigned long long)ev.epoch, ev.added, ev.updated, ev.removed);
+        }
         fflush(stdout);
         n++;
     }
@@ -954,6 +975,7 @@ int main(int argc, char **argv)
         {"ping", cmd_ping}, {"stats", cmd_stats}, {"add", cmd_add}, {"move", cmd_move}, {"material", cmd_material}, {"remove", cmd_remove},
         {"get", cmd_get}, {"import", cmd_import}, {"export", cmd_export}, {"query", cmd_query}, {"render", cmd_render}, {"lights", cmd_lights}, {"watch", cmd_watch},
         {"bench", cmd_bench}, {"sublevel", cmd_sublevel}, {"destroy", cmd_destroy}, {"pad", cmd_pad}, {"mark", cmd_mark},
+        {"select", cmd_select},
         {"commander", cmdr_main}, {"texture", cmd_texture}, {"env", cmd_env},
     };
     int rc = -1;

@@ -188,7 +188,8 @@ static int roundtrip(vtc_client *c, vp_writer *w, uint32_t req, uint16_t want, c
     for (;;) {
         vp_header h;
         if ((rc = vtc_recv(c, &h, p, -1))) return rc;
-        if (h.type == VP_EVENT || h.type == VP_MARKED) continue; /* pushed: vtc_recv's callers see them */
+        if (h.type == VP_EVENT || h.type == VP_MARKED || h.type == VP_SELECTED)
+            continue; /* pushed: vtc_recv's callers see them */
         /* a frame kept across a re-aim carries the req it started under */
         if (c->stream_req && h.req != req && (h.req == c->stream_req || h.type == VP_FRAME)) {
             /* the frame stream's: a frame is dropped (the next one is
@@ -567,16 +568,33 @@ int vtc_sublevel_list(vtc_client *c, vp_name_list *out)
     return empty_call(c, VP_SUBLEVEL_LIST, VP_SUBLEVEL_LIST_REPLY, dec_list_names, out);
 }
 
-int vtc_wait_event(vtc_client *c, vp_event *out, int timeout_ms)
+/* The next pushed frame of type (others, stray replies, are dropped). */
+static int wait_pushed(vtc_client *c, uint16_t type, int timeout_ms, const uint8_t **p, uint32_t *len)
 {
     for (;;) {
         vp_header h;
-        const uint8_t *p;
-        int rc = vtc_recv(c, &h, &p, timeout_ms);
+        int rc = vtc_recv(c, &h, p, timeout_ms);
         if (rc) return rc;
-        if (h.type != VP_EVENT) continue; /* a stray reply: not ours to keep */
-        return decoded(c, VP_EVENT, vp_dec_event(p, h.len, out));
+        if (h.type != type) continue; /* not ours to keep */
+        *len = h.len;
+        return VP_OK;
     }
+}
+
+int vtc_wait_event(vtc_client *c, vp_event *out, int timeout_ms)
+{
+    const uint8_t *p;
+    uint32_t len;
+    int rc = wait_pushed(c, VP_EVENT, timeout_ms, &p, &len);
+    return rc ? rc : decoded(c, VP_EVENT, vp_dec_event(p, len, out));
+}
+
+int vtc_wait_selected(vtc_client *c, vp_selected *out, int timeout_ms)
+{
+    const uint8_t *p;
+    uint32_t len;
+    int rc = wait_pushed(c, VP_SELECTED, timeout_ms, &p, &len);
+    return rc ? rc : decoded(c, VP_SELECTED, vp_dec_selected(p, len, out));
 }
 
 int vtc_put_lights(vtc_client *c, const vp_light *l, uint32_t n)
@@ -705,6 +723,19 @@ int vtc_mark(vtc_client *c, const vp_mark *m, uint32_t *sent)
     uint32_t req;
     vp_writer *w = request(c, vp_size_mark(), &req);
     vp_enc_mark(w, req, m);
+    vp_ack a;
+    int rc = call(c, w, req, VP_ACK, dec_ack, &a);
+    if (!rc && sent) *sent = a.count;
+    return rc;
+}
+
+int vtc_select(vtc_client *c, const uint64_t *ids, uint32_t n, uint32_t *sent)
+{
+    if (n > VP_SELECT_MAX)
+        return set_err(c, VP_ERR_COUNT, "a selection of %u ids (at most %u)", n, VP_SELECT_MAX);
+    uint32_t req;
+    vp_writer *w = request(c, vp_size_select(n), &req);
+    vp_enc_select(w, req, ids, n);
     vp_ack a;
     int rc = call(c, w, req, VP_ACK, dec_ack, &a);
     if (!rc && sent) *sent = a.count;

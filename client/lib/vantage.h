@@ -164,9 +164,17 @@ int vtc_send_destruction(vtc_client *c, const vp_destroy *m, vp_destroyed *out);
 /* MARK (commander role): pushed as MARKED to the connections subscribed to
  * VP_EVENT_MARKS; *sent (may be NULL) = how many. */
 int vtc_mark(vtc_client *c, const vp_mark *m, uint32_t *sent);
+/* SELECT (commander role): replaces the scene's shared selection with
+ * ids[0..n) (n <= VP_SELECT_MAX; 0 clears), pushed as SELECTED to the
+ * connections subscribed to VP_EVENT_SELECTION and outlined in frames;
+ * *sent (may be NULL) = how many it went to. */
+int vtc_select(vtc_client *c, const uint64_t *ids, uint32_t n, uint32_t *sent);
 /* Waits for a pushed EVENT (other frames are dropped); VTC_ERR_IO with
  * timed_out set on timeout (timeout_ms < 0: the client's timeout). */
 int vtc_wait_event(vtc_client *c, vp_event *out, int timeout_ms);
+/* The same for a pushed SELECTED (out->ids valid until the next call;
+ * vp_id_at reads them). */
+int vtc_wait_selected(vtc_client *c, vp_selected *out, int timeout_ms);
 /* Adds or replaces the lights l[0..n) (by id); answered with ACK. */
 int vtc_put_lights(vtc_client *c, const vp_light *l, uint32_t n);
 /* Adds or replaces occluder id: verts holds 9 * ntris floats, ntris

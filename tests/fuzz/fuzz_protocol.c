@@ -182,7 +182,7 @@ static void fuzz_subscribe(const uint8_t *p, size_t len)
     int rc = vp_dec_subscribe(p, len, &kinds);
     check_code(rc);
     if (rc) return;
-    CHECK((kinds & ~(VP_EVENT_SCENE | VP_EVENT_MARKS)) == 0); /* MARKS since MARK/MARKED */
+    CHECK((kinds & ~VP_EVENT_ALL) == 0); /* MARKS since MARK/MARKED, SELECTION since SELECT */
     fuzz_wbuf b;
     fuzz_wopen(&b, VP_HEADER_SIZE + len);
     vp_enc_subscribe(&b.w, 4, kinds);
@@ -772,6 +772,45 @@ static void fuzz_marked(const uint8_t *p, size_t len)
     fuzz_wclose(&b);
 }
 
+/* SELECT: what decodes has no 0 and no id twice, and re-encodes to the
+ * same bytes; SELECTED the same bytes. */
+static void fuzz_select(const uint8_t *p, size_t len)
+{
+    vp_select m;
+    char why[160];
+    int rc = vp_dec_select(p, len, &m, why, sizeof why);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.count <= VP_SELECT_MAX && m.flags == 0 && len == VP_SELECT_HEAD + 8 * (size_t)m.count);
+    uint64_t ids[VP_SELECT_MAX];
+    for (uint32_t i = 0; i < m.count; i++) {
+        ids[i] = vp_id_at(m.ids, m.count, i);
+        CHECK(ids[i] != 0);
+        for (uint32_t j = 0; j < i; j++) CHECK(ids[j] != ids[i]);
+    }
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
+    vp_enc_select(&b.w, 3, ids, m.count);
+    CHECK(!memcmp(enc_payload(&b, VP_SELECT, len), p, len));
+    fuzz_wclose(&b);
+}
+
+static void fuzz_selected(const uint8_t *p, size_t len)
+{
+    vp_selected m;
+    int rc = vp_dec_selected(p, len, &m);
+    check_code(rc);
+    if (rc) return;
+    CHECK(m.count <= VP_SELECT_MAX && len == VP_SELECTED_HEAD + 8 * (size_t)m.count);
+    uint64_t ids[VP_SELECT_MAX];
+    for (uint32_t i = 0; i < m.count; i++) ids[i] = vp_id_at(m.ids, m.count, i);
+    fuzz_wbuf b;
+    fuzz_wopen(&b, VP_HEADER_SIZE + len);
+    vp_enc_selected(&b.w, &m, ids);
+    CHECK(!memcmp(enc_payload(&b, VP_SELECTED, len), p, len));
+    fuzz_wclose(&b);
+}
+
 /* METRICS_REPLY: the text is the rest of the payload, NUL-free; re-encoded
  * byte for byte. */
 static void fuzz_metrics_reply(const uint8_t *p, size_t len)
@@ -970,6 +1009,8 @@ static void dispatch(const vp_header *h, const uint8_t *p, size_t len)
     case VP_DESTROYED: fuzz_destroyed(p, len); return;
     case VP_MARK: fuzz_mark(p, len); return;
     case VP_MARKED: fuzz_marked(p, len); return;
+    case VP_SELECT: fuzz_select(p, len); return;
+    case VP_SELECTED: fuzz_selected(p, len); return;
     case VP_METRICS: fuzz_empty(p, len); return;
     case VP_METRICS_REPLY: fuzz_metrics_reply(p, len); return;
     case VP_MESH_GET: fuzz_mesh_get(p, len); return;

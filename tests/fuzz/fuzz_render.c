@@ -21,13 +21,18 @@
  * Checked:
  *   1. vt_*_render returns 0, or VT_ERR_INVALID with a message and the caller's
  *      buffers untouched (the daemon answers INVALID with it);
- *   2. drawn frames have alpha 0 or 1, and a depth per pixel that is
- *      INFINITY (nothing) or not NaN.
+ *   2. drawn frames have alpha 0 or 1 (0..1 under an overlay's outline),
+ *      colours that are not NaN, and a depth per pixel that is INFINITY
+ *      (nothing) or not NaN.
+ * With header bit 5, an overlay from the bytes (vt_overlay.h: both
+ * outlines, with instance indices past the frame's and boxes of any
+ * bounds, icons anywhere, colours of any sign).
  * ASan and UBSan catch the rest (issue 18: a 1e30 term in the view
  * overflowed an int32 at the vertex snap). A broken property calls abort().
  */
 #include "culling.h"
 #include "fuzz_geom.h"
+#include "vt_overlay.h"
 #include "vt_soft.h"
 #ifdef FUZZ_RENDER_GL
 #include "vt_gl.h"
@@ -195,11 +200,45 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         env.sky_tex = &sky;
     }
 
+    /* the overlay (vt_overlay.h): both outlines' instance indices (past
+       ninst: refused), boxes of any bounds, icons anywhere, any colour */
+    vt_overlay ov = {0};
+    uint32_t hl[VT_OUTLINES][2];
+    vt_instance extra[VT_OUTLINES][2];
+    vt_icon icons[3];
+    if (head & 32) {
+        for (int g = 0; g < VT_OUTLINES; g++) {
+            vt_outline *l = &ov.outline[g];
+            l->nhl = fz_u8(&f) % 3;
+            l->nextra = fz_u8(&f) % 3;
+            for (uint32_t i = 0; i < l->nhl; i++) hl[g][i] = fz_u8(&f) % (ni + 2);
+            for (uint32_t i = 0; i < l->nextra; i++) {
+                extra[g][i] = (vt_instance){.mesh = fz_u8(&f) % (nmesh + 1), .place = VT_PLACE_BOUNDS};
+                for (int a = 0; a < 3; a++) {
+                    double c = fz_num(&f, 1e3), e = fz_num(&f, 1e3);
+                    extra[g][i].bmin[a] = c - e;
+                    extra[g][i].bmax[a] = c + e;
+                }
+            }
+            for (int a = 0; a < 3; a++) l->color[a] = (float)fz_num(&f, 10);
+            l->hl = hl[g];
+            l->extra = extra[g];
+        }
+        ov.nicons = fz_u8(&f) % 4;
+        for (uint32_t i = 0; i < ov.nicons; i++) {
+            icons[i] = (vt_icon){.kind = fz_u8(&f)};
+            for (int a = 0; a < 3; a++) icons[i].pos[a] = fz_num(&f, 1e4);
+            for (int a = 0; a < 3; a++) icons[i].color[a] = (float)fz_num(&f, 10);
+        }
+        ov.icons = icons;
+    }
+
     static float rgba[MAX_W * MAX_W * 4], depth[MAX_W * MAX_W];
     for (size_t i = 0; i < (size_t)w * h; i++) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = depth[i] = 7;
     char err[256] = "";
     vt_frame fr = {.view = &v, .width = w, .height = h, .meshes = meshes, .nmesh = nmesh, .inst = in, .ninst = ni,
-                   .lights = L, .nl = nl, .env = env_on ? &env : NULL, .rgba = rgba, .depth = depth, .stride = w};
+                   .lights = L, .nl = nl, .env = env_on ? &env : NULL, .rgba = rgba, .depth = depth, .stride = w,
+                   .overlay = (head & 32) ? &ov : NULL};
 #ifdef FUZZ_RENDER_GL
     int rc = vt_gldraw_draw(renderer(), &fr, NULL, err, sizeof err);
 #else
@@ -211,9 +250,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     }
     for (size_t i = 0; i < (size_t)w * h; i++) {
-        CHECK(rgba[4 * i + 3] == 0 || rgba[4 * i + 3] == 1);
+        /* an outline over nothing (no environment) blends its weight into
+           alpha (vt_overlay.c): 0..1 there */
+        CHECK(rgba[4 * i + 3] == 0 || rgba[4 * i + 3] == 1 || ((head & 32) && rgba[4 * i + 3] > 0 && rgba[4 * i + 3] < 1));
         CHECK(!env_on || rgba[4 * i + 3] == 1); /* opaque with an environment */
         CHECK(depth[i] == depth[i]);
+        for (int k = 0; k < 3; k++) CHECK(rgba[4 * i + k] == rgba[4 * i + k]); /* no NaN in the picture */
     }
     return 0;
 }

@@ -569,7 +569,17 @@ int main(int argc, char **argv)
         vp_enc_lights(&g_w, 1, l, 2), save("bad_light_range");
     }
     at = g_w.len, vp_enc_error(&g_w, 1, VP_ERR_INTERNAL, 0, "x"), payload_at(at, 8)[1] = 0x10, save("bad_error_msg_len");
-    vp_enc_subscribe(&g_w, 1, 0x6), save("bad_subscribe_kinds");
+    vp_enc_subscribe(&g_w, 1, 0x8), save("bad_subscribe_kinds");
+    {
+        static const uint64_t sel[3] = {7, 0x8000000100000002ull, 42}, zero[2] = {7, 0}, twice[3] = {7, 42, 7};
+        vp_enc_select(&g_w, 36, sel, 3), save("select");
+        vp_enc_select(&g_w, 36, NULL, 0), save("select_clear");
+        vp_enc_select(&g_w, 36, zero, 2), save("bad_select_zero");
+        vp_enc_select(&g_w, 36, twice, 3), save("bad_select_twice");
+        at = g_w.len, vp_enc_select(&g_w, 36, sel, 3), patch32(payload_at(at, 0), 2), save("bad_select_count");
+        at = g_w.len, vp_enc_select(&g_w, 36, sel, 3), patch32(payload_at(at, 4), 1), save("bad_select_flags");
+        vp_enc_selected(&g_w, &(vp_selected){.client_id = 3, .count = 3, .serial = 9}, sel), save("selected");
+    }
     vp_enc_list(&g_w, 1, &(vp_list){.cursor = 5, .max = 0}), save("bad_list_max_zero");
     at = g_w.len, enc_occluder(1), patch32(payload_at(at, 36), 0x71c71c72u), save("bad_occluder_tri_count");
 

@@ -4,14 +4,15 @@
  * independent model: an entity the CLI adds is what ENTITY_GET returns and
  * arrives as an EVENT; a camera gives the CLI's VIS_QUERY bytes exactly
  * (recorded by a proxy) and the same visible ids; sub-level names and
- * lists agree; MARK is pushed as MARKED to another client; DESTROY is what
- * the CLI then sees.
+ * lists agree; MARK is pushed as MARKED to another client, SELECT as
+ * SELECTED (and the CLI's watch sees it); DESTROY is what the CLI then sees.
  */
 import test from 'node:test';
 import assert from 'node:assert/strict';
 import { startDaemon, connect, cli, jsonLines, recordingProxy, waitFor } from './harness.mjs';
 import {
-  ROLE, T, enc, FrameParser, viewPerspective, viewOrtho, viewBytes, VP_EVENT_SCENE, VP_EVENT_MARKS, VP_ENT_DYNAMIC,
+  ROLE, T, enc, FrameParser, viewPerspective, viewOrtho, viewBytes, VP_EVENT_SCENE, VP_EVENT_MARKS, VP_EVENT_SELECTION,
+  VP_ENT_DYNAMIC,
 } from '../../web/js/vproto.js';
 
 let d;
@@ -160,6 +161,52 @@ test('MARK is pushed as MARKED to a second client; the CLI\'s MARK too', async (
   // bad marks: the daemon's checks, by code name
   assert.equal((await b.mark({ pos: [0, 0, 0], ttl_ms: 0 }).catch((e) => e)).codeName, 'INVALID');
   assert.equal((await b.mark({ pos: [Infinity, 0, 0] }).catch((e) => e)).codeName, 'NONFINITE');
+  a.close();
+  b.close();
+});
+
+test('SELECT: the selection where it stands on subscribing, then each change; the CLI sets and watches it', async () => {
+  const a = await connect(d, ROLE.VIEWER);
+  const b = await connect(d, ROLE.COMMANDER);
+  const got = [];
+  a.onselected = (s) => got.push(s);
+  const next = async (n) => { while (got.length < n) await new Promise((r) => setTimeout(r, 20)); return got[n - 1]; };
+  await a.subscribe(VP_EVENT_SELECTION);
+  const first = await next(1);
+  // the CLI's watch, an independent reader of the same pushes: SELECT until
+  // it went to both subscribers (the watch has subscribed by then)
+  const watch = cli(d, ['watch', '--selection', '--count', '2']);
+  const ids = [201n, 2n ** 63n + 5n];
+  let ack, sent = 0;
+  do {
+    await new Promise((r) => setTimeout(r, 100));
+    ack = await b.select(ids);
+    sent++;
+  } while (ack.count < 2);
+  assert.equal(ack.count, 2, 'the page and the CLI');
+  const s = await next(1 + sent); // each went to the page
+  assert.equal(s.client_id, b.helloOk.client_id);
+  assert.ok(s.serial > first.serial);
+  assert.deepEqual(s.ids, ids);
+  const w = await watch;
+  assert.equal(w.code, 0, w.stderr);
+  const lines = w.stdout.trim().split('\n');
+  assert.equal(lines.length, 2);
+  // the CLI prints ids as exact decimals: compare as text
+  assert.equal(lines[1], `{"serial": ${s.serial}, "client": ${s.client_id}, "ids": [201, 9223372036854775813]}`);
+  // the CLI's SELECT reaches the page
+  const n = got.length;
+  const r = await cli(d, ['select', '7,8']);
+  assert.equal(r.code, 0, r.stderr);
+  assert.deepEqual((await next(n + 1)).ids, [7n, 8n]);
+  // refused: a viewer, an id 0, an id twice (nothing pushed, nothing changed)
+  assert.equal((await a.select([1n]).catch((e) => e)).codeName, 'AUTH');
+  assert.equal((await b.select([3n, 0n]).catch((e) => e)).codeName, 'INVALID');
+  assert.equal((await b.select([3n, 3n]).catch((e) => e)).codeName, 'DUPLICATE');
+  await b.select([]);
+  const cleared = await next(n + 2);
+  assert.equal(cleared.count, 0);
+  assert.equal(cleared.serial, got[n].serial + 1n, 'the refused ones changed nothing');
   a.close();
   b.close();
 });

@@ -329,6 +329,7 @@ function validPayloads() {
     [T.SUBLEVEL_INFO_REPLY]: w((x) => { x.u64(1n); x.u32(1); x.zeros(19); x.u8(3); x.bytes(te.encode('abc')); }),
     [T.DESTROYED]: w((x) => putLayout(x, LAYOUTS.destroyed, {})),
     [T.MARKED]: w((x) => { putLayout(x, LAYOUTS.marked_head, {}); putLayout(x, LAYOUTS.mark, {}); }),
+    [T.SELECTED]: w((x) => { putLayout(x, LAYOUTS.selected_head, { client_id: 3, count: 2, serial: 9n }); x.u64(5n); x.u64(2n ** 63n); }),
     [T.FRAME]: w((x) => { putLayout(x, LAYOUTS.frame, { width: 2, height: 1, format: 1, data_len: 4 }); x.bytes(new Uint8Array([0xff, 0xd8, 0xff, 0xd9])); }),
     [T.ENV_REPLY]: w((x) => putLayout(x, LAYOUTS.env, {})),
   };
@@ -371,7 +372,7 @@ test('hostile streams: a Client fed mutated replies reports errors and never thr
     const c = new Client(t, { maxPayload: 1 << 20 });
     const errors = [];
     c.onerror = (e) => errors.push(e);
-    c.onevent = c.onmarked = c.onframe = () => {};
+    c.onevent = c.onmarked = c.onselected = c.onframe = () => {};
     c.callbackFailed = (e) => assert.fail(`a callback failed: ${e}`);
     for (let at = 0; at < s.length && !c.closed;) {
       const n = 1 + Math.floor(rand() * 64);

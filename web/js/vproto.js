@@ -60,9 +60,11 @@ export const VP_RENDER_NO_SHADOWS = 0x02;
 export const VP_RENDER_NO_SSAO = 0x04;
 export const VP_RENDER_NO_IBL = 0x08;
 export const VP_RENDER_NO_FXAA = 0x10;
+export const VP_RENDER_NO_SELECTION = 0x20; // the shared selection (SELECT) not outlined
 
 export const VP_EVENT_SCENE = 0x1; // SUBSCRIBE kinds
 export const VP_EVENT_MARKS = 0x2;
+export const VP_EVENT_SELECTION = 0x4; // SELECTED pushes (the current one right after the ACK)
 
 export const VP_Q_NO_AABB = 0x01; // VIS_QUERY flags
 export const VP_Q_WANT_AREA = 0x02;
@@ -98,7 +100,7 @@ export const T = Object.freeze({
   SUBLEVEL_UNLOAD: 0x0308, SUBLEVEL_INFO: 0x0309, SUBLEVEL_INFO_REPLY: 0x030a,
   DESTROY: 0x0400, DESTROYED: 0x0401,
   RENDER: 0x0500, FRAME: 0x0501, FRAME_SUBSCRIBE: 0x0502, FRAME_UNSUBSCRIBE: 0x0503,
-  MARK: 0x0600, MARKED: 0x0601, METRICS: 0x0700, METRICS_REPLY: 0x0701,
+  MARK: 0x0600, MARKED: 0x0601, SELECT: 0x0602, SELECTED: 0x0603, METRICS: 0x0700, METRICS_REPLY: 0x0701,
 });
 const TYPE_NAME = new Map(Object.entries(T).map(([k, v]) => [v, k]));
 /* "FRAME" for 0x0501, "0x1234" for a type no table row names. */
@@ -416,6 +418,8 @@ export const LAYOUTS = Object.freeze({
     'encode_ns u32, data_len u32'),
   mark: layout('pos f64[3], entity u64, kind u8, pad(3), ttl_ms u32'),
   marked_head: layout('client_id u32, pad(4)'),
+  select_head: layout('count u32, flags u32'),
+  selected_head: layout('client_id u32, count u32, serial u64'),
   destroy: layout('id u64, handle u32, debris u8, pad(3), center f64[3], radius f64'),
   destroyed: layout('epoch u64, spheres u32, occluder_tris u32, debris u32, cut_us u32'),
   env: layout('sun_dir f32[3], sun_color f32[3], sun_lux f32, sky_mode u8, flags u8, exposure_mode u8, pad(1), ' +
@@ -558,6 +562,11 @@ export const enc = Object.freeze({
   sublevelNames: (req, names) => encodeFrame(T.SUBLEVEL_NAMES, req, (w) => putNames(w, names)),
   /* { pos[3], entity (id, 0 = a place), kind (0 ping, 1 select), ttl_ms } */
   mark: (req, m) => encodeFrame(T.MARK, req, (w) => putLayout(w, LAYOUTS.mark, { ttl_ms: 10000, ...m }, 'mark')),
+  /* the shared selection: ids (BigInt or safe integers), 0..256 of them */
+  select: (req, ids) => encodeFrame(T.SELECT, req, (w) => {
+    putLayout(w, LAYOUTS.select_head, { count: ids.length, flags: 0 }, 'select');
+    ids.forEach((id, i) => w.u64(id, `id ${i}`));
+  }),
   /* { id, handle (0 = any), debris (0..64), center[3], radius } */
   destroy: (req, m) => encodeFrame(T.DESTROY, req, (w) => putLayout(w, LAYOUTS.destroy, m, 'destroy')),
   render: (req, m) => encodeFrame(T.RENDER, req, (w) => putRender(w, m)),
@@ -662,6 +671,16 @@ function decMarked(p) {
   return h;
 }
 
+/* SELECTED: { client_id, count, serial, ids: [BigInt] } */
+function decSelected(p) {
+  const r = new Reader(p);
+  const h = getLayout(r, LAYOUTS.selected_head, 'SELECTED');
+  if (h.count > 256) fail('COUNT', `SELECTED of ${h.count} ids: at most 256`);
+  if (r.left !== h.count * 8) fail('COUNT', `SELECTED of ${h.count} ids needs ${h.count * 8} bytes, has ${r.left}`);
+  h.ids = Array.from({ length: h.count }, () => r.u64());
+  return h;
+}
+
 /* type -> payload decoder, for every reply and push the Client handles. */
 export const dec = Object.freeze({
   [T.HELLO_OK]: (p) => exact(p, LAYOUTS.hello_ok, 'HELLO_OK'),
@@ -677,6 +696,7 @@ export const dec = Object.freeze({
   [T.SUBLEVEL_INFO_REPLY]: decInfos,
   [T.DESTROYED]: (p) => exact(p, LAYOUTS.destroyed, 'DESTROYED'),
   [T.MARKED]: decMarked,
+  [T.SELECTED]: decSelected,
   [T.FRAME]: decFrame,
   [T.ENV_REPLY]: (p) => exact(p, LAYOUTS.env, 'ENV_REPLY'),
 });
@@ -832,6 +852,7 @@ export function viewBytes(v) {
  * Pushed messages go to callbacks the page sets:
  *   onevent(ev)        EVENT (SUBSCRIBE kinds VP_EVENT_SCENE)
  *   onmarked(m)        MARKED (VP_EVENT_MARKS): { client_id, mark }
+ *   onselected(s)      SELECTED (VP_EVENT_SELECTION): { client_id, count, serial, ids }
  *   onframe(f, req)    FRAME of a stream (FRAME_SUBSCRIBE's req)
  *   onerror(err)       a pushed ERROR (a stream that ended, a TIMEOUT with
  *                      req 0) or a push that did not decode
@@ -850,7 +871,7 @@ export class Client {
     this.serverMaxPayload = VP_HELLO_MAX_PAYLOAD; // until HELLO_OK
     this.helloOk = null;
     this.closed = false;
-    this.onevent = this.onmarked = this.onframe = this.onerror = this.onclose = null;
+    this.onevent = this.onmarked = this.onselected = this.onframe = this.onerror = this.onclose = null;
     transport.onbytes = (b) => this.bytes(b);
     transport.onclose = (info) => this.ended(info);
   }
@@ -866,7 +887,7 @@ export class Client {
   }
   ping(data, opts) { return this.call(T.PING, (req) => enc.ping(req, data), T.PONG, opts); }
   stats(opts) { return this.call(T.STATS, (req) => enc.empty(T.STATS, req), T.STATS_REPLY, opts); }
-  /* kinds: VP_EVENT_SCENE | VP_EVENT_MARKS (0 unsubscribes); resolves with the ACK */
+  /* kinds: VP_EVENT_SCENE | VP_EVENT_MARKS | VP_EVENT_SELECTION (0 unsubscribes); resolves with the ACK */
   subscribe(kinds, opts) { return this.call(T.SUBSCRIBE, (req) => enc.subscribe(req, kinds), T.ACK, opts); }
   /* ids: BigInt or safe integers; resolves { epoch, entities: [records in the order asked] } */
   entityGet(ids, opts) { return this.call(T.ENTITY_GET, (req) => enc.entityGet(req, ids), T.ENTITY_LIST_REPLY, opts); }
@@ -880,6 +901,8 @@ export class Client {
   sublevelInfo(opts) { return this.call(T.SUBLEVEL_INFO, (req) => enc.empty(T.SUBLEVEL_INFO, req), T.SUBLEVEL_INFO_REPLY, opts); }
   /* commander: resolves the ACK ({ count: connections it went to }) */
   mark(m, opts) { return this.call(T.MARK, (req) => enc.mark(req, m), T.ACK, opts); }
+  /* commander: replaces the shared selection; resolves the ACK ({ count: connections it went to }) */
+  select(ids, opts) { return this.call(T.SELECT, (req) => enc.select(req, ids), T.ACK, opts); }
   /* commander: resolves DESTROYED */
   destroy(m, opts) { return this.call(T.DESTROY, (req) => enc.destroy(req, m), T.DESTROYED, opts); }
   envGet(opts) { return this.call(T.ENV_GET, (req) => enc.empty(T.ENV_GET, req), T.ENV_REPLY, opts); }
@@ -985,6 +1008,7 @@ export class Client {
       switch (f.type) {
       case T.EVENT: return this.emit('onevent', decode(T.EVENT, f.payload));
       case T.MARKED: return this.emit('onmarked', decode(T.MARKED, f.payload));
+      case T.SELECTED: return this.emit('onselected', decode(T.SELECTED, f.payload));
       case T.FRAME: return this.emit('onframe', decode(T.FRAME, f.payload), f.req);
       case T.ERROR: {
         const e = decError(f.payload);
