@@ -5,7 +5,8 @@ right) from the same camera: the same eye, target and vertical field of
 view (Blender's Z-up camera mapped to Vantage's Y-up as the add-on maps
 everything: (x, y, z) -> (x, z, -y)). Both are tone mapped their own way
 (Cycles' Filmic, the daemon's ACES with its auto exposure), so the
-pictures agree in what is where, not in every shade.
+pictures agree in what is where, not in every shade. The ball is selected
+in Blender: the daemon's frame outlines the shared selection (SELECT).
 
 Run: make docs-blender-shot (blender -b --factory-startup --python
 tests/blender/screenshot.py -- OUT.png)
@@ -116,6 +117,9 @@ def main():
     vl.register()
     scene()
     camera()
+    # the artist's selection, shared: the daemon's frame outlines it (cyan)
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o.name == "Ball")
     m = vl.connect(unix=d.sock, token=H.EDITOR_TOKEN)
     H.check(m.wait_synced(30), "the link did not flush")
     H.check_converged(bpy, d, "screenshot scene")

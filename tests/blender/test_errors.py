@@ -148,8 +148,13 @@ def check_selection(d, m):
     import socket
     import struct
     cube = bpy.data.objects["Cube"]
-    others = [o for o in bpy.context.view_layer.objects if o.type == 'MESH' and o is not cube and
-              isinstance(o.get("vantage_id"), str)]
+    others = []
+    for k in range(2):
+        o = bpy.data.objects.new("Sel%d" % k, cube.data)
+        bpy.context.scene.collection.objects.link(o)
+        o.location.x = 3 * (k + 1)
+        others.append(o)
+    H.check(m.wait_synced(10), "select: not flushed")
     s = socket.socket(socket.AF_UNIX)
     s.connect(d.sock)
     s.settimeout(5)

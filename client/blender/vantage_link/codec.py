@@ -85,6 +85,7 @@ _SPEC = {
             "sky_intensity turbidity sky_texture sky_rotation ground_height ground_color ground_material "
             "fog_density fog_color fog_height_falloff exposure_ev exposure_comp"),
     "sublevel_begun": ("<HH4xQ", "id class_base epoch"),
+    "select_head": ("<II", "count flags"),
     "selected_head": ("<IIQ", "client_id count serial"),
     "marked": ("<I4x3dQB3xI", "client_id pos entity kind ttl_ms"),
 }
@@ -323,7 +324,7 @@ def decode_sublevel_list(p):
 def select(id_list):
     if len(id_list) > SELECT_MAX:
         raise ValueError("SELECT carries at most %d ids" % SELECT_MAX)
-    return struct.pack("<II%dQ" % len(id_list), len(id_list), 0, *id_list)
+    return pack("select_head", count=len(id_list), flags=0) + struct.pack("<%dQ" % len(id_list), *id_list)
 
 
 def decode_selected(p):

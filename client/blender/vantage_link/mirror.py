@@ -261,7 +261,8 @@ class Mirror:
     # ---- scripts and tests ------------------------------------------------------------
     def synced(self):
         return (self.status == "live" and not self.structural and not self.need_full and not self.dirty_xf
-                and not self.full_later and self.link.idle())
+                and not self.full_later and self.sel_seen[0] is None
+                and self.builder.selected_ids(bpy.context.view_layer) == self.sel_sent and self.link.idle())
 
     def wait_synced(self, timeout=30.0, update=True):
         """pump the flush until everything Blender has is acknowledged by the
