@@ -217,6 +217,25 @@ def check_selection(d, m):
     send(0x0602, 4, struct.pack("<IIQ", 1, 0, int(others[1]["vantage_id"], 16)))
     H.check(recv_until(0x000A) is not None, "select: SELECT not acknowledged")
     follows(others[1], "SELECT")
+    # a reconnect keeps the artist's selection: the daemon's (another
+    # client's) is not applied over it at subscription, Blender's is sent
+    vl.disconnect()
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o is others[0])
+    m2 = vl.connect(unix=d.sock, token=H.EDITOR_TOKEN)
+    H.check(m2.wait_synced(10), "select: not flushed after a reconnect")
+    H.check(others[0].select_get() and not others[1].select_get(),
+            "select: connecting replaced Blender's selection with the daemon's")
+    want = [int(others[0]["vantage_id"], 16)]
+    got = None
+    end = time.monotonic() + 5
+    while time.monotonic() < end and got != want:
+        p = recv_until(0x0603)
+        if p is None:
+            break
+        n = struct.unpack_from("<I", p, 4)[0]
+        got = list(struct.unpack_from("<%dQ" % n, p, 16))
+    H.check(got == want, "select: after a reconnect the daemon's selection is %s, Blender's %s" % (got, want))
     s.close()
 
 

@@ -360,7 +360,9 @@ class Link:
         if req == 0 and mtype in (T["SELECTED"], T["MARKED"], T["EVENT"]):
             if mtype == T["SELECTED"]:
                 s = codec.decode_selected(p)
-                if s["client_id"] != self.client_id:
+                if getattr(self, "skip_selected", False):
+                    self.skip_selected = False
+                elif s["client_id"] != self.client_id:
                     self._event("selected", s)
             elif mtype == T["MARKED"]:
                 self._event("marked", codec.unpack("marked", p))
@@ -430,12 +432,19 @@ class Link:
         """once a connection: the subscriptions, then the read-back"""
         # selections (SELECTED) and marks (MARKED) pushed to us; a daemon
         # older than SELECT refuses bit 2 (INVALID): marks alone then
+        # (the daemon pushes its current selection right after the ACK, in
+        # the same read as the ACK: the flag is set before asking)
+        self.skip_selected = True
         r = yield Req(T["SUBSCRIBE"], struct.pack("<I", codec.SUB_MARKS | codec.SUB_SELECTION), wait=True)
         if r[0] == "ERROR":
+            self.skip_selected = False
             self.has_select = False
             self._event("log", "this daemon has no SELECT/SELECTED: the selection is not shared")
             yield Req(T["SUBSCRIBE"], struct.pack("<I", codec.SUB_MARKS), wait=True)
         else:
+            # the selection pushed at subscription is not applied:
+            # connecting never replaces the artist's own selection (which is
+            # sent next, as any change)
             self.has_select = True
         yield from self._plan_read()
 
