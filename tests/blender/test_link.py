@@ -329,6 +329,19 @@ def main():
 
     assets(m, d, tmp)
 
+    step("the file saved and opened again: the same ids, handlers kept, a move after the load mirrored")
+    path = os.path.join(tmp, "scene.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    before = len(d.export_lines())
+    bpy.ops.wm.open_mainfile(filepath=path)
+    synced(m, "reopened")
+    H.check_converged(bpy, d, "reopened")
+    H.check(len(d.export_lines()) == before, "reopened: the daemon's entity count changed on a reload")
+    o = next(o for o in bpy.context.view_layer.objects if o.type == 'MESH')
+    o.location.x += 4
+    synced(m, "move after the load")
+    H.check_converged(bpy, d, "move after the load")
+
     vl.disconnect()
     print("test_link: %.1f s" % (time.monotonic() - T0))
     H.finish(d, tmp)

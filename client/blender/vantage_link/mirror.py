@@ -59,28 +59,28 @@ class Mirror:
 
     # ---- life ----------------------------------------------------------------------
     def start(self):
+        global _active
+        _active = self
         self.running = True
         self.link.start()
-        for h, f in self._handlers():
+        for h, f in _handlers():
             if f not in h:
                 h.append(f)
-        if not bpy.app.background:
-            bpy.app.timers.register(self._timer, first_interval=TICK, persistent=True)
+        if not bpy.app.background and not bpy.app.timers.is_registered(_timer):
+            bpy.app.timers.register(_timer, first_interval=TICK, persistent=True)
 
     def stop(self):
+        global _active
+        if _active is self:
+            _active = None
+            for h, f in _handlers():
+                if f in h:
+                    h.remove(f)
+            if bpy.app.timers.is_registered(_timer):
+                bpy.app.timers.unregister(_timer)
         self.running = False
-        for h, f in self._handlers():
-            if f in h:
-                h.remove(f)
-        if bpy.app.timers.is_registered(self._timer):
-            bpy.app.timers.unregister(self._timer)
         self.link.stop()
         self.status = "disconnected"
-
-    def _handlers(self):
-        H = bpy.app.handlers
-        return [(H.depsgraph_update_post, self.on_depsgraph), (H.undo_post, self.on_undo),
-                (H.redo_post, self.on_undo), (H.load_post, self.on_undo)]
 
     # ---- handlers (main thread) ------------------------------------------------------
     def on_depsgraph(self, scene, depsgraph):
@@ -121,15 +121,6 @@ class Mirror:
         self.sig = None
 
     # ---- the flush ------------------------------------------------------------------
-    def _timer(self):
-        if not self.running:
-            return None
-        try:
-            self.tick()
-        except Exception as e:  # a bug here must not kill the timer and stop the link
-            self.log("internal error in the flush: %r" % (e,), error=True)
-        return TICK
-
     def tick(self):
         now = time.monotonic()
         for kind, data in self.link.poll_events():
@@ -278,6 +269,41 @@ class Mirror:
                 return False
             time.sleep(0.002)
         return False
+
+
+# The handlers and the timer are module functions marked persistent (a
+# bound method cannot be): opening another file keeps the link mirroring,
+# and load_post makes it diff the new file against the daemon.
+_active = None
+
+
+@bpy.app.handlers.persistent
+def _on_depsgraph(scene, depsgraph):
+    if _active is not None:
+        _active.on_depsgraph(scene, depsgraph)
+
+
+@bpy.app.handlers.persistent
+def _on_undo(*args):
+    if _active is not None:
+        _active.on_undo()
+
+
+def _handlers():
+    H = bpy.app.handlers
+    return [(H.depsgraph_update_post, _on_depsgraph), (H.undo_post, _on_undo), (H.redo_post, _on_undo),
+            (H.load_post, _on_undo)]
+
+
+def _timer():
+    m = _active
+    if m is None or not m.running:
+        return None
+    try:
+        m.tick()
+    except Exception as e:  # a bug here must not stop the timer and with it the link
+        m.log("internal error in the flush: %r" % (e,), error=True)
+    return TICK
 
 
 def _redraw():
