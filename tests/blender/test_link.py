@@ -14,6 +14,7 @@ Run: blender -b --factory-startup --python tests/blender/test_link.py
 import math
 import os
 import random
+import signal
 import sys
 import time
 
@@ -318,6 +319,24 @@ def main():
     # the meshes survived on the daemon's --data-dir: read back (MESH_GET) and not sent again
     H.check(m.link.counters["sent_MESH_PUT"] == puts, "restart: %d meshes re-sent that the daemon still held" %
             (m.link.counters["sent_MESH_PUT"] - puts))
+
+    step("the daemon stopped (SIGSTOP): the link notices the silence, reconnects when it answers again")
+    m.link.stall = 1.0  # the link's limit is 30 s; a test cannot wait that long
+    drops = m.link.counters["disconnects"]
+    d.proc.send_signal(signal.SIGSTOP)
+    objs = [o for o in bpy.context.view_layer.objects if o.type == 'MESH']
+    for o in objs[:10]:
+        o.location.y += 2
+    bpy.context.view_layer.update()
+    end = time.monotonic() + 5
+    while time.monotonic() < end and m.link.counters["disconnects"] == drops:
+        m.tick()
+        time.sleep(0.02)
+    H.check(m.link.counters["disconnects"] > drops, "stopped daemon: the link did not notice in 5 s")
+    d.proc.send_signal(signal.SIGCONT)
+    synced(m, "stopped daemon")
+    H.check_converged(bpy, d, "stopped daemon")
+    m.link.stall = 30.0
 
     step("a light moved, a material changed")
     bpy.data.objects["LPOINT"].data.energy = 800.0

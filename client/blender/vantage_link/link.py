@@ -53,6 +53,8 @@ SUBLEVEL_PREFIX = "blender:"
 WINDOW = 16          # requests in flight: enough to fill a loopback pipe, small enough to bound memory
 BACKOFF_MIN, BACKOFF_MAX = 0.25, 5.0
 LIST_PAGE = 1024     # records per ENTITY_LIST page (160 KiB a reply)
+IDLE_PING = 10.0     # seconds of quiet before a PING
+STALL = 30.0         # seconds without a reply before the connection is made again
 
 
 def owned_entity(i):
@@ -90,7 +92,7 @@ class AuthRefused(Exception):
 
 class Req:
     """one request of a plan; `wait`: the plan stops until its reply"""
-    __slots__ = ("mtype", "payload", "wait", "on_ok", "what", "t0s", "fails")
+    __slots__ = ("mtype", "payload", "wait", "on_ok", "what", "t0s", "fails", "sent")
 
     def __init__(self, mtype, payload, wait=False, on_ok=None, what="", t0s=None, fails=None):
         self.mtype, self.payload, self.wait, self.on_ok, self.what, self.t0s = mtype, payload, wait, on_ok, what, t0s
@@ -119,6 +121,7 @@ class Link:
         self.client_id = 0
         self.hello = None
         self.epoch = 0
+        self.stall = STALL
         self.latencies = collections.deque(maxlen=8192)  # seconds, handler -> ACK of its epoch
         self.counters = collections.Counter()
         self._stop = threading.Event()
@@ -252,6 +255,7 @@ class Link:
         else:
             s = socket.create_connection((c["host"], c["port"]), timeout=5)
             s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
         s.settimeout(30)
         self.sock = s
         self.reader = codec.FrameReader(codec.HELLO_MAX_PAYLOAD * 16)
@@ -294,6 +298,7 @@ class Link:
         sel.register(self.sock, selectors.EVENT_READ, "sock")
         sel.register(self._wake_r, selectors.EVENT_READ, "wake")
         self.outbuf = bytearray()
+        self.last_send = time.monotonic()
         plan = self._plan_connect()
         reply = None
         blocked = False
@@ -322,6 +327,16 @@ class Link:
                     self._set_state("live")
                 events = selectors.EVENT_READ | (selectors.EVENT_WRITE if self.outbuf else 0)
                 sel.modify(self.sock, events, "sock")
+                # liveness: a PING when the link has been quiet for IDLE_PING
+                # seconds, and a connection whose oldest request has had no
+                # reply for STALL seconds is dropped and made again (a link
+                # that silently stops syncing is the failure to avoid)
+                now = time.monotonic()
+                if plan is None and not self.inflight and now - self.last_send > IDLE_PING:
+                    plan = self._plan_ping()
+                    continue
+                if self.inflight and now - self.inflight[0][1].sent > self.stall:
+                    raise OSError("no reply from the daemon in %g s" % self.stall)
                 for key, ev in sel.select(timeout=0.5):
                     if key.data == "wake":
                         try:
@@ -351,12 +366,18 @@ class Link:
         req = self.req
         self.req = self.req + 1 if self.req < 0xFFFFFFFF else 1
         self.outbuf += codec.frame(r.mtype, req, r.payload)
+        r.sent = time.monotonic()
         self.inflight.append((req, r))
+        self.last_send = time.monotonic()
         self.counters["sent_" + codec.TYPE_NAME.get(r.mtype, hex(r.mtype))] += 1
 
     def _on_frame(self, mtype, req, p):
         """a reply to the oldest request in flight, or a pushed frame; returns
         the reply for a waiting plan, else None"""
+        if req == 0 and mtype == T["ERROR"]:
+            # pushed (TIMEOUT before a close): said, and the link made again
+            code, _, msg = codec.decode_error(p)
+            raise OSError("the daemon sent %s: %s" % (codec.ERR_NAMES.get(code, code), msg))
         if req == 0 and mtype in (T["SELECTED"], T["MARKED"], T["EVENT"]):
             if mtype == T["SELECTED"]:
                 s = codec.decode_selected(p)
@@ -587,18 +608,9 @@ class Link:
         # 5. entities: removes, then adds (a sub-level that holds nothing
         #    of ours is loaded whole: BEGIN, ADD, LIGHT_PUT, COMMIT), updates,
         #    transforms
-        gone = self._gone(self.h_ents, d.ents, "ent")
-        for i in range(0, len(gone), mb):
-            part = gone[i:i + mb]
-            for x in part:
-                del self.h_ents[x]
-                self.h_occluders.pop(x, None)
-            yield self._remove("ENTITY_REMOVE", "ent", part)
-        gone_l = self._gone(self.h_lights, d.lights, "light")
-        if gone_l:
-            for x in gone_l:
-                del self.h_lights[x]
-            yield self._remove("LIGHT_REMOVE", "light", gone_l)
+        # (an entity's attached occluder goes with it)
+        yield from self._removes("ENTITY_REMOVE", "ent", self.h_ents, d.ents, also=self.h_occluders)
+        yield from self._removes("LIGHT_REMOVE", "light", self.h_lights, d.lights)
         adds, updates, moves = {}, [], []
         for i, e in d.ents.items():
             if self.failed and self.failed.get(("ent", i)) == _ekey(e):
@@ -665,11 +677,7 @@ class Link:
                       fails=[(("occ", oid), dg)])
         # (an attached occluder of a removed entity went with it and left
         # h_occluders then; the others Blender no longer has go here)
-        gone_o = self._gone(self.h_occluders, d.occluders, "occ")
-        if gone_o:
-            for x in gone_o:
-                del self.h_occluders[x]
-            yield self._remove("OCCLUDER_REMOVE", "occ", gone_o)
+        yield from self._removes("OCCLUDER_REMOVE", "occ", self.h_occluders, d.occluders)
         lrecs = []
         for lid, (s, rec) in d.lights.items():
             sid = self.sub_ids.get(s, 0) if s else 0
@@ -692,27 +700,25 @@ class Link:
                 yield Req(T["ENV_SET"], rec, what="environment", fails=[(("env", 0), rec)])
         # 7. materials and textures Blender no longer has (after the
         #    entities stopped using them)
-        gone_m = self._gone(self.h_materials, d.materials, "mat")
-        if gone_m:
-            for m in gone_m:
-                del self.h_materials[m]
-            yield self._remove("MATERIAL_REMOVE", "mat", gone_m)
-        gone_t = self._gone(self.h_textures, d.textures, "tex")
-        if gone_t:
-            for t in gone_t:
-                del self.h_textures[t]
-            yield self._remove("TEXTURE_REMOVE", "tex", gone_t)
+        yield from self._removes("MATERIAL_REMOVE", "mat", self.h_materials, d.materials)
+        yield from self._removes("TEXTURE_REMOVE", "tex", self.h_textures, d.textures)
         self.h_synced = True
 
-    def _gone(self, held, desired, kind):
-        """ids held and no longer desired, but for those whose removal the
-        daemon refused (an entity another connection is loading, a material
-        another editor's entity uses): said once, not retried"""
-        return [i for i in held if i not in desired and ("rm", kind, i) not in self.failed]
-
-    def _remove(self, name, kind, part):
-        return Req(T[name], codec.ids(part), what="%s of %d" % (name, len(part)),
-                   fails=[(("rm", kind, i), True) for i in part])
+    def _removes(self, name, kind, held, desired, also=None):
+        """a plan step: remove (`name`, batches of max_batch) the ids held and
+        no longer desired, but for those whose removal the daemon refused
+        before (an entity another connection is loading, a material another
+        editor's entity uses): said once, not retried"""
+        gone = [i for i in held if i not in desired and ("rm", kind, i) not in self.failed]
+        mb = self.hello["max_batch"]
+        for k in range(0, len(gone), mb):
+            part = gone[k:k + mb]
+            for x in part:
+                del held[x]
+                if also is not None:
+                    also.pop(x, None)
+            yield Req(T[name], codec.ids(part), what="%s of %d" % (name, len(part)),
+                      fails=[(("rm", kind, i), True) for i in part])
 
     def _send_moves(self, items):
         mb = min(self.hello["max_batch"], 4096)
@@ -735,6 +741,9 @@ class Link:
                 continue  # not in the daemon yet: the next snapshot adds it
             items.append((i, pos, rot, scale, t0))
         yield from self._send_moves(items)
+
+    def _plan_ping(self):
+        yield Req(T["PING"], b"", what="PING")
 
     def _plan_select(self, s):
         if not getattr(self, "has_select", False):
