@@ -173,10 +173,12 @@ def principled(m):
             b.inputs["Roughness"].default_value)
 
 
-def check_converged(bpy, d, label, glb=False, refused=()):
+def check_converged(bpy, d, label, glb=True, refused=(), kept=()):
     """the daemon's state (read by the C CLI) equals Blender's: the same
-    entity ids, once each; world transforms within 1e-5 relative; material
-    factors; sub-level entity counts"""
+    entity ids, once each; world transforms within 1e-5 relative; bounds;
+    with glb the material factors and the set of the add-on's materials.
+    refused: objects the add-on must not send; kept: material ids the
+    daemon keeps though Blender no longer uses them (a removal refused)"""
     t0 = time.monotonic()
     lines = d.export_lines()
     ours = [e for e in lines if (e["id"] >> 48) == OURS]
@@ -241,7 +243,15 @@ def check_converged(bpy, d, label, glb=False, refused=()):
                 ok = False
                 break
             nm += 1
-        print("  %s: %d materials checked in the glb" % (label, nm))
+        # the same materials: the daemon's of the add-on's range (0xB1E00000 +
+        # n) are those the mirrored objects use, no more
+        theirs = {int(x["name"][9:]) for x in g.get("materials", []) if x["name"].startswith("material_")}
+        theirs = {i for i in theirs if 0xB1E00000 <= i < 0xB1F00000}
+        used = {int(o.material_slots[0].material["vantage_id"], 16) for o in want.values()
+                if o.material_slots and o.material_slots[0].material is not None} | set(kept)
+        ok &= check(theirs == used, "%s: the daemon holds materials %s, Blender's objects use %s" %
+                    (label, sorted(theirs - used), sorted(used - theirs)))
+        print("  %s: %d entities' materials and %d materials checked in the glb" % (label, nm, len(used)))
     print("  %s: %d entities, worst transform error %.2g, bounds %.2g, checked in %.2f s" %
           (label, len(ids), worst, worst_box, time.monotonic() - t0), flush=True)
     return ok

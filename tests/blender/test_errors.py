@@ -133,7 +133,7 @@ def main():
         H.check(m.wait_synced(10), "refused edit: not flushed")
     H.check(m.link.counters["errors"] == errs, "refused edit: retried, %d more errors" %
             (m.link.counters["errors"] - errs))
-    H.check_converged(bpy, d, "refused edit", refused=("BigGrid",))
+    H.check_converged(bpy, d, "refused edit", refused=("BigGrid",), kept=(mid,))
 
     print("selection both ways")
     check_selection(d, m)
