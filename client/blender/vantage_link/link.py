@@ -122,6 +122,8 @@ class Link:
         self.hello = None
         self.epoch = 0
         self.stall = STALL
+        self.has_select = False      # the daemon has SELECT/SELECTED (found at SUBSCRIBE)
+        self.skip_selected = False   # the next SELECTED is the one pushed at subscription
         self.latencies = collections.deque(maxlen=8192)  # seconds, handler -> ACK of its epoch
         self.counters = collections.Counter()
         self._stop = threading.Event()
@@ -374,14 +376,14 @@ class Link:
     def _on_frame(self, mtype, req, p):
         """a reply to the oldest request in flight, or a pushed frame; returns
         the reply for a waiting plan, else None"""
-        if req == 0 and mtype == T["ERROR"]:
+        if mtype == T["ERROR"] and (req == 0 or not self.inflight):
             # pushed (TIMEOUT before a close): said, and the link made again
             code, _, msg = codec.decode_error(p)
             raise OSError("the daemon sent %s: %s" % (codec.ERR_NAMES.get(code, code), msg))
         if req == 0 and mtype in (T["SELECTED"], T["MARKED"], T["EVENT"]):
             if mtype == T["SELECTED"]:
                 s = codec.decode_selected(p)
-                if getattr(self, "skip_selected", False):
+                if self.skip_selected:
                     self.skip_selected = False
                 elif s["client_id"] != self.client_id:
                     self._event("selected", s)
@@ -389,9 +391,6 @@ class Link:
                 self._event("marked", codec.unpack("marked", p))
             return None
         if not self.inflight:
-            if mtype == T["ERROR"]:
-                code, _, msg = codec.decode_error(p)
-                raise OSError("the daemon sent %s: %s" % (codec.ERR_NAMES.get(code, code), msg))
             raise codec.ProtocolError("a reply (type 0x%04x, req %d) with no request in flight" % (mtype, req))
         rq, r = self.inflight.popleft()
         if rq != req:
@@ -746,7 +745,7 @@ class Link:
         yield Req(T["PING"], b"", what="PING")
 
     def _plan_select(self, s):
-        if not getattr(self, "has_select", False):
+        if not self.has_select:
             return
         r = yield Req(T["SELECT"], codec.select(s), wait=True)
         if r[0] == "ERROR":
