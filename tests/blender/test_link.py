@@ -176,6 +176,15 @@ def assets(m, d, tmp):
     w.node_tree.links.new(env.outputs["Color"], w.node_tree.nodes["Background"].inputs["Color"])
     synced(m, "assets")
     H.check_converged(bpy, d, "assets", glb=True)
+    # two edits of one mesh 0.1 s apart: the second is rate-limited (a mesh
+    # is re-sent at most every 0.25 s), and not lost
+    cube.data.vertices[1].co.z += 0.5
+    cube.data.update()
+    synced(m, "a mesh edit")
+    cube.data.vertices[2].co.y += 0.5
+    cube.data.update()
+    synced(m, "a second mesh edit")
+    H.check_converged(bpy, d, "a second mesh edit")
     g = d.export_glb()
     gm = next(x for x in g["materials"] if x["name"] == "material_%d" % int(mt["vantage_id"], 16))
     ti = gm["pbrMetallicRoughness"].get("baseColorTexture", {}).get("index")

@@ -163,6 +163,9 @@ class Mirror:
         if self.full_later and now >= self.full_later:
             self.full_later = 0.0
             self.structural = True
+        if self.builder.mesh_retry and now >= self.builder.mesh_retry:
+            self.builder.mesh_retry = 0.0
+            self.structural = True
         if (self.need_full or self.structural) and now - self.last_full >= FULL_MIN_INTERVAL:
             ctx = bpy.context
             dg = ctx.evaluated_depsgraph_get()
@@ -252,7 +255,7 @@ class Mirror:
     # ---- scripts and tests ------------------------------------------------------------
     def synced(self):
         return (self.status == "live" and not self.structural and not self.need_full and not self.dirty_xf
-                and not self.full_later and self.sel_seen[0] is None
+                and not self.full_later and not self.builder.mesh_retry and self.sel_seen[0] is None
                 and self.builder.selected_ids(bpy.context.view_layer) == self.sel_sent and self.link.idle())
 
     def wait_synced(self, timeout=30.0, update=True):

@@ -149,6 +149,7 @@ class Builder:
         self.names = {}       # entity id -> object name (the last snapshot's)
         self.obj_ids = {}     # object name -> entity id
         self.shear_said = set()
+        self.mesh_retry = 0.0  # monotonic time a rate-limited mesh edit is due (0: none)
 
     def say(self, name, why):
         if (name, why) not in self.said:
@@ -213,7 +214,7 @@ class Builder:
         occ_named = []
         holders = {}
         for o in all_objs:
-            if o.type == 'MESH' and o.name in live:
+            if o.type == 'MESH' and o.name in live and not o.name.upper().startswith("OCC_"):
                 h = o if len(o.modifiers) else o.data
                 holders[h.as_pointer()] = h
         cls_of = {h.as_pointer(): c for c, h in self.class_ids.assign(list(holders.values()), self.log).items()}
@@ -284,8 +285,12 @@ class Builder:
         key = ("obj", o.name) if len(o.modifiers) else ("mesh", o.data.name)
         old = self.meshes.get(cls)
         now = time.monotonic()
-        if old is not None and old[1] == key and (key not in self.mesh_dirty or now - old[2] < MESH_MIN_INTERVAL):
-            # unchanged, or rate-limited (the next snapshot sends the edit)
+        if old is not None and old[1] == key and key not in self.mesh_dirty:
+            return cls if old[0] is not None else None
+        if old is not None and old[1] == key and now - old[2] < MESH_MIN_INTERVAL:
+            # rate-limited: the snapshot the mirror takes at mesh_retry sends it
+            due = old[2] + MESH_MIN_INTERVAL
+            self.mesh_retry = min(self.mesh_retry or due, due)
             return cls if old[0] is not None else None
         self.mesh_dirty.discard(key)
         payload = self.encode_mesh(o, cls, depsgraph)
