@@ -445,6 +445,12 @@ class Builder:
                         self.say(m.name, "base colour from a %s node: only an Image Texture is mirrored; its "
                                  "default colour is sent" % node.type)
         clamp = lambda x, lo=0.0, hi=1.0: min(max(float(x), lo), hi)
+        # glTF's emissive colour is 0..1: a brighter Blender colour keeps its
+        # light by moving the excess into the strength (KHR_materials_emissive_strength)
+        peak = max(float(c) for c in emissive)
+        if peak > 1.0:
+            emissive = tuple(float(c) / peak for c in emissive)
+            strength *= peak
         flags = 0 if m.use_backface_culling else 1
         alpha_mode = 1 if getattr(m, "blend_method", "OPAQUE") == 'CLIP' else 0
         return codec.material(mid, base_color=tuple(clamp(c) for c in base[:3]) + (clamp(alpha),),
