@@ -1053,7 +1053,7 @@ static const bad_render bad_renders[] = {
     {"jpeg quality 0", {.view = IDENT_VIEW, .format = VP_FRAME_JPEG, .quality = 0}, VP_ERR_INVALID},
     {"jpeg quality 101", {.view = IDENT_VIEW, .format = VP_FRAME_JPEG, .quality = 101}, VP_ERR_INVALID},
     {"raw with a quality", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .quality = 5}, VP_ERR_INVALID},
-    {"flags 0x20", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .flags = 0x20}, VP_ERR_INVALID},
+    {"flags 0x40", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .flags = 0x40}, VP_ERR_INVALID},
     {"renderer 3", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .renderer = 3}, VP_ERR_INVALID},
     {"exposure NaN", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .exposure_ev = NAN}, VP_ERR_NONFINITE},
     {"exposure 65 EV", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .exposure_ev = 65}, VP_ERR_INVALID},
@@ -1088,7 +1088,8 @@ static void test_known_types(void **state)
     vp_writer w;
     assert_true(vp_type_known(VP_VIS_QUERY));
     assert_true(vp_type_known(VP_MARK));
-    assert_false(vp_type_known(0x0602)); /* more commands and input: reserved, not yet a message */
+    assert_true(vp_type_known(VP_SELECT) && vp_type_known(VP_SELECTED));
+    assert_false(vp_type_known(0x0604)); /* more commands and input: reserved, not yet a message */
     assert_true(vp_type_known(VP_DESTROY));
     vp_writer_init(&w, g_buf, sizeof g_buf);
     enc_destroy(&w, 2); /* a pad byte set */
