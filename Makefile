@@ -27,7 +27,8 @@ DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-de
             zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
             gnuplot-nox blender python3-numpy libwslay-dev libssl-dev openssl chromium \
             libx264-dev libavcodec-dev libavutil-dev clang lld wasi-libc libclang-rt-14-dev-wasm32
-# (blender and python3-numpy: make bench-cycles, the renderer against Cycles; not needed by make test)
+# (blender and python3-numpy: the Blender live-link's tests in make test (tests/blender, skipped when
+# blender is missing) and make bench-cycles, the renderer against Cycles)
 # Node.js and npm (the browser tests, tests/web): Debian's nodejs and npm, unless a node and an npm
 # are there already (a NodeSource nodejs carries its own npm and conflicts with Debian's)
 NODE_PKGS := nodejs npm
@@ -196,10 +197,22 @@ WASM_FLAGS := --target=wasm32-wasi -std=c11 $(WARN) -O2 -D_GNU_SOURCE -Iculling 
 
 SCENE    ?= tests/data/scenes/city_scene.txt
 
-.PHONY: all run demo test test-web bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
+# the Blender add-on (client/blender/vantage_link, pure Python) as the zip
+# Blender's "Install add-on" takes: one folder vantage_link/ inside
+BLENDER_ZIP := build/vantage_link.zip
+BLENDER_SRC := $(wildcard client/blender/vantage_link/*.py)
+
+.PHONY: all run demo test test-web test-blender bench-blender docs-blender-shot bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN) \
-     $(WASM_BIN)
+     $(WASM_BIN) $(BLENDER_ZIP)
+
+
+$(BLENDER_ZIP): $(BLENDER_SRC)
+	@mkdir -p $(@D)
+	rm -f $@
+	cd client/blender && python3 -c 'import sys, zipfile; z = zipfile.ZipFile(sys.argv[1], "w", zipfile.ZIP_DEFLATED); [z.write(f) for f in sys.argv[2:]]; z.close()' \
+	  $(abspath $@) $(patsubst client/blender/%,%,$(BLENDER_SRC))
 
 # ---- dependencies -----------------------------------------------------------
 # check-deps runs before every build: it calls `make deps` only when a tool or
@@ -377,7 +390,7 @@ test-one: check-deps $(TEST_BIN)
 # run one binary after another
 BUILD_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 test: check-deps
-	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull \
+	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull $(BLENDER_ZIP) \
 	  build/release/bench_occlusion build/release/bench_render build/release/bench_h264
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan build/asan/vantage_tests
@@ -391,6 +404,7 @@ test: check-deps
 	VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/scalar ./build/scalar/vantage_tests
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
 	VANTAGE_BIN_DIR=build/release tests/web/run.sh
+	VANTAGE_BIN_DIR=build/release tests/blender/run.sh
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/asan ./build/asan/vantage_tests
 
@@ -399,6 +413,26 @@ test: check-deps
 test-web: check-deps
 	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN)
 	VANTAGE_BIN_DIR=$(BUILD) tests/web/run.sh
+
+# the Blender live-link (client/blender) in headless Blender against this configuration's
+# vantaged and vantage (tests/blender/run.sh; skipped when blender is missing; about 15 s)
+test-blender: check-deps
+	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN) $(BLENDER_ZIP)
+	VANTAGE_BIN_DIR=$(BUILD) tests/blender/run.sh
+
+# the live-link's latency: Blender's depsgraph handler to the ACK of the daemon epoch
+# holding the edit, p50/p99 over 1,000 edits (tests/blender/bench_link.py; not in make test)
+bench-blender: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	VANTAGE_BIN_DIR=build/release blender -b --factory-startup --python-exit-code 1 \
+	  --python tests/blender/bench_link.py -- --edits $(or $(BENCH_EDITS),1000)
+
+# docs/blender_link.png: a scene in headless Blender, Cycles (CPU) beside vantaged's frame of the
+# same camera, mirrored by the live-link (tests/blender/screenshot.py; about 15 s)
+docs-blender-shot: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage
+	VANTAGE_BIN_DIR=build/release blender -b --factory-startup --python-exit-code 1 \
+	  --python tests/blender/screenshot.py -- $(CURDIR)/docs/blender_link.png
 
 # make test runs the randomized tests whole in the release build and at
 # half size in the scalar and ASan builds, and the every-bit damage
@@ -468,6 +502,8 @@ install: check-deps
 	install -m 644 web/*.html web/*.css $(DESTDIR)$(PREFIX)/share/vantage/web/
 	install -m 644 web/js/*.js $(WASM_BIN) $(DESTDIR)$(PREFIX)/share/vantage/web/js/
 	sed 's|@PREFIX@|$(PREFIX)|' client/lib/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
+	@$(MAKE) --no-print-directory $(BLENDER_ZIP)
+	install -m 644 $(BLENDER_ZIP) $(DESTDIR)$(PREFIX)/share/vantage/
 
 # installs into build/<config>/stage and builds a program with pkg-config
 install-check:
