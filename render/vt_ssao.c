@@ -87,8 +87,10 @@ void vt_ssao_view_make(const cull_view_rows *vr, uint32_t w, uint32_t h, vt_ssao
     memcpy(R[1], vr->y, sizeof R[1]);
     memcpy(R[2], vr->d, sizeof R[2]);
     memcpy(R[3], vr->w, sizeof R[3]);
-    if (!w || !h || !vt_inv4(R, Ri)) return;
+    /* the size first: a view it cannot unproject (ok false) still gets
+       an ambient occlusion of 1 for every pixel the shading reads */
     sv->w = w, sv->h = h, sv->hw = (w + 1) / 2, sv->hh = (h + 1) / 2;
+    if (!w || !h || !vt_inv4(R, Ri)) return;
     sv->ortho = vr->ortho != 0;
     for (int r = 0; r < 4; r++)
         for (int c = 0; c < 4; c++) sv->inv[r][c] = (float)Ri[r][c];
