@@ -1114,6 +1114,19 @@ static size_t sorted_query(const cull_world *w, cull_ctx *c, const cull_query_de
     return n;
 }
 
+/* An axis-aligned box occluder of the unit cube v somewhere in s, in a
+ * sub-level 0..2. */
+static cull_occluder_desc random_box(rng *r, const oscene *s, const float *v)
+{
+    cull_occluder_desc d = {.vertices = v, .vertex_count = 36, .sublevel = (uint16_t)rng_below(r, 3)};
+    for (int k = 0; k < 3; k++) {
+        d.transform[k * 5] = rng_log(r, 0.5, 20);
+        d.transform[12 + k] = s->base[k] + rng_range(r, -50, 50);
+    }
+    d.transform[15] = 1;
+    return d;
+}
+
 /* A long-lived context answers exactly as a new one (no history at all)
  * through 600 random steps: the same view again, a new view, a view moved
  * by one ulp, occluders added, replaced and removed, sub-level sets and
@@ -1151,25 +1164,11 @@ static void test_occ_buffer_reuse(void **state)
             view.origin[0] = nextafter(view.origin[0], INFINITY);
             changed = true;
         } else if (op == 3 && nmine < 64) {
-            double m[16] = {0};
-            for (int k = 0; k < 3; k++) {
-                m[k * 5] = rng_log(&r, 0.5, 20);
-                m[12 + k] = s.base[k] + rng_range(&r, -50, 50);
-            }
-            m[15] = 1;
-            cull_occluder_desc d = {.vertices = v, .vertex_count = 36, .sublevel = (uint16_t)rng_below(&r, 3)};
-            memcpy(d.transform, m, sizeof m);
+            cull_occluder_desc d = random_box(&r, &s, v);
             assert_int_equal(cull_occluder_add(s.w, &d, &mine[nmine++]), CULL_OK);
             changed = true;
-        } else if (op == 4 && nmine) { /* replaced: moved by a metre */
-            double m[16] = {0};
-            for (int k = 0; k < 3; k++) {
-                m[k * 5] = rng_log(&r, 0.5, 20);
-                m[12 + k] = s.base[k] + rng_range(&r, -50, 50);
-            }
-            m[15] = 1;
-            cull_occluder_desc d = {.vertices = v, .vertex_count = 36, .sublevel = (uint16_t)rng_below(&r, 3)};
-            memcpy(d.transform, m, sizeof m);
+        } else if (op == 4 && nmine) { /* replaced: another box */
+            cull_occluder_desc d = random_box(&r, &s, v);
             assert_int_equal(cull_occluder_update(s.w, mine[rng_below(&r, nmine)], &d), CULL_OK);
             changed = true;
         } else if (op == 5 && nmine) {
