@@ -222,6 +222,7 @@ static inline void fxaa8(const vt_post_fx *fx, vi xi, uint32_t y, uint32_t live,
     vf subpixNWSWNESE = ADD(lumaNWSW, lumaNESE);
     vf horz = _mm256_cmp_ps(edgeHorz, edgeVert, _CMP_GE_OQ);
     vf subpixA = ADD(MUL(subpixNSWE, S1(2)), subpixNWSWNESE);
+    const vf lumaN0 = lumaN, lumaS0 = lumaS; /* before the span's choice: first_ends reads them */
     lumaN = SEL(horz, lumaN, lumaW);
     lumaS = SEL(horz, lumaS, lumaE);
     vf subpixB = SUB(MUL(subpixA, S1(1.0f / 12.0f)), lumaM);
@@ -239,7 +240,20 @@ static inline void fxaa8(const vt_post_fx *fx, vi xi, uint32_t y, uint32_t live,
     vf nx = SUB(bx, MUL(ox, S1(step[0]))), ny = SUB(by, MUL(oy, S1(step[0])));
     vf px = ADD(bx, MUL(ox, S1(step[0]))), py = ADD(by, MUL(oy, S1(step[0])));
     vf subpixD = ADD(MUL(S1(-2), subpixC), S1(3));
-    vf lumaEndN = luma8(fx, nx, ny, clamp), lumaEndP = luma8(fx, px, py, clamp);
+    /* The search's first taps, one pixel along the edge and half a
+       pixel across, fall on texel edges inside the 3 x 3 neighbourhood:
+       luma8's bilinear there is one texel plus half the difference to
+       the next (the other weight is 0, which adds an exact 0), so they
+       come from the registers, not 8 gathers (same bits as luma_at):
+       horizontal span, N end (x - 1): NW..W or W..SW as the side is N or
+       S; P end (x + 1): NE..E or E..SE; vertical span, N end (y - 1):
+       NW..N or N..NE; P end (y + 1): SW..S or S..SE. */
+    const vf h = S1(0.5f);
+    vf hN = SEL(pairN, ADD(lumaNW, MUL(SUB(lumaW, lumaNW), h)), ADD(lumaW, MUL(SUB(lumaSW, lumaW), h)));
+    vf hP = SEL(pairN, ADD(lumaNE, MUL(SUB(lumaE, lumaNE), h)), ADD(lumaE, MUL(SUB(lumaSE, lumaE), h)));
+    vf vN = SEL(pairN, ADD(lumaNW, MUL(SUB(lumaN0, lumaNW), h)), ADD(lumaN0, MUL(SUB(lumaNE, lumaN0), h)));
+    vf vP = SEL(pairN, ADD(lumaSW, MUL(SUB(lumaS0, lumaSW), h)), ADD(lumaS0, MUL(SUB(lumaSE, lumaS0), h)));
+    vf lumaEndN = SEL(horz, hN, vN), lumaEndP = SEL(horz, hP, vP);
     vf subpixE = MUL(subpixC, subpixC);
     lumaNN = SEL(pairN, lumaNN, lumaSS);
     vf gradientScaled = MUL(gradient, S1(0.25f));
