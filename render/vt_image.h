@@ -210,10 +210,9 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
  * none is left, so bands may be more than the runner's threads (the load
  * balances) and a runner may run fewer jobs than n (a pool clamps n to
  * its threads): the calling thread encodes what is left. rows_hook, when set, is called on the
- * band's own thread for each chunk of rows [y0, y1) of pix (16, an MCU
- * row) just before libjpeg reads them, to fill them (a tone map: its
- * bytes are then still in that core's L1/L2). A nonzero return fails
- * the call with that code (a vt_err.h code).
+ * band's own thread before the band is encoded, to fill rows [y0, y1) of
+ * pix (a tone map: the band's bytes are then still in that core's cache);
+ * a nonzero return fails the call with that code (a vt_err.h code).
  * Falls back to one band when a band's MCUs would not fit the 16-bit
  * restart interval (images over ~4096 wide). Arguments, result and errors
  * as vt_jpeg_encode; the bands' messages come back through err. */

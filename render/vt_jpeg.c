@@ -153,8 +153,6 @@ typedef struct jpg_job {
     uint32_t       pixel_bytes;
     int            quality;
     unsigned       restart;     /* restart interval in MCUs (vt_jpeg_encode_par's bands), 0: none */
-    const vt_jpeg_par *par;     /* its rows_hook fills each chunk of rows before it is read; NULL: none */
-    uint32_t       y0;          /* the first row's number for rows_hook */
     /* decompressing */
     struct jpeg_decompress_struct di;
     const uint8_t *data;
@@ -193,14 +191,6 @@ static void jpg_compress_body(jpg_job *j)
     while (ci->next_scanline < ci->image_height) {
         JDIMENSION n = ci->image_height - ci->next_scanline;
         if (n > JPG_ROWS) n = JPG_ROWS;
-        /* a band's rows are made (tone-mapped) a chunk at a time, just
-           before libjpeg reads them: 16 rows of RGBA8 (80 KB at 1280
-           wide) stay in L1/L2, where a band made whole (~1 MB) was read
-           back from L3 */
-        int rc;
-        uint32_t y = j->y0 + ci->next_scanline;
-        if (j->par && j->par->rows_hook && (rc = j->par->rows_hook(j->par->hook_ctx, y, y + n)))
-            jpg_abort((j_common_ptr)ci, rc, "rows %u..%u: %s", y, y + n, vt_strerror(rc));
         for (JDIMENSION i = 0; i < n; i++) /* libjpeg only reads the rows */
             rows[i] = (JSAMPROW)(uintptr_t)(j->px + (size_t)(ci->next_scanline + i) * j->stride);
         jpeg_write_scanlines(ci, rows, n);
@@ -264,8 +254,7 @@ int vt_jpeg_write(const char *path, uint32_t width, uint32_t height, const uint8
  * vt_jpeg_encode_par (restart: the interval in MCUs, 0 none); the
  * arguments are checked. */
 static int jpg_encode_mem(vt_call *c, uint32_t width, uint32_t height, const uint8_t *pix, size_t stride,
-                          uint32_t pixel_bytes, int quality, unsigned restart, const vt_jpeg_par *par, uint32_t y0,
-                          uint8_t **out, size_t *out_len)
+                          uint32_t pixel_bytes, int quality, unsigned restart, uint8_t **out, size_t *out_len)
 {
     jpg_job *j = calloc(1, sizeof *j);
     if (!j) {
@@ -273,7 +262,7 @@ static int jpg_encode_mem(vt_call *c, uint32_t width, uint32_t height, const uin
         return VT_ERR_NOMEM;
     }
     *j = (jpg_job){.px = pix, .stride = stride, .pixel_bytes = pixel_bytes, .quality = quality,
-                   .restart = restart, .par = par, .y0 = y0, .w = width, .h = height};
+                   .restart = restart, .w = width, .h = height};
     jpg_err_init(&j->err, c);
     /* first guess 1/4 byte per pixel (2 bits: q85 on rendered frames);
      * doubling from there */
@@ -301,8 +290,7 @@ int vt_jpeg_encode(uint32_t width, uint32_t height, const uint8_t *pix, size_t r
 {
     vt_call c = vt_call_begin("<memory>", err, errlen);
     int rc = jpg_check_mem(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality, out, out_len);
-    if (rc == 0)
-        rc = jpg_encode_mem(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality, 0, NULL, 0, out, out_len);
+    if (rc == 0) rc = jpg_encode_mem(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality, 0, out, out_len);
     return vt_call_end(&c, rc);
 }
 
@@ -334,9 +322,12 @@ static void jpg_band_one(jpg_par_job *p, uint32_t t)
     jpg_band *b = &p->band[t];
     uint32_t y0 = t * p->rows, y1 = p->h - y0 > p->rows ? y0 + p->rows : p->h;
     vt_call c = vt_call_begin("band", b->err, sizeof b->err);
-    /* rows_hook runs inside, a chunk of rows at a time (jpg_compress_body) */
+    if (p->par->rows_hook && (b->rc = p->par->rows_hook(p->par->hook_ctx, y0, y1))) {
+        vt_call_msg(&c, "rows %u..%u: %s", y0, y1, vt_strerror(b->rc));
+        return;
+    }
     b->rc = jpg_encode_mem(&c, p->w, y1 - y0, p->px + (size_t)y0 * p->stride, p->stride, p->pixel_bytes,
-                           p->quality, p->restart, p->par, y0, &b->buf, &b->len);
+                           p->quality, p->restart, &b->buf, &b->len);
 }
 
 /* A runner's job: bands taken in order until none is left, whichever t
@@ -415,7 +406,10 @@ int vt_jpeg_encode_par(uint32_t width, uint32_t height, const uint8_t *pix, size
     uint64_t restart = (uint64_t)rows / JPG_MCU * ((width + JPG_MCU - 1) / JPG_MCU);
     if (n < 2 || restart > 65535) {
         /* one band: JPEG's restart interval is 16 bits */
-        rc = jpg_encode_mem(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality, 0, par, 0, out, out_len);
+        if (par && par->rows_hook && (rc = par->rows_hook(par->hook_ctx, 0, height)))
+            vt_call_msg(&c, "rows 0..%u: %s", height, vt_strerror(rc));
+        if (rc == 0)
+            rc = jpg_encode_mem(&c, width, height, pix, row_stride_bytes, pixel_bytes, quality, 0, out, out_len);
         return vt_call_end(&c, rc);
     }
     jpg_par_job *p = calloc(1, sizeof *p);
