@@ -11,6 +11,8 @@
 
 #if defined(__AVX2__)
 #include <immintrin.h>
+#include <pthread.h>
+#include <string.h>
 
 /* 0.2126 R + 0.7152 G + 0.0722 B of 8 pixels (a..d: 2 each), summed as
  * the scalar lum does: (r' + g') + (b' + 0), alpha's product forced to 0
@@ -59,6 +61,11 @@ static uint32_t prep_row(float *p, uint32_t n, float s, float *l)
     const __m256i order = _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7);
     uint32_t x = 0;
     for (; x + 8 <= n; x += 8, p += 32, l += 8) {
+        /* 1 KiB ahead (past the row's end: harmless, the next row is
+           next in memory): the hardware's stream prefetch stops at each
+           4 KiB page */
+        _mm_prefetch((const char *)(p + 256), _MM_HINT_T0);
+        _mm_prefetch((const char *)(p + 272), _MM_HINT_T0);
         __m256 a = _mm256_mul_ps(_mm256_loadu_ps(p), sc), b = _mm256_mul_ps(_mm256_loadu_ps(p + 8), sc);
         __m256 c = _mm256_mul_ps(_mm256_loadu_ps(p + 16), sc), d = _mm256_mul_ps(_mm256_loadu_ps(p + 24), sc);
         _mm256_storeu_ps(p, a);
@@ -178,23 +185,29 @@ static inline void colour8(const vt_post_fx *fx, vf px, vf py, float out[3][8])
     for (int k = 0; k < 3; k++) _mm256_storeu_ps(out[k], MUL(o[k], e));
 }
 
-/* clamp 0: every tap of the search is inside the picture (fxaa_row
- * checks the margin), the clamps are skipped (they would change nothing) */
-static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t bits, float out[3][8], int clamp)
+/* FXAA of 8 edge pixels of row y at columns xi (lanes not in live: a
+ * copy of a live lane's column, results dropped). clamp 0: every tap of
+ * the search is inside the picture (fxaa_row checks the margin), the
+ * clamps are skipped (they would change nothing). The 3 x 3 neighbours
+ * are gathered at one index (the base pointer moved): the pixels are
+ * the row's edge pixels packed, not 8 neighbours. */
+static inline void fxaa8(const vt_post_fx *fx, vi xi, uint32_t y, uint32_t live, float out[3][8], int clamp)
 {
     static const float step[VT_FX_STEPS] = VT_FX_STEP_LIST;
-    const float *L = fx->luma;
-    const size_t w = fx->w, m = (size_t)y * w + x0;
-    vf lumaM = _mm256_loadu_ps(L + m);
-    vf lumaS = _mm256_loadu_ps(L + m + w), lumaE = _mm256_loadu_ps(L + m + 1);
-    vf lumaN = _mm256_loadu_ps(L + m - w), lumaW = _mm256_loadu_ps(L + m - 1);
+    const float *L = fx->luma + (size_t)y * fx->w;
+    const ptrdiff_t w = (ptrdiff_t)fx->w;
+#define TAP(d) _mm256_i32gather_ps(L + (d), xi, 4)
+    vf lumaM = TAP(0);
+    vf lumaS = TAP(w), lumaE = TAP(1);
+    vf lumaN = TAP(-w), lumaW = TAP(-1);
     vf maxSM = vmx(lumaS, lumaM), minSM = vmn(lumaS, lumaM);
     vf maxESM = vmx(lumaE, maxSM), minESM = vmn(lumaE, minSM);
     vf maxWN = vmx(lumaN, lumaW), minWN = vmn(lumaN, lumaW);
     vf rangeMax = vmx(maxWN, maxESM), rangeMin = vmn(minWN, minESM);
     vf range = SUB(rangeMax, rangeMin);
-    vf lumaNW = _mm256_loadu_ps(L + m - w - 1), lumaSE = _mm256_loadu_ps(L + m + w + 1);
-    vf lumaNE = _mm256_loadu_ps(L + m - w + 1), lumaSW = _mm256_loadu_ps(L + m + w - 1);
+    vf lumaNW = TAP(-w - 1), lumaSE = TAP(w + 1);
+    vf lumaNE = TAP(-w + 1), lumaSW = TAP(w - 1);
+#undef TAP
     vf lumaNS = ADD(lumaN, lumaS), lumaWE = ADD(lumaW, lumaE);
     vf subpixRcpRange = _mm256_div_ps(S1(1), range);
     vf subpixNSWE = ADD(lumaNS, lumaWE);
@@ -209,6 +222,7 @@ static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t
     vf subpixNWSWNESE = ADD(lumaNWSW, lumaNESE);
     vf horz = _mm256_cmp_ps(edgeHorz, edgeVert, _CMP_GE_OQ);
     vf subpixA = ADD(MUL(subpixNSWE, S1(2)), subpixNWSWNESE);
+    const vf lumaN0 = lumaN, lumaS0 = lumaS; /* before the span's choice: first_ends reads them */
     lumaN = SEL(horz, lumaN, lumaW);
     lumaS = SEL(horz, lumaS, lumaE);
     vf subpixB = SUB(MUL(subpixA, S1(1.0f / 12.0f)), lumaM);
@@ -218,7 +232,7 @@ static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t
     vf gradient = vmx(vabs(gradientN), vabs(gradientS));
     vf lengthSign = SEL(pairN, S1(-1), S1(1));
     vf subpixC = vmn(vmx(MUL(vabs(subpixB), subpixRcpRange), _mm256_setzero_ps()), S1(1));
-    vf xs = ADD(_mm256_cvtepi32_ps(_mm256_set1_epi32((int)x0)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
+    vf xs = _mm256_cvtepi32_ps(xi);
     vf ys = S1((float)y);
     vf ox = SEL(horz, S1(1), S1(0)), oy = SEL(horz, S1(0), S1(1));
     vf half = MUL(lengthSign, S1(0.5f));
@@ -226,7 +240,20 @@ static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t
     vf nx = SUB(bx, MUL(ox, S1(step[0]))), ny = SUB(by, MUL(oy, S1(step[0])));
     vf px = ADD(bx, MUL(ox, S1(step[0]))), py = ADD(by, MUL(oy, S1(step[0])));
     vf subpixD = ADD(MUL(S1(-2), subpixC), S1(3));
-    vf lumaEndN = luma8(fx, nx, ny, clamp), lumaEndP = luma8(fx, px, py, clamp);
+    /* The search's first taps, one pixel along the edge and half a
+       pixel across, fall on texel edges inside the 3 x 3 neighbourhood:
+       luma8's bilinear there is one texel plus half the difference to
+       the next (the other weight is 0, which adds an exact 0), so they
+       come from the registers, not 8 gathers (same bits as luma_at):
+       horizontal span, N end (x - 1): NW..W or W..SW as the side is N or
+       S; P end (x + 1): NE..E or E..SE; vertical span, N end (y - 1):
+       NW..N or N..NE; P end (y + 1): SW..S or S..SE. */
+    const vf h = S1(0.5f);
+    vf hN = SEL(pairN, ADD(lumaNW, MUL(SUB(lumaW, lumaNW), h)), ADD(lumaW, MUL(SUB(lumaSW, lumaW), h)));
+    vf hP = SEL(pairN, ADD(lumaNE, MUL(SUB(lumaE, lumaNE), h)), ADD(lumaE, MUL(SUB(lumaSE, lumaE), h)));
+    vf vN = SEL(pairN, ADD(lumaNW, MUL(SUB(lumaN0, lumaNW), h)), ADD(lumaN0, MUL(SUB(lumaNE, lumaN0), h)));
+    vf vP = SEL(pairN, ADD(lumaSW, MUL(SUB(lumaS0, lumaSW), h)), ADD(lumaS0, MUL(SUB(lumaSE, lumaS0), h)));
+    vf lumaEndN = SEL(horz, hN, vN), lumaEndP = SEL(horz, hP, vP);
     vf subpixE = MUL(subpixC, subpixC);
     lumaNN = SEL(pairN, lumaNN, lumaSS);
     vf gradientScaled = MUL(gradient, S1(0.25f));
@@ -236,9 +263,9 @@ static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t
     vf lumaMLTZero = _mm256_cmp_ps(lumaMM, _mm256_setzero_ps(), _CMP_LT_OQ);
     lumaEndN = SUB(lumaEndN, halfNN);
     lumaEndP = SUB(lumaEndP, halfNN);
-    /* lanes that took the early exit count as done (their results are dropped) */
+    /* lanes not live count as done (their results are dropped) */
     vf idle = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
-        _mm256_and_si256(_mm256_set1_epi32((int)bits), _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128)),
+        _mm256_and_si256(_mm256_set1_epi32((int)live), _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128)),
         _mm256_setzero_si256()));
     vf doneN = _mm256_cmp_ps(vabs(lumaEndN), gradientScaled, _CMP_GE_OQ);
     vf doneP = _mm256_cmp_ps(vabs(lumaEndP), gradientScaled, _CMP_GE_OQ);
@@ -272,31 +299,68 @@ static inline void fxaa8(const vt_post_fx *fx, uint32_t x0, uint32_t y, uint32_t
     colour8(fx, ux, uy, out);
 }
 
+/* The n (1..8) packed columns q[0..n) of row y through fxaa8, their
+ * results appended to o; the count. The margin test is per batch: its
+ * columns rise, so the first and the last bound it. */
+static uint32_t fxaa_batch(const vt_post_fx *fx, uint32_t y, const uint32_t *q, uint32_t n, vt_post_fx_out *o)
+{
+    uint32_t xs[8];
+    for (uint32_t k = 0; k < 8; k++) xs[k] = q[k < n ? k : n - 1];
+    float c[3][8];
+    /* the search reaches 8.5 pixels along an edge (its sampled steps), a
+       tap 1 further and half a pixel across: a margin of 12 keeps every
+       tap inside */
+    vi xi = _mm256_loadu_si256((const __m256i *)(const void *)xs);
+    uint32_t live = (1u << n) - 1;
+    if (xs[0] >= 12 && xs[7] + 12 < fx->w && y >= 12 && y + 12 < fx->h) fxaa8(fx, xi, y, live, c, 0);
+    else fxaa8(fx, xi, y, live, c, 1);
+    for (uint32_t k = 0; k < n; k++) o[k] = (vt_post_fx_out){.i = y * fx->w + xs[k], .c = {c[0][k], c[1][k], c[2][k]}};
+    return n;
+}
+
+/* The early exit 8 pixels a step; the pixels past it packed 8 to a
+ * batch (a city frame's edge pixels are a fifth of its pixels but come
+ * scattered: FXAA on each 8 neighbours with any edge ran its search for
+ * all 8 lanes, most of them idle). */
+/* pack[m]: the lanes set in m, in order, a byte each (the rest 0) */
+static uint64_t pack[256];
+
+static void pack_init(void)
+{
+    for (uint32_t m = 0; m < 256; m++) {
+        uint64_t v = 0;
+        for (uint32_t k = 0, n = 0; k < 8; k++)
+            if (m >> k & 1) v |= (uint64_t)k << (8 * n++);
+        pack[m] = v;
+    }
+}
+
 static uint32_t fxaa_row(const vt_post_fx *fx, uint32_t y, vt_post_fx_out *o, uint32_t *x_end)
 {
     const size_t w = fx->w;
-    uint32_t no = 0, x = 1;
+    uint32_t no = 0, x = 1, q[24], nq = 0;
     for (; x + 9 <= w; x += 8) {
         uint32_t bits = edge8(fx->luma, (size_t)y * w + x, w);
-        if (!bits) continue;
-        float c[3][8];
-        /* the search reaches 8.5 pixels along an edge (its sampled
-           steps), a tap 1 further and half a pixel across: a margin of
-           12 keeps every tap inside */
-        if (x >= 12 && x + 8 + 12 <= w && y >= 12 && y + 12 < fx->h) fxaa8(fx, x, y, bits, c, 0);
-        else fxaa8(fx, x, y, bits, c, 1);
-        for (; bits; bits &= bits - 1) {
-            uint32_t k = (uint32_t)__builtin_ctz(bits);
-            o[no] = (vt_post_fx_out){.i = y * fx->w + x + k, .c = {c[0][k], c[1][k], c[2][k]}};
-            no++;
+        /* the survivors' columns appended in one store (a loop over the
+           bits cost a mispredicted branch a group) */
+        __m256i k = _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(const void *)&pack[bits]));
+        _mm256_storeu_si256((__m256i *)(void *)(q + nq), _mm256_add_epi32(k, _mm256_set1_epi32((int)x)));
+        nq += (uint32_t)__builtin_popcount(bits);
+        if (nq >= 8) {
+            no += fxaa_batch(fx, y, q, 8, o + no);
+            nq -= 8;
+            memcpy(q, q + 8, nq * sizeof *q);
         }
     }
+    if (nq) no += fxaa_batch(fx, y, q, nq, o + no);
     *x_end = x;
     return no;
 }
 
 vt_post_kern vt_post_kern_avx2(void)
 {
+    static pthread_once_t once = PTHREAD_ONCE_INIT;
+    pthread_once(&once, pack_init);
     return (vt_post_kern){hist_row, prep_row, fxaa_row};
 }
 #else

@@ -428,6 +428,15 @@ int vt_image_tonemap(uint32_t width, uint32_t height, const vt_image_src *src,
                past the buffer), the SSE2 row for the rest */
             uint32_t n = aces_lanes ? (width - 1) / 8 * 8 : 0;
             uint8_t *o = out + (size_t)y * out_stride_bytes;
+            if (y + 1 < height) {
+                /* the next row's first KiB asked for now: the daemon's
+                   rows go down in memory (bottom-up picture, top row
+                   first), and each row began with misses to memory
+                   before the hardware's prefetch caught up (the lanes
+                   prefetch ahead within a row) */
+                const char *nx = (const char *)(r->data + (ptrdiff_t)(y + 1) * r->y_stride);
+                for (int k = 0; k < 16; k++) __builtin_prefetch(nx + 64 * k);
+            }
             if (n) aces_lanes(pr, n, scale, aces_tab, o);
             aces_row_rgbx(pr + 4 * (size_t)n, width - n, scale, o + 4 * (size_t)n);
             continue;

@@ -38,6 +38,10 @@ static void aces_rgbx(const float *p, uint32_t n, double scale, const uint32_t *
     const int scaled = scale != 1.0; /* x * 1.0 in double is x: skipped */
     const __m256i order = _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7), alpha = _mm256_set1_epi32((int)0xff000000u);
     for (uint32_t x = 0; x < n; x += 8, p += 32, o += 32) {
+        /* 1 KiB ahead (a prefetch past the row's end is harmless): the
+           hardware's stream prefetch stops at each 4 KiB page */
+        _mm_prefetch((const char *)(p + 256), _MM_HINT_T0);
+        _mm_prefetch((const char *)(p + 272), _MM_HINT_T0);
         __m256i a = codes8(_mm256_loadu_ps(p), tab, k, scaled), b = codes8(_mm256_loadu_ps(p + 8), tab, k, scaled);
         __m256i c = codes8(_mm256_loadu_ps(p + 16), tab, k, scaled), d = codes8(_mm256_loadu_ps(p + 24), tab, k, scaled);
         /* packs work within 128-bit halves: pixels come out 0 2 4 6 1 3 5 7 */
