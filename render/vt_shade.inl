@@ -404,6 +404,47 @@ static inline __attribute__((always_inline)) void light(surf *restrict s, const 
     }
 }
 
+/* The first 256 bytes of the shading record of pixel id id (a triangle's) to the cache. */
+static inline void prefetch_rec(const vt_span *sp, uint32_t id)
+{
+    const char *t = (const char *)&sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
+    __builtin_prefetch(t), __builtin_prefetch(t + 64), __builtin_prefetch(t + 128), __builtin_prefetch(t + 192);
+}
+
+/* The records of the span's pixels (at a row's start) and of the next
+ * span's to the cache (they are spread over a few MB: one miss after
+ * another per group otherwise). */
+static inline void prefetch_span(const vt_span *sp)
+{
+    const uint32_t width = (uint32_t)(2.0 / sp->inv_w + 0.5);
+    const unsigned e = sp->x0 + 2 * S <= width ? 2 * S : sp->n;
+    unsigned i = sp->x0 ? S : 0;
+    /* a record's first pixel in a run (its id not the pixel before's, not
+       0 or the ground), W ids a compare: the scalar scan of 16-32 ids was
+       7 % of the kernel's instructions. A record seen again after a gap
+       is fetched again: a few instructions, the line is in the cache */
+    for (; i + W <= e; i += W) {
+        A uint32_t lead[W];
+        const uint32_t *before = sp->id + i - 1;
+        if (!i) {
+            lead[0] = 0;
+            for (unsigned j = 1; j < W; j++) lead[j] = sp->id[j - 1];
+            before = lead;
+        }
+        const vix a = vi_loadu(sp->id + i);
+        const vm same = vm_or(vi_eq(a, vi_loadu(before)), vm_or(vi_eq(a, vi_set(0)), vi_eq(a, vi_set((int32_t)VT_ID_GROUND))));
+        for (uint32_t first = lanes_all() & ~vm_bits(same); first; first &= first - 1) {
+            prefetch_rec(sp, sp->id[i + (unsigned)__builtin_ctz(first)]);
+        }
+    }
+    for (uint32_t prev = i ? sp->id[i - 1] : 0; i < e; i++) { /* a short span's rest */
+        uint32_t id = sp->id[i];
+        if (id == prev || id == 0 || id == VT_ID_GROUND) continue;
+        prev = id;
+        prefetch_rec(sp, id);
+    }
+}
+
 void VT_SHADE_NAME(const vt_span *sp)
 {
     surf s;
@@ -434,17 +475,7 @@ void VT_SHADE_NAME(const vt_span *sp)
        per material among them the material in lanes: two triangles of
        one mesh side by side sample their textures once. What the lanes
        do not cover goes through vt_span_surface pixel by pixel. */
-    /* the records of this span (at a row's start) and of the next one
-       in the row fetched ahead (they are spread over a few MB: one miss
-       after another per group otherwise) */
-    const uint32_t width = (uint32_t)(2.0 / sp->inv_w + 0.5);
-    for (unsigned i = sp->x0 ? S : 0, prev = 0, e = sp->x0 + 2 * S <= width ? 2 * S : sp->n; i < e; i++) {
-        uint32_t id = sp->id[i];
-        if (id == prev || id == 0 || id == VT_ID_GROUND) continue;
-        prev = id;
-        const char *t = (const char *)&sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
-        __builtin_prefetch(t), __builtin_prefetch(t + 64), __builtin_prefetch(t + 128), __builtin_prefetch(t + 192);
-    }
+    prefetch_span(sp);
     const vf zero0 = vf_set(0), one0 = vf_set(1), amb = vf_set(VT_AMBIENT);
     const vt_material *lane_mat = NULL; /* the last material found lane-able (NULL: the default, always) */
     for (unsigned g0 = 0; g0 < S; g0 += W) {
@@ -523,16 +554,14 @@ void VT_SHADE_NAME(const vt_span *sp)
         }
         if (!lanes) continue;
         /* the materials over the lanes' pixels */
-        gout go = {0};
-        for (unsigned q = 0; q < nk; q++) {
+        /* the first material's straight into go (lanes: there is one) */
+        gout go;
+        mat_lanes((const vt_material *)(kl[0] & ~(uintptr_t)1), &in, kl[0] & 1, vm_from_bits(kb[0]), sp->tc, &go);
+        for (unsigned q = 1; q < nk; q++) {
             const uintptr_t k = kl[q];
             const uint32_t mb = kb[q];
             const vm act = vm_from_bits(mb);
             const vt_material *m = (const vt_material *)(k & ~(uintptr_t)1);
-            if (q == 0) {
-                mat_lanes(m, &in, k & 1, act, sp->tc, &go);
-                continue;
-            }
             gout g;
             mat_lanes(m, &in, k & 1, act, sp->tc, &g);
 #define SEL(f) go.f = vf_select(act, g.f, go.f)
