@@ -224,15 +224,32 @@ static inline void ibl_lanes(const vt_ibl *ibl, vf nx, vf ny, vf nz, vf vx_, vf 
     vm ok = vm_and(vf_ge(x, x), vf_ge(y, y)); /* a NaN direction: the centre */
     x = vf_select(ok, x, centre);
     y = vf_select(ok, y, centre);
+    for (int k = 0; k < 3; k++) sp[k] = g[k] = zero;
+    const vf dm = vf_set((float)(VT_DFG_N - 1)), dx = vf_mul(vf_min(vf_abs(nv), one), dm);
+    /* one roughness over the group (one material's pixels) with an entry
+       for it (vt_brdf.h): its blend of the levels, its row of the DFG
+       table (a lane's cell of the row: the lanes' x clamped as
+       bilerp_lanes clamps) */
+    const float r0 = vf_hmin(ro);
+    const int e = vm_bits(vf_le(ro, vf_set(r0))) == lanes_all() ? vt_ibl_rough_find(ibl, r0) : -1;
+    if (e >= 0) {
+        bilerp_lanes(ibl->rspec[e], VT_IBL_RES, vi_set(0), x, y, one, sp, true);
+        vf cx = vf_min(vf_max(dx, zero), dm), fi = vf_min(vf_floor(cx), vf_set((float)(VT_DFG_N - 2))), ax = vf_sub(cx, fi);
+        vix i0 = vx_of(fi);
+        vix c0 = vi_gather(ibl->rdfg[e], i0), c1 = vi_gather(ibl->rdfg[e], vi_add(i0, vi_set(1)));
+        for (int k = 0; k < 3; k++) {
+            vf a = vf_mul(vi_tof(vi_and(vi_srl(c0, 10 * k), vi_set(1023))), vf_set(1 / 1023.0f));
+            vf b = vf_mul(vi_tof(vi_and(vi_srl(c1, 10 * k), vi_set(1023))), vf_set(1 / 1023.0f));
+            g[k] = vf_fma(ax, vf_sub(b, a), a);
+        }
+        return;
+    }
     vf f = vf_mul(ro, vf_set((float)(VT_IBL_LEVELS - 1)));
     vf lv = vf_min(vf_floor(f), vf_set((float)(VT_IBL_LEVELS - 2))), t = vf_sub(f, lv);
     vix off = vx_of(vf_mul(lv, vf_set((float)(VT_IBL_RES * VT_IBL_RES))));
-    for (int k = 0; k < 3; k++) sp[k] = g[k] = zero;
     bilerp_lanes(ibl->spec_e5[0], VT_IBL_RES, off, x, y, vf_sub(one, t), sp, true);
     bilerp_lanes(ibl->spec_e5[1], VT_IBL_RES, off, x, y, t, sp, true);
-    const vf dm = vf_set((float)(VT_DFG_N - 1));
-    bilerp_lanes(ibl->dfg10, VT_DFG_N, vi_set(0), vf_mul(vf_min(vf_abs(nv), one), dm), vf_mul(vf_min(ro, one), dm), one, g,
-                 false);
+    bilerp_lanes(ibl->dfg10, VT_DFG_N, vi_set(0), dx, vf_mul(vf_min(ro, one), dm), one, g, false);
 }
 
 /* glTF's D V for one light (Appendix B): n.h, n.l >= 0, alpha^2, and
