@@ -50,7 +50,7 @@ static vt_texlin *entry_of(const vt_texcache *c, const vt_texview *t)
     return NULL;
 }
 
-const vt_texlin *vt_texcache_find(const vt_texcache *c, const vt_texview *t)
+const vt_texlin *vt_texcache_search(const vt_texcache *c, const vt_texview *t)
 {
     return entry_of(c, t);
 }
@@ -166,6 +166,20 @@ void vt_texcache_prepare(vt_texcache *c, const vt_instance *inst, uint32_t ninst
     for (uint32_t i = 0; i < c->n;)
         if (c->frame - c->e[i].used > TEXLIN_KEEP) entry_free(c, i);
         else i++;
+    /* the probes, once the entries stay where they are */
+    memset(c->mv, 0, sizeof c->mv);
+    last = NULL;
+    for (uint32_t i = 0; i <= ninst; i++) {
+        const vt_material *m = i < ninst ? inst[i].mat : ground;
+        if (!m || m == last) continue;
+        last = m;
+        for (int k = 0; k < 2; k++) {
+            const vt_texview *t = m->tex[k ? VT_SLOT_EMISSIVE : VT_SLOT_BASE].tex;
+            if (!t) continue;
+            unsigned h = vt_texcache_slot(t);
+            c->mv[h] = t, c->ml[h] = entry_of(c, t);
+        }
+    }
 }
 
 void vt_texcache_free(vt_texcache *c)
