@@ -290,13 +290,14 @@ static inline void tex_lanes(const vt_texref *r, vf u0, vf v0, vf dxu0, vf dxv0,
                              unsigned ch, const vt_texcache *tc, vf o[3])
 {
 #if CULL_SIMD_ISA == 3
-    /* an sRGB slot with a decoded copy: halves, no table */
+    /* an sRGB slot with a decoded copy: halves, no table (nor its call) */
     const vt_texlin *tl = srgb_on ? vt_texcache_find(tc, r->tex) : NULL;
+    const float *tab = srgb_on && !tl ? vt_srgb_table() : NULL;
 #else
     (void)tc;
+    const float *tab = srgb_on ? vt_srgb_table() : NULL;
 #endif
     const vt_texview *t = r->tex;
-    const float *tab = srgb_on ? vt_srgb_table() : NULL;
     const float c = r->rotation == 0 ? 1.0f : cosf(r->rotation), s = r->rotation == 0 ? 0.0f : sinf(r->rotation);
     const bool unit = r->scale[0] == 0 && r->scale[1] == 0;
     const vf sx = vf_set(unit ? 1 : r->scale[0]), sy = vf_set(unit ? 1 : r->scale[1]);

@@ -469,7 +469,13 @@ void VT_SHADE_NAME(const vt_span *sp)
     const bool env = sp->pe && sp->pe->on;
     /* nothing drawn in the whole span (sky, off the geometry): no surface */
     uint32_t any = 0;
-    for (unsigned i = 0; i < sp->n; i++) any |= sp->id[i];
+    if (sp->n == S) { /* W ids a compare (the loop was ~30 instructions a span) */
+        vm none = vm_ones();
+        for (unsigned i = 0; i < S; i += W) none = vm_and(none, vi_eq(vi_loadu(sp->id + i), vi_set(0)));
+        any = vm_bits(none) != lanes_all();
+    } else {
+        for (unsigned i = 0; i < sp->n; i++) any |= sp->id[i];
+    }
     if (!any) {
         memset(sp->rgba, 0, (size_t)sp->n * 4 * sizeof(float));
         for (unsigned i = 0; i < sp->n; i++) sp->depth[i] = INFINITY;
