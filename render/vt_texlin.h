@@ -33,8 +33,8 @@ typedef struct vt_texlin {
        (with CLAMP's edges too: their footprints are subsets of these).
        NULL (every level) for a texture with few black footprints: the
        test would cost the sampler more than it skips. Made for the
-       city's window lights (an emissive map ~88 % black), where whole
-       groups of 8 pixels skip their two bilinear samples. */
+       city's window lights (black but for a window in one bay in
+       three), where whole groups of 8 pixels skip their samples. */
     uint32_t *zb[16];
     uint64_t used;          /* the frame that last used it */
     size_t bytes;
