@@ -520,9 +520,13 @@ void VT_SHADE_NAME(const vt_span *sp)
            a group drawn all over needs none (every lane is written) */
         const bool full = pend == lanes_all();
         if (!full) {
-            float *const zs[] = {s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.ar, s.ag, s.ab, s.cr, s.cg, s.cb,
-                                 s.fr, s.fg, s.fb, s.er, s.eg, s.eb, s.sv, cov};
-            for (unsigned k = 0; k < sizeof zs / sizeof zs[0]; k++) vf_store(zs[k] + g0, zero0);
+            /* stores at constant offsets (an array of the pointers was
+               built every span, ~50 instructions, used or not) */
+#define Z(f) vf_store(s.f + g0, zero0)
+            Z(px), Z(py), Z(pz), Z(nx), Z(ny), Z(nz), Z(ar), Z(ag), Z(ab), Z(cr), Z(cg), Z(cb);
+            Z(fr), Z(fg), Z(fb), Z(er), Z(eg), Z(eb), Z(sv);
+#undef Z
+            vf_store(cov + g0, zero0);
             vf_store(s.a2 + g0, one0);
             vf_store(s.ro + g0, one0);
         }
