@@ -9,6 +9,8 @@
  */
 #include "vt_brdf.h"
 
+#include "vt_soft.h"
+
 #include <math.h>
 #include <pthread.h>
 #include <string.h>
@@ -359,6 +361,56 @@ bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
     for (uint32_t lv = 0; lv < VT_IBL_LEVELS; lv++)
         for (uint32_t i = 0; i < VT_IBL_RES * VT_IBL_RES; i++) ibl->spec_e5[lv][i] = vt_rgb_e5(ibl->spec[lv] + 4 * i);
     return true;
+}
+
+/* ibl's entry of roughness r (vt_brdf_rough's) asked for by this frame:
+ * found, or made in a free slot or one no frame asked for since. */
+static void rough_entry(vt_ibl *ibl, float r)
+{
+    int k = vt_ibl_rough_find(ibl, r);
+    if (k < 0) {
+        for (uint32_t q = 0; q < ibl->nr && k < 0; q++)
+            if (ibl->rused[q] != ibl->rframe) k = (int)q;
+        if (k < 0 && ibl->nr == VT_IBL_NR) return; /* all taken this frame: the levels */
+        if (k < 0) k = (int)ibl->nr++;
+        /* the levels' blend as vt_ibl_specular takes it */
+        float f = r * (VT_IBL_LEVELS - 1);
+        uint32_t lv = (uint32_t)f < VT_IBL_LEVELS - 2 ? (uint32_t)f : VT_IBL_LEVELS - 2;
+        float t = f - (float)lv;
+        for (uint32_t i = 0; i < VT_IBL_RES * VT_IBL_RES; i++) {
+            const float *a = ibl->spec[lv] + 4 * i, *b = ibl->spec[lv + 1] + 4 * i;
+            float c[3] = {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+            ibl->rspec[k][i] = vt_rgb_e5(c);
+        }
+        /* the DFG table's row at r, as vt_dfg reads it */
+        const float *dt = vt_dfg_table(), m = (float)(VT_DFG_N - 1), y = (r < 1 ? r : 1) * m;
+        uint32_t j = (uint32_t)y < VT_DFG_N - 2 ? (uint32_t)y : VT_DFG_N - 2;
+        float ay = y - (float)j;
+        for (uint32_t i = 0; i < VT_DFG_N; i++) {
+            const float *a = dt + 4 * (j * VT_DFG_N + i), *b = a + 4 * VT_DFG_N;
+            uint32_t v = 0;
+            for (int c = 0; c < 3; c++) v |= unorm10(a[c] + ay * (b[c] - a[c])) << 10 * c;
+            ibl->rdfg[k][i] = v;
+        }
+        ibl->rough[k] = r;
+    }
+    ibl->rused[k] = ibl->rframe;
+}
+
+void vt_ibl_rough_frame(vt_ibl *ibl, const vt_instance *inst, uint32_t ninst, const vt_material *ground)
+{
+    if (ibl->rgen != ibl->gen) ibl->nr = 0, ibl->rgen = ibl->gen; /* a new sky: new blends */
+    ibl->rframe++;
+    const vt_material *last = NULL;
+    bool dflt = false;
+    for (uint32_t i = 0; i <= ninst; i++) {
+        const vt_material *m = i < ninst ? inst[i].mat : ground;
+        if (m && (m == last || m->tex[VT_SLOT_MR].tex)) continue; /* instances of one material come in runs */
+        if (!m && dflt) continue;
+        last = m;
+        dflt |= !m;
+        rough_entry(ibl, vt_brdf_rough(m ? m->roughness : VT_DEFAULT_ROUGHNESS));
+    }
 }
 
 void vt_ibl_irradiance(const vt_ibl *ibl, const float n[3], float out[3])

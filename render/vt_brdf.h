@@ -79,6 +79,20 @@ typedef struct vt_ibl {
        DFG table as vt_unorm10 */
     uint32_t spec_e5[VT_IBL_LEVELS][VT_IBL_RES * VT_IBL_RES];
     const uint32_t *dfg10;
+    /* per roughness of the frame's materials (vt_ibl_rough_frame;
+       VT_IBL_NR at most): the two levels it falls between blended
+       (spec_e5's packing) and the DFG table's row at it (dfg10's), so
+       the kernels look up a group of one material's pixels with one
+       bilinear sample and a linear one (4 + 2 gathers, not 8 + 4, and
+       half the decoding: ~100 of ibl_lanes' ~370 instructions a group).
+       The same values but for the packing's rounding of the blend
+       (spec_e5's 1/512 of the largest channel, dfg10's 1/2046) */
+#define VT_IBL_NR 16
+    uint32_t nr, rgen, rframe;   /* entries; the gen they are for; the frame */
+    float rough[VT_IBL_NR];      /* vt_brdf_rough's value: the key */
+    uint32_t rused[VT_IBL_NR];   /* the frame that last asked for it */
+    uint32_t rspec[VT_IBL_NR][VT_IBL_RES * VT_IBL_RES];
+    uint32_t rdfg[VT_IBL_NR][VT_DFG_N];
     /* scratch of a remake: the environment on 64 x 32 and 32 x 16
        equirectangular grids (direction, radiance, solid angle) */
     float src_hi[64 * 32][7], src_lo[32 * 16][7];
@@ -89,6 +103,21 @@ typedef struct vt_ibl {
  * changes. The lower hemisphere is the ground's bounce (pe->amb_down)
  * where there is a ground, else the sky. Returns true when remade. */
 bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe);
+/* The entries (above) for the roughness of every material of the
+ * frame's instances and of its ground that has no metallic-roughness
+ * texture (NULL: the default material), after vt_ibl_update: kept from
+ * frame to frame, made when new (~50 us each), those no frame asked for
+ * since replaced when VT_IBL_NR are taken; beyond that the kernels take
+ * the levels. */
+struct vt_instance;
+void vt_ibl_rough_frame(vt_ibl *ibl, const struct vt_instance *inst, uint32_t ninst, const vt_material *ground);
+/* The entry of roughness r (vt_brdf_rough's), or -1. */
+static inline int vt_ibl_rough_find(const vt_ibl *ibl, float r)
+{
+    for (uint32_t k = 0; k < ibl->nr; k++)
+        if (ibl->rough[k] == r) return (int)k;
+    return -1;
+}
 /* The environment's radiance that ibl integrates, towards unit d. */
 void vt_ibl_env(const vt_penv *pe, const float d[3], float out[3]);
 /* Irradiance / pi at unit normal n (>= 0): a Lambert surface of albedo 1

@@ -224,15 +224,32 @@ static inline void ibl_lanes(const vt_ibl *ibl, vf nx, vf ny, vf nz, vf vx_, vf 
     vm ok = vm_and(vf_ge(x, x), vf_ge(y, y)); /* a NaN direction: the centre */
     x = vf_select(ok, x, centre);
     y = vf_select(ok, y, centre);
+    for (int k = 0; k < 3; k++) sp[k] = g[k] = zero;
+    const vf dm = vf_set((float)(VT_DFG_N - 1)), dx = vf_mul(vf_min(vf_abs(nv), one), dm);
+    /* one roughness over the group (one material's pixels) with an entry
+       for it (vt_brdf.h): its blend of the levels, its row of the DFG
+       table (a lane's cell of the row: the lanes' x clamped as
+       bilerp_lanes clamps) */
+    const float r0 = vf_hmin(ro);
+    const int e = vm_bits(vf_le(ro, vf_set(r0))) == lanes_all() ? vt_ibl_rough_find(ibl, r0) : -1;
+    if (e >= 0) {
+        bilerp_lanes(ibl->rspec[e], VT_IBL_RES, vi_set(0), x, y, one, sp, true);
+        vf cx = vf_min(vf_max(dx, zero), dm), fi = vf_min(vf_floor(cx), vf_set((float)(VT_DFG_N - 2))), ax = vf_sub(cx, fi);
+        vix i0 = vx_of(fi);
+        vix c0 = vi_gather(ibl->rdfg[e], i0), c1 = vi_gather(ibl->rdfg[e], vi_add(i0, vi_set(1)));
+        for (int k = 0; k < 3; k++) {
+            vf a = vf_mul(vi_tof(vi_and(vi_srl(c0, 10 * k), vi_set(1023))), vf_set(1 / 1023.0f));
+            vf b = vf_mul(vi_tof(vi_and(vi_srl(c1, 10 * k), vi_set(1023))), vf_set(1 / 1023.0f));
+            g[k] = vf_fma(ax, vf_sub(b, a), a);
+        }
+        return;
+    }
     vf f = vf_mul(ro, vf_set((float)(VT_IBL_LEVELS - 1)));
     vf lv = vf_min(vf_floor(f), vf_set((float)(VT_IBL_LEVELS - 2))), t = vf_sub(f, lv);
     vix off = vx_of(vf_mul(lv, vf_set((float)(VT_IBL_RES * VT_IBL_RES))));
-    for (int k = 0; k < 3; k++) sp[k] = g[k] = zero;
     bilerp_lanes(ibl->spec_e5[0], VT_IBL_RES, off, x, y, vf_sub(one, t), sp, true);
     bilerp_lanes(ibl->spec_e5[1], VT_IBL_RES, off, x, y, t, sp, true);
-    const vf dm = vf_set((float)(VT_DFG_N - 1));
-    bilerp_lanes(ibl->dfg10, VT_DFG_N, vi_set(0), vf_mul(vf_min(vf_abs(nv), one), dm), vf_mul(vf_min(ro, one), dm), one, g,
-                 false);
+    bilerp_lanes(ibl->dfg10, VT_DFG_N, vi_set(0), dx, vf_mul(vf_min(ro, one), dm), one, g, false);
 }
 
 /* glTF's D V for one light (Appendix B): n.h, n.l >= 0, alpha^2, and
@@ -404,6 +421,47 @@ static inline __attribute__((always_inline)) void light(surf *restrict s, const 
     }
 }
 
+/* The first 256 bytes of the shading record of pixel id id (a triangle's) to the cache. */
+static inline void prefetch_rec(const vt_span *sp, uint32_t id)
+{
+    const char *t = (const char *)&sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
+    __builtin_prefetch(t), __builtin_prefetch(t + 64), __builtin_prefetch(t + 128), __builtin_prefetch(t + 192);
+}
+
+/* The records of the span's pixels (at a row's start) and of the next
+ * span's to the cache (they are spread over a few MB: one miss after
+ * another per group otherwise). */
+static inline void prefetch_span(const vt_span *sp)
+{
+    const uint32_t width = (uint32_t)(2.0 / sp->inv_w + 0.5);
+    const unsigned e = sp->x0 + 2 * S <= width ? 2 * S : sp->n;
+    unsigned i = sp->x0 ? S : 0;
+    /* a record's first pixel in a run (its id not the pixel before's, not
+       0 or the ground), W ids a compare: the scalar scan of 16-32 ids was
+       7 % of the kernel's instructions. A record seen again after a gap
+       is fetched again: a few instructions, the line is in the cache */
+    for (; i + W <= e; i += W) {
+        A uint32_t lead[W];
+        const uint32_t *before = sp->id + i - 1;
+        if (!i) {
+            lead[0] = 0;
+            for (unsigned j = 1; j < W; j++) lead[j] = sp->id[j - 1];
+            before = lead;
+        }
+        const vix a = vi_loadu(sp->id + i);
+        const vm same = vm_or(vi_eq(a, vi_loadu(before)), vm_or(vi_eq(a, vi_set(0)), vi_eq(a, vi_set((int32_t)VT_ID_GROUND))));
+        for (uint32_t first = lanes_all() & ~vm_bits(same); first; first &= first - 1) {
+            prefetch_rec(sp, sp->id[i + (unsigned)__builtin_ctz(first)]);
+        }
+    }
+    for (uint32_t prev = i ? sp->id[i - 1] : 0; i < e; i++) { /* a short span's rest */
+        uint32_t id = sp->id[i];
+        if (id == prev || id == 0 || id == VT_ID_GROUND) continue;
+        prev = id;
+        prefetch_rec(sp, id);
+    }
+}
+
 void VT_SHADE_NAME(const vt_span *sp)
 {
     surf s;
@@ -411,7 +469,13 @@ void VT_SHADE_NAME(const vt_span *sp)
     const bool env = sp->pe && sp->pe->on;
     /* nothing drawn in the whole span (sky, off the geometry): no surface */
     uint32_t any = 0;
-    for (unsigned i = 0; i < sp->n; i++) any |= sp->id[i];
+    if (sp->n == S) { /* W ids a compare (the loop was ~30 instructions a span) */
+        vm none = vm_ones();
+        for (unsigned i = 0; i < S; i += W) none = vm_and(none, vi_eq(vi_loadu(sp->id + i), vi_set(0)));
+        any = vm_bits(none) != lanes_all();
+    } else {
+        for (unsigned i = 0; i < sp->n; i++) any |= sp->id[i];
+    }
     if (!any) {
         memset(sp->rgba, 0, (size_t)sp->n * 4 * sizeof(float));
         for (unsigned i = 0; i < sp->n; i++) sp->depth[i] = INFINITY;
@@ -434,17 +498,7 @@ void VT_SHADE_NAME(const vt_span *sp)
        per material among them the material in lanes: two triangles of
        one mesh side by side sample their textures once. What the lanes
        do not cover goes through vt_span_surface pixel by pixel. */
-    /* the records of this span (at a row's start) and of the next one
-       in the row fetched ahead (they are spread over a few MB: one miss
-       after another per group otherwise) */
-    const uint32_t width = (uint32_t)(2.0 / sp->inv_w + 0.5);
-    for (unsigned i = sp->x0 ? S : 0, prev = 0, e = sp->x0 + 2 * S <= width ? 2 * S : sp->n; i < e; i++) {
-        uint32_t id = sp->id[i];
-        if (id == prev || id == 0 || id == VT_ID_GROUND) continue;
-        prev = id;
-        const char *t = (const char *)&sp->st[(id - 1) >> VT_ID_BITS][(id - 1) & VT_ID_MASK];
-        __builtin_prefetch(t), __builtin_prefetch(t + 64), __builtin_prefetch(t + 128), __builtin_prefetch(t + 192);
-    }
+    prefetch_span(sp);
     const vf zero0 = vf_set(0), one0 = vf_set(1), amb = vf_set(VT_AMBIENT);
     const vt_material *lane_mat = NULL; /* the last material found lane-able (NULL: the default, always) */
     for (unsigned g0 = 0; g0 < S; g0 += W) {
@@ -466,9 +520,13 @@ void VT_SHADE_NAME(const vt_span *sp)
            a group drawn all over needs none (every lane is written) */
         const bool full = pend == lanes_all();
         if (!full) {
-            float *const zs[] = {s.px, s.py, s.pz, s.nx, s.ny, s.nz, s.ar, s.ag, s.ab, s.cr, s.cg, s.cb,
-                                 s.fr, s.fg, s.fb, s.er, s.eg, s.eb, s.sv, cov};
-            for (unsigned k = 0; k < sizeof zs / sizeof zs[0]; k++) vf_store(zs[k] + g0, zero0);
+            /* stores at constant offsets (an array of the pointers was
+               built every span, ~50 instructions, used or not) */
+#define Z(f) vf_store(s.f + g0, zero0)
+            Z(px), Z(py), Z(pz), Z(nx), Z(ny), Z(nz), Z(ar), Z(ag), Z(ab), Z(cr), Z(cg), Z(cb);
+            Z(fr), Z(fg), Z(fb), Z(er), Z(eg), Z(eb), Z(sv);
+#undef Z
+            vf_store(cov + g0, zero0);
             vf_store(s.a2 + g0, one0);
             vf_store(s.ro + g0, one0);
         }
@@ -523,16 +581,14 @@ void VT_SHADE_NAME(const vt_span *sp)
         }
         if (!lanes) continue;
         /* the materials over the lanes' pixels */
-        gout go = {0};
-        for (unsigned q = 0; q < nk; q++) {
+        /* the first material's straight into go (lanes: there is one) */
+        gout go;
+        mat_lanes((const vt_material *)(kl[0] & ~(uintptr_t)1), &in, kl[0] & 1, vm_from_bits(kb[0]), sp->tc, &go);
+        for (unsigned q = 1; q < nk; q++) {
             const uintptr_t k = kl[q];
             const uint32_t mb = kb[q];
             const vm act = vm_from_bits(mb);
             const vt_material *m = (const vt_material *)(k & ~(uintptr_t)1);
-            if (q == 0) {
-                mat_lanes(m, &in, k & 1, act, sp->tc, &go);
-                continue;
-            }
             gout g;
             mat_lanes(m, &in, k & 1, act, sp->tc, &g);
 #define SEL(f) go.f = vf_select(act, g.f, go.f)

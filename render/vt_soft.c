@@ -957,6 +957,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     uint64_t t3 = now_ns();
 
     vt_texcache_prepare(&r->tc, inst, ninst, f->env ? f->env->ground_mat : NULL);
+    if (fr.pe.ibl) vt_ibl_rough_frame(&r->ibl, inst, ninst, f->env->ground_mat);
     jb.next_row = 0;
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
     else job_shade(&jb, 0);

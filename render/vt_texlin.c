@@ -50,7 +50,7 @@ static vt_texlin *entry_of(const vt_texcache *c, const vt_texview *t)
     return NULL;
 }
 
-const vt_texlin *vt_texcache_find(const vt_texcache *c, const vt_texview *t)
+const vt_texlin *vt_texcache_search(const vt_texcache *c, const vt_texview *t)
 {
     return entry_of(c, t);
 }
@@ -58,9 +58,47 @@ const vt_texlin *vt_texcache_find(const vt_texcache *c, const vt_texview *t)
 static void entry_free(vt_texcache *c, uint32_t i)
 {
     vt_texlin *e = &c->e[i];
-    for (int k = 0; k < 16; k++) free(e->lv[k]);
+    for (int k = 0; k < 16; k++) free(e->lv[k]), free(e->zb[k]);
     c->bytes -= e->bytes;
     c->e[i] = c->e[--c->n];
+}
+
+/* The black footprints of a w x h level (vt_texlin.h's zb) into z
+ * (zeroed, (w h + 31) / 32 words); returns how many. */
+static size_t black_mask(const uint64_t *lv, size_t w, size_t h, uint32_t *z)
+{
+    const uint64_t rgb = 0xFFFFFFFFFFFFull;
+    size_t n = 0;
+    for (size_t y = 0; y < h; y++) {
+        const uint64_t *r0 = lv + y * w, *r1 = lv + (y + 1 == h ? 0 : y + 1) * w;
+        for (size_t x = 0; x < w; x++) {
+            size_t x1 = x + 1 == w ? 0 : x + 1;
+            if ((r0[x] | r0[x1] | r1[x] | r1[x1]) & rgb) continue;
+            size_t i = y * w + x;
+            z[i / 32] |= 1u << (i % 32);
+            n++;
+        }
+    }
+    return n;
+}
+
+/* e's black-footprint masks where level 0 has at least 1 in 8 black
+ * (else none: vt_texlin.h); false: no memory. */
+static bool masks_make(vt_texlin *e)
+{
+    for (uint32_t k = 0; k < e->levels; k++) {
+        size_t w = e->w >> k ? e->w >> k : 1, h = e->h >> k ? e->h >> k : 1, words = (w * h + 31) / 32;
+        if (!(e->zb[k] = calloc(words, 4))) return false;
+        size_t n = black_mask(e->lv[k], w, h, e->zb[k]);
+        e->bytes += words * 4;
+        if (k == 0 && n * 8 < w * h) {
+            free(e->zb[0]);
+            e->zb[0] = NULL;
+            e->bytes -= words * 4;
+            return true;
+        }
+    }
+    return true;
 }
 
 /* A copy of t made (false: no memory, or over the budget). */
@@ -94,8 +132,12 @@ static bool entry_make(vt_texcache *c, const vt_texview *t)
         for (size_t i = 0; i < n; i++, p += 4)
             e.lv[k][i] = (uint64_t)hs[p[0]] | (uint64_t)hs[p[1]] << 16 | (uint64_t)hs[p[2]] << 32 | (uint64_t)ha[p[3]] << 48;
     }
+    if (!masks_make(&e)) {
+        for (uint32_t j = 0; j < t->levels; j++) free(e.lv[j]), free(e.zb[j]);
+        return false;
+    }
     c->e[c->n++] = e;
-    c->bytes += bytes;
+    c->bytes += e.bytes; /* the masks too (1/64 of the copy) */
     return true;
 }
 
@@ -124,6 +166,20 @@ void vt_texcache_prepare(vt_texcache *c, const vt_instance *inst, uint32_t ninst
     for (uint32_t i = 0; i < c->n;)
         if (c->frame - c->e[i].used > TEXLIN_KEEP) entry_free(c, i);
         else i++;
+    /* the probes, once the entries stay where they are */
+    memset(c->mv, 0, sizeof c->mv);
+    last = NULL;
+    for (uint32_t i = 0; i <= ninst; i++) {
+        const vt_material *m = i < ninst ? inst[i].mat : ground;
+        if (!m || m == last) continue;
+        last = m;
+        for (int k = 0; k < 2; k++) {
+            const vt_texview *t = m->tex[k ? VT_SLOT_EMISSIVE : VT_SLOT_BASE].tex;
+            if (!t) continue;
+            unsigned h = vt_texcache_slot(t);
+            c->mv[h] = t, c->ml[h] = entry_of(c, t);
+        }
+    }
 }
 
 void vt_texcache_free(vt_texcache *c)

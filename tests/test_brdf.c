@@ -677,11 +677,108 @@ static void test_brdf_packed_tables(void **state)
         for (int k = 0; k < 3; k++) assert_true(fabsf((float)(t10[i] >> (10 * k) & 1023) / 1023 - t[4 * i + k]) <= 0.5f / 1023 + 1e-6f);
 }
 
+/* The per-roughness entries the kernels look up a group of one
+ * material's pixels in (vt_ibl_rough_frame): under a sky varying in
+ * colour and direction, each entry's texels against the blend of the
+ * two float levels it falls between, computed here in double (the
+ * levels themselves are checked against the lobe's integral above):
+ * within the shared exponent's 1/512 of the largest channel; its DFG
+ * row against vt_dfg at the grid's n.v (the float table, bilinear):
+ * within the 10-bit rounding. The default material and a metallic-
+ * roughness-textured one (none: its roughness varies); more roughnesses
+ * in a frame than entries: the rest found nowhere (the kernels take the
+ * levels); the next frame's replace those no frame asked for since. */
+static void test_brdf_rough_entries(void **state)
+{
+    (void)state;
+    enum { EW = 64, EH = 32 };
+    float *px = malloc(sizeof(float) * 4 * EW * EH);
+    vt_ibl *ibl = calloc(1, sizeof *ibl);
+    assert_true(px && ibl);
+    for (int j = 0; j < EH; j++)
+        for (int i = 0; i < EW; i++) {
+            double th = (j + 0.5) * M_PI / EH, ph = ((i + 0.5) / EW - 0.5) * 2 * M_PI;
+            double d[3] = {sin(th) * sin(ph), cos(th), -sin(th) * cos(ph)};
+            float *o = px + 4 * ((size_t)j * EW + i);
+            o[0] = (float)env_grad(d), o[1] = (float)(1 + 0.9 * d[1]), o[2] = (float)(0.3 + 0.25 * d[2]), o[3] = 1;
+        }
+    vt_texview sky = {.w = EW, .h = EH, .levels = 1, .hdr = px, .id = 78, .gen = 1};
+    vt_env env = {.sky_mode = VT_SKY_TEXTURE, .sky = {1, 1, 1}, .sky_tex = &sky, .exposure_mode = VT_EXPOSURE_FIXED};
+    double origin[3] = {0, 0, 0};
+    vt_penv pe;
+    vt_penv_make(&env, origin, NULL, &pe);
+    assert_true(vt_ibl_update(ibl, &pe));
+    static const float rough[] = {0.08f, 0.3f, 0.55f, 0.85f, 1.0f, 0.0f};
+    enum { NM = sizeof rough / sizeof rough[0] };
+    vt_material m[NM + 1];
+    vt_instance in[NM + 2];
+    memset(in, 0, sizeof in);
+    for (int i = 0; i < NM; i++) m[i] = (vt_material){.base = {1, 1, 1, 1}, .roughness = rough[i]}, in[i].mat = &m[i];
+    uint8_t mr_px[4] = {0, 128, 255, 255};
+    const uint8_t *mr_lv[1] = {mr_px};
+    vt_texview mr = {.w = 1, .h = 1, .levels = 1, .mip = mr_lv, .id = 79, .gen = 1};
+    m[NM] = (vt_material){.base = {1, 1, 1, 1}, .roughness = 0.42f};
+    m[NM].tex[VT_SLOT_MR].tex = &mr;
+    in[NM].mat = &m[NM];
+    in[NM + 1].mat = NULL; /* the default material */
+    vt_ibl_rough_frame(ibl, in, NM + 2, NULL);
+    assert_int_equal(ibl->nr, NM + 1);
+    assert_true(vt_ibl_rough_find(ibl, vt_brdf_rough(0.42f)) < 0);
+    double worst_s = 0, worst_d = 0;
+    for (int q = 0; q <= NM; q++) {
+        float r = vt_brdf_rough(q < NM ? rough[q] : VT_DEFAULT_ROUGHNESS);
+        int k = vt_ibl_rough_find(ibl, r);
+        assert_true(k >= 0);
+        double f = r * (VT_IBL_LEVELS - 1);
+        int lv = f < VT_IBL_LEVELS - 2 ? (int)f : VT_IBL_LEVELS - 2;
+        double t = f - lv;
+        for (int i = 0; i < VT_IBL_RES * VT_IBL_RES; i++) {
+            float got[3];
+            vt_rgb_e5_decode(ibl->rspec[k][i], got);
+            double want[3], mx = 0;
+            for (int c = 0; c < 3; c++) {
+                want[c] = (1 - t) * ibl->spec[lv][4 * i + c] + t * ibl->spec[lv + 1][4 * i + c];
+                mx = fmax(mx, want[c]);
+            }
+            for (int c = 0; c < 3; c++) worst_s = fmax(worst_s, fabs(got[c] - want[c]) / mx);
+        }
+        for (int i = 0; i < VT_DFG_N; i++) {
+            float want[3];
+            vt_dfg((float)i / (VT_DFG_N - 1), r, want);
+            for (int c = 0; c < 3; c++)
+                worst_d = fmax(worst_d, fabs((double)(ibl->rdfg[k][i] >> (10 * c) & 1023) / 1023 - want[c]));
+        }
+    }
+    fprintf(stderr, "roughness entries: prefiltered blend worst %.3g of the largest channel, DFG row worst %.3g\n", worst_s,
+            worst_d);
+    assert_true(worst_s <= 1.0 / 512 * 1.0001);
+    assert_true(worst_d <= 0.5 / 1023 + 1e-6);
+    /* a frame of more roughnesses than entries, then one of others */
+    vt_material many[VT_IBL_NR + 4];
+    vt_instance mi[VT_IBL_NR + 4];
+    memset(mi, 0, sizeof mi);
+    for (int pass = 0; pass < 2; pass++) {
+        uint32_t n = pass ? 3 : VT_IBL_NR + 4;
+        for (uint32_t i = 0; i < n; i++) {
+            many[i] = (vt_material){.base = {1, 1, 1, 1}, .roughness = 0.1f + 0.04f * (float)i + 0.013f * (float)pass};
+            mi[i].mat = &many[i];
+        }
+        vt_ibl_rough_frame(ibl, mi, n, NULL);
+        uint32_t found = 0;
+        for (uint32_t i = 0; i < n; i++) found += vt_ibl_rough_find(ibl, vt_brdf_rough(many[i].roughness)) >= 0;
+        assert_int_equal(found, pass ? n : VT_IBL_NR);
+        assert_true(ibl->nr <= VT_IBL_NR);
+    }
+    free(ibl);
+    free(px);
+}
+
 const struct CMUnitTest brdf_tests[] = {
     cmocka_unit_test(test_brdf_terms_against_spec),
     cmocka_unit_test(test_brdf_against_spec),
     cmocka_unit_test(test_brdf_dfg_table),
     cmocka_unit_test(test_brdf_packed_tables),
+    cmocka_unit_test(test_brdf_rough_entries),
     cmocka_unit_test(test_brdf_lights_through_renderers),
     cmocka_unit_test(test_brdf_white_furnace),
     cmocka_unit_test(test_brdf_directional_sky),

@@ -641,6 +641,29 @@ static void checker(tex_own *o, uint32_t id)
     }
 }
 
+/* A 64 x 64 emissive map like the city's window lights: black but for
+ * a window lit in one 8 x 8 cell in four, its mips box-filtered (the
+ * coarse levels' black where a footprint holds no window). */
+static void windows(tex_own *o, uint32_t id)
+{
+    rng r = {2};
+    tex_make(o, &r, 64, 64, 7, id);
+    for (uint32_t y = 0; y < 64; y++)
+        for (uint32_t x = 0; x < 64; x++) {
+            bool lit = ((x / 8) * 3 + (y / 8) * 5) % 4 == 0 && x % 8 >= 2 && x % 8 < 6 && y % 8 >= 1 && y % 8 < 7;
+            memcpy(o->lv[0] + 4 * (y * 64 + x), lit ? (uint8_t[4]){250, 200, 120, 255} : (uint8_t[4]){0, 0, 0, 255}, 4);
+        }
+    for (uint32_t k = 1; k < 7; k++) {
+        uint32_t n = 64 >> k;
+        for (uint32_t y = 0; y < n; y++)
+            for (uint32_t x = 0; x < n; x++)
+                for (int c = 0; c < 4; c++) {
+                    const uint8_t *a = o->lv[k - 1] + 4 * (2 * y * 2 * n + 2 * x) + c;
+                    o->lv[k][4 * (y * n + x) + c] = (uint8_t)((a[0] + a[4] + a[8 * n] + a[8 * n + 4] + 2) / 4);
+                }
+    }
+}
+
 /* Boxes with normals per face (24 vertices) and UVs 0..1 on each face. */
 static float cube24_pos[72], cube24_nrm[72], cube24_uv[48];
 static uint32_t cube24_idx[36];
@@ -707,7 +730,7 @@ static void small_scene_make(small_scene *sc, uint32_t W, uint32_t H)
 /* The shading kernels' gather in lanes (render/vt_gather.inl) against
  * its scalar reference (vt_span_surface, vt_tex_sample) on every
  * instruction set: the small scene with more texture slots than it
- * draws by default (metallic-roughness, emissive, a clamped and a
+ * draws by default (metallic-roughness, a mostly black emission, a clamped and a
  * rotated, offset, scaled transform, UVs far from the origin) and a
  * textured ground, fixed exposure, the passes with discrete decisions
  * (shadow compares, FXAA) off; then a narrow view of sky and ground (the
@@ -734,6 +757,13 @@ static void test_scene_gather_lanes(void **state)
                                               .mag_filter = VT_FILTER_LINEAR, .scale = {3, 3}, .rotation = 0.7f,
                                               .offset = {1000.25f, -500.5f}};
     sc.mat[2].tex[VT_SLOT_MR] = sc.mat[0].tex[VT_SLOT_MR];
+    /* mostly black emission (the sampler skips black footprints,
+       vt_texlin.h), clamped down its t axis */
+    tex_own win;
+    windows(&win, 9);
+    sc.mat[2].tex[VT_SLOT_EMISSIVE] = (vt_texref){.tex = &win.t, .wrap_t = VT_WRAP_CLAMP,
+                                                  .min_filter = VT_FILTER_LINEAR_MIP_LINEAR,
+                                                  .mag_filter = VT_FILTER_LINEAR, .scale = {1.5f, 1.5f}};
     sc.env.ground_mat = &sc.mat[0];
     sc.env.exposure_mode = VT_EXPOSURE_FIXED;
     sc.env.exposure_ev = 13;
@@ -791,6 +821,7 @@ static void test_scene_gather_lanes(void **state)
     free(c[1]);
     free(d);
     tex_free(&mr);
+    tex_free(&win);
     tex_free(&sc.tex);
 }
 
