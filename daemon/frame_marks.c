@@ -115,8 +115,8 @@ static void outline_make(frame_overlay *o, int g, const scene *sc, const cull_re
     }
 }
 
-void frame_overlay_make(frame_overlay *o, const scene *sc, const cull_result *res, uint32_t n, const vp_render *m,
-                        mark_store *ms, uint64_t now)
+void frame_overlay_make(frame_overlay *o, const scene *sc, const uint64_t *subs, const cull_result *res, uint32_t n,
+                        const vp_render *m, mark_store *ms, uint64_t now)
 {
     memset(&o->ov, 0, sizeof o->ov);
     o->ov.icons = o->icons;
@@ -136,9 +136,6 @@ void frame_overlay_make(frame_overlay *o, const scene *sc, const cull_result *re
         ic->kind = ms->m[at].m.kind; /* the colour: the kind's (vt_overlay.c) */
     }
     pthread_mutex_unlock(&ms->mu);
-    if (!m->nhighlight && !nsel) return;
-    uint64_t vis[CULL_SUBLEVEL_WORDS];
-    const uint64_t *subs = scene_visible(sc, NULL, vis);
     outline_make(o, VT_OUTLINE_HIGHLIGHT, sc, res, n, m->highlight, m->nhighlight, subs);
     outline_make(o, VT_OUTLINE_SELECTION, sc, res, n, sel, nsel, subs);
 }

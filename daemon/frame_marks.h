@@ -63,9 +63,10 @@ typedef struct frame_overlay {
  * the query culled (hidden, or out of view) is outlined by its box (mesh
  * 0: the frame's unit box, as gather puts it first), dim where the
  * picture covers it; an id that is 0 or unknown, or in a sub-level not
- * shown, outlines nothing (a frame is never refused for it). And an icon
- * per mark of ms live at now. Any thread, under the scene lock. */
-void frame_overlay_make(frame_overlay *o, const scene *sc, const cull_result *res, uint32_t n,
+ * shown (not in subs, the frame's scene_visible; NULL: all), outlines
+ * nothing (a frame is never refused for it). And an icon per mark of ms
+ * live at now. Any thread, under the scene lock. */
+void frame_overlay_make(frame_overlay *o, const scene *sc, const uint64_t *subs, const cull_result *res, uint32_t n,
                         const vp_render *m, mark_store *ms, uint64_t now);
 /* o's overlay for vt_frame.overlay: NULL when it draws nothing. */
 const vt_overlay *frame_overlay_get(const frame_overlay *o);

@@ -111,6 +111,7 @@ typedef struct frame_in {
     vt_adapt *adapt;        /* a stream's eye adaptation, NULL: a single picture */
     float dt;
     frame_overlay ov;       /* outline and icons (frame_marks.h) */
+    const uint64_t *subs;   /* the sub-levels shown (scene_visible, in the worker's vis; NULL: all) */
     uint32_t fx_off;        /* VT_FX_* off: --fx-off and the request's VP_RENDER_NO_* */
 } frame_in;
 
@@ -235,7 +236,7 @@ static int gather(const scene *sc, worker *wk, const cull_view *v, bool no_occlu
     uint16_t *mcls = NULL; /* per mesh of the frame: its class (mesh_of is emptied by it) */
     if (!worker_res_reserve(wk, cull_query_bound(sc->world))) goto nomem;
     if (!wk->mesh_of && !(wk->mesh_of = calloc(65536, sizeof *wk->mesh_of))) goto nomem;
-    const uint64_t *subs = scene_visible(sc, NULL, wk->vis);
+    const uint64_t *subs = fi->subs = scene_visible(sc, NULL, wk->vis);
     cull_query_desc q = {.views = v, .view_count = 1, .flags = no_occlusion ? CULL_Q_NO_OCCLUSION : 0,
                          .sublevels = subs};
     int rc = cull_query(sc->world, wk->ctx, &q, wk->res, wk->res_cap, &n, NULL);
@@ -406,7 +407,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     vt_adapt ad = {.ev = j->adapt_ev, .valid = j->adapt_valid}; /* a stream's eye, out again below */
     fi.adapt = j->stream ? &ad : NULL;
     fi.dt = j->adapt_dt;
-    frame_overlay_make(&fi.ov, sc, wk->res, fi.ninst, m, &s->marks, now_ns());
+    frame_overlay_make(&fi.ov, sc, fi.subs, wk->res, fi.ninst, m, &s->marks, now_ns());
     if (m->format == VP_FRAME_RAW) {
         /* drawn straight into the reply: RGBA then depth after the header */
         if (!(raw = malloc(vp_size_frame((uint32_t)(np * 20))))) goto nomem;

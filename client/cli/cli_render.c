@@ -458,16 +458,17 @@ int cmd_select(cli *k, int argc, char **argv)
     uint32_t n = 0;
     bool clear = argc == 2 && !strcmp(argv[1], "--clear");
     if (argc < 2) return die_usage("%s", use);
-    for (int i = 1; i < argc && !clear; i++) {
-        char buf[4096];
-        snprintf(buf, sizeof buf, "%s", argv[i]);
-        for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+    for (int i = 1; i < argc && !clear; i++)
+        for (const char *t = argv[i]; *t;) { /* comma-separated, any length (argv is not ours to cut) */
+            size_t len = strcspn(t, ",");
+            char one[32];
             if (n == VP_SELECT_MAX) return die_usage("select: more than %u ids", VP_SELECT_MAX);
-            if (!parse_u64(t, &ids[n]) || !ids[n])
-                return die_bad_value("select", "ID", t, "an entity id (decimal or 0x hex), not 0");
+            snprintf(one, sizeof one, "%.*s", (int)(len < sizeof one ? len : sizeof one - 1), t);
+            if (len >= sizeof one || !parse_u64(one, &ids[n]) || !ids[n])
+                return die_bad_value("select", "ID", one, "an entity id (decimal or 0x hex), not 0");
             n++;
+            t += len + (t[len] == ',');
         }
-    }
     int rc = connect_cli(k, VP_ROLE_COMMANDER);
     if (rc) return rc;
     uint32_t sent = 0;
