@@ -26,7 +26,9 @@ DEB_PKGS := build-essential pkg-config libcmocka-dev libjson-c-dev libopenexr-de
             libpng-dev libjpeg62-turbo-dev libegl-dev libepoxy-dev libegl-mesa0 libgl1-mesa-dri libassimp-dev \
             zlib1g-dev libhidapi-dev libusb-1.0-0-dev libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core xvfb \
             gnuplot-nox blender python3-numpy libwslay-dev libssl-dev openssl chromium \
-            libx264-dev libavcodec-dev libavutil-dev clang lld wasi-libc libclang-rt-14-dev-wasm32
+            libx264-dev libavcodec-dev libavutil-dev clang lld wasi-libc libclang-rt-14-dev-wasm32 \
+            libnats-dev nats-server haproxy
+# (libnats-dev: --cluster, daemon/cluster.c; nats-server and haproxy: the cluster's tests, tests/cluster)
 # (blender and python3-numpy: the Blender live-link's tests in make test (tests/blender, skipped when
 # blender is missing) and make bench-cycles, the renderer against Cycles)
 # Node.js and npm (the browser tests, tests/web): Debian's nodejs and npm, unless a node and an npm
@@ -35,7 +37,7 @@ NODE_PKGS := nodejs npm
 # (libx264-dev: H.264 browser frames, render/vt_h264.c; libavcodec-dev and libavutil-dev: the
 # tests' and bench_h264's independent H.264 decoder, linked into nothing else)
 PC_MODS  := cmocka json-c OpenEXR libpng libjpeg egl epoxy assimp zlib hidapi-hidraw libusb-1.0 sdl2 SDL2_ttf \
-            libcrypto libssl x264 libavcodec libavutil
+            libcrypto libssl x264 libavcodec libavutil libnats
 # (libwslay-dev ships no pkg-config file: check-deps looks for its header;
 # clang, lld, wasi-libc and libclang-rt-14-dev-wasm32 build web/js/cmdr.wasm:
 # check-deps looks for wasm-ld and wasi-libc's libc.a)
@@ -148,6 +150,8 @@ AVCODEC_LIBS := $$(pkg-config --libs libavcodec libavutil)
 ASSIMP_LIBS := $$(pkg-config --libs assimp)
 # the daemon's journal and snapshots (daemon/journal.c, snapshot.c): zlib's CRC-32
 ZLIB_LIBS := $$(pkg-config --libs zlib)
+# --cluster (daemon/cluster.c): NATS JetStream through Debian's libnats
+NATS_LIBS := $$(pkg-config --libs libnats)
 
 TEST_SRC := $(wildcard tests/test_*.c) tests/cull_ref.c tests/occ_ref.c tests/scene_file.c tests/pad_fake.c tests/h264_ref.c
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
@@ -298,7 +302,7 @@ $(PROTO_LIB): $(PROTO_OBJ)
 # the end-to-end tests run this configuration's vantaged and vantage; the
 # recovery tests (test_recover.c) drive the journal and snapshots in-process
 # every daemon module but the server's (the tests drive scenes, journals and edits in-process)
-PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o tls.o video.o auth.o upload.o readback.o),$(DAEMON_OBJ))
+PERSIST_OBJ := $(filter-out $(addprefix $(BUILD)/daemon/,vantaged.o server.o handlers.o frames.o metrics.o metrics_http.o httpd.o web.o tls.o video.o auth.o upload.o readback.o cluster.o),$(DAEMON_OBJ))
 # (the wasm: test_cmdr_wasm.c runs it through node; order-only, it is not linked)
 $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) | $(WASM_BIN)
 	$(CC) $(LDFLAGS) $(TEST_WRAP) -o $@ $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon/auth.o $(PERSIST_OBJ) $(PAD_OBJ) $(SCN_OBJ) $(CLIENT_LIB) $(CULL_LIB) $$(pkg-config --libs cmocka json-c libssl libcrypto) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ASSIMP_LIBS) $(PAD_LIBS) $(ZLIB_LIBS) $(X264_LIBS) $(AVCODEC_LIBS) $(LDLIBS)
@@ -314,7 +318,7 @@ DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD
                  $(BUILD)/render/vt_shade_base.o \
                  $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(H264_OBJ) $(CULL_LIB) $(PROTO_LIB)
-	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(H264_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(WEB_LIBS) $(X264_LIBS) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(H264_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(WEB_LIBS) $(X264_LIBS) $(NATS_LIBS) $(LDLIBS)
 
 # libvantage carries the protocol; its matrix helpers are culling/cull_mat.h
 # (header-only), so the culling core is not in it

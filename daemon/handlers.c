@@ -4,6 +4,7 @@
  * exclusive) or handed to the query workers (shared), and answered.
  */
 #include "server_internal.h"
+#include "cluster.h"
 #include "errmap.h"
 #include "vt_soft.h"
 
@@ -516,9 +517,30 @@ static void on_sublevel_list(server *s, conn *c, uint32_t req)
 /* A change the daemon makes itself (a loading connection gone) goes
  * through the journal too; one that cannot be journaled is still made, and
  * the journal stops taking edits (replay would miss it). */
+/* An applied edit goes down the cluster's stream (the writer); one that
+ * cannot is fatal: the scene holds what the stream does not, and no
+ * answer may leave. Returns the stream sequence its answer waits for (0:
+ * no cluster, or the answer waits for nothing). */
+static uint64_t cluster_record(server *s, const edit *e, const uint8_t *p, uint32_t len)
+{
+    if (!s->cluster) return 0;
+    uint64_t seq = cluster_publish(s->cluster, e, p, len);
+    if (!seq) {
+        LOGE("an applied edit (%s) could not be published to the cluster's stream: exiting (a restart joins the "
+             "cluster from the stream)", vp_type_name(e->type));
+        _exit(3);
+    }
+    return cluster_waits(s->cluster) ? seq : 0;
+}
+
 static int internal_edit(server *s, uint16_t type, uint16_t sublevel, uint32_t aux, edit_result *r, scene_err *err)
 {
     edit e = {.type = type, .sublevel = sublevel, .aux = aux};
+    int code;
+    if (s->cluster && !cluster_writable(s->cluster, &code, err->msg, sizeof err->msg)) {
+        err->code = code;
+        return code; /* a replica's scene changes only down the stream */
+    }
     pthread_rwlock_wrlock(&s->scene_lock);
     int rc = journal_apply(s->journal, s->sc, &e, NULL, 0, r, err);
     if (rc == VP_ERR_IO && s->journal) {
@@ -526,6 +548,7 @@ static int internal_edit(server *s, uint16_t type, uint16_t sublevel, uint32_t a
         rc = edit_apply(s->sc, &e, r, err);
     }
     pthread_rwlock_unlock(&s->scene_lock);
+    if (!rc) cluster_record(s, &e, NULL, 0);
     return rc;
 }
 
@@ -549,10 +572,12 @@ bool server_unload_slice(server *s, uint32_t budget)
     scene_err err;
     pthread_rwlock_wrlock(&s->scene_lock);
     /* a slice not journaled is not done (replay must free what this did) */
-    bool done = journal_apply(s->journal, s->sc, &(edit){.type = EDIT_WORK, .aux = budget}, NULL, 0, &r, &err) == VP_OK;
+    edit work = {.type = EDIT_WORK, .aux = budget};
+    bool done = journal_apply(s->journal, s->sc, &work, NULL, 0, &r, &err) == VP_OK;
     bool more = s->sc->unloading > 0;
     if (done && !more) cull_world_commit(s->sc->world);
     pthread_rwlock_unlock(&s->scene_lock);
+    if (done) cluster_record(s, &work, NULL, 0);
     return done && more; /* a read-only journal stalls the unload: no busy wake-ups */
 }
 
@@ -613,6 +638,12 @@ void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
     /* a destruction event is a command (the commander's "destroy at the
        reticle"); every other edit needs an editor */
     if (!(h->type == VP_DESTROY ? commander(s, c, h->req) : editor(s, c, h->req))) return;
+    char why[300];
+    int code;
+    if (s->cluster && !cluster_writable(s->cluster, &code, why, sizeof why)) {
+        send_error(s, c, h->req, code, UINT32_MAX, why); /* NOT_WRITER: the writer's endpoint first */
+        return;
+    }
     edit e;
     int rc = edit_decode(h->type, p, h->len, s->cfg.max_batch, EDIT_LAYOUT, &e);
     if (rc) {
@@ -634,6 +665,8 @@ void on_edit(server *s, conn *c, const vp_header *h, const uint8_t *p)
         send_error(s, c, h->req, rc, err.index, err.msg);
         return;
     }
+    uint64_t wait = cluster_record(s, &e, p, h->len);
+    if (wait) c->held_seq = wait;
     if (h->type == VP_DESTROY) r.destroyed.cut_us = (uint32_t)((now_ns() - t0) / 1000);
     edit_reply(s, c, h, &e, &r);
     edit_result_free(&r);

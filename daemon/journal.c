@@ -49,7 +49,7 @@
 #include <zlib.h>
 
 #define HDR_SIZE 32u
-#define REC_HDR 24u
+#define REC_HDR JOURNAL_REC_HDR
 #define REC_MAX (1u << 30)              /* no payload is this big: a bad length */
 #define DEFAULT_LIMIT (64ull << 20)     /* a snapshot once the journal passes this... */
 
@@ -92,6 +92,48 @@ static uint32_t crc(const uint8_t *a, size_t na, const uint8_t *b, size_t nb)
         nb -= n;
     }
     return (uint32_t)c;
+}
+
+void journal_rec_header(uint8_t h[JOURNAL_REC_HDR], uint64_t seq, uint16_t type, uint16_t load, uint32_t aux,
+                        const uint8_t *p, uint32_t len)
+{
+    vp_writer hw;
+    vp_writer_init(&hw, h, JOURNAL_REC_HDR);
+    vp_put_u32(&hw, len);
+    vp_put_u32(&hw, 0); /* the CRC, of what follows it: patched below */
+    vp_put_u64(&hw, seq);
+    vp_put_u16(&hw, type);
+    vp_put_u16(&hw, load);
+    vp_put_u32(&hw, aux);
+    vp_st_u32(h + 4, crc(h + 8, 16, p, len));
+}
+
+const char *journal_rec_check(const uint8_t *r, size_t left, uint64_t seq)
+{
+    uint32_t len = left >= REC_HDR ? vp_ld_u32(r) : 0;
+    if (left < REC_HDR) return "a torn record header";
+    if (len > REC_MAX) return "a record length no record has";
+    if (left - REC_HDR < len) return "a torn record (shorter than its length)";
+    if (vp_ld_u32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) return "a record CRC mismatch";
+    if (vp_ld_u64(r + 8) != seq) return "a record out of sequence";
+    return NULL;
+}
+
+int journal_rec_apply(scene *sc, const uint8_t *r, unsigned format, scene_err *se)
+{
+    edit e;
+    edit_result res;
+    uint16_t type = vp_ld_u16(r + 16);
+    int rc = edit_decode(type, r + REC_HDR, vp_ld_u32(r), 0, format == 1 ? EDIT_LAYOUT_V1 : EDIT_LAYOUT, &e);
+    if (!rc) {
+        e.sublevel = vp_ld_u16(r + 18);
+        e.aux = vp_ld_u32(r + 20);
+        rc = edit_apply(sc, &e, &res, se);
+        if (!rc) edit_result_free(&res);
+    } else {
+        snprintf(se->msg, sizeof se->msg, "%s", vp_strerror(rc));
+    }
+    return rc;
 }
 
 static uint64_t mono_ms(void)
@@ -224,15 +266,7 @@ static int journal_append(journal *j, uint16_t type, uint16_t load, uint32_t aux
 {
     if (j->broken[0]) return -EROFS;
     uint8_t h[REC_HDR];
-    vp_writer hw;
-    vp_writer_init(&hw, h, sizeof h);
-    vp_put_u32(&hw, len);
-    vp_put_u32(&hw, 0); /* the CRC, of what follows it: patched below */
-    vp_put_u64(&hw, j->seq);
-    vp_put_u16(&hw, type);
-    vp_put_u16(&hw, load);
-    vp_put_u32(&hw, aux);
-    vp_st_u32(h + 4, crc(h + 8, 16, p, len));
+    journal_rec_header(h, j->seq, type, load, aux, p, len);
     struct iovec iov[2] = {{h, REC_HDR}, {(void *)p, len}};
     size_t want = REC_HDR + (size_t)len, done = 0;
     int rc = 0;
@@ -708,26 +742,11 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
     while (off < m.n) {
         const uint8_t *r = m.p + off;
         size_t left = m.n - off;
-        uint32_t len = left >= REC_HDR ? vp_ld_u32(r) : 0;
-        if (left < REC_HDR) why = "a torn record header";
-        else if (len > REC_MAX) why = "a record length no record has";
-        else if (left - REC_HDR < len) why = "a torn record (shorter than its length)";
-        else if (vp_ld_u32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) why = "a record CRC mismatch";
-        else if (vp_ld_u64(r + 8) != *seq) why = "a record out of sequence";
-        if (why) break;
-        edit e;
-        edit_result res;
-        scene_err se = {0};
+        if ((why = journal_rec_check(r, left, *seq))) break;
+        uint32_t len = vp_ld_u32(r);
         uint16_t type = vp_ld_u16(r + 16);
-        rc = edit_decode(type, r + REC_HDR, len, 0, *format == 1 ? EDIT_LAYOUT_V1 : EDIT_LAYOUT, &e);
-        if (!rc) {
-            e.sublevel = vp_ld_u16(r + 18);
-            e.aux = vp_ld_u32(r + 20);
-            rc = edit_apply(sc, &e, &res, &se);
-            if (!rc) edit_result_free(&res);
-        } else {
-            snprintf(se.msg, sizeof se.msg, "%s", vp_strerror(rc));
-        }
+        scene_err se = {0};
+        rc = journal_rec_apply(sc, r, *format, &se);
         if (rc) {
             /* the CRC held: the daemon wrote this and applied it once.
                Refused now means other limits (--max-entities...) or a bug */

@@ -101,4 +101,18 @@ void journal_poll(journal *j);
 /* Snapshot threshold in bytes of journal (tests lower it). */
 void journal_set_limit(journal *j, uint64_t bytes);
 
+/* One record, as the journal files hold it and the cluster's stream
+ * carries it (cluster.c): a 24-byte header (payload length, CRC-32 of
+ * what follows the CRC, sequence number, type, sub-level, aux) and the
+ * request's payload. */
+#define JOURNAL_REC_HDR 24u
+void journal_rec_header(uint8_t h[JOURNAL_REC_HDR], uint64_t seq, uint16_t type, uint16_t load, uint32_t aux,
+                        const uint8_t *p, uint32_t len);
+/* Whether the left bytes at r begin with a whole, intact record numbered
+ * seq: NULL, or why not. */
+const char *journal_rec_check(const uint8_t *r, size_t left, uint64_t seq);
+/* Applies a checked record (decoded in the payload layout of journal
+ * format `format`, edit_apply): VP_OK, or the error with se saying why. */
+int journal_rec_apply(scene *sc, const uint8_t *r, unsigned format, scene_err *se);
+
 #endif

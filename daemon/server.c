@@ -17,6 +17,7 @@
  * point, the end of before_sleep.
  */
 #include "server_internal.h"
+#include "cluster.h"
 #include "vp_grow.h"
 #include "web.h"
 
@@ -365,6 +366,10 @@ static int sock_write(server *s, conn *c)
 static int conn_flush(server *s, conn *c)
 {
     if (c->held) return MD_NONE; /* an edit's answer waits for the journal's sync */
+    if (c->held_seq) { /* replicated: it waits for the stream to store its record */
+        if (!cluster_stored(s->cluster, c->held_seq)) return MD_NONE;
+        c->held_seq = 0;
+    }
     /* always: no reply leaves while the journal holds unsynced records (a
        query's answer may show them): before_sleep syncs, then flushes */
     if (s->journal && journal_policy(s->journal) == JOURNAL_ALWAYS && journal_dirty(s->journal)) return MD_NONE;
@@ -463,6 +468,15 @@ static void conn_process(server *s, conn *c)
 /* Replies from the workers: queued (linked, not copied), then the
  * connection's input goes on. A reply for a connection that ended, or
  * whose fd a new one took, is dropped. */
+/* News from the cluster (cluster.c): before_sleep takes it, every turn. */
+static void on_cluster(ae_loop *l, int fd, void *data, int mask)
+{
+    (void)l;
+    (void)fd;
+    (void)data;
+    (void)mask;
+}
+
 static void on_done(ae_loop *l, int fd, void *data, int mask)
 {
     (void)l;
@@ -692,6 +706,10 @@ static void before_sleep(ae_loop *l, void *data)
     if (sweep) s->sweep_ms = now_ms + SWEEP_MS;
     /* any edit moves the epoch (meshes, occluders and lights too); entity
        edits also leave counts and bounds to tighten */
+    /* the cluster's news: the stream's records applied (a replica), the
+       stored acknowledgements counted (the writer), a promotion */
+    if (s->cluster) cluster_poll(s->cluster, sc, &s->scene_lock);
+    bool writes = !s->cluster || cluster_role(s->cluster) == CLUSTER_WRITER;
     bool changed = sc->epoch != s->ev_epoch;
     s->ev_epoch = sc->epoch;
     /* unloads free their entities a slice a turn (the lock is held for
@@ -699,7 +717,8 @@ static void before_sleep(ae_loop *l, void *data)
        bounds they loosen are tightened once, at the end (queries are right
        with loose bounds, and every slice would tighten the same cells) */
     if (sc->unloading) {
-        if (server_unload_slice(s, SUBLEVEL_SLICE)) {
+        /* (a replica frees as the writer's slices come down the stream) */
+        if (writes && server_unload_slice(s, SUBLEVEL_SLICE)) {
             uint64_t one = 1;
             ssize_t ignored = write(s->done_fd, &one, sizeof one);
             (void)ignored;
@@ -819,6 +838,7 @@ server *server_create(const server_config *cfg, scene *sc)
     s->cfg = *cfg;
     s->sc = sc;
     s->journal = cfg->journal;
+    s->cluster = cfg->cluster;
     s->ev_epoch = sc->epoch;
     s->tcp_fd = s->unix_fd = s->unix_lock_fd = s->sig_fd = s->done_fd = s->web_root_fd = -1;
     /* SIGINT and SIGTERM arrive through a signalfd on the loop: block them
@@ -876,6 +896,7 @@ server *server_create(const server_config *cfg, scene *sc)
     }
     s->sig_fd = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
     if (s->sig_fd < 0 || s->sig_fd >= s->conns_cap || ae_add(s->loop, s->sig_fd, AE_READABLE, on_signal, s)) goto fail;
+    if (s->cluster && ae_add(s->loop, cluster_fd(s->cluster), AE_READABLE, on_cluster, s)) goto fail;
     if (cfg->metrics_port && metrics_http_open(s)) goto fail;
     if (cfg->web_port && web_open(s)) goto said;
     s->m.cur = MT_NONE;
@@ -936,6 +957,7 @@ int server_destroy(server *s)
     }
     frames_fini(s); /* after the workers: none is drawing */
     int rc = journal_close(s->journal); /* after the connections: their loads' drops are journaled */
+    cluster_close(s->cluster);
     for (job *lists[3] = {s->jobs_head, s->fast_head, s->done_head}, **l = lists; l < lists + 3; l++) {
         for (job *j = *l, *n; j; j = n) {
             n = j->next;

@@ -33,6 +33,7 @@ typedef struct server_config {
     uint32_t frame_timeout_ms; /* a frame begun must complete within this (slow-loris) */
     scene_limits limits;
     journal *journal;        /* --data-dir: opened (and the scene restored) by the caller; the server closes it */
+    struct cluster *cluster; /* --cluster: opened (the scene caught up) by the caller; the server closes it */
     const char *metrics_bind; /* --metrics: the HTTP endpoint's IPv4 address */
     int metrics_port;        /* its port; 0 = no endpoint */
     const char *web_bind;    /* --web: the browser endpoint's IPv4 address */

@@ -91,6 +91,7 @@ typedef struct conn {
     size_t in_peak;     /* most input bytes held since the last sweep (conn_trim) */
     uint16_t sublevel;  /* the sub-level this connection is loading (its open load), 0 = none */
     bool held;          /* an edit's answer waits for the journal's sync (always) */
+    uint64_t held_seq;  /* --cluster, replicated: answers wait until the stream stores this (0: none) */
     bool ev_pending;    /* the scene changed since the last EVENT sent */
     uint32_t ev_added, ev_updated, ev_removed; /* coalesced, not yet sent */
     frame_sub fsub;
@@ -119,6 +120,7 @@ struct server {
     size_t out_held;        /* the connections' output blocks together (sum of out_mem),
                                held under cfg.out_limit_total */
     scene *sc;
+    struct cluster *cluster;  /* --cluster: the stream, the lease, the role (cluster.h) */
     uint64_t start_ms, queries, bytes_in, bytes_out, errors;
     uint64_t sweep_ms;      /* when the slow-client sweep is next due */
     /* query workers: they read the scene under scene_lock (shared); the

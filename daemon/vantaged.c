@@ -2,6 +2,7 @@
  * vantaged.c — the daemon's entry point: options, the scene, the server.
  */
 #include "auth.h"
+#include "cluster.h"
 #include "log.h"
 #include "server.h"
 #include "ae.h"
@@ -81,6 +82,19 @@ static void usage(FILE *f)
             "                       everysec (default): synced once a second; off: the OS decides\n"
             "  --compact-mb N       write a snapshot when the journal passes N MB and twice the\n"
             "                       last snapshot (default 64)\n"
+            "  --cluster URLS       share the scene through NATS JetStream (nats://HOST:PORT, comma-\n"
+            "                       separated); with --scene-name or --follow (see README, Scale-out)\n"
+            "  --scene-name NAME    with --cluster: this daemon writes scene NAME when the writer's\n"
+            "                       lease is free, else it joins as a replica\n"
+            "  --follow NAME        with --cluster: a replica of scene NAME (promoted when the writer\n"
+            "                       is gone); edits sent to a replica are answered NOT_WRITER\n"
+            "  --advertise ENDPOINT what clients are sent to when this daemon writes (HOST:PORT or a\n"
+            "                       Unix socket path; default the --bind address and --port)\n"
+            "  --stream-replicas N  with --cluster: copies of the stream and the lease (1..5, default 1)\n"
+            "  --lease-ms MS        with --cluster: the writer's lease (default 3000; a dead writer is\n"
+            "                       replaced within about that)\n"
+            "                       With --cluster, --durability is replicated (default: an edit is\n"
+            "                       answered once the stream stored it) or off (answered at once)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
             "  --help               this text\n",
             VP_DEFAULT_PORT);
@@ -182,7 +196,8 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_ENV, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF, O_WEB, O_WEB_ROOT, O_WEB_CERT, O_WEB_KEY, O_MAX_VIDEO };
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF, O_WEB, O_WEB_ROOT, O_WEB_CERT, O_WEB_KEY, O_MAX_VIDEO,
+           O_CLUSTER, O_SCENE_NAME, O_FOLLOW, O_ADVERTISE, O_STREAM_REPL, O_LEASE };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -202,14 +217,20 @@ int main(int argc, char **argv)
         {"lut", required_argument, 0, O_LUT}, {"fx-off", required_argument, 0, O_FX_OFF},
         {"web", required_argument, 0, O_WEB}, {"web-root", required_argument, 0, O_WEB_ROOT},
         {"web-cert", required_argument, 0, O_WEB_CERT}, {"web-key", required_argument, 0, O_WEB_KEY},
-        {"max-video", required_argument, 0, O_MAX_VIDEO}, {0, 0, 0, 0},
+        {"max-video", required_argument, 0, O_MAX_VIDEO}, {"cluster", required_argument, 0, O_CLUSTER},
+        {"scene-name", required_argument, 0, O_SCENE_NAME}, {"follow", required_argument, 0, O_FOLLOW},
+        {"advertise", required_argument, 0, O_ADVERTISE}, {"stream-replicas", required_argument, 0, O_STREAM_REPL},
+        {"lease-ms", required_argument, 0, O_LEASE}, {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
     char want[96] = ""; /* what the option being parsed accepts, for its error */
     const char *tokens_path = NULL, *data_dir = NULL, *lut_path = NULL;
     int durability = JOURNAL_EVERYSEC;
-    static char metrics_addr[64], web_addr[64];
+    bool durability_set = false, replicated = false;
+    cluster_config ccfg = {.replicas = 1, .lease_ms = 3000};
+    const char *scene_name = NULL, *follow = NULL;
+    static char metrics_addr[64], web_addr[64], advertise[300];
     uint32_t compact_mb = 64;
     while ((o = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (o) {
@@ -268,9 +289,30 @@ int main(int argc, char **argv)
             break;
         case O_DURABILITY:
             durability = !strcmp(optarg, "always") ? JOURNAL_ALWAYS : !strcmp(optarg, "off") ? JOURNAL_OFF : JOURNAL_EVERYSEC;
-            ok = !strcmp(optarg, "always") || !strcmp(optarg, "everysec") || !strcmp(optarg, "off");
-            snprintf(want, sizeof want, "always, everysec or off");
+            replicated = !strcmp(optarg, "replicated");
+            durability_set = true;
+            ok = replicated || !strcmp(optarg, "always") || !strcmp(optarg, "everysec") || !strcmp(optarg, "off");
+            snprintf(want, sizeof want, "always, everysec, off, or replicated (with --cluster)");
             break;
+        case O_CLUSTER:
+            ccfg.urls = optarg;
+            ok = *optarg != 0;
+            snprintf(want, sizeof want, "nats://HOST:PORT[,nats://HOST:PORT...]");
+            break;
+        case O_SCENE_NAME: scene_name = optarg; break;
+        case O_FOLLOW: follow = optarg; break;
+        case O_ADVERTISE:
+            ccfg.advertise = optarg;
+            ok = *optarg && !strchr(optarg, ' ') && strlen(optarg) < 190;
+            snprintf(want, sizeof want, "HOST:PORT or a socket path, no spaces, under 190 bytes");
+            break;
+        case O_STREAM_REPL: {
+            uint32_t r;
+            ok = num32(want, sizeof want, optarg, 1, 5, &r);
+            ccfg.replicas = (int)r;
+            break;
+        }
+        case O_LEASE: ok = num32(want, sizeof want, optarg, 300, 600000, &ccfg.lease_ms); break;
         case O_COMPACT: ok = num32(want, sizeof want, optarg, 1, 1u << 20, &compact_mb); break;
         case O_METRICS:
             ok = parse_addr_port(optarg, metrics_addr, sizeof metrics_addr, &cfg.metrics_port);
@@ -368,6 +410,37 @@ int main(int argc, char **argv)
         if (!cfg.tokens && !auth_loopback(web_addr)) LOGW("--insecure: the web viewer on %s served without tokens", web_addr);
     }
 
+    if (ccfg.urls || scene_name || follow) {
+        if (!ccfg.urls || !scene_name == !follow) {
+            fprintf(stderr, "vantaged: --cluster URLS goes with one of --scene-name NAME (a writer) or --follow "
+                            "NAME (a replica)\n");
+            return 2;
+        }
+        if (data_dir) {
+            fprintf(stderr, "vantaged: --data-dir and --cluster: the cluster's stream is the scene's journal "
+                            "(give one or the other)\n");
+            return 2;
+        }
+        if (durability_set && durability == JOURNAL_ALWAYS && !replicated) {
+            fprintf(stderr, "vantaged: --durability always needs --data-dir; with --cluster use replicated or off\n");
+            return 2;
+        }
+        ccfg.name = scene_name ? scene_name : follow;
+        ccfg.follow = follow != NULL;
+        ccfg.wait_stored = !durability_set || replicated;
+        if (!ccfg.advertise) {
+            if (cfg.bind && *cfg.bind) snprintf(advertise, sizeof advertise, "%s:%d", cfg.bind, (int)port);
+            else snprintf(advertise, sizeof advertise, "%s", cfg.unix_path ? cfg.unix_path : "-");
+            ccfg.advertise = advertise;
+        }
+    } else if (replicated) {
+        fprintf(stderr, "vantaged: --durability replicated needs --cluster\n");
+        return 2;
+    } else if (ccfg.replicas != 1 || ccfg.lease_ms != 3000 || ccfg.advertise) {
+        fprintf(stderr, "vantaged: --stream-replicas, --lease-ms and --advertise go with --cluster\n");
+        return 2;
+    }
+
     scene *sc = calloc(1, sizeof *sc);
     if (!sc || scene_init(sc, cfg.cell_size, &cfg.limits)) {
         LOGE("cannot create the scene");
@@ -413,13 +486,39 @@ int main(int argc, char **argv)
             build_demo = false;
         }
     }
+    bool build_env = env_name != NULL;
+    if (ccfg.urls) {
+        bool fresh = false;
+        char err[600];
+        uint64_t t0 = ae_now_ms();
+        if (cluster_open(&ccfg, sc, &cfg.cluster, &fresh, err, sizeof err)) {
+            LOGE("--cluster: %s", err);
+            scene_free(sc);
+            free(sc);
+            return 1;
+        }
+        cluster_stats cs;
+        cluster_stats_get(cfg.cluster, &cs);
+        LOGI("cluster %s: %s, %llu records applied in %llu ms, epoch %llu; durability %s", ccfg.name,
+             cluster_role_name(cs.role), (unsigned long long)cs.records, (unsigned long long)(ae_now_ms() - t0),
+             (unsigned long long)sc->epoch, ccfg.wait_stored ? "replicated" : "off (answered before stored)");
+        /* the starting scene is the stream's first records, made by its first writer */
+        if (!fresh && (build_demo || build_env)) LOGI("--scene/--env not applied: the stream has a scene");
+        build_demo = build_demo && fresh;
+        build_env = build_env && fresh;
+    }
     if (build_demo) {
         /* through the journal like any edit, so a restart rebuilds it */
         uint64_t t0 = ae_now_ms();
         edit_result r;
         scene_err err;
-        if (journal_apply(cfg.journal, sc, &(edit){.type = EDIT_CITY, .aux = props}, NULL, 0, &r, &err)) {
+        edit city = {.type = EDIT_CITY, .aux = props};
+        if (journal_apply(cfg.journal, sc, &city, NULL, 0, &r, &err)) {
             LOGE("cannot build the demo scene: %s", err.msg);
+            return 1;
+        }
+        if (cfg.cluster && !cluster_publish(cfg.cluster, &city, NULL, 0)) {
+            LOGE("cannot publish the demo scene to the cluster's stream");
             return 1;
         }
         edit_result_free(&r);
@@ -429,7 +528,7 @@ int main(int argc, char **argv)
              info.entities, sc->occluders.count, sc->lights.count, sc->materials.count, sc->textures.count,
              (unsigned long long)(ae_now_ms() - t0));
     }
-    if (env_name) {
+    if (build_env) {
         /* an ENV_SET like a client's, journalled */
         uint8_t buf[VP_HEADER_SIZE + VP_ENV_SIZE];
         vp_writer w;
@@ -441,6 +540,10 @@ int main(int argc, char **argv)
         int erc = edit_decode(VP_ENV_SET, buf + VP_HEADER_SIZE, VP_ENV_SIZE, 0, EDIT_LAYOUT, &e);
         if (erc) edit_explain(&e, erc, &err);
         else erc = journal_apply(cfg.journal, sc, &e, buf + VP_HEADER_SIZE, VP_ENV_SIZE, &r, &err);
+        if (!erc && cfg.cluster && !cluster_publish(cfg.cluster, &e, buf + VP_HEADER_SIZE, VP_ENV_SIZE)) {
+            snprintf(err.msg, sizeof err.msg, "cannot publish it to the cluster's stream");
+            erc = VP_ERR_IO;
+        }
         if (erc) {
             LOGE("--env %s: %s", env_name, err.msg);
             return 1;

@@ -63,7 +63,8 @@ extern "C" {
     X(VP_ERR_UNSUPPORTED, -20, "not available on this server")                   \
     X(VP_ERR_TIMEOUT,    -21, "too slow: HELLO or a frame did not arrive in time") \
     X(VP_ERR_IO,         -22, "the server could not make the edit durable")   \
-    X(VP_ERR_NOT_FOUND,  -23, "nothing of that name")
+    X(VP_ERR_NOT_FOUND,  -23, "nothing of that name")                            \
+    X(VP_ERR_NOT_WRITER, -24, "not the scene's writer: edits go to the writer the message names")
 
 VP_ERR_ENUM(VP_ERRORS);
 

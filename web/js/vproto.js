@@ -113,7 +113,7 @@ export const ERR = Object.freeze({
   MAGIC: -1, VERSION: -2, TOO_LARGE: -3, TRUNCATED: -4, TRAILING: -5, TYPE: -6, COUNT: -7,
   NONFINITE: -8, INVALID: -9, STATE: -10, AUTH: -11, UNKNOWN_ID: -12, STALE: -13, DUPLICATE: -14,
   LIMIT: -15, SCENE: -16, MATRIX: -17, BUSY: -18, INTERNAL: -19, UNSUPPORTED: -20, TIMEOUT: -21,
-  IO: -22, NOT_FOUND: -23,
+  IO: -22, NOT_FOUND: -23, NOT_WRITER: -24,
 });
 const ERR_NAME = new Map(Object.entries(ERR).map(([k, v]) => [v, k]));
 /* "AUTH" for -11; "CODE_<n>" for a code no row names (a newer server's). */
