@@ -11,6 +11,7 @@
  * the types seen at least once; error counters for each (type, code) seen.
  */
 #include "server_internal.h"
+#include "cluster.h"
 #include "vp_grow.h"
 
 #include <stdio.h>
@@ -425,6 +426,27 @@ bool metrics_expose(server *s, mbuf *b)
     cull_world_info_get(sc->world, &info);
     family(b, "vantage_scene_epoch", "gauge", "The scene epoch: +1 per applied edit message.");
     sample(b, "vantage_scene_epoch", NULL, NULL, sc->epoch);
+    if (s->cluster) {
+        cluster_stats cs;
+        cluster_stats_get(s->cluster, &cs);
+        family(b, "vantage_cluster_role", "gauge",
+               "This daemon's role in its cluster (vantaged --cluster): 1 for the role it has.");
+        for (int r = CLUSTER_REPLICA; r <= CLUSTER_WRITER; r++)
+            sample(b, "vantage_cluster_role", "role", cluster_role_name(r), cs.role == r);
+        family(b, "vantage_cluster_stream_sequence", "gauge",
+               "The scene stream's message sequence: applied (a replica: applied to this scene; the writer: "
+               "published), stored (the writer: acknowledged by JetStream), last (the stream's end as last seen).");
+        sample(b, "vantage_cluster_stream_sequence", "kind", "applied", cs.applied);
+        sample(b, "vantage_cluster_stream_sequence", "kind", "stored", cs.stored);
+        sample(b, "vantage_cluster_stream_sequence", "kind", "last", cs.last);
+        family(b, "vantage_cluster_lag_messages", "gauge",
+               "Stream messages behind: a replica's not yet applied, the writer's published and not yet stored.");
+        sample(b, "vantage_cluster_lag_messages", NULL, NULL,
+               cs.role == CLUSTER_WRITER ? cs.applied - (cs.stored < cs.applied ? cs.stored : cs.applied)
+                                         : cs.last - cs.applied);
+        family(b, "vantage_cluster_promotions_total", "counter", "Times this daemon became the writer after it started.");
+        sample(b, "vantage_cluster_promotions_total", NULL, NULL, cs.promotions);
+    }
     family(b, "vantage_scene_entities", "gauge", "Entities in the scene, by kind.");
     sample(b, "vantage_scene_entities", "kind", "static", info.static_entities);
     sample(b, "vantage_scene_entities", "kind", "dynamic", info.dynamic_entities);

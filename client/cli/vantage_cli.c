@@ -225,7 +225,10 @@ static void usage(FILE *f)
     fprintf(f,
             "\n"
             "connection: -h HOST (127.0.0.1), -p PORT (%d), -s SOCKET (Unix socket instead of TCP),\n"
-            "            --token T (or VANTAGE_TOKEN) where the daemon has --tokens\n"
+            "            --token T (or VANTAGE_TOKEN) where the daemon has --tokens;\n"
+            "            a cluster (vantaged --cluster): -h HOST:PORT,HOST:PORT,/SOCKET... (or\n"
+            "            VANTAGE_ENDPOINTS), tried in turn (viewers from a random one); an edit a\n"
+            "            replica refuses (NOT_WRITER) goes on to the writer it names\n"
             "exit status: 0 ok, 1 refused (the server's code and message on stderr), 2 bad usage, 3 cannot\n"
             "             connect. COMMAND --help prints that command's usage.\n",
             VTC_DEFAULT_PORT);
@@ -481,6 +484,8 @@ typedef struct xstats {
     int nreq, nstage;
     double clients[4]; /* handshake, viewer, commander, editor */
     double streams, sent, dropped, discarded;
+    char role[40];                /* --cluster: writer, promoting or replica ("": none) */
+    double seq_applied, seq_stored, seq_last, lag;
 } xstats;
 
 /* The value of label key in labels[0..n) ("k=\"v\",..."), unescaped. */
@@ -581,6 +586,14 @@ static void xparse(const char *t, size_t len, xstats *x)
             x->dropped = val;
         } else if (!strcmp(name, "vantage_frames_discarded_total")) {
             x->discarded = val;
+        } else if (!strcmp(name, "vantage_cluster_role") && val == 1 && xlabel(labels, ln, "role", key, sizeof key)) {
+            snprintf(x->role, sizeof x->role, "%s", key);
+        } else if (!strcmp(name, "vantage_cluster_stream_sequence") && xlabel(labels, ln, "kind", key, sizeof key)) {
+            if (!strcmp(key, "applied")) x->seq_applied = val;
+            else if (!strcmp(key, "stored")) x->seq_stored = val;
+            else if (!strcmp(key, "last")) x->seq_last = val;
+        } else if (!strcmp(name, "vantage_cluster_lag_messages")) {
+            x->lag = val;
         }
     }
 }
@@ -663,6 +676,10 @@ static int cmd_stats(cli *k, int argc, char **argv)
                    "\"requests\": {",
                    x->clients[0], x->clients[1], x->clients[2], x->clients[3], x->streams, x->sent, x->dropped,
                    x->discarded);
+            if (x->role[0])
+                printf("\"cluster\": {\"role\": \"%s\", \"applied\": %.0f, \"stored\": %.0f, \"last\": %.0f, "
+                       "\"lag\": %.0f}, ",
+                       x->role, x->seq_applied, x->seq_stored, x->seq_last, x->lag);
             for (int i = 0; i < nreq; i++) {
                 printf("%s\"%s\": {\"count\": %.0f, \"errors\": %.0f, \"p50_ms\": ", i ? ", " : "", x->req[i].key,
                        x->req[i].count, x->req[i].errors);
@@ -696,6 +713,10 @@ static int cmd_stats(cli *k, int argc, char **argv)
                    x->clients[2], x->clients[3], x->clients[0]);
             printf("frames       %.0f sent, %.0f dropped (viewer behind), %.0f discarded; %.0f stream%s\n", x->sent,
                    x->dropped, x->discarded, x->streams, x->streams == 1 ? "" : "s");
+            if (x->role[0])
+                printf("cluster      %s; stream message %.0f %s, %.0f stored, last %.0f; lag %.0f\n", x->role,
+                       x->seq_applied, strcmp(x->role, "writer") ? "applied" : "published", x->seq_stored,
+                       x->seq_last, x->lag);
             printf("\nrequests (p50, p99: from taking a request to its reply queued, estimated from buckets)\n");
             printf("  %-20s %12s %10s %10s %10s\n", "type", "count", "errors", "p50", "p99");
             for (int i = 0; i < nreq; i++) {
@@ -958,6 +979,10 @@ int main(int argc, char **argv)
     }
     k.co.port = (int)port;
     if (!k.co.token) k.co.token = getenv("VANTAGE_TOKEN"); /* kept out of the process list */
+    /* several daemons (a cluster): -h A:P,B:P,/path or VANTAGE_ENDPOINTS */
+    const char *env_eps = getenv("VANTAGE_ENDPOINTS");
+    if (k.co.host && strpbrk(k.co.host, ",:/")) k.co.endpoints = k.co.host;
+    else if (!k.co.host && !k.co.unix_path && env_eps && *env_eps) k.co.endpoints = env_eps;
     if (optind >= argc) {
         usage(stderr);
         return 2;

@@ -17,6 +17,7 @@
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+#include <time.h>
 #include <unistd.h>
 
 struct vtc_client {
@@ -34,6 +35,9 @@ struct vtc_client {
     bool out_nomem;         /* request() could not make room: VTC_ERR_IO */
     uint32_t stream_req;    /* the frame stream's req, 0 = none */
     vtc_error stream_err;    /* code != 0: an ERROR ended the stream during another call */
+    vtc_connect_opts opts;  /* how it connected (NOT_WRITER's redirect connects the same way) */
+    char *token, *name;     /* opts' strings, owned */
+    char endpoint[256];     /* where it is connected */
 };
 
 const char *vtc_strerror(int code)
@@ -224,11 +228,36 @@ typedef int (*reply_dec)(const uint8_t *p, uint32_t len, void *out);
  * waits for its reply of type want and decodes it into out with dec
  * (NULL: the reply's type alone is checked). Returns VP_OK, the server's
  * ERROR code, the decoder's code (decoded) or VTC_ERR_IO. */
+static int redirect(vtc_client *c, const char *endpoint);
+
 static int call(vtc_client *c, vp_writer *w, uint32_t req, uint16_t want, reply_dec dec, void *out)
 {
     const uint8_t *p;
     uint32_t len;
     int rc = roundtrip(c, w, req, want, &p, &len);
+    /* a replica's NOT_WRITER names the writer first: the same request
+       again, there (its bytes kept: the new connection's HELLO reuses the
+       send buffer) */
+    for (int hop = 0; rc == VP_ERR_NOT_WRITER && !c->opts.no_follow && hop < 3; hop++) {
+        char ep[256];
+        int n = 0;
+        while (n < (int)sizeof ep - 1 && c->err.msg[n] && c->err.msg[n] != ' ') ep[n] = c->err.msg[n], n++;
+        ep[n] = 0;
+        if (!n || !strcmp(ep, "-") || !strcmp(ep, c->endpoint)) break; /* no writer now: the caller retries */
+        uint8_t *copy = malloc(w->len);
+        if (!copy) break;
+        memcpy(copy, w->p, w->len);
+        size_t clen = w->len;
+        if ((rc = redirect(c, ep))) {
+            free(copy);
+            return rc;
+        }
+        vp_writer again;
+        vp_writer_init(&again, copy, clen);
+        again.len = clen;
+        rc = roundtrip(c, &again, req, want, &p, &len);
+        free(copy);
+    }
     if (rc || !dec) return rc;
     return decoded(c, want, dec(p, len, out));
 }
@@ -323,6 +352,37 @@ static int connect_fd(const vtc_connect_opts *o, char *err, size_t errlen)
     return fd;
 }
 
+/* One endpoint of a list: "HOST:PORT", "[V6]:PORT", or a socket path. */
+static bool endpoint_opts(const char *ep, size_t n, vtc_connect_opts *d, char *host, size_t hostlen, char *path,
+                          size_t pathlen)
+{
+    if (!n || n >= hostlen || n >= pathlen) return false;
+    if (memchr(ep, '/', n)) {
+        memcpy(path, ep, n);
+        path[n] = 0;
+        d->unix_path = path;
+        return true;
+    }
+    const char *colon = NULL;
+    for (size_t i = 0; i < n; i++)
+        if (ep[i] == ':') colon = ep + i;
+    if (!colon || colon == ep + n - 1) return false;
+    size_t hl = (size_t)(colon - ep);
+    const char *h = ep;
+    if (hl >= 2 && h[0] == '[' && h[hl - 1] == ']') h++, hl -= 2;
+    memcpy(host, h, hl);
+    host[hl] = 0;
+    char *end;
+    long port = strtol(colon + 1, &end, 10);
+    if (end != ep + n || port < 1 || port > 65535) return false;
+    d->host = host;
+    d->port = (int)port;
+    d->unix_path = NULL;
+    return true;
+}
+
+static int connect_one(const vtc_connect_opts *o, vtc_client **out, char *err, size_t errlen);
+
 int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t errlen)
 {
     char tmp[256];
@@ -332,6 +392,71 @@ int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t e
     }
     *out = NULL;
     vtc_connect_opts d = o ? *o : (vtc_connect_opts){0};
+    if (!d.endpoints) return connect_one(&d, out, err, errlen);
+    /* a list: the endpoints in turn, from a random one for viewers */
+    const char *eps[64];
+    size_t lens[64], n = 0;
+    for (const char *e = d.endpoints; *e && n < 64;) {
+        const char *comma = strchr(e, ',');
+        size_t l = comma ? (size_t)(comma - e) : strlen(e);
+        if (l) eps[n] = e, lens[n++] = l;
+        e += l + (comma ? 1 : 0);
+    }
+    if (!n) {
+        snprintf(err, errlen, "no endpoint in \"%.100s\"", d.endpoints);
+        return VTC_ERR_IO;
+    }
+    size_t first = 0;
+    if (d.role != VP_ROLE_EDITOR) {
+        struct timespec t;
+        clock_gettime(CLOCK_REALTIME, &t);
+        first = (size_t)(t.tv_nsec ^ getpid()) % n;
+    }
+    int rc = VTC_ERR_IO;
+    for (size_t k = 0; k < n; k++) {
+        size_t i = (first + k) % n;
+        char host[256], path[256];
+        vtc_connect_opts one = d;
+        if (!endpoint_opts(eps[i], lens[i], &one, host, sizeof host, path, sizeof path)) {
+            snprintf(err, errlen, "bad endpoint \"%.*s\": use HOST:PORT, [IPv6]:PORT or a socket path", (int)lens[i],
+                     eps[i]);
+            return VTC_ERR_IO;
+        }
+        if ((rc = connect_one(&one, out, err, errlen)) == VP_OK) return VP_OK;
+        if (rc == VP_ERR_AUTH) return rc; /* the token is wrong everywhere */
+    }
+    return rc;
+}
+
+/* Replaces c's connection by one to endpoint, with the same role, token
+ * and name (NOT_WRITER's redirect). VP_OK, or the error in c->err. */
+static int redirect(vtc_client *c, const char *endpoint)
+{
+    vtc_connect_opts d = c->opts;
+    char host[256], path[256];
+    if (!endpoint_opts(endpoint, strlen(endpoint), &d, host, sizeof host, path, sizeof path))
+        return set_err(c, VTC_ERR_IO, "the writer's endpoint \"%.200s\" is not HOST:PORT or a socket path", endpoint);
+    d.endpoints = NULL;
+    vtc_client *n = NULL;
+    char err[600];
+    int rc = connect_one(&d, &n, err, sizeof err);
+    if (rc) return set_err(c, rc, "redirected to the writer at %s: %s", endpoint, err);
+    /* n takes c's place: c's pointer stays valid for the caller */
+    close(c->fd);
+    free(c->in);
+    free(c->out);
+    free(c->token);
+    free(c->name);
+    *c = *n;
+    c->opts.token = c->token;
+    c->opts.name = c->name;
+    free(n);
+    return VP_OK;
+}
+
+static int connect_one(const vtc_connect_opts *o, vtc_client **out, char *err, size_t errlen)
+{
+    vtc_connect_opts d = *o;
     vtc_client *c = calloc(1, sizeof *c);
     if (!c) {
         snprintf(err, errlen, "out of memory");
@@ -362,6 +487,15 @@ int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t e
         vtc_close(c);
         return rc;
     }
+    c->opts = d;
+    c->opts.endpoints = NULL;
+    c->token = d.token ? strdup(d.token) : NULL;
+    c->name = strdup(name);
+    c->opts.token = c->token;
+    c->opts.name = c->name;
+    if (d.unix_path && *d.unix_path) snprintf(c->endpoint, sizeof c->endpoint, "%s", d.unix_path);
+    else snprintf(c->endpoint, sizeof c->endpoint, "%s:%d", d.host && *d.host ? d.host : "127.0.0.1",
+                  d.port ? d.port : VTC_DEFAULT_PORT);
     *out = c;
     return VP_OK;
 }
@@ -372,6 +506,8 @@ void vtc_close(vtc_client *c)
     if (c->fd >= 0) close(c->fd);
     free(c->in);
     free(c->out);
+    free(c->token);
+    free(c->name);
     free(c);
 }
 

@@ -58,6 +58,16 @@ typedef struct vtc_connect_opts {
     const char *token;     /* NULL = none */
     const char *name;      /* for the server's logs; NULL = "libvantage" */
     int timeout_ms;        /* per call; 0 = 10000, < 0 = none */
+    /* Several daemons (a cluster, vantaged --cluster): comma-separated
+     * endpoints, each HOST:PORT, [IPv6]:PORT or a Unix socket path (it has a
+     * '/'), tried in turn until one answers HELLO. A viewer or commander
+     * starts at a random one (spreading viewers across replicas), an editor
+     * at the first. NULL: host, port and unix_path above. */
+    const char *endpoints;
+    /* An edit answered NOT_WRITER (sent to a replica) is sent again to the
+     * writer the answer names, on a new connection that replaces this one
+     * (at most 3 hops), unless no_follow. */
+    bool no_follow;
 } vtc_connect_opts;
 
 typedef struct vtc_error {
