@@ -179,6 +179,10 @@ PADB_OBJ := $(BUILD)/tests/bench/bench_pad.o
 PADB_BIN := $(BUILD)/bench_pad
 PADB_PAD := $(BUILD)/client/pad/pad.o $(BUILD)/client/pad/pad_parse.o $(BUILD)/client/pad/pad_line.o $(PROTO_OBJ)
 
+# the cluster tests' editor (tests/cluster): libvantage across failovers
+CLED_OBJ := $(BUILD)/tests/cluster/cluster_editor.o
+CLED_BIN := $(BUILD)/cluster_editor
+
 SUBB_OBJ := $(BUILD)/tests/bench/bench_sublevel.o
 SUBB_BIN := $(BUILD)/bench_sublevel
 
@@ -206,10 +210,10 @@ SCENE    ?= tests/data/scenes/city_scene.txt
 BLENDER_ZIP := build/vantage_link.zip
 BLENDER_SRC := $(wildcard client/blender/vantage_link/*.py)
 
-.PHONY: all run demo test test-web test-blender bench-blender docs-blender-shot bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-web test-cluster test-blender bench-blender docs-blender-shot bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN) \
-     $(WASM_BIN) $(BLENDER_ZIP)
+     $(CLED_BIN) $(WASM_BIN) $(BLENDER_ZIP)
 
 
 $(BLENDER_ZIP): $(BLENDER_SRC)
@@ -352,6 +356,9 @@ $(H264B_BIN): $(H264B_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(PERSIST_OBJ) $(CULL_LIB) 
 $(PADB_BIN): $(PADB_OBJ) $(PADB_PAD)
 	$(CC) $(LDFLAGS) -o $@ $(PADB_OBJ) $(PADB_PAD) $(LDLIBS)
 
+$(CLED_BIN): $(CLED_OBJ) $(CLIENT_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(CLED_OBJ) $(CLIENT_LIB) $(LDLIBS)
+
 $(SUBB_BIN): $(SUBB_OBJ) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(SUBB_OBJ) $(CLIENT_LIB) $(LDLIBS)
 
@@ -395,7 +402,7 @@ test-one: check-deps $(TEST_BIN)
 BUILD_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 test: check-deps
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull $(BLENDER_ZIP) \
-	  build/release/bench_occlusion build/release/bench_render build/release/bench_h264
+	  build/release/bench_occlusion build/release/bench_render build/release/bench_h264 build/release/cluster_editor
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan fuzz-replay
@@ -409,6 +416,7 @@ test: check-deps
 	VANTAGE_BIN_DIR=build/release ./build/release/vantage_tests
 	VANTAGE_BIN_DIR=build/release tests/web/run.sh
 	VANTAGE_BIN_DIR=build/release tests/blender/run.sh
+	VANTAGE_BIN_DIR=build/release python3 tests/cluster/run.py
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  VANTAGE_TEST_SCALE=$(SIDE_SCALE) VANTAGE_BIN_DIR=build/asan ./build/asan/vantage_tests
 
@@ -417,6 +425,13 @@ test: check-deps
 test-web: check-deps
 	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN)
 	VANTAGE_BIN_DIR=$(BUILD) tests/web/run.sh
+
+# the cluster (vantaged --cluster, daemon/cluster.c): a 3-node NATS JetStream cluster on
+# loopback, a writer and replicas under faults, split brain, bad stream data (tests/cluster/run.py;
+# about 30 s)
+test-cluster: check-deps
+	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN) $(CLED_BIN)
+	VANTAGE_BIN_DIR=$(BUILD) python3 tests/cluster/run.py
 
 # the Blender live-link (client/blender) in headless Blender against this configuration's
 # vantaged and vantage (tests/blender/run.sh; skipped when blender is missing; about 15 s)

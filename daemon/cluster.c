@@ -46,6 +46,8 @@ struct cluster {
     natsOptions *opts;
     natsConnection *nc;
     jsCtx *js;
+    jsOptions quick;                /* JetStream requests the loop waits for: a short timeout */
+    jsCtx *jskv;                    /* the lease's: requests time out well inside the TTL */
     kvStore *kv;
     natsSubscription *sub;
     int efd;
@@ -66,6 +68,9 @@ struct cluster {
     pthread_t lease_thr;
     bool lease_on;
     atomic_bool fenced;             /* the writer may not publish (its lease is in doubt) */
+    atomic_llong renewed;           /* when the last renewal that succeeded was sent (mono ms) */
+    pthread_t unsub_thr;            /* a closed subscription's consumer being deleted */
+    bool unsub_on;
     atomic_int role;
     /* the loop's own */
     uint64_t applied;               /* the stream sequence applied (replica) or published (writer) */
@@ -101,6 +106,18 @@ static void wake(cluster *cl)
     uint64_t one = 1;
     ssize_t ignored = write(cl->efd, &one, sizeof one);
     (void)ignored;
+}
+
+/* Whether the writer's lease may have expired: its last renewal that
+ * succeeded was sent more than 80 % of the TTL ago (the key's message was
+ * stored after it was sent, and expires a TTL after it was stored: no one
+ * else can hold the lease before then; the rest is margin for the clocks'
+ * rates). Even past it no record of ours can follow another writer's (the
+ * expected last sequence): the lease decides who writes, not what the
+ * stream holds. */
+static bool lease_doubtful(cluster *cl)
+{
+    return mono_ms() - atomic_load(&cl->renewed) > (int64_t)cl->cfg.lease_ms * 4 / 5;
 }
 
 const char *cluster_role_name(int role)
@@ -188,6 +205,23 @@ static int subscribe_from(cluster *cl, uint64_t seq, char *err, size_t errlen)
     return 0;
 }
 
+static void *unsub_main(void *arg)
+{
+    natsSubscription *sub = arg;
+    natsSubscription_Unsubscribe(sub); /* deletes the consumer: a JetStream request */
+    natsSubscription_Destroy(sub);
+    return NULL;
+}
+
+static void unsub_join(cluster *cl)
+{
+    if (cl->unsub_on) pthread_join(cl->unsub_thr, NULL);
+    cl->unsub_on = false;
+}
+
+/* Stops following: what still comes is dropped, and the consumer is
+ * deleted on a thread of its own (a JetStream request the loop must not
+ * wait for while the servers elect a leader). */
 static void unsubscribe(cluster *cl)
 {
     if (!cl->sub) return;
@@ -195,8 +229,13 @@ static void unsubscribe(cluster *cl)
     cl->draining = true;
     pthread_cond_broadcast(&cl->cv);
     pthread_mutex_unlock(&cl->mu);
-    natsSubscription_Unsubscribe(cl->sub);
-    natsSubscription_Destroy(cl->sub);
+    unsub_join(cl);
+    if (pthread_create(&cl->unsub_thr, NULL, unsub_main, cl->sub) == 0) {
+        cl->unsub_on = true;
+    } else {
+        natsSubscription_Unsubscribe(cl->sub);
+        natsSubscription_Destroy(cl->sub);
+    }
     cl->sub = NULL;
 }
 
@@ -442,7 +481,8 @@ static void recover(cluster *cl, const char *what)
     wait.MaxWait = cl->cfg.lease_ms;
     (void)js_PublishAsyncComplete(cl->js, &wait);
     for (;;) {
-        if (atomic_load(&cl->fenced)) fatal(cl, "the lease was lost with %zu records not stored", cl->pn);
+        if (atomic_load(&cl->fenced) || lease_doubtful(cl))
+            fatal(cl, "the lease was lost with %zu records not known to be stored", cl->pn);
         pthread_mutex_lock(&cl->mu);
         uint64_t acked = cl->acked, lease = cl->lease_rev;
         cl->fail_seq = 0;
@@ -451,7 +491,7 @@ static void recover(cluster *cl, const char *what)
         if (!cl->pn) break;
         jsStreamInfo *si = NULL;
         jsErrCode jerr = 0;
-        natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, NULL, &jerr);
+        natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, &cl->quick, &jerr);
         if (s != NATS_OK) {
             LOGW("cluster %s: stream info: %s; trying again", cl->name, nats_why(s));
             usleep(100000);
@@ -467,7 +507,7 @@ static void recover(cluster *cl, const char *what)
             pub_opts(cl, p, lease, &po, id, sizeof id);
             if (p->seq <= last) {
                 natsMsg *got = NULL;
-                s = js_GetMsg(&got, cl->js, cl->stream, p->seq, NULL, &jerr);
+                s = js_GetMsg(&got, cl->js, cl->stream, p->seq, &cl->quick, &jerr);
                 if (s != NATS_OK) {
                     retry = true;
                     break;
@@ -521,7 +561,6 @@ static void lease_writer_seen(cluster *cl, kvEntry *e)
 static void *lease_main(void *arg)
 {
     cluster *cl = arg;
-    int64_t renewed = mono_ms(); /* the writer: when its last renewal was sent */
     for (;;) {
         pthread_mutex_lock(&cl->mu);
         struct timespec until;
@@ -540,7 +579,7 @@ static void *lease_main(void *arg)
             uint64_t nrev = 0;
             natsStatus s = kvStore_Update(&nrev, cl->kv, "writer", cl->value, (int)strlen(cl->value), rev);
             if (s == NATS_OK) {
-                renewed = sent;
+                atomic_store(&cl->renewed, sent);
                 pthread_mutex_lock(&cl->mu);
                 cl->lease_rev = nrev;
                 pthread_mutex_unlock(&cl->mu);
@@ -549,7 +588,7 @@ static void *lease_main(void *arg)
             /* another revision: someone took it; else in doubt once half the TTL is gone */
             const char *why = nats_why(s);
             bool taken = strstr(why, "wrong last sequence") != NULL;
-            if (taken || mono_ms() - renewed > (int64_t)cl->cfg.lease_ms / 2) {
+            if (taken || lease_doubtful(cl)) {
                 atomic_store(&cl->fenced, true);
                 pthread_mutex_lock(&cl->mu);
                 cl->news_lost = 1;
@@ -577,7 +616,7 @@ static void *lease_main(void *arg)
         int64_t sent = mono_ms();
         uint64_t nrev = 0;
         if (kvStore_Create(&nrev, cl->kv, "writer", cl->value, (int)strlen(cl->value)) != NATS_OK) continue;
-        renewed = sent;
+        atomic_store(&cl->renewed, sent);
         atomic_store(&cl->fenced, false);
         pthread_mutex_lock(&cl->mu);
         cl->lease_rev = nrev;
@@ -597,12 +636,13 @@ static bool promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     bool more;
     apply_queue(cl, sc, lock, &more);
     while (apply_queue(cl, sc, lock, &more) || more) {}
-    for (int tries = 0;; tries++) {
+    int64_t give_up = mono_ms() + 10000;
+    for (;;) {
         jsStreamInfo *si = NULL;
         jsErrCode jerr = 0;
-        natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, NULL, &jerr);
+        natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, &cl->quick, &jerr);
         if (s != NATS_OK) {
-            if (tries > 50) return fatal(cl, "cannot read the stream's end to take over: %s", nats_why(s));
+            if (mono_ms() > give_up) return fatal(cl, "cannot read the stream's end to take over: %s", nats_why(s));
             usleep(100000);
             continue;
         }
@@ -612,7 +652,7 @@ static bool promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
         bool ok = true;
         while (ok && cl->applied < last) {
             natsMsg *m = NULL;
-            s = js_GetMsg(&m, cl->js, cl->stream, cl->applied + 1, NULL, &jerr);
+            s = js_GetMsg(&m, cl->js, cl->stream, cl->applied + 1, &cl->quick, &jerr);
             if (s != NATS_OK) {
                 ok = false;
                 break;
@@ -626,7 +666,8 @@ static bool promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
             cl->last_seen = last;
             break;
         }
-        if (tries > 50) return fatal(cl, "cannot read the stream's end to take over");
+        if (mono_ms() > give_up) return fatal(cl, "cannot read the stream's end to take over");
+        usleep(100000);
     }
     if (cl->asm_got) return fatal(cl, "the last writer left record %" PRIu64 " in parts", cl->recs + 1);
     pthread_mutex_lock(&cl->mu);
@@ -682,7 +723,7 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
 bool cluster_writable(cluster *cl, int *code, char *err, size_t errlen)
 {
     int role = atomic_load(&cl->role);
-    if (role == CLUSTER_WRITER && !atomic_load(&cl->fenced)) {
+    if (role == CLUSTER_WRITER && !atomic_load(&cl->fenced) && !lease_doubtful(cl)) {
         if (cl->pn < UNSTORED_MSGS && cl->pbytes < UNSTORED_BYTES) return true;
         *code = VP_ERR_BUSY;
         snprintf(err, errlen, "the stream has not stored the last %zu edits (%.1f MB): retry", cl->pn,
@@ -757,6 +798,8 @@ static int connect_nats(cluster *cl, char *err, size_t errlen)
         snprintf(err, errlen, "cannot reach NATS at %s: %s", cl->cfg.urls, nats_why(s));
         return -1;
     }
+    jsOptions_Init(&cl->quick);
+    cl->quick.Wait = 1000;
     jsOptions jo;
     jsOptions_Init(&jo);
     jo.Wait = 5000;
@@ -765,6 +808,12 @@ static int connect_nats(cluster *cl, char *err, size_t errlen)
     jo.PublishAsync.MaxPending = UNSTORED_MSGS * 2;
     s = natsConnection_JetStream(&cl->js, cl->nc, &jo);
     if (s != NATS_OK) {
+        snprintf(err, errlen, "JetStream: %s", nats_why(s));
+        return -1;
+    }
+    jsOptions_Init(&jo);
+    jo.Wait = cl->cfg.lease_ms / 4;
+    if ((s = natsConnection_JetStream(&cl->jskv, cl->nc, &jo)) != NATS_OK) {
         snprintf(err, errlen, "JetStream: %s", nats_why(s));
         return -1;
     }
@@ -804,7 +853,7 @@ static int ensure_stream(cluster *cl, uint64_t *first, uint64_t *last, char *err
     *first = si->State.FirstSeq;
     *last = si->State.LastSeq;
     jsStreamInfo_Destroy(si);
-    s = js_KeyValue(&cl->kv, cl->js, cl->bucket);
+    s = js_KeyValue(&cl->kv, cl->jskv, cl->bucket);
     if (s != NATS_OK) {
         kvConfig kc;
         kvConfig_Init(&kc);
@@ -813,11 +862,11 @@ static int ensure_stream(cluster *cl, uint64_t *first, uint64_t *last, char *err
         kc.TTL = (int64_t)cl->cfg.lease_ms * 1000000; /* nanoseconds (libnats 3.4) */
         kc.StorageType = js_FileStorage;
         kc.Replicas = cl->cfg.replicas;
-        s = js_CreateKeyValue(&cl->kv, cl->js, &kc);
+        s = js_CreateKeyValue(&cl->kv, cl->jskv, &kc);
         if (s != NATS_OK) {
             char why[200];
             snprintf(why, sizeof why, "%s", nats_why(s));
-            s = js_KeyValue(&cl->kv, cl->js, cl->bucket); /* another daemon made it first? */
+            s = js_KeyValue(&cl->kv, cl->jskv, cl->bucket); /* another daemon made it first? */
             if (s != NATS_OK) {
                 snprintf(err, errlen, "lease bucket %s cannot be made: %s", cl->bucket, why);
                 return -1;
@@ -907,8 +956,10 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     /* a writer candidate takes a free lease now */
     if (!cfg->follow) {
         uint64_t rev = 0;
+        int64_t sent = mono_ms();
         natsStatus s = kvStore_Create(&rev, cl->kv, "writer", cl->value, (int)strlen(cl->value));
         if (s == NATS_OK) {
+            atomic_store(&cl->renewed, sent);
             cl->lease_rev = rev;
             atomic_store(&cl->role, CLUSTER_PROMOTING);
             if (!promote(cl, sc, NULL) || cl->startup_err[0]) {
@@ -962,6 +1013,7 @@ void cluster_close(cluster *cl)
         }
     }
     unsubscribe(cl);
+    unsub_join(cl);
     for (size_t i = 0; i < cl->qn; i++) natsMsg_Destroy(cl->q[(cl->qhead + i) % cl->qcap]);
     free(cl->q);
     for (size_t i = 0; i < cl->pn; i++) free(cl->pend[(cl->phead + i) % cl->pcap].data);
@@ -969,6 +1021,7 @@ void cluster_close(cluster *cl)
     free(cl->asm_buf);
     if (cl->kv) kvStore_Destroy(cl->kv);
     if (cl->js) jsCtx_Destroy(cl->js);
+    if (cl->jskv) jsCtx_Destroy(cl->jskv);
     if (cl->nc) {
         natsConnection_Close(cl->nc);
         natsConnection_Destroy(cl->nc);

@@ -503,7 +503,9 @@ int main(int argc, char **argv)
              cluster_role_name(cs.role), (unsigned long long)cs.records, (unsigned long long)(ae_now_ms() - t0),
              (unsigned long long)sc->epoch, ccfg.wait_stored ? "replicated" : "off (answered before stored)");
         /* the starting scene is the stream's first records, made by its first writer */
-        if (!fresh && (build_demo || build_env)) LOGI("--scene/--env not applied: the stream has a scene");
+        if (!fresh && !ccfg.follow && (build_demo || build_env))
+            LOGI("--scene/--env not applied: %s", cluster_role(cfg.cluster) == CLUSTER_WRITER
+                                                      ? "the stream has a scene" : "this daemon is a replica");
         build_demo = build_demo && fresh;
         build_env = build_env && fresh;
     }

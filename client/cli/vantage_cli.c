@@ -671,15 +671,15 @@ static int cmd_stats(cli *k, int argc, char **argv)
                (unsigned long long)s.queries, (unsigned long long)s.edits, (unsigned long long)s.bytes_in,
                (unsigned long long)s.bytes_out, (unsigned long long)s.errors);
         if (have) {
+            if (x->role[0])
+                printf(", \"cluster\": {\"role\": \"%s\", \"applied\": %.0f, \"stored\": %.0f, \"last\": %.0f, "
+                       "\"lag\": %.0f}",
+                       x->role, x->seq_applied, x->seq_stored, x->seq_last, x->lag);
             printf(", \"clients\": {\"handshake\": %.0f, \"viewer\": %.0f, \"commander\": %.0f, \"editor\": %.0f}, "
                    "\"frames\": {\"streams\": %.0f, \"sent\": %.0f, \"dropped\": %.0f, \"discarded\": %.0f}, "
                    "\"requests\": {",
                    x->clients[0], x->clients[1], x->clients[2], x->clients[3], x->streams, x->sent, x->dropped,
                    x->discarded);
-            if (x->role[0])
-                printf("\"cluster\": {\"role\": \"%s\", \"applied\": %.0f, \"stored\": %.0f, \"last\": %.0f, "
-                       "\"lag\": %.0f}, ",
-                       x->role, x->seq_applied, x->seq_stored, x->seq_last, x->lag);
             for (int i = 0; i < nreq; i++) {
                 printf("%s\"%s\": {\"count\": %.0f, \"errors\": %.0f, \"p50_ms\": ", i ? ", " : "", x->req[i].key,
                        x->req[i].count, x->req[i].errors);

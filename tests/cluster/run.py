@@ -1,0 +1,341 @@
+#!/usr/bin/env python3
+"""The cluster tests (issue 23): vantaged --cluster against a real 3-node
+NATS JetStream cluster on loopback, the stream replicated 3 ways.
+
+  VANTAGE_BIN_DIR=build/release python3 tests/cluster/run.py
+
+Independent parts: Debian's nats-server, the C CLI (`vantage stats --json`,
+`vantage export -`) and cluster_editor (libvantage) as the clients. Phases:
+
+1. convergence under faults: a writer and 2 replicas, 5 editors adding
+   entities at a steady rate for 20 s while a replica is killed (-9) and
+   restarted, a NATS server is killed and restarted, the writer is killed
+   (-9: a replica must take over within 5 s) and restarted (it must come
+   back as a replica). Every daemon must end at the same epoch with the same
+   scene, holding every edit an editor saw acknowledged.
+2. split brain: a writer whose only NATS server stops cannot acknowledge
+   an edit; a replica takes over; when the server is back the old writer
+   does not write over the new writer's edits (it stops), and the edit it
+   could not acknowledge is nowhere.
+3. bad stream data: a foreign message put on the stream stops a replica,
+   with the message's sequence in its log, instead of diverging.
+"""
+import hashlib
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+BIN = os.environ.get("VANTAGE_BIN_DIR", "build/release")
+VANTAGED, VANTAGE, EDITOR = (os.path.join(BIN, n) for n in ("vantaged", "vantage", "cluster_editor"))
+NATS = shutil.which("nats-server")
+LEASE_MS = 3000           # the default: the failover bound below is for it
+RUN_S = float(os.environ.get("VANTAGE_CLUSTER_RUN_S", "20"))
+
+tmp = tempfile.mkdtemp(prefix="vantage-cluster.")
+procs = []                # every process started, for the cleanup
+failures = []
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def log(msg):
+    print(f"[{time.strftime('%H:%M:%S')}] {msg}", flush=True)
+
+
+def check(cond, what):
+    if cond:
+        log(f"ok   {what}")
+    else:
+        log(f"FAIL {what}")
+        failures.append(what)
+    return cond
+
+
+def wait_for(fn, timeout, step=0.1):
+    end = time.monotonic() + timeout
+    while True:
+        v = fn()
+        if v or time.monotonic() > end:
+            return v
+        time.sleep(step)
+
+
+class Nats:
+    def __init__(self, i, ports, cports):
+        self.i, self.port = i, ports[i]
+        self.conf = os.path.join(tmp, f"nats{i}.conf")
+        routes = ", ".join(f"nats-route://127.0.0.1:{p}" for p in cports)
+        # no_advertise: a client knows the servers it was given, so a daemon
+        # given one server is cut off when that one stops (phase 2)
+        with open(self.conf, "w") as f:
+            f.write(f"server_name: n{i}\nlisten: 127.0.0.1:{self.port}\n"
+                    f"jetstream {{ store_dir: {tmp}/js{i}, max_memory_store: 64MB, max_file_store: 2GB }}\n"
+                    f"cluster {{ name: vantage, listen: 127.0.0.1:{cports[i]}, routes: [{routes}], no_advertise: true }}\n")
+        self.p = None
+        self.url = f"nats://127.0.0.1:{self.port}"
+
+    def start(self):
+        self.p = subprocess.Popen([NATS, "-c", self.conf], stdout=open(f"{tmp}/nats{self.i}.log", "a"),
+                                  stderr=subprocess.STDOUT)
+        procs.append(self.p)
+
+        def listening():
+            try:
+                socket.create_connection(("127.0.0.1", self.port), timeout=0.5).close()
+                return True
+            except OSError:
+                return False
+        wait_for(listening, 10, 0.05)
+
+    def kill(self):
+        self.p.kill()
+        self.p.wait()
+
+
+class Daemon:
+    def __init__(self, name, urls, scene, follow, extra=()):
+        self.name, self.urls, self.scene, self.follow, self.extra = name, urls, scene, follow, list(extra)
+        self.port = free_port()
+        self.ep = f"127.0.0.1:{self.port}"
+        self.logf = f"{tmp}/{name}.log"
+        self.p = None
+
+    def start(self):
+        args = [VANTAGED, "--cluster", ",".join(self.urls), "--follow" if self.follow else "--scene-name",
+                self.scene, "--scene", "empty", "--stream-replicas", "3", "--bind", "127.0.0.1", "--port",
+                str(self.port), "--unix", "", "--threads", "1"] + self.extra
+        self.p = subprocess.Popen(args, stdout=open(self.logf, "a"), stderr=subprocess.STDOUT)
+        procs.append(self.p)
+
+    def kill9(self):
+        self.p.send_signal(signal.SIGKILL)
+        self.p.wait()
+
+    def alive(self):
+        return self.p and self.p.poll() is None
+
+    def stats(self):
+        try:
+            r = subprocess.run([VANTAGE, "-h", self.ep, "--timeout", "2000", "stats", "--json"], capture_output=True,
+                               text=True, timeout=5)
+            return json.loads(r.stdout) if r.returncode == 0 else None
+        except (subprocess.TimeoutExpired, json.JSONDecodeError):
+            return None
+
+    def role(self):
+        s = self.stats()
+        return s.get("cluster", {}).get("role") if s else None
+
+    def export(self):
+        r = subprocess.run([VANTAGE, "-h", self.ep, "--timeout", "10000", "export", "-"], capture_output=True,
+                           timeout=60)
+        return r.stdout if r.returncode == 0 else None
+
+    def tail(self, n=15):
+        try:
+            return "".join(open(self.logf).readlines()[-n:])
+        except OSError:
+            return ""
+
+
+def acked_ids(paths):
+    ids = set()
+    for p in paths:
+        for line in open(p):
+            f = line.split()
+            if f and f[0] in ("A", "D"):
+                ids.add(int(f[1]))
+    return ids, sum(1 for p in paths for line in open(p) if line.startswith("A "))
+
+
+def scene_ids(export):
+    return {json.loads(l)["id"] for l in export.decode().splitlines() if l.startswith("{")}
+
+
+def converge(daemons, timeout=30):
+    """Every daemon at the same epoch, with the same scene: (ok, epoch, digest)."""
+    def same_epoch():
+        e = [d.stats() for d in daemons]
+        if any(s is None for s in e):
+            return None
+        return e[0]["epoch"] if len({s["epoch"] for s in e}) == 1 else None
+    epoch = wait_for(same_epoch, timeout, 0.3)
+    if epoch is None:
+        return False, [d.stats() and d.stats()["epoch"] for d in daemons], None
+    digests = [hashlib.sha256(d.export() or b"none").hexdigest() for d in daemons]
+    return len(set(digests)) == 1, epoch, digests[0]
+
+
+def phase_convergence(nats, urls):
+    log("phase 1: convergence, 5 editors for %.0f s, with faults" % RUN_S)
+    w = Daemon("writer", urls, "conv", False)
+    r1 = Daemon("replica1", urls, "conv", True)
+    r2 = Daemon("replica2", urls, "conv", True)
+    w.start()
+    check(wait_for(lambda: w.role() == "writer", 20), "the first daemon becomes the writer")
+    r1.start()
+    r2.start()
+    check(wait_for(lambda: r1.role() == "replica" and r2.role() == "replica", 20), "two replicas join")
+    eps = ",".join(d.ep for d in (r1, r2, w))  # editors start at a replica: NOT_WRITER sends them on
+    editors = []
+    for k in range(5):
+        lf = f"{tmp}/editor{k}.log"
+        p = subprocess.Popen([EDITOR, "--endpoints", eps, "--base", str((k + 1) * 1000000), "--rate", "20",
+                              "--seconds", str(RUN_S), "--log", lf], stdout=subprocess.PIPE, text=True)
+        procs.append(p)
+        editors.append((p, lf))
+    t0 = time.monotonic()
+
+    def at(t):
+        d = t0 + t * RUN_S / 20 - time.monotonic()
+        if d > 0:
+            time.sleep(d)
+    at(3)
+    log("kill -9 replica2")
+    r2.kill9()
+    at(5)
+    r2.start()
+    at(7)
+    log("kill NATS server n2")
+    nats[2].kill()
+    at(9)
+    nats[2].start()
+    at(11)
+    log("kill -9 the writer")
+    w.kill9()
+    tk = time.monotonic()
+    new = wait_for(lambda: next((d for d in (r1, r2) if d.role() == "writer"), None), 15, 0.05)
+    took = time.monotonic() - tk
+    check(new is not None and took < 5.0, f"a replica took over {took:.2f} s after the writer died (under 5 s)")
+    at(15)
+    log("the old writer restarted")
+    w.start()
+    check(wait_for(lambda: w.role() == "replica", 20), "the old writer came back as a replica")
+    for p, _ in editors:
+        out, _ = p.communicate(timeout=RUN_S + 60)
+        log("  " + out.strip())
+    ok, epoch, digest = converge([w, r1, r2])
+    check(ok, f"every daemon at epoch {epoch} with the same scene (sha256 {digest and digest[:16]})")
+    ids, nacked = acked_ids([lf for _, lf in editors])
+    for d in (w, r1, r2):
+        ex = d.export()
+        have = scene_ids(ex) if ex else set()
+        missing = ids - have
+        check(ex is not None and not missing,
+              f"{d.name}: all {nacked} acknowledged edits are in its scene ({len(have)} entities, "
+              f"{len(missing)} missing)")
+    check(nacked > 5 * 20 * RUN_S * 0.5, f"the editors got {nacked} edits acknowledged (at least half the rate)")
+    return (w, r1, r2)
+
+
+def phase_split_brain(nats, urls):
+    log("phase 2: split brain")
+    s = Daemon("isolated", [nats[0].url], "split", False)
+    r = Daemon("splitreplica", [nats[1].url, nats[2].url], "split", True)
+    s.start()
+    check(wait_for(lambda: s.role() == "writer", 20), "the writer on n0 only is the writer")
+    r.start()
+    check(wait_for(lambda: r.role() == "replica", 20), "its replica on n1, n2 joins")
+    ok = subprocess.run([VANTAGE, "-h", s.ep, "add", "7001", "1,1,1", "1"], capture_output=True).returncode == 0
+    check(ok, "an edit before the split is acknowledged")
+    log("kill NATS server n0: the writer is cut off")
+    nats[0].kill()
+    r_cut = subprocess.run([VANTAGE, "-h", s.ep, "--timeout", "2500", "add", "7002", "2,2,2", "1"],
+                           capture_output=True, text=True)
+    check(r_cut.returncode != 0, "the cut-off writer does not acknowledge an edit (%s)" %
+          (r_cut.stderr.strip().splitlines() or ["no answer"])[-1][:120])
+    check(wait_for(lambda: r.role() == "writer", 15), "the replica took over")
+    ok = subprocess.run([VANTAGE, "-h", r.ep, "add", "7003", "3,3,3", "1"], capture_output=True).returncode == 0
+    check(ok, "an edit through the new writer is acknowledged")
+    nats[0].start()
+    stopped = wait_for(lambda: not s.alive(), 15)
+    check(stopped, "the old writer stopped instead of writing (exit %s): %s" %
+          (s.p.poll(), s.tail(3).strip().splitlines()[-1:] if stopped else "still running"))
+    if s.alive():
+        s.p.kill()
+    s.start()  # back, with the same command line: a replica of the new writer's stream
+    check(wait_for(lambda: s.role() == "replica", 20), "restarted, the old writer is a replica")
+    ok2, epoch, _ = converge([s, r])
+    check(ok2, f"both at epoch {epoch} with the same scene")
+    have = scene_ids(r.export() or b"")
+    check(7001 in have and 7003 in have and 7002 not in have,
+          "the new writer's scene has the edits before and after the split, not the unacknowledged one")
+    return (s, r)
+
+
+def phase_bad_data(nats, daemons):
+    log("phase 3: a foreign message on the stream")
+    w, r1, r2 = daemons
+    live = [d for d in daemons if d.alive() and d.role() == "replica"]
+    if not check(live, "a replica to poison"):
+        return
+    st = live[0].stats()
+    seq = int(st["cluster"]["last"]) + 1
+    with socket.create_connection(("127.0.0.1", nats[1].port)) as c:
+        c.recv(4096)  # INFO
+        body = b"not a vantage record"
+        c.sendall(b"CONNECT {\"verbose\":false}\r\nPUB vantage.conv.journal %d\r\n%s\r\nPING\r\n" % (len(body), body))
+        c.recv(4096)
+    stopped = wait_for(lambda: not live[0].alive(), 10)
+    tail = live[0].tail(4)
+    check(stopped and live[0].p.returncode == 3, f"the replica stopped (exit {live[0].p.poll()})")
+    check(f"stream message {seq}" in tail, f"its log names stream message {seq}: {tail.strip().splitlines()[-1:]}")
+
+
+def main():
+    for f in (VANTAGED, VANTAGE, EDITOR):
+        if not os.access(f, os.X_OK):
+            print(f"run.py: {f} is missing: build first (make CONFIG=release all)", file=sys.stderr)
+            return 2
+    if not NATS:
+        print("run.py: nats-server is missing (make deps installs it)", file=sys.stderr)
+        return 2
+    ports = [free_port() for _ in range(3)]
+    cports = [free_port() for _ in range(3)]
+    nats = [Nats(i, ports, cports) for i in range(3)]
+    for n in nats:
+        n.start()
+    urls = [n.url for n in nats]
+    time.sleep(1.5)
+    t0 = time.monotonic()
+    try:
+        daemons = phase_convergence(nats, urls)
+        phase_split_brain(nats, urls)
+        phase_bad_data(nats, daemons)
+    except Exception as e:  # a harness fault is a failure too, with what it was
+        import traceback
+        traceback.print_exc()
+        failures.append(f"exception: {e}")
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+        for p in procs:
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                pass
+    log(f"cluster tests: {len(failures)} failed, {time.monotonic() - t0:.1f} s")
+    if failures:
+        for f in sorted(os.listdir(tmp)):
+            if f.endswith(".log") and not f.startswith("editor"):
+                print(f"---- {f} (last lines)")
+                print("".join(open(os.path.join(tmp, f), errors="replace").readlines()[-12:]))
+        print(f"(logs kept in {tmp})")
+        return 1
+    shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
