@@ -712,7 +712,10 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
             if (cl->pn) fatal(cl, "the lease was lost with %zu messages not yet stored", cl->pn);
             atomic_store(&cl->role, CLUSTER_REPLICA);
             char err[300];
-            if (subscribe_from(cl, cl->applied + 1, err, sizeof err)) fatal(cl, "%s", err);
+            for (int tries = 0; subscribe_from(cl, cl->applied + 1, err, sizeof err); tries++) {
+                if (tries == 20) fatal(cl, "%s", err);
+                usleep(250000);
+            }
             LOGW("cluster %s: now a replica, from stream message %" PRIu64, cl->name, cl->applied + 1);
         }
     }
@@ -853,7 +856,7 @@ static int ensure_stream(cluster *cl, uint64_t *first, uint64_t *last, char *err
     *first = si->State.FirstSeq;
     *last = si->State.LastSeq;
     jsStreamInfo_Destroy(si);
-    s = js_KeyValue(&cl->kv, cl->jskv, cl->bucket);
+    s = cl->kv ? NATS_OK : js_KeyValue(&cl->kv, cl->jskv, cl->bucket);
     if (s != NATS_OK) {
         kvConfig kc;
         kvConfig_Init(&kc);
@@ -912,9 +915,20 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     cl->startup = true;
     atomic_store(&cl->role, CLUSTER_REPLICA);
     uint64_t first = 0, last = 0;
-    if (cl->efd < 0 || connect_nats(cl, err, errlen) || ensure_stream(cl, &first, &last, err, errlen)) {
+    if (cl->efd < 0 || connect_nats(cl, err, errlen)) {
         cluster_close(cl);
         return -1;
+    }
+    /* JetStream answers "timeout" or "no responders" for a while after a
+       server (re)starts, until its cluster has a leader: waited out */
+    int64_t patience = mono_ms() + 30000;
+    while (ensure_stream(cl, &first, &last, err, errlen)) {
+        if (mono_ms() > patience) {
+            cluster_close(cl);
+            return -1;
+        }
+        LOGW("cluster %s: %s: trying again", cl->name, err);
+        usleep(500000);
     }
     if (first > 1) {
         snprintf(err, errlen, "stream %s begins at message %" PRIu64 ": it was trimmed, and this build starts only "
@@ -924,9 +938,13 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     }
     /* the stream from its start, applied to its end as it was at open */
     uint64_t t0 = (uint64_t)mono_ms(), told = t0;
-    if (subscribe_from(cl, 1, err, errlen)) {
-        cluster_close(cl);
-        return -1;
+    while (subscribe_from(cl, 1, err, errlen)) {
+        if (mono_ms() > patience) {
+            cluster_close(cl);
+            return -1;
+        }
+        LOGW("cluster %s: %s: trying again", cl->name, err);
+        usleep(500000);
     }
     while (cl->applied < last && !cl->startup_err[0]) {
         pthread_mutex_lock(&cl->mu);

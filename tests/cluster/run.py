@@ -17,7 +17,10 @@ Independent parts: Debian's nats-server, the C CLI (`vantage stats --json`,
    an edit; a replica takes over; when the server is back the old writer
    does not write over the new writer's edits (it stops), and the edit it
    could not acknowledge is nowhere.
-3. bad stream data: a foreign message put on the stream stops a replica,
+3. a balancer: Debian's HAProxy with the shipped configuration
+   (docs/scale-out/haproxy.cfg) spreads clients over the daemons and, by its
+   protocol health check (HELLO + PING), routes around a dead one.
+4. bad stream data: a foreign message put on the stream stops a replica,
    with the message's sequence in its log, instead of diverging.
 """
 import hashlib
@@ -273,8 +276,49 @@ def phase_split_brain(nats, urls):
     return (s, r)
 
 
+def phase_balancer(daemons):
+    log("phase 3: HAProxy in front of the daemons (docs/scale-out/haproxy.cfg)")
+    hap = shutil.which("haproxy")
+    if not check(hap, "haproxy is installed"):
+        return
+    port = free_port()
+    cfg = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs", "scale-out", "haproxy.cfg")
+    env = dict(os.environ, VANTAGE_LISTEN=f"127.0.0.1:{port}",
+               **{f"VANTAGE_D{i + 1}": d.ep for i, d in enumerate(daemons)})
+    p = subprocess.Popen([hap, "-f", cfg, "-db"], env=env, stdout=open(f"{tmp}/haproxy.log", "a"),
+                         stderr=subprocess.STDOUT)
+    procs.append(p)
+    time.sleep(1.5)  # two good checks (rise 2, every 500 ms)
+
+    def stats_count(d):
+        s = d.stats()
+        return s.get("requests", {}).get("stats", {}).get("count", 0) if s else None
+
+    def through(n):
+        ok = 0
+        for _ in range(n):
+            r = subprocess.run([VANTAGE, "-h", f"127.0.0.1:{port}", "--timeout", "3000", "stats"], capture_output=True)
+            ok += r.returncode == 0
+        return ok
+    before = [stats_count(d) for d in daemons]
+    n = through(12)
+    after = [stats_count(d) for d in daemons]
+    served = sum(1 for b, a in zip(before, after) if b is not None and a is not None and a - b >= 2)  # ours + its own
+    check(n == 12 and served >= 2, f"12 clients through HAProxy answered ({n}), spread over {served} daemons")
+    victim = next((d for d in daemons if d.role() == "replica"), None)
+    if not check(victim, "a replica to take down"):
+        return
+    victim.kill9()
+    time.sleep(1.5)  # two failed checks
+    n = through(10)
+    check(n == 10, f"with a replica dead, HAProxy's health check routes around it: {n} of 10 answered")
+    victim.start()
+    check(wait_for(lambda: victim.role() == "replica", 20), "the replica restarted and caught up")
+    p.terminate()
+
+
 def phase_bad_data(nats, daemons):
-    log("phase 3: a foreign message on the stream")
+    log("phase 4: a foreign message on the stream")
     w, r1, r2 = daemons
     live = [d for d in daemons if d.alive() and d.role() == "replica"]
     if not check(live, "a replica to poison"):
@@ -311,6 +355,7 @@ def main():
     try:
         daemons = phase_convergence(nats, urls)
         phase_split_brain(nats, urls)
+        phase_balancer(daemons)
         phase_bad_data(nats, daemons)
     except Exception as e:  # a harness fault is a failure too, with what it was
         import traceback
