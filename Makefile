@@ -182,6 +182,8 @@ PADB_PAD := $(BUILD)/client/pad/pad.o $(BUILD)/client/pad/pad_parse.o $(BUILD)/c
 # the cluster tests' editor (tests/cluster): libvantage across failovers
 CLED_OBJ := $(BUILD)/tests/cluster/cluster_editor.o
 CLED_BIN := $(BUILD)/cluster_editor
+CLBN_OBJ := $(BUILD)/tests/cluster/cluster_bench.o
+CLBN_BIN := $(BUILD)/cluster_bench
 
 SUBB_OBJ := $(BUILD)/tests/bench/bench_sublevel.o
 SUBB_BIN := $(BUILD)/bench_sublevel
@@ -210,10 +212,10 @@ SCENE    ?= tests/data/scenes/city_scene.txt
 BLENDER_ZIP := build/vantage_link.zip
 BLENDER_SRC := $(wildcard client/blender/vantage_link/*.py)
 
-.PHONY: all run demo test test-web test-cluster test-blender bench-blender docs-blender-shot bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
+.PHONY: all run demo test test-web test-cluster bench-cluster test-blender bench-blender docs-blender-shot bench-web deps-npm docs-web-shots test-full bench bench-persist bench-commander bench-cycles docs-renders deps check-deps clean test-one install install-check \
         report report-smoke
 all: check-deps $(CULL_LIB) $(DAEMON_BIN) $(CLI_BIN) $(TEST_BIN) $(BENCH_BIN) $(OCCB_BIN) $(RENDB_BIN) $(SUBB_BIN) $(DESB_BIN) $(PADB_BIN) $(H264B_BIN) \
-     $(CLED_BIN) $(WASM_BIN) $(BLENDER_ZIP)
+     $(CLED_BIN) $(CLBN_BIN) $(WASM_BIN) $(BLENDER_ZIP)
 
 
 $(BLENDER_ZIP): $(BLENDER_SRC)
@@ -359,6 +361,9 @@ $(PADB_BIN): $(PADB_OBJ) $(PADB_PAD)
 $(CLED_BIN): $(CLED_OBJ) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(CLED_OBJ) $(CLIENT_LIB) $(LDLIBS)
 
+$(CLBN_BIN): $(CLBN_OBJ) $(CLIENT_LIB)
+	$(CC) $(LDFLAGS) -o $@ $(CLBN_OBJ) $(CLIENT_LIB) $(LDLIBS)
+
 $(SUBB_BIN): $(SUBB_OBJ) $(CLIENT_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(SUBB_OBJ) $(CLIENT_LIB) $(LDLIBS)
 
@@ -432,6 +437,13 @@ test-web: check-deps
 test-cluster: check-deps
 	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN) $(CLED_BIN)
 	VANTAGE_BIN_DIR=$(BUILD) python3 tests/cluster/run.py
+
+# the cluster's numbers (BENCHMARKS.md, Scale-out): lag, throughput, catch-up of 1M records,
+# bootstrap of 1M entities, failover, frames from 7 daemons against 1 (several minutes)
+bench-cluster: check-deps
+	@$(MAKE) --no-print-directory CONFIG=release build/release/vantaged build/release/vantage \
+	  build/release/cluster_editor build/release/cluster_bench
+	VANTAGE_BIN_DIR=build/release python3 tests/cluster/bench.py
 
 # the Blender live-link (client/blender) in headless Blender against this configuration's
 # vantaged and vantage (tests/blender/run.sh; skipped when blender is missing; about 15 s)
