@@ -295,7 +295,6 @@ int main(int argc, char **argv)
         }
         atomic_store(&b.sent, k);
     }
-    double t_send = now_ms() - t0;
     atomic_store(&b.done, true);
     pthread_join(rt, NULL);
     double t_all = now_ms() - t0;
