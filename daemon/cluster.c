@@ -12,7 +12,7 @@
  * stream's de-duplication. The record header's sequence number counts
  * records; the stream's sequence counts messages.
  */
-#include "cluster.h"
+#include "cluster_internal.h"
 #include "journal.h"
 #include "log.h"
 
@@ -28,80 +28,22 @@
 #include <time.h>
 #include <unistd.h>
 
-#define QUEUE_BYTES (64u << 20)     /* records from the stream the loop has not applied yet */
-#define UNSTORED_BYTES (64u << 20)  /* the writer's records not yet stored: past it edits wait (BUSY) */
-#define UNSTORED_MSGS 16384u
-#define TURN_NS 20000000ull         /* a turn applies records for at most this long */
 
-typedef struct pend_msg {           /* a published message not yet stored (writer) */
-    uint64_t seq;
-    uint8_t *data;
-    uint32_t len;
-    char part[24];
-} pend_msg;
-
-struct cluster {
-    cluster_config cfg;
-    char name[64], stream[80], subject[96], bucket[80], node[96], value[320];
-    natsOptions *opts;
-    natsConnection *nc;
-    jsCtx *js;
-    jsOptions quick;                /* JetStream requests the loop waits for: a short timeout */
-    jsCtx *jskv;                    /* the lease's: requests time out well inside the TTL */
-    kvStore *kv;
-    natsSubscription *sub;
-    int efd;
-    int64_t max_part;               /* bytes of a record per message */
-    /* shared with libnats's threads and the lease thread, under mu */
-    pthread_mutex_t mu;
-    pthread_cond_t cv;
-    natsMsg **q;                    /* the stream's messages for the loop, a ring */
-    size_t qhead, qn, qcap, qbytes;
-    bool draining;                  /* the subscription is being closed: drop what comes */
-    uint64_t acked;                 /* the highest stream sequence stored (writer) */
-    uint64_t fail_seq;              /* the first publish that failed (0: none) */
-    char fail[240];
-    int news_won, news_lost;        /* the lease thread's news */
-    uint64_t lease_rev;
-    char writer[200];               /* the lease holder's endpoint, as it advertises */
-    bool stop;
-    pthread_t lease_thr;
-    bool lease_on;
-    atomic_bool fenced;             /* the writer may not publish (its lease is in doubt) */
-    atomic_llong renewed;           /* when the last renewal that succeeded was sent (mono ms) */
-    pthread_t unsub_thr;            /* a closed subscription's consumer being deleted */
-    bool unsub_on;
-    atomic_int role;
-    /* the loop's own */
-    uint64_t applied;               /* the stream sequence applied (replica) or published (writer) */
-    uint64_t recs;                  /* the last record's number */
-    uint64_t max_lease;             /* the highest lease revision seen on the stream */
-    uint64_t last_seen;
-    uint8_t *asm_buf;               /* a record being put together from its parts */
-    size_t asm_len, asm_cap;
-    uint32_t asm_got, asm_parts;
-    pend_msg *pend;                 /* published, not yet stored, oldest first (a ring) */
-    size_t phead, pn, pcap, pbytes;
-    uint64_t promotions, started_ms;
-    bool startup;                   /* cluster_open is catching up: failures return, not exit */
-    char startup_err[400];
-};
-
-static int64_t mono_ms(void)
+int64_t cl_mono_ms(void)
 {
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return (int64_t)t.tv_sec * 1000 + t.tv_nsec / 1000000;
 }
 
-static uint64_t mono_ns(void)
+uint64_t cl_mono_ns(void)
 {
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return (uint64_t)t.tv_sec * 1000000000ull + (uint64_t)t.tv_nsec;
 }
 
-static void wake(cluster *cl)
+void cl_wake(cluster *cl)
 {
     uint64_t one = 1;
     ssize_t ignored = write(cl->efd, &one, sizeof one);
@@ -115,9 +57,9 @@ static void wake(cluster *cl)
  * rates). Even past it no record of ours can follow another writer's (the
  * expected last sequence): the lease decides who writes, not what the
  * stream holds. */
-static bool lease_doubtful(cluster *cl)
+bool cl_lease_doubtful(cluster *cl)
 {
-    return mono_ms() - atomic_load(&cl->renewed) > (int64_t)cl->cfg.lease_ms * 4 / 5;
+    return cl_mono_ms() - atomic_load(&cl->renewed) > (int64_t)cl->cfg.lease_ms * 4 / 5;
 }
 
 const char *cluster_role_name(int role)
@@ -125,7 +67,7 @@ const char *cluster_role_name(int role)
     return role == CLUSTER_WRITER ? "writer" : role == CLUSTER_PROMOTING ? "promoting" : "replica";
 }
 
-static const char *nats_why(natsStatus s)
+const char *cl_nats_why(natsStatus s)
 {
     const char *t = nats_GetLastError(NULL);
     return t && *t ? t : natsStatus_GetText(s);
@@ -133,8 +75,7 @@ static const char *nats_why(natsStatus s)
 
 /* A fault that leaves the scene in doubt: at start it is returned, later
  * the process ends (the scene must not be served or written past it). */
-static bool fatal(cluster *cl, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static bool fatal(cluster *cl, const char *fmt, ...)
+bool cl_fatal(cluster *cl, const char *fmt, ...)
 {
     char msg[400];
     va_list ap;
@@ -180,10 +121,10 @@ static void on_msg(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *
     cl->q[(cl->qhead + cl->qn++) % cl->qcap] = m;
     cl->qbytes += (size_t)natsMsg_GetDataLength(m) + 128;
     pthread_mutex_unlock(&cl->mu);
-    wake(cl);
+    cl_wake(cl);
 }
 
-static int subscribe_from(cluster *cl, uint64_t seq, char *err, size_t errlen)
+int cl_subscribe_from(cluster *cl, uint64_t seq, char *err, size_t errlen)
 {
     jsSubOptions so;
     jsSubOptions_Init(&so);
@@ -197,7 +138,7 @@ static int subscribe_from(cluster *cl, uint64_t seq, char *err, size_t errlen)
     pthread_mutex_unlock(&cl->mu);
     natsStatus s = js_Subscribe(&cl->sub, cl->js, cl->subject, on_msg, cl, NULL, &so, &jerr);
     if (s != NATS_OK) {
-        snprintf(err, errlen, "cannot follow the stream %s from %" PRIu64 ": %s (%d)", cl->stream, seq, nats_why(s),
+        snprintf(err, errlen, "cannot follow the stream %s from %" PRIu64 ": %s (%d)", cl->stream, seq, cl_nats_why(s),
                  (int)jerr);
         return -1;
     }
@@ -213,7 +154,7 @@ static void *unsub_main(void *arg)
     return NULL;
 }
 
-static void unsub_join(cluster *cl)
+void cl_unsub_join(cluster *cl)
 {
     if (cl->unsub_on) pthread_join(cl->unsub_thr, NULL);
     cl->unsub_on = false;
@@ -222,14 +163,14 @@ static void unsub_join(cluster *cl)
 /* Stops following: what still comes is dropped, and the consumer is
  * deleted on a thread of its own (a JetStream request the loop must not
  * wait for while the servers elect a leader). */
-static void unsubscribe(cluster *cl)
+void cl_unsubscribe(cluster *cl)
 {
     if (!cl->sub) return;
     pthread_mutex_lock(&cl->mu);
     cl->draining = true;
     pthread_cond_broadcast(&cl->cv);
     pthread_mutex_unlock(&cl->mu);
-    unsub_join(cl);
+    cl_unsub_join(cl);
     if (pthread_create(&cl->unsub_thr, NULL, unsub_main, cl->sub) == 0) {
         cl->unsub_on = true;
     } else {
@@ -239,7 +180,7 @@ static void unsubscribe(cluster *cl)
     cl->sub = NULL;
 }
 
-static uint64_t header_u64(natsMsg *m, const char *key, bool *ok)
+uint64_t cl_header_u64(natsMsg *m, const char *key, bool *ok)
 {
     const char *v = NULL;
     *ok = natsMsgHeader_Get(m, key, &v) == NATS_OK && v && *v;
@@ -252,29 +193,29 @@ static uint64_t header_u64(natsMsg *m, const char *key, bool *ok)
 }
 
 /* One stream message (seq) applied to sc: a record, or a part of one.
- * false with the reason logged (fatal) when it is not ours to apply. */
+ * false with the reason logged (cl_fatal) when it is not ours to apply. */
 static bool apply_msg(cluster *cl, scene *sc, natsMsg *m, uint64_t seq)
 {
     if (seq != cl->applied + 1)
-        return fatal(cl, "stream message %" PRIu64 " came after %" PRIu64 ": the stream has a gap (trimmed or "
+        return cl_fatal(cl, "stream message %" PRIu64 " came after %" PRIu64 ": the stream has a gap (trimmed or "
                      "purged past this daemon)", seq, cl->applied);
     bool ok;
-    uint64_t lease = header_u64(m, "Vantage-Lease", &ok);
-    if (!ok) return fatal(cl, "stream message %" PRIu64 ": no Vantage-Lease header: not a Vantage record", seq);
+    uint64_t lease = cl_header_u64(m, "Vantage-Lease", &ok);
+    if (!ok) return cl_fatal(cl, "stream message %" PRIu64 ": no Vantage-Lease header: not a Vantage record", seq);
     if (lease < cl->max_lease)
-        return fatal(cl, "stream message %" PRIu64 ": written under lease %" PRIu64 " after one under lease %" PRIu64
+        return cl_fatal(cl, "stream message %" PRIu64 ": written under lease %" PRIu64 " after one under lease %" PRIu64
                      ": a fenced writer's record", seq, lease, cl->max_lease);
     cl->max_lease = lease;
     const char *pv = NULL;
     uint32_t part = 1, parts = 1;
     if (natsMsgHeader_Get(m, "Vantage-Part", &pv) == NATS_OK && pv) {
         if (sscanf(pv, "%" SCNu32 "/%" SCNu32, &part, &parts) != 2 || !part || part > parts)
-            return fatal(cl, "stream message %" PRIu64 ": a bad Vantage-Part header \"%.40s\"", seq, pv);
+            return cl_fatal(cl, "stream message %" PRIu64 ": a bad Vantage-Part header \"%.40s\"", seq, pv);
     }
     const uint8_t *d = (const uint8_t *)natsMsg_GetData(m);
     size_t n = (size_t)natsMsg_GetDataLength(m);
     if (part != cl->asm_got + 1 || (cl->asm_got && parts != cl->asm_parts))
-        return fatal(cl, "stream message %" PRIu64 ": part %u of %u where part %u of %u was due", seq, part, parts,
+        return cl_fatal(cl, "stream message %" PRIu64 ": part %u of %u where part %u of %u was due", seq, part, parts,
                      cl->asm_got + 1, cl->asm_got ? cl->asm_parts : parts);
     cl->applied = seq;
     const uint8_t *rec = d;
@@ -283,7 +224,7 @@ static bool apply_msg(cluster *cl, scene *sc, natsMsg *m, uint64_t seq)
         if (cl->asm_len + n > cl->asm_cap) {
             size_t cap = (cl->asm_len + n) * 2;
             uint8_t *b = realloc(cl->asm_buf, cap);
-            if (!b) return fatal(cl, "stream message %" PRIu64 ": out of memory for a record's parts", seq);
+            if (!b) return cl_fatal(cl, "stream message %" PRIu64 ": out of memory for a record's parts", seq);
             cl->asm_buf = b;
             cl->asm_cap = cap;
         }
@@ -301,23 +242,23 @@ static bool apply_msg(cluster *cl, scene *sc, natsMsg *m, uint64_t seq)
     if (!why && rlen != JOURNAL_REC_HDR + (size_t)((uint32_t)rec[0] | (uint32_t)rec[1] << 8 |
                                                     (uint32_t)rec[2] << 16 | (uint32_t)rec[3] << 24))
         why = "bytes after the record";
-    if (why) return fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 "): %s", seq, cl->recs + 1, why);
+    if (why) return cl_fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 "): %s", seq, cl->recs + 1, why);
     scene_err se = {0};
     bool was = sc->replaying;
     sc->replaying = true; /* the writer took it: applied as it was */
     int rc = journal_rec_apply(sc, rec, 2, &se);
     sc->replaying = was;
     if (rc)
-        return fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 ") cannot be applied: %s", seq, cl->recs + 1,
+        return cl_fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 ") cannot be applied: %s", seq, cl->recs + 1,
                      se.msg);
     cl->recs++;
     return true;
 }
 
 /* Applies what the queue holds, for at most a turn's time (all at start). */
-static bool apply_queue(cluster *cl, scene *sc, pthread_rwlock_t *lock, bool *more)
+bool cl_apply_queue(cluster *cl, scene *sc, pthread_rwlock_t *lock, bool *more)
 {
-    uint64_t t0 = mono_ns();
+    uint64_t t0 = cl_mono_ns();
     bool changed = false;
     *more = false;
     if (lock) pthread_rwlock_wrlock(lock);
@@ -336,7 +277,7 @@ static bool apply_queue(cluster *cl, scene *sc, pthread_rwlock_t *lock, bool *mo
         jsMsgMetaData *meta = NULL;
         natsStatus s = natsMsg_GetMetaData(&meta, m);
         bool ok = s == NATS_OK;
-        if (!ok) fatal(cl, "a stream message after %" PRIu64 " without JetStream metadata: %s", cl->applied,
+        if (!ok) cl_fatal(cl, "a stream message after %" PRIu64 " without JetStream metadata: %s", cl->applied,
                        natsStatus_GetText(s));
         else ok = apply_msg(cl, sc, m, meta->Sequence.Stream);
         if (meta) {
@@ -347,7 +288,7 @@ static bool apply_queue(cluster *cl, scene *sc, pthread_rwlock_t *lock, bool *mo
         natsMsg_Destroy(m);
         if (!ok) break;
         changed = true;
-        if (lock && mono_ns() - t0 > TURN_NS) {
+        if (lock && cl_mono_ns() - t0 > TURN_NS) {
             *more = true;
             break;
         }
@@ -359,12 +300,12 @@ static bool apply_queue(cluster *cl, scene *sc, pthread_rwlock_t *lock, bool *mo
 
 /* ---- the writer's publishing ------------------------------------------------------------ */
 
-static void on_ack(jsCtx *js, natsMsg *m, jsPubAck *pa, jsPubAckErr *pae, void *closure)
+void cl_on_ack(jsCtx *js, natsMsg *m, jsPubAck *pa, jsPubAckErr *pae, void *closure)
 {
     (void)js;
     cluster *cl = closure;
     bool ok;
-    uint64_t seq = header_u64(m, "Vantage-Seq", &ok);
+    uint64_t seq = cl_header_u64(m, "Vantage-Seq", &ok);
     pthread_mutex_lock(&cl->mu);
     if (pa && !pae) {
         if (pa->Sequence > cl->acked) cl->acked = pa->Sequence;
@@ -375,7 +316,7 @@ static void on_ack(jsCtx *js, natsMsg *m, jsPubAck *pa, jsPubAckErr *pae, void *
     }
     pthread_mutex_unlock(&cl->mu);
     natsMsg_Destroy(m);
-    wake(cl);
+    cl_wake(cl);
 }
 
 static natsMsg *make_msg(cluster *cl, const pend_msg *p, uint64_t lease)
@@ -454,7 +395,7 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
         natsStatus s = m ? js_PublishMsgAsync(cl->js, &m, &po) : NATS_NO_MEMORY;
         if (m) natsMsg_Destroy(m);
         if (s != NATS_OK) {
-            LOGE("cluster %s: record %" PRIu64 " could not be published: %s", cl->name, cl->recs + 1, nats_why(s));
+            LOGE("cluster %s: record %" PRIu64 " could not be published: %s", cl->name, cl->recs + 1, cl_nats_why(s));
             free(pm.data);
             free(rec);
             return 0;
@@ -481,8 +422,8 @@ static void recover(cluster *cl, const char *what)
     wait.MaxWait = cl->cfg.lease_ms;
     (void)js_PublishAsyncComplete(cl->js, &wait);
     for (;;) {
-        if (atomic_load(&cl->fenced) || lease_doubtful(cl))
-            fatal(cl, "the lease was lost with %zu records not known to be stored", cl->pn);
+        if (atomic_load(&cl->fenced) || cl_lease_doubtful(cl))
+            cl_fatal(cl, "the lease was lost with %zu records not known to be stored", cl->pn);
         pthread_mutex_lock(&cl->mu);
         uint64_t acked = cl->acked, lease = cl->lease_rev;
         cl->fail_seq = 0;
@@ -493,7 +434,7 @@ static void recover(cluster *cl, const char *what)
         jsErrCode jerr = 0;
         natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, &cl->quick, &jerr);
         if (s != NATS_OK) {
-            LOGW("cluster %s: stream info: %s; trying again", cl->name, nats_why(s));
+            LOGW("cluster %s: stream info: %s; trying again", cl->name, cl_nats_why(s));
             usleep(100000);
             continue;
         }
@@ -516,7 +457,7 @@ static void recover(cluster *cl, const char *what)
                 bool ours = natsMsgHeader_Get(got, "Nats-Msg-Id", &gid) == NATS_OK && gid && !strcmp(gid, id);
                 natsMsg_Destroy(got);
                 if (!ours)
-                    fatal(cl, "stream message %" PRIu64 " is another writer's (expected ours, id %s)", p->seq, id);
+                    cl_fatal(cl, "stream message %" PRIu64 " is another writer's (expected ours, id %s)", p->seq, id);
             } else {
                 natsMsg *m = make_msg(cl, p, lease);
                 jsPubAck *pa = NULL;
@@ -528,7 +469,7 @@ static void recover(cluster *cl, const char *what)
                         retry = true; /* stored after all, or someone else's: the next round reads it back */
                         last = p->seq - 1;
                     } else {
-                        LOGW("cluster %s: stream message %" PRIu64 " again: %s (%d)", cl->name, p->seq, nats_why(s),
+                        LOGW("cluster %s: stream message %" PRIu64 " again: %s (%d)", cl->name, p->seq, cl_nats_why(s),
                              (int)jerr);
                         usleep(100000);
                         retry = true;
@@ -547,7 +488,7 @@ static void recover(cluster *cl, const char *what)
 
 /* ---- the lease ----------------------------------------------------------------------------- */
 
-static void lease_writer_seen(cluster *cl, kvEntry *e)
+void cl_lease_writer_seen(cluster *cl, kvEntry *e)
 {
     const char *v = kvEntry_Value(e);
     int n = kvEntry_ValueLen(e);
@@ -558,7 +499,7 @@ static void lease_writer_seen(cluster *cl, kvEntry *e)
     pthread_mutex_unlock(&cl->mu);
 }
 
-static void *lease_main(void *arg)
+void *cl_lease_main(void *arg)
 {
     cluster *cl = arg;
     for (;;) {
@@ -575,7 +516,7 @@ static void *lease_main(void *arg)
         if (stop) break;
         int role = atomic_load(&cl->role);
         if (role != CLUSTER_REPLICA && !atomic_load(&cl->fenced)) {
-            int64_t sent = mono_ms();
+            int64_t sent = cl_mono_ms();
             uint64_t nrev = 0;
             natsStatus s = kvStore_Update(&nrev, cl->kv, "writer", cl->value, (int)strlen(cl->value), rev);
             if (s == NATS_OK) {
@@ -586,16 +527,16 @@ static void *lease_main(void *arg)
                 continue;
             }
             /* another revision: someone took it; else in doubt once half the TTL is gone */
-            const char *why = nats_why(s);
+            const char *why = cl_nats_why(s);
             bool taken = strstr(why, "wrong last sequence") != NULL;
-            if (taken || lease_doubtful(cl)) {
+            if (taken || cl_lease_doubtful(cl)) {
                 atomic_store(&cl->fenced, true);
                 pthread_mutex_lock(&cl->mu);
                 cl->news_lost = 1;
                 pthread_mutex_unlock(&cl->mu);
                 LOGW("cluster %s: the lease is lost (%s): no more edits here", cl->name,
                      taken ? "another daemon holds it" : why);
-                wake(cl);
+                cl_wake(cl);
             }
             continue;
         }
@@ -603,7 +544,7 @@ static void *lease_main(void *arg)
         kvEntry *e = NULL;
         natsStatus s = kvStore_Get(&e, cl->kv, "writer");
         if (s == NATS_OK) {
-            lease_writer_seen(cl, e);
+            cl_lease_writer_seen(cl, e);
             kvEntry_Destroy(e);
             continue;
         }
@@ -612,8 +553,8 @@ static void *lease_main(void *arg)
         snprintf(cl->writer, sizeof cl->writer, "-");
         pthread_mutex_unlock(&cl->mu);
         /* a follower leaves a starting writer time to take it first */
-        if (cl->cfg.follow && mono_ms() - (int64_t)cl->started_ms < 2 * (int64_t)cl->cfg.lease_ms) continue;
-        int64_t sent = mono_ms();
+        if (cl->cfg.follow && cl_mono_ms() - (int64_t)cl->started_ms < 2 * (int64_t)cl->cfg.lease_ms) continue;
+        int64_t sent = cl_mono_ms();
         uint64_t nrev = 0;
         if (kvStore_Create(&nrev, cl->kv, "writer", cl->value, (int)strlen(cl->value)) != NATS_OK) continue;
         atomic_store(&cl->renewed, sent);
@@ -624,25 +565,25 @@ static void *lease_main(void *arg)
         pthread_mutex_unlock(&cl->mu);
         atomic_store(&cl->role, CLUSTER_PROMOTING);
         LOGI("cluster %s: this daemon took the lease (revision %" PRIu64 ")", cl->name, nrev);
-        wake(cl);
+        cl_wake(cl);
     }
     return NULL;
 }
 
 /* Becomes the writer: the stream applied to its very end first. */
-static bool promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
+bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
 {
-    unsubscribe(cl);
+    cl_unsubscribe(cl);
     bool more;
-    apply_queue(cl, sc, lock, &more);
-    while (apply_queue(cl, sc, lock, &more) || more) {}
-    int64_t give_up = mono_ms() + 10000;
+    cl_apply_queue(cl, sc, lock, &more);
+    while (cl_apply_queue(cl, sc, lock, &more) || more) {}
+    int64_t give_up = cl_mono_ms() + 10000;
     for (;;) {
         jsStreamInfo *si = NULL;
         jsErrCode jerr = 0;
         natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, &cl->quick, &jerr);
         if (s != NATS_OK) {
-            if (mono_ms() > give_up) return fatal(cl, "cannot read the stream's end to take over: %s", nats_why(s));
+            if (cl_mono_ms() > give_up) return cl_fatal(cl, "cannot read the stream's end to take over: %s", cl_nats_why(s));
             usleep(100000);
             continue;
         }
@@ -666,10 +607,10 @@ static bool promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
             cl->last_seen = last;
             break;
         }
-        if (mono_ms() > give_up) return fatal(cl, "cannot read the stream's end to take over");
+        if (cl_mono_ms() > give_up) return cl_fatal(cl, "cannot read the stream's end to take over");
         usleep(100000);
     }
-    if (cl->asm_got) return fatal(cl, "the last writer left record %" PRIu64 " in parts", cl->recs + 1);
+    if (cl->asm_got) return cl_fatal(cl, "the last writer left record %" PRIu64 " in parts", cl->recs + 1);
     pthread_mutex_lock(&cl->mu);
     cl->acked = cl->applied;
     pthread_mutex_unlock(&cl->mu);
@@ -696,9 +637,9 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     pthread_mutex_unlock(&cl->mu);
     bool changed = false, more = false;
     int role = atomic_load(&cl->role);
-    if (role != CLUSTER_WRITER) changed = apply_queue(cl, sc, lock, &more);
+    if (role != CLUSTER_WRITER) changed = cl_apply_queue(cl, sc, lock, &more);
     if (won && atomic_load(&cl->role) == CLUSTER_PROMOTING) {
-        promote(cl, sc, lock);
+        cl_promote(cl, sc, lock);
         changed = true;
     }
     if (atomic_load(&cl->role) == CLUSTER_WRITER) {
@@ -709,24 +650,24 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
             recover(cl, what);
         }
         if (lost) {
-            if (cl->pn) fatal(cl, "the lease was lost with %zu messages not yet stored", cl->pn);
+            if (cl->pn) cl_fatal(cl, "the lease was lost with %zu messages not yet stored", cl->pn);
             atomic_store(&cl->role, CLUSTER_REPLICA);
             char err[300];
-            for (int tries = 0; subscribe_from(cl, cl->applied + 1, err, sizeof err); tries++) {
-                if (tries == 20) fatal(cl, "%s", err);
+            for (int tries = 0; cl_subscribe_from(cl, cl->applied + 1, err, sizeof err); tries++) {
+                if (tries == 20) cl_fatal(cl, "%s", err);
                 usleep(250000);
             }
             LOGW("cluster %s: now a replica, from stream message %" PRIu64, cl->name, cl->applied + 1);
         }
     }
-    if (more) wake(cl);
+    if (more) cl_wake(cl);
     return changed;
 }
 
 bool cluster_writable(cluster *cl, int *code, char *err, size_t errlen)
 {
     int role = atomic_load(&cl->role);
-    if (role == CLUSTER_WRITER && !atomic_load(&cl->fenced) && !lease_doubtful(cl)) {
+    if (role == CLUSTER_WRITER && !atomic_load(&cl->fenced) && !cl_lease_doubtful(cl)) {
         if (cl->pn < UNSTORED_MSGS && cl->pbytes < UNSTORED_BYTES) return true;
         *code = VP_ERR_BUSY;
         snprintf(err, errlen, "the stream has not stored the last %zu edits (%.1f MB): retry", cl->pn,
@@ -769,284 +710,3 @@ void cluster_stats_get(cluster *cl, cluster_stats *o)
     o->last = cl->last_seen > cl->applied ? cl->last_seen : cl->applied;
 }
 
-/* ---- open / close ---------------------------------------------------------------------------- */
-
-static bool name_ok(const char *n)
-{
-    size_t k = 0;
-    for (; n[k]; k++)
-        if (!((n[k] >= 'a' && n[k] <= 'z') || (n[k] >= 'A' && n[k] <= 'Z') || (n[k] >= '0' && n[k] <= '9') ||
-              n[k] == '_' || n[k] == '-'))
-            return false;
-    return k >= 1 && k <= 48;
-}
-
-static int connect_nats(cluster *cl, char *err, size_t errlen)
-{
-    char *urls = strdup(cl->cfg.urls);
-    const char *list[32];
-    int n = 0;
-    for (char *sv, *t = urls ? strtok_r(urls, ",", &sv) : NULL; t && n < 32; t = strtok_r(NULL, ",", &sv))
-        list[n++] = t;
-    natsStatus s = n ? natsOptions_Create(&cl->opts) : NATS_INVALID_ARG;
-    if (s == NATS_OK) s = natsOptions_SetServers(cl->opts, list, n);
-    if (s == NATS_OK) s = natsOptions_SetName(cl->opts, cl->node);
-    if (s == NATS_OK) s = natsOptions_SetMaxReconnect(cl->opts, -1);
-    if (s == NATS_OK) s = natsOptions_SetReconnectWait(cl->opts, 100);
-    if (s == NATS_OK) s = natsOptions_SetTimeout(cl->opts, 2000);
-    if (s == NATS_OK) s = natsOptions_SetReconnectBufSize(cl->opts, 64 << 20);
-    if (s == NATS_OK) s = natsConnection_Connect(&cl->nc, cl->opts);
-    free(urls);
-    if (s != NATS_OK) {
-        snprintf(err, errlen, "cannot reach NATS at %s: %s", cl->cfg.urls, nats_why(s));
-        return -1;
-    }
-    jsOptions_Init(&cl->quick);
-    cl->quick.Wait = 1000;
-    jsOptions jo;
-    jsOptions_Init(&jo);
-    jo.Wait = 5000;
-    jo.PublishAsync.AckHandler = on_ack;
-    jo.PublishAsync.AckHandlerClosure = cl;
-    jo.PublishAsync.MaxPending = UNSTORED_MSGS * 2;
-    s = natsConnection_JetStream(&cl->js, cl->nc, &jo);
-    if (s != NATS_OK) {
-        snprintf(err, errlen, "JetStream: %s", nats_why(s));
-        return -1;
-    }
-    jsOptions_Init(&jo);
-    jo.Wait = cl->cfg.lease_ms / 4;
-    if ((s = natsConnection_JetStream(&cl->jskv, cl->nc, &jo)) != NATS_OK) {
-        snprintf(err, errlen, "JetStream: %s", nats_why(s));
-        return -1;
-    }
-    int64_t mp = natsConnection_GetMaxPayload(cl->nc);
-    cl->max_part = mp > 4096 ? mp - 1024 : 4096; /* the headers ride in the same payload */
-    return 0;
-}
-
-static int ensure_stream(cluster *cl, uint64_t *first, uint64_t *last, char *err, size_t errlen)
-{
-    jsStreamInfo *si = NULL;
-    jsErrCode jerr = 0;
-    natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, NULL, &jerr);
-    if (s == NATS_NOT_FOUND || jerr == JSStreamNotFoundErr) {
-        jsStreamConfig sc;
-        jsStreamConfig_Init(&sc);
-        const char *subj[1] = {cl->subject};
-        sc.Name = cl->stream;
-        sc.Subjects = subj;
-        sc.SubjectsLen = 1;
-        sc.Storage = js_FileStorage;
-        sc.Replicas = cl->cfg.replicas;
-        sc.Duplicates = (int64_t)120 * 1000000000; /* a retried publish within 2 minutes is stored once */
-        sc.AllowDirect = true;
-        jerr = 0;
-        s = js_AddStream(&si, cl->js, &sc, NULL, &jerr);
-        if (s == NATS_OK) LOGI("cluster %s: stream %s made, replicated %d ways", cl->name, cl->stream, cl->cfg.replicas);
-        else {
-            jerr = 0; /* another daemon made it first */
-            s = js_GetStreamInfo(&si, cl->js, cl->stream, NULL, &jerr);
-        }
-    }
-    if (s != NATS_OK) {
-        snprintf(err, errlen, "stream %s: %s (%d)", cl->stream, nats_why(s), (int)jerr);
-        return -1;
-    }
-    *first = si->State.FirstSeq;
-    *last = si->State.LastSeq;
-    jsStreamInfo_Destroy(si);
-    s = cl->kv ? NATS_OK : js_KeyValue(&cl->kv, cl->jskv, cl->bucket);
-    if (s != NATS_OK) {
-        kvConfig kc;
-        kvConfig_Init(&kc);
-        kc.Bucket = cl->bucket;
-        kc.History = 1;
-        kc.TTL = (int64_t)cl->cfg.lease_ms * 1000000; /* nanoseconds (libnats 3.4) */
-        kc.StorageType = js_FileStorage;
-        kc.Replicas = cl->cfg.replicas;
-        s = js_CreateKeyValue(&cl->kv, cl->jskv, &kc);
-        if (s != NATS_OK) {
-            char why[200];
-            snprintf(why, sizeof why, "%s", nats_why(s));
-            s = js_KeyValue(&cl->kv, cl->jskv, cl->bucket); /* another daemon made it first? */
-            if (s != NATS_OK) {
-                snprintf(err, errlen, "lease bucket %s cannot be made: %s", cl->bucket, why);
-                return -1;
-            }
-        }
-    }
-    if (s != NATS_OK) {
-        snprintf(err, errlen, "lease bucket %s: %s", cl->bucket, nats_why(s));
-        return -1;
-    }
-    return 0;
-}
-
-int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fresh, char *err, size_t errlen)
-{
-    *out = NULL;
-    *fresh = false;
-    if (!name_ok(cfg->name)) {
-        snprintf(err, errlen, "scene name \"%.60s\": use 1 to 48 letters, digits, '_' or '-'", cfg->name);
-        return -1;
-    }
-    cluster *cl = calloc(1, sizeof *cl);
-    if (!cl) {
-        snprintf(err, errlen, "out of memory");
-        return -1;
-    }
-    cl->cfg = *cfg;
-    cl->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    pthread_mutex_init(&cl->mu, NULL);
-    pthread_cond_init(&cl->cv, NULL);
-    snprintf(cl->name, sizeof cl->name, "%s", cfg->name);
-    snprintf(cl->stream, sizeof cl->stream, "VANTAGE_%s", cfg->name);
-    snprintf(cl->subject, sizeof cl->subject, "vantage.%s.journal", cfg->name);
-    snprintf(cl->bucket, sizeof cl->bucket, "vantage-lease-%s", cfg->name);
-    char host[64] = "?";
-    gethostname(host, sizeof host - 1);
-    struct timespec t;
-    clock_gettime(CLOCK_REALTIME, &t);
-    snprintf(cl->node, sizeof cl->node, "vantaged %s:%d:%lx", host, (int)getpid(), (unsigned long)t.tv_nsec);
-    snprintf(cl->value, sizeof cl->value, "%s\n%s", cfg->advertise, cl->node);
-    snprintf(cl->writer, sizeof cl->writer, "-");
-    cl->started_ms = (uint64_t)mono_ms();
-    cl->startup = true;
-    atomic_store(&cl->role, CLUSTER_REPLICA);
-    uint64_t first = 0, last = 0;
-    if (cl->efd < 0 || connect_nats(cl, err, errlen)) {
-        cluster_close(cl);
-        return -1;
-    }
-    /* JetStream answers "timeout" or "no responders" for a while after a
-       server (re)starts, until its cluster has a leader: waited out */
-    int64_t patience = mono_ms() + 30000;
-    while (ensure_stream(cl, &first, &last, err, errlen)) {
-        if (mono_ms() > patience) {
-            cluster_close(cl);
-            return -1;
-        }
-        LOGW("cluster %s: %s: trying again", cl->name, err);
-        usleep(500000);
-    }
-    if (first > 1) {
-        snprintf(err, errlen, "stream %s begins at message %" PRIu64 ": it was trimmed, and this build starts only "
-                 "from a whole stream", cl->stream, first);
-        cluster_close(cl);
-        return -1;
-    }
-    /* the stream from its start, applied to its end as it was at open */
-    uint64_t t0 = (uint64_t)mono_ms(), told = t0;
-    while (subscribe_from(cl, 1, err, errlen)) {
-        if (mono_ms() > patience) {
-            cluster_close(cl);
-            return -1;
-        }
-        LOGW("cluster %s: %s: trying again", cl->name, err);
-        usleep(500000);
-    }
-    while (cl->applied < last && !cl->startup_err[0]) {
-        pthread_mutex_lock(&cl->mu);
-        if (!cl->qn) {
-            struct timespec until;
-            clock_gettime(CLOCK_REALTIME, &until);
-            until.tv_sec += 1;
-            pthread_cond_timedwait(&cl->cv, &cl->mu, &until);
-        }
-        pthread_mutex_unlock(&cl->mu);
-        bool more;
-        apply_queue(cl, sc, NULL, &more);
-        uint64_t now = (uint64_t)mono_ms();
-        if (now - told > 2000) {
-            told = now;
-            LOGI("cluster %s: catching up, stream message %" PRIu64 " of %" PRIu64, cl->name, cl->applied, last);
-        }
-    }
-    if (cl->startup_err[0]) {
-        snprintf(err, errlen, "%s", cl->startup_err);
-        cluster_close(cl);
-        return -1;
-    }
-    cull_world_commit(sc->world);
-    LOGI("cluster %s: %" PRIu64 " stream messages (%" PRIu64 " records) applied in %" PRIu64 " ms: epoch %" PRIu64,
-         cl->name, cl->applied, cl->recs, (uint64_t)mono_ms() - t0, sc->epoch);
-    /* a writer candidate takes a free lease now */
-    if (!cfg->follow) {
-        uint64_t rev = 0;
-        int64_t sent = mono_ms();
-        natsStatus s = kvStore_Create(&rev, cl->kv, "writer", cl->value, (int)strlen(cl->value));
-        if (s == NATS_OK) {
-            atomic_store(&cl->renewed, sent);
-            cl->lease_rev = rev;
-            atomic_store(&cl->role, CLUSTER_PROMOTING);
-            if (!promote(cl, sc, NULL) || cl->startup_err[0]) {
-                snprintf(err, errlen, "%s", cl->startup_err);
-                cluster_close(cl);
-                return -1;
-            }
-            cl->promotions = 0;
-            *fresh = cl->applied == 0;
-        } else {
-            kvEntry *e = NULL;
-            if (kvStore_Get(&e, cl->kv, "writer") == NATS_OK) {
-                lease_writer_seen(cl, e);
-                kvEntry_Destroy(e);
-            }
-            LOGI("cluster %s: %s holds the lease: this daemon is a replica", cl->name, cl->writer);
-        }
-    }
-    cl->startup = false;
-    if (pthread_create(&cl->lease_thr, NULL, lease_main, cl)) {
-        snprintf(err, errlen, "cannot start the lease thread");
-        cluster_close(cl);
-        return -1;
-    }
-    cl->lease_on = true;
-    *out = cl;
-    return 0;
-}
-
-void cluster_close(cluster *cl)
-{
-    if (!cl) return;
-    pthread_mutex_lock(&cl->mu);
-    cl->stop = true;
-    pthread_cond_broadcast(&cl->cv);
-    pthread_mutex_unlock(&cl->mu);
-    if (cl->lease_on) pthread_join(cl->lease_thr, NULL);
-    if (cl->js && atomic_load(&cl->role) == CLUSTER_WRITER) {
-        jsPubOptions po;
-        jsPubOptions_Init(&po);
-        po.MaxWait = 2000;
-        (void)js_PublishAsyncComplete(cl->js, &po);
-        /* a clean stop hands the lease on at once */
-        pthread_mutex_lock(&cl->mu);
-        uint64_t rev = cl->lease_rev;
-        pthread_mutex_unlock(&cl->mu);
-        kvEntry *e = NULL;
-        if (cl->kv && kvStore_Get(&e, cl->kv, "writer") == NATS_OK) {
-            if (kvEntry_Revision(e) == rev) kvStore_Delete(cl->kv, "writer");
-            kvEntry_Destroy(e);
-        }
-    }
-    unsubscribe(cl);
-    unsub_join(cl);
-    for (size_t i = 0; i < cl->qn; i++) natsMsg_Destroy(cl->q[(cl->qhead + i) % cl->qcap]);
-    free(cl->q);
-    for (size_t i = 0; i < cl->pn; i++) free(cl->pend[(cl->phead + i) % cl->pcap].data);
-    free(cl->pend);
-    free(cl->asm_buf);
-    if (cl->kv) kvStore_Destroy(cl->kv);
-    if (cl->js) jsCtx_Destroy(cl->js);
-    if (cl->jskv) jsCtx_Destroy(cl->jskv);
-    if (cl->nc) {
-        natsConnection_Close(cl->nc);
-        natsConnection_Destroy(cl->nc);
-    }
-    if (cl->opts) natsOptions_Destroy(cl->opts);
-    if (cl->efd >= 0) close(cl->efd);
-    pthread_cond_destroy(&cl->cv);
-    pthread_mutex_destroy(&cl->mu);
-    free(cl);
-}
