@@ -120,6 +120,7 @@ static void on_msg(natsConnection *nc, natsSubscription *sub, natsMsg *m, void *
     }
     cl->q[(cl->qhead + cl->qn++) % cl->qcap] = m;
     cl->qbytes += (size_t)natsMsg_GetDataLength(m) + 128;
+    pthread_cond_broadcast(&cl->cv); /* cluster_open's catching up waits on it */
     pthread_mutex_unlock(&cl->mu);
     cl_wake(cl);
 }
@@ -406,6 +407,7 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
     }
     free(rec);
     cl->recs++;
+    cl->since_snap += rlen;
     return cl->applied;
 }
 
@@ -614,6 +616,7 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     pthread_mutex_lock(&cl->mu);
     cl->acked = cl->applied;
     pthread_mutex_unlock(&cl->mu);
+    cl_snap_refresh(cl);
     atomic_store(&cl->role, CLUSTER_WRITER);
     cl->promotions++;
     LOGI("cluster %s: writing from stream message %" PRIu64 " (record %" PRIu64 ", epoch %" PRIu64 ")", cl->name,
@@ -644,6 +647,7 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     }
     if (atomic_load(&cl->role) == CLUSTER_WRITER) {
         pend_pop_stored(cl, acked);
+        cl_snap_poll(cl, sc);
         if (fail_seq) {
             char what[320];
             snprintf(what, sizeof what, "stream message %" PRIu64 " was not stored: %s", fail_seq, fail);
@@ -702,6 +706,7 @@ void cluster_stats_get(cluster *cl, cluster_stats *o)
     o->applied = cl->applied;
     o->records = cl->recs;
     o->promotions = cl->promotions;
+    o->snapshots = atomic_load(&cl->snapshots);
     pthread_mutex_lock(&cl->mu);
     o->stored = cl->acked;
     o->lease_rev = o->role == CLUSTER_REPLICA ? 0 : cl->lease_rev;

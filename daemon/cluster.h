@@ -48,6 +48,7 @@ typedef struct cluster_config {
     const char *advertise;  /* the endpoint clients are redirected to when this daemon writes */
     int replicas;           /* the stream's and the lease bucket's replication (1..5) */
     uint32_t lease_ms;      /* the lease's TTL */
+    uint64_t snapshot_bytes; /* the writer publishes a snapshot after this many bytes of records */
 } cluster_config;
 
 enum { CLUSTER_REPLICA, CLUSTER_PROMOTING, CLUSTER_WRITER };
@@ -62,6 +63,7 @@ typedef struct cluster_stats {
     uint64_t records;       /* records applied or published since start */
     uint64_t lease_rev;     /* this daemon's lease revision (0: none) */
     uint64_t promotions;
+    uint64_t snapshots;     /* published by this daemon */
     char writer[200];       /* the writer's endpoint ("-": none known) */
 } cluster_stats;
 

@@ -68,6 +68,18 @@ struct cluster {
     pend_msg *pend;                 /* published, not yet stored, oldest first (a ring) */
     size_t phead, pn, pcap, pbytes;
     uint64_t promotions, started_ms;
+    /* snapshots (cluster_snap.c) */
+    char snap_stream[96], snap_subject[112], snap_index[112];
+    uint64_t snap_limit;            /* record bytes published between snapshots */
+    uint64_t since_snap;            /* record bytes published since the last one began */
+    pid_t snap_child;               /* writing one into snap_fd (a memfd) */
+    int snap_fd;
+    uint64_t snap_seq, snap_recs, snap_lease; /* what it is as of */
+    pthread_t snap_thr;             /* publishing it */
+    bool snap_thr_on;
+    atomic_bool snap_busy;
+    uint64_t snap_prev_seq, snap_prev_first; /* the newest published: as of, and its first part */
+    atomic_ullong snapshots;        /* published by this daemon */
     bool startup;                   /* cluster_open is catching up: failures return, not exit */
     char startup_err[400];
 };
@@ -89,5 +101,14 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock);
 void cl_lease_writer_seen(cluster *cl, kvEntry *e);
 void *cl_lease_main(void *arg);
 void cl_on_ack(jsCtx *js, natsMsg *m, jsPubAck *pa, jsPubAckErr *pae, void *closure);
+/* cluster_snap.c: the snapshot stream made when missing; the newest
+ * snapshot loaded into sc (1; 0: none and the stream begins at 1; -1 with
+ * err); the writer's turn (a snapshot started, or its child done); stopped
+ * at close; the newest snapshot's position read again (a new writer). */
+int cl_snap_ensure(cluster *cl, char *err, size_t errlen);
+int cl_snap_load(cluster *cl, scene *sc, uint64_t first, char *err, size_t errlen);
+void cl_snap_poll(cluster *cl, const scene *sc);
+void cl_snap_stop(cluster *cl);
+void cl_snap_refresh(cluster *cl);
 
 #endif

@@ -101,6 +101,7 @@ static int ensure_stream(cluster *cl, uint64_t *first, uint64_t *last, char *err
     *first = si->State.FirstSeq;
     *last = si->State.LastSeq;
     jsStreamInfo_Destroy(si);
+    if (cl_snap_ensure(cl, err, errlen)) return -1;
     s = cl->kv ? NATS_OK : js_KeyValue(&cl->kv, cl->jskv, cl->bucket);
     if (s != NATS_OK) {
         kvConfig kc;
@@ -149,6 +150,11 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     snprintf(cl->stream, sizeof cl->stream, "VANTAGE_%s", cfg->name);
     snprintf(cl->subject, sizeof cl->subject, "vantage.%s.journal", cfg->name);
     snprintf(cl->bucket, sizeof cl->bucket, "vantage-lease-%s", cfg->name);
+    snprintf(cl->snap_stream, sizeof cl->snap_stream, "VANTAGE_%s_SNAP", cfg->name);
+    snprintf(cl->snap_subject, sizeof cl->snap_subject, "vantage.%s.snap", cfg->name);
+    snprintf(cl->snap_index, sizeof cl->snap_index, "vantage.%s.snapidx", cfg->name);
+    cl->snap_limit = cfg->snapshot_bytes ? cfg->snapshot_bytes : 64ull << 20;
+    cl->snap_fd = -1;
     char host[64] = "?";
     gethostname(host, sizeof host - 1);
     struct timespec t;
@@ -175,15 +181,19 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
         LOGW("cluster %s: %s: trying again", cl->name, err);
         usleep(500000);
     }
-    if (first > 1) {
-        snprintf(err, errlen, "stream %s begins at message %" PRIu64 ": it was trimmed, and this build starts only "
-                 "from a whole stream", cl->stream, first);
-        cluster_close(cl);
-        return -1;
+    /* the newest snapshot, then the stream after it */
+    int loaded;
+    while ((loaded = cl_snap_load(cl, sc, first, err, errlen)) < 0) {
+        if (cl_mono_ms() > patience || !strstr(err, "snapshot index:")) {
+            cluster_close(cl);
+            return -1;
+        }
+        LOGW("cluster %s: %s: trying again", cl->name, err);
+        usleep(500000);
     }
     /* the stream from its start, applied to its end as it was at open */
     uint64_t t0 = (uint64_t)cl_mono_ms(), told = t0;
-    while (cl_subscribe_from(cl, 1, err, errlen)) {
+    while (cl_subscribe_from(cl, cl->applied + 1, err, errlen)) {
         if (cl_mono_ms() > patience) {
             cluster_close(cl);
             return -1;
@@ -260,6 +270,7 @@ void cluster_close(cluster *cl)
     pthread_cond_broadcast(&cl->cv);
     pthread_mutex_unlock(&cl->mu);
     if (cl->lease_on) pthread_join(cl->lease_thr, NULL);
+    cl_snap_stop(cl);
     if (cl->js && atomic_load(&cl->role) == CLUSTER_WRITER) {
         jsPubOptions po;
         jsPubOptions_Init(&po);

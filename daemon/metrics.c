@@ -446,6 +446,9 @@ bool metrics_expose(server *s, mbuf *b)
                                          : cs.last - cs.applied);
         family(b, "vantage_cluster_promotions_total", "counter", "Times this daemon became the writer after it started.");
         sample(b, "vantage_cluster_promotions_total", NULL, NULL, cs.promotions);
+        family(b, "vantage_cluster_snapshots_total", "counter",
+               "Snapshots of the scene this daemon published to JetStream (as the writer).");
+        sample(b, "vantage_cluster_snapshots_total", NULL, NULL, cs.snapshots);
     }
     family(b, "vantage_scene_entities", "gauge", "Entities in the scene, by kind.");
     sample(b, "vantage_scene_entities", "kind", "static", info.static_entities);

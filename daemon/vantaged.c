@@ -426,6 +426,7 @@ int main(int argc, char **argv)
             return 2;
         }
         ccfg.name = scene_name ? scene_name : follow;
+        ccfg.snapshot_bytes = (uint64_t)compact_mb << 20;
         ccfg.follow = follow != NULL;
         ccfg.wait_stored = !durability_set || replicated;
         if (!ccfg.advertise) {
