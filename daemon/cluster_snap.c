@@ -290,7 +290,7 @@ static void *publisher(void *arg)
             po.Stream.Purge.Sequence = trim + 1;
             (void)js_PurgeStream(cl->js, cl->stream, &po, NULL);
         }
-        if (trim_snap) {
+        if (trim_snap > 1) { /* (a purge "below 1" empties a stream: libnats 3.4 sends no sequence) */
             jsOptions_Init(&po);
             po.Stream.Purge.Sequence = trim_snap;
             (void)js_PurgeStream(cl->js, cl->snap_stream, &po, NULL);

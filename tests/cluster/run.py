@@ -17,15 +17,19 @@ Independent parts: Debian's nats-server, the C CLI (`vantage stats --json`,
    an edit; a replica takes over; when the server is back the old writer
    does not write over the new writer's edits (it stops), and the edit it
    could not acknowledge is nowhere.
-3. a balancer: Debian's HAProxy with the shipped configuration
+3. snapshots: a writer publishing a snapshot every MB of records trims the
+   stream behind it; a new replica starts from the newest snapshot and
+   ends with the writer's scene.
+4. a balancer: Debian's HAProxy with the shipped configuration
    (docs/scale-out/haproxy.cfg) spreads clients over the daemons and, by its
    protocol health check (HELLO + PING), routes around a dead one.
-4. bad stream data: a foreign message put on the stream stops a replica,
+5. bad stream data: a foreign message put on the stream stops a replica,
    with the message's sequence in its log, instead of diverging.
 """
 import hashlib
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -276,8 +280,33 @@ def phase_split_brain(nats, urls):
     return (s, r)
 
 
+def phase_snapshots(urls):
+    log("phase 3: snapshots on JetStream, the stream trimmed, a replica bootstrapped from one")
+    w = Daemon("snapwriter", urls, "snap", False, ["--compact-mb", "1"])
+    w.start()
+    check(wait_for(lambda: w.role() == "writer", 20), "the writer of scene snap")
+    bench = os.path.join(BIN, "cluster_bench")
+    r = subprocess.run([bench, "--writer", w.ep, "--rate", "0", "--batch", "100", "--max", "300", "--window", "8",
+                        "--seconds", "60"], capture_output=True, text=True, timeout=120)
+    check(r.returncode == 0, "300 edits of 100 entities each acknowledged (about 4 MB of records)")
+    n = wait_for(lambda: len(re.findall(r"snapshot as of stream message \d+ published", open(w.logf).read())) >= 2,
+                 20)
+    check(n, "the writer published snapshots: " + "; ".join(
+        l.split("INFO  ")[-1] for l in open(w.logf) if "published" in l)[:300])
+    check("trimmed below message" in open(w.logf).read(), "and trimmed the stream behind them")
+    rep = Daemon("snapreplica", urls, "snap", True)
+    rep.start()
+    check(wait_for(lambda: rep.role() == "replica", 20), "a new replica joined")
+    check("loaded in" in open(rep.logf).read(), "from a snapshot: " +
+          next((l.split("INFO  ")[-1].strip() for l in open(rep.logf) if "loaded in" in l), "none"))
+    ok, epoch, digest = converge([w, rep])
+    check(ok, f"writer and replica at epoch {epoch} with the same scene")
+    for d in (w, rep):
+        d.p.terminate()
+
+
 def phase_balancer(daemons):
-    log("phase 3: HAProxy in front of the daemons (docs/scale-out/haproxy.cfg)")
+    log("phase 4: HAProxy in front of the daemons (docs/scale-out/haproxy.cfg)")
     hap = shutil.which("haproxy")
     if not check(hap, "haproxy is installed"):
         return
@@ -318,7 +347,7 @@ def phase_balancer(daemons):
 
 
 def phase_bad_data(nats, daemons):
-    log("phase 4: a foreign message on the stream")
+    log("phase 5: a foreign message on the stream")
     w, r1, r2 = daemons
     live = [d for d in daemons if d.alive() and d.role() == "replica"]
     if not check(live, "a replica to poison"):
@@ -355,6 +384,7 @@ def main():
     try:
         daemons = phase_convergence(nats, urls)
         phase_split_brain(nats, urls)
+        phase_snapshots(urls)
         phase_balancer(daemons)
         phase_bad_data(nats, daemons)
     except Exception as e:  # a harness fault is a failure too, with what it was
