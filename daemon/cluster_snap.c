@@ -214,6 +214,8 @@ int cl_snap_load(cluster *cl, scene *sc, uint64_t first, char *err, size_t errle
 
 /* ---- the writer's snapshots ------------------------------------------------------------------ */
 
+/* The snapshot's thread: waits for the child (so an idle loop need not
+ * poll it), publishes what it wrote, trims. */
 static void *publisher(void *arg)
 {
     cluster *cl = arg;
@@ -221,11 +223,16 @@ static void *publisher(void *arg)
     uint8_t *p = NULL;
     const char *fail = NULL;
     char why[300] = "";
-    if (fstat(cl->snap_fd, &st) || !st.st_size ||
+    int status = 0;
+    pid_t r;
+    while ((r = waitpid(cl->snap_child, &status, 0)) < 0 && errno == EINTR) {}
+    if (r < 0 || !WIFEXITED(status) || WEXITSTATUS(status)) fail = "the child that writes it failed";
+    else if (fstat(cl->snap_fd, &st) || !st.st_size ||
         (p = mmap(NULL, (size_t)st.st_size, PROT_READ, MAP_SHARED, cl->snap_fd, 0)) == MAP_FAILED) {
         p = NULL;
         fail = "cannot read what the child wrote";
     }
+    if (p == MAP_FAILED) p = NULL;
     size_t n = p ? (size_t)st.st_size : 0;
     snap_index x = {.seq = cl->snap_seq, .records = cl->snap_recs, .lease = cl->snap_lease, .bytes = n};
     if (p) sha256_hex(p, n, x.sha);
@@ -314,27 +321,6 @@ static void *publisher(void *arg)
 
 void cl_snap_poll(cluster *cl, const scene *sc)
 {
-    if (cl->snap_child) {
-        int status;
-        pid_t r = waitpid(cl->snap_child, &status, WNOHANG);
-        if (r == 0) return;
-        cl->snap_child = 0;
-        if (r < 0 || !WIFEXITED(status) || WEXITSTATUS(status)) {
-            LOGW("cluster %s: the snapshot child failed", cl->name);
-            close(cl->snap_fd);
-            cl->snap_fd = -1;
-            atomic_store(&cl->snap_busy, false);
-            return;
-        }
-        if (cl->snap_thr_on) pthread_join(cl->snap_thr, NULL);
-        cl->snap_thr_on = pthread_create(&cl->snap_thr, NULL, publisher, cl) == 0;
-        if (!cl->snap_thr_on) {
-            close(cl->snap_fd);
-            cl->snap_fd = -1;
-            atomic_store(&cl->snap_busy, false);
-        }
-        return;
-    }
     if (atomic_load(&cl->snap_busy) || cl->since_snap < cl->snap_limit) return;
     if (atomic_load(&cl->role) != CLUSTER_WRITER || cl->asm_got) return;
     int fd = memfd_create("vantage-snapshot", MFD_CLOEXEC);
@@ -363,18 +349,22 @@ void cl_snap_poll(cluster *cl, const scene *sc)
     cl->snap_child = pid;
     cl->since_snap = 0;
     atomic_store(&cl->snap_busy, true);
+    if (cl->snap_thr_on) pthread_join(cl->snap_thr, NULL); /* the last one's, done (not busy) */
+    cl->snap_thr_on = pthread_create(&cl->snap_thr, NULL, publisher, cl) == 0;
+    if (!cl->snap_thr_on) { /* no thread: the child is stopped, the snapshot dropped */
+        kill(pid, SIGKILL);
+        waitpid(pid, NULL, 0);
+        close(fd);
+        cl->snap_fd = -1;
+        atomic_store(&cl->snap_busy, false);
+        return;
+    }
     LOGI("cluster %s: snapshot as of stream message %" PRIu64 " started (child %d)", cl->name, cl->snap_seq, (int)pid);
 }
 
 void cl_snap_stop(cluster *cl)
 {
-    if (cl->snap_child) {
-        kill(cl->snap_child, SIGKILL);
-        waitpid(cl->snap_child, NULL, 0);
-        cl->snap_child = 0;
-        if (cl->snap_fd >= 0) close(cl->snap_fd);
-        cl->snap_fd = -1;
-    }
+    if (atomic_load(&cl->snap_busy) && cl->snap_child) kill(cl->snap_child, SIGKILL); /* its thread reaps it */
     if (cl->snap_thr_on) pthread_join(cl->snap_thr, NULL);
     cl->snap_thr_on = false;
 }
