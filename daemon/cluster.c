@@ -619,6 +619,28 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     cl_snap_refresh(cl);
     atomic_store(&cl->role, CLUSTER_WRITER);
     cl->promotions++;
+    /* loads the last writer's editors left open: their connections are
+       gone, so they go as a dropped connection's would (as recovery drops
+       them), published like any change */
+    if (lock) pthread_rwlock_wrlock(lock);
+    for (uint32_t id = 1; id <= sc->nsublevels; id++) {
+        if (sc->sl[id].state != VP_SL_LOADING) continue;
+        edit e = {.type = VP_SUBLEVEL_ABORT, .sublevel = (uint16_t)id};
+        edit_result res;
+        scene_err se;
+        if (edit_apply(sc, &e, &res, &se)) {
+            if (lock) pthread_rwlock_unlock(lock);
+            return cl_fatal(cl, "cannot drop sub-level %s, left loading by the last writer: %s", sc->sl[id].name,
+                            se.msg);
+        }
+        edit_result_free(&res);
+        if (!cluster_publish(cl, &e, NULL, 0)) {
+            if (lock) pthread_rwlock_unlock(lock);
+            return cl_fatal(cl, "cannot publish the drop of sub-level %s", sc->sl[id].name);
+        }
+        LOGI("cluster %s: sub-level %s, left loading by the last writer, dropped", cl->name, sc->sl[id].name);
+    }
+    if (lock) pthread_rwlock_unlock(lock);
     LOGI("cluster %s: writing from stream message %" PRIu64 " (record %" PRIu64 ", epoch %" PRIu64 ")", cl->name,
          cl->applied, cl->recs, sc->epoch);
     return true;

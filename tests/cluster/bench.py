@@ -72,14 +72,20 @@ def stop(*ds):
 
 
 def applied_ms(d, timeout):
-    """The replica's own report: 'N stream messages (M records) applied in X ms'."""
-    pat = re.compile(r"(\d+) stream messages \((\d+) records\) applied in (\d+) ms")
+    """The replica's own report at start: records applied in all (snapshot
+    and stream) and, when it loaded a snapshot, the snapshot's records and
+    load time."""
+    total = re.compile(r"replica, (\d+) records applied in (\d+) ms")
+    snap = re.compile(r"snapshot as of stream message \d+ \((\d+) records, ([\d.]+) MB\) loaded in (\d+) ms")
 
     def found():
-        m = pat.findall(open(d.logf).read())
+        m = total.findall(open(d.logf).read())
         return m[-1] if m else None
     m = wait_for(found, timeout, 0.2)
-    return (int(m[0]), int(m[2])) if m else (None, None)
+    s = snap.findall(open(d.logf).read())
+    return dict(records=int(m[0]) if m else None, ms=int(m[1]) if m else None,
+                snapshot_records=int(s[-1][0]) if s else 0, snapshot_mb=float(s[-1][1]) if s else 0,
+                snapshot_ms=int(s[-1][2]) if s else 0)
 
 
 def main():
@@ -102,29 +108,32 @@ def main():
                 log(f"{dur} rate {rate or 'max'}: {b}")
                 rows.append(dict(kind="edits", durability=dur, rate=rate, **b))
             stop(w, r)
-        # 2. catch-up N records behind
-        w, _ = cluster(urls, "catchup", 0)
-        t0 = time.monotonic()
-        b = bench("--writer", w.ep, "--rate", 0, "--seconds", 3600, "--window", 1024, "--base", 100000000,
-                  "--max", RECORDS, timeout=3600)
-        log(f"made {b.get('messages')} records: {b}")
-        made_s = time.monotonic() - t0
-        r = Daemon("catchup-r", urls, "catchup", True)
-        r.start()
-        n, ms = applied_ms(r, 1200)
-        log(f"catch-up: {n} records applied in {ms} ms (made in {made_s:.1f} s)")
-        rows.append(dict(kind="catchup", records=n, ms=ms, publish_s=made_s))
-        stop(w, r)
+        # 2. catch-up N records behind: from the stream alone (no snapshot), and with snapshots (64 MB)
+        for compact in (1 << 20, 64):
+            name = f"catchup{compact}"
+            w, _ = cluster(urls, name, 0, writer_extra=["--compact-mb", str(compact)])
+            t0 = time.monotonic()
+            b = bench("--writer", w.ep, "--rate", 0, "--seconds", 3600, "--window", 1024, "--base", 100000000,
+                      "--max", RECORDS, timeout=3600)
+            made_s = time.monotonic() - t0
+            log(f"made {b.get('messages')} records in {made_s:.1f} s: {b}")
+            time.sleep(3)  # a snapshot under way is published
+            r = Daemon(f"{name}-r", urls, name, True)
+            r.start()
+            a = applied_ms(r, 1200)
+            log(f"catch-up (--compact-mb {compact}): {a}")
+            rows.append(dict(kind="catchup", compact_mb=compact, publish_s=made_s, publish=b, **a))
+            stop(w, r)
         # 3. bootstrap a 1M-entity scene
-        w, _ = cluster(urls, "boot", 0, writer_extra=["--durability", "off"])
+        w, _ = cluster(urls, "boot", 0, writer_extra=["--compact-mb", str(1 << 20)])
         b = bench("--writer", w.ep, "--rate", 0, "--seconds", 1000, "--window", 8, "--batch", 1000, "--base",
                   200000000, "--max", 1000 if not QUICK else 50, timeout=3600)
         r = Daemon("boot-r", urls, "boot", True)
         r.start()
-        n, ms = applied_ms(r, 1200)
+        a = applied_ms(r, 1200)
         ents = (r.stats() or {}).get("entities")
-        log(f"bootstrap: {n} messages, {ents} entities in {ms} ms")
-        rows.append(dict(kind="bootstrap", messages=n, entities=ents, ms=ms))
+        log(f"bootstrap: {ents} entities: {a}")
+        rows.append(dict(kind="bootstrap", entities=ents, **a))
         stop(w, r)
         # 4. failover
         w, rs = cluster(urls, "failover", 2)
