@@ -517,7 +517,7 @@ static const daemon_usage_case daemon_usage_cases[] = {
     {"--out-limit-total 100", "bad value for --out-limit-total: 100 (expected bytes, 0 (no limit) or at least 65536)"},
     {"--port 0", "bad value for --port: 0 (expected an integer, 1..65535)"},
     {"--threads 999", "bad value for --threads: 999 (expected an integer, 0..256)"},
-    {"--durability sometimes", "(expected always, everysec or off)"},
+    {"--durability sometimes", "(expected always, everysec, off, or replicated (with --cluster))"},
     {"--render vulkan", "(expected soft or gl)"},
     {"--fx-off shadows,bloom", "bad value for --fx-off: shadows,bloom (expected shadows, ssao, ibl, fxaa, comma-separated)"},
     {"--cell-size 0", "(expected metres, 0.01..1e5)"},

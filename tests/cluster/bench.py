@@ -34,6 +34,11 @@ if "--records" in sys.argv:
 if QUICK:
     RECORDS = min(RECORDS, 50000)
 rows = []
+ONLY = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else None
+
+
+def want(part):
+    return ONLY is None or part in ONLY
 
 
 def bench(*args, timeout=600):
@@ -100,7 +105,7 @@ def main():
     secs = 2 if QUICK else 5
     try:
         # 1. lag and throughput
-        for dur in ("replicated", "off"):
+        for dur in ("replicated", "off") if want("edits") else ():
             w, (r,) = cluster(urls, f"lag{dur}", 1, writer_extra=["--durability", dur])
             for rate in (1000, 10000, 0):
                 b = bench("--writer", w.ep, "--replica", r.ep, "--rate", rate, "--seconds", secs, "--window",
@@ -109,7 +114,7 @@ def main():
                 rows.append(dict(kind="edits", durability=dur, rate=rate, **b))
             stop(w, r)
         # 2. catch-up N records behind: from the stream alone (no snapshot), and with snapshots (64 MB)
-        for compact in (1 << 20, 64):
+        for compact in (1 << 20, 64) if want("catchup") else ():
             name = f"catchup{compact}"
             w, _ = cluster(urls, name, 0, writer_extra=["--compact-mb", str(compact)])
             t0 = time.monotonic()
@@ -125,48 +130,51 @@ def main():
             rows.append(dict(kind="catchup", compact_mb=compact, publish_s=made_s, publish=b, **a))
             stop(w, r)
         # 3. bootstrap a 1M-entity scene
-        w, _ = cluster(urls, "boot", 0, writer_extra=["--compact-mb", str(1 << 20)])
-        b = bench("--writer", w.ep, "--rate", 0, "--seconds", 1000, "--window", 8, "--batch", 1000, "--base",
-                  200000000, "--max", 1000 if not QUICK else 50, timeout=3600)
-        r = Daemon("boot-r", urls, "boot", True)
-        r.start()
-        a = applied_ms(r, 1200)
-        ents = (r.stats() or {}).get("entities")
-        log(f"bootstrap: {ents} entities: {a}")
-        rows.append(dict(kind="bootstrap", entities=ents, **a))
-        stop(w, r)
+        if want("bootstrap"):
+            w, _ = cluster(urls, "boot", 0, writer_extra=["--compact-mb", str(1 << 20)])
+            b = bench("--writer", w.ep, "--rate", 0, "--seconds", 1000, "--window", 8, "--batch", 1000, "--base",
+                      200000000, "--max", 1000 if not QUICK else 50, timeout=3600)
+            r = Daemon("boot-r", urls, "boot", True)
+            r.start()
+            a = applied_ms(r, 1200)
+            ents = (r.stats() or {}).get("entities")
+            log(f"bootstrap: {ents} entities: {a}")
+            rows.append(dict(kind="bootstrap", entities=ents, **a))
+            stop(w, r)
         # 4. failover
-        w, rs = cluster(urls, "failover", 2)
-        ds = [w] + rs
-        times = []
-        for k in range(3 if QUICK else 5):
-            cur = next(d for d in ds if d.role() == "writer")
-            time.sleep(2)
-            cur.kill9()
-            t0 = time.monotonic()
-            nw = wait_for(lambda: next((d for d in ds if d is not cur and d.role() == "writer"), None), 20, 0.05)
-            times.append(time.monotonic() - t0 if nw else None)
-            cur.start()
-            wait_for(lambda: cur.role() == "replica", 30)
-            time.sleep(6.5)  # a restarted follower waits 2 leases before it may be promoted
-        log(f"failover: {times}")
-        rows.append(dict(kind="failover", seconds=times))
-        stop(*ds)
+        if want("failover"):
+            w, rs = cluster(urls, "failover", 2)
+            ds = [w] + rs
+            times = []
+            for k in range(3 if QUICK else 5):
+                cur = next(d for d in ds if d.role() == "writer")
+                time.sleep(2)
+                cur.kill9()
+                t0 = time.monotonic()
+                nw = wait_for(lambda: next((d for d in ds if d is not cur and d.role() == "writer"), None), 20, 0.05)
+                times.append(time.monotonic() - t0 if nw else None)
+                cur.start()
+                wait_for(lambda: cur.role() == "replica", 30)
+                time.sleep(6.5)  # a restarted follower waits 2 leases before it may be promoted
+            log(f"failover: {times}")
+            rows.append(dict(kind="failover", seconds=times))
+            stop(*ds)
         # 5. frames: 7 daemons against 1
-        nviewers = 14
-        w, rs = cluster(urls, "frames", 6, extra=["--threads", "1"], writer_extra=["--scene", "demo"])
-        eps = ",".join(d.ep for d in [w] + rs)
-        b7 = bench("--frames", eps, "--viewers", nviewers, "--writer", w.ep, "--seconds", 4 if QUICK else 10,
-                   "--size", "640x360")
-        stop(w, *rs)
-        one = Daemon("frames-one", urls, "framesone", False, ["--threads", "2", "--scene", "demo"])
-        one.start()
-        wait_for(lambda: one.role() == "writer", 30)
-        b1 = bench("--frames", one.ep, "--viewers", nviewers, "--writer", one.ep, "--seconds", 4 if QUICK else 10,
-                   "--size", "640x360")
-        stop(one)
-        log(f"frames: 7 daemons {b7}; 1 daemon {b1}")
-        rows.append(dict(kind="frames", seven=b7, one=b1))
+        if want("frames"):
+            nviewers = 14
+            w, rs = cluster(urls, "frames", 6, extra=["--threads", "1"], writer_extra=["--scene", "demo"])
+            eps = ",".join(d.ep for d in [w] + rs)
+            b7 = bench("--frames", eps, "--viewers", nviewers, "--writer", w.ep, "--seconds", 4 if QUICK else 10,
+                       "--size", "640x360")
+            stop(w, *rs)
+            one = Daemon("frames-one", urls, "framesone", False, ["--threads", "2", "--scene", "demo"])
+            one.start()
+            wait_for(lambda: one.role() == "writer", 30)
+            b1 = bench("--frames", one.ep, "--viewers", nviewers, "--writer", one.ep, "--seconds", 4 if QUICK else 10,
+                       "--size", "640x360")
+            stop(one)
+            log(f"frames: 7 daemons {b7}; 1 daemon {b1}")
+            rows.append(dict(kind="frames", seven=b7, one=b1))
     finally:
         for p in run.procs:
             if p.poll() is None:
