@@ -101,6 +101,8 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock);
 void cl_lease_writer_seen(cluster *cl, kvEntry *e);
 void *cl_lease_main(void *arg);
 void cl_on_ack(jsCtx *js, natsMsg *m, jsPubAck *pa, jsPubAckErr *pae, void *closure);
+int cl_stream_ensure(cluster *cl, const char *name, const char **subjects, int nsubjects, int64_t dup_ns,
+                     jsStreamInfo **out, char *err, size_t errlen);
 /* cluster_snap.c: the snapshot stream made when missing; the newest
  * snapshot loaded into sc (1; 0: none and the stream begins at 1; -1 with
  * err); the writer's turn (a snapshot started, or its child done); stopped

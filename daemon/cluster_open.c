@@ -70,39 +70,52 @@ static int connect_nats(cluster *cl, char *err, size_t errlen)
     return 0;
 }
 
-static int ensure_stream(cluster *cl, uint64_t *first, uint64_t *last, char *err, size_t errlen)
+/* Stream name with these subjects, made (file storage, the cluster's
+ * replication; dup_ns: the de-duplication window, 0 = JetStream's) when
+ * missing, by this daemon or another one first. Its info in *out, or -1. */
+int cl_stream_ensure(cluster *cl, const char *name, const char **subjects, int nsubjects, int64_t dup_ns,
+                     jsStreamInfo **out, char *err, size_t errlen)
 {
     jsStreamInfo *si = NULL;
     jsErrCode jerr = 0;
-    natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, NULL, &jerr);
+    natsStatus s = js_GetStreamInfo(&si, cl->js, name, NULL, &jerr);
     if (s == NATS_NOT_FOUND || jerr == JSStreamNotFoundErr) {
         jsStreamConfig sc;
         jsStreamConfig_Init(&sc);
-        const char *subj[1] = {cl->subject};
-        sc.Name = cl->stream;
-        sc.Subjects = subj;
-        sc.SubjectsLen = 1;
+        sc.Name = name;
+        sc.Subjects = subjects;
+        sc.SubjectsLen = nsubjects;
         sc.Storage = js_FileStorage;
         sc.Replicas = cl->cfg.replicas;
-        sc.Duplicates = (int64_t)120 * 1000000000; /* a retried publish within 2 minutes is stored once */
+        sc.Duplicates = dup_ns;
         sc.AllowDirect = true;
         jerr = 0;
         s = js_AddStream(&si, cl->js, &sc, NULL, &jerr);
-        if (s == NATS_OK) LOGI("cluster %s: stream %s made, replicated %d ways", cl->name, cl->stream, cl->cfg.replicas);
+        if (s == NATS_OK) LOGI("cluster %s: stream %s made, replicated %d ways", cl->name, name, cl->cfg.replicas);
         else {
             jerr = 0; /* another daemon made it first */
-            s = js_GetStreamInfo(&si, cl->js, cl->stream, NULL, &jerr);
+            s = js_GetStreamInfo(&si, cl->js, name, NULL, &jerr);
         }
     }
     if (s != NATS_OK) {
-        snprintf(err, errlen, "stream %s: %s (%d)", cl->stream, cl_nats_why(s), (int)jerr);
+        snprintf(err, errlen, "stream %s: %s (%d)", name, cl_nats_why(s), (int)jerr);
         return -1;
     }
+    *out = si;
+    return 0;
+}
+
+static int ensure_stream(cluster *cl, uint64_t *first, uint64_t *last, char *err, size_t errlen)
+{
+    jsStreamInfo *si = NULL;
+    const char *subj[1] = {cl->subject};
+    /* a retried publish within 2 minutes is stored once */
+    if (cl_stream_ensure(cl, cl->stream, subj, 1, (int64_t)120 * 1000000000, &si, err, errlen)) return -1;
     *first = si->State.FirstSeq;
     *last = si->State.LastSeq;
     jsStreamInfo_Destroy(si);
     if (cl_snap_ensure(cl, err, errlen)) return -1;
-    s = cl->kv ? NATS_OK : js_KeyValue(&cl->kv, cl->jskv, cl->bucket);
+    natsStatus s = cl->kv ? NATS_OK : js_KeyValue(&cl->kv, cl->jskv, cl->bucket);
     if (s != NATS_OK) {
         kvConfig kc;
         kvConfig_Init(&kc);

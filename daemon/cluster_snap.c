@@ -91,29 +91,8 @@ static int index_latest(cluster *cl, snap_index *x, char *err, size_t errlen)
 int cl_snap_ensure(cluster *cl, char *err, size_t errlen)
 {
     jsStreamInfo *si = NULL;
-    jsErrCode jerr = 0;
-    natsStatus s = js_GetStreamInfo(&si, cl->js, cl->snap_stream, NULL, &jerr);
-    if (s == NATS_NOT_FOUND || jerr == JSStreamNotFoundErr) {
-        jsStreamConfig sc;
-        jsStreamConfig_Init(&sc);
-        const char *subj[2] = {cl->snap_subject, cl->snap_index};
-        sc.Name = cl->snap_stream;
-        sc.Subjects = subj;
-        sc.SubjectsLen = 2;
-        sc.Storage = js_FileStorage;
-        sc.Replicas = cl->cfg.replicas;
-        sc.AllowDirect = true;
-        jerr = 0;
-        s = js_AddStream(&si, cl->js, &sc, NULL, &jerr);
-        if (s != NATS_OK) {
-            jerr = 0;
-            s = js_GetStreamInfo(&si, cl->js, cl->snap_stream, NULL, &jerr);
-        }
-    }
-    if (s != NATS_OK) {
-        snprintf(err, errlen, "stream %s: %s (%d)", cl->snap_stream, cl_nats_why(s), (int)jerr);
-        return -1;
-    }
+    const char *subj[2] = {cl->snap_subject, cl->snap_index};
+    if (cl_stream_ensure(cl, cl->snap_stream, subj, 2, 0, &si, err, errlen)) return -1;
     jsStreamInfo_Destroy(si);
     return 0;
 }

@@ -24,7 +24,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import run  # noqa: E402  (the tests' NATS and daemon helpers)
-from run import Daemon, Nats, free_port, log, wait_for  # noqa: E402
+from run import Daemon, log, wait_for  # noqa: E402
 
 BENCH = os.path.join(run.BIN, "cluster_bench")
 QUICK = "--quick" in sys.argv
@@ -94,14 +94,7 @@ def applied_ms(d, timeout):
 
 
 def main():
-    nats = [None] * 3
-    ports = [free_port() for _ in range(3)]
-    cports = [free_port() for _ in range(3)]
-    nats = [Nats(i, ports, cports) for i in range(3)]
-    for n in nats:
-        n.start()
-    urls = [n.url for n in nats]
-    time.sleep(1.5)
+    nats, urls = run.start_nats()
     secs = 2 if QUICK else 5
     try:
         # 1. lag and throughput

@@ -155,6 +155,17 @@ class Daemon:
             return ""
 
 
+def start_nats():
+    """Three JetStream servers clustered on loopback: (servers, their URLs)."""
+    ports = [free_port() for _ in range(3)]
+    cports = [free_port() for _ in range(3)]
+    nats = [Nats(i, ports, cports) for i in range(3)]
+    for n in nats:
+        n.start()
+    time.sleep(1.5)  # the cluster's routes and a JetStream meta leader
+    return nats, [n.url for n in nats]
+
+
 def acked_ids(paths):
     ids = set()
     for p in paths:
@@ -373,13 +384,7 @@ def main():
     if not NATS:
         print("run.py: nats-server is missing (make deps installs it)", file=sys.stderr)
         return 2
-    ports = [free_port() for _ in range(3)]
-    cports = [free_port() for _ in range(3)]
-    nats = [Nats(i, ports, cports) for i in range(3)]
-    for n in nats:
-        n.start()
-    urls = [n.url for n in nats]
-    time.sleep(1.5)
+    nats, urls = start_nats()
     t0 = time.monotonic()
     try:
         daemons = phase_convergence(nats, urls)
