@@ -232,7 +232,8 @@ check-deps:
 	    ! pkg-config --exists $(PC_MODS) || ! command -v Xvfb >/dev/null 2>&1 || [ ! -f /usr/include/wslay/wslay.h ] || \
 	    ! command -v chromium >/dev/null 2>&1 || ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1 || \
 	    [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf ] || ! command -v $(WASM_CC) >/dev/null 2>&1 || \
-	    ! command -v wasm-ld >/dev/null 2>&1 || [ ! -f /usr/lib/wasm32-wasi/libc.a ]; then $(MAKE) --no-print-directory deps; \
+	    ! command -v wasm-ld >/dev/null 2>&1 || [ ! -f /usr/lib/wasm32-wasi/libc.a ] || ! command -v nats-server >/dev/null 2>&1 || \
+	    [ ! -x /usr/sbin/haproxy ]; then $(MAKE) --no-print-directory deps; \
 	elif [ ! -d tests/web/node_modules/puppeteer-core ]; then $(MAKE) --no-print-directory deps-npm; fi
 
 deps:

@@ -318,7 +318,7 @@ def phase_snapshots(urls):
 
 def phase_balancer(daemons):
     log("phase 4: HAProxy in front of the daemons (docs/scale-out/haproxy.cfg)")
-    hap = shutil.which("haproxy")
+    hap = shutil.which("haproxy") or shutil.which("haproxy", path="/usr/sbin:/usr/local/sbin")
     if not check(hap, "haproxy is installed"):
         return
     port = free_port()
