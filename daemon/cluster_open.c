@@ -26,6 +26,33 @@ static bool name_ok(const char *n)
     return k >= 1 && k <= 48;
 }
 
+/* The URLs as logs may show them: a password ("nats://USER:PASSWORD@")
+ * replaced by "***". */
+static const char *redacted(const char *urls, char *out, size_t outlen)
+{
+    size_t o = 0;
+    for (const char *p = urls; *p && o + 4 < outlen;) {
+        const char *end = strchr(p, ','), *at = NULL, *colon = NULL, *scheme = strstr(p, "://");
+        if (!end) end = p + strlen(p);
+        const char *host = scheme && scheme < end ? scheme + 3 : p;
+        for (const char *q = host; q < end; q++) {
+            if (*q == '@') at = q;
+            if (*q == ':' && !at && !colon) colon = q;
+        }
+        for (const char *q = p; q < end && o + 4 < outlen; q++) {
+            if (at && colon && colon < at && q > colon && q < at) {
+                if (q == colon + 1) o += (size_t)snprintf(out + o, outlen - o, "***");
+                continue;
+            }
+            out[o++] = *q;
+        }
+        if (*end == ',' && o + 4 < outlen) out[o++] = ',';
+        p = *end ? end + 1 : end;
+    }
+    out[o] = 0;
+    return out;
+}
+
 static int connect_nats(cluster *cl, char *err, size_t errlen)
 {
     char *urls = strdup(cl->cfg.urls);
@@ -43,7 +70,9 @@ static int connect_nats(cluster *cl, char *err, size_t errlen)
     if (s == NATS_OK) s = natsConnection_Connect(&cl->nc, cl->opts);
     free(urls);
     if (s != NATS_OK) {
-        snprintf(err, errlen, "cannot reach NATS at %s: %s", cl->cfg.urls, cl_nats_why(s));
+        char shown[512];
+        snprintf(err, errlen, "cannot reach NATS at %s: %s", redacted(cl->cfg.urls, shown, sizeof shown),
+                 cl_nats_why(s));
         return -1;
     }
     jsOptions_Init(&cl->quick);

@@ -83,7 +83,8 @@ static void usage(FILE *f)
             "  --compact-mb N       write a snapshot when the journal passes N MB and twice the\n"
             "                       last snapshot (default 64)\n"
             "  --cluster URLS       share the scene through NATS JetStream (nats://HOST:PORT, comma-\n"
-            "                       separated); with --scene-name or --follow (see README, Scale-out)\n"
+            "                       separated; nats://USER:PASS@HOST:PORT, tls://...; - reads them\n"
+            "                       from VANTAGE_CLUSTER_URLS); with --scene-name or --follow (see README)\n"
             "  --scene-name NAME    with --cluster: this daemon writes scene NAME when the writer's\n"
             "                       lease is free, else it joins as a replica\n"
             "  --follow NAME        with --cluster: a replica of scene NAME (promoted when the writer\n"
@@ -295,9 +296,10 @@ int main(int argc, char **argv)
             snprintf(want, sizeof want, "always, everysec, off, or replicated (with --cluster)");
             break;
         case O_CLUSTER:
-            ccfg.urls = optarg;
-            ok = *optarg != 0;
-            snprintf(want, sizeof want, "nats://HOST:PORT[,nats://HOST:PORT...]");
+            /* "-": from the environment, so a password stays out of the process list */
+            ccfg.urls = strcmp(optarg, "-") ? optarg : getenv("VANTAGE_CLUSTER_URLS");
+            ok = ccfg.urls && *ccfg.urls;
+            snprintf(want, sizeof want, "nats://HOST:PORT[,nats://HOST:PORT...], or - with VANTAGE_CLUSTER_URLS set");
             break;
         case O_SCENE_NAME: scene_name = optarg; break;
         case O_FOLLOW: follow = optarg; break;
