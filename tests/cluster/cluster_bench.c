@@ -193,6 +193,8 @@ static int frames_mode(const char *list, const char *wep, int n, unsigned w, uns
     printf("{\"viewers\": %d, \"daemons\": %d, \"size\": \"%ux%u\", \"frames\": %lu, \"seconds\": %.2f, "
            "\"frames_per_s\": %.1f}\n",
            n, k, w, h, got, secs, got / secs);
+    free(t);
+    free(a);
     vtc_close(ed);
     return 0;
 }
@@ -328,5 +330,15 @@ int main(int argc, char **argv)
            pct(vis, ng, 0.99), atomic_load(&b.failed) ? "true" : "false");
     vtc_close(b.w);
     vtc_close(b.r);
+    free(lat);
+    free(lag);
+    free(vis);
+    free(b.sent_at);
+    free(b.ack_at);
+    free(b.ack_epoch);
+    free(b.ev_epoch);
+    free(b.ev_at);
+    free(e);
+    free(buf);
     return atomic_load(&b.failed) ? 1 : 0;
 }
