@@ -1900,7 +1900,43 @@ static void test_limits(void **state)
     daemon_stop(&d);
 }
 
+/* libvantage's endpoint list (a cluster's -h A,B,C, vantage.h): dead
+ * endpoints are passed over in turn, a socket path and HOST:PORT both
+ * work, a viewer from any starting point, the CLI takes the same list;
+ * all dead is VTC_ERR_IO, and a malformed entry is refused naming it. */
+static void test_endpoint_list(void **state)
+{
+    daemon_proc *d = *state;
+    int dead = free_port();
+    char eps[400], err[600];
+    vtc_client *c = NULL;
+    snprintf(eps, sizeof eps, "127.0.0.1:%d,/nonexistent/vantaged.sock,127.0.0.1:%d", dead, d->port);
+    assert_int_equal(vtc_connect(&(vtc_connect_opts){.endpoints = eps, .role = VP_ROLE_EDITOR, .timeout_ms = 5000},
+                                 &c, err, sizeof err),
+                     VP_OK);
+    assert_int_equal(vtc_ping(c), VP_OK);
+    vtc_close(c);
+    snprintf(eps, sizeof eps, "%s,127.0.0.1:%d,localhost:%d", d->sock, d->port, d->port);
+    for (int i = 0; i < 12; i++) {
+        assert_int_equal(vtc_connect(&(vtc_connect_opts){.endpoints = eps, .timeout_ms = 5000}, &c, err, sizeof err),
+                         VP_OK);
+        assert_int_equal(vtc_ping(c), VP_OK);
+        vtc_close(c);
+    }
+    snprintf(eps, sizeof eps, "127.0.0.1:%d", dead);
+    assert_int_equal(vtc_connect(&(vtc_connect_opts){.endpoints = eps}, &c, err, sizeof err), VTC_ERR_IO);
+    assert_null(c);
+    assert_non_null(strstr(err, "Connection refused"));
+    assert_int_equal(vtc_connect(&(vtc_connect_opts){.endpoints = "127.0.0.1:7470,nohost"}, &c, err, sizeof err),
+                     VTC_ERR_IO);
+    assert_non_null(strstr(err, "bad endpoint \"nohost\""));
+    char out[4096];
+    assert_int_equal(vantage_run(NULL, out, sizeof out, "-h 127.0.0.1:%d,127.0.0.1:%d ping", dead, d->port), 0);
+    assert_int_equal(vantage_run(NULL, out, sizeof out, "-h 127.0.0.1:%d ping", dead), 3);
+}
+
 const struct CMUnitTest e2e_tests[] = {
+    DAEMON_TEST(test_endpoint_list),
     DAEMON_TEST(test_events),
     cmocka_unit_test(test_hello_old_version),
     cmocka_unit_test(test_limits),

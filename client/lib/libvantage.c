@@ -406,6 +406,15 @@ int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t e
         snprintf(err, errlen, "no endpoint in \"%.100s\"", d.endpoints);
         return VTC_ERR_IO;
     }
+    for (size_t i = 0; i < n; i++) { /* a malformed entry is refused before any is tried */
+        char host[256], path[256];
+        vtc_connect_opts one = d;
+        if (!endpoint_opts(eps[i], lens[i], &one, host, sizeof host, path, sizeof path)) {
+            snprintf(err, errlen, "bad endpoint \"%.*s\": use HOST:PORT, [IPv6]:PORT or a socket path", (int)lens[i],
+                     eps[i]);
+            return VTC_ERR_IO;
+        }
+    }
     size_t first = 0;
     if (d.role != VP_ROLE_EDITOR) {
         struct timespec t;
@@ -417,11 +426,7 @@ int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t e
         size_t i = (first + k) % n;
         char host[256], path[256];
         vtc_connect_opts one = d;
-        if (!endpoint_opts(eps[i], lens[i], &one, host, sizeof host, path, sizeof path)) {
-            snprintf(err, errlen, "bad endpoint \"%.*s\": use HOST:PORT, [IPv6]:PORT or a socket path", (int)lens[i],
-                     eps[i]);
-            return VTC_ERR_IO;
-        }
+        endpoint_opts(eps[i], lens[i], &one, host, sizeof host, path, sizeof path);
         if ((rc = connect_one(&one, out, err, errlen)) == VP_OK) return VP_OK;
         if (rc == VP_ERR_AUTH) return rc; /* the token is wrong everywhere */
     }
