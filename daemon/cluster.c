@@ -197,6 +197,14 @@ uint64_t cl_header_u64(natsMsg *m, const char *key, bool *ok)
  * false with the reason logged (cl_fatal) when it is not ours to apply. */
 static bool apply_msg(cluster *cl, scene *sc, natsMsg *m, uint64_t seq)
 {
+    if (seq > cl->applied + 1 && !cl->startup) {
+        /* trimmed past this replica while it was behind: the loop starts
+           it again from the newest snapshot (rebuild) */
+        LOGW("cluster %s: stream message %" PRIu64 " came after %" PRIu64 ": the stream was trimmed past this "
+             "replica", cl->name, seq, cl->applied);
+        cl->rebuild = true;
+        return false;
+    }
     if (seq != cl->applied + 1)
         return cl_fatal(cl, "stream message %" PRIu64 " came after %" PRIu64 ": the stream has a gap (trimmed or "
                      "purged past this daemon)", seq, cl->applied);
@@ -408,6 +416,7 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
     free(rec);
     cl->recs++;
     cl->since_snap += rlen;
+    cl->last_lease = lease;
     return cl->applied;
 }
 
@@ -617,6 +626,7 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     cl->acked = cl->applied;
     pthread_mutex_unlock(&cl->mu);
     cl_snap_refresh(cl);
+    cl->last_lease = cl->max_lease; /* the last message's, until this writer publishes */
     atomic_store(&cl->role, CLUSTER_WRITER);
     cl->promotions++;
     /* loads the last writer's editors left open: their connections are
@@ -648,6 +658,58 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
 
 /* ---- the loop's side ------------------------------------------------------------------------ */
 
+/* A replica the stream was trimmed past: its scene made anew from the
+ * newest snapshot, under the scene's lock (queries and frames wait), and
+ * followed again from there. Texture generations go on from the old
+ * scene's, so no renderer cache takes a new texture for an old one (the
+ * culling world's occlusion versions are unique per world already). */
+static void rebuild(cluster *cl, scene *sc, pthread_rwlock_t *lock)
+{
+    cl->rebuild = false;
+    cl_unsubscribe(cl);
+    pthread_mutex_lock(&cl->mu);
+    for (; cl->qn; cl->qn--, cl->qhead = (cl->qhead + 1) % cl->qcap) natsMsg_Destroy(cl->q[cl->qhead]);
+    cl->qbytes = 0;
+    pthread_cond_broadcast(&cl->cv);
+    pthread_mutex_unlock(&cl->mu);
+    uint64_t first = 0;
+    for (int64_t until = cl_mono_ms() + 10000;;) {
+        jsStreamInfo *si = NULL;
+        jsErrCode jerr = 0;
+        natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, &cl->quick, &jerr);
+        if (s == NATS_OK) {
+            first = si->State.FirstSeq;
+            jsStreamInfo_Destroy(si);
+            break;
+        }
+        if (cl_mono_ms() > until) cl_fatal(cl, "cannot read the stream to start again from a snapshot: %s",
+                                           cl_nats_why(s));
+        usleep(100000);
+    }
+    int64_t t0 = cl_mono_ms();
+    if (lock) pthread_rwlock_wrlock(lock);
+    uint32_t gens = sc->texture_gens;
+    scene_limits lim = sc->lim;
+    uint64_t was = sc->epoch;
+    scene_free(sc);
+    if (scene_init(sc, cl->cfg.cell_size, &lim)) cl_fatal(cl, "out of memory for the scene");
+    sc->texture_gens = gens + 1;
+    cl->applied = cl->recs = cl->max_lease = 0;
+    cl->asm_len = 0;
+    cl->asm_got = cl->asm_parts = 0;
+    char err[500];
+    if (cl_snap_load(cl, sc, first, err, sizeof err) <= 0) cl_fatal(cl, "starting again from a snapshot: %s", err);
+    cull_world_commit(sc->world);
+    if (lock) pthread_rwlock_unlock(lock);
+    for (int tries = 0; cl_subscribe_from(cl, cl->applied + 1, err, sizeof err); tries++) {
+        if (tries == 40) cl_fatal(cl, "%s", err);
+        usleep(250000);
+    }
+    LOGW("cluster %s: started again from the snapshot as of stream message %" PRIu64 " in %" PRIu64
+         " ms (epoch %" PRIu64 " -> %" PRIu64 ")", cl->name, cl->applied, (uint64_t)(cl_mono_ms() - t0), was,
+         sc->epoch);
+}
+
 bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
 {
     uint64_t drained;
@@ -663,6 +725,11 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     bool changed = false, more = false;
     int role = atomic_load(&cl->role);
     if (role != CLUSTER_WRITER) changed = cl_apply_queue(cl, sc, lock, &more);
+    if (cl->rebuild) {
+        rebuild(cl, sc, lock);
+        changed = true;
+        more = true;
+    }
     if (won && atomic_load(&cl->role) == CLUSTER_PROMOTING) {
         cl_promote(cl, sc, lock);
         changed = true;

@@ -49,6 +49,7 @@ typedef struct cluster_config {
     int replicas;           /* the stream's and the lease bucket's replication (1..5) */
     uint32_t lease_ms;      /* the lease's TTL */
     uint64_t snapshot_bytes; /* the writer publishes a snapshot after this many bytes of records */
+    double cell_size;       /* the scene's (a replica rebuilt from a snapshot makes its scene anew) */
 } cluster_config;
 
 enum { CLUSTER_REPLICA, CLUSTER_PROMOTING, CLUSTER_WRITER };

@@ -74,13 +74,15 @@ struct cluster {
     uint64_t since_snap;            /* record bytes published since the last one began */
     pid_t snap_child;               /* writing one into snap_fd (a memfd) */
     int snap_fd;
-    uint64_t snap_seq, snap_recs, snap_lease; /* what it is as of */
+    uint64_t snap_seq, snap_recs, snap_lease; /* what it is as of (snap_lease: the last record's lease) */
+    uint64_t last_lease;            /* the lease revision the last published message carries */
     pthread_t snap_thr;             /* publishing it */
     bool snap_thr_on;
     atomic_bool snap_busy;
     uint64_t snap_prev_seq, snap_prev_first; /* the newest published: as of, and its first part */
     atomic_ullong snapshots;        /* published by this daemon */
     bool startup;                   /* cluster_open is catching up: failures return, not exit */
+    bool rebuild;                   /* the stream was trimmed past this replica: start again from a snapshot */
     char startup_err[400];
 };
 

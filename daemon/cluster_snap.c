@@ -306,9 +306,7 @@ void cl_snap_poll(cluster *cl, const scene *sc)
     if (fd < 0) return;
     cl->snap_seq = cl->applied;
     cl->snap_recs = cl->recs;
-    pthread_mutex_lock(&cl->mu);
-    cl->snap_lease = cl->lease_rev;
-    pthread_mutex_unlock(&cl->mu);
+    cl->snap_lease = cl->last_lease; /* message S's id is "LEASE-S" with the lease it was published under */
     pid_t parent = getpid();
     pid_t pid = fork();
     if (pid < 0) {

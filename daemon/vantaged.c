@@ -429,6 +429,7 @@ int main(int argc, char **argv)
         }
         ccfg.name = scene_name ? scene_name : follow;
         ccfg.snapshot_bytes = (uint64_t)compact_mb << 20;
+        ccfg.cell_size = cfg.cell_size;
         ccfg.follow = follow != NULL;
         ccfg.wait_stored = !durability_set || replicated;
         if (!ccfg.advertise) {

@@ -18,8 +18,9 @@ Independent parts: Debian's nats-server, the C CLI (`vantage stats --json`,
    does not write over the new writer's edits (it stops), and the edit it
    could not acknowledge is nowhere.
 3. snapshots: a writer publishing a snapshot every MB of records trims the
-   stream behind it; a new replica starts from the newest snapshot and
-   ends with the writer's scene.
+   stream behind it; a new replica starts from the newest snapshot, and a
+   replica stalled (SIGSTOP) while the stream was trimmed past it starts
+   again from one in place; both end with the writer's scene.
 4. a balancer: Debian's HAProxy with the shipped configuration
    (docs/scale-out/haproxy.cfg) spreads clients over the daemons and, by its
    protocol health check (HELLO + PING), routes around a dead one.
@@ -296,6 +297,10 @@ def phase_snapshots(urls):
     w = Daemon("snapwriter", urls, "snap", False, ["--compact-mb", "1"])
     w.start()
     check(wait_for(lambda: w.role() == "writer", 20), "the writer of scene snap")
+    lag = Daemon("snaplagger", urls, "snap", True)
+    lag.start()
+    check(wait_for(lambda: lag.role() == "replica", 20), "a replica follows from the start")
+    lag.p.send_signal(signal.SIGSTOP)  # ... and stalls while the stream is trimmed past it
     bench = os.path.join(BIN, "cluster_bench")
     r = subprocess.run([bench, "--writer", w.ep, "--rate", "0", "--batch", "100", "--max", "300", "--window", "8",
                         "--seconds", "60"], capture_output=True, text=True, timeout=120)
@@ -312,7 +317,13 @@ def phase_snapshots(urls):
           next((l.split("INFO  ")[-1].strip() for l in open(rep.logf) if "loaded in" in l), "none"))
     ok, epoch, digest = converge([w, rep])
     check(ok, f"writer and replica at epoch {epoch} with the same scene")
-    for d in (w, rep):
+    time.sleep(1)
+    lag.p.send_signal(signal.SIGCONT)
+    ok, epoch, digest = converge([w, rep, lag])
+    again = next((l.split("WARN  ")[-1].strip() for l in open(lag.logf) if "started again" in l), None)
+    check(ok, f"the stalled replica caught up, at epoch {epoch} with the same scene" +
+          (f" ({again})" if again else " (from the stream)"))
+    for d in (w, rep, lag):
         d.p.terminate()
 
 
