@@ -389,7 +389,7 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
             cl->pcap = cap;
         }
         size_t off = (size_t)i * (size_t)cl->max_part, n = rlen - off < (size_t)cl->max_part ? rlen - off : (size_t)cl->max_part;
-        pend_msg pm = {.seq = cl->applied + 1, .len = (uint32_t)n};
+        pend_msg pm = {.seq = cl->applied + 1, .lease = lease, .len = (uint32_t)n};
         if (parts > 1) snprintf(pm.part, sizeof pm.part, "%u/%u", i + 1, parts);
         pm.data = malloc(n ? n : 1);
         if (!pm.data) {
@@ -436,7 +436,7 @@ static void recover(cluster *cl, const char *what)
         if (atomic_load(&cl->fenced) || cl_lease_doubtful(cl))
             cl_fatal(cl, "the lease was lost with %zu records not known to be stored", cl->pn);
         pthread_mutex_lock(&cl->mu);
-        uint64_t acked = cl->acked, lease = cl->lease_rev;
+        uint64_t acked = cl->acked;
         cl->fail_seq = 0;
         pthread_mutex_unlock(&cl->mu);
         pend_pop_stored(cl, acked);
@@ -456,7 +456,7 @@ static void recover(cluster *cl, const char *what)
             pend_msg *p = &cl->pend[cl->phead];
             char id[48];
             jsPubOptions po;
-            pub_opts(cl, p, lease, &po, id, sizeof id);
+            pub_opts(cl, p, p->lease, &po, id, sizeof id); /* the same id: stored once */
             if (p->seq <= last) {
                 natsMsg *got = NULL;
                 s = js_GetMsg(&got, cl->js, cl->stream, p->seq, &cl->quick, &jerr);
@@ -470,7 +470,7 @@ static void recover(cluster *cl, const char *what)
                 if (!ours)
                     cl_fatal(cl, "stream message %" PRIu64 " is another writer's (expected ours, id %s)", p->seq, id);
             } else {
-                natsMsg *m = make_msg(cl, p, lease);
+                natsMsg *m = make_msg(cl, p, p->lease);
                 jsPubAck *pa = NULL;
                 s = m ? js_PublishMsg(&pa, cl->js, m, &po, &jerr) : NATS_NO_MEMORY;
                 if (m) natsMsg_Destroy(m);

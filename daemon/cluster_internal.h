@@ -20,6 +20,7 @@
 
 typedef struct pend_msg {           /* a published message not yet stored (writer) */
     uint64_t seq;
+    uint64_t lease;                 /* the lease revision it was published under (its id: LEASE-SEQ) */
     uint8_t *data;
     uint32_t len;
     char part[24];
