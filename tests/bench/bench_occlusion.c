@@ -54,8 +54,8 @@
 
 #define MAX_FRAMES 64
 
-/* The loops --loop counts: not inlined, so callgrind can name them. */
-__attribute__((noinline)) static int kept_loop(cull_world *w, cull_ctx *ctx, const cull_query_desc *q,
+/* The loops --loop counts: noipa (not inlined, not folded into one), so callgrind can name them. */
+__attribute__((noipa)) static int kept_loop(cull_world *w, cull_ctx *ctx, const cull_query_desc *q,
                                                cull_result *out, size_t cap, int n, size_t *count)
 {
     for (int i = 0; i < n; i++)
@@ -63,7 +63,7 @@ __attribute__((noinline)) static int kept_loop(cull_world *w, cull_ctx *ctx, con
     return 0;
 }
 
-__attribute__((noinline)) static int frust_loop(cull_world *w, cull_ctx *ctx, const cull_query_desc *q,
+__attribute__((noipa)) static int frust_loop(cull_world *w, cull_ctx *ctx, const cull_query_desc *q,
                                                 cull_result *out, size_t cap, int n, size_t *count)
 {
     for (int i = 0; i < n; i++)
