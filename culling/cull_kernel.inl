@@ -21,6 +21,8 @@
 
 static const float cull_lane_index[8] __attribute__((aligned(32))) = {0, 1, 2, 3, 4, 5, 6, 7};
 
+#include "cull_occ_test.inl"
+
 /* One view's sphere (and AABB) pass over the block, NP planes. Inlined
  * with a constant NP so the plane loops unroll. */
 static inline __attribute__((always_inline)) void
@@ -183,28 +185,12 @@ static inline uint32_t occ_rect_lanes(const cull_kview *restrict k, vf xmin, vf 
 {
     vf one = vf_set(1.0f), hw = vf_set(k->occ_sx), hh = vf_set(k->occ_sy);
     vf lo = vf_set(-1.0f), hix = vf_set(k->occ_w + 1.0f), hiy = vf_set(k->occ_h + 1.0f);
-    float fx0[W], fx1[W], fy0[W], fy1[W], fz[W];
-    vf_store(fx0, vf_min(vf_max(vf_mul(vf_sub(vf_add(xmin, one), e), hw), lo), hix));
-    vf_store(fx1, vf_min(vf_max(vf_mul(vf_add(vf_add(xmax, one), e), hw), lo), hix));
-    vf_store(fy0, vf_min(vf_max(vf_mul(vf_sub(vf_add(ymin, one), e), hh), lo), hiy));
-    vf_store(fy1, vf_min(vf_max(vf_mul(vf_add(vf_add(ymax, one), e), hh), lo), hiy));
+    float fz[W];
     vf_store(fz, z);
-    const int bw = (int)k->occ_w - 1, bh = (int)k->occ_h - 1;
-    uint32_t vis = 0;
-    for (uint32_t m = lanes; m; m &= m - 1) {
-        uint32_t l = (uint32_t)__builtin_ctz(m);
-        /* floor(x0) and ceil(x1) - 1 for values >= -1 */
-        int i0 = (int)(fx0[l] + 1.0f) - 1, j0 = (int)(fy0[l] + 1.0f) - 1;
-        int i1 = (int)fx1[l], j1 = (int)fy1[l];
-        i1 -= !((float)i1 < fx1[l]);
-        j1 -= !((float)j1 < fy1[l]);
-        i0 = i0 < 0 ? 0 : i0;
-        j0 = j0 < 0 ? 0 : j0;
-        i1 = i1 > bw ? bw : i1;
-        j1 = j1 > bh ? bh : j1;
-        if (i0 <= i1 && j0 <= j1 && cull_occ_rect_visible(k->occ, i0, j0, i1, j1, fz[l])) vis |= 1u << l;
-    }
-    return vis;
+    return occ_rect_group(k->occ, vf_min(vf_max(vf_mul(vf_sub(vf_add(xmin, one), e), hw), lo), hix),
+                          vf_min(vf_max(vf_mul(vf_add(vf_add(xmax, one), e), hw), lo), hix),
+                          vf_min(vf_max(vf_mul(vf_sub(vf_add(ymin, one), e), hh), lo), hiy),
+                          vf_min(vf_max(vf_mul(vf_add(vf_add(ymax, one), e), hh), lo), hiy), fz, lanes);
 }
 
 static inline uint32_t occ_lanes(const cull_kview *restrict k, const vf bx[2], const vf by[2], const vf bz[2],

@@ -184,7 +184,7 @@ static bool cell_occluded(const cull_cell *cell, const cull_occ_buffer *ob)
     switch (cull_occ_project_bound(ob, mn, mx, &r)) {
     case OCC_BOX_OFF: return true;
     case OCC_BOX_NEAR: return false;
-    default: return !cull_occ_rect_visible(ob, r.x0, r.y0, r.x1, r.y1, r.z);
+    default: return !ob->fns.rect_visible(ob, r.x0, r.y0, r.x1, r.y1, r.z);
     }
 }
 

@@ -77,7 +77,7 @@ static int run_loops(cull_world *w, cull_ctx *ctx, const cull_view *walk, int fr
                      uint32_t bh, bool centre, cull_result *out, size_t cap)
 {
     double tk[MAX_FRAMES], tn[MAX_FRAMES];
-    uint64_t vis = 0, tested = 0, cells_occ = 0, reused = 0;
+    uint64_t vis = 0, tested = 0, cells_occ = 0, reused = 0, occ_in = 0;
     for (int f = 0; f < frames; f++) {
         cull_query_desc qk = {.views = &walk[f], .view_count = 1, .threads = 1, .occ_w = bw, .occ_h = bh,
                               .flags = centre ? CULL_Q_OCC_CENTRE : 0};
@@ -88,6 +88,7 @@ static int run_loops(cull_world *w, cull_ctx *ctx, const cull_view *walk, int fr
         if (cull_query(w, ctx, &qk, out, cap, &c, &st)) return 1;
         vis += st.visible;
         tested += st.entities_tested;
+        occ_in += st.after_area;
         cells_occ += st.cells_occluded;
         reused += st.occ_reused;
         double x = bench_now_ns();
@@ -97,9 +98,9 @@ static int run_loops(cull_world *w, cull_ctx *ctx, const cull_view *walk, int fr
         if (frust_loop(w, ctx, &qn, out, cap, n, &c)) return 1;
         tn[f] = (bench_now_ns() - x) / n;
     }
-    printf("loop %ux%u %s: %d frames x %d queries; kept query: %.1f entities tested, %.1f visible, %.1f cells "
+    printf("loop %ux%u %s: %d frames x %d queries; kept query: %.1f entities tested, %.1f to the occlusion test, %.1f visible, %.1f cells "
            "occluded, %.0f/%d kept; median kept %.1f us, frustum %.1f us\n",
-           bw, bh, centre ? "centre" : "inner", frames, n, (double)tested / frames, (double)vis / frames,
+           bw, bh, centre ? "centre" : "inner", frames, n, (double)tested / frames, (double)occ_in / frames, (double)vis / frames,
            (double)cells_occ / frames, (double)reused, frames, bench_median(tk, frames) / 1e3,
            bench_median(tn, frames) / 1e3);
     return 0;
