@@ -84,12 +84,34 @@ static inline uint32_t occ_rect_group(const cull_occ_buffer *restrict b, vf fx0,
     j1 = vf_min(vf_select(vf_lt(j1, fy1), j1, vf_sub(j1, one)), vf_set((float)b->h - 1.0f));
     lanes &= vm_bits(vm_and(vf_le(i0, i1), vf_le(j0, j1)));
     if (!lanes) return 0;
+    /* rectangles within 2 x 2 tiles (most entities): their 4 corner
+       tiles, gathered, decide the lanes they hide (every teff > z) or
+       show (a vkey <= z); only the rest walk */
+    const vf eighth = vf_set(0.125f), tw = vf_set((float)b->tw), vz = vf_loadu(zl);
+    vf tx0 = vf_trunc(vf_mul(i0, eighth)), tx1 = vf_trunc(vf_mul(i1, eighth));
+    vf ty0 = vf_trunc(vf_mul(j0, eighth)), ty1 = vf_trunc(vf_mul(j1, eighth));
+    vm small = vm_and(vf_le(vf_sub(tx1, tx0), one), vf_le(vf_sub(ty1, ty0), one));
+    uint32_t quick = vm_bits(small) & lanes, vis = 0;
+    if (quick) {
+        small = vm_from_bits(quick); /* other lanes read tile 0 */
+        vf r0 = vf_select(small, vf_mul(ty0, tw), zero), r1 = vf_select(small, vf_mul(ty1, tw), zero);
+        tx0 = vf_select(small, tx0, zero);
+        tx1 = vf_select(small, tx1, zero);
+        vf a = vf_add(r0, tx0), c = vf_add(r0, tx1), d = vf_add(r1, tx0), e = vf_add(r1, tx1);
+        vf near = vf_min(vf_min(vf_lookup(b->teff, a), vf_lookup(b->teff, c)),
+                         vf_min(vf_lookup(b->teff, d), vf_lookup(b->teff, e)));
+        vf key = vf_min(vf_min(vf_lookup(b->vkey, a), vf_lookup(b->vkey, c)),
+                        vf_min(vf_lookup(b->vkey, d), vf_lookup(b->vkey, e)));
+        uint32_t hid = vm_bits(vf_lt(vz, near)) & quick, shown = vm_bits(vf_le(key, vz)) & quick;
+        vis = shown;
+        lanes &= ~(hid | shown);
+        if (!lanes) return vis;
+    }
     int32_t x0[W], y0[W], x1[W], y1[W];
     vf_store_i32(x0, i0);
     vf_store_i32(y0, j0);
     vf_store_i32(x1, i1);
     vf_store_i32(y1, j1);
-    uint32_t vis = 0;
     for (uint32_t m = lanes; m; m &= m - 1) {
         uint32_t l = (uint32_t)__builtin_ctz(m);
         if (occ_rect_walk(b, x0[l], y0[l], x1[l], y1[l], zl[l])) vis |= 1u << l;

@@ -39,6 +39,16 @@ typedef struct cull_chunk {
     uint32_t thread, off, count, dst;
 } cull_chunk;
 
+/* A cell's verdict against a kept buffer: whether its bounds (origin,
+ * bmin, bmax) were hidden. cell_occluded is a function of those and of
+ * the buffer alone, so while the buffer is kept the verdict stands for
+ * any cell with the same bounds. */
+typedef struct occ_cell_memo {
+    double origin[3];
+    float  bmin[3], bmax[3];
+    bool   occluded;
+} occ_cell_memo;
+
 /* What a context's occlusion buffer for one view index was rendered
  * from: when a query asks for the same again, the buffer is kept (a still
  * camera of a stream or a commander re-queries many times a second). */
@@ -51,6 +61,12 @@ typedef struct occ_key {
     uint32_t nsub;              /* UINT32_MAX: every sub-level; else the set's words to its last non-zero one */
     uint64_t *sub;
     uint32_t sub_cap;
+    /* the cell stage's verdicts against this buffer, in the order the
+       cells were tested since it was drawn (the order a still world
+       repeats): a cell's projection and walk (~500 instructions) become a
+       48-byte compare. Emptied whenever the buffer is drawn. */
+    occ_cell_memo *memo;
+    uint32_t memo_n, memo_cap;
 } occ_key;
 
 struct cull_ctx {
@@ -96,6 +112,7 @@ void cull_ctx_destroy(cull_ctx *c)
     for (uint32_t i = 0; i < CULL_MAX_VIEWS; i++) {
         cull_occ_buffer_destroy(c->occ[i]);
         free(c->occ_key[i].sub);
+        free(c->occ_key[i].memo);
     }
     free(c);
 }
@@ -188,20 +205,47 @@ static bool cell_occluded(const cull_cell *cell, const cull_occ_buffer *ob)
     }
 }
 
+/* cell_occluded through the memo of a kept buffer (NULL: none, a caller's
+ * buffer); *pos counts the view's cell tests in this query. A verdict is
+ * reused only for the same bounds at the same position; the rest are
+ * tested and recorded while the memo stays contiguous (a failed growth
+ * records nothing: the verdicts are the same, only not kept). */
+static bool cell_occluded_kept(const cull_cell *cell, const cull_occ_buffer *ob, occ_key *k, uint32_t *pos)
+{
+    if (!k) return cell_occluded(cell, ob);
+    uint32_t i = (*pos)++;
+    if (i < k->memo_n) {
+        const occ_cell_memo *m = &k->memo[i];
+        if (!memcmp(m->origin, cell->origin, sizeof m->origin) && !memcmp(m->bmin, cell->bmin, sizeof m->bmin) &&
+            !memcmp(m->bmax, cell->bmax, sizeof m->bmax))
+            return m->occluded;
+    }
+    bool hidden = cell_occluded(cell, ob);
+    if (i <= k->memo_n && vp_grow32((void **)&k->memo, &k->memo_cap, (size_t)i + 1, sizeof *k->memo)) {
+        occ_cell_memo *m = &k->memo[i];
+        memcpy(m->origin, cell->origin, sizeof m->origin);
+        memcpy(m->bmin, cell->bmin, sizeof m->bmin);
+        memcpy(m->bmax, cell->bmax, sizeof m->bmax);
+        m->occluded = hidden;
+        if (i == k->memo_n) k->memo_n++;
+    }
+    return hidden;
+}
+
 /* The kviews of one cell: every view whose cell code says it may see the
  * cell and whose occluders do not hide it whole, with the planes the cell
  * straddles re-based to the cell origin (double, then float). Returns how
  * many; *occluded counts the views dropped by occlusion. */
 static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *rv, uint32_t nrv,
                             const uint8_t *codes, size_t stride, bool area, const cull_occ_buffer *const *ob,
-                            cull_kview *kv, uint32_t *occluded)
+                            occ_key *const *memo, uint32_t *memo_pos, cull_kview *kv, uint32_t *occluded)
 {
     uint32_t nv = 0;
     for (uint32_t a = 0; a < nrv; a++) {
         uint32_t code = codes[a * stride + cell->index];
         if (code & 0x80u) continue;
         const cull_occ_buffer *occ = ob[rv[a].view];
-        if (occ && cell_occluded(cell, occ)) {
+        if (occ && cell_occluded_kept(cell, occ, memo[rv[a].view], &memo_pos[rv[a].view])) {
             (*occluded)++;
             continue;
         }
@@ -356,6 +400,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
 
     /* the occlusion stage: a buffer per view, given or rendered here */
     const cull_occ_buffer *ob[CULL_MAX_VIEWS] = {0};
+    occ_key *memo[CULL_MAX_VIEWS] = {0}; /* the context's buffers: their cell verdicts */
+    uint32_t memo_pos[CULL_MAX_VIEWS] = {0};
     uint32_t occ_views = 0, occ_drawn = 0, occ_reused = 0, occ_rendered = 0;
     uint64_t occ_ns = 0;
     if (!(q->flags & CULL_Q_NO_OCCLUSION) && (q->occ_buffers || w->nocc)) {
@@ -381,6 +427,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                     occ_reused++;
                 } else {
                     k->valid = false; /* a failed render leaves the buffer half drawn */
+                    k->memo_n = 0;
                     b->inner = inner;
                     cull_occ_stats st;
                     int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, q->sublevels, &st);
@@ -390,6 +437,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                     occ_rendered++;
                     occ_key_set(k, w, &q->views[v], inner, c->isa, q->sublevels, nsub);
                 }
+                memo[v] = k;
             }
             if (b->drawn && b->usable) {
                 ob[v] = b;
@@ -471,7 +519,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 if (!vp_grow32((void **)&c->kv, &c->kv_cap, (size_t)nkv + nrv, sizeof *c->kv) ||
                     !vp_grow32((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
                     return CULL_ERR_NOMEM;
-                uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, c->kv + nkv,
+                uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, memo, memo_pos, c->kv + nkv,
                                           &cells_occluded);
                 if (!nv) {
                     cells_culled++;

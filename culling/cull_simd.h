@@ -51,6 +51,8 @@ static inline vf vf_fma(vf a, vf b, vf c) { return _mm256_fmadd_ps(a, b, c); }
 static inline vf vf_trunc(vf a) { return _mm256_round_ps(a, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC); }
 /* (int)a per lane, a in int range */
 static inline void vf_store_i32(int32_t *p, vf a) { _mm256_storeu_si256((__m256i *)p, _mm256_cvttps_epi32(a)); }
+/* base[(int)i] per lane, i holding non-negative integers below 2^24 */
+static inline vf vf_lookup(const float *base, vf i) { return _mm256_i32gather_ps(base, _mm256_cvttps_epi32(i), 4); }
 static inline vf vf_min(vf a, vf b) { return _mm256_min_ps(a, b); }
 static inline vf vf_max(vf a, vf b) { return _mm256_max_ps(a, b); }
 static inline vf vf_abs(vf a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
@@ -144,6 +146,12 @@ static inline vf vf_rcp(vf a)
 static inline vf vf_fma(vf a, vf b, vf c) { return _mm_add_ps(_mm_mul_ps(a, b), c); }
 static inline vf vf_trunc(vf a) { return _mm_round_ps(a, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC); }
 static inline void vf_store_i32(int32_t *p, vf a) { _mm_storeu_si128((__m128i *)p, _mm_cvttps_epi32(a)); }
+static inline vf vf_lookup(const float *base, vf i)
+{
+    int32_t k[4];
+    vf_store_i32(k, i);
+    return _mm_setr_ps(base[k[0]], base[k[1]], base[k[2]], base[k[3]]);
+}
 static inline vf vf_min(vf a, vf b) { return _mm_min_ps(a, b); }
 static inline vf vf_max(vf a, vf b) { return _mm_max_ps(a, b); }
 static inline vf vf_abs(vf a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
@@ -218,6 +226,7 @@ static inline vf vf_rcp(vf a) { return 1.0f / a; }
 static inline vf vf_fma(vf a, vf b, vf c) { return a * b + c; }
 static inline vf vf_trunc(vf a) { return (float)(int32_t)a; } /* a in int range */
 static inline void vf_store_i32(int32_t *p, vf a) { *p = (int32_t)a; }
+static inline vf vf_lookup(const float *base, vf i) { return base[(int32_t)i]; }
 static inline vf vf_min(vf a, vf b) { return a < b ? a : b; }
 static inline vf vf_max(vf a, vf b) { return a > b ? a : b; }
 static inline vf vf_abs(vf a) { return a < 0 ? -a : a; }
