@@ -181,7 +181,7 @@ static inline vf area_upper(const cull_kview *restrict k, const vf bx[2], const 
  * occlusion buffer not nearer than z. A rectangle that misses the buffer
  * is off screen: not visible. */
 static inline uint32_t occ_rect_lanes(const cull_kview *restrict k, vf xmin, vf xmax, vf ymin, vf ymax, vf e, vf z,
-                                      uint32_t lanes)
+                                      uint32_t lanes, vf rect[4], uint32_t seen)
 {
     vf one = vf_set(1.0f), hw = vf_set(k->occ_sx), hh = vf_set(k->occ_sy);
     vf lo = vf_set(-1.0f), hix = vf_set(k->occ_w + 1.0f), hiy = vf_set(k->occ_h + 1.0f);
@@ -190,7 +190,7 @@ static inline uint32_t occ_rect_lanes(const cull_kview *restrict k, vf xmin, vf 
     return occ_rect_group(k->occ, vf_min(vf_max(vf_mul(vf_sub(vf_add(xmin, one), e), hw), lo), hix),
                           vf_min(vf_max(vf_mul(vf_add(vf_add(xmax, one), e), hw), lo), hix),
                           vf_min(vf_max(vf_mul(vf_sub(vf_add(ymin, one), e), hh), lo), hiy),
-                          vf_min(vf_max(vf_mul(vf_add(vf_add(ymax, one), e), hh), lo), hiy), fz, lanes);
+                          vf_min(vf_max(vf_mul(vf_add(vf_add(ymax, one), e), hh), lo), hiy), fz, lanes, rect, seen);
 }
 
 static inline uint32_t occ_lanes(const cull_kview *restrict k, const vf bx[2], const vf by[2], const vf bz[2],
@@ -251,9 +251,10 @@ static inline uint32_t occ_lanes(const cull_kview *restrict k, const vf bx[2], c
     vf xhi = vf_add(vf_add(vf_max(px[0][0], px[1][0]), vf_max(px[0][1], px[1][1])), vf_max(px[0][2], px[1][2]));
     vf ylo = vf_add(vf_add(vf_min(py[0][0], py[1][0]), vf_min(py[0][1], py[1][1])), vf_min(py[0][2], py[1][2]));
     vf yhi = vf_add(vf_add(vf_max(py[0][0], py[1][0]), vf_max(py[0][1], py[1][1])), vf_max(py[0][2], py[1][2]));
+    vf rect[4];
     uint32_t vis = occ_rect_lanes(k, vf_min(vf_mul(xlo, rlo), vf_mul(xlo, rhi)), vf_max(vf_mul(xhi, rlo), vf_mul(xhi, rhi)),
                                   vf_min(vf_mul(ylo, rlo), vf_mul(ylo, rhi)), vf_max(vf_mul(yhi, rlo), vf_mul(yhi, rhi)),
-                                  e, z, front);
+                                  e, z, front, rect, 0);
     if (vis) {
         /* then, for what may be visible, the exact rectangle of the 8
            projected corners (inside the cheap one) */
@@ -270,7 +271,9 @@ static inline uint32_t occ_lanes(const cull_kview *restrict k, const vf bx[2], c
             ymin = vf_min(ymin, vf_mul(Y, rw));
             ymax = vf_max(ymax, vf_mul(Y, rw));
         }
-        vis = occ_rect_lanes(k, xmin, xmax, ymin, ymax, e, z, vis);
+        /* (a lane whose pixel rectangle is the cheap one's is visible:
+           the same test) */
+        vis = occ_rect_lanes(k, xmin, xmax, ymin, ymax, e, z, vis, rect, vis);
     }
     return (live & ~front) | vis;
 }

@@ -93,7 +93,7 @@ uint32_t CULL_OCC_CAT(cull_occ_lanes_, CULL_OCC_SUFFIX)(const cull_occ_buffer *b
         uint32_t m = (lanes >> o) & ((1u << W) - 1u);
         if (m)
             vis |= occ_rect_group(b, vf_loadu(fx0 + o), vf_loadu(fx1 + o), vf_loadu(fy0 + o), vf_loadu(fy1 + o),
-                                  z + o, m) << o;
+                                  z + o, m, NULL, 0) << o;
     }
     return vis;
 }

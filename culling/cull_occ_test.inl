@@ -72,9 +72,13 @@ static inline bool occ_rect_walk(const cull_occ_buffer *restrict b, int x0, int 
  * from the bounds a group at a time, by the same float steps the scalar
  * conversion made ((int)(f + 1) - 1 for the floor of f >= -1, the
  * truncation, less one where it is not below f, for the ceiling less
- * one); then each lane walks. */
+ * one); then each lane walks.
+ * rect (NULL: none) holds the group's pixel rectangles as floats {x0, x1,
+ * y0, y1}: with seen 0 they are stored there; with seen set (lanes
+ * already found visible at the same z with the rectangles in rect), a lane
+ * whose rectangle is the same is visible without a test. */
 static inline uint32_t occ_rect_group(const cull_occ_buffer *restrict b, vf fx0, vf fx1, vf fy0, vf fy1,
-                                      const float *zl, uint32_t lanes)
+                                      const float *zl, uint32_t lanes, vf *rect, uint32_t seen)
 {
     const vf one = vf_set(1.0f), zero = vf_set(0.0f);
     vf i0 = vf_max(vf_sub(vf_trunc(vf_add(fx0, one)), one), zero);
@@ -84,6 +88,19 @@ static inline uint32_t occ_rect_group(const cull_occ_buffer *restrict b, vf fx0,
     j1 = vf_min(vf_select(vf_lt(j1, fy1), j1, vf_sub(j1, one)), vf_set((float)b->h - 1.0f));
     lanes &= vm_bits(vm_and(vf_le(i0, i1), vf_le(j0, j1)));
     if (!lanes) return 0;
+    uint32_t vis = 0;
+    if (rect && seen) {
+        vm same = vm_and(vm_and(vm_and(vf_le(i0, rect[0]), vf_ge(i0, rect[0])), vm_and(vf_le(i1, rect[1]), vf_ge(i1, rect[1]))),
+                         vm_and(vm_and(vf_le(j0, rect[2]), vf_ge(j0, rect[2])), vm_and(vf_le(j1, rect[3]), vf_ge(j1, rect[3]))));
+        vis = vm_bits(same) & lanes & seen;
+        lanes &= ~vis;
+        if (!lanes) return vis;
+    } else if (rect) {
+        rect[0] = i0;
+        rect[1] = i1;
+        rect[2] = j0;
+        rect[3] = j1;
+    }
     /* rectangles within 2 x 2 tiles (most entities): their 4 corner
        tiles, gathered, decide the lanes they hide (every teff > z) or
        show (a vkey <= z); only the rest walk */
@@ -91,7 +108,7 @@ static inline uint32_t occ_rect_group(const cull_occ_buffer *restrict b, vf fx0,
     vf tx0 = vf_trunc(vf_mul(i0, eighth)), tx1 = vf_trunc(vf_mul(i1, eighth));
     vf ty0 = vf_trunc(vf_mul(j0, eighth)), ty1 = vf_trunc(vf_mul(j1, eighth));
     vm small = vm_and(vf_le(vf_sub(tx1, tx0), one), vf_le(vf_sub(ty1, ty0), one));
-    uint32_t quick = vm_bits(small) & lanes, vis = 0;
+    uint32_t quick = vm_bits(small) & lanes;
     if (quick) {
         small = vm_from_bits(quick); /* other lanes read tile 0 */
         vf r0 = vf_select(small, vf_mul(ty0, tw), zero), r1 = vf_select(small, vf_mul(ty1, tw), zero);
@@ -103,7 +120,7 @@ static inline uint32_t occ_rect_group(const cull_occ_buffer *restrict b, vf fx0,
         vf key = vf_min(vf_min(vf_lookup(b->vkey, a), vf_lookup(b->vkey, c)),
                         vf_min(vf_lookup(b->vkey, d), vf_lookup(b->vkey, e)));
         uint32_t hid = vm_bits(vf_lt(vz, near)) & quick, shown = vm_bits(vf_le(key, vz)) & quick;
-        vis = shown;
+        vis |= shown;
         lanes &= ~(hid | shown);
         if (!lanes) return vis;
     }
