@@ -278,6 +278,59 @@ static inline uint32_t occ_lanes(const cull_kview *restrict k, const vf bx[2], c
     return (live & ~front) | vis;
 }
 
+/* A block's record against a kept buffer (cull_occ_memo) stands for view
+ * k, or starts again. */
+static void occ_memo_start(cull_occ_memo *restrict memo, const cull_kview *restrict k)
+{
+    float kc[20];
+    __builtin_memcpy(kc, k->cx, 12 * sizeof(float));
+    __builtin_memcpy(kc + 12, k->cd, 4 * sizeof(float));
+    kc[16] = k->occ_sx, kc[17] = k->occ_sy, kc[18] = k->occ_w, kc[19] = k->occ_h;
+    if (memo->valid && memo->occ == k->occ && !__builtin_memcmp(memo->kv, kc, sizeof kc)) return;
+    __builtin_memcpy(memo->kv, kc, sizeof kc);
+    memo->occ = k->occ;
+    memo->in = 0;
+    memo->valid = true;
+}
+
+/* occ_lanes through the block's record: the group at lane o with the
+ * same live lanes and, bit for bit, the same boxes as recorded takes the
+ * recorded verdicts; else it is tested and recorded. */
+static uint32_t occ_lanes_kept(const cull_kview *restrict k, const vf bx[2], const vf by[2], const vf bz[2],
+                               uint32_t live, cull_occ_memo *restrict memo, uint32_t o)
+{
+    const uint64_t gm = (uint64_t)((1u << W) - 1u) << o;
+    if ((memo->in & gm) == (uint64_t)live << o) {
+        vm same = vm_and(vm_and(vf_same(bx[0], vf_loadu(memo->box[0] + o)), vf_same(bx[1], vf_loadu(memo->box[1] + o))),
+                         vm_and(vf_same(by[0], vf_loadu(memo->box[2] + o)), vf_same(by[1], vf_loadu(memo->box[3] + o))));
+        same = vm_and(same, vm_and(vf_same(bz[0], vf_loadu(memo->box[4] + o)), vf_same(bz[1], vf_loadu(memo->box[5] + o))));
+        if ((vm_bits(same) & live) == live) return (uint32_t)(memo->vis >> o) & live;
+    }
+    uint32_t vis = occ_lanes(k, bx, by, bz, live);
+    vf_store(memo->box[0] + o, bx[0]);
+    vf_store(memo->box[1] + o, bx[1]);
+    vf_store(memo->box[2] + o, by[0]);
+    vf_store(memo->box[3] + o, by[1]);
+    vf_store(memo->box[4] + o, bz[0]);
+    vf_store(memo->box[5] + o, bz[1]);
+    memo->in = (memo->in & ~gm) | (uint64_t)live << o;
+    memo->vis = (memo->vis & ~gm) | (uint64_t)vis << o;
+    return vis;
+}
+
+/* The occlusion stage of the group at lane o, through the block's record
+ * when there is one. Not inlined: the loops that call it keep their
+ * registers for the frustum stages (the frustum-only query pays nothing
+ * for it). */
+static __attribute__((noinline)) uint32_t occ_group(const cull_kview *restrict k, const cull_block *restrict b,
+                                                    uint32_t o, uint32_t live, cull_occ_memo *restrict memo)
+{
+    vf bx[2] = {vf_load(b->minx + o), vf_load(b->maxx + o)};
+    vf by[2] = {vf_load(b->miny + o), vf_load(b->maxy + o)};
+    vf bz[2] = {vf_load(b->minz + o), vf_load(b->maxz + o)};
+    return memo ? occ_lanes_kept(k, bx, by, bz, live, memo, o) : occ_lanes(k, bx, by, bz, live);
+}
+
 /* ---- writing results ------------------------------------------------------ */
 #if W == 8
 /* Left-pack for AVX2 (no compress instruction): byte k of entry m is the
@@ -402,7 +455,7 @@ static inline uint32_t emit_group(cull_result *restrict out, const cull_block *r
 static inline __attribute__((always_inline)) uint32_t
 single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict k, const uint32_t NP, bool aabb,
             int area, float min_area, bool count_only, cull_result *restrict out, uint32_t *c_sph,
-            uint32_t *c_aabb, uint32_t *c_area, uint32_t *c_occ)
+            uint32_t *c_aabb, uint32_t *c_area, uint32_t *c_occ, cull_occ_memo *restrict memo)
 {
     vf px[6], py[6], pz[6], pd[6];
     const float *bxp[6], *byp[6], *bzp[6];
@@ -461,10 +514,7 @@ single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict
         }
         nr += (uint32_t)__builtin_popcount(live);
         if (k->occ) {
-            vf bx[2] = {vf_load(b->minx + o), vf_load(b->maxx + o)};
-            vf by[2] = {vf_load(b->miny + o), vf_load(b->maxy + o)};
-            vf bz[2] = {vf_load(b->minz + o), vf_load(b->maxz + o)};
-            live = occ_lanes(k, bx, by, bz, live);
+            live = occ_group(k, b, o, live, memo);
             if (!live) continue;
         }
         no += (uint32_t)__builtin_popcount(live);
@@ -478,7 +528,8 @@ single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict
 }
 
 uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_kview *restrict kv, uint32_t nv,
-                          const cull_kparams *restrict p, cull_result *restrict out, cull_kcount *restrict cnt)
+                          const cull_kparams *restrict p, cull_result *restrict out, cull_kcount *restrict cnt,
+                          cull_occ_memo *restrict memo)
 {
     const uint32_t ng = (n + W - 1) / W;
     const bool aabb = p->aabb, want_area = p->area, exact_area = p->exact_area;
@@ -487,7 +538,9 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
     if (nv == 1) {
         const int am = !want_area ? 0 : exact_area ? 2 : 1;
         uint32_t cs = 0, ca = 0, cr = 0, co = 0, written;
-#define CULL_ONE(NP) single_view(b, n, kv, NP, aabb, am, min_area, p->count_only, out, &cs, &ca, &cr, &co)
+        if (memo && kv->occ) occ_memo_start(memo, kv);
+        else memo = NULL;
+#define CULL_ONE(NP) single_view(b, n, kv, NP, aabb, am, min_area, p->count_only, out, &cs, &ca, &cr, &co, memo)
         switch (kv->nplanes) {
         case 0: written = CULL_ONE(0); break;
         case 1: written = CULL_ONE(1); break;

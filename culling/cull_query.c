@@ -67,7 +67,14 @@ typedef struct occ_key {
        48-byte compare. Emptied whenever the buffer is drawn. */
     occ_cell_memo *memo;
     uint32_t memo_n, memo_cap;
+    /* the kernel's verdicts against this buffer, per block in query order
+       (single-view cells only; at most OCC_BLOCK_MEMO_MAX blocks, 1.6 KB
+       each): invalidated whenever the buffer is drawn */
+    cull_occ_memo *bmemo;
+    uint32_t bmemo_cap;
 } occ_key;
+
+#define OCC_BLOCK_MEMO_MAX 2048u
 
 struct cull_ctx {
     cull_pool *pool;
@@ -85,6 +92,8 @@ struct cull_ctx {
     cull_result *tres[MAX_THREADS];
     uint32_t tres_cap[MAX_THREADS];
     cull_occ_buffer *occ[CULL_MAX_VIEWS]; /* per view index, made on demand */
+    cull_occ_memo **imemo;                 /* per item: its record against a kept buffer, or NULL */
+    uint32_t imemo_cap;
     occ_key occ_key[CULL_MAX_VIEWS];      /* what each was rendered from */
 };
 
@@ -108,11 +117,13 @@ void cull_ctx_destroy(cull_ctx *c)
     free(c->codes);
     free(c->items);
     free(c->chunks);
+    free(c->imemo);
     for (uint32_t i = 0; i < MAX_THREADS; i++) free(c->tres[i]);
     for (uint32_t i = 0; i < CULL_MAX_VIEWS; i++) {
         cull_occ_buffer_destroy(c->occ[i]);
         free(c->occ_key[i].sub);
         free(c->occ_key[i].memo);
+        free(c->occ_key[i].bmemo);
     }
     free(c);
 }
@@ -330,6 +341,7 @@ typedef struct job {
     const cull_kparams *kp;
     const uint64_t *subs;   /* the query's sub-levels, or NULL */
     const cull_item *items;
+    cull_occ_memo *const *imemo; /* per item, or NULL */
     uint32_t nitems, nchunks;
     bool prefetch;
     _Atomic uint32_t next;
@@ -355,7 +367,8 @@ static void job_cull(void *arg, uint32_t t)
             const cull_item *it = &j->items[i];
             if (j->prefetch && i + PREFETCH_AHEAD < j->nitems)
                 prefetch_block(j->items[i + PREFETCH_AHEAD].block, j->kp->area);
-            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt);
+            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt,
+                                  j->imemo ? j->imemo[i] : NULL);
             if (j->subs) {
                 uint32_t kept = keep_sublevels(dst + off, k, j->subs);
                 j->filtered[t] += k - kept;
@@ -428,6 +441,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 } else {
                     k->valid = false; /* a failed render leaves the buffer half drawn */
                     k->memo_n = 0;
+                    for (uint32_t i = 0; i < k->bmemo_cap; i++) k->bmemo[i].valid = false;
                     b->inner = inner;
                     cull_occ_stats st;
                     int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, q->sublevels, &st);
@@ -536,6 +550,34 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         }
     }
 
+    /* a single-view cell with a kept buffer: each of its blocks' verdicts
+       are recorded and read back, the block's place in the query's order
+       naming its record (frustum-only queries skip this) */
+    cull_occ_memo **imemo = NULL;
+    bool any_memo = false;
+    uint32_t nmemo = nitems < OCC_BLOCK_MEMO_MAX ? nitems : OCC_BLOCK_MEMO_MAX;
+    for (uint32_t v = 0; v < q->view_count; v++) {
+        occ_key *k = memo[v];
+        if (!k || !ob[v]) continue;
+        /* grown before any pointer into it is taken */
+        uint32_t old = k->bmemo_cap;
+        if (nmemo > old && !vp_grow32((void **)&k->bmemo, &k->bmemo_cap, nmemo, sizeof *k->bmemo)) {
+            memo[v] = NULL; /* no record this time: the same verdicts, tested */
+            continue;
+        }
+        for (uint32_t m = old; m < k->bmemo_cap; m++) k->bmemo[m].valid = false;
+        any_memo = true;
+    }
+    if (any_memo && vp_grow32((void **)&c->imemo, &c->imemo_cap, nitems, sizeof *c->imemo)) {
+        imemo = c->imemo;
+        for (uint32_t i = 0; i < nitems; i++) {
+            const cull_item *it = &c->items[i];
+            const cull_kview *k = &c->kv[it->kv_off];
+            occ_key *bk = it->nv == 1 && k->occ && i < nmemo ? memo[__builtin_ctz(k->bit)] : NULL;
+            imemo[i] = bk ? &bk->bmemo[i] : NULL;
+        }
+    }
+
     /* stage 2: blocks */
     uint32_t threads = cull_pool_threads(c->pool);
     if (q->threads && q->threads < threads) threads = q->threads;
@@ -559,7 +601,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             const cull_item *it = &c->items[i];
             if (prefetch && i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block, kp.area);
             cull_result *dst = !count_only ? out + written : subs ? c->tres[0] : NULL;
-            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp, dst, &total);
+            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp, dst, &total, imemo ? imemo[i] : NULL);
             if (subs) {
                 uint32_t kept = keep_sublevels(dst, k, subs);
                 filtered += k - kept;
@@ -575,7 +617,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             if (!vp_grow32((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
                          sizeof(cull_result)))
                 return CULL_ERR_NOMEM;
-        job j = {.c = c, .kp = &kp, .subs = subs, .items = c->items, .nitems = nitems, .nchunks = nchunks,
+        job j = {.c = c, .kp = &kp, .subs = subs, .items = c->items, .imemo = imemo, .nitems = nitems, .nchunks = nchunks,
                  .out = out, .prefetch = prefetch};
         atomic_init(&j.next, 0);
         cull_pool_run(c->pool, job_cull, &j, threads);

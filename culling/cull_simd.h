@@ -49,6 +49,11 @@ static inline vf vf_rcp(vf a)
 }
 static inline vf vf_fma(vf a, vf b, vf c) { return _mm256_fmadd_ps(a, b, c); }
 static inline vf vf_trunc(vf a) { return _mm256_round_ps(a, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC); }
+/* lanes whose bits are equal */
+static inline vm vf_same(vf a, vf b)
+{
+    return _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_castps_si256(a), _mm256_castps_si256(b)));
+}
 /* (int)a per lane, a in int range */
 static inline void vf_store_i32(int32_t *p, vf a) { _mm256_storeu_si256((__m256i *)p, _mm256_cvttps_epi32(a)); }
 /* base[(int)i] per lane, i holding non-negative integers below 2^24 */
@@ -145,6 +150,7 @@ static inline vf vf_rcp(vf a)
 }
 static inline vf vf_fma(vf a, vf b, vf c) { return _mm_add_ps(_mm_mul_ps(a, b), c); }
 static inline vf vf_trunc(vf a) { return _mm_round_ps(a, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC); }
+static inline vm vf_same(vf a, vf b) { return _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_castps_si128(a), _mm_castps_si128(b))); }
 static inline void vf_store_i32(int32_t *p, vf a) { _mm_storeu_si128((__m128i *)p, _mm_cvttps_epi32(a)); }
 static inline vf vf_lookup(const float *base, vf i)
 {
@@ -225,6 +231,13 @@ static inline vf vf_sqrt(vf a) { return __builtin_sqrtf(a); }
 static inline vf vf_rcp(vf a) { return 1.0f / a; }
 static inline vf vf_fma(vf a, vf b, vf c) { return a * b + c; }
 static inline vf vf_trunc(vf a) { return (float)(int32_t)a; } /* a in int range */
+static inline vm vf_same(vf a, vf b)
+{
+    uint32_t x, y;
+    __builtin_memcpy(&x, &a, 4);
+    __builtin_memcpy(&y, &b, 4);
+    return x == y ? ~0u : 0u;
+}
 static inline void vf_store_i32(int32_t *p, vf a) { *p = (int32_t)a; }
 static inline vf vf_lookup(const float *base, vf i) { return base[(int32_t)i]; }
 static inline vf vf_min(vf a, vf b) { return a < b ? a : b; }

@@ -1213,6 +1213,18 @@ static void buffer_reuse_town(rng *rr, int steps, uint32_t *reused_out, uint32_t
             assert_int_equal(cull_entity_get(s.w, s.h[i], e), CULL_OK);
         } else if (op == 11) {
             cull_world_commit(s.w);
+        } else if (op == 12 && rng_below(&r, 3) == 0) {
+            /* every entity a whole cell (64 m) along x: the blocks hold the
+               same cell-relative boxes in other cells, seen otherwise */
+            double d = rng_below(&r, 2) ? 64 : -64;
+            for (uint32_t i = 0; i < s.n; i++) {
+                s.e[i].aabb_min[0] += d;
+                s.e[i].aabb_max[0] += d;
+                s.e[i].center[0] += d;
+                assert_int_equal(cull_entity_update(s.w, s.h[i], &s.e[i]), CULL_OK);
+                assert_int_equal(cull_entity_get(s.w, s.h[i], &s.e[i]), CULL_OK);
+            }
+            cull_world_commit(s.w);
         } /* else: the same query again */
         cull_query_desc q = {.views = &view, .view_count = 1, .flags = flags, .sublevels = use_subs ? subs : NULL};
         cull_query_stats st;
