@@ -34,7 +34,8 @@
  * queries (frust_loop), one thread, for an instruction count:
  *   valgrind --tool=callgrind --collect-atstart=no --toggle-collect=kept_loop
  *            --toggle-collect=frust_loop build/release/bench_occlusion --loop 20
- * (callgrind_annotate --inclusive=yes gives each loop's share). It prints
+ * (callgrind_annotate --inclusive=yes gives each loop's share; fresh_loop:
+ * the same number of drawing queries, CULL_Q_OCC_FRESH). It prints
  * the per-query stats of the kept query and the two loops' medians.
  */
 #include "culling.h"
@@ -71,8 +72,17 @@ __attribute__((noipa)) static int frust_loop(cull_world *w, cull_ctx *ctx, const
     return 0;
 }
 
-/* --loop: per frame, a drawing query, then n kept and n frustum-only
- * queries; prints the kept query's stats and the medians per query. */
+__attribute__((noipa)) static int fresh_loop(cull_world *w, cull_ctx *ctx, const cull_query_desc *q,
+                                                cull_result *out, size_t cap, int n, size_t *count)
+{
+    for (int i = 0; i < n; i++)
+        if (cull_query(w, ctx, q, out, cap, count, NULL)) return 1;
+    return 0;
+}
+
+/* --loop: per frame, a drawing query, then n kept, n frustum-only and n
+ * drawing (CULL_Q_OCC_FRESH) queries; prints the kept query's stats and
+ * the medians per query. */
 static int run_loops(cull_world *w, cull_ctx *ctx, const cull_view *walk, int frames, int n, uint32_t bw,
                      uint32_t bh, bool centre, cull_result *out, size_t cap)
 {
@@ -97,6 +107,9 @@ static int run_loops(cull_world *w, cull_ctx *ctx, const cull_view *walk, int fr
         x = bench_now_ns();
         if (frust_loop(w, ctx, &qn, out, cap, n, &c)) return 1;
         tn[f] = (bench_now_ns() - x) / n;
+        cull_query_desc qf = qk;
+        qf.flags |= CULL_Q_OCC_FRESH;
+        if (fresh_loop(w, ctx, &qf, out, cap, n, &c)) return 1;
     }
     printf("loop %ux%u %s: %d frames x %d queries; kept query: %.1f entities tested, %.1f to the occlusion test, %.1f visible, %.1f cells "
            "occluded, %.0f/%d kept; median kept %.1f us, frustum %.1f us\n",
