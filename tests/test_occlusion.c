@@ -1146,7 +1146,11 @@ static void buffer_reuse_town(rng *rr, int steps, uint32_t *reused_out, uint32_t
     cull_occluder mine[64];
     uint32_t nmine = 0;
     cull_ctx *kept;
-    assert_int_equal(cull_ctx_create(NULL, &kept), CULL_OK);
+    /* the kept context on two threads (its blocks' records written from
+       either), the new one on none */
+    cull_pool *pool;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    assert_int_equal(cull_ctx_create(pool, &kept), CULL_OK);
     size_t cap = cull_query_bound(s.w) + 64;
     cull_result *a = malloc(cap * sizeof *a), *b = malloc(cap * sizeof *b);
     assert_non_null(a);
@@ -1226,7 +1230,8 @@ static void buffer_reuse_town(rng *rr, int steps, uint32_t *reused_out, uint32_t
             }
             cull_world_commit(s.w);
         } /* else: the same query again */
-        cull_query_desc q = {.views = &view, .view_count = 1, .flags = flags, .sublevels = use_subs ? subs : NULL};
+        cull_query_desc q = {.views = &view, .view_count = 1, .flags = flags, .sublevels = use_subs ? subs : NULL,
+                             .threads = rng_below(&r, 3)};
         cull_query_stats st;
         size_t na = sorted_query(s.w, kept, &q, a, cap, &st);
         cull_ctx *fresh;
@@ -1256,6 +1261,7 @@ static void buffer_reuse_town(rng *rr, int steps, uint32_t *reused_out, uint32_t
     free(a);
     free(b);
     cull_ctx_destroy(kept);
+    cull_pool_destroy(pool);
     free_scene(&s);
 }
 
