@@ -70,8 +70,7 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
         for (uint32_t x = 0; x < b->w; x++) b->depth[(size_t)y * b->stride + x] = EMPTY;
     for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = b->tile_full[i] = b->teff[i] = EMPTY;
     memset(b->tstate, TILE_CLEAN, (size_t)b->tpitch * b->th);
-    for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tmax[i] = PAD; /* tiles with padding; vkey below */
-    for (uint32_t ty = 0; ty < b->th; ty++) cull_occ_vkey_row(b, ty);
+    for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tmax[i] = EMPTY; /* the pixels; vkey below */
     /* strips of padding tile rows (above the buffer) are never drawn or
        cleared: padding, so the big tiles' minima see only real rows */
     for (size_t i = 0; i < (size_t)b->spitch * b->th; i++)
@@ -81,6 +80,7 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->inner = true;
     b->isa = cull_isa_default();
     b->fns = cull_occ_fns_for(b->isa);
+    for (uint32_t ty = 0; ty < b->th; ty++) cull_occ_vkey_row(b, ty);
     *out = b;
     return CULL_OK;
 }
@@ -153,7 +153,10 @@ const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *heigh
  * largest real pixel), vkey <= z implies that for any part of t. Tiles
  * cut by the buffer's right or top edge take the largest of their real
  * pixels only (tmax includes padding, FLT_MAX); tiles past the edge,
- * never tested, get padding. */
+ * never tested, get padding. An invalid tile's tmax is EMPTY (filled so
+ * when a render makes the row invalid; only tiles() writes it after, for
+ * tiles it makes clean), so whole tiles need no state: max(teff, tmax),
+ * a vector at a time (a render runs it over every tile). */
 void cull_occ_vkey_row(cull_occ_buffer *b, uint32_t ty)
 {
     const size_t o = (size_t)ty * b->tw;
@@ -163,10 +166,8 @@ void cull_occ_vkey_row(cull_occ_buffer *b, uint32_t ty)
     uint32_t real = (b->w + 7) >> 3, whole = ty * 8 + 8 <= b->h ? b->w >> 3 : 0;
     if (ty * 8 >= b->h) real = whole = 0;
     uint32_t tx = 0;
-    for (; tx < whole; tx++) {
-        float m = tmax[tx] > teff[tx] ? tmax[tx] : teff[tx];
-        vk[tx] = st[tx] == TILE_INVALID ? teff[tx] : m;
-    }
+    b->fns.max2(vk, tmax, teff, whole);
+    tx = whole;
     for (; tx < real; tx++) {
         float m = teff[tx];
         if (st[tx] != TILE_INVALID) {

@@ -22,6 +22,8 @@ typedef struct cull_occ_fns {
     /* out[t] = min, out_max[t] = max over the 8x8 tile t of the 8 rows from row0 */
     void (*tiles)(const float *row0, size_t stride, uint32_t ntiles, float *out, float *out_max);
     void (*fill)(float *row, uint32_t n, float v);
+    /* out[x] = a[x] > b[x] ? a[x] : b[x] for x in [0, n) */
+    void (*max2)(float *out, const float *a, const float *b, uint32_t n);
     /* cull_occ_rect_visible's answer, by the walk of cull_occ_test.inl
        (vkey, strips, pixel rows a vector at a time) */
     bool (*rect_visible)(const struct cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z);
@@ -39,18 +41,21 @@ void cull_occ_span_avx2(float *, int, int, int, float, float, float, float, floa
 bool cull_occ_any_le_scalar(const float *, int, int, int, float);
 void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_scalar(float *, uint32_t, float);
+void cull_occ_max2_scalar(float *, const float *, const float *, uint32_t);
 bool cull_occ_rect_visible_scalar(const struct cull_occ_buffer *, int, int, int, int, float);
 uint32_t cull_occ_lanes_scalar(const struct cull_occ_buffer *, const float *, const float *, const float *,
                               const float *, const float *, uint32_t);
 bool cull_occ_any_le_sse41(const float *, int, int, int, float);
 void cull_occ_tiles_sse41(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_sse41(float *, uint32_t, float);
+void cull_occ_max2_sse41(float *, const float *, const float *, uint32_t);
 bool cull_occ_rect_visible_sse41(const struct cull_occ_buffer *, int, int, int, int, float);
 uint32_t cull_occ_lanes_sse41(const struct cull_occ_buffer *, const float *, const float *, const float *,
                               const float *, const float *, uint32_t);
 bool cull_occ_any_le_avx2(const float *, int, int, int, float);
 void cull_occ_tiles_avx2(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_avx2(float *, uint32_t, float);
+void cull_occ_max2_avx2(float *, const float *, const float *, uint32_t);
 bool cull_occ_rect_visible_avx2(const struct cull_occ_buffer *, int, int, int, int, float);
 uint32_t cull_occ_lanes_avx2(const struct cull_occ_buffer *, const float *, const float *, const float *,
                               const float *, const float *, uint32_t);
@@ -83,8 +88,8 @@ struct cull_occ_buffer {
     float   *teff;          /* per tile, after a render: the larger of tile_full and
                                the pixels' minimum (what the tests read first) */
     float   *tmax;          /* per tile: its pixels' maximum, padding included,
-                               taken with the minimum (current where the tile
-                               is not TILE_INVALID) */
+                               taken with the minimum where the tile is not
+                               TILE_INVALID; EMPTY where it is */
     float   *vkey;          /* per tile, after a render: a rectangle test with
                                z >= vkey that reaches the tile is visible (a
                                pixel <= z in any part of it): teff for an

@@ -76,6 +76,16 @@ void CULL_OCC_CAT(cull_occ_fill_, CULL_OCC_SUFFIX)(float *restrict row, uint32_t
     for (; x < n; x++) row[x] = v;
 }
 
+/* out[x] = a[x] > b[x] ? a[x] : b[x], x in [0, n) (maxps keeps b where
+ * a is not above it) */
+void CULL_OCC_CAT(cull_occ_max2_, CULL_OCC_SUFFIX)(float *restrict out, const float *restrict a,
+                                                    const float *restrict b, uint32_t n)
+{
+    uint32_t x = 0;
+    for (; x + W <= n; x += W) vf_store(out + x, vf_max(vf_loadu(a + x), vf_loadu(b + x)));
+    for (; x < n; x++) out[x] = a[x] > b[x] ? a[x] : b[x];
+}
+
 /* cull_occ_rect_visible by this ISA's walk (cull_occ_test.inl) */
 bool CULL_OCC_CAT(cull_occ_rect_visible_, CULL_OCC_SUFFIX)(const cull_occ_buffer *b, int x0, int y0, int x1, int y1,
                                                             float z)

@@ -633,6 +633,7 @@ static void job_band(void *arg, uint32_t t)
         for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
             b->fns.fill(b->tile_full + (size_t)ty * b->tw, b->tw, EMPTY);
             b->fns.fill(b->teff + (size_t)ty * b->tw, b->tw, EMPTY);
+            b->fns.fill(b->tmax + (size_t)ty * b->tw, b->tw, EMPTY); /* invalid tiles: see cull_occ_vkey_row */
             /* tiles past the right edge hold padding: they never lower a
                strip's or a big tile's minimum */
             for (uint32_t tx = (b->w + 7) >> 3; tx < b->tw; tx++) b->teff[(size_t)ty * b->tw + tx] = PAD;
