@@ -320,8 +320,8 @@ static uint32_t occ_lanes_kept(const cull_kview *restrict k, const vf bx[2], con
 
 /* The occlusion stage of the group at lane o, through the block's record
  * when there is one. Not inlined: the loops that call it keep their
- * registers for the frustum stages (the frustum-only query pays nothing
- * for it). */
+ * registers for the frustum stages (inlined, the record's code cost the
+ * frustum-only query ~2 % more instructions; as a call, ~0.1 %). */
 static __attribute__((noinline)) uint32_t occ_group(const cull_kview *restrict k, const cull_block *restrict b,
                                                     uint32_t o, uint32_t live, cull_occ_memo *restrict memo)
 {
