@@ -235,6 +235,20 @@ typedef struct cull_kview {
     float    occ_sx, occ_sy, occ_w, occ_h;
 } cull_kview;
 
+/* One block's occlusion verdicts against a buffer the query context keeps
+ * (cull_query.c): the view's constants the kernel tested with, and per
+ * lane the box it tested and whether it was visible. occ_lanes is a
+ * function of those and of the buffer alone, so while the buffer is kept
+ * a group whose live lanes and boxes are bit for bit the recorded ones
+ * takes the recorded verdicts instead of projecting and walking again. */
+typedef struct cull_occ_memo {
+    float    box[6][CULL_BLOCK_CAP]; /* minx, maxx, miny, maxy, minz, maxz as tested */
+    uint64_t in, vis;       /* lanes tested, lanes found visible */
+    const struct cull_occ_buffer *occ;
+    float    kv[20];        /* cx, cy, cw, cd, occ_sx, occ_sy, occ_w, occ_h */
+    bool     valid;         /* cleared whenever the buffer is drawn */
+} cull_occ_memo;
+
 typedef struct cull_kparams {
     float    min_area;      /* 0 = no threshold */
     bool     aabb;          /* run the AABB stage */
@@ -252,18 +266,20 @@ typedef struct cull_kcount {
 bool cull_occ_rect_visible(const struct cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z);
 
 /* Tests n (<= 64) entities of block b against nv views, writes one result
- * per entity with a non-zero mask to out, returns how many. */
+ * per entity with a non-zero mask to out, returns how many. memo (NULL:
+ * none; used when nv is 1 and the view has a buffer) is the block's
+ * record against a kept buffer, read and brought up to date. */
 typedef uint32_t (*cull_block_fn)(const cull_block *b, uint32_t n,
                                   const cull_kview *kv, uint32_t nv,
                                   const cull_kparams *p, cull_result *out,
-                                  cull_kcount *cnt);
+                                  cull_kcount *cnt, cull_occ_memo *memo);
 
 uint32_t cull_block_scalar(const cull_block *, uint32_t, const cull_kview *,
-                           uint32_t, const cull_kparams *, cull_result *, cull_kcount *);
+                           uint32_t, const cull_kparams *, cull_result *, cull_kcount *, cull_occ_memo *);
 uint32_t cull_block_sse41(const cull_block *, uint32_t, const cull_kview *,
-                          uint32_t, const cull_kparams *, cull_result *, cull_kcount *);
+                          uint32_t, const cull_kparams *, cull_result *, cull_kcount *, cull_occ_memo *);
 uint32_t cull_block_avx2(const cull_block *, uint32_t, const cull_kview *,
-                         uint32_t, const cull_kparams *, cull_result *, cull_kcount *);
+                         uint32_t, const cull_kparams *, cull_result *, cull_kcount *, cull_occ_memo *);
 
 cull_block_fn cull_isa_kernel(uint32_t isa);
 

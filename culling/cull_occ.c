@@ -24,6 +24,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+_Static_assert((int)TILE_INVALID == (int)OCC_TILE_INVALID, "cull_occ_test.inl reads tstate");
+
 /* ---- buffers ------------------------------------------------------------------ */
 
 int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **out)
@@ -46,6 +48,8 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->tile2 = malloc((size_t)b->t2w * b->t2h * sizeof(float));
     b->tile_full = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
     b->teff = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
+    b->tmax = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
+    b->vkey = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
     /* strips: 8 tiles of one tile row (64 x 8 pixels); rows padded to 64
        bytes like the tile states */
     b->spitch = (b->t2w + 15) & ~15u;
@@ -55,7 +59,8 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     /* a tile row of states per 64 bytes: bands never share a cache line */
     b->tpitch = (b->tw + 63) & ~63u;
     b->tstate = aligned_alloc(64, (size_t)b->tpitch * b->th);
-    if (!b->depth || !b->tile || !b->tile2 || !b->tile_full || !b->teff || !b->tstate || !b->strip || !b->sdirty) {
+    if (!b->depth || !b->tile || !b->tile2 || !b->tile_full || !b->teff || !b->tmax || !b->vkey || !b->tstate ||
+        !b->strip || !b->sdirty) {
         cull_occ_buffer_destroy(b);
         return CULL_ERR_NOMEM;
     }
@@ -65,6 +70,7 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
         for (uint32_t x = 0; x < b->w; x++) b->depth[(size_t)y * b->stride + x] = EMPTY;
     for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = b->tile_full[i] = b->teff[i] = EMPTY;
     memset(b->tstate, TILE_CLEAN, (size_t)b->tpitch * b->th);
+    for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tmax[i] = EMPTY; /* the pixels; vkey below */
     /* strips of padding tile rows (above the buffer) are never drawn or
        cleared: padding, so the big tiles' minima see only real rows */
     for (size_t i = 0; i < (size_t)b->spitch * b->th; i++)
@@ -74,6 +80,7 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->inner = true;
     b->isa = cull_isa_default();
     b->fns = cull_occ_fns_for(b->isa);
+    for (uint32_t ty = 0; ty < b->th; ty++) cull_occ_vkey_row(b, ty);
     *out = b;
     return CULL_OK;
 }
@@ -86,6 +93,8 @@ void cull_occ_buffer_destroy(cull_occ_buffer *b)
     free(b->tile2);
     free(b->tile_full);
     free(b->teff);
+    free(b->tmax);
+    free(b->vkey);
     free(b->tstate);
     free(b->strip);
     free(b->sdirty);
@@ -125,14 +134,53 @@ const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *heigh
                     float *p = &b->depth[(size_t)y * b->stride + x];
                     *p = *st == TILE_INVALID || full > *p ? full : *p;
                 }
-            b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
+            b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i,
+                         b->tmax + i);
             *st = TILE_CLEAN;
             b->teff[i] = b->tile[i];
         }
+    for (uint32_t ty = 0; ty < b->th; ty++) cull_occ_vkey_row(b, ty);
     if (width) *width = b->w;
     if (height) *height = b->h;
     if (stride) *stride = b->stride;
     return b->depth;
+}
+
+/* The tests' "visible at once" key of each tile of row ty. A rectangle
+ * reaching tile t is visible where the exact walk (tiles_visible) would
+ * say so at t: teff <= z and (the tile invalid, or a pixel of the part of
+ * the rectangle in t <= z). With vkey = teff (invalid) or max(teff, the
+ * largest real pixel), vkey <= z implies that for any part of t. Tiles
+ * cut by the buffer's right or top edge take the largest of their real
+ * pixels only (tmax includes padding, FLT_MAX); tiles past the edge,
+ * never tested, get padding. An invalid tile's tmax is EMPTY (filled so
+ * when a render makes the row invalid; only tiles() writes it after, for
+ * tiles it makes clean), so whole tiles need no state: max(teff, tmax),
+ * a vector at a time (a render runs it over every tile). */
+void cull_occ_vkey_row(cull_occ_buffer *b, uint32_t ty)
+{
+    const size_t o = (size_t)ty * b->tw;
+    const float *teff = b->teff + o, *tmax = b->tmax + o;
+    const uint8_t *st = b->tstate + (size_t)ty * b->tpitch;
+    float *vk = b->vkey + o;
+    uint32_t real = (b->w + 7) >> 3, whole = ty * 8 + 8 <= b->h ? b->w >> 3 : 0;
+    if (ty * 8 >= b->h) real = whole = 0;
+    uint32_t tx = 0;
+    b->fns.max2(vk, tmax, teff, whole);
+    tx = whole;
+    for (; tx < real; tx++) {
+        float m = teff[tx];
+        if (st[tx] != TILE_INVALID) {
+            uint32_t y1 = ty * 8 + 8 < b->h ? ty * 8 + 8 : b->h, x1 = tx * 8 + 8 < b->w ? tx * 8 + 8 : b->w;
+            for (uint32_t y = ty * 8; y < y1; y++)
+                for (uint32_t x = tx * 8; x < x1; x++) {
+                    float v = b->depth[(size_t)y * b->stride + x];
+                    m = v > m ? v : m;
+                }
+        }
+        vk[tx] = m;
+    }
+    for (; tx < b->tw; tx++) vk[tx] = PAD;
 }
 
 /* ---- the view as the rasteriser and the tests see it ------------------------- */
@@ -235,7 +283,11 @@ int cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const d
 
 /* Some pixel of the rectangle not strictly nearer than z? */
 /* The 8x8 tiles over a rectangle, and the pixels of those not entirely
- * nearer than z. Rows of a tile are at most 8 pixels: scanned inline. */
+ * nearer than z. Rows of a tile are at most 8 pixels: scanned inline.
+ * This is the reference the per-ISA walk (cull_occ_test.inl: the query's
+ * kernel and cell stage) must equal, test_occ_wide_matches_scalar: a tile
+ * shows the rectangle where teff <= z and (the tile is invalid or one of
+ * the rectangle's pixels in it is <= z). */
 static bool tiles_visible(const cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z)
 {
     for (int ty = y0 >> 3; ty <= y1 >> 3; ty++) {

@@ -19,9 +19,19 @@ typedef struct cull_occ_fns {
                  float lo);
     /* any row[x] <= z for x in [x0, x1]? */
     bool (*any_le)(const float *row, int x0, int x1, int room, float z);
-    /* out[t] = min over the 8x8 tile t of the 8 rows from row0 */
-    void (*tiles)(const float *row0, size_t stride, uint32_t ntiles, float *out);
+    /* out[t] = min, out_max[t] = max over the 8x8 tile t of the 8 rows from row0 */
+    void (*tiles)(const float *row0, size_t stride, uint32_t ntiles, float *out, float *out_max);
     void (*fill)(float *row, uint32_t n, float v);
+    /* out[x] = a[x] > b[x] ? a[x] : b[x] for x in [0, n) */
+    void (*max2)(float *out, const float *a, const float *b, uint32_t n);
+    /* cull_occ_rect_visible's answer, by the walk of cull_occ_test.inl
+       (vkey, strips, pixel rows a vector at a time) */
+    bool (*rect_visible)(const struct cull_occ_buffer *b, int x0, int y0, int x1, int y1, float z);
+    /* lanes (bit k: lane k, k < 8) of the float pixel bounds fx0..fy1
+       (the kernel's, in [-1, w + 1] x [-1, h + 1]) visible at nearness
+       z: what the kernel's occlusion stage asks per group */
+    uint32_t (*lanes)(const struct cull_occ_buffer *b, const float *fx0, const float *fx1, const float *fy0,
+                      const float *fy1, const float *z, uint32_t lanes);
 } cull_occ_fns;
 
 cull_occ_fns cull_occ_fns_for(uint32_t isa);
@@ -29,14 +39,26 @@ void cull_occ_span_scalar(float *, int, int, int, float, float, float, float, fl
 void cull_occ_span_sse41(float *, int, int, int, float, float, float, float, float, float, float);
 void cull_occ_span_avx2(float *, int, int, int, float, float, float, float, float, float, float);
 bool cull_occ_any_le_scalar(const float *, int, int, int, float);
-void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *);
+void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_scalar(float *, uint32_t, float);
+void cull_occ_max2_scalar(float *, const float *, const float *, uint32_t);
+bool cull_occ_rect_visible_scalar(const struct cull_occ_buffer *, int, int, int, int, float);
+uint32_t cull_occ_lanes_scalar(const struct cull_occ_buffer *, const float *, const float *, const float *,
+                              const float *, const float *, uint32_t);
 bool cull_occ_any_le_sse41(const float *, int, int, int, float);
-void cull_occ_tiles_sse41(const float *, size_t, uint32_t, float *);
+void cull_occ_tiles_sse41(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_sse41(float *, uint32_t, float);
+void cull_occ_max2_sse41(float *, const float *, const float *, uint32_t);
+bool cull_occ_rect_visible_sse41(const struct cull_occ_buffer *, int, int, int, int, float);
+uint32_t cull_occ_lanes_sse41(const struct cull_occ_buffer *, const float *, const float *, const float *,
+                              const float *, const float *, uint32_t);
 bool cull_occ_any_le_avx2(const float *, int, int, int, float);
-void cull_occ_tiles_avx2(const float *, size_t, uint32_t, float *);
+void cull_occ_tiles_avx2(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_avx2(float *, uint32_t, float);
+void cull_occ_max2_avx2(float *, const float *, const float *, uint32_t);
+bool cull_occ_rect_visible_avx2(const struct cull_occ_buffer *, int, int, int, int, float);
+uint32_t cull_occ_lanes_avx2(const struct cull_occ_buffer *, const float *, const float *, const float *,
+                              const float *, const float *, uint32_t);
 
 /* Inclusive pixel rectangle and the nearest nearness of what it bounds. */
 typedef struct cull_occ_rect {
@@ -45,6 +67,8 @@ typedef struct cull_occ_rect {
 } cull_occ_rect;
 
 enum { OCC_BOX_OFF = 0, OCC_BOX_OK = 1, OCC_BOX_NEAR = 2 };
+/* tstate's "pixels stale" (cull_occ_num.h's TILE_INVALID), for the walk */
+enum { OCC_TILE_INVALID = 0 };
 
 /* A cluster in view, for the sorted draw list. */
 typedef struct cull_occ_item {
@@ -63,6 +87,14 @@ struct cull_occ_buffer {
     float   *tile_full;     /* per 8x8 tile, a value every pixel's stands at or above */
     float   *teff;          /* per tile, after a render: the larger of tile_full and
                                the pixels' minimum (what the tests read first) */
+    float   *tmax;          /* per tile: its pixels' maximum, padding included,
+                               taken with the minimum where the tile is not
+                               TILE_INVALID; EMPTY where it is */
+    float   *vkey;          /* per tile, after a render: a rectangle test with
+                               z >= vkey that reaches the tile is visible (a
+                               pixel <= z in any part of it): teff for an
+                               invalid tile, else the larger of teff and the
+                               maximum of its real pixels (cull_occ_vkey_row) */
     uint8_t *tstate;        /* per tile: pixels stale / minimum current / written since */
     uint32_t tpitch;        /* bytes per tile row of tstate */
     float   *strip;         /* per 8 tiles of a tile row: minimum of their effective minima */
@@ -88,6 +120,8 @@ struct cull_occ_buffer {
 };
 
 void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v);
+/* vkey of tile row ty from teff, tmax and tstate (after its tiles are final) */
+void cull_occ_vkey_row(cull_occ_buffer *b, uint32_t ty);
 int  cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r);
 /* Looser and cheaper (4 divisions, not 8 corners): for clusters and cells. */
 int  cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r);

@@ -48,16 +48,22 @@ bool CULL_OCC_CAT(cull_occ_any_le_, CULL_OCC_SUFFIX)(const float *restrict row, 
     return vm_bits(vm_and(in, vf_le(vf_loadu(row + x), vz))) != 0;
 }
 
-/* out[t] = min of the 8x8 tile t of the 8 rows from row0, t < ntiles */
+/* out[t] = min and out_max[t] = max of the 8x8 tile t of the 8 rows from
+ * row0, t < ntiles (the max comes with the loads the min makes) */
 void CULL_OCC_CAT(cull_occ_tiles_, CULL_OCC_SUFFIX)(const float *restrict row0, size_t stride, uint32_t ntiles,
-                                                     float *restrict out)
+                                                     float *restrict out, float *restrict out_max)
 {
     for (uint32_t t = 0; t < ntiles; t++) {
         const float *p = row0 + 8 * t;
-        vf m = vf_loadu(p);
+        vf m = vf_loadu(p), M = m;
         for (uint32_t c = 0; c < 8; c += W)
-            for (int r = 0; r < 8; r++) m = vf_min(m, vf_loadu(p + c + r * stride));
+            for (int r = 0; r < 8; r++) {
+                vf v = vf_loadu(p + c + r * stride);
+                m = vf_min(m, v);
+                M = vf_max(M, v);
+            }
         out[t] = vf_hmin(m);
+        out_max[t] = vf_hmax(M);
     }
 }
 
@@ -68,4 +74,36 @@ void CULL_OCC_CAT(cull_occ_fill_, CULL_OCC_SUFFIX)(float *restrict row, uint32_t
     const vf vv = vf_set(v);
     for (; x + W <= n; x += W) vf_store(row + x, vv);
     for (; x < n; x++) row[x] = v;
+}
+
+/* out[x] = a[x] > b[x] ? a[x] : b[x], x in [0, n) (maxps keeps b where
+ * a is not above it) */
+void CULL_OCC_CAT(cull_occ_max2_, CULL_OCC_SUFFIX)(float *restrict out, const float *restrict a,
+                                                    const float *restrict b, uint32_t n)
+{
+    uint32_t x = 0;
+    for (; x + W <= n; x += W) vf_store(out + x, vf_max(vf_loadu(a + x), vf_loadu(b + x)));
+    for (; x < n; x++) out[x] = a[x] > b[x] ? a[x] : b[x];
+}
+
+/* cull_occ_rect_visible by this ISA's walk (cull_occ_test.inl) */
+bool CULL_OCC_CAT(cull_occ_rect_visible_, CULL_OCC_SUFFIX)(const cull_occ_buffer *b, int x0, int y0, int x1, int y1,
+                                                            float z)
+{
+    return occ_rect_walk(b, x0, y0, x1, y1, z);
+}
+
+/* The kernel's group test over 8 lanes of float bounds, W at a time. */
+uint32_t CULL_OCC_CAT(cull_occ_lanes_, CULL_OCC_SUFFIX)(const cull_occ_buffer *b, const float *fx0, const float *fx1,
+                                                         const float *fy0, const float *fy1, const float *z,
+                                                         uint32_t lanes)
+{
+    uint32_t vis = 0;
+    for (uint32_t o = 0; o < 8; o += W) {
+        uint32_t m = (lanes >> o) & ((1u << W) - 1u);
+        if (m)
+            vis |= occ_rect_group(b, vf_loadu(fx0 + o), vf_loadu(fx1 + o), vf_loadu(fy0 + o), vf_loadu(fy1 + o),
+                                  z + o, m, NULL, 0) << o;
+    }
+    return vis;
 }

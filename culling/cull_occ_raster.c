@@ -119,7 +119,7 @@ static inline float band_tile(cull_occ_buffer *b, int tx, int ty)
     size_t i = (size_t)ty * b->tw + tx;
     uint8_t *st = &b->tstate[(size_t)ty * b->tpitch + tx];
     if (*st == TILE_DIRTY) {
-        b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i);
+        b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i, b->tmax + i);
         *st = TILE_CLEAN;
         b->teff[i] = b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
     }
@@ -590,7 +590,7 @@ static void band_finish_tiles(band *bd)
             uint32_t end = tx;
             while (end < b->tw && d[end] == TILE_DIRTY) end++;
             b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, end - tx,
-                         b->tile + (size_t)ty * b->tw + tx);
+                         b->tile + (size_t)ty * b->tw + tx, b->tmax + (size_t)ty * b->tw + tx);
             memset(d + tx, TILE_CLEAN, end - tx);
             for (uint32_t k = tx; k < end; k++) {
                 size_t i = (size_t)ty * b->tw + k;
@@ -599,6 +599,7 @@ static void band_finish_tiles(band *bd)
             tx = end;
         }
         for (uint32_t sx = 0; sx < b->t2w; sx++) (void)band_strip(b, (int)sx, ty);
+        cull_occ_vkey_row(b, (uint32_t)ty);
     }
 }
 
@@ -632,6 +633,7 @@ static void job_band(void *arg, uint32_t t)
         for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
             b->fns.fill(b->tile_full + (size_t)ty * b->tw, b->tw, EMPTY);
             b->fns.fill(b->teff + (size_t)ty * b->tw, b->tw, EMPTY);
+            b->fns.fill(b->tmax + (size_t)ty * b->tw, b->tw, EMPTY); /* invalid tiles: see cull_occ_vkey_row */
             /* tiles past the right edge hold padding: they never lower a
                strip's or a big tile's minimum */
             for (uint32_t tx = (b->w + 7) >> 3; tx < b->tw; tx++) b->teff[(size_t)ty * b->tw + tx] = PAD;

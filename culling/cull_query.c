@@ -39,6 +39,16 @@ typedef struct cull_chunk {
     uint32_t thread, off, count, dst;
 } cull_chunk;
 
+/* A cell's verdict against a kept buffer: whether its bounds (origin,
+ * bmin, bmax) were hidden. cell_occluded is a function of those and of
+ * the buffer alone, so while the buffer is kept the verdict stands for
+ * any cell with the same bounds. */
+typedef struct occ_cell_memo {
+    double origin[3];
+    float  bmin[3], bmax[3];
+    bool   occluded;
+} occ_cell_memo;
+
 /* What a context's occlusion buffer for one view index was rendered
  * from: when a query asks for the same again, the buffer is kept (a still
  * camera of a stream or a commander re-queries many times a second). */
@@ -51,7 +61,20 @@ typedef struct occ_key {
     uint32_t nsub;              /* UINT32_MAX: every sub-level; else the set's words to its last non-zero one */
     uint64_t *sub;
     uint32_t sub_cap;
+    /* the cell stage's verdicts against this buffer, in the order the
+       cells were tested since it was drawn (the order a still world
+       repeats): a cell's projection and walk (~500 instructions) become a
+       48-byte compare. Emptied whenever the buffer is drawn. */
+    occ_cell_memo *memo;
+    uint32_t memo_n, memo_cap;
+    /* the kernel's verdicts against this buffer, per block in query order
+       (single-view cells only; at most OCC_BLOCK_MEMO_MAX blocks, 1.6 KB
+       each): invalidated whenever the buffer is drawn */
+    cull_occ_memo *bmemo;
+    uint32_t bmemo_cap;
 } occ_key;
+
+#define OCC_BLOCK_MEMO_MAX 2048u
 
 struct cull_ctx {
     cull_pool *pool;
@@ -69,6 +92,8 @@ struct cull_ctx {
     cull_result *tres[MAX_THREADS];
     uint32_t tres_cap[MAX_THREADS];
     cull_occ_buffer *occ[CULL_MAX_VIEWS]; /* per view index, made on demand */
+    cull_occ_memo **imemo;                 /* per item: its record against a kept buffer, or NULL */
+    uint32_t imemo_cap;
     occ_key occ_key[CULL_MAX_VIEWS];      /* what each was rendered from */
 };
 
@@ -92,10 +117,13 @@ void cull_ctx_destroy(cull_ctx *c)
     free(c->codes);
     free(c->items);
     free(c->chunks);
+    free(c->imemo);
     for (uint32_t i = 0; i < MAX_THREADS; i++) free(c->tres[i]);
     for (uint32_t i = 0; i < CULL_MAX_VIEWS; i++) {
         cull_occ_buffer_destroy(c->occ[i]);
         free(c->occ_key[i].sub);
+        free(c->occ_key[i].memo);
+        free(c->occ_key[i].bmemo);
     }
     free(c);
 }
@@ -184,8 +212,35 @@ static bool cell_occluded(const cull_cell *cell, const cull_occ_buffer *ob)
     switch (cull_occ_project_bound(ob, mn, mx, &r)) {
     case OCC_BOX_OFF: return true;
     case OCC_BOX_NEAR: return false;
-    default: return !cull_occ_rect_visible(ob, r.x0, r.y0, r.x1, r.y1, r.z);
+    default: return !ob->fns.rect_visible(ob, r.x0, r.y0, r.x1, r.y1, r.z);
     }
+}
+
+/* cell_occluded through the memo of a kept buffer (NULL: none, a caller's
+ * buffer); *pos counts the view's cell tests in this query. A verdict is
+ * reused only for the same bounds at the same position; the rest are
+ * tested and recorded while the memo stays contiguous (a failed growth
+ * records nothing: the verdicts are the same, only not kept). */
+static bool cell_occluded_kept(const cull_cell *cell, const cull_occ_buffer *ob, occ_key *k, uint32_t *pos)
+{
+    if (!k) return cell_occluded(cell, ob);
+    uint32_t i = (*pos)++;
+    if (i < k->memo_n) {
+        const occ_cell_memo *m = &k->memo[i];
+        if (!memcmp(m->origin, cell->origin, sizeof m->origin) && !memcmp(m->bmin, cell->bmin, sizeof m->bmin) &&
+            !memcmp(m->bmax, cell->bmax, sizeof m->bmax))
+            return m->occluded;
+    }
+    bool hidden = cell_occluded(cell, ob);
+    if (i <= k->memo_n && vp_grow32((void **)&k->memo, &k->memo_cap, (size_t)i + 1, sizeof *k->memo)) {
+        occ_cell_memo *m = &k->memo[i];
+        memcpy(m->origin, cell->origin, sizeof m->origin);
+        memcpy(m->bmin, cell->bmin, sizeof m->bmin);
+        memcpy(m->bmax, cell->bmax, sizeof m->bmax);
+        m->occluded = hidden;
+        if (i == k->memo_n) k->memo_n++;
+    }
+    return hidden;
 }
 
 /* The kviews of one cell: every view whose cell code says it may see the
@@ -194,14 +249,14 @@ static bool cell_occluded(const cull_cell *cell, const cull_occ_buffer *ob)
  * many; *occluded counts the views dropped by occlusion. */
 static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *rv, uint32_t nrv,
                             const uint8_t *codes, size_t stride, bool area, const cull_occ_buffer *const *ob,
-                            cull_kview *kv, uint32_t *occluded)
+                            occ_key *const *memo, uint32_t *memo_pos, cull_kview *kv, uint32_t *occluded)
 {
     uint32_t nv = 0;
     for (uint32_t a = 0; a < nrv; a++) {
         uint32_t code = codes[a * stride + cell->index];
         if (code & 0x80u) continue;
         const cull_occ_buffer *occ = ob[rv[a].view];
-        if (occ && cell_occluded(cell, occ)) {
+        if (occ && cell_occluded_kept(cell, occ, memo[rv[a].view], &memo_pos[rv[a].view])) {
             (*occluded)++;
             continue;
         }
@@ -286,6 +341,7 @@ typedef struct job {
     const cull_kparams *kp;
     const uint64_t *subs;   /* the query's sub-levels, or NULL */
     const cull_item *items;
+    cull_occ_memo *const *imemo; /* per item, or NULL */
     uint32_t nitems, nchunks;
     bool prefetch;
     _Atomic uint32_t next;
@@ -311,7 +367,8 @@ static void job_cull(void *arg, uint32_t t)
             const cull_item *it = &j->items[i];
             if (j->prefetch && i + PREFETCH_AHEAD < j->nitems)
                 prefetch_block(j->items[i + PREFETCH_AHEAD].block, j->kp->area);
-            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt);
+            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt,
+                                  j->imemo ? j->imemo[i] : NULL);
             if (j->subs) {
                 uint32_t kept = keep_sublevels(dst + off, k, j->subs);
                 j->filtered[t] += k - kept;
@@ -356,6 +413,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
 
     /* the occlusion stage: a buffer per view, given or rendered here */
     const cull_occ_buffer *ob[CULL_MAX_VIEWS] = {0};
+    occ_key *memo[CULL_MAX_VIEWS] = {0}; /* the context's buffers: their cell verdicts */
+    uint32_t memo_pos[CULL_MAX_VIEWS] = {0};
     uint32_t occ_views = 0, occ_drawn = 0, occ_reused = 0, occ_rendered = 0;
     uint64_t occ_ns = 0;
     if (!(q->flags & CULL_Q_NO_OCCLUSION) && (q->occ_buffers || w->nocc)) {
@@ -381,6 +440,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                     occ_reused++;
                 } else {
                     k->valid = false; /* a failed render leaves the buffer half drawn */
+                    k->memo_n = 0;
+                    for (uint32_t i = 0; i < k->bmemo_cap; i++) k->bmemo[i].valid = false;
                     b->inner = inner;
                     cull_occ_stats st;
                     int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, q->sublevels, &st);
@@ -390,6 +451,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                     occ_rendered++;
                     occ_key_set(k, w, &q->views[v], inner, c->isa, q->sublevels, nsub);
                 }
+                memo[v] = k;
             }
             if (b->drawn && b->usable) {
                 ob[v] = b;
@@ -471,7 +533,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 if (!vp_grow32((void **)&c->kv, &c->kv_cap, (size_t)nkv + nrv, sizeof *c->kv) ||
                     !vp_grow32((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
                     return CULL_ERR_NOMEM;
-                uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, c->kv + nkv,
+                uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, memo, memo_pos, c->kv + nkv,
                                           &cells_occluded);
                 if (!nv) {
                     cells_culled++;
@@ -485,6 +547,34 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 }
                 nkv += nv;
             }
+        }
+    }
+
+    /* a single-view cell with a kept buffer: each of its blocks' verdicts
+       are recorded and read back, the block's place in the query's order
+       naming its record (frustum-only queries skip this) */
+    cull_occ_memo **imemo = NULL;
+    bool any_memo = false;
+    uint32_t nmemo = nitems < OCC_BLOCK_MEMO_MAX ? nitems : OCC_BLOCK_MEMO_MAX;
+    for (uint32_t v = 0; v < q->view_count; v++) {
+        occ_key *k = memo[v];
+        if (!k || !ob[v]) continue;
+        /* grown before any pointer into it is taken */
+        uint32_t old = k->bmemo_cap;
+        if (nmemo > old && !vp_grow32((void **)&k->bmemo, &k->bmemo_cap, nmemo, sizeof *k->bmemo)) {
+            memo[v] = NULL; /* no record this time: the same verdicts, tested */
+            continue;
+        }
+        for (uint32_t m = old; m < k->bmemo_cap; m++) k->bmemo[m].valid = false;
+        any_memo = true;
+    }
+    if (any_memo && vp_grow32((void **)&c->imemo, &c->imemo_cap, nitems, sizeof *c->imemo)) {
+        imemo = c->imemo;
+        for (uint32_t i = 0; i < nitems; i++) {
+            const cull_item *it = &c->items[i];
+            const cull_kview *k = &c->kv[it->kv_off];
+            occ_key *bk = it->nv == 1 && k->occ && i < nmemo ? memo[__builtin_ctz(k->bit)] : NULL;
+            imemo[i] = bk ? &bk->bmemo[i] : NULL;
         }
     }
 
@@ -511,7 +601,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             const cull_item *it = &c->items[i];
             if (prefetch && i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block, kp.area);
             cull_result *dst = !count_only ? out + written : subs ? c->tres[0] : NULL;
-            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp, dst, &total);
+            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp, dst, &total, imemo ? imemo[i] : NULL);
             if (subs) {
                 uint32_t kept = keep_sublevels(dst, k, subs);
                 filtered += k - kept;
@@ -527,7 +617,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             if (!vp_grow32((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
                          sizeof(cull_result)))
                 return CULL_ERR_NOMEM;
-        job j = {.c = c, .kp = &kp, .subs = subs, .items = c->items, .nitems = nitems, .nchunks = nchunks,
+        job j = {.c = c, .kp = &kp, .subs = subs, .items = c->items, .imemo = imemo, .nitems = nitems, .nchunks = nchunks,
                  .out = out, .prefetch = prefetch};
         atomic_init(&j.next, 0);
         cull_pool_run(c->pool, job_cull, &j, threads);

@@ -27,6 +27,13 @@ static inline float vf_hmin(__m256 a)
     m = _mm_min_ss(m, _mm_shuffle_ps(m, m, 1));
     return _mm_cvtss_f32(m);
 }
+static inline float vf_hmax(__m256 a)
+{
+    __m128 m = _mm_max_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1));
+    m = _mm_max_ps(m, _mm_movehl_ps(m, m));
+    m = _mm_max_ss(m, _mm_shuffle_ps(m, m, 1));
+    return _mm_cvtss_f32(m);
+}
 static inline void vf_store(float *p, vf a) { _mm256_storeu_ps(p, a); }
 static inline vf vf_set(float a) { return _mm256_set1_ps(a); }
 static inline vf vf_add(vf a, vf b) { return _mm256_add_ps(a, b); }
@@ -41,6 +48,16 @@ static inline vf vf_rcp(vf a)
     return _mm256_mul_ps(r, _mm256_fnmadd_ps(a, r, _mm256_set1_ps(2.0f)));
 }
 static inline vf vf_fma(vf a, vf b, vf c) { return _mm256_fmadd_ps(a, b, c); }
+static inline vf vf_trunc(vf a) { return _mm256_round_ps(a, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC); }
+/* lanes whose bits are equal */
+static inline vm vf_same(vf a, vf b)
+{
+    return _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_castps_si256(a), _mm256_castps_si256(b)));
+}
+/* (int)a per lane, a in int range */
+static inline void vf_store_i32(int32_t *p, vf a) { _mm256_storeu_si256((__m256i *)p, _mm256_cvttps_epi32(a)); }
+/* base[(int)i] per lane, i holding non-negative integers below 2^24 */
+static inline vf vf_lookup(const float *base, vf i) { return _mm256_i32gather_ps(base, _mm256_cvttps_epi32(i), 4); }
 static inline vf vf_min(vf a, vf b) { return _mm256_min_ps(a, b); }
 static inline vf vf_max(vf a, vf b) { return _mm256_max_ps(a, b); }
 static inline vf vf_abs(vf a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
@@ -113,6 +130,12 @@ static inline float vf_hmin(__m128 m)
     m = _mm_min_ss(m, _mm_shuffle_ps(m, m, 1));
     return _mm_cvtss_f32(m);
 }
+static inline float vf_hmax(__m128 m)
+{
+    m = _mm_max_ps(m, _mm_movehl_ps(m, m));
+    m = _mm_max_ss(m, _mm_shuffle_ps(m, m, 1));
+    return _mm_cvtss_f32(m);
+}
 static inline void vf_store(float *p, vf a) { _mm_storeu_ps(p, a); }
 static inline vf vf_set(float a) { return _mm_set1_ps(a); }
 static inline vf vf_add(vf a, vf b) { return _mm_add_ps(a, b); }
@@ -126,6 +149,15 @@ static inline vf vf_rcp(vf a)
     return _mm_mul_ps(r, _mm_sub_ps(_mm_set1_ps(2.0f), _mm_mul_ps(a, r)));
 }
 static inline vf vf_fma(vf a, vf b, vf c) { return _mm_add_ps(_mm_mul_ps(a, b), c); }
+static inline vf vf_trunc(vf a) { return _mm_round_ps(a, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC); }
+static inline vm vf_same(vf a, vf b) { return _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_castps_si128(a), _mm_castps_si128(b))); }
+static inline void vf_store_i32(int32_t *p, vf a) { _mm_storeu_si128((__m128i *)p, _mm_cvttps_epi32(a)); }
+static inline vf vf_lookup(const float *base, vf i)
+{
+    int32_t k[4];
+    vf_store_i32(k, i);
+    return _mm_setr_ps(base[k[0]], base[k[1]], base[k[2]], base[k[3]]);
+}
 static inline vf vf_min(vf a, vf b) { return _mm_min_ps(a, b); }
 static inline vf vf_max(vf a, vf b) { return _mm_max_ps(a, b); }
 static inline vf vf_abs(vf a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
@@ -188,6 +220,7 @@ typedef uint32_t vu;
 static inline vf vf_load(const float *p) { return *p; }
 static inline vf vf_loadu(const float *p) { return *p; }
 static inline float vf_hmin(vf a) { return a; }
+static inline float vf_hmax(vf a) { return a; }
 static inline void vf_store(float *p, vf a) { *p = a; }
 static inline vf vf_set(float a) { return a; }
 static inline vf vf_add(vf a, vf b) { return a + b; }
@@ -197,6 +230,16 @@ static inline vf vf_div(vf a, vf b) { return a / b; }
 static inline vf vf_sqrt(vf a) { return __builtin_sqrtf(a); }
 static inline vf vf_rcp(vf a) { return 1.0f / a; }
 static inline vf vf_fma(vf a, vf b, vf c) { return a * b + c; }
+static inline vf vf_trunc(vf a) { return (float)(int32_t)a; } /* a in int range */
+static inline vm vf_same(vf a, vf b)
+{
+    uint32_t x, y;
+    __builtin_memcpy(&x, &a, 4);
+    __builtin_memcpy(&y, &b, 4);
+    return x == y ? ~0u : 0u;
+}
+static inline void vf_store_i32(int32_t *p, vf a) { *p = (int32_t)a; }
+static inline vf vf_lookup(const float *base, vf i) { return base[(int32_t)i]; }
 static inline vf vf_min(vf a, vf b) { return a < b ? a : b; }
 static inline vf vf_max(vf a, vf b) { return a > b ? a : b; }
 static inline vf vf_abs(vf a) { return a < 0 ? -a : a; }

@@ -17,6 +17,7 @@
 #include "test_util.h"
 
 #include "cull_ref.h"
+#include "cull_occ.h" /* the buffer's layout and per-ISA tests: test_occ_wide_matches_scalar */
 #include "occ_ref.h"
 #include <float.h>
 #include <stdbool.h>
@@ -1133,10 +1134,11 @@ static cull_occluder_desc random_box(rng *r, const oscene *s, const float *v)
  * cover modes changed. It keeps the buffer exactly when nothing the
  * render reads changed since its last query of that view, and renders
  * again otherwise (st.occ_reused says which). */
-static void test_occ_buffer_reuse(void **state)
+/* One town: a long-lived context against a new one through random
+ * views, occluder and entity edits, sub-level sets and cover modes. */
+static void buffer_reuse_town(rng *rr, int steps, uint32_t *reused_out, uint32_t *rendered_out)
 {
-    (void)state;
-    rng r = {0x0cc5eed};
+    rng r = *rr;
     oscene s;
     build_scene(&r, &s);
     float v[108];
@@ -1144,7 +1146,11 @@ static void test_occ_buffer_reuse(void **state)
     cull_occluder mine[64];
     uint32_t nmine = 0;
     cull_ctx *kept;
-    assert_int_equal(cull_ctx_create(NULL, &kept), CULL_OK);
+    /* the kept context on two threads (its blocks' records written from
+       either), the new one on none */
+    cull_pool *pool;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    assert_int_equal(cull_ctx_create(pool, &kept), CULL_OK);
     size_t cap = cull_query_bound(s.w) + 64;
     cull_result *a = malloc(cap * sizeof *a), *b = malloc(cap * sizeof *b);
     assert_non_null(a);
@@ -1154,9 +1160,8 @@ static void test_occ_buffer_reuse(void **state)
     uint32_t flags = 0, reused = 0, rendered = 0;
     cull_view view;
     random_view(&r, &s, &view, 256, 114);
-    int steps = (int)(600 * test_scale());
     for (int step = 0; step < steps; step++) {
-        uint32_t op = rng_below(&r, 10);
+        uint32_t op = rng_below(&r, 14);
         if (op == 0 || op == 1) {
             random_view(&r, &s, &view, 256, 114);
             changed = true;
@@ -1186,8 +1191,47 @@ static void test_occ_buffer_reuse(void **state)
         } else if (op == 7) {
             flags ^= CULL_Q_OCC_CENTRE;
             changed = true;
+        } else if (op == 8 || op == 9) { /* an entity moved a little or far: the buffer stays, cells change */
+            uint32_t i = rng_below(&r, s.n);
+            cull_entity_desc *e = &s.e[i];
+            double d = op == 8 ? rng_log(&r, 1e-3, 2) : rng_range(&r, 20, 120);
+            bool grow = rng_below(&r, 2); /* or grown in place: its cell's bounds widen, a hidden cell may show */
+            for (int ax = 0; ax < 3; ax++) {
+                double m = rng_range(&r, -d, d), c = 0.5 * (e->aabb_min[ax] + e->aabb_max[ax]);
+                double h = 0.5 * (e->aabb_max[ax] - e->aabb_min[ax]) * rng_range(&r, 1, 8);
+                e->aabb_min[ax] = grow ? c - h : e->aabb_min[ax] + m;
+                e->aabb_max[ax] = grow ? c + h : e->aabb_max[ax] + m;
+            }
+            assert_int_equal(cull_entity_update(s.w, s.h[i], e), CULL_OK);
+            assert_int_equal(cull_entity_get(s.w, s.h[i], e), CULL_OK);
+        } else if (op == 10) { /* removed and added again elsewhere */
+            uint32_t i = rng_below(&r, s.n);
+            cull_entity_desc *e = &s.e[i];
+            assert_int_equal(cull_entity_remove(s.w, s.h[i]), CULL_OK);
+            for (int ax = 0; ax < 3; ax++) {
+                double c = s.base[ax] + rng_range(&r, -90, 90), hs = rng_log(&r, 0.02, 6);
+                e->aabb_min[ax] = c - hs;
+                e->aabb_max[ax] = c + hs;
+            }
+            assert_int_equal(cull_entity_add(s.w, e, &s.h[i]), CULL_OK);
+            assert_int_equal(cull_entity_get(s.w, s.h[i], e), CULL_OK);
+        } else if (op == 11) {
+            cull_world_commit(s.w);
+        } else if (op == 12 && rng_below(&r, 3) == 0) {
+            /* every entity a whole cell (64 m) along x: the blocks hold the
+               same cell-relative boxes in other cells, seen otherwise */
+            double d = rng_below(&r, 2) ? 64 : -64;
+            for (uint32_t i = 0; i < s.n; i++) {
+                s.e[i].aabb_min[0] += d;
+                s.e[i].aabb_max[0] += d;
+                s.e[i].center[0] += d;
+                assert_int_equal(cull_entity_update(s.w, s.h[i], &s.e[i]), CULL_OK);
+                assert_int_equal(cull_entity_get(s.w, s.h[i], &s.e[i]), CULL_OK);
+            }
+            cull_world_commit(s.w);
         } /* else: the same query again */
-        cull_query_desc q = {.views = &view, .view_count = 1, .flags = flags, .sublevels = use_subs ? subs : NULL};
+        cull_query_desc q = {.views = &view, .view_count = 1, .flags = flags, .sublevels = use_subs ? subs : NULL,
+                             .threads = rng_below(&r, 3)};
         cull_query_stats st;
         size_t na = sorted_query(s.w, kept, &q, a, cap, &st);
         cull_ctx *fresh;
@@ -1211,16 +1255,183 @@ static void test_occ_buffer_reuse(void **state)
             assert_true(nf == na && !memcmp(a, b, na * sizeof *a));
         }
     }
-    assert_true(reused > (uint32_t)steps / 10 && rendered > (uint32_t)steps / 10);
-    fprintf(stderr, "occlusion buffer reuse: %d queries, %u kept, %u rendered, all as a new context's\n", steps,
-            reused, rendered);
+    *reused_out += reused;
+    *rendered_out += rendered;
+    *rr = r;
     free(a);
     free(b);
     cull_ctx_destroy(kept);
+    cull_pool_destroy(pool);
     free_scene(&s);
 }
 
+/* A kept buffer (and the cell verdicts kept with it) answers as a new
+ * context, over random towns, views and edits. */
+static void test_occ_buffer_reuse(void **state)
+{
+    (void)state;
+    rng r = {0x0cc5eed};
+    int towns = 4, steps = (int)(300 * test_scale());
+    uint32_t reused = 0, rendered = 0;
+    for (int t = 0; t < towns; t++) buffer_reuse_town(&r, steps, &reused, &rendered);
+    assert_true(reused > (uint32_t)(towns * steps) / 10 && rendered > (uint32_t)(towns * steps) / 10);
+    fprintf(stderr, "occlusion buffer reuse: %d towns, %d queries, %u kept, %u rendered, all as a new context's\n",
+            towns, towns * steps, reused, rendered);
+}
+
+/* ---- the per-ISA rectangle test against the scalar one -------------------------- */
+
+/* A nearness to test at: mostly one of the buffer's own values near the
+ * rectangle (a pixel, a tile's teff or vkey, a big tile's or a strip's
+ * minimum), exactly or one float step either side; else extremes. */
+static float pick_z(rng *r, const cull_occ_buffer *b, int x0, int y0, int x1, int y1)
+{
+    int px = x0 + (int)rng_below(r, (uint32_t)(x1 - x0 + 1)), py = y0 + (int)rng_below(r, (uint32_t)(y1 - y0 + 1));
+    size_t t = (size_t)(py >> 3) * b->tw + (size_t)(px >> 3);
+    float z;
+    switch (rng_below(r, 9)) {
+    case 0: z = b->depth[(size_t)py * b->stride + (size_t)px]; break;
+    case 1: z = b->teff[t]; break;
+    case 2: z = b->vkey[t]; break;
+    case 3: z = b->tile2[(size_t)(py >> 6) * b->t2w + (size_t)(px >> 6)]; break;
+    case 4: z = b->strip[(size_t)(py >> 3) * b->spitch + (size_t)(px >> 6)]; break;
+    case 5: z = b->tmax[t]; break;
+    case 6: {
+        static const float ext[] = {-FLT_MAX, FLT_MAX, -INFINITY, INFINITY, 0.0f, -0.0f, 1e-30f, 1e30f};
+        return ext[rng_below(r, 8)];
+    }
+    case 7: return (float)rng_range(r, -1, 1) * (float)rng_log(r, 1e-6, 1e6);
+    default: z = b->depth[(size_t)py * b->stride + (size_t)px]; break;
+    }
+    uint32_t s = rng_below(r, 3);
+    return s == 0 ? z : nextafterf(z, s == 1 ? INFINITY : -INFINITY);
+}
+
+/* A pixel range [a, b] of n pixels: small, large, whole, at either border. */
+static void pick_span(rng *r, uint32_t n, int *a, int *b)
+{
+    uint32_t len = rng_below(r, 4) == 0 ? 1 + rng_below(r, n) : 1 + rng_below(r, n < 24 ? n : 24);
+    uint32_t at = rng_below(r, n - len + 1);
+    if (rng_below(r, 6) == 0) at = 0;
+    else if (rng_below(r, 5) == 0) at = n - len;
+    *a = (int)at;
+    *b = (int)(at + len - 1);
+}
+
+/* The kernel's float bound to pixel conversion, as it was written per lane
+ * before the group conversion: the reference for cull_occ_fns.lanes. */
+static bool ref_lane(const cull_occ_buffer *b, float fx0, float fx1, float fy0, float fy1, float z)
+{
+    int i0 = (int)(fx0 + 1.0f) - 1, j0 = (int)(fy0 + 1.0f) - 1;
+    int i1 = (int)fx1, j1 = (int)fy1;
+    i1 -= !((float)i1 < fx1);
+    j1 -= !((float)j1 < fy1);
+    i0 = i0 < 0 ? 0 : i0;
+    j0 = j0 < 0 ? 0 : j0;
+    i1 = i1 > (int)b->w - 1 ? (int)b->w - 1 : i1;
+    j1 = j1 > (int)b->h - 1 ? (int)b->h - 1 : j1;
+    return i0 <= i1 && j0 <= j1 && cull_occ_rect_visible(b, i0, j0, i1, j1, z);
+}
+
+/* A float bound in [-1, n + 1]: integers, just above or below them, the
+ * ends, or anywhere. */
+static float pick_bound(rng *r, uint32_t n)
+{
+    float v = (float)rng_below(r, n + 3) - 1.0f;
+    switch (rng_below(r, 5)) {
+    case 0: return v;
+    case 1: return v > -1.0f ? nextafterf(v, -INFINITY) : v;
+    case 2: return v < (float)n + 1.0f ? nextafterf(v, INFINITY) : v;
+    case 3: return (float)rng_range(r, -1, n + 1);
+    default: return v + (float)rng_f(r) * (v < (float)n ? 1.0f : 0.0f);
+    }
+}
+
+/* The per-ISA walk (the query's kernel and cell stage) and the kernel's
+ * group conversion answer as cull_occ_rect_visible, lane by lane: random
+ * scenes and views rendered into buffers of several sizes (tiles cut by
+ * the right and top edges), inner and centre cover, some folded by
+ * cull_occ_depth; rectangles small, large, whole and at the borders;
+ * nearness at the buffer's own values and one float step either side, and
+ * extremes (+-FLT_MAX, +-inf, 0). */
+static void test_occ_wide_matches_scalar(void **state)
+{
+    (void)state;
+    rng r = {0x31de5ca1};
+    static const uint32_t sizes[][2] = {{256, 114}, {64, 64}, {37, 29}, {512, 256}, {1280, 720}, {8, 8}};
+    int scenes = (int)(24 * test_scale());
+    uint64_t rects = 0, checked = 0, visible = 0, lanes_checked = 0;
+    for (int sc = 0; sc < scenes; sc++) {
+        oscene s;
+        build_scene(&r, &s);
+        const uint32_t *sz = sizes[rng_below(&r, sizeof sizes / sizeof sizes[0])];
+        cull_occ_buffer *b;
+        assert_int_equal(cull_occ_buffer_create(sz[0], sz[1], &b), CULL_OK);
+        for (int v = 0; v < 4; v++) {
+            cull_view view;
+            random_view(&r, &s, &view, sz[0], sz[1]);
+            assert_int_equal(cull_occ_buffer_set_cover(b, rng_below(&r, 2)), CULL_OK);
+            assert_int_equal(cull_occ_render(s.w, &view, b, NULL, 1 + rng_below(&r, 2), NULL), CULL_OK);
+            if (rng_below(&r, 4) == 0) assert_non_null(cull_occ_depth(b, NULL, NULL, NULL));
+            for (int k = 0; k < 400; k++) {
+                int x0, x1, y0, y1;
+                pick_span(&r, b->w, &x0, &x1);
+                pick_span(&r, b->h, &y0, &y1);
+                float z = pick_z(&r, b, x0, y0, x1, y1);
+                bool want = cull_occ_rect_visible(b, x0, y0, x1, y1, z);
+                visible += want;
+                rects++;
+                for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+                    if (!cull_isa_supported(isa)) continue;
+                    bool got = cull_occ_fns_for(isa).rect_visible(b, x0, y0, x1, y1, z);
+                    if (got != want)
+                        fail_msg("%s, %ux%u, [%d, %d] x [%d, %d] at %a: %d, the scalar test %d", cull_isa_name(isa),
+                                 b->w, b->h, x0, x1, y0, y1, (double)z, got, want);
+                    checked++;
+                }
+            }
+            for (int k = 0; k < 100; k++) {
+                float fx0[8], fx1[8], fy0[8], fy1[8], fz[8];
+                uint32_t want = 0, lanes = rng_below(&r, 256);
+                for (int l = 0; l < 8; l++) {
+                    fx0[l] = pick_bound(&r, b->w);
+                    fx1[l] = rng_below(&r, 8) ? fx0[l] + (float)rng_f(&r) * (float)rng_log(&r, 0.5, b->w)
+                                               : pick_bound(&r, b->w);
+                    fx1[l] = fx1[l] > (float)b->w + 1.0f ? (float)b->w + 1.0f : fx1[l];
+                    fy0[l] = pick_bound(&r, b->h);
+                    fy1[l] = rng_below(&r, 8) ? fy0[l] + (float)rng_f(&r) * (float)rng_log(&r, 0.5, b->h)
+                                               : pick_bound(&r, b->h);
+                    fy1[l] = fy1[l] > (float)b->h + 1.0f ? (float)b->h + 1.0f : fy1[l];
+                    int cx = (int)fx0[l] < 0 ? 0 : (int)fx0[l] >= (int)b->w ? (int)b->w - 1 : (int)fx0[l];
+                    int cy = (int)fy0[l] < 0 ? 0 : (int)fy0[l] >= (int)b->h ? (int)b->h - 1 : (int)fy0[l];
+                    fz[l] = pick_z(&r, b, cx, cy, cx, cy);
+                    if ((lanes >> l & 1) && ref_lane(b, fx0[l], fx1[l], fy0[l], fy1[l], fz[l])) want |= 1u << l;
+                }
+                for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+                    if (!cull_isa_supported(isa)) continue;
+                    uint32_t got = cull_occ_fns_for(isa).lanes(b, fx0, fx1, fy0, fy1, fz, lanes);
+                    if (got != want) {
+                        int l = __builtin_ctz(got ^ want);
+                        fail_msg("%s, %ux%u, lanes %02x: %02x, the scalar test %02x; lane %d: x %a..%a, y %a..%a, z %a",
+                                 cull_isa_name(isa), b->w, b->h, lanes, got, want, l, (double)fx0[l], (double)fx1[l],
+                                 (double)fy0[l], (double)fy1[l], (double)fz[l]);
+                    }
+                    lanes_checked += (uint32_t)__builtin_popcount(lanes);
+                }
+            }
+        }
+        cull_occ_buffer_destroy(b);
+        free_scene(&s);
+    }
+    /* both answers must be common, or the comparison says little */
+    assert_true(visible > rects / 20 && visible < rects - rects / 20);
+    fprintf(stderr, "occlusion rectangle test: %llu rectangles and %llu lanes, every ISA as the scalar test "
+                    "(%llu%% visible)\n", (unsigned long long)checked, (unsigned long long)lanes_checked,
+            (unsigned long long)(visible * 100 / (rects ? rects : 1)));
+}
+
 const struct CMUnitTest occlusion_tests[] = {
+    cmocka_unit_test(test_occ_wide_matches_scalar),
     cmocka_unit_test(test_occ_buffer_reuse),
     cmocka_unit_test(test_occluder_cut_bound),
     cmocka_unit_test(test_occluder_build_bound),

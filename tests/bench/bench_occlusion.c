@@ -28,6 +28,15 @@
  * The reference is tests/occ_ref.c (double precision, per pixel centre).
  * --exr DIR writes frame 0's buffers as one-channel EXRs (Z = the stored
  * nearness, 0 where no occluder) for an EXR viewer.
+ *
+ * --loop N [--size WxH] [--centre]: no references and no table; per frame,
+ * one drawing query, then N kept queries (kept_loop) and N frustum-only
+ * queries (frust_loop), one thread, for an instruction count:
+ *   valgrind --tool=callgrind --collect-atstart=no --toggle-collect=kept_loop
+ *            --toggle-collect=frust_loop build/release/bench_occlusion --loop 20
+ * (callgrind_annotate --inclusive=yes gives each loop's share; fresh_loop:
+ * the same number of drawing queries, CULL_Q_OCC_FRESH). It prints
+ * the per-query stats of the kept query and the two loops' medians.
  */
 #include "culling.h"
 #include "bench_util.h"
@@ -46,6 +55,70 @@
 
 #define MAX_FRAMES 64
 
+/* The loops --loop counts: noipa (not inlined, not folded into one), so callgrind can name them. */
+__attribute__((noipa)) static int kept_loop(cull_world *w, cull_ctx *ctx, const cull_query_desc *q,
+                                               cull_result *out, size_t cap, int n, size_t *count)
+{
+    for (int i = 0; i < n; i++)
+        if (cull_query(w, ctx, q, out, cap, count, NULL)) return 1;
+    return 0;
+}
+
+__attribute__((noipa)) static int frust_loop(cull_world *w, cull_ctx *ctx, const cull_query_desc *q,
+                                                cull_result *out, size_t cap, int n, size_t *count)
+{
+    for (int i = 0; i < n; i++)
+        if (cull_query(w, ctx, q, out, cap, count, NULL)) return 1;
+    return 0;
+}
+
+__attribute__((noipa)) static int fresh_loop(cull_world *w, cull_ctx *ctx, const cull_query_desc *q,
+                                                cull_result *out, size_t cap, int n, size_t *count)
+{
+    for (int i = 0; i < n; i++)
+        if (cull_query(w, ctx, q, out, cap, count, NULL)) return 1;
+    return 0;
+}
+
+/* --loop: per frame, a drawing query, then n kept, n frustum-only and n
+ * drawing (CULL_Q_OCC_FRESH) queries; prints the kept query's stats and
+ * the medians per query. */
+static int run_loops(cull_world *w, cull_ctx *ctx, const cull_view *walk, int frames, int n, uint32_t bw,
+                     uint32_t bh, bool centre, cull_result *out, size_t cap)
+{
+    double tk[MAX_FRAMES], tn[MAX_FRAMES];
+    uint64_t vis = 0, tested = 0, cells_occ = 0, reused = 0, occ_in = 0;
+    for (int f = 0; f < frames; f++) {
+        cull_query_desc qk = {.views = &walk[f], .view_count = 1, .threads = 1, .occ_w = bw, .occ_h = bh,
+                              .flags = centre ? CULL_Q_OCC_CENTRE : 0};
+        cull_query_desc qn = {.views = &walk[f], .view_count = 1, .threads = 1, .flags = CULL_Q_NO_OCCLUSION};
+        size_t c;
+        cull_query_stats st;
+        if (cull_query(w, ctx, &qk, out, cap, &c, NULL)) return 1; /* draws */
+        if (cull_query(w, ctx, &qk, out, cap, &c, &st)) return 1;
+        vis += st.visible;
+        tested += st.entities_tested;
+        occ_in += st.after_area;
+        cells_occ += st.cells_occluded;
+        reused += st.occ_reused;
+        double x = bench_now_ns();
+        if (kept_loop(w, ctx, &qk, out, cap, n, &c)) return 1;
+        tk[f] = (bench_now_ns() - x) / n;
+        x = bench_now_ns();
+        if (frust_loop(w, ctx, &qn, out, cap, n, &c)) return 1;
+        tn[f] = (bench_now_ns() - x) / n;
+        cull_query_desc qf = qk;
+        qf.flags |= CULL_Q_OCC_FRESH;
+        if (fresh_loop(w, ctx, &qf, out, cap, n, &c)) return 1;
+    }
+    printf("loop %ux%u %s: %d frames x %d queries; kept query: %.1f entities tested, %.1f to the occlusion test, %.1f visible, %.1f cells "
+           "occluded, %.0f/%d kept; median kept %.1f us, frustum %.1f us\n",
+           bw, bh, centre ? "centre" : "inner", frames, n, (double)tested / frames, (double)occ_in / frames, (double)vis / frames,
+           (double)cells_occ / frames, (double)reused, frames, bench_median(tk, frames) / 1e3,
+           bench_median(tn, frames) / 1e3);
+    return 0;
+}
+
 
 
 typedef struct frame_ref {
@@ -59,7 +132,9 @@ int main(int argc, char **argv)
 {
     const char *scene = "tests/data/scenes/city_scene.txt", *exr_dir = NULL;
     int frames = 16, reps = 31;
-    bool json = false, quick = false, smoke = false;
+    bool json = false, quick = false, smoke = false, centre = false;
+    int loop = 0;
+    uint32_t lw = 256, lh = 114;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene = argv[++i];
         else if (!strcmp(argv[i], "--frames") && i + 1 < argc) frames = atoi(argv[++i]);
@@ -68,9 +143,12 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--json")) json = true;
         else if (!strcmp(argv[i], "--quick")) quick = true;
         else if (!strcmp(argv[i], "--smoke")) smoke = true;
+        else if (!strcmp(argv[i], "--loop") && i + 1 < argc) loop = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--centre")) centre = true;
+        else if (!strcmp(argv[i], "--size") && i + 1 < argc && sscanf(argv[i + 1], "%ux%u", &lw, &lh) == 2) i++;
         else {
             fprintf(stderr, "usage: bench_occlusion [--scene F] [--frames N] [--reps N] [--json] [--quick] "
-                            "[--smoke] [--exr DIR]\n");
+                            "[--smoke] [--exr DIR] [--loop N [--size WxH] [--centre]]\n");
             return 2;
         }
     }
@@ -80,7 +158,7 @@ int main(int argc, char **argv)
     } else if (quick) {
         reps = 11;
     }
-    if (frames < 1 || frames > MAX_FRAMES || reps < 1) return 2;
+    if (frames < 1 || frames > MAX_FRAMES || reps < 1 || loop < 0) return 2;
 
     scene_file sf;
     cull_world *w;
@@ -102,6 +180,19 @@ int main(int argc, char **argv)
     /* the walk */
     cull_view walk[MAX_FRAMES];
     if (bench_walk(&sf, NULL, frames, walk)) return 1;
+
+    if (loop) {
+        int rc = run_loops(w, ctx, walk, frames, loop, lw, lh, centre, out, cap);
+        free(out);
+        free(kept);
+        free(surv);
+        free(tri);
+        cull_ctx_destroy(ctx);
+        cull_pool_destroy(pool);
+        cull_world_destroy(w);
+        scene_file_free(&sf);
+        return rc;
+    }
 
     /* frustum survivors and the 1080p reference, per frame */
     frame_ref ref[MAX_FRAMES];
