@@ -75,6 +75,10 @@ typedef struct occ_key {
 } occ_key;
 
 #define OCC_BLOCK_MEMO_MAX 2048u
+/* block records for the first views of a query only: at most 4 x 3.3 MB per
+   context (a worker's), not 32 x (a stream or a commander queries one or
+   two views; a 32-view query's later views are tested, not recorded) */
+#define OCC_BLOCK_MEMO_VIEWS 4u
 
 struct cull_ctx {
     cull_pool *pool;
@@ -559,6 +563,10 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     for (uint32_t v = 0; v < q->view_count; v++) {
         occ_key *k = memo[v];
         if (!k || !ob[v]) continue;
+        if (v >= OCC_BLOCK_MEMO_VIEWS) {
+            memo[v] = NULL; /* tested, not recorded (the memory bound above) */
+            continue;
+        }
         /* grown before any pointer into it is taken */
         uint32_t old = k->bmemo_cap;
         if (nmemo > old && !vp_grow32((void **)&k->bmemo, &k->bmemo_cap, nmemo, sizeof *k->bmemo)) {
