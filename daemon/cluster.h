@@ -50,6 +50,7 @@ typedef struct cluster_config {
     uint32_t lease_ms;      /* the lease's TTL */
     uint64_t snapshot_bytes; /* the writer publishes a snapshot after this many bytes of records */
     double cell_size;       /* the scene's (a replica rebuilt from a snapshot makes its scene anew) */
+    const char *ca_file;    /* --cluster-ca: PEM certificates NATS servers are verified against (TLS) */
 } cluster_config;
 
 enum { CLUSTER_REPLICA, CLUSTER_PROMOTING, CLUSTER_WRITER };

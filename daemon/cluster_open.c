@@ -67,6 +67,17 @@ static int connect_nats(cluster *cl, char *err, size_t errlen)
     if (s == NATS_OK) s = natsOptions_SetReconnectWait(cl->opts, 100);
     if (s == NATS_OK) s = natsOptions_SetTimeout(cl->opts, 2000);
     if (s == NATS_OK) s = natsOptions_SetReconnectBufSize(cl->opts, 64 << 20);
+    /* TLS: the servers verified against these CAs (a tls:// URL, or a
+       server that requires TLS, uses them) */
+    if (s == NATS_OK && cl->cfg.ca_file) {
+        s = natsOptions_LoadCATrustedCertificates(cl->opts, cl->cfg.ca_file);
+        if (s == NATS_OK) s = natsOptions_SetSecure(cl->opts, true);
+        if (s != NATS_OK) {
+            snprintf(err, errlen, "--cluster-ca %s: %s", cl->cfg.ca_file, cl_nats_why(s));
+            free(urls);
+            return -1;
+        }
+    }
     if (s == NATS_OK) s = natsConnection_Connect(&cl->nc, cl->opts);
     free(urls);
     if (s != NATS_OK) {
@@ -122,8 +133,16 @@ int cl_stream_ensure(cluster *cl, const char *name, const char **subjects, int n
         s = js_AddStream(&si, cl->js, &sc, NULL, &jerr);
         if (s == NATS_OK) LOGI("cluster %s: stream %s made, replicated %d ways", cl->name, name, cl->cfg.replicas);
         else {
-            jerr = 0; /* another daemon made it first */
+            /* another daemon made it first, or it cannot be made (say,
+               more replicas than servers): then that is the reason */
+            char why[300];
+            snprintf(why, sizeof why, "%s (%d)", cl_nats_why(s), (int)jerr);
+            jerr = 0;
             s = js_GetStreamInfo(&si, cl->js, name, NULL, &jerr);
+            if (s != NATS_OK) {
+                snprintf(err, errlen, "stream %s (replicated %d ways) cannot be made: %s", name, cl->cfg.replicas, why);
+                return -1;
+            }
         }
     }
     if (s != NATS_OK) {
@@ -268,11 +287,12 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     cull_world_commit(sc->world);
     LOGI("cluster %s: %" PRIu64 " stream messages (%" PRIu64 " records) applied in %" PRIu64 " ms: epoch %" PRIu64,
          cl->name, cl->applied, cl->recs, (uint64_t)cl_mono_ms() - t0, sc->epoch);
-    /* a writer candidate takes a free lease now */
-    if (!cfg->follow) {
-        uint64_t rev = 0;
-        int64_t sent = cl_mono_ms();
-        natsStatus s = kvStore_Create(&rev, cl->kv, "writer", cl->value, (int)strlen(cl->value));
+    /* a writer candidate takes a free lease now; a replica learns whom
+       to send edits to (before its first client asks) */
+    uint64_t rev = 0;
+    int64_t sent = cl_mono_ms();
+    natsStatus s = cfg->follow ? NATS_ERR : kvStore_Create(&rev, cl->kv, "writer", cl->value, (int)strlen(cl->value));
+    {
         if (s == NATS_OK) {
             atomic_store(&cl->renewed, sent);
             cl->lease_rev = rev;
@@ -290,7 +310,8 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
                 cl_lease_writer_seen(cl, e);
                 kvEntry_Destroy(e);
             }
-            LOGI("cluster %s: %s holds the lease: this daemon is a replica", cl->name, cl->writer);
+            LOGI("cluster %s: %s holds the lease: this daemon is a replica", cl->name,
+                 strcmp(cl->writer, "-") ? cl->writer : "no daemon");
         }
     }
     cl->startup = false;

@@ -94,6 +94,8 @@ static void usage(FILE *f)
             "  --stream-replicas N  with --cluster: copies of the stream and the lease (1..5, default 1)\n"
             "  --lease-ms MS        with --cluster: the writer's lease (default 3000; a dead writer is\n"
             "                       replaced within about that)\n"
+            "  --cluster-ca FILE    with --cluster: speak TLS to NATS, verifying the servers against\n"
+            "                       these PEM CA certificates\n"
             "                       With --cluster, --durability is replicated (default: an edit is\n"
             "                       answered once the stream stored it) or off (answered at once)\n"
             "  --log-level L        error|warn|info|debug (default info)\n"
@@ -198,7 +200,7 @@ int main(int argc, char **argv)
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_ENV, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
            O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF, O_WEB, O_WEB_ROOT, O_WEB_CERT, O_WEB_KEY, O_MAX_VIDEO,
-           O_CLUSTER, O_SCENE_NAME, O_FOLLOW, O_ADVERTISE, O_STREAM_REPL, O_LEASE };
+           O_CLUSTER, O_SCENE_NAME, O_FOLLOW, O_ADVERTISE, O_STREAM_REPL, O_LEASE, O_CLUSTER_CA };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
         {"unix", required_argument, 0, O_UNIX}, {"scene", required_argument, 0, O_SCENE},
@@ -221,7 +223,8 @@ int main(int argc, char **argv)
         {"max-video", required_argument, 0, O_MAX_VIDEO}, {"cluster", required_argument, 0, O_CLUSTER},
         {"scene-name", required_argument, 0, O_SCENE_NAME}, {"follow", required_argument, 0, O_FOLLOW},
         {"advertise", required_argument, 0, O_ADVERTISE}, {"stream-replicas", required_argument, 0, O_STREAM_REPL},
-        {"lease-ms", required_argument, 0, O_LEASE}, {0, 0, 0, 0},
+        {"lease-ms", required_argument, 0, O_LEASE}, {"cluster-ca", required_argument, 0, O_CLUSTER_CA},
+        {0, 0, 0, 0},
     };
     int o;
     bool ok = true, insecure = false;
@@ -315,6 +318,11 @@ int main(int argc, char **argv)
             break;
         }
         case O_LEASE: ok = num32(want, sizeof want, optarg, 300, 600000, &ccfg.lease_ms); break;
+        case O_CLUSTER_CA:
+            ccfg.ca_file = optarg;
+            ok = *optarg != 0;
+            snprintf(want, sizeof want, "a PEM file of CA certificates");
+            break;
         case O_COMPACT: ok = num32(want, sizeof want, optarg, 1, 1u << 20, &compact_mb); break;
         case O_METRICS:
             ok = parse_addr_port(optarg, metrics_addr, sizeof metrics_addr, &cfg.metrics_port);
@@ -440,8 +448,8 @@ int main(int argc, char **argv)
     } else if (replicated) {
         fprintf(stderr, "vantaged: --durability replicated needs --cluster\n");
         return 2;
-    } else if (ccfg.replicas != 1 || ccfg.lease_ms != 3000 || ccfg.advertise) {
-        fprintf(stderr, "vantaged: --stream-replicas, --lease-ms and --advertise go with --cluster\n");
+    } else if (ccfg.replicas != 1 || ccfg.lease_ms != 3000 || ccfg.advertise || ccfg.ca_file) {
+        fprintf(stderr, "vantaged: --stream-replicas, --lease-ms, --advertise and --cluster-ca go with --cluster\n");
         return 2;
     }
 

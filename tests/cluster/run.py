@@ -26,6 +26,9 @@ Independent parts: Debian's nats-server, the C CLI (`vantage stats --json`,
    protocol health check (HELLO + PING), routes around a dead one.
 5. bad stream data: a foreign message put on the stream stops a replica,
    with the message's sequence in its log, instead of diverging.
+6. TLS: a writer and a replica with --cluster-ca against a TLS-only NATS
+   server (a CA and a certificate made here by openssl); without the CA a
+   daemon is refused at the handshake.
 """
 import hashlib
 import json
@@ -327,6 +330,51 @@ def phase_snapshots(urls):
         d.p.terminate()
 
 
+def phase_tls():
+    log("phase 6: TLS to NATS (--cluster-ca)")
+    ossl = shutil.which("openssl")
+    if not check(ossl, "openssl is installed"):
+        return
+    d = os.path.join(tmp, "tls")
+    os.makedirs(d)
+
+    def sh(*a):
+        subprocess.run([ossl, *a], cwd=d, check=True, capture_output=True)
+    sh("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", "ca.key", "-out", "ca.pem", "-days", "2",
+       "-subj", "/CN=vantage test CA")
+    sh("req", "-newkey", "rsa:2048", "-nodes", "-keyout", "srv.key", "-out", "srv.csr", "-subj", "/CN=localhost")
+    with open(os.path.join(d, "ext"), "w") as f:
+        f.write("subjectAltName=IP:127.0.0.1,DNS:localhost\n")
+    sh("x509", "-req", "-in", "srv.csr", "-CA", "ca.pem", "-CAkey", "ca.key", "-CAcreateserial", "-out", "srv.pem",
+       "-days", "2", "-extfile", "ext")
+    port = free_port()
+    p = subprocess.Popen([NATS, "--jetstream", "--store_dir", f"{d}/js", "-a", "127.0.0.1", "-p", str(port), "--tls",
+                          "--tlscert", f"{d}/srv.pem", "--tlskey", f"{d}/srv.key"],
+                         stdout=open(f"{tmp}/nats-tls.log", "a"), stderr=subprocess.STDOUT)
+    procs.append(p)
+    time.sleep(1)
+    url = [f"tls://127.0.0.1:{port}"]
+    ca = ["--cluster-ca", f"{d}/ca.pem", "--stream-replicas", "1"]  # one server
+    w = Daemon("tlswriter", url, "tls", False, ca)
+    w.start()
+    check(wait_for(lambda: w.role() == "writer", 20), "a writer over TLS")
+    r = Daemon("tlsreplica", url, "tls", True, ca)
+    r.start()
+    check(wait_for(lambda: r.role() == "replica", 20), "and a replica")
+    ok = subprocess.run([VANTAGE, "-h", f"{r.ep},{w.ep}", "add", "8001", "1,1,1", "1"], capture_output=True, text=True)
+    check(ok.returncode == 0, "an edit through the replica's redirect, over TLS " + ok.stderr.strip()[-150:])
+    ok2, epoch, _ = converge([w, r])
+    check(ok2 and epoch == 1, f"both at epoch {epoch} with the same scene")
+    bad = Daemon("tlsnoca", url, "tls", True, ["--stream-replicas", "1"])
+    bad.start()
+    code = bad.p.wait(timeout=30)
+    check(code != 0 and "SSL handshake" in open(bad.logf).read(),
+          f"without --cluster-ca the server's certificate is refused (exit {code})")
+    for x in (w, r):
+        x.p.terminate()
+    p.terminate()
+
+
 def phase_balancer(daemons):
     log("phase 4: HAProxy in front of the daemons (docs/scale-out/haproxy.cfg)")
     hap = shutil.which("haproxy") or shutil.which("haproxy", path="/usr/sbin:/usr/local/sbin")
@@ -403,6 +451,7 @@ def main():
         phase_snapshots(urls)
         phase_balancer(daemons)
         phase_bad_data(nats, daemons)
+        phase_tls()
     except Exception as e:  # a harness fault is a failure too, with what it was
         import traceback
         traceback.print_exc()
