@@ -202,7 +202,7 @@ static bool apply_msg(cluster *cl, scene *sc, natsMsg *m, uint64_t seq)
            it again from the newest snapshot (rebuild) */
         LOGW("cluster %s: stream message %" PRIu64 " came after %" PRIu64 ": the stream was trimmed past this "
              "replica", cl->name, seq, cl->applied);
-        cl->rebuild = true;
+        atomic_store(&cl->rebuild, true);
         return false;
     }
     if (seq != cl->applied + 1)
@@ -423,8 +423,9 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
 /* A publish failed, or its answer was lost: finds out what the stream
  * holds of the unstored messages (the ones it has are ours: their message
  * ids say so) and publishes the rest again, in order. Blocks the loop
- * (the writer takes no edit meanwhile); gives up, fatally, when the lease
- * is in doubt or another writer's record is in the way. */
+ * (the writer takes no edit meanwhile); gives up, stepping down
+ * (cl->step_down), when the lease is in doubt or another writer's record is
+ * in the way. */
 static void recover(cluster *cl, const char *what)
 {
     LOGW("cluster %s: %s: checking what the stream holds", cl->name, what);
@@ -433,8 +434,11 @@ static void recover(cluster *cl, const char *what)
     wait.MaxWait = cl->cfg.lease_ms;
     (void)js_PublishAsyncComplete(cl->js, &wait);
     for (;;) {
-        if (atomic_load(&cl->fenced) || cl_lease_doubtful(cl))
-            cl_fatal(cl, "the lease was lost with %zu records not known to be stored", cl->pn);
+        if (atomic_load(&cl->fenced) || cl_lease_doubtful(cl)) {
+            LOGW("cluster %s: the lease was lost with %zu messages not known to be stored", cl->name, cl->pn);
+            cl->step_down = true;
+            return;
+        }
         pthread_mutex_lock(&cl->mu);
         uint64_t acked = cl->acked;
         cl->fail_seq = 0;
@@ -467,8 +471,12 @@ static void recover(cluster *cl, const char *what)
                 const char *gid = NULL;
                 bool ours = natsMsgHeader_Get(got, "Nats-Msg-Id", &gid) == NATS_OK && gid && !strcmp(gid, id);
                 natsMsg_Destroy(got);
-                if (!ours)
-                    cl_fatal(cl, "stream message %" PRIu64 " is another writer's (expected ours, id %s)", p->seq, id);
+                if (!ours) {
+                    LOGW("cluster %s: stream message %" PRIu64 " is another writer's (ours would be %s)", cl->name,
+                         p->seq, id);
+                    cl->step_down = true;
+                    return;
+                }
             } else {
                 natsMsg *m = make_msg(cl, p, p->lease);
                 jsPubAck *pa = NULL;
@@ -552,6 +560,10 @@ void *cl_lease_main(void *arg)
             continue;
         }
         if (role != CLUSTER_REPLICA) continue;
+        if (atomic_load(&cl->rebuild)) { /* the loop tries again; no lease for a scene being rebuilt */
+            cl_wake(cl);
+            continue;
+        }
         kvEntry *e = NULL;
         natsStatus s = kvStore_Get(&e, cl->kv, "writer");
         if (s == NATS_OK) {
@@ -663,29 +675,28 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
  * followed again from there. Texture generations go on from the old
  * scene's, so no renderer cache takes a new texture for an old one (the
  * culling world's occlusion versions are unique per world already). */
-static void rebuild(cluster *cl, scene *sc, pthread_rwlock_t *lock)
+static bool rebuild(cluster *cl, scene *sc, pthread_rwlock_t *lock)
 {
-    cl->rebuild = false;
     cl_unsubscribe(cl);
     pthread_mutex_lock(&cl->mu);
     for (; cl->qn; cl->qn--, cl->qhead = (cl->qhead + 1) % cl->qcap) natsMsg_Destroy(cl->q[cl->qhead]);
     cl->qbytes = 0;
     pthread_cond_broadcast(&cl->cv);
     pthread_mutex_unlock(&cl->mu);
-    uint64_t first = 0;
-    for (int64_t until = cl_mono_ms() + 10000;;) {
-        jsStreamInfo *si = NULL;
-        jsErrCode jerr = 0;
-        natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, &cl->quick, &jerr);
-        if (s == NATS_OK) {
-            first = si->State.FirstSeq;
-            jsStreamInfo_Destroy(si);
-            break;
-        }
-        if (cl_mono_ms() > until) cl_fatal(cl, "cannot read the stream to start again from a snapshot: %s",
-                                           cl_nats_why(s));
-        usleep(100000);
+    jsStreamInfo *si = NULL;
+    jsErrCode jerr = 0;
+    natsStatus s = js_GetStreamInfo(&si, cl->js, cl->stream, &cl->quick, &jerr);
+    if (s != NATS_OK) { /* the next turn tries again (the lease thread wakes the loop) */
+        if (!cl->rebuild_said)
+            LOGW("cluster %s: waiting for the stream to start again from it: %s", cl->name, cl_nats_why(s));
+        cl->rebuild_said = true;
+        atomic_store(&cl->rebuild, true);
+        return false;
     }
+    uint64_t first = si->State.FirstSeq;
+    jsStreamInfo_Destroy(si);
+    atomic_store(&cl->rebuild, false);
+    cl->rebuild_said = false;
     int64_t t0 = cl_mono_ms();
     if (lock) pthread_rwlock_wrlock(lock);
     uint32_t gens = sc->texture_gens;
@@ -698,16 +709,17 @@ static void rebuild(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     cl->asm_len = 0;
     cl->asm_got = cl->asm_parts = 0;
     char err[500];
-    if (cl_snap_load(cl, sc, first, err, sizeof err) <= 0) cl_fatal(cl, "starting again from a snapshot: %s", err);
+    if (cl_snap_load(cl, sc, first, err, sizeof err) < 0) cl_fatal(cl, "starting again from a snapshot: %s", err);
     cull_world_commit(sc->world);
     if (lock) pthread_rwlock_unlock(lock);
     for (int tries = 0; cl_subscribe_from(cl, cl->applied + 1, err, sizeof err); tries++) {
         if (tries == 40) cl_fatal(cl, "%s", err);
         usleep(250000);
     }
-    LOGW("cluster %s: started again from the snapshot as of stream message %" PRIu64 " in %" PRIu64
-         " ms (epoch %" PRIu64 " -> %" PRIu64 ")", cl->name, cl->applied, (uint64_t)(cl_mono_ms() - t0), was,
-         sc->epoch);
+    LOGW("cluster %s: started again from %s %" PRIu64 " in %" PRIu64 " ms (epoch %" PRIu64 " -> %" PRIu64 ")",
+         cl->name, cl->applied ? "the snapshot as of stream message" : "the stream's start, message", cl->applied + !cl->applied,
+         (uint64_t)(cl_mono_ms() - t0), was, sc->epoch);
+    return true;
 }
 
 bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
@@ -725,8 +737,7 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     bool changed = false, more = false;
     int role = atomic_load(&cl->role);
     if (role != CLUSTER_WRITER) changed = cl_apply_queue(cl, sc, lock, &more);
-    if (cl->rebuild) {
-        rebuild(cl, sc, lock);
+    if (atomic_load(&cl->rebuild) && rebuild(cl, sc, lock)) {
         changed = true;
         more = true;
     }
@@ -742,8 +753,30 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
             snprintf(what, sizeof what, "stream message %" PRIu64 " was not stored: %s", fail_seq, fail);
             recover(cl, what);
         }
+        if (lost && cl->pn) {
+            LOGW("cluster %s: the lease was lost with %zu messages not yet stored", cl->name, cl->pn);
+            cl->step_down = true;
+        }
+        if (cl->step_down) {
+            /* a replica again, rebuilt from what the stream holds: the
+               answers still waiting for a message above the last one
+               stored never leave (the server ends their connections: their
+               edits may or may not be in the stream) */
+            cl->step_down = false;
+            pthread_mutex_lock(&cl->mu);
+            uint64_t stored = cl->acked;
+            pthread_mutex_unlock(&cl->mu);
+            cl->dropped_above = stored;
+            LOGW("cluster %s: stepping down: %zu messages after stream message %" PRIu64 " not known to be stored; "
+                 "this daemon's scene is rebuilt from the stream", cl->name, cl->pn, stored);
+            atomic_store(&cl->role, CLUSTER_REPLICA); /* first: a snapshot being published stops */
+            cl_snap_stop(cl);
+            pend_pop_stored(cl, UINT64_MAX);
+            atomic_store(&cl->rebuild, true);
+            changed = rebuild(cl, sc, lock) || changed;
+            lost = false;
+        }
         if (lost) {
-            if (cl->pn) cl_fatal(cl, "the lease was lost with %zu messages not yet stored", cl->pn);
             atomic_store(&cl->role, CLUSTER_REPLICA);
             char err[300];
             for (int tries = 0; cl_subscribe_from(cl, cl->applied + 1, err, sizeof err); tries++) {
@@ -755,6 +788,13 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     }
     if (more) cl_wake(cl);
     return changed;
+}
+
+uint64_t cluster_take_dropped(cluster *cl)
+{
+    uint64_t d = cl->dropped_above;
+    cl->dropped_above = UINT64_MAX;
+    return d;
 }
 
 bool cluster_writable(cluster *cl, int *code, char *err, size_t errlen)

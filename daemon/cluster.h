@@ -21,6 +21,11 @@
  * lease expires a replica takes it, applies the stream to its end, and
  * writes from there: the record numbers and the scene epoch go on.
  *
+ * A writer that loses its lease, or finds another writer's message where
+ * its own should be, with messages not known to be stored, steps down: a
+ * replica again, its scene rebuilt from the newest snapshot and the stream
+ * (the edits in doubt are dropped with their answers, which never left).
+ *
  * Durability `replicated` (the default with --cluster) holds an edit's
  * answer until the stream has stored its record (on a stream replicated R
  * ways, a quorum of the NATS servers); `off` answers at once.
@@ -95,6 +100,10 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
 /* Whether the stream has stored everything up to seq (answers wait). */
 bool cluster_stored(cluster *cl, uint64_t seq);
 bool cluster_waits(const cluster *cl);
+/* After a writer stepped down with messages in doubt: the last stream
+ * sequence known stored; answers waiting for a later one must never leave
+ * (their connections are ended). UINT64_MAX: nothing to drop. */
+uint64_t cluster_take_dropped(cluster *cl);
 void cluster_stats_get(cluster *cl, cluster_stats *out);
 const char *cluster_role_name(int role);
 

@@ -83,7 +83,13 @@ struct cluster {
     uint64_t snap_prev_seq, snap_prev_first; /* the newest published: as of, and its first part */
     atomic_ullong snapshots;        /* published by this daemon */
     bool startup;                   /* cluster_open is catching up: failures return, not exit */
-    bool rebuild;                   /* the stream was trimmed past this replica: start again from a snapshot */
+    atomic_bool rebuild;            /* this replica's scene must be made anew from a snapshot and the stream
+                                       (trimmed past it, or a writer stepping down); the lease thread wakes
+                                       the loop to try again while the stream cannot be read */
+    bool rebuild_said;
+    bool step_down;                 /* a writer with messages in doubt: a replica again, its scene rebuilt */
+    uint64_t dropped_above;         /* answers waiting for a stream sequence above it are never sent
+                                       (UINT64_MAX: none; cluster_take_dropped) */
     char startup_err[400];
 };
 

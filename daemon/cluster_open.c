@@ -216,6 +216,7 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     snprintf(cl->snap_index, sizeof cl->snap_index, "vantage.%s.snapidx", cfg->name);
     cl->snap_limit = cfg->snapshot_bytes ? cfg->snapshot_bytes : 64ull << 20;
     cl->snap_fd = -1;
+    cl->dropped_above = UINT64_MAX;
     char host[64] = "?";
     gethostname(host, sizeof host - 1);
     struct timespec t;

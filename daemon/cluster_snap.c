@@ -205,6 +205,7 @@ static void *publisher(void *arg)
     int status = 0;
     pid_t r;
     while ((r = waitpid(cl->snap_child, &status, 0)) < 0 && errno == EINTR) {}
+    cl->snap_child = 0; /* reaped: its pid may be another process's from now */
     if (r < 0 || !WIFEXITED(status) || WEXITSTATUS(status)) fail = "the child that writes it failed";
     else if (fstat(cl->snap_fd, &st) || !st.st_size ||
         (p = mmap(NULL, (size_t)st.st_size, PROT_READ, MAP_SHARED, cl->snap_fd, 0)) == MAP_FAILED) {
@@ -219,6 +220,10 @@ static void *publisher(void *arg)
     size_t part = (size_t)cl->max_part;
     x.parts = (n + part - 1) / part;
     for (uint64_t i = 0; !fail && i < x.parts; i++) {
+        if (atomic_load(&cl->role) != CLUSTER_WRITER) {
+            fail = "this daemon is no longer the writer";
+            break;
+        }
         natsMsg *m = NULL;
         size_t off = (size_t)i * part, len = n - off < part ? n - off : part;
         char v[32];
@@ -239,7 +244,7 @@ static void *publisher(void *arg)
     /* the index, once the journal stream holds what the snapshot covers */
     for (int64_t until = cl_mono_ms() + 30000; !fail;) {
         pthread_mutex_lock(&cl->mu);
-        bool stored = cl->acked >= x.seq, stop = cl->stop;
+        bool stored = cl->acked >= x.seq, stop = cl->stop || atomic_load(&cl->role) != CLUSTER_WRITER;
         pthread_mutex_unlock(&cl->mu);
         if (stored) break;
         if (stop || cl_mono_ms() > until) fail = "the records it covers were not stored";

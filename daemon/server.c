@@ -708,7 +708,17 @@ static void before_sleep(ae_loop *l, void *data)
        edits also leave counts and bounds to tighten */
     /* the cluster's news: the stream's records applied (a replica), the
        stored acknowledgements counted (the writer), a promotion */
-    if (s->cluster) cluster_poll(s->cluster, sc, &s->scene_lock);
+    if (s->cluster) {
+        cluster_poll(s->cluster, sc, &s->scene_lock);
+        uint64_t stored = cluster_take_dropped(s->cluster);
+        for (uint32_t i = 0; stored != UINT64_MAX && i < s->nconns; i++) {
+            conn *c = s->live[i];
+            if (c->dead || c->held_seq <= stored) continue;
+            LOGW("client %u: its edit's answer waited for a stream message this daemon no longer writes: "
+                 "disconnected (the edit may or may not be in the scene)", c->id);
+            conn_kill(s, c, MD_ERROR);
+        }
+    }
     bool writes = !s->cluster || cluster_role(s->cluster) == CLUSTER_WRITER;
     bool changed = sc->epoch != s->ev_epoch;
     s->ev_epoch = sc->epoch;
