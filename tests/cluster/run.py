@@ -295,6 +295,27 @@ def phase_split_brain(nats, urls):
     return (s, r)
 
 
+def noise_png(path, w, h):
+    """A PNG of random RGB (it does not compress: about 3 bytes a pixel)."""
+    import random
+    import struct
+    import zlib
+    rnd = random.Random(7)
+    raw = b"".join(b"\0" + rnd.randbytes(3 * w) for _ in range(h))
+
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+                chunk(b"IDAT", zlib.compress(raw, 1)) + chunk(b"IEND", b""))
+
+
+def metric(d, name):
+    r = subprocess.run([VANTAGE, "-h", d.ep, "stats", "--metrics"], capture_output=True, text=True, timeout=10)
+    m = re.search(r"^" + name + r" (\d+)", r.stdout, re.M)
+    return int(m.group(1)) if m else None
+
+
 def phase_snapshots(urls):
     log("phase 3: snapshots on JetStream, the stream trimmed, a replica bootstrapped from one")
     w = Daemon("snapwriter", urls, "snap", False, ["--compact-mb", "1"])
@@ -303,6 +324,14 @@ def phase_snapshots(urls):
     lag = Daemon("snaplagger", urls, "snap", True)
     lag.start()
     check(wait_for(lambda: lag.role() == "replica", 20), "a replica follows from the start")
+    png = os.path.join(tmp, "noise.png")
+    noise_png(png, 1024, 1024)
+    up = subprocess.run([VANTAGE, "-h", w.ep, "texture", "put", "77", png], capture_output=True, text=True)
+    check(up.returncode == 0, f"a {os.path.getsize(png) / 1e6:.1f} MB texture uploaded (a record in several stream "
+          "messages: NATS takes 1 MB a message)")
+    tb = metric(w, "vantage_scene_texture_bytes")
+    check(tb and wait_for(lambda: metric(lag, "vantage_scene_texture_bytes") == tb, 10),
+          f"the replica holds the same texture bytes ({tb})")
     lag.p.send_signal(signal.SIGSTOP)  # ... and stalls while the stream is trimmed past it
     bench = os.path.join(BIN, "cluster_bench")
     r = subprocess.run([bench, "--writer", w.ep, "--rate", "0", "--batch", "100", "--max", "300", "--window", "8",
