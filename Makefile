@@ -88,7 +88,7 @@ DAEMON_OBJ:= $(DAEMON_SRC:%.c=$(BUILD)/%.o)
 DAEMON_BIN:= $(BUILD)/vantaged
 
 CLIENT_LIB:= $(BUILD)/libvantage.a
-CLIENT_OBJ:= $(BUILD)/client/lib/libvantage.o $(BUILD)/client/lib/vtc_view.o
+CLIENT_OBJ:= $(BUILD)/client/lib/libvantage.o $(BUILD)/client/lib/vtc_view.o $(BUILD)/client/lib/vtc_endpoints.o
 # game pads (issue 8): pure parsers and the hid-recorder format (pad.h), the
 # devices through hidapi (hidraw flavour) and libusb (pad_io.h), the
 # commander's input mapping; linked into the CLI and the tests
@@ -109,7 +109,7 @@ IMPORT_OBJ := $(BUILD)/client/import/import_walk.o $(BUILD)/client/import/import
 CLI_OBJ  := $(BUILD)/client/cli/vantage_cli.o $(BUILD)/client/cli/cli_jsonl.o $(BUILD)/client/cli/cli_bench.o \
             $(BUILD)/client/cli/cli_render.o $(BUILD)/client/cli/cli_frames.o $(BUILD)/client/cli/cli_sublevel.o \
             $(BUILD)/client/cli/cli_scene.o \
-            $(BUILD)/client/cli/cli_env.o \
+            $(BUILD)/client/cli/cli_env.o $(BUILD)/client/cli/cli_stats.o \
             $(BUILD)/client/cli/cli_export.o \
             $(IMPORT_OBJ) $(BUILD)/client/import/jsonl.o $(BUILD)/client/cli/cli_pad.o \
             $(BUILD)/client/commander/commander.o $(BUILD)/client/commander/commander_sdl.o \

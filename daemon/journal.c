@@ -50,7 +50,6 @@
 
 #define HDR_SIZE 32u
 #define REC_HDR JOURNAL_REC_HDR
-#define REC_MAX (1u << 30)              /* no payload is this big: a bad length */
 #define DEFAULT_LIMIT (64ull << 20)     /* a snapshot once the journal passes this... */
 
 static const char MAGIC[8] = {'V', 'N', 'T', 'J', 'R', 'N', 'L', '2'};
@@ -80,61 +79,6 @@ struct journal {
     pid_t child;
     uint64_t child_gen;
 };
-
-static uint32_t crc(const uint8_t *a, size_t na, const uint8_t *b, size_t nb)
-{
-    uLong c = crc32(0L, Z_NULL, 0);
-    c = crc32(c, a, (uInt)na);
-    while (nb) { /* zlib takes uInt lengths */
-        uInt n = nb > (1u << 30) ? (1u << 30) : (uInt)nb;
-        c = crc32(c, b, n);
-        b += n;
-        nb -= n;
-    }
-    return (uint32_t)c;
-}
-
-void journal_rec_header(uint8_t h[JOURNAL_REC_HDR], uint64_t seq, uint16_t type, uint16_t load, uint32_t aux,
-                        const uint8_t *p, uint32_t len)
-{
-    vp_writer hw;
-    vp_writer_init(&hw, h, JOURNAL_REC_HDR);
-    vp_put_u32(&hw, len);
-    vp_put_u32(&hw, 0); /* the CRC, of what follows it: patched below */
-    vp_put_u64(&hw, seq);
-    vp_put_u16(&hw, type);
-    vp_put_u16(&hw, load);
-    vp_put_u32(&hw, aux);
-    vp_st_u32(h + 4, crc(h + 8, 16, p, len));
-}
-
-const char *journal_rec_check(const uint8_t *r, size_t left, uint64_t seq)
-{
-    uint32_t len = left >= REC_HDR ? vp_ld_u32(r) : 0;
-    if (left < REC_HDR) return "a torn record header";
-    if (len > REC_MAX) return "a record length no record has";
-    if (left - REC_HDR < len) return "a torn record (shorter than its length)";
-    if (vp_ld_u32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) return "a record CRC mismatch";
-    if (vp_ld_u64(r + 8) != seq) return "a record out of sequence";
-    return NULL;
-}
-
-int journal_rec_apply(scene *sc, const uint8_t *r, unsigned format, scene_err *se)
-{
-    edit e;
-    edit_result res;
-    uint16_t type = vp_ld_u16(r + 16);
-    int rc = edit_decode(type, r + REC_HDR, vp_ld_u32(r), 0, format == 1 ? EDIT_LAYOUT_V1 : EDIT_LAYOUT, &e);
-    if (!rc) {
-        e.sublevel = vp_ld_u16(r + 18);
-        e.aux = vp_ld_u32(r + 20);
-        rc = edit_apply(sc, &e, &res, se);
-        if (!rc) edit_result_free(&res);
-    } else {
-        snprintf(se->msg, sizeof se->msg, "%s", vp_strerror(rc));
-    }
-    return rc;
-}
 
 static uint64_t mono_ms(void)
 {
@@ -234,7 +178,7 @@ static int start_file(journal *j, uint64_t gen, uint64_t seq)
         memcpy(h, MAGIC, 8);
         vp_st_u64(h + 8, gen);
         vp_st_u64(h + 16, seq);
-        vp_st_u32(h + 28, crc(h, 28, NULL, 0));
+        vp_st_u32(h + 28, journal_crc(h, 28, NULL, 0));
         errno = 0;
         if (write(fd, h, HDR_SIZE) != (ssize_t)HDR_SIZE || fdatasync(fd)) rc = errno ? -errno : -EIO;
     }
@@ -670,8 +614,8 @@ static bool intact_after(const uint8_t *p, size_t n, size_t from, uint64_t seq, 
         uint64_t s = vp_ld_u64(r + 8);
         uint32_t len = vp_ld_u32(r);
         /* a record's seq is at most one per REC_HDR bytes past seq */
-        if (s < seq || s - seq > (n - from) / REC_HDR + 1 || len > REC_MAX || len > n - q - REC_HDR) continue;
-        if (vp_ld_u32(r + 4) != crc(r + 8, 16, r + REC_HDR, len)) continue;
+        if (s < seq || s - seq > (n - from) / REC_HDR + 1 || len > JOURNAL_REC_MAX || len > n - q - REC_HDR) continue;
+        if (vp_ld_u32(r + 4) != journal_crc(r + 8, 16, r + REC_HDR, len)) continue;
         *at = q;
         *got = s;
         return true;
@@ -715,7 +659,7 @@ static int replay_file(journal *j, uint64_t gen, bool last, scene *sc, uint64_t 
     *format = m.n >= HDR_SIZE && !memcmp(m.p, MAGIC_V1, 8) ? 1 : 2;
     if (m.n < HDR_SIZE) why = "shorter than its header";
     else if (*format == 2 && memcmp(m.p, MAGIC, 8)) why = "not a Vantage journal (bad magic)";
-    else if (vp_ld_u32(m.p + 28) != crc(m.p, 28, NULL, 0)) why = "header CRC mismatch";
+    else if (vp_ld_u32(m.p + 28) != journal_crc(m.p, 28, NULL, 0)) why = "header CRC mismatch";
     else if (vp_ld_u64(m.p + 8) != gen) why = "header names another generation";
     else if (vp_ld_u64(m.p + 16) != *seq) why = "its first record does not follow the one before";
     if (why && last && m.n < HDR_SIZE) {

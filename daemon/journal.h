@@ -106,6 +106,9 @@ void journal_set_limit(journal *j, uint64_t bytes);
  * what follows the CRC, sequence number, type, sub-level, aux) and the
  * request's payload. */
 #define JOURNAL_REC_HDR 24u
+#define JOURNAL_REC_MAX (1u << 30) /* no payload is this big: a bad length */
+/* CRC-32 of a[0..na) then b[0..nb) (zlib's): records and file headers. */
+uint32_t journal_crc(const uint8_t *a, size_t na, const uint8_t *b, size_t nb);
 void journal_rec_header(uint8_t h[JOURNAL_REC_HDR], uint64_t seq, uint16_t type, uint16_t load, uint32_t aux,
                         const uint8_t *p, uint32_t len);
 /* Whether the left bytes at r begin with a whole, intact record numbered

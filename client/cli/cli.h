@@ -54,6 +54,9 @@ int cmp_dbl(const void *a, const void *b); /* qsort, ascending */
 extern volatile sig_atomic_t g_stop;
 void catch_sigint(void);
 
+/* cli_stats.c: `vantage stats [--json | --metrics]`. */
+int cmd_stats(cli *k, int argc, char **argv);
+
 /* cli_jsonl.c: one JSON line per entity. sublevel_name NULL writes the
  * number; handle adds the daemon's handle. */
 void cli_entity_json(FILE *f, const vp_entity *e, bool handle, const char *sublevel_name);

@@ -3,6 +3,7 @@
  * growing receive buffer; each call encodes into a growing send buffer.
  */
 #include "vantage.h"
+#include "vtc_endpoints.h"
 #include "vp_grow.h"
 
 #include <arpa/inet.h>
@@ -352,35 +353,6 @@ static int connect_fd(const vtc_connect_opts *o, char *err, size_t errlen)
     return fd;
 }
 
-/* One endpoint of a list: "HOST:PORT", "[V6]:PORT", or a socket path. */
-static bool endpoint_opts(const char *ep, size_t n, vtc_connect_opts *d, char *host, size_t hostlen, char *path,
-                          size_t pathlen)
-{
-    if (!n || n >= hostlen || n >= pathlen) return false;
-    if (memchr(ep, '/', n)) {
-        memcpy(path, ep, n);
-        path[n] = 0;
-        d->unix_path = path;
-        return true;
-    }
-    const char *colon = NULL;
-    for (size_t i = 0; i < n; i++)
-        if (ep[i] == ':') colon = ep + i;
-    if (!colon || colon == ep + n - 1) return false;
-    size_t hl = (size_t)(colon - ep);
-    const char *h = ep;
-    if (hl >= 2 && h[0] == '[' && h[hl - 1] == ']') h++, hl -= 2;
-    memcpy(host, h, hl);
-    host[hl] = 0;
-    char *end;
-    long port = strtol(colon + 1, &end, 10);
-    if (end != ep + n || port < 1 || port > 65535) return false;
-    d->host = host;
-    d->port = (int)port;
-    d->unix_path = NULL;
-    return true;
-}
-
 static int connect_one(const vtc_connect_opts *o, vtc_client **out, char *err, size_t errlen);
 
 int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t errlen)
@@ -395,13 +367,7 @@ int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t e
     if (!d.endpoints) return connect_one(&d, out, err, errlen);
     /* a list: the endpoints in turn, from a random one for viewers */
     const char *eps[64];
-    size_t lens[64], n = 0;
-    for (const char *e = d.endpoints; *e && n < 64;) {
-        const char *comma = strchr(e, ',');
-        size_t l = comma ? (size_t)(comma - e) : strlen(e);
-        if (l) eps[n] = e, lens[n++] = l;
-        e += l + (comma ? 1 : 0);
-    }
+    size_t lens[64], n = vtc_endpoint_split(d.endpoints, eps, lens, 64);
     if (!n) {
         snprintf(err, errlen, "no endpoint in \"%.100s\"", d.endpoints);
         return VTC_ERR_IO;
@@ -409,7 +375,7 @@ int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t e
     for (size_t i = 0; i < n; i++) { /* a malformed entry is refused before any is tried */
         char host[256], path[256];
         vtc_connect_opts one = d;
-        if (!endpoint_opts(eps[i], lens[i], &one, host, sizeof host, path, sizeof path)) {
+        if (!vtc_endpoint_parse(eps[i], lens[i], &one, host, sizeof host, path, sizeof path)) {
             snprintf(err, errlen, "bad endpoint \"%.*s\": use HOST:PORT, [IPv6]:PORT or a socket path", (int)lens[i],
                      eps[i]);
             return VTC_ERR_IO;
@@ -426,7 +392,7 @@ int vtc_connect(const vtc_connect_opts *o, vtc_client **out, char *err, size_t e
         size_t i = (first + k) % n;
         char host[256], path[256];
         vtc_connect_opts one = d;
-        endpoint_opts(eps[i], lens[i], &one, host, sizeof host, path, sizeof path);
+        vtc_endpoint_parse(eps[i], lens[i], &one, host, sizeof host, path, sizeof path);
         if ((rc = connect_one(&one, out, err, errlen)) == VP_OK) return VP_OK;
         if (rc == VP_ERR_AUTH) return rc; /* the token is wrong everywhere */
     }
@@ -439,7 +405,7 @@ static int redirect(vtc_client *c, const char *endpoint)
 {
     vtc_connect_opts d = c->opts;
     char host[256], path[256];
-    if (!endpoint_opts(endpoint, strlen(endpoint), &d, host, sizeof host, path, sizeof path))
+    if (!vtc_endpoint_parse(endpoint, strlen(endpoint), &d, host, sizeof host, path, sizeof path))
         return set_err(c, VTC_ERR_IO, "the writer's endpoint \"%.200s\" is not HOST:PORT or a socket path", endpoint);
     d.endpoints = NULL;
     vtc_client *n = NULL;
