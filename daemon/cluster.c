@@ -205,62 +205,33 @@ static bool apply_msg(cluster *cl, scene *sc, natsMsg *m, uint64_t seq)
         atomic_store(&cl->rebuild, true);
         return false;
     }
-    if (seq != cl->applied + 1)
+    const char *lease = NULL, *part = NULL;
+    natsMsgHeader_Get(m, "Vantage-Lease", &lease);
+    if (natsMsgHeader_Get(m, "Vantage-Part", &part) != NATS_OK) part = NULL;
+    const uint8_t *rec;
+    size_t rlen;
+    char why[300];
+    cl->as.applied = cl->applied;
+    cl->as.recs = cl->recs;
+    cl->as.max_lease = cl->max_lease;
+    int k = cl_asm_take(&cl->as, seq, lease, part, (const uint8_t *)natsMsg_GetData(m),
+                        (size_t)natsMsg_GetDataLength(m), &rec, &rlen, why, sizeof why);
+    cl->applied = cl->as.applied;
+    cl->recs = cl->as.recs;
+    cl->max_lease = cl->as.max_lease;
+    if (k == CL_ASM_GAP)
         return cl_fatal(cl, "stream message %" PRIu64 " came after %" PRIu64 ": the stream has a gap (trimmed or "
-                     "purged past this daemon)", seq, cl->applied);
-    bool ok;
-    uint64_t lease = cl_header_u64(m, "Vantage-Lease", &ok);
-    if (!ok) return cl_fatal(cl, "stream message %" PRIu64 ": no Vantage-Lease header: not a Vantage record", seq);
-    if (lease < cl->max_lease)
-        return cl_fatal(cl, "stream message %" PRIu64 ": written under lease %" PRIu64 " after one under lease %" PRIu64
-                     ": a fenced writer's record", seq, lease, cl->max_lease);
-    cl->max_lease = lease;
-    const char *pv = NULL;
-    uint32_t part = 1, parts = 1;
-    if (natsMsgHeader_Get(m, "Vantage-Part", &pv) == NATS_OK && pv) {
-        if (sscanf(pv, "%" SCNu32 "/%" SCNu32, &part, &parts) != 2 || !part || part > parts)
-            return cl_fatal(cl, "stream message %" PRIu64 ": a bad Vantage-Part header \"%.40s\"", seq, pv);
-    }
-    const uint8_t *d = (const uint8_t *)natsMsg_GetData(m);
-    size_t n = (size_t)natsMsg_GetDataLength(m);
-    if (part != cl->asm_got + 1 || (cl->asm_got && parts != cl->asm_parts))
-        return cl_fatal(cl, "stream message %" PRIu64 ": part %u of %u where part %u of %u was due", seq, part, parts,
-                     cl->asm_got + 1, cl->asm_got ? cl->asm_parts : parts);
-    cl->applied = seq;
-    const uint8_t *rec = d;
-    size_t rlen = n;
-    if (parts > 1) {
-        if (cl->asm_len + n > cl->asm_cap) {
-            size_t cap = (cl->asm_len + n) * 2;
-            uint8_t *b = realloc(cl->asm_buf, cap);
-            if (!b) return cl_fatal(cl, "stream message %" PRIu64 ": out of memory for a record's parts", seq);
-            cl->asm_buf = b;
-            cl->asm_cap = cap;
-        }
-        memcpy(cl->asm_buf + cl->asm_len, d, n);
-        cl->asm_len += n;
-        cl->asm_got = part;
-        cl->asm_parts = parts;
-        if (part < parts) return true;
-        rec = cl->asm_buf;
-        rlen = cl->asm_len;
-        cl->asm_len = 0;
-        cl->asm_got = cl->asm_parts = 0;
-    }
-    const char *why = journal_rec_check(rec, rlen, cl->recs + 1);
-    if (!why && rlen != JOURNAL_REC_HDR + (size_t)((uint32_t)rec[0] | (uint32_t)rec[1] << 8 |
-                                                    (uint32_t)rec[2] << 16 | (uint32_t)rec[3] << 24))
-        why = "bytes after the record";
-    if (why) return cl_fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 "): %s", seq, cl->recs + 1, why);
+                        "purged past this daemon)", seq, cl->applied);
+    if (k == CL_ASM_BAD) return cl_fatal(cl, "%s", why);
+    if (k == CL_ASM_PART) return true;
     scene_err se = {0};
     bool was = sc->replaying;
     sc->replaying = true; /* the writer took it: applied as it was */
     int rc = journal_rec_apply(sc, rec, 2, &se);
     sc->replaying = was;
     if (rc)
-        return cl_fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 ") cannot be applied: %s", seq, cl->recs + 1,
-                     se.msg);
-    cl->recs++;
+        return cl_fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 ") cannot be applied: %s", seq, cl->recs,
+                        se.msg);
     return true;
 }
 
@@ -633,7 +604,7 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
         if (cl_mono_ms() > give_up) return cl_fatal(cl, "cannot read the stream's end to take over");
         usleep(100000);
     }
-    if (cl->asm_got) return cl_fatal(cl, "the last writer left record %" PRIu64 " in parts", cl->recs + 1);
+    if (cl->as.got) return cl_fatal(cl, "the last writer left record %" PRIu64 " in parts", cl->recs + 1);
     pthread_mutex_lock(&cl->mu);
     cl->acked = cl->applied;
     pthread_mutex_unlock(&cl->mu);
@@ -706,8 +677,7 @@ static bool rebuild(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     if (scene_init(sc, cl->cfg.cell_size, &lim)) cl_fatal(cl, "out of memory for the scene");
     sc->texture_gens = gens + 1;
     cl->applied = cl->recs = cl->max_lease = 0;
-    cl->asm_len = 0;
-    cl->asm_got = cl->asm_parts = 0;
+    cl_asm_reset(&cl->as, 0, 0, 0);
     char err[500];
     if (cl_snap_load(cl, sc, first, err, sizeof err) < 0) cl_fatal(cl, "starting again from a snapshot: %s", err);
     cull_world_commit(sc->world);

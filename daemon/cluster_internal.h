@@ -7,6 +7,7 @@
 #define VANTAGE_CLUSTER_INTERNAL_H
 
 #include "cluster.h"
+#include "cluster_rec.h"
 
 #include <nats/nats.h>
 
@@ -63,9 +64,8 @@ struct cluster {
     uint64_t recs;                  /* the last record's number */
     uint64_t max_lease;             /* the highest lease revision seen on the stream */
     uint64_t last_seen;
-    uint8_t *asm_buf;               /* a record being put together from its parts */
-    size_t asm_len, asm_cap;
-    uint32_t asm_got, asm_parts;
+    cl_asm as;                      /* messages made records (its applied, recs, max_lease: copies of the
+                                       above while a message is taken) */
     pend_msg *pend;                 /* published, not yet stored, oldest first (a ring) */
     size_t phead, pn, pcap, pbytes;
     uint64_t promotions, started_ms;

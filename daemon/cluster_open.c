@@ -356,7 +356,7 @@ void cluster_close(cluster *cl)
     free(cl->q);
     for (size_t i = 0; i < cl->pn; i++) free(cl->pend[(cl->phead + i) % cl->pcap].data);
     free(cl->pend);
-    free(cl->asm_buf);
+    cl_asm_free(&cl->as);
     if (cl->kv) kvStore_Destroy(cl->kv);
     if (cl->js) jsCtx_Destroy(cl->js);
     if (cl->jskv) jsCtx_Destroy(cl->jskv);

@@ -306,7 +306,7 @@ static void *publisher(void *arg)
 void cl_snap_poll(cluster *cl, const scene *sc)
 {
     if (atomic_load(&cl->snap_busy) || cl->since_snap < cl->snap_limit) return;
-    if (atomic_load(&cl->role) != CLUSTER_WRITER || cl->asm_got) return;
+    if (atomic_load(&cl->role) != CLUSTER_WRITER || cl->as.got) return;
     int fd = memfd_create("vantage-snapshot", MFD_CLOEXEC);
     if (fd < 0) return;
     cl->snap_seq = cl->applied;

@@ -46,6 +46,7 @@ int main(void)
         {transform_tests, transform_tests_count},
         {material_tests, material_tests_count},
         {recover_tests, recover_tests_count},
+        {cluster_rec_tests, cluster_rec_tests_count},
         {upgrade_tests, upgrade_tests_count},
         {pad_tests, pad_tests_count},
         {pad_io_tests, pad_io_tests_count},
