@@ -536,6 +536,7 @@ install: check-deps
 	sed 's|@PREFIX@|$(PREFIX)|' client/lib/vantage.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/vantage.pc
 	@$(MAKE) --no-print-directory $(BLENDER_ZIP)
 	install -m 644 $(BLENDER_ZIP) $(DESTDIR)$(PREFIX)/share/vantage/
+	install -m 644 docs/scale-out/haproxy.cfg $(DESTDIR)$(PREFIX)/share/vantage/
 
 # installs into build/<config>/stage and builds a program with pkg-config
 install-check:
