@@ -256,9 +256,11 @@ int cmd_stats(cli *k, int argc, char **argv)
                    x->clients[2], x->clients[3], x->clients[0]);
             printf("frames       %.0f sent, %.0f dropped (viewer behind), %.0f discarded; %.0f stream%s\n", x->sent,
                    x->dropped, x->discarded, x->streams, x->streams == 1 ? "" : "s");
-            if (x->role[0])
-                printf("cluster      %s; stream message %.0f %s, %.0f stored, last %.0f; lag %.0f\n", x->role,
-                       x->seq_applied, strcmp(x->role, "writer") ? "applied" : "published", x->seq_stored,
+            if (!strcmp(x->role, "writer"))
+                printf("cluster      writer; stream message %.0f published, %.0f stored; %.0f not yet stored\n",
+                       x->seq_applied, x->seq_stored, x->lag);
+            else if (x->role[0])
+                printf("cluster      %s; stream message %.0f applied of %.0f; lag %.0f\n", x->role, x->seq_applied,
                        x->seq_last, x->lag);
             printf("\nrequests (p50, p99: from taking a request to its reply queued, estimated from buckets)\n");
             printf("  %-20s %12s %10s %10s %10s\n", "type", "count", "errors", "p50", "p99");
