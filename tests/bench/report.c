@@ -355,22 +355,8 @@ static void mark_pareto(point *pts, int n)
     }
 }
 
-/* ---- random towns ------------------------------------------------------------------------ */
-typedef struct town_kind {
-    const char *name;
-    int         boxes;
-    double      half;             /* the town is [-half, half]^2 */
-    double      foot_lo, foot_hi; /* box footprint side, metres */
-    double      h_lo, h_hi;       /* box height */
-    double      eye_hi;           /* eye height 1.7 .. eye_hi */
-} town_kind;
-
-static const town_kind g_towns[] = {
-    {"town", 700, 600, 8, 35, 5, 60, 6},
-    {"dense", 2000, 500, 4, 18, 3, 25, 3},
-    {"sparse", 150, 800, 10, 40, 5, 80, 30},
-};
-#define NTOWNS ((int)(sizeof g_towns / sizeof g_towns[0]))
+/* ---- random towns: bench_town_make (bench_scene.h) ---------------------------------------- */
+#define NTOWNS BENCH_NTOWNS
 
 static double rnd(uint64_t *s, double lo, double hi)
 {
@@ -380,93 +366,6 @@ static double rnd(uint64_t *s, double lo, double hi)
 static double rnd_log(uint64_t *s, double lo, double hi)
 {
     return lo * pow(hi / lo, bench_rand01(s));
-}
-
-/* The 12 triangles of box [mn, mx], counter-clockwise seen from outside. */
-static void box_tris(float *t, const double mn[3], const double mx[3])
-{
-    for (int a = 0; a < 3; a++)
-        for (int side = 0; side < 2; side++) {
-            int b = (a + 1) % 3, c = (a + 2) % 3;
-            double q[4][3];
-            for (int k = 0; k < 4; k++) {
-                q[k][a] = side ? mx[a] : mn[a];
-                q[k][b] = (k == 1 || k == 2) ? mx[b] : mn[b];
-                q[k][c] = (k >= 2) ? mx[c] : mn[c];
-            }
-            /* (b, c, a) is a right-handed cycle: this order faces +a; flip for -a */
-            if (!side) {
-                for (int x = 0; x < 3; x++) {
-                    double tmp = q[1][x];
-                    q[1][x] = q[3][x];
-                    q[3][x] = tmp;
-                }
-            }
-            static const int tri_idx[6] = {0, 1, 2, 0, 2, 3};
-            for (int k = 0; k < 6; k++)
-                for (int x = 0; x < 3; x++) *t++ = (float)q[tri_idx[k]][x];
-        }
-}
-
-/* A seeded random town in scene-file form: boxes as occluders, 15,000
- * object AABBs (sides 0.2..10 m, log-uniform; 70 % on the ground), a
- * street-level camera outside every box. */
-static int town_make(int kind, uint64_t seed, int nobjects, scene_file *sf)
-{
-    const town_kind *k = &g_towns[kind];
-    uint64_t s = seed;
-    memset(sf, 0, sizeof *sf);
-    sf->ntris = (size_t)k->boxes * 12;
-    sf->tris = malloc(sf->ntris * 9 * sizeof *sf->tris);
-    sf->nobjects = (size_t)nobjects;
-    sf->objects = malloc(sf->nobjects * 6 * sizeof *sf->objects);
-    double *boxes = malloc((size_t)k->boxes * 6 * sizeof *boxes);
-    if (!sf->tris || !sf->objects || !boxes) {
-        free(boxes);
-        scene_file_free(sf);
-        return -1;
-    }
-    for (int b = 0; b < k->boxes; b++) {
-        double *bx = boxes + 6 * b;
-        double fx = rnd(&s, k->foot_lo, k->foot_hi), fz = rnd(&s, k->foot_lo, k->foot_hi);
-        double cx = rnd(&s, -k->half, k->half), cz = rnd(&s, -k->half, k->half);
-        bx[0] = cx - fx / 2, bx[1] = 0, bx[2] = cz - fz / 2;
-        bx[3] = cx + fx / 2, bx[4] = rnd(&s, k->h_lo, k->h_hi), bx[5] = cz + fz / 2;
-        box_tris(sf->tris + (size_t)b * 108, bx, bx + 3);
-    }
-    for (int i = 0; i < nobjects; i++) {
-        double *ob = sf->objects + 6 * i;
-        double c[3] = {rnd(&s, -k->half, k->half), 0, rnd(&s, -k->half, k->half)};
-        double ext[3];
-        for (int a = 0; a < 3; a++) ext[a] = rnd_log(&s, 0.2, 10);
-        c[1] = bench_rand01(&s) < 0.7 ? ext[1] / 2 : rnd(&s, 0, 40);
-        for (int a = 0; a < 3; a++) {
-            ob[a] = c[a] - ext[a] / 2;
-            ob[3 + a] = c[a] + ext[a] / 2;
-        }
-    }
-    for (int tries = 0;; tries++) {
-        double e[3] = {rnd(&s, -k->half / 2, k->half / 2), rnd(&s, 1.7, k->eye_hi), rnd(&s, -k->half / 2, k->half / 2)};
-        bool inside = false;
-        for (int b = 0; b < k->boxes && !inside; b++) {
-            const double *bx = boxes + 6 * b;
-            inside = e[0] > bx[0] - 1 && e[0] < bx[3] + 1 && e[2] > bx[2] - 1 && e[2] < bx[5] + 1 && e[1] < bx[4] + 1;
-        }
-        if (inside && tries < 10000) continue;
-        double yaw = rnd(&s, 0, 2 * M_PI), pitch = -rnd(&s, 0.02, 0.15);
-        memcpy(sf->eye, e, sizeof e);
-        sf->target[0] = e[0] + 100 * sin(yaw);
-        sf->target[1] = e[1] + 100 * pitch;
-        sf->target[2] = e[2] - 100 * cos(yaw);
-        break;
-    }
-    sf->up[1] = 1;
-    sf->fovy_deg = 60;
-    sf->znear = 0.1;
-    sf->zfar = 2000;
-    sf->aspect = 16.0 / 9.0;
-    free(boxes);
-    return 0;
 }
 
 /* ---- stress 1: probe entities against cull_ref ------------------------------------------- */
@@ -1040,14 +939,14 @@ int main(int argc, char **argv)
         double t0 = bench_now_ns();
         const scene_file *sf = &city;
         if (k > 0) {
-            if (town_make(k - 1, 0x70F7 + (uint64_t)(k - 1) * 0x9E37, 15000, &towns[k - 1])) return 1;
+            if (bench_town_make(k - 1, 0x70F7 + (uint64_t)(k - 1) * 0x9E37, 15000, &towns[k - 1])) return 1;
             sf = &towns[k - 1];
         }
         if (ev_build(&ev[k], sf, &(bench_cam){0}, k ? o.rand_frames : o.city_frames, o.truth_w, o.truth_h) ||
             eval_accuracy(&ev[k], ctx, pts[k]))
             return 1;
         evp[k] = &ev[k];
-        fprintf(stderr, "report_cull: %s: references and accuracy in %.1f s\n", k ? g_towns[k - 1].name : "city",
+        fprintf(stderr, "report_cull: %s: references and accuracy in %.1f s\n", k ? bench_town_kind(k - 1)->name : "city",
                 (bench_now_ns() - t0) / 1e9);
     }
     double t0 = bench_now_ns();
@@ -1125,7 +1024,7 @@ int main(int argc, char **argv)
     for (int p = 0; p < NPT; p++) csv_point(csv, "city", "city", p, &city_pts[p]);
     for (int p = 0; p < NPT; p++) csv_point(csv, "random", "all", p, &rnd_pts[p]);
     for (int k = 0; k < o.seeds; k++)
-        for (int p = 0; p < NPT; p++) csv_point(csv, "random", g_towns[k].name, p, &town_pts[k][p]);
+        for (int p = 0; p < NPT; p++) csv_point(csv, "random", bench_town_kind(k)->name, p, &town_pts[k][p]);
     fclose(csv);
 
     fprintf(sc, "table,case,config,cases,false_invisible,conservative_within_8eps,conservative_beyond_8eps,"
@@ -1180,12 +1079,12 @@ int main(int argc, char **argv)
             "and `bench_occlusion` do; and %d seeded random towns (%d frames each, 0.5 m apart): boxes of "
             "random footprint and height as occluders, 15,000 AABB entities with sides 0.2..10 m "
             "(log-uniform; 70 %% standing on the ground, the rest at 0..40 m), a camera at street level "
-            "outside every box (`town_make` in `tests/bench/report.c`):",
+            "outside every box (`bench_town_make` in `tests/bench/bench_scene.h`):",
             o.scene, o.city_frames, o.seeds, o.rand_frames);
     for (int k = 0; k < o.seeds; k++)
         fprintf(md, "%s *%s* (%d boxes in %.0f m square, footprints %.0f..%.0f m, heights %.0f..%.0f m)",
-                k ? "," : "", g_towns[k].name, g_towns[k].boxes, 2 * g_towns[k].half, g_towns[k].foot_lo,
-                g_towns[k].foot_hi, g_towns[k].h_lo, g_towns[k].h_hi);
+                k ? "," : "", bench_town_kind(k)->name, bench_town_kind(k)->boxes, 2 * bench_town_kind(k)->half, bench_town_kind(k)->foot_lo,
+                bench_town_kind(k)->foot_hi, bench_town_kind(k)->h_lo, bench_town_kind(k)->h_hi);
     fprintf(md,
             ". Views 60 degrees, near 0.1, far 2000, GL depth.\n\n"
             "**References**, per frame and entity, none sharing code with `culling/`:\n\n"
