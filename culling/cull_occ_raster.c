@@ -172,7 +172,7 @@ static void clear_tile(cull_occ_buffer *b, int tx, int ty)
 /* A span of row j, [x0, x1] (may be empty), with its tiles made valid and
  * marked dirty. (The flag loops cover one or two entries: kept as loops,
  * not turned into memset calls.) */
-__attribute__((optimize("no-tree-loop-distribute-patterns"))) static inline void write_span(
+__attribute__((optimize("no-tree-loop-distribute-patterns"), always_inline)) static inline void write_span(
     cull_occ_buffer *b, int j, int x0, int x1, const float z0[3], const float dz[3], float lo)
 {
     if (x0 > x1) return;
@@ -207,7 +207,8 @@ typedef struct rpoly {
  * not drawn with (a view that gives 2^100 has overflowed somewhere). */
 #define Z_LIM 0x1p100
 
-static void raster_poly(band *bd, rpoly *p)
+/* (write_span is inlined here: its flag loops stay loops, as in write_span) */
+__attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster_poly(band *bd, rpoly *p)
 {
     cull_occ_buffer *b = bd->b;
     /* Robust to any input (defence in depth: a view the decoder accepts can

@@ -16,7 +16,10 @@
  * Configurations (query flags of culling.h), each at 1 and 2 threads:
  *   spheres only; spheres + AABB; + screen area >= 1, 2, 4 px (the default
  *   centre/extent bound); spheres + AABB + occlusion at 128x64, 256x114,
- *   512x256, 1280x720 (whole-pixel coverage, the default).
+ *   512x256, 1280x720 (whole-pixel coverage, the default; drawn every
+ *   query), and at 256x114 and 1280x720 through the kept buffer (a still
+ *   camera: each frame asked twice, the second timed; its verdicts must be
+ *   the fresh buffer's).
  * Scenes: the shared city scene's walk (16 frames, 0.5 m apart) and three
  * seeded random towns (8 frames each), every entity an AABB, every
  * occluder a box. References, per frame and entity:
@@ -63,18 +66,23 @@ typedef struct config {
     uint32_t    flags;     /* CULL_Q_* */
     float       area;      /* screen-area threshold, pixels; 0 = none */
     uint32_t    occ_w, occ_h; /* occlusion buffer; 0 = no occlusion */
+    bool        still;     /* a still camera: each frame's query asked twice, the
+                              second (timed, counted) through the buffer the
+                              context kept from the first */
 } config;
 
 static const config g_cfg[] = {
-    {"spheres only", "spheres", CULL_Q_NO_AABB | CULL_Q_NO_OCCLUSION, 0, 0, 0},
-    {"spheres + AABB", "+AABB", CULL_Q_NO_OCCLUSION, 0, 0, 0},
-    {"+ area >= 1 px", ">=1px", CULL_Q_NO_OCCLUSION, 1, 0, 0},
-    {"+ area >= 2 px", ">=2px", CULL_Q_NO_OCCLUSION, 2, 0, 0},
-    {"+ area >= 4 px", ">=4px", CULL_Q_NO_OCCLUSION, 4, 0, 0},
-    {"+ occlusion 128x64", "occ 128x64", 0, 0, 128, 64},
-    {"+ occlusion 256x114", "occ 256x114", 0, 0, 256, 114},
-    {"+ occlusion 512x256", "occ 512x256", 0, 0, 512, 256},
-    {"+ occlusion 1280x720", "occ 1280x720", 0, 0, 1280, 720},
+    {"spheres only", "spheres", CULL_Q_NO_AABB | CULL_Q_NO_OCCLUSION, 0, 0, 0, false},
+    {"spheres + AABB", "+AABB", CULL_Q_NO_OCCLUSION, 0, 0, 0, false},
+    {"+ area >= 1 px", ">=1px", CULL_Q_NO_OCCLUSION, 1, 0, 0, false},
+    {"+ area >= 2 px", ">=2px", CULL_Q_NO_OCCLUSION, 2, 0, 0, false},
+    {"+ area >= 4 px", ">=4px", CULL_Q_NO_OCCLUSION, 4, 0, 0, false},
+    {"+ occlusion 128x64", "occ 128x64", CULL_Q_OCC_FRESH, 0, 128, 64, false},
+    {"+ occlusion 256x114", "occ 256x114", CULL_Q_OCC_FRESH, 0, 256, 114, false},
+    {"+ occlusion 512x256", "occ 512x256", CULL_Q_OCC_FRESH, 0, 512, 256, false},
+    {"+ occlusion 1280x720", "occ 1280x720", CULL_Q_OCC_FRESH, 0, 1280, 720, false},
+    {"+ occlusion 256x114, kept buffer", "occ 256x114 kept", 0, 0, 256, 114, true},
+    {"+ occlusion 1280x720, kept buffer", "occ 1280x720 kept", 0, 0, 1280, 720, true},
 };
 #define NCFG ((int)(sizeof g_cfg / sizeof g_cfg[0]))
 #define NPT (NCFG * NTHR)
@@ -196,6 +204,9 @@ typedef struct point {
     uint64_t fi_occ;         /* culled by occlusion though the caster sees it */
     uint64_t thr_culled;     /* culled by the threshold: exact test keeps, exact area below */
     uint64_t thr_culled_vis; /* of those, truly visible */
+    uint64_t kept_diff;      /* still configurations: verdicts through the kept buffer that differ
+                                from the freshly drawn buffer's (must be 0) */
+    uint64_t kept_reused;    /* still configurations: frames whose second query kept the buffer */
     bool     pareto;
 } point;
 
@@ -220,7 +231,25 @@ static int accuracy(const evscene *e, cull_ctx *ctx, const config *c, uint32_t t
                     size_t cap, uint8_t *kept, uint8_t *keptn, point *p)
 {
     cull_query_desc q = qdesc(c, &e->walk[f], threads, false);
-    if (run_mark(e->w, ctx, &q, out, cap, kept, e->n)) return -1;
+    if (c->still) {
+        /* drawn afresh into keptn, then asked again through the kept buffer into kept: the same verdicts */
+        cull_query_desc qf = q;
+        qf.flags |= CULL_Q_OCC_FRESH;
+        if (run_mark(e->w, ctx, &qf, out, cap, keptn, e->n)) return -1;
+        size_t cnt;
+        cull_query_stats st;
+        if (cull_query(e->w, ctx, &q, out, cap, &cnt, &st)) return -1;
+        memset(kept, 0, e->n);
+        for (size_t k = 0; k < cnt; k++) {
+            uint32_t slot = out[k].handle & (CULL_MAX_ENTITIES - 1);
+            if (slot >= e->n) return -1;
+            kept[slot] = 1;
+        }
+        p->kept_reused += st.occ_reused > 0;
+        for (size_t i = 0; i < e->n; i++) p->kept_diff += kept[i] != keptn[i];
+    } else if (run_mark(e->w, ctx, &q, out, cap, kept, e->n)) {
+        return -1;
+    }
     if (c->occ_w) {
         q = qdesc(c, &e->walk[f], threads, true);
         if (run_mark(e->w, ctx, &q, out, cap, keptn, e->n)) return -1;
@@ -288,9 +317,12 @@ static int time_all(evscene *const *sc, int nsc, cull_ctx *const *ctx, int reps,
                 double *tp = t + ((size_t)si * NPT + p) * per + (size_t)r * passes * e->frames;
                 cull_query_desc q = qdesc(&g_cfg[p / NTHR], &e->walk[0], (uint32_t)(p % NTHR + 1), false);
                 if (cull_query(e->w, ctx[p / NTHR], &q, out, cap, &cnt, NULL)) goto out;
+                bool still = g_cfg[p / NTHR].still;
                 for (int pass = 0; pass < passes; pass++)
                     for (int f = 0; f < e->frames; f++) {
                         q.views = &e->walk[f];
+                        /* a still camera: the frame's first query draws (untimed), the timed one keeps */
+                        if (still && cull_query(e->w, ctx[p / NTHR], &q, out, cap, &cnt, NULL)) goto out;
                         double t0 = bench_now_ns();
                         if (cull_query(e->w, ctx[p / NTHR], &q, out, cap, &cnt, NULL)) goto out;
                         *tp++ = bench_now_ns() - t0;
@@ -355,22 +387,8 @@ static void mark_pareto(point *pts, int n)
     }
 }
 
-/* ---- random towns ------------------------------------------------------------------------ */
-typedef struct town_kind {
-    const char *name;
-    int         boxes;
-    double      half;             /* the town is [-half, half]^2 */
-    double      foot_lo, foot_hi; /* box footprint side, metres */
-    double      h_lo, h_hi;       /* box height */
-    double      eye_hi;           /* eye height 1.7 .. eye_hi */
-} town_kind;
-
-static const town_kind g_towns[] = {
-    {"town", 700, 600, 8, 35, 5, 60, 6},
-    {"dense", 2000, 500, 4, 18, 3, 25, 3},
-    {"sparse", 150, 800, 10, 40, 5, 80, 30},
-};
-#define NTOWNS ((int)(sizeof g_towns / sizeof g_towns[0]))
+/* ---- random towns: bench_town_make (bench_scene.h) ---------------------------------------- */
+#define NTOWNS BENCH_NTOWNS
 
 static double rnd(uint64_t *s, double lo, double hi)
 {
@@ -380,93 +398,6 @@ static double rnd(uint64_t *s, double lo, double hi)
 static double rnd_log(uint64_t *s, double lo, double hi)
 {
     return lo * pow(hi / lo, bench_rand01(s));
-}
-
-/* The 12 triangles of box [mn, mx], counter-clockwise seen from outside. */
-static void box_tris(float *t, const double mn[3], const double mx[3])
-{
-    for (int a = 0; a < 3; a++)
-        for (int side = 0; side < 2; side++) {
-            int b = (a + 1) % 3, c = (a + 2) % 3;
-            double q[4][3];
-            for (int k = 0; k < 4; k++) {
-                q[k][a] = side ? mx[a] : mn[a];
-                q[k][b] = (k == 1 || k == 2) ? mx[b] : mn[b];
-                q[k][c] = (k >= 2) ? mx[c] : mn[c];
-            }
-            /* (b, c, a) is a right-handed cycle: this order faces +a; flip for -a */
-            if (!side) {
-                for (int x = 0; x < 3; x++) {
-                    double tmp = q[1][x];
-                    q[1][x] = q[3][x];
-                    q[3][x] = tmp;
-                }
-            }
-            static const int tri_idx[6] = {0, 1, 2, 0, 2, 3};
-            for (int k = 0; k < 6; k++)
-                for (int x = 0; x < 3; x++) *t++ = (float)q[tri_idx[k]][x];
-        }
-}
-
-/* A seeded random town in scene-file form: boxes as occluders, 15,000
- * object AABBs (sides 0.2..10 m, log-uniform; 70 % on the ground), a
- * street-level camera outside every box. */
-static int town_make(int kind, uint64_t seed, int nobjects, scene_file *sf)
-{
-    const town_kind *k = &g_towns[kind];
-    uint64_t s = seed;
-    memset(sf, 0, sizeof *sf);
-    sf->ntris = (size_t)k->boxes * 12;
-    sf->tris = malloc(sf->ntris * 9 * sizeof *sf->tris);
-    sf->nobjects = (size_t)nobjects;
-    sf->objects = malloc(sf->nobjects * 6 * sizeof *sf->objects);
-    double *boxes = malloc((size_t)k->boxes * 6 * sizeof *boxes);
-    if (!sf->tris || !sf->objects || !boxes) {
-        free(boxes);
-        scene_file_free(sf);
-        return -1;
-    }
-    for (int b = 0; b < k->boxes; b++) {
-        double *bx = boxes + 6 * b;
-        double fx = rnd(&s, k->foot_lo, k->foot_hi), fz = rnd(&s, k->foot_lo, k->foot_hi);
-        double cx = rnd(&s, -k->half, k->half), cz = rnd(&s, -k->half, k->half);
-        bx[0] = cx - fx / 2, bx[1] = 0, bx[2] = cz - fz / 2;
-        bx[3] = cx + fx / 2, bx[4] = rnd(&s, k->h_lo, k->h_hi), bx[5] = cz + fz / 2;
-        box_tris(sf->tris + (size_t)b * 108, bx, bx + 3);
-    }
-    for (int i = 0; i < nobjects; i++) {
-        double *ob = sf->objects + 6 * i;
-        double c[3] = {rnd(&s, -k->half, k->half), 0, rnd(&s, -k->half, k->half)};
-        double ext[3];
-        for (int a = 0; a < 3; a++) ext[a] = rnd_log(&s, 0.2, 10);
-        c[1] = bench_rand01(&s) < 0.7 ? ext[1] / 2 : rnd(&s, 0, 40);
-        for (int a = 0; a < 3; a++) {
-            ob[a] = c[a] - ext[a] / 2;
-            ob[3 + a] = c[a] + ext[a] / 2;
-        }
-    }
-    for (int tries = 0;; tries++) {
-        double e[3] = {rnd(&s, -k->half / 2, k->half / 2), rnd(&s, 1.7, k->eye_hi), rnd(&s, -k->half / 2, k->half / 2)};
-        bool inside = false;
-        for (int b = 0; b < k->boxes && !inside; b++) {
-            const double *bx = boxes + 6 * b;
-            inside = e[0] > bx[0] - 1 && e[0] < bx[3] + 1 && e[2] > bx[2] - 1 && e[2] < bx[5] + 1 && e[1] < bx[4] + 1;
-        }
-        if (inside && tries < 10000) continue;
-        double yaw = rnd(&s, 0, 2 * M_PI), pitch = -rnd(&s, 0.02, 0.15);
-        memcpy(sf->eye, e, sizeof e);
-        sf->target[0] = e[0] + 100 * sin(yaw);
-        sf->target[1] = e[1] + 100 * pitch;
-        sf->target[2] = e[2] - 100 * cos(yaw);
-        break;
-    }
-    sf->up[1] = 1;
-    sf->fovy_deg = 60;
-    sf->znear = 0.1;
-    sf->zfar = 2000;
-    sf->aspect = 16.0 / 9.0;
-    free(boxes);
-    return 0;
 }
 
 /* ---- stress 1: probe entities against cull_ref ------------------------------------------- */
@@ -1040,14 +971,14 @@ int main(int argc, char **argv)
         double t0 = bench_now_ns();
         const scene_file *sf = &city;
         if (k > 0) {
-            if (town_make(k - 1, 0x70F7 + (uint64_t)(k - 1) * 0x9E37, 15000, &towns[k - 1])) return 1;
+            if (bench_town_make(k - 1, 0x70F7 + (uint64_t)(k - 1) * 0x9E37, 15000, &towns[k - 1])) return 1;
             sf = &towns[k - 1];
         }
         if (ev_build(&ev[k], sf, &(bench_cam){0}, k ? o.rand_frames : o.city_frames, o.truth_w, o.truth_h) ||
             eval_accuracy(&ev[k], ctx, pts[k]))
             return 1;
         evp[k] = &ev[k];
-        fprintf(stderr, "report_cull: %s: references and accuracy in %.1f s\n", k ? g_towns[k - 1].name : "city",
+        fprintf(stderr, "report_cull: %s: references and accuracy in %.1f s\n", k ? bench_town_kind(k - 1)->name : "city",
                 (bench_now_ns() - t0) / 1e9);
     }
     double t0 = bench_now_ns();
@@ -1077,6 +1008,8 @@ int main(int argc, char **argv)
             a->fi_occ += b->fi_occ;
             a->thr_culled += b->thr_culled;
             a->thr_culled_vis += b->thr_culled_vis;
+            a->kept_diff += b->kept_diff;
+            a->kept_reused += b->kept_reused;
         }
     mark_pareto(rnd_pts, NPT);
 
@@ -1097,16 +1030,21 @@ int main(int argc, char **argv)
     if (city_stress(&city, &o, pool, cst)) return 1;
 
     /* ---- failures: false invisible anywhere ---- */
-    uint64_t fi = 0, wrong = 0;
+    uint64_t fi = 0, wrong = 0, kdiff = 0;
     for (int p = 0; p < NPT; p++) {
         fi += city_pts[p].fi_frustum + city_pts[p].fi_occ + rnd_pts[p].fi_frustum + rnd_pts[p].fi_occ;
+        kdiff += city_pts[p].kept_diff + rnd_pts[p].kept_diff;
     }
     for (int k = 0; k < NPROBE; k++)
         for (int c = 0; c < NFRUSTUM; c++) wrong += probe[k][c].wrong + probe[k][c].thread_diff;
     for (int k = 0; k < NCITY; k++) {
         wrong += cst[k].thread_diff;
-        for (int c = 0; c < NCFG; c++) fi += cst[k].p[c].fi_frustum + cst[k].p[c].fi_occ;
+        for (int c = 0; c < NCFG; c++) {
+            fi += cst[k].p[c].fi_frustum + cst[k].p[c].fi_occ;
+            kdiff += cst[k].p[c].kept_diff;
+        }
     }
+    wrong += kdiff;
     double t_total = (bench_now_ns() - t_start) / 1e9;
 
     /* ---- files ---- */
@@ -1125,7 +1063,7 @@ int main(int argc, char **argv)
     for (int p = 0; p < NPT; p++) csv_point(csv, "city", "city", p, &city_pts[p]);
     for (int p = 0; p < NPT; p++) csv_point(csv, "random", "all", p, &rnd_pts[p]);
     for (int k = 0; k < o.seeds; k++)
-        for (int p = 0; p < NPT; p++) csv_point(csv, "random", g_towns[k].name, p, &town_pts[k][p]);
+        for (int p = 0; p < NPT; p++) csv_point(csv, "random", bench_town_kind(k)->name, p, &town_pts[k][p]);
     fclose(csv);
 
     fprintf(sc, "table,case,config,cases,false_invisible,conservative_within_8eps,conservative_beyond_8eps,"
@@ -1174,18 +1112,24 @@ int main(int argc, char **argv)
             "centre/extent upper bound of the projected AABB rectangle;\n"
             "* *+ occlusion WxH*: spheres + AABB + the occlusion stage with the context rendering the "
             "occluders into its own WxH buffer every query (`occ_w`, `occ_h`; whole-pixel coverage, the "
-            "default), no area threshold. Its time includes the render: what a caller pays.\n\n"
+            "default), no area threshold, `CULL_Q_OCC_FRESH`: the occluders drawn every query. Its time "
+            "includes the render: what a caller pays for a moving camera;\n"
+            "* *+ occlusion WxH, kept buffer*: the same query asked twice per frame, as a still camera (a "
+            "viewer or commander stream re-querying one view) does: the first draws, the second, timed and "
+            "counted, goes through the buffer the context kept (issue 24). Its verdicts must equal the "
+            "freshly drawn buffer's, entity for entity (checked every frame: `make report` fails "
+            "otherwise).\n\n"
             "**Scenes.** The shared city scene (`%s`: 15,000 object AABBs as entities, 1,000 boxes as "
             "occluders), its camera walking %d frames 0.5 m apart toward the target, as `bench_cull --demo` "
             "and `bench_occlusion` do; and %d seeded random towns (%d frames each, 0.5 m apart): boxes of "
             "random footprint and height as occluders, 15,000 AABB entities with sides 0.2..10 m "
             "(log-uniform; 70 %% standing on the ground, the rest at 0..40 m), a camera at street level "
-            "outside every box (`town_make` in `tests/bench/report.c`):",
+            "outside every box (`bench_town_make` in `tests/bench/bench_scene.h`):",
             o.scene, o.city_frames, o.seeds, o.rand_frames);
     for (int k = 0; k < o.seeds; k++)
         fprintf(md, "%s *%s* (%d boxes in %.0f m square, footprints %.0f..%.0f m, heights %.0f..%.0f m)",
-                k ? "," : "", g_towns[k].name, g_towns[k].boxes, 2 * g_towns[k].half, g_towns[k].foot_lo,
-                g_towns[k].foot_hi, g_towns[k].h_lo, g_towns[k].h_hi);
+                k ? "," : "", bench_town_kind(k)->name, bench_town_kind(k)->boxes, 2 * bench_town_kind(k)->half, bench_town_kind(k)->foot_lo,
+                bench_town_kind(k)->foot_hi, bench_town_kind(k)->h_lo, bench_town_kind(k)->h_hi);
     fprintf(md,
             ". Views 60 degrees, near 0.1, far 2000, GL depth.\n\n"
             "**References**, per frame and entity, none sharing code with `culling/`:\n\n"
@@ -1287,9 +1231,19 @@ int main(int argc, char **argv)
             "each town), its times and counts; `stress.csv`: both stress tables' counts;\n"
             "* `time_vs_error.gp`: the gnuplot script with the plotted data inline; it draws "
             "`time_vs_error.svg` and `time_vs_error.png`.\n");
+    {
+        uint64_t kr = 0, kf = 0;
+        for (int p = 0; p < NPT; p++)
+            if (g_cfg[p / NTHR].still) kr += city_pts[p].kept_reused + rnd_pts[p].kept_reused,
+                                       kf += city_pts[p].frames + rnd_pts[p].frames;
+        fprintf(md, "\n**Kept buffers**: the still-camera configurations kept their buffer on %llu of %llu frames "
+                    "(city and towns); %llu verdicts through a kept buffer differed from the fresh buffer's "
+                    "(must be 0).\n",
+                (unsigned long long)kr, (unsigned long long)kf, (unsigned long long)kdiff);
+    }
     if (fi || wrong)
-        fprintf(md, "\n**FAILED: %llu false invisible, %llu wrong culls or thread differences in the stress "
-                    "tables.**\n",
+        fprintf(md, "\n**FAILED: %llu false invisible, %llu wrong culls, thread differences in the stress "
+                    "tables or kept-buffer verdicts that differ from a fresh buffer's.**\n",
                 (unsigned long long)fi, (unsigned long long)wrong);
     fclose(md);
 
@@ -1299,8 +1253,8 @@ int main(int argc, char **argv)
     scene_file_free(&city);
     cull_pool_destroy(pool);
     if (fi || wrong) {
-        fprintf(stderr, "report_cull: FAILED: %llu false invisible, %llu wrong culls or thread differences in the "
-                        "stress tables (see report.md)\n",
+        fprintf(stderr, "report_cull: FAILED: %llu false invisible, %llu wrong culls, thread differences in the "
+                        "stress tables or kept-buffer differences (see report.md)\n",
                 (unsigned long long)fi, (unsigned long long)wrong);
         return 3;
     }
