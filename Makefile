@@ -408,7 +408,8 @@ test-one: check-deps $(TEST_BIN)
 BUILD_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 test: check-deps
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=release build/release/vantage_tests build/release/bench_cull $(BLENDER_ZIP) \
-	  build/release/bench_occlusion build/release/bench_render build/release/bench_h264 build/release/cluster_editor
+	  build/release/bench_occlusion build/release/bench_render build/release/bench_h264 build/release/cluster_editor \
+	  build/release/cluster_bench
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=scalar build/scalar/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan build/asan/vantage_tests
 	@$(MAKE) --no-print-directory -j$(BUILD_JOBS) CONFIG=asan fuzz-replay
@@ -436,7 +437,7 @@ test-web: check-deps
 # loopback, a writer and replicas under faults, split brain, bad stream data (tests/cluster/run.py;
 # about 30 s)
 test-cluster: check-deps
-	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN) $(CLED_BIN)
+	@$(MAKE) --no-print-directory CONFIG=$(CONFIG) $(DAEMON_BIN) $(CLI_BIN) $(CLED_BIN) $(CLBN_BIN)
 	VANTAGE_BIN_DIR=$(BUILD) python3 tests/cluster/run.py
 
 # the cluster's numbers (BENCHMARKS.md, Scale-out): lag, throughput, catch-up of 1M records,

@@ -514,9 +514,6 @@ static void on_sublevel_list(server *s, conn *c, uint32_t req)
 
 /* ---- edits ----------------------------------------------------------------------------- */
 
-/* A change the daemon makes itself (a loading connection gone) goes
- * through the journal too; one that cannot be journaled is still made, and
- * the journal stops taking edits (replay would miss it). */
 /* An applied edit goes down the cluster's stream (the writer); one that
  * cannot is fatal: the scene holds what the stream does not, and no
  * answer may leave. Returns the stream sequence its answer waits for (0:
@@ -533,6 +530,9 @@ static uint64_t cluster_record(server *s, const edit *e, const uint8_t *p, uint3
     return cluster_waits(s->cluster) ? seq : 0;
 }
 
+/* A change the daemon makes itself (a loading connection gone) goes
+ * through the journal too; one that cannot be journaled is still made, and
+ * the journal stops taking edits (replay would miss it). */
 static int internal_edit(server *s, uint16_t type, uint16_t sublevel, uint32_t aux, edit_result *r, scene_err *err)
 {
     edit e = {.type = type, .sublevel = sublevel, .aux = aux};

@@ -465,9 +465,6 @@ static void conn_process(server *s, conn *c)
     if (why) conn_kill(s, c, why);
 }
 
-/* Replies from the workers: queued (linked, not copied), then the
- * connection's input goes on. A reply for a connection that ended, or
- * whose fd a new one took, is dropped. */
 /* News from the cluster (cluster.c): before_sleep takes it, every turn. */
 static void on_cluster(ae_loop *l, int fd, void *data, int mask)
 {
@@ -477,6 +474,9 @@ static void on_cluster(ae_loop *l, int fd, void *data, int mask)
     (void)mask;
 }
 
+/* Replies from the workers: queued (linked, not copied), then the
+ * connection's input goes on. A reply for a connection that ended, or
+ * whose fd a new one took, is dropped. */
 static void on_done(ae_loop *l, int fd, void *data, int mask)
 {
     (void)l;
@@ -704,8 +704,6 @@ static void before_sleep(ae_loop *l, void *data)
     uint64_t now_ms = ae_now_ms();
     bool sweep = now_ms >= s->sweep_ms; /* slow clients are looked for this turn */
     if (sweep) s->sweep_ms = now_ms + SWEEP_MS;
-    /* any edit moves the epoch (meshes, occluders and lights too); entity
-       edits also leave counts and bounds to tighten */
     /* the cluster's news: the stream's records applied (a replica), the
        stored acknowledgements counted (the writer), a promotion */
     if (s->cluster) {
@@ -720,6 +718,8 @@ static void before_sleep(ae_loop *l, void *data)
         }
     }
     bool writes = !s->cluster || cluster_role(s->cluster) == CLUSTER_WRITER;
+    /* any edit moves the epoch (meshes, occluders and lights too); entity
+       edits also leave counts and bounds to tighten */
     bool changed = sc->epoch != s->ev_epoch;
     s->ev_epoch = sc->epoch;
     /* unloads free their entities a slice a turn (the lock is held for

@@ -44,7 +44,8 @@ import tempfile
 import time
 
 BIN = os.environ.get("VANTAGE_BIN_DIR", "build/release")
-VANTAGED, VANTAGE, EDITOR = (os.path.join(BIN, n) for n in ("vantaged", "vantage", "cluster_editor"))
+VANTAGED, VANTAGE, EDITOR, BENCH = (os.path.join(BIN, n) for n in ("vantaged", "vantage", "cluster_editor",
+                                                                   "cluster_bench"))
 NATS = shutil.which("nats-server")
 LEASE_MS = 3000           # the default: the failover bound below is for it
 RUN_S = float(os.environ.get("VANTAGE_CLUSTER_RUN_S", "20"))
@@ -333,8 +334,7 @@ def phase_snapshots(urls):
     check(tb and wait_for(lambda: metric(lag, "vantage_scene_texture_bytes") == tb, 10),
           f"the replica holds the same texture bytes ({tb})")
     lag.p.send_signal(signal.SIGSTOP)  # ... and stalls while the stream is trimmed past it
-    bench = os.path.join(BIN, "cluster_bench")
-    r = subprocess.run([bench, "--writer", w.ep, "--rate", "0", "--batch", "100", "--max", "300", "--window", "8",
+    r = subprocess.run([BENCH, "--writer", w.ep, "--rate", "0", "--batch", "100", "--max", "300", "--window", "8",
                         "--seconds", "60"], capture_output=True, text=True, timeout=120)
     check(r.returncode == 0, "300 edits of 100 entities each acknowledged (about 4 MB of records)")
     n = wait_for(lambda: len(re.findall(r"snapshot as of stream message \d+ published", open(w.logf).read())) >= 2,
@@ -465,7 +465,7 @@ def phase_bad_data(nats, daemons):
 
 
 def main():
-    for f in (VANTAGED, VANTAGE, EDITOR):
+    for f in (VANTAGED, VANTAGE, EDITOR, BENCH):
         if not os.access(f, os.X_OK):
             print(f"run.py: {f} is missing: build first (make CONFIG=release all)", file=sys.stderr)
             return 2
