@@ -238,27 +238,41 @@ static int call(vtc_client *c, vp_writer *w, uint32_t req, uint16_t want, reply_
     int rc = roundtrip(c, w, req, want, &p, &len);
     /* a replica's NOT_WRITER names the writer first: the same request
        again, there (its bytes kept: the new connection's HELLO reuses the
-       send buffer) */
-    for (int hop = 0; rc == VP_ERR_NOT_WRITER && !c->opts.no_follow && hop < 3; hop++) {
+       send buffer). While no writer is known ("-"), or the one named cannot
+       be reached (it died and the replica has not seen it yet), the request
+       is asked again here every 100 ms: a failover takes about the lease's
+       TTL, and the call waits it out (up to its timeout, 10 s at most) */
+    uint8_t *copy = NULL;
+    size_t clen = 0;
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    long budget_ms = c->timeout_ms > 0 && c->timeout_ms < 10000 ? c->timeout_ms : 10000;
+    for (int hop = 0; rc == VP_ERR_NOT_WRITER && !c->opts.no_follow && hop < 3;) {
+        if (!copy) {
+            if (!(copy = malloc(w->len))) break;
+            memcpy(copy, w->p, w->len);
+            clen = w->len;
+        }
         char ep[256];
         int n = 0;
         while (n < (int)sizeof ep - 1 && c->err.msg[n] && c->err.msg[n] != ' ') ep[n] = c->err.msg[n], n++;
         ep[n] = 0;
-        if (!n || !strcmp(ep, "-") || !strcmp(ep, c->endpoint)) break; /* no writer now: the caller retries */
-        uint8_t *copy = malloc(w->len);
-        if (!copy) break;
-        memcpy(copy, w->p, w->len);
-        size_t clen = w->len;
-        if ((rc = redirect(c, ep))) {
-            free(copy);
-            return rc;
+        bool named = n && strcmp(ep, "-") && strcmp(ep, c->endpoint);
+        if (named && redirect(c, ep) == VP_OK) {
+            hop++;
+        } else {
+            struct timespec t;
+            clock_gettime(CLOCK_MONOTONIC, &t);
+            long ms = (long)(t.tv_sec - t0.tv_sec) * 1000 + (t.tv_nsec - t0.tv_nsec) / 1000000;
+            if (ms + 100 > budget_ms) break; /* c->err says why: NOT_WRITER, or the writer unreachable */
+            nanosleep(&(struct timespec){.tv_nsec = 100000000}, NULL);
         }
         vp_writer again;
         vp_writer_init(&again, copy, clen);
         again.len = clen;
         rc = roundtrip(c, &again, req, want, &p, &len);
-        free(copy);
     }
+    free(copy);
     if (rc || !dec) return rc;
     return decoded(c, want, dec(p, len, out));
 }
@@ -308,49 +322,6 @@ static int ack_epoch(vtc_client *c, vp_writer *w, uint32_t req, uint64_t *epoch)
     int rc = call(c, w, req, VP_ACK, dec_ack, &a);
     if (!rc && epoch) *epoch = a.epoch;
     return rc;
-}
-
-static int connect_fd(const vtc_connect_opts *o, char *err, size_t errlen)
-{
-    int fd = -1;
-    if (o->unix_path && *o->unix_path) {
-        struct sockaddr_un sa = {.sun_family = AF_UNIX};
-        if (strlen(o->unix_path) >= sizeof sa.sun_path) {
-            snprintf(err, errlen, "socket path too long");
-            return -1;
-        }
-        strcpy(sa.sun_path, o->unix_path);
-        fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-        if (fd < 0 || connect(fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
-            snprintf(err, errlen, "%s: %s", o->unix_path, strerror(errno));
-            if (fd >= 0) close(fd);
-            return -1;
-        }
-        return fd;
-    }
-    char port[16];
-    snprintf(port, sizeof port, "%d", o->port ? o->port : VTC_DEFAULT_PORT);
-    struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM}, *res = NULL;
-    const char *host = o->host && *o->host ? o->host : "127.0.0.1";
-    int g = getaddrinfo(host, port, &hints, &res);
-    if (g) {
-        snprintf(err, errlen, "%s: %s", host, gai_strerror(g));
-        return -1;
-    }
-    for (struct addrinfo *a = res; a; a = a->ai_next) {
-        fd = socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
-        if (fd < 0) continue;
-        if (connect(fd, a->ai_addr, a->ai_addrlen) == 0) break;
-        snprintf(err, errlen, "%s:%s: %s", host, port, strerror(errno));
-        close(fd);
-        fd = -1;
-    }
-    freeaddrinfo(res);
-    if (fd >= 0) {
-        int one = 1;
-        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    }
-    return fd;
 }
 
 static int connect_one(const vtc_connect_opts *o, vtc_client **out, char *err, size_t errlen);
@@ -434,7 +405,7 @@ static int connect_one(const vtc_connect_opts *o, vtc_client **out, char *err, s
         return VTC_ERR_IO;
     }
     c->timeout_ms = d.timeout_ms == 0 ? 10000 : d.timeout_ms < 0 ? -1 : d.timeout_ms;
-    if ((c->fd = connect_fd(&d, err, errlen)) < 0) {
+    if ((c->fd = vtc_connect_fd(&d, err, errlen)) < 0) {
         free(c);
         return VTC_ERR_IO;
     }

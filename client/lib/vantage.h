@@ -66,7 +66,9 @@ typedef struct vtc_connect_opts {
     const char *endpoints;
     /* An edit answered NOT_WRITER (sent to a replica) is sent again to the
      * writer the answer names, on a new connection that replaces this one
-     * (at most 3 hops), unless no_follow. */
+     * (at most 3 hops), unless no_follow; while no writer is known, or the
+     * one named cannot be reached (a failover), it is asked again every
+     * 100 ms for up to the call's timeout (10 s at most). */
     bool no_follow;
 } vtc_connect_opts;
 

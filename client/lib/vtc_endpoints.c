@@ -1,11 +1,20 @@
 /*
- * vtc_endpoints.c — libvantage's endpoint lists (vtc_connect_opts.endpoints,
- * a cluster's daemons): split at commas, each entry made connect options.
+ * vtc_endpoints.c — where libvantage connects: one endpoint's socket (TCP
+ * or Unix), and endpoint lists (vtc_connect_opts.endpoints, a cluster's
+ * daemons) split at commas, each entry made connect options.
  */
 #include "vtc_endpoints.h"
 
+#include <errno.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 
 size_t vtc_endpoint_split(const char *list, const char **eps, size_t *lens, size_t max)
 {
@@ -47,3 +56,45 @@ bool vtc_endpoint_parse(const char *ep, size_t n, vtc_connect_opts *d, char *hos
     return true;
 }
 
+int vtc_connect_fd(const vtc_connect_opts *o, char *err, size_t errlen)
+{
+    int fd = -1;
+    if (o->unix_path && *o->unix_path) {
+        struct sockaddr_un sa = {.sun_family = AF_UNIX};
+        if (strlen(o->unix_path) >= sizeof sa.sun_path) {
+            snprintf(err, errlen, "socket path too long");
+            return -1;
+        }
+        strcpy(sa.sun_path, o->unix_path);
+        fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0 || connect(fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
+            snprintf(err, errlen, "%s: %s", o->unix_path, strerror(errno));
+            if (fd >= 0) close(fd);
+            return -1;
+        }
+        return fd;
+    }
+    char port[16];
+    snprintf(port, sizeof port, "%d", o->port ? o->port : VTC_DEFAULT_PORT);
+    struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM}, *res = NULL;
+    const char *host = o->host && *o->host ? o->host : "127.0.0.1";
+    int g = getaddrinfo(host, port, &hints, &res);
+    if (g) {
+        snprintf(err, errlen, "%s: %s", host, gai_strerror(g));
+        return -1;
+    }
+    for (struct addrinfo *a = res; a; a = a->ai_next) {
+        fd = socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
+        if (fd < 0) continue;
+        if (connect(fd, a->ai_addr, a->ai_addrlen) == 0) break;
+        snprintf(err, errlen, "%s:%s: %s", host, port, strerror(errno));
+        close(fd);
+        fd = -1;
+    }
+    freeaddrinfo(res);
+    if (fd >= 0) {
+        int one = 1;
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    }
+    return fd;
+}

@@ -19,4 +19,8 @@ size_t vtc_endpoint_split(const char *list, const char **eps, size_t *lens, size
 bool vtc_endpoint_parse(const char *ep, size_t n, vtc_connect_opts *d, char *host, size_t hostlen, char *path,
                         size_t pathlen);
 
+/* A connected socket to o's unix_path, or host:port (TCP_NODELAY), or -1
+ * with err saying why. */
+int vtc_connect_fd(const vtc_connect_opts *o, char *err, size_t errlen);
+
 #endif

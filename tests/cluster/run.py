@@ -238,9 +238,15 @@ def phase_convergence(nats, urls):
     log("kill -9 the writer")
     w.kill9()
     tk = time.monotonic()
+    # an edit sent by the CLI in the middle of the failover waits it out
+    during = subprocess.Popen([VANTAGE, "-h", f"{r1.ep},{r2.ep}", "add", "990001", "9,9,9", "1"],
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     new = wait_for(lambda: next((d for d in (r1, r2) if d.role() == "writer"), None), 15, 0.05)
     took = time.monotonic() - tk
     check(new is not None and took < 5.0, f"a replica took over {took:.2f} s after the writer died (under 5 s)")
+    out, _ = during.communicate(timeout=30)
+    check(during.returncode == 0, "an edit the CLI sent during the failover waited and was applied: " +
+          out.strip()[-120:])
     at(15)
     log("the old writer restarted")
     w.start()
