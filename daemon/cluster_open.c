@@ -244,8 +244,7 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
         usleep(500000);
     }
     /* the newest snapshot, then the stream after it */
-    int loaded;
-    while ((loaded = cl_snap_load(cl, sc, first, err, errlen)) < 0) {
+    while (cl_snap_load(cl, sc, first, err, errlen) < 0) {
         if (cl_mono_ms() > patience || !strstr(err, "snapshot index:")) {
             cluster_close(cl);
             return -1;
@@ -293,27 +292,25 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     uint64_t rev = 0;
     int64_t sent = cl_mono_ms();
     natsStatus s = cfg->follow ? NATS_ERR : kvStore_Create(&rev, cl->kv, "writer", cl->value, (int)strlen(cl->value));
-    {
-        if (s == NATS_OK) {
-            atomic_store(&cl->renewed, sent);
-            cl->lease_rev = rev;
-            atomic_store(&cl->role, CLUSTER_PROMOTING);
-            if (!cl_promote(cl, sc, NULL) || cl->startup_err[0]) {
-                snprintf(err, errlen, "%s", cl->startup_err);
-                cluster_close(cl);
-                return -1;
-            }
-            cl->promotions = 0;
-            *fresh = cl->applied == 0;
-        } else {
-            kvEntry *e = NULL;
-            if (kvStore_Get(&e, cl->kv, "writer") == NATS_OK) {
-                cl_lease_writer_seen(cl, e);
-                kvEntry_Destroy(e);
-            }
-            LOGI("cluster %s: %s holds the lease: this daemon is a replica", cl->name,
-                 strcmp(cl->writer, "-") ? cl->writer : "no daemon");
+    if (s == NATS_OK) {
+        atomic_store(&cl->renewed, sent);
+        cl->lease_rev = rev;
+        atomic_store(&cl->role, CLUSTER_PROMOTING);
+        if (!cl_promote(cl, sc, NULL) || cl->startup_err[0]) {
+            snprintf(err, errlen, "%s", cl->startup_err);
+            cluster_close(cl);
+            return -1;
         }
+        cl->promotions = 0;
+        *fresh = cl->applied == 0;
+    } else {
+        kvEntry *e = NULL;
+        if (kvStore_Get(&e, cl->kv, "writer") == NATS_OK) {
+            cl_lease_writer_seen(cl, e);
+            kvEntry_Destroy(e);
+        }
+        LOGI("cluster %s: %s holds the lease: this daemon is a replica", cl->name,
+             strcmp(cl->writer, "-") ? cl->writer : "no daemon");
     }
     cl->startup = false;
     if (pthread_create(&cl->lease_thr, NULL, cl_lease_main, cl)) {
