@@ -197,31 +197,25 @@ uint64_t cl_header_u64(natsMsg *m, const char *key, bool *ok)
  * false with the reason logged (cl_fatal) when it is not ours to apply. */
 static bool apply_msg(cluster *cl, scene *sc, natsMsg *m, uint64_t seq)
 {
-    if (seq > cl->applied + 1 && !cl->startup) {
-        /* trimmed past this replica while it was behind: the loop starts
-           it again from the newest snapshot (rebuild) */
-        LOGW("cluster %s: stream message %" PRIu64 " came after %" PRIu64 ": the stream was trimmed past this "
-             "replica", cl->name, seq, cl->applied);
-        atomic_store(&cl->rebuild, true);
-        return false;
-    }
     const char *lease = NULL, *part = NULL;
     natsMsgHeader_Get(m, "Vantage-Lease", &lease);
     if (natsMsgHeader_Get(m, "Vantage-Part", &part) != NATS_OK) part = NULL;
     const uint8_t *rec;
     size_t rlen;
     char why[300];
-    cl->as.applied = cl->applied;
-    cl->as.recs = cl->recs;
-    cl->as.max_lease = cl->max_lease;
     int k = cl_asm_take(&cl->as, seq, lease, part, (const uint8_t *)natsMsg_GetData(m),
                         (size_t)natsMsg_GetDataLength(m), &rec, &rlen, why, sizeof why);
-    cl->applied = cl->as.applied;
-    cl->recs = cl->as.recs;
-    cl->max_lease = cl->as.max_lease;
+    if (k == CL_ASM_GAP && !cl->startup) {
+        /* trimmed past this replica while it was behind: the loop starts
+           it again from the newest snapshot (rebuild) */
+        LOGW("cluster %s: stream message %" PRIu64 " came after %" PRIu64 ": the stream was trimmed past this "
+             "replica", cl->name, seq, cl->as.applied);
+        atomic_store(&cl->rebuild, true);
+        return false;
+    }
     if (k == CL_ASM_GAP)
         return cl_fatal(cl, "stream message %" PRIu64 " came after %" PRIu64 ": the stream has a gap (trimmed or "
-                        "purged past this daemon)", seq, cl->applied);
+                        "purged past this daemon)", seq, cl->as.applied);
     if (k == CL_ASM_BAD) return cl_fatal(cl, "%s", why);
     if (k == CL_ASM_PART) return true;
     scene_err se = {0};
@@ -230,7 +224,7 @@ static bool apply_msg(cluster *cl, scene *sc, natsMsg *m, uint64_t seq)
     int rc = journal_rec_apply(sc, rec, 2, &se);
     sc->replaying = was;
     if (rc)
-        return cl_fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 ") cannot be applied: %s", seq, cl->recs,
+        return cl_fatal(cl, "stream message %" PRIu64 " (record %" PRIu64 ") cannot be applied: %s", seq, cl->as.recs,
                         se.msg);
     return true;
 }
@@ -257,7 +251,7 @@ bool cl_apply_queue(cluster *cl, scene *sc, pthread_rwlock_t *lock, bool *more)
         jsMsgMetaData *meta = NULL;
         natsStatus s = natsMsg_GetMetaData(&meta, m);
         bool ok = s == NATS_OK;
-        if (!ok) cl_fatal(cl, "a stream message after %" PRIu64 " without JetStream metadata: %s", cl->applied,
+        if (!ok) cl_fatal(cl, "a stream message after %" PRIu64 " without JetStream metadata: %s", cl->as.applied,
                        natsStatus_GetText(s));
         else ok = apply_msg(cl, sc, m, meta->Sequence.Stream);
         if (meta) {
@@ -339,7 +333,7 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
     size_t rlen = JOURNAL_REC_HDR + (size_t)len;
     uint8_t *rec = malloc(rlen);
     if (!rec) return 0;
-    journal_rec_header(rec, cl->recs + 1, e->type, e->sublevel, e->aux, p, len);
+    journal_rec_header(rec, cl->as.recs + 1, e->type, e->sublevel, e->aux, p, len);
     if (len) memcpy(rec + JOURNAL_REC_HDR, p, len);
     uint32_t parts = (uint32_t)((rlen + (size_t)cl->max_part - 1) / (size_t)cl->max_part);
     pthread_mutex_lock(&cl->mu);
@@ -360,7 +354,7 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
             cl->pcap = cap;
         }
         size_t off = (size_t)i * (size_t)cl->max_part, n = rlen - off < (size_t)cl->max_part ? rlen - off : (size_t)cl->max_part;
-        pend_msg pm = {.seq = cl->applied + 1, .lease = lease, .len = (uint32_t)n};
+        pend_msg pm = {.seq = cl->as.applied + 1, .lease = lease, .len = (uint32_t)n};
         if (parts > 1) snprintf(pm.part, sizeof pm.part, "%u/%u", i + 1, parts);
         pm.data = malloc(n ? n : 1);
         if (!pm.data) {
@@ -375,20 +369,20 @@ uint64_t cluster_publish(cluster *cl, const edit *e, const uint8_t *p, uint32_t 
         natsStatus s = m ? js_PublishMsgAsync(cl->js, &m, &po) : NATS_NO_MEMORY;
         if (m) natsMsg_Destroy(m);
         if (s != NATS_OK) {
-            LOGE("cluster %s: record %" PRIu64 " could not be published: %s", cl->name, cl->recs + 1, cl_nats_why(s));
+            LOGE("cluster %s: record %" PRIu64 " could not be published: %s", cl->name, cl->as.recs + 1, cl_nats_why(s));
             free(pm.data);
             free(rec);
             return 0;
         }
         cl->pend[(cl->phead + cl->pn++) % cl->pcap] = pm;
         cl->pbytes += n;
-        cl->applied++;
+        cl->as.applied++;
     }
     free(rec);
-    cl->recs++;
+    cl->as.recs++;
     cl->since_snap += rlen;
     cl->last_lease = lease;
-    return cl->applied;
+    return cl->as.applied;
 }
 
 /* A publish failed, or its answer was lost: finds out what the stream
@@ -473,7 +467,7 @@ static void recover(cluster *cl, const char *what)
             pend_pop_stored(cl, p->seq);
         }
     }
-    LOGI("cluster %s: the stream holds every record up to %" PRIu64, cl->name, cl->applied);
+    LOGI("cluster %s: the stream holds every record up to %" PRIu64, cl->name, cl->as.applied);
 }
 
 /* ---- the lease ----------------------------------------------------------------------------- */
@@ -585,14 +579,14 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
         jsStreamInfo_Destroy(si);
         if (lock) pthread_rwlock_wrlock(lock);
         bool ok = true;
-        while (ok && cl->applied < last) {
+        while (ok && cl->as.applied < last) {
             natsMsg *m = NULL;
-            s = js_GetMsg(&m, cl->js, cl->stream, cl->applied + 1, &cl->quick, &jerr);
+            s = js_GetMsg(&m, cl->js, cl->stream, cl->as.applied + 1, &cl->quick, &jerr);
             if (s != NATS_OK) {
                 ok = false;
                 break;
             }
-            ok = apply_msg(cl, sc, m, cl->applied + 1);
+            ok = apply_msg(cl, sc, m, cl->as.applied + 1);
             natsMsg_Destroy(m);
         }
         if (!sc->unloading) cull_world_commit(sc->world);
@@ -604,12 +598,12 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
         if (cl_mono_ms() > give_up) return cl_fatal(cl, "cannot read the stream's end to take over");
         usleep(100000);
     }
-    if (cl->as.got) return cl_fatal(cl, "the last writer left record %" PRIu64 " in parts", cl->recs + 1);
+    if (cl->as.got) return cl_fatal(cl, "the last writer left record %" PRIu64 " in parts", cl->as.recs + 1);
     pthread_mutex_lock(&cl->mu);
-    cl->acked = cl->applied;
+    cl->acked = cl->as.applied;
     pthread_mutex_unlock(&cl->mu);
     cl_snap_refresh(cl);
-    cl->last_lease = cl->max_lease; /* the last message's, until this writer publishes */
+    cl->last_lease = cl->as.max_lease; /* the last message's, until this writer publishes */
     atomic_store(&cl->role, CLUSTER_WRITER);
     cl->promotions++;
     /* loads the last writer's editors left open: their connections are
@@ -635,7 +629,7 @@ bool cl_promote(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     }
     if (lock) pthread_rwlock_unlock(lock);
     LOGI("cluster %s: writing from stream message %" PRIu64 " (record %" PRIu64 ", epoch %" PRIu64 ")", cl->name,
-         cl->applied, cl->recs, sc->epoch);
+         cl->as.applied, cl->as.recs, sc->epoch);
     return true;
 }
 
@@ -676,18 +670,17 @@ static bool rebuild(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     scene_free(sc);
     if (scene_init(sc, cl->cfg.cell_size, &lim)) cl_fatal(cl, "out of memory for the scene");
     sc->texture_gens = gens + 1;
-    cl->applied = cl->recs = cl->max_lease = 0;
     cl_asm_reset(&cl->as, 0, 0, 0);
     char err[500];
     if (cl_snap_load(cl, sc, first, err, sizeof err) < 0) cl_fatal(cl, "starting again from a snapshot: %s", err);
     cull_world_commit(sc->world);
     if (lock) pthread_rwlock_unlock(lock);
-    for (int tries = 0; cl_subscribe_from(cl, cl->applied + 1, err, sizeof err); tries++) {
+    for (int tries = 0; cl_subscribe_from(cl, cl->as.applied + 1, err, sizeof err); tries++) {
         if (tries == 40) cl_fatal(cl, "%s", err);
         usleep(250000);
     }
     LOGW("cluster %s: started again from %s %" PRIu64 " in %" PRIu64 " ms (epoch %" PRIu64 " -> %" PRIu64 ")",
-         cl->name, cl->applied ? "the snapshot as of stream message" : "the stream's start, message", cl->applied + !cl->applied,
+         cl->name, cl->as.applied ? "the snapshot as of stream message" : "the stream's start, message", cl->as.applied + !cl->as.applied,
          (uint64_t)(cl_mono_ms() - t0), was, sc->epoch);
     return true;
 }
@@ -749,11 +742,11 @@ bool cluster_poll(cluster *cl, scene *sc, pthread_rwlock_t *lock)
         if (lost) {
             atomic_store(&cl->role, CLUSTER_REPLICA);
             char err[300];
-            for (int tries = 0; cl_subscribe_from(cl, cl->applied + 1, err, sizeof err); tries++) {
+            for (int tries = 0; cl_subscribe_from(cl, cl->as.applied + 1, err, sizeof err); tries++) {
                 if (tries == 20) cl_fatal(cl, "%s", err);
                 usleep(250000);
             }
-            LOGW("cluster %s: now a replica, from stream message %" PRIu64, cl->name, cl->applied + 1);
+            LOGW("cluster %s: now a replica, from stream message %" PRIu64, cl->name, cl->as.applied + 1);
         }
     }
     if (more) cl_wake(cl);
@@ -802,8 +795,8 @@ void cluster_stats_get(cluster *cl, cluster_stats *o)
 {
     memset(o, 0, sizeof *o);
     o->role = atomic_load(&cl->role);
-    o->applied = cl->applied;
-    o->records = cl->recs;
+    o->applied = cl->as.applied;
+    o->records = cl->as.recs;
     o->promotions = cl->promotions;
     o->snapshots = atomic_load(&cl->snapshots);
     pthread_mutex_lock(&cl->mu);
@@ -811,6 +804,6 @@ void cluster_stats_get(cluster *cl, cluster_stats *o)
     o->lease_rev = o->role == CLUSTER_REPLICA ? 0 : cl->lease_rev;
     snprintf(o->writer, sizeof o->writer, "%s", o->role == CLUSTER_WRITER ? cl->cfg.advertise : cl->writer);
     pthread_mutex_unlock(&cl->mu);
-    o->last = cl->last_seen > cl->applied ? cl->last_seen : cl->applied;
+    o->last = cl->last_seen > cl->as.applied ? cl->last_seen : cl->as.applied;
 }
 

@@ -60,12 +60,10 @@ struct cluster {
     bool unsub_on;
     atomic_int role;
     /* the loop's own */
-    uint64_t applied;               /* the stream sequence applied (replica) or published (writer) */
-    uint64_t recs;                  /* the last record's number */
-    uint64_t max_lease;             /* the highest lease revision seen on the stream */
     uint64_t last_seen;
-    cl_asm as;                      /* messages made records (its applied, recs, max_lease: copies of the
-                                       above while a message is taken) */
+    cl_asm as;                      /* messages made records, and where the scene stands: as.applied the
+                                       stream sequence applied (replica) or published (writer), as.recs
+                                       the last record's number, as.max_lease the highest lease seen */
     pend_msg *pend;                 /* published, not yet stored, oldest first (a ring) */
     size_t phead, pn, pcap, pbytes;
     uint64_t promotions, started_ms;

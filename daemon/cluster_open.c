@@ -254,7 +254,7 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     }
     /* the stream from its start, applied to its end as it was at open */
     uint64_t t0 = (uint64_t)cl_mono_ms(), told = t0;
-    while (cl_subscribe_from(cl, cl->applied + 1, err, errlen)) {
+    while (cl_subscribe_from(cl, cl->as.applied + 1, err, errlen)) {
         if (cl_mono_ms() > patience) {
             cluster_close(cl);
             return -1;
@@ -262,7 +262,7 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
         LOGW("cluster %s: %s: trying again", cl->name, err);
         usleep(500000);
     }
-    while (cl->applied < last && !cl->startup_err[0]) {
+    while (cl->as.applied < last && !cl->startup_err[0]) {
         pthread_mutex_lock(&cl->mu);
         if (!cl->qn) {
             struct timespec until;
@@ -276,7 +276,7 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
         uint64_t now = (uint64_t)cl_mono_ms();
         if (now - told > 2000) {
             told = now;
-            LOGI("cluster %s: catching up, stream message %" PRIu64 " of %" PRIu64, cl->name, cl->applied, last);
+            LOGI("cluster %s: catching up, stream message %" PRIu64 " of %" PRIu64, cl->name, cl->as.applied, last);
         }
     }
     if (cl->startup_err[0]) {
@@ -286,7 +286,7 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
     }
     cull_world_commit(sc->world);
     LOGI("cluster %s: %" PRIu64 " stream messages (%" PRIu64 " records) applied in %" PRIu64 " ms: epoch %" PRIu64,
-         cl->name, cl->applied, cl->recs, (uint64_t)cl_mono_ms() - t0, sc->epoch);
+         cl->name, cl->as.applied, cl->as.recs, (uint64_t)cl_mono_ms() - t0, sc->epoch);
     /* a writer candidate takes a free lease now; a replica learns whom
        to send edits to (before its first client asks) */
     uint64_t rev = 0;
@@ -302,7 +302,7 @@ int cluster_open(const cluster_config *cfg, scene *sc, cluster **out, bool *fres
             return -1;
         }
         cl->promotions = 0;
-        *fresh = cl->applied == 0;
+        *fresh = cl->as.applied == 0;
     } else {
         kvEntry *e = NULL;
         if (kvStore_Get(&e, cl->kv, "writer") == NATS_OK) {

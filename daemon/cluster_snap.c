@@ -181,9 +181,7 @@ int cl_snap_load(cluster *cl, scene *sc, uint64_t first, char *err, size_t errle
         return -1;
     }
     free(buf);
-    cl->applied = x.seq;
-    cl->recs = x.records;
-    cl->max_lease = x.lease;
+    cl_asm_reset(&cl->as, x.seq, x.records, x.lease);
     cl->snap_prev_seq = x.seq;
     cl->snap_prev_first = x.first;
     LOGI("cluster %s: snapshot as of stream message %" PRIu64 " (%" PRIu64 " records, %.1f MB) loaded in %" PRIu64
@@ -309,8 +307,8 @@ void cl_snap_poll(cluster *cl, const scene *sc)
     if (atomic_load(&cl->role) != CLUSTER_WRITER || cl->as.got) return;
     int fd = memfd_create("vantage-snapshot", MFD_CLOEXEC);
     if (fd < 0) return;
-    cl->snap_seq = cl->applied;
-    cl->snap_recs = cl->recs;
+    cl->snap_seq = cl->as.applied;
+    cl->snap_recs = cl->as.recs;
     cl->snap_lease = cl->last_lease; /* message S's id is "LEASE-S" with the lease it was published under */
     pid_t parent = getpid();
     pid_t pid = fork();
