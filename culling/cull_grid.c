@@ -304,6 +304,7 @@ int cull_grid_reserve(cull_world *w, uint32_t gi, const int32_t k[3], cull_cell 
     empty_bounds_f(c->bmin, c->bmax);
     region_link(g, r);
     c->region = r;
+    c->stamp = ++w->stamp;
     c->index = r->ncells;
     r->cells[r->ncells++] = c;
     map_insert_nogrow(&g->cell_map, c);
@@ -343,6 +344,7 @@ void cull_grid_store(cull_world *w, cull_cell *c, uint32_t i, const cull_entity_
     b->handle[l] = h;
     b->class_sub[l] = (uint32_t)d->class_id | (uint32_t)d->sublevel << 16;
     c->subs |= 1ull << (d->sublevel & 63);
+    c->stamp = ++w->stamp;
     /* grow the cell bounds to hold both the sphere and the AABB; float sums
        may round inward by half an ulp, so pad one ulp */
     float lo[3] = {fminf(b->x[l] - b->r[l], b->minx[l]), fminf(b->y[l] - b->r[l], b->miny[l]),
@@ -428,6 +430,7 @@ void cull_grid_take_out(cull_world *w, cull_cell *c, uint32_t i)
         w->slots[h & CULL_SLOT_MASK].lane = i;
     }
     c->count--;
+    c->stamp = ++w->stamp;
     w->grid[c->grid].entities--;
     if (c->count <= (c->nblocks - 1) * CULL_BLOCK_CAP) {
         cull_block *b = c->blocks[--c->nblocks];
@@ -451,6 +454,7 @@ void cull_grid_commit(cull_world *w)
     for (uint32_t d = 0; d < w->ndirty; d++) {
         cull_cell *c = w->dirty[d];
         c->dirty_pos = 0;
+        c->stamp = ++w->stamp;
         empty_bounds_f(c->bmin, c->bmax);
         c->subs = 0;
         for (uint32_t i = 0; i < c->count; i++) {

@@ -51,6 +51,9 @@ typedef struct cull_cell {
     uint32_t dirty_pos;     /* index in the world's dirty list + 1; 0 = clean */
     uint64_t subs;          /* bit s % 64 for every sub-level s it holds (may
                                keep bits of removed entities until commit) */
+    uint64_t stamp;         /* w->stamp when its entities or bounds last
+                               changed: a kept occlusion buffer's verdicts
+                               for its blocks stand while it is the same */
 } cull_cell;
 
 /* Cell bounds for the SIMD cell stage: six arrays of cap doubles (world
@@ -181,6 +184,8 @@ struct cull_world {
        version) names what cull_occ_render draws (a query context's reuse
        of a view's occlusion buffer, cull_query.c) */
     uint64_t   occ_version;
+    /* one more with every change to a cell (cull_cell.stamp) */
+    uint64_t   stamp;
 };
 
 void cull_occluders_free(cull_world *w);
@@ -233,6 +238,11 @@ typedef struct cull_kview {
     const struct cull_occ_buffer *occ;
     float    cd[4];
     float    occ_sx, occ_sy, occ_w, occ_h;
+    /* 1: every block of the cell has a standing record (cull_occ_memo.blk):
+       the occlusion stage reads the records, and cd / occ_* (and the clip
+       rows unless the area stage runs) are not filled */
+    uint32_t hot;
+    uint32_t pmask;         /* bit i: the view's plane i is among px..pd */
 } cull_kview;
 
 /* One block's occlusion verdicts against a buffer the query context keeps
@@ -247,6 +257,14 @@ typedef struct cull_occ_memo {
     const struct cull_occ_buffer *occ;
     float    kv[20];        /* cx, cy, cw, cd, occ_sx, occ_sy, occ_w, occ_h */
     bool     valid;         /* cleared whenever the buffer is drawn */
+    /* the block, its cell's stamp and the view's planes the cell straddled
+       when the kernel last ran over it whole: while all three are the
+       same, the lanes that reach the occlusion stage are the recorded ones
+       with the recorded boxes, and a query takes the verdicts without
+       comparing boxes (cull_kview.hot) */
+    const struct cull_block *blk;
+    uint64_t stamp;
+    uint32_t pmask;
 } cull_occ_memo;
 
 typedef struct cull_kparams {

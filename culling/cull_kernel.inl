@@ -514,7 +514,15 @@ single_view(const cull_block *restrict b, uint32_t n, const cull_kview *restrict
         }
         nr += (uint32_t)__builtin_popcount(live);
         if (k->occ) {
-            live = occ_group(k, b, o, live, memo);
+            if (k->hot) {
+                /* the record stands: its verdicts for the lanes it tested
+                   (the same lanes, by the record's terms; one it did not
+                   would stay visible, never be hidden) */
+                const uint32_t in = (uint32_t)(memo->in >> o), vis = (uint32_t)(memo->vis >> o);
+                live &= vis | ~in;
+            } else {
+                live = occ_group(k, b, o, live, memo);
+            }
             if (!live) continue;
         }
         no += (uint32_t)__builtin_popcount(live);
@@ -538,8 +546,11 @@ uint32_t CULL_KERNEL_NAME(const cull_block *restrict b, uint32_t n, const cull_k
     if (nv == 1) {
         const int am = !want_area ? 0 : exact_area ? 2 : 1;
         uint32_t cs = 0, ca = 0, cr = 0, co = 0, written;
-        if (memo && kv->occ) occ_memo_start(memo, kv);
-        else memo = NULL;
+        if (memo && kv->occ) {
+            if (!kv->hot) occ_memo_start(memo, kv);
+        } else {
+            memo = NULL;
+        }
 #define CULL_ONE(NP) single_view(b, n, kv, NP, aabb, am, min_area, p->count_only, out, &cs, &ca, &cr, &co, memo)
         switch (kv->nplanes) {
         case 0: written = CULL_ONE(0); break;

@@ -33,6 +33,7 @@ typedef struct cull_item {
     uint32_t n;       /* entities in the block */
     uint32_t kv_off;  /* first cull_kview of its cell */
     uint32_t nv;      /* views the cell kept */
+    cull_occ_memo *rec; /* its record against a kept buffer, or NULL */
 } cull_item;
 
 typedef struct cull_chunk {
@@ -47,6 +48,8 @@ typedef struct occ_cell_memo {
     double origin[3];
     float  bmin[3], bmax[3];
     bool   occluded;
+    const cull_cell *cell;  /* the cell and its stamp last seen with these */
+    uint64_t stamp;         /* bounds: the same again, no compare */
 } occ_cell_memo;
 
 /* What a context's occlusion buffer for one view index was rendered
@@ -72,6 +75,11 @@ typedef struct occ_key {
        each): invalidated whenever the buffer is drawn */
     cull_occ_memo *bmemo;
     uint32_t bmemo_cap;
+    /* the kernel parameters the records were made with (a record that
+       stands says which lanes reach the occlusion stage: the same only
+       for the same stages) */
+    float kp_min_area;
+    uint32_t kp_flags;
 } occ_key;
 
 #define OCC_BLOCK_MEMO_MAX 2048u
@@ -96,8 +104,6 @@ struct cull_ctx {
     cull_result *tres[MAX_THREADS];
     uint32_t tres_cap[MAX_THREADS];
     cull_occ_buffer *occ[CULL_MAX_VIEWS]; /* per view index, made on demand */
-    cull_occ_memo **imemo;                 /* per item: its record against a kept buffer, or NULL */
-    uint32_t imemo_cap;
     occ_key occ_key[CULL_MAX_VIEWS];      /* what each was rendered from */
 };
 
@@ -121,7 +127,6 @@ void cull_ctx_destroy(cull_ctx *c)
     free(c->codes);
     free(c->items);
     free(c->chunks);
-    free(c->imemo);
     for (uint32_t i = 0; i < MAX_THREADS; i++) free(c->tres[i]);
     for (uint32_t i = 0; i < CULL_MAX_VIEWS; i++) {
         cull_occ_buffer_destroy(c->occ[i]);
@@ -230,10 +235,14 @@ static bool cell_occluded_kept(const cull_cell *cell, const cull_occ_buffer *ob,
     if (!k) return cell_occluded(cell, ob);
     uint32_t i = (*pos)++;
     if (i < k->memo_n) {
-        const occ_cell_memo *m = &k->memo[i];
+        occ_cell_memo *m = &k->memo[i];
+        if (m->cell == cell && m->stamp == cell->stamp) return m->occluded;
         if (!memcmp(m->origin, cell->origin, sizeof m->origin) && !memcmp(m->bmin, cell->bmin, sizeof m->bmin) &&
-            !memcmp(m->bmax, cell->bmax, sizeof m->bmax))
+            !memcmp(m->bmax, cell->bmax, sizeof m->bmax)) {
+            m->cell = cell;
+            m->stamp = cell->stamp;
             return m->occluded;
+        }
     }
     bool hidden = cell_occluded(cell, ob);
     if (i <= k->memo_n && vp_grow32((void **)&k->memo, &k->memo_cap, (size_t)i + 1, sizeof *k->memo)) {
@@ -242,35 +251,98 @@ static bool cell_occluded_kept(const cull_cell *cell, const cull_occ_buffer *ob,
         memcpy(m->bmin, cell->bmin, sizeof m->bmin);
         memcpy(m->bmax, cell->bmax, sizeof m->bmax);
         m->occluded = hidden;
+        m->cell = cell;
+        m->stamp = cell->stamp;
         if (i == k->memo_n) k->memo_n++;
     }
     return hidden;
 }
 
+/* The clip rows of view v re-based by t (the cell origin minus the view
+ * origin): what the screen-area stage and the occlusion projection read. */
+static void kview_clip(cull_kview *k, const cull_view *view, const double t[3])
+{
+    const double *m = view->clip;
+    static const int rows[3] = {0, 1, 3};
+    float *dst[3] = {k->cx, k->cy, k->cw};
+    for (int r = 0; r < 3; r++) {
+        int row = rows[r];
+        for (int c = 0; c < 3; c++) dst[r][c] = (float)m[c * 4 + row];
+        dst[r][3] = (float)(m[row] * t[0] + m[4 + row] * t[1] + m[8 + row] * t[2] + m[12 + row]);
+    }
+    k->vp_w = (float)view->viewport_w;
+    k->vp_h = (float)view->viewport_h;
+    k->half_w = 0.5f * k->vp_w;
+    k->half_h = 0.5f * k->vp_h;
+    for (int c = 0; c < 3; c++) {
+        k->hx[c] = 0.5f * k->cx[c];
+        k->hy[c] = 0.5f * k->cy[c];
+        k->hw[c] = 0.5f * k->cw[c];
+        k->ax[c] = fabsf(k->hx[c]);
+        k->ay[c] = fabsf(k->hy[c]);
+        k->aw[c] = fabsf(k->hw[c]);
+    }
+    k->off_w = k->half_w - k->half_w * 0x1p-16f;
+    k->off_h = k->half_h - k->half_h * 0x1p-16f;
+}
+
+/* The occlusion constants of buffer occ re-based by t. */
+static void kview_occ(cull_kview *k, const cull_occ_buffer *occ, const double t[3])
+{
+    for (int c = 0; c < 3; c++) k->cd[c] = (float)occ->rd[c];
+    k->cd[3] = (float)(occ->rd[0] * t[0] + occ->rd[1] * t[1] + occ->rd[2] * t[2] + occ->rd[3]);
+    k->occ_sx = (float)occ->sx;
+    k->occ_sy = (float)occ->sy;
+    k->occ_w = (float)occ->w;
+    k->occ_h = (float)occ->h;
+}
+
+/* Whether every block of cell, queried from position pos on, has a record
+ * in key k that stands (cull_occ_memo.blk): written by a kernel run over
+ * the same block of the same cell contents (stamp) against the same
+ * planes, with this buffer. Only records that exist now count (the
+ * array grows after the cell stage). */
+static bool records_stand(const occ_key *k, const cull_cell *cell, uint32_t pos, const cull_occ_buffer *occ,
+                          uint32_t pmask, uint32_t lim)
+{
+    if (pos >= lim || cell->nblocks > lim - pos) return false;
+    for (uint32_t b = 0; b < cell->nblocks; b++) {
+        const cull_occ_memo *r = &k->bmemo[pos + b];
+        if (!r->valid || r->occ != occ || r->blk != cell->blocks[b] || r->stamp != cell->stamp || r->pmask != pmask)
+            return false;
+    }
+    return true;
+}
+
 /* The kviews of one cell: every view whose cell code says it may see the
  * cell and whose occluders do not hide it whole, with the planes the cell
- * straddles re-based to the cell origin (double, then float). Returns how
- * many; *occluded counts the views dropped by occlusion. */
-static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *rv, uint32_t nrv,
-                            const uint8_t *codes, size_t stride, bool area, const cull_occ_buffer *const *ob,
-                            occ_key *const *memo, uint32_t *memo_pos, cull_kview *kv, uint32_t *occluded)
+ * straddles re-based to the cell origin (double, then float). pos: the
+ * query position of the cell's first block. Returns how many; *occluded
+ * counts the views dropped by occlusion. */
+static inline __attribute__((always_inline)) uint32_t
+cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *rv, uint32_t nrv, const uint8_t *codes,
+            size_t stride, bool area, const cull_occ_buffer *const *ob, occ_key *const *memo, uint32_t *memo_pos,
+            uint32_t pos, const uint32_t *mlim, cull_kview *kv, uint32_t *occluded, const bool with_occ)
 {
-    uint32_t nv = 0;
+    uint32_t nv = 0, nhot = 0;
     for (uint32_t a = 0; a < nrv; a++) {
         uint32_t code = codes[a * stride + cell->index];
         if (code & 0x80u) continue;
-        const cull_occ_buffer *occ = ob[rv[a].view];
-        if (occ && cell_occluded_kept(cell, occ, memo[rv[a].view], &memo_pos[rv[a].view])) {
+        const uint32_t v = rv[a].view;
+        const cull_occ_buffer *occ = with_occ ? ob[v] : NULL;
+        if (occ && cell_occluded_kept(cell, occ, memo[v], &memo_pos[v])) {
             (*occluded)++;
             continue;
         }
-        const cull_view *view = &q->views[rv[a].view];
+        const cull_view *view = &q->views[v];
         double t[3] = {cell->origin[0] - view->origin[0], cell->origin[1] - view->origin[1],
                        cell->origin[2] - view->origin[2]};
         cull_kview *k = &kv[nv++];
-        uint32_t np = 0;
+        uint32_t np = 0, pmask = 0;
         for (; code; code &= code - 1) {
-            const double *pl = view->plane[rv[a].from[__builtin_ctz(code)]];
+            uint32_t from = rv[a].from[__builtin_ctz(code)];
+            const double *pl = view->plane[from];
+            if (with_occ) pmask |= 1u << from;
             k->px[np] = (float)pl[0];
             k->py[np] = (float)pl[1];
             k->pz[np] = (float)pl[2];
@@ -278,42 +350,60 @@ static uint32_t cell_kviews(const cull_cell *cell, const cull_query_desc *q, con
             np++;
         }
         k->nplanes = np;
-        k->bit = 1u << rv[a].view;
+        k->pmask = pmask;
+        k->bit = 1u << v;
         k->occ = occ;
-        if (occ) {
-            for (int c = 0; c < 3; c++) k->cd[c] = (float)occ->rd[c];
-            k->cd[3] = (float)(occ->rd[0] * t[0] + occ->rd[1] * t[1] + occ->rd[2] * t[2] + occ->rd[3]);
-            k->occ_sx = (float)occ->sx;
-            k->occ_sy = (float)occ->sy;
-            k->occ_w = (float)occ->w;
-            k->occ_h = (float)occ->h;
-        }
-        if (area || occ) {
-            const double *m = view->clip;
-            static const int rows[3] = {0, 1, 3};
-            float *dst[3] = {k->cx, k->cy, k->cw};
-            for (int r = 0; r < 3; r++) {
-                int row = rows[r];
-                for (int c = 0; c < 3; c++) dst[r][c] = (float)m[c * 4 + row];
-                dst[r][3] = (float)(m[row] * t[0] + m[4 + row] * t[1] + m[8 + row] * t[2] + m[12 + row]);
-            }
-            k->vp_w = (float)view->viewport_w;
-            k->vp_h = (float)view->viewport_h;
-            k->half_w = 0.5f * k->vp_w;
-            k->half_h = 0.5f * k->vp_h;
-            for (int c = 0; c < 3; c++) {
-                k->hx[c] = 0.5f * k->cx[c];
-                k->hy[c] = 0.5f * k->cy[c];
-                k->hw[c] = 0.5f * k->cw[c];
-                k->ax[c] = fabsf(k->hx[c]);
-                k->ay[c] = fabsf(k->hy[c]);
-                k->aw[c] = fabsf(k->hw[c]);
-            }
-            k->off_w = k->half_w - k->half_w * 0x1p-16f;
-            k->off_h = k->half_h - k->half_h * 0x1p-16f;
-        }
+        k->hot = occ && memo[v] && v < OCC_BLOCK_MEMO_VIEWS && records_stand(memo[v], cell, pos, occ, pmask, mlim[v]);
+        nhot += k->hot;
+        if (occ && !k->hot) kview_occ(k, occ, t);
+        if (area || (occ && !k->hot)) kview_clip(k, view, t);
     }
+    /* records serve single-view cells only: the multi-view kernel tests */
+    if (with_occ && nhot && nv > 1)
+        for (uint32_t i = 0; i < nv; i++) {
+            cull_kview *k = &kv[i];
+            if (!k->hot) continue;
+            const cull_view *view = &q->views[__builtin_ctz(k->bit)];
+            double t[3] = {cell->origin[0] - view->origin[0], cell->origin[1] - view->origin[1],
+                           cell->origin[2] - view->origin[2]};
+            k->hot = 0;
+            kview_occ(k, k->occ, t);
+            if (!area) kview_clip(k, view, t);
+        }
     return nv;
+}
+
+/* The items of a cell's blocks, from position pos on, when some view
+ * keeps records: a single-view cell with a kept buffer gets a record per
+ * block below the view's limit; one its kview does not read (not hot) is
+ * made to stand by the kernel's run over the whole block. */
+static void items_recorded(cull_ctx *c, const cull_cell *cell, uint32_t pos, uint32_t kv_off, uint32_t nv,
+                           occ_key *const *memo, const uint32_t *mlim)
+{
+    const cull_kview *k = &c->kv[kv_off];
+    const uint32_t v = (uint32_t)__builtin_ctz(k->bit);
+    const bool rec = nv == 1 && k->occ && v < OCC_BLOCK_MEMO_VIEWS && memo[v];
+    for (uint32_t b = 0; b < cell->nblocks; b++) {
+        uint32_t n = cell->count - b * CULL_BLOCK_CAP, i = pos + b;
+        if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
+        cull_occ_memo *r = rec && i < mlim[v] ? &memo[v]->bmemo[i] : NULL;
+        if (r && !k->hot) {
+            r->blk = cell->blocks[b];
+            r->stamp = cell->stamp;
+            r->pmask = k->pmask;
+        }
+        c->items[i] = (cull_item){cell->blocks[b], n, kv_off, nv, r};
+    }
+}
+
+/* A query that fails after the cell stage may have named records as
+ * standing that no kernel wrote: its kept buffers are dropped (the next
+ * query draws again, which empties every record). */
+static int records_lost(occ_key *const *memo, uint32_t nviews)
+{
+    for (uint32_t v = 0; v < nviews; v++)
+        if (memo[v]) memo[v]->valid = false;
+    return CULL_ERR_NOMEM;
 }
 
 /* Blocks of different cells are not neighbours in memory, so the hardware
@@ -345,7 +435,6 @@ typedef struct job {
     const cull_kparams *kp;
     const uint64_t *subs;   /* the query's sub-levels, or NULL */
     const cull_item *items;
-    cull_occ_memo *const *imemo; /* per item, or NULL */
     uint32_t nitems, nchunks;
     bool prefetch;
     _Atomic uint32_t next;
@@ -372,7 +461,7 @@ static void job_cull(void *arg, uint32_t t)
             if (j->prefetch && i + PREFETCH_AHEAD < j->nitems)
                 prefetch_block(j->items[i + PREFETCH_AHEAD].block, j->kp->area);
             uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, j->kp, dst + off, &cnt,
-                                  j->imemo ? j->imemo[i] : NULL);
+                                  it->rec);
             if (j->subs) {
                 uint32_t kept = keep_sublevels(dst + off, k, j->subs);
                 j->filtered[t] += k - kept;
@@ -415,6 +504,16 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         if (q->views[v].plane_count < 5 || q->views[v].plane_count > 6) return CULL_ERR_MATRIX;
     if (!count_only && cap < cull_query_bound(w)) return CULL_ERR_OUTPUT;
 
+    cull_kparams kp = {
+        .min_area = q->min_screen_area,
+        .aabb = !(q->flags & CULL_Q_NO_AABB),
+        .area = q->min_screen_area > 0 || (q->flags & CULL_Q_WANT_AREA),
+        .exact_area = (q->flags & CULL_Q_WANT_AREA) != 0,
+        .count_only = count_only && !subs,
+    };
+
+    const uint32_t kp_flags = (uint32_t)kp.aabb | (uint32_t)kp.area << 1 | (uint32_t)kp.exact_area << 2;
+
     /* the occlusion stage: a buffer per view, given or rendered here */
     const cull_occ_buffer *ob[CULL_MAX_VIEWS] = {0};
     occ_key *memo[CULL_MAX_VIEWS] = {0}; /* the context's buffers: their cell verdicts */
@@ -442,10 +541,17 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 }
                 if (!(q->flags & CULL_Q_OCC_FRESH) && occ_key_same(k, w, &q->views[v], inner, c->isa, q->sublevels, nsub)) {
                     occ_reused++;
+                    if (k->kp_flags != kp_flags || k->kp_min_area != kp.min_area) {
+                        for (uint32_t i = 0; i < k->bmemo_cap; i++) k->bmemo[i].valid = false;
+                        k->kp_flags = kp_flags;
+                        k->kp_min_area = kp.min_area;
+                    }
                 } else {
                     k->valid = false; /* a failed render leaves the buffer half drawn */
                     k->memo_n = 0;
                     for (uint32_t i = 0; i < k->bmemo_cap; i++) k->bmemo[i].valid = false;
+                    k->kp_flags = kp_flags;
+                    k->kp_min_area = kp.min_area;
                     b->inner = inner;
                     cull_occ_stats st;
                     int rc = cull_occ_render_isa(w, &q->views[v], b, c->pool, q->threads, c->isa, q->sublevels, &st);
@@ -464,14 +570,6 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         }
     }
 
-    cull_kparams kp = {
-        .min_area = q->min_screen_area,
-        .aabb = !(q->flags & CULL_Q_NO_AABB),
-        .area = q->min_screen_area > 0 || (q->flags & CULL_Q_WANT_AREA),
-        .exact_area = (q->flags & CULL_Q_WANT_AREA) != 0,
-        .count_only = count_only && !subs,
-    };
-
     /* world-space planes for the box kernel */
     cull_cplane cpl[CULL_MAX_VIEWS][6];
     for (uint32_t v = 0; v < q->view_count; v++) {
@@ -484,6 +582,25 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
             }
             cpl[v][i].d = pl[3] - pl[0] * view->origin[0] - pl[1] * view->origin[1] - pl[2] * view->origin[2];
         }
+    }
+
+    /* a single-view cell with a kept buffer: each of its blocks' verdicts
+       are recorded and read back, the block's place in the query's order
+       naming its record (frustum-only queries skip this). The records are
+       grown first, for as many blocks as the world has (at most
+       OCC_BLOCK_MEMO_MAX): pointers into them are taken block by block. A
+       view whose records cannot grow keeps the ones it has. */
+    bool have_memo = false;
+    uint32_t mlim[OCC_BLOCK_MEMO_VIEWS] = {0};
+    const uint32_t nmemo = w->nblocks_total < OCC_BLOCK_MEMO_MAX ? w->nblocks_total : OCC_BLOCK_MEMO_MAX;
+    for (uint32_t v = 0; v < q->view_count && v < OCC_BLOCK_MEMO_VIEWS; v++) {
+        occ_key *k = memo[v];
+        if (!k || !ob[v]) continue;
+        uint32_t old = k->bmemo_cap;
+        if (nmemo > old && vp_grow32((void **)&k->bmemo, &k->bmemo_cap, nmemo, sizeof *k->bmemo))
+            for (uint32_t m = old; m < k->bmemo_cap; m++) k->bmemo[m].valid = false;
+        mlim[v] = k->bmemo_cap < OCC_BLOCK_MEMO_MAX ? k->bmemo_cap : OCC_BLOCK_MEMO_MAX;
+        have_memo = true;
     }
 
     /* stage 1: regions, then the cells of the regions some view may see */
@@ -500,7 +617,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         cells += grid->ncells;
         size_t rstride = (grid->nregions + 4u) & ~(size_t)3;
         if (!vp_grow32((void **)&c->codes, &c->codes_cap, (rstride + cstride) * q->view_count, 1))
-            return CULL_ERR_NOMEM;
+            return records_lost(memo, q->view_count);
         uint8_t *rcodes = c->codes, *ccodes = c->codes + rstride * q->view_count;
         for (uint32_t v = 0; v < q->view_count; v++)
             c->cells(&grid->soa, grid->nregions, cpl[v], q->views[v].plane_count, rcodes + v * rstride);
@@ -536,53 +653,29 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 }
                 if (!vp_grow32((void **)&c->kv, &c->kv_cap, (size_t)nkv + nrv, sizeof *c->kv) ||
                     !vp_grow32((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
-                    return CULL_ERR_NOMEM;
-                uint32_t nv = cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, memo, memo_pos, c->kv + nkv,
-                                          &cells_occluded);
+                    return records_lost(memo, q->view_count);
+                uint32_t nv = occ_views ? cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, memo, memo_pos,
+                                                      nitems, mlim, c->kv + nkv, &cells_occluded, true)
+                                        : cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, memo, memo_pos,
+                                                      nitems, mlim, c->kv + nkv, &cells_occluded, false);
                 if (!nv) {
                     cells_culled++;
                     continue;
                 }
-                for (uint32_t b = 0; b < cell->nblocks; b++) {
-                    uint32_t n = cell->count - b * CULL_BLOCK_CAP;
-                    if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
-                    c->items[nitems++] = (cull_item){cell->blocks[b], n, nkv, nv};
-                    tested += n;
+                if (have_memo) {
+                    items_recorded(c, cell, nitems, nkv, nv, memo, mlim);
+                    nitems += cell->nblocks;
+                    tested += cell->count;
+                } else {
+                    for (uint32_t b = 0; b < cell->nblocks; b++) {
+                        uint32_t n = cell->count - b * CULL_BLOCK_CAP;
+                        if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
+                        c->items[nitems++] = (cull_item){cell->blocks[b], n, nkv, nv, NULL};
+                    }
+                    tested += cell->count;
                 }
                 nkv += nv;
             }
-        }
-    }
-
-    /* a single-view cell with a kept buffer: each of its blocks' verdicts
-       are recorded and read back, the block's place in the query's order
-       naming its record (frustum-only queries skip this) */
-    cull_occ_memo **imemo = NULL;
-    bool any_memo = false;
-    uint32_t nmemo = nitems < OCC_BLOCK_MEMO_MAX ? nitems : OCC_BLOCK_MEMO_MAX;
-    for (uint32_t v = 0; v < q->view_count; v++) {
-        occ_key *k = memo[v];
-        if (!k || !ob[v]) continue;
-        if (v >= OCC_BLOCK_MEMO_VIEWS) {
-            memo[v] = NULL; /* tested, not recorded (the memory bound above) */
-            continue;
-        }
-        /* grown before any pointer into it is taken */
-        uint32_t old = k->bmemo_cap;
-        if (nmemo > old && !vp_grow32((void **)&k->bmemo, &k->bmemo_cap, nmemo, sizeof *k->bmemo)) {
-            memo[v] = NULL; /* no record this time: the same verdicts, tested */
-            continue;
-        }
-        for (uint32_t m = old; m < k->bmemo_cap; m++) k->bmemo[m].valid = false;
-        any_memo = true;
-    }
-    if (any_memo && vp_grow32((void **)&c->imemo, &c->imemo_cap, nitems, sizeof *c->imemo)) {
-        imemo = c->imemo;
-        for (uint32_t i = 0; i < nitems; i++) {
-            const cull_item *it = &c->items[i];
-            const cull_kview *k = &c->kv[it->kv_off];
-            occ_key *bk = it->nv == 1 && k->occ && i < nmemo ? memo[__builtin_ctz(k->bit)] : NULL;
-            imemo[i] = bk ? &bk->bmemo[i] : NULL;
         }
     }
 
@@ -604,12 +697,12 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
         /* counting through the filter: one block's results at a time */
         if (count_only && subs &&
             !vp_grow32((void **)&c->tres[0], &c->tres_cap[0], CULL_BLOCK_CAP + CULL_RESULT_PAD, sizeof(cull_result)))
-            return CULL_ERR_NOMEM;
+            return records_lost(memo, q->view_count);
         for (uint32_t i = 0; i < nitems; i++) {
             const cull_item *it = &c->items[i];
             if (prefetch && i + PREFETCH_AHEAD < nitems) prefetch_block(c->items[i + PREFETCH_AHEAD].block, kp.area);
             cull_result *dst = !count_only ? out + written : subs ? c->tres[0] : NULL;
-            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp, dst, &total, imemo ? imemo[i] : NULL);
+            uint32_t k = c->kernel(it->block, it->n, c->kv + it->kv_off, it->nv, &kp, dst, &total, it->rec);
             if (subs) {
                 uint32_t kept = keep_sublevels(dst, k, subs);
                 filtered += k - kept;
@@ -620,12 +713,12 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     } else {
         uint32_t nchunks = (nitems + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
         if (!vp_grow32((void **)&c->chunks, &c->chunks_cap, nchunks + 1, sizeof *c->chunks))
-            return CULL_ERR_NOMEM;
+            return records_lost(memo, q->view_count);
         for (uint32_t t = 0; t < threads; t++)
             if (!vp_grow32((void **)&c->tres[t], &c->tres_cap[t], (size_t)tested + CULL_RESULT_PAD,
                          sizeof(cull_result)))
-                return CULL_ERR_NOMEM;
-        job j = {.c = c, .kp = &kp, .subs = subs, .items = c->items, .imemo = imemo, .nitems = nitems, .nchunks = nchunks,
+                return records_lost(memo, q->view_count);
+        job j = {.c = c, .kp = &kp, .subs = subs, .items = c->items, .nitems = nitems, .nchunks = nchunks,
                  .out = out, .prefetch = prefetch};
         atomic_init(&j.next, 0);
         cull_pool_run(c->pool, job_cull, &j, threads);

@@ -49,6 +49,7 @@ int cull_world_create(const cull_world_desc *desc, cull_world **out)
     w->ofree_head = UINT32_MAX;
     static _Atomic uint64_t worlds;
     w->occ_version = (atomic_fetch_add(&worlds, 1) + 1) << 40; /* 2^40 edits a world before two could meet */
+    w->stamp = w->occ_version;
     *out = w;
     return CULL_OK;
 }

@@ -3,7 +3,7 @@
  * against error (a benchmark: nothing here fails on time).
  *
  *   bench_occlusion [--scene F] [--walk W[,W...]] [--frames N] [--reps N]
- *                   [--size WxH] [--json] [--quick] [--smoke] [--exr DIR]
+ *                   [--size WxH] [--json] [--quick] [--smoke] [--exr DIR] [--cold]
  *
  * The walks (--walk; default all of them, --loop: street), 16 frames each:
  *   street   the city scene's 15,000 object AABBs as entities, its 1,000
@@ -36,6 +36,10 @@
  *   kept_query_ns  the same query again: the context keeps the buffer it drew
  *              (a still camera's re-query; issue 24's target: <= 1.3 x frustum)
  *   frustum_ns the query without occlusion
+ *   cold_query_ns  (--cold) the whole query (FRESH) right after 64 MiB of
+ *              other memory traffic: caches hold none of the scene, the
+ *              buffer or the context (issue 24: "first call after other
+ *              work"); -1 without --cold
  *   tested     frustum survivors; visible: kept after occlusion
  *   false_visible   kept, but the exact 1920x1080 ray caster sees nothing
  *   hidden_visible  culled, but the exact 1920x1080 caster sees it
@@ -214,10 +218,23 @@ static void walk_scene_free(walk_scene *ws)
 
 typedef struct run_opts {
     int frames, reps;
-    bool json, smoke;
+    bool json, smoke, cold;
     const char *exr_dir;
     uint32_t only_w, only_h; /* one buffer size; 0 = all */
 } run_opts;
+
+/* Evicts the caches: 64 MiB written and read back (twice this VM's L3). */
+static void flush_caches(void)
+{
+    static unsigned char *junk;
+    enum { JUNK = 64u << 20 };
+    if (!junk && !(junk = malloc(JUNK))) return;
+    static unsigned char v;
+    memset(junk, ++v, JUNK);
+    volatile unsigned sum = 0;
+    for (size_t i = 0; i < JUNK; i += 64) sum += junk[i];
+    (void)sum;
+}
 
 /* The table for one walk; *false_occ gets the false-occluded objects
  * summed over its frames and modes. 0, or 1 on failure. */
@@ -264,8 +281,8 @@ static int run_walk(int k, const walk_scene *ws, const cull_view *walk, cull_poo
         }
     }
     if (!o->json) {
-        printf("%-8s %-10s %-6s %3s %10s %9s %10s %9s %8s %8s | %7s %8s %8s %8s %9s\n", "walk", "buffer", "cover", "thr",
-               "raster_us", "test_us", "rast+test", "query_us", "kept_us", "frust_us", "tested", "visible",
+        printf("%-8s %-10s %-6s %3s %10s %9s %10s %9s %8s %8s %8s | %7s %8s %8s %8s %9s\n", "walk", "buffer", "cover",
+               "thr", "raster_us", "test_us", "rast+test", "query_us", "kept_us", "frust_us", "cold_us", "tested", "visible",
                "false_vis", "hidden_vis", "false_occ");
     }
     size_t nsizes = o->smoke ? 1 : NSIZES;
@@ -289,11 +306,11 @@ static int run_walk(int k, const walk_scene *ws, const cull_view *walk, cull_poo
             cull_occ_buffer_set_cover(buf, cover);
             for (uint32_t threads = 1; threads <= 2; threads++) {
                 double tr[MAX_FRAMES], tt[MAX_FRAMES], tq[MAX_FRAMES], tsum[MAX_FRAMES], tk[MAX_FRAMES],
-                    tn[MAX_FRAMES];
+                    tn[MAX_FRAMES], tc[MAX_FRAMES];
                 uint64_t s_tested = 0, s_vis = 0, s_fv = 0, s_hv = 0, s_fo = 0;
                 for (int f = 0; f < frames; f++) {
-                    double *a = malloc(sizeof(double) * 5 * (size_t)reps), *b = a + reps, *c = b + reps,
-                           *d = c + reps, *e = d + reps;
+                    double *a = malloc(sizeof(double) * 6 * (size_t)reps), *b = a + reps, *c = b + reps,
+                           *d = c + reps, *e = d + reps, *g = e + reps;
                     if (!a) return 1;
                     cull_occ_buffer *const bufs[1] = {buf};
                     cull_query_desc qo = {.views = &walk[f], .view_count = 1, .threads = threads,
@@ -330,6 +347,16 @@ static int run_walk(int k, const walk_scene *ws, const cull_view *walk, cull_poo
                     tk[f] = bench_median(e, reps);
                     tn[f] = bench_median(c, reps);
                     tsum[f] = tr[f] + tt[f];
+                    tc[f] = -1;
+                    if (o->cold) {
+                        for (int r = 0; r < reps; r++) {
+                            flush_caches();
+                            double x = bench_now_ns();
+                            if (cull_query(w, ctx, &qw, out, cap, &n, NULL)) return 1;
+                            g[r] = bench_now_ns() - x;
+                        }
+                        tc[f] = bench_median(g, reps);
+                    }
                     free(a);
                     /* accuracy, from the query on the rendered buffer */
                     if (cull_occ_render(w, &walk[f], buf, pool, threads, NULL)) return 1;
@@ -356,9 +383,9 @@ static int run_walk(int k, const walk_scene *ws, const cull_view *walk, cull_poo
                     if (o->json)
                         printf("{\"walk\":\"%s\",\"frame\":%d,\"buffer\":\"%ux%u\",\"cover\":\"%s\",\"threads\":%u,"
                                "\"raster_ns\":%.0f,\"test_ns\":%.0f,\"query_ns\":%.0f,\"kept_query_ns\":%.0f,"
-                               "\"frustum_ns\":%.0f,\"tested\":%zu,\"visible\":%zu,"
+                               "\"frustum_ns\":%.0f,\"cold_query_ns\":%.0f,\"tested\":%zu,\"visible\":%zu,"
                                "\"false_visible\":%u,\"hidden_visible_1080\":%u,\"false_occluded\":%u}\n",
-                               wname, f, bw, bh, cover ? "centre" : "inner", threads, tr[f], tt[f], tq[f], tk[f], tn[f], ns,
+                               wname, f, bw, bh, cover ? "centre" : "inner", threads, tr[f], tt[f], tq[f], tk[f], tn[f], tc[f], ns,
                                n, fv, hv, fo);
                     if (o->exr_dir && f == 0 && threads == 1) {
                         uint32_t W, H;
@@ -385,10 +412,12 @@ static int run_walk(int k, const walk_scene *ws, const cull_view *walk, cull_poo
                     }
                 }
                 if (!o->json)
-                    printf("%-8s %4ux%-5u %-6s %3u %10.1f %9.1f %10.1f %9.1f %8.1f %8.1f | %7.0f %8.1f %8.1f %8.2f %9.2f\n",
+                    printf("%-8s %4ux%-5u %-6s %3u %10.1f %9.1f %10.1f %9.1f %8.1f %8.1f %8.1f | %7.0f %8.1f %8.1f %8.2f "
+                           "%9.2f\n",
                            wname, bw, bh, cover ? "centre" : "inner", threads, bench_median(tr, frames) / 1e3,
                            bench_median(tt, frames) / 1e3, bench_median(tsum, frames) / 1e3, bench_median(tq, frames) / 1e3,
                            bench_median(tk, frames) / 1e3, bench_median(tn, frames) / 1e3,
+                           o->cold ? bench_median(tc, frames) / 1e3 : -1.0,
                            (double)s_tested / frames, (double)s_vis / frames, (double)s_fv / frames,
                            (double)s_hv / frames, (double)s_fo / frames);
                 fflush(stdout);
@@ -419,6 +448,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--json")) o.json = true;
         else if (!strcmp(argv[i], "--quick")) quick = true;
         else if (!strcmp(argv[i], "--smoke")) o.smoke = true;
+        else if (!strcmp(argv[i], "--cold")) o.cold = true;
         else if (!strcmp(argv[i], "--loop") && i + 1 < argc) loop = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--centre")) centre = true;
         else if (!strcmp(argv[i], "--size") && i + 1 < argc && sscanf(argv[i + 1], "%ux%u", &lw, &lh) == 2) {
@@ -442,7 +472,7 @@ int main(int argc, char **argv)
         } else {
             fprintf(stderr, "usage: bench_occlusion [--scene F] [--walk street|raised|topdown|orbit|town|dense|sparse"
                             "|all[,...]] [--frames N] [--reps N] [--size WxH] [--json] [--quick] [--smoke] "
-                            "[--exr DIR] [--loop N [--size WxH] [--centre]]\n");
+                            "[--exr DIR] [--cold] [--loop N [--size WxH] [--centre]]\n");
             return 2;
         }
     }
