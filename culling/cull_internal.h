@@ -265,6 +265,8 @@ typedef struct cull_occ_memo {
     const struct cull_block *blk;
     uint64_t stamp;
     uint32_t pmask;
+    uint64_t gen;           /* the record set's generation it belongs to
+                               (cull_query.c: an older one is not valid) */
 } cull_occ_memo;
 
 typedef struct cull_kparams {

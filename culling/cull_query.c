@@ -75,6 +75,8 @@ typedef struct occ_key {
        each): invalidated whenever the buffer is drawn */
     cull_occ_memo *bmemo;
     uint32_t bmemo_cap;
+    uint64_t bgen;              /* records of another generation are not
+                                   valid: emptying them is bgen++ */
     /* the kernel parameters the records were made with (a record that
        stands says which lanes reach the occlusion stage: the same only
        for the same stages) */
@@ -260,7 +262,7 @@ static bool cell_occluded_kept(const cull_cell *cell, const cull_occ_buffer *ob,
 
 /* The clip rows of view v re-based by t (the cell origin minus the view
  * origin): what the screen-area stage and the occlusion projection read. */
-static void kview_clip(cull_kview *k, const cull_view *view, const double t[3])
+static inline __attribute__((always_inline)) void kview_clip(cull_kview *k, const cull_view *view, const double t[3])
 {
     const double *m = view->clip;
     static const int rows[3] = {0, 1, 3};
@@ -287,7 +289,7 @@ static void kview_clip(cull_kview *k, const cull_view *view, const double t[3])
 }
 
 /* The occlusion constants of buffer occ re-based by t. */
-static void kview_occ(cull_kview *k, const cull_occ_buffer *occ, const double t[3])
+static inline __attribute__((always_inline)) void kview_occ(cull_kview *k, const cull_occ_buffer *occ, const double t[3])
 {
     for (int c = 0; c < 3; c++) k->cd[c] = (float)occ->rd[c];
     k->cd[3] = (float)(occ->rd[0] * t[0] + occ->rd[1] * t[1] + occ->rd[2] * t[2] + occ->rd[3]);
@@ -308,7 +310,8 @@ static bool records_stand(const occ_key *k, const cull_cell *cell, uint32_t pos,
     if (pos >= lim || cell->nblocks > lim - pos) return false;
     for (uint32_t b = 0; b < cell->nblocks; b++) {
         const cull_occ_memo *r = &k->bmemo[pos + b];
-        if (!r->valid || r->occ != occ || r->blk != cell->blocks[b] || r->stamp != cell->stamp || r->pmask != pmask)
+        if (r->gen != k->bgen || !r->valid || r->occ != occ || r->blk != cell->blocks[b] || r->stamp != cell->stamp ||
+            r->pmask != pmask)
             return false;
     }
     return true;
@@ -322,7 +325,8 @@ static bool records_stand(const occ_key *k, const cull_cell *cell, uint32_t pos,
 static inline __attribute__((always_inline)) uint32_t
 cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *rv, uint32_t nrv, const uint8_t *codes,
             size_t stride, bool area, const cull_occ_buffer *const *ob, occ_key *const *memo, uint32_t *memo_pos,
-            uint32_t pos, const uint32_t *mlim, cull_kview *kv, uint32_t *occluded, const bool with_occ)
+            uint32_t pos, const bool *reused, const uint32_t *mlim, cull_kview *kv, uint32_t *occluded,
+            const bool with_occ)
 {
     uint32_t nv = 0, nhot = 0;
     for (uint32_t a = 0; a < nrv; a++) {
@@ -353,7 +357,7 @@ cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *
         k->pmask = pmask;
         k->bit = 1u << v;
         k->occ = occ;
-        k->hot = occ && memo[v] && v < OCC_BLOCK_MEMO_VIEWS && records_stand(memo[v], cell, pos, occ, pmask, mlim[v]);
+        k->hot = occ && reused[v] && v < OCC_BLOCK_MEMO_VIEWS && records_stand(memo[v], cell, pos, occ, pmask, mlim[v]);
         nhot += k->hot;
         if (occ && !k->hot) kview_occ(k, occ, t);
         if (area || (occ && !k->hot)) kview_clip(k, view, t);
@@ -388,6 +392,10 @@ static void items_recorded(cull_ctx *c, const cull_cell *cell, uint32_t pos, uin
         if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
         cull_occ_memo *r = rec && i < mlim[v] ? &memo[v]->bmemo[i] : NULL;
         if (r && !k->hot) {
+            if (r->gen != memo[v]->bgen) {
+                r->gen = memo[v]->bgen;
+                r->valid = false;
+            }
             r->blk = cell->blocks[b];
             r->stamp = cell->stamp;
             r->pmask = k->pmask;
@@ -517,6 +525,7 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     /* the occlusion stage: a buffer per view, given or rendered here */
     const cull_occ_buffer *ob[CULL_MAX_VIEWS] = {0};
     occ_key *memo[CULL_MAX_VIEWS] = {0}; /* the context's buffers: their cell verdicts */
+    bool reused[CULL_MAX_VIEWS] = {0};   /* ... kept from an earlier query: records may stand */
     uint32_t memo_pos[CULL_MAX_VIEWS] = {0};
     uint32_t occ_views = 0, occ_drawn = 0, occ_reused = 0, occ_rendered = 0;
     uint64_t occ_ns = 0;
@@ -541,15 +550,16 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 }
                 if (!(q->flags & CULL_Q_OCC_FRESH) && occ_key_same(k, w, &q->views[v], inner, c->isa, q->sublevels, nsub)) {
                     occ_reused++;
+                    reused[v] = true;
                     if (k->kp_flags != kp_flags || k->kp_min_area != kp.min_area) {
-                        for (uint32_t i = 0; i < k->bmemo_cap; i++) k->bmemo[i].valid = false;
+                        k->bgen++;
                         k->kp_flags = kp_flags;
                         k->kp_min_area = kp.min_area;
                     }
                 } else {
                     k->valid = false; /* a failed render leaves the buffer half drawn */
                     k->memo_n = 0;
-                    for (uint32_t i = 0; i < k->bmemo_cap; i++) k->bmemo[i].valid = false;
+                    k->bgen++;
                     k->kp_flags = kp_flags;
                     k->kp_min_area = kp.min_area;
                     b->inner = inner;
@@ -586,7 +596,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
 
     /* a single-view cell with a kept buffer: each of its blocks' verdicts
        are recorded and read back, the block's place in the query's order
-       naming its record (frustum-only queries skip this). The records are
+       naming its record (frustum-only queries, and queries that draw the
+       buffer, whose view may well move on, skip this). The records are
        grown first, for as many blocks as the world has (at most
        OCC_BLOCK_MEMO_MAX): pointers into them are taken block by block. A
        view whose records cannot grow keeps the ones it has. */
@@ -595,10 +606,10 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
     const uint32_t nmemo = w->nblocks_total < OCC_BLOCK_MEMO_MAX ? w->nblocks_total : OCC_BLOCK_MEMO_MAX;
     for (uint32_t v = 0; v < q->view_count && v < OCC_BLOCK_MEMO_VIEWS; v++) {
         occ_key *k = memo[v];
-        if (!k || !ob[v]) continue;
+        if (!k || !ob[v] || !reused[v]) continue; /* a buffer drawn now: its first re-query records */
         uint32_t old = k->bmemo_cap;
         if (nmemo > old && vp_grow32((void **)&k->bmemo, &k->bmemo_cap, nmemo, sizeof *k->bmemo))
-            for (uint32_t m = old; m < k->bmemo_cap; m++) k->bmemo[m].valid = false;
+            for (uint32_t m = old; m < k->bmemo_cap; m++) k->bmemo[m].gen = 0; /* bgen >= 1 once drawn */
         mlim[v] = k->bmemo_cap < OCC_BLOCK_MEMO_MAX ? k->bmemo_cap : OCC_BLOCK_MEMO_MAX;
         have_memo = true;
     }
@@ -655,9 +666,9 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                     !vp_grow32((void **)&c->items, &c->items_cap, (size_t)nitems + cell->nblocks, sizeof *c->items))
                     return records_lost(memo, q->view_count);
                 uint32_t nv = occ_views ? cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, memo, memo_pos,
-                                                      nitems, mlim, c->kv + nkv, &cells_occluded, true)
+                                                      nitems, reused, mlim, c->kv + nkv, &cells_occluded, true)
                                         : cell_kviews(cell, q, rv, nrv, ccodes, cstride, kp.area, ob, memo, memo_pos,
-                                                      nitems, mlim, c->kv + nkv, &cells_occluded, false);
+                                                      nitems, reused, mlim, c->kv + nkv, &cells_occluded, false);
                 if (!nv) {
                     cells_culled++;
                     continue;
