@@ -17,6 +17,10 @@ typedef struct cull_occ_fns {
        for x in [x0, x1]; the row has `room` floats (>= 8) */
     void (*span)(float *row, int x0, int x1, int room, float a0, float da, float b0, float db, float c0, float dc,
                  float lo);
+    /* span for n rows (n <= 8) a stride apart from row0, row r over
+       [x0[r], x1[r]] (none where x0[r] > x1[r]) from z0[3r..3r+2] */
+    void (*spans)(float *row0, size_t stride, int n, const int *x0, const int *x1, const float *z0, int room,
+                  float da, float db, float dc, float lo);
     /* any row[x] <= z for x in [x0, x1]? */
     bool (*any_le)(const float *row, int x0, int x1, int room, float z);
     /* out[t] = min, out_max[t] = max over the 8x8 tile t of the 8 rows from row0 */
@@ -38,6 +42,12 @@ cull_occ_fns cull_occ_fns_for(uint32_t isa);
 void cull_occ_span_scalar(float *, int, int, int, float, float, float, float, float, float, float);
 void cull_occ_span_sse41(float *, int, int, int, float, float, float, float, float, float, float);
 void cull_occ_span_avx2(float *, int, int, int, float, float, float, float, float, float, float);
+void cull_occ_spans_scalar(float *, size_t, int, const int *, const int *, const float *, int, float, float, float,
+                           float);
+void cull_occ_spans_sse41(float *, size_t, int, const int *, const int *, const float *, int, float, float, float,
+                          float);
+void cull_occ_spans_avx2(float *, size_t, int, const int *, const int *, const float *, int, float, float, float,
+                         float);
 bool cull_occ_any_le_scalar(const float *, int, int, int, float);
 void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_scalar(float *, uint32_t, float);

@@ -13,11 +13,10 @@
  * is) instead of finished one lane at a time; it may read and rewrite,
  * unchanged, pixels past x1 but never past `room` (the row's length in
  * memory), so no other row is touched. */
-void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, int x1, int room, float a0,
-                                                    float da, float b0, float db, float c0, float dc, float lo)
+static inline __attribute__((always_inline)) void occ_span_row(float *restrict row, int x0, int x1, int room, vf va,
+                                                               vf vb, vf vc, vf vda, vf vdb, vf vdc, vf vlo)
 {
-    const vf vda = vf_set(da), vdb = vf_set(db), vdc = vf_set(dc), vlo = vf_set(lo), step = vf_set((float)W);
-    const vf va = vf_set(a0), vb = vf_set(b0), vc = vf_set(c0), iota = vf_load(cull_lane_index);
+    const vf step = vf_set((float)W), iota = vf_load(cull_lane_index);
     int x = x0;
     vf fx = vf_add(vf_set((float)x0), iota);
     for (; x + W - 1 <= x1; x += W) {
@@ -32,6 +31,28 @@ void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, 
     vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
     z = vf_select(in, z, vf_set(-FLT_MAX));
     vf_store(row + x, vf_max(vf_loadu(row + x), z));
+}
+
+void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, int x1, int room, float a0,
+                                                    float da, float b0, float db, float c0, float dc, float lo)
+{
+    occ_span_row(row, x0, x1, room, vf_set(a0), vf_set(b0), vf_set(c0), vf_set(da), vf_set(db), vf_set(dc),
+                 vf_set(lo));
+}
+
+/* span for n rows (n <= 8) a stride apart from row0: row r over [x0[r],
+ * x1[r]] (none where x0[r] > x1[r]) from a0, b0, c0 = z0[3r..3r+2], the
+ * same pixels as n calls of span (one call and one set of broadcasts a
+ * tile row) */
+void CULL_OCC_CAT(cull_occ_spans_, CULL_OCC_SUFFIX)(float *restrict row0, size_t stride, int n, const int *x0,
+                                                     const int *x1, const float *z0, int room, float da, float db,
+                                                     float dc, float lo)
+{
+    const vf vda = vf_set(da), vdb = vf_set(db), vdc = vf_set(dc), vlo = vf_set(lo);
+    for (int r = 0; r < n; r++)
+        if (x0[r] <= x1[r])
+            occ_span_row(row0 + (size_t)r * stride, x0[r], x1[r], room, vf_set(z0[3 * r]), vf_set(z0[3 * r + 1]),
+                         vf_set(z0[3 * r + 2]), vda, vdb, vdc, vlo);
 }
 
 /* any row[x] <= z for x in [x0, x1]? (reads up to `room` as above) */

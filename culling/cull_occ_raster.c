@@ -37,6 +37,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #define MAX_BANDS 64u
 
@@ -110,45 +113,68 @@ static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *
     return true;
 }
 
+/* One tile row's arrays, read once: the tile helpers below take it
+ * instead of (b, ty), so a loop over a row keeps them in registers across
+ * the calls that recompute a tile (which could otherwise write *b). */
+typedef struct trow {
+    uint8_t *st, *sd;                       /* tile states, strips' dirty flags */
+    float *teff, *tile, *tile_full, *tmax, *strip;
+    const float *depth;                     /* the row's first pixel row */
+    size_t stride;
+    void (*tiles)(const float *, size_t, uint32_t, float *, float *);
+} trow;
+
+static inline trow trow_of(const cull_occ_buffer *b, int ty)
+{
+    size_t t = (size_t)ty * b->tw;
+    return (trow){.st = b->tstate + (size_t)ty * b->tpitch,
+                  .sd = b->sdirty + (size_t)ty * b->sdpitch,
+                  .teff = b->teff + t,
+                  .tile = b->tile + t,
+                  .tile_full = b->tile_full + t,
+                  .tmax = b->tmax + t,
+                  .strip = b->strip + (size_t)ty * b->spitch,
+                  .depth = b->depth + (size_t)ty * 8 * b->stride,
+                  .stride = b->stride,
+                  .tiles = b->fns.tiles};
+}
+
 /* A tile's effective minimum (teff): the coarse value, or the minimum of
  * its pixels (recomputed first if spans wrote into it since), whichever is
  * nearer. An invalid tile's pixels are all EMPTY, so its teff is its
  * coarse value; coarse writes raise teff with the same span. */
-static inline float band_tile(cull_occ_buffer *b, int tx, int ty)
+static inline float band_tile(const trow *r, int tx)
 {
-    size_t i = (size_t)ty * b->tw + tx;
-    uint8_t *st = &b->tstate[(size_t)ty * b->tpitch + tx];
-    if (*st == TILE_DIRTY) {
-        b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i, b->tmax + i);
-        *st = TILE_CLEAN;
-        b->teff[i] = b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
+    if (r->st[tx] == TILE_DIRTY) {
+        r->tiles(r->depth + (size_t)tx * 8, r->stride, 1, r->tile + tx, r->tmax + tx);
+        r->st[tx] = TILE_CLEAN;
+        r->teff[tx] = r->tile_full[tx] > r->tile[tx] ? r->tile_full[tx] : r->tile[tx];
     }
-    return b->teff[i];
+    return r->teff[tx];
 }
 
 /* A strip's minimum (8 tiles of one tile row), brought up to date first. */
-static inline float band_strip(cull_occ_buffer *b, int sx, int ty)
+static inline float band_strip(const trow *r, int sx)
 {
-    float *v = &b->strip[(size_t)ty * b->spitch + sx];
-    uint8_t *d = &b->sdirty[(size_t)ty * b->sdpitch + sx];
-    if (*d) {
+    if (r->sd[sx]) {
         float m = PAD;
-        for (int tx = sx * 8; tx < sx * 8 + 8; tx++) m = fmin_(m, band_tile(b, tx, ty));
-        *v = m;
-        *d = 0;
+        for (int tx = sx * 8; tx < sx * 8 + 8; tx++) m = fmin_(m, band_tile(r, tx));
+        r->strip[sx] = m;
+        r->sd[sx] = 0;
     }
-    return *v;
+    return r->strip[sx];
 }
 
 /* Tiles tx0..tx1 of tile row ty all nearer than z (strips first)? */
-static bool tile_row_hidden(cull_occ_buffer *b, int ty, int tx0, int tx1, float z)
+static bool tile_row_hidden(const cull_occ_buffer *b, int ty, int tx0, int tx1, float z)
 {
+    const trow r = trow_of(b, ty);
     for (int tx = tx0; tx <= tx1; tx++) {
-        if (!(tx & 7) && (tx | 7) <= tx1 && band_strip(b, tx >> 3, ty) > z) {
+        if (!(tx & 7) && (tx | 7) <= tx1 && band_strip(&r, tx >> 3) > z) {
             tx |= 7;
             continue;
         }
-        if (!(band_tile(b, tx, ty) > z)) return false;
+        if (!(band_tile(&r, tx) > z)) return false;
     }
     return true;
 }
@@ -157,36 +183,49 @@ static bool tile_row_hidden(cull_occ_buffer *b, int ty, int tx0, int tx1, float 
 
 /* An invalid tile's pixels hold last frame's values: set the real ones
  * (not the padding) to EMPTY before the first span writes into it. */
-static void clear_tile(cull_occ_buffer *b, int tx, int ty)
+static inline void clear_tile(cull_occ_buffer *b, int tx, int ty)
 {
     static const float empty8[8] = {EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY};
     int y1 = ty * 8 + 8 < (int)b->h ? ty * 8 + 8 : (int)b->h;
     uint32_t n = tx * 8 + 8 <= (int)b->w ? 8u : b->w - (uint32_t)tx * 8;
     float *p = b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8;
+#ifdef __SSE2__
+    if (n == 8 && y1 == ty * 8 + 8) {
+        /* a whole tile: 32-byte aligned rows (the depth plane is 64-byte
+           aligned, its pitch a multiple of 128 floats) */
+        const __m128 e = _mm_set1_ps(EMPTY);
+        for (int y = 0; y < 8; y++, p += b->stride) {
+            _mm_store_ps(p, e);
+            _mm_store_ps(p + 4, e);
+        }
+        return;
+    }
+#endif
     if (n == 8)
         for (int y = ty * 8; y < y1; y++, p += b->stride) memcpy(p, empty8, sizeof empty8);
     else
         for (int y = ty * 8; y < y1; y++, p += b->stride) memcpy(p, empty8, n * sizeof *p);
 }
 
-/* A span of row j, [x0, x1] (may be empty), with its tiles made valid and
- * marked dirty. (The flag loops cover one or two entries: kept as loops,
- * not turned into memset calls.) */
-__attribute__((optimize("no-tree-loop-distribute-patterns"), always_inline)) static inline void write_span(
-    cull_occ_buffer *b, int j, int x0, int x1, const float z0[3], const float dz[3], float lo)
+/* Pixels [x0, x1] (may be empty) of some rows of tile row ty are about to
+ * be written: their tiles made valid and marked dirty, their strips
+ * marked. Done once a tile row for the union of its rows' spans (a tile
+ * in the union that no span reaches is only made valid: its pixels, EMPTY
+ * or as they were, give the same minimum). (The flag loops cover one or
+ * two entries: kept as loops, not turned into memset calls.) */
+__attribute__((optimize("no-tree-loop-distribute-patterns"), always_inline)) static inline void mark_tiles(
+    cull_occ_buffer *b, int ty, int x0, int x1)
 {
     if (x0 > x1) return;
-    uint8_t *st = b->tstate + (size_t)(j >> 3) * b->tpitch;
+    uint8_t *st = b->tstate + (size_t)ty * b->tpitch;
     for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
-        if (st[tx] == TILE_INVALID) clear_tile(b, tx, j >> 3);
+        if (st[tx] == TILE_INVALID) clear_tile(b, tx, ty);
         st[tx] = TILE_DIRTY;
     }
-    uint8_t *sd = b->sdirty + (size_t)(j >> 3) * b->sdpitch;
+    uint8_t *sd = b->sdirty + (size_t)ty * b->sdpitch;
     sd[x0 >> 6] = 1;
     sd[x1 >> 6] = 1;
     for (int sx = (x0 >> 6) + 1; sx < x1 >> 6; sx++) sd[sx] = 1;
-    b->fns.span(b->depth + (size_t)j * b->stride, x0, x1, (int)b->stride, z0[0], dz[0], z0[1], dz[1], z0[2], dz[2],
-                lo);
 }
 
 /* What the row and tile loops rasterise: a convex region given by linear
@@ -202,12 +241,60 @@ typedef struct rpoly {
     double xmin, xmax, ymin, ymax;
 } rpoly;
 
+/* Rows r0..r1 (at most 8) of a tile row: the largest left bound al + be j
+ * and the smallest right bound over the constraints, -2^40 / 2^40 with
+ * none (two rows a vector where SSE2 is there: maxpd and minpd pick as
+ * dmax and dmin do, and the bounds are never NaN). */
+static inline void row_bounds(const double *lal, const double *lbe, uint32_t nl, const double *ral,
+                              const double *rbe, uint32_t nr, int r0, int r1, double tl[8], double th[8])
+{
+#ifdef __SSE2__
+    for (int j = r0; j <= r1; j += 2) {
+        __m128d jj = _mm_set_pd((double)(j + 1), (double)j);
+        __m128d l = _mm_set1_pd(-0x1p40), h = _mm_set1_pd(0x1p40);
+        for (uint32_t k = 0; k < nl; k++)
+            l = _mm_max_pd(l, _mm_add_pd(_mm_set1_pd(lal[k]), _mm_mul_pd(_mm_set1_pd(lbe[k]), jj)));
+        for (uint32_t k = 0; k < nr; k++)
+            h = _mm_min_pd(h, _mm_add_pd(_mm_set1_pd(ral[k]), _mm_mul_pd(_mm_set1_pd(rbe[k]), jj)));
+        _mm_storeu_pd(tl + (j - r0), l); /* j - r0 <= 6: two entries fit */
+        _mm_storeu_pd(th + (j - r0), h);
+    }
+#else
+    for (int j = r0; j <= r1; j++) {
+        double l = -0x1p40, h = 0x1p40;
+        for (uint32_t k = 0; k < nl; k++) l = dmax(l, lal[k] + lbe[k] * j);
+        for (uint32_t k = 0; k < nr; k++) h = dmin(h, ral[k] + rbe[k] * j);
+        tl[j - r0] = l;
+        th[j - r0] = h;
+    }
+#endif
+}
+
+/* The three planes' nearness at the start of row j, less their corner and
+ * margin terms: b j + c - corner - m in double, in that order, then float
+ * (two planes a vector where SSE2 is there: the same operations, the same
+ * bits). */
+static inline void row_nearness(const double zb[3], const double zc[3], const double corner[3], const double m[3],
+                                int j, float z0[3])
+{
+#ifdef __SSE2__
+    __m128d jj = _mm_set1_pd((double)j);
+    __m128d v = _mm_add_pd(_mm_mul_pd(_mm_loadu_pd(zb), jj), _mm_loadu_pd(zc));
+    v = _mm_sub_pd(_mm_sub_pd(v, _mm_loadu_pd(corner)), _mm_loadu_pd(m));
+    __m128 f = _mm_cvtpd_ps(v);
+    _mm_storel_pi((__m64 *)z0, f);
+    z0[2] = (float)(zb[2] * j + zc[2] - corner[2] - m[2]);
+#else
+    for (int k = 0; k < 3; k++) z0[k] = (float)(zb[k] * j + zc[k] - corner[k] - m[k]);
+#endif
+}
+
 /* Nearness planes are evaluated in float over the buffer: beyond this
  * magnitude (at any pixel) a plane, or the polygon's nearness range, is
  * not drawn with (a view that gives 2^100 has overflowed somewhere). */
 #define Z_LIM 0x1p100
 
-/* (write_span is inlined here: its flag loops stay loops, as in write_span) */
+/* (mark_tiles is inlined here: its flag loops stay loops, as in mark_tiles) */
 __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster_poly(band *bd, rpoly *p)
 {
     cull_occ_buffer *b = bd->b;
@@ -294,6 +381,7 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
         corner[k] = 0.5 * (fabs(z->a) + fabs(z->b));
         m[k] = 0x1p-20 * (fabs(z->b) * (j1 + 1) + fabs(z->c) + corner[k] + fabs(z->a) * (i1 + 1));
     }
+    const double zb[3] = {p->z[0].b, p->z[1].b, p->z[2].b}, zc[3] = {p->z[0].c, p->z[1].c, p->z[2].c};
     float zlo = cull_round_down(nlo);
     float da[3] = {(float)p->z[0].a, (float)p->z[1].a, (float)p->z[2].a};
     /* where the buffer is already nearer than the region's nearest point over
@@ -308,12 +396,12 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
         if (ty % bd->nb != bd->k) continue;
         if (tile_row_hidden(b, ty, i0 >> 3, i1 >> 3, zhi)) continue;
         int r0 = j0 > ty * 8 ? j0 : ty * 8, r1 = j1 < ty * 8 + 7 ? j1 : ty * 8 + 7;
-        int lo[8], hi[8], L = INT32_MIN, H = INT32_MAX;
+        int lo[8], hi[8], L = INT32_MIN, H = INT32_MAX, U0 = INT32_MAX, U1 = INT32_MIN;
         bool whole = r0 == ty * 8 && r1 == ty * 8 + 7;
+        double tlr[8], thr[8];
+        row_bounds(lal, lbe, nl, ral, rbe, nr, r0, r1, tlr, thr);
         for (int j = r0; j <= r1; j++) {
-            double tl = -0x1p40, th = 0x1p40;
-            for (uint32_t k = 0; k < nl; k++) tl = dmax(tl, lal[k] + lbe[k] * j);
-            for (uint32_t k = 0; k < nr; k++) th = dmin(th, ral[k] + rbe[k] * j);
+            double tl = tlr[j - r0], th = thr[j - r0];
             for (uint32_t k = 0; k < ns; k++) {
                 double q = (st[k] - sb[k] * j) / sa[k]; /* +-inf at worst */
                 if (sa[k] > 0) tl = dmax(tl, q);
@@ -323,6 +411,7 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
             lo[j - r0] = x0;
             hi[j - r0] = x1;
             if (x0 > x1) whole = false;
+            else U0 = x0 < U0 ? x0 : U0, U1 = x1 > U1 ? x1 : U1;
             L = x0 > L ? x0 : L;
             H = x1 < H ? x1 : H;
         }
@@ -349,18 +438,26 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
                         zlo);
             memset(b->sdirty + (size_t)ty * b->sdpitch + (ft0 >> 3), 1, (size_t)((ft1 >> 3) - (ft0 >> 3) + 1));
         }
-        for (int j = r0; j <= r1; j++) {
-            int x0 = lo[j - r0], x1 = hi[j - r0];
-            if (x0 > x1) continue;
-            float z0[3];
-            for (int k = 0; k < 3; k++) z0[k] = (float)(p->z[k].b * j + p->z[k].c - corner[k] - m[k]);
-            if (ft0 <= ft1) {
-                write_span(b, j, x0, ft0 * 8 - 1, z0, da, zlo);
-                write_span(b, j, ft1 * 8 + 8, x1, z0, da, zlo);
-            } else {
-                write_span(b, j, x0, x1, z0, da, zlo);
-            }
+        if (ft0 <= ft1) {
+            mark_tiles(b, ty, U0, ft0 * 8 - 1);
+            mark_tiles(b, ty, ft1 * 8 + 8, U1);
+        } else {
+            mark_tiles(b, ty, U0, U1);
         }
+        /* the rows' spans, left of the coarse tiles and right of them (or
+           whole), one kernel call each */
+        int ax1[8], bx0[8];
+        float z0[3 * 8];
+        for (int j = r0; j <= r1; j++) {
+            int r = j - r0;
+            if (lo[r] <= hi[r]) row_nearness(zb, zc, corner, m, j, z0 + 3 * r);
+            ax1[r] = ft0 <= ft1 ? ft0 * 8 - 1 : hi[r];
+            bx0[r] = ft1 * 8 + 8;
+        }
+        float *row0 = b->depth + (size_t)r0 * b->stride;
+        b->fns.spans(row0, b->stride, r1 - r0 + 1, lo, ax1, z0, (int)b->stride, da[0], da[1], da[2], zlo);
+        if (ft0 <= ft1)
+            b->fns.spans(row0, b->stride, r1 - r0 + 1, bx0, hi, z0, (int)b->stride, da[0], da[1], da[2], zlo);
     }
 }
 
@@ -560,14 +657,15 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
     float z = r->z;
     for (int ty = y0 >> 3; ty <= y1 >> 3; ty++) {
         if (ty % bd->nb != bd->k) continue;
+        const trow tr = trow_of(b, ty);
         for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
-            if (!(tx & 7) && (tx | 7) <= x1 >> 3 && band_strip(b, tx >> 3, ty) > z) {
+            if (!(tx & 7) && (tx | 7) <= x1 >> 3 && band_strip(&tr, tx >> 3) > z) {
                 tx |= 7; /* the whole strip lies inside the rectangle and is nearer */
                 continue;
             }
-            if (band_tile(b, tx, ty) > z) continue;
+            if (band_tile(&tr, tx) > z) continue;
             /* the coarse value is not nearer than z: the pixels decide */
-            if (b->tstate[(size_t)ty * b->tpitch + tx] == TILE_INVALID) return false;
+            if (tr.st[tx] == TILE_INVALID) return false;
             int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
             int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
             for (int py = py0; py <= py1; py++)
@@ -577,6 +675,8 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
     return true;
 }
 
+_Static_assert(TILE_INVALID == 0 && TILE_CLEAN == 1 && TILE_DIRTY == 2, "band_finish_tiles' 8-state scan");
+
 /* The band's dirty tiles, recomputed at its end, a run at a time. */
 static void band_finish_tiles(band *bd)
 {
@@ -585,7 +685,18 @@ static void band_finish_tiles(band *bd)
         uint8_t *d = b->tstate + (size_t)ty * b->tpitch;
         for (uint32_t tx = 0; tx < b->tw;) {
             if (d[tx] != TILE_DIRTY) {
-                tx++;
+                /* to the next dirty tile 8 states a step (most tiles of a
+                   row are not dirty; the row's padding is TILE_CLEAN, and
+                   tpitch is a multiple of 64, so 8 bytes from an index
+                   below tw are inside the row) */
+                uint64_t x;
+                memcpy(&x, d + (tx & ~7u), sizeof x);
+                x ^= 0x0101010101010101ull * TILE_DIRTY;
+                /* a dirty byte is 0 now, the others 2 or 3 (states are 0..2):
+                   the zero-byte test flags exactly the dirty ones */
+                x = (x - 0x0101010101010101ull) & ~x & 0x8080808080808080ull;
+                x &= ~0ull << 8 * (tx & 7u);                                    /* from tx on */
+                tx = x ? (tx & ~7u) + ((uint32_t)__builtin_ctzll(x) >> 3) : (tx & ~7u) + 8;
                 continue;
             }
             uint32_t end = tx;
@@ -599,7 +710,8 @@ static void band_finish_tiles(band *bd)
             }
             tx = end;
         }
-        for (uint32_t sx = 0; sx < b->t2w; sx++) (void)band_strip(b, (int)sx, ty);
+        const trow tr = trow_of(b, ty);
+        for (uint32_t sx = 0; sx < b->t2w; sx++) (void)band_strip(&tr, (int)sx);
         cull_occ_vkey_row(b, (uint32_t)ty);
     }
 }
