@@ -380,7 +380,11 @@ int bench_city(const bench_city_opts *o)
     if (!cr) return -1;
     static const double street_eye[3] = {0, 20, -300}, street_at[3] = {0, 2, 0};
     static const double air_eye[3] = {150, 200, 150}, air_at[3] = {0, 0, 0};
-    int rc = city_view(cr, o, "street", street_eye, street_at) || city_view(cr, o, "aerial", air_eye, air_at) ? -1 : 0;
+    bool street = !o->view || !strcmp(o->view, "street"), aerial = !o->view || !strcmp(o->view, "aerial");
+    int rc = (street && city_view(cr, o, "street", street_eye, street_at)) ||
+                     (aerial && city_view(cr, o, "aerial", air_eye, air_at))
+                 ? -1
+                 : 0;
     city_close(cr);
     return rc;
 }

@@ -22,6 +22,7 @@ typedef struct bench_city_opts {
     const char *gl_name;
     unsigned lp_threads;
     const char *png_dir;    /* non-NULL: the last frame of each view as city-VIEW.png there (and .jpg) */
+    const char *view;       /* non-NULL: that view only (street, aerial) */
 } bench_city_opts;
 
 /* 0, or -1 with a line on stderr. */

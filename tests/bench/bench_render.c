@@ -3,14 +3,15 @@
  * fails on nothing).
  *
  *   bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] [--city-only]
- *                [--no-city] [--png DIR]
+ *                [--no-city] [--png DIR] [--view street|aerial]
  *
  * First issue 20's budget, the demo city (bench_city.c): the daemon's
  * city and day environment, a street and an aerial view at 1280x720 on 2
  * threads, each pass of the software frame timed (setup, raster, bin,
  * shade, and shadow / ssao / post when they run), the tone map and the
  * JPEG apart, the GL path on the same frames. --city-only stops there;
- * --no-city skips it; --png DIR writes the last city frames there.
+ * --no-city skips it; --png DIR writes the last city frames there;
+ * --view: that city view only.
  *
  * The scene: N boxes (1k, 15k, 100k) of 0.5..4 m scattered over a 200 x
  * 380 m field in front of the camera, 0, 16 or 256 point lights of 30 m
@@ -322,7 +323,7 @@ static int time_encoders(uint32_t W, uint32_t H, int reps, bool json, const floa
 int main(int argc, char **argv)
 {
     bool json = false, quick = false, smoke = false, gl = true, city = true, city_only = false;
-    const char *png_dir = NULL;
+    const char *png_dir = NULL, *only_view = NULL;
     uint32_t W = 1280, H = 720;
     int reps = 15;
     for (int i = 1; i < argc; i++) {
@@ -335,9 +336,11 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--city-only")) city_only = true;
         else if (!strcmp(argv[i], "--no-city")) city = false;
         else if (!strcmp(argv[i], "--png") && i + 1 < argc) png_dir = argv[++i];
+        else if (!strcmp(argv[i], "--view") && i + 1 < argc && (!strcmp(argv[i + 1], "street") || !strcmp(argv[i + 1], "aerial")))
+            only_view = argv[++i];
         else {
             fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] "
-                            "[--city-only] [--no-city] [--png DIR]\n");
+                            "[--city-only] [--no-city] [--png DIR] [--view street|aerial]\n");
             return 2;
         }
     }
@@ -380,7 +383,8 @@ int main(int argc, char **argv)
     }
     if (city || city_only) {
         bench_city_opts co = {.pool = rn.pool, .width = W, .height = H, .reps = reps, .json = json, .gl = rn.gr,
-                              .gl_name = rn.gl_name, .lp_threads = rn.lp_threads, .png_dir = png_dir};
+                              .gl_name = rn.gl_name, .lp_threads = rn.lp_threads, .png_dir = png_dir,
+                              .view = only_view};
         if (bench_city(&co)) return 1;
     }
     if (city_only) ncounts = 0;
