@@ -153,12 +153,30 @@ static inline float band_tile(const trow *r, int tx)
     return r->teff[tx];
 }
 
+_Static_assert(TILE_INVALID == 0 && TILE_CLEAN == 1 && TILE_DIRTY == 2, "dirty_bytes");
+
+/* Bit 8k + 7 set for each of the 8 tile states from st that is
+ * TILE_DIRTY, exactly: a dirty byte is 0 after the xor, the others 2 or 3
+ * (states are 0..2), so the zero-byte test flags exactly the dirty ones. */
+static inline uint64_t dirty_bytes(const uint8_t *st)
+{
+    uint64_t x;
+    memcpy(&x, st, sizeof x);
+    x ^= 0x0101010101010101ull * TILE_DIRTY;
+    return (x - 0x0101010101010101ull) & ~x & 0x8080808080808080ull;
+}
+
 /* A strip's minimum (8 tiles of one tile row), brought up to date first. */
 static inline float band_strip(const trow *r, int sx)
 {
     if (r->sd[sx]) {
         float m = PAD;
-        for (int tx = sx * 8; tx < sx * 8 + 8; tx++) m = fmin_(m, band_tile(r, tx));
+        if (!dirty_bytes(r->st + sx * 8))
+            /* no dirty tile among the 8: their teff as they are, in the
+               same order */
+            for (int tx = sx * 8; tx < sx * 8 + 8; tx++) m = fmin_(m, r->teff[tx]);
+        else
+            for (int tx = sx * 8; tx < sx * 8 + 8; tx++) m = fmin_(m, band_tile(r, tx));
         r->strip[sx] = m;
         r->sd[sx] = 0;
     }
@@ -675,8 +693,6 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
     return true;
 }
 
-_Static_assert(TILE_INVALID == 0 && TILE_CLEAN == 1 && TILE_DIRTY == 2, "band_finish_tiles' 8-state scan");
-
 /* The band's dirty tiles, recomputed at its end, a run at a time. */
 static void band_finish_tiles(band *bd)
 {
@@ -689,13 +705,7 @@ static void band_finish_tiles(band *bd)
                    row are not dirty; the row's padding is TILE_CLEAN, and
                    tpitch is a multiple of 64, so 8 bytes from an index
                    below tw are inside the row) */
-                uint64_t x;
-                memcpy(&x, d + (tx & ~7u), sizeof x);
-                x ^= 0x0101010101010101ull * TILE_DIRTY;
-                /* a dirty byte is 0 now, the others 2 or 3 (states are 0..2):
-                   the zero-byte test flags exactly the dirty ones */
-                x = (x - 0x0101010101010101ull) & ~x & 0x8080808080808080ull;
-                x &= ~0ull << 8 * (tx & 7u);                                    /* from tx on */
+                uint64_t x = dirty_bytes(d + (tx & ~7u)) & ~0ull << 8 * (tx & 7u); /* from tx on */
                 tx = x ? (tx & ~7u) + ((uint32_t)__builtin_ctzll(x) >> 3) : (tx & ~7u) + 8;
                 continue;
             }
