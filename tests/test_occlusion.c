@@ -1375,6 +1375,58 @@ static float pick_bound(rng *r, uint32_t n)
  * cull_occ_depth; rectangles small, large, whole and at the borders;
  * nearness at the buffer's own values and one float step either side, and
  * extremes (+-FLT_MAX, +-inf, 0). */
+/* Every ISA's tile-row span kernel (cull_occ_spans) writes exactly what
+ * the same ISA's span does row by row: random rows of a tile row (empty,
+ * single pixels, whole rows, ends at the row's room), random planes,
+ * floors and prior contents, the whole rows compared bit for bit
+ * (padding past the spans included). */
+static void test_occ_spans_match_span(void **state)
+{
+    (void)state;
+    rng r = {0x5ba45ull};
+    enum { ROOM = 136, STRIDE = 144 };
+    float *a = malloc(sizeof(float) * 8 * STRIDE), *b = malloc(sizeof(float) * 8 * STRIDE);
+    assert_non_null(a);
+    assert_non_null(b);
+    float *init = malloc(sizeof(float) * 8 * STRIDE);
+    assert_non_null(init);
+    int cases = (int)(3000 * test_scale());
+    for (int t = 0; t < cases; t++) {
+        int n = 1 + (int)rng_below(&r, 8), x0[8], x1[8];
+        float z0[24];
+        for (int i = 0; i < 8 * STRIDE; i++) init[i] = rng_below(&r, 4) ? (float)rng_range(&r, -2, 2) : -FLT_MAX;
+        for (int k = 0; k < n; k++) {
+            switch (rng_below(&r, 5)) {
+            case 0: x0[k] = 5, x1[k] = 4; break; /* empty */
+            case 1: x0[k] = x1[k] = (int)rng_below(&r, ROOM); break;
+            case 2: x0[k] = 0, x1[k] = ROOM - 1; break;
+            default:
+                x0[k] = (int)rng_below(&r, ROOM);
+                x1[k] = x0[k] + (int)rng_below(&r, (uint32_t)(ROOM - x0[k]));
+            }
+            for (int c = 0; c < 3; c++) z0[3 * k + c] = (float)rng_range(&r, -1, 1);
+        }
+        float d[3] = {(float)rng_range(&r, -0.01, 0.01), (float)rng_range(&r, -0.01, 0.01),
+                      (float)rng_range(&r, -0.01, 0.01)};
+        float lo = (float)rng_range(&r, -1.5, 0.5);
+        for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+            if (!cull_isa_supported(isa)) continue;
+            cull_occ_fns fns = cull_occ_fns_for(isa);
+            memcpy(a, init, sizeof(float) * 8 * STRIDE);
+            memcpy(b, init, sizeof(float) * 8 * STRIDE);
+            fns.spans(a, STRIDE, n, x0, x1, z0, ROOM, d[0], d[1], d[2], lo);
+            for (int k = 0; k < n; k++)
+                if (x0[k] <= x1[k])
+                    fns.span(b + (size_t)k * STRIDE, x0[k], x1[k], ROOM, z0[3 * k], d[0], z0[3 * k + 1], d[1],
+                             z0[3 * k + 2], d[2], lo);
+            if (memcmp(a, b, sizeof(float) * 8 * STRIDE)) fail_msg("case %d, ISA %u: spans and span differ", t, isa);
+        }
+    }
+    free(init);
+    free(a);
+    free(b);
+}
+
 static void test_occ_wide_matches_scalar(void **state)
 {
     (void)state;
@@ -1454,6 +1506,7 @@ static void test_occ_wide_matches_scalar(void **state)
 const struct CMUnitTest occlusion_tests[] = {
     cmocka_unit_test(test_occ_wide_matches_scalar),
     cmocka_unit_test(test_occ_buffer_reuse),
+    cmocka_unit_test(test_occ_spans_match_span),
     cmocka_unit_test(test_occluder_cut_bound),
     cmocka_unit_test(test_occluder_build_bound),
     cmocka_unit_test(test_bad_occluders),
