@@ -2,8 +2,9 @@
  * cull_occ_raster.c — software occlusion, the drawing: the occluders of
  * one view rendered into the occlusion buffer in bands on the pool's
  * threads (cull_occ.c owns the buffer, the depth convention, the
- * hierarchy and the tests that read it; cull_occ_kern.inl the per-ISA
- * span loops).
+ * hierarchy and the tests that read it; cull_occ_tiles.inl the tile
+ * state kept during the render; cull_occ_kern.inl the per-ISA span
+ * loops).
  *
  * Rasterisation is homogeneous (Olano & Greer 1997): a polygon's edges are
  * the planes through the eye and each pair of clip-space vertices,
@@ -42,6 +43,8 @@
 #endif
 
 #define MAX_BANDS 64u
+
+#include "cull_occ_tiles.inl"
 
 static uint64_t now_ns(void)
 {
@@ -113,138 +116,7 @@ static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *
     return true;
 }
 
-/* One tile row's arrays, read once: the tile helpers below take it
- * instead of (b, ty), so a loop over a row keeps them in registers across
- * the calls that recompute a tile (which could otherwise write *b). */
-typedef struct trow {
-    uint8_t *st, *sd;                       /* tile states, strips' dirty flags */
-    float *teff, *tile, *tile_full, *tmax, *strip;
-    const float *depth;                     /* the row's first pixel row */
-    size_t stride;
-    void (*tiles)(const float *, size_t, uint32_t, float *, float *);
-} trow;
-
-static inline trow trow_of(const cull_occ_buffer *b, int ty)
-{
-    size_t t = (size_t)ty * b->tw;
-    return (trow){.st = b->tstate + (size_t)ty * b->tpitch,
-                  .sd = b->sdirty + (size_t)ty * b->sdpitch,
-                  .teff = b->teff + t,
-                  .tile = b->tile + t,
-                  .tile_full = b->tile_full + t,
-                  .tmax = b->tmax + t,
-                  .strip = b->strip + (size_t)ty * b->spitch,
-                  .depth = b->depth + (size_t)ty * 8 * b->stride,
-                  .stride = b->stride,
-                  .tiles = b->fns.tiles};
-}
-
-/* A tile's effective minimum (teff): the coarse value, or the minimum of
- * its pixels (recomputed first if spans wrote into it since), whichever is
- * nearer. An invalid tile's pixels are all EMPTY, so its teff is its
- * coarse value; coarse writes raise teff with the same span. */
-static inline float band_tile(const trow *r, int tx)
-{
-    if (r->st[tx] == TILE_DIRTY) {
-        r->tiles(r->depth + (size_t)tx * 8, r->stride, 1, r->tile + tx, r->tmax + tx);
-        r->st[tx] = TILE_CLEAN;
-        r->teff[tx] = r->tile_full[tx] > r->tile[tx] ? r->tile_full[tx] : r->tile[tx];
-    }
-    return r->teff[tx];
-}
-
-_Static_assert(TILE_INVALID == 0 && TILE_CLEAN == 1 && TILE_DIRTY == 2, "dirty_bytes");
-
-/* Bit 8k + 7 set for each of the 8 tile states from st that is
- * TILE_DIRTY, exactly: a dirty byte is 0 after the xor, the others 2 or 3
- * (states are 0..2), so the zero-byte test flags exactly the dirty ones. */
-static inline uint64_t dirty_bytes(const uint8_t *st)
-{
-    uint64_t x;
-    memcpy(&x, st, sizeof x);
-    x ^= 0x0101010101010101ull * TILE_DIRTY;
-    return (x - 0x0101010101010101ull) & ~x & 0x8080808080808080ull;
-}
-
-/* A strip's minimum (8 tiles of one tile row), brought up to date first. */
-static inline float band_strip(const trow *r, int sx)
-{
-    if (r->sd[sx]) {
-        float m = PAD;
-        if (!dirty_bytes(r->st + sx * 8))
-            /* no dirty tile among the 8: their teff as they are, in the
-               same order */
-            for (int tx = sx * 8; tx < sx * 8 + 8; tx++) m = fmin_(m, r->teff[tx]);
-        else
-            for (int tx = sx * 8; tx < sx * 8 + 8; tx++) m = fmin_(m, band_tile(r, tx));
-        r->strip[sx] = m;
-        r->sd[sx] = 0;
-    }
-    return r->strip[sx];
-}
-
-/* Tiles tx0..tx1 of tile row ty all nearer than z (strips first)? */
-static bool tile_row_hidden(const cull_occ_buffer *b, int ty, int tx0, int tx1, float z)
-{
-    const trow r = trow_of(b, ty);
-    for (int tx = tx0; tx <= tx1; tx++) {
-        if (!(tx & 7) && (tx | 7) <= tx1 && band_strip(&r, tx >> 3) > z) {
-            tx |= 7;
-            continue;
-        }
-        if (!(band_tile(&r, tx) > z)) return false;
-    }
-    return true;
-}
-
 #define MAX_CONS 8
-
-/* An invalid tile's pixels hold last frame's values: set the real ones
- * (not the padding) to EMPTY before the first span writes into it. */
-static inline void clear_tile(cull_occ_buffer *b, int tx, int ty)
-{
-    static const float empty8[8] = {EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY};
-    int y1 = ty * 8 + 8 < (int)b->h ? ty * 8 + 8 : (int)b->h;
-    uint32_t n = tx * 8 + 8 <= (int)b->w ? 8u : b->w - (uint32_t)tx * 8;
-    float *p = b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8;
-#ifdef __SSE2__
-    if (n == 8 && y1 == ty * 8 + 8) {
-        /* a whole tile: 32-byte aligned rows (the depth plane is 64-byte
-           aligned, its pitch a multiple of 128 floats) */
-        const __m128 e = _mm_set1_ps(EMPTY);
-        for (int y = 0; y < 8; y++, p += b->stride) {
-            _mm_store_ps(p, e);
-            _mm_store_ps(p + 4, e);
-        }
-        return;
-    }
-#endif
-    if (n == 8)
-        for (int y = ty * 8; y < y1; y++, p += b->stride) memcpy(p, empty8, sizeof empty8);
-    else
-        for (int y = ty * 8; y < y1; y++, p += b->stride) memcpy(p, empty8, n * sizeof *p);
-}
-
-/* Pixels [x0, x1] (may be empty) of some rows of tile row ty are about to
- * be written: their tiles made valid and marked dirty, their strips
- * marked. Done once a tile row for the union of its rows' spans (a tile
- * in the union that no span reaches is only made valid: its pixels, EMPTY
- * or as they were, give the same minimum). (The flag loops cover one or
- * two entries: kept as loops, not turned into memset calls.) */
-__attribute__((optimize("no-tree-loop-distribute-patterns"), always_inline)) static inline void mark_tiles(
-    cull_occ_buffer *b, int ty, int x0, int x1)
-{
-    if (x0 > x1) return;
-    uint8_t *st = b->tstate + (size_t)ty * b->tpitch;
-    for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
-        if (st[tx] == TILE_INVALID) clear_tile(b, tx, ty);
-        st[tx] = TILE_DIRTY;
-    }
-    uint8_t *sd = b->sdirty + (size_t)ty * b->sdpitch;
-    sd[x0 >> 6] = 1;
-    sd[x1 >> 6] = 1;
-    for (int sx = (x0 >> 6) + 1; sx < x1 >> 6; sx++) sd[sx] = 1;
-}
 
 /* What the row and tile loops rasterise: a convex region given by linear
  * constraints over pixel indices (edges, the near plane), up to three
@@ -693,37 +565,10 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
     return true;
 }
 
-/* The band's dirty tiles, recomputed at its end, a run at a time. */
+/* The band's dirty tiles, recomputed at its end. */
 static void band_finish_tiles(band *bd)
 {
-    cull_occ_buffer *b = bd->b;
-    for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
-        uint8_t *d = b->tstate + (size_t)ty * b->tpitch;
-        for (uint32_t tx = 0; tx < b->tw;) {
-            if (d[tx] != TILE_DIRTY) {
-                /* to the next dirty tile 8 states a step (most tiles of a
-                   row are not dirty; the row's padding is TILE_CLEAN, and
-                   tpitch is a multiple of 64, so 8 bytes from an index
-                   below tw are inside the row) */
-                uint64_t x = dirty_bytes(d + (tx & ~7u)) & ~0ull << 8 * (tx & 7u); /* from tx on */
-                tx = x ? (tx & ~7u) + ((uint32_t)__builtin_ctzll(x) >> 3) : (tx & ~7u) + 8;
-                continue;
-            }
-            uint32_t end = tx;
-            while (end < b->tw && d[end] == TILE_DIRTY) end++;
-            b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, end - tx,
-                         b->tile + (size_t)ty * b->tw + tx, b->tmax + (size_t)ty * b->tw + tx);
-            memset(d + tx, TILE_CLEAN, end - tx);
-            for (uint32_t k = tx; k < end; k++) {
-                size_t i = (size_t)ty * b->tw + k;
-                b->teff[i] = b->tile_full[i] > b->tile[i] ? b->tile_full[i] : b->tile[i];
-            }
-            tx = end;
-        }
-        const trow tr = trow_of(b, ty);
-        for (uint32_t sx = 0; sx < b->t2w; sx++) (void)band_strip(&tr, (int)sx);
-        cull_occ_vkey_row(b, (uint32_t)ty);
-    }
+    for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) tile_row_finish(bd->b, ty);
 }
 
 static void raster_cluster(band *bd, const cull_occ_cluster *cl)

@@ -377,6 +377,13 @@ cell_kviews(const cull_cell *cell, const cull_query_desc *q, const region_view *
     return nv;
 }
 
+/* Entities in block b of cell (all but the last are full). */
+static inline uint32_t block_n(const cull_cell *cell, uint32_t b)
+{
+    uint32_t n = cell->count - b * CULL_BLOCK_CAP;
+    return n > CULL_BLOCK_CAP ? CULL_BLOCK_CAP : n;
+}
+
 /* The items of a cell's blocks, from position pos on, when some view
  * keeps records: a single-view cell with a kept buffer gets a record per
  * block below the view's limit; one its kview does not read (not hot) is
@@ -388,8 +395,7 @@ static void items_recorded(cull_ctx *c, const cull_cell *cell, uint32_t pos, uin
     const uint32_t v = (uint32_t)__builtin_ctz(k->bit);
     const bool rec = nv == 1 && k->occ && v < OCC_BLOCK_MEMO_VIEWS && memo[v];
     for (uint32_t b = 0; b < cell->nblocks; b++) {
-        uint32_t n = cell->count - b * CULL_BLOCK_CAP, i = pos + b;
-        if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
+        uint32_t i = pos + b;
         cull_occ_memo *r = rec && i < mlim[v] ? &memo[v]->bmemo[i] : NULL;
         if (r && !k->hot) {
             if (r->gen != memo[v]->bgen) {
@@ -400,7 +406,7 @@ static void items_recorded(cull_ctx *c, const cull_cell *cell, uint32_t pos, uin
             r->stamp = cell->stamp;
             r->pmask = k->pmask;
         }
-        c->items[i] = (cull_item){cell->blocks[b], n, kv_off, nv, r};
+        c->items[i] = (cull_item){cell->blocks[b], block_n(cell, b), kv_off, nv, r};
     }
 }
 
@@ -678,11 +684,8 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                     nitems += cell->nblocks;
                     tested += cell->count;
                 } else {
-                    for (uint32_t b = 0; b < cell->nblocks; b++) {
-                        uint32_t n = cell->count - b * CULL_BLOCK_CAP;
-                        if (n > CULL_BLOCK_CAP) n = CULL_BLOCK_CAP;
-                        c->items[nitems++] = (cull_item){cell->blocks[b], n, nkv, nv, NULL};
-                    }
+                    for (uint32_t b = 0; b < cell->nblocks; b++)
+                        c->items[nitems++] = (cull_item){cell->blocks[b], block_n(cell, b), nkv, nv, NULL};
                     tested += cell->count;
                 }
                 nkv += nv;
