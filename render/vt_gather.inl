@@ -240,43 +240,46 @@ static inline void texels_h(const uint64_t *px, vix i, vf c[3])
     c[2] = _mm256_cvtph_ps(_mm256_castsi256_si128(ba));
 }
 
-/* bilinear() on the half-float copy of the slot's texture: the two
- * texel rows blended along x as they come (fewer live registers). */
-static inline __attribute__((always_inline)) void bilinear_h(const vt_texref *r, const vt_texlin *tl, uint32_t lv, vf u,
-                                                             vf v, vf o[3])
+/* A level's texel coordinates for W lanes, as bilinear() makes them: the
+ * two columns, the two rows (times the row length) and the weights. */
+typedef struct taxes {
+    vix i0, i1, j0, j1;
+    vf ax, ay;
+} taxes;
+
+static inline __attribute__((always_inline)) void tex_axes(const vt_texref *r, const vt_texlin *tl, uint32_t lv, vf u,
+                                                           vf v, taxes *a)
 {
     int ws = ilog2u(tl->w), hs = ilog2u(tl->h);
     ws = ws > (int)lv ? ws - (int)lv : 0;
     hs = hs > (int)lv ? hs - (int)lv : 0;
-    vix i0, i1, j0, j1;
-    vf ax, ay;
-    axis(u, ws, r->wrap_s, &i0, &i1, &ax);
-    axis(v, hs, r->wrap_t, &j0, &j1, &ay);
-    j0 = vi_sll(j0, ws), j1 = vi_sll(j1, ws);
+    axis(u, ws, r->wrap_s, &a->i0, &a->i1, &a->ax);
+    axis(v, hs, r->wrap_t, &a->j0, &a->j1, &a->ay);
+    a->j0 = vi_sll(a->j0, ws), a->j1 = vi_sll(a->j1, ws);
+}
+
+/* bilinear() on the half-float copy of the slot's texture at level lv's
+ * coordinates a: the two texel rows blended along x as they come (fewer
+ * live registers). */
+static inline __attribute__((always_inline)) void bilinear_h(const vt_texlin *tl, uint32_t lv, const taxes *x, vf o[3])
+{
     vf a[3], b[3], top[3];
-    texels_h(tl->lv[lv], vi_add(j0, i0), a);
-    texels_h(tl->lv[lv], vi_add(j0, i1), b);
-    for (int k = 0; k < 3; k++) top[k] = vf_fma(ax, vf_sub(b[k], a[k]), a[k]);
-    texels_h(tl->lv[lv], vi_add(j1, i0), a);
-    texels_h(tl->lv[lv], vi_add(j1, i1), b);
+    texels_h(tl->lv[lv], vi_add(x->j0, x->i0), a);
+    texels_h(tl->lv[lv], vi_add(x->j0, x->i1), b);
+    for (int k = 0; k < 3; k++) top[k] = vf_fma(x->ax, vf_sub(b[k], a[k]), a[k]);
+    texels_h(tl->lv[lv], vi_add(x->j1, x->i0), a);
+    texels_h(tl->lv[lv], vi_add(x->j1, x->i1), b);
     for (int k = 0; k < 3; k++) {
-        vf bot = vf_fma(ax, vf_sub(b[k], a[k]), a[k]);
-        o[k] = vf_fma(ay, vf_sub(bot, top[k]), top[k]);
+        vf bot = vf_fma(x->ax, vf_sub(b[k], a[k]), a[k]);
+        o[k] = vf_fma(x->ay, vf_sub(bot, top[k]), top[k]);
     }
 }
-/* The lanes whose bilinear sample of the copy's level lv at (u, v) is
- * black by its masks (vt_texlin.h's zb; there are some): the lower
- * texel's index as bilinear_h makes it, one gather of mask words. */
-static inline vm black_lanes(const vt_texref *r, const vt_texlin *tl, uint32_t lv, vf u, vf v)
+/* The lanes whose bilinear sample of the copy's level lv at coordinates
+ * a is black by its masks (vt_texlin.h's zb; there are some): one gather
+ * of mask words at the lower texel. */
+static inline vm black_lanes(const vt_texlin *tl, uint32_t lv, const taxes *a)
 {
-    int ws = ilog2u(tl->w), hs = ilog2u(tl->h);
-    ws = ws > (int)lv ? ws - (int)lv : 0;
-    hs = hs > (int)lv ? hs - (int)lv : 0;
-    vix i0, i1, j0, j1;
-    vf ax, ay;
-    axis(u, ws, r->wrap_s, &i0, &i1, &ax);
-    axis(v, hs, r->wrap_t, &j0, &j1, &ay);
-    vix i = vi_add(vi_sll(j0, ws), i0);
+    vix i = vi_add(a->j0, a->i0);
     vix w = vi_gather(tl->zb[lv], vi_srl(i, 5));
     vix b = _mm256_srlv_epi32(w, vi_and(i, vi_set(31)));
     return vi_eq(vi_and(b, vi_set(1)), vi_set(1));
@@ -349,20 +352,24 @@ static inline void tex_lanes(const vt_texref *r, vf u0, vf v0, vf dxu0, vf dxv0,
         const bool two = mips && vm_bits(vf_lt(zero, fk));
 #if CULL_SIMD_ISA == 3
         if (tl) {
+            /* each level's coordinates once, for the black test and the
+               sample */
+            taxes x0, x1;
+            tex_axes(r, tl, L, u, v, &x0);
+            x1 = x0; /* read only when two */
+            if (two) tex_axes(r, tl, L + 1, u, v, &x1);
             /* a black footprint at both levels: black (o is 0 there)
-               without the texels; a test of ~30 instructions against
-               two bilinear samples' ~300 */
-            if (tl->zb[0]) {
-                vm blk = black_lanes(r, tl, L, u, v);
-                if (two) blk = vm_and(blk, black_lanes(r, tl, L + 1, u, v));
-                if (!vm_bits(vm_andnot(mk, blk))) {
-                    todo &= ~vm_bits(mk);
-                    continue;
-                }
+               without the texels; a test of ~10 instructions against
+               two bilinear samples' ~200. The second level is tested
+               only where the first is black in every lane */
+            if (tl->zb[0] && !vm_bits(vm_andnot(mk, black_lanes(tl, L, &x0))) &&
+                (!two || !vm_bits(vm_andnot(mk, black_lanes(tl, L + 1, &x1))))) {
+                todo &= ~vm_bits(mk);
+                continue;
             }
-            bilinear_h(r, tl, L, u, v, a);
+            bilinear_h(tl, L, &x0, a);
             if (two) {
-                bilinear_h(r, tl, L + 1, u, v, b);
+                bilinear_h(tl, L + 1, &x1, b);
                 for (int k = 0; k < 3; k++) a[k] = vf_fma(fk, vf_sub(b[k], a[k]), a[k]);
             }
             for (int k = 0; k < 3; k++) o[k] = vf_select(mk, a[k], o[k]);
