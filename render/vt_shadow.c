@@ -23,9 +23,11 @@
  *      a face seen edge-on), max into the band. No depth clipping: a
  *      face farther from the sun than a receiver never darkens it, and
  *      an orthographic projection needs no division; then each band's
- *      2 x 2 tiles' depth range;
- *   3. the footprint tiles (vt_shadow_tiles.c: their 3 x 3 dilation) the
- *      span lookup decides most pixels by without its 16 taps.
+ *      parts of the footprint tiles (per 2 x 2 tile, the depth range of
+ *      its rows over 5 columns);
+ *   3. the footprint tiles (vt_shadow_tiles.c: 5 x 5 texels each, three
+ *      parts joined) the span lookup decides most pixels by without its
+ *      16 taps.
  * Cost: one pass over the caster vertices, a few compares per triangle
  * and cascade; the maps (4 x 1024^2 floats at 720p, 16 MB) are cleared by
  * the raster threads as they draw, only where the last frames drew. */
@@ -425,9 +427,10 @@ struct vt_shadow {
     uint32_t dirty_size, dirty_n;
     /* the footprint tiles the span lookup decides most pixels by
        (vt_shadow_tiles.h): per cascade (size / VT_SHADOW_TILE)^2 packed
-       ranges; raw: the undilated tiles' minima, then as many maxima */
+       ranges; raw: their parts, P (a tile's two rows) then O (its
+       second row), packed alike */
     uint32_t *tiles;
-    float *raw;
+    uint32_t *raw;
     size_t tiles_cap, raw_cap;
     vt_shadow_cons cons;    /* the span lookup's constants of the last draw */
     vt_shadow_n_fn lookup_n; /* the span lookup's instance; NULL: one lane */
@@ -849,8 +852,8 @@ static int clip_rect(const ltri *t, double sz, double x[9], double y[9], double 
 /* ---- the footprint tiles (vt_shadow_tiles.c) --------------------------------------- */
 
 /* Thread t: tile rows ty % nt == t of every cascade, over the columns the
- * raster wrote in the rows' bands (elsewhere every raw tile is -FLT_MAX,
- * and so the result). */
+ * raster wrote in the rows' bands (elsewhere every part is empty, and so
+ * the tile). */
 static void job_tiles(void *arg, uint32_t t)
 {
     sjob *jb = arg;
@@ -859,19 +862,19 @@ static void job_tiles(void *arg, uint32_t t)
     const size_t plane = (size_t)sh->fit.n * g * g;
     for (uint32_t c = 0; c < sh->fit.n; c++)
         for (uint32_t ty = t; ty < g; ty += jb->nt) {
-            /* the texel rows of raw rows ty - 1 .. ty + 1, and their bands' written columns */
-            const uint32_t y0 = ty ? VT_SHADOW_TILE * (ty - 1) : 0,
-                           y1 = VT_SHADOW_TILE * (ty + 2) < sz ? VT_SHADOW_TILE * (ty + 2) - 1 : sz - 1;
+            /* the tile's texel rows, and their bands' written columns */
+            const uint32_t y0 = ty ? VT_SHADOW_TILE * ty - 1 : 0,
+                           y1 = VT_SHADOW_TILE * ty + 3 < sz ? VT_SHADOW_TILE * ty + 3 : sz - 1;
             uint32_t lo = UINT32_MAX, hi = 0;
             for (uint32_t k = y0 / BAND; k <= y1 / BAND; k++)
                 if (sh->dlo[c][k] <= sh->dhi[c][k])
                     lo = sh->dlo[c][k] < lo ? sh->dlo[c][k] : lo, hi = sh->dhi[c][k] > hi ? sh->dhi[c][k] : hi;
-            vt_shadow_tiles_row(sh->raw, sh->tiles, plane, sz, c, ty, lo, hi, sh->cons.qlo[c], sh->cons.qinv[c]);
+            vt_shadow_tiles_row(sh->raw, sh->raw + plane, sh->tiles, sz, c, ty, lo, hi);
         }
 }
 
 /* Thread t: bands k of every cascade with k % nt == t, cleared, then
- * every list walked once, then their raw tiles made. */
+ * every list walked once, then their tiles' parts made. */
 static void job_raster(void *arg, uint32_t t)
 {
     sjob *jb = arg;
@@ -925,7 +928,7 @@ static void job_raster(void *arg, uint32_t t)
         const size_t g2 = (size_t)(sz / VT_SHADOW_TILE) * (sz / VT_SHADOW_TILE), plane = sh->fit.n * g2;
         for (uint32_t k = t; k < nb; k += nt)
             vt_shadow_tiles_band(sh->raw + c * g2, sh->raw + plane + c * g2, m, sz, k, k < tracked ? sh->dlo[c][k] : 0,
-                      k < tracked ? sh->dhi[c][k] : sz - 1);
+                                 k < tracked ? sh->dhi[c][k] : sz - 1, sh->cons.qlo[c], sh->cons.qinv[c]);
     }
 }
 

@@ -124,9 +124,10 @@ const vt_shadow_fit *vt_shadow_fit_of(const vt_shadow *sh);
 const float *vt_shadow_maps(const vt_shadow *sh);
 /* The last draw's footprint tiles, the span lookup's shortcut (vt_shadow.c):
  * per cascade g x g (g = size / VT_SHADOW_TILE); tile (tx, ty) bounds the
- * map's depth over texels VT_SHADOW_TILE (t - 1) .. VT_SHADOW_TILE (t + 2)
- * - 1 on both axes, clipped to the map, packed in 32 bits (half the
- * memory of two floats, one gather): bits 0..15 a and 16..31 b, the
+ * map's depth over texels VT_SHADOW_TILE t - 1 .. VT_SHADOW_TILE t + 3 on
+ * both axes (the union of the 4 x 4 footprints that pick the tile),
+ * clipped to the map, packed in 32 bits (half the memory of two floats,
+ * one gather): bits 0..15 a and 16..31 b, the
  * depth range within qlo[c] + a / qinv[c] .. qlo[c] + b / qinv[c] of
  * cascade c; a 0 or b 65535: not bounded on that side (beyond the
  * quantised range, or NaN). The bounds are conservative by more than a

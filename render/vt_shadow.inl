@@ -150,7 +150,7 @@ static inline __attribute__((always_inline)) vf sh_prep(const vt_shadow_fit *f, 
     t->mb = sh_pick(kc->base, f->n, ci);
     if (!kc->tq) return one;
     /* the footprint x0..x0 + 3 lies in tile floor((x0 + 1) / 2)'s range
-       (texels 2t - 2 .. 2t + 3): the tiles' rule */
+       (texels 2t - 1 .. 2t + 3): the tiles' rule */
     const vf lim = vf_set(szf - 4.0f), half = vf_set(0.5f);
     vm fin = vm_and(m, vm_and(vm_and(vf_le(zero, t->x0), vf_le(t->x0, lim)), vm_and(vf_le(zero, t->y0), vf_le(t->y0, lim))));
     if (!vm_bits(fin)) return one;

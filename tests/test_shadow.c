@@ -552,8 +552,8 @@ static void test_shadow_tiles(void **state)
         for (int ty = 0; ty < g; ty++)
             for (int tx = 0; tx < g; tx++) {
                 float lo = INFINITY, hi = -INFINITY;
-                for (int y = T * (ty - 1); y < T * (ty + 2); y++)
-                    for (int x = T * (tx - 1); x < T * (tx + 2); x++) {
+                for (int y = T * ty - 1; y <= T * ty + 3; y++)
+                    for (int x = T * tx - 1; x <= T * tx + 3; x++) {
                         if (x < 0 || y < 0 || x >= S || y >= S) continue;
                         float d = maps[((size_t)c * S + y) * S + x];
                         lo = d < lo ? d : lo, hi = d > hi ? d : hi;
