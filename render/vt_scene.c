@@ -265,6 +265,7 @@ void vt_penv_make(const vt_env *env, const double origin[3], vt_skytab *tab, vt_
     pe->fog_density = env->fog_density;
     pe->fog_falloff = env->fog_falloff;
     pe->fog_y0 = (float)((env->ground ? env->ground_height : 0) - origin[1]);
+    pe->fog_e0 = expf(fminf(pe->fog_falloff * pe->fog_y0, 80.0f));
     /* the ambient: the sky's cosine-weighted mean over the upper
        hemisphere (8 x 16 directions), and from below the ground's bounce
        of sun and sky (without a ground, the sky's horizon) */
@@ -547,7 +548,7 @@ void vt_fog_apply(const vt_penv *pe, const float p[3], float c[3])
        the eye (y = 0) to p */
     float k = pe->fog_falloff, od;
     if (k > 0) {
-        float e0 = expf(fminf(k * pe->fog_y0, 80.0f)), kd = k * p[1];
+        float e0 = pe->fog_e0, kd = k * p[1];
         float g = fabsf(kd) > 1e-4f ? (1 - expf(-kd)) / kd : 1 - 0.5f * kd;
         od = pe->fog_density * e0 * L * g;
     } else {

@@ -655,7 +655,7 @@ void VT_SHADE_NAME(const vt_span *sp)
     if (env) {
         const vt_penv *pe = sp->pe;
         if (pe->fog_density > 0) {
-            const float e0 = pe->fog_falloff > 0 ? expf(fminf(pe->fog_falloff * pe->fog_y0, 80.0f)) : 1.0f;
+            const float e0 = pe->fog_falloff > 0 ? pe->fog_e0 : 1.0f;
             for (unsigned i = 0; i < S; i += W) fog_lanes(&s, pe, e0, cov, i);
         }
         span_sky(sp, s.cr, s.cg, s.cb, cov);

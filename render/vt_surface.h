@@ -53,6 +53,7 @@ typedef struct vt_penv {
     const vt_material *ground_mat;
     float ground_uv0[2];         /* the view origin's x, z, modulo 4096 m */
     float fog_density, fog_falloff, fog_y0; /* fog_y0: the fog's reference height, camera-relative */
+    float fog_e0;                /* e^min(falloff y0, 80): the height fog's factor at the eye */
     float fog[3];                /* fog radiance: fog_color x the sky's mean */
     const struct vt_ibl *ibl;    /* image-based ambient (vt_brdf.h), or NULL: the two-colour
                                     hemisphere of amb_up, amb_down (VT_FX_IBL off); the
