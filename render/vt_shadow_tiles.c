@@ -14,7 +14,7 @@
  *   1. each raster thread, for its bands' rows, per tile the range over
  *      the 5 columns TS s - 1 .. TS s + 3 of its two rows (P) and of its
  *      second row alone (O), packed as the tiles are (the dirty columns
- *      read, the rest empty);
+ *      read, the rest empty; four tiles a step from three loads a row);
  *   2. per tile row, O of the row above, P of the row and of the row
  *      below: the 5 rows TS t - 1 .. TS t + 3.
  * The parts are packed with pack1's margins, and their union's bounds
@@ -111,6 +111,33 @@ static inline uint32_t join(uint32_t x, uint32_t y)
     return (a < b ? a : b) | (c > d ? c : d) << 16;
 }
 
+/* Row r's range over tile s's 5 columns 2s - 1 .. 2s + 3 (clipped to
+ * the map's sz texels). */
+static inline void win5(const float *r, uint32_t sz, uint32_t s, float *lo, float *hi)
+{
+    const uint32_t a = s ? TS * s - 1 : 0, b = TS * s + 3 < sz ? TS * s + 3 : sz - 1;
+    float l = r[a], h = r[a];
+    for (uint32_t x = a + 1; x <= b; x++) l = min2(l, r[x]), h = max2(h, r[x]);
+    *lo = l, *hi = h;
+}
+
+#ifdef __SSE2__
+/* win5 of tiles s .. s + 3 (s >= 1, 2s + 9 < sz): columns 2s - 2 .. 2s
+ * + 9 in three loads, their even and odd texels apart; tile s + i's
+ * window is odd texel i and pairs i + 1, i + 2. */
+static inline void win5x4(const float *r, uint32_t s, __m128 *lo, __m128 *hi)
+{
+    const float *q = r + TS * s - 2;
+    const __m128 l0 = _mm_loadu_ps(q), l1 = _mm_loadu_ps(q + 4), l2 = _mm_loadu_ps(q + 8);
+    const __m128 e03 = _mm_shuffle_ps(l0, l1, _MM_SHUFFLE(2, 0, 2, 0)), o03 = _mm_shuffle_ps(l0, l1, _MM_SHUFFLE(3, 1, 3, 1));
+    const __m128 e25 = _mm_shuffle_ps(l1, l2, _MM_SHUFFLE(2, 0, 2, 0)), o25 = _mm_shuffle_ps(l1, l2, _MM_SHUFFLE(3, 1, 3, 1));
+    __m128 m03 = _mm_min_ps(e03, o03), m25 = _mm_min_ps(e25, o25);
+    *lo = _mm_min_ps(_mm_min_ps(o03, _mm_shuffle_ps(m03, m25, _MM_SHUFFLE(2, 1, 2, 1))), m25);
+    m03 = _mm_max_ps(e03, o03), m25 = _mm_max_ps(e25, o25);
+    *hi = _mm_max_ps(_mm_max_ps(o03, _mm_shuffle_ps(m03, m25, _MM_SHUFFLE(2, 1, 2, 1))), m25);
+}
+#endif
+
 /* Band k's parts of map m (size sz; texels outside columns x0..x1 are
  * -FLT_MAX), quantised by qlo, qinv: P over each tile's two rows, O over
  * its second row, both over the 5 columns 2s - 1 .. 2s + 3 (clipped to
@@ -122,11 +149,9 @@ void vt_shadow_tiles_band(uint32_t *P, uint32_t *O, const float *m, uint32_t sz,
     /* tiles s0..s1 see a written column: 2s + 3 >= x0 and 2s - 1 <= x1 */
     uint32_t s0 = g, s1 = 0;
     if (x0 <= x1) s0 = x0 >= 3 ? (x0 - 2) / 2 : 0, s1 = (x1 + 1) / 2 < g ? (x1 + 1) / 2 : g - 1;
-    /* per block s (at index s + 1): its 2 x 2 texels' bounds (bl, bh),
-       its second column's (cl, ch), its second row's (rl, rh) and its
-       second row's second texel (ql, qh) */
-    enum { N = 2048 / TS + 2 };
-    float bl[N], bh[N], cl[N], ch[N], rl[N], rh[N], ql[N], qh[N];
+#ifdef __SSE2__
+    const __m128 vlo = _mm_set1_ps(qlo), vinv = _mm_set1_ps(qinv);
+#endif
     for (uint32_t ty = k * (BAND / TS); ty < (k + 1) * (BAND / TS) && ty < g; ty++) {
         uint32_t *p = P + (size_t)ty * g, *o = O + (size_t)ty * g;
         if (s0 > s1) {
@@ -136,51 +161,33 @@ void vt_shadow_tiles_band(uint32_t *P, uint32_t *O, const float *m, uint32_t sz,
         fill_u32(p, s0, EMPTY), fill_u32(o, s0, EMPTY);
         fill_u32(p + s1 + 1, g - 1 - s1, EMPTY), fill_u32(o + s1 + 1, g - 1 - s1, EMPTY);
         const float *r0 = m + (size_t)TS * ty * sz, *r1 = r0 + sz;
-        /* the blocks s0 - 1 .. s1 + 1 (clipped to the map) */
-        const uint32_t a0 = s0 ? s0 - 1 : 0, a1 = s1 + 1 < g ? s1 + 1 : s1;
-        uint32_t s = a0;
+        uint32_t s = s0;
+        if (!s) { /* tile 0's window stops at the map's side */
+            float l0, h0, l1, h1;
+            win5(r0, sz, 0, &l0, &h0);
+            win5(r1, sz, 0, &l1, &h1);
+            p[0] = pack1(min2(l0, l1), max2(h0, h1), qlo, qinv);
+            o[0] = pack1(l1, h1, qlo, qinv);
+            s = 1;
+        }
 #ifdef __SSE2__
-        /* four blocks a step: the rows' even and odd texels apart */
-        for (; s + 4 <= a1 + 1; s += 4) {
-            const __m128 a = _mm_loadu_ps(r0 + TS * s), c = _mm_loadu_ps(r0 + TS * s + 4), b = _mm_loadu_ps(r1 + TS * s),
-                         d = _mm_loadu_ps(r1 + TS * s + 4);
-            const __m128 e0 = _mm_shuffle_ps(a, c, _MM_SHUFFLE(2, 0, 2, 0)), o0 = _mm_shuffle_ps(a, c, _MM_SHUFFLE(3, 1, 3, 1));
-            const __m128 e1 = _mm_shuffle_ps(b, d, _MM_SHUFFLE(2, 0, 2, 0)), o1 = _mm_shuffle_ps(b, d, _MM_SHUFFLE(3, 1, 3, 1));
-            const __m128 l1 = _mm_min_ps(e1, o1), h1 = _mm_max_ps(e1, o1);
-            _mm_storeu_ps(rl + s + 1, l1), _mm_storeu_ps(rh + s + 1, h1);
-            _mm_storeu_ps(bl + s + 1, _mm_min_ps(_mm_min_ps(e0, o0), l1));
-            _mm_storeu_ps(bh + s + 1, _mm_max_ps(_mm_max_ps(e0, o0), h1));
-            _mm_storeu_ps(cl + s + 1, _mm_min_ps(o0, o1)), _mm_storeu_ps(ch + s + 1, _mm_max_ps(o0, o1));
-            _mm_storeu_ps(ql + s + 1, o1), _mm_storeu_ps(qh + s + 1, o1);
+        /* four tiles a step away from the map's sides; a step past s1
+           reads only cleared texels (-FLT_MAX), so the tiles it writes
+           there are the empty ones the fill put */
+        for (; s <= s1 && s + 5 <= g; s += 4) {
+            __m128 l0, h0, l1, h1;
+            win5x4(r0, s, &l0, &h0);
+            win5x4(r1, s, &l1, &h1);
+            _mm_storeu_si128((__m128i *)(p + s), pack4(_mm_min_ps(l0, l1), _mm_max_ps(h0, h1), vlo, vinv));
+            _mm_storeu_si128((__m128i *)(o + s), pack4(l1, h1, vlo, vinv));
         }
-#endif
-        for (; s <= a1; s++) {
-            const float e0 = r0[TS * s], e1 = r0[TS * s + 1], f0 = r1[TS * s], f1 = r1[TS * s + 1];
-            rl[s + 1] = min2(f0, f1), rh[s + 1] = max2(f0, f1);
-            bl[s + 1] = min2(min2(e0, e1), rl[s + 1]), bh[s + 1] = max2(max2(e0, e1), rh[s + 1]);
-            cl[s + 1] = min2(e1, f1), ch[s + 1] = max2(e1, f1);
-            ql[s + 1] = qh[s + 1] = f1;
-        }
-        /* past the map's sides: nothing (each bound's neutral value) */
-        if (!s0) cl[0] = ql[0] = FLT_MAX, ch[0] = qh[0] = -FLT_MAX;
-        if (s1 + 1 >= g) bl[g + 1] = rl[g + 1] = FLT_MAX, bh[g + 1] = rh[g + 1] = -FLT_MAX;
-        /* tile s: columns 2s - 1 (block s - 1's second), 2s .. 2s + 1
-           (block s), 2s + 2 .. 2s + 3 (block s + 1) */
-        s = s0;
-#ifdef __SSE2__
-        const __m128 vlo = _mm_set1_ps(qlo), vinv = _mm_set1_ps(qinv);
-#define MN3(x, y) _mm_min_ps(_mm_min_ps(_mm_loadu_ps(x + s), _mm_loadu_ps(y + s + 1)), _mm_loadu_ps(y + s + 2))
-#define MX3(x, y) _mm_max_ps(_mm_max_ps(_mm_loadu_ps(x + s), _mm_loadu_ps(y + s + 1)), _mm_loadu_ps(y + s + 2))
-        for (; s + 4 <= s1 + 1; s += 4) {
-            _mm_storeu_si128((__m128i *)(p + s), pack4(MN3(cl, bl), MX3(ch, bh), vlo, vinv));
-            _mm_storeu_si128((__m128i *)(o + s), pack4(MN3(ql, rl), MX3(qh, rh), vlo, vinv));
-        }
-#undef MN3
-#undef MX3
 #endif
         for (; s <= s1; s++) {
-            p[s] = pack1(min2(min2(cl[s], bl[s + 1]), bl[s + 2]), max2(max2(ch[s], bh[s + 1]), bh[s + 2]), qlo, qinv);
-            o[s] = pack1(min2(min2(ql[s], rl[s + 1]), rl[s + 2]), max2(max2(qh[s], rh[s + 1]), rh[s + 2]), qlo, qinv);
+            float l0, h0, l1, h1;
+            win5(r0, sz, s, &l0, &h0);
+            win5(r1, sz, s, &l1, &h1);
+            p[s] = pack1(min2(l0, l1), max2(h0, h1), qlo, qinv);
+            o[s] = pack1(l1, h1, qlo, qinv);
         }
     }
 }
