@@ -1,11 +1,13 @@
 /*
  * vt_brdf.c — glTF 2.0's metallic-roughness BRDF in scalar form, the
  * split-sum DFG table and the image-based ambient (see vt_brdf.h).
- * Costs: the DFG table 32 x 32 x 2 x 1024 samples once per process (a few
- * ms); vt_ibl_update, per sky change, 64 x 32 x 16 + 4096 environment
- * lookups and 1024 x 2048 + 3 x 1024 x 512 lobe weights (about 7 ms on
- * this machine unloaded); per pixel the kernels then pay one SH polynomial, one
- * DFG lookup and two bilinear octahedral lookups.
+ * Costs: the DFG table 32 x 32 x 2 x 1024 samples once per process (about
+ * 25 ms); vt_ibl_update, per sky change, 64 x 32 x 16 + 4096 environment
+ * lookups and 1024 x 2048 + 3 x 1024 x 512 lobe weights (4.1 ms on one
+ * thread of this machine, 2.2 on two with vt_ibl_update_pool: the lobes
+ * four cells a step, the rows shared by the threads; 8.2 before); per
+ * pixel the kernels then pay one SH polynomial, one DFG lookup and two
+ * bilinear octahedral lookups.
  */
 #include "vt_brdf.h"
 
@@ -13,7 +15,11 @@
 
 #include <math.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #define PI_F 3.14159265358979f
 
@@ -236,15 +242,17 @@ void vt_ibl_env(const vt_penv *pe, const float d[3], float out[3])
     for (int c = 0; c < 3; c++) out[c] = isfinite(out[c]) && out[c] > 0 ? out[c] : 0;
 }
 
-/* The environment on a w x h equirectangular grid, each cell the mean of
-   ss x ss directions: direction, radiance, exact solid angle. */
-static void grid_make(const vt_penv *pe, uint32_t w, uint32_t h, uint32_t ss, float (*g)[7])
+/* Rows j0..j1 - 1 of the environment on a w x h equirectangular grid,
+   each cell the mean of ss x ss directions: direction, radiance, exact
+   solid angle, as 7 planes of w h floats at g (x, y, z, r, g, b, w). */
+static void grid_rows(const vt_penv *pe, uint32_t w, uint32_t h, uint32_t ss, float *g, uint32_t j0, uint32_t j1)
 {
-    for (uint32_t j = 0; j < h; j++) {
+    const size_t pl = (size_t)w * h;
+    for (uint32_t j = j0; j < j1; j++) {
         double t0 = M_PI * j / h, t1 = M_PI * (j + 1) / h;
         float dw = (float)(2 * M_PI / w * (cos(t0) - cos(t1)));
         for (uint32_t i = 0; i < w; i++) {
-            float *o = g[j * w + i], L[3] = {0, 0, 0};
+            float L[3] = {0, 0, 0};
             for (uint32_t b = 0; b < ss; b++)
                 for (uint32_t a = 0; a < ss; a++) {
                     float th = (float)M_PI * (j + (b + 0.5f) / ss) / h, ph = 2 * (float)M_PI * (i + (a + 0.5f) / ss) / w;
@@ -253,8 +261,9 @@ static void grid_make(const vt_penv *pe, uint32_t w, uint32_t h, uint32_t ss, fl
                     for (int c = 0; c < 3; c++) L[c] += e[c] / (float)(ss * ss);
                 }
             float th = (float)M_PI * (j + 0.5f) / h, ph = 2 * (float)M_PI * (i + 0.5f) / w;
-            o[0] = sinf(th) * cosf(ph), o[1] = cosf(th), o[2] = sinf(th) * sinf(ph);
-            o[3] = L[0], o[4] = L[1], o[5] = L[2], o[6] = dw;
+            const size_t q = (size_t)j * w + i;
+            g[q] = sinf(th) * cosf(ph), g[pl + q] = cosf(th), g[2 * pl + q] = sinf(th) * sinf(ph);
+            g[3 * pl + q] = L[0], g[4 * pl + q] = L[1], g[5 * pl + q] = L[2], g[6 * pl + q] = dw;
         }
     }
 }
@@ -271,7 +280,116 @@ static inline void sh_poly(const float n[3], float p[9])
     p[4] = x * y, p[5] = y * z, p[6] = 3 * z * z - 1, p[7] = x * z, p[8] = x * x - y * y;
 }
 
+/* Level 0's texel row j: the environment itself, 2 x 2 directions a texel. */
+static void level0_row(vt_ibl *ibl, const vt_penv *pe, uint32_t j)
+{
+    for (uint32_t i = 0; i < VT_IBL_RES; i++) {
+        float *o = ibl->spec[0] + 4 * (j * VT_IBL_RES + i);
+        o[0] = o[1] = o[2] = 0, o[3] = 1;
+        for (uint32_t b = 0; b < 2; b++)
+            for (uint32_t a = 0; a < 2; a++) {
+                float uv[2] = {(i + 0.25f + 0.5f * a) / VT_IBL_RES, (j + 0.25f + 0.5f * b) / VT_IBL_RES}, d[3], e[3];
+                vt_oct_dir(uv, d);
+                vt_ibl_env(pe, d, e);
+                for (int c = 0; c < 3; c++) o[c] += 0.25f * e[c];
+            }
+        ibl->spec_e5[0][j * VT_IBL_RES + i] = vt_rgb_e5(o);
+    }
+}
+
+/* Level lv >= 1's texel row j: the GGX lobe about r (n = v = r, so n.h^2
+   = (1 + r.l) / 2 and the l-space density is D / 4), weighted by r.l;
+   the narrowest (roughness 0.25: a lobe about 7 degrees wide) from the
+   fine grid (5.6 degree cells), the others from the coarse one (11
+   degrees; 0.5's lobe is 28). SSE2: four partial sums a texel, cells
+   facing away weighing 0 (every t >= a2 > 0). */
+static void lobe_row(vt_ibl *ibl, uint32_t lv, uint32_t j)
+{
+    const float r = vt_brdf_rough((float)lv / (VT_IBL_LEVELS - 1)), am = r * r * r * r - 1;
+    const float *g = lv <= 1 ? &ibl->src_hi[0][0] : &ibl->src_lo[0][0];
+    const uint32_t ng = lv <= 1 ? 64 * 32 : 32 * 16;
+    const float *gx = g, *gy = g + ng, *gz = g + 2 * (size_t)ng, *gr = g + 3 * (size_t)ng, *gg = g + 4 * (size_t)ng,
+                *gb = g + 5 * (size_t)ng, *gw = g + 6 * (size_t)ng;
+    for (uint32_t i = 0; i < VT_IBL_RES; i++) {
+        float uv[2] = {(i + 0.5f) / VT_IBL_RES, (j + 0.5f) / VT_IBL_RES}, R[3];
+        vt_oct_dir(uv, R);
+        float L[3] = {0, 0, 0}, Ws = 0;
+#ifdef __SSE2__
+        const __m128 rx = _mm_set1_ps(R[0]), ry = _mm_set1_ps(R[1]), rz = _mm_set1_ps(R[2]), va = _mm_set1_ps(am),
+                     half = _mm_set1_ps(0.5f), one = _mm_set1_ps(1), zero = _mm_setzero_ps();
+        __m128 s0 = zero, s1 = zero, s2 = zero, sw = zero;
+        for (uint32_t k = 0; k < ng; k += 4) {
+            /* maxps(c, 0): 0 for a NaN too */
+            __m128 c = _mm_add_ps(_mm_add_ps(_mm_mul_ps(rx, _mm_loadu_ps(gx + k)), _mm_mul_ps(ry, _mm_loadu_ps(gy + k))),
+                                  _mm_mul_ps(rz, _mm_loadu_ps(gz + k)));
+            c = _mm_max_ps(c, zero);
+            __m128 t = _mm_add_ps(_mm_mul_ps(_mm_mul_ps(half, _mm_add_ps(one, c)), va), one);
+            __m128 w = _mm_div_ps(_mm_mul_ps(c, _mm_loadu_ps(gw + k)), _mm_mul_ps(t, t));
+            s0 = _mm_add_ps(s0, _mm_mul_ps(w, _mm_loadu_ps(gr + k)));
+            s1 = _mm_add_ps(s1, _mm_mul_ps(w, _mm_loadu_ps(gg + k)));
+            s2 = _mm_add_ps(s2, _mm_mul_ps(w, _mm_loadu_ps(gb + k)));
+            sw = _mm_add_ps(sw, w);
+        }
+        float f[4][4];
+        _mm_storeu_ps(f[0], s0), _mm_storeu_ps(f[1], s1), _mm_storeu_ps(f[2], s2), _mm_storeu_ps(f[3], sw);
+        for (int l = 0; l < 4; l++) L[0] += f[0][l], L[1] += f[1][l], L[2] += f[2][l], Ws += f[3][l];
+#else
+        for (uint32_t k = 0; k < ng; k++) {
+            float c = R[0] * gx[k] + R[1] * gy[k] + R[2] * gz[k];
+            if (!(c > 0)) continue;
+            float t = 0.5f * (1 + c) * am + 1, w = c * gw[k] / (t * t);
+            L[0] += w * gr[k], L[1] += w * gg[k], L[2] += w * gb[k], Ws += w;
+        }
+#endif
+        float *o = ibl->spec[lv] + 4 * (j * VT_IBL_RES + i);
+        for (int c = 0; c < 3; c++) o[c] = Ws > 0 ? L[c] / Ws : 0;
+        o[3] = 1;
+        ibl->spec_e5[lv][j * VT_IBL_RES + i] = vt_rgb_e5(o);
+    }
+}
+
+/* A remake's parallel steps: the fine grid's rows and level 0's, then
+   the lobe levels' rows, taken by the threads as they finish one. */
+typedef struct ibl_job {
+    vt_ibl *ibl;
+    const vt_penv *pe;
+    uint32_t phase, n;
+    _Atomic uint32_t next;
+} ibl_job;
+
+static void ibl_step(ibl_job *j, uint32_t k)
+{
+    if (j->phase == 0) {
+        if (k < 32) grid_rows(j->pe, 64, 32, 4, &j->ibl->src_hi[0][0], k, k + 1);
+        else level0_row(j->ibl, j->pe, k - 32);
+    } else {
+        lobe_row(j->ibl, 1 + k / VT_IBL_RES, k % VT_IBL_RES);
+    }
+}
+
+static void ibl_run(void *arg, uint32_t t)
+{
+    ibl_job *j = arg;
+    (void)t;
+    for (uint32_t k; (k = atomic_fetch_add(&j->next, 1)) < j->n;) ibl_step(j, k);
+}
+
+static void ibl_phase(ibl_job *j, uint32_t phase, uint32_t n, cull_pool *pool, uint32_t threads)
+{
+    j->phase = phase, j->n = n;
+    atomic_store(&j->next, 0);
+    uint32_t nt = pool ? cull_pool_threads(pool) : 1;
+    if (threads && threads < nt) nt = threads;
+    if (nt > 1) cull_pool_run(pool, ibl_run, j, nt);
+    ibl_run(j, 0); /* what is left (a pool runs at most its threads' slots) */
+}
+
 bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
+{
+    return vt_ibl_update_pool(ibl, pe, NULL, 1);
+}
+
+bool vt_ibl_update_pool(vt_ibl *ibl, const vt_penv *pe, cull_pool *pool, uint32_t threads)
 {
     float key[VT_IBL_KEY] = {pe->sky_mode, pe->sky[0], pe->sky[1], pe->sky[2], pe->sky_mul[0], pe->sky_mul[1],
                              pe->sky_mul[2], pe->sky_rot, pe->sun_dir[0], pe->sun_dir[1], pe->sun_dir[2],
@@ -289,77 +407,41 @@ bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
     ibl->key_img = img;
     ibl->ok = true;
     ibl->gen++;
-    grid_make(pe, 64, 32, 4, ibl->src_hi);
+    ibl_job jb = {.ibl = ibl, .pe = pe};
+    ibl_phase(&jb, 0, 32 + VT_IBL_RES, pool, threads); /* the fine grid, level 0 */
     /* the low grid: 2 x 2 cells of the high one */
+    const size_t ph = 64 * 32, pq = 32 * 16;
+    const float *hi = &ibl->src_hi[0][0];
+    float *lo = &ibl->src_lo[0][0];
     for (uint32_t j = 0; j < 16; j++)
         for (uint32_t i = 0; i < 32; i++) {
-            float *o = ibl->src_lo[j * 32 + i], L[3] = {0, 0, 0}, w = 0;
+            float L[3] = {0, 0, 0}, w = 0;
             for (uint32_t b = 0; b < 2; b++)
                 for (uint32_t a = 0; a < 2; a++) {
-                    const float *s = ibl->src_hi[(2 * j + b) * 64 + 2 * i + a];
-                    for (int c = 0; c < 3; c++) L[c] += s[3 + c] * s[6];
-                    w += s[6];
+                    const size_t q = (size_t)(2 * j + b) * 64 + 2 * i + a;
+                    for (int c = 0; c < 3; c++) L[c] += hi[(3 + c) * ph + q] * hi[6 * ph + q];
+                    w += hi[6 * ph + q];
                 }
-            float th = (float)M_PI * (j + 0.5f) / 16, ph = 2 * (float)M_PI * (i + 0.5f) / 32;
-            o[0] = sinf(th) * cosf(ph), o[1] = cosf(th), o[2] = sinf(th) * sinf(ph);
-            for (int c = 0; c < 3; c++) o[3 + c] = L[c] / w;
-            o[6] = w;
+            float th = (float)M_PI * (j + 0.5f) / 16, phi = 2 * (float)M_PI * (i + 0.5f) / 32;
+            const size_t q = (size_t)j * 32 + i;
+            lo[q] = sinf(th) * cosf(phi), lo[pq + q] = cosf(th), lo[2 * pq + q] = sinf(th) * sinf(phi);
+            for (int c = 0; c < 3; c++) lo[(3 + c) * pq + q] = L[c] / w;
+            lo[6 * pq + q] = w;
         }
     /* irradiance: the projection, times Ramamoorthi and Hanrahan's band
        factors pi, 2 pi / 3, pi / 4, over pi */
     static const float band[9] = {1, 2.0f / 3, 2.0f / 3, 2.0f / 3, 0.25f, 0.25f, 0.25f, 0.25f, 0.25f};
     double acc[9][3] = {{0}};
     for (uint32_t k = 0; k < 64 * 32; k++) {
-        const float *s = ibl->src_hi[k];
+        const float n[3] = {hi[k], hi[ph + k], hi[2 * ph + k]};
         float p[9];
-        sh_poly(s, p);
+        sh_poly(n, p);
         for (int i = 0; i < 9; i++)
-            for (int c = 0; c < 3; c++) acc[i][c] += (double)s[3 + c] * s[6] * sh_c[i] * p[i];
+            for (int c = 0; c < 3; c++) acc[i][c] += (double)hi[(3 + c) * ph + k] * hi[6 * ph + k] * sh_c[i] * p[i];
     }
     for (int i = 0; i < 9; i++)
         for (int c = 0; c < 3; c++) ibl->sh[i][c] = (float)acc[i][c] * sh_c[i] * band[i];
-    /* level 0: the environment itself, 2 x 2 directions a texel */
-    for (uint32_t j = 0; j < VT_IBL_RES; j++)
-        for (uint32_t i = 0; i < VT_IBL_RES; i++) {
-            float *o = ibl->spec[0] + 4 * (j * VT_IBL_RES + i);
-            o[0] = o[1] = o[2] = 0, o[3] = 1;
-            for (uint32_t b = 0; b < 2; b++)
-                for (uint32_t a = 0; a < 2; a++) {
-                    float uv[2] = {(i + 0.25f + 0.5f * a) / VT_IBL_RES, (j + 0.25f + 0.5f * b) / VT_IBL_RES}, d[3], e[3];
-                    vt_oct_dir(uv, d);
-                    vt_ibl_env(pe, d, e);
-                    for (int c = 0; c < 3; c++) o[c] += 0.25f * e[c];
-                }
-        }
-    /* the rougher levels: the GGX lobe about r (n = v = r, so n.h^2 =
-       (1 + r.l) / 2 and the l-space density is D / 4), weighted by r.l;
-       the narrowest (roughness 0.25: a lobe about 7 degrees wide) from the
-       fine grid (5.6 degree cells), the others from the coarse one (11
-       degrees; 0.5's lobe is 28) */
-    for (uint32_t lv = 1; lv < VT_IBL_LEVELS; lv++) {
-        float r = vt_brdf_rough((float)lv / (VT_IBL_LEVELS - 1)), a2 = r * r * r * r;
-        const float(*g)[7] = lv <= 1 ? ibl->src_hi : ibl->src_lo;
-        uint32_t ng = lv <= 1 ? 64 * 32 : 32 * 16;
-        for (uint32_t j = 0; j < VT_IBL_RES; j++)
-            for (uint32_t i = 0; i < VT_IBL_RES; i++) {
-                float uv[2] = {(i + 0.5f) / VT_IBL_RES, (j + 0.5f) / VT_IBL_RES}, R[3];
-                vt_oct_dir(uv, R);
-                float L[3] = {0, 0, 0}, W = 0;
-                for (uint32_t k = 0; k < ng; k++) {
-                    const float *s = g[k];
-                    float c = R[0] * s[0] + R[1] * s[1] + R[2] * s[2];
-                    if (!(c > 0)) continue;
-                    float nh2 = 0.5f * (1 + c), t = nh2 * (a2 - 1) + 1, w = c * s[6] / (t * t);
-                    L[0] += w * s[3], L[1] += w * s[4], L[2] += w * s[5];
-                    W += w;
-                }
-                float *o = ibl->spec[lv] + 4 * (j * VT_IBL_RES + i);
-                for (int c = 0; c < 3; c++) o[c] = W > 0 ? L[c] / W : 0;
-                o[3] = 1;
-            }
-    }
-    for (uint32_t lv = 0; lv < VT_IBL_LEVELS; lv++)
-        for (uint32_t i = 0; i < VT_IBL_RES * VT_IBL_RES; i++) ibl->spec_e5[lv][i] = vt_rgb_e5(ibl->spec[lv] + 4 * i);
+    ibl_phase(&jb, 1, (VT_IBL_LEVELS - 1) * VT_IBL_RES, pool, threads); /* the rougher levels */
     return true;
 }
 

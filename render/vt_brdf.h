@@ -94,8 +94,9 @@ typedef struct vt_ibl {
     uint32_t rspec[VT_IBL_NR][VT_IBL_RES * VT_IBL_RES];
     uint32_t rdfg[VT_IBL_NR][VT_DFG_N];
     /* scratch of a remake: the environment on 64 x 32 and 32 x 16
-       equirectangular grids (direction, radiance, solid angle) */
-    float src_hi[64 * 32][7], src_lo[32 * 16][7];
+       equirectangular grids, as planes: direction x, y, z, radiance r,
+       g, b, solid angle */
+    float src_hi[7][64 * 32], src_lo[7][32 * 16];
 } vt_ibl;
 
 /* Makes ibl from pe (vt_penv_make's; ground and sky) unless it was made
@@ -103,6 +104,10 @@ typedef struct vt_ibl {
  * changes. The lower hemisphere is the ground's bounce (pe->amb_down)
  * where there is a ground, else the sky. Returns true when remade. */
 bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe);
+/* The same with pool's threads (at most threads; 0: all of them; pool
+ * NULL: the caller's alone): the grids' and the levels' rows. */
+struct cull_pool;
+bool vt_ibl_update_pool(vt_ibl *ibl, const vt_penv *pe, struct cull_pool *pool, uint32_t threads);
 /* The entries (above) for the roughness of every material of the
  * frame's instances and of its ground that has no metallic-roughness
  * texture (NULL: the default material), after vt_ibl_update: kept from

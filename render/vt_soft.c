@@ -875,7 +875,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     const vt_light *lights = f->lights;
     vt_penv_make(f->env, v->origin, &r->sky, &fr.pe);
     if (fr.pe.on && !(f->fx_off & VT_FX_IBL)) { /* remade only when the sky changed */
-        vt_ibl_update(&r->ibl, &fr.pe);
+        vt_ibl_update_pool(&r->ibl, &fr.pe, r->pool, r->threads);
         fr.pe.ibl = &r->ibl;
     }
     vt_ground_make(&fr.pe, &fr.vr, (int)v->depth_mode, &fr.gr);
