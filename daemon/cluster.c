@@ -660,6 +660,16 @@ static bool rebuild(cluster *cl, scene *sc, pthread_rwlock_t *lock)
     }
     uint64_t first = si->State.FirstSeq;
     jsStreamInfo_Destroy(si);
+    /* and the snapshots, before the scene is let go: a daemon whose NATS
+       server is coming back waits for them as for the stream (it used to
+       exit when the index timed out right after the stream answered) */
+    char perr[300];
+    if (cl_snap_probe(cl, perr, sizeof perr) < 0 && strstr(perr, "snapshot index:")) {
+        if (!cl->rebuild_said) LOGW("cluster %s: waiting for the snapshots to start again from: %s", cl->name, perr);
+        cl->rebuild_said = true;
+        atomic_store(&cl->rebuild, true);
+        return false;
+    }
     atomic_store(&cl->rebuild, false);
     cl->rebuild_said = false;
     int64_t t0 = cl_mono_ms();

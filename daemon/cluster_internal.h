@@ -115,6 +115,10 @@ int cl_stream_ensure(cluster *cl, const char *name, const char **subjects, int n
  * err); the writer's turn (a snapshot started, or its child done); stopped
  * at close; the newest snapshot's position read again (a new writer). */
 int cl_snap_ensure(cluster *cl, char *err, size_t errlen);
+/* Whether the snapshot index answers (0; -1 and err, "the snapshot
+ * index: ..." while its servers do not): a rebuild asks before it lets
+ * the scene go. */
+int cl_snap_probe(cluster *cl, char *err, size_t errlen);
 int cl_snap_load(cluster *cl, scene *sc, uint64_t first, char *err, size_t errlen);
 void cl_snap_poll(cluster *cl, const scene *sc);
 void cl_snap_stop(cluster *cl);

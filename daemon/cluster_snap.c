@@ -88,6 +88,12 @@ static int index_latest(cluster *cl, snap_index *x, char *err, size_t errlen)
     return 1;
 }
 
+int cl_snap_probe(cluster *cl, char *err, size_t errlen)
+{
+    snap_index x;
+    return index_latest(cl, &x, err, errlen) < 0 ? -1 : 0;
+}
+
 int cl_snap_ensure(cluster *cl, char *err, size_t errlen)
 {
     jsStreamInfo *si = NULL;

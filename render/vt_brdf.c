@@ -1,14 +1,15 @@
 /*
  * vt_brdf.c — glTF 2.0's metallic-roughness BRDF in scalar form, the
  * split-sum DFG table and the image-based ambient (see vt_brdf.h).
- * Costs: the DFG table 32 x 32 x 2 x 1024 samples once per process (6 ms;
- * 24 before the half vectors were made once a row and the cosine
- * estimator once a column, the same table bit for bit); vt_ibl_update, per sky change, 64 x 32 x 16 + 4096 environment
- * lookups and 1024 x 2048 + 3 x 1024 x 512 lobe weights (4.1 ms on one
- * thread of this machine, 2.2 on two with vt_ibl_update_pool: the lobes
- * four cells a step, the rows shared by the threads; 8.2 before); per
- * pixel the kernels then pay one SH polynomial, one DFG lookup and two
- * bilinear octahedral lookups.
+ * Costs: the DFG table 32 x 32 x 2 x 1024 samples once per process (6
+ * ms; 24 before the half vectors were made once a row and the cosine
+ * estimator once a column, the same table bit for bit); vt_ibl_update,
+ * per sky change, 64 x 32 x 16 + 4096 environment lookups and 1024 x
+ * 2048 + 3 x 1024 x 512 lobe weights (4.1 ms on one thread of this
+ * machine, 2.2 on two with vt_ibl_update_pool: the lobes four cells a
+ * step, the rows shared by the threads; 8.2 before); per pixel the
+ * kernels then pay one SH polynomial, one DFG lookup and two bilinear
+ * octahedral lookups.
  */
 #include "vt_brdf.h"
 
