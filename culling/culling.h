@@ -452,6 +452,12 @@ uint32_t cull_pool_threads(const cull_pool *p);
  * per pool. */
 typedef void (*cull_job_fn)(void *arg, uint32_t thread);
 void cull_pool_run(cull_pool *p, cull_job_fn fn, void *arg, uint32_t n);
+/* Runs fn(arg, k) once for each k in 0..n-1 on at most threads of the
+ * pool (0: all of them; a NULL pool: the caller alone) and waits: each
+ * thread takes the next k as it finishes one, so uneven items balance.
+ * The same rules as cull_pool_run. */
+typedef void (*cull_each_fn)(void *arg, uint32_t k);
+void cull_pool_each(cull_pool *p, uint32_t threads, uint32_t n, cull_each_fn fn, void *arg);
 
 /* Per-query scratch (grows with the world, then stops allocating). pool may
  * be NULL (single-threaded). One context per concurrent query. */

@@ -17,7 +17,6 @@
 
 #include <math.h>
 #include <pthread.h>
-#include <stdatomic.h>
 #include <string.h>
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -379,40 +378,25 @@ static void lobe_row(vt_ibl *ibl, uint32_t lv, uint32_t j)
     }
 }
 
-/* A remake's parallel steps: the fine grid's rows and level 0's, then
-   the lobe levels' rows, taken by the threads as they finish one. */
+/* A remake's parallel steps, taken by the pool's threads as they finish
+   one (cull_pool_each): the fine grid's rows and level 0's, then the
+   lobe levels' rows. */
 typedef struct ibl_job {
     vt_ibl *ibl;
     const vt_penv *pe;
-    uint32_t phase, n;
-    _Atomic uint32_t next;
 } ibl_job;
 
-static void ibl_step(ibl_job *j, uint32_t k)
-{
-    if (j->phase == 0) {
-        if (k < 32) grid_rows(j->pe, 64, 32, 4, &j->ibl->src_hi[0][0], k, k + 1);
-        else level0_row(j->ibl, j->pe, k - 32);
-    } else {
-        lobe_row(j->ibl, 1 + k / VT_IBL_RES, k % VT_IBL_RES);
-    }
-}
-
-static void ibl_run(void *arg, uint32_t t)
+static void ibl_grid_step(void *arg, uint32_t k)
 {
     ibl_job *j = arg;
-    (void)t;
-    for (uint32_t k; (k = atomic_fetch_add(&j->next, 1)) < j->n;) ibl_step(j, k);
+    if (k < 32) grid_rows(j->pe, 64, 32, 4, &j->ibl->src_hi[0][0], k, k + 1);
+    else level0_row(j->ibl, j->pe, k - 32);
 }
 
-static void ibl_phase(ibl_job *j, uint32_t phase, uint32_t n, cull_pool *pool, uint32_t threads)
+static void ibl_lobe_step(void *arg, uint32_t k)
 {
-    j->phase = phase, j->n = n;
-    atomic_store(&j->next, 0);
-    uint32_t nt = pool ? cull_pool_threads(pool) : 1;
-    if (threads && threads < nt) nt = threads;
-    if (nt > 1) cull_pool_run(pool, ibl_run, j, nt);
-    ibl_run(j, 0); /* what is left (a pool runs at most its threads' slots) */
+    ibl_job *j = arg;
+    lobe_row(j->ibl, 1 + k / VT_IBL_RES, k % VT_IBL_RES);
 }
 
 bool vt_ibl_update(vt_ibl *ibl, const vt_penv *pe)
@@ -439,7 +423,7 @@ bool vt_ibl_update_pool(vt_ibl *ibl, const vt_penv *pe, cull_pool *pool, uint32_
     ibl->ok = true;
     ibl->gen++;
     ibl_job jb = {.ibl = ibl, .pe = pe};
-    ibl_phase(&jb, 0, 32 + VT_IBL_RES, pool, threads); /* the fine grid, level 0 */
+    cull_pool_each(pool, threads, 32 + VT_IBL_RES, ibl_grid_step, &jb); /* the fine grid, level 0 */
     /* the low grid: 2 x 2 cells of the high one */
     const size_t ph = 64 * 32, pq = 32 * 16;
     const float *hi = &ibl->src_hi[0][0];
@@ -472,7 +456,7 @@ bool vt_ibl_update_pool(vt_ibl *ibl, const vt_penv *pe, cull_pool *pool, uint32_
     }
     for (int i = 0; i < 9; i++)
         for (int c = 0; c < 3; c++) ibl->sh[i][c] = (float)acc[i][c] * sh_c[i] * band[i];
-    ibl_phase(&jb, 1, (VT_IBL_LEVELS - 1) * VT_IBL_RES, pool, threads); /* the rougher levels */
+    cull_pool_each(pool, threads, (VT_IBL_LEVELS - 1) * VT_IBL_RES, ibl_lobe_step, &jb); /* the rougher levels */
     return true;
 }
 

@@ -59,11 +59,7 @@ struct vt_ssao {
 };
 
 typedef struct job {
-    const vt_ssao_view *sv;
-    const float *near;
-    vt_ssao *s;
     uint32_t nt;
-    uint32_t next[4];       /* each pass' next band (atomic) */
     vt_ssao_kjob k;
     vt_ssao_kern kern;
 } job;
@@ -160,35 +156,19 @@ void vt_ssao_view_make(const cull_view_rows *vr, uint32_t w, uint32_t h, vt_ssao
     sv->ok = true;
 }
 
-/* Rows [0, rows) in bands of band rows, each thread taking the next band
- * of pass p (*next) until none is left: each pass's split (the lane
- * kernel fn, vt_ssao.inl, one row at a time). */
-static void band_rows(job *jb, int p, uint32_t rows, uint32_t band, vt_ssao_row_fn fn)
-{
-    for (uint32_t b; (b = __atomic_fetch_add(&jb->next[p], 1, __ATOMIC_RELAXED)) < (rows + band - 1) / band;)
-        for (uint32_t j = b * band; j < rows && j < (b + 1) * band; j++) fn(&jb->k, j);
-}
+/* A pass over rows [0, rows) in bands of band rows, the threads taking
+ * the next band as they finish one (cull_pool_each): the lane kernel fn
+ * (vt_ssao.inl) one row at a time. */
+typedef struct pass_job {
+    const vt_ssao_kjob *k;
+    vt_ssao_row_fn fn;
+    uint32_t rows, band;
+} pass_job;
 
-/* Pass 1: the half texels' nearness; pass 2: GTAO (both over half rows). */
-static void job_pos(void *arg, uint32_t t)
+static void pass_band(void *arg, uint32_t b)
 {
-    job *jb = arg;
-    (void)t;
-    band_rows(jb, 0, jb->sv->hh, BAND_POS, jb->kern.pos);
-}
-
-static void job_crease(void *arg, uint32_t t)
-{
-    job *jb = arg;
-    (void)t;
-    band_rows(jb, 3, jb->sv->hh, BAND_POS, jb->kern.crease);
-}
-
-static void job_gtao(void *arg, uint32_t t)
-{
-    job *jb = arg;
-    (void)t;
-    band_rows(jb, 1, jb->sv->hh, BAND_GTAO, jb->kern.gtao);
+    const pass_job *q = arg;
+    for (uint32_t j = b * q->band; j < q->rows && j < (b + 1) * q->band; j++) q->fn(q->k, j);
 }
 
 /* The tent taps along one axis for full coordinate x: the half texels
@@ -206,16 +186,6 @@ static void taps(uint32_t x, uint32_t hn, uint32_t idx[3], float wt[3])
     idx[0] = x >= 2 ? x / 2 - 1 : x / 2, wt[0] = x >= 2 ? 0.25f : 0;
     idx[1] = x / 2, wt[1] = 0.5f;
     idx[2] = x / 2 + 1 < hn ? x / 2 + 1 : x / 2, wt[2] = x / 2 + 1 < hn ? 0.25f : 0;
-}
-
-/* Pass 4: the upsample of full rows, two at a time (the lane kernel,
- * vt_ssao.inl: the pair's half-row taps read once); the columns' taps
- * were made once (vt_ssao_run). */
-static void job_up(void *arg, uint32_t t)
-{
-    job *jb = arg;
-    (void)t;
-    band_rows(jb, 2, (jb->sv->h + 1) / 2, BAND_UP, jb->kern.up);
 }
 
 void vt_ssao_dirs(float dir[4 * VT_SSAO_SLICES][2])
@@ -246,7 +216,7 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
         for (size_t i = 0; i < npx; i++) s->ao[i] = 1;
         return 0;
     }
-    job jb = {.sv = sv, .near = near, .s = s, .nt = nt && pool ? nt : 1, .kern = vt_ssao_kern_pick(s->isa ? s->isa - 1 : CULL_ISA_COUNT)};
+    job jb = {.nt = nt && pool ? nt : 1, .kern = vt_ssao_kern_pick(s->isa ? s->isa - 1 : CULL_ISA_COUNT)};
     const size_t pl = (size_t)sv->w + 8;
     jb.k = (vt_ssao_kjob){.sv = sv, .near = near, .hao = s->hao, .cs = s->cs, .cx = s->cx, .cw = s->cw, .ao = s->ao};
     /* the plane's pads (read by the masked lanes of steps at the image's
@@ -272,10 +242,17 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     jb.k.crease_tol = sv->kappa / 32;
     jb.k.no_skip = s->no_skip;
     memset(s->cs, 0, VT_SSAO_CBLKS(sv->hw) * sizeof *s->cs);
-    void (*const pass[4])(void *, uint32_t) = {job_pos, job_crease, job_gtao, job_up};
+    /* 1. the half texels' nearness; 2. the crease texels; 3. GTAO (all
+       over half rows); 4. the upsample of full rows, two at a time (the
+       lane kernel, vt_ssao.inl: the pair's half-row taps read once; the
+       columns' taps made above) */
+    const pass_job pass[4] = {{&jb.k, jb.kern.pos, sv->hh, BAND_POS},
+                              {&jb.k, jb.kern.crease, sv->hh, BAND_POS},
+                              {&jb.k, jb.kern.gtao, sv->hh, BAND_GTAO},
+                              {&jb.k, jb.kern.up, (sv->h + 1) / 2, BAND_UP}};
     for (int p = 0; p < 4; p++) {
-        if (jb.nt > 1) cull_pool_run(pool, pass[p], &jb, jb.nt);
-        else pass[p](&jb, 0);
+        cull_pool_each(jb.nt > 1 ? pool : NULL, jb.nt, (pass[p].rows + pass[p].band - 1) / pass[p].band, pass_band,
+                       (void *)&pass[p]);
         if (p == 1) { /* the rows' counts into the integral image (29 k additions) */
             const size_t cw = VT_SSAO_CBLKS(sv->hw);
             for (uint32_t j = 1; j <= sv->hh; j++)
