@@ -169,27 +169,40 @@ void cull_pool_run(cull_pool *p, cull_job_fn fn, void *arg, uint32_t n)
     while (atomic_load_explicit(&p->done, memory_order_acquire) != n) cpu_relax();
 }
 
-/* cull_pool_each's job: the items' next index, claimed one at a time. */
+/* cull_pool_each's job: the items' next index, claimed one at a time;
+ * the side job, taken by the first slot to start. */
 typedef struct each_job {
     cull_each_fn fn;
     void *arg;
     uint32_t n;
     _Atomic uint32_t next;
+    cull_side_fn side;
+    void *side_arg;
+    _Atomic int side_taken;
 } each_job;
 
 static void each_run(void *arg, uint32_t t)
 {
     each_job *j = arg;
     (void)t;
+    if (j->side && !atomic_exchange_explicit(&j->side_taken, 1, memory_order_relaxed)) j->side(j->side_arg);
     for (uint32_t k; (k = atomic_fetch_add_explicit(&j->next, 1, memory_order_relaxed)) < j->n;) j->fn(j->arg, k);
+}
+
+void cull_pool_each_side(cull_pool *p, uint32_t threads, uint32_t n, cull_each_fn fn, void *arg, cull_side_fn side,
+                         void *side_arg)
+{
+    each_job j = {.fn = fn, .arg = arg, .n = n, .side = side, .side_arg = side_arg};
+    atomic_init(&j.next, 0);
+    atomic_init(&j.side_taken, 0);
+    uint32_t nt = p ? p->nthreads : 1;
+    if (threads && threads < nt) nt = threads;
+    if (nt > n) nt = n;
+    if (!nt) nt = 1; /* no items: the side job still runs */
+    cull_pool_run(p, each_run, &j, nt); /* every slot claims items until none is left */
 }
 
 void cull_pool_each(cull_pool *p, uint32_t threads, uint32_t n, cull_each_fn fn, void *arg)
 {
-    each_job j = {.fn = fn, .arg = arg, .n = n};
-    atomic_init(&j.next, 0);
-    uint32_t nt = p ? p->nthreads : 1;
-    if (threads && threads < nt) nt = threads;
-    if (nt > n) nt = n;
-    cull_pool_run(p, each_run, &j, nt); /* every slot claims items until none is left */
+    cull_pool_each_side(p, threads, n, fn, arg, NULL, NULL);
 }

@@ -458,6 +458,13 @@ void cull_pool_run(cull_pool *p, cull_job_fn fn, void *arg, uint32_t n);
  * The same rules as cull_pool_run. */
 typedef void (*cull_each_fn)(void *arg, uint32_t k);
 void cull_pool_each(cull_pool *p, uint32_t threads, uint32_t n, cull_each_fn fn, void *arg);
+/* cull_pool_each, and side(side_arg) once besides, run by the first
+ * thread to start (before it takes items): serial work that does not
+ * depend on the items overlaps them on the other threads instead of
+ * running before or after the job alone. side NULL: cull_pool_each. */
+typedef void (*cull_side_fn)(void *arg);
+void cull_pool_each_side(cull_pool *p, uint32_t threads, uint32_t n, cull_each_fn fn, void *arg, cull_side_fn side,
+                         void *side_arg);
 
 /* Per-query scratch (grows with the world, then stops allocating). pool may
  * be NULL (single-threaded). One context per concurrent query. */

@@ -97,7 +97,7 @@ static inline float lum(const float *p)
 /* The bin of luminance L: floor(4 (log2 L - VT_HIST_LO)), clamped; NaN and
  * L <= 2^-16: 0. Exact: 4 log2 L = 4 e + 4 log2 m, the quarter found by
  * comparing the mantissa with 2^(k/4). */
-static inline uint32_t bin_of(const hist_job *j, float L)
+static inline uint32_t bin_of(const uint32_t q[3], float L)
 {
     if (!(L > 0x1p-16f)) return 0;
     if (!(L < 0x1p16f)) return VT_HIST_BINS - 1;
@@ -105,7 +105,7 @@ static inline uint32_t bin_of(const hist_job *j, float L)
     memcpy(&bits, &L, sizeof bits);
     int e = (int)(bits >> 23) - 127; /* L is normal here */
     uint32_t m = bits & 0x7fffffu;
-    uint32_t b = (uint32_t)(4 * (e - VT_HIST_LO)) + (m >= j->q[0]) + (m >= j->q[1]) + (m >= j->q[2]);
+    uint32_t b = (uint32_t)(4 * (e - VT_HIST_LO)) + (m >= q[0]) + (m >= q[1]) + (m >= q[2]);
     return b < VT_HIST_BINS ? b : VT_HIST_BINS - 1;
 }
 
@@ -140,7 +140,7 @@ static inline const uint8_t *tile_of(uint32_t g, uint32_t b)
 static void hist_run(hist_job *j, uint32_t t, const float *p, uint32_t n, uint32_t wgt)
 {
     uint32_t x = j->lanes ? j->lanes(p, n, j->q, j->hist[t], wgt) : 0;
-    for (p += 4 * (size_t)x; x < n; x++, p += 4) j->hist[t][0][bin_of(j, lum(p))] += wgt;
+    for (p += 4 * (size_t)x; x < n; x++, p += 4) j->hist[t][0][bin_of(j->q, lum(p))] += wgt;
 }
 
 /* tiles ahead that job_hist prefetches: a tile's run (16 pixels, ~30
@@ -201,6 +201,21 @@ double vt_ev_of_luminance(double L)
     return log2(L * 100.0 / 12.5);
 }
 
+/* bin_of's thresholds: the mantissa bits of the smallest floats >= 2^0.25, 2^0.5, 2^0.75 */
+static void hist_q(uint32_t q[3])
+{
+    for (int k = 0; k < 3; k++) {
+        double r = exp2((k + 1) / 4.0);
+        float f = (float)r;
+        if ((double)f < r) f = nextafterf(f, 2.0f);
+        uint32_t bits;
+        memcpy(&bits, &f, sizeof bits);
+        q[k] = bits & 0x7fffffu;
+    }
+}
+
+static float ev_of_hist(const uint64_t hist[VT_HIST_BINS], float comp);
+
 static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
                            cull_pool *pool, uint32_t threads, uint32_t isa, bool sample)
 {
@@ -214,22 +229,23 @@ static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, s
     j->h = height;
     j->stride = stride;
     j->nb = nb;
-    for (int k = 0; k < 3; k++) {
-        double r = exp2((k + 1) / 4.0);
-        float f = (float)r;
-        if ((double)f < r) f = nextafterf(f, 2.0f);
-        uint32_t bits;
-        memcpy(&bits, &f, sizeof bits);
-        j->q[k] = bits & 0x7fffffu;
-    }
+    hist_q(j->q);
     j->lanes = post_kern(isa).hist;
     j->sample = sample && (uint64_t)width * height >= VT_HIST_SAMPLE_MIN;
     run(pool, job_hist, j, j->nb);
-    uint64_t hist[VT_HIST_BINS] = {0}, n = 0;
+    uint64_t hist[VT_HIST_BINS] = {0};
     for (uint32_t t = 0; t < j->nb; t++)
         for (int k = 0; k < 4; k++)
             for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += j->hist[t][k][b];
     free(j);
+    return ev_of_hist(hist, comp);
+}
+
+/* The EV100 of the summed histogram: the mean log2 luminance of the
+ * metered part, less comp, clamped. */
+static float ev_of_hist(const uint64_t hist[VT_HIST_BINS], float comp)
+{
+    uint64_t n = 0;
     for (int b = 0; b < VT_HIST_BINS; b++) n += hist[b];
     /* the mean log2 luminance of the pixels ranked [PLO n, PHI n) (bin
        centres; a bin straddling a bound counts in part) */
@@ -257,6 +273,30 @@ float vt_exposure_auto_all(const float *rgba, uint32_t width, uint32_t height, s
                            cull_pool *pool, uint32_t threads)
 {
     return exposure_auto(rgba, width, height, stride, comp, pool, threads, 0, false);
+}
+
+void vt_hist_begin(const vt_post *p, vt_hist *h)
+{
+    memset(h->b, 0, sizeof h->b);
+    hist_q(h->q);
+    h->lanes = post_kern(p ? p->isa : 0).hist;
+}
+
+int vt_hist_quarter(uint32_t width, uint32_t height, uint32_t x0, uint32_t y)
+{
+    /* job_hist's rule: with the subsample, row y of a whole band of
+       tiles meters one run of 16 in each tile of 64 (x 4), and every
+       pixel right of the last whole tile and below the last whole band
+       once */
+    _Static_assert(VT_HIST_RUN == 16, "the subsample's runs are 16 pixels");
+    if ((uint64_t)width * height < VT_HIST_SAMPLE_MIN || y / 4 >= height / 4 || x0 / 64 >= width / 64) return -1;
+    return tile_of(x0 / 64, y / 4)[y % 4];
+}
+
+void vt_hist_add(vt_hist *h, const float *rgba, uint32_t n, uint32_t wgt)
+{
+    uint32_t x = h->lanes ? h->lanes(rgba, n, h->q, h->b, wgt) : 0;
+    for (rgba += 4 * (size_t)x; x < n; x++, rgba += 4) h->b[0][bin_of(h->q, lum(rgba))] += wgt;
 }
 
 float vt_adapt_step(float ev, float target, float dt)
@@ -683,13 +723,28 @@ int vt_fxaa(vt_post *p, cull_pool *pool, uint32_t threads, float *rgba, uint32_t
 
 int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame *f, float *ev)
 {
+    return vt_post_apply_hist(p, pool, threads, f, NULL, 0, ev);
+}
+
+int vt_post_apply_hist(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame *f, const vt_hist *parts,
+                       uint32_t nparts, float *ev)
+{
     *ev = 0;
     const vt_env *env = f->env;
     if (!env) return 0;
     double e = env->exposure_ev;
     if (env->exposure_mode == VT_EXPOSURE_AUTO) {
-        float target = exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads, p->isa,
-                                     true);
+        float target;
+        if (parts) {
+            uint64_t hist[VT_HIST_BINS] = {0};
+            for (uint32_t t = 0; t < nparts; t++)
+                for (int k = 0; k < 4; k++)
+                    for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += parts[t].b[k][b];
+            target = ev_of_hist(hist, env->exposure_comp);
+        } else {
+            target = exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads, p->isa,
+                                   true);
+        }
         e = target;
         if (f->adapt) {
             /* the caller's state: a bad EV (NaN, out of range) starts over */

@@ -79,6 +79,36 @@ int vt_post_apply(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame 
  * on the demo city and on adversarial pictures (tests/test_post.c). */
 #define VT_HIST_SAMPLE_MIN (1u << 15)
 
+/* The exposure's histogram made by a renderer as it writes the picture
+ * (vt_soft: each thread over the spans it shades), so the post passes do
+ * not read the finished picture again for it: the same pixels, the same
+ * weights and the same bins as vt_exposure_auto's own pass, so the same
+ * EV bit for bit (tests/test_post.c). Spans are runs of pixels of one row
+ * that start at a multiple of VT_HIST_RUN and are at most that long. */
+#define VT_HIST_RUN 16u
+typedef struct vt_hist {
+    uint32_t q[3]; /* vt_post.c's bin thresholds */
+    uint32_t (*lanes)(const float *p, uint32_t n, const uint32_t q[3], uint32_t (*hb)[VT_HIST_BINS], uint32_t wgt);
+    uint32_t b[4][VT_HIST_BINS]; /* 4 sub-histograms, summed at the end */
+} vt_hist;
+/* h emptied, with p's lane kernel (vt_post_set_isa). */
+void vt_hist_begin(const vt_post *p, vt_hist *h);
+/* How the exposure's metering weighs the pixels of row y of a width x
+ * height picture in the 4 runs of VT_HIST_RUN from x0 (x0 % (4
+ * VT_HIST_RUN) == 0): -1, every pixel counts once (the margins past the
+ * subsample's whole tiles, small pictures); else the one run k (0..3,
+ * pixels x0 + k VT_HIST_RUN ..) whose pixels count 4 times, the other
+ * three not at all (VT_HIST_SAMPLE_MIN). */
+int vt_hist_quarter(uint32_t width, uint32_t height, uint32_t x0, uint32_t y);
+/* The span's n pixels (RGBA floats) into h, each counting wgt. */
+void vt_hist_add(vt_hist *h, const float *rgba, uint32_t n, uint32_t wgt);
+/* vt_post_apply with the histogram already made (the sum of parts[0 ..
+ * nparts), every pixel of f's picture added once with its
+ * vt_hist_weight): an AUTO exposure takes it instead of metering the
+ * picture. parts NULL: vt_post_apply. */
+int vt_post_apply_hist(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame *f, const vt_hist *parts,
+                       uint32_t nparts, float *ev);
+
 /* The histogram exposure's EV100 of a picture (before exposure):
  * comp is subtracted (env's exposure_comp: brighter), the result clamped
  * to VT_EV_MIN..VT_EV_MAX. Pictures of VT_HIST_SAMPLE_MIN pixels or more

@@ -126,6 +126,8 @@ struct vt_soft {
     vt_shadow *shadow;      /* the sun's cascades (made at the first frame with shadows) */
     vt_ibl ibl;             /* the image-based ambient, kept while the sky is the same */
     vt_ssao *ssao;          /* the ambient occlusion's buffers (vt_ssao.h) */
+    vt_hist *hist;          /* per shading thread: the exposure's histogram of what it shaded */
+    size_t hist_cap;
 };
 
 static uint64_t now_ns(void)
@@ -182,6 +184,7 @@ void vt_soft_destroy(vt_soft *r)
     vt_shadow_destroy(r->shadow);
     cull_light_tiles_free(&r->tiles);
     vt_ssao_destroy(r->ssao);
+    free(r->hist);
     free(r);
 }
 
@@ -583,6 +586,7 @@ typedef struct job {
     const float *ao;        /* per pixel ambient occlusion (vt_ssao), or NULL: none */
     uint32_t next_row;      /* shading: the next half row of tiles to take (threads take them as
                                they finish: sky rows cost a fraction of a street's) */
+    vt_hist *hist;          /* per shading thread (its slot t): the exposure's histogram, or NULL */
     uint32_t skips[MAX_THREADS]; /* per raster thread: the parts the coarse depth test skipped */
     uint32_t split[MAX_THREADS + 1]; /* set-up thread t takes instances [split[t], split[t + 1]) */
 } job;
@@ -819,7 +823,7 @@ static void job_shade(void *arg, uint32_t t)
     vt_span sp = {.st = st, .sl = r->sl, .inv_w = 2.0 / fr->w, .rule = vt_depth_rule_of(fr->v, &fr->vr),
                   .pe = &fr->pe, .vr = &fr->vr, .gr = &fr->gr, .inv_h = 2.0 / fr->h, .sh = jb->sh, .tc = &r->tc};
     uint32_t trows = (fr->h + TILE - 1) / TILE, tx = (fr->w + TILE - 1) / TILE;
-    (void)t;
+    if (jb->hist) vt_hist_begin(&r->post, &jb->hist[t]);
     /* half a row of tiles at a time (8 pixel rows): the thread that
        finishes first waits half as long for the other's last piece */
     for (uint32_t u; (u = __atomic_fetch_add(&jb->next_row, 1, __ATOMIC_RELAXED)) < 2 * trows;) {
@@ -828,6 +832,8 @@ static void job_shade(void *arg, uint32_t t)
         for (uint32_t y = ya; y < y1; y++) {
             sp.Y = ndc_y(fr, y);
             if (fr->pe.on) vt_view_dir_row(&fr->vr, sp.Y, sp.ray0, sp.ray1); /* the sky's, once a row */
+            int quarter = -1; /* the exposure's metered run of the 4 spans from c & ~3 */
+            _Static_assert(TILE == VT_HIST_RUN, "a span is one of the exposure's metered runs");
             for (uint32_t c = 0; c < tx; c++) {
                 uint32_t tile = tr * tx + c;
                 sp.li = lt->index ? lt->index + lt->offset[tile] : NULL;
@@ -840,9 +846,52 @@ static void job_shade(void *arg, uint32_t t)
                 sp.rgba = jb->rgba + ((size_t)y * jb->stride + sp.x0) * 4;
                 sp.depth = jb->depth + (size_t)y * jb->stride + sp.x0;
                 r->k.shade(&sp);
+                /* the exposure's metering of the span while it is in
+                   the cache (the post passes' own pass would read the
+                   picture from memory again) */
+                if (jb->hist) {
+                    if (c % 4 == 0) quarter = vt_hist_quarter(fr->w, fr->h, sp.x0, y);
+                    if (quarter < 0 || (int)(c % 4) == quarter)
+                        vt_hist_add(&jb->hist[t], sp.rgba, sp.n, quarter < 0 ? 1 : 4);
+                }
             }
         }
     }
+}
+
+/* The frame's work between the raster and the shading that does not
+ * read the ambient occlusion (vt_soft_draw runs it beside the GTAO pass):
+ * the lights as shading reads them and their tiles (from the nearness
+ * range of what each tile shows: the ranges came with the raster), the
+ * sun's cascades fitted to the view, the sRGB textures' decoded copies
+ * and the image-based light's roughness entries. */
+typedef struct side_job {
+    vt_soft *r;
+    const vt_frame *f;
+    const frame *fr;
+    const float (*mb)[6];
+    int lrc;           /* cull_lights_bin's */
+    bool shadows;      /* the sun casts: fit is made */
+    vt_shadow_fit fit;
+    uint64_t ns;       /* its time */
+} side_job;
+
+static void frame_side(void *arg)
+{
+    side_job *j = arg;
+    uint64_t t0 = now_ns();
+    vt_soft *r = j->r;
+    const vt_frame *f = j->f;
+    const cull_view *v = f->view;
+    for (uint32_t i = 0; i < f->nl; i++) vt_light_prepare(&f->lights[i], v->origin, &r->sl[i], &r->cl[i]);
+    j->lrc = cull_lights_bin(v, f->width, f->height, r->cl, f->nl, f->nl ? (const float(*)[2])r->range : NULL,
+                             &r->tiles);
+    float sdir[3];
+    j->shadows = vt_shadow_sun_dir(f->env, f->fx_off, sdir) &&
+                 vt_shadow_fit_make(v, f->width, f->height, f->env, sdir, j->mb, f->inst, f->ninst, &j->fit);
+    vt_texcache_prepare(&r->tc, f->inst, f->ninst, f->env ? f->env->ground_mat : NULL);
+    if (j->fr->pe.ibl) vt_ibl_rough_frame(&r->ibl, f->inst, f->ninst, f->env->ground_mat);
+    j->ns = now_ns() - t0;
 }
 
 const cull_light_tiles *vt_soft_light_tiles(const vt_soft *r)
@@ -872,7 +921,6 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     const uint32_t width = f->width, height = f->height, nmesh = f->nmesh, ninst = f->ninst, nl = f->nl;
     const vt_mesh *meshes = f->meshes;
     const vt_instance *inst = f->inst;
-    const vt_light *lights = f->lights;
     vt_penv_make(f->env, v->origin, &r->sky, &fr.pe);
     if (fr.pe.on && !(f->fx_off & VT_FX_IBL)) { /* remade only when the sky changed */
         vt_ibl_update_pool(&r->ibl, &fr.pe, r->pool, r->threads);
@@ -924,30 +972,29 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (nt > 1) cull_pool_run(r->pool, job_raster, &jb, nt);
     else job_raster(&jb, 0);
     uint64_t t2 = now_ns();
-    /* ambient occlusion from the nearness the raster left (the z-prepass) */
+    /* the work between the raster and the shading that does not read the
+       ambient occlusion (light tiles, the cascades' fit, the textures'
+       and the image-based light's per-frame tables): with the occlusion,
+       one thread does it while the other starts GTAO */
+    side_job sj = {.r = r, .f = f, .fr = &fr, .mb = jb.mb};
     const bool ssao = f->env && !(f->fx_off & VT_FX_SSAO);
     if (ssao) {
         vt_ssao_view sv;
         vt_ssao_view_make(&fr.vr, width, height, &sv);
-        if (vt_ssao_run(&r->ssao, r->pool, nt, &sv, r->near, &jb.ao))
+        if (vt_ssao_run_side(&r->ssao, r->pool, nt, &sv, r->near, &jb.ao, frame_side, &sj))
             return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
+    } else {
+        frame_side(&sj);
     }
     uint64_t t2a = now_ns();
-
-    /* light tiles from the nearness range of what each tile shows (the
-       ranges came with the raster) */
-    for (uint32_t i = 0; i < nl; i++) vt_light_prepare(&lights[i], v->origin, &r->sl[i], &r->cl[i]);
-    int lrc = cull_lights_bin(v, width, height, r->cl, nl, nl ? (const float(*)[2])r->range : NULL, &r->tiles);
-    if (lrc != CULL_OK)
-        return vp_errf(err, errlen, lrc == CULL_ERR_NOMEM ? VT_ERR_NOMEM : VT_ERR_INVALID, "lights: %s",
-                       cull_strerror(lrc));
+    if (sj.lrc != CULL_OK)
+        return vp_errf(err, errlen, sj.lrc == CULL_ERR_NOMEM ? VT_ERR_NOMEM : VT_ERR_INVALID, "lights: %s",
+                       cull_strerror(sj.lrc));
     /* the sun's shadow cascades, from the casters (NULL: the instances) */
     uint64_t ts = now_ns();
     uint32_t stris = 0;
-    float sdir[3];
-    vt_shadow_fit fit;
-    if (vt_shadow_sun_dir(f->env, f->fx_off, sdir) &&
-        vt_shadow_fit_make(v, width, height, f->env, sdir, jb.mb, inst, ninst, &fit)) {
+    vt_shadow_fit fit = sj.fit;
+    if (sj.shadows) {
         if (!r->shadow && vt_shadow_create(&r->shadow)) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
         rc = vt_shadow_draw(r->shadow, r->pool, r->threads, &fit, v->origin, meshes, jb.mb,
                             f->casters ? f->casters : inst, f->casters ? f->ncasters : ninst, &stris, err, errlen);
@@ -956,14 +1003,16 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     }
     uint64_t t3 = now_ns();
 
-    vt_texcache_prepare(&r->tc, inst, ninst, f->env ? f->env->ground_mat : NULL);
-    if (fr.pe.ibl) vt_ibl_rough_frame(&r->ibl, inst, ninst, f->env->ground_mat);
     jb.next_row = 0;
+    /* an automatic exposure's histogram made by the shading threads */
+    if (f->env && f->env->exposure_mode == VT_EXPOSURE_AUTO &&
+        vp_grow((void **)&r->hist, &r->hist_cap, nt, sizeof *r->hist))
+        jb.hist = r->hist;
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
     else job_shade(&jb, 0);
     uint64_t t4 = now_ns();
     float ev;
-    if (vt_post_apply(&r->post, r->pool, r->threads, f, &ev))
+    if (vt_post_apply_hist(&r->post, r->pool, r->threads, f, jb.hist, jb.hist ? nt : 0, &ev))
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     uint64_t t5 = now_ns();
     /* last: the overlay over the finished picture (after exposure and post) */
@@ -978,7 +1027,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         st->setup_ns = t1 - t0;
         st->raster_ns = t2 - t1;
         st->ssao_ns = ssao ? t2a - t2 : 0;
-        st->bin_ns = ts - t2a;
+        st->bin_ns = ssao ? sj.ns : ts - t2 - (t2a - t2 - sj.ns); /* with the occlusion: overlapping it */
         st->shadow_ns = jb.sh ? t3 - ts : 0;
         st->shadow_triangles = stris;
         st->shade_ns = t4 - t3;

@@ -201,6 +201,12 @@ void vt_ssao_dirs(float dir[4 * VT_SSAO_SLICES][2])
 int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *sv, const float *near,
                 const float **ao)
 {
+    return vt_ssao_run_side(sp, pool, nt, sv, near, ao, NULL, NULL);
+}
+
+int vt_ssao_run_side(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *sv, const float *near,
+                     const float **ao, cull_side_fn side, void *side_arg)
+{
     if (!*sp && !(*sp = calloc(1, sizeof **sp))) return VT_ERR_NOMEM;
     vt_ssao *s = *sp;
     size_t npx = (size_t)sv->w * sv->h, nh = (size_t)sv->hw * sv->hh;
@@ -214,6 +220,7 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
     *ao = s->ao;
     if (!sv->ok) {
         for (size_t i = 0; i < npx; i++) s->ao[i] = 1;
+        if (side) side(side_arg);
         return 0;
     }
     job jb = {.nt = nt && pool ? nt : 1, .kern = vt_ssao_kern_pick(s->isa ? s->isa - 1 : CULL_ISA_COUNT)};
@@ -251,8 +258,9 @@ int vt_ssao_run(vt_ssao **sp, cull_pool *pool, uint32_t nt, const vt_ssao_view *
                               {&jb.k, jb.kern.gtao, sv->hh, BAND_GTAO},
                               {&jb.k, jb.kern.up, (sv->h + 1) / 2, BAND_UP}};
     for (int p = 0; p < 4; p++) {
-        cull_pool_each(jb.nt > 1 ? pool : NULL, jb.nt, (pass[p].rows + pass[p].band - 1) / pass[p].band, pass_band,
-                       (void *)&pass[p]);
+        /* the side job with GTAO, the longest pass (~70 % of the time) */
+        cull_pool_each_side(jb.nt > 1 ? pool : NULL, jb.nt, (pass[p].rows + pass[p].band - 1) / pass[p].band,
+                            pass_band, (void *)&pass[p], p == 2 ? side : NULL, side_arg);
         if (p == 1) { /* the rows' counts into the integral image (29 k additions) */
             const size_t cw = VT_SSAO_CBLKS(sv->hw);
             for (uint32_t j = 1; j <= sv->hh; j++)

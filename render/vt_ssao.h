@@ -125,6 +125,13 @@ typedef struct vt_ssao vt_ssao;
  * VT_ERR_NOMEM. A view that is not ok gives all 1. */
 int vt_ssao_run(vt_ssao **s, cull_pool *pool, uint32_t nt, const vt_ssao_view *sv, const float *near,
                 const float **ao);
+/* vt_ssao_run, and side(side_arg) run once besides (side NULL: none):
+ * during the GTAO pass, by the first thread to start it
+ * (cull_pool_each_side), so the caller's serial work that does not read
+ * the AO overlaps the pass. Run whatever the view; not run when the
+ * buffers cannot be had (VT_ERR_NOMEM). */
+int vt_ssao_run_side(vt_ssao **s, cull_pool *pool, uint32_t nt, const vt_ssao_view *sv, const float *near,
+                     const float **ao, cull_side_fn side, void *side_arg);
 void vt_ssao_destroy(vt_ssao *s);
 /* Later runs of *s use the kernels of isa (enum cull_isa: the one-lane
  * instance is the tests' reference for the 4- and 8-lane ones) where this

@@ -456,6 +456,68 @@ static void test_post_histogram_subsample(void **state)
     cull_pool_destroy(pool);
 }
 
+/* The histogram a renderer makes span by span (vt_hist: vt_soft's
+ * shading threads) gives vt_post_apply the EV and the picture its own
+ * metering pass gives, bit for bit: every pixel of the picture added once
+ * with vt_hist_quarter's weight, in spans of VT_HIST_RUN from multiples
+ * of it, the spans dealt out in a random order to 3 parts (threads), a
+ * part with the scalar rows and the others with the default's lanes.
+ * Subsampled sizes (whole tiles and margins) and one too small to be. */
+static void test_post_histogram_spans(void **state)
+{
+    (void)state;
+    rng r = {test_seed() ^ 0x4157};
+    const uint32_t sizes[4][2] = {{640, 360}, {653, 367}, {1280, 720}, {150, 90}};
+    for (int sz = 0; sz < 4; sz++) {
+        const uint32_t W = sizes[sz][0], H = sizes[sz][1], S = W + (sz == 1 ? 5 : 0);
+        const size_t n = (size_t)S * H * 4;
+        float *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
+        assert_non_null(a);
+        assert_non_null(b);
+        for (int id = 0; id < 12; id++) {
+            for (uint32_t y = 0; y < H; y++)
+                for (uint32_t x = 0; x < S; x++) {
+                    float L = x < W ? pattern_lum(id, x, y, W, H, &r) : NAN, *p = a + 4 * ((size_t)y * S + x);
+                    /* colours, not greys: the luminance's weights count */
+                    p[0] = L * (float)rng_range(&r, 0.5, 1.5), p[1] = L, p[2] = L * (float)rng_range(&r, 0.2, 2), p[3] = 1;
+                }
+            memcpy(b, a, n * sizeof *a);
+            vt_post pa = {0}, pb = {0}, scalar = {0};
+            vt_post_set_isa(&scalar, CULL_ISA_SCALAR);
+            vt_hist parts[3];
+            vt_hist_begin(&scalar, &parts[0]);
+            vt_hist_begin(&pb, &parts[1]);
+            vt_hist_begin(&pb, &parts[2]);
+            for (uint32_t y = 0; y < H; y++) {
+                const uint32_t y2 = (y * 7919u) % H; /* the rows out of order */
+                for (uint32_t x0 = 0; x0 < W; x0 += 4 * VT_HIST_RUN) {
+                    const int q = vt_hist_quarter(W, H, x0, y2);
+                    assert_true(q >= -1 && q < 4);
+                    for (uint32_t k = 0; k < 4 && x0 + k * VT_HIST_RUN < W; k++) {
+                        const uint32_t xs = x0 + k * VT_HIST_RUN, m = W - xs < VT_HIST_RUN ? W - xs : VT_HIST_RUN;
+                        if (q >= 0 && (int)k != q) continue;
+                        vt_hist_add(&parts[rng_below(&r, 3)], a + 4 * ((size_t)y2 * S + xs), m, q < 0 ? 1 : 4);
+                    }
+                }
+            }
+            vt_env env = {.exposure_mode = VT_EXPOSURE_AUTO, .exposure_comp = (float)rng_range(&r, -1, 1)};
+            cull_view v;
+            memset(&v, 0, sizeof v);
+            vt_frame fa = {.view = &v, .width = W, .height = H, .env = &env, .rgba = a, .stride = S}, fb = fa;
+            fb.rgba = b;
+            float eva, evb;
+            assert_int_equal(vt_post_apply(&pa, NULL, 1, &fa, &eva), 0);
+            assert_int_equal(vt_post_apply_hist(&pb, NULL, 1, &fb, parts, 3, &evb), 0);
+            if (eva != evb) fail_msg("pattern %d at %ux%u: EV %.6f metered, %.6f from the spans", id, W, H, (double)eva, (double)evb);
+            assert_memory_equal(a, b, n * sizeof *a);
+            vt_post_free(&pa);
+            vt_post_free(&pb);
+        }
+        free(a);
+        free(b);
+    }
+}
+
 /* ---- eye adaptation --------------------------------------------------------------------- */
 
 static void test_post_eye_adaptation(void **state)
@@ -955,6 +1017,7 @@ const struct CMUnitTest post_tests[] = {
     cmocka_unit_test(test_post_histogram_vs_sort),
     cmocka_unit_test(test_post_histogram_lanes),
     cmocka_unit_test(test_post_histogram_subsample),
+    cmocka_unit_test(test_post_histogram_spans),
     cmocka_unit_test(test_post_eye_adaptation),
     DAEMON_TEST(test_post_stream_adaptation),
     cmocka_unit_test(test_post_city_exposure),

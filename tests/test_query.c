@@ -545,8 +545,57 @@ static void test_pool_runs_each_slot_once(void **state)
     assert_int_equal(bad, 0);
 }
 
+/* cull_pool_each_side runs every item once and the side job exactly
+ * once, before the job returns, for 0..40 items on 1..4 threads (and no
+ * pool); cull_pool_each no side job. */
+typedef struct each_t {
+    _Atomic uint32_t item[41];
+    _Atomic uint32_t side;
+    const uint32_t *cur;
+    uint32_t id;
+    _Atomic uint32_t wrong;
+} each_t;
+
+static void each_item(void *arg, uint32_t k)
+{
+    each_t *e = arg;
+    if (k >= 41 || *e->cur != e->id) atomic_fetch_add(&e->wrong, 1);
+    else atomic_fetch_add(&e->item[k], 1);
+}
+
+static void each_side(void *arg)
+{
+    each_t *e = arg;
+    if (*e->cur != e->id) atomic_fetch_add(&e->wrong, 1);
+    atomic_fetch_add(&e->side, 1);
+}
+
+static void test_pool_each_side(void **state)
+{
+    (void)state;
+    cull_pool *pool;
+    assert_int_equal(cull_pool_create(4, &pool), CULL_OK);
+    uint32_t cur = 0, bad = 0;
+    for (uint32_t i = 0; i < 4000; i++) {
+        each_t e = {.cur = &cur, .id = i};
+        cur = i;
+        const uint32_t n = i % 41, threads = i % 5;
+        const bool side = i % 3 != 0;
+        cull_pool *p = i % 7 == 0 ? NULL : pool;
+        if (side) cull_pool_each_side(p, threads, n, each_item, &e, each_side, &e);
+        else cull_pool_each(p, threads, n, each_item, &e);
+        cur = UINT32_MAX;
+        for (uint32_t k = 0; k < 41; k++) bad += atomic_load(&e.item[k]) != (k < n);
+        bad += atomic_load(&e.side) != (side ? 1u : 0u);
+        bad += atomic_load(&e.wrong);
+    }
+    cull_pool_destroy(pool);
+    assert_int_equal(bad, 0);
+}
+
 const struct CMUnitTest query_tests[] = {
     cmocka_unit_test(test_pool_runs_each_slot_once),
+    cmocka_unit_test(test_pool_each_side),
     cmocka_unit_test(test_bad_queries),
     cmocka_unit_test(test_far_camera_is_exact),
     cmocka_unit_test(test_city_scene),
