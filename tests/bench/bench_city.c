@@ -51,6 +51,7 @@ typedef struct city_run {
     size_t cap;
     uint32_t *mesh_of;      /* class -> mesh index + 1, zero between frames */
     uint64_t vis[CULL_SUBLEVEL_WORDS];
+    uint32_t max_lights;    /* bench_city_opts' */
 } city_run;
 
 static void city_frame_free(city_frame *cf)
@@ -114,6 +115,12 @@ static int city_gather(city_run *cr, const cull_view *v, city_frame *cf)
         scene_light_cull(l, &o->l, rad);
         o->cos_inner = l->inner_cos;
         for (int a = 0; a < 3; a++) o->color[a] = (float)rad[a];
+    }
+    /* a budget of lights: max_lights of them, every (nl / max)th */
+    if (cr->max_lights && cf->nl > cr->max_lights) {
+        const uint32_t all = cf->nl, m = cr->max_lights;
+        for (uint32_t k = 0; k < m; k++) cf->lights[k] = cf->lights[(uint64_t)k * all / m];
+        cf->nl = m;
     }
     return 0;
 }
@@ -378,6 +385,7 @@ int bench_city(const bench_city_opts *o)
 {
     city_run *cr = city_open(o->pool, o->json);
     if (!cr) return -1;
+    cr->max_lights = o->max_lights;
     static const double street_eye[3] = {0, 20, -300}, street_at[3] = {0, 2, 0};
     static const double air_eye[3] = {150, 200, 150}, air_at[3] = {0, 0, 0};
     bool street = !o->view || !strcmp(o->view, "street"), aerial = !o->view || !strcmp(o->view, "aerial");

@@ -23,6 +23,8 @@ typedef struct bench_city_opts {
     unsigned lp_threads;
     const char *png_dir;    /* non-NULL: the last frame of each view as city-VIEW.png there (and .jpg) */
     const char *view;       /* non-NULL: that view only (street, aerial) */
+    uint32_t max_lights;    /* non-zero: that many of the city's lights, spread evenly over its
+                               list (issue 20's budget names 64; the city has 288) */
 } bench_city_opts;
 
 /* 0, or -1 with a line on stderr. */

@@ -3,7 +3,7 @@
  * fails on nothing).
  *
  *   bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] [--city-only]
- *                [--no-city] [--png DIR] [--view street|aerial]
+ *                [--no-city] [--png DIR] [--view street|aerial] [--lights N]
  *
  * First issue 20's budget, the demo city (bench_city.c): the daemon's
  * city and day environment, a street and an aerial view at 1280x720 on 2
@@ -324,6 +324,7 @@ int main(int argc, char **argv)
 {
     bool json = false, quick = false, smoke = false, gl = true, city = true, city_only = false;
     const char *png_dir = NULL, *only_view = NULL;
+    uint32_t max_lights = 0;
     uint32_t W = 1280, H = 720;
     int reps = 15;
     for (int i = 1; i < argc; i++) {
@@ -338,9 +339,10 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--png") && i + 1 < argc) png_dir = argv[++i];
         else if (!strcmp(argv[i], "--view") && i + 1 < argc && (!strcmp(argv[i + 1], "street") || !strcmp(argv[i + 1], "aerial")))
             only_view = argv[++i];
+        else if (!strcmp(argv[i], "--lights") && i + 1 < argc) max_lights = (uint32_t)atoi(argv[++i]);
         else {
             fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] "
-                            "[--city-only] [--no-city] [--png DIR] [--view street|aerial]\n");
+                            "[--city-only] [--no-city] [--png DIR] [--view street|aerial] [--lights N]\n");
             return 2;
         }
     }
@@ -384,7 +386,7 @@ int main(int argc, char **argv)
     if (city || city_only) {
         bench_city_opts co = {.pool = rn.pool, .width = W, .height = H, .reps = reps, .json = json, .gl = rn.gr,
                               .gl_name = rn.gl_name, .lp_threads = rn.lp_threads, .png_dir = png_dir,
-                              .view = only_view};
+                              .view = only_view, .max_lights = max_lights};
         if (bench_city(&co)) return 1;
     }
     if (city_only) ncounts = 0;
