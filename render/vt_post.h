@@ -103,9 +103,9 @@ int vt_hist_quarter(uint32_t width, uint32_t height, uint32_t x0, uint32_t y);
 /* The span's n pixels (RGBA floats) into h, each counting wgt. */
 void vt_hist_add(vt_hist *h, const float *rgba, uint32_t n, uint32_t wgt);
 /* vt_post_apply with the histogram already made (the sum of parts[0 ..
- * nparts), every pixel of f's picture added once with its
- * vt_hist_weight): an AUTO exposure takes it instead of metering the
- * picture. parts NULL: vt_post_apply. */
+ * nparts), every pixel of f's picture added once with the weight
+ * vt_hist_quarter gives it): an AUTO exposure takes it instead of
+ * metering the picture. parts NULL: vt_post_apply. */
 int vt_post_apply_hist(vt_post *p, cull_pool *pool, uint32_t threads, const vt_frame *f, const vt_hist *parts,
                        uint32_t nparts, float *ev);
 

@@ -73,7 +73,9 @@ typedef struct vt_soft_stats {
     uint32_t lights_in_view;
     uint32_t max_lights_per_tile;
     uint32_t threads;
-    uint64_t setup_ns, raster_ns, bin_ns, shade_ns;
+    uint64_t setup_ns, raster_ns, bin_ns, shade_ns; /* bin: the light tiles and the frame's other
+                               tables, run beside the occlusion's GTAO pass when it runs (so
+                               inside ssao_ns's time, not after it) */
     /* issue 20's passes (0 when off): the sun's shadow cascades (caster
        set-up and depth raster), the ambient occlusion from the nearness
        buffer, the post passes (FXAA, exposure) */

@@ -193,6 +193,17 @@ static void test_post_fxaa_flat_and_bad(void **state)
     free(c);
 }
 
+/* Two frames of one environment over pictures a and b (W x H, rows S
+ * apart), for the post passes to run on and compare. */
+static void frame_pair(const vt_env *env, cull_view *v, uint32_t W, uint32_t H, size_t S, float *a, float *b,
+                       vt_frame *fa, vt_frame *fb)
+{
+    memset(v, 0, sizeof *v);
+    *fa = (vt_frame){.view = v, .width = W, .height = H, .env = env, .rgba = a, .stride = S};
+    *fb = *fa;
+    fb->rgba = b;
+}
+
 /* Every instance of the post rows (vt_post_kern.h: the one-lane
  * rows and, where the CPU has it, AVX2's 8 lanes, FXAA's edge pixels
  * included) gives the same picture bit for bit: vt_post_apply (fixed
@@ -251,9 +262,8 @@ static void test_post_fxaa_instances(void **state)
         if (round % 2) {
             vt_env env = {.exposure_mode = VT_EXPOSURE_FIXED, .exposure_ev = (float)rng_range(&r, -3, 3)};
             cull_view v;
-            memset(&v, 0, sizeof v);
-            vt_frame fa = {.view = &v, .width = W, .height = H, .env = &env, .rgba = ref, .stride = S}, fb = fa;
-            fb.rgba = got;
+            vt_frame fa, fb;
+            frame_pair(&env, &v, W, H, S, ref, got, &fa, &fb);
             float eva, evb;
             assert_int_equal(vt_post_apply(&a, NULL, 1, &fa, &eva), 0);
             assert_int_equal(vt_post_apply(&b, pool, 2, &fb, &evb), 0);
@@ -502,9 +512,8 @@ static void test_post_histogram_spans(void **state)
             }
             vt_env env = {.exposure_mode = VT_EXPOSURE_AUTO, .exposure_comp = (float)rng_range(&r, -1, 1)};
             cull_view v;
-            memset(&v, 0, sizeof v);
-            vt_frame fa = {.view = &v, .width = W, .height = H, .env = &env, .rgba = a, .stride = S}, fb = fa;
-            fb.rgba = b;
+            vt_frame fa, fb;
+            frame_pair(&env, &v, W, H, S, a, b, &fa, &fb);
             float eva, evb;
             assert_int_equal(vt_post_apply(&pa, NULL, 1, &fa, &eva), 0);
             assert_int_equal(vt_post_apply_hist(&pb, NULL, 1, &fb, parts, 3, &evb), 0);
