@@ -52,6 +52,8 @@ CPPFLAGS := -D_GNU_SOURCE -Iculling -Iprotocol -Idaemon $(CLIENT_DIRS:%=-Iclient
 CFLAGS   := -std=c11 $(WARN) -g -pthread
 LDLIBS   := -lm -pthread
 ISA_AVX2 := -mavx2 -mfma -mf16c -mpopcnt
+# the AVX2 kernels' EVEX builds (run only where CPUID says so: cull_isa_evex)
+ISA_EVEX := $(ISA_AVX2) -mavx512f -mavx512vl -mavx512dq -mavx512bw -mprefer-vector-width=256
 ISA_SSE41:= -msse4.1
 
 ifeq ($(CONFIG),release)
@@ -124,7 +126,7 @@ CLI_BIN  := $(BUILD)/vantage
 IMAGE_SRC := render/vt_tonemap.c render/vt_tonemap_avx2.c render/vt_lut.c render/vt_sink.c render/vt_png.c render/vt_jpeg.c
 IMAGE_OBJ := $(IMAGE_SRC:%.c=$(BUILD)/%.o)
 RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_texlin.c render/vt_span.c render/vt_shadow.c render/vt_shadow_tiles.c render/vt_shadow_sse41.c render/vt_shadow_avx2.c render/vt_ssao.c render/vt_ssao_base.c render/vt_ssao_sse41.c render/vt_ssao_avx2.c render/vt_post.c render/vt_post_avx2.c render/vt_overlay.c render/vt_soft.c render/vt_raster.c render/vt_shade_base.c render/vt_shade_sse41.c \
-            render/vt_shade_avx2.c render/vt_brdf.c render/vt_brdf_glsl.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
+            render/vt_shade_avx2.c render/vt_shade_avx2_evex.c render/vt_brdf.c render/vt_brdf_glsl.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
             render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_ssao_gl.c render/vt_gltex.c render/vt_file.c render/vt_err.c \
             render/vt_texture.c
 RENDER_OBJ:= $(RENDER_SRC:%.c=$(BUILD)/%.o)
@@ -272,6 +274,7 @@ $(BUILD)/culling/cull_dvol.o: CFLAGS += -O3 -fno-math-errno
 $(BUILD)/render/%.o: CFLAGS += $(RENDER_O)
 # the shading kernel, per instruction set as the culling kernels
 $(BUILD)/render/vt_shade_avx2.o:  CFLAGS += $(ISA_AVX2)
+$(BUILD)/render/vt_shade_avx2_evex.o: CFLAGS += $(ISA_EVEX)
 $(BUILD)/render/vt_shade_sse41.o: CFLAGS += $(ISA_SSE41)
 $(BUILD)/render/vt_ssao_avx2.o:   CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_tonemap_avx2.o: CFLAGS += $(ISA_AVX2)
@@ -323,7 +326,7 @@ DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD
                  $(BUILD)/render/vt_egl.o $(BUILD)/render/vt_gl_target.o $(BUILD)/render/vt_gl_shader.o \
                  $(BUILD)/render/vt_gldraw.o $(BUILD)/render/vt_gldraw_glsl.o $(BUILD)/render/vt_shadow_gl.o $(BUILD)/render/vt_ssao_gl.o $(BUILD)/render/vt_gltex.o \
                  $(BUILD)/render/vt_shade_base.o \
-                 $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o
+                 $(BUILD)/render/vt_shade_sse41.o $(BUILD)/render/vt_shade_avx2.o $(BUILD)/render/vt_shade_avx2_evex.o
 $(DAEMON_BIN): $(DAEMON_OBJ) $(DAEMON_RENDER) $(H264_OBJ) $(CULL_LIB) $(PROTO_LIB)
 	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(DAEMON_RENDER) $(H264_OBJ) $(CULL_LIB) $(PROTO_LIB) $(EXR_LIBS) $(IMG_LIBS) $(GL_LIBS) $(ZLIB_LIBS) $(WEB_LIBS) $(X264_LIBS) $(NATS_LIBS) $(LDLIBS)
 

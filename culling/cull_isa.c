@@ -54,6 +54,36 @@ static uint32_t cpu_best(void)
     return v;
 }
 
+/* AVX-512 F, VL, DQ and BW with the OS saving the opmask and upper ZMM
+ * state (XCR0 bits 5-7 besides 1-2): what the AVX2 kernels' EVEX builds
+ * need (their 256-bit code then has 32 vector registers and mask
+ * registers; the same operations, the same bits) */
+static bool cpu_evex(void)
+{
+#if defined(CULL_X86) && !defined(CULL_SCALAR_ONLY)
+    unsigned a, b, c, d;
+    if (cpu_best() != CULL_ISA_AVX2 || !__get_cpuid(1, &a, &b, &c, &d) || !(c & bit_OSXSAVE)) return false;
+    unsigned lo, hi;
+    __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+    if ((lo & 0xE6u) != 0xE6u || !__get_cpuid_count(7, 0, &a, &b, &c, &d)) return false;
+    return (b & bit_AVX512F) && (b & bit_AVX512VL) && (b & bit_AVX512DQ) && (b & bit_AVX512BW);
+#else
+    return false;
+#endif
+}
+
+int cull_isa_evex(void)
+{
+    static _Atomic int cpu = -1; /* CPUID once; the environment at each call (a renderer's creation) */
+    int c = atomic_load_explicit(&cpu, memory_order_relaxed);
+    if (c < 0) {
+        c = cpu_evex();
+        atomic_store_explicit(&cpu, c, memory_order_relaxed);
+    }
+    const char *env = getenv("VANTAGE_EVEX");
+    return c && !(env && !strcmp(env, "0"));
+}
+
 int cull_isa_supported(uint32_t isa)
 {
     return isa <= cpu_best();

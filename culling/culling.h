@@ -688,6 +688,11 @@ int         cull_isa_supported(uint32_t isa);
  * sse41|avx2 from the environment (an unsupported or unknown name falls back
  * to the best, with a note on stderr). */
 uint32_t    cull_isa_default(void);
+/* Whether the AVX2 kernels that have an EVEX build (the renderer's
+ * shading) take it: the CPU has AVX-512 F, VL, DQ and BW and the OS saves
+ * their state, and VANTAGE_EVEX is not "0". The same 256-bit operations
+ * with 32 vector registers instead of 16 (fewer spills), the same bits. */
+int         cull_isa_evex(void);
 const char *cull_isa_name(uint32_t isa);
 /* Per-context ISA (tests and benchmarks compare them in one process).
  * CULL_ERR_INVALID if the ISA is not supported here. */

@@ -137,9 +137,15 @@ void vt_shade_avx2(const vt_span *s);
 void vt_ranges_scalar(const float *, size_t, uint32_t, uint32_t, float (*)[2]);
 void vt_ranges_sse41(const float *, size_t, uint32_t, uint32_t, float (*)[2]);
 void vt_ranges_avx2(const float *, size_t, uint32_t, uint32_t, float (*)[2]);
+void vt_shade_avx2_evex(const vt_span *s);
+void vt_ranges_avx2_evex(const float *, size_t, uint32_t, uint32_t, float (*)[2]);
+/* The AVX2 kernel's EVEX build (vt_shade_avx2_evex.c: the same bits,
+ * 32 registers), or NULLs where this build has none. */
+vt_kern vt_kern_evex(void);
 
 /* The instances for this CPU and VANTAGE_ISA, as the culling kernels pick
- * theirs (cull_isa_default). */
+ * theirs (cull_isa_default); for AVX2 its EVEX build where
+ * cull_isa_evex() allows it. */
 vt_kern vt_kern_pick(void);
 
 #endif

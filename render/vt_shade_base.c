@@ -15,7 +15,11 @@ vt_kern vt_kern_pick(void)
 {
     switch (cull_isa_default()) {
 #ifndef CULL_SCALAR_ONLY
-    case CULL_ISA_AVX2: return (vt_kern){vt_shade_avx2, vt_ranges_avx2};
+    case CULL_ISA_AVX2: {
+        const vt_kern e = vt_kern_evex(); /* the same kernel's EVEX build, where it runs */
+        if (e.shade && cull_isa_evex()) return e;
+        return (vt_kern){vt_shade_avx2, vt_ranges_avx2};
+    }
     case CULL_ISA_SSE41: return (vt_kern){vt_shade_sse41, vt_ranges_sse41};
 #endif
     default: return (vt_kern){vt_shade_scalar, vt_ranges_scalar};
