@@ -125,7 +125,7 @@ CLI_BIN  := $(BUILD)/vantage
 # the image files of vt_image.h: tone mapping, the encoders' sink, PNG, JPEG
 IMAGE_SRC := render/vt_tonemap.c render/vt_tonemap_avx2.c render/vt_lut.c render/vt_sink.c render/vt_png.c render/vt_jpeg.c
 IMAGE_OBJ := $(IMAGE_SRC:%.c=$(BUILD)/%.o)
-RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_texlin.c render/vt_span.c render/vt_shadow.c render/vt_shadow_tiles.c render/vt_shadow_sse41.c render/vt_shadow_avx2.c render/vt_ssao.c render/vt_ssao_base.c render/vt_ssao_sse41.c render/vt_ssao_avx2.c render/vt_post.c render/vt_post_avx2.c render/vt_overlay.c render/vt_soft.c render/vt_raster.c render/vt_shade_base.c render/vt_shade_sse41.c \
+RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_texlin.c render/vt_span.c render/vt_shadow.c render/vt_shadow_tiles.c render/vt_shadow_sse41.c render/vt_shadow_avx2.c render/vt_ssao.c render/vt_ssao_base.c render/vt_ssao_sse41.c render/vt_ssao_avx2.c render/vt_ssao_avx2_evex.c render/vt_post.c render/vt_post_avx2.c render/vt_overlay.c render/vt_soft.c render/vt_raster.c render/vt_shade_base.c render/vt_shade_sse41.c \
             render/vt_shade_avx2.c render/vt_shade_avx2_evex.c render/vt_brdf.c render/vt_brdf_glsl.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \
             render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_ssao_gl.c render/vt_gltex.c render/vt_file.c render/vt_err.c \
             render/vt_texture.c
@@ -277,6 +277,7 @@ $(BUILD)/render/vt_shade_avx2.o:  CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_shade_avx2_evex.o: CFLAGS += $(ISA_EVEX)
 $(BUILD)/render/vt_shade_sse41.o: CFLAGS += $(ISA_SSE41)
 $(BUILD)/render/vt_ssao_avx2.o:   CFLAGS += $(ISA_AVX2)
+$(BUILD)/render/vt_ssao_avx2_evex.o: CFLAGS += $(ISA_EVEX)
 $(BUILD)/render/vt_tonemap_avx2.o: CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_post_avx2.o:    CFLAGS += $(ISA_AVX2)
 $(BUILD)/render/vt_h264_avx2.o:    CFLAGS += $(ISA_AVX2)
@@ -319,7 +320,7 @@ $(TEST_BIN): $(TEST_OBJ) $(RENDER_OBJ) $(H264_OBJ) $(IMPORT_OBJ) $(BUILD)/daemon
 
 # the daemon renders with the software path or OpenGL (vt_gldraw on vt_gl) and encodes JPEG; it
 # decodes uploaded textures (vt_texture: PNG, JPEG, and EXR through OpenEXRCore)
-DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD)/render/vt_texsample.o $(BUILD)/render/vt_texlin.o $(BUILD)/render/vt_span.o $(BUILD)/render/vt_shadow.o $(BUILD)/render/vt_shadow_tiles.o $(BUILD)/render/vt_shadow_sse41.o $(BUILD)/render/vt_shadow_avx2.o $(BUILD)/render/vt_ssao.o $(BUILD)/render/vt_ssao_base.o $(BUILD)/render/vt_ssao_sse41.o $(BUILD)/render/vt_ssao_avx2.o $(BUILD)/render/vt_post.o $(BUILD)/render/vt_post_avx2.o $(BUILD)/render/vt_overlay.o \
+DAEMON_RENDER := $(BUILD)/render/vt_picture.o $(BUILD)/render/vt_scene.o $(BUILD)/render/vt_texsample.o $(BUILD)/render/vt_texlin.o $(BUILD)/render/vt_span.o $(BUILD)/render/vt_shadow.o $(BUILD)/render/vt_shadow_tiles.o $(BUILD)/render/vt_shadow_sse41.o $(BUILD)/render/vt_shadow_avx2.o $(BUILD)/render/vt_ssao.o $(BUILD)/render/vt_ssao_base.o $(BUILD)/render/vt_ssao_sse41.o $(BUILD)/render/vt_ssao_avx2.o $(BUILD)/render/vt_ssao_avx2_evex.o $(BUILD)/render/vt_post.o $(BUILD)/render/vt_post_avx2.o $(BUILD)/render/vt_overlay.o \
                  $(BUILD)/render/vt_brdf.o $(BUILD)/render/vt_brdf_glsl.o \
                  $(BUILD)/render/vt_soft.o $(BUILD)/render/vt_raster.o $(IMAGE_OBJ) $(BUILD)/render/vt_file.o \
                  $(BUILD)/render/vt_err.o $(BUILD)/render/vt_texture.o $(BUILD)/render/vt_exr.o \

@@ -60,9 +60,17 @@ void vt_ssao_gtao_sse41(const vt_ssao_kjob *k, uint32_t j);
 void vt_ssao_up_sse41(const vt_ssao_kjob *k, uint32_t y);
 void vt_ssao_gtao_avx2(const vt_ssao_kjob *k, uint32_t j);
 void vt_ssao_up_avx2(const vt_ssao_kjob *k, uint32_t y);
+void vt_ssao_pos_avx2_evex(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_crease_avx2_evex(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_gtao_avx2_evex(const vt_ssao_kjob *k, uint32_t j);
+void vt_ssao_up_avx2_evex(const vt_ssao_kjob *k, uint32_t y);
+/* The AVX2 kernels' EVEX build (vt_ssao_avx2_evex.c: the same bits, 32
+ * registers), or NULLs where this build has none. */
+vt_ssao_kern vt_ssao_kern_evex(void);
 
 /* The instance of isa (enum cull_isa) where this build and CPU run it,
- * else the default one (cull_isa_default: the widest, or VANTAGE_ISA). */
+ * else the default one (cull_isa_default: the widest, or VANTAGE_ISA);
+ * AVX2's EVEX build where cull_isa_evex() allows it. */
 vt_ssao_kern vt_ssao_kern_pick(uint32_t isa);
 
 #endif

@@ -25,6 +25,7 @@
 #include "vt_picture.h"
 #include "vt_soft.h"
 #include "vt_ssao.h"
+#include "vt_ssao_kern.h"
 #include "vt_surface.h"
 #include "protocol.h"
 
@@ -438,19 +439,30 @@ static void test_ssao_lanes(void **state)
         size_t dark = 0;
         for (size_t i = 0; i < n; i++) dark += r[i] < 0.9f;
         assert_true(dark > n / 200); /* the scene has contact shadows to compare */
-        for (uint32_t isa = CULL_ISA_SSE41; isa < CULL_ISA_COUNT; isa++) {
-            if (!cull_isa_supported(isa)) continue;
-            vt_ssao *s = NULL;
-            vt_ssao_set_isa(&s, isa);
-            assert_non_null(s);
-            const float *ao = ao_of(&s, v & 1 ? pool : NULL, &c, nb);
-            size_t bad = 0;
-            for (size_t i = 0; i < n; i++) bad += memcmp(&ao[i], &r[i], sizeof *ao) != 0;
-            fprintf(stderr, "view %zu %s: %zu of %zu pixels differ from the one-lane kernel (%zu below 0.9)\n", v,
-                    cull_isa_name(isa), bad, n, dark);
-            assert_int_equal(bad, 0);
-            vt_ssao_destroy(s);
-        }
+        /* AVX2 twice where the CPU has AVX-512 VL/DQ/BW: its plain build
+           (VANTAGE_EVEX=0) and its EVEX build (vt_ssao_avx2_evex.c) */
+        const char *old_evex = getenv("VANTAGE_EVEX");
+        char *saved_evex = old_evex ? strdup(old_evex) : NULL;
+        for (uint32_t isa = CULL_ISA_SSE41; isa < CULL_ISA_COUNT; isa++)
+            for (int evex = 0; evex < 2; evex++) {
+                if (!cull_isa_supported(isa)) continue;
+                if (evex && (isa != CULL_ISA_AVX2 || !vt_ssao_kern_evex().gtao)) continue;
+                setenv("VANTAGE_EVEX", evex ? "1" : "0", 1);
+                if (evex && !cull_isa_evex()) continue;
+                vt_ssao *s = NULL;
+                vt_ssao_set_isa(&s, isa);
+                assert_non_null(s);
+                const float *ao = ao_of(&s, v & 1 ? pool : NULL, &c, nb);
+                size_t bad = 0;
+                for (size_t i = 0; i < n; i++) bad += memcmp(&ao[i], &r[i], sizeof *ao) != 0;
+                fprintf(stderr, "view %zu %s%s: %zu of %zu pixels differ from the one-lane kernel (%zu below 0.9)\n", v,
+                        cull_isa_name(isa), evex ? " (EVEX build)" : "", bad, n, dark);
+                assert_int_equal(bad, 0);
+                vt_ssao_destroy(s);
+            }
+        if (saved_evex) setenv("VANTAGE_EVEX", saved_evex, 1);
+        else unsetenv("VANTAGE_EVEX");
+        free(saved_evex);
         vt_ssao_destroy(ref);
         free(nb);
     }

@@ -104,7 +104,7 @@ FUZZ_replay_BUDGET    := 150 256
 FUZZ_OBJ_DIR          := $(FUZZ_OUT)/obj
 FUZZ_COMMA            := ,
 FUZZ_CULL_FOBJ        := $(CULL_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o)
-FUZZ_SOFT_SRC         := render/vt_soft.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_texlin.c render/vt_span.c render/vt_shadow.c render/vt_shadow_tiles.c render/vt_shadow_sse41.c render/vt_shadow_avx2.c render/vt_ssao.c render/vt_ssao_base.c render/vt_ssao_sse41.c render/vt_ssao_avx2.c render/vt_post.c render/vt_post_avx2.c render/vt_overlay.c render/vt_brdf.c render/vt_raster.c render/vt_shade_base.c render/vt_shade_sse41.c \
+FUZZ_SOFT_SRC         := render/vt_soft.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_texlin.c render/vt_span.c render/vt_shadow.c render/vt_shadow_tiles.c render/vt_shadow_sse41.c render/vt_shadow_avx2.c render/vt_ssao.c render/vt_ssao_base.c render/vt_ssao_sse41.c render/vt_ssao_avx2.c render/vt_ssao_avx2_evex.c render/vt_post.c render/vt_post_avx2.c render/vt_overlay.c render/vt_brdf.c render/vt_raster.c render/vt_shade_base.c render/vt_shade_sse41.c \
                          render/vt_shade_avx2.c render/vt_shade_avx2_evex.c
 FUZZ_query_OBJ        := $(CULL_OBJ)
 FUZZ_query_SRC        := $(FUZZ_CULL_FOBJ)
