@@ -216,6 +216,13 @@ static void hist_q(uint32_t q[3])
 
 static float ev_of_hist(const uint64_t hist[VT_HIST_BINS], float comp);
 
+/* A part's 4 sub-histograms added to the sum. */
+static void bins_add(uint64_t hist[VT_HIST_BINS], const uint32_t (*b)[VT_HIST_BINS])
+{
+    for (int k = 0; k < 4; k++)
+        for (int i = 0; i < VT_HIST_BINS; i++) hist[i] += b[k][i];
+}
+
 static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, size_t stride, float comp,
                            cull_pool *pool, uint32_t threads, uint32_t isa, bool sample)
 {
@@ -234,9 +241,7 @@ static float exposure_auto(const float *rgba, uint32_t width, uint32_t height, s
     j->sample = sample && (uint64_t)width * height >= VT_HIST_SAMPLE_MIN;
     run(pool, job_hist, j, j->nb);
     uint64_t hist[VT_HIST_BINS] = {0};
-    for (uint32_t t = 0; t < j->nb; t++)
-        for (int k = 0; k < 4; k++)
-            for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += j->hist[t][k][b];
+    for (uint32_t t = 0; t < j->nb; t++) bins_add(hist, j->hist[t]);
     free(j);
     return ev_of_hist(hist, comp);
 }
@@ -737,9 +742,7 @@ int vt_post_apply_hist(vt_post *p, cull_pool *pool, uint32_t threads, const vt_f
         float target;
         if (parts) {
             uint64_t hist[VT_HIST_BINS] = {0};
-            for (uint32_t t = 0; t < nparts; t++)
-                for (int k = 0; k < 4; k++)
-                    for (int b = 0; b < VT_HIST_BINS; b++) hist[b] += parts[t].b[k][b];
+            for (uint32_t t = 0; t < nparts; t++) bins_add(hist, parts[t].b);
             target = ev_of_hist(hist, env->exposure_comp);
         } else {
             target = exposure_auto(f->rgba, f->width, f->height, f->stride, env->exposure_comp, pool, threads, p->isa,

@@ -993,10 +993,9 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     /* the sun's shadow cascades, from the casters (NULL: the instances) */
     uint64_t ts = now_ns();
     uint32_t stris = 0;
-    vt_shadow_fit fit = sj.fit;
     if (sj.shadows) {
         if (!r->shadow && vt_shadow_create(&r->shadow)) return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
-        rc = vt_shadow_draw(r->shadow, r->pool, r->threads, &fit, v->origin, meshes, jb.mb,
+        rc = vt_shadow_draw(r->shadow, r->pool, r->threads, &sj.fit, v->origin, meshes, jb.mb,
                             f->casters ? f->casters : inst, f->casters ? f->ncasters : ninst, &stris, err, errlen);
         if (rc) return rc;
         jb.sh = r->shadow;

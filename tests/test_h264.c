@@ -394,8 +394,7 @@ static void test_h264_convert_isa(void **state)
     rng r = {test_seed() ^ 0x1a};
     static const uint32_t sz[][3] = {{16, 2, 4}, {17, 3, 4}, {31, 4, 3}, {32, 5, 4}, {33, 6, 3}, {48, 7, 4},
                                      {250, 9, 4}, {1280, 4, 4}, {1279, 3, 3}};
-    const char *old = getenv("VANTAGE_ISA");
-    char *saved = old ? strdup(old) : NULL;
+    char *saved = test_env_keep("VANTAGE_ISA");
     for (size_t k = 0; k < sizeof sz / sizeof sz[0]; k++) {
         uint32_t w = sz[k][0], h = sz[k][1], pb = sz[k][2], cw, ch;
         size_t stride = (size_t)w * pb + 3;
@@ -414,8 +413,7 @@ static void test_h264_convert_isa(void **state)
                 fail_msg("%ux%u (%u bytes a pixel): plane byte %zu: scalar %d, lanes %d", w, h, pb, i, a[i], b[i]);
         free(a), free(b), free(p);
     }
-    if (saved) setenv("VANTAGE_ISA", saved, 1);
-    free(saved);
+    test_env_restore("VANTAGE_ISA", saved);
     if (cull_isa_default() != CULL_ISA_AVX2) print_message("h264 convert isa: no AVX2 rows here, scalar against scalar\n");
 }
 

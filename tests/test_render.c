@@ -466,8 +466,7 @@ static void test_soft_isas_agree(void **state)
     (void)state;
     rng r = {test_seed() ^ 0x15Au};
     const char *isas[] = {"scalar", "sse41", "avx2"};
-    const char *old = getenv("VANTAGE_ISA");
-    char *saved = old ? strdup(old) : NULL;
+    char *saved = test_env_keep("VANTAGE_ISA");
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
     char err[256];
     uint32_t tried = 0;
@@ -505,9 +504,7 @@ static void test_soft_isas_agree(void **state)
         free(d1);
         lit_frame_free(&lf);
     }
-    if (saved) setenv("VANTAGE_ISA", saved, 1);
-    else unsetenv("VANTAGE_ISA");
-    free(saved);
+    test_env_restore("VANTAGE_ISA", saved);
     fprintf(stderr, "shading kernels: %u renders, worst relative colour difference to scalar %.2g\n", tried, worst);
 }
 
@@ -523,8 +520,7 @@ static void test_soft_evex_same_bits(void **state)
         return;
     }
     rng r = {test_seed() ^ 0xE7Eu};
-    const char *old_isa = getenv("VANTAGE_ISA"), *old_evex = getenv("VANTAGE_EVEX");
-    char *saved_isa = old_isa ? strdup(old_isa) : NULL, *saved_evex = old_evex ? strdup(old_evex) : NULL;
+    char *saved_isa = test_env_keep("VANTAGE_ISA"), *saved_evex = test_env_keep("VANTAGE_EVEX");
     setenv("VANTAGE_ISA", "avx2", 1);
     vt_mesh cube = {.pos = cube_pos, .idx = cube_idx, .nv = 8, .ni = 36};
     char err[256];
@@ -550,12 +546,8 @@ static void test_soft_evex_same_bits(void **state)
         for (int k = 0; k < 2; k++) free(c[k]), free(d[k]);
         lit_frame_free(&lf);
     }
-    if (saved_isa) setenv("VANTAGE_ISA", saved_isa, 1);
-    else unsetenv("VANTAGE_ISA");
-    if (saved_evex) setenv("VANTAGE_EVEX", saved_evex, 1);
-    else unsetenv("VANTAGE_EVEX");
-    free(saved_isa);
-    free(saved_evex);
+    test_env_restore("VANTAGE_ISA", saved_isa);
+    test_env_restore("VANTAGE_EVEX", saved_evex);
 }
 
 static void test_soft_and_gl_agree(void **state)

@@ -767,8 +767,7 @@ static void test_scene_gather_lanes(void **state)
     sc.env.ground_mat = &sc.mat[0];
     sc.env.exposure_mode = VT_EXPOSURE_FIXED;
     sc.env.exposure_ev = 13;
-    const char *isa0 = getenv("VANTAGE_ISA");
-    char *keep = isa0 ? strdup(isa0) : NULL;
+    char *keep = test_env_keep("VANTAGE_ISA");
     size_t np = (size_t)W * H;
     float *c[2] = {malloc(np * 16), malloc(np * 16)}, *d = malloc(np * 4);
     assert_true(c[0] && c[1] && d);
@@ -814,9 +813,7 @@ static void test_scene_gather_lanes(void **state)
         assert_true(k >= 3 ? drawn * 5 > np && drawn * 5 < 4 * np : drawn * 3 > np);
         assert_true(off * 1000 <= drawn && worst < 0.02);
     }
-    if (keep) setenv("VANTAGE_ISA", keep, 1);
-    else unsetenv("VANTAGE_ISA");
-    free(keep);
+    test_env_restore("VANTAGE_ISA", keep);
     free(c[0]);
     free(c[1]);
     free(d);

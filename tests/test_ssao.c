@@ -441,8 +441,7 @@ static void test_ssao_lanes(void **state)
         assert_true(dark > n / 200); /* the scene has contact shadows to compare */
         /* AVX2 twice where the CPU has AVX-512 VL/DQ/BW: its plain build
            (VANTAGE_EVEX=0) and its EVEX build (vt_ssao_avx2_evex.c) */
-        const char *old_evex = getenv("VANTAGE_EVEX");
-        char *saved_evex = old_evex ? strdup(old_evex) : NULL;
+        char *saved_evex = test_env_keep("VANTAGE_EVEX");
         for (uint32_t isa = CULL_ISA_SSE41; isa < CULL_ISA_COUNT; isa++)
             for (int evex = 0; evex < 2; evex++) {
                 if (!cull_isa_supported(isa)) continue;
@@ -460,9 +459,7 @@ static void test_ssao_lanes(void **state)
                 assert_int_equal(bad, 0);
                 vt_ssao_destroy(s);
             }
-        if (saved_evex) setenv("VANTAGE_EVEX", saved_evex, 1);
-        else unsetenv("VANTAGE_EVEX");
-        free(saved_evex);
+        test_env_restore("VANTAGE_EVEX", saved_evex);
         vt_ssao_destroy(ref);
         free(nb);
     }

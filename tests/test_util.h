@@ -13,6 +13,7 @@
 #include <cmocka.h>
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 #include "splitmix.h"
 
@@ -39,6 +40,22 @@ static inline double test_now_s(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* An environment variable's value kept to put back later (the tests that
+ * set VANTAGE_ISA or VANTAGE_EVEX for a while), NULL if it is unset; then
+ * the variable set back to it (NULL: unset) and the copy freed. */
+static inline char *test_env_keep(const char *name)
+{
+    const char *v = getenv(name);
+    return v ? strdup(v) : NULL;
+}
+
+static inline void test_env_restore(const char *name, char *kept)
+{
+    if (kept) setenv(name, kept, 1);
+    else unsetenv(name);
+    free(kept);
 }
 
 static inline uint64_t test_seed(void)

@@ -339,7 +339,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--png") && i + 1 < argc) png_dir = argv[++i];
         else if (!strcmp(argv[i], "--view") && i + 1 < argc && (!strcmp(argv[i + 1], "street") || !strcmp(argv[i + 1], "aerial")))
             only_view = argv[++i];
-        else if (!strcmp(argv[i], "--lights") && i + 1 < argc) max_lights = (uint32_t)atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--lights") && i + 1 < argc && bench_count(argv[i + 1], &max_lights)) i++;
         else {
             fprintf(stderr, "usage: bench_render [--json] [--quick] [--smoke] [--no-gl] [--size WxH] [--reps N] "
                             "[--city-only] [--no-city] [--png DIR] [--view street|aerial] [--lights N]\n");

@@ -1,15 +1,31 @@
 /*
  * bench_util.h — what the benchmarks share: a monotonic clock, a qsort
- * comparison and a median, and seeded splitmix64 streams (the same
- * generator as tests/test_util.h's rng, without cmocka).
+ * comparison and a median, a strict count for options, and seeded
+ * splitmix64 streams (the same generator as tests/test_util.h's rng,
+ * without cmocka).
  */
 #ifndef VANTAGE_BENCH_UTIL_H
 #define VANTAGE_BENCH_UTIL_H
 
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <time.h>
 #include "splitmix.h"
+
+/* A command line's count: decimal digits only, 1 .. UINT32_MAX, into *out;
+ * false for anything else (the caller prints its usage). */
+static inline bool bench_count(const char *s, uint32_t *out)
+{
+    uint64_t v = 0;
+    if (!s || !*s) return false;
+    for (; *s; s++) {
+        if (*s < '0' || *s > '9' || (v = v * 10 + (uint64_t)(*s - '0')) > UINT32_MAX) return false;
+    }
+    if (!v) return false;
+    *out = (uint32_t)v;
+    return true;
+}
 
 static inline double bench_now_ns(void)
 {
