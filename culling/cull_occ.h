@@ -11,16 +11,44 @@
 #include <float.h>
 #include <stdbool.h>
 
+/* The most constraints (edges, near plane) of a polygon the render draws. */
+#define CULL_OCC_MAX_CONS 8
+
+/* One polygon's per-row set-up for the render's tile rows
+ * (cull_occ_raster.c): x > lal + lbe j per left constraint, x < ral +
+ * rbe j per right one, x > (st - sb j) / sa or < per "slow" one (|al| or
+ * |be| beyond 2^900: sa's sign says which), the columns [i0, i1] the
+ * polygon may mark, and per nearness plane k its start at row j,
+ * zb j + zc - corner - m, in double and then float. */
+typedef struct cull_occ_rowset {
+    double lal[CULL_OCC_MAX_CONS], lbe[CULL_OCC_MAX_CONS], ral[CULL_OCC_MAX_CONS], rbe[CULL_OCC_MAX_CONS];
+    double sa[CULL_OCC_MAX_CONS], sb[CULL_OCC_MAX_CONS], st[CULL_OCC_MAX_CONS];
+    uint32_t nl, nr, ns;
+    double i0, i1;
+    double zb[3], zc[3], corner[3], m[3];
+} cull_occ_rowset;
+
+/* What a tile row's 8 rows sum up to over rows a..b (rows jb + a ..
+ * jb + b): L the largest left end, H the smallest right end (empty rows
+ * included), U0 / U1 the smallest left and largest right end of the
+ * non-empty rows (INT32_MAX / INT32_MIN with none), whole: all 8 rows
+ * there and none empty. */
+typedef struct cull_occ_rowsum {
+    int L, H, U0, U1;
+    int whole;
+} cull_occ_rowsum;
+
 /* The inner loops, one instance per ISA. */
 typedef struct cull_occ_fns {
     /* row[x] = max(row[x], max(min(a0 + da x, b0 + db x, c0 + dc x), lo))
        for x in [x0, x1]; the row has `room` floats (>= 8) */
     void (*span)(float *row, int x0, int x1, int room, float a0, float da, float b0, float db, float c0, float dc,
                  float lo);
-    /* span for n rows (n <= 8) a stride apart from row0, row r over
-       [x0[r], x1[r]] (none where x0[r] > x1[r]) from z0[3r..3r+2] */
-    void (*spans)(float *row0, size_t stride, int n, const int *x0, const int *x1, const float *z0, int room,
-                  float da, float db, float dc, float lo);
+    /* span for the 8 rows a stride apart from row0, row r over [x0[r],
+       x1[r]] (none where x0[r] > x1[r]) less the columns [g0, g1] (none
+       where g0 > g1), from a0, b0, c0 = z0[r], z0[8 + r], z0[16 + r] */
+    void (*spans)(float *row0, size_t stride, const int *x0, const int *x1, int g0, int g1, const float *z0,
+                  int room, float da, float db, float dc, float lo);
     /* any row[x] <= z for x in [x0, x1]? */
     bool (*any_le)(const float *row, int x0, int x1, int room, float z);
     /* out[t] = min, out_max[t] = max over the 8x8 tile t of the 8 rows from row0 */
@@ -36,18 +64,27 @@ typedef struct cull_occ_fns {
        z: what the kernel's occlusion stage asks per group */
     uint32_t (*lanes)(const struct cull_occ_buffer *b, const float *fx0, const float *fx1, const float *fy0,
                       const float *fy1, const float *z, uint32_t lanes);
+    /* rows jb .. jb + 7 of a polygon (rs without slow constraints):
+       row r's pixel span [lo[r], hi[r]] (empty outside a..b) and its
+       three planes' start nearness z0[r], z0[8 + r], z0[16 + r] (every
+       row), and their sums; the same bits in every instance */
+    cull_occ_rowsum (*rows)(const cull_occ_rowset *rs, int jb, int a, int b, int *lo, int *hi, float *z0);
 } cull_occ_fns;
 
 cull_occ_fns cull_occ_fns_for(uint32_t isa);
 void cull_occ_span_scalar(float *, int, int, int, float, float, float, float, float, float, float);
 void cull_occ_span_sse41(float *, int, int, int, float, float, float, float, float, float, float);
 void cull_occ_span_avx2(float *, int, int, int, float, float, float, float, float, float, float);
-void cull_occ_spans_scalar(float *, size_t, int, const int *, const int *, const float *, int, float, float, float,
-                           float);
-void cull_occ_spans_sse41(float *, size_t, int, const int *, const int *, const float *, int, float, float, float,
-                          float);
-void cull_occ_spans_avx2(float *, size_t, int, const int *, const int *, const float *, int, float, float, float,
-                         float);
+void cull_occ_spans_scalar(float *, size_t, const int *, const int *, int, int, const float *, int, float, float,
+                           float, float);
+void cull_occ_spans_sse41(float *, size_t, const int *, const int *, int, int, const float *, int, float, float,
+                          float, float);
+void cull_occ_spans_avx2(float *, size_t, const int *, const int *, int, int, const float *, int, float, float,
+                         float, float);
+/* rows: the reference (any rowset, slow constraints included; every
+   ISA without its own), and AVX2's (4 rows a vector) */
+cull_occ_rowsum cull_occ_rows_scalar(const cull_occ_rowset *, int, int, int, int *, int *, float *);
+cull_occ_rowsum cull_occ_rows_avx2(const cull_occ_rowset *, int, int, int, int *, int *, float *);
 bool cull_occ_any_le_scalar(const float *, int, int, int, float);
 void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_scalar(float *, uint32_t, float);

@@ -40,20 +40,94 @@ void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, 
                  vf_set(lo));
 }
 
-/* span for n rows (n <= 8) a stride apart from row0: row r over [x0[r],
- * x1[r]] (none where x0[r] > x1[r]) from a0, b0, c0 = z0[3r..3r+2], the
- * same pixels as n calls of span (one call and one set of broadcasts a
- * tile row) */
-void CULL_OCC_CAT(cull_occ_spans_, CULL_OCC_SUFFIX)(float *restrict row0, size_t stride, int n, const int *x0,
-                                                     const int *x1, const float *z0, int room, float da, float db,
-                                                     float dc, float lo)
+/* span for the 8 rows a stride apart from row0: row r over [x0[r],
+ * x1[r]] (none where x0[r] > x1[r]) less the columns [g0, g1] (a tile
+ * row's coarse tiles; none where g0 > g1), from a0, b0, c0 = z0[r],
+ * z0[8 + r], z0[16 + r]: the same pixels as span over each part (one
+ * call and one set of broadcasts a tile row) */
+void CULL_OCC_CAT(cull_occ_spans_, CULL_OCC_SUFFIX)(float *restrict row0, size_t stride, const int *x0,
+                                                     const int *x1, int g0, int g1, const float *z0, int room,
+                                                     float da, float db, float dc, float lo)
 {
     const vf vda = vf_set(da), vdb = vf_set(db), vdc = vf_set(dc), vlo = vf_set(lo);
-    for (int r = 0; r < n; r++)
-        if (x0[r] <= x1[r])
-            occ_span_row(row0 + (size_t)r * stride, x0[r], x1[r], room, vf_set(z0[3 * r]), vf_set(z0[3 * r + 1]),
-                         vf_set(z0[3 * r + 2]), vda, vdb, vdc, vlo);
+    for (int r = 0; r < 8; r++) {
+        int s = x0[r], e = x1[r];
+        if (s > e) continue;
+        float *row = row0 + (size_t)r * stride;
+        const vf va = vf_set(z0[r]), vb = vf_set(z0[8 + r]), vc = vf_set(z0[16 + r]);
+        if (g0 > g1) {
+            occ_span_row(row, s, e, room, va, vb, vc, vda, vdb, vdc, vlo);
+            continue;
+        }
+        if (s < g0) occ_span_row(row, s, e < g0 - 1 ? e : g0 - 1, room, va, vb, vc, vda, vdb, vdc, vlo);
+        if (e > g1) occ_span_row(row, s > g1 + 1 ? s : g1 + 1, e, room, va, vb, vc, vda, vdb, vdc, vlo);
+    }
 }
+
+#if CULL_SIMD_ISA == 3
+/* The 8 lanes' largest / smallest. */
+static inline int occ_hmax_epi32(__m256i v)
+{
+    __m128i m = _mm_max_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+    m = _mm_max_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(1, 0, 3, 2)));
+    return _mm_cvtsi128_si32(_mm_max_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1))));
+}
+
+static inline int occ_hmin_epi32(__m256i v)
+{
+    __m128i m = _mm_min_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+    m = _mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(1, 0, 3, 2)));
+    return _mm_cvtsi128_si32(_mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1))));
+}
+
+/* cull_occ_rows_scalar's rows, four a vector, with the same operations in
+ * the same order (so the same bits): maxpd / minpd pick as dmax / dmin do
+ * (a > b ? a : b), the clamp to +-2^30 and floor / ceil of dfloor /
+ * dceil as min, max and roundpd (the same integers for every value the
+ * bounds take; they are never NaN) */
+cull_occ_rowsum cull_occ_rows_avx2(const cull_occ_rowset *rs, int jb, int a, int b, int *lo, int *hi, float *z0)
+{
+    const __m256d j[2] = {_mm256_add_pd(_mm256_set1_pd((double)jb), _mm256_set_pd(3, 2, 1, 0)),
+                          _mm256_add_pd(_mm256_set1_pd((double)jb), _mm256_set_pd(7, 6, 5, 4))};
+    for (int k = 0; k < 3; k++) {
+        const __m256d zb = _mm256_set1_pd(rs->zb[k]), zc = _mm256_set1_pd(rs->zc[k]),
+                      co = _mm256_set1_pd(rs->corner[k]), m = _mm256_set1_pd(rs->m[k]);
+        for (int h = 0; h < 2; h++) {
+            __m256d v = _mm256_sub_pd(_mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(zb, j[h]), zc), co), m);
+            _mm_storeu_ps(z0 + 8 * k + 4 * h, _mm256_cvtpd_ps(v));
+        }
+    }
+    const __m256d lim = _mm256_set1_pd(0x1p30), nlim = _mm256_set1_pd(-0x1p30), one = _mm256_set1_pd(1.0);
+    __m128i x0[2], x1[2];
+    for (int h = 0; h < 2; h++) {
+        __m256d l = _mm256_set1_pd(-0x1p40), r = _mm256_set1_pd(0x1p40);
+        for (uint32_t k = 0; k < rs->nl; k++)
+            l = _mm256_max_pd(l, _mm256_add_pd(_mm256_set1_pd(rs->lal[k]), _mm256_mul_pd(_mm256_set1_pd(rs->lbe[k]), j[h])));
+        for (uint32_t k = 0; k < rs->nr; k++)
+            r = _mm256_min_pd(r, _mm256_add_pd(_mm256_set1_pd(rs->ral[k]), _mm256_mul_pd(_mm256_set1_pd(rs->rbe[k]), j[h])));
+        l = _mm256_max_pd(_mm256_min_pd(l, lim), nlim);
+        r = _mm256_max_pd(_mm256_min_pd(r, lim), nlim);
+        l = _mm256_add_pd(_mm256_round_pd(l, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC), one);
+        r = _mm256_sub_pd(_mm256_round_pd(r, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC), one);
+        x0[h] = _mm256_cvttpd_epi32(_mm256_max_pd(_mm256_set1_pd(rs->i0), l));
+        x1[h] = _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_set1_pd(rs->i1), r));
+    }
+    __m256i vlo = _mm256_set_m128i(x0[1], x0[0]), vhi = _mm256_set_m128i(x1[1], x1[0]);
+    const __m256i rid = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256i in = _mm256_and_si256(_mm256_cmpgt_epi32(rid, _mm256_set1_epi32(a - 1)),
+                                        _mm256_cmpgt_epi32(_mm256_set1_epi32(b + 1), rid));
+    const __m256i ne = _mm256_andnot_si256(_mm256_cmpgt_epi32(vlo, vhi), in);
+    const __m256i imin = _mm256_set1_epi32(INT32_MIN), imax = _mm256_set1_epi32(INT32_MAX);
+    cull_occ_rowsum o = {.L = occ_hmax_epi32(_mm256_blendv_epi8(imin, vlo, in)),
+                         .H = occ_hmin_epi32(_mm256_blendv_epi8(imax, vhi, in)),
+                         .U0 = occ_hmin_epi32(_mm256_blendv_epi8(imax, vlo, ne)),
+                         .U1 = occ_hmax_epi32(_mm256_blendv_epi8(imin, vhi, ne)),
+                         .whole = a == 0 && b == 7 && _mm256_movemask_ps(_mm256_castsi256_ps(ne)) == 0xff};
+    _mm256_storeu_si256((__m256i *)lo, _mm256_blendv_epi8(_mm256_set1_epi32(1), vlo, in));
+    _mm256_storeu_si256((__m256i *)hi, _mm256_blendv_epi8(_mm256_setzero_si256(), vhi, in));
+    return o;
+}
+#endif
 
 /* any row[x] <= z for x in [x0, x1]? (reads up to `room` as above) */
 bool CULL_OCC_CAT(cull_occ_any_le_, CULL_OCC_SUFFIX)(const float *restrict row, int x0, int x1, int room, float z)

@@ -116,7 +116,7 @@ static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *
     return true;
 }
 
-#define MAX_CONS 8
+#define MAX_CONS CULL_OCC_MAX_CONS
 
 /* What the row and tile loops rasterise: a convex region given by linear
  * constraints over pixel indices (edges, the near plane), up to three
@@ -131,52 +131,38 @@ typedef struct rpoly {
     double xmin, xmax, ymin, ymax;
 } rpoly;
 
-/* Rows r0..r1 (at most 8) of a tile row: the largest left bound al + be j
- * and the smallest right bound over the constraints, -2^40 / 2^40 with
- * none (two rows a vector where SSE2 is there: maxpd and minpd pick as
- * dmax and dmin do, and the bounds are never NaN). */
-static inline void row_bounds(const double *lal, const double *lbe, uint32_t nl, const double *ral,
-                              const double *rbe, uint32_t nr, int r0, int r1, double tl[8], double th[8])
+/* The rows of a tile row (cull_occ_fns.rows), the reference: every
+ * constraint, the slow ones included, in double; row r's span is the
+ * pixels every bound admits, within [i0, i1] (floor / ceil clamped as
+ * dfloor / dceil do, so every int is defined). */
+cull_occ_rowsum cull_occ_rows_scalar(const cull_occ_rowset *rs, int jb, int a, int b, int *lo, int *hi, float *z0)
 {
-#ifdef __SSE2__
-    for (int j = r0; j <= r1; j += 2) {
-        __m128d jj = _mm_set_pd((double)(j + 1), (double)j);
-        __m128d l = _mm_set1_pd(-0x1p40), h = _mm_set1_pd(0x1p40);
-        for (uint32_t k = 0; k < nl; k++)
-            l = _mm_max_pd(l, _mm_add_pd(_mm_set1_pd(lal[k]), _mm_mul_pd(_mm_set1_pd(lbe[k]), jj)));
-        for (uint32_t k = 0; k < nr; k++)
-            h = _mm_min_pd(h, _mm_add_pd(_mm_set1_pd(ral[k]), _mm_mul_pd(_mm_set1_pd(rbe[k]), jj)));
-        _mm_storeu_pd(tl + (j - r0), l); /* j - r0 <= 6: two entries fit */
-        _mm_storeu_pd(th + (j - r0), h);
+    cull_occ_rowsum o = {INT32_MIN, INT32_MAX, INT32_MAX, INT32_MIN, a == 0 && b == 7};
+    for (int r = 0; r < 8; r++) {
+        int j = jb + r;
+        for (int k = 0; k < 3; k++) z0[8 * k + r] = (float)(rs->zb[k] * j + rs->zc[k] - rs->corner[k] - rs->m[k]);
+        if (r < a || r > b) {
+            lo[r] = 1;
+            hi[r] = 0;
+            continue;
+        }
+        double tl = -0x1p40, th = 0x1p40;
+        for (uint32_t k = 0; k < rs->nl; k++) tl = dmax(tl, rs->lal[k] + rs->lbe[k] * j);
+        for (uint32_t k = 0; k < rs->nr; k++) th = dmin(th, rs->ral[k] + rs->rbe[k] * j);
+        for (uint32_t k = 0; k < rs->ns; k++) {
+            double q = (rs->st[k] - rs->sb[k] * j) / rs->sa[k]; /* +-inf at worst */
+            if (rs->sa[k] > 0) tl = dmax(tl, q);
+            else th = dmin(th, q);
+        }
+        int x0 = (int)dmax(rs->i0, dfloor(tl) + 1), x1 = (int)dmin(rs->i1, dceil(th) - 1);
+        lo[r] = x0;
+        hi[r] = x1;
+        if (x0 > x1) o.whole = 0;
+        else o.U0 = x0 < o.U0 ? x0 : o.U0, o.U1 = x1 > o.U1 ? x1 : o.U1;
+        o.L = x0 > o.L ? x0 : o.L;
+        o.H = x1 < o.H ? x1 : o.H;
     }
-#else
-    for (int j = r0; j <= r1; j++) {
-        double l = -0x1p40, h = 0x1p40;
-        for (uint32_t k = 0; k < nl; k++) l = dmax(l, lal[k] + lbe[k] * j);
-        for (uint32_t k = 0; k < nr; k++) h = dmin(h, ral[k] + rbe[k] * j);
-        tl[j - r0] = l;
-        th[j - r0] = h;
-    }
-#endif
-}
-
-/* The three planes' nearness at the start of row j, less their corner and
- * margin terms: b j + c - corner - m in double, in that order, then float
- * (two planes a vector where SSE2 is there: the same operations, the same
- * bits). */
-static inline void row_nearness(const double zb[3], const double zc[3], const double corner[3], const double m[3],
-                                int j, float z0[3])
-{
-#ifdef __SSE2__
-    __m128d jj = _mm_set1_pd((double)j);
-    __m128d v = _mm_add_pd(_mm_mul_pd(_mm_loadu_pd(zb), jj), _mm_loadu_pd(zc));
-    v = _mm_sub_pd(_mm_sub_pd(v, _mm_loadu_pd(corner)), _mm_loadu_pd(m));
-    __m128 f = _mm_cvtpd_ps(v);
-    _mm_storel_pi((__m64 *)z0, f);
-    z0[2] = (float)(zb[2] * j + zc[2] - corner[2] - m[2]);
-#else
-    for (int k = 0; k < 3; k++) z0[k] = (float)(zb[k] * j + zc[k] - corner[k] - m[k]);
-#endif
+    return o;
 }
 
 /* Nearness planes are evaluated in float over the buffer: beyond this
@@ -217,8 +203,7 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
        the constraint goes to the slow list, whose bound is (t - b j) / a
        per row: a division, but never NaN (t, b finite, a != 0). Real
        views never take it. */
-    double lal[MAX_CONS], lbe[MAX_CONS], ral[MAX_CONS], rbe[MAX_CONS];
-    double sa[MAX_CONS], sb[MAX_CONS], st[MAX_CONS];
+    cull_occ_rowset rs;
     uint32_t nl = 0, nr = 0, ns = 0;
     for (uint32_t k = 0; k < p->nc; k++) {
         const lin3 *c = &p->con[k];
@@ -232,15 +217,15 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
         if (a != 0) {
             double al = t / a, be = -bb / a;
             if (!(fabs(al) <= 0x1p900 && fabs(be) <= 0x1p900)) {
-                sa[ns] = a;
-                sb[ns] = bb;
-                st[ns++] = t;
+                rs.sa[ns] = a;
+                rs.sb[ns] = bb;
+                rs.st[ns++] = t;
             } else if (a > 0) {
-                lal[nl] = al;
-                lbe[nl++] = be;
+                rs.lal[nl] = al;
+                rs.lbe[nl++] = be;
             } else {
-                ral[nr] = al;
-                rbe[nr++] = be;
+                rs.ral[nr] = al;
+                rs.rbe[nr++] = be;
             }
         } else if (bb > 0) {
             fj0 = dmax(fj0, dfloor(t / bb) + 1); /* j > t / b */
@@ -265,13 +250,23 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
         if (!(fabs(z->a) * b->w + fabs(z->b) * b->h + fabs(z->c) <= Z_LIM)) p->z[k] = (lin3){0, 0, nlo};
     }
     while (p->nz < 3) p->z[p->nz++] = p->z[0];
-    double corner[3], m[3];
+    double *corner = rs.corner;
     for (int k = 0; k < 3; k++) {
         const lin3 *z = &p->z[k];
         corner[k] = 0.5 * (fabs(z->a) + fabs(z->b));
-        m[k] = 0x1p-20 * (fabs(z->b) * (j1 + 1) + fabs(z->c) + corner[k] + fabs(z->a) * (i1 + 1));
+        rs.m[k] = 0x1p-20 * (fabs(z->b) * (j1 + 1) + fabs(z->c) + corner[k] + fabs(z->a) * (i1 + 1));
+        rs.zb[k] = z->b;
+        rs.zc[k] = z->c;
     }
-    const double zb[3] = {p->z[0].b, p->z[1].b, p->z[2].b}, zc[3] = {p->z[0].c, p->z[1].c, p->z[2].c};
+    rs.nl = nl;
+    rs.nr = nr;
+    rs.ns = ns;
+    rs.i0 = i0;
+    rs.i1 = i1;
+    /* the rows' spans and start nearness (the reference takes the slow
+       constraints; the ISA's own rows do not) */
+    cull_occ_rowsum (*rows)(const cull_occ_rowset *, int, int, int, int *, int *, float *) =
+        ns ? cull_occ_rows_scalar : b->fns.rows;
     float zlo = cull_round_down(nlo);
     float da[3] = {(float)p->z[0].a, (float)p->z[1].a, (float)p->z[2].a};
     /* where the buffer is already nearer than the region's nearest point over
@@ -286,25 +281,11 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
         if (ty % bd->nb != bd->k) continue;
         if (tile_row_hidden(b, ty, i0 >> 3, i1 >> 3, zhi)) continue;
         int r0 = j0 > ty * 8 ? j0 : ty * 8, r1 = j1 < ty * 8 + 7 ? j1 : ty * 8 + 7;
-        int lo[8], hi[8], L = INT32_MIN, H = INT32_MAX, U0 = INT32_MAX, U1 = INT32_MIN;
-        bool whole = r0 == ty * 8 && r1 == ty * 8 + 7;
-        double tlr[8], thr[8];
-        row_bounds(lal, lbe, nl, ral, rbe, nr, r0, r1, tlr, thr);
-        for (int j = r0; j <= r1; j++) {
-            double tl = tlr[j - r0], th = thr[j - r0];
-            for (uint32_t k = 0; k < ns; k++) {
-                double q = (st[k] - sb[k] * j) / sa[k]; /* +-inf at worst */
-                if (sa[k] > 0) tl = dmax(tl, q);
-                else th = dmin(th, q);
-            }
-            int x0 = (int)dmax(i0, dfloor(tl) + 1), x1 = (int)dmin(i1, dceil(th) - 1);
-            lo[j - r0] = x0;
-            hi[j - r0] = x1;
-            if (x0 > x1) whole = false;
-            else U0 = x0 < U0 ? x0 : U0, U1 = x1 > U1 ? x1 : U1;
-            L = x0 > L ? x0 : L;
-            H = x1 < H ? x1 : H;
-        }
+        int lo[8], hi[8];
+        float z0[3 * 8];
+        const cull_occ_rowsum rsum = rows(&rs, ty * 8, r0 - ty * 8, r1 - ty * 8, lo, hi, z0);
+        const int L = rsum.L, H = rsum.H, U0 = rsum.U0, U1 = rsum.U1;
+        const bool whole = rsum.whole;
         int ft0 = 1, ft1 = 0;
         if (whole && L <= H) {
             ft0 = (L + 7) >> 3;
@@ -335,19 +316,9 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
             mark_tiles(b, ty, U0, U1);
         }
         /* the rows' spans, left of the coarse tiles and right of them (or
-           whole), one kernel call each */
-        int ax1[8], bx0[8];
-        float z0[3 * 8];
-        for (int j = r0; j <= r1; j++) {
-            int r = j - r0;
-            if (lo[r] <= hi[r]) row_nearness(zb, zc, corner, m, j, z0 + 3 * r);
-            ax1[r] = ft0 <= ft1 ? ft0 * 8 - 1 : hi[r];
-            bx0[r] = ft1 * 8 + 8;
-        }
-        float *row0 = b->depth + (size_t)r0 * b->stride;
-        b->fns.spans(row0, b->stride, r1 - r0 + 1, lo, ax1, z0, (int)b->stride, da[0], da[1], da[2], zlo);
-        if (ft0 <= ft1)
-            b->fns.spans(row0, b->stride, r1 - r0 + 1, bx0, hi, z0, (int)b->stride, da[0], da[1], da[2], zlo);
+           whole), one kernel call */
+        b->fns.spans(b->depth + (size_t)ty * 8 * b->stride, b->stride, lo, hi, ft0 <= ft1 ? ft0 * 8 : 1,
+                     ft0 <= ft1 ? ft1 * 8 + 7 : 0, z0, (int)b->stride, da[0], da[1], da[2], zlo);
     }
 }
 

@@ -1376,10 +1376,11 @@ static float pick_bound(rng *r, uint32_t n)
  * nearness at the buffer's own values and one float step either side, and
  * extremes (+-FLT_MAX, +-inf, 0). */
 /* Every ISA's tile-row span kernel (cull_occ_spans) writes exactly what
- * the same ISA's span does row by row: random rows of a tile row (empty,
- * single pixels, whole rows, ends at the row's room), random planes,
- * floors and prior contents, the whole rows compared bit for bit
- * (padding past the spans included). */
+ * the same ISA's span does over each part of each row: random rows of a
+ * tile row (empty, single pixels, whole rows, ends at the row's room), a
+ * gap (a tile row's coarse tiles) or none, random planes, floors and prior
+ * contents, the whole rows compared bit for bit (padding past the spans
+ * included). */
 static void test_occ_spans_match_span(void **state)
 {
     (void)state;
@@ -1392,10 +1393,10 @@ static void test_occ_spans_match_span(void **state)
     assert_non_null(init);
     int cases = (int)(3000 * test_scale());
     for (int t = 0; t < cases; t++) {
-        int n = 1 + (int)rng_below(&r, 8), x0[8], x1[8];
+        int x0[8], x1[8];
         float z0[24];
         for (int i = 0; i < 8 * STRIDE; i++) init[i] = rng_below(&r, 4) ? (float)rng_range(&r, -2, 2) : -FLT_MAX;
-        for (int k = 0; k < n; k++) {
+        for (int k = 0; k < 8; k++) {
             switch (rng_below(&r, 5)) {
             case 0: x0[k] = 5, x1[k] = 4; break; /* empty */
             case 1: x0[k] = x1[k] = (int)rng_below(&r, ROOM); break;
@@ -1404,7 +1405,13 @@ static void test_occ_spans_match_span(void **state)
                 x0[k] = (int)rng_below(&r, ROOM);
                 x1[k] = x0[k] + (int)rng_below(&r, (uint32_t)(ROOM - x0[k]));
             }
-            for (int c = 0; c < 3; c++) z0[3 * k + c] = (float)rng_range(&r, -1, 1);
+            for (int c = 0; c < 3; c++) z0[8 * c + k] = (float)rng_range(&r, -1, 1);
+        }
+        /* the gap: none, or whole tiles somewhere in the row */
+        int g0 = 1, g1 = 0;
+        if (rng_below(&r, 3)) {
+            g0 = 8 * (int)rng_below(&r, ROOM / 8);
+            g1 = g0 + 8 * (int)rng_below(&r, (uint32_t)(ROOM - g0) / 8 + 1) - 1;
         }
         float d[3] = {(float)rng_range(&r, -0.01, 0.01), (float)rng_range(&r, -0.01, 0.01),
                       (float)rng_range(&r, -0.01, 0.01)};
@@ -1414,17 +1421,128 @@ static void test_occ_spans_match_span(void **state)
             cull_occ_fns fns = cull_occ_fns_for(isa);
             memcpy(a, init, sizeof(float) * 8 * STRIDE);
             memcpy(b, init, sizeof(float) * 8 * STRIDE);
-            fns.spans(a, STRIDE, n, x0, x1, z0, ROOM, d[0], d[1], d[2], lo);
-            for (int k = 0; k < n; k++)
-                if (x0[k] <= x1[k])
-                    fns.span(b + (size_t)k * STRIDE, x0[k], x1[k], ROOM, z0[3 * k], d[0], z0[3 * k + 1], d[1],
-                             z0[3 * k + 2], d[2], lo);
+            fns.spans(a, STRIDE, x0, x1, g0, g1, z0, ROOM, d[0], d[1], d[2], lo);
+            for (int k = 0; k < 8; k++)
+                for (int x = x0[k]; x <= x1[k]; x++) {
+                    if (x >= g0 && x <= g1) continue;
+                    int e = x; /* the run of pixels outside the gap from x */
+                    while (e + 1 <= x1[k] && !(e + 1 >= g0 && e + 1 <= g1)) e++;
+                    fns.span(b + (size_t)k * STRIDE, x, e, ROOM, z0[k], d[0], z0[8 + k], d[1], z0[16 + k], d[2],
+                             lo);
+                    x = e;
+                }
             if (memcmp(a, b, sizeof(float) * 8 * STRIDE)) fail_msg("case %d, ISA %u: spans and span differ", t, isa);
         }
     }
     free(init);
     free(a);
     free(b);
+}
+
+/* A tile row's rows set-up (cull_occ_fns.rows): the reference against a
+ * pixel-by-pixel model (row r's span is exactly the pixels of [i0, i1]
+ * that every bound admits, its sums those of the spans), and every ISA's
+ * instance against the reference bit for bit (spans, sums and the planes'
+ * start nearness). Random bounds (steep, shallow, flat, far off the
+ * buffer, clamped at +-2^30), columns, rows and tile rows; slow bounds
+ * for the reference only (the render sends those polygons to it). */
+static void test_occ_rows_match_model(void **state)
+{
+    (void)state;
+    rng r = {0x20e5ull};
+    int cases = (int)(4000 * test_scale()), nonempty = 0, rows_seen = 0;
+    for (int t = 0; t < cases; t++) {
+        cull_occ_rowset rs = {0};
+        rs.nl = rng_below(&r, 5);
+        rs.nr = rng_below(&r, 5);
+        bool slow = rng_below(&r, 8) == 0;
+        rs.ns = slow ? 1 + rng_below(&r, 2) : 0;
+        for (uint32_t k = 0; k < 4; k++) {
+            double *al[2] = {&rs.lal[k], &rs.ral[k]}, *be[2] = {&rs.lbe[k], &rs.rbe[k]};
+            for (int s = 0; s < 2; s++) {
+                switch (rng_below(&r, 8)) {
+                case 0: *be[s] = 0; break;
+                case 1: *be[s] = rng_range(&r, -1e-9, 1e-9); break;
+                case 2: *be[s] = rng_range(&r, -400, 400); break;
+                default: *be[s] = rng_range(&r, -3, 3);
+                }
+                *al[s] = rng_below(&r, 10) ? rng_range(&r, -300, 1600) - *be[s] * rng_range(&r, 0, 800)
+                                           : (rng_below(&r, 2) ? 1 : -1) * ldexp(1, 28 + (int)rng_below(&r, 800));
+            }
+        }
+        for (uint32_t k = 0; k < rs.ns; k++) {
+            rs.sa[k] = (rng_below(&r, 2) ? 1 : -1) * ldexp(1, -(int)rng_below(&r, 1000));
+            rs.sb[k] = rng_range(&r, -1, 1) * ldexp(1, -(int)rng_below(&r, 1000));
+            rs.st[k] = rng_range(&r, -1, 1) * ldexp(rs.sa[k] < 0 ? -rs.sa[k] : rs.sa[k], 11);
+        }
+        int i0 = (int)rng_below(&r, 1300), i1 = i0 + (int)rng_below(&r, 300) - 30;
+        rs.i0 = i0;
+        rs.i1 = i1;
+        for (int k = 0; k < 3; k++) {
+            rs.zb[k] = rng_range(&r, -1e-3, 1e-3);
+            rs.zc[k] = rng_range(&r, -2, 2);
+            rs.corner[k] = rng_range(&r, 0, 1e-3);
+            rs.m[k] = rng_range(&r, 0, 1e-6);
+        }
+        int jb = 8 * (int)rng_below(&r, 100), a = (int)rng_below(&r, 8), b = a + (int)rng_below(&r, (uint32_t)(8 - a));
+        int lo[8], hi[8];
+        float z0[24];
+        cull_occ_rowsum ref = cull_occ_rows_scalar(&rs, jb, a, b, lo, hi, z0);
+        /* the model */
+        cull_occ_rowsum want = {INT32_MIN, INT32_MAX, INT32_MAX, INT32_MIN, a == 0 && b == 7};
+        for (int q = 0; q < 8; q++) {
+            int j = jb + q;
+            for (int k = 0; k < 3; k++) {
+                float zk = (float)(((rs.zb[k] * j + rs.zc[k]) - rs.corner[k]) - rs.m[k]);
+                if (memcmp(&zk, &z0[8 * k + q], sizeof zk)) fail_msg("case %d row %d: plane %d's start", t, q, k);
+            }
+            if (q < a || q > b) {
+                if (lo[q] <= hi[q]) fail_msg("case %d: row %d outside %d..%d not empty", t, q, a, b);
+                continue;
+            }
+            int first = INT32_MAX, last = INT32_MIN;
+            for (int x = i0; x <= i1; x++) {
+                bool in = true;
+                for (uint32_t k = 0; k < rs.nl && in; k++) in = x > rs.lal[k] + rs.lbe[k] * j;
+                for (uint32_t k = 0; k < rs.nr && in; k++) in = x < rs.ral[k] + rs.rbe[k] * j;
+                for (uint32_t k = 0; k < rs.ns && in; k++) {
+                    double qb = (rs.st[k] - rs.sb[k] * j) / rs.sa[k];
+                    in = rs.sa[k] > 0 ? x > qb : x < qb;
+                }
+                if (in) {
+                    if (first == INT32_MAX) first = x;
+                    if (x != last + 1 && last != INT32_MIN) fail_msg("case %d row %d: not one span", t, q);
+                    last = x;
+                }
+            }
+            rows_seen++;
+            if (first == INT32_MAX) {
+                if (lo[q] <= hi[q]) fail_msg("case %d row %d: [%d, %d], the model none", t, q, lo[q], hi[q]);
+                want.whole = 0;
+            } else {
+                nonempty++;
+                if (lo[q] != first || hi[q] != last)
+                    fail_msg("case %d row %d: [%d, %d], the model [%d, %d]", t, q, lo[q], hi[q], first, last);
+                want.U0 = first < want.U0 ? first : want.U0;
+                want.U1 = last > want.U1 ? last : want.U1;
+            }
+            want.L = lo[q] > want.L ? lo[q] : want.L;
+            want.H = hi[q] < want.H ? hi[q] : want.H;
+        }
+        if (memcmp(&want, &ref, sizeof want)) fail_msg("case %d: the reference's sums differ from the spans'", t);
+        if (rs.ns) continue;
+        for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+            if (!cull_isa_supported(isa)) continue;
+            int lo2[8], hi2[8];
+            float z2[24];
+            cull_occ_rowsum got = cull_occ_fns_for(isa).rows(&rs, jb, a, b, lo2, hi2, z2);
+            if (memcmp(&got, &ref, sizeof got) || memcmp(lo, lo2, sizeof lo) || memcmp(hi, hi2, sizeof hi) ||
+                memcmp(z0, z2, sizeof z0))
+                fail_msg("case %d, %s: rows differ from the reference", t, cull_isa_name(isa));
+        }
+    }
+    /* both kinds of row must be common */
+    assert_true(nonempty > rows_seen / 10 && nonempty < rows_seen - rows_seen / 10);
 }
 
 static void test_occ_wide_matches_scalar(void **state)
@@ -1507,6 +1625,7 @@ const struct CMUnitTest occlusion_tests[] = {
     cmocka_unit_test(test_occ_wide_matches_scalar),
     cmocka_unit_test(test_occ_buffer_reuse),
     cmocka_unit_test(test_occ_spans_match_span),
+    cmocka_unit_test(test_occ_rows_match_model),
     cmocka_unit_test(test_occluder_cut_bound),
     cmocka_unit_test(test_occluder_build_bound),
     cmocka_unit_test(test_bad_occluders),
