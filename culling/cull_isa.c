@@ -134,11 +134,11 @@ cull_occ_fns cull_occ_fns_for(uint32_t isa)
     switch (isa) {
 #ifndef CULL_SCALAR_ONLY
     case CULL_ISA_AVX2: return (cull_occ_fns){cull_occ_span_avx2, cull_occ_spans_avx2, cull_occ_any_le_avx2, cull_occ_tiles_avx2, cull_occ_fill_avx2, cull_occ_max2_avx2,
-                                  cull_occ_rect_visible_avx2, cull_occ_lanes_avx2, cull_occ_rows_avx2};
+                                  cull_occ_rect_visible_avx2, cull_occ_lanes_avx2, cull_occ_rows_avx2, cull_occ_project_avx2};
     case CULL_ISA_SSE41: return (cull_occ_fns){cull_occ_span_sse41, cull_occ_spans_sse41, cull_occ_any_le_sse41, cull_occ_tiles_sse41, cull_occ_fill_sse41, cull_occ_max2_sse41,
-                                  cull_occ_rect_visible_sse41, cull_occ_lanes_sse41, cull_occ_rows_scalar};
+                                  cull_occ_rect_visible_sse41, cull_occ_lanes_sse41, cull_occ_rows_scalar, cull_occ_project_scalar};
 #endif
     default: return (cull_occ_fns){cull_occ_span_scalar, cull_occ_spans_scalar, cull_occ_any_le_scalar, cull_occ_tiles_scalar, cull_occ_fill_scalar, cull_occ_max2_scalar,
-                                  cull_occ_rect_visible_scalar, cull_occ_lanes_scalar, cull_occ_rows_scalar};
+                                  cull_occ_rect_visible_scalar, cull_occ_lanes_scalar, cull_occ_rows_scalar, cull_occ_project_scalar};
     }
 }

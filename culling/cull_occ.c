@@ -102,6 +102,8 @@ void cull_occ_buffer_destroy(cull_occ_buffer *b)
     free(b->items2);
     free(b->sortbuf);
     free(b->codes);
+    free(b->pidx);
+    free(b->proj);
     free(b);
 }
 
@@ -254,13 +256,11 @@ int cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const dou
  * over the box, each clip row lies within centre +- extent, so x = X / W
  * lies between the quotients of the interval ends (4 divisions, not 8
  * corners). The rectangle can only be larger and the nearness nearer. */
-int cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r)
+/* A box (centre c less the origin, half extents e) projected: o[0..3]
+ * its NDC x and y range, o[4] its far nearness, o[5] 1 where it reaches
+ * the near plane (o[0..4] then unset). */
+static inline void bound_ndc(const cull_occ_buffer *b, const double c[3], const double e[3], double o[6])
 {
-    double c[3], e[3];
-    for (int a = 0; a < 3; a++) {
-        c[a] = 0.5 * (mn[a] + mx[a]) - b->origin[a];
-        e[a] = 0.5 * (mx[a] - mn[a]);
-    }
     const double *rows[5] = {b->rx, b->ry, b->rw, b->rd, b->rn};
     double v[5], ex[5];
     for (int k = 0; k < 5; k++) {
@@ -269,16 +269,53 @@ int cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const d
         ex[k] = (fabs(q[0]) * e[0] + fabs(q[1]) * e[1] + fabs(q[2]) * e[2]) * (1 + 0x1p-40);
     }
     double wlo = v[2] - ex[2], whi = v[2] + ex[2];
-    if (!(v[4] - ex[4] > 0) || !(wlo > 0)) return OCC_BOX_NEAR;
+    o[5] = !(v[4] - ex[4] > 0) || !(wlo > 0);
+    if (o[5]) return;
     double il = 1.0 / wlo, ih = 1.0 / whi;
     double xa = v[0] - ex[0], xb = v[0] + ex[0], ya = v[1] - ex[1], yb = v[1] + ex[1];
-    double xmin = dmin(xa * il, xa * ih), xmax = dmax(xb * il, xb * ih);
-    double ymin = dmin(ya * il, ya * ih), ymax = dmax(yb * il, yb * ih);
-    double d = v[3] + ex[3], nmax = d >= 0 ? d * il : d * ih;
+    o[0] = dmin(xa * il, xa * ih);
+    o[1] = dmax(xb * il, xb * ih);
+    o[2] = dmin(ya * il, ya * ih);
+    o[3] = dmax(yb * il, yb * ih);
+    double d = v[3] + ex[3];
+    o[4] = d >= 0 ? d * il : d * ih;
+}
+
+int cull_occ_bound_rect(const cull_occ_buffer *b, const double o[6], cull_occ_rect *r)
+{
+    if (o[5] != 0) return OCC_BOX_NEAR;
     /* NaN from an overflow: nothing known, so drawn in every band (raster
        skips what it cannot set up) and tested as visible */
-    if (xmin != xmin || xmax != xmax || ymin != ymin || ymax != ymax || !isfin(nmax)) return OCC_BOX_NEAR;
-    return rect_of(b, xmin, xmax, ymin, ymax, nmax, r);
+    if (o[0] != o[0] || o[1] != o[1] || o[2] != o[2] || o[3] != o[3] || !isfin(o[4])) return OCC_BOX_NEAR;
+    return rect_of(b, o[0], o[1], o[2], o[3], o[4], r);
+}
+
+int cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r)
+{
+    double c[3], e[3], o[6];
+    for (int a = 0; a < 3; a++) {
+        c[a] = 0.5 * (mn[a] + mx[a]) - b->origin[a];
+        e[a] = 0.5 * (mx[a] - mn[a]);
+    }
+    bound_ndc(b, c, e, o);
+    return cull_occ_bound_rect(b, o, r);
+}
+
+/* cull_occ_fns.project, the reference: the SoA holds the same centres and
+ * half extents (cull_soa_set) as cull_occ_project_bound computes */
+void cull_occ_project_scalar(const cull_occ_buffer *b, const cull_bounds_soa *s, const uint32_t *idx, uint32_t n,
+                             double *out, size_t pitch)
+{
+    for (uint32_t q = 0; q < n; q++) {
+        uint32_t i = idx[q];
+        double c[3], e[3], o[6];
+        for (int a = 0; a < 3; a++) {
+            c[a] = CULL_SOA(s, a)[i] - b->origin[a];
+            e[a] = CULL_SOA(s, 3 + a)[i];
+        }
+        bound_ndc(b, c, e, o);
+        for (int k = 0; k < 6; k++) out[(size_t)k * pitch + q] = o[k];
+    }
 }
 
 /* Some pixel of the rectangle not strictly nearer than z? */

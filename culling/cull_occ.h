@@ -69,6 +69,12 @@ typedef struct cull_occ_fns {
        three planes' start nearness z0[r], z0[8 + r], z0[16 + r] (every
        row), and their sums; the same bits in every instance */
     cull_occ_rowsum (*rows)(const cull_occ_rowset *rs, int jb, int a, int b, int *lo, int *hi, float *z0);
+    /* boxes idx[0..n) of s projected as cull_occ_project_bound does:
+       out[k * pitch + i] for k = 0..5 the NDC x min, x max, y min,
+       y max, the far nearness, and 1 where the box reaches the near plane
+       (0 otherwise; the rest is then unused); pitch >= n rounded up to 4 */
+    void (*project)(const struct cull_occ_buffer *b, const cull_bounds_soa *s, const uint32_t *idx, uint32_t n,
+                    double *out, size_t pitch);
 } cull_occ_fns;
 
 cull_occ_fns cull_occ_fns_for(uint32_t isa);
@@ -85,6 +91,10 @@ void cull_occ_spans_avx2(float *, size_t, const int *, const int *, int, int, co
    ISA without its own), and AVX2's (4 rows a vector) */
 cull_occ_rowsum cull_occ_rows_scalar(const cull_occ_rowset *, int, int, int, int *, int *, float *);
 cull_occ_rowsum cull_occ_rows_avx2(const cull_occ_rowset *, int, int, int, int *, int *, float *);
+void cull_occ_project_scalar(const struct cull_occ_buffer *, const cull_bounds_soa *, const uint32_t *, uint32_t,
+                             double *, size_t);
+void cull_occ_project_avx2(const struct cull_occ_buffer *, const cull_bounds_soa *, const uint32_t *, uint32_t,
+                           double *, size_t);
 bool cull_occ_any_le_scalar(const float *, int, int, int, float);
 void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *, float *);
 void cull_occ_fill_scalar(float *, uint32_t, float);
@@ -164,6 +174,9 @@ struct cull_occ_buffer {
     uint32_t sortbuf_cap;
     uint8_t *codes;         /* box-stage output over the world's clusters */
     uint32_t codes_cap;
+    uint32_t *pidx;         /* the clusters in view, to project */
+    double  *proj;          /* their projections, 6 arrays of pcap (cull_occ_fns.project) */
+    uint32_t pidx_cap, proj_cap;
 };
 
 void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v);
@@ -172,6 +185,9 @@ void cull_occ_vkey_row(cull_occ_buffer *b, uint32_t ty);
 int  cull_occ_project_box(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r);
 /* Looser and cheaper (4 divisions, not 8 corners): for clusters and cells. */
 int  cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const double mx[3], cull_occ_rect *r);
+/* cull_occ_project_bound's answer from a projection (o[0..5] as
+   cull_occ_fns.project gives them) */
+int  cull_occ_bound_rect(const cull_occ_buffer *b, const double o[6], cull_occ_rect *r);
 int  cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
                          uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st);
 

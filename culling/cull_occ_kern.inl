@@ -127,6 +127,56 @@ cull_occ_rowsum cull_occ_rows_avx2(const cull_occ_rowset *rs, int jb, int a, int
     _mm256_storeu_si256((__m256i *)hi, _mm256_blendv_epi8(_mm256_setzero_si256(), vhi, in));
     return o;
 }
+
+/* cull_occ_project_scalar's projections, four boxes a vector (gathered
+ * from the SoA by index), the same operations in the same order: minpd /
+ * maxpd pick as dmin / dmax do, and the far nearness's choice is a blend
+ * on the same compare. Lanes past n repeat box idx[0] and are stored in
+ * the pitch's padding. */
+void cull_occ_project_avx2(const cull_occ_buffer *b, const cull_bounds_soa *s, const uint32_t *idx, uint32_t n,
+                           double *out, size_t pitch)
+{
+    const double *rows[5] = {b->rx, b->ry, b->rw, b->rd, b->rn};
+    const __m256d sgn = _mm256_set1_pd(-0.0), grow = _mm256_set1_pd(1 + 0x1p-40), one = _mm256_set1_pd(1.0),
+                  zero = _mm256_setzero_pd();
+    for (uint32_t q = 0; q < n; q += 4) {
+        uint32_t ii[4];
+        for (uint32_t l = 0; l < 4; l++) ii[l] = idx[q + l < n ? q + l : 0];
+        const __m128i vi = _mm_loadu_si128((const __m128i *)ii);
+        __m256d c[3], e[3];
+        for (int a = 0; a < 3; a++) {
+            c[a] = _mm256_sub_pd(_mm256_i32gather_pd(CULL_SOA(s, a), vi, 8), _mm256_set1_pd(b->origin[a]));
+            e[a] = _mm256_i32gather_pd(CULL_SOA(s, 3 + a), vi, 8);
+        }
+        __m256d v[5], ex[5];
+        for (int k = 0; k < 5; k++) {
+            const double *r = rows[k];
+            __m256d t = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r[0]), c[0]), _mm256_mul_pd(_mm256_set1_pd(r[1]), c[1]));
+            t = _mm256_add_pd(t, _mm256_mul_pd(_mm256_set1_pd(r[2]), c[2]));
+            v[k] = _mm256_add_pd(t, _mm256_set1_pd(r[3]));
+            __m256d u = _mm256_add_pd(_mm256_mul_pd(_mm256_andnot_pd(sgn, _mm256_set1_pd(r[0])), e[0]),
+                                      _mm256_mul_pd(_mm256_andnot_pd(sgn, _mm256_set1_pd(r[1])), e[1]));
+            u = _mm256_add_pd(u, _mm256_mul_pd(_mm256_andnot_pd(sgn, _mm256_set1_pd(r[2])), e[2]));
+            ex[k] = _mm256_mul_pd(u, grow);
+        }
+        __m256d wlo = _mm256_sub_pd(v[2], ex[2]), whi = _mm256_add_pd(v[2], ex[2]);
+        /* !(n - en > 0) || !(wlo > 0) */
+        __m256d ok = _mm256_and_pd(_mm256_cmp_pd(_mm256_sub_pd(v[4], ex[4]), zero, _CMP_GT_OQ),
+                                   _mm256_cmp_pd(wlo, zero, _CMP_GT_OQ));
+        __m256d il = _mm256_div_pd(one, wlo), ih = _mm256_div_pd(one, whi);
+        __m256d xa = _mm256_sub_pd(v[0], ex[0]), xb = _mm256_add_pd(v[0], ex[0]);
+        __m256d ya = _mm256_sub_pd(v[1], ex[1]), yb = _mm256_add_pd(v[1], ex[1]);
+        __m256d d = _mm256_add_pd(v[3], ex[3]);
+        double *o = out + q;
+        _mm256_storeu_pd(o, _mm256_min_pd(_mm256_mul_pd(xa, il), _mm256_mul_pd(xa, ih)));
+        _mm256_storeu_pd(o + pitch, _mm256_max_pd(_mm256_mul_pd(xb, il), _mm256_mul_pd(xb, ih)));
+        _mm256_storeu_pd(o + 2 * pitch, _mm256_min_pd(_mm256_mul_pd(ya, il), _mm256_mul_pd(ya, ih)));
+        _mm256_storeu_pd(o + 3 * pitch, _mm256_max_pd(_mm256_mul_pd(yb, il), _mm256_mul_pd(yb, ih)));
+        _mm256_storeu_pd(o + 4 * pitch, _mm256_blendv_pd(_mm256_mul_pd(d, ih), _mm256_mul_pd(d, il),
+                                                         _mm256_cmp_pd(d, zero, _CMP_GE_OQ)));
+        _mm256_storeu_pd(o + 5 * pitch, _mm256_andnot_pd(ok, one));
+    }
+}
 #endif
 
 /* any row[x] <= z for x in [x0, x1]? (reads up to `room` as above) */

@@ -519,13 +519,9 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
     for (int ty = y0 >> 3; ty <= y1 >> 3; ty++) {
         if (ty % bd->nb != bd->k) continue;
         const trow tr = trow_of(b, ty);
-        for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
-            if (!(tx & 7) && (tx | 7) <= x1 >> 3 && band_strip(&tr, tx >> 3) > z) {
-                tx |= 7; /* the whole strip lies inside the rectangle and is nearer */
-                continue;
-            }
-            if (band_tile(&tr, tx) > z) continue;
-            /* the coarse value is not nearer than z: the pixels decide */
+        for (int tx = first_not_above(&tr, x0 >> 3, x1 >> 3, z); tx <= x1 >> 3;
+             tx = first_not_above(&tr, tx + 1, x1 >> 3, z)) {
+            /* the tile's minimum is not nearer than z: the pixels decide */
             if (tr.st[tx] == TILE_INVALID) return false;
             int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
             int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
@@ -653,7 +649,9 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
     /* the clusters in view (the SIMD box kernel of the cell stage over the
        world's cluster bounds), nearest first */
     if (!vp_grow32((void **)&b->items, &b->items_cap, (size_t)w->nclusters + 1, sizeof *b->items) ||
-        !vp_grow32((void **)&b->codes, &b->codes_cap, (size_t)w->nclusters + 8, 1))
+        !vp_grow32((void **)&b->codes, &b->codes_cap, (size_t)w->nclusters + 8, 1) ||
+        !vp_grow32((void **)&b->pidx, &b->pidx_cap, (size_t)w->nclusters + 4, sizeof *b->pidx) ||
+        !vp_grow32((void **)&b->proj, &b->proj_cap, 6 * ((size_t)w->nclusters + 4), sizeof *b->proj))
         return CULL_ERR_NOMEM;
     uint32_t n = 0;
     if (b->usable && w->nclusters) {
@@ -667,14 +665,21 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
             cpl[i].d = pl[3] - pl[0] * v->origin[0] - pl[1] * v->origin[1] - pl[2] * v->origin[2];
         }
         cull_isa_cells(isa)(&w->ocl_soa, w->nclusters, cpl, v->plane_count, b->codes);
-        for (uint32_t i = 0; i < w->nclusters; i++) {
-            if (b->codes[i] & 0x80u) continue;
-            const cull_occ_cluster *cl = w->ocl[i];
-            if (!cull_sublevel_in(sublevels, cl->sublevel)) continue;
+        /* those in view and in the sub-levels asked, projected together
+           (cull_occ_project_bound's bounds, four a vector where the ISA
+           has it) */
+        uint32_t m = 0;
+        for (uint32_t i = 0; i < w->nclusters; i++)
+            if (!(b->codes[i] & 0x80u) && cull_sublevel_in(sublevels, w->ocl[i]->sublevel)) b->pidx[m++] = i;
+        size_t pitch = ((size_t)m + 3) & ~(size_t)3;
+        b->fns.project(b, &w->ocl_soa, b->pidx, m, b->proj, pitch);
+        for (uint32_t q = 0; q < m; q++) {
+            const double o[6] = {b->proj[q], b->proj[pitch + q], b->proj[2 * pitch + q], b->proj[3 * pitch + q],
+                                 b->proj[4 * pitch + q], b->proj[5 * pitch + q]};
             cull_occ_item *it = &b->items[n];
-            int k = cull_occ_project_bound(b, cl->bmin, cl->bmax, &it->r);
+            int k = cull_occ_bound_rect(b, o, &it->r);
             if (k == OCC_BOX_OFF) continue;
-            it->cl = cl;
+            it->cl = w->ocl[b->pidx[q]];
             it->near = k == OCC_BOX_NEAR;
             it->key = it->near ? INFINITY : it->r.z;
             n++;

@@ -8,30 +8,25 @@
  * query's test (cull_occ_test.inl) reads what the band's end leaves.
  */
 
-/* One tile row's arrays, read once: the tile helpers below take it
+/* One tile row's hot arrays, read once: the tile helpers below take it
  * instead of (b, ty), so a loop over a row keeps them in registers across
- * the calls that recompute a tile (which could otherwise write *b). */
+ * the calls that recompute a tile (which could otherwise write *b). The
+ * arrays only a recompute needs are found from b and ty then. */
 typedef struct trow {
+    const cull_occ_buffer *b;
+    size_t ty;
     uint8_t *st, *sd;                       /* tile states, strips' dirty flags */
-    float *teff, *tile, *tile_full, *tmax, *strip;
-    const float *depth;                     /* the row's first pixel row */
-    size_t stride;
-    void (*tiles)(const float *, size_t, uint32_t, float *, float *);
+    float *teff, *strip;
 } trow;
 
 static inline trow trow_of(const cull_occ_buffer *b, int ty)
 {
-    size_t t = (size_t)ty * b->tw;
-    return (trow){.st = b->tstate + (size_t)ty * b->tpitch,
+    return (trow){.b = b,
+                  .ty = (size_t)ty,
+                  .st = b->tstate + (size_t)ty * b->tpitch,
                   .sd = b->sdirty + (size_t)ty * b->sdpitch,
-                  .teff = b->teff + t,
-                  .tile = b->tile + t,
-                  .tile_full = b->tile_full + t,
-                  .tmax = b->tmax + t,
-                  .strip = b->strip + (size_t)ty * b->spitch,
-                  .depth = b->depth + (size_t)ty * 8 * b->stride,
-                  .stride = b->stride,
-                  .tiles = b->fns.tiles};
+                  .teff = b->teff + (size_t)ty * b->tw,
+                  .strip = b->strip + (size_t)ty * b->spitch};
 }
 
 /* Tiles tx0..tx1 (a run) brought up to date from their pixels: their
@@ -41,10 +36,15 @@ static inline trow trow_of(const cull_occ_buffer *b, int ty)
  * teff with the same span), their state clean. */
 static inline void tiles_recompute(const trow *r, uint32_t tx0, uint32_t tx1)
 {
-    r->tiles(r->depth + (size_t)tx0 * 8, r->stride, tx1 - tx0 + 1, r->tile + tx0, r->tmax + tx0);
+    const cull_occ_buffer *b = r->b;
+    size_t t = r->ty * b->tw;
+    float *tile = b->tile + t;
+    const float *tile_full = b->tile_full + t;
+    b->fns.tiles(b->depth + r->ty * 8 * b->stride + (size_t)tx0 * 8, b->stride, tx1 - tx0 + 1, tile + tx0,
+                 b->tmax + t + tx0);
     for (uint32_t tx = tx0; tx <= tx1; tx++) {
         r->st[tx] = TILE_CLEAN;
-        r->teff[tx] = r->tile_full[tx] > r->tile[tx] ? r->tile_full[tx] : r->tile[tx];
+        r->teff[tx] = tile_full[tx] > tile[tx] ? tile_full[tx] : tile[tx];
     }
 }
 
@@ -86,18 +86,37 @@ static inline float band_strip(const trow *r, int sx)
     return r->strip[sx];
 }
 
-/* Tiles tx0..tx1 of tile row ty all nearer than z (strips first)? */
+/* The first tile of tx..tx1 (a run of row r) whose effective minimum is
+ * not above z, or tx1 + 1. The minima are compared four a vector as they
+ * stand; only a tile that fails and is dirty is brought up to date and
+ * compared again. (Spans only raise pixels and coarse values only raise
+ * teff, so a dirty tile's stale minimum is at most its current one: a tile
+ * above z as it stands is above z brought up to date. Tiles are
+ * recomputed only where the answer needs it, as band_tile does.) */
+static inline int first_not_above(const trow *r, int tx, int tx1, float z)
+{
+    int t = tx;
+#ifdef __SSE2__
+    const __m128 vz = _mm_set1_ps(z);
+    for (; t + 3 <= tx1; t += 4) {
+        /* !(teff > z): NaN fails too, as in band_tile's test */
+        unsigned m = (unsigned)_mm_movemask_ps(_mm_cmpngt_ps(_mm_loadu_ps(r->teff + t), vz));
+        for (; m; m &= m - 1) {
+            int u = t + __builtin_ctz(m);
+            if (!(band_tile(r, u) > z)) return u;
+        }
+    }
+#endif
+    for (; t <= tx1; t++)
+        if (!(r->teff[t] > z) && !(band_tile(r, t) > z)) return t;
+    return tx1 + 1;
+}
+
+/* Tiles tx0..tx1 of tile row ty all nearer than z? */
 static bool tile_row_hidden(const cull_occ_buffer *b, int ty, int tx0, int tx1, float z)
 {
     const trow r = trow_of(b, ty);
-    for (int tx = tx0; tx <= tx1; tx++) {
-        if (!(tx & 7) && (tx | 7) <= tx1 && band_strip(&r, tx >> 3) > z) {
-            tx |= 7;
-            continue;
-        }
-        if (!(band_tile(&r, tx) > z)) return false;
-    }
-    return true;
+    return first_not_above(&r, tx0, tx1, z) > tx1;
 }
 
 /* An invalid tile's pixels hold last frame's values: set the real ones

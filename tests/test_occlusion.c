@@ -1545,6 +1545,81 @@ static void test_occ_rows_match_model(void **state)
     assert_true(nonempty > rows_seen / 10 && nonempty < rows_seen - rows_seen / 10);
 }
 
+/* The render's cluster projection (cull_occ_fns.project): every ISA's
+ * against the reference bit for bit, and the reference's rectangles
+ * against cull_occ_project_bound's box by box: random scenes' views
+ * (perspective and orthographic, inside boxes, far from the origin) over
+ * random boxes near and far, thin, huge and straddling the eye; index
+ * lists of every length mod 4, repeated and in any order. */
+static void test_occ_project_matches_bound(void **state)
+{
+    (void)state;
+    rng r = {0x9e0b0ull};
+    int scenes = (int)(12 * test_scale());
+    uint64_t boxes = 0, near = 0, drawn = 0;
+    for (int sc = 0; sc < scenes; sc++) {
+        oscene s;
+        build_scene(&r, &s);
+        cull_occ_buffer *b;
+        assert_int_equal(cull_occ_buffer_create(1280, 720, &b), CULL_OK);
+        enum { NB = 203 };
+        cull_bounds_soa soa = {0};
+        assert_true(cull_soa_reserve(&soa, 0, NB));
+        double mn[NB][3], mx[NB][3];
+        for (int v = 0; v < 8; v++) {
+            cull_view view;
+            random_view(&r, &s, &view, 1280, 720);
+            cull_occ_setup_view(b, &view);
+            if (!b->usable) continue;
+            for (int i = 0; i < NB; i++) {
+                double ext = rng_below(&r, 8) == 0 ? rng_log(&r, 1e-6, 1e-2) : rng_log(&r, 0.1, 5e3);
+                for (int a = 0; a < 3; a++) {
+                    double c = s.base[a] + rng_range(&r, -300, 300);
+                    double e = rng_below(&r, 3) ? ext : rng_log(&r, 1e-3, 50);
+                    mn[i][a] = c - e;
+                    mx[i][a] = c + e;
+                }
+                cull_soa_set(&soa, (uint32_t)i, mn[i], mx[i]);
+            }
+            uint32_t idx[NB], n = rng_below(&r, NB + 1);
+            for (uint32_t q = 0; q < n; q++) idx[q] = rng_below(&r, NB);
+            size_t pitch = ((size_t)n + 3) & ~(size_t)3;
+            double ref[6 * (NB + 3)], got[6 * (NB + 3)];
+            cull_occ_project_scalar(b, &soa, idx, n, ref, pitch);
+            for (uint32_t q = 0; q < n; q++) {
+                const double o[6] = {ref[q], ref[pitch + q], ref[2 * pitch + q], ref[3 * pitch + q],
+                                     ref[4 * pitch + q], ref[5 * pitch + q]};
+                cull_occ_rect r1 = {0}, r2 = {0};
+                int k1 = cull_occ_bound_rect(b, o, &r1), k2 = cull_occ_project_bound(b, mn[idx[q]], mx[idx[q]], &r2);
+                if (k1 != k2 || (k1 == OCC_BOX_OK && memcmp(&r1, &r2, sizeof r1)))
+                    fail_msg("scene %d view %d box %u: the projection's answer %d, project_bound's %d", sc, v, idx[q],
+                             k1, k2);
+                boxes++;
+                near += k1 == OCC_BOX_NEAR;
+                drawn += k1 == OCC_BOX_OK;
+            }
+            for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
+                if (!cull_isa_supported(isa)) continue;
+                memset(got, 0, sizeof got);
+                cull_occ_fns_for(isa).project(b, &soa, idx, n, got, pitch);
+                for (int k = 0; k < 6; k++)
+                    for (uint32_t q = 0; q < n; q++) {
+                        /* bounds only where the box does not reach the near plane */
+                        if (k < 5 && ref[5 * pitch + q] != 0) continue;
+                        if (memcmp(&got[k * pitch + q], &ref[k * pitch + q], sizeof(double)))
+                            fail_msg("scene %d view %d, %s: entry %d of box %u: %a, the reference %a", sc, v,
+                                     cull_isa_name(isa), k, q, got[k * pitch + q], ref[k * pitch + q]);
+                    }
+            }
+        }
+        free(soa.v);
+        cull_occ_buffer_destroy(b);
+        free_scene(&s);
+    }
+    /* both kinds common */
+    assert_true(near > boxes / 50 && drawn > boxes / 10);
+}
+
 static void test_occ_wide_matches_scalar(void **state)
 {
     (void)state;
@@ -1626,6 +1701,7 @@ const struct CMUnitTest occlusion_tests[] = {
     cmocka_unit_test(test_occ_buffer_reuse),
     cmocka_unit_test(test_occ_spans_match_span),
     cmocka_unit_test(test_occ_rows_match_model),
+    cmocka_unit_test(test_occ_project_matches_bound),
     cmocka_unit_test(test_occluder_cut_bound),
     cmocka_unit_test(test_occluder_build_bound),
     cmocka_unit_test(test_bad_occluders),
