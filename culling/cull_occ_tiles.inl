@@ -93,7 +93,7 @@ static inline float band_strip(const trow *r, int sx)
  * teff, so a dirty tile's stale minimum is at most its current one: a tile
  * above z as it stands is above z brought up to date. Tiles are
  * recomputed only where the answer needs it, as band_tile does.) */
-static inline int first_not_above(const trow *r, int tx, int tx1, float z)
+__attribute__((always_inline)) static inline int first_not_above(const trow *r, int tx, int tx1, float z)
 {
     int t = tx;
 #ifdef __SSE2__
