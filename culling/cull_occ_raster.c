@@ -91,7 +91,8 @@ typedef struct band {
 } __attribute__((aligned(64))) band; /* one cache line per band: no false sharing */
 
 /* Set-up of one half (a triangle) of a face: the adjugate rows scaled by
- * 1/det give the near function and the nearness as planes. */
+ * 1/det give the nearness, and the near function where asked (near not
+ * NULL), as planes. */
 static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *v1, const cvert *v2, lin3 *near,
                         lin3 *nearness, double *det_out)
 {
@@ -107,12 +108,12 @@ static bool half_planes(const cull_occ_buffer *b, const cvert *v0, const cvert *
        (next to) nothing */
     if (!(det > 1e-9 * s0 * s1 * s2)) return false;
     double inv = 1.0 / det, fn[3], fd[3];
-    for (int k = 0; k < 3; k++) {
-        fn[k] = (v0->n * e0[k] + v1->n * e1[k] + v2->n * e2[k]) * inv;
-        fd[k] = (v0->d * e0[k] + v1->d * e1[k] + v2->d * e2[k]) * inv;
-    }
-    *near = to_pixels(b, fn);
+    for (int k = 0; k < 3; k++) fd[k] = (v0->d * e0[k] + v1->d * e1[k] + v2->d * e2[k]) * inv;
     *nearness = to_pixels(b, fd);
+    if (near) { /* NULL: not wanted (a polygon wholly in front) */
+        for (int k = 0; k < 3; k++) fn[k] = (v0->n * e0[k] + v1->n * e1[k] + v2->n * e2[k]) * inv;
+        *near = to_pixels(b, fn);
+    }
     return true;
 }
 
@@ -384,9 +385,9 @@ static void raster_face(band *bd, const cvert *cv, const cull_occ_face *f, bool 
     /* halves (0,1,2) and, for a quad, (2,3,0): both must face the eye */
     lin3 nearA, nearB;
     double det;
-    if (!half_planes(b, v[0], v[1], v[2], &nearA, &p.z[0], &det)) return;
+    if (!half_planes(b, v[0], v[1], v[2], all_front ? NULL : &nearA, &p.z[0], &det)) return;
     p.nz = 1;
-    if (n == 4 && !half_planes(b, v[2], v[3], v[0], &nearB, &p.z[p.nz++], &det)) return;
+    if (n == 4 && !half_planes(b, v[2], v[3], v[0], all_front ? NULL : &nearB, &p.z[p.nz++], &det)) return;
 
     /* constraints: the edges, then the near plane if the face crosses it */
     for (uint32_t k = 0; k < n; k++) {
@@ -445,6 +446,44 @@ static bool same_plane(const lin3 *p, const lin3 *q)
     return fabs(p->a - q->a) * 8192 <= tol && fabs(p->b - q->b) * 8192 <= tol && fabs(p->c - q->c) <= tol;
 }
 
+/* The silhouette of a closed convex cluster as the loop of its front
+ * faces' edges that no other front face shares (a closed cluster's faces
+ * meet edge to edge, opposite ways), in the faces' own order: the same
+ * outline as the hull of its projected vertices, found without sorting
+ * them. Writes the loop's vertices; 0 where the edges do not make one
+ * loop of at most MAX_CONS (the caller takes the hull then). */
+static uint32_t front_loop(const cull_occ_cluster *cl, const uint32_t *front, uint32_t nfront, uint32_t *out)
+{
+    uint16_t ea[12], eb[12];
+    uint32_t ne = 0;
+    for (uint32_t k = 0; k < nfront; k++) {
+        const cull_occ_face *f = &cl->f[front[k]];
+        for (uint32_t i = 0; i < f->n; i++) {
+            uint16_t a = f->v[i], c = f->v[(i + 1) % f->n];
+            /* an edge another front face has the other way is inside */
+            uint32_t j = 0;
+            while (j < ne && !(ea[j] == c && eb[j] == a)) j++;
+            if (j < ne) {
+                ea[j] = ea[--ne];
+                eb[j] = eb[ne];
+            } else {
+                ea[ne] = a;
+                eb[ne++] = c;
+            }
+        }
+    }
+    if (ne < 3 || ne > MAX_CONS) return 0;
+    uint32_t n = 0, at = 0;
+    do {
+        out[n++] = ea[at];
+        uint32_t j = 0;
+        while (j < ne && ea[j] != eb[at]) j++;
+        if (j == ne) return 0;
+        at = j;
+    } while (at != 0 && n < ne);
+    return at == 0 && n == ne ? n : 0;
+}
+
 static bool raster_convex(band *bd, const cvert *cv, const cull_occ_cluster *cl)
 {
     cull_occ_buffer *b = bd->b;
@@ -481,14 +520,14 @@ static bool raster_convex(band *bd, const cvert *cv, const cull_occ_cluster *cl)
     for (uint32_t k = 0; k < nfront; k++) {
         const cull_occ_face *fc = &cl->f[front[k]];
         const cvert *v0 = &cv[fc->v[0]], *v2 = &cv[fc->v[2]];
-        lin3 nearA, za, zb;
+        lin3 za, zb;
         double det;
-        if (!half_planes(b, v0, &cv[fc->v[1]], v2, &nearA, &za, &det)) return false; /* ill-conditioned */
+        if (!half_planes(b, v0, &cv[fc->v[1]], v2, NULL, &za, &det)) return false; /* ill-conditioned */
         if (p.nz == 3) return false; /* more planes than the span loop takes: faces */
         p.z[p.nz++] = za;
         /* a quad's other half: the same plane up to rounding, or one more */
         if (fc->n == 4) {
-            if (!half_planes(b, v2, &cv[fc->v[3]], v0, &nearA, &zb, &det)) return false;
+            if (!half_planes(b, v2, &cv[fc->v[3]], v0, NULL, &zb, &det)) return false;
             if (!same_plane(&za, &zb)) {
                 if (p.nz == 3) return false;
                 p.z[p.nz++] = zb;
@@ -496,8 +535,11 @@ static bool raster_convex(band *bd, const cvert *cv, const cull_occ_cluster *cl)
         }
     }
     uint32_t idx[4 * CULL_OCC_CLUSTER_FACES], hull[4 * CULL_OCC_CLUSTER_FACES + 1];
-    uint32_t nh = hull2((const double(*)[2])pt, cl->nv, idx, hull);
-    if (!nh) return true; /* degenerate silhouette: covers nothing */
+    uint32_t nh = front_loop(cl, front, nfront, hull);
+    if (!nh) {
+        nh = hull2((const double(*)[2])pt, cl->nv, idx, hull);
+        if (!nh) return true; /* degenerate silhouette: covers nothing */
+    }
     if (nh > MAX_CONS) return false;
     for (uint32_t k = 0; k < nh; k++) {
         double e[3];
