@@ -202,6 +202,7 @@ void CULL_OCC_CAT(cull_occ_tiles_, CULL_OCC_SUFFIX)(const float *restrict row0, 
         const float *p = row0 + 8 * t;
         vf m = vf_loadu(p), M = m;
         for (uint32_t c = 0; c < 8; c += W)
+#pragma GCC unroll 8
             for (int r = 0; r < 8; r++) {
                 vf v = vf_loadu(p + c + r * stride);
                 m = vf_min(m, v);

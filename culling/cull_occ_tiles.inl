@@ -141,6 +141,7 @@ static inline void clear_tile(cull_occ_buffer *b, int tx, int ty)
         /* a whole tile: 32-byte aligned rows (the depth plane is 64-byte
            aligned, its pitch a multiple of 128 floats) */
         const __m128 e = _mm_set1_ps(EMPTY);
+#pragma GCC unroll 8
         for (int y = 0; y < 8; y++, p += b->stride) {
             _mm_store_ps(p, e);
             _mm_store_ps(p + 4, e);
