@@ -266,6 +266,7 @@ $(BUILD)/client/loadgen/cli_scenario.o: CPPFLAGS += -DVANTAGE_SCENARIO_DIR='"$(C
 $(BUILD)/daemon/vantaged.o: CPPFLAGS += -DVANTAGE_WEB_DIR='"$(CURDIR)/web"'
 
 $(BUILD)/culling/cull_kernels_avx2.o:   CFLAGS += $(ISA_AVX2)
+$(BUILD)/culling/cull_occ_raster_avx2.o: CFLAGS += $(ISA_AVX2)
 $(BUILD)/culling/cull_kernels_sse41.o:  CFLAGS += $(ISA_SSE41)
 $(BUILD)/culling/cull_kernels_scalar.o: CFLAGS += -fno-tree-vectorize
 # the distance volume's fold: vectorised by the compiler, sqrtf inline

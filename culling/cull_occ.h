@@ -190,5 +190,8 @@ int  cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const 
 int  cull_occ_bound_rect(const cull_occ_buffer *b, const double o[6], cull_occ_rect *r);
 int  cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
                          uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st);
+/* the same, the render's AVX2 build (cull_occ_raster_avx2.c) */
+int  cull_occ_render_avx2(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
+                          uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st);
 
 #endif

@@ -105,6 +105,17 @@ static inline float band_strip(const trow *r, int sx)
 __attribute__((always_inline)) static inline int first_not_above(const trow *r, int tx, int tx1, float z)
 {
     int t = tx;
+#ifdef __AVX2__
+    /* the AVX2 build: eight a vector (NGT_UQ: NaN fails too) */
+    const __m256 v8 = _mm256_set1_ps(z);
+    for (; t + 7 <= tx1; t += 8) {
+        unsigned m = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(r->teff + t), v8, _CMP_NGT_UQ));
+        for (; m; m &= m - 1) {
+            int u = t + __builtin_ctz(m);
+            if (!(band_tile(r, u) > z)) return u;
+        }
+    }
+#endif
 #ifdef __SSE2__
     const __m128 vz = _mm_set1_ps(z);
     for (; t + 3 <= tx1; t += 4) {
