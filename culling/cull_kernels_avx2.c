@@ -12,6 +12,7 @@
 #include "cull_kernel.inl"
 #define CULL_CELLS_NAME cull_cells_avx2
 #include "cull_cells.inl"
+#include "cull_occ_rows.h"
 #define CULL_OCC_SUFFIX avx2
 #include "cull_occ_kern.inl"
 #endif

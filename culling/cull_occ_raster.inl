@@ -273,8 +273,15 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
     rs.i1 = i1;
     /* the rows' spans and start nearness (the reference takes the slow
        constraints; the ISA's own rows do not) */
+#ifdef CULL_OCC_RASTER_ISA
+    /* the AVX2 build: the AVX2 rows inlined, the reference for slow
+       constraints */
+#define ROWS(...) (ns ? cull_occ_rows_scalar(__VA_ARGS__) : cull_occ_rows8(__VA_ARGS__))
+#else
     cull_occ_rowsum (*rows)(const cull_occ_rowset *, int, int, int, int *, int *, float *) =
         ns ? cull_occ_rows_scalar : b->fns.rows;
+#define ROWS rows
+#endif
     float zlo = cull_round_down(nlo);
     float da[3] = {(float)p->z[0].a, (float)p->z[1].a, (float)p->z[2].a};
     /* where the buffer is already nearer than the region's nearest point over
@@ -291,7 +298,7 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
         int r0 = j0 > ty * 8 ? j0 : ty * 8, r1 = j1 < ty * 8 + 7 ? j1 : ty * 8 + 7;
         int lo[8], hi[8];
         float z0[3 * 8];
-        const cull_occ_rowsum rsum = rows(&rs, ty * 8, r0 - ty * 8, r1 - ty * 8, lo, hi, z0);
+        const cull_occ_rowsum rsum = ROWS(&rs, ty * 8, r0 - ty * 8, r1 - ty * 8, lo, hi, z0);
         const int L = rsum.L, H = rsum.H, U0 = rsum.U0, U1 = rsum.U1;
         const bool whole = rsum.whole;
         int ft0 = 1, ft1 = 0;
@@ -329,6 +336,8 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
                      ft0 <= ft1 ? ft1 * 8 + 7 : 0, z0, (int)b->stride, da[0], da[1], da[2], zlo);
     }
 }
+
+#undef ROWS
 
 /* One face: its edges (and the near plane where it crosses it), its
  * halves' nearness planes, the bounds of its part in front of the near

@@ -6,6 +6,7 @@
  */
 #if defined(__AVX2__) && defined(__FMA__)
 #define CULL_OCC_RASTER_ISA avx2
+#include "cull_occ_rows.h"
 #include "cull_occ_raster.inl"
 
 int cull_occ_render_avx2(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
