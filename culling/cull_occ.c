@@ -104,6 +104,8 @@ void cull_occ_buffer_destroy(cull_occ_buffer *b)
     free(b->codes);
     free(b->pidx);
     free(b->proj);
+    free(b->pcode);
+    free(b->rects);
     free(b);
 }
 

@@ -177,6 +177,9 @@ struct cull_occ_buffer {
     uint32_t *pidx;         /* the clusters in view, to project */
     double  *proj;          /* their projections, 6 arrays of pcap (cull_occ_fns.project) */
     uint32_t pidx_cap, proj_cap;
+    int32_t *pcode;         /* their answers (cull_occ_rects_avx2) */
+    cull_occ_rect *rects;   /* and rectangles */
+    uint32_t pcode_cap, rects_cap;
 };
 
 void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v);
@@ -188,6 +191,10 @@ int  cull_occ_project_bound(const cull_occ_buffer *b, const double mn[3], const 
 /* cull_occ_project_bound's answer from a projection (o[0..5] as
    cull_occ_fns.project gives them) */
 int  cull_occ_bound_rect(const cull_occ_buffer *b, const double o[6], cull_occ_rect *r);
+/* cull_occ_bound_rect over n projections pitch apart, four a vector
+   (AVX2): code[i] its answer, r[i] the rectangle where OCC_BOX_OK */
+void cull_occ_rects_avx2(const cull_occ_buffer *b, const double *proj, size_t pitch, uint32_t n, int32_t *code,
+                         cull_occ_rect *r);
 int  cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
                          uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st);
 /* the same, the render's AVX2 build (cull_occ_raster_avx2.c) */

@@ -120,6 +120,64 @@ void cull_occ_project_avx2(const cull_occ_buffer *b, const cull_bounds_soa *s, c
     }
 }
 
+
+/* cull_occ_bound_rect over n projections (cull_occ_fns.project's arrays,
+ * pitch apart), four a vector: code[i] its answer (OCC_BOX_*), r[i] the
+ * rectangle where OCC_BOX_OK. The same operations as the scalar answer:
+ * floor / ceil of the clamped value, maxpd / minpd as dmax / dmin, and
+ * cull_round_up as a conversion, a compare and one step of the float's
+ * bits where the conversion rounded down. */
+void cull_occ_rects_avx2(const cull_occ_buffer *b, const double *proj, size_t pitch, uint32_t n, int32_t *code,
+                         cull_occ_rect *r)
+{
+    const __m256d lim = _mm256_set1_pd(0x1p30), nlim = _mm256_set1_pd(-0x1p30), one = _mm256_set1_pd(1.0),
+                  zero = _mm256_setzero_pd(), sx = _mm256_set1_pd(b->sx), sy = _mm256_set1_pd(b->sy),
+                  mw = _mm256_set1_pd(0x1p-20 * b->w), mh = _mm256_set1_pd(0x1p-20 * b->h),
+                  w1 = _mm256_set1_pd(b->w - 1.0), h1 = _mm256_set1_pd(b->h - 1.0), sgn = _mm256_set1_pd(-0.0);
+    for (uint32_t q = 0; q < n; q += 4) {
+        const double *o = proj + q;
+        __m256d x0 = _mm256_loadu_pd(o), x1 = _mm256_loadu_pd(o + pitch), y0 = _mm256_loadu_pd(o + 2 * pitch),
+                y1 = _mm256_loadu_pd(o + 3 * pitch), nm = _mm256_loadu_pd(o + 4 * pitch),
+                nearf = _mm256_loadu_pd(o + 5 * pitch);
+        /* NEAR: the flag, a NaN bound, a nearness not finite */
+        __m256d bad = _mm256_or_pd(_mm256_cmp_pd(nearf, zero, _CMP_NEQ_UQ),
+                                   _mm256_or_pd(_mm256_cmp_pd(x0, x1, _CMP_UNORD_Q), _mm256_cmp_pd(y0, y1, _CMP_UNORD_Q)));
+        bad = _mm256_or_pd(bad, _mm256_cmp_pd(_mm256_sub_pd(nm, nm), zero, _CMP_NEQ_UQ));
+#define OCC_FLOOR(v) _mm256_round_pd(_mm256_max_pd(_mm256_min_pd(v, lim), nlim), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC)
+#define OCC_CEIL(v) _mm256_round_pd(_mm256_max_pd(_mm256_min_pd(v, lim), nlim), _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC)
+        __m256d i0 = _mm256_max_pd(OCC_FLOOR(_mm256_sub_pd(_mm256_mul_pd(_mm256_add_pd(x0, one), sx), mw)), zero);
+        __m256d i1 = _mm256_min_pd(_mm256_sub_pd(OCC_CEIL(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(x1, one), sx), mw)), one), w1);
+        __m256d j0 = _mm256_max_pd(OCC_FLOOR(_mm256_sub_pd(_mm256_mul_pd(_mm256_add_pd(y0, one), sy), mh)), zero);
+        __m256d j1 = _mm256_min_pd(_mm256_sub_pd(OCC_CEIL(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(y1, one), sy), mh)), one), h1);
+#undef OCC_FLOOR
+#undef OCC_CEIL
+        __m256d in = _mm256_and_pd(_mm256_cmp_pd(i0, i1, _CMP_LE_OQ), _mm256_cmp_pd(j0, j1, _CMP_LE_OQ));
+        /* the far nearness rounded up to float */
+        __m256d v = _mm256_add_pd(nm, _mm256_mul_pd(_mm256_set1_pd(0x1p-20), _mm256_andnot_pd(sgn, nm)));
+        __m128 f = _mm256_cvtpd_ps(v);
+        __m128 up = _mm256_castps256_ps128(_mm256_permutevar8x32_ps(
+            _mm256_castpd_ps(_mm256_cmp_pd(_mm256_cvtps_pd(f), v, _CMP_LT_OQ)), _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7)));
+        __m128i fb = _mm_castps_si128(f);
+        /* one step up: +1 on the bits above zero, -1 below, the least
+           denormal from zero */
+        __m128i step = _mm_or_si128(_mm_srai_epi32(fb, 31), _mm_set1_epi32(1)); /* +1, or -1 with the sign */
+        __m128i zf = _mm_castps_si128(_mm_cmpeq_ps(f, _mm_setzero_ps()));
+        __m128i nb = _mm_blendv_epi8(_mm_add_epi32(fb, step), _mm_set1_epi32(1), zf);
+        __m128 z = _mm_blendv_ps(f, _mm_castsi128_ps(nb), up);
+        float zs[4];
+        _mm_storeu_ps(zs, z);
+        int32_t ii[4][4];
+        _mm_storeu_si128((__m128i *)ii[0], _mm256_cvttpd_epi32(_mm256_blendv_pd(zero, i0, in)));
+        _mm_storeu_si128((__m128i *)ii[1], _mm256_cvttpd_epi32(_mm256_blendv_pd(zero, i1, in)));
+        _mm_storeu_si128((__m128i *)ii[2], _mm256_cvttpd_epi32(_mm256_blendv_pd(zero, j0, in)));
+        _mm_storeu_si128((__m128i *)ii[3], _mm256_cvttpd_epi32(_mm256_blendv_pd(zero, j1, in)));
+        int mbad = _mm256_movemask_pd(bad), min_ = _mm256_movemask_pd(in);
+        for (uint32_t l = 0; l < 4 && q + l < n; l++) {
+            code[q + l] = (mbad >> l) & 1 ? OCC_BOX_NEAR : (min_ >> l) & 1 ? OCC_BOX_OK : OCC_BOX_OFF;
+            r[q + l] = (cull_occ_rect){ii[0][l], ii[2][l], ii[1][l], ii[3][l], zs[l]};
+        }
+    }
+}
 #endif
 
 /* any row[x] <= z for x in [x0, x1]? (reads up to `room` as above) */

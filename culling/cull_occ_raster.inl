@@ -710,7 +710,9 @@ static int render_impl(const cull_world *w, const cull_view *v, cull_occ_buffer 
     if (!vp_grow32((void **)&b->items, &b->items_cap, (size_t)w->nclusters + 1, sizeof *b->items) ||
         !vp_grow32((void **)&b->codes, &b->codes_cap, (size_t)w->nclusters + 8, 1) ||
         !vp_grow32((void **)&b->pidx, &b->pidx_cap, (size_t)w->nclusters + 4, sizeof *b->pidx) ||
-        !vp_grow32((void **)&b->proj, &b->proj_cap, 6 * ((size_t)w->nclusters + 4), sizeof *b->proj))
+        !vp_grow32((void **)&b->proj, &b->proj_cap, 6 * ((size_t)w->nclusters + 4), sizeof *b->proj) ||
+        !vp_grow32((void **)&b->pcode, &b->pcode_cap, (size_t)w->nclusters + 4, sizeof *b->pcode) ||
+        !vp_grow32((void **)&b->rects, &b->rects_cap, (size_t)w->nclusters + 4, sizeof *b->rects))
         return CULL_ERR_NOMEM;
     uint32_t n = 0;
     if (b->usable && w->nclusters) {
@@ -732,11 +734,21 @@ static int render_impl(const cull_world *w, const cull_view *v, cull_occ_buffer 
             if (!(b->codes[i] & 0x80u) && cull_sublevel_in(sublevels, w->ocl[i]->sublevel)) b->pidx[m++] = i;
         size_t pitch = ((size_t)m + 3) & ~(size_t)3;
         b->fns.project(b, &w->ocl_soa, b->pidx, m, b->proj, pitch);
+#ifdef CULL_OCC_RASTER_ISA
+        /* the AVX2 build: the rectangles four a vector too (into the
+           items, then compacted) */
+        cull_occ_rects_avx2(b, b->proj, pitch, m, b->pcode, b->rects);
+#endif
         for (uint32_t q = 0; q < m; q++) {
+            cull_occ_item *it = &b->items[n];
+#ifdef CULL_OCC_RASTER_ISA
+            int k = b->pcode[q];
+            it->r = b->rects[q];
+#else
             const double o[6] = {b->proj[q], b->proj[pitch + q], b->proj[2 * pitch + q], b->proj[3 * pitch + q],
                                  b->proj[4 * pitch + q], b->proj[5 * pitch + q]};
-            cull_occ_item *it = &b->items[n];
             int k = cull_occ_bound_rect(b, o, &it->r);
+#endif
             if (k == OCC_BOX_OFF) continue;
             it->cl = w->ocl[b->pidx[q]];
             it->near = k == OCC_BOX_NEAR;

@@ -1547,7 +1547,8 @@ static void test_occ_rows_match_model(void **state)
 
 /* The render's cluster projection (cull_occ_fns.project): every ISA's
  * against the reference bit for bit, and the reference's rectangles
- * against cull_occ_project_bound's box by box: random scenes' views
+ * against cull_occ_project_bound's box by box, and the AVX2 rectangles
+ * (cull_occ_rects_avx2) against those: random scenes' views
  * (perspective and orthographic, inside boxes, far from the origin) over
  * random boxes near and far, thin, huge and straddling the eye; index
  * lists of every length mod 4, repeated and in any order. */
@@ -1598,6 +1599,24 @@ static void test_occ_project_matches_bound(void **state)
                 near += k1 == OCC_BOX_NEAR;
                 drawn += k1 == OCC_BOX_OK;
             }
+#ifndef CULL_SCALAR_ONLY
+            /* the render's AVX2 build's rectangles, four a vector */
+            if (cull_isa_supported(CULL_ISA_AVX2)) {
+                int32_t code[NB + 3];
+                cull_occ_rect rr[NB + 3];
+                cull_occ_rects_avx2(b, ref, pitch, n, code, rr);
+                for (uint32_t q = 0; q < n; q++) {
+                    const double o[6] = {ref[q], ref[pitch + q], ref[2 * pitch + q], ref[3 * pitch + q],
+                                         ref[4 * pitch + q], ref[5 * pitch + q]};
+                    cull_occ_rect r1 = {0};
+                    int k1 = cull_occ_bound_rect(b, o, &r1);
+                    if (code[q] != k1 || (k1 == OCC_BOX_OK && memcmp(&r1, &rr[q], sizeof r1)))
+                        fail_msg("scene %d view %d box %u: rects_avx2 %d [%d %d %d %d %a], bound_rect %d [%d %d %d %d %a]",
+                                 sc, v, idx[q], code[q], rr[q].x0, rr[q].y0, rr[q].x1, rr[q].y1, (double)rr[q].z, k1,
+                                 r1.x0, r1.y0, r1.x1, r1.y1, (double)r1.z);
+                }
+            }
+#endif
             for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
                 if (!cull_isa_supported(isa)) continue;
                 memset(got, 0, sizeof got);
