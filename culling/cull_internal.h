@@ -16,6 +16,8 @@
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
+#include <string.h>
 
 #define CULL_BLOCK_CAP 64u /* lanes per block: 8 AVX2 groups */
 #define CULL_GEN_BITS (32u - CULL_HANDLE_SLOT_BITS)
@@ -306,8 +308,29 @@ cull_block_fn cull_isa_kernel(uint32_t isa);
 
 
 
-/* Outward rounding of a double to float. */
-float cull_round_down(double v);
-float cull_round_up(double v);
+/* Outward rounding of a double to float (cull_round_up / _down), and
+ * f one float step toward +inf (up) or -inf: nextafterf's answer for
+ * every f these are called with (finite, or an infinity stepped toward
+ * the other), without the libm call: the bits of a float step by one. */
+static inline float cull_float_step(float f, bool up)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    if (!(u & 0x7fffffffu)) u = up ? 1u : 0x80000001u; /* +-0: the least denormal that way */
+    else if (!(u >> 31) == up) u++;                    /* away from zero */
+    else u--;                                          /* toward zero */
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+static inline float cull_round_down(double v)
+{
+    float f = (float)v;
+    return (double)f > v ? cull_float_step(f, false) : f;
+}
+static inline float cull_round_up(double v)
+{
+    float f = (float)v;
+    return (double)f < v ? cull_float_step(f, true) : f;
+}
 
 #endif

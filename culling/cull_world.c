@@ -17,20 +17,6 @@
 
 VP_ERR_DEFINE_STRERROR(cull_strerror, CULL_ERRORS)
 
-float cull_round_down(double v)
-{
-    float f = (float)v;
-    if ((double)f > v) f = nextafterf(f, -INFINITY);
-    return f;
-}
-
-float cull_round_up(double v)
-{
-    float f = (float)v;
-    if ((double)f < v) f = nextafterf(f, INFINITY);
-    return f;
-}
-
 int cull_world_create(const cull_world_desc *desc, cull_world **out)
 {
     cull_world_desc d = desc ? *desc : (cull_world_desc){0};

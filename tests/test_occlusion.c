@@ -1639,6 +1639,35 @@ static void test_occ_project_matches_bound(void **state)
     assert_true(near > boxes / 50 && drawn > boxes / 10);
 }
 
+/* cull_round_up / cull_round_down (inlined, a step of the float's bits)
+ * against libm's nextafterf: every power-of-two boundary, zeros,
+ * denormals, the largest floats and infinities, and random doubles of
+ * every magnitude; the result is the nearest float on the right side. */
+static void test_round_matches_nextafter(void **state)
+{
+    (void)state;
+    rng r = {0x0a11ull};
+    int cases = (int)(200000 * test_scale());
+    for (int t = 0; t < cases + 64; t++) {
+        double v;
+        if (t < 16) {
+            static const double special[16] = {0.0, -0.0, 0x1p-149, -0x1p-149, 0x1p-150, -0x1p-150, 0x1p-126,
+                                               -0x1p-126, FLT_MAX, -FLT_MAX, 0x1.fffffffp127, -0x1.fffffffp127,
+                                               0x1p128, -0x1p128, INFINITY, -INFINITY};
+            v = special[t];
+        } else {
+            v = ldexp(rng_range(&r, 0.5, 1.0), (int)rng_below(&r, 300) - 150) * (rng_below(&r, 2) ? 1 : -1);
+            if (rng_below(&r, 4) == 0) v = (double)(float)v; /* exactly a float */
+        }
+        float up = cull_round_up(v), dn = cull_round_down(v);
+        float f = (float)v;
+        float wup = (double)f < v ? nextafterf(f, INFINITY) : f, wdn = (double)f > v ? nextafterf(f, -INFINITY) : f;
+        if (memcmp(&up, &wup, sizeof up) || memcmp(&dn, &wdn, sizeof dn))
+            fail_msg("%a: up %a (nextafterf %a), down %a (%a)", v, (double)up, (double)wup, (double)dn, (double)wdn);
+        if (!((double)up >= v) || !((double)dn <= v)) fail_msg("%a: not on its side", v);
+    }
+}
+
 static void test_occ_wide_matches_scalar(void **state)
 {
     (void)state;
@@ -1721,6 +1750,7 @@ const struct CMUnitTest occlusion_tests[] = {
     cmocka_unit_test(test_occ_spans_match_span),
     cmocka_unit_test(test_occ_rows_match_model),
     cmocka_unit_test(test_occ_project_matches_bound),
+    cmocka_unit_test(test_round_matches_nextafter),
     cmocka_unit_test(test_occluder_cut_bound),
     cmocka_unit_test(test_occluder_build_bound),
     cmocka_unit_test(test_bad_occluders),
