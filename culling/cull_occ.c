@@ -3,7 +3,7 @@
  * occlusion buffers (create, cover mode, the depth read-back), the view
  * set-up, the projection of boxes to pixel rectangles, and the rectangle
  * test the query's last stage runs ("Culling the Battlefield", DICE 2011,
- * slides 41-52). Drawing the occluders into it: cull_occ_raster.c.
+ * slides 41-52). Drawing the occluders into it: cull_occ_raster.inl.
  *
  * Depth. Each pixel stores a "nearness" that is affine in screen space:
  * 1/w for perspective views, 1 - z_ndc (z_ndc with reversed-Z) for

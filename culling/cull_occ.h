@@ -1,7 +1,7 @@
 /*
  * cull_occ.h — private layout of occlusion buffers, shared by cull_occ.c
  * (buffers, hierarchy, projection, double-precision tests),
- * cull_occ_raster.c (render), cull_query.c (the query's occlusion stage)
+ * cull_occ_raster.inl (render), cull_query.c (the query's occlusion stage)
  * and the per-ISA loops (cull_occ_kern.inl).
  */
 #ifndef VANTAGE_CULL_OCC_H
@@ -15,7 +15,7 @@
 #define CULL_OCC_MAX_CONS 8
 
 /* One polygon's per-row set-up for the render's tile rows
- * (cull_occ_raster.c): x > lal + lbe j per left constraint, x < ral +
+ * (cull_occ_raster.inl): x > lal + lbe j per left constraint, x < ral +
  * rbe j per right one, x > (st - sb j) / sa or < per "slow" one (|al| or
  * |be| beyond 2^900: sa's sign says which), the columns [i0, i1] the
  * polygon may mark, and per nearness plane k its start at row j,

@@ -25,8 +25,10 @@ static inline __attribute__((always_inline)) void occ_span_row(float *restrict r
         fx = vf_add(fx, step);
     }
     if (x > x1) return;
-    if (x + W > room) x = room - W; /* stay in the row: lanes before x0 are masked too */
-    fx = vf_add(vf_set((float)x), iota);
+    if (x + W > room) { /* stay in the row: lanes before x0 are masked too */
+        x = room - W;
+        fx = vf_add(vf_set((float)x), iota);
+    } /* (else fx is x's already: the steps add whole numbers exactly) */
     vm in = vm_and(vf_ge(fx, vf_set((float)x0)), vf_le(fx, vf_set((float)x1)));
     vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
     z = vf_select(in, z, vf_set(-FLT_MAX));

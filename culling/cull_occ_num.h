@@ -1,6 +1,6 @@
 /*
  * cull_occ_num.h — what cull_occ.c (buffers, projection, rectangle tests)
- * and cull_occ_raster.c (rasterisation) share inside the occlusion
+ * and cull_occ_raster.inl (rasterisation) share inside the occlusion
  * buffer: the pixel values that mean "no occluder" and "padding", the
  * tiles' states, and the inlined double helpers whose NaN and overflow
  * rules the conservative bounds rely on. Private to those two files

@@ -1,6 +1,6 @@
 /*
  * cull_occ_tiles.inl — the occlusion render's tile state, included once
- * by cull_occ_raster.c: per 8x8 tile a state (stale / clean / dirty), its
+ * by cull_occ_raster.inl: per 8x8 tile a state (stale / clean / dirty), its
  * pixels' minimum and maximum and its effective minimum, per 64x8 strip
  * the minimum of its tiles, kept up to date lazily as spans write pixels
  * (a tile is recomputed when read after a write, or at the band's end).

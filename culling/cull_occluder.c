@@ -1,6 +1,6 @@
 /*
  * cull_occluder.c — the occluder set: meshes and height fields turned into
- * what the occlusion rasteriser draws (cull_occ_raster.c).
+ * what the occlusion rasteriser draws (cull_occ_raster.inl).
  *
  * Adding a mesh: transform every vertex to world space (double), weld equal
  * vertices, drop degenerate and repeated triangles (counted), merge pairs of coplanar
