@@ -197,6 +197,10 @@ void cull_occ_rects_avx2(const cull_occ_buffer *b, const double *proj, size_t pi
                          cull_occ_rect *r);
 int  cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
                          uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st);
+/* the same in the render's baseline build whatever the ISA (its kernels
+   still the ISA's): the tests' reference for the AVX2 build */
+int  cull_occ_render_generic(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
+                             uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st);
 /* the same, the render's AVX2 build (cull_occ_raster_avx2.c) */
 int  cull_occ_render_avx2(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
                           uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st);

@@ -14,3 +14,9 @@ int cull_occ_render_isa(const cull_world *w, const cull_view *v, cull_occ_buffer
 #endif
     return render_impl(w, v, b, pool, threads, isa, sublevels, st);
 }
+
+int cull_occ_render_generic(const cull_world *w, const cull_view *v, cull_occ_buffer *b, cull_pool *pool,
+                            uint32_t threads, uint32_t isa, const uint64_t *sublevels, cull_occ_stats *st)
+{
+    return render_impl(w, v, b, pool, threads, isa, sublevels, st);
+}

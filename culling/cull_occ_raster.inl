@@ -289,6 +289,32 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
        back order pays again, inside a cluster and for the part of a face
        that a nearer one hides */
     float zhi = cull_round_up(p->nmax + 0x1p-20 * fabs(p->nmax));
+    /* the coarse values' steps, and (the AVX2 build) their starts' terms
+       that do not change from tile row to tile row: each plane at the
+       tile's farthest pixel corner, a * ia + b * ja + c - corner */
+    float dt[3];
+    for (int k = 0; k < 3; k++) dt[k] = (float)(8 * p->z[k].a);
+#ifdef __AVX2__
+    __m256d caia, cb, cc, cco, cjs, cad;
+    {
+        double aia[4] = {0}, bb[4] = {0}, c[4] = {0}, co[4] = {0}, js[4] = {0}, ad[4] = {0};
+        for (int k = 0; k < 3; k++) {
+            const lin3 *z = &p->z[k];
+            aia[k] = z->a * (z->a >= 0 ? 0 : 7);
+            bb[k] = z->b;
+            c[k] = z->c;
+            co[k] = corner[k];
+            js[k] = z->b >= 0 ? 0 : 7;
+            ad[k] = fabs(8 * z->a);
+        }
+        caia = _mm256_loadu_pd(aia);
+        cb = _mm256_loadu_pd(bb);
+        cc = _mm256_loadu_pd(c);
+        cco = _mm256_loadu_pd(co);
+        cjs = _mm256_loadu_pd(js);
+        cad = _mm256_loadu_pd(ad);
+    }
+#endif
     /* a tile row (8 pixel rows) at a time: tiles that every row's span
        covers whole get one coarse value (tile_full); only the rest of
        each span is written pixel by pixel */
@@ -310,14 +336,22 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
             /* the minimum over a tile's pixels of what they would store is
                each plane at the tile's farthest pixel corner: linear in tx,
                so the coarse values are one more span, over tile_full */
-            float t0[3], dt[3];
+            float t0[4];
+#ifdef __AVX2__
+            /* the three planes a vector: the same operations per lane */
+            __m256d ja = _mm256_add_pd(_mm256_set1_pd((double)(ty * 8)), cjs);
+            __m256d t = _mm256_sub_pd(_mm256_add_pd(_mm256_add_pd(caia, _mm256_mul_pd(cb, ja)), cc), cco);
+            __m256d mg = _mm256_add_pd(_mm256_andnot_pd(_mm256_set1_pd(-0.0), t),
+                                       _mm256_mul_pd(cad, _mm256_set1_pd((double)(ft1 + 1))));
+            _mm_storeu_ps(t0, _mm256_cvtpd_ps(_mm256_sub_pd(t, _mm256_mul_pd(_mm256_set1_pd(0x1p-20), mg))));
+#else
             for (int k = 0; k < 3; k++) {
                 const lin3 *z = &p->z[k];
                 double ia = z->a >= 0 ? 0 : 7, ja = z->b >= 0 ? ty * 8 : ty * 8 + 7;
                 double t = z->a * ia + z->b * ja + z->c - corner[k], d = 8 * z->a;
                 t0[k] = (float)(t - 0x1p-20 * (fabs(t) + fabs(d) * (ft1 + 1)));
-                dt[k] = (float)d;
             }
+#endif
             b->fns.span(b->tile_full + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, t0[0], dt[0], t0[1], dt[1], t0[2],
                         dt[2], zlo);
             b->fns.span(b->teff + (size_t)ty * b->tw, ft0, ft1, (int)b->tw, t0[0], dt[0], t0[1], dt[1], t0[2], dt[2],

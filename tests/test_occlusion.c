@@ -1668,6 +1668,70 @@ static void test_round_matches_nextafter(void **state)
     }
 }
 
+/* The render's AVX2 build (cull_occ_raster_avx2.c: inlined rows, the
+ * rectangles and the coarse values' starts in vectors, tiles compared
+ * eight at a time) draws what its baseline build draws with the same
+ * kernels, bit for bit: every array the render leaves (pixels, the tiles'
+ * minima, maxima, coarse and effective values, keys and states, strips,
+ * big tiles), over random scenes, views, sizes, covers and 1-2 threads,
+ * each buffer drawn several times over (stale tiles from the frame
+ * before). */
+static void test_occ_avx2_build_same_bits(void **state)
+{
+    (void)state;
+    if (!cull_isa_supported(CULL_ISA_AVX2)) skip();
+    rng r = {0xa7b2ull};
+    static const uint32_t sizes[][2] = {{256, 114}, {1280, 720}, {37, 29}, {512, 256}, {8, 8}};
+    cull_pool *pool = NULL;
+    assert_int_equal(cull_pool_create(2, &pool), CULL_OK);
+    int scenes = (int)(16 * test_scale()), compared = 0, drawn = 0;
+    for (int sc = 0; sc < scenes; sc++) {
+        oscene s;
+        build_scene(&r, &s);
+        const uint32_t *sz = sizes[rng_below(&r, sizeof sizes / sizeof sizes[0])];
+        cull_occ_buffer *a, *g;
+        assert_int_equal(cull_occ_buffer_create(sz[0], sz[1], &a), CULL_OK);
+        assert_int_equal(cull_occ_buffer_create(sz[0], sz[1], &g), CULL_OK);
+        for (int v = 0; v < 6; v++) {
+            cull_view view;
+            random_view(&r, &s, &view, sz[0], sz[1]);
+            int cover = (int)rng_below(&r, 2);
+            uint32_t threads = 1 + rng_below(&r, 2);
+            assert_int_equal(cull_occ_buffer_set_cover(a, cover), CULL_OK);
+            assert_int_equal(cull_occ_buffer_set_cover(g, cover), CULL_OK);
+            cull_occ_stats sa, sg;
+            assert_int_equal(cull_occ_render_isa(s.w, &view, a, pool, threads, CULL_ISA_AVX2, NULL, &sa), CULL_OK);
+            assert_int_equal(cull_occ_render_generic(s.w, &view, g, pool, threads, CULL_ISA_AVX2, NULL, &sg), CULL_OK);
+            drawn += sa.faces_drawn > 0;
+            assert_int_equal(sa.faces_drawn, sg.faces_drawn);
+            assert_int_equal(sa.clusters_drawn, sg.clusters_drawn);
+            assert_int_equal(a->drawn, g->drawn);
+            size_t rows = (a->h + 7) / 8, nt = rows * a->tw;
+            struct { const void *x, *y; size_t n; const char *what; } arr[] = {
+                {a->depth, g->depth, (size_t)a->stride * a->hp * sizeof(float), "pixels"},
+                {a->tile, g->tile, nt * sizeof(float), "tile minima"},
+                {a->tile_full, g->tile_full, nt * sizeof(float), "coarse values"},
+                {a->teff, g->teff, nt * sizeof(float), "effective minima"},
+                {a->tmax, g->tmax, nt * sizeof(float), "tile maxima"},
+                {a->vkey, g->vkey, nt * sizeof(float), "keys"},
+                {a->tstate, g->tstate, rows * a->tpitch, "tile states"},
+                {a->strip, g->strip, rows * a->spitch * sizeof(float), "strips"},
+                {a->tile2, g->tile2, (size_t)a->t2w * a->t2h * sizeof(float), "big tiles"},
+            };
+            for (size_t k = 0; k < sizeof arr / sizeof arr[0]; k++)
+                if (memcmp(arr[k].x, arr[k].y, arr[k].n))
+                    fail_msg("scene %d view %d (%ux%u, cover %d, %u threads): the %s differ", sc, v, sz[0], sz[1],
+                             cover, threads, arr[k].what);
+            compared++;
+        }
+        cull_occ_buffer_destroy(a);
+        cull_occ_buffer_destroy(g);
+        free_scene(&s);
+    }
+    cull_pool_destroy(pool);
+    assert_true(drawn > compared / 3);
+}
+
 static void test_occ_wide_matches_scalar(void **state)
 {
     (void)state;
@@ -1751,6 +1815,7 @@ const struct CMUnitTest occlusion_tests[] = {
     cmocka_unit_test(test_occ_rows_match_model),
     cmocka_unit_test(test_occ_project_matches_bound),
     cmocka_unit_test(test_round_matches_nextafter),
+    cmocka_unit_test(test_occ_avx2_build_same_bits),
     cmocka_unit_test(test_occluder_cut_bound),
     cmocka_unit_test(test_occluder_build_bound),
     cmocka_unit_test(test_bad_occluders),
