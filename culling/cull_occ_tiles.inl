@@ -147,7 +147,16 @@ static inline void clear_tile(cull_occ_buffer *b, int tx, int ty)
     int y1 = ty * 8 + 8 < (int)b->h ? ty * 8 + 8 : (int)b->h;
     uint32_t n = tx * 8 + 8 <= (int)b->w ? 8u : b->w - (uint32_t)tx * 8;
     float *p = b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8;
-#ifdef __SSE2__
+#ifdef __AVX2__
+    if (n == 8 && y1 == ty * 8 + 8) {
+        /* a whole tile: 32-byte aligned rows (the depth plane is 64-byte
+           aligned, its pitch a multiple of 128 floats); a row a store */
+        const __m256 e = _mm256_set1_ps(EMPTY);
+#pragma GCC unroll 8
+        for (int y = 0; y < 8; y++, p += b->stride) _mm256_store_ps(p, e);
+        return;
+    }
+#elif defined(__SSE2__)
     if (n == 8 && y1 == ty * 8 + 8) {
         /* a whole tile: 32-byte aligned rows (the depth plane is 64-byte
            aligned, its pitch a multiple of 128 floats) */
