@@ -1,8 +1,9 @@
 /*
- * cull_occ_raster.inl — software occlusion, the drawing (compiled twice:
- * cull_occ_raster.c for any x86-64 and the public entry points,
- * cull_occ_raster_avx2.c with AVX2 for the same code in VEX form): the occluders of
- * one view rendered into the occlusion buffer in bands on the pool's
+ * cull_occ_raster.inl — software occlusion, the drawing, compiled twice:
+ * cull_occ_raster.c for any x86-64 (and the public entry points), and
+ * cull_occ_raster_avx2.c with AVX2, the same code in VEX form plus a few
+ * paths of its own under __AVX2__ (CULL_OCC_RASTER_ISA) that give the same
+ * bits (test_occ_avx2_build_same_bits). The occluders of one view rendered into the occlusion buffer in bands on the pool's
  * threads (cull_occ.c owns the buffer, the depth convention, the
  * hierarchy and the tests that read it; cull_occ_tiles.inl the tile
  * state kept during the render; cull_occ_kern.inl the per-ISA span
