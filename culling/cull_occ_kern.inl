@@ -126,13 +126,13 @@ void cull_occ_project_avx2(const cull_occ_buffer *b, const cull_bounds_soa *s, c
 /* cull_occ_bound_rect over n projections (cull_occ_fns.project's arrays,
  * pitch apart), four a vector: code[i] its answer (OCC_BOX_*), r[i] the
  * rectangle where OCC_BOX_OK. The same operations as the scalar answer:
- * floor / ceil of the clamped value, maxpd / minpd as dmax / dmin, and
+ * occ_dfloor4 / occ_dceil4, maxpd / minpd as dmax / dmin, and
  * cull_round_up as a conversion, a compare and one step of the float's
  * bits where the conversion rounded down. */
 void cull_occ_rects_avx2(const cull_occ_buffer *b, const double *proj, size_t pitch, uint32_t n, int32_t *code,
                          cull_occ_rect *r)
 {
-    const __m256d lim = _mm256_set1_pd(0x1p30), nlim = _mm256_set1_pd(-0x1p30), one = _mm256_set1_pd(1.0),
+    const __m256d one = _mm256_set1_pd(1.0),
                   zero = _mm256_setzero_pd(), sx = _mm256_set1_pd(b->sx), sy = _mm256_set1_pd(b->sy),
                   mw = _mm256_set1_pd(0x1p-20 * b->w), mh = _mm256_set1_pd(0x1p-20 * b->h),
                   w1 = _mm256_set1_pd(b->w - 1.0), h1 = _mm256_set1_pd(b->h - 1.0), sgn = _mm256_set1_pd(-0.0);
@@ -145,14 +145,10 @@ void cull_occ_rects_avx2(const cull_occ_buffer *b, const double *proj, size_t pi
         __m256d bad = _mm256_or_pd(_mm256_cmp_pd(nearf, zero, _CMP_NEQ_UQ),
                                    _mm256_or_pd(_mm256_cmp_pd(x0, x1, _CMP_UNORD_Q), _mm256_cmp_pd(y0, y1, _CMP_UNORD_Q)));
         bad = _mm256_or_pd(bad, _mm256_cmp_pd(_mm256_sub_pd(nm, nm), zero, _CMP_NEQ_UQ));
-#define OCC_FLOOR(v) _mm256_round_pd(_mm256_max_pd(_mm256_min_pd(v, lim), nlim), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC)
-#define OCC_CEIL(v) _mm256_round_pd(_mm256_max_pd(_mm256_min_pd(v, lim), nlim), _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC)
-        __m256d i0 = _mm256_max_pd(OCC_FLOOR(_mm256_sub_pd(_mm256_mul_pd(_mm256_add_pd(x0, one), sx), mw)), zero);
-        __m256d i1 = _mm256_min_pd(_mm256_sub_pd(OCC_CEIL(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(x1, one), sx), mw)), one), w1);
-        __m256d j0 = _mm256_max_pd(OCC_FLOOR(_mm256_sub_pd(_mm256_mul_pd(_mm256_add_pd(y0, one), sy), mh)), zero);
-        __m256d j1 = _mm256_min_pd(_mm256_sub_pd(OCC_CEIL(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(y1, one), sy), mh)), one), h1);
-#undef OCC_FLOOR
-#undef OCC_CEIL
+        __m256d i0 = _mm256_max_pd(occ_dfloor4(_mm256_sub_pd(_mm256_mul_pd(_mm256_add_pd(x0, one), sx), mw)), zero);
+        __m256d i1 = _mm256_min_pd(_mm256_sub_pd(occ_dceil4(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(x1, one), sx), mw)), one), w1);
+        __m256d j0 = _mm256_max_pd(occ_dfloor4(_mm256_sub_pd(_mm256_mul_pd(_mm256_add_pd(y0, one), sy), mh)), zero);
+        __m256d j1 = _mm256_min_pd(_mm256_sub_pd(occ_dceil4(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(y1, one), sy), mh)), one), h1);
         __m256d in = _mm256_and_pd(_mm256_cmp_pd(i0, i1, _CMP_LE_OQ), _mm256_cmp_pd(j0, j1, _CMP_LE_OQ));
         /* the far nearness rounded up to float */
         __m256d v = _mm256_add_pd(nm, _mm256_mul_pd(_mm256_set1_pd(0x1p-20), _mm256_andnot_pd(sgn, nm)));

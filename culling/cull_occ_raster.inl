@@ -505,7 +505,7 @@ static bool same_plane(const lin3 *p, const lin3 *q)
  * loop of at most MAX_CONS (the caller takes the hull then). */
 static uint32_t front_loop(const cull_occ_cluster *cl, const uint32_t *front, uint32_t nfront, uint32_t *out)
 {
-    uint16_t ea[12], eb[12];
+    uint16_t ea[12], eb[12]; /* at most 3 front faces (the caller's limit) of 4 edges */
     uint32_t ne = 0;
     for (uint32_t k = 0; k < nfront; k++) {
         const cull_occ_face *f = &cl->f[front[k]];

@@ -1,5 +1,6 @@
 /*
- * cull_occ_rows.h — the occlusion render's rows set-up in AVX2
+ * cull_occ_rows.h — the occlusion render's rows set-up in AVX2 and the
+ * clamped floor / ceil it and the AVX2 rectangles share
  * (cull_occ_fns.rows), inlined by the render's AVX2 build
  * (cull_occ_raster_avx2.c) and exported by the AVX2 kernels
  * (cull_occ_rows_avx2, cull_occ_kern.inl). Include only where __AVX2__.
@@ -25,11 +26,25 @@ static inline int occ_hmin_epi32(__m256i v)
     return _mm_cvtsi128_si32(_mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1))));
 }
 
+/* dfloor / dceil of cull_occ_num.h four a vector: the clamp to +-2^30,
+ * then roundpd (the same integers for every value that is not NaN; no
+ * caller passes NaN) */
+static inline __m256d occ_dfloor4(__m256d v)
+{
+    v = _mm256_max_pd(_mm256_min_pd(v, _mm256_set1_pd(0x1p30)), _mm256_set1_pd(-0x1p30));
+    return _mm256_round_pd(v, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+}
+
+static inline __m256d occ_dceil4(__m256d v)
+{
+    v = _mm256_max_pd(_mm256_min_pd(v, _mm256_set1_pd(0x1p30)), _mm256_set1_pd(-0x1p30));
+    return _mm256_round_pd(v, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC);
+}
+
 /* cull_occ_rows_scalar's rows, four a vector, with the same operations in
  * the same order (so the same bits): maxpd / minpd pick as dmax / dmin do
- * (a > b ? a : b), the clamp to +-2^30 and floor / ceil of dfloor /
- * dceil as min, max and roundpd (the same integers for every value the
- * bounds take; they are never NaN) */
+ * (a > b ? a : b), dfloor / dceil as occ_dfloor4 / occ_dceil4 (the
+ * bounds are never NaN) */
 static inline __attribute__((always_inline)) cull_occ_rowsum cull_occ_rows8(const cull_occ_rowset *rs, int jb, int a,
                                                                            int b, int *lo, int *hi, float *z0)
 {
@@ -43,7 +58,7 @@ static inline __attribute__((always_inline)) cull_occ_rowsum cull_occ_rows8(cons
             _mm_storeu_ps(z0 + 8 * k + 4 * h, _mm256_cvtpd_ps(v));
         }
     }
-    const __m256d lim = _mm256_set1_pd(0x1p30), nlim = _mm256_set1_pd(-0x1p30), one = _mm256_set1_pd(1.0);
+    const __m256d one = _mm256_set1_pd(1.0);
     __m128i x0[2], x1[2];
     for (int h = 0; h < 2; h++) {
         __m256d l = _mm256_set1_pd(-0x1p40), r = _mm256_set1_pd(0x1p40);
@@ -51,10 +66,8 @@ static inline __attribute__((always_inline)) cull_occ_rowsum cull_occ_rows8(cons
             l = _mm256_max_pd(l, _mm256_add_pd(_mm256_set1_pd(rs->lal[k]), _mm256_mul_pd(_mm256_set1_pd(rs->lbe[k]), j[h])));
         for (uint32_t k = 0; k < rs->nr; k++)
             r = _mm256_min_pd(r, _mm256_add_pd(_mm256_set1_pd(rs->ral[k]), _mm256_mul_pd(_mm256_set1_pd(rs->rbe[k]), j[h])));
-        l = _mm256_max_pd(_mm256_min_pd(l, lim), nlim);
-        r = _mm256_max_pd(_mm256_min_pd(r, lim), nlim);
-        l = _mm256_add_pd(_mm256_round_pd(l, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC), one);
-        r = _mm256_sub_pd(_mm256_round_pd(r, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC), one);
+        l = _mm256_add_pd(occ_dfloor4(l), one);
+        r = _mm256_sub_pd(occ_dceil4(r), one);
         x0[h] = _mm256_cvttpd_epi32(_mm256_max_pd(_mm256_set1_pd(rs->i0), l));
         x1[h] = _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_set1_pd(rs->i1), r));
     }
