@@ -57,6 +57,7 @@ typedef struct cull_cell {
                                changed: a kept occlusion buffer's verdicts
                                for its blocks stand while it is the same */
 } cull_cell;
+_Static_assert(sizeof(cull_cell) <= 128, "a cell is two cache lines (cull_query.c prefetches them)");
 
 /* Cell bounds for the SIMD cell stage: six arrays of cap doubles (world
  * centre x y z, half extent x y z), cap a multiple of 4 above the count so
