@@ -43,7 +43,11 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->th = b->hp / 8;
     b->t2w = b->stride / 64;
     b->t2h = b->hp / 64;
-    b->depth = aligned_alloc(64, (size_t)b->stride * b->hp * sizeof(float));
+    /* a slot for every tile of the real tile rows (those above, all
+       padding, are never drawn or read) */
+    const uint32_t rows = (b->h + 7) / 8;
+    b->pool = aligned_alloc(64, (size_t)rows * b->tw * 64 * sizeof(float));
+    b->tslot = calloc((size_t)b->tw * b->th, sizeof *b->tslot);
     b->tile = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float)); /* tw * 4 bytes = 64 k */
     b->tile2 = malloc((size_t)b->t2w * b->t2h * sizeof(float));
     b->tile_full = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float));
@@ -59,15 +63,16 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     /* a tile row of states per 64 bytes: bands never share a cache line */
     b->tpitch = (b->tw + 63) & ~63u;
     b->tstate = aligned_alloc(64, (size_t)b->tpitch * b->th);
-    if (!b->depth || !b->tile || !b->tile2 || !b->tile_full || !b->teff || !b->tmax || !b->vkey || !b->tstate ||
+    if (!b->pool || !b->tslot || !b->tile || !b->tile2 || !b->tile_full || !b->teff || !b->tmax || !b->vkey || !b->tstate ||
         !b->strip || !b->sdirty) {
         cull_occ_buffer_destroy(b);
         return CULL_ERR_NOMEM;
     }
-    /* padding never lowers a tile's minimum */
-    for (size_t i = 0; i < (size_t)b->stride * b->hp; i++) b->depth[i] = PAD;
-    for (uint32_t y = 0; y < b->h; y++)
-        for (uint32_t x = 0; x < b->w; x++) b->depth[(size_t)y * b->stride + x] = EMPTY;
+    /* every tile clean and EMPTY (padding PAD: it never lowers a tile's
+       minimum), as band 0 of a one-band render would leave it */
+    b->threads_used = 1;
+    for (uint32_t ty = 0; ty < rows; ty++)
+        for (uint32_t tx = 0; tx < b->tw; tx++) (void)occ_tile_take(b, &b->slot_next[0], (int)tx, (int)ty);
     for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tile[i] = b->tile_full[i] = b->teff[i] = EMPTY;
     memset(b->tstate, TILE_CLEAN, (size_t)b->tpitch * b->th);
     for (size_t i = 0; i < (size_t)b->tw * b->th; i++) b->tmax[i] = EMPTY; /* the pixels; vkey below */
@@ -88,7 +93,9 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
 void cull_occ_buffer_destroy(cull_occ_buffer *b)
 {
     if (!b) return;
-    free(b->depth);
+    free(b->pool);
+    free(b->tslot);
+    free(b->plane);
     free(b->tile);
     free(b->tile2);
     free(b->tile_full);
@@ -124,30 +131,43 @@ int cull_occ_buffer_empty(const cull_occ_buffer *b)
 const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride)
 {
     if (!b) return NULL;
+    if (!b->plane && !(b->plane = aligned_alloc(64, (size_t)b->stride * b->hp * sizeof(float)))) return NULL;
     /* fold the coarse per-tile values into the pixels (tests read either
-       way; the pixels alone are what a viewer shows) */
+       way; the pixels alone are what a viewer shows), then copy the tiles
+       out row by row (PAD above the real tile rows) */
+    const uint32_t rows = (b->h + 7) / 8, nb = b->threads_used;
     for (uint32_t ty = 0; ty < b->th; ty++)
         for (uint32_t tx = 0; tx < b->tw; tx++) {
+            float *out = b->plane + (size_t)ty * 8 * b->stride + (size_t)tx * 8;
+            if (ty >= rows) {
+                for (uint32_t y = 0; y < 8; y++)
+                    for (uint32_t x = 0; x < 8; x++) out[y * b->stride + x] = PAD;
+                continue;
+            }
             size_t i = (size_t)ty * b->tw + tx;
             uint8_t *st = &b->tstate[(size_t)ty * b->tpitch + tx];
             float full = b->tile_full[i];
-            if (*st != TILE_INVALID && full == EMPTY) continue;
-            uint32_t y1 = ty * 8 + 8 < b->h ? ty * 8 + 8 : b->h, x1 = tx * 8 + 8 < b->w ? tx * 8 + 8 : b->w;
-            for (uint32_t y = ty * 8; y < y1; y++)
-                for (uint32_t x = tx * 8; x < x1; x++) {
-                    float *p = &b->depth[(size_t)y * b->stride + x];
-                    *p = *st == TILE_INVALID || full > *p ? full : *p;
-                }
-            b->fns.tiles(b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8, b->stride, 1, b->tile + i,
-                         b->tmax + i);
-            *st = TILE_CLEAN;
-            b->teff[i] = b->tile[i];
+            if (*st == TILE_INVALID || full != EMPTY) {
+                float *px = *st == TILE_INVALID ? occ_tile_take(b, &b->slot_next[ty % nb], (int)tx, (int)ty)
+                                                : cull_occ_tile_px(b, i);
+                uint32_t ny = ty * 8 + 8 < b->h ? 8 : b->h - ty * 8, nx = tx * 8 + 8 < b->w ? 8 : b->w > tx * 8 ? b->w - tx * 8 : 0;
+                for (uint32_t y = 0; y < ny; y++)
+                    for (uint32_t x = 0; x < nx; x++) {
+                        float *p = &px[8 * y + x];
+                        *p = *st == TILE_INVALID || full > *p ? full : *p;
+                    }
+                b->fns.tiles(b->pool, b->tslot + i, 1, b->tile + i, b->tmax + i);
+                *st = TILE_CLEAN;
+                b->teff[i] = b->tile[i];
+            }
+            const float *px = cull_occ_tile_px(b, i);
+            for (uint32_t y = 0; y < 8; y++) memcpy(out + y * b->stride, px + 8 * y, 8 * sizeof *px);
         }
     for (uint32_t ty = 0; ty < b->th; ty++) cull_occ_vkey_row(b, ty);
     if (width) *width = b->w;
     if (height) *height = b->h;
     if (stride) *stride = b->stride;
-    return b->depth;
+    return b->plane;
 }
 
 /* The tests' "visible at once" key of each tile of row ty. A rectangle
@@ -175,10 +195,11 @@ void cull_occ_vkey_row(cull_occ_buffer *b, uint32_t ty)
     for (; tx < real; tx++) {
         float m = teff[tx];
         if (st[tx] != TILE_INVALID) {
-            uint32_t y1 = ty * 8 + 8 < b->h ? ty * 8 + 8 : b->h, x1 = tx * 8 + 8 < b->w ? tx * 8 + 8 : b->w;
-            for (uint32_t y = ty * 8; y < y1; y++)
-                for (uint32_t x = tx * 8; x < x1; x++) {
-                    float v = b->depth[(size_t)y * b->stride + x];
+            const float *px = cull_occ_tile_px(b, o + tx);
+            uint32_t ny = ty * 8 + 8 < b->h ? 8 : b->h - ty * 8, nx = tx * 8 + 8 < b->w ? 8 : b->w - tx * 8;
+            for (uint32_t y = 0; y < ny; y++)
+                for (uint32_t x = 0; x < nx; x++) {
+                    float v = px[8 * y + x];
                     m = v > m ? v : m;
                 }
         }
@@ -335,8 +356,9 @@ static bool tiles_visible(const cull_occ_buffer *b, int x0, int y0, int x1, int 
             if (b->tstate[(size_t)ty * b->tpitch + tx] == TILE_INVALID) return true; /* pixels all EMPTY */
             int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
             int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
+            const float *pix = cull_occ_tile_px(b, (size_t)ty * b->tw + tx);
             for (int py = py0; py <= py1; py++) {
-                const float *row = b->depth + (size_t)py * b->stride;
+                const float *row = pix + 8 * (py & 7) - (tx << 3);
                 int hit = 0;
                 for (int px = px0; px <= px1; px++) hit |= row[px] <= z;
                 if (hit) return true;

@@ -11,6 +11,9 @@
 #include <float.h>
 #include <stdbool.h>
 
+/* The most bands (threads) a render splits its tile rows into. */
+#define CULL_OCC_MAX_BANDS 64u
+
 /* The most constraints (edges, near plane) of a polygon the render draws. */
 #define CULL_OCC_MAX_CONS 8
 
@@ -44,15 +47,16 @@ typedef struct cull_occ_fns {
        for x in [x0, x1]; the row has `room` floats (>= 8) */
     void (*span)(float *row, int x0, int x1, int room, float a0, float da, float b0, float db, float c0, float dc,
                  float lo);
-    /* span for the 8 rows a stride apart from row0, row r over [x0[r],
-       x1[r]] (none where x0[r] > x1[r]) less the columns [g0, g1] (none
-       where g0 > g1), from a0, b0, c0 = z0[r], z0[8 + r], z0[16 + r] */
-    void (*spans)(float *row0, size_t stride, const int *x0, const int *x1, int g0, int g1, const float *z0,
-                  int room, float da, float db, float dc, float lo);
+    /* span over the 8 rows of a tile row whose tile tx's pixels are at
+       pool + 64 slot[tx] (row r at + 8 r), row r over [x0[r], x1[r]]
+       (none where x0[r] > x1[r]) less the columns [g0, g1] (none where
+       g0 > g1), from a0, b0, c0 = z0[r], z0[8 + r], z0[16 + r] */
+    void (*spans)(float *pool, const uint32_t *slot, const int *x0, const int *x1, int g0, int g1, const float *z0,
+                  float da, float db, float dc, float lo);
     /* any row[x] <= z for x in [x0, x1]? */
     bool (*any_le)(const float *row, int x0, int x1, int room, float z);
-    /* out[t] = min, out_max[t] = max over the 8x8 tile t of the 8 rows from row0 */
-    void (*tiles)(const float *row0, size_t stride, uint32_t ntiles, float *out, float *out_max);
+    /* out[t] = min, out_max[t] = max over the 64 pixels at pool + 64 slot[t] */
+    void (*tiles)(const float *pool, const uint32_t *slot, uint32_t ntiles, float *out, float *out_max);
     void (*fill)(float *row, uint32_t n, float v);
     /* out[x] = a[x] > b[x] ? a[x] : b[x] for x in [0, n) */
     void (*max2)(float *out, const float *a, const float *b, uint32_t n);
@@ -81,11 +85,11 @@ cull_occ_fns cull_occ_fns_for(uint32_t isa);
 void cull_occ_span_scalar(float *, int, int, int, float, float, float, float, float, float, float);
 void cull_occ_span_sse41(float *, int, int, int, float, float, float, float, float, float, float);
 void cull_occ_span_avx2(float *, int, int, int, float, float, float, float, float, float, float);
-void cull_occ_spans_scalar(float *, size_t, const int *, const int *, int, int, const float *, int, float, float,
-                           float, float);
-void cull_occ_spans_sse41(float *, size_t, const int *, const int *, int, int, const float *, int, float, float,
-                          float, float);
-void cull_occ_spans_avx2(float *, size_t, const int *, const int *, int, int, const float *, int, float, float,
+void cull_occ_spans_scalar(float *, const uint32_t *, const int *, const int *, int, int, const float *, float,
+                           float, float, float);
+void cull_occ_spans_sse41(float *, const uint32_t *, const int *, const int *, int, int, const float *, float,
+                          float, float, float);
+void cull_occ_spans_avx2(float *, const uint32_t *, const int *, const int *, int, int, const float *, float, float,
                          float, float);
 /* rows: the reference (any rowset, slow constraints included; every
    ISA without its own), and AVX2's (4 rows a vector) */
@@ -96,21 +100,21 @@ void cull_occ_project_scalar(const struct cull_occ_buffer *, const cull_bounds_s
 void cull_occ_project_avx2(const struct cull_occ_buffer *, const cull_bounds_soa *, const uint32_t *, uint32_t,
                            double *, size_t);
 bool cull_occ_any_le_scalar(const float *, int, int, int, float);
-void cull_occ_tiles_scalar(const float *, size_t, uint32_t, float *, float *);
+void cull_occ_tiles_scalar(const float *, const uint32_t *, uint32_t, float *, float *);
 void cull_occ_fill_scalar(float *, uint32_t, float);
 void cull_occ_max2_scalar(float *, const float *, const float *, uint32_t);
 bool cull_occ_rect_visible_scalar(const struct cull_occ_buffer *, int, int, int, int, float);
 uint32_t cull_occ_lanes_scalar(const struct cull_occ_buffer *, const float *, const float *, const float *,
                               const float *, const float *, uint32_t);
 bool cull_occ_any_le_sse41(const float *, int, int, int, float);
-void cull_occ_tiles_sse41(const float *, size_t, uint32_t, float *, float *);
+void cull_occ_tiles_sse41(const float *, const uint32_t *, uint32_t, float *, float *);
 void cull_occ_fill_sse41(float *, uint32_t, float);
 void cull_occ_max2_sse41(float *, const float *, const float *, uint32_t);
 bool cull_occ_rect_visible_sse41(const struct cull_occ_buffer *, int, int, int, int, float);
 uint32_t cull_occ_lanes_sse41(const struct cull_occ_buffer *, const float *, const float *, const float *,
                               const float *, const float *, uint32_t);
 bool cull_occ_any_le_avx2(const float *, int, int, int, float);
-void cull_occ_tiles_avx2(const float *, size_t, uint32_t, float *, float *);
+void cull_occ_tiles_avx2(const float *, const uint32_t *, uint32_t, float *, float *);
 void cull_occ_fill_avx2(float *, uint32_t, float);
 void cull_occ_max2_avx2(float *, const float *, const float *, uint32_t);
 bool cull_occ_rect_visible_avx2(const struct cull_occ_buffer *, int, int, int, int, float);
@@ -139,7 +143,19 @@ struct cull_occ_buffer {
     uint32_t w, h;          /* pixels */
     uint32_t stride, hp;    /* allocated row length (multiple of 128) and rows (of 64) */
     uint32_t tw, th, t2w, t2h; /* 8x8 and 64x64 tiles */
-    float   *depth;         /* stride * hp, row 0 = bottom */
+    /* The pixels, 8x8 tile by tile: tile t's 64 (row 0 = bottom, 8 a
+       row) are at pool + 64 tslot[t] while t is not TILE_INVALID. A
+       render hands out slots as spans first write into tiles, in that
+       order, from each band's own range of the pool (a band's tile rows'
+       worth: slot_next[k] is band k's next), so the pixels a render
+       writes lie together in memory, in the order it wrote them: right
+       after other work they stream in, where a whole plane's rows
+       (stride floats apart) were fetched a line at a time, 8 lines a
+       tile. cull_occ_depth copies them out to plane (stride x hp). */
+    float   *pool;
+    uint32_t *tslot;        /* per tile */
+    uint32_t slot_next[CULL_OCC_MAX_BANDS];
+    float   *plane;         /* cull_occ_depth's copy, made on demand */
     float   *tile, *tile2;  /* minima */
     float   *tile_full;     /* per 8x8 tile, a value every pixel's stands at or above */
     float   *teff;          /* per tile, after a render: the larger of tile_full and
@@ -181,6 +197,12 @@ struct cull_occ_buffer {
     cull_occ_rect *rects;   /* and rectangles */
     uint32_t pcode_cap, rects_cap;
 };
+
+/* The 64 pixels of tile t (not TILE_INVALID), 8 a row from the bottom. */
+static inline float *cull_occ_tile_px(const cull_occ_buffer *b, size_t t)
+{
+    return b->pool + ((size_t)b->tslot[t] << 6);
+}
 
 void cull_occ_setup_view(cull_occ_buffer *b, const cull_view *v);
 /* vkey of tile row ty from teff, tmax and tstate (after its tiles are final) */

@@ -42,27 +42,58 @@ void CULL_OCC_CAT(cull_occ_span_, CULL_OCC_SUFFIX)(float *restrict row, int x0, 
                  vf_set(lo));
 }
 
-/* span for the 8 rows a stride apart from row0: row r over [x0[r],
- * x1[r]] (none where x0[r] > x1[r]) less the columns [g0, g1] (a tile
- * row's coarse tiles; none where g0 > g1), from a0, b0, c0 = z0[r],
- * z0[8 + r], z0[16 + r]: the same pixels as span over each part (one
- * call and one set of broadcasts a tile row) */
-void CULL_OCC_CAT(cull_occ_spans_, CULL_OCC_SUFFIX)(float *restrict row0, size_t stride, const int *x0,
-                                                     const int *x1, int g0, int g1, const float *z0, int room,
+/* Row r of the tile row whose tile tx's pixels are at pool + 64 slot[tx]
+ * over [x0, x1]: the same pixels as span over the row, a vector of one
+ * tile at a time (W divides 8), its lanes outside [x0, x1] masked (z =
+ * -FLT_MAX leaves a pixel as it is). fx is the pixel's index exactly. */
+static inline __attribute__((always_inline)) void occ_span_tiles(float *restrict pool, const uint32_t *restrict slot,
+                                                                 int r, int x0, int x1, vf va, vf vb, vf vc, vf vda,
+                                                                 vf vdb, vf vdc, vf vlo)
+{
+    const vf iota = vf_load(cull_lane_index);
+    int x = x0 & ~(W - 1);
+    if (x < x0) {
+        float *p = pool + ((size_t)slot[x >> 3] << 6) + 8 * r + (x & 7);
+        vf fx = vf_add(vf_set((float)x), iota);
+        vm in = vm_and(vf_ge(fx, vf_set((float)x0)), vf_le(fx, vf_set((float)x1)));
+        vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
+        vf_store(p, vf_max(vf_load(p), vf_select(in, z, vf_set(-FLT_MAX))));
+        x += W;
+    }
+    for (; x + W - 1 <= x1; x += W) {
+        float *p = pool + ((size_t)slot[x >> 3] << 6) + 8 * r + (x & 7);
+        vf fx = vf_add(vf_set((float)x), iota);
+        vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
+        vf_store(p, vf_max(vf_load(p), z));
+    }
+    if (x > x1) return;
+    float *p = pool + ((size_t)slot[x >> 3] << 6) + 8 * r + (x & 7);
+    vf fx = vf_add(vf_set((float)x), iota);
+    vm in = vf_le(fx, vf_set((float)x1));
+    vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
+    vf_store(p, vf_max(vf_load(p), vf_select(in, z, vf_set(-FLT_MAX))));
+}
+
+/* span over the 8 rows of a tile row held tile by tile (cull_occ_fns.spans):
+ * row r over [x0[r], x1[r]] (none where x0[r] > x1[r]) less the columns
+ * [g0, g1] (a tile row's coarse tiles; none where g0 > g1), from a0, b0,
+ * c0 = z0[r], z0[8 + r], z0[16 + r]: the same pixels as span over each
+ * part (one call and one set of broadcasts a tile row) */
+void CULL_OCC_CAT(cull_occ_spans_, CULL_OCC_SUFFIX)(float *restrict pool, const uint32_t *restrict slot,
+                                                     const int *x0, const int *x1, int g0, int g1, const float *z0,
                                                      float da, float db, float dc, float lo)
 {
     const vf vda = vf_set(da), vdb = vf_set(db), vdc = vf_set(dc), vlo = vf_set(lo);
     for (int r = 0; r < 8; r++) {
         int s = x0[r], e = x1[r];
         if (s > e) continue;
-        float *row = row0 + (size_t)r * stride;
         const vf va = vf_set(z0[r]), vb = vf_set(z0[8 + r]), vc = vf_set(z0[16 + r]);
         if (g0 > g1) {
-            occ_span_row(row, s, e, room, va, vb, vc, vda, vdb, vdc, vlo);
+            occ_span_tiles(pool, slot, r, s, e, va, vb, vc, vda, vdb, vdc, vlo);
             continue;
         }
-        if (s < g0) occ_span_row(row, s, e < g0 - 1 ? e : g0 - 1, room, va, vb, vc, vda, vdb, vdc, vlo);
-        if (e > g1) occ_span_row(row, s > g1 + 1 ? s : g1 + 1, e, room, va, vb, vc, vda, vdb, vdc, vlo);
+        if (s < g0) occ_span_tiles(pool, slot, r, s, e < g0 - 1 ? e : g0 - 1, va, vb, vc, vda, vdb, vdc, vlo);
+        if (e > g1) occ_span_tiles(pool, slot, r, s > g1 + 1 ? s : g1 + 1, e, va, vb, vc, vda, vdb, vdc, vlo);
     }
 }
 
@@ -192,21 +223,20 @@ bool CULL_OCC_CAT(cull_occ_any_le_, CULL_OCC_SUFFIX)(const float *restrict row, 
     return vm_bits(vm_and(in, vf_le(vf_loadu(row + x), vz))) != 0;
 }
 
-/* out[t] = min and out_max[t] = max of the 8x8 tile t of the 8 rows from
- * row0, t < ntiles (the max comes with the loads the min makes) */
-void CULL_OCC_CAT(cull_occ_tiles_, CULL_OCC_SUFFIX)(const float *restrict row0, size_t stride, uint32_t ntiles,
-                                                     float *restrict out, float *restrict out_max)
+/* out[t] = min and out_max[t] = max of the 64 pixels at pool + 64 slot[t],
+ * t < ntiles (the max comes with the loads the min makes) */
+void CULL_OCC_CAT(cull_occ_tiles_, CULL_OCC_SUFFIX)(const float *restrict pool, const uint32_t *restrict slot,
+                                                     uint32_t ntiles, float *restrict out, float *restrict out_max)
 {
     for (uint32_t t = 0; t < ntiles; t++) {
-        const float *p = row0 + 8 * t;
-        vf m = vf_loadu(p), M = m;
-        for (uint32_t c = 0; c < 8; c += W)
-#pragma GCC unroll 8
-            for (int r = 0; r < 8; r++) {
-                vf v = vf_loadu(p + c + r * stride);
-                m = vf_min(m, v);
-                M = vf_max(M, v);
-            }
+        const float *p = pool + ((size_t)slot[t] << 6);
+        vf m = vf_load(p), M = m;
+#pragma GCC unroll 16
+        for (uint32_t k = W; k < 64; k += W) {
+            vf v = vf_load(p + k);
+            m = vf_min(m, v);
+            M = vf_max(M, v);
+        }
         out[t] = vf_hmin(m);
         out_max[t] = vf_hmax(M);
     }

@@ -13,6 +13,11 @@
 #include <float.h>
 #include <stdbool.h>
 #include <stdint.h>
+#ifdef __SSE2__
+#include <immintrin.h>
+#endif
+
+#include "cull_occ.h"
 
 #define EMPTY (-FLT_MAX)
 enum { TILE_INVALID = 0, TILE_CLEAN = 1, TILE_DIRTY = 2 }; /* pixels stale / minimum current / written since */
@@ -54,6 +59,35 @@ static inline double dceil(double x)
 static inline double lin4(const double r[4], const double p[3])
 {
     return r[0] * p[0] + r[1] * p[1] + r[2] * p[2] + r[3];
+}
+
+/* Gives tile (tx, ty) of b the slot *next (then one more) and sets its
+ * pixels: EMPTY, and PAD where they are past the buffer's right or top
+ * edge (padding never lowers a minimum). Returns them. Only for a tile
+ * that has no slot in this render (TILE_INVALID): a band's range holds
+ * each of its tiles once. */
+static inline float *occ_tile_take(cull_occ_buffer *b, uint32_t *next, int tx, int ty)
+{
+    uint32_t s = (*next)++;
+    b->tslot[(size_t)ty * b->tw + (size_t)tx] = s;
+    float *p = b->pool + ((size_t)s << 6);
+    int nx = (int)b->w - tx * 8, ny = (int)b->h - ty * 8;
+    if (nx >= 8 && ny >= 8) {
+        /* a whole tile (64-byte aligned: the pool is, a slot is 256 bytes) */
+#ifdef __AVX2__
+        const __m256 e = _mm256_set1_ps(EMPTY);
+        for (int k = 0; k < 64; k += 8) _mm256_store_ps(p + k, e);
+#elif defined(__SSE2__)
+        const __m128 e = _mm_set1_ps(EMPTY);
+        for (int k = 0; k < 64; k += 4) _mm_store_ps(p + k, e);
+#else
+        for (int k = 0; k < 64; k++) p[k] = EMPTY;
+#endif
+        return p;
+    }
+    for (int y = 0; y < 8; y++)
+        for (int x = 0; x < 8; x++) p[8 * y + x] = x < nx && y < ny ? EMPTY : PAD;
+    return p;
 }
 
 #endif

@@ -48,7 +48,7 @@
 #include <immintrin.h>
 #endif
 
-#define MAX_BANDS 64u
+#define MAX_BANDS CULL_OCC_MAX_BANDS
 
 #include "cull_occ_tiles.inl"
 
@@ -94,6 +94,7 @@ typedef struct band {
     int y0, y1;
     int k, nb;
     uint32_t faces, clusters;
+    uint32_t next;          /* the band's next pixel slot (occ_tile_take) */
 } __attribute__((aligned(64))) band; /* one cache line per band: no false sharing */
 
 /* Set-up of one half (a triangle) of a face: the adjugate rows scaled by
@@ -360,15 +361,15 @@ __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void raster
             memset(b->sdirty + (size_t)ty * b->sdpitch + (ft0 >> 3), 1, (size_t)((ft1 >> 3) - (ft0 >> 3) + 1));
         }
         if (ft0 <= ft1) {
-            mark_tiles(b, ty, U0, ft0 * 8 - 1);
-            mark_tiles(b, ty, ft1 * 8 + 8, U1);
+            mark_tiles(b, &bd->next, ty, U0, ft0 * 8 - 1);
+            mark_tiles(b, &bd->next, ty, ft1 * 8 + 8, U1);
         } else {
-            mark_tiles(b, ty, U0, U1);
+            mark_tiles(b, &bd->next, ty, U0, U1);
         }
         /* the rows' spans, left of the coarse tiles and right of them (or
            whole), one kernel call */
-        b->fns.spans(b->depth + (size_t)ty * 8 * b->stride, b->stride, lo, hi, ft0 <= ft1 ? ft0 * 8 : 1,
-                     ft0 <= ft1 ? ft1 * 8 + 7 : 0, z0, (int)b->stride, da[0], da[1], da[2], zlo);
+        b->fns.spans(b->pool, b->tslot + (size_t)ty * b->tw, lo, hi, ft0 <= ft1 ? ft0 * 8 : 1,
+                     ft0 <= ft1 ? ft1 * 8 + 7 : 0, z0, da[0], da[1], da[2], zlo);
     }
 }
 
@@ -616,10 +617,11 @@ static bool band_hidden(const band *bd, const cull_occ_rect *r)
              tx = first_not_above(&tr, tx + 1, x1 >> 3, z)) {
             /* the tile's minimum is not nearer than z: the pixels decide */
             if (tr.st[tx] == TILE_INVALID) return false;
-            int px0 = tx << 3 > x0 ? tx << 3 : x0, px1 = (tx << 3) + 7 < x1 ? (tx << 3) + 7 : x1;
+            int px0 = tx << 3 > x0 ? 0 : x0 & 7, px1 = (tx << 3) + 7 < x1 ? 7 : x1 & 7;
             int py0 = ty << 3 > y0 ? ty << 3 : y0, py1 = (ty << 3) + 7 < y1 ? (ty << 3) + 7 : y1;
+            const float *px = cull_occ_tile_px(b, (size_t)ty * b->tw + (size_t)tx);
             for (int py = py0; py <= py1; py++)
-                if (b->fns.any_le(b->depth + (size_t)py * b->stride, px0, px1, (int)b->stride, z)) return false;
+                if (b->fns.any_le(px + 8 * (py & 7), px0, px1, 8, z)) return false;
         }
     }
     return true;
@@ -684,6 +686,7 @@ static void job_band(void *arg, uint32_t t)
             bd->clusters++;
         }
         band_finish_tiles(bd);
+        b->slot_next[k] = bd->next;
     }
 }
 
@@ -812,7 +815,13 @@ static int render_impl(const cull_world *w, const cull_view *v, cull_occ_buffer 
     uint32_t nb = nt > tile_rows ? tile_rows : nt;
     if (nb > MAX_BANDS) nb = MAX_BANDS;
     render_job j = {.b = b, .nbands = nb};
-    for (uint32_t k = 0; k < nb; k++) j.bands[k] = (band){.b = b, .y0 = 0, .y1 = (int)b->h, .k = (int)k, .nb = (int)nb};
+    /* band k draws tile rows k, k + nb, ...: its slots are a range of
+       that many rows' tiles, after the ranges of bands before it */
+    uint32_t base = 0;
+    for (uint32_t k = 0; k < nb; k++) {
+        j.bands[k] = (band){.b = b, .y0 = 0, .y1 = (int)b->h, .k = (int)k, .nb = (int)nb, .next = base};
+        base += (tile_rows - k + nb - 1) / nb * b->tw;
+    }
     b->threads_used = nb;
     if (nb > 1) cull_pool_run(pool, job_band, &j, nb);
     else job_band(&j, 0);

@@ -32,10 +32,10 @@ static inline bool occ_tile_shows(const cull_occ_buffer *restrict b, int tx, int
     int py0 = ty * 8 > y0 ? ty * 8 : y0, py1 = ty * 8 + 7 < y1 ? ty * 8 + 7 : y1;
     int px0 = tx * 8 > x0 ? 0 : x0 & 7, px1 = tx * 8 + 7 < x1 ? 7 : x1 & 7;
     uint32_t cols = (0xFFu << px0) & (0xFFu >> (7 - px1));
-    /* 32-byte aligned: depth is, rows are multiples of 128 floats apart */
-    const float *row = b->depth + (size_t)py0 * b->stride + (size_t)tx * 8;
+    /* 32-byte aligned: the pool is 64, a tile 256 bytes */
+    const float *row = cull_occ_tile_px(b, i) + 8 * (py0 & 7);
     uint32_t hit = 0;
-    for (int py = py0; py <= py1; py++, row += b->stride)
+    for (int py = py0; py <= py1; py++, row += 8)
         for (int c = 0; c < 8; c += W) hit |= vm_bits(vf_le(vf_load(row + c), vz)) << c;
     return (hit & cols) != 0;
 }

@@ -40,8 +40,7 @@ static inline void tiles_recompute(const trow *r, uint32_t tx0, uint32_t tx1)
     size_t t = r->ty * b->tw;
     float *tile = b->tile + t;
     const float *tile_full = b->tile_full + t;
-    b->fns.tiles(b->depth + r->ty * 8 * b->stride + (size_t)tx0 * 8, b->stride, tx1 - tx0 + 1, tile + tx0,
-                 b->tmax + t + tx0);
+    b->fns.tiles(b->pool, b->tslot + t + tx0, tx1 - tx0 + 1, tile + tx0, b->tmax + t + tx0);
     for (uint32_t tx = tx0; tx <= tx1; tx++) {
         r->st[tx] = TILE_CLEAN;
         r->teff[tx] = tile_full[tx] > tile[tx] ? tile_full[tx] : tile[tx];
@@ -139,55 +138,20 @@ static bool tile_row_hidden(const cull_occ_buffer *b, int ty, int tx0, int tx1, 
     return first_not_above(&r, tx0, tx1, z) > tx1;
 }
 
-/* An invalid tile's pixels hold last frame's values: set the real ones
- * (not the padding) to EMPTY before the first span writes into it. */
-static inline void clear_tile(cull_occ_buffer *b, int tx, int ty)
-{
-    static const float empty8[8] = {EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, EMPTY};
-    int y1 = ty * 8 + 8 < (int)b->h ? ty * 8 + 8 : (int)b->h;
-    uint32_t n = tx * 8 + 8 <= (int)b->w ? 8u : b->w - (uint32_t)tx * 8;
-    float *p = b->depth + (size_t)ty * 8 * b->stride + (size_t)tx * 8;
-#ifdef __AVX2__
-    if (n == 8 && y1 == ty * 8 + 8) {
-        /* a whole tile: 32-byte aligned rows (the depth plane is 64-byte
-           aligned, its pitch a multiple of 128 floats); a row a store */
-        const __m256 e = _mm256_set1_ps(EMPTY);
-#pragma GCC unroll 8
-        for (int y = 0; y < 8; y++, p += b->stride) _mm256_store_ps(p, e);
-        return;
-    }
-#elif defined(__SSE2__)
-    if (n == 8 && y1 == ty * 8 + 8) {
-        /* a whole tile: 32-byte aligned rows (the depth plane is 64-byte
-           aligned, its pitch a multiple of 128 floats) */
-        const __m128 e = _mm_set1_ps(EMPTY);
-#pragma GCC unroll 8
-        for (int y = 0; y < 8; y++, p += b->stride) {
-            _mm_store_ps(p, e);
-            _mm_store_ps(p + 4, e);
-        }
-        return;
-    }
-#endif
-    if (n == 8)
-        for (int y = ty * 8; y < y1; y++, p += b->stride) memcpy(p, empty8, sizeof empty8);
-    else
-        for (int y = ty * 8; y < y1; y++, p += b->stride) memcpy(p, empty8, n * sizeof *p);
-}
-
 /* Pixels [x0, x1] (may be empty) of some rows of tile row ty are about to
- * be written: their tiles made valid and marked dirty, their strips
- * marked. Done once a tile row for the union of its rows' spans (a tile
- * in the union that no span reaches is only made valid: its pixels, EMPTY
- * or as they were, give the same minimum). (The flag loops cover one or
- * two entries: kept as loops, not turned into memset calls.) */
+ * be written: their tiles made valid (an invalid one gets the band's next
+ * slot, *next, its pixels EMPTY) and marked dirty, their strips marked.
+ * Done once a tile row for the union of its rows' spans (a tile in the
+ * union that no span reaches is only made valid: its pixels, EMPTY or as
+ * they were, give the same minimum). (The flag loops cover one or two
+ * entries: kept as loops, not turned into memset calls.) */
 __attribute__((optimize("no-tree-loop-distribute-patterns"), always_inline)) static inline void mark_tiles(
-    cull_occ_buffer *b, int ty, int x0, int x1)
+    cull_occ_buffer *b, uint32_t *next, int ty, int x0, int x1)
 {
     if (x0 > x1) return;
     uint8_t *st = b->tstate + (size_t)ty * b->tpitch;
     for (int tx = x0 >> 3; tx <= x1 >> 3; tx++) {
-        if (st[tx] == TILE_INVALID) clear_tile(b, tx, ty);
+        if (st[tx] == TILE_INVALID) (void)occ_tile_take(b, next, tx, ty);
         st[tx] = TILE_DIRTY;
     }
     uint8_t *sd = b->sdirty + (size_t)ty * b->sdpitch;

@@ -1302,6 +1302,15 @@ static void test_occ_buffer_reuse(void **state)
 
 /* ---- the per-ISA rectangle test against the scalar one -------------------------- */
 
+/* Pixel (px, py) of b, or its tile's teff where the tile has no pixels
+ * (TILE_INVALID: the render has not written it). */
+static float pixel_or_teff(const cull_occ_buffer *b, int px, int py)
+{
+    size_t t = (size_t)(py >> 3) * b->tw + (size_t)(px >> 3);
+    if (b->tstate[(size_t)(py >> 3) * b->tpitch + (size_t)(px >> 3)] == OCC_TILE_INVALID) return b->teff[t];
+    return cull_occ_tile_px(b, t)[8 * (py & 7) + (px & 7)];
+}
+
 /* A nearness to test at: mostly one of the buffer's own values near the
  * rectangle (a pixel, a tile's teff or vkey, a big tile's or a strip's
  * minimum), exactly or one float step either side; else extremes. */
@@ -1311,7 +1320,7 @@ static float pick_z(rng *r, const cull_occ_buffer *b, int x0, int y0, int x1, in
     size_t t = (size_t)(py >> 3) * b->tw + (size_t)(px >> 3);
     float z;
     switch (rng_below(r, 9)) {
-    case 0: z = b->depth[(size_t)py * b->stride + (size_t)px]; break;
+    case 0: z = pixel_or_teff(b, px, py); break;
     case 1: z = b->teff[t]; break;
     case 2: z = b->vkey[t]; break;
     case 3: z = b->tile2[(size_t)(py >> 6) * b->t2w + (size_t)(px >> 6)]; break;
@@ -1322,7 +1331,7 @@ static float pick_z(rng *r, const cull_occ_buffer *b, int x0, int y0, int x1, in
         return ext[rng_below(r, 8)];
     }
     case 7: return (float)rng_range(r, -1, 1) * (float)rng_log(r, 1e-6, 1e6);
-    default: z = b->depth[(size_t)py * b->stride + (size_t)px]; break;
+    default: z = pixel_or_teff(b, px, py); break;
     }
     uint32_t s = rng_below(r, 3);
     return s == 0 ? z : nextafterf(z, s == 1 ? INFINITY : -INFINITY);
@@ -1376,31 +1385,49 @@ static float pick_bound(rng *r, uint32_t n)
  * nearness at the buffer's own values and one float step either side, and
  * extremes (+-FLT_MAX, +-inf, 0). */
 /* Every ISA's tile-row span kernel (cull_occ_spans) writes exactly what
- * the same ISA's span does over each part of each row: random rows of a
- * tile row (empty, single pixels, whole rows, ends at the row's room), a
- * gap (a tile row's coarse tiles) or none, random planes, floors and prior
- * contents, the whole rows compared bit for bit (padding past the spans
- * included). */
+ * the same ISA's span does over each part of each row of a row-major
+ * model: the tile row's 17 tiles held at random slots of a larger pool
+ * (the other slots must stay as they were); random rows (empty, single
+ * pixels, whole rows, ends at tile edges and inside tiles), a gap (a tile
+ * row's coarse tiles) or none, random planes, floors and prior contents,
+ * compared bit for bit. */
 static void test_occ_spans_match_span(void **state)
 {
     (void)state;
     rng r = {0x5ba45ull};
-    enum { ROOM = 136, STRIDE = 144 };
-    float *a = malloc(sizeof(float) * 8 * STRIDE), *b = malloc(sizeof(float) * 8 * STRIDE);
-    assert_non_null(a);
-    assert_non_null(b);
-    float *init = malloc(sizeof(float) * 8 * STRIDE);
+    enum { NT = 17, ROOM = 8 * NT, STRIDE = 144, NSLOT = 24 };
+    float *want = malloc(sizeof(float) * 8 * STRIDE), *init = malloc(sizeof(float) * 8 * STRIDE);
+    float *pool = aligned_alloc(64, sizeof(float) * 64 * NSLOT), *pinit = malloc(sizeof(float) * 64 * NSLOT);
+    assert_non_null(want);
     assert_non_null(init);
+    assert_non_null(pool);
+    assert_non_null(pinit);
     int cases = (int)(3000 * test_scale());
     for (int t = 0; t < cases; t++) {
         int x0[8], x1[8];
         float z0[24];
         for (int i = 0; i < 8 * STRIDE; i++) init[i] = rng_below(&r, 4) ? (float)rng_range(&r, -2, 2) : -FLT_MAX;
+        /* tile k of the row at slot[k]: a random choice of distinct slots */
+        uint32_t slot[NT], perm[NSLOT];
+        for (uint32_t i = 0; i < NSLOT; i++) perm[i] = i;
+        for (uint32_t i = NSLOT - 1; i > 0; i--) {
+            uint32_t j = rng_below(&r, i + 1), x = perm[i];
+            perm[i] = perm[j];
+            perm[j] = x;
+        }
+        memcpy(slot, perm, sizeof slot);
+        for (int i = 0; i < 64 * NSLOT; i++) pinit[i] = (float)rng_range(&r, -3, 3);
+        for (int k = 0; k < NT; k++)
+            for (int y = 0; y < 8; y++) memcpy(pinit + 64 * slot[k] + 8 * y, init + y * STRIDE + 8 * k, 8 * sizeof(float));
         for (int k = 0; k < 8; k++) {
-            switch (rng_below(&r, 5)) {
+            switch (rng_below(&r, 6)) {
             case 0: x0[k] = 5, x1[k] = 4; break; /* empty */
             case 1: x0[k] = x1[k] = (int)rng_below(&r, ROOM); break;
             case 2: x0[k] = 0, x1[k] = ROOM - 1; break;
+            case 3: /* tile edges */
+                x0[k] = 8 * (int)rng_below(&r, NT);
+                x1[k] = x0[k] + 8 * (int)rng_below(&r, (uint32_t)(ROOM - x0[k]) / 8) + 7;
+                break;
             default:
                 x0[k] = (int)rng_below(&r, ROOM);
                 x1[k] = x0[k] + (int)rng_below(&r, (uint32_t)(ROOM - x0[k]));
@@ -1419,24 +1446,31 @@ static void test_occ_spans_match_span(void **state)
         for (uint32_t isa = 0; isa < CULL_ISA_COUNT; isa++) {
             if (!cull_isa_supported(isa)) continue;
             cull_occ_fns fns = cull_occ_fns_for(isa);
-            memcpy(a, init, sizeof(float) * 8 * STRIDE);
-            memcpy(b, init, sizeof(float) * 8 * STRIDE);
-            fns.spans(a, STRIDE, x0, x1, g0, g1, z0, ROOM, d[0], d[1], d[2], lo);
+            memcpy(pool, pinit, sizeof(float) * 64 * NSLOT);
+            memcpy(want, init, sizeof(float) * 8 * STRIDE);
+            fns.spans(pool, slot, x0, x1, g0, g1, z0, d[0], d[1], d[2], lo);
             for (int k = 0; k < 8; k++)
                 for (int x = x0[k]; x <= x1[k]; x++) {
                     if (x >= g0 && x <= g1) continue;
                     int e = x; /* the run of pixels outside the gap from x */
                     while (e + 1 <= x1[k] && !(e + 1 >= g0 && e + 1 <= g1)) e++;
-                    fns.span(b + (size_t)k * STRIDE, x, e, ROOM, z0[k], d[0], z0[8 + k], d[1], z0[16 + k], d[2],
+                    fns.span(want + (size_t)k * STRIDE, x, e, ROOM, z0[k], d[0], z0[8 + k], d[1], z0[16 + k], d[2],
                              lo);
                     x = e;
                 }
-            if (memcmp(a, b, sizeof(float) * 8 * STRIDE)) fail_msg("case %d, ISA %u: spans and span differ", t, isa);
+            for (int k = 0; k < NT; k++)
+                for (int y = 0; y < 8; y++)
+                    if (memcmp(pool + 64 * slot[k] + 8 * y, want + y * STRIDE + 8 * k, 8 * sizeof(float)))
+                        fail_msg("case %d, ISA %u: spans and span differ (tile %d, row %d)", t, isa, k, y);
+            for (int k = NT; k < NSLOT; k++)
+                if (memcmp(pool + 64 * perm[k], pinit + 64 * perm[k], 64 * sizeof(float)))
+                    fail_msg("case %d, ISA %u: spans wrote slot %u, no tile's", t, isa, perm[k]);
         }
     }
+    free(pinit);
+    free(pool);
     free(init);
-    free(a);
-    free(b);
+    free(want);
 }
 
 /* A tile row's rows set-up (cull_occ_fns.rows): the reference against a
@@ -1708,7 +1742,6 @@ static void test_occ_avx2_build_same_bits(void **state)
             assert_int_equal(a->drawn, g->drawn);
             size_t rows = (a->h + 7) / 8, nt = rows * a->tw;
             struct { const void *x, *y; size_t n; const char *what; } arr[] = {
-                {a->depth, g->depth, (size_t)a->stride * a->hp * sizeof(float), "pixels"},
                 {a->tile, g->tile, nt * sizeof(float), "tile minima"},
                 {a->tile_full, g->tile_full, nt * sizeof(float), "coarse values"},
                 {a->teff, g->teff, nt * sizeof(float), "effective minima"},
@@ -1722,6 +1755,13 @@ static void test_occ_avx2_build_same_bits(void **state)
                 if (memcmp(arr[k].x, arr[k].y, arr[k].n))
                     fail_msg("scene %d view %d (%ux%u, cover %d, %u threads): the %s differ", sc, v, sz[0], sz[1],
                              cover, threads, arr[k].what);
+            /* the pixels of every tile the renders wrote (the states are
+               the same), wherever each put them */
+            for (size_t t = 0; t < nt; t++)
+                if (a->tstate[t / a->tw * a->tpitch + t % a->tw] != OCC_TILE_INVALID &&
+                    memcmp(cull_occ_tile_px(a, t), cull_occ_tile_px(g, t), 64 * sizeof(float)))
+                    fail_msg("scene %d view %d (%ux%u, cover %d, %u threads): tile %zu's pixels differ", sc, v,
+                             sz[0], sz[1], cover, threads, t);
             compared++;
         }
         cull_occ_buffer_destroy(a);
