@@ -662,6 +662,13 @@ static void job_band(void *arg, uint32_t t)
            covered whole by a coarse value) */
         for (int ty = bd->k; ty < (bd->y1 + 7) >> 3; ty += bd->nb) {
             b->fns.fill(b->tile_full + (size_t)ty * b->tw, b->tw, EMPTY);
+            /* the pixels' minima and the slots too, though only valid tiles'
+               are read: written here in one pass, rows in order, their
+               lines stream in; written as spans reach tiles, a render after
+               other work waited on them a line at a time (raised walk at
+               1280x720: cold ~35 us less) */
+            b->fns.fill(b->tile + (size_t)ty * b->tw, b->tw, EMPTY);
+            memset(b->tslot + (size_t)ty * b->tw, 0, b->tw * sizeof *b->tslot);
             b->fns.fill(b->teff + (size_t)ty * b->tw, b->tw, EMPTY);
             b->fns.fill(b->tmax + (size_t)ty * b->tw, b->tw, EMPTY); /* invalid tiles: see cull_occ_vkey_row */
             /* tiles past the right edge hold padding: they never lower a
