@@ -682,10 +682,22 @@ int cull_query(const cull_world *w, cull_ctx *c, const cull_query_desc *q,
                 if (rv[a].np) c->cells(&region->soa, region->ncells, rv[a].pl, rv[a].np, ccodes + a * cstride);
                 else memset(ccodes + a * cstride, 0, region->ncells); /* region inside every plane */
             }
-            for (uint32_t ci = 0; ci < region->ncells && ci < CELL_PREFETCH_AHEAD; ci++) prefetch_cell(region->cells[ci]);
+            /* the cells some view's frustum reaches, found from the codes
+               alone: a cell out of every view is not read (with a
+               sub-level filter every cell is, to count the ones it drops
+               as filtered, as before) */
+            uint16_t live[CULL_REGION_CELLS * CULL_REGION_CELLS * CULL_REGION_CELLS];
+            uint32_t nlive = 0;
             for (uint32_t ci = 0; ci < region->ncells; ci++) {
-                const cull_cell *cell = region->cells[ci];
-                if (ci + CELL_PREFETCH_AHEAD < region->ncells) prefetch_cell(region->cells[ci + CELL_PREFETCH_AHEAD]);
+                uint32_t in = 0;
+                for (uint32_t a = 0; a < nrv; a++) in |= ~ccodes[a * cstride + ci] & 0x80u;
+                if (in || subs) live[nlive++] = (uint16_t)ci;
+                else cells_culled++;
+            }
+            for (uint32_t li = 0; li < nlive && li < CELL_PREFETCH_AHEAD; li++) prefetch_cell(region->cells[live[li]]);
+            for (uint32_t li = 0; li < nlive; li++) {
+                const cull_cell *cell = region->cells[live[li]];
+                if (li + CELL_PREFETCH_AHEAD < nlive) prefetch_cell(region->cells[live[li + CELL_PREFETCH_AHEAD]]);
                 if (subs && !(cell->subs & subs_fold)) {
                     cells_filtered++;
                     continue;
