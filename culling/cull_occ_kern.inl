@@ -50,25 +50,26 @@ static inline __attribute__((always_inline)) void occ_span_tiles(float *restrict
                                                                  int r, int x0, int x1, vf va, vf vb, vf vc, vf vda,
                                                                  vf vdb, vf vdc, vf vlo)
 {
-    const vf iota = vf_load(cull_lane_index);
+    const vf iota = vf_load(cull_lane_index), step = vf_set((float)W);
+    float *const row = pool + 8 * r;
     int x = x0 & ~(W - 1);
+    vf fx = vf_add(vf_set((float)x), iota); /* (the steps add whole numbers exactly) */
     if (x < x0) {
-        float *p = pool + ((size_t)slot[x >> 3] << 6) + 8 * r + (x & 7);
-        vf fx = vf_add(vf_set((float)x), iota);
+        float *p = row + ((size_t)slot[x >> 3] << 6) + (W < 8 ? (x & 7) : 0);
         vm in = vm_and(vf_ge(fx, vf_set((float)x0)), vf_le(fx, vf_set((float)x1)));
         vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
         vf_store(p, vf_max(vf_load(p), vf_select(in, z, vf_set(-FLT_MAX))));
         x += W;
+        fx = vf_add(fx, step);
     }
     for (; x + W - 1 <= x1; x += W) {
-        float *p = pool + ((size_t)slot[x >> 3] << 6) + 8 * r + (x & 7);
-        vf fx = vf_add(vf_set((float)x), iota);
+        float *p = row + ((size_t)slot[x >> 3] << 6) + (W < 8 ? (x & 7) : 0);
         vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
         vf_store(p, vf_max(vf_load(p), z));
+        fx = vf_add(fx, step);
     }
     if (x > x1) return;
-    float *p = pool + ((size_t)slot[x >> 3] << 6) + 8 * r + (x & 7);
-    vf fx = vf_add(vf_set((float)x), iota);
+    float *p = row + ((size_t)slot[x >> 3] << 6) + (W < 8 ? (x & 7) : 0);
     vm in = vf_le(fx, vf_set((float)x1));
     vf z = vf_max(vf_min(vf_min(vf_fma(vda, fx, va), vf_fma(vdb, fx, vb)), vf_fma(vdc, fx, vc)), vlo);
     vf_store(p, vf_max(vf_load(p), vf_select(in, z, vf_set(-FLT_MAX))));
