@@ -44,9 +44,10 @@ int cull_occ_buffer_create(uint32_t width, uint32_t height, cull_occ_buffer **ou
     b->t2w = b->stride / 64;
     b->t2h = b->hp / 64;
     /* a slot for every tile of the real tile rows (those above, all
-       padding, are never drawn or read) */
+       padding, are never drawn or read), and OCC_SLOT_AHEAD more that only
+       prefetches reach */
     const uint32_t rows = (b->h + 7) / 8;
-    b->pool = aligned_alloc(64, (size_t)rows * b->tw * 64 * sizeof(float));
+    b->pool = aligned_alloc(64, ((size_t)rows * b->tw + OCC_SLOT_AHEAD) * 64 * sizeof(float));
     b->tslot = calloc((size_t)b->tw * b->th, sizeof *b->tslot);
     b->tile = aligned_alloc(64, (size_t)b->tw * b->th * sizeof(float)); /* tw * 4 bytes = 64 k */
     b->tile2 = malloc((size_t)b->t2w * b->t2h * sizeof(float));

@@ -61,6 +61,8 @@ static inline double lin4(const double r[4], const double p[3])
     return r[0] * p[0] + r[1] * p[1] + r[2] * p[2] + r[3];
 }
 
+#define OCC_SLOT_AHEAD 4u
+
 /* Gives tile (tx, ty) of b the slot *next (then one more) and sets its
  * pixels: EMPTY, and PAD where they are past the buffer's right or top
  * edge (padding never lowers a minimum). Returns them. Only for a tile
@@ -71,6 +73,15 @@ static inline float *occ_tile_take(cull_occ_buffer *b, uint32_t *next, int tx, i
     uint32_t s = (*next)++;
     b->tslot[(size_t)ty * b->tw + (size_t)tx] = s;
     float *p = b->pool + ((size_t)s << 6);
+    /* the slot OCC_SLOT_AHEAD on, for writing (the pool has that many
+       spare at its end): after other work the slots arrive before spans
+       reach them (raised walk, 1280x720, cold: median 259 -> 251 us over
+       6 alternations) */
+    const char *q = (const char *)(p + ((size_t)OCC_SLOT_AHEAD << 6));
+    __builtin_prefetch(q, 1, 3);
+    __builtin_prefetch(q + 64, 1, 3);
+    __builtin_prefetch(q + 128, 1, 3);
+    __builtin_prefetch(q + 192, 1, 3);
     int nx = (int)b->w - tx * 8, ny = (int)b->h - ty * 8;
     if (nx >= 8 && ny >= 8) {
         /* a whole tile (64-byte aligned: the pool is, a slot is 256 bytes) */
