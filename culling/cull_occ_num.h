@@ -2,8 +2,9 @@
  * cull_occ_num.h — what cull_occ.c (buffers, projection, rectangle tests)
  * and cull_occ_raster.inl (rasterisation) share inside the occlusion
  * buffer: the pixel values that mean "no occluder" and "padding", the
- * tiles' states, and the inlined double helpers whose NaN and overflow
- * rules the conservative bounds rely on. Private to those two files
+ * tiles' states, a tile's taking of its pixels' slot in the pool, and the
+ * inlined double helpers whose NaN and overflow rules the conservative
+ * bounds rely on. Private to those two files
  * (cull_occ.h is the layout the query and the ISA loops see; these names
  * are too short to share with them).
  */
