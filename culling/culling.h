@@ -540,7 +540,9 @@ int cull_occ_buffer_empty(const cull_occ_buffer *b);
 /* The stored nearness per pixel (see above; -FLT_MAX where no occluder
  * covers the pixel), row 0 at the bottom of the view, `stride` floats
  * apart. Folds the buffer's coarse per-tile values into its pixels first
- * (a pass over the buffer): for inspection and dumps, not per query. */
+ * and copies them out (the buffer holds its pixels tile by tile) to a
+ * plane it keeps until the next call or render: for inspection and dumps,
+ * not per query. NULL if that plane cannot be allocated. */
 const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride);
 
 
