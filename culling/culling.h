@@ -541,8 +541,9 @@ int cull_occ_buffer_empty(const cull_occ_buffer *b);
  * covers the pixel), row 0 at the bottom of the view, `stride` floats
  * apart. Folds the buffer's coarse per-tile values into its pixels first
  * and copies them out (the buffer holds its pixels tile by tile) to a
- * plane it keeps until the next call or render: for inspection and dumps,
- * not per query. NULL if that plane cannot be allocated. */
+ * plane it keeps (rewritten by the next call; a render leaves it as it
+ * was): for inspection and dumps, not per query. NULL if that plane
+ * cannot be allocated. */
 const float *cull_occ_depth(cull_occ_buffer *b, uint32_t *width, uint32_t *height, size_t *stride);
 
 
