@@ -556,6 +556,7 @@ static void test_adversarial_views_never_false_culled(void **state)
         uint32_t ww, hh;
         size_t stride;
         const float *z = cull_occ_depth(b, &ww, &hh, &stride);
+        assert_non_null(z);
         for (uint32_t y = 0; y < hh; y++)
             for (size_t x = 0; x < stride; x++) {
                 float f = z[y * stride + x];

@@ -399,6 +399,10 @@ static int run_walk(int k, const walk_scene *ws, const cull_view *walk, cull_poo
                         size_t stride;
                         cull_occ_render(w, &walk[f], buf, pool, 1, NULL);
                         const float *dep = cull_occ_depth(buf, &W, &H, &stride);
+                        if (!dep) {
+                            fprintf(stderr, "bench_occlusion: --exr: no memory for the buffer's copy\n");
+                            return 1;
+                        }
                         float *img = malloc(sizeof(float) * W * H);
                         if (!img) return 1;
                         for (uint32_t y = 0; y < H; y++)
