@@ -123,7 +123,8 @@ CLI_BIN  := $(BUILD)/vantage
 # --libs OpenEXR` would also link the five C++ libraries
 # (listed, not globbed: modules join the build when they are integrated)
 # the image files of vt_image.h: tone mapping, the encoders' sink, PNG, JPEG
-IMAGE_SRC := render/vt_tonemap.c render/vt_tonemap_avx2.c render/vt_lut.c render/vt_sink.c render/vt_png.c render/vt_jpeg.c
+IMAGE_SRC := render/vt_tonemap.c render/vt_tonemap_avx2.c render/vt_lut.c render/vt_sink.c render/vt_png.c render/vt_jpeg.c \
+             render/vt_resize.c
 IMAGE_OBJ := $(IMAGE_SRC:%.c=$(BUILD)/%.o)
 RENDER_SRC:= render/vt_exr.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_texlin.c render/vt_span.c render/vt_shadow.c render/vt_shadow_tiles.c render/vt_shadow_sse41.c render/vt_shadow_avx2.c render/vt_ssao.c render/vt_ssao_base.c render/vt_ssao_sse41.c render/vt_ssao_avx2.c render/vt_ssao_avx2_evex.c render/vt_post.c render/vt_post_avx2.c render/vt_overlay.c render/vt_soft.c render/vt_raster.c render/vt_shade_base.c render/vt_shade_sse41.c \
             render/vt_shade_avx2.c render/vt_shade_avx2_evex.c render/vt_brdf.c render/vt_brdf_glsl.c $(IMAGE_SRC) render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c \

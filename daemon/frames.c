@@ -379,6 +379,30 @@ static int render_check(const server *s, const vp_render *m, cull_view *v, char 
     return VP_OK;
 }
 
+/* Dynamic resolution (VP_RENDER_MOTION): the smallest and the first scale
+ * of a moving stream's sides, and how far one frame's measure may move it */
+#define MOTION_MIN_SCALE 0.25f
+#define MOTION_FIRST_SCALE 0.5f
+#define MOTION_STEP 1.3f
+/* a stream drawn smaller while it moved gets its full-size frame once the
+   view has rested this long (no re-aim) */
+#define MOTION_SETTLE_NS 100000000ull
+
+/* m's view (W x H, checked) drawn at scale of each side (at least 16
+ * pixels): *dv, or false when that is not smaller. */
+static bool scaled_view(const vp_render *m, uint32_t W, uint32_t H, float scale, cull_view *dv)
+{
+    vp_view sv = m->view;
+    uint32_t w = (uint32_t)lrintf((float)W * scale), h = (uint32_t)lrintf((float)H * scale);
+    if (w < 16) w = 16;
+    if (h < 16) h = 16;
+    if (w >= W || h >= H) return false;
+    sv.viewport_w = (uint16_t)w;
+    sv.viewport_h = (uint16_t)h;
+    char msg[64];
+    return view_from(&sv, UINT32_MAX, dv, msg, sizeof msg) == VP_OK;
+}
+
 /* Fills j->reply with FRAME or ERROR for the render request m. The caller
  * holds scene_lock shared. */
 static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
@@ -390,15 +414,23 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     frame_in fi = {0};
     float *rgba = NULL, *depth = NULL;
     uint8_t *jpeg = NULL, *rgb8 = NULL, *raw = NULL; /* raw: the reply, drawn into in place */
+    uint8_t *small8 = NULL;                         /* a frame drawn smaller, tone-mapped */
     size_t jpeg_len = 0;
     int renderer = m->renderer ? m->renderer : s->cfg.renderer;
     j->epoch = sc->epoch;
     cull_view v;
     if ((code = render_check(s, m, &v, msg, sizeof msg))) goto done;
-    uint32_t W = v.viewport_w, H = v.viewport_h;
-    size_t np = (size_t)W * H;
+    const uint32_t W = v.viewport_w, H = v.viewport_h; /* the frame's size */
+    /* dynamic resolution: a moving stream's frame drawn smaller (dv) and
+       scaled up to W x H after its tone map; RAW frames never */
+    cull_view dv = v;
+    if (j->scale > 0 && j->scale < 1 && m->format != VP_FRAME_RAW && !scaled_view(m, W, H, j->scale, &dv)) dv = v;
+    const bool scaled = dv.viewport_w != W || dv.viewport_h != H;
+    const uint32_t RW = dv.viewport_w, RH = dv.viewport_h; /* the size drawn */
+    j->scaled = scaled;
+    size_t np = (size_t)RW * RH;
     if (renderer == VP_RENDERER_SOFT && !worker_soft(wk)) goto nomem;
-    if ((code = gather(sc, wk, &v, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto done;
+    if ((code = gather(sc, wk, &dv, (m->flags & VP_RENDER_NO_OCCLUSION) != 0, &fi, msg, sizeof msg))) goto done;
     /* VP_RENDER_NO_SHADOWS .. NO_FXAA are VT_FX_SHADOWS .. FXAA one bit up */
     _Static_assert(VP_RENDER_NO_SHADOWS >> 1 == VT_FX_SHADOWS && VP_RENDER_NO_SSAO >> 1 == VT_FX_SSAO &&
                        VP_RENDER_NO_IBL >> 1 == VT_FX_IBL && VP_RENDER_NO_FXAA >> 1 == VT_FX_FXAA,
@@ -421,7 +453,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     char err[256];
     int rc;
     if (renderer == VP_RENDERER_GL) {
-        vt_frame gf = frame_of(&v, &fi, rgba, depth);
+        vt_frame gf = frame_of(&dv, &fi, rgba, depth);
         pthread_mutex_lock(&s->gl_mu);
         if (gl_open_locked(s)) {
             code = VP_ERR_UNSUPPORTED;
@@ -434,7 +466,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         vt_gl_release(s->gl);
         pthread_mutex_unlock(&s->gl_mu);
         if (code) goto done;
-    } else if ((code = soft_draw(wk, &v, &fi, rgba, depth, msg, sizeof msg))) {
+    } else if ((code = soft_draw(wk, &dv, &fi, rgba, depth, msg, sizeof msg))) {
         goto done;
     }
     j->adapt_ev = ad.ev;
@@ -452,14 +484,27 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     vt_tonemap_desc td = {.exposure_ev = m->exposure_ev, .op = VT_TONEMAP_ACES, .lut = s->cfg.lut};
     uint32_t bands = wk->pool ? 2 * cull_pool_threads(wk->pool) : 1;
     if (m->format != VP_FRAME_RAW && !(rgb8 = malloc(vt_image_rgba8_size(W, H)))) goto nomem;
+    if (scaled) {
+        /* tone-mapped at the size drawn, then scaled up into rgb8 */
+        if (!(small8 = malloc(vt_image_rgba8_size(RW, RH)))) goto nomem;
+        if ((rc = vt_tonemap_frame(RW, RH, rgba, RW, &td, small8, bands, wk->pool ? pool_run : NULL, wk->pool)) ||
+            (rc = vt_image_resize_rgba8(RW, RH, small8, 4 * (size_t)RW, W, H, rgb8, 4 * (size_t)W, bands,
+                                        wk->pool ? pool_run : NULL, wk->pool))) {
+            code = vp_code_from_vt(rc);
+            snprintf(msg, sizeof msg, "%s", rc == VT_ERR_NOMEM ? "" : "scaling a frame up failed");
+            goto done;
+        }
+    }
     if (m->format == VP_FRAME_H264) {
         /* then the stream's encoder (video.h): a RENDER's is its own, freed with the job */
         const uint8_t *au;
         size_t au_len;
         bool key = false;
-        if ((rc = vt_tonemap_frame(W, H, rgba, W, &td, rgb8, bands, wk->pool ? pool_run : NULL, wk->pool)) ||
-            (rc = video_encode(&j->venc, W, H, m, j->stream ? j->fps : 30, j->vkey || !j->stream, rgb8, &au,
-                               &au_len, &key, err, sizeof err))) {
+        uint32_t vthreads = j->video_threads ? j->video_threads : 1, most = wk->pool ? cull_pool_threads(wk->pool) : 1;
+        if (vthreads > most) vthreads = most;
+        if ((!scaled && (rc = vt_tonemap_frame(W, H, rgba, W, &td, rgb8, bands, wk->pool ? pool_run : NULL, wk->pool))) ||
+            (rc = video_encode(&j->venc, W, H, m, j->stream ? j->fps : 30, j->vkey || !j->stream, vthreads, rgb8,
+                               &au, &au_len, &key, err, sizeof err))) {
             code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "h264: %s", err);
             goto done;
@@ -468,9 +513,14 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         f.data_len = (uint32_t)au_len;
         f.key = key;
     } else if (m->format == VP_FRAME_JPEG) {
-        /* each band tone-maps the rows it then encodes (vt_jpeg_encode_frame) */
-        if ((rc = vt_jpeg_encode_frame(W, H, rgba, W, &td, rgb8, m->quality, bands, wk->pool ? pool_run : NULL,
-                                       wk->pool, &jpeg, &jpeg_len, err, sizeof err))) {
+        /* each band tone-maps the rows it then encodes (vt_jpeg_encode_frame);
+           a frame drawn smaller is in rgb8 already */
+        vt_jpeg_par par = {.bands = bands, .run = wk->pool ? pool_run : NULL, .run_ctx = wk->pool};
+        if (scaled ? (rc = vt_jpeg_encode_par(W, H, rgb8, 4 * (size_t)W, 4, m->quality, &par, &jpeg, &jpeg_len, err,
+                                              sizeof err))
+                   : (rc = vt_jpeg_encode_frame(W, H, rgba, W, &td, rgb8, m->quality, bands,
+                                                wk->pool ? pool_run : NULL, wk->pool, &jpeg, &jpeg_len, err,
+                                                sizeof err))) {
             code = vp_code_from_vt(rc);
             snprintf(msg, sizeof msg, "jpeg: %s", err);
             goto done;
@@ -506,6 +556,7 @@ done:
         free(depth);
     }
     free(rgb8);
+    free(small8);
     free(jpeg);
     free(raw);
 }
@@ -637,6 +688,14 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
        so max_fps bound only cameras that held still) */
     if (f->active && f->next_ns) f->next_ns = f->next_ns - 1000000000ull / f->m.max_fps + 1000000000ull / m.max_fps;
     else f->next_ns = 0; /* a new stream: its first frame at once */
+    /* dynamic resolution: a re-aim of the same stream soon after the last
+       one is a camera moving; its frame may be drawn smaller */
+    uint64_t now = now_ns();
+    f->moving = same && (m.r.flags & VP_RENDER_MOTION) && s->cfg.motion_ms && f->aim_ns &&
+                now - f->aim_ns < VP_MOTION_WINDOW_MS * 1000000ull;
+    f->aim_ns = now;
+    if (!same || !(m.r.flags & VP_RENDER_MOTION)) f->refine = false;
+    if (!same) f->mscale = MOTION_FIRST_SCALE;
     if (!f->active) s->nsubs++;
     f->active = true;
     f->aims++;
@@ -661,6 +720,8 @@ static void sub_end(server *s, conn *c)
     c->fsub.gen++;
     c->fsub.held_ns = 0;
     c->fsub.adapt_valid = false; /* a new stream's first frame is exposed directly */
+    c->fsub.aim_ns = 0;
+    c->fsub.moving = c->fsub.refine = false;
 }
 
 void on_frame_unsubscribe(server *s, conn *c, const vp_header *h, const uint8_t *p)
@@ -702,8 +763,15 @@ int frames_schedule(server *s)
         conn *c = s->live[i];
         frame_sub *f = &c->fsub;
         if (!f->active || f->inflight || c->closing) continue;
-        if (!f->dirty && f->shown_epoch == s->sc->epoch && f->shown_marks == s->marks.gen)
-            continue; /* nothing new to show */
+        if (!f->dirty && f->shown_epoch == s->sc->epoch && f->shown_marks == s->marks.gen) {
+            if (!f->refine) continue; /* nothing new to show */
+            /* the last frame was drawn smaller while the view moved: the
+               full-size one once it has rested */
+            if (now - f->aim_ns < MOTION_SETTLE_NS) {
+                if (f->aim_ns + MOTION_SETTLE_NS < wake) wake = f->aim_ns + MOTION_SETTLE_NS;
+                continue;
+            }
+        }
         if (c->out_bytes || (c->ws && !web_ws_idle(c))) { /* the last frame is still leaving: it wins */
             frame_held(s, f, now);
             continue;
@@ -738,7 +806,11 @@ int frames_schedule(server *s)
                    .gen = f->gen, .view_seq = f->m.view_seq, .stream_req = f->m.r, .start_ns = now,
                    .adapt_ev = f->adapt_ev, .adapt_valid = f->adapt_valid,
                    .adapt_dt = f->adapt_valid ? (float)((double)(now - f->adapt_ns) * 1e-9) : 0,
-                   .venc = f->venc, .vkey = f->vkey, .fps = f->m.max_fps};
+                   .venc = f->venc, .vkey = f->vkey, .fps = f->m.max_fps,
+                   /* a moving view's frame at the stream's scale (the worker draws
+                      full size when that is not smaller); x264's threads: two
+                      for a stream alone */
+                   .scale = f->dirty && f->moving ? f->mscale : 0, .video_threads = s->nvideo <= 1 ? 2 : 1};
         f->venc = NULL; /* the worker's until the job is back */
         f->vkey = false;
         f->inflight = true;
@@ -777,6 +849,28 @@ void frames_job_free(job *j)
     j->venc = NULL;
 }
 
+/* A moving view's frame (j->scale > 0) is out: the next one's scale from
+ * its render time against the budget (--motion-ms). Render time is about
+ * a fixed part plus one in proportion to the pixels, so the sides go by
+ * the square root of budget / time, at most MOTION_STEP either way a
+ * frame; a full-size frame is due when the view rests if this one was
+ * smaller. */
+static void motion_measured(server *s, frame_sub *f, const job *j)
+{
+    const float drawn = j->scale; /* (the worker drew full size if this rounds to it) */
+    float ms = (float)j->render_ns * 1e-6f, k = ms > 0 ? sqrtf((float)s->cfg.motion_ms / ms) : MOTION_STEP;
+    if (k > MOTION_STEP) k = MOTION_STEP;
+    if (k < 1 / MOTION_STEP) k = 1 / MOTION_STEP;
+    float next = drawn * k;
+    f->mscale = next < MOTION_MIN_SCALE ? MOTION_MIN_SCALE : next > 1 ? 1 : next;
+    if (j->scaled) {
+        f->refine = true;
+        s->m.frames_scaled++;
+    } else {
+        f->refine = false;
+    }
+}
+
 /* A stream's frame is back: sent if the subscription still wants it. */
 void frames_done(server *s, conn *c, job *j)
 {
@@ -794,6 +888,8 @@ void frames_done(server *s, conn *c, job *j)
         return;
     }
     if (j->ok) {
+        if (j->scale > 0) motion_measured(s, f, j);
+        else f->refine = false; /* a full-size frame */
         f->adapt_ev = j->adapt_ev; /* the eye saw this frame */
         f->adapt_valid = j->adapt_valid;
         f->adapt_ns = j->start_ns;

@@ -414,6 +414,10 @@ bool metrics_expose(server *s, mbuf *b)
            "Stream frames drawn and thrown away: the stream was changed (size, format, renderer) or ended, "
            "or its connection closed, while the frame was drawn.");
     sample(b, "vantage_frames_discarded_total", NULL, NULL, m->frames_discarded);
+    family(b, "vantage_frames_scaled_total", "counter",
+           "Stream frames drawn at a lower resolution while their view moved (dynamic resolution, "
+           "VP_RENDER_MOTION and --motion-ms) and scaled up to the stream's size.");
+    sample(b, "vantage_frames_scaled_total", NULL, NULL, m->frames_scaled);
     family(b, "vantage_frame_render_seconds", "histogram",
            "A frame (RENDER or a stream's) on its worker: culling and rendering.");
     hist(b, "vantage_frame_render_seconds", NULL, NULL, &m->frame_render);

@@ -94,6 +94,7 @@ typedef struct metrics {
     uint64_t occ_buffers[2];        /* kept, rendered */
     mhist    frame_render, frame_encode;
     uint64_t frames_sent, frames_dropped, frames_discarded;
+    uint64_t frames_scaled; /* drawn smaller while the view moved (VP_RENDER_MOTION), then scaled up */
     uint64_t accepted, rejected, auth_failures;
     uint64_t disconnects[MD_COUNT];
     uint64_t jobs_submitted, jobs_done;

@@ -41,6 +41,7 @@ typedef struct server_config {
     const char *web_root;    /* --web-root: the pages served */
     const char *web_cert, *web_key; /* --web-cert/--web-key: PEM files for TLS; NULL = plain HTTP */
     uint32_t max_video;      /* H.264 frame streams at once (an encoder holds ~15 MB at 720p) */
+    uint32_t motion_ms;      /* --motion-ms: a moving stream's render budget a frame (VP_RENDER_MOTION), 0: off */
 } server_config;
 
 #define VANTAGED_PREHELLO_MAX 4096u /* frame limit before the handshake */

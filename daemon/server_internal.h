@@ -47,6 +47,16 @@ typedef struct frame_sub {
        must be a key frame (a new viewer or chain, a frame not sent) */
     struct video_enc *venc;
     bool vkey;
+    /* dynamic resolution (VP_RENDER_MOTION, frames.c): when the view was
+       last re-aimed; whether the next frame follows a move (a re-aim
+       within VP_MOTION_WINDOW_MS of the one before); the scale of each
+       side a moving frame is drawn at, kept to the render budget; the
+       last frame sent was drawn smaller, so a full-size one is due once
+       the view rests */
+    uint64_t aim_ns;
+    bool moving;
+    bool refine;
+    float mscale;
 } frame_sub;
 
 /* One block of a connection's reply queue (server.c). Small replies are
@@ -179,6 +189,9 @@ typedef struct job {
     bool vkey;              /* H.264: this frame is a key frame */
     uint16_t fps;           /* a stream's max_fps (H.264's rate control) */
     bool adapt_valid;
+    float scale;            /* a moving stream's frame: each side drawn at this (dynamic resolution); 0: not moving */
+    bool scaled;            /* the worker drew it smaller than its size */
+    uint32_t video_threads; /* H.264: x264's threads if its encoder is opened now */
     uint64_t epoch;     /* the scene epoch it was drawn from */
     /* metrics: when the request was taken (loop clock, ns), the error code
        of a failed job, what the worker measured */

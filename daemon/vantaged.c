@@ -74,6 +74,10 @@ static void usage(FILE *f)
             "  --web-key FILE       the certificate's private key (PEM); both or neither\n"
             "  --max-video N        H.264 frame streams at once (16; 0: none); an encoder holds about\n"
             "                       15 MB at 1280x720, 29 MB at 1920x1080\n"
+            "  --motion-ms MS       dynamic resolution: a stream that asks for it (the web pages do)\n"
+            "                       is drawn, while its camera moves, at the largest scale (1/4..1 of\n"
+            "                       each side) whose render fits MS (default 12; 0: always full size);\n"
+            "                       a full-size frame follows when the camera rests\n"
             "  --hello-timeout MS   a client must finish HELLO this soon after connecting (10000);\n"
             "                       a metrics scraper its request head\n"
             "  --frame-timeout MS   a frame begun must arrive whole this soon (30000; slow-loris)\n"
@@ -190,6 +194,7 @@ int main(int argc, char **argv)
         .destruct_res = 8,
         .hello_timeout_ms = 10000,
         .max_video = 16,
+        .motion_ms = 12,
         .frame_timeout_ms = 30000,
         .limits = {.max_entities = CULL_MAX_ENTITIES, .max_lights = 65536, .max_occluders = 1u << 20,
                    .max_occluder_tris = 1u << 20, .max_mesh_verts = 1u << 22,
@@ -200,7 +205,7 @@ int main(int argc, char **argv)
     uint32_t props = 3000, port = (uint32_t)cfg.port;
     enum { O_BIND = 256, O_PORT, O_UNIX, O_SCENE, O_ENV, O_PROPS, O_CELL, O_CLIENTS, O_PAYLOAD, O_BATCH, O_ENTITIES,
            O_OUT, O_THREADS, O_RENDER, O_LOG, O_HELP, O_DRES, O_TOKENS, O_INSECURE, O_HELLO_TO, O_FRAME_TO,
-           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF, O_WEB, O_WEB_ROOT, O_WEB_CERT, O_WEB_KEY, O_MAX_VIDEO,
+           O_DATA, O_DURABILITY, O_COMPACT, O_METRICS, O_OUT_TOTAL, O_TEX_SIZE, O_TEX_MEM, O_LUT, O_FX_OFF, O_WEB, O_WEB_ROOT, O_WEB_CERT, O_WEB_KEY, O_MAX_VIDEO, O_MOTION,
            O_CLUSTER, O_SCENE_NAME, O_FOLLOW, O_ADVERTISE, O_STREAM_REPL, O_LEASE, O_CLUSTER_CA };
     static const struct option opts[] = {
         {"bind", required_argument, 0, O_BIND}, {"port", required_argument, 0, O_PORT},
@@ -221,7 +226,7 @@ int main(int argc, char **argv)
         {"lut", required_argument, 0, O_LUT}, {"fx-off", required_argument, 0, O_FX_OFF},
         {"web", required_argument, 0, O_WEB}, {"web-root", required_argument, 0, O_WEB_ROOT},
         {"web-cert", required_argument, 0, O_WEB_CERT}, {"web-key", required_argument, 0, O_WEB_KEY},
-        {"max-video", required_argument, 0, O_MAX_VIDEO}, {"cluster", required_argument, 0, O_CLUSTER},
+        {"max-video", required_argument, 0, O_MAX_VIDEO}, {"motion-ms", required_argument, 0, O_MOTION}, {"cluster", required_argument, 0, O_CLUSTER},
         {"scene-name", required_argument, 0, O_SCENE_NAME}, {"follow", required_argument, 0, O_FOLLOW},
         {"advertise", required_argument, 0, O_ADVERTISE}, {"stream-replicas", required_argument, 0, O_STREAM_REPL},
         {"lease-ms", required_argument, 0, O_LEASE}, {"cluster-ca", required_argument, 0, O_CLUSTER_CA},
@@ -337,6 +342,7 @@ int main(int argc, char **argv)
         case O_WEB_CERT: cfg.web_cert = optarg; break;
         case O_WEB_KEY: cfg.web_key = optarg; break;
         case O_MAX_VIDEO: ok = num32(want, sizeof want, optarg, 0, 4096, &cfg.max_video); break;
+        case O_MOTION: ok = num32(want, sizeof want, optarg, 0, 1000, &cfg.motion_ms); break;
         case O_INSECURE: insecure = true; break;
         case O_HELLO_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.hello_timeout_ms); break;
         case O_FRAME_TO: ok = num32(want, sizeof want, optarg, 100, 3600000, &cfg.frame_timeout_ms); break;

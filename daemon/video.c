@@ -1,7 +1,9 @@
 /*
  * video.c — a stream's H.264 encoder for the daemon (video.h) over
- * render/vt_h264.c: x264 ultrafast, zerolatency, one thread per stream
- * (frames of several streams run on several workers at once), key frames
+ * render/vt_h264.c: x264 ultrafast, zerolatency, sliced threads as the
+ * caller says (frames.c: two for a stream alone, whose encode is then the
+ * only work on the cores; one each when several streams' frames run on
+ * several workers at once), key frames
  * only when asked (a viewer joining, a broken chain), CRF from the
  * request's quality (1..51, 0: 23) and its rate cap.
  */
@@ -26,12 +28,15 @@ void video_enc_free(video_enc *ve)
 }
 
 int video_encode(video_enc **vep, uint32_t width, uint32_t height, const vp_render *m, uint32_t fps, bool key,
-                 const uint8_t *rgba8, const uint8_t **au, size_t *len, bool *is_key, char *err, size_t errlen)
+                 uint32_t threads, const uint8_t *rgba8, const uint8_t **au, size_t *len, bool *is_key, char *err,
+                 size_t errlen)
 {
     vt_h264_cfg cfg = {.width = width, .height = height, .crf_x10 = m->quality * 10, .max_kbps = m->max_kbps,
-                       .fps = fps, .threads = 1};
+                       .fps = fps, .threads = (int)threads};
     video_enc *ve = *vep;
+    if (ve) cfg.threads = ve->cfg.threads; /* the chain's own, whatever the daemon's load now */
     if (ve && memcmp(&ve->cfg, &cfg, sizeof cfg)) { /* another size or rate: a new chain */
+        cfg.threads = (int)threads;
         video_enc_free(ve);
         ve = *vep = NULL;
     }

@@ -26,11 +26,13 @@ typedef struct video_enc video_enc;
  * frame of *ve's chain (a new encoder in *ve when it has none or its
  * settings differ: m's size, quality and max_kbps, and fps), a key frame
  * when key. *au / *len: the access unit, valid until the next call or
- * video_enc_free; *is_key whether it is a key frame. 0, or a vt_err.h code
- * with err (an x264 failure also drops the encoder: the next frame starts
- * a new chain). */
+ * video_enc_free; *is_key whether it is a key frame. threads: x264's
+ * (sliced) threads for an encoder opened by this call (1..16; a chain
+ * keeps the count it began with). 0, or a vt_err.h code with err (an x264
+ * failure also drops the encoder: the next frame starts a new chain). */
 int video_encode(video_enc **ve, uint32_t width, uint32_t height, const vp_render *m, uint32_t fps, bool key,
-                 const uint8_t *rgba8, const uint8_t **au, size_t *len, bool *is_key, char *err, size_t errlen);
+                 uint32_t threads, const uint8_t *rgba8, const uint8_t **au, size_t *len, bool *is_key, char *err,
+                 size_t errlen);
 void video_enc_free(video_enc *ve);
 
 #endif

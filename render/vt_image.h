@@ -248,6 +248,19 @@ int vt_tonemap_frame(uint32_t width, uint32_t height, const float *rgba, size_t 
                      uint8_t *rgba8, uint32_t bands, void (*run)(void *run_ctx, vt_jpeg_job_fn job, void *arg, uint32_t n),
                      void *run_ctx);
 
+/* An RGBA8 picture (sw x sh, rows sstride bytes apart) resampled to
+ * dw x dh (rows dstride bytes apart) bilinearly, pixel centres aligned
+ * (output x samples input (x + 0.5) sw / dw - 0.5, clamped to the edge
+ * pixels): a stream frame drawn smaller while its camera moves, brought
+ * back to the stream's size (render/vt_resize.c). Each channel is within
+ * 1.5 of the exact bilinear value (weights in 1/256ths). In bands of output rows, as
+ * vt_tonemap_frame's (run NULL or bands 1: here). 0, VT_ERR_INVALID (a
+ * NULL picture, a size of 0 or over VT_IMAGE_MAX_DIM, a short stride) or
+ * VT_ERR_NOMEM. */
+int vt_image_resize_rgba8(uint32_t sw, uint32_t sh, const uint8_t *src, size_t sstride, uint32_t dw, uint32_t dh,
+                          uint8_t *dst, size_t dstride, uint32_t bands,
+                          void (*run)(void *run_ctx, vt_jpeg_job_fn job, void *arg, uint32_t n), void *run_ctx);
+
 /* Decodes a JPEG stream (baseline or progressive, grey, YCbCr or RGB) of
  * len bytes into *rgb8, malloc'ed by this call (caller frees with free()),
  * packed RGB rows (3 * width bytes each), top row first; grey is

@@ -35,6 +35,8 @@
 #include <errno.h>
 #include <pthread.h>
 #include <float.h>
+#include <math.h>
+#include <stdlib.h>
 #include <signal.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -1111,6 +1113,81 @@ static void test_image_tonemap_frame_bands(void **state)
     assert_int_equal(vt_tonemap_frame(W, H, rgba, W - 1, &td, got, 2, NULL, NULL), VT_ERR_INVALID);
 }
 
+/* The exact bilinear value of channel c at output (x, y), from the
+ * definition: input (x + 0.5) sw / dw - 0.5, clamped to the edge centres. */
+static double resize_ref(const uint8_t *src, uint32_t sw, uint32_t sh, size_t stride, uint32_t dw, uint32_t dh,
+                         uint32_t x, uint32_t y, int c)
+{
+    double u = (x + 0.5) * sw / dw - 0.5, v = (y + 0.5) * sh / dh - 0.5;
+    u = u < 0 ? 0 : u > sw - 1 ? sw - 1 : u;
+    v = v < 0 ? 0 : v > sh - 1 ? sh - 1 : v;
+    uint32_t x0 = (uint32_t)u, y0 = (uint32_t)v;
+    uint32_t x1 = x0 + 1 < sw ? x0 + 1 : x0, y1 = y0 + 1 < sh ? y0 + 1 : y0;
+    double fx = u - x0, fy = v - y0;
+#define PX(xx, yy) ((double)src[(size_t)(yy) * stride + 4 * (xx) + c])
+    return (PX(x0, y0) * (1 - fx) + PX(x1, y0) * fx) * (1 - fy) + (PX(x0, y1) * (1 - fx) + PX(x1, y1) * fx) * fy;
+#undef PX
+}
+
+/* vt_image_resize_rgba8 against the definition: every channel of every
+ * output pixel within 1.5 of the exact bilinear value (the weights are
+ * 1/256ths: at most half a 256th off in each direction, and a rounding), up, down and 1:1 (a copy), odd sizes and strides, in any
+ * number of bands on any runner (the same bytes); the bad arguments
+ * refused. */
+static void test_image_resize(void **state)
+{
+    (void)state;
+    static const uint32_t sizes[][4] = {{640, 360, 1280, 720}, {427, 240, 1280, 720}, {33, 17, 100, 61},
+                                        {1, 1, 9, 5}, {9, 5, 1, 1}, {64, 48, 31, 23}, {20, 20, 20, 20},
+                                        {3, 200, 7, 7}};
+    rng r = {test_seed() ^ 0x8E5};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        const uint32_t sw = sizes[k][0], sh = sizes[k][1], dw = sizes[k][2], dh = sizes[k][3];
+        const size_t ss = 4 * (size_t)sw + 12, ds = 4 * (size_t)dw + 4;
+        uint8_t *src = malloc(ss * sh), *ref = malloc(ds * dh), *got = malloc(ds * dh);
+        assert_non_null(src), assert_non_null(ref), assert_non_null(got);
+        for (size_t i = 0; i < ss * sh; i++) src[i] = (uint8_t)rng_range(&r, 0, 256);
+        if (k == 0) /* hard edges: black and white columns and rows */
+            for (uint32_t y = 0; y < sh; y++)
+                for (uint32_t x = 0; x < sw; x++) memset(src + y * ss + 4 * x, ((x / 3 + y / 2) & 1) * 255, 4);
+        memset(ref, 0xCD, ds * dh);
+        assert_int_equal(vt_image_resize_rgba8(sw, sh, src, ss, dw, dh, ref, ds, 1, NULL, NULL), 0);
+        double worst = 0;
+        for (uint32_t y = 0; y < dh; y++) {
+            for (uint32_t x = 0; x < dw; x++)
+                for (int c = 0; c < 4; c++) {
+                    double e = fabs(ref[y * ds + 4 * x + c] - resize_ref(src, sw, sh, ss, dw, dh, x, y, c));
+                    if (e > worst) worst = e;
+                }
+            assert_int_equal(ref[y * ds + 4 * dw], 0xCD); /* the stride's padding is not written */
+        }
+        if (worst > 1.5) fail_msg("%ux%u -> %ux%u: off the bilinear value by %.3f", sw, sh, dw, dh, worst);
+        if (sw == dw && sh == dh)
+            for (uint32_t y = 0; y < dh; y++) assert_memory_equal(ref + y * ds, src + y * ss, 4 * (size_t)dw);
+        static const uint32_t bands[] = {2, 3, 16};
+        for (size_t b = 0; b < sizeof bands / sizeof bands[0]; b++)
+            for (int runner = 0; runner < 3; runner++) {
+                int calls = 0;
+                memset(got, 0xCD, ds * dh);
+                void (*run)(void *, vt_jpeg_job_fn, void *, uint32_t) =
+                    runner == 0 ? NULL : runner == 1 ? one_job_run : threads_run;
+                if (runner == 2 && (bands[b] > dh || dh < 2)) continue; /* threads_run wants 2..n jobs */
+                assert_int_equal(vt_image_resize_rgba8(sw, sh, src, ss, dw, dh, got, ds, bands[b], run, &calls), 0);
+                if (memcmp(got, ref, ds * dh)) fail_msg("%ux%u -> %ux%u, bands %u, runner %d: not the one-band bytes", sw, sh, dw, dh, bands[b], runner);
+            }
+        free(src), free(ref), free(got);
+    }
+    uint8_t px[64] = {0};
+    assert_int_equal(vt_image_resize_rgba8(2, 2, NULL, 8, 2, 2, px, 8, 1, NULL, NULL), VT_ERR_INVALID);
+    assert_int_equal(vt_image_resize_rgba8(2, 2, px, 8, 2, 2, NULL, 8, 1, NULL, NULL), VT_ERR_INVALID);
+    assert_int_equal(vt_image_resize_rgba8(0, 2, px, 8, 2, 2, px + 32, 8, 1, NULL, NULL), VT_ERR_INVALID);
+    assert_int_equal(vt_image_resize_rgba8(2, 2, px, 8, 2, 0, px + 32, 8, 1, NULL, NULL), VT_ERR_INVALID);
+    assert_int_equal(vt_image_resize_rgba8(2, 2, px, 7, 2, 2, px + 32, 8, 1, NULL, NULL), VT_ERR_INVALID);
+    assert_int_equal(vt_image_resize_rgba8(2, 2, px, 8, 2, 2, px + 32, 7, 1, NULL, NULL), VT_ERR_INVALID);
+    assert_int_equal(vt_image_resize_rgba8(VT_IMAGE_MAX_DIM + 1, 1, px, 1u << 20, 2, 2, px + 32, 8, 1, NULL, NULL),
+                     VT_ERR_INVALID);
+}
+
 /* The rows hook: copies rows [y0, y1) of src into dst and marks them. */
 typedef struct band_fill {
     const uint8_t *src;
@@ -1587,6 +1664,7 @@ const struct CMUnitTest image_tests[] = {
     cmocka_unit_test(test_image_jpeg_details),
     cmocka_unit_test(test_image_jpeg_bands),
     cmocka_unit_test(test_image_tonemap_frame_bands),
+    cmocka_unit_test(test_image_resize),
     cmocka_unit_test(test_image_jpeg_frame),
     cmocka_unit_test(test_image_large),
     TEST_ROWS(test_image_png_bad_args, bad_png_rows),

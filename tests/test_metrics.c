@@ -21,12 +21,15 @@
  */
 #include "test_util.h"
 #include "test_daemon.h"
+#include "vt_image.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -1182,6 +1185,127 @@ static void test_metrics_dropped_frames(void **state)
     daemon_close(&d, ed);
 }
 
+/* A JPEG frame's pixels (RGB8), checked to be W x H; malloc'ed. */
+static uint8_t *frame_rgb(const vp_frame *f, uint32_t W, uint32_t H)
+{
+    uint8_t *rgb = NULL;
+    uint32_t w = 0, h = 0;
+    char err[256];
+    assert_int_equal(f->format, VP_FRAME_JPEG);
+    if (vt_jpeg_decode(f->data, f->data_len, &rgb, &w, &h, err, sizeof err)) fail_msg("a frame's JPEG: %s", err);
+    assert_int_equal(w, W);
+    assert_int_equal(h, H);
+    return rgb;
+}
+
+/* The mean absolute difference of two RGB8 pictures of n pixels. */
+static double rgb_mae(const uint8_t *a, const uint8_t *b, size_t n)
+{
+    double s = 0;
+    for (size_t i = 0; i < 3 * n; i++) s += abs((int)a[i] - (int)b[i]);
+    return s / (3.0 * (double)n);
+}
+
+/* Dynamic resolution (VP_RENDER_MOTION, --motion-ms): a stream re-aimed
+ * every 15 ms is drawn smaller (the metric counts it) and scaled up to its
+ * size; once the view rests, a full-size frame of the last view follows,
+ * the same picture RENDER draws of that view; a stream that does not ask,
+ * or a daemon run with --motion-ms 0, draws every frame full size. */
+static void test_metrics_motion_frames(void **state)
+{
+    (void)state;
+    enum { W = 320, H = 180, MOVES = 12 };
+    for (int run = 0; run < 2; run++) {
+        daemon_proc d;
+        int mport;
+        const char *more[] = {"--motion-ms", run ? "0" : "1", NULL}; /* 1 ms: always smaller, down to 1/4 */
+        daemon_with_metrics(&d, &mport, more);
+        vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+        vp_entity e[60];
+        for (int i = 0; i < 60; i++) { /* boxes of 0.8 m, 1 m apart: hard edges a smaller frame blurs */
+            double x = -30 + i, z = -20 - (i % 7) * 3;
+            e[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 0.4, -1 - i % 3, z - 0.4, x + 0.4, 1 + i % 5, z + 0.4}};
+        }
+        assert_int_equal(vtc_add(ed, e, 60, NULL, NULL), VP_OK);
+        /* a fixed exposure: a stream's eye adaptation would otherwise make
+           its frames differ from RENDER's */
+        vp_env env;
+        assert_int_equal(vtc_env_get(ed, &env), VP_OK);
+        env.exposure_mode = VP_EXPOSURE_FIXED;
+        assert_int_equal(vtc_env_set(ed, &env, NULL), VP_OK);
+        vtc_client *v = connect_role(&d, VP_ROLE_VIEWER, false);
+        for (int ask = 1; ask >= 0; ask--) {
+            vp_frame_sub sub = {.r = {.format = VP_FRAME_JPEG, .quality = 95, .flags = ask ? VP_RENDER_MOTION : 0},
+                                .max_fps = VP_FRAME_SUB_MAX_FPS};
+            const double eye[3] = {0, 2, 0};
+            double at[3] = {-4, 0, -10};
+            assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 70, W, H, 0.1, 200));
+            assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
+            vp_frame f;
+            assert_int_equal(vtc_wait_frame(v, &f, 10000), VP_OK); /* the first: the view has not moved */
+            expo a;
+            scrape(mport, &a);
+            const double scaled0 = xget(&a, "vantage_frames_scaled_total", NULL, NULL);
+            expo_free(&a);
+            assert_true(scaled0 == 0 || !ask);
+            /* the camera turns: a re-aim every 15 ms */
+            for (int k = 1; k <= MOVES; k++) {
+                at[0] = -4 + 0.5 * k;
+                sub.r.view = (vp_view){0};
+                assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 70, W, H, 0.1, 200));
+                sub.view_seq = (uint16_t)k;
+                assert_int_equal(vtc_frame_subscribe(v, &sub), VP_OK);
+                usleep(15000);
+            }
+            /* frames until quiet for 600 ms: the last is the last view's */
+            int got = 0;
+            uint8_t *last = NULL, *moving = NULL; /* the last frame; one of the last view before it */
+            uint16_t last_seq = 0;
+            while (vtc_wait_frame(v, &f, 600) == VP_OK) {
+                assert_int_equal(f.width, W); /* every frame at the stream's size */
+                assert_int_equal(f.height, H);
+                if (last && !moving && f.view_seq == MOVES && last_seq == MOVES) moving = last;
+                else free(last);
+                last = frame_rgb(&f, W, H);
+                last_seq = f.view_seq;
+                got++;
+            }
+            assert_true(got >= 1);
+            assert_int_equal(f.view_seq, MOVES);
+            scrape(mport, &a);
+            const double scaled = xget(&a, "vantage_frames_scaled_total", NULL, NULL) - scaled0;
+            expo_free(&a);
+            fprintf(stderr, "motion: --motion-ms %s, %s: %d frames after %d moves, %.0f drawn smaller\n",
+                    run ? "0" : "1", ask ? "asked" : "not asked", got, MOVES, scaled);
+            if (!run && ask) assert_true(scaled >= 1);
+            else assert_true(scaled == 0);
+            /* the last frame is full size: RENDER's picture of that view */
+            vp_render rm = sub.r;
+            rm.flags = 0;
+            vp_frame rf;
+            assert_int_equal(vtc_render(ed, &rm, &rf), VP_OK);
+            uint8_t *ref = frame_rgb(&rf, W, H);
+            double mae = rgb_mae(last, ref, (size_t)W * H);
+            fprintf(stderr, "motion: the resting frame against RENDER: mean abs error %.3f\n", mae);
+            assert_true(mae < 0.5);
+            /* a frame of the last view drawn while it moved (before the
+               resting one) is not the full-size picture: drawn smaller,
+               scaled up, it is softer */
+            if (moving) {
+                double to_full = rgb_mae(moving, ref, (size_t)W * H);
+                fprintf(stderr, "motion: a moving frame of that view against full size: mean abs error %.3f\n", to_full);
+                assert_true(!run && ask);
+                assert_true(to_full > 0.5);
+            }
+            free(ref);
+            free(last);
+            free(moving);
+        }
+        vtc_close(v);
+        daemon_close(&d, ed);
+    }
+}
+
 /* The endpoint's answers to bad requests; the connection limit; a slow-
  * loris request closed at its deadline while protocol clients are served. */
 static void test_metrics_http_bad_input(void **state)
@@ -1690,6 +1814,7 @@ const struct CMUnitTest metrics_tests[] = {
     cmocka_unit_test(test_metrics_counts),
     cmocka_unit_test(test_metrics_clients),
     cmocka_unit_test(test_metrics_dropped_frames),
+    cmocka_unit_test(test_metrics_motion_frames),
     cmocka_unit_test(test_metrics_http_bad_input),
     cmocka_unit_test(test_metrics_access),
 };

@@ -1053,7 +1053,7 @@ static const bad_render bad_renders[] = {
     {"jpeg quality 0", {.view = IDENT_VIEW, .format = VP_FRAME_JPEG, .quality = 0}, VP_ERR_INVALID},
     {"jpeg quality 101", {.view = IDENT_VIEW, .format = VP_FRAME_JPEG, .quality = 101}, VP_ERR_INVALID},
     {"raw with a quality", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .quality = 5}, VP_ERR_INVALID},
-    {"flags 0x40", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .flags = 0x40}, VP_ERR_INVALID},
+    {"flags 0x80", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .flags = 0x80}, VP_ERR_INVALID},
     {"renderer 3", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .renderer = 3}, VP_ERR_INVALID},
     {"exposure NaN", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .exposure_ev = NAN}, VP_ERR_NONFINITE},
     {"exposure 65 EV", {.view = IDENT_VIEW, .format = VP_FRAME_RAW, .exposure_ev = 65}, VP_ERR_INVALID},

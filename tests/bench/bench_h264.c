@@ -4,7 +4,7 @@
  * encoder's time a frame (a benchmark: it fails on nothing but errors).
  *
  *   bench_h264 [--size WxH] [--frames N] [--orbit DEG] [--crf A,B,..] [--quality A,B,..]
- *              [--big WxH] [--big-frames N] [--speed 0|1|2] [--json] [--smoke]
+ *              [--big WxH] [--big-frames N] [--speed 0|1|2] [--threads N] [--json] [--smoke]
  *
  * The frames: the demo city as bench_render draws it (bench_city.c: the
  * daemon's scene and software renderer, 2 threads) from a street camera
@@ -25,7 +25,8 @@
  * Last the encoder's time alone at --size and at --big (1920x1080),
  * --big-frames frames of the same orbit each, CRF 23, no decoding.
  *
- * --speed: vt_h264_cfg.speed (0 ultrafast, the default; 1 superfast; 2
+ * --threads: vt_h264_cfg.threads (x264's sliced threads; 1, the default,
+ * is what the daemon gives a stream among several). --speed: vt_h264_cfg.speed (0 ultrafast, the default; 1 superfast; 2
  * veryfast). --json: one object a line ({codec, ...}); --smoke: 320x180,
  * 4 frames, 2 big frames at 640x360.
  */
@@ -197,6 +198,8 @@ static void equal_quality(const codec *cs, int nc, int n, bool json)
     }
 }
 
+static int g_threads = 1; /* --threads */
+
 /* The encoder alone at W x H: n frames of the orbit at CRF 23. */
 static int time_big(bench_city_scene *city, vt_soft *sr, uint32_t W, uint32_t H, int n, double deg, int speed,
                     bool json)
@@ -212,7 +215,7 @@ static int time_big(bench_city_scene *city, vt_soft *sr, uint32_t W, uint32_t H,
     char err[512];
     int rc = -1;
     if (!rgba || !depth || !rgba8 || !ms || !cv || !bytes || !planes) goto out;
-    if (vt_h264_open(&e, &(vt_h264_cfg){.width = W, .height = H, .speed = (vt_h264_speed)speed}, err, sizeof err)) {
+    if (vt_h264_open(&e, &(vt_h264_cfg){.width = W, .height = H, .speed = (vt_h264_speed)speed, .threads = g_threads}, err, sizeof err)) {
         fprintf(stderr, "bench_h264: %s\n", err);
         goto out;
     }
@@ -241,9 +244,9 @@ static int time_big(bench_city_scene *city, vt_soft *sr, uint32_t W, uint32_t H,
                "\"median_encode_ms\":%.3f,\"median_convert_ms\":%.3f,\"median_p_bytes\":%.0f}\n",
                W, H, n, m, c, b);
     else
-        printf("h264 crf 23 at %ux%u: encode %.2f ms a frame (conversion + x264; median of %d), the conversion "
+        printf("h264 crf 23 at %ux%u, %d thread(s): encode %.2f ms a frame (conversion + x264; median of %d), the conversion "
                "alone %.2f ms, P-frames %.0f bytes (median)\n",
-               W, H, m, n, c, b);
+               W, H, g_threads, m, n, c, b);
     rc = 0;
 out:
     vt_h264_close(e);
@@ -270,12 +273,13 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--big-frames")) big_n = atoi(v), i++;
         else if (!strcmp(a, "--orbit")) deg = atof(v), i++;
         else if (!strcmp(a, "--speed")) speed = atoi(v), i++;
+        else if (!strcmp(a, "--threads")) g_threads = atoi(v), i++;
         else if (!strcmp(a, "--crf")) ok = (ncrf = parse_list(v, crfs, MAX_CODECS / 2, 10)) > 0, i++;
         else if (!strcmp(a, "--quality")) ok = (nq = parse_list(v, qs, MAX_CODECS / 2, 1)) > 0, i++;
         else ok = false;
         if (!ok) {
             fprintf(stderr, "usage: bench_h264 [--size WxH] [--frames N] [--orbit DEG] [--crf A,B,..] "
-                            "[--quality A,B,..] [--big WxH] [--big-frames N] [--speed 0|1|2] [--json] [--smoke]\n");
+                            "[--quality A,B,..] [--big WxH] [--big-frames N] [--speed 0|1|2] [--threads N] [--json] [--smoke]\n");
             return 2;
         }
     }
@@ -298,7 +302,8 @@ int main(int argc, char **argv)
     for (int i = 0; i < ncrf; i++, nc++) {
         cs[nc].crf_x10 = crfs[i];
         snprintf(cs[nc].name, sizeof cs[nc].name, "h264-crf%g", crfs[i] / 10.0);
-        vt_h264_cfg cfg = {.width = W, .height = H, .crf_x10 = crfs[i], .speed = (vt_h264_speed)speed};
+        vt_h264_cfg cfg = {.width = W, .height = H, .crf_x10 = crfs[i], .speed = (vt_h264_speed)speed,
+                           .threads = g_threads};
         if (vt_h264_open(&cs[nc].enc, &cfg, err, sizeof err) || h264_dec_open(&cs[nc].dec)) {
             fprintf(stderr, "bench_h264: %s: %s\n", cs[nc].name, err);
             return 1;

@@ -225,7 +225,7 @@ async function start() {
     return;
   }
   const format = await videoFormat(opts.forceJpeg);
-  stream = new Stream(client, canvas, { format, maxFps: opts.maxFps });
+  stream = new Stream(client, canvas, { format, maxFps: opts.maxFps, motion: opts.motion });
   stream.onKeyNeeded = () => aim(performance.now());
   client.onclose = () => {
     say('disconnected: reconnecting');

@@ -15,7 +15,7 @@
  * decoded (VideoDecoder's output, or the JPEG's ImageBitmap) -> drawn and
  * presented (the next animation frame after the draw).
  */
-import { Client, wsTransport, ROLE, VP_FRAME_JPEG, VP_FRAME_H264, VP_EVENT_SCENE, VP_EVENT_MARKS } from './vproto.js';
+import { Client, wsTransport, ROLE, VP_FRAME_JPEG, VP_FRAME_H264, VP_EVENT_SCENE, VP_EVENT_MARKS, VP_RENDER_MOTION } from './vproto.js';
 
 export { ROLE, VP_EVENT_SCENE, VP_EVENT_MARKS };
 
@@ -42,6 +42,8 @@ export function pageOptions() {
     width: m ? +m[1] : 0,
     height: m ? +m[2] : 0,
     maxFps: Math.min(240, Math.max(1, +(q.get('fps') ?? 30) || 30)),
+    /* dynamic resolution while the camera moves (VP_RENDER_MOTION); ?motion=0: every frame full size */
+    motion: q.get('motion') !== '0',
   };
 }
 
@@ -85,8 +87,9 @@ const KEEP = 600; /* latency samples kept (about 20 s at 30 fps) */
  * frame decoded while another waits to be drawn replaces it).
  */
 export class Stream {
-  constructor(client, canvas, { format = 'jpeg', maxFps = 30, quality = 0, onDrawn = null } = {}) {
+  constructor(client, canvas, { format = 'jpeg', maxFps = 30, quality = 0, onDrawn = null, motion = true } = {}) {
     this.client = client;
+    this.motion = motion;
     this.canvas = canvas;
     this.ctx = canvas.getContext('2d');
     this.format = format;
@@ -118,7 +121,8 @@ export class Stream {
     if (this.pending.size > 256) this.pending.delete(this.pending.keys().next().value);
     const fmt = this.format === 'h264' ? VP_FRAME_H264 : VP_FRAME_JPEG;
     const sub = { view, format: fmt, quality: fmt === VP_FRAME_H264 ? this.quality : this.quality || 80,
-                  maxFps: this.maxFps, viewSeq: seq, ...extra };
+                  maxFps: this.maxFps, viewSeq: seq, ...extra,
+                  flags: (extra.flags ?? 0) | (this.motion ? VP_RENDER_MOTION : 0) };
     const r = await this.client.frameSubscribe(sub);
     this.req = r.req;
     return seq;

@@ -173,6 +173,12 @@ async function select(px, py, recentre) {
 
 /* ---- controls ------------------------------------------------------------------------- */
 
+/* Pointer moves as they happen: Chromium's pointerrawupdate (a secure
+ * context) is dispatched at once, where pointermove waits for the next
+ * animation frame (up to 16 ms of input-to-photon); elsewhere pointermove.
+ * (Touch pinches keep pointermove: fingers come as pairs of moves.) */
+const MOVE = 'onpointerrawupdate' in window ? 'pointerrawupdate' : 'pointermove';
+
 function controls() {
   let drag = null;
   canvas.addEventListener('contextmenu', (e) => e.preventDefault());
@@ -180,7 +186,7 @@ function controls() {
     canvas.setPointerCapture(e.pointerId);
     drag = { x: e.clientX, y: e.clientY, pan: e.button === 2 || e.shiftKey, moved: 0, id: e.pointerId };
   });
-  canvas.addEventListener('pointermove', (e) => {
+  canvas.addEventListener(MOVE, (e) => {
     if (!drag || e.pointerId !== drag.id || touches.size > 1) return;
     const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
     drag.x = e.clientX;
@@ -254,7 +260,7 @@ async function start() {
   }
   const format = await videoFormat(opts.forceJpeg);
   status(`connected: ${format === 'h264' ? 'H.264 video (WebCodecs)' : 'JPEG frames'}`);
-  stream = new Stream(client, canvas, { format, maxFps: opts.maxFps });
+  stream = new Stream(client, canvas, { format, maxFps: opts.maxFps, motion: opts.motion });
   stream.onKeyNeeded = () => aim(); /* a re-aim after the decoder's reset; the daemon keys a new chain */
   client.onclose = () => {
     status('disconnected: reconnecting');

@@ -61,6 +61,7 @@ export const VP_RENDER_NO_SSAO = 0x04;
 export const VP_RENDER_NO_IBL = 0x08;
 export const VP_RENDER_NO_FXAA = 0x10;
 export const VP_RENDER_NO_SELECTION = 0x20; // the shared selection (SELECT) not outlined
+export const VP_RENDER_MOTION = 0x40; // FRAME_SUBSCRIBE: drawn smaller while the view moves (vantaged --motion-ms)
 
 export const VP_EVENT_SCENE = 0x1; // SUBSCRIBE kinds
 export const VP_EVENT_MARKS = 0x2;
