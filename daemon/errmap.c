@@ -52,6 +52,7 @@ int vp_code_from_vt(int rc)
     case VT_ERR_CORRUPT:     return VP_ERR_INTERNAL;
     case VT_ERR_TOO_LARGE:   return VP_ERR_LIMIT;
     case VT_ERR_CODEC:       return VP_ERR_INTERNAL;
+    case VT_ERR_CANCELLED:   return VP_ERR_BUSY; /* (the daemon sends none: a stream's frame it stopped) */
     }
     return VP_ERR_INTERNAL;
 }

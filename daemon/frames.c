@@ -327,24 +327,34 @@ static void pool_run(void *pool, vt_jpeg_job_fn fn, void *arg, uint32_t n)
 /* The software renderer's picture of fi from v into rgba and depth (the
  * view's size), on this worker: the one soft-draw path RENDER and
  * LIGHT_QUERY share. VP_OK, or a code with msg. */
-static int soft_draw(worker *wk, const cull_view *v, const frame_in *fi, float *rgba, float *depth, char *msg,
-                     size_t msglen)
+/* soft_draw's answer for a picture stopped through cancel (VP codes are <= 0) */
+#define FRAME_STOPPED 1
+
+static int soft_draw(worker *wk, const cull_view *v, const frame_in *fi, float *rgba, float *depth, const int *cancel,
+                     char *msg, size_t msglen)
 {
     char err[256];
     vt_frame f = frame_of(v, fi, rgba, depth);
+    f.cancel = cancel;
     int rc = vt_soft_draw(wk->soft, &f, NULL, err, sizeof err);
     if (!rc) return VP_OK;
+    if (rc == VT_ERR_CANCELLED) return FRAME_STOPPED;
     snprintf(msg, msglen, "render: %s", err);
     return vp_code_from_vt(rc);
 }
 
 /* A picture job's end, RENDER's or LIGHT_QUERY's: its reply as drawn, or
  * the ERROR for code (out of memory when code is VP_ERR_BUSY and msg is
- * empty: what names what could not be had). */
+ * empty: what names what could not be had), or nothing for a stream's
+ * frame stopped through its cancel (FRAME_STOPPED). */
 static void job_finish(job *j, int code, char *msg, size_t msglen, const char *what)
 {
     if (code == VP_OK) {
         j->ok = true;
+        return;
+    }
+    if (code == FRAME_STOPPED) { /* a stream's frame no longer wanted: no reply (frames_done) */
+        j->cancelled = true;
         return;
     }
     if (code == VP_ERR_BUSY && !*msg) snprintf(msg, msglen, "out of memory for %s", what);
@@ -466,7 +476,11 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
         vt_gl_release(s->gl);
         pthread_mutex_unlock(&s->gl_mu);
         if (code) goto done;
-    } else if ((code = soft_draw(wk, &dv, &fi, rgba, depth, msg, sizeof msg))) {
+    } else if ((code = soft_draw(wk, &dv, &fi, rgba, depth, &j->cancel, msg, sizeof msg))) {
+        goto done; /* (FRAME_STOPPED too) */
+    }
+    if (__atomic_load_n(&j->cancel, __ATOMIC_RELAXED)) { /* not worth its encode either */
+        code = FRAME_STOPPED;
         goto done;
     }
     j->adapt_ev = ad.ev;
@@ -615,7 +629,7 @@ void run_light_query(server *s, worker *wk, job *j)
         rgba = malloc((size_t)W * H * 4 * sizeof *rgba);
         depth = malloc((size_t)W * H * sizeof *depth);
         if (!rgba || !depth) goto nomem;
-        if ((code = soft_draw(wk, &v, &fi, rgba, depth, msg, sizeof msg))) goto done;
+        if ((code = soft_draw(wk, &v, &fi, rgba, depth, NULL, msg, sizeof msg))) goto done;
         lt = vt_soft_light_tiles(wk->soft);
     }
     uint32_t tiles = lt->tiles_x * lt->tiles_y, count = lt->offset ? lt->offset[tiles] : 0;
@@ -688,12 +702,12 @@ void on_frame_subscribe(server *s, conn *c, const vp_header *h, const uint8_t *p
        so max_fps bound only cameras that held still) */
     if (f->active && f->next_ns) f->next_ns = f->next_ns - 1000000000ull / f->m.max_fps + 1000000000ull / m.max_fps;
     else f->next_ns = 0; /* a new stream: its first frame at once */
-    /* dynamic resolution: a re-aim of the same stream soon after the last
-       one is a camera moving; its frame may be drawn smaller */
-    uint64_t now = now_ns();
-    f->moving = same && (m.r.flags & VP_RENDER_MOTION) && s->cfg.motion_ms && f->aim_ns &&
-                now - f->aim_ns < VP_MOTION_WINDOW_MS * 1000000ull;
-    f->aim_ns = now;
+    /* dynamic resolution: a re-aim of the same stream is a camera moving;
+       its frame may be drawn smaller, and a full-size frame of the view it
+       left, still being drawn, is not wanted any more */
+    f->moving = same && (m.r.flags & VP_RENDER_MOTION) && s->cfg.motion_ms;
+    f->aim_ns = now_ns();
+    if (f->moving && f->inflight && f->job && f->job->refine) __atomic_store_n(&f->job->cancel, 1, __ATOMIC_RELAXED);
     if (!same || !(m.r.flags & VP_RENDER_MOTION)) f->refine = false;
     if (!same) f->mscale = MOTION_FIRST_SCALE;
     if (!f->active) s->nsubs++;
@@ -763,7 +777,8 @@ int frames_schedule(server *s)
         conn *c = s->live[i];
         frame_sub *f = &c->fsub;
         if (!f->active || f->inflight || c->closing) continue;
-        if (!f->dirty && f->shown_epoch == s->sc->epoch && f->shown_marks == s->marks.gen) {
+        const bool refining = !f->dirty && f->shown_epoch == s->sc->epoch && f->shown_marks == s->marks.gen;
+        if (refining) {
             if (!f->refine) continue; /* nothing new to show */
             /* the last frame was drawn smaller while the view moved: the
                full-size one once it has rested */
@@ -810,10 +825,12 @@ int frames_schedule(server *s)
                    /* a moving view's frame at the stream's scale (the worker draws
                       full size when that is not smaller); x264's threads: two
                       for a stream alone */
-                   .scale = f->dirty && f->moving ? f->mscale : 0, .video_threads = s->nvideo <= 1 ? 2 : 1};
+                   .scale = f->dirty && f->moving ? f->mscale : 0, .video_threads = s->nvideo <= 1 ? 2 : 1,
+                   .refine = refining};
         f->venc = NULL; /* the worker's until the job is back */
         f->vkey = false;
         f->inflight = true;
+        f->job = j;
         f->dirty = false;
         f->shown_marks = s->marks.gen;
         f->held_ns = 0;
@@ -869,6 +886,8 @@ static void motion_measured(server *s, frame_sub *f, const job *j)
     } else {
         f->refine = false;
     }
+    s->m.motion_frames++;
+    s->m.motion_scale_sum += j->scaled ? drawn : 1;
 }
 
 /* A stream's frame is back: sent if the subscription still wants it. */
@@ -876,9 +895,15 @@ void frames_done(server *s, conn *c, job *j)
 {
     frame_sub *f = &c->fsub;
     f->inflight = false;
+    f->job = NULL;
     if (!f->active || f->gen != j->gen) { /* unsubscribed or re-aimed meanwhile */
         if (j->ok) s->m.frames_discarded++;
         video_back(f, j, false);
+        return;
+    }
+    if (j->cancelled) { /* a full-size frame the view moved away from: nothing encoded, nothing sent */
+        s->m.frames_discarded++;
+        video_back(f, j, true);
         return;
     }
     video_back(f, j, j->ok);

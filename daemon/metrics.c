@@ -202,6 +202,15 @@ static void sample(mbuf *b, const char *name, const char *k, const char *v, uint
     put(b, "\n");
 }
 
+static void sample_f(mbuf *b, const char *name, const char *k, const char *v, double value)
+{
+    char num[40];
+    snprintf(num, sizeof num, "%.9g", value);
+    head(b, name, NULL, k, v, NULL, NULL);
+    put(b, num);
+    put(b, "\n");
+}
+
 static void sample_seconds(mbuf *b, const char *name, uint64_t ns)
 {
     head(b, name, NULL, NULL, NULL, NULL, NULL);
@@ -418,6 +427,11 @@ bool metrics_expose(server *s, mbuf *b)
            "Stream frames drawn at a lower resolution while their view moved (dynamic resolution, "
            "VP_RENDER_MOTION and --motion-ms) and scaled up to the stream's size.");
     sample(b, "vantage_frames_scaled_total", NULL, NULL, m->frames_scaled);
+    family(b, "vantage_frame_motion_scale", "summary",
+           "The scale of each side a moving view's frame was drawn at (dynamic resolution; 1: full size): "
+           "_sum / _count is the mean.");
+    sample_f(b, "vantage_frame_motion_scale_sum", NULL, NULL, m->motion_scale_sum);
+    sample(b, "vantage_frame_motion_scale_count", NULL, NULL, m->motion_frames);
     family(b, "vantage_frame_render_seconds", "histogram",
            "A frame (RENDER or a stream's) on its worker: culling and rendering.");
     hist(b, "vantage_frame_render_seconds", NULL, NULL, &m->frame_render);

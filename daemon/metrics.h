@@ -95,6 +95,8 @@ typedef struct metrics {
     mhist    frame_render, frame_encode;
     uint64_t frames_sent, frames_dropped, frames_discarded;
     uint64_t frames_scaled; /* drawn smaller while the view moved (VP_RENDER_MOTION), then scaled up */
+    uint64_t motion_frames; /* frames of a moving view (VP_RENDER_MOTION), smaller or not */
+    double motion_scale_sum; /* their scales of each side (1: full size), summed */
     uint64_t accepted, rejected, auth_failures;
     uint64_t disconnects[MD_COUNT];
     uint64_t jobs_submitted, jobs_done;

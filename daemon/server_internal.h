@@ -49,7 +49,7 @@ typedef struct frame_sub {
     bool vkey;
     /* dynamic resolution (VP_RENDER_MOTION, frames.c): when the view was
        last re-aimed; whether the next frame follows a move (a re-aim
-       within VP_MOTION_WINDOW_MS of the one before); the scale of each
+       of the view); the scale of each
        side a moving frame is drawn at, kept to the render budget; the
        last frame sent was drawn smaller, so a full-size one is due once
        the view rests */
@@ -57,6 +57,8 @@ typedef struct frame_sub {
     bool moving;
     bool refine;
     float mscale;
+    struct job *job;        /* the frame with a worker (while inflight): a full-size one the
+                               view moved away from is stopped through its cancel */
 } frame_sub;
 
 /* One block of a connection's reply queue (server.c). Small replies are
@@ -191,6 +193,9 @@ typedef struct job {
     bool adapt_valid;
     float scale;            /* a moving stream's frame: each side drawn at this (dynamic resolution); 0: not moving */
     bool scaled;            /* the worker drew it smaller than its size */
+    bool refine;            /* the full-size frame of a view that stopped moving: stopped when it moves again */
+    int cancel;             /* set (atomically) by the loop: the worker stops drawing and sends nothing */
+    bool cancelled;         /* the worker stopped it */
     uint32_t video_threads; /* H.264: x264's threads if its encoder is opened now */
     uint64_t epoch;     /* the scene epoch it was drawn from */
     /* metrics: when the request was taken (loop clock, ns), the error code

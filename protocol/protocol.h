@@ -866,13 +866,12 @@ void vp_enc_vis_query_sub(vp_writer *w, uint32_t req, uint8_t flags, float min_a
 #define VP_RENDER_NO_FXAA 0x10u      /* anti-aliasing */
 #define VP_RENDER_FX 0x1Eu           /* the effect bits above */
 #define VP_RENDER_NO_SELECTION 0x20u /* the scene's shared selection (SELECT) not outlined */
-/* FRAME_SUBSCRIBE: dynamic resolution. While the view moves (re-aimed
- * within VP_MOTION_WINDOW_MS of the aim before) frames may be drawn at a
- * lower resolution, the largest whose render fits the daemon's budget
- * (vantaged --motion-ms), and scaled back up to the stream's size; once
- * the view rests a full-resolution frame follows. RENDER: no effect. */
+/* FRAME_SUBSCRIBE: dynamic resolution. The frame of a re-aimed view (the
+ * camera moving) may be drawn at a lower resolution, the largest whose
+ * render fits the daemon's budget (vantaged --motion-ms), and scaled back
+ * up to the stream's size; once the view rests a full-resolution frame
+ * follows. RENDER: no effect. */
 #define VP_RENDER_MOTION 0x40u
-#define VP_MOTION_WINDOW_MS 250u
 #define VP_RENDER_FLAGS 0x7Fu
 /* "shadows,ssao,ibl,fxaa" (any of them, comma-separated; "none": no bit)
  * as VP_RENDER_NO_* bits: 0, or -1 naming the unknown word in bad. */

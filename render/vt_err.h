@@ -36,7 +36,8 @@ extern "C" {
     X(VT_ERR_NOT_FOUND,   -13, "no such file, or no such channel in it")               \
     X(VT_ERR_CORRUPT,     -14, "not a valid file or stream of its format, or corrupt") \
     X(VT_ERR_TOO_LARGE,   -15, "image or file larger than this module accepts")        \
-    X(VT_ERR_CODEC,       -16, "the image library failed otherwise (its message is in err)")
+    X(VT_ERR_CODEC,       -16, "the image library failed otherwise (its message is in err)") \
+    X(VT_ERR_CANCELLED,   -17, "stopped: the caller no longer wants the picture (vt_frame.cancel)")
 
 VP_ERR_ENUM(VT_ERRORS);
 

@@ -589,7 +589,14 @@ typedef struct job {
     vt_hist *hist;          /* per shading thread (its slot t): the exposure's histogram, or NULL */
     uint32_t skips[MAX_THREADS]; /* per raster thread: the parts the coarse depth test skipped */
     uint32_t split[MAX_THREADS + 1]; /* set-up thread t takes instances [split[t], split[t + 1]) */
+    const int *cancel;      /* vt_frame.cancel */
 } job;
+
+/* The caller no longer wants the picture (vt_frame.cancel set) */
+static inline bool stop_asked(const int *cancel)
+{
+    return cancel && __atomic_load_n(cancel, __ATOMIC_RELAXED);
+}
 
 /* Splits the instances into nt contiguous shares of about the same work
  * (a mesh's vertices and indices, twice the indices for a damaged one: a
@@ -827,6 +834,7 @@ static void job_shade(void *arg, uint32_t t)
     /* half a row of tiles at a time (8 pixel rows): the thread that
        finishes first waits half as long for the other's last piece */
     for (uint32_t u; (u = __atomic_fetch_add(&jb->next_row, 1, __ATOMIC_RELAXED)) < 2 * trows;) {
+        if (stop_asked(jb->cancel)) break; /* vt_soft_draw says so after the pass */
         const uint32_t tr = u / 2, ya = tr * TILE + (u & 1) * (TILE / 2);
         uint32_t y1 = ya + TILE / 2 < fr->h ? ya + TILE / 2 : fr->h;
         for (uint32_t y = ya; y < y1; y++) {
@@ -958,7 +966,8 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         return vp_errf(err, errlen, VT_ERR_NOMEM, "out of memory");
     /* no lights: no ranges, no binning */
     job jb = {.r = r, .fr = &fr, .meshes = meshes, .mb = (const float(*)[6])r->mb, .inst = inst, .ninst = ninst,
-              .rgba = f->rgba, .depth = f->depth, .stride = f->stride, .nthreads = nt, .ranges = nl > 0};
+              .rgba = f->rgba, .depth = f->depth, .stride = f->stride, .nthreads = nt, .ranges = nl > 0,
+              .cancel = f->cancel};
     uint64_t t0 = now_ns();
     split_setup(&jb, &fr);
     if (nt > 1) cull_pool_run(r->pool, job_setup, &jb, nt);
@@ -972,6 +981,13 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (nt > 1) cull_pool_run(r->pool, job_raster, &jb, nt);
     else job_raster(&jb, 0);
     uint64_t t2 = now_ns();
+    /* a picture no longer wanted stops between passes (and the shading
+       between rows): the caller moved on */
+#define STOP_IF_ASKED()                                                                                       \
+    do {                                                                                                      \
+        if (stop_asked(f->cancel)) return vp_errf(err, errlen, VT_ERR_CANCELLED, "the picture was cancelled"); \
+    } while (0)
+    STOP_IF_ASKED();
     /* the work between the raster and the shading that does not read the
        ambient occlusion (light tiles, the cascades' fit, the textures'
        and the image-based light's per-frame tables): with the occlusion,
@@ -990,6 +1006,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (sj.lrc != CULL_OK)
         return vp_errf(err, errlen, sj.lrc == CULL_ERR_NOMEM ? VT_ERR_NOMEM : VT_ERR_INVALID, "lights: %s",
                        cull_strerror(sj.lrc));
+    STOP_IF_ASKED();
     /* the sun's shadow cascades, from the casters (NULL: the instances) */
     uint64_t ts = now_ns();
     uint32_t stris = 0;
@@ -1001,6 +1018,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         jb.sh = r->shadow;
     }
     uint64_t t3 = now_ns();
+    STOP_IF_ASKED();
 
     jb.next_row = 0;
     /* an automatic exposure's histogram made by the shading threads */
@@ -1009,6 +1027,8 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         jb.hist = r->hist;
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
     else job_shade(&jb, 0);
+    STOP_IF_ASKED();
+#undef STOP_IF_ASKED
     uint64_t t4 = now_ns();
     float ev;
     if (vt_post_apply_hist(&r->post, r->pool, r->threads, f, jb.hist, jb.hist ? nt : 0, &ev))

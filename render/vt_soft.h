@@ -135,6 +135,9 @@ typedef struct vt_frame {
                                single picture */
     float dt;               /* seconds since adapt's frame, >= 0 */
     const struct vt_overlay *overlay; /* outline and icons drawn last (vt_overlay.h); NULL: none */
+    const int *cancel;      /* non-zero (read atomically, set by another thread): stop and return
+                               VT_ERR_CANCELLED; the software renderer looks between its passes
+                               and between rows of the shading. NULL: never */
 } vt_frame;
 
 typedef struct vt_soft vt_soft;
@@ -161,7 +164,8 @@ int vt_mesh_check(const vt_mesh *m, char *err, size_t errlen);
 extern const vt_mesh vt_mesh_box;
 
 /* Renders frame f (see vt_frame). 0, or a VT_ERRORS code with err filled:
- * VT_ERR_INVALID (vt_frame_check's reasons), VT_ERR_NOMEM, VT_ERR_RANGE. */
+ * VT_ERR_INVALID (vt_frame_check's reasons), VT_ERR_NOMEM, VT_ERR_RANGE,
+ * VT_ERR_CANCELLED (f->cancel was set: the buffers hold a partial picture). */
 int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, size_t errlen);
 
 /* Checks everything a render call is given, as both renderers do before

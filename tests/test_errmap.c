@@ -103,6 +103,7 @@ static void test_errmap_decisions(void **state)
         {vp_code_from_vt, VT_ERR_NO_CONTEXT, VP_ERR_UNSUPPORTED, "no GL 3.3 core here"},
         {vp_code_from_vt, VT_ERR_GL, VP_ERR_INTERNAL, "a GL call failed"},
         {vp_code_from_vt, VT_ERR_CODEC, VP_ERR_INTERNAL, "the JPEG encoder failed"},
+        {vp_code_from_vt, VT_ERR_CANCELLED, VP_ERR_BUSY, "a picture stopped: the server's state, not the request"},
         {vp_code_from_cull, CULL_ERR_OUTPUT, VP_ERR_INTERNAL, "the daemon sized a buffer wrong"},
     };
     for (size_t i = 0; i < sizeof spec / sizeof spec[0]; i++) {

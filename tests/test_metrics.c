@@ -208,7 +208,8 @@ static bool parse_sample(expo *e, const char *p, size_t n, int ln)
     if (!read_float(v, &s.v)) XFAIL(ln, "value %s is no float", v);
     canon(l, nlab, s.labels, sizeof s.labels, NULL);
 
-    /* its family: the name itself, or a histogram's _bucket/_sum/_count */
+    /* its family: the name itself, a histogram's _bucket/_sum/_count or a
+       summary's _sum/_count (the daemon's summaries have no quantiles) */
     int fi = fam_find(e, s.name);
     if (fi < 0 || !e->f[fi].typed) {
         static const char *const suf[] = {"_bucket", "_sum", "_count"};
@@ -219,13 +220,15 @@ static bool parse_sample(expo *e, const char *p, size_t n, int ln)
                 memcpy(base, s.name, nl - sl);
                 base[nl - sl] = 0;
                 int b = fam_find(e, base);
-                if (b >= 0 && !strcmp(e->f[b].type, "histogram")) fi = b;
+                if (b >= 0 && (!strcmp(e->f[b].type, "histogram") || (k > 0 && !strcmp(e->f[b].type, "summary"))))
+                    fi = b;
             }
         }
     }
     if (fi < 0 || !e->f[fi].typed) XFAIL(ln, "sample %s before its # TYPE", s.name);
     xfam *f = &e->f[fi];
-    if (!strcmp(f->type, "histogram") && !strcmp(f->name, s.name)) XFAIL(ln, "histogram sample without a suffix");
+    if ((!strcmp(f->type, "histogram") || !strcmp(f->type, "summary")) && !strcmp(f->name, s.name))
+        XFAIL(ln, "%s sample without a suffix", f->type);
     if (f->closed) XFAIL(ln, "family %s not contiguous", f->name);
     for (int k = 0; k < e->nf; k++)
         if (k != fi && e->f[k].samples) e->f[k].closed = true;
@@ -1274,7 +1277,12 @@ static void test_metrics_motion_frames(void **state)
             assert_int_equal(f.view_seq, MOVES);
             scrape(mport, &a);
             const double scaled = xget(&a, "vantage_frames_scaled_total", NULL, NULL) - scaled0;
+            const double msum = xget(&a, "vantage_frame_motion_scale_sum", NULL, NULL),
+                         mcount = xget(&a, "vantage_frame_motion_scale_count", NULL, NULL);
             expo_free(&a);
+            /* the moving frames' scales: each within 1/4..1, the smaller ones among them */
+            assert_true(mcount >= scaled && msum <= mcount && msum >= 0.25 * mcount);
+            if (scaled) assert_true(msum < mcount);
             fprintf(stderr, "motion: --motion-ms %s, %s: %d frames after %d moves, %.0f drawn smaller\n",
                     run ? "0" : "1", ask ? "asked" : "not asked", got, MOVES, scaled);
             if (!run && ask) assert_true(scaled >= 1);

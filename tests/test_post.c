@@ -36,6 +36,7 @@
 #include "vt_post.h"
 #include "vt_soft.h"
 
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -115,6 +116,100 @@ static void edge_draw(vt_soft *sr, vt_gldraw *gr, uint32_t fx_off, float *c, flo
     char err[256];
     int rc = gr ? vt_gldraw_draw(gr, &f, NULL, err, sizeof err) : vt_soft_draw(sr, &f, NULL, err, sizeof err);
     if (rc) fail_msg("%s", err);
+}
+
+/* A frame with every pass: a sun (shadows), ambient occlusion, an
+ * automatic exposure, FXAA; boxes on a ground. */
+typedef struct cancel_frame {
+    cull_view v;
+    vt_instance in[24];
+    vt_material m;
+    vt_env env;
+    vt_frame f;
+} cancel_frame;
+
+static void cancel_frame_make(cancel_frame *cf, uint32_t W, uint32_t H, float *c, float *d)
+{
+    memset(cf, 0, sizeof *cf);
+    cf->m = (vt_material){.base = {0.6f, 0.5f, 0.4f, 1}, .roughness = 0.5f, .normal_scale = 1};
+    for (int i = 0; i < 24; i++)
+        cf->in[i] = (vt_instance){.place = VT_PLACE_TRS, .pos = {(i % 6) * 4.0 - 10, 1 + i % 3, -(i / 6) * 5.0 - 5},
+                                  .scale = {1, 1 + i % 3, 1}, .rot = {0, 0, 0, 1}, .mat = &cf->m};
+    cf->env = (vt_env){.sun_dir = {0.3487f, 0.9300f, 0.1162f}, .sun = {60000, 60000, 60000}, .sky_mode = VT_SKY_ANALYTIC,
+                       .sky = {1, 1, 1}, .turbidity = 3, .ground = true, .ground_albedo = {0.3f, 0.3f, 0.3f},
+                       .exposure_mode = VT_EXPOSURE_AUTO};
+    view_at(&cf->v, (double[3]){0, 6, 12}, (double[3]){0, 1, -10}, W, H, 0.5);
+    cf->f = (vt_frame){.view = &cf->v, .width = W, .height = H, .meshes = &vt_mesh_box, .nmesh = 1,
+                       .inst = cf->in, .ninst = 24, .env = &cf->env, .rgba = c, .depth = d, .stride = W};
+}
+
+typedef struct cancel_after {
+    int *word;
+    useconds_t us;
+} cancel_after;
+
+static void *cancel_thread(void *p)
+{
+    cancel_after *a = p;
+    usleep(a->us);
+    __atomic_store_n(a->word, 1, __ATOMIC_RELAXED);
+    return NULL;
+}
+
+/* vt_frame.cancel: unset (or NULL), the same picture to the bit; set
+ * before the draw, VT_ERR_CANCELLED at once; set by another thread while
+ * the renderer draws (after 0..8 ms of a frame that takes longer), either
+ * the whole picture or VT_ERR_CANCELLED, and the next frame after a
+ * stopped one is the same picture again (nothing the renderer keeps
+ * between frames was left half made). */
+static void test_post_cancel(void **state)
+{
+    (void)state;
+    const uint32_t W = 640, H = 360;
+    size_t np = (size_t)W * H;
+    float *c = malloc(np * 16), *d = malloc(np * 4), *c0 = malloc(np * 16);
+    assert_true(c && d && c0);
+    cull_pool *pool;
+    vt_soft *sr;
+    assert_int_equal(cull_pool_create(2, &pool), 0);
+    assert_int_equal(vt_soft_create(pool, 0, &sr), 0);
+    cancel_frame cf;
+    cancel_frame_make(&cf, W, H, c, d);
+    char err[256];
+    if (vt_soft_draw(sr, &cf.f, NULL, err, sizeof err)) fail_msg("%s", err);
+    memcpy(c0, c, np * 16);
+    int word = 0;
+    cf.f.cancel = &word;
+    memset(c, 0, np * 16);
+    if (vt_soft_draw(sr, &cf.f, NULL, err, sizeof err)) fail_msg("%s", err);
+    assert_memory_equal(c, c0, np * 16);
+    word = 1;
+    assert_int_equal(vt_soft_draw(sr, &cf.f, NULL, err, sizeof err), VT_ERR_CANCELLED);
+    assert_non_null(strstr(err, "cancelled"));
+    int stopped = 0, whole = 0;
+    for (int k = 0; k < 12; k++) {
+        word = 0;
+        cancel_after a = {.word = &word, .us = (useconds_t)(k * 700)};
+        pthread_t th;
+        assert_int_equal(pthread_create(&th, NULL, cancel_thread, &a), 0);
+        int rc = vt_soft_draw(sr, &cf.f, NULL, err, sizeof err);
+        pthread_join(th, NULL);
+        if (rc == VT_ERR_CANCELLED) stopped++;
+        else if (rc == 0) {
+            whole++;
+            assert_memory_equal(c, c0, np * 16);
+        } else
+            fail_msg("draw %d: %s", k, err);
+        word = 0;
+        memset(c, 0, np * 16);
+        if (vt_soft_draw(sr, &cf.f, NULL, err, sizeof err)) fail_msg("%s", err);
+        if (memcmp(c, c0, np * 16)) fail_msg("the frame after draw %d (%s) is not the picture", k, rc ? "stopped" : "whole");
+    }
+    print_message("cancel: %d of 12 draws stopped part way, %d finished first\n", stopped, whole);
+    assert_true(stopped >= 1);
+    vt_soft_destroy(sr);
+    cull_pool_destroy(pool);
+    free(c), free(d), free(c0);
 }
 
 static void test_post_fxaa_edge(void **state)
@@ -1021,6 +1116,7 @@ static void test_post_daemon_lut(void **state)
 
 const struct CMUnitTest post_tests[] = {
     cmocka_unit_test(test_post_fxaa_edge),
+    cmocka_unit_test(test_post_cancel),
     cmocka_unit_test(test_post_fxaa_flat_and_bad),
     cmocka_unit_test(test_post_fxaa_instances),
     cmocka_unit_test(test_post_histogram_vs_sort),

@@ -882,6 +882,128 @@ static void test_web_h264_stream(void **state)
     web_stop(&d);
 }
 
+/* The frames that came within ms: each H.264 FRAME fed to dec in order
+ * (libavcodec must take every one: the chain has no gap); the last one's
+ * view_seq and key flag out. The count. */
+static int motion_drain(int fd, pstream *s, int ms, h264_dec *dec, uint16_t *last_seq, int *keys)
+{
+    struct timeval tv = {.tv_usec = 2000};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    int frames = 0;
+    struct timespec a, b;
+    clock_gettime(CLOCK_MONOTONIC, &a);
+    do {
+        uint8_t *p;
+        size_t n;
+        int op = ws_recv(fd, &p, &n);
+        if (op == 2) {
+            s->b = realloc(s->b, s->n + n);
+            memcpy(s->b + s->n, p, n);
+            s->n += n;
+            vp_header h;
+            size_t fs;
+            while (s->n >= VP_HEADER_SIZE && vp_frame_check(s->b, s->n, 64u << 20, &h, &fs) == VP_OK) {
+                if (h.type == VP_FRAME) {
+                    vp_frame f;
+                    assert_int_equal(vp_dec_frame(s->b + VP_HEADER_SIZE, h.len, &f), VP_OK);
+                    assert_int_equal(f.format, VP_FRAME_H264);
+                    if (h264_dec_au(dec, f.data, f.data_len))
+                        fail_msg("frame %d (view %u, %s): libavcodec refused it: a gap in the chain", frames,
+                                 f.view_seq, f.key ? "key" : "delta");
+                    *last_seq = f.view_seq;
+                    *keys += f.key;
+                    frames++;
+                } else {
+                    assert_int_equal(h.type, VP_ACK); /* the re-aims' */
+                }
+                memmove(s->b, s->b + fs, s->n - fs);
+                s->n -= fs;
+            }
+        }
+        free(p);
+        clock_gettime(CLOCK_MONOTONIC, &b);
+    } while ((b.tv_sec - a.tv_sec) * 1000 + (b.tv_nsec - a.tv_nsec) / 1000000 < ms);
+    tv = (struct timeval){.tv_sec = 10};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    return frames;
+}
+
+/* Dynamic resolution on an H.264 stream, as a page drives it: bursts of
+ * re-aims (frames drawn smaller, scaled up), rests of 90..160 ms (the
+ * full-size frame starts at 100 ms, and the next burst may stop it half
+ * drawn). Whatever was drawn, stopped or sent, libavcodec decodes every
+ * frame in one decoder (a stopped frame was never encoded: the chain has
+ * no gap, and no key frame is needed after it), and after the last rest
+ * the picture is the daemon's JPEG of the last view. */
+static void test_web_motion_h264_chain(void **state)
+{
+    (void)state;
+    daemon_proc d;
+    const char *more[] = {"--motion-ms", "1", NULL};
+    web_start(&d, more);
+    vtc_client *ed = connect_role(&d, VP_ROLE_EDITOR, false);
+    vp_entity es[80];
+    for (int i = 0; i < 80; i++) {
+        double x = -20 + (i % 20) * 2, z = -6 - (i / 20) * 4;
+        es[i] = (vp_entity){.id = (uint64_t)i + 1, .aabb = {x - 0.6, 0, z - 0.6, x + 0.6, 1 + i % 4, z + 0.6}};
+    }
+    assert_int_equal(vtc_add(ed, es, 80, NULL, NULL), VP_OK);
+    vp_env env;
+    assert_int_equal(vtc_env_get(ed, &env), VP_OK);
+    env.exposure_mode = VP_EXPOSURE_FIXED; /* no eye adaptation: the last frame is RENDER's picture */
+    assert_int_equal(vtc_env_set(ed, &env, NULL), VP_OK);
+    int fd = ws_open();
+    uint8_t hb[128];
+    ws_send(fd, hb, enc_hello(hb, sizeof hb, VP_ROLE_VIEWER, NULL));
+    pstream s = {0};
+    assert_int_equal(proto_next(fd, &s, NULL, 0, NULL), VP_HELLO_OK);
+    h264_dec dec = {0};
+    assert_int_equal(h264_dec_open(&dec), 0);
+    enum { W = 480, H = 270 };
+    vp_frame_sub sub = {.r = {.format = VP_FRAME_H264, .flags = VP_RENDER_MOTION}, .max_fps = 240};
+    double eye[3] = {0, 3, 4}, at[3] = {0, 1, -10};
+    uint16_t seq = 0, last = UINT16_MAX;
+    int frames = 0, keys = 0;
+    for (int burst = 0; burst < 8; burst++) {
+        for (int k = 0; k < 8; k++, seq++) {
+            at[0] = 4 * sin(seq * 0.07);
+            sub.r.view = (vp_view){0};
+            assert_true(vtc_view_perspective(&sub.r.view, eye, at, NULL, 70, W, H, 0.1, 100));
+            sub.view_seq = seq;
+            uint8_t buf[512];
+            vp_writer w;
+            vp_writer_init(&w, buf, sizeof buf);
+            vp_enc_frame_sub(&w, 2, &sub);
+            ws_send(fd, buf, w.len);
+            frames += motion_drain(fd, &s, 10, &dec, &last, &keys);
+        }
+        frames += motion_drain(fd, &s, 90 + 10 * burst, &dec, &last, &keys);
+    }
+    frames += motion_drain(fd, &s, 600, &dec, &last, &keys);
+    print_message("motion over H.264: %d frames for %u views, %d key frames, every one decoded\n", frames, seq, keys);
+    assert_int_equal(last, (uint16_t)(seq - 1));
+    assert_int_equal(keys, 1); /* the first only: nothing broke the chain */
+    /* the last frame (full size, the view at rest) against the JPEG q95 of its view */
+    static uint8_t rgb[W * H * 3];
+    h264_ref_frame_rgb(dec.f, W, H, rgb);
+    vp_render jr = {.view = sub.r.view, .format = VP_FRAME_JPEG, .quality = 95};
+    vp_frame jf;
+    assert_int_equal(vtc_render(ed, &jr, &jf), VP_OK);
+    uint8_t *jpx = NULL;
+    uint32_t jw, jh;
+    char err[256];
+    assert_int_equal(vt_jpeg_decode(jf.data, jf.data_len, &jpx, &jw, &jh, err, sizeof err), 0);
+    double psnr = h264_ref_psnr(rgb, jpx, (size_t)W * 3, 3, W, H);
+    print_message("motion over H.264: the resting frame against the JPEG q95 of its view: %.1f dB\n", psnr);
+    assert_true(psnr > 30);
+    free(jpx);
+    h264_dec_close(&dec);
+    close(fd);
+    free(s.b);
+    vtc_close(ed);
+    web_stop(&d);
+}
+
 /* --web on another address needs --tokens (or --insecure), as --bind does. */
 static void test_web_refuses_open_address(void **state)
 {
@@ -1023,6 +1145,7 @@ const struct CMUnitTest web_tests[] = {
     cmocka_unit_test(test_web_many_viewers),
     cmocka_unit_test(test_web_stalled_viewer),
     cmocka_unit_test(test_web_h264_stream),
+    cmocka_unit_test(test_web_motion_h264_chain),
     cmocka_unit_test(test_web_refuses_open_address),
 };
 const size_t web_tests_count = sizeof web_tests / sizeof web_tests[0];

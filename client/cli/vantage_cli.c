@@ -193,7 +193,8 @@ static const cli_form forms[] = {
     {"commander",
      "commander [--replay FILE [--speed X] [--loop]] [--record FILE] [--headless DIR] [--size WxH]\n"
      "        [--quality Q] [--fps N] [--renderer soft|gl] [--config FILE] [--seconds S] [--frames N]\n"
-     "        [--screenshot FILE.png] [--stats] [--json] [--destroy-radius M] [--exposure EV] [--perspective]",
+     "        [--screenshot FILE.png] [--stats] [--json] [--destroy-radius M] [--exposure EV] [--perspective]\n"
+     "        [--full-size]",
      "the tablet-commander thin client: a pad (or keyboard and mouse) drives its own view",
      "  A view of the daemon's scene from above, driven by a game pad (hidraw and USB pads are found\n"
      "  and hot-plugged; `vantage pad list`), a recorded capture (--replay, hid-recorder format), or\n"
@@ -212,7 +213,9 @@ static const cli_form forms[] = {
      "  --screenshot FILE   the window with its overlay as a PNG, at exit\n"
      "  --seconds S, --frames N   stop after S seconds or N frames shown (else Escape / Ctrl-C)\n"
      "  --size WxH (1280x720), --quality Q (80), --fps N (the daemon's cap, 1..240), --speed X (replay\n"
-     "  time scale, 1), --destroy-radius M (3), --exposure EV (1.5), --perspective (start tilted)\n"},
+     "  time scale, 1), --destroy-radius M (3), --exposure EV (1.5), --perspective (start tilted)\n"
+     "  --full-size         every frame at full size: by default frames are drawn smaller while the\n"
+     "                      camera moves and full size when it rests (vantaged --motion-ms)\n"},
 };
 
 static void usage(FILE *f)

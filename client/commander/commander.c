@@ -71,6 +71,7 @@ typedef struct commander {
     float exposure;          /* EV for the JPEG tone map: a view from above sees mostly unlit roofs */
     uint64_t max_frames;
     bool stats, json;
+    bool full_size;          /* --full-size: no dynamic resolution while the camera moves */
     pad_hub_opts hub_opts;
     /* input and camera */
     cmdr_map_cfg map;
@@ -181,6 +182,7 @@ static void send_view(commander *m, double t_input)
        frames (its silhouette, dimmer where hidden), so the window draws
        no box of its own */
     vp_frame_sub fs = {.r = {.format = VP_FRAME_JPEG, .quality = (uint8_t)m->quality, .renderer = m->renderer,
+                             .flags = m->full_size ? 0 : VP_RENDER_MOTION, /* smaller while the camera moves */
                              .exposure_ev = m->exposure, .nhighlight = m->have_sel,
                              .highlight = {m->have_sel ? m->sel_id : 0}},
                        .max_fps = (uint16_t)m->max_fps};
@@ -724,6 +726,8 @@ static int parse_args(commander *m, int argc, char **argv)
             m->json = m->stats = true;
         } else if (!strcmp(a, "--perspective")) {
             persp = true;
+        } else if (!strcmp(a, "--full-size")) {
+            m->full_size = true;
         } else {
             return die_usage("commander: unknown option %s", a);
         }

@@ -6,6 +6,8 @@
 # tick rate asked. Prints the commander's --stats table per run.
 #
 #   tests/bench/bench_commander.sh BIN_DIR [SECONDS] [TICK_HZ...]
+#
+# CMDR_ARGS: more commander options (--full-size: no dynamic resolution).
 set -euo pipefail
 bin=${1:?usage: bench_commander.sh BIN_DIR [SECONDS] [TICK_HZ...]}
 secs=${2:-15}
@@ -22,8 +24,8 @@ for i in $(seq 100); do "$bin/vantage" -p $port ping >/dev/null 2>&1 && break; s
 echo "machine: $(nproc) cpus, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F)"
 for hz in "${rates[@]}"; do
     printf 'tick_hz = %s\n' "$hz" > "$work/tick.conf"
-    echo "== tick ${hz} Hz, ${secs} s, demo city (3,000 props), 1280x720 JPEG q80, renderer soft"
+    echo "== tick ${hz} Hz, ${secs} s, demo city (3,000 props), 1280x720 JPEG q80, renderer soft ${CMDR_ARGS:-}"
     "$bin/vantage" -p $port commander --replay "$work/ds4_latency_circle.hidrec" --config "$work/tick.conf" \
-        --headless "$work/frames-$hz" --seconds "$secs" --stats 2>/dev/null
+        --headless "$work/frames-$hz" --seconds "$secs" --stats ${CMDR_ARGS:-} 2>/dev/null
     rm -rf "$work/frames-$hz"
 done

@@ -5,6 +5,7 @@
  *
  *   bench_h264 [--size WxH] [--frames N] [--orbit DEG] [--crf A,B,..] [--quality A,B,..]
  *              [--big WxH] [--big-frames N] [--speed 0|1|2] [--threads N] [--json] [--smoke]
+ *   bench_h264 --motion [--size WxH] [--frames N] [--orbit DEG] [--json] [--smoke]
  *
  * The frames: the demo city as bench_render draws it (bench_city.c: the
  * daemon's scene and software renderer, 2 threads) from a street camera
@@ -24,6 +25,13 @@
  * (log-bytes interpolated between the two CRFs around it) and the ratio.
  * Last the encoder's time alone at --size and at --big (1920x1080),
  * --big-frames frames of the same orbit each, CRF 23, no decoding.
+ *
+ * --motion: the daemon's dynamic resolution instead (a moving stream's
+ * frame drawn at a fraction of each side, tone mapped, scaled up by
+ * vt_image_resize_rgba8): for each scale, the median time to draw the
+ * frame (bench_city_draw: cull and render on 2 threads) and to scale it
+ * up, and the PSNR of the scaled-up picture against the full-size one
+ * (both tone mapped, before any encoder), over the orbit's frames.
  *
  * --threads: vt_h264_cfg.threads (x264's sliced threads; 1, the default,
  * is what the daemon gives a stream among several). --speed: vt_h264_cfg.speed (0 ultrafast, the default; 1 superfast; 2
@@ -200,6 +208,59 @@ static void equal_quality(const codec *cs, int nc, int n, bool json)
 
 static int g_threads = 1; /* --threads */
 
+/* --motion: the scales of each side the daemon may draw a moving frame at */
+static const double motion_scales[] = {0.25, 1.0 / 3, 0.4, 0.5, 0.6, 0.75, 1.0};
+#define NSCALES (sizeof motion_scales / sizeof motion_scales[0])
+
+static int motion_study(bench_city_scene *city, vt_soft *sr, uint32_t W, uint32_t H, int n, double deg, bool json)
+{
+    float *rgba = malloc((size_t)W * H * 4 * sizeof *rgba), *depth = malloc((size_t)W * H * sizeof *depth);
+    uint8_t *full = malloc(vt_image_rgba8_size(W, H)), *up = malloc(vt_image_rgba8_size(W, H)),
+            *small = malloc(vt_image_rgba8_size(W, H));
+    double *draw = calloc((size_t)n * NSCALES, sizeof *draw), *scale_ms = calloc((size_t)n * NSCALES, sizeof *draw),
+           *psnr = calloc((size_t)n * NSCALES, sizeof *draw);
+    int rc = -1;
+    if (!rgba || !depth || !full || !up || !small || !draw || !scale_ms || !psnr) goto out;
+    if (!json) printf("dynamic resolution: the street orbit at %ux%u, %d frames; each scale drawn, tone mapped, "
+                      "scaled up; PSNR against the full-size frame\n", W, H, n);
+    for (int k = 0; k < n; k++) {
+        double eye[3], at[3] = {0, 2, 0};
+        orbit_eye(k, deg, eye);
+        if (bench_city_draw(city, sr, eye, at, W, H, rgba, depth) || tonemap(W, H, rgba, full)) goto out;
+        for (size_t s = 0; s < NSCALES; s++) {
+            uint32_t w = (uint32_t)lrint(W * motion_scales[s]), h = (uint32_t)lrint(H * motion_scales[s]);
+            double t0 = bench_now_ns();
+            if (bench_city_draw(city, sr, eye, at, w, h, rgba, depth)) goto out;
+            double t1 = bench_now_ns();
+            if (tonemap(w, h, rgba, small)) goto out;
+            double t2 = bench_now_ns();
+            if (vt_image_resize_rgba8(w, h, small, 4 * (size_t)w, W, H, up, 4 * (size_t)W, 1, NULL, NULL)) goto out;
+            double t3 = bench_now_ns();
+            draw[s * n + k] = (t1 - t0) / 1e6;
+            scale_ms[s * n + k] = (t3 - t2) / 1e6;
+            /* RGB of the scaled-up picture against the full one's RGBA */
+            for (size_t i = 0; i < (size_t)W * H; i++) memmove(small + 3 * i, up + 4 * i, 3);
+            psnr[s * n + k] = h264_ref_psnr(small, full, 4 * (size_t)W, 4, W, H);
+        }
+    }
+    for (size_t s = 0; s < NSCALES; s++) {
+        uint32_t w = (uint32_t)lrint(W * motion_scales[s]), h = (uint32_t)lrint(H * motion_scales[s]);
+        double d = median_of(draw + s * n, n), sc = median_of(scale_ms + s * n, n), q = mean_of(psnr + s * n, n),
+               qmin = min_of(psnr + s * n, n);
+        if (json)
+            printf("{\"motion_scale\":%.4f,\"width\":%u,\"height\":%u,\"frames\":%d,\"median_draw_ms\":%.3f,"
+                   "\"median_scale_up_ms\":%.3f,\"mean_psnr_db\":%.3f,\"min_psnr_db\":%.3f}\n",
+                   motion_scales[s], w, h, n, d, sc, q, qmin);
+        else
+            printf("scale %.3f (%ux%u): draw %.2f ms, scale up %.2f ms (one thread), PSNR mean %.2f dB, worst %.2f dB\n",
+                   motion_scales[s], w, h, d, sc, q, qmin);
+    }
+    rc = 0;
+out:
+    free(rgba), free(depth), free(full), free(up), free(small), free(draw), free(scale_ms), free(psnr);
+    return rc;
+}
+
 /* The encoder alone at W x H: n frames of the orbit at CRF 23. */
 static int time_big(bench_city_scene *city, vt_soft *sr, uint32_t W, uint32_t H, int n, double deg, int speed,
                     bool json)
@@ -260,12 +321,13 @@ int main(int argc, char **argv)
     int n = 60, big_n = 30, speed = 0, ncrf = 5, nq = 2;
     int crfs[MAX_CODECS] = {180, 200, 230, 260, 280}, qs[MAX_CODECS] = {80, 85};
     double deg = 0.5;
-    bool json = false, smoke = false;
+    bool json = false, smoke = false, motion = false;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         bool ok = true;
         if (!strcmp(a, "--json")) json = true;
         else if (!strcmp(a, "--smoke")) smoke = true;
+        else if (!strcmp(a, "--motion")) motion = true;
         else if (!v) ok = false;
         else if (!strcmp(a, "--size")) ok = sscanf(v, "%ux%u", &W, &H) == 2, i++;
         else if (!strcmp(a, "--big")) ok = sscanf(v, "%ux%u", &BW, &BH) == 2, i++;
@@ -291,6 +353,13 @@ int main(int argc, char **argv)
     bench_city_scene *city;
     vt_soft *sr;
     if (cull_pool_create(2, &pool) || bench_city_open(pool, json, &city) || vt_soft_create(pool, 2, &sr)) return 1;
+    if (motion) {
+        int rc = motion_study(city, sr, W, H, n, deg, json);
+        vt_soft_destroy(sr);
+        bench_city_close(city);
+        cull_pool_destroy(pool);
+        return rc ? 1 : 0;
+    }
     codec cs[MAX_CODECS];
     int nc = 0;
     memset(cs, 0, sizeof cs);

@@ -8,11 +8,14 @@
  *
  *   node tests/web/bench_viewer.mjs [--viewers N] [--seconds S] [--size WxH] [--format h264|jpeg]
  *                                   [--scene demo|empty] [--fps N] [--motion 0|1] [--motion-ms MS]
- *                                   [--daemon PATH] [--json FILE]
+ *                                   [--daemon PATH] [--pause MS] [--json FILE]
  *
  * --motion 0: the pages ask for every frame full size (?motion=0; default
  * 1: dynamic resolution while the camera moves, vantaged --motion-ms MS).
  * --daemon: another vantaged binary (an older build, to compare in one run).
+ * --pause MS: one viewer's drag rests MS ms after every 20 moves (a hand
+ * that stops and starts: the full-size frame drawn at each rest is then in
+ * flight when the drag goes on).
  * The daemon's metrics give how many frames were drawn smaller.
  */
 import { spawn } from 'node:child_process';
@@ -27,7 +30,7 @@ const arg = (name, def) => {
 };
 const N = +arg('viewers', 1), S = +arg('seconds', 10), size = arg('size', '1280x720'), format = arg('format', 'h264');
 const scene = arg('scene', 'demo'), fps = +arg('fps', 30), jsonOut = arg('json', '');
-const motion = arg('motion', '1') !== '0', motionMs = arg('motion-ms', ''), daemon = arg('daemon', path.join(BIN_DIR, 'vantaged'));
+const pause = +arg('pause', 0), motion = arg('motion', '1') !== '0', motionMs = arg('motion-ms', ''), daemon = arg('daemon', path.join(BIN_DIR, 'vantaged'));
 
 const port = await freePort(), webPort = await freePort(), metricsPort = await freePort();
 const d = spawn(daemon, ['--scene', scene, '--port', String(port), '--unix', '', '--web',
@@ -36,7 +39,7 @@ const d = spawn(daemon, ['--scene', scene, '--port', String(port), '--unix', '',
 /* a counter of the daemon's metrics (0 where it has none: an older build) */
 const metric = async (name) => {
   const t = await (await fetch(`http://127.0.0.1:${metricsPort}/metrics`)).text();
-  const m = new RegExp(`^${name} (\\d+)`, 'm').exec(t);
+  const m = new RegExp(`^${name} ([0-9.eE+-]+)`, 'm').exec(t);
   return m ? +m[1] : 0;
 };
 await new Promise((r) => setTimeout(r, 1500));
@@ -59,6 +62,7 @@ try {
   await new Promise((r) => setTimeout(r, 1000));
   const start = await Promise.all(pages.map((p) => p.evaluate(() => window.vantage.stats().drawn_total)));
   const sent0 = await metric('vantage_frames_sent_total'), scaled0 = await metric('vantage_frames_scaled_total');
+  const msum0 = await metric('vantage_frame_motion_scale_sum'), mcount0 = await metric('vantage_frame_motion_scale_count');
   const t0 = Date.now();
   /* one page drags with real mouse events (CDP input: the page's event
      times), 8 px every 33 ms, back and forth. Chromium delivers input to
@@ -77,6 +81,7 @@ try {
       x += 8 * dir;
       await p.mouse.move(x, y);
       await new Promise((r) => setTimeout(r, 33));
+      if (pause && k % 20 === 19) await new Promise((r) => setTimeout(r, pause));
     }
     await p.mouse.up();
   } else {
@@ -91,19 +96,22 @@ try {
   }
   const secs = (Date.now() - t0) / 1000;
   const sent = (await metric('vantage_frames_sent_total')) - sent0, scaled = (await metric('vantage_frames_scaled_total')) - scaled0;
+  const mcount = (await metric('vantage_frame_motion_scale_count')) - mcount0;
+  const mscale = mcount ? ((await metric('vantage_frame_motion_scale_sum')) - msum0) / mcount : NaN;
   const res = await Promise.all(pages.map((p) => p.evaluate(() => window.vantage.stats())));
   const rows = res.map((s, i) => ({ viewer: i, fps: (s.drawn_total - start[i]) / secs, p50: s.p50, p95: s.p95,
     parts_p50: s.parts_p50, kbps: s.kbps, decode_ms: s.decode_ms, samples: s.samples, format: s.format }));
   const f = (v) => (Number.isFinite(v) ? v.toFixed(1) : '-');
   console.log(`${N} viewer(s), ${size} ${format}, demo city, ${secs.toFixed(1)} s of dragging; ` +
-    `${scaled} of ${sent} frames drawn smaller (dynamic resolution ${motion ? 'asked' : 'off'})`);
+    `${scaled} of ${sent} frames drawn smaller (dynamic resolution ${motion ? 'asked' : 'off'}` +
+    `${mcount ? `; moving frames' mean scale ${mscale.toFixed(3)} of each side` : ''})`);
   for (const r of rows) {
     const p = r.parts_p50;
     console.log(`  viewer ${r.viewer}: ${f(r.fps)} fps, input->photon p50 ${f(r.p50)} p95 ${f(r.p95)} ms (${r.samples}); ` +
       `parts p50: wait ${f(p.wait)} net ${f(p.net)} render ${f(p.render)} encode ${f(p.encode)} decode ${f(p.decode)} present ${f(p.present)}; ` +
       `${f(r.kbps / 1000)} Mbit/s`);
   }
-  if (jsonOut) writeFileSync(jsonOut, JSON.stringify({ viewers: N, size, format, motion, seconds: secs, sent, scaled, rows }, null, 1));
+  if (jsonOut) writeFileSync(jsonOut, JSON.stringify({ viewers: N, size, format, motion, seconds: secs, sent, scaled, motion_scale: mscale, rows }, null, 1));
 } finally {
   await browser.close();
   d.kill('SIGTERM');
