@@ -270,8 +270,10 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
     fflush(stdout);
     /* the GL path: the same frame (gather, draw, readback; no encode) */
     if (o->gl) {
-        double *g = malloc((size_t)(reps + 1) * sizeof *g);
+        /* per rep: the whole, the gather, the shadow cascades, the CPU post passes */
+        double *g = malloc(4 * (size_t)(reps + 1) * sizeof *g);
         if (!g) goto out;
+        double *gg = g + (reps + 1), *gs = gg + (reps + 1), *gp = gs + (reps + 1);
         for (int r = 0; r <= reps; r++) {
             double t0 = bench_now_ns();
             city_frame cf;
@@ -283,8 +285,11 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
             vt_frame f = {.view = &v, .width = W, .height = H, .meshes = cf.meshes, .nmesh = cf.nmesh,
                           .inst = cf.inst, .ninst = cf.ninst, .lights = cf.lights, .nl = cf.nl,
                           .env = cf.fs.env_ok ? &cf.fs.env : NULL, .rgba = rgba, .depth = depth, .stride = W};
-            int grc = vt_gldraw_draw(o->gl, &f, NULL, err, sizeof err);
+            double tg = bench_now_ns();
+            vt_soft_stats gst = {0};
+            int grc = vt_gldraw_draw(o->gl, &f, &gst, err, sizeof err);
             city_frame_free(&cf);
+            gg[r] = (tg - t0) / 1e6, gs[r] = gst.shadow_ns / 1e6, gp[r] = gst.post_ns / 1e6;
             if (grc) {
                 fprintf(stderr, "bench_render: city: gl: %s\n", err);
                 free(g);
@@ -293,6 +298,7 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
             g[r] = (bench_now_ns() - t0) / 1e6;
         }
         double gm = bench_median(g + 1, reps); /* the first: shader compiles, texture uploads */
+        double ggm = bench_median(gg + 1, reps), gsm = bench_median(gs + 1, reps), gpm = bench_median(gp + 1, reps);
         free(g);
         if (o->json)
             printf("{\"path\":\"gl\",\"renderer\":\"%s\",\"scene\":\"city\",\"view\":\"%s\",\"width\":%u,"
@@ -300,9 +306,10 @@ static int city_view(city_run *cr, const bench_city_opts *o, const char *name, c
                    o->gl_name, name, W, H, o->lp_threads, gm, med[P_TOTAL] - med[P_ENCODE]);
         else
             printf("city %-7s gl (%s, %u threads): %.2f ms (gather + draw + readback); soft's same part %.2f ms: "
-                   "gl / soft %.2f\n",
+                   "gl / soft %.2f\n  gather %.2f  shadow %.2f  post (CPU, one thread) %.2f  the rest (draws, "
+                   "readbacks, conversions) %.2f\n",
                    name, o->gl_name, o->lp_threads, gm, med[P_TOTAL] - med[P_ENCODE],
-                   gm / (med[P_TOTAL] - med[P_ENCODE]));
+                   gm / (med[P_TOTAL] - med[P_ENCODE]), ggm, gsm, gpm, gm - ggm - gsm - gpm);
         fflush(stdout);
     }
     rc = 0;

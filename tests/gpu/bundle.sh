@@ -12,12 +12,15 @@ DEST=/opt/vantage-gpu   # where tests/gpu/run.sh installs it on the GPU machine
 command -v patchelf >/dev/null || { echo "bundle.sh: needs patchelf (apt-get install patchelf)"; exit 1; }
 rm -rf "$out"
 mkdir -p "$out/bin" "$out/lib"
-bins="vantage_tests vantaged"  # not the CLI: SDL and its libraries are 20 MB the GL tests do not need
+# not the CLI: SDL and its libraries are 20 MB the GL tests do not need;
+# BUNDLE_BINS names others instead, and then no fuzzers (tests/gpu/bench.sh:
+# "bench_render": bench_h264 links libavcodec and its ~150 MB of codecs)
+bins=${BUNDLE_BINS:-"vantage_tests vantaged"}
 for b in $bins; do cp "$build/$b" "$out/bin/"; done
 # libFuzzer builds (make build/fuzz/fuzz_NAME), when there: a GPU machine's
 # many cores run a campaign in minutes
 for f in fuzz_query fuzz_render fuzz_render_gl; do
-  [ -x "build/fuzz/$f" ] && cp "build/fuzz/$f" "$out/bin/" || true
+  [ -z "${BUNDLE_BINS:-}" ] && [ -x "build/fuzz/$f" ] && cp "build/fuzz/$f" "$out/bin/" || true
 done
 for b in "$out"/bin/*; do
   ldd "$b" | awk '/=> \//{print $3} /^\t\/lib/{print $1}'

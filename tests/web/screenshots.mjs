@@ -2,7 +2,9 @@
  * screenshots.mjs — docs/web_viewer.png and docs/web_commander.png (make
  * docs-web-shots): the demo city's daemon with --web, each page in headless
  * Chromium (Debian's) at 1600x900, an entity selected in the viewer and a
- * ping and a selection made in the commander before the shot.
+ * ping and a selection made in the commander before the shot; and
+ * docs/web_viewer_moving.png, the viewer taken in the middle of a drag (a
+ * frame drawn smaller and scaled up: dynamic resolution).
  *
  *   node tests/web/screenshots.mjs [OUT_DIR]   (default docs/)
  */
@@ -32,6 +34,17 @@ try {
   await sleep(2500); /* the outlined frame, the overlay's numbers */
   await page.screenshot({ path: path.join(out, 'web_viewer.png') });
   console.log(`web_viewer.png: ${JSON.stringify(await page.evaluate(() => window.vantage.selected))} selected`);
+  /* the same view's neighbourhood mid-drag: the frames shown are drawn smaller */
+  const cx = box[0] + box[2] * 0.3, cy = box[1] + box[3] * 0.7;
+  await page.mouse.move(cx, cy);
+  await page.mouse.down({ button: 'right' }); /* a pan: the city slides under the cursor */
+  for (let k = 1; k <= 40; k++) {
+    await page.mouse.move(cx + 3 * k, cy, { steps: 1 });
+    await sleep(33);
+  }
+  await page.screenshot({ path: path.join(out, 'web_viewer_moving.png') });
+  await page.mouse.up({ button: 'right' });
+  console.log('web_viewer_moving.png: taken mid-drag');
 
   const c = await browser.newPage();
   await c.setViewport({ width: 1600, height: 900 });
