@@ -324,12 +324,13 @@ static void pool_run(void *pool, vt_jpeg_job_fn fn, void *arg, uint32_t n)
     cull_pool_run(pool, fn, arg, n);
 }
 
-/* The software renderer's picture of fi from v into rgba and depth (the
- * view's size), on this worker: the one soft-draw path RENDER and
- * LIGHT_QUERY share. VP_OK, or a code with msg. */
 /* soft_draw's answer for a picture stopped through cancel (VP codes are <= 0) */
 #define FRAME_STOPPED 1
 
+/* The software renderer's picture of fi from v into rgba and depth (the
+ * view's size), on this worker: the one soft-draw path RENDER and
+ * LIGHT_QUERY share. cancel: vt_frame.cancel (NULL: never). VP_OK,
+ * FRAME_STOPPED, or a code with msg. */
 static int soft_draw(worker *wk, const cull_view *v, const frame_in *fi, float *rgba, float *depth, const int *cancel,
                      char *msg, size_t msglen)
 {

@@ -421,7 +421,8 @@ bool metrics_expose(server *s, mbuf *b)
     sample(b, "vantage_frames_dropped_total", NULL, NULL, m->frames_dropped);
     family(b, "vantage_frames_discarded_total", "counter",
            "Stream frames drawn and thrown away: the stream was changed (size, format, renderer) or ended, "
-           "or its connection closed, while the frame was drawn.");
+           "or its connection closed, while the frame was drawn; or a full-size frame stopped because its "
+           "view moved again (dynamic resolution).");
     sample(b, "vantage_frames_discarded_total", NULL, NULL, m->frames_discarded);
     family(b, "vantage_frames_scaled_total", "counter",
            "Stream frames drawn at a lower resolution while their view moved (dynamic resolution, "

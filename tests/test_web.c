@@ -364,6 +364,35 @@ typedef struct pstream {
     size_t n;
 } pstream;
 
+/* One WebSocket message: a binary one's bytes appended to s. Its opcode
+ * (-1: none, the read timed out or failed). */
+static int pstream_fill(int fd, pstream *s)
+{
+    uint8_t *p;
+    size_t n;
+    int op = ws_recv(fd, &p, &n);
+    if (op == 2) {
+        s->b = realloc(s->b, s->n + n);
+        memcpy(s->b + s->n, p, n);
+        s->n += n;
+    }
+    free(p);
+    return op;
+}
+
+/* The first whole protocol frame in s: its header in *h, its payload at
+ * s->b + VP_HEADER_SIZE, and its size in *fs (pstream_drop's), or false. */
+static bool pstream_peek(const pstream *s, vp_header *h, size_t *fs)
+{
+    return s->n >= VP_HEADER_SIZE && vp_frame_check(s->b, s->n, 64u << 20, h, fs) == VP_OK;
+}
+
+static void pstream_drop(pstream *s, size_t fs)
+{
+    memmove(s->b, s->b + fs, s->n - fs);
+    s->n -= fs;
+}
+
 /* The next protocol frame from the WebSocket's binary messages: its type
  * (or -1), its payload copied to pl (at most cap bytes) with *len. */
 static int proto_next(int fd, pstream *s, uint8_t *pl, size_t cap, uint32_t *len)
@@ -371,27 +400,15 @@ static int proto_next(int fd, pstream *s, uint8_t *pl, size_t cap, uint32_t *len
     for (;;) {
         vp_header h;
         size_t fs;
-        if (s->n >= VP_HEADER_SIZE && vp_frame_check(s->b, s->n, 64u << 20, &h, &fs) == VP_OK) {
+        if (pstream_peek(s, &h, &fs)) {
             size_t k = h.len < cap ? h.len : cap;
             if (pl) memcpy(pl, s->b + VP_HEADER_SIZE, k);
             if (len) *len = h.len;
-            memmove(s->b, s->b + fs, s->n - fs);
-            s->n -= fs;
+            pstream_drop(s, fs);
             return h.type;
         }
-        uint8_t *p;
-        size_t n;
-        int op = ws_recv(fd, &p, &n);
-        if (op < 0 || op == 8) {
-            free(p);
-            return -1;
-        }
-        if (op == 2) {
-            s->b = realloc(s->b, s->n + n);
-            memcpy(s->b + s->n, p, n);
-            s->n += n;
-        }
-        free(p);
+        int op = pstream_fill(fd, s);
+        if (op < 0 || op == 8) return -1;
     }
 }
 
@@ -714,22 +731,14 @@ static int frames_while_aiming(int fd, pstream *s, int ms, uint16_t *seq, vtc_cl
         vp_entity e = {.id = 1, .sphere = {sin(*seq * 0.1), 1, 0, 1}, .flags = VP_ENT_DYNAMIC};
         assert_int_equal(vtc_update(ed, &e, 1, NULL), VP_OK);
         /* what came meanwhile: frames counted (a read times out after 20 ms) */
-        uint8_t *p;
-        size_t n;
-        int op = ws_recv(fd, &p, &n);
-        if (op == 2) {
-            s->b = realloc(s->b, s->n + n);
-            memcpy(s->b + s->n, p, n);
-            s->n += n;
+        if (pstream_fill(fd, s) == 2) {
             vp_header h;
             size_t fs;
-            while (s->n >= VP_HEADER_SIZE && vp_frame_check(s->b, s->n, 64u << 20, &h, &fs) == VP_OK) {
+            while (pstream_peek(s, &h, &fs)) {
                 frames += h.type == VP_FRAME;
-                memmove(s->b, s->b + fs, s->n - fs);
-                s->n -= fs;
+                pstream_drop(s, fs);
             }
         }
-        free(p);
         usleep(10000);
     }
     tv = (struct timeval){.tv_sec = 10};
@@ -893,16 +902,10 @@ static int motion_drain(int fd, pstream *s, int ms, h264_dec *dec, uint16_t *las
     struct timespec a, b;
     clock_gettime(CLOCK_MONOTONIC, &a);
     do {
-        uint8_t *p;
-        size_t n;
-        int op = ws_recv(fd, &p, &n);
-        if (op == 2) {
-            s->b = realloc(s->b, s->n + n);
-            memcpy(s->b + s->n, p, n);
-            s->n += n;
+        if (pstream_fill(fd, s) == 2) {
             vp_header h;
             size_t fs;
-            while (s->n >= VP_HEADER_SIZE && vp_frame_check(s->b, s->n, 64u << 20, &h, &fs) == VP_OK) {
+            while (pstream_peek(s, &h, &fs)) {
                 if (h.type == VP_FRAME) {
                     vp_frame f;
                     assert_int_equal(vp_dec_frame(s->b + VP_HEADER_SIZE, h.len, &f), VP_OK);
@@ -916,11 +919,9 @@ static int motion_drain(int fd, pstream *s, int ms, h264_dec *dec, uint16_t *las
                 } else {
                     assert_int_equal(h.type, VP_ACK); /* the re-aims' */
                 }
-                memmove(s->b, s->b + fs, s->n - fs);
-                s->n -= fs;
+                pstream_drop(s, fs);
             }
         }
-        free(p);
         clock_gettime(CLOCK_MONOTONIC, &b);
     } while ((b.tv_sec - a.tv_sec) * 1000 + (b.tv_nsec - a.tv_nsec) / 1000000 < ms);
     tv = (struct timeval){.tv_sec = 10};
