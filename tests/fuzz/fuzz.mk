@@ -11,7 +11,8 @@
 #   query      the culling core past the decoders: occluders, entities, lights
 #              and views from the bytes -> cull_query, cull_occ_render,
 #              cull_lights_bin (culling/)
-#   render     the software renderer (render/vt_soft.c) on small frames
+#   render     the software renderer (render/vt_soft.c) on small frames, its
+#              cancel, and the scale-up of dynamic resolution (vt_resize.c)
 #   render_gl  the same inputs through the GL path (render/vt_gldraw.c; skips
 #              every input where no EGL context can be made)
 #   http       the daemon's HTTP/1.x head parser (daemon/http.c: --metrics,
@@ -105,7 +106,7 @@ FUZZ_OBJ_DIR          := $(FUZZ_OUT)/obj
 FUZZ_COMMA            := ,
 FUZZ_CULL_FOBJ        := $(CULL_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o)
 FUZZ_SOFT_SRC         := render/vt_soft.c render/vt_picture.c render/vt_scene.c render/vt_texsample.c render/vt_texlin.c render/vt_span.c render/vt_shadow.c render/vt_shadow_tiles.c render/vt_shadow_sse41.c render/vt_shadow_avx2.c render/vt_ssao.c render/vt_ssao_base.c render/vt_ssao_sse41.c render/vt_ssao_avx2.c render/vt_ssao_avx2_evex.c render/vt_post.c render/vt_post_avx2.c render/vt_overlay.c render/vt_brdf.c render/vt_raster.c render/vt_shade_base.c render/vt_shade_sse41.c \
-                         render/vt_shade_avx2.c render/vt_shade_avx2_evex.c
+                         render/vt_shade_avx2.c render/vt_shade_avx2_evex.c render/vt_resize.c
 FUZZ_query_OBJ        := $(CULL_OBJ)
 FUZZ_query_SRC        := $(FUZZ_CULL_FOBJ)
 FUZZ_query_CFLAGS     := -Iculling
@@ -117,7 +118,7 @@ FUZZ_render_OBJ       := $(FUZZ_SOFT_SRC:%.c=$(BUILD)/%.o) $(CULL_OBJ)
 FUZZ_render_SRC       := $(FUZZ_SOFT_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o) $(FUZZ_CULL_FOBJ)
 FUZZ_render_CFLAGS    := -Iculling -Irender
 FUZZ_render_MAX_LEN   := 1024
-FUZZ_render_BUDGET    := 150 256
+FUZZ_render_BUDGET    := 300 256
 FUZZ_GL_SRC           := render/vt_egl.c render/vt_gl_target.c render/vt_gl_shader.c render/vt_gldraw.c render/vt_gldraw_glsl.c render/vt_shadow_gl.c render/vt_ssao_gl.c render/vt_brdf_glsl.c render/vt_gltex.c
 FUZZ_render_gl_OBJ    := $(FUZZ_GL_SRC:%.c=$(BUILD)/%.o) $(FUZZ_render_OBJ)
 FUZZ_render_gl_SRC    := $(FUZZ_GL_SRC:%.c=$(FUZZ_OBJ_DIR)/%.o) $(FUZZ_render_SRC)

@@ -26,12 +26,19 @@
  *      (nothing) or not NaN.
  * With header bit 5, an overlay from the bytes (vt_overlay.h: both
  * outlines, with instance indices past the frame's and boxes of any
- * bounds, icons anywhere, colours of any sign).
+ * bounds, icons anywhere, colours of any sign). The software build also,
+ * as the daemon's dynamic resolution does: with bit 6, the drawn frame in
+ * bytes, scaled to a size from the bytes (1..96 a side, up or down;
+ * vt_image_resize_rgba8), every channel of the result within the
+ * picture's range of that channel (a bilinear blend cannot leave it); with
+ * bit 7, the frame's cancel word set: VT_ERR_CANCELLED, or VT_ERR_INVALID
+ * for a frame refused before any pass.
  * ASan and UBSan catch the rest (issue 18: a 1e30 term in the view
  * overflowed an int32 at the vertex snap). A broken property calls abort().
  */
 #include "culling.h"
 #include "fuzz_geom.h"
+#include "vt_image.h"
 #include "vt_overlay.h"
 #include "vt_soft.h"
 #ifdef FUZZ_RENDER_GL
@@ -242,7 +249,34 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 #ifdef FUZZ_RENDER_GL
     int rc = vt_gldraw_draw(renderer(), &fr, NULL, err, sizeof err);
 #else
+    int stop = 1;
+    if (head & 128) { /* a picture no longer wanted */
+        fr.cancel = &stop;
+        int src = vt_soft_draw(renderer(), &fr, NULL, err, sizeof err);
+        CHECK(src == VT_ERR_CANCELLED || src == VT_ERR_INVALID);
+        CHECK(err[0] != 0);
+        return 0;
+    }
     int rc = vt_soft_draw(renderer(), &fr, NULL, err, sizeof err);
+    if (rc == 0 && (head & 64)) { /* dynamic resolution: the picture in bytes, scaled to any size */
+        static uint8_t small[MAX_W * MAX_W * 4], big[96 * 96 * 4];
+        uint32_t bw = 1 + fz_u8(&f) % 96, bh = 1 + fz_u8(&f) % 96;
+        const float gain = (float)fabs(fz_num(&f, 8)); /* (the daemon tone maps; any bytes do here) */
+        for (size_t i = 0; i < 4 * (size_t)w * h; i++) {
+            float x = rgba[i] * gain;
+            small[i] = (uint8_t)(x >= 1 ? 255 : x > 0 ? x * 255 : 0);
+        }
+        CHECK(vt_image_resize_rgba8(w, h, small, 4 * (size_t)w, bw, bh, big, 4 * (size_t)bw, 1 + fz_u8(&f) % 5, NULL,
+                                    NULL) == 0);
+        uint8_t lo[4] = {255, 255, 255, 255}, hi[4] = {0, 0, 0, 0};
+        for (size_t i = 0; i < (size_t)w * h; i++)
+            for (int c = 0; c < 4; c++) {
+                if (small[4 * i + c] < lo[c]) lo[c] = small[4 * i + c];
+                if (small[4 * i + c] > hi[c]) hi[c] = small[4 * i + c];
+            }
+        for (size_t i = 0; i < (size_t)bw * bh; i++)
+            for (int c = 0; c < 4; c++) CHECK(big[4 * i + c] >= lo[c] && big[4 * i + c] <= hi[c]);
+    }
 #endif
     if (rc != 0) {
         CHECK(rc == VT_ERR_INVALID && err[0] != 0);
