@@ -10,10 +10,15 @@
  * each input row a band needs is resampled across once into a 16-bit row
  * (2 of them live: a band walks its output rows downwards, and each pair
  * of input rows serves about dh / sh output rows), then each output row
- * is the two rows' blend, a loop the compiler vectorises. Weights are
- * 0..256 (the position's fraction rounded to 1/256); the result is within
- * 1.5 of the exact bilinear value (test_image.c holds it to a double-precision
- * reference).
+ * is the two rows' blend. Weights are 0..256 (the position's fraction
+ * rounded to 1/256). Across: a * w0 + b * w1, exact in 16 bits (at most
+ * 255 * 256). Down: ((h0 * w0) >> 8) + ((h1 * w1) >> 8), rounded >> 8: a
+ * product's high half as SSE2's pmulhuw gives it (w << 8 fits 16 bits
+ * for a weight under 256; a weight of 256 is the row itself), so the SSE2
+ * loops and the plain C ones (other machines, the rows' ends) give the
+ * same bytes. Each channel is within 1.5 of the exact bilinear value
+ * (test_image.c holds it to a double-precision reference) and within the
+ * input's range of that channel (fuzz_render checks it).
  */
 #include "vt_err.h"
 #include "vt_image.h"
@@ -21,6 +26,9 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__SSE2__) && !defined(CULL_SCALAR_ONLY)
+#include <emmintrin.h>
+#endif
 
 #define RS_MAX_BANDS 16u
 
@@ -31,6 +39,8 @@ typedef struct rs_job {
     uint8_t *dst;
     const uint32_t *x0; /* per output column: the left input pixel's byte offset */
     const uint16_t *fx; /* its right neighbour's weight, 0..256 */
+    const uint16_t *wt; /* per output column: w0 four times, then w1 four times (the SSE2 loop's) */
+    uint32_t wide;      /* columns [0, wide) may read 8 bytes at x0 (both pixels inside the row) */
     uint32_t nbands;
     atomic_uint next;
     int rc[RS_MAX_BANDS];
@@ -54,12 +64,60 @@ static void rs_pos(uint32_t i, uint32_t n, uint32_t m, uint32_t *p0, uint16_t *w
 static void rs_row(const rs_job *j, uint32_t y, uint16_t *out)
 {
     const uint8_t *s = j->src + (size_t)y * j->sstride;
-    for (uint32_t x = 0; x < j->dw; x++) {
+    uint32_t x = 0;
+#if defined(__SSE2__) && !defined(CULL_SCALAR_ONLY)
+    const __m128i zero = _mm_setzero_si128();
+    for (; x + 2 <= j->wide; x += 2) { /* two output pixels: a0 b0 | a1 b1, weighted, the halves summed */
+        __m128i p = _mm_unpacklo_epi64(_mm_loadl_epi64((const __m128i *)(const void *)(s + j->x0[x])),
+                                       _mm_loadl_epi64((const __m128i *)(const void *)(s + j->x0[x + 1])));
+        __m128i m0 = _mm_mullo_epi16(_mm_unpacklo_epi8(p, zero), _mm_loadu_si128((const __m128i *)(const void *)(j->wt + 8 * x))),
+                m1 = _mm_mullo_epi16(_mm_unpackhi_epi8(p, zero), _mm_loadu_si128((const __m128i *)(const void *)(j->wt + 8 * x + 8)));
+        _mm_storeu_si128((__m128i *)(void *)(out + 4 * x),
+                         _mm_add_epi16(_mm_unpacklo_epi64(m0, m1), _mm_unpackhi_epi64(m0, m1)));
+    }
+#endif
+    for (; x < j->dw; x++) {
         const uint8_t *a = s + j->x0[x];
         const uint32_t w1 = j->fx[x], w0 = 256 - w1;
         const uint8_t *b = w1 ? a + 4 : a; /* the last column has no right neighbour */
         for (int c = 0; c < 4; c++) out[4 * x + c] = (uint16_t)(a[c] * w0 + b[c] * w1);
     }
+}
+
+/* An output row from the two resampled rows r0 and r1 (r1's weight w1,
+ * 1..255; r1 NULL: r0 alone) into n bytes of d */
+static void rs_blend(const uint16_t *r0, const uint16_t *r1, uint32_t w1, uint8_t *d, size_t n)
+{
+    size_t i = 0;
+    if (!r1) {
+#if defined(__SSE2__) && !defined(CULL_SCALAR_ONLY)
+        const __m128i half = _mm_set1_epi16(128);
+        for (; i + 16 <= n; i += 16) {
+            __m128i a = _mm_srli_epi16(_mm_adds_epu16(_mm_loadu_si128((const __m128i *)(const void *)(r0 + i)), half), 8),
+                    b = _mm_srli_epi16(_mm_adds_epu16(_mm_loadu_si128((const __m128i *)(const void *)(r0 + i + 8)), half), 8);
+            _mm_storeu_si128((__m128i *)(void *)(d + i), _mm_packus_epi16(a, b));
+        }
+#endif
+        for (; i < n; i++) d[i] = (uint8_t)((r0[i] + 128u) >> 8);
+        return;
+    }
+    const uint32_t w0 = 256 - w1;
+#if defined(__SSE2__) && !defined(CULL_SCALAR_ONLY)
+    const __m128i k0 = _mm_set1_epi16((short)(w0 << 8)), k1 = _mm_set1_epi16((short)(w1 << 8)),
+                  half = _mm_set1_epi16(128);
+    for (; i + 16 <= n; i += 16) {
+        __m128i v[2];
+        for (int h = 0; h < 2; h++) {
+            __m128i a = _mm_loadu_si128((const __m128i *)(const void *)(r0 + i + 8 * h)),
+                    b = _mm_loadu_si128((const __m128i *)(const void *)(r1 + i + 8 * h));
+            /* (a w0) >> 8 + (b w1) >> 8 <= 65280: no carry out of 16 bits; + 128 saturates nowhere */
+            __m128i s = _mm_add_epi16(_mm_mulhi_epu16(a, k0), _mm_mulhi_epu16(b, k1));
+            v[h] = _mm_srli_epi16(_mm_adds_epu16(s, half), 8);
+        }
+        _mm_storeu_si128((__m128i *)(void *)(d + i), _mm_packus_epi16(v[0], v[1]));
+    }
+#endif
+    for (; i < n; i++) d[i] = (uint8_t)((((r0[i] * w0) >> 8) + ((r1[i] * w1) >> 8) + 128u) >> 8);
 }
 
 static void rs_band(void *arg, uint32_t t)
@@ -96,10 +154,8 @@ static void rs_band(void *arg, uint32_t t)
                 rs_row(j, want, row[k]);
                 have[k] = want;
             }
-            const uint16_t *r0 = row[0], *r1 = wy ? row[1] : row[0];
-            const uint32_t w1 = wy, w0 = 256 - wy;
             uint8_t *d = j->dst + (size_t)y * j->dstride;
-            for (size_t i = 0; i < n; i++) d[i] = (uint8_t)((r0[i] * w0 + r1[i] * w1 + 32768u) >> 16);
+            rs_blend(row[0], wy ? row[1] : NULL, wy, d, n);
         }
     }
     free(buf);
@@ -113,23 +169,27 @@ int vt_image_resize_rgba8(uint32_t sw, uint32_t sh, const uint8_t *src, size_t s
         dw > VT_IMAGE_MAX_DIM || dh > VT_IMAGE_MAX_DIM || sstride < 4 * (size_t)sw || dstride < 4 * (size_t)dw)
         return VT_ERR_INVALID;
     uint32_t *x0 = malloc(dw * sizeof *x0);
-    uint16_t *fx = malloc(dw * sizeof *fx);
-    if (!x0 || !fx) {
-        free(x0), free(fx);
+    uint16_t *fx = malloc(dw * sizeof *fx), *wt = malloc(8 * (size_t)dw * sizeof *wt);
+    if (!x0 || !fx || !wt) {
+        free(x0), free(fx), free(wt);
         return VT_ERR_NOMEM;
     }
+    uint32_t wide = 0;
     for (uint32_t x = 0; x < dw; x++) {
         uint32_t p;
         rs_pos(x, dw, sw, &p, &fx[x]);
         x0[x] = 4 * p;
+        for (int c = 0; c < 4; c++) wt[8 * x + c] = (uint16_t)(256 - fx[x]), wt[8 * x + 4 + c] = fx[x];
+        if (p + 1 < sw) wide = x + 1; /* x0 rises with x: the columns before it read inside the row too */
     }
     rs_job j = {.sw = sw, .sh = sh, .dw = dw, .dh = dh, .src = src, .sstride = sstride, .dstride = dstride, .dst = dst,
-                .x0 = x0, .fx = fx, .nbands = bands < 1 ? 1 : bands > RS_MAX_BANDS ? RS_MAX_BANDS : bands};
+                .x0 = x0, .fx = fx, .wt = wt, .wide = wide,
+                .nbands = bands < 1 ? 1 : bands > RS_MAX_BANDS ? RS_MAX_BANDS : bands};
     if (j.nbands > dh) j.nbands = dh;
     atomic_init(&j.next, 0);
     if (run && j.nbands > 1) run(run_ctx, rs_band, &j, j.nbands);
     rs_band(&j, 0); /* whatever bands the runner left (none, when it ran them all) */
-    free(x0), free(fx);
+    free(x0), free(fx), free(wt);
     for (uint32_t b = 0; b < j.nbands; b++)
         if (j.rc[b]) return j.rc[b];
     return 0;

@@ -1005,7 +1005,8 @@ static void test_web_motion_h264_chain(void **state)
     web_stop(&d);
 }
 
-/* --web on another address needs --tokens (or --insecure), as --bind does. */
+/* --web on another address needs --tokens (or --insecure), as --bind does;
+ * bad values of the web options are refused before anything starts. */
 static void test_web_refuses_open_address(void **state)
 {
     (void)state;
@@ -1016,6 +1017,11 @@ static void test_web_refuses_open_address(void **state)
     assert_non_null(strstr(out, "--tokens"));
     assert_int_equal(daemon_run_to_exit("--web 70000", out, sizeof out), 2);
     assert_non_null(strstr(out, "bad value for --web"));
+    /* the dynamic resolution's budget: 0..1000 ms */
+    assert_int_equal(daemon_run_to_exit("--motion-ms 1001", out, sizeof out), 2);
+    assert_non_null(strstr(out, "--motion-ms"));
+    assert_int_equal(daemon_run_to_exit("--motion-ms -1", out, sizeof out), 2);
+    assert_int_equal(daemon_run_to_exit("--motion-ms 12ms", out, sizeof out), 2);
     snprintf(args, sizeof args, "--port %d --web %d --web-root /nonexistent-vantage", free_port(), free_port());
     assert_int_not_equal(daemon_run_to_exit(args, out, sizeof out), 0);
     assert_non_null(strstr(out, "/nonexistent-vantage"));
