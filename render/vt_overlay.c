@@ -214,9 +214,12 @@ static float near_of_depth(vt_depth_rule rule, float dz)
 
 /* ---- the outline ----------------------------------------------------------------------- */
 
+/* c over px with weight a (0..1). Full weight is c itself: the picture
+ * may hold an infinity (a sky texel near FLT_MAX times the sky's
+ * multiplier), and inf * 0 would leave a NaN there (fuzz_render found it) */
 static void blend(float *px, const float c[3], float a)
 {
-    for (int k = 0; k < 3; k++) px[k] = px[k] * (1 - a) + c[k] * a;
+    for (int k = 0; k < 3; k++) px[k] = a >= 1 ? c[k] : px[k] * (1 - a) + c[k] * a;
     if (a > px[3]) px[3] = a > 1 ? 1 : a;
 }
 
