@@ -38,8 +38,8 @@ typedef struct rs_job {
     size_t sstride, dstride;
     uint8_t *dst;
     const uint32_t *x0; /* per output column: the left input pixel's byte offset */
-    const uint16_t *fx; /* its right neighbour's weight, 0..256 */
-    const uint16_t *wt; /* per output column: w0 four times, then w1 four times (the SSE2 loop's) */
+    const uint16_t *wt; /* per output column: the left pixel's weight w0 four times, then its right
+                           neighbour's w1 = 256 - w0 four times (the SSE2 loop loads them as they are) */
     uint32_t wide;      /* columns [0, wide) may read 8 bytes at x0 (both pixels inside the row) */
     uint32_t nbands;
     atomic_uint next;
@@ -78,7 +78,7 @@ static void rs_row(const rs_job *j, uint32_t y, uint16_t *out)
 #endif
     for (; x < j->dw; x++) {
         const uint8_t *a = s + j->x0[x];
-        const uint32_t w1 = j->fx[x], w0 = 256 - w1;
+        const uint32_t w0 = j->wt[8 * x], w1 = j->wt[8 * x + 4];
         const uint8_t *b = w1 ? a + 4 : a; /* the last column has no right neighbour */
         for (int c = 0; c < 4; c++) out[4 * x + c] = (uint16_t)(a[c] * w0 + b[c] * w1);
     }
@@ -169,27 +169,28 @@ int vt_image_resize_rgba8(uint32_t sw, uint32_t sh, const uint8_t *src, size_t s
         dw > VT_IMAGE_MAX_DIM || dh > VT_IMAGE_MAX_DIM || sstride < 4 * (size_t)sw || dstride < 4 * (size_t)dw)
         return VT_ERR_INVALID;
     uint32_t *x0 = malloc(dw * sizeof *x0);
-    uint16_t *fx = malloc(dw * sizeof *fx), *wt = malloc(8 * (size_t)dw * sizeof *wt);
-    if (!x0 || !fx || !wt) {
-        free(x0), free(fx), free(wt);
+    uint16_t *wt = malloc(8 * (size_t)dw * sizeof *wt);
+    if (!x0 || !wt) {
+        free(x0), free(wt);
         return VT_ERR_NOMEM;
     }
     uint32_t wide = 0;
     for (uint32_t x = 0; x < dw; x++) {
         uint32_t p;
-        rs_pos(x, dw, sw, &p, &fx[x]);
+        uint16_t w1;
+        rs_pos(x, dw, sw, &p, &w1);
         x0[x] = 4 * p;
-        for (int c = 0; c < 4; c++) wt[8 * x + c] = (uint16_t)(256 - fx[x]), wt[8 * x + 4 + c] = fx[x];
+        for (int c = 0; c < 4; c++) wt[8 * x + c] = (uint16_t)(256 - w1), wt[8 * x + 4 + c] = w1;
         if (p + 1 < sw) wide = x + 1; /* x0 rises with x: the columns before it read inside the row too */
     }
     rs_job j = {.sw = sw, .sh = sh, .dw = dw, .dh = dh, .src = src, .sstride = sstride, .dstride = dstride, .dst = dst,
-                .x0 = x0, .fx = fx, .wt = wt, .wide = wide,
+                .x0 = x0, .wt = wt, .wide = wide,
                 .nbands = bands < 1 ? 1 : bands > RS_MAX_BANDS ? RS_MAX_BANDS : bands};
     if (j.nbands > dh) j.nbands = dh;
     atomic_init(&j.next, 0);
     if (run && j.nbands > 1) run(run_ctx, rs_band, &j, j.nbands);
     rs_band(&j, 0); /* whatever bands the runner left (none, when it ran them all) */
-    free(x0), free(fx), free(wt);
+    free(x0), free(wt);
     for (uint32_t b = 0; b < j.nbands; b++)
         if (j.rc[b]) return j.rc[b];
     return 0;
