@@ -435,7 +435,7 @@ static void render_frame(server *s, worker *wk, job *j, const vp_render *m)
     /* dynamic resolution: a moving stream's frame drawn smaller (dv) and
        scaled up to W x H after its tone map; RAW frames never */
     cull_view dv = v;
-    if (j->scale > 0 && j->scale < 1 && m->format != VP_FRAME_RAW && !scaled_view(m, W, H, j->scale, &dv)) dv = v;
+    if (j->scale > 0 && m->format != VP_FRAME_RAW && !scaled_view(m, W, H, j->scale, &dv)) dv = v;
     const bool scaled = dv.viewport_w != W || dv.viewport_h != H;
     const uint32_t RW = dv.viewport_w, RH = dv.viewport_h; /* the size drawn */
     j->scaled = scaled;

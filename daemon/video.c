@@ -31,10 +31,10 @@ int video_encode(video_enc **vep, uint32_t width, uint32_t height, const vp_rend
                  uint32_t threads, const uint8_t *rgba8, const uint8_t **au, size_t *len, bool *is_key, char *err,
                  size_t errlen)
 {
-    vt_h264_cfg cfg = {.width = width, .height = height, .crf_x10 = m->quality * 10, .max_kbps = m->max_kbps,
-                       .fps = fps, .threads = (int)threads};
     video_enc *ve = *vep;
-    if (ve) cfg.threads = ve->cfg.threads; /* the chain's own, whatever the daemon's load now */
+    /* a chain keeps its own thread count, whatever the daemon's load now */
+    vt_h264_cfg cfg = {.width = width, .height = height, .crf_x10 = m->quality * 10, .max_kbps = m->max_kbps,
+                       .fps = fps, .threads = ve ? ve->cfg.threads : (int)threads};
     if (ve && memcmp(&ve->cfg, &cfg, sizeof cfg)) { /* another size or rate: a new chain */
         cfg.threads = (int)threads;
         video_enc_free(ve);

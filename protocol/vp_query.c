@@ -182,7 +182,7 @@ void vp_vis_rec_get(const vp_vis_result *r, uint32_t i, vp_vis_rec *out)
     X(max, format, "format", "0 raw, 1 JPEG, 2 H.264 are defined", 0, VP_FRAME_H264)                      \
     X(mask, flags, "flags",                                                                                \
       "0x1 no occlusion, 0x2 no shadows, 0x4 no ambient occlusion, 0x8 no image-based ambient, 0x10 no FXAA, " \
-      "0x20 no shared selection, 0x40 dynamic resolution while the view moves are defined",                                                              \
+      "0x20 no shared selection, 0x40 dynamic resolution while the view moves are defined",                \
       0, VP_RENDER_FLAGS)                                                                                  \
     X(range, exposure_ev, "exposure", "", -64, 64)
 VP_LAYOUT_CHECKED(render_tail, vp_render, RENDER_FIELDS, RENDER_CHECKS)

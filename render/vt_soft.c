@@ -598,6 +598,13 @@ static inline bool stop_asked(const int *cancel)
     return cancel && __atomic_load_n(cancel, __ATOMIC_RELAXED);
 }
 
+/* vt_soft_draw's answer then: it stops between passes (and the shading
+   between rows) */
+static int stopped(char *err, size_t errlen)
+{
+    return vp_errf(err, errlen, VT_ERR_CANCELLED, "the picture was cancelled");
+}
+
 /* Splits the instances into nt contiguous shares of about the same work
  * (a mesh's vertices and indices, twice the indices for a damaged one: a
  * city's instances differ by tens of times). */
@@ -981,13 +988,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (nt > 1) cull_pool_run(r->pool, job_raster, &jb, nt);
     else job_raster(&jb, 0);
     uint64_t t2 = now_ns();
-    /* a picture no longer wanted stops between passes (and the shading
-       between rows): the caller moved on */
-#define STOP_IF_ASKED()                                                                                       \
-    do {                                                                                                      \
-        if (stop_asked(f->cancel)) return vp_errf(err, errlen, VT_ERR_CANCELLED, "the picture was cancelled"); \
-    } while (0)
-    STOP_IF_ASKED();
+    if (stop_asked(f->cancel)) return stopped(err, errlen);
     /* the work between the raster and the shading that does not read the
        ambient occlusion (light tiles, the cascades' fit, the textures'
        and the image-based light's per-frame tables): with the occlusion,
@@ -1006,7 +1007,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
     if (sj.lrc != CULL_OK)
         return vp_errf(err, errlen, sj.lrc == CULL_ERR_NOMEM ? VT_ERR_NOMEM : VT_ERR_INVALID, "lights: %s",
                        cull_strerror(sj.lrc));
-    STOP_IF_ASKED();
+    if (stop_asked(f->cancel)) return stopped(err, errlen);
     /* the sun's shadow cascades, from the casters (NULL: the instances) */
     uint64_t ts = now_ns();
     uint32_t stris = 0;
@@ -1018,7 +1019,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         jb.sh = r->shadow;
     }
     uint64_t t3 = now_ns();
-    STOP_IF_ASKED();
+    if (stop_asked(f->cancel)) return stopped(err, errlen);
 
     jb.next_row = 0;
     /* an automatic exposure's histogram made by the shading threads */
@@ -1027,8 +1028,7 @@ int vt_soft_draw(vt_soft *r, const vt_frame *f, vt_soft_stats *st, char *err, si
         jb.hist = r->hist;
     if (nt > 1) cull_pool_run(r->pool, job_shade, &jb, nt);
     else job_shade(&jb, 0);
-    STOP_IF_ASKED();
-#undef STOP_IF_ASKED
+    if (stop_asked(f->cancel)) return stopped(err, errlen);
     uint64_t t4 = now_ns();
     float ev;
     if (vt_post_apply_hist(&r->post, r->pool, r->threads, f, jb.hist, jb.hist ? nt : 0, &ev))
